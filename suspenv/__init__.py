@@ -1,0 +1,22 @@
+"""suspenv: vehicle suspension problems as fast, honest black-box optimisation problems.
+
+Layers (one job each): ``models`` (what the hardware is), ``rigs`` (what we do to it),
+``metrics`` (what we measure), ``problems`` (what we want), ``envs`` (Gymnasium face),
+``optimize``/``recording``/``experiments``/``cli`` (running), ``diagnosis`` (when
+simulation and recordings disagree). Strategies live in the top-level ``strategies``
+package.
+"""
+
+from suspenv.core import DesignSpace, EvaluationBatch, Parameter, Problem
+from suspenv.registry import list_problems, make_problem
+
+__version__ = "0.1.0"
+__all__ = [
+    "DesignSpace",
+    "EvaluationBatch",
+    "Parameter",
+    "Problem",
+    "list_problems",
+    "make_problem",
+    "__version__",
+]

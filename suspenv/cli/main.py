@@ -1,0 +1,53 @@
+"""``suspenv`` console script. Each command lives in its own module in this package,
+exposing ``register(subparsers)`` which adds its parser and sets ``func(args) -> int``."""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+from suspenv.core.errors import SuspenvError
+
+#: command modules, in the order they are listed by ``suspenv --help``
+COMMAND_MODULES = (
+    "run",
+    "list_cmd",
+    "show",
+    "compare",
+    "knc",
+    "planar",
+    "diagnose",
+)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="suspenv",
+        description="Vehicle suspension problems as fast, honest black-box optimisation.",
+    )
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for name in COMMAND_MODULES:
+        module = importlib.import_module(f"suspenv.cli.{name}")
+        module.register(sub)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not getattr(args, "func", None):
+        parser.print_help()
+        return 2
+    try:
+        return int(args.func(args) or 0)
+    except SuspenvError as exc:
+        print(f"suspenv {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"suspenv {args.command}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,25 @@
+"""Typed errors. Messages name the broken rule and the offending values."""
+
+
+class SuspenvError(Exception):
+    """Base class of every suspenv error."""
+
+
+class ValidationError(SuspenvError, ValueError):
+    """Bad input: a rule about shapes, ranges or names was broken."""
+
+
+class EvaluationError(SuspenvError):
+    """A physics evaluation failed (lock-up, divergence, ...).
+
+    Raised inside models; ``Problem.evaluate`` turns it into a failed row whose
+    message is ``str(error)``.
+    """
+
+
+class ConvergenceError(EvaluationError):
+    """An iterative solver did not converge."""
+
+
+class LockupError(EvaluationError):
+    """A linkage cannot be assembled or locks up along a sweep."""

@@ -1,0 +1,116 @@
+"""The problem seam: a design space plus a batch evaluation.
+
+A problem is *what we want*: it owns a :class:`DesignSpace`, names its objectives
+(minimised) and constraints (feasible when <= 0), and evaluates a batch of physical
+designs ``X`` of shape (n, d). Subclasses implement :meth:`_evaluate`, vectorised
+over the batch where the physics allows.
+
+Failures are values, not crashes: any :class:`Exception` raised by ``_evaluate`` is
+isolated to the rows that caused it (the batch is re-run row by row) and those rows
+come back with ``ok=False`` and the exception's message.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from pathlib import Path
+from typing import Any, ClassVar
+
+import numpy as np
+
+from suspenv.core.result import EvaluationBatch
+from suspenv.core.space import DesignSpace
+
+
+class Problem(ABC):
+    """Base class of every problem.
+
+    Class attributes to set in subclasses:
+        name: registry name, e.g. ``"KCIdentification"``.
+        description: one line for ``suspenv list``.
+
+    Instance attributes set by subclasses' ``__init__``:
+        space: the :class:`DesignSpace`.
+        objective_names: names of the m objectives (minimised).
+        constraint_names: names of the k constraints (feasible when <= 0).
+        objective_units: optional units, same length as ``objective_names``.
+    """
+
+    name: ClassVar[str] = "Problem"
+    description: ClassVar[str] = ""
+
+    space: DesignSpace
+    objective_names: tuple[str, ...]
+    constraint_names: tuple[str, ...] = ()
+    objective_units: tuple[str, ...] = ()
+
+    # ------------------------------------------------------------ subclass API
+    @abstractmethod
+    def _evaluate(self, X: np.ndarray) -> EvaluationBatch:
+        """Evaluate physical designs X (n, d), already validated. May raise."""
+
+    # ------------------------------------------------------------- public API
+    @property
+    def n_objectives(self) -> int:
+        return len(self.objective_names)
+
+    @property
+    def n_constraints(self) -> int:
+        return len(self.constraint_names)
+
+    def evaluate(self, X: np.ndarray) -> EvaluationBatch:
+        """Evaluate a batch of physical designs (n, d) -> :class:`EvaluationBatch`.
+
+        Raises :class:`~suspenv.core.errors.ValidationError` for a malformed batch
+        (wrong shape, NaN/inf). Physics failures become failed rows.
+        """
+        X = self.space.check_batch(X)
+        try:
+            batch = self._evaluate(X)
+        except Exception:  # noqa: BLE001 - isolate the failing rows below
+            if X.shape[0] == 1:
+                return self._failed_row(X[0])
+            return EvaluationBatch.concatenate([self.evaluate(x[None, :]) for x in X])
+        self._check_shapes(batch, X.shape[0])
+        return batch
+
+    def evaluate_unit(self, U: np.ndarray) -> EvaluationBatch:
+        """Evaluate unit-cube designs (n, d)."""
+        return self.evaluate(self.space.to_physical(U))
+
+    def reference_design(self) -> np.ndarray:
+        """The physical reference design (1-D)."""
+        return self.space.reference()
+
+    def config(self) -> dict[str, Any]:
+        """Options that rebuild this problem (stored in run directories)."""
+        return {}
+
+    def write_report(self, run_dir: Path, archive: Any) -> list[Path]:
+        """Problem-specific report files for a finished run (optional). Returns paths."""
+        return []
+
+    # --------------------------------------------------------------- helpers
+    def _failed_row(self, x: np.ndarray) -> EvaluationBatch:
+        try:
+            batch = self._evaluate(x[None, :])
+            self._check_shapes(batch, 1)
+            return batch
+        except Exception as exc:  # noqa: BLE001 - a failed evaluation is a value
+            msg = f"{type(exc).__name__}: {exc}"
+            return EvaluationBatch.failed(1, self.n_objectives, self.n_constraints, msg)
+
+    def _check_shapes(self, batch: EvaluationBatch, n: int) -> None:
+        want = (n, self.n_objectives), (n, self.n_constraints)
+        got = batch.objectives.shape, batch.constraints.shape
+        if got != want:
+            raise RuntimeError(
+                f"{type(self).__name__}._evaluate must return objectives {want[0]} and "
+                f"constraints {want[1]}, but returned {got[0]} and {got[1]}"
+            )
+
+    def __repr__(self) -> str:
+        return (
+            f"{type(self).__name__}(d={self.space.dim}, m={self.n_objectives}, "
+            f"k={self.n_constraints})"
+        )

@@ -1,0 +1,104 @@
+"""The result of evaluating a batch of designs."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from suspenv.core.errors import ValidationError
+
+
+@dataclass
+class EvaluationBatch:
+    """Objectives, constraints and status of ``n`` evaluated designs.
+
+    Attributes:
+        objectives: (n, m) values to minimise; rows of failed designs are NaN.
+        constraints: (n, k); a design is feasible when every entry is <= 0.
+        ok: (n,) True where the evaluation succeeded.
+        messages: n strings; the failure reason where ``ok`` is False, else "".
+        extras: optional named per-row arrays (first axis n) a problem wants archived
+            or reported, e.g. auxiliary metrics. Kept small.
+    """
+
+    objectives: np.ndarray
+    constraints: np.ndarray
+    ok: np.ndarray
+    messages: list[str]
+    extras: dict[str, np.ndarray] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        self.objectives = np.atleast_2d(np.asarray(self.objectives, dtype=float))
+        n = self.objectives.shape[0]
+        c = np.asarray(self.constraints, dtype=float)
+        self.constraints = c.reshape(n, -1) if c.size else np.zeros((n, 0))
+        self.ok = np.asarray(self.ok, dtype=bool).reshape(-1)
+        self.messages = list(self.messages)
+        if self.ok.shape[0] != n or len(self.messages) != n or self.constraints.shape[0] != n:
+            raise ValidationError(
+                "EvaluationBatch parts must have the same number of rows, but got "
+                f"objectives={self.objectives.shape}, constraints={self.constraints.shape}, "
+                f"ok={self.ok.shape}, messages={len(self.messages)}"
+            )
+
+    # ----------------------------------------------------------- constructors
+    @classmethod
+    def failed(cls, n: int, m: int, k: int, message: str) -> EvaluationBatch:
+        """``n`` failed rows that all carry ``message``."""
+        return cls(
+            np.full((n, m), np.nan), np.full((n, k), np.nan), np.zeros(n, bool), [message] * n
+        )
+
+    @classmethod
+    def concatenate(cls, parts: Sequence[EvaluationBatch]) -> EvaluationBatch:
+        """Stack batches row-wise (extras only where every part has them)."""
+        if not parts:
+            raise ValidationError("cannot concatenate an empty list of batches")
+        keys = set(parts[0].extras)
+        for p in parts[1:]:
+            keys &= set(p.extras)
+        return cls(
+            np.vstack([p.objectives for p in parts]),
+            np.vstack([p.constraints for p in parts]),
+            np.concatenate([p.ok for p in parts]),
+            [m for p in parts for m in p.messages],
+            {k: np.concatenate([np.asarray(p.extras[k]) for p in parts]) for k in sorted(keys)},
+        )
+
+    # ----------------------------------------------------------------- views
+    def __len__(self) -> int:
+        return self.objectives.shape[0]
+
+    @property
+    def n_objectives(self) -> int:
+        return self.objectives.shape[1]
+
+    @property
+    def n_constraints(self) -> int:
+        return self.constraints.shape[1]
+
+    @property
+    def violation(self) -> np.ndarray:
+        """(n,) total constraint violation sum(max(g, 0)); NaN for failed rows."""
+        if self.n_constraints == 0:
+            return np.where(self.ok, 0.0, np.nan)
+        v = np.clip(self.constraints, 0.0, None).sum(axis=1)
+        return np.where(self.ok, v, np.nan)
+
+    @property
+    def feasible(self) -> np.ndarray:
+        """(n,) True where ok and every constraint <= 0."""
+        return self.ok & (np.nan_to_num(self.violation, nan=1.0) <= 0.0)
+
+    def take(self, rows: np.ndarray | Sequence[int]) -> EvaluationBatch:
+        """A sub-batch of the given rows."""
+        idx = np.asarray(rows)
+        return EvaluationBatch(
+            self.objectives[idx],
+            self.constraints[idx],
+            self.ok[idx],
+            [self.messages[i] for i in np.arange(len(self))[idx]],
+            {k: np.asarray(v)[idx] for k, v in self.extras.items()},
+        )

@@ -1,0 +1,1 @@
+"""Problems: design space + model + rigs + objectives + constraints (one module each)."""

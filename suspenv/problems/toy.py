@@ -1,0 +1,54 @@
+"""Analytic test problems for smoke tests and overhead benchmarks (no physics)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from suspenv.core import DesignSpace, EvaluationBatch, Parameter, Problem
+from suspenv.core.errors import ValidationError
+
+
+class Sphere(Problem):
+    """f(x) = sum((x - 0.3)^2) on [-1, 1]^d; minimum 0 at x = 0.3. Trivial and cheap."""
+
+    name = "Sphere"
+    description = "sum of squares, d variables (framework smoke tests and overhead benchmark)"
+
+    def __init__(self, dim: int = 10):
+        if int(dim) < 1:
+            raise ValidationError(f"Sphere: `dim >= 1` must hold, but got dim={dim}")
+        self.dim = int(dim)
+        self.space = DesignSpace(Parameter(f"x{i}", -1.0, 1.0) for i in range(self.dim))
+        self.objective_names = ("f",)
+
+    def _evaluate(self, X: np.ndarray) -> EvaluationBatch:
+        f = ((X - 0.3) ** 2).sum(axis=1, keepdims=True)
+        n = X.shape[0]
+        return EvaluationBatch(f, np.zeros((n, 0)), np.ones(n, bool), [""] * n)
+
+    def config(self) -> dict:
+        return {"dim": self.dim}
+
+
+class ZDT1(Problem):
+    """Zitzler-Deb-Thiele ZDT1, two objectives; Pareto front f2 = 1 - sqrt(f1) at x[1:] = 0."""
+
+    name = "ZDT1"
+    description = "ZDT1 bi-objective test function (multi-objective smoke tests)"
+
+    def __init__(self, dim: int = 6):
+        if int(dim) < 2:
+            raise ValidationError(f"ZDT1: `dim >= 2` must hold, but got dim={dim}")
+        self.dim = int(dim)
+        self.space = DesignSpace(Parameter(f"x{i}", 0.0, 1.0) for i in range(self.dim))
+        self.objective_names = ("f1", "f2")
+
+    def _evaluate(self, X: np.ndarray) -> EvaluationBatch:
+        f1 = X[:, 0]
+        g = 1.0 + 9.0 * X[:, 1:].sum(axis=1) / (self.dim - 1)
+        f2 = g * (1.0 - np.sqrt(f1 / g))
+        n = X.shape[0]
+        return EvaluationBatch(np.c_[f1, f2], np.zeros((n, 0)), np.ones(n, bool), [""] * n)
+
+    def config(self) -> dict:
+        return {"dim": self.dim}

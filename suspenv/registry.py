@@ -1,0 +1,115 @@
+"""Registries by name, resolved lazily from ``"module:attribute"`` entry points.
+
+Every registered problem is also a Gymnasium env ``suspenv/<Name>-v0`` (see
+:mod:`suspenv.envs`), and every registered strategy is covered by the contract tests
+for free. Users add their own with :func:`register_problem` / :func:`register_strategy`.
+"""
+
+from __future__ import annotations
+
+import difflib
+import importlib
+from collections.abc import Callable
+from typing import Any
+
+from suspenv.core.errors import ValidationError
+
+_PROBLEMS: dict[str, str | Callable[..., Any]] = {
+    "Sphere": "suspenv.problems.toy:Sphere",
+    "ZDT1": "suspenv.problems.toy:ZDT1",
+    "CarSideImpact": "suspenv.problems.carside:CarSideImpact",
+    "KCIdentification": "suspenv.problems.kc_identification:KCIdentification",
+    "MinibusRideHandling": "suspenv.problems.minibus:MinibusRideHandling",
+    "PlanarLinkage": "suspenv.problems.planar:PlanarLinkage",
+}
+
+_STRATEGIES: dict[str, str | Callable[..., Any]] = {
+    "cmaes": "strategies.cmaes:CMAES",
+    "nsga2": "strategies.nsga2:NSGA2",
+    "random": "strategies.random_search:RandomSearch",
+    "lhs": "strategies.lhs:LatinHypercube",
+}
+
+_PIPELINES: dict[str, str | Callable[..., Any]] = {
+    "optimize": "suspenv.experiments.optimize_pipeline:run_optimize_pipeline",
+    "tey2014": "suspenv.studies.tey2014:run_tey2014_pipeline",
+    "diagnosis_benchmark": "suspenv.diagnosis.benchmark:run_benchmark_pipeline",
+}
+
+
+def _resolve(kind: str, table: dict[str, Any], name: str) -> Any:
+    try:
+        target = table[name]
+    except KeyError:
+        near = difflib.get_close_matches(name, list(table), n=3, cutoff=0.4)
+        lowered = {k.lower(): k for k in table}
+        if name.lower() in lowered:
+            near = [lowered[name.lower()]]
+        hint = f"; did you mean {', '.join(repr(n) for n in near)}?" if near else ""
+        raise ValidationError(
+            f"unknown {kind} {name!r}{hint} (known: {', '.join(sorted(table))})"
+        ) from None
+    if isinstance(target, str):
+        module, _, attr = target.partition(":")
+        target = getattr(importlib.import_module(module), attr)
+        table[name] = target
+    return target
+
+
+def _register(table: dict[str, Any], kind: str, name: str, target: Any, overwrite: bool) -> None:
+    if not name or not isinstance(name, str):
+        raise ValidationError(f"{kind} name must be a non-empty string, but got {name!r}")
+    if name in table and not overwrite:
+        raise ValidationError(f"{kind} {name!r} is already registered (pass overwrite=True)")
+    table[name] = target
+
+
+# ----------------------------------------------------------------- problems
+def register_problem(name: str, target: str | Callable[..., Any], overwrite: bool = False) -> None:
+    """Register a problem class (or ``"module:Class"``) under ``name``."""
+    _register(_PROBLEMS, "problem", name, target, overwrite)
+
+
+def problem_class(name: str) -> Any:
+    return _resolve("problem", _PROBLEMS, name)
+
+
+def make_problem(name: str, **options: Any) -> Any:
+    """Build the problem registered as ``name`` with keyword options."""
+    return problem_class(name)(**options)
+
+
+def list_problems() -> list[str]:
+    return sorted(_PROBLEMS)
+
+
+# --------------------------------------------------------------- strategies
+def register_strategy(
+    name: str, target: str | Callable[..., Any], overwrite: bool = False
+) -> None:
+    """Register a strategy class (or ``"module:Class"``) under ``name``."""
+    _register(_STRATEGIES, "strategy", name, target, overwrite)
+
+
+def strategy_class(name: str) -> Any:
+    return _resolve("strategy", _STRATEGIES, name)
+
+
+def list_strategies() -> list[str]:
+    return sorted(_STRATEGIES)
+
+
+# ---------------------------------------------------------------- pipelines
+def register_pipeline(
+    name: str, target: str | Callable[..., Any], overwrite: bool = False
+) -> None:
+    """Register an experiment pipeline ``run(config, run_dir) -> summary dict``."""
+    _register(_PIPELINES, "pipeline", name, target, overwrite)
+
+
+def pipeline_function(name: str) -> Any:
+    return _resolve("pipeline", _PIPELINES, name)
+
+
+def list_pipelines() -> list[str]:
+    return sorted(_PIPELINES)
