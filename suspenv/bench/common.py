@@ -1,0 +1,82 @@
+"""Helpers shared by the benchmark scripts: timing, a plain table, JSON with machine facts."""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+#: committed benchmark results live here (relative to the repository root)
+DEFAULT_OUTPUT_DIR = Path("docs") / "benchmarks"
+
+
+def best_time(fn: Callable[[], Any], repeat: int = 5, number: int = 1) -> float:
+    """Best wall time in seconds of ``number`` calls of ``fn`` over ``repeat`` trials."""
+    best = float("inf")
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        for _ in range(number):
+            fn()
+        best = min(best, (time.perf_counter() - t0) / number)
+    return best
+
+
+def machine_info() -> dict[str, Any]:
+    """Facts that make a benchmark number interpretable."""
+    from suspenv.recording.versions import package_versions
+
+    return {
+        "python": platform.python_version(),
+        "machine": platform.machine(),
+        "processor": platform.processor() or platform.machine(),
+        "cpu_count": os.cpu_count(),
+        "packages": package_versions(),
+        "timestamp": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+    }
+
+
+def format_table(rows: Sequence[dict[str, Any]]) -> str:
+    """A plain-text table; floats get 4 significant digits."""
+    if not rows:
+        return "(no rows)"
+    cols = list(rows[0])
+
+    def fmt(v: Any) -> str:
+        return f"{v:.4g}" if isinstance(v, float) else str(v)
+
+    cells = [[fmt(r.get(c, "")) for c in cols] for r in rows]
+    widths = [max(len(c), *(len(row[i]) for row in cells)) for i, c in enumerate(cols)]
+    lines = ["  ".join(c.ljust(w) for c, w in zip(cols, widths, strict=True))]
+    lines.append("  ".join("-" * w for w in widths))
+    lines += ["  ".join(v.ljust(w) for v, w in zip(row, widths, strict=True)) for row in cells]
+    return "\n".join(lines)
+
+
+def write_result(
+    name: str,
+    rows: Sequence[dict[str, Any]],
+    summary: dict[str, Any],
+    command: str,
+    output_dir: Path | str | None = None,
+) -> Path:
+    """Print the table and write ``<output_dir>/<name>.json``; returns the path."""
+    out = Path(output_dir) if output_dir else DEFAULT_OUTPUT_DIR
+    out.mkdir(parents=True, exist_ok=True)
+    path = out / f"{name}.json"
+    payload = {
+        "benchmark": name,
+        "command": command,
+        "summary": summary,
+        "rows": list(rows),
+        "machine": machine_info(),
+    }
+    path.write_text(json.dumps(payload, indent=2, default=float) + "\n")
+    print(format_table(rows))
+    for k, v in summary.items():
+        print(f"{k}: {v:.4g}" if isinstance(v, float) else f"{k}: {v}")
+    print(f"wrote {path}")
+    return path

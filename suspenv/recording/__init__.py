@@ -1,0 +1,1 @@
+"""Recording runs: the append-only SQLite evaluation archive, run directories, versions."""
