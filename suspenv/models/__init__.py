@@ -1,0 +1,1 @@
+"""Models: what the hardware is. Physics as plain functions and frozen dataclasses."""

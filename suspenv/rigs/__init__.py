@@ -1,0 +1,1 @@
+"""Rigs: what we do to a model (K&C tests, road runs, handling manoeuvres)."""
