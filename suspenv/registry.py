@@ -113,3 +113,27 @@ def pipeline_function(name: str) -> Any:
 
 def list_pipelines() -> list[str]:
     return sorted(_PIPELINES)
+
+
+def make_strategy(name: str, problem: Any, seed: int = 0, **options: Any) -> Any:
+    """Build strategy ``name`` for ``problem`` (its dimension, objective and constraint counts).
+
+    Options unknown to the strategy are reported with the valid ones.
+    """
+    import inspect
+
+    cls = strategy_class(name)
+    params = inspect.signature(cls.__init__).parameters
+    accepts_any = any(p.kind is p.VAR_KEYWORD for p in params.values())
+    valid = [k for k in params if k not in ("self", "dim", "n_objectives", "n_constraints", "seed")]
+    unknown = sorted(set(options) - set(valid))
+    if unknown and not accepts_any:
+        hints = {u: difflib.get_close_matches(u, valid, n=1) for u in unknown}
+        hint = "; ".join(f"{u!r}" + (f" (did you mean {h[0]!r}?)" if h else "") for u, h in hints.items())
+        raise ValidationError(
+            f"strategy {name!r} does not take option(s) {hint}; valid options: {', '.join(valid)}"
+        )
+    return cls(
+        dim=problem.space.dim, n_objectives=problem.n_objectives,
+        n_constraints=problem.n_constraints, seed=seed, **options,
+    )

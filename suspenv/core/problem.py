@@ -86,6 +86,17 @@ class Problem(ABC):
         """Options that rebuild this problem (stored in run directories)."""
         return {}
 
+    def quality(self, F: np.ndarray) -> np.ndarray:
+        """One number per row to compare runs and strategies (lower is better).
+
+        Default: the objective itself for one objective, the plain sum for several.
+        Problems override this with something meaningful to their users.
+        """
+        F = np.atleast_2d(F)
+        return F[:, 0] if F.shape[1] == 1 else F.sum(axis=1)
+
+    quality_name: ClassVar[str] = "objective (sum if several)"
+
     def write_report(self, run_dir: Path, archive: Any) -> list[Path]:
         """Problem-specific report files for a finished run (optional). Returns paths."""
         return []

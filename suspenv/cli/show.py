@@ -1,0 +1,53 @@
+"""``suspenv show RUN``: the summary table of a run directory."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+from typing import Any
+
+from suspenv.core.errors import ValidationError
+
+
+def load_summary(run_dir: str | Path) -> dict[str, Any]:
+    path = Path(run_dir) / "summary.json"
+    if not path.is_file():
+        raise ValidationError(
+            f"{str(run_dir)!r} is not a finished run directory (no summary.json); "
+            "a run that died can be resumed with `suspenv run CONFIG`"
+        )
+    return json.loads(path.read_text())
+
+
+def format_summary(s: dict[str, Any]) -> str:
+    rows = [
+        ("run", s.get("name")), ("seed", s.get("seed")), ("problem", s.get("problem")),
+        ("strategy", s.get("strategy")), ("budget", s.get("budget")),
+        ("evaluations", s.get("n_evaluations")), ("resumed from archive", s.get("n_resumed")),
+        ("ok / feasible", f"{s.get('n_ok')} / {s.get('n_feasible')}"),
+        ("stop reason", s.get("stop_reason")),
+        ("wall time [s]", _fmt(s.get("wall_time_s"))),
+        (f"best {s.get('quality_name', 'quality')}", _fmt(s.get("best_quality"))),
+    ]
+    best = s.get("best_objectives")
+    if best:
+        for n, v in zip(s.get("objective_names", []), best, strict=False):
+            rows.append((f"  best row: {n}", _fmt(v)))
+    w = max(len(str(k)) for k, _ in rows)
+    return "\n".join(f"{k:<{w}}  {v}" for k, v in rows if v is not None)
+
+
+def _fmt(v: Any) -> Any:
+    return f"{v:.6g}" if isinstance(v, float) else v
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("show", help="summary table of a run directory")
+    p.add_argument("run", help="run directory (contains summary.json)")
+    p.set_defaults(func=_show)
+
+
+def _show(args: argparse.Namespace) -> int:
+    print(format_summary(load_summary(args.run)))
+    return 0

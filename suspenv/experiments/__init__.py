@@ -1,0 +1,1 @@
+"""Experiments: TOML configs -> resolved config -> run directory (see :mod:`.config`)."""
