@@ -38,8 +38,11 @@ class Strategy(ABC):
     multi_objective: ClassVar[bool] = False
 
     def __init__(self, dim: int, n_objectives: int = 1, n_constraints: int = 0, seed: int = 0):
-        for key, value, least in (("dim", dim, 1), ("n_objectives", n_objectives, 1),
-                                  ("n_constraints", n_constraints, 0)):
+        for key, value, least in (
+            ("dim", dim, 1),
+            ("n_objectives", n_objectives, 1),
+            ("n_constraints", n_constraints, 0),
+        ):
             if int(value) != value or value < least:
                 raise ValidationError(
                     f"{type(self).__name__}: `{key}` must be an integer >= {least}, "

@@ -104,8 +104,12 @@ class CMAES(ScalarStrategy):
         self._es.tell(list(U), f.tolist())
         if self._es.stop() and self.restart_count < self.restarts:
             self.history.append(
-                {"restart": self.restart_count, "popsize": self.popsize,
-                 "stop": dict(self._es.stop()), "evaluations": self.n_told + len(batch)}
+                {
+                    "restart": self.restart_count,
+                    "popsize": self.popsize,
+                    "stop": dict(self._es.stop()),
+                    "evaluations": self.n_told + len(batch),
+                }
             )
             self.restart_count += 1
             self.popsize = int(round(self.popsize * self.incpopsize))
@@ -125,7 +129,12 @@ class CMAES(ScalarStrategy):
 
     def options(self) -> dict[str, Any]:
         return {
-            **super().options(), "popsize": self.popsize, "sigma0": self.sigma0, "x0": self.x0,
-            "restarts": self.restarts, "incpopsize": self.incpopsize,
-            "tolfun": self.tolfun, "tolx": self.tolx,
+            **super().options(),
+            "popsize": self.popsize,
+            "sigma0": self.sigma0,
+            "x0": self.x0,
+            "restarts": self.restarts,
+            "incpopsize": self.incpopsize,
+            "tolfun": self.tolfun,
+            "tolx": self.tolx,
         }

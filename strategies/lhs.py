@@ -29,8 +29,16 @@ class LatinHypercube(Strategy):
     description = "Latin hypercube design of experiments (scipy.stats.qmc)"
     multi_objective = True
 
-    def __init__(self, dim: int, n_objectives: int = 1, n_constraints: int = 0, seed: int = 0,
-                 n_samples: int = 500, batch_size: int = 50, optimization: str | None = None):
+    def __init__(
+        self,
+        dim: int,
+        n_objectives: int = 1,
+        n_constraints: int = 0,
+        seed: int = 0,
+        n_samples: int = 500,
+        batch_size: int = 50,
+        optimization: str | None = None,
+    ):
         super().__init__(dim, n_objectives, n_constraints, seed)
         if int(n_samples) < 1 or int(batch_size) < 1:
             raise ValidationError(
@@ -47,7 +55,7 @@ class LatinHypercube(Strategy):
         if self._next >= self.n_samples:
             raise RuntimeError(f"lhs: all {self.n_samples} samples were already asked")
         stop = min(self._next + self.batch_size, self.n_samples)
-        U = self.design[self._next:stop]
+        U = self.design[self._next : stop]
         self._next = stop
         return U
 
@@ -60,5 +68,8 @@ class LatinHypercube(Strategy):
         return None
 
     def options(self) -> dict[str, Any]:
-        return {"n_samples": self.n_samples, "batch_size": self.batch_size,
-                "optimization": self.optimization}
+        return {
+            "n_samples": self.n_samples,
+            "batch_size": self.batch_size,
+            "optimization": self.optimization,
+        }

@@ -6,7 +6,8 @@ would breed from nothing and silently degrade to random sampling, so :meth:`ask`
 asks exactly ``population_size`` trials and the base class refuses a second ask before
 the tell.
 
-Constraints go through optuna's constraint mechanism (``constraints_func``; feasible when
+Constraints go through optuna's constraint mechanism (``Trial.set_constraint`` in optuna
+>= 5, ``constraints_func`` before; feasible when
 every value <= 0, the same convention as suspenv). Failed evaluations are told as
 ``TrialState.FAIL`` and take no part in selection. Storage is in memory by default; pass
 an optuna storage URL (e.g. ``sqlite:///study.db`` or an RDB/journal URL) and a
@@ -29,6 +30,8 @@ from suspenv.core.errors import ValidationError
 from suspenv.core.result import EvaluationBatch
 
 _CONSTRAINTS_KEY = "suspenv_constraints"
+#: optuna >= 5 takes constraints per trial (``Trial.set_constraint``); older: constraints_func
+_PER_TRIAL_CONSTRAINTS = hasattr(optuna.trial.Trial, "set_constraint")
 
 
 def _constraints_of(trial: optuna.trial.FrozenTrial) -> list[float]:
@@ -49,10 +52,19 @@ class NSGA2(Strategy):
     description = "NSGA-II (optuna), one generation per batch, constraints supported"
     multi_objective = True
 
-    def __init__(self, dim: int, n_objectives: int = 1, n_constraints: int = 0, seed: int = 0,
-                 population_size: int = 50, crossover_prob: float = 0.9,
-                 mutation_prob: float | None = None, swapping_prob: float = 0.5,
-                 storage: str | None = None, study_name: str | None = None):
+    def __init__(
+        self,
+        dim: int,
+        n_objectives: int = 1,
+        n_constraints: int = 0,
+        seed: int = 0,
+        population_size: int = 50,
+        crossover_prob: float = 0.9,
+        mutation_prob: float | None = None,
+        swapping_prob: float = 0.5,
+        storage: str | None = None,
+        study_name: str | None = None,
+    ):
         super().__init__(dim, n_objectives, n_constraints, seed)
         if int(population_size) < 2:
             raise ValidationError(
@@ -75,11 +87,16 @@ class NSGA2(Strategy):
                 mutation_prob=self.mutation_prob,
                 swapping_prob=self.swapping_prob,
                 seed=self.seed,
-                constraints_func=_constraints_of if self.n_constraints else None,
+                constraints_func=(
+                    _constraints_of if self.n_constraints and not _PER_TRIAL_CONSTRAINTS else None
+                ),
             )
         self.study = optuna.create_study(
-            storage=storage, sampler=sampler, study_name=self.study_name,
-            directions=["minimize"] * self.n_objectives, load_if_exists=storage is not None,
+            storage=storage,
+            sampler=sampler,
+            study_name=self.study_name,
+            directions=["minimize"] * self.n_objectives,
+            load_if_exists=storage is not None,
         )
         self._dists = {f"u{i}": FloatDistribution(0.0, 1.0) for i in range(self.dim)}
         self._trials: list[optuna.trial.Trial] = []
@@ -93,14 +110,20 @@ class NSGA2(Strategy):
             if not batch.ok[i] or not np.isfinite(batch.objectives[i]).all():
                 self.study.tell(trial, state=TrialState.FAIL)
                 continue
-            if self.n_constraints:
+            if self.n_constraints and _PER_TRIAL_CONSTRAINTS:
+                for j, g in enumerate(batch.constraints[i]):
+                    trial.set_constraint(f"g{j}", float(g))
+            elif self.n_constraints:
                 trial.set_user_attr(_CONSTRAINTS_KEY, batch.constraints[i].tolist())
             self.study.tell(trial, batch.objectives[i].tolist())
         self._trials = []
 
     def options(self) -> dict[str, Any]:
         return {
-            "population_size": self.population_size, "crossover_prob": self.crossover_prob,
-            "mutation_prob": self.mutation_prob, "swapping_prob": self.swapping_prob,
-            "storage": self.storage, "study_name": self.study_name,
+            "population_size": self.population_size,
+            "crossover_prob": self.crossover_prob,
+            "mutation_prob": self.mutation_prob,
+            "swapping_prob": self.swapping_prob,
+            "storage": self.storage,
+            "study_name": self.study_name,
         }

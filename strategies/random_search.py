@@ -21,9 +21,16 @@ class RandomSearch(ScalarStrategy):
     description = "uniform random search (baseline)"
     multi_objective = True  # samples do not depend on objectives; any m is fine
 
-    def __init__(self, dim: int, n_objectives: int = 1, n_constraints: int = 0, seed: int = 0,
-                 batch_size: int = 50, scalarizer: str = "weighted_sum",
-                 weights: list[float] | None = None):
+    def __init__(
+        self,
+        dim: int,
+        n_objectives: int = 1,
+        n_constraints: int = 0,
+        seed: int = 0,
+        batch_size: int = 50,
+        scalarizer: str = "weighted_sum",
+        weights: list[float] | None = None,
+    ):
         super().__init__(dim, n_objectives, n_constraints, seed, scalarizer, weights)
         if int(batch_size) < 1:
             raise ValidationError(f"random: `batch_size >= 1` must hold, but got {batch_size}")

@@ -49,9 +49,7 @@ def weighted_sum(
     return out
 
 
-def rank_sum(
-    F: np.ndarray, valid: np.ndarray | None = None, scale: float = 10.0
-) -> np.ndarray:
+def rank_sum(F: np.ndarray, valid: np.ndarray | None = None, scale: float = 10.0) -> np.ndarray:
     """Tey et al.'s dynamic rank-sum over one batch; NaN for rows not ``valid``."""
     F = _as_2d(F)
     ok = np.isfinite(F).all(axis=1) if valid is None else np.asarray(valid, bool)

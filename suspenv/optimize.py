@@ -57,10 +57,14 @@ class RunResult:
 
     def as_dict(self) -> dict[str, Any]:
         return {
-            "n_evaluations": self.n_evaluations, "n_batches": self.n_batches,
-            "stop_reason": self.stop_reason, "wall_time_s": self.wall_time,
-            "n_resumed": self.n_resumed, "best_index": self.best_index,
-            "best_x": self.best_x, "best_objectives": self.best_objectives,
+            "n_evaluations": self.n_evaluations,
+            "n_batches": self.n_batches,
+            "stop_reason": self.stop_reason,
+            "wall_time_s": self.wall_time,
+            "n_resumed": self.n_resumed,
+            "best_index": self.best_index,
+            "best_x": self.best_x,
+            "best_objectives": self.best_objectives,
         }
 
 
@@ -82,7 +86,9 @@ def _evaluate_chunks(
         except Exception as exc:  # noqa: BLE001 - a lost worker is a failed chunk, not a crash
             n = len(rows[s])
             res = EvaluationBatch.failed(
-                n, problem.n_objectives, problem.n_constraints,
+                n,
+                problem.n_objectives,
+                problem.n_constraints,
                 f"executor: {type(exc).__name__}: {exc}",
             )
         yield rows[s], res, time.perf_counter() - t0
@@ -127,18 +133,30 @@ def optimize(
             objective_names=list(problem.objective_names),
             constraint_names=list(problem.constraint_names),
             strategy=getattr(strategy, "name", type(strategy).__name__),
-            seed=seed, budget=budget, versions=package_versions(), **(meta or {}),
+            seed=seed,
+            budget=budget,
+            versions=package_versions(),
+            **(meta or {}),
         )
     bar = None
     if progress:
         from tqdm.auto import tqdm
 
-        bar = tqdm(total=budget, unit="eval", desc=getattr(problem, "name", "run"),
-                   dynamic_ncols=True, leave=True)
+        bar = tqdm(
+            total=budget,
+            unit="eval",
+            desc=getattr(problem, "name", "run"),
+            dynamic_ncols=True,
+            leave=True,
+        )
     t_start = time.perf_counter()
     used = resumed = b = 0
     best: tuple[float, int | None, list[float] | None, np.ndarray | None] = (
-        math.inf, None, None, None)  # (scalar, evaluation index, objectives, x)
+        math.inf,
+        None,
+        None,
+        None,
+    )  # (scalar, evaluation index, objectives, x)
     stop_reason = ""
     history: list[dict[str, Any]] = []
     workers = getattr(executor, "_max_workers", None) or 2
@@ -191,10 +209,15 @@ def optimize(
             i = int(np.argmin(f))
             if f[i] < best[0]:
                 best = (float(f[i]), used + i, batch.objectives[i].tolist(), X[i].copy())
-            history.append({
-                "batch": b, "evaluations": used + n, "best": best[0],
-                "n_ok": int(batch.ok.sum()), "n_feasible": int(batch.feasible.sum()),
-            })
+            history.append(
+                {
+                    "batch": b,
+                    "evaluations": used + n,
+                    "best": best[0],
+                    "n_ok": int(batch.ok.sum()),
+                    "n_feasible": int(batch.feasible.sum()),
+                }
+            )
             if bar is not None and math.isfinite(best[0]):
                 bar.set_postfix(best=f"{best[0]:.4g}", refresh=False)
             for cb in callbacks:
@@ -212,7 +235,13 @@ def optimize(
             archive.set_meta(stop_reason=stop_reason, n_evaluations=used, wall_time_s=wall)
             archive.close()
     return RunResult(
-        n_evaluations=used, n_batches=b, stop_reason=stop_reason, wall_time=wall,
-        n_resumed=resumed, best_index=best[1], best_objectives=best[2],
-        best_x=None if best[3] is None else problem.space.as_dict(best[3]), history=history,
+        n_evaluations=used,
+        n_batches=b,
+        stop_reason=stop_reason,
+        wall_time=wall,
+        n_resumed=resumed,
+        best_index=best[1],
+        best_objectives=best[2],
+        best_x=None if best[3] is None else problem.space.as_dict(best[3]),
+        history=history,
     )

@@ -84,9 +84,7 @@ def list_problems() -> list[str]:
 
 
 # --------------------------------------------------------------- strategies
-def register_strategy(
-    name: str, target: str | Callable[..., Any], overwrite: bool = False
-) -> None:
+def register_strategy(name: str, target: str | Callable[..., Any], overwrite: bool = False) -> None:
     """Register a strategy class (or ``"module:Class"``) under ``name``."""
     _register(_STRATEGIES, "strategy", name, target, overwrite)
 
@@ -100,9 +98,7 @@ def list_strategies() -> list[str]:
 
 
 # ---------------------------------------------------------------- pipelines
-def register_pipeline(
-    name: str, target: str | Callable[..., Any], overwrite: bool = False
-) -> None:
+def register_pipeline(name: str, target: str | Callable[..., Any], overwrite: bool = False) -> None:
     """Register an experiment pipeline ``run(config, run_dir) -> summary dict``."""
     _register(_PIPELINES, "pipeline", name, target, overwrite)
 
@@ -129,11 +125,16 @@ def make_strategy(name: str, problem: Any, seed: int = 0, **options: Any) -> Any
     unknown = sorted(set(options) - set(valid))
     if unknown and not accepts_any:
         hints = {u: difflib.get_close_matches(u, valid, n=1) for u in unknown}
-        hint = "; ".join(f"{u!r}" + (f" (did you mean {h[0]!r}?)" if h else "") for u, h in hints.items())
+        hint = "; ".join(
+            f"{u!r}" + (f" (did you mean {h[0]!r}?)" if h else "") for u, h in hints.items()
+        )
         raise ValidationError(
             f"strategy {name!r} does not take option(s) {hint}; valid options: {', '.join(valid)}"
         )
     return cls(
-        dim=problem.space.dim, n_objectives=problem.n_objectives,
-        n_constraints=problem.n_constraints, seed=seed, **options,
+        dim=problem.space.dim,
+        n_objectives=problem.n_objectives,
+        n_constraints=problem.n_constraints,
+        seed=seed,
+        **options,
     )

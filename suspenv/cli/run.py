@@ -10,20 +10,30 @@ from suspenv.experiments.runner import run_experiment
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
-        "run", help="run an experiment config (TOML)",
+        "run",
+        help="run an experiment config (TOML)",
         description="Run an experiment config. Re-running the same config resumes a run that "
         "died, without re-evaluating what is archived.",
     )
     p.add_argument("config", help="path to an experiment TOML file (see experiments/)")
-    p.add_argument("--set", dest="overrides", action="append", default=[], metavar="KEY=VALUE",
-                   help="override a config value, e.g. --set strategy.options.popsize=42")
+    p.add_argument(
+        "--set",
+        dest="overrides",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="override a config value, e.g. --set strategy.options.popsize=42",
+    )
     p.add_argument("--workers", type=int, help="evaluate in a process pool of N workers")
     p.add_argument("--dask", metavar="ADDRESS", help="evaluate on a Dask cluster (scheduler)")
     p.add_argument("--output", help="parent folder of run directories (default: runs)")
     p.add_argument("--no-plots", action="store_true", help="skip the figures")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
-    p.add_argument("--overwrite", action="store_true",
-                   help="delete an existing run directory of a different experiment")
+    p.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="delete an existing run directory of a different experiment",
+    )
     p.set_defaults(func=_run)
 
 

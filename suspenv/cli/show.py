@@ -22,9 +22,13 @@ def load_summary(run_dir: str | Path) -> dict[str, Any]:
 
 def format_summary(s: dict[str, Any]) -> str:
     rows = [
-        ("run", s.get("name")), ("seed", s.get("seed")), ("problem", s.get("problem")),
-        ("strategy", s.get("strategy")), ("budget", s.get("budget")),
-        ("evaluations", s.get("n_evaluations")), ("resumed from archive", s.get("n_resumed")),
+        ("run", s.get("name")),
+        ("seed", s.get("seed")),
+        ("problem", s.get("problem")),
+        ("strategy", s.get("strategy")),
+        ("budget", s.get("budget")),
+        ("evaluations", s.get("n_evaluations")),
+        ("resumed from archive", s.get("n_resumed")),
         ("ok / feasible", f"{s.get('n_ok')} / {s.get('n_feasible')}"),
         ("stop reason", s.get("stop_reason")),
         ("wall time [s]", _fmt(s.get("wall_time_s"))),

@@ -100,7 +100,8 @@ class DesignSpace:
         return self.dim
 
     def __repr__(self) -> str:
-        return f"DesignSpace(dim={self.dim}, names={list(self.names)[:4]}{'...' if self.dim > 4 else ''})"
+        more = "..." if self.dim > 4 else ""
+        return f"DesignSpace(dim={self.dim}, names={list(self.names)[:4]}{more})"
 
     def index(self, name: str) -> int:
         """Column of parameter ``name``; unknown names suggest the nearest valid ones."""
@@ -118,9 +119,7 @@ class DesignSpace:
         if arr.ndim == 1:
             arr = arr[None, :]
         if arr.ndim != 2 or arr.shape[1] != self.dim:
-            raise ValidationError(
-                f"{what} must have shape (n, {self.dim}), but got {np.shape(X)}"
-            )
+            raise ValidationError(f"{what} must have shape (n, {self.dim}), but got {np.shape(X)}")
         bad = ~np.isfinite(arr)
         if bad.any():
             r, c = np.argwhere(bad)[0]

@@ -40,12 +40,16 @@ DEFAULTS: dict[str, Any] = {
     "pipeline": "optimize",
     "problem": {"options": {}},
     "strategy": {"options": {}},
-    "run": {"workers": 1, "output": "runs", "plots": True, "progress": True,
-            "dask_scheduler": None},
+    "run": {
+        "workers": 1,
+        "output": "runs",
+        "plots": True,
+        "progress": True,
+        "dask_scheduler": None,
+    },
 }
 
-KNOWN_TOP = {"name", "seed", "budget", "pipeline", "problem", "strategy", "run",
-             "description"}
+KNOWN_TOP = {"name", "seed", "budget", "pipeline", "problem", "strategy", "run", "description"}
 KNOWN_RUN = {"workers", "output", "plots", "progress", "dask_scheduler", "chunk_size"}
 
 
@@ -85,9 +89,7 @@ def apply_overrides(config: dict[str, Any], overrides: list[str]) -> dict[str, A
         for part in path[:-1]:
             nxt = node.setdefault(part, {})
             if not isinstance(nxt, dict):
-                raise ValidationError(
-                    f"--set {text!r}: `{part}` is a value ({nxt!r}), not a table"
-                )
+                raise ValidationError(f"--set {text!r}: `{part}` is a value ({nxt!r}), not a table")
             node = nxt
         node[path[-1]] = value
     return out
@@ -109,8 +111,7 @@ def validate(config: dict[str, Any]) -> dict[str, Any]:
         for table in ("problem", "strategy"):
             if not isinstance(cfg[table].get("name"), str):
                 raise ValidationError(
-                    f"config: `{table}.name` must be a string, but got "
-                    f"{cfg[table].get('name')!r}"
+                    f"config: `{table}.name` must be a string, but got {cfg[table].get('name')!r}"
                 )
         if "budget" not in cfg:
             raise ValidationError("config: `budget` (number of evaluations) is required")

@@ -49,8 +49,9 @@ def quality_curve(problem: Any, arrays: dict[str, np.ndarray]) -> np.ndarray:
     return plots.best_so_far(np.asarray(q, float), feasible)
 
 
-def write_run_outputs(problem: Any, run_dir: Path, config: dict[str, Any],
-                      result: Any, strategy: Any) -> dict[str, Any]:
+def write_run_outputs(
+    problem: Any, run_dir: Path, config: dict[str, Any], result: Any, strategy: Any
+) -> dict[str, Any]:
     """Summary JSON, CSV export and figures of a finished run; returns the summary."""
     with RunArchive(run_dir) as archive:
         arrays = archive.arrays()
@@ -62,13 +63,22 @@ def write_run_outputs(problem: Any, run_dir: Path, config: dict[str, Any],
         curve = quality_curve(problem, arrays)
         figures = []
         if config["run"].get("plots", True) and len(arrays["ok"]):
-            figures.append(plots.plot_convergence(
-                arrays["objectives"], feasible, names, run_dir / "convergence.png"))
+            figures.append(
+                plots.plot_convergence(
+                    arrays["objectives"], feasible, names, run_dir / "convergence.png"
+                )
+            )
             if len(names) > 1 and feasible.sum() > 1:
-                figures.append(plots.plot_pareto_pairs(
-                    arrays["objectives"], feasible, names, run_dir / "pareto_pairs.png"))
-                figures.append(plots.plot_parallel(
-                    arrays["objectives"], feasible, names, run_dir / "pareto_parallel.png"))
+                figures.append(
+                    plots.plot_pareto_pairs(
+                        arrays["objectives"], feasible, names, run_dir / "pareto_pairs.png"
+                    )
+                )
+                figures.append(
+                    plots.plot_parallel(
+                        arrays["objectives"], feasible, names, run_dir / "pareto_parallel.png"
+                    )
+                )
         figures += problem.write_report(run_dir, archive)
     finite = np.isfinite(curve)
     summary = {
@@ -95,12 +105,21 @@ def write_run_outputs(problem: Any, run_dir: Path, config: dict[str, Any],
 def run_optimize_pipeline(config: dict[str, Any], run_dir: Path) -> dict[str, Any]:
     """Run the config's strategy on its problem; write every output into ``run_dir``."""
     problem = make_problem(config["problem"]["name"], **config["problem"].get("options", {}))
-    strategy = make_strategy(config["strategy"]["name"], problem, seed=config["seed"],
-                             **config["strategy"].get("options", {}))
+    strategy = make_strategy(
+        config["strategy"]["name"],
+        problem,
+        seed=config["seed"],
+        **config["strategy"].get("options", {}),
+    )
     with make_executor(config["run"]) as executor:
         result = optimize(
-            problem, strategy, config["budget"], run_dir=run_dir, seed=config["seed"],
-            executor=executor, chunk_size=config["run"].get("chunk_size"),
+            problem,
+            strategy,
+            config["budget"],
+            run_dir=run_dir,
+            seed=config["seed"],
+            executor=executor,
+            chunk_size=config["run"].get("chunk_size"),
             progress=config["run"].get("progress", True),
             meta={"config": config},
         )

@@ -82,7 +82,10 @@ def plot_pareto_pairs(
 
 
 def plot_parallel(
-    objectives: np.ndarray, feasible: np.ndarray, names: Sequence[str], path: Path,
+    objectives: np.ndarray,
+    feasible: np.ndarray,
+    names: Sequence[str],
+    path: Path,
     highlight: int | None = None,
 ) -> Path:
     """Parallel coordinates of the non-dominated set, each objective min-max scaled."""
@@ -120,8 +123,9 @@ def plot_compare(curves: dict[str, list[np.ndarray]], ylabel: str, path: Path) -
             ax.fill_between(x, np.nanmin(A, axis=0), np.nanmax(A, axis=0), alpha=0.2)
     ax.set_xlabel("evaluations")
     ax.set_ylabel(ylabel)
-    finite = [np.nanmin(r[np.isfinite(r)]) for rs in curves.values() for r in rs
-              if np.isfinite(r).any()]
+    finite = [
+        np.nanmin(r[np.isfinite(r)]) for rs in curves.values() for r in rs if np.isfinite(r).any()
+    ]
     if finite and min(finite) > 0:
         ax.set_yscale("log")
     ax.grid(alpha=0.3)

@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 
 from suspenv.core import DesignSpace, EvaluationBatch, Parameter, Problem
-from suspenv.core.errors import ValidationError
+from suspenv.core.errors import EvaluationError, ValidationError
 
 
 class Sphere(Problem):
@@ -14,20 +16,27 @@ class Sphere(Problem):
     name = "Sphere"
     description = "sum of squares, d variables (framework smoke tests and overhead benchmark)"
 
-    def __init__(self, dim: int = 10):
+    def __init__(self, dim: int = 10, delay_s: float = 0.0):
         if int(dim) < 1:
             raise ValidationError(f"Sphere: `dim >= 1` must hold, but got dim={dim}")
+        if delay_s < 0:
+            raise ValidationError(f"Sphere: `delay_s >= 0` must hold, but got delay_s={delay_s}")
         self.dim = int(dim)
+        self.delay_s = float(delay_s)  # per batch: stands in for an expensive simulation
         self.space = DesignSpace(Parameter(f"x{i}", -1.0, 1.0) for i in range(self.dim))
         self.objective_names = ("f",)
 
     def _evaluate(self, X: np.ndarray) -> EvaluationBatch:
+        if self.delay_s:
+            time.sleep(self.delay_s)
+        if not np.isfinite(X).all() or np.any(np.abs(X) > 1.0):
+            raise EvaluationError("Sphere: design outside [-1, 1]")
         f = ((X - 0.3) ** 2).sum(axis=1, keepdims=True)
         n = X.shape[0]
         return EvaluationBatch(f, np.zeros((n, 0)), np.ones(n, bool), [""] * n)
 
     def config(self) -> dict:
-        return {"dim": self.dim}
+        return {"dim": self.dim, "delay_s": self.delay_s}
 
 
 class ZDT1(Problem):

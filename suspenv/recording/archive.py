@@ -101,9 +101,18 @@ class RunArchive:
         now = time.time()
         per = wall_time / max(n, 1)
         data = [
-            (int(batch_index), int(rows[i]), _blob(U[i]), _blob(X[i]),
-             _blob(result.objectives[i]), _blob(result.constraints[i]), int(result.ok[i]),
-             result.messages[i], per, now)
+            (
+                int(batch_index),
+                int(rows[i]),
+                _blob(U[i]),
+                _blob(X[i]),
+                _blob(result.objectives[i]),
+                _blob(result.constraints[i]),
+                int(result.ok[i]),
+                result.messages[i],
+                per,
+                now,
+            )
             for i in range(n)
         ]
         with self._con:
@@ -122,7 +131,8 @@ class RunArchive:
         out = {}
         for row, u, f, g, ok, msg in self._con.execute(
             "SELECT row, unit, objectives, constraints, ok, message FROM evaluations "
-            "WHERE batch = ? ORDER BY row", (int(batch_index),)
+            "WHERE batch = ? ORDER BY row",
+            (int(batch_index),),
         ):
             out[int(row)] = (
                 _unblob(u),
@@ -166,19 +176,24 @@ class RunArchive:
         meta = self.meta()
         pnames = meta.get("parameter_names") or [f"x{i}" for i in range(a["x"].shape[1])]
         onames = meta.get("objective_names") or [f"f{i}" for i in range(a["objectives"].shape[1])]
-        cnames = meta.get("constraint_names") or [
-            f"g{i}" for i in range(a["constraints"].shape[1])
-        ]
+        cnames = meta.get("constraint_names") or [f"g{i}" for i in range(a["constraints"].shape[1])]
         path = Path(path)
         with path.open("w", newline="") as fh:
             w = csv.writer(fh)
             w.writerow(["batch", "row", *pnames, *onames, *cnames, "ok", "message", "wall_time"])
             for i in range(len(a["ok"])):
-                w.writerow([
-                    a["batch"][i], a["row"][i], *map(repr, a["x"][i]),
-                    *map(repr, a["objectives"][i]), *map(repr, a["constraints"][i]),
-                    int(a["ok"][i]), a["message"][i], f"{a['wall_time'][i]:.6g}",
-                ])
+                w.writerow(
+                    [
+                        a["batch"][i],
+                        a["row"][i],
+                        *map(repr, a["x"][i]),
+                        *map(repr, a["objectives"][i]),
+                        *map(repr, a["constraints"][i]),
+                        int(a["ok"][i]),
+                        a["message"][i],
+                        f"{a['wall_time'][i]:.6g}",
+                    ]
+                )
         return path
 
     def close(self) -> None:

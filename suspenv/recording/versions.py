@@ -6,7 +6,14 @@ import platform
 from importlib import metadata
 
 TRACKED_PACKAGES = (
-    "suspenv", "numpy", "scipy", "cma", "optuna", "gymnasium", "pymunk", "matplotlib",
+    "suspenv",
+    "numpy",
+    "scipy",
+    "cma",
+    "optuna",
+    "gymnasium",
+    "pymunk",
+    "matplotlib",
     "distributed",
 )
 

@@ -1,0 +1,225 @@
+"""The one place where actions become designs and evaluations become observations/rewards.
+
+Shared by :class:`~suspenv.envs.problem_env.ProblemEnv` (one design per step) and
+:class:`~suspenv.envs.vector_env.ProblemVectorEnv` (a population per step), so both
+produce the same numbers for the same designs. No physics here.
+
+Conventions (all float64):
+
+* action ``a`` in [-1, 1]^d -> unit cube ``u = (a + 1) / 2`` -> physical design
+  ``x = space.to_physical(u)``. Finite actions outside [-1, 1] are clipped; NaN/inf
+  actions and wrong shapes raise :class:`~suspenv.core.errors.ValidationError`.
+* observation = objective vector (m,). A failed evaluation (``ok=False``, or any
+  objective/constraint not finite, or an objective outside ``[-OBS_LIMIT, OBS_LIMIT]``)
+  is reported with every objective (and constraint, in ``info``) equal to
+  ``fail_value`` (default :data:`FAIL_VALUE`, finite and worse than any real design).
+* reward = -(scalarised objectives + penalty * total constraint violation), where the
+  violation is ``sum_j max(g_j, 0)``; a failed evaluation gets ``-fail_value``.
+"""
+
+from __future__ import annotations
+
+import numbers
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+
+from strategies.scalarize import get_scalarizer
+from suspenv.core.errors import ValidationError
+from suspenv.core.problem import Problem
+from suspenv.core.result import EvaluationBatch
+from suspenv.registry import make_problem
+
+#: reported objective/constraint value of a failed evaluation (finite, inside the space)
+FAIL_VALUE = 1.0e10
+#: observation bounds: objective values beyond +-OBS_LIMIT count as failed evaluations
+OBS_LIMIT = 1.0e300
+
+Scalarizer = str | Callable[[np.ndarray], np.ndarray]
+
+
+def build_problem(problem: str | Problem, problem_options: dict[str, Any] | None) -> Problem:
+    """A problem instance from a registered name (with options) or an instance."""
+    if isinstance(problem, Problem):
+        if problem_options:
+            raise ValidationError(
+                "`problem_options` can only be given with a problem name, but got a "
+                f"{type(problem).__name__} instance and problem_options={problem_options!r}"
+            )
+        return problem
+    if not isinstance(problem, str):
+        raise ValidationError(
+            f"`problem` must be a registered name or a Problem instance, but got {problem!r}"
+        )
+    return make_problem(problem, **(problem_options or {}))
+
+
+class ProblemAdapter:
+    """Maps actions to designs and :class:`EvaluationBatch` rows to env outputs."""
+
+    def __init__(
+        self,
+        problem: Problem,
+        *,
+        scalarizer: Scalarizer = "weighted_sum",
+        weights: Sequence[float] | None = None,
+        penalty: float = 100.0,
+        fail_value: float = FAIL_VALUE,
+        batch_scalarizer_ok: bool = False,
+    ):
+        self.problem = problem
+        self.space = problem.space
+        self.dim = problem.space.dim
+        self.m = problem.n_objectives
+        self.k = problem.n_constraints
+        for key, value in (("penalty", penalty), ("fail_value", fail_value)):
+            ok = isinstance(value, numbers.Real) and not isinstance(value, bool)
+            if not (ok and np.isfinite(value) and value >= 0):
+                raise ValidationError(f"`{key}` must be a finite number >= 0, but got {value!r}")
+        if not fail_value <= OBS_LIMIT:
+            raise ValidationError(
+                f"`fail_value <= {OBS_LIMIT:g}` must hold, but got fail_value={fail_value!r}"
+            )
+        self.penalty = float(penalty)
+        self.fail_value = float(fail_value)
+        self.scalarizer_name, self._scalarize = self._resolve_scalarizer(
+            scalarizer, weights, batch_scalarizer_ok
+        )
+
+    # ------------------------------------------------------------ scalariser
+    def _resolve_scalarizer(
+        self, scalarizer: Scalarizer, weights: Sequence[float] | None, batch_ok: bool
+    ) -> tuple[str, Callable[[np.ndarray], np.ndarray]]:
+        if callable(scalarizer):
+            if weights is not None:
+                raise ValidationError("`weights` only apply to scalarizer='weighted_sum'")
+            name = getattr(scalarizer, "__name__", type(scalarizer).__name__)
+            return name, scalarizer
+        fn = get_scalarizer(scalarizer)
+        if scalarizer == "weighted_sum":
+            if weights is not None:
+                w = np.asarray(weights, dtype=float)
+                if w.shape != (self.m,) or not np.isfinite(w).all():
+                    raise ValidationError(
+                        f"`weights` must be {self.m} finite numbers (one per objective "
+                        f"{list(self.problem.objective_names)}), but got {weights!r}"
+                    )
+                return scalarizer, lambda F: fn(F, w)
+            return scalarizer, fn
+        if weights is not None:
+            raise ValidationError(
+                f"`weights` only apply to scalarizer='weighted_sum', but got "
+                f"scalarizer={scalarizer!r} with weights={weights!r}"
+            )
+        if not batch_ok:
+            raise ValidationError(
+                f"scalarizer={scalarizer!r} normalises over a batch, but this env evaluates "
+                "one design per step: use the vector env (gymnasium.make_vec) or "
+                "scalarizer='weighted_sum'"
+            )
+        return scalarizer, fn
+
+    # --------------------------------------------------------------- actions
+    def actions_to_designs(self, actions: Any, n: int) -> np.ndarray:
+        """Actions (n, d) in [-1, 1] -> physical designs (n, d). Rejects NaN/inf/shape."""
+        A = np.asarray(actions, dtype=float)
+        if A.shape != (n, self.dim) and not (n == 1 and A.shape == (self.dim,)):
+            want = f"({self.dim},)" if n == 1 else f"({n}, {self.dim})"
+            raise ValidationError(f"action must have shape {want}, but got {np.shape(actions)}")
+        A = A.reshape(n, self.dim)
+        bad = ~np.isfinite(A)
+        if bad.any():
+            r, c = np.argwhere(bad)[0]
+            where = f"row {r} " if n > 1 else ""
+            raise ValidationError(
+                f"action values must be finite, but {where}component {c} "
+                f"({self.space.names[c]!r}) is {A[r, c]}"
+            )
+        U = (np.clip(A, -1.0, 1.0) + 1.0) / 2.0
+        return self.space.to_physical(U)
+
+    def designs_to_actions(self, X: np.ndarray) -> np.ndarray:
+        """Physical designs (n, d) -> actions in [-1, 1] (inverse map, for callers)."""
+        return np.clip(2.0 * self.space.to_unit(X) - 1.0, -1.0, 1.0)
+
+    # --------------------------------------------------------------- outputs
+    def outputs(self, X: np.ndarray, batch: EvaluationBatch) -> dict[str, Any]:
+        """Observation, reward and info arrays for every row of an evaluated batch.
+
+        Returns a dict of (n, ...) arrays: ``obs`` (n, m), ``reward`` (n,),
+        ``objectives`` (n, m), ``constraints`` (n, k), ``ok`` (n,), ``message`` (n,)
+        object, ``violation`` (n,), ``scalarized`` (n,), and ``x`` (n, d).
+        """
+        F = np.asarray(batch.objectives, dtype=float)
+        G = np.asarray(batch.constraints, dtype=float).reshape(len(batch), self.k)
+        messages = list(batch.messages)
+        ok = np.asarray(batch.ok, dtype=bool).copy()
+        finite = np.isfinite(F).all(axis=1) & np.isfinite(G).all(axis=1)
+        inside = finite & (np.abs(np.nan_to_num(F)) <= OBS_LIMIT).all(axis=1)
+        for i in np.flatnonzero(ok & ~inside):
+            ok[i] = False
+            messages[i] = (
+                "non-finite objective or constraint"
+                if not finite[i]
+                else f"objective outside the observation space [-{OBS_LIMIT:g}, {OBS_LIMIT:g}]"
+            )
+        violation = np.clip(np.where(ok[:, None], G, 0.0), 0.0, None).sum(axis=1)
+        scal = np.full(len(batch), np.nan)
+        if ok.any():
+            scal[ok] = np.asarray(self._scalarize(F[ok]), dtype=float).reshape(-1)
+        with np.errstate(over="ignore", invalid="ignore"):
+            reward = -(scal + self.penalty * violation)
+        for i in np.flatnonzero(ok & ~np.isfinite(reward)):
+            ok[i] = False
+            messages[i] = f"scalarized objective is not finite ({scal[i]})"
+        fail = self.fail_value
+        obs = np.where(ok[:, None], F, fail)
+        return {
+            "obs": obs,
+            "reward": np.where(ok, reward, -fail),
+            "objectives": obs.copy(),
+            "constraints": np.where(ok[:, None], G, fail),
+            "ok": ok,
+            "message": np.array(messages, dtype=object),
+            "violation": np.where(ok, violation, fail),
+            "scalarized": np.where(ok, scal, fail),
+            "x": np.asarray(X, dtype=float),
+        }
+
+    def info_row(self, out: dict[str, Any], i: int, evaluations: int) -> dict[str, Any]:
+        """The ``info`` dict of row ``i`` (fresh objects every call)."""
+        return {
+            "objectives": out["objectives"][i].copy(),
+            "constraints": out["constraints"][i].copy(),
+            "parameters": self.space.as_dict(out["x"][i]),
+            "ok": bool(out["ok"][i]),
+            "message": str(out["message"][i]),
+            "violation": float(out["violation"][i]),
+            "scalarized": float(out["scalarized"][i]),
+            "evaluations": int(evaluations),
+        }
+
+    def info_batch(self, out: dict[str, Any], evaluations: int) -> dict[str, Any]:
+        """The vector-env ``info``: the keys of :meth:`info_row`, stacked along axis 0."""
+        n = out["obs"].shape[0]
+        info = {
+            "objectives": out["objectives"].copy(),
+            "constraints": out["constraints"].copy(),
+            "parameters": {name: out["x"][:, j].copy() for j, name in enumerate(self.space.names)},
+            "ok": out["ok"].copy(),
+            "message": out["message"].copy(),
+            "violation": out["violation"].copy(),
+            "scalarized": out["scalarized"].copy(),
+            "evaluations": np.full(n, int(evaluations), dtype=np.int64),
+        }
+        return with_masks(info, n)
+
+
+def with_masks(info: dict[str, Any], n: int) -> dict[str, Any]:
+    """Add gymnasium's ``_key`` presence masks (every sub-env has every key)."""
+    out: dict[str, Any] = {}
+    for key, value in info.items():
+        out[key] = with_masks(value, n) if isinstance(value, dict) else value
+        out[f"_{key}"] = np.ones(n, dtype=bool)
+    return out

@@ -1,0 +1,171 @@
+"""``ProblemEnv``: any suspenv problem as a Gymnasium environment, one design per step."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from suspenv.core.errors import ValidationError
+from suspenv.core.problem import Problem
+from suspenv.envs.adapter import FAIL_VALUE, OBS_LIMIT, ProblemAdapter, Scalarizer, build_problem
+
+
+def check_budget(budget: Any) -> int:
+    """``budget`` as an int >= 1, or a ValidationError naming the rule."""
+    if isinstance(budget, bool) or not isinstance(budget, int | np.integer) or budget < 1:
+        raise ValidationError(f"`budget` must be an integer >= 1, but got budget={budget!r}")
+    return int(budget)
+
+
+def single_spaces(adapter: ProblemAdapter) -> tuple[spaces.Box, spaces.Box]:
+    """(action space [-1, 1]^d, observation space [-OBS_LIMIT, OBS_LIMIT]^m), float64."""
+    action = spaces.Box(-1.0, 1.0, shape=(adapter.dim,), dtype=np.float64)
+    observation = spaces.Box(-OBS_LIMIT, OBS_LIMIT, shape=(adapter.m,), dtype=np.float64)
+    return action, observation
+
+
+class ProblemEnv(gym.Env[np.ndarray, np.ndarray]):
+    """A suspenv problem as a black-box optimisation episode (``suspenv/<Name>-v0``).
+
+    Every registered problem is an env: ``gymnasium.make("suspenv/CarSideImpact-v0")``
+    after ``import suspenv.envs``. Each step evaluates one design; an episode is one
+    optimisation run of ``budget`` evaluations. There is no hidden state: the next
+    observation depends only on the action, so the env suits black-box optimisers and
+    bandit-style agents alike.
+
+    Action space:
+        ``Box(-1, 1, (d,), float64)``, d = number of design parameters. Action ``a``
+        maps to the unit cube ``u = (a + 1) / 2`` and to physical values through the
+        problem's :class:`~suspenv.core.DesignSpace` (linear or log per parameter).
+        Finite actions outside [-1, 1] are clipped; NaN/inf actions or a wrong shape
+        raise :class:`~suspenv.core.errors.ValidationError`.
+
+    Observation space:
+        ``Box(-1e300, 1e300, (m,), float64)``: the m objective values (minimised) of the
+        design just evaluated, in the problem's units (``problem.objective_names``).
+        A failed evaluation is observed as ``fail_value`` (default 1e10) in every
+        component, with ``info["ok"] = False`` and the reason in ``info["message"]``.
+
+    Reward:
+        ``-(s + penalty * v)`` with ``s`` the scalarised objectives (``scalarizer``
+        "weighted_sum", default equal weights 1, or a callable ``F (n, m) -> (n,)``),
+        ``v = sum_j max(g_j, 0)`` the total constraint violation (constraints are
+        feasible when ``g <= 0``) and ``penalty`` (default 100). A failed evaluation
+        earns ``-fail_value``. The batch-normalised "rank_sum" needs a population: use
+        the vector env.
+
+    Starting state:
+        ``reset()`` evaluates the problem's reference design
+        (``problem.reference_design()``: each parameter's default, else the centre of
+        its range) and returns its objectives; this evaluation is not counted in the
+        budget. The problem is deterministic, so the reference evaluation is computed
+        once per env and reused. ``seed`` only seeds ``np_random`` (unused by the
+        dynamics, which are deterministic).
+
+    Episode end:
+        ``terminated`` is always False (there is no goal state); ``truncated`` is True
+        on the ``budget``-th step. Stepping again before ``reset()`` raises.
+
+    Info (fresh objects every call):
+        ``objectives`` (m,), ``constraints`` (k,) (both ``fail_value`` when failed),
+        ``parameters`` {name: physical value}, ``ok``, ``message``, ``violation``,
+        ``scalarized``, ``evaluations`` (steps taken in this episode).
+
+    Rendering:
+        ``render_mode="rgb_array"`` when the problem defines
+        ``render_rgb(x_physical) -> uint8 (H, W, 3)`` (the last evaluated design);
+        otherwise ``metadata["render_modes"]`` is empty and ``render()`` returns None.
+
+    Arguments:
+        problem: registered problem name (see ``suspenv list``) or a Problem instance.
+        problem_options: constructor options for a named problem.
+        budget: evaluations per episode (>= 1, default 100).
+        scalarizer, weights, penalty, fail_value: reward shaping, see above.
+        render_mode: None or "rgb_array".
+
+    Version history:
+        v0: initial version.
+    """
+
+    metadata: dict[str, Any] = {"render_modes": ["rgb_array"], "render_fps": 4}
+
+    def __init__(
+        self,
+        problem: str | Problem,
+        problem_options: dict[str, Any] | None = None,
+        budget: int = 100,
+        scalarizer: Scalarizer = "weighted_sum",
+        weights: Sequence[float] | None = None,
+        penalty: float = 100.0,
+        fail_value: float = FAIL_VALUE,
+        render_mode: str | None = None,
+    ):
+        self.problem = build_problem(problem, problem_options)
+        self.adapter = ProblemAdapter(
+            self.problem,
+            scalarizer=scalarizer,
+            weights=weights,
+            penalty=penalty,
+            fail_value=fail_value,
+        )
+        self.budget = check_budget(budget)
+        can_render = callable(getattr(self.problem, "render_rgb", None))
+        self.metadata = {"render_modes": ["rgb_array"] if can_render else [], "render_fps": 4}
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValidationError(
+                f"`render_mode` must be one of {self.metadata['render_modes'] + [None]} for "
+                f"{self.problem.name}, but got {render_mode!r}"
+                + ("" if can_render else " (the problem defines no render_rgb)")
+            )
+        self.render_mode = render_mode
+        self.action_space, self.observation_space = single_spaces(self.adapter)
+        self._reference: tuple[np.ndarray, dict[str, Any]] | None = None
+        self._steps = 0
+        self._done = False
+        self._last_x: np.ndarray | None = None
+
+    # -------------------------------------------------------------- gym API
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        super().reset(seed=seed)
+        if self._reference is None:
+            x = self.problem.reference_design()[None, :]
+            out = self.adapter.outputs(x, self.problem.evaluate(x))
+            self._reference = (out["obs"][0], self.adapter.info_row(out, 0, 0))
+        obs, info = self._reference
+        self._steps = 0
+        self._done = False
+        self._last_x = self.problem.reference_design()
+        return obs.copy(), _copy_info(info)
+
+    def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        if self._done:
+            raise RuntimeError(
+                f"the episode ended after budget={self.budget} steps: call reset() before step()"
+            )
+        X = self.adapter.actions_to_designs(action, 1)
+        out = self.adapter.outputs(X, self.problem.evaluate(X))
+        self._steps += 1
+        self._done = self._steps >= self.budget
+        self._last_x = X[0].copy()
+        info = self.adapter.info_row(out, 0, self._steps)
+        return out["obs"][0].copy(), float(out["reward"][0]), False, self._done, info
+
+    def render(self) -> np.ndarray | None:
+        if self.render_mode != "rgb_array" or self._last_x is None:
+            return None
+        return np.asarray(self.problem.render_rgb(self._last_x.copy()), dtype=np.uint8)
+
+    # ------------------------------------------------------------- helpers
+    def design_to_action(self, x_physical: Sequence[float]) -> np.ndarray:
+        """The action that evaluates the physical design ``x_physical``."""
+        return self.adapter.designs_to_actions(np.asarray(x_physical, dtype=float)[None, :])[0]
+
+
+def _copy_info(info: dict[str, Any]) -> dict[str, Any]:
+    return {k: (v.copy() if isinstance(v, np.ndarray | dict) else v) for k, v in info.items()}

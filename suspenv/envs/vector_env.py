@@ -1,0 +1,120 @@
+"""``ProblemVectorEnv``: a whole population per step, evaluated with one batch call."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+
+from suspenv.core.errors import ValidationError
+from suspenv.core.problem import Problem
+from suspenv.envs.adapter import FAIL_VALUE, ProblemAdapter, Scalarizer, build_problem
+from suspenv.envs.problem_env import check_budget, single_spaces
+
+
+class ProblemVectorEnv(VectorEnv):
+    """``num_envs`` copies of :class:`~suspenv.envs.problem_env.ProblemEnv` stepped as one.
+
+    ``gymnasium.make_vec("suspenv/<Name>-v0", num_envs=n)`` builds this class (the
+    registered ``vector_entry_point``). Each ``step(actions)`` maps the (n, d) actions
+    to designs and evaluates them with ONE ``problem.evaluate(X)`` call, so a problem
+    that vectorises its physics evaluates a population as fast as one design. With
+    ``scalarizer="weighted_sum"`` (or any row-wise callable) every row gets exactly the
+    observation, reward and info a single ``ProblemEnv`` would give; ``"rank_sum"``
+    (Tey et al. 2014) normalises over the population of the step, so its reward of a
+    row depends on the other rows.
+
+    Spaces: ``action_space`` Box(-1, 1, (n, d), float64); ``observation_space``
+    Box(-1e300, 1e300, (n, m), float64); ``single_*`` as in ``ProblemEnv``.
+
+    Episodes: every sub-env truncates together on the ``budget``-th step. Autoreset
+    mode ``NEXT_STEP`` (gymnasium's default): the step after a truncation ignores its
+    actions, resets every sub-env (reference design, reward 0, not counted in the
+    budget) and returns the reset observations.
+
+    Info: the keys of ``ProblemEnv``'s info stacked along axis 0 (``parameters`` is a
+    dict of (n,) arrays, ``message`` an object array), each with gymnasium's ``_key``
+    presence mask.
+
+    Arguments: ``num_envs`` (population size, >= 1, default 8) and the arguments of
+    ``ProblemEnv``; ``render_mode`` must be None (no vector rendering).
+
+    Version history:
+        v0: initial version.
+    """
+
+    metadata: dict[str, Any] = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}
+
+    def __init__(
+        self,
+        problem: str | Problem,
+        num_envs: int = 8,
+        problem_options: dict[str, Any] | None = None,
+        budget: int = 100,
+        scalarizer: Scalarizer = "weighted_sum",
+        weights: Sequence[float] | None = None,
+        penalty: float = 100.0,
+        fail_value: float = FAIL_VALUE,
+        render_mode: str | None = None,
+    ):
+        if isinstance(num_envs, bool) or not isinstance(num_envs, int | np.integer) or num_envs < 1:
+            raise ValidationError(f"`num_envs` must be an integer >= 1, but got {num_envs!r}")
+        if render_mode is not None:
+            raise ValidationError(
+                f"`render_mode` must be None for the vector env, but got {render_mode!r}"
+            )
+        self.problem = build_problem(problem, problem_options)
+        self.adapter = ProblemAdapter(
+            self.problem,
+            scalarizer=scalarizer,
+            weights=weights,
+            penalty=penalty,
+            fail_value=fail_value,
+            batch_scalarizer_ok=True,
+        )
+        self.num_envs = int(num_envs)
+        self.budget = check_budget(budget)
+        self.render_mode = None
+        self.single_action_space, self.single_observation_space = single_spaces(self.adapter)
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self._reference: dict[str, Any] | None = None
+        self._steps = 0
+        self._started = False
+        self._autoreset = False
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        super().reset(seed=seed)
+        if self._reference is None:
+            x = self.problem.reference_design()[None, :]
+            self._reference = self.adapter.outputs(x, self.problem.evaluate(x))
+        out = {k: np.repeat(v, self.num_envs, axis=0) for k, v in self._reference.items()}
+        self._steps = 0
+        self._started = True
+        self._autoreset = False
+        return out["obs"].copy(), self.adapter.info_batch(out, 0)
+
+    def step(
+        self, actions: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        if not self._started:
+            raise RuntimeError("call reset() before step()")
+        n = self.num_envs
+        if self._autoreset:
+            obs, info = self.reset()
+            return obs, np.zeros(n), np.zeros(n, bool), np.zeros(n, bool), info
+        X = self.adapter.actions_to_designs(actions, n)
+        out = self.adapter.outputs(X, self.problem.evaluate(X))
+        self._steps += 1
+        self._autoreset = self._steps >= self.budget
+        truncated = np.full(n, self._autoreset, dtype=bool)
+        info = self.adapter.info_batch(out, self._steps)
+        return out["obs"], out["reward"].astype(np.float64), np.zeros(n, bool), truncated, info
+
+    def render(self) -> None:
+        return None
