@@ -7,8 +7,12 @@ simulation and recordings disagree). Strategies live in the top-level ``strategi
 package.
 """
 
-from suspenv.core import DesignSpace, EvaluationBatch, Parameter, Problem
-from suspenv.registry import list_problems, make_problem
+from suspenv.threads import limit_blas_threads
+
+limit_blas_threads()
+
+from suspenv.core import DesignSpace  # noqa: E402, EvaluationBatch, Parameter, Problem
+from suspenv.registry import list_problems, make_problem  # noqa: E402
 
 __version__ = "0.1.0"
 __all__ = [

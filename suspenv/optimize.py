@@ -190,18 +190,24 @@ def optimize(
                 results[r] = res
             resumed += len(done)
             todo = np.array([r for r in range(n) if results[r] is None], dtype=int)
+            parts: list[tuple[np.ndarray, EvaluationBatch]] = []
             if todo.size:
                 chunk = chunk_size or max(1, math.ceil(todo.size / (2 * workers)))
                 for rows, res, secs in _evaluate_chunks(problem, X[todo], todo, executor, chunk):
                     if archive is not None:
                         archive.append(b, rows, U[rows], X[rows], res, secs)
-                    for j, r in enumerate(rows):
-                        results[r] = res.take([j])
+                    parts.append((rows, res))
                     if bar is not None:
                         bar.update(len(rows))
             if bar is not None and done:
                 bar.update(len(done))
-            batch = EvaluationBatch.concatenate(results)  # type: ignore[arg-type]
+            if not done and len(parts) == 1:
+                batch = parts[0][1]  # one chunk, in order: nothing to assemble
+            else:
+                for rows, res in parts:
+                    for j, r in enumerate(rows):
+                        results[r] = res.take([j])
+                batch = EvaluationBatch.concatenate(results)  # type: ignore[arg-type]
             strategy.tell(U, batch)
             # bookkeeping: best feasible by the first objective (or the mean of objectives)
             f = batch.objectives[:, 0] if batch.n_objectives == 1 else batch.objectives.mean(1)
