@@ -28,7 +28,7 @@ from collections.abc import Callable, Sequence
 from concurrent.futures import Executor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -39,6 +39,18 @@ from suspenv.recording.archive import RunArchive
 from suspenv.recording.versions import package_versions
 
 BatchCallback = Callable[[int, np.ndarray, EvaluationBatch], None]
+
+
+class Recorder(Protocol):
+    """Receives every evaluated chunk as soon as it completes (before the strategy is told).
+
+    :class:`~suspenv.recording.archive.RunArchive` is the standard recorder.
+    """
+
+    def append(
+        self, batch_index: int, rows: Sequence[int], U: np.ndarray, X: np.ndarray,
+        result: EvaluationBatch, wall_time: float,
+    ) -> None: ...
 
 
 @dataclass
@@ -105,6 +117,7 @@ def optimize(
     chunk_size: int | None = None,
     progress: bool = False,
     callbacks: Sequence[BatchCallback] = (),
+    recorders: Sequence[Recorder] = (),
     meta: dict[str, Any] | None = None,
 ) -> RunResult:
     """Run ``strategy`` on ``problem`` for at most ``budget`` evaluations.
@@ -119,6 +132,7 @@ def optimize(
         chunk_size: designs per executor task (default: batch split evenly over 2x workers).
         progress: show a progress bar on stderr.
         callbacks: called as ``cb(batch_index, U, batch)`` after each tell.
+        recorders: extra :class:`Recorder` objects (the run directory's archive is one).
         meta: extra items stored in the archive's meta table.
     """
     if int(budget) != budget or budget < 1:
@@ -196,6 +210,8 @@ def optimize(
                 for rows, res, secs in _evaluate_chunks(problem, X[todo], todo, executor, chunk):
                     if archive is not None:
                         archive.append(b, rows, U[rows], X[rows], res, secs)
+                    for rec in recorders:
+                        rec.append(b, rows, U[rows], X[rows], res, secs)
                     parts.append((rows, res))
                     if bar is not None:
                         bar.update(len(rows))
