@@ -26,6 +26,7 @@ _PROBLEMS: dict[str, str | Callable[..., Any]] = {
 _STRATEGIES: dict[str, str | Callable[..., Any]] = {
     "cmaes": "strategies.cmaes:CMAES",
     "nsga2": "strategies.nsga2:NSGA2",
+    "pymoo_nsga2": "strategies.pymoo_nsga2:PymooNSGA2",
     "random": "strategies.random_search:RandomSearch",
     "lhs": "strategies.lhs:LatinHypercube",
 }

@@ -116,9 +116,10 @@ def plot_compare(curves: dict[str, list[np.ndarray]], ylabel: str, path: Path) -
         n = min(len(r) for r in runs)
         A = np.vstack([r[:n] for r in runs])
         A = np.where(np.isfinite(A), A, np.nan)
-        x = np.arange(1, n + 1)
-        med = np.nanmedian(A, axis=0)
-        ax.plot(x, med, label=f"{label} (n={len(runs)})")
+        cols = np.isfinite(A).any(axis=0)  # skip evaluations before any run has a value
+        x = np.arange(1, n + 1)[cols]
+        A = A[:, cols]
+        ax.plot(x, np.nanmedian(A, axis=0), label=f"{label} (n={len(runs)})")
         if len(runs) > 1:
             ax.fill_between(x, np.nanmin(A, axis=0), np.nanmax(A, axis=0), alpha=0.2)
     ax.set_xlabel("evaluations")

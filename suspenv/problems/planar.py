@@ -1,0 +1,367 @@
+"""PlanarLinkage: find the 2-D hard points of a front-view linkage that meet a target.
+
+Frame and units: see :mod:`suspenv.models.planar.geometry` (front view of the left
+wheel, y outboard from the centreline, z up from the ground). Design variables are
+hard-point coordinates in mm, named ``"<point>.y"`` / ``"<point>.z"``, each within
+``+-span`` mm of the baseline geometry.
+
+Two targets:
+
+- *curves* (default, identification): reproduce the camber and half-track-change curves
+  of a target geometry over ``+-travel`` mm. One objective, ``curve_error`` =
+  ``sqrt(mean((d_camber / camber_scale)^2 + (d_track / track_scale)^2))`` over the
+  travel points (dimensionless; 1 = errors of one scale unit everywhere). No constraints.
+- *camber gain* (``target_camber_gain`` in deg/m): reach that camber gain at the design
+  position. Objective ``camber_gain_error`` = |gain - target| (deg/m). Constraints
+  (feasible when <= 0): the largest half-track change over the sweep must stay within
+  ``max_half_track_change`` mm, and the design roll-centre height within
+  ``roll_centre_range`` mm.
+
+The analytic solver is the default (vectorised over the whole batch); ``solver="pymunk"``
+runs the independent pymunk simulation one design at a time (about a second each).
+Linkages that lock up within the travel come back as failed rows with the reason.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from suspenv.core import DesignSpace, EvaluationBatch, Parameter, Problem
+from suspenv.core.errors import ValidationError
+from suspenv.models.planar.analytic import PlanarSweep, solve_sweep
+from suspenv.models.planar.geometry import PlanarGeometry, geometry_to_toml, load_geometry
+from suspenv.models.planar.outputs import SweepOutputs, sweep_outputs
+
+#: hard-point coordinates free by default, per kind of linkage
+DEFAULT_VARIABLES = {
+    "double_wishbone": (
+        "lower_inner.y",
+        "lower_inner.z",
+        "upper_inner.y",
+        "upper_inner.z",
+        "upper_outer.y",
+        "upper_outer.z",
+    ),
+    "mcpherson": ("lower_inner.y", "lower_inner.z", "strut_top.y", "strut_top.z"),
+}
+SOLVERS = ("analytic", "pymunk")
+
+
+class PlanarLinkage(Problem):
+    """Front-view double wishbone or McPherson strut: hard points for a target curve.
+
+    Args:
+        geometry: baseline linkage, a bundled name (``suspenv planar --list``) or a TOML
+            path. Fixes every coordinate that is not a design variable.
+        target: geometry whose camber and half-track curves are the target (curves mode);
+            default ``"<kind>_target"``. Ignored when ``target_camber_gain`` is given.
+        target_camber_gain: deg/m; switches to the camber-gain target.
+        variables: free coordinates, e.g. ``["upper_inner.y", "upper_inner.z"]``.
+        span: mm, half-width of each variable's range around the baseline.
+        travel: mm, the sweep covers ``[-travel, +travel]`` (rebound negative).
+        n_travel: points in the sweep (odd, so the design position is one of them).
+        solver: ``"analytic"`` (default) or ``"pymunk"``.
+        camber_scale: deg, camber error counted as one unit in ``curve_error``.
+        track_scale: mm, half-track error counted as one unit in ``curve_error``.
+        max_half_track_change: mm, constraint in camber-gain mode.
+        roll_centre_range: (low, high) mm, design roll-centre height, camber-gain mode.
+    """
+
+    name = "PlanarLinkage"
+    description = "front-view double wishbone / McPherson: 2-D hard points for a target camber"
+
+    def __init__(
+        self,
+        geometry: str = "double_wishbone",
+        target: str | None = None,
+        target_camber_gain: float | None = None,
+        variables: Sequence[str] | None = None,
+        span: float = 40.0,
+        travel: float = 60.0,
+        n_travel: int = 61,
+        solver: str = "analytic",
+        camber_scale: float = 0.1,
+        track_scale: float = 1.0,
+        max_half_track_change: float = 10.0,
+        roll_centre_range: Sequence[float] = (0.0, 150.0),
+    ):
+        self.baseline = load_geometry(geometry)
+        if self.baseline.batch_shape:
+            raise ValidationError("PlanarLinkage: the baseline must be a single geometry")
+        kind = self.baseline.kind
+        if solver not in SOLVERS:
+            raise ValidationError(f"`solver` must be one of {list(SOLVERS)}, but got {solver!r}")
+        for key, val in (
+            ("span", span),
+            ("travel", travel),
+            ("camber_scale", camber_scale),
+            ("track_scale", track_scale),
+            ("max_half_track_change", max_half_track_change),
+        ):
+            if not (math.isfinite(float(val)) and float(val) > 0):
+                raise ValidationError(f"`{key} > 0` must hold, but got {key}={val}")
+        if int(n_travel) != n_travel or n_travel < 3 or n_travel % 2 == 0:
+            raise ValidationError(
+                f"`n_travel` must be an odd integer >= 3, but got n_travel={n_travel}"
+            )
+        rc_lo, rc_hi = (float(v) for v in roll_centre_range)
+        if not rc_lo < rc_hi:
+            raise ValidationError(
+                f"`roll_centre_range` must be (low, high) with low < high, but got "
+                f"({rc_lo}, {rc_hi})"
+            )
+        self.geometry_name = str(geometry)
+        self.solver = solver
+        self.span = float(span)
+        self.travel_mm = float(travel)
+        self.n_travel = int(n_travel)
+        self.camber_scale = float(camber_scale)
+        self.track_scale = float(track_scale)
+        self.max_half_track_change = float(max_half_track_change)
+        self.roll_centre_range = (rc_lo, rc_hi)
+        self.travel = 1e-3 * np.linspace(-self.travel_mm, self.travel_mm, self.n_travel)
+        self.variables = tuple(variables) if variables is not None else DEFAULT_VARIABLES[kind]
+        base = self.baseline.points_mm()
+        params = []
+        for v in self.variables:
+            point, _, axis = v.partition(".")
+            if point not in base or axis not in ("y", "z"):
+                raise ValidationError(
+                    f"variable {v!r} must be '<point>.y' or '<point>.z' with point in "
+                    f"{sorted(base)} ({kind})"
+                )
+            centre = base[point][0 if axis == "y" else 1]
+            params.append(
+                Parameter(
+                    v,
+                    centre - self.span,
+                    centre + self.span,
+                    unit="mm",
+                    default=centre,
+                    description=f"{axis} of {point.replace('_', ' ')}",
+                )
+            )
+        self.space = DesignSpace(params)
+        self.target_camber_gain = None if target_camber_gain is None else float(target_camber_gain)
+        if self.target_camber_gain is None:
+            self.target_name = target or f"{kind}_target"
+            self.target_geometry = load_geometry(self.target_name)
+            if self.target_geometry.kind != kind:
+                raise ValidationError(
+                    f"target geometry must be a {kind}, but {self.target_name!r} is a "
+                    f"{self.target_geometry.kind}"
+                )
+            target_sweep = solve_sweep(self.target_geometry, self.travel)
+            if not bool(target_sweep.ok):
+                raise ValidationError(
+                    f"target geometry {self.target_name!r} cannot travel +-{self.travel_mm} mm: "
+                    f"{target_sweep.messages[0]}"
+                )
+            self.target_outputs: SweepOutputs | None = sweep_outputs(
+                self.target_geometry, target_sweep
+            )
+            self.objective_names = ("curve_error",)
+            self.objective_units = ("-",)
+            self.constraint_names = ()
+        else:
+            self.target_name = None
+            self.target_geometry = None
+            self.target_outputs = None
+            self.objective_names = ("camber_gain_error",)
+            self.objective_units = ("deg/m",)
+            self.constraint_names = (
+                "half_track_change_excess",
+                "roll_centre_below_range",
+                "roll_centre_above_range",
+            )
+
+    # ------------------------------------------------------------ geometry
+    def geometry(self, X: np.ndarray) -> PlanarGeometry:
+        """The (batched) geometry of physical designs X (n, d) in mm."""
+        X = np.atleast_2d(np.asarray(X, dtype=float))
+        return self.baseline.with_points_mm(
+            {name: X[:, j] for j, name in enumerate(self.space.names)}
+        )
+
+    # ------------------------------------------------------------ evaluation
+    def _evaluate(self, X: np.ndarray) -> EvaluationBatch:
+        geom = self.geometry(X)
+        n = X.shape[0]
+        if self.solver == "analytic":
+            with np.errstate(all="ignore"):
+                sw = solve_sweep(geom, self.travel)
+                out = sweep_outputs(geom, sw)
+            ok, messages = np.asarray(sw.ok, bool), list(sw.messages)
+        else:
+            out, ok, messages = self._pymunk_outputs(geom, n)
+        with np.errstate(all="ignore"):
+            objectives, constraints, extras = self._score(out)
+        finite = np.isfinite(objectives).all(axis=1) & np.isfinite(constraints).all(axis=1)
+        for i in np.flatnonzero(ok & ~finite):
+            messages[i] = "EvaluationError: non-finite outputs (degenerate linkage)"
+        ok = ok & finite
+        objectives[~ok] = np.nan
+        constraints[~ok] = np.nan
+        return EvaluationBatch(objectives, constraints, ok, messages, extras)
+
+    def _pymunk_outputs(
+        self, geom: PlanarGeometry, n: int
+    ) -> tuple[SweepOutputs, np.ndarray, list]:
+        from suspenv.models.planar.pymunk_model import simulate_sweep
+
+        t = self.travel.size
+        fields = (
+            "camber_deg",
+            "half_track_mm",
+            "roll_centre_mm",
+            "motion_ratio",
+            "wheel_load_N",
+            "wheel_rate_N_per_mm",
+        )
+        arrays = {f: np.full((n, t), np.nan) for f in fields}
+        gain = np.full(n, np.nan)
+        ok = np.zeros(n, bool)
+        messages = [""] * n
+        for i in range(n):
+            g = geom.take(i)
+            try:
+                o = sweep_outputs(g, simulate_sweep(g, self.travel))
+            except Exception as exc:  # noqa: BLE001 - a failed row is a value
+                messages[i] = f"{type(exc).__name__}: {exc}"
+                continue
+            for f in fields:
+                arrays[f][i] = getattr(o, f)
+            gain[i] = o.camber_gain_deg_per_m
+            ok[i] = True
+        out = SweepOutputs(travel_mm=1e3 * self.travel, camber_gain_deg_per_m=gain, ok=ok, **arrays)
+        return out, ok, messages
+
+    def _score(self, out: SweepOutputs) -> tuple[np.ndarray, np.ndarray, dict[str, np.ndarray]]:
+        i0 = self.n_travel // 2
+        extras = {
+            "camber_gain_deg_per_m": np.asarray(out.camber_gain_deg_per_m, float),
+            "roll_centre_mm": out.roll_centre_mm[:, i0],
+            "max_half_track_change_mm": np.max(np.abs(out.half_track_mm), axis=1),
+            "wheel_rate_N_per_mm": out.wheel_rate_N_per_mm[:, i0],
+        }
+        n = out.camber_deg.shape[0]
+        if self.target_outputs is not None:
+            dc = out.camber_deg - self.target_outputs.camber_deg
+            dt = out.half_track_mm - self.target_outputs.half_track_mm
+            extras["camber_rms_deg"] = np.sqrt(np.mean(dc**2, axis=1))
+            extras["track_rms_mm"] = np.sqrt(np.mean(dt**2, axis=1))
+            err = np.sqrt(
+                np.mean((dc / self.camber_scale) ** 2 + (dt / self.track_scale) ** 2, axis=1)
+            )
+            return err[:, None], np.zeros((n, 0)), extras
+        gain_err = np.abs(extras["camber_gain_deg_per_m"] - self.target_camber_gain)
+        lo, hi = self.roll_centre_range
+        rc = extras["roll_centre_mm"]
+        cons = np.c_[
+            extras["max_half_track_change_mm"] - self.max_half_track_change,
+            lo - rc,
+            rc - hi,
+        ]
+        return gain_err[:, None], cons, extras
+
+    # ------------------------------------------------------------ reporting
+    def config(self) -> dict[str, Any]:
+        return {
+            "geometry": self.geometry_name,
+            "target": self.target_name,
+            "target_camber_gain": self.target_camber_gain,
+            "variables": list(self.variables),
+            "span": self.span,
+            "travel": self.travel_mm,
+            "n_travel": self.n_travel,
+            "solver": self.solver,
+            "camber_scale": self.camber_scale,
+            "track_scale": self.track_scale,
+            "max_half_track_change": self.max_half_track_change,
+            "roll_centre_range": list(self.roll_centre_range),
+        }
+
+    def single_sweep(self, x: np.ndarray) -> tuple[PlanarGeometry, PlanarSweep, SweepOutputs]:
+        """Geometry, analytic sweep and outputs of one physical design (1-D, mm)."""
+        geom = self.geometry(np.asarray(x, dtype=float).reshape(1, -1)).take(0)
+        with np.errstate(all="ignore"):
+            sw = solve_sweep(geom, self.travel)
+        return geom, sw, sweep_outputs(geom, sw)
+
+    def render_rgb(self, x_physical: np.ndarray) -> np.ndarray:
+        """The linkage of one design as an RGB array (H, W, 3) uint8."""
+        from suspenv.models.planar.render import render_rgb
+
+        geom, sw, _ = self.single_sweep(x_physical)
+        return render_rgb(geom, sw)
+
+    def write_report(self, run_dir: Path, archive: Any) -> list[Path]:
+        """Best design as a geometry TOML, a figure against baseline/target, a Markdown note."""
+        from suspenv.models.planar.render import save_linkage_figure
+
+        arrays = archive.arrays()
+        objectives = np.asarray(arrays["objectives"], float)
+        ok = np.asarray(arrays["ok"], bool)
+        cons = np.asarray(arrays["constraints"], float)
+        feasible = ok & (np.nan_to_num(cons, nan=1.0) <= 0).all(axis=1)
+        pool = feasible if feasible.any() else ok
+        if not pool.any():
+            return []
+        score = np.where(pool, objectives[:, 0], np.inf)
+        best = int(np.argmin(score))
+        x = np.asarray(arrays["x"], float)[best]
+        run_dir = Path(run_dir)
+        geom, sw, out = self.single_sweep(x)
+        geom = replace(geom, name=f"{self.baseline.name} (optimised)")
+        toml_path = run_dir / "planar_best.toml"
+        toml_path.write_text(geometry_to_toml(geom))
+        _, base_sw, base_out = self.single_sweep(self.space.reference())
+        curves = [("optimised", out), ("baseline", base_out)]
+        if self.target_outputs is not None:
+            curves.append(("target", self.target_outputs))
+        fig_path = save_linkage_figure(run_dir / "planar_best.png", geom, sw, curves)
+        i0 = self.n_travel // 2
+        unit = "" if self.objective_units[0] == "-" else f" {self.objective_units[0]}"
+        lines = [
+            f"# PlanarLinkage: best design ({self.objective_names[0]} = "
+            f"{objectives[best, 0]:.4g}{unit})",
+            "",
+            f"Baseline `{self.geometry_name}`; "
+            + (
+                f"target curves of `{self.target_name}`."
+                if self.target_name
+                else f"target camber gain {self.target_camber_gain:g} deg/m."
+            ),
+            f"Evaluation {best} of {len(ok)}; feasible: {bool(feasible[best])}.",
+            "",
+            "| variable | baseline [mm] | best [mm] |",
+            "|---|---|---|",
+        ]
+        for name, b, v in zip(self.space.names, self.space.reference(), x, strict=True):
+            lines.append(f"| {name} | {b:.2f} | {v:.2f} |")
+        lines += [
+            "",
+            "| output at design | baseline | best |",
+            "|---|---|---|",
+            f"| camber gain [deg/m] | {float(base_out.camber_gain_deg_per_m):.3f} | "
+            f"{float(out.camber_gain_deg_per_m):.3f} |",
+            f"| roll-centre height [mm] | {base_out.roll_centre_mm[i0]:.1f} | "
+            f"{out.roll_centre_mm[i0]:.1f} |",
+            f"| max half-track change [mm] | {np.abs(base_out.half_track_mm).max():.2f} | "
+            f"{np.abs(out.half_track_mm).max():.2f} |",
+            f"| motion ratio | {base_out.motion_ratio[i0]:.3f} | {out.motion_ratio[i0]:.3f} |",
+            "",
+            f"![linkage and curves]({fig_path.name})",
+            "",
+            f"Plot again: `suspenv planar {toml_path} --plot`",
+            "",
+        ]
+        md_path = run_dir / "planar_report.md"
+        md_path.write_text("\n".join(lines))
+        return [toml_path, fig_path, md_path]
