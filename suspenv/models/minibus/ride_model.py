@@ -1,0 +1,523 @@
+"""Full-vehicle ride model of the minibus, integrated for a whole batch of designs at once.
+
+Frame and units: ISO 8855 (x forward, y left, z up), SI units (m, kg, N, s, rad).
+Motions are small deviations from the static equilibrium of the load case.
+
+Degrees of freedom (7, plus 2 with the seat-mount effect)::
+
+    q = [z_f, z_r, phi, z_FL, z_FR, z_RL, z_RR, (z_seat_f, z_seat_r)]
+
+- ``z_f``, ``z_r``: body vertical displacement above the front and rear axle on the
+  centreline (m, + up). Heave and pitch follow: z_cg = (b z_f + a z_r)/L and pitch
+  theta = (z_f - z_r)/L (+ nose down). Coordinates at the axles make the geometry
+  matrices independent of the load case, so both load cases share one batch; the
+  body mass matrix couples z_f and z_r (2x2 per design).
+- ``phi``: body roll (rad, + = left side up, ISO 8855 right-hand rule about +x).
+- ``z_FL .. z_RR``: wheel-centre vertical displacements (m). The rear rigid axle is two
+  wheel-end masses joined by a rigid beam, so its heave and tramp (roll) are the mean
+  and difference of z_RL, z_RR; the axle roll inertia is m_ur t_r^2 / 2.
+
+Elements (all forces positive when they resist compression):
+front torsion-bar springs and dampers at the front wheels (wheel rates); rear two-stage
+leaves at the leaf seats (spacing ``leaf_spacing``) and rear dampers at
+``rear_damper_spacing``; stabilisers as axle roll stiffness (moment per body-minus-axle
+roll); point-contact tyres (spring + small damper) that can lift off.
+
+Integration: classic fixed-step RK4; the whole batch is one state array (n_states, n)
+with the batch on the last, contiguous axis (long inner loops for every operation).
+Road inputs are sampled on the half-step grid. Body accelerations are recorded at each
+step start (the RK4 first stage), so no extra right-hand-side evaluation is needed.
+
+Effects (off by default), element laws from :mod:`suspenv.models.effects`:
+``dahl_hysteresis`` at location ``"rear_leaf"`` (interleaf friction, one Dahl state
+per leaf); ``coulomb_friction`` at ``"front_damper"`` / ``"rear_damper"``;
+``bump_stop`` / ``rebound_stop`` at ``"front_suspension"`` / ``"rear_suspension"``
+(gaps measured from the static ride position). Model options: a seat (or cab) mount
+:class:`SeatMount` above the measuring points, and tyre enveloping (the road is
+averaged over the contact length, see :mod:`suspenv.rigs.ride`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from suspenv.core.errors import EvaluationError, ValidationError
+from suspenv.models.effects import friction, hysteresis, stiffness
+from suspenv.models.effects.effect import Effect
+from suspenv.models.minibus.suspension import damper_mean_coefficient
+from suspenv.models.minibus.vehicle import G, VehicleParams
+
+N_BASE_DOF = 7
+#: element columns (position-type then velocity-type)
+POS_ELEMENTS = ("s_FL", "s_FR", "s_RL", "s_RR", "arb_F", "arb_R", "t_FL", "t_FR", "t_RL", "t_RR")
+VEL_ELEMENTS = ("d_FL", "d_FR", "d_RL", "d_RR", "tc_FL", "tc_FR", "tc_RL", "tc_RR")
+SUPPORTED_EFFECTS = {
+    ("dahl_hysteresis", "rear_leaf"),
+    ("coulomb_friction", "front_damper"),
+    ("coulomb_friction", "rear_damper"),
+    ("bump_stop", "front_suspension"),
+    ("bump_stop", "rear_suspension"),
+    ("rebound_stop", "front_suspension"),
+    ("rebound_stop", "rear_suspension"),
+}
+
+
+@dataclass(frozen=True)
+class SeatMount:
+    """A seat (or cab) as a mass on a spring-damper above each measuring point.
+
+    Defaults [CHOICE]: 90 kg seat + occupant share, 4 Hz, damping ratio 0.25 (a
+    typical bus passenger seat's vertical mode).
+    """
+
+    mass: float = 90.0  # kg
+    frequency: float = 4.0  # Hz
+    damping_ratio: float = 0.25  # -
+
+    def __post_init__(self) -> None:
+        if not (self.mass > 0 and self.frequency > 0 and self.damping_ratio >= 0):
+            raise ValidationError(
+                "seat mount needs `mass > 0`, `frequency > 0`, `damping_ratio >= 0`, but got "
+                f"(mass={self.mass}, frequency={self.frequency}, "
+                f"damping_ratio={self.damping_ratio})"
+            )
+
+    @property
+    def stiffness(self) -> float:
+        return self.mass * (2 * np.pi * self.frequency) ** 2
+
+    @property
+    def damping(self) -> float:
+        return 2 * self.damping_ratio * np.sqrt(self.stiffness * self.mass)
+
+
+@dataclass
+class RideRecord:
+    """Recorded channels of one run; time on axis -1.
+
+    Attributes:
+        dt: sample interval (s).
+        body_acc: (n, 3, N) accelerations of [z_f, z_r, phi] (m/s^2, rad/s^2).
+        acc_front, acc_rear: (n, N) vertical acceleration at the measuring points (m/s^2)
+            (on the seat when a seat mount is modelled).
+        states: (n, n_states, N) full state history when requested, else None.
+        ok: (n,) False where a design's integration diverged (its channels are not finite;
+            the other designs are unaffected: batch columns never mix).
+    """
+
+    dt: float
+    body_acc: np.ndarray
+    acc_front: np.ndarray
+    acc_rear: np.ndarray
+    states: np.ndarray | None = None
+    ok: np.ndarray | None = None
+
+    @property
+    def t(self) -> np.ndarray:
+        return self.dt * np.arange(self.acc_front.shape[-1])
+
+
+class RideModel:
+    """The full-vehicle ride model for one or more :class:`VehicleParams` batches.
+
+    Several parameter batches (e.g. the two load cases) are stacked into one state
+    array, so they are integrated together.
+
+    Args:
+        params: one VehicleParams or a sequence of them (rows are stacked in order).
+        effects: effect instances (see module docstring for the supported kinds).
+        seat: a :class:`SeatMount` above the measuring points, or None.
+        linear: use the linearised model (leaf at its static rate, dampers linear with
+            the mean low-speed bump/rebound coefficient, no tyre lift-off); effects are
+            then rejected.
+        measure_y: lateral offset (m, + left) of both measuring points from the
+            centreline [CHOICE 0.35 m: the driver's seat rail of a left-hand-drive bus].
+    """
+
+    def __init__(
+        self,
+        params: VehicleParams | Sequence[VehicleParams],
+        effects: Sequence[Effect] = (),
+        seat: SeatMount | None = None,
+        linear: bool = False,
+        measure_y: float = 0.35,
+        dtype: type = np.float64,
+    ) -> None:
+        plist = [params] if isinstance(params, VehicleParams) else list(params)
+        if not plist:
+            raise ValidationError("RideModel needs at least one VehicleParams batch, got 0")
+        veh = plist[0].vehicle
+        if any(p.vehicle != veh for p in plist):
+            raise ValidationError("stacked VehicleParams must share one vehicle definition")
+        self.params = plist
+        self.vehicle = veh
+        self.linear = bool(linear)
+        self.seat = seat
+        self.measure_y = float(measure_y)
+        self.dtype = np.dtype(dtype)
+        if self.dtype not in (np.dtype(np.float64), np.dtype(np.float32)):
+            raise ValidationError(f"dtype must be float64 or float32, but got {self.dtype}")
+        self.effects = tuple(effects)
+        if self.linear and self.effects:
+            raise ValidationError("the linearised ride model takes no effects, but got some")
+        for e in self.effects:
+            if (e.kind, e.location) not in SUPPORTED_EFFECTS:
+                raise ValidationError(
+                    f"ride model effect ({e.kind!r}, location={e.location!r}) is not "
+                    f"supported; supported are {sorted(SUPPORTED_EFFECTS)}"
+                )
+        self.n = sum(p.n for p in plist)
+        self.nq = N_BASE_DOF + (2 if seat else 0)
+        self._build_geometry()
+        self._build_coefficients()
+
+    # -------------------------------------------------------------- assembly
+    def _build_geometry(self) -> None:
+        v = self.vehicle
+        tf, tr, s, sd = v.track_front, v.track_rear, v.leaf_spacing, v.rear_damper_spacing
+        nq = self.nq
+        pos = np.zeros((nq, len(POS_ELEMENTS) + (2 if self.seat else 0)))
+        vel = np.zeros((nq, len(VEL_ELEMENTS) + (2 if self.seat else 0)))
+
+        def rear_axle_at(y: float, track: float) -> np.ndarray:
+            row = np.zeros(nq)
+            row[5] = 0.5 + y / track
+            row[6] = 0.5 - y / track
+            return row
+
+        def body_at(axle: int, y: float) -> np.ndarray:
+            row = np.zeros(nq)
+            row[axle] = 1.0
+            row[2] = y
+            return row
+
+        # suspension compression = wheel/axle point - body point (+ = bump)
+        for j, (axle, y, wheel) in enumerate(((0, tf / 2, 3), (0, -tf / 2, 4))):
+            r = -body_at(axle, y)
+            r[wheel] += 1.0
+            pos[:, j] = r
+            vel[:, j] = r
+        for j, y in ((2, s / 2), (3, -s / 2)):
+            pos[:, j] = rear_axle_at(y, tr) - body_at(1, y)
+        for j, y in ((2, sd / 2), (3, -sd / 2)):
+            vel[:, j] = rear_axle_at(y, tr) - body_at(1, y)
+        # stabilisers: body roll minus axle roll
+        pos[2, 4], pos[3, 4], pos[4, 4] = 1.0, -1.0 / tf, 1.0 / tf
+        pos[2, 5], pos[5, 5], pos[6, 5] = 1.0, -1.0 / tr, 1.0 / tr
+        # tyres: compression = road - wheel (road added at run time)
+        for j in range(4):
+            pos[3 + j, 6 + j] = -1.0
+            vel[3 + j, 4 + j] = -1.0
+        if self.seat:
+            # seat mount compression = body point - seat (+ when the body rises)
+            y = self.measure_y
+            for j, axle in enumerate((0, 1)):
+                r = body_at(axle, y)
+                r[7 + j] -= 1.0
+                pos[:, 10 + j] = r
+                vel[:, 8 + j] = r
+        self.n_pos, self.n_vel = pos.shape[1], vel.shape[1]
+        ne = self.n_pos + self.n_vel
+        # deflections of all elements from the state [q, qd]: X @ E
+        E = np.zeros((2 * nq, ne))
+        E[:nq, : self.n_pos] = pos
+        E[nq:, self.n_pos :] = vel
+        self.E = E
+        self.Et = np.ascontiguousarray(E.T)
+        self.Pt = np.ascontiguousarray(pos.T)
+        self.Vt = np.ascontiguousarray(vel.T)
+        # generalised forces from element forces: Q = -F @ B
+        self.B = -np.vstack([pos.T, vel.T])
+        self.Bt = np.ascontiguousarray(self.B.T)
+
+    def _build_coefficients(self) -> None:
+        v = self.vehicle
+        n, nq = self.n, self.nq
+        K = np.zeros((n, self.n_pos + self.n_vel))
+        minv_diag = np.zeros((n, nq))
+        m12 = np.zeros(n)
+        leaf_k1, leaf_dk, leaf_thr = np.zeros(n), np.zeros(n), np.zeros(n)
+        d_bl, d_bh, d_rl, d_rh = (np.zeros((n, 4)) for _ in range(4))
+        f0_tyre = np.zeros((n, 4))
+        row = 0
+        for p in self.params:
+            sl = slice(row, row + p.n)
+            d = p.design
+            L = v.wheelbase
+            m, I_pitch, I_roll = p.load.sprung_mass, p.load.pitch_inertia, p.load.roll_inertia
+            # body mass matrix in (z_f, z_r): KE of heave (b zf + a zr)/L and pitch (zf - zr)/L
+            M11 = (m * p.b**2 + I_pitch) / L**2
+            M22 = (m * p.a**2 + I_pitch) / L**2
+            M12 = (m * p.a * p.b - I_pitch) / L**2
+            det = M11 * M22 - M12**2
+            minv_diag[sl, 0] = M22 / det
+            minv_diag[sl, 1] = M11 / det
+            m12[sl] = -M12 / det
+            minv_diag[sl, 2] = 1.0 / I_roll
+            minv_diag[sl, 3:5] = 1.0 / v.unsprung_front
+            minv_diag[sl, 5:7] = 1.0 / v.unsprung_rear
+            if self.seat:
+                minv_diag[sl, 7:9] = 1.0 / self.seat.mass
+            # position-type stiffnesses (N/m, N*m/rad)
+            K[sl, 0] = K[sl, 1] = d.front_wheel_rate
+            rear_k = p.rear_static_rate if self.linear else d.rear_primary_rate
+            K[sl, 2] = K[sl, 3] = rear_k
+            K[sl, 4], K[sl, 5] = d.front_roll_arb, d.rear_roll_arb
+            K[sl, 6:10] = v.tyre_vertical_stiffness
+            nv0 = self.n_pos
+            K[sl, nv0 + 4 : nv0 + 8] = v.tyre_vertical_damping
+            if self.seat:
+                K[sl, 10:12] = self.seat.stiffness
+                K[sl, nv0 + 8 : nv0 + 10] = self.seat.damping
+            # leaf knee relative to the static position
+            leaf_k1[sl] = d.rear_primary_rate
+            leaf_dk[sl] = d.rear_composite_rate - d.rear_primary_rate
+            leaf_thr[sl] = v.helper_engagement - p.rear_static_deflection
+            # damper curves scaled per design (front cols 0,1; rear cols 2,3)
+            for cols, curve, scale in (
+                (slice(0, 2), v.damper_front, d.front_damper_scale),
+                (slice(2, 4), v.damper_rear, d.rear_damper_scale),
+            ):
+                sc = scale[:, None]
+                if self.linear:
+                    c = damper_mean_coefficient(curve) * sc
+                    d_bl[sl, cols] = d_rl[sl, cols] = d_bh[sl, cols] = d_rh[sl, cols] = c
+                else:
+                    d_bl[sl, cols] = curve.bump_low * sc
+                    d_bh[sl, cols] = curve.bump_high * sc
+                    d_rl[sl, cols] = curve.rebound_low * sc
+                    d_rh[sl, cols] = curve.rebound_high * sc
+            f0_tyre[sl, 0:2] = p.front_static_load + v.unsprung_front * G
+            f0_tyre[sl, 2:4] = p.rear_static_load + v.unsprung_rear * G
+            row += p.n
+        # batch along the last axis (see rhs)
+        self.K = K
+        self.Kt = np.ascontiguousarray(K.T)
+        self.minv_diag = np.ascontiguousarray(minv_diag.T)
+        self.m12 = m12
+        self.leaf_dk = leaf_dk[None, :]
+        self.leaf_thr = leaf_thr[None, :]
+        self.leaf_base = self.leaf_dk * np.maximum(-self.leaf_thr, 0.0)
+        self.d_bl, self.d_bh, self.d_rl, self.d_rh = (
+            np.ascontiguousarray(c.T) for c in (d_bl, d_bh, d_rl, d_rh)
+        )
+        fk, rk = v.damper_front, v.damper_rear
+        self.knee_b = np.array([fk.bump_knee, fk.bump_knee, rk.bump_knee, rk.bump_knee])[:, None]
+        self.knee_r = -np.array(
+            [fk.rebound_knee, fk.rebound_knee, rk.rebound_knee, rk.rebound_knee]
+        )[:, None]
+        self.f0_tyre = np.ascontiguousarray(f0_tyre.T)
+        for name in (
+            "Et",
+            "Pt",
+            "Vt",
+            "Bt",
+            "Kt",
+            "minv_diag",
+            "m12",
+            "leaf_dk",
+            "leaf_thr",
+            "leaf_base",
+            "d_bl",
+            "d_bh",
+            "d_rl",
+            "d_rh",
+            "knee_b",
+            "knee_r",
+            "f0_tyre",
+        ):
+            setattr(self, name, np.ascontiguousarray(getattr(self, name), dtype=self.dtype))
+        # effects
+        self._hyst = None
+        self._damper_friction: list[tuple[slice, Effect]] = []
+        self._stops: list[tuple[slice, Effect]] = []
+        for e in self.effects:
+            cols = slice(0, 2) if e.location.startswith("front") else slice(2, 4)
+            if e.kind == "dahl_hysteresis":
+                self._hyst = e
+            elif e.kind == "coulomb_friction":
+                self._damper_friction.append((cols, e))
+            else:
+                self._stops.append((cols, e))
+        self.n_hyst = 2 if self._hyst is not None else 0
+        self.n_states = 2 * self.nq + self.n_hyst
+
+    # -------------------------------------------------------------- dynamics
+    def road_vector(self, z: np.ndarray, zd: np.ndarray) -> np.ndarray:
+        """Element offsets (M, n_elements) from wheel road inputs z, zd (M, 4)."""
+        R = np.zeros((z.shape[0], self.n_pos + self.n_vel))
+        R[:, 6:10] = z
+        R[:, self.n_pos + 4 : self.n_pos + 8] = zd
+        return R
+
+    def rhs(self, X: np.ndarray, r: np.ndarray, out: np.ndarray) -> np.ndarray:
+        """State derivative of X (n_states, n) with element road offsets r; written to out.
+
+        The batch runs along the last (contiguous) axis so every elementwise operation
+        has a long inner loop.
+        """
+        nq, npos = self.nq, self.n_pos
+        e = np.empty((self.n_pos + self.n_vel, X.shape[1]), dtype=X.dtype)
+        np.matmul(self.Pt, X[:nq], out=e[:npos])
+        np.matmul(self.Vt, X[nq : 2 * nq], out=e[npos:])
+        e += r[:, None]
+        F = self.Kt * e
+        if not self.linear:
+            # two-stage leaf: extra composite rate beyond the helper knee
+            F[2:4] += self.leaf_dk * np.maximum(e[2:4] - self.leaf_thr, 0.0) - self.leaf_base
+            # asymmetric digressive dampers
+            v = e[npos : npos + 4]
+            vc = np.minimum(np.maximum(v, self.knee_r), self.knee_b)
+            bump = v > 0
+            F[npos : npos + 4] = np.where(bump, self.d_bl, self.d_rl) * vc + np.where(
+                bump, self.d_bh, self.d_rh
+            ) * (v - vc)
+            # tyres cannot pull: total tyre force >= 0
+            ft = F[6:10] + F[npos + 4 : npos + 8]
+            F[6:10] += np.maximum(ft, -self.f0_tyre) - ft
+            if self.effects:
+                self._effect_forces(X, e, F, out)
+        else:
+            F[npos : npos + 4] = self.d_bl * e[npos : npos + 4]
+        Q = self.Bt @ F
+        acc = out[nq : 2 * nq]
+        np.multiply(Q, self.minv_diag, out=acc)
+        acc[0] += self.m12 * Q[1]
+        acc[1] += self.m12 * Q[0]
+        out[:nq] = X[nq : 2 * nq]
+        return out
+
+    def _effect_forces(self, X: np.ndarray, e: np.ndarray, F: np.ndarray, out: np.ndarray) -> None:
+        npos, nq = self.n_pos, self.nq
+        for rows, eff in self._stops:
+            fn = stiffness.bump_stop if eff.kind == "bump_stop" else stiffness.rebound_stop
+            F[rows] += fn(e[rows], eff.params["gap"], eff.params["k_stop"], eff.params["p"])
+        for rows, eff in self._damper_friction:
+            vrows = slice(npos + rows.start, npos + rows.stop)
+            F[vrows] += friction.coulomb_smooth(e[vrows], eff.params["f_c"], eff.params["v_eps"])
+        if self._hyst is not None:
+            z = X[2 * nq : 2 * nq + 2]
+            # leaf compression rate at the seats = time derivative of e[2:4]
+            v_leaf = self.Et[2:4, :nq] @ X[nq : 2 * nq]
+            F[2:4] += z
+            out[2 * nq :] = hysteresis.dahl_dzdt(
+                z, v_leaf, self._hyst.params["sigma"], self._hyst.params["f_c"]
+            )
+
+    # -------------------------------------------------------------- integration
+    def simulate(
+        self,
+        z_road: np.ndarray,
+        zd_road: np.ndarray,
+        dt: float,
+        record_states: bool = False,
+        discard: int = 0,
+    ) -> RideRecord:
+        """Integrate from static equilibrium with wheel road inputs on the half-step grid.
+
+        Args:
+            z_road, zd_road: (2 N + 1, 4) road elevation (m) and its rate (m/s) under
+                FL, FR, RL, RR at times 0, dt/2, dt, ..., N dt (shared by the batch).
+            dt: step (s).
+            record_states: keep the full state history (memory n x states x N).
+            discard: leading steps not recorded (settling).
+        """
+        z_road, zd_road = np.asarray(z_road, float), np.asarray(zd_road, float)
+        if z_road.ndim != 2 or z_road.shape[1] != 4 or z_road.shape[0] % 2 != 1:
+            raise ValidationError(
+                f"road inputs must have shape (2N+1, 4) on the half-step grid, but got "
+                f"{z_road.shape}"
+            )
+        if zd_road.shape != z_road.shape:
+            raise ValidationError(
+                f"road rate must match road shape {z_road.shape}, but got {zd_road.shape}"
+            )
+        n_steps = (z_road.shape[0] - 1) // 2
+        if not 0 <= discard < n_steps:
+            raise ValidationError(
+                f"`0 <= discard < steps` must hold, but got ({discard}, {n_steps})"
+            )
+        R = self.road_vector(z_road, zd_road).astype(self.dtype)
+        n, S, nq = self.n, self.n_states, self.nq
+        dt_ = self.dtype
+        X = np.zeros((S, n), dt_)
+        k1, k2, k3, k4 = (np.zeros((S, n), dt_) for _ in range(4))
+        tmp = np.empty((S, n), dt_)
+        n_rec = n_steps - discard
+        body = np.empty((3, n_rec, n), dt_)
+        seat_acc = np.empty((2, n_rec, n), dt_) if self.seat else None
+        states = np.empty((n_rec, S, n), dt_) if record_states else None
+        h, h2, h6 = dt, dt / 2, dt / 6
+        # a diverging design overflows in its own column only; it is reported via `ok`
+        with np.errstate(over="ignore", invalid="ignore"):
+            for k in range(n_steps):
+                r0, rm, r1 = R[2 * k], R[2 * k + 1], R[2 * k + 2]
+                self.rhs(X, r0, k1)
+                j = k - discard
+                if j >= 0:
+                    body[:, j] = k1[nq : nq + 3]
+                    if seat_acc is not None:
+                        seat_acc[:, j] = k1[nq + 7 : nq + 9]
+                    if states is not None:
+                        states[j] = X
+                np.multiply(k1, h2, out=tmp)
+                tmp += X
+                self.rhs(tmp, rm, k2)
+                np.multiply(k2, h2, out=tmp)
+                tmp += X
+                self.rhs(tmp, rm, k3)
+                np.multiply(k3, h, out=tmp)
+                tmp += X
+                self.rhs(tmp, r1, k4)
+                k2 += k3
+                k2 *= 2.0
+                k2 += k1
+                k2 += k4
+                k2 *= h6
+                X += k2
+        with np.errstate(invalid="ignore"):
+            ok = np.isfinite(X).all(axis=0) & np.isfinite(body).all(axis=(0, 1))
+        if not ok.any():
+            raise EvaluationError(
+                "ride model integration diverged (non-finite state) for every design; step "
+                f"too large for the stiffest element? dt={dt}"
+            )
+        body = np.moveaxis(body, -1, 0)  # (n, 3, N)
+        if seat_acc is not None:
+            sa = np.moveaxis(seat_acc, -1, 0)
+            a_f, a_r = sa[:, 0], sa[:, 1]
+        else:
+            a_f = body[:, 0] + self.measure_y * body[:, 2]
+            a_r = body[:, 1] + self.measure_y * body[:, 2]
+        return RideRecord(
+            dt=dt,
+            body_acc=body,
+            acc_front=a_f,
+            acc_rear=a_r,
+            states=None if states is None else np.moveaxis(states, (0, 1, 2), (2, 1, 0)),
+            ok=ok,
+        )
+
+    # -------------------------------------------------------------- linear algebra
+    def linear_matrices(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Mass, damping and stiffness matrices (n, nq, nq) of the linearised model.
+
+        Valid for ``linear=True`` models (raises otherwise). Only for reports/tests; the
+        time integration never forms them.
+        """
+        if not self.linear:
+            raise ValidationError("linear_matrices needs a model built with linear=True")
+        npos, nq = self.n_pos, self.nq
+        pos, vel = self.E[:nq, :npos], self.E[nq:, npos:]
+        Kel, Cel = self.K[:, :npos].copy(), self.K[:, npos:].copy()
+        Cel[:, :4] = self.d_bl.T
+        Kmat = np.einsum("ie,ne,je->nij", pos, Kel, pos)
+        Cmat = np.einsum("ie,ne,je->nij", vel, Cel, vel)
+        Minv = np.zeros((self.n, nq, nq))
+        idx = np.arange(nq)
+        Minv[:, idx, idx] = self.minv_diag.T
+        Minv[:, 0, 1] = Minv[:, 1, 0] = self.m12
+        return np.linalg.inv(Minv), Cmat, Kmat

@@ -1,0 +1,421 @@
+"""Reference minibus: vehicle data, load cases, the study's 8 design variables.
+
+Frame and units: ISO 8855 (x forward, y left, z up), SI units inside (m, kg, N, s,
+rad). The study's design variables keep the study's units at the edge (N/mm,
+N*mm/deg, dimensionless scales); :func:`design_to_si` converts them once.
+Corner order everywhere: FL, FR, RL, RR. Suspension deflection is positive in
+compression (bump); damper velocity is positive in compression (bump).
+
+Every number carries its source or the reason for the choice (see also
+``docs/minibus.md``). Sources named below:
+
+- [UAZ]   UAZ-452 van/bus multibody model data (ride_standards.md, public data points).
+- [VAN]   VW Vanagon vehicle-dynamics model data (same list).
+- [HIACE] Hiace-class minibus masses and wheelbase (same list).
+- [STUDY] the minibus ride/handling study (minibus_ride_handling.md).
+- [CONV]  the conversion notes of ride_standards.md ("Conversions").
+- [CHOICE] an engineering choice, with the reason given next to it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from suspenv.core.errors import ValidationError
+from suspenv.core.space import DesignSpace, Parameter
+
+G = 9.81  # m/s^2, standard gravity (rounded)
+NMM_PER_DEG_TO_NM_PER_RAD = 1e-3 * 180.0 / np.pi  # N*mm/deg -> N*m/rad
+N_PER_MM_TO_N_PER_M = 1e3
+
+# ------------------------------------------------------------------ design variables
+#: the study's 8 design variables: (name, meaning, unit, min, max, study's pick) [STUDY]
+DESIGN_VARIABLES: tuple[Parameter, ...] = (
+    Parameter(
+        "K1",
+        60.0,
+        85.0,
+        "N/mm",
+        default=73.5,
+        description="rear leaf spring primary rate, per side",
+    ),
+    Parameter(
+        "K2",
+        130.0,
+        180.0,
+        "N/mm",
+        default=151.5,
+        description="rear leaf spring composite rate after helper contact, per side",
+    ),
+    Parameter(
+        "K3",
+        1.0e3,
+        5.0e3,
+        "N/mm",
+        default=3.5e3,
+        description="leaf-eye bush radial stiffness, per bush",
+    ),
+    Parameter(
+        "T1",
+        7.0e4,
+        1.5e5,
+        "N*mm/deg",
+        default=8.8e4,
+        description="front torsion bar torsional stiffness, per side",
+    ),
+    Parameter(
+        "T2",
+        2.0e5,
+        9.0e5,
+        "N*mm/deg",
+        default=6.8e5,
+        description="front stabiliser, as axle roll stiffness",
+    ),
+    Parameter(
+        "T3",
+        2.0e5,
+        9.0e5,
+        "N*mm/deg",
+        default=8.2e5,
+        description="rear stabiliser, as axle roll stiffness",
+    ),
+    Parameter(
+        "C1",
+        0.6,
+        1.8,
+        "-",
+        default=1.12,
+        description="front damper characteristic-curve force scale",
+    ),
+    Parameter(
+        "C2",
+        0.6,
+        1.8,
+        "-",
+        default=0.88,
+        description="rear damper characteristic-curve force scale",
+    ),
+)
+DESIGN_NAMES: tuple[str, ...] = tuple(p.name for p in DESIGN_VARIABLES)
+#: the study's ride-focused pick, physical study units [STUDY]
+STUDY_PICK = np.array([p.default for p in DESIGN_VARIABLES], dtype=float)
+#: the baseline (pre-optimisation) design: centre of every range [CHOICE: the study
+#: does not publish its initial values; the centre keeps the reference unbiased]
+BASELINE_DESIGN = np.array([(p.low + p.high) / 2 for p in DESIGN_VARIABLES], dtype=float)
+
+
+def design_space() -> DesignSpace:
+    """The study's 8-variable design space; the reference design is the study's pick."""
+    return DesignSpace(DESIGN_VARIABLES)
+
+
+# ------------------------------------------------------------------ data classes
+@dataclass(frozen=True)
+class LoadCase:
+    """Sprung body of one load case.
+
+    Attributes:
+        name: "no_load" or "full_load".
+        sprung_mass: kg (body + powertrain + payload, without unsprung parts).
+        cg_x: m, distance of the sprung CoM behind the front axle.
+        cg_z: m, height of the sprung CoM above ground.
+        roll_gyration, pitch_gyration, yaw_gyration: m, radii of gyration of the sprung
+            body about its own CoM (inertia = mass * radius^2).
+    """
+
+    name: str
+    sprung_mass: float
+    cg_x: float
+    cg_z: float
+    roll_gyration: float
+    pitch_gyration: float
+    yaw_gyration: float
+
+    @property
+    def roll_inertia(self) -> float:
+        """kg*m^2 about the x axis through the sprung CoM."""
+        return self.sprung_mass * self.roll_gyration**2
+
+    @property
+    def pitch_inertia(self) -> float:
+        """kg*m^2 about the y axis through the sprung CoM."""
+        return self.sprung_mass * self.pitch_gyration**2
+
+    @property
+    def yaw_inertia(self) -> float:
+        """kg*m^2 about the z axis through the sprung CoM."""
+        return self.sprung_mass * self.yaw_gyration**2
+
+
+@dataclass(frozen=True)
+class DamperCurve:
+    """Nonlinear, asymmetric, digressive damper characteristic at the wheel (scale 1).
+
+    Force (N, resisting motion) vs suspension velocity v (m/s, + = bump):
+    ``c_low * v`` up to the knee speed, then slope ``c_high`` beyond it, with separate
+    values in bump and rebound. The design scale C multiplies the whole curve.
+    """
+
+    bump_low: float  # N*s/m
+    bump_high: float  # N*s/m
+    bump_knee: float  # m/s
+    rebound_low: float  # N*s/m
+    rebound_high: float  # N*s/m
+    rebound_knee: float  # m/s
+
+    def force(self, v: np.ndarray, scale: np.ndarray | float = 1.0) -> np.ndarray:
+        """Damper force (N, + opposes bump motion) at velocity v (m/s, + = bump)."""
+        from suspenv.models.minibus.suspension import damper_force
+
+        return damper_force(v, self, scale)
+
+
+@dataclass(frozen=True)
+class Minibus:
+    """Reference minibus. All fields SI; see module docstring for sources."""
+
+    # geometry -------------------------------------------------------------
+    wheelbase: float = 2.60  # m [HIACE]
+    track_front: float = 1.465  # m [UAZ] (one published track value; used front and rear)
+    track_rear: float = 1.465  # m [UAZ]
+    # rear leaf springs: lateral spacing of the two spring seats on the axle.
+    leaf_spacing: float = 1.00  # m [CHOICE: leaves sit inboard of the wheels, ~0.7 x track]
+    leaf_length: float = 1.30  # m eye to eye [CHOICE: typical light-commercial leaf]
+    #: deflection (from the free, unloaded spring) at which the helper leaf engages.
+    #: [CHOICE] 70 mm: above the no-load static deflection for every K1 in range
+    #: (max 62 mm at K1 = 60) and below the full-load one, so the empty vehicle rides
+    #: on the primary rate and the loaded one on the composite rate (the study's intent).
+    helper_engagement: float = 0.070  # m
+    #: torsion-bar lever from bar axis to wheel centre; wheel rate = T/l^2 [CONV]
+    torsion_bar_lever: float = 0.33  # m
+    #: stabiliser convention: T2/T3 are axle roll stiffness (moment per body-minus-axle
+    #: roll angle), not bar twist stiffness [CONV, one of the two stated options].
+    front_damper_spacing: float = 1.465  # m, dampers act at the wheel [CHOICE]
+    rear_damper_spacing: float = 1.00  # m, dampers beside the leaf seats [CHOICE]
+    # roll-centre geometry (used by the report and the handling model) ---------
+    #: front double-wishbone instant centre: lateral distance inboard of the contact
+    #: patch and height above ground [CHOICE: long, low swing arm of a van front end]
+    front_ic_inboard: float = 2.0  # m
+    front_ic_height: float = 0.15  # m
+    #: rear rigid axle on leaves: roll centre at the leaf-seat/eye line height [CHOICE]
+    rear_roll_centre_height: float = 0.45  # m
+    # unsprung ---------------------------------------------------------------
+    #: per front corner: hub, brake, wishbones share, wheel and tyre [CHOICE: ~2.3 % of
+    #: gross mass per corner, typical of independent fronts of this size]
+    unsprung_front: float = 45.0  # kg per corner
+    #: per rear side: half of a 150 kg live axle with wheels [CHOICE: live beam axle]
+    unsprung_rear: float = 75.0  # kg per side
+    # tyres --------------------------------------------------------------------
+    tyre_vertical_stiffness: float = 223e3  # N/m [UAZ]
+    tyre_vertical_damping: float = 150.0  # N*s/m [CHOICE: small radial-tyre damping]
+    tyre_loaded_radius: float = 0.33  # m [CHOICE: 195R15C light-truck tyre]
+    #: vertical contact length used to filter short obstacles [CHOICE: ~0.16 m footprint
+    #: of a 195R15C tyre at ~7 kN]
+    tyre_contact_length: float = 0.16  # m
+    # rear axle lateral compliance / roll steer (handling side) -----------------
+    #: bushes per side (front eye + shackle eye) [CHOICE: conventional Hotchkiss leaf]
+    leaf_bushes_per_side: int = 2
+    #: geometric roll steer of the leaf-sprung axle (rad axle steer per rad body roll)
+    #: [CHOICE: small understeering value typical of level leaves]
+    rear_roll_steer: float = 0.05
+    # steering (handling side) ------------------------------------------------
+    steering_ratio: float = 20.0  # - [CHOICE: light bus recirculating-ball/rack range 18-22]
+    # dampers: baseline curves at the wheel, scale 1 ------------------------------
+    #: [CHOICE] sized for a per-axle damping ratio ~0.3 at no load and scale 1 (mean of
+    #: bump and rebound low-speed rates, ride rate, sprung mass per side), rebound:bump
+    #: = 3:1, digressive knee 0.13 m/s, high-speed slope 40 % of the low-speed slope.
+    #: At full load the rear leaf's composite rate is close to the tyre rate, so the
+    #: axle moves with the body and the rear body mode's modal damping falls to ~0.05.
+    damper_front: DamperCurve = field(
+        default_factory=lambda: DamperCurve(1300.0, 520.0, 0.13, 3900.0, 1560.0, 0.13)
+    )
+    damper_rear: DamperCurve = field(
+        default_factory=lambda: DamperCurve(1370.0, 548.0, 0.13, 4110.0, 1644.0, 0.13)
+    )
+    # load cases -------------------------------------------------------------
+    #: no load: 1950 kg kerb [HIACE] minus unsprung 2*45 + 2*75 = 240 kg -> 1710 kg.
+    #: CoM 1.15 m behind the front axle (56/44 front/rear, cab-over engine) [CHOICE];
+    #: CoM height 0.75 m [VAN]. Radii of gyration: mean of [UAZ] and [VAN]
+    #: (roll 0.576 m; pitch/yaw 1.141/1.192 m) with pitch/yaw scaled by the wheelbase
+    #: ratio 2.60/2.385 -> 1.244/1.300 m.
+    no_load: LoadCase = field(
+        default_factory=lambda: LoadCase("no_load", 1710.0, 1.15, 0.75, 0.576, 1.244, 1.300)
+    )
+    #: full load: 3100 kg gross [HIACE] minus 240 kg unsprung -> 2860 kg. CoM moves
+    #: rearward and up when loaded [HIACE]: 1.45 m behind the front axle, 0.85 m high
+    #: [CHOICE: 1150 kg payload seated at ~1.0 m height, centred ~1.9 m behind the front
+    #: axle]. Same radii of gyration: passengers spread over the whole cabin.
+    full_load: LoadCase = field(
+        default_factory=lambda: LoadCase("full_load", 2860.0, 1.45, 0.85, 0.576, 1.244, 1.300)
+    )
+
+    def load_case(self, name: str | LoadCase) -> LoadCase:
+        """The named load case ("no_load" / "full_load"), or a LoadCase passed through."""
+        if isinstance(name, LoadCase):
+            return name
+        cases = {"no_load": self.no_load, "full_load": self.full_load}
+        if name not in cases:
+            raise ValidationError(f"load case must be one of {sorted(cases)}, but got {name!r}")
+        return cases[name]
+
+    def with_(self, **changes: object) -> Minibus:
+        """A copy with some fields changed."""
+        return replace(self, **changes)
+
+
+#: the documented reference vehicle
+REFERENCE_MINIBUS = Minibus()
+LOAD_CASES: tuple[str, str] = ("no_load", "full_load")
+
+
+# ------------------------------------------------------------------ design -> SI
+@dataclass(frozen=True)
+class DesignSI:
+    """The 8 design variables in SI, arrays of shape (n,).
+
+    Attributes:
+        rear_primary_rate: N/m per side, leaf rate before helper contact (K1).
+        rear_composite_rate: N/m per side, leaf rate after helper contact (K2).
+        leaf_bush_radial: N/m per bush (K3).
+        front_torsion_bar: N*m/rad per side (T1).
+        front_wheel_rate: N/m per side, T1 / lever^2.
+        front_roll_arb: N*m/rad, front stabiliser as axle roll stiffness (T2).
+        rear_roll_arb: N*m/rad, rear stabiliser as axle roll stiffness (T3).
+        front_damper_scale, rear_damper_scale: - (C1, C2).
+    """
+
+    rear_primary_rate: np.ndarray
+    rear_composite_rate: np.ndarray
+    leaf_bush_radial: np.ndarray
+    front_torsion_bar: np.ndarray
+    front_wheel_rate: np.ndarray
+    front_roll_arb: np.ndarray
+    rear_roll_arb: np.ndarray
+    front_damper_scale: np.ndarray
+    rear_damper_scale: np.ndarray
+
+    @property
+    def n(self) -> int:
+        return int(self.rear_primary_rate.shape[0])
+
+
+def check_designs(X: np.ndarray) -> np.ndarray:
+    """``X`` as float (n, 8) in the study's units; reject bad shapes and non-physical values."""
+    arr = np.asarray(X, dtype=float)
+    if arr.ndim == 1:
+        arr = arr[None, :]
+    if arr.ndim != 2 or arr.shape[1] != len(DESIGN_NAMES):
+        raise ValidationError(
+            f"minibus designs must have shape (n, {len(DESIGN_NAMES)}) with columns "
+            f"{list(DESIGN_NAMES)}, but got {np.shape(X)}"
+        )
+    bad = ~(np.isfinite(arr) & (arr > 0))
+    if bad.any():
+        r, c = np.argwhere(bad)[0]
+        raise ValidationError(
+            f"every design variable must be finite and > 0, but row {r} has "
+            f"{DESIGN_NAMES[c]}={arr[r, c]}"
+        )
+    return arr
+
+
+def design_to_si(X: np.ndarray, vehicle: Minibus = REFERENCE_MINIBUS) -> DesignSI:
+    """Convert designs (n, 8) in the study's units [N/mm, N*mm/deg, -] to :class:`DesignSI`.
+
+    Inside the study's ranges K2 >= K1 always holds (130 > 85); a K2 below K1 (possible
+    with other ranges) is rejected because the helper leaf can only add stiffness.
+    """
+    X = check_designs(X)
+    K1, K2, K3, T1, T2, T3, C1, C2 = X.T
+    if np.any(K2 < K1):
+        r = int(np.argmax(K2 < K1))
+        raise ValidationError(
+            f"`K2 >= K1` must hold (the helper leaf adds stiffness), but got "
+            f"(K1={K1[r]}, K2={K2[r]}) in row {r}"
+        )
+    t1 = T1 * NMM_PER_DEG_TO_NM_PER_RAD
+    return DesignSI(
+        rear_primary_rate=K1 * N_PER_MM_TO_N_PER_M,
+        rear_composite_rate=K2 * N_PER_MM_TO_N_PER_M,
+        leaf_bush_radial=K3 * N_PER_MM_TO_N_PER_M,
+        front_torsion_bar=t1,
+        front_wheel_rate=t1 / vehicle.torsion_bar_lever**2,
+        front_roll_arb=T2 * NMM_PER_DEG_TO_NM_PER_RAD,
+        rear_roll_arb=T3 * NMM_PER_DEG_TO_NM_PER_RAD,
+        front_damper_scale=C1.copy(),
+        rear_damper_scale=C2.copy(),
+    )
+
+
+# ------------------------------------------------------------------ batch parameters
+@dataclass(frozen=True)
+class VehicleParams:
+    """Everything the ride and handling models need for a batch of n designs, SI.
+
+    Scalars are shared by the batch; arrays have shape (n,). Static quantities are
+    for the given load case. ``a``/``b``: CoM to front/rear axle (m).
+    """
+
+    vehicle: Minibus
+    load: LoadCase
+    design: DesignSI
+    a: float
+    b: float
+    front_static_load: float  # N per front corner, sprung share only
+    rear_static_load: float  # N per rear spring seat, sprung share only
+    front_static_deflection: np.ndarray  # m, spring compression at rest, (n,)
+    rear_static_deflection: np.ndarray  # m, leaf compression from free at rest, (n,)
+    rear_on_helper: np.ndarray  # bool (n,), helper leaf engaged at rest
+    rear_static_rate: np.ndarray  # N/m per side at rest (K1 or K2), (n,)
+
+    @property
+    def n(self) -> int:
+        return self.design.n
+
+    @property
+    def total_mass(self) -> float:
+        v = self.vehicle
+        return self.load.sprung_mass + 2 * v.unsprung_front + 2 * v.unsprung_rear
+
+
+def vehicle_parameters(
+    X: np.ndarray, load_case: str | LoadCase = "no_load", vehicle: Minibus = REFERENCE_MINIBUS
+) -> VehicleParams:
+    """Apply designs X (n, 8; study units) to the reference vehicle in one load case.
+
+    Static loads come from the sprung CoM position (moment balance about the axles);
+    the static leaf deflection uses the two-stage law (K1 up to the helper-engagement
+    deflection, K2 beyond).
+    """
+    from suspenv.models.minibus.suspension import leaf_static_deflection
+
+    load = vehicle.load_case(load_case)
+    design = design_to_si(X, vehicle)
+    if not 0.0 < load.cg_x < vehicle.wheelbase:
+        raise ValidationError(
+            f"`0 < cg_x < wheelbase` must hold, but got (cg_x={load.cg_x}, "
+            f"wheelbase={vehicle.wheelbase})"
+        )
+    a = load.cg_x
+    b = vehicle.wheelbase - a
+    w = load.sprung_mass * G
+    front = w * b / vehicle.wheelbase / 2.0
+    rear = w * a / vehicle.wheelbase / 2.0
+    rear_defl, on_helper = leaf_static_deflection(
+        rear, design.rear_primary_rate, design.rear_composite_rate, vehicle.helper_engagement
+    )
+    return VehicleParams(
+        vehicle=vehicle,
+        load=load,
+        design=design,
+        a=a,
+        b=b,
+        front_static_load=front,
+        rear_static_load=rear,
+        front_static_deflection=front / design.front_wheel_rate,
+        rear_static_deflection=rear_defl,
+        rear_on_helper=on_helper,
+        rear_static_rate=np.where(on_helper, design.rear_composite_rate, design.rear_primary_rate),
+    )
