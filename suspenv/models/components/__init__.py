@@ -1,0 +1,51 @@
+"""Component models as "base + effects": damper on a dyno, MR damper, friction guide
+(EMPS), quarter car on a rig; plus the truth generator and a least-squares fit.
+
+``make_component(family, effects=(), **options)`` builds a model by family name.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+from suspenv.core.errors import ValidationError
+from suspenv.models.components.base import ComponentModel
+from suspenv.models.components.damper import DamperDynoModel
+from suspenv.models.components.fitting import LeastSquaresFit, fit_least_squares
+from suspenv.models.components.friction_guide import FrictionGuideModel
+from suspenv.models.components.mr_damper import MRDamperModel
+from suspenv.models.components.quarter_car import QuarterCarRigModel
+from suspenv.models.components.truth import simulate_truth
+from suspenv.models.effects import Effect
+
+FAMILIES: dict[str, type[ComponentModel]] = {
+    cls.family: cls
+    for cls in (DamperDynoModel, MRDamperModel, FrictionGuideModel, QuarterCarRigModel)
+}
+
+
+def make_component(family: str, effects: Sequence[Effect] = (), **options: Any) -> ComponentModel:
+    """A component model by family name (``"damper"``, ``"mr_damper"``, ``"friction_guide"``,
+    ``"quarter_car_rig"``)."""
+    try:
+        cls = FAMILIES[family]
+    except KeyError:
+        raise ValidationError(
+            f"unknown component family {family!r}; known families are {sorted(FAMILIES)}"
+        ) from None
+    return cls(effects, **options)
+
+
+__all__ = [
+    "FAMILIES",
+    "ComponentModel",
+    "DamperDynoModel",
+    "FrictionGuideModel",
+    "LeastSquaresFit",
+    "MRDamperModel",
+    "QuarterCarRigModel",
+    "fit_least_squares",
+    "make_component",
+    "simulate_truth",
+]

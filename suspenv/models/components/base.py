@@ -1,0 +1,284 @@
+"""Component models as "base + effects", with one interface for fitting and diagnosis.
+
+A :class:`ComponentModel` predicts the output channels of a :class:`Recording`
+from its input channels and a parameter vector ``theta``: the base model's
+parameters first, then the free parameters of each effect in order, named
+``"<effect name>.<parameter>"``. Effect parameters listed in the kind's
+``fit_fixed`` (regularisation widths, exponents) are not in ``theta``; they keep
+the value stored in the :class:`Effect`.
+
+``theta`` may be one vector ``(p,)`` or a batch ``(B, p)``; predictions are then
+``(N,)`` or ``(B, N)`` per channel. Units SI; each subclass states its frame and
+sign conventions.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any, ClassVar
+
+import numpy as np
+
+from suspenv.core.errors import ValidationError
+from suspenv.core.space import Parameter
+from suspenv.models.effects import Effect
+from suspenv.recordings import Recording
+
+
+class ComponentModel:
+    """Base class: subclasses set the class attributes and implement ``_predict``.
+
+    Class attributes:
+        family: ``"damper"``, ``"mr_damper"``, ``"friction_guide"``, ``"quarter_car_rig"``.
+        description: one line for reports.
+        base_parameters: the base model's parameters (bounds, units).
+        input_channels / output_channels: channel names read / predicted.
+        channel_units: unit of every input and output channel.
+        candidate_effects: effect kinds that make sense for this family.
+        location: default location words of force effects (e.g. ``"damper"``).
+    """
+
+    family: ClassVar[str] = ""
+    description: ClassVar[str] = ""
+    base_parameters: ClassVar[tuple[Parameter, ...]] = ()
+    input_channels: ClassVar[tuple[str, ...]] = ()
+    output_channels: ClassVar[tuple[str, ...]] = ()
+    channel_units: ClassVar[dict[str, str]] = {}
+    candidate_effects: ClassVar[tuple[str, ...]] = ()
+    location: ClassVar[str] = ""
+
+    def __init__(self, effects: Sequence[Effect] = (), **options: Any):
+        self.effects: tuple[Effect, ...] = tuple(effects)
+        self.options: dict[str, Any] = dict(options)
+        for e in self.effects:
+            if not isinstance(e, Effect):
+                raise ValidationError(
+                    f"effects must be Effect instances, but got {type(e).__name__}"
+                )
+        names = [e.name for e in self.effects]
+        dup = sorted({n for n in names if names.count(n) > 1})
+        if dup:
+            raise ValidationError(f"effect names must be unique in a model, but got repeats {dup}")
+        for e in self.effects:
+            role = e.spec.role
+            if role == "pair":
+                raise ValidationError(
+                    f"effect {e.name!r} ({e.kind}) is a left/right pair effect; "
+                    f"{self.family} models have no left/right pair"
+                )
+            if role == "sensor" and self._sensor_channel(e) not in self.output_channels:
+                raise ValidationError(
+                    f"sensor effect {e.name!r} must be located on an output channel "
+                    f"{self.output_channels}, but got location={e.location!r}"
+                )
+            self._check_effect(e)
+
+    # ------------------------------------------------------------------ hooks
+    def _check_effect(self, effect: Effect) -> None:
+        """Subclasses reject effects they cannot simulate."""
+
+    def _predict(
+        self, base: dict[str, np.ndarray], effects: Sequence[Effect], rec: Recording
+    ) -> dict[str, np.ndarray]:
+        raise NotImplementedError
+
+    def _base_guess(self, rec: Recording) -> dict[str, float]:
+        return {p.name: p.reference for p in self.base_parameters}
+
+    def _scales(self, rec: Recording) -> dict[str, float]:
+        """Typical force [N], deflection [m] and velocity [m/s] amplitudes in ``rec``."""
+        raise NotImplementedError
+
+    # ------------------------------------------------------------------ names and bounds
+    def _sensor_channel(self, e: Effect) -> str:
+        return e.location or self.output_channels[0]
+
+    @property
+    def base_names(self) -> tuple[str, ...]:
+        return tuple(p.name for p in self.base_parameters)
+
+    def _free(self, e: Effect) -> tuple[str, ...]:
+        return e.spec.free_parameter_names
+
+    @property
+    def parameter_names(self) -> tuple[str, ...]:
+        """Base parameter names, then ``"<effect>.<param>"`` for each effect's free parameters."""
+        names = list(self.base_names)
+        for e in self.effects:
+            names += [f"{e.name}.{p}" for p in self._free(e)]
+        return tuple(names)
+
+    @property
+    def parameter_units(self) -> tuple[str, ...]:
+        units = [p.unit for p in self.base_parameters]
+        for e in self.effects:
+            units += [e.spec.parameter(p).unit for p in self._free(e)]
+        return tuple(units)
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """Lower and upper bounds of ``theta``."""
+        lo = [p.low for p in self.base_parameters]
+        hi = [p.high for p in self.base_parameters]
+        for e in self.effects:
+            for p in self._free(e):
+                spec = e.spec.parameter(p)
+                lo.append(spec.low)
+                hi.append(spec.high)
+        return np.array(lo, dtype=float), np.array(hi, dtype=float)
+
+    # ------------------------------------------------------------------ theta <-> values
+    def theta_from(
+        self, base: Mapping[str, float], effects: Sequence[Effect] | None = None
+    ) -> np.ndarray:
+        """``theta`` from base values and the effects' stored parameters (default: own effects)."""
+        missing = [n for n in self.base_names if n not in base]
+        if missing:
+            raise ValidationError(f"{self.family}: base values missing {missing}")
+        effs = self.effects if effects is None else tuple(effects)
+        vals = [float(base[n]) for n in self.base_names]
+        for e in effs:
+            vals += [float(e.params[p]) for p in self._free(e)]
+        return np.array(vals)
+
+    def unpack(self, theta: np.ndarray) -> tuple[dict[str, np.ndarray], list[Effect]]:
+        """Split ``theta`` ``(p,)`` or ``(B, p)`` into base values and effects with values set."""
+        th = np.asarray(theta, dtype=float)
+        p = len(self.parameter_names)
+        if th.shape[-1:] != (p,) or th.ndim > 2:
+            raise ValidationError(
+                f"{self.family}: theta must have shape ({p},) or (B, {p}) for parameters "
+                f"{self.parameter_names}, but got {th.shape}"
+            )
+        if not np.all(np.isfinite(th)):
+            raise ValidationError(f"{self.family}: theta must be finite, but got {th}")
+        cols = np.moveaxis(th, -1, 0)
+        nb = len(self.base_names)
+        base = {n: cols[i] for i, n in enumerate(self.base_names)}
+        effects, k = [], nb
+        for e in self.effects:
+            free = self._free(e)
+            effects.append(e.with_params({q: cols[k + j] for j, q in enumerate(free)}))
+            k += len(free)
+        return base, effects
+
+    def values(self, theta: np.ndarray) -> dict[str, float]:
+        """Name -> value for a single ``theta`` vector."""
+        th = np.asarray(theta, dtype=float)
+        return {n: float(v) for n, v in zip(self.parameter_names, th, strict=True)}
+
+    # ------------------------------------------------------------------ guesses
+    def initial_guess(self, rec: Recording) -> np.ndarray:
+        """A start for fitting ``rec``: base values from a linear fit, effects from scales."""
+        rec.require(self.input_channels, units=self._input_units())
+        base = self._base_guess(rec)
+        sc = self._scales(rec)
+        guessed = [e.with_params(self._effect_guess(e, sc)) for e in self.effects]
+        th = self.theta_from(base, guessed)
+        lo, hi = self.bounds()
+        return np.clip(th, lo, hi)
+
+    def _effect_guess(self, e: Effect, sc: Mapping[str, float]) -> dict[str, float]:
+        """Generic starting values by parameter meaning, from force/deflection/velocity scales."""
+        f, x, v = sc["force"], sc["deflection"], sc["velocity"]
+        g = {
+            "f_c": 0.05 * f,
+            "f_s": 0.07 * f,
+            "f_pos": 0.05 * f,
+            "f_neg": 0.05 * f,
+            "f_y": 0.05 * f,
+            "sigma": 0.05 * f / (0.1 * x),
+            "x_y": 0.1 * x,
+            "v_s": 0.1 * v,
+            "k3": 0.0,
+            "k_p": 0.0,
+            "x0": 0.5 * x,
+            "gap": 0.8 * x,
+            "k_stop": 10.0 * f / x,
+            "c_low": 0.2 * f / v,
+            "v_knee": 0.3 * v,
+            "dc_rebound": 0.0,
+            "k_m": f / x,
+            "c_m": 0.1 * f / v,
+            "k": 0.0,
+            "c": 0.0,
+            "f_0": 0.0,
+            "k_gas": 0.0,
+            "offset": 0.0,
+            "gain": 1.0,
+            "tau": 0.005,
+        }
+        return {p: g[p] for p in self._free(e) if p in g}
+
+    # ------------------------------------------------------------------ simulation
+    def _input_units(self) -> dict[str, str]:
+        return {c: self.channel_units[c] for c in self.input_channels}
+
+    def simulate(self, theta: np.ndarray, rec: Recording) -> dict[str, np.ndarray]:
+        """Predicted output channels (same names and units as the model's outputs)."""
+        rec.require(self.input_channels, units=self._input_units())
+        base, effects = self.unpack(theta)
+        force_effects = [e for e in effects if e.spec.role == "force"]
+        out = self._predict(base, force_effects, rec)
+        for e in effects:
+            if e.spec.role == "sensor":
+                ch = self._sensor_channel(e)
+                out[ch] = e.sensor(out[ch], rec.time)
+        return out
+
+    def effect_force(
+        self, effects: Sequence[Effect], x: np.ndarray, v: np.ndarray, t: np.ndarray
+    ) -> np.ndarray | float:
+        """Sum of the force effects along deflection ``x`` and velocity ``v`` [N]."""
+        total: np.ndarray | float = 0.0
+        for e in effects:
+            total = total + e.force(x, v, t)
+        return total
+
+    # ------------------------------------------------------------------ composition
+    def with_effects(self, effects: Sequence[Effect]) -> ComponentModel:
+        """The same model (same options) with another list of effects."""
+        return type(self)(effects, **self.options)
+
+    def config(self) -> dict[str, Any]:
+        return {
+            "family": self.family,
+            "options": dict(self.options),
+            "effects": [e.to_dict() for e in self.effects],
+        }
+
+    def effect_words(self, effect: Effect) -> str:
+        """Engineering words for ``effect`` in this model, e.g. "Coulomb friction in the guide"."""
+        if effect.location or not self.location:
+            return effect.words
+        return f"{effect.spec.words} in the {self.location}"
+
+    def __repr__(self) -> str:
+        effs = ", ".join(f"{e.kind}:{e.name}" for e in self.effects)
+        return f"{type(self).__name__}(effects=[{effs}], options={self.options})"
+
+    def describe(self) -> str:
+        parts = [f"{self.family}: {self.description}"]
+        parts += [f"  + {e.describe()}" for e in self.effects]
+        return "\n".join(parts)
+
+    def example_recording(self, seed: int = 0) -> Recording:
+        """A synthetic recording with this family's typical inputs (no outputs)."""
+        raise NotImplementedError
+
+
+def bp(value: np.ndarray | float) -> np.ndarray:
+    """Batch-shaped value -> ``(..., 1)`` to broadcast against a series ``(N,)``."""
+    return np.asarray(value, dtype=float)[..., None]
+
+
+def linear_lstsq(columns: Sequence[np.ndarray], y: np.ndarray) -> np.ndarray:
+    """Least-squares coefficients of ``y ~ sum_i a_i columns[i]``."""
+    A = np.column_stack(columns)
+    return np.linalg.lstsq(A, y, rcond=None)[0]
+
+
+def robust_amplitude(x: np.ndarray) -> float:
+    """98th percentile of ``|x - median(x)|`` (a stroke amplitude robust to spikes)."""
+    x = np.asarray(x, dtype=float)
+    a = float(np.percentile(np.abs(x - np.median(x)), 98))
+    return a if a > 0 else 1.0

@@ -1,0 +1,103 @@
+"""Damper on a dyno: force from imposed displacement and velocity.
+
+Frame and signs: ``displacement`` x [m] and ``velocity`` v [m/s] are the imposed
+stroke and its rate (the recording's stroke sign; positive = compression for
+synthetic recordings); ``force`` [N] is the damper force, positive when it resists
+positive velocity (the converters orient measured force so the damper absorbs
+power on average).
+
+Base: linear viscous ``F = c v``. Effects add forces ``F_e(x, v, t)``: digressive
+curve, bump/rebound asymmetry, friction, hysteresis, gas spring/offset, viscoelastic
+lag; sensor effects act on the ``force`` channel.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from suspenv.core.space import Parameter
+from suspenv.models.components.base import ComponentModel, bp, linear_lstsq, robust_amplitude
+from suspenv.recordings import Recording
+
+
+def sine_blocks(
+    blocks: list[tuple[float, float, float]], dt: float, name: str, test: str
+) -> Recording:
+    """Concatenated sine tests ``(amplitude [m], frequency [Hz], cycles)``, inputs only.
+
+    Each block starts and ends at zero displacement, so the joined stroke is smooth
+    in position; velocity is the analytic derivative.
+    """
+    xs, vs = [], []
+    for amp, freq, cycles in blocks:
+        n = int(round(cycles / freq / dt))
+        t = np.arange(n) * dt
+        w = 2 * np.pi * freq
+        xs.append(amp * np.sin(w * t))
+        vs.append(amp * w * np.cos(w * t))
+    x, v = np.concatenate(xs), np.concatenate(vs)
+    t = np.arange(x.size) * dt
+    return Recording(
+        name,
+        test,
+        t,
+        {"displacement": x, "velocity": v},
+        {},
+        {"displacement": "m", "velocity": "m/s", "force": "N"},
+        {"source": "synthetic", "sampling": {"dt_s": dt}, "blocks": [list(b) for b in blocks]},
+    )
+
+
+class DamperDynoModel(ComponentModel):
+    """Damper on a dyno; base ``F = c v``."""
+
+    family = "damper"
+    description = "damper on a dyno, force from imposed stroke (base: linear viscous F = c v)"
+    base_parameters = (
+        Parameter("c", 0.0, 1e6, unit="N s/m", default=1500.0, description="viscous damping"),
+    )
+    input_channels = ("displacement", "velocity")
+    output_channels = ("force",)
+    channel_units = {"displacement": "m", "velocity": "m/s", "force": "N"}
+    candidate_effects = (
+        "digressive_damping",
+        "damper_asymmetry",
+        "coulomb_friction",
+        "dahl_hysteresis",
+        "bouc_wen_hysteresis",
+        "maxwell_viscoelastic",
+        "gas_spring",
+        "force_offset",
+        "sensor_lag",
+    )
+    location = "damper"
+
+    def _predict(self, base, effects, rec):
+        x, v = rec.inputs["displacement"], rec.inputs["velocity"]
+        f = bp(base["c"]) * v + self.effect_force(effects, x, v, rec.time)
+        return {"force": np.broadcast_to(f, np.broadcast_shapes(np.shape(f), v.shape)).copy()}
+
+    def _base_guess(self, rec):
+        v = rec.inputs["velocity"]
+        if "force" in rec.outputs:
+            (c,) = linear_lstsq([v], rec.outputs["force"])
+            return {"c": float(max(c, 1.0))}
+        return {"c": self.base_parameters[0].reference}
+
+    def _scales(self, rec):
+        x = robust_amplitude(rec.inputs["displacement"])
+        v = robust_amplitude(rec.inputs["velocity"])
+        f = robust_amplitude(rec.outputs["force"]) if "force" in rec.outputs else 1500.0 * v
+        return {"force": f, "deflection": x, "velocity": v}
+
+    def example_recording(self, seed: int = 0) -> Recording:
+        """Sine tests at several amplitudes and frequencies (velocity up to ~0.4 m/s), 2 ms."""
+        rng = np.random.default_rng(seed)
+        blocks = [
+            (0.010, 0.5, 2),
+            (0.020, 1.0, 2),
+            (0.010, 3.0, 3),
+            (0.006, 8.0, 4),
+        ]
+        blocks = [(a * (1 + 0.1 * rng.uniform(-1, 1)), f, c) for a, f, c in blocks]
+        return sine_blocks(blocks, 0.002, f"damper_example_{seed}", "dyno_sine")

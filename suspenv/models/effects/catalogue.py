@@ -1,0 +1,273 @@
+"""The effect kinds shipped with suspenv, registered at import.
+
+Bounds are generic (component to vehicle scale); a model that knows its scale
+should narrow them. Parameters are in SI units.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from suspenv.core.space import Parameter
+from suspenv.models.effects import (
+    asymmetry,
+    damper_curves,
+    friction,
+    hysteresis,
+    sensor,
+    stiffness,
+    viscoelastic,
+)
+from suspenv.models.effects._util import batch_param as bp
+from suspenv.models.effects.effect import EffectKind, register_kind
+
+
+def _p(name: str, low: float, high: float, unit: str, default: float, desc: str, log: bool = False):
+    return Parameter(name, low, high, unit=unit, log=log, default=default, description=desc)
+
+
+V_EPS = _p("v_eps", 1e-5, 0.1, "m/s", 1e-3, "velocity width of the regularised step", log=True)
+
+KINDS = (
+    EffectKind(
+        "coulomb_friction",
+        "Coulomb friction",
+        "force",
+        (_p("f_c", 0.0, 5000.0, "N", 20.0, "Coulomb friction force level"), V_EPS),
+        "step at every velocity reversal; loop width independent of amplitude and rate",
+        lambda x, v, t, f_c, v_eps: friction.coulomb_smooth(v, bp(f_c), bp(v_eps)),
+        fit_fixed=("v_eps",),
+    ),
+    EffectKind(
+        "directional_friction",
+        "direction-dependent Coulomb friction",
+        "force",
+        (
+            _p("f_pos", 0.0, 5000.0, "N", 20.0, "friction level sliding in +x"),
+            _p("f_neg", 0.0, 5000.0, "N", 20.0, "friction level sliding in -x"),
+            V_EPS,
+        ),
+        "reversal steps of different size in each direction; indistinguishable from a "
+        "constant offset plus symmetric friction unless the test holds each direction",
+        lambda x, v, t, f_pos, f_neg, v_eps: friction.coulomb_directional(
+            v, bp(f_pos), bp(f_neg), bp(v_eps)
+        ),
+        fit_fixed=("v_eps",),
+    ),
+    EffectKind(
+        "stribeck_friction",
+        "stiction with Stribeck decay",
+        "force",
+        (
+            _p("f_c", 0.0, 5000.0, "N", 20.0, "Coulomb (sliding) friction level"),
+            _p("f_s", 0.0, 10000.0, "N", 30.0, "static (breakaway) friction level"),
+            _p("v_s", 1e-4, 1.0, "m/s", 0.01, "Stribeck velocity", log=True),
+            V_EPS,
+        ),
+        "reversal step with an overshoot at low speed that decays with velocity",
+        lambda x, v, t, f_c, f_s, v_s, v_eps: friction.stribeck_friction(
+            v, bp(f_c), bp(f_s), bp(v_s), bp(v_eps)
+        ),
+        fit_fixed=("v_eps",),
+    ),
+    EffectKind(
+        "lugre_friction",
+        "LuGre dynamic friction (pre-sliding and stiction)",
+        "force",
+        (
+            _p("sigma0", 1e2, 1e9, "N/m", 1e5, "bristle stiffness", log=True),
+            _p("sigma1", 0.0, 1e5, "N s/m", 300.0, "bristle damping"),
+            _p("f_c", 0.0, 5000.0, "N", 20.0, "Coulomb friction level"),
+            _p("f_s", 0.0, 10000.0, "N", 30.0, "static friction level"),
+            _p("v_s", 1e-4, 1.0, "m/s", 0.01, "Stribeck velocity", log=True),
+        ),
+        "reversal step with finite pre-sliding stiffness and stiction overshoot",
+        lambda x, v, t, sigma0, sigma1, f_c, f_s, v_s: friction.lugre_series(
+            v, t, sigma0, sigma1, f_c, f_s, v_s
+        ),
+        needs_time=True,
+        fit_fixed=("sigma0", "sigma1"),
+    ),
+    EffectKind(
+        "dahl_hysteresis",
+        "rubber bushing hysteresis (Dahl)",
+        "force",
+        (
+            _p("f_c", 0.0, 5000.0, "N", 50.0, "saturation hysteretic force"),
+            _p("sigma", 1e2, 1e9, "N/m", 1e5, "initial stiffness after a reversal", log=True),
+        ),
+        "loop between loading and unloading branches; width roughly independent of rate, "
+        "rounded (not stepped) at reversals",
+        lambda x, v, t, f_c, sigma: hysteresis.dahl_path(x, sigma, f_c),
+    ),
+    EffectKind(
+        "bouc_wen_hysteresis",
+        "hysteresis (Bouc-Wen)",
+        "force",
+        (
+            _p("f_y", 0.0, 5000.0, "N", 50.0, "asymptotic hysteretic force"),
+            _p("x_y", 1e-6, 0.05, "m", 1e-3, "yield displacement", log=True),
+            _p("shape", 0.0, 1.0, "", 0.5, "loop shape b = beta/(beta+gamma)"),
+            _p("n", 1.0, 5.0, "", 1.0, "knee sharpness"),
+        ),
+        "loop between loading and unloading branches; width roughly independent of rate",
+        lambda x, v, t, f_y, x_y, shape, n: hysteresis.bouc_wen_force_path(x, f_y, x_y, shape, n),
+        fit_fixed=("n",),
+    ),
+    EffectKind(
+        "berg_hysteresis",
+        "rubber bushing hysteresis (Berg friction)",
+        "force",
+        (
+            _p("f_max", 0.0, 5000.0, "N", 50.0, "limit friction force"),
+            _p("x2", 1e-6, 0.05, "m", 1e-3, "travel to half the limit force", log=True),
+        ),
+        "loop between loading and unloading branches; width roughly independent of rate, "
+        "hyperbolic (not exponential) approach after a reversal",
+        lambda x, v, t, f_max, x2: hysteresis.berg_path(x, f_max, x2),
+    ),
+    EffectKind(
+        "cubic_stiffness",
+        "progressive (cubic) stiffness",
+        "force",
+        (_p("k3", -1e12, 1e12, "N/m^3", 1e6, "cubic stiffness coefficient"),),
+        "odd-symmetric residual growing with the cube of amplitude; 3rd harmonic",
+        lambda x, v, t, k3: stiffness.cubic_stiffness(x, bp(k3)),
+    ),
+    EffectKind(
+        "progressive_stiffness",
+        "progressive stiffness beyond a free range",
+        "force",
+        (
+            _p("k_p", 0.0, 1e10, "N/m^2", 1e6, "quadratic stiffening coefficient"),
+            _p("x0", 0.0, 0.2, "m", 0.0, "free range before stiffening"),
+        ),
+        "odd-symmetric residual beyond |x| > x0 growing with amplitude",
+        lambda x, v, t, k_p, x0: stiffness.progressive_spring(x, bp(k_p), bp(x0)),
+    ),
+    EffectKind(
+        "bump_stop",
+        "bump stop contact",
+        "force",
+        (
+            _p("gap", 0.0, 0.3, "m", 0.03, "free travel before contact (compression)"),
+            _p("k_stop", 0.0, 1e8, "N/m^p", 1e5, "stop stiffness"),
+            _p("p", 1.0, 3.0, "", 1.0, "stop force exponent"),
+        ),
+        "residual only beyond a compression travel threshold; one-sided",
+        lambda x, v, t, gap, k_stop, p: stiffness.bump_stop(x, bp(gap), bp(k_stop), bp(p)),
+        fit_fixed=("p",),
+    ),
+    EffectKind(
+        "rebound_stop",
+        "rebound stop contact",
+        "force",
+        (
+            _p("gap", 0.0, 0.3, "m", 0.05, "free travel before contact (extension)"),
+            _p("k_stop", 0.0, 1e8, "N/m^p", 1e5, "stop stiffness"),
+            _p("p", 1.0, 3.0, "", 1.0, "stop force exponent"),
+        ),
+        "residual only beyond an extension travel threshold; one-sided",
+        lambda x, v, t, gap, k_stop, p: stiffness.rebound_stop(x, bp(gap), bp(k_stop), bp(p)),
+        fit_fixed=("p",),
+    ),
+    EffectKind(
+        "digressive_damping",
+        "digressive damper curve (blow-off)",
+        "force",
+        (
+            _p("c_low", 0.0, 1e6, "N s/m", 2000.0, "extra low-speed damping below the knee"),
+            _p("v_knee", 1e-3, 5.0, "m/s", 0.1, "knee velocity", log=True),
+        ),
+        "residual odd in velocity, large at low speed, saturating above the knee",
+        lambda x, v, t, c_low, v_knee: damper_curves.damper_digressive(v, bp(c_low), bp(v_knee)),
+    ),
+    EffectKind(
+        "damper_asymmetry",
+        "damper bump/rebound asymmetry",
+        "force",
+        (_p("dc_rebound", -1e6, 1e6, "N s/m", 1000.0, "extra damping in rebound (v < 0)"),),
+        "residual correlated with the sign of velocity: present in rebound only",
+        lambda x, v, t, dc_rebound: damper_curves.extra_rebound_damping(v, bp(dc_rebound)),
+    ),
+    EffectKind(
+        "maxwell_viscoelastic",
+        "viscoelastic lag (Maxwell element)",
+        "force",
+        (
+            _p("k_m", 1.0, 1e9, "N/m", 1e5, "series spring stiffness", log=True),
+            _p("c_m", 1e-2, 1e8, "N s/m", 1e3, "series dashpot coefficient", log=True),
+        ),
+        "rate-dependent loop width; phase lead atan(1/(w tau)) changing with frequency",
+        lambda x, v, t, k_m, c_m: viscoelastic.maxwell_series(x, t, k_m, c_m),
+        needs_time=True,
+    ),
+    EffectKind(
+        "kelvin_voigt",
+        "parallel spring and dashpot (Kelvin-Voigt)",
+        "force",
+        (
+            _p("k", -1e9, 1e9, "N/m", 0.0, "parallel stiffness"),
+            _p("c", -1e6, 1e6, "N s/m", 0.0, "parallel damping"),
+        ),
+        "residual in phase with displacement and/or velocity",
+        lambda x, v, t, k, c: viscoelastic.kelvin_voigt(x, v, bp(k), bp(c)),
+    ),
+    EffectKind(
+        "gas_spring",
+        "gas spring force (preload plus stiffness)",
+        "force",
+        (
+            _p("f_0", -1e5, 1e5, "N", 100.0, "force at zero deflection (preload)"),
+            _p("k_gas", -1e7, 1e7, "N/m", 1000.0, "gas stiffness"),
+        ),
+        "residual constant plus proportional to displacement, no loop",
+        lambda x, v, t, f_0, k_gas: bp(f_0) + bp(k_gas) * x,
+    ),
+    EffectKind(
+        "force_offset",
+        "constant force offset",
+        "force",
+        (_p("offset", -1e5, 1e5, "N", 0.0, "constant force"),),
+        "constant residual independent of motion",
+        lambda x, v, t, offset: (
+            np.broadcast_to(bp(offset), np.broadcast_shapes(x.shape, np.shape(bp(offset)))) * 1.0
+        ),
+    ),
+    EffectKind(
+        "sensor_offset",
+        "sensor offset (zero error)",
+        "sensor",
+        (_p("offset", -1e6, 1e6, "", 0.0, "offset in the channel's unit"),),
+        "constant residual",
+        lambda y, t, offset: sensor.sensor_offset_gain(y, bp(offset), 1.0),
+    ),
+    EffectKind(
+        "sensor_gain",
+        "sensor gain (calibration) error",
+        "sensor",
+        (_p("gain", 0.1, 10.0, "", 1.0, "gain factor", log=True),),
+        "residual proportional to the signal",
+        lambda y, t, gain: sensor.sensor_offset_gain(y, 0.0, bp(gain)),
+    ),
+    EffectKind(
+        "sensor_lag",
+        "sensor lag (first-order filter)",
+        "sensor",
+        (_p("tau", 0.0, 1.0, "s", 0.005, "time constant"),),
+        "residual proportional to the signal's derivative; phase lag atan(w tau)",
+        lambda y, t, tau: sensor.sensor_lag(y, t, tau),
+        needs_time=True,
+    ),
+    EffectKind(
+        "lr_asymmetry",
+        "left/right manufacturing asymmetry",
+        "pair",
+        (_p("delta", -0.5, 0.5, "", 0.05, "relative right-minus-left difference"),),
+        "left minus right differs; opposite-travel curves not antisymmetric",
+        lambda nominal, delta: asymmetry.split_pair(nominal, delta),
+    ),
+)
+
+for _kind in KINDS:
+    register_kind(_kind, replace=True)

@@ -1,0 +1,63 @@
+"""Damper force-velocity curves: asymmetric bump/rebound, digressive, knee.
+
+Units SI: velocity v [m/s] (positive = compression / bump, negative = extension /
+rebound), force [N], positive when it resists positive velocity (power absorbed
+``F v >= 0`` for positive coefficients). Pointwise functions (numpy broadcasting).
+
+* Asymmetric linear: ``F = c_bump v`` for ``v >= 0``, ``c_rebound v`` for ``v < 0``.
+* Digressive (rational knee)::
+
+      F = c_low v / (1 + |v| / v_knee)
+
+  slope ``c_low`` at rest, force saturating towards ``c_low v_knee`` at high speed.
+  With a linear base ``c_high v`` in parallel, the total curve has slope
+  ``c_low + c_high`` at low speed and ``c_high`` above the knee (a blow-off damper).
+* Piecewise-linear knee: slope ``c_low`` up to ``|v| = v_knee``, then ``c_high``
+  (continuous at the knee)::
+
+      F = sign(v) (c_low min(|v|, v_knee) + c_high max(|v| - v_knee, 0))
+
+* Extra rebound damping (the effect form of asymmetry, added to a linear base):
+  ``F = dc_rebound * min(v, 0)``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from suspenv.models.effects._util import require_positive
+
+
+def damper_asymmetric(
+    v: np.ndarray | float, c_bump: np.ndarray | float, c_rebound: np.ndarray | float
+) -> np.ndarray:
+    """Bilinear damper force [N]: ``c_bump`` [N s/m] in bump, ``c_rebound`` in rebound."""
+    v = np.asarray(v, dtype=float)
+    return np.where(v >= 0.0, c_bump * v, c_rebound * v)
+
+
+def extra_rebound_damping(v: np.ndarray | float, dc_rebound: np.ndarray | float) -> np.ndarray:
+    """Additional rebound-only damping force ``dc_rebound * min(v, 0)`` [N]."""
+    return np.asarray(dc_rebound, dtype=float) * np.minimum(np.asarray(v, dtype=float), 0.0)
+
+
+def damper_digressive(
+    v: np.ndarray | float, c_low: np.ndarray | float, v_knee: np.ndarray | float
+) -> np.ndarray:
+    """Digressive damper force ``c_low v / (1 + |v|/v_knee)`` [N]."""
+    require_positive("v_knee", v_knee)
+    v = np.asarray(v, dtype=float)
+    return c_low * v / (1.0 + np.abs(v) / v_knee)
+
+
+def damper_knee(
+    v: np.ndarray | float,
+    c_low: np.ndarray | float,
+    c_high: np.ndarray | float,
+    v_knee: np.ndarray | float,
+) -> np.ndarray:
+    """Piecewise-linear damper force [N] with a knee at ``|v| = v_knee`` [m/s]."""
+    require_positive("v_knee", v_knee)
+    v = np.asarray(v, dtype=float)
+    av = np.abs(v)
+    return np.sign(v) * (c_low * np.minimum(av, v_knee) + c_high * np.maximum(av - v_knee, 0.0))

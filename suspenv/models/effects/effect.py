@@ -1,0 +1,269 @@
+"""The ``Effect`` descriptor and the registry of effect kinds.
+
+An :class:`Effect` names one piece of optional physics added to a base model:
+its ``kind`` (a key of the registry, e.g. ``"coulomb_friction"``), a ``name``
+unique within the model, its parameter values (SI units) and an optional
+``location`` (where it lives, e.g. ``"strut"``, ``"lower_arm_front_bush"``, or
+the channel name for sensor effects).
+
+Each :class:`EffectKind` carries the engineering words a report uses ("Coulomb
+friction"), its parameters with bounds and units (:class:`suspenv.core.Parameter`),
+its residual signature and a ``role``:
+
+* ``"force"``: an additive force element ``F(x, v, t)`` acting on a deflection
+  ``x[..., T]`` [m] with velocity ``v`` [m/s] at times ``t[T]`` [s]; force positive
+  when it resists positive deflection;
+* ``"sensor"``: maps a true channel ``y[..., T]`` to the recorded one;
+* ``"pair"``: a left/right parameter-pair perturbation (see
+  :mod:`suspenv.models.effects.asymmetry`).
+"""
+
+from __future__ import annotations
+
+import difflib
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from suspenv.core.errors import ValidationError
+from suspenv.core.space import Parameter
+
+ROLES = ("force", "sensor", "pair")
+
+
+@dataclass(frozen=True)
+class EffectKind:
+    """One family member of the effect library, with its parameters and words.
+
+    Attributes:
+        kind: registry key (``snake_case``).
+        words: engineering name used in reports, e.g. ``"rubber bushing hysteresis (Dahl)"``.
+        role: ``"force"``, ``"sensor"`` or ``"pair"``.
+        parameters: the element's parameters (bounds, unit, default, description).
+        signature: the residual signature a missing instance of this effect leaves.
+        apply: force role ``apply(x, v, t, **params) -> F``; sensor role
+            ``apply(y, t, **params) -> y_rec``; pair role ``apply(nominal, **params) -> (l, r)``.
+        needs_time: True when the element is rate dependent (``t`` required).
+        fit_fixed: parameters a fit holds at the effect's stored value by default
+            (regularisation widths, exponents, pre-sliding constants that recordings
+            of macroscopic motion barely inform).
+    """
+
+    kind: str
+    words: str
+    role: str
+    parameters: tuple[Parameter, ...]
+    signature: str
+    apply: Callable[..., Any]
+    needs_time: bool = False
+    fit_fixed: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        if self.role not in ROLES:
+            raise ValidationError(
+                f"effect kind {self.kind!r}: `role in {ROLES}` must hold, but got {self.role!r}"
+            )
+
+    @property
+    def parameter_names(self) -> tuple[str, ...]:
+        return tuple(p.name for p in self.parameters)
+
+    @property
+    def free_parameter_names(self) -> tuple[str, ...]:
+        """Parameters a fit adjusts by default (all but ``fit_fixed``)."""
+        return tuple(p.name for p in self.parameters if p.name not in self.fit_fixed)
+
+    def parameter(self, name: str) -> Parameter:
+        for p in self.parameters:
+            if p.name == name:
+                return p
+        raise ValidationError(
+            f"effect kind {self.kind!r} has no parameter {name!r}; "
+            f"its parameters are {self.parameter_names}"
+        )
+
+    def defaults(self) -> dict[str, float]:
+        return {p.name: p.reference for p in self.parameters}
+
+
+_KINDS: dict[str, EffectKind] = {}
+
+
+def register_kind(kind: EffectKind, replace: bool = False) -> EffectKind:
+    """Add ``kind`` to the registry (``replace=True`` to overwrite an existing key)."""
+    if kind.kind in _KINDS and not replace:
+        raise ValidationError(f"effect kind {kind.kind!r} is already registered")
+    _KINDS[kind.kind] = kind
+    return kind
+
+
+def _ensure_catalogue() -> None:
+    if not _KINDS:
+        from suspenv.models.effects import catalogue  # noqa: F401  (registers the kinds)
+
+
+def get_kind(kind: str) -> EffectKind:
+    """Look up an effect kind by key; unknown keys raise with close matches."""
+    _ensure_catalogue()
+    try:
+        return _KINDS[kind]
+    except KeyError:
+        close = difflib.get_close_matches(kind, list(_KINDS), n=3)
+        hint = f"; did you mean {close}?" if close else ""
+        raise ValidationError(
+            f"unknown effect kind {kind!r}{hint} (known kinds: {sorted(_KINDS)})"
+        ) from None
+
+
+def effect_kinds() -> dict[str, EffectKind]:
+    """All registered effect kinds, by key (a copy)."""
+    _ensure_catalogue()
+    return dict(_KINDS)
+
+
+@dataclass(frozen=True)
+class Effect:
+    """One effect instance in a model: kind, unique name, parameter values, location.
+
+    Parameters missing from ``params`` take the kind's defaults; unknown names raise.
+    Values may be scalars or batch-shaped arrays (broadcast against a series'
+    leading axes).
+    """
+
+    kind: str
+    name: str
+    params: dict[str, Any] = field(default_factory=dict)
+    location: str = ""
+
+    def __post_init__(self) -> None:
+        spec = get_kind(self.kind)
+        if not self.name:
+            raise ValidationError(f"effect of kind {self.kind!r}: `name` must be non-empty")
+        unknown = [k for k in self.params if k not in spec.parameter_names]
+        if unknown:
+            raise ValidationError(
+                f"effect {self.name!r} ({self.kind}): unknown parameter(s) {unknown}; "
+                f"allowed are {spec.parameter_names}"
+            )
+        full = spec.defaults()
+        full.update(self.params)
+        object.__setattr__(self, "params", full)
+
+    def __hash__(self) -> int:
+        vals = tuple(
+            (k, float(v) if np.ndim(v) == 0 else np.asarray(v).tobytes())
+            for k, v in sorted(self.params.items())
+        )
+        return hash((self.kind, self.name, self.location, vals))
+
+    # ----------------------------------------------------------------- descriptors
+    @property
+    def spec(self) -> EffectKind:
+        return get_kind(self.kind)
+
+    @property
+    def words(self) -> str:
+        """Engineering description, e.g. ``"Coulomb friction in the strut"``."""
+        where = f" in the {self.location}" if self.location else ""
+        return f"{self.spec.words}{where}"
+
+    @property
+    def parameter_names(self) -> tuple[str, ...]:
+        """Qualified parameter names ``"<effect name>.<parameter>"`` in registry order."""
+        return tuple(f"{self.name}.{p}" for p in self.spec.parameter_names)
+
+    def values(self) -> np.ndarray:
+        """Parameter values in registry order (scalars only)."""
+        return np.array([float(self.params[p]) for p in self.spec.parameter_names])
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """Lower and upper bounds of the parameters in registry order."""
+        ps = self.spec.parameters
+        return np.array([p.low for p in ps]), np.array([p.high for p in ps])
+
+    def with_params(
+        self, values: Mapping[str, Any] | np.ndarray | None = None, **kw: Any
+    ) -> Effect:
+        """A copy with some parameters replaced (mapping, array in registry order, or kwargs)."""
+        new = dict(self.params)
+        if values is not None:
+            if isinstance(values, Mapping):
+                new.update(values)
+            else:
+                arr = np.asarray(values, dtype=float)
+                names = self.spec.parameter_names
+                if arr.shape != (len(names),):
+                    raise ValidationError(
+                        f"effect {self.name!r}: expected {len(names)} values {names}, "
+                        f"but got shape {arr.shape}"
+                    )
+                new.update({n: float(a) for n, a in zip(names, arr, strict=True)})
+        new.update(kw)
+        return Effect(self.kind, self.name, new, self.location)
+
+    def describe(self) -> str:
+        """One line: words and parameter values with units."""
+        parts = []
+        for p in self.spec.parameters:
+            val = self.params[p.name]
+            txt = f"{float(val):.4g}" if np.ndim(val) == 0 else "array"
+            parts.append(f"{p.name}={txt}{(' ' + p.unit) if p.unit else ''}")
+        return f"{self.words} ({', '.join(parts)})"
+
+    # ----------------------------------------------------------------- evaluation
+    def force(
+        self, x: np.ndarray, v: np.ndarray | None = None, t: np.ndarray | None = None
+    ) -> np.ndarray:
+        """Force [N] of a force-role effect along ``x[..., T]`` [m] (``v`` [m/s], ``t`` [s]).
+
+        When ``v`` is omitted it is the central-difference derivative of ``x``
+        over ``t`` (which is then required).
+        """
+        spec = self.spec
+        if spec.role != "force":
+            raise ValidationError(
+                f"effect {self.name!r} ({self.kind}) has role {spec.role!r}, not 'force'"
+            )
+        x = np.asarray(x, dtype=float)
+        if (v is None or spec.needs_time) and t is None:
+            raise ValidationError(
+                f"effect {self.name!r} ({self.kind}) needs the time vector `t` "
+                "(rate-dependent element or velocity not given)"
+            )
+        if v is None:
+            v = np.gradient(x, np.asarray(t, dtype=float), axis=-1)
+        return spec.apply(x, np.asarray(v, dtype=float), t, **self.params)
+
+    def sensor(self, y: np.ndarray, t: np.ndarray | None = None) -> np.ndarray:
+        """Recorded version of a true channel ``y[..., T]`` for a sensor-role effect."""
+        spec = self.spec
+        if spec.role != "sensor":
+            raise ValidationError(
+                f"effect {self.name!r} ({self.kind}) has role {spec.role!r}, not 'sensor'"
+            )
+        if spec.needs_time and t is None:
+            raise ValidationError(f"effect {self.name!r} ({self.kind}) needs the time vector `t`")
+        return spec.apply(np.asarray(y, dtype=float), t, **self.params)
+
+    # ----------------------------------------------------------------- persistence
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "kind": self.kind,
+            "name": self.name,
+            "location": self.location,
+            "params": {k: float(v) for k, v in self.params.items()},
+        }
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> Effect:
+        missing = [k for k in ("kind", "name") if k not in d]
+        if missing:
+            raise ValidationError(f"effect dict must contain 'kind' and 'name', missing {missing}")
+        return cls(d["kind"], d["name"], dict(d.get("params", {})), d.get("location", ""))
+
+
+def make_effect(kind: str, name: str | None = None, location: str = "", **params: Any) -> Effect:
+    """Shorthand: ``make_effect("coulomb_friction", f_c=20.0)`` (name defaults to the kind)."""
+    return Effect(kind, name or kind, params, location)

@@ -1,0 +1,293 @@
+"""Rate-independent hysteresis elements: Dahl and Bouc-Wen.
+
+Units SI: displacement x [m], velocity v [m/s], force [N]. Sign convention (every
+force element in :mod:`suspenv.models.effects`): ``x`` is the element's deflection
+(positive = compression / bump), and the returned force is the force the element
+transmits, positive when it resists positive deflection, so the power it absorbs is
+``F * v`` and the energy it dissipates over a closed cycle is ``∮ F dx >= 0``.
+
+Two forms of each element:
+
+* state-derivative form for time integration, ``*_dzdt(z, v, ...)`` (pointwise,
+  numpy broadcasting);
+* path form for quasi-static sweeps, ``*_path(x[..., T], ...)``: the state is
+  integrated along the displacement path, so the loop depends on the path only,
+  never on how fast it is travelled (rate independence).
+
+Dahl (P. R. Dahl, 1968), with the hysteretic force ``z`` [N] as the state::
+
+    dz/dt = sigma * v * (1 - z / f_c * sign(v))
+
+``sigma`` [N/m] is the initial stiffness after a reversal and ``f_c`` [N] the
+saturation force. Along a monotone stretch of the path the exact solution is
+``z = s f_c + (z0 - s f_c) exp(-sigma |Δx| / f_c)``, ``s = sign(Δx)``; the path
+form uses it segment by segment, so it is exact for piecewise-linear paths.
+
+Bouc-Wen (Bouc 1967, Wen 1976), canonical form with dimension-free shape::
+
+    dz/dt = A v - beta |v| |z|^(n-1) z - gamma v |z|^n
+
+The engineering form used by the effect registry has ``z`` dimensionless with
+ultimate value 1 and ``F = f_y z``: ``A = 1/x_y``, ``beta = b/x_y``,
+``gamma = (1-b)/x_y``; ``f_y`` [N] is the asymptotic hysteretic force, ``x_y`` [m]
+the yield displacement (initial stiffness ``f_y/x_y``), ``b`` in [0, 1] the loop
+shape and ``n >= 1`` the sharpness of the knee.
+
+Berg (M. Berg, 1998), the friction part of a rubber bushing model, path form only
+(its memory is the last reversal point ``(x_s, F_s)``, not a smooth state)::
+
+    x > x_s:  F = F_s + (x - x_s) / (x2 (1 - a) + (x - x_s)) (f_max - F_s)
+    x < x_s:  F = F_s + (x - x_s) / (x2 (1 + a) - (x - x_s)) (f_max + F_s),   a = F_s / f_max
+
+``f_max`` [N] is the limit friction force and ``x2`` [m] the travel from the
+unloaded state to half of it (``F(x2) = f_max / 2`` on the virgin curve).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from suspenv.core.errors import ValidationError
+from suspenv.models.effects._util import (
+    batch_param,
+    linear_recurrence,
+    require_positive,
+    series,
+)
+
+
+def dahl_dzdt(
+    z: np.ndarray | float, v: np.ndarray | float, sigma: np.ndarray | float, f_c: np.ndarray | float
+) -> np.ndarray:
+    """Dahl state derivative dz/dt [N/s]; ``z`` hysteretic force [N], ``v`` [m/s]."""
+    z, v = np.asarray(z, dtype=float), np.asarray(v, dtype=float)
+    return sigma * v * (1.0 - z / f_c * np.sign(v))
+
+
+def dahl_path(
+    x: np.ndarray,
+    sigma: np.ndarray | float,
+    f_c: np.ndarray | float,
+    z0: np.ndarray | float = 0.0,
+) -> np.ndarray:
+    """Dahl hysteretic force [N] along a displacement path ``x[..., T]`` [m].
+
+    Exact for piecewise-linear paths (closed-form exponential on each segment).
+    ``sigma`` [N/m], ``f_c`` [N] (``>= 0``; zero gives zero force) and ``z0`` [N]
+    are batch-shaped.
+    """
+    x = series(x)
+    require_positive("sigma", sigma)
+    require_positive("f_c", f_c, strict=False)
+    sig, fc = batch_param(sigma), batch_param(f_c)
+    dx = np.diff(x, axis=-1)
+    s = np.sign(dx)
+    # f_c = 0 is the "no effect" limit: the force relaxes to zero at once
+    with np.errstate(divide="ignore"):
+        decay = np.where(fc > 0, np.exp(-sig * np.abs(dx) / np.where(fc > 0, fc, 1.0)), 0.0)
+    # z[k+1] = s fc + (z[k] - s fc) decay, a linear recurrence in z
+    return linear_recurrence(s * fc * (1.0 - decay), decay, z0)
+
+
+def bouc_wen_dzdt(
+    z: np.ndarray | float,
+    v: np.ndarray | float,
+    A: np.ndarray | float,
+    beta: np.ndarray | float,
+    gamma: np.ndarray | float,
+    n: np.ndarray | float,
+) -> np.ndarray:
+    """Canonical Bouc-Wen state derivative dz/dt (units of ``A v``)."""
+    z, v = np.asarray(z, dtype=float), np.asarray(v, dtype=float)
+    az = np.abs(z)
+    return A * v - beta * np.abs(v) * az ** (n - 1.0) * z - gamma * v * az**n
+
+
+def bouc_wen_ultimate(
+    A: np.ndarray | float,
+    beta: np.ndarray | float,
+    gamma: np.ndarray | float,
+    n: np.ndarray | float,
+) -> np.ndarray:
+    """Ultimate state ``z_u = (A / (beta + gamma))^(1/n)`` reached on long monotone loading."""
+    bg = np.asarray(beta, dtype=float) + np.asarray(gamma, dtype=float)
+    require_positive("beta + gamma", bg)
+    return (np.asarray(A, dtype=float) / bg) ** (1.0 / np.asarray(n, dtype=float))
+
+
+def bouc_wen_path(
+    x: np.ndarray,
+    A: np.ndarray | float,
+    beta: np.ndarray | float,
+    gamma: np.ndarray | float,
+    n: np.ndarray | float = 1.0,
+    z0: np.ndarray | float = 0.0,
+    max_step_ratio: float = 0.25,
+) -> np.ndarray:
+    """Canonical Bouc-Wen state along a displacement path ``x[..., T]``.
+
+    Integrates ``dz/dx = A - (beta sign(Δx) sign(z) + gamma) |z|^n``. For ``n = 1``
+    (every batch member) the equation is linear in ``z`` on each side of ``z = 0``
+    and is solved exactly per segment (splitting at the zero crossing); otherwise
+    RK4 with sub-steps of at most ``max_step_ratio`` of the yield displacement
+    ``z_u / A``. Needs ``n >= 1``, ``A > 0`` and ``beta + gamma > 0``. Parameters
+    are batch-shaped.
+    """
+    x = series(x)
+    require_positive("A", A)
+    if np.any(np.asarray(n, dtype=float) < 1.0):
+        raise ValidationError(f"`n >= 1` must hold, but got n={n!r}")
+    a, b, g, nn = (batch_param(p)[..., 0] for p in (A, beta, gamma, n))
+    zu = bouc_wen_ultimate(a, b, g, nn)
+    batch = np.broadcast_shapes(x.shape[:-1], a.shape, b.shape, g.shape, nn.shape, np.shape(z0))
+    dx = np.diff(x, axis=-1)
+    x_yield = np.min(zu / a)
+    nsub = int(
+        np.clip(np.ceil(np.max(np.abs(dx), initial=0.0) / (max_step_ratio * x_yield)), 1, 2000)
+    )
+    if np.all(nn == 1.0):
+        return _bouc_wen_path_linear(x, a, b, g, z0, batch)
+    out = np.empty(batch + x.shape[-1:])
+    z = np.broadcast_to(np.asarray(z0, dtype=float), batch).copy()
+    out[..., 0] = z
+
+    def rhs(zz: np.ndarray, s: np.ndarray) -> np.ndarray:
+        return a - (b * s * np.sign(zz) + g) * np.abs(zz) ** nn
+
+    for k in range(dx.shape[-1]):
+        h = dx[..., k] / nsub
+        s = np.sign(h)
+        for _ in range(nsub):
+            k1 = rhs(z, s)
+            k2 = rhs(z + 0.5 * h * k1, s)
+            k3 = rhs(z + 0.5 * h * k2, s)
+            k4 = rhs(z + h * k3, s)
+            z = z + h / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
+        out[..., k + 1] = z
+    return out
+
+
+def _bouc_wen_path_linear(x, a, b, g, z0, batch) -> np.ndarray:
+    """Exact n = 1 Bouc-Wen along a piecewise-linear path.
+
+    With ``w = sign(Δx) z`` and travel ``u = |Δx|``: ``dw/du = A - (beta + gamma) w``
+    for ``w >= 0`` and ``dw/du = A - (beta - gamma) w`` for ``w < 0``; ``w`` only
+    crosses zero upwards (``dw/du = A > 0`` there), so each segment is at most
+    two exponential relaxations. Runs as a float loop per batch row.
+    """
+    dx = np.broadcast_to(np.diff(x, axis=-1), batch + (x.shape[-1] - 1,)).reshape(
+        -1, x.shape[-1] - 1
+    )
+    a_, b_, g_, z0_ = (
+        np.broadcast_to(np.asarray(p, dtype=float), batch).reshape(-1) for p in (a, b, g, z0)
+    )
+    out = np.empty((dx.shape[0], dx.shape[1] + 1))
+    for r in range(dx.shape[0]):
+        out[r] = _bw1_row(dx[r].tolist(), float(a_[r]), float(b_[r]), float(g_[r]), float(z0_[r]))
+    return out.reshape(batch + (x.shape[-1],))
+
+
+def _relax_scalar(w0: float, a: float, lam: float, u: float) -> float:
+    """Exact solution of ``dw/du = a - lam w`` after travel ``u`` (``lam`` may be 0)."""
+    if abs(lam * u) < 1e-12:
+        return w0 + (a - lam * w0) * u
+    return a / lam + (w0 - a / lam) * math.exp(-lam * u)
+
+
+def _bw1_row(dx: list[float], a: float, beta: float, gamma: float, z: float) -> list[float]:
+    lam_pos, lam_neg = beta + gamma, beta - gamma
+    row = [z]
+    for d in dx:
+        if d == 0.0:
+            row.append(z)
+            continue
+        s = 1.0 if d > 0 else -1.0
+        u = abs(d)
+        w = s * z
+        if w < 0.0:
+            # travel needed to bring w up to zero in the lower regime
+            if abs(lam_neg) < 1e-12:
+                u0 = -w / a
+            else:
+                w_inf = a / lam_neg
+                ratio = w_inf / (w_inf - w)
+                u0 = -math.log(ratio) / lam_neg if ratio > 0.0 else math.inf
+            if u0 >= u:
+                w = _relax_scalar(w, a, lam_neg, u)
+            else:
+                w = _relax_scalar(0.0, a, lam_pos, u - u0)
+        else:
+            w = _relax_scalar(w, a, lam_pos, u)
+        z = s * w
+        row.append(z)
+    return row
+
+
+def bouc_wen_force_path(
+    x: np.ndarray,
+    f_y: np.ndarray | float,
+    x_y: np.ndarray | float,
+    shape: np.ndarray | float = 0.5,
+    n: np.ndarray | float = 1.0,
+    z0: np.ndarray | float = 0.0,
+) -> np.ndarray:
+    """Bouc-Wen hysteretic force [N] in engineering form along ``x[..., T]`` [m].
+
+    ``f_y`` [N] asymptotic force, ``x_y`` [m] yield displacement, ``shape`` = b in
+    [0, 1], ``n >= 1``; ``z0`` is the dimensionless initial state (``F0 = f_y z0``).
+    """
+    require_positive("x_y", x_y)
+    sh = np.asarray(shape, dtype=float)
+    if np.any((sh < 0) | (sh > 1)):
+        raise ValidationError(f"`0 <= shape <= 1` must hold, but got shape={shape!r}")
+    xy = np.asarray(x_y, dtype=float)
+    z = bouc_wen_path(x, 1.0 / xy, sh / xy, (1.0 - sh) / xy, n, z0)
+    return batch_param(f_y) * z
+
+
+def berg_path(x: np.ndarray, f_max: np.ndarray | float, x2: np.ndarray | float) -> np.ndarray:
+    """Berg friction force [N] along a displacement path ``x[..., T]`` [m], from rest at ``x[0]``.
+
+    A reversal (change of the direction of travel) moves the reference point to the
+    previous sample. ``f_max`` [N] and ``x2`` [m] are batch-shaped.
+    """
+    x = series(x)
+    require_positive("f_max", f_max, strict=False)
+    require_positive("x2", x2)
+    fm, xx = batch_param(f_max)[..., 0], batch_param(x2)[..., 0]
+    batch = np.broadcast_shapes(x.shape[:-1], fm.shape, xx.shape)
+    rows = np.broadcast_to(x, batch + x.shape[-1:]).reshape(-1, x.shape[-1])
+    fm_r = np.broadcast_to(fm, batch).reshape(-1)
+    x2_r = np.broadcast_to(xx, batch).reshape(-1)
+    out = np.empty(rows.shape)
+    for r in range(rows.shape[0]):
+        out[r] = _berg_row(rows[r].tolist(), float(fm_r[r]), float(x2_r[r]))
+    return out.reshape(batch + x.shape[-1:])
+
+
+def _berg_row(xs: list[float], f_max: float, x2: float) -> list[float]:
+    if f_max <= 0.0:
+        return [0.0] * len(xs)
+    x_s, f_s = xs[0], 0.0
+    f = 0.0
+    direction = 0.0
+    out = [0.0]
+    prev = xs[0]
+    for x in xs[1:]:
+        d = x - prev
+        if d != 0.0:
+            s = 1.0 if d > 0 else -1.0
+            if direction != 0.0 and s != direction:
+                x_s, f_s = prev, f  # reversal: new reference point
+            direction = s
+            a = f_s / f_max
+            u = x - x_s
+            if u >= 0.0:
+                f = f_s + u / (x2 * (1.0 - a) + u) * (f_max - f_s)
+            else:
+                f = f_s + u / (x2 * (1.0 + a) - u) * (f_max + f_s)
+        out.append(f)
+        prev = x
+    return out

@@ -1,0 +1,69 @@
+"""Sensor imperfections: offset, gain error, first-order lag, pure delay.
+
+A sensor maps the true channel ``y`` to the recorded one. Units follow the channel
+(SI inside suspenv); ``offset`` has the channel's unit, ``gain`` is dimensionless,
+``tau`` and ``delay`` are in seconds. Sign convention: a positive ``tau``/``delay``
+makes the recorded signal late.
+
+* offset and gain: ``y_rec = gain * y + offset``
+* first-order lag: ``tau dy_rec/dt = y - y_rec``; under a sinusoid of angular
+  frequency ``w`` the recorded signal lags by ``atan(w tau)`` with amplitude ratio
+  ``1 / sqrt(1 + (w tau)^2)``.
+* pure delay: ``y_rec(t) = y(t - delay)`` (linear interpolation, first value held).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from suspenv.models.effects._util import (
+    batch_param,
+    linear_recurrence,
+    require_positive,
+    series,
+    time_steps,
+)
+
+
+def sensor_offset_gain(
+    y: np.ndarray | float, offset: np.ndarray | float = 0.0, gain: np.ndarray | float = 1.0
+) -> np.ndarray:
+    """Recorded value ``gain * y + offset`` (pointwise)."""
+    return np.asarray(gain, dtype=float) * np.asarray(y, dtype=float) + offset
+
+
+def sensor_lag_dydt(
+    y_rec: np.ndarray | float, y: np.ndarray | float, tau: np.ndarray | float
+) -> np.ndarray:
+    """First-order sensor state derivative ``(y - y_rec) / tau``."""
+    return (np.asarray(y, dtype=float) - y_rec) / tau
+
+
+def sensor_lag(y: np.ndarray, t: np.ndarray, tau: np.ndarray | float) -> np.ndarray:
+    """First-order lag of ``y[..., T]`` sampled at ``t[T]``; starts at rest on ``y[..., 0]``.
+
+    Exact for ``y`` linear between samples (first-order-hold discretisation).
+    ``tau`` [s] is batch-shaped; ``tau = 0`` returns ``y`` unchanged.
+    """
+    y = series(y, "y")
+    dt = time_steps(t, y.shape[-1])
+    require_positive("tau", tau, strict=False)
+    ta = batch_param(tau)
+    safe = np.where(ta > 0, ta, 1.0)
+    slope = np.diff(y, axis=-1) / dt
+    e = np.where(ta > 0, np.exp(-dt / safe), 0.0)
+    # exact response of tau y' = u - y to u linear over each interval:
+    # y[k+1] = u[k+1] - slope tau + (y[k] - u[k] + slope tau) e
+    a = y[..., 1:] - slope * safe - (y[..., :-1] - slope * safe) * e
+    a = np.where(ta > 0, a, y[..., 1:])
+    return linear_recurrence(a, e, y[..., 0])
+
+
+def sensor_delay(y: np.ndarray, t: np.ndarray, delay: float) -> np.ndarray:
+    """Pure delay of ``y[..., T]`` by ``delay`` [s] (scalar), linear interpolation."""
+    y = series(y, "y")
+    time_steps(t, y.shape[-1])
+    require_positive("delay", delay, strict=False)
+    flat = y.reshape(-1, y.shape[-1])
+    out = np.stack([np.interp(np.asarray(t) - delay, t, row) for row in flat])
+    return out.reshape(y.shape)

@@ -1,0 +1,72 @@
+"""Nonlinear stiffness elements: cubic (Duffing) and progressive springs, end stops.
+
+Units SI: deflection x [m], force [N]. Sign convention: ``x`` positive = compression
+(bump); the force is the force the element transmits, positive when it resists
+positive deflection. All functions are pointwise (numpy broadcasting).
+
+* Cubic stiffness: ``F = k3 x^3`` (``k3`` [N/m^3]), added to a linear base spring.
+  Under ``x = A sin(wt)`` it produces a third harmonic of amplitude ``k3 A^3 / 4``.
+* Progressive spring beyond a free range: ``F = k_p sign(x) max(|x| - x0, 0)^2``
+  (``k_p`` [N/m^2], ``x0`` [m]); symmetric, stiffening with amplitude.
+* End stops, one-sided: a bump stop acts only when ``x > gap_bump``, a rebound stop
+  only when ``x < -gap_rebound``::
+
+      F_bump    =  k_stop * max(x - gap, 0)^p
+      F_rebound = -k_stop * max(-x - gap, 0)^p
+
+  ``gap`` [m] >= 0 is the free travel, ``k_stop`` [N/m^p], ``p >= 1`` (1 linear,
+  2 a typical progressive elastomer stop).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from suspenv.core.errors import ValidationError
+from suspenv.models.effects._util import require_positive
+
+
+def cubic_stiffness(x: np.ndarray | float, k3: np.ndarray | float) -> np.ndarray:
+    """Cubic spring force ``k3 x^3`` [N]."""
+    x = np.asarray(x, dtype=float)
+    return np.asarray(k3, dtype=float) * x**3
+
+
+def progressive_spring(
+    x: np.ndarray | float, k_p: np.ndarray | float, x0: np.ndarray | float = 0.0
+) -> np.ndarray:
+    """Symmetric progressive force ``k_p sign(x) max(|x| - x0, 0)^2`` [N]."""
+    require_positive("x0", x0, strict=False)
+    x = np.asarray(x, dtype=float)
+    return np.asarray(k_p, dtype=float) * np.sign(x) * np.maximum(np.abs(x) - x0, 0.0) ** 2
+
+
+def _check_stop(gap: np.ndarray | float, k_stop: np.ndarray | float, p: np.ndarray | float) -> None:
+    require_positive("gap", gap, strict=False)
+    require_positive("k_stop", k_stop, strict=False)
+    if np.any(np.asarray(p, dtype=float) < 1.0):
+        raise ValidationError(f"`p >= 1` must hold, but got p={p!r}")
+
+
+def bump_stop(
+    x: np.ndarray | float,
+    gap: np.ndarray | float,
+    k_stop: np.ndarray | float,
+    p: np.ndarray | float = 1.0,
+) -> np.ndarray:
+    """One-sided bump (compression) stop force [N]: zero until ``x > gap``."""
+    _check_stop(gap, k_stop, p)
+    x = np.asarray(x, dtype=float)
+    return k_stop * np.maximum(x - gap, 0.0) ** p
+
+
+def rebound_stop(
+    x: np.ndarray | float,
+    gap: np.ndarray | float,
+    k_stop: np.ndarray | float,
+    p: np.ndarray | float = 1.0,
+) -> np.ndarray:
+    """One-sided rebound (extension) stop force [N]: zero until ``x < -gap``; negative."""
+    _check_stop(gap, k_stop, p)
+    x = np.asarray(x, dtype=float)
+    return -k_stop * np.maximum(-x - gap, 0.0) ** p
