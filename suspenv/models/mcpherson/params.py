@@ -1,0 +1,396 @@
+"""McPherson axle parameters: the 49 design parameters, vehicle constants, batched axle data.
+
+Frames and units
+----------------
+* **Edges** (design vectors, vehicle files, published tables): the ADAMS/Car
+  convention of Tey et al. 2014: millimetres, x rearward, y to the right, z up;
+  hard points are given for the *left* side (negative y). Bushing translational
+  stiffness in N/mm, rotational in N*mm/deg, angles in degrees.
+* **Inside** (:class:`Axle` and everything built on it): SI units and ISO 8855
+  (x forward, y left, z up). Left side has y > 0. The conversion of a left-side
+  ADAMS point (x, y, z) [mm] is ``(-x, -y, z) / 1000`` [m]; the right side is its
+  mirror image ``(-x, +y, z) / 1000`` (both sides are given in the left-side
+  convention, so a mirrored axle is two identical parameter sets).
+* Side index 0 is left, 1 is right; ``SIDE_SIGN = (+1, -1)`` is the sign of y.
+* Bushing frames are parallel to the vehicle axes; a mirror about the x-z plane
+  maps each axis onto itself, so a diagonal stiffness is the same on both sides
+  and in both conventions.
+
+Sign conventions of the static alignment parameters: camber negative when the top
+of the wheel leans inboard; toe positive for toe-in. Both apply to each wheel.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, fields, replace
+
+import numpy as np
+
+from suspenv.core.errors import ValidationError
+from suspenv.core.space import DesignSpace, Parameter
+
+SIDE_SIGN = np.array([1.0, -1.0])
+DEG = np.pi / 180.0
+
+#: hard points that are design variables, in table order
+HARD_POINTS = (
+    "lower_ball_joint",
+    "lca_front_bush",
+    "lca_rear_bush",
+    "strut_axis_point",
+    "strut_top",
+    "tie_rod_inner",
+    "tie_rod_outer",
+    "arb_drop_link",
+)
+
+#: the paper's ranges (mm, ADAMS/Car, left side)
+PAPER_RANGES = {
+    "lower_ball_joint": ((-15, 5), (-710, -690), (-50, -30)),
+    "lca_front_bush": ((0, 20), (-380, -360), (-50, -30)),
+    "lca_rear_bush": ((310, 330), (-370, -350), (-40, -20)),
+    "strut_axis_point": ((-5, 15), (-610, -590), (125, 145)),
+    "strut_top": ((20, 40), (-560, -540), (560, 580)),
+    "tie_rod_inner": ((150, 170), (-320, -300), (85, 105)),
+    "tie_rod_outer": ((120, 140), (-660, -640), (100, 120)),
+    "arb_drop_link": ((45, 65), (-550, -530), (50, 70)),
+}
+
+#: the paper's identified values (its Table 1), the reference vehicle of suspenv
+PAPER_IDENTIFIED_POINTS = {
+    "lower_ball_joint": (-15.4, -688.6, -39.1),
+    "lca_front_bush": (-2.1, -383.2, -47.1),
+    "lca_rear_bush": (309.3, -346.7, -29.1),
+    "strut_axis_point": (1.6, -581.8, 217.2),
+    "strut_top": (39.5, -536.9, 558.9),
+    "tie_rod_inner": (163.0, -317.6, 85.9),
+    "tie_rod_outer": (136.7, -642.7, 105.3),
+    "arb_drop_link": (65.1, -533.7, 70.6),
+}
+
+#: bushings and their stiffness components that are design variables
+BUSHINGS = {
+    "lca_front": ("kx", "ky", "rx", "ry", "rz"),
+    "lca_rear": ("kx", "ky", "rx", "ry", "rz"),
+    "arb_bush": ("kx", "ky", "kz", "rx", "ry", "rz"),
+    "top_mount": ("kx", "ky", "kz", "rx", "ry", "rz"),
+}
+COMPONENTS = ("kx", "ky", "kz", "rx", "ry", "rz")
+
+PAPER_IDENTIFIED_BUSHINGS = {
+    "lca_front": (9483.4, 8811.48, 32268.7, 760.3, 6019.3),
+    "lca_rear": (3721.1, 21425.1, 5496.9, 18353.0, 4399.7),
+    "arb_bush": (36581.3, 2625.1, 39097.8, 24386.0, 10380.0, 1160.5),
+    "top_mount": (5401.2, 33553.1, 2463.9, 16494.0, 23121.0, 3396.7),
+}
+
+#: margin (mm) kept between a reference value and a widened bound
+RANGE_MARGIN_MM = 2.0
+#: lower bound of bushing stiffness: the paper's 0 makes the linkage a mechanism
+BUSHING_LOW = 50.0
+BUSHING_HIGH = 50000.0
+
+
+def _widened(lo: float, hi: float, value: float) -> tuple[float, float]:
+    """The paper's range, widened just enough to hold ``value`` with a margin."""
+    return min(lo, value - RANGE_MARGIN_MM), max(hi, value + RANGE_MARGIN_MM)
+
+
+def design_parameters() -> tuple[Parameter, ...]:
+    """The 49 design parameters (ADAMS/Car units, left side) with the published ranges.
+
+    Ranges are the paper's, widened where its own identified value (our reference)
+    lies outside them, by the minimum that keeps a 2 mm margin; see ``docs/knc.md``.
+    Bushing lower bounds are 50 instead of 0 (a zero stiffness leaves the linkage
+    free to move without load, so no equilibrium exists).
+    """
+    out: list[Parameter] = []
+    for hp in HARD_POINTS:
+        for axis, (lo, hi), v in zip(
+            "xyz", PAPER_RANGES[hp], PAPER_IDENTIFIED_POINTS[hp], strict=True
+        ):
+            wlo, whi = _widened(lo, hi, v)
+            note = "" if (wlo, whi) == (lo, hi) else f" (paper range [{lo}, {hi}] widened)"
+            out.append(
+                Parameter(
+                    f"{hp}_{axis}",
+                    wlo,
+                    whi,
+                    "mm",
+                    default=v,
+                    description=f"{hp.replace('_', ' ')} {axis}, ADAMS/Car frame, left side{note}",
+                )
+            )
+    for bush, comps in BUSHINGS.items():
+        for comp, v in zip(comps, PAPER_IDENTIFIED_BUSHINGS[bush], strict=True):
+            unit = "N/mm" if comp.startswith("k") else "N*mm/deg"
+            out.append(
+                Parameter(
+                    f"{bush}_{comp}",
+                    BUSHING_LOW,
+                    BUSHING_HIGH,
+                    unit,
+                    default=v,
+                    description=f"{bush.replace('_', ' ')} bushing stiffness {comp}",
+                )
+            )
+    out.append(
+        Parameter(
+            "arb_torsion",
+            30.0,
+            3000.0,
+            "N*m/rad",
+            default=930.6,
+            description="anti-roll bar torsional stiffness (twist of one half against the other)",
+        )
+    )
+    out.append(
+        Parameter(
+            "static_camber",
+            -1.0,
+            1.0,
+            "deg",
+            default=-0.52,
+            description="static camber, negative = top of wheel inboard",
+        )
+    )
+    out.append(
+        Parameter(
+            "static_toe",
+            -1.0,
+            1.0,
+            "deg",
+            default=0.0032,
+            description="static toe, positive = toe-in",
+        )
+    )
+    return tuple(out)
+
+
+def design_space() -> DesignSpace:
+    """The 49-parameter :class:`DesignSpace` (reference = the paper's identified values)."""
+    return DesignSpace(design_parameters())
+
+
+PARAMETER_NAMES: tuple[str, ...] = tuple(p.name for p in design_parameters())
+N_PARAMETERS = len(PARAMETER_NAMES)
+
+
+@dataclass(frozen=True)
+class AxleConstants:
+    """Vehicle data that are not design variables (ADAMS/Car mm for points, left side).
+
+    Attributes:
+        wheel_centre: wheel centre [mm] (fixed: track is not a design variable).
+        arb_bush: anti-roll bar bush position [mm] (the bar's mounting to the body).
+        spring_upper_seat_d: distance [mm] of the upper seat along the strut line from
+            the strut top (Psu = ST + a * d).
+        spring_lower_seat_d, spring_lower_seat_offset: lower seat
+            Psl = ST + a * d + V, V [mm] projected perpendicular to the strut line.
+        drop_link_d, drop_link_offset: drop-link-to-strut point Pdts = ST + a * d + V.
+        spring_rate: coil spring rate [N/mm].
+        tyre_rate: tyre vertical rate [N/mm]; wheel_radius [mm].
+        sprung_mass [kg], front_share [-], wheel_mass [kg] (per wheel, hangs on the knuckle).
+    """
+
+    wheel_centre: tuple[float, float, float] = (0.0, -745.0, 20.0)
+    arb_bush: tuple[float, float, float] = (255.0, -450.0, 60.0)
+    spring_upper_seat_d: float = 40.0
+    spring_lower_seat_d: float = 260.0
+    spring_lower_seat_offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    drop_link_d: float = 290.0
+    drop_link_offset: tuple[float, float, float] = (55.0, 40.0, 0.0)
+    spring_rate: float = 25.0
+    tyre_rate: float = 252.18
+    wheel_radius: float = 277.0
+    sprung_mass: float = 1175.6
+    front_share: float = 0.58
+    wheel_mass: float = 27.5
+
+    def __post_init__(self) -> None:
+        for name in ("spring_rate", "tyre_rate", "wheel_radius", "sprung_mass"):
+            v = getattr(self, name)
+            if not v > 0:
+                raise ValidationError(f"AxleConstants: `{name} > 0` must hold, but got {v}")
+        if not 0 < self.front_share < 1:
+            raise ValidationError(
+                f"AxleConstants: `0 < front_share < 1` must hold, but got {self.front_share}"
+            )
+        if not self.spring_upper_seat_d < self.spring_lower_seat_d:
+            raise ValidationError(
+                "AxleConstants: `spring_upper_seat_d < spring_lower_seat_d` must hold, but got "
+                f"({self.spring_upper_seat_d}, {self.spring_lower_seat_d})"
+            )
+
+    @property
+    def corner_sprung_load(self) -> float:
+        """Sprung weight on one front wheel [N]."""
+        return self.sprung_mass * 9.81 * self.front_share / 2.0
+
+    def as_dict(self) -> dict:
+        return {f.name: getattr(self, f.name) for f in fields(self)}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> AxleConstants:
+        known = {f.name for f in fields(cls)}
+        unknown = sorted(set(d) - known)
+        if unknown:
+            raise ValidationError(f"unknown axle constant(s) {unknown}; known are {sorted(known)}")
+        conv = {
+            k: tuple(float(x) for x in v) if isinstance(v, list | tuple) else float(v)
+            for k, v in d.items()
+        }
+        return replace(cls(), **conv)
+
+
+def adams_to_iso(p_mm: np.ndarray, side: int) -> np.ndarray:
+    """Left-side ADAMS/Car point(s) [mm] -> ISO 8855 point(s) [m] on ``side`` (0 left, 1 right)."""
+    p = np.asarray(p_mm, dtype=float) / 1000.0
+    s = np.array([-1.0, -SIDE_SIGN[side], 1.0])
+    return p * s
+
+
+def iso_to_adams(p_m: np.ndarray, side: int) -> np.ndarray:
+    """Inverse of :func:`adams_to_iso` (ISO [m] on ``side`` -> left-side ADAMS [mm])."""
+    s = np.array([-1.0, -SIDE_SIGN[side], 1.0])
+    return np.asarray(p_m, dtype=float) * s * 1000.0
+
+
+@dataclass
+class Axle:
+    """Batched axle data in SI / ISO 8855; every array has leading shape (n, 2) (design, side).
+
+    Attributes:
+        points: name -> (n, 2, 3) [m] positions at the design (assembly) position.
+        bush: name -> (n, 2, 6) stiffness [N/m x3, N*m/rad x3] in vehicle axes.
+        arb_torsion: (n,) [N*m/rad].
+        camber0, toe0: (n, 2) static alignment [rad] (camber <0 top in, toe >0 toe-in).
+        spring_rate, tyre_rate, wheel_radius, wheel_weight, corner_load: (n, 2) SI.
+        spring_free_length: (n, 2) [m]; set by :func:`suspenv.models.mcpherson.preload`.
+    """
+
+    points: dict[str, np.ndarray]
+    bush: dict[str, np.ndarray]
+    arb_torsion: np.ndarray
+    camber0: np.ndarray
+    toe0: np.ndarray
+    spring_rate: np.ndarray
+    tyre_rate: np.ndarray
+    wheel_radius: np.ndarray
+    wheel_weight: np.ndarray
+    corner_load: np.ndarray
+    spring_free_length: np.ndarray | None = None
+    constants: AxleConstants = field(default_factory=AxleConstants)
+
+    @property
+    def n(self) -> int:
+        return self.arb_torsion.shape[0]
+
+    def take(self, rows: np.ndarray) -> Axle:
+        """The sub-batch of the given design rows."""
+        idx = np.asarray(rows)
+        return Axle(
+            {k: v[idx] for k, v in self.points.items()},
+            {k: v[idx] for k, v in self.bush.items()},
+            self.arb_torsion[idx],
+            self.camber0[idx],
+            self.toe0[idx],
+            self.spring_rate[idx],
+            self.tyre_rate[idx],
+            self.wheel_radius[idx],
+            self.wheel_weight[idx],
+            self.corner_load[idx],
+            None if self.spring_free_length is None else self.spring_free_length[idx],
+            self.constants,
+        )
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+def _perpendicular(v: np.ndarray, a: np.ndarray) -> np.ndarray:
+    """Component of ``v`` perpendicular to unit vector ``a``."""
+    return v - (v * a).sum(-1, keepdims=True) * a
+
+
+def build_axle(
+    left: np.ndarray,
+    right: np.ndarray | None = None,
+    constants: AxleConstants | None = None,
+) -> Axle:
+    """Build an :class:`Axle` from design vectors (n, 49) in the spec's units.
+
+    ``right`` defaults to ``left`` (a mirrored axle). Both are given in the left-side
+    ADAMS/Car convention; the right side is mirrored here. ``arb_torsion`` (one bar)
+    is taken from ``left``.
+    """
+    c = constants or AxleConstants()
+    XL = np.atleast_2d(np.asarray(left, dtype=float))
+    XR = XL if right is None else np.atleast_2d(np.asarray(right, dtype=float))
+    if XL.shape[1] != N_PARAMETERS or XR.shape != XL.shape:
+        raise ValidationError(
+            f"design vectors must have shape (n, {N_PARAMETERS}) on both sides, but got "
+            f"left {XL.shape} and right {XR.shape}"
+        )
+    n = XL.shape[0]
+    X = np.stack([XL, XR], axis=1)  # (n, 2, 49)
+    idx = {name: i for i, name in enumerate(PARAMETER_NAMES)}
+
+    mirror = np.stack([np.array([-1.0, -SIDE_SIGN[s], 1.0]) for s in (0, 1)])  # (2, 3)
+
+    def to_iso(p_mm: np.ndarray) -> np.ndarray:
+        return np.asarray(p_mm, dtype=float) / 1000.0 * mirror
+
+    pts: dict[str, np.ndarray] = {}
+    for hp in HARD_POINTS:
+        cols = [idx[f"{hp}_{a}"] for a in "xyz"]
+        pts[hp] = to_iso(X[..., cols])
+    for name in ("wheel_centre", "arb_bush"):
+        pts[name] = np.broadcast_to(to_iso(np.array(getattr(c, name))), (n, 2, 3)).copy()
+
+    st, sp = pts["strut_top"], pts["strut_axis_point"]
+    a = _unit(sp - st)
+
+    def dependent(d_mm: float, offset_mm: tuple[float, float, float]) -> np.ndarray:
+        off = _perpendicular(to_iso(np.array(offset_mm)) + 0.0 * st, a)
+        return st + a * (d_mm / 1000.0) + off
+
+    pts["spring_upper_seat"] = dependent(c.spring_upper_seat_d, (0.0, 0.0, 0.0))
+    pts["spring_lower_seat"] = dependent(c.spring_lower_seat_d, c.spring_lower_seat_offset)
+    pts["drop_link_strut"] = dependent(c.drop_link_d, c.drop_link_offset)
+
+    bush: dict[str, np.ndarray] = {}
+    for b in BUSHINGS:
+        k = np.zeros((n, 2, 6))
+        for comp in COMPONENTS:
+            name = f"{b}_{comp}"
+            if name in idx:
+                val = X[..., idx[name]]
+            elif comp == "kz":  # lower-arm bushes: axisymmetric about their x axis
+                val = X[..., idx[f"{b}_ky"]]
+            else:  # pragma: no cover - every bushing lists its rotations
+                raise ValidationError(f"bushing {b} lacks component {comp}")
+            j = COMPONENTS.index(comp)
+            k[..., j] = val * (1e3 if comp.startswith("k") else 1e-3 / DEG)
+        bush[b] = k
+
+    ones = np.ones((n, 2))
+    return Axle(
+        points=pts,
+        bush=bush,
+        arb_torsion=XL[:, idx["arb_torsion"]].copy(),
+        camber0=X[..., idx["static_camber"]] * DEG,
+        toe0=X[..., idx["static_toe"]] * DEG,
+        spring_rate=ones * c.spring_rate * 1e3,
+        tyre_rate=ones * c.tyre_rate * 1e3,
+        wheel_radius=ones * c.wheel_radius / 1e3,
+        wheel_weight=ones * c.wheel_mass * 9.81,
+        corner_load=ones * c.corner_sprung_load,
+        constants=c,
+    )
+
+
+def reference_design() -> np.ndarray:
+    """The reference vehicle's design vector (49,): the paper's identified values."""
+    return design_space().reference()

@@ -1,0 +1,740 @@
+"""Quasi-static equilibrium of a compliant McPherson front axle, vectorised over designs.
+
+Frame ISO 8855 (x forward, y left, z up), SI units (m, N, N*m, rad). Body fixed,
+steering rack fixed. Side index 0 = left (y > 0), 1 = right.
+
+Model (per side, four rigid bodies, each with 6 coordinates)
+-----------------------------------------------------------
+0. lower control arm: front and rear bushes to the body (6-D linear springs);
+1. knuckle with strut tube, hub and wheel: lower ball joint to the arm (3 exact
+   constraints), tie rod from the fixed rack point (exact distance constraint),
+   drop link to the anti-roll bar (exact distance constraint), tyre as a vertical
+   spring between the lowest point of the wheel and the rig pad (frictionless pad:
+   vertical force only), the wheel's weight at the wheel centre;
+2. strut rod: top mount bushing (6-D) to the body, cylindrical joint with the tube
+   (4 exact constraints: axes parallel, rod point on the tube axis), the coil spring
+   between the upper seat (rod) and the lower seat (tube) acting along the seats' line;
+3. anti-roll bar half: its bush to the body (6-D), the drop link, and the joint of
+   the two halves at the bar's middle: very stiff in shear and bending (the bar acts
+   as one body) with the bar's torsional stiffness about the vehicle y axis (twist =
+   y component of the rotation vector of R_left R_right^T).
+
+Unknowns per side: 24 body coordinates (translation of the reference point and a
+left-multiplied rotation increment) and 9 Lagrange multipliers (constraint
+forces). Residual per side: the force and moment (about the body reference point)
+sums of the four bodies and the nine constraint violations. A constraint multiplier
+``lam`` applies the generalised force ``lam * dc/dq``.
+
+Bushing deflection: translation of the bushing point from its design position and
+the rotation vector of the body's rotation; forces and moments in vehicle axes.
+
+Newton's method, vectorised over the batch: the Jacobian is a forward-difference
+Jacobian of the exact residual (all columns in one batched call, see
+:meth:`AxleSolver.jacobian`), inverted with a batched ``np.linalg.inv`` and reused
+along the sweep (chord steps); a row whose step shrinks by less than half per
+iteration gets a fresh Jacobian (only that row), and its steps are damped when even
+fresh-Jacobian steps stop shrinking (a cycle at a Dahl reversal). A row has
+converged when its Newton correction is below ``xtol`` = 1e-6 m, ``rtol`` = 1e-5 rad
+and ``ltol`` = 0.1 N (the correction is applied); with path-dependent effects the
+tolerances are ten times tighter and two small corrections in a row are required.
+Rows that do not converge in ``maxit`` iterations are reported per row
+(``converged=False``); the rig turns them into typed failures with a reason.
+
+Output sign conventions (:meth:`AxleSolver.outputs`): toe positive = toe-in; camber
+negative = top of the wheel inboard; caster positive = steering axis (lower ball
+joint to top-mount centre) leaning rearward at the top; kingpin inclination positive
+= axis top inboard; scrub radius positive when the axis meets the pad plane outboard
+of the contact point; trail positive when it meets it ahead of the contact point;
+tyre force positive in compression (the tyre is a linear two-way spring, as in the
+paper); spring force positive in compression.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import copy
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from suspenv.models.effects import cubic_stiffness, dahl_path
+from suspenv.models.mcpherson.effects import BUSHING_NAMES, AxleEffects
+from suspenv.models.mcpherson.kinematics import CornerKinematics
+from suspenv.models.mcpherson.params import SIDE_SIGN, Axle
+from suspenv.models.mcpherson.rotation import cross, dot, expm_so3, log_so3, rotate
+
+BODIES = ("lower_arm", "knuckle", "strut_rod", "arb_half")
+NQ, NL = 24, 9
+NS = NQ + NL  # unknowns per side
+EZ = np.array([0.0, 0.0, 1.0])
+#: the bar's stiffness at its middle against shear [N/m] and bending [N*m/rad]
+ARB_SHEAR_STIFFNESS = 1e8
+ARB_BENDING_STIFFNESS = 1e6
+#: body of each rotated body-fixed vector (see AxleSolver._vec)
+VEC_BODY = np.array([0, 0, 0, 1, 1, 1, 1, 1, 1, 1, 1, 1, 2, 2, 3, 3])
+#: bushings in the order of the stacked arrays, and the body each one holds
+BUSH_ORDER = ("lca_front", "lca_rear", "top_mount", "arb_bush")
+BUSH_BODY = (0, 0, 2, 3)
+#: body of each load slot of the residual (bushings, ball joint x2, tie rod, drop link x2,
+#: spring x2, cylindrical joint x2, strut friction x2, tyre, wheel weight, external, bar)
+SLOT_BODY = (0, 0, 2, 3, 0, 1, 1, 1, 3, 1, 2, 2, 1, 2, 1, 1, 1, 1, 3)
+N_SLOTS = len(SLOT_BODY)
+SLOT_SUM = np.zeros((4, N_SLOTS))
+SLOT_SUM[list(SLOT_BODY), np.arange(N_SLOTS)] = 1.0
+BUSH_SUM = np.zeros((4, 4))
+BUSH_SUM[list(BUSH_BODY), np.arange(4)] = 1.0
+#: smooth dead band of the Dahl elements at reversals (see dahl_step) [m], [rad]
+DAHL_EPS_TRANSLATION = 1e-6
+DAHL_EPS_ROTATION = 1e-5
+#: scale of constraint rows in the residual: metres -> micrometres
+CSCALE = 1e6
+
+
+@dataclass
+class AxleState:
+    """Converged (or trial) state of a batch of axles.
+
+    r (n, 2, 4, 3) body reference points [m]; R (n, 2, 4, 3, 3) body rotations;
+    lam (n, 2, 9) constraint multipliers; hyst: bushing name -> (deflection, Dahl
+    force) at the last committed step, each (n, 2, 6); fric: (slide, Dahl force) (n, 2).
+    """
+
+    r: np.ndarray
+    R: np.ndarray
+    lam: np.ndarray
+    hyst: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
+    fric: tuple[np.ndarray, np.ndarray] | None = None
+
+    def copy(self) -> AxleState:
+        return AxleState(
+            self.r.copy(),
+            self.R.copy(),
+            self.lam.copy(),
+            {k: (a.copy(), b.copy()) for k, (a, b) in self.hyst.items()},
+            None if self.fric is None else (self.fric[0].copy(), self.fric[1].copy()),
+        )
+
+    def take(self, rows: np.ndarray) -> AxleState:
+        """The state of the given rows (index array or boolean mask)."""
+        return AxleState(
+            self.r[rows].copy(),
+            self.R[rows].copy(),
+            self.lam[rows].copy(),
+            {k: (a[rows].copy(), b[rows].copy()) for k, (a, b) in self.hyst.items()},
+            None if self.fric is None else (self.fric[0][rows].copy(), self.fric[1][rows].copy()),
+        )
+
+    def assign(self, other: AxleState, rows: np.ndarray) -> None:
+        """Copy ``other``'s values into this state for the boolean/int ``rows``."""
+        self.r[rows], self.R[rows], self.lam[rows] = other.r[rows], other.R[rows], other.lam[rows]
+        for k in self.hyst:
+            self.hyst[k][0][rows] = other.hyst[k][0][rows]
+            self.hyst[k][1][rows] = other.hyst[k][1][rows]
+        if self.fric is not None and other.fric is not None:
+            self.fric[0][rows] = other.fric[0][rows]
+            self.fric[1][rows] = other.fric[1][rows]
+
+
+def _perp_basis(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    helper = np.zeros_like(a)
+    helper[..., 0] = 1.0
+    u = cross(a, helper)
+    u /= np.linalg.norm(u, axis=-1, keepdims=True)
+    return u, cross(a, u)
+
+
+def spin_axis(camber: np.ndarray, toe: np.ndarray) -> np.ndarray:
+    """Outboard unit spin axis (..., 2, 3) from camber and toe [rad] (signs: module doc)."""
+    sg = SIDE_SIGN
+    return np.stack(
+        [np.sin(toe) * np.cos(camber), sg * np.cos(toe) * np.cos(camber), -np.sin(camber)], axis=-1
+    )
+
+
+class AxleSolver:
+    """Equilibrium solver for a batch of axles (see the module docstring)."""
+
+    def __init__(
+        self,
+        axle: Axle,
+        effects: AxleEffects | None = None,
+        xtol: float = 1e-6,
+        rtol: float = 1e-5,
+        ltol: float = 0.1,
+        maxit: int = 30,
+    ):
+        self.axle = axle
+        self.effects = effects or AxleEffects()
+        # path-dependent elements are stiff over their micrometre-scale reversals: converge
+        # ten times tighter so that their force residual stays small
+        tight = 0.1 if self.effects.path_dependent else 1.0
+        self.xtol, self.rtol, self.ltol = xtol * tight, rtol * tight, ltol * tight
+        # reversals of path-dependent elements may need damped (slower) iterations
+        self.maxit = 2 * maxit if self.effects.path_dependent else maxit
+        self.n = axle.n
+        p = axle.points
+        ref = np.stack(
+            [
+                0.5 * (p["lca_front_bush"] + p["lca_rear_bush"]),
+                p["wheel_centre"],
+                p["strut_top"],
+                p["arb_bush"],
+            ],
+            axis=2,
+        )  # (n, 2, 4, 3)
+        self.ref0 = ref
+        self.lca_pts = (
+            np.stack([p["lca_front_bush"], p["lca_rear_bush"], p["lower_ball_joint"]], axis=2)
+            - ref[:, :, 0:1]
+        )
+        self.kn_pts = (
+            np.stack(
+                [
+                    p["lower_ball_joint"],
+                    p["tie_rod_outer"],
+                    p["drop_link_strut"],
+                    p["spring_lower_seat"],
+                    p["strut_axis_point"],
+                ],
+                axis=2,
+            )
+            - ref[:, :, 1:2]
+        )
+        self.s_upper_seat = p["spring_upper_seat"] - ref[:, :, 2]
+        self.s_arb_end = p["arb_drop_link"] - ref[:, :, 3]
+        mid = p["arb_bush"].copy()
+        mid[..., 1] = 0.0
+        self.s_arb_mid = mid - ref[:, :, 3]
+        kb = axle.arb_torsion
+        self.k_bar_shear = ARB_SHEAR_STIFFNESS
+        self.k_bar_rot = np.stack(
+            [np.full_like(kb, ARB_BENDING_STIFFNESS), kb, np.full_like(kb, ARB_BENDING_STIFFNESS)],
+            axis=-1,
+        )
+        self.ground = {
+            "lca_front": p["lca_front_bush"],
+            "lca_rear": p["lca_rear_bush"],
+            "top_mount": p["strut_top"],
+            "arb_bush": p["arb_bush"],
+        }
+        self.tri = p["tie_rod_inner"]
+        a = p["strut_axis_point"] - p["strut_top"]
+        self.a = a / np.linalg.norm(a, axis=-1, keepdims=True)
+        self.u, self.v = _perp_basis(self.a)
+        self.L_tie = np.linalg.norm(p["tie_rod_outer"] - p["tie_rod_inner"], axis=-1)
+        self.L_drop = np.linalg.norm(p["drop_link_strut"] - p["arb_drop_link"], axis=-1)
+        self.s0 = spin_axis(axle.camber0, axle.toe0)
+        self.K = axle.bush
+        self.kt, self.Rw = axle.tyre_rate, axle.wheel_radius
+        self.ks = axle.spring_rate
+        self.wheel_weight = axle.wheel_weight
+        self.L_spring0 = np.linalg.norm(p["spring_lower_seat"] - p["spring_upper_seat"], axis=-1)
+        self._size_preload()
+        # every body-fixed vector, rotated in one batched product by the residual
+        self._vec = np.stack(
+            [
+                self.lca_pts[:, :, 0],  # 0 lower-arm front bush
+                self.lca_pts[:, :, 1],  # 1 lower-arm rear bush
+                self.lca_pts[:, :, 2],  # 2 ball joint (arm)
+                self.kn_pts[:, :, 0],  # 3 ball joint (knuckle)
+                self.kn_pts[:, :, 1],  # 4 tie-rod outer
+                self.kn_pts[:, :, 2],  # 5 drop-link point
+                self.kn_pts[:, :, 3],  # 6 spring lower seat
+                self.kn_pts[:, :, 4],  # 7 strut axis point
+                self.u,  # 8 tube axis normal u
+                self.v,  # 9 tube axis normal v
+                self.a,  # 10 tube axis
+                self.s0,  # 11 wheel spin axis
+                self.s_upper_seat,  # 12 spring upper seat
+                self.a,  # 13 rod axis
+                self.s_arb_end,  # 14 bar end (drop link)
+                self.s_arb_mid,  # 15 bar middle
+            ],
+            axis=2,
+        )
+        self._K4 = np.stack([self.K[b] for b in BUSH_ORDER], axis=2)  # (n, 2, 4, 6)
+        self._ground4 = np.stack([self.ground[b] for b in BUSH_ORDER], axis=2)
+        self.stats = {"solves": 0, "residuals": 0, "jacobians": 0}
+
+    def take(self, rows: np.ndarray) -> AxleSolver:
+        """A solver for the given design rows (index array or mask), sharing the set-up."""
+        idx = np.arange(self.n)[rows]
+        out = copy.copy(self)
+        for key, val in self.__dict__.items():
+            if isinstance(val, np.ndarray) and val.ndim and val.shape[0] == self.n:
+                setattr(out, key, val[idx])
+            elif (
+                isinstance(val, dict)
+                and val
+                and all(isinstance(v, np.ndarray) and v.shape[0] == self.n for v in val.values())
+            ):
+                setattr(out, key, {k: v[idx] for k, v in val.items()})
+        out.axle = self.axle.take(idx)
+        out.n = idx.size
+        out.stats = self.stats
+        return out
+
+    # ------------------------------------------------------------------ set-up
+    def _size_preload(self) -> None:
+        """Spring free length and static pad height from virtual work at the design position.
+
+        With ideal joints (no bushing deflection) the design position is in exact
+        equilibrium under the static tyre load (corner load + wheel weight) when the
+        spring force is ``F = (Fz dz_cp - W dz_wc) / (-dL)`` along the kinematic
+        motion (dz_wc = 1). The static pad height loads the tyre by ``Fz / kt``.
+        """
+        ax = self.axle
+        kin = CornerKinematics(ax)
+        q0 = np.zeros(ax.camber0.shape + (6,))
+        dq = kin.tangent(q0, ax.points["wheel_centre"][..., 2])
+        h = 1e-6
+
+        def spring_len(q: np.ndarray) -> np.ndarray:
+            ak = kin.direction(q, kin.a)
+            pu = kin.ST + ak * np.linalg.norm(
+                ax.points["spring_upper_seat"] - kin.ST, axis=-1, keepdims=True
+            )
+            return np.linalg.norm(kin.point(q, ax.points["spring_lower_seat"]) - pu, axis=-1)
+
+        def cp_z(q: np.ndarray) -> np.ndarray:
+            s = kin.direction(q, self.s0)
+            return (kin.point(q, ax.points["wheel_centre"]) + self.Rw[..., None] * _down(s))[..., 2]
+
+        dL = (spring_len(q0 + h * dq) - spring_len(q0 - h * dq)) / (2 * h)
+        dcp = (cp_z(q0 + h * dq) - cp_z(q0 - h * dq)) / (2 * h)
+        Fz = ax.corner_load + ax.wheel_weight
+        F_spring = (Fz * dcp - ax.wheel_weight) / (-dL)
+        self.motion_ratio_kinematic = -dL
+        self.spring_preload = F_spring
+        self.L_free = self.L_spring0 + F_spring / self.ks
+        ax.spring_free_length = self.L_free
+        self.cp0 = cp_z(q0)
+        self.pad_static = self.cp0 + Fz / self.kt
+
+    def initial_state(self) -> AxleState:
+        n = self.n
+        R = np.broadcast_to(np.eye(3), (n, 2, 4, 3, 3)).copy()
+        st = AxleState(self.ref0.copy(), R, np.zeros((n, 2, NL)))
+        for b in self.effects.hysteresis_bushings:
+            st.hyst[b] = (np.zeros((n, 2, 6)), np.zeros((n, 2, 6)))
+        if self.effects.strut_friction > 0:
+            slide0 = -np.linalg.norm(
+                self.ground["top_mount"] - self.axle.points["strut_axis_point"], axis=-1
+            )
+            st.fric = (slide0, np.zeros((n, 2)))
+        return st
+
+    # --------------------------------------------------------------- elements
+    def _bush_load(self, name: str, x: np.ndarray, hist: dict) -> np.ndarray:
+        """Generalised force (..., 6) the bushing exerts *against* deflection ``x`` (..., 6)."""
+        K = self.K[name]
+        f = K * x
+        eff = self.effects
+        if name in eff.cubic_bushings:
+            k3 = eff.cubic_ratio * K[..., :3] / eff.cubic_x_ref**2
+            f = f + np.concatenate([cubic_stiffness(x[..., :3], k3), 0.0 * x[..., 3:]], axis=-1)
+        if name in hist:
+            f = f + self._dahl(name, x, hist[name])
+        return f
+
+    def _dahl(self, name: str, x: np.ndarray, hist: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+        eff = self.effects
+        x_prev, z_prev = hist
+        sigma = eff.hysteresis_sigma_ratio * self.K[name]
+        fc = np.array([eff.hysteresis_fc_force] * 3 + [eff.hysteresis_fc_moment] * 3)
+        eps = np.array([DAHL_EPS_TRANSLATION] * 3 + [DAHL_EPS_ROTATION] * 3)
+        return dahl_step(x_prev, x, np.broadcast_to(sigma, x.shape), fc, z_prev, eps)
+
+    def deflections(self, r: np.ndarray, R: np.ndarray) -> dict[str, np.ndarray]:
+        """Bushing deflections (..., 2, 6): translation [m] and rotation vector [rad]."""
+        x = self._deflections(r, R, rotate(R[..., [0, 0], :, :], self._vec[..., 0:2, :]))
+        return {name: x[..., j, :] for j, name in enumerate(BUSH_ORDER)}
+
+    def _deflections(self, r: np.ndarray, R: np.ndarray, arms_lca: np.ndarray) -> np.ndarray:
+        """Stacked bushing deflections (..., 2, 4, 6) in BUSH_ORDER."""
+        pts = np.concatenate([r[..., 0:1, :] + arms_lca, r[..., 2:4, :]], axis=-2)
+        phi = log_so3(R[..., [0, 0, 2, 3], :, :])
+        return np.concatenate([pts - self._ground4, phi], axis=-1)
+
+    # ---------------------------------------------------------------- residual
+    def residual(
+        self,
+        r: np.ndarray,
+        R: np.ndarray,
+        lam: np.ndarray,
+        pad: np.ndarray,
+        state: AxleState,
+        ext: np.ndarray | None = None,
+        record: list | None = None,
+    ) -> np.ndarray:
+        """Residual (..., 2, 33) of trial coordinates; leading axes broadcast against (n, 2).
+
+        ``pad`` (n, 2) pad heights [m]; ``ext`` (n, 2, 6) extra force [N] and moment
+        [N*m] on the wheel at the contact point. ``record`` (a list) receives every element load
+        as ``(body, point, force, moment)`` for balance checks.
+        """
+        lead = r.shape[:-2]
+        V = rotate(R[..., VEC_BODY, :, :], self._vec)  # (..., 16, 3) rotated vectors
+        r0, r1, r2, r3 = r[..., 0, :], r[..., 1, :], r[..., 2, :], r[..., 3, :]
+        arms = np.zeros(lead + (N_SLOTS, 3))
+        forces = np.zeros(lead + (N_SLOTS, 3))
+        M = np.zeros(lead + (4, 3))
+
+        # bushings (to the fixed body): slots 0-3
+        x = self._deflections(r, R, V[..., 0:2, :])
+        f = self._K4 * x
+        for j, name in enumerate(BUSH_ORDER):
+            if name in state.hyst or name in self.effects.cubic_bushings:
+                f[..., j, :] = self._bush_load(name, x[..., j, :], state.hyst)
+        arms[..., 0:2, :] = V[..., 0:2, :]
+        forces[..., 0:4, :] = -f[..., :3]
+        M -= np.matmul(BUSH_SUM, f[..., 3:])
+
+        # lower ball joint: slots 4-5
+        lb = lam[..., 0:3]
+        arms[..., 4, :], forces[..., 4, :] = V[..., 2, :], lb
+        arms[..., 5, :], forces[..., 5, :] = V[..., 3, :], -lb
+
+        # tie rod (rack point fixed): slot 6
+        d = r1 + V[..., 4, :] - self.tri
+        arms[..., 6, :] = V[..., 4, :]
+        forces[..., 6, :] = (lam[..., 7] / self.L_tie)[..., None] * d
+        c_tie = (dot(d, d) - self.L_tie**2) / (2 * self.L_tie)
+
+        # drop link: slots 7-8
+        d = r1 + V[..., 5, :] - r3 - V[..., 14, :]
+        fd = (lam[..., 8] / self.L_drop)[..., None] * d
+        arms[..., 7, :], forces[..., 7, :] = V[..., 5, :], fd
+        arms[..., 8, :], forces[..., 8, :] = V[..., 14, :], -fd
+        c_drop = (dot(d, d) - self.L_drop**2) / (2 * self.L_drop)
+
+        # coil spring between the seats: slots 9-10
+        e = r1 + V[..., 6, :] - r2 - V[..., 12, :]
+        L = np.sqrt(dot(e, e))
+        fs = (self.ks * (self.L_free - L) / L)[..., None] * e
+        arms[..., 9, :], forces[..., 9, :] = V[..., 6, :], fs
+        arms[..., 10, :], forces[..., 10, :] = V[..., 12, :], -fs
+
+        # cylindrical joint, rod in tube: slots 11-12 (-f on the knuckle at the rod point)
+        w = r2 - r1 - V[..., 7, :]
+        uv = V[..., 8:10, :]
+        ar = V[..., 13, :]
+        f_cyl = lam[..., 5, None] * V[..., 8, :] + lam[..., 6, None] * V[..., 9, :]
+        m_rod = cross(ar, lam[..., 3, None] * V[..., 8, :] + lam[..., 4, None] * V[..., 9, :])
+        forces[..., 11, :] = f_cyl
+        arms[..., 12, :], forces[..., 12, :] = r2 - r1, -f_cyl
+        M[..., 2, :] += m_rod
+        M[..., 1, :] -= m_rod
+        aw = np.stack([ar, w], axis=-2)
+        c_cyl = np.swapaxes(np.matmul(uv, np.swapaxes(aw, -1, -2)), -1, -2).reshape(lead + (4,))
+
+        # strut friction (Dahl) along the tube axis, rod against tube: slots 13-14
+        if state.fric is not None:
+            ak = V[..., 10, :]
+            slide = dot(w, ak)
+            s_prev, z_prev = (np.broadcast_to(q, slide.shape) for q in state.fric)
+            zf = dahl_step(
+                s_prev,
+                slide,
+                self.effects.strut_friction_sigma,
+                self.effects.strut_friction,
+                z_prev,
+                DAHL_EPS_TRANSLATION,
+            )
+            forces[..., 13, :] = -zf[..., None] * ak
+            arms[..., 14, :], forces[..., 14, :] = r2 - r1, zf[..., None] * ak
+
+        # tyre on the pad (slot 15), wheel weight (16), external wheel load (17)
+        cp_arm = self.Rw[..., None] * _down(V[..., 11, :])
+        arms[..., 15, :] = cp_arm
+        forces[..., 15, 2] = self.kt * (pad - r1[..., 2] - cp_arm[..., 2])
+        forces[..., 16, 2] = -self.wheel_weight
+        if ext is not None:
+            arms[..., 17, :], forces[..., 17, :] = cp_arm, ext[..., :3]
+            M[..., 1, :] += ext[..., 3:]
+
+        # anti-roll bar: the halves meet at the bar's middle (slot 18); stiff in shear and
+        # bending, the bar's torsional stiffness about the vehicle y axis
+        dC = r3[..., 0, :] + V[..., 0, 15, :] - r3[..., 1, :] - V[..., 1, 15, :]
+        rho = log_so3(np.matmul(R[..., 0, 3, :, :], np.swapaxes(R[..., 1, 3, :, :], -1, -2)))
+        fC = -self.k_bar_shear * dC
+        mC = -self.k_bar_rot * rho
+        arms[..., 18, :] = V[..., 15, :]
+        forces[..., 18, :] = np.stack([fC, -fC], axis=-2)
+        M[..., 3, :] += np.stack([mC, -mC], axis=-2)
+
+        if record is not None:
+            for k, b in enumerate(SLOT_BODY):
+                record.append((b, r[..., b, :] + arms[..., k, :], forces[..., k, :], 0.0 * r1))
+            for b in range(4):
+                record.append((b, r[..., b, :], 0.0 * r1, M[..., b, :]))
+
+        Fb = np.matmul(SLOT_SUM, forces)
+        Mb = M + np.matmul(SLOT_SUM, cross(arms, forces))
+        cons = np.concatenate(
+            [r0 + V[..., 2, :] - r1 - V[..., 3, :], c_cyl, c_tie[..., None], c_drop[..., None]],
+            axis=-1,
+        )
+        return np.concatenate(
+            [np.concatenate([Fb, Mb], axis=-1).reshape(lead + (NQ,)), CSCALE * cons], axis=-1
+        )
+
+    # ---------------------------------------------------------------- Jacobian
+    def jacobian(
+        self, st: AxleState, pad: np.ndarray, ext: np.ndarray | None = None, h: float = 1e-7
+    ) -> np.ndarray:
+        """Jacobian (n, 66, 66) of the full residual with respect to (x_left, x_right).
+
+        Forward differences in one batched residual call. Only the bar halves couple the
+        sides, so every other column is perturbed on both sides at once; the bar-half
+        columns are perturbed one side at a time.
+        """
+        n = self.n
+        shared = [j for j in range(NS) if not 18 <= j < 24]  # 27 columns
+        P = 1 + len(shared) + 12
+        r = np.broadcast_to(st.r, (P,) + st.r.shape).copy()
+        R = np.broadcast_to(st.R, (P,) + st.R.shape).copy()
+        lam = np.broadcast_to(st.lam, (P,) + st.lam.shape).copy()
+        hl = 1.0
+        side_all = slice(None)
+        exp_h = expm_so3(h * np.eye(3))  # rotations by h about x, y, z
+
+        def perturb(p: int, j: int, side) -> None:
+            if j >= NQ:
+                lam[p, :, side, j - NQ] += hl
+                return
+            b, k = divmod(j, 6)
+            if k < 3:
+                r[p, :, side, b, k] += h
+            else:
+                R[p, :, side, b] = np.matmul(exp_h[k - 3], st.R[:, side, b])
+
+        for p, j in enumerate(shared, start=1):
+            perturb(p, j, side_all)
+        for s in (0, 1):
+            for k in range(6):
+                perturb(1 + len(shared) + 6 * s + k, 18 + k, s)
+        res = self.residual(r, R, lam, pad, st, ext)  # (P, n, 2, 33)
+        d = res[1:] - res[0]
+        J = np.zeros((n, 2 * NS, 2 * NS))
+        for p, j in enumerate(shared):
+            step = hl if j >= NQ else h
+            for s in (0, 1):
+                J[:, s * NS : (s + 1) * NS, s * NS + j] = d[p, :, s] / step
+        base = len(shared)
+        for s in (0, 1):
+            for k in range(6):
+                J[:, :, s * NS + 18 + k] = d[base + 6 * s + k].reshape(n, 2 * NS) / h
+        return J
+
+    # ------------------------------------------------------------------ update
+    @staticmethod
+    def _apply(st: AxleState, dx: np.ndarray, rows: np.ndarray) -> AxleState:
+        """New state = st moved by dx (n, 66) on ``rows`` (bool mask)."""
+        dx = np.where(rows[:, None], dx, 0.0).reshape(st.r.shape[0], 2, NS)
+        dq = dx[..., :NQ].reshape(st.r.shape[0], 2, 4, 6)
+        return AxleState(
+            st.r + dq[..., :3],
+            np.matmul(expm_so3(dq[..., 3:]), st.R),
+            st.lam + dx[..., NQ:],
+            {k: (a.copy(), b.copy()) for k, (a, b) in st.hyst.items()},
+            None if st.fric is None else (st.fric[0].copy(), st.fric[1].copy()),
+        )
+
+    def _step_size(self, dx: np.ndarray) -> np.ndarray:
+        """Per-row size (n,) of a Newton step relative to the tolerances (< 1: converged)."""
+        d = np.abs(dx.reshape(dx.shape[0], 2, NS))
+        q = d[..., :NQ].reshape(dx.shape[0], 2, 4, 2, 3)
+        pos = q[..., 0, :].max(axis=(-1, -2, -3)) / self.xtol
+        rot = q[..., 1, :].max(axis=(-1, -2, -3)) / self.rtol
+        lam = d[..., NQ:].max(axis=(-1, -2)) / self.ltol
+        return np.maximum(np.maximum(pos, rot), lam)
+
+    def solve(
+        self,
+        st: AxleState,
+        pad: np.ndarray,
+        ext: np.ndarray | None = None,
+        active: np.ndarray | None = None,
+        Jinv: np.ndarray | None = None,
+    ) -> tuple[AxleState, np.ndarray, np.ndarray]:
+        """Newton iteration from ``st`` for pad heights ``pad`` (n, 2).
+
+        ``Jinv`` is an inverse Jacobian to start with (e.g. from the previous step); a
+        row's Jacobian is refreshed when its Newton step shrinks by less than half, and
+        its step is damped (halved, down to 1/64, for the rest of the solve) when even a
+        fresh Jacobian's steps stop shrinking (a cycle, e.g. at a reversal of a Dahl
+        element). Returns (state, converged (n,) bool, inverse Jacobian);
+        ``Jinv`` is updated in place. Rows not in ``active`` are left untouched and
+        reported as not converged.
+        """
+        n = self.n
+        active = np.ones(n, bool) if active is None else active.copy()
+        conv = np.zeros(n, bool)
+        prev = np.full(n, np.inf)
+        fresh = np.zeros(n, bool)  # Jacobian evaluated at the previous iterate
+        alpha = np.ones(n)  # step length (damped when fresh Newton steps stop shrinking)
+        small_before = np.zeros(n, bool)
+        if Jinv is None:
+            Jinv = self.inverse_jacobian(st, pad, ext, active)
+            fresh[:] = True
+        for _ in range(self.maxit):
+            self.stats["residuals"] += 1
+            res = self.residual(st.r, st.R, st.lam, pad, st, ext).reshape(n, 2 * NS)
+            dx = -np.matmul(Jinv, res[..., None])[..., 0]
+            size = self._step_size(dx)
+            ok = np.isfinite(size)
+            todo = active & ~conv & ok
+            if not todo.any():
+                break
+            slow = todo & (size > 0.5 * prev)
+            refresh = slow & ~fresh
+            if refresh.any():  # refresh these rows' Jacobians (in place), recompute steps
+                Jinv[refresh] = self.take(refresh).inverse_jacobian(
+                    st.take(refresh), pad[refresh], None if ext is None else ext[refresh]
+                )
+                dx[refresh] = -np.matmul(Jinv[refresh], res[refresh][..., None])[..., 0]
+                size = np.where(refresh, self._step_size(dx), size)
+            stuck = todo & fresh & (size > 0.9 * prev)  # exact Newton cycles: damp
+            alpha = np.where(stuck, np.maximum(0.5 * alpha, 1.0 / 64), alpha)
+            fresh = refresh
+            prev = np.where(todo, size, prev)
+            step = np.where(size < 1.0, 1.0, alpha)  # a converging step is taken in full
+            st = self._apply(st, np.where(todo[:, None], step[:, None] * dx, 0.0), todo)
+            small = todo & (size < 1.0)
+            # path-dependent elements: the kink of a reversal can leave the first small step
+            # inaccurate, so they need two small steps in a row
+            conv |= small & (small_before if self.effects.path_dependent else True)
+            small_before = small
+            if (conv | ~active | ~ok).all():
+                break
+        self.stats["solves"] += 1
+        return st, conv & active, Jinv
+
+    def inverse_jacobian(self, st, pad, ext=None, active=None) -> np.ndarray:
+        """Inverse (n, 66, 66) of :meth:`jacobian`; singular rows (lock-up) become NaN."""
+        self.stats["jacobians"] += 1
+        J = self.jacobian(st, pad, ext)
+        if active is not None:
+            J[~active] = np.eye(2 * NS)
+        bad = ~np.isfinite(J).all(axis=(1, 2))
+        J[bad] = np.eye(2 * NS)
+        try:
+            Jinv = np.linalg.inv(J)
+        except np.linalg.LinAlgError:
+            Jinv = np.full(J.shape, np.nan)
+            for i in range(J.shape[0]):
+                with contextlib.suppress(np.linalg.LinAlgError):
+                    Jinv[i] = np.linalg.inv(J[i])
+        Jinv[bad] = np.nan
+        return Jinv
+
+    def pad_sensitivity(self, st: AxleState) -> np.ndarray:
+        """d(residual)/d(pad height) (n, 2, 33): the tyre force and its moment on the knuckle."""
+        out = np.zeros(st.lam.shape[:-1] + (NS,))
+        s = rotate(st.R[..., 1, :, :], self.s0)
+        arm = self.Rw[..., None] * _down(s)  # contact point - wheel centre
+        out[..., 6 + 2] = self.kt
+        out[..., 9:12] = cross(arm, EZ) * self.kt[..., None]
+        return out
+
+    def commit(self, st: AxleState) -> AxleState:
+        """Make the converged state the history of the path-dependent elements."""
+        if not st.hyst and st.fric is None:
+            return st
+        out = st.copy()
+        defl = self.deflections(st.r, st.R)
+        for name in out.hyst:
+            z = self._dahl(name, defl[name], st.hyst[name])
+            out.hyst[name] = (defl[name].copy(), z)
+        if st.fric is not None:
+            kn_S = st.r[..., 1, :] + rotate(st.R[..., 1, :, :], self.kn_pts[..., 4, :])
+            ak = rotate(st.R[..., 1, :, :], self.a)
+            slide = dot(st.r[..., 2, :] - kn_S, ak)
+            zf = dahl_step(
+                st.fric[0],
+                slide,
+                self.effects.strut_friction_sigma,
+                self.effects.strut_friction,
+                st.fric[1],
+                DAHL_EPS_TRANSLATION,
+            )
+            out.fric = (slide, zf)
+        return out
+
+    # ----------------------------------------------------------------- outputs
+    def outputs(self, st: AxleState, pad: np.ndarray) -> dict[str, np.ndarray]:
+        """Channels (n, 2) [SI, ISO 8855] of a converged state; see ``docs/knc.md``."""
+        R1 = st.R[..., 1, :, :]
+        wc = st.r[..., 1, :]
+        s = rotate(R1, self.s0)
+        cp = wc + self.Rw[..., None] * _down(s)
+        sg = SIDE_SIGN
+        h = sg[:, None] * cross(s, EZ)
+        h /= np.linalg.norm(h, axis=-1, keepdims=True)
+        toe = -sg * np.arctan2(h[..., 1], h[..., 0])
+        camber = -np.arcsin(np.clip(s[..., 2], -1, 1))
+        pB = wc + rotate(R1, self.kn_pts[:, :, 0])
+        top = st.r[..., 2, :]
+        k = top - pB
+        k /= np.linalg.norm(k, axis=-1, keepdims=True)
+        caster = np.arctan2(-k[..., 0], k[..., 2])
+        kpi = np.arctan2(-sg * k[..., 1], k[..., 2])
+        # steering axis meets the pad plane
+        t = (pad - pB[..., 2]) / k[..., 2]
+        g = pB + t[..., None] * k
+        lat = sg[:, None] * cross(EZ, h)  # horizontal, outboard
+        scrub = dot(g - cp, lat) * 1.0
+        trail = dot(g - cp, h)
+        pL = wc + rotate(R1, self.kn_pts[:, :, 3])
+        pU = top + rotate(st.R[..., 2, :, :], self.s_upper_seat)
+        L = np.linalg.norm(pL - pU, axis=-1)
+        rho = log_so3(np.matmul(st.R[..., 0, 3, :, :], np.swapaxes(st.R[..., 1, 3, :, :], -1, -2)))[
+            ..., 1
+        ]
+        out = {
+            "wheel_centre_x": wc[..., 0],
+            "wheel_centre_y": wc[..., 1],
+            "wheel_centre_z": wc[..., 2],
+            "contact_x": cp[..., 0],
+            "contact_y": cp[..., 1],
+            "contact_z": cp[..., 2],
+            "pad_z": pad,
+            "tyre_fz": self.kt * (pad - cp[..., 2]),
+            "toe": toe,
+            "camber": camber,
+            "caster": caster,
+            "kpi": kpi,
+            "scrub_radius": scrub,
+            "trail": trail,
+            "spring_length": L,
+            "spring_force": self.ks * (self.L_free - L),
+            "arb_twist": np.stack([rho, rho], axis=-1),
+        }
+        return {k: np.array(v, dtype=float) for k, v in out.items()}
+
+
+def dahl_step(x_prev, x, sigma, f_c, z_prev, eps) -> np.ndarray:
+    """Dahl force after moving from ``x_prev`` to ``x`` (the library's exact path form).
+
+    The increment is passed through a smooth dead band of width ``eps``,
+    ``dx_eff = dx (1 - eps / sqrt(dx^2 + eps^2))``, so the force is a smooth function of
+    ``x`` at a reversal (the exact element has a kink there, on which Newton's method
+    can cycle). The lag it introduces is ``eps`` (1e-6 m, 1e-5 rad), far below anything
+    measured.
+    """
+    x = np.asarray(x, dtype=float)
+    x_prev = np.broadcast_to(x_prev, x.shape)
+    dx = x - x_prev
+    dx_eff = dx * (1.0 - eps / np.sqrt(dx * dx + eps * eps))
+    path = np.stack([x_prev, x_prev + dx_eff], axis=-1)
+    return dahl_path(path, sigma, f_c, z0=np.broadcast_to(z_prev, x.shape))[..., -1]
+
+
+def _down(s: np.ndarray) -> np.ndarray:
+    """Unit vector in the wheel plane pointing down (towards the contact point)."""
+    d = dot(s, EZ)[..., None] * s - EZ
+    return d / np.linalg.norm(d, axis=-1, keepdims=True)
+
+
+__all__ = ["BODIES", "BUSHING_NAMES", "AxleSolver", "AxleState", "spin_axis"]

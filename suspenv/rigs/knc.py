@@ -1,0 +1,307 @@
+"""Virtual K&C rig: parallel, opposite and single-wheel vertical travel of a McPherson axle.
+
+Frame ISO 8855 (x forward, y left, z up), SI units; body and steering rack held fixed.
+The rig prescribes the heights of the two wheel pads relative to the static pad
+height (``AxleSolver.pad_static``):
+
+* ``parallel``: both pads move by ``+s`` (bump positive);
+* ``opposite``: left pad ``+s``, right pad ``-s`` (the body-fixed equivalent of a
+  roll to the right, left wheel in bump);
+* ``single``: left pad ``+s``, right pad held at its static height.
+
+The stroke grid has ``steps + 1`` points from ``-amplitude`` to ``+amplitude`` with the
+design (static) position on the grid (``steps`` even). Because path-dependent effects
+(hysteresis, friction) make the answer depend on the history, every test runs as a
+loop design -> bump -> rebound -> design and keeps both branches: the *descending*
+branch (bump to rebound) and the *ascending* branch (rebound to design, then the
+first leg design to bump).
+
+All tests of all designs are solved as one batch (rows = test x design), each step
+warm-started from the previous converged step with a tangent predictor.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from suspenv.core.errors import ValidationError
+from suspenv.models.mcpherson.effects import AxleEffects
+from suspenv.models.mcpherson.params import Axle
+from suspenv.models.mcpherson.rotation import expm_so3, log_so3
+from suspenv.models.mcpherson.solver import AxleSolver, AxleState
+
+TESTS = ("parallel", "opposite", "single")
+_PAD_SIGN = {"parallel": (1.0, 1.0), "opposite": (1.0, -1.0), "single": (1.0, 0.0)}
+
+#: a bushing deflection above these is reported as a lock-up [m], [rad]
+MAX_TRANSLATION = 0.05
+MAX_ROTATION = 0.5
+
+
+@dataclass
+class KCResult:
+    """Channels of one rig test for a batch of designs.
+
+    Attributes:
+        test: test name.
+        grid: (steps + 1,) stroke grid [m] (pad offset of the left pad).
+        path: (P,) grid index of every step of the loop (P = 2 * steps + 1).
+        channels: name -> (n, P, 2) values along the loop (SI, ISO 8855; see docs/knc.md).
+        ok: (n,) True where every step converged.
+        messages: (n,) failure reasons ("" when ok).
+    """
+
+    test: str
+    grid: np.ndarray
+    path: np.ndarray
+    channels: dict[str, np.ndarray]
+    ok: np.ndarray
+    messages: list[str]
+    states: list[AxleState] = field(default_factory=list, repr=False)
+
+    @property
+    def static_index(self) -> int:
+        return (self.grid.size - 1) // 2
+
+    def branch(self, name: str, which: str) -> np.ndarray:
+        """Channel ``name`` on branch ``which`` ("down" or "up") on the grid: (n, steps+1, 2)."""
+        steps = self.grid.size - 1
+        i0 = steps // 2
+        ch = self.channels[name]
+        if which == "down":  # path positions steps-i0 .. 2*steps-i0 hold grid steps .. 0
+            start = steps - i0
+            return ch[:, start : start + steps + 1][:, ::-1]
+        if which == "up":  # grid 0..i0 from the last leg, grid i0+1..steps from the first
+            last = ch[:, 2 * steps - i0 :]
+            first = ch[:, 1 : steps - i0 + 1]
+            return np.concatenate([last, first], axis=1)
+        raise ValidationError(f"branch must be 'down' or 'up', but got {which!r}")
+
+    def mean_branch(self, name: str) -> np.ndarray:
+        """Average of the two branches (n, steps+1, 2): the loop's mid-line."""
+        return 0.5 * (self.branch(name, "down") + self.branch(name, "up"))
+
+
+def stroke_grid(amplitude: float = 0.040, steps: int = 30) -> np.ndarray:
+    """Grid of pad offsets [m], ``steps + 1`` points, design position in the middle."""
+    if not amplitude > 0:
+        raise ValidationError(f"`amplitude > 0` must hold, but got amplitude={amplitude}")
+    if steps < 2 or steps % 2:
+        raise ValidationError(f"`steps` must be even and >= 2, but got steps={steps}")
+    return np.linspace(-amplitude, amplitude, steps + 1)
+
+
+def loop_path(steps: int) -> np.ndarray:
+    """Grid indices of the loop design -> bump -> rebound -> design (2 * steps + 1 points)."""
+    i0 = steps // 2
+    return np.r_[np.arange(i0, steps + 1), np.arange(steps - 1, -1, -1), np.arange(1, i0 + 1)]
+
+
+def pad_offsets(test: str, s: np.ndarray) -> np.ndarray:
+    """Pad offsets (..., 2) [m] of ``test`` for left-pad stroke ``s``."""
+    if test not in _PAD_SIGN:
+        raise ValidationError(f"unknown K&C test {test!r}; known tests are {TESTS}")
+    sign = np.array(_PAD_SIGN[test])
+    return np.asarray(s, dtype=float)[..., None] * sign
+
+
+def run_tests(
+    axle: Axle,
+    tests: tuple[str, ...] = TESTS,
+    amplitude: float = 0.040,
+    steps: int = 30,
+    effects: AxleEffects | None = None,
+    keep_states: bool = False,
+) -> dict[str, KCResult]:
+    """Run the rig ``tests`` on every design of ``axle``; returns {test: KCResult}."""
+    for t in tests:
+        if t not in _PAD_SIGN:
+            raise ValidationError(f"unknown K&C test {t!r}; known tests are {TESTS}")
+    n, nt = axle.n, len(tests)
+    grid = stroke_grid(amplitude, steps)
+    path = loop_path(steps)
+    # static equilibrium once per design, then one row per (test, design)
+    base = AxleSolver(axle, effects)
+    st0, conv0, J0 = base.solve(base.initial_state(), base.pad_static)
+    tile = np.tile(np.arange(n), nt)  # rows: test-major
+    solver = base.take(tile)
+    st, J = st0.take(tile), J0[tile]
+    signs = np.repeat(np.array([_PAD_SIGN[t] for t in tests]), n, axis=0)  # (nt*n, 2)
+    rows = nt * n
+    ok = np.ones(rows, bool)
+    msgs = [""] * rows
+    pad0 = solver.pad_static
+    _fail(ok, msgs, ~conv0[tile], "ConvergenceError: no static equilibrium at the design position")
+    st = solver.commit(st)
+
+    trail: list[AxleState] = []  # converged state of every step (states are not mutated)
+    pads: list[np.ndarray] = []
+    prev_s = 0.0
+    history: list[AxleState] = []  # converged states of the current leg, newest last
+    visited: dict[int, AxleState] = {}  # last converged state at each grid point
+    prev_ds = 0.0
+    for k, gi in enumerate(path):
+        s = grid[gi]
+        pad = pad0 + signs * s
+        if k > 0:
+            ds = s - prev_s
+            if prev_ds * ds <= 0:  # a reversal starts a new leg
+                history = []
+            history = [*history[-2:], st]
+            st, J = _step(
+                solver, st, pad0 + signs * prev_s, pad, ok, msgs, J, k, s, history, visited.get(gi)
+            )
+            prev_ds = ds
+        visited[gi] = st
+        if gi in (0, steps):  # loads and deflections peak at the ends of the stroke
+            _check_state(solver, st, ok, msgs, k, s)
+        trail.append(st)
+        pads.append(pad)
+        prev_s = s
+
+    # channels of all steps in one vectorised call: (P, rows, 2) -> (rows, P, 2)
+    stacked = AxleState(
+        np.stack([x.r for x in trail]),
+        np.stack([x.R for x in trail]),
+        np.stack([x.lam for x in trail]),
+    )
+    out = {k: np.moveaxis(v, 0, 1) for k, v in solver.outputs(stacked, np.stack(pads)).items()}
+    results = {}
+    for j, t in enumerate(tests):
+        sl = slice(j * n, (j + 1) * n)
+        results[t] = KCResult(
+            t,
+            grid,
+            path,
+            {name: v[sl] for name, v in out.items()},
+            ok[sl].copy(),
+            msgs[sl],
+            [_take_state(x, sl) for x in trail] if keep_states else [],
+        )
+    return results
+
+
+def _take_state(st: AxleState, sl: slice) -> AxleState:
+    return AxleState(
+        st.r[sl],
+        st.R[sl],
+        st.lam[sl],
+        {k: (a[sl], b[sl]) for k, (a, b) in st.hyst.items()},
+        None if st.fric is None else (st.fric[0][sl], st.fric[1][sl]),
+    )
+
+
+def _fail(ok: np.ndarray, msgs: list[str], rows: np.ndarray, msg: str) -> None:
+    for i in np.flatnonzero(rows & ok):
+        msgs[i] = msg
+    ok &= ~rows
+
+
+def _step(solver, st, pad_prev, pad, ok, msgs, J, k, s, history, seen=None):
+    """One rig step: predictor, Newton corrector, sub-stepping retry of failing rows.
+
+    Predictor: the state last converged at the same grid point (a revisit; exact for a
+    path-independent model), else extrapolation along the leg (quadratic from three
+    states, linear from two), else the tangent ``-J^-1 dres/dpad``.
+    """
+    if seen is not None:
+        pred = st.copy()
+        rows = ok[:, None, None, None]
+        pred.r = np.where(rows, seen.r, st.r)
+        pred.R = np.where(rows[..., None], seen.R, st.R)
+        pred.lam = np.where(ok[:, None, None], seen.lam, st.lam)
+    elif len(history) >= 3:
+        pred = _extrapolate(st, history[-2], history[-3], ok)
+    elif len(history) == 2:
+        pred = _extrapolate(st, history[-2], None, ok)
+    else:
+        pred = _predict(solver, st, J, pad - pad_prev, ok)
+    new, conv, J = solver.solve(pred, pad, active=ok, Jinv=J)
+    bad = ok & ~conv
+    if bad.any():  # retry the failing rows from the last converged state in 4 sub-steps
+        idx = np.flatnonzero(bad)
+        sub = solver.take(idx)
+        trial = st.take(idx)
+        sub_ok = np.ones(idx.size, bool)
+        Jt = None
+        for f in (0.25, 0.5, 0.75, 1.0):
+            p = pad_prev[idx] + f * (pad[idx] - pad_prev[idx])
+            trial, c, Jt = sub.solve(trial, p, active=sub_ok, Jinv=Jt)
+            sub_ok &= c
+        rescued = np.zeros_like(bad)
+        rescued[idx[sub_ok]] = True
+        new.assign(_scatter(trial, idx, new), rescued)
+        _fail(
+            ok,
+            msgs,
+            bad & ~rescued,
+            f"ConvergenceError: Newton did not converge at step {k} (stroke {s * 1e3:+.2f} mm); "
+            "the linkage locks up or the design has no equilibrium there",
+        )
+    new = solver.commit(new)
+    if not ok.all():  # failed rows keep their last converged state
+        new = new.copy()
+        new.assign(st, ~ok)
+    return new, J
+
+
+def _scatter(part: AxleState, idx: np.ndarray, like: AxleState) -> AxleState:
+    """A full-size state equal to ``like`` except the rows ``idx`` taken from ``part``."""
+    out = like.copy()
+    out.r[idx], out.R[idx], out.lam[idx] = part.r, part.R, part.lam
+    for key in out.hyst:
+        out.hyst[key][0][idx], out.hyst[key][1][idx] = part.hyst[key]
+    if out.fric is not None and part.fric is not None:
+        out.fric[0][idx], out.fric[1][idx] = part.fric
+    return out
+
+
+def _predict(solver: AxleSolver, st: AxleState, Jinv: np.ndarray, dpad: np.ndarray, ok):
+    """Tangent predictor ``dx = -J^-1 (dres/dpad) dpad`` (only the tyre depends on the pad)."""
+    n = solver.n
+    dres = (solver.pad_sensitivity(st) * dpad[..., None]).reshape(n, -1, 1)
+    dx = -np.matmul(Jinv, dres)[..., 0]
+    dx = np.where(np.isfinite(dx), dx, 0.0)
+    return solver._apply(st, dx, ok)
+
+
+def _extrapolate(
+    st: AxleState, before: AxleState, before2: AxleState | None, ok: np.ndarray
+) -> AxleState:
+    """Extrapolate the last converged states one equal step along a leg: quadratic from
+    three states, linear from two (``before2=None``)."""
+    out = st.copy()
+    rows = ok[:, None, None, None]
+    w1 = log_so3(np.matmul(st.R, np.swapaxes(before.R, -1, -2)))
+    if before2 is None:
+        r_new, w, lam_new = 2.0 * st.r - before.r, w1, 2.0 * st.lam - before.lam
+    else:
+        r_new = 3.0 * (st.r - before.r) + before2.r
+        w = 2.0 * w1 - log_so3(np.matmul(before.R, np.swapaxes(before2.R, -1, -2)))
+        lam_new = 3.0 * (st.lam - before.lam) + before2.lam
+    out.r = np.where(rows, r_new, st.r)
+    out.R = np.where(rows[..., None], np.matmul(expm_so3(w), st.R), st.R)
+    out.lam = np.where(ok[:, None, None], lam_new, st.lam)
+    return out
+
+
+def _check_state(solver, st, ok, msgs, k, s) -> None:
+    """Physical plausibility of a converged step: bushing deflections within reason.
+
+    A bushing deflecting more than 50 mm or 0.5 rad means the design cannot carry its
+    loads (e.g. a top mount of a few N/mm under the spring preload) or a body has
+    found a mechanism; the row fails with the bushing and the value named.
+    """
+    for name, d in solver.deflections(st.r, st.R).items():
+        tr = np.abs(d[..., :3]).max(axis=(-1, -2))
+        rot = np.abs(d[..., 3:]).max(axis=(-1, -2))
+        bad = ok & (~np.isfinite(tr) | (tr > MAX_TRANSLATION) | (rot > MAX_ROTATION))
+        for i in np.flatnonzero(bad):
+            msgs[i] = (
+                f"LockupError: the {name} bushing deflects {tr[i] * 1e3:.1f} mm / "
+                f"{rot[i]:.2f} rad (limits {MAX_TRANSLATION * 1e3:g} mm, {MAX_ROTATION:g} rad) "
+                f"at step {k} (stroke {s * 1e3:+.2f} mm): the design cannot carry its loads"
+            )
+        ok &= ~bad
