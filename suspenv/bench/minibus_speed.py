@@ -1,0 +1,134 @@
+"""Minibus speed: time per candidate of a full MinibusRideHandling evaluation.
+
+A full evaluation is what the problem does for every candidate: both load cases of the
+random-road ride run (class B, 80 km/h, 10 s), the steady-state circular test and the
+closed-loop slalom, then the 5 objectives and 6 constraints. Candidates are random
+designs of the study's box in batches of 500 (the study's NSGA-II population); measured
+in the same run, the same candidates one at a time (the baseline), which gives the
+batching gain, and the share of each part (ride, steady circle, slalom) in the batched
+time. Target <= 5 ms per candidate on one core, so the study's 30,000 evaluations take
+<= 3 minutes on 2 cores. suspenv limits BLAS to one thread, so the process's CPU time
+is one core's time; it is the reported figure (best of the repeats), with the wall time
+beside it (which a loaded machine inflates).
+
+Run: ``python -m suspenv.bench.minibus_speed [--quick]``; writes
+``docs/benchmarks/minibus_speed.json``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+from tqdm import tqdm
+
+from suspenv.bench.common import write_result
+from suspenv.models.minibus.handling_model import HandlingParams, handling_parameters
+from suspenv.models.minibus.vehicle import LOAD_CASES
+from suspenv.registry import make_problem
+from suspenv.rigs.handling import slalom, steady_circle
+from suspenv.rigs.ride import ride_objectives_all
+
+TARGET_MS = 5.0
+STUDY_EVALUATIONS = 30_000
+
+
+def _timed(fn: Callable[[], Any]) -> tuple[float, float]:
+    """(wall, cpu) seconds of one call."""
+    w0, c0 = time.perf_counter(), time.process_time()
+    fn()
+    return time.perf_counter() - w0, time.process_time() - c0
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="fewer repeats (smoke run)")
+    parser.add_argument("--batch", type=int, default=500, help="designs per batch")
+    parser.add_argument("--output-dir", default=None, help="default docs/benchmarks")
+    args = parser.parse_args(argv)
+    repeat = 1 if args.quick else 3
+    n_single = 3 if args.quick else 8
+
+    problem = make_problem("MinibusRideHandling")
+    rng = np.random.default_rng(0)
+    X = problem.space.to_physical(rng.random((args.batch, problem.space.dim)))
+
+    wall, cpu = [], []
+    last: dict[str, Any] = {}
+    for _ in tqdm(range(repeat), desc=f"batches of {args.batch}", file=sys.stderr):
+        w, c = _timed(lambda: last.update(batch=problem.evaluate(X)))
+        wall.append(w)
+        cpu.append(c)
+    batched_ms = 1e3 * min(cpu) / args.batch
+    batched_wall_ms = 1e3 * min(wall) / args.batch
+
+    # parts of the batched evaluation (one repeat each, CPU time)
+    def handling_params() -> HandlingParams:
+        return HandlingParams.stack([handling_parameters(X, lc) for lc in LOAD_CASES])
+
+    P = handling_params()
+    parts = {
+        "ride (both loads)": lambda: ride_objectives_all(X, LOAD_CASES, problem.road),
+        "steady circle (both loads)": lambda: steady_circle(handling_params(), problem.circle),
+        "slalom (both loads)": lambda: slalom(P, problem.slalom_config),
+    }
+    part_ms = {}
+    for name, fn in tqdm(parts.items(), desc="parts", file=sys.stderr):
+        part_ms[name] = 1e3 * _timed(fn)[1] / args.batch
+
+    s_wall, s_cpu = [], []
+    for i in tqdm(range(n_single), desc="one at a time", file=sys.stderr):
+        w, c = _timed(lambda i=i: problem.evaluate(X[i : i + 1]))
+        s_wall.append(w)
+        s_cpu.append(c)
+    single_ms = 1e3 * float(np.median(s_cpu))
+    single_wall_ms = 1e3 * float(np.median(s_wall))
+
+    rows = [
+        {
+            "mode": f"full evaluation, batch of {args.batch}",
+            "cpu_ms_per_candidate": batched_ms,
+            "wall_ms_per_candidate": batched_wall_ms,
+            "repeats": repeat,
+        },
+        *(
+            {
+                "mode": f"  part: {name}, batch of {args.batch}",
+                "cpu_ms_per_candidate": ms,
+                "wall_ms_per_candidate": float("nan"),
+                "repeats": 1,
+            }
+            for name, ms in part_ms.items()
+        ),
+        {
+            "mode": "full evaluation, one at a time (baseline)",
+            "cpu_ms_per_candidate": single_ms,
+            "wall_ms_per_candidate": single_wall_ms,
+            "repeats": n_single,
+        },
+    ]
+    study_minutes_2_cores = STUDY_EVALUATIONS * batched_ms / 1e3 / 60 / 2
+    summary = {
+        "batch": args.batch,
+        "valid_candidates": int(last["batch"].ok.sum()),
+        "ms_per_candidate_batched": batched_ms,
+        "ms_per_candidate_single": single_ms,
+        "wall_ms_per_candidate_batched": batched_wall_ms,
+        "batching_gain": single_ms / batched_ms,
+        "target_ms": TARGET_MS,
+        "meets_target": bool(batched_ms <= TARGET_MS),
+        "study_30000_evaluations_minutes_on_2_cores_estimate": study_minutes_2_cores,
+        "load_average_1min": os.getloadavg()[0],
+    }
+    cmd = "python -m suspenv.bench.minibus_speed" + (" --quick" if args.quick else "")
+    write_result("minibus_speed", rows, summary, cmd, args.output_dir)
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,83 @@
+"""``suspenv diagnose RECORDING [--model NAME] [--out DIR]``: locate, name, model, refit, show.
+
+RECORDING is a recording file (``.npz``, see ``docs/recordings.md``) or the name of a
+real-data converter (``emps``, ``mr_damper``, ``damper_dyno``; read from
+``../shared/data/real``). Writes ``report.md`` (with PNG figures) and
+``diagnosis.json`` into ``--out``.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from suspenv.core.errors import ValidationError
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "diagnose",
+        help="find, name and model the physics a component model leaves out of a recording",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("recording", help=".npz recording file, or emps | mr_damper | damper_dyno")
+    p.add_argument(
+        "--model",
+        default=None,
+        help="component family: damper, mr_damper, friction_guide (default: from the data)",
+    )
+    p.add_argument("--out", default=None, help="output folder (default: diagnosis_<name>)")
+    p.add_argument(
+        "--holdout",
+        default=None,
+        help="held-out data: a fraction (default 0.3) or another .npz recording",
+    )
+    p.add_argument("--data-dir", default=None, help="folder of the real recordings")
+    p.set_defaults(func=_diagnose)
+
+
+def _guess_family(rec) -> str:
+    names = set(rec.inputs)
+    if "acceleration" in names and "position" in names:
+        return "friction_guide"
+    raise ValidationError(
+        f"cannot tell the component family of recording {rec.name!r} (inputs {sorted(names)}); "
+        "pass --model damper | mr_damper | friction_guide"
+    )
+
+
+def _diagnose(args: argparse.Namespace) -> int:
+    from suspenv.diagnosis.benchmark import REAL_CASES, SHARED_REAL
+    from suspenv.diagnosis.engine import diagnose
+    from suspenv.diagnosis.report import write_report
+    from suspenv.recordings import load_recording
+
+    name = args.recording
+    if name in REAL_CASES:
+        root = Path(args.data_dir) if args.data_dir else SHARED_REAL
+        if not root.is_dir():
+            raise ValidationError(f"real recordings folder {str(root)!r} does not exist")
+        rec, holdout, family, _ = REAL_CASES[name](root)
+        stem = name
+    else:
+        path = Path(name)
+        if path.suffix != ".npz":
+            raise ValidationError(
+                f"RECORDING must be a .npz file or one of {sorted(REAL_CASES)}, but got {name!r}"
+            )
+        rec = load_recording(path)
+        holdout, family, stem = 0.3, None, path.stem
+    if args.holdout is not None:
+        try:
+            holdout = float(args.holdout)
+        except ValueError:
+            holdout = load_recording(Path(args.holdout))
+    family = args.model or family or _guess_family(rec)
+    diag = diagnose(rec, family, holdout=holdout)
+    out = Path(args.out or f"diagnosis_{stem}")
+    paths = write_report(diag, out)
+    print(diag.verdict)
+    for p in paths:
+        print(f"wrote {p}")
+    return 0

@@ -1,0 +1,391 @@
+"""``diagnose_knc``: locate, name and model what the symmetric, linear axle model leaves
+out of K&C rig recordings.
+
+Steps (the engine's, with the K&C pieces where a loop of a two-sided axle needs them):
+
+1. **Split**: fit on some rig tests (default parallel + opposite travel), hold out
+   the others (default single-wheel travel) or separate recordings (e.g. another
+   amplitude).
+2. **Baseline**: fit the plain model's small parameter subset
+   (:data:`~suspenv.diagnosis.knc.model.FIT_PARAMETERS`) weighted by the measured
+   spread, then again weighted by each channel's residual (its noise scale); these
+   scales stay fixed for every model compared.
+3. **Locate**: residual map test x channel x branch x side
+   (:mod:`~suspenv.diagnosis.knc.locate`).
+4. **Signatures**: score tests of the residual against each effect's pattern
+   (:mod:`~suspenv.diagnosis.knc.signatures`); the families above ``screen_threshold``
+   (or, when none is, the strongest one) are refitted, at most ``screen_families``.
+5. **Refit**: the candidate effect is added to the model as a physical element
+   and its parameters fitted with the base parameters held (one to five parameters,
+   quick even for path-dependent elements); evidence and decision are the engine's
+   (:func:`suspenv.diagnosis.evidence.compare`, :func:`suspenv.diagnosis.name.decide`,
+   :func:`~suspenv.diagnosis.name.rank`): corrected likelihood-ratio test with a
+   Bonferroni level, BIC, and held-out error reduction.
+6. The winner is polished (all parameters jointly) and becomes the model of the
+   next round (at most ``max_effects``); the final model is compared with the
+   baseline on the held-out data.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from suspenv.core.errors import ValidationError
+from suspenv.diagnosis.evidence import (
+    Comparison,
+    compare,
+    fit_residual_series,
+    heldout_rms,
+    ljung_box,
+)
+from suspenv.diagnosis.fit import FitResult, residuals
+from suspenv.diagnosis.knc.fit import evaluate, fit, noise_scales
+from suspenv.diagnosis.knc.locate import ResidualMap, residual_map
+from suspenv.diagnosis.knc.model import KncAxleModel, KncEffect
+from suspenv.diagnosis.knc.recording import rig_test
+from suspenv.diagnosis.knc.signatures import FAMILY_KINDS, KncSignature, score_signatures
+from suspenv.diagnosis.name import (
+    Ambiguity,
+    Hypothesis,
+    ambiguities,
+    corrected_delta_bic,
+    decide,
+    rank,
+)
+
+#: effect kind -> signature family
+FAMILY_OF = {k: fam for fam, kinds in FAMILY_KINDS.items() for k in kinds}
+
+
+@dataclass
+class KncDiagnosis:
+    """What the K&C diagnosis found (the engine's ``Diagnosis`` fields; ``to_dict`` = JSON)."""
+
+    recording: str
+    family: str
+    holdout: str
+    channel: str
+    baseline: dict[str, Any]
+    location: ResidualMap
+    signatures: list[KncSignature]
+    hypotheses: list[Hypothesis]
+    named: list[Hypothesis]
+    ambiguities: list[Ambiguity]
+    verdict: str
+    comparison: Comparison | None
+    final_params: dict[str, dict[str, float]]
+    seconds: float
+    base_fit: FitResult = field(repr=False)
+    final_fit: FitResult = field(repr=False)
+    fit_recordings: list[Any] = field(repr=False, default_factory=list)
+    heldout_recordings: list[Any] = field(repr=False, default_factory=list)
+
+    @property
+    def named_kinds(self) -> list[str]:
+        return [h.kind for h in self.named]
+
+    @property
+    def named_families(self) -> list[str]:
+        return [h.family for h in self.named]
+
+    def effect(self, kind: str) -> KncEffect | None:
+        """The fitted effect of ``kind`` in the final model (None if not named)."""
+        _, effects = self.final_fit.model.unpack(self.final_fit.theta)
+        for e in effects:
+            if e.kind == kind:
+                return e.with_params({k: float(np.ravel(v)[0]) for k, v in e.params.items()})
+        return None
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "recording": self.recording,
+            "family": self.family,
+            "holdout": self.holdout,
+            "channel": self.channel,
+            "verdict": self.verdict,
+            "named": [
+                {"kind": h.kind, "family": h.family, "words": h.words, "params": h.params}
+                for h in self.named
+            ],
+            "ambiguities": [a.to_dict() for a in self.ambiguities],
+            "baseline": self.baseline,
+            "final_params": self.final_params,
+            "comparison": self.comparison.to_dict() if self.comparison else None,
+            "location": self.location.to_dict(),
+            "signatures": [s.to_dict() for s in self.signatures],
+            "hypotheses": [h.to_dict() for h in self.hypotheses],
+            "seconds": self.seconds,
+        }
+
+
+def _as_recordings(recordings: Any) -> list[Any]:
+    if isinstance(recordings, Mapping):
+        return list(recordings.values())
+    if isinstance(recordings, list | tuple):
+        return list(recordings)
+    return [recordings]
+
+
+def split_tests(recordings: Any, holdout: Any) -> tuple[list[Any], list[Any], str]:
+    """(fit, held-out, description): ``holdout`` is rig test name(s) among the
+    recordings (e.g. ``"single"``) or separate recordings (e.g. another amplitude)."""
+    recs = _as_recordings(recordings)
+    if isinstance(holdout, str) or (
+        isinstance(holdout, list | tuple) and holdout and all(isinstance(h, str) for h in holdout)
+    ):
+        names = {holdout} if isinstance(holdout, str) else set(holdout)
+        held = [r for r in recs if rig_test(r) in names]
+        fitr = [r for r in recs if rig_test(r) not in names]
+        if not held or not fitr:
+            raise ValidationError(
+                f"holdout {sorted(names)} must name some but not all of the recorded tests "
+                f"{[rig_test(r) for r in recs]}"
+            )
+        return fitr, held, f"rig test(s) {', '.join(sorted(names))}"
+    held = _as_recordings(holdout)
+    return recs, held, "separate recording(s): " + ", ".join(r.name for r in held)
+
+
+def _start_values(kind: str, sig: KncSignature | None) -> dict[str, float]:
+    """Start of a new element's parameters read off its signature."""
+    if kind in ("dahl_hysteresis", "coulomb_friction") and sig is not None:
+        w = abs(sig.numbers.get("tyre_fz_loop_width_n", 0.0))
+        return {"f_c": float(np.clip(0.5 * w, 5.0, 500.0))}
+    return {}
+
+
+def _compose(current: FitResult, ext_model: KncAxleModel, effect_theta: np.ndarray) -> np.ndarray:
+    """Full ``theta`` of ``ext_model`` from the current base values and fitted effects."""
+    n_base = len(ext_model.base_names)
+    return np.concatenate([current.theta[:n_base], effect_theta])
+
+
+def refit_frozen(
+    current: FitResult,
+    kind: str,
+    recs: Sequence[Any],
+    start: Mapping[str, float] | None = None,
+    max_nfev: int = 30,
+) -> FitResult:
+    """Add an effect of ``kind`` to ``current.model``; fit the effects' parameters with
+    the base parameters held at their current values. Returns the full model's fit."""
+    model: KncAxleModel = current.model
+    base = dict(zip(model.base_names, current.theta[: len(model.base_names)], strict=True))
+    _, effs = model.unpack(current.theta)
+    effs = [e.with_params({k: float(np.ravel(v)[0]) for k, v in e.params.items()}) for e in effs]
+    new = KncEffect(kind).with_params(dict(start or {}))
+    full = model.released().with_effects([*effs, new])
+    frozen = full.frozen_at(base)
+    t0 = time.perf_counter()
+    part = fit(frozen, recs, scales=current.scales, max_nfev=max_nfev)
+    theta = _compose(current, full, part.theta)
+    res = evaluate(full, theta, recs, current.scales, seconds=time.perf_counter() - t0)
+    # uncertainties: base from the current fit, effects from the frozen refit
+    n_new = part.theta.size
+    res.stderr = np.concatenate([current.stderr[: len(base)], part.stderr[-n_new:]])
+    res.stderr_corrected = np.concatenate(
+        [current.stderr_corrected[: len(base)], part.stderr_corrected[-n_new:]]
+    )
+    res.nfev = part.nfev
+    res.extra["effect"] = new.to_dict()
+    return res
+
+
+def _hypothesis(
+    kind: str,
+    rnd: int,
+    sig: KncSignature | None,
+    current: FitResult,
+    ext: FitResult,
+    fit_recs: list[Any],
+    held: list[Any],
+) -> Hypothesis:
+    comp = compare(current, ext, fit_recs, None, held, None)
+    prefix = ext.extra["effect"]["name"] + "."
+    new = KncEffect(kind)
+    return Hypothesis(
+        kind=kind,
+        family=FAMILY_OF[kind],
+        words=new.words,
+        round=rnd,
+        signature_score=float(sig.score) if sig else float("nan"),
+        signature_evidence=sig.evidence if sig else "",
+        lr_statistic=comp.lr.statistic,
+        lr_statistic_corrected=comp.lr.statistic_corrected,
+        lr_dof=comp.lr.dof,
+        p_value_corrected=comp.lr.p_value_corrected,
+        delta_bic_corrected=corrected_delta_bic(
+            comp.lr.statistic_corrected, comp.lr.dof, current.n_samples
+        ),
+        heldout_reduction=comp.heldout_reduction,
+        params={k: v for k, v in ext.params().items() if k.startswith(prefix)},
+        fit=ext,
+        comparison=comp,
+    )
+
+
+def _signals(fit_: FitResult, recs: Sequence[Any]):
+    res = residuals(fit_.model, fit_.theta, recs, fit_.channels)
+    pred = [fit_.model.simulate(fit_.theta, r) for r in recs]
+    return res, pred
+
+
+def diagnose_knc(
+    recordings: Any,
+    holdout: Any = "single",
+    model: KncAxleModel | None = None,
+    candidates: Sequence[str] | None = None,
+    max_effects: int = 2,
+    screen_families: int = 3,
+    screen_threshold: float = 3.0,
+    alpha: float = 0.01,
+    min_heldout_gain: float = 0.01,
+    max_nfev: int = 30,
+    polish_nfev: int = 6,
+    report_dir: str | Path | None = None,
+    progress: bool = False,
+) -> KncDiagnosis:
+    """Diagnose K&C rig recordings of the McPherson axle.
+
+    Args:
+        recordings: K&C recordings (dict test -> Recording, or a list).
+        holdout: rig test name(s) held out (default ``"single"``) or separate recordings.
+        model: the base model (default: the plain symmetric :class:`KncAxleModel`).
+        candidates: effect kinds considered (default: the model's ``candidate_effects``).
+        max_effects: most effects added in turn.
+        screen_families / screen_threshold: refit the signature families scoring above
+            the threshold (at most this many; the strongest one when none does).
+        alpha, min_heldout_gain: the engine's decision rule (:mod:`suspenv.diagnosis.name`).
+        max_nfev / polish_nfev: budgets of the fits and of the joint polish of a winner.
+        report_dir: when given, the report is written there.
+        progress: print one line per step.
+    """
+    t0 = time.perf_counter()
+    fit_recs, held, hold_words = split_tests(recordings, holdout)
+    tests = tuple(dict.fromkeys(rig_test(r) for r in fit_recs))
+    base_model = model or KncAxleModel(tests=tests)
+    cands = list(candidates if candidates is not None else base_model.candidate_effects)
+    unknown = [k for k in cands if k not in FAMILY_OF]
+    if unknown:
+        raise ValidationError(f"candidates must be among {sorted(FAMILY_OF)}, but got {unknown}")
+
+    def say(msg: str) -> None:
+        if progress:
+            print(f"[{time.perf_counter() - t0:6.1f} s] {msg}", flush=True)
+
+    first = fit(base_model, fit_recs, max_nfev=max_nfev)
+    scales = noise_scales(first)
+    base = fit(base_model, fit_recs, scales=scales, theta0=first.theta, max_nfev=max_nfev)
+    say(f"baseline fitted ({base.nfev} evaluations)")
+    res, _ = _signals(base, fit_recs)
+    location = residual_map(fit_recs, res, scales)
+
+    current = base
+    all_hyps: list[Hypothesis] = []
+    named: list[Hypothesis] = []
+    amb: list[Ambiguity] = []
+    first_sigs: list[KncSignature] = []
+    for rnd in range(1, max_effects + 1):
+        res, pred = _signals(current, fit_recs)
+        done = {h.family for h in named}
+        fams_c = {FAMILY_OF[k] for k in cands}
+        sigs = [s for s in score_signatures(fit_recs, res, pred, scales) if s.kind in fams_c]
+        if rnd == 1:
+            first_sigs = sigs
+        open_sigs = [s for s in sigs if s.kind not in done]
+        chosen = [s for s in open_sigs if s.score > screen_threshold][:screen_families]
+        if not chosen and open_sigs and rnd == 1:
+            chosen = open_sigs[:1]
+        if not chosen:
+            break
+        hyps = []
+        for sig in chosen:
+            for kind in (k for k in FAMILY_KINDS[sig.kind] if k in cands):
+                ext = refit_frozen(current, kind, fit_recs, _start_values(kind, sig), max_nfev)
+                hyps.append(_hypothesis(kind, rnd, sig, current, ext, fit_recs, held))
+                say(
+                    f"round {rnd}: {kind} LR {hyps[-1].lr_statistic_corrected:.1f}, "
+                    f"held-out {100 * hyps[-1].heldout_reduction:+.1f} %"
+                )
+        decide(hyps, len(hyps), alpha, min_heldout_gain)
+        ranked = rank(hyps)
+        all_hyps += ranked
+        amb += ambiguities(ranked)
+        if not ranked or not ranked[0].significant:
+            break
+        win = ranked[0]
+        polished = fit(
+            win.fit.model, fit_recs, scales=scales, theta0=win.fit.theta, max_nfev=polish_nfev
+        )
+        if sum(polished.ssr.values()) < sum(win.fit.ssr.values()):
+            polished.extra["effect"] = win.fit.extra["effect"]
+            win.fit = polished
+            prefix = win.fit.extra["effect"]["name"] + "."
+            win.params = {k: v for k, v in polished.params().items() if k.startswith(prefix)}
+        named.append(win)
+        current = win.fit
+        say(f"round {rnd}: named {win.words}")
+
+    comparison = None
+    if named:
+        comparison = compare(base, current, fit_recs, None, held, None)
+    verdict = _verdict(named, all_hyps, amb)
+    base_res = fit_residual_series(base, fit_recs)
+    baseline = {
+        "params": base.params(),
+        "fit_rms": base.rms(),
+        "heldout_rms": heldout_rms(base, held),
+        "aic": base.aic(),
+        "bic": base.bic(),
+        "ljung_box": dict(zip(("Q", "p"), ljung_box(base_res), strict=True)),
+        "scales": dict(scales),
+        "fit_parameters": list(base_model.fit_parameters),
+    }
+    strongest = location.strongest(1)
+    diag = KncDiagnosis(
+        recording=", ".join(r.name for r in fit_recs),
+        family=base_model.family,
+        holdout=hold_words,
+        channel=f"{strongest[0][0][1]}" if strongest else "",
+        baseline=baseline,
+        location=location,
+        signatures=first_sigs,
+        hypotheses=all_hyps,
+        named=named,
+        ambiguities=amb,
+        verdict=verdict,
+        comparison=comparison,
+        final_params=current.params(),
+        seconds=time.perf_counter() - t0,
+        base_fit=base,
+        final_fit=current,
+        fit_recordings=fit_recs,
+        heldout_recordings=held,
+    )
+    if report_dir is not None:
+        from suspenv.diagnosis.knc.report import write_knc_report
+
+        write_knc_report(diag, report_dir)
+    return diag
+
+
+def _verdict(named: list[Hypothesis], hyps: list[Hypothesis], amb: list[Ambiguity]) -> str:
+    if not named:
+        best = min(hyps, key=lambda h: h.p_value_corrected, default=None)
+        tail = ""
+        if best is not None:
+            tail = (
+                f" (strongest candidate, {best.words}: corrected p = {best.p_value_corrected:.2g}, "
+                f"held-out error change {-100 * best.heldout_reduction:+.1f} %)"
+            )
+        return "no significant missing physics" + tail
+    text = "missing physics: " + "; then ".join(h.words for h in named)
+    if amb:
+        text += ". " + " ".join(a.sentence() for a in amb)
+    return text

@@ -1,0 +1,360 @@
+"""K&C rig loops as :class:`~suspenv.recordings.Recording` objects, and back.
+
+One recording per rig test (``parallel``, ``opposite``, ``single``) of one vehicle.
+Every solved step of the loop design -> bump -> rebound -> design is one sample;
+the rig is quasi-static, so ``time`` is the step index in seconds (1 s per step, a
+bookkeeping axis only, stated in ``meta["time_axis"]``).
+
+Frame ISO 8855 (x forward, y left, z up), SI units:
+
+* inputs: ``pad_left`` / ``pad_right`` [m] pad travel from the static height (bump
+  positive), ``stroke`` [m] the left pad's stroke of the test, ``branch`` [-]
+  (0 first leg design -> bump, 1 bump -> rebound, 2 rebound -> design) and ``grid``
+  [-] (grid index of the step);
+* outputs, per side (suffix ``_left`` / ``_right``): ``toe`` [rad] (+ toe-in),
+  ``camber`` [rad] (- top inboard), ``tyre_fz`` [N] (+ compression),
+  ``contact_lateral`` [m] (contact-point y, *outboard* positive on each side, so a
+  symmetric axle gives equal left and right values in parallel travel) and
+  ``contact_x`` [m] (contact-point x, forward positive).
+
+``recording.meta`` holds ``rig = "knc"``, the test, amplitude [m] and steps, which a
+model needs to replay the same loop. ``recording.test`` is ``"knc_<test>"``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+
+from suspenv.core.errors import ValidationError
+from suspenv.recordings import Recording
+from suspenv.rigs.knc import TESTS, KCResult, loop_path, pad_offsets, stroke_grid
+
+SIDES = ("left", "right")
+#: recorded channels: name -> (rig channel, unit, outboard sign flip on the right)
+CHANNELS: dict[str, tuple[str, str, bool]] = {
+    "toe": ("toe", "rad", False),
+    "camber": ("camber", "rad", False),
+    "tyre_fz": ("tyre_fz", "N", False),
+    "contact_lateral": ("contact_y", "m", True),
+    "contact_x": ("contact_x", "m", False),
+}
+INPUTS = ("pad_left", "pad_right", "stroke", "branch", "grid")
+TEST_PREFIX = "knc_"
+
+
+def output_names(channels: Sequence[str] = tuple(CHANNELS)) -> tuple[str, ...]:
+    """Recorded output names, ``<channel>_<side>``."""
+    return tuple(f"{c}_{s}" for c in channels for s in SIDES)
+
+
+def branch_index(steps: int) -> np.ndarray:
+    """Branch of every step of the loop: 0 design->bump, 1 bump->rebound, 2 rebound->design."""
+    i0 = steps // 2
+    n1 = steps - i0 + 1  # design .. bump, inclusive
+    n2 = steps  # bump-1 .. rebound
+    n3 = i0  # rebound+1 .. design
+    return np.r_[np.zeros(n1), np.ones(n2), np.full(n3, 2.0)]
+
+
+def is_knc(rec: object) -> bool:
+    """True for a K&C rig recording (``meta["rig"] == "knc"`` or test ``knc_*``)."""
+    meta = getattr(rec, "meta", {}) or {}
+    return meta.get("rig") == "knc" or str(getattr(rec, "test", "")).startswith(TEST_PREFIX)
+
+
+def rig_test(rec: Recording) -> str:
+    """The rig test (``parallel`` ...) of a K&C recording."""
+    test = str(rec.meta.get("knc_test", rec.test.removeprefix(TEST_PREFIX)))
+    if test not in TESTS:
+        raise ValidationError(
+            f"recording {rec.name!r}: the K&C test must be one of {TESTS}, but got {test!r}"
+        )
+    return test
+
+
+def channels_of(result: KCResult, row: int = 0) -> dict[str, np.ndarray]:
+    """Recorded outputs of design ``row`` of a rig result: ``<channel>_<side>`` -> (P,)."""
+    out = {}
+    for name, (rig_name, _, flip) in CHANNELS.items():
+        v = np.asarray(result.channels[rig_name][row], float)  # (P, 2)
+        for j, side in enumerate(SIDES):
+            out[f"{name}_{side}"] = -v[:, j] if (flip and j == 1) else v[:, j]
+    return out
+
+
+def to_recording(
+    result: KCResult,
+    row: int = 0,
+    name: str | None = None,
+    amplitude: float | None = None,
+    meta: Mapping | None = None,
+) -> Recording:
+    """The loop of design ``row`` of ``result`` as a :class:`Recording`."""
+    if not bool(np.asarray(result.ok)[row]):
+        raise ValidationError(
+            f"design row {row} failed the {result.test} test: {result.messages[row]}"
+        )
+    steps = result.grid.size - 1
+    amp = float(amplitude if amplitude is not None else result.grid[-1])
+    s = result.grid[result.path]
+    pads = pad_offsets(result.test, s)
+    inputs = {
+        "pad_left": pads[:, 0],
+        "pad_right": pads[:, 1],
+        "stroke": s,
+        "branch": branch_index(steps),
+        "grid": result.path.astype(float),
+    }
+    units = {"pad_left": "m", "pad_right": "m", "stroke": "m", "branch": "-", "grid": "-"}
+    for c, (_, unit, _) in CHANNELS.items():
+        for side in SIDES:
+            units[f"{c}_{side}"] = unit
+    info = {
+        "rig": "knc",
+        "knc_test": result.test,
+        "amplitude": amp,
+        "steps": int(steps),
+        "time_axis": "step index (quasi-static rig; 1 s per step)",
+        "frame": "ISO 8855; lateral channels outboard positive on each side",
+    }
+    info.update(dict(meta or {}))
+    return Recording(
+        name or f"knc_{result.test}",
+        TEST_PREFIX + result.test,
+        np.arange(s.size, dtype=float),
+        inputs,
+        channels_of(result, row),
+        units,
+        info,
+    )
+
+
+def to_recordings(
+    results: Mapping[str, KCResult], row: int = 0, prefix: str = "", meta: Mapping | None = None
+) -> dict[str, Recording]:
+    """One recording per test: ``{test: Recording}``."""
+    return {
+        t: to_recording(r, row, f"{prefix}{t}" if prefix else None, meta=meta)
+        for t, r in results.items()
+    }
+
+
+def from_recording(rec: Recording) -> KCResult:
+    """The recording as a one-design :class:`KCResult` (only the recorded channels)."""
+    test = rig_test(rec)
+    steps = int(rec.meta["steps"])
+    grid = stroke_grid(float(rec.meta["amplitude"]), steps)
+    path = loop_path(steps)
+    if rec.n_samples != path.size:
+        raise ValidationError(
+            f"recording {rec.name!r}: a loop of {steps} steps has {path.size} samples, "
+            f"but the recording has {rec.n_samples}"
+        )
+    chans = {}
+    for name, (rig_name, _, flip) in CHANNELS.items():
+        key = [f"{name}_{s}" for s in SIDES]
+        if not all(k in rec.outputs for k in key):
+            continue
+        left, right = (np.asarray(rec.outputs[k], float) for k in key)
+        chans[rig_name] = np.stack([left, -right if flip else right], axis=-1)[None]
+    return KCResult(test, grid, path, chans, np.ones(1, bool), [""])
+
+
+def grid_of(rec: Recording) -> tuple[np.ndarray, np.ndarray]:
+    """(grid index (P,) int, branch (P,) int) of a K&C recording."""
+    return rec.inputs["grid"].astype(int), rec.inputs["branch"].astype(int)
+
+
+def half_loops(rec: Recording, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A channel along the loop split into its two branches on the grid.
+
+    Returns ``(down, up)``, each ``(steps + 1,)`` ordered by grid index: ``down`` is
+    the bump -> rebound branch, ``up`` the rebound -> bump branch (rebound -> design,
+    then the first leg design -> bump).
+    """
+    steps = int(rec.meta["steps"])
+    gi, br = grid_of(rec)
+    v = np.asarray(values, float)
+    down = np.full(steps + 1, np.nan)
+    up = np.full(steps + 1, np.nan)
+    sel_d = br == 1
+    down[gi[sel_d]] = v[sel_d]
+    down[steps] = v[np.flatnonzero(gi == steps)[0]]  # the bump end starts the descent
+    sel_u = br != 1
+    up[gi[sel_u]] = v[sel_u]
+    up[0] = v[np.flatnonzero(gi == 0)[0]]
+    return down, up
+
+
+# ------------------------------------------------------------------ measured K&C data
+#: concealed effects a truth vehicle may carry, with their default magnitudes
+TRUTH_EFFECTS: dict[str, dict] = {
+    "hysteresis": {"f_c": 80.0, "bushings": ("lca_front", "lca_rear", "top_mount")},
+    "friction": {"f_c": 120.0},
+    "progressive": {"ratio": 0.2, "bushings": ("lca_front", "lca_rear", "arb_bush", "top_mount")},
+    "asymmetry": {"hard_point_tol_mm": 1.0, "stiffness_tol": 0.10, "alignment_tol_deg": 0.05},
+    "sensor_gain": {"gain": 1.04},
+}
+#: the diagnosis' effect kind that names each concealed effect
+TRUTH_KIND = {
+    "hysteresis": "dahl_hysteresis",
+    "friction": "coulomb_friction",
+    "progressive": "cubic_stiffness",
+    "asymmetry": "lr_asymmetry",
+    "sensor_gain": "sensor_gain",
+}
+
+
+def truth_axle_effects(effects: Mapping[str, Mapping]) -> object:
+    """The solver's effects of a truth description (see :data:`TRUTH_EFFECTS`)."""
+    from suspenv.models.mcpherson import AxleEffects
+
+    unknown = sorted(set(effects) - set(TRUTH_EFFECTS))
+    if unknown:
+        raise ValidationError(
+            f"truth effects must be among {sorted(TRUTH_EFFECTS)}, but got {unknown}"
+        )
+    kw: dict = {}
+    if "hysteresis" in effects:
+        h = {**TRUTH_EFFECTS["hysteresis"], **effects["hysteresis"]}
+        kw.update(
+            hysteresis_bushings=tuple(h["bushings"]),
+            hysteresis_fc_force=float(h["f_c"]),
+            hysteresis_fc_moment=0.05 * float(h["f_c"]),
+        )
+    if "friction" in effects:
+        kw["strut_friction"] = float({**TRUTH_EFFECTS["friction"], **effects["friction"]}["f_c"])
+    if "progressive" in effects:
+        p = {**TRUTH_EFFECTS["progressive"], **effects["progressive"]}
+        kw.update(cubic_bushings=tuple(p["bushings"]), cubic_ratio=float(p["ratio"]))
+    return AxleEffects(**kw)
+
+
+def measure_truth(
+    effects: Mapping[str, Mapping] | None = None,
+    seed: int = 0,
+    amplitude: float = 0.040,
+    steps: int = 8,
+    noise_scale: float = 1.0,
+    tests: Sequence[str] = TESTS,
+    design: np.ndarray | None = None,
+) -> dict[str, Recording]:
+    """ "Measured" K&C recordings of a truth vehicle with concealed ``effects`` (seeded).
+
+    ``effects`` maps names of :data:`TRUTH_EFFECTS` to (partial) magnitudes, e.g.
+    ``{"hysteresis": {"f_c": 100.0}}``; ``{}`` is the plain reference vehicle.
+    ``noise_scale`` multiplies the rig's sensor noise (``0`` gives exact loops).
+    """
+    from suspenv.models.mcpherson.truth import CHANNEL_NOISE, truth_vehicle
+    from suspenv.rigs.knc import run_tests
+
+    effects = dict(effects or {})
+    if noise_scale < 0:
+        raise ValidationError(f"`noise_scale >= 0` must hold, but got {noise_scale}")
+    tol = {**TRUTH_EFFECTS["asymmetry"], **effects.get("asymmetry", {})}
+    truth = truth_vehicle(
+        seed,
+        base=design,
+        tolerance="asymmetry" in effects,
+        noise=False,
+        hard_point_tol_mm=float(tol["hard_point_tol_mm"]),
+        stiffness_tol=float(tol["stiffness_tol"]),
+        alignment_tol_deg=float(tol["alignment_tol_deg"]),
+        effects=truth_axle_effects(effects),
+    )
+    results = run_tests(
+        truth.axle(), tuple(tests), amplitude=amplitude, steps=steps, effects=truth.effects
+    )
+    gain = (
+        float({**TRUTH_EFFECTS["sensor_gain"], **effects["sensor_gain"]}["gain"])
+        if ("sensor_gain" in effects)
+        else 1.0
+    )
+    rng = np.random.default_rng(20_000 + seed)
+    for test in sorted(results):
+        res = results[test]
+        if not res.ok.all():
+            raise ValidationError(f"the truth vehicle fails the {test} test: {res.messages[0]}")
+        res.channels["tyre_fz"] = res.channels["tyre_fz"] * gain
+        for name in sorted(CHANNEL_NOISE):
+            ch = res.channels[name]
+            res.channels[name] = ch + rng.normal(0.0, noise_scale * CHANNEL_NOISE[name], ch.shape)
+    info = {"source": "suspenv truth vehicle (concealed effects)", "seed": int(seed)}
+    return to_recordings(results, meta=info)
+
+
+# ------------------------------------------------------------------ blind cases
+BLIND_KINDS = ("hysteresis", "friction", "progressive", "asymmetry", "sensor_gain")
+
+
+def blind_truth(seed: int) -> dict:
+    """Random concealed effects (none, one or two), magnitudes, location and noise."""
+    rng = np.random.default_rng(seed)
+    n = int(rng.choice([0, 1, 1, 2]))
+    kinds = [str(k) for k in rng.choice(BLIND_KINDS, size=n, replace=False)]
+    effects: dict[str, dict] = {}
+    for k in kinds:
+        if k == "hysteresis":
+            where = [
+                ("lca_front", "lca_rear", "top_mount"),
+                ("lca_front", "lca_rear"),
+                ("top_mount",),
+            ][int(rng.integers(3))]
+            effects[k] = {"f_c": float(rng.uniform(50.0, 150.0)), "bushings": list(where)}
+        elif k == "friction":
+            effects[k] = {"f_c": float(rng.uniform(60.0, 250.0))}
+        elif k == "progressive":
+            effects[k] = {"ratio": float(rng.uniform(0.1, 0.5))}
+        elif k == "asymmetry":
+            s = float(rng.uniform(0.6, 1.5))
+            effects[k] = {
+                "hard_point_tol_mm": 1.0 * s,
+                "stiffness_tol": 0.10 * s,
+                "alignment_tol_deg": 0.05 * s,
+            }
+        elif k == "sensor_gain":
+            effects[k] = {"gain": float(1.0 + rng.choice([-1, 1]) * rng.uniform(0.02, 0.06))}
+    return {
+        "seed": int(seed),
+        "effects": effects,
+        "expected_kinds": sorted(TRUTH_KIND[k] for k in effects),
+        "noise_scale": float(rng.uniform(0.5, 2.0)),
+    }
+
+
+def blind_case(seed: int, steps: int = 8, amplitude: float = 0.040) -> tuple[dict, dict]:
+    """``(case, truth)``: the case holds only the recordings; the truth is kept apart."""
+    truth = blind_truth(seed)
+    recs = measure_truth(truth["effects"], seed, amplitude, steps, noise_scale=truth["noise_scale"])
+    case = {
+        "id": f"knc-blind-{seed}",
+        "recordings": {t: r for t, r in recs.items()},
+    }
+    for r in case["recordings"].values():
+        r.meta.pop("seed", None)
+        r.name = f"knc-blind-{seed}:{rig_test(r)}"
+    return case, truth
+
+
+def write_blind_case(seed: int, case_dir: str, truth_dir: str, steps: int = 8) -> list[str]:
+    """Write a blind case (``<test>.npz``) and, in another folder, its ``truth.json``."""
+    import json
+    from pathlib import Path
+
+    from suspenv.recordings import save_recording
+
+    case, truth = blind_case(seed, steps)
+    cdir, tdir = Path(case_dir), Path(truth_dir)
+    cdir.mkdir(parents=True, exist_ok=True)
+    tdir.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for test, rec in case["recordings"].items():
+        p = cdir / f"{test}.npz"
+        save_recording(rec, p)
+        paths.append(str(p))
+    tp = tdir / f"knc-blind-{seed}.truth.json"
+    tp.write_text(json.dumps(truth, indent=2))
+    paths.append(str(tp))
+    return paths

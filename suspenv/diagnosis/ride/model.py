@@ -1,0 +1,273 @@
+"""The minibus ride model behind the component-model interface the diagnosis uses.
+
+Frame and units: ISO 8855 (x forward, y left, z up), SI inside; the design values
+keep the study's units at the edge (C1, C2 dimensionless, T1 N*mm/deg, K1 N/mm).
+Suspension deflection positive in compression (bump); accelerations m/s^2, + up.
+
+A ride recording (see :mod:`suspenv.diagnosis.ride.recording`) has the road
+elevation under each wheel as inputs ``road_FL``, ``road_FR``, ``road_RL``,
+``road_RR`` [m] on the recording's uniform time grid, and measures the vertical
+acceleration of the body above the front and rear suspension (``acc_front``,
+``acc_rear``, at the measuring points of :class:`RideModel`) and on the seat rail of
+a mid-cabin seat (``acc_seat``) [m/s^2].
+
+Fitted parameters (small and identifiable from pulse tests): the front/rear damper
+curve scales C1, C2, the front torsion-bar rate T1 and the rear leaf primary rate
+K1; the other design values stay at the study's pick. Effects (each a physical
+element with its own parameters, simulated inside the 7-DOF model):
+
+* ``bump_stop`` at ``front_suspension`` / ``rear_suspension`` (gap from the static
+  ride position);
+* ``dahl_hysteresis`` at ``rear_leaf`` (leaf interleaf friction);
+* ``coulomb_friction`` at ``front_damper`` / ``rear_damper`` (seal friction);
+* ``kelvin_voigt`` at ``seat_mount``: the seat frame on a compliant mount (stiffness
+  ``k`` [N/m], damping ``c`` [N s/m], seat mass :data:`SEAT_MASS`); without it the
+  seat rail moves with the floor. The seat is light against the body, so its
+  reaction on the body is left out: the mount acts as a base-excited oscillator
+  on the floor acceleration at the seat.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any, ClassVar
+
+import numpy as np
+from scipy import signal
+
+from suspenv.core.errors import ValidationError
+from suspenv.core.space import Parameter
+from suspenv.models.components.base import ComponentModel
+from suspenv.models.effects import Effect, make_effect
+from suspenv.models.minibus import DESIGN_NAMES, REFERENCE_MINIBUS, STUDY_PICK, vehicle_parameters
+from suspenv.models.minibus.ride_model import SUPPORTED_EFFECTS, RideModel
+from suspenv.recordings import Recording
+
+WHEELS = ("FL", "FR", "RL", "RR")
+ROAD_CHANNELS = tuple(f"road_{w}" for w in WHEELS)
+OUTPUT_CHANNELS = ("acc_front", "acc_rear", "acc_seat")
+#: seat + occupant share on the mount (kg) [CHOICE: a bus passenger seat, as SeatMount]
+SEAT_MASS = 90.0
+#: seat position: fraction of the wheelbase behind the front axle, lateral offset (m)
+SEAT_FRACTION, SEAT_Y = 0.5, -0.35
+
+#: velocity width (m/s) of the smoothed damper friction step [CHOICE: a sharper step
+#: acts as a damping of f_c / v_eps at rest, too stiff for RK4 at 200 Hz on a 45 kg wheel]
+FRICTION_V_EPS = 0.03
+
+#: (kind, location) -> engineering words
+RIDE_EFFECT_WORDS: dict[tuple[str, str], str] = {
+    ("bump_stop", "front_suspension"): "bump stop contact in the front suspension",
+    ("bump_stop", "rear_suspension"): "bump stop contact in the rear suspension",
+    ("rebound_stop", "front_suspension"): "rebound stop contact in the front suspension",
+    ("rebound_stop", "rear_suspension"): "rebound stop contact in the rear suspension",
+    ("dahl_hysteresis", "rear_leaf"): "leaf-spring interleaf friction (Dahl) in the rear leaves",
+    ("coulomb_friction", "front_damper"): "Coulomb friction in the front dampers",
+    ("coulomb_friction", "rear_damper"): "Coulomb friction in the rear dampers",
+    ("kelvin_voigt", "seat_mount"): "a compliant seat mount (spring and damper under the seat)",
+}
+#: candidate (kind, location) pairs the ride diagnosis tries
+RIDE_CANDIDATES: tuple[tuple[str, str], ...] = (
+    ("bump_stop", "front_suspension"),
+    ("bump_stop", "rear_suspension"),
+    ("dahl_hysteresis", "rear_leaf"),
+    ("coulomb_friction", "front_damper"),
+    ("coulomb_friction", "rear_damper"),
+    ("kelvin_voigt", "seat_mount"),
+)
+#: fit bounds tighter than the effect library's generic ones: they keep every
+#: element integrable by RK4 at the recordings' 200 Hz (stiffest mode well inside
+#: the stability limit) and physically meaningful (a seat mount has k, c > 0)
+RIDE_BOUNDS: dict[tuple[str, str], tuple[float, float]] = {
+    ("bump_stop", "gap"): (0.0, 0.15),
+    ("bump_stop", "k_stop"): (0.0, 2.0e6),
+    ("rebound_stop", "gap"): (0.0, 0.15),
+    ("rebound_stop", "k_stop"): (0.0, 2.0e6),
+    ("dahl_hysteresis", "f_c"): (0.0, 3000.0),
+    ("dahl_hysteresis", "sigma"): (1.0e4, 1.0e6),
+    ("coulomb_friction", "f_c"): (0.0, 600.0),
+    ("kelvin_voigt", "k"): (2.0e4, 2.0e6),
+    ("kelvin_voigt", "c"): (50.0, 2.0e4),
+}
+
+
+def ride_effect(kind: str, location: str, **params: float) -> Effect:
+    """An effect named ``"<kind>@<location>"`` placed at ``location`` of the ride model."""
+    if (kind, location) not in RIDE_EFFECT_WORDS:
+        raise ValidationError(
+            f"ride effect (kind, location) must be one of {sorted(RIDE_EFFECT_WORDS)}, but got "
+            f"({kind!r}, {location!r})"
+        )
+    if kind == "coulomb_friction":
+        params.setdefault("v_eps", FRICTION_V_EPS)
+    return make_effect(kind, name=f"{kind}@{location}", location=location, **params)
+
+
+def effect_words(effect: Effect) -> str:
+    return RIDE_EFFECT_WORDS.get((effect.kind, effect.location), effect.words)
+
+
+def half_step_inputs(rec: Recording) -> tuple[np.ndarray, np.ndarray, float]:
+    """Road elevation (2N+1, 4) [m] and rate [m/s] on the half-step grid of ``rec``'s N
+    samples (midpoints interpolated linearly, the last sample held), and the step [s]."""
+    t = rec.time
+    dt = float(np.median(np.diff(t)))
+    if np.ptp(np.diff(t)) > 1e-6 * dt:
+        raise ValidationError(f"recording {rec.name!r}: ride recordings need a uniform time grid")
+    z = np.stack([rec.inputs[c] for c in ROAD_CHANNELS], axis=1)
+    z_ext = np.vstack([z, z[-1:]])
+    zh = np.empty((2 * z.shape[0] + 1, 4))
+    zh[0::2] = z_ext
+    zh[1::2] = 0.5 * (z_ext[:-1] + z_ext[1:])
+    zd = np.gradient(zh, dt / 2.0, axis=0)
+    return zh, zd, dt
+
+
+class MinibusRideAdapter(ComponentModel):
+    """7-DOF minibus ride model as a diagnosable component model (family ``minibus_ride``).
+
+    Options: ``load_case`` ("no_load"/"full_load"; a recording's ``meta["load_case"]``
+    wins), ``design`` (the 8 study values the fit does not touch; default study pick).
+    """
+
+    family: ClassVar[str] = "minibus_ride"
+    description: ClassVar[str] = (
+        "7-DOF minibus ride model (pulse bump and random road), damper scales and spring rates"
+    )
+    base_parameters: ClassVar[tuple[Parameter, ...]] = (
+        Parameter("C1", 0.4, 2.5, "-", default=1.12, description="front damper curve scale"),
+        Parameter("C2", 0.4, 2.5, "-", default=0.88, description="rear damper curve scale"),
+        Parameter("T1", 4.0e4, 2.0e5, "N*mm/deg", default=8.8e4, description="front torsion bar"),
+        Parameter("K1", 40.0, 140.0, "N/mm", default=73.5, description="rear leaf primary rate"),
+    )
+    input_channels: ClassVar[tuple[str, ...]] = ROAD_CHANNELS
+    output_channels: ClassVar[tuple[str, ...]] = OUTPUT_CHANNELS
+    channel_units: ClassVar[dict[str, str]] = {
+        **{c: "m" for c in ROAD_CHANNELS},
+        **{c: "m/s^2" for c in OUTPUT_CHANNELS},
+    }
+    candidate_effects: ClassVar[tuple[str, ...]] = tuple(
+        dict.fromkeys(k for k, _ in RIDE_CANDIDATES)
+    )
+    location: ClassVar[str] = ""
+
+    def __init__(self, effects: Sequence[Effect] = (), **options: Any):
+        super().__init__(effects, **options)
+        design = np.asarray(options.get("design", STUDY_PICK), float)
+        if design.shape != (len(DESIGN_NAMES),):
+            raise ValidationError(
+                f"design must hold the {len(DESIGN_NAMES)} study values {DESIGN_NAMES}, but got "
+                f"shape {design.shape}"
+            )
+        self._design = design
+
+    def _check_effect(self, effect: Effect) -> None:
+        key = (effect.kind, effect.location)
+        if key not in RIDE_EFFECT_WORDS:
+            raise ValidationError(
+                f"minibus_ride: effect (kind, location) must be one of "
+                f"{sorted(RIDE_EFFECT_WORDS)}, but got {key}"
+            )
+        if effect.kind != "kelvin_voigt" and key not in SUPPORTED_EFFECTS:
+            raise ValidationError(f"minibus_ride: the ride model does not support {key}")
+
+    # ------------------------------------------------------------------ fit interface
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        lo, hi = super().bounds()
+        k = len(self.base_parameters)
+        for e in self.effects:
+            for p in self._free(e):
+                b = RIDE_BOUNDS.get((e.kind, p))
+                if b is not None:
+                    lo[k], hi[k] = b
+                k += 1
+        return lo, hi
+
+    def _base_guess(self, rec: Recording) -> dict[str, float]:
+        return {p.name: float(p.default) for p in self.base_parameters}
+
+    def _scales(self, rec: Recording) -> dict[str, float]:
+        return {"force": 1.0, "deflection": 1.0, "velocity": 1.0}
+
+    def _effect_guess(self, e: Effect, sc: Mapping[str, float]) -> dict[str, float]:
+        """Physical starting values of the ride elements (SI)."""
+        k_seat = SEAT_MASS * (2 * np.pi * 8.0) ** 2
+        g = {
+            "bump_stop": {"gap": 0.03, "k_stop": 2.0e5},
+            "rebound_stop": {"gap": 0.05, "k_stop": 2.0e5},
+            "dahl_hysteresis": {"f_c": 300.0, "sigma": 2.0e5},
+            "coulomb_friction": {"f_c": 150.0},
+            "kelvin_voigt": {"k": k_seat, "c": 2 * 0.2 * np.sqrt(k_seat * SEAT_MASS)},
+        }[e.kind]
+        return {p: v for p, v in g.items() if p in self._free(e)}
+
+    def initial_guess(self, rec: Recording) -> np.ndarray:
+        rec.require(self.input_channels, units=self._input_units())
+        guessed = [e.with_params(self._effect_guess(e, {})) for e in self.effects]
+        th = self.theta_from(self._base_guess(rec), guessed)
+        lo, hi = self.bounds()
+        return np.clip(th, lo, hi)
+
+    # ------------------------------------------------------------------ simulation
+    def _predict(
+        self, base: dict[str, np.ndarray], effects: Sequence[Effect], rec: Recording
+    ) -> dict[str, np.ndarray]:
+        batched = np.ndim(base["C1"]) > 0
+        B = int(np.size(base["C1"]))
+        X = np.tile(self._design, (B, 1))
+        for name in ("C1", "C2", "T1", "K1"):
+            X[:, DESIGN_NAMES.index(name)] = np.atleast_1d(base[name])
+        load_case = str(rec.meta.get("load_case", self.options.get("load_case", "no_load")))
+        params = vehicle_parameters(X, load_case, REFERENCE_MINIBUS)
+        ride_effects = [_batch(e, B) for e in effects if e.kind != "kelvin_voigt"]
+        seat = [e for e in effects if e.kind == "kelvin_voigt"]
+        model = RideModel(params, effects=ride_effects)
+        zh, zd, dt = half_step_inputs(rec)
+        out = model.simulate(zh, zd, dt)
+        body = out.body_acc  # (B, 3, N): z_f, z_r, phi accelerations
+        seat_floor = (
+            (1 - SEAT_FRACTION) * body[:, 0] + SEAT_FRACTION * body[:, 1] + SEAT_Y * body[:, 2]
+        )
+        acc_seat = seat_floor
+        if seat:
+            k = np.broadcast_to(np.atleast_1d(seat[0].params["k"]), (B,))
+            c = np.broadcast_to(np.atleast_1d(seat[0].params["c"]), (B,))
+            acc_seat = np.vstack(
+                [seat_mount_response(seat_floor[i], dt, k[i], c[i]) for i in range(B)]
+            )
+        res = {"acc_front": out.acc_front, "acc_rear": out.acc_rear, "acc_seat": acc_seat}
+        bad = ~out.ok
+        for key in res:
+            arr = np.array(res[key], dtype=float)
+            arr[bad] = np.nan
+            res[key] = arr if batched else arr[0]
+        return res
+
+    def example_recording(self, seed: int = 0) -> Recording:
+        from suspenv.diagnosis.ride.recording import pulse_inputs_recording
+
+        return pulse_inputs_recording(50.0, seed=seed)
+
+
+def _batch(e: Effect, B: int) -> Effect:
+    """Effect with (B,) parameter arrays (the ride model's batch axis) or scalars."""
+    vals = {
+        k: (np.broadcast_to(np.asarray(v, float), (B,)) if np.ndim(v) else v)
+        for k, v in e.params.items()
+    }
+    return Effect(e.kind, e.name, vals, e.location)
+
+
+def seat_mount_response(a_floor: np.ndarray, dt: float, k: float, c: float) -> np.ndarray:
+    """Absolute seat acceleration [m/s^2] on a mount (k [N/m], c [N s/m], SEAT_MASS) driven
+    by the floor acceleration: H(s) = (c s + k) / (m s^2 + c s + k), bilinear at ``dt``
+    with the mount's natural frequency pre-warped."""
+    m = SEAT_MASS
+    wn = np.sqrt(k / m)
+    fs = 1.0 / dt
+    b, a = signal.bilinear([c, k], [m, c, k], fs)
+    # pre-warp H(s / warp): the discrete resonance then sits at wn
+    if wn * dt < 1.0:
+        warp = np.tan(wn * dt / 2.0) / (wn * dt / 2.0)
+        b, a = signal.bilinear([c / warp, k], [m / warp**2, c / warp, k], fs)
+    return signal.lfilter(b, a, a_floor)

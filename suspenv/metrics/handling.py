@@ -1,0 +1,85 @@
+"""Handling metrics: pure functions from manoeuvre channels to numbers.
+
+Units are those of the channels passed in (the rigs use SI: m, s, rad). Arrays carry
+samples on the first axis and the batch on the last axis.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from suspenv.core.errors import ValidationError
+
+
+class WindowedPeaks:
+    """Running peak |signal| per position window, updated sample by sample for a batch.
+
+    Window k covers ``centres[k] - half_width <= x < centres[k] + half_width``; the
+    windows must not overlap. Used by the slalom to measure the peak of each
+    half-cycle around each cone without storing the time histories. Several signals
+    (``n_signals``) share the positions and are updated together.
+    """
+
+    def __init__(self, centres: np.ndarray, half_width: float, n: int, n_signals: int = 1):
+        c = np.asarray(centres, dtype=float)
+        if c.ndim != 1 or c.size == 0:
+            raise ValidationError(f"`centres` must be a non-empty 1-D array, but got {c.shape}")
+        if half_width <= 0:
+            raise ValidationError(f"`half_width > 0` must hold, but got half_width={half_width}")
+        if c.size > 1 and np.min(np.diff(c)) < 2.0 * half_width - 1e-9:
+            raise ValidationError(
+                "windows must not overlap: `diff(centres) >= 2 half_width` must hold, but got "
+                f"(min spacing={np.min(np.diff(c))}, half_width={half_width})"
+            )
+        self.centres = c
+        self.half_width = float(half_width)
+        # last window row collects the samples outside every window
+        self.peaks = np.zeros((n_signals, c.size + 1, n))
+        self._cols = np.arange(n)
+        self._starts = c - self.half_width
+        self._ends = c + self.half_width
+
+    def update(self, x: np.ndarray, values: np.ndarray) -> None:
+        """Fold one sample in: positions ``x`` (n,), values (n_signals, n) or (n,)."""
+        vals = np.abs(np.asarray(values, dtype=float)).reshape(self.peaks.shape[0], -1)
+        k = np.searchsorted(self._starts, x, side="right") - 1
+        inside = (k >= 0) & (x < self._ends[np.clip(k, 0, None)])
+        k = np.where(inside, k, self.centres.size)
+        cur = self.peaks[:, k, self._cols]
+        self.peaks[:, k, self._cols] = np.maximum(cur, vals)
+
+    def result(self, signal: int = 0) -> np.ndarray:
+        """(n_windows, n) peak |value| of one signal in every window."""
+        return self.peaks[signal, :-1].copy()
+
+
+def mean_peak_amplitude(peaks: np.ndarray) -> np.ndarray:
+    """Mean over windows (axis 0) of per-window peak amplitudes."""
+    peaks = np.asarray(peaks, dtype=float)
+    if peaks.ndim < 1 or peaks.shape[0] == 0:
+        raise ValidationError(f"`peaks` needs at least one window, but got shape {peaks.shape}")
+    return peaks.mean(axis=0)
+
+
+def linear_range_gradient(x: np.ndarray, y: np.ndarray, x_max: float) -> np.ndarray:
+    """Slope of y against x through the origin, least squares over 0 < |x| <= x_max.
+
+    For the understeer gradient pass x = a_y and y = steer - L/R; for the roll
+    gradient y = roll angle. ``x`` (N,), ``y`` (N,) or (N, n); returns () or (n,).
+    """
+    x = np.asarray(x, dtype=float)
+    y = np.asarray(y, dtype=float)
+    if x.ndim != 1 or y.shape[0] != x.shape[0]:
+        raise ValidationError(
+            f"`x` must be 1-D and `y` must have the same first axis, but got {x.shape}, {y.shape}"
+        )
+    use = (np.abs(x) > 0) & (np.abs(x) <= x_max)
+    if use.sum() < 2:
+        raise ValidationError(
+            f"need >= 2 samples with 0 < |x| <= x_max={x_max}, but got {int(use.sum())}"
+        )
+    xs = x[use]
+    ys = y[use]
+    if ys.ndim == 1:
+        return np.asarray(np.dot(xs, ys) / np.dot(xs, xs))
+    return xs @ ys / np.dot(xs, xs)

@@ -1,0 +1,454 @@
+"""Handling model of the reference minibus: lateral, yaw and roll, vectorised over a batch.
+
+Frame, units, signs: ISO 8855 vehicle axes (x forward, y left, z up), SI units (m, kg,
+N, s, rad). Yaw rate ``r`` is positive to the left (counter-clockwise seen from above);
+body roll ``phi`` is positive right-side-down about +x, so a left turn (a_y > 0) rolls
+the body positively. Steer angles (road wheels) are positive to the left. Tyre slip
+angles follow :mod:`suspenv.models.minibus.tyre` (positive when the force is to the
+left). The forward speed ``u`` is constant in every manoeuvre.
+
+Model (a single-track model with a rolling sprung mass, after Segel's three-degree-of-
+freedom car, with the axle's two wheels kept separate for the load transfer)::
+
+    m (v' + u r) - ms h' p'                 = Fyf + Fyr               (lateral)
+    Iz r'                                   = a Fyf - b Fyr           (yaw)
+    Ixs p' - ms h' (v' + u r) = (ms g h' - Kphi) phi - Mdamp          (roll, p = phi')
+
+``ms h'`` couples the sprung mass (CoM a height h' above the roll axis) to the lateral
+motion; ``Ixs`` is the sprung roll inertia about the roll axis. Per axle the roll
+stiffness is springs + stabiliser (T2/T3 taken as axle roll stiffness, the vehicle's
+stated convention) in series with the tyres' vertical stiffness, so ``phi`` is the
+body roll relative to the ground. The lateral load transfer of axle i is::
+
+    dFz_i = (Kphi_i phi + Mdamp_i + ms_i h_rc_i a_y + mu_i r_w a_y) / t_i
+
+(elastic, damper, roll-centre and unsprung parts; ``ms_i`` the sprung-mass share of
+the axle, ``h_rc_i`` its roll-centre height, ``mu_i`` its unsprung mass at wheel-centre
+height ``r_w``). An axle whose inner wheel has lifted transfers no more; the torsionally
+rigid body passes the excess roll moment to the other axle (both lifted: rollover).
+Both wheels of an axle share its slip angle, so with a load-sensitive tyre the axle's
+lateral capacity falls as load is transferred: the roll-stiffness split (T1, T2, K1/K2,
+T3) moves the handling balance. Damper roll moments use the nonlinear damper curves
+(scaled by C1/C2) at the roll-induced damper speeds.
+
+Rear axle steer (leaf-sprung rigid axle)::
+
+    delta_r = (eps_geo + eps_bush) phi + c_F Fyr
+
+``eps_geo`` is the leaf's geometric roll steer; the bush terms follow from the
+leaf-eye bushes' radial stiffness K3: (1) roll loads one leaf more than the other, the
+shackle turns part of that extra vertical load into a longitudinal load on the front
+eye whose bush yields, so the axle yaws (``eps_bush = k_leaf (l1/Ls) tan(beta) / K3``,
+``beta`` the shackle angle, signed); (2) the axle's lateral force is shared by the front
+eye bushes (stiffness 2 K3) and the shackle ends (2 eta K3, the shackle's swing makes
+them softer), the unequal deflections yaw the axle
+(``c_F = (l2 / (2 K3) - l1 / (2 eta K3)) / Ls^2``; ``l1``/``l2`` the front-eye-to-axle
+and axle-to-shackle lengths). Front axle steer adds a roll steer (default 0) and the
+steering-system compliance under the tyres' aligning moment,
+``delta_f = delta + eps_f phi + c_Ff Fyf`` with ``c_Ff = -t / k_steer`` (trail t,
+steering stiffness k_steer at the road wheels).
+
+Left out (documented limits): tyre relaxation length, combined slip, camber, steering
+compliance, aerodynamics, pitch and heave coupling, the unsprung masses' own roll,
+cos(delta) of the steered tyre forces (small-angle single-track kinematics).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+
+import numpy as np
+
+from suspenv.core.errors import ValidationError
+from suspenv.models.minibus.suspension import damper_force, spring_pair_roll_stiffness
+from suspenv.models.minibus.tyre import LIGHT_TRUCK_TYRE, LateralTyre
+from suspenv.models.minibus.vehicle import (
+    REFERENCE_MINIBUS,
+    G,
+    LoadCase,
+    Minibus,
+    vehicle_parameters,
+)
+
+
+@dataclass(frozen=True)
+class LeafAxleGeometry:
+    """Leaf-spring axle location data for the bush compliance steer (SI).
+
+    Attributes:
+        axle_from_front_eye: l1, m, front eye to axle seat along the leaf (l2 = Ls - l1).
+        shackle_lateral_ratio: eta, lateral stiffness of a shackle end relative to a
+            front eye bush (< 1: the shackle swings sideways).
+        shackle_angle_deg: beta, deg; sign chosen so that positive values make the bush
+            roll steer understeering. Default -15 deg: the compliance adds a little roll
+            oversteer (the usual direction for leaf-eye compliance).
+        front_roll_steer: rad of front road-wheel steer per rad of body roll.
+        steering_trail: m, pneumatic + caster trail of the front tyres' lateral force.
+        steering_stiffness: N*m/rad, torsional stiffness of the steering system at the
+            road wheels (both wheels together, steering wheel held).
+    """
+
+    axle_from_front_eye: float = 0.60  # m [CHOICE: axle slightly ahead of leaf centre]
+    shackle_lateral_ratio: float = 0.5  # - [CHOICE]
+    shackle_angle_deg: float = -15.0  # deg [CHOICE]
+    front_roll_steer: float = 0.0  # rad/rad [CHOICE: independent front, neutral]
+    #: [CHOICE] 30 mm total trail and 30 kN*m/rad steering stiffness: about 0.6-0.8
+    #: deg/g of compliance understeer, the usual share for a recirculating-ball system.
+    steering_trail: float = 0.030  # m
+    steering_stiffness: float = 3.0e4  # N*m/rad
+
+    def __post_init__(self) -> None:
+        if not self.shackle_lateral_ratio > 0:
+            raise ValidationError(
+                "`shackle_lateral_ratio > 0` must hold, but got "
+                f"shackle_lateral_ratio={self.shackle_lateral_ratio}"
+            )
+        if not self.steering_stiffness > 0:
+            raise ValidationError(
+                f"`steering_stiffness > 0` must hold, but got {self.steering_stiffness}"
+            )
+        if not -80.0 < self.shackle_angle_deg < 80.0:
+            raise ValidationError(
+                f"`-80 < shackle_angle_deg < 80` must hold, but got {self.shackle_angle_deg}"
+            )
+
+
+DEFAULT_LEAF_GEOMETRY = LeafAxleGeometry()
+
+
+@dataclass(frozen=True)
+class HandlingParams:
+    """Handling parameters of a batch of n vehicles (every field an array of shape (n,)).
+
+    Masses kg; lengths m; inertias kg*m^2; roll stiffness N*m/rad. ``a``/``b``: total
+    CoM to front/rear axle. ``fz_front``/``fz_rear``: static load per wheel, N.
+    """
+
+    m: np.ndarray  # total mass
+    ms: np.ndarray  # sprung mass
+    a: np.ndarray
+    b: np.ndarray
+    iz: np.ndarray  # yaw inertia of the whole vehicle about its CoM
+    ixs: np.ndarray  # sprung roll inertia about the roll axis
+    h_prime: np.ndarray  # sprung CoM height above the roll axis
+    h_rc_front: np.ndarray
+    h_rc_rear: np.ndarray
+    ms_front: np.ndarray  # sprung mass share carried by the front axle
+    ms_rear: np.ndarray
+    mu_front: np.ndarray  # unsprung mass of the front axle (both sides)
+    mu_rear: np.ndarray
+    wheel_radius: np.ndarray
+    track_front: np.ndarray
+    track_rear: np.ndarray
+    kphi_front: np.ndarray  # effective roll stiffness (suspension in series with tyres)
+    kphi_rear: np.ndarray
+    damper_scale_front: np.ndarray
+    damper_scale_rear: np.ndarray
+    fz_front: np.ndarray
+    fz_rear: np.ndarray
+    roll_steer_front: np.ndarray  # rad/rad
+    force_steer_front: np.ndarray  # rad/N (steering compliance, < 0)
+    roll_steer_rear: np.ndarray  # rad/rad, geometric + bush
+    force_steer_rear: np.ndarray  # rad/N
+    vehicle: Minibus = REFERENCE_MINIBUS
+    tyre: LateralTyre = LIGHT_TRUCK_TYRE
+
+    @property
+    def n(self) -> int:
+        return int(self.m.shape[0])
+
+    @property
+    def wheelbase(self) -> np.ndarray:
+        return self.a + self.b
+
+    @property
+    def kphi(self) -> np.ndarray:
+        return self.kphi_front + self.kphi_rear
+
+    def roll_gradient(self) -> np.ndarray:
+        """Steady-state body roll per lateral acceleration, rad/(m/s^2) (closed form)."""
+        msh = self.ms * self.h_prime
+        return msh / (self.kphi - msh * G)
+
+    def axle_cornering_stiffness(self) -> tuple[np.ndarray, np.ndarray]:
+        """Front and rear axle cornering stiffness at static load, N/rad (two tyres each)."""
+        return (
+            2.0 * self.tyre.cornering_stiffness(self.fz_front),
+            2.0 * self.tyre.cornering_stiffness(self.fz_rear),
+        )
+
+    def understeer_gradient(self) -> np.ndarray:
+        """Linear-range understeer gradient K, rad/(m/s^2): delta = L/R + K a_y (closed form).
+
+        K = m/L (b/Cf - a/Cr) + (eps_r - eps_f) dphi/da_y + (c_F a - c_Ff b) m / L: the
+        bicycle model's term plus the roll steer and lateral-force steer of the axles.
+        """
+        cf, cr = self.axle_cornering_stiffness()
+        L = self.wheelbase
+        k = self.m / L * (self.b / cf - self.a / cr)
+        k = k + (self.roll_steer_rear - self.roll_steer_front) * self.roll_gradient()
+        return k + (self.force_steer_rear * self.a - self.force_steer_front * self.b) * (self.m / L)
+
+    def take(self, rows: np.ndarray | slice) -> HandlingParams:
+        """The parameters of a subset of rows."""
+        return HandlingParams(
+            **{
+                f.name: (
+                    getattr(self, f.name)[rows]
+                    if f.name not in ("vehicle", "tyre")
+                    else getattr(self, f.name)
+                )
+                for f in fields(self)
+            }
+        )
+
+    @staticmethod
+    def stack(parts: list[HandlingParams]) -> HandlingParams:
+        """Concatenate batches (same vehicle and tyre) row-wise."""
+        if not parts:
+            raise ValidationError("cannot stack an empty list of handling parameters")
+        values = {}
+        for f in fields(HandlingParams):
+            if f.name in ("vehicle", "tyre"):
+                values[f.name] = getattr(parts[0], f.name)
+            else:
+                values[f.name] = np.concatenate([getattr(p, f.name) for p in parts])
+        return HandlingParams(**values)
+
+
+def roll_centre_heights(vehicle: Minibus = REFERENCE_MINIBUS) -> tuple[float, float]:
+    """Front and rear roll-centre heights above ground, m.
+
+    Front (independent): the line from the contact patch through the swing-arm instant
+    centre crosses the centre line at ``h_ic (t/2) / d_ic``. Rear (leaf axle): the stated
+    leaf-seat height.
+    """
+    front = vehicle.front_ic_height * (vehicle.track_front / 2.0) / vehicle.front_ic_inboard
+    return float(front), float(vehicle.rear_roll_centre_height)
+
+
+def handling_parameters(
+    X: np.ndarray,
+    load_case: str | LoadCase = "no_load",
+    vehicle: Minibus = REFERENCE_MINIBUS,
+    tyre: LateralTyre = LIGHT_TRUCK_TYRE,
+    leaf: LeafAxleGeometry = DEFAULT_LEAF_GEOMETRY,
+) -> HandlingParams:
+    """Handling parameters for designs X (n, 8; the study's units) in one load case."""
+    vp = vehicle_parameters(X, load_case, vehicle)
+    d = vp.design
+    n = vp.n
+    load = vp.load
+    L = vehicle.wheelbase
+    ms = load.sprung_mass
+    muf, mur = 2.0 * vehicle.unsprung_front, 2.0 * vehicle.unsprung_rear
+    m = ms + muf + mur
+    a = (ms * vp.a + mur * L) / m  # total CoM behind the front axle
+    b = L - a
+    iz = load.yaw_inertia + ms * (vp.a - a) ** 2 + muf * a**2 + mur * b**2
+    h_rf, h_rr = roll_centre_heights(vehicle)
+    h_axis = h_rf + (h_rr - h_rf) * vp.a / L  # roll-axis height under the sprung CoM
+    h_prime = load.cg_z - h_axis
+    if h_prime <= 0:
+        raise ValidationError(
+            f"the sprung CoM must lie above the roll axis, but got (cg_z={load.cg_z}, "
+            f"roll-axis height={h_axis:.3f})"
+        )
+    ixs = load.roll_inertia + ms * h_prime**2
+
+    # roll stiffness: springs + stabiliser, in series with the two tyres
+    kt_f = spring_pair_roll_stiffness(vehicle.tyre_vertical_stiffness, vehicle.track_front)
+    kt_r = spring_pair_roll_stiffness(vehicle.tyre_vertical_stiffness, vehicle.track_rear)
+    ks_f = spring_pair_roll_stiffness(d.front_wheel_rate, vehicle.track_front) + d.front_roll_arb
+    ks_r = spring_pair_roll_stiffness(vp.rear_static_rate, vehicle.leaf_spacing) + d.rear_roll_arb
+    kphi_f = ks_f * kt_f / (ks_f + kt_f)
+    kphi_r = ks_r * kt_r / (ks_r + kt_r)
+
+    # rear axle steer from the leaf and its bushes
+    Ls = vehicle.leaf_length
+    l1 = leaf.axle_from_front_eye
+    l2 = Ls - l1
+    if not 0.0 < l1 < Ls:
+        raise ValidationError(
+            f"`0 < axle_from_front_eye < leaf_length` must hold, but got "
+            f"(axle_from_front_eye={l1}, leaf_length={Ls})"
+        )
+    k3 = d.leaf_bush_radial
+    eps_bush = vp.rear_static_rate * (l1 / Ls) * np.tan(np.radians(leaf.shackle_angle_deg)) / k3
+    c_force = (l2 / (2.0 * k3) - l1 / (2.0 * leaf.shackle_lateral_ratio * k3)) / Ls**2
+
+    w_front = (ms * G * vp.b / L) / 2.0 + vehicle.unsprung_front * G
+    w_rear = (ms * G * vp.a / L) / 2.0 + vehicle.unsprung_rear * G
+
+    def full(value: float | np.ndarray) -> np.ndarray:
+        return np.broadcast_to(np.asarray(value, dtype=float), (n,)).copy()
+
+    return HandlingParams(
+        m=full(m),
+        ms=full(ms),
+        a=full(a),
+        b=full(b),
+        iz=full(iz),
+        ixs=full(ixs),
+        h_prime=full(h_prime),
+        h_rc_front=full(h_rf),
+        h_rc_rear=full(h_rr),
+        ms_front=full(ms * vp.b / L),
+        ms_rear=full(ms * vp.a / L),
+        mu_front=full(muf),
+        mu_rear=full(mur),
+        wheel_radius=full(vehicle.tyre_loaded_radius),
+        track_front=full(vehicle.track_front),
+        track_rear=full(vehicle.track_rear),
+        kphi_front=full(kphi_f),
+        kphi_rear=full(kphi_r),
+        damper_scale_front=full(d.front_damper_scale),
+        damper_scale_rear=full(d.rear_damper_scale),
+        fz_front=full(w_front),
+        fz_rear=full(w_rear),
+        roll_steer_front=full(leaf.front_roll_steer),
+        force_steer_front=full(-leaf.steering_trail / leaf.steering_stiffness),
+        roll_steer_rear=full(vehicle.rear_roll_steer + eps_bush),
+        force_steer_rear=full(c_force),
+        vehicle=vehicle,
+        tyre=tyre,
+    )
+
+
+# ------------------------------------------------------------------ equations of motion
+@dataclass
+class HandlingState:
+    """Dynamic state of a batch, arrays of shape (n,). Positions in the ground frame."""
+
+    x: np.ndarray  # m, ground-frame position of the CoM
+    y: np.ndarray  # m
+    psi: np.ndarray  # rad, heading
+    v: np.ndarray  # m/s, lateral velocity in vehicle axes
+    r: np.ndarray  # rad/s, yaw rate
+    phi: np.ndarray  # rad, body roll
+    p: np.ndarray  # rad/s, roll rate
+    delta: np.ndarray  # rad, front road-wheel steer (after the steering lag)
+    ay: np.ndarray  # m/s^2, lateral acceleration of the last step (load transfer input)
+    fy_front: np.ndarray  # N, front axle force of the last step (compliance steer input)
+    fy_rear: np.ndarray  # N, rear axle force of the last step (compliance steer input)
+
+    @classmethod
+    def zeros(cls, n: int) -> HandlingState:
+        return cls(*(np.zeros(n) for _ in range(11)))
+
+
+@dataclass
+class HandlingRates:
+    """Derivatives and outputs of one evaluation of the equations of motion."""
+
+    v_dot: np.ndarray
+    r_dot: np.ndarray
+    p_dot: np.ndarray
+    ay: np.ndarray  # m/s^2, v' + u r (lateral acceleration at the CoM)
+    fy_front: np.ndarray
+    fy_rear: np.ndarray
+    fz: np.ndarray  # (4, n) wheel loads FL, FR, RL, RR
+
+
+def wheel_loads(
+    P: HandlingParams, phi: np.ndarray, p: np.ndarray, ay: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Wheel loads (FL, FR, RL, RR, N, >= 0) and damper roll moments (front, rear), N*m.
+
+    Load moves to the right wheels for positive roll / positive a_y (a left turn).
+    """
+    v = P.vehicle
+    sf, sr = v.front_damper_spacing, v.rear_damper_spacing
+    # roll-induced compression rate: right side +p s/2, left side -p s/2
+    vf = 0.5 * sf * p
+    vr = 0.5 * sr * p
+    ff = damper_force(np.stack([vf, -vf]), v.damper_front, P.damper_scale_front)
+    fr_ = damper_force(np.stack([vr, -vr]), v.damper_rear, P.damper_scale_rear)
+    md_f = 0.5 * sf * (ff[0] - ff[1])
+    md_r = 0.5 * sr * (fr_[0] - fr_[1])
+    dfz_f = (
+        P.kphi_front * phi + md_f + (P.ms_front * P.h_rc_front + P.mu_front * P.wheel_radius) * ay
+    ) / P.track_front
+    dfz_r = (
+        P.kphi_rear * phi + md_r + (P.ms_rear * P.h_rc_rear + P.mu_rear * P.wheel_radius) * ay
+    ) / P.track_rear
+    # an axle cannot transfer more than its static wheel load (its inner wheel lifts);
+    # the rigid body passes the excess roll moment to the other axle
+    excess_f = np.sign(dfz_f) * np.maximum(np.abs(dfz_f) - P.fz_front, 0.0)
+    excess_r = np.sign(dfz_r) * np.maximum(np.abs(dfz_r) - P.fz_rear, 0.0)
+    dfz_f = dfz_f - excess_f + excess_r * P.track_rear / P.track_front
+    dfz_r = dfz_r - excess_r + excess_f * P.track_front / P.track_rear
+    dfz_f = np.clip(dfz_f, -P.fz_front, P.fz_front)  # both lifted: rollover
+    dfz_r = np.clip(dfz_r, -P.fz_rear, P.fz_rear)
+    fl = P.fz_front - dfz_f
+    fr = P.fz_front + dfz_f
+    rl = P.fz_rear - dfz_r
+    rr = P.fz_rear + dfz_r
+    return fl, fr, rl, rr, md_f, md_r
+
+
+def rates(P: HandlingParams, s: HandlingState, u: np.ndarray | float) -> HandlingRates:
+    """Evaluate the equations of motion at state ``s`` and forward speed ``u`` (m/s).
+
+    The load transfer uses the lateral acceleration and the compliance steers the
+    axle forces stored in the state (their values one step earlier), which breaks the
+    algebraic loops; the step is short against these loops' dynamics.
+    """
+    fl, fr, rl, rr, md_f, md_r = wheel_loads(P, s.phi, s.p, s.ay)
+    tyre = P.tyre
+    delta_f = s.delta + P.roll_steer_front * s.phi + P.force_steer_front * s.fy_front
+    alpha_f = delta_f - (s.v + P.a * s.r) / u
+    delta_r = P.roll_steer_rear * s.phi + P.force_steer_rear * s.fy_rear
+    alpha_r = delta_r - (s.v - P.b * s.r) / u
+    fz = np.stack([fl, fr, rl, rr])
+    fy = tyre.lateral_force(np.stack([alpha_f, alpha_f, alpha_r, alpha_r]), fz)
+    fyf = fy[0] + fy[1]
+    fyr = fy[2] + fy[3]
+    msh = P.ms * P.h_prime
+    r1 = fyf + fyr - P.m * u * s.r
+    r2 = msh * u * s.r + (msh * G - P.kphi) * s.phi - (md_f + md_r)
+    det = P.m * P.ixs - msh**2
+    v_dot = (P.ixs * r1 + msh * r2) / det
+    p_dot = (msh * r1 + P.m * r2) / det
+    r_dot = (P.a * fyf - P.b * fyr) / P.iz
+    return HandlingRates(
+        v_dot=v_dot,
+        r_dot=r_dot,
+        p_dot=p_dot,
+        ay=v_dot + u * s.r,
+        fy_front=fyf,
+        fy_rear=fyr,
+        fz=fz,
+    )
+
+
+def step(
+    P: HandlingParams,
+    s: HandlingState,
+    u: np.ndarray | float,
+    delta_command: np.ndarray,
+    dt: float,
+    steer_lag: float,
+) -> HandlingRates:
+    """Advance ``s`` in place by ``dt`` (semi-implicit Euler); returns the rates used.
+
+    Velocities are updated first and the new velocities move the positions and angles
+    (symplectic Euler, stable for the roll mode at the step sizes used by the rigs).
+    The front steer follows the command through a first-order lag ``steer_lag`` (s),
+    integrated exactly over the step.
+    """
+    k = rates(P, s, u)
+    s.v = s.v + dt * k.v_dot
+    s.r = s.r + dt * k.r_dot
+    s.p = s.p + dt * k.p_dot
+    s.phi = s.phi + dt * s.p
+    cos_psi, sin_psi = np.cos(s.psi), np.sin(s.psi)
+    s.x = s.x + dt * (u * cos_psi - s.v * sin_psi)
+    s.y = s.y + dt * (u * sin_psi + s.v * cos_psi)
+    s.psi = s.psi + dt * s.r
+    blend = 1.0 - np.exp(-dt / steer_lag) if steer_lag > 0 else 1.0
+    s.delta = s.delta + blend * (delta_command - s.delta)
+    s.ay = k.ay
+    s.fy_front = k.fy_front
+    s.fy_rear = k.fy_rear
+    return k

@@ -1,0 +1,518 @@
+"""Handling rigs for the minibus: steady-state circular test and pylon-course slalom.
+
+Frame, units, signs: those of :mod:`suspenv.models.minibus.handling_model` (ISO 8855,
+SI inside; left turn = positive yaw rate, lateral acceleration and body roll). Every
+test number is a parameter of a frozen config; defaults follow GB/T 6323 practice for
+light buses (ride_standards.md, "Handling tests").
+
+Steady-state circular test (:func:`steady_circle`)
+    Circle radius R (default 15 m), speed raised slowly. **Maximum quasi-steady lateral
+    acceleration** is defined as the largest a_y = u^2/R for which the model has a
+    steady-state equilibrium on the circle, i.e. the limit of the test as the speed
+    ramp becomes infinitely slow (GB/T 6323 asks for <= 0.25 m/s^2 per second, slow
+    against the vehicle's ~0.3 s yaw and roll time constants). At a steady state the
+    axles must carry Fyf = m a_y b/L and Fyr = m a_y a/L (yaw and lateral balance), the
+    body rolls phi = a_y dphi/da_y, and the load transfer of each axle follows. The
+    equilibrium exists while (1) each axle's required force is no more than its
+    capacity, the peak over slip angle of the sum of its two tyres' forces at their
+    transferred loads (front short: limit understeer, the vehicle drifts off the circle;
+    rear short: it spins), and (2) not both inner wheels have lifted (rollover). The
+    three conditions are monotonic in a_y, so a bisection finds the limit; ``limit``
+    names the condition that bounds it. The limit counts equilibria, stable or not
+    (near a rear-axle limit the steady state can be unstable, a spin mode that the
+    driver has to hold).
+
+Pylon-course slalom (:func:`slalom`)
+    n cones (default 10) on a straight line, spacing s (30 m), constant speed (60 km/h).
+    The reference path weaves through the cones, y = A cos(pi x / s), passing each cone
+    at a lateral offset A (default 1.25 m: half the vehicle width plus clearance) on
+    alternate sides, blended in over the run-in and out after the last cone. The driver
+    (:func:`driver_steer`) adds a curvature feed-forward, (L + K u^2) times the path
+    curvature a short preview ahead (K the vehicle's linear understeer gradient: a
+    driver used to the vehicle), to a pure-pursuit-type feedback on the predicted
+    lateral error one look-ahead (u * preview time) ahead and a yaw-rate feedback; the
+    command reaches the road wheels through a first-order steering lag. The gains were
+    chosen so that 300 random designs of the study's box, both load cases, all complete
+    the course with an RMS path error of about 10 % of the cone offset. Measured over the middle
+    cones (default the 3rd to the 8th): for each cone the peak |yaw rate| and peak
+    |roll angle| while the vehicle is within half a spacing of the cone; the results are
+    the means of these peaks (mean yaw-rate amplitude, mean roll-angle amplitude).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from suspenv.core.errors import ValidationError
+from suspenv.metrics.handling import WindowedPeaks, mean_peak_amplitude
+from suspenv.models.minibus.handling_model import (
+    HandlingParams,
+    HandlingState,
+    step,
+    wheel_loads,
+)
+from suspenv.models.minibus.vehicle import G
+
+
+# ------------------------------------------------------------------ steady circle
+@dataclass(frozen=True)
+class SteadyCircleConfig:
+    """Steady-state circular test settings.
+
+    Attributes:
+        radius: m, circle radius (GB/T 6323 practice 15 m; ISO 4138 prefers >= 40 m).
+        ay_upper: m/s^2, upper end of the search (above any tyre-limited value).
+        tolerance: m/s^2, bisection tolerance on the limit.
+        alpha_max_deg: deg, largest slip angle searched for an axle's peak force.
+        alpha_points: grid points for the peak search (refined by a parabola).
+    """
+
+    radius: float = 15.0
+    ay_upper: float = 1.5 * G
+    tolerance: float = 1e-3
+    alpha_max_deg: float = 20.0
+    alpha_points: int = 41
+
+    def __post_init__(self) -> None:
+        for name in ("radius", "ay_upper", "tolerance", "alpha_max_deg"):
+            if not getattr(self, name) > 0:
+                raise ValidationError(
+                    f"SteadyCircleConfig: `{name} > 0` must hold, but got {getattr(self, name)}"
+                )
+        if self.alpha_points < 5:
+            raise ValidationError(
+                f"SteadyCircleConfig: `alpha_points >= 5` must hold, but got {self.alpha_points}"
+            )
+
+
+@dataclass
+class SteadyCircleResult:
+    """Maximum quasi-steady lateral acceleration of a batch (arrays (n,)).
+
+    Attributes:
+        ay_max: m/s^2, the limit defined in the module docstring.
+        speed_max: m/s, sqrt(ay_max R).
+        limit: "front", "rear" or "rollover", the condition that bounds ay_max.
+        roll_at_limit: rad, steady body roll at ay_max.
+    """
+
+    ay_max: np.ndarray
+    speed_max: np.ndarray
+    limit: np.ndarray
+    roll_at_limit: np.ndarray
+    config: SteadyCircleConfig
+
+
+def _steady_loads(P: HandlingParams, ay: np.ndarray) -> tuple[np.ndarray, ...]:
+    phi = P.roll_gradient() * ay
+    fl, fr, rl, rr, _, _ = wheel_loads(P, phi, np.zeros_like(ay), ay)
+    return phi, fl, fr, rl, rr
+
+
+def axle_capacity(
+    P: HandlingParams, fz_a: np.ndarray, fz_b: np.ndarray, config: SteadyCircleConfig
+) -> tuple[np.ndarray, np.ndarray]:
+    """Peak over slip angle of an axle's lateral force (N) and the slip angle (rad) at it.
+
+    Grid search over 0..alpha_max refined by a parabola through the best three points.
+    """
+    alpha = np.linspace(0.0, np.radians(config.alpha_max_deg), config.alpha_points)[:, None]
+    f = P.tyre.lateral_force(alpha, fz_a) + P.tyre.lateral_force(alpha, fz_b)
+    i = np.clip(np.argmax(f, axis=0), 1, config.alpha_points - 2)
+    cols = np.arange(f.shape[1])
+    f0, f1, f2 = f[i - 1, cols], f[i, cols], f[i + 1, cols]
+    denom = f0 - 2.0 * f1 + f2
+    shift = np.where(denom < 0, 0.5 * (f0 - f2) / np.where(denom < 0, denom, -1.0), 0.0)
+    shift = np.clip(shift, -1.0, 1.0)
+    h = alpha[1, 0] - alpha[0, 0]
+    a_peak = alpha[i, 0] + shift * h
+    f_peak = P.tyre.lateral_force(a_peak, fz_a) + P.tyre.lateral_force(a_peak, fz_b)
+    return np.maximum(np.maximum(f_peak, f1), 0.0), a_peak
+
+
+def _limits(
+    P: HandlingParams, ay: np.ndarray, config: SteadyCircleConfig
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(front ok, rear ok, not rolled over) at lateral acceleration ay (n,)."""
+    _, fl, fr, rl, rr = _steady_loads(P, ay)
+    L = P.wheelbase
+    cap_f, _ = axle_capacity(P, fl, fr, config)
+    cap_r, _ = axle_capacity(P, rl, rr, config)
+    front_ok = cap_f >= P.m * ay * P.b / L
+    rear_ok = cap_r >= P.m * ay * P.a / L
+    upright = (fl > 0) | (rl > 0)
+    return front_ok, rear_ok, upright
+
+
+def steady_circle(
+    P: HandlingParams, config: SteadyCircleConfig | None = None
+) -> SteadyCircleResult:
+    """Maximum quasi-steady lateral acceleration on the circle, for every row of ``P``."""
+    config = config or SteadyCircleConfig()
+    n = P.n
+    lo = np.zeros(n)
+    hi = np.full(n, config.ay_upper)
+    iterations = int(np.ceil(np.log2(config.ay_upper / config.tolerance)))
+    for _ in range(iterations):
+        mid = 0.5 * (lo + hi)
+        f_ok, r_ok, up = _limits(P, mid, config)
+        ok = f_ok & r_ok & up
+        lo = np.where(ok, mid, lo)
+        hi = np.where(ok, hi, mid)
+    ay_max = lo
+    f_ok, r_ok, up = _limits(P, hi, config)
+    limit = np.where(~up, "rollover", np.where(~f_ok, "front", "rear"))
+    return SteadyCircleResult(
+        ay_max=ay_max,
+        speed_max=np.sqrt(ay_max * config.radius),
+        limit=limit,
+        roll_at_limit=P.roll_gradient() * ay_max,
+        config=config,
+    )
+
+
+@dataclass
+class SteadyStateSweep:
+    """Steady states on the circle at given lateral accelerations (arrays (N, n)).
+
+    Attributes:
+        ay: m/s^2 (N,); steer: rad, front road-wheel steer command; roll: rad;
+        alpha_front, alpha_rear: rad, axle slip angles; feasible: bool.
+    """
+
+    ay: np.ndarray
+    steer: np.ndarray
+    roll: np.ndarray
+    alpha_front: np.ndarray
+    alpha_rear: np.ndarray
+    feasible: np.ndarray
+
+
+def _slip_for_force(
+    P: HandlingParams,
+    fz_a: np.ndarray,
+    fz_b: np.ndarray,
+    force: np.ndarray,
+    config: SteadyCircleConfig,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Slip angle on the rising branch at which an axle carries ``force`` (bisection)."""
+    cap, a_peak = axle_capacity(P, fz_a, fz_b, config)
+    lo = np.zeros_like(force)
+    hi = a_peak.copy()
+    for _ in range(50):
+        mid = 0.5 * (lo + hi)
+        f = P.tyre.lateral_force(mid, fz_a) + P.tyre.lateral_force(mid, fz_b)
+        below = f < force
+        lo = np.where(below, mid, lo)
+        hi = np.where(below, hi, mid)
+    return 0.5 * (lo + hi), cap >= force
+
+
+def steady_state_sweep(
+    P: HandlingParams, ay: np.ndarray, config: SteadyCircleConfig | None = None
+) -> SteadyStateSweep:
+    """Quasi-steady states on the circle for lateral accelerations ``ay`` (N,) >= 0.
+
+    Steer from the kinematics of the single-track model:
+    delta = L/R + alpha_f - alpha_r - eps_f phi - c_Ff Fyf + eps_r phi + c_F Fyr.
+    """
+    config = config or SteadyCircleConfig()
+    ay = np.asarray(ay, dtype=float)
+    if ay.ndim != 1 or np.any(ay < 0):
+        raise ValidationError(f"`ay` must be a 1-D array of values >= 0, but got {ay!r}")
+    L = P.wheelbase
+    out = {k: [] for k in ("steer", "roll", "af", "ar", "ok")}
+    for a_y in ay:
+        acc = np.full(P.n, a_y)
+        phi, fl, fr, rl, rr = _steady_loads(P, acc)
+        fyf = P.m * acc * P.b / L
+        fyr = P.m * acc * P.a / L
+        af, ok_f = _slip_for_force(P, fl, fr, fyf, config)
+        ar, ok_r = _slip_for_force(P, rl, rr, fyr, config)
+        steer = (
+            L / config.radius
+            + af
+            - ar
+            - P.roll_steer_front * phi
+            - P.force_steer_front * fyf
+            + P.roll_steer_rear * phi
+            + P.force_steer_rear * fyr
+        )
+        out["steer"].append(steer)
+        out["roll"].append(phi)
+        out["af"].append(af)
+        out["ar"].append(ar)
+        out["ok"].append(ok_f & ok_r & ((fl > 0) | (rl > 0)))
+    return SteadyStateSweep(
+        ay=ay,
+        steer=np.array(out["steer"]),
+        roll=np.array(out["roll"]),
+        alpha_front=np.array(out["af"]),
+        alpha_rear=np.array(out["ar"]),
+        feasible=np.array(out["ok"]),
+    )
+
+
+# ------------------------------------------------------------------ slalom
+@dataclass(frozen=True)
+class SlalomConfig:
+    """Pylon-course slalom settings (GB/T 6323 practice for light buses).
+
+    Attributes:
+        n_cones: cones on the line; spacing: m between cones; speed_kmh: reference speed.
+        amplitude: m, lateral offset of the path at each cone.
+        run_in: m of approach before the first cone (the path blends in over one spacing).
+        preview_time: s, feedback look-ahead time (look-ahead = u * preview_time, at
+            least ``min_lookahead``).
+        feedforward_preview: s, preview of the curvature feed-forward (covers the
+            steering lag and the vehicle's yaw response time).
+        yaw_rate_gain: s, rad of steer per rad/s of yaw-rate error against u * kappa.
+        steer_lag: s, first-order lag between the driver's command and the road wheels.
+        dt: s, integration step.
+        measure_cones: (first, stop) cone indices (0-based, Python range) measured.
+        max_path_error: m; a run whose lateral distance to the path exceeds it anywhere
+            in the measured windows did not complete the course (it hit cones).
+        record_every: keep every k-th sample of the channels (0: keep none).
+    """
+
+    n_cones: int = 10
+    spacing: float = 30.0
+    speed_kmh: float = 60.0
+    amplitude: float = 1.25
+    run_in: float = 60.0
+    preview_time: float = 2.0
+    feedforward_preview: float = 0.4
+    yaw_rate_gain: float = 0.3
+    min_lookahead: float = 4.0
+    steer_lag: float = 0.15
+    dt: float = 0.02
+    measure_cones: tuple[int, int] = (2, 8)
+    max_path_error: float = 2.0
+    record_every: int = 0
+
+    def __post_init__(self) -> None:
+        for name in (
+            "spacing",
+            "speed_kmh",
+            "amplitude",
+            "preview_time",
+            "dt",
+            "min_lookahead",
+            "feedforward_preview",
+            "max_path_error",
+        ):
+            if not getattr(self, name) > 0:
+                raise ValidationError(
+                    f"SlalomConfig: `{name} > 0` must hold, but got {getattr(self, name)}"
+                )
+        if self.steer_lag < 0:
+            raise ValidationError(
+                f"SlalomConfig: `steer_lag >= 0` must hold, but got {self.steer_lag}"
+            )
+        if self.run_in < self.spacing:
+            raise ValidationError(
+                f"SlalomConfig: `run_in >= spacing` must hold, but got (run_in={self.run_in}, "
+                f"spacing={self.spacing})"
+            )
+        first, stop = self.measure_cones
+        if not 0 <= first < stop <= self.n_cones:
+            raise ValidationError(
+                "SlalomConfig: `0 <= measure_cones[0] < measure_cones[1] <= n_cones` must "
+                f"hold, but got (measure_cones={self.measure_cones}, n_cones={self.n_cones})"
+            )
+
+    @property
+    def speed(self) -> float:
+        """m/s."""
+        return self.speed_kmh / 3.6
+
+    @property
+    def cone_x(self) -> np.ndarray:
+        """m, cone positions along the line."""
+        return self.spacing * np.arange(self.n_cones)
+
+    def path_y(self, x: np.ndarray, side: float = 1.0) -> np.ndarray:
+        """Reference lateral position (m) at ground x (m); ``side=-1`` mirrors the course."""
+        x = np.asarray(x, dtype=float)
+        s = self.spacing
+        last = self.cone_x[-1]
+        w_in = 0.5 * (1.0 - np.cos(np.pi * np.clip((x + s) / s, 0.0, 1.0)))
+        w_out = 0.5 * (1.0 + np.cos(np.pi * np.clip((x - last) / s, 0.0, 1.0)))
+        return side * self.amplitude * w_in * w_out * np.cos(np.pi * x / s)
+
+    def path_slope_curvature(
+        self, x: np.ndarray, side: float = 1.0, h: float = 0.05
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Slope dy/dx and curvature (1/m) of the reference path (central differences)."""
+        y0 = self.path_y(x - h, side)
+        y1 = self.path_y(x, side)
+        y2 = self.path_y(x + h, side)
+        d1 = (y2 - y0) / (2.0 * h)
+        d2 = (y2 - 2.0 * y1 + y0) / h**2
+        return d1, d2 / (1.0 + d1**2) ** 1.5
+
+    def measured_end(self) -> float:
+        """m, ground x where the last measured window ends (the run stops there)."""
+        return float(self.cone_x[self.measure_cones[1] - 1] + 0.5 * self.spacing)
+
+
+class PathTable:
+    """The reference path tabulated on a fine grid for fast lookups during a run.
+
+    Rows: lateral position (m), slope (-), curvature (1/m); linear interpolation,
+    clamped at the ends of the grid.
+    """
+
+    def __init__(
+        self, config: SlalomConfig, side: float, x_min: float, x_max: float, step: float = 0.02
+    ):
+        self.x0 = float(x_min)
+        self.dx = float(step)
+        xs = np.arange(x_min, x_max + 2 * step, step)
+        slope, curvature = config.path_slope_curvature(xs, side)
+        self.table = np.stack([config.path_y(xs, side), slope, curvature])
+        self._last = xs.size - 2
+
+    def __call__(self, x: np.ndarray) -> np.ndarray:
+        """(3, n) lateral position, slope and curvature at ground positions ``x`` (n,)."""
+        t = (x - self.x0) / self.dx
+        i = np.clip(np.floor(t).astype(np.intp), 0, self._last)
+        w = np.clip(t - i, 0.0, 1.0)
+        lo = self.table[:, i]
+        return lo + w * (self.table[:, i + 1] - lo)
+
+
+@dataclass
+class SlalomResult:
+    """Slalom results of a batch.
+
+    Attributes:
+        yaw_rate_amplitude: rad/s (n,), mean of the per-cone peaks |r|.
+        roll_amplitude: rad (n,), mean of the per-cone peaks |phi|.
+        steer_amplitude: rad (n,), road-wheel steer, same windows.
+        ay_amplitude: m/s^2 (n,), same windows.
+        path_error_rms: m (n,), RMS lateral distance to the path over the windows.
+        yaw_rate_peaks, roll_peaks: (n_measured_cones, n) the per-cone peaks.
+        completed: bool (n,), False where the vehicle spun or left the course (heading
+            beyond 90 deg, non-finite states, or a path error above ``max_path_error``);
+            its other results are meaningless.
+        channels: recorded time histories (T, n) when ``record_every > 0``: t, x, y,
+            psi, r, phi, delta, ay.
+    """
+
+    yaw_rate_amplitude: np.ndarray
+    roll_amplitude: np.ndarray
+    steer_amplitude: np.ndarray
+    ay_amplitude: np.ndarray
+    path_error_rms: np.ndarray
+    yaw_rate_peaks: np.ndarray
+    roll_peaks: np.ndarray
+    completed: np.ndarray
+    config: SlalomConfig
+    channels: dict[str, np.ndarray] = field(default_factory=dict)
+
+
+def driver_steer(
+    P: HandlingParams,
+    s: HandlingState,
+    u: float,
+    config: SlalomConfig,
+    path: PathTable,
+    understeer: np.ndarray | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Road-wheel steer command (rad) and the current path error (m).
+
+    The command is a curvature feed-forward plus preview feedback.
+
+    Feed-forward ``(L + K u^2) kappa(x + u T_ff)``: the steady-state steer of the
+    linear vehicle on the path's curvature a preview ``T_ff`` ahead. Feedback: the
+    lateral error predicted one look-ahead l ahead along the direction of travel,
+    ``e = (y - y_ref) + l tan(psi + beta - psi_ref)`` (beta the CoM sideslip), steered
+    out with the pure-pursuit gain ``2 L / l^2``; and a yaw-rate feedback
+    ``-k_r (r - u kappa)`` that damps the loop where the vehicle departs from the linear
+    response the feed-forward assumes (load transfer near a wheel lift).
+    ``understeer`` (rad/(m/s^2), (n,)) defaults to the vehicle's linear gradient.
+    """
+    L = P.wheelbase
+    lookahead = max(u * config.preview_time, config.min_lookahead)
+    kappa = path(s.x + u * config.feedforward_preview)[2]
+    y_ref, slope, kappa_now = path(s.x)
+    if understeer is None:
+        understeer = P.understeer_gradient()
+    feedforward = (L + understeer * u**2) * kappa
+    course = s.psi + np.arctan2(s.v, u)  # direction of travel of the CoM
+    error = (s.y - y_ref) + lookahead * np.tan(course - np.arctan(slope))
+    yaw_error = s.r - u * kappa_now
+    command = feedforward - 2.0 * L * error / lookahead**2 - config.yaw_rate_gain * yaw_error
+    return command, s.y - y_ref
+
+
+def slalom(
+    P: HandlingParams, config: SlalomConfig | None = None, side: float = 1.0
+) -> SlalomResult:
+    """Run the pylon-course slalom for every row of ``P`` (closed loop, constant speed)."""
+    config = config or SlalomConfig()
+    n = P.n
+    u = config.speed
+    dt = config.dt
+    s = HandlingState.zeros(n)
+    s.x[:] = -config.run_in
+    first, stop = config.measure_cones
+    centres = config.cone_x[first:stop]
+    half = 0.5 * config.spacing
+    peaks = WindowedPeaks(centres, half, n, n_signals=4)  # r, phi, delta, a_y
+    err2 = np.zeros(n)
+    err_max = np.zeros(n)
+    n_err = np.zeros(n)
+    x_end = config.measured_end()
+    n_steps = int(np.ceil((x_end + config.run_in) / (u * dt))) + 1
+    lookahead = max(u * config.preview_time, config.min_lookahead)
+    path = PathTable(config, side, -config.run_in - 1.0, x_end + lookahead + 1.0)
+    rec: dict[str, list[np.ndarray]] = {
+        k: [] for k in ("t", "x", "y", "psi", "r", "phi", "delta", "ay")
+    }
+    lo, hi = centres[0] - half, centres[-1] + half
+    understeer = P.understeer_gradient()
+    with np.errstate(all="ignore"):  # a spinning row may overflow; it is flagged below
+        for i in range(n_steps):
+            inside = (s.x >= lo) & (s.x < hi)
+            cmd, err = driver_steer(P, s, u, config, path, understeer)
+            k = step(P, s, u, cmd, dt, config.steer_lag)
+            peaks.update(s.x, np.stack([s.r, s.phi, s.delta, k.ay]))
+            err2 += np.where(inside, err**2, 0.0)
+            err_max = np.maximum(err_max, np.where(inside, np.abs(err), 0.0))
+            n_err += inside
+            if config.record_every and i % config.record_every == 0:
+                for key, val in (
+                    ("x", s.x),
+                    ("y", s.y),
+                    ("psi", s.psi),
+                    ("r", s.r),
+                    ("phi", s.phi),
+                    ("delta", s.delta),
+                    ("ay", k.ay),
+                ):
+                    rec[key].append(val.copy())
+                rec["t"].append(np.full(n, (i + 1) * dt))
+    completed = (
+        np.isfinite(s.r)
+        & np.isfinite(s.psi)
+        & (np.abs(s.psi) < np.pi / 2)
+        & (err_max <= config.max_path_error)
+    )
+    r_peaks = peaks.result(0)
+    phi_peaks = peaks.result(1)
+    return SlalomResult(
+        yaw_rate_amplitude=mean_peak_amplitude(r_peaks),
+        roll_amplitude=mean_peak_amplitude(phi_peaks),
+        steer_amplitude=mean_peak_amplitude(peaks.result(2)),
+        ay_amplitude=mean_peak_amplitude(peaks.result(3)),
+        path_error_rms=np.sqrt(err2 / np.maximum(n_err, 1)),
+        completed=completed,
+        yaw_rate_peaks=r_peaks,
+        roll_peaks=phi_peaks,
+        config=config,
+        channels={k: np.array(v) for k, v in rec.items() if v},
+    )

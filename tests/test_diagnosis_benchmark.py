@@ -1,0 +1,84 @@
+"""Blind-case generator and benchmark scoring (no diagnosis runs here)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from suspenv.core.errors import ValidationError
+from suspenv.diagnosis.benchmark import _seeds, summarise
+from suspenv.diagnosis.blind import make_case
+from suspenv.diagnosis.name import family_of
+
+
+def test_cases_are_reproducible_and_conceal_their_truth() -> None:
+    a, b = make_case("damper", 7, 1), make_case("damper", 7, 1)
+    assert a.truth.to_dict() == b.truth.to_dict()
+    np.testing.assert_array_equal(a.recording.outputs["force"], b.recording.outputs["force"])
+    assert a.recording.meta["source"] == "synthetic blind case"
+    assert "effects" not in a.recording.meta
+
+
+@pytest.mark.parametrize("family", ["damper", "mr_damper", "friction_guide"])
+def test_two_effect_cases_hold_two_families(family: str) -> None:
+    for seed in range(3):
+        case = make_case(family, seed, 2)
+        fams = {family_of(k) for k in case.truth.kinds}
+        assert len(fams) == 2
+        assert 0.01 <= case.truth.noise_fraction <= 0.04
+
+
+def test_no_effect_case_is_the_base_model_plus_noise() -> None:
+    case = make_case("mr_damper", 3, 0)
+    assert case.truth.effects == []
+    # noise level stated in the truth: residual of the truth base model is that noise
+    from suspenv.models.components import make_component
+
+    m = make_component("mr_damper")
+    clean = m.simulate(m.theta_from(case.truth.base), case.recording)["force"]
+    noise = case.recording.outputs["force"] - clean
+    assert np.std(noise) == pytest.approx(case.truth.noise_rms, rel=0.15)
+
+
+def test_seed_sets_must_differ() -> None:
+    with pytest.raises(ValidationError, match="must not overlap"):
+        _seeds({"seeds_dev": [1, 2], "seeds_report": [2, 3]})
+    assert _seeds({"seeds_dev": [1], "seeds_report": [2], "seed_set": "dev"}) == ([1], "dev")
+
+
+def test_summary_counts() -> None:
+    base = {"param_rel_errs": [], "seconds": 1.0, "heldout_reduction": 0.0, "family": "f"}
+    rows = [
+        base
+        | {
+            "n_true": 1,
+            "top1_family_ok": True,
+            "top1_kind_ok": False,
+            "all_found": True,
+            "false_alarm": False,
+            "heldout_reduction": 0.8,
+            "param_rel_errs": [0.1, 0.3],
+        },
+        base
+        | {
+            "n_true": 1,
+            "top1_family_ok": False,
+            "top1_kind_ok": False,
+            "all_found": False,
+            "false_alarm": False,
+            "heldout_reduction": 0.4,
+        },
+        base
+        | {
+            "n_true": 0,
+            "top1_family_ok": False,
+            "top1_kind_ok": False,
+            "all_found": True,
+            "false_alarm": True,
+        },
+    ]
+    s = summarise(rows)
+    assert s["single_top1_family"] == 0.5
+    assert s["control_false_alarm"] == 1.0
+    assert s["median_heldout_reduction"] == pytest.approx(0.6)
+    assert s["median_param_rel_err"] == pytest.approx(0.2)

@@ -1,0 +1,124 @@
+"""Fit, evidence and locate against closed forms."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from suspenv.diagnosis.evidence import ljung_box
+from suspenv.diagnosis.fit import fit_model
+from suspenv.diagnosis.locate import Segment, locate, reversal_indices, travel_since_reversal
+
+
+class LinearDamper:
+    """F = k x + c v (a model linear in its parameters, so OLS is the exact reference)."""
+
+    parameter_names = ("k", "c")
+    effects = ()
+
+    def bounds(self):
+        return np.array([-1e7, -1e7]), np.array([1e7, 1e7])
+
+    def initial_guess(self, rec):
+        return np.array([1.0, 1.0])
+
+    def simulate(self, theta, rec):
+        return {"force": theta[0] * rec.inputs["x"] + theta[1] * rec.inputs["v"]}
+
+
+def _rec(noise: float, seed: int = 0):
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.0, 4.0, 0.005)
+    x = 0.02 * np.sin(2 * np.pi * 1.3 * t) + 0.005 * np.sin(2 * np.pi * 4.1 * t)
+    v = np.gradient(x, t)
+    f = 15000.0 * x + 900.0 * v + rng.normal(0.0, noise, t.size)
+    return SimpleNamespace(
+        name="r", test="sine", time=t, inputs={"x": x, "v": v}, outputs={"force": f}, units={}
+    )
+
+
+def test_fit_matches_ordinary_least_squares_and_its_standard_errors() -> None:
+    rec = _rec(noise=10.0)
+    fit = fit_model(LinearDamper(), rec)
+    # reference: OLS normal equations, se = sqrt(diag(s^2 (X^T X)^-1)), s^2 = SSR / (n - p)
+    X = np.c_[rec.inputs["x"], rec.inputs["v"]]
+    beta, *_ = np.linalg.lstsq(X, rec.outputs["force"], rcond=None)
+    res = rec.outputs["force"] - X @ beta
+    s2 = res @ res / (X.shape[0] - 2)
+    se = np.sqrt(np.diag(s2 * np.linalg.inv(X.T @ X)))
+    np.testing.assert_allclose(fit.theta, beta, rtol=1e-6)
+    np.testing.assert_allclose(fit.stderr, se, rtol=1e-3)
+    assert fit.rms()["force"] == pytest.approx(np.sqrt(np.mean(res**2)), rel=1e-6)
+
+
+def test_information_criteria_closed_form() -> None:
+    fit = fit_model(LinearDamper(), _rec(noise=5.0))
+    n, ssr = fit.n["force"], fit.ssr["force"]
+    # Gaussian log-likelihood at the variance MLE: -n/2 (ln(2 pi SSR/n) + 1)
+    ll = -0.5 * n * (np.log(2 * np.pi * ssr / n) + 1)
+    assert fit.log_likelihood() == pytest.approx(ll)
+    assert fit.bic() == pytest.approx(2 * np.log(n) - 2 * ll)
+    assert fit.aic() == pytest.approx(4 - 2 * ll)
+
+
+def test_fit_on_a_mask_uses_only_those_samples() -> None:
+    rec = _rec(noise=1.0)
+    mask = np.arange(rec.time.size) < 300
+    fit = fit_model(LinearDamper(), rec, masks=[mask])
+    assert fit.n["force"] == 300
+
+
+def test_ljung_box_white_vs_correlated() -> None:
+    rng = np.random.default_rng(3)
+    e = rng.normal(size=4000)
+    assert ljung_box(e)[1] > 0.01  # white noise: H0 kept
+    ar = np.convolve(e, [1.0, 0.9, 0.8], mode="same")  # MA(2): clearly correlated
+    assert ljung_box(ar)[1] < 1e-10
+
+
+def test_reversals_and_travel_since_reversal() -> None:
+    t = np.linspace(0.0, 2.0, 2001)
+    x = np.sin(2 * np.pi * t)  # reversals at t = 0.25, 0.75, 1.25, 1.75
+    v = np.gradient(x, t)
+    rev = reversal_indices(v)
+    np.testing.assert_allclose(t[rev], [0.25, 0.75, 1.25, 1.75], atol=2e-3)
+    d = travel_since_reversal(x, v)
+    # halfway between reversals (x = 0) the travel is one amplitude
+    assert d[1000] == pytest.approx(1.0, abs=1e-2)
+
+
+def test_locate_branch_reversal_and_band_shares() -> None:
+    t = np.arange(0.0, 10.0, 0.01)
+    x = 0.02 * np.sin(2 * np.pi * 1.0 * t)
+    v = np.gradient(x, t)
+    # residual only while compressing: the bump branch holds all of it, twice its share
+    seg = Segment("sine", t, x, v, {"force": np.where(v > 0, 1.0, 0.0)})
+    branch = {s.part: s for s in locate([seg]).by_dimension("branch")}
+    assert branch["bump (v > 0)"].share == pytest.approx(1.0)
+    assert branch["bump (v > 0)"].enrichment == pytest.approx(2.0, rel=0.02)
+    # a pure third harmonic lives in the 3 f0 band (Parseval)
+    seg = Segment("sine", t, x, v, {"force": np.sin(2 * np.pi * 3.0 * t)})
+    band = {s.part: s.share for s in locate([seg]).by_dimension("frequency band")}
+    assert band["3 f0"] == pytest.approx(1.0, abs=1e-6)
+    # a residual confined to a narrow window after each reversal is enriched there
+    near = travel_since_reversal(x, v) < 0.1 * np.ptp(x)
+    seg = Segment("sine", t, x, v, {"force": near * np.sign(v)})
+    loc = locate([seg])
+    rev = {s.part: s for s in loc.by_dimension("reversal")}
+    assert rev["near reversal"].share == pytest.approx(1.0)
+    assert loc.hotspots()[0].part == "near reversal"
+
+
+def test_locate_sides_and_tests() -> None:
+    t = np.arange(0.0, 2.0, 0.01)
+    x = np.sin(2 * np.pi * t)
+    v = np.gradient(x, t)
+    a = Segment("run A", t, x, v, {"toe_left": np.ones_like(t), "toe_right": np.zeros_like(t)})
+    b = Segment("run B", t, x, v, {"toe_left": np.ones_like(t), "toe_right": np.zeros_like(t)})
+    loc = locate([a, b])
+    side = {s.part: s.share for s in loc.by_dimension("side")}
+    assert side == {"left": 1.0, "right": 0.0}
+    tests = {s.part: s.share for s in loc.by_dimension("test")}
+    assert tests == {"run A": 0.5, "run B": 0.5}

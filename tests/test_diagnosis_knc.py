@@ -1,0 +1,229 @@
+"""Diagnosis of K&C rig recordings of the McPherson axle: planted cases with known answers.
+
+The "measured" recordings come from a truth vehicle with concealed effects (the same
+solver with another effect list, plus seeded sensor noise); the diagnosis sees only
+the recordings. Small sweeps (6 steps per half stroke) keep the default set quick.
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from suspenv.core.errors import ValidationError
+from suspenv.diagnosis.knc.diagnose import diagnose_knc, split_tests
+from suspenv.diagnosis.knc.model import KncAxleModel, KncEffect
+from suspenv.diagnosis.knc.recording import (
+    blind_case,
+    from_recording,
+    half_loops,
+    measure_truth,
+    to_recording,
+)
+from suspenv.diagnosis.knc.report import loop_width, write_knc_report
+from suspenv.models.mcpherson import AxleEffects, build_axle, reference_design
+from suspenv.recordings import load_recording, save_recording
+from suspenv.rigs.knc import run_tests
+
+STEPS = 6
+
+
+@pytest.fixture(scope="module")
+def hysteresis_case():
+    recs = measure_truth({"hysteresis": {"f_c": 80.0}}, seed=3, steps=STEPS)
+    return recs, diagnose_knc(recs, holdout="single")
+
+
+@pytest.fixture(scope="module")
+def noise_case():
+    recs = measure_truth({}, seed=4, steps=STEPS)
+    return recs, diagnose_knc(recs, holdout="single")
+
+
+# ------------------------------------------------------------------ recordings
+def test_recording_round_trip_matches_rig_branches(tmp_path):
+    res = run_tests(build_axle(reference_design()[None]), ("opposite",), steps=STEPS)["opposite"]
+    rec = to_recording(res)
+    # reference: the rig's own branch extraction (KCResult.branch)
+    down, up = half_loops(rec, rec.outputs["toe_right"])
+    np.testing.assert_allclose(down, res.branch("toe", "down")[0, :, 1])
+    np.testing.assert_allclose(up, res.branch("toe", "up")[0, :, 1])
+    # lateral channels are outboard positive: the right wheel's y is negated
+    np.testing.assert_allclose(
+        rec.outputs["contact_lateral_right"], -res.channels["contact_y"][0, :, 1]
+    )
+    back = from_recording(rec)
+    np.testing.assert_allclose(back.channels["contact_y"], res.channels["contact_y"])
+    save_recording(rec, tmp_path / "opp.npz")
+    again = load_recording(tmp_path / "opp.npz")
+    assert again.meta["rig"] == "knc" and again.test == "knc_opposite"
+    np.testing.assert_allclose(again.outputs["tyre_fz_left"], rec.outputs["tyre_fz_left"])
+
+
+def test_parallel_travel_of_a_symmetric_axle_is_symmetric():
+    # reference: mirror symmetry of the axle (left/right channels equal in parallel travel)
+    recs = measure_truth({}, seed=0, steps=STEPS, noise_scale=0.0, tests=("parallel",))
+    r = recs["parallel"]
+    for c in ("toe", "camber", "tyre_fz", "contact_lateral", "contact_x"):
+        np.testing.assert_allclose(r.outputs[f"{c}_left"], r.outputs[f"{c}_right"], atol=1e-7)
+
+
+def test_model_asymmetry_and_gain_equal_hand_built_sides():
+    # reference: the two sides built by hand (right - left = d, centred on the design)
+    rec = measure_truth({}, seed=0, steps=STEPS, noise_scale=0.0, tests=("parallel",))["parallel"]
+    model = KncAxleModel(
+        [
+            KncEffect("lr_asymmetry", params={"d_static_toe": 0.04, "d_tie_rod_inner_z": 1.0}),
+            KncEffect("sensor_gain", params={"gain": 1.03}),
+        ]
+    )
+    pred = model.simulate(model.initial_guess(rec), rec)
+    x = reference_design()
+    left, right = x.copy(), x.copy()
+    from suspenv.models.mcpherson.params import PARAMETER_NAMES
+
+    for name, d in (("static_toe", 0.04), ("tie_rod_inner_z", 1.0)):
+        j = PARAMETER_NAMES.index(name)
+        left[j] -= d / 2
+        right[j] += d / 2
+    res = run_tests(build_axle(left[None], right[None]), ("parallel",), steps=STEPS)["parallel"]
+    np.testing.assert_allclose(pred["toe_left"], res.channels["toe"][0, :, 0], atol=1e-9)
+    np.testing.assert_allclose(pred["toe_right"], res.channels["toe"][0, :, 1], atol=1e-9)
+    np.testing.assert_allclose(pred["tyre_fz_right"], 1.03 * res.channels["tyre_fz"][0, :, 1])
+
+
+def test_model_with_concealed_effect_reproduces_the_truth_exactly():
+    # reference: the truth vehicle's own loops (same solver, same effect list)
+    rec = measure_truth({"friction": {"f_c": 150.0}}, seed=0, steps=4, noise_scale=0.0)["parallel"]
+    model = KncAxleModel([KncEffect("coulomb_friction", params={"f_c": 150.0})])
+    pred = model.simulate(model.initial_guess(rec), rec)
+    np.testing.assert_allclose(pred["tyre_fz_left"], rec.outputs["tyre_fz_left"], atol=1e-6)
+    assert model.parameter_names[-1] == "coulomb_friction.f_c"
+    batch = model.simulate(np.vstack([model.initial_guess(rec)] * 2), rec)
+    assert batch["toe_left"].shape == (2, rec.n_samples)
+
+
+# ------------------------------------------------------------------ planted cases
+def test_hysteresis_is_named_and_its_loop_width_recovered(hysteresis_case):
+    recs, diag = hysteresis_case
+    assert diag.named_kinds[:1] == ["dahl_hysteresis"]
+    assert "rubber bushing hysteresis" in diag.named[0].words
+    # reference: the truth vehicle's noise-free loop (same seed, zero noise)
+    exact = measure_truth({"hysteresis": {"f_c": 80.0}}, seed=3, steps=STEPS, noise_scale=0.0)
+    rec = exact["parallel"]
+    true_w = np.mean([loop_width(rec, rec.outputs[f"tyre_fz_{s}"]) for s in ("left", "right")])
+    pred = diag.final_fit.model.simulate(diag.final_fit.theta, rec)
+    fit_w = np.mean([loop_width(rec, pred[f"tyre_fz_{s}"]) for s in ("left", "right")])
+    assert true_w > 20.0  # the loop is real and well above the 1 N noise
+    assert abs(fit_w / true_w - 1.0) < 0.20
+
+
+def test_hysteresis_refit_improves_held_out_single_wheel_travel(hysteresis_case):
+    _, diag = hysteresis_case
+    c = diag.comparison
+    assert diag.holdout.startswith("rig test(s) single")
+    assert c is not None and c.heldout_reduction > 0.05
+    fz = "tyre_fz_left"
+    assert c.heldout_rms_after[fz] < 0.8 * c.heldout_rms_before[fz]
+
+
+def test_friction_is_not_preferred_to_hysteresis(hysteresis_case):
+    _, diag = hysteresis_case
+    lr = {h.kind: h.lr_statistic_corrected for h in diag.hypotheses if h.round == 1}
+    assert lr["dahl_hysteresis"] > lr.get("coulomb_friction", 0.0)
+
+
+def test_left_right_tolerance_is_named_asymmetry():
+    recs = measure_truth({"asymmetry": {}}, seed=5, steps=STEPS)
+    diag = diagnose_knc(recs, holdout="single", max_effects=1)
+    assert diag.named_kinds == ["lr_asymmetry"]
+    assert diag.named[0].heldout_reduction > 0.05
+    # reference: the truth's own right-minus-left static toe (ADAMS/Car deg, seeded)
+    from suspenv.models.mcpherson.truth import truth_vehicle
+
+    truth = truth_vehicle(5, hysteresis=False, noise=False)
+    from suspenv.models.mcpherson.params import PARAMETER_NAMES
+
+    j = PARAMETER_NAMES.index("static_toe")
+    d_true = truth.right[j] - truth.left[j]
+    d_fit = diag.named[0].params["lr_asymmetry.d_static_toe"]["value"]
+    assert abs(d_fit - d_true) < 0.3 * abs(d_true) + 0.005
+
+
+def test_noise_only_claims_nothing(noise_case):
+    _, diag = noise_case
+    assert diag.named == []
+    assert diag.verdict.startswith("no significant missing physics")
+    # under pure noise the score tests stay near N(0, 1)
+    assert max(s.score for s in diag.signatures) < 3.0
+
+
+def test_report_files(noise_case, tmp_path):
+    _, diag = noise_case
+    paths = write_knc_report(diag, tmp_path)
+    names = {p.name for p in paths}
+    assert {"report.md", "diagnosis.json", "residual_map.png", "left_right.png"} <= names
+    data = json.loads((tmp_path / "diagnosis.json").read_text())
+    assert data["family"] == "knc_axle" and data["named"] == []
+    assert "no significant" in (tmp_path / "report.md").read_text()
+
+
+# ------------------------------------------------------------------ blind cases and input
+def test_blind_case_keeps_the_truth_apart():
+    case, truth = blind_case(11, steps=4)
+    again, truth2 = blind_case(11, steps=4)
+    assert truth == truth2
+    assert set(case) == {"id", "recordings"}
+    for rec in case["recordings"].values():
+        assert "seed" not in rec.meta and "effects" not in rec.meta
+    np.testing.assert_array_equal(
+        case["recordings"]["parallel"].outputs["toe_left"],
+        again["recordings"]["parallel"].outputs["toe_left"],
+    )
+
+
+def test_bad_input_names_the_rule():
+    recs = measure_truth({}, seed=0, steps=4, noise_scale=0.0, tests=("parallel",))
+    with pytest.raises(ValidationError, match="some but not all"):
+        split_tests(recs, "parallel")
+    with pytest.raises(ValidationError, match="candidates must be among"):
+        diagnose_knc(
+            measure_truth({}, seed=0, steps=4, tests=("parallel", "single")),
+            candidates=["bump_stop"],
+        )
+    with pytest.raises(ValidationError, match="K&C effect kind"):
+        KncEffect("bouc_wen_hysteresis")
+    with pytest.raises(ValidationError, match="truth effects must be among"):
+        measure_truth({"magic": {}})
+    assert AxleEffects().active is False
+
+
+@pytest.mark.slow
+def test_held_out_other_amplitude_for_friction():
+    # fit on 40 mm loops, validate on 25 mm loops of the same vehicle
+    fit_recs = measure_truth(
+        {"friction": {"f_c": 150.0}}, seed=7, steps=STEPS, tests=("parallel", "opposite")
+    )
+    held = measure_truth(
+        {"friction": {"f_c": 150.0}}, seed=8, steps=STEPS, amplitude=0.025, tests=("single",)
+    )
+    diag = diagnose_knc(fit_recs, holdout=list(held.values()))
+    assert diag.named_kinds[:1] == ["coulomb_friction"]
+    assert diag.comparison.heldout_reduction > 0.05
+
+
+def test_cli_targets(tmp_path):
+    from suspenv.diagnosis.knc.cli import is_knc_target, load_target
+
+    recs, stem = load_target("knc-blind:12")
+    assert set(recs) == {"parallel", "opposite", "single"} and stem == "knc_blind_12"
+    for test, rec in recs.items():
+        save_recording(rec, tmp_path / f"{test}.npz")
+    assert is_knc_target(str(tmp_path)) and is_knc_target(str(tmp_path / "single.npz"))
+    assert not is_knc_target(str(tmp_path / "missing.npz"))
+    again, _ = load_target(str(tmp_path / "single.npz"))
+    assert set(again) == set(recs)
+    with pytest.raises(ValidationError, match="integer seed"):
+        load_target("knc-blind:x")

@@ -1,0 +1,51 @@
+"""Diagnosis on real recordings (../shared/data/real; skipped where absent).
+
+References: the published physics of each rig (../shared/data/README.md): EMPS has
+Coulomb friction of about 20 N, viscous friction of about 204 N s/m and an offset
+of about -3.2 N (Janot, Gautier, Brunot); the MR damper shows strong hysteresis
+(Vargas, 2021); the racing damper's force-velocity curve is digressive.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from suspenv.diagnosis.benchmark import REAL_CASES, real_row
+from suspenv.diagnosis.engine import diagnose
+from suspenv.diagnosis.name import family_of
+
+pytestmark = pytest.mark.realdata
+
+
+def _run(name: str, shared_data):
+    fit, hold, family, expect = REAL_CASES[name](shared_data / "real")
+    diag = diagnose(fit, family, holdout=hold)
+    return diag, real_row(name, diag, expect)
+
+
+def test_emps_friction_named_with_published_values(shared_data) -> None:
+    diag, row = _run("emps", shared_data)
+    assert family_of(diag.named_kinds[0]) == "friction"
+    checks = row["checks"]
+    assert checks["coulomb_friction.f_c"]["rel_err"] < 0.15  # ~20 N
+    assert checks["c"]["rel_err"] < 0.15  # ~204 N s/m
+    assert checks["force_offset.offset"]["value"] == pytest.approx(-3.2, abs=1.0)
+    # the offset / direction-dependent friction ambiguity is reported
+    assert any("offset" in a.sentence() for a in diag.ambiguities)
+    assert diag.comparison.heldout_reduction > 0.1
+    # the baseline without friction inflates the viscous coefficient (published remark)
+    assert diag.baseline["params"]["c"]["value"] > 1.5 * 204.0
+
+
+@pytest.mark.slow
+def test_mr_damper_hysteresis_named(shared_data) -> None:
+    diag, _ = _run("mr_damper", shared_data)
+    assert "hysteresis" in diag.named_families
+    assert diag.comparison.heldout_reduction > 0.2
+
+
+@pytest.mark.slow
+def test_damper_dyno_digressive_named(shared_data) -> None:
+    diag, _ = _run("damper_dyno", shared_data)
+    assert "digressive" in diag.named_families
+    assert diag.comparison.heldout_reduction > 0.5

@@ -1,0 +1,159 @@
+"""MinibusRideHandling: objectives, constraints, failures, report, experiment configs."""
+
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from suspenv.core.errors import ValidationError
+from suspenv.models.minibus.vehicle import STUDY_PICK, design_space
+from suspenv.problems.minibus import (
+    MinibusRideHandling,
+    pareto_mask,
+    ride_focused_pick,
+    write_minibus_report,
+)
+from suspenv.registry import make_problem
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="module")
+def problem() -> MinibusRideHandling:
+    return make_problem("MinibusRideHandling")
+
+
+@pytest.fixture(scope="module")
+def evaluated(problem):
+    space = design_space()
+    rng = np.random.default_rng(7)
+    X = np.vstack([STUDY_PICK, space.lower, space.upper, space.to_physical(rng.random((5, 8)))])
+    return X, problem.evaluate(X)
+
+
+def test_space_and_names_are_the_studys(problem):
+    # reference: minibus_ride_handling.md, "8 design variables"
+    assert problem.space.names == ("K1", "K2", "K3", "T1", "T2", "T3", "C1", "C2")
+    np.testing.assert_allclose(problem.space.lower, [60, 130, 1e3, 7e4, 2e5, 2e5, 0.6, 0.6])
+    np.testing.assert_allclose(problem.space.upper, [85, 180, 5e3, 1.5e5, 9e5, 9e5, 1.8, 1.8])
+    np.testing.assert_allclose(problem.reference_design(), STUDY_PICK)
+    assert problem.n_objectives == 5 and problem.n_constraints == 6
+
+
+def test_objectives_are_no_load_plus_weighted_full_load(problem, evaluated):
+    X, b = evaluated
+    assert b.ok.all(), b.messages
+    e = b.extras
+    w = 1.5
+    np.testing.assert_allclose(
+        b.objectives[:, 0], e["aw_front_no_load"] + w * e["aw_front_full_load"]
+    )
+    np.testing.assert_allclose(
+        b.objectives[:, 1], e["aw_rear_no_load"] + w * e["aw_rear_full_load"]
+    )
+    np.testing.assert_allclose(
+        b.objectives[:, 2], -(e["ay_max_no_load"] + w * e["ay_max_full_load"])
+    )
+    np.testing.assert_allclose(
+        b.objectives[:, 3], e["yaw_rate_no_load"] + w * e["yaw_rate_full_load"]
+    )
+    np.testing.assert_allclose(b.objectives[:, 4], e["roll_no_load"] + w * e["roll_full_load"])
+    np.testing.assert_allclose(b.constraints[:, 2], e["aw_rear_no_load"] - problem.rms_limit)
+    np.testing.assert_allclose(b.constraints[:, 5], e["roll_full_load"] - 6.0)
+    # plausibility of the parts: grip 0.5-1 g, slalom yaw near the path's 13 deg/s
+    assert np.all((e["ay_max_no_load"] > 4.9) & (e["ay_max_no_load"] < 9.8))
+    assert np.all(np.abs(e["yaw_rate_no_load"] / 13.1 - 1) < 0.15)
+    # the full load rolls more than the empty vehicle in the slalom (higher CoM, mass)
+    assert np.all(e["roll_full_load"] > e["roll_no_load"])
+
+
+def test_batch_and_single_evaluations_agree(problem, evaluated):
+    # vectorised batch == one design at a time (same road, same rigs)
+    X, b = evaluated
+    single = problem.evaluate(X[1:2])
+    np.testing.assert_allclose(single.objectives[0], b.objectives[1], rtol=1e-7)
+
+
+def test_load_weight_and_limits_are_options():
+    p = MinibusRideHandling(load_weight=1.0, rms_limit=0.6, roll_limit_deg=3.0)
+    assert p.config()["rms_limit"] == 0.6
+    rebuilt = MinibusRideHandling(**p.config())
+    assert rebuilt.config() == p.config()
+    with pytest.raises(ValidationError, match="rms_limit > 0"):
+        MinibusRideHandling(rms_limit=0.0)
+    with pytest.raises(ValidationError, match="n_cones >= 4"):
+        MinibusRideHandling(n_cones=3)
+
+
+def test_a_design_that_spins_is_a_failed_row_with_a_reason():
+    # a very fast slalom: the vehicle cannot follow the cones
+    p = MinibusRideHandling(slalom_speed_kmh=110.0, slalom_amplitude=2.5, ride_duration_s=2.0)
+    b = p.evaluate(STUDY_PICK[None, :])
+    assert not b.ok[0]
+    assert "slalom" in b.messages[0]
+    assert np.isnan(b.objectives[0]).all()
+
+
+def test_pareto_mask_matches_brute_force():
+    # reference: the definition of dominance, checked pair by pair
+    rng = np.random.default_rng(0)
+    F = rng.random((60, 3))
+    cand = rng.random(60) > 0.2
+    mask = pareto_mask(F, cand)
+    for i in range(60):
+        dominated = any(cand[j] and np.all(F[j] <= F[i]) and np.any(F[j] < F[i]) for j in range(60))
+        assert mask[i] == (cand[i] and not dominated)
+
+
+def test_ride_focused_pick_rule():
+    base = np.array([1.0, 1.0, -10.0, 30.0, 5.0])
+    F = np.array(
+        [
+            [0.5, 0.5, -9.0, 30.0, 5.0],  # best ride but worse grip than baseline
+            [0.9, 0.8, -10.5, 29.0, 4.0],  # keeps handling, ride score 1.7
+            [0.8, 0.8, -10.0, 30.0, 5.0],  # keeps handling, ride score 1.6 -> the pick
+        ]
+    )
+    front = np.ones(3, bool)
+    assert ride_focused_pick(F, front, base) == 2
+    # no design keeps the baseline handling: smallest ride score overall
+    assert ride_focused_pick(F[:1], front[:1], base) == 0
+    with pytest.raises(ValidationError, match="empty"):
+        ride_focused_pick(F, np.zeros(3, bool), base)
+
+
+def test_report_files(problem, evaluated, tmp_path):
+    X, b = evaluated
+    arrays = {
+        "x": X,
+        "unit": problem.space.to_unit(X),
+        "objectives": b.objectives,
+        "constraints": b.constraints,
+        "ok": b.ok,
+    }
+    paths = write_minibus_report(problem, tmp_path, arrays)
+    names = {p.name for p in paths}
+    assert {
+        "minibus_report.md",
+        "minibus_pareto_pairs.png",
+        "minibus_parallel.png",
+        "suspension_report.md",
+    } <= names
+    text = (tmp_path / "minibus_report.md").read_text()
+    assert "Ride-focused pick" in text and "study pick" in text
+
+
+@pytest.mark.parametrize("name", ["minibus_nsga2.toml", "minibus_quick.toml"])
+def test_experiment_configs(name):
+    cfg = tomllib.loads((ROOT / "experiments" / name).read_text())
+    assert cfg["problem"]["name"] == "MinibusRideHandling"
+    assert cfg["strategy"]["name"] == "nsga2"
+    pop = cfg["strategy"]["options"]["population_size"]
+    if name == "minibus_nsga2.toml":
+        # reference: the study's optimiser settings, population 500 x 60 generations
+        assert pop == 500 and cfg["budget"] == 30000 and cfg["budget"] // pop == 60
+    else:
+        assert cfg["budget"] <= 200
