@@ -18,6 +18,7 @@ from suspenv.models.minibus.handling_model import (
     handling_parameters,
     rates,
     step,
+    wheel_loads,
 )
 from suspenv.models.minibus.tyre import LIGHT_TRUCK_TYRE, LateralTyre
 from suspenv.models.minibus.vehicle import (
@@ -206,6 +207,27 @@ def test_stepper_matches_an_adaptive_solver_with_the_algebraic_loops_resolved():
     assert np.max(np.abs(phi_i - ref.y[2])) < 0.03 * np.max(np.abs(ref.y[2]))
 
 
+def test_steady_lateral_load_transfer_balances_the_overturning_moment():
+    # reference: moment balance of the whole vehicle about the ground centre line in a
+    # steady turn: sum_i dFz_i t_i = ms a_y h_s + ms g h' phi + m_u a_y r_w
+    space = design_space()
+    X = np.vstack([STUDY_PICK, space.lower, space.upper])
+    for lc in ("no_load", "full_load"):
+        P = handling_parameters(X, lc)
+        ay = np.full(3, 3.0)
+        phi = P.roll_gradient() * ay
+        fl, fr, rl, rr, _, _ = wheel_loads(P, phi, np.zeros(3), ay)
+        moment = 0.5 * (fr - fl) * P.track_front + 0.5 * (rr - rl) * P.track_rear
+        load = REFERENCE_MINIBUS.load_case(lc)
+        unsprung = P.mu_front + P.mu_rear
+        expected = (
+            P.ms * ay * load.cg_z + P.ms * G * P.h_prime * phi + unsprung * ay * P.wheel_radius
+        )
+        np.testing.assert_allclose(moment, expected, rtol=1e-10)
+        # and the wheel loads still carry the weight
+        np.testing.assert_allclose(fl + fr + rl + rr, P.m * G, rtol=1e-10)
+
+
 def test_handling_parameters_reject_a_cg_below_the_roll_axis():
     low = REFERENCE_MINIBUS.with_(rear_roll_centre_height=2.0)
     with pytest.raises(ValidationError, match="above the roll axis"):
@@ -322,6 +344,27 @@ def test_slalom_response_is_mirror_symmetric_and_follows_the_path():
     np.testing.assert_allclose(left.roll_amplitude, P.roll_gradient() * left.ay_amplitude, rtol=0.1)
     assert np.all(left.completed)
     assert np.all(left.path_error_rms < 0.2 * cfg.amplitude)
+
+
+@pytest.mark.slow
+def test_slalom_driver_completes_the_course_for_random_designs_of_the_box():
+    # the driver's gains were chosen on this claim (docs/minibus_handling.md)
+    rng = np.random.default_rng(11)
+    X = design_space().to_physical(rng.random((300, 8)))
+    P = HandlingParams.stack([handling_parameters(X, lc) for lc in ("no_load", "full_load")])
+    res = slalom(P)
+    assert res.completed.all()
+    assert np.all(res.path_error_rms < 0.2 * SlalomConfig().amplitude)
+
+
+def test_slalom_default_step_is_converged():
+    # reference: the same run with a four times smaller step
+    X = np.vstack([STUDY_PICK, design_space().lower])
+    P = HandlingParams.stack([handling_parameters(X, lc) for lc in ("no_load", "full_load")])
+    coarse = slalom(P, SlalomConfig())
+    fine = slalom(P, SlalomConfig(dt=0.005))
+    np.testing.assert_allclose(coarse.yaw_rate_amplitude, fine.yaw_rate_amplitude, rtol=0.01)
+    np.testing.assert_allclose(coarse.roll_amplitude, fine.roll_amplitude, rtol=0.01)
 
 
 def test_slalom_flags_a_vehicle_that_cannot_follow_the_course():

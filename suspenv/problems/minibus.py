@@ -351,7 +351,7 @@ def _plot_parallel(
     axes[1].set_ylabel("design variable, 0 = range min, 1 = max")
     for ax in axes:
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
+        ax.legend(fontsize=8, loc="upper right")
     fig.suptitle("Parallel coordinates of the Pareto front")
     fig.subplots_adjust(left=0.06, right=0.99, bottom=0.18, top=0.9, wspace=0.15)
     fig.savefig(path, dpi=100)
