@@ -5,8 +5,11 @@ from __future__ import annotations
 import json
 import os
 import platform
+import statistics
+import sys
 import time
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -80,3 +83,73 @@ def write_result(
         print(f"{k}: {v:.4g}" if isinstance(v, float) else f"{k}: {v}")
     print(f"wrote {path}")
     return path
+
+
+def wall_and_cpu(fn: Callable[[], Any]) -> tuple[float, float]:
+    """(wall, CPU) seconds of one call. CPU time is the per-core figure on a loaded machine."""
+    w0, c0 = time.perf_counter(), time.process_time()
+    fn()
+    return time.perf_counter() - w0, time.process_time() - c0
+
+
+@dataclass
+class BatchTiming:
+    """Per-candidate times of a batched evaluation and of one-at-a-time evaluation, in ms."""
+
+    batch: int
+    repeats: int
+    singles: int
+    batched_cpu_ms: float
+    batched_wall_ms: float
+    single_cpu_ms: float
+    single_wall_ms: float
+    valid: int
+
+    @property
+    def gain(self) -> float:
+        """How many times faster per candidate the batch is (CPU)."""
+        return self.single_cpu_ms / self.batched_cpu_ms
+
+    def rows(self, batch_label: str, single_label: str) -> list[dict[str, Any]]:
+        return [
+            {
+                "mode": batch_label,
+                "cpu_ms_per_candidate": self.batched_cpu_ms,
+                "wall_ms_per_candidate": self.batched_wall_ms,
+                "repeats": self.repeats,
+            },
+            {
+                "mode": single_label,
+                "cpu_ms_per_candidate": self.single_cpu_ms,
+                "wall_ms_per_candidate": self.single_wall_ms,
+                "repeats": self.singles,
+            },
+        ]
+
+
+def time_batch_vs_single(problem: Any, X: Any, repeats: int, singles: int) -> BatchTiming:
+    """Time ``problem.evaluate`` on the whole batch X (best of ``repeats``) and on its first
+    ``singles`` rows one at a time (median), in the same run."""
+    from tqdm import tqdm
+
+    n = len(X)
+    wall, cpu, last = [], [], {}
+    for _ in tqdm(range(repeats), desc=f"batches of {n}", file=sys.stderr):
+        w, c = wall_and_cpu(lambda: last.update(batch=problem.evaluate(X)))
+        wall.append(w)
+        cpu.append(c)
+    s_wall, s_cpu = [], []
+    for i in tqdm(range(singles), desc="one at a time", file=sys.stderr):
+        w, c = wall_and_cpu(lambda i=i: problem.evaluate(X[i : i + 1]))
+        s_wall.append(w)
+        s_cpu.append(c)
+    return BatchTiming(
+        batch=n,
+        repeats=repeats,
+        singles=singles,
+        batched_cpu_ms=1e3 * min(cpu) / n,
+        batched_wall_ms=1e3 * min(wall) / n,
+        single_cpu_ms=1e3 * statistics.median(s_cpu),
+        single_wall_ms=1e3 * statistics.median(s_wall),
+        valid=int(last["batch"].ok.sum()),
+    )

@@ -20,12 +20,10 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-import time
 
 import numpy as np
-from tqdm import tqdm
 
-from suspenv.bench.common import write_result
+from suspenv.bench.common import time_batch_vs_single, write_result
 from suspenv.registry import make_problem
 
 TARGET_MS = 10.0
@@ -46,54 +44,19 @@ def main(argv: list[str] | None = None) -> int:
     rng = np.random.default_rng(0)
     X = problem.space.to_physical(rng.random((args.batch, problem.space.dim)))
 
-    def timed(fn) -> tuple[float, float]:
-        w0, c0 = time.perf_counter(), time.process_time()
-        fn()
-        return time.perf_counter() - w0, time.process_time() - c0
-
-    wall, cpu = [], []
-    last = {}
-    for _ in tqdm(range(repeat), desc=f"batches of {args.batch}", file=sys.stderr):
-        w, c = timed(lambda: last.update(batch=problem.evaluate(X)))
-        wall.append(w)
-        cpu.append(c)
-    batched_ms = 1e3 * min(cpu) / args.batch
-    batched_wall_ms = 1e3 * min(wall) / args.batch
-
-    s_wall, s_cpu = [], []
-    for i in tqdm(range(n_single), desc="one at a time", file=sys.stderr):
-        w, c = timed(lambda i=i: problem.evaluate(X[i : i + 1]))
-        s_wall.append(w)
-        s_cpu.append(c)
-    single_ms = 1e3 * float(np.median(s_cpu))
-    single_wall_ms = 1e3 * float(np.median(s_wall))
-    valid = int(last["batch"].ok.sum())
-
-    rows = [
-        {
-            "mode": f"batch of {args.batch}",
-            "cpu_ms_per_candidate": batched_ms,
-            "wall_ms_per_candidate": batched_wall_ms,
-            "repeats": repeat,
-        },
-        {
-            "mode": "one at a time",
-            "cpu_ms_per_candidate": single_ms,
-            "wall_ms_per_candidate": single_wall_ms,
-            "repeats": n_single,
-        },
-    ]
+    t = time_batch_vs_single(problem, X, repeat, n_single)
+    rows = t.rows(f"batch of {args.batch}", "one at a time")
     summary = {
         "batch": args.batch,
-        "valid_candidates": valid,
-        "ms_per_candidate_batched": batched_ms,
-        "ms_per_candidate_single": single_ms,
-        "wall_ms_per_candidate_batched": batched_wall_ms,
-        "batching_gain": single_ms / batched_ms,
+        "valid_candidates": t.valid,
+        "ms_per_candidate_batched": t.batched_cpu_ms,
+        "ms_per_candidate_single": t.single_cpu_ms,
+        "wall_ms_per_candidate_batched": t.batched_wall_ms,
+        "batching_gain": t.gain,
         "target_ms": TARGET_MS,
-        "meets_target": bool(batched_ms <= TARGET_MS),
-        "meets_stretch": bool(batched_ms <= STRETCH_MS),
-        "speedup_vs_paper_20s": 1e3 * PAPER_S / batched_ms,
+        "meets_target": bool(t.batched_cpu_ms <= TARGET_MS),
+        "meets_stretch": bool(t.batched_cpu_ms <= STRETCH_MS),
+        "speedup_vs_paper_20s": 1e3 * PAPER_S / t.batched_cpu_ms,
         "steps_per_test": 61,
         "tests": 3,
         "load_average_1min": os.getloadavg()[0],

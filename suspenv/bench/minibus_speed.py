@@ -20,14 +20,11 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-import time
-from collections.abc import Callable
-from typing import Any
 
 import numpy as np
 from tqdm import tqdm
 
-from suspenv.bench.common import write_result
+from suspenv.bench.common import time_batch_vs_single, wall_and_cpu, write_result
 from suspenv.models.minibus.handling_model import HandlingParams, handling_parameters
 from suspenv.models.minibus.vehicle import LOAD_CASES
 from suspenv.registry import make_problem
@@ -36,13 +33,6 @@ from suspenv.rigs.ride import ride_objectives_all
 
 TARGET_MS = 5.0
 STUDY_EVALUATIONS = 30_000
-
-
-def _timed(fn: Callable[[], Any]) -> tuple[float, float]:
-    """(wall, cpu) seconds of one call."""
-    w0, c0 = time.perf_counter(), time.process_time()
-    fn()
-    return time.perf_counter() - w0, time.process_time() - c0
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -58,14 +48,8 @@ def main(argv: list[str] | None = None) -> int:
     rng = np.random.default_rng(0)
     X = problem.space.to_physical(rng.random((args.batch, problem.space.dim)))
 
-    wall, cpu = [], []
-    last: dict[str, Any] = {}
-    for _ in tqdm(range(repeat), desc=f"batches of {args.batch}", file=sys.stderr):
-        w, c = _timed(lambda: last.update(batch=problem.evaluate(X)))
-        wall.append(w)
-        cpu.append(c)
-    batched_ms = 1e3 * min(cpu) / args.batch
-    batched_wall_ms = 1e3 * min(wall) / args.batch
+    t = time_batch_vs_single(problem, X, repeat, n_single)
+    batched_ms = t.batched_cpu_ms
 
     # parts of the batched evaluation (one repeat each, CPU time)
     def handling_params() -> HandlingParams:
@@ -79,23 +63,13 @@ def main(argv: list[str] | None = None) -> int:
     }
     part_ms = {}
     for name, fn in tqdm(parts.items(), desc="parts", file=sys.stderr):
-        part_ms[name] = 1e3 * _timed(fn)[1] / args.batch
+        part_ms[name] = 1e3 * wall_and_cpu(fn)[1] / args.batch
 
-    s_wall, s_cpu = [], []
-    for i in tqdm(range(n_single), desc="one at a time", file=sys.stderr):
-        w, c = _timed(lambda i=i: problem.evaluate(X[i : i + 1]))
-        s_wall.append(w)
-        s_cpu.append(c)
-    single_ms = 1e3 * float(np.median(s_cpu))
-    single_wall_ms = 1e3 * float(np.median(s_wall))
-
+    full_rows = t.rows(
+        f"full evaluation, batch of {args.batch}", "full evaluation, one at a time (baseline)"
+    )
     rows = [
-        {
-            "mode": f"full evaluation, batch of {args.batch}",
-            "cpu_ms_per_candidate": batched_ms,
-            "wall_ms_per_candidate": batched_wall_ms,
-            "repeats": repeat,
-        },
+        full_rows[0],
         *(
             {
                 "mode": f"  part: {name}, batch of {args.batch}",
@@ -105,21 +79,16 @@ def main(argv: list[str] | None = None) -> int:
             }
             for name, ms in part_ms.items()
         ),
-        {
-            "mode": "full evaluation, one at a time (baseline)",
-            "cpu_ms_per_candidate": single_ms,
-            "wall_ms_per_candidate": single_wall_ms,
-            "repeats": n_single,
-        },
+        full_rows[1],
     ]
     study_minutes_2_cores = STUDY_EVALUATIONS * batched_ms / 1e3 / 60 / 2
     summary = {
         "batch": args.batch,
-        "valid_candidates": int(last["batch"].ok.sum()),
+        "valid_candidates": t.valid,
         "ms_per_candidate_batched": batched_ms,
-        "ms_per_candidate_single": single_ms,
-        "wall_ms_per_candidate_batched": batched_wall_ms,
-        "batching_gain": single_ms / batched_ms,
+        "ms_per_candidate_single": t.single_cpu_ms,
+        "wall_ms_per_candidate_batched": t.batched_wall_ms,
+        "batching_gain": t.gain,
         "target_ms": TARGET_MS,
         "meets_target": bool(batched_ms <= TARGET_MS),
         "study_30000_evaluations_minutes_on_2_cores_estimate": study_minutes_2_cores,

@@ -174,8 +174,6 @@ def main(argv: list[str] | None = None) -> int:
                 done[r["case"]] = r
     rows: list[dict[str, Any]] = []
     jobs = [(k, s) for s in ride_seeds for k in kinds]
-    # no-effect controls: one per seed above, plus one more per seed
-    jobs += [(None, s + 1000) for s in ride_seeds]
     for kind, seed in tqdm(jobs, desc="ride cases"):
         key = f"{kind or 'none'}/{seed}"
         if key in done:
