@@ -82,3 +82,12 @@ def test_summary_counts() -> None:
     assert s["control_false_alarm"] == 1.0
     assert s["median_heldout_reduction"] == pytest.approx(0.6)
     assert s["median_param_rel_err"] == pytest.approx(0.2)
+
+
+def test_structural_equivalents_are_counted_only_where_they_hold() -> None:
+    from suspenv.diagnosis.name import families_covered
+
+    # direction-dependent friction = symmetric friction + a constant offset
+    assert families_covered(["directional_friction"]) >= {"friction", "sensor_offset"}
+    # plain Coulomb friction does not contain an offset
+    assert "sensor_offset" not in families_covered(["coulomb_friction"])

@@ -302,6 +302,7 @@ def diagnose(
     screen_families: int = 4,
     alpha: float = 0.01,
     min_heldout_gain: float = 0.01,
+    strong_heldout_gain: float | None = 0.1,
     max_nfev: int = 200,
 ) -> Diagnosis:
     """Diagnose what ``model`` leaves out of ``recording``.
@@ -316,6 +317,8 @@ def diagnose(
             signatures per round (the rest are reported by signature only).
         alpha: family-wise significance level (Bonferroni over the refits of a round).
         min_heldout_gain: least relative reduction of held-out RMS error to claim an effect.
+        strong_heldout_gain: a held-out reduction this large also lets the uncorrected
+            likelihood-ratio test decide (None: only the corrected test).
     """
     t0 = time.perf_counter()
     model = resolve_model(model)
@@ -381,7 +384,7 @@ def diagnose(
                 )
                 continue
             hyps.append(_hypothesis(kind, rnd, sig_of.get(family_of(kind)), current, ext, sp))
-        decide(hyps, len(hyps), alpha, min_heldout_gain)
+        decide(hyps, len(hyps), alpha, min_heldout_gain, strong_heldout_gain)
         ranked = rank(hyps)
         all_hyps += ranked
         amb += ambiguities(ranked)
