@@ -11,23 +11,13 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from suspenv.core.pareto import nondominated  # noqa: E402
+
 
 def best_so_far(values: np.ndarray, feasible: np.ndarray) -> np.ndarray:
     """Running minimum over evaluations of feasible values (inf before the first)."""
     v = np.where(feasible & np.isfinite(values), values, np.inf)
     return np.minimum.accumulate(v)
-
-
-def nondominated(F: np.ndarray) -> np.ndarray:
-    """Boolean mask of the non-dominated rows of F (n, m), minimisation."""
-    n = F.shape[0]
-    keep = np.ones(n, bool)
-    for i in range(n):
-        if not keep[i]:
-            continue
-        dominated_by_i = np.all(F[i] <= F, axis=1) & np.any(F[i] < F, axis=1)
-        keep &= ~dominated_by_i
-    return keep
 
 
 def plot_convergence(

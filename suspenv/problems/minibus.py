@@ -43,6 +43,7 @@ import numpy as np
 
 from suspenv.core import EvaluationBatch, Problem
 from suspenv.core.errors import ValidationError
+from suspenv.core.pareto import nondominated
 from suspenv.models.minibus.handling_model import HandlingParams, handling_parameters
 from suspenv.models.minibus.vehicle import (
     BASELINE_DESIGN,
@@ -247,21 +248,7 @@ class MinibusRideHandling(Problem):
 # ---------------------------------------------------------------------- report
 def pareto_mask(F: np.ndarray, candidates: np.ndarray) -> np.ndarray:
     """Non-dominated rows (minimisation) among ``candidates`` (bool mask) of F (N, m)."""
-    idx = np.flatnonzero(candidates & np.isfinite(F).all(axis=1))
-    keep = np.zeros(F.shape[0], bool)
-    if idx.size == 0:
-        return keep
-    order = idx[np.lexsort(F[idx].T[::-1])]  # by f1, then f2, ...
-    front: list[int] = []
-    for i in order:
-        if front:
-            Ff = F[front]
-            dominated = np.any(np.all(Ff <= F[i], axis=1) & np.any(Ff < F[i], axis=1))
-            if dominated:
-                continue
-        front.append(int(i))
-    keep[front] = True
-    return keep
+    return nondominated(F, candidates)
 
 
 def ride_focused_pick(F: np.ndarray, front: np.ndarray, F_base: np.ndarray) -> int:
