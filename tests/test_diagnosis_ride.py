@@ -107,7 +107,7 @@ def test_generator_is_seeded_noisy_and_keeps_the_truth_apart(tmp_path):
 def bump_stop_diagnosis():
     # planted: a bump stop at a seeded random axle, gap and stiffness; 50 km/h pulses only
     case = make_ride_case(2, "bump_stop", speeds_kmh=(50.0,), random_road=False)
-    return case, diagnose_ride(case.fit, case.heldout, screen=1, max_nfev=15)
+    return case, diagnose_ride(case.fit, case.heldout, screen=1, max_nfev=10)
 
 
 def test_planted_bump_stop_is_named_with_its_axle(bump_stop_diagnosis):
@@ -128,7 +128,7 @@ def test_planted_bump_stop_is_named_with_its_axle(bump_stop_diagnosis):
 def test_no_effect_nothing_claimed():
     # planted: no concealed effect at all
     case = make_ride_case(3, None, speeds_kmh=(50.0,), random_road=False)
-    d = diagnose_ride(case.fit, case.heldout, screen=1, max_nfev=15)
+    d = diagnose_ride(case.fit, case.heldout, screen=1, max_nfev=10)
     assert d.named == [], d.verdict
     assert d.verdict.startswith("no significant missing physics")
     # the baseline recovers the design values (no effect to absorb)

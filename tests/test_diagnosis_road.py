@@ -108,3 +108,28 @@ def test_real_profiles_steeper_than_standard(shared_data, tmp_path):
     paths = write_road_report(d, tmp_path)
     assert all(p.is_file() and p.stat().st_size > 0 for p in paths)
     assert "steeper" in paths[0].read_text()
+
+
+def test_cli_route_handles_road_profiles_and_declines_others(shared_data, tmp_path, monkeypatch):
+    import argparse
+    import functools
+    import json
+
+    import suspenv.diagnosis.ride.road as road_mod
+    from suspenv.diagnosis.ride.cli import route
+
+    # routing only: skip the ride-model runs (covered by the test above)
+    monkeypatch.setattr(road_mod, "diagnose_road", functools.partial(diagnose_road, ride=False))
+
+    def ns(recording):
+        return argparse.Namespace(
+            recording=recording, out=str(tmp_path / "out"), holdout=None,
+            data_dir=str(shared_data / "real"), model=None,
+        )  # fmt: skip
+
+    assert route(ns("emps")) is None
+    assert route(ns(str(tmp_path / "missing.npz"))) is None
+    assert route(ns("road_profile_2")) == 0
+    found = json.loads((tmp_path / "out" / "road_diagnosis.json").read_text())
+    assert found["recording"] == "profile_2"
+    assert found["named"][0]["kind"] == "waviness_steeper"

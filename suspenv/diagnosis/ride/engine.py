@@ -6,7 +6,8 @@ Reuses the generic engine's pieces (:func:`suspenv.diagnosis.fit.fit_model`,
 record) and replaces the parts that assume one component stroke ``x``:
 
 * **locate** (:func:`locate_ride`): residual energy shares by channel, by test
-  speed (amplitude dependence: 20 vs 50 km/h), by time window relative to the
+  speed (also against each speed's share of the response energy: amplitude
+  dependence, 20 vs 50 km/h), by time window relative to the
   impacts (before, after the front wheels hit, after the rear wheels hit, free
   decay) and by frequency band (body modes, mid, wheel hop, high);
 * **screen** (:func:`screen_candidates`): each candidate element (kind + location)
@@ -28,6 +29,7 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
+from scipy import stats
 
 from suspenv.core.errors import EvaluationError
 from suspenv.diagnosis.engine import Diagnosis, Split
@@ -81,6 +83,7 @@ def locate_ride(fit: FitResult, recordings: Sequence[Any]) -> Location:
     total, n_total = 0.0, 0
     band_e: dict[str, float] = {}
     band_n: dict[str, float] = {}
+    acc_signal: dict[str, list[float]] = {}
     for rec, part in zip(recordings, parts, strict=True):
         n = rec.n_samples
         n_total += n * len(fit.channels)
@@ -94,6 +97,11 @@ def locate_ride(fit: FitResult, recordings: Sequence[Any]) -> Location:
                 a = acc.setdefault(key, [0.0, 0.0])
                 a[0] += e
                 a[1] += n
+            # amplitude dependence: residual share against the share of response energy
+            y = np.asarray(rec.outputs[c], float) / fit.scales[c]
+            a = acc_signal.setdefault(speed, [0.0, 0.0])
+            a[0] += e
+            a[1] += float(np.sum(y**2))
             for w, m in _windows(rec).items():
                 a = acc.setdefault(("time window", w), [0.0, 0.0])
                 a[0] += float(np.sum(r[m] ** 2))
@@ -105,6 +113,12 @@ def locate_ride(fit: FitResult, recordings: Sequence[Any]) -> Location:
                 band_n[name] = band_n.get(name, 0.0) + float(sel.sum()) / f.size
     for (dim, part_name), (e, n) in acc.items():
         loc.shares.append(Share(dim, part_name, e / total if total else 0.0, n / n_total))
+    sig_total = sum(v[1] for v in acc_signal.values()) or 1.0
+    if len(acc_signal) > 1:
+        for speed, (e, y2) in acc_signal.items():
+            loc.shares.append(
+                Share("test vs response energy", speed, e / total if total else 0.0, y2 / sig_total)
+            )
     spec_total = sum(band_e.values()) or 1.0
     n_sets = len(recordings) * len(fit.channels)
     for name, _, _ in BANDS:
@@ -114,17 +128,13 @@ def locate_ride(fit: FitResult, recordings: Sequence[Any]) -> Location:
     return loc
 
 
-def _stacked_residual(fit: FitResult, recordings: Sequence[Any]) -> np.ndarray:
-    return fit_residual_series(fit, recordings)
-
-
 def screen_candidates(
     fit: FitResult, recordings: Sequence[Any], candidates: Sequence[tuple[str, str]]
 ) -> list[Signature]:
     """Score each (kind, location): partial R^2 of the residual explained by the
     prediction change the element makes at its starting size, beyond the baseline
     Jacobian's span. Sorted best first."""
-    r = _stacked_residual(fit, recordings)
+    r = fit_residual_series(fit, recordings)
     J = fit.extra.get("jacobian")
     basis = None
     if J is not None and J.shape[0] == r.size:
@@ -147,8 +157,6 @@ def screen_candidates(
         den = float(feat @ feat)
         r2 = float((feat @ r) ** 2 / (den * float(r @ r))) if den > 0 and r @ r > 0 else 0.0
         n_eff = effective_n(r - (feat * (feat @ r) / den if den > 0 else 0.0))
-        from scipy import stats
-
         p = float(stats.chi2.sf(n_eff * r2, 1))
         out.append(
             Signature(
@@ -164,8 +172,9 @@ def screen_candidates(
 
 
 def _stacked_prediction(
-    model: Any, theta: np.ndarray, recordings: Sequence[Any], fit
+    model: Any, theta: np.ndarray, recordings: Sequence[Any], fit: FitResult
 ) -> np.ndarray:
+    """Scaled predictions of the fitted channels, recordings stacked (non-finite -> 0)."""
     cols = []
     for rec in recordings:
         pred = model.simulate(theta, rec)
@@ -174,7 +183,10 @@ def _stacked_prediction(
     return np.where(np.isfinite(v), v, 0.0)
 
 
-def _refit(current: FitResult, kind: str, loc: str, recs: Sequence[Any], max_nfev: int):
+def _refit(
+    current: FitResult, kind: str, loc: str, recs: Sequence[Any], max_nfev: int
+) -> tuple[FitResult, Any]:
+    """Refit ``current`` with one more element, starting from its fitted values."""
     eff = ride_effect(kind, loc)
     model = current.model.with_effects((*current.model.effects, eff))
     theta0 = dict(zip(current.names, current.theta, strict=True))
@@ -192,7 +204,7 @@ def diagnose_ride(
     max_effects: int = 1,
     alpha: float = 0.01,
     min_heldout_gain: float = 0.01,
-    max_nfev: int = 20,
+    max_nfev: int = 30,
 ) -> Diagnosis:
     """Diagnose what the minibus ride model leaves out of ride recordings.
 
@@ -207,7 +219,13 @@ def diagnose_ride(
     t0 = time.perf_counter()
     model = model or MinibusRideAdapter()
     recs, held = as_list(recordings), as_list(heldout)
-    sp = Split(recs, None, held, None, "separate recording(s): " + ", ".join(r.name for r in held))
+    sp = Split(
+        fit_recordings=recs,
+        fit_masks=None,
+        heldout_recordings=held,
+        heldout_masks=None,
+        description="separate recording(s): " + ", ".join(r.name for r in held),
+    )
     base = fit_model(model, recs, max_nfev=max_nfev)
     location = locate_ride(base, recs)
     current = base
@@ -223,7 +241,27 @@ def diagnose_ride(
         hyps = []
         for sig in sigs[:screen]:
             kind, loc = sig.kind.split("@")
-            ext, eff = _refit(current, kind, loc, recs, max_nfev)
+            try:
+                ext, eff = _refit(current, kind, loc, recs, max_nfev)
+            except EvaluationError as exc:  # the element at its start made the model diverge
+                eff = ride_effect(kind, loc)
+                all_hyps.append(
+                    Hypothesis(
+                        f"{kind}@{loc}",
+                        family_of(kind),
+                        effect_words(eff),
+                        rnd,
+                        sig.score,
+                        f"refit failed: {exc}",
+                        0.0,
+                        0.0,
+                        0,
+                        1.0,
+                        np.inf,
+                        0.0,
+                    )
+                )
+                continue
             comp = compare(current, ext, recs, None, held, None)
             own = {k: v for k, v in ext.params().items() if k.startswith(eff.name + ".")}
             hyps.append(

@@ -195,7 +195,7 @@ class MinibusRideAdapter(ComponentModel):
         g = {
             "bump_stop": {"gap": 0.03, "k_stop": 2.0e5},
             "rebound_stop": {"gap": 0.05, "k_stop": 2.0e5},
-            "dahl_hysteresis": {"f_c": 300.0, "sigma": 2.0e5},
+            "dahl_hysteresis": {"f_c": 300.0, "sigma": 7.5e4},
             "coulomb_friction": {"f_c": 150.0},
             "kelvin_voigt": {"k": k_seat, "c": 2 * 0.2 * np.sqrt(k_seat * SEAT_MASS)},
         }[e.kind]

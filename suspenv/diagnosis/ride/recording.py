@@ -167,7 +167,7 @@ def draw_truth_effect(kind: str | None, rng: np.random.Generator) -> list[Effect
         ]
     if kind == "leaf_friction":
         f_c = float(rng.uniform(400.0, 900.0))
-        delta = float(rng.uniform(1.5e-3, 4e-3))  # m, travel to build up the friction
+        delta = float(rng.uniform(2.5e-3, 5e-3))  # m, travel to build up the friction
         return [ride_effect("dahl_hysteresis", "rear_leaf", f_c=f_c, sigma=f_c / delta)]
     if kind == "damper_friction":
         loc = str(rng.choice(["front_damper", "rear_damper"]))

@@ -47,7 +47,7 @@ def time_overlays(diag: Diagnosis, path: Path) -> Path:
         held = rec in diag.split.heldout_recordings
         for j, c in enumerate(chans):
             ax = axes[i, j]
-            ax.plot(rec.time, rec.outputs[c], color="0.5", lw=0.8, label="measured")
+            ax.plot(rec.time, rec.outputs[c], color="0.6", lw=2.2, label="measured")
             ax.plot(rec.time, pb[c], "C0", lw=1.0, label="baseline")
             if diag.named:
                 ax.plot(rec.time, pf[c], "C3--", lw=1.0, label="with named effect")
@@ -146,10 +146,12 @@ def write_ride_report(diag: Diagnosis, out_dir: str | Path) -> list[Path]:
         "| dimension | part | share of residual energy | fair share | enrichment |",
         "|---|---|---|---|---|",
     ]
-    for s in diag.location.shares:
-        lines.append(
-            f"| {s.dimension} | {s.part} | {s.share:.3f} | {s.fraction:.3f} | {s.enrichment:.2f} |"
-        )
+    for dim in diag.location.dimensions():
+        for s in diag.location.by_dimension(dim):
+            lines.append(
+                f"| {s.dimension} | {s.part} | {s.share:.3f} | {s.fraction:.3f} | "
+                f"{s.enrichment:.2f} |"
+            )
     lines += [
         "",
         "## Candidates (screen score = partial R^2 beyond the base parameters)",

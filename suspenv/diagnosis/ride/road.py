@@ -576,6 +576,8 @@ def ride_consequence(
         arr = np.array(vals)
         out[f"aw_front_{key}"] = float(arr[:, 0].mean())
         out[f"aw_rear_{key}"] = float(arr[:, 1].mean())
+        out[f"aw_front_{key}_seed_std"] = float(arr[:, 0].std(ddof=1)) if len(arr) > 1 else 0.0
+        out[f"aw_rear_{key}_seed_std"] = float(arr[:, 1].std(ddof=1)) if len(arr) > 1 else 0.0
     out["ratio_front"] = out["aw_front_measured_spectrum"] / out["aw_front_standard"]
     out["ratio_rear"] = out["aw_rear_measured_spectrum"] / out["aw_rear_standard"]
     if measured is not None:
@@ -681,7 +683,8 @@ def write_road_report(diag: RoadDiagnosis, out_dir: str | Path) -> list[Path]:
             f"Ride consequence (reference minibus, study pick, no load, {r['speed_kmh']:g} km/h,"
             f" mean of {len(r['seeds'])} road seeds): Wk-weighted RMS front "
             f"{r['aw_front_measured_spectrum']:.3f} m/s^2 on the measured spectrum vs "
-            f"{r['aw_front_standard']:.3f} on the w = 2 fit (x{r['ratio_front']:.2f}); rear "
+            f"{r['aw_front_standard']:.3f} on the w = 2 fit (x{r['ratio_front']:.2f}; spread "
+            f"over seeds +-{r['aw_front_standard_seed_std']:.3f}); rear "
             f"{r['aw_rear_measured_spectrum']:.3f} vs {r['aw_rear_standard']:.3f} "
             f"(x{r['ratio_rear']:.2f}).",
         ]
