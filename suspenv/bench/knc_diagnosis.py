@@ -14,6 +14,9 @@ held out: single-wheel travel). Scores against the truth kept apart:
   parallel travel (hysteresis, friction) against the truth's noise-free loop,
   right-minus-left static toe (asymmetry), cubic ratio (progressive), gain error
   (sensor gain);
+* hysteresis location: the named candidate (lower-arm bushes, top mount, or both)
+  against the truth's bushings, strictly and counting a location the diagnosis states
+  it cannot separate from the named one;
 * time per diagnosis.
 
 Development seeds (``--dev``, 100...) differ from the reported seeds (1000...); only the
@@ -87,6 +90,22 @@ def parameter_error(diag: Any, truth: dict, kind: str) -> float:
     return float("nan")
 
 
+#: truth bushings with hysteresis -> the candidate that puts it there
+VARIANT_OF_BUSHINGS = {
+    ("lca_front", "lca_rear", "top_mount"): "dahl_hysteresis",
+    ("lca_front", "lca_rear"): "dahl_hysteresis:lower_arm",
+    ("top_mount",): "dahl_hysteresis:top_mount",
+}
+
+
+def hysteresis_location(diag: Any) -> str | None:
+    """The hysteresis candidate (location variant) the diagnosis named, if any."""
+    for h in diag.named:
+        if h.kind == "dahl_hysteresis" and h.params:
+            return next(iter(h.params)).split(".")[0]
+    return None
+
+
 def run_case(seed: int) -> dict[str, Any]:
     from suspenv.diagnosis.evidence import heldout_rms
     from suspenv.diagnosis.knc.diagnose import diagnose_knc
@@ -101,6 +120,10 @@ def run_case(seed: int) -> dict[str, Any]:
     before = scaled_rms(heldout_rms(diag.base_fit, diag.heldout_recordings), diag.base_fit.scales)
     after = scaled_rms(heldout_rms(diag.final_fit, diag.heldout_recordings), diag.base_fit.scales)
     errs = {k: parameter_error(diag, truth, k) for k in named if k in expected}
+    where = hysteresis_location(diag)
+    true_where = None
+    if "hysteresis" in truth["effects"]:
+        true_where = VARIANT_OF_BUSHINGS[tuple(truth["effects"]["hysteresis"]["bushings"])]
     return {
         "seed": seed,
         "truth": ",".join(expected) or "none",
@@ -109,6 +132,13 @@ def run_case(seed: int) -> dict[str, Any]:
         "top1_ok": bool(named[:1] == expected[:1]) if len(expected) == 1 else None,
         "all_found": bool(set(expected) <= set(named)),
         "false_alarms": len([k for k in named if k not in expected]),
+        "hysteresis_where": where or "",
+        "where_ok": (where == true_where) if (where and true_where) else None,
+        "where_ok_or_ambiguous": (
+            (where == true_where or true_where in {a.b for a in diag.ambiguities})
+            if (where and true_where)
+            else None
+        ),
         "heldout_ratio": float(after / before) if before > 0 else float("nan"),
         "param_rel_err": float(np.nanmedian(list(errs.values()))) if errs else float("nan"),
         "noise_scale": truth["noise_scale"],
@@ -122,6 +152,7 @@ def summarise(rows: list[dict]) -> dict[str, Any]:
     none = [r for r in rows if r["n_true"] == 0]
     eff = [r for r in rows if r["n_true"] > 0]
     errs = [r["param_rel_err"] for r in rows if np.isfinite(r["param_rel_err"])]
+    located = [r for r in rows if r.get("where_ok") is not None]
     return {
         "cases": len(rows),
         "top1_accuracy_one_effect": (
@@ -139,6 +170,15 @@ def summarise(rows: list[dict]) -> dict[str, Any]:
         "extra_kinds_named_per_effect_case": (
             float(np.mean([r["false_alarms"] for r in eff])) if eff else float("nan")
         ),
+        "hysteresis_location_correct": (
+            float(np.mean([r["where_ok"] for r in located])) if located else float("nan")
+        ),
+        "hysteresis_location_correct_or_stated_ambiguous": (
+            float(np.mean([r["where_ok_or_ambiguous"] for r in located]))
+            if located
+            else float("nan")
+        ),
+        "hysteresis_located_cases": len(located),
         "median_heldout_ratio_effect_cases": (
             float(np.median([r["heldout_ratio"] for r in eff])) if eff else float("nan")
         ),

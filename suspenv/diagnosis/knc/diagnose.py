@@ -13,14 +13,16 @@ Steps (the engine's, with the K&C pieces where a loop of a two-sided axle needs 
 3. **Locate**: residual map test x channel x branch x side
    (:mod:`~suspenv.diagnosis.knc.locate`).
 4. **Signatures**: score tests of the residual against each effect's pattern
-   (:mod:`~suspenv.diagnosis.knc.signatures`); the families above ``screen_threshold``
-   (or, when none is, the strongest one) are refitted, at most ``screen_families``.
-5. **Refit**: the candidate effect is added to the model as a physical element
-   and its parameters fitted with the base parameters held (one to five parameters,
-   quick even for path-dependent elements); evidence and decision are the engine's
-   (:func:`suspenv.diagnosis.evidence.compare`, :func:`suspenv.diagnosis.name.decide`,
-   :func:`~suspenv.diagnosis.name.rank`): corrected likelihood-ratio test with a
-   Bonferroni level, BIC, and held-out error reduction.
+   (:mod:`~suspenv.diagnosis.knc.signatures`, about N(0, 1) under noise); the families
+   above ``screen_threshold`` are refitted, at most ``screen_families``; when none is,
+   nothing is claimed.
+5. **Refit**: the candidate effect is added to the model as a physical element and
+   the model refitted (path-dependent elements, slow to simulate: their own parameters
+   with the base parameters held; the others: all parameters jointly); evidence and
+   decision are the engine's (:func:`suspenv.diagnosis.evidence.compare`,
+   :func:`suspenv.diagnosis.name.decide`, :func:`~suspenv.diagnosis.name.rank`):
+   corrected likelihood-ratio test with a Bonferroni level, BIC, and held-out error
+   reduction.
 6. The winner is polished (all parameters jointly) and becomes the model of the
    next round (at most ``max_effects``); the final model is compared with the
    baseline on the held-out data.
@@ -47,7 +49,7 @@ from suspenv.diagnosis.evidence import (
 from suspenv.diagnosis.fit import FitResult, residuals
 from suspenv.diagnosis.knc.fit import evaluate, fit, noise_scales
 from suspenv.diagnosis.knc.locate import ResidualMap, residual_map
-from suspenv.diagnosis.knc.model import KncAxleModel, KncEffect
+from suspenv.diagnosis.knc.model import KncAxleModel, KncEffect, base_kind, make_candidate
 from suspenv.diagnosis.knc.recording import rig_test
 from suspenv.diagnosis.knc.signatures import FAMILY_KINDS, KncSignature, score_signatures
 from suspenv.diagnosis.name import (
@@ -58,6 +60,21 @@ from suspenv.diagnosis.name import (
     decide,
     rank,
 )
+
+#: effects whose response depends on the travel history (slow to simulate): refitted
+#: with the base parameters held, then polished jointly only when named
+PATH_DEPENDENT = ("dahl_hysteresis", "coulomb_friction")
+#: stopping tolerances (relative change of cost and parameters) of fits of models with
+#: and without path-dependent elements; a relative cost change of 1e-4 moves the
+#: log-likelihood by about n * 1e-4 / 2 (well below one unit for K&C data sets)
+COARSE_TOL = 1e-4
+FINE_TOL = 1e-7
+
+
+def current_slow(model: KncAxleModel) -> bool:
+    """True when ``model`` holds a path-dependent (slow to simulate) element."""
+    return any(e.kind in PATH_DEPENDENT for e in model.effects)
+
 
 #: effect kind -> signature family
 FAMILY_OF = {k: fam for fam, kinds in FAMILY_KINDS.items() for k in kinds}
@@ -154,7 +171,7 @@ def split_tests(recordings: Any, holdout: Any) -> tuple[list[Any], list[Any], st
 
 def _start_values(kind: str, sig: KncSignature | None) -> dict[str, float]:
     """Start of a new element's parameters read off its signature."""
-    if kind in ("dahl_hysteresis", "coulomb_friction") and sig is not None:
+    if base_kind(kind) in ("dahl_hysteresis", "coulomb_friction") and sig is not None:
         w = abs(sig.numbers.get("tyre_fz_loop_width_n", 0.0))
         return {"f_c": float(np.clip(0.5 * w, 5.0, 500.0))}
     return {}
@@ -173,17 +190,42 @@ def refit_frozen(
     start: Mapping[str, float] | None = None,
     max_nfev: int = 30,
 ) -> FitResult:
-    """Add an effect of ``kind`` to ``current.model``; fit the effects' parameters with
-    the base parameters held at their current values. Returns the full model's fit."""
+    """Add an effect of ``kind`` to ``current.model`` and refit. Path-dependent effects:
+    the effects' parameters only, base parameters held at their current values (the
+    full model is polished once the effect is named); others: all parameters jointly.
+    Returns the full model's fit."""
     model: KncAxleModel = current.model
     base = dict(zip(model.base_names, current.theta[: len(model.base_names)], strict=True))
     _, effs = model.unpack(current.theta)
     effs = [e.with_params({k: float(np.ravel(v)[0]) for k, v in e.params.items()}) for e in effs]
-    new = KncEffect(kind).with_params(dict(start or {}))
+    new = make_candidate(kind).with_params(dict(start or {}))
     full = model.released().with_effects([*effs, new])
-    frozen = full.frozen_at(base)
     t0 = time.perf_counter()
-    part = fit(frozen, recs, scales=current.scales, max_nfev=max_nfev)
+    if new.kind not in PATH_DEPENDENT:
+        # elastic and sensor effects are cheap to simulate: refit everything jointly
+        # two starts: the current fit, and the start design (the current base values may
+        # have bent to mimic the missing effect); the better fit is kept
+        guess = full.initial_guess()
+        starts = [np.concatenate([current.theta, guess[current.theta.size :]])]
+        slow = current_slow(full)
+        if not slow:
+            starts.append(guess)
+        best = None
+        for theta0 in starts:
+            res = fit(
+                full,
+                recs,
+                scales=current.scales,
+                theta0=theta0,
+                max_nfev=max_nfev,
+                tol=COARSE_TOL if slow else FINE_TOL,
+            )
+            if best is None or res.log_likelihood() > best.log_likelihood():
+                best = res
+        best.extra["effect"] = new.to_dict()
+        return best
+    frozen = full.frozen_at(base)
+    part = fit(frozen, recs, scales=current.scales, max_nfev=max_nfev, tol=COARSE_TOL)
     theta = _compose(current, full, part.theta)
     res = evaluate(full, theta, recs, current.scales, seconds=time.perf_counter() - t0)
     # uncertainties: base from the current fit, effects from the frozen refit
@@ -208,10 +250,10 @@ def _hypothesis(
 ) -> Hypothesis:
     comp = compare(current, ext, fit_recs, None, held, None)
     prefix = ext.extra["effect"]["name"] + "."
-    new = KncEffect(kind)
+    new = make_candidate(kind)
     return Hypothesis(
-        kind=kind,
-        family=FAMILY_OF[kind],
+        kind=new.kind,
+        family=FAMILY_OF[new.kind],
         words=new.words,
         round=rnd,
         signature_score=float(sig.score) if sig else float("nan"),
@@ -230,6 +272,37 @@ def _hypothesis(
     )
 
 
+def _candidate(h: Hypothesis) -> str:
+    """The candidate name (kind or location variant) a hypothesis was fitted as."""
+    return str(h.fit.extra["effect"]["name"]) if h.fit is not None else h.kind
+
+
+def location_ambiguities(
+    win: Hypothesis, ranked: Sequence[Hypothesis], tie_tolerance: float = 0.05
+) -> list[Ambiguity]:
+    """Other locations of the winner's kind that the data cannot tell apart from it
+    (significant, corrected LR statistics within ``tie_tolerance`` or 10)."""
+    out = []
+    for h in ranked:
+        if h is win or h.kind != win.kind or not h.significant:
+            continue
+        gap = abs(win.lr_statistic_corrected - h.lr_statistic_corrected)
+        if gap <= max(tie_tolerance * win.lr_statistic_corrected, 10.0):
+            out.append(
+                Ambiguity(
+                    _candidate(win),
+                    _candidate(h),
+                    win.words,
+                    h.words,
+                    "a K&C test that loads the candidate locations differently (lateral or "
+                    "longitudinal force at the contact patch, or a top-mount load test)",
+                    "in vertical travel the top mount sits in series with the spring, so its "
+                    "hysteresis barely changes the wheel load",
+                )
+            )
+    return out
+
+
 def _signals(fit_: FitResult, recs: Sequence[Any]):
     res = residuals(fit_.model, fit_.theta, recs, fit_.channels)
     pred = [fit_.model.simulate(fit_.theta, r) for r in recs]
@@ -246,7 +319,7 @@ def diagnose_knc(
     screen_threshold: float = 3.0,
     alpha: float = 0.01,
     min_heldout_gain: float = 0.01,
-    max_nfev: int = 30,
+    max_nfev: int = 40,
     polish_nfev: int = 6,
     report_dir: str | Path | None = None,
     progress: bool = False,
@@ -260,9 +333,10 @@ def diagnose_knc(
         candidates: effect kinds considered (default: the model's ``candidate_effects``).
         max_effects: most effects added in turn.
         screen_families / screen_threshold: refit the signature families scoring above
-            the threshold (at most this many; the strongest one when none does).
+            the threshold (at most this many).
         alpha, min_heldout_gain: the engine's decision rule (:mod:`suspenv.diagnosis.name`).
-        max_nfev / polish_nfev: budgets of the fits and of the joint polish of a winner.
+        max_nfev / polish_nfev: budgets of the fits and of the joint polish of a winner
+            with a path-dependent element.
         report_dir: when given, the report is written there.
         progress: print one line per step.
     """
@@ -271,7 +345,7 @@ def diagnose_knc(
     tests = tuple(dict.fromkeys(rig_test(r) for r in fit_recs))
     base_model = model or KncAxleModel(tests=tests)
     cands = list(candidates if candidates is not None else base_model.candidate_effects)
-    unknown = [k for k in cands if k not in FAMILY_OF]
+    unknown = [k for k in cands if base_kind(k) not in FAMILY_OF]
     if unknown:
         raise ValidationError(f"candidates must be among {sorted(FAMILY_OF)}, but got {unknown}")
 
@@ -279,9 +353,18 @@ def diagnose_knc(
         if progress:
             print(f"[{time.perf_counter() - t0:6.1f} s] {msg}", flush=True)
 
-    first = fit(base_model, fit_recs, max_nfev=max_nfev)
+    first = fit(base_model, fit_recs, max_nfev=max_nfev, tol=COARSE_TOL)
     scales = noise_scales(first)
-    base = fit(base_model, fit_recs, scales=scales, theta0=first.theta, max_nfev=max_nfev)
+    base = fit(
+        base_model, fit_recs, scales=scales, theta0=first.theta, max_nfev=max_nfev, tol=FINE_TOL
+    )
+    new_scales = noise_scales(base)  # the noise-weighted fit's own residual level
+    rows = np.concatenate(
+        [np.full(r.n_samples, scales[c] / new_scales[c]) for r in fit_recs for c in scales]
+    )
+    J = base.extra["jacobian"] * rows[:, None]
+    scales = new_scales
+    base = evaluate(base_model, base.theta, fit_recs, scales, jacobian=J, nfev=base.nfev)
     say(f"baseline fitted ({base.nfev} evaluations)")
     res, _ = _signals(base, fit_recs)
     location = residual_map(fit_recs, res, scales)
@@ -293,20 +376,20 @@ def diagnose_knc(
     first_sigs: list[KncSignature] = []
     for rnd in range(1, max_effects + 1):
         res, pred = _signals(current, fit_recs)
-        done = {h.family for h in named}
-        fams_c = {FAMILY_OF[k] for k in cands}
-        sigs = [s for s in score_signatures(fit_recs, res, pred, scales) if s.kind in fams_c]
+        done = {h.kind for h in named}
+        fams_c = {FAMILY_OF[base_kind(k)] for k in cands}
+        noise = residual_map(fit_recs, res, scales).noise  # independent of the fit's scale
+        sigs = [s for s in score_signatures(fit_recs, res, pred, noise) if s.kind in fams_c]
         if rnd == 1:
             first_sigs = sigs
-        open_sigs = [s for s in sigs if s.kind not in done]
+        open_sigs = [s for s in sigs if any(k not in done for k in FAMILY_KINDS[s.kind])]
         chosen = [s for s in open_sigs if s.score > screen_threshold][:screen_families]
-        if not chosen and open_sigs and rnd == 1:
-            chosen = open_sigs[:1]
         if not chosen:
             break
         hyps = []
         for sig in chosen:
-            for kind in (k for k in FAMILY_KINDS[sig.kind] if k in cands):
+            kinds = [c for c in cands if FAMILY_OF[base_kind(c)] == sig.kind]
+            for kind in (c for c in kinds if base_kind(c) not in done):
                 ext = refit_frozen(current, kind, fit_recs, _start_values(kind, sig), max_nfev)
                 hyps.append(_hypothesis(kind, rnd, sig, current, ext, fit_recs, held))
                 say(
@@ -320,8 +403,14 @@ def diagnose_knc(
         if not ranked or not ranked[0].significant:
             break
         win = ranked[0]
+        amb += location_ambiguities(win, ranked)
         polished = fit(
-            win.fit.model, fit_recs, scales=scales, theta0=win.fit.theta, max_nfev=polish_nfev
+            win.fit.model,
+            fit_recs,
+            scales=scales,
+            theta0=win.fit.theta,
+            max_nfev=polish_nfev if current_slow(win.fit.model) else max_nfev,
+            tol=COARSE_TOL if current_slow(win.fit.model) else FINE_TOL,
         )
         if sum(polished.ssr.values()) < sum(win.fit.ssr.values()):
             polished.extra["effect"] = win.fit.extra["effect"]
@@ -335,7 +424,7 @@ def diagnose_knc(
     comparison = None
     if named:
         comparison = compare(base, current, fit_recs, None, held, None)
-    verdict = _verdict(named, all_hyps, amb)
+    verdict = _verdict(named, all_hyps, amb, first_sigs, screen_threshold)
     base_res = fit_residual_series(base, fit_recs)
     baseline = {
         "params": base.params(),
@@ -375,10 +464,21 @@ def diagnose_knc(
     return diag
 
 
-def _verdict(named: list[Hypothesis], hyps: list[Hypothesis], amb: list[Ambiguity]) -> str:
+def _verdict(
+    named: list[Hypothesis],
+    hyps: list[Hypothesis],
+    amb: list[Ambiguity],
+    sigs: list[KncSignature],
+    threshold: float,
+) -> str:
     if not named:
         best = min(hyps, key=lambda h: h.p_value_corrected, default=None)
         tail = ""
+        if best is None and sigs:
+            tail = (
+                f" (no residual signature above {threshold:g}; strongest: {sigs[0].kind} "
+                f"{sigs[0].score:.1f})"
+            )
         if best is not None:
             tail = (
                 f" (strongest candidate, {best.words}: corrected p = {best.p_value_corrected:.2g}, "

@@ -23,9 +23,11 @@ Effects (parameters in the spec's units; the engine names them with the effects
 library's words, e.g. "rubber bushing hysteresis (Dahl) in the lower-arm bushes and
 top mount"):
 
-* ``dahl_hysteresis``: Dahl elements in both lower-arm bushes and the top mount;
-  ``f_c`` [N] saturation force, moments ``f_c * MOMENT_ARM`` [N*m]; initial stiffness
-  equal to each bushing's own stiffness (``hysteresis_sigma_ratio = 1``);
+* ``dahl_hysteresis``: Dahl elements in both lower-arm bushes and the top mount
+  (candidates ``dahl_hysteresis:lower_arm`` / ``dahl_hysteresis:top_mount``: only
+  there; the refits compare the locations); ``f_c`` [N] saturation force, moments
+  ``f_c * MOMENT_ARM`` [N*m]; initial stiffness equal to each bushing's own stiffness
+  (``hysteresis_sigma_ratio = 1``);
 * ``coulomb_friction``: rod/tube friction in the strut, ``f_c`` [N];
 * ``cubic_stiffness``: progressive bushings (all four), ``ratio`` [-] = cubic force
   over linear force at 1 mm deflection;
@@ -72,7 +74,12 @@ FIT_PARAMETERS = (
 )
 #: moment saturation of the bushing hysteresis per newton of force saturation [m]
 MOMENT_ARM = 0.05
-HYSTERESIS_BUSHINGS = ("lca_front", "lca_rear", "top_mount")
+#: hysteresis candidates (effect name) -> bushings with Dahl elements, and their words
+HYSTERESIS_VARIANTS = {
+    "dahl_hysteresis": (("lca_front", "lca_rear", "top_mount"), "lower-arm bushes and top mount"),
+    "dahl_hysteresis:lower_arm": (("lca_front", "lca_rear"), "lower-arm bushes"),
+    "dahl_hysteresis:top_mount": (("top_mount",), "top mount"),
+}
 CUBIC_BUSHINGS = ("lca_front", "lca_rear", "arb_bush", "top_mount")
 #: lr_asymmetry parameter -> (design parameter, relative?)
 ASYMMETRY_TARGETS = {
@@ -108,7 +115,7 @@ EFFECT_PARAMETERS: dict[str, tuple[Parameter, ...]] = {
 }
 #: where each effect acts, in engineering words
 EFFECT_LOCATIONS = {
-    "dahl_hysteresis": "lower-arm bushes and top mount",
+    "dahl_hysteresis": HYSTERESIS_VARIANTS["dahl_hysteresis"][1],
     "coulomb_friction": "strut",
     "cubic_stiffness": "bushings",
     "lr_asymmetry": "",
@@ -165,7 +172,21 @@ class KncEffect:
         }
 
 
-def knc_effect(kind: str, **params: float) -> KncEffect:
+def base_kind(candidate: str) -> str:
+    """Effects-library kind of a candidate name (``"dahl_hysteresis:top_mount"`` -> its kind)."""
+    return candidate.split(":", 1)[0]
+
+
+def make_candidate(candidate: str, **params: float) -> KncEffect:
+    """The effect of a candidate name: a kind, or a kind with a location variant."""
+    kind = base_kind(candidate)
+    if candidate in HYSTERESIS_VARIANTS:
+        return KncEffect(kind, candidate, dict(params), HYSTERESIS_VARIANTS[candidate][1])
+    if candidate != kind:
+        raise ValidationError(
+            f"candidate must be a K&C effect kind or one of {sorted(HYSTERESIS_VARIANTS)}, "
+            f"but got {candidate!r}"
+        )
     return KncEffect(kind, kind, dict(params))
 
 
@@ -176,7 +197,7 @@ def axle_effects(effects: Sequence[KncEffect]) -> AxleEffects:
         if e.kind == "dahl_hysteresis":
             fc = float(e.params["f_c"])
             kw.update(
-                hysteresis_bushings=HYSTERESIS_BUSHINGS,
+                hysteresis_bushings=HYSTERESIS_VARIANTS.get(e.name, HYSTERESIS_VARIANTS[e.kind])[0],
                 hysteresis_sigma_ratio=1.0,
                 hysteresis_fc_force=fc,
                 hysteresis_fc_moment=fc * MOMENT_ARM,
@@ -219,6 +240,8 @@ class KncAxleModel:
     description: ClassVar[str] = "McPherson front axle on the K&C rig (quasi-static)"
     candidate_effects: ClassVar[tuple[str, ...]] = (
         "dahl_hysteresis",
+        "dahl_hysteresis:lower_arm",
+        "dahl_hysteresis:top_mount",
         "coulomb_friction",
         "cubic_stiffness",
         "lr_asymmetry",

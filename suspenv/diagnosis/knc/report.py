@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from suspenv.diagnosis.knc.locate import BRANCHES
-from suspenv.diagnosis.knc.recording import CHANNELS, SIDES, rig_test
+from suspenv.diagnosis.knc.recording import CHANNELS, SIDES, half_loops, rig_test
 
 #: plot scale and unit per channel
 PLOT_UNITS = {
@@ -29,13 +29,11 @@ PLOT_UNITS = {
 
 
 #: channels drawn in the loop figures (the others are in the residual map and the JSON)
-LOOP_CHANNELS = ("tyre_fz", "toe", "camber", "contact_lateral")
+LOOP_CHANNELS = ("tyre_fz", "toe", "camber")
 
 
 def loop_width(rec: Any, values: np.ndarray) -> float:
     """Opening of a loop at the static position: rising minus falling branch (channel unit)."""
-    from suspenv.diagnosis.knc.recording import half_loops
-
     down, up = half_loops(rec, values)
     i0 = int(rec.meta["steps"]) // 2
     return float(up[i0] - down[i0])
@@ -76,56 +74,80 @@ def _curves(fit: Any, rec: Any) -> dict[str, np.ndarray]:
     return fit.model.simulate(fit.theta, rec)
 
 
-def plot_loops(diag: Any, rec: Any, path: Path) -> Path:
+def plot_loops(diag: Any, recs: list[Any], path: Path) -> Path:
+    """Loops of every test: measured (dots), baseline, final model; left solid, right dashed."""
     plt = _plt()
-    base = _curves(diag.base_fit, rec)
-    final = _curves(diag.final_fit, rec)
-    amp = float(rec.meta["amplitude"])
     chans = LOOP_CHANNELS
-    fig, axes = plt.subplots(len(chans), 2, figsize=(9, 2.2 * len(chans)), sharex=True)
-    for i, c in enumerate(chans):
-        k, unit = PLOT_UNITS[c]
-        for j, s in enumerate(SIDES):
+    fig, axes = plt.subplots(
+        len(chans), len(recs), figsize=(3.6 * len(recs), 2.3 * len(chans)), squeeze=False
+    )
+    for j, rec in enumerate(recs):
+        base = _curves(diag.base_fit, rec)
+        final = _curves(diag.final_fit, rec)
+        for i, c in enumerate(chans):
+            k, unit = PLOT_UNITS[c]
             ax = axes[i, j]
-            x = rec.inputs[f"pad_{s}"] * 1e3
-            key = f"{c}_{s}"
-            ax.plot(x, rec.outputs[key] * k, "k.", ms=3, label="measured")
-            ax.plot(x, base[key] * k, "-", color="tab:orange", lw=1, label="baseline")
-            ax.plot(x, final[key] * k, "-", color="tab:blue", lw=1, label="final model")
-            ax.set_ylabel(f"{c} [{unit}]")
+            for s, ls in zip(SIDES, ("-", "--"), strict=True):
+                x = rec.inputs[f"pad_{s}"] * 1e3
+                key = f"{c}_{s}"
+                ax.plot(x, rec.outputs[key] * k, "k.", ms=3)
+                ax.plot(x, base[key] * k, ls, color="tab:orange", lw=1)
+                ax.plot(x, final[key] * k, ls, color="tab:blue", lw=1)
+            ax.set_ylabel(f"{c} [{unit}]", fontsize=8)
             if i == 0:
-                ax.set_title(f"{rig_test(rec)} travel, {s} wheel")
-    for ax in axes[-1]:
-        ax.set_xlabel(f"own pad travel [mm] (amplitude {amp * 1e3:g} mm)")
-    axes[0, 0].legend(fontsize=7)
-    fig.subplots_adjust(left=0.1, right=0.98, bottom=0.08, top=0.94, wspace=0.3, hspace=0.3)
-    fig.savefig(path, dpi=90)
+                ax.set_title(f"{rig_test(rec)} travel", fontsize=9)
+            if i == len(chans) - 1:
+                ax.set_xlabel("own pad travel [mm]", fontsize=8)
+    axes[0, 0].plot([], [], "k.", label="measured")
+    axes[0, 0].plot([], [], color="tab:orange", label="baseline")
+    axes[0, 0].plot([], [], color="tab:blue", label="final model")
+    axes[0, 0].legend(fontsize=7, title="left -, right --", title_fontsize=7)
+    fig.subplots_adjust(left=0.08, right=0.98, bottom=0.07, top=0.95, wspace=0.35, hspace=0.3)
+    fig.savefig(path, dpi=80)
     plt.close(fig)
     return path
 
 
+def _midline(rec: Any, values: np.ndarray) -> np.ndarray:
+    down, up = half_loops(rec, values)
+    return 0.5 * (down + up)
+
+
+def left_minus_right(rec: Any, data: dict[str, np.ndarray], channel: str) -> np.ndarray:
+    """Left minus right loop mid-line at equal *own* pad travel (grid order).
+
+    Parallel travel: same grid point; opposite travel: the right wheel's own travel is
+    the mirrored stroke, so its grid is reversed. Zero for a symmetric axle.
+    """
+    left = _midline(rec, np.asarray(data[f"{channel}_left"], float))
+    right = _midline(rec, np.asarray(data[f"{channel}_right"], float))
+    return left - (right[::-1] if rig_test(rec) == "opposite" else right)
+
+
 def plot_left_right(diag: Any, recs: list[Any], path: Path) -> Path:
+    """Left minus right (loop mid-lines at equal own travel) of the two-sided tests."""
     plt = _plt()
-    fig, axes = plt.subplots(len(recs), 3, figsize=(11, 2.6 * len(recs)), squeeze=False)
+    recs = [r for r in recs if rig_test(r) in ("parallel", "opposite")]
+    fig, axes = plt.subplots(
+        max(len(recs), 1), 3, figsize=(11, 2.6 * max(len(recs), 1)), squeeze=False
+    )
     for i, rec in enumerate(recs):
         base = _curves(diag.base_fit, rec)
         final = _curves(diag.final_fit, rec)
-        x = rec.inputs["stroke"] * 1e3
+        grid = np.linspace(-1.0, 1.0, int(rec.meta["steps"]) + 1) * rec.meta["amplitude"] * 1e3
         for j, c in enumerate(("toe", "camber", "tyre_fz")):
             k, unit = PLOT_UNITS[c]
             ax = axes[i, j]
-            for data, style, label in (
-                (rec.outputs, "k.", "measured"),
-                (base, "-", "baseline"),
-                (final, "-", "final model"),
-            ):
-                d = (np.asarray(data[f"{c}_left"]) - np.asarray(data[f"{c}_right"])) * k
-                ax.plot(x, d, style, ms=3, lw=1, label=label)
+            ax.plot(grid, left_minus_right(rec, rec.outputs, c) * k, "k.", label="measured")
+            ax.plot(grid, left_minus_right(rec, base, c) * k, color="tab:orange", label="baseline")
+            ax.plot(
+                grid, left_minus_right(rec, final, c) * k, color="tab:blue", label="final model"
+            )
             ax.set_title(f"{rig_test(rec)}: {c} left - right [{unit}]", fontsize=9)
-            ax.set_xlabel("stroke [mm]")
+            ax.set_xlabel("own pad travel [mm]", fontsize=8)
     axes[0, 0].legend(fontsize=7)
-    fig.subplots_adjust(left=0.1, right=0.98, bottom=0.08, top=0.94, wspace=0.3, hspace=0.3)
-    fig.savefig(path, dpi=90)
+    fig.subplots_adjust(left=0.07, right=0.98, bottom=0.1, top=0.92, wspace=0.3, hspace=0.5)
+    fig.savefig(path, dpi=80)
     plt.close(fig)
     return path
 
@@ -142,8 +164,7 @@ def write_knc_report(diag: Any, out_dir: str | Path) -> list[Path]:
     out.mkdir(parents=True, exist_ok=True)
     paths = [plot_residual_map(diag, out / "residual_map.png")]
     recs = list(diag.fit_recordings) + list(diag.heldout_recordings)
-    for rec in recs:
-        paths.append(plot_loops(diag, rec, out / f"loops_{rig_test(rec)}.png"))
+    paths.append(plot_loops(diag, recs, out / "loops.png"))
     paths.append(plot_left_right(diag, recs, out / "left_right.png"))
     (out / "diagnosis.json").write_text(json.dumps(diag.to_dict(), indent=2, default=float))
     paths.append(out / "diagnosis.json")
@@ -205,8 +226,16 @@ def write_knc_report(diag: Any, out_dir: str | Path) -> list[Path]:
             "",
         ]
     lines += ["## Loops", ""]
-    lines += [f"![{rig_test(r)}](loops_{rig_test(r)}.png)" for r in recs]
-    lines += ["", "## Left - right", "", "![left-right](left_right.png)", ""]
+    lines += ["![loops](loops.png)"]
+    lines += [
+        "",
+        "## Left - right",
+        "",
+        "Loop mid-lines at equal own pad travel; zero for a symmetric axle.",
+        "",
+        "![left-right](left_right.png)",
+        "",
+    ]
     (out / "report.md").write_text("\n".join(lines))
     paths.append(out / "report.md")
     return paths

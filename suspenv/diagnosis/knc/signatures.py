@@ -1,12 +1,16 @@
 """Residual signatures of K&C loops: what the generic (time-series) signatures cannot say.
 
 Every signature is a *score test* on the baseline's scaled residual ``r`` (channel
-residual divided by its noise scale, so ``r`` is about unit white noise where the
-model is right): ``r`` is projected onto the pattern the effect would leave, and the
+residual divided by its noise level, estimated from the residual's roughness by
+:func:`suspenv.diagnosis.knc.locate.residual_map`, so ``r`` is about unit white noise
+where the model is right): ``r`` is projected onto the pattern the effect would leave, and the
 projection's chi-square ``q`` with ``k`` basis columns is turned into
 ``score = (q - k) / sqrt(2 k)`` (about N(0, 1) under pure noise; large when the
-pattern is there). Patterns, in each side's own pad travel ``p`` (normalised by the
-amplitude) and along the loop's branch (``b = +1`` rising, ``-1`` falling):
+pattern is there). The score is taken per recorded channel (sides and tests pooled)
+and the family's score is the largest over the channels, so an effect that shows in
+one channel only (a wheel-load loop) is not diluted by the quiet ones. Patterns, in
+each side's own pad travel ``p`` (normalised by the amplitude) and along the loop's
+branch (``b = +1`` rising, ``-1`` falling):
 
 * ``loop`` (hysteresis, friction): ``b`` and ``b p`` per channel and side: the two
   half-loops differ (a loop opens between bump and rebound);
@@ -78,7 +82,9 @@ def score_signatures(
 ) -> list[KncSignature]:
     """Signatures of the residual ``residual[i][channel]`` (channel unit) of each K&C
     recording ``recs[i]``, strongest first; ``prediction`` holds the model's channels."""
-    blocks: dict[str, list[tuple[np.ndarray, list[np.ndarray]]]] = {f: [] for f in FAMILY_KINDS}
+    blocks: dict[str, list[tuple[str, np.ndarray, list[np.ndarray]]]] = {
+        f: [] for f in FAMILY_KINDS
+    }
     loop_width = []
     for rec, res, pred in zip(recs, residual, prediction, strict=True):
         amp = float(rec.meta["amplitude"])
@@ -88,8 +94,8 @@ def score_signatures(
             r = {s: np.asarray(res[f"{c}_{s}"], float) / scales[f"{c}_{s}"] for s in SIDES}
             p = {s: rec.inputs[f"pad_{s}"] / amp for s in SIDES}
             for s in SIDES:
-                blocks["loop"].append((r[s], [b, b * p[s]]))
-                blocks["progressive"].append((r[s], [p[s] ** 3]))
+                blocks["loop"].append((c, r[s], [b, b * p[s]]))
+                blocks["progressive"].append((c, r[s], [p[s] ** 3]))
             # left/right: one stacked series, +pattern on the left, -pattern on the right
             rr = np.concatenate([r["left"], r["right"]])
             # pattern in each side's own travel (opposite travel mirrors the right side)
@@ -99,12 +105,12 @@ def score_signatures(
                 np.concatenate([p["left"], -pr]),
                 np.concatenate([p["left"] ** 2, -(pr**2)]),
             ]
-            blocks["lr_asymmetry"].append((rr, cols))
+            blocks["lr_asymmetry"].append((c, rr, cols))
             if c == "tyre_fz":
                 for s in SIDES:
                     y = np.asarray(pred[f"tyre_fz_{s}"], float) / scales[f"tyre_fz_{s}"]
-                    blocks["sensor_gain"].append((r[s], [y]))
-                    blocks["sensor_offset"].append((r[s], [np.ones_like(y)]))
+                    blocks["sensor_gain"].append((c, r[s], [y]))
+                    blocks["sensor_offset"].append((c, r[s], [np.ones_like(y)]))
                     up = b > 0
                     raw = np.asarray(res[f"tyre_fz_{s}"], float)
                     loop_width.append(float(np.mean(raw[up]) - np.mean(raw[~up])))
@@ -113,13 +119,17 @@ def score_signatures(
     for fam, items in blocks.items():
         if not items:
             continue
-        q, k = 0.0, 0
-        for r, cols in items:
+        per: dict[str, list[float]] = {}
+        for c, r, cols in items:
             qi, ki = _score(r, cols)
-            q += qi
-            k += ki
-        score = (q - k) / np.sqrt(2.0 * k)
-        numbers = {}
+            acc = per.setdefault(c, [0.0, 0])
+            acc[0] += qi
+            acc[1] += ki
+        scores = {c: (q - k) / np.sqrt(2.0 * k) for c, (q, k) in per.items()}
+        where = max(scores, key=scores.get)
+        q, k = per[where]
+        score = scores[where]
+        numbers = {f"score_{c}": float(v) for c, v in scores.items()}
         if fam == "loop" and loop_width:
             numbers["tyre_fz_loop_width_n"] = float(np.mean(loop_width))
         out.append(
@@ -128,7 +138,7 @@ def score_signatures(
                 float(score),
                 float(q),
                 int(k),
-                f"{FAMILY_WORDS[fam]}: chi2 {q:.1f} on {k} dof",
+                f"{FAMILY_WORDS[fam]}: strongest in {where}, chi2 {q:.1f} on {k} dof",
                 numbers,
             )
         )
