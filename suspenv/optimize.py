@@ -129,7 +129,8 @@ def optimize(
         run_dir: where the archive lives; an existing archive is resumed. None: no archive.
         seed: recorded with the run (the strategy was built with it).
         executor: a ``concurrent.futures.Executor`` for the evaluations (None: in-process).
-        chunk_size: designs per executor task (default: batch split evenly over 2x workers).
+        chunk_size: designs per executor task (default: one chunk per worker, since
+            vectorised problems pay a fixed cost per call).
         progress: show a progress bar on stderr.
         callbacks: called as ``cb(batch_index, U, batch)`` after each tell.
         recorders: extra :class:`Recorder` objects (the run directory's archive is one).
@@ -206,7 +207,7 @@ def optimize(
             todo = np.array([r for r in range(n) if results[r] is None], dtype=int)
             parts: list[tuple[np.ndarray, EvaluationBatch]] = []
             if todo.size:
-                chunk = chunk_size or max(1, math.ceil(todo.size / (2 * workers)))
+                chunk = chunk_size or max(1, math.ceil(todo.size / workers))
                 for rows, res, secs in _evaluate_chunks(problem, X[todo], todo, executor, chunk):
                     if archive is not None:
                         archive.append(b, rows, U[rows], X[rows], res, secs)
