@@ -55,3 +55,14 @@ def test_nan_design_rejected(problem):
     X[0, 0] = np.nan
     with pytest.raises(ValidationError, match="must be finite"):
         problem.evaluate(X)
+
+
+def test_numbers_do_not_depend_on_the_batch_split(problem):
+    # same designs evaluated as one batch and as two halves agree to rounding (BLAS may
+    # block other batch sizes differently), so runs with other worker counts or chunk
+    # sizes agree to ~1e-15; float32 physics would drift at ~1e-7 and fail this
+    U = np.random.default_rng(2).uniform(0.25, 0.75, (6, problem.space.dim))
+    whole = problem.evaluate_unit(U).objectives
+    halves = np.vstack([problem.evaluate_unit(U[:3]).objectives,
+                        problem.evaluate_unit(U[3:]).objectives])
+    np.testing.assert_allclose(whole, halves, rtol=1e-12, atol=1e-12)

@@ -169,7 +169,10 @@ class MinibusRideHandling(Problem):
         """
         X = np.atleast_2d(np.asarray(X, dtype=float))
         n = X.shape[0]
-        ride = ride_objectives_all(X, LOAD_CASES, self.road, self.vehicle)
+        # float64: a design's numbers must not depend on the batch it is evaluated in
+        # (float32 matrix products round differently for other batch sizes, which would
+        # make runs with other worker counts drift apart); costs ~0.4 ms per candidate
+        ride = ride_objectives_all(X, LOAD_CASES, self.road, self.vehicle, dtype=np.float64)
         P = HandlingParams.stack([handling_parameters(X, lc, self.vehicle) for lc in LOAD_CASES])
         circle = steady_circle(P, self.circle)
         sl = slalom(P, self.slalom_config)
