@@ -211,3 +211,54 @@ def test_interface_errors_name_the_rule():
     )
     with pytest.raises(ValidationError, match="missing input channel 'velocity'"):
         model.simulate(np.array([1000.0]), bad)
+
+
+# ------------------------------------------------------------------ quarter car speed paths
+def _rig_case():
+    effects = [
+        make_effect("dahl_hysteresis", f_c=150.0, sigma=1e5),
+        make_effect("coulomb_friction", f_c=60.0, v_eps=0.01),
+        make_effect("bump_stop", gap=0.01, k_stop=1e5),
+    ]
+    model = QuarterCarRigModel(effects)
+    rec = model.example_recording(seed=4, duration=1.0)
+    theta = model.theta_from({"k_s": 2.5e4, "c_s": 1500.0, "k_t": 2e5})
+    return model, rec, theta
+
+
+def test_quarter_car_batch_integration_equals_row_by_row():
+    # reference: the scalar (one parameter set at a time) integrator, same RK4 scheme
+    model, rec, theta = _rig_case()
+    thetas = np.vstack([theta * (1.0 + 0.03 * i) for i in range(4)])
+    batch = model.simulate(thetas, rec)
+    for i, th in enumerate(thetas):
+        row = model.simulate(th, rec)
+        for c in row:
+            np.testing.assert_allclose(batch[c][i], row[c], rtol=1e-9, atol=1e-12)
+
+
+def test_quarter_car_equation_error_start_recovers_truth():
+    # reference: the planted parameters; the body equation m_s a = F_s holds exactly
+    model, rec, theta = _rig_case()
+    rec = simulate_truth(model, theta, rec, noise_std=0.0, seed=0)
+    start = model.initial_guess(rec)
+    refined = model.refine_start(start, [rec])
+    for name, got, want in zip(model.parameter_names, refined, theta, strict=True):
+        if name != "k_t":  # the tyre does not enter the body equation
+            assert got == pytest.approx(want, rel=0.1), name
+    view = model.force_view(theta, rec)
+    # the truth's force view leaves only the derivative-smoothing error (few % of the force)
+    resid = view["measured"] - view["predicted"]
+    assert np.std(resid) < 0.05 * np.std(view["measured"])
+
+
+def test_quarter_car_refuses_elements_too_stiff_for_the_integrator():
+    from suspenv.core.errors import EvaluationError
+
+    model = QuarterCarRigModel([make_effect("coulomb_friction", f_c=500.0, v_eps=1e-5)])
+    rec = model.example_recording(seed=1, duration=0.2)
+    theta = model.theta_from({"k_s": 2e4, "c_s": 1500.0, "k_t": 2e5})
+    with pytest.raises(EvaluationError, match="max_substeps"):
+        model.simulate(theta, rec)
+    with pytest.raises(ValidationError, match="max_substeps >= 1"):
+        QuarterCarRigModel(max_substeps=0)

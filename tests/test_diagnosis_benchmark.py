@@ -91,3 +91,44 @@ def test_structural_equivalents_are_counted_only_where_they_hold() -> None:
     assert families_covered(["directional_friction"]) >= {"friction", "sensor_offset"}
     # plain Coulomb friction does not contain an offset
     assert "sensor_offset" not in families_covered(["coulomb_friction"])
+
+
+def test_quarter_car_case_offsets_are_in_the_channel_unit() -> None:
+    # seed 1 of the quarter car conceals a sensor offset on the body acceleration [m/s^2]
+    case = make_case("quarter_car_rig", 1, 1)
+    assert case.truth.kinds == ["sensor_offset"]
+    acc = case.recording.outputs["body_acceleration"]
+    amp = np.percentile(np.abs(acc - np.median(acc)), 98)
+    # reference: the draw rule, 8-20 % of the channel's own amplitude
+    assert 0.05 * amp < abs(case.truth.effects[0]["params"]["offset"]) < 0.3 * amp
+    assert case.recording.time[-1] < 2.6  # the shorter rig run of the benchmark
+
+
+def test_separate_families_stay_out_of_the_totals() -> None:
+    from suspenv.diagnosis.benchmark import table_markdown
+
+    row = {
+        "param_rel_errs": [],
+        "seconds": 1.0,
+        "heldout_reduction": 0.0,
+        "n_true": 1,
+        "top1_family_ok": True,
+        "top1_kind_ok": True,
+        "all_found": True,
+        "false_alarm": False,
+    }
+    rows = [
+        row | {"family": "damper"},
+        row | {"family": "quarter_car_rig", "top1_family_ok": False},
+    ]
+    main = summarise([r for r in rows if r["family"] != "quarter_car_rig"])
+    assert main["single_top1_family"] == 1.0
+    result = {
+        "summary": main
+        | {"seed_set": "dev", "seeds": [0], "separate_families": ["quarter_car_rig"]},
+        "per_family": {"damper": summarise(rows[:1]), "quarter_car_rig": summarise(rows[1:])},
+        "real": [],
+    }
+    text = table_markdown(result)
+    assert "Totals leave out quarter_car_rig" in text
+    assert "| quarter_car_rig | 1 | 0 % |" in text

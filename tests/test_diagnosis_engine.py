@@ -96,3 +96,105 @@ def test_blind_case_through_the_cli(tmp_path) -> None:
     assert f_c == pytest.approx(case.truth.effects[0]["params"]["f_c"], rel=0.2)
     # an unknown recording name is refused with the rule
     assert main(["diagnose", "nonsense", "--out", str(out)]) == 2
+
+
+# ------------------------------------------------------------------ interleaved hold-out
+def test_cycle_holdout_spans_the_same_speeds() -> None:
+    from suspenv.diagnosis.engine import cycle_index
+
+    case = make_case("damper", 2, 0)
+    sp = split(case.recording, "cycles")
+    fit_m, hold_m = sp.fit_masks[0], sp.heldout_masks[0]
+    assert not np.any(fit_m & hold_m) and np.all(fit_m | hold_m)
+    x, v = motion(case.recording)
+    cyc = cycle_index(x)
+    # reference: the upward zero crossings of the stroke counted directly
+    xc = x - np.median(x)
+    assert cyc.max() == np.count_nonzero((xc[:-1] < 0) & (xc[1:] >= 0))
+    assert np.all(hold_m == (cyc % 4 == 3))
+    # every sine block but the shortest has a held-out cycle: held-out speeds reach
+    # (nearly) the top fit speed, unlike the last 30 % of the run
+    assert np.max(np.abs(v[hold_m])) > 0.6 * np.max(np.abs(v[fit_m]))
+    with pytest.raises(ValueError, match="cycles:N"):
+        split(case.recording, "cycles:x")
+    with pytest.raises(ValueError, match="'cycles' or 'cycles:N'"):
+        split(case.recording, "blocks")
+
+
+# ------------------------------------------------------------------ bump/rebound asymmetry
+def _dyno(effects, seed):
+    from suspenv.models.components import DamperDynoModel, simulate_truth
+
+    truth = DamperDynoModel(effects)
+    theta = truth.theta_from({"c": 1000.0})
+    rec = DamperDynoModel().example_recording(seed=seed)
+    return simulate_truth(truth, theta, rec, noise_std=0.01, seed=seed + 1)
+
+
+def _check(rec):
+    from suspenv.diagnosis.engine import asymmetry_check
+    from suspenv.diagnosis.fit import fit_model
+    from suspenv.models.components import DamperDynoModel
+    from suspenv.models.effects import make_effect
+
+    sp = split(rec, "cycles")
+    model = DamperDynoModel([make_effect("digressive_damping", c_low=3000.0, v_knee=0.1)])
+    fit = fit_model(model, sp.fit_recordings, sp.fit_masks)
+    return asymmetry_check(fit, sp)
+
+
+def test_asymmetry_check_names_a_real_asymmetry_with_its_ratio() -> None:
+    from suspenv.models.effects import make_effect
+
+    c_b, c_r, vk = 3000.0, 4500.0, 0.1
+    rec = _dyno(
+        [
+            make_effect(
+                "asymmetric_digressive_damping",
+                c_bump=c_b,
+                v_knee_bump=vk,
+                c_rebound=c_r,
+                v_knee_rebound=vk,
+            )
+        ],
+        seed=11,
+    )
+    chk = _check(rec)
+    assert chk is not None and chk.supported
+    # reference: the truth curve's rebound/bump force ratio at the same speed (closed form)
+    v = chk.v_ref
+    true = (1000.0 * v + c_r * v / (1 + v / vk)) / (1000.0 * v + c_b * v / (1 + v / vk)) - 1
+    assert chk.ratio == pytest.approx(true, abs=max(3 * chk.ratio_stderr, 0.01))
+    assert "supported by this recording" in chk.sentence
+
+
+def test_asymmetry_check_keeps_an_offset_apart_from_asymmetry() -> None:
+    from suspenv.models.effects import make_effect
+
+    # symmetric curve plus a gas force: the asymmetry must not be claimed
+    rec = _dyno(
+        [
+            make_effect("digressive_damping", c_low=3000.0, v_knee=0.1),
+            make_effect("force_offset", offset=-40.0),
+        ],
+        seed=12,
+    )
+    chk = _check(rec)
+    assert chk is not None and not chk.supported
+    assert abs(chk.ratio) < 3 * chk.ratio_stderr + 0.01
+    assert chk.offset == pytest.approx(-40.0, abs=5.0)  # reference: the planted offset
+    assert "below what this recording can separate" in chk.sentence
+    assert len(chk.fold_ratios) == 4  # block cross-validation over interleaved cycles
+
+
+@pytest.mark.slow
+def test_quarter_car_hysteresis_named_blind() -> None:
+    # development seed 0 of the quarter car conceals Dahl hysteresis in the suspension
+    case = make_case("quarter_car_rig", 0, 1)
+    assert case.truth.kinds == ["dahl_hysteresis"]
+    diag = diagnose(case.recording, "quarter_car_rig", max_nfev=15, screen_families=2)
+    assert diag.named_kinds[:1] == ["dahl_hysteresis"]
+    true = case.truth.effects[0]["params"]
+    got = diag.named[0].params
+    assert got["dahl_hysteresis.f_c"]["value"] == pytest.approx(true["f_c"], rel=0.1)
+    assert diag.comparison.heldout_reduction > 0.5

@@ -8,6 +8,7 @@ of about -3.2 N (Janot, Gautier, Brunot); the MR damper shows strong hysteresis
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from suspenv.diagnosis.benchmark import REAL_CASES, real_row
@@ -46,6 +47,21 @@ def test_mr_damper_hysteresis_named(shared_data) -> None:
 
 @pytest.mark.slow
 def test_damper_dyno_digressive_named(shared_data) -> None:
-    diag, _ = _run("damper_dyno", shared_data)
+    diag, row = _run("damper_dyno", shared_data)
     assert "digressive" in diag.named_families
     assert diag.comparison.heldout_reduction > 0.5
+    # bump/rebound asymmetry is tested against a constant (gas) force and stated with
+    # its uncertainty, named or not
+    chk = diag.asymmetry
+    assert chk is not None and np.isfinite(chk.ratio) and chk.ratio_stderr > 0
+    assert chk.sentence[1:] in diag.verdict
+    assert row["asymmetry"]["sentence"] == chk.sentence
+    # reference: the recording's own binned forces near the top speed, offset removed
+    # (rebound and bump within a few per cent of each other)
+    rec = diag.split.fit_recordings[0]
+    v, f = rec.inputs["velocity"], rec.outputs["force"]
+    band = (np.abs(v) > 0.9 * chk.v_ref) & (np.abs(v) < 1.1 * chk.v_ref)
+    reb = -np.mean(f[band & (v < 0)] - chk.offset)
+    bump = np.mean(f[band & (v > 0)] - chk.offset)
+    assert abs(reb / bump - 1.0) < 0.1
+    assert abs(chk.ratio - (reb / bump - 1.0)) < 3 * chk.ratio_stderr + 0.02

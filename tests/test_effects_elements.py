@@ -317,3 +317,20 @@ def test_bad_inputs_name_rule_and_value():
         fx.maxwell_series(np.zeros(3), np.array([0.0, 0.2, 0.1]), 1.0, 1.0)
     with pytest.raises(ValidationError, match="finite"):
         fx.dahl_path(np.array([0.0, np.nan]), 1.0, 1.0)
+
+
+def test_asymmetric_digressive_curve_branches_and_symmetric_limit():
+    v = np.array([-100.0, -1e-6, 0.0, 1e-6, 100.0])
+    f = fx.damper_digressive_asymmetric(v, 2000.0, 0.1, 5000.0, 0.05)
+    # closed form per branch: slope c at rest, force -> c v_knee at high speed
+    assert f[3] / 1e-6 == pytest.approx(2000.0, rel=1e-4)
+    assert f[1] / -1e-6 == pytest.approx(5000.0, rel=1e-4)
+    assert f[4] == pytest.approx(2000.0 * 0.1, rel=2e-3)
+    assert f[0] == pytest.approx(-5000.0 * 0.05, rel=2e-3)
+    assert np.all(f * v >= 0.0)  # absorbs power in both directions
+    # equal branches are the symmetric digressive curve (identity of the formulas)
+    vv = np.linspace(-0.5, 0.5, 41)
+    same = fx.damper_digressive_asymmetric(vv, 3000.0, 0.08, 3000.0, 0.08)
+    assert same == pytest.approx(fx.damper_digressive(vv, 3000.0, 0.08), rel=1e-12)
+    with pytest.raises(ValidationError, match="v_knee_rebound"):
+        fx.damper_digressive_asymmetric(vv, 1.0, 0.1, 1.0, 0.0)

@@ -31,7 +31,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--holdout",
         default=None,
-        help="held-out data: a fraction (default 0.3) or another .npz recording",
+        help="held-out data: a fraction (default 0.3), 'cycles' / 'cycles:N' (one motion "
+        "cycle in N, interleaved) or another .npz recording",
     )
     p.add_argument("--data-dir", default=None, help="folder of the real recordings")
     p.set_defaults(func=_diagnose)
@@ -72,7 +73,10 @@ def _diagnose(args: argparse.Namespace) -> int:
         try:
             holdout = float(args.holdout)
         except ValueError:
-            holdout = load_recording(Path(args.holdout))
+            if args.holdout.startswith("cycles"):
+                holdout = args.holdout
+            else:
+                holdout = load_recording(Path(args.holdout))
     family = args.model or family or _guess_family(rec)
     diag = diagnose(rec, family, holdout=holdout)
     out = Path(args.out or f"diagnosis_{stem}")

@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from suspenv.core.errors import ValidationError
-from suspenv.diagnosis.evidence import Comparison, compare, heldout_rms, ljung_box
+from suspenv.diagnosis.evidence import Comparison, compare, heldout_rms, ljung_box, scaled_rms
 from suspenv.diagnosis.evidence import fit_residual_series as _fit_residual_series
 from suspenv.diagnosis.fit import FitResult, as_list, fit_model, residuals
 from suspenv.diagnosis.locate import Location, Segment, locate
@@ -94,14 +94,62 @@ class Split:
     heldout_recordings: list[Any]
     heldout_masks: list[np.ndarray] | None
     description: str
+    cycles_every: int | None = None
+
+
+def cycle_index(x: np.ndarray) -> np.ndarray:
+    """Index of the motion cycle each sample belongs to (cycles start at the upward
+    crossings of the deflection ``x`` [m] through its median; samples before the
+    first crossing are cycle 0)."""
+    xc = np.asarray(x, float) - float(np.median(x))
+    starts = np.flatnonzero((xc[:-1] < 0.0) & (xc[1:] >= 0.0)) + 1
+    return np.searchsorted(starts, np.arange(xc.size), side="right")
+
+
+def interleaved_cycles(rec: Any, every: int = 4) -> np.ndarray:
+    """Held-out mask: every ``every``-th motion cycle of ``rec`` (cycles 3, 7, 11, ...
+    for ``every=4``), so fit and held-out data span the same amplitudes and speeds and
+    each held-out block is a whole cycle (longer than the residual's correlation)."""
+    if not (isinstance(every, int) and every >= 2):
+        raise ValidationError(f"`every >= 2` (an integer) must hold, but got every={every!r}")
+    cyc = cycle_index(motion(rec)[0])
+    if cyc.max() + 1 < every:
+        raise ValidationError(
+            f"interleaved cycle hold-out needs at least {every} motion cycles, but recording "
+            f"{getattr(rec, 'name', '?')!r} has {int(cyc.max()) + 1}"
+        )
+    return (cyc % every) == every - 1
 
 
 def split(recordings: Any, holdout: Any) -> Split:
     """``holdout``: a fraction in (0, 1) (the last part of each recording is held
-    out), or one or more recordings not used for fitting."""
+    out), ``"cycles"`` / ``"cycles:N"`` (every N-th motion cycle held out, N = 4 by
+    default: see :func:`interleaved_cycles`), or one or more recordings not used for
+    fitting."""
     recs = as_list(recordings)
     if holdout is None:
         holdout = 0.3
+    if isinstance(holdout, str):
+        head, _, num = holdout.partition(":")
+        if head != "cycles":
+            raise ValidationError(
+                f"a text hold-out must be 'cycles' or 'cycles:N', but got holdout={holdout!r}"
+            )
+        try:
+            every = int(num) if num else 4
+        except ValueError:
+            raise ValidationError(
+                f"'cycles:N' needs an integer N, but got holdout={holdout!r}"
+            ) from None
+        hold_m = [interleaved_cycles(r, every) for r in recs]
+        return Split(
+            recs,
+            [~m for m in hold_m],
+            recs,
+            hold_m,
+            f"one motion cycle in {every} of each recording (interleaved: same speeds as the fit)",
+            cycles_every=every,
+        )
     if isinstance(holdout, float | int) and not isinstance(holdout, bool):
         f = float(holdout)
         if not 0.0 < f < 1.0:
@@ -120,8 +168,50 @@ def split(recordings: Any, holdout: Any) -> Split:
 
 
 # ------------------------------------------------------------------ signals
+def _force_view_signal_set(fit: FitResult, sp: Split) -> SignalSet | None:
+    """The signal set of a model's force view (``model.force_view(theta, rec)``, e.g. the
+    suspension force of a quarter car through its body equation), or None."""
+    view_of = getattr(fit.model, "force_view", None)
+    if not callable(view_of):
+        return None
+    views = [view_of(fit.theta, rec) for rec in sp.fit_recordings]
+    if any(v is None for v in views):
+        return None
+    sel = [
+        np.ones(len(r.time), bool) if sp.fit_masks is None else sp.fit_masks[i]
+        for i, r in enumerate(sp.fit_recordings)
+    ]
+    meas = np.concatenate([v["measured"][m] for v, m in zip(views, sel, strict=True)])
+    scale = float(np.std(meas)) or 1.0
+
+    def cat(key: str) -> np.ndarray:
+        return np.concatenate([v[key][m] for v, m in zip(views, sel, strict=True)])
+
+    return SignalSet(
+        t=np.concatenate(
+            [np.asarray(r.time, float)[m] for r, m in zip(sp.fit_recordings, sel, strict=True)]
+        ),
+        x=cat("x"),
+        v=cat("v"),
+        residual=(meas - cat("predicted")) / scale,
+        prediction=cat("predicted") / scale,
+        jacobian=cat("jacobian") / scale,
+        segment=np.concatenate([np.full(int(m.sum()), i) for i, m in enumerate(sel)]),
+        scale=scale,
+        unit="N",
+        channel="force",
+    )
+
+
 def _signal_set(fit: FitResult, sp: Split, channel: str) -> SignalSet:
-    """Residual, prediction, motion and Jacobian rows of one channel over the fit samples."""
+    """Residual, prediction, motion and Jacobian rows of one channel over the fit samples.
+
+    A model with a force view (see :func:`_force_view_signal_set`) is screened in it
+    instead: its signatures are those of the missing force itself.
+    """
+    viewed = _force_view_signal_set(fit, sp)
+    if viewed is not None:
+        return viewed
     ts, xs, vs, rs, ps, seg, rows = [], [], [], [], [], [], []
     offset = 0
     for i, rec in enumerate(sp.fit_recordings):
@@ -208,6 +298,7 @@ class Diagnosis:
     base_fit: FitResult = field(repr=False)
     final_fit: FitResult = field(repr=False)
     split: Split = field(repr=False)
+    asymmetry: AsymmetryCheck | None = None
 
     @property
     def named_kinds(self) -> list[str]:
@@ -236,7 +327,232 @@ class Diagnosis:
             "signatures": [s.to_dict() for s in self.signatures],
             "hypotheses": [h.to_dict() for h in self.hypotheses],
             "seconds": self.seconds,
+            "asymmetry": self.asymmetry.to_dict() if self.asymmetry else None,
         }
+
+
+@dataclass
+class AsymmetryCheck:
+    """Bump/rebound asymmetry of a damper curve, tested against a constant force.
+
+    ``ratio`` is the rebound force over the bump force of the velocity-dependent
+    curve (linear base plus digressive element) at ``v_ref`` [m/s], minus one
+    (positive: rebound stronger); ``ratio_stderr`` its standard error from the
+    parameter covariance inflated for serially correlated residuals (AR(1)
+    effective sample size); with an interleaved-cycle split, ``fold_ratios`` and
+    ``fold_heldout_reductions`` repeat the comparison with each group of cycles held
+    out in turn (block cross-validation, robust to serial correlation) and
+    ``ratio_stderr_folds`` is their jackknife standard error. The null model has the
+    symmetric curve plus a constant force (gas force / offset; the base model's own
+    ``f_0`` where it has one); the
+    alternative gives bump and rebound their own slope and knee.
+    """
+
+    v_ref: float
+    ratio: float
+    ratio_stderr: float
+    offset: float
+    heldout_reduction: float
+    lr_statistic_corrected: float
+    p_value_corrected: float
+    delta_bic_corrected: float
+    supported: bool
+    sentence: str
+    params: dict[str, dict[str, float]] = field(default_factory=dict)
+    fold_ratios: list[float] = field(default_factory=list)
+    fold_heldout_reductions: list[float] = field(default_factory=list)
+    ratio_stderr_folds: float = float("nan")
+    hypothesis: Hypothesis | None = field(default=None, repr=False)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {k: v for k, v in self.__dict__.items() if k != "hypothesis"}
+
+
+def _curve_force(fit: FitResult, v: float) -> float:
+    """Velocity-dependent damper force [N] at velocity ``v``: linear base plus the
+    (a)symmetric digressive element of ``fit`` (hysteresis, lag and offset left out)."""
+    p = dict(zip(fit.names, fit.theta, strict=True))
+    f = float(p.get("c", 0.0)) * v
+    for e in current_effects(fit.model):
+        if e.kind in ("digressive_damping", "asymmetric_digressive_damping"):
+            own = {k.split(".", 1)[1]: val for k, val in p.items() if k.startswith(e.name + ".")}
+            f += float(e.with_params(own).force(np.zeros(1), np.array([v]))[0])
+    return f
+
+
+def _rebound_bump_ratio(fit: FitResult, v_ref: float) -> tuple[float, float]:
+    """Rebound over bump force of the curve at ``v_ref``, minus one, and its standard
+    error (delta method; covariance inflated like ``stderr_corrected``)."""
+
+    def ratio(theta: np.ndarray) -> float:
+        trial = FitResult(**{**fit.__dict__, "theta": theta})
+        return -_curve_force(trial, -v_ref) / _curve_force(trial, v_ref) - 1.0
+
+    r0 = ratio(fit.theta)
+    grad = np.zeros(fit.theta.size)
+    for i in range(fit.theta.size):
+        h = 1e-6 * max(abs(fit.theta[i]), 1.0)
+        th = fit.theta.copy()
+        th[i] += h
+        grad[i] = (ratio(th) - r0) / h
+    infl = np.where(fit.stderr > 0, fit.stderr_corrected / np.maximum(fit.stderr, 1e-300), 1.0)
+    cov = fit.covariance * np.outer(infl, infl)
+    return r0, float(np.sqrt(max(grad @ cov @ grad, 0.0)))
+
+
+def asymmetry_check(
+    fit: FitResult,
+    sp: Split,
+    alpha: float = 0.01,
+    min_heldout_gain: float = 0.01,
+    max_nfev: int = 200,
+) -> AsymmetryCheck | None:
+    """Is the damper curve of ``fit`` asymmetric between bump and rebound?
+
+    Needs a ``digressive_damping`` element in ``fit.model`` (else None). Null model:
+    the fitted model plus a constant force (unless it has one); alternative: the same
+    with the digressive element replaced by ``asymmetric_digressive_damping`` (start:
+    both branches at the symmetric values). The asymmetry is *supported* when the
+    likelihood-ratio test corrected for serial correlation passes (p < ``alpha``), the
+    corrected BIC falls, the held-out error falls by at least ``min_heldout_gain``, and
+    the ratio differs from zero by more than two standard errors.
+    """
+    effects = current_effects(fit.model)
+    dig = [e for e in effects if e.kind == "digressive_damping"]
+    if not dig:
+        return None
+    null = fit
+    base_offset = "f_0" in fit.names  # a base model with its own constant force
+    if not base_offset and not any(e.kind in ("force_offset", "gas_spring") for e in effects):
+        null = refit_with(fit, "force_offset", sp.fit_recordings, sp.fit_masks, max_nfev=max_nfev)
+    vals = dict(zip(null.names, null.theta, strict=True))
+    d = dig[0]
+    c_low, v_knee = vals[f"{d.name}.c_low"], vals[f"{d.name}.v_knee"]
+    asym = make_effect(
+        "asymmetric_digressive_damping",
+        location=d.location,
+        c_bump=c_low,
+        v_knee_bump=v_knee,
+        c_rebound=c_low,
+        v_knee_rebound=v_knee,
+    )
+    alt_effects = tuple(asym if e.name == d.name else e for e in current_effects(null.model))
+    alt_model = null.model.with_effects(alt_effects)
+    theta0 = {k: v for k, v in vals.items() if not k.startswith(d.name + ".")}
+    theta0.update({f"{asym.name}.{k}": float(v) for k, v in asym.params.items()})
+    alt = fit_model(alt_model, sp.fit_recordings, sp.fit_masks, theta0=theta0, max_nfev=max_nfev)
+    alt.extra["effect"] = asym.to_dict()
+    comp = compare(
+        null, alt, sp.fit_recordings, sp.fit_masks, sp.heldout_recordings, sp.heldout_masks
+    )
+    v_all = np.concatenate([np.abs(motion(r)[1]) for r in sp.fit_recordings])
+    v_ref = float(np.percentile(v_all, 99))
+    ratio, se = _rebound_bump_ratio(alt, v_ref)
+    dbic = corrected_delta_bic(comp.lr.statistic_corrected, comp.lr.dof, null.n_samples)
+    fold_r, fold_h = _cycle_folds(null, alt, sp, v_ref, max_nfev)
+    se_folds = float("nan")
+    if len(fold_r) > 1:
+        k = len(fold_r)
+        se_folds = float(np.sqrt((k - 1) / k * np.sum((np.array(fold_r) - np.mean(fold_r)) ** 2)))
+    se_all = float(np.nanmax([se, se_folds]))
+    folds_agree = not fold_h or float(np.mean(fold_h)) >= min_heldout_gain
+    supported = bool(
+        comp.lr.p_value_corrected < alpha
+        and dbic < 0.0
+        and comp.heldout_reduction >= min_heldout_gain
+        and folds_agree
+        and abs(ratio) > 2.0 * se_all
+    )
+    off_name = next(
+        (e.name for e in current_effects(null.model) if e.kind in ("force_offset", "gas_spring")),
+        "",
+    )
+    off_keys = (f"{off_name}.offset", f"{off_name}.f_0") + (("f_0",) if base_offset else ())
+    off_key = next((k for k in off_keys if k in alt.names), None)
+    offset = float(alt.theta[alt.names.index(off_key)]) if off_key else float("nan")
+    side = "rebound" if ratio >= 0 else "bump"
+    folds = ""
+    if fold_h:
+        folds = (
+            f", mean held-out change over {len(fold_h)} cycle folds "
+            f"{-100 * float(np.mean(fold_h)):+.1f} %"
+        )
+    numbers = (
+        f"bump/rebound asymmetry of {100 * ratio:+.1f} % ± {100 * se_all:.1f} % ({side} "
+        f"stronger at {v_ref:.3g} m/s, {abs(ratio) / se_all:.1f} standard errors; constant "
+        f"force (gas force / offset) {offset:.3g} N in both models; held-out error change "
+        f"{-100 * comp.heldout_reduction:+.1f} %{folds}; corrected p = "
+        f"{comp.lr.p_value_corrected:.2g}, corrected BIC change {dbic:+.1f})"
+    )
+    if supported:
+        sentence = f"{numbers}: supported by this recording"
+    else:
+        sentence = (
+            f"{numbers}: below what this recording can separate from an offset; a test at "
+            "higher velocity / a pure sine sweep would separate them (an asymmetry grows "
+            "with speed, a gas force or offset does not)"
+        )
+    own = {k: v for k, v in alt.params().items() if k.startswith(asym.name + ".")}
+    hyp = Hypothesis(
+        kind=asym.kind,
+        family=family_of(asym.kind),
+        words=_effect_words(asym.kind, fit.model),
+        round=0,
+        signature_score=float("nan"),
+        signature_evidence=numbers,
+        lr_statistic=comp.lr.statistic,
+        lr_statistic_corrected=comp.lr.statistic_corrected,
+        lr_dof=comp.lr.dof,
+        p_value_corrected=comp.lr.p_value_corrected,
+        delta_bic_corrected=dbic,
+        heldout_reduction=comp.heldout_reduction,
+        params=own,
+        significant=supported,
+        fit=alt,
+        comparison=comp,
+    )
+    return AsymmetryCheck(
+        v_ref=v_ref,
+        ratio=float(ratio),
+        ratio_stderr=float(se),
+        offset=offset,
+        heldout_reduction=float(comp.heldout_reduction),
+        lr_statistic_corrected=float(comp.lr.statistic_corrected),
+        p_value_corrected=float(comp.lr.p_value_corrected),
+        delta_bic_corrected=float(dbic),
+        supported=supported,
+        sentence=sentence,
+        params=own,
+        fold_ratios=fold_r,
+        fold_heldout_reductions=fold_h,
+        ratio_stderr_folds=se_folds,
+        hypothesis=hyp,
+    )
+
+
+def _cycle_folds(
+    null: FitResult, alt: FitResult, sp: Split, v_ref: float, max_nfev: int
+) -> tuple[list[float], list[float]]:
+    """Block cross-validation over interleaved cycles (only for a ``"cycles"`` split):
+    for each group ``g`` of cycles (cycle index mod N == g) refit both models on the
+    other cycles, and return the asymmetry ratio of each refit and the relative
+    reduction of the held-out RMS error on group ``g`` (same scaling as ``compare``)."""
+    every = sp.cycles_every
+    if not every or sp.fit_masks is None:
+        return [], []
+    recs = sp.fit_recordings
+    cycs = [cycle_index(motion(r)[0]) for r in recs]
+    ratios, gains = [], []
+    for g in range(every):
+        hold = [(c % every) == g for c in cycs]
+        fit_m = [~m for m in hold]
+        n0 = fit_model(null.model, recs, fit_m, theta0=null.theta, max_nfev=max_nfev)
+        n1 = fit_model(alt.model, recs, fit_m, theta0=alt.theta, max_nfev=max_nfev)
+        before = scaled_rms(heldout_rms(n0, recs, hold), n0.scales)
+        after = scaled_rms(heldout_rms(n1, recs, hold), n0.scales)
+        ratios.append(_rebound_bump_ratio(n1, v_ref)[0])
+        gains.append(float(1.0 - after / before) if before > 0 else 0.0)
+    return ratios, gains
 
 
 def resolve_model(model: Any) -> Any:
@@ -304,6 +620,7 @@ def diagnose(
     min_heldout_gain: float = 0.01,
     strong_heldout_gain: float | None = 0.1,
     max_nfev: int = 200,
+    check_asymmetry: bool = True,
 ) -> Diagnosis:
     """Diagnose what ``model`` leaves out of ``recording``.
 
@@ -319,6 +636,10 @@ def diagnose(
         min_heldout_gain: least relative reduction of held-out RMS error to claim an effect.
         strong_heldout_gain: a held-out reduction this large also lets the uncorrected
             likelihood-ratio test decide (None: only the corrected test).
+        check_asymmetry: where a digressive damper curve is named and bump/rebound
+            asymmetry is a candidate (not yet named), test the asymmetric curve against
+            the symmetric one plus a constant force (:func:`asymmetry_check`); when it is
+            supported it is named too.
     """
     t0 = time.perf_counter()
     model = resolve_model(model)
@@ -397,12 +718,27 @@ def diagnose(
     for h, parent in zip(named, parents, strict=True):
         amb += _structural_ambiguity(h, parent, cands, sp, max_nfev)
 
+    asym = None
+    if (
+        check_asymmetry
+        and "digressive_damping" in [h.kind for h in named]
+        and "damper_asymmetry" in cands
+        and "damper_asymmetry" not in {h.family for h in named}
+    ):
+        asym = asymmetry_check(current, sp, alpha, min_heldout_gain, max_nfev)
+        if asym is not None and asym.supported and asym.hypothesis is not None:
+            named.append(asym.hypothesis)
+            all_hyps.append(asym.hypothesis)
+            current = asym.hypothesis.fit
+
     comparison = None
     if named:
         comparison = compare(
             base, current, sp.fit_recordings, sp.fit_masks, sp.heldout_recordings, sp.heldout_masks
         )
     verdict = _verdict(named, all_hyps, amb)
+    if asym is not None and not asym.supported:
+        verdict += f". {asym.sentence[0].upper()}{asym.sentence[1:]}"
     base_res = _fit_residual_series(base, sp.fit_recordings, sp.fit_masks)
     baseline = {
         "params": base.params(),
@@ -432,6 +768,7 @@ def diagnose(
         base_fit=base,
         final_fit=current,
         split=sp,
+        asymmetry=asym,
     )
 
 

@@ -47,6 +47,7 @@ FAMILY_OF_KIND = {
     "rebound_stop": "end_stop",
     "digressive_damping": "digressive",
     "damper_asymmetry": "damper_asymmetry",
+    "asymmetric_digressive_damping": "damper_asymmetry",
     "maxwell_viscoelastic": "viscoelastic",
     "gas_spring": "spring",
     "kelvin_voigt": "spring",
@@ -122,6 +123,7 @@ EQUIVALENT_COMBINATIONS: dict[str, tuple[tuple[str, str], str]] = {
 CONTAINS: dict[str, tuple[str, ...]] = {
     "directional_friction": ("friction", "sensor_offset"),
     "gas_spring": ("spring", "sensor_offset"),
+    "asymmetric_digressive_damping": ("digressive", "damper_asymmetry"),
 }
 
 

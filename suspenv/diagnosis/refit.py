@@ -94,8 +94,11 @@ def refit_with(
     guess = signature_guess(kind, signature, half_stroke, v_max)
     starts = [guess] if (guess and not both_starts) else [{}, guess] if guess else [{}]
     best: FitResult | None = None
+    # a model may fix shape constants of its elements (e.g. the quarter car's friction
+    # regularisation width, which its time integrator needs wider)
+    fixed = dict(getattr(base.model, "effect_defaults", {}).get(kind, {}))
     for start in starts:
-        effect = make_effect(kind, name=name, location=location)
+        effect = make_effect(kind, name=name, location=location, **fixed)
         lo, hi = effect.bounds()
         clipped = {
             k: float(np.clip(v, lo[i], hi[i]))

@@ -175,6 +175,19 @@ def markdown(diag: Diagnosis, figures: dict[str, str]) -> str:
     for h in diag.named:
         L += [f"### {h.words}", "", h.signature_evidence + ".", ""]
         L += _param_table(h.params) + [""]
+    a = getattr(diag, "asymmetry", None)
+    if a is not None:
+        L += ["## Bump/rebound asymmetry", "", a.sentence[0].upper() + a.sentence[1:] + ".", ""]
+        if a.fold_ratios:
+            folds = ", ".join(f"{100 * r:+.1f} %" for r in a.fold_ratios)
+            gains = ", ".join(f"{-100 * g:+.1f} %" for g in a.fold_heldout_reductions)
+            L += [
+                f"Rebound/bump ratio minus one by held-out cycle group: {folds} "
+                f"(held-out error change: {gains}).",
+                "",
+            ]
+        L += ["Asymmetric curve fitted against the symmetric one plus a constant force:", ""]
+        L += _param_table(a.params) + [""]
     L += ["## Where the residual lives (baseline)", ""]
     hot = diag.location.hotspots()
     if hot:

@@ -20,13 +20,16 @@ Bouc-Wen) and the Maxwell element carry a state integrated with the body and
 wheel; LuGre friction is too stiff for the fixed-step integrator and is refused
 (use smooth Coulomb or Stribeck friction). Integration: classical RK4 with a
 fixed sub-step small enough for the stiffest element (road held linear between
-samples).
+samples); parameters that would need more than ``max_substeps`` sub-steps per sample
+are refused with an :class:`EvaluationError` (a fit treats them as a failed point).
+A batch of parameter sets is integrated at once (state arrays over the batch).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from typing import ClassVar
 
 import numpy as np
 from scipy.signal import lfilter
@@ -75,6 +78,13 @@ class QuarterCarRigModel(ComponentModel):
         "sensor_gain",
     )
     location = "suspension"
+    #: element constants this model uses for effects it adds (friction regularised over
+    #: 1 cm/s: a width of 1 mm/s would need about ten times more RK4 sub-steps)
+    effect_defaults: ClassVar[dict[str, dict[str, float]]] = {
+        "coulomb_friction": {"v_eps": 0.01},
+        "stribeck_friction": {"v_eps": 0.01},
+        "directional_friction": {"v_eps": 0.01},
+    }
 
     def __init__(
         self,
@@ -82,13 +92,20 @@ class QuarterCarRigModel(ComponentModel):
         m_s: float = 300.0,
         m_u: float = 40.0,
         dt_max: float = 2e-3,
+        max_substeps: int = 20,
     ):
-        if not (m_s > 0 and m_u > 0 and dt_max > 0):
+        if not (m_s > 0 and m_u > 0 and dt_max > 0 and max_substeps >= 1):
             raise ValidationError(
-                f"`m_s > 0, m_u > 0, dt_max > 0` must hold, but got (m_s={m_s}, m_u={m_u}, "
-                f"dt_max={dt_max})"
+                f"`m_s > 0, m_u > 0, dt_max > 0, max_substeps >= 1` must hold, but got "
+                f"(m_s={m_s}, m_u={m_u}, dt_max={dt_max}, max_substeps={max_substeps})"
             )
-        super().__init__(effects, m_s=float(m_s), m_u=float(m_u), dt_max=float(dt_max))
+        super().__init__(
+            effects,
+            m_s=float(m_s),
+            m_u=float(m_u),
+            dt_max=float(dt_max),
+            max_substeps=int(max_substeps),
+        )
 
     def _check_effect(self, effect: Effect) -> None:
         if effect.kind in UNSUPPORTED:
@@ -140,7 +157,14 @@ class QuarterCarRigModel(ComponentModel):
                 rate = max(rate, float(np.max(np.abs(p["dc_rebound"]))) / m_u)
         n_rate = int(np.ceil(dt * rate / 1.5))
         n_dt = int(np.ceil(dt / self.options["dt_max"] - 1e-9))
-        return int(np.clip(max(n_rate, n_dt, 1), 1, 2000))
+        n = max(n_rate, n_dt, 1)
+        if n > self.options["max_substeps"]:
+            raise EvaluationError(
+                f"{self.family}: an element is too stiff for the fixed-step integrator: "
+                f"{n} sub-steps per sample needed, but `max_substeps` = "
+                f"{self.options['max_substeps']}"
+            )
+        return int(n)
 
     def _predict(self, base, effects, rec):
         t, road = rec.time, rec.inputs["road"]
@@ -160,15 +184,16 @@ class QuarterCarRigModel(ComponentModel):
             }
             for e in effects
         ]
-        acc = np.empty((rows, t.size))
-        defl = np.empty((rows, t.size))
-        for r in range(rows):
-            row_base = {n: float(v[r]) for n, v in flat_base.items()}
+        if rows == 1:
+            row_base = {n: float(v[0]) for n, v in flat_base.items()}
             row_effects = [
-                e.with_params({p: float(v[r]) for p, v in fe.items()})
+                e.with_params({p: float(v[0]) for p, v in fe.items()})
                 for e, fe in zip(effects, flat_eff, strict=True)
             ]
-            acc[r], defl[r] = self._integrate(row_base, row_effects, t, road)
+            acc, defl = (a[None, :] for a in self._integrate(row_base, row_effects, t, road))
+        else:
+            batch_effects = [e.with_params(fe) for e, fe in zip(effects, flat_eff, strict=True)]
+            acc, defl = self._integrate_batch(flat_base, batch_effects, t, road)
         shape = batch + (t.size,)
         return {
             "body_acceleration": acc.reshape(shape),
@@ -203,11 +228,30 @@ class QuarterCarRigModel(ComponentModel):
         # start at rest on the initial road height (static equilibrium)
         r0 = float(road[0])
         state = [r0, 0.0, r0, 0.0] + [0.0] * len(stateful)
-        acc, defl = [0.0], [0.0]
         dts = np.diff(t)
         # relative velocity rarely exceeds 3x the road velocity (wheel hop included)
         v_max = 3.0 * float(np.max(np.abs(np.diff(road)) / dts)) + 1e-3
         nsub = self._substeps(base, effects, float(np.max(dts)), v_max)
+        try:
+            return self._rk4_scalar(deriv, susp_force, state, t, road, nsub)
+        except (OverflowError, ZeroDivisionError) as exc:
+            raise EvaluationError(
+                f"{self.family}: simulation diverged ({exc}; sub-steps {nsub})"
+            ) from None
+
+    def _rk4_scalar(
+        self,
+        deriv: Callable[[list[float], float], list[float]],
+        susp_force: Callable[..., float],
+        state: list[float],
+        t: np.ndarray,
+        road: np.ndarray,
+        nsub: int,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The fixed-step RK4 loop of :meth:`_integrate` (plain floats)."""
+        m_s = self.options["m_s"]
+        acc, defl = [0.0], [0.0]
+        dts = np.diff(t)
         road_l, dts_l = road.tolist(), dts.tolist()
         for k in range(t.size - 1):
             h = dts_l[k] / nsub
@@ -233,6 +277,208 @@ class QuarterCarRigModel(ComponentModel):
             acc.append(susp_force(z_u - z_s, v_u - v_s, zs) / m_s)
             defl.append(z_u - z_s)
         return np.array(acc, dtype=float), np.array(defl, dtype=float)
+
+    def _integrate_batch(
+        self,
+        base: dict[str, np.ndarray],
+        effects: list[Effect],
+        t: np.ndarray,
+        road: np.ndarray,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """RK4 for a batch of ``B`` parameter sets at once (same scheme as :meth:`_integrate`).
+
+        ``base`` values and effect parameters are ``(B,)`` arrays; the state is a
+        ``(4 + n_states, B)`` array, so one RK4 stage is a handful of array operations
+        whatever ``B`` is (a finite-difference Jacobian costs about one simulation).
+        The sub-step count is the largest any row needs. Returns ``(B, T)`` arrays.
+        """
+        m_s, m_u = self.options["m_s"], self.options["m_u"]
+        k_s, c_s, k_t = (np.asarray(base[n], float) for n in ("k_s", "c_s", "k_t"))
+        n_rows = k_s.size
+        elements = [pointwise(e) for e in effects]
+        stateless = [el for el in elements if el.n_states == 0]
+        stateful = [el for el in elements if el.n_states == 1]
+        # rows whose hysteresis level is zero carry no Dahl element (its law divides by f_c)
+        for el in stateful:
+            if el.effect.kind == "dahl_hysteresis":
+                f_c = np.broadcast_to(np.asarray(el.params["f_c"], float), (n_rows,))
+                present = f_c > 0.0
+                el.params["f_c"] = np.where(present, f_c, 1.0)
+                el.params["sigma"] = np.where(present, el.params["sigma"], 0.0)
+        n_states = 4 + len(stateful)
+
+        def susp_force(s: np.ndarray) -> np.ndarray:
+            x, v = s[2] - s[0], s[3] - s[1]
+            f = k_s * x + c_s * v
+            for el in stateless:
+                f = f + el.force(x, v)
+            for i, el in enumerate(stateful):
+                f = f + el.force(x, v, s[4 + i])
+            return f
+
+        def deriv(s: np.ndarray, zr: float) -> np.ndarray:
+            x, v = s[2] - s[0], s[3] - s[1]
+            f = susp_force(s)
+            out = np.empty_like(s)
+            out[0] = s[1]
+            out[1] = f / m_s
+            out[2] = s[3]
+            out[3] = (k_t * (zr - s[2]) - f) / m_u
+            for i, el in enumerate(stateful):
+                out[4 + i] = el.dzdt(x, v, s[4 + i])
+            return out
+
+        r0 = float(road[0])
+        state = np.zeros((n_states, n_rows))
+        state[0] = state[2] = r0
+        dts = np.diff(t)
+        v_max = 3.0 * float(np.max(np.abs(np.diff(road)) / dts)) + 1e-3
+        nsub = self._substeps(base, effects, float(np.max(dts)), v_max)
+        road_l, dts_l = road.tolist(), dts.tolist()
+        with np.errstate(all="ignore"):  # a diverging row becomes NaN, checked below
+            acc, defl = self._rk4_batch(deriv, susp_force, state, t, road_l, dts_l, nsub)
+        bad = ~np.isfinite(acc[-1]) | ~np.isfinite(defl[-1])
+        if np.all(bad):
+            raise EvaluationError(
+                f"{self.family}: simulation diverged for every row of the batch (sub-steps {nsub})"
+            )
+        # a diverged row becomes NaN (the fit treats non-finite residuals as large)
+        acc[:, bad] = np.nan
+        defl[:, bad] = np.nan
+        return acc.T.copy(), defl.T.copy()
+
+    def _rk4_batch(
+        self,
+        deriv: Callable[[np.ndarray, float], np.ndarray],
+        susp_force: Callable[[np.ndarray], np.ndarray],
+        state: np.ndarray,
+        t: np.ndarray,
+        road_l: list[float],
+        dts_l: list[float],
+        nsub: int,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The fixed-step RK4 loop of :meth:`_integrate_batch`; ``(T, B)`` outputs."""
+        m_s = self.options["m_s"]
+        acc = np.zeros((t.size, state.shape[1]))
+        defl = np.zeros((t.size, state.shape[1]))
+        for k in range(t.size - 1):
+            h = dts_l[k] / nsub
+            rk, slope = road_l[k], (road_l[k + 1] - road_l[k]) / dts_l[k]
+            for j in range(nsub):
+                s0 = j * h
+                mid = rk + slope * (s0 + 0.5 * h)
+                k1 = deriv(state, rk + slope * s0)
+                k2 = deriv(state + (0.5 * h) * k1, mid)
+                k3 = deriv(state + (0.5 * h) * k2, mid)
+                k4 = deriv(state + h * k3, rk + slope * (s0 + h))
+                state = state + (h / 6.0) * (k1 + 2.0 * (k2 + k3) + k4)
+            acc[k + 1] = susp_force(state) / m_s
+            defl[k + 1] = state[2] - state[0]
+        return acc, defl
+
+    # ------------------------------------------------------------------ force view
+    def force_view(self, theta: np.ndarray, rec: Recording) -> dict[str, np.ndarray] | None:
+        """The suspension force seen through the body equation, for residual signatures.
+
+        ``measured`` = ``m_s * body_acceleration`` [N]; ``predicted`` = the model's
+        suspension force ``k_s x + c_s x' + effects`` [N] along the *measured*
+        deflection ``x`` [m] and its smoothed rate [m/s] (``x``, ``v``); ``jacobian``
+        ``(T, p)`` is d(predicted)/d(theta) [N per unit] (zero for the tyre rate and sensor
+        parameters). In this view a missing element leaves its own force signature
+        (a loop, a step, a one-sided ramp), which the simulated channels smear through
+        the body and wheel dynamics. None when ``rec`` lacks either channel.
+        """
+        if not {"body_acceleration", "suspension_deflection"} <= set(rec.outputs):
+            return None
+        x = np.asarray(rec.outputs["suspension_deflection"], float)
+        v = _rate(x, rec.time)
+
+        def predicted(th: np.ndarray) -> np.ndarray:
+            base, effects = self.unpack(th)
+            f = base["k_s"] * x + base["c_s"] * v
+            for e in effects:
+                if e.spec.role == "force":
+                    f = f + e.force(x, v, rec.time)
+            return np.asarray(f, float)
+
+        theta = np.asarray(theta, float)
+        f0 = predicted(theta)
+        lo, hi = self.bounds()
+        jac = np.zeros((x.size, theta.size))
+        for i in range(theta.size):
+            h = 1e-6 * max(abs(theta[i]), 1.0)
+            h = h if theta[i] + h <= hi[i] else -h
+            th = theta.copy()
+            th[i] += h
+            jac[:, i] = (predicted(th) - f0) / h
+        measured = self.options["m_s"] * np.asarray(rec.outputs["body_acceleration"], float)
+        return {"measured": measured, "predicted": f0, "x": x, "v": v, "jacobian": jac}
+
+    # ------------------------------------------------------------------ fast start
+    def refine_start(
+        self,
+        theta0: np.ndarray,
+        recordings: Sequence[Recording],
+        masks: Sequence[np.ndarray | None] | None = None,
+    ) -> np.ndarray:
+        """A start for the simulation (output-error) fit from an equation-error fit.
+
+        The body equation ``m_s z_s'' = F_s(x, x')`` holds sample by sample, and the rig
+        records both ``z_s''`` and the deflection ``x`` (``m_s`` is known): the
+        suspension force parameters (``k_s``, ``c_s`` and every force effect) are fitted
+        to ``m_s * body_acceleration`` along the measured deflection and its smoothed
+        rate by least squares, without simulating (milliseconds per evaluation). The
+        tyre rate and sensor effects keep their start values. Returns ``theta0``
+        unchanged when no recording has both channels.
+        """
+        from scipy.optimize import least_squares
+
+        theta0 = np.asarray(theta0, float)
+        views = []
+        for i, rec in enumerate(recordings):
+            if not {"body_acceleration", "suspension_deflection"} <= set(rec.outputs):
+                continue
+            m = None if masks is None else masks[i]
+            x = np.asarray(rec.outputs["suspension_deflection"], float)
+            v = _rate(x, rec.time)
+            f = self.options["m_s"] * np.asarray(rec.outputs["body_acceleration"], float)
+            views.append((x, v, rec.time, f, np.ones(x.size, bool) if m is None else m))
+        if not views:
+            return theta0
+        names = self.parameter_names
+        sensor = {
+            f"{e.name}.{q}" for e in self.effects if e.spec.role == "sensor" for q in self._free(e)
+        }
+        free = np.array([n != "k_t" and n not in sensor for n in names])
+        lo, hi = self.bounds()
+        scale = float(np.std(np.concatenate([f[m] for *_, f, m in views]))) or 1.0
+
+        def residual(sub: np.ndarray) -> np.ndarray:
+            th = theta0.copy()
+            th[free] = sub
+            base, effects = self.unpack(th)
+            out = []
+            for x, v, t, f, m in views:
+                pred = base["k_s"] * x + base["c_s"] * v
+                for e in effects:
+                    if e.spec.role == "force":
+                        pred = pred + e.force(x, v, t)
+                out.append((f - pred)[m] / scale)
+            r = np.concatenate(out)
+            return np.where(np.isfinite(r), r, 1e3)
+
+        x0 = np.clip(theta0[free], lo[free], hi[free])
+        span = hi[free] - lo[free]
+        x0 = np.clip(x0, lo[free] + 1e-6 * span, hi[free] - 1e-6 * span)
+        try:
+            sol = least_squares(
+                residual, x0, bounds=(lo[free], hi[free]), x_scale="jac", max_nfev=200
+            )
+        except (ValueError, EvaluationError, ValidationError):
+            return theta0
+        out = theta0.copy()
+        out[free] = sol.x
+        return out
 
     # ------------------------------------------------------------------ guesses
     def _base_guess(self, rec):

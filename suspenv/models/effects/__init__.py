@@ -17,6 +17,7 @@ from suspenv.models.effects.asymmetry import (
 from suspenv.models.effects.damper_curves import (
     damper_asymmetric,
     damper_digressive,
+    damper_digressive_asymmetric,
     damper_knee,
     extra_rebound_damping,
 )
@@ -83,6 +84,7 @@ __all__ = [
     "dahl_path",
     "damper_asymmetric",
     "damper_digressive",
+    "damper_digressive_asymmetric",
     "damper_knee",
     "effect_kinds",
     "extra_rebound_damping",

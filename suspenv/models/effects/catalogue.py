@@ -183,6 +183,24 @@ KINDS = (
         lambda x, v, t, c_low, v_knee: damper_curves.damper_digressive(v, bp(c_low), bp(v_knee)),
     ),
     EffectKind(
+        "asymmetric_digressive_damping",
+        "asymmetric digressive damper curve (separate bump and rebound valve stacks)",
+        "force",
+        (
+            _p("c_bump", 0.0, 1e6, "N s/m", 2000.0, "extra low-speed damping in bump (v > 0)"),
+            _p("v_knee_bump", 1e-3, 5.0, "m/s", 0.1, "knee velocity in bump", log=True),
+            _p("c_rebound", 0.0, 1e6, "N s/m", 2000.0, "extra low-speed damping in rebound"),
+            _p("v_knee_rebound", 1e-3, 5.0, "m/s", 0.1, "knee velocity in rebound", log=True),
+        ),
+        "residual depending on the sign and size of velocity: a digressive curve with a "
+        "different slope or knee in bump and in rebound",
+        lambda x, v, t, c_bump, v_knee_bump, c_rebound, v_knee_rebound: (
+            damper_curves.damper_digressive_asymmetric(
+                v, bp(c_bump), bp(v_knee_bump), bp(c_rebound), bp(v_knee_rebound)
+            )
+        ),
+    ),
+    EffectKind(
         "damper_asymmetry",
         "damper bump/rebound asymmetry",
         "force",

@@ -17,6 +17,13 @@ rebound), force [N], positive when it resists positive velocity (power absorbed
 
       F = sign(v) (c_low min(|v|, v_knee) + c_high max(|v| - v_knee, 0))
 
+* Asymmetric digressive (separate bump and rebound valve stacks)::
+
+      F = c_bump v / (1 + v / v_knee_bump)              for v >= 0
+      F = c_rebound v / (1 + |v| / v_knee_rebound)      for v < 0
+
+  the digressive curve with its own low-speed slope and knee in each direction;
+  equal coefficients give the symmetric curve.
 * Extra rebound damping (the effect form of asymmetry, added to a linear base):
   ``F = dc_rebound * min(v, 0)``.
 """
@@ -61,3 +68,26 @@ def damper_knee(
     v = np.asarray(v, dtype=float)
     av = np.abs(v)
     return np.sign(v) * (c_low * np.minimum(av, v_knee) + c_high * np.maximum(av - v_knee, 0.0))
+
+
+def damper_digressive_asymmetric(
+    v: np.ndarray | float,
+    c_bump: np.ndarray | float,
+    v_knee_bump: np.ndarray | float,
+    c_rebound: np.ndarray | float,
+    v_knee_rebound: np.ndarray | float,
+) -> np.ndarray:
+    """Digressive damper force [N] with bump (v >= 0) and rebound (v < 0) coefficients.
+
+    ``c_*`` [N s/m] is the low-speed slope and ``v_knee_*`` [m/s] the knee velocity of
+    each branch (see the module docstring); continuous at ``v = 0``.
+    """
+    require_positive("v_knee_bump", v_knee_bump)
+    require_positive("v_knee_rebound", v_knee_rebound)
+    v = np.asarray(v, dtype=float)
+    av = np.abs(v)
+    return np.where(
+        v >= 0.0,
+        c_bump * v / (1.0 + av / v_knee_bump),
+        c_rebound * v / (1.0 + av / v_knee_rebound),
+    )

@@ -56,6 +56,11 @@ STATELESS: dict[str, Callable[..., np.ndarray]] = {
     "progressive_stiffness": lambda x, v, p: p["k_p"] * np.sign(x) * _pos(np.abs(x) - p["x0"]) ** 2,
     "damper_asymmetry": lambda x, v, p: p["dc_rebound"] * np.minimum(v, 0.0),
     "digressive_damping": lambda x, v, p: p["c_low"] * v / (1.0 + np.abs(v) / p["v_knee"]),
+    "asymmetric_digressive_damping": lambda x, v, p: np.where(
+        v >= 0.0,
+        p["c_bump"] * v / (1.0 + np.abs(v) / p["v_knee_bump"]),
+        p["c_rebound"] * v / (1.0 + np.abs(v) / p["v_knee_rebound"]),
+    ),
     "kelvin_voigt": lambda x, v, p: p["k"] * x + p["c"] * v,
     "gas_spring": lambda x, v, p: p["f_0"] + p["k_gas"] * x,
     "force_offset": lambda x, v, p: p["offset"] + 0.0 * x,
@@ -87,6 +92,34 @@ STATEFUL: dict[str, tuple[Callable[..., np.ndarray], Callable[..., np.ndarray]]]
             p["sigma0"] * z
             + p["sigma1"] * lugre_dzdt(z, v, p["sigma0"], p["f_c"], p["f_s"], p["v_s"])
         ),
+    ),
+}
+
+
+def _sgn(a: float) -> float:
+    return float((a > 0.0) - (a < 0.0))
+
+
+def _dahl_float(x, v, z, p):
+    if isinstance(v, float) and isinstance(z, float) and isinstance(p["f_c"], float):
+        return p["sigma"] * v * (1.0 - z / p["f_c"] * _sgn(v))
+    return dahl_dzdt(z, v, p["sigma"], p["f_c"])
+
+
+#: plain-float versions of laws that use numpy functions (a scalar time integrator calls
+#: them hundreds of thousands of times); same formulas, arrays fall back to numpy
+FLOAT_STATELESS: dict[str, Callable[..., Any]] = {
+    "damper_asymmetry": lambda x, v, p: p["dc_rebound"] * (v if v < 0.0 else 0.0),
+    "digressive_damping": lambda x, v, p: p["c_low"] * v / (1.0 + abs(v) / p["v_knee"]),
+    "asymmetric_digressive_damping": lambda x, v, p: (
+        p["c_bump"] * v / (1.0 + v / p["v_knee_bump"])
+        if v >= 0.0
+        else p["c_rebound"] * v / (1.0 - v / p["v_knee_rebound"])
+    ),
+    "progressive_stiffness": lambda x, v, p: p["k_p"] * _sgn(x) * _pos(abs(x) - p["x0"]) ** 2,
+    "stribeck_friction": lambda x, v, p: (
+        (p["f_c"] + (p["f_s"] - p["f_c"]) * math.exp(-((v / p["v_s"]) ** 2)))
+        * math.tanh(v / p["v_eps"])
     ),
 }
 
@@ -126,9 +159,19 @@ class PointwiseElement:
             self._force = lambda x, v, z, p: 0.0 * v
         elif self.n_states:
             self._dzdt, self._force = STATEFUL[effect.kind]
+            if effect.kind == "dahl_hysteresis":
+                self._dzdt = _dahl_float
+                self._force = lambda x, v, z, p: z if isinstance(z, float) else z + 0.0 * v
         else:
             law = STATELESS[effect.kind]
-            self._force = lambda x, v, z, p: law(x, v, p)
+            fast = FLOAT_STATELESS.get(effect.kind)
+            scalar_params = all(isinstance(v, float) for v in self.params.values())
+            if fast is not None and scalar_params:
+                self._force = lambda x, v, z, p: (
+                    fast(x, v, p) if isinstance(x, float) and isinstance(v, float) else law(x, v, p)
+                )
+            else:
+                self._force = lambda x, v, z, p: law(x, v, p)
             self._dzdt = None
 
     def force(self, x: np.ndarray, v: np.ndarray, z: np.ndarray | None = None) -> np.ndarray:
