@@ -1,9 +1,11 @@
 """``suspenv diagnose RECORDING [--model NAME] [--out DIR]``: locate, name, model, refit, show.
 
 RECORDING is a recording file (``.npz``, see ``docs/recordings.md``) or the name of a
-real-data converter (``emps``, ``mr_damper``, ``damper_dyno``; read from
-``../shared/data/real``). Writes ``report.md`` (with PNG figures) and
-``diagnosis.json`` into ``--out``.
+real-data converter (``emps``, ``mr_damper``, ``damper_dyno``, ``road_profile``; read from
+``../shared/data/real``). K&C rig recordings of the McPherson axle (a ``.npz`` file or
+folder of them, or ``knc-blind:SEED`` for a generated blind case) go to the K&C
+diagnosis; minibus ride recordings and road profiles (``.txt``) to the ride diagnosis.
+Writes ``report.md`` (with PNG figures) and ``diagnosis.json`` into ``--out``.
 """
 
 from __future__ import annotations
@@ -21,7 +23,11 @@ def register(sub: argparse._SubParsersAction) -> None:
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("recording", help=".npz recording file, or emps | mr_damper | damper_dyno")
+    p.add_argument(
+        "recording",
+        help=".npz recording (or folder), emps | mr_damper | damper_dyno | road_profile, "
+        "a road profile .txt, or knc-blind:SEED",
+    )
     p.add_argument(
         "--model",
         default=None,
@@ -49,6 +55,18 @@ def _guess_family(rec) -> str:
 
 
 def _diagnose(args: argparse.Namespace) -> int:
+    from suspenv.diagnosis.knc.cli import is_knc_target
+    from suspenv.diagnosis.knc.cli import run as run_knc
+    from suspenv.diagnosis.ride.cli import route as route_ride
+
+    if is_knc_target(args.recording):
+        return run_knc(args)
+    if (code := route_ride(args)) is not None:
+        return code
+    return _diagnose_component(args)
+
+
+def _diagnose_component(args: argparse.Namespace) -> int:
     from suspenv.diagnosis.benchmark import REAL_CASES, SHARED_REAL
     from suspenv.diagnosis.engine import diagnose
     from suspenv.diagnosis.report import write_report
