@@ -18,7 +18,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from pymoo.algorithms.moo.nsga2 import NSGA2 as _PymooNSGA2
+from pymoo.algorithms.moo import nsga2 as _pymoo_nsga2
 from pymoo.core.evaluator import Evaluator
 from pymoo.core.problem import Problem as _PymooProblem
 from pymoo.core.termination import NoTermination
@@ -48,9 +48,17 @@ class PymooNSGA2(Strategy):
     description = "NSGA-II (pymoo), vectorised per generation; fast for large populations"
     multi_objective = True
 
-    def __init__(self, dim: int, n_objectives: int = 1, n_constraints: int = 0, seed: int = 0,
-                 population_size: int = 100, crossover_prob: float = 0.9,
-                 crossover_eta: float = 15.0, mutation_eta: float = 20.0):
+    def __init__(
+        self,
+        dim: int,
+        n_objectives: int = 1,
+        n_constraints: int = 0,
+        seed: int = 0,
+        population_size: int = 100,
+        crossover_prob: float = 0.9,
+        crossover_eta: float = 15.0,
+        mutation_eta: float = 20.0,
+    ):
         super().__init__(dim, n_objectives, n_constraints, seed)
         if int(population_size) < 2:
             raise ValidationError(
@@ -64,16 +72,20 @@ class PymooNSGA2(Strategy):
         self.crossover_prob = float(crossover_prob)
         self.crossover_eta, self.mutation_eta = float(crossover_eta), float(mutation_eta)
         self._problem = _PymooProblem(
-            n_var=self.dim, n_obj=self.n_objectives, n_ieq_constr=self.n_constraints + 1,
-            xl=0.0, xu=1.0,
+            n_var=self.dim,
+            n_obj=self.n_objectives,
+            n_ieq_constr=self.n_constraints + 1,
+            xl=0.0,
+            xu=1.0,
         )
-        self._algorithm = _PymooNSGA2(
+        self._algorithm = _pymoo_nsga2.NSGA2(
             pop_size=self.population_size,
             crossover=SBX(prob=self.crossover_prob, eta=self.crossover_eta),
             mutation=PM(eta=self.mutation_eta),
         )
-        self._algorithm.setup(self._problem, termination=NoTermination(), seed=self.seed,
-                              verbose=False)
+        self._algorithm.setup(
+            self._problem, termination=NoTermination(), seed=self.seed, verbose=False
+        )
         self._population = None
 
     def _ask(self) -> np.ndarray:
@@ -90,5 +102,9 @@ class PymooNSGA2(Strategy):
         self._population = None
 
     def options(self) -> dict[str, Any]:
-        return {"population_size": self.population_size, "crossover_prob": self.crossover_prob,
-                "crossover_eta": self.crossover_eta, "mutation_eta": self.mutation_eta}
+        return {
+            "population_size": self.population_size,
+            "crossover_prob": self.crossover_prob,
+            "crossover_eta": self.crossover_eta,
+            "mutation_eta": self.mutation_eta,
+        }

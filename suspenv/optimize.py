@@ -48,8 +48,13 @@ class Recorder(Protocol):
     """
 
     def append(
-        self, batch_index: int, rows: Sequence[int], U: np.ndarray, X: np.ndarray,
-        result: EvaluationBatch, wall_time: float,
+        self,
+        batch_index: int,
+        rows: Sequence[int],
+        U: np.ndarray,
+        X: np.ndarray,
+        result: EvaluationBatch,
+        wall_time: float,
     ) -> None: ...
 
 

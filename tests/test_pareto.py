@@ -8,10 +8,12 @@ from suspenv.core.pareto import nondominated
 def _brute(F):
     # definition: i is dominated if some j is <= in every objective and < in one
     n = len(F)
-    return np.array([
-        not any(np.all(F[j] <= F[i]) and np.any(F[j] < F[i]) for j in range(n) if j != i)
-        for i in range(n)
-    ])
+    return np.array(
+        [
+            not any(np.all(F[j] <= F[i]) and np.any(F[j] < F[i]) for j in range(n) if j != i)
+            for i in range(n)
+        ]
+    )
 
 
 def test_matches_brute_force_with_ties_and_candidates():

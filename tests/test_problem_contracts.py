@@ -29,8 +29,12 @@ def test_reference_design_inside_bounds(problem):
 
 def test_batch_shapes_and_determinism(problem):
     rng = np.random.default_rng(0)
-    U = np.vstack([problem.space.to_unit(problem.reference_design()[None, :]),
-                   rng.uniform(0.2, 0.8, (2, problem.space.dim))])
+    U = np.vstack(
+        [
+            problem.space.to_unit(problem.reference_design()[None, :]),
+            rng.uniform(0.2, 0.8, (2, problem.space.dim)),
+        ]
+    )
     a = problem.evaluate_unit(U)
     b = problem.evaluate_unit(U)
     assert isinstance(a, EvaluationBatch) and len(a) == 3
@@ -63,6 +67,7 @@ def test_numbers_do_not_depend_on_the_batch_split(problem):
     # sizes agree to ~1e-15; float32 physics would drift at ~1e-7 and fail this
     U = np.random.default_rng(2).uniform(0.25, 0.75, (6, problem.space.dim))
     whole = problem.evaluate_unit(U).objectives
-    halves = np.vstack([problem.evaluate_unit(U[:3]).objectives,
-                        problem.evaluate_unit(U[3:]).objectives])
+    halves = np.vstack(
+        [problem.evaluate_unit(U[:3]).objectives, problem.evaluate_unit(U[3:]).objectives]
+    )
     np.testing.assert_allclose(whole, halves, rtol=1e-12, atol=1e-12)

@@ -202,8 +202,9 @@ def test_pymoo_nsga2_approaches_zdt1_front_and_survives_failures():
         U = s.ask()
         batch = problem.evaluate_unit(U)
         if g % 5 == 0:  # every fifth generation loses a few evaluations
-            batch = EvaluationBatch.concatenate([batch.take(np.arange(35)),
-                                                 EvaluationBatch.failed(5, 2, 0, "lost")])
+            batch = EvaluationBatch.concatenate(
+                [batch.take(np.arange(35)), EvaluationBatch.failed(5, 2, 0, "lost")]
+            )
         s.tell(U, batch)
     F = problem.evaluate_unit(U).objectives
     # ZDT1 Pareto front (closed form): f2 = 1 - sqrt(f1); the population lies close to it

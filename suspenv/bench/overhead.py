@@ -32,9 +32,9 @@ DIM, POP = 49, 42
 
 def _bare(generations: int) -> float:
     es = cma.CMAEvolutionStrategy(
-        [0.5] * DIM, 0.25,
-        {"popsize": POP, "bounds": [0, 1], "seed": 1, "verbose": -9, "verb_log": 0,
-         "verb_disp": 0},
+        [0.5] * DIM,
+        0.25,
+        {"popsize": POP, "bounds": [0, 1], "seed": 1, "verbose": -9, "verb_log": 0, "verb_disp": 0},
     )
     t0 = time.perf_counter()
     for _ in range(generations):
@@ -81,19 +81,27 @@ def main(argv: list[str] | None = None) -> None:
         for k, fn in cases.items():
             best[k] = min(best[k], fn())
     rows = [
-        {"case": k, "evaluations": n, "total_s": t, "ms_per_eval": 1e3 * t / n,
-         "ratio_vs_bare": t / best["bare cma"]}
+        {
+            "case": k,
+            "evaluations": n,
+            "total_s": t,
+            "ms_per_eval": 1e3 * t / n,
+            "ratio_vs_bare": t / best["bare cma"],
+        }
         for k, t in best.items()
     ]
     full, bare = best["optimize + archive"], best["bare cma"]
     overhead_ms = 1e3 * (full - bare) / n
     summary = {
-        "dimension": DIM, "population": POP, "generations": args.generations,
+        "dimension": DIM,
+        "population": POP,
+        "generations": args.generations,
         "ms_per_eval_bare_cma": 1e3 * bare / n,
         "ms_per_eval_full_loop": 1e3 * full / n,
         "framework_overhead_ms_per_eval": overhead_ms,
         "ratio_full_loop_vs_bare": full / bare,
-        "target_overhead_ms_per_eval": 0.2, "target_ratio": 3.0,
+        "target_overhead_ms_per_eval": 0.2,
+        "target_ratio": 3.0,
         "meets_targets": bool(overhead_ms <= 0.2 and full / bare <= 3.0),
     }
     write_result("overhead", rows, summary, "python -m suspenv.bench.overhead", args.output)

@@ -23,8 +23,11 @@ def load_summary(run_dir: str | Path) -> dict[str, Any]:
 def format_summary(s: dict[str, Any]) -> str:
     """The summary table of an optimisation run; other pipelines show their scalar items."""
     if "n_evaluations" not in s:
-        rows = [(k, _fmt(v)) for k, v in s.items()
-                if isinstance(v, (str, int, float, bool)) and v is not None]
+        rows = [
+            (k, _fmt(v))
+            for k, v in s.items()
+            if isinstance(v, (str, int, float, bool)) and v is not None
+        ]
         w = max((len(k) for k, _ in rows), default=0)
         return "\n".join(f"{k:<{w}}  {v}" for k, v in rows)
     rows = [
