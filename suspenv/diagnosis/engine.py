@@ -28,7 +28,7 @@ from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.evidence import Comparison, compare, heldout_rms, ljung_box, scaled_rms
 from suspenv.diagnosis.evidence import fit_residual_series as _fit_residual_series
 from suspenv.diagnosis.fit import FitResult, as_list, fit_model, residuals
-from suspenv.diagnosis.locate import Location, Segment, locate
+from suspenv.diagnosis.locate import Segment, locate
 from suspenv.diagnosis.name import (
     EQUIVALENT_COMBINATIONS,
     Ambiguity,
@@ -278,16 +278,21 @@ def _main_channel(fit: FitResult) -> str:
 
 # ---------------------------------------------------------------- diagnosis
 @dataclass
-class Diagnosis:
-    """Everything the engine found; ``to_dict()`` is the machine-readable report."""
+class Findings:
+    """What a diagnosis found, in the form every diagnosis (components, K&C, ride) shares;
+    ``to_dict()`` is the machine-readable report.
+
+    ``location`` and ``signatures`` are the flavour's own residual map and signature
+    records (each with ``to_dict()``).
+    """
 
     recording: str
     family: str
     holdout: str
     channel: str
     baseline: dict[str, Any]
-    location: Location
-    signatures: list[Signature]
+    location: Any
+    signatures: list[Any]
     hypotheses: list[Hypothesis]
     named: list[Hypothesis]
     ambiguities: list[Ambiguity]
@@ -297,8 +302,6 @@ class Diagnosis:
     seconds: float
     base_fit: FitResult = field(repr=False)
     final_fit: FitResult = field(repr=False)
-    split: Split = field(repr=False)
-    asymmetry: AsymmetryCheck | None = None
 
     @property
     def named_kinds(self) -> list[str]:
@@ -327,8 +330,21 @@ class Diagnosis:
             "signatures": [s.to_dict() for s in self.signatures],
             "hypotheses": [h.to_dict() for h in self.hypotheses],
             "seconds": self.seconds,
-            "asymmetry": self.asymmetry.to_dict() if self.asymmetry else None,
         }
+
+
+@dataclass
+class Diagnosis(Findings):
+    """Everything the component engine found (:class:`Findings` plus its data split and
+    the damper asymmetry check)."""
+
+    split: Split = field(repr=False)
+    asymmetry: AsymmetryCheck | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        out = super().to_dict()
+        out["asymmetry"] = self.asymmetry.to_dict() if self.asymmetry else None
+        return out
 
 
 @dataclass

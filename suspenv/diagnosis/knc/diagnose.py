@@ -39,8 +39,8 @@ from typing import Any
 import numpy as np
 
 from suspenv.core.errors import ValidationError
+from suspenv.diagnosis.engine import Findings
 from suspenv.diagnosis.evidence import (
-    Comparison,
     compare,
     fit_residual_series,
     heldout_rms,
@@ -48,7 +48,7 @@ from suspenv.diagnosis.evidence import (
 )
 from suspenv.diagnosis.fit import FitResult, residuals
 from suspenv.diagnosis.knc.fit import evaluate, fit, noise_scales
-from suspenv.diagnosis.knc.locate import ResidualMap, residual_map
+from suspenv.diagnosis.knc.locate import residual_map
 from suspenv.diagnosis.knc.model import KncAxleModel, KncEffect, base_kind, make_candidate
 from suspenv.diagnosis.knc.recording import rig_test
 from suspenv.diagnosis.knc.signatures import FAMILY_KINDS, KncSignature, score_signatures
@@ -81,35 +81,12 @@ FAMILY_OF = {k: fam for fam, kinds in FAMILY_KINDS.items() for k in kinds}
 
 
 @dataclass
-class KncDiagnosis:
-    """What the K&C diagnosis found (the engine's ``Diagnosis`` fields; ``to_dict`` = JSON)."""
+class KncDiagnosis(Findings):
+    """What the K&C diagnosis found (:class:`~suspenv.diagnosis.engine.Findings` plus the
+    recordings fitted and held out)."""
 
-    recording: str
-    family: str
-    holdout: str
-    channel: str
-    baseline: dict[str, Any]
-    location: ResidualMap
-    signatures: list[KncSignature]
-    hypotheses: list[Hypothesis]
-    named: list[Hypothesis]
-    ambiguities: list[Ambiguity]
-    verdict: str
-    comparison: Comparison | None
-    final_params: dict[str, dict[str, float]]
-    seconds: float
-    base_fit: FitResult = field(repr=False)
-    final_fit: FitResult = field(repr=False)
     fit_recordings: list[Any] = field(repr=False, default_factory=list)
     heldout_recordings: list[Any] = field(repr=False, default_factory=list)
-
-    @property
-    def named_kinds(self) -> list[str]:
-        return [h.kind for h in self.named]
-
-    @property
-    def named_families(self) -> list[str]:
-        return [h.family for h in self.named]
 
     def effect(self, kind: str) -> KncEffect | None:
         """The fitted effect of ``kind`` in the final model (None if not named)."""
@@ -118,27 +95,6 @@ class KncDiagnosis:
             if e.kind == kind:
                 return e.with_params({k: float(np.ravel(v)[0]) for k, v in e.params.items()})
         return None
-
-    def to_dict(self) -> dict[str, Any]:
-        return {
-            "recording": self.recording,
-            "family": self.family,
-            "holdout": self.holdout,
-            "channel": self.channel,
-            "verdict": self.verdict,
-            "named": [
-                {"kind": h.kind, "family": h.family, "words": h.words, "params": h.params}
-                for h in self.named
-            ],
-            "ambiguities": [a.to_dict() for a in self.ambiguities],
-            "baseline": self.baseline,
-            "final_params": self.final_params,
-            "comparison": self.comparison.to_dict() if self.comparison else None,
-            "location": self.location.to_dict(),
-            "signatures": [s.to_dict() for s in self.signatures],
-            "hypotheses": [h.to_dict() for h in self.hypotheses],
-            "seconds": self.seconds,
-        }
 
 
 def _as_recordings(recordings: Any) -> list[Any]:
