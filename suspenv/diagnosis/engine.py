@@ -25,8 +25,13 @@ from typing import Any
 import numpy as np
 
 from suspenv.core.errors import ValidationError
-from suspenv.diagnosis.evidence import Comparison, compare, heldout_rms, ljung_box, scaled_rms
-from suspenv.diagnosis.evidence import fit_residual_series as _fit_residual_series
+from suspenv.diagnosis.evidence import (
+    Comparison,
+    baseline_summary,
+    compare,
+    heldout_rms,
+    scaled_rms,
+)
 from suspenv.diagnosis.fit import FitResult, as_list, fit_model, residuals
 from suspenv.diagnosis.locate import Segment, locate
 from suspenv.diagnosis.name import (
@@ -272,7 +277,8 @@ def _segments(fit: FitResult, sp: Split) -> list[Segment]:
     return out
 
 
-def _main_channel(fit: FitResult) -> str:
+def main_channel(fit: FitResult) -> str:
+    """The channel holding the largest scaled residual of a fit."""
     return max(fit.channels, key=lambda c: fit.ssr[c] / (fit.scales[c] ** 2))
 
 
@@ -662,7 +668,7 @@ def diagnose(
     sp = split(recording, holdout)
     cands = list(candidates if candidates is not None else model.candidate_effects)
     base = fit_model(model, sp.fit_recordings, sp.fit_masks, max_nfev=max_nfev)
-    channel = _main_channel(base)
+    channel = main_channel(base)
     location = locate(_segments(base, sp))
     x_all = np.concatenate([motion(r)[0] for r in sp.fit_recordings])
     v_all = np.concatenate([motion(r)[1] for r in sp.fit_recordings])
@@ -755,16 +761,10 @@ def diagnose(
     verdict = _verdict(named, all_hyps, amb)
     if asym is not None and not asym.supported:
         verdict += f". {asym.sentence[0].upper()}{asym.sentence[1:]}"
-    base_res = _fit_residual_series(base, sp.fit_recordings, sp.fit_masks)
-    baseline = {
-        "params": base.params(),
-        "fit_rms": base.rms(),
-        "heldout_rms": heldout_rms(base, sp.heldout_recordings, sp.heldout_masks),
-        "aic": base.aic(),
-        "bic": base.bic(),
-        "ljung_box": dict(zip(("Q", "p"), ljung_box(base_res), strict=True)),
-        "effects": [e.to_dict() for e in current_effects(base.model)],
-    }
+    baseline = baseline_summary(
+        base, sp.fit_recordings, sp.heldout_recordings, sp.fit_masks, sp.heldout_masks
+    )
+    baseline["effects"] = [e.to_dict() for e in current_effects(base.model)]
     names = ", ".join(str(getattr(r, "name", "?")) for r in sp.fit_recordings)
     return Diagnosis(
         recording=names,

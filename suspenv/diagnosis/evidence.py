@@ -61,6 +61,26 @@ def scaled_rms(rms: dict[str, float], scales: dict[str, float]) -> float:
     return float(np.sqrt(np.mean(np.square(vals)))) if vals else float("nan")
 
 
+def baseline_summary(
+    fit: FitResult,
+    fit_recordings: Any,
+    heldout_recordings: Any,
+    fit_masks: Sequence[np.ndarray | None] | None = None,
+    heldout_masks: Sequence[np.ndarray | None] | None = None,
+) -> dict[str, Any]:
+    """The numbers every diagnosis reports for its baseline fit: parameters, fit and
+    held-out RMS per channel, AIC, BIC and the Ljung-Box whiteness test of the residual."""
+    q, p = ljung_box(fit_residual_series(fit, fit_recordings, fit_masks))
+    return {
+        "params": fit.params(),
+        "fit_rms": fit.rms(),
+        "heldout_rms": heldout_rms(fit, heldout_recordings, heldout_masks),
+        "aic": fit.aic(),
+        "bic": fit.bic(),
+        "ljung_box": {"Q": q, "p": p},
+    }
+
+
 def fit_residual_series(fit: FitResult, recordings: Any, masks=None) -> np.ndarray:
     """The fit's scaled residual, channels and recordings stacked (for whiteness tests)."""
     parts = residuals(fit.model, fit.theta, as_list(recordings), fit.channels, masks)

@@ -41,10 +41,8 @@ import numpy as np
 from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.engine import Findings
 from suspenv.diagnosis.evidence import (
+    baseline_summary,
     compare,
-    fit_residual_series,
-    heldout_rms,
-    ljung_box,
 )
 from suspenv.diagnosis.fit import FitResult, residuals
 from suspenv.diagnosis.knc.fit import evaluate, fit, noise_scales
@@ -381,17 +379,9 @@ def diagnose_knc(
     if named:
         comparison = compare(base, current, fit_recs, None, held, None)
     verdict = _verdict(named, all_hyps, amb, first_sigs, screen_threshold)
-    base_res = fit_residual_series(base, fit_recs)
-    baseline = {
-        "params": base.params(),
-        "fit_rms": base.rms(),
-        "heldout_rms": heldout_rms(base, held),
-        "aic": base.aic(),
-        "bic": base.bic(),
-        "ljung_box": dict(zip(("Q", "p"), ljung_box(base_res), strict=True)),
-        "scales": dict(scales),
-        "fit_parameters": list(base_model.fit_parameters),
-    }
+    baseline = baseline_summary(base, fit_recs, held)
+    baseline["scales"] = dict(scales)
+    baseline["fit_parameters"] = list(base_model.fit_parameters)
     strongest = location.strongest(1)
     diag = KncDiagnosis(
         recording=", ".join(r.name for r in fit_recs),

@@ -32,8 +32,12 @@ import numpy as np
 from scipy import stats
 
 from suspenv.core.errors import EvaluationError
-from suspenv.diagnosis.engine import Diagnosis, Split
-from suspenv.diagnosis.evidence import compare, fit_residual_series, heldout_rms, ljung_box
+from suspenv.diagnosis.engine import Diagnosis, Split, main_channel
+from suspenv.diagnosis.evidence import (
+    baseline_summary,
+    compare,
+    fit_residual_series,
+)
 from suspenv.diagnosis.fit import FitResult, as_list, fit_model, residuals
 from suspenv.diagnosis.locate import Location, Share
 from suspenv.diagnosis.name import (
@@ -309,17 +313,9 @@ def diagnose_ride(
                 f"{best.p_value_corrected:.2g}, held-out error change "
                 f"{-100 * best.heldout_reduction:+.1f} %)"
             )
-    res = fit_residual_series(base, recs)
-    baseline = {
-        "params": base.params(),
-        "fit_rms": base.rms(),
-        "heldout_rms": heldout_rms(base, held),
-        "aic": base.aic(),
-        "bic": base.bic(),
-        "ljung_box": dict(zip(("Q", "p"), ljung_box(res), strict=True)),
-        "effects": [],
-    }
-    channel = max(base.channels, key=lambda c: base.ssr[c] / base.scales[c] ** 2)
+    baseline = baseline_summary(base, recs, held)
+    baseline["effects"] = []
+    channel = main_channel(base)
     return Diagnosis(
         recording=", ".join(r.name for r in recs),
         family=model.family,
