@@ -56,6 +56,9 @@ def test_damper_dyno_digressive_named(shared_data) -> None:
     assert chk is not None and np.isfinite(chk.ratio) and chk.ratio_stderr > 0
     assert chk.sentence[1:] in diag.verdict
     assert row["asymmetry"]["sentence"] == chk.sentence
+    # the model-free matched-speed check ran on the cyclic stroke and is reported
+    assert chk.matched_speed is not None and "matched speeds" in chk.sentence
+    assert row["asymmetry"]["matched_speed"]["p_constant"] < 1e-6
     # reference: the recording's own binned forces near the top speed, offset removed
     # (rebound and bump within a few per cent of each other)
     rec = diag.split.fit_recordings[0]

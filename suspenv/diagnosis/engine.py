@@ -34,6 +34,7 @@ from suspenv.diagnosis.evidence import (
 )
 from suspenv.diagnosis.fit import FitResult, as_list, fit_model, residuals
 from suspenv.diagnosis.locate import Segment, locate
+from suspenv.diagnosis.matched_speed import MatchedSpeedAsymmetry, matched_speed_asymmetry
 from suspenv.diagnosis.name import (
     EQUIVALENT_COMBINATIONS,
     Ambiguity,
@@ -367,7 +368,9 @@ class AsymmetryCheck:
     ``ratio_stderr_folds`` is their jackknife standard error. The null model has the
     symmetric curve plus a constant force (gas force / offset; the base model's own
     ``f_0`` where it has one); the
-    alternative gives bump and rebound their own slope and knee.
+    alternative gives bump and rebound their own slope and knee. ``matched_speed`` is
+    the model-free check on cyclic strokes (:mod:`suspenv.diagnosis.matched_speed`):
+    the bump + rebound force at matched speeds, against a constant and a drifting zero.
     """
 
     v_ref: float
@@ -384,10 +387,13 @@ class AsymmetryCheck:
     fold_ratios: list[float] = field(default_factory=list)
     fold_heldout_reductions: list[float] = field(default_factory=list)
     ratio_stderr_folds: float = float("nan")
+    matched_speed: MatchedSpeedAsymmetry | None = None
     hypothesis: Hypothesis | None = field(default=None, repr=False)
 
     def to_dict(self) -> dict[str, Any]:
-        return {k: v for k, v in self.__dict__.items() if k != "hypothesis"}
+        out = {k: v for k, v in self.__dict__.items() if k not in ("hypothesis", "matched_speed")}
+        out["matched_speed"] = self.matched_speed.to_dict() if self.matched_speed else None
+        return out
 
 
 def _curve_force(fit: FitResult, v: float) -> float:
@@ -437,7 +443,9 @@ def asymmetry_check(
     both branches at the symmetric values). The asymmetry is *supported* when the
     likelihood-ratio test corrected for serial correlation passes (p < ``alpha``), the
     corrected BIC falls, the held-out error falls by at least ``min_heldout_gain``, and
-    the ratio differs from zero by more than two standard errors.
+    the ratio differs from zero by more than two standard errors; or when the
+    model-free matched-speed check rejects a constant force and a drifting zero and the
+    asymmetric refit lowers the held-out error.
     """
     effects = current_effects(fit.model)
     dig = [e for e in effects if e.kind == "digressive_damping"]
@@ -485,6 +493,9 @@ def asymmetry_check(
         and folds_agree
         and abs(ratio) > 2.0 * se_all
     )
+    matched = _matched_speed(sp, alpha)
+    if matched is not None and matched.supported and comp.heldout_reduction > 0.0:
+        supported = True
     off_name = next(
         (e.name for e in current_effects(null.model) if e.kind in ("force_offset", "gas_spring")),
         "",
@@ -508,12 +519,16 @@ def asymmetry_check(
     )
     if supported:
         sentence = f"{numbers}: supported by this recording"
+    elif matched is not None:
+        sentence = f"{numbers}: not supported by the fitted curve alone"
     else:
         sentence = (
             f"{numbers}: below what this recording can separate from an offset; a test at "
             "higher velocity / a pure sine sweep would separate them (an asymmetry grows "
             "with speed, a gas force or offset does not)"
         )
+    if matched is not None:
+        sentence = f"{sentence}. Model-free check, {matched.sentence}"
     own = {k: v for k, v in alt.params().items() if k.startswith(asym.name + ".")}
     hyp = Hypothesis(
         kind=asym.kind,
@@ -548,8 +563,23 @@ def asymmetry_check(
         fold_ratios=fold_r,
         fold_heldout_reductions=fold_h,
         ratio_stderr_folds=se_folds,
+        matched_speed=matched,
         hypothesis=hyp,
     )
+
+
+def _matched_speed(sp: Split, alpha: float) -> MatchedSpeedAsymmetry | None:
+    """The model-free matched-speed test (:mod:`suspenv.diagnosis.matched_speed`) on
+    the first fitted recording with a force channel and enough matched speeds."""
+    for rec in sp.fit_recordings:
+        force = getattr(rec, "outputs", {}).get("force")
+        if force is None:
+            continue
+        x, v = motion(rec)
+        out = matched_speed_asymmetry(rec.time, v, force, x, alpha=alpha)
+        if out is not None:
+            return out
+    return None
 
 
 def _cycle_folds(

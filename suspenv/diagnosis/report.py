@@ -188,6 +188,26 @@ def markdown(diag: Diagnosis, figures: dict[str, str]) -> str:
             ]
         L += ["Asymmetric curve fitted against the symmetric one plus a constant force:", ""]
         L += _param_table(a.params) + [""]
+        m = getattr(a, "matched_speed", None)
+        if m is not None:
+            L += [
+                "Force at the velocity peak of each half-cycle, bump and rebound at matched "
+                "speeds (mean ± cycle-to-cycle standard error; odd elements cancel in the "
+                "even part, a gas force or offset adds a constant, a drifting zero follows "
+                "the drift measured inside each speed):",
+                "",
+                "| speed [m/s] | bump [N] | rebound [N] | even part [N] | rebound/bump - 1 "
+                "(raw) | drift inside [N/s] | time [s] |",
+                "|---|---|---|---|---|---|---|",
+            ]
+            for g in m.groups:
+                L.append(
+                    f"| {g.speed:.4g} | {g.force_bump:.1f} ± {g.stderr_bump:.1f} | "
+                    f"{g.force_rebound:.1f} ± {g.stderr_rebound:.1f} | {g.even:+.1f} ± "
+                    f"{g.even_stderr:.1f} | {100 * g.rebound_over_bump:+.1f} % | "
+                    f"{g.drift:+.2f} ± {g.drift_stderr:.2f} | {g.time:.1f} |"
+                )
+            L.append("")
     L += ["## Where the residual lives (baseline)", ""]
     hot = diag.location.hotspots()
     if hot:

@@ -1,0 +1,498 @@
+"""Bump/rebound asymmetry at matched speeds: a model-free test on cyclic dyno strokes.
+
+Signs (damper on a dyno, as in :mod:`suspenv.models.components.damper`): velocity ``v``
+[m/s] positive in bump (compression), force ``F`` [N] positive when it resists bump, so a
+damper absorbs power (``F v > 0``).
+
+For every half-cycle of the stroke (between two velocity reversals) the force is
+averaged where ``|v|`` is within ``peak_band`` of that half-cycle's peak speed (mid-stroke
+for a sine). Bump and rebound half-cycles of the same peak speed are paired, and the
+*even part* ``E = (F_bump + F_rebound) / 2`` [N] is formed. Every element that is odd in
+the motion cancels in ``E``: a symmetric damper curve (linear or digressive), Coulomb
+friction, saturated hysteresis, any linear viscoelastic element in steady state, a gas
+spring's stiffness (the two half-cycles sit at opposite strokes). A gas force or a
+load-cell offset adds the same constant at every speed. Only a bump/rebound asymmetry of
+the damper curve makes ``E`` change with speed. The errors come from the scatter between
+cycles: each cycle is one independent sample, so the serial correlation of the
+sample-by-sample residual does not enter.
+
+Dyno programmes often run their speeds in increasing order, so a slowly drifting
+load-cell zero would also move ``E`` from one speed to the next. The drift rate is
+measured inside each speed group (the slope in time of each direction's force, averaged
+over the two directions, so that a warming damper that weakens both cancels), and
+every step of ``E`` between groups adjacent in time is compared with the drift those
+rates predict over the step (assumption: the drift rate changes smoothly, so the rate
+during a step lies between the rates measured just before and just after it). A step
+that the drift cannot explain is a change of the bump/rebound difference with speed.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+from scipy import stats
+
+from suspenv.core.errors import ValidationError
+
+
+@dataclass(frozen=True)
+class HalfCycle:
+    """Force at the velocity peak of one half-cycle (one direction of stroke).
+
+    ``speed`` [m/s] is the mean ``|v|`` in the peak window, ``force`` [N] the mean force
+    there, ``time`` [s] the window's mid time, ``samples`` the window's sample indices,
+    ``position`` [m] the window's mean stroke position (from the integrated velocity
+    when no displacement is given), ``half_stroke`` [m] half the half-cycle's travel.
+    """
+
+    direction: int  # +1 bump (v > 0), -1 rebound
+    speed: float
+    force: float
+    time: float
+    samples: np.ndarray = field(repr=False)
+    position: float = 0.0  # [m] mean stroke position in the peak window
+    half_stroke: float = 0.0  # [m] half the stroke covered by the half-cycle
+
+
+@dataclass(frozen=True)
+class SpeedGroup:
+    """Bump and rebound half-cycles at one matched peak speed.
+
+    ``force_bump`` / ``force_rebound`` [N] are means (``force_rebound`` is negative);
+    ``stderr_*`` their standard errors from the cycle-to-cycle scatter (pooled over
+    groups where a group has too few cycles to estimate its own); ``even`` [N] is
+    ``(force_bump + force_rebound) / 2``.
+    """
+
+    speed: float
+    n_bump: int
+    n_rebound: int
+    force_bump: float
+    force_rebound: float
+    stderr_bump: float
+    stderr_rebound: float
+    time: float
+    drift: float  # [N/s] drift rate of the force measured inside the group
+    drift_stderr: float  # [N/s]
+
+    @property
+    def even(self) -> float:
+        return 0.5 * (self.force_bump + self.force_rebound)
+
+    @property
+    def even_stderr(self) -> float:
+        return 0.5 * float(np.hypot(self.stderr_bump, self.stderr_rebound))
+
+    @property
+    def rebound_over_bump(self) -> float:
+        """``|F_rebound| / |F_bump| - 1`` with the raw forces (assumes no offset)."""
+        return -self.force_rebound / self.force_bump - 1.0
+
+    def to_dict(self) -> dict[str, float]:
+        return {
+            "speed_m_s": self.speed,
+            "n_bump": self.n_bump,
+            "n_rebound": self.n_rebound,
+            "force_bump_N": self.force_bump,
+            "force_rebound_N": self.force_rebound,
+            "stderr_bump_N": self.stderr_bump,
+            "stderr_rebound_N": self.stderr_rebound,
+            "even_part_N": self.even,
+            "even_part_stderr_N": self.even_stderr,
+            "rebound_over_bump_raw": self.rebound_over_bump,
+            "time_s": self.time,
+        }
+
+
+@dataclass(frozen=True)
+class DriftStep:
+    """Change of the even part between two speed groups adjacent in time.
+
+    ``change`` [N] measured, ``drift`` [N] what the drift rates measured inside the two
+    groups predict over the time between them, ``sigma`` [N] the standard error of
+    their difference; ``z`` = (change - drift) / sigma.
+    """
+
+    speed_from: float
+    speed_to: float
+    change: float
+    drift: float
+    sigma: float
+
+    @property
+    def z(self) -> float:
+        return (self.change - self.drift) / self.sigma if self.sigma > 0 else 0.0
+
+
+@dataclass
+class MatchedSpeedAsymmetry:
+    """Result of :func:`matched_speed_asymmetry`.
+
+    ``p_constant``: probability of the observed spread of the even part if it were one
+    constant (gas force / offset; an F test with the pooled cycle scatter);
+    ``p_drift``: the same for a straight line in time (a steadily drifting zero);
+    ``steps``: the changes between groups adjacent in time against the drift measured
+    inside them; ``p_steps``: probability that all steps are drift (chi-square of the
+    step z-scores, Bonferroni-free because it is one joint test).
+    """
+
+    groups: list[SpeedGroup]
+    steps: list[DriftStep]
+    offset: float
+    p_constant: float
+    p_drift: float
+    p_steps: float
+    supported: bool
+    sentence: str
+    unmatched_speeds: list[float] = field(default_factory=list)
+
+    @property
+    def even_range(self) -> float:
+        """Largest minus smallest even part over the groups [N]."""
+        e = [g.even for g in self.groups]
+        return float(max(e) - min(e))
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "groups": [g.to_dict() for g in self.groups],
+            "steps": [
+                {
+                    "speed_from_m_s": st.speed_from,
+                    "speed_to_m_s": st.speed_to,
+                    "change_N": st.change,
+                    "drift_N": st.drift,
+                    "sigma_N": st.sigma,
+                    "z": st.z,
+                }
+                for st in self.steps
+            ],
+            "offset_N": self.offset,
+            "even_range_N": self.even_range,
+            "p_constant": self.p_constant,
+            "p_drift": self.p_drift,
+            "p_steps": self.p_steps,
+            "supported": self.supported,
+            "sentence": self.sentence,
+            "unmatched_speeds_m_s": self.unmatched_speeds,
+        }
+
+
+def half_cycles(
+    t: np.ndarray,
+    v: np.ndarray,
+    force: np.ndarray,
+    x: np.ndarray | None = None,
+    peak_band: float = 0.03,
+    min_speed: float | None = None,
+    min_window: int = 3,
+) -> list[HalfCycle]:
+    """Peak-velocity force of every complete half-cycle of a stroke.
+
+    Args:
+        t: time [s]; v: velocity [m/s] (bump positive); force: force [N].
+        x: stroke position [m] (default: the integrated velocity); positions are taken
+            relative to the half-cycle's own centre (mid-way between its reversals).
+        peak_band: the peak window holds the samples with ``|v| >= (1 - peak_band)``
+            times the half-cycle's peak speed.
+        min_speed: half-cycles slower than this [m/s] are skipped (creep and hold
+            segments; default 5 % of the largest speed).
+        min_window: fewest samples in a peak window.
+    """
+    t, v, force = (np.asarray(a, float) for a in (t, v, force))
+    if not (t.shape == v.shape == force.shape and t.ndim == 1):
+        raise ValidationError(
+            "time, velocity and force must be 1-D arrays of one length, but got shapes "
+            f"{t.shape}, {v.shape}, {force.shape}"
+        )
+    if not 0.0 < peak_band < 0.5:
+        raise ValidationError(f"`0 < peak_band < 0.5` must hold, but got peak_band={peak_band}")
+    if x is None:
+        x = np.concatenate([[0.0], np.cumsum(0.5 * (v[1:] + v[:-1]) * np.diff(t))])
+    x = np.asarray(x, float)
+    if x.shape != t.shape:
+        raise ValidationError(f"position must have the shape of time {t.shape}, but got {x.shape}")
+    vmax = float(np.max(np.abs(v))) if v.size else 0.0
+    floor = 0.05 * vmax if min_speed is None else float(min_speed)
+    sign = np.sign(v)
+    flips = np.flatnonzero(sign[1:] * sign[:-1] < 0) + 1
+    out: list[HalfCycle] = []
+    for a, b in zip(flips[:-1], flips[1:], strict=True):  # complete half-cycles only
+        seg = np.abs(v[a:b])
+        peak = float(seg.max())
+        if peak < floor:
+            continue
+        idx = a + np.flatnonzero(seg >= (1.0 - peak_band) * peak)
+        if idx.size < min_window:
+            continue
+        out.append(
+            HalfCycle(
+                direction=1 if v[idx[0]] > 0 else -1,
+                speed=float(np.mean(np.abs(v[idx]))),
+                force=float(np.mean(force[idx])),
+                time=float(np.mean(t[idx])),
+                samples=idx,
+                position=float(np.mean(x[idx]) - 0.5 * (x[a] + x[b - 1])),
+                half_stroke=float(0.5 * abs(x[b - 1] - x[a])),
+            )
+        )
+    return out
+
+
+def _cluster(speeds: np.ndarray, tol: float) -> list[np.ndarray]:
+    """Indices grouped so that speeds in a group lie within ``tol`` (relative) of the
+    group's slowest member."""
+    order = np.argsort(speeds)
+    groups: list[list[int]] = []
+    for i in order:
+        if groups and speeds[i] <= speeds[groups[-1][0]] * (1.0 + tol):
+            groups[-1].append(int(i))
+        else:
+            groups.append([int(i)])
+    return [np.array(g) for g in groups]
+
+
+@dataclass(frozen=True)
+class _Side:
+    """Half-cycles of one direction at one speed: mean speed [m/s], mean force [N]."""
+
+    members: tuple[HalfCycle, ...]
+
+    @property
+    def speed(self) -> float:
+        return float(np.mean([c.speed for c in self.members]))
+
+    @property
+    def forces(self) -> np.ndarray:
+        return np.array([c.force for c in self.members])
+
+    @property
+    def position(self) -> float:
+        return float(np.mean([c.position for c in self.members]))
+
+    def slope(self) -> tuple[float, float]:
+        """Slope of the force in time [N/s] and its standard error (inf when the
+        cluster is too short to tell)."""
+        t = np.array([c.time for c in self.members])
+        f = self.forces
+        if f.size < 3 or np.ptp(t) <= 0:
+            return 0.0, float("inf")
+        b, a = np.polyfit(t, f, 1)
+        r = f - (a + b * t)
+        s2 = float(np.sum(r**2)) / (f.size - 2)
+        return float(b), float(np.sqrt(s2 / np.sum((t - t.mean()) ** 2)))
+
+
+def _side_at(
+    sides: Sequence[_Side], s: float, var: dict[int, float], match_tol: float
+) -> tuple[float, float, _Side] | None:
+    """Force [N] of one direction at speed ``s`` [m/s], its standard error and the
+    cluster: the cluster within ``match_tol`` (relative) of ``s``, else None."""
+    for i, c in enumerate(sides):
+        if abs(c.speed - s) <= match_tol * s:
+            return float(c.forces.mean()), float(np.sqrt(var[i] / c.forces.size)), c
+    return None
+
+
+def speed_groups(
+    cycles: Sequence[HalfCycle],
+    speed_tol: float = 0.02,
+    match_tol: float = 0.01,
+    min_per_side: int = 2,
+    position_tol: float = 0.02,
+) -> tuple[list[SpeedGroup], list[float]]:
+    """Bump and rebound forces at matched peak speeds.
+
+    Each direction's half-cycles are clustered by speed (within ``speed_tol``,
+    relative; clusters with fewer than ``min_per_side`` half-cycles are dropped). A
+    rebound cluster and a bump cluster form a group when their mean speeds differ by at
+    most ``match_tol`` (relative) and their peak windows sit symmetrically about the
+    stroke centre (mean positions ``x_b + x_r`` within ``position_tol`` of the
+    half-stroke): only then is the motion half-wave symmetric, which is what makes the
+    odd elements cancel. Standard errors use each cluster's cycle-to-cycle scatter,
+    floored by the pooled scatter over all clusters. Returns the groups (slowest first)
+    and the speeds of clusters left unpaired.
+    """
+    sides: dict[int, list[_Side]] = {1: [], -1: []}
+    for d in (1, -1):
+        own = [c for c in cycles if c.direction == d]
+        if not own:
+            continue
+        sp = np.array([c.speed for c in own])
+        for idx in _cluster(sp, speed_tol):
+            if idx.size >= min_per_side:
+                sides[d].append(_Side(tuple(own[i] for i in idx)))
+    dev2 = sum(float(np.sum((c.forces - c.forces.mean()) ** 2)) for d in sides for c in sides[d])
+    dof = sum(c.forces.size - 1 for d in sides for c in sides[d])
+    pooled = dev2 / dof if dof > 0 else 0.0
+
+    def stats_of(c: _Side) -> tuple[float, float]:
+        f = c.forces
+        var = max(float(np.var(f, ddof=1)) if f.size > 1 else 0.0, pooled)
+        return float(f.mean()), float(np.sqrt(var / f.size))
+
+    half_stroke = max((c.half_stroke for c in cycles), default=0.0)
+    groups: list[SpeedGroup] = []
+    used: set[int] = set()
+    for r in sides[-1]:
+        match = next(
+            (
+                b
+                for b in sides[1]
+                if id(b) not in used and abs(b.speed - r.speed) <= match_tol * r.speed
+            ),
+            None,
+        )
+        if match is None:
+            continue
+        if abs(match.position + r.position) > position_tol * 2.0 * half_stroke:
+            continue
+        used.update((id(match), id(r)))
+        (fb, eb), (fr, er) = stats_of(match), stats_of(r)
+        (db, sb), (dr, sr) = match.slope(), r.slope()
+        groups.append(
+            SpeedGroup(
+                speed=0.5 * (match.speed + r.speed),
+                n_bump=len(match.members),
+                n_rebound=len(r.members),
+                force_bump=fb,
+                force_rebound=fr,
+                stderr_bump=eb,
+                stderr_rebound=er,
+                time=float(np.mean([m.time for m in match.members + r.members])),
+                drift=0.5 * (db + dr),
+                drift_stderr=0.5 * float(np.hypot(sb, sr)),
+            )
+        )
+    unmatched = [c.speed for d in (-1, 1) for c in sides[d] if id(c) not in used]
+    groups.sort(key=lambda g: g.speed)
+    return groups, sorted(unmatched)
+
+
+def _weighted_line_p(x: np.ndarray, y: np.ndarray, se: np.ndarray, degree: int, dof_err: int):
+    """F-test p-value of the scatter of ``y`` about a weighted polynomial of ``degree``
+    in ``x`` (0: a constant), with ``dof_err`` degrees of freedom behind ``se``."""
+    w = 1.0 / se**2
+    A = np.vander(x, degree + 1)
+    coef, *_ = np.linalg.lstsq(A * np.sqrt(w)[:, None], y * np.sqrt(w), rcond=None)
+    chi2 = float(np.sum(w * (y - A @ coef) ** 2))
+    dof = y.size - (degree + 1)
+    if dof <= 0:
+        return float("nan"), coef
+    return float(stats.f.sf(chi2 / dof, dof, max(dof_err, 1))), coef
+
+
+def drift_steps(groups: Sequence[SpeedGroup]) -> list[DriftStep]:
+    """Steps of the even part between groups adjacent in time, each against the drift
+    predicted by the mean of the two groups' own drift rates over the time between
+    them (groups whose drift rate could not be measured are skipped)."""
+    order = sorted((g for g in groups if np.isfinite(g.drift_stderr)), key=lambda g: g.time)
+    out = []
+    for a, b in zip(order[:-1], order[1:], strict=True):
+        dt = b.time - a.time
+        rate = 0.5 * (a.drift + b.drift)
+        rate_se = 0.5 * float(np.hypot(a.drift_stderr, b.drift_stderr))
+        sigma = float(np.sqrt(a.even_stderr**2 + b.even_stderr**2 + (dt * rate_se) ** 2))
+        out.append(DriftStep(a.speed, b.speed, b.even - a.even, rate * dt, sigma))
+    return out
+
+
+def matched_speed_asymmetry(
+    t: np.ndarray,
+    v: np.ndarray,
+    force: np.ndarray,
+    x: np.ndarray | None = None,
+    alpha: float = 0.01,
+    peak_band: float = 0.03,
+    speed_tol: float = 0.02,
+    match_tol: float = 0.01,
+    min_groups: int = 3,
+) -> MatchedSpeedAsymmetry | None:
+    """Does the bump/rebound difference change with speed? (see the module text).
+
+    Args:
+        t: time [s]; v: velocity [m/s], bump positive; force: force [N], resisting bump
+            positive; x: stroke position [m] (optional).
+        alpha: significance level of each test.
+
+    Returns None when the stroke has fewer than ``min_groups`` matched speed groups
+    (not a cyclic test at several speeds). ``supported`` holds when a constant, a
+    straight line in time and the measured drift are all rejected at level ``alpha``.
+    """
+    cycles = half_cycles(t, v, force, x, peak_band=peak_band)
+    groups, unmatched = speed_groups(cycles, speed_tol=speed_tol, match_tol=match_tol)
+    if len(groups) < min_groups:
+        return None
+    e = np.array([g.even for g in groups])
+    se = np.array([g.even_stderr for g in groups])
+    se = np.maximum(se, 1e-9 * max(float(np.max(np.abs(e))), 1.0))
+    tg = np.array([g.time for g in groups])
+    dof_err = int(sum(g.n_bump + g.n_rebound - 2 for g in groups))
+    p_const, c0 = _weighted_line_p(tg, e, se, 0, dof_err)
+    p_drift, _ = _weighted_line_p(tg - tg.mean(), e, se, 1, dof_err)
+    steps = drift_steps(groups)
+    chi2 = float(sum(st.z**2 for st in steps))
+    p_steps = float(stats.chi2.sf(chi2, len(steps))) if steps else float("nan")
+    supported = bool(p_const < alpha and p_drift < alpha and p_steps < alpha)
+    lo, hi = int(np.argmin(e)), int(np.argmax(e))
+    big = max(steps, key=lambda st: abs(st.z)) if steps else None
+    step_words = (
+        f"; the largest step, {big.change:+.1f} N from {big.speed_from:.3g} to "
+        f"{big.speed_to:.3g} m/s, is {abs(big.z):.1f} standard errors away from the "
+        f"{big.drift:+.1f} N the measured drift predicts"
+        if big
+        else ""
+    )
+    facts = (
+        f"at matched speeds the even part (bump + rebound)/2 of the force ranges from "
+        f"{e[lo]:+.1f} ± {se[lo]:.1f} N ({groups[lo].speed:.3g} m/s) to {e[hi]:+.1f} ± "
+        f"{se[hi]:.1f} N ({groups[hi].speed:.3g} m/s) over {len(groups)} speeds (constant gas "
+        f"force / offset: p = {p_const:.2g}; steady zero drift: p = {p_drift:.2g}; drift "
+        f"measured inside the speed groups: p = {p_steps:.2g}{step_words})"
+    )
+    if supported:
+        sentence = (
+            f"{facts}: the bump/rebound difference changes with speed, which a gas force, an "
+            "offset or a drifting zero cannot do"
+        )
+    elif p_const >= alpha:
+        sentence = f"{facts}: no change with speed beyond a constant force"
+    else:
+        sentence = (
+            f"{facts}: the change could be a drift of the load-cell zero, because the speeds "
+            "were run in time order; a test with the speeds in random order would separate them"
+        )
+    return MatchedSpeedAsymmetry(
+        groups=groups,
+        steps=steps,
+        offset=float(c0[0]),
+        p_constant=p_const,
+        p_drift=p_drift,
+        p_steps=p_steps,
+        supported=supported,
+        sentence=sentence,
+        unmatched_speeds=unmatched,
+    )
+
+
+def even_part_error(
+    groups_cycles: Sequence[HalfCycle],
+    predicted_force: np.ndarray,
+    force: np.ndarray,
+    speed_tol: float = 0.02,
+    match_tol: float = 0.01,
+) -> float:
+    """RMS over matched speed groups of (measured - predicted) even part [N], both
+    taken from the same half-cycles (e.g. the held-out ones), after removing the mean
+    difference (an offset both models carry). NaN when fewer than two groups match."""
+    meas = [replace(c, force=float(np.mean(force[c.samples]))) for c in groups_cycles]
+    pred = [replace(c, force=float(np.mean(predicted_force[c.samples]))) for c in groups_cycles]
+    gm, _ = speed_groups(meas, speed_tol, match_tol, min_per_side=1)
+    gp, _ = speed_groups(pred, speed_tol, match_tol, min_per_side=1)
+    if len(gm) < 2:
+        return float("nan")
+    d = np.array([a.even - b.even for a, b in zip(gm, gp, strict=True)])
+    d -= d.mean()
+    return float(np.sqrt(np.mean(d**2)))
