@@ -201,7 +201,9 @@ def test_interface_errors_name_the_rule():
     with pytest.raises(ValidationError, match="output channel"):
         make_component("damper", [make_effect("sensor_gain", location="velocity")])
     with pytest.raises(ValidationError, match="LuGre: too stiff"):
-        make_component("quarter_car_rig", [make_effect("lugre_friction")])
+        make_component("quarter_car_rig", [make_effect("lugre_friction")], integrator="rk4")
+    with pytest.raises(ValidationError, match="Berg: path memory only"):
+        make_component("quarter_car_rig", [make_effect("berg_hysteresis")])
     model = make_component("damper")
     rec = model.example_recording()
     with pytest.raises(ValidationError, match=r"theta must have shape \(1,\)"):
@@ -226,9 +228,12 @@ def _rig_case():
     return model, rec, theta
 
 
-def test_quarter_car_batch_integration_equals_row_by_row():
-    # reference: the scalar (one parameter set at a time) integrator, same RK4 scheme
+@pytest.mark.parametrize("integrator", ["exact", "rk4"])
+def test_quarter_car_batch_integration_equals_row_by_row(integrator):
+    # reference: one parameter set at a time (for RK4 a separate scalar loop of the same
+    # scheme; the batched RK4 integrates all rows as arrays at once)
     model, rec, theta = _rig_case()
+    model = QuarterCarRigModel(model.effects, integrator=integrator)
     thetas = np.vstack([theta * (1.0 + 0.03 * i) for i in range(4)])
     batch = model.simulate(thetas, rec)
     for i, th in enumerate(thetas):
@@ -252,10 +257,15 @@ def test_quarter_car_equation_error_start_recovers_truth():
     assert np.std(resid) < 0.05 * np.std(view["measured"])
 
 
-def test_quarter_car_refuses_elements_too_stiff_for_the_integrator():
+def test_quarter_car_rk4_refuses_elements_too_stiff_for_it():
+    # the fixed-step RK4 scheme (integrator="rk4") refuses what it cannot integrate
+    # stably; the default implicit-element scheme integrates it (see
+    # tests/test_components_rig_integrator.py)
     from suspenv.core.errors import EvaluationError
 
-    model = QuarterCarRigModel([make_effect("coulomb_friction", f_c=500.0, v_eps=1e-5)])
+    model = QuarterCarRigModel(
+        [make_effect("coulomb_friction", f_c=500.0, v_eps=1e-5)], integrator="rk4"
+    )
     rec = model.example_recording(seed=1, duration=0.2)
     theta = model.theta_from({"k_s": 2e4, "c_s": 1500.0, "k_t": 2e5})
     with pytest.raises(EvaluationError, match="max_substeps"):

@@ -132,3 +132,32 @@ def test_separate_families_stay_out_of_the_totals() -> None:
     text = table_markdown(result)
     assert "Totals leave out quarter_car_rig" in text
     assert "| quarter_car_rig | 1 | 0 % |" in text
+
+
+def test_inseparable_pairs_are_scored_apart_from_the_strict_rate() -> None:
+    from suspenv.diagnosis.benchmark import case_record
+
+    base = {"param_rel_errs": [], "seconds": 1.0, "heldout_reduction": 0.5, "family": "f"}
+    single = base | {"n_true": 1, "top1_kind_ok": False, "all_found": False}
+    rows = [
+        # friction named first: right
+        single | {"top1_family_ok": True, "top1_family_or_inseparable": True},
+        # Dahl named first but reported inseparable from the true friction: honest
+        single | {"top1_family_ok": False, "top1_family_or_inseparable": True},
+        # wrong and no ambiguity reported
+        single | {"top1_family_ok": False, "top1_family_or_inseparable": False},
+    ]
+    s = summarise(rows)
+    assert s["single_top1_family"] == pytest.approx(1 / 3)
+    assert s["single_top1_family_or_inseparable"] == pytest.approx(2 / 3)
+    rec = case_record(
+        rows[1]
+        | {
+            "case": "quarter_car_rig-1-0",
+            "truth": "coulomb_friction",
+            "named": "dahl_hysteresis",
+            "cpu_seconds": 0.9,
+        }
+    )
+    assert rec["truth"] == ["coulomb_friction"] and rec["named"] == ["dahl_hysteresis"]
+    assert rec["cpu_seconds"] == 0.9 and rec["heldout_before"] is None

@@ -67,6 +67,9 @@ def test_ambiguity_needs_equal_fit_and_no_extra_parameters() -> None:
     # equal fit, same number of parameters, another family: cannot be separated
     amb = ambiguities([top, _hyp("force_offset", 995.0, 1)])
     assert len(amb) == 1 and "would" in amb[0].sentence()
+    # the sentence names the separating test and its reason in words (no raw tuple)
+    assert amb[0].test.startswith("a hold at standstill") and "(" not in amb[0].test
+    assert "friction does not act at rest" in amb[0].sentence()
     # clearly worse fit: separated
     assert ambiguities([top, _hyp("force_offset", 500.0, 1)]) == []
     # equal fit only by adding parameters: it nests the winner, no ambiguity

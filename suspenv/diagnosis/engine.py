@@ -209,13 +209,20 @@ def _force_view_signal_set(fit: FitResult, sp: Split) -> SignalSet | None:
     )
 
 
-def _signal_set(fit: FitResult, sp: Split, channel: str) -> SignalSet:
+#: signature families of sensor errors: they live in a recorded channel, not in the force
+#: a component transmits, so a force view cannot show them (a gain error on the measured
+#: force is a scaled copy of the base force, inside the span of the base parameters)
+SENSOR_FAMILIES = ("sensor_offset", "sensor_gain", "sensor_lag")
+
+
+def _signal_set(fit: FitResult, sp: Split, channel: str, view: bool = True) -> SignalSet:
     """Residual, prediction, motion and Jacobian rows of one channel over the fit samples.
 
     A model with a force view (see :func:`_force_view_signal_set`) is screened in it
-    instead: its signatures are those of the missing force itself.
+    instead (unless ``view`` is False): its signatures are those of the missing force
+    itself.
     """
-    viewed = _force_view_signal_set(fit, sp)
+    viewed = _force_view_signal_set(fit, sp) if view else None
     if viewed is not None:
         return viewed
     ts, xs, vs, rs, ps, seg, rows = [], [], [], [], [], [], []
@@ -712,14 +719,18 @@ def diagnose(
     amb: list[Ambiguity] = []
     parents: list[FitResult] = []
     for rnd in range(1, max_effects + 1):
-        sset = _signal_set(current, sp, channel)
-        fams_needed = [f for f in SIGNATURE_KINDS if f in {family_of(k) for k in cands}]
-        sigs = score_signatures(sset, fams_needed or SIGNATURE_KINDS)
+        sigs = _score_round(current, sp, channel, cands)
         if rnd == 1:
             first_sigs = sigs
         sig_of = {s.kind: s for s in sigs}
         done = {h.family for h in named}
         fams = [s.kind for s in sigs if s.kind not in done][:screen_families]
+        if _has_force_view(current, sp):
+            # sensor families are scored in the recorded channels, force families in the
+            # force view: the two scores are not on one scale, so besides the strongest
+            # families of either kind the strongest sensor family is always refitted
+            fams += [s.kind for s in sigs if s.kind in SENSOR_FAMILIES and s.kind not in done][:1]
+            fams = list(dict.fromkeys(fams))
         kinds = [k for k in cands if family_of(k) in fams]
         hyps = []
         for kind in kinds:
@@ -816,6 +827,34 @@ def diagnose(
         split=sp,
         asymmetry=asym,
     )
+
+
+def _has_force_view(fit: FitResult, sp: Split) -> bool:
+    view_of = getattr(fit.model, "force_view", None)
+    return callable(view_of) and all(
+        view_of(fit.theta, r) is not None for r in sp.fit_recordings[:1]
+    )
+
+
+def _score_round(current: FitResult, sp: Split, channel: str, cands: Sequence[str]) -> list:
+    """Signature scores of one round, strongest first. Where the model has a force view,
+    force families are scored in it and sensor families in each recorded channel."""
+    fams_needed = [f for f in SIGNATURE_KINDS if f in {family_of(k) for k in cands}]
+    fams_needed = fams_needed or list(SIGNATURE_KINDS)
+    sset = _force_view_signal_set(current, sp)
+    if sset is None:
+        return score_signatures(_signal_set(current, sp, channel), fams_needed)
+    force_fams = [f for f in fams_needed if f not in SENSOR_FAMILIES]
+    sensor_fams = [f for f in fams_needed if f in SENSOR_FAMILIES]
+    sigs = score_signatures(sset, force_fams) if force_fams else []
+    best: dict[str, Signature] = {}
+    for ch in current.channels if sensor_fams else []:
+        # each recorded channel may carry its own sensor error: keep the strongest
+        for sig in score_signatures(_signal_set(current, sp, ch, view=False), sensor_fams):
+            if sig.kind not in best or sig.score > best[sig.kind].score:
+                sig.evidence = f"{sig.evidence} in {ch}"
+                best[sig.kind] = sig
+    return sorted(sigs + list(best.values()), key=lambda g: -g.score)
 
 
 def _structural_ambiguity(

@@ -11,7 +11,10 @@ independent.
 A *model* is anything with the component-model interface: ``parameter_names``,
 ``bounds()``, ``initial_guess(rec)`` and ``simulate(theta, rec) -> dict``; optionally
 ``refine_start(theta0, recordings, masks) -> theta0``, a cheap model-specific
-improvement of the start point (used when it lowers the residual).
+improvement of the start point (used when it lowers the residual), and
+``jacobian_model()``, a cheaper twin of the model (same parameters) used for the
+finite-difference Jacobians of the iterations (the Jacobian at the optimum, behind the
+standard errors, is the model's own).
 """
 
 from __future__ import annotations
@@ -35,8 +38,16 @@ def as_list(recordings: Any) -> list[Any]:
 
 
 def fitted_channels(model: Any, rec: Any, theta: np.ndarray) -> list[str]:
-    """Output channels both simulated by ``model`` and present in ``rec``."""
-    pred = model.simulate(theta, rec)
+    """Output channels both simulated by ``model`` and present in ``rec`` (the model's
+    declared ``output_channels`` where ``theta`` cannot be simulated, e.g. a start
+    point at which a softening element diverges; the fit then moves away from it)."""
+    try:
+        names_pred = list(model.simulate(theta, rec))
+    except EvaluationError:
+        names_pred = list(getattr(model, "output_channels", ()))
+        if not names_pred:
+            raise
+    pred = dict.fromkeys(names_pred)
     names = [c for c in pred if c in rec.outputs]
     if not names:
         raise ValidationError(
@@ -224,11 +235,16 @@ def fit_model(
         for r, m in zip(recs, masks or [None] * len(recs), strict=True)
     ) * len(channels)
 
-    def batch_residuals(thetas: np.ndarray) -> np.ndarray:
+    # a model may offer a cheaper twin for finite-difference Jacobians (same parameters,
+    # e.g. a coarser integration step): the difference quotients need only be close
+    make_jac_model = getattr(model, "jacobian_model", None)
+    jac_model = make_jac_model() if callable(make_jac_model) else model
+
+    def batch_residuals(thetas: np.ndarray, sim: Any = model) -> np.ndarray:
         """(B, n_res) scaled residuals from one batched simulation per recording."""
         cols = []
         for i, rec in enumerate(recs):
-            pred = model.simulate(thetas, rec)
+            pred = sim.simulate(thetas, rec)
             m = None if masks is None else masks[i]
             for c in channels:
                 d = np.asarray(rec.outputs[c], float)[None, :] - np.asarray(pred[c], float)
@@ -238,14 +254,15 @@ def fit_model(
             raise ValidationError("batched simulation returned the wrong number of rows")
         return np.where(np.isfinite(out), out, 1e3)
 
-    def jac(theta: np.ndarray) -> np.ndarray:
+    def jac(theta: np.ndarray, sim: Any = None) -> np.ndarray:
         """Forward-difference Jacobian, all columns in one batched simulation (column
-        by column where the batch as a whole cannot be simulated)."""
+        by column where the batch as a whole cannot be simulated); ``sim`` defaults to
+        the Jacobian twin."""
         h = 1e-6 * np.maximum(np.abs(theta), 1.0)
         step = np.where(theta + h <= hi, h, -h)
         thetas = np.vstack([theta, theta + np.diag(step)])
         try:
-            R = batch_residuals(thetas)
+            R = batch_residuals(thetas, jac_model if sim is None else sim)
         except EvaluationError:
             R = np.vstack([fun(th) for th in thetas])
         return ((R[1:] - R[0]) / step[:, None]).T
@@ -276,6 +293,10 @@ def fit_model(
     n = {c: int(sum(p[c].size for p in parts)) for c in channels}
 
     J = np.asarray(sol.jac, float)
+    if use_batch and jac_model is not model:
+        # the twin's sensitivities are close enough to steer the fit, not to report:
+        # standard errors (and the residual basis of the signatures) use the model's own
+        J = jac(theta, model)
     dof = max(J.shape[0] - J.shape[1], 1)
     s2 = float(np.sum(sol.fun**2)) / dof
     cov_scaled = np.linalg.pinv(J.T @ J) * s2

@@ -279,9 +279,6 @@ def ambiguities(ranked: Sequence[Hypothesis], tie_tolerance: float = 0.05) -> li
         gap = abs(top.lr_statistic_corrected - h.lr_statistic_corrected)
         # a runner-up with more parameters and no better fit merely nests the winner
         if h.lr_dof <= top.lr_dof and gap <= max(tie_tolerance * top.lr_statistic_corrected, 10.0):
-            out.append(
-                Ambiguity(
-                    top.kind, h.kind, top.words, h.words, separating_test(top.family, h.family)
-                )
-            )
+            test, reason = separating_test(top.family, h.family)
+            out.append(Ambiguity(top.kind, h.kind, top.words, h.words, test, reason))
     return out

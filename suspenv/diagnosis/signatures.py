@@ -232,10 +232,16 @@ def detect_hysteresis(s: SignalSet, basis: np.ndarray | None) -> Signature:
 
 
 def detect_progressive(s: SignalSet, basis: np.ndarray | None) -> Signature:
-    centre = 0.5 * (np.max(s.x) + np.min(s.x))
+    # the stiffening is odd about the element's own zero: the static position (x = 0)
+    # where the deflection is measured from equilibrium, else the middle of the stroke
     half = 0.5 * float(np.ptp(s.x)) or 1.0
-    xc = (s.x - centre) / half
-    r2, coef, fitted = explain(s.residual, (xc**3)[:, None], basis)
+    centres = [0.5 * (np.max(s.x) + np.min(s.x))]
+    if np.min(s.x) < 0.0 < np.max(s.x):
+        centres.append(0.0)
+    cands = [(c, ((s.x - c) / half) ** 3) for c in centres]
+    centre, r2, coef, fitted = _best_of(s, basis, cands)
+    if not np.isfinite(centre):
+        centre, coef, fitted = centres[0], np.zeros(1), np.zeros_like(s.residual)
     f0 = dominant_frequency(s.t, s.x)
     h3 = float("nan")
     if np.isfinite(f0) and f0 > 0:
