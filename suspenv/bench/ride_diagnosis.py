@@ -8,6 +8,13 @@ false alarms on the controls, held-out RMS error before/after, recovered effect
 parameters vs truth. Baseline in the same run: the plain fitted model (no effect),
 whose held-out error is the "before" number.
 
+Out-of-library ride cases (scored on their own rows): truths whose extra physics is
+not a candidate (damper curve of another shape, other tyres, a seat accelerometer
+with a gain error or a lag; :mod:`suspenv.diagnosis.ride.mismatch`). Scored on the
+wrong-name rate (a candidate named with confidence although the truth is outside
+the library), held-out error before/after against the noise floor, and whether the
+verdict says a residual remains (:mod:`suspenv.diagnosis.ride.residual`).
+
 Road: synthetic Gaussian profiles of ISO 8608 class B with w = 2 (controls) and
 w = 2.5 (planted), scored on false/true detections and the recovered w; and the
 real ``profile_1/2.txt`` (when ``../shared/data`` is present).
@@ -26,6 +33,7 @@ import argparse
 import json
 import sys
 import tempfile
+import time
 from pathlib import Path
 from typing import Any
 
@@ -34,6 +42,7 @@ from tqdm import tqdm
 
 from suspenv.bench.common import DEFAULT_OUTPUT_DIR, write_result
 from suspenv.diagnosis.ride import diagnose_ride, make_ride_case
+from suspenv.diagnosis.ride.mismatch import OUT_OF_LIBRARY_KINDS, mismatch_words
 from suspenv.diagnosis.ride.road import (
     diagnose_road,
     fit_psd,
@@ -66,9 +75,37 @@ EXPECTED_KIND = {
 
 def ride_row(kind: str | None, seed: int) -> dict[str, Any]:
     case = make_ride_case(seed, kind)
+    wall, cpu = time.perf_counter(), time.process_time()
     diag = diagnose_ride(case.fit, case.heldout, screen=3, max_effects=1)
+    wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
     truth = case.truth.effects
     expected = f"{truth[0].kind}@{truth[0].location}" if truth else ""
+    res = diag.residual
+    common = {
+        "confident": diag.confident,
+        "residual_remains": bool(res.residual_remains),
+        "noise_floor_scaled": res.noise_floor,
+        "excess_ratio_after": res.excess_ratio,
+        "explained_share": res.explained_share,
+        "ljung_box_p_after": res.ljung_box_p,
+        "params_on_bound": ";".join(res.params_on_bound),
+        "wall_seconds": wall,
+        "cpu_seconds": cpu,
+    }
+    if not case.truth.in_library:
+        named = diag.named_kinds
+        return {
+            "part": "ride (out of library)",
+            "case": f"{kind}/{seed}",
+            "truth": mismatch_words(case.truth.mismatch),
+            "named": ";".join(named) or "none",
+            "wrong_name_confident": bool(named and diag.confident),
+            "named_any": bool(named),
+            "heldout_scaled_rms_before": res.heldout_before,
+            "heldout_scaled_rms_after": res.heldout_after,
+            **common,
+            "verdict": diag.verdict,
+        }
     named = diag.named_kinds
     before = diag.baseline["heldout_rms"]
     scales = diag.base_fit.scales
@@ -93,7 +130,7 @@ def ride_row(kind: str | None, seed: int) -> dict[str, Any]:
         "heldout_scaled_rms_before": b,
         "heldout_scaled_rms_after": after,
         "param_rel_error_max": max(rel_err) if rel_err else float("nan"),
-        "seconds": diag.seconds,
+        **common,
     }
 
 
@@ -149,15 +186,29 @@ def real_road_rows() -> list[dict[str, Any]]:
     return rows
 
 
+def _median(rows: list[dict[str, Any]], key: str) -> float:
+    vals = [r[key] for r in rows if key in r]
+    return float(np.median(vals)) if vals else float("nan")
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--dev", action="store_true", help="tuning seeds (not the reported ones)")
-    ap.add_argument("--quick", action="store_true", help="one seed, bump stop and none only")
+    ap.add_argument(
+        "--quick", action="store_true", help="one seed; bump stop, none and one out-of-library"
+    )
+    ap.add_argument(
+        "--only-out-of-library", action="store_true", help="ride: the out-of-library cases only"
+    )
     ap.add_argument("--resume", action="store_true", help="reuse rows of an interrupted run")
     ap.add_argument("--output-dir", default=None)
     args = ap.parse_args(argv)
     seeds = DEV_SEEDS if args.dev else REPORT_SEEDS
-    kinds = ("bump_stop", None) if args.quick else KINDS
+    kinds: tuple[str | None, ...] = (
+        ("bump_stop", None, "seat_sensor_gain") if args.quick else KINDS + OUT_OF_LIBRARY_KINDS
+    )
+    if args.only_out_of_library:
+        kinds = tuple(k for k in kinds if k in OUT_OF_LIBRARY_KINDS)
     ride_seeds = seeds[:1] if args.quick else seeds
     out_dir = Path(args.output_dir) if args.output_dir else DEFAULT_OUTPUT_DIR
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -191,6 +242,8 @@ def main(argv: list[str] | None = None) -> int:
     planted = [r for r in ride if r["truth"] != "none"]
     controls = [r for r in ride if r["truth"] == "none"]
     road = [r for r in rows if r["part"] == "road"]
+    ool = [r for r in rows if r["part"] == "ride (out of library)"]
+    in_lib = planted + controls
     summary = {
         "seeds": "dev" if args.dev else "reported",
         "ride_top1_accuracy": float(np.mean([r["correct_top1"] for r in planted]))
@@ -204,6 +257,18 @@ def main(argv: list[str] | None = None) -> int:
         )
         if planted
         else float("nan"),
+        "ride_in_library_residual_flagged": f"{sum(r['residual_remains'] for r in in_lib)}/"
+        f"{len(in_lib)}",
+        "ride_out_of_library_wrong_name_confident": f"{sum(r['wrong_name_confident'] for r in ool)}"
+        f"/{len(ool)}",
+        "ride_out_of_library_named_any": f"{sum(r['named_any'] for r in ool)}/{len(ool)}",
+        "ride_out_of_library_residual_flagged": f"{sum(r['residual_remains'] for r in ool)}/"
+        f"{len(ool)}",
+        "ride_out_of_library_heldout_before_median": _median(ool, "heldout_scaled_rms_before"),
+        "ride_out_of_library_heldout_after_median": _median(ool, "heldout_scaled_rms_after"),
+        "ride_out_of_library_excess_ratio_median": _median(ool, "excess_ratio_after"),
+        "ride_wall_seconds_median": _median(ride + ool, "wall_seconds"),
+        "ride_cpu_seconds_median": _median(ride + ool, "cpu_seconds"),
         "road_false_alarms_w2": f"{sum(r['false_alarm'] for r in road)}/"
         f"{sum(1 for r in road if r['truth'].startswith('w=2'))}",
         "road_detection_w2.5": f"{sum(r['correct_top1'] for r in road if 'steeper' in r['truth'])}/"
@@ -214,6 +279,7 @@ def main(argv: list[str] | None = None) -> int:
         "python -m suspenv.bench.ride_diagnosis"
         + (" --dev" if args.dev else "")
         + (" --quick" if args.quick else "")
+        + (" --only-out-of-library" if args.only_out_of_library else "")
     )
     write_result(name, rows, summary, cmd, out_dir)
     return 0

@@ -5,7 +5,13 @@ against the 7-DOF ride model) and :func:`diagnose_road` (a measured profile agai
 ISO 8608). See ``docs/diagnosis_ride.md``.
 """
 
-from suspenv.diagnosis.ride.engine import diagnose_ride, locate_ride, screen_candidates
+from suspenv.diagnosis.ride.engine import (
+    RideDiagnosis,
+    diagnose_ride,
+    locate_ride,
+    screen_candidates,
+)
+from suspenv.diagnosis.ride.mismatch import OUT_OF_LIBRARY_KINDS
 from suspenv.diagnosis.ride.model import RIDE_CANDIDATES, MinibusRideAdapter, ride_effect
 from suspenv.diagnosis.ride.recording import (
     RideCase,
@@ -16,6 +22,7 @@ from suspenv.diagnosis.ride.recording import (
     write_ride_case,
 )
 from suspenv.diagnosis.ride.report import write_ride_report
+from suspenv.diagnosis.ride.residual import ResidualCheck, residual_check
 from suspenv.diagnosis.ride.road import (
     RoadDiagnosis,
     diagnose_road,
@@ -26,6 +33,10 @@ from suspenv.diagnosis.ride.road import (
 )
 
 __all__ = [
+    "OUT_OF_LIBRARY_KINDS",
+    "ResidualCheck",
+    "RideDiagnosis",
+    "residual_check",
     "RIDE_CANDIDATES",
     "MinibusRideAdapter",
     "RideCase",

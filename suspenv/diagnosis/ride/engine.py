@@ -20,12 +20,19 @@ record) and replaces the parts that assume one component stroke ``x``:
 
 Decision rule: the generic one (corrected LR p-value below alpha / tests, BIC
 falls, held-out RMS error falls by at least ``min_heldout_gain``).
+
+What is left (:mod:`suspenv.diagnosis.ride.residual`): the held-out error of the
+final model against the sensor-noise floor and the whiteness of that residual. A
+named element that leaves a structured residual well above the noise is reported
+as "not confident: physics outside the candidate list remains" (the candidate list
+is finite; a real vehicle is not).
 """
 
 from __future__ import annotations
 
 import time
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -54,6 +61,7 @@ from suspenv.diagnosis.ride.model import (
     effect_words,
     ride_effect,
 )
+from suspenv.diagnosis.ride.residual import ResidualCheck, residual_check
 from suspenv.diagnosis.signatures import Signature, effective_n
 
 #: frequency bands of the residual (Hz): body modes, mid, wheel hop, high
@@ -63,6 +71,24 @@ BANDS = (
     ("wheel hop 8-16 Hz", 8.0, 16.0),
     ("high > 16 Hz", 16.0, np.inf),
 )
+
+
+@dataclass
+class RideDiagnosis(Diagnosis):
+    """A :class:`~suspenv.diagnosis.engine.Diagnosis` plus the residual left after it."""
+
+    residual: ResidualCheck | None = None
+
+    @property
+    def confident(self) -> bool:
+        """Something named, and it leaves only noise (see :class:`ResidualCheck`)."""
+        return bool(self.residual is not None and self.residual.confident)
+
+    def to_dict(self) -> dict[str, Any]:
+        out = super().to_dict()
+        out["residual"] = self.residual.to_dict() if self.residual else None
+        out["confident"] = self.confident
+        return out
 
 
 def _windows(rec: Any) -> dict[str, np.ndarray]:
@@ -209,7 +235,7 @@ def diagnose_ride(
     alpha: float = 0.01,
     min_heldout_gain: float = 0.01,
     max_nfev: int = 30,
-) -> Diagnosis:
+) -> RideDiagnosis:
     """Diagnose what the minibus ride model leaves out of ride recordings.
 
     Args:
@@ -313,10 +339,14 @@ def diagnose_ride(
                 f"{best.p_value_corrected:.2g}, held-out error change "
                 f"{-100 * best.heldout_reduction:+.1f} %)"
             )
+    residual = residual_check(base, current, held, [h.fit.extra["effect"]["name"] for h in named])
+    if named and not residual.confident:
+        verdict = verdict.replace("missing physics:", "missing physics (not confident):", 1)
+    verdict = verdict.rstrip(". ") + ". " + residual.sentence()
     baseline = baseline_summary(base, recs, held)
     baseline["effects"] = []
     channel = main_channel(base)
-    return Diagnosis(
+    return RideDiagnosis(
         recording=", ".join(r.name for r in recs),
         family=model.family,
         holdout=sp.description,
@@ -334,4 +364,5 @@ def diagnose_ride(
         base_fit=base,
         final_fit=current,
         split=sp,
+        residual=residual,
     )

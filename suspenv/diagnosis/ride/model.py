@@ -41,6 +41,7 @@ from suspenv.models.components.base import ComponentModel
 from suspenv.models.effects import Effect, make_effect
 from suspenv.models.minibus import DESIGN_NAMES, REFERENCE_MINIBUS, STUDY_PICK, vehicle_parameters
 from suspenv.models.minibus.ride_model import SUPPORTED_EFFECTS, RideModel
+from suspenv.models.minibus.vehicle import Minibus
 from suspenv.recordings import Recording
 
 WHEELS = ("FL", "FR", "RL", "RR")
@@ -127,7 +128,10 @@ class MinibusRideAdapter(ComponentModel):
     """7-DOF minibus ride model as a diagnosable component model (family ``minibus_ride``).
 
     Options: ``load_case`` ("no_load"/"full_load"; a recording's ``meta["load_case"]``
-    wins), ``design`` (the 8 study values the fit does not touch; default study pick).
+    wins), ``design`` (the 8 study values the fit does not touch; default study pick),
+    ``vehicle`` (the :class:`~suspenv.models.minibus.vehicle.Minibus` definition: damper
+    curve shapes, tyres, masses; default the reference minibus; the blind generator's
+    out-of-library truths change it).
     """
 
     family: ClassVar[str] = "minibus_ride"
@@ -160,6 +164,12 @@ class MinibusRideAdapter(ComponentModel):
                 f"shape {design.shape}"
             )
         self._design = design
+        vehicle = options.get("vehicle", REFERENCE_MINIBUS)
+        if not isinstance(vehicle, Minibus):
+            raise ValidationError(
+                f"vehicle must be a Minibus definition, but got {type(vehicle).__name__}"
+            )
+        self._vehicle = vehicle
 
     def _check_effect(self, effect: Effect) -> None:
         key = (effect.kind, effect.location)
@@ -218,7 +228,7 @@ class MinibusRideAdapter(ComponentModel):
         for name in ("C1", "C2", "T1", "K1"):
             X[:, DESIGN_NAMES.index(name)] = np.atleast_1d(base[name])
         load_case = str(rec.meta.get("load_case", self.options.get("load_case", "no_load")))
-        params = vehicle_parameters(X, load_case, REFERENCE_MINIBUS)
+        params = vehicle_parameters(X, load_case, self._vehicle)
         ride_effects = [_batch(e, B) for e in effects if e.kind != "kelvin_voigt"]
         seat = [e for e in effects if e.kind == "kelvin_voigt"]
         model = RideModel(params, effects=ride_effects)

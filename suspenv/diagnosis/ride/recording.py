@@ -21,6 +21,11 @@ magnitude and location, simulates every test with the same ride model code as th
 fit (only the effect list differs) and adds white sensor noise of a seeded level.
 The case's recordings do not say what was added; the :class:`RideTruth` is kept
 apart (:func:`write_ride_case` writes it to a separate folder).
+
+Out-of-library truths (:data:`~suspenv.diagnosis.ride.mismatch.OUT_OF_LIBRARY_KINDS`:
+a damper curve of another shape, other tyres, a seat accelerometer with a gain error
+or a lag) put physics into the truth that no candidate element describes; see
+:mod:`suspenv.diagnosis.ride.mismatch`.
 """
 
 from __future__ import annotations
@@ -33,6 +38,12 @@ from typing import Any
 import numpy as np
 
 from suspenv.core.errors import ValidationError
+from suspenv.diagnosis.ride.mismatch import (
+    OUT_OF_LIBRARY_KINDS,
+    apply_sensor,
+    draw_mismatch,
+    mismatch_vehicle,
+)
 from suspenv.diagnosis.ride.model import (
     OUTPUT_CHANNELS,
     ROAD_CHANNELS,
@@ -123,6 +134,13 @@ class RideTruth:
     effects: list[Effect]
     noise_fraction: float
     seed: int
+    #: out-of-library physics (see :mod:`suspenv.diagnosis.ride.mismatch`), or None
+    mismatch: dict[str, Any] | None = None
+
+    @property
+    def in_library(self) -> bool:
+        """False when the truth holds physics outside the candidate list."""
+        return self.mismatch is None
 
     @property
     def kinds(self) -> list[str]:
@@ -138,6 +156,7 @@ class RideTruth:
             "effects": [e.to_dict() for e in self.effects],
             "noise_fraction": self.noise_fraction,
             "seed": self.seed,
+            "mismatch": self.mismatch,
         }
 
 
@@ -179,17 +198,28 @@ def draw_truth_effect(kind: str | None, rng: np.random.Generator) -> list[Effect
         zeta = float(rng.uniform(0.1, 0.3))
         k = SEAT_MASS * (2 * np.pi * f) ** 2
         return [ride_effect("kelvin_voigt", "seat_mount", k=k, c=2 * zeta * np.sqrt(k * SEAT_MASS))]
-    raise ValidationError(f"truth effect kind must be one of {TRUTH_KINDS} or None, got {kind!r}")
+    raise ValidationError(
+        f"truth effect kind must be one of {TRUTH_KINDS + OUT_OF_LIBRARY_KINDS} or None, "
+        f"got {kind!r}"
+    )
 
 
 def measure(
-    rec: Recording, model: MinibusRideAdapter, theta: np.ndarray, noise: float, rng
+    rec: Recording,
+    model: MinibusRideAdapter,
+    theta: np.ndarray,
+    noise: float,
+    rng,
+    mismatch: dict[str, Any] | None = None,
 ) -> Recording:
-    """``rec`` with the model's outputs plus white noise of ``noise`` x channel RMS."""
-    pred = model.simulate(theta, rec)
+    """``rec`` with the model's outputs (through a mismatched sensor, if any) plus white
+    noise of ``noise`` x channel RMS."""
+    pred = {c: np.asarray(v, float) for c, v in model.simulate(theta, rec).items()}
+    if mismatch is not None:
+        apply_sensor(mismatch, pred, rec.sample_interval)
     outs = {}
     for c in OUTPUT_CHANNELS:
-        y = np.asarray(pred[c], float)
+        y = pred[c]
         sd = noise * float(np.sqrt(np.mean(y**2)))
         outs[c] = y + rng.normal(0.0, sd, y.shape)
     return rec.with_outputs(outs)
@@ -203,6 +233,10 @@ def make_ride_case(
 ) -> RideCase:
     """A blind ride case: truth with ``kind`` (or none), pulse runs x2 and a random road.
 
+    ``kind``: one of :data:`TRUTH_KINDS` (a candidate element), one of
+    :data:`~suspenv.diagnosis.ride.mismatch.OUT_OF_LIBRARY_KINDS` (physics outside the
+    candidate list), or None.
+
     Fit recordings: the first pulse run at each speed. Held-out recordings: the
     second pulse runs (speed within +-3 %, fresh noise) and, with ``random_road``, a
     class C road at 60 km/h.
@@ -214,28 +248,41 @@ def make_ride_case(
         "T1": 8.8e4 * float(rng.uniform(0.9, 1.1)),
         "K1": 73.5 * float(rng.uniform(0.9, 1.1)),
     }
-    effects = draw_truth_effect(kind, rng)
+    mismatch = None
+    if kind in OUT_OF_LIBRARY_KINDS:
+        effects, mismatch = [], draw_mismatch(str(kind), rng)
+    else:
+        effects = draw_truth_effect(kind, rng)
     noise = float(rng.uniform(0.02, 0.04))
-    truth_model = MinibusRideAdapter(effects)
+    truth_model = (
+        MinibusRideAdapter(effects, vehicle=mismatch_vehicle(mismatch))
+        if mismatch
+        else MinibusRideAdapter(effects)
+    )
     theta = truth_model.theta_from(base)
     fit, held = [], []
     for v in speeds_kmh:
         fit.append(
             measure(
-                pulse_inputs_recording(v, name=f"pulse_{v:g}_run1"), truth_model, theta, noise, rng
+                pulse_inputs_recording(v, name=f"pulse_{v:g}_run1"),
+                truth_model,
+                theta,
+                noise,
+                rng,
+                mismatch,
             )
         )
     for v in speeds_kmh:
         v2 = v * float(rng.uniform(0.97, 1.03))
         rec = pulse_inputs_recording(v2, name=f"pulse_{v:g}_run2")
-        held.append(measure(rec, truth_model, theta, noise, rng))
+        held.append(measure(rec, truth_model, theta, noise, rng, mismatch))
     if random_road:
         rr = random_road_inputs_recording(
             60.0, "C", 6.0, seed=int(rng.integers(1 << 30)), name="random_C_60_run1"
         )
-        held.append(measure(rr, truth_model, theta, noise, rng))
+        held.append(measure(rr, truth_model, theta, noise, rng, mismatch))
     name = f"ride_case_{seed}"
-    return RideCase(name, fit, held, RideTruth(base, effects, noise, seed))
+    return RideCase(name, fit, held, RideTruth(base, effects, noise, seed, mismatch))
 
 
 def write_ride_case(case: RideCase, case_dir: str | Path, truth_dir: str | Path) -> list[Path]:

@@ -13,6 +13,7 @@ import numpy as np
 
 from suspenv.diagnosis.engine import Diagnosis
 from suspenv.diagnosis.report import to_jsonable
+from suspenv.diagnosis.ride.residual import NOISE_BAND_HZ
 
 
 def _plt():
@@ -171,6 +172,27 @@ def write_ride_report(diag: Diagnosis, out_dir: str | Path) -> list[Path]:
             f"| {h.words} | {h.significant} | {h.p_value_corrected:.2g} | "
             f"{h.delta_bic_corrected:.1f} | {100 * h.heldout_reduction:.1f} % |"
         )
+    res = getattr(diag, "residual", None)
+    if res is not None:
+        lines += [
+            "",
+            "## What is left (held-out recordings)",
+            "",
+            res.sentence(),
+            "",
+            "| held-out scaled RMS before | after | noise floor | after / floor | "
+            "explained share of the model error | Ljung-Box p | residual remains | "
+            "confident |",
+            "|---|---|---|---|---|---|---|---|",
+            f"| {res.heldout_before:.4f} | {res.heldout_after:.4f} | {res.noise_floor:.4f} | "
+            f"{res.excess_ratio:.2f} | {100 * res.explained_share:.0f} % | "
+            f"{res.ljung_box_p:.2g} | {res.residual_remains} | {res.confident} |",
+            "",
+            f"Noise floor: white sensor noise measured above {NOISE_BAND_HZ:g} Hz in the "
+            "residual, where the ride response is negligible. A residual remains when the "
+            f"error left exceeds {res.excess_limit:g} x the floor and is not white (Ljung-Box "
+            f"p < {res.whiteness_alpha:g}).",
+        ]
     lines += [
         "",
         "## Parameters (final model)",
