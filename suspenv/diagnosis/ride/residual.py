@@ -139,7 +139,7 @@ class ResidualCheck:
             return (
                 f"Residual left after the named effect: {left}. The named effect explains "
                 f"{100 * share:.0f} % of the baseline's model error; the rest is physics "
-                f"outside the candidate list (not confident).{bound}"
+                f"outside the candidate list.{bound}"
             )
         small = (
             "noise only"
