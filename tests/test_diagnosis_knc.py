@@ -275,3 +275,142 @@ def test_location_ambiguity_is_stated_only_for_equal_fits():
     amb = location_ambiguities(win, [win, close, far, weak])
     assert [(a.a, a.b) for a in amb] == [("dahl_hysteresis", "dahl_hysteresis:lower_arm")]
     assert "cannot separate" in amb[0].sentence()
+
+
+# ------------------------------------------------------------------ blind plan, detectability
+def test_blind_plan_covers_every_kind_and_location():
+    from collections import Counter
+
+    from suspenv.bench.knc_diagnosis import DEV_SEEDS, REPORT_SEEDS
+    from suspenv.diagnosis.knc.recording import (
+        BLIND_PLAN,
+        HYSTERESIS_LOCATIONS,
+        TRUTH_KIND,
+        blind_truth,
+        case_type,
+    )
+
+    # reference: the minimum composition (>= 18 single, >= 6 two-effect, >= 6 none)
+    for seeds in (REPORT_SEEDS, DEV_SEEDS):
+        types = Counter(case_type(s) for s in seeds)
+        n_one = sum(v for t, v in types.items() if t != "none" and "+" not in t)
+        n_two = sum(v for t, v in types.items() if "+" in t)
+        assert len(seeds) >= 30 and n_one >= 18 and n_two >= 6 and types["none"] >= 6
+        singles = {t for t in types if t != "none" and "+" not in t}
+        assert {t.split("@")[0] for t in singles} == set(TRUTH_KIND)
+        assert {f"hysteresis@{w}" for w in HYSTERESIS_LOCATIONS} <= singles
+    assert not set(DEV_SEEDS) & set(REPORT_SEEDS)
+    assert len(BLIND_PLAN) == len(REPORT_SEEDS)
+    t = blind_truth(REPORT_SEEDS[0] + 2 * len(BLIND_PLAN))
+    assert t["case_type"] == case_type(REPORT_SEEDS[0])
+    assert (
+        len(t["expected_kinds"])
+        == len(t["effects"])
+        == len([] if t["case_type"] == "none" else t["case_type"].split("+"))
+    )
+
+
+def test_truth_snr_scales_inversely_with_the_noise():
+    from suspenv.diagnosis.knc.detectability import truth_snr
+
+    eff = {"hysteresis": {"f_c": 60.0, "bushings": ["top_mount"]}}
+    a = truth_snr(eff, 0, 1.0, steps=STEPS)
+    b = truth_snr(eff, 0, 2.0, steps=STEPS)
+    # reference: the noise-weighted fit is invariant to a common noise factor, so the
+    # noncentrality sum((d / sigma)^2) scales exactly with 1 / noise^2
+    assert a["snr"] > 0
+    assert b["snr"] == pytest.approx(a["snr"] / 2.0, rel=0.02)
+    # the top mount shows only in the wheel load (in series with the spring)
+    top = max(a["lambda_by_channel"], key=a["lambda_by_channel"].get)
+    assert top.startswith("tyre_fz")
+    assert truth_snr({}, 0, 1.0)["snr"] == 0.0
+
+
+def test_noise_only_verdict_states_what_the_tests_cannot_see(noise_case, tmp_path):
+    from suspenv.diagnosis.knc.detectability import DETECTABLE_SNR, truth_snr
+
+    _, diag = noise_case
+    lim = diag.detection_limits
+    assert set(lim) == {
+        "dahl_hysteresis:top_mount",
+        "dahl_hysteresis:lower_arm",
+        "coulomb_friction",
+    }
+    assert "top mount below f_c ~" in diag.verdict
+    # top-mount hysteresis is far harder to see in vertical travel than lower-arm hysteresis
+    assert lim["dahl_hysteresis:top_mount"]["limit"] > 5 * lim["dahl_hysteresis:lower_arm"]["limit"]
+    # reference: an independent computation from the truth side (the plain model fitted
+    # to the noise-free loops of a truth carrying the element at the stated limit)
+    f_c = lim["dahl_hysteresis:top_mount"]["limit"]
+    snr = truth_snr({"hysteresis": {"f_c": f_c, "bushings": ["top_mount"]}}, 4, 1.0, steps=STEPS)
+    assert snr["snr"] == pytest.approx(DETECTABLE_SNR, rel=0.3)
+    assert diag.to_dict()["detection_limits"] == lim
+    write_knc_report(diag, tmp_path)
+    assert "could not have seen" in (tmp_path / "report.md").read_text()
+
+
+def test_top_mount_hysteresis_below_the_noise_is_not_claimed():
+    from suspenv.diagnosis.knc.detectability import DETECTABLE_SNR, truth_snr
+
+    eff = {"hysteresis": {"f_c": 15.0, "bushings": ["top_mount"]}}
+    # reference: the truth's own signal-to-noise (noise-free loops vs the plain model)
+    assert truth_snr(eff, 5, 1.5, steps=STEPS)["snr"] < DETECTABLE_SNR
+    diag = diagnose_knc(measure_truth(eff, seed=5, steps=STEPS, noise_scale=1.5))
+    assert diag.named == []
+    assert "top mount below f_c ~" in diag.verdict
+
+
+def test_benchmark_scores_undetectable_cases_apart():
+    from suspenv.bench.knc_diagnosis import summarise
+
+    def row(ctype, n, ok, detectable, seconds=10.0):
+        return {
+            "case_type": ctype,
+            "n_true": n,
+            "top1_ok": ok if n == 1 else None,
+            "all_found": bool(ok),
+            "detectable": detectable if n else None,
+            "false_alarms": 0 if (ok or n) else 1,
+            "where_ok": None,
+            "heldout_ratio": 0.9,
+            "model_error_ratio": 0.4,
+            "excess_ratio": 0.5,
+            "param_rel_err": 0.1,
+            "seconds": seconds,
+            "cpu_seconds": seconds / 2,
+        }
+
+    rows = [
+        row("friction", 1, True, True),
+        row("friction", 1, True, True),
+        row("hysteresis@top_mount", 1, False, False),
+        row("none", 0, False, None),
+        row("none", 0, True, None),
+    ]
+    s = summarise(rows)
+    # reference: counted by hand from the rows above
+    assert s["top1_accuracy_one_effect"] == pytest.approx(2 / 3)
+    assert s["top1_accuracy_one_effect_detectable"] == 1.0
+    assert s["one_effect_undetectable_cases"] == 1
+    assert s["top1_accuracy_one_effect_undetectable"] == 0.0
+    assert s["top1_by_case_type"] == {"friction": "2/2", "hysteresis@top_mount": "0/1"}
+    assert s["false_alarm_rate_no_effect"] == 0.5
+    assert s["median_cpu_seconds_per_diagnosis"] == 5.0
+
+
+def test_sensor_offset_the_fit_mimics_is_found_by_the_score_test():
+    from suspenv.diagnosis.knc.score_test import score_test
+
+    # a wheel-load offset that the bushing positions and top-mount rate largely absorb:
+    # its residual no longer looks like a constant, but the score test against the
+    # model sees what the fitted parameters cannot follow
+    recs = measure_truth({"sensor_offset": {"offset": -11.0}}, seed=107, steps=STEPS)
+    diag = diagnose_knc(recs, candidates=("sensor_offset", "sensor_gain"))
+    assert diag.named_kinds[:1] == ["sensor_offset"]
+    # reference: the truth's offset
+    assert diag.named[0].params["sensor_offset.offset"]["value"] == pytest.approx(-11.0, rel=0.2)
+    # reference: for an element entering the outputs linearly the score statistic and
+    # the likelihood-ratio statistic of the refit estimate the same noncentrality
+    lm, k = score_test(diag.base_fit, diag.fit_recordings, "sensor_offset")
+    assert k == 1
+    assert 0.4 < lm / diag.named[0].lr_statistic < 2.5

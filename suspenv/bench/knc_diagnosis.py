@@ -1,15 +1,25 @@
 """Blind benchmark of the K&C diagnosis (``python -m suspenv.bench.knc_diagnosis``).
 
-Each case is a truth vehicle with none, one or two concealed effects of random kind,
-magnitude, location and noise level (:func:`suspenv.diagnosis.knc.recording.blind_case`,
-seeded); the diagnosis sees only the recordings (fit: parallel + opposite travel;
-held out: single-wheel travel). Scores against the truth kept apart:
+Each case is a truth vehicle with none, one or two concealed effects
+(:func:`suspenv.diagnosis.knc.recording.blind_case`): the case type comes from a fixed
+cycle of 36 (:data:`~suspenv.diagnosis.knc.recording.BLIND_PLAN`: every single effect
+kind and hysteresis location 3 times, 6 two-effect pairs, 6 no-effect controls),
+magnitude, location and noise level are drawn from the seed. The diagnosis sees only
+the recordings (fit: parallel + opposite travel; held out: single-wheel travel).
+Scores against the truth kept apart:
 
+* detectability of every concealed effect from the truth:
+  :func:`~suspenv.diagnosis.knc.detectability.truth_snr` (the plain model fitted to
+  the noise-free loops; signal-to-noise of what it cannot absorb); cases whose
+  effect stays below ``DETECTABLE_SNR`` are scored separately, not dropped;
 * top-1 naming on one-effect cases; all effects found on two-effect cases;
 * false alarms: anything named on a no-effect case, and named kinds that are not in
   the truth on the others;
 * held-out RMS (scaled, channel-averaged) of the final model over the baseline's
-  (the plain symmetric model fitted to the same data in the same run);
+  (the plain symmetric model fitted to the same data in the same run), against the
+  *measured* held-out data (noise included: its floor is the sensor noise, so the
+  ratio cannot fall far below 1 however good the model) and, separately, the *model
+  error*: the same RMS against the noise-free held-out loops of the truth;
 * parameter recovery of correctly named effects: loop width of the wheel load in
   parallel travel (hysteresis, friction) against the truth's noise-free loop,
   right-minus-left static toe (asymmetry), cubic ratio (progressive), gain error
@@ -17,9 +27,9 @@ held out: single-wheel travel). Scores against the truth kept apart:
 * hysteresis location: the named candidate (lower-arm bushes, top mount, or both)
   against the truth's bushings, strictly and counting a location the diagnosis states
   it cannot separate from the named one;
-* time per diagnosis.
+* wall and process CPU time (``time.process_time``) per diagnosis.
 
-Development seeds (``--dev``, 100...) differ from the reported seeds (1000...); only the
+Development seeds (``--dev``, 100-135) differ from the reported seeds (1000-1035); only the
 reported run writes ``docs/benchmarks/knc_diagnosis.json`` (``--out`` elsewhere). Rows
 are appended to ``--rows`` (a JSON-lines file) as they finish, so a killed run loses
 nothing and ``--resume`` skips the finished seeds.
@@ -40,8 +50,8 @@ from tqdm import tqdm
 from suspenv.bench.common import write_result
 from suspenv.diagnosis.evidence import scaled_rms
 
-DEV_SEEDS = tuple(range(100, 112))
-REPORT_SEEDS = tuple(range(1000, 1012))
+DEV_SEEDS = tuple(range(100, 136))
+REPORT_SEEDS = tuple(range(1000, 1036))
 STEPS = 6
 
 
@@ -87,6 +97,9 @@ def parameter_error(diag: Any, truth: dict, kind: str) -> float:
     if kind == "sensor_gain":
         g = truth["effects"]["sensor_gain"]["gain"]
         return float(abs(eff.params["gain"] - g) / abs(g - 1.0))
+    if kind == "sensor_offset":
+        o = truth["effects"]["sensor_offset"]["offset"]
+        return float(abs(eff.params["offset"] - o) / abs(o))
     return float("nan")
 
 
@@ -106,19 +119,66 @@ def hysteresis_location(diag: Any) -> str | None:
     return None
 
 
-def run_case(seed: int) -> dict[str, Any]:
+def detectability(truth: dict) -> dict[str, dict]:
+    """Signal-to-noise of each concealed effect alone (fitted tests, noise-free truth)."""
+    from suspenv.diagnosis.knc.detectability import truth_snr
+    from suspenv.diagnosis.knc.recording import TRUTH_KIND
+
+    return {
+        TRUTH_KIND[name]: truth_snr(
+            {name: values}, truth["seed"], truth["noise_scale"], steps=STEPS
+        )
+        for name, values in truth["effects"].items()
+    }
+
+
+def model_error(diag: Any, truth: dict) -> dict[str, float]:
+    """Held-out RMS (scaled as the diagnosis' held-out score) of the baseline and the
+    final model against the measured data, the noise-free truth, and the noise floor."""
     from suspenv.diagnosis.evidence import heldout_rms
+    from suspenv.diagnosis.knc.detectability import noise_levels
+    from suspenv.diagnosis.knc.recording import measure_truth, rig_test
+
+    scales = diag.base_fit.scales
+    held = diag.heldout_recordings
+    exact = measure_truth(
+        truth["effects"],
+        truth["seed"],
+        steps=STEPS,
+        noise_scale=0.0,
+        tests=tuple(rig_test(r) for r in held),
+    )
+    clean = [exact[rig_test(r)] for r in held]
+    sigma = noise_levels(truth["noise_scale"])
+    floor = scaled_rms({c: sigma[c] for c in scales}, scales)
+    out = {"noise_floor": floor}
+    for label, f in (("base", diag.base_fit), ("final", diag.final_fit)):
+        out[f"measured_{label}"] = scaled_rms(heldout_rms(f, held), scales)
+        out[f"model_{label}"] = scaled_rms(heldout_rms(f, clean), scales)
+    return out
+
+
+def _ratio(a: float, b: float) -> float:
+    return float(a / b) if b > 0 else float("nan")
+
+
+def run_case(seed: int) -> dict[str, Any]:
+    from suspenv.diagnosis.knc.detectability import DETECTABLE_SNR
     from suspenv.diagnosis.knc.diagnose import diagnose_knc
     from suspenv.diagnosis.knc.recording import blind_case
 
     case, truth = blind_case(seed, steps=STEPS)
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     diag = diagnose_knc(case["recordings"], holdout="single")
-    seconds = time.perf_counter() - t0
+    seconds, cpu = time.perf_counter() - t0, time.process_time() - c0
     expected = truth["expected_kinds"]
     named = diag.named_kinds
-    before = scaled_rms(heldout_rms(diag.base_fit, diag.heldout_recordings), diag.base_fit.scales)
-    after = scaled_rms(heldout_rms(diag.final_fit, diag.heldout_recordings), diag.base_fit.scales)
+    snr = detectability(truth)
+    err = model_error(diag, truth)
+    excess = [
+        np.sqrt(max(err[f"measured_{k}"] ** 2 - err["noise_floor"] ** 2, 0.0))
+        for k in ("base", "final")
+    ]
     errs = {k: parameter_error(diag, truth, k) for k in named if k in expected}
     where = hysteresis_location(diag)
     true_where = None
@@ -126,9 +186,12 @@ def run_case(seed: int) -> dict[str, Any]:
         true_where = VARIANT_OF_BUSHINGS[tuple(truth["effects"]["hysteresis"]["bushings"])]
     return {
         "seed": seed,
+        "case_type": truth["case_type"],
         "truth": ",".join(expected) or "none",
         "named": ",".join(named) or "none",
         "n_true": len(expected),
+        "snr": ",".join(f"{snr[k]['snr']:.1f}" for k in expected),
+        "detectable": all(snr[k]["snr"] >= DETECTABLE_SNR for k in expected) if expected else None,
         "top1_ok": bool(named[:1] == expected[:1]) if len(expected) == 1 else None,
         "all_found": bool(set(expected) <= set(named)),
         "false_alarms": len([k for k in named if k not in expected]),
@@ -139,11 +202,27 @@ def run_case(seed: int) -> dict[str, Any]:
             if (where and true_where)
             else None
         ),
-        "heldout_ratio": float(after / before) if before > 0 else float("nan"),
+        "heldout_ratio": _ratio(err["measured_final"], err["measured_base"]),
+        "model_error_ratio": _ratio(err["model_final"], err["model_base"]),
+        "excess_ratio": _ratio(excess[1], excess[0]),
+        "model_error_base": err["model_base"],
+        "noise_floor": err["noise_floor"],
         "param_rel_err": float(np.nanmedian(list(errs.values()))) if errs else float("nan"),
         "noise_scale": truth["noise_scale"],
         "seconds": seconds,
+        "cpu_seconds": cpu,
+        "verdict": diag.verdict,
     }
+
+
+def _mean(rows: list[dict], key: str) -> float:
+    vals = [r[key] for r in rows if r[key] is not None]
+    return float(np.mean(vals)) if vals else float("nan")
+
+
+def _median(rows: list[dict], key: str) -> float:
+    vals = [r[key] for r in rows if r[key] is not None and np.isfinite(r[key])]
+    return float(np.median(vals)) if vals else float("nan")
 
 
 def summarise(rows: list[dict]) -> dict[str, Any]:
@@ -151,40 +230,46 @@ def summarise(rows: list[dict]) -> dict[str, Any]:
     two = [r for r in rows if r["n_true"] == 2]
     none = [r for r in rows if r["n_true"] == 0]
     eff = [r for r in rows if r["n_true"] > 0]
-    errs = [r["param_rel_err"] for r in rows if np.isfinite(r["param_rel_err"])]
     located = [r for r in rows if r.get("where_ok") is not None]
+    seen = [r for r in one if r["detectable"]]
+    unseen = [r for r in one if not r["detectable"]]
+    by_type = {}
+    for t in sorted({r["case_type"] for r in one}):
+        sel = [r for r in one if r["case_type"] == t]
+        by_type[t] = f"{sum(r['top1_ok'] for r in sel)}/{len(sel)}"
     return {
         "cases": len(rows),
-        "top1_accuracy_one_effect": (
-            float(np.mean([r["top1_ok"] for r in one])) if one else float("nan")
-        ),
         "one_effect_cases": len(one),
-        "both_found_two_effects": (
-            float(np.mean([r["all_found"] for r in two])) if two else float("nan")
-        ),
+        "top1_accuracy_one_effect": _mean(one, "top1_ok"),
+        "one_effect_detectable_cases": len(seen),
+        "top1_accuracy_one_effect_detectable": _mean(seen, "top1_ok"),
+        "one_effect_undetectable_cases": len(unseen),
+        "top1_accuracy_one_effect_undetectable": _mean(unseen, "top1_ok"),
+        "top1_by_case_type": by_type,
         "two_effect_cases": len(two),
+        "both_found_two_effects": _mean(two, "all_found"),
+        "both_found_two_effects_detectable": _mean(
+            [r for r in two if r["detectable"]], "all_found"
+        ),
+        "no_effect_cases": len(none),
         "false_alarm_rate_no_effect": (
             float(np.mean([r["false_alarms"] > 0 for r in none])) if none else float("nan")
         ),
-        "no_effect_cases": len(none),
-        "extra_kinds_named_per_effect_case": (
-            float(np.mean([r["false_alarms"] for r in eff])) if eff else float("nan")
-        ),
-        "hysteresis_location_correct": (
-            float(np.mean([r["where_ok"] for r in located])) if located else float("nan")
-        ),
-        "hysteresis_location_correct_or_stated_ambiguous": (
-            float(np.mean([r["where_ok_or_ambiguous"] for r in located]))
-            if located
-            else float("nan")
-        ),
+        "extra_kinds_named_per_effect_case": _mean(eff, "false_alarms"),
         "hysteresis_located_cases": len(located),
-        "median_heldout_ratio_effect_cases": (
-            float(np.median([r["heldout_ratio"] for r in eff])) if eff else float("nan")
+        "hysteresis_location_correct": _mean(located, "where_ok"),
+        "hysteresis_location_correct_or_stated_ambiguous": _mean(located, "where_ok_or_ambiguous"),
+        "median_heldout_ratio_effect_cases": _median(eff, "heldout_ratio"),
+        "median_model_error_ratio_effect_cases": _median(eff, "model_error_ratio"),
+        "median_model_error_ratio_detectable_effect_cases": _median(
+            [r for r in eff if r["detectable"]], "model_error_ratio"
         ),
-        "median_param_rel_err": float(np.median(errs)) if errs else float("nan"),
-        "median_seconds_per_diagnosis": float(np.median([r["seconds"] for r in rows])),
+        "median_excess_ratio_effect_cases": _median(eff, "excess_ratio"),
+        "median_param_rel_err": _median(rows, "param_rel_err"),
+        "median_seconds_per_diagnosis": _median(rows, "seconds"),
         "max_seconds_per_diagnosis": float(np.max([r["seconds"] for r in rows])),
+        "median_cpu_seconds_per_diagnosis": _median(rows, "cpu_seconds"),
+        "max_cpu_seconds_per_diagnosis": float(np.max([r["cpu_seconds"] for r in rows])),
         "steps": STEPS,
     }
 
@@ -209,7 +294,7 @@ def main(argv: list[str] | None = None) -> int:
     elif rows_path.exists():
         rows_path.unlink()
     done = {r["seed"] for r in rows}
-    for seed in tqdm([s for s in seeds if s not in done], desc="K&C blind cases"):
+    for seed in tqdm([s for s in seeds if s not in done], desc="K&C blind cases", mininterval=0):
         row = run_case(seed)
         rows.append(row)
         with rows_path.open("a") as f:

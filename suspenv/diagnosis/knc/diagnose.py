@@ -13,8 +13,11 @@ Steps (the engine's, with the K&C pieces where a loop of a two-sided axle needs 
 3. **Locate**: residual map test x channel x branch x side
    (:mod:`~suspenv.diagnosis.knc.locate`).
 4. **Signatures**: score tests of the residual against each effect's pattern
-   (:mod:`~suspenv.diagnosis.knc.signatures`, about N(0, 1) under noise); the families
-   above ``screen_threshold`` are refitted, at most ``screen_families``; when none is,
+   (:mod:`~suspenv.diagnosis.knc.signatures`, about N(0, 1) under noise) and, for the
+   elastic and sensor elements, against the model itself
+   (:mod:`~suspenv.diagnosis.knc.score_test`: what the fitted parameters cannot
+   mimic); each family keeps its stronger score; the families above
+   ``screen_threshold`` are refitted, at most ``screen_families``; when none is,
    nothing is claimed.
 5. **Refit**: the candidate effect is added to the model as a physical element and
    the model refitted (path-dependent elements, slow to simulate: their own parameters
@@ -25,7 +28,9 @@ Steps (the engine's, with the K&C pieces where a loop of a two-sided axle needs 
    reduction.
 6. The winner is polished (all parameters jointly) and becomes the model of the
    next round (at most ``max_effects``); the final model is compared with the
-   baseline on the held-out data.
+   baseline on the held-out data. When nothing is named, the verdict states the
+   smallest hysteresis (per location) and strut friction these tests would have
+   shown (:mod:`~suspenv.diagnosis.knc.detectability`).
 """
 
 from __future__ import annotations
@@ -45,10 +50,12 @@ from suspenv.diagnosis.evidence import (
     compare,
 )
 from suspenv.diagnosis.fit import FitResult, residuals
+from suspenv.diagnosis.knc.detectability import detection_limits, limits_sentence
 from suspenv.diagnosis.knc.fit import evaluate, fit, noise_scales
 from suspenv.diagnosis.knc.locate import residual_map
 from suspenv.diagnosis.knc.model import KncAxleModel, KncEffect, base_kind, make_candidate
 from suspenv.diagnosis.knc.recording import rig_test
+from suspenv.diagnosis.knc.score_test import SCORE_TESTED, score_signatures_by_model
 from suspenv.diagnosis.knc.signatures import FAMILY_KINDS, KncSignature, score_signatures
 from suspenv.diagnosis.name import (
     Ambiguity,
@@ -85,6 +92,14 @@ class KncDiagnosis(Findings):
 
     fit_recordings: list[Any] = field(repr=False, default_factory=list)
     heldout_recordings: list[Any] = field(repr=False, default_factory=list)
+    #: when nothing is named: the smallest magnitude of each path-dependent candidate
+    #: the fitted tests would show (:func:`~suspenv.diagnosis.knc.detectability.detection_limits`)
+    detection_limits: dict[str, dict[str, float]] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        out = super().to_dict()
+        out["detection_limits"] = self.detection_limits
+        return out
 
     def effect(self, kind: str) -> KncEffect | None:
         """The fitted effect of ``kind`` in the final model (None if not named)."""
@@ -269,7 +284,7 @@ def diagnose_knc(
     model: KncAxleModel | None = None,
     candidates: Sequence[str] | None = None,
     max_effects: int = 2,
-    screen_families: int = 3,
+    screen_families: int = 5,
     screen_threshold: float = 3.0,
     alpha: float = 0.01,
     min_heldout_gain: float = 0.01,
@@ -287,7 +302,9 @@ def diagnose_knc(
         candidates: effect kinds considered (default: the model's ``candidate_effects``).
         max_effects: most effects added in turn.
         screen_families / screen_threshold: refit the signature families scoring above
-            the threshold (at most this many).
+            the threshold (at most this many; the default, 5, is every family: the model
+            score tests of the elastic and sensor elements also respond to other missing
+            physics, so a cap could crowd out the loop family).
         alpha, min_heldout_gain: the engine's decision rule (:mod:`suspenv.diagnosis.name`).
         max_nfev / polish_nfev: budgets of the fits and of the joint polish of a winner
             with a path-dependent element.
@@ -312,13 +329,21 @@ def diagnose_knc(
     base = fit(
         base_model, fit_recs, scales=scales, theta0=first.theta, max_nfev=max_nfev, tol=FINE_TOL
     )
-    new_scales = noise_scales(base)  # the noise-weighted fit's own residual level
-    rows = np.concatenate(
-        [np.full(r.n_samples, scales[c] / new_scales[c]) for r in fit_recs for c in scales]
-    )
-    J = base.extra["jacobian"] * rows[:, None]
-    scales = new_scales
-    base = evaluate(base_model, base.theta, fit_recs, scales, jacobian=J, nfev=base.nfev)
+    # the scales become the noise-weighted fit's own residual level; the baseline is
+    # refitted under them (from its fit and from the start design, as every candidate
+    # is), so that no candidate gains likelihood from the change of weights alone
+    scales = noise_scales(base)
+    nfev = first.nfev + base.nfev
+    starts = [base.theta, base_model.initial_guess(fit_recs[0])]
+    base = None
+    for theta0 in starts:
+        trial = fit(
+            base_model, fit_recs, scales=scales, theta0=theta0, max_nfev=max_nfev, tol=FINE_TOL
+        )
+        nfev += trial.nfev
+        if base is None or trial.log_likelihood() > base.log_likelihood():
+            base = trial
+    base.nfev = nfev
     say(f"baseline fitted ({base.nfev} evaluations)")
     res, _ = _signals(base, fit_recs)
     location = residual_map(fit_recs, res, scales)
@@ -334,6 +359,13 @@ def diagnose_knc(
         fams_c = {FAMILY_OF[base_kind(k)] for k in cands}
         noise = residual_map(fit_recs, res, scales).noise  # independent of the fit's scale
         sigs = [s for s in score_signatures(fit_recs, res, pred, noise) if s.kind in fams_c]
+        # score tests against the model: effects the fitted parameters partly mimic
+        tested = [c for c in cands if c in SCORE_TESTED and c not in done]
+        strongest: dict[str, KncSignature] = {}
+        for sg in sigs + score_signatures_by_model(current, fit_recs, tested):
+            if sg.kind not in strongest or sg.score > strongest[sg.kind].score:
+                strongest[sg.kind] = sg
+        sigs = sorted(strongest.values(), key=lambda sg: -sg.score)
         if rnd == 1:
             first_sigs = sigs
         open_sigs = [s for s in sigs if any(k not in done for k in FAMILY_KINDS[s.kind])]
@@ -376,9 +408,15 @@ def diagnose_knc(
         say(f"round {rnd}: named {win.words}")
 
     comparison = None
+    limits: dict[str, dict[str, float]] = {}
     if named:
         comparison = compare(base, current, fit_recs, None, held, None)
+    else:  # say what these tests could not have seen
+        limits = detection_limits(base, fit_recs, noise=location.noise)
+        say("detection limits computed")
     verdict = _verdict(named, all_hyps, amb, first_sigs, screen_threshold)
+    if limits:
+        verdict += "; " + limits_sentence(limits)
     baseline = baseline_summary(base, fit_recs, held)
     baseline["scales"] = dict(scales)
     baseline["fit_parameters"] = list(base_model.fit_parameters)
@@ -402,6 +440,7 @@ def diagnose_knc(
         final_fit=current,
         fit_recordings=fit_recs,
         heldout_recordings=held,
+        detection_limits=limits,
     )
     if report_dir is not None:
         from suspenv.diagnosis.knc.report import write_knc_report

@@ -196,6 +196,7 @@ TRUTH_EFFECTS: dict[str, dict] = {
     "progressive": {"ratio": 0.2, "bushings": ("lca_front", "lca_rear", "arb_bush", "top_mount")},
     "asymmetry": {"hard_point_tol_mm": 1.0, "stiffness_tol": 0.10, "alignment_tol_deg": 0.05},
     "sensor_gain": {"gain": 1.04},
+    "sensor_offset": {"offset": 10.0},
 }
 #: the diagnosis' effect kind that names each concealed effect
 TRUTH_KIND = {
@@ -204,6 +205,7 @@ TRUTH_KIND = {
     "progressive": "cubic_stiffness",
     "asymmetry": "lr_asymmetry",
     "sensor_gain": "sensor_gain",
+    "sensor_offset": "sensor_offset",
 }
 
 
@@ -272,12 +274,17 @@ def measure_truth(
         if ("sensor_gain" in effects)
         else 1.0
     )
+    offset = (
+        float({**TRUTH_EFFECTS["sensor_offset"], **effects["sensor_offset"]}["offset"])
+        if ("sensor_offset" in effects)
+        else 0.0
+    )
     rng = np.random.default_rng(20_000 + seed)
     for test in sorted(results):
         res = results[test]
         if not res.ok.all():
             raise ValidationError(f"the truth vehicle fails the {test} test: {res.messages[0]}")
-        res.channels["tyre_fz"] = res.channels["tyre_fz"] * gain
+        res.channels["tyre_fz"] = res.channels["tyre_fz"] * gain + offset
         for name in sorted(CHANNEL_NOISE):
             ch = res.channels[name]
             res.channels[name] = ch + rng.normal(0.0, noise_scale * CHANNEL_NOISE[name], ch.shape)
@@ -286,38 +293,101 @@ def measure_truth(
 
 
 # ------------------------------------------------------------------ blind cases
-BLIND_KINDS = ("hysteresis", "friction", "progressive", "asymmetry", "sensor_gain")
+BLIND_KINDS = (
+    "hysteresis",
+    "friction",
+    "progressive",
+    "asymmetry",
+    "sensor_gain",
+    "sensor_offset",
+)
+#: hysteresis locations of the truth (bushings with Dahl elements), by short name
+HYSTERESIS_LOCATIONS = {
+    "all": ("lca_front", "lca_rear", "top_mount"),
+    "lower_arm": ("lca_front", "lca_rear"),
+    "top_mount": ("top_mount",),
+}
+#: single-effect case types: every truth kind, the hysteresis at each location
+SINGLE_TYPES = (
+    "hysteresis@all",
+    "hysteresis@lower_arm",
+    "hysteresis@top_mount",
+    "friction",
+    "progressive",
+    "asymmetry",
+    "sensor_gain",
+    "sensor_offset",
+)
+#: two-effect case types (fixed pairs covering every kind)
+PAIR_TYPES = (
+    "hysteresis@lower_arm+sensor_gain",
+    "friction+asymmetry",
+    "progressive+sensor_offset",
+    "hysteresis@all+asymmetry",
+    "friction+sensor_gain",
+    "hysteresis@top_mount+sensor_offset",
+)
+#: the fixed cycle of case types: seed -> ``BLIND_PLAN[seed % len(BLIND_PLAN)]``; any
+#: ``len(BLIND_PLAN)`` consecutive seeds hold each single type 3 times, each pair once
+#: and 6 no-effect controls (36 cases)
+BLIND_PLAN: tuple[str, ...] = tuple(
+    t
+    for i in range(6)
+    for t in (
+        SINGLE_TYPES[(4 * i) % 8],
+        "none",
+        SINGLE_TYPES[(4 * i + 1) % 8],
+        PAIR_TYPES[i],
+        SINGLE_TYPES[(4 * i + 2) % 8],
+        SINGLE_TYPES[(4 * i + 3) % 8],
+    )
+)
+
+
+def case_type(seed: int) -> str:
+    """The blind case type of ``seed``: ``"none"``, a kind (``"friction"``,
+    ``"hysteresis@top_mount"`` ...) or two joined by ``+`` (see :data:`BLIND_PLAN`)."""
+    return BLIND_PLAN[int(seed) % len(BLIND_PLAN)]
+
+
+def _draw_effect(kind: str, rng: np.random.Generator) -> tuple[str, dict]:
+    """One concealed effect of ``kind`` (``name[@location]``) with a random magnitude."""
+    name, _, where = kind.partition("@")
+    if name == "hysteresis":
+        return name, {
+            "f_c": float(rng.uniform(50.0, 150.0)),
+            "bushings": list(HYSTERESIS_LOCATIONS[where or "all"]),
+        }
+    if name == "friction":
+        return name, {"f_c": float(rng.uniform(60.0, 250.0))}
+    if name == "progressive":
+        return name, {"ratio": float(rng.uniform(0.1, 0.5))}
+    if name == "asymmetry":
+        s = float(rng.uniform(0.6, 1.5))
+        return name, {
+            "hard_point_tol_mm": 1.0 * s,
+            "stiffness_tol": 0.10 * s,
+            "alignment_tol_deg": 0.05 * s,
+        }
+    if name == "sensor_gain":
+        return name, {"gain": float(1.0 + rng.choice([-1, 1]) * rng.uniform(0.02, 0.06))}
+    if name == "sensor_offset":
+        return name, {"offset": float(rng.choice([-1, 1]) * rng.uniform(3.0, 20.0))}
+    raise ValidationError(f"blind effect kinds must be among {BLIND_KINDS}, but got {kind!r}")
 
 
 def blind_truth(seed: int) -> dict:
-    """Random concealed effects (none, one or two), magnitudes, location and noise."""
+    """Concealed effects of blind case ``seed``: the type from :func:`case_type`,
+    magnitudes, hysteresis location and noise level drawn from the seed."""
     rng = np.random.default_rng(seed)
-    n = int(rng.choice([0, 1, 1, 2]))
-    kinds = [str(k) for k in rng.choice(BLIND_KINDS, size=n, replace=False)]
+    ctype = case_type(seed)
     effects: dict[str, dict] = {}
-    for k in kinds:
-        if k == "hysteresis":
-            where = [
-                ("lca_front", "lca_rear", "top_mount"),
-                ("lca_front", "lca_rear"),
-                ("top_mount",),
-            ][int(rng.integers(3))]
-            effects[k] = {"f_c": float(rng.uniform(50.0, 150.0)), "bushings": list(where)}
-        elif k == "friction":
-            effects[k] = {"f_c": float(rng.uniform(60.0, 250.0))}
-        elif k == "progressive":
-            effects[k] = {"ratio": float(rng.uniform(0.1, 0.5))}
-        elif k == "asymmetry":
-            s = float(rng.uniform(0.6, 1.5))
-            effects[k] = {
-                "hard_point_tol_mm": 1.0 * s,
-                "stiffness_tol": 0.10 * s,
-                "alignment_tol_deg": 0.05 * s,
-            }
-        elif k == "sensor_gain":
-            effects[k] = {"gain": float(1.0 + rng.choice([-1, 1]) * rng.uniform(0.02, 0.06))}
+    for kind in [] if ctype == "none" else ctype.split("+"):
+        name, values = _draw_effect(kind, rng)
+        effects[name] = values
     return {
         "seed": int(seed),
+        "case_type": ctype,
         "effects": effects,
         "expected_kinds": sorted(TRUTH_KIND[k] for k in effects),
         "noise_scale": float(rng.uniform(0.5, 2.0)),

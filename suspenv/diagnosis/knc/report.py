@@ -225,6 +225,28 @@ def write_knc_report(diag: Any, out_dir: str | Path) -> list[Path]:
             f"Scaled held-out error reduction: {100 * c.heldout_reduction:.1f} %.",
             "",
         ]
+    limits = getattr(diag, "detection_limits", {}) or {}
+    if limits:
+        lines += [
+            "## What these tests could not have seen",
+            "",
+            "Smallest element each candidate would need for a 5-sigma trace in the fitted "
+            "tests (the part of its signature the baseline parameters cannot follow):",
+            "",
+            _table(
+                [
+                    [
+                        c,
+                        v["parameter"],
+                        f"{v['limit']:.3g}",
+                        f"{v['snr_at_reference']:.1f} at {v['reference']:g}",
+                    ]
+                    for c, v in limits.items()
+                ],
+                ["candidate", "parameter", "limit [N]", "snr at reference [N]"],
+            ),
+            "",
+        ]
     lines += ["## Loops", ""]
     lines += ["![loops](loops.png)"]
     lines += [
