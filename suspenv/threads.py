@@ -22,9 +22,7 @@ def limit_blas_threads() -> int | None:
     try:
         n = int(raw)
     except ValueError:
-        raise ValueError(
-            f"SUSPENV_BLAS_THREADS must be an integer >= 0, but got {raw!r}"
-        ) from None
+        raise ValueError(f"SUSPENV_BLAS_THREADS must be an integer >= 0, but got {raw!r}") from None
     if n <= 0:
         return None
     # effective for libraries not loaded yet, and inherited by worker processes
