@@ -719,13 +719,13 @@ def diagnose(
     amb: list[Ambiguity] = []
     parents: list[FitResult] = []
     for rnd in range(1, max_effects + 1):
-        sigs = _score_round(current, sp, channel, cands)
+        sigs, viewed = _score_round(current, sp, channel, cands)
         if rnd == 1:
             first_sigs = sigs
         sig_of = {s.kind: s for s in sigs}
         done = {h.family for h in named}
         fams = [s.kind for s in sigs if s.kind not in done][:screen_families]
-        if _has_force_view(current, sp):
+        if viewed:
             # sensor families are scored in the recorded channels, force families in the
             # force view: the two scores are not on one scale, so besides the strongest
             # families of either kind the strongest sensor family is always refitted
@@ -829,21 +829,17 @@ def diagnose(
     )
 
 
-def _has_force_view(fit: FitResult, sp: Split) -> bool:
-    view_of = getattr(fit.model, "force_view", None)
-    return callable(view_of) and all(
-        view_of(fit.theta, r) is not None for r in sp.fit_recordings[:1]
-    )
-
-
-def _score_round(current: FitResult, sp: Split, channel: str, cands: Sequence[str]) -> list:
-    """Signature scores of one round, strongest first. Where the model has a force view,
-    force families are scored in it and sensor families in each recorded channel."""
+def _score_round(
+    current: FitResult, sp: Split, channel: str, cands: Sequence[str]
+) -> tuple[list[Signature], bool]:
+    """Signature scores of one round, strongest first, and whether the model's force
+    view was used. Where the model has a force view, force families are scored in it and
+    sensor families in each recorded channel."""
     fams_needed = [f for f in SIGNATURE_KINDS if f in {family_of(k) for k in cands}]
     fams_needed = fams_needed or list(SIGNATURE_KINDS)
     sset = _force_view_signal_set(current, sp)
     if sset is None:
-        return score_signatures(_signal_set(current, sp, channel), fams_needed)
+        return score_signatures(_signal_set(current, sp, channel, view=False), fams_needed), False
     force_fams = [f for f in fams_needed if f not in SENSOR_FAMILIES]
     sensor_fams = [f for f in fams_needed if f in SENSOR_FAMILIES]
     sigs = score_signatures(sset, force_fams) if force_fams else []
@@ -854,7 +850,7 @@ def _score_round(current: FitResult, sp: Split, channel: str, cands: Sequence[st
             if sig.kind not in best or sig.score > best[sig.kind].score:
                 sig.evidence = f"{sig.evidence} in {ch}"
                 best[sig.kind] = sig
-    return sorted(sigs + list(best.values()), key=lambda g: -g.score)
+    return sorted(sigs + list(best.values()), key=lambda g: -g.score), True
 
 
 def _structural_ambiguity(

@@ -29,7 +29,7 @@ that the drift cannot explain is a change of the bump/rebound difference with sp
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -285,17 +285,6 @@ class _Side:
         return float(b), float(np.sqrt(s2 / np.sum((t - t.mean()) ** 2)))
 
 
-def _side_at(
-    sides: Sequence[_Side], s: float, var: dict[int, float], match_tol: float
-) -> tuple[float, float, _Side] | None:
-    """Force [N] of one direction at speed ``s`` [m/s], its standard error and the
-    cluster: the cluster within ``match_tol`` (relative) of ``s``, else None."""
-    for i, c in enumerate(sides):
-        if abs(c.speed - s) <= match_tol * s:
-            return float(c.forces.mean()), float(np.sqrt(var[i] / c.forces.size)), c
-    return None
-
-
 def speed_groups(
     cycles: Sequence[HalfCycle],
     speed_tol: float = 0.02,
@@ -475,24 +464,3 @@ def matched_speed_asymmetry(
         sentence=sentence,
         unmatched_speeds=unmatched,
     )
-
-
-def even_part_error(
-    groups_cycles: Sequence[HalfCycle],
-    predicted_force: np.ndarray,
-    force: np.ndarray,
-    speed_tol: float = 0.02,
-    match_tol: float = 0.01,
-) -> float:
-    """RMS over matched speed groups of (measured - predicted) even part [N], both
-    taken from the same half-cycles (e.g. the held-out ones), after removing the mean
-    difference (an offset both models carry). NaN when fewer than two groups match."""
-    meas = [replace(c, force=float(np.mean(force[c.samples]))) for c in groups_cycles]
-    pred = [replace(c, force=float(np.mean(predicted_force[c.samples]))) for c in groups_cycles]
-    gm, _ = speed_groups(meas, speed_tol, match_tol, min_per_side=1)
-    gp, _ = speed_groups(pred, speed_tol, match_tol, min_per_side=1)
-    if len(gm) < 2:
-        return float("nan")
-    d = np.array([a.even - b.even for a, b in zip(gm, gp, strict=True)])
-    d -= d.mean()
-    return float(np.sqrt(np.mean(d**2)))
