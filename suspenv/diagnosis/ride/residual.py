@@ -41,7 +41,7 @@ from typing import Any
 import numpy as np
 
 from suspenv.core.errors import ValidationError
-from suspenv.diagnosis.evidence import ljung_box
+from suspenv.diagnosis.evidence import ljung_box, scaled_rms
 from suspenv.diagnosis.fit import FitResult, residuals
 
 #: band (Hz) where the sensor-noise floor is measured
@@ -91,11 +91,6 @@ def noise_floor(fit: FitResult, recordings: Any, f_min: float = NOISE_BAND_HZ) -
             den += n
         out[c] = float(np.sqrt(num / den)) if den else float("nan")
     return out
-
-
-def _pooled(values: dict[str, float], scales: dict[str, float]) -> float:
-    v = [values[c] / scales[c] for c in values if np.isfinite(values[c])]
-    return float(np.sqrt(np.mean(np.square(v)))) if v else float("nan")
 
 
 @dataclass
@@ -200,10 +195,10 @@ def residual_check(
             for c in base.channels
         }
 
-    before = _pooled(rms(parts_b), scales)
-    after = _pooled(rms(parts_f), scales)
+    before = scaled_rms(rms(parts_b), scales)
+    after = scaled_rms(rms(parts_f), scales)
     floor_c = noise_floor(final, held)
-    floor = _pooled(floor_c, scales)
+    floor = scaled_rms(floor_c, scales)
     series = np.concatenate([p[c] / scales[c] for p in parts_f for c in final.channels])
     q, p = ljung_box(series[np.isfinite(series)])
     excess = after / floor if floor > 0 else float("inf")
