@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 import matplotlib
+import numpy as np
 import pytest
 
 matplotlib.use("Agg")
@@ -19,3 +21,20 @@ def shared_data() -> Path:
     if not SHARED_DATA.is_dir():
         pytest.skip(f"real recordings not available at {SHARED_DATA}")
     return SHARED_DATA
+
+
+def _quarter_car_sine_response(m_s, m_u, k_s, c_s, k_t, f, amp) -> np.ndarray:
+    """Complex steady-state amplitudes [m] (body, wheel) of the linear 2-DOF quarter car
+    to a road ``amp * cos(2 pi f t)``: the closed form (-w^2 M + i w C + K) Z = F."""
+    w = 2 * np.pi * f
+    M = np.diag([m_s, m_u])
+    C = np.array([[c_s, -c_s], [-c_s, c_s]])
+    K = np.array([[k_s, -k_s], [-k_s, k_s + k_t]])
+    return np.linalg.solve(-(w**2) * M + 1j * w * C + K, np.array([0.0, k_t * amp]))
+
+
+@pytest.fixture
+def quarter_car_sine_response() -> Callable[..., np.ndarray]:
+    """The closed-form steady-state response of the linear quarter car (a reference
+    independent of any integrator)."""
+    return _quarter_car_sine_response

@@ -40,7 +40,7 @@ def test_step_matrices_match_the_free_response_closed_form():
     )
 
 
-def test_linear_rig_at_the_recording_step_matches_frequency_response():
+def test_linear_rig_at_the_recording_step_matches_frequency_response(quarter_car_sine_response):
     # reference: steady-state response of the linear 2-DOF system,
     # (-w^2 M + i w C + K) Z = F; the step is exact for a road linear between samples,
     # so at the 2 ms recording step only the interpolation of the sine itself differs
@@ -53,10 +53,7 @@ def test_linear_rig_at_the_recording_step_matches_frequency_response():
         rec = Recording("sine", "rig_sine", t, {"road": road}, {}, {"road": "m"})
         out = model.simulate(np.array([k_s, c_s, k_t]), rec)
         w = 2 * np.pi * f
-        M = np.diag([m_s, m_u])
-        C = np.array([[c_s, -c_s], [-c_s, c_s]])
-        K = np.array([[k_s, -k_s], [-k_s, k_s + k_t]])
-        Z = np.linalg.solve(-(w**2) * M + 1j * w * C + K, np.array([0.0, k_t * amp]))
+        Z = quarter_car_sine_response(m_s, m_u, k_s, c_s, k_t, f, amp)
         # the last whole periods (transients, about 0.4 s time constant, have died out)
         per = int(round(1.0 / (f * 2e-3)))
         tail = slice(t.size - per * int(2.0 * f), t.size)
