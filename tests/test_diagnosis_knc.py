@@ -230,7 +230,8 @@ def test_cli_targets(tmp_path):
     from suspenv.diagnosis.knc.cli import is_knc_target, load_target
 
     recs, stem = load_target("knc-blind:12")
-    assert set(recs) == {"parallel", "opposite", "single"} and stem == "knc_blind_12"
+    assert set(recs) == {"parallel", "opposite", "single", "lateral", "longitudinal"}
+    assert stem == "knc_blind_12"
     for test, rec in recs.items():
         save_recording(rec, tmp_path / f"{test}.npz")
     assert is_knc_target(str(tmp_path)) and is_knc_target(str(tmp_path / "single.npz"))
@@ -414,3 +415,73 @@ def test_sensor_offset_the_fit_mimics_is_found_by_the_score_test():
     lm, k = score_test(diag.base_fit, diag.fit_recordings, "sensor_offset")
     assert k == 1
     assert 0.4 < lm / diag.named[0].lr_statistic < 2.5
+
+
+# ------------------------------------------------------------------ compliance tests
+def test_compliance_recording_round_trip_and_each_wheels_own_drive():
+    from suspenv.diagnosis.knc.recording import drive, is_force_test
+    from suspenv.diagnosis.knc.report import left_minus_right
+
+    axle = build_axle(reference_design()[None])
+    res = run_tests(axle, ("lateral", "longitudinal"), steps=STEPS, force_amplitude=2000.0)
+    for test, r in res.items():
+        rec = to_recording(r)
+        assert is_force_test(rec) and rec.units["force"] == "N"
+        assert rec.meta["amplitude"] == 2000.0 and rec.meta["amplitude_unit"] == "N"
+        np.testing.assert_array_equal(rec.inputs["pad_left"], 0.0)
+        f = r.grid[r.path] / 2000.0
+        # lateral: a +y force is outboard on the left wheel, inboard on the right
+        np.testing.assert_allclose(drive(rec, "left"), f)
+        np.testing.assert_allclose(drive(rec, "right"), -f if test == "lateral" else f)
+        back = from_recording(rec)
+        np.testing.assert_allclose(back.grid, r.grid)
+        np.testing.assert_allclose(back.channels["toe"], r.channels["toe"])
+        # reference: mirror symmetry of the axle; at equal own drive both wheels agree
+        for c in ("toe", "camber", "tyre_fz", "contact_lateral", "contact_x"):
+            size = 1.0 + np.abs(rec.outputs[f"{c}_left"]).max()  # wheel load ~4 kN
+            np.testing.assert_allclose(left_minus_right(rec, rec.outputs, c), 0.0, atol=1e-7 * size)
+
+
+def test_model_replays_travel_and_compliance_recordings_like_the_rig():
+    # reference: the rig run directly on the same axle (two batches: m and N amplitudes)
+    recs = measure_truth(
+        {}, seed=0, steps=4, noise_scale=0.0, tests=("parallel", "lateral"), force_amplitude=1500.0
+    )
+    model = KncAxleModel(tests=("parallel", "lateral"))
+    theta = model.initial_guess()
+    direct = run_tests(
+        build_axle(reference_design()[None]),
+        ("parallel", "lateral"),
+        steps=4,
+        force_amplitude=1500.0,
+    )
+    for test, rec in recs.items():
+        pred = model.simulate(theta, rec)
+        np.testing.assert_allclose(pred["toe_left"], direct[test].channels["toe"][0, :, 0])
+        np.testing.assert_allclose(pred["camber_right"], direct[test].channels["camber"][0, :, 1])
+
+
+@pytest.mark.slow
+def test_top_mount_hysteresis_above_the_noise_is_named_at_the_top_mount():
+    # planted: a top-mount Dahl element well above the detection limit (truth_snr >= 5)
+    from suspenv.diagnosis.knc.detectability import DETECTABLE_SNR, truth_snr
+
+    eff = {"hysteresis": {"f_c": 150.0, "bushings": ["top_mount"]}}
+    assert truth_snr(eff, 5, 0.7, steps=STEPS)["snr"] > DETECTABLE_SNR
+    recs = measure_truth(
+        eff, seed=5, steps=STEPS, noise_scale=0.7, tests=("parallel", "opposite", "single")
+    )
+    diag = diagnose_knc(recs, max_effects=1)
+    assert diag.named_kinds == ["dahl_hysteresis"]
+    assert next(iter(diag.named[0].params)).startswith("dahl_hysteresis:top_mount")
+
+
+@pytest.mark.slow
+def test_a_second_round_after_friction_claims_nothing_false():
+    # planted: strut friction alone; the polished friction model is the second round's
+    # null, so no elastic or sensor candidate may gain likelihood from its convergence
+    recs = measure_truth({"friction": {"f_c": 120.0}}, seed=21, steps=STEPS, noise_scale=0.6)
+    diag = diagnose_knc(recs, candidates=FAMILIES, max_effects=2)
+    assert diag.named_kinds == ["coulomb_friction"]
+    second = [h for h in diag.hypotheses if h.round == 2]
+    assert second and max(h.lr_statistic_corrected for h in second) < 20.0

@@ -5,7 +5,8 @@ Each case is a truth vehicle with none, one or two concealed effects
 cycle of 36 (:data:`~suspenv.diagnosis.knc.recording.BLIND_PLAN`: every single effect
 kind and hysteresis location 3 times, 6 two-effect pairs, 6 no-effect controls),
 magnitude, location and noise level are drawn from the seed. The diagnosis sees only
-the recordings (fit: parallel + opposite travel; held out: single-wheel travel).
+the recordings (fit: parallel and opposite travel, lateral and longitudinal compliance;
+held out: single-wheel travel).
 Scores against the truth kept apart:
 
 * detectability of every concealed effect from the truth:
@@ -120,7 +121,8 @@ def hysteresis_location(diag: Any) -> str | None:
 
 
 def detectability(truth: dict) -> dict[str, dict]:
-    """Signal-to-noise of each concealed effect alone (fitted tests, noise-free truth)."""
+    """Signal-to-noise of each concealed effect alone (the four fitted tests, noise-free
+    truth)."""
     from suspenv.diagnosis.knc.detectability import truth_snr
     from suspenv.diagnosis.knc.recording import TRUTH_KIND
 

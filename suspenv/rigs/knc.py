@@ -1,16 +1,27 @@
-"""Virtual K&C rig: parallel, opposite and single-wheel vertical travel of a McPherson axle.
+"""Virtual K&C rig: vertical travel and contact-patch compliance tests of a McPherson axle.
 
 Frame ISO 8855 (x forward, y left, z up), SI units; body and steering rack held fixed.
-The rig prescribes the heights of the two wheel pads relative to the static pad
-height (``AxleSolver.pad_static``):
+The travel tests (:data:`TESTS`, the three of the identification problem) prescribe
+the heights of the two wheel pads relative to the static pad height
+(``AxleSolver.pad_static``):
 
 * ``parallel``: both pads move by ``+s`` (bump positive);
 * ``opposite``: left pad ``+s``, right pad ``-s`` (the body-fixed equivalent of a
   roll to the right, left wheel in bump);
 * ``single``: left pad ``+s``, right pad held at its static height.
 
-The stroke grid has ``steps + 1`` points from ``-amplitude`` to ``+amplitude`` with the
-design (static) position on the grid (``steps`` even). Because path-dependent effects
+The compliance tests (:data:`FORCE_TESTS`) hold both pads at their static height and
+apply a horizontal force ``F`` [N] at both contact points (the pads carry no
+horizontal force, so the suspension takes it all):
+
+* ``lateral``: ``+F`` along +y on both wheels (the tyre forces of a left-hand turn:
+  outboard on the left wheel, inboard on the right);
+* ``longitudinal``: ``+F`` along +x on both wheels (traction positive, braking
+  negative).
+
+The grid has ``steps + 1`` points from ``-amplitude`` to ``+amplitude`` [m] (or
+``-force_amplitude`` to ``+force_amplitude`` [N]) with the design (static) position
+on the grid (``steps`` even). Because path-dependent effects
 (hysteresis, friction) make the answer depend on the history, every test runs as a
 loop design -> bump -> rebound -> design and keeps both branches: the *descending*
 branch (bump to rebound) and the *ascending* branch (rebound to design, then the
@@ -32,8 +43,16 @@ from suspenv.models.mcpherson.params import Axle
 from suspenv.models.mcpherson.rotation import expm_so3, log_so3
 from suspenv.models.mcpherson.solver import AxleSolver, AxleState
 
+#: vertical travel tests (the identification problem's three)
 TESTS = ("parallel", "opposite", "single")
+#: compliance tests: horizontal force at both contact points, pads static
+FORCE_TESTS = ("lateral", "longitudinal")
+ALL_TESTS = TESTS + FORCE_TESTS
 _PAD_SIGN = {"parallel": (1.0, 1.0), "opposite": (1.0, -1.0), "single": (1.0, 0.0)}
+#: compliance test -> (force axis in ISO 8855, sign on the (left, right) wheel)
+_FORCE_AXIS = {"lateral": (1, (1.0, 1.0)), "longitudinal": (0, (1.0, 1.0))}
+#: default force amplitude of the compliance tests [N]
+FORCE_AMPLITUDE = 2500.0
 
 #: a bushing deflection above these is reported as a lock-up [m], [rad]
 MAX_TRANSLATION = 0.05
@@ -46,7 +65,8 @@ class KCResult:
 
     Attributes:
         test: test name.
-        grid: (steps + 1,) stroke grid [m] (pad offset of the left pad).
+        grid: (steps + 1,) grid of the test's input: the left pad's offset [m] for a
+            travel test, the contact-point force [N] for a compliance test.
         path: (P,) grid index of every step of the loop (P = 2 * steps + 1).
         channels: name -> (n, P, 2) values along the loop (SI, ISO 8855; see docs/knc.md).
         ok: (n,) True where every step converged.
@@ -60,6 +80,11 @@ class KCResult:
     ok: np.ndarray
     messages: list[str]
     states: list[AxleState] = field(default_factory=list, repr=False)
+
+    @property
+    def unit(self) -> str:
+        """Unit of :attr:`grid`: ``"N"`` for a compliance test, ``"m"`` otherwise."""
+        return "N" if self.test in FORCE_TESTS else "m"
 
     @property
     def static_index(self) -> int:
@@ -100,11 +125,29 @@ def loop_path(steps: int) -> np.ndarray:
 
 
 def pad_offsets(test: str, s: np.ndarray) -> np.ndarray:
-    """Pad offsets (..., 2) [m] of ``test`` for left-pad stroke ``s``."""
-    if test not in _PAD_SIGN:
-        raise ValidationError(f"unknown K&C test {test!r}; known tests are {TESTS}")
-    sign = np.array(_PAD_SIGN[test])
+    """Pad offsets (..., 2) [m] of ``test`` for left-pad stroke ``s`` (zero for a
+    compliance test, whose pads stay at their static height)."""
+    _check_tests((test,))
+    sign = np.array(_PAD_SIGN.get(test, (0.0, 0.0)))
     return np.asarray(s, dtype=float)[..., None] * sign
+
+
+def contact_forces(test: str, f: np.ndarray) -> np.ndarray:
+    """Extra load (..., 2, 6) [N, N*m] at both contact points of ``test`` for force
+    ``f`` [N] (zero for a travel test); force then moment, ISO 8855."""
+    _check_tests((test,))
+    f = np.asarray(f, dtype=float)
+    out = np.zeros(f.shape + (2, 6))
+    if test in _FORCE_AXIS:
+        axis, sign = _FORCE_AXIS[test]
+        out[..., axis] = f[..., None] * np.array(sign)
+    return out
+
+
+def _check_tests(tests: tuple[str, ...]) -> None:
+    for t in tests:
+        if t not in ALL_TESTS:
+            raise ValidationError(f"unknown K&C test {t!r}; known tests are {ALL_TESTS}")
 
 
 def run_tests(
@@ -114,13 +157,19 @@ def run_tests(
     steps: int = 30,
     effects: AxleEffects | None = None,
     keep_states: bool = False,
+    force_amplitude: float = FORCE_AMPLITUDE,
 ) -> dict[str, KCResult]:
-    """Run the rig ``tests`` on every design of ``axle``; returns {test: KCResult}."""
-    for t in tests:
-        if t not in _PAD_SIGN:
-            raise ValidationError(f"unknown K&C test {t!r}; known tests are {TESTS}")
+    """Run the rig ``tests`` on every design of ``axle``; returns {test: KCResult}.
+
+    ``amplitude`` [m] is the pad stroke of the travel tests, ``force_amplitude`` [N]
+    the contact-point force of the compliance tests.
+    """
+    _check_tests(tuple(tests))
+    if not force_amplitude > 0:
+        raise ValidationError(f"`force_amplitude > 0` must hold, but got {force_amplitude} N")
     n, nt = axle.n, len(tests)
     grid = stroke_grid(amplitude, steps)
+    force_grid = stroke_grid(force_amplitude, steps) if set(tests) & set(FORCE_TESTS) else None
     path = loop_path(steps)
     # static equilibrium once per design, then one row per (test, design)
     base = AxleSolver(axle, effects)
@@ -128,7 +177,13 @@ def run_tests(
     tile = np.tile(np.arange(n), nt)  # rows: test-major
     solver = base.take(tile)
     st, J = st0.take(tile), J0[tile]
-    signs = np.repeat(np.array([_PAD_SIGN[t] for t in tests]), n, axis=0)  # (nt*n, 2)
+    signs = np.repeat(np.array([_PAD_SIGN.get(t, (0.0, 0.0)) for t in tests]), n, axis=0)
+    # compliance tests: contact-point load per newton of the test's force (nt*n, 2, 6)
+    ext_dir = (
+        None
+        if force_grid is None
+        else np.repeat(np.stack([contact_forces(t, 1.0) for t in tests]), n, axis=0)
+    )
     rows = nt * n
     ok = np.ones(rows, bool)
     msgs = [""] * rows
@@ -142,6 +197,17 @@ def run_tests(
     history: list[AxleState] = []  # converged states of the current leg, newest last
     visited: dict[int, AxleState] = {}  # last converged state at each grid point
     prev_ds = 0.0
+    prev_gi = path[0]
+
+    def ext_at(gi: int) -> np.ndarray | None:
+        return None if ext_dir is None else ext_dir * force_grid[gi]
+
+    def where(gi: int) -> str:
+        parts = [f"stroke {grid[gi] * 1e3:+.2f} mm"] if set(tests) & set(TESTS) else []
+        if force_grid is not None:
+            parts.append(f"contact force {force_grid[gi]:+.0f} N")
+        return ", ".join(parts)
+
     for k, gi in enumerate(path):
         s = grid[gi]
         pad = pad0 + signs * s
@@ -151,15 +217,26 @@ def run_tests(
                 history = []
             history = [*history[-2:], st]
             st, J = _step(
-                solver, st, pad0 + signs * prev_s, pad, ok, msgs, J, k, s, history, visited.get(gi)
+                solver,
+                st,
+                (pad0 + signs * prev_s, ext_at(prev_gi)),
+                (pad, ext_at(gi)),
+                ok,
+                msgs,
+                J,
+                k,
+                where(gi),
+                history,
+                visited.get(gi),
             )
             prev_ds = ds
         visited[gi] = st
         if gi in (0, steps):  # loads and deflections peak at the ends of the stroke
-            _check_state(solver, st, ok, msgs, k, s)
+            _check_state(solver, st, ok, msgs, k, where(gi))
         trail.append(st)
         pads.append(pad)
         prev_s = s
+        prev_gi = gi
 
     # channels of all steps in one vectorised call: (P, rows, 2) -> (rows, P, 2)
     stacked = AxleState(
@@ -173,7 +250,7 @@ def run_tests(
         sl = slice(j * n, (j + 1) * n)
         results[t] = KCResult(
             t,
-            grid,
+            force_grid if t in FORCE_TESTS else grid,
             path,
             {name: v[sl] for name, v in out.items()},
             ok[sl].copy(),
@@ -199,13 +276,16 @@ def _fail(ok: np.ndarray, msgs: list[str], rows: np.ndarray, msg: str) -> None:
     ok &= ~rows
 
 
-def _step(solver, st, pad_prev, pad, ok, msgs, J, k, s, history, seen=None):
+def _step(solver, st, load_prev, load, ok, msgs, J, k, where, history, seen=None):
     """One rig step: predictor, Newton corrector, sub-stepping retry of failing rows.
 
-    Predictor: the state last converged at the same grid point (a revisit; exact for a
-    path-independent model), else extrapolation along the leg (quadratic from three
-    states, linear from two), else the tangent ``-J^-1 dres/dpad``.
+    ``load_prev`` / ``load`` are (pad heights (n, 2) [m], contact-point load
+    (n, 2, 6) or None) before and after the step; ``where`` describes the step for
+    messages. Predictor: the state last converged at the same grid point (a revisit;
+    exact for a path-independent model), else extrapolation along the leg (quadratic
+    from three states, linear from two), else the tangent ``-J^-1 dres/dload``.
     """
+    (pad_prev, ext_prev), (pad, ext) = load_prev, load
     if seen is not None:
         pred = st.copy()
         rows = ok[:, None, None, None]
@@ -217,8 +297,8 @@ def _step(solver, st, pad_prev, pad, ok, msgs, J, k, s, history, seen=None):
     elif len(history) == 2:
         pred = _extrapolate(st, history[-2], None, ok)
     else:
-        pred = _predict(solver, st, J, pad - pad_prev, ok)
-    new, conv, J = solver.solve(pred, pad, active=ok, Jinv=J)
+        pred = _predict(solver, st, J, pad - pad_prev, ok, ext_prev, ext)
+    new, conv, J = solver.solve(pred, pad, ext, active=ok, Jinv=J)
     bad = ok & ~conv
     if bad.any():  # retry the failing rows from the last converged state in 4 sub-steps
         idx = np.flatnonzero(bad)
@@ -228,7 +308,8 @@ def _step(solver, st, pad_prev, pad, ok, msgs, J, k, s, history, seen=None):
         Jt = None
         for f in (0.25, 0.5, 0.75, 1.0):
             p = pad_prev[idx] + f * (pad[idx] - pad_prev[idx])
-            trial, c, Jt = sub.solve(trial, p, active=sub_ok, Jinv=Jt)
+            e = None if ext is None else ext_prev[idx] + f * (ext[idx] - ext_prev[idx])
+            trial, c, Jt = sub.solve(trial, p, e, active=sub_ok, Jinv=Jt)
             sub_ok &= c
         rescued = np.zeros_like(bad)
         rescued[idx[sub_ok]] = True
@@ -237,7 +318,7 @@ def _step(solver, st, pad_prev, pad, ok, msgs, J, k, s, history, seen=None):
             ok,
             msgs,
             bad & ~rescued,
-            f"ConvergenceError: Newton did not converge at step {k} (stroke {s * 1e3:+.2f} mm); "
+            f"ConvergenceError: Newton did not converge at step {k} ({where}); "
             "the linkage locks up or the design has no equilibrium there",
         )
     new = solver.commit(new)
@@ -258,10 +339,25 @@ def _scatter(part: AxleState, idx: np.ndarray, like: AxleState) -> AxleState:
     return out
 
 
-def _predict(solver: AxleSolver, st: AxleState, Jinv: np.ndarray, dpad: np.ndarray, ok):
-    """Tangent predictor ``dx = -J^-1 (dres/dpad) dpad`` (only the tyre depends on the pad)."""
+def _predict(
+    solver: AxleSolver,
+    st: AxleState,
+    Jinv: np.ndarray,
+    dpad: np.ndarray,
+    ok,
+    ext_prev: np.ndarray | None = None,
+    ext: np.ndarray | None = None,
+):
+    """Tangent predictor ``dx = -J^-1 dres`` (only the tyre depends on the pad; the
+    residual is linear in the contact-point load, so its change is exact)."""
     n = solver.n
     dres = (solver.pad_sensitivity(st) * dpad[..., None]).reshape(n, -1, 1)
+    if ext is not None:
+        pad = solver.pad_static
+        change = solver.residual(st.r, st.R, st.lam, pad, st, ext) - solver.residual(
+            st.r, st.R, st.lam, pad, st, ext_prev
+        )
+        dres = dres + change.reshape(n, -1, 1)
     dx = -np.matmul(Jinv, dres)[..., 0]
     dx = np.where(np.isfinite(dx), dx, 0.0)
     return solver._apply(st, dx, ok)
@@ -287,7 +383,7 @@ def _extrapolate(
     return out
 
 
-def _check_state(solver, st, ok, msgs, k, s) -> None:
+def _check_state(solver, st, ok, msgs, k, where) -> None:
     """Physical plausibility of a converged step: bushing deflections within reason.
 
     A bushing deflecting more than 50 mm or 0.5 rad means the design cannot carry its
@@ -302,6 +398,6 @@ def _check_state(solver, st, ok, msgs, k, s) -> None:
             msgs[i] = (
                 f"LockupError: the {name} bushing deflects {tr[i] * 1e3:.1f} mm / "
                 f"{rot[i]:.2f} rad (limits {MAX_TRANSLATION * 1e3:g} mm, {MAX_ROTATION:g} rad) "
-                f"at step {k} (stroke {s * 1e3:+.2f} mm): the design cannot carry its loads"
+                f"at step {k} ({where}): the design cannot carry its loads"
             )
         ok &= ~bad

@@ -32,7 +32,7 @@ import numpy as np
 from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.knc.fit import fit, stacked_residual
 from suspenv.diagnosis.knc.model import KncAxleModel, make_candidate
-from suspenv.diagnosis.knc.recording import CHANNELS, SIDES, measure_truth
+from suspenv.diagnosis.knc.recording import BLIND_TESTS, CHANNELS, SIDES, measure_truth
 
 #: an effect is called detectable when the unabsorbed signal reaches this many sigma
 DETECTABLE_SNR = 5.0
@@ -64,7 +64,7 @@ def truth_snr(
     noise_scale: float,
     steps: int = 8,
     amplitude: float = 0.040,
-    tests: Sequence[str] = ("parallel", "opposite"),
+    tests: Sequence[str] = tuple(t for t in BLIND_TESTS if t != "single"),
 ) -> dict[str, Any]:
     """Signal-to-noise of the concealed ``effects`` of a truth vehicle in ``tests``.
 

@@ -60,7 +60,7 @@ from suspenv.models.effects import make_effect
 from suspenv.models.mcpherson import AxleEffects, build_axle, design_space
 from suspenv.models.mcpherson.params import PARAMETER_NAMES
 from suspenv.recordings import Recording
-from suspenv.rigs.knc import TESTS, run_tests
+from suspenv.rigs.knc import FORCE_TESTS, TESTS, run_tests
 
 FIT_PARAMETERS = (
     "static_toe",
@@ -233,7 +233,8 @@ class KncAxleModel:
         fit_parameters: names of the fitted base parameters (default :data:`FIT_PARAMETERS`).
         frozen: values of the fitted base parameters to hold fixed; the model's
             ``theta`` then holds only the effects' parameters (used for a quick refit).
-        tests: rig tests simulated together per call (cached by ``theta``).
+        tests: rig tests simulated together per call (cached by ``theta``); the travel
+            and the compliance tests among them form two batches.
     """
 
     family: ClassVar[str] = "knc_axle"
@@ -422,12 +423,13 @@ class KncAxleModel:
             ]
             todo = [i for i, k in zip(rows, keys, strict=True) if k not in self._rows]
             if todo:
-                res = run_tests(
+                res = run_tests(  # the tests of one call share their kind (travel or force)
                     build_axle(left[todo], right[todo]),
                     tests,
                     amplitude=amplitude,
                     steps=steps,
                     effects=eff,
+                    force_amplitude=amplitude,
                 )
                 self.stats["simulations"] += 1
                 self.stats["rows"] += len(todo)
@@ -462,7 +464,10 @@ class KncAxleModel:
         """Predicted outputs of recording ``rec``: ``(P,)`` per channel, or ``(B, P)``."""
         test = rig_test(rec)
         amp, steps = float(rec.meta["amplitude"]), int(rec.meta["steps"])
-        tests = self.tests if test in self.tests else (test,)
+        # travel tests (amplitude in m) and compliance tests (in N) run as two batches
+        kind = test in FORCE_TESTS
+        same_kind = tuple(t for t in self.tests if (t in FORCE_TESTS) == kind)
+        tests = same_kind if test in same_kind else (test,)
         res = self._run(theta, amp, steps, tests)
         chans = res["channels"][test]
         if np.ndim(theta) == 1:

@@ -1,6 +1,7 @@
 """K&C rig loops as :class:`~suspenv.recordings.Recording` objects, and back.
 
-One recording per rig test (``parallel``, ``opposite``, ``single``) of one vehicle.
+One recording per rig test (travel: ``parallel``, ``opposite``, ``single``; compliance:
+``lateral``, ``longitudinal``, see :mod:`suspenv.rigs.knc`) of one vehicle.
 Every solved step of the loop design -> bump -> rebound -> design is one sample;
 the rig is quasi-static, so ``time`` is the step index in seconds (1 s per step, a
 bookkeeping axis only, stated in ``meta["time_axis"]``).
@@ -8,16 +9,19 @@ bookkeeping axis only, stated in ``meta["time_axis"]``).
 Frame ISO 8855 (x forward, y left, z up), SI units:
 
 * inputs: ``pad_left`` / ``pad_right`` [m] pad travel from the static height (bump
-  positive), ``stroke`` [m] the left pad's stroke of the test, ``branch`` [-]
-  (0 first leg design -> bump, 1 bump -> rebound, 2 rebound -> design) and ``grid``
-  [-] (grid index of the step);
+  positive; zero in a compliance test), ``stroke`` [m] the left pad's stroke of a
+  travel test or ``force`` [N] the contact-point force of a compliance test (along
+  +y in ``lateral``, +x in ``longitudinal``, on both wheels), ``branch`` [-]
+  (0 first leg design -> bump, 1 bump -> rebound, 2 rebound -> design; "bump" is the
+  +amplitude end also in a compliance test) and ``grid`` [-] (grid index of the step);
 * outputs, per side (suffix ``_left`` / ``_right``): ``toe`` [rad] (+ toe-in),
   ``camber`` [rad] (- top inboard), ``tyre_fz`` [N] (+ compression),
   ``contact_lateral`` [m] (contact-point y, *outboard* positive on each side, so a
   symmetric axle gives equal left and right values in parallel travel) and
   ``contact_x`` [m] (contact-point x, forward positive).
 
-``recording.meta`` holds ``rig = "knc"``, the test, amplitude [m] and steps, which a
+``recording.meta`` holds ``rig = "knc"``, the test, amplitude ([m] for a travel test,
+[N] for a compliance test, named in ``meta["amplitude_unit"]``) and steps, which a
 model needs to replay the same loop. ``recording.test`` is ``"knc_<test>"``.
 """
 
@@ -29,7 +33,16 @@ import numpy as np
 
 from suspenv.core.errors import ValidationError
 from suspenv.recordings import Recording
-from suspenv.rigs.knc import TESTS, KCResult, loop_path, pad_offsets, stroke_grid
+from suspenv.rigs.knc import (
+    ALL_TESTS,
+    FORCE_AMPLITUDE,
+    FORCE_TESTS,
+    TESTS,
+    KCResult,
+    loop_path,
+    pad_offsets,
+    stroke_grid,
+)
 
 SIDES = ("left", "right")
 #: recorded channels: name -> (rig channel, unit, outboard sign flip on the right)
@@ -41,6 +54,8 @@ CHANNELS: dict[str, tuple[str, str, bool]] = {
     "contact_x": ("contact_x", "m", False),
 }
 INPUTS = ("pad_left", "pad_right", "stroke", "branch", "grid")
+#: inputs of a compliance test (``force`` in place of ``stroke``)
+FORCE_INPUTS = ("pad_left", "pad_right", "force", "branch", "grid")
 TEST_PREFIX = "knc_"
 
 
@@ -67,11 +82,39 @@ def is_knc(rec: object) -> bool:
 def rig_test(rec: Recording) -> str:
     """The rig test (``parallel`` ...) of a K&C recording."""
     test = str(rec.meta.get("knc_test", rec.test.removeprefix(TEST_PREFIX)))
-    if test not in TESTS:
+    if test not in ALL_TESTS:
         raise ValidationError(
-            f"recording {rec.name!r}: the K&C test must be one of {TESTS}, but got {test!r}"
+            f"recording {rec.name!r}: the K&C test must be one of {ALL_TESTS}, but got {test!r}"
         )
     return test
+
+
+def is_force_test(rec: Recording) -> bool:
+    """True for a compliance (contact-point force) recording."""
+    return rig_test(rec) in FORCE_TESTS
+
+
+def drive(rec: Recording, side: str) -> np.ndarray:
+    """Each wheel's own excitation along the loop, over the test's amplitude [-].
+
+    Travel test: the pad's travel (bump positive). Compliance test: the contact-point
+    force in the wheel's own sense (outboard positive in ``lateral``, so the two
+    wheels of a +y force see opposite signs; forward positive in ``longitudinal``).
+    A symmetric axle gives equal left and right channels at equal drive.
+    """
+    amp = float(rec.meta["amplitude"])
+    if not is_force_test(rec):
+        return np.asarray(rec.inputs[f"pad_{side}"], float) / amp
+    f = np.asarray(rec.inputs["force"], float) / amp
+    return -f if (rig_test(rec) == "lateral" and side == "right") else f
+
+
+def drive_label(rec: Recording) -> tuple[str, float]:
+    """(axis label, factor from SI to the plotted unit) of a recording's drive."""
+    if is_force_test(rec):
+        what = "outboard" if rig_test(rec) == "lateral" else "forward"
+        return f"own {what} contact force [kN]", 1e-3
+    return "own pad travel [mm]", 1e3
 
 
 def channels_of(result: KCResult, row: int = 0) -> dict[str, np.ndarray]:
@@ -99,15 +142,17 @@ def to_recording(
     steps = result.grid.size - 1
     amp = float(amplitude if amplitude is not None else result.grid[-1])
     s = result.grid[result.path]
-    pads = pad_offsets(result.test, s)
+    force = result.test in FORCE_TESTS
+    pads = pad_offsets(result.test, 0.0 * s if force else s)
+    drive_key = "force" if force else "stroke"
     inputs = {
         "pad_left": pads[:, 0],
         "pad_right": pads[:, 1],
-        "stroke": s,
+        drive_key: s,
         "branch": branch_index(steps),
         "grid": result.path.astype(float),
     }
-    units = {"pad_left": "m", "pad_right": "m", "stroke": "m", "branch": "-", "grid": "-"}
+    units = {"pad_left": "m", "pad_right": "m", drive_key: result.unit, "branch": "-", "grid": "-"}
     for c, (_, unit, _) in CHANNELS.items():
         for side in SIDES:
             units[f"{c}_{side}"] = unit
@@ -115,6 +160,7 @@ def to_recording(
         "rig": "knc",
         "knc_test": result.test,
         "amplitude": amp,
+        "amplitude_unit": result.unit,
         "steps": int(steps),
         "time_axis": "step index (quasi-static rig; 1 s per step)",
         "frame": "ISO 8855; lateral channels outboard positive on each side",
@@ -242,12 +288,15 @@ def measure_truth(
     noise_scale: float = 1.0,
     tests: Sequence[str] = TESTS,
     design: np.ndarray | None = None,
+    force_amplitude: float = FORCE_AMPLITUDE,
 ) -> dict[str, Recording]:
     """ "Measured" K&C recordings of a truth vehicle with concealed ``effects`` (seeded).
 
     ``effects`` maps names of :data:`TRUTH_EFFECTS` to (partial) magnitudes, e.g.
     ``{"hysteresis": {"f_c": 100.0}}``; ``{}`` is the plain reference vehicle.
     ``noise_scale`` multiplies the rig's sensor noise (``0`` gives exact loops).
+    ``amplitude`` [m] is the travel tests' stroke, ``force_amplitude`` [N] the
+    compliance tests' force.
     """
     from suspenv.models.mcpherson.truth import CHANNEL_NOISE, truth_vehicle
     from suspenv.rigs.knc import run_tests
@@ -267,7 +316,12 @@ def measure_truth(
         effects=truth_axle_effects(effects),
     )
     results = run_tests(
-        truth.axle(), tuple(tests), amplitude=amplitude, steps=steps, effects=truth.effects
+        truth.axle(),
+        tuple(tests),
+        amplitude=amplitude,
+        steps=steps,
+        effects=truth.effects,
+        force_amplitude=force_amplitude,
     )
     gain = (
         float({**TRUTH_EFFECTS["sensor_gain"], **effects["sensor_gain"]}["gain"])
@@ -394,10 +448,18 @@ def blind_truth(seed: int) -> dict:
     }
 
 
-def blind_case(seed: int, steps: int = 8, amplitude: float = 0.040) -> tuple[dict, dict]:
+#: rig tests of a blind case: the three travel tests and the two compliance tests
+BLIND_TESTS = ALL_TESTS
+
+
+def blind_case(
+    seed: int, steps: int = 8, amplitude: float = 0.040, tests: Sequence[str] = BLIND_TESTS
+) -> tuple[dict, dict]:
     """``(case, truth)``: the case holds only the recordings; the truth is kept apart."""
     truth = blind_truth(seed)
-    recs = measure_truth(truth["effects"], seed, amplitude, steps, noise_scale=truth["noise_scale"])
+    recs = measure_truth(
+        truth["effects"], seed, amplitude, steps, noise_scale=truth["noise_scale"], tests=tests
+    )
     case = {
         "id": f"knc-blind-{seed}",
         "recordings": {t: r for t, r in recs.items()},

@@ -16,7 +16,14 @@ from typing import Any
 import numpy as np
 
 from suspenv.diagnosis.knc.locate import BRANCHES
-from suspenv.diagnosis.knc.recording import CHANNELS, SIDES, half_loops, rig_test
+from suspenv.diagnosis.knc.recording import (
+    CHANNELS,
+    SIDES,
+    drive,
+    drive_label,
+    half_loops,
+    rig_test,
+)
 
 #: plot scale and unit per channel
 PLOT_UNITS = {
@@ -84,20 +91,21 @@ def plot_loops(diag: Any, recs: list[Any], path: Path) -> Path:
     for j, rec in enumerate(recs):
         base = _curves(diag.base_fit, rec)
         final = _curves(diag.final_fit, rec)
+        xlabel, factor = drive_label(rec)
         for i, c in enumerate(chans):
             k, unit = PLOT_UNITS[c]
             ax = axes[i, j]
             for s, ls in zip(SIDES, ("-", "--"), strict=True):
-                x = rec.inputs[f"pad_{s}"] * 1e3
+                x = drive(rec, s) * float(rec.meta["amplitude"]) * factor
                 key = f"{c}_{s}"
                 ax.plot(x, rec.outputs[key] * k, "k.", ms=3)
                 ax.plot(x, base[key] * k, ls, color="tab:orange", lw=1)
                 ax.plot(x, final[key] * k, ls, color="tab:blue", lw=1)
             ax.set_ylabel(f"{c} [{unit}]", fontsize=8)
             if i == 0:
-                ax.set_title(f"{rig_test(rec)} travel", fontsize=9)
+                ax.set_title(rig_test(rec), fontsize=9)
             if i == len(chans) - 1:
-                ax.set_xlabel("own pad travel [mm]", fontsize=8)
+                ax.set_xlabel(xlabel, fontsize=8)
     axes[0, 0].plot([], [], "k.", label="measured")
     axes[0, 0].plot([], [], color="tab:orange", label="baseline")
     axes[0, 0].plot([], [], color="tab:blue", label="final model")
@@ -108,6 +116,10 @@ def plot_loops(diag: Any, recs: list[Any], path: Path) -> Path:
     return path
 
 
+#: tests whose right wheel sees the mirrored drive of the left
+MIRRORED_TESTS = ("opposite", "lateral")
+
+
 def _midline(rec: Any, values: np.ndarray) -> np.ndarray:
     down, up = half_loops(rec, values)
     return 0.5 * (down + up)
@@ -116,25 +128,27 @@ def _midline(rec: Any, values: np.ndarray) -> np.ndarray:
 def left_minus_right(rec: Any, data: dict[str, np.ndarray], channel: str) -> np.ndarray:
     """Left minus right loop mid-line at equal *own* pad travel (grid order).
 
-    Parallel travel: same grid point; opposite travel: the right wheel's own travel is
-    the mirrored stroke, so its grid is reversed. Zero for a symmetric axle.
+    Parallel travel and longitudinal force: same grid point; opposite travel and
+    lateral force: the right wheel's own drive is the mirrored one, so its grid is
+    reversed. Zero for a symmetric axle.
     """
     left = _midline(rec, np.asarray(data[f"{channel}_left"], float))
     right = _midline(rec, np.asarray(data[f"{channel}_right"], float))
-    return left - (right[::-1] if rig_test(rec) == "opposite" else right)
+    return left - (right[::-1] if rig_test(rec) in MIRRORED_TESTS else right)
 
 
 def plot_left_right(diag: Any, recs: list[Any], path: Path) -> Path:
     """Left minus right (loop mid-lines at equal own travel) of the two-sided tests."""
     plt = _plt()
-    recs = [r for r in recs if rig_test(r) in ("parallel", "opposite")]
+    recs = [r for r in recs if rig_test(r) != "single"]
     fig, axes = plt.subplots(
         max(len(recs), 1), 3, figsize=(11, 2.6 * max(len(recs), 1)), squeeze=False
     )
     for i, rec in enumerate(recs):
         base = _curves(diag.base_fit, rec)
         final = _curves(diag.final_fit, rec)
-        grid = np.linspace(-1.0, 1.0, int(rec.meta["steps"]) + 1) * rec.meta["amplitude"] * 1e3
+        xlabel, factor = drive_label(rec)
+        grid = np.linspace(-1.0, 1.0, int(rec.meta["steps"]) + 1) * rec.meta["amplitude"] * factor
         for j, c in enumerate(("toe", "camber", "tyre_fz")):
             k, unit = PLOT_UNITS[c]
             ax = axes[i, j]
@@ -144,7 +158,7 @@ def plot_left_right(diag: Any, recs: list[Any], path: Path) -> Path:
                 grid, left_minus_right(rec, final, c) * k, color="tab:blue", label="final model"
             )
             ax.set_title(f"{rig_test(rec)}: {c} left - right [{unit}]", fontsize=9)
-            ax.set_xlabel("own pad travel [mm]", fontsize=8)
+            ax.set_xlabel(xlabel, fontsize=8)
     axes[0, 0].legend(fontsize=7)
     fig.subplots_adjust(left=0.07, right=0.98, bottom=0.1, top=0.92, wspace=0.3, hspace=0.5)
     fig.savefig(path, dpi=80)

@@ -9,8 +9,9 @@ projection's chi-square ``q`` with ``k`` basis columns is turned into
 pattern is there). The score is taken per recorded channel (sides and tests pooled)
 and the family's score is the largest over the channels, so an effect that shows in
 one channel only (a wheel-load loop) is not diluted by the quiet ones. Patterns, in
-each side's own pad travel ``p`` (normalised by the amplitude) and along the loop's
-branch (``b = +1`` rising, ``-1`` falling):
+each side's own drive ``p`` (pad travel, or contact-point force in the wheel's own
+sense, over the amplitude: :func:`~suspenv.diagnosis.knc.recording.drive`) and along
+the loop's branch (``b = +1`` rising, ``-1`` falling):
 
 * ``loop`` (hysteresis, friction): ``b`` and ``b p`` per channel and side: the two
   half-loops differ (a loop opens between bump and rebound);
@@ -31,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from suspenv.diagnosis.knc.recording import CHANNELS, SIDES
+from suspenv.diagnosis.knc.recording import CHANNELS, SIDES, drive
 
 #: signature family -> effect kinds it points to
 FAMILY_KINDS = {
@@ -87,19 +88,19 @@ def score_signatures(
     }
     loop_width = []
     for rec, res, pred in zip(recs, residual, prediction, strict=True):
-        amp = float(rec.meta["amplitude"])
         b = np.where(rec.inputs["branch"] == 1, -1.0, 1.0)
         chans = [c for c in CHANNELS if all(f"{c}_{s}" in res for s in SIDES)]
         for c in chans:
             r = {s: np.asarray(res[f"{c}_{s}"], float) / scales[f"{c}_{s}"] for s in SIDES}
-            p = {s: rec.inputs[f"pad_{s}"] / amp for s in SIDES}
+            p = {s: drive(rec, s) for s in SIDES}
             for s in SIDES:
                 blocks["loop"].append((c, r[s], [b, b * p[s]]))
                 blocks["progressive"].append((c, r[s], [p[s] ** 3]))
             # left/right: one stacked series, +pattern on the left, -pattern on the right
             rr = np.concatenate([r["left"], r["right"]])
-            # pattern in each side's own travel (opposite travel mirrors the right side)
-            pr = p["right"] if rec.inputs["pad_right"].any() else p["left"]
+            # pattern in each side's own drive (opposite travel and the lateral force
+            # mirror the right side); single-wheel travel: the left pad's travel
+            pr = p["right"] if p["right"].any() else p["left"]
             cols = [
                 np.concatenate([np.ones_like(p["left"]), -np.ones_like(pr)]),
                 np.concatenate([p["left"], -pr]),

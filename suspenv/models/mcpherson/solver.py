@@ -480,6 +480,23 @@ class AxleSolver:
         )
 
     # ---------------------------------------------------------------- Jacobian
+    def body_loads(
+        self, st: AxleState, pad: np.ndarray, ext: np.ndarray | None = None, history=None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Net force [N] and moment about the global origin [N*m] on every body,
+        (n, 2, 4, 3) each, summed from the element loads :meth:`residual` records at
+        state ``st`` (``history``: the state whose path-dependent element history to
+        use, default ``st``). Zero at an equilibrium: for balance checks."""
+        loads: list = []
+        self.residual(st.r, st.R, st.lam, pad, st if history is None else history, ext, loads)
+        F = np.zeros(st.r.shape[:-2] + (4, 3))
+        M = np.zeros_like(F)
+        for body, p, f, m in loads:
+            p, f, m = np.broadcast_arrays(p, f, m)
+            F[..., body, :] += f
+            M[..., body, :] += cross(p, f) + m
+        return F, M
+
     def jacobian(
         self, st: AxleState, pad: np.ndarray, ext: np.ndarray | None = None, h: float = 1e-7
     ) -> np.ndarray:
