@@ -114,6 +114,8 @@ def drive_label(rec: Recording) -> tuple[str, float]:
     if is_force_test(rec):
         what = "outboard" if rig_test(rec) == "lateral" else "forward"
         return f"own {what} contact force [kN]", 1e-3
+    if rig_test(rec) == "single":
+        return "left pad travel [mm] (the right pad stays)", 1e3
     return "own pad travel [mm]", 1e3
 
 

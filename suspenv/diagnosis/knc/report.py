@@ -96,7 +96,11 @@ def plot_loops(diag: Any, recs: list[Any], path: Path) -> Path:
             k, unit = PLOT_UNITS[c]
             ax = axes[i, j]
             for s, ls in zip(SIDES, ("-", "--"), strict=True):
-                x = drive(rec, s) * float(rec.meta["amplitude"]) * factor
+                # single-wheel travel: the right pad stays put, so both wheels are
+                # plotted against the left pad's travel
+                own = drive(rec, s)
+                own = own if own.any() else drive(rec, "left")
+                x = own * float(rec.meta["amplitude"]) * factor
                 key = f"{c}_{s}"
                 ax.plot(x, rec.outputs[key] * k, "k.", ms=3)
                 ax.plot(x, base[key] * k, ls, color="tab:orange", lw=1)
