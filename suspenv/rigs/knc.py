@@ -193,50 +193,39 @@ def run_tests(
 
     trail: list[AxleState] = []  # converged state of every step (states are not mutated)
     pads: list[np.ndarray] = []
-    prev_s = 0.0
     history: list[AxleState] = []  # converged states of the current leg, newest last
     visited: dict[int, AxleState] = {}  # last converged state at each grid point
     prev_ds = 0.0
-    prev_gi = path[0]
+    has_travel = bool(set(tests) & set(TESTS))
 
-    def ext_at(gi: int) -> np.ndarray | None:
-        return None if ext_dir is None else ext_dir * force_grid[gi]
+    def load_at(gi: int) -> tuple[np.ndarray, np.ndarray | None]:
+        """(pad heights (rows, 2) [m], contact-point load (rows, 2, 6) or None) at grid ``gi``."""
+        return pad0 + signs * grid[gi], None if ext_dir is None else ext_dir * force_grid[gi]
 
     def where(gi: int) -> str:
-        parts = [f"stroke {grid[gi] * 1e3:+.2f} mm"] if set(tests) & set(TESTS) else []
+        parts = [f"stroke {grid[gi] * 1e3:+.2f} mm"] if has_travel else []
         if force_grid is not None:
             parts.append(f"contact force {force_grid[gi]:+.0f} N")
         return ", ".join(parts)
 
+    prev_gi, prev_load = path[0], load_at(path[0])
     for k, gi in enumerate(path):
-        s = grid[gi]
-        pad = pad0 + signs * s
+        load = load_at(gi)
         if k > 0:
-            ds = s - prev_s
+            ds = grid[gi] - grid[prev_gi]
             if prev_ds * ds <= 0:  # a reversal starts a new leg
                 history = []
             history = [*history[-2:], st]
             st, J = _step(
-                solver,
-                st,
-                (pad0 + signs * prev_s, ext_at(prev_gi)),
-                (pad, ext_at(gi)),
-                ok,
-                msgs,
-                J,
-                k,
-                where(gi),
-                history,
-                visited.get(gi),
+                solver, st, prev_load, load, ok, msgs, J, k, where(gi), history, visited.get(gi)
             )
             prev_ds = ds
         visited[gi] = st
         if gi in (0, steps):  # loads and deflections peak at the ends of the stroke
             _check_state(solver, st, ok, msgs, k, where(gi))
         trail.append(st)
-        pads.append(pad)
-        prev_s = s
-        prev_gi = gi
+        pads.append(load[0])
+        prev_gi, prev_load = gi, load
 
     # channels of all steps in one vectorised call: (P, rows, 2) -> (rows, P, 2)
     stacked = AxleState(

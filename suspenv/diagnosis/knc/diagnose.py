@@ -258,13 +258,12 @@ def polish(
     a restart gains less than half a unit of log-likelihood (at most ``restarts`` fits).
     """
     scales = dict(start.scales if scales is None else scales)
-    best = None
-    theta = start.theta
-    for _ in range(restarts):
-        again = fit(start.model, recs, scales=scales, theta0=theta, max_nfev=max_nfev, tol=tol)
-        gain = again.log_likelihood() - (best.log_likelihood() if best else -np.inf)
-        if best is None or gain > 0:
-            best, theta = again, again.theta
+    best = fit(start.model, recs, scales=scales, theta0=start.theta, max_nfev=max_nfev, tol=tol)
+    for _ in range(restarts - 1):
+        again = fit(start.model, recs, scales=scales, theta0=best.theta, max_nfev=max_nfev, tol=tol)
+        gain = again.log_likelihood() - best.log_likelihood()
+        if gain > 0:
+            best = again
         if gain < 0.5:
             break
     return best
@@ -293,8 +292,7 @@ def settle(
         change = max(abs(np.log(new[c] / best.scales[c])) for c in new)
         if change < np.log(1.25):
             break
-        again = polish(best, recs, max_nfev, tol, scales=new)
-        best = again
+        best = polish(best, recs, max_nfev, tol, scales=new)
     return best
 
 

@@ -109,6 +109,20 @@ def drive(rec: Recording, side: str) -> np.ndarray:
     return -f if (rig_test(rec) == "lateral" and side == "right") else f
 
 
+def reading_drive(rec: Recording, side: str) -> np.ndarray:
+    """The drive a wheel's channels are read against [-]: its own :func:`drive`, or,
+    for the wheel that has none (the still wheel of single-wheel travel), the left
+    wheel's."""
+    own = drive(rec, side)
+    return own if own.any() else drive(rec, "left")
+
+
+def mirrored(rec: Recording) -> bool:
+    """True when the right wheel's own drive is the left wheel's reversed (opposite
+    travel, lateral force): equal own drive then sits at mirrored grid points."""
+    return bool(np.allclose(drive(rec, "right"), -drive(rec, "left")) and drive(rec, "left").any())
+
+
 def drive_label(rec: Recording) -> tuple[str, float]:
     """(axis label, factor from SI to the plotted unit) of a recording's drive."""
     if is_force_test(rec):

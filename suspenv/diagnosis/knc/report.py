@@ -19,9 +19,10 @@ from suspenv.diagnosis.knc.locate import BRANCHES
 from suspenv.diagnosis.knc.recording import (
     CHANNELS,
     SIDES,
-    drive,
     drive_label,
     half_loops,
+    mirrored,
+    reading_drive,
     rig_test,
 )
 
@@ -96,11 +97,7 @@ def plot_loops(diag: Any, recs: list[Any], path: Path) -> Path:
             k, unit = PLOT_UNITS[c]
             ax = axes[i, j]
             for s, ls in zip(SIDES, ("-", "--"), strict=True):
-                # single-wheel travel: the right pad stays put, so both wheels are
-                # plotted against the left pad's travel
-                own = drive(rec, s)
-                own = own if own.any() else drive(rec, "left")
-                x = own * float(rec.meta["amplitude"]) * factor
+                x = reading_drive(rec, s) * float(rec.meta["amplitude"]) * factor
                 key = f"{c}_{s}"
                 ax.plot(x, rec.outputs[key] * k, "k.", ms=3)
                 ax.plot(x, base[key] * k, ls, color="tab:orange", lw=1)
@@ -120,10 +117,6 @@ def plot_loops(diag: Any, recs: list[Any], path: Path) -> Path:
     return path
 
 
-#: tests whose right wheel sees the mirrored drive of the left
-MIRRORED_TESTS = ("opposite", "lateral")
-
-
 def _midline(rec: Any, values: np.ndarray) -> np.ndarray:
     down, up = half_loops(rec, values)
     return 0.5 * (down + up)
@@ -138,7 +131,7 @@ def left_minus_right(rec: Any, data: dict[str, np.ndarray], channel: str) -> np.
     """
     left = _midline(rec, np.asarray(data[f"{channel}_left"], float))
     right = _midline(rec, np.asarray(data[f"{channel}_right"], float))
-    return left - (right[::-1] if rig_test(rec) in MIRRORED_TESTS else right)
+    return left - (right[::-1] if mirrored(rec) else right)
 
 
 def plot_left_right(diag: Any, recs: list[Any], path: Path) -> Path:

@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from suspenv.diagnosis.knc.recording import CHANNELS, SIDES, drive
+from suspenv.diagnosis.knc.recording import CHANNELS, SIDES, drive, reading_drive
 
 #: signature family -> effect kinds it points to
 FAMILY_KINDS = {
@@ -100,7 +100,7 @@ def score_signatures(
             rr = np.concatenate([r["left"], r["right"]])
             # pattern in each side's own drive (opposite travel and the lateral force
             # mirror the right side); single-wheel travel: the left pad's travel
-            pr = p["right"] if p["right"].any() else p["left"]
+            pr = reading_drive(rec, "right")
             cols = [
                 np.concatenate([np.ones_like(p["left"]), -np.ones_like(pr)]),
                 np.concatenate([p["left"], -pr]),
