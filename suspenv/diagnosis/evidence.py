@@ -46,13 +46,41 @@ def heldout_rms(
     fit: FitResult, recordings: Any, masks: Sequence[np.ndarray | None] | None = None
 ) -> dict[str, float]:
     """Per-channel RMS error of a fitted model on (held-out) samples (channel unit)."""
-    recs = as_list(recordings)
-    parts = residuals(fit.model, fit.theta, recs, fit.channels, masks)
-    out = {}
-    for c in fit.channels:
-        r = np.concatenate([p[c] for p in parts])
-        out[c] = float(np.sqrt(np.mean(r**2))) if r.size else float("nan")
-    return out
+    return _channel_rms(heldout_residuals(fit, recordings, masks))
+
+
+def heldout_residuals(
+    fit: FitResult, recordings: Any, masks: Sequence[np.ndarray | None] | None = None
+) -> dict[str, np.ndarray]:
+    """Per-channel residual of a fitted model on (held-out) samples, recordings stacked."""
+    parts = residuals(fit.model, fit.theta, as_list(recordings), fit.channels, masks)
+    return {c: np.concatenate([p[c] for p in parts]) for c in fit.channels}
+
+
+def _channel_rms(res: dict[str, np.ndarray]) -> dict[str, float]:
+    return {c: float(np.sqrt(np.mean(r**2))) if r.size else float("nan") for c, r in res.items()}
+
+
+def heldout_noise_units(
+    before: dict[str, np.ndarray], after: dict[str, np.ndarray], scales: dict[str, float]
+) -> tuple[float, float]:
+    """The held-out gain ``G`` and signal ``L`` of a model change, in noise units.
+
+    With residuals ``r_b`` (before) and ``r_a`` (after) and each channel's noise scale
+    ``s``: ``G = sum (r_b^2 - r_a^2) / s^2`` (the drop of the held-out chi-square) and
+    ``L = sum (r_b - r_a)^2 / s^2`` (how far the change moved the held-out prediction).
+    If the change captures a real effect, ``G ~ N(L, 4 L)``; if it only fitted noise,
+    ``G ~ N(-L, 4 L)`` (white noise of scale ``s``). A change that hardly moves the
+    held-out prediction (small ``L``) is then neither confirmed nor refuted by it,
+    whatever its relative RMS change.
+    """
+    gain = signal = 0.0
+    for c, rb in before.items():
+        s2 = float(scales[c]) ** 2
+        ra = after[c]
+        gain += float(np.sum(rb**2 - ra**2)) / s2
+        signal += float(np.sum((rb - ra) ** 2)) / s2
+    return gain, signal
 
 
 def scaled_rms(rms: dict[str, float], scales: dict[str, float]) -> float:
@@ -129,6 +157,20 @@ class Comparison:
     ljung_box_before: tuple[float, float]
     ljung_box_after: tuple[float, float]
     params_after: dict[str, dict[str, float]] = field(default_factory=dict)
+    #: held-out chi-square drop and prediction change in noise units
+    #: (:func:`heldout_noise_units`)
+    heldout_gain: float = float("nan")
+    heldout_signal: float = float("nan")
+
+    @property
+    def heldout_z(self) -> float:
+        """How many standard deviations the held-out gain lies below what a real effect
+        of this size would give (``(G - L) / (2 sqrt L)``; negative: short of it)."""
+        if not self.heldout_signal > 0.0:
+            return 0.0
+        return float(
+            (self.heldout_gain - self.heldout_signal) / (2.0 * np.sqrt(self.heldout_signal))
+        )
 
     @property
     def delta_bic(self) -> float:
@@ -154,6 +196,9 @@ class Comparison:
             "ljung_box_before": {"Q": self.ljung_box_before[0], "p": self.ljung_box_before[1]},
             "ljung_box_after": {"Q": self.ljung_box_after[0], "p": self.ljung_box_after[1]},
             "params_after": self.params_after,
+            "heldout_gain": self.heldout_gain,
+            "heldout_signal": self.heldout_signal,
+            "heldout_z": self.heldout_z,
         }
 
 
@@ -168,8 +213,10 @@ def compare(
     """Everything that shows whether ``ext`` is better than ``base``."""
     r_base = fit_residual_series(base, fit_recordings, fit_masks)
     r_ext = fit_residual_series(ext, fit_recordings, fit_masks)
-    h_before = heldout_rms(base, heldout_recordings, heldout_masks)
-    h_after = heldout_rms(ext, heldout_recordings, heldout_masks)
+    res_before = heldout_residuals(base, heldout_recordings, heldout_masks)
+    res_after = heldout_residuals(ext, heldout_recordings, heldout_masks)
+    h_before, h_after = _channel_rms(res_before), _channel_rms(res_after)
+    gain, signal = heldout_noise_units(res_before, res_after, base.scales)
     before = scaled_rms(h_before, base.scales)
     after = scaled_rms(h_after, base.scales)
     return Comparison(
@@ -186,4 +233,6 @@ def compare(
         ljung_box_before=ljung_box(r_base),
         ljung_box_after=ljung_box(r_ext),
         params_after=ext.params(),
+        heldout_gain=gain,
+        heldout_signal=signal,
     )

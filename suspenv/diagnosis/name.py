@@ -9,9 +9,13 @@ the BIC change and the held-out error change.
 Decision rule (one criterion, stated once):
     K is *significant* when its corrected likelihood-ratio p-value is below
     ``alpha / (number of hypotheses tested)`` (Bonferroni), its corrected BIC falls,
-    and it lowers the held-out RMS error by at least ``min_heldout_gain``; or, where
-    the caller sets ``strong_heldout_gain``, when the uncorrected test passes and the
-    held-out error falls by at least that much (see :func:`decide`).
+    and the held-out data agree: by default the held-out RMS error falls by at least
+    ``min_heldout_gain``; with ``heldout_rule="noise"`` the held-out gain in noise units
+    is within ``heldout_z`` standard deviations of what a real effect of the fitted size
+    would give (:attr:`~suspenv.diagnosis.evidence.Comparison.heldout_z`), so a change the
+    held-out test can hardly see is judged on the fitted data alone. Where the caller
+    sets ``strong_heldout_gain``, a hypothesis is also significant when the uncorrected
+    test passes and the held-out error falls by at least that much (see :func:`decide`).
 "No significant missing physics" is the verdict when no hypothesis is significant.
 
 Ranking: significant hypotheses first, ordered by their reduction of the held-out
@@ -32,6 +36,8 @@ from typing import Any
 
 import numpy as np
 from scipy import stats
+
+from suspenv.core.errors import ValidationError
 
 #: effect kind (registry key) -> signature family
 FAMILY_OF_KIND = {
@@ -218,8 +224,16 @@ def decide(
     alpha: float,
     min_heldout_gain: float,
     strong_heldout_gain: float | None = None,
+    heldout_rule: str = "fraction",
+    heldout_z: float = 2.0,
 ) -> None:
     """Set ``significant`` on each hypothesis by the module's decision rule.
+
+    ``heldout_rule``: ``"fraction"`` asks the held-out RMS error to fall by at least
+    ``min_heldout_gain``; ``"noise"`` asks the held-out gain in noise units not to fall
+    more than ``heldout_z`` standard deviations short of a real effect's
+    (``comparison.heldout_z >= -heldout_z``; one-sided 2.3 % at 2), which vetoes a
+    refit the held-out test refutes and leaves one it cannot see to the fitted data.
 
     With ``strong_heldout_gain`` set, a hypothesis whose *uncorrected* test passes
     (p below the Bonferroni threshold and BIC falling) is also significant when it
@@ -227,13 +241,15 @@ def decide(
     correction is then too cautious because another missing effect still shapes the
     residual, and the held-out data carry the evidence.
     """
+    if heldout_rule not in ("fraction", "noise"):
+        raise ValidationError(f"heldout_rule must be 'fraction' or 'noise', got {heldout_rule!r}")
     threshold = alpha / max(n_tested, 1)
     for h in hyps:
-        corrected = (
-            h.p_value_corrected < threshold
-            and h.delta_bic_corrected < 0.0
-            and h.heldout_reduction >= min_heldout_gain
-        )
+        if heldout_rule == "noise" and h.comparison is not None:
+            heldout_ok = h.comparison.heldout_z >= -heldout_z
+        else:
+            heldout_ok = h.heldout_reduction >= min_heldout_gain
+        corrected = h.p_value_corrected < threshold and h.delta_bic_corrected < 0.0 and heldout_ok
         strong = False
         if strong_heldout_gain is not None and h.comparison is not None:
             p_raw = float(stats.chi2.sf(h.lr_statistic, max(h.lr_dof, 1)))

@@ -344,6 +344,7 @@ def diagnose_knc(
     refit_all_first: bool = True,
     alpha: float = 0.01,
     min_heldout_gain: float = 0.01,
+    heldout_rule: str = "noise",
     max_nfev: int = 40,
     polish_nfev: int | None = None,
     report_dir: str | Path | None = None,
@@ -363,7 +364,14 @@ def diagnose_knc(
             physics, so a cap could crowd out the loop family).
         refit_all_first: the first round refits every candidate family, whatever its
             signature score (the screen then applies from the second round).
-        alpha, min_heldout_gain: the engine's decision rule (:mod:`suspenv.diagnosis.name`).
+        alpha, min_heldout_gain, heldout_rule: the engine's decision rule
+            (:func:`suspenv.diagnosis.name.decide`). The held-out rig test sees a
+            refit's change only where that test moves the bushings the change is about
+            (a progressive rate or a top-mount loop may hardly move single-wheel travel
+            predictions), so the default judges the held-out gain in noise units
+            (``"noise"``): it vetoes a refit the held-out test refutes and does not veto
+            one it cannot see; ``"fraction"`` asks a ``min_heldout_gain`` drop of the
+            held-out RMS error whatever its size relative to the noise.
         max_nfev / polish_nfev: budgets of the fits and of each fit of the joint
             polish of a winner (default ``max_nfev``; see :func:`settle`).
         report_dir: when given, the report is written there.
@@ -443,7 +451,7 @@ def diagnose_knc(
                     f"round {rnd}: {kind} LR {hyps[-1].lr_statistic_corrected:.1f}, "
                     f"held-out {100 * hyps[-1].heldout_reduction:+.1f} %"
                 )
-        decide(hyps, len(hyps), alpha, min_heldout_gain)
+        decide(hyps, len(hyps), alpha, min_heldout_gain, heldout_rule=heldout_rule)
         ranked = rank(hyps)
         all_hyps += ranked
         amb += ambiguities(ranked)
@@ -526,10 +534,18 @@ def _verdict(
         if best is not None:
             tail = (
                 f" (strongest candidate, {best.words}: corrected p = {best.p_value_corrected:.2g}, "
-                f"held-out error change {-100 * best.heldout_reduction:+.1f} %)"
+                f"held-out error change {-100 * best.heldout_reduction:+.1f} %"
+                f"{_z_words(best)})"
             )
         return "no significant missing physics" + tail
     text = "missing physics: " + "; then ".join(h.words for h in named)
     if amb:
         text += ". " + " ".join(a.sentence() for a in amb)
     return text
+
+
+def _z_words(h: Hypothesis) -> str:
+    """ ", held-out z = ..." when the hypothesis carries its comparison."""
+    if h.comparison is None or not np.isfinite(h.comparison.heldout_z):
+        return ""
+    return f", held-out z = {h.comparison.heldout_z:+.1f}"

@@ -211,13 +211,28 @@ def write_knc_report(diag: Any, out_dir: str | Path) -> list[Path]:
                     f"{h.p_value_corrected:.2g}",
                     f"{h.delta_bic_corrected:.1f}",
                     f"{100 * h.heldout_reduction:+.1f} %",
+                    _heldout_z(h),
                     "yes" if h.significant else "no",
                     ", ".join(f"{k.split('.')[-1]}={v['value']:.4g}" for k, v in h.params.items()),
                 ]
                 for h in diag.hypotheses
             ],
-            ["round", "effect", "LR (corr.)", "p (corr.)", "dBIC", "held-out", "sig.", "params"],
+            [
+                "round",
+                "effect",
+                "LR (corr.)",
+                "p (corr.)",
+                "dBIC",
+                "held-out",
+                "held-out z",
+                "sig.",
+                "params",
+            ],
         ),
+        "",
+        "Held-out: reduction of the scaled held-out RMS error. Held-out z: the held-out "
+        "gain in noise units against a real effect of the fitted size (0: as expected; "
+        "below -2: the held-out test refutes the refit).",
         "",
     ]
     if diag.comparison is not None:
@@ -272,3 +287,8 @@ def write_knc_report(diag: Any, out_dir: str | Path) -> list[Path]:
     (out / "report.md").write_text("\n".join(lines))
     paths.append(out / "report.md")
     return paths
+
+
+def _heldout_z(h: Any) -> str:
+    c = h.comparison
+    return f"{c.heldout_z:+.1f}" if c is not None and np.isfinite(c.heldout_z) else "n/a"
