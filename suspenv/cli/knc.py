@@ -145,15 +145,14 @@ def compliance_slopes(res) -> dict[str, float]:
     i = res.static_index
     df = (res.grid[i + 1] - res.grid[i - 1]) / 1e3  # kN
     out = {}
-    for stem, ch, scale in (
-        ("toe", "toe", np.rad2deg(1.0)),
-        ("camber", "camber", np.rad2deg(1.0)),
-        ("contact_x", "contact_x", 1e3),
-        ("contact_y (outboard)", "contact_y", 1e3),
-        ("tyre_fz", "tyre_fz", 1.0),
+    for stem, ch, scale, unit in (
+        ("toe", "toe", np.rad2deg(1.0), "deg"),
+        ("camber", "camber", np.rad2deg(1.0), "deg"),
+        ("contact_x", "contact_x", 1e3, "mm"),
+        ("contact_y (outboard)", "contact_y", 1e3, "mm"),
+        ("tyre_fz", "tyre_fz", 1.0, "N"),
     ):
         mid = res.mean_branch(ch)[0, :, 0] * scale
-        unit = {"toe": "deg", "camber": "deg", "tyre_fz": "N"}.get(stem, "mm")
         out[f"d{stem} [{unit}/kN]"] = float((mid[i + 1] - mid[i - 1]) / df)
     return out
 

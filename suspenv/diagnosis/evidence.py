@@ -165,8 +165,11 @@ class Comparison:
     @property
     def heldout_z(self) -> float:
         """How many standard deviations the held-out gain lies below what a real effect
-        of this size would give (``(G - L) / (2 sqrt L)``; negative: short of it)."""
-        if not self.heldout_signal > 0.0:
+        of this size would give (``(G - L) / (2 sqrt L)``; negative: short of it); 0 when
+        the change does not move the held-out prediction, NaN when not computed."""
+        if not np.isfinite(self.heldout_signal):
+            return float("nan")
+        if self.heldout_signal <= 0.0:
             return 0.0
         return float(
             (self.heldout_gain - self.heldout_signal) / (2.0 * np.sqrt(self.heldout_signal))

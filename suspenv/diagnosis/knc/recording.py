@@ -159,7 +159,7 @@ def to_recording(
     amp = float(amplitude if amplitude is not None else result.grid[-1])
     s = result.grid[result.path]
     force = result.test in FORCE_TESTS
-    pads = pad_offsets(result.test, 0.0 * s if force else s)
+    pads = pad_offsets(result.test, s)  # zero in a compliance test
     drive_key = "force" if force else "stroke"
     inputs = {
         "pad_left": pads[:, 0],
