@@ -2,9 +2,10 @@
 
 Layers (one job each): ``models`` (what the hardware is), ``rigs`` (what we do to it),
 ``metrics`` (what we measure), ``problems`` (what we want), ``envs`` (Gymnasium face),
-``optimize``/``recording``/``experiments``/``cli`` (running), ``diagnosis`` (when
-simulation and recordings disagree). Strategies live in the top-level ``strategies``
-package.
+``strategies`` (optimisers behind one ask/tell seam), ``runs`` (the loop, the evaluation
+archive, configs and run directories), ``methods`` (whole methods such as the Tey et al.
+pipeline), ``measurements`` (recorded time histories and their loaders), ``diagnosis``
+(when simulation and recordings disagree), ``reports`` (Markdown and figures), ``cli``.
 """
 
 from suspenv.threads import limit_blas_threads

@@ -3,6 +3,11 @@
 Every registered problem is also a Gymnasium env ``suspenv/<Name>-v0`` (see
 :mod:`suspenv.envs`), and every registered strategy is covered by the contract tests
 for free. Users add their own with :func:`register_problem` / :func:`register_strategy`.
+
+The entry points are also the one seam through which a lower layer calls a higher one
+without importing it: runs reach problems, strategies and pipelines, and problems, runs
+and methods reach the report writers of :mod:`suspenv.reports` (which import them), by
+name (:func:`report_function`). ``tests/test_architecture.py`` checks every target exists.
 """
 
 from __future__ import annotations
@@ -24,17 +29,28 @@ _PROBLEMS: dict[str, str | Callable[..., Any]] = {
 }
 
 _STRATEGIES: dict[str, str | Callable[..., Any]] = {
-    "cmaes": "strategies.cmaes:CMAES",
-    "nsga2": "strategies.nsga2:NSGA2",
-    "pymoo_nsga2": "strategies.pymoo_nsga2:PymooNSGA2",
-    "random": "strategies.random_search:RandomSearch",
-    "lhs": "strategies.lhs:LatinHypercube",
+    "cmaes": "suspenv.strategies.cmaes:CMAES",
+    "nsga2": "suspenv.strategies.nsga2:NSGA2",
+    "pymoo_nsga2": "suspenv.strategies.pymoo_nsga2:PymooNSGA2",
+    "random": "suspenv.strategies.random_search:RandomSearch",
+    "lhs": "suspenv.strategies.lhs:LatinHypercube",
 }
 
 _PIPELINES: dict[str, str | Callable[..., Any]] = {
-    "optimize": "suspenv.experiments.optimize_pipeline:run_optimize_pipeline",
-    "tey2014": "suspenv.studies.tey2014:run_tey2014_pipeline",
-    "diagnosis_benchmark": "suspenv.diagnosis.benchmark:run_benchmark_pipeline",
+    "optimize": "suspenv.runs.optimize_pipeline:run_optimize_pipeline",
+    "tey2014": "suspenv.methods.tey2014:run_tey2014_pipeline",
+    "diagnosis_benchmark": "suspenv.bench.diagnosis_benchmark:run_benchmark_pipeline",
+}
+
+#: report writers and drawings; keyed by problem name for a problem's own run report
+_REPORTS: dict[str, str | Callable[..., Any]] = {
+    "run_figures": "suspenv.reports.run:write_run_figures",
+    "run_comparison": "suspenv.reports.run:plot_compare",
+    "tey2014": "suspenv.reports.tey2014:write_tey2014_report",
+    "KCIdentification": "suspenv.reports.kc_identification:write_kc_report",
+    "MinibusRideHandling": "suspenv.reports.minibus:write_minibus_run_report",
+    "PlanarLinkage": "suspenv.reports.planar:write_planar_report",
+    "planar_rgb": "suspenv.reports.planar:render_rgb",
 }
 
 
@@ -110,6 +126,21 @@ def pipeline_function(name: str) -> Any:
 
 def list_pipelines() -> list[str]:
     return sorted(_PIPELINES)
+
+
+# ------------------------------------------------------------------ reports
+def register_report(name: str, target: str | Callable[..., Any], overwrite: bool = False) -> None:
+    """Register a report writer (or ``"module:function"``) under ``name``."""
+    _register(_REPORTS, "report", name, target, overwrite)
+
+
+def report_function(name: str) -> Any:
+    """The report writer or drawing registered as ``name`` (imported on first use)."""
+    return _resolve("report", _REPORTS, name)
+
+
+def list_reports() -> list[str]:
+    return sorted(_REPORTS)
 
 
 def make_strategy(name: str, problem: Any, seed: int = 0, **options: Any) -> Any:

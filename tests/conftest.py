@@ -11,16 +11,18 @@ import pytest
 
 matplotlib.use("Agg")
 
-#: real recordings made by others; read in place, never copied into the repository
-SHARED_DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
-
 
 @pytest.fixture
 def shared_data() -> Path:
-    """Path to ``../shared/data``; the test is skipped (with a message) where it is absent."""
-    if not SHARED_DATA.is_dir():
-        pytest.skip(f"real recordings not available at {SHARED_DATA}")
-    return SHARED_DATA
+    """The shared data folder (:func:`suspenv.measurements.data_dir`: ``$SUSPENV_DATA`` or
+    ``../shared/data``; read in place, never copied into the repository); the test is
+    skipped (with a message) where it is absent."""
+    from suspenv.measurements import data_dir
+
+    root = data_dir()
+    if not root.is_dir():
+        pytest.skip(f"real recordings not available at {root}")
+    return root
 
 
 def _quarter_car_sine_response(m_s, m_u, k_s, c_s, k_t, f, amp) -> np.ndarray:

@@ -4,11 +4,11 @@ import numpy as np
 import pytest
 
 from suspenv.core.errors import EvaluationError, ValidationError
+from suspenv.measurements import Recording
 from suspenv.models.components import QuarterCarRigModel
 from suspenv.models.components.rig_integrator import step_matrices
 from suspenv.models.effects import make_effect
 from suspenv.models.effects.viscoelastic import maxwell_dfdt
-from suspenv.recordings import Recording
 
 BASE = {"k_s": 2.5e4, "c_s": 1500.0, "k_t": 2e5}
 
@@ -196,7 +196,7 @@ def test_jacobian_twin_steers_the_fit_to_the_same_optimum():
     # the once-per-sample twin (sensitivities within about 25 % here) only steers the
     # fit, so the optimum is the default step's own, and the reported standard errors
     # come from the default step's Jacobian
-    from suspenv.diagnosis.fit import fit_model
+    from suspenv.diagnosis.fitting import fit
     from suspenv.models.components import simulate_truth
 
     eff = [make_effect("coulomb_friction", f_c=250.0, v_eps=0.01)]
@@ -205,12 +205,12 @@ def test_jacobian_twin_steers_the_fit_to_the_same_optimum():
     assert twin.options["dt_max"] >= 2e-3 and twin.parameter_names == model.parameter_names
     theta = model.theta_from(BASE)
     rec = simulate_truth(model, theta, model.example_recording(seed=2, duration=1.0), 0.0)
-    fit = fit_model(model, rec, theta0=theta * 1.1, max_nfev=30)
-    np.testing.assert_allclose(fit.theta, theta, rtol=1e-3)
+    res = fit(model, rec, theta0=theta * 1.1, max_nfev=30)
+    np.testing.assert_allclose(res.theta, theta, rtol=1e-3)
     h = 1e-6 * theta
     for i in range(theta.size):
         d = model.simulate(theta + np.eye(theta.size)[i] * h, rec)["body_acceleration"]
         d = (d - model.simulate(theta, rec)["body_acceleration"]) / h[i]
         # the fit's residual is (measured - predicted) / scale
-        col = -fit.extra["jacobian"][: rec.n_samples, i] * fit.scales["body_acceleration"]
+        col = -res.extra["jacobian"][: rec.n_samples, i] * res.scales["body_acceleration"]
         assert _rel_err(col, d) < 0.02, model.parameter_names[i]

@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from suspenv.bench.diagnosis_benchmark import _seeds, summarise
 from suspenv.core.errors import ValidationError
-from suspenv.diagnosis.benchmark import _seeds, summarise
-from suspenv.diagnosis.blind import make_case
-from suspenv.diagnosis.name import family_of
+from suspenv.diagnosis.component.truth import make_case
+from suspenv.diagnosis.hypothesis import family_of
 
 
 def test_cases_are_reproducible_and_conceal_their_truth() -> None:
@@ -85,7 +85,7 @@ def test_summary_counts() -> None:
 
 
 def test_structural_equivalents_are_counted_only_where_they_hold() -> None:
-    from suspenv.diagnosis.name import families_covered
+    from suspenv.diagnosis.decision import families_covered
 
     # direction-dependent friction = symmetric friction + a constant offset
     assert families_covered(["directional_friction"]) >= {"friction", "sensor_offset"}
@@ -105,7 +105,7 @@ def test_quarter_car_case_offsets_are_in_the_channel_unit() -> None:
 
 
 def test_separate_families_stay_out_of_the_totals() -> None:
-    from suspenv.diagnosis.benchmark import table_markdown
+    from suspenv.bench.diagnosis_benchmark import table_markdown
 
     row = {
         "param_rel_errs": [],
@@ -135,7 +135,7 @@ def test_separate_families_stay_out_of_the_totals() -> None:
 
 
 def test_inseparable_pairs_are_scored_apart_from_the_strict_rate() -> None:
-    from suspenv.diagnosis.benchmark import case_record
+    from suspenv.bench.diagnosis_benchmark import case_record
 
     base = {"param_rel_errs": [], "seconds": 1.0, "heldout_reduction": 0.5, "family": "f"}
     single = base | {"n_true": 1, "top1_kind_ok": False, "all_found": False}

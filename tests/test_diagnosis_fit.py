@@ -7,16 +7,25 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from suspenv.diagnosis.component.locate import (
+    Segment,
+    locate,
+    reversal_indices,
+    travel_since_reversal,
+)
 from suspenv.diagnosis.evidence import ljung_box
-from suspenv.diagnosis.fit import fit_model
-from suspenv.diagnosis.locate import Segment, locate, reversal_indices, travel_since_reversal
+from suspenv.diagnosis.fitting import fit
 
 
 class LinearDamper:
     """F = k x + c v (a model linear in its parameters, so OLS is the exact reference)."""
 
+    family = "linear_damper"
+    location = "damper"
     parameter_names = ("k", "c")
+    output_channels = ("force",)
     effects = ()
+    effect_defaults: dict = {}
 
     def bounds(self):
         return np.array([-1e7, -1e7]), np.array([1e7, 1e7])
@@ -25,7 +34,24 @@ class LinearDamper:
         return np.array([1.0, 1.0])
 
     def simulate(self, theta, rec):
-        return {"force": theta[0] * rec.inputs["x"] + theta[1] * rec.inputs["v"]}
+        return {
+            "force": theta[..., 0, None] * rec.inputs["x"] + theta[..., 1, None] * rec.inputs["v"]
+        }
+
+    def with_effects(self, effects):
+        return self
+
+    def difference_step(self, theta, lo, hi):
+        return 1e-6 * np.maximum(np.abs(theta), 1.0)
+
+    def refine_start(self, theta0, recordings, masks):
+        return None
+
+    def jacobian_model(self):
+        return self
+
+    def force_view(self, theta, rec):
+        return None
 
 
 def _rec(noise: float, seed: int = 0):
@@ -41,33 +67,33 @@ def _rec(noise: float, seed: int = 0):
 
 def test_fit_matches_ordinary_least_squares_and_its_standard_errors() -> None:
     rec = _rec(noise=10.0)
-    fit = fit_model(LinearDamper(), rec)
+    res = fit(LinearDamper(), rec)
     # reference: OLS normal equations, se = sqrt(diag(s^2 (X^T X)^-1)), s^2 = SSR / (n - p)
     X = np.c_[rec.inputs["x"], rec.inputs["v"]]
     beta, *_ = np.linalg.lstsq(X, rec.outputs["force"], rcond=None)
-    res = rec.outputs["force"] - X @ beta
-    s2 = res @ res / (X.shape[0] - 2)
+    r = rec.outputs["force"] - X @ beta
+    s2 = r @ r / (X.shape[0] - 2)
     se = np.sqrt(np.diag(s2 * np.linalg.inv(X.T @ X)))
-    np.testing.assert_allclose(fit.theta, beta, rtol=1e-6)
-    np.testing.assert_allclose(fit.stderr, se, rtol=1e-3)
-    assert fit.rms()["force"] == pytest.approx(np.sqrt(np.mean(res**2)), rel=1e-6)
+    np.testing.assert_allclose(res.theta, beta, rtol=1e-6)
+    np.testing.assert_allclose(res.stderr, se, rtol=1e-3)
+    assert res.rms()["force"] == pytest.approx(np.sqrt(np.mean(r**2)), rel=1e-6)
 
 
 def test_information_criteria_closed_form() -> None:
-    fit = fit_model(LinearDamper(), _rec(noise=5.0))
-    n, ssr = fit.n["force"], fit.ssr["force"]
+    res = fit(LinearDamper(), _rec(noise=5.0))
+    n, ssr = res.n["force"], res.ssr["force"]
     # Gaussian log-likelihood at the variance MLE: -n/2 (ln(2 pi SSR/n) + 1)
     ll = -0.5 * n * (np.log(2 * np.pi * ssr / n) + 1)
-    assert fit.log_likelihood() == pytest.approx(ll)
-    assert fit.bic() == pytest.approx(2 * np.log(n) - 2 * ll)
-    assert fit.aic() == pytest.approx(4 - 2 * ll)
+    assert res.log_likelihood() == pytest.approx(ll)
+    assert res.bic() == pytest.approx(2 * np.log(n) - 2 * ll)
+    assert res.aic() == pytest.approx(4 - 2 * ll)
 
 
 def test_fit_on_a_mask_uses_only_those_samples() -> None:
     rec = _rec(noise=1.0)
     mask = np.arange(rec.time.size) < 300
-    fit = fit_model(LinearDamper(), rec, masks=[mask])
-    assert fit.n["force"] == 300
+    res = fit(LinearDamper(), rec, masks=[mask])
+    assert res.n["force"] == 300
 
 
 def test_ljung_box_white_vs_correlated() -> None:

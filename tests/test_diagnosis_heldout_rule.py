@@ -1,5 +1,5 @@
 """The held-out test in noise units (``heldout_noise_units``) and the decision rule
-that uses it (``decide(..., heldout_rule="noise")``).
+that uses it (``DecisionRule(heldout_rule="noise")``).
 
 References: the sums are checked against their definition written out by hand; the
 distribution of the gain against the Gaussian algebra it rests on (a real effect ``d``
@@ -15,8 +15,9 @@ import numpy as np
 import pytest
 
 from suspenv.core.errors import ValidationError
+from suspenv.diagnosis.decision import DecisionRule, decide
 from suspenv.diagnosis.evidence import heldout_noise_units
-from suspenv.diagnosis.name import Hypothesis, decide
+from suspenv.diagnosis.hypothesis import Hypothesis
 
 
 def test_noise_units_match_their_definition():
@@ -55,6 +56,7 @@ def test_gain_distribution_follows_gaussian_algebra(real):
 def _hyp(p: float, reduction: float, z: float) -> Hypothesis:
     h = Hypothesis(
         kind="cubic_stiffness",
+        location="",
         family="progressive",
         words="progressive stiffness",
         round=1,
@@ -76,12 +78,12 @@ def test_noise_rule_keeps_what_the_heldout_test_cannot_see_and_vetoes_what_it_re
     refuted = _hyp(1e-10, reduction=0.02, z=-3.0)  # moved the held-out a lot, gained little
     unfit = _hyp(0.5, reduction=0.05, z=0.5)  # fitted data do not support it
     hyps = [unseen, refuted, unfit]
-    decide(hyps, 3, alpha=0.01, min_heldout_gain=0.01)
+    decide(hyps, 3, DecisionRule(alpha=0.01, min_heldout_gain=0.01))
     assert [h.significant for h in hyps] == [False, True, False]
-    decide(hyps, 3, alpha=0.01, min_heldout_gain=0.01, heldout_rule="noise")
+    decide(hyps, 3, DecisionRule(alpha=0.01, min_heldout_gain=0.01, heldout_rule="noise"))
     assert [h.significant for h in hyps] == [True, False, False]
 
 
 def test_unknown_heldout_rule_is_named():
     with pytest.raises(ValidationError, match="heldout_rule.*'chi2'"):
-        decide([_hyp(1e-10, 0.02, 0.0)], 1, 0.01, 0.01, heldout_rule="chi2")
+        DecisionRule(alpha=0.01, min_heldout_gain=0.01, heldout_rule="chi2")

@@ -13,19 +13,18 @@ import numpy as np
 import pytest
 
 from suspenv.core.errors import ValidationError
-from suspenv.diagnosis.knc.diagnose import diagnose_knc, split_tests
-from suspenv.diagnosis.knc.model import KncAxleModel, KncEffect
-from suspenv.diagnosis.knc.recording import (
-    blind_case,
-    from_recording,
-    half_loops,
-    measure_truth,
-    to_recording,
-)
-from suspenv.diagnosis.knc.report import loop_width, write_knc_report
+from suspenv.diagnosis.engine import diagnose
+from suspenv.diagnosis.knc.family import KncFamily, split_tests
+from suspenv.diagnosis.knc.locate import loop_gap_at_static
+from suspenv.diagnosis.knc.model import KncAxleModel, make_candidate
+from suspenv.diagnosis.knc.truth import blind_case, measure_truth
+from suspenv.measurements import load_recording, save_recording
+from suspenv.measurements.knc import half_loops
+from suspenv.models.effects import make_effect
 from suspenv.models.mcpherson import build_axle, reference_design
-from suspenv.recordings import load_recording, save_recording
+from suspenv.reports.diagnosis.knc import write_knc_report
 from suspenv.rigs.knc import run_tests
+from suspenv.rigs.knc_recording import from_recording, to_recording
 
 STEPS = 6
 
@@ -44,13 +43,13 @@ FAMILIES = (
 @pytest.fixture(scope="module")
 def hysteresis_case():
     recs = measure_truth({"hysteresis": {"f_c": 80.0}}, seed=3, steps=STEPS)
-    return recs, diagnose_knc(recs, holdout="single", candidates=FAMILIES, max_effects=1)
+    return recs, diagnose(recs, KncFamily(max_effects=1), holdout="single", candidates=FAMILIES)
 
 
 @pytest.fixture(scope="module")
 def noise_case():
     recs = measure_truth({}, seed=4, steps=STEPS)
-    return recs, diagnose_knc(recs, holdout="single", candidates=FAMILIES)
+    return recs, diagnose(recs, "knc", holdout="single", candidates=FAMILIES)
 
 
 # ------------------------------------------------------------------ recordings
@@ -86,8 +85,8 @@ def test_model_asymmetry_and_gain_equal_hand_built_sides():
     rec = measure_truth({}, seed=0, steps=STEPS, noise_scale=0.0, tests=("parallel",))["parallel"]
     model = KncAxleModel(
         [
-            KncEffect("lr_asymmetry", params={"d_static_toe": 0.04, "d_tie_rod_inner_z": 1.0}),
-            KncEffect("sensor_gain", params={"gain": 1.03}),
+            make_candidate("lr_asymmetry", d_static_toe=0.04, d_tie_rod_inner_z=1.0),
+            make_candidate("sensor_gain", gain=1.03),
         ]
     )
     pred = model.simulate(model.initial_guess(rec), rec)
@@ -108,7 +107,7 @@ def test_model_asymmetry_and_gain_equal_hand_built_sides():
 def test_model_with_concealed_effect_reproduces_the_truth_exactly():
     # reference: the truth vehicle's own loops (same solver, same effect list)
     rec = measure_truth({"friction": {"f_c": 150.0}}, seed=0, steps=4, noise_scale=0.0)["parallel"]
-    model = KncAxleModel([KncEffect("coulomb_friction", params={"f_c": 150.0})])
+    model = KncAxleModel([make_candidate("coulomb_friction", f_c=150.0)])
     pred = model.simulate(model.initial_guess(rec), rec)
     np.testing.assert_allclose(pred["tyre_fz_left"], rec.outputs["tyre_fz_left"], atol=1e-6)
     assert model.parameter_names[-1] == "coulomb_friction.f_c"
@@ -124,9 +123,10 @@ def test_hysteresis_is_named_and_its_loop_width_recovered(hysteresis_case):
     # reference: the truth vehicle's noise-free loop (same seed, zero noise)
     exact = measure_truth({"hysteresis": {"f_c": 80.0}}, seed=3, steps=STEPS, noise_scale=0.0)
     rec = exact["parallel"]
-    true_w = np.mean([loop_width(rec, rec.outputs[f"tyre_fz_{s}"]) for s in ("left", "right")])
+    sides = ("left", "right")
+    true_w = np.mean([loop_gap_at_static(rec, rec.outputs[f"tyre_fz_{s}"]) for s in sides])
     pred = diag.final_fit.model.simulate(diag.final_fit.theta, rec)
-    fit_w = np.mean([loop_width(rec, pred[f"tyre_fz_{s}"]) for s in ("left", "right")])
+    fit_w = np.mean([loop_gap_at_static(rec, pred[f"tyre_fz_{s}"]) for s in sides])
     assert true_w > 20.0  # the loop is real and well above the 1 N noise
     assert abs(fit_w / true_w - 1.0) < 0.20
 
@@ -150,7 +150,7 @@ def test_friction_is_not_preferred_to_hysteresis(hysteresis_case):
 
 def test_left_right_tolerance_is_named_asymmetry():
     recs = measure_truth({"asymmetry": {}}, seed=5, steps=STEPS)
-    diag = diagnose_knc(recs, holdout="single", candidates=FAMILIES, max_effects=1)
+    diag = diagnose(recs, KncFamily(max_effects=1), holdout="single", candidates=FAMILIES)
     assert diag.named_kinds == ["lr_asymmetry"]
     assert diag.named[0].heldout_reduction > 0.05
     # reference: the truth's own right-minus-left static toe (ADAMS/Car deg, seeded)
@@ -179,7 +179,7 @@ def test_report_files(noise_case, tmp_path):
     names = {p.name for p in paths}
     assert {"report.md", "diagnosis.json", "residual_map.png", "left_right.png"} <= names
     data = json.loads((tmp_path / "diagnosis.json").read_text())
-    assert data["family"] == "knc_axle" and data["named"] == []
+    assert data["family"] == "knc" and data["model"] == "knc_axle" and data["named"] == []
     assert "no significant" in (tmp_path / "report.md").read_text()
 
 
@@ -202,12 +202,13 @@ def test_bad_input_names_the_rule():
     with pytest.raises(ValidationError, match="some but not all"):
         split_tests(recs, "parallel")
     with pytest.raises(ValidationError, match="candidates must be among"):
-        diagnose_knc(
+        diagnose(
             measure_truth({}, seed=0, steps=4, tests=("parallel", "single")),
+            "knc",
             candidates=["bump_stop"],
         )
     with pytest.raises(ValidationError, match="K&C effect kind"):
-        KncEffect("bouc_wen_hysteresis")
+        KncAxleModel([make_effect("bouc_wen_hysteresis")])
     with pytest.raises(ValidationError, match="truth effects must be among"):
         measure_truth({"magic": {}})
 
@@ -221,25 +222,28 @@ def test_held_out_other_amplitude_for_friction():
     held = measure_truth(
         {"friction": {"f_c": 150.0}}, seed=8, steps=STEPS, amplitude=0.025, tests=("single",)
     )
-    diag = diagnose_knc(fit_recs, holdout=list(held.values()))
+    diag = diagnose(fit_recs, "knc", holdout=list(held.values()))
     assert diag.named_kinds[:1] == ["coulomb_friction"]
     assert diag.comparison.heldout_reduction > 0.05
 
 
 def test_cli_targets(tmp_path):
-    from suspenv.diagnosis.knc.cli import is_knc_target, load_target
+    from suspenv.diagnosis.targets import resolve_target
 
-    recs, stem = load_target("knc-blind:12")
+    target = resolve_target("knc-blind:12")
+    recs = target.recordings
+    assert target.family == "knc" and target.holdout == ["single"]
     assert set(recs) == {"parallel", "opposite", "single", "lateral", "longitudinal"}
-    assert stem == "knc_blind_12"
+    assert target.stem == "knc_blind_12"
     for test, rec in recs.items():
         save_recording(rec, tmp_path / f"{test}.npz")
-    assert is_knc_target(str(tmp_path)) and is_knc_target(str(tmp_path / "single.npz"))
-    assert not is_knc_target(str(tmp_path / "missing.npz"))
-    again, _ = load_target(str(tmp_path / "single.npz"))
-    assert set(again) == set(recs)
+    assert resolve_target(str(tmp_path)).family == "knc"
+    again = resolve_target(str(tmp_path / "single.npz"))
+    assert again.family == "knc" and set(again.recordings) == set(recs)
+    with pytest.raises(ValidationError, match="TARGET must be"):
+        resolve_target(str(tmp_path / "missing.npz"))
     with pytest.raises(ValidationError, match="integer seed"):
-        load_target("knc-blind:x")
+        resolve_target("knc-blind:x")
 
 
 @pytest.mark.slow
@@ -249,32 +253,39 @@ def test_default_candidates_locate_lower_arm_hysteresis():
     recs = measure_truth(
         {"hysteresis": {"f_c": 100.0, "bushings": ["lca_front", "lca_rear"]}}, seed=9, steps=STEPS
     )
-    diag = diagnose_knc(recs)
+    diag = diagnose(recs, "knc")
     assert diag.named_kinds[:1] == ["dahl_hysteresis"]
     assert "lower-arm" in diag.named[0].words
     assert "coulomb_friction" not in diag.named_kinds
 
 
 def test_location_ambiguity_is_stated_only_for_equal_fits():
-    from types import SimpleNamespace
+    from suspenv.diagnosis.hypothesis import Hypothesis
+    from suspenv.diagnosis.knc.family import location_ambiguities
 
-    from suspenv.diagnosis.knc.diagnose import location_ambiguities
-    from suspenv.diagnosis.name import Hypothesis
-
-    def hyp(name: str, lr: float, significant: bool = True) -> Hypothesis:
-        h = Hypothesis("dahl_hysteresis", "loop", name, 1, 5.0, "", lr, lr, 1, 1e-9, -lr, 0.1)
+    def hyp(location: str, lr: float, significant: bool = True) -> Hypothesis:
+        h = Hypothesis(
+            "dahl_hysteresis",
+            location,
+            "hysteresis",
+            location,
+            1,
+            5.0,
+            "",
+            lr,
+            lr,
+            1,
+            1e-9,
+            -lr,
+            0.1,
+        )
         h.significant = significant
-        h.fit = SimpleNamespace(extra={"effect": {"name": name}})
         return h
 
-    win = hyp("dahl_hysteresis", 195.3)
-    close, far, weak = (
-        hyp("dahl_hysteresis:lower_arm", 194.2),
-        hyp("x", 120.0),
-        hyp("y", 195, False),
-    )
+    win = hyp("", 195.3)
+    close, far, weak = (hyp("lower_arm", 194.2), hyp("x", 120.0), hyp("y", 195, False))
     amb = location_ambiguities(win, [win, close, far, weak])
-    assert [(a.a, a.b) for a in amb] == [("dahl_hysteresis", "dahl_hysteresis:lower_arm")]
+    assert [(a.a, a.b) for a in amb] == [("dahl_hysteresis", "dahl_hysteresis@lower_arm")]
     assert "cannot separate" in amb[0].sentence()
 
 
@@ -283,7 +294,7 @@ def test_blind_plan_covers_every_kind_and_location():
     from collections import Counter
 
     from suspenv.bench.knc_diagnosis import DEV_SEEDS, REPORT_SEEDS
-    from suspenv.diagnosis.knc.recording import (
+    from suspenv.diagnosis.knc.truth import (
         BLIND_PLAN,
         HYSTERESIS_LOCATIONS,
         TRUTH_KIND,
@@ -333,19 +344,19 @@ def test_noise_only_verdict_states_what_the_tests_cannot_see(noise_case, tmp_pat
     _, diag = noise_case
     lim = diag.detection_limits
     assert set(lim) == {
-        "dahl_hysteresis:top_mount",
-        "dahl_hysteresis:lower_arm",
+        "dahl_hysteresis@top_mount",
+        "dahl_hysteresis@lower_arm",
         "coulomb_friction",
     }
     assert "top mount below f_c ~" in diag.verdict
     # top-mount hysteresis is far harder to see in vertical travel than lower-arm hysteresis
-    assert lim["dahl_hysteresis:top_mount"]["limit"] > 5 * lim["dahl_hysteresis:lower_arm"]["limit"]
+    assert lim["dahl_hysteresis@top_mount"]["limit"] > 5 * lim["dahl_hysteresis@lower_arm"]["limit"]
     # reference: an independent computation from the truth side (the plain model fitted
     # to the noise-free loops of a truth carrying the element at the stated limit)
-    f_c = lim["dahl_hysteresis:top_mount"]["limit"]
+    f_c = lim["dahl_hysteresis@top_mount"]["limit"]
     snr = truth_snr({"hysteresis": {"f_c": f_c, "bushings": ["top_mount"]}}, 4, 1.0, steps=STEPS)
     assert snr["snr"] == pytest.approx(DETECTABLE_SNR, rel=0.3)
-    assert diag.to_dict()["detection_limits"] == lim
+    assert diag.to_dict()["findings"]["detection_limits"] == lim
     write_knc_report(diag, tmp_path)
     assert "could not have seen" in (tmp_path / "report.md").read_text()
 
@@ -356,7 +367,7 @@ def test_top_mount_hysteresis_below_the_noise_is_not_claimed():
     eff = {"hysteresis": {"f_c": 15.0, "bushings": ["top_mount"]}}
     # reference: the truth's own signal-to-noise (noise-free loops vs the plain model)
     assert truth_snr(eff, 5, 1.5, steps=STEPS)["snr"] < DETECTABLE_SNR
-    diag = diagnose_knc(measure_truth(eff, seed=5, steps=STEPS, noise_scale=1.5))
+    diag = diagnose(measure_truth(eff, seed=5, steps=STEPS, noise_scale=1.5), "knc")
     assert diag.named == []
     assert "top mount below f_c ~" in diag.verdict
 
@@ -406,7 +417,7 @@ def test_sensor_offset_the_fit_mimics_is_found_by_the_score_test():
     # its residual no longer looks like a constant, but the score test against the
     # model sees what the fitted parameters cannot follow
     recs = measure_truth({"sensor_offset": {"offset": -11.0}}, seed=107, steps=STEPS)
-    diag = diagnose_knc(recs, candidates=("sensor_offset", "sensor_gain"))
+    diag = diagnose(recs, "knc", candidates=("sensor_offset", "sensor_gain"))
     assert diag.named_kinds[:1] == ["sensor_offset"]
     # reference: the truth's offset
     assert diag.named[0].params["sensor_offset.offset"]["value"] == pytest.approx(-11.0, rel=0.2)
@@ -419,8 +430,8 @@ def test_sensor_offset_the_fit_mimics_is_found_by_the_score_test():
 
 # ------------------------------------------------------------------ compliance tests
 def test_compliance_recording_round_trip_and_each_wheels_own_drive():
-    from suspenv.diagnosis.knc.recording import drive, is_force_test
-    from suspenv.diagnosis.knc.report import left_minus_right
+    from suspenv.measurements.knc import drive, is_force_test
+    from suspenv.reports.diagnosis.knc import left_minus_right
 
     axle = build_axle(reference_design()[None])
     res = run_tests(axle, ("lateral", "longitudinal"), steps=STEPS, force_amplitude=2000.0)
@@ -471,9 +482,9 @@ def test_top_mount_hysteresis_above_the_noise_is_named_at_the_top_mount():
     recs = measure_truth(
         eff, seed=5, steps=STEPS, noise_scale=0.7, tests=("parallel", "opposite", "single")
     )
-    diag = diagnose_knc(recs, max_effects=1)
+    diag = diagnose(recs, KncFamily(max_effects=1))
     assert diag.named_kinds == ["dahl_hysteresis"]
-    assert next(iter(diag.named[0].params)).startswith("dahl_hysteresis:top_mount")
+    assert next(iter(diag.named[0].params)).startswith("dahl_hysteresis@top_mount")
 
 
 @pytest.mark.slow
@@ -481,7 +492,7 @@ def test_a_second_round_after_friction_claims_nothing_false():
     # planted: strut friction alone; the polished friction model is the second round's
     # null, so no elastic or sensor candidate may gain likelihood from its convergence
     recs = measure_truth({"friction": {"f_c": 120.0}}, seed=21, steps=STEPS, noise_scale=0.6)
-    diag = diagnose_knc(recs, candidates=FAMILIES, max_effects=2)
+    diag = diagnose(recs, KncFamily(max_effects=2), candidates=FAMILIES)
     assert diag.named_kinds == ["coulomb_friction"]
     second = [h for h in diag.hypotheses if h.round == 2]
     assert second and max(h.lr_statistic_corrected for h in second) < 20.0

@@ -9,16 +9,18 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from suspenv.diagnosis.blind import make_case
-from suspenv.diagnosis.engine import _force_view_signal_set, diagnose, split
-from suspenv.diagnosis.fit import fit_model
-from suspenv.diagnosis.signatures import score_signatures
+from suspenv.diagnosis.component.family import _force_view_signal_set
+from suspenv.diagnosis.component.motion import split
+from suspenv.diagnosis.component.signatures import score_signatures
+from suspenv.diagnosis.component.truth import make_case
+from suspenv.diagnosis.engine import diagnose, make_family
+from suspenv.diagnosis.fitting import fit
 from suspenv.models.components import make_component
 from suspenv.models.components.quarter_car import _rate
 from suspenv.models.effects import make_effect
 
-#: the benchmark's options for this family (experiments/diagnosis_benchmark.toml)
-RIG_OPTIONS = {"holdout": 0.3, "max_effects": 2, "max_nfev": 15, "screen_families": 2}
+#: the benchmark's options for this family (configs/diagnosis_benchmark.toml)
+RIG_OPTIONS = {"max_effects": 2, "max_nfev": 15, "screen_families": 2}
 
 
 def _truth_run(case):
@@ -51,9 +53,7 @@ def test_force_view_tells_friction_from_hysteresis(seed, family, rivals):
     case = make_case("quarter_car_rig", seed, 1)
     assert {"2": "coulomb_friction", "0": "dahl_hysteresis"}[str(seed)] in case.truth.kinds
     sp = split(case.recording, 0.3)
-    base = fit_model(
-        make_component("quarter_car_rig"), sp.fit_recordings, sp.fit_masks, max_nfev=15
-    )
+    base = fit(make_component("quarter_car_rig"), sp.fit_recordings, sp.fit_masks, max_nfev=15)
     sset = _force_view_signal_set(base, sp)
     assert sset is not None and sset.unit == "N"
     sigs = {s.kind: s.score for s in score_signatures(sset)}
@@ -68,7 +68,7 @@ def test_sensor_gain_is_named_from_the_recorded_channel():
     # the engine must score sensor families in the recorded channels
     case = make_case("quarter_car_rig", 7, 1)
     assert case.truth.kinds == ["sensor_gain"]
-    diag = diagnose(case.recording, "quarter_car_rig", **RIG_OPTIONS)
+    diag = diagnose(case.recording, make_family("quarter_car_rig", **RIG_OPTIONS), holdout=0.3)
     assert diag.named_kinds == ["sensor_gain"]
     true = case.truth.effects[0]["params"]["gain"]
     assert diag.named[0].params["sensor_gain.gain"]["value"] == pytest.approx(true, rel=0.02)

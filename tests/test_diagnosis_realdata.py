@@ -11,9 +11,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from suspenv.diagnosis.benchmark import REAL_CASES, real_row
+from suspenv.bench.diagnosis_benchmark import real_row
 from suspenv.diagnosis.engine import diagnose
-from suspenv.diagnosis.name import family_of
+from suspenv.diagnosis.hypothesis import family_of
+from suspenv.measurements.catalog import REAL_CASES
 
 pytestmark = pytest.mark.realdata
 

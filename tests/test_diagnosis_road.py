@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 import pytest
 
@@ -15,9 +17,9 @@ from suspenv.diagnosis.ride.road import (
     slope_periodogram,
     synthetic_profile,
     waviness_test,
-    write_road_report,
 )
-from suspenv.models.road import ROAD_CLASS_GD0
+from suspenv.reports.diagnosis.road import write_road_report
+from suspenv.rigs.road import ROAD_CLASS_GD0
 
 GD_B = ROAD_CLASS_GD0["B"]
 
@@ -110,26 +112,22 @@ def test_real_profiles_steeper_than_standard(shared_data, tmp_path):
     assert "steeper" in paths[0].read_text()
 
 
-def test_cli_route_handles_road_profiles_and_declines_others(shared_data, tmp_path, monkeypatch):
-    import argparse
-    import functools
+def test_cli_routes_road_profiles_and_declines_others(shared_data, tmp_path, monkeypatch):
     import json
 
     import suspenv.diagnosis.ride.road as road_mod
-    from suspenv.diagnosis.ride.cli import route
+    from suspenv.cli.main import main
+    from suspenv.diagnosis.targets import resolve_target
 
     # routing only: skip the ride-model runs (covered by the test above)
     monkeypatch.setattr(road_mod, "diagnose_road", functools.partial(diagnose_road, ride=False))
-
-    def ns(recording):
-        return argparse.Namespace(
-            recording=recording, out=str(tmp_path / "out"), holdout=None,
-            data_dir=str(shared_data / "real"), model=None,
-        )  # fmt: skip
-
-    assert route(ns("emps")) is None
-    assert route(ns(str(tmp_path / "missing.npz"))) is None
-    assert route(ns("road_profile_2")) == 0
-    found = json.loads((tmp_path / "out" / "road_diagnosis.json").read_text())
+    data = str(shared_data / "real")
+    assert resolve_target("emps", data_dir=data).family == "friction_guide"
+    assert resolve_target("road_profile_2", data_dir=data).family == "road"
+    with pytest.raises(ValidationError, match="TARGET must be"):
+        resolve_target(str(tmp_path / "missing.npz"))
+    out = tmp_path / "out"
+    assert main(["diagnose", "road_profile_2", "--data-dir", data, "--out", str(out)]) == 0
+    found = json.loads((out / "road_diagnosis.json").read_text())
     assert found["recording"] == "profile_2"
     assert found["named"][0]["kind"] == "waviness_steeper"

@@ -12,14 +12,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from suspenv.diagnosis.signatures import (
+from suspenv.diagnosis.component.signatures import (
     SignalSet,
-    effective_n,
     explain,
     first_order_lowpass,
     score_signatures,
     unit_dahl,
 )
+from suspenv.diagnosis.screening import effective_n
 from suspenv.models.effects import damper_curves, friction, hysteresis, sensor, stiffness
 from suspenv.models.effects.viscoelastic import maxwell_series
 

@@ -46,7 +46,8 @@ def test_registry_covers_the_spec_families_with_words_and_bounds():
     kinds = effect_kinds()
     assert set(kinds) >= REQUIRED_KINDS
     for k in kinds.values():
-        assert k.words and k.signature and k.parameters
+        # a pair kind's parameters are its host's (one difference per left/right pair)
+        assert k.words and k.signature and (k.parameters or k.host_parameters)
         for p in k.parameters:
             assert p.low <= p.reference <= p.high
 
@@ -181,3 +182,16 @@ def test_zero_level_is_the_absent_element():
         assert np.all(e.force(x, t=t) == 0.0), kind
         if kind in STATEFUL or kind in STATELESS:
             assert pointwise(e).force(0.05, 0.3, 0.0) == 0.0, kind
+
+
+def test_host_declared_parameters_of_a_pair_effect():
+    # reference: lr_asymmetry perturbs the host's own pairs; the host names them d_<name>
+    e = make_effect("lr_asymmetry", d_static_toe=0.04, d_top_mount_kz=0.1)
+    assert e.host_parameter_names == ("d_static_toe", "d_top_mount_kz")
+    assert e.parameter_names == ("lr_asymmetry.d_static_toe", "lr_asymmetry.d_top_mount_kz")
+    assert "d_static_toe=0.04" in e.describe()
+    assert e.spec.apply(100.0, 0.1) == pytest.approx((95.0, 105.0))
+    with pytest.raises(ValidationError, match=r"unknown parameter\(s\) \['toe'\].*d_<name>"):
+        make_effect("lr_asymmetry", toe=0.1)
+    with pytest.raises(ValidationError, match=r"unknown parameter\(s\) \['d_x'\]"):
+        make_effect("coulomb_friction", d_x=1.0)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from suspenv.core.errors import ValidationError
-from suspenv.models.mcpherson import AxleEffects, AxleSolver, build_axle, reference_design
+from suspenv.models.mcpherson import AxleSolver, axle_effect, build_axle, reference_design
 from suspenv.rigs.knc import FORCE_TESTS, contact_forces, run_tests
 
 STEPS = 8
@@ -74,12 +74,7 @@ def test_the_applied_force_does_no_net_work_on_an_elastic_axle_and_positive_work
     # W = sum F_mid * dx (contact point along the force), is zero for elastic elements
     # (the loop retraces itself) and equals the energy the Dahl elements dissipate
     # (W > 0) when the lower-arm bushes have hysteresis
-    eff = AxleEffects(
-        hysteresis_bushings=("lca_front", "lca_rear"),
-        hysteresis_sigma_ratio=1.0,
-        hysteresis_fc_force=150.0,
-        hysteresis_fc_moment=7.5,
-    )
+    eff = [axle_effect("dahl_hysteresis", "lower_arm", f_c=150.0, sigma_ratio=1.0)]
 
     def work(effects):
         res = run_tests(
@@ -90,7 +85,7 @@ def test_the_applied_force_does_no_net_work_on_an_elastic_axle_and_positive_work
         x = r.channels["contact_x"][0]  # (P, 2)
         return (0.5 * (f[1:] + f[:-1])[:, None] * np.diff(x, axis=0)).sum(axis=0)
 
-    plain = work(None)
+    plain = work([])
     loop = work(eff)
     assert np.abs(plain).max() < 1e-6  # J
     assert (loop > 0.01).all(), loop  # J: a visible loop on both wheels
@@ -138,3 +133,11 @@ def test_cli_runs_a_compliance_test(tmp_path):
     lines = (tmp_path / "mcpherson_reference_longitudinal.csv").read_text().splitlines()
     assert lines[0].startswith("step,force_N,direction") and len(lines) == 1 + 13
     assert float(lines[4].split(",")[1]) == 2500.0  # design -> +F -> -F -> design
+
+
+def test_cli_test_choices_are_the_rig_tests():
+    # the CLI lists the tests without importing the solver; the rig is the reference
+    from suspenv.cli.knc import TEST_CHOICES
+    from suspenv.rigs.knc import ALL_TESTS
+
+    assert tuple(TEST_CHOICES) == tuple(ALL_TESTS)

@@ -11,8 +11,8 @@ from suspenv.core.errors import ValidationError
 from suspenv.metrics.knc import OBJECTIVE_NAMES, OBJECTIVES, loop_width, quadratic_fit
 from suspenv.models.mcpherson import build_axle, design_space, reference_design
 from suspenv.models.mcpherson.params import PAPER_IDENTIFIED_POINTS, PAPER_RANGES
-from suspenv.models.mcpherson.truth import measure, truth_vehicle
-from suspenv.problems.kc_identification import KCIdentification
+from suspenv.models.mcpherson.truth import truth_vehicle
+from suspenv.problems.kc_identification import KCIdentification, measure
 from suspenv.registry import make_problem
 from suspenv.rigs.knc import loop_path, run_tests, stroke_grid
 
@@ -213,11 +213,9 @@ def test_fit_model_with_the_concealed_hysteresis_reproduces_the_targets():
     # reference: the truth and the fit model are the same code with the same effect list,
     # so the reference design must match hysteresis-only targets exactly; the plain
     # model cannot (its loops close)
-    hyst = {
-        "hysteresis_bushings": ["lca_front", "lca_rear", "top_mount"],
-        "hysteresis_fc_force": 80.0,
-        "hysteresis_fc_moment": 4.0,
-    }
+    hyst = [
+        {"kind": "dahl_hysteresis", "location": "lower_arm_and_top_mount", "params": {"f_c": 80.0}}
+    ]
     with_h = KCIdentification(concealed=("hysteresis",), model_effects=hyst, steps=10)
     plain = KCIdentification(concealed=("hysteresis",), steps=10)
     x = with_h.reference_design()[None, :]

@@ -286,11 +286,12 @@ def test_compliance_from_the_jacobian_equals_finite_differences_of_loaded_solves
 
 def test_balance_holds_with_hysteresis_and_friction():
     # reference: statics about the global origin, with the path-dependent elements on
-    from suspenv.models.mcpherson import AxleEffects
+    from suspenv.models.mcpherson import axle_effect
 
-    eff = AxleEffects(
-        hysteresis_bushings=("lca_front", "lca_rear", "top_mount"), strut_friction=80.0
-    )
+    eff = [
+        axle_effect("dahl_hysteresis", "lower_arm_and_top_mount", f_c=60.0),
+        axle_effect("coulomb_friction", "strut", f_c=80.0),
+    ]
     axle = build_axle(reference_design()[None, :])
     res = run_tests(axle, tests=("single",), steps=6, effects=eff, keep_states=True)["single"]
     assert res.ok.all()
@@ -312,12 +313,16 @@ def test_build_axle_rejects_wrong_shapes():
 
 
 def test_effects_are_off_by_default_and_validated():
-    from suspenv.models.mcpherson import AxleEffects
+    from suspenv.models.mcpherson import axle_effect, bushings_at
 
-    assert not AxleEffects().active
-    with pytest.raises(ValidationError, match="must be one of"):
-        AxleEffects(hysteresis_bushings=("nope",))
-    assert dataclasses.asdict(AxleEffects())["strut_friction"] == 0.0
+    axle = build_axle(reference_design()[None, :])
+    assert AxleSolver(axle).effects == ()
+    with pytest.raises(ValidationError, match="must be a bushing"):
+        axle_effect("dahl_hysteresis", "nope")
+    assert bushings_at("lower_arm") == ("lca_front", "lca_rear")
+    # a zero friction level is no friction (no path state)
+    off = AxleSolver(axle, [axle_effect("coulomb_friction", "strut", f_c=0.0)])
+    assert off.initial_state().fric is None
 
 
 def test_roll_centre_height_from_contact_point_motion_matches_the_kinematic_solver():

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from suspenv.core.errors import ValidationError
-from suspenv.diagnosis.matched_speed import half_cycles, matched_speed_asymmetry
+from suspenv.diagnosis.component.matched_speed import half_cycles, matched_speed_asymmetry
 
 STROKE = 0.0125  # m, half-stroke of the sine
 SPEEDS = (0.02, 0.04, 0.06, 0.1, 0.15, 0.25)  # m/s, peak speeds run in this order
@@ -110,7 +110,7 @@ def test_a_single_speed_gives_no_verdict():
 
 def test_real_damper_dyno_difference_changes_with_speed(shared_data):
     """Real racing damper: the bump/rebound difference is not a constant force."""
-    from suspenv.recordings import load_damper_dyno
+    from suspenv.measurements import load_damper_dyno
 
     path = shared_data / "real" / "damper_dyno_fsae" / "TR22-FC0739-1-4-1-4.dat"
     rec = load_damper_dyno(path)

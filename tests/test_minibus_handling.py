@@ -10,13 +10,19 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from suspenv.core.errors import ValidationError
-from suspenv.metrics.handling import WindowedPeaks, linear_range_gradient, mean_peak_amplitude
+from suspenv.metrics.handling import (
+    WindowedPeaks,
+    linear_range_gradient,
+    mean_peak_amplitude,
+    slalom,
+)
 from suspenv.models.minibus.handling_model import (
     HandlingParams,
     HandlingState,
     LeafAxleGeometry,
     handling_parameters,
     rates,
+    roll_centre_heights,
     step,
     wheel_loads,
 )
@@ -32,7 +38,7 @@ from suspenv.models.minibus.vehicle import (
 from suspenv.rigs.handling import (
     SlalomConfig,
     SteadyCircleConfig,
-    slalom,
+    slalom_run,
     steady_circle,
     steady_state_sweep,
 )
@@ -234,6 +240,14 @@ def test_handling_parameters_reject_a_cg_below_the_roll_axis():
         handling_parameters(STUDY_PICK[None, :], "no_load", low)
 
 
+def test_front_roll_centre_height_from_the_instant_centre():
+    # reference: similar triangles from the contact patch through the swing-arm instant
+    # centre (0.15 m high, 2.0 m inboard) to the centreline (half track 1.465 / 2 m)
+    front, rear = roll_centre_heights()
+    assert front == pytest.approx(0.15 * (1.465 / 2) / 2.0)
+    assert rear == REFERENCE_MINIBUS.rear_roll_centre_height
+
+
 # ---------------------------------------------------------------------- steady circle
 def test_circle_limit_without_load_transfer_is_the_tyre_friction_closed_form():
     # reference: with (almost) no lateral load transfer each axle carries at most
@@ -372,6 +386,31 @@ def test_slalom_flags_a_vehicle_that_cannot_follow_the_course():
     P = handling_parameters(STUDY_PICK[None, :], "full_load", tyre=icy)
     res = slalom(P, SlalomConfig())
     assert not res.completed[0]
+
+
+def test_slalom_rig_hands_every_step_to_the_callers_accumulator():
+    # reference: the per-cone peaks recomputed from every step the rig handed over
+    class Keep:
+        def __init__(self):
+            self.x, self.values = [], []
+
+        def update(self, x, values):
+            self.x.append(np.array(x))
+            self.values.append(np.array(values))
+
+    P = handling_parameters(STUDY_PICK[None, :], "no_load")
+    cfg = SlalomConfig()
+    keep = Keep()
+    run = slalom_run(P, cfg, accumulator=keep)
+    res = slalom(P, cfg)
+    np.testing.assert_array_equal(run.completed, res.completed)
+    np.testing.assert_allclose(run.path_error_rms, res.path_error_rms, rtol=0, atol=0)
+    x, v = np.array(keep.x), np.array(keep.values)  # (T, n), (T, 4, n)
+    first, stop = cfg.measure_cones
+    for k, c in enumerate(cfg.cone_x[first:stop]):
+        inside = (x >= c - cfg.spacing / 2) & (x < c + cfg.spacing / 2)
+        peak = np.where(inside, np.abs(v[:, 0]), 0.0).max(axis=0)
+        np.testing.assert_allclose(res.yaw_rate_peaks[k], peak, rtol=0, atol=0)
 
 
 def test_slalom_config_rules():

@@ -10,13 +10,9 @@ import pytest
 
 from suspenv.core.errors import ValidationError
 from suspenv.models.minibus.vehicle import STUDY_PICK, design_space
-from suspenv.problems.minibus import (
-    MinibusRideHandling,
-    pareto_mask,
-    ride_focused_pick,
-    write_minibus_report,
-)
+from suspenv.problems.minibus import MinibusRideHandling, pareto_mask, ride_focused_pick
 from suspenv.registry import make_problem
+from suspenv.reports.minibus import write_minibus_report
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -148,7 +144,7 @@ def test_report_files(problem, evaluated, tmp_path):
 
 @pytest.mark.parametrize("name", ["minibus_nsga2.toml", "minibus_quick.toml"])
 def test_experiment_configs(name):
-    cfg = tomllib.loads((ROOT / "experiments" / name).read_text())
+    cfg = tomllib.loads((ROOT / "configs" / name).read_text())
     assert cfg["problem"]["name"] == "MinibusRideHandling"
     assert cfg["strategy"]["name"] in ("nsga2", "pymoo_nsga2")
     pop = cfg["strategy"]["options"]["population_size"]

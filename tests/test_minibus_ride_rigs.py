@@ -1,4 +1,4 @@
-"""Minibus ride rigs: random-road objectives, pulse bump, suspension report."""
+"""Minibus ride rigs: random-road objectives, pulse bump, suspension and ride reports."""
 
 from __future__ import annotations
 
@@ -6,21 +6,16 @@ import numpy as np
 import pytest
 
 from suspenv.core.errors import ValidationError
+from suspenv.metrics.ride import ride_objectives, ride_objectives_all
 from suspenv.models.minibus import BASELINE_DESIGN, STUDY_PICK, design_space, vehicle_parameters
 from suspenv.models.minibus.ride_model import RideModel
 from suspenv.models.minibus.vehicle import G
+from suspenv.reports.suspension import suspension_figures, write_suspension_report
 from suspenv.rigs.ride import (
     PulseBump,
     RandomRoad,
     pulse_run,
     random_road_inputs,
-    ride_objectives,
-    ride_objectives_all,
-)
-from suspenv.rigs.suspension_report import (
-    roll_centre_heights,
-    suspension_figures,
-    write_suspension_report,
 )
 
 SHORT = RandomRoad(duration_s=2.0, settle_s=0.5)
@@ -122,8 +117,6 @@ def test_suspension_figures_closed_forms_and_report(tmp_path):
     assert figs["no_load"]["roll_stiffness_front"][0] == pytest.approx(roll_f)
     share = figs["full_load"]["roll_share_front"][0]
     assert 0 < share < 1
-    # front roll centre: similar triangles through the instant centre
-    assert roll_centre_heights()[0] == pytest.approx(0.15 * (1.465 / 2) / 2.0)
     # loading moves the CoM rearward and up (documented data)
     assert figs["loading"]["cg_shift_x"][0] > 0 and figs["loading"]["cg_shift_z"][0] > 0
     paths = write_suspension_report({"baseline": BASELINE_DESIGN, "pick": STUDY_PICK}, tmp_path)
@@ -134,9 +127,9 @@ def test_suspension_figures_closed_forms_and_report(tmp_path):
 
 
 def test_ride_report_files(tmp_path):
-    from suspenv.rigs.ride import write_ride_report
+    from suspenv.reports.minibus_ride import write_minibus_ride_report
 
-    paths = write_ride_report(
+    paths = write_minibus_ride_report(
         {"pick": STUDY_PICK}, tmp_path, road=SHORT, pulse_speeds_kmh=(50.0,), pulse_duration_s=1.2
     )
     assert [p.name for p in paths] == ["ride_report.md", "ride_psd.png", "ride_pulse.png"]

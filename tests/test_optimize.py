@@ -15,9 +15,9 @@ import pytest
 from suspenv import make_problem
 from suspenv.core import DesignSpace, EvaluationBatch, Parameter, Problem
 from suspenv.core.errors import EvaluationError, ValidationError
-from suspenv.optimize import optimize
-from suspenv.recording.archive import RunArchive
 from suspenv.registry import make_strategy
+from suspenv.runs.archive import RunArchive
+from suspenv.runs.loop import optimize
 
 
 class Fragile(Problem):
@@ -122,7 +122,7 @@ def test_resume_after_kill_loses_nothing_and_duplicates_nothing(tmp_path):
     script = textwrap.dedent(f"""
         from suspenv import make_problem
         from suspenv.registry import make_strategy
-        from suspenv.optimize import optimize
+        from suspenv.runs.loop import optimize
         p = make_problem("Sphere", dim=4, delay_s=0.02)
         optimize(p, make_strategy("cmaes", p, seed=9, popsize=8), budget=400,
                  run_dir={str(run_dir)!r}, chunk_size=3)

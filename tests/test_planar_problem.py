@@ -206,10 +206,10 @@ def test_speed_benchmark_runs(tmp_path):
 def test_teaching_experiment_runs_and_beats_the_baseline(tmp_path):
     from pathlib import Path
 
-    from suspenv.experiments.config import load_config
-    from suspenv.experiments.runner import run_experiment
+    from suspenv.runs.config import load_config
+    from suspenv.runs.runner import run_experiment
 
-    config_path = Path(__file__).resolve().parents[1] / "experiments" / "planar_camber.toml"
+    config_path = Path(__file__).resolve().parents[1] / "configs" / "planar_camber.toml"
     config = load_config(
         config_path, ["budget=120", f'run.output="{tmp_path}"', "run.progress=false"]
     )
@@ -228,7 +228,7 @@ def test_teaching_experiment_runs_and_beats_the_baseline(tmp_path):
 def test_cmaes_identifies_the_target_hard_points():
     # identification: the target's hard points are the unique zero of curve_error here
     # (4 coordinates of a McPherson strut); CMA-ES must recover them from the baseline
-    from strategies.cmaes import CMAES
+    from suspenv.strategies.cmaes import CMAES
 
     p = make_problem("PlanarLinkage", geometry="mcpherson")
     truth = _design_of(p, "mcpherson_target")

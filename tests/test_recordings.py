@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from suspenv.recordings import (
+from suspenv.measurements import (
     Recording,
     RecordingError,
     load_recording,
@@ -177,7 +177,7 @@ def test_smoothing_differentiator_against_analytic_derivative():
 
 
 def test_read_recording_npz_and_unknown_type(tmp_path):
-    from suspenv.recordings import read_recording
+    from suspenv.measurements import read_recording
 
     path = save_recording(make_rec(), tmp_path / "r.npz")
     assert read_recording(path).name == "sine"

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from suspenv.recordings import (
+from suspenv.measurements import (
     RecordingError,
     load_damper_dyno,
     load_emps,
@@ -75,7 +75,7 @@ def test_converters_reject_wrong_files(shared_data, tmp_path):
 
 
 def test_read_recording_dispatches_by_content(shared_data):
-    from suspenv.recordings import read_recording
+    from suspenv.measurements import read_recording
 
     real = shared_data / "real"
     expected = {

@@ -7,7 +7,7 @@ import pytest
 from scipy.signal import csd
 
 from suspenv.core.errors import ValidationError
-from suspenv.models.road import (
+from suspenv.rigs.road import (
     ROAD_CLASS_GD0,
     class_gd0,
     contact_length_filter,

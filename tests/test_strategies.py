@@ -3,12 +3,12 @@
 import numpy as np
 import pytest
 
-from strategies.base import Strategy
-from strategies.scalarize import penalized_fitness, rank_sum, weighted_sum
 from suspenv import make_problem
 from suspenv.core import EvaluationBatch
 from suspenv.core.errors import ValidationError
+from suspenv.core.scalarize import penalized_fitness, rank_sum, weighted_sum
 from suspenv.registry import list_strategies, make_strategy, register_strategy, strategy_class
+from suspenv.strategies.base import Strategy
 
 
 @pytest.mark.parametrize("name", list_strategies())
@@ -169,7 +169,7 @@ def test_user_strategy_plugs_in_through_registry():
 
     register_strategy("centre_test", Centre, overwrite=True)
     problem = make_problem("Sphere", dim=2)
-    from suspenv.optimize import optimize
+    from suspenv.runs.loop import optimize
 
     r = optimize(problem, make_strategy("centre_test", problem, seed=0), budget=6)
     assert r.n_evaluations == 6 and strategy_class("centre_test") is Centre

@@ -30,7 +30,7 @@ def best_time(fn: Callable[[], Any], repeat: int = 5, number: int = 1) -> float:
 
 def machine_info() -> dict[str, Any]:
     """Facts that make a benchmark number interpretable."""
-    from suspenv.recording.versions import package_versions
+    from suspenv.runs.versions import package_versions
 
     return {
         "python": platform.python_version(),

@@ -1,8 +1,8 @@
 """Blind benchmark of the K&C diagnosis (``python -m suspenv.bench.knc_diagnosis``).
 
 Each case is a truth vehicle with none, one or two concealed effects
-(:func:`suspenv.diagnosis.knc.recording.blind_case`): the case type comes from a fixed
-cycle of 36 (:data:`~suspenv.diagnosis.knc.recording.BLIND_PLAN`: every single effect
+(:func:`suspenv.diagnosis.knc.truth.blind_case`): the case type comes from a fixed
+cycle of 36 (:data:`~suspenv.diagnosis.knc.truth.BLIND_PLAN`: every single effect
 kind and hysteresis location 3 times, 6 two-effect pairs, 6 no-effect controls),
 magnitude, location and noise level are drawn from the seed. The diagnosis sees only
 the recordings (fit: parallel and opposite travel, lateral and longitudinal compliance;
@@ -56,16 +56,17 @@ REPORT_SEEDS = tuple(range(1000, 1036))
 STEPS = 6
 
 
-def _loop_width_error(diag: Any, truth: dict) -> float:
-    from suspenv.diagnosis.knc.recording import measure_truth
-    from suspenv.diagnosis.knc.report import loop_width
+def _loop_gap_error(diag: Any, truth: dict) -> float:
+    from suspenv.diagnosis.knc.locate import loop_gap_at_static
+    from suspenv.diagnosis.knc.truth import measure_truth
 
     exact = measure_truth(
         truth["effects"], truth["seed"], steps=STEPS, noise_scale=0.0, tests=("parallel",)
     )["parallel"]
     pred = diag.final_fit.model.simulate(diag.final_fit.theta, exact)
-    true_w = np.mean([loop_width(exact, exact.outputs[f"tyre_fz_{s}"]) for s in ("left", "right")])
-    fit_w = np.mean([loop_width(exact, pred[f"tyre_fz_{s}"]) for s in ("left", "right")])
+    sides = ("left", "right")
+    true_w = np.mean([loop_gap_at_static(exact, exact.outputs[f"tyre_fz_{s}"]) for s in sides])
+    fit_w = np.mean([loop_gap_at_static(exact, pred[f"tyre_fz_{s}"]) for s in sides])
     return float(abs(fit_w / true_w - 1.0)) if true_w else float("nan")
 
 
@@ -78,7 +79,7 @@ def parameter_error(diag: Any, truth: dict, kind: str) -> float:
     if eff is None:
         return float("nan")
     if kind in ("dahl_hysteresis", "coulomb_friction"):
-        return _loop_width_error(diag, truth)
+        return _loop_gap_error(diag, truth)
     if kind == "lr_asymmetry":
         tol = truth["effects"]["asymmetry"]
         tv = truth_vehicle(
@@ -104,19 +105,11 @@ def parameter_error(diag: Any, truth: dict, kind: str) -> float:
     return float("nan")
 
 
-#: truth bushings with hysteresis -> the candidate that puts it there
-VARIANT_OF_BUSHINGS = {
-    ("lca_front", "lca_rear", "top_mount"): "dahl_hysteresis",
-    ("lca_front", "lca_rear"): "dahl_hysteresis:lower_arm",
-    ("top_mount",): "dahl_hysteresis:top_mount",
-}
-
-
 def hysteresis_location(diag: Any) -> str | None:
     """The hysteresis candidate (location variant) the diagnosis named, if any."""
     for h in diag.named:
-        if h.kind == "dahl_hysteresis" and h.params:
-            return next(iter(h.params)).split(".")[0]
+        if h.kind == "dahl_hysteresis":
+            return str(h.candidate)
     return None
 
 
@@ -124,7 +117,7 @@ def detectability(truth: dict) -> dict[str, dict]:
     """Signal-to-noise of each concealed effect alone (the four fitted tests, noise-free
     truth)."""
     from suspenv.diagnosis.knc.detectability import truth_snr
-    from suspenv.diagnosis.knc.recording import TRUTH_KIND
+    from suspenv.diagnosis.knc.truth import TRUTH_KIND
 
     return {
         TRUTH_KIND[name]: truth_snr(
@@ -139,7 +132,8 @@ def model_error(diag: Any, truth: dict) -> dict[str, float]:
     final model against the measured data, the noise-free truth, and the noise floor."""
     from suspenv.diagnosis.evidence import heldout_rms
     from suspenv.diagnosis.knc.detectability import noise_levels
-    from suspenv.diagnosis.knc.recording import measure_truth, rig_test
+    from suspenv.diagnosis.knc.truth import measure_truth
+    from suspenv.measurements.knc import rig_test
 
     scales = diag.base_fit.scales
     held = diag.heldout_recordings
@@ -165,13 +159,13 @@ def _ratio(a: float, b: float) -> float:
 
 
 def run_case(seed: int) -> dict[str, Any]:
+    from suspenv.diagnosis.engine import diagnose
     from suspenv.diagnosis.knc.detectability import DETECTABLE_SNR
-    from suspenv.diagnosis.knc.diagnose import diagnose_knc
-    from suspenv.diagnosis.knc.recording import blind_case
+    from suspenv.diagnosis.knc.truth import blind_case, truth_effects
 
     case, truth = blind_case(seed, steps=STEPS)
     t0, c0 = time.perf_counter(), time.process_time()
-    diag = diagnose_knc(case["recordings"], holdout="single")
+    diag = diagnose(case["recordings"], "knc", holdout="single")
     seconds, cpu = time.perf_counter() - t0, time.process_time() - c0
     expected = truth["expected_kinds"]
     named = diag.named_kinds
@@ -183,9 +177,9 @@ def run_case(seed: int) -> dict[str, Any]:
     ]
     errs = {k: parameter_error(diag, truth, k) for k in named if k in expected}
     where = hysteresis_location(diag)
-    true_where = None
-    if "hysteresis" in truth["effects"]:
-        true_where = VARIANT_OF_BUSHINGS[tuple(truth["effects"]["hysteresis"]["bushings"])]
+    # the truth's hysteresis is the candidate effect that puts it where it is
+    concealed, _ = truth_effects(truth["effects"])
+    true_where = next((e.name for e in concealed if e.kind == "dahl_hysteresis"), None)
     return {
         "seed": seed,
         "case_type": truth["case_type"],

@@ -22,8 +22,9 @@ import numpy as np
 from tqdm import tqdm
 
 from suspenv.bench.common import write_result
+from suspenv.metrics.ride import ride_objectives_all
 from suspenv.models.minibus import design_space
-from suspenv.rigs.ride import RandomRoad, ride_objectives_all
+from suspenv.rigs.ride import RandomRoad
 
 TARGET_MS = 2.0
 

@@ -25,11 +25,12 @@ import numpy as np
 from tqdm import tqdm
 
 from suspenv.bench.common import time_batch_vs_single, wall_and_cpu, write_result
+from suspenv.metrics.handling import slalom
+from suspenv.metrics.ride import ride_objectives_all
 from suspenv.models.minibus.handling_model import HandlingParams, handling_parameters
 from suspenv.models.minibus.vehicle import LOAD_CASES
 from suspenv.registry import make_problem
-from suspenv.rigs.handling import slalom, steady_circle
-from suspenv.rigs.ride import ride_objectives_all
+from suspenv.rigs.handling import steady_circle
 
 TARGET_MS = 5.0
 STUDY_EVALUATIONS = 30_000

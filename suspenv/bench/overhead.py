@@ -22,10 +22,10 @@ import time
 import cma
 import numpy as np
 
-from strategies.cmaes import CMAES
 from suspenv.bench.common import write_result
-from suspenv.optimize import optimize
 from suspenv.problems.toy import Sphere
+from suspenv.runs.loop import optimize
+from suspenv.strategies.cmaes import CMAES
 
 DIM, POP = 49, 42
 

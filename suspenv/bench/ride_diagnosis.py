@@ -17,7 +17,8 @@ verdict says a residual remains (:mod:`suspenv.diagnosis.ride.residual`).
 
 Road: synthetic Gaussian profiles of ISO 8608 class B with w = 2 (controls) and
 w = 2.5 (planted), scored on false/true detections and the recovered w; and the
-real ``profile_1/2.txt`` (when ``../shared/data`` is present).
+real ``profile_1/2.txt`` (when the shared data is present,
+:func:`suspenv.measurements.data_dir`).
 
 Seeds: ``--dev`` runs the tuning seeds; the default runs the reported seeds (a
 different set). Rows are appended to ``<tmp>/suspenv_bench/ride_diagnosis.rows.jsonl`` as they
@@ -41,7 +42,8 @@ import numpy as np
 from tqdm import tqdm
 
 from suspenv.bench.common import DEFAULT_OUTPUT_DIR, write_result
-from suspenv.diagnosis.ride import diagnose_ride, make_ride_case
+from suspenv.diagnosis.engine import diagnose
+from suspenv.diagnosis.ride.family import RideFamily
 from suspenv.diagnosis.ride.mismatch import OUT_OF_LIBRARY_KINDS, mismatch_words
 from suspenv.diagnosis.ride.road import (
     diagnose_road,
@@ -50,7 +52,9 @@ from suspenv.diagnosis.ride.road import (
     synthetic_profile,
     waviness_test,
 )
-from suspenv.models.road import ROAD_CLASS_GD0
+from suspenv.diagnosis.ride.truth import make_ride_case
+from suspenv.measurements import data_dir
+from suspenv.rigs.road import ROAD_CLASS_GD0
 
 DEV_SEEDS = (11, 12)
 REPORT_SEEDS = (501, 502)
@@ -60,9 +64,6 @@ KINDS: tuple[str | None, ...] = (
     "damper_friction",
     "seat_mount",
     None,
-)
-SHARED_ROAD = (
-    Path(__file__).resolve().parents[2].parent / "shared" / "data" / "real" / "road_profiles"
 )
 #: truth kind -> the (kind@location) prefix a correct diagnosis names
 EXPECTED_KIND = {
@@ -76,7 +77,7 @@ EXPECTED_KIND = {
 def ride_row(kind: str | None, seed: int) -> dict[str, Any]:
     case = make_ride_case(seed, kind)
     wall, cpu = time.perf_counter(), time.process_time()
-    diag = diagnose_ride(case.fit, case.heldout, screen=3, max_effects=1)
+    diag = diagnose(case.fit, RideFamily(screen_count=3, max_effects=1), holdout=case.heldout)
     wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
     truth = case.truth.effects
     expected = f"{truth[0].kind}@{truth[0].location}" if truth else ""
@@ -93,7 +94,7 @@ def ride_row(kind: str | None, seed: int) -> dict[str, Any]:
         "cpu_seconds": cpu,
     }
     if not case.truth.in_library:
-        named = diag.named_kinds
+        named = diag.named_candidates
         return {
             "part": "ride (out of library)",
             "case": f"{kind}/{seed}",
@@ -106,7 +107,7 @@ def ride_row(kind: str | None, seed: int) -> dict[str, Any]:
             **common,
             "verdict": diag.verdict,
         }
-    named = diag.named_kinds
+    named = diag.named_candidates
     before = diag.baseline["heldout_rms"]
     scales = diag.base_fit.scales
     b = float(np.sqrt(np.mean([(before[c] / scales[c]) ** 2 for c in before])))
@@ -160,10 +161,11 @@ def road_rows(seeds: tuple[int, ...]) -> list[dict[str, Any]]:
 
 
 def real_road_rows() -> list[dict[str, Any]]:
-    if not SHARED_ROAD.is_dir():
-        print(f"real road profiles not found at {SHARED_ROAD}; skipped", file=sys.stderr)
+    shared_road = data_dir() / "real" / "road_profiles"
+    if not shared_road.is_dir():
+        print(f"real road profiles not found at {shared_road}; skipped", file=sys.stderr)
         return []
-    p1, p2 = SHARED_ROAD / "profile_1.txt", SHARED_ROAD / "profile_2.txt"
+    p1, p2 = shared_road / "profile_1.txt", shared_road / "profile_2.txt"
     rows = []
     for a, b in ((p1, p2), (p2, p1)):
         d = diagnose_road(load_profile_txt(a), heldout=load_profile_txt(b))

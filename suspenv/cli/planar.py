@@ -70,7 +70,7 @@ def _planar(args: argparse.Namespace) -> int:
     if len(results) == 2:
         _print_agreement(results[0][2], results[1][2])
     if args.plot:
-        from suspenv.models.planar.render import save_curves_figure, save_linkage_figure
+        from suspenv.reports.planar import save_curves_figure, save_linkage_figure
 
         out_dir = Path(args.out)
         stem = Path(args.geometry).stem

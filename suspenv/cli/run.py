@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import argparse
 
-from suspenv.experiments.config import load_config
-from suspenv.experiments.runner import run_experiment
+from suspenv.runs.config import load_config
+from suspenv.runs.runner import run_experiment
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -15,7 +15,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         description="Run an experiment config. Re-running the same config resumes a run that "
         "died, without re-evaluating what is archived.",
     )
-    p.add_argument("config", help="path to an experiment TOML file (see experiments/)")
+    p.add_argument("config", help="path to an experiment TOML file (see configs/)")
     p.add_argument(
         "--set",
         dest="overrides",

@@ -3,21 +3,9 @@
 from __future__ import annotations
 
 import argparse
-import json
-from pathlib import Path
 from typing import Any
 
-from suspenv.core.errors import ValidationError
-
-
-def load_summary(run_dir: str | Path) -> dict[str, Any]:
-    path = Path(run_dir) / "summary.json"
-    if not path.is_file():
-        raise ValidationError(
-            f"{str(run_dir)!r} is not a finished run directory (no summary.json); "
-            "a run that died can be resumed with `suspenv run CONFIG`"
-        )
-    return json.loads(path.read_text())
+from suspenv.runs.compare import load_summary
 
 
 def format_summary(s: dict[str, Any]) -> str:

@@ -167,10 +167,10 @@ class DesignSpace:
     # ------------------------------------------------------------- dict views
     def as_dict(self, x: Sequence[float]) -> dict[str, float]:
         """One physical design as ``{name: value}``."""
-        x = np.asarray(x, dtype=float).reshape(-1)
-        if x.size != self.dim:
-            raise ValidationError(f"design must have {self.dim} values, but got {x.size}")
-        return {n: float(v) for n, v in zip(self.names, x, strict=True)}
+        arr = np.asarray(x, dtype=float).reshape(-1)
+        if arr.size != self.dim:
+            raise ValidationError(f"design must have {self.dim} values, but got {arr.size}")
+        return {n: float(v) for n, v in zip(self.names, arr, strict=True)}
 
     def from_dict(self, values: Mapping[str, float], *, fill_reference: bool = True) -> np.ndarray:
         """A physical design from ``{name: value}``; unknown names are an error."""

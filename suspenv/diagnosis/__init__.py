@@ -1,7 +1,13 @@
 """Diagnosis: locate the mismatch between a model and recordings, name the missing
 physics, add it as an effect element, refit, and prove the fit improves.
 
-Entry point: :func:`suspenv.diagnosis.engine.diagnose`; report:
-:func:`suspenv.diagnosis.report.write_report`; blind benchmark:
-:mod:`suspenv.diagnosis.benchmark`. See ``docs/diagnosis.md``.
+One loop (:func:`suspenv.diagnosis.engine.diagnose`) with pluggable families: a
+component on a dyno or rig (:mod:`~suspenv.diagnosis.component`), the McPherson axle on a
+K&C rig (:mod:`~suspenv.diagnosis.knc`), the minibus on ride tests
+(:mod:`~suspenv.diagnosis.ride`); measured road profiles get a spectral test beside it
+(:mod:`~suspenv.diagnosis.ride.road`). See ``docs/diagnosis.md``.
 """
+
+from suspenv.diagnosis.engine import Diagnosis, diagnose
+
+__all__ = ["Diagnosis", "diagnose"]

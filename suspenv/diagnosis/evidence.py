@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 from scipy import stats
 
-from suspenv.diagnosis.fit import FitResult, as_list, lag1_autocorrelation, residuals
+from suspenv.diagnosis.fitting import FitResult, as_list, lag1_autocorrelation, residuals
 
 
 def ljung_box(r: np.ndarray, lags: int = 20) -> tuple[float, float]:

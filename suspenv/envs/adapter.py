@@ -25,10 +25,10 @@ from typing import Any
 
 import numpy as np
 
-from strategies.scalarize import get_scalarizer
 from suspenv.core.errors import ValidationError
 from suspenv.core.problem import Problem
 from suspenv.core.result import EvaluationBatch
+from suspenv.core.scalarize import get_scalarizer
 from suspenv.registry import make_problem
 
 #: reported objective/constraint value of a failed evaluation (finite, inside the space)

@@ -1,14 +1,25 @@
-"""Handling metrics: pure functions from manoeuvre channels to numbers.
+"""Handling metrics: pure functions from manoeuvre channels to numbers, and the slalom's.
 
 Units are those of the channels passed in (the rigs use SI: m, s, rad). Arrays carry
 samples on the first axis and the batch on the last axis.
+
+Slalom (:func:`slalom`): measured over the middle cones (default the 3rd to the 8th) of
+the rig's run (:func:`suspenv.rigs.handling.slalom_run`): for each cone the peak |yaw
+rate| and peak |roll angle| while the vehicle is within half a spacing of the cone; the
+results are the means of these peaks (mean yaw-rate amplitude, mean roll-angle
+amplitude). The peaks are folded in step by step (:class:`WindowedPeaks`, handed to the
+rig as its accumulator), so no time history is stored.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
+
 import numpy as np
 
 from suspenv.core.errors import ValidationError
+from suspenv.models.minibus.handling_model import HandlingParams
+from suspenv.rigs.handling import SLALOM_SIGNALS, SlalomConfig, slalom_run
 
 
 class WindowedPeaks:
@@ -83,3 +94,61 @@ def linear_range_gradient(x: np.ndarray, y: np.ndarray, x_max: float) -> np.ndar
     if ys.ndim == 1:
         return np.asarray(np.dot(xs, ys) / np.dot(xs, xs))
     return xs @ ys / np.dot(xs, xs)
+
+
+# ------------------------------------------------------------------ slalom
+@dataclass
+class SlalomResult:
+    """Slalom results of a batch.
+
+    Attributes:
+        yaw_rate_amplitude: rad/s (n,), mean of the per-cone peaks |r|.
+        roll_amplitude: rad (n,), mean of the per-cone peaks |phi|.
+        steer_amplitude: rad (n,), road-wheel steer, same windows.
+        ay_amplitude: m/s^2 (n,), same windows.
+        path_error_rms: m (n,), RMS lateral distance to the path over the windows.
+        yaw_rate_peaks, roll_peaks: (n_measured_cones, n) the per-cone peaks.
+        completed: bool (n,), False where the vehicle spun or left the course (heading
+            beyond 90 deg, non-finite states, or a path error above ``max_path_error``);
+            its other results are meaningless.
+        config: the settings of the run.
+        channels: recorded time histories (T, n) when ``record_every > 0``: t, x, y,
+            psi, r, phi, delta, ay.
+    """
+
+    yaw_rate_amplitude: np.ndarray
+    roll_amplitude: np.ndarray
+    steer_amplitude: np.ndarray
+    ay_amplitude: np.ndarray
+    path_error_rms: np.ndarray
+    yaw_rate_peaks: np.ndarray
+    roll_peaks: np.ndarray
+    completed: np.ndarray
+    config: SlalomConfig
+    channels: dict[str, np.ndarray] = field(default_factory=dict)
+
+
+def slalom(
+    P: HandlingParams, config: SlalomConfig | None = None, side: float = 1.0
+) -> SlalomResult:
+    """Run the pylon-course slalom for every row of ``P`` and measure it (module docstring)."""
+    config = config or SlalomConfig()
+    first, stop = config.measure_cones
+    peaks = WindowedPeaks(
+        config.cone_x[first:stop], 0.5 * config.spacing, P.n, n_signals=len(SLALOM_SIGNALS)
+    )
+    run = slalom_run(P, config, side, accumulator=peaks)
+    r_peaks = peaks.result(SLALOM_SIGNALS.index("yaw_rate"))
+    phi_peaks = peaks.result(SLALOM_SIGNALS.index("roll"))
+    return SlalomResult(
+        yaw_rate_amplitude=mean_peak_amplitude(r_peaks),
+        roll_amplitude=mean_peak_amplitude(phi_peaks),
+        steer_amplitude=mean_peak_amplitude(peaks.result(SLALOM_SIGNALS.index("steer"))),
+        ay_amplitude=mean_peak_amplitude(peaks.result(SLALOM_SIGNALS.index("ay"))),
+        path_error_rms=run.path_error_rms,
+        completed=run.completed,
+        yaw_rate_peaks=r_peaks,
+        roll_peaks=phi_peaks,
+        config=config,
+        channels=run.channels,
+    )

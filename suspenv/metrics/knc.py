@@ -26,12 +26,14 @@ wheel travel uses the moving (left) wheel.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from suspenv.core.errors import ValidationError
-from suspenv.models.mcpherson.params import SIDE_SIGN
+from suspenv.models.effects import Effect
+from suspenv.models.mcpherson.params import SIDE_SIGN, Axle
 from suspenv.rigs.knc import KCResult
 
 RAD2DEG = 180.0 / np.pi
@@ -362,7 +364,9 @@ COMPLIANCE_LOADS = ("Fx", "Fy", "Mz")
 COMPLIANCE_OUTPUTS = ("toe", "camber", "wheel_centre_x", "wheel_centre_y")
 
 
-def compliance_matrix(axle, effects=None) -> tuple[np.ndarray, dict[str, tuple[str, ...]]]:
+def compliance_matrix(
+    axle: Axle, effects: Sequence[Effect] = ()
+) -> tuple[np.ndarray, dict[str, tuple[str, ...]]]:
     """Compliance at the design position (n, 2 wheels, 4 outputs, 3 loads), edge units.
 
     Loads on each wheel at its contact point, mirrored so that a symmetric axle gives

@@ -21,11 +21,14 @@ Extra hooks for the study pipeline: ``initial_design()`` (the paper's initial
 estimates), ``truth_design()`` (mean of the test vehicle's two sides),
 ``residuals(X)`` (signed mismatches), ``curves(x)`` and ``measured_curves()``; and
 ``write_report`` for optimisation runs. ``model_effects`` gives the simulated model
-fixed optional physics (e.g. to refit with a hysteresis a diagnosis has named).
+fixed optional physics (e.g. to refit with a hysteresis a diagnosis has named):
+effects-library elements at bushings or the strut
+(:mod:`suspenv.models.mcpherson.effects`), as dicts ``{"kind", "location", "params"}``.
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from functools import lru_cache
 from pathlib import Path
 from typing import Any
@@ -35,7 +38,8 @@ import numpy as np
 from suspenv.core import DesignSpace, EvaluationBatch, Problem
 from suspenv.core.errors import ValidationError
 from suspenv.metrics.knc import OBJECTIVE_NAMES, OBJECTIVE_UNITS, objectives
-from suspenv.models.mcpherson.effects import AxleEffects
+from suspenv.models.effects import Effect
+from suspenv.models.mcpherson.effects import axle_effect
 from suspenv.models.mcpherson.params import (
     BUSHINGS,
     HARD_POINTS,
@@ -43,7 +47,8 @@ from suspenv.models.mcpherson.params import (
     build_axle,
     design_space,
 )
-from suspenv.models.mcpherson.truth import TruthVehicle, measure, truth_vehicle
+from suspenv.models.mcpherson.truth import TruthVehicle, truth_vehicle
+from suspenv.registry import report_function
 from suspenv.rigs.knc import TESTS, KCResult, run_tests
 
 #: channels shown by ``curves``: label with unit -> (rig channel, scale to that unit)
@@ -56,6 +61,31 @@ CURVE_CHANNELS = {
 }
 
 CONCEALED = ("hysteresis", "tolerance", "noise")
+
+
+def measure(truth: TruthVehicle, amplitude: float = 0.040, steps: int = 30) -> dict[str, KCResult]:
+    """Run the three rig tests on the truth vehicle and add its sensor noise (seeded)."""
+    results = run_tests(truth.axle(), amplitude=amplitude, steps=steps, effects=truth.effects)
+    rng = np.random.default_rng(10_000 + truth.seed)
+    for test in sorted(results):
+        res = results[test]
+        if not res.ok.all():
+            raise ValidationError(f"the truth vehicle fails the {test} test: {res.messages[0]}")
+        for name in sorted(truth.noise):
+            ch = res.channels[name]
+            res.channels[name] = ch + rng.normal(0.0, truth.noise[name], ch.shape)
+    return results
+
+
+def effect_from_dict(d: Mapping[str, Any]) -> Effect:
+    """An axle effect from ``{"kind", "location", "params", "name"}`` (name optional)."""
+    missing = [k for k in ("kind", "location") if k not in d]
+    if missing:
+        raise ValidationError(
+            f"an axle effect needs 'kind' and 'location', but {d} lacks {missing}"
+        )
+    params = {k: float(v) for k, v in dict(d.get("params", {})).items()}
+    return axle_effect(str(d["kind"]), str(d["location"]), d.get("name"), **params)
 
 
 @lru_cache(maxsize=8)
@@ -80,8 +110,9 @@ class KCIdentification(Problem):
             reachable).
         amplitude_mm: wheel-pad stroke of every test (+-, paper: 40 mm).
         steps: grid intervals over the stroke (paper: 30; even).
-        model_effects: options of :class:`~suspenv.models.mcpherson.AxleEffects` for the
-            *simulated* model (fixed, not design variables), e.g. to refit with the
+        model_effects: effects of the *simulated* model (fixed, not design variables),
+            each ``{"kind", "location", "params"}`` (optional ``"name"``) of an axle
+            effect (:mod:`suspenv.models.mcpherson.effects`), e.g. to refit with the
             hysteresis a diagnosis has named; ``None`` is the paper's plain model.
     """
 
@@ -97,7 +128,7 @@ class KCIdentification(Problem):
         concealed: tuple[str, ...] | list[str] = CONCEALED,
         amplitude_mm: float = 40.0,
         steps: int = 30,
-        model_effects: dict[str, Any] | None = None,
+        model_effects: Sequence[Mapping[str, Any]] | None = None,
     ):
         bad = [c for c in concealed if c not in CONCEALED]
         if bad:
@@ -117,14 +148,9 @@ class KCIdentification(Problem):
         self.concealed = tuple(sorted(set(concealed)))
         self.amplitude = float(amplitude_mm) / 1e3
         self.steps = int(steps)
-        opts = dict(model_effects or {})
-        for key in ("hysteresis_bushings", "cubic_bushings"):
-            if key in opts:
-                opts[key] = tuple(opts[key])
-        try:
-            self.model_effects = AxleEffects(**opts)
-        except TypeError as exc:
-            raise ValidationError(f"KCIdentification: bad model_effects {opts}: {exc}") from None
+        self.model_effects: tuple[Effect, ...] = tuple(
+            effect_from_dict(d) for d in (model_effects or ())
+        )
         self.space: DesignSpace = design_space()
         self.objective_names = OBJECTIVE_NAMES
         self.objective_units = OBJECTIVE_UNITS
@@ -211,43 +237,9 @@ class KCIdentification(Problem):
 
     def write_report(self, run_dir: Path, archive: Any) -> list[Path]:
         """``kc_report.md`` (targets vs initial vs best model per objective) and
-        ``kc_curves.png`` (measured loops vs the best design's curves)."""
-        a = archive.arrays()
-        best = self.best_index(a["objectives"], a["ok"])
-        if best is None:
-            return []
-        run_dir = Path(run_dir)
-        x_best = a["x"][best]
-        F0, ok0, _ = self.simulate(self.initial_design()[None, :])
-        Fb, okb, _ = self.simulate(x_best[None, :])
-        lines = [
-            "# K&C identification: best design of the run",
-            "",
-            f"{len(a['ok'])} evaluations, {int(np.sum(a['ok']))} valid; best is evaluation "
-            f"{best}. Targets: test vehicle with concealed {', '.join(self.concealed) or 'nothing'}"
-            f" (seed {self.truth_seed}); a loop's number is the mean of its two branches.",
-            "",
-            "| objective | unit | measured | initial model | best model | |best - measured| |",
-            "|---|---|---|---|---|---|",
-        ]
-        for j, (name, unit) in enumerate(
-            zip(self.objective_names, self.objective_units, strict=True)
-        ):
-            lines.append(
-                f"| {name} | {unit} | {self.targets[j]:.5g} | {F0[0, j]:.5g} | {Fb[0, j]:.5g} "
-                f"| {abs(Fb[0, j] - self.targets[j]):.3g} |"
-            )
-        lines += ["", "Best design (ADAMS/Car units, left side):", ""]
-        lines += [
-            f"- {n} = {v:.6g} {u}"
-            for n, v, u in zip(self.space.names, x_best, self.space.units, strict=True)
-        ]
-        lines += ["", "![curves](kc_curves.png)", ""]
-        md = run_dir / "kc_report.md"
-        md.write_text("\n".join(lines))
-        png = run_dir / "kc_curves.png"
-        _plot_curves(self.measured_curves(), self.curves(x_best), png)
-        return [md, png]
+        ``kc_curves.png`` (measured loops vs the best design's curves), written by
+        :func:`suspenv.reports.kc_identification.write_kc_report`."""
+        return report_function("KCIdentification")(self, Path(run_dir), archive)
 
     def config(self) -> dict[str, Any]:
         return {
@@ -255,40 +247,8 @@ class KCIdentification(Problem):
             "concealed": list(self.concealed),
             "amplitude_mm": self.amplitude * 1e3,
             "steps": self.steps,
-            "model_effects": {
-                k: list(v) if isinstance(v, tuple) else v
-                for k, v in self.model_effects.as_dict().items()
-                if v != getattr(AxleEffects(), k)
-            }
-            or None,
+            "model_effects": [e.to_dict() for e in self.model_effects] or None,
         }
-
-
-def _plot_curves(measured: dict, model: dict, path: Path) -> None:
-    """Measured loops (dots) against a model's curves (lines), left wheel."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    tests = list(measured)
-    labels = ["toe [deg]", "camber [deg]", "tyre force [N]"]
-    fig, axes = plt.subplots(
-        len(labels), len(tests), figsize=(4 * len(tests), 8), constrained_layout=True, squeeze=False
-    )
-    for j, test in enumerate(tests):
-        for i, label in enumerate(labels):
-            ax = axes[i, j]
-            xm, ym = measured[test][label]
-            xs, ys = model[test][label]
-            ax.plot(xm, ym, "k.", ms=3, label="measured")
-            ax.plot(xs, ys, "-", lw=1.2, label="model")
-            ax.set_xlabel(f"{test}: pad stroke [mm]")
-            ax.set_ylabel(label)
-            ax.grid(alpha=0.3)
-    axes[0, 0].legend()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
 
 
 def _curves(results: dict[str, KCResult]) -> dict[str, dict[str, tuple[np.ndarray, np.ndarray]]]:

@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -35,8 +34,9 @@ import numpy as np
 from suspenv.core import DesignSpace, EvaluationBatch, Parameter, Problem
 from suspenv.core.errors import ValidationError
 from suspenv.models.planar.analytic import PlanarSweep, solve_sweep
-from suspenv.models.planar.geometry import PlanarGeometry, geometry_to_toml, load_geometry
+from suspenv.models.planar.geometry import PlanarGeometry, load_geometry
 from suspenv.models.planar.outputs import SweepOutputs, sweep_outputs
+from suspenv.registry import report_function
 
 #: hard-point coordinates free by default, per kind of linkage
 DEFAULT_VARIABLES = {
@@ -295,73 +295,12 @@ class PlanarLinkage(Problem):
         return geom, sw, sweep_outputs(geom, sw)
 
     def render_rgb(self, x_physical: np.ndarray) -> np.ndarray:
-        """The linkage of one design as an RGB array (H, W, 3) uint8."""
-        from suspenv.models.planar.render import render_rgb
-
+        """The linkage of one design as an RGB array (H, W, 3) uint8
+        (:func:`suspenv.reports.planar.render_rgb`)."""
         geom, sw, _ = self.single_sweep(x_physical)
-        return render_rgb(geom, sw)
+        return report_function("planar_rgb")(geom, sw)
 
     def write_report(self, run_dir: Path, archive: Any) -> list[Path]:
-        """Best design as a geometry TOML, a figure against baseline/target, a Markdown note."""
-        from suspenv.models.planar.render import save_linkage_figure
-
-        arrays = archive.arrays()
-        objectives = np.asarray(arrays["objectives"], float)
-        ok = np.asarray(arrays["ok"], bool)
-        cons = np.asarray(arrays["constraints"], float)
-        feasible = ok & (np.nan_to_num(cons, nan=1.0) <= 0).all(axis=1)
-        pool = feasible if feasible.any() else ok
-        if not pool.any():
-            return []
-        score = np.where(pool, objectives[:, 0], np.inf)
-        best = int(np.argmin(score))
-        x = np.asarray(arrays["x"], float)[best]
-        run_dir = Path(run_dir)
-        geom, sw, out = self.single_sweep(x)
-        geom = replace(geom, name=f"{self.baseline.name} (optimised)")
-        toml_path = run_dir / "planar_best.toml"
-        toml_path.write_text(geometry_to_toml(geom))
-        _, base_sw, base_out = self.single_sweep(self.space.reference())
-        curves = [("optimised", out), ("baseline", base_out)]
-        if self.target_outputs is not None:
-            curves.append(("target", self.target_outputs))
-        fig_path = save_linkage_figure(run_dir / "planar_best.png", geom, sw, curves)
-        i0 = self.n_travel // 2
-        unit = "" if self.objective_units[0] == "-" else f" {self.objective_units[0]}"
-        lines = [
-            f"# PlanarLinkage: best design ({self.objective_names[0]} = "
-            f"{objectives[best, 0]:.4g}{unit})",
-            "",
-            f"Baseline `{self.geometry_name}`; "
-            + (
-                f"target curves of `{self.target_name}`."
-                if self.target_name
-                else f"target camber gain {self.target_camber_gain:g} deg/m."
-            ),
-            f"Evaluation {best} of {len(ok)}; feasible: {bool(feasible[best])}.",
-            "",
-            "| variable | baseline [mm] | best [mm] |",
-            "|---|---|---|",
-        ]
-        for name, b, v in zip(self.space.names, self.space.reference(), x, strict=True):
-            lines.append(f"| {name} | {b:.2f} | {v:.2f} |")
-        lines += [
-            "",
-            "| output at design | baseline | best |",
-            "|---|---|---|",
-            f"| camber gain [deg/m] | {float(base_out.camber_gain_deg_per_m):.3f} | "
-            f"{float(out.camber_gain_deg_per_m):.3f} |",
-            f"| roll-centre height [mm] | {base_out.roll_centre_mm[i0]:.1f} | "
-            f"{out.roll_centre_mm[i0]:.1f} |",
-            f"| max half-track change [mm] | {np.abs(base_out.half_track_mm).max():.2f} | "
-            f"{np.abs(out.half_track_mm).max():.2f} |",
-            f"| motion ratio | {base_out.motion_ratio[i0]:.3f} | {out.motion_ratio[i0]:.3f} |",
-            "",
-            f"![linkage and curves]({fig_path.name})",
-            "",
-            f"Plot again: `suspenv planar {toml_path} --plot`",
-            "",
-        ]
-        md_path = run_dir / "planar_report.md"
-        md_path.write_text("\n".join(lines))
-        return [toml_path, fig_path, md_path]
+        """Best design as a geometry TOML, a figure against baseline/target, a Markdown note
+        (:func:`suspenv.reports.planar.write_planar_report`)."""
+        return report_function("PlanarLinkage")(self, Path(run_dir), archive)

@@ -22,7 +22,7 @@ Steady-state circular test (:func:`steady_circle`)
     (near a rear-axle limit the steady state can be unstable, a spin mode that the
     driver has to hold).
 
-Pylon-course slalom (:func:`slalom`)
+Pylon-course slalom (:func:`slalom_run`)
     n cones (default 10) on a straight line, spacing s (30 m), constant speed (60 km/h).
     The reference path weaves through the cones, y = A cos(pi x / s), passing each cone
     at a lateral offset A (default 1.25 m: half the vehicle width plus clearance) on
@@ -33,20 +33,22 @@ Pylon-course slalom (:func:`slalom`)
     lateral error one look-ahead (u * preview time) ahead and a yaw-rate feedback; the
     command reaches the road wheels through a first-order steering lag. The gains were
     chosen so that 300 random designs of the study's box, both load cases, all complete
-    the course with an RMS path error of about 10 % of the cone offset. Measured over the middle
-    cones (default the 3rd to the 8th): for each cone the peak |yaw rate| and peak
-    |roll angle| while the vehicle is within half a spacing of the cone; the results are
-    the means of these peaks (mean yaw-rate amplitude, mean roll-angle amplitude).
+    the course with an RMS path error of about 10 % of the cone offset. The rig returns
+    channels: completion, path error and, on request, time histories; every step it
+    hands the vehicle's ground position and its yaw rate, roll, steer and lateral
+    acceleration to the caller's accumulator (:class:`StepAccumulator`), so a metric
+    measures the run without storing it (:func:`suspenv.metrics.handling.slalom`:
+    per-cone peaks over the middle cones, default the 3rd to the 8th).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
 
 from suspenv.core.errors import ValidationError
-from suspenv.metrics.handling import WindowedPeaks, mean_peak_amplitude
 from suspenv.models.minibus.handling_model import (
     HandlingParams,
     HandlingState,
@@ -223,7 +225,7 @@ def steady_state_sweep(
     if ay.ndim != 1 or np.any(ay < 0):
         raise ValidationError(f"`ay` must be a 1-D array of values >= 0, but got {ay!r}")
     L = P.wheelbase
-    out = {k: [] for k in ("steer", "roll", "af", "ar", "ok")}
+    out: dict[str, list[np.ndarray]] = {k: [] for k in ("steer", "roll", "af", "ar", "ok")}
     for a_y in ay:
         acc = np.full(P.n, a_y)
         phi, fl, fr, rl, rr = _steady_loads(P, acc)
@@ -384,31 +386,36 @@ class PathTable:
         return lo + w * (self.table[:, i + 1] - lo)
 
 
+#: the signals a slalom run hands to its accumulator every step, in this order
+SLALOM_SIGNALS = ("yaw_rate", "roll", "steer", "ay")
+
+
+class StepAccumulator(Protocol):
+    """Receives every integration step of a manoeuvre (e.g. a running peak per window).
+
+    ``update(x, values)``: ground positions ``x`` (n,) in m and the signals (k, n) of that
+    step, SI units (rad/s, rad, rad, m/s^2 for :data:`SLALOM_SIGNALS`).
+    """
+
+    def update(self, x: np.ndarray, values: np.ndarray) -> None: ...
+
+
 @dataclass
-class SlalomResult:
-    """Slalom results of a batch.
+class SlalomRun:
+    """Channels of a slalom run of a batch.
 
     Attributes:
-        yaw_rate_amplitude: rad/s (n,), mean of the per-cone peaks |r|.
-        roll_amplitude: rad (n,), mean of the per-cone peaks |phi|.
-        steer_amplitude: rad (n,), road-wheel steer, same windows.
-        ay_amplitude: m/s^2 (n,), same windows.
-        path_error_rms: m (n,), RMS lateral distance to the path over the windows.
-        yaw_rate_peaks, roll_peaks: (n_measured_cones, n) the per-cone peaks.
+        path_error_rms: m (n,), RMS lateral distance to the path while the vehicle is
+            within half a spacing of a measured cone.
         completed: bool (n,), False where the vehicle spun or left the course (heading
             beyond 90 deg, non-finite states, or a path error above ``max_path_error``);
             its other results are meaningless.
+        config: the settings of the run.
         channels: recorded time histories (T, n) when ``record_every > 0``: t, x, y,
             psi, r, phi, delta, ay.
     """
 
-    yaw_rate_amplitude: np.ndarray
-    roll_amplitude: np.ndarray
-    steer_amplitude: np.ndarray
-    ay_amplitude: np.ndarray
     path_error_rms: np.ndarray
-    yaw_rate_peaks: np.ndarray
-    roll_peaks: np.ndarray
     completed: np.ndarray
     config: SlalomConfig
     channels: dict[str, np.ndarray] = field(default_factory=dict)
@@ -449,10 +456,18 @@ def driver_steer(
     return command, s.y - y_ref
 
 
-def slalom(
-    P: HandlingParams, config: SlalomConfig | None = None, side: float = 1.0
-) -> SlalomResult:
-    """Run the pylon-course slalom for every row of ``P`` (closed loop, constant speed)."""
+def slalom_run(
+    P: HandlingParams,
+    config: SlalomConfig | None = None,
+    side: float = 1.0,
+    accumulator: StepAccumulator | None = None,
+) -> SlalomRun:
+    """Run the pylon-course slalom for every row of ``P`` (closed loop, constant speed).
+
+    ``accumulator`` (optional) is updated after every step with the ground positions and
+    the :data:`SLALOM_SIGNALS` stacked (4, n); the per-cone peaks of the slalom's metrics
+    are measured this way (:func:`suspenv.metrics.handling.slalom`).
+    """
     config = config or SlalomConfig()
     n = P.n
     u = config.speed
@@ -462,7 +477,6 @@ def slalom(
     first, stop = config.measure_cones
     centres = config.cone_x[first:stop]
     half = 0.5 * config.spacing
-    peaks = WindowedPeaks(centres, half, n, n_signals=4)  # r, phi, delta, a_y
     err2 = np.zeros(n)
     err_max = np.zeros(n)
     n_err = np.zeros(n)
@@ -480,7 +494,8 @@ def slalom(
             inside = (s.x >= lo) & (s.x < hi)
             cmd, err = driver_steer(P, s, u, config, path, understeer)
             k = step(P, s, u, cmd, dt, config.steer_lag)
-            peaks.update(s.x, np.stack([s.r, s.phi, s.delta, k.ay]))
+            if accumulator is not None:
+                accumulator.update(s.x, np.stack([s.r, s.phi, s.delta, k.ay]))
             err2 += np.where(inside, err**2, 0.0)
             err_max = np.maximum(err_max, np.where(inside, np.abs(err), 0.0))
             n_err += inside
@@ -502,17 +517,9 @@ def slalom(
         & (np.abs(s.psi) < np.pi / 2)
         & (err_max <= config.max_path_error)
     )
-    r_peaks = peaks.result(0)
-    phi_peaks = peaks.result(1)
-    return SlalomResult(
-        yaw_rate_amplitude=mean_peak_amplitude(r_peaks),
-        roll_amplitude=mean_peak_amplitude(phi_peaks),
-        steer_amplitude=mean_peak_amplitude(peaks.result(2)),
-        ay_amplitude=mean_peak_amplitude(peaks.result(3)),
+    return SlalomRun(
         path_error_rms=np.sqrt(err2 / np.maximum(n_err, 1)),
         completed=completed,
-        yaw_rate_peaks=r_peaks,
-        roll_peaks=phi_peaks,
         config=config,
         channels={k: np.array(v) for k, v in rec.items() if v},
     )

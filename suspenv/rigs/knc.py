@@ -33,21 +33,20 @@ warm-started from the previous converged step with a tangent predictor.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from suspenv.core.errors import ValidationError
-from suspenv.models.mcpherson.effects import AxleEffects
+from suspenv.measurements.knc import ALL_TESTS, FORCE_TESTS, TESTS
+from suspenv.models.effects import Effect
 from suspenv.models.mcpherson.params import Axle
 from suspenv.models.mcpherson.rotation import expm_so3, log_so3
 from suspenv.models.mcpherson.solver import AxleSolver, AxleState
 
-#: vertical travel tests (the identification problem's three)
-TESTS = ("parallel", "opposite", "single")
-#: compliance tests: horizontal force at both contact points, pads static
-FORCE_TESTS = ("lateral", "longitudinal")
-ALL_TESTS = TESTS + FORCE_TESTS
+# the tests (TESTS: travel, FORCE_TESTS: compliance, ALL_TESTS) are named once, by the
+# recording format of K&C loops
 _PAD_SIGN = {"parallel": (1.0, 1.0), "opposite": (1.0, -1.0), "single": (1.0, 0.0)}
 #: compliance test -> (force axis in ISO 8855, sign on the (left, right) wheel)
 _FORCE_AXIS = {"lateral": (1, (1.0, 1.0)), "longitudinal": (0, (1.0, 1.0))}
@@ -132,7 +131,7 @@ def pad_offsets(test: str, s: np.ndarray) -> np.ndarray:
     return np.asarray(s, dtype=float)[..., None] * sign
 
 
-def contact_forces(test: str, f: np.ndarray) -> np.ndarray:
+def contact_forces(test: str, f: np.ndarray | float) -> np.ndarray:
     """Extra load (..., 2, 6) [N, N*m] at both contact points of ``test`` for force
     ``f`` [N] (zero for a travel test); force then moment, ISO 8855."""
     _check_tests((test,))
@@ -155,14 +154,16 @@ def run_tests(
     tests: tuple[str, ...] = TESTS,
     amplitude: float = 0.040,
     steps: int = 30,
-    effects: AxleEffects | None = None,
+    effects: Sequence[Effect] = (),
     keep_states: bool = False,
     force_amplitude: float = FORCE_AMPLITUDE,
 ) -> dict[str, KCResult]:
     """Run the rig ``tests`` on every design of ``axle``; returns {test: KCResult}.
 
     ``amplitude`` [m] is the pad stroke of the travel tests, ``force_amplitude`` [N]
-    the contact-point force of the compliance tests.
+    the contact-point force of the compliance tests. ``effects``: the axle's optional
+    physics, effects-library elements placed at bushings or the strut
+    (:mod:`suspenv.models.mcpherson.effects`).
     """
     _check_tests(tuple(tests))
     if not force_amplitude > 0:
@@ -200,7 +201,10 @@ def run_tests(
 
     def load_at(gi: int) -> tuple[np.ndarray, np.ndarray | None]:
         """(pad heights (rows, 2) [m], contact-point load (rows, 2, 6) or None) at grid ``gi``."""
-        return pad0 + signs * grid[gi], None if ext_dir is None else ext_dir * force_grid[gi]
+        if ext_dir is None:
+            return pad0 + signs * grid[gi], None
+        assert force_grid is not None  # invariant: ext_dir is built exactly when force_grid is
+        return pad0 + signs * grid[gi], ext_dir * force_grid[gi]
 
     def where(gi: int) -> str:
         parts = [f"stroke {grid[gi] * 1e3:+.2f} mm"] if has_travel else []
@@ -237,9 +241,11 @@ def run_tests(
     results = {}
     for j, t in enumerate(tests):
         sl = slice(j * n, (j + 1) * n)
+        test_grid = force_grid if t in FORCE_TESTS else grid
+        assert test_grid is not None  # invariant: force_grid is built when a force test runs
         results[t] = KCResult(
             t,
-            force_grid if t in FORCE_TESTS else grid,
+            test_grid,
             path,
             {name: v[sl] for name, v in out.items()},
             ok[sl].copy(),

@@ -25,14 +25,12 @@ short obstacle); step 1 ms.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
 from suspenv.core.errors import ValidationError
-from suspenv.metrics.iso2631 import weighted_rms_fft
 from suspenv.models.effects.effect import Effect
 from suspenv.models.minibus.ride_model import RideModel, RideRecord, SeatMount
 from suspenv.models.minibus.vehicle import (
@@ -41,7 +39,7 @@ from suspenv.models.minibus.vehicle import (
     Minibus,
     vehicle_parameters,
 )
-from suspenv.models.road import contact_length_filter, generate_profile, triangular_bump
+from suspenv.rigs.road import contact_length_filter, generate_profile, triangular_bump
 
 
 @dataclass(frozen=True)
@@ -145,70 +143,6 @@ def random_road_run(
     return model.simulate(z, zd, road.dt, record_states=record_states, discard=road.n_settle)
 
 
-def ride_objectives_all(
-    X: np.ndarray,
-    load_cases: Sequence[str] = LOAD_CASES,
-    road: RandomRoad | None = None,
-    vehicle: Minibus = REFERENCE_MINIBUS,
-    effects: Sequence[Effect] = (),
-    seat: SeatMount | None = None,
-    dtype: type = np.float32,
-) -> dict[str, dict[str, np.ndarray]]:
-    """Ride objectives of every load case from one stacked integration.
-
-    Returns ``{load_case: {"aw_front": (n,), "aw_rear": (n,), "rms_front": (n,),
-    "rms_rear": (n,), "ok": (n,)}}``: ISO 2631-1 Wk-weighted (aw_*) and unweighted
-    (rms_*) RMS vertical acceleration (m/s^2) above the front and rear suspension; rows
-    whose integration diverged have ``ok`` False and NaN values (the batch goes on).
-
-    The integration runs in float32 by default (about 1.4x faster; the weighted RMS
-    agrees with float64 to ~1e-6, see tests); pass ``dtype=np.float64`` to change that.
-    """
-    road = road or RandomRoad()
-    X = np.atleast_2d(np.asarray(X, dtype=float))
-    n = X.shape[0]
-    rec = random_road_run(X, load_cases, road, vehicle, effects, seat, dtype=dtype)
-    fs = road.sample_rate
-    bad = ~rec.ok
-    a_f, a_r = rec.acc_front.astype(float), rec.acc_rear.astype(float)
-    a_f[bad], a_r[bad] = 0.0, 0.0
-    aw_f = np.where(bad, np.nan, weighted_rms_fft(a_f, fs, "Wk"))
-    aw_r = np.where(bad, np.nan, weighted_rms_fft(a_r, fs, "Wk"))
-    rms_f = np.where(bad, np.nan, np.sqrt(np.mean(a_f**2, axis=-1)))
-    rms_r = np.where(bad, np.nan, np.sqrt(np.mean(a_r**2, axis=-1)))
-    out = {}
-    for i, lc in enumerate(load_cases):
-        sl = slice(i * n, (i + 1) * n)
-        out[lc] = {
-            "aw_front": aw_f[sl],
-            "aw_rear": aw_r[sl],
-            "rms_front": rms_f[sl],
-            "rms_rear": rms_r[sl],
-            "ok": rec.ok[sl],
-        }
-    return out
-
-
-def ride_objectives(
-    X: np.ndarray,
-    load_case: str = "no_load",
-    road_class: str | float = "B",
-    speed_kmh: float = 80.0,
-    duration_s: float = 10.0,
-    seed: int = 0,
-    vehicle: Minibus = REFERENCE_MINIBUS,
-    effects: Sequence[Effect] = (),
-) -> dict[str, np.ndarray]:
-    """Weighted RMS vertical acceleration above front and rear suspension (m/s^2), (n,) each.
-
-    Keys ``aw_front``, ``aw_rear`` (Wk weighted) and ``rms_front``, ``rms_rear``
-    (unweighted). For both load cases at once use :func:`ride_objectives_all` (one
-    integration, half the overhead).
-    """
-    road = RandomRoad(road_class=road_class, speed_kmh=speed_kmh, duration_s=duration_s, seed=seed)
-    return ride_objectives_all(X, (load_case,), road, vehicle, effects)[load_case]
-
-
 # ------------------------------------------------------------------ pulse bump
 @dataclass(frozen=True)
 class PulseBump:
@@ -282,104 +216,3 @@ def pulse_run(
         peak_front=np.max(np.abs(rec.acc_front), axis=-1),
         peak_rear=np.max(np.abs(rec.acc_rear), axis=-1),
     )
-
-
-# ------------------------------------------------------------------ report
-def write_ride_report(
-    designs: Mapping[str, np.ndarray],
-    out_dir: Path | str,
-    road: RandomRoad | None = None,
-    pulse_speeds_kmh: Sequence[float] = (20.0, 50.0),
-    vehicle: Minibus = REFERENCE_MINIBUS,
-    pulse_duration_s: float = 3.0,
-) -> list[Path]:
-    """Ride report of named designs (study units): table, acceleration PSDs, pulse histories.
-
-    Writes ``ride_report.md``, ``ride_psd.png`` and ``ride_pulse.png`` into out_dir.
-    """
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from suspenv.metrics.iso2631 import comfort_reaction
-    from suspenv.metrics.ride import acceleration_psd
-
-    road = road or RandomRoad()
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    names = list(designs)
-    X = np.vstack([np.asarray(designs[k], dtype=float).reshape(1, -1) for k in names])
-    n = len(names)
-    rec = random_road_run(X, LOAD_CASES, road, vehicle)
-    fs = road.sample_rate
-    aw_f = weighted_rms_fft(rec.acc_front, fs, "Wk")
-    aw_r = weighted_rms_fft(rec.acc_rear, fs, "Wk")
-    pulses = {
-        v: pulse_run(X, LOAD_CASES, PulseBump(speed_kmh=v, duration_s=pulse_duration_s), vehicle)
-        for v in pulse_speeds_kmh
-    }
-
-    lines = [
-        "# Ride report",
-        "",
-        f"Random road: ISO 8608 class {road.road_class} at {road.speed_kmh:g} km/h, "
-        f"{road.duration_s:g} s record (seed {road.seed}); ISO 2631-1 Wk weighted RMS vertical "
-        "acceleration above the front and rear suspension (m/s^2). Pulse: triangular bump "
-        f"{PulseBump().base * 1e3:.0f} x {PulseBump().height * 1e3:.0f} mm, peak |acceleration| "
-        "(m/s^2).",
-        "",
-        "| design | load | aw front | aw rear | comfort (front) | "
-        + " | ".join(f"pulse {v:g} km/h front | pulse {v:g} km/h rear" for v in pulse_speeds_kmh)
-        + " |",
-        "|---|---|---|---|---|" + "---|---|" * len(pulse_speeds_kmh),
-    ]
-    for i, name in enumerate(names):
-        for j, lc in enumerate(LOAD_CASES):
-            r = j * n + i
-            cells = [f"{aw_f[r]:.3f}", f"{aw_r[r]:.3f}", comfort_reaction(float(aw_f[r]))]
-            for v in pulse_speeds_kmh:
-                cells += [f"{pulses[v].peak_front[r]:.2f}", f"{pulses[v].peak_rear[r]:.2f}"]
-            lines.append(f"| {name} | {lc.replace('_', ' ')} | " + " | ".join(cells) + " |")
-
-    fig, axes = plt.subplots(2, 2, figsize=(11, 7), sharex=True)
-    for j, lc in enumerate(LOAD_CASES):
-        for k, (label, acc) in enumerate((("front", rec.acc_front), ("rear", rec.acc_rear))):
-            ax = axes[j, k]
-            for i, name in enumerate(names):
-                f, p = acceleration_psd(acc[j * n + i], fs)
-                ax.semilogy(f, p, label=name)
-            ax.set(title=f"{lc.replace('_', ' ')}, above {label} suspension", xlim=(0, 25))
-            ax.set_ylabel("PSD ((m/s^2)^2/Hz)")
-            ax.grid(True, alpha=0.3)
-    for ax in axes[-1]:
-        ax.set_xlabel("frequency (Hz)")
-    axes[0, 0].legend()
-    fig.tight_layout()
-    psd_png = out / "ride_psd.png"
-    fig.savefig(psd_png, dpi=110)
-    plt.close(fig)
-
-    fig, axes = plt.subplots(len(pulse_speeds_kmh), 2, figsize=(11, 3.2 * len(pulse_speeds_kmh)),
-                             squeeze=False)  # fmt: skip
-    for m, v in enumerate(pulse_speeds_kmh):
-        res = pulses[v]
-        for k, (label, acc) in enumerate(
-            (("front", res.record.acc_front), ("rear", res.record.acc_rear))
-        ):
-            ax = axes[m, k]
-            for i, name in enumerate(names):
-                ax.plot(res.t, acc[i], label=f"{name}, no load")
-            ax.set(title=f"pulse {v:g} km/h, above {label} suspension", xlabel="time (s)")
-            ax.set_ylabel("acceleration (m/s^2)")
-            ax.grid(True, alpha=0.3)
-    axes[0, 0].legend()
-    fig.tight_layout()
-    pulse_png = out / "ride_pulse.png"
-    fig.savefig(pulse_png, dpi=110)
-    plt.close(fig)
-
-    lines += ["", f"![acceleration PSD]({psd_png.name})", "", f"![pulse]({pulse_png.name})", ""]
-    md = out / "ride_report.md"
-    md.write_text("\n".join(lines))
-    return [md, psd_png, pulse_png]

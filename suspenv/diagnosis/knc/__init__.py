@@ -1,1 +1,1 @@
-"""Diagnosis of K&C rig recordings of the McPherson axle (see ``docs/diagnosis_knc.md``)."""
+"""The K&C family: McPherson axle rig loops (:mod:`~suspenv.diagnosis.knc.family`)."""

@@ -30,17 +30,21 @@ from typing import Any
 import numpy as np
 
 from suspenv.core.errors import ValidationError
-from suspenv.diagnosis.knc.fit import fit, stacked_residual
-from suspenv.diagnosis.knc.model import KncAxleModel, make_candidate
-from suspenv.diagnosis.knc.recording import BLIND_TESTS, CHANNELS, SIDES, measure_truth
+from suspenv.diagnosis.fitting import fit, stacked_residual
+from suspenv.diagnosis.knc.model import KncAxleModel, effect_words, make_candidate
+from suspenv.diagnosis.knc.truth import BLIND_TESTS, measure_truth
+from suspenv.measurements.knc import CHANNELS, SIDES
+
+#: the blind cases' fitted tests (single-wheel travel is held out)
+FITTED_TESTS = tuple(t for t in BLIND_TESTS if t != "single")
 
 #: an effect is called detectable when the unabsorbed signal reaches this many sigma
 DETECTABLE_SNR = 5.0
 #: candidates whose detection limit a diagnosis states when it names nothing:
 #: candidate -> (parameter, reference magnitude in the parameter's unit)
 LIMIT_CANDIDATES: dict[str, tuple[str, float]] = {
-    "dahl_hysteresis:top_mount": ("f_c", 100.0),
-    "dahl_hysteresis:lower_arm": ("f_c", 100.0),
+    "dahl_hysteresis@top_mount": ("f_c", 100.0),
+    "dahl_hysteresis@lower_arm": ("f_c", 100.0),
     "coulomb_friction": ("f_c", 100.0),
 }
 
@@ -64,7 +68,7 @@ def truth_snr(
     noise_scale: float,
     steps: int = 8,
     amplitude: float = 0.040,
-    tests: Sequence[str] = tuple(t for t in BLIND_TESTS if t != "single"),
+    tests: Sequence[str] = FITTED_TESTS,
 ) -> dict[str, Any]:
     """Signal-to-noise of the concealed ``effects`` of a truth vehicle in ``tests``.
 
@@ -79,7 +83,7 @@ def truth_snr(
     res = fit(KncAxleModel(tests=tuple(tests)), fr, scales=sigma, max_nfev=60, tol=1e-10)
     r = stacked_residual(res.model, res.theta, fr, list(sigma), sigma)
     n = sum(rec.n_samples for rec in fr)
-    per = {}
+    per: dict[str, float] = {}
     k = 0
     for rec in fr:  # stacked order: recording, then channel
         for c in sigma:
@@ -110,10 +114,10 @@ def detection_limits(
     noise: Mapping[str, float] | None = None,
     candidates: Mapping[str, tuple[str, float]] | None = None,
     snr: float = DETECTABLE_SNR,
-) -> dict[str, dict[str, float]]:
+) -> dict[str, dict[str, Any]]:
     """Smallest magnitude of each candidate element the fitted recordings would show.
 
-    ``base`` is the baseline :class:`~suspenv.diagnosis.fit.FitResult` (its
+    ``base`` is the baseline :class:`~suspenv.diagnosis.fitting.FitResult` (its
     ``extra["jacobian"]`` is the Jacobian of the residual scaled by ``base.scales``).
     ``noise`` (channel unit) is each channel's noise level; default ``base.scales``
     (the baseline's residual RMS, which an unmodelled effect inflates: give an
@@ -183,10 +187,11 @@ def _magnitude(x: float) -> str:
 def limits_sentence(limits: Mapping[str, Mapping[str, float]]) -> str:
     """The detection limits in words (for the verdict and the report)."""
     parts = [
-        f"{make_candidate(c).words} below {v['parameter']} ~ {_magnitude(v['limit'])} N".replace(
-            "rubber bushing hysteresis (Dahl) in the ", "hysteresis in the "
-        )
+        f"{effect_words(make_candidate(c))} below {v['parameter']} ~ {_magnitude(v['limit'])} N"
         for c, v in limits.items()
+    ]
+    parts = [
+        p.replace("rubber bushing hysteresis (Dahl) in the ", "hysteresis in the ") for p in parts
     ]
     if not parts:
         return ""

@@ -1,7 +1,7 @@
 """The McPherson axle on the K&C rig behind the component-model API of the diagnosis engine.
 
 Family ``"knc_axle"``. ``simulate(theta, rec)`` replays the loop of a K&C recording
-(:mod:`suspenv.diagnosis.knc.recording`) on the compliant axle
+(:mod:`suspenv.measurements.knc`) on the compliant axle
 (:mod:`suspenv.models.mcpherson`, :func:`suspenv.rigs.knc.run_tests`) and returns the
 recorded channels (SI, ISO 8855, lateral outboard positive). ``theta`` may be one
 vector ``(p,)`` or a batch ``(B, p)``; rows that share the path-dependent effect
@@ -19,48 +19,58 @@ conditioned (the others stay at the start design, by default the reference vehic
 * ``top_mount_kz``: compliance in series with the spring: ride rate;
 * ``arb_torsion``: the bar: roll (opposite travel) and single-wheel rate.
 
-Effects (parameters in the spec's units; the engine names them with the effects
-library's words, e.g. "rubber bushing hysteresis (Dahl) in the lower-arm bushes and
-top mount"):
+Effects: effects-library :class:`~suspenv.models.effects.Effect` objects, the same the
+truth generator (:mod:`suspenv.diagnosis.knc.truth`) and the solver take; candidates
+are written ``kind@location`` (:func:`make_candidate`; a kind alone sits at its
+default location, :data:`KNC_EFFECTS`, which also holds the fitted parameters with
+the K&C bounds). Parameters in the spec's units; the engine names them with the
+library's words and the location in words (:func:`effect_words`, e.g. "rubber
+bushing hysteresis (Dahl) in the lower-arm bushes and top mount"):
 
 * ``dahl_hysteresis``: Dahl elements in both lower-arm bushes and the top mount
-  (candidates ``dahl_hysteresis:lower_arm`` / ``dahl_hysteresis:top_mount``: only
+  (candidates ``dahl_hysteresis@lower_arm`` / ``dahl_hysteresis@top_mount``: only
   there; the refits compare the locations); ``f_c`` [N] saturation force, moments
-  ``f_c * MOMENT_ARM`` [N*m]; initial stiffness equal to each bushing's own stiffness
-  (``hysteresis_sigma_ratio = 1``);
-* ``coulomb_friction``: rod/tube friction in the strut, ``f_c`` [N];
-* ``cubic_stiffness``: progressive bushings (all four), ``ratio`` [-] = cubic force
-  over linear force at 1 mm deflection;
+  ``f_c * MOMENT_ARM`` [N*m] (:data:`suspenv.models.mcpherson.MOMENT_ARM`); initial
+  stiffness equal to each bushing's own stiffness (``sigma_ratio = 1``);
+* ``coulomb_friction@strut``: rod/tube friction in the strut, ``f_c`` [N];
+* ``cubic_stiffness@bushings``: progressive bushings (all four), ``ratio`` [-] =
+  cubic force over linear force at ``x_ref`` = 1 mm deflection;
 * ``lr_asymmetry``: right-minus-left differences (the sides sit at -d/2, +d/2 about
   the fitted value) of static toe and camber [deg], tie-rod inner z and lower ball
-  joint z [mm], and top-mount kz (relative);
-* ``sensor_gain`` / ``sensor_offset``: calibration gain [-] / zero offset [N] of both
-  wheel-load cells (``tyre_fz``).
+  joint z [mm], and top-mount kz (relative): the library's pair kind with the axle's
+  host-declared parameters ``d_<design parameter>``;
+* ``sensor_gain@tyre_fz`` / ``sensor_offset@tyre_fz``: calibration gain [-] / zero
+  offset [N] of both wheel-load cells.
 """
 
 from __future__ import annotations
 
 from collections import OrderedDict
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import replace
 from typing import Any, ClassVar
 
 import numpy as np
 
 from suspenv.core.errors import EvaluationError, ValidationError
 from suspenv.core.space import Parameter
-from suspenv.diagnosis.knc.recording import (
+from suspenv.measurements import Recording
+from suspenv.measurements.knc import (
     CHANNELS,
     SIDES,
-    channels_of,
     output_names,
     rig_test,
 )
-from suspenv.models.effects import make_effect
-from suspenv.models.mcpherson import AxleEffects, build_axle, design_space
+from suspenv.models.effects import Effect, get_kind, make_effect
+from suspenv.models.mcpherson import (
+    build_axle,
+    check_placement,
+    design_space,
+    location_words,
+)
 from suspenv.models.mcpherson.params import PARAMETER_NAMES
-from suspenv.recordings import Recording
 from suspenv.rigs.knc import FORCE_TESTS, TESTS, run_tests
+from suspenv.rigs.knc_recording import channels_of
 
 FIT_PARAMETERS = (
     "static_toe",
@@ -72,15 +82,6 @@ FIT_PARAMETERS = (
     "top_mount_kz",
     "arb_torsion",
 )
-#: moment saturation of the bushing hysteresis per newton of force saturation [m]
-MOMENT_ARM = 0.05
-#: hysteresis candidates (effect name) -> bushings with Dahl elements, and their words
-HYSTERESIS_VARIANTS = {
-    "dahl_hysteresis": (("lca_front", "lca_rear", "top_mount"), "lower-arm bushes and top mount"),
-    "dahl_hysteresis:lower_arm": (("lca_front", "lca_rear"), "lower-arm bushes"),
-    "dahl_hysteresis:top_mount": (("top_mount",), "top mount"),
-}
-CUBIC_BUSHINGS = ("lca_front", "lca_rear", "arb_bush", "top_mount")
 #: lr_asymmetry parameter -> (design parameter, relative?)
 ASYMMETRY_TARGETS = {
     "d_static_toe": ("static_toe", False),
@@ -89,124 +90,131 @@ ASYMMETRY_TARGETS = {
     "d_lower_ball_joint_z": ("lower_ball_joint_z", False),
     "d_top_mount_kz": ("top_mount_kz", True),
 }
+#: the channel the sensor effects sit on (both wheel-load cells), and its words
+SENSOR_CHANNEL = "tyre_fz"
+SENSOR_WORDS = "wheel-load cells"
 
-#: free parameters of every candidate effect (spec units)
-EFFECT_PARAMETERS: dict[str, tuple[Parameter, ...]] = {
+
+def _narrow(
+    kind: str, name: str, low: float, high: float, start: float, unit: str | None = None
+) -> Parameter:
+    """The effects library's parameter ``name`` of ``kind`` with the K&C fit's bounds and start."""
+    p = get_kind(kind).parameter(name)
+    return replace(p, low=low, high=high, default=start, unit=p.unit if unit is None else unit)
+
+
+#: the K&C model's effects: kind -> (location of a candidate written without
+#: ``@location``, the fitted parameters). The fitted parameters are the effects
+#: library's, with the bounds and start values the K&C loops need; lr_asymmetry's are
+#: the axle's own right-minus-left design differences (host-declared ``d_<parameter>``).
+#: Every other parameter of an effect stays at its stored value.
+KNC_EFFECTS: dict[str, tuple[str, tuple[Parameter, ...]]] = {
     "dahl_hysteresis": (
-        Parameter("f_c", 1.0, 1000.0, "N", default=40.0, description="saturation force"),
+        "lower_arm_and_top_mount",
+        (_narrow("dahl_hysteresis", "f_c", 1.0, 1000.0, 40.0),),
     ),
-    "coulomb_friction": (
-        Parameter("f_c", 1.0, 2000.0, "N", default=40.0, description="strut friction level"),
-    ),
-    "cubic_stiffness": (
-        Parameter("ratio", 1e-3, 3.0, "", default=0.05, description="cubic/linear at 1 mm"),
-    ),
+    "coulomb_friction": ("strut", (_narrow("coulomb_friction", "f_c", 1.0, 2000.0, 40.0),)),
+    "cubic_stiffness": ("bushings", (_narrow("cubic_stiffness", "ratio", 1e-3, 3.0, 0.05),)),
     "lr_asymmetry": (
-        Parameter("d_static_toe", -0.5, 0.5, "deg", default=0.0),
-        Parameter("d_static_camber", -0.5, 0.5, "deg", default=0.0),
-        Parameter("d_tie_rod_inner_z", -6.0, 6.0, "mm", default=0.0),
-        Parameter("d_lower_ball_joint_z", -6.0, 6.0, "mm", default=0.0),
-        Parameter("d_top_mount_kz", -0.5, 0.5, "", default=0.0),
+        "",
+        (
+            Parameter("d_static_toe", -0.5, 0.5, "deg", default=0.0),
+            Parameter("d_static_camber", -0.5, 0.5, "deg", default=0.0),
+            Parameter("d_tie_rod_inner_z", -6.0, 6.0, "mm", default=0.0),
+            Parameter("d_lower_ball_joint_z", -6.0, 6.0, "mm", default=0.0),
+            Parameter("d_top_mount_kz", -0.5, 0.5, "", default=0.0),
+        ),
     ),
-    "sensor_gain": (Parameter("gain", 0.8, 1.25, "", default=1.0, description="gain factor"),),
+    "sensor_gain": (SENSOR_CHANNEL, (_narrow("sensor_gain", "gain", 0.8, 1.25, 1.0),)),
     "sensor_offset": (
-        Parameter("offset", -500.0, 500.0, "N", default=0.0, description="zero offset"),
+        SENSOR_CHANNEL,
+        (_narrow("sensor_offset", "offset", -500.0, 500.0, 0.0, unit="N"),),
     ),
 }
-#: where each effect acts, in engineering words
-EFFECT_LOCATIONS = {
-    "dahl_hysteresis": HYSTERESIS_VARIANTS["dahl_hysteresis"][1],
-    "coulomb_friction": "strut",
-    "cubic_stiffness": "bushings",
-    "lr_asymmetry": "",
-    "sensor_gain": "wheel-load cells",
-    "sensor_offset": "wheel-load cells",
-}
-
-
-@dataclass(frozen=True)
-class KncEffect:
-    """One effect of the axle model: kind (an effects-library kind), name, values."""
-
-    kind: str
-    name: str = ""
-    params: dict[str, float] = field(default_factory=dict)
-    location: str = ""
-
-    def __post_init__(self) -> None:
-        if self.kind not in EFFECT_PARAMETERS:
-            raise ValidationError(
-                f"K&C effect kind must be one of {sorted(EFFECT_PARAMETERS)}, but got {self.kind!r}"
-            )
-        if not self.name:
-            object.__setattr__(self, "name", self.kind)
-        if not self.location:
-            object.__setattr__(self, "location", EFFECT_LOCATIONS[self.kind])
-        full = {p.name: float(p.default) for p in EFFECT_PARAMETERS[self.kind]}
-        unknown = sorted(set(self.params) - set(full))
-        if unknown:
-            raise ValidationError(
-                f"K&C effect {self.kind}: unknown parameter(s) {unknown}; allowed {sorted(full)}"
-            )
-        full.update(self.params)
-        object.__setattr__(self, "params", full)
-
-    @property
-    def spec_parameters(self) -> tuple[Parameter, ...]:
-        return EFFECT_PARAMETERS[self.kind]
-
-    @property
-    def words(self) -> str:
-        """Engineering words from the effects library, with the location."""
-        return make_effect(self.kind, location=self.location).words
-
-    def with_params(self, values: Mapping[str, Any]) -> KncEffect:
-        return KncEffect(self.kind, self.name, {**self.params, **dict(values)}, self.location)
-
-    def to_dict(self) -> dict[str, Any]:
-        return {
-            "kind": self.kind,
-            "name": self.name,
-            "location": self.location,
-            "params": {k: float(np.asarray(v).ravel()[0]) for k, v in self.params.items()},
-        }
 
 
 def base_kind(candidate: str) -> str:
-    """Effects-library kind of a candidate name (``"dahl_hysteresis:top_mount"`` -> its kind)."""
-    return candidate.split(":", 1)[0]
+    """Effects-library kind of a candidate name (``"dahl_hysteresis@top_mount"`` -> its kind)."""
+    return candidate.partition("@")[0]
 
 
-def make_candidate(candidate: str, **params: float) -> KncEffect:
-    """The effect of a candidate name: a kind, or a kind with a location variant."""
-    kind = base_kind(candidate)
-    if candidate in HYSTERESIS_VARIANTS:
-        return KncEffect(kind, candidate, dict(params), HYSTERESIS_VARIANTS[candidate][1])
-    if candidate != kind:
+def fitted_parameters(effect: Effect) -> tuple[Parameter, ...]:
+    """The parameters of ``effect`` the K&C model fits (bounds, unit, start value)."""
+    if effect.kind not in KNC_EFFECTS:
         raise ValidationError(
-            f"candidate must be a K&C effect kind or one of {sorted(HYSTERESIS_VARIANTS)}, "
-            f"but got {candidate!r}"
+            f"K&C effect kind must be one of {sorted(KNC_EFFECTS)}, but got {effect.kind!r}"
         )
-    return KncEffect(kind, kind, dict(params))
+    return KNC_EFFECTS[effect.kind][1]
 
 
-def axle_effects(effects: Sequence[KncEffect]) -> AxleEffects:
-    """The solver's :class:`AxleEffects` for the force effects in ``effects`` (scalars)."""
-    kw: dict[str, Any] = {}
-    for e in effects:
-        if e.kind == "dahl_hysteresis":
-            fc = float(e.params["f_c"])
-            kw.update(
-                hysteresis_bushings=HYSTERESIS_VARIANTS.get(e.name, HYSTERESIS_VARIANTS[e.kind])[0],
-                hysteresis_sigma_ratio=1.0,
-                hysteresis_fc_force=fc,
-                hysteresis_fc_moment=fc * MOMENT_ARM,
+def check_effect(effect: Effect) -> None:
+    """Raise :class:`ValidationError` unless the K&C model can carry ``effect`` where it is."""
+    if not isinstance(effect, Effect):
+        raise ValidationError(
+            f"K&C effects must be Effect instances, but got {type(effect).__name__}"
+        )
+    if effect.kind not in KNC_EFFECTS:
+        raise ValidationError(
+            f"K&C effect kind must be one of {sorted(KNC_EFFECTS)}, but got {effect.kind!r}"
+        )
+    role = effect.spec.role
+    if role == "force":
+        check_placement(effect)
+    elif role == "sensor" and effect.location != SENSOR_CHANNEL:
+        raise ValidationError(
+            f"K&C sensor effect {effect.name!r}: `location == {SENSOR_CHANNEL!r}` (the "
+            f"wheel-load cells) must hold, but got {effect.location!r}"
+        )
+    elif role == "pair":
+        if effect.location:
+            raise ValidationError(
+                f"K&C effect {effect.name!r}: lr_asymmetry acts on the design (no location), "
+                f"but got location {effect.location!r}"
             )
-        elif e.kind == "coulomb_friction":
-            kw["strut_friction"] = float(e.params["f_c"])
-        elif e.kind == "cubic_stiffness":
-            kw.update(cubic_bushings=CUBIC_BUSHINGS, cubic_ratio=float(e.params["ratio"]))
-    return AxleEffects(**kw)
+        bad = sorted(set(effect.params) - set(ASYMMETRY_TARGETS))
+        if bad:
+            raise ValidationError(
+                f"K&C effect {effect.name!r}: lr_asymmetry parameters must be among "
+                f"{sorted(ASYMMETRY_TARGETS)}, but got {bad}"
+            )
+
+
+def make_candidate(candidate: str, **params: float) -> Effect:
+    """The effect of a candidate name ``kind`` or ``kind@location`` (``location``: a
+    bushing, a group of bushings or ``strut``, see :mod:`suspenv.models.mcpherson.effects`),
+    with the K&C start values unless ``params`` gives others.
+
+    A kind alone sits at its default location (:data:`KNC_EFFECTS`: plain
+    ``dahl_hysteresis`` in both lower-arm bushes and the top mount). The effect's name
+    is the kind at its default location, else the candidate ``kind@location``.
+    """
+    if ":" in candidate:
+        raise ValidationError(f"candidate names are written `kind@location`, but got {candidate!r}")
+    kind, _, where = candidate.partition("@")
+    if kind not in KNC_EFFECTS:
+        raise ValidationError(
+            f"candidate kind must be one of {sorted(KNC_EFFECTS)}, but got {kind!r} "
+            f"(candidate {candidate!r})"
+        )
+    default, fitted = KNC_EFFECTS[kind]
+    location = where or default
+    values: dict[str, float] = {p.name: float(p.default) for p in fitted if p.default is not None}
+    values.update(params)
+    name = kind if location == default else f"{kind}@{location}"
+    effect = make_effect(kind, name=name, location=location, **values)
+    check_effect(effect)
+    return effect
+
+
+def effect_words(effect: Effect) -> str:
+    """Engineering words of a K&C effect: the library's, with the location in words."""
+    if effect.spec.role == "force":
+        where = location_words(effect.location)
+    elif effect.spec.role == "sensor":
+        where = SENSOR_WORDS
+    else:
+        where = ""
+    return f"{effect.spec.words} in the {where}" if where else effect.spec.words
 
 
 def apply_asymmetry(
@@ -223,11 +231,17 @@ def apply_asymmetry(
     return left, right
 
 
+def _row_value(v: object, row: int, n: int) -> float:
+    """Value of a (scalar or ``(n,)``) effect parameter in batch row ``row``."""
+    return float(np.broadcast_to(np.asarray(v, float), (n,))[row])
+
+
 class KncAxleModel:
     """McPherson axle + K&C rig with the component-model interface (family ``knc_axle``).
 
     Args:
-        effects: :class:`KncEffect` list (the model is "base + effects").
+        effects: effects-library :class:`~suspenv.models.effects.Effect` list (the model
+            is "base + effects"; see :func:`make_candidate` and :func:`check_effect`).
         design: start design (49,) in the spec's units (default: the reference vehicle);
             the parameters not fitted stay at these values.
         fit_parameters: names of the fitted base parameters (default :data:`FIT_PARAMETERS`).
@@ -241,8 +255,8 @@ class KncAxleModel:
     description: ClassVar[str] = "McPherson front axle on the K&C rig (quasi-static)"
     candidate_effects: ClassVar[tuple[str, ...]] = (
         "dahl_hysteresis",
-        "dahl_hysteresis:lower_arm",
-        "dahl_hysteresis:top_mount",
+        "dahl_hysteresis@lower_arm",
+        "dahl_hysteresis@top_mount",
         "coulomb_friction",
         "cubic_stiffness",
         "lr_asymmetry",
@@ -257,13 +271,25 @@ class KncAxleModel:
 
     def __init__(
         self,
-        effects: Sequence[KncEffect] = (),
+        effects: Sequence[Effect] = (),
         design: np.ndarray | None = None,
         fit_parameters: Sequence[str] = FIT_PARAMETERS,
         frozen: Mapping[str, float] | None = None,
         tests: Sequence[str] = TESTS,
     ):
-        self.effects = tuple(effects)
+        for e in effects:
+            check_effect(e)
+        # host-declared parameters (lr_asymmetry) not given start at the K&C start value
+        self.effects: tuple[Effect, ...] = tuple(
+            e.with_params(
+                {
+                    p.name: float(p.default)
+                    for p in KNC_EFFECTS[e.kind][1]
+                    if p.name not in e.params and p.default is not None
+                }
+            )
+            for e in effects
+        )
         space = design_space()
         self.design = space.reference() if design is None else np.asarray(design, float).copy()
         if self.design.shape != (len(PARAMETER_NAMES),):
@@ -300,22 +326,22 @@ class KncAxleModel:
     def parameter_names(self) -> tuple[str, ...]:
         names = list(self.base_names)
         for e in self.effects:
-            names += [f"{e.name}.{p.name}" for p in e.spec_parameters]
+            names += [f"{e.name}.{p.name}" for p in fitted_parameters(e)]
         return tuple(names)
 
     @property
     def parameter_units(self) -> tuple[str, ...]:
         units = [self._params[n].unit for n in self.base_names]
         for e in self.effects:
-            units += [p.unit for p in e.spec_parameters]
+            units += [p.unit for p in fitted_parameters(e)]
         return tuple(units)
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         lo = [self._params[n].low for n in self.base_names]
         hi = [self._params[n].high for n in self.base_names]
         for e in self.effects:
-            lo += [p.low for p in e.spec_parameters]
-            hi += [p.high for p in e.spec_parameters]
+            lo += [p.low for p in fitted_parameters(e)]
+            hi += [p.high for p in fitted_parameters(e)]
         return np.array(lo, float), np.array(hi, float)
 
     def base_values(self) -> dict[str, float]:
@@ -327,20 +353,20 @@ class KncAxleModel:
     def initial_guess(self, rec: Recording | None = None) -> np.ndarray:
         vals = [self.base_values()[n] for n in self.base_names]
         for e in self.effects:
-            vals += [float(e.params[p.name]) for p in e.spec_parameters]
+            vals += [float(e.params[p.name]) for p in fitted_parameters(e)]
         lo, hi = self.bounds()
         return np.clip(np.array(vals, float), lo, hi)
 
-    def theta_from(self, base: Mapping[str, float], effects: Sequence[KncEffect]) -> np.ndarray:
+    def theta_from(self, base: Mapping[str, float], effects: Sequence[Effect]) -> np.ndarray:
         vals = [float(base[n]) for n in self.base_names]
         for e in effects:
-            vals += [float(e.params[p.name]) for p in e.spec_parameters]
+            vals += [float(e.params[p.name]) for p in fitted_parameters(e)]
         return np.array(vals, float)
 
     def values(self, theta: np.ndarray) -> dict[str, float]:
         return {n: float(v) for n, v in zip(self.parameter_names, theta, strict=True)}
 
-    def unpack(self, theta: np.ndarray) -> tuple[dict[str, np.ndarray], list[KncEffect]]:
+    def unpack(self, theta: np.ndarray) -> tuple[dict[str, np.ndarray], list[Effect]]:
         """Base values (B,) per fitted parameter and effects with (B,) parameter arrays."""
         th = np.atleast_2d(np.asarray(theta, float))
         p = len(self.parameter_names)
@@ -360,10 +386,8 @@ class KncAxleModel:
             k = len(self.fit_parameters)
         effects = []
         for e in self.effects:
-            names = [q.name for q in e.spec_parameters]
-            effects.append(
-                KncEffect(e.kind, e.name, {q: cols[k + j] for j, q in enumerate(names)}, e.location)
-            )
+            names = [q.name for q in fitted_parameters(e)]
+            effects.append(e.with_params({q: cols[k + j] for j, q in enumerate(names)}))
             k += len(names)
         return base, effects
 
@@ -392,15 +416,14 @@ class KncAxleModel:
         _, effects = self.unpack(th)
         left, right = self.designs(th)
         B = th.shape[0]
-        force = [e for e in effects if e.kind in ("dahl_hysteresis", "coulomb_friction")]
-        force += [e for e in effects if e.kind == "cubic_stiffness"]
+        force = [e for e in effects if e.spec.role == "force"]
         # rows sharing the solver effects are solved as one batch
         sig = (
             np.stack(
                 [
                     np.asarray(e.params[q.name], float) * np.ones(B)
                     for e in force
-                    for q in e.spec_parameters
+                    for q in fitted_parameters(e)
                 ],
                 axis=1,
             )
@@ -414,11 +437,13 @@ class KncAxleModel:
         out = {t: {k: v.copy() for k, v in nan.items()} for t in tests}
         messages = [""] * B
         for rows in groups.values():
-            eff = axle_effects(
-                [e.with_params({k: float(v[rows[0]]) for k, v in e.params.items()}) for e in force]
-            )
+            eff = [
+                e.with_params({k: _row_value(v, rows[0], B) for k, v in e.params.items()})
+                for e in force
+            ]
+            eff_key = tuple((e.kind, e.location, tuple(sorted(e.params.items()))) for e in eff)
             keys = [
-                (left[i].tobytes(), right[i].tobytes(), repr(eff), amplitude, steps, tests)
+                (left[i].tobytes(), right[i].tobytes(), eff_key, amplitude, steps, tests)
                 for i in rows
             ]
             todo = [i for i, k in zip(rows, keys, strict=True) if k not in self._rows]
@@ -445,16 +470,13 @@ class KncAxleModel:
                 for t, ch in chans.items():
                     for name, v in ch.items():
                         out[t][name][i] = v
-        for e in effects:
-            if e.kind in ("sensor_gain", "sensor_offset"):
+        for e in effects:  # the sensor effects read the recorded channel (both sides)
+            if e.spec.role == "sensor":
                 for t in out:
                     for side in SIDES:
-                        k = f"tyre_fz_{side}"
-                        if e.kind == "sensor_gain":
-                            out[t][k] = out[t][k] * np.asarray(e.params["gain"])[:, None]
-                        else:
-                            out[t][k] = out[t][k] + np.asarray(e.params["offset"])[:, None]
-        result = {"channels": out, "messages": messages}
+                        name = f"{e.location}_{side}"
+                        out[t][name] = e.sensor(out[t][name])
+        result: dict[str, Any] = {"channels": out, "messages": messages}
         self._cache[key] = result
         if len(self._cache) > 6:
             self._cache.popitem(last=False)
@@ -477,7 +499,7 @@ class KncAxleModel:
         return {k: v.copy() for k, v in chans.items()}
 
     # ------------------------------------------------------------------ composition
-    def with_effects(self, effects: Sequence[KncEffect]) -> KncAxleModel:
+    def with_effects(self, effects: Sequence[Effect]) -> KncAxleModel:
         return KncAxleModel(effects, self.design, self.fit_parameters, self.frozen, self.tests)
 
     def frozen_at(self, base: Mapping[str, float]) -> KncAxleModel:
@@ -488,8 +510,8 @@ class KncAxleModel:
         """The same model with its base parameters free again."""
         return KncAxleModel(self.effects, self.design, self.fit_parameters, None, self.tests)
 
-    def effect_words(self, effect: KncEffect) -> str:
-        return effect.words
+    def effect_words(self, effect: Effect) -> str:
+        return effect_words(effect)
 
     def config(self) -> dict[str, Any]:
         return {
@@ -499,5 +521,37 @@ class KncAxleModel:
         }
 
     def __repr__(self) -> str:
-        effs = ", ".join(e.kind for e in self.effects)
+        effs = ", ".join(e.name for e in self.effects)
         return f"KncAxleModel(effects=[{effs}], fit={list(self.base_names)})"
+
+    # ------------------------------------------------------------------ fit interface
+    @property
+    def effect_defaults(self) -> Mapping[str, Mapping[str, float]]:
+        """Shape constants fixed per effect kind: none (the K&C effects have no free shape)."""
+        return {}
+
+    def difference_step(self, theta: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+        """Forward-difference step ``max(3e-3 |theta|, 1e-3 (hi - lo))`` per parameter.
+
+        The quasi-static solver converges to a tolerance, so its outputs are smooth in
+        ``theta`` only down to that tolerance: the step must move the outputs well above
+        it (a 1e-6 relative step would difference solver noise)."""
+        theta = np.asarray(theta, float)
+        return np.maximum(3e-3 * np.abs(theta), 1e-3 * (np.asarray(hi, float) - lo))
+
+    def refine_start(
+        self,
+        theta0: np.ndarray,
+        recordings: Sequence[Recording],
+        masks: Sequence[np.ndarray | None] | None = None,
+    ) -> np.ndarray | None:
+        """No cheap start for the axle (None)."""
+        return None
+
+    def jacobian_model(self) -> KncAxleModel:
+        """No cheaper twin: the model itself."""
+        return self
+
+    def force_view(self, theta: np.ndarray, rec: Recording) -> dict[str, np.ndarray] | None:
+        """No force view of the axle (None)."""
+        return None

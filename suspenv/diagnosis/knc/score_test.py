@@ -27,8 +27,8 @@ from typing import Any
 
 import numpy as np
 
-from suspenv.diagnosis.knc.fit import stacked_residual
-from suspenv.diagnosis.knc.model import KncAxleModel, make_candidate
+from suspenv.diagnosis.fitting import stacked_residual
+from suspenv.diagnosis.knc.model import KncAxleModel, fitted_parameters, make_candidate
 from suspenv.diagnosis.knc.signatures import KncSignature
 
 #: candidates tested by the score test -> their signature family
@@ -54,8 +54,8 @@ def score_test(fit_: Any, recs: Sequence[Any], candidate: str) -> tuple[float, i
         e.with_params({k: float(np.ravel(v)[0]) for k, v in e.params.items()}) for e in current
     ]
     new = make_candidate(candidate)
-    specs = new.spec_parameters
-    null = {q.name: NULL_VALUES.get((new.kind, q.name), float(q.default)) for q in specs}
+    specs = fitted_parameters(new)
+    null = {q.name: NULL_VALUES.get((new.kind, q.name), q.reference) for q in specs}
     ext = model.released().with_effects([*current, new.with_params(null)])
     theta0 = ext.theta_from(base, [*current, new.with_params(null)])
     n0 = theta0.size - len(specs)

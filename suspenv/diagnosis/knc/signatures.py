@@ -10,7 +10,7 @@ pattern is there). The score is taken per recorded channel (sides and tests pool
 and the family's score is the largest over the channels, so an effect that shows in
 one channel only (a wheel-load loop) is not diluted by the quiet ones. Patterns, in
 each side's own drive ``p`` (pad travel, or contact-point force in the wheel's own
-sense, over the amplitude: :func:`~suspenv.diagnosis.knc.recording.drive`) and along
+sense, over the amplitude: :func:`~suspenv.measurements.knc.drive`) and along
 the loop's branch (``b = +1`` rising, ``-1`` falling):
 
 * ``loop`` (hysteresis, friction): ``b`` and ``b p`` per channel and side: the two
@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from suspenv.diagnosis.knc.recording import CHANNELS, SIDES, drive, reading_drive
+from suspenv.measurements.knc import CHANNELS, SIDES, drive, reading_drive
 
 #: signature family -> effect kinds it points to
 FAMILY_KINDS = {
@@ -121,13 +121,13 @@ def score_signatures(
         if not items:
             continue
         per: dict[str, list[float]] = {}
-        for c, r, cols in items:
-            qi, ki = _score(r, cols)
+        for c, resid, cols in items:
+            qi, ki = _score(resid, cols)
             acc = per.setdefault(c, [0.0, 0])
             acc[0] += qi
             acc[1] += ki
-        scores = {c: (q - k) / np.sqrt(2.0 * k) for c, (q, k) in per.items()}
-        where = max(scores, key=scores.get)
+        scores = {c: float((q - k) / np.sqrt(2.0 * k)) for c, (q, k) in per.items()}
+        where = max(scores, key=lambda c: scores[c])
         q, k = per[where]
         score = scores[where]
         numbers = {f"score_{c}": float(v) for c, v in scores.items()}

@@ -4,7 +4,7 @@ Frame and units: ISO 8855 (x forward, y left, z up), SI inside; the design value
 keep the study's units at the edge (C1, C2 dimensionless, T1 N*mm/deg, K1 N/mm).
 Suspension deflection positive in compression (bump); accelerations m/s^2, + up.
 
-A ride recording (see :mod:`suspenv.diagnosis.ride.recording`) has the road
+A ride recording (see :mod:`suspenv.diagnosis.ride.truth`) has the road
 elevation under each wheel as inputs ``road_FL``, ``road_FR``, ``road_RL``,
 ``road_RR`` [m] on the recording's uniform time grid, and measures the vertical
 acceleration of the body above the front and rear suspension (``acc_front``,
@@ -37,12 +37,12 @@ from scipy import signal
 
 from suspenv.core.errors import ValidationError
 from suspenv.core.space import Parameter
+from suspenv.measurements import Recording
 from suspenv.models.components.base import ComponentModel
 from suspenv.models.effects import Effect, make_effect
 from suspenv.models.minibus import DESIGN_NAMES, REFERENCE_MINIBUS, STUDY_PICK, vehicle_parameters
 from suspenv.models.minibus.ride_model import SUPPORTED_EFFECTS, RideModel
 from suspenv.models.minibus.vehicle import Minibus
-from suspenv.recordings import Recording
 
 WHEELS = ("FL", "FR", "RL", "RR")
 ROAD_CHANNELS = tuple(f"road_{w}" for w in WHEELS)
@@ -194,7 +194,7 @@ class MinibusRideAdapter(ComponentModel):
         return lo, hi
 
     def _base_guess(self, rec: Recording) -> dict[str, float]:
-        return {p.name: float(p.default) for p in self.base_parameters}
+        return {p.name: p.reference for p in self.base_parameters}
 
     def _scales(self, rec: Recording) -> dict[str, float]:
         return {"force": 1.0, "deflection": 1.0, "velocity": 1.0}
@@ -246,7 +246,7 @@ class MinibusRideAdapter(ComponentModel):
                 [seat_mount_response(seat_floor[i], dt, k[i], c[i]) for i in range(B)]
             )
         res = {"acc_front": out.acc_front, "acc_rear": out.acc_rear, "acc_seat": acc_seat}
-        bad = ~out.ok
+        bad = ~np.asarray(out.ok, bool) if out.ok is not None else np.zeros(B, bool)
         for key in res:
             arr = np.array(res[key], dtype=float)
             arr[bad] = np.nan
@@ -254,7 +254,7 @@ class MinibusRideAdapter(ComponentModel):
         return res
 
     def example_recording(self, seed: int = 0) -> Recording:
-        from suspenv.diagnosis.ride.recording import pulse_inputs_recording
+        from suspenv.diagnosis.ride.truth import pulse_inputs_recording
 
         return pulse_inputs_recording(50.0, seed=seed)
 

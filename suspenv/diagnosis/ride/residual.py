@@ -42,7 +42,7 @@ import numpy as np
 
 from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.evidence import ljung_box, scaled_rms
-from suspenv.diagnosis.fit import FitResult, residuals
+from suspenv.diagnosis.fitting import FitResult, residuals
 
 #: band (Hz) where the sensor-noise floor is measured
 NOISE_BAND_HZ = 50.0

@@ -1,5 +1,6 @@
 """Component models as "base + effects": damper on a dyno, MR damper, friction guide
-(EMPS), quarter car on a rig; plus the truth generator and a least-squares fit.
+(EMPS), quarter car on a rig; plus the truth generator. (Fitting is
+:func:`suspenv.diagnosis.fitting.fit`.)
 
 ``make_component(family, effects=(), **options)`` builds a model by family name.
 """
@@ -12,7 +13,6 @@ from typing import Any
 from suspenv.core.errors import ValidationError
 from suspenv.models.components.base import ComponentModel
 from suspenv.models.components.damper import DamperDynoModel
-from suspenv.models.components.fitting import LeastSquaresFit, fit_least_squares
 from suspenv.models.components.friction_guide import FrictionGuideModel
 from suspenv.models.components.mr_damper import MRDamperModel
 from suspenv.models.components.quarter_car import QuarterCarRigModel
@@ -42,10 +42,8 @@ __all__ = [
     "ComponentModel",
     "DamperDynoModel",
     "FrictionGuideModel",
-    "LeastSquaresFit",
     "MRDamperModel",
     "QuarterCarRigModel",
-    "fit_least_squares",
     "make_component",
     "simulate_truth",
 ]

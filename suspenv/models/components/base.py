@@ -21,8 +21,8 @@ import numpy as np
 
 from suspenv.core.errors import ValidationError
 from suspenv.core.space import Parameter
+from suspenv.measurements import Recording
 from suspenv.models.effects import Effect
-from suspenv.recordings import Recording
 
 
 class ComponentModel:
@@ -36,6 +36,13 @@ class ComponentModel:
         channel_units: unit of every input and output channel.
         candidate_effects: effect kinds that make sense for this family.
         location: default location words of force effects (e.g. ``"damper"``).
+        effect_defaults: per effect kind, shape constants this model fixes for the
+            effects a diagnosis adds (empty: the effects library's defaults).
+
+    The members the diagnosis reads (``suspenv.diagnosis.protocols.DiagnosableModel``)
+    are all defined here with their defaults: ``difference_step`` (finite-difference
+    step), ``refine_start`` (no cheap start), ``jacobian_model`` (the model itself) and
+    ``force_view`` (none); subclasses override what they have.
     """
 
     family: ClassVar[str] = ""
@@ -46,6 +53,7 @@ class ComponentModel:
     channel_units: ClassVar[dict[str, str]] = {}
     candidate_effects: ClassVar[tuple[str, ...]] = ()
     location: ClassVar[str] = ""
+    effect_defaults: ClassVar[Mapping[str, Mapping[str, float]]] = {}
 
     def __init__(self, effects: Sequence[Effect] = (), **options: Any):
         self.effects: tuple[Effect, ...] = tuple(effects)
@@ -238,6 +246,29 @@ class ComponentModel:
     def with_effects(self, effects: Sequence[Effect]) -> ComponentModel:
         """The same model (same options) with another list of effects."""
         return type(self)(effects, **self.options)
+
+    # ------------------------------------------------------------------ fit interface
+    def difference_step(self, theta: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+        """Forward-difference step per parameter: ``1e-6 * max(|theta|, 1)`` (the
+        simulations are smooth in ``theta`` to round-off; ``lo``/``hi`` unused)."""
+        return 1e-6 * np.maximum(np.abs(np.asarray(theta, dtype=float)), 1.0)
+
+    def refine_start(
+        self,
+        theta0: np.ndarray,
+        recordings: Sequence[Recording],
+        masks: Sequence[np.ndarray | None] | None = None,
+    ) -> np.ndarray | None:
+        """A cheap improvement of the fit's start point; None: this model has none."""
+        return None
+
+    def jacobian_model(self) -> ComponentModel:
+        """A cheaper twin for finite-difference Jacobians; the model itself here."""
+        return self
+
+    def force_view(self, theta: np.ndarray, rec: Recording) -> dict[str, np.ndarray] | None:
+        """The internal force seen through a measured equation; None: no such view."""
+        return None
 
     def config(self) -> dict[str, Any]:
         return {

@@ -13,15 +13,17 @@ lag; sensor effects act on the ``force`` channel.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
 from suspenv.core.space import Parameter
+from suspenv.measurements import Recording
 from suspenv.models.components.base import ComponentModel, bp, linear_lstsq, robust_amplitude
-from suspenv.recordings import Recording
 
 
 def sine_blocks(
-    blocks: list[tuple[float, float, float]], dt: float, name: str, test: str
+    blocks: Sequence[tuple[float, float, float]], dt: float, name: str, test: str
 ) -> Recording:
     """Concatenated sine tests ``(amplitude [m], frequency [Hz], cycles)``, inputs only.
 

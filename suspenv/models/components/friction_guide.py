@@ -20,8 +20,8 @@ import numpy as np
 
 from suspenv.core.errors import ValidationError
 from suspenv.core.space import Parameter
+from suspenv.measurements import Recording
 from suspenv.models.components.base import ComponentModel, bp, linear_lstsq, robust_amplitude
-from suspenv.recordings import Recording
 
 
 class FrictionGuideModel(ComponentModel):

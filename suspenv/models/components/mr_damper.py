@@ -13,9 +13,9 @@ from __future__ import annotations
 import numpy as np
 
 from suspenv.core.space import Parameter
+from suspenv.measurements import Recording
 from suspenv.models.components.base import ComponentModel, bp, linear_lstsq, robust_amplitude
 from suspenv.models.components.damper import sine_blocks
-from suspenv.recordings import Recording
 
 
 class MRDamperModel(ComponentModel):

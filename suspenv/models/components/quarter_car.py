@@ -44,10 +44,10 @@ from scipy.signal import lfilter
 
 from suspenv.core.errors import EvaluationError, ValidationError
 from suspenv.core.space import Parameter
+from suspenv.measurements import Recording, RecordingError, smooth_derivative
 from suspenv.models.components import rig_integrator
 from suspenv.models.components.base import ComponentModel, linear_lstsq, robust_amplitude
 from suspenv.models.effects import Effect, pointwise
-from suspenv.recordings import Recording, RecordingError, smooth_derivative
 
 #: "exact": exact linear step with the element force implicit (:mod:`.rig_integrator`);
 #: "rk4": classical RK4 with sub-steps (reference; also used for Bouc-Wen hysteresis)
@@ -498,7 +498,7 @@ class QuarterCarRigModel(ComponentModel):
         theta0: np.ndarray,
         recordings: Sequence[Recording],
         masks: Sequence[np.ndarray | None] | None = None,
-    ) -> np.ndarray:
+    ) -> np.ndarray | None:
         """A start for the simulation (output-error) fit from an equation-error fit.
 
         The body equation ``m_s z_s'' = F_s(x, x')`` holds sample by sample, and the rig
@@ -506,8 +506,8 @@ class QuarterCarRigModel(ComponentModel):
         suspension force parameters (``k_s``, ``c_s`` and every force effect) are fitted
         to ``m_s * body_acceleration`` along the measured deflection and its smoothed
         rate by least squares, without simulating (milliseconds per evaluation). The
-        tyre rate and sensor effects keep their start values. Returns ``theta0``
-        unchanged when no recording has both channels.
+        tyre rate and sensor effects keep their start values. Returns None (no
+        refinement) when no recording has both channels or the equation-error fit fails.
         """
         from scipy.optimize import least_squares
 
@@ -522,7 +522,7 @@ class QuarterCarRigModel(ComponentModel):
             f = self.options["m_s"] * np.asarray(rec.outputs["body_acceleration"], float)
             views.append((x, v, rec.time, f, np.ones(x.size, bool) if m is None else m))
         if not views:
-            return theta0
+            return None
         names = self.parameter_names
         sensor = {
             f"{e.name}.{q}" for e in self.effects if e.spec.role == "sensor" for q in self._free(e)
@@ -553,7 +553,7 @@ class QuarterCarRigModel(ComponentModel):
                 residual, x0, bounds=(lo[free], hi[free]), x_scale="jac", max_nfev=200
             )
         except (ValueError, EvaluationError, ValidationError):
-            return theta0
+            return None
         out = theta0.copy()
         out[free] = sol.x
         return out

@@ -13,8 +13,8 @@ from collections.abc import Mapping
 import numpy as np
 
 from suspenv.core.errors import ValidationError
+from suspenv.measurements import Recording
 from suspenv.models.components.base import ComponentModel
-from suspenv.recordings import Recording
 
 
 def simulate_truth(

@@ -60,10 +60,11 @@ def time_steps(t: np.ndarray, n: int) -> np.ndarray:
     return dt
 
 
-def linear_recurrence(a: np.ndarray, b: np.ndarray, z0: np.ndarray) -> np.ndarray:
+def linear_recurrence(a: np.ndarray, b: np.ndarray, z0: np.ndarray | float) -> np.ndarray:
     """Solve ``z[k+1] = a[k] + b[k] z[k]`` along the last axis; ``out[..., 0] = z0``.
 
-    ``a`` and ``b`` are ``(..., T-1)`` (broadcast together), ``z0`` batch-shaped.
+    ``a`` and ``b`` are ``(..., T-1)`` (broadcast together), ``z0`` batch-shaped
+    (a scalar applies to every batch row).
     The coefficients are computed vectorised by the callers; the recurrence itself
     runs as a plain float loop per batch row, which is far faster than numpy
     operations on tiny arrays.

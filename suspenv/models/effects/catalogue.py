@@ -2,6 +2,13 @@
 
 Bounds are generic (component to vehicle scale); a model that knows its scale
 should narrow them. Parameters are in SI units.
+
+Some elements sit beside a linear stiffness of their host (a bushing): there the
+host gives their stiffness relative to its own, ``sigma_ratio`` (Dahl) and ``ratio``
+at ``x_ref`` (cubic), in place of the absolute ``sigma`` and ``k3`` of an element on
+its own. Coulomb friction has two forms: rate-dependent (``tanh(v / v_eps)``) in time
+integration and rate-independent (Dahl, pre-sliding stiffness ``sigma``) in a
+quasi-static sweep, where there is no velocity.
 """
 
 from __future__ import annotations
@@ -33,10 +40,22 @@ KINDS = (
         "coulomb_friction",
         "Coulomb friction",
         "force",
-        (_p("f_c", 0.0, 5000.0, "N", 20.0, "Coulomb friction force level"), V_EPS),
+        (
+            _p("f_c", 0.0, 5000.0, "N", 20.0, "Coulomb friction force level"),
+            V_EPS,
+            _p(
+                "sigma",
+                1e2,
+                1e9,
+                "N/m",
+                2e6,
+                "pre-sliding stiffness of the rate-independent (Dahl) form in quasi-static sweeps",
+                log=True,
+            ),
+        ),
         "step at every velocity reversal; loop width independent of amplitude and rate",
-        lambda x, v, t, f_c, v_eps: friction.coulomb_smooth(v, bp(f_c), bp(v_eps)),
-        fit_fixed=("v_eps",),
+        lambda x, v, t, f_c, v_eps, sigma: friction.coulomb_smooth(v, bp(f_c), bp(v_eps)),
+        fit_fixed=("v_eps", "sigma"),
     ),
     EffectKind(
         "directional_friction",
@@ -95,10 +114,21 @@ KINDS = (
         (
             _p("f_c", 0.0, 5000.0, "N", 50.0, "saturation hysteretic force"),
             _p("sigma", 1e2, 1e9, "N/m", 1e5, "initial stiffness after a reversal", log=True),
+            _p(
+                "sigma_ratio",
+                1e-2,
+                1e2,
+                "",
+                1.0,
+                "initial stiffness after a reversal over the host's linear stiffness "
+                "(used by a host with one, e.g. a bushing, in place of sigma)",
+                log=True,
+            ),
         ),
         "loop between loading and unloading branches; width roughly independent of rate, "
         "rounded (not stepped) at reversals",
-        lambda x, v, t, f_c, sigma: hysteresis.dahl_path(x, sigma, f_c),
+        lambda x, v, t, f_c, sigma, sigma_ratio: hysteresis.dahl_path(x, sigma, f_c),
+        fit_fixed=("sigma_ratio",),
     ),
     EffectKind(
         "bouc_wen_hysteresis",
@@ -130,9 +160,23 @@ KINDS = (
         "cubic_stiffness",
         "progressive (cubic) stiffness",
         "force",
-        (_p("k3", -1e12, 1e12, "N/m^3", 1e6, "cubic stiffness coefficient"),),
+        (
+            _p("k3", -1e12, 1e12, "N/m^3", 1e6, "cubic stiffness coefficient"),
+            _p(
+                "ratio",
+                0.0,
+                10.0,
+                "",
+                0.1,
+                "cubic over linear force at x_ref beside the host's linear stiffness k, "
+                "k3 = ratio k / x_ref^2 (used by a host with one, e.g. a bushing, in place "
+                "of k3)",
+            ),
+            _p("x_ref", 1e-5, 0.1, "m", 1e-3, "reference deflection of ratio", log=True),
+        ),
         "odd-symmetric residual growing with the cube of amplitude; 3rd harmonic",
-        lambda x, v, t, k3: stiffness.cubic_stiffness(x, bp(k3)),
+        lambda x, v, t, k3, ratio, x_ref: stiffness.cubic_stiffness(x, bp(k3)),
+        fit_fixed=("ratio", "x_ref"),
     ),
     EffectKind(
         "progressive_stiffness",
@@ -281,9 +325,10 @@ KINDS = (
         "lr_asymmetry",
         "left/right manufacturing asymmetry",
         "pair",
-        (_p("delta", -0.5, 0.5, "", 0.05, "relative right-minus-left difference"),),
+        (),
         "left minus right differs; opposite-travel curves not antisymmetric",
-        lambda nominal, delta: asymmetry.split_pair(nominal, delta),
+        lambda nominal, delta, relative=True: asymmetry.split_pair(nominal, delta, relative),
+        host_parameters="d_",
     ),
 )
 

@@ -16,6 +16,11 @@ its residual signature and a ``role``:
 * ``"sensor"``: maps a true channel ``y[..., T]`` to the recorded one;
 * ``"pair"``: a left/right parameter-pair perturbation (see
   :mod:`suspenv.models.effects.asymmetry`).
+
+A kind may leave some parameters to the host model (``host_parameters``, a name
+prefix): a left/right asymmetry perturbs the host's own parameter pairs, one
+right-minus-left difference ``d_<host parameter>`` each, whose unit and bounds only
+the host knows. An effect then carries those values too; the host checks their names.
 """
 
 from __future__ import annotations
@@ -44,11 +49,15 @@ class EffectKind:
         parameters: the element's parameters (bounds, unit, default, description).
         signature: the residual signature a missing instance of this effect leaves.
         apply: force role ``apply(x, v, t, **params) -> F``; sensor role
-            ``apply(y, t, **params) -> y_rec``; pair role ``apply(nominal, **params) -> (l, r)``.
+            ``apply(y, t, **params) -> y_rec``; pair role
+            ``apply(nominal, delta, relative) -> (l, r)`` for one of the host's pairs.
         needs_time: True when the element is rate dependent (``t`` required).
         fit_fixed: parameters a fit holds at the effect's stored value by default
             (regularisation widths, exponents, pre-sliding constants that recordings
             of macroscopic motion barely inform).
+        host_parameters: name prefix of further parameters the host model declares
+            (unit, bounds, default), e.g. ``"d_"`` for the per-pair differences of
+            ``lr_asymmetry``; empty when the kind's parameters are all it takes.
     """
 
     kind: str
@@ -59,6 +68,7 @@ class EffectKind:
     apply: Callable[..., Any]
     needs_time: bool = False
     fit_fixed: tuple[str, ...] = ()
+    host_parameters: str = ""
 
     def __post_init__(self) -> None:
         if self.role not in ROLES:
@@ -86,6 +96,13 @@ class EffectKind:
 
     def defaults(self) -> dict[str, float]:
         return {p.name: p.reference for p in self.parameters}
+
+    def accepts(self, name: str) -> bool:
+        """True for one of the kind's parameters or a host-declared one (``host_parameters``)."""
+        if name in self.parameter_names:
+            return True
+        prefix = self.host_parameters
+        return bool(prefix) and name.startswith(prefix) and len(name) > len(prefix)
 
 
 _KINDS: dict[str, EffectKind] = {}
@@ -141,11 +158,16 @@ class Effect:
         spec = get_kind(self.kind)
         if not self.name:
             raise ValidationError(f"effect of kind {self.kind!r}: `name` must be non-empty")
-        unknown = [k for k in self.params if k not in spec.parameter_names]
+        unknown = [k for k in self.params if not spec.accepts(k)]
         if unknown:
+            host = (
+                f" and host parameters named {spec.host_parameters}<name>"
+                if spec.host_parameters
+                else ""
+            )
             raise ValidationError(
                 f"effect {self.name!r} ({self.kind}): unknown parameter(s) {unknown}; "
-                f"allowed are {spec.parameter_names}"
+                f"allowed are {spec.parameter_names}{host}"
             )
         full = spec.defaults()
         full.update(self.params)
@@ -170,18 +192,33 @@ class Effect:
         return f"{self.spec.words}{where}"
 
     @property
+    def host_parameter_names(self) -> tuple[str, ...]:
+        """Host-declared parameters this effect carries (see ``EffectKind.host_parameters``)."""
+        own = self.spec.parameter_names
+        return tuple(k for k in self.params if k not in own)
+
+    def _names(self) -> tuple[str, ...]:
+        return self.spec.parameter_names + self.host_parameter_names
+
+    @property
     def parameter_names(self) -> tuple[str, ...]:
-        """Qualified parameter names ``"<effect name>.<parameter>"`` in registry order."""
-        return tuple(f"{self.name}.{p}" for p in self.spec.parameter_names)
+        """Qualified parameter names ``"<effect name>.<parameter>"`` in registry order
+        (host-declared ones last)."""
+        return tuple(f"{self.name}.{p}" for p in self._names())
 
     def values(self) -> np.ndarray:
-        """Parameter values in registry order (scalars only)."""
-        return np.array([float(self.params[p]) for p in self.spec.parameter_names])
+        """Parameter values in registry order, host-declared ones last (scalars only)."""
+        return np.array([float(self.params[p]) for p in self._names()])
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        """Lower and upper bounds of the parameters in registry order."""
+        """Lower and upper bounds of the parameters in registry order; the host knows
+        those of host-declared parameters (here unbounded)."""
         ps = self.spec.parameters
-        return np.array([p.low for p in ps]), np.array([p.high for p in ps])
+        extra = len(self.host_parameter_names)
+        return (
+            np.array([p.low for p in ps] + [-np.inf] * extra),
+            np.array([p.high for p in ps] + [np.inf] * extra),
+        )
 
     def with_params(
         self, values: Mapping[str, Any] | np.ndarray | None = None, **kw: Any
@@ -193,7 +230,7 @@ class Effect:
                 new.update(values)
             else:
                 arr = np.asarray(values, dtype=float)
-                names = self.spec.parameter_names
+                names = self._names()
                 if arr.shape != (len(names),):
                     raise ValidationError(
                         f"effect {self.name!r}: expected {len(names)} values {names}, "
@@ -210,6 +247,9 @@ class Effect:
             val = self.params[p.name]
             txt = f"{float(val):.4g}" if np.ndim(val) == 0 else "array"
             parts.append(f"{p.name}={txt}{(' ' + p.unit) if p.unit else ''}")
+        for name in self.host_parameter_names:
+            val = self.params[name]
+            parts.append(f"{name}={float(val):.4g}" if np.ndim(val) == 0 else f"{name}=array")
         return f"{self.words} ({', '.join(parts)})"
 
     # ----------------------------------------------------------------- evaluation

@@ -149,6 +149,9 @@ class PointwiseElement:
         }
         self.n_states = 1 if effect.kind in STATEFUL else 0
         level = {"dahl_hysteresis": "f_c", "lugre_friction": "f_s"}.get(effect.kind)
+        # (x, v, z, params) -> force / state derivative; no state derivative when stateless
+        self._force: Callable[[Any, Any, Any, dict[str, Any]], Any]
+        self._dzdt: Callable[[Any, Any, Any, dict[str, Any]], Any] | None
         if (
             level
             and np.all(np.asarray(self.params[level]) <= 0)

@@ -5,7 +5,16 @@ vectors, vehicle files) the ADAMS/Car convention of the source paper (mm, x rear
 y right, z up, left-side points). See ``docs/knc.md``.
 """
 
-from suspenv.models.mcpherson.effects import AxleEffects
+from suspenv.models.mcpherson.effects import (
+    BUSHING_NAMES,
+    LOCATIONS,
+    MOMENT_ARM,
+    PLACEMENTS,
+    axle_effect,
+    bushings_at,
+    check_placement,
+    location_words,
+)
 from suspenv.models.mcpherson.params import (
     N_PARAMETERS,
     PARAMETER_NAMES,
@@ -18,14 +27,21 @@ from suspenv.models.mcpherson.params import (
 from suspenv.models.mcpherson.solver import AxleSolver, AxleState
 
 __all__ = [
+    "BUSHING_NAMES",
+    "LOCATIONS",
+    "MOMENT_ARM",
     "N_PARAMETERS",
     "PARAMETER_NAMES",
+    "PLACEMENTS",
     "Axle",
     "AxleConstants",
-    "AxleEffects",
     "AxleSolver",
     "AxleState",
+    "axle_effect",
     "build_axle",
+    "bushings_at",
+    "check_placement",
     "design_space",
+    "location_words",
     "reference_design",
 ]

@@ -23,6 +23,7 @@ of the wheel leans inboard; toe positive for toe-in. Both apply to each wheel.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, fields, replace
+from typing import Any
 
 import numpy as np
 
@@ -236,7 +237,8 @@ class AxleConstants:
         unknown = sorted(set(d) - known)
         if unknown:
             raise ValidationError(f"unknown axle constant(s) {unknown}; known are {sorted(known)}")
-        conv = {
+        # Any: a point field takes a tuple of floats, a scalar field a float (per key)
+        conv: dict[str, Any] = {
             k: tuple(float(x) for x in v) if isinstance(v, list | tuple) else float(v)
             for k, v in d.items()
         }

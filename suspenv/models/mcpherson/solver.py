@@ -28,6 +28,10 @@ sums of the four bodies and the nine constraint violations. A constraint multipl
 Bushing deflection: translation of the bushing point from its design position and
 the rotation vector of the body's rotation; forces and moments in vehicle axes.
 
+Optional physics: a sequence of effects-library :class:`~suspenv.models.effects.Effect`
+objects placed at bushings or the strut (:mod:`suspenv.models.mcpherson.effects`),
+compiled once per solver into per-bushing element parameters.
+
 Newton's method, vectorised over the batch: the Jacobian is a forward-difference
 Jacobian of the exact residual (all columns in one batched call, see
 :meth:`AxleSolver.jacobian`), inverted with a batched ``np.linalg.inv`` and reused
@@ -53,12 +57,19 @@ from __future__ import annotations
 
 import contextlib
 import copy
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from suspenv.models.effects import cubic_stiffness, dahl_path
-from suspenv.models.mcpherson.effects import BUSHING_NAMES, AxleEffects
+from suspenv.core.errors import ValidationError
+from suspenv.models.effects import Effect, cubic_stiffness, dahl_path
+from suspenv.models.mcpherson.effects import (
+    BUSHING_NAMES,
+    MOMENT_ARM,
+    bushings_at,
+    check_placement,
+)
 from suspenv.models.mcpherson.kinematics import CornerKinematics
 from suspenv.models.mcpherson.params import SIDE_SIGN, Axle
 from suspenv.models.mcpherson.rotation import cross, dot, expm_so3, log_so3, rotate
@@ -88,6 +99,73 @@ DAHL_EPS_TRANSLATION = 1e-6
 DAHL_EPS_ROTATION = 1e-5
 #: scale of constraint rows in the residual: metres -> micrometres
 CSCALE = 1e6
+
+
+@dataclass(frozen=True)
+class _Placed:
+    """The solver's compiled effects (see :func:`_compile`).
+
+    hysteresis: bushing -> (initial stiffness over the bushing's, saturation force [N],
+    saturation moment [N*m]) of its Dahl elements; cubic: bushing -> (cubic over linear
+    force at ``x_ref``, ``x_ref`` [m]); friction: strut (level [N], pre-sliding
+    stiffness [N/m]) or None.
+    """
+
+    hysteresis: dict[str, tuple[float, float, float]] = field(default_factory=dict)
+    cubic: dict[str, tuple[float, float]] = field(default_factory=dict)
+    friction: tuple[float, float] | None = None
+
+    @property
+    def path_dependent(self) -> bool:
+        """True when the response depends on the travel history (hysteresis, friction)."""
+        return bool(self.hysteresis) or self.friction is not None
+
+
+def _scalar(effect: Effect, name: str) -> float:
+    v = effect.params[name]
+    if np.ndim(v) != 0:
+        raise ValidationError(
+            f"axle effect {effect.name!r}: the solver takes one value per parameter, but "
+            f"`{name}` has shape {np.shape(v)} (solve rows with different values apart)"
+        )
+    return float(v)
+
+
+def _compile(effects: Sequence[Effect]) -> _Placed:
+    """Per-bushing element parameters of ``effects`` (each checked where it sits)."""
+    hyst: dict[str, tuple[float, float, float]] = {}
+    cubic: dict[str, tuple[float, float]] = {}
+    friction: tuple[float, float] | None = None
+    seen_friction = False
+    for e in effects:
+        if not isinstance(e, Effect):
+            raise ValidationError(
+                f"axle effects must be Effect instances, but got {type(e).__name__}"
+            )
+        check_placement(e)
+        if e.kind == "coulomb_friction":
+            if seen_friction:
+                raise ValidationError(
+                    f"axle effect {e.name!r}: one strut friction at most, but got a second"
+                )
+            seen_friction = True
+            f_c = _scalar(e, "f_c")
+            if f_c > 0:
+                friction = (f_c, _scalar(e, "sigma"))
+            continue
+        table: dict = hyst if e.kind == "dahl_hysteresis" else cubic
+        for b in bushings_at(e.location):
+            if b in table:
+                raise ValidationError(
+                    f"axle effect {e.name!r}: one {e.kind} element per bushing, but bushing "
+                    f"{b!r} already has one"
+                )
+            if e.kind == "dahl_hysteresis":
+                f_c = _scalar(e, "f_c")
+                hyst[b] = (_scalar(e, "sigma_ratio"), f_c, f_c * MOMENT_ARM)
+            else:
+                cubic[b] = (_scalar(e, "ratio"), _scalar(e, "x_ref"))
+    return _Placed(hyst, cubic, friction)
 
 
 @dataclass
@@ -157,20 +235,21 @@ class AxleSolver:
     def __init__(
         self,
         axle: Axle,
-        effects: AxleEffects | None = None,
+        effects: Sequence[Effect] = (),
         xtol: float = 1e-6,
         rtol: float = 1e-5,
         ltol: float = 0.1,
         maxit: int = 30,
     ):
         self.axle = axle
-        self.effects = effects or AxleEffects()
+        self.effects: tuple[Effect, ...] = tuple(effects)
+        self._placed = _compile(self.effects)
         # path-dependent elements are stiff over their micrometre-scale reversals: converge
         # ten times tighter so that their force residual stays small
-        tight = 0.1 if self.effects.path_dependent else 1.0
+        tight = 0.1 if self._placed.path_dependent else 1.0
         self.xtol, self.rtol, self.ltol = xtol * tight, rtol * tight, ltol * tight
         # reversals of path-dependent elements may need damped (slower) iterations
-        self.maxit = 2 * maxit if self.effects.path_dependent else maxit
+        self.maxit = 2 * maxit if self._placed.path_dependent else maxit
         self.n = axle.n
         p = axle.points
         ref = np.stack(
@@ -315,9 +394,9 @@ class AxleSolver:
         n = self.n
         R = np.broadcast_to(np.eye(3), (n, 2, 4, 3, 3)).copy()
         st = AxleState(self.ref0.copy(), R, np.zeros((n, 2, NL)))
-        for b in self.effects.hysteresis_bushings:
+        for b in self._placed.hysteresis:
             st.hyst[b] = (np.zeros((n, 2, 6)), np.zeros((n, 2, 6)))
-        if self.effects.strut_friction > 0:
+        if self._placed.friction is not None:
             slide0 = -np.linalg.norm(
                 self.ground["top_mount"] - self.axle.points["strut_axis_point"], axis=-1
             )
@@ -325,23 +404,29 @@ class AxleSolver:
         return st
 
     # --------------------------------------------------------------- elements
+    def _friction(self) -> tuple[float, float]:
+        """(level [N], pre-sliding stiffness [N/m]) of the strut friction."""
+        if self._placed.friction is None:
+            raise ValidationError("the axle has no strut friction")
+        return self._placed.friction
+
     def _bush_load(self, name: str, x: np.ndarray, hist: dict) -> np.ndarray:
         """Generalised force (..., 6) the bushing exerts *against* deflection ``x`` (..., 6)."""
         K = self.K[name]
         f = K * x
-        eff = self.effects
-        if name in eff.cubic_bushings:
-            k3 = eff.cubic_ratio * K[..., :3] / eff.cubic_x_ref**2
+        if name in self._placed.cubic:
+            ratio, x_ref = self._placed.cubic[name]
+            k3 = ratio * K[..., :3] / x_ref**2
             f = f + np.concatenate([cubic_stiffness(x[..., :3], k3), 0.0 * x[..., 3:]], axis=-1)
         if name in hist:
             f = f + self._dahl(name, x, hist[name])
         return f
 
     def _dahl(self, name: str, x: np.ndarray, hist: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
-        eff = self.effects
+        sigma_ratio, fc_force, fc_moment = self._placed.hysteresis[name]
         x_prev, z_prev = hist
-        sigma = eff.hysteresis_sigma_ratio * self.K[name]
-        fc = np.array([eff.hysteresis_fc_force] * 3 + [eff.hysteresis_fc_moment] * 3)
+        sigma = sigma_ratio * self.K[name]
+        fc = np.array([fc_force] * 3 + [fc_moment] * 3)
         eps = np.array([DAHL_EPS_TRANSLATION] * 3 + [DAHL_EPS_ROTATION] * 3)
         return dahl_step(x_prev, x, np.broadcast_to(sigma, x.shape), fc, z_prev, eps)
 
@@ -384,7 +469,7 @@ class AxleSolver:
         x = self._deflections(r, R, V[..., 0:2, :])
         f = self._K4 * x
         for j, name in enumerate(BUSH_ORDER):
-            if name in state.hyst or name in self.effects.cubic_bushings:
+            if name in state.hyst or name in self._placed.cubic:
                 f[..., j, :] = self._bush_load(name, x[..., j, :], state.hyst)
         arms[..., 0:2, :] = V[..., 0:2, :]
         forces[..., 0:4, :] = -f[..., :3]
@@ -433,14 +518,8 @@ class AxleSolver:
             ak = V[..., 10, :]
             slide = dot(w, ak)
             s_prev, z_prev = (np.broadcast_to(q, slide.shape) for q in state.fric)
-            zf = dahl_step(
-                s_prev,
-                slide,
-                self.effects.strut_friction_sigma,
-                self.effects.strut_friction,
-                z_prev,
-                DAHL_EPS_TRANSLATION,
-            )
+            f_c, sigma = self._friction()
+            zf = dahl_step(s_prev, slide, sigma, f_c, z_prev, DAHL_EPS_TRANSLATION)
             forces[..., 13, :] = -zf[..., None] * ak
             arms[..., 14, :], forces[..., 14, :] = r2 - r1, zf[..., None] * ak
 
@@ -621,7 +700,7 @@ class AxleSolver:
             small = todo & (size < 1.0)
             # path-dependent elements: the kink of a reversal can leave the first small step
             # inaccurate, so they need two small steps in a row
-            conv |= small & (small_before if self.effects.path_dependent else True)
+            conv |= small & (small_before if self._placed.path_dependent else True)
             small_before = small
             if (conv | ~active | ~ok).all():
                 break
@@ -668,14 +747,8 @@ class AxleSolver:
             kn_S = st.r[..., 1, :] + rotate(st.R[..., 1, :, :], self.kn_pts[..., 4, :])
             ak = rotate(st.R[..., 1, :, :], self.a)
             slide = dot(st.r[..., 2, :] - kn_S, ak)
-            zf = dahl_step(
-                st.fric[0],
-                slide,
-                self.effects.strut_friction_sigma,
-                self.effects.strut_friction,
-                st.fric[1],
-                DAHL_EPS_TRANSLATION,
-            )
+            f_c, sigma = self._friction()
+            zf = dahl_step(st.fric[0], slide, sigma, f_c, st.fric[1], DAHL_EPS_TRANSLATION)
             out.fric = (slide, zf)
         return out
 

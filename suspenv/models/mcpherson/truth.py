@@ -1,4 +1,4 @@
-"""The "test vehicle": a reference axle plus concealed effects, and its measurement.
+"""The "test vehicle": a reference axle plus concealed effects and its sensor noise.
 
 Tey et al. measured a real car whose loops show rubber hysteresis and whose sides
 differ by manufacturing tolerances, while their model was linear and symmetric.
@@ -7,31 +7,35 @@ suspenv makes such a car reproducibly from a seed:
 * left/right tolerance: every hard-point coordinate of each side moved uniformly
   within +-``hard_point_tol_mm``, every bushing stiffness within +-``stiffness_tol``
   (relative), static camber and toe within +-``alignment_tol_deg``;
-* rubber hysteresis: Dahl elements in the lower-arm bushes and the top mount
-  (:class:`~suspenv.models.mcpherson.effects.AxleEffects`);
+* rubber hysteresis: Dahl elements in the lower-arm bushes and the top mount, 80 N
+  (:data:`DEFAULT_HYSTERESIS`, effects-library elements placed as in
+  :mod:`suspenv.models.mcpherson.effects`);
 * sensor noise: independent Gaussian noise on every measured channel (standard
   deviations in :data:`CHANNEL_NOISE`, SI units).
 
-Channels and units as in :mod:`suspenv.rigs.knc` (ISO 8855, SI).
+This module describes the car (its axle and effects); the caller runs the rig on it
+(e.g. :func:`suspenv.problems.kc_identification.measure`). Channels and units as in
+:mod:`suspenv.rigs.knc` (ISO 8855, SI).
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from suspenv.core.errors import ValidationError
-from suspenv.models.effects import perturb_pair
-from suspenv.models.mcpherson.effects import AxleEffects
+from suspenv.models.effects import Effect, perturb_pair
+from suspenv.models.mcpherson.effects import axle_effect
 from suspenv.models.mcpherson.params import (
     HARD_POINTS,
     PARAMETER_NAMES,
+    Axle,
     AxleConstants,
     build_axle,
     reference_design,
 )
-from suspenv.rigs.knc import KCResult, run_tests
 
 #: measurement noise (1 sigma, SI units) of the rig's channels
 CHANNEL_NOISE = {
@@ -48,11 +52,12 @@ CHANNEL_NOISE = {
     "tyre_fz": 1.0,
 }
 
-DEFAULT_HYSTERESIS = AxleEffects(
-    hysteresis_bushings=("lca_front", "lca_rear", "top_mount"),
-    hysteresis_sigma_ratio=1.0,
-    hysteresis_fc_force=80.0,
-    hysteresis_fc_moment=4.0,
+#: left/right tolerances of the test car (uniform, +-): hard points [mm], bushing
+#: stiffness [relative], static camber and toe [deg]
+TOLERANCE = {"hard_point_tol_mm": 1.0, "stiffness_tol": 0.10, "alignment_tol_deg": 0.05}
+#: the test car's rubber hysteresis (moments saturate at f_c * MOMENT_ARM = 4 N*m)
+DEFAULT_HYSTERESIS: tuple[Effect, ...] = (
+    axle_effect("dahl_hysteresis", "lower_arm_and_top_mount", f_c=80.0),
 )
 
 
@@ -62,7 +67,7 @@ class TruthVehicle:
 
     left: np.ndarray
     right: np.ndarray
-    effects: AxleEffects
+    effects: tuple[Effect, ...]
     noise: dict[str, float] = field(default_factory=dict)
     seed: int = 0
     constants: AxleConstants = field(default_factory=AxleConstants)
@@ -72,7 +77,7 @@ class TruthVehicle:
         """The symmetric design nearest to the car: mean of its left and right sides."""
         return 0.5 * (self.left + self.right)
 
-    def axle(self):
+    def axle(self) -> Axle:
         return build_axle(self.left[None, :], self.right[None, :], self.constants)
 
 
@@ -82,12 +87,16 @@ def truth_vehicle(
     hysteresis: bool = True,
     tolerance: bool = True,
     noise: bool = True,
-    hard_point_tol_mm: float = 1.0,
-    stiffness_tol: float = 0.10,
-    alignment_tol_deg: float = 0.05,
-    effects: AxleEffects | None = None,
+    hard_point_tol_mm: float = TOLERANCE["hard_point_tol_mm"],
+    stiffness_tol: float = TOLERANCE["stiffness_tol"],
+    alignment_tol_deg: float = TOLERANCE["alignment_tol_deg"],
+    effects: Sequence[Effect] | None = None,
 ) -> TruthVehicle:
-    """The reference vehicle (or ``base``) plus the concealed effects, reproducible by ``seed``."""
+    """The reference vehicle (or ``base``) plus the concealed effects, reproducible by ``seed``.
+
+    ``effects`` (axle effects, see :mod:`suspenv.models.mcpherson.effects`) replaces the
+    default hysteresis (``hysteresis``) when given.
+    """
     x = reference_design() if base is None else np.asarray(base, dtype=float).copy()
     if x.shape != (len(PARAMETER_NAMES),):
         raise ValidationError(f"base design must have {len(PARAMETER_NAMES)} values, got {x.shape}")
@@ -104,19 +113,5 @@ def truth_vehicle(
                 left[i], right[i] = perturb_pair(x[i], alignment_tol_deg, rng, relative=False)
             else:
                 left[i], right[i] = perturb_pair(x[i], stiffness_tol, rng, relative=True)
-    eff = effects if effects is not None else (DEFAULT_HYSTERESIS if hysteresis else AxleEffects())
+    eff = tuple(effects) if effects is not None else (DEFAULT_HYSTERESIS if hysteresis else ())
     return TruthVehicle(left, right, eff, dict(CHANNEL_NOISE) if noise else {}, seed)
-
-
-def measure(truth: TruthVehicle, amplitude: float = 0.040, steps: int = 30) -> dict[str, KCResult]:
-    """Run the three rig tests on the truth vehicle and add its sensor noise (seeded)."""
-    results = run_tests(truth.axle(), amplitude=amplitude, steps=steps, effects=truth.effects)
-    rng = np.random.default_rng(10_000 + truth.seed)
-    for test in sorted(results):
-        res = results[test]
-        if not res.ok.all():
-            raise ValidationError(f"the truth vehicle fails the {test} test: {res.messages[0]}")
-        for name in sorted(truth.noise):
-            ch = res.channels[name]
-            res.channels[name] = ch + rng.normal(0.0, truth.noise[name], ch.shape)
-    return results

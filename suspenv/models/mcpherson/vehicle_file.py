@@ -21,22 +21,27 @@ is negative). Format::
     [constants]                 # optional: AxleConstants fields (wheel_centre, ...)
     spring_rate = 25.0
 
-    [effects]                   # optional: AxleEffects fields (all off by default)
-    hysteresis_bushings = ["lca_front", "lca_rear"]
+    [[effects]]                 # optional, one table per element (none by default):
+    kind = "dahl_hysteresis"    # an effects-library kind the solver places
+    location = "lower_arm"      # a bushing, a group of bushings or "strut"
+    f_c = 80.0                  # the element's parameters (SI units)
 
 Missing design entries take the reference vehicle's values; unknown names are errors.
+Effects and their places: :mod:`suspenv.models.mcpherson.effects`.
 """
 
 from __future__ import annotations
 
 import tomllib
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from suspenv.core.errors import ValidationError
-from suspenv.models.mcpherson.effects import AxleEffects
+from suspenv.models.effects import Effect
+from suspenv.models.mcpherson.effects import axle_effect
 from suspenv.models.mcpherson.params import (
     PARAMETER_NAMES,
     Axle,
@@ -60,7 +65,7 @@ class VehicleFile:
     left: np.ndarray
     right: np.ndarray
     constants: AxleConstants = field(default_factory=AxleConstants)
-    effects: AxleEffects = field(default_factory=AxleEffects)
+    effects: tuple[Effect, ...] = ()
     description: str = ""
 
     def axle(self) -> Axle:
@@ -91,20 +96,34 @@ def load_vehicle(path: str | Path) -> VehicleFile:
         if out:
             raise ValidationError(f"vehicle file {path.name} [{side}]: {'; '.join(out)}")
     constants = AxleConstants.from_dict(data.get("constants", {}))
-    eff = data.get("effects", {})
-    known_eff = {f.name for f in fields(AxleEffects)}
-    bad = sorted(set(eff) - known_eff)
-    if bad:
-        raise ValidationError(f"vehicle file {path.name}: unknown effect option(s) {bad}")
-    eff = {k: tuple(v) if isinstance(v, list) else v for k, v in eff.items()}
     return VehicleFile(
         str(data.get("name", path.stem)),
         left,
         right,
         constants,
-        AxleEffects(**eff),
+        _effects(data.get("effects", []), path.name),
         str(data.get("description", "")),
     )
+
+
+def _effects(tables: Any, where: str) -> tuple[Effect, ...]:
+    """The ``[[effects]]`` tables as axle effects (kind, location, optional name, values)."""
+    if not isinstance(tables, list):
+        raise ValidationError(
+            f"vehicle file {where}: `effects` must be [[effects]] tables (kind, location and "
+            f"the element's parameters), but got {type(tables).__name__}"
+        )
+    out = []
+    for i, table in enumerate(tables):
+        missing = [k for k in ("kind", "location") if k not in table]
+        if missing:
+            raise ValidationError(f"vehicle file {where}: effect {i} has no {missing}")
+        params = {k: v for k, v in table.items() if k not in ("kind", "location", "name")}
+        values = _floats(params, f"effects {i}")
+        out.append(
+            axle_effect(str(table["kind"]), str(table["location"]), table.get("name"), **values)
+        )
+    return tuple(out)
 
 
 def _floats(table: dict, where: str) -> dict[str, float]:

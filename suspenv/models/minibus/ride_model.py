@@ -479,7 +479,8 @@ class RideModel:
                 k2 *= h6
                 X += k2
         with np.errstate(invalid="ignore"):
-            ok = np.isfinite(X).all(axis=0) & np.isfinite(body).all(axis=(0, 1))
+            # (n,) per design; asarray only tells the type checker it is an array
+            ok = np.asarray(np.isfinite(X).all(axis=0) & np.isfinite(body).all(axis=(0, 1)))
         if not ok.any():
             raise EvaluationError(
                 "ride model integration diverged (non-finite state) for every design; step "

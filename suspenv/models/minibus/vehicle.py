@@ -20,6 +20,7 @@ Every number carries its source or the reason for the choice (see also
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 
@@ -260,8 +261,9 @@ class Minibus:
             raise ValidationError(f"load case must be one of {sorted(cases)}, but got {name!r}")
         return cases[name]
 
-    def with_(self, **changes: object) -> Minibus:
+    def with_(self, **changes: Any) -> Minibus:
         """A copy with some fields changed."""
+        # Any: each field has its own type (float, int, DamperCurve, LoadCase...)
         return replace(self, **changes)
 
 

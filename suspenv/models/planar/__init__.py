@@ -3,8 +3,8 @@
 Two independent solvers: :mod:`.analytic` (closed-form loop closure + vectorised
 Newton) and :mod:`.pymunk_model` (a pymunk rigid-body simulation settled at each
 travel). :mod:`.outputs` turns either sweep into camber, half-track change, roll-centre
-height, motion ratio and wheel rate; :mod:`.render` draws them. Frame and units are
-stated in :mod:`.geometry`.
+height, motion ratio and wheel rate; :mod:`suspenv.reports.planar` draws them. Frame and
+units are stated in :mod:`.geometry`.
 """
 
 from suspenv.models.planar.analytic import PlanarSweep, solve_single, solve_sweep

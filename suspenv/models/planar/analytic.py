@@ -49,7 +49,8 @@ class PlanarSweep:
         points: name -> (B..., t, 2) m, every hard point and ``contact``.
         theta: (B..., t) rad, upright rotation from the design position (CCW).
         spring_length: (B..., t) m.
-        ok: (B...) bool, the linkage assembled and converged at every travel point.
+        ok: (B...) bool, the linkage assembled and converged at every travel point
+            (a numpy bool scalar for an unbatched geometry).
         contact_slope: (B..., t) d y_contact / d travel (exact), or None.
         theta_slope: (B..., t) rad/m, d theta / d travel, or None.
         motion_ratio: (B..., t) spring compression per wheel travel, or None.
@@ -62,7 +63,7 @@ class PlanarSweep:
     points: dict[str, np.ndarray]
     theta: np.ndarray
     spring_length: np.ndarray
-    ok: np.ndarray
+    ok: np.ndarray | np.bool_
     contact_slope: np.ndarray | None = None
     theta_slope: np.ndarray | None = None
     motion_ratio: np.ndarray | None = None

@@ -156,7 +156,9 @@ class PlanarGeometry:
 
         Values may be arrays (a batch); every other field broadcasts against them.
         """
-        changes: dict[str, np.ndarray] = {}
+        # point name -> (..., 2) array; typed Any because replace(**changes) is checked
+        # against every field's type, including ``name: str``, which is never a key here
+        changes: dict[str, Any] = {}
         for key, val in values.items():
             point, _, axis = key.partition(".")
             if point not in self.point_names or axis not in ("y", "z"):

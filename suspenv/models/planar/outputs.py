@@ -43,7 +43,7 @@ class SweepOutputs:
     wheel_load_N: np.ndarray  # noqa: N815 - unit in the name
     wheel_rate_N_per_mm: np.ndarray  # noqa: N815 - unit in the name
     camber_gain_deg_per_m: np.ndarray  # (B...) d camber / d travel at zero travel
-    ok: np.ndarray
+    ok: np.ndarray | np.bool_  # (B...); a numpy bool scalar for an unbatched geometry
 
     def as_rows(self) -> list[dict[str, float]]:
         """Rows of a single sweep, for tables."""

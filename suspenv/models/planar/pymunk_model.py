@@ -86,7 +86,8 @@ class PymunkLinkage:
         return body
 
     def _local(self, body: pymunk.Body, point: tuple[float, float]) -> tuple[float, float]:
-        return tuple(body.world_to_local(point))
+        x, y = body.world_to_local(point)
+        return x, y
 
     def _pivot(self, a: pymunk.Body, b: pymunk.Body, name: str) -> None:
         p = self._p(name)

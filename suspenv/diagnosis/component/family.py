@@ -1,0 +1,352 @@
+"""The component family: a damper, MR damper or friction guide on a dyno, a quarter car on a rig.
+
+The model is a :class:`~suspenv.models.components.base.ComponentModel` (a base law
+plus effects of :mod:`suspenv.models.effects`). Its pieces of the one loop
+(:mod:`suspenv.diagnosis.engine`):
+
+* **split**: a fraction at the end of each recording, interleaved motion cycles, or
+  separate recordings (:func:`~suspenv.diagnosis.component.motion.split`);
+* **locate**: residual energy by test, channel, branch, near reversals, amplitude
+  (:func:`suspenv.diagnosis.component.locate.locate`);
+* **screen**: signature scores of each effect family on the residual
+  (:mod:`suspenv.diagnosis.component.signatures`); a model with a force view (the quarter car's
+  suspension force through its body equation) is screened in it for force effects,
+  and in every recorded channel for sensor errors; the candidates of the
+  ``screen_families`` strongest families are refitted (plus the strongest sensor
+  family when a force view is used: the two scores are not on one scale);
+* **refit**: the element added with start values read off its signature
+  (:func:`suspenv.diagnosis.component.refit.refit_with`);
+* **ambiguities**: an element that equals a combination of two others on most data
+  (direction-dependent friction = Coulomb friction + a constant force) is refitted as
+  that combination; an equal fit is reported as an ambiguity;
+* **conclude**: the damper bump/rebound asymmetry check
+  (:mod:`suspenv.diagnosis.component.asymmetry`) where a digressive curve was named.
+
+Units: SI; residuals divided by each channel's measured spread.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from suspenv.diagnosis.component.asymmetry import asymmetry_check
+from suspenv.diagnosis.component.locate import Segment, locate
+from suspenv.diagnosis.component.motion import motion, split
+from suspenv.diagnosis.component.refit import current_effects, refit_with
+from suspenv.diagnosis.component.signatures import SIGNATURE_KINDS, SignalSet, score_signatures
+from suspenv.diagnosis.decision import (
+    EQUIVALENT_COMBINATIONS,
+    DecisionRule,
+    separating_test,
+)
+from suspenv.diagnosis.family import Conclusion, Outcome, Screening, Setup
+from suspenv.diagnosis.fitting import FitResult, fit, residuals
+from suspenv.diagnosis.hypothesis import Ambiguity, Hypothesis, family_of
+from suspenv.diagnosis.protocols import DiagnosableModel
+from suspenv.diagnosis.screening import Location, Signature
+from suspenv.diagnosis.split import Split
+from suspenv.models.components.base import ComponentModel
+from suspenv.models.effects import make_effect
+
+#: the reported component benchmark's decision rule (a strong held-out drop lets the
+#: uncorrected test decide: see :func:`suspenv.diagnosis.decision.decide`)
+COMPONENT_RULE = DecisionRule(
+    alpha=0.01, heldout_rule="fraction", min_heldout_gain=0.01, strong_heldout_gain=0.1
+)
+
+
+def _force_view_signal_set(fit: FitResult, sp: Split) -> SignalSet | None:
+    """The signal set of a model's force view (``model.force_view(theta, rec)``, e.g. the
+    suspension force of a quarter car through its body equation), or None."""
+    seen = [fit.model.force_view(fit.theta, rec) for rec in sp.fit_recordings]
+    views = [v for v in seen if v is not None]
+    if len(views) < len(seen):
+        return None
+    sel = [
+        np.ones(len(r.time), bool) if sp.fit_masks is None else sp.fit_masks[i]
+        for i, r in enumerate(sp.fit_recordings)
+    ]
+    meas = np.concatenate([v["measured"][m] for v, m in zip(views, sel, strict=True)])
+    scale = float(np.std(meas)) or 1.0
+
+    def cat(key: str) -> np.ndarray:
+        return np.concatenate([v[key][m] for v, m in zip(views, sel, strict=True)])
+
+    return SignalSet(
+        t=np.concatenate(
+            [np.asarray(r.time, float)[m] for r, m in zip(sp.fit_recordings, sel, strict=True)]
+        ),
+        x=cat("x"),
+        v=cat("v"),
+        residual=(meas - cat("predicted")) / scale,
+        prediction=cat("predicted") / scale,
+        jacobian=cat("jacobian") / scale,
+        segment=np.concatenate([np.full(int(m.sum()), i) for i, m in enumerate(sel)]),
+        scale=scale,
+        unit="N",
+        channel="force",
+    )
+
+
+#: signature families of sensor errors: they live in a recorded channel, not in the force
+#: a component transmits, so a force view cannot show them (a gain error on the measured
+#: force is a scaled copy of the base force, inside the span of the base parameters)
+SENSOR_FAMILIES = ("sensor_offset", "sensor_gain", "sensor_lag")
+
+
+def _signal_set(fit: FitResult, sp: Split, channel: str, view: bool = True) -> SignalSet:
+    """Residual, prediction, motion and Jacobian rows of one channel over the fit samples.
+
+    A model with a force view (see :func:`_force_view_signal_set`) is screened in it
+    instead (unless ``view`` is False): its signatures are those of the missing force
+    itself.
+    """
+    viewed = _force_view_signal_set(fit, sp) if view else None
+    if viewed is not None:
+        return viewed
+    ts, xs, vs, rs, ps, seg, rows = [], [], [], [], [], [], []
+    offset = 0
+    for i, rec in enumerate(sp.fit_recordings):
+        m = None if sp.fit_masks is None else sp.fit_masks[i]
+        pred = fit.model.simulate(fit.theta, rec)
+        x, v = motion(rec)
+        sel = np.ones(len(rec.time), bool) if m is None else m
+        n = int(np.count_nonzero(sel))
+        for c in fit.channels:
+            if c == channel:
+                rows.append(np.arange(offset, offset + n))
+            offset += n
+        ts.append(np.asarray(rec.time, float)[sel])
+        xs.append(x[sel])
+        vs.append(v[sel])
+        meas = np.asarray(rec.outputs[channel], float)[sel]
+        p = np.asarray(pred[channel], float)[sel]
+        rs.append((meas - p) / fit.scales[channel])
+        ps.append(p / fit.scales[channel])
+        seg.append(np.full(n, i))
+    J = fit.extra.get("jacobian")
+    jac = None
+    if J is not None and J.shape[0] == offset:
+        jac = J[np.concatenate(rows)]
+    unit = ""
+    units = getattr(sp.fit_recordings[0], "units", {}) or {}
+    unit = str(units.get(channel, ""))
+    return SignalSet(
+        t=np.concatenate(ts),
+        x=np.concatenate(xs),
+        v=np.concatenate(vs),
+        residual=np.concatenate(rs),
+        prediction=np.concatenate(ps),
+        jacobian=jac,
+        segment=np.concatenate(seg),
+        scale=fit.scales[channel],
+        unit=unit,
+        channel=channel,
+    )
+
+
+def _segments(fit: FitResult, sp: Split) -> list[Segment]:
+    out = []
+    parts = residuals(fit.model, fit.theta, sp.fit_recordings, fit.channels, sp.fit_masks)
+    for i, rec in enumerate(sp.fit_recordings):
+        m = None if sp.fit_masks is None else sp.fit_masks[i]
+        sel = np.ones(len(rec.time), bool) if m is None else m
+        x, v = motion(rec)
+        out.append(
+            Segment(
+                test=str(rec.test or rec.name or f"recording {i}"),
+                t=np.asarray(rec.time, float)[sel],
+                x=x[sel],
+                v=v[sel],
+                residual={c: parts[i][c] / fit.scales[c] for c in fit.channels},
+            )
+        )
+    return out
+
+
+def main_channel(fit: FitResult) -> str:
+    """The channel holding the largest scaled residual of a fit."""
+    return max(fit.channels, key=lambda c: fit.ssr[c] / (fit.scales[c] ** 2))
+
+
+def resolve_model(model: ComponentModel | str) -> ComponentModel:
+    """A component model instance, or a family name (``suspenv.models.components``)."""
+    if not isinstance(model, str):
+        return model
+    from suspenv.models.components import make_component
+
+    return make_component(model)
+
+
+def effect_location(model: DiagnosableModel, kind: str) -> str:
+    """Where a force effect of ``kind`` lives in ``model`` (sensor effects: "")."""
+    if make_effect(kind).spec.role != "force":
+        return ""
+    return str(model.location or "")
+
+
+def _score_round(
+    current: FitResult, sp: Split, channel: str, cands: Sequence[str]
+) -> tuple[list[Signature], bool]:
+    """Signature scores of one round, strongest first, and whether the model's force
+    view was used. Where the model has a force view, force families are scored in it and
+    sensor families in each recorded channel."""
+    fams_needed = [f for f in SIGNATURE_KINDS if f in {family_of(k) for k in cands}]
+    fams_needed = fams_needed or list(SIGNATURE_KINDS)
+    sset = _force_view_signal_set(current, sp)
+    if sset is None:
+        return score_signatures(_signal_set(current, sp, channel, view=False), fams_needed), False
+    force_fams = [f for f in fams_needed if f not in SENSOR_FAMILIES]
+    sensor_fams = [f for f in fams_needed if f in SENSOR_FAMILIES]
+    sigs = score_signatures(sset, force_fams) if force_fams else []
+    best: dict[str, Signature] = {}
+    for ch in current.channels if sensor_fams else []:
+        # each recorded channel may carry its own sensor error: keep the strongest
+        for sig in score_signatures(_signal_set(current, sp, ch, view=False), sensor_fams):
+            if sig.kind not in best or sig.score > best[sig.kind].score:
+                sig.evidence = f"{sig.evidence} in {ch}"
+                best[sig.kind] = sig
+    return sorted(sigs + list(best.values()), key=lambda g: -g.score), True
+
+
+def _structural_ambiguity(
+    h: Hypothesis, parent: FitResult, sp: Split, max_nfev: int
+) -> list[Ambiguity]:
+    """Refit the equivalent combination of a named effect; equal fit -> ambiguity."""
+    if h.kind not in EQUIVALENT_COMBINATIONS:
+        return []
+    (k1, k2), words = EQUIVALENT_COMBINATIONS[h.kind]
+    combo = parent
+    for k in (k1, k2):
+        combo = refit_with(combo, k, sp.fit_recordings, sp.fit_masks, max_nfev=max_nfev)
+    lr_combo = 2.0 * (combo.log_likelihood() - parent.log_likelihood())
+    if abs(lr_combo - h.lr_statistic) > max(0.05 * h.lr_statistic, 10.0):
+        return []
+    test, reason = separating_test(family_of(k1), family_of(k2))
+    return [Ambiguity(h.kind, f"{k1}+{k2}", h.words, words, test, reason)]
+
+
+@dataclass
+class ComponentFamily:
+    """The component family's steps of the diagnosis loop (see the module docstring).
+
+    Args:
+        model: a component model instance or its family name (``"damper"``, ...).
+        max_effects: most elements added in turn.
+        screen_families: refit the candidates of this many signature families with the
+            strongest signatures per round (the rest are reported by signature only).
+        max_nfev: budget of each fit.
+        check_asymmetry: where a digressive damper curve is named and bump/rebound
+            asymmetry is a candidate not yet named, test the asymmetric curve against
+            the symmetric one plus a constant force; when supported it is named too.
+        rule: the decision rule (default :data:`COMPONENT_RULE`).
+    """
+
+    model: ComponentModel | str
+    max_effects: int = 2
+    screen_families: int = 4
+    max_nfev: int = 200
+    check_asymmetry: bool = True
+    rule: DecisionRule = COMPONENT_RULE
+    name: str = "component"
+
+    def prepare(self, recordings: Any, holdout: Any, candidates: Sequence[str] | None) -> Setup:
+        model = resolve_model(self.model)
+        cands = list(candidates if candidates is not None else model.candidate_effects)
+        return Setup(split(recordings, 0.3 if holdout is None else holdout), model, cands)
+
+    def fit_baseline(self, setup: Setup) -> FitResult:
+        sp = setup.split
+        return fit(setup.model, sp.fit_recordings, sp.fit_masks, max_nfev=self.max_nfev)
+
+    def locate(self, base: FitResult, setup: Setup) -> tuple[Location, str]:
+        return locate(_segments(base, setup.split)), main_channel(base)
+
+    def screen(
+        self, current: FitResult, setup: Setup, open_candidates: Sequence[str], round_: int
+    ) -> Screening:
+        channel = main_channel(current)
+        sigs, viewed = _score_round(current, setup.split, channel, open_candidates)
+        open_fams = {family_of(k) for k in open_candidates}
+        fams = [s.kind for s in sigs if s.kind in open_fams][: self.screen_families]
+        if viewed:
+            # sensor families are scored in the recorded channels, force families in the
+            # force view: the two scores are not on one scale, so besides the strongest
+            # families of either kind the strongest sensor family is always refitted
+            fams += [s.kind for s in sigs if s.kind in SENSOR_FAMILIES and s.kind in open_fams][:1]
+            fams = list(dict.fromkeys(fams))
+        sig_of = {s.kind: s for s in sigs}
+        chosen = [(k, sig_of.get(family_of(k))) for k in open_candidates if family_of(k) in fams]
+        return Screening(sigs, chosen)
+
+    def refit(self, current: FitResult, candidate: str, signature: Any, setup: Setup) -> FitResult:
+        half, vmax = _stroke(setup.split)
+        return refit_with(
+            current,
+            candidate,
+            setup.split.fit_recordings,
+            setup.split.fit_masks,
+            signature,
+            half,
+            vmax,
+            location=effect_location(setup.model, candidate),
+            max_nfev=self.max_nfev,
+        )
+
+    def words(self, candidate: str, setup: Setup) -> str:
+        """Engineering words, e.g. "Coulomb friction in the guide"."""
+        return make_effect(candidate, location=effect_location(setup.model, candidate)).words
+
+    def settle(self, winner: FitResult, setup: Setup) -> FitResult | None:
+        return None
+
+    def ambiguities(
+        self,
+        winner: Hypothesis,
+        ranked: Sequence[Hypothesis],
+        parent: FitResult,
+        setup: Setup,
+    ) -> list[Ambiguity]:
+        return _structural_ambiguity(winner, parent, setup.split, self.max_nfev)
+
+    def conclude(self, outcome: Outcome, setup: Setup) -> Conclusion:
+        named_kinds = [h.kind for h in outcome.named]
+        if not (
+            self.check_asymmetry
+            and "digressive_damping" in named_kinds
+            and "damper_asymmetry" in setup.candidates
+            and "damper_asymmetry" not in {h.family for h in outcome.named}
+        ):
+            return Conclusion(baseline=_baseline_effects(outcome.base))
+        asym = asymmetry_check(
+            outcome.current,
+            setup.split,
+            self.rule.alpha,
+            self.rule.min_heldout_gain,
+            self.max_nfev,
+        )
+        found = Conclusion(findings={"asymmetry": asym}, baseline=_baseline_effects(outcome.base))
+        if asym is None:
+            return found
+        if asym.supported and asym.hypothesis is not None:
+            found.named.append(asym.hypothesis)
+            found.hypotheses.append(asym.hypothesis)
+            found.final_fit = asym.hypothesis.fit
+        else:
+            found.sentences.append(asym.sentence)
+        return found
+
+
+def _stroke(sp: Split) -> tuple[float, float]:
+    """Half the stroke [m] and the largest speed [m/s] of the fitted motion."""
+    x_all = np.concatenate([motion(r)[0] for r in sp.fit_recordings])
+    v_all = np.concatenate([motion(r)[1] for r in sp.fit_recordings])
+    return 0.5 * float(np.ptp(x_all)), float(np.max(np.abs(v_all)))
+
+
+def _baseline_effects(base: FitResult) -> dict[str, Any]:
+    return {"effects": [e.to_dict() for e in current_effects(base.model)]}

@@ -1,0 +1,211 @@
+"""Locate a mismatch: where does the residual energy live?
+
+Every partition of the samples reports, per part, the *share* of residual energy
+(sum of squared residuals, each channel divided by its scale so channels compare),
+the *fraction* of samples in the part, and their ratio, the *enrichment*: 1 means the
+residual is spread like the samples; 3 means this part holds three times its
+fair share. Numbers, not impressions.
+
+Partitions (those that apply to the data at hand):
+    channel, test (recording), branch (sign of velocity: bump = compression v > 0,
+    rebound v < 0), reversal neighbourhood (displacement travelled since the last
+    velocity reversal below 10 % of the stroke), amplitude bins (|x - centre| in
+    quarters of the half-stroke), side (channels named left/right), frequency band
+    (multiples of the dominant excitation frequency), time window after impacts
+    (large input accelerations).
+
+Units: ``x`` deflection [m] (positive = compression / bump), ``v`` [m/s], ``t`` [s];
+residual channels in their own units.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from suspenv.diagnosis.screening import Location, Share
+
+
+@dataclass
+class Segment:
+    """Samples of one recording prepared for locating (one fit or held-out span)."""
+
+    test: str
+    t: np.ndarray
+    x: np.ndarray
+    v: np.ndarray
+    residual: dict[str, np.ndarray]  # channel -> scaled residual (dimensionless)
+
+
+def reversal_indices(v: np.ndarray) -> np.ndarray:
+    """Indices where the velocity changes sign (first sample of the new direction)."""
+    s = np.sign(v)
+    # carry the last non-zero sign over exact zeros
+    nz = np.flatnonzero(s)
+    if nz.size == 0:
+        return np.zeros(0, int)
+    idx = np.maximum.accumulate(np.where(s != 0, np.arange(s.size), 0))
+    s = s[idx]
+    return np.flatnonzero(np.diff(s) != 0) + 1
+
+
+def travel_since_reversal(x: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """|x - x at the last velocity reversal| per sample [m] (from the start before any)."""
+    start = np.zeros(x.size, int)
+    rev = reversal_indices(v)
+    if rev.size:
+        marks = np.zeros(x.size, int)
+        marks[rev] = rev
+        start = np.maximum.accumulate(marks)
+    return np.abs(x - x[start])
+
+
+def dominant_frequency(t: np.ndarray, x: np.ndarray) -> float:
+    """Frequency [Hz] of the largest non-DC spectral line of ``x``."""
+    if x.size < 8:
+        return float("nan")
+    dt = float(np.median(np.diff(t)))
+    spec = np.abs(np.fft.rfft(x - np.mean(x)))
+    freqs = np.fft.rfftfreq(x.size, dt)
+    spec[0] = 0.0
+    return float(freqs[int(np.argmax(spec))])
+
+
+def _energy(residual: dict[str, np.ndarray], mask: np.ndarray | None = None) -> float:
+    return float(sum(np.sum((r if mask is None else r[mask]) ** 2) for r in residual.values()))
+
+
+def _partition(
+    dimension: str, segments: Sequence[Segment], labeller, total: float, n_total: int
+) -> list[Share]:
+    """Shares of ``total`` energy for the parts a ``labeller(segment) -> {part: mask}`` gives."""
+    acc: dict[str, list[float]] = {}
+    for seg in segments:
+        for part, mask in labeller(seg).items():
+            e, n = acc.setdefault(part, [0.0, 0.0])
+            acc[part] = [e + _energy(seg.residual, mask), n + int(np.count_nonzero(mask))]
+    return [
+        Share(dimension, part, e / total if total > 0 else 0.0, n / n_total if n_total else 0.0)
+        for part, (e, n) in acc.items()
+    ]
+
+
+def _side_of(channel: str) -> str | None:
+    c = channel.lower()
+    if "left" in c or c.endswith(("_l", ".l")):
+        return "left"
+    if "right" in c or c.endswith(("_r", ".r")):
+        return "right"
+    return None
+
+
+def locate(segments: Sequence[Segment], reversal_fraction: float = 0.1) -> Location:
+    """Partition the residual energy of ``segments`` along every applicable dimension."""
+    total = sum(_energy(s.residual) for s in segments)
+    n_samples = sum(s.t.size for s in segments)
+    loc = Location()
+    channels = list(dict.fromkeys(c for s in segments for c in s.residual))
+    n_ch = len(channels)
+
+    # channel: fraction = 1 / number of channels (each channel has every sample)
+    if n_ch > 1:
+        for c in channels:
+            e = sum(float(np.sum(s.residual[c] ** 2)) for s in segments if c in s.residual)
+            loc.shares.append(Share("channel", c, e / total if total else 0.0, 1.0 / n_ch))
+        sides: dict[str, float] = {}
+        for c in channels:
+            side = _side_of(c)
+            if side:
+                e = sum(float(np.sum(s.residual[c] ** 2)) for s in segments if c in s.residual)
+                sides[side] = sides.get(side, 0.0) + e
+        if len(sides) == 2:
+            n_sided = sum(1 for c in channels if _side_of(c))
+            for side, e in sides.items():
+                frac = sum(1 for c in channels if _side_of(c) == side) / n_sided
+                loc.shares.append(Share("side", side, e / max(sum(sides.values()), 1e-300), frac))
+
+    tests = {s.test for s in segments}
+    if len(tests) > 1:
+        loc.shares += _partition(
+            "test", segments, lambda s: {s.test: np.ones(s.t.size, bool)}, total, n_samples
+        )
+
+    loc.shares += _partition(
+        "branch",
+        segments,
+        lambda s: {"bump (v > 0)": s.v > 0, "rebound (v < 0)": s.v < 0},
+        total,
+        n_samples,
+    )
+
+    def near_reversal(s: Segment) -> dict[str, np.ndarray]:
+        stroke = float(np.ptp(s.x)) or 1.0
+        near = travel_since_reversal(s.x, s.v) < reversal_fraction * stroke
+        return {"near reversal": near, "away from reversal": ~near}
+
+    loc.shares += _partition("reversal", segments, near_reversal, total, n_samples)
+
+    def amplitude(s: Segment) -> dict[str, np.ndarray]:
+        centre = 0.5 * (np.max(s.x) + np.min(s.x))
+        half = 0.5 * float(np.ptp(s.x)) or 1.0
+        a = np.abs(s.x - centre) / half
+        edges = [0.0, 0.25, 0.5, 0.75, 1.0 + 1e-12]
+        return {
+            f"{int(lo * 100)}-{int(min(hi, 1.0) * 100)} % of half-stroke": (a >= lo) & (a < hi)
+            for lo, hi in zip(edges[:-1], edges[1:], strict=True)
+        }
+
+    loc.shares += _partition("amplitude", segments, amplitude, total, n_samples)
+
+    def travel_side(s: Segment) -> dict[str, np.ndarray]:
+        centre = 0.5 * (np.max(s.x) + np.min(s.x))
+        return {"compression half (x > centre)": s.x > centre, "extension half": s.x <= centre}
+
+    loc.shares += _partition("travel side", segments, travel_side, total, n_samples)
+
+    def impacts(s: Segment) -> dict[str, np.ndarray]:
+        if s.t.size < 16:
+            return {}
+        a = np.gradient(s.v, s.t)
+        level = np.median(np.abs(a)) * 8.0 + 1e-12
+        hits = np.flatnonzero(np.abs(a) > level)
+        if hits.size == 0:
+            return {}
+        window = 0.05 * float(s.t[-1] - s.t[0])
+        after = np.zeros(s.t.size, bool)
+        for h in hits:
+            after |= (s.t >= s.t[h]) & (s.t <= s.t[h] + window)
+        return {"after impacts": after, "elsewhere": ~after}
+
+    loc.shares += _partition("after impacts", segments, impacts, total, n_samples)
+
+    # frequency bands, relative to the dominant excitation frequency (Parseval shares)
+    band_e: dict[str, float] = {}
+    band_names = ("drift (< 0.5 f0)", "f0 (0.5-1.5 f0)", "2 f0", "3 f0", "high (> 3.5 f0)")
+    edges = [0.0, 0.5, 1.5, 2.5, 3.5, np.inf]
+    spec_total = 0.0
+    for s in segments:
+        f0 = dominant_frequency(s.t, s.x)
+        if not np.isfinite(f0) or f0 <= 0:
+            continue
+        dt = float(np.median(np.diff(s.t)))
+        freqs = np.fft.rfftfreq(s.t.size, dt) / f0
+        for r in s.residual.values():
+            p = np.abs(np.fft.rfft(r)) ** 2
+            spec_total += float(np.sum(p))
+            for name, lo, hi in zip(band_names, edges[:-1], edges[1:], strict=True):
+                band_e[name] = band_e.get(name, 0.0) + float(
+                    np.sum(p[(freqs >= lo) & (freqs < hi)])
+                )
+    if spec_total > 0:
+        # "fraction" of a band = its share of the spectral lines (white residual = fair)
+        seg0 = segments[0]
+        f0 = dominant_frequency(seg0.t, seg0.x)
+        dt = float(np.median(np.diff(seg0.t)))
+        freqs = np.fft.rfftfreq(seg0.t.size, dt) / f0
+        for name, lo, hi in zip(band_names, edges[:-1], edges[1:], strict=True):
+            frac = float(np.mean((freqs >= lo) & (freqs < hi)))
+            loc.shares.append(Share("frequency band", name, band_e[name] / spec_total, frac))
+    return loc

@@ -1,0 +1,127 @@
+"""How a component is driven, and the component family's fit/held-out split.
+
+The motion that drives a component is its deflection ``x`` [m] (positive =
+compression / bump) and its velocity ``v`` [m/s], found among a recording's inputs by
+name, or the measured deflection of a rig that imposes a road input (:func:`motion`).
+The held-out data are the last part of each recording, interleaved motion cycles, or
+separate recordings (:func:`split`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from suspenv.core.errors import ValidationError
+from suspenv.diagnosis.split import Split, as_recordings
+
+DISPLACEMENT_KEYS = ("x", "displacement", "deflection", "stroke", "position", "q", "travel")
+VELOCITY_KEYS = ("v", "velocity", "speed", "qd", "stroke_velocity")
+
+
+def _find(d: dict[str, Any], keys: Sequence[str]) -> np.ndarray | None:
+    lowered = {k.lower(): k for k in d}
+    for k in keys:
+        if k in lowered:
+            return np.asarray(d[lowered[k]], float)
+    for k in keys:  # prefix match, e.g. "position_measured"
+        for low, orig in lowered.items():
+            if low.startswith(k + "_") or low.startswith(k + " "):
+                return np.asarray(d[orig], float)
+    return None
+
+
+def motion(rec: Any) -> tuple[np.ndarray, np.ndarray]:
+    """Deflection ``x`` [m] and velocity ``v`` [m/s] driving the component in ``rec``."""
+    t = np.asarray(rec.time, float)
+    x = _find(rec.inputs, DISPLACEMENT_KEYS)
+    v = _find(rec.inputs, VELOCITY_KEYS)
+    if x is None and v is None:
+        # a rig that imposes a road input and measures the deflection (quarter car)
+        measured = [k for k in rec.outputs if "deflection" in k.lower()]
+        if measured:
+            x = np.asarray(rec.outputs[measured[0]], float)
+    if x is None and v is None:
+        if not rec.inputs:
+            raise ValidationError(
+                f"recording {rec.name!r} must have a motion input, but got no inputs"
+            )
+        x = np.asarray(next(iter(rec.inputs.values())), float)
+    if x is None:
+        assert v is not None  # one of the two was found above
+        x = np.concatenate([[0.0], np.cumsum(0.5 * (v[1:] + v[:-1]) * np.diff(t))])
+    if v is None:
+        v = np.gradient(x, t)
+    return x, v
+
+
+def cycle_index(x: np.ndarray) -> np.ndarray:
+    """Index of the motion cycle each sample belongs to (cycles start at the upward
+    crossings of the deflection ``x`` [m] through its median; samples before the
+    first crossing are cycle 0)."""
+    xc = np.asarray(x, float) - float(np.median(x))
+    starts = np.flatnonzero((xc[:-1] < 0.0) & (xc[1:] >= 0.0)) + 1
+    return np.searchsorted(starts, np.arange(xc.size), side="right")
+
+
+def interleaved_cycles(rec: Any, every: int = 4) -> np.ndarray:
+    """Held-out mask: every ``every``-th motion cycle of ``rec`` (cycles 3, 7, 11, ...
+    for ``every=4``), so fit and held-out data span the same amplitudes and speeds and
+    each held-out block is a whole cycle (longer than the residual's correlation)."""
+    if not (isinstance(every, int) and every >= 2):
+        raise ValidationError(f"`every >= 2` (an integer) must hold, but got every={every!r}")
+    cyc = cycle_index(motion(rec)[0])
+    if cyc.max() + 1 < every:
+        raise ValidationError(
+            f"interleaved cycle hold-out needs at least {every} motion cycles, but recording "
+            f"{getattr(rec, 'name', '?')!r} has {int(cyc.max()) + 1}"
+        )
+    return (cyc % every) == every - 1
+
+
+def split(recordings: Any, holdout: Any) -> Split:
+    """``holdout``: a fraction in (0, 1) (the last part of each recording is held
+    out), ``"cycles"`` / ``"cycles:N"`` (every N-th motion cycle held out, N = 4 by
+    default: see :func:`interleaved_cycles`), or one or more recordings not used for
+    fitting."""
+    recs = as_recordings(recordings)
+    if holdout is None:
+        holdout = 0.3
+    if isinstance(holdout, str):
+        head, _, num = holdout.partition(":")
+        if head != "cycles":
+            raise ValidationError(
+                f"a text hold-out must be 'cycles' or 'cycles:N', but got holdout={holdout!r}"
+            )
+        try:
+            every = int(num) if num else 4
+        except ValueError:
+            raise ValidationError(
+                f"'cycles:N' needs an integer N, but got holdout={holdout!r}"
+            ) from None
+        hold_m = [interleaved_cycles(r, every) for r in recs]
+        return Split(
+            recs,
+            [~m for m in hold_m],
+            recs,
+            hold_m,
+            f"one motion cycle in {every} of each recording (interleaved: same speeds as the fit)",
+            cycles_every=every,
+        )
+    if isinstance(holdout, float | int) and not isinstance(holdout, bool):
+        f = float(holdout)
+        if not 0.0 < f < 1.0:
+            raise ValidationError(f"`0 < holdout < 1` must hold, but got holdout={f}")
+        fit_m, hold_m = [], []
+        for r in recs:
+            n = len(r.time)
+            cut = int(round(n * (1.0 - f)))
+            m = np.arange(n) < cut
+            fit_m.append(m)
+            hold_m.append(~m)
+        return Split(recs, fit_m, recs, hold_m, f"last {100 * f:.0f} % of each recording")
+    hold = as_recordings(holdout)
+    names = ", ".join(str(getattr(h, "name", "?")) for h in hold)
+    return Split(recs, None, hold, None, f"separate recording(s): {names}")

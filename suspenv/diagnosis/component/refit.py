@@ -1,0 +1,121 @@
+"""Model: add a candidate effect to the fitted model as a physical element and refit.
+
+The extended model is ``model.with_effects(current effects + [new effect])``; the
+refit starts from the baseline's fitted values for the parameters the two models
+share, and from values read off the residual signature for the new element's own
+parameters where the signature gives them (the model's own scaled guess otherwise).
+Shape parameters make the problem non-convex (transition displacement, knee
+velocity, stop gap, relaxation time); ``both_starts`` also tries the model's guess
+and keeps the better fit.
+
+Units: SI throughout (see :mod:`suspenv.models.effects`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any, TypeVar
+
+import numpy as np
+
+from suspenv.diagnosis.fitting import FitResult, fit
+from suspenv.diagnosis.protocols import DiagnosableModel, EffectLike, RecordingLike
+from suspenv.diagnosis.screening import Signature
+from suspenv.models.effects import make_effect
+
+E = TypeVar("E", bound=EffectLike)
+
+
+def current_effects(model: DiagnosableModel[Any, E]) -> tuple[E, ...]:
+    """The effects already in ``model`` (empty for a plain base model)."""
+    return tuple(model.effects)
+
+
+def signature_guess(
+    kind: str, sig: Signature | None, half_stroke: float, v_max: float
+) -> dict[str, float]:
+    """Starting values for an effect's parameters read off its residual signature."""
+    if sig is None:
+        return {}
+    n = sig.numbers
+    g: dict[str, float] = {}
+    if kind in ("coulomb_friction", "stribeck_friction", "lugre_friction"):
+        fc = max(0.5 * n.get("step", 0.0), 1e-3)
+        g = {"f_c": fc}
+        if kind != "coulomb_friction":
+            g["f_s"] = 1.2 * fc
+    elif kind == "directional_friction":
+        fc = max(0.5 * n.get("step", 0.0), 1e-3)
+        g = {"f_pos": fc, "f_neg": fc}
+    elif kind == "dahl_hysteresis":
+        fc = max(0.5 * n.get("loop_width", 0.0), 1e-3)
+        delta = max(n.get("transition_fraction", 0.1) * half_stroke, 1e-6)
+        g = {"f_c": fc, "sigma": fc / delta}
+    elif kind == "bouc_wen_hysteresis":
+        fy = max(0.5 * n.get("loop_width", 0.0), 1e-3)
+        g = {"f_y": fy, "x_y": max(n.get("transition_fraction", 0.1) * half_stroke / 3, 1e-6)}
+    elif kind == "cubic_stiffness" and half_stroke > 0:
+        g = {"k3": n.get("extra_at_full_stroke", 0.0) / half_stroke**3}
+    elif kind in ("bump_stop", "rebound_stop") and np.isfinite(n.get("threshold_m", np.nan)):
+        g = {"gap": abs(n["threshold_m"])}
+    elif kind == "digressive_damping":
+        g = {"v_knee": max(n.get("knee_velocity", 0.1), 1e-3)}
+    elif kind == "maxwell_viscoelastic":
+        tau = max(n.get("relaxation_time_s", 0.05), 1e-3)
+        g = {"c_m": 1000.0, "k_m": 1000.0 / tau}
+    elif kind == "gas_spring":
+        g = {"k_gas": n.get("stiffness", 0.0)}
+    elif kind in ("force_offset", "sensor_offset"):
+        g = {"offset": n.get("offset", 0.0)}
+    elif kind == "sensor_gain":
+        g = {"gain": 1.0 + n.get("gain_error", 0.0)}
+    elif kind == "sensor_lag":
+        g = {"tau": max(n.get("lag_s", 0.0), 1e-4)}
+    return g
+
+
+def refit_with(
+    base: FitResult,
+    kind: str,
+    recordings: RecordingLike | Sequence[RecordingLike],
+    masks: Sequence[np.ndarray | None] | None,
+    signature: Signature | None = None,
+    half_stroke: float = 0.0,
+    v_max: float = 0.0,
+    location: str = "",
+    max_nfev: int = 200,
+    both_starts: bool = False,
+) -> FitResult:
+    """Refit ``base.model`` with one more effect of ``kind``.
+
+    The new element starts from the values read off its signature where there are
+    some (else the model's own guess); ``both_starts`` also tries the model's guess
+    and keeps the better fit.
+    """
+    names_taken = {e.name for e in current_effects(base.model)}
+    name = kind if kind not in names_taken else f"{kind}_{len(names_taken)}"
+    guess = signature_guess(kind, signature, half_stroke, v_max)
+    starts = [guess] if (guess and not both_starts) else [{}, guess] if guess else [{}]
+    best: FitResult | None = None
+    # a model may fix shape constants of its elements (e.g. the quarter car's friction
+    # regularisation width, which its time integrator needs wider)
+    fixed = dict(base.model.effect_defaults.get(kind, {}))
+    for start in starts:
+        effect = make_effect(kind, name=name, location=location, **fixed)
+        lo, hi = effect.bounds()
+        clipped = {
+            k: float(np.clip(v, lo[i], hi[i]))
+            for i, k in enumerate(effect.spec.parameter_names)
+            if (v := start.get(k)) is not None
+        }
+        effect = effect.with_params(clipped)
+        model = base.model.with_effects((*current_effects(base.model), effect))
+        theta0 = dict(zip(base.names, base.theta, strict=True))
+        # the rest of the new element's parameters come from the model's own guess
+        theta0.update({f"{name}.{k}": v for k, v in clipped.items()})
+        res = fit(model, recordings, masks, theta0=theta0, max_nfev=max_nfev)
+        res.extra["effect"] = effect.to_dict() | {"name": name}
+        if best is None or sum(res.ssr.values()) < sum(best.ssr.values()):
+            best = res
+    assert best is not None
+    return best

@@ -1,0 +1,210 @@
+"""Concealed-effect cases: synthetic "measured" recordings from a richer truth model.
+
+For a component family and a seed, :func:`make_case` builds the family's example
+test (its inputs), draws base parameters, zero, one or two effects from the
+family's candidate list with random magnitude and shape, and a random noise level,
+simulates the truth model and adds the noise. The recording given to the
+diagnosis says nothing about what was added; the truth is returned separately
+(:class:`Truth`) and written to a separate file by :func:`write_case`.
+
+Magnitudes are drawn relative to the base model's own force, stroke and speed
+scales (so an effect is neither invisible nor dominant); units SI.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from suspenv.diagnosis.component.family import resolve_model
+from suspenv.measurements import Recording, save_recording
+from suspenv.models.effects import Effect, make_effect
+
+#: base parameter draws per family: name -> (low, high), uniform
+BASE_DRAWS: dict[str, dict[str, tuple[float, float]]] = {
+    "damper": {"c": (800.0, 3000.0)},
+    "mr_damper": {"c": (500.0, 2500.0), "k": (-2000.0, 2000.0), "f_0": (-20.0, 20.0)},
+    "friction_guide": {"m": (60.0, 130.0), "c": (100.0, 300.0)},
+    "quarter_car_rig": {"k_s": (15e3, 40e3), "c_s": (800.0, 2500.0), "k_t": (1.5e5, 3e5)},
+}
+
+#: effect kinds never concealed in a family (not separable from its base by design)
+EXCLUDED: dict[str, tuple[str, ...]] = {
+    # LuGre's steady state is Stribeck friction; drawing it adds cost, not a new case
+    "friction_guide": ("lugre_friction",),
+}
+
+#: options of the family's example test used for its cases (default: the model's own);
+#: the quarter car is simulated by a time integrator, so its cases use a shorter run
+#: (random road plus the bump, 2.5 s at 2 ms)
+CASE_RECORDING_OPTIONS: dict[str, dict[str, float]] = {
+    "quarter_car_rig": {"duration": 2.5},
+}
+
+
+@dataclass
+class Truth:
+    """What was concealed in a case (kept apart from the case file)."""
+
+    case_id: str
+    family: str
+    seed: int
+    base: dict[str, float]
+    effects: list[dict[str, Any]]
+    noise_rms: float
+    noise_fraction: float
+
+    @property
+    def kinds(self) -> list[str]:
+        return [e["kind"] for e in self.effects]
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+
+@dataclass
+class Case:
+    recording: Recording
+    truth: Truth
+    extra: dict[str, Any] = field(default_factory=dict)
+
+
+def _scales(model: Any, base: dict[str, float], rec: Recording) -> dict[str, float]:
+    """Force [N], stroke [m], speed [m/s] and angular frequency [rad/s] amplitudes of
+    the base model on ``rec`` (the suspension force k x + c v where no force is output)."""
+    from suspenv.diagnosis.component.motion import motion
+
+    sim = model.simulate(model.theta_from(base), rec)
+    x, v = motion(rec.with_outputs(sim))
+    stroke = float(np.percentile(np.abs(x - np.median(x)), 98))
+    speed = float(np.percentile(np.abs(v), 98))
+    if "force" in sim:
+        f = sim["force"]
+        force = float(np.percentile(np.abs(f - np.median(f)), 98))
+    else:
+        force = base.get("k_s", 0.0) * stroke + base.get("c_s", 0.0) * speed
+    y = np.asarray(sim[model.output_channels[0]], float)
+    return {
+        "force": force,
+        # amplitude of the first output channel, in its own unit (sensor offsets)
+        "channel": float(np.percentile(np.abs(y - np.median(y)), 98)),
+        "stroke": stroke,
+        "speed": speed,
+        "frequency": speed / max(stroke, 1e-12),
+    }
+
+
+def draw_effect(kind: str, rng: np.random.Generator, sc: dict[str, float], base: dict) -> Effect:
+    """One effect of ``kind`` with random magnitude and shape relative to the scales."""
+    F, X, V, W = sc["force"], sc["stroke"], sc["speed"], sc["frequency"]
+    c = float(base.get("c", F / max(V, 1e-9)))
+    u = rng.uniform
+    mag = u(0.08, 0.2) * F
+    p: dict[str, float]
+    if kind == "coulomb_friction":
+        p = {"f_c": mag}
+    elif kind == "directional_friction":
+        p = {"f_pos": mag, "f_neg": mag * u(0.5, 0.8)}
+    elif kind == "stribeck_friction":
+        p = {"f_c": mag, "f_s": mag * u(1.5, 2.5), "v_s": u(0.05, 0.2) * V}
+    elif kind == "lugre_friction":
+        p = {
+            "f_c": mag,
+            "f_s": mag * u(1.3, 2.0),
+            "v_s": u(0.05, 0.2) * V,
+            "sigma0": mag / (1e-3 * X),
+        }
+    elif kind == "dahl_hysteresis":
+        p = {"f_c": mag, "sigma": mag / (u(0.03, 0.15) * X)}
+    elif kind == "bouc_wen_hysteresis":
+        p = {"f_y": mag, "x_y": u(0.03, 0.15) * X}
+    elif kind == "cubic_stiffness":
+        p = {"k3": float(rng.choice([-1.0, 1.0])) * u(0.1, 0.25) * F / X**3}
+    elif kind == "progressive_stiffness":
+        x0 = u(0.2, 0.5) * X
+        p = {"x0": x0, "k_p": u(0.15, 0.3) * F / (X - x0) ** 2}
+    elif kind == "bump_stop" or kind == "rebound_stop":
+        gap = u(0.5, 0.8) * X
+        p = {"gap": gap, "k_stop": u(0.3, 0.6) * F / (X - gap)}
+    elif kind == "digressive_damping":
+        p = {"c_low": u(1.0, 2.5) * c, "v_knee": u(0.1, 0.3) * V}
+    elif kind == "damper_asymmetry":
+        p = {"dc_rebound": float(rng.choice([-1.0, 1.0])) * u(0.3, 0.6) * c}
+    elif kind == "maxwell_viscoelastic":
+        tau = u(0.3, 1.0) / W
+        c_m = u(0.4, 0.8) * c
+        p = {"c_m": c_m, "k_m": c_m / tau}
+    elif kind == "gas_spring":
+        p = {"f_0": mag, "k_gas": u(0.1, 0.3) * F / X}
+    elif kind == "force_offset":
+        p = {"offset": float(rng.choice([-1.0, 1.0])) * mag}
+    elif kind == "sensor_lag":
+        p = {"tau": u(0.3, 1.0) / W}
+    elif kind == "sensor_gain":
+        p = {"gain": 1.0 + float(rng.choice([-1.0, 1.0])) * u(0.05, 0.15)}
+    elif kind == "sensor_offset":
+        # in the unit of the channel it sits on (equal to `mag` for a force channel)
+        p = {"offset": float(rng.choice([-1.0, 1.0])) * mag * sc.get("channel", F) / F}
+    else:  # pragma: no cover - a new kind without a draw rule keeps its defaults
+        p = {}
+    return make_effect(kind).with_params(p)
+
+
+def truth_pool(family: str) -> list[str]:
+    model = resolve_model(family)
+    return [k for k in model.candidate_effects if k not in EXCLUDED.get(family, ())]
+
+
+def make_case(family: str, seed: int, n_effects: int) -> Case:
+    """A concealed case: ``n_effects`` in {0, 1, 2} drawn from the family's pool."""
+    rng = np.random.default_rng([seed, n_effects, sum(map(ord, family))])
+    model = resolve_model(family)
+    rec = model.example_recording(
+        seed=int(rng.integers(1 << 30)), **CASE_RECORDING_OPTIONS.get(family, {})
+    )
+    base = {k: float(rng.uniform(*b)) for k, b in BASE_DRAWS[family].items()}
+    sc = _scales(model, base, rec)
+    pool = truth_pool(family)
+    kinds = list(rng.choice(pool, size=n_effects, replace=False)) if n_effects else []
+    # two effects of one signature family would be one finding; redraw the second
+    from suspenv.diagnosis.hypothesis import family_of
+
+    while n_effects == 2 and family_of(kinds[0]) == family_of(kinds[1]):
+        kinds[1] = str(rng.choice(pool))
+    effects = [draw_effect(str(k), rng, sc, base) for k in kinds]
+    # the family's own element constants (e.g. the quarter car's friction width)
+    defaults = model.effect_defaults
+    effects = [e.with_params(defaults.get(e.kind, {})) for e in effects]
+    truth_model = model.with_effects(effects)
+    clean = truth_model.simulate(truth_model.theta_from(base), rec)
+    frac = float(rng.uniform(0.01, 0.04))
+    measured = {}
+    for channel in model.output_channels:
+        y = np.asarray(clean[channel], float)
+        measured[channel] = y + rng.normal(0.0, frac * float(np.std(y)), y.size)
+    noise_rms = frac * float(np.std(clean[model.output_channels[0]]))
+    case_id = f"{family}-{n_effects}-{seed}"
+    out = Recording(
+        case_id,
+        rec.test,
+        rec.time,
+        dict(rec.inputs),
+        measured,
+        dict(rec.units),
+        {"source": "synthetic blind case", "sampling": rec.meta.get("sampling", {})},
+    )
+    truth = Truth(case_id, family, seed, base, [e.to_dict() for e in effects], noise_rms, frac)
+    return Case(out, truth)
+
+
+def write_case(case: Case, case_dir: Path | str, truth_dir: Path | str) -> tuple[Path, Path]:
+    """Write the case recording and, in a separate folder, its truth JSON."""
+    rec_path = save_recording(case.recording, Path(case_dir) / f"{case.truth.case_id}.npz")
+    truth_path = Path(truth_dir) / f"{case.truth.case_id}.json"
+    truth_path.parent.mkdir(parents=True, exist_ok=True)
+    truth_path.write_text(json.dumps(case.truth.to_dict(), indent=2) + "\n")
+    return rec_path, truth_path

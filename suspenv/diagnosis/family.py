@@ -1,0 +1,156 @@
+"""What a diagnosis family plugs into the one loop (:func:`suspenv.diagnosis.engine.diagnose`).
+
+A family knows one kind of model and recording (a component on a dyno or rig, the
+McPherson axle on a K&C rig, the minibus on ride tests). The loop owns the order of the
+steps, the evidence (:func:`suspenv.diagnosis.evidence.compare`), the decision
+(:mod:`suspenv.diagnosis.decision`), the hypothesis record and the verdict's words.
+The family owns everything that depends on the model:
+
+* ``prepare``: the split into fit and held-out data, the model, the candidate list;
+* ``fit_baseline``: the plain model's fit (channel weights fixed here for the run);
+* ``locate``: where the baseline's residual lives (a record with ``to_dict()``) and
+  its main channel;
+* ``screen``: score the open candidates against the current residual and choose which
+  to refit (``Screening``);
+* ``refit``: the current model plus one element, refitted;
+* ``words``: the engineering words of a candidate;
+* ``settle``: make a named winner ready to be the next round's null model (or None);
+* ``ambiguities``: what the data cannot tell apart from the winner beyond the
+  loop's own family-pair rule;
+* ``conclude``: checks after the search (damper asymmetry, the residual left, the
+  smallest effects these tests could have shown).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+from suspenv.diagnosis.decision import DecisionRule
+from suspenv.diagnosis.fitting import FitResult
+from suspenv.diagnosis.hypothesis import Ambiguity, Hypothesis
+from suspenv.diagnosis.protocols import DiagnosableModel, RecordingLike
+from suspenv.diagnosis.split import Split
+
+
+class Report(Protocol):
+    """A record a report can print (a residual map, a signature, a check)."""
+
+    def to_dict(self) -> dict[str, Any]: ...
+
+
+@dataclass
+class Setup:
+    """One run's data and model, made by :meth:`DiagnosisFamily.prepare`.
+
+    Attributes:
+        split: fit and held-out data.
+        model: the base model (no element added by the search).
+        candidates: candidate names (``kind@location`` or a bare kind) the search may add.
+    """
+
+    split: Split
+    model: DiagnosableModel
+    candidates: list[str]
+
+
+class Signature(Protocol):
+    """A screening record: what was scored (a signature family or a candidate), its
+    score (larger = stronger evidence of the pattern), the evidence in words."""
+
+    kind: str
+    score: float
+    evidence: str
+
+    def to_dict(self) -> dict[str, Any]: ...
+
+
+@dataclass
+class Screening:
+    """One round's screen: the signature records (for the report, strongest first) and
+    the candidates chosen for a refit, each with the record its start values come from
+    (None: no record)."""
+
+    signatures: Sequence[Signature]
+    chosen: Sequence[tuple[str, Signature | None]]
+
+
+@dataclass
+class Outcome:
+    """What the search found, handed to :meth:`DiagnosisFamily.conclude`."""
+
+    base: FitResult
+    current: FitResult
+    named: list[Hypothesis]
+    hypotheses: list[Hypothesis]
+    signatures: Sequence[Signature]
+    location: Any
+
+
+@dataclass
+class Conclusion:
+    """What a family's checks after the search add.
+
+    Attributes:
+        named / hypotheses / ambiguities: added to the search's.
+        final_fit: the model after the checks (None: the search's).
+        sentences: said after the verdict's main sentence.
+        confident: False when the residual left says something is still missing.
+        findings: the checks' own records by name (``asymmetry``, ``residual``,
+            ``detection_limits``), kept on the :class:`~suspenv.diagnosis.engine.Diagnosis`.
+        baseline: extra numbers of the baseline for the report.
+    """
+
+    named: list[Hypothesis] = field(default_factory=list)
+    hypotheses: list[Hypothesis] = field(default_factory=list)
+    ambiguities: list[Ambiguity] = field(default_factory=list)
+    final_fit: FitResult | None = None
+    sentences: list[str] = field(default_factory=list)
+    confident: bool = True
+    findings: dict[str, Any] = field(default_factory=dict)
+    baseline: dict[str, Any] = field(default_factory=dict)
+
+
+class DiagnosisFamily(Protocol):
+    """The steps a family supplies to the loop (see the module docstring)."""
+
+    #: short name: "component", "knc", "ride"
+    name: str
+    #: the decision rule of this family's reported benchmark
+    rule: DecisionRule
+    #: most elements added in turn
+    max_effects: int
+
+    def prepare(self, recordings: Any, holdout: Any, candidates: Sequence[str] | None) -> Setup: ...
+
+    def fit_baseline(self, setup: Setup) -> FitResult: ...
+
+    def locate(self, base: FitResult, setup: Setup) -> tuple[Any, str]: ...
+
+    def screen(
+        self, current: FitResult, setup: Setup, open_candidates: Sequence[str], round_: int
+    ) -> Screening: ...
+
+    def refit(
+        self, current: FitResult, candidate: str, signature: Signature | None, setup: Setup
+    ) -> FitResult: ...
+
+    def words(self, candidate: str, setup: Setup) -> str: ...
+
+    def settle(self, winner: FitResult, setup: Setup) -> FitResult | None: ...
+
+    def ambiguities(
+        self,
+        winner: Hypothesis,
+        ranked: Sequence[Hypothesis],
+        parent: FitResult,
+        setup: Setup,
+    ) -> list[Ambiguity]: ...
+
+    def conclude(self, outcome: Outcome, setup: Setup) -> Conclusion: ...
+
+
+def recording_names(recordings: Sequence[RecordingLike]) -> str:
+    """Comma-separated recording names."""
+    return ", ".join(str(r.name) for r in recordings)

@@ -1,0 +1,468 @@
+"""The one least-squares fit of a diagnosable model to one or more recordings.
+
+Units: residuals are formed in each output channel's own SI unit (measured minus
+predicted) and divided by a per-channel scale, so the fit's residual vector is
+dimensionless. The scales are either given (e.g. each channel's noise level from a
+first fit, :func:`noise_scales`, held fixed for every model compared on the same data
+so that likelihoods stay comparable) or the measured channel's standard deviation
+(:func:`spread_scales`).
+
+Parameter covariance comes from the Jacobian at the optimum,
+``cov = s^2 (J^T J)^+`` with ``s^2`` the scaled residual variance; standard errors
+are also given corrected for serially correlated residuals (effective sample size from
+the lag-1 autocorrelation), because neighbouring samples of a recording are not
+independent.
+
+What differs between models is a property of the model, read through the typed seam
+(:class:`suspenv.diagnosis.protocols.DiagnosableModel`), never probed for:
+
+* ``model.difference_step(theta, lo, hi)``: the forward-difference step (a smooth
+  simulation wants ``1e-6 max(|theta|, 1)``; the K&C axle's iterative solver, which
+  converges only to a tolerance, a far larger one);
+* ``model.refine_start(theta0, recordings, masks)``: a cheap start (e.g. an
+  equation-error fit), kept only where it lowers the simulation residual; None: none;
+* ``model.jacobian_model()``: a cheaper twin (same parameters) for the Jacobians of
+  the iterations; the Jacobian at the optimum, behind the standard errors, is the
+  model's own.
+
+The Jacobian's columns are simulated as one batch (``theta`` of shape ``(p + 1, p)``),
+column by column where the batch cannot be simulated.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any, TypeVar, cast
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from suspenv.core.errors import EvaluationError, ValidationError
+from suspenv.diagnosis.protocols import DiagnosableModel, EffectLike, RecordingLike
+
+#: scaled residual that stands for a sample the model cannot predict (failed
+#: simulation, non-finite output): large against the O(1) scaled residuals
+PENALTY = 1e3
+
+R = TypeVar("R", bound=RecordingLike)
+E = TypeVar("E", bound=EffectLike)
+Masks = Sequence[np.ndarray | None]
+
+
+def as_list(recordings: R | Sequence[R]) -> list[R]:
+    """A single recording or a sequence of them -> list."""
+    if isinstance(recordings, list | tuple):
+        return list(recordings)
+    return [cast(R, recordings)]
+
+
+def fitted_channels(model: DiagnosableModel[R, E], rec: R, theta: np.ndarray) -> list[str]:
+    """Output channels both simulated by ``model`` and present in ``rec`` (the model's
+    declared ``output_channels`` where ``theta`` cannot be simulated, e.g. a start
+    point at which a softening element diverges; the fit then moves away from it)."""
+    try:
+        names_pred = list(model.simulate(theta, rec))
+    except EvaluationError:
+        names_pred = list(model.output_channels)
+        if not names_pred:
+            raise
+    pred = dict.fromkeys(names_pred)
+    names = [c for c in pred if c in rec.outputs]
+    if not names:
+        raise ValidationError(
+            "the model and the recording must share an output channel, but got model "
+            f"outputs {sorted(pred)} and recording outputs {sorted(rec.outputs)}"
+        )
+    return names
+
+
+@dataclass
+class FitResult:
+    """Outcome of :func:`fit` (or :func:`evaluate`).
+
+    Attributes:
+        model: the fitted model (with its effects).
+        names: parameter names, in the order of ``theta``.
+        theta: fitted parameters (SI units).
+        stderr: standard errors from the Jacobian (independent-samples assumption).
+        stderr_corrected: standard errors inflated for serially correlated residuals.
+        covariance: parameter covariance (SI units squared).
+        channels: fitted output channels.
+        scales: per-channel residual scale used in the fit (channel unit).
+        ssr: per-channel sum of squared residuals over the fit samples (unit^2).
+        n: per-channel number of fit samples.
+        success: the solver's convergence flag.
+        message: the solver's message.
+        nfev: residual evaluations spent.
+        seconds: wall time of the fit.
+        extra: ``lag1_autocorrelation``, ``jacobian`` (of the scaled residual), and
+            what callers add (e.g. ``effect``).
+    """
+
+    model: DiagnosableModel[Any, Any]
+    names: tuple[str, ...]
+    theta: np.ndarray
+    stderr: np.ndarray
+    stderr_corrected: np.ndarray
+    covariance: np.ndarray
+    channels: list[str]
+    scales: dict[str, float]
+    ssr: dict[str, float]
+    n: dict[str, int]
+    success: bool
+    message: str
+    nfev: int
+    seconds: float
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def n_params(self) -> int:
+        return int(self.theta.size)
+
+    @property
+    def n_samples(self) -> int:
+        return int(sum(self.n.values()))
+
+    def rms(self) -> dict[str, float]:
+        """Per-channel RMS residual over the fit samples (channel unit)."""
+        return {c: float(np.sqrt(self.ssr[c] / max(self.n[c], 1))) for c in self.channels}
+
+    def log_likelihood(self) -> float:
+        """Gaussian log-likelihood with each channel's noise variance at its MLE."""
+        total = 0.0
+        for c in self.channels:
+            n = self.n[c]
+            var = max(self.ssr[c] / max(n, 1), 1e-300)
+            total += -0.5 * n * (np.log(2.0 * np.pi * var) + 1.0)
+        return float(total)
+
+    def aic(self) -> float:
+        return 2.0 * self.n_params - 2.0 * self.log_likelihood()
+
+    def bic(self) -> float:
+        return float(self.n_params * np.log(max(self.n_samples, 1)) - 2.0 * self.log_likelihood())
+
+    def params(self) -> dict[str, dict[str, float]]:
+        """``{name: {"value", "stderr", "stderr_corrected"}}`` (JSON-friendly)."""
+        return {
+            name: {
+                "value": float(v),
+                "stderr": float(s),
+                "stderr_corrected": float(sc),
+            }
+            for name, v, s, sc in zip(
+                self.names, self.theta, self.stderr, self.stderr_corrected, strict=True
+            )
+        }
+
+
+def residuals(
+    model: DiagnosableModel[R, E],
+    theta: np.ndarray,
+    recordings: Sequence[R],
+    channels: Sequence[str],
+    masks: Masks | None = None,
+) -> list[dict[str, np.ndarray]]:
+    """Measured minus predicted, per recording and channel (channel unit).
+
+    Where ``masks`` is given, only the masked samples are returned.
+    """
+    out = []
+    for i, rec in enumerate(recordings):
+        pred = model.simulate(theta, rec)
+        m = None if masks is None else masks[i]
+        r = {}
+        for c in channels:
+            d = np.asarray(rec.outputs[c], float) - np.asarray(pred[c], float)
+            r[c] = d if m is None else d[m]
+        out.append(r)
+    return out
+
+
+def lag1_autocorrelation(r: np.ndarray) -> float:
+    """Sample lag-1 autocorrelation of a residual series (0 for fewer than 3 samples)."""
+    r = np.asarray(r, float) - np.mean(r)
+    den = float(np.dot(r, r))
+    if r.size < 3 or den <= 0.0:
+        return 0.0
+    return float(np.dot(r[1:], r[:-1]) / den)
+
+
+def stacked_residual(
+    model: DiagnosableModel[R, E],
+    theta: np.ndarray,
+    recs: Sequence[R],
+    channels: Sequence[str],
+    scales: Mapping[str, float],
+    masks: Masks | None = None,
+) -> np.ndarray:
+    """Scaled residuals of every channel of every recording, recording by recording:
+    ``(N,)`` for ``theta`` ``(p,)``, ``(B, N)`` for a batch ``(B, p)``; non-finite
+    values become :data:`PENALTY`."""
+    cols = []
+    for i, rec in enumerate(recs):
+        pred = model.simulate(theta, rec)
+        m = None if masks is None else masks[i]
+        for c in channels:
+            d = np.asarray(rec.outputs[c], float) - np.asarray(pred[c], float)
+            d = d if m is None else d[..., m]
+            cols.append(d / scales[c])
+    out = np.concatenate(cols, axis=-1)
+    return np.where(np.isfinite(out), out, PENALTY)
+
+
+def noise_scales(fit: FitResult, floor: float = 1e-12) -> dict[str, float]:
+    """Per-channel scale = the fit's RMS residual (channel unit)."""
+    return {c: max(v, floor) for c, v in fit.rms().items()}
+
+
+def spread_scales(recs: Sequence[RecordingLike], channels: Sequence[str]) -> dict[str, float]:
+    """Per-channel standard deviation of the measured channel over all recordings (1
+    where the channel is constant)."""
+    out = {}
+    for c in channels:
+        s = float(np.std(np.concatenate([np.asarray(r.outputs[c], float) for r in recs])))
+        out[c] = s if s > 0 else 1.0
+    return out
+
+
+def _result(
+    model: DiagnosableModel[R, E],
+    theta: np.ndarray,
+    recs: Sequence[R],
+    scales: Mapping[str, float],
+    masks: Masks | None,
+    jacobian: np.ndarray | None,
+    scaled_residual: np.ndarray | None,
+    *,
+    success: bool,
+    message: str,
+    nfev: int,
+    seconds: float,
+) -> FitResult:
+    """The :class:`FitResult` of ``model`` at ``theta``; standard errors from
+    ``jacobian`` (NaN without one) and the scaled residual (computed when not given)."""
+    channels = list(scales)
+    parts = residuals(model, theta, recs, channels, masks)
+    ssr = {c: float(sum(np.sum(p[c] ** 2) for p in parts)) for c in channels}
+    n = {c: int(sum(p[c].size for p in parts)) for c in channels}
+    p = theta.size
+    stderr = np.full(p, np.nan)
+    cov = np.full((p, p), np.nan)
+    if jacobian is not None and jacobian.shape[1] == p:
+        r = scaled_residual
+        if r is None:
+            r = stacked_residual(model, theta, recs, channels, scales, masks)
+        dof = max(r.size - p, 1)
+        s2 = float(np.sum(r**2)) / dof
+        cov = np.linalg.pinv(jacobian.T @ jacobian) * s2
+        stderr = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    rho = float(
+        np.mean([lag1_autocorrelation(q[c]) for q in parts for c in channels if q[c].size > 2])
+    )
+    rho = float(np.clip(rho, -0.99, 0.99))
+    inflation = np.sqrt((1.0 + rho) / (1.0 - rho)) if rho > 0 else 1.0
+    return FitResult(
+        model=model,
+        names=tuple(model.parameter_names),
+        theta=theta,
+        stderr=stderr,
+        stderr_corrected=stderr * inflation,
+        covariance=cov,
+        channels=channels,
+        scales=dict(scales),
+        ssr=ssr,
+        n=n,
+        success=success,
+        message=message,
+        nfev=nfev,
+        seconds=seconds,
+        extra={"lag1_autocorrelation": rho, "jacobian": jacobian},
+    )
+
+
+def evaluate(
+    model: DiagnosableModel[R, E],
+    theta: np.ndarray,
+    recs: Sequence[R],
+    scales: Mapping[str, float],
+    masks: Masks | None = None,
+    jacobian: np.ndarray | None = None,
+    seconds: float = 0.0,
+    nfev: int = 0,
+    message: str = "evaluated",
+) -> FitResult:
+    """A :class:`FitResult` of ``model`` at ``theta`` (no optimisation) on the channels
+    of ``scales``; standard errors from ``jacobian`` where given (NaN otherwise)."""
+    return _result(
+        model,
+        np.asarray(theta, float),
+        list(recs),
+        scales,
+        masks,
+        jacobian,
+        None,
+        success=True,
+        message=message,
+        nfev=nfev,
+        seconds=seconds,
+    )
+
+
+def fit(
+    model: DiagnosableModel[R, E],
+    recordings: R | Sequence[R],
+    masks: Masks | None = None,
+    theta0: np.ndarray | Mapping[str, float] | None = None,
+    scales: Mapping[str, float] | None = None,
+    max_nfev: int = 200,
+    tol: float | None = None,
+) -> FitResult:
+    """Fit ``model`` to ``recordings`` by bounded nonlinear least squares.
+
+    Args:
+        model: the model (see :class:`~suspenv.diagnosis.protocols.DiagnosableModel`).
+        recordings: one recording or a sequence; all are fitted jointly.
+        masks: optional boolean sample masks, one per recording (the fit samples).
+        theta0: start point: an array, or known values by parameter name (the others
+            from ``model.initial_guess`` of the first recording).
+        scales: per-channel residual scales (channel unit); they also choose the fitted
+            channels. Default: the measured spread (:func:`spread_scales`) of every
+            channel the model simulates and the first recording holds.
+        max_nfev: budget of residual evaluations.
+        tol: relative change of cost and of parameters that ends the search
+            (``least_squares``' ``ftol`` and ``xtol``); None: its defaults.
+    """
+    t_start = time.perf_counter()
+    recs = as_list(recordings)
+    if masks is not None and len(masks) != len(recs):
+        raise ValidationError(
+            "one mask per recording must be given, but got "
+            f"(masks={len(masks)}, recordings={len(recs)})"
+        )
+    names = tuple(model.parameter_names)
+    lo, hi = (np.asarray(b, float) for b in model.bounds())
+    x0 = np.asarray(model.initial_guess(recs[0]), float)
+    if isinstance(theta0, Mapping):
+        for k, v in theta0.items():
+            if k in names:
+                x0[names.index(k)] = v
+    elif theta0 is not None:
+        x0 = np.asarray(theta0, float).copy()
+    if x0.shape != (len(names),):
+        raise ValidationError(
+            f"theta0 must have one value per parameter, but got (theta0={x0.shape}, "
+            f"parameters={len(names)})"
+        )
+    # keep the start strictly inside the bounds (least_squares requires it)
+    span = np.where(np.isfinite(hi - lo), hi - lo, np.abs(x0) + 1.0)
+    x0 = np.clip(x0, lo + 1e-6 * span, hi - 1e-6 * span)
+
+    weights = (
+        spread_scales(recs, fitted_channels(model, recs[0], x0)) if scales is None else dict(scales)
+    )
+    channels = list(weights)
+    n_res = sum(
+        int(np.count_nonzero(m)) if m is not None else len(r.time)
+        for r, m in zip(recs, masks or [None] * len(recs), strict=True)
+    ) * len(channels)
+
+    last: dict[bytes, np.ndarray] = {}
+
+    def fun(theta: np.ndarray) -> np.ndarray:
+        key = np.asarray(theta, float).tobytes()
+        if key in last:  # the start point is asked for more than once
+            return last[key].copy()
+        try:
+            out = stacked_residual(model, theta, recs, channels, weights, masks)
+        except EvaluationError:
+            return np.full(n_res, PENALTY)
+        last.clear()
+        last[key] = out
+        return out.copy()
+
+    if not names:
+        r0 = fun(x0)
+        return _result(
+            model,
+            x0,
+            recs,
+            weights,
+            masks,
+            np.zeros((n_res, 0)),
+            r0,
+            success=True,
+            message="no free parameters",
+            nfev=1,
+            seconds=time.perf_counter() - t_start,
+        )
+
+    jac_model = model.jacobian_model()
+
+    def batch_residuals(thetas: np.ndarray, sim: DiagnosableModel[R, E]) -> np.ndarray:
+        """(B, n_res) scaled residuals from one batched simulation per recording."""
+        out = stacked_residual(sim, thetas, recs, channels, weights, masks)
+        if out.ndim != 2 or out.shape[0] != thetas.shape[0]:
+            raise ValidationError("batched simulation returned the wrong number of rows")
+        return out
+
+    def jac(theta: np.ndarray, sim: DiagnosableModel[R, E] = jac_model) -> np.ndarray:
+        """Forward-difference Jacobian, all columns in one batched simulation (column
+        by column where the batch as a whole cannot be simulated); ``sim`` defaults to
+        the Jacobian twin."""
+        h = np.asarray(model.difference_step(theta, lo, hi), float)
+        step = np.where(theta + h <= hi, h, -h)
+        thetas = np.vstack([theta, theta + np.diag(step)])
+        try:
+            rows = batch_residuals(thetas, sim)
+        except EvaluationError:
+            rows = np.vstack([fun(th) for th in thetas])
+        return ((rows[1:] - rows[0]) / step[:, None]).T
+
+    refined = model.refine_start(x0, recs, masks)
+    if refined is not None:
+        # a model-specific fast start (e.g. an equation-error fit); kept only where it
+        # lowers the simulation residual
+        x1 = np.clip(np.asarray(refined, float), lo + 1e-6 * span, hi - 1e-6 * span)
+        if np.sum(fun(x1) ** 2) < np.sum(fun(x0) ** 2):
+            x0 = x1
+    # the single-row residual first, then the batched probe: a model that caches its
+    # solutions row by row (the K&C axle) then reuses the row instead of solving it in
+    # another batch
+    f0 = fun(x0)
+    try:
+        probe = batch_residuals(np.vstack([x0, x0]), model)
+        use_batch = probe.shape == (2, n_res) and bool(np.allclose(probe[0], f0))
+    except Exception:  # noqa: BLE001 - any failure: fall back to one simulation per column
+        use_batch = False
+    ls_options: dict[str, Any] = {} if tol is None else {"ftol": tol, "xtol": tol}
+    sol = least_squares(
+        fun,
+        x0,
+        jac=jac if use_batch else "2-point",
+        bounds=(lo, hi),
+        x_scale="jac",
+        max_nfev=max_nfev,
+        **ls_options,
+    )
+    theta = np.asarray(sol.x, float)
+    J = np.asarray(sol.jac, float)
+    if use_batch and jac_model is not model:
+        # the twin's sensitivities are close enough to steer the fit, not to report:
+        # standard errors (and the residual basis of the signatures) use the model's own
+        J = jac(theta, model)
+    return _result(
+        model,
+        theta,
+        recs,
+        weights,
+        masks,
+        J,
+        np.asarray(sol.fun, float),
+        success=bool(sol.success),
+        message=str(sol.message),
+        nfev=int(sol.nfev),
+        seconds=time.perf_counter() - t_start,
+    )

@@ -1,0 +1,268 @@
+"""Truth vehicles and blind cases of the K&C diagnosis: "measured" rig recordings.
+
+A truth vehicle is the test car (:func:`suspenv.models.mcpherson.truth.truth_vehicle`:
+the reference axle, optionally with left/right manufacturing tolerances) with
+concealed effects. The concealed force and sensor effects are the very
+effects-library objects the fitted model takes
+(:func:`~suspenv.diagnosis.knc.model.make_candidate`, ``kind@location``), run through
+the same solver and rig (:func:`suspenv.rigs.knc.run_tests`) and the same sensor
+elements, so a :class:`~suspenv.diagnosis.knc.model.KncAxleModel` holding the same
+effects reproduces a truth's noise-free loops (tolerances aside). Sensor noise is
+Gaussian (:data:`suspenv.models.mcpherson.truth.CHANNEL_NOISE`, scaled, seeded).
+
+A truth is described by a mapping of its names (:data:`TRUTH_KIND`: ``hysteresis``,
+``friction``, ``progressive``, ``asymmetry``, ``sensor_gain``, ``sensor_offset``) to
+(partial) magnitudes, e.g. ``{"hysteresis": {"f_c": 100.0, "bushings": ["top_mount"]}}``;
+:func:`truth_effects` turns it into the effects (missing values: :data:`TRUTH_DEFAULTS`)
+and the tolerances. The blind cases (:func:`blind_case`) draw type, magnitudes,
+hysteresis location and noise level from a seed. Recording format:
+:mod:`suspenv.measurements.knc`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from suspenv.core.errors import ValidationError
+from suspenv.diagnosis.knc.model import make_candidate
+from suspenv.measurements import Recording
+from suspenv.measurements.knc import rig_test
+from suspenv.models.effects import Effect
+from suspenv.models.mcpherson import bushings_at
+from suspenv.models.mcpherson.effects import location_of
+from suspenv.models.mcpherson.truth import CHANNEL_NOISE, TOLERANCE, truth_vehicle
+from suspenv.rigs.knc import ALL_TESTS, FORCE_AMPLITUDE, TESTS, run_tests
+from suspenv.rigs.knc_recording import to_recordings
+
+#: the concealed effect each truth name stands for, at its default magnitude: the same
+#: effects the fitted model takes (``hysteresis`` and ``progressive`` may name other
+#: ``bushings``; ``asymmetry`` is the test car's tolerance, :data:`TOLERANCE`)
+TRUTH_DEFAULTS: dict[str, Effect] = {
+    "hysteresis": make_candidate("dahl_hysteresis", f_c=80.0),
+    "friction": make_candidate("coulomb_friction", f_c=120.0),
+    "progressive": make_candidate("cubic_stiffness", ratio=0.2),
+    "sensor_gain": make_candidate("sensor_gain", gain=1.04),
+    "sensor_offset": make_candidate("sensor_offset", offset=10.0),
+}
+#: the diagnosis' effect kind that names each concealed effect
+TRUTH_KIND: dict[str, str] = {
+    **{name: e.kind for name, e in TRUTH_DEFAULTS.items()},
+    "asymmetry": "lr_asymmetry",
+}
+
+
+def truth_effects(
+    effects: Mapping[str, Mapping[str, Any]],
+) -> tuple[list[Effect], dict[str, float] | None]:
+    """The concealed effects of a truth description and its left/right tolerance.
+
+    Returns ``(effects, tolerance)``: effects-library elements in the order of
+    :data:`TRUTH_DEFAULTS` (sensor gain before offset) with the given magnitudes, and
+    the tolerances of an ``asymmetry`` truth (None without one).
+    """
+    unknown = sorted(set(effects) - set(TRUTH_KIND))
+    if unknown:
+        raise ValidationError(
+            f"truth effects must be among {sorted(TRUTH_KIND)}, but got {unknown}"
+        )
+    out = []
+    for name, default in TRUTH_DEFAULTS.items():
+        if name not in effects:
+            continue
+        values = dict(effects[name])
+        effect = default
+        if "bushings" in values:
+            where = location_of(tuple(values.pop("bushings")))
+            effect = make_candidate(f"{default.kind}@{where}", **default.params)
+        out.append(effect.with_params({k: float(v) for k, v in values.items()}))
+    tolerance = None
+    if "asymmetry" in effects:
+        bad = sorted(set(effects["asymmetry"]) - set(TOLERANCE))
+        if bad:
+            raise ValidationError(
+                f"truth asymmetry values must be among {sorted(TOLERANCE)}, but got {bad}"
+            )
+        tolerance = {k: float(v) for k, v in {**TOLERANCE, **effects["asymmetry"]}.items()}
+    return out, tolerance
+
+
+def measure_truth(
+    effects: Mapping[str, Mapping[str, Any]] | None = None,
+    seed: int = 0,
+    amplitude: float = 0.040,
+    steps: int = 8,
+    noise_scale: float = 1.0,
+    tests: Sequence[str] = TESTS,
+    design: np.ndarray | None = None,
+    force_amplitude: float = FORCE_AMPLITUDE,
+) -> dict[str, Recording]:
+    """ "Measured" K&C recordings of a truth vehicle with concealed ``effects`` (seeded).
+
+    ``effects`` maps names of :data:`TRUTH_KIND` to (partial) magnitudes, e.g.
+    ``{"hysteresis": {"f_c": 100.0}}``; ``{}`` is the plain reference vehicle.
+    ``noise_scale`` multiplies the rig's sensor noise (``0`` gives exact loops).
+    ``amplitude`` [m] is the travel tests' stroke, ``force_amplitude`` [N] the
+    compliance tests' force.
+    """
+    if noise_scale < 0:
+        raise ValidationError(f"`noise_scale >= 0` must hold, but got {noise_scale}")
+    concealed, tolerance = truth_effects(dict(effects or {}))
+    tol = tolerance or TOLERANCE
+    car = truth_vehicle(
+        seed,
+        base=design,
+        tolerance=tolerance is not None,
+        noise=False,
+        hard_point_tol_mm=tol["hard_point_tol_mm"],
+        stiffness_tol=tol["stiffness_tol"],
+        alignment_tol_deg=tol["alignment_tol_deg"],
+        effects=[e for e in concealed if e.spec.role == "force"],
+    )
+    results = run_tests(
+        car.axle(),
+        tuple(tests),
+        amplitude=amplitude,
+        steps=steps,
+        effects=car.effects,
+        force_amplitude=force_amplitude,
+    )
+    sensors = [e for e in concealed if e.spec.role == "sensor"]
+    rng = np.random.default_rng(20_000 + seed)
+    for test in sorted(results):
+        res = results[test]
+        if not res.ok.all():
+            raise ValidationError(f"the truth vehicle fails the {test} test: {res.messages[0]}")
+        for e in sensors:  # on the rig channel the sensor reads (both wheels)
+            res.channels[e.location] = e.sensor(res.channels[e.location])
+        for name in sorted(CHANNEL_NOISE):
+            ch = res.channels[name]
+            res.channels[name] = ch + rng.normal(0.0, noise_scale * CHANNEL_NOISE[name], ch.shape)
+    info = {"source": "suspenv truth vehicle (concealed effects)", "seed": int(seed)}
+    return to_recordings(results, meta=info)
+
+
+# ------------------------------------------------------------------ blind cases
+BLIND_KINDS = (
+    "hysteresis",
+    "friction",
+    "progressive",
+    "asymmetry",
+    "sensor_gain",
+    "sensor_offset",
+)
+#: hysteresis locations of the blind cases: case word -> axle location
+HYSTERESIS_LOCATIONS = {
+    "all": "lower_arm_and_top_mount",
+    "lower_arm": "lower_arm",
+    "top_mount": "top_mount",
+}
+#: single-effect case types: every truth kind, the hysteresis at each location
+SINGLE_TYPES = (
+    "hysteresis@all",
+    "hysteresis@lower_arm",
+    "hysteresis@top_mount",
+    "friction",
+    "progressive",
+    "asymmetry",
+    "sensor_gain",
+    "sensor_offset",
+)
+#: two-effect case types (fixed pairs covering every kind)
+PAIR_TYPES = (
+    "hysteresis@lower_arm+sensor_gain",
+    "friction+asymmetry",
+    "progressive+sensor_offset",
+    "hysteresis@all+asymmetry",
+    "friction+sensor_gain",
+    "hysteresis@top_mount+sensor_offset",
+)
+#: the fixed cycle of case types: seed -> ``BLIND_PLAN[seed % len(BLIND_PLAN)]``; any
+#: ``len(BLIND_PLAN)`` consecutive seeds hold each single type 3 times, each pair once
+#: and 6 no-effect controls (36 cases)
+BLIND_PLAN: tuple[str, ...] = tuple(
+    t
+    for i in range(6)
+    for t in (
+        SINGLE_TYPES[(4 * i) % 8],
+        "none",
+        SINGLE_TYPES[(4 * i + 1) % 8],
+        PAIR_TYPES[i],
+        SINGLE_TYPES[(4 * i + 2) % 8],
+        SINGLE_TYPES[(4 * i + 3) % 8],
+    )
+)
+
+
+def case_type(seed: int) -> str:
+    """The blind case type of ``seed``: ``"none"``, a kind (``"friction"``,
+    ``"hysteresis@top_mount"`` ...) or two joined by ``+`` (see :data:`BLIND_PLAN`)."""
+    return BLIND_PLAN[int(seed) % len(BLIND_PLAN)]
+
+
+def _draw_effect(kind: str, rng: np.random.Generator) -> tuple[str, dict[str, Any]]:
+    """One concealed effect of ``kind`` (``name[@location]``) with a random magnitude."""
+    name, _, where = kind.partition("@")
+    if name == "hysteresis":
+        return name, {
+            "f_c": float(rng.uniform(50.0, 150.0)),
+            "bushings": list(bushings_at(HYSTERESIS_LOCATIONS[where or "all"])),
+        }
+    if name == "friction":
+        return name, {"f_c": float(rng.uniform(60.0, 250.0))}
+    if name == "progressive":
+        return name, {"ratio": float(rng.uniform(0.1, 0.5))}
+    if name == "asymmetry":
+        s = float(rng.uniform(0.6, 1.5))
+        return name, {
+            "hard_point_tol_mm": 1.0 * s,
+            "stiffness_tol": 0.10 * s,
+            "alignment_tol_deg": 0.05 * s,
+        }
+    if name == "sensor_gain":
+        return name, {"gain": float(1.0 + rng.choice([-1, 1]) * rng.uniform(0.02, 0.06))}
+    if name == "sensor_offset":
+        return name, {"offset": float(rng.choice([-1, 1]) * rng.uniform(3.0, 20.0))}
+    raise ValidationError(f"blind effect kinds must be among {BLIND_KINDS}, but got {kind!r}")
+
+
+def blind_truth(seed: int) -> dict[str, Any]:
+    """Concealed effects of blind case ``seed``: the type from :func:`case_type`,
+    magnitudes, hysteresis location and noise level drawn from the seed."""
+    rng = np.random.default_rng(seed)
+    ctype = case_type(seed)
+    effects: dict[str, dict[str, Any]] = {}
+    for kind in [] if ctype == "none" else ctype.split("+"):
+        name, values = _draw_effect(kind, rng)
+        effects[name] = values
+    return {
+        "seed": int(seed),
+        "case_type": ctype,
+        "effects": effects,
+        "expected_kinds": sorted(TRUTH_KIND[k] for k in effects),
+        "noise_scale": float(rng.uniform(0.5, 2.0)),
+    }
+
+
+#: rig tests of a blind case: the three travel tests and the two compliance tests
+BLIND_TESTS = ALL_TESTS
+
+
+def blind_case(
+    seed: int, steps: int = 8, amplitude: float = 0.040, tests: Sequence[str] = BLIND_TESTS
+) -> tuple[dict[str, Any], dict[str, Any]]:
+    """``(case, truth)``: the case holds only the recordings; the truth is kept apart."""
+    truth = blind_truth(seed)
+    recs = measure_truth(
+        truth["effects"], seed, amplitude, steps, noise_scale=truth["noise_scale"], tests=tests
+    )
+    case: dict[str, Any] = {
+        "id": f"knc-blind-{seed}",
+        "recordings": {t: r for t, r in recs.items()},
+    }
+    for r in case["recordings"].values():
+        r.meta.pop("seed", None)
+        r.name = f"knc-blind-{seed}:{rig_test(r)}"
+    return case, truth

@@ -1,0 +1,99 @@
+"""The records of locating and screening, shared by every diagnosis family.
+
+* :class:`Share` / :class:`Location`: where the residual energy lives. Every partition
+  of the samples reports, per part, the *share* of residual energy (each channel
+  divided by its scale so channels compare), the *fraction* of samples in the part and
+  their ratio, the *enrichment* (1: spread like the samples; 3: three times its fair
+  share).
+* :class:`Signature`: a screening score of a signature family or a candidate, with its
+  p-value, evidence in words and numbers in the channel's units.
+* :func:`effective_n`: the effective sample size of a serially correlated residual.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+#: a part is a hotspot when it holds this much more than its fair share ...
+HOTSPOT_ENRICHMENT = 1.5
+#: ... and at least this share of the residual energy
+HOTSPOT_SHARE = 0.2
+
+
+@dataclass
+class Share:
+    """One part of one partition."""
+
+    dimension: str
+    part: str
+    share: float
+    fraction: float
+
+    @property
+    def enrichment(self) -> float:
+        return self.share / self.fraction if self.fraction > 0 else float("nan")
+
+    def to_dict(self) -> dict[str, float | str]:
+        d = asdict(self)
+        d["enrichment"] = self.enrichment
+        return d
+
+
+@dataclass
+class Location:
+    """All partitions of the residual energy; see :func:`locate`."""
+
+    shares: list[Share] = field(default_factory=list)
+
+    def by_dimension(self, dimension: str) -> list[Share]:
+        return [s for s in self.shares if s.dimension == dimension]
+
+    def dimensions(self) -> list[str]:
+        return list(dict.fromkeys(s.dimension for s in self.shares))
+
+    def hotspots(self) -> list[Share]:
+        """Parts holding a clearly unfair share of the residual, strongest first.
+
+        Frequency bands are left out: a band's fair share is its share of spectral
+        lines, against which any smooth residual looks concentrated.
+        """
+        hot = [
+            s
+            for s in self.shares
+            if s.dimension != "frequency band"
+            and s.share >= HOTSPOT_SHARE
+            and s.fraction < 0.9
+            and s.enrichment >= HOTSPOT_ENRICHMENT
+        ]
+        return sorted(hot, key=lambda s: -s.enrichment)
+
+    def to_dict(self) -> dict[str, object]:
+        return {
+            "shares": [s.to_dict() for s in self.shares],
+            "hotspots": [s.to_dict() for s in self.hotspots()],
+        }
+
+
+@dataclass
+class Signature:
+    """A detector's verdict: score in [0, 1], p-value, evidence sentence and numbers."""
+
+    kind: str
+    score: float
+    p_value: float
+    evidence: str
+    numbers: dict[str, float] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, object]:
+        return asdict(self)
+
+
+def effective_n(r: np.ndarray) -> float:
+    """Effective number of independent samples of a serially correlated series (AR(1))."""
+    r = r - np.mean(r)
+    den = float(np.dot(r, r))
+    rho = float(np.dot(r[1:], r[:-1]) / den) if den > 0 and r.size > 2 else 0.0
+    rho = float(np.clip(rho, 0.0, 0.999))
+    return max(r.size * (1.0 - rho) / (1.0 + rho), 2.0)

@@ -1,1 +1,0 @@
-"""Experiments: TOML configs -> resolved config -> run directory (see :mod:`.config`)."""

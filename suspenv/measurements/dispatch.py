@@ -1,0 +1,64 @@
+"""Open any supported recording file by its content: suspenv ``.npz`` or a real-data source.
+
+``read_recording(path)`` picks the reader: ``.npz`` -> :func:`load_recording`;
+``.mat`` with ``qm`` -> EMPS, with ``x_F`` -> MR damper; ``.dat`` -> damper dyno;
+``.csv`` with ``q_meas`` -> resampled EMPS. Converted recordings carry
+``meta["suggested_model"]``, the component family that fits them.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import scipy.io
+
+from suspenv.measurements.errors import RecordingError
+from suspenv.measurements.io import load_recording
+from suspenv.measurements.recording import Recording
+from suspenv.measurements.sources import load_damper_dyno, load_emps, load_emps_csv, load_mr_damper
+
+#: test name -> component family suited to it
+SUGGESTED_MODEL = {
+    "emps_trajectory": "friction_guide",
+    "emps_pulses": "friction_guide",
+    "damper_dyno": "damper",
+    "dyno_sine": "damper",
+    "mr_sine": "mr_damper",
+    "mr_validation": "mr_damper",
+    "rig_road": "quarter_car_rig",
+}
+
+
+def read_recording(path: str | Path) -> Recording:
+    """Load ``path`` with the reader its extension and content call for."""
+    path = Path(path)
+    if not path.is_file():
+        raise RecordingError(f"recording file {str(path)!r} does not exist")
+    suffix = path.suffix.lower()
+    if suffix == ".npz":
+        rec = load_recording(path)
+    elif suffix == ".mat":
+        try:
+            names = {name for name, _, _ in scipy.io.whosmat(path)}
+        except Exception as exc:  # noqa: BLE001 - any reader failure means "not a .mat file"
+            raise RecordingError(f"{path.name}: not a readable MATLAB file ({exc})") from None
+        if "qm" in names:
+            rec = load_emps(path)
+        elif "x_F" in names:
+            rec = load_mr_damper(path)
+        else:
+            raise RecordingError(
+                f"{path.name}: unknown .mat layout; expected 'qm' (EMPS) or 'x_F' (MR damper), "
+                f"found {sorted(names)}"
+            )
+    elif suffix == ".dat":
+        rec = load_damper_dyno(path)
+    elif suffix == ".csv":
+        rec = load_emps_csv(path)
+    else:
+        raise RecordingError(
+            f"{path.name}: unknown recording type {suffix!r}; supported: .npz, .mat, .dat, .csv"
+        )
+    if rec.test in SUGGESTED_MODEL:
+        rec.meta.setdefault("suggested_model", SUGGESTED_MODEL[rec.test])
+    return rec

@@ -1,0 +1,158 @@
+"""K&C rig loops as :class:`~suspenv.measurements.Recording` objects, and back.
+
+One recording per rig test (travel: ``parallel``, ``opposite``, ``single``; compliance:
+``lateral``, ``longitudinal``, see :mod:`suspenv.rigs.knc`) of one vehicle.
+Every solved step of the loop design -> bump -> rebound -> design is one sample;
+the rig is quasi-static, so ``time`` is the step index in seconds (1 s per step, a
+bookkeeping axis only, stated in ``meta["time_axis"]``).
+
+Frame ISO 8855 (x forward, y left, z up), SI units:
+
+* inputs: ``pad_left`` / ``pad_right`` [m] pad travel from the static height (bump
+  positive; zero in a compliance test), ``stroke`` [m] the left pad's stroke of a
+  travel test or ``force`` [N] the contact-point force of a compliance test (along
+  +y in ``lateral``, +x in ``longitudinal``, on both wheels), ``branch`` [-]
+  (0 first leg design -> bump, 1 bump -> rebound, 2 rebound -> design; "bump" is the
+  +amplitude end also in a compliance test) and ``grid`` [-] (grid index of the step);
+* outputs, per side (suffix ``_left`` / ``_right``): ``toe`` [rad] (+ toe-in),
+  ``camber`` [rad] (- top inboard), ``tyre_fz`` [N] (+ compression),
+  ``contact_lateral`` [m] (contact-point y, *outboard* positive on each side, so a
+  symmetric axle gives equal left and right values in parallel travel) and
+  ``contact_x`` [m] (contact-point x, forward positive).
+
+``recording.meta`` holds ``rig = "knc"``, the test, amplitude ([m] for a travel test,
+[N] for a compliance test, named in ``meta["amplitude_unit"]``) and steps, which a
+model needs to replay the same loop. ``recording.test`` is ``"knc_<test>"``.
+
+This is the recording format only; the "measured" truth vehicles of the diagnosis
+benchmark are made by :mod:`suspenv.diagnosis.knc.truth`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from suspenv.core.errors import ValidationError
+from suspenv.measurements.recording import Recording
+
+#: vertical travel tests (the identification problem's three)
+TESTS = ("parallel", "opposite", "single")
+#: compliance tests: horizontal force at both contact points, pads static
+FORCE_TESTS = ("lateral", "longitudinal")
+ALL_TESTS = TESTS + FORCE_TESTS
+
+SIDES = ("left", "right")
+#: recorded channels: name -> (rig channel, unit, outboard sign flip on the right)
+CHANNELS: dict[str, tuple[str, str, bool]] = {
+    "toe": ("toe", "rad", False),
+    "camber": ("camber", "rad", False),
+    "tyre_fz": ("tyre_fz", "N", False),
+    "contact_lateral": ("contact_y", "m", True),
+    "contact_x": ("contact_x", "m", False),
+}
+INPUTS = ("pad_left", "pad_right", "stroke", "branch", "grid")
+#: inputs of a compliance test (``force`` in place of ``stroke``)
+FORCE_INPUTS = ("pad_left", "pad_right", "force", "branch", "grid")
+TEST_PREFIX = "knc_"
+
+
+def output_names(channels: Sequence[str] = tuple(CHANNELS)) -> tuple[str, ...]:
+    """Recorded output names, ``<channel>_<side>``."""
+    return tuple(f"{c}_{s}" for c in channels for s in SIDES)
+
+
+def branch_index(steps: int) -> np.ndarray:
+    """Branch of every step of the loop: 0 design->bump, 1 bump->rebound, 2 rebound->design."""
+    i0 = steps // 2
+    n1 = steps - i0 + 1  # design .. bump, inclusive
+    n2 = steps  # bump-1 .. rebound
+    n3 = i0  # rebound+1 .. design
+    return np.r_[np.zeros(n1), np.ones(n2), np.full(n3, 2.0)]
+
+
+def is_knc(rec: object) -> bool:
+    """True for a K&C rig recording (``meta["rig"] == "knc"`` or test ``knc_*``)."""
+    meta = getattr(rec, "meta", {}) or {}
+    return meta.get("rig") == "knc" or str(getattr(rec, "test", "")).startswith(TEST_PREFIX)
+
+
+def rig_test(rec: Recording) -> str:
+    """The rig test (``parallel`` ...) of a K&C recording."""
+    test = str(rec.meta.get("knc_test", rec.test.removeprefix(TEST_PREFIX)))
+    if test not in ALL_TESTS:
+        raise ValidationError(
+            f"recording {rec.name!r}: the K&C test must be one of {ALL_TESTS}, but got {test!r}"
+        )
+    return test
+
+
+def is_force_test(rec: Recording) -> bool:
+    """True for a compliance (contact-point force) recording."""
+    return rig_test(rec) in FORCE_TESTS
+
+
+def drive(rec: Recording, side: str) -> np.ndarray:
+    """Each wheel's own excitation along the loop, over the test's amplitude [-].
+
+    Travel test: the pad's travel (bump positive). Compliance test: the contact-point
+    force in the wheel's own sense (outboard positive in ``lateral``, so the two
+    wheels of a +y force see opposite signs; forward positive in ``longitudinal``).
+    A symmetric axle gives equal left and right channels at equal drive.
+    """
+    amp = float(rec.meta["amplitude"])
+    if not is_force_test(rec):
+        return np.asarray(rec.inputs[f"pad_{side}"], float) / amp
+    f = np.asarray(rec.inputs["force"], float) / amp
+    return -f if (rig_test(rec) == "lateral" and side == "right") else f
+
+
+def reading_drive(rec: Recording, side: str) -> np.ndarray:
+    """The drive a wheel's channels are read against [-]: its own :func:`drive`, or,
+    for the wheel that has none (the still wheel of single-wheel travel), the left
+    wheel's."""
+    own = drive(rec, side)
+    return own if own.any() else drive(rec, "left")
+
+
+def mirrored(rec: Recording) -> bool:
+    """True when the right wheel's own drive is the left wheel's reversed (opposite
+    travel, lateral force): equal own drive then sits at mirrored grid points."""
+    return bool(np.allclose(drive(rec, "right"), -drive(rec, "left")) and drive(rec, "left").any())
+
+
+def drive_label(rec: Recording) -> tuple[str, float]:
+    """(axis label, factor from SI to the plotted unit) of a recording's drive."""
+    if is_force_test(rec):
+        what = "outboard" if rig_test(rec) == "lateral" else "forward"
+        return f"own {what} contact force [kN]", 1e-3
+    if rig_test(rec) == "single":
+        return "left pad travel [mm] (the right pad stays)", 1e3
+    return "own pad travel [mm]", 1e3
+
+
+def grid_of(rec: Recording) -> tuple[np.ndarray, np.ndarray]:
+    """(grid index (P,) int, branch (P,) int) of a K&C recording."""
+    return rec.inputs["grid"].astype(int), rec.inputs["branch"].astype(int)
+
+
+def half_loops(rec: Recording, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A channel along the loop split into its two branches on the grid.
+
+    Returns ``(down, up)``, each ``(steps + 1,)`` ordered by grid index: ``down`` is
+    the bump -> rebound branch, ``up`` the rebound -> bump branch (rebound -> design,
+    then the first leg design -> bump).
+    """
+    steps = int(rec.meta["steps"])
+    gi, br = grid_of(rec)
+    v = np.asarray(values, float)
+    down = np.full(steps + 1, np.nan)
+    up = np.full(steps + 1, np.nan)
+    sel_d = br == 1
+    down[gi[sel_d]] = v[sel_d]
+    down[steps] = v[np.flatnonzero(gi == steps)[0]]  # the bump end starts the descent
+    sel_u = br != 1
+    up[gi[sel_u]] = v[sel_u]
+    up[0] = v[np.flatnonzero(gi == 0)[0]]
+    return down, up

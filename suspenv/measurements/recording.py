@@ -1,0 +1,250 @@
+"""The :class:`Recording`: one test's time histories with units and metadata.
+
+A recording holds the time vector ``time`` [s] (strictly increasing), the channels
+the rig imposed (``inputs``) and the channels it measured (``outputs``), each a 1-D
+array with one value per time sample, the unit of every channel (SI inside
+suspenv: "m", "m/s", "N", ...) and free metadata (``source``, ``sampling``,
+``notes``...). The file format is described in ``docs/recordings.md``; see
+:mod:`suspenv.measurements.io`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from suspenv.measurements.errors import RecordingError
+
+
+def _nan_run(values: np.ndarray) -> tuple[int, int] | None:
+    """First run of non-finite samples as ``(start, length)``, or None."""
+    bad = ~np.isfinite(values)
+    if not bad.any():
+        return None
+    start = int(np.argmax(bad))
+    rest = bad[start:]
+    length = int(np.argmin(rest)) if not rest.all() else int(rest.size)
+    return start, length
+
+
+@dataclass(eq=False)
+class Recording:
+    """Time histories of one test (SI units), validated on construction.
+
+    Compared by identity (``eq=False``): channels are arrays.
+
+    Attributes:
+        name: identifier of the run (e.g. ``"emps_estimation"``).
+        test: what was done (e.g. ``"sine_sweep"``, ``"dyno_sine"``, ``"emps_trajectory"``).
+        time: sample times [s], strictly increasing, shape ``(N,)``.
+        inputs: imposed channels, name -> ``(N,)`` array.
+        outputs: measured channels, name -> ``(N,)`` array.
+        units: channel name (and ``"time"``) -> unit string; every channel needs one.
+        meta: free metadata; conventional keys ``source``, ``sampling``, ``notes``.
+    """
+
+    name: str
+    test: str
+    time: np.ndarray
+    inputs: dict[str, np.ndarray] = field(default_factory=dict)
+    outputs: dict[str, np.ndarray] = field(default_factory=dict)
+    units: dict[str, str] = field(default_factory=dict)
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        self.time = np.asarray(self.time, dtype=float)
+        self.inputs = {k: np.asarray(v, dtype=float) for k, v in self.inputs.items()}
+        self.outputs = {k: np.asarray(v, dtype=float) for k, v in self.outputs.items()}
+        self.units = {"time": "s", **dict(self.units)}
+        self.meta = dict(self.meta)
+        self.validate()
+
+    # ------------------------------------------------------------------ checks
+    def validate(self) -> None:
+        """Check shapes, time monotonicity, units and finiteness; raise :class:`RecordingError`."""
+        where = f"recording {self.name!r}"
+        t = self.time
+        if t.ndim != 1 or t.size < 2:
+            raise RecordingError(
+                f"{where}: `time` must be 1-D with >= 2 samples, got shape {t.shape}"
+            )
+        run = _nan_run(t)
+        if run:
+            raise RecordingError(
+                f"{where}: channel 'time' has {run[1]} non-finite sample(s) starting at "
+                f"index {run[0]} (value {t[run[0]]})"
+            )
+        dt = np.diff(t)
+        if np.any(dt <= 0):
+            i = int(np.argmax(dt <= 0))
+            raise RecordingError(
+                f"{where}: time must be strictly increasing, but time[{i}]={float(t[i])!r} s and "
+                f"time[{i + 1}]={float(t[i + 1])!r} s"
+            )
+        overlap = set(self.inputs) & set(self.outputs)
+        if overlap:
+            raise RecordingError(f"{where}: channels {sorted(overlap)} are both input and output")
+        for kind, chans in (("input", self.inputs), ("output", self.outputs)):
+            for name, arr in chans.items():
+                if arr.shape != t.shape:
+                    raise RecordingError(
+                        f"{where}: {kind} channel {name!r} must have one value per time sample "
+                        f"{t.shape}, but has shape {arr.shape}"
+                    )
+                if name not in self.units:
+                    raise RecordingError(f"{where}: {kind} channel {name!r} has no unit in `units`")
+                run = _nan_run(arr)
+                if run:
+                    raise RecordingError(
+                        f"{where}: {kind} channel {name!r} has a run of {run[1]} non-finite "
+                        f"sample(s) starting at index {run[0]} (t={t[run[0]]:.6g} s, "
+                        f"value {arr[run[0]]})"
+                    )
+        if self.units.get("time") != "s":
+            raise RecordingError(
+                f"{where}: unit of 'time' must be 's', but got {self.units['time']!r}"
+            )
+
+    def require(
+        self,
+        inputs: Iterable[str] = (),
+        outputs: Iterable[str] = (),
+        units: Mapping[str, str] | None = None,
+    ) -> Recording:
+        """Check that channels exist (as input or output) with the expected units; return self."""
+        where = f"recording {self.name!r} (test {self.test!r})"
+        for name in inputs:
+            if name not in self.inputs:
+                raise RecordingError(
+                    f"{where}: missing input channel {name!r}; inputs are {sorted(self.inputs)}"
+                )
+        for name in outputs:
+            if name not in self.outputs:
+                raise RecordingError(
+                    f"{where}: missing output channel {name!r}; outputs are {sorted(self.outputs)}"
+                )
+        for name, unit in (units or {}).items():
+            if name not in self.units:
+                raise RecordingError(f"{where}: missing channel {name!r} (expected unit {unit!r})")
+            if self.units[name] != unit:
+                raise RecordingError(
+                    f"{where}: channel {name!r} must be in {unit!r}, but its unit is "
+                    f"{self.units[name]!r}"
+                )
+        return self
+
+    # ------------------------------------------------------------------ access
+    @property
+    def n_samples(self) -> int:
+        return int(self.time.size)
+
+    @property
+    def duration(self) -> float:
+        return float(self.time[-1] - self.time[0])
+
+    @property
+    def sample_interval(self) -> float:
+        """Median sample interval [s]."""
+        return float(np.median(np.diff(self.time)))
+
+    def channel(self, name: str) -> np.ndarray:
+        """An input or output channel by name."""
+        if name in self.inputs:
+            return self.inputs[name]
+        if name in self.outputs:
+            return self.outputs[name]
+        raise RecordingError(
+            f"recording {self.name!r}: no channel {name!r}; channels are "
+            f"{sorted(self.inputs) + sorted(self.outputs)}"
+        )
+
+    # ------------------------------------------------------------------ slicing
+    def select(self, index: slice | np.ndarray, name: str | None = None, **meta: Any) -> Recording:
+        """A new recording made of the samples ``index`` (slice or integer/boolean array)."""
+        new_meta = {**self.meta, **meta}
+        return replace(
+            self,
+            name=name or self.name,
+            time=self.time[index],
+            inputs={k: v[index] for k, v in self.inputs.items()},
+            outputs={k: v[index] for k, v in self.outputs.items()},
+            units=dict(self.units),
+            meta=new_meta,
+        )
+
+    def segment(self, t_start: float, t_stop: float, name: str | None = None) -> Recording:
+        """Samples with ``t_start <= time < t_stop`` [s]."""
+        mask = (self.time >= t_start) & (self.time < t_stop)
+        if mask.sum() < 2:
+            raise RecordingError(
+                f"recording {self.name!r}: segment [{t_start}, {t_stop}) s holds {int(mask.sum())} "
+                f"samples; the recording spans [{self.time[0]}, {self.time[-1]}] s"
+            )
+        idx = np.flatnonzero(mask)
+        return self.select(
+            slice(idx[0], idx[-1] + 1), name, segment=[float(t_start), float(t_stop)]
+        )
+
+    def split(self, fraction: float = 0.7) -> tuple[Recording, Recording]:
+        """Contiguous (estimation, validation) split at ``fraction`` of the samples."""
+        if not 0.0 < fraction < 1.0:
+            raise RecordingError(f"`0 < fraction < 1` must hold, but got fraction={fraction}")
+        k = int(round(fraction * self.n_samples))
+        if k < 2 or self.n_samples - k < 2:
+            raise RecordingError(
+                f"recording {self.name!r}: split at fraction {fraction} leaves fewer than 2 "
+                f"samples on one side (N={self.n_samples})"
+            )
+        est = self.select(slice(0, k), f"{self.name}:estimation", role="estimation")
+        val = self.select(slice(k, None), f"{self.name}:validation", role="validation")
+        return est, val
+
+    def split_blocks(
+        self, n_blocks: int = 5, validation: Iterable[int] = (-1,)
+    ) -> tuple[Recording, Recording]:
+        """Interleaved split: cut into ``n_blocks`` and use blocks ``validation`` for validation.
+
+        The estimation part joins the other blocks (its time stays increasing, with gaps).
+        """
+        if n_blocks < 2:
+            raise RecordingError(f"`n_blocks >= 2` must hold, but got n_blocks={n_blocks}")
+        edges = np.linspace(0, self.n_samples, n_blocks + 1).astype(int)
+        val_ids = {b % n_blocks for b in validation}
+        block = np.searchsorted(edges, np.arange(self.n_samples), side="right") - 1
+        is_val = np.isin(block, list(val_ids))
+        est = self.select(~is_val, f"{self.name}:estimation", role="estimation")
+        val = self.select(is_val, f"{self.name}:validation", role="validation")
+        return est, val
+
+    def decimate(self, step: int) -> Recording:
+        """Every ``step``-th sample (no filtering: only for signals already band-limited)."""
+        if step < 1:
+            raise RecordingError(f"`step >= 1` must hold, but got step={step}")
+        return self.select(slice(None, None, step), decimated=step) if step > 1 else self
+
+    def with_outputs(self, outputs: Mapping[str, np.ndarray], name: str | None = None) -> Recording:
+        """Same time and inputs with other output channels (units kept by channel name)."""
+        return Recording(
+            name or self.name,
+            self.test,
+            self.time.copy(),
+            {k: v.copy() for k, v in self.inputs.items()},
+            {k: np.asarray(v, dtype=float) for k, v in outputs.items()},
+            dict(self.units),
+            dict(self.meta),
+        )
+
+    def describe(self) -> str:
+        """One paragraph: name, test, samples, duration and channels with units."""
+
+        def chans(d: Mapping[str, np.ndarray]) -> str:
+            return ", ".join(f"{k} [{self.units.get(k, '?')}]" for k in d) or "none"
+
+        return (
+            f"{self.name} ({self.test}): {self.n_samples} samples over {self.duration:.4g} s "
+            f"(dt {self.sample_interval:.4g} s); inputs: {chans(self.inputs)}; "
+            f"outputs: {chans(self.outputs)}"
+        )

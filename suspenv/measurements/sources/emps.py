@@ -1,0 +1,133 @@
+"""EMPS (electro-mechanical positioning system) recordings -> :class:`Recording`.
+
+Source: the nonlinear system identification benchmark "EMPS" (A. Janot, M. Gautier,
+M. Brunot, 2019). A prismatic joint driven by a motor in closed loop.
+
+Frame and signs: ``position`` [m] is the carriage position along the guide as
+measured (``qm``); ``velocity`` [m/s] and ``acceleration`` [m/s^2] are its time
+derivatives estimated by the Savitzky-Golay differentiator of
+:mod:`suspenv.measurements.differentiate` (window 0.02 s, cubic); ``force`` [N] is
+the motor force ``gtau * vir`` acting on the carriage, positive along +position.
+
+For the inverse (force-from-motion) model the motion channels are the inputs and
+the force is the output.
+
+The resampled CSV files (``*_SC.csv``, 5 ms) hold scaled channels; the scaling
+``q_meas = 8 q - 1`` and ``v_est = 8 v`` (q in m, v in m/s) was established by a
+linear regression of the CSV against the .mat record of the same run
+(residual 3e-7 in scaled units); ``u_in`` is the motor command in volts.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import scipy.io
+
+from suspenv.measurements.differentiate import smooth_derivative
+from suspenv.measurements.errors import RecordingError
+from suspenv.measurements.recording import Recording
+from suspenv.measurements.sources._common import mat_field, require_file
+
+#: motor constant used when a file does not carry ``gtau`` [N/V]
+GTAU_DEFAULT = 35.15065188
+SOURCE = "EMPS benchmark (Janot, Gautier, Brunot), nonlinear system identification benchmarks"
+CSV_POSITION_SCALE = 8.0  # scaled units per metre
+CSV_POSITION_OFFSET = -1.0
+
+
+def _motion_channels(q: np.ndarray, t: np.ndarray, window_s: float) -> dict[str, np.ndarray]:
+    return {
+        "position": q,
+        "velocity": smooth_derivative(q, t, window_s, order=3, deriv=1),
+        "acceleration": smooth_derivative(q, t, window_s, order=3, deriv=2),
+    }
+
+
+UNITS = {
+    "position": "m",
+    "velocity": "m/s",
+    "acceleration": "m/s^2",
+    "reference_position": "m",
+    "force": "N",
+}
+
+
+def load_emps(path: str | Path, window_s: float = 0.02, name: str | None = None) -> Recording:
+    """Load ``DATA_EMPS*.mat``: inputs position/velocity/acceleration/reference, output force."""
+    path = require_file(path)
+    data = scipy.io.loadmat(path)
+    t = mat_field(data, "t", path).ravel()
+    qm = mat_field(data, "qm", path).ravel()
+    qg = mat_field(data, "qg", path).ravel()
+    vir = mat_field(data, "vir", path).ravel()
+    gtau = float(mat_field(data, "gtau", path).ravel()[0]) if "gtau" in data else GTAU_DEFAULT
+    inputs = _motion_channels(qm, t, window_s)
+    inputs["reference_position"] = qg
+    meta = {
+        "source": SOURCE,
+        "file": path.name,
+        "sampling": {
+            "dt_s": float(np.median(np.diff(t))),
+            "rate_hz": 1.0 / float(np.median(np.diff(t))),
+        },
+        "gtau_N_per_V": gtau,
+        "differentiator": f"Savitzky-Golay, cubic, window {window_s} s",
+        "notes": "motor force = gtau * vir; closed-loop positioning run",
+    }
+    for key in ("kp", "kv"):
+        if key in data:
+            meta[key] = float(np.asarray(data[key]).ravel()[0])
+    if "pulses_N" in data:
+        meta["notes"] += "; validation run with force pulses (pulses_N flags them)"
+        meta["pulse_samples"] = int(np.count_nonzero(np.asarray(data["pulses_N"]).ravel()))
+    test = "emps_pulses" if "PULSES" in path.name.upper() else "emps_trajectory"
+    try:
+        return Recording(
+            name or path.stem, test, t, inputs, {"force": gtau * vir}, dict(UNITS), meta
+        )
+    except RecordingError as exc:
+        raise RecordingError(f"{path.name}: {exc}") from None
+
+
+def load_emps_csv(path: str | Path, window_s: float = 0.02, name: str | None = None) -> Recording:
+    """Load a resampled ``DATA_EMPS*_SC.csv`` (``time_exp, q_ref, q_meas, v_est, u_in, u_tot``)."""
+    path = require_file(path)
+    with open(path) as fh:
+        header = [h.strip() for h in fh.readline().split(",")]
+    needed = ["time_exp", "q_ref", "q_meas", "u_in"]
+    missing = [c for c in needed if c not in header]
+    if missing:
+        raise RecordingError(f"{path.name}: missing column(s) {missing}; header is {header}")
+    table = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    if table.shape[1] != len(header):
+        raise RecordingError(
+            f"{path.name}: {len(header)} column names but {table.shape[1]} columns of data"
+        )
+    col = {h: table[:, i] for i, h in enumerate(header)}
+    t = col["time_exp"]
+    q = (col["q_meas"] - CSV_POSITION_OFFSET) / CSV_POSITION_SCALE
+    inputs = _motion_channels(q, t, window_s)
+    inputs["reference_position"] = (col["q_ref"] - CSV_POSITION_OFFSET) / CSV_POSITION_SCALE
+    meta = {
+        "source": SOURCE,
+        "file": path.name,
+        "sampling": {"dt_s": float(np.median(np.diff(t)))},
+        "gtau_N_per_V": GTAU_DEFAULT,
+        "differentiator": f"Savitzky-Golay, cubic, window {window_s} s",
+        "notes": "de-scaled from the CSV's scaled units (q = (q_meas + 1)/8)",
+    }
+    test = "emps_pulses" if "PULSES" in path.name.upper() else "emps_trajectory"
+    try:
+        return Recording(
+            name or path.stem,
+            test,
+            t,
+            inputs,
+            {"force": GTAU_DEFAULT * col["u_in"]},
+            dict(UNITS),
+            meta,
+        )
+    except RecordingError as exc:
+        raise RecordingError(f"{path.name}: {exc}") from None

@@ -1,0 +1,121 @@
+"""Strategies compared on the kept objectives, several seeds each, through ``suspenv compare``.
+
+Every (strategy, seed) run is an ordinary run directory (``archive.sqlite`` and a
+``summary.json`` with a best-so-far quality curve), so ``suspenv compare DIR...`` reads
+them; :func:`compare_strategies` calls the same comparison
+(:func:`suspenv.runs.compare.compare_runs`) and returns its table.
+
+Quality (lower is better): the rank-sum of the kept objectives with its min-max
+normalisation frozen on the design of experiments
+(:class:`~suspenv.methods.identification.FixedRankSum`), over feasible designs; the same
+measure for every strategy. Defaults: CMA-ES with population 42 on the rank-sum; NSGA-II with
+population 42 on the kept objectives; random search and Latin hypercube in batches of 42.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from suspenv.core.problem import Problem
+from suspenv.methods.identification import FixedRankSum, best_so_far
+from suspenv.runs.compare import compare_runs
+
+#: options per strategy unless the caller overrides them
+STRATEGY_OPTIONS: dict[str, dict[str, Any]] = {
+    "cmaes": {"popsize": 42, "sigma0": 0.25, "scalarizer": "rank_sum"},
+    "nsga2": {"population_size": 42},
+    "random": {"batch_size": 42, "scalarizer": "rank_sum"},
+    "lhs": {"batch_size": 42},
+}
+
+QUALITY_NAME = "DoE-normalised rank-sum"
+
+
+def run_one(
+    problem: Problem,
+    strategy_name: str,
+    seed: int,
+    budget: int,
+    quality: FixedRankSum,
+    run_dir: Path,
+    run_cfg: dict[str, Any],
+    options: dict[str, Any] | None = None,
+) -> dict[str, Any]:
+    """One run into ``run_dir``; writes and returns its ``summary.json`` content."""
+    from suspenv.registry import make_strategy
+    from suspenv.runs.archive import RunArchive
+    from suspenv.runs.loop import optimize
+    from suspenv.runs.optimize_pipeline import executor_workers, make_executor
+
+    opts = {**STRATEGY_OPTIONS.get(strategy_name, {}), **(options or {})}
+    if strategy_name == "lhs":
+        opts.setdefault("n_samples", int(budget))
+    strategy = make_strategy(strategy_name, problem, seed=int(seed), **opts)
+    with make_executor(run_cfg) as executor:
+        result = optimize(
+            problem,
+            strategy,
+            int(budget),
+            run_dir=run_dir,
+            seed=int(seed),
+            executor=executor,
+            workers=executor_workers(run_cfg),
+            progress=bool(run_cfg.get("progress", False)),
+        )
+    with RunArchive(run_dir) as archive:
+        a = archive.arrays()
+    valid = a["ok"] & np.isfinite(a["objectives"]).all(axis=1)
+    if a["constraints"].size:
+        valid &= np.nan_to_num(a["constraints"], nan=1.0).max(axis=1) <= 0
+    curve = best_so_far(np.where(valid, quality(a["objectives"]), np.nan))
+    summary = {
+        "name": run_dir.name,
+        "seed": int(seed),
+        "problem": problem.name,
+        "strategy": strategy_name,
+        "strategy_options": strategy.options() if hasattr(strategy, "options") else opts,
+        "budget": int(budget),
+        **result.as_dict(),
+        "n_ok": int(a["ok"].sum()),
+        "n_feasible": int(valid.sum()),
+        "objective_names": list(problem.objective_names),
+        "quality_name": QUALITY_NAME,
+        "best_quality": float(curve[-1]) if curve.size and np.isfinite(curve[-1]) else None,
+        "quality_curve": [float(v) if np.isfinite(v) else None for v in curve],
+    }
+    (run_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    return summary
+
+
+def compare_strategies(
+    problem: Problem,
+    strategies: Sequence[str],
+    seeds: Sequence[int],
+    budget: int,
+    quality: FixedRankSum,
+    out_dir: Path,
+    run_cfg: dict[str, Any] | None = None,
+    options: dict[str, dict[str, Any]] | None = None,
+) -> dict[str, Any]:
+    """Run every strategy with every seed into ``out_dir/<strategy>-seed<seed>``, then compare.
+
+    Returns the ``suspenv compare`` result (table rows per strategy: median, min and max
+    of the best quality over seeds) with the run directories; the spread plot is
+    ``out_dir/compare.png``.
+    """
+    out_dir = Path(out_dir)
+    run_cfg = {"workers": 1, "progress": False, **(run_cfg or {})}
+    dirs = []
+    for name in strategies:
+        for seed in seeds:
+            d = out_dir / f"{name}-seed{seed}"
+            run_one(problem, name, seed, budget, quality, d, run_cfg, (options or {}).get(name))
+            dirs.append(d)
+    result = compare_runs(dirs, out_dir)
+    result["runs"] = [str(d.relative_to(out_dir)) for d in dirs]
+    return result

@@ -1,1 +1,0 @@
-"""Recording runs: the append-only SQLite evaluation archive, run directories, versions."""

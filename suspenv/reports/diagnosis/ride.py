@@ -1,0 +1,203 @@
+"""Report of a minibus ride diagnosis: Markdown + PNG (time-history overlays, PSD overlays,
+residual map) and JSON. Not the ride report of designs (:mod:`suspenv.reports.minibus_ride`).
+
+Units: accelerations m/s^2, time s, frequency Hz; PSDs one-sided ((m/s^2)^2/Hz).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from suspenv.diagnosis.engine import Diagnosis
+from suspenv.diagnosis.ride.residual import NOISE_BAND_HZ
+from suspenv.metrics.ride import acceleration_psd
+from suspenv.reports._mpl import pyplot
+from suspenv.reports.jsonable import to_jsonable
+
+
+def _pred(fit: Any, rec: Any) -> dict[str, np.ndarray]:
+    return fit.model.simulate(fit.theta, rec)
+
+
+def time_overlays(diag: Diagnosis, path: Path) -> Path:
+    """Measured vs baseline vs final model, every channel of every pulse recording."""
+    plt = pyplot()
+    recs = [
+        r for r in diag.split.fit_recordings + diag.split.heldout_recordings if r.test == "pulse"
+    ]
+    chans = diag.base_fit.channels
+    fig, axes = plt.subplots(
+        len(recs),
+        len(chans),
+        figsize=(4.2 * len(chans), 2.6 * len(recs)),
+        squeeze=False,
+        sharex="row",
+    )
+    for i, rec in enumerate(recs):
+        pb, pf = _pred(diag.base_fit, rec), _pred(diag.final_fit, rec)
+        held = rec in diag.split.heldout_recordings
+        for j, c in enumerate(chans):
+            ax = axes[i, j]
+            ax.plot(rec.time, rec.outputs[c], color="0.6", lw=2.2, label="measured")
+            ax.plot(rec.time, pb[c], "C0", lw=1.0, label="baseline")
+            if diag.named:
+                ax.plot(rec.time, pf[c], "C3--", lw=1.0, label="with named effect")
+            ax.set_title(f"{rec.name}{' (held out)' if held else ''}: {c}", fontsize=9)
+            ax.grid(True, alpha=0.3)
+    for ax in axes[-1]:
+        ax.set_xlabel("time (s)")
+    for ax in axes[:, 0]:
+        ax.set_ylabel("acceleration (m/s^2)")
+    axes[0, 0].legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
+
+
+def psd_overlays(diag: Diagnosis, path: Path) -> Path | None:
+    """Acceleration PSDs of the random-road recordings: measured vs both models."""
+    recs = [
+        r
+        for r in diag.split.fit_recordings + diag.split.heldout_recordings
+        if r.test == "random_road"
+    ]
+    if not recs:
+        return None
+    plt = pyplot()
+    chans = diag.base_fit.channels
+    fig, axes = plt.subplots(
+        len(recs), len(chans), figsize=(4.2 * len(chans), 3.0 * len(recs)), squeeze=False
+    )
+    for i, rec in enumerate(recs):
+        fs = 1.0 / rec.sample_interval
+        pb, pf = _pred(diag.base_fit, rec), _pred(diag.final_fit, rec)
+        for j, c in enumerate(chans):
+            ax = axes[i, j]
+            for y, style, label in (
+                (rec.outputs[c], "0.4", "measured"),
+                (pb[c], "C0", "baseline"),
+                (pf[c], "C3", "with named effect"),
+            ):
+                if label.startswith("with") and not diag.named:
+                    continue
+                f, p = acceleration_psd(np.asarray(y, float), fs, segment_s=2.0)
+                ax.semilogy(f, p, color=style, lw=1.0, label=label)
+            ax.set(title=f"{rec.name}: {c}", xlabel="frequency (Hz)", xlim=(0, 25))
+            ax.grid(True, alpha=0.3)
+    axes[0, 0].set_ylabel("PSD ((m/s^2)^2/Hz)")
+    axes[0, 0].legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
+
+
+def residual_map(diag: Diagnosis, path: Path) -> Path:
+    """Bar charts of the residual energy share vs fair share, per dimension."""
+    plt = pyplot()
+    dims = diag.location.dimensions()
+    fig, axes = plt.subplots(1, len(dims), figsize=(3.6 * len(dims), 3.4), squeeze=False)
+    for ax, dim in zip(axes[0], dims, strict=True):
+        parts = diag.location.by_dimension(dim)
+        y = np.arange(len(parts))
+        ax.barh(y - 0.2, [p.share for p in parts], 0.4, label="residual share")
+        ax.barh(y + 0.2, [p.fraction for p in parts], 0.4, color="0.7", label="fair share")
+        ax.set_yticks(y, [p.part for p in parts], fontsize=7)
+        ax.set_title(dim, fontsize=9)
+    axes[0, 0].legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return path
+
+
+def write_ride_diagnosis_report(diag: Diagnosis, out_dir: str | Path) -> list[Path]:
+    """``ride_diagnosis.md``, ``.json`` and the PNG figures into ``out_dir``."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    figs = [
+        time_overlays(diag, out / "ride_time.png"),
+        residual_map(diag, out / "ride_residual.png"),
+    ]
+    psd = psd_overlays(diag, out / "ride_psd.png")
+    if psd:
+        figs.append(psd)
+    lines = [
+        "# Ride diagnosis",
+        "",
+        f"Recordings fitted: {diag.recording}. Held out: {diag.holdout}.",
+        "",
+        f"**Verdict:** {diag.verdict}",
+        "",
+        "## Where the baseline residual lives",
+        "",
+        "| dimension | part | share of residual energy | fair share | enrichment |",
+        "|---|---|---|---|---|",
+    ]
+    for dim in diag.location.dimensions():
+        for s in diag.location.by_dimension(dim):
+            lines.append(
+                f"| {s.dimension} | {s.part} | {s.share:.3f} | {s.fraction:.3f} | "
+                f"{s.enrichment:.2f} |"
+            )
+    lines += [
+        "",
+        "## Candidates (screen score = partial R^2 beyond the base parameters)",
+        "",
+        "| candidate | score | p |",
+        "|---|---|---|",
+    ]
+    for s in diag.signatures:
+        lines.append(f"| {s.kind} | {s.score:.3f} | {s.p_value:.2g} |")
+    lines += [
+        "",
+        "| refitted | significant | corrected p | dBIC | held-out RMS reduction |",
+        "|---|---|---|---|---|",
+    ]
+    for h in diag.hypotheses:
+        lines.append(
+            f"| {h.words} | {h.significant} | {h.p_value_corrected:.2g} | "
+            f"{h.delta_bic_corrected:.1f} | {100 * h.heldout_reduction:.1f} % |"
+        )
+    res = getattr(diag, "residual", None)
+    if res is not None:
+        lines += [
+            "",
+            "## What is left (held-out recordings)",
+            "",
+            res.sentence(),
+            "",
+            "| held-out scaled RMS before | after | noise floor | after / floor | "
+            "explained share of the model error | Ljung-Box p | residual remains | "
+            "confident |",
+            "|---|---|---|---|---|---|---|---|",
+            f"| {res.heldout_before:.4f} | {res.heldout_after:.4f} | {res.noise_floor:.4f} | "
+            f"{res.excess_ratio:.2f} | {100 * res.explained_share:.0f} % | "
+            f"{res.ljung_box_p:.2g} | {res.residual_remains} | {res.confident} |",
+            "",
+            f"Noise floor: white sensor noise measured above {NOISE_BAND_HZ:g} Hz in the "
+            "residual, where the ride response is negligible. A residual remains when the "
+            f"error left exceeds {res.excess_limit:g} x the floor and is not white (Ljung-Box "
+            f"p < {res.whiteness_alpha:g}).",
+        ]
+    lines += [
+        "",
+        "## Parameters (final model)",
+        "",
+        "| parameter | value | std. error (corrected) |",
+        "|---|---|---|",
+    ]
+    for k, v in diag.final_params.items():
+        lines.append(f"| {k} | {v['value']:.5g} | {v['stderr_corrected']:.2g} |")
+    lines.append("")
+    lines += [f"![{p.stem}]({p.name})" for p in figs]
+    md = out / "ride_diagnosis.md"
+    md.write_text("\n".join(lines) + "\n")
+    js = out / "ride_diagnosis.json"
+    js.write_text(json.dumps(to_jsonable(diag.to_dict()), indent=2))
+    return [md, js, *figs]

@@ -1,0 +1,117 @@
+"""Report of a road-profile diagnosis against ISO 8608 (:mod:`suspenv.diagnosis.ride.road`).
+
+``road_psd.png``: the measured profile's Welch PSD with the free and the standard
+(w = 2) fits and the ISO 8608 class lines, and the measured/model ratio per octave band;
+``road_diagnosis.md``: both fits, the likelihood-ratio test, the held-out check and the
+ride consequence; ``road_diagnosis.json``. Units: spatial frequency in cycle/m, PSD in m^3.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from suspenv.diagnosis.ride.road import RoadDiagnosis
+from suspenv.reports._mpl import pyplot
+from suspenv.rigs.road import N0, ROAD_CLASS_GD0
+
+
+def write_road_report(diag: RoadDiagnosis, out_dir: str | Path) -> list[Path]:
+    """``road_diagnosis.md`` + ``road_psd.png`` (Welch PSD with both fits, residual by band)
+    + ``road_diagnosis.json``."""
+    plt = pyplot()
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    n_w, p_w = diag.welch
+    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(12, 4.5))
+    sel = n_w > 0
+    ax.loglog(n_w[sel], p_w[sel], color="0.3", label=f"{diag.recording} (Welch)")
+    nn = np.geomspace(*diag.free.band, 100)
+    ax.loglog(nn, diag.free.psd(nn), "C3", label=f"free fit, w = {diag.free.waviness:.2f}")
+    ax.loglog(nn, diag.standard.psd(nn), "C0--", label="ISO 8608 form, w = 2")
+    for c in "ABCDE":
+        ax.loglog(nn, ROAD_CLASS_GD0[c] * (nn / N0) ** -2.0, color="0.8", lw=0.8)
+        ax.text(nn[0], ROAD_CLASS_GD0[c] * (nn[0] / N0) ** -2.0, c, color="0.5", fontsize=8)
+    ax.axvspan(*diag.free.band, color="C2", alpha=0.05)
+    ax.set(xlabel="spatial frequency n (cycle/m)", ylabel="Gd (m^3)", title="displacement PSD")
+    ax.legend(fontsize=8)
+    ax.grid(True, which="both", alpha=0.3)
+    rows = diag.octave_bands
+    centres = [np.sqrt(r["n_low"] * r["n_high"]) for r in rows]
+    ax2.semilogx(centres, [r["measured_over_free"] for r in rows], "C3o-", label="free fit")
+    ax2.semilogx(centres, [r["measured_over_standard"] for r in rows], "C0s--", label="w = 2")
+    ax2.axhline(1.0, color="k", lw=0.8)
+    ax2.set(
+        xlabel="octave band centre (cycle/m)",
+        ylabel="measured / model (mean per band)",
+        title="residual by octave band",
+    )
+    ax2.legend()
+    ax2.grid(True, which="both", alpha=0.3)
+    fig.tight_layout()
+    png = out / "road_psd.png"
+    fig.savefig(png, dpi=110)
+    plt.close(fig)
+
+    f, s, t, h = diag.free, diag.standard, diag.test, diag.heldout
+    lines = [
+        f"# Road profile diagnosis: {diag.recording}",
+        "",
+        f"**Verdict:** {diag.verdict}",
+        "",
+        "| model | Gd(n0) (1e-6 m^3) | 95 % interval | w | class | log-likelihood |",
+        "|---|---|---|---|---|---|",
+        f"| free | {f.gd0 * 1e6:.1f} | {f.gd0_ci95[0] * 1e6:.1f}-{f.gd0_ci95[1] * 1e6:.1f} | "
+        f"{f.waviness:.3f} +- {f.waviness_se:.3f} | {f.road_class} | {f.loglik:.1f} |",
+        f"| ISO 8608 (w = 2) | {s.gd0 * 1e6:.1f} | {s.gd0_ci95[0] * 1e6:.1f}-"
+        f"{s.gd0_ci95[1] * 1e6:.1f} | 2 | {s.road_class} | {s.loglik:.1f} |",
+        "",
+        f"Band {f.band[0]:g}-{f.band[1]:g} cycle/m, {f.n_lines} Fourier lines (Whittle "
+        f"likelihood of the pre-whitened profile). Likelihood ratio {t.lr_statistic:.2f} "
+        f"(chi^2, 1 dof): p = {t.p_value:.3g}; BIC change {t.delta_bic:+.1f}.",
+        "",
+        f"Held-out check ({h['description']}): fitted w {h['fit_waviness']:.2f} +- "
+        f"{h['fit_waviness_se']:.2f}, held-out w {h['heldout_waviness']:.2f} +- "
+        f"{h['heldout_waviness_se']:.2f} (z = {h['waviness_agreement_z']:+.2f}); held-out "
+        f"log-likelihood per line: free {h['heldout_loglik_per_line_free']:.4f}, w = 2 "
+        f"{h['heldout_loglik_per_line_standard']:.4f} (gain "
+        f"{h['heldout_loglik_gain_per_line']:+.4f}).",
+        "",
+    ]
+    if diag.ride:
+        r = diag.ride
+        lines += [
+            f"Ride consequence (reference minibus, study pick, no load, {r['speed_kmh']:g} km/h,"
+            f" mean of {len(r['seeds'])} road seeds): Wk-weighted RMS front "
+            f"{r['aw_front_measured_spectrum']:.3f} m/s^2 on the measured spectrum vs "
+            f"{r['aw_front_standard']:.3f} on the w = 2 fit (x{r['ratio_front']:.2f}; spread "
+            f"over seeds +-{r['aw_front_standard_seed_std']:.3f}); rear "
+            f"{r['aw_rear_measured_spectrum']:.3f} vs {r['aw_rear_standard']:.3f} "
+            f"(x{r['ratio_rear']:.2f}).",
+        ]
+        if "aw_front_measured_profile_in_phase" in r:
+            lines.append(
+                f"On the measured profile itself (both tracks in phase): front "
+                f"{r['aw_front_measured_profile_in_phase']:.3f}, rear "
+                f"{r['aw_rear_measured_profile_in_phase']:.3f} m/s^2; a w = 2 road in phase: "
+                f"front {r['aw_front_standard_in_phase']:.3f}, rear "
+                f"{r['aw_rear_standard_in_phase']:.3f} m/s^2."
+            )
+        lines.append("")
+    lines += [
+        "| octave (cycle/m) | lines | measured / free | measured / w = 2 |",
+        "|---|---|---|---|",
+    ]
+    for row in rows:
+        lines.append(
+            f"| {row['n_low']:.3g}-{row['n_high']:.3g} | {row['lines']} | "
+            f"{row['measured_over_free']:.2f} | {row['measured_over_standard']:.2f} |"
+        )
+    lines += ["", f"![PSD and residual by band]({png.name})", ""]
+    md = out / "road_diagnosis.md"
+    md.write_text("\n".join(lines))
+    js = out / "road_diagnosis.json"
+    js.write_text(json.dumps(diag.to_dict(), indent=2, default=float))
+    return [md, png, js]

@@ -1,0 +1,88 @@
+"""Run report of a :class:`~suspenv.problems.kc_identification.KCIdentification` optimisation.
+
+``kc_report.md``: the 40 objectives of the test vehicle (targets) against the initial
+model and the run's best design; ``kc_curves.png``: the measured loops (dots) against the
+best design's curves (lines), left wheel, against the pad stroke (mm).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from suspenv.reports._mpl import pyplot
+
+if TYPE_CHECKING:
+    from suspenv.problems.kc_identification import KCIdentification
+
+#: loops: {test: {channel label: (pad stroke [mm], value)}}
+Curves = dict[str, dict[str, tuple[np.ndarray, np.ndarray]]]
+
+
+def write_kc_report(problem: KCIdentification, run_dir: Path, archive: Any) -> list[Path]:
+    """``kc_report.md`` (targets vs initial vs best model per objective) and
+    ``kc_curves.png`` (measured loops vs the best design's curves); returns the paths
+    (none when the run has no valid design)."""
+    a = archive.arrays()
+    best = problem.best_index(a["objectives"], a["ok"])
+    if best is None:
+        return []
+    run_dir = Path(run_dir)
+    x_best = a["x"][best]
+    F0, ok0, _ = problem.simulate(problem.initial_design()[None, :])
+    Fb, okb, _ = problem.simulate(x_best[None, :])
+    targets = problem.targets
+    lines = [
+        "# K&C identification: best design of the run",
+        "",
+        f"{len(a['ok'])} evaluations, {int(np.sum(a['ok']))} valid; best is evaluation "
+        f"{best}. Targets: test vehicle with concealed "
+        f"{', '.join(problem.concealed) or 'nothing'}"
+        f" (seed {problem.truth_seed}); a loop's number is the mean of its two branches.",
+        "",
+        "| objective | unit | measured | initial model | best model | |best - measured| |",
+        "|---|---|---|---|---|---|",
+    ]
+    for j, (name, unit) in enumerate(
+        zip(problem.objective_names, problem.objective_units, strict=True)
+    ):
+        lines.append(
+            f"| {name} | {unit} | {targets[j]:.5g} | {F0[0, j]:.5g} | {Fb[0, j]:.5g} "
+            f"| {abs(Fb[0, j] - targets[j]):.3g} |"
+        )
+    lines += ["", "Best design (ADAMS/Car units, left side):", ""]
+    lines += [
+        f"- {n} = {v:.6g} {u}"
+        for n, v, u in zip(problem.space.names, x_best, problem.space.units, strict=True)
+    ]
+    lines += ["", "![curves](kc_curves.png)", ""]
+    md = run_dir / "kc_report.md"
+    md.write_text("\n".join(lines))
+    png = run_dir / "kc_curves.png"
+    plot_measured_vs_model(problem.measured_curves(), problem.curves(x_best), png)
+    return [md, png]
+
+
+def plot_measured_vs_model(measured: Curves, model: Curves, path: Path) -> None:
+    """Measured loops (dots) against a model's curves (lines), left wheel."""
+    plt = pyplot()
+    tests = list(measured)
+    labels = ["toe [deg]", "camber [deg]", "tyre force [N]"]
+    fig, axes = plt.subplots(
+        len(labels), len(tests), figsize=(4 * len(tests), 8), constrained_layout=True, squeeze=False
+    )
+    for j, test in enumerate(tests):
+        for i, label in enumerate(labels):
+            ax = axes[i, j]
+            xm, ym = measured[test][label]
+            xs, ys = model[test][label]
+            ax.plot(xm, ym, "k.", ms=3, label="measured")
+            ax.plot(xs, ys, "-", lw=1.2, label="model")
+            ax.set_xlabel(f"{test}: pad stroke [mm]")
+            ax.set_ylabel(label)
+            ax.grid(alpha=0.3)
+    axes[0, 0].legend()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)

@@ -1,0 +1,98 @@
+"""K&C rig curves of one design in edge units: a CSV table and a PNG of the usual curves.
+
+One row per rig step, both wheels; units mm, deg, N; ISO 8855 signs with lateral
+positions mirrored outboard positive. The figure draws toe, camber, caster, tyre force,
+hub and contact-patch lateral position against wheel travel (travel tests) or the
+contact-point force (compliance tests). Used by ``suspenv knc``.
+"""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import numpy as np
+
+from suspenv.models.mcpherson.params import SIDE_SIGN
+from suspenv.reports._mpl import pyplot
+from suspenv.rigs.knc import FORCE_TESTS, KCResult
+
+#: CSV/plot channels: column stem -> (rig channel, scale to edge units, outboard-mirrored)
+CHANNELS = {
+    "wheel_travel_mm": ("wheel_centre_z", 1e3, False),
+    "pad_mm": ("pad_z", 1e3, False),
+    "toe_deg": ("toe", np.rad2deg(1.0), False),
+    "camber_deg": ("camber", np.rad2deg(1.0), False),
+    "caster_deg": ("caster", np.rad2deg(1.0), False),
+    "kpi_deg": ("kpi", np.rad2deg(1.0), False),
+    "hub_x_mm": ("wheel_centre_x", 1e3, False),
+    "hub_y_out_mm": ("wheel_centre_y", 1e3, True),
+    "contact_x_mm": ("contact_x", 1e3, False),
+    "contact_y_out_mm": ("contact_y", 1e3, True),
+    "tyre_fz_N": ("tyre_fz", 1.0, False),
+    "spring_force_N": ("spring_force", 1.0, False),
+    "scrub_radius_mm": ("scrub_radius", 1e3, False),
+    "trail_mm": ("trail", 1e3, False),
+}
+
+
+def curve_table(res: KCResult) -> tuple[list[str], np.ndarray]:
+    """Column names and rows (P, columns) of one design's loop (row 0 of the batch)."""
+    force = res.test in FORCE_TESTS
+    cols = ["step", "force_N" if force else "stroke_mm", "direction"]
+    data = [np.arange(res.path.size), res.grid[res.path] * (1.0 if force else 1e3)]
+    d = np.sign(np.diff(res.grid[res.path], prepend=res.grid[res.path][0]))
+    data.append(d)
+    for stem, (ch, scale, mirrored) in CHANNELS.items():
+        for w, side in enumerate(("left", "right")):
+            v = res.channels[ch][0, :, w] * scale
+            if ch in ("wheel_centre_z", "pad_z"):  # travel from the static position
+                v = (res.channels[ch][0, :, w] - res.channels[ch][0, 0, w]) * scale
+            if mirrored:
+                v = v * SIDE_SIGN[w]
+            cols.append(f"{stem}_{side}")
+            data.append(v)
+    return cols, np.column_stack(data)
+
+
+def write_csv(res: KCResult, path: Path) -> None:
+    """The loop of :func:`curve_table` as CSV (8 significant digits)."""
+    cols, rows = curve_table(res)
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(cols)
+        for row in rows:
+            w.writerow([f"{v:.8g}" for v in row])
+
+
+def plot_rig_curves(res: KCResult, path: Path, title: str) -> None:
+    """Toe, camber, caster, tyre force, hub and contact-patch lateral against wheel travel
+    (travel tests) or the contact-point force (compliance tests)."""
+    plt = pyplot()
+    cols, rows = curve_table(res)
+    col = {c: i for i, c in enumerate(cols)}
+    panels = [
+        "toe_deg",
+        "camber_deg",
+        "caster_deg",
+        "tyre_fz_N",
+        "hub_y_out_mm",
+        "contact_y_out_mm",
+    ]
+    force = res.test in FORCE_TESTS
+    fig, axes = plt.subplots(2, 3, figsize=(12, 7), constrained_layout=True)
+    for ax, stem in zip(axes.ravel(), panels, strict=True):
+        for side, style in (("left", "-"), ("right", "--")):
+            x = rows[:, col["force_N"]] if force else rows[:, col[f"wheel_travel_mm_{side}"]]
+            ax.plot(x, rows[:, col[f"{stem}_{side}"]], style, lw=1.2, label=side)
+        ax.set_xlabel(
+            f"force at both contact points [N] (+{'y' if res.test == 'lateral' else 'x'})"
+            if force
+            else "wheel travel [mm] (bump +)"
+        )
+        ax.set_ylabel(stem.replace("_", " "))
+        ax.grid(alpha=0.3)
+    axes[0, 0].legend()
+    fig.suptitle(title)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)

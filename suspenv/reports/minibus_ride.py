@@ -1,0 +1,114 @@
+"""Ride report of named minibus designs: random road (ISO 8608) and pulse bump runs.
+
+``ride_report.md``: per design and load case the ISO 2631-1 Wk-weighted RMS vertical
+acceleration above the front and rear suspension (m/s^2), the comfort reaction, and the
+peak |acceleration| (m/s^2) of each pulse run; ``ride_psd.png`` (acceleration PSDs on the
+random road) and ``ride_pulse.png`` (pulse time histories, no load). Not the ride
+*diagnosis* report (:mod:`suspenv.reports.diagnosis.ride`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from suspenv.metrics.iso2631 import comfort_reaction, weighted_rms_fft
+from suspenv.metrics.ride import acceleration_psd
+from suspenv.models.minibus.vehicle import LOAD_CASES, REFERENCE_MINIBUS, Minibus
+from suspenv.reports._mpl import pyplot
+from suspenv.rigs.ride import PulseBump, RandomRoad, pulse_run, random_road_run
+
+
+def write_minibus_ride_report(
+    designs: Mapping[str, np.ndarray],
+    out_dir: Path | str,
+    road: RandomRoad | None = None,
+    pulse_speeds_kmh: Sequence[float] = (20.0, 50.0),
+    vehicle: Minibus = REFERENCE_MINIBUS,
+    pulse_duration_s: float = 3.0,
+) -> list[Path]:
+    """Ride report of named designs (study units): table, acceleration PSDs, pulse histories.
+
+    Writes ``ride_report.md``, ``ride_psd.png`` and ``ride_pulse.png`` into out_dir.
+    """
+    plt = pyplot()
+    road = road or RandomRoad()
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    names = list(designs)
+    X = np.vstack([np.asarray(designs[k], dtype=float).reshape(1, -1) for k in names])
+    n = len(names)
+    rec = random_road_run(X, LOAD_CASES, road, vehicle)
+    fs = road.sample_rate
+    aw_f = weighted_rms_fft(rec.acc_front, fs, "Wk")
+    aw_r = weighted_rms_fft(rec.acc_rear, fs, "Wk")
+    pulses = {
+        v: pulse_run(X, LOAD_CASES, PulseBump(speed_kmh=v, duration_s=pulse_duration_s), vehicle)
+        for v in pulse_speeds_kmh
+    }
+
+    lines = [
+        "# Ride report",
+        "",
+        f"Random road: ISO 8608 class {road.road_class} at {road.speed_kmh:g} km/h, "
+        f"{road.duration_s:g} s record (seed {road.seed}); ISO 2631-1 Wk weighted RMS vertical "
+        "acceleration above the front and rear suspension (m/s^2). Pulse: triangular bump "
+        f"{PulseBump().base * 1e3:.0f} x {PulseBump().height * 1e3:.0f} mm, peak |acceleration| "
+        "(m/s^2).",
+        "",
+        "| design | load | aw front | aw rear | comfort (front) | "
+        + " | ".join(f"pulse {v:g} km/h front | pulse {v:g} km/h rear" for v in pulse_speeds_kmh)
+        + " |",
+        "|---|---|---|---|---|" + "---|---|" * len(pulse_speeds_kmh),
+    ]
+    for i, name in enumerate(names):
+        for j, lc in enumerate(LOAD_CASES):
+            r = j * n + i
+            cells = [f"{aw_f[r]:.3f}", f"{aw_r[r]:.3f}", comfort_reaction(float(aw_f[r]))]
+            for v in pulse_speeds_kmh:
+                cells += [f"{pulses[v].peak_front[r]:.2f}", f"{pulses[v].peak_rear[r]:.2f}"]
+            lines.append(f"| {name} | {lc.replace('_', ' ')} | " + " | ".join(cells) + " |")
+
+    fig, axes = plt.subplots(2, 2, figsize=(11, 7), sharex=True)
+    for j, lc in enumerate(LOAD_CASES):
+        for k, (label, acc) in enumerate((("front", rec.acc_front), ("rear", rec.acc_rear))):
+            ax = axes[j, k]
+            for i, name in enumerate(names):
+                f, p = acceleration_psd(acc[j * n + i], fs)
+                ax.semilogy(f, p, label=name)
+            ax.set(title=f"{lc.replace('_', ' ')}, above {label} suspension", xlim=(0, 25))
+            ax.set_ylabel("PSD ((m/s^2)^2/Hz)")
+            ax.grid(True, alpha=0.3)
+    for ax in axes[-1]:
+        ax.set_xlabel("frequency (Hz)")
+    axes[0, 0].legend()
+    fig.tight_layout()
+    psd_png = out / "ride_psd.png"
+    fig.savefig(psd_png, dpi=110)
+    plt.close(fig)
+
+    fig, axes = plt.subplots(len(pulse_speeds_kmh), 2, figsize=(11, 3.2 * len(pulse_speeds_kmh)),
+                             squeeze=False)  # fmt: skip
+    for m, v in enumerate(pulse_speeds_kmh):
+        res = pulses[v]
+        for k, (label, acc) in enumerate(
+            (("front", res.record.acc_front), ("rear", res.record.acc_rear))
+        ):
+            ax = axes[m, k]
+            for i, name in enumerate(names):
+                ax.plot(res.t, acc[i], label=f"{name}, no load")
+            ax.set(title=f"pulse {v:g} km/h, above {label} suspension", xlabel="time (s)")
+            ax.set_ylabel("acceleration (m/s^2)")
+            ax.grid(True, alpha=0.3)
+    axes[0, 0].legend()
+    fig.tight_layout()
+    pulse_png = out / "ride_pulse.png"
+    fig.savefig(pulse_png, dpi=110)
+    plt.close(fig)
+
+    lines += ["", f"![acceleration PSD]({psd_png.name})", "", f"![pulse]({pulse_png.name})", ""]
+    md = out / "ride_report.md"
+    md.write_text("\n".join(lines))
+    return [md, psd_png, pulse_png]

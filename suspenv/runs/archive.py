@@ -1,0 +1,216 @@
+"""The append-only evaluation archive: one SQLite file per run directory.
+
+Every evaluation is written as it completes (one transaction per chunk), so a run that
+dies loses nothing already evaluated; :func:`suspenv.runs.loop.optimize` replays the
+archive to resume without re-evaluating. Arrays are stored as little-endian float64
+blobs; :meth:`RunArchive.to_csv` writes a flat table with named columns.
+
+Tables:
+    meta(key TEXT PRIMARY KEY, value TEXT)        JSON values: names, config, versions...
+    evaluations(id, batch, row, unit, x, objectives, constraints, ok, message,
+                wall_time, created)               one row per evaluated design
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import sqlite3
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from suspenv.core.errors import ValidationError
+from suspenv.core.result import EvaluationBatch
+
+_SCHEMA = """
+CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
+CREATE TABLE IF NOT EXISTS evaluations (
+    id INTEGER PRIMARY KEY,
+    batch INTEGER NOT NULL,
+    row INTEGER NOT NULL,
+    unit BLOB NOT NULL,
+    x BLOB NOT NULL,
+    objectives BLOB NOT NULL,
+    constraints BLOB NOT NULL,
+    ok INTEGER NOT NULL,
+    message TEXT NOT NULL,
+    wall_time REAL NOT NULL,
+    created REAL NOT NULL,
+    UNIQUE (batch, row)
+);
+"""
+
+
+def _blob(a: np.ndarray) -> bytes:
+    return np.ascontiguousarray(a, dtype="<f8").tobytes()
+
+
+def _unblob(b: bytes) -> np.ndarray:
+    return np.frombuffer(b, dtype="<f8")
+
+
+class RunArchive:
+    """Append-only SQLite archive of evaluations (``archive.sqlite`` in a run directory)."""
+
+    FILENAME = "archive.sqlite"
+
+    def __init__(self, path: str | Path):
+        path = Path(path)
+        if path.is_dir() or path.suffix == "":
+            path = path / self.FILENAME
+        path.parent.mkdir(parents=True, exist_ok=True)
+        self.path = path
+        self._con = sqlite3.connect(str(path), timeout=30.0)
+        self._con.execute("PRAGMA journal_mode=WAL")
+        self._con.execute("PRAGMA synchronous=NORMAL")
+        self._con.executescript(_SCHEMA)
+        self._con.commit()
+
+    # ------------------------------------------------------------------ meta
+    def set_meta(self, **items: Any) -> None:
+        with self._con:
+            self._con.executemany(
+                "INSERT OR REPLACE INTO meta(key, value) VALUES (?, ?)",
+                [(k, json.dumps(v, default=_json_default)) for k, v in items.items()],
+            )
+
+    def meta(self) -> dict[str, Any]:
+        return {k: json.loads(v) for k, v in self._con.execute("SELECT key, value FROM meta")}
+
+    # --------------------------------------------------------------- appends
+    def append(
+        self,
+        batch_index: int,
+        rows: Sequence[int],
+        U: np.ndarray,
+        X: np.ndarray,
+        result: EvaluationBatch,
+        wall_time: float,
+    ) -> None:
+        """Append evaluated designs of one batch (rows = positions inside the batch)."""
+        n = len(result)
+        if not (len(rows) == n == len(U) == len(X)):
+            raise ValidationError(
+                f"archive append needs equal lengths, but got rows={len(rows)}, "
+                f"U={len(U)}, X={len(X)}, results={n}"
+            )
+        now = time.time()
+        per = wall_time / max(n, 1)
+        data = [
+            (
+                int(batch_index),
+                int(rows[i]),
+                _blob(U[i]),
+                _blob(X[i]),
+                _blob(result.objectives[i]),
+                _blob(result.constraints[i]),
+                int(result.ok[i]),
+                result.messages[i],
+                per,
+                now,
+            )
+            for i in range(n)
+        ]
+        with self._con:
+            self._con.executemany(
+                "INSERT INTO evaluations(batch, row, unit, x, objectives, constraints, ok, "
+                "message, wall_time, created) VALUES (?,?,?,?,?,?,?,?,?,?)",
+                data,
+            )
+
+    # ----------------------------------------------------------------- reads
+    def __len__(self) -> int:
+        return int(self._con.execute("SELECT COUNT(*) FROM evaluations").fetchone()[0])
+
+    def batch(self, batch_index: int) -> dict[int, tuple[np.ndarray, EvaluationBatch]]:
+        """``{row: (unit design, one-row EvaluationBatch)}`` archived for one batch."""
+        out = {}
+        for row, u, f, g, ok, msg in self._con.execute(
+            "SELECT row, unit, objectives, constraints, ok, message FROM evaluations "
+            "WHERE batch = ? ORDER BY row",
+            (int(batch_index),),
+        ):
+            out[int(row)] = (
+                _unblob(u),
+                EvaluationBatch(_unblob(f)[None, :], _unblob(g)[None, :], [bool(ok)], [msg]),
+            )
+        return out
+
+    def arrays(self) -> dict[str, np.ndarray]:
+        """Every evaluation in evaluation order (batch, row): unit, x, objectives, constraints,
+        ok, message, batch, row, wall_time."""
+        cur = self._con.execute(
+            "SELECT unit, x, objectives, constraints, ok, message, batch, row, wall_time "
+            "FROM evaluations ORDER BY batch, row"
+        )
+        rows = cur.fetchall()
+        meta = self.meta()
+        d = len(meta.get("parameter_names", [])) or (len(_unblob(rows[0][0])) if rows else 0)
+        m = len(meta.get("objective_names", [])) or (len(_unblob(rows[0][2])) if rows else 0)
+        k = len(meta.get("constraint_names", []))
+
+        def stack(col: int, width: int) -> np.ndarray:
+            if not rows:
+                return np.zeros((0, width))
+            return np.vstack([_unblob(r[col]) for r in rows]).reshape(len(rows), -1)
+
+        return {
+            "unit": stack(0, d),
+            "x": stack(1, d),
+            "objectives": stack(2, m),
+            "constraints": stack(3, k) if k else np.zeros((len(rows), 0)),
+            "ok": np.array([bool(r[4]) for r in rows], dtype=bool),
+            "message": np.array([r[5] for r in rows], dtype=object),
+            "batch": np.array([r[6] for r in rows], dtype=int),
+            "row": np.array([r[7] for r in rows], dtype=int),
+            "wall_time": np.array([r[8] for r in rows], dtype=float),
+        }
+
+    def to_csv(self, path: str | Path) -> Path:
+        """Write every evaluation as CSV with named columns; returns the path."""
+        a = self.arrays()
+        meta = self.meta()
+        pnames = meta.get("parameter_names") or [f"x{i}" for i in range(a["x"].shape[1])]
+        onames = meta.get("objective_names") or [f"f{i}" for i in range(a["objectives"].shape[1])]
+        cnames = meta.get("constraint_names") or [f"g{i}" for i in range(a["constraints"].shape[1])]
+        path = Path(path)
+        with path.open("w", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow(["batch", "row", *pnames, *onames, *cnames, "ok", "message", "wall_time"])
+            for i in range(len(a["ok"])):
+                w.writerow(
+                    [
+                        a["batch"][i],
+                        a["row"][i],
+                        *map(repr, a["x"][i]),
+                        *map(repr, a["objectives"][i]),
+                        *map(repr, a["constraints"][i]),
+                        int(a["ok"][i]),
+                        a["message"][i],
+                        f"{a['wall_time'][i]:.6g}",
+                    ]
+                )
+        return path
+
+    def close(self) -> None:
+        self._con.close()
+
+    def __enter__(self) -> RunArchive:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def _json_default(o: Any) -> Any:
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, np.generic):
+        return o.item()
+    if isinstance(o, Path):
+        return str(o)
+    raise TypeError(f"not JSON serialisable: {type(o).__name__}")

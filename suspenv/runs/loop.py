@@ -1,0 +1,279 @@
+"""The one ask -> evaluate -> archive -> tell loop.
+
+Example::
+
+    from suspenv import make_problem
+    from suspenv.registry import make_strategy
+    from suspenv.runs.loop import optimize
+
+    problem = make_problem("Sphere", dim=10)
+    strategy = make_strategy("cmaes", problem, seed=1)
+    result = optimize(problem, strategy, budget=2000, run_dir="runs/sphere")
+
+Rules:
+- ``budget`` counts evaluations. Batches are never truncated: the loop stops before a
+  batch that would not fit in what is left of the budget (stop reason says so).
+- Evaluation goes through any :class:`concurrent.futures.Executor` (in-process when
+  None): each batch is split into chunks, and every chunk is archived as it completes.
+- Resuming: pass the run directory of a run that died. The strategy, rebuilt with the
+  same seed and options, is replayed against the archive: archived designs are told
+  again, not re-evaluated; only the missing rows of a partly evaluated batch are run.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Sequence
+from concurrent.futures import Executor, as_completed
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Protocol
+
+import numpy as np
+
+from suspenv.core.errors import ValidationError
+from suspenv.core.problem import Problem
+from suspenv.core.result import EvaluationBatch
+from suspenv.runs.archive import RunArchive
+from suspenv.runs.versions import package_versions
+
+BatchCallback = Callable[[int, np.ndarray, EvaluationBatch], None]
+
+
+class Recorder(Protocol):
+    """Receives every evaluated chunk as soon as it completes (before the strategy is told).
+
+    :class:`~suspenv.runs.archive.RunArchive` is the standard recorder.
+    """
+
+    def append(
+        self,
+        batch_index: int,
+        rows: Sequence[int],
+        U: np.ndarray,
+        X: np.ndarray,
+        result: EvaluationBatch,
+        wall_time: float,
+    ) -> None: ...
+
+
+@dataclass
+class RunResult:
+    """What a finished (or stopped) run reports."""
+
+    n_evaluations: int
+    n_batches: int
+    stop_reason: str
+    wall_time: float
+    n_resumed: int = 0
+    best_index: int | None = None
+    best_x: dict[str, float] | None = None
+    best_objectives: list[float] | None = None
+    history: list[dict[str, Any]] = field(default_factory=list)
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "n_evaluations": self.n_evaluations,
+            "n_batches": self.n_batches,
+            "stop_reason": self.stop_reason,
+            "wall_time_s": self.wall_time,
+            "n_resumed": self.n_resumed,
+            "best_index": self.best_index,
+            "best_x": self.best_x,
+            "best_objectives": self.best_objectives,
+        }
+
+
+def _evaluate_chunks(
+    problem: Problem, X: np.ndarray, rows: np.ndarray, executor: Executor | None, chunk: int
+):
+    """Yield (rows, EvaluationBatch, seconds) per chunk as chunks complete."""
+    if executor is None:
+        t0 = time.perf_counter()
+        yield rows, problem.evaluate(X), time.perf_counter() - t0
+        return
+    parts = [slice(i, i + chunk) for i in range(0, len(rows), chunk)]
+    t0 = time.perf_counter()
+    futures = {executor.submit(problem.evaluate, X[s]): s for s in parts}
+    for fut in as_completed(futures):
+        s = futures[fut]
+        try:
+            res = fut.result()
+        except Exception as exc:  # noqa: BLE001 - a lost worker is a failed chunk, not a crash
+            n = len(rows[s])
+            res = EvaluationBatch.failed(
+                n,
+                problem.n_objectives,
+                problem.n_constraints,
+                f"executor: {type(exc).__name__}: {exc}",
+            )
+        yield rows[s], res, time.perf_counter() - t0
+
+
+def optimize(
+    problem: Problem,
+    strategy: Any,
+    budget: int,
+    *,
+    run_dir: str | Path | None = None,
+    seed: int | None = None,
+    executor: Executor | None = None,
+    workers: int = 1,
+    chunk_size: int | None = None,
+    progress: bool = False,
+    callbacks: Sequence[BatchCallback] = (),
+    recorders: Sequence[Recorder] = (),
+    meta: dict[str, Any] | None = None,
+) -> RunResult:
+    """Run ``strategy`` on ``problem`` for at most ``budget`` evaluations.
+
+    Args:
+        problem: the problem (evaluates physical batches).
+        strategy: anything with ``ask() -> U``, ``tell(U, batch)``, ``stop() -> str|None``.
+        budget: maximum number of evaluations (>= 1).
+        run_dir: where the archive lives; an existing archive is resumed. None: no archive.
+        seed: recorded with the run (the strategy was built with it).
+        executor: a ``concurrent.futures.Executor`` for the evaluations (None: in-process).
+        workers: evaluations the executor runs at once, as its owner configured it (the
+            loop does not ask the executor); sets the default chunk size.
+        chunk_size: designs per executor task (default: one chunk per worker, since
+            vectorised problems pay a fixed cost per call).
+        progress: show a progress bar on stderr.
+        callbacks: called as ``cb(batch_index, U, batch)`` after each tell.
+        recorders: extra :class:`Recorder` objects (the run directory's archive is one).
+        meta: extra items stored in the archive's meta table.
+    """
+    if int(budget) != budget or budget < 1:
+        raise ValidationError(f"`budget >= 1` (an integer) must hold, but got budget={budget!r}")
+    if int(workers) != workers or workers < 1:
+        raise ValidationError(f"`workers >= 1` (an integer) must hold, but got workers={workers!r}")
+    budget = int(budget)
+    archive = RunArchive(run_dir) if run_dir is not None else None
+    if archive is not None:
+        archive.set_meta(
+            problem=getattr(problem, "name", type(problem).__name__),
+            parameter_names=list(problem.space.names),
+            parameter_units=list(problem.space.units),
+            objective_names=list(problem.objective_names),
+            constraint_names=list(problem.constraint_names),
+            strategy=getattr(strategy, "name", type(strategy).__name__),
+            seed=seed,
+            budget=budget,
+            versions=package_versions(),
+            **(meta or {}),
+        )
+    bar = None
+    if progress:
+        from tqdm.auto import tqdm
+
+        bar = tqdm(
+            total=budget,
+            unit="eval",
+            desc=getattr(problem, "name", "run"),
+            dynamic_ncols=True,
+            leave=True,
+        )
+    t_start = time.perf_counter()
+    used = resumed = b = 0
+    best: tuple[float, int | None, list[float] | None, np.ndarray | None] = (
+        math.inf,
+        None,
+        None,
+        None,
+    )  # (scalar, evaluation index, objectives, x)
+    stop_reason = ""
+    history: list[dict[str, Any]] = []
+    try:
+        while True:
+            reason = strategy.stop()
+            if reason:
+                stop_reason = reason
+                break
+            if used >= budget:
+                stop_reason = f"budget: {used} of {budget} evaluations used"
+                break
+            U = np.atleast_2d(strategy.ask())
+            n = U.shape[0]
+            if used + n > budget:
+                stop_reason = (
+                    f"budget: the next batch of {n} would exceed the budget "
+                    f"({used} of {budget} used); batches are never truncated"
+                )
+                break
+            X = problem.space.to_physical(U)
+            results: list[EvaluationBatch | None] = [None] * n
+            done = archive.batch(b) if archive is not None else {}
+            for r, (u_arch, res) in done.items():
+                if r >= n or not np.allclose(u_arch, U[r], rtol=0, atol=1e-12):
+                    raise ValidationError(
+                        f"resume: archived design (batch {b}, row {r}) differs from what the "
+                        "strategy asks now; the seed, strategy options or problem changed. "
+                        f"Use a new run directory (archive: {archive.path})"
+                    )
+                results[r] = res
+            resumed += len(done)
+            todo = np.array([r for r in range(n) if results[r] is None], dtype=int)
+            parts: list[tuple[np.ndarray, EvaluationBatch]] = []
+            if todo.size:
+                chunk = chunk_size or max(1, math.ceil(todo.size / workers))
+                for rows, res, secs in _evaluate_chunks(problem, X[todo], todo, executor, chunk):
+                    if archive is not None:
+                        archive.append(b, rows, U[rows], X[rows], res, secs)
+                    for rec in recorders:
+                        rec.append(b, rows, U[rows], X[rows], res, secs)
+                    parts.append((rows, res))
+                    if bar is not None:
+                        bar.update(len(rows))
+            if bar is not None and done:
+                bar.update(len(done))
+            if not done and len(parts) == 1:
+                batch = parts[0][1]  # one chunk, in order: nothing to assemble
+            else:
+                for rows, res in parts:
+                    for j, r in enumerate(rows):
+                        results[r] = res.take([j])
+                batch = EvaluationBatch.concatenate(results)  # type: ignore[arg-type]
+            strategy.tell(U, batch)
+            # bookkeeping: best feasible by the first objective (or the mean of objectives)
+            f = batch.objectives[:, 0] if batch.n_objectives == 1 else batch.objectives.mean(1)
+            f = np.where(batch.feasible, f, np.inf)
+            i = int(np.argmin(f))
+            if f[i] < best[0]:
+                best = (float(f[i]), used + i, batch.objectives[i].tolist(), X[i].copy())
+            history.append(
+                {
+                    "batch": b,
+                    "evaluations": used + n,
+                    "best": best[0],
+                    "n_ok": int(batch.ok.sum()),
+                    "n_feasible": int(batch.feasible.sum()),
+                }
+            )
+            if bar is not None and math.isfinite(best[0]):
+                bar.set_postfix(best=f"{best[0]:.4g}", refresh=False)
+            for cb in callbacks:
+                cb(b, U, batch)
+            used += n
+            b += 1
+    except KeyboardInterrupt:
+        stop_reason = f"interrupted after {used} evaluations (archive kept; resume with same dir)"
+        raise
+    finally:
+        if bar is not None:
+            bar.close()
+        wall = time.perf_counter() - t_start
+        if archive is not None:
+            archive.set_meta(stop_reason=stop_reason, n_evaluations=used, wall_time_s=wall)
+            archive.close()
+    return RunResult(
+        n_evaluations=used,
+        n_batches=b,
+        stop_reason=stop_reason,
+        wall_time=wall,
+        n_resumed=resumed,
+        best_index=best[1],
+        best_objectives=best[2],
+        best_x=None if best[3] is None else problem.space.as_dict(best[3]),
+        history=history,
+    )

@@ -1,0 +1,75 @@
+"""Latin hypercube design of experiments (``scipy.stats.qmc.LatinHypercube``).
+
+One design of ``n_samples`` points is drawn at construction and handed out in batches of
+``batch_size``; the strategy stops when every point has been asked.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from scipy.stats import qmc
+
+from suspenv.core.errors import ValidationError
+from suspenv.core.result import EvaluationBatch
+from suspenv.strategies.base import Strategy
+
+
+class LatinHypercube(Strategy):
+    """A seeded Latin hypercube sample of the unit cube.
+
+    Options:
+        n_samples: size of the design (default 500, as in Tey et al. 2014).
+        batch_size: points per ask (default 50).
+        optimization: scipy's LHS optimisation ("random-cd", "lloyd") or None (default).
+    """
+
+    name = "lhs"
+    description = "Latin hypercube design of experiments (scipy.stats.qmc)"
+    multi_objective = True
+
+    def __init__(
+        self,
+        dim: int,
+        n_objectives: int = 1,
+        n_constraints: int = 0,
+        seed: int = 0,
+        n_samples: int = 500,
+        batch_size: int = 50,
+        optimization: str | None = None,
+    ):
+        super().__init__(dim, n_objectives, n_constraints, seed)
+        if int(n_samples) < 1 or int(batch_size) < 1:
+            raise ValidationError(
+                "lhs: `n_samples >= 1` and `batch_size >= 1` must hold, but got "
+                f"(n_samples={n_samples}, batch_size={batch_size})"
+            )
+        self.n_samples, self.batch_size = int(n_samples), int(batch_size)
+        self.optimization = optimization
+        sampler = qmc.LatinHypercube(d=self.dim, optimization=optimization, rng=self.seed)
+        self.design = sampler.random(self.n_samples)
+        self._next = 0
+
+    def _ask(self) -> np.ndarray:
+        if self._next >= self.n_samples:
+            raise RuntimeError(f"lhs: all {self.n_samples} samples were already asked")
+        stop = min(self._next + self.batch_size, self.n_samples)
+        U = self.design[self._next : stop]
+        self._next = stop
+        return U
+
+    def _tell(self, U: np.ndarray, batch: EvaluationBatch) -> None:
+        pass
+
+    def stop(self) -> str | None:
+        if self._next >= self.n_samples and self._pending is None:
+            return f"lhs: all {self.n_samples} samples evaluated"
+        return None
+
+    def options(self) -> dict[str, Any]:
+        return {
+            "n_samples": self.n_samples,
+            "batch_size": self.batch_size,
+            "optimization": self.optimization,
+        }

@@ -1,0 +1,114 @@
+"""Experiment configs, run directories, resume through the runner, show and compare."""
+
+import json
+import tomllib
+
+import numpy as np
+import pytest
+
+from suspenv.cli.show import format_summary
+from suspenv.core.errors import ValidationError
+from suspenv.runs.compare import compare_runs, load_summary
+from suspenv.runs.config import load_config, parse_override
+from suspenv.runs.runner import run_experiment
+
+CONFIG = """
+seed = 3
+budget = 120
+[problem]
+name = "Sphere"
+options = {{ dim = 4 }}
+[strategy]
+name = "{strategy}"
+[run]
+output = "{out}"
+progress = false
+"""
+
+
+def _write(tmp_path, strategy="cmaes", name="exp"):
+    path = tmp_path / f"{name}.toml"
+    path.write_text(CONFIG.format(strategy=strategy, out=tmp_path / "runs"))
+    return path
+
+
+def test_run_writes_everything_and_same_seed_same_numbers(tmp_path):
+    cfg = load_config(_write(tmp_path))
+    run_dir, summary = run_experiment(cfg)
+    for f in (
+        "archive.sqlite",
+        "evaluations.csv",
+        "summary.json",
+        "config.resolved.toml",
+        "versions.json",
+        "convergence.png",
+    ):
+        assert (run_dir / f).is_file(), f
+    resolved = tomllib.loads((run_dir / "config.resolved.toml").read_text())
+    assert resolved["seed"] == 3 and resolved["problem"]["options"]["dim"] == 4
+    assert "numpy" in json.loads((run_dir / "versions.json").read_text())
+    # re-running the same config resumes: nothing is evaluated again, same numbers
+    _, again = run_experiment(cfg)
+    assert again["n_resumed"] == summary["n_evaluations"] == 120
+    assert again["best_objectives"] == summary["best_objectives"]
+    assert "best objective" in format_summary(load_summary(run_dir))
+
+
+def test_overrides_and_changed_config_refused(tmp_path):
+    path = _write(tmp_path)
+    cfg = load_config(path, ["strategy.options.popsize=6", "budget=60"])
+    assert cfg["strategy"]["options"]["popsize"] == 6 and cfg["budget"] == 60
+    run_experiment(cfg)
+    other = load_config(path, ["strategy.options.popsize=8", "budget=60"])
+    with pytest.raises(ValidationError, match=r"strategy.options.popsize: 6 -> 8"):
+        run_experiment(other)
+    run_dir, s = run_experiment(other, overwrite=True)
+    assert s["n_resumed"] == 0
+
+
+@pytest.mark.parametrize(
+    ("override", "needle"),
+    [
+        ("seed=-1", "`seed` must be an integer >= 0, but got -1"),
+        ("budget=0", "`budget` must be an integer >= 1, but got 0"),
+        ("run.workers=0", "`run.workers` must be an integer >= 1, but got 0"),
+        ("run.worker=2", "unknown key run.'worker'; did you mean 'workers'?"),
+        ("bugdet=3", "unknown key 'bugdet'; did you mean 'budget'?"),
+    ],
+)
+def test_config_errors_name_key_rule_and_value(tmp_path, override, needle):
+    with pytest.raises(ValidationError) as e:
+        load_config(_write(tmp_path), [override])
+    assert needle in str(e.value)
+
+
+def test_parse_override_types():
+    assert parse_override("a.b=3") == (["a", "b"], 3)
+    assert parse_override("a=0.5") == (["a"], 0.5)
+    assert parse_override("a=true") == (["a"], True)
+    assert parse_override("a=rank_sum") == (["a"], "rank_sum")
+    assert parse_override("a=[1, 2]") == (["a"], [1, 2])
+    with pytest.raises(ValidationError, match="key=value"):
+        parse_override("nokey")
+
+
+def test_unknown_problem_suggests(tmp_path):
+    path = _write(tmp_path)
+    cfg = load_config(path, ['problem.name="Spher"'])
+    with pytest.raises(ValidationError, match="did you mean 'Sphere'"):
+        run_experiment(cfg)
+
+
+def test_compare_strategies_over_seeds(tmp_path):
+    runs = []
+    for strat in ("cmaes", "random"):
+        for seed in (1, 2):
+            cfg = load_config(_write(tmp_path, strat, f"{strat}"), [f"seed={seed}"])
+            runs.append(run_experiment(cfg)[0])
+    result = compare_runs(runs, tmp_path / "cmp")
+    rows = {r["strategy"]: r for r in result["table"]}
+    assert rows["cmaes"]["runs"] == 2 and rows["random"]["seeds"] == [1, 2]
+    # on a 4-D sphere with 120 evaluations CMA-ES beats random search (both seeds)
+    assert rows["cmaes"]["best_max"] < rows["random"]["best_min"]
+    assert (tmp_path / "cmp" / "compare.png").is_file()
+    assert np.isfinite(rows["cmaes"]["best_median"])
