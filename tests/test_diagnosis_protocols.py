@@ -23,6 +23,8 @@ MEMBERS = (
     "output_channels",
     "effects",
     "effect_defaults",
+    "candidate_effects",
+    "unpack",
     "bounds",
     "initial_guess",
     "simulate",

@@ -8,16 +8,15 @@ import numpy as np
 import pytest
 
 from suspenv.core.errors import ValidationError
-from suspenv.diagnosis.ride.road import (
+from suspenv.diagnosis.road import (
     diagnose_road,
     fit_psd,
-    load_profile_txt,
-    profile_recording,
     road_class,
     slope_periodogram,
     synthetic_profile,
     waviness_test,
 )
+from suspenv.measurements.sources.road_profile import load_profile_txt, profile_recording
 from suspenv.reports.diagnosis.road import write_road_report
 from suspenv.rigs.road import ROAD_CLASS_GD0
 
@@ -115,7 +114,7 @@ def test_real_profiles_steeper_than_standard(shared_data, tmp_path):
 def test_cli_routes_road_profiles_and_declines_others(shared_data, tmp_path, monkeypatch):
     import json
 
-    import suspenv.diagnosis.ride.road as road_mod
+    import suspenv.diagnosis.road as road_mod
     from suspenv.cli.main import main
     from suspenv.diagnosis.targets import resolve_target
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import json
 import os
 import platform
@@ -133,14 +134,17 @@ def time_batch_vs_single(problem: Any, X: Any, repeats: int, singles: int) -> Ba
     from tqdm import tqdm
 
     n = len(X)
-    wall, cpu, last = [], [], {}
+    wall: list[float] = []
+    cpu: list[float] = []
+    last: dict[str, Any] = {}
     for _ in tqdm(range(repeats), desc=f"batches of {n}", file=sys.stderr):
         w, c = wall_and_cpu(lambda: last.update(batch=problem.evaluate(X)))
         wall.append(w)
         cpu.append(c)
     s_wall, s_cpu = [], []
     for i in tqdm(range(singles), desc="one at a time", file=sys.stderr):
-        w, c = wall_and_cpu(lambda i=i: problem.evaluate(X[i : i + 1]))
+        # partial binds the row (a lambda with i=i trips mypy issue #15459)
+        w, c = wall_and_cpu(functools.partial(problem.evaluate, X[i : i + 1]))
         s_wall.append(w)
         s_cpu.append(c)
     return BatchTiming(

@@ -45,14 +45,14 @@ from suspenv.bench.common import DEFAULT_OUTPUT_DIR, write_result
 from suspenv.diagnosis.engine import diagnose
 from suspenv.diagnosis.ride.family import RideFamily
 from suspenv.diagnosis.ride.mismatch import OUT_OF_LIBRARY_KINDS, mismatch_words
-from suspenv.diagnosis.ride.road import (
+from suspenv.diagnosis.ride.truth import make_ride_case
+from suspenv.diagnosis.road import (
     diagnose_road,
     fit_psd,
     load_profile_txt,
     synthetic_profile,
     waviness_test,
 )
-from suspenv.diagnosis.ride.truth import make_ride_case
 from suspenv.measurements import data_dir
 from suspenv.rigs.road import ROAD_CLASS_GD0
 
@@ -94,11 +94,13 @@ def ride_row(kind: str | None, seed: int) -> dict[str, Any]:
         "cpu_seconds": cpu,
     }
     if not case.truth.in_library:
+        mismatch = case.truth.mismatch
+        assert mismatch is not None  # invariant: in_library is defined as `mismatch is None`
         named = diag.named_candidates
         return {
             "part": "ride (out of library)",
             "case": f"{kind}/{seed}",
-            "truth": mismatch_words(case.truth.mismatch),
+            "truth": mismatch_words(mismatch),
             "named": ";".join(named) or "none",
             "wrong_name_confident": bool(named and diag.confident),
             "named_any": bool(named),

@@ -52,7 +52,7 @@ def _diagnose(args: argparse.Namespace) -> int:
     target = resolve_target(args.recording, args.holdout, args.model, args.data_dir)
     out = Path(args.out or f"diagnosis_{target.stem}")
     if target.family == "road":
-        from suspenv.diagnosis.ride.road import diagnose_road
+        from suspenv.diagnosis.road import diagnose_road
         from suspenv.reports.diagnosis import write_road_report
 
         road = diagnose_road(target.recordings, heldout=target.holdout)

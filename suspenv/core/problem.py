@@ -13,6 +13,7 @@ come back with ``ok=False`` and the exception's message.
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -26,7 +27,8 @@ class Problem(ABC):
     """Base class of every problem.
 
     Class attributes to set in subclasses:
-        name: registry name, e.g. ``"KCIdentification"``.
+        name: registry name, e.g. ``"KCIdentification"``. A view of another problem
+            (:mod:`suspenv.problems.views`) overrides it per instance, so it is not a ClassVar.
         description: one line for ``suspenv list``.
 
     Instance attributes set by subclasses' ``__init__``:
@@ -34,15 +36,20 @@ class Problem(ABC):
         objective_names: names of the m objectives (minimised).
         constraint_names: names of the k constraints (feasible when <= 0).
         objective_units: optional units, same length as ``objective_names``.
+
+    Optional method:
+        render_rgb: ``render_rgb(x_physical) -> uint8 (H, W, 3)``, a picture of one design
+            (the gym environment's ``rgb_array`` rendering); None when the problem cannot draw.
     """
 
-    name: ClassVar[str] = "Problem"
+    name: str = "Problem"
     description: ClassVar[str] = ""
 
     space: DesignSpace
     objective_names: tuple[str, ...]
     constraint_names: tuple[str, ...] = ()
     objective_units: tuple[str, ...] = ()
+    render_rgb: Callable[[np.ndarray], np.ndarray] | None = None
 
     # ------------------------------------------------------------ subclass API
     @abstractmethod

@@ -165,7 +165,7 @@ class DesignSpace:
         return out
 
     # ------------------------------------------------------------- dict views
-    def as_dict(self, x: Sequence[float]) -> dict[str, float]:
+    def as_dict(self, x: Sequence[float] | np.ndarray) -> dict[str, float]:
         """One physical design as ``{name: value}``."""
         arr = np.asarray(x, dtype=float).reshape(-1)
         if arr.size != self.dim:

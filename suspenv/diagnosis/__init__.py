@@ -5,7 +5,7 @@ One loop (:func:`suspenv.diagnosis.engine.diagnose`) with pluggable families: a
 component on a dyno or rig (:mod:`~suspenv.diagnosis.component`), the McPherson axle on a
 K&C rig (:mod:`~suspenv.diagnosis.knc`), the minibus on ride tests
 (:mod:`~suspenv.diagnosis.ride`); measured road profiles get a spectral test beside it
-(:mod:`~suspenv.diagnosis.ride.road`). See ``docs/diagnosis.md``.
+(:mod:`~suspenv.diagnosis.road`). See ``docs/diagnosis.md``.
 """
 
 from suspenv.diagnosis.engine import Diagnosis, diagnose

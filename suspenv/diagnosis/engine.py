@@ -38,7 +38,7 @@ from suspenv.diagnosis.evidence import Comparison, baseline_summary, compare
 from suspenv.diagnosis.family import DiagnosisFamily, Outcome, recording_names
 from suspenv.diagnosis.fitting import FitResult
 from suspenv.diagnosis.hypothesis import Ambiguity, Hypothesis, family_of, split_candidate
-from suspenv.diagnosis.split import Split
+from suspenv.diagnosis.split import Holdout, Recordings, Split
 
 
 @dataclass
@@ -174,9 +174,9 @@ def _jsonable(v: Any) -> Any:
 
 
 def diagnose(
-    recordings: Any,
+    recordings: Recordings,
     family: DiagnosisFamily | str,
-    holdout: Any = None,
+    holdout: Holdout = None,
     candidates: Sequence[str] | None = None,
     progress: bool = False,
 ) -> Diagnosis:

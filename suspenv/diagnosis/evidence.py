@@ -22,6 +22,7 @@ import numpy as np
 from scipy import stats
 
 from suspenv.diagnosis.fitting import FitResult, as_list, lag1_autocorrelation, residuals
+from suspenv.diagnosis.split import Recordings
 
 
 def ljung_box(r: np.ndarray, lags: int = 20) -> tuple[float, float]:
@@ -43,14 +44,14 @@ def ljung_box(r: np.ndarray, lags: int = 20) -> tuple[float, float]:
 
 
 def heldout_rms(
-    fit: FitResult, recordings: Any, masks: Sequence[np.ndarray | None] | None = None
+    fit: FitResult, recordings: Recordings, masks: Sequence[np.ndarray | None] | None = None
 ) -> dict[str, float]:
     """Per-channel RMS error of a fitted model on (held-out) samples (channel unit)."""
     return _channel_rms(heldout_residuals(fit, recordings, masks))
 
 
 def heldout_residuals(
-    fit: FitResult, recordings: Any, masks: Sequence[np.ndarray | None] | None = None
+    fit: FitResult, recordings: Recordings, masks: Sequence[np.ndarray | None] | None = None
 ) -> dict[str, np.ndarray]:
     """Per-channel residual of a fitted model on (held-out) samples, recordings stacked."""
     parts = residuals(fit.model, fit.theta, as_list(recordings), fit.channels, masks)
@@ -91,8 +92,8 @@ def scaled_rms(rms: dict[str, float], scales: dict[str, float]) -> float:
 
 def baseline_summary(
     fit: FitResult,
-    fit_recordings: Any,
-    heldout_recordings: Any,
+    fit_recordings: Recordings,
+    heldout_recordings: Recordings,
     fit_masks: Sequence[np.ndarray | None] | None = None,
     heldout_masks: Sequence[np.ndarray | None] | None = None,
 ) -> dict[str, Any]:
@@ -109,7 +110,9 @@ def baseline_summary(
     }
 
 
-def fit_residual_series(fit: FitResult, recordings: Any, masks=None) -> np.ndarray:
+def fit_residual_series(
+    fit: FitResult, recordings: Recordings, masks: Sequence[np.ndarray | None] | None = None
+) -> np.ndarray:
     """The fit's scaled residual, channels and recordings stacked (for whiteness tests)."""
     parts = residuals(fit.model, fit.theta, as_list(recordings), fit.channels, masks)
     return np.concatenate([p[c] / fit.scales[c] for p in parts for c in fit.channels])
@@ -208,9 +211,9 @@ class Comparison:
 def compare(
     base: FitResult,
     ext: FitResult,
-    fit_recordings: Any,
+    fit_recordings: Recordings,
     fit_masks: Sequence[np.ndarray | None] | None,
-    heldout_recordings: Any,
+    heldout_recordings: Recordings,
     heldout_masks: Sequence[np.ndarray | None] | None,
 ) -> Comparison:
     """Everything that shows whether ``ext`` is better than ``base``."""

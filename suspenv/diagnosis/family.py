@@ -31,7 +31,7 @@ from suspenv.diagnosis.decision import DecisionRule
 from suspenv.diagnosis.fitting import FitResult
 from suspenv.diagnosis.hypothesis import Ambiguity, Hypothesis
 from suspenv.diagnosis.protocols import DiagnosableModel, RecordingLike
-from suspenv.diagnosis.split import Split
+from suspenv.diagnosis.split import Holdout, Recordings, Split
 
 
 class Report(Protocol):
@@ -55,7 +55,7 @@ class Setup:
     candidates: list[str]
 
 
-class Signature(Protocol):
+class SignatureLike(Protocol):
     """A screening record: what was scored (a signature family or a candidate), its
     score (larger = stronger evidence of the pattern), the evidence in words."""
 
@@ -72,8 +72,8 @@ class Screening:
     the candidates chosen for a refit, each with the record its start values come from
     (None: no record)."""
 
-    signatures: Sequence[Signature]
-    chosen: Sequence[tuple[str, Signature | None]]
+    signatures: Sequence[SignatureLike]
+    chosen: Sequence[tuple[str, SignatureLike | None]]
 
 
 @dataclass
@@ -84,8 +84,8 @@ class Outcome:
     current: FitResult
     named: list[Hypothesis]
     hypotheses: list[Hypothesis]
-    signatures: Sequence[Signature]
-    location: Any
+    signatures: Sequence[SignatureLike]
+    location: Report
 
 
 @dataclass
@@ -122,18 +122,20 @@ class DiagnosisFamily(Protocol):
     #: most elements added in turn
     max_effects: int
 
-    def prepare(self, recordings: Any, holdout: Any, candidates: Sequence[str] | None) -> Setup: ...
+    def prepare(
+        self, recordings: Recordings, holdout: Holdout, candidates: Sequence[str] | None
+    ) -> Setup: ...
 
     def fit_baseline(self, setup: Setup) -> FitResult: ...
 
-    def locate(self, base: FitResult, setup: Setup) -> tuple[Any, str]: ...
+    def locate(self, base: FitResult, setup: Setup) -> tuple[Report, str]: ...
 
     def screen(
         self, current: FitResult, setup: Setup, open_candidates: Sequence[str], round_: int
     ) -> Screening: ...
 
     def refit(
-        self, current: FitResult, candidate: str, signature: Signature | None, setup: Setup
+        self, current: FitResult, candidate: str, signature: SignatureLike | None, setup: Setup
     ) -> FitResult: ...
 
     def words(self, candidate: str, setup: Setup) -> str: ...

@@ -10,9 +10,12 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TypeAlias
 
 import numpy as np
+
+from suspenv.core.errors import ValidationError
+from suspenv.measurements.recording import RecordingLike
 
 
 @dataclass
@@ -28,24 +31,50 @@ class Split:
         cycles_every: for an interleaved-cycle split, one cycle in this many is held out.
     """
 
-    fit_recordings: list[Any]
+    fit_recordings: list[RecordingLike]
     fit_masks: list[np.ndarray] | None
-    heldout_recordings: list[Any]
+    heldout_recordings: list[RecordingLike]
     heldout_masks: list[np.ndarray] | None
     description: str
     cycles_every: int | None = None
 
     @classmethod
-    def separate(cls, fit: Sequence[Any], heldout: Sequence[Any], words: str = "") -> Split:
+    def separate(
+        cls, fit: Sequence[RecordingLike], heldout: Sequence[RecordingLike], words: str = ""
+    ) -> Split:
         """Whole recordings fitted, other whole recordings held out."""
         names = ", ".join(str(r.name) for r in heldout)
         return cls(list(fit), None, list(heldout), None, words or f"separate recording(s): {names}")
 
 
-def as_recordings(recordings: Any) -> list[Any]:
+#: recordings as a diagnosis takes them: one, a sequence, or a mapping test -> recording
+Recordings: TypeAlias = RecordingLike | Sequence[RecordingLike] | Mapping[str, RecordingLike]
+#: held-out data in a family's terms: a fraction or ``"cycles[:N]"`` (components), rig
+#: test names (K&C), or recordings not used for fitting; None: the family's default
+Holdout: TypeAlias = float | str | Sequence[str] | Recordings | None
+
+
+def as_recordings(recordings: Recordings) -> list[RecordingLike]:
     """One recording, a sequence of them or a mapping name -> recording, as a list."""
+    if isinstance(recordings, RecordingLike):
+        return [recordings]
     if isinstance(recordings, Mapping):
         return list(recordings.values())
-    if isinstance(recordings, list | tuple):
-        return list(recordings)
-    return [recordings]
+    return list(recordings)
+
+
+def heldout_recordings(holdout: Holdout) -> list[RecordingLike]:
+    """``holdout`` as held-out recordings; anything else (a number, text) is an error
+    that names the value (the family has already taken the forms it knows)."""
+    if holdout is None or isinstance(holdout, float | int | str):
+        raise ValidationError(f"held-out data must be recordings here, but got holdout={holdout!r}")
+    if isinstance(holdout, RecordingLike | Mapping):
+        return as_recordings(holdout)
+    items = list(holdout)
+    recs = [r for r in items if isinstance(r, RecordingLike)]
+    if len(recs) < len(items) or not recs:
+        bad = [type(r).__name__ for r in items if not isinstance(r, RecordingLike)]
+        raise ValidationError(
+            f"held-out data must be one or more recordings, but got {bad or 'none'}"
+        )
+    return recs

@@ -98,7 +98,7 @@ def _knc_target(target: str, holdout: str | None) -> Target | None:
 def _road_target(target: str, holdout: str | None, data_dir: str | Path | None) -> Target | None:
     if target not in ROAD_NAMES and not target.endswith(".txt"):
         return None
-    from suspenv.diagnosis.ride.road import load_profile_txt
+    from suspenv.measurements.sources.road_profile import load_profile_txt
 
     if target in ROAD_NAMES:
         from suspenv.measurements import data_dir as shared_data_dir

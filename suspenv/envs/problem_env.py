@@ -159,7 +159,9 @@ class ProblemEnv(gym.Env[np.ndarray, np.ndarray]):
     def render(self) -> np.ndarray | None:
         if self.render_mode != "rgb_array" or self._last_x is None:
             return None
-        return np.asarray(self.problem.render_rgb(self._last_x.copy()), dtype=np.uint8)
+        render_rgb = self.problem.render_rgb
+        assert render_rgb is not None  # invariant: "rgb_array" is only accepted when defined
+        return np.asarray(render_rgb(self._last_x.copy()), dtype=np.uint8)
 
     # ------------------------------------------------------------- helpers
     def design_to_action(self, x_physical: Sequence[float]) -> np.ndarray:

@@ -57,7 +57,9 @@ def save_recording(rec: Recording, path: str | Path) -> Path:
         "units": dict(rec.units),
         "meta": _jsonable(rec.meta),
     }
-    arrays = {"time": rec.time}
+    # name -> array. Any, not np.ndarray: mypy matches **arrays against every keyword of
+    # savez_compressed, including ``allow_pickle: bool``, which is never a key here
+    arrays: dict[str, Any] = {"time": rec.time}
     arrays.update({f"in.{k}": v for k, v in rec.inputs.items()})
     arrays.update({f"out.{k}": v for k, v in rec.outputs.items()})
     path.parent.mkdir(parents=True, exist_ok=True)

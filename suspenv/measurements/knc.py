@@ -35,7 +35,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from suspenv.core.errors import ValidationError
-from suspenv.measurements.recording import Recording
+from suspenv.measurements.recording import RecordingLike
 
 #: vertical travel tests (the identification problem's three)
 TESTS = ("parallel", "opposite", "single")
@@ -78,7 +78,7 @@ def is_knc(rec: object) -> bool:
     return meta.get("rig") == "knc" or str(getattr(rec, "test", "")).startswith(TEST_PREFIX)
 
 
-def rig_test(rec: Recording) -> str:
+def rig_test(rec: RecordingLike) -> str:
     """The rig test (``parallel`` ...) of a K&C recording."""
     test = str(rec.meta.get("knc_test", rec.test.removeprefix(TEST_PREFIX)))
     if test not in ALL_TESTS:
@@ -88,12 +88,12 @@ def rig_test(rec: Recording) -> str:
     return test
 
 
-def is_force_test(rec: Recording) -> bool:
+def is_force_test(rec: RecordingLike) -> bool:
     """True for a compliance (contact-point force) recording."""
     return rig_test(rec) in FORCE_TESTS
 
 
-def drive(rec: Recording, side: str) -> np.ndarray:
+def drive(rec: RecordingLike, side: str) -> np.ndarray:
     """Each wheel's own excitation along the loop, over the test's amplitude [-].
 
     Travel test: the pad's travel (bump positive). Compliance test: the contact-point
@@ -108,7 +108,7 @@ def drive(rec: Recording, side: str) -> np.ndarray:
     return -f if (rig_test(rec) == "lateral" and side == "right") else f
 
 
-def reading_drive(rec: Recording, side: str) -> np.ndarray:
+def reading_drive(rec: RecordingLike, side: str) -> np.ndarray:
     """The drive a wheel's channels are read against [-]: its own :func:`drive`, or,
     for the wheel that has none (the still wheel of single-wheel travel), the left
     wheel's."""
@@ -116,13 +116,13 @@ def reading_drive(rec: Recording, side: str) -> np.ndarray:
     return own if own.any() else drive(rec, "left")
 
 
-def mirrored(rec: Recording) -> bool:
+def mirrored(rec: RecordingLike) -> bool:
     """True when the right wheel's own drive is the left wheel's reversed (opposite
     travel, lateral force): equal own drive then sits at mirrored grid points."""
     return bool(np.allclose(drive(rec, "right"), -drive(rec, "left")) and drive(rec, "left").any())
 
 
-def drive_label(rec: Recording) -> tuple[str, float]:
+def drive_label(rec: RecordingLike) -> tuple[str, float]:
     """(axis label, factor from SI to the plotted unit) of a recording's drive."""
     if is_force_test(rec):
         what = "outboard" if rig_test(rec) == "lateral" else "forward"
@@ -132,12 +132,12 @@ def drive_label(rec: Recording) -> tuple[str, float]:
     return "own pad travel [mm]", 1e3
 
 
-def grid_of(rec: Recording) -> tuple[np.ndarray, np.ndarray]:
+def grid_of(rec: RecordingLike) -> tuple[np.ndarray, np.ndarray]:
     """(grid index (P,) int, branch (P,) int) of a K&C recording."""
     return rec.inputs["grid"].astype(int), rec.inputs["branch"].astype(int)
 
 
-def half_loops(rec: Recording, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def half_loops(rec: RecordingLike, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """A channel along the loop split into its two branches on the grid.
 
     Returns ``(down, up)``, each ``(steps + 1,)`` ordered by grid index: ``down`` is

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
@@ -28,6 +28,49 @@ def _nan_run(values: np.ndarray) -> tuple[int, int] | None:
     rest = bad[start:]
     length = int(np.argmin(rest)) if not rest.all() else int(rest.size)
     return start, length
+
+
+@runtime_checkable
+class RecordingLike(Protocol):
+    """Time histories of one test (:class:`suspenv.measurements.Recording` is one).
+
+    Members:
+        name: identifier of the run.
+        test: what was done (e.g. ``"dyno_sine"``, ``"knc_opposite"``).
+        time: sample times [s], ``(N,)``, strictly increasing.
+        inputs / outputs: imposed / measured channels, name -> ``(N,)`` array.
+        units: channel name (and ``"time"``) -> unit string.
+        meta: free metadata (``source``, ``sampling``, rig settings).
+        n_samples: ``N``.
+        sample_interval: median sample interval [s].
+    """
+
+    @property
+    def name(self) -> str: ...
+
+    @property
+    def test(self) -> str: ...
+
+    @property
+    def time(self) -> np.ndarray: ...
+
+    @property
+    def inputs(self) -> Mapping[str, np.ndarray]: ...
+
+    @property
+    def outputs(self) -> Mapping[str, np.ndarray]: ...
+
+    @property
+    def units(self) -> Mapping[str, str]: ...
+
+    @property
+    def meta(self) -> Mapping[str, Any]: ...
+
+    @property
+    def n_samples(self) -> int: ...
+
+    @property
+    def sample_interval(self) -> float: ...
 
 
 @dataclass(eq=False)

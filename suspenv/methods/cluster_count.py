@@ -65,7 +65,9 @@ def silhouette_samples(
     return np.where(own > 1, s, float(singleton_value))
 
 
-def rank_method(n_clusters: Sequence[int], mean_silhouette: Sequence[float]) -> np.ndarray:
+def rank_method(
+    n_clusters: Sequence[int] | np.ndarray, mean_silhouette: Sequence[float] | np.ndarray
+) -> np.ndarray:
     """RS_k + RC_k for every candidate k (smaller is better)."""
     C = np.asarray(n_clusters, dtype=float)
     s = np.asarray(mean_silhouette, dtype=float)

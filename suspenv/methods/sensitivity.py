@@ -53,9 +53,8 @@ class SensitivityResult:
 
     def insensitive_parameters(self) -> list[str]:
         """Parameters with no significant correlation to any objective."""
-        return [
-            n for n, s in zip(self.param_names, self.significant.any(axis=1), strict=True) if not s
-        ]
+        any_significant = np.asarray(self.significant.any(axis=1))  # (d,)
+        return [n for n, s in zip(self.param_names, any_significant, strict=True) if not s]
 
 
 def _standardised_ranks(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -80,6 +80,7 @@ def weighting_response(f: np.ndarray, name: str | Weighting = "Wk") -> np.ndarra
     hh = np.where(f == 0, 0.0, hh)
     hl = 1.0 / (1.0 + np.sqrt(2.0) * p / w2 + (p / w2) ** 2)
     ht = (1.0 + p / w3) / (1.0 + p / (w.q4 * w4) + (p / w4) ** 2)
+    hs: np.ndarray | float  # the optional upward step; 1.0 when the weighting has none
     if np.isfinite(w.f5):
         w5, w6 = 2 * np.pi * w.f5, 2 * np.pi * w.f6
         hs = (1.0 + p / (w.q5 * w5) + (p / w5) ** 2) / (1.0 + p / (w.q6 * w6) + (p / w6) ** 2)

@@ -149,6 +149,10 @@ class PlanarLinkage(Problem):
             )
         self.space = DesignSpace(params)
         self.target_camber_gain = None if target_camber_gain is None else float(target_camber_gain)
+        # target curves (curve matching) or none (a camber-gain target)
+        self.target_name: str | None
+        self.target_geometry: PlanarGeometry | None
+        self.target_outputs: SweepOutputs | None
         if self.target_camber_gain is None:
             self.target_name = target or f"{kind}_target"
             self.target_geometry = load_geometry(self.target_name)
@@ -163,9 +167,7 @@ class PlanarLinkage(Problem):
                     f"target geometry {self.target_name!r} cannot travel +-{self.travel_mm} mm: "
                     f"{target_sweep.messages[0]}"
                 )
-            self.target_outputs: SweepOutputs | None = sweep_outputs(
-                self.target_geometry, target_sweep
-            )
+            self.target_outputs = sweep_outputs(self.target_geometry, target_sweep)
             self.objective_names = ("curve_error",)
             self.objective_units = ("-",)
             self.constraint_names = ()

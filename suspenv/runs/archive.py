@@ -136,7 +136,9 @@ class RunArchive:
         ):
             out[int(row)] = (
                 _unblob(u),
-                EvaluationBatch(_unblob(f)[None, :], _unblob(g)[None, :], [bool(ok)], [msg]),
+                EvaluationBatch(
+                    _unblob(f)[None, :], _unblob(g)[None, :], np.array([bool(ok)]), [msg]
+                ),
             )
         return out
 

@@ -206,6 +206,7 @@ def optimize(
             done = archive.batch(b) if archive is not None else {}
             for r, (u_arch, res) in done.items():
                 if r >= n or not np.allclose(u_arch, U[r], rtol=0, atol=1e-12):
+                    assert archive is not None  # invariant: `done` is empty without an archive
                     raise ValidationError(
                         f"resume: archived design (batch {b}, row {r}) differs from what the "
                         "strategy asks now; the seed, strategy options or problem changed. "

@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 import optuna
-from optuna.distributions import FloatDistribution
+from optuna.distributions import BaseDistribution, FloatDistribution
 from optuna.trial import TrialState
 
 from suspenv.core.errors import ValidationError
@@ -98,7 +98,9 @@ class NSGA2(Strategy):
             directions=["minimize"] * self.n_objectives,
             load_if_exists=storage is not None,
         )
-        self._dists = {f"u{i}": FloatDistribution(0.0, 1.0) for i in range(self.dim)}
+        self._dists: dict[str, BaseDistribution] = {
+            f"u{i}": FloatDistribution(0.0, 1.0) for i in range(self.dim)
+        }
         self._trials: list[optuna.trial.Trial] = []
 
     def _ask(self) -> np.ndarray:

@@ -15,7 +15,7 @@ generator seeded with ``seed``.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from pymoo.algorithms.moo import nsga2 as _pymoo_nsga2
@@ -29,6 +29,9 @@ from pymoo.problems.static import StaticProblem
 from suspenv.core.errors import ValidationError
 from suspenv.core.result import EvaluationBatch
 from suspenv.strategies.base import Strategy
+
+if TYPE_CHECKING:
+    from pymoo.core.population import Population
 
 #: objective value given to failed evaluations (they are infeasible anyway)
 FAILED_OBJECTIVE = 1e12
@@ -86,11 +89,12 @@ class PymooNSGA2(Strategy):
         self._algorithm.setup(
             self._problem, termination=NoTermination(), seed=self.seed, verbose=False
         )
-        self._population = None
+        self._population: Population | None = None  # the generation between ask and tell
 
     def _ask(self) -> np.ndarray:
-        self._population = self._algorithm.ask()
-        return np.clip(np.asarray(self._population.get("X"), dtype=float), 0.0, 1.0)
+        population = self._algorithm.ask()
+        self._population = population
+        return np.clip(np.asarray(population.get("X"), dtype=float), 0.0, 1.0)
 
     def _tell(self, U: np.ndarray, batch: EvaluationBatch) -> None:
         ok = batch.ok & np.isfinite(batch.objectives).all(axis=1)

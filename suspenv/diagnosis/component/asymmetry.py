@@ -95,7 +95,9 @@ def _rebound_bump_ratio(result: FitResult, v_ref: float) -> tuple[float, float]:
         th = result.theta.copy()
         th[i] += h
         grad[i] = (ratio(th) - r0) / h
-    infl = np.where(result.stderr > 0, result.stderr_corrected / np.maximum(result.stderr, 1e-300), 1.0)
+    infl = np.where(
+        result.stderr > 0, result.stderr_corrected / np.maximum(result.stderr, 1e-300), 1.0
+    )
     cov = result.covariance * np.outer(infl, infl)
     return r0, float(np.sqrt(max(grad @ cov @ grad, 0.0)))
 
@@ -126,7 +128,9 @@ def asymmetry_check(
     null = current
     base_offset = "f_0" in current.names  # a base model with its own constant force
     if not base_offset and not any(e.kind in ("force_offset", "gas_spring") for e in effects):
-        null = refit_with(current, "force_offset", sp.fit_recordings, sp.fit_masks, max_nfev=max_nfev)
+        null = refit_with(
+            current, "force_offset", sp.fit_recordings, sp.fit_masks, max_nfev=max_nfev
+        )
     vals = dict(zip(null.names, null.theta, strict=True))
     d = dig[0]
     c_low, v_knee = vals[f"{d.name}.c_low"], vals[f"{d.name}.v_knee"]
@@ -245,7 +249,7 @@ def _matched_speed(sp: Split, alpha: float) -> MatchedSpeedAsymmetry | None:
     """The model-free matched-speed test (:mod:`suspenv.diagnosis.component.matched_speed`) on
     the first fitted recording with a force channel and enough matched speeds."""
     for rec in sp.fit_recordings:
-        force = getattr(rec, "outputs", {}).get("force")
+        force = rec.outputs.get("force")
         if force is None:
             continue
         x, v = motion(rec)

@@ -43,12 +43,12 @@ from suspenv.diagnosis.decision import (
     DecisionRule,
     separating_test,
 )
-from suspenv.diagnosis.family import Conclusion, Outcome, Screening, Setup
+from suspenv.diagnosis.family import Conclusion, Outcome, Screening, Setup, SignatureLike
 from suspenv.diagnosis.fitting import FitResult, fit, residuals
 from suspenv.diagnosis.hypothesis import Ambiguity, Hypothesis, family_of
 from suspenv.diagnosis.protocols import DiagnosableModel
 from suspenv.diagnosis.screening import Location, Signature
-from suspenv.diagnosis.split import Split
+from suspenv.diagnosis.split import Holdout, Recordings, Split
 from suspenv.models.components.base import ComponentModel
 from suspenv.models.effects import make_effect
 
@@ -133,7 +133,7 @@ def _signal_set(fit: FitResult, sp: Split, channel: str, view: bool = True) -> S
     if J is not None and J.shape[0] == offset:
         jac = J[np.concatenate(rows)]
     unit = ""
-    units = getattr(sp.fit_recordings[0], "units", {}) or {}
+    units = sp.fit_recordings[0].units
     unit = str(units.get(channel, ""))
     return SignalSet(
         t=np.concatenate(ts),
@@ -254,7 +254,9 @@ class ComponentFamily:
     rule: DecisionRule = COMPONENT_RULE
     name: str = "component"
 
-    def prepare(self, recordings: Any, holdout: Any, candidates: Sequence[str] | None) -> Setup:
+    def prepare(
+        self, recordings: Recordings, holdout: Holdout, candidates: Sequence[str] | None
+    ) -> Setup:
         model = resolve_model(self.model)
         cands = list(candidates if candidates is not None else model.candidate_effects)
         return Setup(split(recordings, 0.3 if holdout is None else holdout), model, cands)
@@ -283,14 +285,16 @@ class ComponentFamily:
         chosen = [(k, sig_of.get(family_of(k))) for k in open_candidates if family_of(k) in fams]
         return Screening(sigs, chosen)
 
-    def refit(self, current: FitResult, candidate: str, signature: Any, setup: Setup) -> FitResult:
+    def refit(
+        self, current: FitResult, candidate: str, signature: SignatureLike | None, setup: Setup
+    ) -> FitResult:
         half, vmax = _stroke(setup.split)
         return refit_with(
             current,
             candidate,
             setup.split.fit_recordings,
             setup.split.fit_masks,
-            signature,
+            signature if isinstance(signature, Signature) else None,
             half,
             vmax,
             location=effect_location(setup.model, candidate),

@@ -9,19 +9,19 @@ separate recordings (:func:`split`).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from typing import Any
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
 from suspenv.core.errors import ValidationError
-from suspenv.diagnosis.split import Split, as_recordings
+from suspenv.diagnosis.protocols import RecordingLike
+from suspenv.diagnosis.split import Holdout, Recordings, Split, as_recordings, heldout_recordings
 
 DISPLACEMENT_KEYS = ("x", "displacement", "deflection", "stroke", "position", "q", "travel")
 VELOCITY_KEYS = ("v", "velocity", "speed", "qd", "stroke_velocity")
 
 
-def _find(d: dict[str, Any], keys: Sequence[str]) -> np.ndarray | None:
+def _find(d: Mapping[str, np.ndarray], keys: Sequence[str]) -> np.ndarray | None:
     lowered = {k.lower(): k for k in d}
     for k in keys:
         if k in lowered:
@@ -33,7 +33,7 @@ def _find(d: dict[str, Any], keys: Sequence[str]) -> np.ndarray | None:
     return None
 
 
-def motion(rec: Any) -> tuple[np.ndarray, np.ndarray]:
+def motion(rec: RecordingLike) -> tuple[np.ndarray, np.ndarray]:
     """Deflection ``x`` [m] and velocity ``v`` [m/s] driving the component in ``rec``."""
     t = np.asarray(rec.time, float)
     x = _find(rec.inputs, DISPLACEMENT_KEYS)
@@ -66,7 +66,7 @@ def cycle_index(x: np.ndarray) -> np.ndarray:
     return np.searchsorted(starts, np.arange(xc.size), side="right")
 
 
-def interleaved_cycles(rec: Any, every: int = 4) -> np.ndarray:
+def interleaved_cycles(rec: RecordingLike, every: int = 4) -> np.ndarray:
     """Held-out mask: every ``every``-th motion cycle of ``rec`` (cycles 3, 7, 11, ...
     for ``every=4``), so fit and held-out data span the same amplitudes and speeds and
     each held-out block is a whole cycle (longer than the residual's correlation)."""
@@ -76,12 +76,12 @@ def interleaved_cycles(rec: Any, every: int = 4) -> np.ndarray:
     if cyc.max() + 1 < every:
         raise ValidationError(
             f"interleaved cycle hold-out needs at least {every} motion cycles, but recording "
-            f"{getattr(rec, 'name', '?')!r} has {int(cyc.max()) + 1}"
+            f"{rec.name!r} has {int(cyc.max()) + 1}"
         )
     return (cyc % every) == every - 1
 
 
-def split(recordings: Any, holdout: Any) -> Split:
+def split(recordings: Recordings, holdout: Holdout) -> Split:
     """``holdout``: a fraction in (0, 1) (the last part of each recording is held
     out), ``"cycles"`` / ``"cycles:N"`` (every N-th motion cycle held out, N = 4 by
     default: see :func:`interleaved_cycles`), or one or more recordings not used for
@@ -122,6 +122,6 @@ def split(recordings: Any, holdout: Any) -> Split:
             fit_m.append(m)
             hold_m.append(~m)
         return Split(recs, fit_m, recs, hold_m, f"last {100 * f:.0f} % of each recording")
-    hold = as_recordings(holdout)
-    names = ", ".join(str(getattr(h, "name", "?")) for h in hold)
+    hold = heldout_recordings(holdout)
+    names = ", ".join(str(h.name) for h in hold)
     return Split(recs, None, hold, None, f"separate recording(s): {names}")

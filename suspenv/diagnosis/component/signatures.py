@@ -35,8 +35,8 @@ to the channel unit with ``scale``.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from functools import partial
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 from scipy import stats

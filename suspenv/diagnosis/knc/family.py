@@ -48,16 +48,22 @@ import numpy as np
 
 from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.decision import DecisionRule
-from suspenv.diagnosis.family import Conclusion, Outcome, Screening, Setup
+from suspenv.diagnosis.family import Conclusion, Outcome, Screening, Setup, SignatureLike
 from suspenv.diagnosis.fitting import FitResult, evaluate, fit, noise_scales, residuals
 from suspenv.diagnosis.hypothesis import Ambiguity, Hypothesis, split_candidate
 from suspenv.diagnosis.knc.detectability import detection_limits, limits_sentence
 from suspenv.diagnosis.knc.locate import ResidualMap, residual_map
 from suspenv.diagnosis.knc.model import KncAxleModel, effect_words, make_candidate
 from suspenv.diagnosis.knc.score_test import SCORE_TESTED, score_signatures_by_model
-from suspenv.diagnosis.protocols import DiagnosableModel
 from suspenv.diagnosis.knc.signatures import FAMILY_KINDS, KncSignature, score_signatures
-from suspenv.diagnosis.split import Split, as_recordings
+from suspenv.diagnosis.protocols import DiagnosableModel
+from suspenv.diagnosis.split import (
+    Holdout,
+    Recordings,
+    Split,
+    as_recordings,
+    heldout_recordings,
+)
 from suspenv.measurements.knc import rig_test
 
 #: the reported K&C benchmark's decision rule: the held-out rig test is judged in noise
@@ -76,9 +82,7 @@ FINE_TOL = 1e-7
 def axle_model(model: object) -> KncAxleModel:
     """``model`` as the K&C axle model (the only model this family fits)."""
     if not isinstance(model, KncAxleModel):
-        raise ValidationError(
-            f"the K&C family fits a KncAxleModel, but got {type(model).__name__}"
-        )
+        raise ValidationError(f"the K&C family fits a KncAxleModel, but got {type(model).__name__}")
     return model
 
 
@@ -91,7 +95,7 @@ def current_slow(model: DiagnosableModel) -> bool:
 SCREEN_FAMILY = {k: fam for fam, kinds in FAMILY_KINDS.items() for k in kinds}
 
 
-def split_tests(recordings: Any, holdout: Any) -> Split:
+def split_tests(recordings: Recordings, holdout: Holdout) -> Split:
     """Fit and held-out K&C recordings: ``holdout`` is rig test name(s) among the
     recordings (e.g. ``"single"``) or separate recordings (e.g. another amplitude)."""
     recs = as_recordings(recordings)
@@ -107,7 +111,7 @@ def split_tests(recordings: Any, holdout: Any) -> Split:
                 f"{[rig_test(r) for r in recs]}"
             )
         return Split.separate(fitr, held, f"rig test(s) {', '.join(sorted(names))}")
-    return Split.separate(recs, as_recordings(holdout))
+    return Split.separate(recs, heldout_recordings(holdout))
 
 
 def _start_values(kind: str, sig: KncSignature | None) -> dict[str, float]:
@@ -296,7 +300,9 @@ class KncFamily:
     name: str = "knc"
     _scales: dict[str, float] = field(default_factory=dict, repr=False)
 
-    def prepare(self, recordings: Any, holdout: Any, candidates: Sequence[str] | None) -> Setup:
+    def prepare(
+        self, recordings: Recordings, holdout: Holdout, candidates: Sequence[str] | None
+    ) -> Setup:
         sp = split_tests(recordings, "single" if holdout is None else holdout)
         tests = tuple(dict.fromkeys(rig_test(r) for r in sp.fit_recordings))
         model = self.model or KncAxleModel(tests=tests)
@@ -367,12 +373,14 @@ class KncFamily:
         ]
         return Screening(ordered, chosen)
 
-    def refit(self, current: FitResult, candidate: str, signature: Any, setup: Setup) -> FitResult:
+    def refit(
+        self, current: FitResult, candidate: str, signature: SignatureLike | None, setup: Setup
+    ) -> FitResult:
         return refit_frozen(
             current,
             candidate,
             setup.split.fit_recordings,
-            _start_values(candidate, signature),
+            _start_values(candidate, signature if isinstance(signature, KncSignature) else None),
             self.max_nfev,
         )
 
@@ -406,9 +414,8 @@ class KncFamily:
             baseline={"scales": dict(self._scales), "fit_parameters": list(model.fit_parameters)}
         )
         if not outcome.named:  # say what these tests could not have seen
-            limits = detection_limits(
-                outcome.base, setup.split.fit_recordings, noise=outcome.location.noise
-            )
+            noise = outcome.location.noise if isinstance(outcome.location, ResidualMap) else None
+            limits = detection_limits(outcome.base, setup.split.fit_recordings, noise=noise)
             found.findings["detection_limits"] = limits
             if limits:
                 found.sentences.append(limits_sentence(limits))

@@ -38,7 +38,7 @@ from scipy import stats
 from suspenv.core.errors import EvaluationError, ValidationError
 from suspenv.diagnosis.decision import DecisionRule
 from suspenv.diagnosis.evidence import fit_residual_series
-from suspenv.diagnosis.family import Conclusion, Outcome, Screening, Setup
+from suspenv.diagnosis.family import Conclusion, Outcome, Screening, Setup, SignatureLike
 from suspenv.diagnosis.fitting import FitResult, fit, residuals
 from suspenv.diagnosis.hypothesis import Ambiguity, Hypothesis, candidate_name, split_candidate
 from suspenv.diagnosis.ride.model import (
@@ -49,7 +49,13 @@ from suspenv.diagnosis.ride.model import (
 )
 from suspenv.diagnosis.ride.residual import residual_check
 from suspenv.diagnosis.screening import Location, Share, Signature, effective_n
-from suspenv.diagnosis.split import Split, as_recordings
+from suspenv.diagnosis.split import (
+    Holdout,
+    Recordings,
+    Split,
+    as_recordings,
+    heldout_recordings,
+)
 
 #: the reported ride benchmark's decision rule
 RIDE_RULE = DecisionRule(alpha=0.01, heldout_rule="fraction", min_heldout_gain=0.01)
@@ -210,14 +216,16 @@ class RideFamily:
     rule: DecisionRule = RIDE_RULE
     name: str = "ride"
 
-    def prepare(self, recordings: Any, holdout: Any, candidates: Sequence[str] | None) -> Setup:
+    def prepare(
+        self, recordings: Recordings, holdout: Holdout, candidates: Sequence[str] | None
+    ) -> Setup:
         """``holdout``: the recordings not used for fitting (repeat runs, a random-road run)."""
         recs = as_recordings(recordings)
         if holdout is None:
             fit_recs = [r for r in recs if r.name.endswith("run1")] or recs[:1]
             held = [r for r in recs if r not in fit_recs]
         else:
-            fit_recs, held = recs, as_recordings(holdout)
+            fit_recs, held = recs, heldout_recordings(holdout)
         if not held:
             raise ValidationError(
                 "a ride diagnosis needs held-out recordings (repeat runs or another test), "
@@ -239,7 +247,9 @@ class RideFamily:
         sigs = screen_candidates(current, setup.split.fit_recordings, open_candidates)
         return Screening(sigs, [(s.kind, s) for s in sigs[: self.screen_count]])
 
-    def refit(self, current: FitResult, candidate: str, signature: Any, setup: Setup) -> FitResult:
+    def refit(
+        self, current: FitResult, candidate: str, signature: SignatureLike | None, setup: Setup
+    ) -> FitResult:
         """``current`` with one more element, refitted from its fitted values."""
         kind, loc = split_candidate(candidate)
         eff = ride_effect(kind, loc)

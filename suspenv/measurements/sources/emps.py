@@ -21,6 +21,7 @@ linear regression of the CSV against the .mat record of the same run
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import scipy.io
@@ -65,7 +66,7 @@ def load_emps(path: str | Path, window_s: float = 0.02, name: str | None = None)
     gtau = float(mat_field(data, "gtau", path).ravel()[0]) if "gtau" in data else GTAU_DEFAULT
     inputs = _motion_channels(qm, t, window_s)
     inputs["reference_position"] = qg
-    meta = {
+    meta: dict[str, Any] = {  # Recording.meta: free JSON-like metadata
         "source": SOURCE,
         "file": path.name,
         "sampling": {

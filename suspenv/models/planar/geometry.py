@@ -151,7 +151,7 @@ class PlanarGeometry:
             },
         }
 
-    def with_points_mm(self, values: Mapping[str, float]) -> PlanarGeometry:
+    def with_points_mm(self, values: Mapping[str, float | np.ndarray]) -> PlanarGeometry:
         """A copy with coordinates replaced, keys ``"<point>.y"``/``"<point>.z"`` in mm.
 
         Values may be arrays (a batch); every other field broadcasts against them.

@@ -64,7 +64,7 @@ def overlay(diag: Diagnosis, path: Path, max_seconds: float = 4.0) -> Path:
     idx = idx[t[idx] <= t[idx[0]] + max_seconds]
     before, after = _predictions(diag, rec)
     meas = np.asarray(rec.outputs[diag.channel], float)
-    unit = getattr(rec, "units", {}).get(diag.channel, "")
+    unit = rec.units.get(diag.channel, "")
     fig, (a1, a2) = plt.subplots(2, 1, figsize=(7, 4.5), sharex=True)
     a1.plot(t[idx], meas[idx], "k", lw=1.0, label="measured")
     a1.plot(t[idx], before[idx], "tab:blue", lw=1.0, label="baseline")
@@ -94,7 +94,7 @@ def loops(diag: Diagnosis, path: Path) -> Path:
     x, v = motion(rec)
     before, after = _predictions(diag, rec)
     meas = np.asarray(rec.outputs[diag.channel], float)
-    unit = getattr(rec, "units", {}).get(diag.channel, "")
+    unit = rec.units.get(diag.channel, "")
     fig, axes = plt.subplots(1, 3, figsize=(11, 3.6))
     for ax, (u, label) in zip(
         axes[:2], ((1e3 * x, "displacement [mm]"), (v, "velocity [m/s]")), strict=True
@@ -167,7 +167,7 @@ def markdown(diag: Diagnosis, figures: dict[str, str]) -> str:
     for h in diag.named:
         L += [f"### {h.words}", "", h.signature_evidence + ".", ""]
         L += _param_table(h.params) + [""]
-    asym = getattr(diag, "asymmetry", None)
+    asym = diag.asymmetry
     if asym is not None:
         L += [
             "## Bump/rebound asymmetry",
@@ -185,7 +185,7 @@ def markdown(diag: Diagnosis, figures: dict[str, str]) -> str:
             ]
         L += ["Asymmetric curve fitted against the symmetric one plus a constant force:", ""]
         L += _param_table(asym.params) + [""]
-        m = getattr(asym, "matched_speed", None)
+        m = asym.matched_speed
         if m is not None:
             L += [
                 "Force at the velocity peak of each half-cycle, bump and rebound at matched "

@@ -236,7 +236,7 @@ def write_knc_report(diag: Any, out_dir: str | Path) -> list[Path]:
             f"Scaled held-out error reduction: {100 * c.heldout_reduction:.1f} %.",
             "",
         ]
-    limits = getattr(diag, "detection_limits", {}) or {}
+    limits = diag.detection_limits
     if limits:
         lines += [
             "## What these tests could not have seen",

@@ -164,7 +164,7 @@ def write_ride_diagnosis_report(diag: Diagnosis, out_dir: str | Path) -> list[Pa
             f"| {h.words} | {h.significant} | {h.p_value_corrected:.2g} | "
             f"{h.delta_bic_corrected:.1f} | {100 * h.heldout_reduction:.1f} % |"
         )
-    res = getattr(diag, "residual", None)
+    res = diag.residual
     if res is not None:
         lines += [
             "",

@@ -1,4 +1,4 @@
-"""Report of a road-profile diagnosis against ISO 8608 (:mod:`suspenv.diagnosis.ride.road`).
+"""Report of a road-profile diagnosis against ISO 8608 (:mod:`suspenv.diagnosis.road`).
 
 ``road_psd.png``: the measured profile's Welch PSD with the free and the standard
 (w = 2) fits and the ISO 8608 class lines, and the measured/model ratio per octave band;
@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from suspenv.diagnosis.ride.road import RoadDiagnosis
+from suspenv.diagnosis.road import RoadDiagnosis
 from suspenv.reports._mpl import pyplot
 from suspenv.rigs.road import N0, ROAD_CLASS_GD0
 
