@@ -129,7 +129,7 @@ def _param_table(params: dict[str, dict[str, float]]) -> list[str]:
 
 def markdown(diag: Diagnosis, figures: dict[str, str]) -> str:
     """The report text (figures referenced by relative file name)."""
-    L = [f"# Diagnosis: {diag.recording} ({diag.family})", ""]
+    L = [f"# Diagnosis: {diag.recording} ({diag.model})", ""]
     L += [f"**Verdict: {diag.verdict}.**", ""]
     for amb in diag.ambiguities:
         L += [f"> **Ambiguity:** {amb.sentence()}.", ""]
