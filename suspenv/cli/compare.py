@@ -5,8 +5,6 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from suspenv.runs.compare import compare_runs
-
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("compare", help="compare runs (strategies x seeds): table and plot")
@@ -16,6 +14,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _compare(args: argparse.Namespace) -> int:
+    from suspenv.runs.compare import compare_runs
+
     result = compare_runs(args.runs, args.out)
     print(f"problem: {result['problem']}   quality: {result['quality_name']} (lower is better)")
     hdr = f"{'strategy':<10} {'runs':>4} {'evals':>6} {'median':>12} {'min':>12} {'max':>12}"

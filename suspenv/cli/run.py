@@ -4,9 +4,6 @@ from __future__ import annotations
 
 import argparse
 
-from suspenv.runs.config import load_config
-from suspenv.runs.runner import run_experiment
-
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
@@ -49,6 +46,9 @@ def _run(args: argparse.Namespace) -> int:
         overrides.append("run.plots=false")
     if args.quiet:
         overrides.append("run.progress=false")
+    from suspenv.runs.config import load_config
+    from suspenv.runs.runner import run_experiment
+
     config = load_config(args.config, overrides)
     run_dir, summary = run_experiment(config, overwrite=args.overwrite)
     from suspenv.cli.show import format_summary

@@ -5,8 +5,6 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from suspenv.runs.compare import load_summary
-
 
 def format_summary(s: dict[str, Any]) -> str:
     """The summary table of an optimisation run; other pipelines show their scalar items."""
@@ -50,5 +48,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _show(args: argparse.Namespace) -> int:
+    from suspenv.runs.compare import load_summary
+
     print(format_summary(load_summary(args.run)))
     return 0
