@@ -323,3 +323,19 @@ def test_registry_entry_points_exist(table: str, entry: str) -> None:
     assert path is not None, f"{table}: {entry}: no module {module}"
     defined = _defined_names(path)
     assert defined is None or attr in defined, f"{table}: {entry}: {module} has no {attr}"
+
+
+def test_readme_layout_lists_every_package():
+    # the README's layout section is the map a newcomer reads: every package of the tree
+    # and nothing that is not there
+    text = (ROOT / "README.md").read_text()
+    block = text.split("## Layout", 1)[1].split("```", 2)[1]
+    listed = {
+        line.split()[0].removeprefix("suspenv/")
+        for line in block.splitlines()
+        if line.startswith("suspenv/")
+    }
+    packages = {p.name for p in PACKAGE.iterdir() if (p / "__init__.py").is_file()}
+    assert {name for name in listed if not name.endswith(".py")} == packages
+    for name in listed:
+        assert (PACKAGE / name).exists(), f"README layout lists suspenv/{name}, which is absent"
