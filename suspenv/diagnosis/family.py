@@ -153,6 +153,26 @@ class DiagnosisFamily(Protocol):
     def conclude(self, outcome: Outcome, setup: Setup) -> Conclusion: ...
 
 
+class OptionalSteps:
+    """Defaults of a family's optional steps (a family class may inherit them): no settle,
+    no ambiguities beyond the loop's family-pair rule, no checks after the search."""
+
+    def settle(self, winner: FitResult, setup: Setup) -> FitResult | None:
+        return None
+
+    def ambiguities(
+        self,
+        winner: Hypothesis,
+        ranked: Sequence[Hypothesis],
+        parent: FitResult,
+        setup: Setup,
+    ) -> list[Ambiguity]:
+        return []
+
+    def conclude(self, outcome: Outcome, setup: Setup) -> Conclusion:
+        return Conclusion()
+
+
 def recording_names(recordings: Sequence[RecordingLike]) -> str:
     """Comma-separated recording names."""
     return ", ".join(str(r.name) for r in recordings)

@@ -43,7 +43,14 @@ from suspenv.diagnosis.decision import (
     DecisionRule,
     separating_test,
 )
-from suspenv.diagnosis.family import Conclusion, Outcome, Screening, Setup, SignatureLike
+from suspenv.diagnosis.family import (
+    Conclusion,
+    OptionalSteps,
+    Outcome,
+    Screening,
+    Setup,
+    SignatureLike,
+)
 from suspenv.diagnosis.fitting import FitResult, fit, residuals
 from suspenv.diagnosis.hypothesis import Ambiguity, Hypothesis, family_of
 from suspenv.diagnosis.protocols import DiagnosableModel
@@ -231,7 +238,7 @@ def _structural_ambiguity(
 
 
 @dataclass
-class ComponentFamily:
+class ComponentFamily(OptionalSteps):
     """The component family's steps of the diagnosis loop (see the module docstring).
 
     Args:
@@ -304,9 +311,6 @@ class ComponentFamily:
     def words(self, candidate: str, setup: Setup) -> str:
         """Engineering words, e.g. "Coulomb friction in the guide"."""
         return make_effect(candidate, location=effect_location(setup.model, candidate)).words
-
-    def settle(self, winner: FitResult, setup: Setup) -> FitResult | None:
-        return None
 
     def ambiguities(
         self,

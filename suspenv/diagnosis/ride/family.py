@@ -38,9 +38,16 @@ from scipy import stats
 from suspenv.core.errors import EvaluationError, ValidationError
 from suspenv.diagnosis.decision import DecisionRule
 from suspenv.diagnosis.evidence import fit_residual_series
-from suspenv.diagnosis.family import Conclusion, Outcome, Screening, Setup, SignatureLike
+from suspenv.diagnosis.family import (
+    Conclusion,
+    OptionalSteps,
+    Outcome,
+    Screening,
+    Setup,
+    SignatureLike,
+)
 from suspenv.diagnosis.fitting import FitResult, fit, residuals
-from suspenv.diagnosis.hypothesis import Ambiguity, Hypothesis, candidate_name, split_candidate
+from suspenv.diagnosis.hypothesis import candidate_name, split_candidate
 from suspenv.diagnosis.ride.model import (
     RIDE_CANDIDATES,
     MinibusRideAdapter,
@@ -198,7 +205,7 @@ RIDE_CANDIDATE_NAMES = tuple(candidate_name(kind, loc) for kind, loc in RIDE_CAN
 
 
 @dataclass
-class RideFamily:
+class RideFamily(OptionalSteps):
     """The ride family's steps of the diagnosis loop (see the module docstring).
 
     Args:
@@ -261,18 +268,6 @@ class RideFamily:
 
     def words(self, candidate: str, setup: Setup) -> str:
         return effect_words(ride_effect(*split_candidate(candidate)))
-
-    def settle(self, winner: FitResult, setup: Setup) -> FitResult | None:
-        return None
-
-    def ambiguities(
-        self,
-        winner: Hypothesis,
-        ranked: Sequence[Hypothesis],
-        parent: FitResult,
-        setup: Setup,
-    ) -> list[Ambiguity]:
-        return []
 
     def conclude(self, outcome: Outcome, setup: Setup) -> Conclusion:
         """The residual left against the sensor-noise floor and its whiteness: a named
