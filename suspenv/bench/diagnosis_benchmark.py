@@ -203,7 +203,7 @@ def real_row(name: str, diag: Diagnosis, expect: dict[str, Any]) -> dict[str, An
     found = {f: f in diag.named_families for f in expect.get("families", [])}
     return {
         "case": f"real:{name}",
-        "family": diag.family,
+        "family": diag.model,
         "verdict": diag.verdict,
         "named": "+".join(diag.named_kinds) or "none",
         "expected": expect["named"],
