@@ -1,0 +1,122 @@
+"""The README's benchmark figures are the rendering of docs/benchmarks/*.json."""
+
+from __future__ import annotations
+
+import ast
+import json
+from pathlib import Path
+
+import pytest
+
+from suspenv.bench import readme
+
+#: what the renderer may import: the standard library's light modules, nothing of suspenv
+ALLOWED_IMPORTS = {
+    "__future__",
+    "argparse",
+    "collections.abc",
+    "difflib",
+    "json",
+    "math",
+    "pathlib",
+    "sys",
+    "typing",
+}
+
+
+def test_readme_blocks_are_the_rendering_of_the_committed_json() -> None:
+    text = readme.README.read_text()
+    stale = readme.stale_blocks(text, readme.render(readme.load()))
+    assert not stale, (
+        "README.md's benchmark figures differ from docs/benchmarks/*.json; run "
+        "`python -m suspenv.bench.readme` (edit suspenv/bench/readme.py for wording):\n"
+        + "\n".join(stale.values())
+    )
+
+
+def test_knc_speed_cells_format_a_hand_made_summary() -> None:
+    summary = {
+        "ms_per_candidate_batched": 6.647676571428571,
+        "batching_gain": 10.124567550303757,
+        "target_ms": 10.0,
+        "meets_stretch": False,
+        "speedup_vs_paper_20s": 3008.56995449495,
+    }
+    assert readme.knc_speed_cells(summary) == (
+        "6.6 ms CPU per candidate (about 3000x the paper's 20 s); 10x batching gain",
+        "<= 10 ms (stretch 2 ms: not met)",
+    )
+    faster = summary | {"ms_per_candidate_batched": 1.94, "meets_stretch": True}
+    faster["speedup_vs_paper_20s"] = 20_000 / 1.94
+    assert readme.knc_speed_cells(faster) == (
+        "1.9 ms CPU per candidate (about 10000x the paper's 20 s); 10x batching gain",
+        "<= 10 ms (stretch 2 ms: met)",
+    )
+
+
+@pytest.mark.parametrize(
+    ("value", "text"), [(1.199, "1.2"), (9.94, "9.9"), (9.96, "10"), (15.98, "16"), (178.9, "179")]
+)
+def test_seconds_keep_two_figures_below_ten_and_whole_seconds_above(
+    value: float, text: str
+) -> None:
+    assert readme.seconds(value) == text
+
+
+def test_percent_count_and_order_formats() -> None:
+    assert readme.percent(-0.886277296833812) == "-89 %"
+    assert readme.percent(0.019089179714137587, 1) == "1.9 %"
+    assert readme.percent(0.0073459221049534396, 1, sign=True) == "+0.7 %"
+    assert readme.count(1.0 * 24, 24) == "24 / 24"
+    assert readme.count_text("0/20") == "0 / 20"
+    assert readme.order_of(6.071853897602088e-10) == "1e-9"
+    assert readme.span(34.7, 62.2) == "35-62"
+
+
+def test_write_block_replaces_only_between_the_markers(tmp_path: Path) -> None:
+    begin, end = readme.markers("performance")
+    text = f"intro\n\n{begin}\n| old |\n{end}\n\nafter\n"
+    new = readme.write_block(text, "performance", "| new |")
+    assert new == f"intro\n\n{begin}\n| new |\n{end}\n\nafter\n"
+    assert readme.read_block(new, "performance") == "| new |"
+    with pytest.raises(readme.FigureError):
+        readme.read_block("no markers", "performance")
+
+
+def test_check_exits_1_on_a_stale_readme_and_0_after_the_rewrite(tmp_path: Path) -> None:
+    stale = readme.README.read_text().replace("| what | command | result | target |", "| x |")
+    path = tmp_path / "README.md"
+    path.write_text(stale)
+    argv = ["--readme", str(path), "--bench-dir", str(readme.BENCH_DIR)]
+    assert readme.main([*argv, "--check"]) == 1
+    assert path.read_text() == stale
+    assert readme.main(argv) == 0
+    assert readme.main([*argv, "--check"]) == 0
+
+
+def test_a_benchmark_rerun_that_changes_a_number_makes_the_readme_stale(tmp_path: Path) -> None:
+    for name in (n for names in readme.SOURCES.values() for n in names):
+        (tmp_path / f"{name}.json").write_text((readme.BENCH_DIR / f"{name}.json").read_text())
+    rerun = json.loads((tmp_path / "knc_speed.json").read_text())
+    rerun["summary"]["ms_per_candidate_batched"] = 7.04
+    (tmp_path / "knc_speed.json").write_text(json.dumps(rerun))
+    argv = ["--readme", str(readme.README), "--bench-dir", str(tmp_path), "--check"]
+    assert readme.main(argv) == 1
+    table = readme.render(readme.load(tmp_path))["performance"]
+    assert "| 7.0 ms CPU per candidate (about 3000x" in table
+
+
+def test_wording_that_the_json_contradicts_stops_the_rendering() -> None:
+    data = dict(readme.load())
+    bench = dict(data["diagnosis_benchmark"])
+    bench["per_family"] = {"damper": {}}
+    data["diagnosis_benchmark"] = bench
+    with pytest.raises(readme.FigureError, match="families"):
+        readme.render(data)
+
+
+def test_the_renderer_imports_only_light_standard_modules() -> None:
+    tree = ast.parse(Path(readme.__file__).read_text())
+    imported = {a.name for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names}
+    imported |= {n.module or "" for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)}
+    assert imported <= ALLOWED_IMPORTS, imported - ALLOWED_IMPORTS
