@@ -203,3 +203,13 @@ def test_quarter_car_hysteresis_named_blind() -> None:
     got = diag.named[0].params
     assert got["dahl_hysteresis.f_c"]["value"] == pytest.approx(true["f_c"], rel=0.1)
     assert diag.comparison.heldout_reduction > 0.5
+
+
+def test_family_errors_name_the_rule_and_value_before_any_work():
+    from suspenv.core.errors import ValidationError
+
+    with pytest.raises(ValidationError, match=r"no option\(s\) \['bogus'\].*max_effects"):
+        make_family("damper", bogus=1)
+    with pytest.raises(ValidationError, match="unknown component family 'nonsense'"):
+        make_family("nonsense")
+    assert make_family("ride", screen_count=1).screen_count == 1

@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import Any
 
 import numpy as np
@@ -351,20 +351,25 @@ def make_family(name: str, **options: Any) -> DiagnosisFamily:
     name such as ``"damper"`` (:class:`~suspenv.diagnosis.component.family.ComponentFamily`;
     see :func:`suspenv.models.components.make_component`). Only that family's modules
     are imported."""
-    family: DiagnosisFamily
-    try:
-        if name == "knc":
-            from suspenv.diagnosis.knc.family import KncFamily
+    maker: type
+    if name == "knc":
+        from suspenv.diagnosis.knc.family import KncFamily
 
-            family = KncFamily(**options)
-        elif name == "ride":
-            from suspenv.diagnosis.ride.family import RideFamily
+        maker = KncFamily
+    elif name == "ride":
+        from suspenv.diagnosis.ride.family import RideFamily
 
-            family = RideFamily(**options)
-        else:
-            from suspenv.diagnosis.component.family import ComponentFamily
+        maker = RideFamily
+    else:
+        from suspenv.diagnosis.component.family import ComponentFamily
 
-            family = ComponentFamily(model=name, **options)
-    except TypeError as exc:  # an option the family does not have
-        raise ValidationError(f"diagnosis family {name!r}: {exc}") from None
+        maker = ComponentFamily
+        options = {"model": name, **options}
+    allowed = [f.name for f in fields(maker) if f.init]
+    unknown = sorted(set(options) - set(allowed))
+    if unknown:
+        raise ValidationError(
+            f"diagnosis family {name!r} has no option(s) {unknown}; its options are {allowed}"
+        )
+    family: DiagnosisFamily = maker(**options)
     return family

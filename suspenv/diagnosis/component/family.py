@@ -28,7 +28,7 @@ Units: SI; residuals divided by each channel's measured spread.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -259,7 +259,11 @@ class ComponentFamily(OptionalSteps):
     max_nfev: int = 200
     check_asymmetry: bool = True
     rule: DecisionRule = COMPONENT_RULE
-    name: str = "component"
+    name: str = field(default="component", init=False)
+
+    def __post_init__(self) -> None:
+        # an unknown model family is an error before any work starts
+        self.model = resolve_model(self.model)
 
     def prepare(
         self, recordings: Recordings, holdout: Holdout, candidates: Sequence[str] | None

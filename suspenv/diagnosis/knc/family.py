@@ -297,8 +297,10 @@ class KncFamily:
     max_nfev: int = 40
     polish_nfev: int | None = None
     rule: DecisionRule = KNC_RULE
-    name: str = "knc"
-    _scales: dict[str, float] = field(default_factory=dict, repr=False)
+    name: str = field(default="knc", init=False)
+    #: the baseline fit's channel scales (noise levels), fixed for the run (set by
+    #: :meth:`fit_baseline`; the screen's noise estimate reads them in every round)
+    _scales: dict[str, float] = field(default_factory=dict, repr=False, init=False)
 
     def prepare(
         self, recordings: Recordings, holdout: Holdout, candidates: Sequence[str] | None

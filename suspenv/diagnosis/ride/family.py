@@ -29,7 +29,7 @@ is finite; a real vehicle is not).
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -221,7 +221,7 @@ class RideFamily(OptionalSteps):
     max_effects: int = 1
     max_nfev: int = 30
     rule: DecisionRule = RIDE_RULE
-    name: str = "ride"
+    name: str = field(default="ride", init=False)
 
     def prepare(
         self, recordings: Recordings, holdout: Holdout, candidates: Sequence[str] | None
