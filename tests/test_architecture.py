@@ -83,8 +83,8 @@ ALLOWED: dict[str, frozenset[str]] = {
     "reports": LIBRARY,
     "bench": LIBRARY | {"reports"},
     "cli": LIBRARY | {"reports", "bench", "suspenv"},
-    # ``import suspenv``: the BLAS thread limit and the public names
-    "suspenv": frozenset({"core", "registry", "threads"}),
+    # ``import suspenv``: the BLAS thread limit, the public names, the env registration
+    "suspenv": frozenset({"core", "registry", "threads", "envs"}),
 }
 
 

@@ -385,3 +385,18 @@ def test_problems_registered_later_become_envs(monkeypatch):
         assert "suspenv/PaintedLate-v0" in gym.registry
     finally:
         gym.registry.pop("suspenv/PaintedLate-v0", None)
+
+
+def test_import_suspenv_registers_the_envs():
+    # a fresh interpreter: `import suspenv` alone must make gym.make find the envs
+    import subprocess
+    import sys
+
+    code = (
+        "import gymnasium as gym, suspenv\n"
+        "env = gym.make('suspenv/Sphere-v0')\n"
+        "print(type(env.unwrapped).__name__)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "ProblemEnv"

@@ -74,6 +74,12 @@ def test_same_seed_same_numbers_and_csv(tmp_path):
     header = csv.read_text().splitlines()[0].split(",")
     assert header[:4] == ["batch", "row", "x0", "x1"] and "f2" in header
     assert len(csv.read_text().splitlines()) == 61
+    # the CSV reads back as numbers equal to the archive's (reference: the SQLite archive)
+    table = np.genfromtxt(csv, delimiter=",", names=True, dtype=float)
+    np.testing.assert_array_equal(np.column_stack([table["f1"], table["f2"]]), outs[1])
+    with RunArchive(tmp_path / "1") as a:
+        x = a.arrays()["x"]
+    np.testing.assert_array_equal(np.column_stack([table[f"x{j}"] for j in range(4)]), x)
 
 
 @pytest.mark.parametrize("kind", ["thread", "process"])

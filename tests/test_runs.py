@@ -112,3 +112,21 @@ def test_compare_strategies_over_seeds(tmp_path):
     assert rows["cmaes"]["best_max"] < rows["random"]["best_min"]
     assert (tmp_path / "cmp" / "compare.png").is_file()
     assert np.isfinite(rows["cmaes"]["best_median"])
+
+
+def test_versions_record_the_source_commit():
+    # reference: git itself, asked about the checkout the package runs from
+    import shutil
+    import subprocess
+    from pathlib import Path
+
+    from suspenv.runs.versions import package_versions
+
+    root = Path(__file__).resolve().parents[1]
+    if shutil.which("git") is None or not (root / ".git").exists():
+        pytest.skip("not a git checkout")
+    head = subprocess.run(
+        ["git", "-C", str(root), "rev-parse", "HEAD"], capture_output=True, text=True
+    ).stdout.strip()
+    commit = package_versions()["suspenv_commit"]
+    assert commit.removesuffix("+modified") == head

@@ -25,7 +25,7 @@ def _list(args: argparse.Namespace) -> int:
         print(f"  {name:<22} [suspenv/{name}-v0]  {_describe(registry.problem_class, name)}")
     from suspenv.envs import list_envs
 
-    print(f"gymnasium envs (after `import suspenv.envs`): {', '.join(list_envs())}")
+    print(f"gymnasium envs (after `import suspenv`): {', '.join(list_envs())}")
     print("strategies:")
     for name in registry.list_strategies():
         print(f"  {name:<22} {_describe(registry.strategy_class, name)}")

@@ -1,9 +1,10 @@
 """The Gymnasium face: every registered problem as env ``suspenv/<Name>-v0``.
 
-Importing this package registers the envs (lazily: no problem module is imported)::
+Importing suspenv (or this package) registers the envs (lazily: no problem module is
+imported)::
 
     import gymnasium as gym
-    import suspenv.envs  # registers suspenv/<Name>-v0 for every problem
+    import suspenv  # registers suspenv/<Name>-v0 for every problem
 
     env = gym.make("suspenv/CarSideImpact-v0", budget=50)
     vec = gym.make_vec("suspenv/CarSideImpact-v0", num_envs=16)  # one batch call per step

@@ -32,7 +32,7 @@ class ProblemEnv(gym.Env[np.ndarray, np.ndarray]):
     """A suspenv problem as a black-box optimisation episode (``suspenv/<Name>-v0``).
 
     Every registered problem is an env: ``gymnasium.make("suspenv/CarSideImpact-v0")``
-    after ``import suspenv.envs``. Each step evaluates one design; an episode is one
+    after ``import suspenv``. Each step evaluates one design; an episode is one
     optimisation run of ``budget`` evaluations. There is no hidden state: the next
     observation depends only on the action, so the env suits black-box optimisers and
     bandit-style agents alike.

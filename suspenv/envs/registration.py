@@ -1,7 +1,7 @@
 """Register every suspenv problem with Gymnasium as ``suspenv/<Name>-v0``, lazily.
 
 Registration stores only entry-point strings and ``kwargs={"problem": name}``: no problem
-module is imported until an env is made. It runs on ``import suspenv.envs`` (Gymnasium
+module is imported until an env is made. It runs on ``import suspenv`` (Gymnasium
 1.x has no plugin entry points, so an import is the trigger) and again inside
 :func:`make_env`, which also picks up problems registered later with
 :func:`suspenv.registry.register_problem`. Without importing first, the id can carry

@@ -173,7 +173,11 @@ class RunArchive:
         }
 
     def to_csv(self, path: str | Path) -> Path:
-        """Write every evaluation as CSV with named columns; returns the path."""
+        """Write every evaluation as CSV with named columns; returns the path.
+
+        Numbers are plain decimal text that reads back to the archive's float64 values
+        exactly (Python's shortest round-trip form; ``nan``/``inf`` as such), so
+        ``pandas.read_csv`` or ``numpy.genfromtxt`` get numeric columns."""
         a = self.arrays()
         meta = self.meta()
         pnames = meta.get("parameter_names") or [f"x{i}" for i in range(a["x"].shape[1])]
@@ -188,9 +192,9 @@ class RunArchive:
                     [
                         a["batch"][i],
                         a["row"][i],
-                        *map(repr, a["x"][i]),
-                        *map(repr, a["objectives"][i]),
-                        *map(repr, a["constraints"][i]),
+                        *map(_number, a["x"][i]),
+                        *map(_number, a["objectives"][i]),
+                        *map(_number, a["constraints"][i]),
                         int(a["ok"][i]),
                         a["message"][i],
                         f"{a['wall_time'][i]:.6g}",
@@ -216,3 +220,8 @@ def _json_default(o: Any) -> Any:
     if isinstance(o, Path):
         return str(o)
     raise TypeError(f"not JSON serialisable: {type(o).__name__}")
+
+
+def _number(v: float) -> str:
+    """``v`` as decimal text that parses back to the same float64 (shortest round-trip)."""
+    return repr(float(v))
