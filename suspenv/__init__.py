@@ -12,12 +12,11 @@ from suspenv.threads import limit_blas_threads
 
 limit_blas_threads()
 
-from suspenv.core import DesignSpace  # noqa: E402, EvaluationBatch, Parameter, Problem
-from suspenv.registry import list_problems, make_problem  # noqa: E402
-
 # every registered problem is a Gymnasium env ``suspenv/<Name>-v0`` as soon as suspenv is
 # imported (registration is lazy: no problem module is imported here)
 from suspenv import envs as _envs  # noqa: E402, F401
+from suspenv.core import DesignSpace  # noqa: E402, EvaluationBatch, Parameter, Problem
+from suspenv.registry import list_problems, make_problem  # noqa: E402
 
 __version__ = "0.1.0"
 __all__ = [
