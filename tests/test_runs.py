@@ -130,3 +130,32 @@ def test_versions_record_the_source_commit():
     ).stdout.strip()
     commit = package_versions()["suspenv_commit"]
     assert commit.removesuffix("+modified") == head
+
+
+def test_a_config_does_not_run_code_unless_the_user_says_so(tmp_path):
+    from suspenv.core.errors import ValidationError
+    from suspenv.runs.config import load_config
+
+    cfg = tmp_path / "evil.toml"
+    cfg.write_text(
+        'pipeline = "tey2014"\nbudget = 10\n[problem]\nname = "os:system"\n'
+        'options = {}\n[strategy]\nname = "cmaes"\n'
+    )
+    with pytest.raises(ValidationError, match=r"names code to import.*--allow-code"):
+        load_config(cfg)
+    with pytest.raises(ValidationError, match="cannot be set by a config"):
+        load_config(cfg, ["run.allow_code=true"])
+    assert load_config(cfg, allow_code=True)["problem"]["name"] == "os:system"
+    # nothing was imported or run, and no run directory was made
+    assert not (tmp_path / "runs").exists()
+
+
+@pytest.mark.parametrize("name", ["../escape", "/abs/path", ".hidden", "a/b", "", "x" * 200])
+def test_run_names_stay_inside_the_output_folder(tmp_path, name):
+    from suspenv.core.errors import ValidationError
+    from suspenv.runs.config import load_config
+
+    cfg = tmp_path / "c.toml"
+    cfg.write_text('budget = 4\n[problem]\nname = "Sphere"\n[strategy]\nname = "random"\n')
+    with pytest.raises(ValidationError, match="plain file name"):
+        load_config(cfg, [f"name={name!r}".replace("'", '"')])

@@ -21,6 +21,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         metavar="KEY=VALUE",
         help="override a config value, e.g. --set strategy.options.popsize=42",
     )
+    p.add_argument(
+        "--allow-code",
+        action="store_true",
+        help="allow `module:attribute` problem or strategy names in the config (imports and "
+        "runs that code; a config cannot allow it itself)",
+    )
     p.add_argument("--workers", type=int, help="evaluate in a process pool of N workers")
     p.add_argument("--dask", metavar="ADDRESS", help="evaluate on a Dask cluster (scheduler)")
     p.add_argument("--output", help="parent folder of run directories (default: runs)")
@@ -49,7 +55,7 @@ def _run(args: argparse.Namespace) -> int:
     from suspenv.runs.config import load_config
     from suspenv.runs.runner import run_experiment
 
-    config = load_config(args.config, overrides)
+    config = load_config(args.config, overrides, allow_code=args.allow_code)
     run_dir, summary = run_experiment(config, overwrite=args.overwrite)
     from suspenv.cli.show import format_summary
 

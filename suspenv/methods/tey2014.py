@@ -266,13 +266,14 @@ def study_options(config: dict[str, Any]) -> dict[str, Any]:
 
 
 def build_problem(config: dict[str, Any]) -> Problem:
-    """The config's problem: a registered name, or ``"module:Class"``."""
+    """The config's problem: a registered name, or ``"module:Class"`` where the user
+    allowed a config to run code (``suspenv run --allow-code``)."""
     section = config.get("problem", {}) or {}
     name = section.get("name")
     if not isinstance(name, str) or not name:
         raise ValidationError(f"config: `problem.name` must be a string, but got {name!r}")
     options = section.get("options", {}) or {}
-    if ":" in name:
+    if ":" in name:  # allowed by the user when the config was loaded (runs.config)
         module, _, attr = name.partition(":")
         return getattr(importlib.import_module(module), attr)(**options)
     from suspenv.registry import make_problem

@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import copy
 import difflib
+import re
 import tomllib
 from pathlib import Path
 from typing import Any
@@ -102,9 +103,44 @@ def _check_unknown(keys: set[str], known: set[str], where: str) -> None:
         raise ValidationError(f"config: unknown key {where}{k!r}{hint}")
 
 
-def validate(config: dict[str, Any]) -> dict[str, Any]:
-    """Fill defaults and check types; errors name the key, the rule and the value."""
+#: a run name: a plain file name (no path separators, not hidden), so the run directory
+#: stays inside the output folder
+RUN_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.\-]{0,127}")
+
+
+def check_code_names(cfg: dict[str, Any], allow_code: bool) -> None:
+    """A ``module:attribute`` problem or strategy name imports and runs that code; it is
+    refused unless the user allowed it (``suspenv run --allow-code``), never by the config
+    itself. Registered names (``suspenv list``) are always fine."""
+    for table in ("problem", "strategy"):
+        name = (cfg.get(table) or {}).get("name")
+        if isinstance(name, str) and ":" in name and not allow_code:
+            raise ValidationError(
+                f"config: `{table}.name = {name!r}` names code to import (module:attribute); "
+                "a config runs code only when the user says so: pass --allow-code to "
+                "`suspenv run`, or register it with suspenv.registry.register_problem / "
+                "register_strategy"
+            )
+
+
+def validate(config: dict[str, Any], allow_code: bool = False) -> dict[str, Any]:
+    """Fill defaults and check types; errors name the key, the rule and the value.
+
+    ``allow_code``: the user allows ``module:attribute`` problem and strategy names (see
+    :func:`check_code_names`); a config cannot allow it itself."""
+    if "allow_code" in (config.get("run") or {}):
+        raise ValidationError(
+            "config: `run.allow_code` cannot be set by a config (a config does not decide "
+            "to run code); pass --allow-code to `suspenv run`"
+        )
     cfg = _merge(DEFAULTS, config)
+    name = cfg.get("name")
+    if not isinstance(name, str) or not RUN_NAME.fullmatch(name):
+        raise ValidationError(
+            "config: `name` must be a plain file name (letters, digits, '_', '-', '.', not "
+            f"starting with '.' or '-', at most 128 characters), but got {name!r}"
+        )
+    check_code_names(cfg, allow_code)
     if cfg["pipeline"] == "optimize":
         _check_unknown(set(cfg), KNOWN_TOP, "")
         _check_unknown(set(cfg["run"]), KNOWN_RUN, "run.")
@@ -131,8 +167,11 @@ def validate(config: dict[str, Any]) -> dict[str, Any]:
     return cfg
 
 
-def load_config(path: str | Path, overrides: list[str] | None = None) -> dict[str, Any]:
-    """Read a TOML config, apply ``key=value`` overrides, fill defaults, validate."""
+def load_config(
+    path: str | Path, overrides: list[str] | None = None, allow_code: bool = False
+) -> dict[str, Any]:
+    """Read a TOML config, apply ``key=value`` overrides, fill defaults, validate
+    (``allow_code``: see :func:`validate`)."""
     path = Path(path)
     if not path.is_file():
         raise ValidationError(f"config file {str(path)!r} does not exist")
@@ -142,6 +181,6 @@ def load_config(path: str | Path, overrides: list[str] | None = None) -> dict[st
         raise ValidationError(f"config {str(path)!r} is not valid TOML: {exc}") from None
     raw.setdefault("name", path.stem)
     raw = apply_overrides(raw, overrides or [])
-    cfg = validate(raw)
+    cfg = validate(raw, allow_code)
     cfg["config_path"] = str(path)
     return cfg
