@@ -213,3 +213,15 @@ def test_family_errors_name_the_rule_and_value_before_any_work():
     with pytest.raises(ValidationError, match="unknown component family 'nonsense'"):
         make_family("nonsense")
     assert make_family("ride", screen_count=1).screen_count == 1
+
+
+def test_report_prints_recording_names_as_text_not_markup(tmp_path):
+    from suspenv.reports.diagnosis import write_diagnosis_report
+
+    case = make_case("damper", 1000, 0)
+    case.recording.name = "<script>alert(1)</script> ![x](http://example.invalid/i.png)"
+    diag = diagnose(case.recording, make_family("damper", max_effects=1, screen_families=1))
+    write_diagnosis_report(diag, tmp_path)
+    report = (tmp_path / "report.md").read_text()
+    assert "<script" not in report and "![x]" not in report
+    assert "&#60;script&#62;" in report  # the name is still there, as text

@@ -18,6 +18,17 @@ def fmt(v: Any, digits: int = 4, missing: str = "n/a") -> str:
     return str(v)
 
 
+#: characters that Markdown or HTML would read as markup in text taken from data files
+_MARKUP = {c: f"&#{ord(c)};" for c in "&<>[]`*|\\"}
+
+
+def text(value: object) -> str:
+    """Text from a data file (a recording name, a file name, a path) as literal Markdown:
+    HTML and Markdown markup characters become character references, so a name cannot
+    inject tags, images or links into a report."""
+    return "".join(_MARKUP.get(c, c) for c in str(value))
+
+
 def markdown_table(
     rows: Sequence[Mapping[str, Any]],
     columns: Sequence[str] | None = None,

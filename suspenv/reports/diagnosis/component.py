@@ -20,6 +20,7 @@ from suspenv.diagnosis.engine import Diagnosis
 from suspenv.reports._mpl import pyplot
 from suspenv.reports.jsonable import to_jsonable
 from suspenv.reports.markdown import fmt as _fmt
+from suspenv.reports.markdown import text
 
 
 def residual_map(diag: Diagnosis, path: Path) -> Path:
@@ -129,7 +130,7 @@ def _param_table(params: dict[str, dict[str, float]]) -> list[str]:
 
 def markdown(diag: Diagnosis, figures: dict[str, str]) -> str:
     """The report text (figures referenced by relative file name)."""
-    L = [f"# Diagnosis: {diag.recording} ({diag.model})", ""]
+    L = [f"# Diagnosis: {text(diag.recording)} ({diag.model})", ""]
     L += [f"**Verdict: {diag.verdict}.**", ""]
     for amb in diag.ambiguities:
         L += [f"> **Ambiguity:** {amb.sentence()}.", ""]
@@ -151,7 +152,7 @@ def markdown(diag: Diagnosis, figures: dict[str, str]) -> str:
             "",
             f"Likelihood-ratio test: statistic {_fmt(c.lr.statistic)} on {c.lr.dof} dof "
             f"(corrected for serial correlation {_fmt(c.lr.statistic_corrected)}, "
-            f"p = {c.lr.p_value_corrected:.2g}). Held out: {diag.holdout}.",
+            f"p = {c.lr.p_value_corrected:.2g}). Held out: {text(diag.holdout)}.",
             "",
         ]
     else:
@@ -161,7 +162,7 @@ def markdown(diag: Diagnosis, figures: dict[str, str]) -> str:
             "",
             f"Held-out RMS error ({ch}): {_fmt(b['heldout_rms'][ch])}; fit RMS "
             f"{_fmt(b['fit_rms'][ch])}; Ljung-Box p = {b['ljung_box']['p']:.2g}. "
-            f"Held out: {diag.holdout}.",
+            f"Held out: {text(diag.holdout)}.",
             "",
         ]
     for h in diag.named:

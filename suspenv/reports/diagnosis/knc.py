@@ -26,7 +26,7 @@ from suspenv.measurements.knc import (
     rig_test,
 )
 from suspenv.reports._mpl import pyplot
-from suspenv.reports.markdown import markdown_table
+from suspenv.reports.markdown import markdown_table, text
 
 #: plot scale and unit per channel
 PLOT_UNITS = {
@@ -170,7 +170,8 @@ def write_knc_report(diag: Any, out_dir: str | Path) -> list[Path]:
         "",
         f"**Verdict:** {diag.verdict}",
         "",
-        f"Fit data: {diag.recording}. Held out: {diag.holdout}. Time: {diag.seconds:.1f} s.",
+        f"Fit data: {text(diag.recording)}. Held out: {text(diag.holdout)}. "
+        f"Time: {diag.seconds:.1f} s.",
         "",
         "## Where the baseline misses",
         "",

@@ -17,6 +17,7 @@ from suspenv.diagnosis.ride.residual import NOISE_BAND_HZ
 from suspenv.metrics.ride import acceleration_psd
 from suspenv.reports._mpl import pyplot
 from suspenv.reports.jsonable import to_jsonable
+from suspenv.reports.markdown import text
 
 
 def _pred(fit: Any, rec: Any) -> dict[str, np.ndarray]:
@@ -130,7 +131,7 @@ def write_ride_diagnosis_report(diag: Diagnosis, out_dir: str | Path) -> list[Pa
     lines = [
         "# Ride diagnosis",
         "",
-        f"Recordings fitted: {diag.recording}. Held out: {diag.holdout}.",
+        f"Recordings fitted: {text(diag.recording)}. Held out: {text(diag.holdout)}.",
         "",
         f"**Verdict:** {diag.verdict}",
         "",

@@ -15,6 +15,7 @@ import numpy as np
 
 from suspenv.diagnosis.road import RoadDiagnosis
 from suspenv.reports._mpl import pyplot
+from suspenv.reports.markdown import text
 from suspenv.rigs.road import N0, ROAD_CLASS_GD0
 
 
@@ -57,7 +58,7 @@ def write_road_report(diag: RoadDiagnosis, out_dir: str | Path) -> list[Path]:
 
     f, s, t, h = diag.free, diag.standard, diag.test, diag.heldout
     lines = [
-        f"# Road profile diagnosis: {diag.recording}",
+        f"# Road profile diagnosis: {text(diag.recording)}",
         "",
         f"**Verdict:** {diag.verdict}",
         "",
