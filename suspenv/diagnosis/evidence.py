@@ -21,8 +21,8 @@ from typing import Any
 import numpy as np
 from scipy import stats
 
-from suspenv.diagnosis.fitting import FitResult, as_list, lag1_autocorrelation, residuals
-from suspenv.diagnosis.split import Recordings
+from suspenv.diagnosis.fitting import FitResult, lag1_autocorrelation, residuals
+from suspenv.diagnosis.split import Recordings, as_recordings
 
 
 def ljung_box(r: np.ndarray, lags: int = 20) -> tuple[float, float]:
@@ -54,7 +54,7 @@ def heldout_residuals(
     fit: FitResult, recordings: Recordings, masks: Sequence[np.ndarray | None] | None = None
 ) -> dict[str, np.ndarray]:
     """Per-channel residual of a fitted model on (held-out) samples, recordings stacked."""
-    parts = residuals(fit.model, fit.theta, as_list(recordings), fit.channels, masks)
+    parts = residuals(fit.model, fit.theta, as_recordings(recordings), fit.channels, masks)
     return {c: np.concatenate([p[c] for p in parts]) for c in fit.channels}
 
 
@@ -114,7 +114,7 @@ def fit_residual_series(
     fit: FitResult, recordings: Recordings, masks: Sequence[np.ndarray | None] | None = None
 ) -> np.ndarray:
     """The fit's scaled residual, channels and recordings stacked (for whiteness tests)."""
-    parts = residuals(fit.model, fit.theta, as_list(recordings), fit.channels, masks)
+    parts = residuals(fit.model, fit.theta, as_recordings(recordings), fit.channels, masks)
     return np.concatenate([p[c] / fit.scales[c] for p in parts for c in fit.channels])
 
 

@@ -34,13 +34,14 @@ from __future__ import annotations
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, TypeVar, cast
+from typing import Any, TypeVar
 
 import numpy as np
 from scipy.optimize import least_squares
 
 from suspenv.core.errors import EvaluationError, ValidationError
 from suspenv.diagnosis.protocols import DiagnosableModel, EffectLike, RecordingLike
+from suspenv.diagnosis.split import as_recordings
 
 #: scaled residual that stands for a sample the model cannot predict (failed
 #: simulation, non-finite output): large against the O(1) scaled residuals
@@ -49,13 +50,6 @@ PENALTY = 1e3
 R = TypeVar("R", bound=RecordingLike)
 E = TypeVar("E", bound=EffectLike)
 Masks = Sequence[np.ndarray | None]
-
-
-def as_list(recordings: R | Sequence[R]) -> list[R]:
-    """A single recording or a sequence of them -> list."""
-    if isinstance(recordings, list | tuple):
-        return list(recordings)
-    return [cast(R, recordings)]
 
 
 def fitted_channels(model: DiagnosableModel[R, E], rec: R, theta: np.ndarray) -> list[str]:
@@ -124,6 +118,10 @@ class FitResult:
     @property
     def n_samples(self) -> int:
         return int(sum(self.n.values()))
+
+    def main_channel(self) -> str:
+        """The channel holding the largest scaled residual (``ssr / scale^2``)."""
+        return max(self.channels, key=lambda c: self.ssr[c] / (self.scales[c] ** 2))
 
     def rms(self) -> dict[str, float]:
         """Per-channel RMS residual over the fit samples (channel unit)."""
@@ -336,7 +334,7 @@ def fit(
             (``least_squares``' ``ftol`` and ``xtol``); None: its defaults.
     """
     t_start = time.perf_counter()
-    recs = as_list(recordings)
+    recs = as_recordings(recordings)
     if masks is not None and len(masks) != len(recs):
         raise ValidationError(
             "one mask per recording must be given, but got "

@@ -10,12 +10,14 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import TypeAlias
+from typing import TypeAlias, TypeVar, cast
 
 import numpy as np
 
 from suspenv.core.errors import ValidationError
 from suspenv.measurements.recording import RecordingLike
+
+R = TypeVar("R", bound=RecordingLike)
 
 
 @dataclass
@@ -54,13 +56,13 @@ Recordings: TypeAlias = RecordingLike | Sequence[RecordingLike] | Mapping[str, R
 Holdout: TypeAlias = float | str | Sequence[str] | Recordings | None
 
 
-def as_recordings(recordings: Recordings) -> list[RecordingLike]:
+def as_recordings(recordings: R | Sequence[R] | Mapping[str, R]) -> list[R]:
     """One recording, a sequence of them or a mapping name -> recording, as a list."""
-    if isinstance(recordings, RecordingLike):
-        return [recordings]
+    if isinstance(recordings, list | tuple):
+        return list(recordings)
     if isinstance(recordings, Mapping):
         return list(recordings.values())
-    return list(recordings)
+    return [cast(R, recordings)]  # one recording (any object with the recording's members)
 
 
 def heldout_recordings(holdout: Holdout) -> list[RecordingLike]:

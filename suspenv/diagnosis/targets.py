@@ -23,9 +23,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from suspenv.core.errors import ValidationError
+
+if TYPE_CHECKING:
+    from suspenv.measurements import Recording
 
 BLIND_PREFIX = "knc-blind:"
 RIDE_TESTS = ("pulse", "random_road")
@@ -50,16 +53,33 @@ def resolve_target(
     data_dir: str | Path | None = None,
 ) -> Target:
     """The family, recordings and held-out data of ``target`` (see the module docstring)."""
-    knc = _knc_target(target, holdout)
+    read = _Reader()
+    knc = _knc_target(target, holdout, read)
     if knc is not None:
         return knc
     road = _road_target(target, holdout, data_dir)
     if road is not None:
         return road
-    ride = _ride_target(target, holdout)
+    ride = _ride_target(target, holdout, read)
     if ride is not None:
         return ride
-    return _component_target(target, holdout, model, data_dir)
+    return _component_target(target, holdout, model, data_dir, read)
+
+
+class _Reader:
+    """Reads each recording file once per resolution: the routing looks at a file as a
+    K&C, a ride and a component recording in turn (:func:`suspenv.measurements.read_recording`)."""
+
+    def __init__(self) -> None:
+        self._read: dict[Path, Recording] = {}
+
+    def __call__(self, path: str | Path) -> Recording:
+        from suspenv.measurements import read_recording
+
+        key = Path(path).resolve()
+        if key not in self._read:
+            self._read[key] = read_recording(key)
+        return self._read[key]
 
 
 def _npz_files(target: str) -> list[Path]:
@@ -69,16 +89,17 @@ def _npz_files(target: str) -> list[Path]:
     return [p] if p.suffix == ".npz" and p.is_file() else []
 
 
-def _knc_target(target: str, holdout: str | None) -> Target | None:
-    from suspenv.measurements import load_recording
+def _knc_holdout(holdout: str | None, read: _Reader) -> list[Any]:
+    """Rig test name(s) (comma-separated; default ``single``) or another ``.npz``."""
+    held = holdout or "single"
+    if held.endswith(".npz"):
+        return [read(held)]
+    return [h.strip() for h in held.split(",") if h.strip()]
+
+
+def _knc_target(target: str, holdout: str | None, read: _Reader) -> Target | None:
     from suspenv.measurements.knc import is_knc, rig_test
 
-    held: Any = holdout or "single"
-    if target.startswith(BLIND_PREFIX) or _npz_files(target):
-        if held.endswith(".npz"):
-            held = [load_recording(Path(held))]
-        else:
-            held = [h.strip() for h in held.split(",") if h.strip()]
     if target.startswith(BLIND_PREFIX):
         text = target[len(BLIND_PREFIX) :]
         if not text.isdigit():
@@ -86,12 +107,13 @@ def _knc_target(target: str, holdout: str | None) -> Target | None:
         from suspenv.diagnosis.knc.truth import blind_case
 
         case, _ = blind_case(int(text))
-        return Target("knc", case["recordings"], held, f"knc_blind_{text}")
+        return Target("knc", case["recordings"], _knc_holdout(holdout, read), f"knc_blind_{text}")
     files = _npz_files(target)
-    if not files or not is_knc(load_recording(files[0])):
+    if not files or not is_knc(read(files[0])):
         return None
     folder = Path(target) if Path(target).is_dir() else Path(target).parent
-    recs = [r for r in (load_recording(f) for f in sorted(folder.glob("*.npz"))) if is_knc(r)]
+    recs = [r for r in (read(f) for f in sorted(folder.glob("*.npz"))) if is_knc(r)]
+    held = _knc_holdout(holdout, read)
     return Target("knc", {rig_test(r): r for r in recs}, held, folder.name or "knc")
 
 
@@ -116,30 +138,31 @@ def _road_target(target: str, holdout: str | None, data_dir: str | Path | None) 
     return Target("road", rec, held, rec.name)
 
 
-def _ride_recordings(path: Path) -> list[Any] | None:
-    from suspenv.measurements import load_recording
-
+def _ride_recordings(path: Path, read: _Reader) -> list[Any] | None:
     files = _npz_files(str(path))
     if not files:
         return None
-    recs = [load_recording(f) for f in files]
+    recs = [read(f) for f in files]
     return recs if all(r.test in RIDE_TESTS for r in recs) else None
 
 
-def _ride_target(target: str, holdout: str | None) -> Target | None:
+def _ride_target(target: str, holdout: str | None, read: _Reader) -> Target | None:
     path = Path(target)
-    recs = _ride_recordings(path) if path.exists() else None
+    recs = _ride_recordings(path, read) if path.exists() else None
     if recs is None:
         return None
     if holdout is not None and str(holdout).endswith(".npz"):
-        return Target("ride", recs, _ride_recordings(Path(holdout)) or [], path.stem)
+        return Target("ride", recs, _ride_recordings(Path(holdout), read) or [], path.stem)
     return Target("ride", recs, None, path.stem)
 
 
 def _component_target(
-    target: str, holdout: str | None, model: str | None, data_dir: str | Path | None
+    target: str,
+    holdout: str | None,
+    model: str | None,
+    data_dir: str | Path | None,
+    read: _Reader,
 ) -> Target:
-    from suspenv.measurements import load_recording, read_recording
     from suspenv.measurements.catalog import REAL_CASES
 
     held: Any
@@ -160,14 +183,14 @@ def _component_target(
                 f"knc-blind:SEED, a road profile or one of {sorted(REAL_CASES)}, "
                 f"but got {target!r}"
             )
-        rec = read_recording(path)
+        rec = read(path)
         suggested = rec.meta.get("suggested_model")
         held, family, stem = 0.3, str(suggested) if suggested else None, path.stem
     if holdout is not None:
         try:
             held = float(holdout)
         except ValueError:
-            held = holdout if holdout.startswith("cycles") else load_recording(Path(holdout))
+            held = holdout if holdout.startswith("cycles") else read(holdout)
     chosen = model or family or _guess_family(rec)
     return Target(str(chosen), rec, held, stem)
 

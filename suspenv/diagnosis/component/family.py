@@ -175,11 +175,6 @@ def _segments(fit: FitResult, sp: Split) -> list[Segment]:
     return out
 
 
-def main_channel(fit: FitResult) -> str:
-    """The channel holding the largest scaled residual of a fit."""
-    return max(fit.channels, key=lambda c: fit.ssr[c] / (fit.scales[c] ** 2))
-
-
 def resolve_model(model: ComponentModel | str) -> ComponentModel:
     """A component model instance, or a family name (``suspenv.models.components``)."""
     if not isinstance(model, str):
@@ -277,12 +272,12 @@ class ComponentFamily(OptionalSteps):
         return fit(setup.model, sp.fit_recordings, sp.fit_masks, max_nfev=self.max_nfev)
 
     def locate(self, base: FitResult, setup: Setup) -> tuple[Location, str]:
-        return locate(_segments(base, setup.split)), main_channel(base)
+        return locate(_segments(base, setup.split)), base.main_channel()
 
     def screen(
         self, current: FitResult, setup: Setup, open_candidates: Sequence[str], round_: int
     ) -> Screening:
-        channel = main_channel(current)
+        channel = current.main_channel()
         sigs, viewed = _score_round(current, setup.split, channel, open_candidates)
         open_fams = {family_of(k) for k in open_candidates}
         fams = [s.kind for s in sigs if s.kind in open_fams][: self.screen_families]

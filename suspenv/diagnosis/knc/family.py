@@ -343,8 +343,10 @@ class KncFamily:
         return best
 
     def locate(self, base: FitResult, setup: Setup) -> tuple[ResidualMap, str]:
-        res, _ = _signals(base, setup.split.fit_recordings)
-        location = residual_map(setup.split.fit_recordings, res, self._scales)
+        recs = setup.split.fit_recordings
+        location = residual_map(
+            recs, residuals(base.model, base.theta, recs, base.channels), self._scales
+        )
         strongest = location.strongest(1)
         return location, (f"{strongest[0][0][1]}" if strongest else "")
 

@@ -245,8 +245,7 @@ class RideFamily(OptionalSteps):
         return fit(setup.model, setup.split.fit_recordings, max_nfev=self.max_nfev)
 
     def locate(self, base: FitResult, setup: Setup) -> tuple[Location, str]:
-        channel = max(base.channels, key=lambda c: base.ssr[c] / (base.scales[c] ** 2))
-        return locate_ride(base, setup.split.fit_recordings), channel
+        return locate_ride(base, setup.split.fit_recordings), base.main_channel()
 
     def screen(
         self, current: FitResult, setup: Setup, open_candidates: Sequence[str], round_: int
