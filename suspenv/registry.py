@@ -18,6 +18,7 @@ from collections.abc import Callable
 from typing import Any
 
 from suspenv.core.errors import ValidationError
+from suspenv.core.options import check_keywords, option_names
 
 _PROBLEMS: dict[str, str | Callable[..., Any]] = {
     "Sphere": "suspenv.problems.toy:Sphere",
@@ -40,6 +41,15 @@ _PIPELINES: dict[str, str | Callable[..., Any]] = {
     "optimize": "suspenv.runs.optimize_pipeline:run_optimize_pipeline",
     "tey2014": "suspenv.methods.tey2014:run_tey2014_pipeline",
     "diagnosis_benchmark": "suspenv.bench.diagnosis_benchmark:run_benchmark_pipeline",
+}
+
+#: checks of a pipeline's config, run before any work: ``check(config) -> config`` raises
+#: ValidationError naming the rule and the value, and returns the config with every
+#: default the pipeline will use filled in
+_PIPELINE_CHECKS: dict[str, str | Callable[..., Any]] = {
+    "optimize": "suspenv.runs.optimize_pipeline:check_optimize_config",
+    "tey2014": "suspenv.methods.tey2014:check_tey2014_config",
+    "diagnosis_benchmark": "suspenv.bench.diagnosis_benchmark:check_benchmark_config",
 }
 
 #: report writers and drawings; keyed by problem name for a problem's own run report
@@ -92,8 +102,16 @@ def problem_class(name: str) -> Any:
 
 
 def make_problem(name: str, **options: Any) -> Any:
-    """Build the problem registered as ``name`` with keyword options."""
-    return problem_class(name)(**options)
+    """Build the problem registered as ``name`` with keyword options.
+
+    Option names the problem does not take are refused with the nearest valid name and
+    the list of valid ones; the problem's constructor checks the values.
+    """
+    cls = problem_class(name)
+    valid = option_names(cls)
+    if valid is not None:
+        check_keywords(f"problem {name!r}", options, valid)
+    return cls(**options)
 
 
 def list_problems() -> list[str]:
@@ -115,13 +133,36 @@ def list_strategies() -> list[str]:
 
 
 # ---------------------------------------------------------------- pipelines
-def register_pipeline(name: str, target: str | Callable[..., Any], overwrite: bool = False) -> None:
-    """Register an experiment pipeline ``run(config, run_dir) -> summary dict``."""
+def register_pipeline(
+    name: str,
+    target: str | Callable[..., Any],
+    overwrite: bool = False,
+    check: str | Callable[..., Any] | None = None,
+) -> None:
+    """Register an experiment pipeline ``run(config, run_dir) -> summary dict``, and
+    optionally its config check ``check(config) -> config`` (see :func:`pipeline_check`)."""
     _register(_PIPELINES, "pipeline", name, target, overwrite)
+    if check is not None:
+        _PIPELINE_CHECKS[name] = check
+    else:
+        _PIPELINE_CHECKS.pop(name, None)
 
 
 def pipeline_function(name: str) -> Any:
     return _resolve("pipeline", _PIPELINES, name)
+
+
+def pipeline_check(name: str) -> Callable[[dict[str, Any]], dict[str, Any]] | None:
+    """The config check of pipeline ``name`` (None when it has none). A check runs before
+    a run directory is made, raises ValidationError for any bad key or value, and returns
+    the config with every default the pipeline uses filled in."""
+    pipeline_function(name)  # an unknown pipeline is an error with suggestions
+    if name not in _PIPELINE_CHECKS:
+        return None
+    check: Callable[[dict[str, Any]], dict[str, Any]] = _resolve(
+        "pipeline check", _PIPELINE_CHECKS, name
+    )
+    return check
 
 
 def list_pipelines() -> list[str]:
@@ -146,23 +187,14 @@ def list_reports() -> list[str]:
 def make_strategy(name: str, problem: Any, seed: int = 0, **options: Any) -> Any:
     """Build strategy ``name`` for ``problem`` (its dimension, objective and constraint counts).
 
-    Options unknown to the strategy are reported with the valid ones.
+    Options unknown to the strategy are reported with the nearest valid name and the list
+    of valid ones (``dim``, ``n_objectives``, ``n_constraints`` and ``seed`` come from the
+    problem and the run, never from the options); the strategy checks the values.
     """
-    import inspect
-
     cls = strategy_class(name)
-    params = inspect.signature(cls.__init__).parameters
-    accepts_any = any(p.kind is p.VAR_KEYWORD for p in params.values())
-    valid = [k for k in params if k not in ("self", "dim", "n_objectives", "n_constraints", "seed")]
-    unknown = sorted(set(options) - set(valid))
-    if unknown and not accepts_any:
-        hints = {u: difflib.get_close_matches(u, valid, n=1) for u in unknown}
-        hint = "; ".join(
-            f"{u!r}" + (f" (did you mean {h[0]!r}?)" if h else "") for u, h in hints.items()
-        )
-        raise ValidationError(
-            f"strategy {name!r} does not take option(s) {hint}; valid options: {', '.join(valid)}"
-        )
+    valid = option_names(cls, ("dim", "n_objectives", "n_constraints", "seed"))
+    if valid is not None:
+        check_keywords(f"strategy {name!r}", options, valid)
     return cls(
         dim=problem.space.dim,
         n_objectives=problem.n_objectives,

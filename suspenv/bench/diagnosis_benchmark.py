@@ -28,6 +28,7 @@ Run the committed configuration with
 
 from __future__ import annotations
 
+import difflib
 import json
 import sys
 import time
@@ -232,6 +233,55 @@ def _seeds(b: dict[str, Any]) -> tuple[list[int], str]:
     if which not in ("dev", "report"):
         raise ValidationError(f"`seed_set in ('dev', 'report')` must hold, but got {which!r}")
     return (dev if which == "dev" else rep), which
+
+
+#: keys of the ``[benchmark]`` table
+BENCHMARK_KEYS = (
+    "families",
+    "separate_families",
+    "n_effects",
+    "seeds_dev",
+    "seeds_report",
+    "seed_set",
+    "real_data",
+    "real_data_dir",
+    "real_cases",
+)
+
+
+def check_benchmark_config(config: dict[str, Any]) -> dict[str, Any]:
+    """Check a "diagnosis_benchmark" config before any work: table keys, seed sets,
+    families and each family's diagnosis options (by building the family)."""
+    b = dict(config.get("benchmark", {}) or {})
+    for key in sorted(set(b) - set(BENCHMARK_KEYS)):
+        near = difflib.get_close_matches(key, BENCHMARK_KEYS, n=1)
+        hint = f"; did you mean {near[0]!r}?" if near else ""
+        raise ValidationError(f"config: unknown key benchmark.{key!r}{hint}")
+    _seeds(b)
+    diagnosis = dict(config.get("diagnosis", {}) or {})
+    opts = {k: v for k, v in diagnosis.items() if k not in ("family", "holdout")}
+    fam_opts = dict(diagnosis.get("family", {}) or {})
+    families = list(b.get("families", DEFAULT_FAMILIES))
+    for fam in sorted(set(fam_opts) - set(families)):
+        raise ValidationError(
+            f"config: `diagnosis.family.{fam}` names a family the benchmark does not run "
+            f"(benchmark.families = {families})"
+        )
+    for fam in families:
+        own = {k: v for k, v in dict(fam_opts.get(fam, {})).items() if k != "holdout"}
+        make_family(fam, **(opts | own))
+    for n in b.get("n_effects", (0, 1, 2)):
+        if not isinstance(n, int) or isinstance(n, bool) or not 0 <= n <= 3:
+            raise ValidationError(
+                f"config: `benchmark.n_effects` must hold integers in [0, 3], but got {n!r}"
+            )
+    for name in b.get("real_cases", []):
+        if name not in REAL_CASES:
+            raise ValidationError(
+                f"config: unknown real case {name!r} in benchmark.real_cases "
+                f"(known: {', '.join(sorted(REAL_CASES))})"
+            )
+    return config
 
 
 def _load_rows(path: Path) -> dict[str, dict[str, Any]]:

@@ -44,6 +44,9 @@ def main(argv: list[str] | None = None) -> int:
     except SuspenvError as exc:
         print(f"suspenv {args.command}: error: {exc}", file=sys.stderr)
         return 2
+    except OSError as exc:  # a file that is missing, unreadable or unwritable
+        print(f"suspenv {args.command}: error: {exc}", file=sys.stderr)
+        return 2
     except KeyboardInterrupt:
         print(f"suspenv {args.command}: interrupted", file=sys.stderr)
         return 130

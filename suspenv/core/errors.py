@@ -23,3 +23,9 @@ class ConvergenceError(EvaluationError):
 
 class LockupError(EvaluationError):
     """A linkage cannot be assembled or locks up along a sweep."""
+
+
+class InfrastructureError(SuspenvError):
+    """The machinery that evaluates designs failed: a lost worker or scheduler, a timeout,
+    memory. Never a result of the design: nothing of it is archived, and rerunning the same
+    command resumes with exactly the evaluations that are missing."""

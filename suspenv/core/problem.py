@@ -7,13 +7,15 @@ over the batch where the physics allows.
 
 Failures are values, not crashes: any :class:`Exception` raised by ``_evaluate`` is
 isolated to the rows that caused it (the batch is re-run row by row) and those rows
-come back with ``ok=False`` and the exception's message.
+come back with ``ok=False`` and the exception's message. A row reported ok whose
+objectives or constraints are not finite is a failed row too. A :class:`MemoryError` is a
+fault of the machine, not of the design: it propagates (the run loop retries it).
 """
 
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -50,6 +52,13 @@ class Problem(ABC):
     constraint_names: tuple[str, ...] = ()
     objective_units: tuple[str, ...] = ()
     render_rgb: Callable[[np.ndarray], np.ndarray] | None = None
+    #: objectives that may be NaN in a successful row: columns a view adds for information
+    #: (e.g. signed responses a base problem does not provide); everywhere else a
+    #: non-finite objective fails the row
+    informational_objectives: tuple[str, ...] = ()
+    #: seconds one design may take before the run loop calls it a fault of the machinery
+    #: (``run.timeout_s`` overrides it); generous: a bound on hangs, not a deadline
+    timeout_s: float = 60.0
 
     # ------------------------------------------------------------ subclass API
     @abstractmethod
@@ -74,12 +83,16 @@ class Problem(ABC):
         X = self.space.check_batch(X)
         try:
             batch = self._evaluate(X)
+        except MemoryError:
+            raise
         except Exception:  # noqa: BLE001 - isolate the failing rows below
             if X.shape[0] == 1:
                 return self._failed_row(X[0])
             return EvaluationBatch.concatenate([self.evaluate(x[None, :]) for x in X])
         self._check_shapes(batch, X.shape[0])
-        return batch
+        return _non_finite_failed(
+            batch, self.objective_names, self.constraint_names, self.informational_objectives
+        )
 
     def evaluate_unit(self, U: np.ndarray) -> EvaluationBatch:
         """Evaluate unit-cube designs (n, d)."""
@@ -113,7 +126,11 @@ class Problem(ABC):
         try:
             batch = self._evaluate(x[None, :])
             self._check_shapes(batch, 1)
-            return batch
+            return _non_finite_failed(
+            batch, self.objective_names, self.constraint_names, self.informational_objectives
+        )
+        except MemoryError:
+            raise
         except Exception as exc:  # noqa: BLE001 - a failed evaluation is a value
             msg = f"{type(exc).__name__}: {exc}"
             return EvaluationBatch.failed(1, self.n_objectives, self.n_constraints, msg)
@@ -132,3 +149,40 @@ class Problem(ABC):
             f"{type(self).__name__}(d={self.space.dim}, m={self.n_objectives}, "
             f"k={self.n_constraints})"
         )
+
+
+def _non_finite_failed(
+    batch: EvaluationBatch,
+    objective_names: Sequence[str],
+    constraint_names: Sequence[str],
+    informational: Sequence[str] = (),
+) -> EvaluationBatch:
+    """``batch`` with every ok row whose objectives (but the ``informational`` ones) or
+    constraints are not all finite turned into a failed row (NaN values, a message naming
+    what was not finite)."""
+    checked = np.array([name not in informational for name in objective_names], dtype=bool)
+    bad = batch.ok & ~(
+        np.isfinite(batch.objectives[:, checked]).all(axis=1)
+        & np.isfinite(batch.constraints).all(axis=1)
+    )
+    if not bad.any():
+        return batch
+    messages = list(batch.messages)
+    for i in np.flatnonzero(bad):
+        f, g = batch.objectives[i], batch.constraints[i]
+        parts = [
+            f"{objective_names[j]}={f[j]}"
+            for j in np.flatnonzero(checked & ~np.isfinite(f)).tolist()
+        ]
+        parts += [
+            f"{constraint_names[j]}={g[j]}" for j in np.flatnonzero(~np.isfinite(g)).tolist()
+        ]
+        messages[i] = "non-finite result: " + ", ".join(parts)
+    ok = batch.ok & ~bad
+    return EvaluationBatch(
+        np.where(bad[:, None], np.nan, batch.objectives),
+        np.where(bad[:, None], np.nan, batch.constraints),
+        ok,
+        messages,
+        batch.extras,
+    )

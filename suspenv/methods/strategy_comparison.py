@@ -49,8 +49,9 @@ def run_one(
     """One run into ``run_dir``; writes and returns its ``summary.json`` content."""
     from suspenv.registry import make_strategy
     from suspenv.runs.archive import RunArchive
+    from suspenv.runs.evaluation import FaultPolicy
+    from suspenv.runs.executors import executor_workers, make_executor
     from suspenv.runs.loop import optimize
-    from suspenv.runs.optimize_pipeline import executor_workers, make_executor
 
     opts = {**STRATEGY_OPTIONS.get(strategy_name, {}), **(options or {})}
     if strategy_name == "lhs":
@@ -66,6 +67,7 @@ def run_one(
             executor=executor,
             workers=executor_workers(run_cfg),
             progress=bool(run_cfg.get("progress", False)),
+            faults=FaultPolicy.for_run(run_cfg, problem),
         )
     with RunArchive(run_dir) as archive:
         a = archive.arrays()

@@ -281,6 +281,23 @@ def build_problem(config: dict[str, Any]) -> Problem:
     return make_problem(name, **options)
 
 
+def check_tey2014_config(config: dict[str, Any]) -> dict[str, Any]:
+    """Check a "tey2014" config before any work: the ``[study]`` table, the problem and the
+    main strategy with their options. Returns the config with the study's defaults and
+    the problem's evaluation timeout filled in."""
+    from suspenv.runs.evaluation import FaultPolicy
+
+    opts = study_options(config)
+    problem = build_problem(config)
+    _main_strategy(problem, config, opts, initial_design(problem))
+    budget = config.get("budget", DEFAULT_BUDGET)
+    if not isinstance(budget, int) or isinstance(budget, bool) or budget < 1:
+        raise ValidationError(f"config: `budget` must be an integer >= 1, but got {budget!r}")
+    run = dict(config.get("run", {}) or {})
+    run["timeout_s"] = FaultPolicy.for_run(run, problem).timeout_s
+    return {**config, "budget": budget, "study": opts, "run": run}
+
+
 def initial_design(problem: Problem) -> np.ndarray:
     hook = getattr(problem, "initial_design", None)
     return np.asarray(hook() if callable(hook) else problem.reference_design(), dtype=float)
@@ -305,8 +322,9 @@ def _run(
 ) -> RunArrays:
     """``optimize`` into ``run_dir`` (resumes an archive there); the archive as arrays."""
     from suspenv.runs.archive import RunArchive
+    from suspenv.runs.evaluation import FaultPolicy
+    from suspenv.runs.executors import executor_workers, make_executor
     from suspenv.runs.loop import optimize
-    from suspenv.runs.optimize_pipeline import executor_workers, make_executor
 
     path = Path(run_dir) / RunArchive.FILENAME
     if path.is_file():
@@ -331,6 +349,7 @@ def _run(
             chunk_size=run_cfg.get("chunk_size"),
             progress=bool(run_cfg.get("progress", False)),
             meta={"study_step": label},
+            faults=FaultPolicy.for_run(run_cfg, problem),
         )
     with RunArchive(run_dir) as archive:
         a = archive.arrays()

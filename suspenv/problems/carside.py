@@ -33,13 +33,12 @@ here the sign is flipped). ``constraint_scale="relative"`` (default, as pymoo) g
 
 from __future__ import annotations
 
-import difflib
 from typing import Any
 
 import numpy as np
 
 from suspenv.core import DesignSpace, EvaluationBatch, Parameter, Problem
-from suspenv.core.errors import ValidationError
+from suspenv.core.options import choice
 
 #: material variables of the original 11-variable formulation, fixed as in the sources
 MATERIAL_X8 = 0.345
@@ -130,17 +129,6 @@ def side_impact_responses(X: np.ndarray) -> dict[str, np.ndarray]:
     return out
 
 
-def _choice(kind: str, value: str, allowed: tuple[str, ...]) -> str:
-    lowered = {a.lower(): a for a in allowed}
-    if isinstance(value, str) and value.lower() in lowered:
-        return lowered[value.lower()]
-    near = difflib.get_close_matches(str(value), allowed, n=1, cutoff=0.3)
-    hint = f"; did you mean {near[0]!r}?" if near else ""
-    raise ValidationError(
-        f"CarSideImpact: `{kind}` must be one of {list(allowed)}, but got {value!r}{hint}"
-    )
-
-
 class CarSideImpact(Problem):
     """Car side-impact crashworthiness (Jain and Deb 2014; RE suite CRE31 / RE41).
 
@@ -154,7 +142,7 @@ class CarSideImpact(Problem):
     Constraints (``variant="CRE31"`` only, feasible when <= 0): one per response of
     :data:`RESPONSE_LIMITS`, scaled by ``constraint_scale`` (see the module docstring).
 
-    Args:
+    Args (case is ignored; checked at construction):
         variant: ``"CRE31"`` (3 objectives, 10 constraints) or ``"RE41"`` (4 objectives).
         constraint_scale: ``"relative"`` (r / limit - 1) or ``"absolute"`` (r - limit).
     """
@@ -166,8 +154,10 @@ class CarSideImpact(Problem):
     )
 
     def __init__(self, variant: str = "CRE31", constraint_scale: str = "relative"):
-        self.variant = _choice("variant", variant, VARIANTS)
-        self.constraint_scale = _choice("constraint_scale", constraint_scale, CONSTRAINT_SCALES)
+        self.variant = choice(self.name, "variant", variant, VARIANTS, ignore_case=True)
+        self.constraint_scale = choice(
+            self.name, "constraint_scale", constraint_scale, CONSTRAINT_SCALES, ignore_case=True
+        )
         self.space = DesignSpace(
             Parameter(name, lo, hi, unit="mm", description=text)
             for name, lo, hi, text in THICKNESSES

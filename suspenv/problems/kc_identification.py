@@ -37,6 +37,7 @@ import numpy as np
 
 from suspenv.core import DesignSpace, EvaluationBatch, Problem
 from suspenv.core.errors import ValidationError
+from suspenv.core.options import check_keywords, integer, number, text, texts
 from suspenv.metrics.knc import OBJECTIVE_NAMES, OBJECTIVE_UNITS, objectives
 from suspenv.models.effects import Effect
 from suspenv.models.mcpherson.effects import axle_effect
@@ -77,15 +78,35 @@ def measure(truth: TruthVehicle, amplitude: float = 0.040, steps: int = 30) -> d
     return results
 
 
-def effect_from_dict(d: Mapping[str, Any]) -> Effect:
-    """An axle effect from ``{"kind", "location", "params", "name"}`` (name optional)."""
+#: keys of an axle-effect table (``model_effects`` items)
+EFFECT_KEYS = ("kind", "location", "params", "name")
+
+
+def effect_from_dict(d: Mapping[str, Any], owner: str = "axle effect") -> Effect:
+    """An axle effect from ``{"kind", "location", "params", "name"}`` (name optional).
+
+    Rules: no other keys; ``kind`` and ``location`` strings; ``params`` a table of finite
+    numbers (the effects library checks their names and ranges); ``name`` a string.
+    """
+    if not isinstance(d, Mapping):
+        raise ValidationError(
+            f"{owner} must be a table with 'kind', 'location' (and optional 'params', "
+            f"'name'), but got {d!r}"
+        )
+    check_keywords(owner, d, EFFECT_KEYS, what="key")
     missing = [k for k in ("kind", "location") if k not in d]
     if missing:
         raise ValidationError(
-            f"an axle effect needs 'kind' and 'location', but {d} lacks {missing}"
+            f"{owner}: an axle effect needs 'kind' and 'location', but {d} lacks {missing}"
         )
-    params = {k: float(v) for k, v in dict(d.get("params", {})).items()}
-    return axle_effect(str(d["kind"]), str(d["location"]), d.get("name"), **params)
+    params = d.get("params", {})
+    if not isinstance(params, Mapping):
+        raise ValidationError(f"{owner}: `params` must be a table of numbers, but got {params!r}")
+    values = {str(k): number(owner, f"params.{k}", v) for k, v in params.items()}
+    name = None if d.get("name") is None else text(owner, "name", d["name"])
+    return axle_effect(
+        text(owner, "kind", d["kind"]), text(owner, "location", d["location"]), name, **values
+    )
 
 
 @lru_cache(maxsize=8)
@@ -103,13 +124,13 @@ def _measured(seed: int, concealed: tuple[str, ...], amplitude: float, steps: in
 class KCIdentification(Problem):
     """Identify 49 McPherson parameters from the 40 K&C objectives of a concealed-effect car.
 
-    Args:
-        truth_seed: seed of the test vehicle's tolerances and sensor noise.
-        concealed: effects of the test vehicle, any of ``("hysteresis", "tolerance",
-            "noise")``; ``()`` makes the reference vehicle itself the target (exactly
-            reachable).
-        amplitude_mm: wheel-pad stroke of every test (+-, paper: 40 mm).
-        steps: grid intervals over the stroke (paper: 30; even).
+    Args (checked at construction):
+        truth_seed: seed of the test vehicle's tolerances and sensor noise, integer >= 0.
+        concealed: effects of the test vehicle, a list of any of ``("hysteresis",
+            "tolerance", "noise")``; ``()`` makes the reference vehicle itself the target
+            (exactly reachable).
+        amplitude_mm: wheel-pad stroke of every test (+-, paper: 40 mm), ``0 < . <= 80``.
+        steps: grid intervals over the stroke (paper: 30), an even integer >= 8.
         model_effects: effects of the *simulated* model (fixed, not design variables),
             each ``{"kind", "location", "params"}`` (optional ``"name"``) of an axle
             effect (:mod:`suspenv.models.mcpherson.effects`), e.g. to refit with the
@@ -130,26 +151,24 @@ class KCIdentification(Problem):
         steps: int = 30,
         model_effects: Sequence[Mapping[str, Any]] | None = None,
     ):
-        bad = [c for c in concealed if c not in CONCEALED]
-        if bad:
+        owner = self.name
+        self.truth_seed = integer(owner, "truth_seed", truth_seed, lo=0)
+        self.concealed = tuple(sorted(set(texts(owner, "concealed", concealed, CONCEALED))))
+        amplitude = number(owner, "amplitude_mm", amplitude_mm, lo=0.0, hi=80.0, lo_open=True)
+        self.amplitude = amplitude / 1e3  # m
+        self.steps = integer(owner, "steps", steps, lo=8)
+        if self.steps % 2:
             raise ValidationError(
-                f"KCIdentification: every concealed effect must be one of {CONCEALED}, "
-                f"but got {bad}"
+                f"{owner}: `steps` must be even and >= 8, but got steps={steps!r}"
             )
-        if not 0 < amplitude_mm <= 80:
+        if model_effects is not None and not isinstance(model_effects, list | tuple):
             raise ValidationError(
-                f"KCIdentification: `0 < amplitude_mm <= 80` must hold, but got {amplitude_mm}"
+                f"{owner}: `model_effects` must be a list of effect tables, but got "
+                f"model_effects={model_effects!r}"
             )
-        if int(steps) < 8 or int(steps) % 2:
-            raise ValidationError(
-                f"KCIdentification: `steps` must be even and >= 8, but got {steps}"
-            )
-        self.truth_seed = int(truth_seed)
-        self.concealed = tuple(sorted(set(concealed)))
-        self.amplitude = float(amplitude_mm) / 1e3
-        self.steps = int(steps)
         self.model_effects: tuple[Effect, ...] = tuple(
-            effect_from_dict(d) for d in (model_effects or ())
+            effect_from_dict(d, f"{owner}: model_effects[{i}]")
+            for i, d in enumerate(model_effects or ())
         )
         self.space: DesignSpace = design_space()
         self.objective_names = OBJECTIVE_NAMES

@@ -44,6 +44,7 @@ import numpy as np
 
 from suspenv.core import EvaluationBatch, Problem
 from suspenv.core.errors import ValidationError
+from suspenv.core.options import choice, integer, number, positive
 from suspenv.core.pareto import nondominated
 from suspenv.metrics.handling import slalom
 from suspenv.metrics.ride import ride_objectives_all
@@ -56,22 +57,57 @@ from suspenv.models.minibus.vehicle import (
 from suspenv.registry import report_function
 from suspenv.rigs.handling import SlalomConfig, SteadyCircleConfig, steady_circle
 from suspenv.rigs.ride import RandomRoad
+from suspenv.rigs.road import ROAD_CLASS_GD0
+
+#: shortest random-road record (s): one period of 0.5 Hz, the lower edge of ISO 2631-1's
+#: Wk weighting band (shorter records do not resolve it; below 0.02 s no road is made)
+MIN_RIDE_DURATION_S = 2.0
+#: longest slalom integration step (s): 0.05 s moves the yaw-rate objective of random
+#: designs by 0.4 % from the default 0.02 s; 0.1 s by up to 8 %, and at 0.15 s every
+#: design spins
+MAX_SLALOM_DT_S = 0.05
+#: Gd(n0) (m^3) at the upper edge of ISO 8608 class H (twice its mean), the roughest
+#: road the standard classifies
+MAX_ROAD_GD0 = 2.0 * ROAD_CLASS_GD0["H"]
 
 OBJECTIVE_NAMES = ("f1_ride_front", "f2_ride_rear", "f3_neg_lateral_acc", "f4_yaw_rate", "f5_roll")
 OBJECTIVE_UNITS = ("m/s^2", "m/s^2", "m/s^2", "deg/s", "deg")
 
 
+def _road_class(owner: str, value: Any) -> str | float:
+    """An ISO 8608 class letter (canonical upper case) or a Gd(n0) number (m^3)."""
+    if isinstance(value, str):
+        return choice(owner, "road_class", value, sorted(ROAD_CLASS_GD0), ignore_case=True)
+    if isinstance(value, bool) or not isinstance(value, int | float | np.number):
+        raise ValidationError(
+            f"{owner}: `road_class` must be one of {sorted(ROAD_CLASS_GD0)} or a number "
+            f"Gd(n0) in m^3, but got {value!r}"
+        )
+    return number(owner, "road_class", value, lo=0.0, hi=MAX_ROAD_GD0, lo_open=True)
+
+
 class MinibusRideHandling(Problem):
     """The minibus study's 8-variable, 5-objective ride and handling problem.
 
-    Options (all with defaults; units in brackets):
-        load_weight: w of ``no load + w x full load`` (the study: 1.5 for every objective).
-        rms_limit [m/s^2]: limit on each weighted RMS acceleration (see module docstring).
-        roll_limit_deg [deg]: limit on each load case's slalom roll amplitude.
-        road_class, speed_kmh [km/h], ride_duration_s [s], road_seed: random-road run.
-        circle_radius [m]: steady-state circular test.
-        slalom_speed_kmh [km/h], cone_spacing [m], n_cones, slalom_amplitude [m],
-        slalom_dt [s]: slalom.
+    Options (all with defaults; units in brackets; every rule is checked at construction,
+    so a bad value fails before any evaluation):
+        load_weight: w of ``no load + w x full load`` (the study: 1.5 for every
+            objective); finite, > 0.
+        rms_limit [m/s^2]: limit on each weighted RMS acceleration (see module
+            docstring); finite, > 0.
+        roll_limit_deg [deg]: limit on each load case's slalom roll amplitude; finite, > 0.
+        road_class: ISO 8608 class letter "A".."H" (case ignored), or Gd(n0) itself in
+            m^3, a number with ``0 < Gd(n0) <= 0.524288`` (the upper edge of class H).
+        speed_kmh [km/h]: random-road speed; finite, > 0.
+        ride_duration_s [s]: recorded random-road time; finite, >= 2 (one period of
+            0.5 Hz, the lower edge of ISO 2631-1's Wk band).
+        road_seed: road realisation, an integer >= 0.
+        circle_radius [m]: steady-state circular test; finite, > 0.
+        slalom_speed_kmh [km/h], cone_spacing [m], slalom_amplitude [m]: slalom; finite,
+            > 0.
+        n_cones: slalom cones, an integer >= 4.
+        slalom_dt [s]: slalom integration step, ``0 < slalom_dt <= 0.05`` (0.1 s moves
+            the yaw-rate objective by up to 8 %; at 0.15 s every design spins).
     """
 
     name = "MinibusRideHandling"
@@ -97,30 +133,27 @@ class MinibusRideHandling(Problem):
         slalom_amplitude: float = 1.25,
         slalom_dt: float = 0.02,
     ):
-        for key, value in (
-            ("load_weight", load_weight),
-            ("rms_limit", rms_limit),
-            ("roll_limit_deg", roll_limit_deg),
-        ):
-            if not float(value) > 0:
-                raise ValidationError(
-                    f"MinibusRideHandling: `{key} > 0` must hold, but got {key}={value!r}"
-                )
-        if int(n_cones) < 4:
-            raise ValidationError(
-                f"MinibusRideHandling: `n_cones >= 4` must hold, but got n_cones={n_cones}"
-            )
-        self.load_weight = float(load_weight)
-        self.rms_limit = float(rms_limit)
-        self.roll_limit_deg = float(roll_limit_deg)
+        owner = self.name
+        self.load_weight = positive(owner, "load_weight", load_weight)
+        self.rms_limit = positive(owner, "rms_limit", rms_limit)
+        self.roll_limit_deg = positive(owner, "roll_limit_deg", roll_limit_deg)
+        road_class = _road_class(owner, road_class)
+        speed_kmh = positive(owner, "speed_kmh", speed_kmh)
+        ride_duration_s = number(owner, "ride_duration_s", ride_duration_s, lo=MIN_RIDE_DURATION_S)
+        road_seed = integer(owner, "road_seed", road_seed, lo=0)
+        circle_radius = positive(owner, "circle_radius", circle_radius)
+        slalom_speed_kmh = positive(owner, "slalom_speed_kmh", slalom_speed_kmh)
+        cone_spacing = positive(owner, "cone_spacing", cone_spacing)
+        n_cones = integer(owner, "n_cones", n_cones, lo=4)
+        slalom_amplitude = positive(owner, "slalom_amplitude", slalom_amplitude)
+        slalom_dt = number(owner, "slalom_dt", slalom_dt, lo=0.0, hi=MAX_SLALOM_DT_S, lo_open=True)
         self.road = RandomRoad(
             road_class=road_class,
             speed_kmh=speed_kmh,
             duration_s=ride_duration_s,
-            seed=int(road_seed),
+            seed=road_seed,
         )
         self.circle = SteadyCircleConfig(radius=circle_radius)
-        n_cones = int(n_cones)
         self.slalom_config = SlalomConfig(
             n_cones=n_cones,
             spacing=cone_spacing,
@@ -135,15 +168,15 @@ class MinibusRideHandling(Problem):
             "rms_limit": self.rms_limit,
             "roll_limit_deg": self.roll_limit_deg,
             "road_class": road_class,
-            "speed_kmh": float(speed_kmh),
-            "ride_duration_s": float(ride_duration_s),
-            "road_seed": int(road_seed),
-            "circle_radius": float(circle_radius),
-            "slalom_speed_kmh": float(slalom_speed_kmh),
-            "cone_spacing": float(cone_spacing),
+            "speed_kmh": speed_kmh,
+            "ride_duration_s": ride_duration_s,
+            "road_seed": road_seed,
+            "circle_radius": circle_radius,
+            "slalom_speed_kmh": slalom_speed_kmh,
+            "cone_spacing": cone_spacing,
             "n_cones": n_cones,
-            "slalom_amplitude": float(slalom_amplitude),
-            "slalom_dt": float(slalom_dt),
+            "slalom_amplitude": slalom_amplitude,
+            "slalom_dt": slalom_dt,
         }
         self.vehicle = REFERENCE_MINIBUS
         self.space = design_space()

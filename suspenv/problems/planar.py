@@ -24,7 +24,6 @@ Linkages that lock up within the travel come back as failed rows with the reason
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -33,6 +32,7 @@ import numpy as np
 
 from suspenv.core import DesignSpace, EvaluationBatch, Parameter, Problem
 from suspenv.core.errors import ValidationError
+from suspenv.core.options import choice, integer, nearest, number, numbers, positive, text, texts
 from suspenv.models.planar.analytic import PlanarSweep, solve_sweep
 from suspenv.models.planar.geometry import PlanarGeometry, load_geometry
 from suspenv.models.planar.outputs import SweepOutputs, sweep_outputs
@@ -56,21 +56,25 @@ SOLVERS = ("analytic", "pymunk")
 class PlanarLinkage(Problem):
     """Front-view double wishbone or McPherson strut: hard points for a target curve.
 
-    Args:
+    Args (every rule is checked at construction, before any evaluation):
         geometry: baseline linkage, a bundled name (``suspenv planar --list``) or a TOML
             path. Fixes every coordinate that is not a design variable.
         target: geometry whose camber and half-track curves are the target (curves mode);
-            default ``"<kind>_target"``. Ignored when ``target_camber_gain`` is given.
-        target_camber_gain: deg/m; switches to the camber-gain target.
-        variables: free coordinates, e.g. ``["upper_inner.y", "upper_inner.z"]``.
-        span: mm, half-width of each variable's range around the baseline.
-        travel: mm, the sweep covers ``[-travel, +travel]`` (rebound negative).
-        n_travel: points in the sweep (odd, so the design position is one of them).
+            default ``"<kind>_target"``. Not together with ``target_camber_gain``.
+        target_camber_gain: deg/m, finite; switches to the camber-gain target.
+        variables: free coordinates, a non-empty list, e.g. ``["upper_inner.y",
+            "upper_inner.z"]``.
+        span: mm, half-width of each variable's range around the baseline; finite, > 0.
+        travel: mm, the sweep covers ``[-travel, +travel]`` (rebound negative); finite, > 0.
+        n_travel: points in the sweep, an odd integer >= 3 (so the design position is one
+            of them).
         solver: ``"analytic"`` (default) or ``"pymunk"``.
-        camber_scale: deg, camber error counted as one unit in ``curve_error``.
-        track_scale: mm, half-track error counted as one unit in ``curve_error``.
-        max_half_track_change: mm, constraint in camber-gain mode.
-        roll_centre_range: (low, high) mm, design roll-centre height, camber-gain mode.
+        camber_scale: deg, camber error counted as one unit in ``curve_error``; finite, > 0.
+        track_scale: mm, half-track error counted as one unit in ``curve_error``; finite,
+            > 0.
+        max_half_track_change: mm, constraint in camber-gain mode; finite, > 0.
+        roll_centre_range: (low, high) mm, design roll-centre height, camber-gain mode;
+            two finite numbers, low < high.
     """
 
     name = "PlanarLinkage"
@@ -91,40 +95,45 @@ class PlanarLinkage(Problem):
         max_half_track_change: float = 10.0,
         roll_centre_range: Sequence[float] = (0.0, 150.0),
     ):
-        self.baseline = load_geometry(geometry)
-        if self.baseline.batch_shape:
-            raise ValidationError("PlanarLinkage: the baseline must be a single geometry")
-        kind = self.baseline.kind
-        if solver not in SOLVERS:
-            raise ValidationError(f"`solver` must be one of {list(SOLVERS)}, but got {solver!r}")
-        for key, val in (
-            ("span", span),
-            ("travel", travel),
-            ("camber_scale", camber_scale),
-            ("track_scale", track_scale),
-            ("max_half_track_change", max_half_track_change),
-        ):
-            if not (math.isfinite(float(val)) and float(val) > 0):
-                raise ValidationError(f"`{key} > 0` must hold, but got {key}={val}")
-        if int(n_travel) != n_travel or n_travel < 3 or n_travel % 2 == 0:
+        owner = self.name
+        if isinstance(geometry, Path):
+            geometry = str(geometry)
+        geometry = text(owner, "geometry", geometry)
+        target = None if target is None else text(owner, "target", target)
+        camber_gain = (
+            None
+            if target_camber_gain is None
+            else number(owner, "target_camber_gain", target_camber_gain)
+        )
+        if target is not None and camber_gain is not None:
             raise ValidationError(
-                f"`n_travel` must be an odd integer >= 3, but got n_travel={n_travel}"
+                f"{owner}: give `target` (curves) or `target_camber_gain` (camber gain), not "
+                f"both, but got target={target!r} and target_camber_gain={camber_gain!r}"
             )
-        rc_lo, rc_hi = (float(v) for v in roll_centre_range)
+        variables = None if variables is None else texts(owner, "variables", variables, empty=False)
+        self.solver = choice(owner, "solver", solver, SOLVERS)
+        self.span = positive(owner, "span", span)
+        self.travel_mm = positive(owner, "travel", travel)
+        self.n_travel = integer(owner, "n_travel", n_travel)
+        if self.n_travel < 3 or self.n_travel % 2 == 0:
+            raise ValidationError(
+                f"{owner}: `n_travel` must be an odd integer >= 3, but got n_travel={n_travel!r}"
+            )
+        self.camber_scale = positive(owner, "camber_scale", camber_scale)
+        self.track_scale = positive(owner, "track_scale", track_scale)
+        self.max_half_track_change = positive(owner, "max_half_track_change", max_half_track_change)
+        rc_lo, rc_hi = numbers(owner, "roll_centre_range", roll_centre_range, 2)
         if not rc_lo < rc_hi:
             raise ValidationError(
-                f"`roll_centre_range` must be (low, high) with low < high, but got "
-                f"({rc_lo}, {rc_hi})"
+                f"{owner}: `roll_centre_range` must be (low, high) with low < high, but got "
+                f"roll_centre_range=({rc_lo}, {rc_hi})"
             )
-        self.geometry_name = str(geometry)
-        self.solver = solver
-        self.span = float(span)
-        self.travel_mm = float(travel)
-        self.n_travel = int(n_travel)
-        self.camber_scale = float(camber_scale)
-        self.track_scale = float(track_scale)
-        self.max_half_track_change = float(max_half_track_change)
         self.roll_centre_range = (rc_lo, rc_hi)
+        self.baseline = load_geometry(geometry)
+        if self.baseline.batch_shape:
+            raise ValidationError(f"{owner}: the baseline must be a single geometry")
+        kind = self.baseline.kind
+        self.geometry_name = geometry
         self.travel = 1e-3 * np.linspace(-self.travel_mm, self.travel_mm, self.n_travel)
         self.variables = tuple(variables) if variables is not None else DEFAULT_VARIABLES[kind]
         base = self.baseline.points_mm()
@@ -132,9 +141,11 @@ class PlanarLinkage(Problem):
         for v in self.variables:
             point, _, axis = v.partition(".")
             if point not in base or axis not in ("y", "z"):
+                near = nearest(point, base)
+                hint = f"; did you mean '{near}.{axis or 'y'}'?" if near and near != point else ""
                 raise ValidationError(
-                    f"variable {v!r} must be '<point>.y' or '<point>.z' with point in "
-                    f"{sorted(base)} ({kind})"
+                    f"{owner}: variable {v!r} must be '<point>.y' or '<point>.z' with point in "
+                    f"{sorted(base)} ({kind}){hint}"
                 )
             centre = base[point][0 if axis == "y" else 1]
             params.append(
@@ -148,7 +159,7 @@ class PlanarLinkage(Problem):
                 )
             )
         self.space = DesignSpace(params)
-        self.target_camber_gain = None if target_camber_gain is None else float(target_camber_gain)
+        self.target_camber_gain = camber_gain
         # target curves (curve matching) or none (a camber-gain target)
         self.target_name: str | None
         self.target_geometry: PlanarGeometry | None
@@ -158,7 +169,7 @@ class PlanarLinkage(Problem):
             self.target_geometry = load_geometry(self.target_name)
             if self.target_geometry.kind != kind:
                 raise ValidationError(
-                    f"target geometry must be a {kind}, but {self.target_name!r} is a "
+                    f"{owner}: target geometry must be a {kind}, but {self.target_name!r} is a "
                     f"{self.target_geometry.kind}"
                 )
             target_sweep = solve_sweep(self.target_geometry, self.travel)

@@ -26,6 +26,7 @@ from __future__ import annotations
 import numpy as np
 
 from suspenv.core import DesignSpace, EvaluationBatch, Parameter, Problem
+from suspenv.core.options import number
 
 GROUPS = {
     "A": ("a_gradient", "a_position", "a_force"),
@@ -53,7 +54,8 @@ class SyntheticIdentification(Problem):
     description = "known-answer identification problem with planted objective groups"
 
     def __init__(self, hysteresis: float = 0.05):
-        self.hysteresis = float(hysteresis)
+        """``hysteresis``: half-width of the measured loops (nominal units), finite, >= 0."""
+        self.hysteresis = number(self.name, "hysteresis", hysteresis, lo=0.0)
         self.space = DesignSpace(
             [
                 Parameter("stiffness_a", 1.0, 10.0, "N/mm", default=4.0),

@@ -7,7 +7,8 @@ import time
 import numpy as np
 
 from suspenv.core import DesignSpace, EvaluationBatch, Parameter, Problem
-from suspenv.core.errors import EvaluationError, ValidationError
+from suspenv.core.errors import EvaluationError
+from suspenv.core.options import integer, number
 
 
 class Sphere(Problem):
@@ -17,12 +18,10 @@ class Sphere(Problem):
     description = "sum of squares, d variables (framework smoke tests and overhead benchmark)"
 
     def __init__(self, dim: int = 10, delay_s: float = 0.0):
-        if int(dim) < 1:
-            raise ValidationError(f"Sphere: `dim >= 1` must hold, but got dim={dim}")
-        if delay_s < 0:
-            raise ValidationError(f"Sphere: `delay_s >= 0` must hold, but got delay_s={delay_s}")
-        self.dim = int(dim)
-        self.delay_s = float(delay_s)  # per batch: stands in for an expensive simulation
+        """``dim``: number of variables, an integer >= 1; ``delay_s`` [s]: a sleep per
+        batch (stands in for an expensive simulation), finite and >= 0."""
+        self.dim = integer(self.name, "dim", dim, lo=1)
+        self.delay_s = number(self.name, "delay_s", delay_s, lo=0.0)
         self.space = DesignSpace(Parameter(f"x{i}", -1.0, 1.0) for i in range(self.dim))
         self.objective_names = ("f",)
 
@@ -46,9 +45,8 @@ class ZDT1(Problem):
     description = "ZDT1 bi-objective test function (multi-objective smoke tests)"
 
     def __init__(self, dim: int = 6):
-        if int(dim) < 2:
-            raise ValidationError(f"ZDT1: `dim >= 2` must hold, but got dim={dim}")
-        self.dim = int(dim)
+        """``dim``: number of variables, an integer >= 2."""
+        self.dim = integer(self.name, "dim", dim, lo=2)
         self.space = DesignSpace(Parameter(f"x{i}", 0.0, 1.0) for i in range(self.dim))
         self.objective_names = ("f1", "f2")
 

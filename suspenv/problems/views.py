@@ -7,6 +7,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from suspenv.core.errors import ValidationError
+from suspenv.core.options import integer
 from suspenv.core.problem import Problem
 from suspenv.core.result import EvaluationBatch
 
@@ -21,11 +22,16 @@ class ObjectiveSubset(Problem):
     description = "a problem restricted to some of its objectives"
 
     def __init__(self, base: Problem, keep: Sequence[int]):
-        idx = [int(i) for i in keep]
         m = base.n_objectives
-        if not idx or len(set(idx)) != len(idx) or not all(0 <= i < m for i in idx):
+        if not isinstance(keep, list | tuple) and getattr(keep, "ndim", None) != 1:
             raise ValidationError(
-                f"`keep` must be distinct objective indices in [0, {m}), but got {list(keep)}"
+                f"{self.name}: `keep` must be a list of objective indices, but got {keep!r}"
+            )
+        idx = [integer(self.name, f"keep[{j}]", i, lo=0, hi=m - 1) for j, i in enumerate(keep)]
+        if not idx or len(set(idx)) != len(idx):
+            raise ValidationError(
+                f"{self.name}: `keep` must be distinct objective indices in [0, {m}), but got "
+                f"{list(keep)}"
             )
         self.base = base
         self.keep = tuple(idx)
@@ -72,9 +78,9 @@ class WithSignedResponses(Problem):
         self.space = base.space
         m = base.n_objectives
         self.n_base = m
-        self.objective_names = tuple(base.objective_names) + tuple(
-            f"{n} (signed)" for n in base.objective_names
-        )
+        signed = tuple(f"{n} (signed)" for n in base.objective_names)
+        self.objective_names = tuple(base.objective_names) + signed
+        self.informational_objectives = signed  # NaN where the base provides none
         self.constraint_names = tuple(base.constraint_names)
         units = tuple(getattr(base, "objective_units", ()) or ())
         self.objective_units = units + units if len(units) == m else ()

@@ -65,10 +65,27 @@ class RunArchive:
         path.parent.mkdir(parents=True, exist_ok=True)
         self.path = path
         self._con = sqlite3.connect(str(path), timeout=30.0)
-        self._con.execute("PRAGMA journal_mode=WAL")
-        self._con.execute("PRAGMA synchronous=NORMAL")
-        self._con.executescript(_SCHEMA)
-        self._con.commit()
+        try:
+            self._con.execute("PRAGMA journal_mode=WAL")
+            self._con.execute("PRAGMA synchronous=NORMAL")
+            self._con.executescript(_SCHEMA)
+            self._con.commit()
+            self._check_columns()
+        except (sqlite3.DatabaseError, UnicodeDecodeError) as exc:
+            self._con.close()
+            raise ValidationError(
+                f"{str(path)!r} is not a suspenv run archive (SQLite: {exc})"
+            ) from None
+
+    def _check_columns(self) -> None:
+        """The evaluations table has the columns this version writes and reads."""
+        have = {row[1] for row in self._con.execute("PRAGMA table_info(evaluations)")}
+        want = {"batch", "row", "unit", "x", "objectives", "constraints", "ok", "message"}
+        if not want <= have:
+            raise ValidationError(
+                f"{str(self.path)!r} is not a suspenv run archive: its evaluations table "
+                f"lacks {sorted(want - have)}"
+            )
 
     # ------------------------------------------------------------------ meta
     def set_meta(self, **items: Any) -> None:
@@ -79,7 +96,24 @@ class RunArchive:
             )
 
     def meta(self) -> dict[str, Any]:
-        return {k: json.loads(v) for k, v in self._con.execute("SELECT key, value FROM meta")}
+        out = {}
+        for k, v in self._read("SELECT key, value FROM meta"):
+            try:
+                out[str(k)] = json.loads(v)
+            except (TypeError, ValueError):
+                raise ValidationError(
+                    f"archive {str(self.path)!r}: meta value of {k!r} is not JSON: {v!r:.80}"
+                ) from None
+        return out
+
+    def _read(self, sql: str, args: tuple[Any, ...] = ()) -> list[tuple[Any, ...]]:
+        """Rows of a query; a damaged file is a ValidationError naming the archive."""
+        try:
+            return self._con.execute(sql, args).fetchall()
+        except (sqlite3.DatabaseError, UnicodeDecodeError) as exc:
+            raise ValidationError(
+                f"archive {str(self.path)!r} is damaged (SQLite: {exc})"
+            ) from None
 
     # --------------------------------------------------------------- appends
     def append(
@@ -124,41 +158,66 @@ class RunArchive:
 
     # ----------------------------------------------------------------- reads
     def __len__(self) -> int:
-        return int(self._con.execute("SELECT COUNT(*) FROM evaluations").fetchone()[0])
+        return int(self._read("SELECT COUNT(*) FROM evaluations")[0][0])
 
     def batch(self, batch_index: int) -> dict[int, tuple[np.ndarray, EvaluationBatch]]:
         """``{row: (unit design, one-row EvaluationBatch)}`` archived for one batch."""
         out = {}
-        for row, u, f, g, ok, msg in self._con.execute(
+        meta = self.meta()
+        d = len(meta.get("parameter_names", [])) or None
+        m = len(meta.get("objective_names", [])) or None
+        k = len(meta.get("constraint_names", []))
+        for row, u, f, g, ok, msg in self._read(
             "SELECT row, unit, objectives, constraints, ok, message FROM evaluations "
             "WHERE batch = ? ORDER BY row",
             (int(batch_index),),
         ):
             out[int(row)] = (
-                _unblob(u),
+                self._values(u, d, "unit"),
                 EvaluationBatch(
-                    _unblob(f)[None, :], _unblob(g)[None, :], np.array([bool(ok)]), [msg]
+                    self._values(f, m, "objectives")[None, :],
+                    self._values(g, k if meta else None, "constraints")[None, :],
+                    np.array([bool(ok)]),
+                    [str(msg)],
                 ),
             )
         return out
 
+    def _values(self, blob: Any, width: int | None, column: str) -> np.ndarray:
+        """One row's float64 values from a blob, checked against the expected width."""
+        if not isinstance(blob, bytes) or len(blob) % 8:
+            raise ValidationError(
+                f"archive {str(self.path)!r} is damaged: a {column} value is not float64 data"
+            )
+        v = _unblob(blob)
+        if width is not None and v.size != width:
+            raise ValidationError(
+                f"archive {str(self.path)!r} is damaged: a {column} value has {v.size} "
+                f"numbers, the archive's names say {width}"
+            )
+        return v
+
     def arrays(self) -> dict[str, np.ndarray]:
         """Every evaluation in evaluation order (batch, row): unit, x, objectives, constraints,
         ok, message, batch, row, wall_time."""
-        cur = self._con.execute(
+        rows = self._read(
             "SELECT unit, x, objectives, constraints, ok, message, batch, row, wall_time "
             "FROM evaluations ORDER BY batch, row"
         )
-        rows = cur.fetchall()
         meta = self.meta()
-        d = len(meta.get("parameter_names", [])) or (len(_unblob(rows[0][0])) if rows else 0)
-        m = len(meta.get("objective_names", [])) or (len(_unblob(rows[0][2])) if rows else 0)
+        d = len(meta.get("parameter_names", [])) or (
+            self._values(rows[0][0], None, "unit").size if rows else 0
+        )
+        m = len(meta.get("objective_names", [])) or (
+            self._values(rows[0][2], None, "objectives").size if rows else 0
+        )
         k = len(meta.get("constraint_names", []))
+        names = ("unit", "x", "objectives", "constraints")
 
         def stack(col: int, width: int) -> np.ndarray:
             if not rows:
                 return np.zeros((0, width))
-            return np.vstack([_unblob(r[col]) for r in rows]).reshape(len(rows), -1)
+            return np.vstack([self._values(r[col], width, names[col]) for r in rows])
 
         return {
             "unit": stack(0, d),
@@ -166,11 +225,20 @@ class RunArchive:
             "objectives": stack(2, m),
             "constraints": stack(3, k) if k else np.zeros((len(rows), 0)),
             "ok": np.array([bool(r[4]) for r in rows], dtype=bool),
-            "message": np.array([r[5] for r in rows], dtype=object),
-            "batch": np.array([r[6] for r in rows], dtype=int),
-            "row": np.array([r[7] for r in rows], dtype=int),
-            "wall_time": np.array([r[8] for r in rows], dtype=float),
+            "message": np.array([str(r[5]) for r in rows], dtype=object),
+            "batch": self._integers([r[6] for r in rows], "batch"),
+            "row": self._integers([r[7] for r in rows], "row"),
+            "wall_time": np.array(
+                [r[8] if isinstance(r[8], int | float) else np.nan for r in rows], dtype=float
+            ),
         }
+
+    def _integers(self, values: list[Any], column: str) -> np.ndarray:
+        if not all(isinstance(v, int) for v in values):
+            raise ValidationError(
+                f"archive {str(self.path)!r} is damaged: a {column} value is not an integer"
+            )
+        return np.array(values, dtype=int)
 
     def to_csv(self, path: str | Path) -> Path:
         """Write every evaluation as CSV with named columns; returns the path.

@@ -20,9 +20,14 @@ A config (see ``configs/*.toml``)::
     output = "runs"              # parent folder of run directories
     plots = true
     progress = true
+    timeout_s = 60.0             # seconds per design before it is a fault of the machinery
+                                 # (default: the problem's own timeout_s)
+    retries = 3                  # retries of a chunk after a fault of the machinery
+    retry_backoff_s = 1.0        # wait before the first retry; doubles for each next one
 
-Pipelines may read further tables of their own (e.g. ``[study]``); unknown top-level keys
-are an error only for the "optimize" pipeline's own tables.
+Pipelines may read further tables of their own (e.g. ``[study]``), which the pipeline's
+check (:func:`suspenv.registry.pipeline_check`) validates before any work; unknown keys of
+the ``[problem]``, ``[strategy]`` and ``[run]`` tables are errors for every pipeline.
 """
 
 from __future__ import annotations
@@ -35,6 +40,7 @@ from pathlib import Path
 from typing import Any
 
 from suspenv.core.errors import ValidationError
+from suspenv.runs.evaluation import FaultPolicy
 
 DEFAULTS: dict[str, Any] = {
     "seed": 0,
@@ -47,11 +53,25 @@ DEFAULTS: dict[str, Any] = {
         "plots": True,
         "progress": True,
         "dask_scheduler": None,
+        "retries": 3,
+        "retry_backoff_s": 1.0,
     },
 }
 
 KNOWN_TOP = {"name", "seed", "budget", "pipeline", "problem", "strategy", "run", "description"}
-KNOWN_RUN = {"workers", "output", "plots", "progress", "dask_scheduler", "chunk_size"}
+KNOWN_RUN = {
+    "workers",
+    "output",
+    "plots",
+    "progress",
+    "dask_scheduler",
+    "chunk_size",
+    "timeout_s",
+    "retries",
+    "retry_backoff_s",
+}
+#: keys of the [problem] and [strategy] tables
+KNOWN_PART = {"name", "options"}
 
 
 def _merge(base: dict[str, Any], extra: dict[str, Any]) -> dict[str, Any]:
@@ -140,10 +160,17 @@ def validate(config: dict[str, Any], allow_code: bool = False) -> dict[str, Any]
             "config: `name` must be a plain file name (letters, digits, '_', '-', '.', not "
             f"starting with '.' or '-', at most 128 characters), but got {name!r}"
         )
+    for table in ("problem", "strategy", "run"):
+        if not isinstance(cfg[table], dict):
+            raise ValidationError(f"config: `{table}` must be a table, but got {cfg[table]!r}")
     check_code_names(cfg, allow_code)
+    _check_unknown(set(cfg["run"]), KNOWN_RUN, "run.")
+    for table in ("problem", "strategy"):
+        _check_unknown(set(cfg[table]), KNOWN_PART, f"{table}.")
+    if not isinstance(cfg["pipeline"], str):
+        raise ValidationError(f"config: `pipeline` must be a string, but got {cfg['pipeline']!r}")
     if cfg["pipeline"] == "optimize":
         _check_unknown(set(cfg), KNOWN_TOP, "")
-        _check_unknown(set(cfg["run"]), KNOWN_RUN, "run.")
         for table in ("problem", "strategy"):
             if not isinstance(cfg[table].get("name"), str):
                 raise ValidationError(
@@ -158,13 +185,48 @@ def validate(config: dict[str, Any], allow_code: bool = False) -> dict[str, Any]
         b = cfg["budget"]
         if not isinstance(b, int) or isinstance(b, bool) or b < 1:
             raise ValidationError(f"config: `budget` must be an integer >= 1, but got {b!r}")
-    w = cfg["run"]["workers"]
-    if not isinstance(w, int) or isinstance(w, bool) or w < 1:
-        raise ValidationError(f"config: `run.workers` must be an integer >= 1, but got {w!r}")
+    _check_run(cfg["run"])
     for table in ("problem", "strategy"):
         if not isinstance(cfg[table].get("options", {}), dict):
             raise ValidationError(f"config: `{table}.options` must be a table")
     return cfg
+
+
+def _is_int(v: Any) -> bool:
+    return isinstance(v, int) and not isinstance(v, bool)
+
+
+def _check_run(run: dict[str, Any]) -> None:
+    """Types and ranges of the ``[run]`` table (timeout and retries: FaultPolicy)."""
+    w = run["workers"]
+    if not _is_int(w) or w < 1:
+        raise ValidationError(f"config: `run.workers` must be an integer >= 1, but got {w!r}")
+    chunk = run.get("chunk_size")
+    if chunk is not None and (not _is_int(chunk) or chunk < 1):
+        raise ValidationError(
+            f"config: `run.chunk_size` must be an integer >= 1, but got {chunk!r}"
+        )
+    for key in ("plots", "progress"):
+        if not isinstance(run[key], bool):
+            raise ValidationError(
+                f"config: `run.{key}` must be true or false, but got {run[key]!r}"
+            )
+    if not isinstance(run["output"], str) or not run["output"]:
+        raise ValidationError(
+            f"config: `run.output` must be a folder name, but got {run['output']!r}"
+        )
+    address = run.get("dask_scheduler")
+    if address is not None and (not isinstance(address, str) or "://" not in address):
+        raise ValidationError(
+            "config: `run.dask_scheduler` must be a scheduler address such as "
+            f"'tcp://host:8786' or 'tls://host:8786', but got {address!r}"
+        )
+    timeout = run.get("timeout_s")
+    FaultPolicy(
+        timeout_s=FaultPolicy.timeout_s if timeout is None else timeout,
+        retries=run["retries"],
+        backoff_s=run["retry_backoff_s"],
+    )
 
 
 def load_config(

@@ -22,21 +22,28 @@ Rules:
 
 from __future__ import annotations
 
+import contextlib
 import math
 import time
 from collections.abc import Callable, Sequence
-from concurrent.futures import Executor, as_completed
+from concurrent.futures import Executor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Protocol
 
 import numpy as np
 
-from suspenv.core.errors import ValidationError
+from suspenv.core.errors import InfrastructureError, ValidationError
 from suspenv.core.problem import Problem
 from suspenv.core.result import EvaluationBatch
 from suspenv.runs.archive import RunArchive
+from suspenv.runs.evaluation import FaultPolicy, evaluate_chunks
+from suspenv.runs.run_dir import locked
 from suspenv.runs.versions import package_versions
+
+#: lock file beside an archive while a run writes it (the run directory's own lock,
+#: ``.lock``, is held by :func:`suspenv.runs.runner.run_experiment` around a whole pipeline)
+ARCHIVE_LOCK = ".archive.lock"
 
 BatchCallback = Callable[[int, np.ndarray, EvaluationBatch], None]
 
@@ -85,32 +92,6 @@ class RunResult:
         }
 
 
-def _evaluate_chunks(
-    problem: Problem, X: np.ndarray, rows: np.ndarray, executor: Executor | None, chunk: int
-):
-    """Yield (rows, EvaluationBatch, seconds) per chunk as chunks complete."""
-    if executor is None:
-        t0 = time.perf_counter()
-        yield rows, problem.evaluate(X), time.perf_counter() - t0
-        return
-    parts = [slice(i, i + chunk) for i in range(0, len(rows), chunk)]
-    t0 = time.perf_counter()
-    futures = {executor.submit(problem.evaluate, X[s]): s for s in parts}
-    for fut in as_completed(futures):
-        s = futures[fut]
-        try:
-            res = fut.result()
-        except Exception as exc:  # noqa: BLE001 - a lost worker is a failed chunk, not a crash
-            n = len(rows[s])
-            res = EvaluationBatch.failed(
-                n,
-                problem.n_objectives,
-                problem.n_constraints,
-                f"executor: {type(exc).__name__}: {exc}",
-            )
-        yield rows[s], res, time.perf_counter() - t0
-
-
 def optimize(
     problem: Problem,
     strategy: Any,
@@ -125,6 +106,7 @@ def optimize(
     callbacks: Sequence[BatchCallback] = (),
     recorders: Sequence[Recorder] = (),
     meta: dict[str, Any] | None = None,
+    faults: FaultPolicy | None = None,
 ) -> RunResult:
     """Run ``strategy`` on ``problem`` for at most ``budget`` evaluations.
 
@@ -143,12 +125,44 @@ def optimize(
         callbacks: called as ``cb(batch_index, U, batch)`` after each tell.
         recorders: extra :class:`Recorder` objects (the run directory's archive is one).
         meta: extra items stored in the archive's meta table.
+        faults: timeout and retries for faults of the machinery (default: the problem's
+            ``timeout_s``, 3 retries); see :mod:`suspenv.runs.evaluation`. When retries are
+            spent, :class:`~suspenv.core.errors.InfrastructureError` ends the run; the
+            archive keeps every evaluation done, and calling again resumes.
     """
     if int(budget) != budget or budget < 1:
         raise ValidationError(f"`budget >= 1` (an integer) must hold, but got budget={budget!r}")
     if int(workers) != workers or workers < 1:
         raise ValidationError(f"`workers >= 1` (an integer) must hold, but got workers={workers!r}")
     budget = int(budget)
+    policy = faults if faults is not None else FaultPolicy(timeout_s=problem.timeout_s)
+    with contextlib.ExitStack() as stack:
+        if run_dir is not None:
+            folder = Path(run_dir)
+            if not folder.is_dir() and folder.suffix:  # a file path: RunArchive's rule
+                folder = folder.parent
+            stack.enter_context(locked(folder, ARCHIVE_LOCK, "archive folder"))
+        return _optimize(
+            problem, strategy, budget, run_dir, seed, executor, workers, chunk_size,
+            progress, callbacks, recorders, meta, policy,
+        )
+
+
+def _optimize(
+    problem: Problem,
+    strategy: Any,
+    budget: int,
+    run_dir: str | Path | None,
+    seed: int | None,
+    executor: Executor | None,
+    workers: int,
+    chunk_size: int | None,
+    progress: bool,
+    callbacks: Sequence[BatchCallback],
+    recorders: Sequence[Recorder],
+    meta: dict[str, Any] | None,
+    policy: FaultPolicy,
+) -> RunResult:
     archive = RunArchive(run_dir) if run_dir is not None else None
     if archive is not None:
         archive.set_meta(
@@ -161,6 +175,7 @@ def optimize(
             seed=seed,
             budget=budget,
             versions=package_versions(),
+            faults=policy.as_dict(),
             **(meta or {}),
         )
     bar = None
@@ -215,10 +230,13 @@ def optimize(
                 results[r] = res
             resumed += len(done)
             todo = np.array([r for r in range(n) if results[r] is None], dtype=int)
-            parts: list[tuple[np.ndarray, EvaluationBatch]] = []
+            parts: list[tuple[list[int], EvaluationBatch]] = []
             if todo.size:
                 chunk = chunk_size or max(1, math.ceil(todo.size / workers))
-                for rows, res, secs in _evaluate_chunks(problem, X[todo], todo, executor, chunk):
+                chunks = evaluate_chunks(
+                    problem, X[todo], todo, executor, chunk, workers, policy
+                )
+                for rows, res, secs in chunks:
                     if archive is not None:
                         archive.append(b, rows, U[rows], X[rows], res, secs)
                     for rec in recorders:
@@ -238,7 +256,7 @@ def optimize(
             strategy.tell(U, batch)
             # bookkeeping: best feasible by the first objective (or the mean of objectives)
             f = batch.objectives[:, 0] if batch.n_objectives == 1 else batch.objectives.mean(1)
-            f = np.where(batch.feasible, f, np.inf)
+            f = np.where(batch.feasible & np.isfinite(f), f, np.inf)
             i = int(np.argmin(f))
             if f[i] < best[0]:
                 best = (float(f[i]), used + i, batch.objectives[i].tolist(), X[i].copy())
@@ -260,6 +278,12 @@ def optimize(
     except KeyboardInterrupt:
         stop_reason = f"interrupted after {used} evaluations (archive kept; resume with same dir)"
         raise
+    except InfrastructureError as exc:
+        stop_reason = f"fault of the machinery in batch {b}: {exc}"
+        raise InfrastructureError(
+            f"run stopped in batch {b} after {used} evaluations: {exc}. The archive keeps "
+            "every evaluation done; run the same command again to resume"
+        ) from None
     finally:
         if bar is not None:
             bar.close()

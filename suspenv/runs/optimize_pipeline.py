@@ -8,10 +8,7 @@ objectives, drawn by :mod:`suspenv.reports.run`), then any report the problem wr
 
 from __future__ import annotations
 
-import contextlib
 import json
-from collections.abc import Iterator
-from concurrent.futures import Executor, ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
@@ -19,31 +16,9 @@ import numpy as np
 
 from suspenv.registry import make_problem, make_strategy, report_function
 from suspenv.runs.archive import RunArchive
+from suspenv.runs.evaluation import FaultPolicy
+from suspenv.runs.executors import executor_workers, make_executor
 from suspenv.runs.loop import optimize
-
-
-@contextlib.contextmanager
-def make_executor(run: dict[str, Any]) -> Iterator[Executor | None]:
-    """None (in-process), a process pool (``workers > 1``) or a Dask cluster's executor."""
-    address = run.get("dask_scheduler")
-    if address:
-        from distributed import Client
-
-        with Client(address) as client:
-            yield client.get_executor()
-    elif run.get("workers", 1) > 1:
-        with ProcessPoolExecutor(max_workers=run["workers"]) as pool:
-            yield pool
-    else:
-        yield None
-
-
-def executor_workers(run: dict[str, Any]) -> int:
-    """Evaluations the executor of :func:`make_executor` runs at once: ``workers`` for a
-    process pool, 1 in-process, and ``max(workers, 2)`` on a Dask cluster (its size is not
-    known here; two chunks per batch at least)."""
-    workers = int(run.get("workers", 1) or 1)
-    return max(workers, 2) if run.get("dask_scheduler") else workers
 
 
 def best_so_far(values: np.ndarray, feasible: np.ndarray) -> np.ndarray:
@@ -101,6 +76,23 @@ def write_run_outputs(
     return summary
 
 
+def check_optimize_config(config: dict[str, Any]) -> dict[str, Any]:
+    """Build the config's problem and strategy (every option checked by their constructors)
+    and fill ``run.timeout_s`` with the problem's own when the config leaves it out.
+
+    Runs before a run directory exists: a bad option leaves nothing behind."""
+    problem = make_problem(config["problem"]["name"], **config["problem"].get("options", {}))
+    make_strategy(
+        config["strategy"]["name"],
+        problem,
+        seed=config["seed"],
+        **config["strategy"].get("options", {}),
+    )
+    out = {**config, "run": dict(config["run"])}
+    out["run"]["timeout_s"] = FaultPolicy.for_run(config["run"], problem).timeout_s
+    return out
+
+
 def run_optimize_pipeline(config: dict[str, Any], run_dir: Path) -> dict[str, Any]:
     """Run the config's strategy on its problem; write every output into ``run_dir``."""
     problem = make_problem(config["problem"]["name"], **config["problem"].get("options", {}))
@@ -122,5 +114,6 @@ def run_optimize_pipeline(config: dict[str, Any], run_dir: Path) -> dict[str, An
             chunk_size=config["run"].get("chunk_size"),
             progress=config["run"].get("progress", True),
             meta={"config": config},
+            faults=FaultPolicy.for_run(config["run"], problem),
         )
     return write_run_outputs(problem, run_dir, config, result, strategy)

@@ -2,11 +2,17 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
+import os
+import sqlite3
+import time
 import tomllib
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+from suspenv.core.errors import ValidationError
 from suspenv.runs.versions import package_versions
 
 
@@ -56,3 +62,63 @@ def prepare_run_dir(config: dict[str, Any]) -> Path:
     (path / "config.resolved.toml").write_text(dump_toml(config))
     (path / "versions.json").write_text(json.dumps(package_versions(), indent=2) + "\n")
     return path
+
+
+#: the lock file inside a run directory, held while a run writes into it
+LOCK_FILE = ".lock"
+
+
+@contextlib.contextmanager
+def locked(path: Path, lock_name: str = LOCK_FILE, what: str = "run directory") -> Iterator[None]:
+    """Hold the lock of folder ``path`` for the block (the folder is created).
+
+    Two runs of one config would otherwise evaluate into one archive; the second is
+    refused at once with the first one's process id. The lock is an ``flock`` on
+    ``<path>/<lock_name>``: the operating system releases it when the holder dies, so a
+    killed run never leaves a stale lock behind. ``what`` names the folder in the error."""
+    path.mkdir(parents=True, exist_ok=True)
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - not POSIX: no lock
+        yield
+        return
+    fh = (path / lock_name).open("a+")
+    try:
+        try:
+            fcntl.flock(fh.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            fh.seek(0)
+            holder = fh.read().strip() or "unknown"
+            raise ValidationError(
+                f"{what} {str(path)!r} is in use by another run ({holder}); wait for "
+                "it to finish, or give this run another `name` or `seed`"
+            ) from None
+        fh.seek(0)
+        fh.truncate()
+        fh.write(f"pid {os.getpid()}, since {time.strftime('%Y-%m-%d %H:%M:%S')}\n")
+        fh.flush()
+        yield
+    finally:
+        fh.close()  # closing the file releases the lock
+
+
+def holds_results(path: Path) -> bool:
+    """True when the run directory holds anything a run produced: an archive with at
+    least one evaluation (at any depth), a ``rows.jsonl`` with a row, or a summary."""
+    if (path / "summary.json").exists():
+        return True
+    for rows in path.rglob("rows.jsonl"):
+        if rows.stat().st_size > 0:
+            return True
+    for db in path.rglob("archive.sqlite"):
+        try:
+            con = sqlite3.connect(f"file:{db}?mode=ro", uri=True)
+            try:
+                n = con.execute("SELECT COUNT(*) FROM evaluations").fetchone()[0]
+            finally:
+                con.close()
+        except sqlite3.Error:
+            return True  # unreadable: keep it, let the user decide
+        if n:
+            return True
+    return False

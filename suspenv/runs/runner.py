@@ -1,4 +1,14 @@
-"""Run an experiment config: resolve, prepare the run directory, dispatch to its pipeline."""
+"""Run an experiment config: check it, prepare the run directory, dispatch to its pipeline.
+
+Order, so that a bad config leaves nothing behind and two runs never share a directory:
+1. the pipeline's check (:func:`suspenv.registry.pipeline_check`) builds and validates
+   everything the config names and fills in the defaults it will use; no file is written;
+2. the run directory is locked (:func:`suspenv.runs.run_dir.locked`);
+3. an existing run directory either holds the same experiment (the run resumes), holds no
+   results yet (it is replaced: e.g. what a crashed start left), or is refused unless
+   ``overwrite``;
+4. the resolved config and versions are written, then the pipeline runs.
+"""
 
 from __future__ import annotations
 
@@ -9,8 +19,14 @@ from pathlib import Path
 from typing import Any
 
 from suspenv.core.errors import ValidationError
-from suspenv.registry import pipeline_function
-from suspenv.runs.run_dir import prepare_run_dir, run_directory
+from suspenv.registry import pipeline_check, pipeline_function
+from suspenv.runs.run_dir import (
+    LOCK_FILE,
+    holds_results,
+    locked,
+    prepare_run_dir,
+    run_directory,
+)
 
 #: keys that may differ between a run and its resumption (they do not change numbers)
 RESUMABLE_DIFFERENCES = {"run", "config_path"}
@@ -29,24 +45,46 @@ def _differences(a: dict[str, Any], b: dict[str, Any], prefix: str = "") -> list
     return out
 
 
+def check_config(config: dict[str, Any]) -> dict[str, Any]:
+    """The config after its pipeline's check: every option validated, defaults filled in.
+    Writes nothing."""
+    pipeline_function(config.get("pipeline", "optimize"))  # unknown: error with suggestions
+    check = pipeline_check(config.get("pipeline", "optimize"))
+    return config if check is None else check(config)
+
+
+def _clear(path: Path) -> None:
+    """Empty the run directory but keep it and its lock file (the lock is held)."""
+    for child in path.iterdir():
+        if child.name == LOCK_FILE:
+            continue
+        if child.is_dir() and not child.is_symlink():
+            shutil.rmtree(child)
+        else:
+            child.unlink()
+
+
 def run_experiment(config: dict[str, Any], overwrite: bool = False) -> tuple[Path, dict[str, Any]]:
     """Run a resolved config; resume when its run directory holds the same experiment."""
+    config = check_config(config)
     path = run_directory(config)
-    resolved = path / "config.resolved.toml"
-    if resolved.exists():
-        if overwrite:
-            shutil.rmtree(path)
-        else:
+    with locked(path):
+        resolved = path / "config.resolved.toml"
+        if resolved.exists():
             old = tomllib.loads(resolved.read_text())
             diff = _differences(old, config)
-            if diff:
+            if diff and (overwrite or not holds_results(path)):
+                _clear(path)
+            elif diff:
                 raise ValidationError(
                     f"run directory {str(path)!r} holds a different experiment "
                     f"({'; '.join(diff[:5])}); use another `name`/`seed`, or --overwrite"
                 )
-    run_dir = prepare_run_dir(config)
-    pipeline = pipeline_function(config.get("pipeline", "optimize"))
-    t0 = time.perf_counter()
-    summary = pipeline(config, run_dir)
-    summary.setdefault("pipeline_wall_time_s", time.perf_counter() - t0)
+            elif overwrite:
+                _clear(path)
+        run_dir = prepare_run_dir(config)
+        pipeline = pipeline_function(config.get("pipeline", "optimize"))
+        t0 = time.perf_counter()
+        summary = pipeline(config, run_dir)
+        summary.setdefault("pipeline_wall_time_s", time.perf_counter() - t0)
     return run_dir, summary

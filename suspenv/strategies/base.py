@@ -25,8 +25,9 @@ from typing import Any, ClassVar
 import numpy as np
 
 from suspenv.core.errors import ValidationError
+from suspenv.core.options import choice, integer, numbers
 from suspenv.core.result import EvaluationBatch
-from suspenv.core.scalarize import get_scalarizer, penalized_fitness
+from suspenv.core.scalarize import SCALARIZERS, get_scalarizer, penalized_fitness
 
 
 class Strategy(ABC):
@@ -38,24 +39,12 @@ class Strategy(ABC):
     multi_objective: ClassVar[bool] = False
 
     def __init__(self, dim: int, n_objectives: int = 1, n_constraints: int = 0, seed: int = 0):
-        for key, value, least in (
-            ("dim", dim, 1),
-            ("n_objectives", n_objectives, 1),
-            ("n_constraints", n_constraints, 0),
-        ):
-            if int(value) != value or value < least:
-                raise ValidationError(
-                    f"{type(self).__name__}: `{key}` must be an integer >= {least}, "
-                    f"but got {key}={value!r}"
-                )
-        if seed is None or int(seed) != seed or seed < 0:
-            raise ValidationError(
-                f"{type(self).__name__}: `seed` must be an integer >= 0, but got seed={seed!r}"
-            )
-        self.dim = int(dim)
-        self.n_objectives = int(n_objectives)
-        self.n_constraints = int(n_constraints)
-        self.seed = int(seed)
+        """Rules: ``dim >= 1``, ``n_objectives >= 1``, ``n_constraints >= 0`` and
+        ``seed >= 0``, all integers (:func:`suspenv.core.options.integer`)."""
+        self.dim = integer(self.name, "dim", dim, lo=1)
+        self.n_objectives = integer(self.name, "n_objectives", n_objectives, lo=1)
+        self.n_constraints = integer(self.name, "n_constraints", n_constraints, lo=0)
+        self.seed = integer(self.name, "seed", seed, lo=0)
         self._pending: np.ndarray | None = None
         self.n_told = 0
 
@@ -111,7 +100,8 @@ class ScalarStrategy(Strategy):
     Options:
         scalarizer: "weighted_sum" (default) or "rank_sum" (Tey et al. 2014), used when
             the problem has more than one objective.
-        weights: weights for "weighted_sum".
+        weights: weights for "weighted_sum": one finite number per objective (default all
+            1); refused with "rank_sum", which takes none.
     """
 
     def __init__(
@@ -124,14 +114,16 @@ class ScalarStrategy(Strategy):
         weights: list[float] | None = None,
     ):
         super().__init__(dim, n_objectives, n_constraints, seed)
-        self.scalarizer_name = scalarizer
-        self._scalarizer = get_scalarizer(scalarizer)
-        if weights is not None and len(weights) != self.n_objectives:
+        self.scalarizer_name = choice(self.name, "scalarizer", scalarizer, sorted(SCALARIZERS))
+        self._scalarizer = get_scalarizer(self.scalarizer_name)
+        if weights is not None and self.scalarizer_name != "weighted_sum":
             raise ValidationError(
-                f"{self.name}: `len(weights) == n_objectives` must hold, but got "
-                f"(len(weights)={len(weights)}, n_objectives={self.n_objectives})"
+                f"{self.name}: `weights` apply only with scalarizer='weighted_sum', but got "
+                f"scalarizer={self.scalarizer_name!r} and weights={weights!r}"
             )
-        self.weights = None if weights is None else [float(w) for w in weights]
+        self.weights = (
+            None if weights is None else numbers(self.name, "weights", weights, self.n_objectives)
+        )
 
     def fitness(self, batch: EvaluationBatch) -> np.ndarray:
         """Finite fitness per row: scalarised objectives, infeasible and failed rows last."""

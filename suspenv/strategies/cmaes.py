@@ -8,6 +8,18 @@
   et al.'s dynamic rank-sum); infeasible and failed designs are ranked last.
 - ``restarts=k`` enables IPOP-CMA-ES: when pycma meets a stop criterion, a fresh run
   starts from a seeded random point with the population multiplied by ``incpopsize``.
+- A generation in which every design fails is not told to pycma (its fitness would be
+  flat, and a flat fitness ends pycma at once); the step size is doubled instead (up to
+  1, the whole box) and the next generation is asked from the same mean. After
+  ``max_failed_generations`` such generations in a row the run restarts (when restarts
+  are left) or stops with that reason. ask/tell stay a function of the seed and the told
+  results, so a run replayed against its archive asks the same designs.
+
+Option rules (checked at construction): ``popsize >= 2``, ``0 < sigma0 <= 1``, ``x0`` d
+numbers in [0, 1], ``restarts >= 0``, ``incpopsize >= 1``, ``tolfun >= 0``, ``tolx >= 0``,
+``max_failed_generations >= 1``; integers where a count is meant, finite numbers
+everywhere; ``scalarizer`` and ``weights`` as in
+:class:`~suspenv.strategies.base.ScalarStrategy`.
 """
 
 from __future__ import annotations
@@ -18,9 +30,14 @@ from typing import Any
 import cma
 import numpy as np
 
-from suspenv.core.errors import ValidationError
+from suspenv.core.options import integer, number, numbers
 from suspenv.core.result import EvaluationBatch
 from suspenv.strategies.base import ScalarStrategy
+
+#: step-size factor after a generation in which every design failed, and the step size
+#: (unit-cube coordinates) it never widens beyond: 1 spans the whole box
+FAILED_SIGMA_FACTOR = 2.0
+FAILED_SIGMA_CAP = 1.0
 
 
 class CMAES(ScalarStrategy):
@@ -33,6 +50,8 @@ class CMAES(ScalarStrategy):
         restarts: number of IPOP restarts (default 0).
         incpopsize: population growth factor per restart (default 2).
         tolfun, tolx: pycma stop tolerances (defaults 1e-11).
+        max_failed_generations: generations in a row in which every design fails before
+            the run stops (or restarts, when ``restarts`` are left); default 10.
         scalarizer, weights: see :class:`~suspenv.strategies.base.ScalarStrategy`.
     """
 
@@ -52,33 +71,33 @@ class CMAES(ScalarStrategy):
         incpopsize: float = 2.0,
         tolfun: float = 1e-11,
         tolx: float = 1e-11,
+        max_failed_generations: int = 10,
         scalarizer: str = "weighted_sum",
         weights: list[float] | None = None,
     ):
         super().__init__(dim, n_objectives, n_constraints, seed, scalarizer, weights)
-        if not 0 < sigma0 <= 1:
-            raise ValidationError(f"cmaes: `0 < sigma0 <= 1` must hold, but got sigma0={sigma0}")
-        if popsize is not None and int(popsize) < 2:
-            raise ValidationError(f"cmaes: `popsize >= 2` must hold, but got popsize={popsize}")
-        if int(restarts) < 0:
-            raise ValidationError(f"cmaes: `restarts >= 0` must hold, but got {restarts}")
-        if incpopsize < 1:
-            raise ValidationError(f"cmaes: `incpopsize >= 1` must hold, but got {incpopsize}")
-        if x0 is not None:
-            x0 = [float(v) for v in x0]
-            if len(x0) != self.dim or not all(0 <= v <= 1 for v in x0):
-                raise ValidationError(
-                    f"cmaes: `x0` must be {self.dim} values in [0, 1], but got {x0}"
-                )
-        self.popsize = int(popsize) if popsize else 4 + int(3 * math.log(self.dim))
-        self.sigma0 = float(sigma0)
-        self.x0 = x0
-        self.restarts = int(restarts)
-        self.incpopsize = float(incpopsize)
-        self.tolfun, self.tolx = float(tolfun), float(tolx)
+        owner = self.name
+        self.popsize = (
+            4 + int(3 * math.log(self.dim))
+            if popsize is None
+            else integer(owner, "popsize", popsize, lo=2)
+        )
+        self.sigma0 = number(owner, "sigma0", sigma0, lo=0.0, hi=1.0, lo_open=True)
+        self.x0 = None if x0 is None else numbers(owner, "x0", x0, self.dim, lo=0.0, hi=1.0)
+        self.restarts = integer(owner, "restarts", restarts, lo=0)
+        self.incpopsize = number(owner, "incpopsize", incpopsize, lo=1.0)
+        self.tolfun = number(owner, "tolfun", tolfun, lo=0.0)
+        self.tolx = number(owner, "tolx", tolx, lo=0.0)
+        self.max_failed_generations = integer(
+            owner, "max_failed_generations", max_failed_generations, lo=1
+        )
         self._rng = np.random.default_rng(self.seed)
         self.restart_count = 0
         self.history: list[dict[str, Any]] = []
+        #: generations in a row (and in all) in which every design failed
+        self.failed_generations = 0
+        self.failed_generations_total = 0
+        self.last_failure = ""
         self._es = self._new_es(self.x0 or [0.5] * self.dim, self.popsize)
 
     def _new_es(self, x0: list[float], popsize: int) -> cma.CMAEvolutionStrategy:
@@ -100,22 +119,55 @@ class CMAES(ScalarStrategy):
         return np.clip(np.asarray(self._es.ask(), dtype=float), 0.0, 1.0)
 
     def _tell(self, U: np.ndarray, batch: EvaluationBatch) -> None:
+        ok = np.asarray(batch.ok, bool) & np.isfinite(batch.objectives).all(axis=1)
+        if not ok.any():
+            self._tell_all_failed(batch)
+            return
+        self.failed_generations = 0
         f = self.fitness(batch)
         self._es.tell(list(U), f.tolist())
         if self._es.stop() and self.restart_count < self.restarts:
-            self.history.append(
-                {
-                    "restart": self.restart_count,
-                    "popsize": self.popsize,
-                    "stop": dict(self._es.stop()),
-                    "evaluations": self.n_told + len(batch),
-                }
-            )
-            self.restart_count += 1
-            self.popsize = int(round(self.popsize * self.incpopsize))
-            self._es = self._new_es(self._rng.uniform(0.0, 1.0, self.dim).tolist(), self.popsize)
+            self._restart(dict(self._es.stop()), len(batch))
+
+    def _tell_all_failed(self, batch: EvaluationBatch) -> None:
+        """A generation in which every design failed: pycma is not told (a flat fitness
+        would end it); the step size is widened instead, so the next generation looks
+        further from the mean. After ``max_failed_generations`` such generations in a
+        row, an IPOP restart when one is left, else :meth:`stop` says so."""
+        self.failed_generations += 1
+        self.failed_generations_total += 1
+        self.last_failure = next((m for m in batch.messages if m), "no message")
+        sigma = float(self._es.sigma)
+        self._es.sigma = max(sigma, min(FAILED_SIGMA_FACTOR * sigma, FAILED_SIGMA_CAP))
+        if (
+            self.failed_generations >= self.max_failed_generations
+            and self.restart_count < self.restarts
+        ):
+            self._restart({"max_failed_generations": self.max_failed_generations}, len(batch))
+            self.failed_generations = 0
+
+    def _restart(self, reasons: dict[str, Any], n_batch: int) -> None:
+        """IPOP: a fresh pycma run from a seeded random point, population times
+        ``incpopsize``."""
+        self.history.append(
+            {
+                "restart": self.restart_count,
+                "popsize": self.popsize,
+                "stop": reasons,
+                "evaluations": self.n_told + n_batch,
+            }
+        )
+        self.restart_count += 1
+        self.popsize = int(round(self.popsize * self.incpopsize))
+        self._es = self._new_es(self._rng.uniform(0.0, 1.0, self.dim).tolist(), self.popsize)
 
     def stop(self) -> str | None:
+        if self.failed_generations >= self.max_failed_generations:
+            return (
+                f"cmaes: every design failed in {self.failed_generations} consecutive "
+                f"generations (max_failed_generations={self.max_failed_generations}; "
+                f"after {self.restart_count} restart(s)); last failure: {self.last_failure}"
+            )
         reasons = self._es.stop()
         if reasons:
             text = ", ".join(f"{k}={v}" for k, v in reasons.items())
@@ -124,8 +176,12 @@ class CMAES(ScalarStrategy):
 
     @property
     def mean(self) -> np.ndarray:
-        """Current distribution mean in the unit cube."""
-        return np.clip(np.asarray(self._es.mean, dtype=float), 0.0, 1.0)
+        """Current distribution mean in the unit cube: pycma's mean passed through its bound
+        transformation (a mean beyond a bound is reflected back into the box, as the designs
+        sampled around it are; pycma's ``result.xfavorite``)."""
+        es = self._es
+        x = es.gp.pheno(es.mean, into_bounds=es.boundary_handler.repair)
+        return np.clip(np.asarray(x, dtype=float), 0.0, 1.0)
 
     def options(self) -> dict[str, Any]:
         return {
@@ -137,4 +193,5 @@ class CMAES(ScalarStrategy):
             "incpopsize": self.incpopsize,
             "tolfun": self.tolfun,
             "tolx": self.tolx,
+            "max_failed_generations": self.max_failed_generations,
         }

@@ -11,18 +11,23 @@ from typing import Any
 import numpy as np
 from scipy.stats import qmc
 
-from suspenv.core.errors import ValidationError
+from suspenv.core.options import choice, integer
 from suspenv.core.result import EvaluationBatch
 from suspenv.strategies.base import Strategy
+
+#: scipy's Latin hypercube optimisations (``scipy.stats.qmc.LatinHypercube``)
+OPTIMIZATIONS = ("random-cd", "lloyd")
 
 
 class LatinHypercube(Strategy):
     """A seeded Latin hypercube sample of the unit cube.
 
-    Options:
-        n_samples: size of the design (default 500, as in Tey et al. 2014).
-        batch_size: points per ask (default 50).
+    Options (checked at construction):
+        n_samples: size of the design, an integer >= 1 (default 500, as in Tey et al. 2014).
+        batch_size: points per ask, an integer >= 1 (default 50).
         optimization: scipy's LHS optimisation ("random-cd", "lloyd") or None (default).
+
+    The design does not depend on the results: failed evaluations change nothing.
     """
 
     name = "lhs"
@@ -40,14 +45,14 @@ class LatinHypercube(Strategy):
         optimization: str | None = None,
     ):
         super().__init__(dim, n_objectives, n_constraints, seed)
-        if int(n_samples) < 1 or int(batch_size) < 1:
-            raise ValidationError(
-                "lhs: `n_samples >= 1` and `batch_size >= 1` must hold, but got "
-                f"(n_samples={n_samples}, batch_size={batch_size})"
-            )
-        self.n_samples, self.batch_size = int(n_samples), int(batch_size)
-        self.optimization = optimization
-        sampler = qmc.LatinHypercube(d=self.dim, optimization=optimization, rng=self.seed)
+        self.n_samples = integer(self.name, "n_samples", n_samples, lo=1)
+        self.batch_size = integer(self.name, "batch_size", batch_size, lo=1)
+        self.optimization = (
+            None
+            if optimization is None
+            else choice(self.name, "optimization", optimization, OPTIMIZATIONS)
+        )
+        sampler = qmc.LatinHypercube(d=self.dim, optimization=self.optimization, rng=self.seed)
         self.design = sampler.random(self.n_samples)
         self._next = 0
 

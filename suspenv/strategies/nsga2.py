@@ -25,7 +25,7 @@ import optuna
 from optuna.distributions import BaseDistribution, FloatDistribution
 from optuna.trial import TrialState
 
-from suspenv.core.errors import ValidationError
+from suspenv.core.options import integer, number, text
 from suspenv.core.result import EvaluationBatch
 from suspenv.strategies.base import Strategy
 
@@ -41,11 +41,16 @@ def _constraints_of(trial: optuna.trial.FrozenTrial) -> list[float]:
 class NSGA2(Strategy):
     """Non-dominated sorting genetic algorithm II (Deb et al. 2002), optuna backend.
 
-    Options:
-        population_size: designs per generation (default 50).
-        crossover_prob, mutation_prob, swapping_prob: passed to optuna's sampler.
-        storage: optuna storage URL, or None for in-memory (default).
+    Options (checked at construction):
+        population_size: designs per generation, an integer >= 2 (default 50).
+        crossover_prob, mutation_prob, swapping_prob: probabilities in [0, 1] passed to
+            optuna's sampler (mutation_prob None: optuna's default, 1 / d).
+        storage: optuna storage URL (a non-empty string), or None for in-memory (default).
         study_name: study name in the storage (default "suspenv-nsga2-<seed>").
+
+    A generation in which every design fails does not replace the population: optuna
+    counts only completed trials towards a generation, so the next batch is bred from the
+    same parents (failed trials take no part in selection).
     """
 
     name = "nsga2"
@@ -66,18 +71,21 @@ class NSGA2(Strategy):
         study_name: str | None = None,
     ):
         super().__init__(dim, n_objectives, n_constraints, seed)
-        if int(population_size) < 2:
-            raise ValidationError(
-                f"nsga2: `population_size >= 2` must hold, but got {population_size}"
-            )
-        if not 0 <= crossover_prob <= 1:
-            raise ValidationError(
-                f"nsga2: `0 <= crossover_prob <= 1` must hold, but got {crossover_prob}"
-            )
-        self.population_size = int(population_size)
-        self.crossover_prob, self.mutation_prob = float(crossover_prob), mutation_prob
-        self.swapping_prob = float(swapping_prob)
-        self.storage, self.study_name = storage, study_name or f"suspenv-nsga2-{self.seed}"
+        owner = self.name
+        self.population_size = integer(owner, "population_size", population_size, lo=2)
+        self.crossover_prob = number(owner, "crossover_prob", crossover_prob, lo=0.0, hi=1.0)
+        self.mutation_prob = (
+            None
+            if mutation_prob is None
+            else number(owner, "mutation_prob", mutation_prob, lo=0.0, hi=1.0)
+        )
+        self.swapping_prob = number(owner, "swapping_prob", swapping_prob, lo=0.0, hi=1.0)
+        self.storage = None if storage is None else text(owner, "storage", storage)
+        self.study_name = (
+            f"suspenv-nsga2-{self.seed}"
+            if study_name is None
+            else text(owner, "study_name", study_name)
+        )
         optuna.logging.set_verbosity(logging.WARNING)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
@@ -92,11 +100,11 @@ class NSGA2(Strategy):
                 ),
             )
         self.study = optuna.create_study(
-            storage=storage,
+            storage=self.storage,
             sampler=sampler,
             study_name=self.study_name,
             directions=["minimize"] * self.n_objectives,
-            load_if_exists=storage is not None,
+            load_if_exists=self.storage is not None,
         )
         self._dists: dict[str, BaseDistribution] = {
             f"u{i}": FloatDistribution(0.0, 1.0) for i in range(self.dim)

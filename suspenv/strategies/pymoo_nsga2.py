@@ -26,7 +26,7 @@ from pymoo.operators.crossover.sbx import SBX
 from pymoo.operators.mutation.pm import PM
 from pymoo.problems.static import StaticProblem
 
-from suspenv.core.errors import ValidationError
+from suspenv.core.options import integer, number
 from suspenv.core.result import EvaluationBatch
 from suspenv.strategies.base import Strategy
 
@@ -40,11 +40,15 @@ FAILED_OBJECTIVE = 1e12
 class PymooNSGA2(Strategy):
     """NSGA-II (Deb et al. 2002), pymoo backend; one generation per ask.
 
-    Options:
-        population_size: designs per generation (default 100).
-        crossover_prob: SBX crossover probability (default 0.9).
-        crossover_eta, mutation_eta: distribution indices of SBX and polynomial mutation
-            (defaults 15 and 20).
+    Options (checked at construction):
+        population_size: designs per generation, an integer >= 2 (default 100).
+        crossover_prob: SBX crossover probability in [0, 1] (default 0.9).
+        crossover_eta, mutation_eta: distribution indices of SBX and polynomial mutation,
+            finite and > 0 (defaults 15 and 20).
+
+    A generation in which every design fails does not replace the population: failed
+    designs are infeasible, and NSGA-II's survival (parents and offspring together,
+    feasible first) keeps every parent that had succeeded.
     """
 
     name = "pymoo_nsga2"
@@ -63,17 +67,11 @@ class PymooNSGA2(Strategy):
         mutation_eta: float = 20.0,
     ):
         super().__init__(dim, n_objectives, n_constraints, seed)
-        if int(population_size) < 2:
-            raise ValidationError(
-                f"pymoo_nsga2: `population_size >= 2` must hold, but got {population_size}"
-            )
-        if not 0 <= crossover_prob <= 1:
-            raise ValidationError(
-                f"pymoo_nsga2: `0 <= crossover_prob <= 1` must hold, but got {crossover_prob}"
-            )
-        self.population_size = int(population_size)
-        self.crossover_prob = float(crossover_prob)
-        self.crossover_eta, self.mutation_eta = float(crossover_eta), float(mutation_eta)
+        owner = self.name
+        self.population_size = integer(owner, "population_size", population_size, lo=2)
+        self.crossover_prob = number(owner, "crossover_prob", crossover_prob, lo=0.0, hi=1.0)
+        self.crossover_eta = number(owner, "crossover_eta", crossover_eta, lo=0.0, lo_open=True)
+        self.mutation_eta = number(owner, "mutation_eta", mutation_eta, lo=0.0, lo_open=True)
         self._problem = _PymooProblem(
             n_var=self.dim,
             n_obj=self.n_objectives,

@@ -6,7 +6,7 @@ from typing import Any
 
 import numpy as np
 
-from suspenv.core.errors import ValidationError
+from suspenv.core.options import integer
 from suspenv.core.result import EvaluationBatch
 from suspenv.strategies.base import ScalarStrategy
 
@@ -14,7 +14,10 @@ from suspenv.strategies.base import ScalarStrategy
 class RandomSearch(ScalarStrategy):
     """Independent uniform samples, ``batch_size`` per ask; keeps the best seen.
 
-    Options: batch_size (default 50); scalarizer/weights for the best-so-far bookkeeping.
+    Options (checked at construction): batch_size, an integer >= 1 (default 50);
+    scalarizer/weights for the best-so-far bookkeeping (see
+    :class:`~suspenv.strategies.base.ScalarStrategy`). Samples do not depend on the
+    results: failed evaluations change nothing but the best-so-far.
     """
 
     name = "random"
@@ -32,9 +35,7 @@ class RandomSearch(ScalarStrategy):
         weights: list[float] | None = None,
     ):
         super().__init__(dim, n_objectives, n_constraints, seed, scalarizer, weights)
-        if int(batch_size) < 1:
-            raise ValidationError(f"random: `batch_size >= 1` must hold, but got {batch_size}")
-        self.batch_size = int(batch_size)
+        self.batch_size = integer(self.name, "batch_size", batch_size, lo=1)
         self._rng = np.random.default_rng(self.seed)
         self.best_u: np.ndarray | None = None
         self.best_f = np.inf

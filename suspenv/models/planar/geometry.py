@@ -34,6 +34,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from suspenv.core.errors import ValidationError
+from suspenv.core.options import check_keywords, choice, number, numbers, positive, text
 
 #: kinds of linkage understood by the planar solvers
 KINDS = ("double_wishbone", "mcpherson")
@@ -93,13 +94,19 @@ class PlanarGeometry:
                 object.__setattr__(self, f.name, _vec(v, f.name))
             else:
                 object.__setattr__(self, f.name, np.asarray(v, dtype=float))
+        for name in _SCALARS:
+            v = getattr(self, name)
+            if not np.all(np.isfinite(v)):
+                raise ValidationError(f"`{name}` must be finite, but got {np.ravel(v).tolist()}")
         r = self.tyre_radius
-        if np.any(r <= 0):
+        if not np.all(r > 0):
             raise ValidationError(f"`tyre_radius > 0` must hold, but got {np.min(r)} m")
-        if np.any(self.spring_rate < 0):
+        if not np.all(self.spring_rate >= 0):
             raise ValidationError(
                 f"`spring_rate >= 0` must hold, but got {np.min(self.spring_rate)} N/m"
             )
+        if not np.all(self.damping >= 0):
+            raise ValidationError(f"`damping >= 0` must hold, but got {np.min(self.damping)} N*s/m")
         if np.any(np.abs(self.static_camber) >= math.radians(45)):
             raise ValidationError(
                 "`|static_camber| < 45 deg` must hold, but got "
@@ -252,35 +259,77 @@ GEOMETRY_CLASSES: dict[str, type[PlanarGeometry]] = {
 
 
 # ---------------------------------------------------------------- file format
-def geometry_from_dict(data: Mapping[str, Any]) -> PlanarGeometry:
+#: keys of a geometry file: top level, ``[wheel]`` and ``[spring]`` (``[points]`` keys are
+#: the point names of the kind)
+FILE_KEYS = ("kind", "name", "points", "wheel", "spring")
+WHEEL_KEYS = ("tyre_radius", "static_camber")
+SPRING_KEYS = ("rate", "preload", "damping")
+
+
+def _table(owner: str, data: Mapping[str, Any], key: str, allowed: tuple[str, ...]) -> dict:
+    """The sub-table ``key`` of a geometry file ({} when absent), its keys checked."""
+    table = data.get(key, {})
+    if not isinstance(table, Mapping):
+        raise ValidationError(
+            f"{owner}: `{key}` must be a table ([{key}]), but got {key}={table!r}"
+        )
+    if allowed:
+        check_keywords(f"{owner} [{key}]", table, allowed, what="key")
+    return dict(table)
+
+
+def geometry_from_dict(data: Mapping[str, Any], source: str = "planar geometry") -> PlanarGeometry:
     """Build a geometry from the file form (see ``suspenv/data/planar/README.md``).
 
     Keys: ``kind``; optional ``name``; ``[points]`` with ``name = [y, z]`` in mm;
     ``[wheel]`` ``tyre_radius`` (mm) and ``static_camber`` (deg); ``[spring]`` ``rate``
-    (N/mm), ``preload`` (N), ``damping`` (N*s/m).
+    (N/mm), ``preload`` (N), ``damping`` (N*s/m). ``source`` names the file in messages.
+
+    Rules: no keys or tables besides these (a misspelt one is refused with the nearest
+    name); every point of the kind given, no other, each a pair of finite numbers;
+    ``tyre_radius > 0``, ``-45 < static_camber < 45``, ``rate >= 0``, ``damping >= 0``,
+    ``preload`` finite (negative: the spring is in tension at the design position);
+    ``name`` a string.
     """
-    kind = data.get("kind")
-    if kind not in GEOMETRY_CLASSES:
-        raise ValidationError(f"`kind` must be one of {list(KINDS)}, but got {kind!r}")
+    owner = source
+    if not isinstance(data, Mapping):
+        raise ValidationError(f"{owner}: a geometry must be a table, but got {data!r}")
+    check_keywords(owner, data, FILE_KEYS, what="key")
+    kind = choice(owner, "kind", data.get("kind"), KINDS)
     cls = GEOMETRY_CLASSES[kind]
-    points = dict(data.get("points", {}))
-    missing = [p for p in cls.point_names if p not in points]
+    points = _table(owner, data, "points", ())
     unknown = [p for p in points if p not in cls.point_names]
-    if missing or unknown:
+    if unknown:
+        check_keywords(f"{owner} [points] of a {kind}", unknown, cls.point_names, "point")
+    missing = [p for p in cls.point_names if p not in points]
+    if missing:
         raise ValidationError(
-            f"a {kind} geometry needs points {list(cls.point_names)}, but "
+            f"{owner}: a {kind} geometry needs points {list(cls.point_names)}, but "
             f"missing={missing}, unknown={unknown}"
         )
-    wheel = dict(data.get("wheel", {}))
-    spring = dict(data.get("spring", {}))
-    kwargs: dict[str, Any] = {p: np.asarray(points[p], dtype=float) * _MM for p in cls.point_names}
+    wheel = _table(owner, data, "wheel", WHEEL_KEYS)
+    spring = _table(owner, data, "spring", SPRING_KEYS)
+    kwargs: dict[str, Any] = {
+        p: np.asarray(numbers(owner, f"points.{p}", points[p], 2), dtype=float) * _MM
+        for p in cls.point_names
+    }
+    tyre_radius = positive(owner, "wheel.tyre_radius", wheel.get("tyre_radius", 300.0))
+    camber = number(
+        owner,
+        "wheel.static_camber",
+        wheel.get("static_camber", 0.0),
+        lo=-45.0,
+        hi=45.0,
+        lo_open=True,
+        hi_open=True,
+    )
     kwargs.update(
-        tyre_radius=float(wheel.get("tyre_radius", 300.0)) * _MM,
-        static_camber=math.radians(float(wheel.get("static_camber", 0.0))),
-        spring_rate=float(spring.get("rate", 30.0)) / _MM,
-        spring_preload=float(spring.get("preload", 3000.0)),
-        damping=float(spring.get("damping", 3000.0)),
-        name=str(data.get("name", kind)),
+        tyre_radius=tyre_radius * _MM,
+        static_camber=math.radians(camber),
+        spring_rate=number(owner, "spring.rate", spring.get("rate", 30.0), lo=0.0) / _MM,
+        spring_preload=number(owner, "spring.preload", spring.get("preload", 3000.0)),
+        damping=number(owner, "spring.damping", spring.get("damping", 3000.0), lo=0.0),
+        name=text(owner, "name", data.get("name", kind), empty=True),
     )
     return cls(**kwargs)
 
@@ -308,9 +357,16 @@ def bundled_geometries() -> list[str]:
 
 
 def load_geometry(source: str | Path) -> PlanarGeometry:
-    """Load a geometry from a TOML path or the name of a bundled example."""
+    """Load a geometry from a TOML path or the name of a bundled example.
+
+    Every key and value is checked (:func:`geometry_from_dict`); a file that is not valid
+    TOML is a :class:`ValidationError` naming the file and the TOML error.
+    """
     path = Path(source)
-    if not path.is_file():
+    if path.is_file():
+        label = f"planar geometry {str(path)!r}"
+        content = path.read_text()
+    else:
         name = str(source)
         bundled = resources.files("suspenv") / "data" / "planar" / f"{name}.toml"
         if not bundled.is_file():
@@ -318,8 +374,13 @@ def load_geometry(source: str | Path) -> PlanarGeometry:
                 f"geometry {str(source)!r} is neither a file nor a bundled example "
                 f"(bundled: {bundled_geometries()})"
             )
-        return geometry_from_dict(tomllib.loads(bundled.read_text()))
-    return geometry_from_dict(tomllib.loads(path.read_text()))
+        label = f"planar geometry {name!r} (bundled)"
+        content = bundled.read_text()
+    try:
+        data = tomllib.loads(content)
+    except tomllib.TOMLDecodeError as exc:
+        raise ValidationError(f"{label} is not valid TOML: {exc}") from None
+    return geometry_from_dict(data, label)
 
 
 def geometry_to_toml(geometry: PlanarGeometry) -> str:
