@@ -7,7 +7,14 @@ TARGET is a recording file (``.npz``, see ``docs/recordings.md``, or a real-data
 ``../shared/data``), K&C rig recordings of the McPherson axle (a ``.npz`` file or folder
 of them, or ``knc-blind:SEED`` for a generated blind case), minibus ride recordings, or a
 road profile (``.txt``); see :mod:`suspenv.diagnosis.targets`. Writes ``report.md`` (with
-PNG figures) and ``diagnosis.json`` into ``--out``.
+PNG figures) and ``diagnosis.json`` into ``--out`` (default ``diagnosis_<name>``, the name
+made a plain file name).
+
+An existing non-empty output folder is refused unless ``--overwrite`` is given; then the
+files of the same names are replaced and every other file in the folder is kept (nothing
+is deleted). Data the diagnosis cannot judge (too few samples or motion cycles for the
+model, non-finite values, units it does not read, implausible magnitudes) are refused
+before any fitting, with what is missing (:mod:`suspenv.diagnosis.sufficiency`).
 """
 
 from __future__ import annotations
@@ -36,6 +43,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--out", default=None, help="output folder (default: diagnosis_<name>)")
     p.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="write into an existing non-empty output folder: replace the files of the same "
+        "names (report, JSON, figures); other files are kept, nothing is deleted",
+    )
+    p.add_argument(
         "--holdout",
         default=None,
         help="held-out data: components: a fraction (default 0.3), 'cycles' / 'cycles:N' "
@@ -48,9 +61,11 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def _diagnose(args: argparse.Namespace) -> int:
     from suspenv.diagnosis.targets import resolve_target
+    from suspenv.measurements.paths import check_output_dir, plain_file_name
 
     target = resolve_target(args.recording, args.holdout, args.model, args.data_dir)
-    out = Path(args.out or f"diagnosis_{target.stem}")
+    out = Path(args.out) if args.out else Path(f"diagnosis_{plain_file_name(target.stem)}")
+    check_output_dir(out, args.overwrite)
     if target.family == "road":
         from suspenv.diagnosis.road import diagnose_road
         from suspenv.reports.diagnosis import write_road_report

@@ -7,6 +7,11 @@ deg, N; ISO 8855 signs, lateral outboard positive) and, with ``--plot``, a PNG o
 usual curves against wheel travel (travel tests) or contact-point force (compliance
 tests). Prints the travel test's objectives, the compliance test's slopes, and the
 classic K&C numbers.
+
+Files are named ``<vehicle name>_<test>.csv`` / ``.png`` with the vehicle's ``name`` made a
+plain file name (``../x`` -> ``_x``), so nothing is written outside ``--out``. An existing
+non-empty output folder is refused unless ``--overwrite`` is given; then the files of the
+same names are replaced and every other file is kept (nothing is deleted).
 """
 
 from __future__ import annotations
@@ -41,6 +46,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--test", choices=[*TEST_CHOICES, "all"], default="parallel", help="rig test")
     p.add_argument("--plot", action="store_true", help="also write a PNG of the curves")
     p.add_argument("--out", default="knc_out", help="output folder (default: knc_out)")
+    p.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="write into an existing non-empty output folder: replace the files of the same "
+        "names (<vehicle>_<test>.csv/.png); other files are kept, nothing is deleted",
+    )
     p.add_argument("--amplitude", type=float, default=40.0, help="stroke +- [mm]")
     p.add_argument("--force", type=float, default=2500.0, help="compliance tests' force +- [N]")
     p.add_argument("--steps", type=int, default=30, help="grid intervals (even)")
@@ -48,6 +59,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _run(args: argparse.Namespace) -> int:
+    from suspenv.measurements.paths import check_output_dir, output_file, plain_file_name
     from suspenv.metrics.knc import OBJECTIVES, objectives, usual_outputs
     from suspenv.models.mcpherson.vehicle_file import REFERENCE_FILE, load_vehicle
     from suspenv.reports.knc_rig import plot_rig_curves, write_csv
@@ -55,6 +67,8 @@ def _run(args: argparse.Namespace) -> int:
 
     path = REFERENCE_FILE if args.vehicle == "reference" else Path(args.vehicle)
     vehicle = load_vehicle(path)
+    out = check_output_dir(Path(args.out), args.overwrite)
+    stem = plain_file_name(vehicle.name, fallback="vehicle")
     tests = ALL_TESTS if args.test == "all" else (args.test,)
     # the objectives and classic numbers need the three travel tests; they are cheap
     run = tuple(dict.fromkeys([*TESTS, *tests]))
@@ -66,7 +80,6 @@ def _run(args: argparse.Namespace) -> int:
         vehicle.effects,
         force_amplitude=args.force,
     )
-    out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     failed = [f"{t}: {r.messages[0]}" for t, r in results.items() if not r.ok[0]]
     if failed:
@@ -74,11 +87,11 @@ def _run(args: argparse.Namespace) -> int:
         return 1
     F = objectives(results)[0]
     for test in tests:
-        csv_path = out / f"{vehicle.name}_{test}.csv"
+        csv_path = output_file(out, f"{stem}_{test}.csv")
         write_csv(results[test], csv_path)
         print(f"wrote {csv_path}")
         if args.plot:
-            png = out / f"{vehicle.name}_{test}.png"
+            png = output_file(out, f"{stem}_{test}.png")
             what = "force at the contact points" if test in FORCE_TESTS else "wheel travel"
             plot_rig_curves(results[test], png, f"{vehicle.name}: {test} {what}")
             print(f"wrote {png}")

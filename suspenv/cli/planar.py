@@ -1,7 +1,11 @@
 """``suspenv planar GEOMETRY.toml [--plot] [--out DIR]``: a front-view linkage's curves.
 
 Prints camber, half-track change, roll-centre height, motion ratio and wheel rate over
-the travel sweep; ``--plot`` draws the linkage and its curves to PNG files.
+the travel sweep; ``--plot`` draws the linkage and its curves to PNG files
+(``<geometry>.png``, ``<geometry>_curves.png``, the name made a plain file name) in
+``--out``. An existing non-empty output folder is refused unless ``--overwrite`` is given;
+then the files of the same names are replaced and every other file is kept (nothing is
+deleted).
 """
 
 from __future__ import annotations
@@ -25,6 +29,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("geometry", nargs="?", help="geometry TOML file or bundled example name")
     p.add_argument("--plot", action="store_true", help="write PNG figures")
     p.add_argument("--out", default="planar_plots", help="folder for the figures")
+    p.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="with --plot, write into an existing non-empty output folder: replace the "
+        "figures of the same names; other files are kept, nothing is deleted",
+    )
     p.add_argument("--travel", type=float, default=60.0, help="sweep +-TRAVEL mm (default 60)")
     p.add_argument("--points", type=int, default=61, help="travel points (default 61)")
     p.add_argument(
@@ -51,6 +61,10 @@ def _planar(args: argparse.Namespace) -> int:
             f"points={args.points}"
         )
     geom = load_geometry(args.geometry)
+    if args.plot:  # before the sweep: a refused folder costs no work
+        from suspenv.measurements.paths import check_output_dir
+
+        check_output_dir(Path(args.out), args.overwrite)
     travel = 1e-3 * np.linspace(-args.travel, args.travel, args.points)
     results = []
     if args.solver in ("analytic", "both"):
@@ -70,13 +84,16 @@ def _planar(args: argparse.Namespace) -> int:
     if len(results) == 2:
         _print_agreement(results[0][2], results[1][2])
     if args.plot:
+        from suspenv.measurements.paths import output_file, plain_file_name
         from suspenv.reports.planar import save_curves_figure, save_linkage_figure
 
         out_dir = Path(args.out)
-        stem = Path(args.geometry).stem
+        stem = plain_file_name(Path(args.geometry).stem, fallback="geometry")
         curves = [(label, out) for label, _, out in results]
-        fig = save_linkage_figure(out_dir / f"{stem}.png", geom, results[0][1], curves)
-        curves_fig = save_curves_figure(out_dir / f"{stem}_curves.png", curves)
+        fig = save_linkage_figure(
+            output_file(out_dir, f"{stem}.png"), geom, results[0][1], curves
+        )
+        curves_fig = save_curves_figure(output_file(out_dir, f"{stem}_curves.png"), curves)
         print(f"\nwrote {fig} and {curves_fig}")
     return 0
 

@@ -39,6 +39,7 @@ from suspenv.diagnosis.family import DiagnosisFamily, Outcome, recording_names
 from suspenv.diagnosis.fitting import FitResult
 from suspenv.diagnosis.hypothesis import Ambiguity, Hypothesis, family_of, split_candidate
 from suspenv.diagnosis.split import Holdout, Recordings, Split
+from suspenv.diagnosis.sufficiency import check_setup
 
 
 @dataclass
@@ -191,6 +192,11 @@ def diagnose(
         holdout: the held-out data, in the family's terms (default: the family's).
         candidates: candidate names to consider (default: the model's own list).
         progress: print one line per step.
+
+    Raises:
+        ValidationError: for data the diagnosis cannot judge, before any fitting (too
+            few samples or cycles for the model, non-finite values, units the model does
+            not read, implausible magnitudes; :mod:`suspenv.diagnosis.sufficiency`).
     """
     t0 = time.perf_counter()
     fam = make_family(family) if isinstance(family, str) else family
@@ -200,6 +206,8 @@ def diagnose(
             print(f"[{time.perf_counter() - t0:6.1f} s] {msg}", flush=True)
 
     setup = fam.prepare(recordings, holdout, candidates)
+    # refuse data the diagnosis cannot judge before any fitting (values, samples, cycles)
+    check_setup(setup, fam.name, fam.max_effects)
     sp = setup.split
     base = fam.fit_baseline(setup)
     say(f"baseline fitted ({base.nfev} evaluations)")

@@ -2,6 +2,9 @@
 
 See ``docs/recordings.md`` for the file format. The shared real data is found by one rule,
 :func:`data_dir`; the named real cases are in :mod:`suspenv.measurements.catalog`.
+A recording holds SI units only (:mod:`suspenv.measurements.units`: readers convert
+declared units or refuse them); every reader bounds the memory a file may take before
+reading it (:mod:`suspenv.measurements.limits`, ``$SUSPENV_MAX_READ_BYTES``).
 """
 
 from suspenv.measurements.differentiate import smooth_derivative

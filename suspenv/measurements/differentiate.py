@@ -7,7 +7,8 @@ seconds, differentiated analytically. It is exact for polynomials up to
 frequency ``w`` the cubic first-derivative gain error is about
 ``(w window_s)^4 / 7000`` (fitted to the measured response, e.g. 3.6e-4 at 10 Hz
 with a 20 ms window). Units: ``x`` [m], ``t`` [s], result [m/s] or [m/s^2].
-Requires uniform sampling (checked to 1 %).
+Requires finite values and uniform, strictly increasing sampling (checked to 1 %);
+a breach raises :class:`~suspenv.measurements.RecordingError` naming the sample.
 """
 
 from __future__ import annotations
@@ -23,7 +24,27 @@ def smooth_derivative(
 ) -> np.ndarray:
     """Derivative ``deriv`` (1 or 2) of ``x`` over uniformly sampled ``t`` (Savitzky-Golay)."""
     x, t = np.asarray(x, dtype=float), np.asarray(t, dtype=float)
+    if t.ndim != 1 or t.size < 2 or x.shape[-1:] != t.shape:
+        raise RecordingError(
+            f"smooth_derivative needs 1-D t of length >= 2 and x with one value per time "
+            f"along its last axis, but got shapes {x.shape} and {t.shape}"
+        )
+    if not np.all(np.isfinite(t)):
+        i = int(np.argmax(~np.isfinite(t)))
+        raise RecordingError(f"smooth_derivative needs finite times, but t[{i}] = {t[i]}")
+    if not np.all(np.isfinite(x)):
+        i = int(np.argmax(~np.isfinite(x.reshape(-1))))
+        raise RecordingError(
+            f"smooth_derivative needs finite values, but value {i} is {x.reshape(-1)[i]} "
+            f"({int(np.count_nonzero(~np.isfinite(x)))} non-finite)"
+        )
     dt = np.diff(t)
+    if np.any(dt <= 0):
+        i = int(np.argmax(dt <= 0))
+        raise RecordingError(
+            f"smooth_derivative needs strictly increasing times, but t[{i}] = {t[i]!r} s and "
+            f"t[{i + 1}] = {t[i + 1]!r} s"
+        )
     h = float(np.median(dt))
     if np.max(np.abs(dt - h)) > 0.01 * h:
         i = int(np.argmax(np.abs(dt - h)))

@@ -4,6 +4,12 @@
 ``.mat`` with ``qm`` -> EMPS, with ``x_F`` -> MR damper; ``.dat`` -> damper dyno;
 ``.csv`` with ``q_meas`` -> resampled EMPS. Converted recordings carry
 ``meta["suggested_model"]``, the component family that fits them.
+
+Every reader bounds memory before it reads (``max_bytes``, default
+``$SUSPENV_MAX_READ_BYTES`` or 512 MiB; :mod:`suspenv.measurements.limits`) and
+converts declared units to SI or refuses them; every failure is a
+:class:`~suspenv.measurements.RecordingError` (a ``ValidationError``) naming the file
+and the rule.
 """
 
 from __future__ import annotations
@@ -14,6 +20,7 @@ import scipy.io
 
 from suspenv.measurements.errors import RecordingError
 from suspenv.measurements.io import load_recording
+from suspenv.measurements.limits import check_mat, read_limit
 from suspenv.measurements.recording import Recording
 from suspenv.measurements.sources import load_damper_dyno, load_emps, load_emps_csv, load_mr_damper
 
@@ -29,32 +36,34 @@ SUGGESTED_MODEL = {
 }
 
 
-def read_recording(path: str | Path) -> Recording:
-    """Load ``path`` with the reader its extension and content call for."""
+def read_recording(path: str | Path, *, max_bytes: int | None = None) -> Recording:
+    """Load ``path`` with the reader its extension and content call for (``max_bytes``:
+    the read limit, :mod:`suspenv.measurements.limits`)."""
     path = Path(path)
     if not path.is_file():
         raise RecordingError(f"recording file {str(path)!r} does not exist")
     suffix = path.suffix.lower()
     if suffix == ".npz":
-        rec = load_recording(path)
+        rec = load_recording(path, max_bytes=max_bytes)
     elif suffix == ".mat":
+        check_mat(path, read_limit(max_bytes))
         try:
             names = {name for name, _, _ in scipy.io.whosmat(path)}
         except Exception as exc:  # noqa: BLE001 - any reader failure means "not a .mat file"
             raise RecordingError(f"{path.name}: not a readable MATLAB file ({exc})") from None
         if "qm" in names:
-            rec = load_emps(path)
+            rec = load_emps(path, max_bytes=max_bytes)
         elif "x_F" in names:
-            rec = load_mr_damper(path)
+            rec = load_mr_damper(path, max_bytes=max_bytes)
         else:
             raise RecordingError(
                 f"{path.name}: unknown .mat layout; expected 'qm' (EMPS) or 'x_F' (MR damper), "
                 f"found {sorted(names)}"
             )
     elif suffix == ".dat":
-        rec = load_damper_dyno(path)
+        rec = load_damper_dyno(path, max_bytes=max_bytes)
     elif suffix == ".csv":
-        rec = load_emps_csv(path)
+        rec = load_emps_csv(path, max_bytes=max_bytes)
     else:
         raise RecordingError(
             f"{path.name}: unknown recording type {suffix!r}; supported: .npz, .mat, .dat, .csv"

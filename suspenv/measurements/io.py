@@ -9,9 +9,13 @@ Layout of the archive:
       {"format": "suspenv-recording", "version": 1, "name": ..., "test": ...,
        "inputs": [...], "outputs": [...], "units": {...}, "meta": {...}}
 
-Loading checks the format tag, the version, that every listed channel is present,
-and then the rules of :class:`Recording` (lengths, strictly increasing time, units,
-no NaN/inf). ``expect_units`` / ``require_*`` add the caller's expectations.
+Loading first bounds memory (:func:`suspenv.measurements.limits.check_npz`: the
+archive's expanded size against the read limit, no object arrays, never unpickles),
+then checks the format tag, the version, the header's keys and types, that every
+listed channel is present as a 1-D array of real numbers, converts declared non-SI
+units to SI (an unknown unit is refused), and then the rules of :class:`Recording`
+(lengths, strictly increasing time, SI units, no NaN/inf). ``expect_units`` /
+``require_*`` add the caller's expectations.
 """
 
 from __future__ import annotations
@@ -24,7 +28,9 @@ from typing import Any
 import numpy as np
 
 from suspenv.measurements.errors import RecordingError
+from suspenv.measurements.limits import check_npz, read_limit
 from suspenv.measurements.recording import Recording
+from suspenv.measurements.units import FACTORS, SI_UNITS, to_si
 
 FORMAT = "suspenv-recording"
 VERSION = 1
@@ -75,33 +81,39 @@ def load_recording(
     require_inputs: Iterable[str] = (),
     require_outputs: Iterable[str] = (),
     expect_units: Mapping[str, str] | None = None,
+    *,
+    max_bytes: int | None = None,
 ) -> Recording:
-    """Read a recording written by :func:`save_recording`; bad files raise ``RecordingError``."""
+    """Read a recording written by :func:`save_recording`; bad files raise ``RecordingError``.
+
+    Args:
+        path: the ``.npz`` file.
+        require_inputs / require_outputs: channels the caller needs.
+        expect_units: channel -> the unit the *file* must declare (checked before the
+            conversion to SI, so a caller that needs a file written in N is told when it
+            is in lbf).
+        max_bytes: read limit [bytes] (default ``$SUSPENV_MAX_READ_BYTES`` or 512 MiB,
+            :mod:`suspenv.measurements.limits`): an archive that would expand past it is
+            refused before anything is loaded.
+
+    Declared units are converted to SI with :func:`~suspenv.measurements.to_si` (lbf ->
+    N, in -> m, mm/s -> m/s, ...; the file's units are kept in
+    ``meta["converted_from"]``); an unknown unit is refused, never taken as SI.
+    """
     path = Path(path)
     if not path.is_file():
         raise RecordingError(f"recording file {str(path)!r} does not exist")
+    check_npz(path, read_limit(max_bytes))
     try:
         npz = np.load(path, allow_pickle=False)
     except Exception as exc:  # noqa: BLE001 - any reader failure means "not our format"
         raise RecordingError(f"{path.name}: not a readable .npz archive ({exc})") from None
+    if not isinstance(npz, np.lib.npyio.NpzFile):
+        raise RecordingError(f"{path.name}: not an .npz archive (a single array)")
     with npz:
         if "__meta__" not in npz.files:
             raise RecordingError(f"{path.name}: missing the '__meta__' JSON entry; not a recording")
-        try:
-            header = json.loads(str(npz["__meta__"]))
-        except json.JSONDecodeError as exc:
-            raise RecordingError(f"{path.name}: '__meta__' is not valid JSON ({exc})") from None
-        if header.get("format") != FORMAT:
-            raise RecordingError(
-                f"{path.name}: format must be {FORMAT!r}, but got {header.get('format')!r}"
-            )
-        if header.get("version") != VERSION:
-            raise RecordingError(
-                f"{path.name}: version must be {VERSION}, but got {header.get('version')!r}"
-            )
-        for key in ("name", "test", "inputs", "outputs", "units"):
-            if key not in header:
-                raise RecordingError(f"{path.name}: '__meta__' lacks the key {key!r}")
+        header = _header(_member(npz, "__meta__", path), path)
         if "time" not in npz.files:
             raise RecordingError(f"{path.name}: missing channel 'time'")
         chans: dict[str, dict[str, np.ndarray]] = {"in": {}, "out": {}}
@@ -111,22 +123,124 @@ def load_recording(
                 if key not in npz.files:
                     kind = "input" if prefix == "in" else "output"
                     raise RecordingError(f"{path.name}: missing {kind} channel {name!r}")
-                chans[prefix][name] = npz[key]
-        time = npz["time"]
+                chans[prefix][name] = _numbers(_member(npz, key, path), name, path)
+        time = _numbers(_member(npz, "time", path), "time", path)
+    where = f"{path.name}: recording {header['name']!r} (test {header['test']!r})"
+    declared: dict[str, str] = header["units"]
+    for name, unit in (expect_units or {}).items():
+        if name not in declared:
+            raise RecordingError(f"{where}: missing channel {name!r} (expected unit {unit!r})")
+        if declared[name] != unit:
+            raise RecordingError(
+                f"{where}: channel {name!r} must be in {unit!r}, but its unit is "
+                f"{declared[name]!r}"
+            )
+    units = dict(declared)
+    converted: dict[str, str] = {}
+    clock = {"time": time}
+    for group in (chans["in"], chans["out"], clock):
+        for name in list(group):
+            stored = units.get(name)
+            if stored is None or stored in SI_UNITS:
+                continue  # no unit: the Recording's own rule names it; SI: kept as stored
+            try:
+                group[name], units[name] = to_si(group[name], stored)
+            except RecordingError:
+                raise RecordingError(
+                    f"{where}: channel {name!r} has the unknown unit {stored!r}; known units "
+                    f"are {sorted(FACTORS)}"
+                ) from None
+            converted[name] = stored
+    time = clock["time"]
+    meta = dict(header.get("meta", {}))
+    if converted:
+        meta["converted_from"] = converted
     try:
         rec = Recording(
-            header["name"],
-            header["test"],
-            time,
-            chans["in"],
-            chans["out"],
-            header["units"],
-            header.get("meta", {}),
+            header["name"], header["test"], time, chans["in"], chans["out"], units, meta
         )
-    except RecordingError as exc:
-        raise RecordingError(f"{path.name}: {exc}") from None
-    try:
-        rec.require(require_inputs, require_outputs, expect_units)
+        rec.require(require_inputs, require_outputs)
     except RecordingError as exc:
         raise RecordingError(f"{path.name}: {exc}") from None
     return rec
+
+
+def _member(npz: Any, key: str, path: Path) -> np.ndarray:
+    """One array of the archive (its size already checked by :func:`check_npz`)."""
+    try:
+        arr = npz[key]
+    except Exception as exc:  # noqa: BLE001 - corrupt member: truncated, bad CRC, not .npy
+        raise RecordingError(f"{path.name}: entry {key!r} cannot be read ({exc})") from None
+    if not isinstance(arr, np.ndarray):
+        raise RecordingError(f"{path.name}: entry {key!r} is not a .npy array")
+    return arr
+
+
+def _numbers(arr: np.ndarray, name: str, path: Path) -> np.ndarray:
+    """A channel: a 1-D array of real numbers (integers, floats or booleans)."""
+    if arr.dtype.kind not in "biuf":
+        raise RecordingError(
+            f"{path.name}: channel {name!r} must hold real numbers, but its values are of "
+            f"type {arr.dtype}"
+        )
+    if arr.ndim != 1:
+        raise RecordingError(
+            f"{path.name}: channel {name!r} must be 1-D (one value per sample), but has "
+            f"shape {arr.shape}"
+        )
+    return arr
+
+
+def _header(raw: np.ndarray, path: Path) -> dict[str, Any]:
+    """The ``__meta__`` JSON header, its keys and their types checked."""
+    if raw.ndim != 0 or raw.dtype.kind != "U":
+        raise RecordingError(
+            f"{path.name}: '__meta__' must be one text value holding JSON, but got an array "
+            f"of type {raw.dtype} and shape {raw.shape}"
+        )
+    try:
+        header = json.loads(str(raw))
+    except (ValueError, RecursionError) as exc:
+        raise RecordingError(f"{path.name}: '__meta__' is not valid JSON ({exc})") from None
+    if not isinstance(header, dict):
+        raise RecordingError(
+            f"{path.name}: '__meta__' must be a JSON object, but got {type(header).__name__}"
+        )
+    if header.get("format") != FORMAT:
+        raise RecordingError(
+            f"{path.name}: format must be {FORMAT!r}, but got {header.get('format')!r}"
+        )
+    if header.get("version") != VERSION:
+        raise RecordingError(
+            f"{path.name}: version must be {VERSION}, but got {header.get('version')!r}"
+        )
+    for key in ("name", "test", "inputs", "outputs", "units"):
+        if key not in header:
+            raise RecordingError(f"{path.name}: '__meta__' lacks the key {key!r}")
+    for key in ("name", "test"):
+        if not isinstance(header[key], str):
+            raise RecordingError(
+                f"{path.name}: '__meta__' {key!r} must be text, but got {header[key]!r}"
+            )
+    for key in ("inputs", "outputs"):
+        names = header[key]
+        if not isinstance(names, list) or not all(isinstance(n, str) for n in names):
+            raise RecordingError(
+                f"{path.name}: '__meta__' {key!r} must be a list of channel names, but got "
+                f"{names!r}"
+            )
+        if len(set(names)) < len(names):
+            dup = sorted({n for n in names if names.count(n) > 1})
+            raise RecordingError(f"{path.name}: '__meta__' {key!r} repeats {dup}")
+    units = header["units"]
+    if not isinstance(units, dict) or not all(isinstance(u, str) for u in units.values()):
+        raise RecordingError(
+            f"{path.name}: '__meta__' 'units' must map channel names to unit text, but got "
+            f"{units!r}"
+        )
+    if not isinstance(header.get("meta", {}), dict):
+        raise RecordingError(
+            f"{path.name}: '__meta__' 'meta' must be a JSON object, but got "
+            f"{type(header['meta']).__name__}"
+        )
+    return header

@@ -3,9 +3,10 @@
 A recording holds the time vector ``time`` [s] (strictly increasing), the channels
 the rig imposed (``inputs``) and the channels it measured (``outputs``), each a 1-D
 array with one value per time sample, the unit of every channel (SI inside
-suspenv: "m", "m/s", "N", ...) and free metadata (``source``, ``sampling``,
-``notes``...). The file format is described in ``docs/recordings.md``; see
-:mod:`suspenv.measurements.io`.
+suspenv, one of :data:`suspenv.measurements.units.SI_UNITS`: "m", "m/s", "N", ...;
+any other unit is refused on construction, so nothing downstream takes lbf or mm for
+SI) and free metadata (``source``, ``sampling``, ``notes``...). The file format is
+described in ``docs/recordings.md``; see :mod:`suspenv.measurements.io`.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 
 from suspenv.measurements.errors import RecordingError
+from suspenv.measurements.units import SI_UNITS, si_unit_of
 
 
 def _nan_run(values: np.ndarray) -> tuple[int, int] | None:
@@ -28,6 +30,36 @@ def _nan_run(values: np.ndarray) -> tuple[int, int] | None:
     rest = bad[start:]
     length = int(np.argmin(rest)) if not rest.all() else int(rest.size)
     return start, length
+
+
+def _floats(name: object, channel: str, values: object) -> np.ndarray:
+    """``values`` as a float array; real numbers only (a complex, text or object array
+    is refused with the channel and its type, never silently cast)."""
+    arr = np.asarray(values)
+    if arr.dtype.kind not in "biuf":
+        raise RecordingError(
+            f"recording {name!r}: channel {channel!r} must hold real numbers, but its "
+            f"values are of type {arr.dtype}"
+        )
+    return np.asarray(arr, dtype=float)
+
+
+def _check_si(where: str, what: str, unit: object) -> None:
+    """Refuse a unit that is not SI: a known one names its conversion, an unknown one
+    lists the SI units (a recording never takes a unit it cannot vouch for as SI)."""
+    if isinstance(unit, str) and unit in SI_UNITS:
+        return
+    si = si_unit_of(unit) if isinstance(unit, str) else None
+    if si is not None:
+        raise RecordingError(
+            f"{where}: {what} is in {unit!r}, which is not SI; a recording holds SI units "
+            f"(convert with suspenv.measurements.to_si: {unit!r} -> {si!r}; load_recording "
+            "converts on reading)"
+        )
+    raise RecordingError(
+        f"{where}: {what} has the unknown unit {unit!r}; a recording holds the SI units "
+        f"{sorted(SI_UNITS)}"
+    )
 
 
 @runtime_checkable
@@ -98,9 +130,9 @@ class Recording:
     meta: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        self.time = np.asarray(self.time, dtype=float)
-        self.inputs = {k: np.asarray(v, dtype=float) for k, v in self.inputs.items()}
-        self.outputs = {k: np.asarray(v, dtype=float) for k, v in self.outputs.items()}
+        self.time = _floats(self.name, "time", self.time)
+        self.inputs = {k: _floats(self.name, k, v) for k, v in self.inputs.items()}
+        self.outputs = {k: _floats(self.name, k, v) for k, v in self.outputs.items()}
         self.units = {"time": "s", **dict(self.units)}
         self.meta = dict(self.meta)
         self.validate()
@@ -150,6 +182,9 @@ class Recording:
             raise RecordingError(
                 f"{where}: unit of 'time' must be 's', but got {self.units['time']!r}"
             )
+        for kind, chans in (("input", self.inputs), ("output", self.outputs)):
+            for name in chans:
+                _check_si(where, f"{kind} channel {name!r}", self.units[name])
 
     def require(
         self,

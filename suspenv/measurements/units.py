@@ -2,6 +2,15 @@
 
 Only linear conversions are needed for the supported sources. ``to_si(values, unit)``
 returns the SI values and the SI unit string; unknown units raise.
+
+Rules:
+
+* a :class:`~suspenv.measurements.Recording` holds only the SI units of
+  :data:`SI_UNITS` (checked on construction); anything else is converted by the reader
+  with :func:`to_si` or refused;
+* :func:`to_si` knows the units of :data:`FACTORS` (exact definitions: 1 in = 0.0254 m,
+  1 lbf = 4.4482216152605 N, NIST SP 811); a unit it does not know raises
+  :class:`~suspenv.measurements.RecordingError` naming the unit, never passes as SI.
 """
 
 from __future__ import annotations
@@ -10,14 +19,30 @@ import numpy as np
 
 from suspenv.measurements.errors import RecordingError
 
+#: the SI units a recording may hold: unit -> quantity (words for messages)
+SI_UNITS: dict[str, str] = {
+    "s": "time",
+    "m": "length",
+    "m/s": "velocity",
+    "m/s^2": "acceleration",
+    "N": "force",
+    "rad": "angle",
+    "rad/s": "angular velocity",
+    "V": "voltage",
+    "1": "dimensionless",
+    "-": "dimensionless",
+}
+
 #: unit -> (factor to SI, SI unit)
 FACTORS: dict[str, tuple[float, str]] = {
     "m": (1.0, "m"),
+    "cm": (1e-2, "m"),
     "mm": (1e-3, "m"),
     "in": (0.0254, "m"),
     "m/s": (1.0, "m/s"),
     "mm/s": (1e-3, "m/s"),
     "in/s": (0.0254, "m/s"),
+    "km/h": (1.0 / 3.6, "m/s"),
     "m/s^2": (1.0, "m/s^2"),
     "N": (1.0, "N"),
     "kN": (1e3, "N"),
@@ -28,16 +53,32 @@ FACTORS: dict[str, tuple[float, str]] = {
     "V": (1.0, "V"),
     "rad": (1.0, "rad"),
     "deg": (np.pi / 180.0, "rad"),
+    "rad/s": (1.0, "rad/s"),
+    "deg/s": (np.pi / 180.0, "rad/s"),
     "1": (1.0, "1"),
+    "-": (1.0, "-"),
 }
+
+
+def _key(unit: str) -> str | None:
+    """The :data:`FACTORS` key of ``unit`` (exact after stripping, else case-folded), or None."""
+    key = unit.strip()
+    if key not in FACTORS and key.lower() in FACTORS:
+        key = key.lower()
+    return key if key in FACTORS else None
+
+
+def si_unit_of(unit: str) -> str | None:
+    """The SI unit ``unit`` converts to (``"lbf"`` -> ``"N"``), or None when unknown."""
+    key = _key(unit) if isinstance(unit, str) else None
+    return None if key is None else FACTORS[key][1]
 
 
 def to_si(values: np.ndarray, unit: str) -> tuple[np.ndarray, str]:
     """Convert ``values`` from ``unit`` to SI; returns ``(values_si, si_unit)``."""
-    key = unit.strip()
-    if key not in FACTORS and key.lower() in FACTORS:
-        key = key.lower()
-    if key not in FACTORS:
+    key = _key(unit) if isinstance(unit, str) else None
+    if key is None:
         raise RecordingError(f"unknown unit {unit!r}; known units are {sorted(FACTORS)}")
     factor, si = FACTORS[key]
-    return np.asarray(values, dtype=float) * factor, si
+    with np.errstate(over="ignore"):  # an overflow gives inf, which Recording refuses
+        return np.asarray(values, dtype=float) * factor, si

@@ -1,12 +1,15 @@
-"""Helpers shared by the converters."""
+"""Helpers shared by the converters: files, bounded MATLAB reads, checked variables."""
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from suspenv.measurements.errors import RecordingError
+from suspenv.measurements.limits import check_mat, read_limit
 
 
 def require_file(path: str | Path) -> Path:
@@ -16,12 +19,45 @@ def require_file(path: str | Path) -> Path:
     return path
 
 
+def load_mat(path: Path, names: Iterable[str], max_bytes: int | None = None) -> dict[str, Any]:
+    """The variables ``names`` (those present) of a MATLAB file, after the memory bound
+    of :func:`suspenv.measurements.limits.check_mat`; an unreadable file raises
+    :class:`RecordingError` naming it."""
+    import scipy.io
+
+    check_mat(path, read_limit(max_bytes))
+    try:
+        present = {name for name, _, _ in scipy.io.whosmat(path)}
+        wanted = [n for n in names if n in present]
+        data: dict[str, Any] = scipy.io.loadmat(path, variable_names=wanted) if wanted else {}
+    except Exception as exc:  # noqa: BLE001 - any reader failure means "not a .mat file"
+        raise RecordingError(f"{path.name}: not a readable MATLAB file ({exc})") from None
+    data["__present__"] = sorted(present)
+    return data
+
+
 def mat_field(data: dict, key: str, path: Path) -> np.ndarray:
-    """A variable of a loaded .mat file as a float array; missing -> clear error."""
+    """A variable of a loaded .mat file as a float array; missing or not numeric -> clear
+    error."""
     if key not in data:
-        names = sorted(k for k in data if not k.startswith("__"))
+        names = data.get("__present__")
+        if names is None:
+            names = sorted(k for k in data if not k.startswith("__"))
         raise RecordingError(f"{path.name}: missing variable {key!r}; the file holds {names}")
-    return np.asarray(data[key], dtype=float)
+    arr = np.asarray(data[key])
+    if arr.dtype.kind not in "biuf":
+        raise RecordingError(
+            f"{path.name}: variable {key!r} must be a numeric array, but is of type {arr.dtype}"
+        )
+    return np.asarray(arr, dtype=float)
+
+
+def mat_scalar(data: dict, key: str, path: Path) -> float:
+    """A scalar variable of a loaded .mat file (its first element); empty -> clear error."""
+    arr = mat_field(data, key, path).ravel()
+    if arr.size == 0:
+        raise RecordingError(f"{path.name}: variable {key!r} must hold a number, but is empty")
+    return float(arr[0])
 
 
 def dissipative_sign(force: np.ndarray, velocity: np.ndarray) -> float:

@@ -15,22 +15,26 @@ velocity); the applied flip is recorded in ``meta["force_sign"]``.
 
 from __future__ import annotations
 
+from array import array
 from pathlib import Path
 
 import numpy as np
 
 from suspenv.measurements.differentiate import smooth_derivative
 from suspenv.measurements.errors import RecordingError
+from suspenv.measurements.limits import check_text, read_limit
 from suspenv.measurements.recording import Recording
 from suspenv.measurements.sources._common import dissipative_sign, require_file
-from suspenv.measurements.units import to_si
+from suspenv.measurements.units import FACTORS, to_si
 
 EXPECTED_COLUMNS = ("Stroke", "Load", "Time")
 SOURCE = "Formula Student team's public damper-analysis repository (MTS 793 export)"
 
 
 def _parse(path: Path) -> tuple[np.ndarray, tuple[str, str, str]]:
-    rows: list[tuple[float, float, float]] = []
+    # float64 values straight into one buffer: 8 bytes per number, so the memory is
+    # bounded by the text check of load_damper_dyno (no Python object per value)
+    rows = array("d")
     units: tuple[str, str, str] | None = None
     expect_units_next = False
     with open(path, encoding="latin-1") as fh:
@@ -41,6 +45,11 @@ def _parse(path: Path) -> tuple[np.ndarray, tuple[str, str, str]]:
                 continue
             if expect_units_next:
                 block_units = tuple(fields[:3])
+                if len(block_units) < 3:
+                    raise RecordingError(
+                        f"{path.name}: line {lineno} must give the units of {EXPECTED_COLUMNS}, "
+                        f"but holds {raw.strip()!r}"
+                    )
                 if units is None:
                     units = block_units  # type: ignore[assignment]
                 elif block_units != units:
@@ -52,7 +61,7 @@ def _parse(path: Path) -> tuple[np.ndarray, tuple[str, str, str]]:
                 continue
             if len(fields) == 3:
                 try:
-                    rows.append((float(fields[0]), float(fields[1]), float(fields[2])))
+                    rows.extend((float(fields[0]), float(fields[1]), float(fields[2])))
                 except ValueError:
                     raise RecordingError(
                         f"{path.name}: line {lineno} is not three numbers: {raw.strip()!r}"
@@ -61,20 +70,37 @@ def _parse(path: Path) -> tuple[np.ndarray, tuple[str, str, str]]:
         raise RecordingError(
             f"{path.name}: no column header {EXPECTED_COLUMNS} with a units line was found"
         )
-    if len(rows) < 10:
-        raise RecordingError(f"{path.name}: only {len(rows)} data rows")
-    return np.array(rows), units
+    if len(rows) < 30:
+        raise RecordingError(f"{path.name}: only {len(rows) // 3} data rows")
+    return np.array(rows, dtype=float).reshape(-1, 3), units
 
 
 def load_damper_dyno(
-    path: str | Path, window_s: float = 0.01, name: str | None = None
+    path: str | Path,
+    window_s: float = 0.01,
+    name: str | None = None,
+    *,
+    max_bytes: int | None = None,
 ) -> Recording:
-    """Load an MTS 793 damper dyno export; see the module docstring for channels and signs."""
+    """Load an MTS 793 damper dyno export; see the module docstring for channels and signs.
+
+    Each column's declared unit is converted to SI (``in`` -> m, ``lbf`` -> N, ``Sec`` ->
+    s, also mm, kN, ...); an unknown unit or one of another quantity is refused.
+    ``max_bytes``: read limit (:mod:`suspenv.measurements.limits`; a text file may be a
+    quarter of it)."""
     path = require_file(path)
+    check_text(path, read_limit(max_bytes))
     table, units = _parse(path)
-    x, x_unit = to_si(table[:, 0], units[0])
-    f, f_unit = to_si(table[:, 1], units[1])
-    t, t_unit = to_si(table[:, 2], units[2])
+    converted = []
+    for j, col in enumerate(EXPECTED_COLUMNS):
+        try:
+            converted.append(to_si(table[:, j], units[j]))
+        except RecordingError:
+            raise RecordingError(
+                f"{path.name}: column {col!r} has the unknown unit {units[j]!r}; known units "
+                f"are {sorted(FACTORS)}"
+            ) from None
+    (x, x_unit), (f, f_unit), (t, t_unit) = converted
     for got, want, col in ((x_unit, "m", "Stroke"), (f_unit, "N", "Load"), (t_unit, "s", "Time")):
         if got != want:
             raise RecordingError(
@@ -88,7 +114,10 @@ def load_damper_dyno(
             f"{path.name}: time must be strictly increasing, but sample {i} has "
             f"t={float(t[i])!r} s and sample {i + 1} has t={float(t[i + 1])!r} s"
         )
-    v = smooth_derivative(x, t, window_s, order=3)
+    try:
+        v = smooth_derivative(x, t, window_s, order=3)
+    except RecordingError as exc:
+        raise RecordingError(f"{path.name}: {exc}") from None
     sign = dissipative_sign(f, v)
     meta = {
         "source": SOURCE,

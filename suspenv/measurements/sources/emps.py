@@ -20,16 +20,17 @@ linear regression of the CSV against the .mat record of the same run
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-import scipy.io
 
 from suspenv.measurements.differentiate import smooth_derivative
 from suspenv.measurements.errors import RecordingError
+from suspenv.measurements.limits import check_text, read_limit
 from suspenv.measurements.recording import Recording
-from suspenv.measurements.sources._common import mat_field, require_file
+from suspenv.measurements.sources._common import load_mat, mat_field, mat_scalar, require_file
 
 #: motor constant used when a file does not carry ``gtau`` [N/V]
 GTAU_DEFAULT = 35.15065188
@@ -38,12 +39,17 @@ CSV_POSITION_SCALE = 8.0  # scaled units per metre
 CSV_POSITION_OFFSET = -1.0
 
 
-def _motion_channels(q: np.ndarray, t: np.ndarray, window_s: float) -> dict[str, np.ndarray]:
-    return {
-        "position": q,
-        "velocity": smooth_derivative(q, t, window_s, order=3, deriv=1),
-        "acceleration": smooth_derivative(q, t, window_s, order=3, deriv=2),
-    }
+def _motion_channels(
+    q: np.ndarray, t: np.ndarray, window_s: float, path: Path
+) -> dict[str, np.ndarray]:
+    try:
+        return {
+            "position": q,
+            "velocity": smooth_derivative(q, t, window_s, order=3, deriv=1),
+            "acceleration": smooth_derivative(q, t, window_s, order=3, deriv=2),
+        }
+    except RecordingError as exc:
+        raise RecordingError(f"{path.name}: {exc}") from None
 
 
 UNITS = {
@@ -55,16 +61,30 @@ UNITS = {
 }
 
 
-def load_emps(path: str | Path, window_s: float = 0.02, name: str | None = None) -> Recording:
-    """Load ``DATA_EMPS*.mat``: inputs position/velocity/acceleration/reference, output force."""
+def load_emps(
+    path: str | Path,
+    window_s: float = 0.02,
+    name: str | None = None,
+    *,
+    max_bytes: int | None = None,
+) -> Recording:
+    """Load ``DATA_EMPS*.mat``: inputs position/velocity/acceleration/reference, output force.
+
+    ``max_bytes``: read limit (:mod:`suspenv.measurements.limits`)."""
     path = require_file(path)
-    data = scipy.io.loadmat(path)
+    data = load_mat(path, ("t", "qm", "qg", "vir", "gtau", "kp", "kv", "pulses_N"), max_bytes)
     t = mat_field(data, "t", path).ravel()
     qm = mat_field(data, "qm", path).ravel()
     qg = mat_field(data, "qg", path).ravel()
     vir = mat_field(data, "vir", path).ravel()
-    gtau = float(mat_field(data, "gtau", path).ravel()[0]) if "gtau" in data else GTAU_DEFAULT
-    inputs = _motion_channels(qm, t, window_s)
+    gtau = mat_scalar(data, "gtau", path) if "gtau" in data else GTAU_DEFAULT
+    for key, arr in (("qm", qm), ("qg", qg), ("vir", vir)):
+        if arr.shape != t.shape:
+            raise RecordingError(
+                f"{path.name}: variable {key!r} must have one value per time sample "
+                f"{t.shape}, but has shape {arr.shape}"
+            )
+    inputs = _motion_channels(qm, t, window_s, path)
     inputs["reference_position"] = qg
     meta: dict[str, Any] = {  # Recording.meta: free JSON-like metadata
         "source": SOURCE,
@@ -79,10 +99,10 @@ def load_emps(path: str | Path, window_s: float = 0.02, name: str | None = None)
     }
     for key in ("kp", "kv"):
         if key in data:
-            meta[key] = float(np.asarray(data[key]).ravel()[0])
+            meta[key] = mat_scalar(data, key, path)
     if "pulses_N" in data:
         meta["notes"] += "; validation run with force pulses (pulses_N flags them)"
-        meta["pulse_samples"] = int(np.count_nonzero(np.asarray(data["pulses_N"]).ravel()))
+        meta["pulse_samples"] = int(np.count_nonzero(mat_field(data, "pulses_N", path)))
     test = "emps_pulses" if "PULSES" in path.name.upper() else "emps_trajectory"
     try:
         return Recording(
@@ -92,24 +112,45 @@ def load_emps(path: str | Path, window_s: float = 0.02, name: str | None = None)
         raise RecordingError(f"{path.name}: {exc}") from None
 
 
-def load_emps_csv(path: str | Path, window_s: float = 0.02, name: str | None = None) -> Recording:
-    """Load a resampled ``DATA_EMPS*_SC.csv`` (``time_exp, q_ref, q_meas, v_est, u_in, u_tot``)."""
+def load_emps_csv(
+    path: str | Path,
+    window_s: float = 0.02,
+    name: str | None = None,
+    *,
+    max_bytes: int | None = None,
+) -> Recording:
+    """Load a resampled ``DATA_EMPS*_SC.csv`` (``time_exp, q_ref, q_meas, v_est, u_in, u_tot``).
+
+    The columns carry no units: they are the benchmark's scaled units, de-scaled as the
+    module docstring says. ``max_bytes``: read limit (:mod:`suspenv.measurements.limits`;
+    a text file may be a quarter of it)."""
     path = require_file(path)
-    with open(path) as fh:
+    check_text(path, read_limit(max_bytes))
+    with open(path, encoding="utf-8", errors="replace") as fh:
         header = [h.strip() for h in fh.readline().split(",")]
     needed = ["time_exp", "q_ref", "q_meas", "u_in"]
     missing = [c for c in needed if c not in header]
     if missing:
         raise RecordingError(f"{path.name}: missing column(s) {missing}; header is {header}")
-    table = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    if len(set(header)) < len(header):
+        dup = sorted({h for h in header if header.count(h) > 1})
+        raise RecordingError(f"{path.name}: column name(s) {dup} repeat; header is {header}")
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)  # "input contained no data"
+            table = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2, encoding="utf-8")
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise RecordingError(f"{path.name}: the data rows are not numbers ({exc})") from None
     if table.shape[1] != len(header):
         raise RecordingError(
             f"{path.name}: {len(header)} column names but {table.shape[1]} columns of data"
         )
+    if table.shape[0] < 2:
+        raise RecordingError(f"{path.name}: {table.shape[0]} data row(s); at least 2 needed")
     col = {h: table[:, i] for i, h in enumerate(header)}
     t = col["time_exp"]
     q = (col["q_meas"] - CSV_POSITION_OFFSET) / CSV_POSITION_SCALE
-    inputs = _motion_channels(q, t, window_s)
+    inputs = _motion_channels(q, t, window_s, path)
     inputs["reference_position"] = (col["q_ref"] - CSV_POSITION_OFFSET) / CSV_POSITION_SCALE
     meta = {
         "source": SOURCE,

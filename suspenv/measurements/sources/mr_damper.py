@@ -17,20 +17,30 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-import scipy.io
 
 from suspenv.measurements.errors import RecordingError
 from suspenv.measurements.recording import Recording
-from suspenv.measurements.sources._common import dissipative_sign, mat_field, require_file
+from suspenv.measurements.sources._common import (
+    dissipative_sign,
+    load_mat,
+    mat_field,
+    mat_scalar,
+    require_file,
+)
 from suspenv.measurements.units import to_si
 
 SOURCE = "Labcontrol UTFPR shaking table with MR damper (A. N. Vargas, 2021, Zenodo), MIT"
 
 
-def load_mr_damper(path: str | Path, name: str | None = None) -> Recording:
-    """Load one ``ensaio*.mat`` run; see the module docstring for channels and signs."""
+def load_mr_damper(
+    path: str | Path, name: str | None = None, *, max_bytes: int | None = None
+) -> Recording:
+    """Load one ``ensaio*.mat`` run; see the module docstring for channels and signs.
+
+    The file's columns are in fixed units (mm, mm/s, N), converted to SI here.
+    ``max_bytes``: read limit (:mod:`suspenv.measurements.limits`)."""
     path = require_file(path)
-    data = scipy.io.loadmat(path)
+    data = load_mat(path, ("Tout", "x_F", "f"), max_bytes)
     t = mat_field(data, "Tout", path).ravel()
     xf = mat_field(data, "x_F", path)
     if xf.ndim != 2 or xf.shape[1] != 3 or xf.shape[0] != t.size:
@@ -50,14 +60,17 @@ def load_mr_damper(path: str | Path, name: str | None = None) -> Recording:
         "notes": "velocity from the file's own column; force offset kept",
     }
     if "f" in data:
-        meta["excitation_hz"] = float(np.asarray(data["f"]).ravel()[0])
+        meta["excitation_hz"] = mat_scalar(data, "f", path)
     test = "mr_validation" if ".vali" in path.name else "mr_sine"
-    return Recording(
-        name or path.stem,
-        test,
-        t,
-        {"displacement": x, "velocity": v},
-        {"force": sign * f},
-        {"displacement": "m", "velocity": "m/s", "force": "N"},
-        meta,
-    )
+    try:
+        return Recording(
+            name or path.stem,
+            test,
+            t,
+            {"displacement": x, "velocity": v},
+            {"force": sign * f},
+            {"displacement": "m", "velocity": "m/s", "force": "N"},
+            meta,
+        )
+    except RecordingError as exc:
+        raise RecordingError(f"{path.name}: {exc}") from None

@@ -1,0 +1,361 @@
+"""Data sufficiency: the recordings a diagnosis refuses before any fitting, and why.
+
+:func:`check_setup` runs once the family has split the data and built the model
+(:meth:`~suspenv.diagnosis.family.DiagnosisFamily.prepare`) and before the baseline
+fit. Each failure raises :class:`~suspenv.core.errors.ValidationError` whose message
+names the recording, what it has and what the diagnosis needs. The rules, in order:
+
+1. **Values** (every fitted and held-out recording, every channel and the time):
+   finite; a unit the diagnosis knows (:data:`PLAUSIBLE`, SI) and, for a channel the
+   model reads, the model's own unit (force in lbf is never read as N); a magnitude
+   below the channel's physical limit (:data:`PLAUSIBLE`, in SI after the reader's
+   conversion; for the time, its span). A value past the limit means the declared unit
+   or a scale factor is wrong (mm read as m, data multiplied by 1e300), not a component
+   to diagnose.
+2. **Samples** against the model's size: the fitted part must hold at least
+   :data:`OBS_PER_PARAMETER` observations (samples x predicted channels) per parameter
+   of the largest model the search may reach (base parameters plus the
+   ``max_effects`` largest candidate elements), and the held-out part at least
+   :data:`MIN_HELDOUT_OBS`. With fewer, the likelihood-ratio test's chi-square
+   approximation and the held-out comparison rest on a handful of samples, and a
+   verdict would be confident about noise.
+3. **Cycles** (component families: a damper, MR damper or friction guide on a dyno,
+   a quarter car on a rig): the excitation (the deflection driving the component)
+   must pass its centre at least :data:`MIN_FIT_PASSES` times in the fitted part (two
+   full cycles: ``k`` periods of a sine pass their centre ``2k - 1`` times) and
+   :data:`MIN_HELDOUT_PASSES` time in the held-out part (it reaches both sides of the
+   motion). A pass is the motion crossing from one side of its median to the other,
+   outside a dead band of :data:`CYCLE_BAND` of its amplitude, so that noise is not
+   counted. Hysteresis, friction and bump/rebound asymmetry show only where the motion
+   reverses, both ways, more than once.
+4. **Loops** (K&C): every rig recording holds its whole loop design -> bump ->
+   rebound -> design (``2 steps + 1`` samples, ``meta["steps"]``) and a finite,
+   non-zero ``meta["amplitude"]``; a part loop cannot separate the branches.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from suspenv.core.errors import ValidationError
+from suspenv.diagnosis.family import Setup
+from suspenv.diagnosis.protocols import RecordingLike
+from suspenv.measurements.knc import FORCE_INPUTS, INPUTS, is_force_test
+
+#: SI unit -> (largest plausible magnitude, quantity, why). Limits of a road vehicle's
+#: suspension, its rigs and its sensors, each about ten times the largest real value.
+PLAUSIBLE: dict[str, tuple[float, str, str]] = {
+    "N": (
+        1e6,
+        "force",
+        "wheel, damper and bushing forces of road vehicles stay below about 1e5 N (a 40 t "
+        "truck axle's static load)",
+    ),
+    "m": (
+        10.0,
+        "length",
+        "strokes, wheel travel, rig and contact-point positions stay below about 1 m",
+    ),
+    "m/s": (
+        100.0,
+        "velocity",
+        "damper and rig velocities stay below about 10 m/s (racing dampers peak near 5 m/s)",
+    ),
+    "m/s^2": (
+        1e4,
+        "acceleration",
+        "wheel accelerations on a pothole reach about 100 g (1e3 m/s^2)",
+    ),
+    "rad": (
+        20.0 * math.pi,
+        "angle",
+        "suspension and steering angles stay below about two turns of the steering wheel",
+    ),
+    "rad/s": (1e4, "angular velocity", "wheel and steering speeds stay below about 1e3 rad/s"),
+    "V": (1e3, "voltage", "drive commands and sensor signals stay below about 100 V"),
+    "s": (
+        1e7,
+        "time span",
+        "a rig or road test lasts at most days (1e6 s); a longer span is not in seconds",
+    ),
+    "1": (1e6, "dimensionless value", "indices and ratios (loop steps, gains) stay small"),
+    "-": (1e6, "dimensionless value", "indices and ratios (loop steps, gains) stay small"),
+}
+#: fitted observations needed per parameter of the largest model (the customary minimum
+#: of a regression; the chi-square approximation of the likelihood-ratio test)
+OBS_PER_PARAMETER = 10
+#: held-out observations needed (a held-out RMS of fewer values rests on a handful of
+#: samples; 30 is the customary minimum for a mean to be near-normal)
+MIN_HELDOUT_OBS = 30
+#: centre passes of the excitation needed in the fitted part of a component's recordings
+#: (two full cycles: a sine of k periods passes its centre 2k - 1 times)
+MIN_FIT_PASSES = 3
+#: centre passes needed in the held-out part (the motion reaches both sides)
+MIN_HELDOUT_PASSES = 1
+#: dead band of a centre pass, as a fraction of the motion's amplitude (half its 1-99 %
+#: range): measured displacement noise stays below 1 % of a test's stroke
+CYCLE_BAND = 0.05
+#: parameters counted for an element whose host declares them (the McPherson axle's
+#: left/right asymmetry fits five right-minus-left differences)
+HOST_ELEMENT_PARAMETERS = 5
+#: parameters counted for a candidate the effects library does not know
+DEFAULT_ELEMENT_PARAMETERS = 4
+
+
+def check_setup(setup: Setup, family: str, max_effects: int) -> None:
+    """Refuse data the diagnosis cannot judge (see the module docstring for the rules).
+
+    Args:
+        setup: the family's split, model and candidates.
+        family: the family's short name (``"component"``, ``"knc"``, ``"ride"``).
+        max_effects: most elements the search adds in turn.
+    """
+    sp = setup.split
+    model_units = getattr(setup.model, "channel_units", None)
+    units = dict(model_units) if isinstance(model_units, Mapping) else {}
+    seen: set[int] = set()
+    for rec in [*sp.fit_recordings, *sp.heldout_recordings]:
+        if id(rec) not in seen:
+            seen.add(id(rec))
+            check_values(rec, units, str(setup.model.family))
+    _check_samples(setup, max_effects)
+    if family == "component":
+        _check_cycles(setup)
+    elif family == "knc":
+        for rec in [*sp.fit_recordings, *sp.heldout_recordings]:
+            _check_loop(rec)
+
+
+# ------------------------------------------------------------------ values
+def check_values(rec: RecordingLike, model_units: Mapping[str, str], model: str = "") -> None:
+    """Every channel (and the time) of ``rec`` finite, in a known SI unit (the model's
+    own for the channels it reads) and below its plausible magnitude (:data:`PLAUSIBLE`)."""
+    where = f"recording {rec.name!r}"
+    t = np.asarray(rec.time, float)
+    channels: list[tuple[str, str, np.ndarray]] = [("time", "time", t)]
+    channels += [("input", k, np.asarray(v, float)) for k, v in rec.inputs.items()]
+    channels += [("output", k, np.asarray(v, float)) for k, v in rec.outputs.items()]
+    for kind, name, values in channels:
+        what = "the time" if kind == "time" else f"{kind} channel {name!r}"
+        unit = rec.units.get(name, "s" if kind == "time" else None)
+        if unit is None:
+            raise ValidationError(f"{where}: {what} has no unit")
+        bad = ~np.isfinite(values)
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise ValidationError(
+                f"{where}: {what} has {int(bad.sum())} non-finite sample(s), the first at "
+                f"index {i} (value {values.flat[i]}); a diagnosis needs finite data"
+            )
+        if unit not in PLAUSIBLE:
+            raise ValidationError(
+                f"{where}: {what} is in {unit!r}, a unit a diagnosis does not read; "
+                f"convert it to SI ({sorted(PLAUSIBLE)})"
+            )
+        expected = model_units.get(name)
+        if expected is not None and unit != expected:
+            raise ValidationError(
+                f"{where}: {what} is in {unit!r}, but the {model or 'model'} model reads it "
+                f"in {expected!r}; convert it (suspenv.measurements.to_si)"
+            )
+        limit, quantity, why = PLAUSIBLE[unit]
+        if kind == "time":  # a clock may start anywhere (an epoch); its span may not
+            span = float(values[-1] - values[0]) if values.size else 0.0
+            if span > limit:
+                raise ValidationError(
+                    f"{where}: the time spans {span:.6g} s, an implausible duration: the "
+                    f"limit is {limit:.6g} s ({why}); check the time unit and any scale "
+                    "factor"
+                )
+            continue
+        peak = float(np.max(np.abs(values))) if values.size else 0.0
+        if peak > limit:
+            i = int(np.argmax(np.abs(values)))
+            at = f" at t={t[i]:.6g} s" if values.shape == t.shape else ""
+            raise ValidationError(
+                f"{where}: {what} reaches {values.flat[i]:.6g} {unit}{at}, an implausible "
+                f"{quantity}: the limit is {limit:.6g} {unit} ({why}); check the declared "
+                "unit and any scale factor"
+            )
+
+
+# ------------------------------------------------------------------ samples
+def _fitted_channels(model: Any, rec: RecordingLike) -> list[str]:
+    return [c for c in model.output_channels if c in rec.outputs]
+
+
+def _counts(
+    model: Any, recs: Sequence[RecordingLike], masks: Sequence[np.ndarray | None] | None
+) -> tuple[int, int, int]:
+    """(samples, observations, fewest channels per recording) of one part of the split."""
+    samples = obs = 0
+    fewest = 0
+    for i, rec in enumerate(recs):
+        m = None if masks is None else masks[i]
+        n = len(rec.time) if m is None else int(np.count_nonzero(m))
+        c = len(_fitted_channels(model, rec))
+        samples += n
+        obs += n * c
+        fewest = c if i == 0 else min(fewest, c)
+    return samples, obs, fewest
+
+
+def element_parameters(candidate: str) -> int:
+    """Free parameters an element of ``candidate`` (``kind`` or ``kind@location``) adds."""
+    from suspenv.models.effects.effect import effect_kinds
+
+    spec = effect_kinds().get(candidate.split("@", 1)[0])
+    if spec is None:
+        return DEFAULT_ELEMENT_PARAMETERS
+    extra = HOST_ELEMENT_PARAMETERS if spec.host_parameters else 0
+    return len(spec.free_parameter_names) + extra
+
+
+def largest_model(setup: Setup, max_effects: int) -> tuple[int, int, int]:
+    """(base parameters, parameters the ``max_effects`` largest candidates add, total)."""
+    base = len(setup.model.parameter_names)
+    sizes = sorted((element_parameters(c) for c in setup.candidates), reverse=True)
+    added = sum(sizes[: max(int(max_effects), 0)])
+    return base, added, base + added
+
+
+def _names(recs: Sequence[RecordingLike]) -> str:
+    names = list(dict.fromkeys(str(r.name) for r in recs))
+    head = "recording" if len(names) == 1 else "recordings"
+    return f"{head} " + ", ".join(repr(n) for n in names)
+
+
+def _check_samples(setup: Setup, max_effects: int) -> None:
+    sp, model = setup.split, setup.model
+    for rec in sp.fit_recordings:
+        if not _fitted_channels(model, rec):
+            raise ValidationError(
+                f"recording {rec.name!r}: none of the channels the {model.family} model "
+                f"predicts ({list(model.output_channels)}) is among its outputs "
+                f"({sorted(rec.outputs)}); there is nothing to fit"
+            )
+    n_fit, obs_fit, c_fit = _counts(model, sp.fit_recordings, sp.fit_masks)
+    n_held, obs_held, c_held = _counts(model, sp.heldout_recordings, sp.heldout_masks)
+    base, added, p_max = largest_model(setup, max_effects)
+    need_fit = OBS_PER_PARAMETER * p_max
+    if obs_fit >= need_fit and obs_held >= MIN_HELDOUT_OBS:
+        return
+    recs = list(dict.fromkeys([*sp.fit_recordings, *sp.heldout_recordings]))
+    total = sum(len(r.time) for r in recs)
+    per_fit = max(c_fit, 1)
+    per_held = max(c_held, 1)
+    fit_samples = math.ceil(need_fit / per_fit)
+    held_samples = math.ceil(MIN_HELDOUT_OBS / per_held)
+    shared = sp.fit_masks is not None and sp.heldout_masks is not None
+    if shared and n_fit > 0 and n_held > 0:
+        frac = n_fit / (n_fit + n_held)
+        n_min = max(math.ceil(fit_samples / frac), math.ceil(held_samples / (1 - frac)))
+        need = f"about {n_min} samples"
+    else:
+        need = f"{fit_samples} fitted and {held_samples} held-out samples"
+    raise ValidationError(
+        f"{_names(recs)}: {_plural(total, 'sample')}; a diagnosis of the {model.family} model "
+        f"needs at least {need} ({n_fit} fitted and {n_held} held out here: "
+        f"{sp.description}). The fit needs {OBS_PER_PARAMETER} observations (samples x "
+        f"predicted channels) per parameter of the largest model the search may reach "
+        f"({base} base + {added} for up to {max_effects} element(s) = {p_max} parameters), "
+        f"{need_fit} in all, and the held-out part {MIN_HELDOUT_OBS}; these data give "
+        f"{obs_fit} and {obs_held}"
+    )
+
+
+def _plural(n: int, word: str) -> str:
+    return f"{n} {word}" + ("" if n == 1 else "s")
+
+
+# ------------------------------------------------------------------ cycles
+def centre_passes(x: np.ndarray, band: float = CYCLE_BAND) -> int:
+    """How often the motion ``x`` passes from one side of its median to the other,
+    outside a dead band of ``band`` times its amplitude (half its 1-99 % range)."""
+    xc = np.asarray(x, float) - float(np.median(x)) if np.size(x) else np.zeros(0)
+    if xc.size < 2:
+        return 0
+    lo, hi = np.percentile(xc, [1.0, 99.0])
+    amp = 0.5 * float(hi - lo)
+    if not amp > 0.0:
+        return 0
+    side = np.where(xc > band * amp, 1, np.where(xc < -band * amp, -1, 0))
+    side = side[side != 0]
+    return int(np.count_nonzero(side[1:] != side[:-1])) if side.size else 0
+
+
+def _part_passes(
+    recs: Sequence[RecordingLike], masks: Sequence[np.ndarray | None] | None
+) -> int:
+    from suspenv.diagnosis.component.motion import motion
+
+    total = 0
+    for i, rec in enumerate(recs):
+        x = motion(rec)[0]
+        m = None if masks is None else masks[i]
+        total += centre_passes(x if m is None else x[m])
+    return total
+
+
+def _check_cycles(setup: Setup) -> None:
+    sp = setup.split
+    fit = _part_passes(sp.fit_recordings, sp.fit_masks)
+    held = _part_passes(sp.heldout_recordings, sp.heldout_masks)
+    if fit >= MIN_FIT_PASSES and held >= MIN_HELDOUT_PASSES:
+        return
+    recs = list(dict.fromkeys([*sp.fit_recordings, *sp.heldout_recordings]))
+    raise ValidationError(
+        f"{_names(recs)}: the excitation passes its centre {_plural(fit, 'time')} in the "
+        f"fitted part and {_plural(held, 'time')} in the held-out part ({sp.description}); "
+        f"a diagnosis of the {setup.model.family} model needs at least {MIN_FIT_PASSES} "
+        f"(two full cycles: k periods of a sine pass their centre 2k - 1 times) and "
+        f"{MIN_HELDOUT_PASSES} (both sides of the motion): friction, hysteresis and "
+        "bump/rebound asymmetry show only where the motion reverses, both ways, more than "
+        "once (a pass: the deflection crossing its median, outside a dead band of "
+        f"{100 * CYCLE_BAND:g} % of its amplitude)"
+    )
+
+
+# ------------------------------------------------------------------ K&C loops
+def _check_loop(rec: RecordingLike) -> None:
+    where = f"K&C recording {rec.name!r}"
+    meta = rec.meta
+    amp, steps = meta.get("amplitude"), meta.get("steps")
+    if not isinstance(amp, int | float) or isinstance(amp, bool) or not np.isfinite(amp) or not amp:
+        raise ValidationError(
+            f"{where}: meta['amplitude'] must be a finite non-zero number (the test's "
+            f"amplitude, m or N), but got {amp!r}"
+        )
+    if not isinstance(steps, int) or isinstance(steps, bool) or steps < 2:
+        raise ValidationError(
+            f"{where}: meta['steps'] must be a whole number >= 2 (grid intervals of the "
+            f"loop), but got {steps!r}"
+        )
+    need = 2 * steps + 1
+    if len(rec.time) != need:
+        raise ValidationError(
+            f"{where}: {len(rec.time)} samples, but the whole loop design -> bump -> rebound "
+            f"-> design of steps={steps} has {need}; a part loop cannot separate the branches"
+        )
+    needed = FORCE_INPUTS if is_force_test(rec) else INPUTS
+    missing = [k for k in needed if k not in rec.inputs]
+    if missing:
+        raise ValidationError(
+            f"{where}: missing input channel(s) {missing}; inputs are {sorted(rec.inputs)}"
+        )
+    grid = np.asarray(rec.inputs["grid"], float)
+    if np.any(grid != np.round(grid)) or grid.min() != 0 or grid.max() != steps:
+        raise ValidationError(
+            f"{where}: input 'grid' must hold whole grid indices from 0 to steps={steps}, "
+            f"but ranges {float(np.min(grid)):g}..{float(np.max(grid)):g}"
+        )
+    branch = np.asarray(rec.inputs["branch"], float)
+    if not np.all(np.isin(branch, (0.0, 1.0, 2.0))):
+        raise ValidationError(
+            f"{where}: input 'branch' must hold the loop legs 0, 1 and 2, but holds "
+            f"{sorted(set(branch.tolist()))[:6]}"
+        )
