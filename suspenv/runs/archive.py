@@ -16,6 +16,7 @@ from __future__ import annotations
 import csv
 import json
 import sqlite3
+import threading
 import time
 from collections.abc import Sequence
 from pathlib import Path
@@ -64,7 +65,8 @@ class RunArchive:
             path = path / self.FILENAME
         path.parent.mkdir(parents=True, exist_ok=True)
         self.path = path
-        self._con = sqlite3.connect(str(path), timeout=30.0)
+        # one connection; ArchiveWriter may append from its thread, never concurrently
+        self._con = sqlite3.connect(str(path), timeout=30.0, check_same_thread=False)
         try:
             self._con.execute("PRAGMA journal_mode=WAL")
             self._con.execute("PRAGMA synchronous=NORMAL")
@@ -278,6 +280,61 @@ class RunArchive:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+class ArchiveWriter:
+    """Appends chunks to a :class:`RunArchive`, off the hot path where that is safe.
+
+    A chunk whose evaluation took less than :attr:`BACKGROUND_BELOW_S` is committed by a
+    background thread while the loop tells the strategy and asks the next batch (SQLite
+    releases the GIL while it writes); :meth:`wait` blocks until it is committed, and the
+    loop calls it before the next batch is evaluated and before it ends. A slower chunk is
+    committed at once. So a kill loses at most the evaluations of one batch that took less
+    than that time together (they are evaluated again on resume, with the same result),
+    and nothing of an expensive evaluation. A write error is raised by the next call.
+    """
+
+    #: evaluations faster than this are written in the background (seconds)
+    BACKGROUND_BELOW_S = 0.5
+
+    def __init__(self, archive: RunArchive):
+        self.archive = archive
+        self._thread: threading.Thread | None = None
+        self._error: BaseException | None = None
+
+    def append(
+        self,
+        batch_index: int,
+        rows: Sequence[int],
+        U: np.ndarray,
+        X: np.ndarray,
+        result: EvaluationBatch,
+        wall_time: float,
+    ) -> None:
+        """Archive one chunk (see the class docstring for when it is committed)."""
+        self.wait()
+        args = (batch_index, rows, U, X, result, wall_time)
+        if wall_time >= self.BACKGROUND_BELOW_S:
+            self.archive.append(*args)
+            return
+
+        def write() -> None:
+            try:
+                self.archive.append(*args)
+            except BaseException as exc:  # noqa: BLE001 - handed to the caller by wait()
+                self._error = exc
+
+        self._thread = threading.Thread(target=write, name="suspenv-archive", daemon=True)
+        self._thread.start()
+
+    def wait(self) -> None:
+        """Block until every chunk handed over is committed; raise a write error."""
+        if self._thread is not None:
+            self._thread.join()
+            self._thread = None
+        if self._error is not None:
+            error, self._error = self._error, None
+            raise error
 
 
 def _json_default(o: Any) -> Any:

@@ -40,6 +40,7 @@ from pathlib import Path
 from typing import Any
 
 from suspenv.core.errors import ValidationError
+from suspenv.core.tomlfile import read_toml
 from suspenv.runs.evaluation import FaultPolicy
 
 DEFAULTS: dict[str, Any] = {
@@ -237,10 +238,7 @@ def load_config(
     path = Path(path)
     if not path.is_file():
         raise ValidationError(f"config file {str(path)!r} does not exist")
-    try:
-        raw = tomllib.loads(path.read_text())
-    except tomllib.TOMLDecodeError as exc:
-        raise ValidationError(f"config {str(path)!r} is not valid TOML: {exc}") from None
+    raw = read_toml(path, f"config {str(path)!r}")
     raw.setdefault("name", path.stem)
     raw = apply_overrides(raw, overrides or [])
     cfg = validate(raw, allow_code)

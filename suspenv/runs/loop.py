@@ -36,7 +36,7 @@ import numpy as np
 from suspenv.core.errors import InfrastructureError, ValidationError
 from suspenv.core.problem import Problem
 from suspenv.core.result import EvaluationBatch
-from suspenv.runs.archive import RunArchive
+from suspenv.runs.archive import ArchiveWriter, RunArchive
 from suspenv.runs.evaluation import FaultPolicy, evaluate_chunks
 from suspenv.runs.run_dir import locked
 from suspenv.runs.versions import package_versions
@@ -164,6 +164,7 @@ def _optimize(
     policy: FaultPolicy,
 ) -> RunResult:
     archive = RunArchive(run_dir) if run_dir is not None else None
+    writer = ArchiveWriter(archive) if archive is not None else None
     if archive is not None:
         archive.set_meta(
             problem=getattr(problem, "name", type(problem).__name__),
@@ -218,6 +219,8 @@ def _optimize(
                 break
             X = problem.space.to_physical(U)
             results: list[EvaluationBatch | None] = [None] * n
+            if writer is not None:
+                writer.wait()  # the previous batch is committed before this one is evaluated
             done = archive.batch(b) if archive is not None else {}
             for r, (u_arch, res) in done.items():
                 if r >= n or not np.allclose(u_arch, U[r], rtol=0, atol=1e-12):
@@ -237,8 +240,8 @@ def _optimize(
                     problem, X[todo], todo, executor, chunk, workers, policy
                 )
                 for rows, res, secs in chunks:
-                    if archive is not None:
-                        archive.append(b, rows, U[rows], X[rows], res, secs)
+                    if writer is not None:
+                        writer.append(b, rows, U[rows], X[rows], res, secs)
                     for rec in recorders:
                         rec.append(b, rows, U[rows], X[rows], res, secs)
                     parts.append((rows, res))
@@ -288,6 +291,8 @@ def _optimize(
         if bar is not None:
             bar.close()
         wall = time.perf_counter() - t_start
+        if writer is not None:
+            writer.wait()
         if archive is not None:
             archive.set_meta(stop_reason=stop_reason, n_evaluations=used, wall_time_s=wall)
             archive.close()

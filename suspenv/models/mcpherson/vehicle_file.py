@@ -34,7 +34,6 @@ from __future__ import annotations
 
 import difflib
 import math
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -42,6 +41,7 @@ from typing import Any
 import numpy as np
 
 from suspenv.core.errors import ValidationError
+from suspenv.core.tomlfile import read_toml
 from suspenv.models.effects import Effect, get_kind
 from suspenv.models.mcpherson.effects import LOCATIONS, PLACEMENTS, axle_effect
 from suspenv.models.mcpherson.params import (
@@ -89,18 +89,7 @@ def load_vehicle(path: str | Path) -> VehicleFile:
     path = Path(path)
     if not path.is_file():
         raise ValidationError(f"vehicle file {str(path)!r} does not exist")
-    size = path.stat().st_size
-    if size > MAX_FILE_BYTES:
-        raise ValidationError(
-            f"vehicle file {path.name}: {size} bytes, more than the {MAX_FILE_BYTES} bytes a "
-            "vehicle file may hold (the reference vehicle file is about 3 KiB)"
-        )
-    try:
-        data = tomllib.loads(path.read_bytes().decode("utf-8"))
-    except UnicodeDecodeError as exc:
-        raise ValidationError(f"vehicle file {str(path)!r} is not UTF-8 text: {exc}") from None
-    except (tomllib.TOMLDecodeError, RecursionError) as exc:
-        raise ValidationError(f"vehicle file {str(path)!r} is not valid TOML: {exc}") from None
+    data = read_toml(path, f"vehicle file {str(path)!r}", MAX_FILE_BYTES)
     return vehicle_from_dict(data, path.name, path.stem)
 
 

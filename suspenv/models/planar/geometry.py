@@ -24,7 +24,6 @@ describes one geometry per leading index, so one object can hold a whole populat
 from __future__ import annotations
 
 import math
-import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, fields, replace
 from importlib import resources
@@ -35,6 +34,7 @@ import numpy as np
 
 from suspenv.core.errors import ValidationError
 from suspenv.core.options import check_keywords, choice, number, numbers, positive, text
+from suspenv.core.tomlfile import parse_toml, read_toml
 
 #: kinds of linkage understood by the planar solvers
 KINDS = ("double_wishbone", "mcpherson")
@@ -365,7 +365,7 @@ def load_geometry(source: str | Path) -> PlanarGeometry:
     path = Path(source)
     if path.is_file():
         label = f"planar geometry {str(path)!r}"
-        content = path.read_text()
+        data = read_toml(path, label)
     else:
         name = str(source)
         bundled = resources.files("suspenv") / "data" / "planar" / f"{name}.toml"
@@ -375,11 +375,7 @@ def load_geometry(source: str | Path) -> PlanarGeometry:
                 f"(bundled: {bundled_geometries()})"
             )
         label = f"planar geometry {name!r} (bundled)"
-        content = bundled.read_text()
-    try:
-        data = tomllib.loads(content)
-    except tomllib.TOMLDecodeError as exc:
-        raise ValidationError(f"{label} is not valid TOML: {exc}") from None
+        data = parse_toml(bundled.read_bytes(), label)
     return geometry_from_dict(data, label)
 
 
