@@ -35,6 +35,12 @@ _STRATEGIES: dict[str, str | Callable[..., Any]] = {
     "pymoo_nsga2": "suspenv.strategies.pymoo_nsga2:PymooNSGA2",
     "random": "suspenv.strategies.random_search:RandomSearch",
     "lhs": "suspenv.strategies.lhs:LatinHypercube",
+    "optuna_tpe": "suspenv.strategies.optuna_samplers:OptunaTPE",
+    "optuna_cmaes": "suspenv.strategies.optuna_samplers:OptunaCMAES",
+    "optuna_nsga3": "suspenv.strategies.optuna_samplers:OptunaNSGA3",
+    "optuna_gp": "suspenv.strategies.optuna_samplers:OptunaGP",
+    "nevergrad": "suspenv.strategies.nevergrad_adapter:Nevergrad",
+    "de": "suspenv.strategies.differential_evolution:DifferentialEvolution",
 }
 
 _PIPELINES: dict[str, str | Callable[..., Any]] = {
@@ -56,6 +62,8 @@ _PIPELINE_CHECKS: dict[str, str | Callable[..., Any]] = {
 _REPORTS: dict[str, str | Callable[..., Any]] = {
     "run_figures": "suspenv.reports.run:write_run_figures",
     "run_comparison": "suspenv.reports.run:plot_compare",
+    # `suspenv compare`: suspenv.analysis computes, this writes the files and figures
+    "comparison": "suspenv.reports.analysis:write_comparison",
     "tey2014": "suspenv.reports.tey2014:write_tey2014_report",
     "KCIdentification": "suspenv.reports.kc_identification:write_kc_report",
     "MinibusRideHandling": "suspenv.reports.minibus:write_minibus_run_report",

@@ -43,6 +43,8 @@ LIBRARY = frozenset(
         "runs",
         "methods",
         "diagnosis",
+        "analysis",
+        "suite",
     }
 )
 
@@ -80,6 +82,10 @@ ALLOWED: dict[str, frozenset[str]] = {
         }
     ),
     "diagnosis": frozenset({"core", "models", "rigs", "metrics", "measurements"}),
+    # reads run directories: groups, fixed-budget and fixed-target views, indicators
+    "analysis": frozenset({"core", "registry", "runs", "problems"}),
+    # named instances of registered problems, run through the runs layer
+    "suite": frozenset({"core", "registry", "runs", "analysis"}),
     "reports": LIBRARY,
     "bench": LIBRARY | {"reports"},
     "cli": LIBRARY | {"reports", "bench", "suspenv"},

@@ -177,3 +177,20 @@ def test_nan_design_and_bad_budget_rejected():
         p.evaluate(np.array([[0.1, np.nan]]))
     with pytest.raises(ValidationError, match=r"`budget >= 1`.*budget=0"):
         optimize(p, make_strategy("random", p), budget=0)
+
+
+def test_evaluations_csv_round_trips_through_pandas(tmp_path):
+    # reference: the SQLite archive's float64 values, compared bit for bit; a failed row
+    # (NaN objectives) and a message with a comma must not shift the columns
+    pd = pytest.importorskip("pandas")
+    p = Fragile()
+    optimize(p, make_strategy("random", p, seed=3, batch_size=20), 100, run_dir=tmp_path)
+    with RunArchive(tmp_path) as a:
+        arrays = a.arrays()
+        path = a.to_csv(tmp_path / "evaluations.csv")
+    df = pd.read_csv(path)
+    assert df["f"].dtype == np.float64 and df["x"].dtype == np.float64
+    np.testing.assert_array_equal(df["f"].to_numpy(), arrays["objectives"][:, 0])
+    np.testing.assert_array_equal(df[["x", "y"]].to_numpy(), arrays["x"])
+    assert (~arrays["ok"]).any() and df["f"].min() == np.nanmin(arrays["objectives"])
+    assert df["ok"].tolist() == arrays["ok"].astype(int).tolist()

@@ -26,7 +26,19 @@ PROBLEMS = (
     "MinibusRideHandling",
     "PlanarLinkage",
 )
-STRATEGIES = ("cmaes", "nsga2", "pymoo_nsga2", "random", "lhs")
+STRATEGIES = (
+    "cmaes",
+    "nsga2",
+    "pymoo_nsga2",
+    "random",
+    "lhs",
+    "de",
+    "nevergrad",
+    "optuna_tpe",
+    "optuna_cmaes",
+    "optuna_nsga3",
+    "optuna_gp",
+)
 
 
 def raises(call, *fragments: str) -> str:

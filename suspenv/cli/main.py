@@ -15,6 +15,8 @@ COMMAND_MODULES = (
     "list_cmd",
     "show",
     "compare",
+    "export",
+    "suite",
     "knc",
     "planar",
     "diagnose",

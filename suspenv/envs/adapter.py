@@ -14,7 +14,11 @@ Conventions (all float64):
   is reported with every objective (and constraint, in ``info``) equal to
   ``fail_value`` (default :data:`FAIL_VALUE`, finite and worse than any real design).
 * reward = -(scalarised objectives + penalty * total constraint violation), where the
-  violation is ``sum_j max(g_j, 0)``; a failed evaluation gets ``-fail_value``.
+  violation is ``sum_j max(g_j, 0)``; a failed evaluation gets ``-fail_value``. With
+  ``reward="normalized"`` each objective is divided by its scale
+  (:mod:`suspenv.envs.scales`) before it is scalarised; ``reward="sum"`` scalarises the
+  objectives in their own units. The default is "normalized" for the problems of
+  :data:`NORMALIZED_BY_DEFAULT` and "sum" for the others.
 """
 
 from __future__ import annotations
@@ -29,6 +33,7 @@ from suspenv.core.errors import ValidationError
 from suspenv.core.problem import Problem
 from suspenv.core.result import EvaluationBatch
 from suspenv.core.scalarize import get_scalarizer
+from suspenv.envs.scales import ObjectiveScales, cache_key, objective_scales
 from suspenv.registry import make_problem
 
 #: reported objective/constraint value of a failed evaluation (finite, inside the space)
@@ -37,6 +42,40 @@ FAIL_VALUE = 1.0e10
 OBS_LIMIT = 1.0e300
 
 Scalarizer = str | Callable[[np.ndarray], np.ndarray]
+
+#: the reward modes: objectives divided by their scales, or in their own units
+REWARDS = ("normalized", "sum")
+#: problems whose env reward is normalised unless ``reward="sum"`` is asked for: their
+#: objectives are in mixed units and the plain sum is dominated by one that no design
+#: moves (KCIdentification: ``opp_roll_rate``, 57 % of the reference design's sum)
+NORMALIZED_BY_DEFAULT = frozenset({"KCIdentification"})
+
+
+def default_reward(problem: Problem) -> str:
+    """The reward mode an env uses when none is given (see :data:`NORMALIZED_BY_DEFAULT`)."""
+    return "normalized" if problem.name in NORMALIZED_BY_DEFAULT else "sum"
+
+
+def check_reward(reward: Any, problem: Problem) -> str:
+    """``reward`` as one of :data:`REWARDS` (None: the problem's default), or a
+    ValidationError naming the rule and the value."""
+    if reward is None:
+        return default_reward(problem)
+    if not isinstance(reward, str) or reward not in REWARDS:
+        raise ValidationError(f"`reward` must be one of {list(REWARDS)}, but got reward={reward!r}")
+    return reward
+
+
+def problem_key(
+    problem: str | Problem, problem_options: dict[str, Any] | None, built: Problem
+) -> str | None:
+    """Cache key of the objective scales of ``built``: the class it was built from by a
+    registered name, and its options (instances are not cached: two instances of one
+    class may differ)."""
+    if not isinstance(problem, str):
+        return None
+    cls = type(built)
+    return cache_key(f"{cls.__module__}:{cls.__qualname__}:{problem}", problem_options)
 
 
 def build_problem(problem: str | Problem, problem_options: dict[str, Any] | None) -> Problem:
@@ -67,6 +106,8 @@ class ProblemAdapter:
         penalty: float = 100.0,
         fail_value: float = FAIL_VALUE,
         batch_scalarizer_ok: bool = False,
+        reward: str | None = None,
+        scales_key: str | None = None,
     ):
         self.problem = problem
         self.space = problem.space
@@ -86,6 +127,23 @@ class ProblemAdapter:
         self.scalarizer_name, self._scalarize = self._resolve_scalarizer(
             scalarizer, weights, batch_scalarizer_ok
         )
+        self.reward = check_reward(reward, problem)
+        self._scales_key = scales_key
+        self._scales: ObjectiveScales | None = None
+
+    # ---------------------------------------------------------------- scales
+    @property
+    def scales(self) -> ObjectiveScales:
+        """The objective scales of the normalised reward (computed on first use)."""
+        if self._scales is None:
+            self._scales = objective_scales(self.problem, self._scales_key)
+        return self._scales
+
+    def reward_objectives(self, F: np.ndarray) -> np.ndarray:
+        """The objectives the scalariser sees: divided by their scales when normalised."""
+        if self.reward == "normalized":
+            return F / self.scales.scales
+        return F
 
     # ------------------------------------------------------------ scalariser
     def _resolve_scalarizer(
@@ -167,7 +225,9 @@ class ProblemAdapter:
         violation = np.clip(np.where(ok[:, None], G, 0.0), 0.0, None).sum(axis=1)
         scal = np.full(len(batch), np.nan)
         if ok.any():
-            scal[ok] = np.asarray(self._scalarize(F[ok]), dtype=float).reshape(-1)
+            scal[ok] = np.asarray(
+                self._scalarize(self.reward_objectives(F[ok])), dtype=float
+            ).reshape(-1)
         with np.errstate(over="ignore", invalid="ignore"):
             reward = -(scal + self.penalty * violation)
         for i in np.flatnonzero(ok & ~np.isfinite(reward)):

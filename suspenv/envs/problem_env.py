@@ -11,7 +11,14 @@ from gymnasium import spaces
 
 from suspenv.core.errors import ValidationError
 from suspenv.core.problem import Problem
-from suspenv.envs.adapter import FAIL_VALUE, OBS_LIMIT, ProblemAdapter, Scalarizer, build_problem
+from suspenv.envs.adapter import (
+    FAIL_VALUE,
+    OBS_LIMIT,
+    ProblemAdapter,
+    Scalarizer,
+    build_problem,
+    problem_key,
+)
 
 
 def check_budget(budget: Any) -> int:
@@ -31,64 +38,97 @@ def single_spaces(adapter: ProblemAdapter) -> tuple[spaces.Box, spaces.Box]:
 class ProblemEnv(gym.Env[np.ndarray, np.ndarray]):
     """A suspenv problem as a black-box optimisation episode (``suspenv/<Name>-v0``).
 
+    ## Description
+
     Every registered problem is an env: ``gymnasium.make("suspenv/CarSideImpact-v0")``
     after ``import suspenv``. Each step evaluates one design; an episode is one
     optimisation run of ``budget`` evaluations. There is no hidden state: the next
     observation depends only on the action, so the env suits black-box optimisers and
-    bandit-style agents alike.
+    bandit-style agents alike. The concrete spaces, units and reward of one env are in
+    its spec sheet: ``env.unwrapped.spec_sheet()`` (:func:`suspenv.envs.spec.spec_sheet`)
+    and ``docs/envs.md``.
 
-    Action space:
-        ``Box(-1, 1, (d,), float64)``, d = number of design parameters. Action ``a``
-        maps to the unit cube ``u = (a + 1) / 2`` and to physical values through the
-        problem's :class:`~suspenv.core.DesignSpace` (linear or log per parameter).
-        Finite actions outside [-1, 1] are clipped; NaN/inf actions or a wrong shape
-        raise :class:`~suspenv.core.errors.ValidationError`.
+    ## Action Space
 
-    Observation space:
-        ``Box(-1e300, 1e300, (m,), float64)``: the m objective values (minimised) of the
-        design just evaluated, in the problem's units (``problem.objective_names``).
-        A failed evaluation is observed as ``fail_value`` (default 1e10) in every
-        component, with ``info["ok"] = False`` and the reason in ``info["message"]``.
+    ``Box(-1, 1, (d,), float64)``, d = number of design parameters. Action ``a`` maps
+    to the unit cube ``u = (a + 1) / 2`` and to physical values through the problem's
+    :class:`~suspenv.core.DesignSpace` (linear or log per parameter; each parameter's
+    name, unit and bounds are in the spec sheet). Finite actions outside [-1, 1] are
+    clipped; NaN/inf actions or a wrong shape raise
+    :class:`~suspenv.core.errors.ValidationError`. ``design_to_action(x)`` inverts the map.
 
-    Reward:
-        ``-(s + penalty * v)`` with ``s`` the scalarised objectives (``scalarizer``
-        "weighted_sum", default equal weights 1, or a callable ``F (n, m) -> (n,)``),
-        ``v = sum_j max(g_j, 0)`` the total constraint violation (constraints are
-        feasible when ``g <= 0``) and ``penalty`` (default 100). A failed evaluation
-        earns ``-fail_value``. The batch-normalised "rank_sum" needs a population: use
-        the vector env.
+    ## Observation Space
 
-    Starting state:
-        ``reset()`` evaluates the problem's reference design
-        (``problem.reference_design()``: each parameter's default, else the centre of
-        its range) and returns its objectives; this evaluation is not counted in the
-        budget. The problem is deterministic, so the reference evaluation is computed
-        once per env and reused. ``seed`` only seeds ``np_random`` (unused by the
-        dynamics, which are deterministic).
+    ``Box(-1e300, 1e300, (m,), float64)``: the m objective values (minimised) of the
+    design just evaluated, in the problem's units (``problem.objective_names``,
+    ``problem.objective_units``); never normalised. A failed evaluation is observed as
+    ``fail_value`` (default 1e10) in every component, with ``info["ok"] = False`` and
+    the reason in ``info["message"]``.
 
-    Episode end:
-        ``terminated`` is always False (there is no goal state); ``truncated`` is True
-        on the ``budget``-th step. Stepping again before ``reset()`` raises.
+    ## Rewards
 
-    Info (fresh objects every call):
-        ``objectives`` (m,), ``constraints`` (k,) (both ``fail_value`` when failed),
-        ``parameters`` {name: physical value}, ``ok``, ``message``, ``violation``,
-        ``scalarized``, ``evaluations`` (steps taken in this episode).
+    ``-(s + penalty * v)`` per step, where
 
-    Rendering:
-        ``render_mode="rgb_array"`` when the problem defines
-        ``render_rgb(x_physical) -> uint8 (H, W, 3)`` (the last evaluated design);
-        otherwise ``metadata["render_modes"]`` is empty and ``render()`` returns None.
+    * ``s`` is the scalarised objectives (``scalarizer`` "weighted_sum" with ``weights``,
+      default all 1, or a callable ``F (n, m) -> (n,)``) of either
+      - ``reward="normalized"``: each objective divided by its scale
+        ``s_j = max(|f_j(x_ref)|, 0.1 * IQR_j)`` (its value at the reference design, at
+        least a tenth of its interquartile range over a fixed seeded sample of 64
+        designs; :mod:`suspenv.envs.scales`), so at the reference design each objective
+        contributes at most 1 and an objective no design can move never dominates; or
+      - ``reward="sum"``: the objectives in their own units (the reward of earlier
+        versions; reproduces their numbers).
+      The default is "normalized" for KCIdentification (40 mismatches in 8 units) and
+      "sum" for every other problem (:data:`~suspenv.envs.adapter.NORMALIZED_BY_DEFAULT`).
+    * ``v = sum_j max(g_j, 0)`` is the total constraint violation (constraints are
+      feasible when ``g <= 0``), in the constraints' own units (never normalised);
+      ``penalty`` defaults to 100.
+    * A failed evaluation earns ``-fail_value``.
 
-    Arguments:
-        problem: registered problem name (see ``suspenv list``) or a Problem instance.
-        problem_options: constructor options for a named problem.
-        budget: evaluations per episode (>= 1, default 100).
-        scalarizer, weights, penalty, fail_value: reward shaping, see above.
-        render_mode: None or "rgb_array".
+    The batch-normalised "rank_sum" needs a population: use the vector env.
 
-    Version history:
-        v0: initial version.
+    ## Starting State
+
+    ``reset()`` evaluates the problem's reference design
+    (``problem.reference_design()``: each parameter's default, else the centre of its
+    range) and returns its objectives; this evaluation is not counted in the budget. The
+    problem is deterministic, so the reference evaluation is computed once per env and
+    reused. ``seed`` only seeds ``np_random`` (unused by the dynamics, which are
+    deterministic). With ``reward="normalized"`` the first reset also computes the
+    objective scales (65 evaluations, cached per problem name and options).
+
+    ## Episode End
+
+    ``terminated`` is always False (there is no goal state); ``truncated`` is True on
+    the ``budget``-th step. Stepping again before ``reset()`` raises ``RuntimeError``.
+
+    ## Info
+
+    Fresh objects every call: ``objectives`` (m,), ``constraints`` (k,) (both
+    ``fail_value`` when failed), ``parameters`` {name: physical value}, ``ok``,
+    ``message``, ``violation``, ``scalarized`` (``s`` above), ``evaluations`` (steps
+    taken in this episode).
+
+    ## Rendering
+
+    ``render_mode="rgb_array"`` when the problem defines
+    ``render_rgb(x_physical) -> uint8 (H, W, 3)`` (the last evaluated design);
+    otherwise ``metadata["render_modes"]`` is empty and ``render()`` returns None.
+
+    ## Arguments
+
+    * ``problem``: registered problem name (see ``suspenv list``) or a Problem instance.
+    * ``problem_options``: constructor options of a named problem.
+    * ``budget``: evaluations per episode, an integer >= 1 (default 100).
+    * ``reward``: "normalized" or "sum" (default: the problem's, see Rewards).
+    * ``scalarizer``, ``weights``, ``penalty`` (>= 0), ``fail_value`` (0 <= . <= 1e300):
+      reward shaping, see Rewards.
+    * ``render_mode``: None or "rgb_array".
+
+    ## Version History
+
+    * v0: initial version. Later in v0: the ``reward`` argument; KCIdentification's
+      default reward became "normalized" (pass ``reward="sum"`` for the earlier numbers).
     """
 
     metadata: dict[str, Any] = {"render_modes": ["rgb_array"], "render_fps": 4}
@@ -103,6 +143,7 @@ class ProblemEnv(gym.Env[np.ndarray, np.ndarray]):
         penalty: float = 100.0,
         fail_value: float = FAIL_VALUE,
         render_mode: str | None = None,
+        reward: str | None = None,
     ):
         self.problem = build_problem(problem, problem_options)
         self.adapter = ProblemAdapter(
@@ -111,6 +152,8 @@ class ProblemEnv(gym.Env[np.ndarray, np.ndarray]):
             weights=weights,
             penalty=penalty,
             fail_value=fail_value,
+            reward=reward,
+            scales_key=problem_key(problem, problem_options, self.problem),
         )
         self.budget = check_budget(budget)
         can_render = callable(getattr(self.problem, "render_rgb", None))
@@ -167,6 +210,24 @@ class ProblemEnv(gym.Env[np.ndarray, np.ndarray]):
     def design_to_action(self, x_physical: Sequence[float]) -> np.ndarray:
         """The action that evaluates the physical design ``x_physical``."""
         return self.adapter.designs_to_actions(np.asarray(x_physical, dtype=float)[None, :])[0]
+
+    @property
+    def reward_mode(self) -> str:
+        """The reward mode: "normalized" or "sum" (see the Rewards section)."""
+        return self.adapter.reward
+
+    @property
+    def objective_scales(self) -> np.ndarray:
+        """The scales ``s_j`` (m,) of the normalised reward, in the objectives' units
+        (computed on first use: 65 evaluations; see :mod:`suspenv.envs.scales`)."""
+        return self.adapter.scales.scales.copy()
+
+    def spec_sheet(self, with_scales: bool = False) -> str:
+        """This env's spec sheet (Markdown): spaces with names, units and bounds, reward,
+        episode and arguments. ``with_scales`` adds the objective scales (computes them)."""
+        from suspenv.envs.spec import spec_sheet
+
+        return spec_sheet(self, with_scales=with_scales)
 
 
 def _copy_info(info: dict[str, Any]) -> dict[str, Any]:

@@ -11,39 +11,72 @@ from gymnasium.vector.utils import batch_space
 
 from suspenv.core.errors import ValidationError
 from suspenv.core.problem import Problem
-from suspenv.envs.adapter import FAIL_VALUE, ProblemAdapter, Scalarizer, build_problem
+from suspenv.envs.adapter import (
+    FAIL_VALUE,
+    ProblemAdapter,
+    Scalarizer,
+    build_problem,
+    problem_key,
+)
 from suspenv.envs.problem_env import check_budget, single_spaces
 
 
 class ProblemVectorEnv(VectorEnv):
     """``num_envs`` copies of :class:`~suspenv.envs.problem_env.ProblemEnv` stepped as one.
 
+    ## Description
+
     ``gymnasium.make_vec("suspenv/<Name>-v0", num_envs=n)`` builds this class (the
     registered ``vector_entry_point``). Each ``step(actions)`` maps the (n, d) actions
     to designs and evaluates them with ONE ``problem.evaluate(X)`` call, so a problem
     that vectorises its physics evaluates a population as fast as one design. With
     ``scalarizer="weighted_sum"`` (or any row-wise callable) every row gets exactly the
-    observation, reward and info a single ``ProblemEnv`` would give; ``"rank_sum"``
-    (Tey et al. 2014) normalises over the population of the step, so its reward of a
-    row depends on the other rows.
+    observation, reward and info a single ``ProblemEnv`` would give (same reward mode,
+    same objective scales).
 
-    Spaces: ``action_space`` Box(-1, 1, (n, d), float64); ``observation_space``
-    Box(-1e300, 1e300, (n, m), float64); ``single_*`` as in ``ProblemEnv``.
+    ## Action Space
 
-    Episodes: every sub-env truncates together on the ``budget``-th step. Autoreset
-    mode ``NEXT_STEP`` (gymnasium's default): the step after a truncation ignores its
-    actions, resets every sub-env (reference design, reward 0, not counted in the
-    budget) and returns the reset observations.
+    ``Box(-1, 1, (n, d), float64)``; ``single_action_space`` as in ``ProblemEnv``.
 
-    Info: the keys of ``ProblemEnv``'s info stacked along axis 0 (``parameters`` is a
-    dict of (n,) arrays, ``message`` an object array), each with gymnasium's ``_key``
-    presence mask.
+    ## Observation Space
 
-    Arguments: ``num_envs`` (population size, >= 1, default 8) and the arguments of
+    ``Box(-1e300, 1e300, (n, m), float64)``: row i is the objectives of sub-env i's
+    design, in the problem's units; ``single_observation_space`` as in ``ProblemEnv``.
+
+    ## Rewards
+
+    Row by row as in ``ProblemEnv`` (``reward`` "normalized" or "sum", ``scalarizer``,
+    ``weights``, ``penalty``, ``fail_value``). ``scalarizer="rank_sum"`` (Tey et al.
+    2014) min-max normalises each objective over the rows of the step (failed rows left
+    out) and sums to ``10 * m`` at most, so a row's reward depends on the other rows; it
+    is invariant to the objective scales, so both reward modes give the same numbers.
+
+    ## Starting State
+
+    ``reset()`` evaluates the reference design once and repeats it for every sub-env
+    (not counted in the budget).
+
+    ## Episode End
+
+    Every sub-env truncates together on the ``budget``-th step (``terminated`` is always
+    False). Autoreset mode ``NEXT_STEP`` (gymnasium's default): the step after a
+    truncation ignores its actions, resets every sub-env (reference design, reward 0, not
+    counted in the budget) and returns the reset observations.
+
+    ## Info
+
+    The keys of ``ProblemEnv``'s info stacked along axis 0 (``parameters`` is a dict of
+    (n,) arrays, ``message`` an object array), each with gymnasium's ``_key`` presence
+    mask.
+
+    ## Arguments
+
+    ``num_envs`` (population size, an integer >= 1, default 8) and the arguments of
     ``ProblemEnv``; ``render_mode`` must be None (no vector rendering).
 
-    Version history:
-        v0: initial version.
+    ## Version History
+
+    * v0: initial version. Later in v0: the ``reward`` argument, as in ``ProblemEnv``.
     """
 
     metadata: dict[str, Any] = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}
@@ -59,6 +92,7 @@ class ProblemVectorEnv(VectorEnv):
         penalty: float = 100.0,
         fail_value: float = FAIL_VALUE,
         render_mode: str | None = None,
+        reward: str | None = None,
     ):
         if isinstance(num_envs, bool) or not isinstance(num_envs, int | np.integer) or num_envs < 1:
             raise ValidationError(f"`num_envs` must be an integer >= 1, but got {num_envs!r}")
@@ -74,6 +108,8 @@ class ProblemVectorEnv(VectorEnv):
             penalty=penalty,
             fail_value=fail_value,
             batch_scalarizer_ok=True,
+            reward=reward,
+            scales_key=problem_key(problem, problem_options, self.problem),
         )
         self.num_envs = int(num_envs)
         self.budget = check_budget(budget)
@@ -118,3 +154,19 @@ class ProblemVectorEnv(VectorEnv):
 
     def render(self) -> None:
         return None
+
+    @property
+    def reward_mode(self) -> str:
+        """The reward mode: "normalized" or "sum" (as in ``ProblemEnv``)."""
+        return self.adapter.reward
+
+    @property
+    def objective_scales(self) -> np.ndarray:
+        """The scales (m,) of the normalised reward (see :mod:`suspenv.envs.scales`)."""
+        return self.adapter.scales.scales.copy()
+
+    def spec_sheet(self, with_scales: bool = False) -> str:
+        """This env's spec sheet (Markdown), as :meth:`ProblemEnv.spec_sheet`."""
+        from suspenv.envs.spec import spec_sheet
+
+        return spec_sheet(self, with_scales=with_scales)

@@ -1,10 +1,36 @@
 """Standard run figures: convergence, Pareto front (pairwise), parallel coordinates, and
-the best-so-far spread of several runs (``suspenv compare``)."""
+the best-so-far spread of several runs (``suspenv compare``).
+
+The default figures scale with the number of objectives ``m`` and of evaluations ``n``:
+
+* ``convergence.png``: one panel per objective; up to 5 objectives in one row, more in a
+  grid of :data:`CONVERGENCE_COLUMNS` columns.
+* ``pareto_pairs.png``: pairwise scatter of the feasible evaluations with the
+  non-dominated set (over all m objectives) highlighted. Above
+  :data:`MAX_PAIR_OBJECTIVES` (8) objectives a pair plot of all of them is unreadable
+  and costly (40 objectives: 1600 panels, 10400 x 10400 px, 94 s and 1.6 GB), so it
+  shows the 8 objectives with the largest relative spread
+  ``(P90 - P10) / (|P50| + P90 - P10)`` over the feasible evaluations (unit-free; ties:
+  the first in order), and a note says so.
+* ``pareto_parallel.png``: parallel coordinates of the non-dominated set over all
+  objectives (one line collection; labels turned upright above 8 objectives).
+* Above :data:`MAX_POINTS` (5000) rows a scatter or parallel plot draws a subsample:
+  ``numpy.random.default_rng(SUBSAMPLE_SEED)`` picks :data:`MAX_POINTS` rows without
+  replacement (histograms and the non-dominated set itself use every row); the title
+  and a note say so.
+* No figure exceeds :data:`MAX_PIXELS` pixels on a side (the dpi is lowered instead).
+
+:func:`write_run_figures` reports what it is about to draw through ``progress`` and
+appends these notes to ``notes`` (the optimize pipeline prints the first when drawing
+takes long and stores the second in ``summary.json``).
+"""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import math
+from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -12,69 +38,215 @@ from suspenv.core.pareto import nondominated
 from suspenv.reports._mpl import pyplot
 from suspenv.runs.optimize_pipeline import best_so_far
 
+#: above this many objectives the pair plot shows this many (largest relative spread)
+MAX_PAIR_OBJECTIVES = 8
+#: scatter points / parallel-coordinate lines drawn at most (a seeded subsample above)
+MAX_POINTS = 5000
+#: seed of that subsample (``numpy.random.default_rng``)
+SUBSAMPLE_SEED = 0
+#: no figure is larger than this many pixels on either side
+MAX_PIXELS = 4000
+#: columns of the convergence grid above 5 objectives
+CONVERGENCE_COLUMNS = 8
+
+Progress = Callable[[str], None]
+
 
 def write_run_figures(
-    objectives: np.ndarray, feasible: np.ndarray, names: Sequence[str], run_dir: Path
+    objectives: np.ndarray,
+    feasible: np.ndarray,
+    names: Sequence[str],
+    run_dir: Path,
+    progress: Progress | None = None,
+    notes: list[str] | None = None,
 ) -> list[Path]:
     """``convergence.png``; with several objectives and more than one feasible evaluation
-    also ``pareto_pairs.png`` and ``pareto_parallel.png``. Returns the paths written."""
+    also ``pareto_pairs.png`` and ``pareto_parallel.png``. Returns the paths written.
+
+    ``progress(text)`` is called before each figure with what it draws; ``notes`` (a list)
+    receives a sentence for everything left out or subsampled, and why."""
     run_dir = Path(run_dir)
+    say = progress or (lambda text: None)
+    notes = notes if notes is not None else []
+    objectives = np.asarray(objectives, dtype=float)
+    feasible = np.asarray(feasible, dtype=bool)
+    m, n = objectives.shape[1], objectives.shape[0]
+    say(f"convergence.png ({m} panels, {n} evaluations)")
     figures = [plot_convergence(objectives, feasible, names, run_dir / "convergence.png")]
-    if len(names) > 1 and feasible.sum() > 1:
-        figures.append(plot_pareto_pairs(objectives, feasible, names, run_dir / "pareto_pairs.png"))
-        figures.append(plot_parallel(objectives, feasible, names, run_dir / "pareto_parallel.png"))
+    if m > 1 and feasible.sum() > 1:
+        F = objectives[feasible]
+        front = nondominated(F)
+        keep = pair_objectives(F)
+        if len(keep) < m:
+            notes.append(
+                f"pareto_pairs.png shows {len(keep)} of the {m} objectives, those with the "
+                "largest relative spread (P90 - P10) / (|P50| + P90 - P10): "
+                f"{', '.join(names[j] for j in keep)}; a pair plot of all {m} would have "
+                f"{m * m} panels (about {260 * m} x {260 * m} px); pareto_parallel.png "
+                f"shows all {m}"
+            )
+        limit = MAX_POINTS
+        for what, count, whose in (
+            ("pareto_pairs.png", len(F), "feasible evaluations"),
+            ("pareto_parallel.png", int(front.sum()), "designs of the non-dominated set"),
+        ):
+            if count > limit:
+                notes.append(
+                    f"{what} draws {limit} of the {count} {whose} (seeded subsample, "
+                    f"numpy.random.default_rng({SUBSAMPLE_SEED})); the non-dominated set is "
+                    "computed from all feasible evaluations"
+                )
+        say(f"pareto_pairs.png ({len(keep)} x {len(keep)} panels, {min(len(F), limit)} points)")
+        figures.append(
+            plot_pareto_pairs(
+                objectives, feasible, names, run_dir / "pareto_pairs.png", keep, front
+            )
+        )
+        say(f"pareto_parallel.png ({m} axes, {min(int(front.sum()), limit)} lines)")
+        figures.append(
+            plot_parallel(
+                objectives, feasible, names, run_dir / "pareto_parallel.png", front=front
+            )
+        )
     return figures
+
+
+def pair_objectives(F: np.ndarray, limit: int | None = None) -> list[int]:
+    """Columns of F (n, m) the pair plot shows: all when m <= ``limit`` (default
+    :data:`MAX_PAIR_OBJECTIVES`), else the ``limit`` with the largest relative spread
+    ``(P90 - P10) / (|P50| + P90 - P10)`` over the finite values (unit-free, in [0, 1]; a
+    constant column 0), in their original order."""
+    limit = MAX_PAIR_OBJECTIVES if limit is None else limit
+    m = F.shape[1]
+    if m <= limit:
+        return list(range(m))
+    spread = np.zeros(m)
+    for j in range(m):
+        col = F[np.isfinite(F[:, j]), j]
+        if col.size:
+            p10, p50, p90 = np.percentile(col, [10.0, 50.0, 90.0])
+            width = p90 - p10
+            spread[j] = width / (abs(p50) + width) if width > 0 else 0.0
+    order = np.argsort(-spread, kind="stable")[:limit]
+    return sorted(int(j) for j in order)
+
+
+def subsample(rows: np.ndarray, limit: int | None = None) -> np.ndarray:
+    """``rows`` (indices) when at most ``limit`` (default :data:`MAX_POINTS`), else ``limit``
+    of them drawn without replacement by ``numpy.random.default_rng(SUBSAMPLE_SEED)``, in
+    order."""
+    limit = MAX_POINTS if limit is None else limit
+    rows = np.asarray(rows)
+    if rows.size <= limit:
+        return rows
+    rng = np.random.default_rng(SUBSAMPLE_SEED)
+    return np.sort(rng.choice(rows, size=limit, replace=False))
+
+
+def _save(fig: Any, path: Path, dpi: float) -> Path:
+    """Save at ``dpi``, lowered so that neither side exceeds :data:`MAX_PIXELS`."""
+    w, h = fig.get_size_inches()
+    fig.savefig(path, dpi=min(dpi, MAX_PIXELS / max(w, h)))
+    return path
 
 
 def plot_convergence(
     objectives: np.ndarray, feasible: np.ndarray, names: Sequence[str], path: Path
 ) -> Path:
-    """Best-so-far of every objective against evaluations (log scale where positive)."""
+    """Best-so-far of every objective against evaluations (log scale where positive);
+    one row up to 5 objectives, a grid of :data:`CONVERGENCE_COLUMNS` columns above."""
     plt = pyplot()
     m = objectives.shape[1]
-    fig, axes = plt.subplots(1, m, figsize=(4.2 * m, 3.4), squeeze=False)
+    if m <= 5:
+        rows, cols, size = 1, m, (4.2, 3.4)
+    else:
+        cols = min(CONVERGENCE_COLUMNS, m)
+        rows, size = math.ceil(m / cols), (3.0, 2.4)
+    grid = rows > 1
+    fig, axes = plt.subplots(
+        rows, cols, figsize=(size[0] * cols, size[1] * rows), squeeze=False, sharex=grid
+    )
     n = np.arange(1, objectives.shape[0] + 1)
-    for j, ax in enumerate(axes[0]):
+    for j, ax in enumerate(axes.flat):
+        if j >= m:
+            ax.set_visible(False)
+            continue
         b = best_so_far(objectives[:, j], feasible)
         ax.plot(n, np.where(np.isfinite(b), b, np.nan), lw=1.5)
-        ax.set_xlabel("evaluations")
-        ax.set_ylabel(f"best {names[j]}")
         if np.all(b[np.isfinite(b)] > 0) and np.isfinite(b).any():
             ax.set_yscale("log")
+        if grid:  # small panels: title instead of axis labels, no minor ticks (cost)
+            ax.set_title(f"best {names[j]}", fontsize=7)
+            ax.tick_params(labelsize=6)
+            ax.minorticks_off()
+            if j >= m - cols:
+                ax.set_xlabel("evaluations", fontsize=7)
+                ax.xaxis.set_tick_params(labelbottom=True)
+        else:
+            ax.set_xlabel("evaluations")
+            ax.set_ylabel(f"best {names[j]}")
         ax.grid(alpha=0.3)
     fig.suptitle("Convergence (best feasible so far)")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    if grid:  # fixed margins: tight_layout would lay out every tick label twice
+        fig.subplots_adjust(
+            left=0.04, right=0.99, bottom=0.5 / (size[1] * rows), top=1 - 0.75 / (size[1] * rows),
+            wspace=0.35, hspace=0.45,
+        )
+    else:
+        fig.tight_layout()
+    _save(fig, path, 110)
     plt.close(fig)
     return path
 
 
 def plot_pareto_pairs(
-    objectives: np.ndarray, feasible: np.ndarray, names: Sequence[str], path: Path
+    objectives: np.ndarray,
+    feasible: np.ndarray,
+    names: Sequence[str],
+    path: Path,
+    columns: Sequence[int] | None = None,
+    front: np.ndarray | None = None,
 ) -> Path:
-    """Pairwise scatter of all feasible evaluations, non-dominated set highlighted."""
+    """Pairwise scatter of the feasible evaluations, non-dominated set (over all
+    objectives) highlighted; ``columns``: the objectives shown (default all); ``front``:
+    the non-dominated mask over the feasible rows when already known. Above
+    :data:`MAX_POINTS` rows the scatter draws a seeded subsample (see :func:`subsample`)."""
     plt = pyplot()
     F = objectives[feasible]
-    m = objectives.shape[1]
-    fig, axes = plt.subplots(m, m, figsize=(2.6 * m, 2.6 * m), squeeze=False)
-    front = nondominated(F) if len(F) else np.zeros(0, bool)
-    for i in range(m):
-        for j in range(m):
-            ax = axes[i, j]
-            if i == j:
+    cols = list(range(objectives.shape[1])) if columns is None else list(columns)
+    k = len(cols)
+    if front is None:
+        front = nondominated(F) if len(F) else np.zeros(0, bool)
+    grey = subsample(np.arange(len(F)))
+    red = subsample(np.flatnonzero(front))
+    # a column shows one objective on x in every row (the diagonal's histogram too)
+    fig, axes = plt.subplots(k, k, figsize=(2.6 * k, 2.6 * k), squeeze=False, sharex="col")
+    for a, i in enumerate(cols):
+        for b, j in enumerate(cols):
+            ax = axes[a, b]
+            if a == b:
                 ax.hist(F[:, i], bins=30, color="0.7")
                 ax.set_title(names[i], fontsize=8)
             else:
-                ax.scatter(F[:, j], F[:, i], s=3, c="0.75", lw=0)
-                ax.scatter(F[front, j], F[front, i], s=6, c="tab:red", lw=0)
+                ax.scatter(F[grey, j], F[grey, i], s=3, c="0.75", lw=0)
+                ax.scatter(F[red, j], F[red, i], s=6, c="tab:red", lw=0)
             ax.tick_params(labelsize=6)
-            if i == m - 1:
+            if a == k - 1:
                 ax.set_xlabel(names[j], fontsize=8)
-            if j == 0:
+            if b == 0:
                 ax.set_ylabel(names[i], fontsize=8)
-    fig.suptitle("Feasible evaluations (grey) and non-dominated set (red)")
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
+    title = "Feasible evaluations (grey) and non-dominated set (red)"
+    if k < objectives.shape[1]:
+        title += f": {k} of {objectives.shape[1]} objectives (largest relative spread)"
+    if len(grey) < len(F):
+        title += f"; {len(grey)} of {len(F)} evaluations drawn (seeded subsample)"
+    fig.suptitle(title, fontsize=10 if k > 3 else None)
+    side = 2.6 * k  # fixed margins in inches: tight_layout would lay out every label twice
+    fig.subplots_adjust(
+        left=0.75 / side, right=1 - 0.15 / side, bottom=0.6 / side, top=1 - 0.7 / side,
+        wspace=0.35, hspace=0.3,
+    )
+    _save(fig, path, 100)
     plt.close(fig)
     return path
 
@@ -85,25 +257,45 @@ def plot_parallel(
     names: Sequence[str],
     path: Path,
     highlight: int | None = None,
+    front: np.ndarray | None = None,
 ) -> Path:
-    """Parallel coordinates of the non-dominated set, each objective min-max scaled."""
+    """Parallel coordinates of the non-dominated set, each objective min-max scaled
+    (at most :data:`MAX_POINTS` lines: a seeded subsample above); ``front``: the
+    non-dominated mask over the feasible rows when already known."""
+    from matplotlib.collections import LineCollection
+
     plt = pyplot()
     F = objectives[feasible]
-    front = F[nondominated(F)] if len(F) else F
+    if front is None:
+        front = nondominated(F) if len(F) else np.zeros(len(F), bool)
+    front = F[front]
     lo, hi = front.min(0), front.max(0)
     S = (front - lo) / np.where(hi > lo, hi - lo, 1.0)
-    fig, ax = plt.subplots(figsize=(1.6 * len(names) + 2, 3.6))
-    for row in S:
-        ax.plot(range(len(names)), row, c="tab:blue", alpha=0.25, lw=0.8)
+    drawn = S[subsample(np.arange(len(S)))]
+    m = len(names)
+    many = m > MAX_PAIR_OBJECTIVES
+    width = min(0.5 * m + 2, 24.0) if many else 1.6 * m + 2
+    fig, ax = plt.subplots(figsize=(width, 5.0 if many else 3.6))
+    x = np.arange(m, dtype=float)
+    segments = np.stack([np.broadcast_to(x, drawn.shape), drawn], axis=-1)
+    ax.add_collection(LineCollection(list(segments), colors="tab:blue", alpha=0.25, lw=0.8))
+    ax.set_xlim(-0.2, m - 0.8)
+    ax.set_ylim(-0.05, 1.05)
     if highlight is not None:
         h = (objectives[highlight] - lo) / np.where(hi > lo, hi - lo, 1.0)
-        ax.plot(range(len(names)), h, c="tab:red", lw=2.5, label="pick")
+        ax.plot(range(m), h, c="tab:red", lw=2.5, label="pick")
         ax.legend()
-    ax.set_xticks(range(len(names)), names)
+    if many:
+        ax.set_xticks(range(m), names, rotation=90, fontsize=7)
+    else:
+        ax.set_xticks(range(m), names)
     ax.set_ylabel("scaled objective (0 = best on front)")
-    ax.set_title(f"Non-dominated set ({len(front)} designs)")
+    title = f"Non-dominated set ({len(front)} designs)"
+    if len(drawn) < len(front):
+        title += f"; {len(drawn)} drawn (seeded subsample)"
+    ax.set_title(title)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    _save(fig, path, 110)
     plt.close(fig)
     return path
 

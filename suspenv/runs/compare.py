@@ -1,18 +1,17 @@
 """Finished runs side by side: their summaries, and strategies x seeds compared.
 
 ``suspenv show`` and ``suspenv compare`` are the command-line faces;
-:mod:`suspenv.methods.strategy_comparison` compares strategies with it.
+:mod:`suspenv.methods.strategy_comparison` compares strategies with it. The comparison
+itself is :mod:`suspenv.analysis` (figures: :mod:`suspenv.reports.analysis`), reached
+through the report registry because both sit above this layer.
 """
 
 from __future__ import annotations
 
 import json
-from collections import defaultdict
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
-
-import numpy as np
 
 from suspenv.core.errors import ValidationError
 from suspenv.registry import report_function
@@ -26,54 +25,34 @@ def load_summary(run_dir: str | Path) -> dict[str, Any]:
             f"{str(run_dir)!r} is not a finished run directory (no summary.json); "
             "a run that died can be resumed with `suspenv run CONFIG`"
         )
-    return json.loads(path.read_text())
+    try:
+        summary = json.loads(path.read_text())
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise ValidationError(f"{str(path)!r} is not valid JSON: {exc}") from None
+    if not isinstance(summary, dict):
+        raise ValidationError(
+            f"{str(path)!r} must hold a JSON object, but holds a {type(summary).__name__}"
+        )
+    return summary
 
 
-def compare_runs(runs: Sequence[str | Path], out: str | Path) -> dict[str, Any]:
-    """Compare finished runs of one problem, grouped by strategy (several seeds each).
+def compare_runs(runs: Sequence[str | Path], out: str | Path, **options: Any) -> dict[str, Any]:
+    """Compare finished runs: groups by full strategy configuration, per problem
+    configuration; refuses to pool unlike runs (see ``docs/analysis.md``).
 
-    Writes ``compare.json`` (per strategy: runs, seeds, median evaluations, median / min /
-    max of the best quality, median wall time) and ``compare.png`` (median and range of
-    the best-so-far curves, :func:`suspenv.reports.run.plot_compare`) into ``out``;
-    returns the JSON content.
+    Writes into ``out``: ``compare.json`` (groups with hash, options, seeds, budgets and
+    flags; fixed-budget, fixed-target (ERT) and multi-objective tables; rank tests),
+    ``compare.md``, and the figures ``convergence.png`` (also as ``compare.png``),
+    ``ecdf.png``, ``fixed_target.png``, ``profile.png`` and, for multi-objective runs,
+    ``hypervolume.png``; ``ioh/`` with ``ioh=True``. Returns the JSON content: its
+    ``table`` rows keep the fields of the first version (strategy, runs, seeds,
+    evaluations, best_median, best_min, best_max, wall_time_median_s).
+
+    ``options`` (keywords of :func:`suspenv.analysis.compare.compare` and
+    :func:`suspenv.reports.analysis.write_comparison`): suite, allow_unequal_budgets,
+    measure, f_opt, reference_front, targets, n_targets, alpha, figures, ioh.
     """
-    summaries = [load_summary(r) for r in runs]
-    problems = {s["problem"] for s in summaries}
-    if len(problems) > 1:
-        raise ValidationError(f"compare needs runs of one problem, but got {sorted(problems)}")
-    groups: dict[str, list[dict]] = defaultdict(list)
-    for s in summaries:
-        groups[s["strategy"]].append(s)
-    table = []
-    curves = {}
-    for strat, ss in groups.items():
-        best = np.array(
-            [s["best_quality"] if s["best_quality"] is not None else np.nan for s in ss]
-        )
-        evals = [s["n_evaluations"] for s in ss]
-        table.append(
-            {
-                "strategy": strat,
-                "runs": len(ss),
-                "seeds": sorted(s["seed"] for s in ss),
-                "evaluations": int(np.median(evals)),
-                "best_median": float(np.nanmedian(best)),
-                "best_min": float(np.nanmin(best)),
-                "best_max": float(np.nanmax(best)),
-                "wall_time_median_s": float(np.median([s["wall_time_s"] for s in ss])),
-            }
-        )
-        curves[strat] = [
-            np.array([np.inf if v is None else v for v in s["quality_curve"]]) for s in ss
-        ]
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    ylabel = f"best {summaries[0].get('quality_name', 'quality')}"
-    report_function("run_comparison")(curves, ylabel, out / "compare.png")
-    result = {
-        "problem": problems.pop(),
-        "quality_name": summaries[0].get("quality_name"),
-        "table": table,
-    }
-    (out / "compare.json").write_text(json.dumps(result, indent=2) + "\n")
+    # suspenv.reports.analysis.write_comparison, which computes with suspenv.analysis
+    # (both sit above runs, so they are reached by name)
+    result: dict[str, Any] = report_function("comparison")(runs, out, **options)
     return result

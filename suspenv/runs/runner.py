@@ -18,8 +18,9 @@ import tomllib
 from pathlib import Path
 from typing import Any
 
-from suspenv.core.errors import ValidationError
+from suspenv.core.errors import SuspenvError, ValidationError
 from suspenv.registry import pipeline_check, pipeline_function
+from suspenv.runs.config import validate
 from suspenv.runs.run_dir import (
     LOCK_FILE,
     holds_results,
@@ -53,6 +54,16 @@ def check_config(config: dict[str, Any]) -> dict[str, Any]:
     return config if check is None else check(config)
 
 
+def _resolved(old: dict[str, Any]) -> dict[str, Any]:
+    """An existing run directory's config with the defaults of today's check filled in
+    (a directory written before a default was recorded still resumes); as written when
+    it no longer passes the check (it then differs, and the difference is named)."""
+    try:
+        return check_config(validate({k: v for k, v in old.items() if k != "config_path"}))
+    except SuspenvError:
+        return old
+
+
 def _clear(path: Path) -> None:
     """Empty the run directory but keep it and its lock file (the lock is held)."""
     for child in path.iterdir():
@@ -71,7 +82,7 @@ def run_experiment(config: dict[str, Any], overwrite: bool = False) -> tuple[Pat
     with locked(path):
         resolved = path / "config.resolved.toml"
         if resolved.exists():
-            old = tomllib.loads(resolved.read_text())
+            old = _resolved(tomllib.loads(resolved.read_text()))
             diff = _differences(old, config)
             if diff and (overwrite or not holds_results(path)):
                 _clear(path)

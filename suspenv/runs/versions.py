@@ -1,10 +1,20 @@
-"""Versions of the packages a result depends on (stored with every run and benchmark)."""
+"""Versions of the packages a result depends on (stored with every run and benchmark).
+
+:func:`package_versions` records Python, the git commit of the suspenv source, suspenv and
+the packages it declares (required ones and the :data:`RESULT_EXTRAS`); with
+``imported=True`` also every installed distribution that provides a module imported in
+this process by then (:func:`imported_distributions`), so optional packages that ran
+(nevergrad, distributed, an optuna storage's SQLAlchemy, ...) are recorded too. The optimize
+pipeline writes the latter at the end of a run (``versions.json``).
+"""
 
 from __future__ import annotations
 
 import platform
 import re
 import subprocess
+import sys
+from collections.abc import Iterable
 from importlib import metadata
 from pathlib import Path
 
@@ -57,10 +67,31 @@ def source_commit() -> str | None:
     return sha.stdout.strip() + modified
 
 
-def package_versions() -> dict[str, str]:
+def imported_distributions(modules: Iterable[str] | None = None) -> dict[str, str]:
+    """``{distribution: version}`` of every installed distribution that provides the
+    top-level package of a module in ``modules`` (default: ``sys.modules`` now, i.e. every
+    package imported in this process so far), sorted by name. Standard-library and
+    suspenv's own modules map to no other distribution and are left out; a top-level name
+    several distributions provide (a namespace package) names each of them."""
+    names = list(sys.modules) if modules is None else list(modules)
+    providers = metadata.packages_distributions()
+    out: dict[str, str] = {}
+    for top in sorted({m.partition(".")[0] for m in names}):
+        for dist in providers.get(top, ()):
+            if dist in out:
+                continue
+            try:
+                out[dist] = metadata.version(dist)
+            except metadata.PackageNotFoundError:
+                continue
+    return dict(sorted(out.items(), key=lambda kv: kv[0].lower()))
+
+
+def package_versions(imported: bool = False) -> dict[str, str]:
     """``{package: version}`` for the tracked packages that are installed, plus Python and
     the git commit of the suspenv source (``suspenv_commit``) where it runs from a
-    checkout."""
+    checkout; with ``imported`` also every distribution imported in this process
+    (:func:`imported_distributions`; a tracked package keeps its entry)."""
     out = {"python": platform.python_version()}
     commit = source_commit()
     if commit is not None:
@@ -70,4 +101,14 @@ def package_versions() -> dict[str, str]:
             out[name] = metadata.version(name)
         except metadata.PackageNotFoundError:
             continue
+    if imported:
+        known = {_normal(k) for k in out}
+        for dist, version in imported_distributions().items():
+            if _normal(dist) not in known:
+                out[dist] = version
     return out
+
+
+def _normal(name: str) -> str:
+    """A distribution name in PEP 503 normal form (``PyYAML`` -> ``pyyaml``)."""
+    return re.sub(r"[-_.]+", "-", name).lower()

@@ -10,32 +10,65 @@ Constraints go through optuna's constraint mechanism (``Trial.set_constraint`` i
 >= 5, ``constraints_func`` before; feasible when
 every value <= 0, the same convention as suspenv). Failed evaluations are told as
 ``TrialState.FAIL`` and take no part in selection. Storage is in memory by default; pass
-an optuna storage URL (e.g. ``sqlite:///study.db`` or an RDB/journal URL) and a
-``study_name`` to share a study between many workers.
+an optuna storage URL (e.g. ``sqlite:///study.db`` or an RDB URL) and a ``study_name``
+to keep the study (optuna-dashboard) or to share it between many workers.
+
+Storages and resuming (rules, checked when the study is opened on the first ask):
+
+* Building the strategy touches no storage: the study is opened (created when missing) on
+  the first :meth:`~NSGA2.ask`, so a config check that builds the strategy leaves no study
+  behind. :meth:`~NSGA2.check_storage` is the read-only check of the rule below (the
+  optimize pipeline's config check calls it; a missing SQLite file is not created).
+* Every trial the strategy creates carries the user attribute ``suspenv_run`` =
+  ``[run id, batch, row]``; the run id is bound by :meth:`~NSGA2.bind_run` (the optimize
+  pipeline binds the id stored in the run directory's archive, so a run directory keeps
+  its id across resumes and a new or overwritten one gets a new id).
+* A study that already holds trials of another run (any other or no run id) is refused
+  with a :class:`~suspenv.core.errors.ValidationError` naming the storage, the study and
+  the option, unless ``resume=True``: then the new trials are bred from the stored ones
+  (e.g. several workers sharing one study, or continuing a finished study).
+* Trials of the bound run itself are the run's own record: when suspenv resumes a run
+  directory (the loop replays the strategy against the archive), each ask of a batch the
+  study already holds returns that batch's stored trials (same designs as the archive),
+  and the tell tells only the ones still running (a crash between ask and tell); later
+  batches are asked from the sampler as usual. Their designs are bred from the same
+  parents as an uninterrupted run's, but the sampler's random stream restarts at the
+  resume, so they need not equal an uninterrupted run's designs (without a storage the
+  replay reproduces an uninterrupted run exactly).
 """
 
 from __future__ import annotations
 
 import logging
+import os
 import warnings
 from typing import Any
 
 import numpy as np
 import optuna
 from optuna.distributions import BaseDistribution, FloatDistribution
-from optuna.trial import TrialState
+from optuna.trial import FrozenTrial, TrialState
 
+from suspenv.core.errors import ValidationError
 from suspenv.core.options import integer, number, text
 from suspenv.core.result import EvaluationBatch
 from suspenv.strategies.base import Strategy
 
 _CONSTRAINTS_KEY = "suspenv_constraints"
+#: user attribute of every trial the strategy creates: [run id, batch, row]
+RUN_KEY = "suspenv_run"
 #: optuna >= 5 takes constraints per trial (``Trial.set_constraint``); older: constraints_func
 _PER_TRIAL_CONSTRAINTS = hasattr(optuna.trial.Trial, "set_constraint")
 
 
 def _constraints_of(trial: optuna.trial.FrozenTrial) -> list[float]:
     return list(trial.user_attrs.get(_CONSTRAINTS_KEY, []))
+
+
+def _of_run(trial: FrozenTrial, run_id: str | None) -> bool:
+    """True when ``trial`` was created by the run ``run_id`` (never for None)."""
+    tag = trial.user_attrs.get(RUN_KEY)
+    return run_id is not None and isinstance(tag, list) and tag[:1] == [run_id]
 
 
 class NSGA2(Strategy):
@@ -47,6 +80,8 @@ class NSGA2(Strategy):
             optuna's sampler (mutation_prob None: optuna's default, 1 / d).
         storage: optuna storage URL (a non-empty string), or None for in-memory (default).
         study_name: study name in the storage (default "suspenv-nsga2-<seed>").
+        resume: True to add to a study that already holds another run's trials (default
+            False: such a study is refused; see the module docstring).
 
     A generation in which every design fails does not replace the population: optuna
     counts only completed trials towards a generation, so the next batch is bred from the
@@ -69,6 +104,7 @@ class NSGA2(Strategy):
         swapping_prob: float = 0.5,
         storage: str | None = None,
         study_name: str | None = None,
+        resume: bool = False,
     ):
         super().__init__(dim, n_objectives, n_constraints, seed)
         owner = self.name
@@ -86,10 +122,15 @@ class NSGA2(Strategy):
             if study_name is None
             else text(owner, "study_name", study_name)
         )
+        if not isinstance(resume, bool):
+            raise ValidationError(
+                f"{owner}: `resume` must be true or false, but got resume={resume!r}"
+            )
+        self.resume = resume
         optuna.logging.set_verbosity(logging.WARNING)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
-            sampler = optuna.samplers.NSGAIISampler(
+            self._sampler = optuna.samplers.NSGAIISampler(
                 population_size=self.population_size,
                 crossover_prob=self.crossover_prob,
                 mutation_prob=self.mutation_prob,
@@ -99,24 +140,124 @@ class NSGA2(Strategy):
                     _constraints_of if self.n_constraints and not _PER_TRIAL_CONSTRAINTS else None
                 ),
             )
-        self.study = optuna.create_study(
-            storage=self.storage,
-            sampler=sampler,
-            study_name=self.study_name,
-            directions=["minimize"] * self.n_objectives,
-            load_if_exists=self.storage is not None,
-        )
+        self._study: optuna.Study | None = None
+        self._run_id: str | None = None
         self._dists: dict[str, BaseDistribution] = {
             f"u{i}": FloatDistribution(0.0, 1.0) for i in range(self.dim)
         }
-        self._trials: list[optuna.trial.Trial] = []
+        self._trials: list[optuna.trial.Trial | FrozenTrial] = []
+        #: stored trials of the bound run by batch (served again when a run is resumed)
+        self._stored: dict[int, dict[int, FrozenTrial]] = {}
+        self._batch = 0
+
+    # ----------------------------------------------------------------- study
+    def bind_run(self, run_id: str) -> None:
+        """Tag this strategy's trials with ``run_id`` (before the first ask): the stored
+        trials of the same run id are replayed, not refused (see the module docstring)."""
+        if self._study is not None:
+            raise RuntimeError(f"{self.name}: bind_run() must come before the first ask()")
+        self._run_id = text(self.name, "run_id", run_id)
+
+    @property
+    def study(self) -> optuna.Study:
+        """The optuna study, opened (created when missing) on first use."""
+        if self._study is None:
+            self._study = self._open_study()
+        return self._study
+
+    def _where(self) -> str:
+        return f"optuna storage {self.storage!r}, study {self.study_name!r}"
+
+    def _refuse_foreign(self, trials: list[FrozenTrial], run_id: str | None) -> None:
+        """The resume rule: trials of another run than ``run_id`` need ``resume=True``."""
+        foreign = [t for t in trials if not _of_run(t, run_id)]
+        if foreign and not self.resume:
+            raise ValidationError(
+                f"{self.name}: the {self._where()} already holds {len(foreign)} trials of "
+                "another run, and `resume = false` refuses to continue it; set "
+                "`strategy.options.resume = true` to breed from them, or give another "
+                "`strategy.options.study_name` or `storage`"
+            )
+
+    def _check_directions(self, study: optuna.Study) -> None:
+        want = [optuna.study.StudyDirection.MINIMIZE] * self.n_objectives
+        if list(study.directions) != want:
+            got = [d.name.lower() for d in study.directions]
+            raise ValidationError(
+                f"{self.name}: the {self._where()} has directions {got}, but this run "
+                f"minimises {self.n_objectives} objective(s); give another `study_name`"
+            )
+
+    def check_storage(self, run_id: str | None = None) -> None:
+        """Read-only check of the resume rule before a run: creates no study, and no file
+        for a SQLite storage that does not exist yet. ``run_id``: the id the run will bind
+        (its own trials are allowed), None for a new run."""
+        if self.storage is None:
+            return
+        if self.storage.startswith("sqlite:///"):
+            path = self.storage.removeprefix("sqlite:///").partition("?")[0]
+            if path not in ("", ":memory:") and not os.path.exists(path):
+                return
+        try:
+            study = optuna.load_study(study_name=self.study_name, storage=self.storage)
+        except KeyError:  # no such study
+            return
+        self._check_directions(study)
+        self._refuse_foreign(study.get_trials(deepcopy=False), run_id)
+
+    def _open_study(self) -> optuna.Study:
+        if self.storage is None:
+            return optuna.create_study(
+                sampler=self._sampler,
+                study_name=self.study_name,
+                directions=["minimize"] * self.n_objectives,
+            )
+        try:
+            study = optuna.load_study(
+                study_name=self.study_name, storage=self.storage, sampler=self._sampler
+            )
+        except KeyError:  # not there yet; another worker may create it meanwhile
+            study = optuna.create_study(
+                storage=self.storage,
+                sampler=self._sampler,
+                study_name=self.study_name,
+                directions=["minimize"] * self.n_objectives,
+                load_if_exists=True,
+            )
+        self._check_directions(study)
+        trials = study.get_trials(deepcopy=False)
+        self._refuse_foreign(trials, self._run_id)
+        for t in trials:
+            if _of_run(t, self._run_id):
+                _, batch, row = t.user_attrs[RUN_KEY]
+                self._stored.setdefault(int(batch), {})[int(row)] = t
+        return study
+
+    def _new_trial(self, batch: int, row: int) -> optuna.trial.Trial:
+        trial = self.study.ask(self._dists)
+        trial.set_user_attr(RUN_KEY, [self._run_id, batch, row])
+        return trial
 
     def _ask(self) -> np.ndarray:
-        self._trials = [self.study.ask(self._dists) for _ in range(self.population_size)]
+        if self._study is None:  # open it (and read the stored trials) first
+            self._study = self._open_study()
+        b, self._batch = self._batch, self._batch + 1
+        stored = self._stored.pop(b, {})
+        self._trials = [
+            stored[r] if r in stored else self._new_trial(b, r)
+            for r in range(self.population_size)
+        ]
         return np.array([[t.params[f"u{i}"] for i in range(self.dim)] for t in self._trials])
 
     def _tell(self, U: np.ndarray, batch: EvaluationBatch) -> None:
-        for i, trial in enumerate(self._trials):
+        for i, asked in enumerate(self._trials):
+            if isinstance(asked, FrozenTrial):  # a stored trial, served again on a resume
+                if asked.state.is_finished():
+                    continue  # told before the run stopped
+                # asked before the run stopped, never told: tell it now
+                trial = optuna.trial.Trial(self.study, asked._trial_id)
+            else:
+                trial = asked
             if not batch.ok[i] or not np.isfinite(batch.objectives[i]).all():
                 self.study.tell(trial, state=TrialState.FAIL)
                 continue
@@ -136,4 +277,5 @@ class NSGA2(Strategy):
             "swapping_prob": self.swapping_prob,
             "storage": self.storage,
             "study_name": self.study_name,
+            "resume": self.resume,
         }

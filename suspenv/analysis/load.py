@@ -1,0 +1,405 @@
+"""Run directories read for analysis: one :class:`RunRecord` per run, and tidy tables.
+
+A run directory holds ``summary.json`` (every pipeline writes one; see
+:func:`suspenv.runs.compare.load_summary`), usually ``config.resolved.toml`` and an
+``archive.sqlite`` of every evaluation (a ``tey2014`` run keeps its CMA-ES evaluations in
+``cmaes/archive.sqlite`` and its design of experiments in ``doe/archive.sqlite``).
+
+:func:`tidy` and :func:`runs_table` return plain dicts of equal-length NumPy arrays in long
+("tidy") form, one row per (run, evaluation) or per run: ``pandas.DataFrame(tidy(dirs))``
+and ``xarray.Dataset.from_dataframe`` take them as they are; neither library is needed
+here.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import inspect
+import json
+import tomllib
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from functools import cache
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from suspenv.analysis.performance import as_curve
+from suspenv.core.errors import ValidationError
+from suspenv.registry import problem_class, strategy_class
+from suspenv.runs.archive import RunArchive
+from suspenv.runs.compare import load_summary
+
+#: strategy options that say where a run keeps its state, not how it searches (optuna's
+#: study name defaults to one per seed); left out of the strategy configuration
+STATE_OPTIONS = frozenset({"seed", "storage", "study_name", "resume"})
+
+#: constructor arguments a strategy gets from the problem and the run, not from options
+_STRATEGY_CONTEXT = frozenset({"self", "dim", "n_objectives", "n_constraints", "seed"})
+
+#: quality names meaning "the plain sum of the objectives" (the problem base class's
+#: default and the minibus problem's): no measure to compare multi-objective runs by
+SUM_QUALITIES = frozenset({"objective (sum if several)", "sum of objectives"})
+
+
+def config_hash(obj: Any) -> str:
+    """First 8 hex digits of the SHA-256 of the canonical JSON of ``obj`` (sorted keys, no
+    whitespace, tuples as lists): stable across processes and platforms."""
+    text = json.dumps(obj, sort_keys=True, separators=(",", ":"), default=_json_default)
+    return hashlib.sha256(text.encode()).hexdigest()[:8]
+
+
+def _json_default(o: Any) -> Any:
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, np.generic):
+        return o.item()
+    if isinstance(o, tuple | set | frozenset):
+        return sorted(o) if isinstance(o, set | frozenset) else list(o)
+    return str(o)
+
+
+def _defaults(cls: Any, skip: frozenset[str]) -> dict[str, Any] | None:
+    """Keyword defaults of a class's constructor (None when it cannot be read)."""
+    try:
+        sig = inspect.signature(cls.__init__)
+    except (TypeError, ValueError):
+        return None
+    out = {}
+    for p in sig.parameters.values():
+        if p.name in skip or p.kind in (p.VAR_POSITIONAL, p.VAR_KEYWORD):
+            continue
+        if p.default is not p.empty:
+            out[p.name] = p.default
+    return out
+
+
+@cache
+def _problem_defaults(name: str) -> str | None:
+    try:
+        d = _defaults(problem_class(name), frozenset({"self"}))
+    except ValidationError:
+        return None
+    return None if d is None else json.dumps(d, default=_json_default, sort_keys=True)
+
+
+@cache
+def _strategy_defaults(name: str) -> str | None:
+    try:
+        d = _defaults(strategy_class(name), _STRATEGY_CONTEXT)
+    except ValidationError:
+        return None
+    return None if d is None else json.dumps(d, default=_json_default, sort_keys=True)
+
+
+def resolved_problem_options(name: str, options: dict[str, Any]) -> dict[str, Any]:
+    """A problem's options with its constructor's defaults filled in (``{}`` and
+    ``{"dim": 10}`` are the same Sphere); as given when the problem is not registered."""
+    d = _problem_defaults(name)
+    base = json.loads(d) if d is not None else {}
+    return {**base, **json.loads(json.dumps(options, default=_json_default))}
+
+
+def resolved_strategy_options(
+    name: str, options: dict[str, Any], recorded: bool = False
+) -> dict[str, Any]:
+    """A strategy's options without :data:`STATE_OPTIONS`: as ``recorded`` by the strategy
+    itself at run time (``summary.json``'s ``strategy_options``), else the given ones
+    with the constructor's current defaults filled in."""
+    d = None if recorded else _strategy_defaults(name)
+    base = json.loads(d) if d is not None else {}
+    merged = {**base, **json.loads(json.dumps(options, default=_json_default))}
+    return {k: v for k, v in merged.items() if k not in STATE_OPTIONS}
+
+
+@dataclass
+class RunRecord:
+    """One finished run, as the analysis sees it.
+
+    ``curve`` is the best-so-far quality after each evaluation it covers (``+inf`` before
+    the first feasible value); ``evaluations_used`` is its length (for a ``tey2014`` run
+    the CMA-ES evaluations after the design of experiments). ``normalisation`` identifies
+    what a DoE-normalised quality was normalised on (None for other qualities).
+    """
+
+    path: Path
+    summary: dict[str, Any]
+    config: dict[str, Any]
+    pipeline: str
+    problem: str
+    problem_options: dict[str, Any]
+    objective_names: list[str]
+    quality_name: str
+    strategy: str
+    strategy_options: dict[str, Any]
+    seed: int | None
+    budget: int | None
+    curve: np.ndarray
+    normalisation: str | None
+    normalisation_source: str | None
+    dimension: int | None
+    archive_dir: Path | None
+    _arrays: dict[str, np.ndarray] | None = field(default=None, repr=False)
+
+    @property
+    def name(self) -> str:
+        return self.path.name
+
+    @property
+    def evaluations_used(self) -> int:
+        return int(self.curve.size)
+
+    @property
+    def final(self) -> float:
+        return float(self.curve[-1]) if self.curve.size else float("inf")
+
+    @property
+    def problem_config(self) -> dict[str, Any]:
+        """What defines the problem being compared: name, resolved options, objectives,
+        the quality measure and what it was normalised on, the pipeline."""
+        return {
+            "problem": self.problem,
+            "options": self.problem_options,
+            "objectives": list(self.objective_names),
+            "quality": self.quality_name,
+            "normalisation": self.normalisation,
+            "pipeline": self.pipeline,
+        }
+
+    @property
+    def strategy_config(self) -> dict[str, Any]:
+        """What defines the strategy: its name and resolved options (seed excluded)."""
+        return {"strategy": self.strategy, "options": self.strategy_options}
+
+    @property
+    def problem_hash(self) -> str:
+        return config_hash(self.problem_config)
+
+    @property
+    def strategy_hash(self) -> str:
+        return config_hash(self.strategy_config)
+
+    def arrays(self) -> dict[str, np.ndarray] | None:
+        """Every evaluation of the curve (:meth:`RunArchive.arrays`), or None when the run
+        has no archive whose length matches its curve."""
+        if self._arrays is None and self.archive_dir is not None:
+            with RunArchive(self.archive_dir) as archive:
+                a = archive.arrays()
+            if len(a["ok"]) == self.curve.size:
+                self._arrays = a
+            else:
+                self.archive_dir = None
+        return self._arrays
+
+    def feasible(self) -> np.ndarray | None:
+        """Feasible evaluations (ok, finite objectives, every constraint <= 0)."""
+        a = self.arrays()
+        if a is None:
+            return None
+        ok = a["ok"] & np.isfinite(a["objectives"]).all(axis=1)
+        if a["constraints"].size:
+            ok &= np.nan_to_num(a["constraints"], nan=1.0).max(axis=1) <= 0
+        return ok
+
+
+def _read_config(path: Path) -> dict[str, Any]:
+    f = path / "config.resolved.toml"
+    if not f.is_file():
+        return {}
+    try:
+        return tomllib.loads(f.read_text())
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise ValidationError(f"{str(f)!r} is not valid TOML: {exc}") from None
+
+
+def _archive_hash(path: Path) -> str:
+    with RunArchive(path) as archive:
+        a = archive.arrays()
+    h = hashlib.sha256()
+    for k in ("x", "objectives", "constraints"):
+        h.update(np.ascontiguousarray(a[k], dtype="<f8").tobytes())
+    h.update(np.asarray(a["ok"], dtype="u1").tobytes())
+    return h.hexdigest()[:8]
+
+
+def _normalisation(path: Path, pipeline: str, quality_name: str) -> tuple[str | None, str | None]:
+    """What a quality normalised on a design of experiments was normalised on.
+
+    A ``tey2014`` run: its own ``doe/archive.sqlite`` (content hash). A run of a strategy
+    comparison inside a tey2014 run (``<run>/compare/<strategy>-seed<s>``): the parent's
+    DoE. Otherwise, for a quality named DoE-normalised: the folder the run sits in (the
+    runs of one comparison share a normalisation, runs from elsewhere may not).
+    """
+    if pipeline != "tey2014" and "doe-normalised" not in quality_name.lower():
+        return None, None
+    candidates = [path / "doe" / RunArchive.FILENAME]
+    if path.parent.name == "compare":
+        candidates.append(path.parent.parent / "doe" / RunArchive.FILENAME)
+    for c in candidates:
+        if c.is_file():
+            return f"doe:{_archive_hash(c)}", f"design of experiments {c.parent}"
+    folder = str(path.resolve().parent)
+    return f"folder:{config_hash(folder)}", f"the runs of folder {folder} (no DoE archive found)"
+
+
+def load_run(run_dir: str | Path) -> RunRecord:
+    """Read one finished run directory (``summary.json`` required)."""
+    path = Path(run_dir)
+    s = load_summary(path)
+    config = _read_config(path)
+    pipeline = str(config.get("pipeline") or ("tey2014" if "kept_objectives" in s else "optimize"))
+    problem = str(s.get("problem") or (config.get("problem") or {}).get("name") or "?")
+    raw_p = s.get("problem_options")
+    if raw_p is None:
+        raw_p = (config.get("problem") or {}).get("options") or {}
+    # the evaluations behind the quality curve (a tey2014 run: its CMA-ES stage)
+    cand = path / "cmaes" if pipeline == "tey2014" else path
+    archive_dir = cand if (cand / RunArchive.FILENAME).is_file() else None
+    meta: dict[str, Any] = {}
+    names = s.get("objective_names") or s.get("kept_objectives")
+    if archive_dir is not None and (names is None or not isinstance(s.get("best_x"), dict)):
+        with RunArchive(archive_dir) as archive:
+            meta = archive.meta()
+        names = names or meta.get("objective_names")
+    strategy = str(s.get("strategy") or (config.get("strategy") or {}).get("name") or "?")
+    recorded = s.get("strategy_options")
+    if isinstance(recorded, dict):
+        s_opts = resolved_strategy_options(strategy, recorded, recorded=True)
+    else:
+        given = dict((config.get("strategy") or {}).get("options") or {})
+        s_opts = resolved_strategy_options(strategy, given)
+    if pipeline == "tey2014" and "study" in config:
+        s_opts["study"] = config["study"]
+    quality_name = str(s.get("quality_name") or "quality")
+    norm, source = _normalisation(path, pipeline, quality_name)
+    if isinstance(s.get("best_x"), dict):
+        dimension: int | None = len(s["best_x"])
+    elif isinstance(s.get("n_parameters"), int):
+        dimension = int(s["n_parameters"])
+    else:
+        dimension = len(meta["parameter_names"]) if meta.get("parameter_names") else None
+    curve = s.get("quality_curve")
+    if not isinstance(curve, list):
+        raise ValidationError(
+            f"run {str(path)!r}: summary.json has no `quality_curve` list (best-so-far per "
+            "evaluation), so it cannot be compared"
+        )
+    budget = s.get("budget", config.get("budget"))
+    seed = s.get("seed", config.get("seed"))
+    return RunRecord(
+        path=path,
+        summary=s,
+        config=config,
+        pipeline=pipeline,
+        problem=problem,
+        problem_options=resolved_problem_options(problem, dict(raw_p)),
+        objective_names=[str(n) for n in (names or [])],
+        quality_name=quality_name,
+        strategy=strategy,
+        strategy_options=s_opts,
+        seed=None if seed is None else int(seed),
+        budget=None if budget is None else int(budget),
+        curve=as_curve(curve),
+        normalisation=norm,
+        normalisation_source=source,
+        dimension=dimension,
+        archive_dir=archive_dir,
+    )
+
+
+def load_runs(runs: Iterable[str | Path | RunRecord]) -> list[RunRecord]:
+    """:func:`load_run` of each (records pass through); duplicates refused."""
+    out = [r if isinstance(r, RunRecord) else load_run(r) for r in runs]
+    seen: dict[Path, int] = {}
+    for i, r in enumerate(out):
+        key = r.path.resolve()
+        if key in seen:
+            raise ValidationError(
+                f"run {str(r.path)!r} is given twice (positions {seen[key] + 1} and {i + 1}); "
+                "a run counted twice would weigh double"
+            )
+        seen[key] = i
+    if not out:
+        raise ValidationError("compare needs at least one run directory, but got none")
+    return out
+
+
+def runs_table(runs: Sequence[str | Path | RunRecord]) -> dict[str, np.ndarray]:
+    """One row per run: run, path, problem, problem_hash, strategy, strategy_hash, group
+    (``strategy[hash]``), seed, budget, evaluations, best_quality (NaN: none feasible),
+    quality_name. Long form: ``pandas.DataFrame(runs_table(dirs))``."""
+    recs = load_runs(runs)
+    return {
+        "run": np.array([r.name for r in recs], dtype=object),
+        "path": np.array([str(r.path) for r in recs], dtype=object),
+        "problem": np.array([r.problem for r in recs], dtype=object),
+        "problem_hash": np.array([r.problem_hash for r in recs], dtype=object),
+        "strategy": np.array([r.strategy for r in recs], dtype=object),
+        "strategy_hash": np.array([r.strategy_hash for r in recs], dtype=object),
+        "group": np.array([f"{r.strategy}[{r.strategy_hash}]" for r in recs], dtype=object),
+        "seed": np.array([-1 if r.seed is None else r.seed for r in recs], dtype=int),
+        "budget": np.array([-1 if r.budget is None else r.budget for r in recs], dtype=int),
+        "evaluations": np.array([r.evaluations_used for r in recs], dtype=int),
+        "best_quality": np.array(
+            [r.final if np.isfinite(r.final) else np.nan for r in recs], dtype=float
+        ),
+        "quality_name": np.array([r.quality_name for r in recs], dtype=object),
+    }
+
+
+def tidy(runs: Sequence[str | Path | RunRecord], objectives: bool = True) -> dict[str, np.ndarray]:
+    """One row per (run, evaluation), long form, for ``pandas.DataFrame(tidy(dirs))``.
+
+    Columns: run, problem, problem_hash, strategy, strategy_hash, group, seed,
+    evaluation (1-based), best_so_far (NaN before the first feasible value); with
+    ``objectives`` and an archive matching the curve also ok, feasible and one column
+    ``objective:<name>`` per objective (NaN for runs without one).
+    """
+    recs = load_runs(runs)
+    cols: dict[str, list[np.ndarray]] = {
+        k: []
+        for k in (
+            "run",
+            "problem",
+            "problem_hash",
+            "strategy",
+            "strategy_hash",
+            "group",
+            "seed",
+            "evaluation",
+            "best_so_far",
+        )
+    }
+    extra: dict[str, list[np.ndarray]] = {}
+    names: list[str] = []
+    if objectives:
+        for r in recs:
+            names += [n for n in r.objective_names if n not in names]
+        extra = {"ok": [], "feasible": [], **{f"objective:{n}": [] for n in names}}
+    for r in recs:
+        n = r.curve.size
+        for key, value in (
+            ("run", r.name),
+            ("problem", r.problem),
+            ("problem_hash", r.problem_hash),
+            ("strategy", r.strategy),
+            ("strategy_hash", r.strategy_hash),
+            ("group", f"{r.strategy}[{r.strategy_hash}]"),
+        ):
+            cols[key].append(np.full(n, value, dtype=object))
+        cols["seed"].append(np.full(n, -1 if r.seed is None else r.seed, dtype=int))
+        cols["evaluation"].append(np.arange(1, n + 1))
+        cols["best_so_far"].append(np.where(np.isfinite(r.curve), r.curve, np.nan))
+        if objectives:
+            a = r.arrays()
+            feas = r.feasible()
+            extra["ok"].append(a["ok"] if a is not None else np.zeros(n, bool))
+            extra["feasible"].append(feas if feas is not None else np.zeros(n, bool))
+            for name in names:
+                col = np.full(n, np.nan)
+                if a is not None and name in r.objective_names:
+                    col = a["objectives"][:, r.objective_names.index(name)]
+                extra[f"objective:{name}"].append(col)
+    out = {k: np.concatenate(v) if v else np.zeros(0) for k, v in {**cols, **extra}.items()}
+    return out

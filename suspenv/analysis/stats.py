@@ -1,0 +1,186 @@
+"""Rank tests on final qualities across seeds (lower is better).
+
+Protocol (stated in every result):
+
+1. With three or more groups that share the same seeds, a Friedman test first
+   (``scipy.stats.friedmanchisquare``; blocks are the seeds, treatments the groups).
+2. Every pair of groups: a two-sided Mann-Whitney U test (``scipy.stats.mannwhitneyu``,
+   exact distribution for small samples without ties, normal approximation otherwise),
+   p-values adjusted over all pairs by Holm-Bonferroni (step-down).
+3. A pair is called different when its adjusted p is below ``alpha`` and, if a Friedman
+   test was run, it rejected too. A pair whose smallest attainable adjusted p is above
+   ``alpha`` (too few seeds: with 3 runs against 3 the exact two-sided p cannot go below
+   2 / C(6, 3) = 0.1) is reported as "not separable with n seeds", never as "equal".
+
+Runs without a feasible value have quality ``+inf`` (ranked last, ties among themselves).
+The effect size is ``A12 = P(a < b) + P(a = b) / 2`` (Vargha and Delaney), the
+probability that a run of the first group beats one of the second.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from itertools import combinations
+from math import comb
+from typing import Any
+
+import numpy as np
+
+from suspenv.core.errors import ValidationError
+
+CORRECTION = "Holm-Bonferroni over all pairs"
+
+
+def holm(pvalues: Sequence[float]) -> np.ndarray:
+    """Holm-Bonferroni adjusted p-values: with p sorted ascending,
+    ``p_adj(i) = max_{j <= i} min(1, (k - j + 1) p(j))`` (1-based ranks), in input order."""
+    p = np.asarray(pvalues, dtype=float)
+    k = p.size
+    if not k:
+        return p
+    order = np.argsort(p, kind="stable")
+    adj = np.minimum(1.0, (k - np.arange(k)) * p[order])
+    adj = np.maximum.accumulate(adj)
+    out = np.empty(k)
+    out[order] = adj
+    return out
+
+
+def min_two_sided_p(n1: int, n2: int) -> float:
+    """Smallest two-sided p-value the exact Mann-Whitney test can give: ``2 / C(n1+n2, n1)``
+    (complete separation, no ties), at most 1."""
+    if n1 < 1 or n2 < 1:
+        return 1.0
+    return min(1.0, 2.0 / comb(n1 + n2, n1))
+
+
+def _finite_for_ranks(x: np.ndarray, big: float) -> np.ndarray:
+    return np.where(np.isfinite(x), x, big)
+
+
+def a12(x: np.ndarray, y: np.ndarray) -> float:
+    """``P(x < y) + P(x = y) / 2`` over all pairs (lower is better: x beats y)."""
+    x = np.asarray(x, dtype=float)[:, None]
+    y = np.asarray(y, dtype=float)[None, :]
+    return float(((x < y) + 0.5 * (x == y)).mean())
+
+
+def rank_tests(
+    samples: Mapping[str, Sequence[float]],
+    seeds: Mapping[str, Sequence[int]] | None = None,
+    alpha: float = 0.05,
+) -> dict[str, Any]:
+    """Friedman (when applicable) and pairwise Mann-Whitney with Holm correction.
+
+    ``samples``: group label -> final qualities (one per run; None/NaN/inf: no feasible
+    value, ranked last). ``seeds``: group label -> the runs' seeds (for the Friedman
+    pairing; without it no Friedman test). Returns a JSON-ready dict: ``friedman`` (None
+    or statistic, p, seeds), ``pairs`` (a, b, n_a, n_b, median_a, median_b, U, p,
+    p_holm, a12, min_attainable_p, verdict), ``alpha``, ``correction``, ``protocol``.
+    """
+    from scipy import stats
+
+    if not 0 < alpha < 1:
+        raise ValidationError(f"`0 < alpha < 1` must hold, but got alpha={alpha!r}")
+    data = {
+        k: np.array([np.inf if v is None or np.isnan(v) else float(v) for v in vals])
+        for k, vals in samples.items()
+    }
+    labels = list(data)
+    finite = [v for a in data.values() for v in a[np.isfinite(a)]]
+    big = (max(finite) + 1.0 + abs(max(finite))) if finite else 1.0
+    out: dict[str, Any] = {
+        "alpha": alpha,
+        "correction": CORRECTION,
+        "protocol": (
+            "Friedman test over the groups first when there are >= 3 groups with the same "
+            "seeds; two-sided Mann-Whitney U per pair, Holm-Bonferroni adjusted; a pair "
+            "differs when p_holm < alpha (and the Friedman test, if run, rejected)"
+        ),
+        "friedman": None,
+        "pairs": [],
+    }
+    friedman_rejects = True
+    if seeds is not None and len(labels) >= 3:
+        seed_sets = [tuple(sorted(seeds[k])) for k in labels]
+        common = seed_sets[0]
+        if (
+            all(s == common for s in seed_sets)
+            and len(common) >= 2
+            and len(set(common)) == len(common)
+        ):
+            columns = []
+            for k in labels:
+                by_seed = dict(zip(seeds[k], data[k], strict=True))
+                columns.append(_finite_for_ranks(np.array([by_seed[s] for s in common]), big))
+            if all(np.ptp(np.vstack(columns), axis=0) == 0):
+                stat, p = 0.0, 1.0  # every seed ties every group
+            else:
+                res = stats.friedmanchisquare(*columns)
+                stat, p = float(res.statistic), float(res.pvalue)
+            friedman_rejects = p < alpha
+            out["friedman"] = {
+                "statistic": stat,
+                "p": p,
+                "groups": labels,
+                "seeds": list(common),
+                "rejects": friedman_rejects,
+            }
+        else:
+            out["friedman"] = {
+                "skipped": "groups do not share one set of distinct seeds (>= 2), so runs "
+                "cannot be paired by seed"
+            }
+    pairs = list(combinations(labels, 2))
+    raw = []
+    for a, b in pairs:
+        x, y = data[a], data[b]
+        if (
+            len(x)
+            and len(y)
+            and not (np.array_equal(np.unique(x), np.unique(y)) and np.unique(x).size == 1)
+        ):
+            res = stats.mannwhitneyu(
+                _finite_for_ranks(x, big), _finite_for_ranks(y, big), alternative="two-sided"
+            )
+            raw.append((float(res.statistic), float(res.pvalue)))
+        else:
+            raw.append((float(len(x) * len(y)) / 2.0, 1.0))
+    adjusted = holm([p for _, p in raw])
+    # Holm multiplies the smallest p by the number of pairs and never lets a later one
+    # fall below it: no adjusted p goes below max(own floor, pairs * smallest floor)
+    floors = [min_two_sided_p(len(data[a]), len(data[b])) for a, b in pairs]
+    overall = len(pairs) * min(floors) if floors else 1.0
+    for (a, b), (u, p), ph, own in zip(pairs, raw, adjusted, floors, strict=True):
+        x, y = data[a], data[b]
+        floor = min(1.0, max(own, overall))
+        eff = a12(x, y) if len(x) and len(y) else float("nan")
+        if floor >= alpha:
+            verdict = (
+                f"not separable with {len(x)} and {len(y)} seeds: the smallest attainable "
+                f"adjusted p is {floor:.3g} >= alpha {alpha:g}"
+            )
+        elif ph < alpha and friedman_rejects:
+            better = a if eff > 0.5 else b
+            verdict = f"{better} better (p_holm = {ph:.3g})"
+        elif ph < alpha:
+            verdict = "pairwise p_holm < alpha, but the Friedman test did not reject"
+        else:
+            verdict = f"no difference detected (p_holm = {ph:.3g})"
+        out["pairs"].append(
+            {
+                "a": a,
+                "b": b,
+                "n_a": len(x),
+                "n_b": len(y),
+                "median_a": float(np.median(x)) if len(x) else None,
+                "median_b": float(np.median(y)) if len(y) else None,
+                "U": u,
+                "p": p,
+                "p_holm": float(ph),
+                "a12": eff,
+                "min_attainable_p_holm": floor,
+                "verdict": verdict,
+            }
+        )
+    return out

@@ -1,0 +1,184 @@
+"""Spec sheets of the envs: the sections of Gymnasium's classic-control docstrings
+(Description, Action Space, Observation Space, Rewards, Starting State, Episode End,
+Arguments, Version History) filled in with one env's concrete spaces, units and reward.
+
+``spec_sheet("KCIdentification")`` or ``env.unwrapped.spec_sheet()`` returns Markdown;
+``python -m suspenv.envs.spec KCIdentification`` prints it. The generic definitions are in
+the docstrings of :class:`~suspenv.envs.problem_env.ProblemEnv` and
+:class:`~suspenv.envs.vector_env.ProblemVectorEnv`.
+"""
+
+from __future__ import annotations
+
+import sys
+from typing import Any
+
+from suspenv.envs.adapter import FAIL_VALUE, OBS_LIMIT, default_reward
+from suspenv.envs.registration import NAMESPACE, VERSION
+from suspenv.envs.scales import SAMPLE_SEED, SAMPLE_SIZE, SPREAD_FRACTION
+
+#: the section headers every spec sheet (and every env class docstring) has, in order
+SECTIONS = (
+    "Description",
+    "Action Space",
+    "Observation Space",
+    "Rewards",
+    "Starting State",
+    "Episode End",
+    "Arguments",
+    "Version History",
+)
+
+
+def _g(x: float) -> str:
+    return f"{x:.6g}"
+
+
+def spec_sheet(env: Any, with_scales: bool = False, **env_kwargs: Any) -> str:
+    """Markdown spec sheet of ``env``: a ProblemEnv / ProblemVectorEnv (or a gymnasium
+    wrapper of one), or a problem name or env id (the env is built with ``env_kwargs``).
+
+    ``with_scales``: list each objective's scale of the normalised reward (computes them:
+    65 evaluations of the problem)."""
+    if isinstance(env, str):
+        from suspenv.envs.problem_env import ProblemEnv
+        from suspenv.envs.registration import resolve_env_id
+
+        name = resolve_env_id(env).removeprefix(f"{NAMESPACE}/").rsplit("-v", 1)[0]
+        env = ProblemEnv(name, **env_kwargs)
+    env = getattr(env, "unwrapped", env)
+    adapter = env.adapter
+    problem = adapter.problem
+    space = problem.space
+    vector = hasattr(env, "num_envs")
+    n = f"{env.num_envs}, " if vector else ""
+    units = tuple(problem.objective_units) or ("",) * problem.n_objectives
+    scales = adapter.scales if with_scales else None
+    lines = [f"# {NAMESPACE}/{problem.name}-v{VERSION}", ""]
+
+    lines += ["## Description", ""]
+    options = problem.config()
+    lines.append(
+        f"{problem.description or problem.name} "
+        f"(`{type(problem).__module__}:{type(problem).__name__}`"
+        + (f", options `{options}`" if options else "")
+        + ")."
+    )
+    lines.append(
+        ("A population of designs" if vector else "One design")
+        + f" per step; an episode is one optimisation run of {env.budget} evaluations"
+        + (f" per sub-env ({env.num_envs} sub-envs)." if vector else ".")
+    )
+    lines.append("")
+
+    lines += ["## Action Space", ""]
+    lines.append(
+        f"`Box(-1.0, 1.0, ({n}{space.dim},), float64)`. Action `a` -> unit cube "
+        "`u = (a + 1) / 2` -> physical value (linear: `low + u (high - low)`; log: "
+        "`low (high / low)^u`); finite actions outside [-1, 1] are clipped."
+    )
+    lines += [
+        "",
+        "| # | parameter | unit | low | high | map | reference |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for i, p in enumerate(space.parameters):
+        lines.append(
+            f"| {i} | `{p.name}` | {p.unit or '-'} | {_g(p.low)} | {_g(p.high)} | "
+            f"{'log' if p.log else 'linear'} | {_g(p.reference)} |"
+        )
+    lines.append("")
+
+    lines += ["## Observation Space", ""]
+    lines.append(
+        f"`Box({-OBS_LIMIT:g}, {OBS_LIMIT:g}, ({n}{problem.n_objectives},), float64)`: the "
+        f"objectives (minimised) of the design just evaluated, in their units; every "
+        f"component is `fail_value` ({adapter.fail_value:g}) when the evaluation failed."
+    )
+    head = "| # | objective | unit |" + (" scale s_j |" if scales else "")
+    lines += ["", head, "|---|---|---|" + ("---|" if scales else "")]
+    for j, name in enumerate(problem.objective_names):
+        row = f"| {j} | `{name}` | {units[j] or '-'} |"
+        if scales:
+            row += f" {_g(scales.scales[j])} |"
+        lines.append(row)
+    lines.append("")
+
+    lines += ["## Rewards", ""]
+    lines.append(
+        f"`-(s + penalty * v)`, reward mode **{adapter.reward}**, scalarizer "
+        f"`{adapter.scalarizer_name}`, penalty {adapter.penalty:g}; a failed evaluation "
+        f"earns `-fail_value` = {-adapter.fail_value:g}."
+    )
+    if adapter.reward == "normalized":
+        lines.append(
+            "`s` scalarises `f_j / s_j` with `s_j = max(|f_j(x_ref)|, "
+            f"{SPREAD_FRACTION:g} * IQR_j)`: the objective at the reference design, at "
+            "least a tenth of its interquartile range over a fixed sample of "
+            f"{SAMPLE_SIZE} uniform designs (`numpy.random.default_rng({SAMPLE_SEED})`); "
+            "1 where that is 0. Each objective contributes at most 1 at the reference "
+            "design. `reward=\"sum\"` gives the objectives in their own units."
+        )
+    else:
+        lines.append(
+            "`s` scalarises the objectives in their own units; `reward=\"normalized\"` "
+            "divides each by its scale first (see `suspenv.envs.scales`)."
+        )
+    if problem.n_constraints:
+        lines.append(
+            f"`v = sum_j max(g_j, 0)` over the {problem.n_constraints} constraints "
+            f"(feasible when g <= 0): {', '.join(f'`{c}`' for c in problem.constraint_names)}."
+        )
+    else:
+        lines.append("No constraints: `v = 0`.")
+    lines.append("")
+
+    lines += ["## Starting State", ""]
+    lines.append(
+        "`reset()` evaluates the reference design (column *reference* above) and "
+        "returns its objectives; not counted in the budget. The dynamics are "
+        "deterministic; `seed` seeds `np_random` only."
+    )
+    lines.append("")
+
+    lines += ["## Episode End", ""]
+    lines.append(
+        f"`terminated` is always False; `truncated` is True on step {env.budget} (`budget`)."
+        + (" Autoreset NEXT_STEP." if vector else " Step again only after `reset()`.")
+    )
+    lines.append("")
+
+    lines += ["## Arguments", ""]
+    lines.append(
+        f"`problem={problem.name!r}`, `problem_options` (the problem's constructor options, "
+        f"now {options}), `budget={env.budget}`, "
+        f"`reward` ({adapter.reward!r}; default {default_reward(problem)!r}), "
+        f"`scalarizer={adapter.scalarizer_name!r}`, `weights`, `penalty={adapter.penalty:g}`, "
+        f"`fail_value={adapter.fail_value:g}` (default {FAIL_VALUE:g}), `render_mode`"
+        + (f", `num_envs={env.num_envs}`" if vector else "")
+        + "."
+    )
+    lines.append("")
+
+    lines += ["## Version History", ""]
+    lines.append(
+        "v0: initial version; later in v0 the `reward` argument (KCIdentification's "
+        "default became \"normalized\")."
+    )
+    return "\n".join(lines) + "\n"
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``python -m suspenv.envs.spec NAME [--scales]``: print one env's spec sheet."""
+    args = list(sys.argv[1:] if argv is None else argv)
+    with_scales = "--scales" in args
+    names = [a for a in args if a != "--scales"]
+    if len(names) != 1:
+        print("usage: python -m suspenv.envs.spec NAME [--scales]", file=sys.stderr)
+        return 2
+    print(spec_sheet(names[0], with_scales=with_scales), end="")
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

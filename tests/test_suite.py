@@ -1,0 +1,126 @@
+"""The benchmark suite: instance cards, known optima and targets, reference fronts.
+
+References: Sphere's closed form (minimum 0 at x = 0.3); the planar target geometry's own
+hard points (curve error 0 by construction); the K&C truth without concealed effects (the
+reference vehicle); ZDT1's analytic front; shipped fronts re-evaluated from their stored
+designs (a front goes stale when a model changes: this test then fails).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from suspenv.core.errors import ValidationError
+from suspenv.core.pareto import nondominated
+from suspenv.registry import make_problem
+from suspenv.suite.fronts import FRONT_DIR, load_front, thin
+from suspenv.suite.instances import FUNCTIONS, build, parse_instance, selection
+from suspenv.suite.runner import SUITE_FILE, run_suite
+
+
+@pytest.mark.parametrize("name", ["sphere-10d", "zdt1-6d", "planar-curves", "carside", "minibus"])
+def test_cards_state_what_the_problem_is(name):
+    inst = build(name)
+    card = inst.describe()
+    p = make_problem(FUNCTIONS[name].problem, **FUNCTIONS[name].options_for(1))
+    assert card["dimension"] == p.space.dim
+    assert card["objectives"] == len(p.objective_names)
+    assert card["constraints"] == len(p.constraint_names)
+    assert card["budget"] == FUNCTIONS[name].budget > 0
+    json.dumps(card)  # plain data
+
+
+def test_sphere_optimum_is_the_closed_form():
+    inst = build("sphere-10d")
+    assert inst.known.kind == "optimum" and inst.known.f == 0.0
+    x = np.array(inst.known.x)
+    np.testing.assert_array_equal(x, np.full(10, 0.3))
+    # and it is a minimum: every coordinate step raises f
+    p = inst.problem
+    f0 = p.evaluate(x[None, :]).objectives[0, 0]
+    for j in range(10):
+        for step in (-1e-3, 1e-3):
+            y = x.copy()
+            y[j] += step
+            assert p.evaluate(y[None, :]).objectives[0, 0] > f0
+
+
+def test_planar_and_kc_exact_optima_are_zero_at_the_stated_design():
+    for name in ("planar-curves", "kc-exact"):
+        inst = build(name)
+        b = inst.problem.evaluate(np.array(inst.known.x)[None, :])
+        assert b.ok[0] and np.all(b.objectives == 0.0), name
+
+
+def test_kc_targets_are_the_truths_quality_and_vary_by_instance():
+    values = []
+    for i in (1, 2):
+        inst = build("kc-tolerance", i)
+        p = inst.problem
+        f = float(p.quality(p.evaluate(p.truth_design()[None, :]).objectives)[0])
+        assert inst.known.kind == "target" and inst.known.f == pytest.approx(f, rel=1e-12)
+        values.append(f)
+    assert values[0] != values[1]  # instances differ by the truth's seed
+    noisy = build("kc-noisy", 1)
+    assert noisy.function.noisy and noisy.known.f > build("kc-tolerance", 1).known.f
+
+
+def test_instance_names_and_errors():
+    assert parse_instance("kc-noisy/i3") == ("kc-noisy", 3)
+    assert ("kc-noisy", 3) in selection(["kc-noisy/i3"])
+    assert len(selection(["kc-noisy"])) == 5
+    with pytest.raises(ValidationError, match="did you mean 'kc-noisy'"):
+        selection(["kc-noisey"])
+    with pytest.raises(ValidationError, match="has instances"):
+        selection(["kc-noisy/i9"])
+    with pytest.raises(ValidationError, match="NAME/iN"):
+        parse_instance("kc-noisy/3")
+
+
+def test_zdt1_front_is_analytic():
+    f = load_front("zdt1")
+    np.testing.assert_allclose(f.points[:, 1], 1 - np.sqrt(f.points[:, 0]))
+    assert nondominated(f.points).all()
+
+
+@pytest.mark.parametrize("name", ["carside", "minibus"])
+def test_shipped_fronts_are_reproduced_by_their_designs(name):
+    if not (FRONT_DIR / f"{name}.json").is_file():
+        pytest.fail(f"reference front {name} is not shipped")
+    front = load_front(name)
+    assert front.designs is not None and len(front.designs) == len(front.points)
+    assert nondominated(front.points).all()
+    p = build(name).problem
+    assert front.objectives == tuple(p.objective_names)
+    rows = np.random.default_rng(0).choice(len(front.points), 20, replace=False)
+    batch = p.evaluate(front.designs[rows])
+    assert batch.feasible.all()
+    np.testing.assert_allclose(batch.objectives, front.points[rows], rtol=1e-9, atol=1e-12)
+    assert "command" in front.provenance and front.provenance["budget_per_seed"] > 0
+
+
+def test_thinning_keeps_the_extremes_and_spreads_evenly():
+    f1 = np.linspace(0, 1, 1001)
+    F = np.column_stack([f1, 1 - np.sqrt(f1)])
+    idx = thin(F, 11)
+    assert len(idx) == 11 and 0 in idx and 1000 in idx
+    assert np.all(np.diff(F[idx, 0]) > 0.03)  # no two chosen points bunched together
+
+
+def test_a_suite_run_writes_ordinary_run_directories(tmp_path):
+    result = run_suite(
+        ["random"], [1, 2], tmp_path, functions=["sphere-10d"], budget_scale=0.05,
+        progress=False,
+    )
+    listed = json.loads((tmp_path / SUITE_FILE).read_text())
+    assert listed == json.loads(json.dumps(result))
+    assert len(result["runs"]) == 2
+    for run in result["runs"]:
+        summary = json.loads((Path(run["run_dir"]) / "summary.json").read_text())
+        assert summary["n_evaluations"] == run["budget"] == 100
+    with pytest.raises(ValidationError, match="budget_scale"):
+        run_suite(["random"], [1], tmp_path, budget_scale=0.0, progress=False)
