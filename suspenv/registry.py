@@ -61,7 +61,6 @@ _PIPELINE_CHECKS: dict[str, str | Callable[..., Any]] = {
 #: report writers and drawings; keyed by problem name for a problem's own run report
 _REPORTS: dict[str, str | Callable[..., Any]] = {
     "run_figures": "suspenv.reports.run:write_run_figures",
-    "run_comparison": "suspenv.reports.run:plot_compare",
     # `suspenv compare`: suspenv.analysis computes, this writes the files and figures
     "comparison": "suspenv.reports.analysis:write_comparison",
     "tey2014": "suspenv.reports.tey2014:write_tey2014_report",

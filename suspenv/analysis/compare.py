@@ -55,6 +55,7 @@ from suspenv.analysis.performance import (
 )
 from suspenv.analysis.stats import rank_tests
 from suspenv.core.errors import ValidationError
+from suspenv.core.jsonable import to_jsonable
 
 #: known optima of a problem's plain quality (the objective itself), by problem name
 KNOWN_OPTIMA: dict[str, float] = {"Sphere": 0.0}
@@ -650,23 +651,6 @@ def _profile(problems: list[ProblemComparison]) -> dict[str, Any] | None:
 
 
 # --------------------------------------------------------------------------- output
-def jsonable(o: Any) -> Any:
-    """``o`` with NumPy values as Python ones and non-finite floats as None."""
-    if isinstance(o, dict):
-        return {str(k): jsonable(v) for k, v in o.items()}
-    if isinstance(o, list | tuple):
-        return [jsonable(v) for v in o]
-    if isinstance(o, np.ndarray):
-        return jsonable(o.tolist())
-    if isinstance(o, np.generic):
-        return jsonable(o.item())
-    if isinstance(o, float):
-        return o if np.isfinite(o) else None
-    if isinstance(o, Path):
-        return str(o)
-    return o
-
-
 def _cell(v: Any) -> str:
     if v is None:
         return "–"
@@ -809,7 +793,7 @@ def write_compare_files(comparison: Comparison, out: str | Path, ioh: bool = Fal
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     paths = [out / "compare.json", out / "compare.md"]
-    paths[0].write_text(json.dumps(jsonable(comparison.result), indent=2) + "\n")
+    paths[0].write_text(json.dumps(to_jsonable(comparison.result), indent=2) + "\n")
     paths[1].write_text(markdown(comparison))
     if ioh:
         paths.append(write_ioh(comparison, out / "ioh"))

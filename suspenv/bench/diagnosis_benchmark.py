@@ -39,13 +39,13 @@ import numpy as np
 
 from suspenv.bench.common import machine_info
 from suspenv.core.errors import ValidationError
+from suspenv.core.jsonable import to_jsonable
 from suspenv.diagnosis.component.truth import Case, make_case, write_case
 from suspenv.diagnosis.decision import derived_values, families_covered
 from suspenv.diagnosis.engine import Diagnosis, diagnose, make_family
 from suspenv.diagnosis.hypothesis import family_of
 from suspenv.measurements.catalog import REAL_CASES, real_data_dir
 from suspenv.reports.diagnosis import write_diagnosis_report
-from suspenv.reports.jsonable import to_jsonable
 
 DEFAULT_FAMILIES = ("damper", "mr_damper", "friction_guide", "quarter_car_rig")
 

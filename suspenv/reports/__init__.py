@@ -6,8 +6,9 @@ import matplotlib). Reports sit above every library layer (they read problems, r
 methods and diagnoses); those layers reach a report only through the names registered
 in :mod:`suspenv.registry` (``report_function``), resolved when first called.
 
-Modules: :mod:`.run` (convergence, Pareto, strategy comparison), :mod:`.kc_identification`,
-:mod:`.knc_rig` (K&C rig curves), :mod:`.minibus`, :mod:`.minibus_ride`, :mod:`.suspension`,
-:mod:`.planar`, :mod:`.tey2014`, :mod:`.diagnosis` (component, K&C, ride, road), and the
-shared :mod:`.markdown` (cells and tables) and :mod:`.jsonable` helpers.
+Modules: :mod:`.run` (convergence, Pareto), :mod:`.analysis` (runs compared),
+:mod:`.kc_identification`, :mod:`.knc_rig` (K&C rig curves), :mod:`.minibus`,
+:mod:`.minibus_ride`, :mod:`.suspension`, :mod:`.planar`, :mod:`.tey2014`,
+:mod:`.diagnosis` (component, K&C, ride, road), and the shared :mod:`.markdown` helpers
+(cells and tables); plain JSON values come from :mod:`suspenv.core.jsonable`.
 """

@@ -28,10 +28,10 @@ from suspenv.analysis.compare import (
     Comparison,
     ProblemComparison,
     compare,
-    jsonable,
     write_compare_files,
 )
 from suspenv.analysis.performance import curve_matrix, curve_quantiles, runtime_ecdf
+from suspenv.core.jsonable import to_jsonable
 from suspenv.reports._mpl import pyplot
 
 
@@ -225,6 +225,6 @@ def write_compared(
     if figures:
         written += write_comparison_figures(comparison, out)
     comparison.result["files"] = sorted({p.name for p in written})
-    result: dict[str, Any] = jsonable(comparison.result)
+    result: dict[str, Any] = to_jsonable(comparison.result)
     (out / "compare.json").write_text(json.dumps(result, indent=2) + "\n")
     return result

@@ -1,5 +1,5 @@
-"""Standard run figures: convergence, Pareto front (pairwise), parallel coordinates, and
-the best-so-far spread of several runs (``suspenv compare``).
+"""Standard run figures: convergence, Pareto front (pairwise), parallel coordinates
+(runs compared are drawn by :mod:`suspenv.reports.analysis`).
 
 The default figures scale with the number of objectives ``m`` and of evaluations ``n``:
 
@@ -296,35 +296,5 @@ def plot_parallel(
     ax.set_title(title)
     fig.tight_layout()
     _save(fig, path, 110)
-    plt.close(fig)
-    return path
-
-
-def plot_compare(curves: dict[str, list[np.ndarray]], ylabel: str, path: Path) -> Path:
-    """Median and min-max band of best-so-far curves per label (several seeds each)."""
-    plt = pyplot()
-    fig, ax = plt.subplots(figsize=(6.5, 4))
-    for label, runs in curves.items():
-        n = min(len(r) for r in runs)
-        A = np.vstack([r[:n] for r in runs])
-        A = np.where(np.isfinite(A), A, np.nan)
-        cols = np.isfinite(A).any(axis=0)  # skip evaluations before any run has a value
-        x = np.arange(1, n + 1)[cols]
-        A = A[:, cols]
-        ax.plot(x, np.nanmedian(A, axis=0), label=f"{label} (n={len(runs)})")
-        if len(runs) > 1:
-            ax.fill_between(x, np.nanmin(A, axis=0), np.nanmax(A, axis=0), alpha=0.2)
-    ax.set_xlabel("evaluations")
-    ax.set_ylabel(ylabel)
-    finite = [
-        np.nanmin(r[np.isfinite(r)]) for rs in curves.values() for r in rs if np.isfinite(r).any()
-    ]
-    if finite and min(finite) > 0:
-        ax.set_yscale("log")
-    ax.grid(alpha=0.3)
-    ax.legend()
-    ax.set_title("Best so far: median and range over seeds")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
     plt.close(fig)
     return path

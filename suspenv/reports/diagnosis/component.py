@@ -15,10 +15,10 @@ from typing import Any
 
 import numpy as np
 
+from suspenv.core.jsonable import to_jsonable
 from suspenv.diagnosis.component.motion import motion
 from suspenv.diagnosis.engine import Diagnosis
 from suspenv.reports._mpl import pyplot
-from suspenv.reports.jsonable import to_jsonable
 from suspenv.reports.markdown import fmt as _fmt
 from suspenv.reports.markdown import text
 

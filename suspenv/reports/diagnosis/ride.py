@@ -12,11 +12,11 @@ from typing import Any
 
 import numpy as np
 
+from suspenv.core.jsonable import to_jsonable
 from suspenv.diagnosis.engine import Diagnosis
 from suspenv.diagnosis.ride.residual import NOISE_BAND_HZ
 from suspenv.metrics.ride import acceleration_psd
 from suspenv.reports._mpl import pyplot
-from suspenv.reports.jsonable import to_jsonable
 from suspenv.reports.markdown import text
 
 
