@@ -1,15 +1,33 @@
-"""McPherson K&C speed: time per candidate of a full KCIdentification evaluation.
+"""McPherson K&C speed: time and memory per candidate of a full KCIdentification evaluation.
 
 A full evaluation is what the identification problem does for every candidate: the
 compliant full-axle model, three rig tests (parallel, opposite, single wheel travel,
 +-40 mm, 30 steps), each a loop design -> bump -> rebound -> design (both sweep
-directions, 61 solved steps per test), and all 40 objectives. Candidates are random
-designs of the 49-parameter space (the population of an optimiser), in batches of 42
-(the paper's CMA-ES population). Measured in the same run: the same candidates one at
-a time, which gives the batching gain. Target <= 10 ms per candidate (the paper's
-simulator took about 20 s); stretch <= 2 ms. BLAS is limited to one thread by suspenv,
-so the process's CPU time is one core's time; it is the reported figure (best of the
-repeats), with the wall time beside it (which a loaded machine inflates).
+directions, 61 points per test), and all 40 objectives. Candidates are random designs
+of the 49-parameter space (the population of an optimiser) at batch sizes 1 (one
+candidate per call; the median of ``--singles`` candidates), 42 (the paper's CMA-ES
+population) and 1000.
+
+Two paths of the same evaluation, measured in the same run on the same candidates:
+
+* ``optimised``: the problem's defaults, i.e. internal chunks of
+  ``KCIdentification.eval_chunk`` candidates and, for the (path-independent) model,
+  the revisited grid points of the return legs corrected in one batched call
+  (``reuse_revisits``; see :mod:`suspenv.rigs.knc`);
+* ``baseline``: the previous algorithm, kept as the reference path: the explicit
+  problem options ``eval_chunk=None`` (the whole batch at once) and
+  ``reuse_revisits=False`` (every grid point solved one after the other), and, inside
+  :func:`reference_path`, the finite-difference Jacobian and the channels in one
+  residual/output call each (``JACOBIAN_BLOCK`` unbounded) and one quadratic fit per
+  objective (``_objectives_one_by_one``). Both paths give the same objectives to solver
+  tolerance (bitwise for the blocks and the batched fits).
+
+Time: process CPU time (BLAS is limited to one thread by suspenv, so it is one core's
+time), best of the repeats, with the wall time beside it (which a loaded machine
+inflates). Memory: the tracemalloc peak of one evaluation (a separate, untimed call)
+divided by the batch size. Targets: <= 2 ms per candidate at batch 42, <= 10 ms at
+batch 1, <= 0.1 MB per candidate at every batch size, no rise of the per-candidate
+time up to batch 1000; each is reported as met or not.
 
 Run: ``python -m suspenv.bench.knc_speed [--quick]``; writes
 ``docs/benchmarks/knc_speed.json``.
@@ -18,45 +36,150 @@ Run: ``python -m suspenv.bench.knc_speed [--quick]``; writes
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
+import statistics
 import sys
+import time
+import tracemalloc
+from collections.abc import Iterator
+from typing import Any
 
 import numpy as np
 
-from suspenv.bench.common import time_batch_vs_single, write_result
+import suspenv.models.mcpherson.solver as solver_module
+import suspenv.problems.kc_identification as problem_module
+import suspenv.rigs.knc as rig_module
+from suspenv.bench.common import write_result
+from suspenv.metrics.knc import _objectives_one_by_one
 from suspenv.registry import make_problem
 
 TARGET_MS = 10.0
 STRETCH_MS = 2.0
+TARGET_MB = 0.1
 PAPER_S = 20.0
+BATCHES = (1, 42, 1000)
+
+
+@contextlib.contextmanager
+def reference_path() -> Iterator[None]:
+    """The previous algorithm's one-call Jacobian/channels and per-objective fits."""
+    saved = solver_module.JACOBIAN_BLOCK, rig_module.JACOBIAN_BLOCK, problem_module.objectives
+    solver_module.JACOBIAN_BLOCK = rig_module.JACOBIAN_BLOCK = 1 << 62
+    problem_module.objectives = lambda results: _objectives_one_by_one(results, {})
+    try:
+        yield
+    finally:
+        solver_module.JACOBIAN_BLOCK, rig_module.JACOBIAN_BLOCK = saved[:2]
+        problem_module.objectives = saved[2]
+
+
+def _cpu_wall(fn: Any) -> tuple[float, float]:
+    w0, c0 = time.perf_counter(), time.process_time()
+    fn()
+    return time.process_time() - c0, time.perf_counter() - w0
+
+
+def _peak_mb(fn: Any) -> float:
+    tracemalloc.start()
+    try:
+        fn()
+        return tracemalloc.get_traced_memory()[1] / 1e6
+    finally:
+        tracemalloc.stop()
+
+
+def _measure(problem: Any, X: np.ndarray, batch: int, repeat: int, singles: int) -> dict:
+    """CPU/wall ms per candidate and peak MB per candidate of ``problem.evaluate``."""
+    if batch == 1:
+        cpu, wall = [], []
+        for i in range(singles):
+            c, w = _cpu_wall(lambda i=i: problem.evaluate(X[i : i + 1]))
+            cpu.append(c)
+            wall.append(w)
+        cpu_ms, wall_ms = 1e3 * statistics.median(cpu), 1e3 * statistics.median(wall)
+        valid = int(problem.evaluate(X[:1]).ok.sum())
+    else:
+        Xb = X[:batch]
+        best = [_cpu_wall(lambda: problem.evaluate(Xb)) for _ in range(repeat)]
+        cpu_ms = 1e3 * min(c for c, _ in best) / batch
+        wall_ms = 1e3 * min(w for _, w in best) / batch
+        valid = int(problem.evaluate(Xb).ok.sum())
+    peak = _peak_mb(lambda: problem.evaluate(X[:batch]))
+    return {
+        "cpu_ms_per_candidate": cpu_ms,
+        "wall_ms_per_candidate": wall_ms,
+        "peak_mb_per_candidate": peak / batch,
+        "peak_mb": peak,
+        "valid_candidates": valid,
+    }
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="fewer repeats (smoke run)")
-    parser.add_argument("--batch", type=int, default=42, help="designs per batch")
+    parser.add_argument("--singles", type=int, default=None, help="candidates at batch 1")
     parser.add_argument("--output-dir", default=None, help="default docs/benchmarks")
     args = parser.parse_args(argv)
     repeat = 1 if args.quick else 3
-    n_single = 3 if args.quick else 8
+    singles = args.singles or (3 if args.quick else 8)
 
-    problem = make_problem("KCIdentification")
+    fast = make_problem("KCIdentification")
+    base = make_problem("KCIdentification")
+    base.eval_chunk = None  # the reference path: the whole batch at once ...
+    base.reuse_revisits = False  # ... and every grid point solved in sequence
     rng = np.random.default_rng(0)
-    X = problem.space.to_physical(rng.random((args.batch, problem.space.dim)))
+    X = fast.space.to_physical(rng.random((max(BATCHES), fast.space.dim)))
+    fast.evaluate(X[:2])  # warm-up (imports, caches)
 
-    t = time_batch_vs_single(problem, X, repeat, n_single)
-    rows = t.rows(f"batch of {args.batch}", "one at a time")
+    rows: list[dict[str, Any]] = []
+    res: dict[tuple[str, int], dict] = {}
+    for batch in BATCHES:
+        for path, problem in (("baseline", base), ("optimised", fast)):
+            with reference_path() if path == "baseline" else contextlib.nullcontext():
+                m = _measure(problem, X, batch, 1 if batch >= 1000 else repeat, singles)
+            res[path, batch] = m
+            rows.append({"path": path, "batch": batch, **m})
+            print(f"{path:9s} batch {batch:4d}: {m}", file=sys.stderr)
+    for row in rows:
+        b = res["baseline", row["batch"]]
+        row["cpu_ratio_to_baseline"] = row["cpu_ms_per_candidate"] / b["cpu_ms_per_candidate"]
+        row["memory_ratio_to_baseline"] = row["peak_mb_per_candidate"] / b["peak_mb_per_candidate"]
+
+    def ms(path: str, batch: int) -> float:
+        return float(res[path, batch]["cpu_ms_per_candidate"])
+
+    fast42, fast1, fast1000 = ms("optimised", 42), ms("optimised", 1), ms("optimised", 1000)
+    worst_mb = max(res["optimised", b]["peak_mb_per_candidate"] for b in BATCHES)
     summary = {
-        "batch": args.batch,
-        "valid_candidates": t.valid,
-        "ms_per_candidate_batched": t.batched_cpu_ms,
-        "ms_per_candidate_single": t.single_cpu_ms,
-        "wall_ms_per_candidate_batched": t.batched_wall_ms,
-        "batching_gain": t.gain,
+        "batch": 42,
+        "valid_candidates": res["optimised", 42]["valid_candidates"],
+        "ms_per_candidate_batched": fast42,
+        "ms_per_candidate_single": fast1,
+        "ms_per_candidate_batch_1000": fast1000,
+        "wall_ms_per_candidate_batched": res["optimised", 42]["wall_ms_per_candidate"],
+        "batching_gain": fast1 / fast42,
+        "baseline_ms_per_candidate": {str(b): ms("baseline", b) for b in BATCHES},
+        "speedup_vs_baseline": {str(b): ms("baseline", b) / ms("optimised", b) for b in BATCHES},
+        "peak_mb_per_candidate": {
+            str(b): res["optimised", b]["peak_mb_per_candidate"] for b in BATCHES
+        },
+        "baseline_peak_mb_per_candidate": {
+            str(b): res["baseline", b]["peak_mb_per_candidate"] for b in BATCHES
+        },
+        "baseline": (
+            "same evaluation with eval_chunk=None, reuse_revisits=False, unbounded "
+            "JACOBIAN_BLOCK and per-objective fits (the previous algorithm)"
+        ),
+        "eval_chunk": fast.eval_chunk,
         "target_ms": TARGET_MS,
-        "meets_target": bool(t.batched_cpu_ms <= TARGET_MS),
-        "meets_stretch": bool(t.batched_cpu_ms <= STRETCH_MS),
-        "speedup_vs_paper_20s": 1e3 * PAPER_S / t.batched_cpu_ms,
+        "meets_target": bool(fast42 <= TARGET_MS),
+        "meets_stretch": bool(fast42 <= STRETCH_MS),
+        "meets_single_target_10ms": bool(fast1 <= TARGET_MS),
+        "target_mb_per_candidate": TARGET_MB,
+        "meets_memory_target": bool(worst_mb <= TARGET_MB),
+        "rise_batch_1000_over_42": fast1000 / fast42,
+        "speedup_vs_paper_20s": 1e3 * PAPER_S / fast42,
         "steps_per_test": 61,
         "tests": 3,
         "load_average_1min": os.getloadavg()[0],

@@ -29,6 +29,17 @@ first leg design to bump).
 
 All tests of all designs are solved as one batch (rows = test x design), each step
 warm-started from the previous converged step with a tangent predictor.
+
+Return leg of a path-independent model: when the model has no element whose force
+depends on the loading branch (no Dahl hysteresis at a bushing, no strut friction:
+:attr:`AxleSolver.path_dependent`, decided from the model, never from data), the
+state at a grid point does not depend on how the rig got there, so a revisited grid
+point (rebound leg from bump back to design, last leg from rebound back to design)
+reuses the state converged at the first visit instead of solving it again: both
+branches are then identical, and equal to what a re-solve would give to the solver
+tolerance (the re-solve starts from that very state and stops after one correction
+below ``xtol``/``rtol``/``ltol``). ``reuse_revisits=False`` solves every point (the
+reference path, kept for checks and the speed benchmark).
 """
 
 from __future__ import annotations
@@ -43,7 +54,7 @@ from suspenv.measurements.knc import ALL_TESTS, FORCE_TESTS, TESTS
 from suspenv.models.effects import Effect
 from suspenv.models.mcpherson.params import Axle
 from suspenv.models.mcpherson.rotation import expm_so3, log_so3
-from suspenv.models.mcpherson.solver import AxleSolver, AxleState
+from suspenv.models.mcpherson.solver import JACOBIAN_BLOCK, NS, AxleSolver, AxleState
 
 # the tests (TESTS: travel, FORCE_TESTS: compliance, ALL_TESTS) are named once, by the
 # recording format of K&C loops
@@ -157,13 +168,17 @@ def run_tests(
     effects: Sequence[Effect] = (),
     keep_states: bool = False,
     force_amplitude: float = FORCE_AMPLITUDE,
+    reuse_revisits: bool = True,
 ) -> dict[str, KCResult]:
     """Run the rig ``tests`` on every design of ``axle``; returns {test: KCResult}.
 
     ``amplitude`` [m] is the pad stroke of the travel tests, ``force_amplitude`` [N]
     the contact-point force of the compliance tests. ``effects``: the axle's optional
     physics, effects-library elements placed at bushings or the strut
-    (:mod:`suspenv.models.mcpherson.effects`).
+    (:mod:`suspenv.models.mcpherson.effects`). ``reuse_revisits``: for a
+    path-independent model (see the module docstring) take a revisited grid point's
+    state from its first visit instead of solving it again (``False``: solve every
+    step, the reference path); a path-dependent model always solves every step.
     """
     _check_tests(tuple(tests))
     if not force_amplitude > 0:
@@ -178,6 +193,7 @@ def run_tests(
     tile = np.tile(np.arange(n), nt)  # rows: test-major
     solver = base.take(tile)
     st, J = st0.take(tile), J0[tile]
+    del st0, J0  # the per-design copies are no longer needed (memory)
     signs = np.repeat(np.array([_PAD_SIGN.get(t, (0.0, 0.0)) for t in tests]), n, axis=0)
     # compliance tests: contact-point load per newton of the test's force (nt*n, 2, 6)
     ext_dir = (
@@ -193,7 +209,21 @@ def run_tests(
     st = solver.commit(st)
 
     trail: list[AxleState] = []  # converged state of every step (states are not mutated)
-    pads: list[np.ndarray] = []
+    pending: list[tuple[AxleState, np.ndarray]] = []  # (state, pads) whose channels are due
+    parts: list[dict[str, np.ndarray]] = []  # channels (steps, rows, 2) of flushed steps
+    # channels are computed in vectorised calls of about 4 JACOBIAN_BLOCK row evaluations
+    # each, as the steps come (bounded memory: only the states of `visited` stay alive)
+    per = max(1, 4 * JACOBIAN_BLOCK // max(rows, 1))
+
+    def flush() -> None:
+        stacked = AxleState(
+            np.stack([x.r for x, _ in pending]),
+            np.stack([x.R for x, _ in pending]),
+            np.stack([x.lam for x, _ in pending]),
+        )
+        parts.append(solver.outputs(stacked, np.stack([q for _, q in pending])))
+        pending.clear()
+
     history: list[AxleState] = []  # converged states of the current leg, newest last
     visited: dict[int, AxleState] = {}  # last converged state at each grid point
     prev_ds = 0.0
@@ -212,6 +242,11 @@ def run_tests(
             parts.append(f"contact force {force_grid[gi]:+.0f} N")
         return ", ".join(parts)
 
+    # a path-independent model: every run of revisited grid points is corrected in one
+    # batched residual call (see _revisit_run); `revisits` holds the run's states by step
+    reuse = reuse_revisits and not solver.path_dependent
+    revisits: dict[int, AxleState] = {}
+    tried: set[int] = set()
     prev_gi, prev_load = path[0], load_at(path[0])
     for k, gi in enumerate(path):
         load = load_at(gi)
@@ -220,24 +255,50 @@ def run_tests(
             if prev_ds * ds <= 0:  # a reversal starts a new leg
                 history = []
             history = [*history[-2:], st]
-            st, J = _step(
-                solver, st, prev_load, load, ok, msgs, J, k, where(gi), history, visited.get(gi)
-            )
+            if reuse and k not in tried and gi in visited:  # first step of a run of revisits
+                run = [k]
+                while run[-1] + 1 < path.size and int(path[run[-1] + 1]) in visited:
+                    run.append(run[-1] + 1)
+                tried.update(run)
+                revisits = _revisit_run(
+                    solver,
+                    st,
+                    [visited[int(path[j])] for j in run],
+                    [load_at(path[j]) for j in run],
+                    ok,
+                    J,
+                    run,
+                )
+            if k in revisits:
+                st = revisits.pop(k)
+            else:
+                st, J = _step(
+                    solver,
+                    st,
+                    prev_load,
+                    load,
+                    ok,
+                    msgs,
+                    J,
+                    k,
+                    where(gi),
+                    history,
+                    visited.get(gi),
+                )
             prev_ds = ds
         visited[gi] = st
         if gi in (0, steps):  # loads and deflections peak at the ends of the stroke
             _check_state(solver, st, ok, msgs, k, where(gi))
-        trail.append(st)
-        pads.append(load[0])
+        if keep_states:
+            trail.append(st)
+        pending.append((st, load[0]))
+        if len(pending) == per:
+            flush()
         prev_gi, prev_load = gi, load
 
-    # channels of all steps in one vectorised call: (P, rows, 2) -> (rows, P, 2)
-    stacked = AxleState(
-        np.stack([x.r for x in trail]),
-        np.stack([x.R for x in trail]),
-        np.stack([x.lam for x in trail]),
-    )
-    out = {k: np.moveaxis(v, 0, 1) for k, v in solver.outputs(stacked, np.stack(pads)).items()}
+    if pending:
+        flush()
+    out = {k: np.moveaxis(np.concatenate([q[k] for q in parts]), 0, 1) for k in parts[0]}
     results = {}
     for j, t in enumerate(tests):
         sl = slice(j * n, (j + 1) * n)
@@ -321,6 +382,71 @@ def _step(solver, st, load_prev, load, ok, msgs, J, k, where, history, seen=None
         new = new.copy()
         new.assign(st, ~ok)
     return new, J
+
+
+def _revisit_run(
+    solver: AxleSolver,
+    st: AxleState,
+    seen: list[AxleState],
+    loads: list[tuple[np.ndarray, np.ndarray | None]],
+    ok: np.ndarray,
+    Jinv: np.ndarray,
+    steps: list[int],
+) -> dict[int, AxleState]:
+    """States {step: state} of a run of revisited grid points of a path-independent model,
+    solved together: one Newton correction ``dx = -J^-1 res`` from the state of each
+    point's first visit ``seen`` (the predictor :func:`_step` would use) with loads
+    ``loads`` (pad heights (n, 2) [m], contact-point load (n, 2, 6) [N, N*m] or None).
+
+    This is the arithmetic of solving the points one after the other (that solve also
+    starts from ``seen``, with the same ``Jinv``, which a first iteration never
+    refreshes, and stops after this first correction when it is below the tolerances),
+    in batched residual calls (blocks of about ``JACOBIAN_BLOCK`` row evaluations)
+    instead of one call per point. Rows that failed
+    earlier (``~ok``) keep their last converged state ``st``. Returns ``{}`` (solve the
+    points one by one instead) unless every correction of every row still being solved
+    is below the tolerances.
+    """
+    n, P = solver.n, len(seen)
+    r = np.stack([x.r for x in seen])
+    R = np.stack([x.R for x in seen])
+    lam = np.stack([x.lam for x in seen])
+    pad = np.stack([x[0] for x in loads])
+    exts = [x[1] for x in loads]
+    ext = None if any(e is None for e in exts) else np.stack(exts)  # type: ignore[arg-type]
+    # residuals in blocks of about JACOBIAN_BLOCK row evaluations (bounded memory)
+    per = max(1, JACOBIAN_BLOCK // max(n, 1))
+    res = np.empty((P, n, 2 * NS))
+    for a in range(0, P, per):
+        b = min(a + per, P)
+        solver.stats["residuals"] += 1
+        e = None if ext is None else ext[a:b]
+        res[a:b] = solver.residual(r[a:b], R[a:b], lam[a:b], pad[a:b], st, e).reshape(
+            b - a, n, 2 * NS
+        )
+    dx = -np.matmul(Jinv, res[..., None])[..., 0]
+    size = solver._step_size(dx.reshape(P * n, 2 * NS)).reshape(P, n)
+    if not (size[:, ok] < 1.0).all():  # also False for a non-finite step
+        return {}
+    okP = np.broadcast_to(ok, (P, n)).reshape(P * n)
+    moved = solver._apply(
+        AxleState(
+            r.reshape((P * n,) + r.shape[2:]),
+            R.reshape((P * n,) + R.shape[2:]),
+            lam.reshape((P * n,) + lam.shape[2:]),
+        ),
+        dx.reshape(P * n, 2 * NS),
+        okP,
+    )
+    out = {}
+    for p, k in enumerate(steps):
+        sl = slice(p * n, (p + 1) * n)
+        new = AxleState(moved.r[sl], moved.R[sl], moved.lam[sl])
+        if not ok.all():  # failed rows keep their last converged state
+            new.assign(st, ~ok)
+        out[k] = new
+    solver.stats["solves"] += P
+    return out
 
 
 def _scatter(part: AxleState, idx: np.ndarray, like: AxleState) -> AxleState:

@@ -99,6 +99,10 @@ DAHL_EPS_TRANSLATION = 1e-6
 DAHL_EPS_ROTATION = 1e-5
 #: scale of constraint rows in the residual: metres -> micrometres
 CSCALE = 1e6
+#: row evaluations per batched residual call of the finite-difference Jacobian (its
+#: perturbations are evaluated in blocks of about this many rows x perturbations, which
+#: bounds the Jacobian's temporary memory to a few MB at any batch size)
+JACOBIAN_BLOCK = 512
 
 
 @dataclass(frozen=True)
@@ -334,6 +338,13 @@ class AxleSolver:
         self._K4 = np.stack([self.K[b] for b in BUSH_ORDER], axis=2)  # (n, 2, 4, 6)
         self._ground4 = np.stack([self.ground[b] for b in BUSH_ORDER], axis=2)
         self.stats = {"solves": 0, "residuals": 0, "jacobians": 0}
+
+    @property
+    def path_dependent(self) -> bool:
+        """True when an element's force depends on the loading branch (Dahl hysteresis at
+        a bushing, strut friction), so that the equilibrium at a given rig input depends
+        on the travel history; False for linear and cubic (elastic) bushings only."""
+        return self._placed.path_dependent
 
     def take(self, rows: np.ndarray) -> AxleSolver:
         """A solver for the given design rows (index array or mask), sharing the set-up."""
@@ -581,46 +592,46 @@ class AxleSolver:
     ) -> np.ndarray:
         """Jacobian (n, 66, 66) of the full residual with respect to (x_left, x_right).
 
-        Forward differences in one batched residual call. Only the bar halves couple the
-        sides, so every other column is perturbed on both sides at once; the bar-half
-        columns are perturbed one side at a time.
+        Forward differences, the perturbations batched in blocks of about
+        :data:`JACOBIAN_BLOCK` row evaluations per residual call. Only the bar halves
+        couple the sides, so every other column is perturbed on both sides at once; the
+        bar-half columns are perturbed one side at a time.
         """
         n = self.n
         shared = [j for j in range(NS) if not 18 <= j < 24]  # 27 columns
-        P = 1 + len(shared) + 12
-        r = np.broadcast_to(st.r, (P,) + st.r.shape).copy()
-        R = np.broadcast_to(st.R, (P,) + st.R.shape).copy()
-        lam = np.broadcast_to(st.lam, (P,) + st.lam.shape).copy()
+        # perturbations: (column j, side) with side None for both sides at once
+        cols: list[tuple[int, int | None]] = [(j, None) for j in shared]
+        cols += [(18 + k, s) for s in (0, 1) for k in range(6)]
         hl = 1.0
-        side_all = slice(None)
         exp_h = expm_so3(h * np.eye(3))  # rotations by h about x, y, z
-
-        def perturb(p: int, j: int, side) -> None:
-            if j >= NQ:
-                lam[p, :, side, j - NQ] += hl
-                return
-            b, k = divmod(j, 6)
-            if k < 3:
-                r[p, :, side, b, k] += h
-            else:
-                R[p, :, side, b] = np.matmul(exp_h[k - 3], st.R[:, side, b])
-
-        for p, j in enumerate(shared, start=1):
-            perturb(p, j, side_all)
-        for s in (0, 1):
-            for k in range(6):
-                perturb(1 + len(shared) + 6 * s + k, 18 + k, s)
-        res = self.residual(r, R, lam, pad, st, ext)  # (P, n, 2, 33)
-        d = res[1:] - res[0]
+        base = self.residual(st.r, st.R, st.lam, pad, st, ext)  # (n, 2, 33)
         J = np.zeros((n, 2 * NS, 2 * NS))
-        for p, j in enumerate(shared):
-            step = hl if j >= NQ else h
-            for s in (0, 1):
-                J[:, s * NS : (s + 1) * NS, s * NS + j] = d[p, :, s] / step
-        base = len(shared)
-        for s in (0, 1):
-            for k in range(6):
-                J[:, :, s * NS + 18 + k] = d[base + 6 * s + k].reshape(n, 2 * NS) / h
+        # perturbed residuals in blocks of about JACOBIAN_BLOCK row evaluations (memory)
+        per = max(1, JACOBIAN_BLOCK // max(n, 1))
+        for a in range(0, len(cols), per):
+            block = cols[a : a + per]
+            P = len(block)
+            r = np.broadcast_to(st.r, (P,) + st.r.shape).copy()
+            R = np.broadcast_to(st.R, (P,) + st.R.shape).copy()
+            lam = np.broadcast_to(st.lam, (P,) + st.lam.shape).copy()
+            for p, (j, side) in enumerate(block):
+                sd = slice(None) if side is None else side
+                if j >= NQ:
+                    lam[p, :, sd, j - NQ] += hl
+                    continue
+                b, k = divmod(j, 6)
+                if k < 3:
+                    r[p, :, sd, b, k] += h
+                else:
+                    R[p, :, sd, b] = np.matmul(exp_h[k - 3], st.R[:, sd, b])
+            d = self.residual(r, R, lam, pad, st, ext) - base  # (P, n, 2, 33)
+            for p, (j, side) in enumerate(block):
+                step = hl if j >= NQ else h
+                if side is None:
+                    for s in (0, 1):
+                        J[:, s * NS : (s + 1) * NS, s * NS + j] = d[p, :, s] / step
+                else:
+                    J[:, :, side * NS + j] = d[p].reshape(n, 2 * NS) / step
         return J
 
     # ------------------------------------------------------------------ update
