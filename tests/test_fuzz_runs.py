@@ -178,3 +178,12 @@ def test_rows_written_by_another_program_read_or_name_the_damage(tmp_path, blob,
         _read(folder / "archive.sqlite")
     except ValidationError as exc:
         assert "archive" in str(exc)
+
+
+@pytest.mark.parametrize("table", ["problem", "strategy", "run"])
+def test_a_table_that_is_a_value_is_named(table):
+    # found by the property test above: `run = 1` reached `"allow_code" in 1`
+    from suspenv.runs.config import validate
+
+    with pytest.raises(ValidationError, match=f"`{table}` must be a table"):
+        validate({"name": "x", "budget": 1, table: 1})

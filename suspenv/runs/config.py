@@ -149,6 +149,11 @@ def validate(config: dict[str, Any], allow_code: bool = False) -> dict[str, Any]
 
     ``allow_code``: the user allows ``module:attribute`` problem and strategy names (see
     :func:`check_code_names`); a config cannot allow it itself."""
+    for table in ("problem", "strategy", "run"):
+        if table in config and not isinstance(config[table], dict):
+            raise ValidationError(
+                f"config: `{table}` must be a table, but got {config[table]!r}"
+            )
     if "allow_code" in (config.get("run") or {}):
         raise ValidationError(
             "config: `run.allow_code` cannot be set by a config (a config does not decide "
@@ -161,9 +166,6 @@ def validate(config: dict[str, Any], allow_code: bool = False) -> dict[str, Any]
             "config: `name` must be a plain file name (letters, digits, '_', '-', '.', not "
             f"starting with '.' or '-', at most 128 characters), but got {name!r}"
         )
-    for table in ("problem", "strategy", "run"):
-        if not isinstance(cfg[table], dict):
-            raise ValidationError(f"config: `{table}` must be a table, but got {cfg[table]!r}")
     check_code_names(cfg, allow_code)
     _check_unknown(set(cfg["run"]), KNOWN_RUN, "run.")
     for table in ("problem", "strategy"):
