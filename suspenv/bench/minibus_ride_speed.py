@@ -1,12 +1,19 @@
 """Minibus ride speed: random-road ride objectives for both load cases, per candidate.
 
-Target: the ride part of ``MinibusRideHandling`` (class-B road at 80 km/h, 10 s record
-after 1 s of settling, RK4 at 100 Hz, Wk in the frequency domain, both load cases
-stacked in one integration) costs about 1-2 ms per candidate in batches of 500 on one
-core. Measured in the same run: the same call one candidate at a time (the baseline,
-batch 1) and batch sizes in between. Candidates are random designs of the study's
-8-variable space. Both wall time and process CPU time are recorded because the
-machine may be shared (CPU time is what one core spends).
+Both ride methods of ``MinibusRideHandling`` are measured in the same run, at batch
+sizes 1 (one design at a time), 10, 100 and 500 (random designs of the study's
+8-variable space, both load cases):
+
+- ``spectral`` (the default): exact spectral integral of the equivalent-linear ride
+  model (:func:`suspenv.metrics.ride.ride_spectral`): batched eigen-decompositions and
+  modal frequency responses, a few statistical-linearisation passes on a 150-point
+  grid, then the objectives on a 400-point grid;
+- ``time`` (the study's definition, the baseline): the nonlinear model integrated by
+  RK4 at 100 Hz over a 10 s record after 1 s of settling, Wk in the frequency domain,
+  float64 as the problem runs it.
+
+Both wall time and process CPU time are recorded because the machine may be shared
+(CPU time is what the process spends; BLAS threads add to it).
 
 Run: ``python -m suspenv.bench.minibus_ride_speed [--quick]``; writes
 ``docs/benchmarks/minibus_ride_speed.json``.
@@ -26,7 +33,11 @@ from suspenv.metrics.ride import ride_objectives_all
 from suspenv.models.minibus import design_space
 from suspenv.rigs.ride import RandomRoad
 
-TARGET_MS = 2.0
+#: ride budget per candidate (ms, CPU) at batch 500 and at batch 1: a small fraction of
+#: the whole problem's targets (1 ms batched, 5 ms one design at a time)
+TARGET_MS_BATCH500 = 1.0
+TARGET_MS_BATCH1 = 5.0
+BATCHES = (1, 10, 100, 500)
 
 
 def _best(fn, repeat: int) -> tuple[float, float]:
@@ -50,25 +61,42 @@ def main(argv: list[str] | None = None) -> int:
     rng = np.random.default_rng(0)
     X = design_space().to_physical(rng.random((500, 8)))
     rows = []
-    for batch in tqdm((1, 10, 100, 500), desc="ride batches", file=sys.stderr):
+    cases = [(m, b) for m in ("spectral", "time") for b in BATCHES]
+    for method, batch in tqdm(cases, desc="ride batches", file=sys.stderr):
         Xb = X[:batch]
-        wall, cpu = _best(lambda Xb=Xb: ride_objectives_all(Xb, road=road), repeat)
+
+        def call(Xb: np.ndarray = Xb, method: str = method) -> None:
+            ride_objectives_all(Xb, road=road, dtype=np.float64, method=method)
+
+        call()  # warm-up
+        wall, cpu = _best(call, repeat)
         rows.append(
             {
+                "method": method,
                 "batch": batch,
                 "ms_per_candidate_wall": 1e3 * wall / batch,
                 "ms_per_candidate_cpu": 1e3 * cpu / batch,
             }
         )
-    base, big = rows[0], rows[-1]
+
+    def get(method: str, batch: int) -> dict:
+        return next(r for r in rows if r["method"] == method and r["batch"] == batch)
+
+    s1, s500 = get("spectral", 1), get("spectral", 500)
+    t1, t500 = get("time", 1), get("time", 500)
     summary = {
-        "what": "ride objectives, both load cases, class B 80 km/h, 10 s + 1 s settle, RK4 100 Hz",
-        "target_ms_per_candidate": TARGET_MS,
-        "batch500_ms_per_candidate_cpu": big["ms_per_candidate_cpu"],
-        "batch500_ms_per_candidate_wall": big["ms_per_candidate_wall"],
-        "speedup_vs_batch1_cpu": base["ms_per_candidate_cpu"] / big["ms_per_candidate_cpu"],
-        "speedup_vs_batch1_wall": base["ms_per_candidate_wall"] / big["ms_per_candidate_wall"],
-        "meets_target_cpu": bool(big["ms_per_candidate_cpu"] <= TARGET_MS),
+        "what": "ride objectives, both load cases, class B 80 km/h; spectral (default) vs "
+        "time (10 s + 1 s settle, RK4 100 Hz, float64)",
+        "target_ms_per_candidate_batch500_cpu": TARGET_MS_BATCH500,
+        "target_ms_per_candidate_batch1_cpu": TARGET_MS_BATCH1,
+        "spectral_batch1_ms_cpu": s1["ms_per_candidate_cpu"],
+        "spectral_batch500_ms_cpu": s500["ms_per_candidate_cpu"],
+        "time_batch1_ms_cpu": t1["ms_per_candidate_cpu"],
+        "time_batch500_ms_cpu": t500["ms_per_candidate_cpu"],
+        "speedup_batch1_cpu": t1["ms_per_candidate_cpu"] / s1["ms_per_candidate_cpu"],
+        "speedup_batch500_cpu": t500["ms_per_candidate_cpu"] / s500["ms_per_candidate_cpu"],
+        "meets_batch1_target_cpu": bool(s1["ms_per_candidate_cpu"] <= TARGET_MS_BATCH1),
+        "meets_batch500_target_cpu": bool(s500["ms_per_candidate_cpu"] <= TARGET_MS_BATCH500),
     }
     command = "python -m suspenv.bench.minibus_ride_speed" + (" --quick" if args.quick else "")
     write_result("minibus_ride_speed", rows, summary, command, args.output_dir)

@@ -10,12 +10,14 @@ the same tracks ``wheelbase`` later (exact periodic delay). Fixed RK4 step at 10
 (wheel hop near 12 Hz is resolved with ~8 steps per cycle; Wk is applied in the
 frequency domain, so no 200+ Hz rate is needed for the weighting filters), 1 s of
 settling discarded, then 10 s recorded. The recorded window is exactly one period of
-the periodic road profile (no FFT leakage). Measured on 40 random designs: from road
-seed to road seed the weighted RMS of a design scatters by about +-6 % (the same road
-for every design of a batch, so this shifts all designs alike), and designs rank like
-in a 60 s run on another road with Spearman 0.96-0.99 front and 0.64-0.99 rear at no
-load (where designs differ least); 20 s gives 0.95-0.99 everywhere at twice the cost.
-Raise ``duration_s`` where a ranking needs that.
+the periodic road profile (no FFT leakage). From road seed to road seed the 10 s
+weighted RMS of a design scatters by 2.4-9.8 % (coefficient of variation over 20 seeds,
+five designs; most at the rear with full load, whose body mode is lightly damped; see
+``docs/benchmarks/ride_noise.json``); the same road serves every design of a batch, and
+designs rank like in a 60 s run on another road with Spearman 0.96-0.99 front and
+0.64-0.99 rear at no load; 20 s gives 0.95-0.99 everywhere at twice the cost. The
+minibus problem's default ride objectives avoid the record altogether (the spectral
+method, :func:`suspenv.metrics.ride.ride_spectral`).
 
 Pulse bump: one triangular bump (400 mm base, 60 mm high by default) across both
 wheel tracks on a smooth road, at constant speed (20 and 50 km/h in the study). The

@@ -1,0 +1,196 @@
+"""Spectral ride method: closed forms, modal vs direct solve, grid convergence, agreement
+with the time-domain model averaged over long road records, and the problem option."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from suspenv.core.errors import ValidationError
+from suspenv.metrics.iso2631 import weighted_rms_fft
+from suspenv.metrics.ride import (
+    _output_matrix,
+    linear_frequency_response,
+    ride_objectives_all,
+    ride_spectral,
+)
+from suspenv.models.minibus import BASELINE_DESIGN, STUDY_PICK, design_space
+from suspenv.models.minibus.ride_model import RideModel
+from suspenv.models.minibus.vehicle import LOAD_CASES, vehicle_parameters
+from suspenv.problems.minibus import MinibusRideHandling
+from suspenv.rigs.ride import RandomRoad, random_road_run
+
+
+def _one_dof(m: float, c: float, k: float, kin: float, cin: float):
+    M, C, K = (np.array([[[x]]]) for x in (m, c, k))
+    return M, C, K, np.array([[[kin]]]), np.array([[[cin]]])
+
+
+def _white_velocity_variance(H: np.ndarray, f: np.ndarray, s0: float) -> float:
+    """Variance of the response to a base velocity of two-sided PSD s0 (per rad/s):
+    integral over f >= 0 of 4 pi s0 |H_v(f)|^2 df, trapezoid on the log grid."""
+    y = 4 * np.pi * s0 * np.abs(H) ** 2
+    return float(np.sum(0.5 * (y[1:] + y[:-1]) * np.diff(f)))
+
+
+@pytest.mark.parametrize("m, c, k", [(300.0, 1500.0, 2.0e4), (40.0, 900.0, 2.2e5)])
+def test_one_dof_white_noise_closed_forms(m, c, k):
+    """Newland, An Introduction to Random Vibrations, Appendix 1 (table of the integrals
+    I_n; James, Nichols & Phillips 1947): for H(w) = (B0 + i w B1)/(A0 + i w A1 - w^2 A2),
+    integral_{-inf}^{inf} |H|^2 dw = pi (A0 B1^2 + A2 B0^2)/(A0 A1 A2).
+
+    Base velocity u' white with two-sided PSD S0:
+    - spring and damper to the base (m x'' = -k(x-u) - c(x'-u')): body velocity per base
+      velocity H = (k + i w c)/(k + i w c - w^2 m), so var(x') = pi S0 (k/c + c/m);
+    - spring to the base, damper to the ground (skyhook): body acceleration per base
+      velocity H = i w k/(k + i w c - w^2 m) (B0 = 0, B1 = k), var(x'') = pi S0 k^2/(c m).
+    """
+    s0 = 0.37
+    f = np.geomspace(1e-5, 1e6, 20001)
+    w = 2 * np.pi * f
+    Co = np.array([[1.0]])
+    # displacement per base displacement; per base velocity divide by i w
+    G = linear_frequency_response(*_one_dof(m, c, k, k, c), Co, f)[0, :, 0, 0]
+    var_v = _white_velocity_variance(G, f, s0)  # (i w G)/(i w)
+    assert var_v == pytest.approx(np.pi * s0 * (k / c + c / m), rel=5e-5)
+    G = linear_frequency_response(*_one_dof(m, c, k, k, 0.0), Co, f)[0, :, 0, 0]
+    var_a = _white_velocity_variance(-(w**2) * G / (1j * w), f, s0)
+    assert var_a == pytest.approx(np.pi * s0 * k**2 / (c * m), rel=5e-5)
+
+
+def test_modal_response_matches_direct_solve():
+    X = np.vstack([STUDY_PICK, design_space().lower, design_space().upper])
+    params = [vehicle_parameters(X, lc) for lc in LOAD_CASES]
+    lin = RideModel(params, linear=True)
+    rng = np.random.default_rng(3)
+    c = lin.d_bl.T * rng.uniform(0.7, 1.5, (lin.n, 4))
+    M, C, K, Kin, Cin = lin.linear_system(c, lin.K[:, 2:4] * 1.1)
+    Co = _output_matrix(lin)
+    f = np.array([0.3, 1.1, 1.7, 4.0, 11.5, 40.0])
+    G = linear_frequency_response(M, C, K, Kin, Cin, Co, f)
+    for j, fj in enumerate(f):
+        w = 2 * np.pi * fj
+        Z = K - w**2 * M + 1j * w * C
+        direct = Co @ np.linalg.solve(Z, Kin + 1j * w * Cin)
+        np.testing.assert_allclose(G[:, j], direct, rtol=1e-8, atol=1e-12 * np.abs(direct).max())
+
+
+def test_linear_system_matches_the_time_domain_rhs():
+    """M^-1 (-K q - C qd + Kin u + Cin ud) equals the model's own right-hand side."""
+    params = [vehicle_parameters(STUDY_PICK[None, :], lc) for lc in LOAD_CASES]
+    lin = RideModel(params, linear=True)
+    M, C, K, Kin, Cin = lin.linear_system()
+    rng = np.random.default_rng(0)
+    q, qd, u, ud = (
+        rng.normal(size=(lin.nq, 2)),
+        rng.normal(size=(lin.nq, 2)),
+        *rng.normal(size=(2, 4)),
+    )
+    out = np.zeros((2 * lin.nq, 2))
+    lin.rhs(np.vstack([q, qd]), lin.road_vector(u[None], ud[None])[0], out)
+    for i in range(2):
+        expect = np.linalg.solve(M[i], -K[i] @ q[:, i] - C[i] @ qd[:, i] + Kin[i] @ u + Cin[i] @ ud)
+        np.testing.assert_allclose(out[lin.nq :, i], expect, rtol=1e-9, atol=1e-9)
+
+
+def test_frequency_grid_and_fixed_point_are_converged():
+    X = np.vstack([STUDY_PICK, BASELINE_DESIGN, design_space().lower, design_space().upper])
+    # the plain linear model: the 400-point grid against a 4800-point one
+    a = ride_spectral(X, equivalent_linear=False)
+    b = ride_spectral(X, n_freq=4800, equivalent_linear=False)
+    for key in ("aw_front", "aw_rear", "rms_front", "rms_rear"):
+        np.testing.assert_allclose(a[key], b[key], rtol=1e-4)
+    # the defaults against the exact fixed point on fine grids
+    a = ride_spectral(X)
+    b = ride_spectral(X, n_freq=4800, n_freq_iter=2000, tol=1e-9, iterations=60)
+    assert int(b["iterations"]) < 60  # converged
+    for key in ("aw_front", "aw_rear", "rms_front", "rms_rear"):
+        np.testing.assert_allclose(a[key], b[key], rtol=1e-3)
+
+
+def test_spectral_equals_linear_time_domain_mean_over_long_records():
+    """The plain linearised model: the spectral value is the expectation of the
+    time-domain mean square (same road band, coherency and delay), so the mean over
+    seeds of 100 s records must agree within the Monte Carlo error (3.5 standard
+    errors, computed from the seeds) plus 0.5 % for RK4 at 100 Hz and the 0.01 Hz line
+    grid."""
+    X = np.vstack([STUDY_PICK, design_space().to_physical(np.random.default_rng(5).random((2, 8)))])
+    seeds = range(5)
+    ms = []
+    for seed in seeds:
+        rec = random_road_run(
+            X, LOAD_CASES, RandomRoad(duration_s=100.0, seed=40 + seed), linear=True
+        )
+        ms.append(
+            np.concatenate(
+                [
+                    weighted_rms_fft(rec.acc_front, 100.0) ** 2,
+                    weighted_rms_fft(rec.acc_rear, 100.0) ** 2,
+                ]
+            )
+        )
+    ms = np.array(ms)
+    mean, se = ms.mean(0), ms.std(0, ddof=1) / np.sqrt(len(ms))
+    sp = ride_spectral(X, equivalent_linear=False)
+    spec = np.concatenate([sp["aw_front"] ** 2, sp["aw_rear"] ** 2])
+    assert np.all(np.abs(spec - mean) <= 3.5 * se + 0.005 * mean), (spec, mean, se)
+
+
+def test_equivalent_linear_rates_and_method_option():
+    X = np.vstack([STUDY_PICK, BASELINE_DESIGN])
+    sp = ride_spectral(X)
+    lin = RideModel([vehicle_parameters(X, lc) for lc in LOAD_CASES], linear=True)
+    # the equivalent damping lies between the digressive high-speed and the low-speed
+    # rebound slopes; the leaf rate between the primary and composite rates
+    nl = RideModel([vehicle_parameters(X, lc) for lc in LOAD_CASES])
+    assert np.all(sp["damper_c"] <= nl.d_rl.T + 1e-9) and np.all(sp["damper_c"] >= nl.d_bh.T)
+    assert np.all(sp["leaf_k"] >= nl.K[:, 2:4] - 1e-9)
+    assert np.all(sp["leaf_k"] <= nl.K[:, 2:4] + nl.leaf_dk.T + 1e-9)
+    assert lin.n == sp["aw_front"].size
+    # no seed, no record length: the spectral objectives ignore both
+    a = ride_objectives_all(X, road=RandomRoad(seed=1, duration_s=3.0), method="spectral")
+    b = ride_objectives_all(X, road=RandomRoad(seed=7, duration_s=30.0), method="spectral")
+    for lc in LOAD_CASES:
+        np.testing.assert_allclose(a[lc]["aw_rear"], b[lc]["aw_rear"], rtol=1e-12)
+        assert a[lc]["ok"].all()
+    with pytest.raises(ValidationError, match="ride method"):
+        ride_objectives_all(X, method="fft")
+
+
+def test_problem_ride_method_option():
+    X = np.vstack([STUDY_PICK, BASELINE_DESIGN])
+    p1 = MinibusRideHandling(ride_method="spectral", road_seed=1)
+    p2 = MinibusRideHandling(ride_method="spectral", road_seed=2, ride_duration_s=4.0)
+    assert p1.config()["ride_method"] == "spectral"
+    m1, m2 = p1.measures(X), p2.measures(X)
+    np.testing.assert_allclose(m1["aw_rear_full_load"], m2["aw_rear_full_load"], rtol=1e-12)
+    with pytest.raises(ValidationError, match="ride_method"):
+        MinibusRideHandling(ride_method="fft")
+
+
+def test_plain_linear_spectral_matches_hand_assembled_reference():
+    """Independent assembly (tests/test_minibus_ride_model.py: hand-written M, C, K in
+    heave/pitch/roll coordinates, direct solve per frequency, 4x4 road cross-spectral
+    matrix, 6000-point linear grid over 0.5-50 Hz) against the modal method."""
+    from test_minibus_ride_model import _frequency_domain_aw
+
+    road = RandomRoad()
+    X = np.vstack([STUDY_PICK, design_space().lower])
+    sp = ride_spectral(X, equivalent_linear=False)
+    for j, load in enumerate(LOAD_CASES):
+        for i in range(2):
+            ref_f, ref_r = _frequency_domain_aw(vehicle_parameters(X[i : i + 1], load), road)
+            assert sp["aw_front"][2 * j + i] == pytest.approx(ref_f, rel=2e-3)
+            assert sp["aw_rear"][2 * j + i] == pytest.approx(ref_r, rel=2e-3)
+
+
+def test_spectral_values_do_not_depend_on_the_batch():
+    """Per-design convergence of the equivalent-linear rates and per-design chunks: a
+    design's numbers are the same alone and inside a larger batch (across chunks)."""
+    X = design_space().to_physical(np.random.default_rng(2).random((40, 8)))
+    both = ride_objectives_all(X, method="spectral")
+    for i in (0, 17, 39):
+        alone = ride_objectives_all(X[i : i + 1], method="spectral")
+        for lc in LOAD_CASES:
+            for key in ("aw_front", "aw_rear", "rms_front", "rms_rear"):
+                assert alone[lc][key][0] == both[lc][key][i]
