@@ -164,21 +164,30 @@ class RunArchive:
 
     def batch(self, batch_index: int) -> dict[int, tuple[np.ndarray, EvaluationBatch]]:
         """``{row: (unit design, one-row EvaluationBatch)}`` archived for one batch."""
-        out = {}
-        meta = self.meta()
-        d = len(meta.get("parameter_names", [])) or None
-        m = len(meta.get("objective_names", [])) or None
-        k = len(meta.get("constraint_names", []))
-        for row, u, f, g, ok, msg in self._read(
+        out: dict[int, tuple[np.ndarray, EvaluationBatch]] = {}
+        rows = self._read(
             "SELECT row, unit, objectives, constraints, ok, message FROM evaluations "
             "WHERE batch = ? ORDER BY row",
             (int(batch_index),),
-        ):
+        )
+        if not rows:  # the usual case while a run goes on: no meta to read
+            return out
+        names = {
+            str(key): json.loads(value)
+            for key, value in self._read(
+                "SELECT key, value FROM meta WHERE key IN "
+                "('parameter_names', 'objective_names', 'constraint_names')"
+            )
+        }
+        d = len(names.get("parameter_names", [])) or None
+        m = len(names.get("objective_names", [])) or None
+        k = len(names.get("constraint_names", []))
+        for row, u, f, g, ok, msg in rows:
             out[int(row)] = (
                 self._values(u, d, "unit"),
                 EvaluationBatch(
                     self._values(f, m, "objectives")[None, :],
-                    self._values(g, k if meta else None, "constraints")[None, :],
+                    self._values(g, k if names else None, "constraints")[None, :],
                     np.array([bool(ok)]),
                     [str(msg)],
                 ),
