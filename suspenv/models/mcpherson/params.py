@@ -192,6 +192,12 @@ class AxleConstants:
         spring_rate: coil spring rate [N/mm].
         tyre_rate: tyre vertical rate [N/mm]; wheel_radius [mm].
         sprung_mass [kg], front_share [-], wheel_mass [kg] (per wheel, hangs on the knuckle).
+        wheelbase [mm], cg_height [mm] (centre of gravity above the ground): anti-dive,
+            anti-lift and Ackermann of the K&C report.
+        front_brake_share [-]: front axle's share of the braking force; front_drive_share
+            [-]: front axle's share of the tractive force (1 for front-wheel drive).
+        rack_travel_per_rev [mm/rev]: rack travel per steering-wheel revolution (the
+            steering gear's c-factor), for the overall steer ratio.
     """
 
     wheel_centre: tuple[float, float, float] = (0.0, -745.0, 20.0)
@@ -207,6 +213,11 @@ class AxleConstants:
     sprung_mass: float = 1175.6
     front_share: float = 0.58
     wheel_mass: float = 27.5
+    wheelbase: float = 2600.0
+    cg_height: float = 550.0
+    front_brake_share: float = 0.7
+    front_drive_share: float = 1.0
+    rack_travel_per_rev: float = 50.0
 
     def __post_init__(self) -> None:
         for name in ("spring_rate", "tyre_rate", "wheel_radius", "sprung_mass"):
