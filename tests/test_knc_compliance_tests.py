@@ -7,7 +7,7 @@ import pytest
 
 from suspenv.core.errors import ValidationError
 from suspenv.models.mcpherson import AxleSolver, axle_effect, build_axle, reference_design
-from suspenv.rigs.knc import FORCE_TESTS, contact_forces, run_tests
+from suspenv.rigs.knc import contact_forces, run_tests
 
 STEPS = 8
 FORCE = 2000.0  # N
@@ -18,9 +18,13 @@ def axle():
     return build_axle(reference_design()[None, :])
 
 
+#: the contact-point force tests (traction, aligning: tests/test_knc_rig_tests.py)
+CONTACT = ("lateral", "longitudinal")
+
+
 @pytest.fixture(scope="module")
 def plain_runs(axle):
-    return run_tests(axle, FORCE_TESTS, steps=STEPS, keep_states=True, force_amplitude=FORCE)
+    return run_tests(axle, CONTACT, steps=STEPS, keep_states=True, force_amplitude=FORCE)
 
 
 def test_every_body_is_in_balance_under_the_contact_forces(axle, plain_runs):
@@ -107,7 +111,7 @@ def test_compliance_slopes_match_the_linearised_compliance_matrix(axle):
     from suspenv.metrics.knc import compliance_matrix
 
     C, labels = compliance_matrix(axle)
-    res = run_tests(axle, FORCE_TESTS, steps=10, force_amplitude=500.0)
+    res = run_tests(axle, CONTACT, steps=10, force_amplitude=500.0)
     for test, load in (("lateral", "Fy"), ("longitudinal", "Fx")):
         j = labels["loads"].index(load)
         slopes = compliance_slopes(res[test])

@@ -161,8 +161,8 @@ def test_vehicle_file_round_trip_and_errors(tmp_path):
     bad.write_text("[design]\nstrut_top_q = 1.0\n")
     with pytest.raises(ValidationError, match="strut_top_q"):
         load_vehicle(bad)
-    bad.write_text("[design]\nstrut_top_z = 9999.0\n")
-    with pytest.raises(ValidationError, match="outside"):
+    bad.write_text("[design]\nlca_front_kx = -1.0\n")
+    with pytest.raises(ValidationError, match=r"`lca_front_kx > 0` must hold"):
         load_vehicle(bad)
 
 

@@ -76,10 +76,10 @@ def channel_dict(results) -> dict:
         res = results[test]
         if not res.ok.all():
             raise SystemExit(f"the {test} test failed: {res.messages}")
-        grid_scale = 1.0 if res.unit == "N" else 1e3
+        grid_scale = 1e3 if res.unit == "m" else 1.0
         entry = {
             "grid": rounded(res.grid[idx] * grid_scale),
-            "grid_unit": "N" if res.unit == "N" else "mm",
+            "grid_unit": "mm" if res.unit == "m" else res.unit,
         }
         for branch in ("down", "up"):
             entry[branch] = {

@@ -1,7 +1,8 @@
 """K&C rig loops as :class:`~suspenv.measurements.Recording` objects, and back.
 
 One recording per rig test (travel: ``parallel``, ``opposite``, ``single``; compliance:
-``lateral``, ``longitudinal``, see :mod:`suspenv.rigs.knc`) of one vehicle.
+``lateral``, ``longitudinal``, ``traction``, ``aligning``; steering: ``steering``; see
+:mod:`suspenv.rigs.knc`) of one vehicle.
 Every solved step of the loop design -> bump -> rebound -> design is one sample;
 the rig is quasi-static, so ``time`` is the step index in seconds (1 s per step, a
 bookkeeping axis only, stated in ``meta["time_axis"]``).
@@ -9,9 +10,12 @@ bookkeeping axis only, stated in ``meta["time_axis"]``).
 Frame ISO 8855 (x forward, y left, z up), SI units:
 
 * inputs: ``pad_left`` / ``pad_right`` [m] pad travel from the static height (bump
-  positive; zero in a compliance test), ``stroke`` [m] the left pad's stroke of a
-  travel test or ``force`` [N] the contact-point force of a compliance test (along
-  +y in ``lateral``, +x in ``longitudinal``, on both wheels), ``branch`` [-]
+  positive; zero in a compliance or steering test), ``stroke`` [m] the left pad's
+  stroke of a travel test or the rack travel of the steering test (along +y), or
+  ``force`` the load of a compliance test, the same on both wheels (:data:`DRIVE_UNIT`:
+  [N] along +y at the contact points in ``lateral``, along +x at the contact points in
+  ``longitudinal`` and at the wheel centres in ``traction``; [N*m] about +z at the
+  contact points in ``aligning``), ``branch`` [-]
   (0 first leg design -> bump, 1 bump -> rebound, 2 rebound -> design; "bump" is the
   +amplitude end also in a compliance test) and ``grid`` [-] (grid index of the step);
 * outputs, per side (suffix ``_left`` / ``_right``): ``toe`` [rad] (+ toe-in),
@@ -20,8 +24,8 @@ Frame ISO 8855 (x forward, y left, z up), SI units:
   symmetric axle gives equal left and right values in parallel travel) and
   ``contact_x`` [m] (contact-point x, forward positive).
 
-``recording.meta`` holds ``rig = "knc"``, the test, amplitude ([m] for a travel test,
-[N] for a compliance test, named in ``meta["amplitude_unit"]``) and steps, which a
+``recording.meta`` holds ``rig = "knc"``, the test, amplitude (in the test's
+:data:`DRIVE_UNIT`, named in ``meta["amplitude_unit"]``) and steps, which a
 model needs to replay the same loop. ``recording.test`` is ``"knc_<test>"``.
 
 This is the recording format only; the "measured" truth vehicles of the diagnosis
@@ -39,9 +43,25 @@ from suspenv.measurements.recording import RecordingLike
 
 #: vertical travel tests (the identification problem's three)
 TESTS = ("parallel", "opposite", "single")
-#: compliance tests: horizontal force at both contact points, pads static
-FORCE_TESTS = ("lateral", "longitudinal")
-ALL_TESTS = TESTS + FORCE_TESTS
+#: compliance tests, pads static: a horizontal force at both contact points (``lateral``
+#: along +y, ``longitudinal`` along +x) or at both wheel centres (``traction``, along +x),
+#: or a moment about +z at both contact points (``aligning``); see :mod:`suspenv.rigs.knc`
+FORCE_TESTS = ("lateral", "longitudinal", "traction", "aligning")
+#: steering test: rack travel along +y (ISO 8855, to the left), pads static
+STEER_TESTS = ("steering",)
+ALL_TESTS = TESTS + FORCE_TESTS + STEER_TESTS
+#: unit of each test's drive (the rig grid, ``KCResult.unit``, a recording's amplitude):
+#: pad stroke [m], force [N], moment [N*m] or rack travel [m]
+DRIVE_UNIT: dict[str, str] = {
+    "parallel": "m",
+    "opposite": "m",
+    "single": "m",
+    "lateral": "N",
+    "longitudinal": "N",
+    "traction": "N",
+    "aligning": "N*m",
+    "steering": "m",
+}
 
 SIDES = ("left", "right")
 #: recorded channels: name -> (rig channel, unit, outboard sign flip on the right)
@@ -89,23 +109,31 @@ def rig_test(rec: RecordingLike) -> str:
 
 
 def is_force_test(rec: RecordingLike) -> bool:
-    """True for a compliance (contact-point force) recording."""
+    """True for a compliance (force or moment, input ``force``) recording."""
     return rig_test(rec) in FORCE_TESTS
 
 
 def drive(rec: RecordingLike, side: str) -> np.ndarray:
     """Each wheel's own excitation along the loop, over the test's amplitude [-].
 
-    Travel test: the pad's travel (bump positive). Compliance test: the contact-point
-    force in the wheel's own sense (outboard positive in ``lateral``, so the two
-    wheels of a +y force see opposite signs; forward positive in ``longitudinal``).
-    A symmetric axle gives equal left and right channels at equal drive.
+    Travel test: the pad's travel (bump positive). Compliance test: the load in the
+    wheel's own sense: outboard positive in ``lateral`` (the two wheels of a +y force
+    see opposite signs); forward positive in ``longitudinal`` and ``traction``; in
+    ``aligning`` positive for a moment that turns that wheel's front outboard (a
+    toe-out moment: +z on the left wheel, -z on the right, so the two wheels of a +z
+    moment see opposite signs). Steering test: the rack travel towards the wheel's
+    own outboard side (+y on the left wheel, -y on the right). A symmetric axle gives
+    equal left and right channels at equal drive.
     """
     amp = float(rec.meta["amplitude"])
+    test = rig_test(rec)
+    if test in STEER_TESTS:
+        s = np.asarray(rec.inputs["stroke"], float) / amp
+        return -s if side == "right" else s
     if not is_force_test(rec):
         return np.asarray(rec.inputs[f"pad_{side}"], float) / amp
     f = np.asarray(rec.inputs["force"], float) / amp
-    return -f if (rig_test(rec) == "lateral" and side == "right") else f
+    return -f if (test in ("lateral", "aligning") and side == "right") else f
 
 
 def reading_drive(rec: RecordingLike, side: str) -> np.ndarray:
@@ -118,15 +146,23 @@ def reading_drive(rec: RecordingLike, side: str) -> np.ndarray:
 
 def mirrored(rec: RecordingLike) -> bool:
     """True when the right wheel's own drive is the left wheel's reversed (opposite
-    travel, lateral force): equal own drive then sits at mirrored grid points."""
+    travel, lateral force, aligning moment, steering): equal own drive then sits at
+    mirrored grid points."""
     return bool(np.allclose(drive(rec, "right"), -drive(rec, "left")) and drive(rec, "left").any())
 
 
 def drive_label(rec: RecordingLike) -> tuple[str, float]:
     """(axis label, factor from SI to the plotted unit) of a recording's drive."""
+    test = rig_test(rec)
+    if test == "aligning":
+        return "own toe-out moment about z at the contact point [N*m]", 1.0
+    if test in STEER_TESTS:
+        return "rack travel towards the wheel's outboard side [mm]", 1e3
     if is_force_test(rec):
-        what = "outboard" if rig_test(rec) == "lateral" else "forward"
-        return f"own {what} contact force [kN]", 1e-3
+        what = {"lateral": "outboard contact", "traction": "forward wheel-centre"}.get(
+            test, "forward contact"
+        )
+        return f"own {what} force [kN]", 1e-3
     if rig_test(rec) == "single":
         return "left pad travel [mm] (the right pad stays)", 1e3
     return "own pad travel [mm]", 1e3

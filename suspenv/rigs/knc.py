@@ -1,6 +1,7 @@
-"""Virtual K&C rig: vertical travel and contact-patch compliance tests of a McPherson axle.
+"""Virtual K&C rig: vertical travel, compliance and steering tests of a McPherson axle.
 
-Frame ISO 8855 (x forward, y left, z up), SI units; body and steering rack held fixed.
+Frame ISO 8855 (x forward, y left, z up), SI units; body held fixed, steering rack held
+fixed except in the steering test.
 The travel tests (:data:`TESTS`, the three of the identification problem) prescribe
 the heights of the two wheel pads relative to the static pad height
 (``AxleSolver.pad_static``):
@@ -11,16 +12,34 @@ the heights of the two wheel pads relative to the static pad height
 * ``single``: left pad ``+s``, right pad held at its static height.
 
 The compliance tests (:data:`FORCE_TESTS`) hold both pads at their static height and
-apply a horizontal force ``F`` [N] at both contact points (the pads carry no
-horizontal force, so the suspension takes it all):
+apply the same load to both wheels (the pads carry no horizontal force or moment, so
+the suspension takes it all):
 
-* ``lateral``: ``+F`` along +y on both wheels (the tyre forces of a left-hand turn:
-  outboard on the left wheel, inboard on the right);
-* ``longitudinal``: ``+F`` along +x on both wheels (traction positive, braking
-  negative).
+* ``lateral``: ``+F`` [N] along +y at both contact points (the tyre forces of a
+  left-hand turn: outboard on the left wheel, inboard on the right);
+* ``longitudinal``: ``+F`` [N] along +x at both contact points: the braking test
+  (its negative half is braking; a brake force acts at the contact patch when the
+  brake calliper is on the knuckle);
+* ``traction``: ``+F`` [N] along +x at both wheel centres: the tractive force of a
+  driven wheel, whose drive torque comes through the drive shaft and so reaches the
+  knuckle as a force at the hub. It differs from ``longitudinal`` by the moment
+  ``F h`` about the spin axis (``h`` the loaded radius), which the brake reacts at the
+  knuckle and the drive shaft does not;
+* ``aligning``: ``+M`` [N*m] about +z at both contact points (both wheels turned to
+  the left: a toe-out moment on the left wheel, toe-in on the right). Each wheel's own
+  sense (:func:`suspenv.measurements.knc.drive`) is toe-out positive: ``+M`` on the
+  left wheel, ``-M`` on the right.
 
-The grid has ``steps + 1`` points from ``-amplitude`` to ``+amplitude`` [m] (or
-``-force_amplitude`` to ``+force_amplitude`` [N]) with the design (static) position
+The steering test (:data:`STEER_TESTS`, ``steering``) holds both pads at their static
+height and moves the rack by ``s`` [m] along +y (ISO 8855, to the left): both tie-rod
+inner points move by ``s`` in y. Which way the wheels steer depends on the geometry:
+with the tie rods behind the wheel centre (a trailing steering arm, as on the reference
+car) rack travel to the left steers both wheels to the right (left wheel toe-in, right
+wheel toe-out); with them ahead of it, to the left.
+
+The grid has ``steps + 1`` points from ``-amplitude`` to ``+amplitude`` in the test's
+unit (:data:`DRIVE_UNIT`: ``amplitude`` [m] pad stroke, ``force_amplitude`` [N],
+``moment_amplitude`` [N*m], ``rack_amplitude`` [m]) with the design (static) position
 on the grid (``steps`` even). Because path-dependent effects
 (hysteresis, friction) make the answer depend on the history, every test runs as a
 loop design -> bump -> rebound -> design and keeps both branches: the *descending*
@@ -50,19 +69,42 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from suspenv.core.errors import ValidationError
-from suspenv.measurements.knc import ALL_TESTS, FORCE_TESTS, TESTS
+from suspenv.measurements.knc import ALL_TESTS, DRIVE_UNIT, FORCE_TESTS, STEER_TESTS, TESTS
 from suspenv.models.effects import Effect
 from suspenv.models.mcpherson.params import Axle
 from suspenv.models.mcpherson.rotation import expm_so3, log_so3
 from suspenv.models.mcpherson.solver import JACOBIAN_BLOCK, NS, AxleSolver, AxleState
 
-# the tests (TESTS: travel, FORCE_TESTS: compliance, ALL_TESTS) are named once, by the
-# recording format of K&C loops
+# the tests (TESTS: travel, FORCE_TESTS: compliance, STEER_TESTS: steering, ALL_TESTS)
+# are named once, by the recording format of K&C loops
 _PAD_SIGN = {"parallel": (1.0, 1.0), "opposite": (1.0, -1.0), "single": (1.0, 0.0)}
-#: compliance test -> (force axis in ISO 8855, sign on the (left, right) wheel)
-_FORCE_AXIS = {"lateral": (1, (1.0, 1.0)), "longitudinal": (0, (1.0, 1.0))}
+#: compliance test -> (column of the wheel load (contact force x y z, moment x y z about
+#: the contact point, wheel-centre force x y z; ISO 8855), sign on the (left, right) wheel)
+_LOAD_AXIS = {
+    "lateral": (1, (1.0, 1.0)),
+    "longitudinal": (0, (1.0, 1.0)),
+    "traction": (6, (1.0, 1.0)),
+    "aligning": (5, (1.0, 1.0)),
+}
 #: default force amplitude of the compliance tests [N]
 FORCE_AMPLITUDE = 2500.0
+#: default moment amplitude of the aligning-moment test [N*m]
+MOMENT_AMPLITUDE = 250.0
+#: default rack travel amplitude of the steering test [m]
+RACK_AMPLITUDE = 0.030
+
+#: the rig's input at one grid point: (pad heights (rows, 2) [m], wheel load
+#: (rows, 2, 6|9) [N, N*m] or None, rack travel (rows, 2) [m] or None)
+Load = tuple[np.ndarray, np.ndarray | None, np.ndarray | None]
+#: step descriptions of failure messages: drive name, scale to the shown unit, shown unit
+_DRIVE_NAME = {
+    "lateral": "contact force",
+    "longitudinal": "contact force",
+    "traction": "wheel-centre force",
+    "aligning": "contact moment",
+    "steering": "rack travel",
+}
+_DRIVE_SHOWN = {"m": (1e3, "mm", 2), "N": (1.0, "N", 0), "N*m": (1.0, "N*m", 1)}
 
 #: a bushing deflection above these is reported as a lock-up [m], [rad]
 MAX_TRANSLATION = 0.05
@@ -75,8 +117,10 @@ class KCResult:
 
     Attributes:
         test: test name.
-        grid: (steps + 1,) grid of the test's input: the left pad's offset [m] for a
-            travel test, the contact-point force [N] for a compliance test.
+        grid: (steps + 1,) grid of the test's input (unit :attr:`unit`): the left pad's
+            offset [m] (travel test), the force [N] (``lateral``, ``longitudinal``,
+            ``traction``), the moment [N*m] (``aligning``) or the rack travel along +y
+            [m] (``steering``).
         path: (P,) grid index of every step of the loop (P = 2 * steps + 1).
         channels: name -> (n, P, 2) values along the loop (SI, ISO 8855; see docs/knc.md).
         ok: (n,) True where every step converged.
@@ -93,8 +137,9 @@ class KCResult:
 
     @property
     def unit(self) -> str:
-        """Unit of :attr:`grid`: ``"N"`` for a compliance test, ``"m"`` otherwise."""
-        return "N" if self.test in FORCE_TESTS else "m"
+        """Unit of :attr:`grid` (:data:`DRIVE_UNIT`): ``"m"`` (travel, steering), ``"N"``
+        (force) or ``"N*m"`` (aligning)."""
+        return DRIVE_UNIT[self.test]
 
     @property
     def static_index(self) -> int:
@@ -120,7 +165,8 @@ class KCResult:
 
 
 def stroke_grid(amplitude: float = 0.040, steps: int = 30) -> np.ndarray:
-    """Grid of pad offsets [m], ``steps + 1`` points, design position in the middle."""
+    """Grid of a test's input (pad offsets [m], force, moment, rack travel),
+    ``steps + 1`` points from ``-amplitude`` to ``+amplitude``, design in the middle."""
     if not amplitude > 0:
         raise ValidationError(f"`amplitude > 0` must hold, but got amplitude={amplitude}")
     if steps < 2 or steps % 2:
@@ -136,7 +182,7 @@ def loop_path(steps: int) -> np.ndarray:
 
 def pad_offsets(test: str, s: np.ndarray) -> np.ndarray:
     """Pad offsets (..., 2) [m] of ``test`` for left-pad stroke ``s`` (zero for a
-    compliance test, whose pads stay at their static height)."""
+    compliance or steering test, whose pads stay at their static height)."""
     _check_tests((test,))
     sign = np.array(_PAD_SIGN.get(test, (0.0, 0.0)))
     return np.asarray(s, dtype=float)[..., None] * sign
@@ -144,14 +190,37 @@ def pad_offsets(test: str, s: np.ndarray) -> np.ndarray:
 
 def contact_forces(test: str, f: np.ndarray | float) -> np.ndarray:
     """Extra load (..., 2, 6) [N, N*m] at both contact points of ``test`` for force
-    ``f`` [N] (zero for a travel test); force then moment, ISO 8855."""
+    ``f`` [N] or moment ``f`` [N*m] (``aligning``); zero for a travel or steering test;
+    force then moment, ISO 8855. ``traction`` loads the wheel centres: see
+    :func:`wheel_loads`."""
+    if test == "traction":
+        raise ValidationError(
+            "contact_forces: the traction test's force acts at the wheel centres, not the "
+            "contact points; use wheel_loads('traction', f) (9 columns)"
+        )
+    return wheel_loads(test, f)[..., :6]
+
+
+def wheel_loads(test: str, f: np.ndarray | float) -> np.ndarray:
+    """Extra load (..., 2, 9) on both wheels of ``test`` for its drive ``f`` ([N] or
+    [N*m], :data:`DRIVE_UNIT`), as the solver takes it (``AxleSolver.residual``'s
+    ``ext``): force [N] and moment [N*m] at the contact point, then a force [N] at the
+    wheel centre; ISO 8855. Zero for a travel or steering test."""
     _check_tests((test,))
     f = np.asarray(f, dtype=float)
-    out = np.zeros(f.shape + (2, 6))
-    if test in _FORCE_AXIS:
-        axis, sign = _FORCE_AXIS[test]
+    out = np.zeros(f.shape + (2, 9))
+    if test in _LOAD_AXIS:
+        axis, sign = _LOAD_AXIS[test]
         out[..., axis] = f[..., None] * np.array(sign)
     return out
+
+
+def rack_travel(test: str, s: np.ndarray | float) -> np.ndarray:
+    """Travel (..., 2) [m] of the (left, right) tie-rod inner points along +y for the
+    steering test's rack travel ``s`` [m] (zero for every other test)."""
+    _check_tests((test,))
+    s = np.asarray(s, dtype=float)
+    return s[..., None] * np.full(2, 1.0 if test in STEER_TESTS else 0.0)
 
 
 def _check_tests(tests: tuple[str, ...]) -> None:
@@ -169,11 +238,15 @@ def run_tests(
     keep_states: bool = False,
     force_amplitude: float = FORCE_AMPLITUDE,
     reuse_revisits: bool = True,
+    moment_amplitude: float = MOMENT_AMPLITUDE,
+    rack_amplitude: float = RACK_AMPLITUDE,
 ) -> dict[str, KCResult]:
     """Run the rig ``tests`` on every design of ``axle``; returns {test: KCResult}.
 
     ``amplitude`` [m] is the pad stroke of the travel tests, ``force_amplitude`` [N]
-    the contact-point force of the compliance tests. ``effects``: the axle's optional
+    the force of ``lateral``, ``longitudinal`` and ``traction``, ``moment_amplitude``
+    [N*m] the moment of ``aligning``, ``rack_amplitude`` [m] the rack travel of
+    ``steering`` (module docstring). ``effects``: the axle's optional
     physics, effects-library elements placed at bushings or the strut
     (:mod:`suspenv.models.mcpherson.effects`). ``reuse_revisits``: for a
     path-independent model (see the module docstring) take a revisited grid point's
@@ -183,9 +256,23 @@ def run_tests(
     _check_tests(tuple(tests))
     if not force_amplitude > 0:
         raise ValidationError(f"`force_amplitude > 0` must hold, but got {force_amplitude} N")
+    if not moment_amplitude > 0:
+        raise ValidationError(
+            f"`moment_amplitude > 0` must hold, but got moment_amplitude={moment_amplitude} N*m"
+        )
+    if not rack_amplitude > 0:
+        raise ValidationError(
+            f"`rack_amplitude > 0` must hold, but got rack_amplitude={rack_amplitude} m"
+        )
     n, nt = axle.n, len(tests)
     grid = stroke_grid(amplitude, steps)
     force_grid = stroke_grid(force_amplitude, steps) if set(tests) & set(FORCE_TESTS) else None
+    # each test's own grid (travel: pad stroke [m]; force [N]; moment [N*m]; rack [m])
+    own_amplitude = {"aligning": moment_amplitude, "steering": rack_amplitude}
+    test_grids = {
+        t: grid if t in TESTS else stroke_grid(own_amplitude.get(t, force_amplitude), steps)
+        for t in tests
+    }
     path = loop_path(steps)
     # static equilibrium once per design, then one row per (test, design)
     base = AxleSolver(axle, effects)
@@ -195,11 +282,21 @@ def run_tests(
     st, J = st0.take(tile), J0[tile]
     del st0, J0  # the per-design copies are no longer needed (memory)
     signs = np.repeat(np.array([_PAD_SIGN.get(t, (0.0, 0.0)) for t in tests]), n, axis=0)
-    # compliance tests: contact-point load per newton of the test's force (nt*n, 2, 6)
+    # every row's own grid (nt*n, steps+1): the drive of its test at each grid point
+    row_grid = np.repeat(np.stack([test_grids[t] for t in tests]), n, axis=0)
+    # compliance tests: wheel load per unit of the test's drive (nt*n, 2, 6), with a
+    # wheel-centre force (nt*n, 2, 9) when the traction test runs
+    cols = 9 if "traction" in tests else 6
     ext_dir = (
         None
         if force_grid is None
-        else np.repeat(np.stack([contact_forces(t, 1.0) for t in tests]), n, axis=0)
+        else np.repeat(np.stack([wheel_loads(t, 1.0)[..., :cols] for t in tests]), n, axis=0)
+    )
+    # steering test: tie-rod inner point travel per metre of rack travel (nt*n, 2)
+    rack_dir = (
+        np.repeat(np.stack([rack_travel(t, 1.0) for t in tests]), n, axis=0)
+        if set(tests) & set(STEER_TESTS)
+        else None
     )
     rows = nt * n
     ok = np.ones(rows, bool)
@@ -227,20 +324,22 @@ def run_tests(
     history: list[AxleState] = []  # converged states of the current leg, newest last
     visited: dict[int, AxleState] = {}  # last converged state at each grid point
     prev_ds = 0.0
-    has_travel = bool(set(tests) & set(TESTS))
 
-    def load_at(gi: int) -> tuple[np.ndarray, np.ndarray | None]:
-        """(pad heights (rows, 2) [m], contact-point load (rows, 2, 6) or None) at grid ``gi``."""
-        if ext_dir is None:
-            return pad0 + signs * grid[gi], None
-        assert force_grid is not None  # invariant: ext_dir is built exactly when force_grid is
-        return pad0 + signs * grid[gi], ext_dir * force_grid[gi]
+    def load_at(gi: int) -> Load:
+        """(pad heights (rows, 2) [m], wheel load (rows, 2, 6|9) or None, rack travel
+        (rows, 2) [m] or None) at grid ``gi``."""
+        drive = row_grid[:, gi]
+        ext = None if ext_dir is None else ext_dir * drive[:, None, None]
+        rack = None if rack_dir is None else rack_dir * drive[:, None]
+        return pad0 + signs * grid[gi], ext, rack
 
     def where(gi: int) -> str:
-        parts = [f"stroke {grid[gi] * 1e3:+.2f} mm"] if has_travel else []
-        if force_grid is not None:
-            parts.append(f"contact force {force_grid[gi]:+.0f} N")
-        return ", ".join(parts)
+        parts = []
+        for t in tests:
+            scale, shown, digits = _DRIVE_SHOWN[DRIVE_UNIT[t]]
+            value = test_grids[t][gi] * scale
+            parts.append(f"{_DRIVE_NAME.get(t, 'stroke')} {value:+.{digits}f} {shown}")
+        return ", ".join(dict.fromkeys(parts))
 
     # a path-independent model: every run of revisited grid points is corrected in one
     # batched residual call (see _revisit_run); `revisits` holds the run's states by step
@@ -302,11 +401,9 @@ def run_tests(
     results = {}
     for j, t in enumerate(tests):
         sl = slice(j * n, (j + 1) * n)
-        test_grid = force_grid if t in FORCE_TESTS else grid
-        assert test_grid is not None  # invariant: force_grid is built when a force test runs
         results[t] = KCResult(
             t,
-            test_grid,
+            test_grids[t],
             path,
             {name: v[sl] for name, v in out.items()},
             ok[sl].copy(),
@@ -335,13 +432,13 @@ def _fail(ok: np.ndarray, msgs: list[str], rows: np.ndarray, msg: str) -> None:
 def _step(solver, st, load_prev, load, ok, msgs, J, k, where, history, seen=None):
     """One rig step: predictor, Newton corrector, sub-stepping retry of failing rows.
 
-    ``load_prev`` / ``load`` are (pad heights (n, 2) [m], contact-point load
-    (n, 2, 6) or None) before and after the step; ``where`` describes the step for
-    messages. Predictor: the state last converged at the same grid point (a revisit;
+    ``load_prev`` / ``load`` are (pad heights (n, 2) [m], wheel load (n, 2, 6|9) or
+    None, rack travel (n, 2) [m] or None) before and after the step; ``where`` describes
+    the step for messages. Predictor: the state last converged at the same grid point (a revisit;
     exact for a path-independent model), else extrapolation along the leg (quadratic
     from three states, linear from two), else the tangent ``-J^-1 dres/dload``.
     """
-    (pad_prev, ext_prev), (pad, ext) = load_prev, load
+    (pad_prev, ext_prev, rack_prev), (pad, ext, rack) = load_prev, load
     if seen is not None:
         pred = st.copy()
         rows = ok[:, None, None, None]
@@ -353,8 +450,8 @@ def _step(solver, st, load_prev, load, ok, msgs, J, k, where, history, seen=None
     elif len(history) == 2:
         pred = _extrapolate(st, history[-2], None, ok)
     else:
-        pred = _predict(solver, st, J, pad - pad_prev, ok, ext_prev, ext)
-    new, conv, J = solver.solve(pred, pad, ext, active=ok, Jinv=J)
+        pred = _predict(solver, st, J, pad - pad_prev, ok, ext_prev, ext, rack_prev, rack)
+    new, conv, J = solver.solve(pred, pad, ext, active=ok, Jinv=J, rack=rack)
     bad = ok & ~conv
     if bad.any():  # retry the failing rows from the last converged state in 4 sub-steps
         idx = np.flatnonzero(bad)
@@ -365,7 +462,8 @@ def _step(solver, st, load_prev, load, ok, msgs, J, k, where, history, seen=None
         for f in (0.25, 0.5, 0.75, 1.0):
             p = pad_prev[idx] + f * (pad[idx] - pad_prev[idx])
             e = None if ext is None else ext_prev[idx] + f * (ext[idx] - ext_prev[idx])
-            trial, c, Jt = sub.solve(trial, p, e, active=sub_ok, Jinv=Jt)
+            q = None if rack is None else rack_prev[idx] + f * (rack[idx] - rack_prev[idx])
+            trial, c, Jt = sub.solve(trial, p, e, active=sub_ok, Jinv=Jt, rack=q)
             sub_ok &= c
         rescued = np.zeros_like(bad)
         rescued[idx[sub_ok]] = True
@@ -388,7 +486,7 @@ def _revisit_run(
     solver: AxleSolver,
     st: AxleState,
     seen: list[AxleState],
-    loads: list[tuple[np.ndarray, np.ndarray | None]],
+    loads: list[Load],
     ok: np.ndarray,
     Jinv: np.ndarray,
     steps: list[int],
@@ -396,7 +494,8 @@ def _revisit_run(
     """States {step: state} of a run of revisited grid points of a path-independent model,
     solved together: one Newton correction ``dx = -J^-1 res`` from the state of each
     point's first visit ``seen`` (the predictor :func:`_step` would use) with loads
-    ``loads`` (pad heights (n, 2) [m], contact-point load (n, 2, 6) [N, N*m] or None).
+    ``loads`` (pad heights (n, 2) [m], wheel load (n, 2, 6|9) [N, N*m] or None, rack
+    travel (n, 2) [m] or None).
 
     This is the arithmetic of solving the points one after the other (that solve also
     starts from ``seen``, with the same ``Jinv``, which a first iteration never
@@ -414,6 +513,8 @@ def _revisit_run(
     pad = np.stack([x[0] for x in loads])
     exts = [x[1] for x in loads]
     ext = None if any(e is None for e in exts) else np.stack(exts)  # type: ignore[arg-type]
+    racks = [x[2] for x in loads]
+    rack = None if any(q is None for q in racks) else np.stack(racks)  # type: ignore[arg-type]
     # residuals in blocks of about JACOBIAN_BLOCK row evaluations (bounded memory)
     per = max(1, JACOBIAN_BLOCK // max(n, 1))
     res = np.empty((P, n, 2 * NS))
@@ -421,7 +522,8 @@ def _revisit_run(
         b = min(a + per, P)
         solver.stats["residuals"] += 1
         e = None if ext is None else ext[a:b]
-        res[a:b] = solver.residual(r[a:b], R[a:b], lam[a:b], pad[a:b], st, e).reshape(
+        q = None if rack is None else rack[a:b]
+        res[a:b] = solver.residual(r[a:b], R[a:b], lam[a:b], pad[a:b], st, e, rack=q).reshape(
             b - a, n, 2 * NS
         )
     dx = -np.matmul(Jinv, res[..., None])[..., 0]
@@ -468,15 +570,18 @@ def _predict(
     ok,
     ext_prev: np.ndarray | None = None,
     ext: np.ndarray | None = None,
+    rack_prev: np.ndarray | None = None,
+    rack: np.ndarray | None = None,
 ):
     """Tangent predictor ``dx = -J^-1 dres`` (only the tyre depends on the pad; the
-    residual is linear in the contact-point load, so its change is exact)."""
+    residual is linear in the wheel load, so its change is exact; the change with the
+    rack travel is the residual's secant at ``st``)."""
     n = solver.n
     dres = (solver.pad_sensitivity(st) * dpad[..., None]).reshape(n, -1, 1)
-    if ext is not None:
+    if ext is not None or rack is not None:
         pad = solver.pad_static
-        change = solver.residual(st.r, st.R, st.lam, pad, st, ext) - solver.residual(
-            st.r, st.R, st.lam, pad, st, ext_prev
+        change = solver.residual(st.r, st.R, st.lam, pad, st, ext, rack=rack) - solver.residual(
+            st.r, st.R, st.lam, pad, st, ext_prev, rack=rack_prev
         )
         dres = dres + change.reshape(n, -1, 1)
     dx = -np.matmul(Jinv, dres)[..., 0]

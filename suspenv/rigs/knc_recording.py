@@ -2,7 +2,8 @@
 
 A rig result (:class:`~suspenv.rigs.knc.KCResult`, one row per design) becomes one
 :class:`~suspenv.measurements.Recording` per test and design: inputs ``pad_left``,
-``pad_right`` [m], ``stroke`` [m] (travel tests) or ``force`` [N] (compliance tests),
+``pad_right`` [m], ``stroke`` [m] (travel tests: the left pad's stroke; steering: the
+rack travel along +y) or ``force`` (compliance tests: [N], or [N*m] in ``aligning``),
 ``branch`` and ``grid`` (loop indices); outputs ``<channel>_<side>`` in SI units, ISO
 8855, lateral channels outboard positive on each side.
 """

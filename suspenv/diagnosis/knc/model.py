@@ -57,7 +57,9 @@ from suspenv.core.space import Parameter
 from suspenv.measurements import Recording
 from suspenv.measurements.knc import (
     CHANNELS,
+    DRIVE_UNIT,
     SIDES,
+    STEER_TESTS,
     output_names,
     rig_test,
 )
@@ -455,6 +457,8 @@ class KncAxleModel:
                     steps=steps,
                     effects=eff,
                     force_amplitude=amplitude,
+                    moment_amplitude=amplitude,
+                    rack_amplitude=amplitude,
                 )
                 self.stats["simulations"] += 1
                 self.stats["rows"] += len(todo)
@@ -486,9 +490,12 @@ class KncAxleModel:
         """Predicted outputs of recording ``rec``: ``(P,)`` per channel, or ``(B, P)``."""
         test = rig_test(rec)
         amp, steps = float(rec.meta["amplitude"]), int(rec.meta["steps"])
-        # travel tests (amplitude in m) and compliance tests (in N) run as two batches
-        kind = test in FORCE_TESTS
-        same_kind = tuple(t for t in self.tests if (t in FORCE_TESTS) == kind)
+        # travel tests (amplitude in m), compliance tests (in N or N*m) and the steering
+        # test (rack travel in m) run as separate batches
+        kind = (test in FORCE_TESTS, test in STEER_TESTS, DRIVE_UNIT[test])
+        same_kind = tuple(
+            t for t in self.tests if (t in FORCE_TESTS, t in STEER_TESTS, DRIVE_UNIT[t]) == kind
+        )
         tests = same_kind if test in same_kind else (test,)
         res = self._run(theta, amp, steps, tests)
         chans = res["channels"][test]

@@ -12,17 +12,25 @@ from six scalar equations with the bushings replaced by ideal joints:
 4-5. the strut top (a spherical top mount) stays on the knuckle's strut line;
 6.   the wheel-centre height equals the prescribed value.
 
-Used as the reference of the "stiff bushings equal pure kinematics" test and to
-size the spring preload (virtual work at the design position).
+Used as the reference of the "stiff bushings equal pure kinematics" tests and to
+size the spring preload (virtual work at the design position). It shares no code with
+the compliant solver (``solver.py``) beyond the input geometry (:class:`Axle`): its
+rotations come from scipy's ``Rotation.from_rotvec``, not from ``rotation.py``.
 """
 
 from __future__ import annotations
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from suspenv.core.errors import ConvergenceError
 from suspenv.models.mcpherson.params import Axle
-from suspenv.models.mcpherson.rotation import expm_so3
+
+
+def _rotation_matrices(w: np.ndarray) -> np.ndarray:
+    """Rotation matrices (..., 3, 3) of rotation vectors ``w`` (..., 3) [rad] (scipy)."""
+    w = np.asarray(w, dtype=float)
+    return Rotation.from_rotvec(w.reshape(-1, 3)).as_matrix().reshape(w.shape[:-1] + (3, 3))
 
 
 def _perp_basis(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -57,7 +65,7 @@ class CornerKinematics:
 
     def _pose(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Knuckle (translation of the wheel centre, rotation matrix) from q (..., 6)."""
-        return self.wc0 + q[..., :3], expm_so3(q[..., 3:])
+        return self.wc0 + q[..., :3], _rotation_matrices(q[..., 3:])
 
     def point(self, q: np.ndarray, p0: np.ndarray) -> np.ndarray:
         """Current position of the knuckle point that was at ``p0`` at design."""

@@ -12,9 +12,18 @@ Frames and units
   mirror image ``(-x, +y, z) / 1000`` (both sides are given in the left-side
   convention, so a mirrored axle is two identical parameter sets).
 * Side index 0 is left, 1 is right; ``SIDE_SIGN = (+1, -1)`` is the sign of y.
-* Bushing frames are parallel to the vehicle axes; a mirror about the x-z plane
-  maps each axis onto itself, so a diagonal stiffness is the same on both sides
-  and in both conventions.
+* Bushing frames are parallel to the vehicle axes unless the vehicle gives an
+  orientation (:func:`bushing_frames`); a mirror about the x-z plane maps each axis
+  onto itself, so a diagonal stiffness is the same on both sides and in both
+  conventions.
+* Bushing orientation (optional, as ADAMS/Car bushings have): Euler angles
+  ``(a, b, c)`` [deg], body-fixed 3-1-3 (z, then the new x, then the new z: ADAMS's
+  default ``ori``), of the bushing frame in the left-side ADAMS/Car frame,
+  ``R = Rz(a) Rx(b) Rz(c)`` (columns: the bushing axes). The stiffness is diagonal in
+  the bushing frame, ``K_vehicle = R K R^T``. The right bushing is the mirror image
+  of the left one: in ISO 8855 each side's frame is ``Q = M R M`` with ``M`` the
+  side's point map (``diag(-1, -1, 1)`` left, ``diag(-1, +1, 1)`` right), a proper
+  rotation on both sides.
 
 Sign conventions of the static alignment parameters: camber negative when the top
 of the wheel leans inboard; toe positive for toe-in. Both apply to each wheel.
@@ -22,6 +31,8 @@ of the wheel leans inboard; toe positive for toe-in. Both apply to each wheel.
 
 from __future__ import annotations
 
+import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, fields, replace
 from typing import Any
 
@@ -89,7 +100,16 @@ PAPER_IDENTIFIED_BUSHINGS = {
 RANGE_MARGIN_MM = 2.0
 #: lower bound of bushing stiffness: the paper's 0 makes the linkage a mechanism
 BUSHING_LOW = 50.0
+#: upper bound of bushing stiffness in the paper's design space (identification bound of
+#: the reference car only; a vehicle file's stiffness is limited by physics, > 0)
 BUSHING_HIGH = 50000.0
+
+#: physical limit of the static alignment: |static_camber| and |static_toe| < 10 deg
+ALIGNMENT_LIMIT_DEG = 10.0
+#: default identification bounds of a vehicle file (see :func:`default_bounds`)
+DEFAULT_POINT_HALF_RANGE_MM = 10.0
+DEFAULT_STIFFNESS_FACTOR = 10.0
+DEFAULT_ALIGNMENT_HALF_RANGE_DEG = 1.0
 
 
 def _widened(lo: float, hi: float, value: float) -> tuple[float, float]:
@@ -169,12 +189,158 @@ def design_parameters() -> tuple[Parameter, ...]:
 
 
 def design_space() -> DesignSpace:
-    """The 49-parameter :class:`DesignSpace` (reference = the paper's identified values)."""
+    """The 49-parameter :class:`DesignSpace` (reference = the paper's identified values).
+
+    The reference car's space with the paper's (widened) bounds; a vehicle file's own
+    space is :meth:`suspenv.models.mcpherson.vehicle_file.VehicleFile.space`.
+    """
     return DesignSpace(design_parameters())
 
 
 PARAMETER_NAMES: tuple[str, ...] = tuple(p.name for p in design_parameters())
 N_PARAMETERS = len(PARAMETER_NAMES)
+#: bushing stiffnesses and the anti-roll bar's torsional stiffness: physics needs > 0
+STIFFNESS_PARAMETERS: tuple[str, ...] = tuple(
+    f"{b}_{c}" for b, comps in BUSHINGS.items() for c in comps
+) + ("arb_torsion",)
+#: static alignment [deg]: physics needs |value| < ALIGNMENT_LIMIT_DEG
+ALIGNMENT_PARAMETERS = ("static_camber", "static_toe")
+
+
+def parameter_kind(name: str) -> str:
+    """``"point"`` (hard-point coordinate, mm), ``"stiffness"`` (> 0) or ``"alignment"`` (deg)."""
+    if name in STIFFNESS_PARAMETERS:
+        return "stiffness"
+    if name in ALIGNMENT_PARAMETERS:
+        return "alignment"
+    if name in PARAMETER_NAMES:
+        return "point"
+    raise ValidationError(f"unknown parameter {name!r}; known are {list(PARAMETER_NAMES)}")
+
+
+def physics_errors(name: str, value: float) -> list[str]:
+    """Physical rules one design value breaks (empty: none), each naming rule and value.
+
+    Every value is finite; stiffnesses (bushing ``k*`` [N/mm], ``r*`` [N*mm/deg],
+    ``arb_torsion`` [N*m/rad]) are > 0; ``static_camber`` and ``static_toe`` [deg]
+    satisfy ``|value| < ALIGNMENT_LIMIT_DEG`` (10 deg). Hard points are limited only by
+    the linkage assembling (:func:`suspenv.models.mcpherson.vehicle_file.check_assembles`).
+    """
+    v = float(value)
+    if not math.isfinite(v):
+        return [f"`{name}` must be finite, but got {name}={v}"]
+    kind = parameter_kind(name)
+    if kind == "stiffness" and not v > 0:
+        return [f"`{name} > 0` must hold (a stiffness), but got {name}={v:g}"]
+    if kind == "alignment" and not abs(v) < ALIGNMENT_LIMIT_DEG:
+        return [
+            f"`|{name}| < {ALIGNMENT_LIMIT_DEG:g} deg` must hold (physical limit), but got "
+            f"{name}={v:g} deg"
+        ]
+    return []
+
+
+def design_physics_errors(x: np.ndarray) -> list[str]:
+    """:func:`physics_errors` of every value of one design vector (49,)."""
+    arr = np.asarray(x, dtype=float).reshape(-1)
+    if arr.size != N_PARAMETERS:
+        raise ValidationError(f"a design must have {N_PARAMETERS} values, but got {arr.size}")
+    return [m for n, v in zip(PARAMETER_NAMES, arr, strict=True) for m in physics_errors(n, v)]
+
+
+def default_bounds(name: str, values: Sequence[float]) -> tuple[float, float, bool]:
+    """Default identification bounds ``(low, high, log)`` of ``name`` around ``values``
+    (the nominal values of both sides, file units).
+
+    Rule: hard points ``[min - 10, max + 10]`` mm, linear; stiffnesses (bushings and
+    ``arb_torsion``) ``[min / 10, max * 10]`` on a log scale (the nominal at the centre
+    of the unit interval); camber and toe ``[min - 1, max + 1]`` deg, linear, kept
+    inside the physical limit (+-10 deg): a bound beyond it is moved to half way
+    between the nominal and the limit.
+    """
+    lo, hi = float(min(values)), float(max(values))
+    kind = parameter_kind(name)
+    if kind == "stiffness":
+        return lo / DEFAULT_STIFFNESS_FACTOR, hi * DEFAULT_STIFFNESS_FACTOR, True
+    if kind == "alignment":
+        lim = ALIGNMENT_LIMIT_DEG
+        return (
+            max(lo - DEFAULT_ALIGNMENT_HALF_RANGE_DEG, 0.5 * (lo - lim)),
+            min(hi + DEFAULT_ALIGNMENT_HALF_RANGE_DEG, 0.5 * (hi + lim)),
+            False,
+        )
+    return lo - DEFAULT_POINT_HALF_RANGE_MM, hi + DEFAULT_POINT_HALF_RANGE_MM, False
+
+
+def bounds_errors(name: str, low: float, high: float, log: bool = False) -> list[str]:
+    """Rules the bounds of ``name`` break: finite, ``low < high``, inside physics
+    (stiffness ``low > 0``; alignment ``-10 < low``, ``high < 10`` deg); ``log`` needs
+    ``low > 0``."""
+    lo, hi = float(low), float(high)
+    where = f"bounds of `{name}`"
+    if not (math.isfinite(lo) and math.isfinite(hi)):
+        return [f"{where} must be finite, but got [{lo}, {hi}]"]
+    if not lo < hi:
+        return [f"{where}: `low < high` must hold, but got [{lo:g}, {hi:g}]"]
+    kind = parameter_kind(name)
+    if kind == "stiffness" and not lo > 0:
+        return [f"{where}: `low > 0` must hold (a stiffness), but got low={lo:g}"]
+    if kind == "alignment" and not (lo > -ALIGNMENT_LIMIT_DEG and hi < ALIGNMENT_LIMIT_DEG):
+        return [
+            f"{where}: `-{ALIGNMENT_LIMIT_DEG:g} < low` and `high < {ALIGNMENT_LIMIT_DEG:g}` "
+            f"deg must hold (physical limit), but got [{lo:g}, {hi:g}]"
+        ]
+    if log and not lo > 0:
+        return [f"{where}: a log scale needs `low > 0`, but got low={lo:g}"]
+    return []
+
+
+def euler_313(angles_deg: Sequence[float] | np.ndarray) -> np.ndarray:
+    """Rotation matrix ``Rz(a) Rx(b) Rz(c)`` (3, 3) of body-fixed 3-1-3 Euler angles [deg]
+    (ADAMS's default orientation convention); its columns are the rotated frame's axes."""
+    a, b, c = (math.radians(float(t)) for t in angles_deg)
+
+    def rz(t: float) -> np.ndarray:
+        return np.array(
+            [[math.cos(t), -math.sin(t), 0.0], [math.sin(t), math.cos(t), 0.0], [0.0, 0.0, 1.0]]
+        )
+
+    def rx(t: float) -> np.ndarray:
+        return np.array(
+            [[1.0, 0.0, 0.0], [0.0, math.cos(t), -math.sin(t)], [0.0, math.sin(t), math.cos(t)]]
+        )
+
+    return rz(a) @ rx(b) @ rz(c)
+
+
+def bushing_frames(orientation: Mapping[str, Sequence[float]]) -> dict[str, np.ndarray]:
+    """ISO 8855 bushing frames (2, 3, 3) per side of the oriented bushings.
+
+    ``orientation``: bushing name -> ADAMS 3-1-3 Euler angles [deg] of the left bushing's
+    frame in the left-side ADAMS/Car frame (module docstring). Side ``s`` gets
+    ``M_s R M_s``, ``M_s = diag(-1, -SIDE_SIGN[s], 1)``: the right bushing mirrors the
+    left one. Unknown bushings and non-finite angles are refused.
+    """
+    out = {}
+    for name, angles in orientation.items():
+        if name not in BUSHINGS:
+            raise ValidationError(
+                f"bushing orientation: unknown bushing {name!r}; known are {list(BUSHINGS)}"
+            )
+        a = np.asarray(angles, dtype=float)
+        if a.shape != (3,) or not np.isfinite(a).all():
+            raise ValidationError(
+                f"bushing orientation of {name!r} must be three finite Euler angles [deg], "
+                f"but got {list(np.atleast_1d(a))}"
+            )
+        R = euler_313(a)
+        out[name] = np.stack(
+            [
+                np.diag([-1.0, -SIDE_SIGN[s], 1.0]) @ R @ np.diag([-1.0, -SIDE_SIGN[s], 1.0])
+                for s in (0, 1)
+            ]
+        )
+    return out
 
 
 @dataclass(frozen=True)
@@ -220,19 +386,67 @@ class AxleConstants:
     rack_travel_per_rev: float = 50.0
 
     def __post_init__(self) -> None:
-        for name in ("spring_rate", "tyre_rate", "wheel_radius", "sprung_mass"):
+        """Validate every constant; an error names the rule and the value.
+
+        Rules: points (``wheel_centre``, ``arb_bush``, ``spring_lower_seat_offset``,
+        ``drop_link_offset``) are three finite numbers [mm]; ``spring_rate``,
+        ``tyre_rate``, ``wheel_radius``, ``sprung_mass``, ``wheel_mass``, ``wheelbase``,
+        ``cg_height``, ``rack_travel_per_rev`` and ``drop_link_d`` are finite and > 0;
+        the seats are ordered along the strut line, ``0 <= spring_upper_seat_d <
+        spring_lower_seat_d``; ``0 < front_share < 1``; ``front_brake_share`` and
+        ``front_drive_share`` lie in [0, 1].
+        """
+        for name in ("wheel_centre", "arb_bush", "spring_lower_seat_offset", "drop_link_offset"):
             v = getattr(self, name)
-            if not v > 0:
-                raise ValidationError(f"AxleConstants: `{name} > 0` must hold, but got {v}")
+            try:
+                arr = np.asarray(v, dtype=float)
+            except (TypeError, ValueError):
+                arr = np.array([np.nan])
+            if arr.shape != (3,) or not np.isfinite(arr).all():
+                raise ValidationError(
+                    f"AxleConstants: `{name}` must be a point of three finite numbers [mm], "
+                    f"but got {name}={v!r}"
+                )
+        for name in (
+            "spring_rate",
+            "tyre_rate",
+            "wheel_radius",
+            "sprung_mass",
+            "wheel_mass",
+            "wheelbase",
+            "cg_height",
+            "rack_travel_per_rev",
+            "drop_link_d",
+        ):
+            v = getattr(self, name)
+            if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
+                raise ValidationError(
+                    f"AxleConstants: `{name} > 0` must hold (finite), but got {name}={v!r}"
+                )
+        up, low = self.spring_upper_seat_d, self.spring_lower_seat_d
+        if not (
+            isinstance(up, int | float)
+            and isinstance(low, int | float)
+            and math.isfinite(up)
+            and math.isfinite(low)
+            and 0 <= up < low
+        ):
+            raise ValidationError(
+                "AxleConstants: `0 <= spring_upper_seat_d < spring_lower_seat_d` must hold "
+                f"(seats ordered along the strut line from its top, mm), but got "
+                f"spring_upper_seat_d={up!r}, spring_lower_seat_d={low!r}"
+            )
         if not 0 < self.front_share < 1:
             raise ValidationError(
-                f"AxleConstants: `0 < front_share < 1` must hold, but got {self.front_share}"
+                f"AxleConstants: `0 < front_share < 1` must hold, but got "
+                f"front_share={self.front_share!r}"
             )
-        if not self.spring_upper_seat_d < self.spring_lower_seat_d:
-            raise ValidationError(
-                "AxleConstants: `spring_upper_seat_d < spring_lower_seat_d` must hold, but got "
-                f"({self.spring_upper_seat_d}, {self.spring_lower_seat_d})"
-            )
+        for name in ("front_brake_share", "front_drive_share"):
+            v = getattr(self, name)
+            if not 0 <= v <= 1:
+                raise ValidationError(
+                    f"AxleConstants: `0 <= {name} <= 1` must hold, but got {name}={v!r}"
+                )
 
     @property
     def corner_sprung_load(self) -> float:
@@ -280,6 +494,10 @@ class Axle:
         camber0, toe0: (n, 2) static alignment [rad] (camber <0 top in, toe >0 toe-in).
         spring_rate, tyre_rate, wheel_radius, wheel_weight, corner_load: (n, 2) SI.
         spring_free_length: (n, 2) [m]; set by :func:`suspenv.models.mcpherson.preload`.
+        frames: bushing -> (n, 2, 3, 3) ISO 8855 rotation of the bushing frame (columns:
+            the bushing axes) for the bushings with an orientation; a bushing not listed
+            has its frame parallel to the vehicle axes (``bush`` is then in vehicle axes,
+            otherwise in the bushing frame).
     """
 
     points: dict[str, np.ndarray]
@@ -294,6 +512,7 @@ class Axle:
     corner_load: np.ndarray
     spring_free_length: np.ndarray | None = None
     constants: AxleConstants = field(default_factory=AxleConstants)
+    frames: dict[str, np.ndarray] = field(default_factory=dict)
 
     @property
     def n(self) -> int:
@@ -315,6 +534,7 @@ class Axle:
             self.corner_load[idx],
             None if self.spring_free_length is None else self.spring_free_length[idx],
             self.constants,
+            {k: v[idx] for k, v in self.frames.items()},
         )
 
 
@@ -331,12 +551,14 @@ def build_axle(
     left: np.ndarray,
     right: np.ndarray | None = None,
     constants: AxleConstants | None = None,
+    orientation: Mapping[str, Sequence[float]] | None = None,
 ) -> Axle:
     """Build an :class:`Axle` from design vectors (n, 49) in the spec's units.
 
     ``right`` defaults to ``left`` (a mirrored axle). Both are given in the left-side
     ADAMS/Car convention; the right side is mirrored here. ``arb_torsion`` (one bar)
-    is taken from ``left``.
+    is taken from ``left``. ``orientation``: bushing -> ADAMS 3-1-3 Euler angles [deg]
+    of its frame (module docstring; none: frames parallel to the vehicle axes).
     """
     c = constants or AxleConstants()
     XL = np.atleast_2d(np.asarray(left, dtype=float))
@@ -401,6 +623,10 @@ def build_axle(
         wheel_weight=ones * c.wheel_mass * 9.81,
         corner_load=ones * c.corner_sprung_load,
         constants=c,
+        frames={
+            k: np.broadcast_to(v, (n, 2, 3, 3)).copy()
+            for k, v in bushing_frames(orientation or {}).items()
+        },
     )
 
 

@@ -1,7 +1,8 @@
 """Quasi-static equilibrium of a compliant McPherson front axle, vectorised over designs.
 
-Frame ISO 8855 (x forward, y left, z up), SI units (m, N, N*m, rad). Body fixed,
-steering rack fixed. Side index 0 = left (y > 0), 1 = right.
+Frame ISO 8855 (x forward, y left, z up), SI units (m, N, N*m, rad). Body fixed;
+steering rack fixed unless a rack travel is given (``rack``: both tie-rod inner points
+move by it along +y). Side index 0 = left (y > 0), 1 = right.
 
 Model (per side, four rigid bodies, each with 6 coordinates)
 -----------------------------------------------------------
@@ -26,7 +27,11 @@ sums of the four bodies and the nine constraint violations. A constraint multipl
 ``lam`` applies the generalised force ``lam * dc/dq``.
 
 Bushing deflection: translation of the bushing point from its design position and
-the rotation vector of the body's rotation; forces and moments in vehicle axes.
+the rotation vector of the body's rotation; forces and moments in vehicle axes. A
+bushing with an orientation (``Axle.frames``, ADAMS 3-1-3 angles of the vehicle file)
+has its diagonal stiffness in its own frame Q: the deflection is rotated into that
+frame (``Q^T x``), the load back (``Q f``), i.e. ``K_vehicle = Q K Q^T`` (bushings
+without an orientation skip both rotations).
 
 Optional physics: a sequence of effects-library :class:`~suspenv.models.effects.Effect`
 objects placed at bushings or the strut (:mod:`suspenv.models.mcpherson.effects`),
@@ -47,8 +52,12 @@ Rows that do not converge in ``maxit`` iterations are reported per row
 Output sign conventions (:meth:`AxleSolver.outputs`): toe positive = toe-in; camber
 negative = top of the wheel inboard; caster positive = steering axis (lower ball
 joint to top-mount centre) leaning rearward at the top; kingpin inclination positive
-= axis top inboard; scrub radius positive when the axis meets the pad plane outboard
-of the contact point; trail positive when it meets it ahead of the contact point;
+= axis top inboard; scrub radius (SAE sign) positive when the axis meets the pad plane
+inboard of the loaded contact point (where the wheel plane's downward radius meets the
+pad plane), along the vehicle's y axis; trail positive when it meets it ahead of the
+loaded contact point, along x; knuckle pitch = rotation of the wheel carrier about +y
+from its design attitude (front down positive); strut length = top mount centre to the
+strut axis point on the knuckle;
 tyre force positive in compression (the tyre is a linear two-way spring, as in the
 paper); spring force positive in compression.
 """
@@ -78,6 +87,7 @@ BODIES = ("lower_arm", "knuckle", "strut_rod", "arb_half")
 NQ, NL = 24, 9
 NS = NQ + NL  # unknowns per side
 EZ = np.array([0.0, 0.0, 1.0])
+EY = np.array([0.0, 1.0, 0.0])
 #: the bar's stiffness at its middle against shear [N/m] and bending [N*m/rad]
 ARB_SHEAR_STIFFNESS = 1e8
 ARB_BENDING_STIFFNESS = 1e6
@@ -337,6 +347,10 @@ class AxleSolver:
         )
         self._K4 = np.stack([self.K[b] for b in BUSH_ORDER], axis=2)  # (n, 2, 4, 6)
         self._ground4 = np.stack([self.ground[b] for b in BUSH_ORDER], axis=2)
+        # bushing frames (n, 2, 4, 3, 3) when a bushing has an orientation, else None
+        frames = axle.frames
+        eye = np.broadcast_to(np.eye(3), axle.camber0.shape + (3, 3))
+        self._Q = np.stack([frames.get(b, eye) for b in BUSH_ORDER], axis=2) if frames else None
         self.stats = {"solves": 0, "residuals": 0, "jacobians": 0}
 
     @property
@@ -442,9 +456,38 @@ class AxleSolver:
         return dahl_step(x_prev, x, np.broadcast_to(sigma, x.shape), fc, z_prev, eps)
 
     def deflections(self, r: np.ndarray, R: np.ndarray) -> dict[str, np.ndarray]:
-        """Bushing deflections (..., 2, 6): translation [m] and rotation vector [rad]."""
+        """Bushing deflections (..., 2, 6): translation [m] and rotation vector [rad], in
+        each bushing's frame (vehicle axes for a bushing without an orientation)."""
         x = self._deflections(r, R, rotate(R[..., [0, 0], :, :], self._vec[..., 0:2, :]))
+        x = self._to_bush(x)
         return {name: x[..., j, :] for j, name in enumerate(BUSH_ORDER)}
+
+    def _to_bush(self, x: np.ndarray) -> np.ndarray:
+        """Stacked deflections (..., 2, 4, 6) from vehicle axes into the bushing frames
+        (``Q^T`` on translation and rotation vector; identity without orientations)."""
+        if self._Q is None:
+            return x
+        Qt = np.swapaxes(self._Q, -1, -2)
+        return np.concatenate([rotate(Qt, x[..., :3]), rotate(Qt, x[..., 3:])], axis=-1)
+
+    def _to_vehicle(self, f: np.ndarray) -> np.ndarray:
+        """Stacked loads (..., 2, 4, 6) from the bushing frames into vehicle axes (``Q``)."""
+        if self._Q is None:
+            return f
+        return np.concatenate([rotate(self._Q, f[..., :3]), rotate(self._Q, f[..., 3:])], axis=-1)
+
+    def bushing_loads(self, x: np.ndarray, hist: dict | None = None) -> np.ndarray:
+        """Generalised loads (..., 2, 4, 6) [N, N*m] that the bushings (BUSH_ORDER) exert
+        *against* the vehicle-axes deflections ``x`` (..., 2, 4, 6) [m, rad], in vehicle
+        axes: linear stiffness and the placed effects in each bushing's frame; ``hist``:
+        the Dahl elements' history (bushing -> (deflection, force), bushing frame)."""
+        hist = {} if hist is None else hist
+        xb = self._to_bush(x)
+        f = self._K4 * xb
+        for j, name in enumerate(BUSH_ORDER):
+            if name in hist or name in self._placed.cubic:
+                f[..., j, :] = self._bush_load(name, xb[..., j, :], hist)
+        return self._to_vehicle(f)
 
     def _deflections(self, r: np.ndarray, R: np.ndarray, arms_lca: np.ndarray) -> np.ndarray:
         """Stacked bushing deflections (..., 2, 4, 6) in BUSH_ORDER."""
@@ -462,12 +505,15 @@ class AxleSolver:
         state: AxleState,
         ext: np.ndarray | None = None,
         record: list | None = None,
+        rack: np.ndarray | None = None,
     ) -> np.ndarray:
         """Residual (..., 2, 33) of trial coordinates; leading axes broadcast against (n, 2).
 
         ``pad`` (n, 2) pad heights [m]; ``ext`` (n, 2, 6) extra force [N] and moment
-        [N*m] on the wheel at the contact point. ``record`` (a list) receives every element load
-        as ``(body, point, force, moment)`` for balance checks.
+        [N*m] on the wheel at the contact point, or (n, 2, 9) with a further force [N]
+        (columns 6-8) at the wheel centre. ``record`` (a list) receives every element load
+        as ``(body, point, force, moment)`` for balance checks. ``rack`` (n, 2) [m]: travel
+        of the tie-rod inner points along +y from their design position (None: zero).
         """
         lead = r.shape[:-2]
         V = rotate(R[..., VEC_BODY, :, :], self._vec)  # (..., 16, 3) rotated vectors
@@ -477,11 +523,7 @@ class AxleSolver:
         M = np.zeros(lead + (4, 3))
 
         # bushings (to the fixed body): slots 0-3
-        x = self._deflections(r, R, V[..., 0:2, :])
-        f = self._K4 * x
-        for j, name in enumerate(BUSH_ORDER):
-            if name in state.hyst or name in self._placed.cubic:
-                f[..., j, :] = self._bush_load(name, x[..., j, :], state.hyst)
+        f = self.bushing_loads(self._deflections(r, R, V[..., 0:2, :]), state.hyst)
         arms[..., 0:2, :] = V[..., 0:2, :]
         forces[..., 0:4, :] = -f[..., :3]
         M -= np.matmul(BUSH_SUM, f[..., 3:])
@@ -491,8 +533,9 @@ class AxleSolver:
         arms[..., 4, :], forces[..., 4, :] = V[..., 2, :], lb
         arms[..., 5, :], forces[..., 5, :] = V[..., 3, :], -lb
 
-        # tie rod (rack point fixed): slot 6
-        d = r1 + V[..., 4, :] - self.tri
+        # tie rod from the rack point (moved by the rack travel along +y): slot 6
+        tri = self.tri if rack is None else self.tri + rack[..., None] * EY
+        d = r1 + V[..., 4, :] - tri
         arms[..., 6, :] = V[..., 4, :]
         forces[..., 6, :] = (lam[..., 7] / self.L_tie)[..., None] * d
         c_tie = (dot(d, d) - self.L_tie**2) / (2 * self.L_tie)
@@ -541,7 +584,10 @@ class AxleSolver:
         forces[..., 16, 2] = -self.wheel_weight
         if ext is not None:
             arms[..., 17, :], forces[..., 17, :] = cp_arm, ext[..., :3]
-            M[..., 1, :] += ext[..., 3:]
+            M[..., 1, :] += ext[..., 3:6]
+            if ext.shape[-1] == 9:  # a force at the wheel centre: at the contact point
+                forces[..., 17, :] += ext[..., 6:9]  # plus the moment (wc - cp) x f
+                M[..., 1, :] -= cross(cp_arm, ext[..., 6:9])
 
         # anti-roll bar: the halves meet at the bar's middle (slot 18); stiff in shear and
         # bending, the bar's torsional stiffness about the vehicle y axis
@@ -571,14 +617,21 @@ class AxleSolver:
 
     # ---------------------------------------------------------------- Jacobian
     def body_loads(
-        self, st: AxleState, pad: np.ndarray, ext: np.ndarray | None = None, history=None
+        self,
+        st: AxleState,
+        pad: np.ndarray,
+        ext: np.ndarray | None = None,
+        history=None,
+        rack: np.ndarray | None = None,
     ) -> tuple[np.ndarray, np.ndarray]:
         """Net force [N] and moment about the global origin [N*m] on every body,
         (n, 2, 4, 3) each, summed from the element loads :meth:`residual` records at
         state ``st`` (``history``: the state whose path-dependent element history to
-        use, default ``st``). Zero at an equilibrium: for balance checks."""
+        use, default ``st``; ``rack``: as in :meth:`residual`). Zero at an equilibrium:
+        for balance checks."""
         loads: list = []
-        self.residual(st.r, st.R, st.lam, pad, st if history is None else history, ext, loads)
+        hist = st if history is None else history
+        self.residual(st.r, st.R, st.lam, pad, hist, ext, loads, rack)
         F = np.zeros(st.r.shape[:-2] + (4, 3))
         M = np.zeros_like(F)
         for body, p, f, m in loads:
@@ -588,7 +641,12 @@ class AxleSolver:
         return F, M
 
     def jacobian(
-        self, st: AxleState, pad: np.ndarray, ext: np.ndarray | None = None, h: float = 1e-7
+        self,
+        st: AxleState,
+        pad: np.ndarray,
+        ext: np.ndarray | None = None,
+        h: float = 1e-7,
+        rack: np.ndarray | None = None,
     ) -> np.ndarray:
         """Jacobian (n, 66, 66) of the full residual with respect to (x_left, x_right).
 
@@ -604,7 +662,7 @@ class AxleSolver:
         cols += [(18 + k, s) for s in (0, 1) for k in range(6)]
         hl = 1.0
         exp_h = expm_so3(h * np.eye(3))  # rotations by h about x, y, z
-        base = self.residual(st.r, st.R, st.lam, pad, st, ext)  # (n, 2, 33)
+        base = self.residual(st.r, st.R, st.lam, pad, st, ext, rack=rack)  # (n, 2, 33)
         J = np.zeros((n, 2 * NS, 2 * NS))
         # perturbed residuals in blocks of about JACOBIAN_BLOCK row evaluations (memory)
         per = max(1, JACOBIAN_BLOCK // max(n, 1))
@@ -624,7 +682,7 @@ class AxleSolver:
                     r[p, :, sd, b, k] += h
                 else:
                     R[p, :, sd, b] = np.matmul(exp_h[k - 3], st.R[:, sd, b])
-            d = self.residual(r, R, lam, pad, st, ext) - base  # (P, n, 2, 33)
+            d = self.residual(r, R, lam, pad, st, ext, rack=rack) - base  # (P, n, 2, 33)
             for p, (j, side) in enumerate(block):
                 step = hl if j >= NQ else h
                 if side is None:
@@ -664,8 +722,10 @@ class AxleSolver:
         ext: np.ndarray | None = None,
         active: np.ndarray | None = None,
         Jinv: np.ndarray | None = None,
+        rack: np.ndarray | None = None,
     ) -> tuple[AxleState, np.ndarray, np.ndarray]:
-        """Newton iteration from ``st`` for pad heights ``pad`` (n, 2).
+        """Newton iteration from ``st`` for pad heights ``pad`` (n, 2), extra wheel load
+        ``ext`` and rack travel ``rack`` (n, 2) [m] (see :meth:`residual`).
 
         ``Jinv`` is an inverse Jacobian to start with (e.g. from the previous step); a
         row's Jacobian is refreshed when its Newton step shrinks by less than half, and
@@ -683,11 +743,11 @@ class AxleSolver:
         alpha = np.ones(n)  # step length (damped when fresh Newton steps stop shrinking)
         small_before = np.zeros(n, bool)
         if Jinv is None:
-            Jinv = self.inverse_jacobian(st, pad, ext, active)
+            Jinv = self.inverse_jacobian(st, pad, ext, active, rack)
             fresh[:] = True
         for _ in range(self.maxit):
             self.stats["residuals"] += 1
-            res = self.residual(st.r, st.R, st.lam, pad, st, ext).reshape(n, 2 * NS)
+            res = self.residual(st.r, st.R, st.lam, pad, st, ext, rack=rack).reshape(n, 2 * NS)
             dx = -np.matmul(Jinv, res[..., None])[..., 0]
             size = self._step_size(dx)
             ok = np.isfinite(size)
@@ -698,7 +758,10 @@ class AxleSolver:
             refresh = slow & ~fresh
             if refresh.any():  # refresh these rows' Jacobians (in place), recompute steps
                 Jinv[refresh] = self.take(refresh).inverse_jacobian(
-                    st.take(refresh), pad[refresh], None if ext is None else ext[refresh]
+                    st.take(refresh),
+                    pad[refresh],
+                    None if ext is None else ext[refresh],
+                    rack=None if rack is None else rack[refresh],
                 )
                 dx[refresh] = -np.matmul(Jinv[refresh], res[refresh][..., None])[..., 0]
                 size = np.where(refresh, self._step_size(dx), size)
@@ -718,10 +781,10 @@ class AxleSolver:
         self.stats["solves"] += 1
         return st, conv & active, Jinv
 
-    def inverse_jacobian(self, st, pad, ext=None, active=None) -> np.ndarray:
+    def inverse_jacobian(self, st, pad, ext=None, active=None, rack=None) -> np.ndarray:
         """Inverse (n, 66, 66) of :meth:`jacobian`; singular rows (lock-up) become NaN."""
         self.stats["jacobians"] += 1
-        J = self.jacobian(st, pad, ext)
+        J = self.jacobian(st, pad, ext, rack=rack)
         if active is not None:
             J[~active] = np.eye(2 * NS)
         bad = ~np.isfinite(J).all(axis=(1, 2))
@@ -781,12 +844,19 @@ class AxleSolver:
         k /= np.linalg.norm(k, axis=-1, keepdims=True)
         caster = np.arctan2(-k[..., 0], k[..., 2])
         kpi = np.arctan2(-sg * k[..., 1], k[..., 2])
-        # steering axis meets the pad plane
+        # steering axis meets the pad plane at g; the loaded contact point cpl is where the
+        # wheel plane's downward radius meets the pad plane; scrub radius (SAE sign:
+        # positive when g lies inboard of cpl) and trail (positive when g lies ahead of
+        # cpl) along the vehicle's y and x axes, as ADAMS/Car's suspension outputs
         t = (pad - pB[..., 2]) / k[..., 2]
         g = pB + t[..., None] * k
-        lat = sg[:, None] * cross(EZ, h)  # horizontal, outboard
-        scrub = dot(g - cp, lat) * 1.0
-        trail = dot(g - cp, h)
+        down = _down(s)
+        cpl = wc + ((pad - wc[..., 2]) / down[..., 2])[..., None] * down
+        scrub = sg * (cpl[..., 1] - g[..., 1])
+        trail = g[..., 0] - cpl[..., 0]
+        # wheel-carrier pitch: rotation about +y of the knuckle from its design attitude
+        pitch = log_so3(R1)[..., 1]
+        strut = np.linalg.norm(top - wc - rotate(R1, self.kn_pts[:, :, 4]), axis=-1)
         pL = wc + rotate(R1, self.kn_pts[:, :, 3])
         pU = top + rotate(st.R[..., 2, :, :], self.s_upper_seat)
         L = np.linalg.norm(pL - pU, axis=-1)
@@ -811,6 +881,8 @@ class AxleSolver:
             "spring_length": L,
             "spring_force": self.ks * (self.L_free - L),
             "arb_twist": np.stack([rho, rho], axis=-1),
+            "knuckle_pitch": pitch,
+            "strut_length": strut,
         }
         return {k: np.array(v, dtype=float) for k, v in out.items()}
 

@@ -1,4 +1,4 @@
-"""McPherson vehicle files (TOML): read and write.
+"""McPherson vehicle files (TOML): read, validate and write.
 
 Units and frame of the file are those of the source paper (ADAMS/Car convention:
 millimetres, x rearward, y to the right, z up; hard points of the *left* side, so y
@@ -18,6 +18,13 @@ is negative). Format::
     [design_right]              # optional: right-side values that differ, given in the
     tie_rod_outer_y = -643.7    # same left-side convention (mirrored by the model)
 
+    [bounds]                    # optional: identification bounds [low, high] (file units),
+    strut_top_z = [550.0, 580.0]        # linear; a third element "log" maps the
+    top_mount_kx = [500.0, 50000.0, "log"]  # unit interval logarithmically
+
+    [orientation]               # optional: bushing frame, ADAMS 3-1-3 Euler angles [deg]
+    lca_front = [0.0, 0.0, 0.0]
+
     [constants]                 # optional: AxleConstants fields (wheel_centre, ...)
     spring_rate = 25.0
 
@@ -27,43 +34,115 @@ is negative). Format::
     f_c = 80.0                  # the element's parameters (SI units)
 
 Missing design entries take the reference vehicle's values; unknown names are errors.
+Design values are limited by physics only (:func:`~suspenv.models.mcpherson.params.
+physics_errors`: finite, stiffnesses > 0, |camber|, |toe| < 10 deg; a linkage that
+assembles: :func:`check_assembles`). A parameter without a ``[bounds]`` entry gets
+:func:`~suspenv.models.mcpherson.params.default_bounds` around its nominal values.
 Effects and their places: :mod:`suspenv.models.mcpherson.effects`.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import difflib
+import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
-from suspenv.core.errors import ValidationError
+from suspenv.core.errors import EvaluationError, ValidationError
+from suspenv.core.space import DesignSpace, Parameter
 from suspenv.core.tomlfile import read_toml
 from suspenv.models.effects import Effect, get_kind
 from suspenv.models.mcpherson.effects import LOCATIONS, PLACEMENTS, axle_effect
 from suspenv.models.mcpherson.params import (
+    BUSHINGS,
+    N_PARAMETERS,
     PARAMETER_NAMES,
     Axle,
     AxleConstants,
+    bounds_errors,
     build_axle,
+    bushing_frames,
+    default_bounds,
+    design_parameters,
+    design_physics_errors,
     design_space,
 )
 
-#: the reference vehicle shipped with suspenv
-REFERENCE_FILE = (
-    Path(__file__).resolve().parents[2] / "data" / "vehicles" / "mcpherson_reference.toml"
-)
-KNOWN_KEYS = {"name", "description", "design", "design_right", "constants", "effects"}
-#: largest vehicle file read [bytes] (the reference file is about 3 KiB)
+#: the reference vehicle shipped with suspenv (the paper's car with the paper's bounds)
+VEHICLE_DIR = Path(__file__).resolve().parents[2] / "data" / "vehicles"
+REFERENCE_FILE = VEHICLE_DIR / "mcpherson_reference.toml"
+#: a shipped McPherson axle far from the paper's geometry (Project Chrono's generic
+#: MacPherson strut hard points; see the file's description)
+FAR_GEOMETRY_FILE = VEHICLE_DIR / "mcpherson_chrono_generic.toml"
+KNOWN_KEYS = {
+    "name",
+    "description",
+    "design",
+    "design_right",
+    "bounds",
+    "orientation",
+    "constants",
+    "effects",
+}
+#: largest vehicle file read [bytes] (the reference file is about 5 KiB)
 MAX_FILE_BYTES = 2**20
+
+
+def check_vehicle_values(
+    left: np.ndarray,
+    right: np.ndarray,
+    bounds: dict[str, tuple[float, float, bool]],
+    orientation: dict[str, tuple[float, float, float]],
+    where: str,
+) -> None:
+    """Refuse a vehicle's values that break a physical rule, each error naming ``where``,
+    the parameter, the rule and the value: designs of shape (49,) on both sides with
+    :func:`~suspenv.models.mcpherson.params.design_physics_errors`; every bounds entry a
+    known parameter with :func:`~suspenv.models.mcpherson.params.bounds_errors` and both
+    sides' nominal values inside it; orientations of known bushings, three finite angles."""
+    for side, x in (("design", left), ("design_right", right)):
+        if np.shape(x) != (N_PARAMETERS,):
+            raise ValidationError(
+                f"{where} [{side}] must hold {N_PARAMETERS} values, but got shape {np.shape(x)}"
+            )
+        errs = design_physics_errors(x)
+        if errs:
+            raise ValidationError(f"{where} [{side}]: {'; '.join(errs)}")
+    for name, (lo, hi, log) in bounds.items():
+        _known({name}, PARAMETER_NAMES, f"{where} [bounds]: unknown parameter")
+        errs = bounds_errors(name, lo, hi, log)
+        if errs:
+            raise ValidationError(f"{where} [bounds]: {'; '.join(errs)}")
+        i = PARAMETER_NAMES.index(name)
+        for side, x in (("design", left), ("design_right", right)):
+            if not lo <= x[i] <= hi:
+                raise ValidationError(
+                    f"{where} [bounds]: `low <= {name} <= high` must hold for the nominal "
+                    f"value of [{side}], but got {name}={x[i]:g} outside [{lo:g}, {hi:g}]"
+                )
+    try:
+        bushing_frames(orientation)
+    except ValidationError as exc:
+        raise ValidationError(f"{where} [orientation]: {exc}") from None
 
 
 @dataclass
 class VehicleFile:
-    """Contents of a vehicle file: per-side designs (49,), constants, effects."""
+    """Contents of a vehicle file: per-side designs (49,), constants, effects, bounds and
+    bushing orientations (validated on construction: :func:`check_vehicle_values`).
+
+    Attributes:
+        left, right: design vectors (49,) in file units (ADAMS/Car, left-side convention).
+        bounds: the file's explicit identification bounds, parameter -> (low, high, log)
+            in file units; every other parameter gets ``default_bounds`` (see :meth:`space`).
+        orientation: bushing -> ADAMS 3-1-3 Euler angles [deg] of its frame (left side;
+            the right side mirrors it); a bushing not listed is parallel to the vehicle axes.
+    """
 
     name: str
     left: np.ndarray
@@ -71,26 +150,87 @@ class VehicleFile:
     constants: AxleConstants = field(default_factory=AxleConstants)
     effects: tuple[Effect, ...] = ()
     description: str = ""
+    bounds: dict[str, tuple[float, float, bool]] = field(default_factory=dict)
+    orientation: dict[str, tuple[float, float, float]] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        self.left = np.asarray(self.left, dtype=float)
+        self.right = np.asarray(self.right, dtype=float)
+        self.bounds = {
+            k: (float(lo), float(hi), bool(log)) for k, (lo, hi, log) in self.bounds.items()
+        }
+        # three angles per bushing (the shape is checked by check_vehicle_values)
+        self.orientation = {
+            k: cast(tuple[float, float, float], tuple(float(a) for a in np.ravel(v)))
+            for k, v in self.orientation.items()
+        }
+        check_vehicle_values(
+            self.left, self.right, self.bounds, self.orientation, f"vehicle {self.name!r}"
+        )
 
     def axle(self) -> Axle:
-        return build_axle(self.left[None, :], self.right[None, :], self.constants)
+        """The vehicle as a one-design :class:`Axle` (SI, ISO 8855)."""
+        return build_axle(self.left[None, :], self.right[None, :], self.constants, self.orientation)
+
+    def bounds_of(self, name: str) -> tuple[float, float, bool]:
+        """(low, high, log) of parameter ``name``: the file's entry, else the default
+        around the nominal values of both sides (:func:`default_bounds`)."""
+        if name in self.bounds:
+            return self.bounds[name]
+        i = PARAMETER_NAMES.index(name)
+        return default_bounds(name, (self.left[i], self.right[i]))
+
+    def with_design(
+        self, left: np.ndarray, right: np.ndarray | None = None, name: str | None = None
+    ) -> VehicleFile:
+        """This vehicle with new designs (49,) (``right`` defaults to ``left``), keeping
+        its identification space: every bound of :meth:`space` becomes an explicit entry
+        (default bounds would otherwise move with the new nominal values). E.g. an
+        identified vehicle, written with :func:`dump_vehicle`."""
+        space = self.space()
+        bounds = {p.name: (p.low, p.high, p.log) for p in space.parameters}
+        x = np.asarray(left, dtype=float)
+        return dataclasses.replace(
+            self,
+            name=self.name if name is None else name,
+            left=x,
+            right=x.copy() if right is None else np.asarray(right, dtype=float),
+            bounds=bounds,
+        )
+
+    def space(self) -> DesignSpace:
+        """This vehicle's 49-parameter :class:`DesignSpace` (file units, left-side
+        convention): bounds from :meth:`bounds_of`, default = the left design."""
+        params = []
+        for p, v in zip(design_parameters(), self.left, strict=True):
+            lo, hi, log = self.bounds_of(p.name)
+            desc = p.description.split(" (paper range")[0]
+            params.append(Parameter(p.name, lo, hi, p.unit, log, float(v), desc))
+        return DesignSpace(params)
 
 
-def load_vehicle(path: str | Path) -> VehicleFile:
+def load_vehicle(path: str | Path, assemble: bool = False) -> VehicleFile:
     """Read a vehicle file; errors name the offending key, the rule and the value.
 
     Rules: the file is UTF-8 TOML of at most :data:`MAX_FILE_BYTES`; top-level keys are
-    those of :data:`KNOWN_KEYS` (an unknown key, ``[design]`` name, constant, effect
-    kind, location or parameter is refused with the nearest valid names); ``name`` and
-    ``description`` are text; every number is finite (TOML's ``inf`` and ``nan`` are
-    refused); design values lie in their ranges (:func:`design_space`); constants are
-    numbers or ``[x, y, z]`` points as in :class:`AxleConstants`.
+    those of :data:`KNOWN_KEYS` (an unknown key, ``[design]`` name, constant, bound,
+    bushing, effect kind, location or parameter is refused with the nearest valid
+    names); ``name`` and ``description`` are text; every number is finite (TOML's
+    ``inf`` and ``nan`` are refused); design values obey physics
+    (:func:`check_vehicle_values`), not the paper's box; ``[bounds]`` entries are
+    ``[low, high]`` or ``[low, high, "log"]`` holding both sides' nominal values;
+    ``[orientation]`` entries are three angles [deg]; constants are numbers or
+    ``[x, y, z]`` points obeying :class:`AxleConstants`'s rules. ``assemble=True`` also
+    runs :func:`check_assembles` (a static solve).
     """
     path = Path(path)
     if not path.is_file():
         raise ValidationError(f"vehicle file {str(path)!r} does not exist")
     data = read_toml(path, f"vehicle file {str(path)!r}", MAX_FILE_BYTES)
-    return vehicle_from_dict(data, path.name, path.stem)
+    vehicle = vehicle_from_dict(data, path.name, path.stem)
+    if assemble:
+        check_assembles(vehicle)
+    return vehicle
 
 
 def vehicle_from_dict(data: dict[str, Any], where: str, default_name: str) -> VehicleFile:
@@ -111,11 +251,13 @@ def vehicle_from_dict(data: dict[str, Any], where: str, default_name: str) -> Ve
     right = left.copy()
     for k, v in tables["design_right"].items():
         right[space.index(k)] = v
-    for side, x in (("design", left), ("design_right", right)):
-        out = space.outside_bounds(x)
-        if out:
-            raise ValidationError(f"vehicle file {where} [{side}]: {'; '.join(out)}")
-    constants = AxleConstants.from_dict(_constants(_table(data, "constants", where), where))
+    bounds = _bounds(_table(data, "bounds", where), where)
+    orientation = _orientation(_table(data, "orientation", where), where)
+    check_vehicle_values(left, right, bounds, orientation, f"vehicle file {where}")
+    try:
+        constants = AxleConstants.from_dict(_constants(_table(data, "constants", where), where))
+    except ValidationError as exc:
+        raise ValidationError(f"vehicle file {where} [constants]: {exc}") from None
     return VehicleFile(
         str(data.get("name", default_name)),
         left,
@@ -123,7 +265,76 @@ def vehicle_from_dict(data: dict[str, Any], where: str, default_name: str) -> Ve
         constants,
         _effects(data.get("effects", []), where),
         str(data.get("description", "")),
+        bounds,
+        orientation,
     )
+
+
+def check_assembles(vehicle: VehicleFile) -> None:
+    """Refuse a vehicle whose linkage has no static equilibrium, with the reason.
+
+    Checks, in order: the linkage is not degenerate (distinct strut top and strut axis
+    point, lower-arm bushes and ball joint not in one line, tie rod and drop link of
+    non-zero length); the ideal-joint linkage has a unique kinematic motion at the design
+    position (the spring preload is sized on it); the compliant axle (with its effects)
+    finds a static equilibrium on the rig pads (:class:`AxleSolver`, the rig's own
+    first solve) with bushing deflections within the rig's plausibility limits.
+    """
+    from suspenv.models.mcpherson.solver import AxleSolver
+    from suspenv.rigs.knc import MAX_ROTATION, MAX_TRANSLATION
+
+    what = f"vehicle {vehicle.name!r} does not assemble"
+    with np.errstate(all="ignore"):  # a degenerate strut line is reported below
+        axle = vehicle.axle()
+    p = {k: v[0, 0] for k, v in axle.points.items()}  # left side [m]
+    tiny = 1e-6  # m
+    for a, b in (
+        ("strut_top", "strut_axis_point"),
+        ("tie_rod_inner", "tie_rod_outer"),
+        ("drop_link_strut", "arb_drop_link"),
+        ("lca_front_bush", "lca_rear_bush"),
+    ):
+        d = float(np.linalg.norm(p[a] - p[b]))
+        if not d > tiny:
+            raise ValidationError(
+                f"{what}: `|{a} - {b}| > 0` must hold, but the points are {d * 1e3:.3g} mm apart"
+            )
+    axis = p["lca_rear_bush"] - p["lca_front_bush"]
+    arm = p["lower_ball_joint"] - p["lca_front_bush"]
+    off = float(np.linalg.norm(np.cross(axis, arm)) / np.linalg.norm(axis))
+    if not off > tiny:
+        raise ValidationError(
+            f"{what}: the lower ball joint must lie off the lower-arm pivot axis, but it is "
+            f"{off * 1e3:.3g} mm from it"
+        )
+    try:
+        with np.errstate(all="ignore"):
+            solver = AxleSolver(axle, vehicle.effects)
+            if not np.isfinite(solver.pad_static).all():
+                raise ValidationError(
+                    f"{what}: the ideal-joint linkage has no unique motion at the design "
+                    "position (the spring preload is not finite)"
+                )
+            st, conv, _ = solver.solve(solver.initial_state(), solver.pad_static)
+    except np.linalg.LinAlgError as exc:
+        raise ValidationError(
+            f"{what}: the ideal-joint linkage is singular at the design position ({exc})"
+        ) from None
+    except EvaluationError as exc:  # ConvergenceError, LockupError
+        raise ValidationError(f"{what}: {exc}") from None
+    if not conv.all():
+        raise ValidationError(
+            f"{what}: ConvergenceError: no static equilibrium at the design position (Newton "
+            f"did not converge in {solver.maxit} iterations)"
+        )
+    for name, defl in solver.deflections(st.r, st.R).items():
+        tr, rot = float(np.abs(defl[..., :3]).max()), float(np.abs(defl[..., 3:]).max())
+        if not (tr <= MAX_TRANSLATION and rot <= MAX_ROTATION):
+            raise ValidationError(
+                f"{what}: LockupError: at the static position the {name} bushing deflects "
+                f"{tr * 1e3:.1f} mm / {rot:.2f} rad (limits {MAX_TRANSLATION * 1e3:g} mm, "
+                f"{MAX_ROTATION:g} rad): the design cannot carry its static load"
+            )
 
 
 def _known(keys: set[str], known: set[str] | tuple[str, ...], what: str) -> None:
@@ -173,8 +384,7 @@ def _effects(tables: Any, where: str) -> tuple[Effect, ...]:
     for i, table in enumerate(tables):
         if not isinstance(table, dict):
             raise ValidationError(
-                f"vehicle file {where}: effect {i} must be an [[effects]] table, but got "
-                f"{table!r}"
+                f"vehicle file {where}: effect {i} must be an [[effects]] table, but got {table!r}"
             )
         missing = [k for k in ("kind", "location") if k not in table]
         if missing:
@@ -182,8 +392,7 @@ def _effects(tables: Any, where: str) -> tuple[Effect, ...]:
         for key in ("kind", "location", "name"):
             if key in table and not isinstance(table[key], str):
                 raise ValidationError(
-                    f"vehicle file {where}: effect {i} `{key}` must be text, but got "
-                    f"{table[key]!r}"
+                    f"vehicle file {where}: effect {i} `{key}` must be text, but got {table[key]!r}"
                 )
         kind, location = table["kind"], table["location"]
         at = f"vehicle file {where}: effect {i}"
@@ -213,15 +422,63 @@ def _floats(table: dict, where: str) -> dict[str, float]:
     return {k: _number(v, f"{where} {k}") for k, v in table.items()}
 
 
+def _bounds(table: dict[str, Any], where: str) -> dict[str, tuple[float, float, bool]]:
+    """The ``[bounds]`` table: ``name = [low, high]`` or ``[low, high, "log"]`` (file units)."""
+    at = f"vehicle file {where} [bounds]"
+    _known(set(table), PARAMETER_NAMES, f"{at}: unknown parameter")
+    out = {}
+    for k, v in table.items():
+        scale = "linear"
+        if isinstance(v, list) and len(v) == 3 and isinstance(v[2], str):
+            scale = v[2]
+            v = v[:2]
+        if not isinstance(v, list) or len(v) != 2 or scale not in ("linear", "log"):
+            raise ValidationError(
+                f'{at} {k} must be [low, high] or [low, high, "log"] (file units), but got '
+                f"{table[k]!r}"
+            )
+        out[k] = (_number(v[0], f"{at} {k} low"), _number(v[1], f"{at} {k} high"), scale == "log")
+    return out
+
+
+def _orientation(table: dict[str, Any], where: str) -> dict[str, tuple[float, float, float]]:
+    """The ``[orientation]`` table: ``bushing = [a, b, c]`` ADAMS 3-1-3 Euler angles [deg]."""
+    at = f"vehicle file {where} [orientation]"
+    _known(set(table), tuple(BUSHINGS), f"{at}: unknown bushing")
+    out = {}
+    for k, v in table.items():
+        if not isinstance(v, list) or len(v) != 3:
+            raise ValidationError(
+                f"{at} {k} must be three Euler angles [a, b, c] (deg, body-fixed 3-1-3), but "
+                f"got {v!r}"
+            )
+        a, b, c = (_number(x, f"{at} {k}") for x in v)
+        out[k] = (a, b, c)
+    return out
+
+
+def _text(s: str) -> str:
+    """``s`` as a TOML basic string (JSON escapes are TOML escapes; DEL is escaped too)."""
+    return json.dumps(s).replace("\x7f", "\\u007f")
+
+
+def _fmt(v: float) -> str:
+    """A float as TOML text that reads back to the same float."""
+    return repr(float(v))
+
+
 def dump_vehicle(vehicle: VehicleFile) -> str:
-    """TOML text of a vehicle (design with units as comments, right-side differences)."""
-    space = design_space()
-    lines = [f'name = "{vehicle.name}"']
+    """TOML text of a vehicle that :func:`load_vehicle` reads back to the same vehicle:
+    design (units as comments), right-side differences, the full identification bounds
+    of :meth:`VehicleFile.space`, bushing orientations, every constant and the effects
+    (scalar parameters only). Numbers are written exactly (``repr``)."""
+    space = vehicle.space()
+    lines = [f"name = {_text(vehicle.name)}"]
     if vehicle.description:
-        lines.append(f'description = "{vehicle.description}"')
+        lines.append(f"description = {_text(vehicle.description)}")
     lines += ["", "[design]  # ADAMS/Car convention: mm, x rearward, y right, z up; left side"]
     for p, v in zip(space.parameters, vehicle.left, strict=True):
-        lines.append(f"{p.name} = {v:.6g}  # {p.unit}")
+        lines.append(f"{p.name} = {_fmt(v)}  # {p.unit}")
     diff = [
         (n, b)
         for n, a, b in zip(PARAMETER_NAMES, vehicle.left, vehicle.right, strict=True)
@@ -229,5 +486,27 @@ def dump_vehicle(vehicle: VehicleFile) -> str:
     ]
     if diff:
         lines += ["", "[design_right]  # right side, same (left-side) convention"]
-        lines += [f"{n} = {v:.6g}" for n, v in diff]
+        lines += [f"{n} = {_fmt(v)}" for n, v in diff]
+    lines += ["", '[bounds]  # identification bounds [low, high] in file units; "log": log scale']
+    for p in space.parameters:
+        tail = ', "log"' if p.log else ""
+        lines.append(f"{p.name} = [{_fmt(p.low)}, {_fmt(p.high)}{tail}]")
+    if vehicle.orientation:
+        lines += ["", "[orientation]  # bushing frames: ADAMS 3-1-3 Euler angles (deg), left side"]
+        for k, (a, b, c) in vehicle.orientation.items():
+            lines.append(f"{k} = [{_fmt(a)}, {_fmt(b)}, {_fmt(c)}]")
+    lines += ["", "[constants]  # vehicle data that are not design variables (mm, N/mm, kg)"]
+    for k, v in vehicle.constants.as_dict().items():
+        text = f"[{', '.join(_fmt(x) for x in v)}]" if isinstance(v, tuple) else _fmt(v)
+        lines.append(f"{k} = {text}")
+    for e in vehicle.effects:
+        lines += ["", "[[effects]]", f"kind = {_text(e.kind)}"]
+        lines += [f"location = {_text(e.location)}", f"name = {_text(e.name)}"]
+        for k, v in e.params.items():
+            if np.ndim(v) != 0:
+                raise ValidationError(
+                    f"dump_vehicle: effect {e.name!r} parameter `{k}` must be a scalar to be "
+                    f"written, but has shape {np.shape(v)}"
+                )
+            lines.append(f"{k} = {_fmt(v)}")
     return "\n".join(lines) + "\n"
