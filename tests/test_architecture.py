@@ -50,7 +50,8 @@ LIBRARY = frozenset(
 
 #: package -> the packages it may import besides itself. Bottom up:
 #: core <- measurements <- models <- rigs <- metrics <- problems <- envs / strategies /
-#: runs / methods; measurements (recorded time histories and their formats) sit right
+#: runs / methods; methods (whole jobs: a study, an identification) may also run the
+#: diagnosis on what they leave; measurements (recorded time histories and their formats) sit right
 #: above core because models simulate recordings and rigs write them; diagnosis reads
 #: models, rigs, metrics, measurements; reports read every library layer; bench and cli
 #: on top.
@@ -79,6 +80,7 @@ ALLOWED: dict[str, frozenset[str]] = {
             "problems",
             "strategies",
             "runs",
+            "diagnosis",
         }
     ),
     "diagnosis": frozenset({"core", "models", "rigs", "metrics", "measurements"}),

@@ -84,7 +84,11 @@ def test_knc_refuses_a_non_empty_folder_then_overwrites_its_own_files(tmp_path, 
     refused(capsys, argv, out)
     assert files_under(out) == {Path("keep.txt")}
     assert main([*argv, "--overwrite"]) == 0
-    assert files_under(out) == {Path("keep.txt"), Path("mcpherson_reference_parallel.csv")}
+    assert files_under(out) == {
+        Path("keep.txt"),
+        Path("knc.toml"),
+        Path("mcpherson_reference_parallel.csv"),
+    }
     assert (out / "keep.txt").read_text() == "the user's own file"
     assert main([*argv, "--overwrite"]) == 0  # again: the same file replaced
 
@@ -94,10 +98,11 @@ def test_knc_vehicle_name_with_dot_dot_stays_inside_out(tmp_path, capsys):
     out = tmp_path / "a" / "b" / "out"
     argv = ["knc", str(vehicle), "--test", "parallel", "--steps", "10", "--out", str(out)]
     assert main(argv) == 0
-    assert files_under(out) == {Path("_.._escape_parallel.csv")}
+    assert files_under(out) == {Path("knc.toml"), Path("_.._escape_parallel.csv")}
     # nothing else was written anywhere under the test folder
     assert files_under(tmp_path) == {
         Path("vehicle.toml"),
+        Path("a/b/out/knc.toml"),
         Path("a/b/out/_.._escape_parallel.csv"),
     }
     assert "wrote" in capsys.readouterr().out
@@ -109,7 +114,7 @@ def test_knc_vehicle_name_as_absolute_path_stays_inside_out(tmp_path):
     argv = ["knc", str(vehicle), "--test", "parallel", "--steps", "10", "--out", str(out)]
     assert main(argv) == 0
     written = files_under(out)
-    assert len(written) == 1 and all(p.parent == Path(".") for p in written)
+    assert len(written) == 2 and all(p.parent == Path(".") for p in written)
     assert not (tmp_path / "elsewhere_parallel.csv").exists()
 
 

@@ -1,14 +1,15 @@
 """K&C rig curves of one design in edge units: a CSV table and a PNG of the usual curves.
 
-One row per rig step, both wheels; units mm, deg, N; ISO 8855 signs with lateral
-positions mirrored outboard positive. The figure draws toe, camber, caster, tyre force,
-hub and contact-patch lateral position against wheel travel (travel tests) or the
-contact-point force (compliance tests). Used by ``suspenv knc``.
+:func:`curve_table` (the plot's data): one row per rig step, both wheels; units mm,
+deg, N; ISO 8855 signs with lateral positions mirrored outboard positive.
+:func:`write_csv` writes one test in the measured-K&C format instead
+(:mod:`suspenv.measurements.knc_file`, raw ISO 8855). The figure draws toe, camber,
+caster, tyre force, hub and contact-patch lateral position against wheel travel (travel
+tests) or the contact-point force (compliance tests). Used by ``suspenv knc``.
 """
 
 from __future__ import annotations
 
-import csv
 from pathlib import Path
 
 import numpy as np
@@ -55,14 +56,15 @@ def curve_table(res: KCResult) -> tuple[list[str], np.ndarray]:
     return cols, np.column_stack(data)
 
 
-def write_csv(res: KCResult, path: Path) -> None:
-    """The loop of :func:`curve_table` as CSV (8 significant digits)."""
-    cols, rows = curve_table(res)
-    with open(path, "w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(cols)
-        for row in rows:
-            w.writerow([f"{v:.8g}" for v in row])
+def write_csv(res: KCResult, path: Path, row: int = 0) -> Path:
+    """Design ``row``'s loop as one test's CSV of the measured-K&C format
+    (:func:`suspenv.measurements.knc_file.write_test_csv`: raw ISO 8855, units in the
+    column names, mm, deg, N, N*m). ``suspenv knc`` writes the whole folder (with its
+    ``knc.toml``) through :func:`~suspenv.measurements.knc_file.write_measurement`."""
+    from suspenv.measurements.knc_file import from_results, write_test_csv
+
+    m = from_results({res.test: res}, res.test, row=row)
+    return write_test_csv(m.tests[res.test], Path(path))
 
 
 def plot_rig_curves(res: KCResult, path: Path, title: str) -> None:

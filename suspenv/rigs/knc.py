@@ -73,7 +73,14 @@ from suspenv.measurements.knc import ALL_TESTS, DRIVE_UNIT, FORCE_TESTS, STEER_T
 from suspenv.models.effects import Effect
 from suspenv.models.mcpherson.params import Axle
 from suspenv.models.mcpherson.rotation import expm_so3, log_so3
-from suspenv.models.mcpherson.solver import JACOBIAN_BLOCK, NS, AxleSolver, AxleState
+from suspenv.models.mcpherson.solver import (
+    JACOBIAN_BLOCK,
+    MAX_ROTATION,
+    MAX_TRANSLATION,
+    NS,
+    AxleSolver,
+    AxleState,
+)
 
 # the tests (TESTS: travel, FORCE_TESTS: compliance, STEER_TESTS: steering, ALL_TESTS)
 # are named once, by the recording format of K&C loops
@@ -106,9 +113,6 @@ _DRIVE_NAME = {
 }
 _DRIVE_SHOWN = {"m": (1e3, "mm", 2), "N": (1.0, "N", 0), "N*m": (1.0, "N*m", 1)}
 
-#: a bushing deflection above these is reported as a lock-up [m], [rad]
-MAX_TRANSLATION = 0.05
-MAX_ROTATION = 0.5
 
 
 @dataclass

@@ -91,6 +91,10 @@ EY = np.array([0.0, 1.0, 0.0])
 #: the bar's stiffness at its middle against shear [N/m] and bending [N*m/rad]
 ARB_SHEAR_STIFFNESS = 1e8
 ARB_BENDING_STIFFNESS = 1e6
+#: a bushing deflection above these means a lock-up: the design cannot carry its loads
+#: (the rig fails the step, a vehicle file fails its assembly check) [m], [rad]
+MAX_TRANSLATION = 0.05
+MAX_ROTATION = 0.5
 #: body of each rotated body-fixed vector (see AxleSolver._vec)
 VEC_BODY = np.array([0, 0, 0, 1, 1, 1, 1, 1, 1, 1, 1, 1, 2, 2, 3, 3])
 #: bushings in the order of the stacked arrays, and the body each one holds

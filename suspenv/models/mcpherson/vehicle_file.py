@@ -280,8 +280,7 @@ def check_assembles(vehicle: VehicleFile) -> None:
     finds a static equilibrium on the rig pads (:class:`AxleSolver`, the rig's own
     first solve) with bushing deflections within the rig's plausibility limits.
     """
-    from suspenv.models.mcpherson.solver import AxleSolver
-    from suspenv.rigs.knc import MAX_ROTATION, MAX_TRANSLATION
+    from suspenv.models.mcpherson.solver import MAX_ROTATION, MAX_TRANSLATION, AxleSolver
 
     what = f"vehicle {vehicle.name!r} does not assemble"
     with np.errstate(all="ignore"):  # a degenerate strut line is reported below
