@@ -135,8 +135,8 @@ def test_cli_runs_a_compliance_test(tmp_path):
     )
     assert args.func(args) == 0
     lines = (tmp_path / "mcpherson_reference_longitudinal.csv").read_text().splitlines()
-    assert lines[0].startswith("step,force_N,direction") and len(lines) == 1 + 13
-    assert float(lines[4].split(",")[1]) == 2500.0  # design -> +F -> -F -> design
+    assert lines[0].startswith("step,branch,force [N],") and len(lines) == 1 + 13
+    assert float(lines[4].split(",")[2]) == 2500.0  # design -> +F -> -F -> design
 
 
 def test_cli_test_choices_are_the_rig_tests():

@@ -2,16 +2,19 @@
 [--plot] [--out DIR]``.
 
 Runs the virtual K&C rig on a McPherson vehicle file (format: ``docs/knc.md``),
-writes the loop curves as CSV (one row per rig step, both wheels, edge units: mm,
-deg, N; ISO 8855 signs, lateral outboard positive) and, with ``--plot``, a PNG of the
-usual curves against wheel travel (travel tests) or contact-point force (compliance
+writes the loop curves in the measured-K&C format (``docs/knc.md`` "Measured K&C
+format": ``knc.toml`` and one CSV per test, one row per rig step, both wheels, units in
+the column names: mm, deg, N, N*m; raw ISO 8855 signs), which
+:func:`suspenv.measurements.knc_file.load_measurement` reads back, and, with ``--plot``,
+a PNG of the usual curves against wheel travel (travel tests) or contact-point force (compliance
 tests). Prints the travel test's objectives, the compliance test's slopes, and the
 classic K&C numbers.
 
-Files are named ``<vehicle name>_<test>.csv`` / ``.png`` with the vehicle's ``name`` made a
-plain file name (``../x`` -> ``_x``), so nothing is written outside ``--out``. An existing
-non-empty output folder is refused unless ``--overwrite`` is given; then the files of the
-same names are replaced and every other file is kept (nothing is deleted).
+Files are ``knc.toml`` and ``<vehicle name>_<test>.csv`` / ``.png`` with the vehicle's
+``name`` made a plain file name (``../x`` -> ``_x``), so nothing is written outside
+``--out``. An existing non-empty output folder is refused unless ``--overwrite`` is
+given; then the files of the same names are replaced and every other file is kept
+(nothing is deleted).
 """
 
 from __future__ import annotations
@@ -27,7 +30,16 @@ if TYPE_CHECKING:
 
 #: the rig tests (``suspenv.rigs.knc.ALL_TESTS``, pinned by a test; the CLI does not
 #: import the solver before a command needs it)
-TEST_CHOICES = ("parallel", "opposite", "single", "lateral", "longitudinal")
+TEST_CHOICES = (
+    "parallel",
+    "opposite",
+    "single",
+    "lateral",
+    "longitudinal",
+    "traction",
+    "aligning",
+    "steering",
+)
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -41,7 +53,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument(
         "vehicle",
-        help="vehicle TOML file (see docs/knc.md); 'reference' for the shipped reference vehicle",
+        help="vehicle TOML file (see docs/knc.md); 'reference' for the shipped reference "
+        "vehicle; or a measured-K&C folder (holding knc.toml) to check it and print its "
+        "compliance analysis; 'fsae' to import the shared Formula Student toe-compliance "
+        "data into --out in that format and analyse it",
     )
     p.add_argument("--test", choices=[*TEST_CHOICES, "all"], default="parallel", help="rig test")
     p.add_argument("--plot", action="store_true", help="also write a PNG of the curves")
@@ -50,21 +65,30 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--overwrite",
         action="store_true",
         help="write into an existing non-empty output folder: replace the files of the same "
-        "names (<vehicle>_<test>.csv/.png); other files are kept, nothing is deleted",
+        "names (knc.toml, <vehicle>_<test>.csv/.png); other files are kept, nothing is deleted",
     )
-    p.add_argument("--amplitude", type=float, default=40.0, help="stroke +- [mm]")
+    p.add_argument(
+        "--amplitude",
+        type=float,
+        default=40.0,
+        help="travel tests' pad stroke +- [mm]: the rig drives the pads; the report's curves "
+        "and numbers are against wheel-centre travel, which is smaller by the tyre's deflection",
+    )
     p.add_argument("--force", type=float, default=2500.0, help="compliance tests' force +- [N]")
     p.add_argument("--steps", type=int, default=30, help="grid intervals (even)")
     p.set_defaults(func=_run)
 
 
 def _run(args: argparse.Namespace) -> int:
+    from suspenv.measurements.knc_file import from_results, write_measurement
     from suspenv.measurements.paths import check_output_dir, output_file, plain_file_name
-    from suspenv.metrics.knc import OBJECTIVES, objectives, usual_outputs
+    from suspenv.metrics.knc import OBJECTIVES, objectives
     from suspenv.models.mcpherson.vehicle_file import REFERENCE_FILE, load_vehicle
-    from suspenv.reports.knc_rig import plot_rig_curves, write_csv
+    from suspenv.reports.knc_rig import plot_rig_curves
     from suspenv.rigs.knc import ALL_TESTS, FORCE_TESTS, TESTS, run_tests
 
+    if args.vehicle == "fsae" or is_measurement(args.vehicle):
+        return run_measured(args)
     path = REFERENCE_FILE if args.vehicle == "reference" else Path(args.vehicle)
     vehicle = load_vehicle(path)
     out = check_output_dir(Path(args.out), args.overwrite)
@@ -86,35 +110,66 @@ def _run(args: argparse.Namespace) -> int:
         print("rig test failed: " + "; ".join(failed))
         return 1
     F = objectives(results)[0]
+    # the measured-K&C format (docs/knc.md): knc.toml + <vehicle>_<test>.csv per test
+    measurement = from_results(
+        {t: results[t] for t in tests}, vehicle.name, source=f"suspenv knc {args.vehicle}"
+    )
+    names = {t: output_file(out, f"{stem}_{t}.csv").name for t in tests}
+    for written in write_measurement(measurement, out, names):
+        print(f"wrote {written}")
     for test in tests:
-        csv_path = output_file(out, f"{stem}_{test}.csv")
-        write_csv(results[test], csv_path)
-        print(f"wrote {csv_path}")
         if args.plot:
             png = output_file(out, f"{stem}_{test}.png")
             what = "force at the contact points" if test in FORCE_TESTS else "wheel travel"
             plot_rig_curves(results[test], png, f"{vehicle.name}: {test} {what}")
             print(f"wrote {png}")
-        if test in FORCE_TESTS:
-            print(f"\n{test} compliance (left wheel, slope through the static position):")
+        if test not in TESTS:
+            print(f"\n{test} (left wheel, own sense, slope through the static position):")
             for name, v in compliance_slopes(results[test]).items():
-                print(f"  {name:26s} {v:12.5g}")
+                print(f"  {name:30s} {v:12.5g}")
             continue
-        print(f"\n{test} travel objectives:")
+        print(
+            f"\n{test} travel: the paper's objectives (Tey et al. 2014; 'susp' ones against "
+            "wheel-centre travel, the others against pad travel):"
+        )
         for o, v in zip(OBJECTIVES, F, strict=True):
             if o.test == test:
                 print(f"  {o.name:26s} {v:12.5g} {o.unit:10s} {o.label}")
-    print("\nclassic K&C numbers (left wheel, static position):")
-    for k, values in usual_outputs(results).items():
-        print(f"  {k:20s} {values[0]:10.4g}")
+    print_report(results, vehicle.constants)
     return 0
 
 
+def print_report(results: dict[str, KCResult], constants) -> None:
+    """Print the K&C report (:mod:`suspenv.metrics.knc_report`, docs/knc.md "K&C report:
+    definitions and signs"): the wheel-centre travel the pad stroke gave, then every
+    report number of the design in row 0, left and right wheel, unit and sign."""
+    from suspenv.metrics.knc_report import ALL_ITEMS, knc_report
+
+    par = results["parallel"]
+    zw = (par.channels["wheel_centre_z"][0] - par.channels["wheel_centre_z"][0, 0]) * 1e3
+    stroke = par.grid[-1] * 1e3
+    print(
+        f"\nK&C report (ADAMS/Car conventions, docs/knc.md), against wheel-centre travel: "
+        f"pad stroke +-{stroke:g} mm gave wheel-centre travel {zw.min():+.1f} .. "
+        f"{zw.max():+.1f} mm in parallel travel"
+    )
+    print(f"  {'':30s} {'left':>10s} {'right':>10s}  {'unit':8s} sign")
+    for name, v in knc_report(results, constants).items():
+        it = ALL_ITEMS[name]
+        right = f"{v[0, 1]:10.4g}" if it.per_wheel else f"{'(axle)':>10s}"
+        print(f"  {name:30s} {v[0, 0]:10.4g} {right}  {it.unit:8s} {it.sign}")
+
+
 def compliance_slopes(res: KCResult) -> dict[str, float]:
-    """Left wheel's compliance of a force test: central difference of the loop's
-    mid-line through the static position, per kN (deg/kN, mm/kN, N/kN)."""
+    """Left wheel's response to a compliance or steering test: central difference of the
+    loop's mid-line through the static position, per kN of force (deg/kN, mm/kN, N/kN),
+    per kN*m of moment (``aligning``) or per mm of rack travel (``steering``). The left
+    wheel's own sense is the test's positive sense: +y outboard (``lateral``), +x forward
+    (``longitudinal`` at the contact point, ``traction`` at the wheel centre), +z a
+    toe-out moment (``aligning``), +y rack travel towards the left (``steering``)."""
     i = res.static_index
-    df = (res.grid[i + 1] - res.grid[i - 1]) / 1e3  # kN
+    per, scale_in = {"N": ("kN", 1e3), "N*m": ("kN*m", 1e3), "m": ("mm", 1e-3)}[res.unit]
+    df = (res.grid[i + 1] - res.grid[i - 1]) / scale_in
     out = {}
     for stem, ch, scale, unit in (
         ("toe", "toe", np.rad2deg(1.0), "deg"),
@@ -124,5 +179,76 @@ def compliance_slopes(res: KCResult) -> dict[str, float]:
         ("tyre_fz", "tyre_fz", 1.0, "N"),
     ):
         mid = res.mean_branch(ch)[0, :, 0] * scale
-        out[f"d{stem} [{unit}/kN]"] = float((mid[i + 1] - mid[i - 1]) / df)
+        out[f"d{stem} [{unit}/{per}]"] = float((mid[i + 1] - mid[i - 1]) / df)
     return out
+
+
+# ------------------------------------------------------------------ measured data
+def is_measurement(source: str) -> bool:
+    """True when ``source`` is a measured-K&C folder (holding ``knc.toml``) or that file."""
+    from suspenv.measurements.knc_file import MANIFEST
+
+    p = Path(source)
+    return (p.is_dir() and (p / MANIFEST).is_file()) or p.name == MANIFEST
+
+
+def run_measured(args: argparse.Namespace) -> int:
+    """``suspenv knc DIR``: load a measured-K&C folder (every refusal rule of
+    :func:`~suspenv.measurements.knc_file.load_measurement`; one-wheel data allowed),
+    print its tests and noise and the compliance analysis of each compliance test's toe.
+    ``suspenv knc fsae``: first write the shared FSAE moment file in the format into
+    ``--out`` (:func:`~suspenv.measurements.sources.fsae_knc.fsae_aligning`)."""
+    from suspenv.measurements.knc_file import (
+        CHANNELS,
+        DRIVE_COLUMN,
+        EDGE_UNIT,
+        FORCE_TESTS,
+        UNITS,
+        compliance_analysis,
+        load_measurement,
+        write_measurement,
+    )
+    from suspenv.measurements.paths import check_output_dir
+
+    folder = Path(args.vehicle)
+    if args.vehicle == "fsae":
+        from suspenv.measurements.sources.fsae_knc import (
+            MZ_FILE,
+            README_FRONT_COMPLIANCE,
+            fsae_aligning,
+            fsae_folder,
+        )
+
+        folder = check_output_dir(Path(args.out), args.overwrite)
+        src = fsae_folder() / MZ_FILE
+        for written in write_measurement(fsae_aligning(src), folder):
+            print(f"wrote {written}")
+        print(f"(imported {src})")
+    m = load_measurement(folder, both_wheels=False)
+    print(f"\nmeasured K&C data {m.name!r}: {m.meta.get('source', '')}")
+    print(f"  wheels {list(m.wheels)}, channels {m.meta['channels']}")
+    for test, mt in m.tests.items():
+        col, quantity = DRIVE_COLUMN[test]
+        unit = EDGE_UNIT[quantity]
+        lo, hi = mt.drive.min() / UNITS[unit][0], mt.drive.max() / UNITS[unit][0]
+        branches = sorted({int(b) for b in mt.branch})
+        print(
+            f"  {test:13s} {mt.samples:4d} samples, {col} {lo:g} to {hi:g} {unit}, "
+            f"branches {branches}"
+        )
+    print("  noise (one standard deviation):")
+    for ch, sigma in m.noise.items():
+        unit = EDGE_UNIT[CHANNELS[ch]]
+        print(f"    {ch:16s} {sigma / UNITS[unit][0]:10.3g} {unit}  ({m.noise_source[ch]})")
+    for test in m.tests:
+        if test not in FORCE_TESTS or "toe" not in m.tests[test].channels:
+            continue
+        for wheel in m.tests[test].wheels:
+            print()
+            print("\n".join(compliance_analysis(m, test, "toe", wheel).lines()))
+    if args.vehicle == "fsae":
+        print(
+            f"  (the data README's front compliance of the team's own car: about "
+            f"{README_FRONT_COMPLIANCE:g} deg per 100 N*m; this moment file is another team's)"
+        )
+    return 0

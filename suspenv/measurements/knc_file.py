@@ -141,6 +141,8 @@ CHANNELS: dict[str, str] = {
     "scrub_radius": "length",
     "trail": "length",
     "arb_twist": "angle",
+    "knuckle_pitch": "angle",
+    "strut_length": "length",
 }
 #: the wheel-centre travel column (from the static position, bump positive)
 TRAVEL_COLUMN = "wheel_travel"

@@ -346,45 +346,28 @@ def loop_width(results: dict[str, KCResult], name: str = "tyre_fz", test: str = 
 
 
 # -------------------------------------------------------- usual K&C outputs
-def _at_static(res: KCResult, name: str) -> np.ndarray:
-    return 0.5 * (res.branch(name, "down") + res.branch(name, "up"))[:, res.static_index]
-
-
 def usual_outputs(results: dict[str, KCResult]) -> dict[str, np.ndarray]:
-    """Classic K&C numbers per design (n,) (left wheel unless an axle quantity), edge units.
+    """Classic K&C numbers per design (n,) (left wheel unless an axle quantity), edge units:
+    the left-wheel column of the K&C report (:func:`suspenv.metrics.knc_report.travel_report`,
+    whose docstring and ``docs/knc.md`` give every definition and sign).
 
-    caster, kpi [deg]; scrub_radius, trail [mm] (positive when the steering axis meets
-    the ground outboard of / ahead of the contact point); roll_centre_height [mm above
-    the pad] from the contact-point motion in parallel travel,
-    ``h = (t/2) d(y_out)/d(z_cp)`` (front-view instant centre of the contact point path
-    meets the centreline); motion_ratio = -d(spring length)/d(wheel travel); wheel_rate,
-    ride_rate [N/mm]; roll_rate [N*m/deg]; roll_steer, roll_camber [deg/deg].
+    caster, kpi [deg]; scrub_radius (SAE: positive when the steering axis meets the pad
+    plane inboard of the loaded contact point), trail (positive when it meets it ahead)
+    [mm]; roll_centre_height [mm above the pad plane] from the front-view instant centres
+    of the wheel carriers' points at the loaded contact points in parallel travel;
+    motion_ratio = -d(spring length)/d(wheel-centre travel); wheel_rate (against
+    wheel-centre travel), ride_rate (against pad travel) [N/mm]; roll_rate [N*m/deg];
+    roll_steer, roll_camber [deg/deg].
     """
-    par = results["parallel"]
-    out = {
-        "caster": _at_static(par, "caster")[:, 0] * RAD2DEG,
-        "kpi": _at_static(par, "kpi")[:, 0] * RAD2DEG,
-        "scrub_radius": _at_static(par, "scrub_radius")[:, 0] * 1e3,
-        "trail": _at_static(par, "trail")[:, 0] * 1e3,
-    }
-    c = par.static_index
+    from suspenv.metrics.knc_report import travel_report
 
-    def slope(res: KCResult, yname: str, xname: str, ys=1.0, xs=1.0) -> np.ndarray:
-        s = []
-        for br in ("down", "up"):
-            y = res.branch(yname, br)[..., 0] * ys
-            x = res.branch(xname, br)[..., 0] * xs
-            s.append(quadratic_fit(x, y, c)[1])
-        return 0.5 * (s[0] + s[1])
-
-    half_track = _at_static(par, "contact_y")[:, 0]
-    out["roll_centre_height"] = half_track * slope(par, "contact_y", "contact_z") * 1e3
-    out["motion_ratio"] = -slope(par, "spring_length", "wheel_centre_z")
-    out["wheel_rate"] = slope(par, "tyre_fz", "wheel_centre_z") / 1e3
-    out["ride_rate"] = slope(par, "tyre_fz", "pad_z") / 1e3
-    F = objectives_subset(results, ("opp_roll_rate_pos", "opp_roll_toe", "opp_roll_camber"))
-    out["roll_rate"], out["roll_steer"], out["roll_camber"] = F.T
-    return out
+    rep = travel_report(results)
+    keys = {"spring_motion_ratio": "motion_ratio"}
+    names = (
+        "caster", "kpi", "scrub_radius", "trail", "roll_centre_height", "spring_motion_ratio",
+        "wheel_rate", "ride_rate", "roll_rate", "roll_steer", "roll_camber",
+    )  # fmt: skip
+    return {keys.get(k, k): rep[k][:, 0] for k in names}
 
 
 def objectives_subset(results: dict[str, KCResult], names: tuple[str, ...]) -> np.ndarray:
@@ -400,57 +383,89 @@ def objectives_subset(results: dict[str, KCResult], names: tuple[str, ...]) -> n
 
 
 # ---------------------------------------------------------- compliance matrix
+#: loads of :func:`compliance_matrix_full`, each on one wheel, in that wheel's own sense
+FULL_COMPLIANCE_LOADS = ("Fx", "Fy", "Fz", "Mz")
+#: outputs of :func:`compliance_matrix_full`, on each wheel, in that wheel's own sense
+FULL_COMPLIANCE_OUTPUTS = ("toe", "camber", "wheel_centre_x", "wheel_centre_y", "wheel_centre_z")
 COMPLIANCE_LOADS = ("Fx", "Fy", "Mz")
 COMPLIANCE_OUTPUTS = ("toe", "camber", "wheel_centre_x", "wheel_centre_y")
+
+
+def compliance_load(load: str, wheel: int) -> np.ndarray:
+    """Unit load (2, 6) at the contact points [N, N*m] (force then moment, ISO 8855) of
+    ``load`` on ``wheel`` (0 left, 1 right) in that wheel's own sense: Fx forward, Fy
+    outboard (+y on the left wheel, -y on the right), Fz up (unloading the tyre), Mz a
+    toe-out moment (turning the wheel's front outboard: +z on the left wheel, -z on
+    the right; the own sense of the ``aligning`` rig test)."""
+    col = {"Fx": 0, "Fy": 1, "Fz": 2, "Mz": 5}
+    if load not in col or wheel not in (0, 1):
+        raise ValidationError(
+            f"compliance_load: `load in {FULL_COMPLIANCE_LOADS}` and `wheel in (0, 1)` must "
+            f"hold, but got load={load!r}, wheel={wheel!r}"
+        )
+    out = np.zeros((2, 6))
+    out[wheel, col[load]] = SIDE_SIGN[wheel] if load in ("Fy", "Mz") else 1.0
+    return out
+
+
+def compliance_matrix_full(
+    axle: Axle, effects: Sequence[Effect] = ()
+) -> tuple[np.ndarray, dict[str, tuple[str, ...]]]:
+    """Full compliance at the design position (n, 2 responding wheels, 5 outputs,
+    4 loads, 2 loaded wheels), edge units, direct and cross-wheel terms.
+
+    ``C[:, i, o, l, j]`` is output ``o`` of wheel ``i`` per unit load ``l`` on wheel ``j``
+    alone (:func:`compliance_load`: Fx forward, Fy outboard, Fz up, Mz toe-out, each in
+    the loaded wheel's own sense, at its contact point), pads and rack held. Outputs in
+    the responding wheel's own sense: toe (+ toe-in), camber (- top inboard) [deg];
+    wheel-centre x forward, y outboard, z up [mm]. Entries per kN or kN*m: deg/kN,
+    mm/kN, deg/(kN*m), mm/(kN*m). ``i == j``: direct terms; ``i != j``: the other
+    wheel's response (through the anti-roll bar). Linearised: the converged static
+    state is moved by ``-J^-1 dres/dload`` (fresh Jacobian; ``dres/dload`` from the
+    residual's external-load path, the one the rig's compliance tests use, in which the
+    residual is linear) and the outputs are differenced centrally.
+    """
+    from suspenv.models.mcpherson.solver import AxleSolver
+
+    solver = AxleSolver(axle, effects)
+    n = solver.n
+    pad = solver.pad_static
+    st, conv, _ = solver.solve(solver.initial_state(), pad)
+    if not conv.all():
+        raise ValidationError("compliance_matrix: no static equilibrium for some designs")
+    Jinv = solver.inverse_jacobian(st, pad)
+    base = solver.residual(st.r, st.R, st.lam, pad, st, np.zeros((n, 2, 6)))
+    sg = SIDE_SIGN
+    scale_out = {"toe": RAD2DEG, "camber": RAD2DEG}
+    C = np.zeros((n, 2, len(FULL_COMPLIANCE_OUTPUTS), len(FULL_COMPLIANCE_LOADS), 2))
+    eps = 100.0  # N or N*m: well inside the linear range
+    ok = np.ones(n, bool)
+    for j in (0, 1):
+        for k, load in enumerate(FULL_COMPLIANCE_LOADS):
+            ext = np.broadcast_to(compliance_load(load, j), (n, 2, 6))
+            b = solver.residual(st.r, st.R, st.lam, pad, st, np.array(ext)) - base
+            dx = -np.matmul(Jinv, b.reshape(n, -1, 1))[..., 0]
+            plus = solver.outputs(solver._apply(st, eps * dx, ok), pad)
+            minus = solver.outputs(solver._apply(st, -eps * dx, ok), pad)
+            for o, name in enumerate(FULL_COMPLIANCE_OUTPUTS):
+                d = (plus[name] - minus[name]) / (2 * eps)  # (n, 2) per N
+                d = d * scale_out.get(name, 1e3)
+                if name == "wheel_centre_y":
+                    d = d * sg
+                C[:, :, o, k, j] = d * 1e3  # per kN or kN*m
+    return C, {"outputs": FULL_COMPLIANCE_OUTPUTS, "loads": FULL_COMPLIANCE_LOADS}
 
 
 def compliance_matrix(
     axle: Axle, effects: Sequence[Effect] = ()
 ) -> tuple[np.ndarray, dict[str, tuple[str, ...]]]:
-    """Compliance at the design position (n, 2 wheels, 4 outputs, 3 loads), edge units.
-
-    Loads on each wheel at its contact point, mirrored so that a symmetric axle gives
-    equal wheels: Fx forward [kN], Fy outboard [kN], Mz [kN*m] about the vertical
-    (positive turns the wheel's front outboard, i.e. towards toe-out). Outputs: toe,
-    camber [deg]; wheel-centre x forward, y outboard [mm]. Entries are deg/kN, mm/kN,
-    deg/(kN*m), mm/(kN*m). Linearised: the converged static state is moved by
-    ``-J^-1 dres/dload`` (fresh Jacobian) and the outputs are differenced centrally.
-    """
-    from suspenv.models.mcpherson.rotation import cross, rotate
-    from suspenv.models.mcpherson.solver import NS, AxleSolver, _down
-
-    solver = AxleSolver(axle, effects)
-    n = solver.n
-    st, conv, _ = solver.solve(solver.initial_state(), solver.pad_static)
-    if not conv.all():
-        raise ValidationError("compliance_matrix: no static equilibrium for some designs")
-    Jinv = solver.inverse_jacobian(st, solver.pad_static)
-    s = rotate(st.R[:, :, 1], solver.s0)
-    arm = solver.Rw[..., None] * _down(s)
-    sg = SIDE_SIGN
-    scale_out = {"toe": RAD2DEG, "camber": RAD2DEG, "wheel_centre_x": 1e3, "wheel_centre_y": 1e3}
-    mirror_out = {"wheel_centre_y": sg}
-    C = np.zeros((n, 2, len(COMPLIANCE_OUTPUTS), len(COMPLIANCE_LOADS)))
-    eps = 100.0  # N or N*m: well inside the linear range
-    for w in (0, 1):
-        for j, load in enumerate(COMPLIANCE_LOADS):
-            f = np.zeros((n, 3))
-            m = np.zeros((n, 3))
-            if load == "Fx":
-                f[:, 0] = 1.0
-            elif load == "Fy":
-                f[:, 1] = sg[w]
-            else:
-                m[:, 2] = -sg[w]  # front outboard = toe-out
-            b = np.zeros((n, 2, NS))
-            b[:, w, 6:9] = f
-            b[:, w, 9:12] = cross(arm[:, w], f) + m
-            dx = -np.matmul(Jinv, b.reshape(n, -1, 1))[..., 0]
-            ok = np.ones(n, bool)
-            plus = solver.outputs(solver._apply(st, eps * dx, ok), solver.pad_static)
-            minus = solver.outputs(solver._apply(st, -eps * dx, ok), solver.pad_static)
-            for i, name in enumerate(COMPLIANCE_OUTPUTS):
-                d = (plus[name][:, w] - minus[name][:, w]) / (2 * eps)
-                d = d * scale_out[name] * mirror_out.get(name, np.ones(2))[w]
-                C[:, w, i, j] = d * 1e3  # per kN or kN*m
+    """Direct compliance at the design position (n, 2 wheels, 4 outputs, 3 loads), edge
+    units: the ``i == j`` terms of :func:`compliance_matrix_full` for the loads Fx
+    (forward), Fy (outboard) [per kN] and Mz [per kN*m] (a toe-out moment: turning the
+    wheel's front outboard, the own sense of the ``aligning`` test) and the outputs
+    toe, camber [deg], wheel-centre x forward, y outboard [mm]."""
+    full, _ = compliance_matrix_full(axle, effects)
+    o = [FULL_COMPLIANCE_OUTPUTS.index(x) for x in COMPLIANCE_OUTPUTS]
+    k = [FULL_COMPLIANCE_LOADS.index(x) for x in COMPLIANCE_LOADS]
+    C = np.stack([full[:, w][:, o][:, :, k, w] for w in (0, 1)], axis=1)
     return C, {"outputs": COMPLIANCE_OUTPUTS, "loads": COMPLIANCE_LOADS}

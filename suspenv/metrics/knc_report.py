@@ -1,0 +1,619 @@
+"""The K&C report: the numbers a chassis engineer reads, with ADAMS/Car conventions.
+
+Frames and units (``docs/knc.md``, "K&C report: definitions and signs"): rig channels
+are SI and ISO 8855 (x forward, y left, z up); report numbers are in engineering units
+(mm, deg, N, N*m, %). Lateral quantities are *outboard positive on each wheel* unless
+named ISO (``*_y_iso``); per-wheel numbers are (n, 2) arrays (left, right), axle
+numbers are repeated on both wheels.
+
+Travel abscissa: every curve and gradient of this report is against **wheel-centre
+travel** ``z_w`` [mm] (wheel-centre height from its static value, bump positive), the
+ADAMS/Car "wheel travel"; the rig drives the pads (``amplitude`` is the pad stroke),
+and the wheel centre moves less than the pad by the tyre's deflection. The only
+exception is the ride rate, which is by definition against the pad (ground).
+
+Reductions: as the 40 objectives (:mod:`suspenv.metrics.knc`): on each branch of the
+loop a least-squares quadratic over the 7 grid points centred on the static position;
+the value at static is the fit's value, a gradient its slope; the loop's number is the
+mean of the two branches.
+
+Points (see :func:`patch_point` and :func:`carrier_patch_velocity`):
+
+* loaded contact point ``P``: where the wheel plane's downward radius (the line from the
+  wheel centre, perpendicular to the spin axis, in the vertical plane through the spin
+  axis) meets the pad plane ``z = pad_z`` (the tyre is compressed, so ``P`` lies above
+  the undeformed wheel's lowest point, the ``contact_*`` channels);
+* the *wheel-carrier patch point*: the point of the knuckle (wheel locked to it) that is
+  at ``P``; its velocity relative to the body defines the front- and side-view instant
+  centres (roll centre, anti-dive). It moves with the knuckle's rotation, so its
+  fore-aft path includes the knuckle pitch (channel ``knuckle_pitch``), which the
+  geometric contact point does not.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from suspenv.core.errors import ValidationError
+from suspenv.metrics.knc import FIT_HALF_WIDTH, RAD2DEG, quadratic_fit
+from suspenv.models.mcpherson.params import SIDE_SIGN, AxleConstants
+from suspenv.rigs.knc import KCResult
+
+BRANCHES = ("down", "up")
+
+
+@dataclass(frozen=True)
+class ReportItem:
+    """One number of the K&C report.
+
+    Attributes:
+        name: key in :func:`knc_report`'s dict.
+        unit: engineering unit.
+        test: the rig test it is read from.
+        per_wheel: True for a wheel's own number, False for an axle number.
+        definition: how it is computed (against wheel-centre travel unless stated).
+        sign: what a positive value means.
+    """
+
+    name: str
+    unit: str
+    test: str
+    per_wheel: bool
+    definition: str
+    sign: str
+
+
+def _items() -> tuple[ReportItem, ...]:
+    R = ReportItem
+    return (
+        R("toe", "deg", "parallel", True, "toe angle at static", "+ toe-in"),
+        R("camber", "deg", "parallel", True, "camber angle at static", "- top of wheel inboard"),
+        R(
+            "caster",
+            "deg",
+            "parallel",
+            True,
+            "steering axis (lower ball joint -> top mount) angle to vertical, side view",
+            "+ axis top rearward",
+        ),
+        R(
+            "kpi",
+            "deg",
+            "parallel",
+            True,
+            "steering axis angle to vertical, front view",
+            "+ axis top inboard",
+        ),
+        R(
+            "scrub_radius",
+            "mm",
+            "parallel",
+            True,
+            "lateral (vehicle y) distance from the loaded contact point to the steering "
+            "axis's pad-plane point",
+            "+ (SAE) axis meets the ground inboard of the contact point",
+        ),
+        R(
+            "trail",
+            "mm",
+            "parallel",
+            True,
+            "longitudinal (vehicle x) distance from the loaded contact point to the "
+            "steering axis's pad-plane point",
+            "+ axis meets the ground ahead of the contact point",
+        ),
+        R("bump_steer", "deg/mm", "parallel", True, "d toe / d z_w", "+ toe-in in bump"),
+        R("camber_gain", "deg/mm", "parallel", True, "d camber / d z_w", "- top inboard in bump"),
+        R("caster_gain", "deg/mm", "parallel", True, "d caster / d z_w", "+ more caster in bump"),
+        R(
+            "track_change",
+            "mm/mm",
+            "parallel",
+            True,
+            "d y_out(loaded contact point) / d z_w",
+            "+ contact point outboard in bump",
+        ),
+        R(
+            "wheel_recession",
+            "mm/mm",
+            "parallel",
+            True,
+            "d x(wheel centre) / d z_w",
+            "+ wheel centre forward in bump",
+        ),
+        R("wheel_rate", "N/mm", "parallel", True, "d F_z / d z_w", "+ stiffening"),
+        R(
+            "ride_rate",
+            "N/mm",
+            "parallel",
+            True,
+            "d F_z / d z_pad (tyre in series)",
+            "+ stiffening",
+        ),
+        R(
+            "spring_motion_ratio",
+            "mm/mm",
+            "parallel",
+            True,
+            "-d(spring length)/d z_w",
+            "+ spring compresses in bump",
+        ),
+        R(
+            "damper_motion_ratio",
+            "mm/mm",
+            "parallel",
+            True,
+            "-d(strut length: top mount to strut axis point)/d z_w",
+            "+ strut compresses in bump",
+        ),
+        R(
+            "roll_centre_height",
+            "mm",
+            "parallel",
+            False,
+            "front-view roll centre above the mean pad plane (instant centres of the carrier "
+            "patch points)",
+            "+ above the ground",
+        ),
+        R(
+            "roll_centre_migration",
+            "mm/mm",
+            "parallel",
+            False,
+            "d(roll_centre_height) / d(mean z_w)",
+            "+ roll centre rises in bump",
+        ),
+        R(
+            "anti_dive",
+            "%",
+            "parallel",
+            True,
+            "100 front_brake_share (wheelbase/cg_height) dx/dz of the carrier patch point",
+            "+ resists dive under braking",
+        ),
+        R(
+            "anti_lift",
+            "%",
+            "parallel",
+            True,
+            "100 front_drive_share (wheelbase/cg_height) dx/dz of the wheel centre",
+            "+ resists front lift under traction",
+        ),
+        R(
+            "roll_rate",
+            "N*m/deg",
+            "opposite",
+            False,
+            "d(0.5 (F_zL - F_zR) t_cp)/d phi",
+            "+ resists roll",
+        ),
+        R(
+            "roll_steer",
+            "deg/deg",
+            "opposite",
+            True,
+            "d toe / d phi_w (own roll sense)",
+            "+ toe-in as the wheel rises",
+        ),
+        R(
+            "roll_camber",
+            "deg/deg",
+            "opposite",
+            True,
+            "d camber / d phi_w (own roll sense)",
+            "- top inboard as the wheel rises",
+        ),
+        R(
+            "roll_centre_y_iso",
+            "mm",
+            "opposite",
+            False,
+            "front-view roll centre y at static (ISO y, + left)",
+            "+ left of the centreline",
+        ),
+        R(
+            "roll_centre_lateral_migration",
+            "mm/deg",
+            "opposite",
+            False,
+            "d(roll centre y, ISO) / d phi",
+            "+ moves left (ISO +y) as phi grows (left wheel up relative to the body)",
+        ),
+        R(
+            "arb_motion_ratio",
+            "deg/mm",
+            "opposite",
+            False,
+            "d(anti-roll bar twist) / d(z_wL - z_wR)",
+            "+ as the arb_twist channel",
+        ),
+    )
+
+
+REPORT_ITEMS: tuple[ReportItem, ...] = _items()
+STEERING_ITEMS: tuple[ReportItem, ...] = (
+    ReportItem(
+        "steer_gradient",
+        "deg/mm",
+        "steering",
+        True,
+        "d(road-wheel steer angle)/d(rack travel)",
+        "+ wheel steers left as the rack moves +y",
+    ),
+    ReportItem(
+        "steer_ratio",
+        "-",
+        "steering",
+        False,
+        "|d(steering-wheel angle)/d(mean road-wheel angle)|, steering-wheel angle = "
+        "360 deg x rack travel / rack_travel_per_rev",
+        "always positive",
+    ),
+    ReportItem(
+        "ackermann_error",
+        "deg",
+        "steering",
+        False,
+        "inner wheel's angle minus the Ackermann angle for the outer wheel's angle "
+        "(wheelbase, kingpin-axis ground-point track), mean of both turn directions at "
+        "the largest rack travel",
+        "+ inner wheel steers more than Ackermann",
+    ),
+)
+
+
+# ------------------------------------------------------------------ helpers
+def _fit(x: np.ndarray, y: np.ndarray, centre: int) -> tuple[np.ndarray, np.ndarray]:
+    """(value, slope) at ``centre`` of curves (n, G, 2) against (n, G, 2): (n, 2) each."""
+    xs, ys = np.moveaxis(x, 1, -1), np.moveaxis(y, 1, -1)
+    value, slope, _ = quadratic_fit(xs, ys, centre)
+    return value, slope
+
+
+def _loop(res: KCResult, fn) -> np.ndarray:
+    """Mean over the two branches of ``fn(branch)``."""
+    return 0.5 * (fn("down") + fn("up"))
+
+
+def wheel_travel(res: KCResult, branch: str) -> np.ndarray:
+    """Wheel-centre travel z_w (n, G, 2) [mm] from its static value on ``branch``."""
+    z = res.branch("wheel_centre_z", branch)
+    return (z - z[:, res.static_index : res.static_index + 1]) * 1e3
+
+
+def spin_axis_from(camber: np.ndarray, toe: np.ndarray) -> np.ndarray:
+    """Outboard unit spin axis (..., 2, 3) from camber and toe [rad] of both wheels
+    (the solver's own construction, so the channels give back its axis exactly)."""
+    sg = SIDE_SIGN
+    return np.stack(
+        [np.sin(toe) * np.cos(camber), sg * np.cos(toe) * np.cos(camber), -np.sin(camber)],
+        axis=-1,
+    )
+
+
+def _down(s: np.ndarray) -> np.ndarray:
+    d = s[..., 2:3] * s - np.array([0.0, 0.0, 1.0])
+    return d / np.linalg.norm(d, axis=-1, keepdims=True)
+
+
+def patch_point(res: KCResult, branch: str) -> np.ndarray:
+    """Loaded contact point P (n, G, 2, 3) [m], ISO: the wheel plane's downward radius
+    from the wheel centre meets the pad plane ``z = pad_z``."""
+    b = lambda name: res.branch(name, branch)  # noqa: E731
+    wc = np.stack([b("wheel_centre_x"), b("wheel_centre_y"), b("wheel_centre_z")], axis=-1)
+    d = _down(spin_axis_from(b("camber"), b("toe")))
+    t = (b("pad_z") - wc[..., 2]) / d[..., 2]
+    return wc + t[..., None] * d
+
+
+def carrier_patch_velocity(
+    res: KCResult, branch: str, need_pitch: bool = True
+) -> tuple[np.ndarray, np.ndarray]:
+    """(P, dP/dz_w): the loaded contact point P (n, G, 2, 3) [m] and the velocity of the
+    wheel-carrier point at P per metre of wheel-centre travel (n, G, 2, 3) [m/m], ISO.
+
+    v = v_wc + w x (P - wc), the carrier's angular velocity w from the spin axis's
+    change (w_perp = s x ds, s from the toe and camber channels) and the rotation about
+    +y from ``knuckle_pitch`` (fixes w's component along s). Derivatives along the
+    branch against each wheel's own wheel-centre height (second-order differences).
+
+    Without a ``knuckle_pitch`` channel (a measurement that lacks it) and
+    ``need_pitch=False``, w's component along s is taken as zero: that changes only the
+    velocity's x component (s x (P - wc) is horizontal and along x to first order), so
+    the front view (roll centre) stays right and the side view (anti-dive) does not;
+    ``need_pitch=True`` raises instead."""
+    have_pitch = "knuckle_pitch" in res.channels
+    if need_pitch and not have_pitch:
+        raise ValidationError(
+            f"carrier_patch_velocity: test {res.test!r} has no `knuckle_pitch` channel, which "
+            "the wheel carrier's side-view path needs"
+        )
+    b = lambda name: res.branch(name, branch)  # noqa: E731
+    z = b("wheel_centre_z")
+    wc = np.stack([b("wheel_centre_x"), b("wheel_centre_y"), z], axis=-1)
+    s = spin_axis_from(b("camber"), b("toe"))
+    P = patch_point(res, branch)
+
+    def ddz(y: np.ndarray) -> np.ndarray:  # y (n, G, 2[, 3]) against z (n, G, 2)
+        zz = z if y.ndim == z.ndim else z[..., None]
+        return np.gradient(y, axis=1) / np.gradient(zz, axis=1)
+
+    ds = ddz(s)
+    w = np.cross(s, ds)
+    if have_pitch:
+        wy = ddz(b("knuckle_pitch"))
+        w = w + ((wy - w[..., 1]) / s[..., 1])[..., None] * s
+    return P, ddz(wc) + np.cross(w, P - wc)
+
+
+def _lines_meet(P: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Front-view roll centre (y, z) ISO [m] (...,) where the lines through each wheel's
+    patch point P (..., 2, 3), perpendicular to its velocity v (..., 2, 3) in the y-z
+    plane, meet."""
+    n = np.stack([v[..., 2], -v[..., 1]], axis=-1)  # (..., 2 wheels, 2): perpendicular
+    p = P[..., 1:3]
+    # p_L + a n_L = p_R + b n_R  ->  [n_L, -n_R] (a, b) = p_R - p_L
+    a11, a21 = n[..., 0, 0], n[..., 0, 1]
+    a12, a22 = -n[..., 1, 0], -n[..., 1, 1]
+    r1, r2 = p[..., 1, 0] - p[..., 0, 0], p[..., 1, 1] - p[..., 0, 1]
+    det = a11 * a22 - a12 * a21
+    a = (r1 * a22 - a12 * r2) / det
+    return p[..., 0, 0] + a * n[..., 0, 0], p[..., 0, 1] + a * n[..., 0, 1]
+
+
+def roll_centre_curve(res: KCResult, branch: str) -> tuple[np.ndarray, np.ndarray]:
+    """Roll centre along a branch: (y ISO [mm], height above the mean pad plane [mm]),
+    each (n, G). Front view: each wheel's line through its carrier patch point,
+    perpendicular to that point's velocity relative to the body (the line to the
+    wheel's front-view instant centre); the roll centre is where the two lines meet."""
+    P, v = carrier_patch_velocity(res, branch, need_pitch=False)
+    y, z = _lines_meet(P, v)
+    ground = 0.5 * (P[..., 0, 2] + P[..., 1, 2])
+    return y * 1e3, (z - ground) * 1e3
+
+
+def roll_angle(res: KCResult, branch: str) -> np.ndarray:
+    """Roll angle phi (n, G) [deg] = atan((z_wL - z_wR)/t), t the static wheel-centre
+    track, zero at static (as the 40 objectives)."""
+    zw = res.branch("wheel_centre_z", branch)
+    wy = res.branch("wheel_centre_y", branch)
+    st = res.static_index
+    t = (wy[..., 0] - wy[..., 1])[:, st : st + 1]
+    phi = np.arctan((zw[..., 0] - zw[..., 1]) / t) * RAD2DEG
+    return phi - phi[:, st : st + 1]
+
+
+# ------------------------------------------------------------------ the report
+def _need(results: dict[str, KCResult], test: str) -> KCResult:
+    if test not in results:
+        raise ValidationError(f"the K&C report needs the {test!r} test, which was not run")
+    res = results[test]
+    if res.static_index < FIT_HALF_WIDTH:
+        raise ValidationError(
+            f"the K&C report needs `steps >= {2 * FIT_HALF_WIDTH}` (a 7-point fit around the "
+            f"static position), but the {test!r} test has steps={res.grid.size - 1}"
+        )
+    return res
+
+
+def _both(v: np.ndarray) -> np.ndarray:
+    """An axle curve (n, G) repeated on both wheels (n, G, 2)."""
+    return np.repeat(v[..., None], 2, axis=-1)
+
+
+def _grad(res: KCResult, y_of, x_of=wheel_travel) -> np.ndarray:
+    """Loop mean of the fitted slope at static of ``y_of(branch)`` against
+    ``x_of(res, branch)`` (both (n, G, 2)): (n, 2)."""
+    return _loop(res, lambda br: _fit(x_of(res, br), y_of(br), res.static_index)[1])
+
+
+def _value(res: KCResult, y_of, x_of=wheel_travel) -> np.ndarray:
+    """Loop mean of the fitted value at static of ``y_of(branch)``: (n, 2)."""
+    return _loop(res, lambda br: _fit(x_of(res, br), y_of(br), res.static_index)[0])
+
+
+def pad_travel(res: KCResult, branch: str) -> np.ndarray:
+    """Pad travel z_p (n, G, 2) [mm] from its static value on ``branch``."""
+    z = res.branch("pad_z", branch)
+    return (z - z[:, res.static_index : res.static_index + 1]) * 1e3
+
+
+def mean_wheel_travel(res: KCResult, branch: str) -> np.ndarray:
+    """Mean of the two wheels' wheel-centre travel (n, G, 2) [mm] (repeated)."""
+    return _both(wheel_travel(res, branch).mean(axis=-1))
+
+
+def travel_difference(res: KCResult, branch: str) -> np.ndarray:
+    """z_wL - z_wR (n, G, 2) [mm] (repeated)."""
+    zw = wheel_travel(res, branch)
+    return _both(zw[..., 0] - zw[..., 1])
+
+
+def roll_axis(res: KCResult, branch: str) -> np.ndarray:
+    """Roll angle phi (n, G, 2) [deg] (repeated; :func:`roll_angle`)."""
+    return _both(roll_angle(res, branch))
+
+
+def own_roll(res: KCResult, branch: str) -> np.ndarray:
+    """Each wheel's own roll sense phi_w = +phi (left), -phi (right) (n, G, 2) [deg]."""
+    return roll_axis(res, branch) * SIDE_SIGN
+
+
+def travel_report(
+    results: dict[str, KCResult], constants: AxleConstants | None = None
+) -> dict[str, np.ndarray]:
+    """The travel-test numbers of :data:`REPORT_ITEMS`, each (n, 2) (left, right wheel;
+    axle numbers repeated), in the items' units. Needs ``parallel`` and ``opposite``.
+    ``constants`` gives wheelbase, cg height and brake/drive shares for anti-dive/lift
+    (default: :class:`AxleConstants` defaults)."""
+    c = constants or AxleConstants()
+    par = _need(results, "parallel")
+    opp = _need(results, "opposite")
+    sg = SIDE_SIGN
+    out: dict[str, np.ndarray] = {}
+
+    def chan(res: KCResult, name: str, scale: float = 1.0):
+        return lambda br: res.branch(name, br) * scale
+
+    for name in ("toe", "camber", "caster", "kpi"):
+        out[name] = _value(par, chan(par, name, RAD2DEG))
+    out["scrub_radius"] = _value(par, chan(par, "scrub_radius", 1e3))
+    out["trail"] = _value(par, chan(par, "trail", 1e3))
+    out["bump_steer"] = _grad(par, chan(par, "toe", RAD2DEG))
+    out["camber_gain"] = _grad(par, chan(par, "camber", RAD2DEG))
+    out["caster_gain"] = _grad(par, chan(par, "caster", RAD2DEG))
+    out["track_change"] = _grad(par, lambda br: patch_point(par, br)[..., 1] * sg * 1e3)
+    out["wheel_recession"] = _grad(par, chan(par, "wheel_centre_x", 1e3))
+    out["wheel_rate"] = _grad(par, chan(par, "tyre_fz"))
+    out["ride_rate"] = _grad(par, chan(par, "tyre_fz"), pad_travel)
+    nan = np.full(out["toe"].shape, np.nan)  # a number whose channel was not measured
+    out["spring_motion_ratio"] = (
+        -_grad(par, chan(par, "spring_length", 1e3)) if "spring_length" in par.channels else nan
+    )
+    out["damper_motion_ratio"] = (
+        -_grad(par, chan(par, "strut_length", 1e3)) if "strut_length" in par.channels else nan
+    )
+
+    # roll centre and its migration against the mean wheel travel (parallel)
+    def rc_height(res: KCResult):
+        return lambda br: _both(roll_centre_curve(res, br)[1])
+
+    def rc_y(res: KCResult):
+        return lambda br: _both(roll_centre_curve(res, br)[0])
+
+    out["roll_centre_height"] = _value(par, rc_height(par), mean_wheel_travel)
+    out["roll_centre_migration"] = _grad(par, rc_height(par), mean_wheel_travel)
+
+    # side-view paths: anti-dive (carrier patch point), anti-lift (wheel centre)
+    lever = c.wheelbase / c.cg_height
+
+    def patch_slope(br: str) -> np.ndarray:
+        _, v = carrier_patch_velocity(par, br)
+        return v[..., 0] / v[..., 2]
+
+    out["anti_dive"] = (
+        100.0 * c.front_brake_share * lever * _value(par, patch_slope)
+        if "knuckle_pitch" in par.channels
+        else nan
+    )
+    out["anti_lift"] = 100.0 * c.front_drive_share * lever * out["wheel_recession"]
+
+    # opposite travel: roll rate, roll steer and camber, roll centre's lateral position
+    oi = opp.static_index
+
+    def roll_moment(br: str) -> np.ndarray:
+        fz = opp.branch("tyre_fz", br)
+        cy = opp.branch("contact_y", br)
+        t_cp = (cy[..., 0] - cy[..., 1])[:, oi : oi + 1]
+        return _both(0.5 * (fz[..., 0] - fz[..., 1]) * t_cp)
+
+    out["roll_rate"] = _grad(opp, roll_moment, roll_axis)
+    out["roll_steer"] = _grad(opp, chan(opp, "toe", RAD2DEG), own_roll)
+    out["roll_camber"] = _grad(opp, chan(opp, "camber", RAD2DEG), own_roll)
+    out["roll_centre_y_iso"] = _value(opp, rc_y(opp), roll_axis)
+    out["roll_centre_lateral_migration"] = _grad(opp, rc_y(opp), roll_axis)
+    out["arb_motion_ratio"] = (
+        _grad(opp, chan(opp, "arb_twist", RAD2DEG), travel_difference)
+        if "arb_twist" in opp.channels
+        else nan
+    )
+    return out
+
+
+# ------------------------------------------------------------------ steering
+def steer_angle(res: KCResult, branch: str) -> np.ndarray:
+    """Road-wheel steer angle delta (n, G, 2) [deg] from static, about +z (ISO: + the
+    wheel's front turns to the left): delta_w = -sign_w (toe_w - toe_w,static)."""
+    toe = res.branch("toe", branch) * RAD2DEG
+    st = res.static_index
+    return -SIDE_SIGN * (toe - toe[:, st : st + 1])
+
+
+def ackermann_error_curve(
+    res: KCResult, branch: str, wheelbase_mm: float, track_mm: np.ndarray
+) -> np.ndarray:
+    """Ackermann error (n, G) [deg] along the steering test: the inner wheel's steer
+    angle minus the angle that would turn it about the same centre as the outer wheel,
+    ``atan(L tan d_o / (L - t tan d_o))`` (L wheelbase, t the static kingpin-axis
+    ground-point track ``track_mm`` (n,)); the inner wheel is the one on the side the
+    axle turns to (left for a mean steer angle > 0). Zero where the wheels are straight."""
+    d = steer_angle(res, branch)
+    turn = np.sign(d.mean(axis=-1))  # + left turn
+    inner = np.where(turn > 0, d[..., 0], d[..., 1]) * turn  # magnitudes in the turn's sense
+    outer = np.where(turn > 0, d[..., 1], d[..., 0]) * turn
+    to = np.tan(np.deg2rad(outer))
+    ideal = np.rad2deg(np.arctan2(wheelbase_mm * to, wheelbase_mm - track_mm[:, None] * to))
+    return np.where(turn != 0, inner - ideal, 0.0)
+
+
+def steering_curves(
+    res: KCResult, constants: AxleConstants | None = None, track_mm: np.ndarray | None = None
+) -> dict[str, np.ndarray]:
+    """Curves of the ``steering`` test on the loop's mid-line (mean of the branches):
+    ``rack`` (G,) [mm] (rack travel along +y), ``toe`` (n, G, 2) [deg] (+ toe-in, left
+    and right), ``steer_angle`` (n, G, 2) [deg] (+ front to the left) and
+    ``ackermann_error`` (n, G) [deg] (:func:`ackermann_error_curve`; ``track_mm`` (n,)
+    the kingpin-axis ground-point track, default this test's own static one)."""
+    c = constants or AxleConstants()
+    t = kingpin_ground_track(res) if track_mm is None else np.asarray(track_mm, float)
+    return {
+        "rack": res.grid * 1e3,
+        "toe": res.mean_branch("toe") * RAD2DEG,
+        "steer_angle": _loop(res, lambda br: steer_angle(res, br)),
+        "ackermann_error": _loop(res, lambda br: ackermann_error_curve(res, br, c.wheelbase, t)),
+    }
+
+
+def kingpin_ground_track(res: KCResult) -> np.ndarray:
+    """Static track (n,) [mm] of the steering axes' pad-plane points: from the loaded
+    contact point, the trail (x) and the SAE scrub radius (y, inboard positive)."""
+    st = res.static_index
+    P = 0.5 * (patch_point(res, "down") + patch_point(res, "up"))[:, st]
+    scrub = res.mean_branch("scrub_radius")[:, st]
+    gy = P[..., 1] - SIDE_SIGN * scrub
+    return (gy[:, 0] - gy[:, 1]) * 1e3
+
+
+def steering_report(
+    results: dict[str, KCResult], constants: AxleConstants | None = None
+) -> dict[str, np.ndarray]:
+    """The steering numbers of :data:`STEERING_ITEMS`, each (n, 2) (axle numbers
+    repeated), from the ``steering`` test (rack travel [m] along +y, pads static)."""
+    c = constants or AxleConstants()
+    res = _need(results, "steering")
+    ci = res.static_index
+    rack = lambda br: np.broadcast_to(  # noqa: E731
+        (res.grid * 1e3)[None, :, None], res.branch("toe", br).shape
+    )
+    grad = _loop(res, lambda br: _fit(rack(br), steer_angle(res, br), ci)[1])
+    out = {"steer_gradient": grad}
+    # steering-wheel angle [deg] per mm of rack: 360 / c-factor
+    sw_per_mm = 360.0 / c.rack_travel_per_rev
+    ratio = sw_per_mm / np.abs(grad.mean(axis=-1))
+    out["steer_ratio"] = np.repeat(ratio[:, None], 2, axis=-1)
+    track = kingpin_ground_track(results.get("parallel", res))
+    ends = []
+    for br in BRANCHES:
+        e = ackermann_error_curve(res, br, c.wheelbase, track)
+        ends.append(0.5 * (e[:, 0] + e[:, -1]))
+    err = 0.5 * (ends[0] + ends[1])
+    out["ackermann_error"] = np.repeat(err[:, None], 2, axis=-1)
+    return out
+
+
+def knc_report(
+    results: dict[str, KCResult], constants: AxleConstants | None = None
+) -> dict[str, np.ndarray]:
+    """Every report number the ``results`` allow: :func:`travel_report` (needs
+    ``parallel`` and ``opposite``) and :func:`steering_report` (needs ``steering``)."""
+    out: dict[str, np.ndarray] = {}
+    if "parallel" in results and "opposite" in results:
+        out.update(travel_report(results, constants))
+    if "steering" in results:
+        out.update(steering_report(results, constants))
+    return out
+
+
+ALL_ITEMS: dict[str, ReportItem] = {i.name: i for i in REPORT_ITEMS + STEERING_ITEMS}
