@@ -46,6 +46,7 @@ _STRATEGIES: dict[str, str | Callable[..., Any]] = {
 _PIPELINES: dict[str, str | Callable[..., Any]] = {
     "optimize": "suspenv.runs.optimize_pipeline:run_optimize_pipeline",
     "tey2014": "suspenv.methods.tey2014:run_tey2014_pipeline",
+    "identify": "suspenv.methods.identify:run_identify_pipeline",
     "diagnosis_benchmark": "suspenv.bench.diagnosis_benchmark:run_benchmark_pipeline",
 }
 
@@ -55,6 +56,7 @@ _PIPELINES: dict[str, str | Callable[..., Any]] = {
 _PIPELINE_CHECKS: dict[str, str | Callable[..., Any]] = {
     "optimize": "suspenv.runs.optimize_pipeline:check_optimize_config",
     "tey2014": "suspenv.methods.tey2014:check_tey2014_config",
+    "identify": "suspenv.methods.identify:check_identify_config",
     "diagnosis_benchmark": "suspenv.bench.diagnosis_benchmark:check_benchmark_config",
 }
 
@@ -64,6 +66,7 @@ _REPORTS: dict[str, str | Callable[..., Any]] = {
     # `suspenv compare`: suspenv.analysis computes, this writes the files and figures
     "comparison": "suspenv.reports.analysis:write_comparison",
     "tey2014": "suspenv.reports.tey2014:write_tey2014_report",
+    "identify": "suspenv.reports.identify:write_identify_report",
     "KCIdentification": "suspenv.reports.kc_identification:write_kc_report",
     "MinibusRideHandling": "suspenv.reports.minibus:write_minibus_run_report",
     "PlanarLinkage": "suspenv.reports.planar:write_planar_report",

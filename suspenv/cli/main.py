@@ -20,6 +20,7 @@ COMMAND_MODULES = (
     "knc",
     "planar",
     "diagnose",
+    "identify",
 )
 
 

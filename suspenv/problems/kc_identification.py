@@ -20,7 +20,13 @@ After Tey et al. 2014 (see ``docs/knc.md`` and the spec ``kc_identification.md``
 Extra hooks for the study pipeline: ``initial_design()`` (the paper's initial
 estimates), ``truth_design()`` (mean of the test vehicle's two sides),
 ``residuals(X)`` (signed mismatches), ``curves(x)`` and ``measured_curves()``; and
-``write_report`` for optimisation runs. ``model_effects`` gives the simulated model
+``write_report`` for optimisation runs. ``measurements`` (a measured-K&C folder, see
+``docs/knc.md`` "Measured K&C format") replaces the test car by measured loops of a
+real axle, and ``vehicle`` (a vehicle file) gives the model's constants, bushing
+orientations, bounds and start design (see ``docs/identify.md``); the truth is then
+unknown (``truth_design`` is None). ``measurement`` holds the data as a
+:class:`~suspenv.measurements.knc_file.KncMeasurement` in both cases (the test car with
+the rig's declared noise). ``model_effects`` gives the simulated model
 fixed optional physics (e.g. to refit with a hysteresis a diagnosis has named):
 effects-library elements at bushings or the strut
 (:mod:`suspenv.models.mcpherson.effects`), as dicts ``{"kind", "location", "params"}``.
@@ -48,7 +54,7 @@ from suspenv.models.mcpherson.params import (
     build_axle,
     design_space,
 )
-from suspenv.models.mcpherson.truth import TruthVehicle, truth_vehicle
+from suspenv.models.mcpherson.truth import CHANNEL_NOISE, TruthVehicle, truth_vehicle
 from suspenv.registry import report_function
 from suspenv.rigs.knc import TESTS, KCResult, run_tests
 
@@ -135,6 +141,13 @@ class KCIdentification(Problem):
             each ``{"kind", "location", "params"}`` (optional ``"name"``) of an axle
             effect (:mod:`suspenv.models.mcpherson.effects`), e.g. to refit with the
             hysteresis a diagnosis has named; ``None`` is the paper's plain model.
+        measurements: path of a measured-K&C folder (or its ``knc.toml``) holding the
+            three travel tests; replaces the test car (``truth_seed`` and ``concealed``
+            are then unused), and its amplitude and grid replace ``amplitude_mm`` and
+            ``steps``. None: the built-in test car.
+        vehicle: path of a vehicle file (``"reference"`` or None: the shipped reference
+            vehicle): constants, bushing orientations and effects of the model, its
+            design space (``[bounds]``) and, with ``measurements``, the start design.
     """
 
     name = "KCIdentification"
@@ -150,6 +163,8 @@ class KCIdentification(Problem):
         amplitude_mm: float = 40.0,
         steps: int = 30,
         model_effects: Sequence[Mapping[str, Any]] | None = None,
+        measurements: str | None = None,
+        vehicle: str | None = None,
     ):
         owner = self.name
         self.truth_seed = integer(owner, "truth_seed", truth_seed, lo=0)
@@ -170,15 +185,55 @@ class KCIdentification(Problem):
             effect_from_dict(d, f"{owner}: model_effects[{i}]")
             for i, d in enumerate(model_effects or ())
         )
-        self.space: DesignSpace = design_space()
+        from suspenv.measurements.knc_file import from_results, load_measurement
+        from suspenv.models.mcpherson.vehicle_file import REFERENCE_FILE, load_vehicle
+        from suspenv.rigs.knc_measured import measured_results
+
+        for key, val in (("measurements", measurements), ("vehicle", vehicle)):
+            if val is not None and not isinstance(val, str | Path):
+                raise ValidationError(
+                    f"{owner}: `{key}` must be a path (text), but got {key}={val!r}"
+                )
+        self.measurements_path = None if measurements is None else str(measurements)
+        self.vehicle_path = None if vehicle in (None, "reference") else str(vehicle)
+        self.vehicle = load_vehicle(
+            REFERENCE_FILE if self.vehicle_path is None else Path(self.vehicle_path)
+        )
+        self.space: DesignSpace = design_space() if vehicle is None else self.vehicle.space()
         self.objective_names = OBJECTIVE_NAMES
         self.objective_units = OBJECTIVE_UNITS
         self.constraint_names = ()
-        truth, results, targets = _measured(
-            self.truth_seed, self.concealed, self.amplitude, self.steps
-        )
-        self.truth: TruthVehicle = truth
-        self.measured: dict[str, KCResult] = results
+        self.truth: TruthVehicle | None
+        if self.measurements_path is None:
+            truth, results, targets = _measured(
+                self.truth_seed, self.concealed, self.amplitude, self.steps
+            )
+            self.truth = truth
+            self.measured: dict[str, KCResult] = results
+            self.measurement = from_results(
+                results,
+                f"test car (seed {self.truth_seed}, concealed: "
+                f"{'+'.join(self.concealed) or 'none'})",
+                noise=dict(CHANNEL_NOISE),
+                source="suspenv built-in test car (reference vehicle + concealed effects)",
+            )
+        else:
+            self.measurement = load_measurement(Path(self.measurements_path), tests=TESTS)
+            self.measured = {
+                t: r for t, r in measured_results(self.measurement).items() if t in TESTS
+            }
+            first = self.measured[TESTS[0]]
+            self.steps = int(first.grid.size - 1)
+            self.amplitude = float(first.grid[-1])
+            for t, r in self.measured.items():
+                if r.grid.size - 1 != self.steps or not np.isclose(r.grid[-1], self.amplitude):
+                    raise ValidationError(
+                        f"{owner}: the travel tests must share one stroke and grid, but "
+                        f"{t!r} has +-{r.grid[-1] * 1e3:g} mm in {r.grid.size - 1} steps and "
+                        f"{TESTS[0]!r} +-{self.amplitude * 1e3:g} mm in {self.steps} steps"
+                    )
+            self.truth = None
+            targets = objectives(self.measured)[0]
         self.targets: np.ndarray = targets.copy()
 
     # ----------------------------------------------------------------- physics
@@ -211,7 +266,7 @@ class KCIdentification(Problem):
     def _simulate_chunk(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[str]]:
         """:meth:`simulate` of one chunk of designs X (m, 49)."""
         results = run_tests(
-            build_axle(X),
+            self._axle(X),
             TESTS,
             self.amplitude,
             self.steps,
@@ -248,9 +303,18 @@ class KCIdentification(Problem):
         """Signed mismatches ``simulated - measured`` (n, 40); NaN rows for failures."""
         return self.simulate(self.space.check_batch(X))[0] - self.targets
 
+    def _axle(self, X: np.ndarray) -> Any:
+        """Batched axle of designs X (n, 49): symmetric, with the vehicle file's constants
+        and bushing orientations (the reference vehicle's by default)."""
+        v = self.vehicle
+        return build_axle(X, None, v.constants, v.orientation or None)
+
     def initial_design(self) -> np.ndarray:
         """The paper's initial model: hard points at the centres of its ranges, every
-        bushing stiffness 500, anti-roll bar 300, camber and toe 0."""
+        bushing stiffness 500, anti-roll bar 300, camber and toe 0; with measured data,
+        the vehicle file's design (mean of its two sides)."""
+        if self.measurements_path is not None:
+            return 0.5 * (self.vehicle.left + self.vehicle.right)
         values: dict[str, float] = {}
         for hp in HARD_POINTS:
             for axis, (lo, hi) in zip("xyz", PAPER_RANGES[hp], strict=True):
@@ -261,15 +325,21 @@ class KCIdentification(Problem):
         values.update(arb_torsion=300.0, static_camber=0.0, static_toe=0.0)
         return self.space.from_dict(values)
 
-    def truth_design(self) -> np.ndarray:
-        """The symmetric design nearest to the test vehicle (mean of its two sides)."""
+    @property
+    def truth_design(self) -> Any:
+        """The hook ``truth_design() -> (49,)``: the symmetric design nearest to the test
+        vehicle (mean of its two sides); None with measured data (the truth is unknown)."""
+        return None if self.truth is None else self._truth_design
+
+    def _truth_design(self) -> np.ndarray:
+        assert self.truth is not None  # invariant: the hook exists only with a truth
         return self.truth.mean_design.copy()
 
     def curves(self, x: np.ndarray) -> dict[str, dict[str, tuple[np.ndarray, np.ndarray]]]:
         """Left-wheel loops of one design: {test: {channel: (pad stroke [mm], value)}}."""
         X = self.space.check_batch(x)[:1]
         return _curves(
-            run_tests(build_axle(X), TESTS, self.amplitude, self.steps, self.model_effects)
+            run_tests(self._axle(X), TESTS, self.amplitude, self.steps, self.model_effects)
         )
 
     def measured_curves(self) -> dict[str, dict[str, tuple[np.ndarray, np.ndarray]]]:
@@ -293,13 +363,17 @@ class KCIdentification(Problem):
         return report_function("KCIdentification")(self, Path(run_dir), archive)
 
     def config(self) -> dict[str, Any]:
-        return {
+        out: dict[str, Any] = {
             "truth_seed": self.truth_seed,
             "concealed": list(self.concealed),
             "amplitude_mm": self.amplitude * 1e3,
             "steps": self.steps,
             "model_effects": [e.to_dict() for e in self.model_effects] or None,
         }
+        for key, val in (("measurements", self.measurements_path), ("vehicle", self.vehicle_path)):
+            if val is not None:  # only when given: the test car's config is unchanged
+                out[key] = val
+        return out
 
 
 def _curves(results: dict[str, KCResult]) -> dict[str, dict[str, tuple[np.ndarray, np.ndarray]]]:

@@ -1,0 +1,760 @@
+"""Whole-curve, noise-weighted fit of a McPherson axle to measured K&C loops.
+
+The residual of a design is, for every measured rig test, fitted channel, wheel and
+sample of the loop, ``(simulated - measured) / sigma_channel`` (dimensionless; the
+channel's measurement noise ``sigma`` in SI units). The simulated loop is solved on
+a uniform grid of the test's drive (left pad stroke [m], force [N], moment [N*m] or
+rack travel [m]) from ``-A`` to ``+A`` (``A`` the largest measured ``|drive|``) and
+read per loading branch at the measured drive values: samples of branch 1 (``+end
+-> -end``) from the descending branch, samples of branches 0 and 2 (``design ->
++end``, ``-end -> design``) from the ascending one, linear in the drive between grid
+points (exact when the measured drive lies on the grid, as in loops that
+``suspenv knc`` writes). Values, slopes, curvature, static caster and both
+hysteresis branches all enter; channels are SI and ISO 8855 (x forward, y left, z
+up), left and right wheels in their raw (not outboard) signs.
+
+Parameters: the vehicle's design space (ADAMS/Car units at this edge: mm, N/mm,
+N*mm/deg, N*m/rad, deg) mapped to the unit cube, stiffnesses logarithmically
+(:func:`fit_space`). By default the model is symmetric (one design for both sides).
+
+Two stages (:func:`fit_curves`):
+
+1. **global**: CMA-ES (pycma) on the sum of squared residuals in the unit cube,
+   every generation evaluated as one batch of rig simulations;
+2. **polish**: trust-region least squares (:func:`scipy.optimize.least_squares`,
+   ``trf``, bounds ``[0, 1]``) whose Jacobian is a forward difference taken in one
+   batched rig call of the ``d + 1`` designs (:meth:`CurveModel.jacobian`).
+
+Both report why they stopped.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from suspenv.core.errors import ValidationError
+from suspenv.core.space import DesignSpace
+from suspenv.models.effects import Effect
+from suspenv.models.mcpherson.params import AxleConstants, build_axle
+from suspenv.rigs.knc import KCResult, run_tests
+
+#: channels fitted when measured (SI, ISO 8855; raw signs, left and right wheels)
+FIT_CHANNELS = (
+    "toe",
+    "camber",
+    "caster",
+    "kpi",
+    "tyre_fz",
+    "wheel_centre_x",
+    "wheel_centre_y",
+    "wheel_centre_z",
+    "contact_x",
+    "contact_y",
+    "contact_z",
+)
+#: units of the fitted channels (SI)
+CHANNEL_UNITS = {
+    "toe": "rad",
+    "camber": "rad",
+    "caster": "rad",
+    "kpi": "rad",
+    "tyre_fz": "N",
+    "wheel_centre_x": "m",
+    "wheel_centre_y": "m",
+    "wheel_centre_z": "m",
+    "contact_x": "m",
+    "contact_y": "m",
+    "contact_z": "m",
+}
+#: stiffness units: these parameters are mapped to the unit cube logarithmically
+STIFFNESS_UNITS = ("N/mm", "N*mm/deg", "N*m/rad")
+#: forward-difference step in the unit cube (0.01 % of a parameter's range)
+FD_STEP = 1e-4
+#: residual of a design the rig cannot solve (noise units), so the polish steps back
+FAILED_RESIDUAL = 1e4
+#: the polish restarts until a restart lowers the cost by less than this (squared noise
+#: units; half of it is the change of the log-likelihood)
+RESTART_GAIN = 1.0
+#: weight of the polish's pull towards the start design: residual rows
+#: ``PRIOR_WEIGHT * (u - u_start)``, so moving a parameter across its whole range costs
+#: one squared noise unit. Directions the curves do not see stop wandering (the trust
+#: region converges in tens of steps instead of crawling along them); an identified
+#: parameter (standard error below 0.67 % of its range: information above 2e4 per unit
+#: squared) is moved by less than 1e-4 of its range
+PRIOR_WEIGHT = 1.0
+
+
+def fit_space(space: DesignSpace) -> DesignSpace:
+    """``space`` with every stiffness (units :data:`STIFFNESS_UNITS`, lower bound > 0)
+    on a log scale: equal steps of the unit cube are equal ratios of stiffness."""
+    return DesignSpace(
+        replace(p, log=True) if p.unit in STIFFNESS_UNITS and p.low > 0 else p
+        for p in space.parameters
+    )
+
+
+def amplitude_kwargs(test: str, amplitude: float) -> dict[str, float]:
+    """Keyword of :func:`suspenv.rigs.knc.run_tests` that carries ``test``'s amplitude
+    (``amplitude`` in the drive's SI unit)."""
+    from suspenv.measurements import knc as kncm
+
+    steer = tuple(getattr(kncm, "STEER_TESTS", ("steering",)))
+    units = dict(getattr(kncm, "DRIVE_UNIT", {}))
+    if test in steer:
+        return {"rack_amplitude": amplitude}
+    unit = units.get(test, "N" if test in kncm.FORCE_TESTS else "m")
+    if unit == "N*m" or test == "aligning":
+        return {"moment_amplitude": amplitude}
+    if unit == "N":
+        return {"force_amplitude": amplitude}
+    return {"amplitude": amplitude}
+
+
+def rig_run(
+    axle: Any,
+    tests: Sequence[str],
+    steps: int,
+    effects: Sequence[Effect],
+    amplitudes: Mapping[str, float],
+) -> dict[str, KCResult]:
+    """:func:`suspenv.rigs.knc.run_tests` with the amplitude keywords of ``amplitudes``
+    (:func:`amplitude_kwargs`; a keyword not given keeps the rig's default)."""
+    from suspenv.rigs import knc as rig
+
+    return run_tests(
+        axle,
+        tuple(tests),
+        amplitude=float(amplitudes.get("amplitude", 0.040)),
+        steps=int(steps),
+        effects=effects,
+        force_amplitude=float(amplitudes.get("force_amplitude", rig.FORCE_AMPLITUDE)),
+        moment_amplitude=float(amplitudes.get("moment_amplitude", rig.MOMENT_AMPLITUDE)),
+        rack_amplitude=float(amplitudes.get("rack_amplitude", rig.RACK_AMPLITUDE)),
+    )
+
+
+@dataclass
+class MeasuredCurves:
+    """One measured test as the fit reads it.
+
+    Attributes:
+        test: rig test name.
+        drive: (P,) drive of every sample (SI: left pad stroke [m], force [N], ...).
+        branch: (P,) int, 0 design -> +end, 1 +end -> -end, 2 -end -> design.
+        values: channel -> (P, 2) measured values (SI, raw ISO 8855, left, right).
+        amplitude: half-range of the simulated grid (largest ``|drive|``).
+        steps: grid intervals of the simulated loop (even).
+    """
+
+    test: str
+    drive: np.ndarray
+    branch: np.ndarray
+    values: dict[str, np.ndarray]
+    amplitude: float
+    steps: int
+    # interpolation: grid interval index and weight per sample, descending-branch mask
+    _i0: np.ndarray = field(default_factory=lambda: np.zeros(0, int), repr=False)
+    _w: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
+
+    def __post_init__(self) -> None:
+        grid = np.linspace(-self.amplitude, self.amplitude, self.steps + 1)
+        d = np.clip(self.drive, grid[0], grid[-1])
+        i0 = np.clip(np.searchsorted(grid, d, side="right") - 1, 0, self.steps - 1)
+        self._i0 = i0
+        self._w = (d - grid[i0]) / (grid[i0 + 1] - grid[i0])
+
+    def read(self, res: KCResult, channel: str) -> np.ndarray:
+        """Simulated ``channel`` (n, P, 2) of ``res`` at the measured samples (per branch)."""
+        down = res.branch(channel, "down")
+        up = res.branch(channel, "up")
+        w = self._w[None, :, None]
+        a = (1 - w) * down[:, self._i0] + w * down[:, self._i0 + 1]
+        b = (1 - w) * up[:, self._i0] + w * up[:, self._i0 + 1]
+        return np.where((self.branch == 1)[None, :, None], a, b)
+
+
+def measured_curves(measured: Any, steps: int | None = None) -> MeasuredCurves:
+    """:class:`MeasuredCurves` of a measured test (``.test``, ``.drive``, ``.branch``,
+    ``.channels``, as :class:`suspenv.measurements.knc_file.MeasuredTest`).
+
+    The simulated grid has ``steps`` intervals (default: ``(P - 1) / 2`` for a loop of
+    ``P`` samples, made even, at least 8)."""
+    drive = np.asarray(measured.drive, float)
+    branch = np.asarray(measured.branch, int)
+    if drive.ndim != 1 or drive.size < 3 or branch.shape != drive.shape:
+        raise ValidationError(
+            f"measured test {measured.test!r}: `drive` and `branch` must be (P,) with P >= 3, "
+            f"but got {drive.shape} and {branch.shape}"
+        )
+    amp = float(np.max(np.abs(drive)))
+    if not amp > 0:
+        raise ValidationError(
+            f"measured test {measured.test!r}: the drive must move (`max|drive| > 0`), but "
+            f"got max|drive| = {amp}"
+        )
+    if steps is None:
+        steps = max(8, (drive.size - 1) // 2)
+        steps += steps % 2
+    values = {
+        c: np.asarray(v, float)
+        for c, v in measured.channels.items()
+        if c in FIT_CHANNELS and np.asarray(v).shape == (drive.size, 2)
+    }
+    return MeasuredCurves(measured.test, drive, branch, values, amp, int(steps))
+
+
+class CurveModel:
+    """Residuals ``(simulated - measured) / sigma`` of designs against measured loops.
+
+    Args:
+        tests: measured tests (:class:`MeasuredCurves`), one per rig test.
+        sigma: channel -> noise standard deviation (SI, > 0); a channel without one is
+            not fitted.
+        space: the design space (physical bounds of the 49 parameters).
+        base: full design (49,) the parameters not in ``free`` are held at.
+        free: names of the fitted parameters (default: all of ``space``).
+        constants: the vehicle's :class:`AxleConstants`; ``effects``: the simulated
+            model's fixed effects (path-dependent ones make every call slower).
+        two_sided: False (default): one design for both sides (left = right); True: each
+            free parameter but ``arb_torsion`` (one bar) gets a right-side twin named
+            ``<name>@right``, and a design is (98,): left then right (both in the
+            left-side file convention, as ``[design_right]`` of a vehicle file).
+        chunk: designs per rig call (bounded memory, about 0.5 MB per design and test).
+        orientation: bushing frame orientations of the vehicle (see
+            :func:`suspenv.models.mcpherson.params.build_axle`).
+    """
+
+    def __init__(
+        self,
+        tests: Sequence[MeasuredCurves],
+        sigma: Mapping[str, float],
+        space: DesignSpace,
+        base: np.ndarray,
+        free: Sequence[str] | None = None,
+        constants: AxleConstants | None = None,
+        effects: Sequence[Effect] = (),
+        two_sided: bool = False,
+        chunk: int = 64,
+        orientation: Mapping[str, Sequence[float]] | None = None,
+    ):
+        self.tests = list(tests)
+        if not self.tests:
+            raise ValidationError("the fit needs at least one measured test, but got none")
+        self.space = fit_space(space)
+        self.base = np.asarray(base, float).copy()
+        if self.base.shape != (self.space.dim,):
+            raise ValidationError(
+                f"base design must have {self.space.dim} values, but got {self.base.shape}"
+            )
+        names = list(self.space.names if free is None else free)
+        for n in names:
+            self.space.index(n)  # unknown names are errors with suggestions
+        if len(set(names)) != len(names) or not names:
+            raise ValidationError(f"free parameters must be unique and not empty, got {names}")
+        self.free = names
+        self.two_sided = bool(two_sided)
+        d = self.space.dim
+        index = [self.space.index(n) for n in names]
+        params = [self.space.parameters[i] for i in index]
+        if self.two_sided:
+            twins = [i for i in index if self.space.names[i] != "arb_torsion"]
+            index += [d + i for i in twins]
+            params += [
+                replace(self.space.parameters[i], name=f"{self.space.names[i]}@right")
+                for i in twins
+            ]
+        self.free_index = np.array(index)
+        self.sub = DesignSpace(params)
+        self.constants = constants or AxleConstants()
+        self.effects = tuple(effects)
+        self.orientation = dict(orientation or {})
+        self.chunk = int(chunk)
+        self.sigma: dict[str, float] = {}
+        for c in sorted({c for t in self.tests for c in t.values}):
+            s = sigma.get(c)
+            if s is not None and np.isfinite(s) and s > 0:
+                self.sigma[c] = float(s)
+        # residual layout: blocks (test, channel) -> slice of the residual vector
+        self.blocks: list[tuple[str, str, slice]] = []
+        k = 0
+        self._measured = []
+        for t in self.tests:
+            for c in sorted(t.values):
+                if c not in self.sigma:
+                    continue
+                v = t.values[c]
+                self.blocks.append((t.test, c, slice(k, k + v.size)))
+                self._measured.append(v.reshape(-1) / self.sigma[c])
+                k += v.size
+        if not self.blocks:
+            raise ValidationError(
+                "no measured channel can be fitted: every channel needs a noise level > 0 and "
+                f"one of the names {FIT_CHANNELS}"
+            )
+        self.size = k
+        self.measured = np.concatenate(self._measured)
+        self.stats = {"designs": 0, "calls": 0, "seconds": 0.0}
+        self._groups = _call_groups(self.tests)
+
+    # ------------------------------------------------------------------ designs
+    @property
+    def dim(self) -> int:
+        """Number of fitted values (free parameters, and their right twins if two-sided)."""
+        return int(self.free_index.size)
+
+    @property
+    def names(self) -> list[str]:
+        """Names of the fitted values (``<name>@right`` for a right twin)."""
+        return list(self.sub.names)
+
+    def full(self, X: np.ndarray) -> np.ndarray:
+        """Designs (n, 49) or (n, 98) as the model's designs: a 49-value design of a
+        two-sided model is the same on both sides."""
+        X = np.atleast_2d(np.asarray(X, float))
+        if self.two_sided and X.shape[1] == self.space.dim:
+            return np.concatenate([X, X], axis=1)
+        return X
+
+    def designs(self, U: np.ndarray) -> np.ndarray:
+        """Physical designs (n, 49), two-sided (n, 98), of unit-cube points (n, dim)."""
+        U = np.atleast_2d(np.asarray(U, float))
+        X = self.full(np.tile(self.base, (U.shape[0], 1)))
+        X[:, self.free_index] = self.sub.to_physical(U)
+        return X
+
+    def unit(self, x: np.ndarray) -> np.ndarray:
+        """Unit-cube point (dim,) of the fitted values of a physical design (49,) or (98,)."""
+        x = self.full(x)[0]
+        return np.clip(self.sub.to_unit(x[self.free_index][None])[0], 0, 1)
+
+    # --------------------------------------------------------------- simulation
+    def axle(self, X: np.ndarray) -> Any:
+        """The batched :class:`~suspenv.models.mcpherson.params.Axle` of designs X (n, 49)
+        or, two-sided, (n, 98) (left then right)."""
+        X = self.full(X)
+        d = self.space.dim
+        right = X[:, d:] if X.shape[1] == 2 * d else None
+        return build_axle(X[:, :d], right, self.constants, self.orientation or None)
+
+    def simulate(self, X: np.ndarray) -> tuple[dict[str, KCResult], np.ndarray, list[str]]:
+        """Rig results {test: KCResult} of physical designs X (n, 49), ok (n,), messages.
+
+        Tests are run in groups sharing an amplitude and grid (one batched call each),
+        in chunks of :attr:`chunk` designs."""
+        X = self.full(X)
+        n = X.shape[0]
+        t0 = time.perf_counter()
+        groups = self._groups
+        out: dict[str, list[KCResult]] = {t.test: [] for t in self.tests}
+        ok = np.ones(n, bool)
+        msgs = [""] * n
+        for a in range(0, n, self.chunk):
+            b = min(n, a + self.chunk)
+            axle = self.axle(X[a:b])
+            for steps, kw, names in groups:
+                res = rig_run(axle, names, steps, self.effects, kw)
+                for t, r in res.items():
+                    out[t].append(r)
+                    for i in np.flatnonzero(~r.ok):
+                        if ok[a + i]:
+                            msgs[a + i] = f"{t}: {r.messages[i]}"
+                        ok[a + i] = False
+        self.stats["designs"] += n
+        self.stats["calls"] += 1
+        self.stats["seconds"] += time.perf_counter() - t0
+        return {t: _concat(parts) for t, parts in out.items()}, ok, msgs
+
+    def predict(self, results: Mapping[str, KCResult]) -> np.ndarray:
+        """Simulated values at the measured samples, scaled by sigma: (n, size)."""
+        parts = []
+        by_test = {t.test: t for t in self.tests}
+        for test, c, _ in self.blocks:
+            v = by_test[test].read(results[test], c)
+            parts.append(v.reshape(v.shape[0], -1) / self.sigma[c])
+        return np.concatenate(parts, axis=1)
+
+    def residuals_x(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[str]]:
+        """Residuals (n, size) of physical designs X (n, 49) (NaN rows where the rig fails)."""
+        res, ok, msgs = self.simulate(X)
+        R = self.predict(res) - self.measured
+        R[~ok] = np.nan
+        bad = ok & ~np.isfinite(R).all(axis=1)
+        for i in np.flatnonzero(bad):
+            msgs[i] = "EvaluationError: a simulated channel is not finite"
+        ok &= ~bad
+        R[~ok] = np.nan
+        return R, ok, msgs
+
+    def residuals(self, U: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[str]]:
+        """Residuals (n, size) of unit-cube points U (n, dim)."""
+        return self.residuals_x(self.designs(U))
+
+    def jacobian(self, u: np.ndarray, step: float = FD_STEP) -> tuple[np.ndarray, np.ndarray]:
+        """(r (size,), J (size, dim)) at ``u`` by forward differences of ``step`` in the
+        unit cube (backward at the upper bound), the ``dim + 1`` designs in one batch.
+
+        A perturbed design the rig cannot solve gives a zero column (that parameter is
+        then held for this step)."""
+        u = np.asarray(u, float)
+        h = np.where(u + step <= 1.0, step, -step)
+        U = np.tile(u, (self.dim + 1, 1))
+        U[1:] += np.diag(h)
+        R, ok, msgs = self.residuals(U)
+        if not ok[0]:
+            raise ValidationError(f"the rig cannot solve the design being fitted: {msgs[0]}")
+        J = (R[1:] - R[0]).T / h
+        J[:, ~ok[1:]] = 0.0
+        return R[0], J
+
+    # ----------------------------------------------------------------- reading
+    def block_rms(self, r: np.ndarray) -> dict[tuple[str, str], float]:
+        """RMS of the scaled residual ``r`` (size,) per (test, channel): 1 = noise level."""
+        return {(t, c): float(np.sqrt(np.mean(r[s] ** 2))) for t, c, s in self.blocks}
+
+
+def _call_groups(
+    tests: Sequence[MeasuredCurves],
+) -> list[tuple[int, dict[str, float], tuple[str, ...]]]:
+    """Tests grouped into rig calls: one call takes one grid (``steps``) and one value per
+    amplitude keyword, so tests of different kinds (travel, force, ...) share a call."""
+    groups: list[tuple[int, dict[str, float], list[str]]] = []
+    for t in tests:
+        kw = amplitude_kwargs(t.test, t.amplitude)
+        for steps, have, names in groups:
+            if steps == t.steps and all(have.get(k, v) == v for k, v in kw.items()):
+                have.update(kw)
+                names.append(t.test)
+                break
+        else:
+            groups.append((t.steps, dict(kw), [t.test]))
+    return [(s, kw, tuple(names)) for s, kw, names in groups]
+
+
+def _concat(parts: list[KCResult]) -> KCResult:
+    if len(parts) == 1:
+        return parts[0]
+    p0 = parts[0]
+    return KCResult(
+        p0.test,
+        p0.grid,
+        p0.path,
+        {k: np.concatenate([p.channels[k] for p in parts]) for k in p0.channels},
+        np.concatenate([p.ok for p in parts]),
+        [m for p in parts for m in p.messages],
+    )
+
+
+# ====================================================================== stages
+@dataclass
+class StageResult:
+    """Outcome of one stage: best unit point, its cost (sum of squared residuals),
+    evaluations, the stopping reason, seconds, and the cost after each step."""
+
+    name: str
+    u: np.ndarray
+    cost: float
+    evaluations: int
+    stop: str
+    seconds: float
+    history: list[float] = field(default_factory=list)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "stage": self.name,
+            "cost": self.cost,
+            "evaluations": self.evaluations,
+            "stop": self.stop,
+            "seconds": self.seconds,
+        }
+
+
+def _say(progress: bool, msg: str) -> None:
+    if progress:
+        print(msg, file=sys.stderr, flush=True)
+
+
+def global_stage(
+    model: CurveModel,
+    u0: np.ndarray,
+    sigma0: float = 0.2,
+    popsize: int | None = None,
+    max_evaluations: int = 4000,
+    seed: int = 1,
+    tolfun: float = 1e-3,
+    progress: bool = False,
+) -> StageResult:
+    """CMA-ES on ``sum(r^2)`` in the unit cube from ``u0`` (step ``sigma0``).
+
+    Each generation is one batched rig call. Failed designs get the generation's worst
+    valid cost times 10 plus their distance from the mean (so CMA-ES moves away).
+    Stops at ``max_evaluations`` or a pycma criterion (``tolfun`` on the cost change,
+    a cost unit being one squared noise level)."""
+    import cma
+
+    t0 = time.perf_counter()
+    opts: dict[str, Any] = {
+        "bounds": [0.0, 1.0],
+        "seed": int(seed) + 1,  # pycma treats 0 as "random"
+        "verbose": -9,
+        "maxfevals": int(max_evaluations),
+        "tolfun": float(tolfun),
+        "tolx": 1e-6,
+    }
+    if popsize:
+        opts["popsize"] = int(popsize)
+    es = cma.CMAEvolutionStrategy(np.clip(u0, 0, 1).tolist(), float(sigma0), opts)
+    best_u, best_f = np.clip(np.asarray(u0, float), 0, 1), np.inf
+    history: list[float] = []
+    evals = 0
+    gen = 0
+    while not es.stop():
+        sols = es.ask()
+        U = np.clip(np.array(sols), 0, 1)
+        R, ok, _ = model.residuals(U)
+        f = np.where(ok, np.nansum(R**2, axis=1), np.nan)
+        worst = np.nanmax(f) if ok.any() else 1e30
+        dist = np.linalg.norm(U - es.mean, axis=1)
+        f = np.where(ok, f, 10 * worst * (1 + dist))
+        es.tell(sols, f.tolist())
+        evals += len(sols)
+        gen += 1
+        i = int(np.argmin(f))
+        if ok[i] and f[i] < best_f:
+            best_f, best_u = float(f[i]), U[i].copy()
+        history.append(best_f)
+        if gen % 10 == 0:
+            _say(
+                progress,
+                f"  global  gen {gen:4d}  evaluations {evals:5d}  best cost {best_f:.4g}  "
+                f"({time.perf_counter() - t0:.0f} s)",
+            )
+    stop = ", ".join(f"{k}={v}" for k, v in es.stop().items())
+    return StageResult(
+        "global (CMA-ES)", best_u, best_f, evals, stop, time.perf_counter() - t0, history
+    )
+
+
+def polish_stage(
+    model: CurveModel,
+    u0: np.ndarray,
+    max_nfev: int = 150,
+    ftol: float = 1e-5,
+    xtol: float = 1e-8,
+    gtol: float = 1e-8,
+    progress: bool = False,
+    prior: np.ndarray | None = None,
+    prior_weight: float = PRIOR_WEIGHT,
+) -> tuple[StageResult, np.ndarray, np.ndarray]:
+    """Trust-region least squares from ``u0`` with the batched Jacobian.
+
+    ``prior`` (dim,): a weak pull towards this unit point, the residual rows
+    ``prior_weight * (u - prior)`` (see :data:`PRIOR_WEIGHT`); None: none. Returns
+    (stage, residual at the answer (size,), Jacobian there (size, dim)), both without
+    the prior's rows; the stage's cost and history are the data's sum of squares."""
+    from scipy.optimize import least_squares
+
+    t0 = time.perf_counter()
+    cache: dict[bytes, tuple[np.ndarray, np.ndarray | None]] = {}
+    history: list[float] = []
+    counter = {"fun": 0, "jac": 0}
+
+    w = float(prior_weight) if prior is not None else 0.0
+    centre = np.zeros(model.dim) if prior is None else np.asarray(prior, float)
+
+    def with_prior(r: np.ndarray, u: np.ndarray) -> np.ndarray:
+        return np.concatenate([r, w * (u - centre)]) if w > 0 else r
+
+    def fun(u: np.ndarray) -> np.ndarray:
+        key = np.asarray(u, float).tobytes()
+        if key in cache:
+            return with_prior(cache[key][0], u)
+        counter["fun"] += 1
+        R, ok, _ = model.residuals(u[None])
+        r = R[0] if ok[0] else np.full(model.size, FAILED_RESIDUAL)
+        cache[key] = (r, None)
+        history.append(float(r @ r))
+        return with_prior(r, u)
+
+    def jac(u: np.ndarray) -> np.ndarray:
+        key = np.asarray(u, float).tobytes()
+        hit = cache.get(key)
+        if hit is not None and hit[1] is not None:
+            J = hit[1]
+            return np.vstack([J, w * np.eye(model.dim)]) if w > 0 else J
+        counter["jac"] += 1
+        r, J = model.jacobian(u)
+        cache.clear()
+        cache[key] = (r, J)
+        _say(
+            progress,
+            f"  polish  Jacobian {counter['jac']:3d}  cost {float(r @ r):.6g}  "
+            f"({time.perf_counter() - t0:.0f} s)",
+        )
+        return np.vstack([J, w * np.eye(model.dim)]) if w > 0 else J
+
+    u0 = np.clip(np.asarray(u0, float), 0.0, 1.0)
+    sol = least_squares(
+        fun,
+        u0,
+        jac=jac,
+        bounds=(0.0, 1.0),
+        method="trf",
+        x_scale=1.0,
+        max_nfev=max_nfev,
+        ftol=ftol,
+        xtol=xtol,
+        gtol=gtol,
+    )
+    r, J = model.jacobian(sol.x)
+    reasons = {
+        -1: "improper input",
+        0: f"evaluation budget (max_nfev={max_nfev}) used up: not converged",
+        1: f"converged: gradient below gtol={gtol:g}",
+        2: f"converged: relative cost change below ftol={ftol:g}",
+        3: f"converged: relative step below xtol={xtol:g}",
+        4: "converged: ftol and xtol both met",
+    }
+    stage = StageResult(
+        "polish (least squares)",
+        sol.x.copy(),
+        float(r @ r),
+        int(counter["fun"] + counter["jac"] * (model.dim + 1)),
+        reasons.get(int(sol.status), str(sol.message)),
+        time.perf_counter() - t0,
+        history,
+    )
+    return stage, r, J
+
+
+@dataclass
+class CurveFit:
+    """Answer of :func:`fit_curves`: the fitted design and what the stages did."""
+
+    model: CurveModel
+    u: np.ndarray  # (dim,) unit point of the free parameters
+    x: np.ndarray  # (49,) physical design
+    residual: np.ndarray  # (size,) scaled residual at x
+    jacobian: np.ndarray  # (size, dim) d residual / d u
+    stages: list[StageResult]
+    answer: StageResult | None = None  # the polish whose answer this is (default: last)
+
+    @property
+    def cost(self) -> float:
+        return float(self.residual @ self.residual)
+
+    @property
+    def final(self) -> StageResult:
+        """The stage that gave the answer."""
+        return self.answer if self.answer is not None else self.stages[-1]
+
+    @property
+    def converged(self) -> bool:
+        return self.final.stop.startswith("converged")
+
+
+def fit_curves(
+    model: CurveModel,
+    x0: np.ndarray,
+    global_evaluations: int = 4000,
+    popsize: int | None = None,
+    sigma0: float = 0.2,
+    polish_nfev: int = 150,
+    seed: int = 1,
+    progress: bool = False,
+    on_stage: Callable[[StageResult], None] | None = None,
+    race_nfev: int = 25,
+) -> CurveFit:
+    """Global stage (skipped when ``global_evaluations == 0``) then the polish, from
+    the physical design ``x0`` (49,).
+
+    A short least-squares race (``race_nfev`` evaluations) runs from the CMA-ES best and
+    from ``x0`` itself, and the polish goes on from the lower cost: a short global stage
+    in 49 dimensions is not converged, and its best point can lie in a worse valley than
+    the start (springs in series trade along curved valleys); the race costs less than
+    a global stage long enough to settle.
+    """
+    u = model.unit(x0)
+    prior = u.copy()  # the polish's weak pull: towards the start design
+    stages = []
+    starts = [("start design", u)]
+    if global_evaluations > 0:
+        _say(progress, f"global stage: CMA-ES, {model.dim} parameters, budget {global_evaluations}")
+        g = global_stage(model, u, sigma0, popsize, global_evaluations, seed, progress=progress)
+        stages.append(g)
+        if on_stage:
+            on_stage(g)
+        _say(progress, f"  stopped: {g.stop} (cost {g.cost:.6g})")
+        starts.insert(0, ("CMA-ES best", g.u))
+    label, u = starts[0]
+    if len(starts) > 1:  # race: a short polish from each start, the lower cost goes on
+        best = None
+        for lab, u_start in starts:
+            _say(progress, f"race: {race_nfev} least-squares evaluations from the {lab}")
+            q, _, _ = polish_stage(model, u_start, race_nfev, progress=progress, prior=u)
+            q.name = f"race from the {lab}"
+            stages.append(q)
+            if on_stage:
+                on_stage(q)
+            _say(progress, f"  cost {q.cost:.6g}")
+            if best is None or q.cost < best[0].cost:
+                best = (q, lab)
+        assert best is not None  # two starts were raced
+        label, u = best[1], best[0].u
+    _say(progress, f"polish from the {label}: least squares with the batched Jacobian")
+    p, r, J = polish(model, u, polish_nfev, progress=progress, prior=prior)
+    p.name = f"polish from the {label}"
+    stages.append(p)
+    if on_stage:
+        on_stage(p)
+    _say(progress, f"  stopped: {p.stop} (cost {p.cost:.6g})")
+    return CurveFit(model, p.u, model.designs(p.u[None])[0], r, J, stages, p)
+
+
+def polish(
+    model: CurveModel,
+    u0: np.ndarray,
+    max_nfev: int = 150,
+    restarts: int = 3,
+    min_gain: float = RESTART_GAIN,
+    progress: bool = False,
+    prior: np.ndarray | None = None,
+) -> tuple[StageResult, np.ndarray, np.ndarray]:
+    """:func:`polish_stage` restarted from its own answer (a fresh trust region) until a
+    restart lowers the cost by less than ``min_gain`` (squared noise units: a change of
+    the log-likelihood below ``min_gain / 2``), at most ``restarts`` runs in all, within
+    ``max_nfev`` evaluations in all. One stage in the result; ``stop`` says which
+    criterion ended it."""
+    t0 = time.perf_counter()
+    stage, r, J = polish_stage(model, u0, max_nfev, progress=progress, prior=prior)
+    evals, history, runs = stage.evaluations, list(stage.history), 1
+    left = max_nfev - len(stage.history)
+    stop = stage.stop
+    while runs < restarts and left > 2 and stage.stop.startswith("converged"):
+        again, r2, J2 = polish_stage(model, stage.u, left, progress=progress, prior=prior)
+        runs += 1
+        evals += again.evaluations
+        history += again.history
+        left -= len(again.history)
+        gain = stage.cost - again.cost
+        if gain > 0:
+            stage, r, J = again, r2, J2
+        stop = again.stop
+        if gain < min_gain:
+            stop = (
+                f"converged: a restart of the least squares lowered the cost by {max(gain, 0):.3g} "
+                f"< {min_gain:g} ({runs} runs; last: {again.stop.removeprefix('converged: ')})"
+            )
+            break
+    return (
+        StageResult(
+            stage.name, stage.u, stage.cost, evals, stop, time.perf_counter() - t0, history
+        ),
+        r,
+        J,
+    )

@@ -1,0 +1,834 @@
+"""``suspenv identify``: a McPherson axle's parameters from measured K&C curves.
+
+The job (:func:`run_identify`):
+
+1. read the measurement (:class:`suspenv.measurements.knc_file.KncMeasurement`: SI,
+   raw ISO 8855, both wheels, both loading branches) and the vehicle file (its design
+   is the start, its ``[bounds]`` the identification box, its constants and bushing
+   orientations are held);
+2. fit the whole curves, weighted by each channel's noise (:mod:`suspenv.methods.
+   curve_fit`: CMA-ES, then least squares with the batched Jacobian);
+3. judge what the data identify (:mod:`suspenv.methods.identifiability`) and which rig
+   test suspenv simulates would identify the rest; on the built-in test car, measure
+   that test too (same noise model) and fit again to show the gain;
+4. screen the remaining residual with the K&C diagnosis' signatures
+   (:mod:`suspenv.diagnosis.knc.signatures`: hysteresis loop, left/right asymmetry,
+   progressive stiffness, load-cell gain and offset);
+5. write ``identified.toml`` (a vehicle file), ``report.md`` with figures and
+   ``identify.json`` into the output folder (:mod:`suspenv.reports.identify`).
+
+``method = "tey2014"`` runs the paper's pipeline on the measured targets instead
+(:mod:`suspenv.methods.tey2014`).
+
+The built-in test car (:func:`measure_test_car`): the reference vehicle plus concealed
+effects (:func:`suspenv.models.mcpherson.truth.truth_vehicle`), measured through the
+same :class:`~suspenv.measurements.knc_file.KncMeasurement` path as a file.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from suspenv.core.errors import ValidationError
+from suspenv.core.space import DesignSpace
+from suspenv.methods.curve_fit import (
+    CurveFit,
+    CurveModel,
+    MeasuredCurves,
+    StageResult,
+    amplitude_kwargs,
+    fit_curves,
+    measured_curves,
+    polish,
+    rig_run,
+)
+from suspenv.methods.identifiability import CandidateGain, Identifiability, assess, rank_tests
+from suspenv.models.mcpherson.params import BUSHINGS, HARD_POINTS, PAPER_RANGES
+from suspenv.models.mcpherson.truth import CHANNEL_NOISE, TruthVehicle, truth_vehicle
+from suspenv.models.mcpherson.vehicle_file import REFERENCE_FILE, VehicleFile, load_vehicle
+
+#: effects the built-in test car can conceal
+CONCEALED = ("hysteresis", "tolerance", "noise")
+METHODS = ("curves", "tey2014")
+SIDES_OPTIONS = ("symmetric", "both")
+#: a curve is fitted when its RMS residual is within this many noise RMS
+FIT_RATIO = 1.5
+INITIALS = ("vehicle", "paper")
+#: the job's options and defaults (``[identify]`` of a config, CLI flags)
+DEFAULTS: dict[str, Any] = {
+    "method": "curves",
+    "initial": "auto",  # "vehicle" (the file's design) or "paper"; auto: paper for test-car
+    "free": [],  # parameters fitted (empty: all)
+    "sides": "symmetric",  # or "both": a right-side twin of every free parameter but the bar
+    "global_evaluations": 0,  # CMA-ES budget; 0: least squares from the start only (see docs)
+    "popsize": 32,
+    "sigma0": 0.2,
+    "polish_nfev": 150,
+    "next_test": True,
+    "rerun_next": True,
+    "diagnose": True,
+    "figures": True,
+}
+#: a residual signature scoring above this names its pattern (scores are about N(0, 1)
+#: under pure noise; 5 keeps the chance of a false name per run below about 1 %, where
+#: the diagnosis' own screen uses 3 only to pick candidates for a likelihood-ratio refit)
+SIGNATURE_THRESHOLD = 5.0
+#: ... and holds at least this share of the residual's sum of squares (noise units).
+#: Far above the noise a score says only that a pattern is there, not that it matters:
+#: a left/right difference or a hysteresis loop 30 times the noise leaves significant
+#: cubic and load-proportional parts that a refit of those elements would not explain
+NAMED_SHARE = 0.05
+
+
+def check_options(options: Mapping[str, Any]) -> dict[str, Any]:
+    """Options merged over :data:`DEFAULTS`; every key and value checked."""
+    unknown = sorted(set(options) - set(DEFAULTS))
+    if unknown:
+        raise ValidationError(
+            f"identify: unknown option {unknown[0]!r} (known: {', '.join(sorted(DEFAULTS))})"
+        )
+    o = {**DEFAULTS, **dict(options)}
+    if o["method"] not in METHODS:
+        raise ValidationError(
+            f"identify: `method` must be one of {METHODS}, but got {o['method']!r}"
+        )
+    if o["initial"] not in (*INITIALS, "auto"):
+        raise ValidationError(
+            f"identify: `initial` must be one of {(*INITIALS, 'auto')}, but got {o['initial']!r}"
+        )
+    for key, lo in (("global_evaluations", 0), ("popsize", 4), ("polish_nfev", 1)):
+        v = o[key]
+        if not isinstance(v, int) or isinstance(v, bool) or v < lo:
+            raise ValidationError(f"identify: `{key}` must be an integer >= {lo}, but got {v!r}")
+    s = o["sigma0"]
+    if not isinstance(s, int | float) or isinstance(s, bool) or not 0 < s <= 1:
+        raise ValidationError(f"identify: `0 < sigma0 <= 1` must hold, but got sigma0={s!r}")
+    free = o["free"]
+    if not isinstance(free, list | tuple) or not all(isinstance(n, str) for n in free):
+        raise ValidationError(f"identify: `free` must be a list of parameter names, got {free!r}")
+    o["free"] = list(free)
+    if o["sides"] not in SIDES_OPTIONS:
+        raise ValidationError(
+            f"identify: `sides` must be one of {SIDES_OPTIONS}, but got {o['sides']!r}"
+        )
+    for key in ("next_test", "rerun_next", "diagnose", "figures"):
+        if not isinstance(o[key], bool):
+            raise ValidationError(f"identify: `{key}` must be true or false, but got {o[key]!r}")
+    return o
+
+
+# ------------------------------------------------------------------ the test car
+def measure_truth(
+    truth: TruthVehicle,
+    tests: Sequence[str],
+    amplitude: float = 0.040,
+    steps: int = 30,
+) -> dict[str, Any]:
+    """Rig results {test: KCResult} of the truth vehicle with its sensor noise.
+
+    The travel tests are :func:`suspenv.problems.kc_identification.measure` (the data
+    of ``KCIdentification``); every other test is run at the rig's default amplitude
+    and gets the same noise model from its own seeded stream."""
+    from suspenv.measurements.knc import ALL_TESTS, TESTS
+    from suspenv.problems.kc_identification import measure
+    from suspenv.rigs.knc import run_tests
+
+    bad = [t for t in tests if t not in ALL_TESTS]
+    if bad:
+        raise ValidationError(f"unknown K&C test(s) {bad}; known tests are {ALL_TESTS}")
+    out: dict[str, Any] = {}
+    if any(t in TESTS for t in tests):
+        travel = measure(truth, amplitude, steps)
+        out.update({t: travel[t] for t in tests if t in TESTS})
+    for t in tests:
+        if t in TESTS:
+            continue
+        res = run_tests(truth.axle(), (t,), amplitude, steps, truth.effects)[t]
+        if not res.ok.all():
+            raise ValidationError(f"the truth vehicle fails the {t} test: {res.messages[0]}")
+        rng = np.random.default_rng(20_000 + 100 * truth.seed + ALL_TESTS.index(t))
+        for name in sorted(truth.noise):
+            res.channels[name] = res.channels[name] + rng.normal(
+                0.0, truth.noise[name], res.channels[name].shape
+            )
+        out[t] = res
+    return out
+
+
+def measure_test_car(
+    seed: int = 0,
+    concealed: Sequence[str] = CONCEALED,
+    tests: Sequence[str] = ("parallel", "opposite", "single"),
+    amplitude: float = 0.040,
+    steps: int = 30,
+) -> tuple[Any, TruthVehicle]:
+    """The built-in test car measured through the measured-K&C path: (KncMeasurement,
+    truth). Its noise is declared (the rig's :data:`~suspenv.models.mcpherson.truth.
+    CHANNEL_NOISE`, also when ``"noise"`` is not concealed: the fit's weights)."""
+    from suspenv.measurements.knc_file import from_results
+
+    bad = sorted(set(concealed) - set(CONCEALED))
+    if bad:
+        raise ValidationError(f"concealed effects must be among {CONCEALED}, but got {bad}")
+    truth = truth_vehicle(
+        seed,
+        hysteresis="hysteresis" in concealed,
+        tolerance="tolerance" in concealed,
+        noise="noise" in concealed,
+    )
+    results = measure_truth(truth, tests, amplitude, steps)
+    conc = "+".join(sorted(concealed)) or "none"
+    m = from_results(
+        results,
+        f"test car (seed {seed}, concealed: {conc})",
+        noise=dict(CHANNEL_NOISE),
+        source="suspenv built-in test car (reference vehicle + concealed effects)",
+    )
+    m.meta["concealed"] = sorted(concealed)
+    m.meta["truth_seed"] = seed
+    return m, truth
+
+
+def paper_initial(space: DesignSpace) -> np.ndarray:
+    """The paper's initial model: hard points at the centres of its ranges, every bushing
+    stiffness 500, anti-roll bar 300, camber and toe 0 (clipped into ``space``)."""
+    values: dict[str, float] = {}
+    for hp in HARD_POINTS:
+        for axis, (lo, hi) in zip("xyz", PAPER_RANGES[hp], strict=True):
+            values[f"{hp}_{axis}"] = 0.5 * (lo + hi)
+    for b, comps in BUSHINGS.items():
+        for c in comps:
+            values[f"{b}_{c}"] = 500.0
+    values.update(arb_torsion=300.0, static_camber=0.0, static_toe=0.0)
+    x = space.from_dict(values)
+    return np.clip(x, space.lower, space.upper)
+
+
+# ------------------------------------------------------------------ the job
+@dataclass
+class Rerun:
+    """The fit repeated with the recommended test's data added (built-in test car)."""
+
+    test: str
+    fit: CurveFit
+    identifiability: Identifiability
+    seconds: float
+
+
+@dataclass
+class IdentifyResult:
+    """Everything the job computed (input of :mod:`suspenv.reports.identify`)."""
+
+    measurement: Any
+    vehicle: VehicleFile
+    options: dict[str, Any]
+    model: CurveModel
+    x0: np.ndarray
+    fit: CurveFit
+    identifiability: Identifiability
+    initial_residual: np.ndarray
+    candidates: list[CandidateGain] = field(default_factory=list)
+    rerun: Rerun | None = None
+    diagnosis: dict[str, Any] | None = None
+    truth: np.ndarray | None = None
+    timings: dict[str, float] = field(default_factory=dict)
+    cpu_seconds: float = 0.0
+    start: str = "the vehicle file's design"
+
+    @property
+    def identified_vehicle(self) -> VehicleFile:
+        v = self.vehicle
+        x = self.model.full(self.fit.x)[0]
+        d = self.model.space.dim
+        right = x[d:] if x.size == 2 * d else x[:d]
+        return VehicleFile(
+            f"{v.name} identified",
+            x[:d].copy(),
+            right.copy(),
+            v.constants,
+            v.effects,
+            f"identified by suspenv identify from {self.measurement.name}",
+            dict(v.bounds),
+            dict(v.orientation),
+        )
+
+    def curve_rms(self, r: np.ndarray | None = None) -> dict[tuple[str, str], float]:
+        """RMS residual / noise per (test, channel), both wheels."""
+        return self.model.block_rms(self.fit.residual if r is None else r)
+
+
+def _say(progress: bool, msg: str) -> None:
+    if progress:
+        import sys
+
+        print(msg, file=sys.stderr, flush=True)
+
+
+def build_model(
+    measurement: Any,
+    vehicle: VehicleFile,
+    x0: np.ndarray,
+    free: Sequence[str] | None = None,
+    two_sided: bool = False,
+) -> CurveModel:
+    """The :class:`CurveModel` of a measurement on a vehicle (its space, constants,
+    orientation, effects); the tests the rig cannot simulate are refused."""
+    from suspenv.measurements.knc import ALL_TESTS
+
+    if measurement.meta.get("travel_drive", "pad") != "pad":
+        raise ValidationError(
+            'identify: travel tests must drive the wheel pads (`travel_drive = "pad"`), but '
+            f"the measurement says travel_drive = {measurement.meta.get('travel_drive')!r}"
+        )
+    unknown = [t for t in measurement.tests if t not in ALL_TESTS]
+    if unknown:
+        raise ValidationError(
+            f"identify: the rig simulates the tests {ALL_TESTS}, but the measurement holds "
+            f"{unknown}"
+        )
+    tests = []
+    for name, mt in measurement.tests.items():
+        wheels = tuple(getattr(mt, "wheels", ("left", "right")))
+        if len(wheels) < 2:
+            raise ValidationError(
+                f"identify: test {name!r} must hold both wheels, but holds {list(wheels)}"
+            )
+        steps = measurement.meta.get("steps", {}).get(name)
+        tests.append(measured_curves(mt, steps))
+    return CurveModel(
+        tests,
+        measurement.noise,
+        vehicle.space(),
+        x0,
+        free or None,
+        vehicle.constants,
+        vehicle.effects,
+        two_sided=two_sided,
+        orientation=vehicle.orientation,
+    )
+
+
+def _simulated_tests(
+    model: CurveModel, x: np.ndarray, tests: Sequence[str]
+) -> list[MeasuredCurves]:
+    """Candidate tests simulated at design ``x`` as if measured (channels of the model)."""
+    from suspenv.measurements.knc import branch_index
+    from suspenv.rigs import knc as rig
+
+    kw = {
+        "amplitude": max([t.amplitude for t in model.tests if t.test in rig.TESTS] or [0.04]),
+        "force_amplitude": rig.FORCE_AMPLITUDE,
+        "moment_amplitude": rig.MOMENT_AMPLITUDE,
+        "rack_amplitude": rig.RACK_AMPLITUDE,
+    }
+    steps = model.tests[0].steps
+    res = rig_run(model.axle(x[None]), tests, steps, model.effects, kw)
+    out = []
+    channels = sorted(model.sigma)
+    for t, r in res.items():
+        if not r.ok[0]:
+            continue
+        drive = r.grid[r.path]
+        vals = {c: r.channels[c][0] for c in channels if c in r.channels}
+        out.append(
+            MeasuredCurves(
+                t, drive, branch_index(steps).astype(int), vals, float(r.grid[-1]), steps
+            )
+        )
+    return out
+
+
+def candidate_jacobians(model: CurveModel, u: np.ndarray) -> dict[str, np.ndarray]:
+    """Jacobians (noise-scaled, in the fit's unit cube) at ``u`` of every rig test the
+    measurement lacks: {test: (N_t, dim)}, all tests in one batched evaluation."""
+    from suspenv.measurements.knc import ALL_TESTS
+
+    have = {t.test for t in model.tests}
+    missing = [t for t in ALL_TESTS if t not in have]
+    if not missing:
+        return {}
+    x = model.designs(u[None])[0]
+    sims = _simulated_tests(model, x, missing)
+    if not sims:
+        return {}
+    other = CurveModel(
+        sims,
+        model.sigma,
+        model.space,
+        model.base,
+        model.free,
+        model.constants,
+        model.effects,
+        two_sided=model.two_sided,
+        orientation=model.orientation,
+    )
+    _, J = other.jacobian(u)
+    out: dict[str, list[np.ndarray]] = {}
+    for test, _, sl in other.blocks:
+        out.setdefault(test, []).append(J[sl])
+    return {t: np.vstack(parts) for t, parts in out.items()}
+
+
+def screen_residual(model: CurveModel, measurement: Any, x: np.ndarray) -> dict[str, Any]:
+    """The K&C diagnosis' residual screen at design ``x``: residual map (test x channel
+    x branch x side, in noise units estimated from the residual's roughness) and the
+    signature scores (about N(0, 1) under pure noise). Named stepwise: the strongest
+    score above :data:`SIGNATURE_THRESHOLD` whose pattern holds at least
+    :data:`NAMED_SHARE` of the residual's sum of squares is named, its pattern projected
+    out of the residual (:func:`_without_pattern`) and the others scored again."""
+    from suspenv.diagnosis.knc.locate import residual_map
+    from suspenv.diagnosis.knc.signatures import FAMILY_KINDS, FAMILY_WORDS, score_signatures
+    from suspenv.measurements.knc import CHANNELS as REC_CHANNELS
+    from suspenv.rigs.knc_measured import on_grid
+    from suspenv.rigs.knc_recording import channels_of, to_recording
+
+    recs, res, pred = [], [], []
+    for t in model.tests:
+        mt = measurement.tests[t.test]
+        try:
+            meas = on_grid(mt, t.steps)
+        except ValidationError as exc:
+            return {"skipped": f"test {t.test}: {exc}"}
+        if not all(ch in meas.channels for ch, _, _ in REC_CHANNELS.values()):
+            return {"skipped": f"test {t.test} lacks a channel the screen reads"}
+        amps = amplitude_kwargs(t.test, t.amplitude)
+        sim = rig_run(model.axle(x[None]), (t.test,), t.steps, model.effects, amps)[t.test]
+        rec = to_recording(meas)
+        p = channels_of(sim)
+        recs.append(rec)
+        pred.append(p)
+        res.append({k: rec.outputs[k] - p[k] for k in p})
+    scales = {}
+    for name, (rig_name, _, _) in REC_CHANNELS.items():
+        for s in ("left", "right"):
+            scales[f"{name}_{s}"] = float(model.sigma.get(rig_name, 1.0))
+    where = residual_map(recs, res, scales)
+    sigs = score_signatures(recs, res, pred, where.noise)
+
+    # stepwise: name the strongest pattern, take it out of the residual, score again
+    def sumsq(rr: Sequence[Mapping[str, np.ndarray]]) -> float:
+        return float(sum(np.sum((v / where.noise[k]) ** 2) for r in rr for k, v in r.items()))
+
+    total = sumsq(res)
+    named: list[Any] = []
+    shares: list[float] = []
+    left = [dict(r) for r in res]
+    for _ in range(len(FAMILY_KINDS)):
+        done = {n.kind for n in named}
+        again = [g for g in score_signatures(recs, left, pred, where.noise) if g.kind not in done]
+        if not again or again[0].score <= SIGNATURE_THRESHOLD:
+            break
+        rest = _without_pattern(recs, left, pred, where.noise, again[0].kind)
+        share = (sumsq(left) - sumsq(rest)) / total if total > 0 else 0.0
+        if share < NAMED_SHARE:
+            break
+        named.append(again[0])
+        shares.append(share)
+        left = rest
+    first = {g.kind: g.score for g in sigs}
+    return {
+        "residual_map": where.to_dict(),
+        "signatures": [g.to_dict() for g in sigs],
+        "named": [
+            {
+                "family": g.kind,
+                "score": g.score,
+                "first_score": first[g.kind],
+                "share_of_residual": sh,
+                "kinds": list(FAMILY_KINDS[g.kind]),
+                "words": FAMILY_WORDS[g.kind],
+                "evidence": g.evidence,
+            }
+            for g, sh in zip(named, shares, strict=True)
+        ],
+        "threshold": SIGNATURE_THRESHOLD,
+        "named_share": NAMED_SHARE,
+        "rule": "stepwise: the strongest signature above the threshold is named when its "
+        f"pattern holds at least {NAMED_SHARE:.0%} of the residual's sum of squares; it is "
+        "projected out and the rest scored again",
+    }
+
+
+def _without_pattern(
+    recs: Sequence[Any],
+    res: Sequence[Mapping[str, np.ndarray]],
+    pred: Sequence[Mapping[str, np.ndarray]],
+    noise: Mapping[str, float],
+    family: str,
+) -> list[dict[str, np.ndarray]]:
+    """The residuals with signature ``family``'s pattern projected out (least squares per
+    block, the bases of :func:`suspenv.diagnosis.knc.signatures.score_signatures`: loop
+    ``b, b p`` and progressive ``p^3`` per channel and side; left/right ``+-1, +-p,
+    +-p^2`` per channel on both sides stacked; load-cell gain and offset on the wheel
+    load per side)."""
+    from suspenv.measurements.knc import CHANNELS as REC_CHANNELS
+    from suspenv.measurements.knc import drive, reading_drive
+
+    out = []
+    for rec, r0, p0 in zip(recs, res, pred, strict=True):
+        r = {k: np.asarray(v, float).copy() for k, v in r0.items()}
+        b = np.where(rec.inputs["branch"] == 1, -1.0, 1.0)
+        p = {s: drive(rec, s) for s in ("left", "right")}
+        for c in REC_CHANNELS:
+            keys = [f"{c}_{s}" for s in ("left", "right")]
+            if not all(k in r for k in keys):
+                continue
+            if family == "lr_asymmetry":
+                pr = reading_drive(rec, "right")
+                one = np.ones_like(p["left"])
+                A = np.column_stack(
+                    [
+                        np.r_[one, -np.ones_like(pr)],
+                        np.r_[p["left"], -pr],
+                        np.r_[p["left"] ** 2, -(pr**2)],
+                    ]
+                )
+                y = np.r_[r[keys[0]], r[keys[1]]]
+                y = y - A @ np.linalg.lstsq(A, y, rcond=None)[0]
+                n = r[keys[0]].size
+                r[keys[0]], r[keys[1]] = y[:n], y[n:]
+                continue
+            for s, k in zip(("left", "right"), keys, strict=True):
+                if family == "loop":
+                    cols = [b, b * p[s]]
+                elif family == "progressive":
+                    cols = [p[s] ** 3]
+                elif c == "tyre_fz" and family == "sensor_gain":
+                    cols = [np.asarray(p0[k], float) / noise[k]]
+                elif c == "tyre_fz" and family == "sensor_offset":
+                    cols = [np.ones_like(b)]
+                else:
+                    continue
+                A = np.column_stack(cols)
+                r[k] = r[k] - A @ np.linalg.lstsq(A, r[k], rcond=None)[0]
+        out.append(r)
+    return out
+
+
+def run_identify(
+    measurement: Any,
+    vehicle: VehicleFile,
+    options: Mapping[str, Any] | None = None,
+    truth: TruthVehicle | None = None,
+    progress: bool = False,
+    seed: int = 1,
+    x0: np.ndarray | None = None,
+) -> IdentifyResult:
+    """The whole-curve identification (see the module docstring); writes nothing.
+
+    ``x0``: the start design (49,) in file units, overriding ``options["initial"]``."""
+    opts = check_options(options or {})
+    t_start, c_start = time.perf_counter(), time.process_time()
+    timings: dict[str, float] = {}
+    tick = time.perf_counter()
+
+    def lap(name: str) -> None:
+        nonlocal tick
+        now = time.perf_counter()
+        timings[name] = now - tick
+        tick = now
+
+    space = vehicle.space()
+    initial = opts["initial"]
+    if initial == "auto":
+        initial = "paper" if truth is not None else "vehicle"
+    start = {"paper": "the paper's initial model", "vehicle": "the vehicle file's design"}[initial]
+    if x0 is not None:
+        start = "a given design"
+        x0 = np.asarray(x0, float).copy()
+        if x0.shape != (space.dim,) or space.outside_bounds(x0):
+            raise ValidationError(
+                f"identify: the start design must be {space.dim} values inside the bounds, but "
+                f"got shape {x0.shape}: {'; '.join(space.outside_bounds(x0)[:3])}"
+            )
+    elif initial == "paper":
+        x0 = paper_initial(space)
+    else:
+        x0 = 0.5 * (vehicle.left + vehicle.right)
+    two = opts["sides"] == "both"
+    model = build_model(measurement, vehicle, x0, opts["free"], two)
+    _say(
+        progress,
+        f"identify: {len(model.tests)} tests, {len(model.sigma)} channels, {model.size} "
+        f"residuals, {model.dim} parameters",
+    )
+    R0, ok0, msg0 = model.residuals_x(x0[None])
+    if not ok0[0]:
+        raise ValidationError(f"identify: the rig cannot solve the initial design: {msg0[0]}")
+    lap("setup")
+
+    def staged(s: StageResult) -> None:  # seconds per kind of stage (global, race, polish)
+        key = s.name.split(" ")[0]
+        timings[key] = timings.get(key, 0.0) + s.seconds
+
+    fit = fit_curves(
+        model,
+        x0,
+        opts["global_evaluations"],
+        opts["popsize"],
+        float(opts["sigma0"]),
+        opts["polish_nfev"],
+        seed,
+        progress,
+        staged,
+    )
+    tick = time.perf_counter()
+    truth_x = None if truth is None else truth.mean_design
+    truth_map: dict[str, float] | None = None
+    if truth is not None:
+        # symmetric: the truth is the mean of the test car's sides; two-sided: each side
+        left = truth.left if two else truth.mean_design
+        truth_map = {n: float(v) for n, v in zip(space.names, left, strict=True)}
+        truth_map.update(
+            {f"{n}@right": float(v) for n, v in zip(space.names, truth.right, strict=True)}
+        )
+    ident = assess(fit.jacobian, fit.residual, fit.u, model.sub, truth_map)
+    lap("identifiability")
+    result = IdentifyResult(
+        measurement,
+        vehicle,
+        opts,
+        model,
+        x0,
+        fit,
+        ident,
+        R0[0],
+        truth=truth_x,
+        timings=timings,
+        start=start,
+    )
+    if opts["next_test"] and ident.not_identified():
+        _say(progress, "next test: Jacobians of the rig tests not measured")
+        extra = candidate_jacobians(model, fit.u)
+        result.candidates = rank_tests(ident, fit.jacobian, extra, fit.u, model.sub)
+        lap("next_test")
+        best = result.candidates[0] if result.candidates else None
+        if truth is not None and opts["rerun_next"] and best is not None:
+            _say(progress, f"re-run with the {best.test} test added (test car, noisy)")
+            t0 = time.perf_counter()
+            more = measure_truth(truth, [best.test], _travel_amplitude(model), model.tests[0].steps)
+            from suspenv.measurements.knc_file import from_results
+
+            added = from_results(more, "added", noise=dict(measurement.noise))
+            both = _merged(measurement, added)
+            model2 = build_model(both, vehicle, x0, opts["free"], two)
+            stage, r2, J2 = polish(
+                model2, fit.u, opts["polish_nfev"], progress=progress, prior=model2.unit(x0)
+            )
+            fit2 = CurveFit(model2, stage.u, model2.designs(stage.u[None])[0], r2, J2, [stage])
+            ident2 = assess(J2, r2, stage.u, model2.sub, truth_map)
+            result.rerun = Rerun(best.test, fit2, ident2, time.perf_counter() - t0)
+            lap("rerun_next")
+    if opts["diagnose"]:
+        _say(progress, "residual screen (K&C diagnosis signatures)")
+        result.diagnosis = screen_residual(model, measurement, fit.x)
+        lap("diagnosis")
+    timings["total"] = time.perf_counter() - t_start
+    result.cpu_seconds = time.process_time() - c_start
+    return result
+
+
+def _travel_amplitude(model: CurveModel) -> float:
+    from suspenv.measurements.knc import TESTS
+
+    return max([t.amplitude for t in model.tests if t.test in TESTS] or [0.040])
+
+
+def _merged(a: Any, b: Any) -> Any:
+    """Measurement ``a`` with the tests of ``b`` added (``a``'s noise levels)."""
+    from dataclasses import replace
+
+    meta = dict(a.meta)
+    meta["steps"] = {**a.meta.get("steps", {}), **b.meta.get("steps", {})}
+    meta["amplitude"] = {**a.meta.get("amplitude", {}), **b.meta.get("amplitude", {})}
+    return replace(a, tests={**a.tests, **b.tests}, meta=meta)
+
+
+def summary(result: IdentifyResult) -> dict[str, Any]:
+    """The JSON-ready summary (``identify.json``)."""
+    fit = result.fit
+    rms = result.curve_rms()
+    rms0 = result.curve_rms(result.initial_residual)
+    ident = result.identifiability
+    out: dict[str, Any] = {
+        "measurement": result.measurement.name,
+        "vehicle": result.vehicle.name,
+        "method": "whole-curve noise-weighted fit (CMA-ES + least squares)",
+        "options": result.options,
+        "n_residuals": result.model.size,
+        "n_parameters": result.model.dim,
+        "noise": {c: result.model.sigma[c] for c in sorted(result.model.sigma)},
+        "noise_source": {
+            c: result.measurement.noise_source.get(c, "") for c in sorted(result.model.sigma)
+        },
+        "cost_initial": float(result.initial_residual @ result.initial_residual),
+        "cost": fit.cost,
+        "converged": fit.converged,
+        "stages": [s.to_dict() for s in fit.stages],
+        "curves": [
+            {
+                "test": t,
+                "channel": c,
+                "rms_over_noise": v,
+                "initial_rms_over_noise": rms0[(t, c)],
+                "within_1_5_noise": v <= FIT_RATIO,
+            }
+            for (t, c), v in rms.items()
+        ],
+        "curves_within_1_5_noise": int(sum(v <= FIT_RATIO for v in rms.values())),
+        "n_curves": len(rms),
+        "worst_curve_rms_over_noise": max(rms.values()),
+        "identifiability": ident.to_dict(),
+        "identified": [v.name for v in ident.verdicts if v.identified],
+        "not_identified": [v.name for v in ident.verdicts if not v.identified],
+        "timings_s": result.timings,
+        "cpu_seconds": result.cpu_seconds,
+    }
+    if result.truth is not None:
+        err = [v.error_pct for v in ident.verdicts if v.identified and v.error_pct is not None]
+        allerr = [v.error_pct for v in ident.verdicts if v.error_pct is not None]
+        out["recovery_error_pct_range"] = {
+            "identified_max": max(err) if err else None,
+            "identified_mean": float(np.mean(err)) if err else None,
+            "all_mean": float(np.mean(allerr)) if allerr else None,
+        }
+    if result.candidates:
+        out["next_tests"] = [g.to_dict() for g in result.candidates]
+        out["next_test"] = result.candidates[0].test
+    if result.rerun is not None:
+        rr = result.rerun
+        ident2 = rr.identifiability
+        err2 = [v.error_pct for v in ident2.verdicts if v.identified and v.error_pct is not None]
+        out["rerun"] = {
+            "test": rr.test,
+            "n_identified_before": int(ident.identified.sum()),
+            "n_identified_after": int(ident2.identified.sum()),
+            "identified_after": [v.name for v in ident2.verdicts if v.identified],
+            "identified_max_error_pct_range": max(err2) if err2 else None,
+            "cost": rr.fit.cost,
+            "n_residuals": rr.fit.model.size,
+            "stop": rr.fit.final.stop,
+            "worst_curve_rms_over_noise": max(rr.fit.model.block_rms(rr.fit.residual).values()),
+            "seconds": rr.seconds,
+        }
+    if result.diagnosis is not None:
+        out["diagnosis"] = result.diagnosis
+    return out
+
+
+# ------------------------------------------------------------------ files
+def resolve_vehicle(path: str | Path | None) -> VehicleFile:
+    """``None`` or ``"reference"``: the shipped reference vehicle; else a vehicle file."""
+    if path is None or str(path) == "reference":
+        return load_vehicle(REFERENCE_FILE)
+    return load_vehicle(Path(path))
+
+
+def write_outputs(result: IdentifyResult, out: Path, figures: bool = True) -> list[Path]:
+    """``identified.toml``, ``identify.json``, ``report.md`` (+ figures) into ``out``."""
+    from suspenv.registry import report_function
+
+    writer = report_function("identify")
+    files: list[Path] = writer(result, Path(out), figures=figures)
+    return files
+
+
+# ------------------------------------------------------------------ the pipeline
+def _identify_table(config: Mapping[str, Any]) -> dict[str, Any]:
+    table = config.get("identify", {}) or {}
+    if not isinstance(table, Mapping):
+        raise ValidationError(f"config: `identify` must be a table, but got {table!r}")
+    return check_options(table)
+
+
+def _problem(config: Mapping[str, Any]) -> Any:
+    from suspenv.registry import make_problem
+
+    section = config.get("problem", {}) or {}
+    name = section.get("name", "KCIdentification")
+    if name != "KCIdentification":
+        raise ValidationError(
+            f"config: the identify pipeline identifies a K&C axle: `problem.name` must be "
+            f"'KCIdentification', but got {name!r}"
+        )
+    return make_problem(name, **(section.get("options", {}) or {}))
+
+
+def check_identify_config(config: dict[str, Any]) -> dict[str, Any]:
+    """Check an "identify" config before any work: the ``[identify]`` table
+    (:data:`DEFAULTS`) and the problem (``KCIdentification``: the built-in test car, or
+    ``measurements`` and ``vehicle`` files, which are read and checked). Returns the
+    config with every default filled in."""
+    opts = _identify_table(config)
+    _problem(config)
+    if opts["method"] == "tey2014":
+        from suspenv.methods.tey2014 import check_tey2014_config
+
+        rest = {k: v for k, v in config.items() if k != "identify"}
+        return {**check_tey2014_config(rest), "identify": opts}
+    return {**config, "identify": opts}
+
+
+def run_identify_pipeline(config: dict[str, Any], run_dir: Path) -> dict[str, Any]:
+    """Pipeline "identify": the job on the config's ``KCIdentification`` data, files into
+    ``run_dir`` (``identified.toml``, ``report.md``, ``identify.json``, figures).
+    ``identify.method = "tey2014"`` runs the paper's pipeline on the same targets."""
+    import json
+
+    run_dir = Path(run_dir)
+    run_dir.mkdir(parents=True, exist_ok=True)
+    opts = _identify_table(config)
+    if opts["method"] == "tey2014":
+        from suspenv.methods.tey2014 import run_tey2014_pipeline
+
+        return run_tey2014_pipeline({k: v for k, v in config.items() if k != "identify"}, run_dir)
+    t0 = time.perf_counter()
+    problem = _problem(config)
+    progress = bool((config.get("run", {}) or {}).get("progress", False))
+    plots = bool((config.get("run", {}) or {}).get("plots", True)) and opts["figures"]
+    result = run_identify(
+        problem.measurement,
+        problem.vehicle,
+        opts,
+        truth=problem.truth,
+        progress=progress,
+        seed=int(config.get("seed", 0)),
+    )
+    files = write_outputs(result, run_dir, figures=plots)
+
+    s = summary(result)
+    wall = time.perf_counter() - t0
+    n_eval = int(result.model.stats["designs"])
+    s.update(
+        name=config.get("name"),
+        seed=int(config.get("seed", 0)),
+        strategy="cmaes+least_squares" if opts["global_evaluations"] else "least_squares",
+        budget=int(opts["global_evaluations"]),
+        n_evaluations=n_eval,
+        n_ok=n_eval,
+        n_feasible=n_eval,
+        wall_time_s=wall,
+        pipeline_wall_time_s=wall,
+        quality_name="sum of squared noise-scaled residuals",
+        best_quality=result.fit.cost,
+        report="report.md",
+        files=[str(f.relative_to(run_dir)) for f in files],
+    )
+    (run_dir / "summary.json").write_text(json.dumps(s, indent=2, default=_json_default) + "\n")
+    return s
+
+
+def _json_default(o: Any) -> Any:
+    if isinstance(o, np.generic):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, tuple):
+        return list(o)
+    raise TypeError(type(o).__name__)
