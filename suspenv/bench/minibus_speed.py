@@ -1,15 +1,28 @@
 """Minibus speed: time per candidate of a full MinibusRideHandling evaluation.
 
 A full evaluation is what the problem does for every candidate: both load cases of the
-random-road ride run (class B, 80 km/h, 10 s), the steady-state circular test and the
-closed-loop slalom, then the 5 objectives and 6 constraints. Candidates are random
-designs of the study's box in batches of 500 (the study's NSGA-II population); measured
-in the same run, the same candidates one at a time (the baseline), which gives the
-batching gain, and the share of each part (ride, steady circle, slalom) in the batched
-time. Target <= 5 ms per candidate on one core, so the study's 30,000 evaluations take
-<= 3 minutes on 2 cores. suspenv limits BLAS to one thread, so the process's CPU time
-is one core's time; it is the reported figure (best of the repeats), with the wall time
-beside it (which a loaded machine inflates).
+ride objectives (the exact spectral integral, class B, 80 km/h), the steady-state
+circular test and the slalom, then the 5 objectives and 6 constraints. Measured in the
+same run, on the same random designs of the study's box:
+
+- the default problem (``handling="standard"``: the slalom's steering-wheel angle and
+  roll amplitudes from the linearised vehicle's frequency response; the steady circle's
+  limit searched on a tabulated axle capacity, many candidates per pass), batched (500,
+  the study's NSGA-II population) and one design at a time;
+- the study's handling objectives (``handling="study"``: the closed-loop nonlinear
+  time-domain slalom), batched and one at a time;
+- the baseline, the code before these changes: the time-domain slalom and the steady
+  circle's bisection on the grid-search axle capacity (:func:`baseline_measures`, kept
+  here for the timing), batched and one at a time;
+- the parts of the default evaluation (ride, handling parameters, steady circle, linear
+  slalom), batched and one at a time.
+
+Targets: <= 5 ms per call one design at a time and <= 1 ms per design batched (issue
+17). suspenv limits BLAS to one thread, so the process's CPU time is one core's time;
+it is the reported figure (best of the repeats for batches, median of the single
+calls), with the wall time beside it (which a loaded machine inflates). The three
+evaluations are timed interleaved (each batch repeat, and each design one at a time,
+by all three in turn), so a load that changes during the run weighs on all alike.
 
 Run: ``python -m suspenv.bench.minibus_speed [--quick]``; writes
 ``docs/benchmarks/minibus_speed.json``.
@@ -18,22 +31,147 @@ Run: ``python -m suspenv.bench.minibus_speed [--quick]``; writes
 from __future__ import annotations
 
 import argparse
+import functools
 import os
+import statistics
 import sys
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 from tqdm import tqdm
 
-from suspenv.bench.common import time_batch_vs_single, wall_and_cpu, write_result
-from suspenv.metrics.handling import slalom
+from suspenv.bench.common import BatchTiming, wall_and_cpu, write_result
+from suspenv.metrics.handling import slalom, slalom_linear
 from suspenv.metrics.ride import ride_objectives_all
 from suspenv.models.minibus.handling_model import HandlingParams, handling_parameters
 from suspenv.models.minibus.vehicle import LOAD_CASES
-from suspenv.registry import make_problem
-from suspenv.rigs.handling import steady_circle
+from suspenv.problems.minibus import MinibusRideHandling
+from suspenv.rigs.handling import (
+    SteadyCircleConfig,
+    _steady_loads,
+    axle_capacity,
+    steady_circle,
+)
 
-TARGET_MS = 5.0
+TARGET_SINGLE_MS = 5.0
+TARGET_BATCHED_MS = 1.0
 STUDY_EVALUATIONS = 30_000
+
+
+def _circle_bisection(P: HandlingParams, cfg: SteadyCircleConfig) -> np.ndarray:
+    """The steady circle before: bisection, grid-search axle capacity every step."""
+    lo = np.zeros(P.n)
+    hi = np.full(P.n, cfg.ay_upper)
+    L = P.wheelbase
+    for _ in range(int(np.ceil(np.log2(cfg.ay_upper / cfg.tolerance)))):
+        mid = 0.5 * (lo + hi)
+        _, fl, fr, rl, rr = _steady_loads(P, mid)
+        ok = (
+            (axle_capacity(P, fl, fr, cfg)[0] >= P.m * mid * P.b / L)
+            & (axle_capacity(P, rl, rr, cfg)[0] >= P.m * mid * P.a / L)
+            & ((fl > 0) | (rl > 0))
+        )
+        lo = np.where(ok, mid, lo)
+        hi = np.where(ok, hi, mid)
+    return lo
+
+
+def baseline_measures(problem: MinibusRideHandling, X: np.ndarray) -> np.ndarray:
+    """The evaluation before these changes, for timing: spectral ride, bisection steady
+    circle, time-domain slalom; returns the five objectives (n, 5)."""
+    X = np.atleast_2d(X)
+    n = X.shape[0]
+    ride = ride_objectives_all(
+        X, LOAD_CASES, problem.road, problem.vehicle, dtype=np.float64, method="spectral"
+    )
+    P = HandlingParams.stack([handling_parameters(X, lc, problem.vehicle) for lc in LOAD_CASES])
+    ay = _circle_bisection(P, problem.circle)
+    sl = slalom(P, problem.slalom_config)
+    w = problem.load_weight
+
+    def comb(v: np.ndarray) -> np.ndarray:
+        return v[:n] + w * v[n:]
+
+    return np.column_stack(
+        [
+            ride["no_load"]["aw_front"] + w * ride["full_load"]["aw_front"],
+            ride["no_load"]["aw_rear"] + w * ride["full_load"]["aw_rear"],
+            -comb(ay),
+            np.degrees(comb(sl.yaw_rate_amplitude)),
+            np.degrees(comb(sl.roll_amplitude)),
+        ]
+    )
+
+
+class _Baseline:
+    """``evaluate`` of :func:`baseline_measures`, shaped for :func:`time_batch_vs_single`."""
+
+    def __init__(self, problem: MinibusRideHandling):
+        self.problem = problem
+
+    def evaluate(self, X: np.ndarray) -> Any:
+        F = baseline_measures(self.problem, X)
+
+        class _Batch:
+            ok = np.isfinite(F).all(axis=1)
+
+        return _Batch()
+
+
+def _interleaved(
+    evaluators: list[Any], X: np.ndarray, repeats: int, singles: list[int]
+) -> list[BatchTiming]:
+    """:func:`time_batch_vs_single` for several evaluators, their measurements
+    interleaved (batch repeats in turn; design i one at a time by each in turn), so a
+    load that changes during the run weighs on all of them alike."""
+    n = len(X)
+    cpu: list[list[float]] = [[] for _ in evaluators]
+    wall: list[list[float]] = [[] for _ in evaluators]
+    valid = [0] * len(evaluators)
+    for _ in tqdm(range(repeats), desc=f"batches of {n}", file=sys.stderr):
+        for j, ev in enumerate(evaluators):
+            out: dict[str, Any] = {}
+            w, c = wall_and_cpu(lambda ev=ev, out=out: out.update(b=ev.evaluate(X)))  # type: ignore[misc]
+            cpu[j].append(c)
+            wall[j].append(w)
+            valid[j] = int(np.sum(out["b"].ok))
+    s_cpu: list[list[float]] = [[] for _ in evaluators]
+    s_wall: list[list[float]] = [[] for _ in evaluators]
+    for i in tqdm(range(max(singles)), desc="one at a time", file=sys.stderr):
+        for j, ev in enumerate(evaluators):
+            if i < singles[j]:
+                w, c = wall_and_cpu(functools.partial(ev.evaluate, X[i : i + 1]))
+                s_cpu[j].append(c)
+                s_wall[j].append(w)
+    return [
+        BatchTiming(
+            batch=n,
+            repeats=repeats,
+            singles=singles[j],
+            batched_cpu_ms=1e3 * min(cpu[j]) / n,
+            batched_wall_ms=1e3 * min(wall[j]) / n,
+            single_cpu_ms=1e3 * statistics.median(s_cpu[j]),
+            single_wall_ms=1e3 * statistics.median(s_wall[j]),
+            valid=valid[j],
+        )
+        for j in range(len(evaluators))
+    ]
+
+
+class _Part:
+    """``evaluate`` of one part of the evaluation, for :func:`_interleaved`."""
+
+    def __init__(self, fn: Callable[[np.ndarray], Any]):
+        self.fn = fn
+
+    def evaluate(self, X: np.ndarray) -> Any:
+        self.fn(X)
+
+        class _Batch:
+            ok = np.ones(len(X), dtype=bool)
+
+        return _Batch()
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -43,56 +181,86 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--output-dir", default=None, help="default docs/benchmarks")
     args = parser.parse_args(argv)
     repeat = 1 if args.quick else 3
-    n_single = 3 if args.quick else 8
+    n_single = 5 if args.quick else 20
+    n_single_slow = 3 if args.quick else 6
 
-    problem = make_problem("MinibusRideHandling")
+    problem = MinibusRideHandling()
+    study = MinibusRideHandling(handling="study")
     rng = np.random.default_rng(0)
     X = problem.space.to_physical(rng.random((args.batch, problem.space.dim)))
+    problem.evaluate(X[:2])  # warm-up: imports, cached grids and tables
 
-    t = time_batch_vs_single(problem, X, repeat, n_single)
-    batched_ms = t.batched_cpu_ms
+    # parts of the default evaluation (CPU ms per design, batched and one at a time)
+    def params(Z: np.ndarray) -> HandlingParams:
+        return HandlingParams.stack([handling_parameters(Z, lc) for lc in LOAD_CASES])
 
-    # parts of the batched evaluation (one repeat each, CPU time)
-    def handling_params() -> HandlingParams:
-        return HandlingParams.stack([handling_parameters(X, lc) for lc in LOAD_CASES])
-
-    P = handling_params()
-    parts = {
-        "ride (both loads)": lambda: ride_objectives_all(X, LOAD_CASES, problem.road),
-        "steady circle (both loads)": lambda: steady_circle(handling_params(), problem.circle),
-        "slalom (both loads)": lambda: slalom(P, problem.slalom_config),
-    }
-    part_ms = {}
-    for name, fn in tqdm(parts.items(), desc="parts", file=sys.stderr):
-        part_ms[name] = 1e3 * wall_and_cpu(fn)[1] / args.batch
-
-    full_rows = t.rows(
-        f"full evaluation, batch of {args.batch}", "full evaluation, one at a time (baseline)"
-    )
-    rows = [
-        full_rows[0],
-        *(
-            {
-                "mode": f"  part: {name}, batch of {args.batch}",
-                "cpu_ms_per_candidate": ms,
-                "wall_ms_per_candidate": float("nan"),
-                "repeats": 1,
-            }
-            for name, ms in part_ms.items()
+    parts: dict[str, Callable[[np.ndarray], Any]] = {
+        "ride, spectral (both loads)": lambda Z: ride_objectives_all(
+            Z, LOAD_CASES, problem.road, dtype=np.float64, method="spectral"
         ),
-        full_rows[1],
+        "handling parameters (both loads)": params,
+        "steady circle (both loads, with parameters)": lambda Z: steady_circle(
+            params(Z), problem.circle
+        ),
+        "slalom, linear frequency response (both loads, with parameters)": lambda Z: slalom_linear(
+            params(Z), problem.slalom_config
+        ),
+    }
+    timings = _interleaved(
+        [problem, study, _Baseline(problem), *(_Part(fn) for fn in parts.values())],
+        X,
+        repeat,
+        [n_single, n_single_slow, n_single_slow, *([n_single] * len(parts))],
+    )
+    t_new, t_study, t_base = timings[:3]
+    part_rows: list[dict[str, Any]] = []
+    single_ms: list[float] = []
+    for name, t in zip(parts, timings[3:], strict=True):
+        single_ms.append(t.single_cpu_ms)
+        part_rows.append(
+            {
+                "mode": f"  part: {name}",
+                "cpu_ms_per_candidate": t.batched_cpu_ms,
+                "cpu_ms_per_call_single": t.single_cpu_ms,
+                "wall_ms_per_candidate": t.batched_wall_ms,
+                "repeats": repeat,
+            }
+        )
+
+    rows = [
+        *t_new.rows(
+            f"default (handling='standard'), batch of {args.batch}",
+            "default (handling='standard'), one at a time",
+        ),
+        *part_rows,
+        *t_study.rows(
+            f"study's handling (handling='study', time-domain slalom), batch of {args.batch}",
+            "study's handling (handling='study'), one at a time",
+        ),
+        *t_base.rows(
+            f"baseline (before: time-domain slalom, bisection circle), batch of {args.batch}",
+            "baseline (before), one at a time",
+        ),
     ]
-    study_minutes_2_cores = STUDY_EVALUATIONS * batched_ms / 1e3 / 60 / 2
     summary = {
         "batch": args.batch,
-        "valid_candidates": t.valid,
-        "ms_per_candidate_batched": batched_ms,
-        "ms_per_candidate_single": t.single_cpu_ms,
-        "wall_ms_per_candidate_batched": t.batched_wall_ms,
-        "batching_gain": t.gain,
-        "target_ms": TARGET_MS,
-        "meets_target": bool(batched_ms <= TARGET_MS),
-        "study_30000_evaluations_minutes_on_2_cores_estimate": study_minutes_2_cores,
+        "valid_candidates": t_new.valid,
+        "ms_per_candidate_batched": t_new.batched_cpu_ms,
+        "ms_per_call_single": t_new.single_cpu_ms,
+        "wall_ms_per_candidate_batched": t_new.batched_wall_ms,
+        "batching_gain": t_new.gain,
+        "study_handling_ms_per_candidate_batched": t_study.batched_cpu_ms,
+        "study_handling_ms_per_call_single": t_study.single_cpu_ms,
+        "baseline_ms_per_candidate_batched": t_base.batched_cpu_ms,
+        "baseline_ms_per_call_single": t_base.single_cpu_ms,
+        "speedup_single_vs_baseline": t_base.single_cpu_ms / t_new.single_cpu_ms,
+        "speedup_batched_vs_baseline": t_base.batched_cpu_ms / t_new.batched_cpu_ms,
+        "ride_share_of_single_call": single_ms[0] / t_new.single_cpu_ms,
+        "target_single_ms": TARGET_SINGLE_MS,
+        "target_batched_ms": TARGET_BATCHED_MS,
+        "meets_single_target": bool(t_new.single_cpu_ms <= TARGET_SINGLE_MS),
+        "meets_batched_target": bool(t_new.batched_cpu_ms <= TARGET_BATCHED_MS),
+        "study_30000_evaluations_cpu_s_estimate": STUDY_EVALUATIONS * t_new.batched_cpu_ms / 1e3,
         "load_average_1min": os.getloadavg()[0],
     }
     cmd = "python -m suspenv.bench.minibus_speed" + (" --quick" if args.quick else "")

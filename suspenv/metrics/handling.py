@@ -9,6 +9,16 @@ rate| and peak |roll angle| while the vehicle is within half a spacing of the co
 results are the means of these peaks (mean yaw-rate amplitude, mean roll-angle
 amplitude). The peaks are folded in step by step (:class:`WindowedPeaks`, handed to the
 rig as its accumulator), so no time history is stored.
+
+Linear-range slalom (:func:`slalom_linear`, the problem's default handling measures):
+the same course followed exactly, evaluated by the linearised vehicle's frequency
+response (:func:`suspenv.models.minibus.handling_model.steer_response`, ISO 7401's
+frequency-response quantities) at the course's frequency ``u / (2 s)``: the path's
+lateral acceleration amplitude ``A (pi u / s)^2`` divided by the lateral-acceleration
+gain gives the road-wheel steer the course needs, times the steering ratio the
+steering-wheel angle (GB/T 6323.1's second slalom index, the "average steering-wheel
+angle peak"); the roll and yaw-rate amplitudes follow from their gains. No time loop:
+one 4x4 complex solve per design.
 """
 
 from __future__ import annotations
@@ -18,7 +28,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from suspenv.core.errors import ValidationError
-from suspenv.models.minibus.handling_model import HandlingParams
+from suspenv.models.minibus.handling_model import (
+    HandlingParams,
+    linear_system,
+    steer_response,
+)
 from suspenv.rigs.handling import SLALOM_SIGNALS, SlalomConfig, slalom_run
 
 
@@ -151,4 +165,53 @@ def slalom(
         roll_peaks=phi_peaks,
         config=config,
         channels=run.channels,
+    )
+
+
+# ------------------------------------------------------------------ linear-range slalom
+@dataclass
+class SlalomLinearResult:
+    """Linear-range slalom of a batch (module docstring), arrays (n,).
+
+    Attributes:
+        steering_wheel_amplitude: rad, steering-wheel angle amplitude the course needs
+            (road-wheel steer times the vehicle's steering ratio).
+        steer_amplitude: rad, front road-wheel steer amplitude.
+        yaw_rate_amplitude: rad/s; roll_amplitude: rad; ay_amplitude: m/s^2 (the path's).
+        yaw_rate_gain: 1/s, yaw rate per rad of steering-wheel angle at the course's
+            frequency; frequency: Hz.
+        stable: bool, every pole of the linearised vehicle in the left half-plane (an
+            unstable row's numbers are meaningless: the problem fails it).
+    """
+
+    steering_wheel_amplitude: np.ndarray
+    steer_amplitude: np.ndarray
+    yaw_rate_amplitude: np.ndarray
+    roll_amplitude: np.ndarray
+    ay_amplitude: np.ndarray
+    yaw_rate_gain: np.ndarray
+    frequency: float
+    stable: np.ndarray
+
+
+def slalom_linear(P: HandlingParams, config: SlalomConfig | None = None) -> SlalomLinearResult:
+    """The slalom course followed exactly by the linearised vehicle (module docstring)."""
+    config = config or SlalomConfig()
+    u = config.speed
+    f = u / (2.0 * config.spacing)  # one cycle per two cones
+    A, B = linear_system(P, u)
+    H = steer_response(P, u, f, (A, B))
+    ay = config.amplitude * (2.0 * np.pi * f) ** 2
+    gain = np.abs(H.ay[:, 0])
+    steer = ay / gain
+    ratio = P.vehicle.steering_ratio
+    return SlalomLinearResult(
+        steering_wheel_amplitude=ratio * steer,
+        steer_amplitude=steer,
+        yaw_rate_amplitude=steer * np.abs(H.yaw_rate[:, 0]),
+        roll_amplitude=steer * np.abs(H.roll[:, 0]),
+        ay_amplitude=np.full(P.n, ay),
+        yaw_rate_gain=np.abs(H.yaw_rate[:, 0]) / ratio,
+        frequency=f,
+        stable=np.all(np.linalg.eigvals(A).real < 0, axis=-1),
     )

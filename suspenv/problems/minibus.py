@@ -15,9 +15,21 @@ load`` with ``w = 1.5`` (minimised):
 - f3 [m/s^2]: minus the maximum quasi-steady lateral acceleration of the steady-state
   circular test, R = 15 m (:func:`suspenv.rigs.handling.steady_circle`; negated, so
   more grip is better);
-- f4 [deg/s]: mean yaw-rate amplitude of the pylon-course slalom at 60 km/h, 10 cones
-  30 m apart, measured over the middle cones (:func:`suspenv.metrics.handling.slalom`);
-- f5 [deg]: mean roll-angle amplitude of the same slalom.
+- f4 [deg]: steering-wheel angle amplitude the pylon-course slalom needs (60 km/h, 10
+  cones 30 m apart, 1.25 m offset), by default (``handling="standard"``) from the
+  linearised vehicle's frequency response at the course's frequency
+  (:func:`suspenv.metrics.handling.slalom_linear`): GB/T 6323.1's "average
+  steering-wheel angle peak", ISO 7401's yaw-rate gain read the other way (less
+  steering for the same course = a more responsive vehicle);
+- f5 [deg]: roll-angle amplitude in the same slalom (same method).
+
+``handling="study"`` restores the study's handling objectives: f4 [deg/s] the mean
+yaw-rate amplitude and f5 [deg] the mean roll amplitude of the closed-loop, nonlinear
+time-domain slalom over the middle cones (:func:`suspenv.metrics.handling.slalom`;
+150-300 ms per call one design at a time, against about 1 ms for all the default's
+handling). The study's yaw rate is fixed by the course (its spread over the design
+box follows the driver's path error) and its roll is the roll gradient times the
+lateral acceleration (Spearman 0.997); see docs/minibus_handling.md.
 
 Constraints (feasible when <= 0): each of the four weighted RMS accelerations (front,
 rear; no load, full load) minus ``rms_limit``; each load case's slalom roll amplitude
@@ -49,7 +61,7 @@ from suspenv.core import EvaluationBatch, Problem
 from suspenv.core.errors import ValidationError
 from suspenv.core.options import choice, integer, number, positive
 from suspenv.core.pareto import nondominated
-from suspenv.metrics.handling import slalom
+from suspenv.metrics.handling import slalom, slalom_linear
 from suspenv.metrics.ride import RIDE_METHODS, ride_objectives_all
 from suspenv.models.minibus.handling_model import HandlingParams, handling_parameters
 from suspenv.models.minibus.vehicle import (
@@ -57,6 +69,7 @@ from suspenv.models.minibus.vehicle import (
     REFERENCE_MINIBUS,
     design_space,
 )
+from suspenv.models.minibus.vehicle import G as G_STD
 from suspenv.registry import report_function
 from suspenv.rigs.handling import SlalomConfig, SteadyCircleConfig, steady_circle
 from suspenv.rigs.ride import RandomRoad
@@ -76,8 +89,27 @@ MAX_ROAD_GD0 = 2.0 * ROAD_CLASS_GD0["H"]
 #: ride objective method (see the module docstring and docs/minibus.md)
 DEFAULT_RIDE_METHOD = "spectral"
 
-OBJECTIVE_NAMES = ("f1_ride_front", "f2_ride_rear", "f3_neg_lateral_acc", "f4_yaw_rate", "f5_roll")
-OBJECTIVE_UNITS = ("m/s^2", "m/s^2", "m/s^2", "deg/s", "deg")
+#: handling objective definitions (see the module docstring and docs/minibus_handling.md)
+HANDLING_METHODS = ("standard", "study")
+DEFAULT_HANDLING = "standard"
+
+OBJECTIVE_NAMES = (
+    "f1_ride_front",
+    "f2_ride_rear",
+    "f3_neg_lateral_acc",
+    "f4_steering_wheel",
+    "f5_roll",
+)
+OBJECTIVE_UNITS = ("m/s^2", "m/s^2", "m/s^2", "deg", "deg")
+#: the study's objectives (``handling="study"``)
+STUDY_OBJECTIVE_NAMES = (
+    "f1_ride_front",
+    "f2_ride_rear",
+    "f3_neg_lateral_acc",
+    "f4_yaw_rate",
+    "f5_roll",
+)
+STUDY_OBJECTIVE_UNITS = ("m/s^2", "m/s^2", "m/s^2", "deg/s", "deg")
 
 
 def _road_class(owner: str, value: Any) -> str | float:
@@ -119,11 +151,17 @@ class MinibusRideHandling(Problem):
             integral of the equivalent-linear ride model over the ISO 8608 road PSD: no
             seed noise, ``road_seed`` and ``ride_duration_s`` unused); see
             :func:`suspenv.metrics.ride.ride_spectral`.
+        handling: ``"standard"`` (f4 the slalom's steering-wheel angle amplitude, f5 its
+            roll amplitude, from the linearised vehicle's frequency response; no time
+            loop) or ``"study"`` (f4 the slalom's yaw-rate amplitude, f5 its roll
+            amplitude, from the closed-loop nonlinear time-domain run; ``slalom_dt``
+            is used only here).
     """
 
     name = "MinibusRideHandling"
     description = (
-        "minibus suspension (8 vars): ride front/rear, max lateral acc, slalom yaw and roll; "
+        "minibus suspension (8 vars): ride front/rear, max lateral acc, slalom steering-wheel "
+        "angle and roll; "
         "no load + 1.5 x full load"
     )
     quality_name = "sum of objectives"
@@ -144,6 +182,7 @@ class MinibusRideHandling(Problem):
         slalom_amplitude: float = 1.25,
         slalom_dt: float = 0.02,
         ride_method: str = DEFAULT_RIDE_METHOD,
+        handling: str = DEFAULT_HANDLING,
     ):
         owner = self.name
         self.load_weight = positive(owner, "load_weight", load_weight)
@@ -160,6 +199,7 @@ class MinibusRideHandling(Problem):
         slalom_amplitude = positive(owner, "slalom_amplitude", slalom_amplitude)
         slalom_dt = number(owner, "slalom_dt", slalom_dt, lo=0.0, hi=MAX_SLALOM_DT_S, lo_open=True)
         self.ride_method = choice(owner, "ride_method", ride_method, list(RIDE_METHODS))
+        self.handling = choice(owner, "handling", handling, list(HANDLING_METHODS))
         self.road = RandomRoad(
             road_class=road_class,
             speed_kmh=speed_kmh,
@@ -191,11 +231,13 @@ class MinibusRideHandling(Problem):
             "slalom_amplitude": slalom_amplitude,
             "slalom_dt": slalom_dt,
             "ride_method": self.ride_method,
+            "handling": self.handling,
         }
         self.vehicle = REFERENCE_MINIBUS
         self.space = design_space()
-        self.objective_names = OBJECTIVE_NAMES
-        self.objective_units = OBJECTIVE_UNITS
+        study = self.handling == "study"
+        self.objective_names = STUDY_OBJECTIVE_NAMES if study else OBJECTIVE_NAMES
+        self.objective_units = STUDY_OBJECTIVE_UNITS if study else OBJECTIVE_UNITS
         self.constraint_names = (
             "aw_front_no_load",
             "aw_front_full_load",
@@ -213,8 +255,11 @@ class MinibusRideHandling(Problem):
         """Every per-load-case measure of designs X (n, 8), SI except angles in deg.
 
         Keys ``<measure>_<load case>`` for measure in aw_front, aw_rear (m/s^2),
-        ay_max (m/s^2), yaw_rate (deg/s), roll (deg), plus the flags
-        ``completed_<load case>`` (slalom) and ``ride_ok_<load case>`` (road run).
+        ay_max (m/s^2), yaw_rate (deg/s), roll (deg), understeer (ISO 4138 linear-range
+        understeer gradient, deg of road-wheel steer per g), roll_gradient (deg/g), plus
+        steering_wheel (deg, ``handling="standard"``), the flags ``completed_<load
+        case>`` (slalom completed; for ``"standard"``: the linearised vehicle is stable
+        at the slalom speed) and ``ride_ok_<load case>`` (road run).
         """
         X = np.atleast_2d(np.asarray(X, dtype=float))
         n = X.shape[0]
@@ -226,16 +271,30 @@ class MinibusRideHandling(Problem):
         )
         P = HandlingParams.stack([handling_parameters(X, lc, self.vehicle) for lc in LOAD_CASES])
         circle = steady_circle(P, self.circle)
-        sl = slalom(P, self.slalom_config)
+        understeer = np.degrees(P.understeer_gradient()) * G_STD
+        roll_gradient = np.degrees(P.roll_gradient()) * G_STD
+        if self.handling == "study":
+            sl = slalom(P, self.slalom_config)
+            yaw, roll, completed = sl.yaw_rate_amplitude, sl.roll_amplitude, sl.completed
+            wheel = None
+        else:
+            lin = slalom_linear(P, self.slalom_config)
+            yaw, roll = lin.yaw_rate_amplitude, lin.roll_amplitude
+            completed = lin.stable & np.isfinite(lin.steering_wheel_amplitude)
+            wheel = lin.steering_wheel_amplitude
         out: dict[str, np.ndarray] = {}
         for i, lc in enumerate(LOAD_CASES):
             rows = slice(i * n, (i + 1) * n)
             out[f"aw_front_{lc}"] = ride[lc]["aw_front"]
             out[f"aw_rear_{lc}"] = ride[lc]["aw_rear"]
             out[f"ay_max_{lc}"] = circle.ay_max[rows]
-            out[f"yaw_rate_{lc}"] = np.degrees(sl.yaw_rate_amplitude[rows])
-            out[f"roll_{lc}"] = np.degrees(sl.roll_amplitude[rows])
-            out[f"completed_{lc}"] = sl.completed[rows]
+            out[f"yaw_rate_{lc}"] = np.degrees(yaw[rows])
+            out[f"roll_{lc}"] = np.degrees(roll[rows])
+            if wheel is not None:
+                out[f"steering_wheel_{lc}"] = np.degrees(wheel[rows])
+            out[f"understeer_{lc}"] = understeer[rows]
+            out[f"roll_gradient_{lc}"] = roll_gradient[rows]
+            out[f"completed_{lc}"] = completed[rows]
             ride_ok = ride[lc].get("ok", np.ones(n, bool))
             out[f"ride_ok_{lc}"] = np.asarray(ride_ok, dtype=bool)
         return out
@@ -252,7 +311,7 @@ class MinibusRideHandling(Problem):
                 combine("aw_front"),
                 combine("aw_rear"),
                 -combine("ay_max"),
-                combine("yaw_rate"),
+                combine("yaw_rate" if self.handling == "study" else "steering_wheel"),
                 combine("roll"),
             ]
         )
@@ -273,7 +332,12 @@ class MinibusRideHandling(Problem):
             reasons = []
             lost = [lc for lc in LOAD_CASES if not m[f"completed_{lc}"][i]]
             if lost:
-                reasons.append(f"slalom: the vehicle spun or left the course ({', '.join(lost)})")
+                what = (
+                    "the vehicle spun or left the course"
+                    if self.handling == "study"
+                    else "the linearised vehicle is unstable at the slalom speed"
+                )
+                reasons.append(f"slalom: {what} ({', '.join(lost)})")
             diverged = [lc for lc in LOAD_CASES if not m[f"ride_ok_{lc}"][i]]
             if diverged:
                 reasons.append(f"ride: the road run diverged ({', '.join(diverged)})")

@@ -17,8 +17,10 @@ Steady-state circular test (:func:`steady_circle`)
     capacity, the peak over slip angle of the sum of its two tyres' forces at their
     transferred loads (front short: limit understeer, the vehicle drifts off the circle;
     rear short: it spins), and (2) not both inner wheels have lifted (rollover). The
-    three conditions are monotonic in a_y, so a bisection finds the limit; ``limit``
-    names the condition that bounds it. The limit counts equilibria, stable or not
+    three conditions are monotonic in a_y, so a search on a grid of a_y finds the limit
+    (bisection for large batches, many candidates per pass one design at a time, on
+    the axle capacity tabulated over both wheel loads); ``limit`` names the condition
+    that bounds it. The limit counts equilibria, stable or not
     (near a rear-axle limit the steady state can be unstable, a spin mode that the
     driver has to hold).
 
@@ -43,6 +45,7 @@ Pylon-course slalom (:func:`slalom_run`)
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 from typing import Protocol
 
@@ -55,7 +58,14 @@ from suspenv.models.minibus.handling_model import (
     step,
     wheel_loads,
 )
+from suspenv.models.minibus.tyre import LateralTyre
 from suspenv.models.minibus.vehicle import G
+
+#: axle-capacity table of the steady circle: loads 0 .. CAPACITY_TABLE_MAX x fz0 (26 kN
+#: for the reference tyre, 3x the heaviest static wheel load) in CAPACITY_TABLE_POINTS
+#: steps per wheel
+CAPACITY_TABLE_MAX = 4.0
+CAPACITY_TABLE_POINTS = 161
 
 
 # ------------------------------------------------------------------ steady circle
@@ -108,8 +118,10 @@ class SteadyCircleResult:
 
 
 def _steady_loads(P: HandlingParams, ay: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Roll and wheel loads (FL, FR, RL, RR) of the steady state at lateral acceleration
+    ``ay``: :func:`wheel_loads` at zero roll rate (no damper moments)."""
     phi = P.roll_gradient() * ay
-    fl, fr, rl, rr, _, _ = wheel_loads(P, phi, np.zeros_like(ay), ay)
+    fl, fr, rl, rr, _, _ = wheel_loads(P, phi, None, ay)
     return phi, fl, fr, rl, rr
 
 
@@ -119,52 +131,138 @@ def axle_capacity(
     """Peak over slip angle of an axle's lateral force (N) and the slip angle (rad) at it.
 
     Grid search over 0..alpha_max refined by a parabola through the best three points.
+    ``fz_a``/``fz_b`` (the axle's two wheel loads) may have any shape whose last axis
+    matches the rows of ``P``.
     """
-    alpha = np.linspace(0.0, np.radians(config.alpha_max_deg), config.alpha_points)[:, None]
+    fz_a = np.asarray(fz_a, dtype=float)
+    fz_b = np.asarray(fz_b, dtype=float)
+    grid = np.linspace(0.0, np.radians(config.alpha_max_deg), config.alpha_points)
+    alpha = grid.reshape((-1,) + (1,) * fz_a.ndim)
     f = P.tyre.lateral_force(alpha, fz_a) + P.tyre.lateral_force(alpha, fz_b)
-    i = np.clip(np.argmax(f, axis=0), 1, config.alpha_points - 2)
-    cols = np.arange(f.shape[1])
-    f0, f1, f2 = f[i - 1, cols], f[i, cols], f[i + 1, cols]
+    i = np.clip(np.argmax(f, axis=0), 1, config.alpha_points - 2)[None]
+    f0 = np.take_along_axis(f, i - 1, axis=0)[0]
+    f1 = np.take_along_axis(f, i, axis=0)[0]
+    f2 = np.take_along_axis(f, i + 1, axis=0)[0]
     denom = f0 - 2.0 * f1 + f2
     shift = np.where(denom < 0, 0.5 * (f0 - f2) / np.where(denom < 0, denom, -1.0), 0.0)
     shift = np.clip(shift, -1.0, 1.0)
-    h = alpha[1, 0] - alpha[0, 0]
-    a_peak = alpha[i, 0] + shift * h
+    h = grid[1] - grid[0]
+    a_peak = grid[i[0]] + shift * h
     f_peak = P.tyre.lateral_force(a_peak, fz_a) + P.tyre.lateral_force(a_peak, fz_b)
     return np.maximum(np.maximum(f_peak, f1), 0.0), a_peak
+
+
+@functools.lru_cache(maxsize=8)
+def _capacity_table(
+    tyre: LateralTyre, alpha_max_deg: float, alpha_points: int
+) -> tuple[float, np.ndarray]:
+    """Axle capacity (:func:`axle_capacity`) tabulated over both wheel loads.
+
+    Returns the load step (N) and the (N, N) table on ``0 .. CAPACITY_TABLE_MAX x
+    fz0`` in both loads; built once per tyre and search setting (about 50 ms).
+    """
+    fz = np.linspace(0.0, CAPACITY_TABLE_MAX * tyre.fz0, CAPACITY_TABLE_POINTS)
+    config = SteadyCircleConfig(alpha_max_deg=alpha_max_deg, alpha_points=alpha_points)
+    holder = _TyreOnly(tyre)
+    cap, _ = axle_capacity(holder, fz[:, None], fz[None, :], config)  # type: ignore[arg-type]
+    cap.flags.writeable = False  # shared by every call (cached)
+    return float(fz[1] - fz[0]), cap
+
+
+class _TyreOnly:
+    """The one attribute of :class:`HandlingParams` that :func:`axle_capacity` reads."""
+
+    def __init__(self, tyre: LateralTyre):
+        self.tyre = tyre
+
+
+def axle_capacity_tabulated(
+    P: HandlingParams, fz_a: np.ndarray, fz_b: np.ndarray, config: SteadyCircleConfig
+) -> np.ndarray:
+    """:func:`axle_capacity` (N) by bilinear interpolation in its table over both loads.
+
+    The capacity is smooth in the loads (the peak of a sum of two smooth curves), so on
+    the table's 163 N step the interpolation stays within about 1e-5 of the grid search
+    (tests); loads beyond the table (``CAPACITY_TABLE_MAX x fz0``) are clipped to it.
+    """
+    h, table = _capacity_table(P.tyre, config.alpha_max_deg, config.alpha_points)
+    last = table.shape[0] - 2
+    ta = np.clip(fz_a, 0.0, None) / h
+    tb = np.clip(fz_b, 0.0, None) / h
+    ia = np.minimum(ta.astype(np.intp), last)
+    ib = np.minimum(tb.astype(np.intp), last)
+    wa = np.minimum(ta - ia, 1.0)
+    wb = np.minimum(tb - ib, 1.0)
+    c00 = table[ia, ib]
+    c10 = table[ia + 1, ib]
+    c01 = table[ia, ib + 1]
+    c11 = table[ia + 1, ib + 1]
+    return c00 + wa * (c10 - c00) + wb * (c01 - c00 + wa * (c11 - c10 - c01 + c00))
 
 
 def _limits(
     P: HandlingParams, ay: np.ndarray, config: SteadyCircleConfig
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(front ok, rear ok, not rolled over) at lateral acceleration ay (n,)."""
+    """(front ok, rear ok, not rolled over) at lateral accelerations ay (..., n)."""
     _, fl, fr, rl, rr = _steady_loads(P, ay)
     L = P.wheelbase
-    cap_f, _ = axle_capacity(P, fl, fr, config)
-    cap_r, _ = axle_capacity(P, rl, rr, config)
+    cap_f = axle_capacity_tabulated(P, fl, fr, config)
+    cap_r = axle_capacity_tabulated(P, rl, rr, config)
     front_ok = cap_f >= P.m * ay * P.b / L
     rear_ok = cap_r >= P.m * ay * P.a / L
     upright = (fl > 0) | (rl > 0)
     return front_ok, rear_ok, upright
 
 
+#: candidate accelerations tested together per pass of the limit search, times rows
+#: (small batches test many candidates per pass, large ones bisect; same result)
+CIRCLE_POINTS_PER_PASS = 256
+
+
 def steady_circle(
     P: HandlingParams, config: SteadyCircleConfig | None = None
 ) -> SteadyCircleResult:
-    """Maximum quasi-steady lateral acceleration on the circle, for every row of ``P``."""
+    """Maximum quasi-steady lateral acceleration on the circle, for every row of ``P``.
+
+    The limit is searched on the grid ``ay_upper j / 2^B`` (``B = ceil(log2(ay_upper /
+    tolerance))``): the largest grid point with an equilibrium (the conditions are
+    monotonic in a_y). Each pass tests ``2^b - 1`` evenly spaced candidates inside the
+    current bracket and keeps the sub-bracket of the last one that passes; ``b = 1``
+    is bisection. Small batches use more candidates per pass (fewer passes: the cost
+    of one design at a time is the per-pass overhead); every ``b`` finds the same grid
+    point, so a row's result does not depend on its batch.
+    """
     config = config or SteadyCircleConfig()
     n = P.n
-    lo = np.zeros(n)
-    hi = np.full(n, config.ay_upper)
-    iterations = int(np.ceil(np.log2(config.ay_upper / config.tolerance)))
-    for _ in range(iterations):
-        mid = 0.5 * (lo + hi)
-        f_ok, r_ok, up = _limits(P, mid, config)
-        ok = f_ok & r_ok & up
-        lo = np.where(ok, mid, lo)
-        hi = np.where(ok, hi, mid)
-    ay_max = lo
-    f_ok, r_ok, up = _limits(P, hi, config)
+    total_bits = int(np.ceil(np.log2(config.ay_upper / config.tolerance)))
+    per_pass = max(1, int(np.floor(np.log2(CIRCLE_POINTS_PER_PASS / max(n, 1) + 1.0))))
+    j_lo = np.zeros(n, dtype=np.int64)  # the bracket's lower grid index (ay = 0 passes)
+    bits = total_bits
+    scale = config.ay_upper / float(2**total_bits)
+    cols = np.arange(n)
+    # the conditions at the bracket's upper end (the first failing candidate), which is
+    # the grid point just above the limit once the search ends: they name the limit
+    top = np.zeros((3, n), dtype=bool)
+    tested = np.zeros(n, dtype=bool)
+    while bits > 0:
+        b = min(per_pass, bits)
+        bits -= b
+        step = 2**bits
+        k = np.arange(1, 2**b, dtype=np.int64)[:, None]  # (2^b - 1, 1)
+        ay = (j_lo[None, :] + k * step) * scale
+        flags = np.stack(_limits(P, ay, config))  # (3, 2^b - 1, n)
+        ok = flags.all(axis=0)
+        # passes below the first failure (the conditions are monotonic in a_y)
+        passed = np.cumprod(ok, axis=0).sum(axis=0)
+        failed = passed < k.shape[0]
+        first = flags[:, np.minimum(passed, k.shape[0] - 1), cols]
+        top = np.where(failed[None, :], first, top)
+        tested |= failed
+        j_lo = j_lo + passed * step
+    ay_max = j_lo * scale
+    if not tested.all():  # every candidate passed: the search's upper end, untested
+        top = np.where(tested[None, :], top, np.stack(_limits(P, (j_lo + 1) * scale, config)))
+    f_ok, up = top[0], top[2]
     limit = np.where(~up, "rollover", np.where(~f_ok, "front", "rear"))
     return SteadyCircleResult(
         ay_max=ay_max,

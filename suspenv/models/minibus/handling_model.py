@@ -92,10 +92,15 @@ class LeafAxleGeometry:
     shackle_lateral_ratio: float = 0.5  # - [CHOICE]
     shackle_angle_deg: float = -15.0  # deg [CHOICE]
     front_roll_steer: float = 0.0  # rad/rad [CHOICE: independent front, neutral]
-    #: [CHOICE] 30 mm total trail and 30 kN*m/rad steering stiffness: about 0.6-0.8
-    #: deg/g of compliance understeer, the usual share for a recirculating-ball system.
-    steering_trail: float = 0.030  # m
-    steering_stiffness: float = 3.0e4  # N*m/rad
+    #: [CHOICE] 50 mm total trail (about 25 mm caster trail + 25 mm pneumatic trail of a
+    #: 195/70 R15C tyre in the linear range) and 20 kN*m/rad steering stiffness at the
+    #: road wheels (a recirculating-ball box, long column and drag-link linkage of a van
+    #: front end is softer than a car's rack): about 1.4 deg/g of compliance understeer.
+    #: Steering compliance is the largest understeer contribution of trucks and vans
+    #: (Gillespie, *Fundamentals of Vehicle Dynamics*, 1992, ch. 6). The earlier 30 mm and
+    #: 30 kN*m/rad (0.57 deg/g) left the loaded reference oversteering from about 0.3 g.
+    steering_trail: float = 0.050  # m
+    steering_stiffness: float = 2.0e4  # N*m/rad
 
     def __post_init__(self) -> None:
         if not self.shackle_lateral_ratio > 0:
@@ -281,7 +286,9 @@ def handling_parameters(
     w_rear = (ms * G * vp.a / L) / 2.0 + vehicle.unsprung_rear * G
 
     def full(value: float | np.ndarray) -> np.ndarray:
-        return np.broadcast_to(np.asarray(value, dtype=float), (n,)).copy()
+        if np.ndim(value) == 0:
+            return np.full(n, float(value))
+        return np.array(value, dtype=float).reshape(n)
 
     return HandlingParams(
         m=full(m),
@@ -351,21 +358,25 @@ class HandlingRates:
 
 
 def wheel_loads(
-    P: HandlingParams, phi: np.ndarray, p: np.ndarray, ay: np.ndarray
+    P: HandlingParams, phi: np.ndarray, p: np.ndarray | None, ay: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Wheel loads (FL, FR, RL, RR, N, >= 0) and damper roll moments (front, rear), N*m.
 
     Load moves to the right wheels for positive roll / positive a_y (a left turn).
+    ``p=None``: zero roll rate (a steady state), no damper moments.
     """
     v = P.vehicle
     sf, sr = v.front_damper_spacing, v.rear_damper_spacing
-    # roll-induced compression rate: right side +p s/2, left side -p s/2
-    vf = 0.5 * sf * p
-    vr = 0.5 * sr * p
-    ff = damper_force(np.stack([vf, -vf]), v.damper_front, P.damper_scale_front)
-    fr_ = damper_force(np.stack([vr, -vr]), v.damper_rear, P.damper_scale_rear)
-    md_f = 0.5 * sf * (ff[0] - ff[1])
-    md_r = 0.5 * sr * (fr_[0] - fr_[1])
+    if p is None:
+        md_f = md_r = np.zeros(())
+    else:
+        # roll-induced compression rate: right side +p s/2, left side -p s/2
+        vf = 0.5 * sf * p
+        vr = 0.5 * sr * p
+        ff = damper_force(np.stack([vf, -vf]), v.damper_front, P.damper_scale_front)
+        fr_ = damper_force(np.stack([vr, -vr]), v.damper_rear, P.damper_scale_rear)
+        md_f = 0.5 * sf * (ff[0] - ff[1])
+        md_r = 0.5 * sr * (fr_[0] - fr_[1])
     dfz_f = (
         P.kphi_front * phi + md_f + (P.ms_front * P.h_rc_front + P.mu_front * P.wheel_radius) * ay
     ) / P.track_front
@@ -452,3 +463,89 @@ def step(
     s.fy_front = k.fy_front
     s.fy_rear = k.fy_rear
     return k
+
+
+# ------------------------------------------------------------------ linear range
+def roll_damping(P: HandlingParams) -> np.ndarray:
+    """Roll damping (N*m*s/rad, (n,)) of the dampers' low-speed slopes (linear range).
+
+    A roll rate p compresses one side at ``p s/2`` and extends the other, so an axle's
+    damper roll moment is ``(s^2/4) (c_bump + c_rebound) C p`` (s the damper spacing, C
+    the design's curve scale), the small-rate slope of :func:`wheel_loads`' damper moments.
+    """
+    v = P.vehicle
+    front = (
+        0.25 * v.front_damper_spacing**2 * (v.damper_front.bump_low + v.damper_front.rebound_low)
+    )
+    rear = 0.25 * v.rear_damper_spacing**2 * (v.damper_rear.bump_low + v.damper_rear.rebound_low)
+    return front * P.damper_scale_front + rear * P.damper_scale_rear
+
+
+def linear_system(P: HandlingParams, u: float) -> tuple[np.ndarray, np.ndarray]:
+    """State matrix A (n, 4, 4) and steer input B (n, 4) of the linearised handling model.
+
+    State (v, r, phi, p), input the front road-wheel steer delta (rad), speed ``u``
+    (m/s). The equations of :func:`rates` about straight running: tyres at their static
+    loads' cornering stiffness (a symmetric load transfer changes no axle force to first
+    order), the compliance steers solved into effective axle stiffnesses
+    ``C' = C / (1 - C c_F)``, the dampers at their low-speed slopes
+    (:func:`roll_damping`). Exact for this model in the limit of small amplitudes.
+    """
+    cf, cr = P.axle_cornering_stiffness()
+    cf = cf / (1.0 - cf * P.force_steer_front)
+    cr = cr / (1.0 - cr * P.force_steer_rear)
+    a, b, m, iz = P.a, P.b, P.m, P.iz
+    msh = P.ms * P.h_prime
+    det = m * P.ixs - msh**2
+    cphi = roll_damping(P)
+    # axle forces: Fyf = cf (delta + eps_f phi - (v + a r)/u), Fyr = cr (eps_r phi - (v - b r)/u)
+    # rows of d(Fy)/d(v, r, phi, p) and d(Fy)/d(delta)
+    z = np.zeros_like(m)
+    fyf = np.stack([-cf / u, -cf * a / u, cf * P.roll_steer_front, z], axis=-1)
+    fyr = np.stack([-cr / u, cr * b / u, cr * P.roll_steer_rear, z], axis=-1)
+    r1 = fyf + fyr + np.stack([z, -m * u, z, z], axis=-1)  # lateral: sum Fy - m u r
+    r2 = np.stack([z, msh * u, msh * G - P.kphi, -cphi], axis=-1)  # roll
+    A = np.zeros((P.n, 4, 4))
+    A[:, 0] = (P.ixs[:, None] * r1 + msh[:, None] * r2) / det[:, None]
+    A[:, 1] = (a[:, None] * fyf - b[:, None] * fyr) / iz[:, None]
+    A[:, 2, 3] = 1.0
+    A[:, 3] = (msh[:, None] * r1 + m[:, None] * r2) / det[:, None]
+    B = np.stack([P.ixs * cf / det, a * cf / iz, z, msh * cf / det], axis=-1)
+    return A, B
+
+
+@dataclass
+class SteerResponse:
+    """Linear frequency response per rad of front road-wheel steer, complex (n, Nf).
+
+    Attributes: ay (m/s^2 per rad; v' + u r), yaw_rate (1/s), roll (rad/rad),
+    sideslip (v/u, rad/rad); f: Hz (Nf,).
+    """
+
+    f: np.ndarray
+    ay: np.ndarray
+    yaw_rate: np.ndarray
+    roll: np.ndarray
+    sideslip: np.ndarray
+
+
+def steer_response(
+    P: HandlingParams,
+    u: float,
+    f: np.ndarray | float,
+    system: tuple[np.ndarray, np.ndarray] | None = None,
+) -> SteerResponse:
+    """Frequency response of the linearised model (:func:`linear_system`) to front steer.
+
+    ``H(f) = (i 2 pi f I - A)^-1 B`` at the frequencies ``f`` (Hz, >= 0; 0 gives the
+    steady state), batched over the rows of ``P``; ``system``: (A, B) of
+    :func:`linear_system` if already at hand.
+    """
+    f = np.atleast_1d(np.asarray(f, dtype=float))
+    A, B = system if system is not None else linear_system(P, u)
+    s = 2j * np.pi * f
+    M = s[None, :, None, None] * np.eye(4)[None, None] - A[:, None]
+    rhs = np.broadcast_to(B[:, None, :, None], (P.n, f.size, 4, 1)).astype(complex)
+    X = np.linalg.solve(M, rhs)[..., 0]  # (n, Nf, 4)
+    v, r, phi = X[..., 0], X[..., 1], X[..., 2]
+    return SteerResponse(f=f, ay=s[None, :] * v + u * r, yaw_rate=r, roll=phi, sideslip=v / u)

@@ -200,8 +200,15 @@ class Minibus:
     #: patch and height above ground [CHOICE: long, low swing arm of a van front end]
     front_ic_inboard: float = 2.0  # m
     front_ic_height: float = 0.15  # m
-    #: rear rigid axle on leaves: roll centre at the leaf-seat/eye line height [CHOICE]
-    rear_roll_centre_height: float = 0.45  # m
+    #: rear rigid axle on leaves: the leaves locate the axle laterally at the spring
+    #: seats, so the roll centre lies at about the seat height (Gillespie, *Fundamentals
+    #: of Vehicle Dynamics*, 1992, ch. 7; Milliken & Milliken, *Race Car Vehicle
+    #: Dynamics*, 1995, ch. 17). [CHOICE] 0.30 m: seats on the axle tube, about the
+    #: wheel-centre height (loaded radius 0.33 m) of a low-floor van. The earlier 0.45 m
+    #: (seats 0.12 m above the wheel centre) put 8x the front's roll-centre load transfer
+    #: on the rear and made 58 of 62 random designs limit-oversteer empty
+    #: (docs/minibus_handling.md, "Handling balance").
+    rear_roll_centre_height: float = 0.30  # m
     # unsprung ---------------------------------------------------------------
     #: per front corner: hub, brake, wishbones share, wheel and tyre [CHOICE: ~2.3 % of
     #: gross mass per corner, typical of independent fronts of this size]
