@@ -50,6 +50,7 @@ def run_case(label: str, concealed: tuple[str, ...], seed: int) -> dict[str, Any
         "answer": res.fit.final.name,
         "converged": res.fit.converged,
         "identified": len(ident),
+        "determined_combinations": res.identifiability.n_determined,
         "identified_max_err_%": max(err) if err else float("nan"),
         "identified_mean_err_%": float(np.mean(err)) if err else float("nan"),
         "all_mean_err_%": float(np.mean(allerr)),

@@ -66,6 +66,36 @@ def unit_covariance(J: np.ndarray, scale2: float = 1.0, rcond: float = RCOND) ->
     return scale2 * (V / w) @ V.T
 
 
+def determined_directions(
+    J: np.ndarray, scale2: float = 1.0, names: Sequence[str] = (), top: int = 3
+) -> tuple[int, list[tuple[float, list[tuple[str, float]]]]]:
+    """How many independent combinations of the parameters the data determine.
+
+    The eigenvectors ``v_k`` of ``J' J`` are the combinations ``v_k . u`` of the unit-cube
+    parameters that the data see independently, each with standard error
+    ``sqrt(s^2 / w_k)`` (``w_k`` its eigenvalue). A combination is **determined** when
+    ``K_SIGMA`` standard errors lie within ``TOLERANCE_PCT`` % of the unit interval (the
+    rule of a single parameter, applied along ``v_k``). Returns the number determined and
+    the ``top`` best-determined combinations that mix at least two parameters, each as
+    (standard error in % of the unit interval, [(name, loading)] with ``|loading| >= 0.3``,
+    largest first, sign fixed so the largest loading is positive)."""
+    H = np.asarray(J, float).T @ np.asarray(J, float)
+    w, V = np.linalg.eigh(0.5 * (H + H.T))
+    with np.errstate(divide="ignore"):
+        se_pct = np.where(w > 0, 100.0 * np.sqrt(scale2 / np.where(w > 0, w, 1.0)), np.inf)
+    limit = TOLERANCE_PCT / K_SIGMA
+    count = int((se_pct <= limit).sum())
+    out: list[tuple[float, list[tuple[str, float]]]] = []
+    for k in np.argsort(se_pct):
+        if se_pct[k] > limit or len(out) >= top:
+            break
+        v = V[:, k] * np.sign(V[np.argmax(np.abs(V[:, k])), k])
+        big = [i for i in np.argsort(-np.abs(v)) if abs(v[i]) >= 0.3]
+        if len(big) >= 2 and names:
+            out.append((float(se_pct[k]), [(str(names[i]), float(v[i])) for i in big]))
+    return count, out
+
+
 def physical_slope(space: DesignSpace, u: np.ndarray) -> np.ndarray:
     """``dx/du`` (dim,) of the unit-cube map of ``space`` at ``u`` (file units per unit)."""
     lo, hi = space.lower, space.upper
@@ -135,6 +165,9 @@ class Identifiability:
     scale2: float  # s^2 applied
     verdicts: list[Verdict]
     rcond: float = RCOND
+    #: independent parameter combinations the data determine (determined_directions)
+    n_determined: int = 0
+    directions: list[tuple[float, list[tuple[str, float]]]] = field(default_factory=list)
 
     @property
     def identified(self) -> np.ndarray:
@@ -153,6 +186,10 @@ class Identifiability:
             f"eigenvalues below {self.rcond:g} x the largest raised to it",
             "s2": self.scale2,
             "n_identified": int(self.identified.sum()),
+            "n_determined_combinations": self.n_determined,
+            "best_determined_combinations": [
+                {"stderr_pct_unit": se, "loadings": dict(v)} for se, v in self.directions
+            ],
             "parameters": [v.to_dict() for v in self.verdicts],
         }
 
@@ -223,7 +260,10 @@ def assess(
                 float(rng[i]),
             )
         )
-    return Identifiability(list(space.names), cov, float(scale2), verdicts, rcond)
+    count, directions = determined_directions(J, float(scale2), space.names)
+    return Identifiability(
+        list(space.names), cov, float(scale2), verdicts, rcond, count, directions
+    )
 
 
 @dataclass
@@ -235,6 +275,7 @@ class CandidateGain:
     stderr_pct_after: dict[str, float]  # every parameter, % of range (larger of the scales)
     mean_log_gain: float  # mean log10(stderr before / after) over the not identified
     still_not: list[str]
+    n_determined_after: int = 0  # determined parameter combinations with the test added
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -243,6 +284,7 @@ class CandidateGain:
             "n_newly_identified": len(self.newly_identified),
             "mean_log10_stderr_reduction": self.mean_log_gain,
             "still_not_identified": self.still_not,
+            "n_determined_combinations_after": self.n_determined_after,
             "stderr_pct_range_after": self.stderr_pct_after,
         }
 
@@ -255,8 +297,9 @@ def rank_tests(
     space: DesignSpace,
 ) -> list[CandidateGain]:
     """Candidate tests ``extra`` (test -> its Jacobian (N_t, dim), noise-scaled) ranked by
-    the parameters they would newly identify, then by the mean log reduction of the
-    standard errors of the parameters not identified (best first)."""
+    the parameters they would newly identify, then by the parameter combinations they
+    would newly determine (:func:`determined_directions`), then by the mean log
+    reduction of the standard errors of the parameters not identified (best first)."""
     slope = np.abs(physical_slope(space, u))
     rng = space.upper - space.lower
     before = np.array([max(v.stderr_pct, v.stderr_unit_pct) for v in ident.verdicts])
@@ -264,7 +307,8 @@ def rank_tests(
     limit = TOLERANCE_PCT / K_SIGMA
     out = []
     for test, Jt in extra.items():
-        cov = unit_covariance(np.vstack([J, Jt]), ident.scale2, ident.rcond)
+        stacked = np.vstack([J, Jt])
+        cov = unit_covariance(stacked, ident.scale2, ident.rcond)
         se_u = np.sqrt(np.maximum(np.diag(cov), 0.0))
         after = np.maximum(100.0 * se_u * slope / rng, 100.0 * se_u)
         now = after <= limit
@@ -278,9 +322,13 @@ def rank_tests(
                 {n: float(a) for n, a in zip(space.names, after, strict=True)},
                 gain,
                 still,
+                determined_directions(stacked, ident.scale2)[0],
             )
         )
-    return sorted(out, key=lambda g: (-len(g.newly_identified), -g.mean_log_gain))
+    return sorted(
+        out,
+        key=lambda g: (-len(g.newly_identified), -g.n_determined_after, -g.mean_log_gain),
+    )
 
 
 def summary_counts(verdicts: Sequence[Verdict]) -> dict[str, int]:

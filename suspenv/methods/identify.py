@@ -66,7 +66,7 @@ DEFAULTS: dict[str, Any] = {
     "initial": "auto",  # "vehicle" (the file's design) or "paper"; auto: paper for test-car
     "free": [],  # parameters fitted (empty: all)
     "sides": "symmetric",  # or "both": a right-side twin of every free parameter but the bar
-    "global_evaluations": 0,  # CMA-ES budget; 0: least squares from the start only (see docs)
+    "global_evaluations": 640,  # CMA-ES budget; 0: least squares from the start only (see docs)
     "popsize": 32,
     "sigma0": 0.2,
     "polish_nfev": 150,
@@ -710,6 +710,8 @@ def summary(result: IdentifyResult) -> dict[str, Any]:
             "n_identified_before": int(ident.identified.sum()),
             "n_identified_after": int(ident2.identified.sum()),
             "identified_after": [v.name for v in ident2.verdicts if v.identified],
+            "n_determined_before": ident.n_determined,
+            "n_determined_after": ident2.n_determined,
             "identified_max_error_pct_range": max(err2) if err2 else None,
             "cost": rr.fit.cost,
             "n_residuals": rr.fit.model.size,

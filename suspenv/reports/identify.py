@@ -170,6 +170,16 @@ def _sigma_text(result: IdentifyResult) -> str:
     return "; ".join(parts)
 
 
+def _combination(loadings: list[tuple[str, float]]) -> str:
+    """A parameter combination as text: ``0.71 tie_rod_outer_z - 0.70 tie_rod_inner_z``
+    (loadings on the unit-cube scale)."""
+    parts = []
+    for i, (name, v) in enumerate(loadings[:4]):
+        sign = "-" if v < 0 else ("+" if i else "")
+        parts.append(f"{sign} {abs(v):.2f} `{name}`".strip())
+    return " ".join(parts) + (" + ..." if len(loadings) > 4 else "")
+
+
 def _first_screen(result: IdentifyResult, s: dict[str, Any]) -> list[str]:
     ident = result.identifiability
     counts = summary_counts(ident.verdicts)
@@ -191,6 +201,10 @@ def _first_screen(result: IdentifyResult, s: dict[str, Any]) -> list[str]:
         f"({K_SIGMA:g} standard errors within {TOLERANCE_PCT:g} % of their range).",
         f"- **Not identified**: {counts.get('flat', 0)} flat (no measured curve sees them), "
         f"{counts.get('correlated', 0)} correlated (others make up for them).",
+        f"- **Determined combinations**: the curves fix {ident.n_determined} independent "
+        f"combinations of the {len(ident.verdicts)} parameters to the same rule"
+        + (f", e.g. {_combination(ident.directions[0][1])}" if ident.directions else "")
+        + ".",
     ]
     if result.candidates:
         best = result.candidates[0]
@@ -199,13 +213,16 @@ def _first_screen(result: IdentifyResult, s: dict[str, Any]) -> list[str]:
             more = ", ..." if len(new) > 6 else ""
             lines.append(
                 f"- **Next test**: `{best.test}`: predicted to identify {len(new)} more "
-                f"parameter(s) ({', '.join(new[:6])}{more})."
+                f"parameter{'s' if len(new) != 1 else ''} ({', '.join(new[:6])}{more}) and to "
+                f"determine {best.n_determined_after} combinations (now {ident.n_determined})."
             )
         else:
             lines.append(
                 f"- **Next test**: `{best.test}`: no single rig test identifies another "
-                "parameter under the rule; this one shrinks the standard errors of those not "
-                f"identified most (by a factor {10**best.mean_log_gain:.2g} on geometric mean)."
+                f"parameter under the rule; this one determines {best.n_determined_after} "
+                f"combinations (now {ident.n_determined}) and shrinks the standard errors of "
+                f"those not identified by a factor {10**best.mean_log_gain:.2g} on geometric "
+                "mean."
             )
     if result.rerun is not None:
         r = s["rerun"]
@@ -218,7 +235,8 @@ def _first_screen(result: IdentifyResult, s: dict[str, Any]) -> list[str]:
         lines.append(
             f"- **Shown on the test car**: with `{r['test']}` measured too, "
             f"{r['n_identified_after']} parameters are identified (was "
-            f"{r['n_identified_before']}){tail}."
+            f"{r['n_identified_before']}){tail}, and {r['n_determined_after']} combinations are "
+            f"determined (was {r['n_determined_before']})."
         )
     diag = result.diagnosis
     if diag is not None:
@@ -339,6 +357,7 @@ def write_identify_report(result: IdentifyResult, out: Path, figures: bool = Tru
                 "test": g.test,
                 "newly identified": len(g.newly_identified),
                 "which": ", ".join(g.newly_identified),
+                "determined combinations": g.n_determined_after,
                 "mean log10 s.e. reduction (not identified)": g.mean_log_gain,
             }
             for g in result.candidates
