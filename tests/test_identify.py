@@ -355,3 +355,23 @@ def test_target_default_concealed_effects_are_named():
     assert res.diagnosis is not None
     named = {n["family"] for n in res.diagnosis["named"]}
     assert "loop" in named and "lr_asymmetry" in named
+
+
+def test_noise_free_curves_get_the_rig_default_weights_and_declared_noise_is_kept():
+    # simulated loops carry no noise: the estimate is round-off, which as a weight would
+    # make every parameter look identified; the fit takes the rig's typical noise instead
+    from suspenv.measurements.knc_file import from_results
+    from suspenv.methods.identify import fit_weights
+    from suspenv.models.mcpherson.params import build_axle
+    from suspenv.models.mcpherson.truth import CHANNEL_NOISE
+    from suspenv.rigs.knc import run_tests
+
+    x = design_space().reference()[None, :]
+    res = run_tests(build_axle(x), ("parallel",))
+    m = from_results(res, "simulated", noise={"camber": 1e-3})
+    assert m.noise["toe"] < 1e-2 * CHANNEL_NOISE["toe"]  # the estimate: curve shape, round-off
+    w = fit_weights(m)
+    assert w.noise["toe"] == CHANNEL_NOISE["toe"]
+    assert w.noise_source["toe"].startswith("rig default")
+    assert w.noise["camber"] == 1e-3  # declared: kept
+    assert m.noise["toe"] < 1e-2 * CHANNEL_NOISE["toe"]  # the input is not changed

@@ -27,6 +27,8 @@ same :class:`~suspenv.measurements.knc_file.KncMeasurement` path as a file.
 
 from __future__ import annotations
 
+import dataclasses
+
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -511,6 +513,31 @@ def _without_pattern(
     return out
 
 
+#: an estimated noise below this fraction of the rig's typical sensor noise
+#: (:data:`~suspenv.models.mcpherson.truth.CHANNEL_NOISE`) is taken for data smoother
+#: than any rig records (simulated, or smoothed before export)
+NOISE_PLAUSIBLE_FRACTION = 0.1
+
+
+def fit_weights(measurement: Any) -> Any:
+    """The measurement with weights the fit can trust: a channel whose noise was
+    *estimated* (none declared) below :data:`NOISE_PLAUSIBLE_FRACTION` x the rig's
+    typical sensor noise gets that typical noise instead (noise source ``"rig default:
+    the data are smoother than a rig records"``): noise-free curves would otherwise
+    weigh round-off as signal and claim every parameter identified. Declared noise is
+    kept as it is. Returns a shallow copy; ``measurement`` is not changed."""
+    noise = dict(measurement.noise)
+    source = dict(measurement.noise_source)
+    for c, sigma in measurement.noise.items():
+        typical = CHANNEL_NOISE.get(c)
+        if typical is None or source.get(c, "estimated") != "estimated":
+            continue
+        if not sigma >= NOISE_PLAUSIBLE_FRACTION * typical:
+            noise[c] = float(typical)
+            source[c] = "rig default: the data are smoother than a rig records"
+    return dataclasses.replace(measurement, noise=noise, noise_source=source)
+
+
 def run_identify(
     measurement: Any,
     vehicle: VehicleFile,
@@ -524,6 +551,7 @@ def run_identify(
 
     ``x0``: the start design (49,) in file units, overriding ``options["initial"]``."""
     opts = check_options(options or {})
+    measurement = fit_weights(measurement)
     t_start, c_start = time.perf_counter(), time.process_time()
     timings: dict[str, float] = {}
     tick = time.perf_counter()
