@@ -28,7 +28,6 @@ same :class:`~suspenv.measurements.knc_file.KncMeasurement` path as a file.
 from __future__ import annotations
 
 import dataclasses
-
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
