@@ -270,7 +270,7 @@ def test_compliance_from_the_jacobian_equals_finite_differences_of_loaded_solves
         for f in (50.0, -50.0):
             ext = np.zeros((1, 2, 6))
             col = {"Fx": 0, "Fy": 1, "Mz": 5}[load]
-            sign = {"Fx": 1.0, "Fy": 1.0, "Mz": 1.0}[load]  # left wheel: outboard = +y, toe-out = +z
+            sign = {"Fx": 1.0, "Fy": 1.0, "Mz": 1.0}[load]  # left: outboard +y, toe-out +z
             ext[:, 0, col] = f * sign  # the load acts on the left wheel only
             s2, conv, _ = solver.solve(st, solver.pad_static, ext=ext)
             assert conv.all()
