@@ -180,6 +180,35 @@ def _combination(loadings: list[tuple[str, float]]) -> str:
     return " ".join(parts) + (" + ..." if len(loadings) > 4 else "")
 
 
+#: what to add to the model when the residual screen names a signature family
+_MODEL_NEXT = {
+    "lr_asymmetry": "fit the sides apart (`suspenv identify ... --sides both`, or "
+    '`sides = "both"` in `[identify]`)',
+    "loop": "give the model the named hysteresis or friction (`[[effects]]` in the vehicle "
+    "file, `model_effects` in a config) or let `suspenv diagnose` refit it",
+    "sensor_offset": "check the wheel-load zero of the rig (a constant offset is not "
+    "suspension physics)",
+    "sensor_gain": "check the wheel-load calibration (a residual proportional to the load)",
+    "progressive": "give the model the progressive element (a bump stop or progressive "
+    "bushing: `[[effects]]` in the vehicle file) or let `suspenv diagnose` refit it",
+}
+
+
+def _model_next(result: IdentifyResult, named: list[dict[str, Any]]) -> list[str]:
+    """The first-screen line saying what to change in the model for each named family
+    (none for a family the model already covers)."""
+    todo = []
+    for n in named:
+        family = n.get("family", "")
+        if family == "lr_asymmetry" and result.model.two_sided:
+            continue
+        if family in _MODEL_NEXT:
+            todo.append(_MODEL_NEXT[family])
+    if not todo:
+        return []
+    return [f"- **Then**: {'; '.join(todo)}."]
+
+
 def _first_screen(result: IdentifyResult, s: dict[str, Any]) -> list[str]:
     ident = result.identifiability
     counts = summary_counts(ident.verdicts)
@@ -250,6 +279,7 @@ def _first_screen(result: IdentifyResult, s: dict[str, Any]) -> list[str]:
             )
             lines.append(f"- **Remaining residual**: the K&C diagnosis names: {named}.")
             lines.append(f"  {text(diag['residual_map']['summary'])}.")
+            lines += _model_next(result, diag["named"])
         else:
             lines.append(
                 "- **Remaining residual**: the K&C diagnosis names nothing (no signature above "
