@@ -120,8 +120,13 @@ def test_versions_record_the_source_commit():
     import subprocess
     from pathlib import Path
 
+    from suspenv.runs import versions
     from suspenv.runs.versions import package_versions
 
+    # asked once per process; forget what an earlier test asked (a commit may have been
+    # made since, while this test process ran)
+    versions.source_commit.cache_clear()
+    versions._tracked_versions.cache_clear()
     root = Path(__file__).resolve().parents[1]
     if shutil.which("git") is None or not (root / ".git").exists():
         pytest.skip("not a git checkout")

@@ -151,9 +151,7 @@ def validate(config: dict[str, Any], allow_code: bool = False) -> dict[str, Any]
     :func:`check_code_names`); a config cannot allow it itself."""
     for table in ("problem", "strategy", "run"):
         if table in config and not isinstance(config[table], dict):
-            raise ValidationError(
-                f"config: `{table}` must be a table, but got {config[table]!r}"
-            )
+            raise ValidationError(f"config: `{table}` must be a table, but got {config[table]!r}")
     if "allow_code" in (config.get("run") or {}):
         raise ValidationError(
             "config: `run.allow_code` cannot be set by a config (a config does not decide "

@@ -20,7 +20,9 @@ hung worker is killed.
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import math
+import pickle
 import signal
 import sys
 import threading
@@ -100,6 +102,48 @@ class FaultPolicy:
 Yielded = tuple[list[int], EvaluationBatch, float]
 
 
+def default_chunk(n: int, workers: int) -> int:
+    """Designs per executor task when ``run.chunk_size`` is not set: one chunk per worker
+    per batch, ``ceil(n / workers)``. A vectorised problem pays a fixed cost per call
+    (Python set-up, solver start, the task's transport); more, smaller chunks would pay it
+    again for every chunk without keeping more workers busy."""
+    return max(1, math.ceil(n / max(int(workers), 1)))
+
+
+#: problems a worker process has unpickled, by the digest of their pickle (see
+#: :class:`_Shipped`); a few at most, the oldest dropped first
+_WORKER_PROBLEMS: dict[str, Problem] = {}
+_WORKER_PROBLEMS_MAX = 4
+
+
+def _shipped(problem: Problem) -> tuple[str, bytes] | None:
+    """``(key, payload)``: the problem pickled once for every chunk of a batch.
+
+    ``executor.submit(problem.evaluate, X)`` would pickle the whole problem for every
+    chunk, and the worker would unpickle a fresh copy each time, whose caches start cold.
+    Instead the bytes are pickled once per batch; a worker unpickles them on its first
+    chunk and keeps the problem for the next chunks, keyed by the bytes' digest (a problem
+    whose state changed is a new entry). None when the problem cannot be pickled (a thread
+    pool needs no pickle: the problem's own method is submitted then)."""
+    try:
+        payload = pickle.dumps(problem, protocol=pickle.HIGHEST_PROTOCOL)
+    except Exception:  # noqa: BLE001 - unpicklable: the executor decides (threads run it)
+        return None
+    return hashlib.blake2b(payload, digest_size=16).hexdigest(), payload
+
+
+def _evaluate_shipped(key: str, payload: bytes, X: np.ndarray) -> Any:
+    """Worker side of :func:`_shipped`: ``evaluate(X)`` of the problem cached in this
+    process (unpickled on first use)."""
+    problem = _WORKER_PROBLEMS.get(key)
+    if problem is None:
+        problem = pickle.loads(payload)
+        while len(_WORKER_PROBLEMS) >= _WORKER_PROBLEMS_MAX:
+            _WORKER_PROBLEMS.pop(next(iter(_WORKER_PROBLEMS)))
+        _WORKER_PROBLEMS[key] = problem
+    return problem.evaluate(X)
+
+
 def evaluate_chunks(
     problem: Problem,
     X: np.ndarray,
@@ -120,6 +164,7 @@ def evaluate_chunks(
         return
     pending = [slice(i, i + chunk) for i in range(0, len(rows), chunk)]
     t0 = time.perf_counter()
+    shipped = _shipped(problem)
     attempt = 0
     while True:
         rounds = math.ceil(len(pending) / max(workers, 1))
@@ -129,7 +174,12 @@ def evaluate_chunks(
         failed: list[slice] = []
         for s in pending:
             try:
-                futures[executor.submit(problem.evaluate, X[s])] = s
+                fut = (
+                    executor.submit(problem.evaluate, X[s])
+                    if shipped is None
+                    else executor.submit(_evaluate_shipped, *shipped, X[s])
+                )
+                futures[fut] = s
             except Exception as exc:  # noqa: BLE001 - a closed or lost executor
                 faults.append(_describe(exc))
                 failed.append(s)
@@ -167,8 +217,10 @@ def evaluate_chunks(
                 f"{n_rows} design(s) could not be evaluated after {attempt} attempt(s) "
                 f"({'; '.join(dict.fromkeys(faults))}); none of them was archived"
             )
-        _warn(f"{n_rows} design(s) hit a fault of the machinery ({faults[0]}); retry "
-              f"{attempt} of {policy.retries} in {policy.pause(attempt):g} s")
+        _warn(
+            f"{n_rows} design(s) hit a fault of the machinery ({faults[0]}); retry "
+            f"{attempt} of {policy.retries} in {policy.pause(attempt):g} s"
+        )
         if isinstance(executor, Restartable):
             executor.restart()
         time.sleep(policy.pause(attempt))
@@ -208,21 +260,49 @@ def _in_process(
 @contextlib.contextmanager
 def time_limit(seconds: float) -> Iterator[None]:
     """Raise :class:`EvaluationTimeout` in the block after ``seconds`` (main thread, POSIX;
-    elsewhere the block runs unbounded)."""
+    elsewhere the block runs unbounded).
+
+    Inside :func:`alarm_handler` (the run loop enters it once per run) only the timer is
+    armed and disarmed; otherwise the handler is installed and restored around the block."""
     usable = hasattr(signal, "setitimer") and threading.current_thread() is threading.main_thread()
     if not usable or not math.isfinite(seconds):
         yield
         return
-
-    def expire(signum: int, frame: Any) -> None:
-        raise EvaluationTimeout(f"evaluation exceeded {seconds:g} s")
-
-    previous = signal.signal(signal.SIGALRM, expire)
+    global _limit_s
+    outer = _limit_s
+    _limit_s = seconds
+    installed = signal.getsignal(signal.SIGALRM) is _expire
+    previous = None if installed else signal.signal(signal.SIGALRM, _expire)
     signal.setitimer(signal.ITIMER_REAL, seconds)
     try:
         yield
     finally:
         signal.setitimer(signal.ITIMER_REAL, 0)
+        _limit_s = outer
+        if not installed:
+            signal.signal(signal.SIGALRM, previous)
+
+
+#: the limit of the innermost :func:`time_limit` (for the timeout's message)
+_limit_s = math.inf
+
+
+def _expire(signum: int, frame: Any) -> None:
+    raise EvaluationTimeout(f"evaluation exceeded {_limit_s:g} s")
+
+
+@contextlib.contextmanager
+def alarm_handler() -> Iterator[None]:
+    """Install the timeout's ``SIGALRM`` handler for the whole block (a run), so that each
+    :func:`time_limit` inside only arms a timer; the previous handler is restored after."""
+    usable = hasattr(signal, "setitimer") and threading.current_thread() is threading.main_thread()
+    if not usable or signal.getsignal(signal.SIGALRM) is _expire:
+        yield
+        return
+    previous = signal.signal(signal.SIGALRM, _expire)
+    try:
+        yield
+    finally:
         signal.signal(signal.SIGALRM, previous)
 
 

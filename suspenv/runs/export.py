@@ -130,9 +130,7 @@ def export_optuna(
 
     run_dir = Path(run_dir)
     if not (run_dir / RunArchive.FILENAME).is_file():
-        raise ValidationError(
-            f"{str(run_dir)!r} is not a run directory (no {RunArchive.FILENAME})"
-        )
+        raise ValidationError(f"{str(run_dir)!r} is not a run directory (no {RunArchive.FILENAME})")
     with RunArchive(run_dir) as archive:
         meta = archive.meta()
         a = archive.arrays()
@@ -163,9 +161,7 @@ def export_optuna(
         )
     if exists:
         optuna.delete_study(study_name=name, storage=url)
-    study = optuna.create_study(
-        storage=url, study_name=name, directions=["minimize"] * len(onames)
-    )
+    study = optuna.create_study(storage=url, study_name=name, directions=["minimize"] * len(onames))
     with warnings.catch_warnings():  # set_metric_names is "experimental" in optuna 3.2-5
         warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
         study.set_metric_names(onames)
@@ -194,9 +190,7 @@ def export_optuna(
     trials = []
     complete = 0
     for i in range(len(a["ok"])):
-        params = {
-            p: _inside(float(a["x"][i, j]), *bounds[j][:2], p) for j, p in enumerate(pnames)
-        }
+        params = {p: _inside(float(a["x"][i, j]), *bounds[j][:2], p) for j, p in enumerate(pnames)}
         f = a["objectives"][i]
         ok = bool(a["ok"][i]) and bool(np.isfinite(f).all())
         user: dict[str, Any] = {

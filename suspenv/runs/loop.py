@@ -14,7 +14,11 @@ Rules:
 - ``budget`` counts evaluations. Batches are never truncated: the loop stops before a
   batch that would not fit in what is left of the budget (stop reason says so).
 - Evaluation goes through any :class:`concurrent.futures.Executor` (in-process when
-  None): each batch is split into chunks, and every chunk is archived as it completes.
+  None): each batch is split into chunks (default: one per worker), and every chunk is
+  handed to the archive as it completes; the archive commits them in groups, at most
+  :attr:`~suspenv.runs.archive.ArchiveWriter.COMMIT_AFTER_S` apart, an expensive chunk
+  at once and everything when the loop ends, however it ends (a kill loses at most that
+  much cheap work, which resume evaluates again).
 - Resuming: pass the run directory of a run that died. The strategy, rebuilt with the
   same seed and options, is replayed against the archive: archived designs are told
   again, not re-evaluated; only the missing rows of a partly evaluated batch are run.
@@ -37,7 +41,12 @@ from suspenv.core.errors import InfrastructureError, ValidationError
 from suspenv.core.problem import Problem
 from suspenv.core.result import EvaluationBatch
 from suspenv.runs.archive import ArchiveWriter, RunArchive
-from suspenv.runs.evaluation import FaultPolicy, evaluate_chunks
+from suspenv.runs.evaluation import (
+    FaultPolicy,
+    alarm_handler,
+    default_chunk,
+    evaluate_chunks,
+)
 from suspenv.runs.run_dir import locked
 from suspenv.runs.versions import package_versions
 
@@ -142,9 +151,22 @@ def optimize(
             if not folder.is_dir() and folder.suffix:  # a file path: RunArchive's rule
                 folder = folder.parent
             stack.enter_context(locked(folder, ARCHIVE_LOCK, "archive folder"))
+        if executor is None:
+            stack.enter_context(alarm_handler())  # the timeout's handler, once per run
         return _optimize(
-            problem, strategy, budget, run_dir, seed, executor, workers, chunk_size,
-            progress, callbacks, recorders, meta, policy,
+            problem,
+            strategy,
+            budget,
+            run_dir,
+            seed,
+            executor,
+            workers,
+            chunk_size,
+            progress,
+            callbacks,
+            recorders,
+            meta,
+            policy,
         )
 
 
@@ -200,6 +222,7 @@ def _optimize(
     )  # (scalar, evaluation index, objectives, x)
     stop_reason = ""
     history: list[dict[str, Any]] = []
+    replaying = archive is not None
     try:
         while True:
             reason = strategy.stop()
@@ -219,9 +242,10 @@ def _optimize(
                 break
             X = problem.space.to_physical(U)
             results: list[EvaluationBatch | None] = [None] * n
-            if writer is not None:
-                writer.wait()  # the previous batch is committed before this one is evaluated
-            done = archive.batch(b) if archive is not None else {}
+            # replaying an archive: rows of batch b+1 exist only when batch b is complete,
+            # so after the first batch without rows no later lookup can find any
+            done = archive.batch(b) if archive is not None and replaying else {}
+            replaying = replaying and len(done) == n
             for r, (u_arch, res) in done.items():
                 if r >= n or not np.allclose(u_arch, U[r], rtol=0, atol=1e-12):
                     assert archive is not None  # invariant: `done` is empty without an archive
@@ -232,18 +256,26 @@ def _optimize(
                     )
                 results[r] = res
             resumed += len(done)
-            todo = np.array([r for r in range(n) if results[r] is None], dtype=int)
+            todo = (
+                np.arange(n)
+                if not done
+                else np.array([r for r in range(n) if results[r] is None], dtype=int)
+            )
             parts: list[tuple[list[int], EvaluationBatch]] = []
             if todo.size:
-                chunk = chunk_size or max(1, math.ceil(todo.size / workers))
+                chunk = chunk_size or default_chunk(todo.size, workers)
                 chunks = evaluate_chunks(
-                    problem, X[todo], todo, executor, chunk, workers, policy
+                    problem, X[todo] if done else X, todo, executor, chunk, workers, policy
                 )
                 for rows, res, secs in chunks:
+                    if len(rows) == n:  # the whole batch in order: no fancy-index copies
+                        u_rows, x_rows = U, X
+                    else:
+                        u_rows, x_rows = U[rows], X[rows]
                     if writer is not None:
-                        writer.append(b, rows, U[rows], X[rows], res, secs)
+                        writer.append(b, rows, u_rows, x_rows, res, secs)
                     for rec in recorders:
-                        rec.append(b, rows, U[rows], X[rows], res, secs)
+                        rec.append(b, rows, u_rows, x_rows, res, secs)
                     parts.append((rows, res))
                     if bar is not None:
                         bar.update(len(rows))
@@ -258,18 +290,21 @@ def _optimize(
                 batch = EvaluationBatch.concatenate(results)  # type: ignore[arg-type]
             strategy.tell(U, batch)
             # bookkeeping: best feasible by the first objective (or the mean of objectives)
-            f = batch.objectives[:, 0] if batch.n_objectives == 1 else batch.objectives.mean(1)
-            f = np.where(batch.feasible & np.isfinite(f), f, np.inf)
-            i = int(np.argmin(f))
+            F, ok = batch.objectives, batch.ok
+            # EvaluationBatch.feasible without its NaN handling (NaN <= 0 is False)
+            feasible = ok & (batch.constraints <= 0.0).all(axis=1) if batch.n_constraints else ok
+            f = F[:, 0] if F.shape[1] == 1 else F.mean(axis=1)
+            f = np.where(feasible & np.isfinite(f), f, np.inf)
+            i = int(f.argmin())
             if f[i] < best[0]:
-                best = (float(f[i]), used + i, batch.objectives[i].tolist(), X[i].copy())
+                best = (float(f[i]), used + i, F[i].tolist(), X[i].copy())
             history.append(
                 {
                     "batch": b,
                     "evaluations": used + n,
                     "best": best[0],
-                    "n_ok": int(batch.ok.sum()),
-                    "n_feasible": int(batch.feasible.sum()),
+                    "n_ok": int(np.count_nonzero(ok)),
+                    "n_feasible": int(np.count_nonzero(feasible)),
                 }
             )
             if bar is not None and math.isfinite(best[0]):
@@ -292,7 +327,7 @@ def _optimize(
             bar.close()
         wall = time.perf_counter() - t_start
         if writer is not None:
-            writer.wait()
+            writer.flush()  # a clean stop, an error or Ctrl-C: every evaluation is committed
         if archive is not None:
             archive.set_meta(stop_reason=stop_reason, n_evaluations=used, wall_time_s=wall)
             archive.close()

@@ -10,6 +10,7 @@ pipeline writes the latter at the end of a run (``versions.json``).
 
 from __future__ import annotations
 
+import functools
 import platform
 import re
 import subprocess
@@ -41,10 +42,14 @@ def tracked_packages() -> tuple[str, ...]:
     return tuple(dict.fromkeys(names))
 
 
+@functools.cache
 def source_commit() -> str | None:
     """The git commit of the suspenv source that is running (``"<sha>"``, with
     ``"+modified"`` when tracked files differ from it), or None outside a git checkout
-    (an installed wheel) or without git."""
+    (an installed wheel) or without git.
+
+    Asked once per process (two ``git`` calls, about 20 ms): the source a process runs is
+    the one it imported, and every run and benchmark of the process records the same."""
     root = Path(__file__).resolve().parents[2]
     try:
         sha = subprocess.run(
@@ -92,6 +97,19 @@ def package_versions(imported: bool = False) -> dict[str, str]:
     the git commit of the suspenv source (``suspenv_commit``) where it runs from a
     checkout; with ``imported`` also every distribution imported in this process
     (:func:`imported_distributions`; a tracked package keeps its entry)."""
+    out = dict(_tracked_versions())
+    if imported:
+        known = {_normal(k) for k in out}
+        for dist, version in imported_distributions().items():
+            if _normal(dist) not in known:
+                out[dist] = version
+    return out
+
+
+@functools.cache
+def _tracked_versions() -> tuple[tuple[str, str], ...]:
+    """Python, the source commit and the tracked packages' versions (read once per
+    process: installed metadata does not change under a running process)."""
     out = {"python": platform.python_version()}
     commit = source_commit()
     if commit is not None:
@@ -101,12 +119,7 @@ def package_versions(imported: bool = False) -> dict[str, str]:
             out[name] = metadata.version(name)
         except metadata.PackageNotFoundError:
             continue
-    if imported:
-        known = {_normal(k) for k in out}
-        for dist, version in imported_distributions().items():
-            if _normal(dist) not in known:
-                out[dist] = version
-    return out
+    return tuple(out.items())
 
 
 def _normal(name: str) -> str:
