@@ -7,10 +7,13 @@ generation with array operations. Use ``nsga2`` for optuna storages shared by ma
 workers, ``pymoo_nsga2`` for large single-machine runs.
 
 Conventions: designs live in the unit cube; constraints g <= 0 are passed to pymoo as
-inequality constraints. One extra constraint column marks failed evaluations (0 when ok,
-1 when failed) so failures are infeasible, never selected over a working design; their
-objectives are set to a large finite value. Randomness comes from pymoo's per-algorithm
-generator seeded with ``seed``.
+inequality constraints. Failed evaluations get a large finite objective value
+(:data:`FAILED_OBJECTIVE`, dominated by every working design) and, on a constrained
+problem, one extra constraint column (0 when ok, 1 when failed) so they are also
+infeasible; an unconstrained problem stays unconstrained in pymoo (its constraint
+handling costs about 30 % of a generation's bookkeeping). Either way a failure is never
+selected over a working design. Randomness comes from pymoo's per-algorithm generator
+seeded with ``seed``.
 """
 
 from __future__ import annotations
@@ -47,8 +50,9 @@ class PymooNSGA2(Strategy):
             finite and > 0 (defaults 15 and 20).
 
     A generation in which every design fails does not replace the population: failed
-    designs are infeasible, and NSGA-II's survival (parents and offspring together,
-    feasible first) keeps every parent that had succeeded.
+    designs are dominated (and infeasible on a constrained problem), and NSGA-II's
+    survival (parents and offspring together, feasible and non-dominated first) keeps
+    every parent that had succeeded.
     """
 
     name = "pymoo_nsga2"
@@ -75,7 +79,7 @@ class PymooNSGA2(Strategy):
         self._problem = _PymooProblem(
             n_var=self.dim,
             n_obj=self.n_objectives,
-            n_ieq_constr=self.n_constraints + 1,
+            n_ieq_constr=self.n_constraints + 1 if self.n_constraints else 0,
             xl=0.0,
             xu=1.0,
         )
@@ -97,9 +101,13 @@ class PymooNSGA2(Strategy):
     def _tell(self, U: np.ndarray, batch: EvaluationBatch) -> None:
         ok = batch.ok & np.isfinite(batch.objectives).all(axis=1)
         F = np.where(ok[:, None], batch.objectives, FAILED_OBJECTIVE)
-        G = np.where(ok[:, None], np.nan_to_num(batch.constraints, nan=1.0), 1.0)
-        G = np.column_stack([G, (~ok).astype(float)])
-        Evaluator().eval(StaticProblem(self._problem, F=F, G=G), self._population)
+        if self.n_constraints:
+            G = np.where(ok[:, None], np.nan_to_num(batch.constraints, nan=1.0), 1.0)
+            G = np.column_stack([G, (~ok).astype(float)])
+            static = StaticProblem(self._problem, F=F, G=G)
+        else:
+            static = StaticProblem(self._problem, F=F)
+        Evaluator().eval(static, self._population)
         self._algorithm.tell(infills=self._population)
         self._population = None
 
