@@ -62,6 +62,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--global-evaluations", type=int, default=None, help="CMA-ES budget (0: polish only)"
     )
+    p.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        help="processes (default 2: the polish from the start runs beside the global stage; "
+        "1: one after the other, the same numbers)",
+    )
     p.add_argument("--seed", type=int, default=1, help="seed of the global stage")
     p.add_argument("--no-figures", action="store_true", help="write no PNG figures")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
@@ -82,6 +89,8 @@ def _identify(args: argparse.Namespace) -> int:
         options["free"] = [n.strip() for n in args.free.split(",") if n.strip()]
     if args.global_evaluations is not None:
         options["global_evaluations"] = args.global_evaluations
+    if args.workers is not None:
+        options["workers"] = args.workers
     truth = None
     concealed = [c.strip() for c in args.concealed.split(",") if c.strip()]
     if args.measurements == "test-car":

@@ -295,7 +295,11 @@ def _first_screen(result: IdentifyResult, s: dict[str, Any]) -> list[str]:
             )
     lines.append(
         f"- Run: {result.timings.get('total', 0.0):.0f} s wall, {result.cpu_seconds:.0f} s "
-        "process CPU."
+        + (
+            "CPU (two processes: the polish from the start runs beside the global stage)."
+            if result.options.get("global_evaluations") and result.options.get("workers", 1) > 1
+            else "CPU."
+        )
     )
     return lines
 
