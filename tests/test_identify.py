@@ -185,6 +185,32 @@ def few_result(noisy_car):
     return run_identify(m, veh, opts, truth=truth, seed=3, x0=x0)
 
 
+def test_the_polish_beside_the_global_stage_gives_the_same_numbers_in_one_process(
+    noisy_car, few_result
+):
+    # few_result ran with the default workers = 2 (the start's polish in a second process)
+    m, truth = noisy_car
+    veh = resolve_vehicle(None)
+    sp = veh.space()
+    x0 = truth.mean_design.copy()
+    for name in FEW:
+        i = sp.index(name)
+        x0[i] += 0.05 * (sp.upper[i] - sp.lower[i])
+    opts = {
+        "free": [*FEW, "lca_rear_bush_x"],
+        "global_evaluations": 48,
+        "popsize": 8,
+        "workers": 1,
+        "next_test": False,
+        "rerun_next": False,
+        "diagnose": False,
+    }
+    one = run_identify(m, veh, opts, truth=truth, seed=3, x0=x0)
+    assert [s.name for s in one.fit.stages] == [s.name for s in few_result.fit.stages]
+    assert [s.cost for s in one.fit.stages] == [s.cost for s in few_result.fit.stages]
+    assert np.array_equal(one.fit.x, few_result.fit.x)
+
+
 def test_few_free_parameters_meet_the_noise_floor_and_the_rule(few_result):
     res = few_result
     assert max(res.curve_rms().values()) <= 1.5
