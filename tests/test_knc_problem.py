@@ -189,7 +189,7 @@ def test_cli_writes_csv_and_plot(tmp_path):
     png = tmp_path / "mcpherson_reference_opposite.png"
     assert csv_path.is_file() and png.stat().st_size > 10_000
     header = csv_path.read_text().splitlines()[0].split(",")
-    assert "toe_deg_left" in header and "tyre_fz_N_right" in header
+    assert "toe_left [deg]" in header and "tyre_fz_right [N]" in header
     assert len(csv_path.read_text().splitlines()) == 1 + 21
 
 
