@@ -38,6 +38,7 @@ from typing import Any
 import numpy as np
 
 from suspenv.core.errors import ValidationError
+from suspenv.core.jsonable import to_jsonable
 from suspenv.core.space import DesignSpace
 from suspenv.methods.curve_fit import (
     CurveFit,
@@ -51,7 +52,7 @@ from suspenv.methods.curve_fit import (
     rig_run,
 )
 from suspenv.methods.identifiability import CandidateGain, Identifiability, assess, rank_tests
-from suspenv.models.mcpherson.params import BUSHINGS, HARD_POINTS, PAPER_RANGES
+from suspenv.models.mcpherson.params import paper_initial_values
 from suspenv.models.mcpherson.truth import CHANNEL_NOISE, TruthVehicle, truth_vehicle
 from suspenv.models.mcpherson.vehicle_file import REFERENCE_FILE, VehicleFile, load_vehicle
 
@@ -208,15 +209,7 @@ def measure_test_car(
 def paper_initial(space: DesignSpace) -> np.ndarray:
     """The paper's initial model: hard points at the centres of its ranges, every bushing
     stiffness 500, anti-roll bar 300, camber and toe 0 (clipped into ``space``)."""
-    values: dict[str, float] = {}
-    for hp in HARD_POINTS:
-        for axis, (lo, hi) in zip("xyz", PAPER_RANGES[hp], strict=True):
-            values[f"{hp}_{axis}"] = 0.5 * (lo + hi)
-    for b, comps in BUSHINGS.items():
-        for c in comps:
-            values[f"{b}_{c}"] = 500.0
-    values.update(arb_torsion=300.0, static_camber=0.0, static_toe=0.0)
-    x = space.from_dict(values)
+    x = space.from_dict(paper_initial_values())
     return np.clip(x, space.lower, space.upper)
 
 
@@ -859,15 +852,6 @@ def run_identify_pipeline(config: dict[str, Any], run_dir: Path) -> dict[str, An
         report="report.md",
         files=[str(f.relative_to(run_dir)) for f in files],
     )
-    (run_dir / "summary.json").write_text(json.dumps(s, indent=2, default=_json_default) + "\n")
+    (run_dir / "summary.json").write_text(json.dumps(to_jsonable(s), indent=2) + "\n")
     return s
 
-
-def _json_default(o: Any) -> Any:
-    if isinstance(o, np.generic):
-        return o.item()
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    if isinstance(o, tuple):
-        return list(o)
-    raise TypeError(type(o).__name__)

@@ -48,11 +48,9 @@ from suspenv.metrics.knc import OBJECTIVE_NAMES, OBJECTIVE_UNITS, objectives
 from suspenv.models.effects import Effect
 from suspenv.models.mcpherson.effects import axle_effect
 from suspenv.models.mcpherson.params import (
-    BUSHINGS,
-    HARD_POINTS,
-    PAPER_RANGES,
     build_axle,
     design_space,
+    paper_initial_values,
 )
 from suspenv.models.mcpherson.truth import CHANNEL_NOISE, TruthVehicle, truth_vehicle
 from suspenv.registry import report_function
@@ -315,15 +313,7 @@ class KCIdentification(Problem):
         the vehicle file's design (mean of its two sides)."""
         if self.measurements_path is not None:
             return 0.5 * (self.vehicle.left + self.vehicle.right)
-        values: dict[str, float] = {}
-        for hp in HARD_POINTS:
-            for axis, (lo, hi) in zip("xyz", PAPER_RANGES[hp], strict=True):
-                values[f"{hp}_{axis}"] = 0.5 * (lo + hi)
-        for b, comps in BUSHINGS.items():
-            for c in comps:
-                values[f"{b}_{c}"] = 500.0
-        values.update(arb_torsion=300.0, static_camber=0.0, static_toe=0.0)
-        return self.space.from_dict(values)
+        return self.space.from_dict(paper_initial_values())
 
     @property
     def truth_design(self) -> Any:

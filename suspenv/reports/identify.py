@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from suspenv.core.jsonable import to_jsonable
 from suspenv.methods.identifiability import K_SIGMA, TOLERANCE_PCT, summary_counts
 from suspenv.methods.identify import FIT_RATIO, summary
 from suspenv.reports._mpl import pyplot
@@ -317,7 +318,7 @@ def write_identify_report(result: IdentifyResult, out: Path, figures: bool = Tru
     files.append(toml)
     s = summary(result)
     js = out / "identify.json"
-    js.write_text(json.dumps(s, indent=2, default=_json) + "\n")
+    js.write_text(json.dumps(to_jsonable(s), indent=2) + "\n")
     files.append(js)
     figs: dict[str, Path] = {}
     if figures:
@@ -456,15 +457,6 @@ def write_identify_report(result: IdentifyResult, out: Path, figures: bool = Tru
     files.append(rep)
     return files
 
-
-def _json(o: Any) -> Any:
-    if isinstance(o, np.generic):
-        return o.item()
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    if isinstance(o, tuple):
-        return list(o)
-    raise TypeError(type(o).__name__)
 
 
 __all__ = ["fmt", "summary", "write_identify_report"]

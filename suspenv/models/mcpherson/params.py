@@ -188,6 +188,21 @@ def design_parameters() -> tuple[Parameter, ...]:
     return tuple(out)
 
 
+def paper_initial_values() -> dict[str, float]:
+    """The paper's initial model (file units): hard points at the centres of its ranges,
+    every bushing stiffness 500 (N/mm, N*mm/deg), anti-roll bar 300 N*m/rad, camber and
+    toe 0 deg."""
+    values: dict[str, float] = {}
+    for hp in HARD_POINTS:
+        for axis, (lo, hi) in zip("xyz", PAPER_RANGES[hp], strict=True):
+            values[f"{hp}_{axis}"] = 0.5 * (lo + hi)
+    for bush, comps in BUSHINGS.items():
+        for comp in comps:
+            values[f"{bush}_{comp}"] = 500.0
+    values.update(arb_torsion=300.0, static_camber=0.0, static_toe=0.0)
+    return values
+
+
 def design_space() -> DesignSpace:
     """The 49-parameter :class:`DesignSpace` (reference = the paper's identified values).
 
