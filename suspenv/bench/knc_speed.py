@@ -18,13 +18,19 @@ Two paths of the same evaluation, measured in the same run on the same candidate
   problem options ``eval_chunk=None`` (the whole batch at once) and
   ``reuse_revisits=False`` (every grid point solved one after the other), and, inside
   :func:`reference_path`, the finite-difference Jacobian and the channels in one
-  residual/output call each (``JACOBIAN_BLOCK`` unbounded) and one quadratic fit per
-  objective (``_objectives_one_by_one``). Both paths give the same objectives to solver
-  tolerance (bitwise for the blocks and the batched fits).
+  residual/output call each (``JACOBIAN_BLOCK`` unbounded), one quadratic fit per
+  objective (``_objectives_one_by_one``), the spring preload sized with the plain
+  :class:`~suspenv.models.mcpherson.kinematics.CornerKinematics` (five scipy rotations
+  per kinematic equation evaluation instead of one: ``solver.PRELOAD_KINEMATICS``) and
+  both relative rotations of the quadratic predictor computed at every step
+  (``knc.PREDICTOR_CACHE = False``). Both paths give the same objectives to solver
+  tolerance (bitwise for the blocks, the batched fits, the preload and the predictor).
 
 Time: process CPU time (BLAS is limited to one thread by suspenv, so it is one core's
-time), best of the repeats, with the wall time beside it (which a loaded machine
-inflates). Memory: the tracemalloc peak of one evaluation (a separate, untimed call)
+time), best of the repeats (3 at batch 42, 2 at batch 1000: a best of several against a
+single run would read load noise as a rise with the batch size; the median of
+``--singles`` candidates at batch 1), with the wall time beside it (which a loaded
+machine inflates). Memory: the tracemalloc peak of one evaluation (a separate, untimed call)
 divided by the batch size. Targets: <= 2 ms per candidate at batch 42, <= 10 ms at
 batch 1, <= 0.1 MB per candidate at every batch size, no rise of the per-candidate
 time up to batch 1000; each is reported as met or not.
@@ -52,6 +58,7 @@ import suspenv.problems.kc_identification as problem_module
 import suspenv.rigs.knc as rig_module
 from suspenv.bench.common import write_result
 from suspenv.metrics.knc import _objectives_one_by_one
+from suspenv.models.mcpherson.kinematics import CornerKinematics
 from suspenv.registry import make_problem
 
 TARGET_MS = 10.0
@@ -63,15 +70,26 @@ BATCHES = (1, 42, 1000)
 
 @contextlib.contextmanager
 def reference_path() -> Iterator[None]:
-    """The previous algorithm's one-call Jacobian/channels and per-objective fits."""
-    saved = solver_module.JACOBIAN_BLOCK, rig_module.JACOBIAN_BLOCK, problem_module.objectives
+    """The previous algorithm's one-call Jacobian/channels, per-objective fits, plain
+    preload kinematics and uncached predictor rotations."""
+    saved = (
+        solver_module.JACOBIAN_BLOCK,
+        rig_module.JACOBIAN_BLOCK,
+        problem_module.objectives,
+        solver_module.PRELOAD_KINEMATICS,
+        rig_module.PREDICTOR_CACHE,
+    )
     solver_module.JACOBIAN_BLOCK = rig_module.JACOBIAN_BLOCK = 1 << 62
     problem_module.objectives = lambda results: _objectives_one_by_one(results, {})
+    solver_module.PRELOAD_KINEMATICS = CornerKinematics
+    rig_module.PREDICTOR_CACHE = False
     try:
         yield
     finally:
         solver_module.JACOBIAN_BLOCK, rig_module.JACOBIAN_BLOCK = saved[:2]
         problem_module.objectives = saved[2]
+        solver_module.PRELOAD_KINEMATICS = saved[3]
+        rig_module.PREDICTOR_CACHE = saved[4]
 
 
 def _cpu_wall(fn: Any) -> tuple[float, float]:
@@ -137,7 +155,8 @@ def main(argv: list[str] | None = None) -> int:
     for batch in BATCHES:
         for path, problem in (("baseline", base), ("optimised", fast)):
             with reference_path() if path == "baseline" else contextlib.nullcontext():
-                m = _measure(problem, X, batch, 1 if batch >= 1000 else repeat, singles)
+                reps = min(repeat, 2) if batch >= 1000 else repeat
+                m = _measure(problem, X, batch, reps, singles)
             res[path, batch] = m
             rows.append({"path": path, "batch": batch, **m})
             print(f"{path:9s} batch {batch:4d}: {m}", file=sys.stderr)
@@ -169,7 +188,8 @@ def main(argv: list[str] | None = None) -> int:
         },
         "baseline": (
             "same evaluation with eval_chunk=None, reuse_revisits=False, unbounded "
-            "JACOBIAN_BLOCK and per-objective fits (the previous algorithm)"
+            "JACOBIAN_BLOCK, per-objective fits, plain preload kinematics and an uncached "
+            "predictor (the previous algorithm)"
         ),
         "eval_chunk": fast.eval_chunk,
         "target_ms": TARGET_MS,

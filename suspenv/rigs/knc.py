@@ -112,6 +112,10 @@ _DRIVE_NAME = {
     "steering": "rack travel",
 }
 _DRIVE_SHOWN = {"m": (1e3, "mm", 2), "N": (1.0, "N", 0), "N*m": (1.0, "N*m", 1)}
+#: keep the quadratic predictor's last relative rotation for the next step (the same
+#: numbers; False: compute both rotations every step, the reference path of the tests
+#: and the speed benchmark's baseline)
+PREDICTOR_CACHE = True
 
 
 
@@ -326,6 +330,8 @@ def run_tests(
         pending.clear()
 
     history: list[AxleState] = []  # converged states of the current leg, newest last
+    # the last relative rotation the predictor computed (see _extrapolate; None: none kept)
+    rel: dict | None = {} if PREDICTOR_CACHE else None
     visited: dict[int, AxleState] = {}  # last converged state at each grid point
     prev_ds = 0.0
 
@@ -337,13 +343,16 @@ def run_tests(
         rack = None if rack_dir is None else rack_dir * drive[:, None]
         return pad0 + signs * grid[gi], ext, rack
 
-    def where(gi: int) -> str:
+    def where_text(gi: int) -> str:
         parts = []
         for t in tests:
             scale, shown, digits = _DRIVE_SHOWN[DRIVE_UNIT[t]]
             value = test_grids[t][gi] * scale
             parts.append(f"{_DRIVE_NAME.get(t, 'stroke')} {value:+.{digits}f} {shown}")
         return ", ".join(dict.fromkeys(parts))
+
+    # step descriptions of failure messages, formatted once per grid point
+    where_at = [where_text(gi) for gi in range(steps + 1)]
 
     # a path-independent model: every run of revisited grid points is corrected in one
     # batched residual call (see _revisit_run); `revisits` holds the run's states by step
@@ -384,14 +393,15 @@ def run_tests(
                     msgs,
                     J,
                     k,
-                    where(gi),
+                    where_at[gi],
                     history,
                     visited.get(gi),
+                    rel,
                 )
             prev_ds = ds
         visited[gi] = st
         if gi in (0, steps):  # loads and deflections peak at the ends of the stroke
-            _check_state(solver, st, ok, msgs, k, where(gi))
+            _check_state(solver, st, ok, msgs, k, where_at[gi])
         if keep_states:
             trail.append(st)
         pending.append((st, load[0]))
@@ -433,7 +443,7 @@ def _fail(ok: np.ndarray, msgs: list[str], rows: np.ndarray, msg: str) -> None:
     ok &= ~rows
 
 
-def _step(solver, st, load_prev, load, ok, msgs, J, k, where, history, seen=None):
+def _step(solver, st, load_prev, load, ok, msgs, J, k, where, history, seen=None, rel=None):
     """One rig step: predictor, Newton corrector, sub-stepping retry of failing rows.
 
     ``load_prev`` / ``load`` are (pad heights (n, 2) [m], wheel load (n, 2, 6|9) or
@@ -450,9 +460,9 @@ def _step(solver, st, load_prev, load, ok, msgs, J, k, where, history, seen=None
         pred.R = np.where(rows[..., None], seen.R, st.R)
         pred.lam = np.where(ok[:, None, None], seen.lam, st.lam)
     elif len(history) >= 3:
-        pred = _extrapolate(st, history[-2], history[-3], ok)
+        pred = _extrapolate(st, history[-2], history[-3], ok, rel)
     elif len(history) == 2:
-        pred = _extrapolate(st, history[-2], None, ok)
+        pred = _extrapolate(st, history[-2], None, ok, rel)
     else:
         pred = _predict(solver, st, J, pad - pad_prev, ok, ext_prev, ext, rack_prev, rack)
     new, conv, J = solver.solve(pred, pad, ext, active=ok, Jinv=J, rack=rack)
@@ -593,24 +603,47 @@ def _predict(
     return solver._apply(st, dx, ok)
 
 
+def _relative_rotation(a: AxleState, b: AxleState, cache: dict | None) -> np.ndarray:
+    """Rotation vectors of ``a.R b.R^T``; ``cache`` (a dict or None) keeps the last one
+    computed, so that the next step's quadratic predictor, whose older pair is this
+    step's newer pair (states are never mutated), does not compute it again."""
+    if cache is not None:
+        hit = cache.get("pair")
+        if hit is not None and hit[0] is a and hit[1] is b:
+            return hit[2]
+    w = log_so3(np.matmul(a.R, np.swapaxes(b.R, -1, -2)))
+    if cache is not None:
+        cache["pair"] = (a, b, w)
+    return w
+
+
 def _extrapolate(
-    st: AxleState, before: AxleState, before2: AxleState | None, ok: np.ndarray
+    st: AxleState,
+    before: AxleState,
+    before2: AxleState | None,
+    ok: np.ndarray,
+    rel: dict | None = None,
 ) -> AxleState:
     """Extrapolate the last converged states one equal step along a leg: quadratic from
-    three states, linear from two (``before2=None``)."""
-    out = st.copy()
+    three states, linear from two (``before2=None``). ``rel``: a cache of the last
+    relative rotation (:func:`_relative_rotation`; the same numbers either way)."""
     rows = ok[:, None, None, None]
-    w1 = log_so3(np.matmul(st.R, np.swapaxes(before.R, -1, -2)))
-    if before2 is None:
+    # the older pair first: it is the last step's newer pair (cached), then this one
+    w0 = None if before2 is None else _relative_rotation(before, before2, rel)
+    w1 = _relative_rotation(st, before, rel)
+    if before2 is None or w0 is None:
         r_new, w, lam_new = 2.0 * st.r - before.r, w1, 2.0 * st.lam - before.lam
     else:
         r_new = 3.0 * (st.r - before.r) + before2.r
-        w = 2.0 * w1 - log_so3(np.matmul(before.R, np.swapaxes(before2.R, -1, -2)))
+        w = 2.0 * w1 - w0
         lam_new = 3.0 * (st.lam - before.lam) + before2.lam
-    out.r = np.where(rows, r_new, st.r)
-    out.R = np.where(rows[..., None], np.matmul(expm_so3(w), st.R), st.R)
-    out.lam = np.where(ok[:, None, None], lam_new, st.lam)
-    return out
+    return AxleState(  # the path-dependent histories copied as st.copy() does
+        np.where(rows, r_new, st.r),
+        np.where(rows[..., None], np.matmul(expm_so3(w), st.R), st.R),
+        np.where(ok[:, None, None], lam_new, st.lam),
+        {k: (a.copy(), b.copy()) for k, (a, b) in st.hyst.items()},
+        None if st.fric is None else (st.fric[0].copy(), st.fric[1].copy()),
+    )
 
 
 def _check_state(solver, st, ok, msgs, k, where) -> None:

@@ -186,6 +186,31 @@ def _compile(effects: Sequence[Effect]) -> _Placed:
     return _Placed(hyst, cubic, friction)
 
 
+class _OnePoseKinematics(CornerKinematics):
+    """:class:`CornerKinematics` that computes the knuckle pose once per coordinate array.
+
+    Its ``equations(q)`` asks for the pose of the same ``q`` five times (three points,
+    two directions), each a scipy rotation; this keeps the last one (the same numbers:
+    the same call on the same array, which nobody mutates: every ``q`` here is a fresh
+    temporary, and the one kept stays referenced so its identity cannot be reused).
+    """
+
+    _last: tuple[np.ndarray, tuple[np.ndarray, np.ndarray]] | None = None
+
+    def _pose(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        if self._last is not None and self._last[0] is q:
+            return self._last[1]
+        pose = super()._pose(q)
+        self._last = (q, pose)
+        return pose
+
+
+#: the kinematics that sizes the spring preload (:meth:`AxleSolver._size_preload`):
+#: :class:`_OnePoseKinematics` (the same numbers as :class:`CornerKinematics`, the
+#: reference path kept for the tests and the speed benchmark's baseline, in fewer calls)
+PRELOAD_KINEMATICS: type[CornerKinematics] = _OnePoseKinematics
+
+
 @dataclass
 class AxleState:
     """Converged (or trial) state of a batch of axles.
@@ -392,7 +417,7 @@ class AxleSolver:
         motion (dz_wc = 1). The static pad height loads the tyre by ``Fz / kt``.
         """
         ax = self.axle
-        kin = CornerKinematics(ax)
+        kin = PRELOAD_KINEMATICS(ax)
         q0 = np.zeros(ax.camber0.shape + (6,))
         dq = kin.tangent(q0, ax.points["wheel_centre"][..., 2])
         h = 1e-6
@@ -408,8 +433,11 @@ class AxleSolver:
             s = kin.direction(q, self.s0)
             return (kin.point(q, ax.points["wheel_centre"]) + self.Rw[..., None] * _down(s))[..., 2]
 
-        dL = (spring_len(q0 + h * dq) - spring_len(q0 - h * dq)) / (2 * h)
-        dcp = (cp_z(q0 + h * dq) - cp_z(q0 - h * dq)) / (2 * h)
+        qp, qm = q0 + h * dq, q0 - h * dq  # each pose computed once (_OnePoseKinematics)
+        len_p, cp_p = spring_len(qp), cp_z(qp)
+        len_m, cp_m = spring_len(qm), cp_z(qm)
+        dL = (len_p - len_m) / (2 * h)
+        dcp = (cp_p - cp_m) / (2 * h)
         Fz = ax.corner_load + ax.wheel_weight
         F_spring = (Fz * dcp - ax.wheel_weight) / (-dL)
         self.motion_ratio_kinematic = -dL
@@ -493,10 +521,14 @@ class AxleSolver:
                 f[..., j, :] = self._bush_load(name, xb[..., j, :], hist)
         return self._to_vehicle(f)
 
-    def _deflections(self, r: np.ndarray, R: np.ndarray, arms_lca: np.ndarray) -> np.ndarray:
-        """Stacked bushing deflections (..., 2, 4, 6) in BUSH_ORDER."""
+    def _deflections(
+        self, r: np.ndarray, R: np.ndarray, arms_lca: np.ndarray, phi: np.ndarray | None = None
+    ) -> np.ndarray:
+        """Stacked bushing deflections (..., 2, 4, 6) in BUSH_ORDER (``phi``: the rotation
+        vectors ``log_so3(R[..., [0, 0, 2, 3], :, :])`` when already computed)."""
         pts = np.concatenate([r[..., 0:1, :] + arms_lca, r[..., 2:4, :]], axis=-2)
-        phi = log_so3(R[..., [0, 0, 2, 3], :, :])
+        if phi is None:
+            phi = log_so3(R[..., [0, 0, 2, 3], :, :])
         return np.concatenate([pts - self._ground4, phi], axis=-1)
 
     # ---------------------------------------------------------------- residual
@@ -526,8 +558,20 @@ class AxleSolver:
         forces = np.zeros(lead + (N_SLOTS, 3))
         M = np.zeros(lead + (4, 3))
 
+        # the rotation vectors of the bushings' bodies and of the bar halves' relative
+        # rotation, in one call (the same numbers as one call each: per matrix)
+        R_bar = np.matmul(R[..., 0, 3, :, :], np.swapaxes(R[..., 1, 3, :, :], -1, -2))
+        side = R.shape[:-4]
+        logs = log_so3(
+            np.concatenate(
+                [R[..., [0, 0, 2, 3], :, :].reshape(side + (8, 3, 3)), R_bar[..., None, :, :]],
+                axis=-3,
+            )
+        )
+        phi, rho = logs[..., :8, :].reshape(side + (2, 4, 3)), logs[..., 8, :]
+
         # bushings (to the fixed body): slots 0-3
-        f = self.bushing_loads(self._deflections(r, R, V[..., 0:2, :]), state.hyst)
+        f = self.bushing_loads(self._deflections(r, R, V[..., 0:2, :], phi), state.hyst)
         arms[..., 0:2, :] = V[..., 0:2, :]
         forces[..., 0:4, :] = -f[..., :3]
         M -= np.matmul(BUSH_SUM, f[..., 3:])
@@ -596,7 +640,6 @@ class AxleSolver:
         # anti-roll bar: the halves meet at the bar's middle (slot 18); stiff in shear and
         # bending, the bar's torsional stiffness about the vehicle y axis
         dC = r3[..., 0, :] + V[..., 0, 15, :] - r3[..., 1, :] - V[..., 1, 15, :]
-        rho = log_so3(np.matmul(R[..., 0, 3, :, :], np.swapaxes(R[..., 1, 3, :, :], -1, -2)))
         fC = -self.k_bar_shear * dC
         mC = -self.k_bar_rot * rho
         arms[..., 18, :] = V[..., 15, :]
