@@ -401,3 +401,19 @@ def test_noise_free_curves_get_the_rig_default_weights_and_declared_noise_is_kep
     assert w.noise_source["toe"].startswith("rig default")
     assert w.noise["camber"] == 1e-3  # declared: kept
     assert m.noise["toe"] < 1e-2 * CHANNEL_NOISE["toe"]  # the input is not changed
+
+
+def test_a_fit_to_noise_free_curves_names_nothing_in_its_residual():
+    # the residual of an exact fit is round-off; read in units of the weights' noise (not
+    # of its own roughness) it holds no pattern (reference: the model is the truth)
+    from suspenv.measurements.knc_file import from_results
+    from suspenv.models.mcpherson.params import build_axle
+    from suspenv.rigs.knc import run_tests
+
+    veh = resolve_vehicle(None)
+    x = 0.5 * (veh.left + veh.right)
+    m = from_results(run_tests(build_axle(x[None, :]), ("parallel", "opposite")), "exact")
+    opts = {"free": FEW, "global_evaluations": 0, "next_test": False, "rerun_next": False}
+    res = run_identify(m, veh, opts, x0=x)
+    assert max(res.curve_rms().values()) < 0.01
+    assert res.diagnosis is not None and res.diagnosis["named"] == []

@@ -411,7 +411,9 @@ def screen_residual(model: CurveModel, measurement: Any, x: np.ndarray) -> dict[
     for name, (rig_name, _, _) in REC_CHANNELS.items():
         for s in ("left", "right"):
             scales[f"{name}_{s}"] = float(model.sigma.get(rig_name, 1.0))
-    where = residual_map(recs, res, scales)
+    # the screen reads the residual in units of at least the measurement noise the fit
+    # was weighted by: a residual below it (a fit to noise-free curves) names nothing
+    where = residual_map(recs, res, scales, floor=scales)
     sigs = score_signatures(recs, res, pred, where.noise)
 
     # stepwise: name the strongest pattern, take it out of the residual, score again

@@ -78,8 +78,15 @@ def residual_map(
     recs: Sequence[Any],
     residual: Sequence[Mapping[str, np.ndarray]],
     scales: Mapping[str, float],
+    floor: Mapping[str, float] | None = None,
 ) -> ResidualMap:
-    """The :class:`ResidualMap` of residuals ``residual[i][channel]`` (channel unit)."""
+    """The :class:`ResidualMap` of residuals ``residual[i][channel]`` (channel unit).
+
+    Each channel's noise is estimated from the residual's roughness (second differences);
+    ``scales`` stand in where that estimate is 0. ``floor`` (channel -> sigma, channel
+    unit): the noise is never taken below it, e.g. the measurement noise a fit was
+    weighted by, so a residual smoother than the measurement's noise (round-off of a fit
+    to noise-free curves) is not read as tens of thousands of noise units."""
     out = ResidualMap()
     d2: dict[str, list[np.ndarray]] = {}
     for res in residual:
@@ -90,6 +97,8 @@ def residual_map(
     for key, parts in d2.items():
         est = 1.4826 * float(np.median(np.abs(np.concatenate(parts)))) / np.sqrt(1.5)
         noise[key] = est if est > 0 else float(scales[key])
+        if floor is not None and key in floor:
+            noise[key] = max(noise[key], float(floor[key]))
     out.noise = noise
     for rec, res in zip(recs, residual, strict=True):
         test = rig_test(rec)
