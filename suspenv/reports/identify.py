@@ -264,7 +264,9 @@ def _first_screen(result: IdentifyResult, s: dict[str, Any]) -> list[str]:
         )
         lines.append(
             f"- **Shown on the test car**: with `{r['test']}` measured too, "
-            f"{r['n_identified_after']} parameters are identified (was "
+            f"{r['n_identified_after']} "
+            f"{'parameter is' if r['n_identified_after'] == 1 else 'parameters are'} "
+            "identified (was "
             f"{r['n_identified_before']}){tail}, and {r['n_determined_after']} combinations are "
             f"determined (was {r['n_determined_before']})."
         )
