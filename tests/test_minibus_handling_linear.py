@@ -26,6 +26,7 @@ from suspenv.rigs.handling import (
     axle_capacity,
     axle_capacity_tabulated,
     steady_circle,
+    steady_circle_bisection,
     steady_state_sweep,
 )
 
@@ -123,24 +124,6 @@ def test_tabulated_capacity_matches_the_grid_search():
         np.testing.assert_allclose(table, exact, rtol=2e-5, atol=1.0)
 
 
-def _circle_by_bisection(P: HandlingParams, cfg: SteadyCircleConfig) -> np.ndarray:
-    """The original steady-circle search: bisection on the grid-search capacity."""
-    lo = np.zeros(P.n)
-    hi = np.full(P.n, cfg.ay_upper)
-    L = P.wheelbase
-    for _ in range(int(np.ceil(np.log2(cfg.ay_upper / cfg.tolerance)))):
-        mid = 0.5 * (lo + hi)
-        _, fl, fr, rl, rr = _steady_loads(P, mid)
-        ok = (
-            (axle_capacity(P, fl, fr, cfg)[0] >= P.m * mid * P.b / L)
-            & (axle_capacity(P, rl, rr, cfg)[0] >= P.m * mid * P.a / L)
-            & ((fl > 0) | (rl > 0))
-        )
-        lo = np.where(ok, mid, lo)
-        hi = np.where(ok, hi, mid)
-    return lo
-
-
 def test_steady_circle_matches_the_bisection_on_the_grid_search():
     # independent check of the fast search (tabulated capacity, many candidates per
     # pass): the limit within one search step (1e-3 m/s^2 tolerance) of the original
@@ -148,7 +131,7 @@ def test_steady_circle_matches_the_bisection_on_the_grid_search():
     cfg = SteadyCircleConfig()
     res = steady_circle(P, cfg)
     fast = res.ay_max
-    slow = _circle_by_bisection(P, cfg)
+    slow = steady_circle_bisection(P, cfg)
     step_size = cfg.ay_upper / 2 ** int(np.ceil(np.log2(cfg.ay_upper / cfg.tolerance)))
     assert np.max(np.abs(fast - slow)) <= step_size * 1.0001
     # a row's result does not depend on its batch (one design at a time: other passes)

@@ -48,33 +48,13 @@ from suspenv.models.minibus.handling_model import HandlingParams, handling_param
 from suspenv.models.minibus.vehicle import LOAD_CASES
 from suspenv.problems.minibus import MinibusRideHandling
 from suspenv.rigs.handling import (
-    SteadyCircleConfig,
-    _steady_loads,
-    axle_capacity,
     steady_circle,
+    steady_circle_bisection,
 )
 
 TARGET_SINGLE_MS = 5.0
 TARGET_BATCHED_MS = 1.0
 STUDY_EVALUATIONS = 30_000
-
-
-def _circle_bisection(P: HandlingParams, cfg: SteadyCircleConfig) -> np.ndarray:
-    """The steady circle before: bisection, grid-search axle capacity every step."""
-    lo = np.zeros(P.n)
-    hi = np.full(P.n, cfg.ay_upper)
-    L = P.wheelbase
-    for _ in range(int(np.ceil(np.log2(cfg.ay_upper / cfg.tolerance)))):
-        mid = 0.5 * (lo + hi)
-        _, fl, fr, rl, rr = _steady_loads(P, mid)
-        ok = (
-            (axle_capacity(P, fl, fr, cfg)[0] >= P.m * mid * P.b / L)
-            & (axle_capacity(P, rl, rr, cfg)[0] >= P.m * mid * P.a / L)
-            & ((fl > 0) | (rl > 0))
-        )
-        lo = np.where(ok, mid, lo)
-        hi = np.where(ok, hi, mid)
-    return lo
 
 
 def baseline_measures(problem: MinibusRideHandling, X: np.ndarray) -> np.ndarray:
@@ -86,7 +66,7 @@ def baseline_measures(problem: MinibusRideHandling, X: np.ndarray) -> np.ndarray
         X, LOAD_CASES, problem.road, problem.vehicle, dtype=np.float64, method="spectral"
     )
     P = HandlingParams.stack([handling_parameters(X, lc, problem.vehicle) for lc in LOAD_CASES])
-    ay = _circle_bisection(P, problem.circle)
+    ay = steady_circle_bisection(P, problem.circle)
     sl = slalom(P, problem.slalom_config)
     w = problem.load_weight
 

@@ -39,6 +39,7 @@ import numpy as np
 
 from suspenv.core.errors import ValidationError
 from suspenv.core.jsonable import to_jsonable
+from suspenv.core.laps import Laps
 from suspenv.core.space import DesignSpace
 from suspenv.methods.curve_fit import (
     CurveFit,
@@ -556,14 +557,8 @@ def run_identify(
     opts = check_options(options or {})
     measurement = fit_weights(measurement)
     t_start, c_start = time.perf_counter(), cpu_seconds()
-    timings: dict[str, float] = {}
-    tick = time.perf_counter()
-
-    def lap(name: str) -> None:
-        nonlocal tick
-        now = time.perf_counter()
-        timings[name] = now - tick
-        tick = now
+    lap = Laps()
+    timings = lap.times
 
     space = vehicle.space()
     initial = opts["initial"]
@@ -610,7 +605,7 @@ def run_identify(
         staged,
         workers=opts["workers"],
     )
-    tick = time.perf_counter()
+    lap.restart()  # the fit's stages timed themselves (staged)
     truth_x = None if truth is None else truth.mean_design
     truth_map: dict[str, float] | None = None
     if truth is not None:

@@ -45,6 +45,7 @@ from typing import Any
 import numpy as np
 
 from suspenv.core.errors import ValidationError
+from suspenv.core.laps import Laps
 from suspenv.core.problem import Problem
 from suspenv.core.result import EvaluationBatch
 from suspenv.methods.cluster_count import (
@@ -422,14 +423,8 @@ def run_study(config: dict[str, Any], run_dir: Path) -> Tey2014Study:
     budget = int(config.get("budget", DEFAULT_BUDGET))
     run_cfg = {"workers": 1, **(config.get("run", {}) or {})}
     problem = build_problem(config)
-    timings: dict[str, float] = {}
-    tick = time.perf_counter()
-
-    def lap(name: str) -> None:
-        nonlocal tick
-        now = time.perf_counter()
-        timings[name] = now - tick
-        tick = now
+    lap = Laps()
+    timings = lap.times
 
     # 1. design of experiments
     lhs = make_strategy(

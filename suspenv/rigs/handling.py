@@ -273,6 +273,30 @@ def steady_circle(
     )
 
 
+def steady_circle_bisection(
+    P: HandlingParams, config: SteadyCircleConfig | None = None
+) -> np.ndarray:
+    """Maximum quasi-steady lateral acceleration (n,) [m/s^2] by the previous search:
+    plain bisection with the grid-search axle capacity (:func:`axle_capacity`) at every
+    step. Kept as the reference of :func:`steady_circle` (tests) and the baseline of
+    ``python -m suspenv.bench.minibus_speed``."""
+    cfg = config or SteadyCircleConfig()
+    lo = np.zeros(P.n)
+    hi = np.full(P.n, cfg.ay_upper)
+    L = P.wheelbase
+    for _ in range(int(np.ceil(np.log2(cfg.ay_upper / cfg.tolerance)))):
+        mid = 0.5 * (lo + hi)
+        _, fl, fr, rl, rr = _steady_loads(P, mid)
+        ok = (
+            (axle_capacity(P, fl, fr, cfg)[0] >= P.m * mid * P.b / L)
+            & (axle_capacity(P, rl, rr, cfg)[0] >= P.m * mid * P.a / L)
+            & ((fl > 0) | (rl > 0))
+        )
+        lo = np.where(ok, mid, lo)
+        hi = np.where(ok, hi, mid)
+    return lo
+
+
 @dataclass
 class SteadyStateSweep:
     """Steady states on the circle at given lateral accelerations (arrays (N, n)).
