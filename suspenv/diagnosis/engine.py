@@ -120,8 +120,17 @@ class Diagnosis:
 
     @property
     def residual(self) -> Any:
-        """The residual-left check (ride; None elsewhere)."""
+        """The residual-left check (ride: one record; components: one per output
+        channel, :mod:`~suspenv.diagnosis.component.residual_left`; None elsewhere)."""
         return self.findings.get("residual")
+
+    @property
+    def unexplained(self) -> bool:
+        """True when a residual above the noise floor is left that no named element
+        explains (components and ride)."""
+        left = self.findings.get("residual")
+        records = left if isinstance(left, list) else [left] if left is not None else []
+        return any(bool(getattr(r, "remains", False)) for r in records)
 
     @property
     def detection_limits(self) -> dict[str, dict[str, Any]]:
@@ -146,6 +155,7 @@ class Diagnosis:
             "channel": self.channel,
             "verdict": self.verdict,
             "confident": self.confident,
+            "unexplained": self.unexplained,
             "rule": self.rule.to_dict(),
             "named": [
                 {
@@ -171,6 +181,8 @@ class Diagnosis:
 
 
 def _jsonable(v: Any) -> Any:
+    if isinstance(v, list | tuple):
+        return [_jsonable(x) for x in v]
     return v.to_dict() if hasattr(v, "to_dict") else v
 
 
@@ -329,6 +341,9 @@ def verdict_words(
         text = f"{head}: " + "; then ".join(h.words for h in named)
         if amb:
             text += ". " + " ".join(a.sentence() for a in amb)
+    elif not confident and sentences:
+        # nothing in the library explains what is left: the family's sentence says so
+        text = ""
     else:
         text = "no significant missing physics"
         best = min(hypotheses, key=lambda h: h.p_value_corrected, default=None)
@@ -348,7 +363,8 @@ def verdict_words(
             )
     for s in sentences:
         if s:
-            text = text.rstrip(". ") + ". " + s[0].upper() + s[1:]
+            lead = text.rstrip(". ") + ". " if text else ""
+            text = lead + s[0].upper() + s[1:]
     return text
 
 

@@ -41,6 +41,7 @@ FAMILY_OF_KIND = {
     "kelvin_voigt": "spring",
     "force_offset": "sensor_offset",
     "sensor_offset": "sensor_offset",
+    "zero_drift": "sensor_offset",
     "sensor_gain": "sensor_gain",
     "sensor_lag": "sensor_lag",
     "lr_asymmetry": "lr_asymmetry",

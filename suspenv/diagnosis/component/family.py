@@ -35,8 +35,18 @@ import numpy as np
 
 from suspenv.diagnosis.component.asymmetry import asymmetry_check
 from suspenv.diagnosis.component.locate import Segment, locate
-from suspenv.diagnosis.component.motion import motion, split
+from suspenv.diagnosis.component.motion import cycle_index, motion, split
 from suspenv.diagnosis.component.refit import current_effects, refit_with
+from suspenv.diagnosis.component.residual_left import residual_left
+from suspenv.diagnosis.component.rig import (
+    RigDescription,
+    baseline_families,
+    baseline_model,
+    baseline_words,
+    check_extra_inputs,
+    describe_rig,
+    oriented,
+)
 from suspenv.diagnosis.component.signatures import SIGNATURE_KINDS, SignalSet, score_signatures
 from suspenv.diagnosis.decision import (
     EQUIVALENT_COMBINATIONS,
@@ -55,9 +65,28 @@ from suspenv.diagnosis.fitting import FitResult, fit, residuals
 from suspenv.diagnosis.hypothesis import Ambiguity, Hypothesis, family_of
 from suspenv.diagnosis.protocols import DiagnosableModel
 from suspenv.diagnosis.screening import Location, Signature
-from suspenv.diagnosis.split import Holdout, Recordings, Split
+from suspenv.diagnosis.split import Holdout, Recordings, Split, as_recordings
 from suspenv.models.components.base import ComponentModel
 from suspenv.models.effects import make_effect
+
+#: the default held-out data: one motion cycle in four, interleaved, so the held-out data
+#: span the amplitudes, frequencies and travel of the fitted ones (a fraction at the end
+#: of a dyno programme holds only its last speeds, and a drift model fitted before it
+#: would be extrapolated)
+DEFAULT_HOLDOUT = "cycles"
+#: fewer motion cycles than this in a recording: the default falls back to the last
+#: :data:`FALLBACK_FRACTION` of each recording (the sufficiency rules then judge it)
+MIN_CYCLES_INTERLEAVED = 8
+FALLBACK_FRACTION = 0.3
+
+
+def default_holdout(recordings: Sequence[Any]) -> str | float:
+    """:data:`DEFAULT_HOLDOUT`, or :data:`FALLBACK_FRACTION` when a recording has fewer
+    than :data:`MIN_CYCLES_INTERLEAVED` motion cycles to interleave."""
+    for rec in recordings:
+        if int(cycle_index(motion(rec)[0]).max()) + 1 < MIN_CYCLES_INTERLEAVED:
+            return FALLBACK_FRACTION
+    return DEFAULT_HOLDOUT
 
 #: the reported component benchmark's decision rule (a strong held-out drop lets the
 #: uncorrected test decide: see :func:`suspenv.diagnosis.decision.decide`)
@@ -245,6 +274,10 @@ class ComponentFamily(OptionalSteps):
         check_asymmetry: where a digressive damper curve is named and bump/rebound
             asymmetry is a candidate not yet named, test the asymmetric curve against
             the symmetric one plus a constant force; when supported it is named too.
+        check_residual: after the search, test whether the residual left is at the noise
+            floor (:func:`~suspenv.diagnosis.component.residual_left.residual_left`);
+            if not, the verdict says "unexplained residual above noise" and names no
+            element with confidence.
         rule: the decision rule (default :data:`COMPONENT_RULE`).
     """
 
@@ -253,19 +286,45 @@ class ComponentFamily(OptionalSteps):
     screen_families: int = 4
     max_nfev: int = 200
     check_asymmetry: bool = True
+    check_residual: bool = True
     rule: DecisionRule = COMPONENT_RULE
     name: str = field(default="component", init=False)
+    #: what the last :meth:`prepare` read about the rig (None for a model instance)
+    rig: RigDescription | None = field(default=None, init=False)
+    rig_notes: list[str] = field(default_factory=list, init=False)
 
     def __post_init__(self) -> None:
-        # an unknown model family is an error before any work starts
-        self.model = resolve_model(self.model)
+        # an unknown model family or effect kind is an error before any work starts
+        if isinstance(self.model, str) and not self.model.endswith(".toml"):
+            describe_rig(self.model, [])
 
     def prepare(
         self, recordings: Recordings, holdout: Holdout, candidates: Sequence[str] | None
     ) -> Setup:
-        model = resolve_model(self.model)
-        cands = list(candidates if candidates is not None else model.candidate_effects)
-        return Setup(split(recordings, 0.3 if holdout is None else holdout), model, cands)
+        """The baseline model (the family's standard physics, or the model given), the
+        recordings in suspenv's signs, the split and the open candidates."""
+        recs = as_recordings(recordings)
+        held = holdout
+        if isinstance(self.model, ComponentModel):
+            model = self.model  # an explicit model instance is the baseline as given
+            self.rig, self.rig_notes = None, []
+        else:
+            rig = describe_rig(self.model, recs)
+            recs = oriented(recs, rig)
+            if holdout is not None and not isinstance(holdout, float | int | str):
+                held = oriented(as_recordings(holdout), rig)
+            self.rig_notes = check_extra_inputs(recs, rig)
+            self.rig = rig
+            model = baseline_model(rig)
+        known = baseline_families(model)
+        cands = [
+            c
+            for c in (candidates if candidates is not None else model.candidate_effects)
+            if family_of(c) not in known
+        ]
+        if held is None:
+            held = default_holdout(recs)
+        return Setup(split(recs, held), model, cands)
 
     def fit_baseline(self, setup: Setup) -> FitResult:
         sp = setup.split
@@ -321,30 +380,38 @@ class ComponentFamily(OptionalSteps):
         return _structural_ambiguity(winner, parent, setup.split, self.max_nfev)
 
     def conclude(self, outcome: Outcome, setup: Setup) -> Conclusion:
+        """The asymmetry check where a digressive curve was named, then the residual
+        left against the noise floor (:mod:`~suspenv.diagnosis.component.residual_left`)."""
+        found = Conclusion(baseline=_baseline_effects(outcome.base, self))
         named_kinds = [h.kind for h in outcome.named]
-        if not (
+        if (
             self.check_asymmetry
             and "digressive_damping" in named_kinds
             and "damper_asymmetry" in setup.candidates
             and "damper_asymmetry" not in {h.family for h in outcome.named}
         ):
-            return Conclusion(baseline=_baseline_effects(outcome.base))
-        asym = asymmetry_check(
-            outcome.current,
-            setup.split,
-            self.rule.alpha,
-            self.rule.min_heldout_gain,
-            self.max_nfev,
-        )
-        found = Conclusion(findings={"asymmetry": asym}, baseline=_baseline_effects(outcome.base))
-        if asym is None:
-            return found
-        if asym.supported and asym.hypothesis is not None:
-            found.named.append(asym.hypothesis)
-            found.hypotheses.append(asym.hypothesis)
-            found.final_fit = asym.hypothesis.fit
-        else:
-            found.sentences.append(asym.sentence)
+            asym = asymmetry_check(
+                outcome.current,
+                setup.split,
+                self.rule.alpha,
+                self.rule.min_heldout_gain,
+                self.max_nfev,
+            )
+            found.findings["asymmetry"] = asym
+            if asym is not None and asym.supported and asym.hypothesis is not None:
+                found.named.append(asym.hypothesis)
+                found.hypotheses.append(asym.hypothesis)
+                found.final_fit = asym.hypothesis.fit
+            elif asym is not None:
+                found.sentences.append(asym.sentence)
+        if self.check_residual:
+            final = found.final_fit or outcome.current
+            left = residual_left(final, setup.split, self.rule.alpha)
+            found.findings["residual"] = left
+            remaining = [r for r in left if r.remains]
+            found.confident = not remaining
+            if remaining:
+                found.sentences.insert(0, remaining[0].sentence())
         return found
 
 
@@ -355,5 +422,12 @@ def _stroke(sp: Split) -> tuple[float, float]:
     return 0.5 * float(np.ptp(x_all)), float(np.max(np.abs(v_all)))
 
 
-def _baseline_effects(base: FitResult) -> dict[str, Any]:
-    return {"effects": [e.to_dict() for e in current_effects(base.model)]}
+def _baseline_effects(base: FitResult, family: ComponentFamily | None = None) -> dict[str, Any]:
+    out: dict[str, Any] = {
+        "effects": [e.to_dict() for e in current_effects(base.model)],
+        "words": baseline_words(base.model) if isinstance(base.model, ComponentModel) else "",
+    }
+    if family is not None and family.rig is not None:
+        out["rig"] = family.rig.to_dict()
+        out["rig_notes"] = list(family.rig_notes)
+    return out

@@ -322,6 +322,15 @@ KINDS = (
         needs_time=True,
     ),
     EffectKind(
+        "zero_drift",
+        "sensor zero drift (linear in time)",
+        "sensor",
+        (_p("rate", -1e6, 1e6, "", 0.0, "drift rate, in the channel's unit per second"),),
+        "slow trend in time, independent of the motion",
+        lambda y, t, rate: sensor.sensor_drift(y, t, bp(rate)),
+        needs_time=True,
+    ),
+    EffectKind(
         "lr_asymmetry",
         "left/right manufacturing asymmetry",
         "pair",

@@ -10,6 +10,9 @@ makes the recorded signal late.
   frequency ``w`` the recorded signal lags by ``atan(w tau)`` with amplitude ratio
   ``1 / sqrt(1 + (w tau)^2)``.
 * pure delay: ``y_rec(t) = y(t - delay)`` (linear interpolation, first value held).
+* zero drift: ``y_rec = y + rate * t`` (t in seconds from the recording's time
+  origin; the zero at t = 0 is an offset of its own): a load cell or displacement
+  transducer whose zero wanders slowly.
 """
 
 from __future__ import annotations
@@ -30,6 +33,17 @@ def sensor_offset_gain(
 ) -> np.ndarray:
     """Recorded value ``gain * y + offset`` (pointwise)."""
     return np.asarray(gain, dtype=float) * np.asarray(y, dtype=float) + offset
+
+
+def sensor_drift(
+    y: np.ndarray | float, t: np.ndarray | None, rate: np.ndarray | float = 0.0
+) -> np.ndarray:
+    """Recorded value ``y + rate * t``: a zero that drifts linearly in time (``rate`` in
+    the channel's unit per second, ``t`` [s] from the recording's time origin; the zero
+    at ``t = 0`` is a separate offset)."""
+    if t is None:
+        raise ValueError("zero_drift needs the sample times t [s]")
+    return np.asarray(y, dtype=float) + np.asarray(rate, dtype=float) * np.asarray(t, float)
 
 
 def sensor_lag_dydt(

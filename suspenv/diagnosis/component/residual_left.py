@@ -1,0 +1,284 @@
+"""What the final component model leaves: noise, or a structure the library cannot name.
+
+After the last named element, a residual made only of sensor noise (white or
+coloured) and a slow zero drift is unrelated to the motion: the same state of the
+component (deflection, velocity and direction), met again in another motion cycle,
+meets an independent draw of noise. A model error is a function of that state and
+repeats from cycle to cycle. The check therefore compares, state by state, the mean
+residual with its cycle-to-cycle scatter:
+
+1. **detrend**: per recording, a Legendre polynomial in time of degree up to
+   :data:`MAX_TREND_DEGREE` (one degree per :data:`CYCLES_PER_TREND_DEGREE` motion
+   cycles) is removed from the residual: a drifting zero is not structure;
+2. **state cells**: samples are binned by direction of motion (2), speed quartile (4)
+   and deflection quartile (4): 32 cells;
+3. **replicates**: each motion cycle (:func:`~suspenv.diagnosis.component.motion.cycle_index`)
+   gives one mean per cell it visits; a cell with at least :data:`MIN_REPLICATES`
+   cycles gives ``m`` (mean over cycles), ``s`` (their spread) and ``t = m / (s/sqrt k)``,
+   whose two-sided p-value (Student t, k - 1 degrees of freedom) is turned into the
+   chi-square(1) value with the same tail; their sum over cells is chi-square(cells)
+   under the null. The scatter is measured, not assumed, so coloured noise with a
+   correlation time well below a cycle does not count as structure;
+4. **size**: the noise RMS ``N`` from pairs of samples in the same state in different
+   cycles (:func:`neighbour_noise_power`: a function of the state cancels in their
+   difference, noise does not), the structured RMS ``S`` from the rest of the residual's
+   variance. **A residual remains** when the test rejects at ``alpha`` *and*
+   ``S > MATERIAL_RATIO * N``: what is left is at least as large as the noise and
+   repeats with the motion.
+
+Whiteness (Ljung-Box, 20 lags) of the detrended residual is reported beside it: a
+white residual is noise; a non-white one may still be coloured noise, which is why
+the decision rests on the cycle-to-cycle test.
+
+Units: the channel's (SI); ``S`` and ``N`` in the channel's unit.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+import numpy as np
+from scipy import stats
+
+from suspenv.diagnosis.component.motion import cycle_index, motion
+from suspenv.diagnosis.evidence import ljung_box
+from suspenv.diagnosis.fitting import FitResult
+from suspenv.diagnosis.protocols import RecordingLike
+from suspenv.diagnosis.split import Split
+
+#: most degrees of the per-recording time trend removed before the check
+MAX_TREND_DEGREE = 6
+#: motion cycles per degree of that trend (a trend slower than a few cycles is drift)
+CYCLES_PER_TREND_DEGREE = 4
+#: cycles a state cell needs to count (its scatter is measured from them)
+MIN_REPLICATES = 4
+#: structured RMS / noise RMS above which a significant structure counts as a residual
+#: left (the residual's RMS is then at least sqrt(2) x the noise)
+MATERIAL_RATIO = 1.0
+#: test level of the check
+ALPHA = 0.01
+
+
+@dataclass
+class ResidualLeft:
+    """The check's numbers for one channel (see the module docstring).
+
+    Attributes:
+        channel: the output channel.
+        unit: its unit.
+        structured_rms: ``S`` [channel unit].
+        noise_rms: ``N`` [channel unit].
+        ratio: ``S / N``.
+        chi2 / dof / p_value: the cycle-to-cycle test.
+        whiteness_p: Ljung-Box p-value of the detrended residual.
+        remains: a residual above the noise floor is left.
+        where: the cells with the largest structure, in words.
+        cells: cells tested.
+    """
+
+    channel: str
+    unit: str
+    structured_rms: float
+    noise_rms: float
+    ratio: float
+    chi2: float
+    dof: int
+    p_value: float
+    whiteness_p: float
+    remains: bool
+    where: list[str] = field(default_factory=list)
+    cells: int = 0
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+    def sentence(self) -> str:
+        """One sentence for the verdict."""
+        if self.remains:
+            return (
+                f"unexplained residual above noise, not in the library: in {self.channel} a "
+                f"part of {self.structured_rms:.3g} {self.unit} RMS repeats with the motion "
+                f"({self.ratio:.1f} x the noise of {self.noise_rms:.3g} {self.unit}; "
+                f"cycle-to-cycle test p = {self.p_value:.2g}), largest "
+                + "; ".join(self.where[:2])
+            )
+        return (
+            f"the residual left in {self.channel} is at the noise floor "
+            f"({self.noise_rms:.3g} {self.unit} RMS; the part that repeats with the motion "
+            f"is {self.ratio:.2f} x that, cycle-to-cycle test p = {self.p_value:.2g})"
+        )
+
+
+def _detrend(t: np.ndarray, r: np.ndarray, cycles: int) -> np.ndarray:
+    """``r`` less a Legendre polynomial in time of degree ``cycles / 4`` (1..6)."""
+    deg = int(min(MAX_TREND_DEGREE, max(1, cycles // CYCLES_PER_TREND_DEGREE)))
+    span = float(t[-1] - t[0]) or 1.0
+    u = 2.0 * (t - t[0]) / span - 1.0
+    basis = np.polynomial.legendre.legvander(u, deg)
+    coef, *_ = np.linalg.lstsq(basis, r, rcond=None)
+    return np.asarray(r - basis @ coef)
+
+
+def _quartile(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    edges = np.quantile(a, [0.25, 0.5, 0.75])
+    return np.searchsorted(edges, a, side="right"), edges
+
+
+def _unique_recordings(sp: Split) -> list[RecordingLike]:
+    out: list[RecordingLike] = []
+    for r in [*sp.fit_recordings, *sp.heldout_recordings]:
+        if not any(r is q for q in out):
+            out.append(r)
+    return out
+
+
+def residual_left(
+    fit: FitResult, sp: Split, alpha: float = ALPHA, channels: Sequence[str] | None = None
+) -> list[ResidualLeft]:
+    """The check on every output channel of ``fit`` over all samples of the split's
+    recordings (fit and held-out; the handful of fitted parameters barely shape a
+    residual of thousands of samples)."""
+    recs = _unique_recordings(sp)
+    out = []
+    for ch in channels or fit.channels:
+        rs, vs, xs, cyc, res_all = [], [], [], [], []
+        offset = 0
+        for rec in recs:
+            if ch not in rec.outputs:
+                continue
+            pred = fit.model.simulate(fit.theta, rec)
+            t = np.asarray(rec.time, float)
+            r = np.asarray(rec.outputs[ch], float) - np.asarray(pred[ch], float)
+            x, v = motion(rec)
+            c = cycle_index(x)
+            r = _detrend(t, r, int(c.max()) + 1)
+            rs.append(r)
+            xs.append(x)
+            vs.append(v)
+            cyc.append(c + offset)
+            offset += int(c.max()) + 1
+            res_all.append(r)
+        if not rs:
+            continue
+        unit = str(recs[0].units.get(ch, ""))
+        out.append(
+            _cell_test(
+                np.concatenate(rs),
+                np.concatenate(xs),
+                np.concatenate(vs),
+                np.concatenate(cyc),
+                ch,
+                unit,
+                alpha,
+            )
+        )
+    return out
+
+
+def _cell_test(
+    r: np.ndarray,
+    x: np.ndarray,
+    v: np.ndarray,
+    cycle: np.ndarray,
+    channel: str,
+    unit: str,
+    alpha: float,
+) -> ResidualLeft:
+    """Steps 2-4 of the module docstring on one channel's pooled residual."""
+    direction = (v < 0).astype(int)  # 0: compression (v > 0), 1: rebound
+    speed_q, speed_edges = _quartile(np.abs(v))
+    x_q, x_edges = _quartile(x)
+    cell = direction * 16 + speed_q * 4 + x_q
+    key = cell.astype(np.int64) * (int(cycle.max()) + 1) + cycle
+    uniq, inv, counts = np.unique(key, return_inverse=True, return_counts=True)
+    sums = np.bincount(inv, weights=r)
+    means = sums / counts
+    cell_of = uniq // (int(cycle.max()) + 1)
+    chi2 = 0.0
+    dof = 0
+    tops: list[tuple[float, int, float]] = []
+    for c in np.unique(cell_of):
+        m_c = means[cell_of == c]
+        k = m_c.size
+        if k < MIN_REPLICATES:
+            continue
+        mean = float(np.mean(m_c))
+        sd = float(np.std(m_c, ddof=1))
+        se2 = sd * sd / k
+        if se2 <= 0:
+            continue
+        t_stat = mean / np.sqrt(se2)
+        p = 2.0 * float(stats.t.sf(abs(t_stat), k - 1))
+        chi2 += float(stats.chi2.isf(max(p, 1e-300), 1))
+        dof += 1
+        tops.append((abs(mean), int(c), mean))
+    total = float(np.mean(r * r))
+    n2 = max(min(neighbour_noise_power(r, x, v, cycle), total), 1e-300)
+    s2 = max(total - n2, 0.0)
+    ratio = float(np.sqrt(s2 / n2))
+    p_value = float(stats.chi2.sf(chi2, dof)) if dof else 1.0
+    _, white_p = ljung_box(r)
+    remains = bool(dof and p_value < alpha and ratio > MATERIAL_RATIO)
+    tops.sort(reverse=True)
+    where = [_cell_words(c, mean, unit, speed_edges, x_edges) for _, c, mean in tops[:3]]
+    return ResidualLeft(
+        channel=channel,
+        unit=unit,
+        structured_rms=float(np.sqrt(s2)),
+        noise_rms=float(np.sqrt(n2)),
+        ratio=ratio,
+        chi2=chi2,
+        dof=dof,
+        p_value=p_value,
+        whiteness_p=float(white_p),
+        remains=remains,
+        where=where,
+        cells=dof,
+    )
+
+
+def neighbour_noise_power(
+    r: np.ndarray, x: np.ndarray, v: np.ndarray, cycle: np.ndarray, neighbours: int = 16
+) -> float:
+    """Noise power of ``r`` [unit^2] from pairs of samples in the same state of motion in
+    different cycles: half the mean square difference of each sample's residual and that
+    of its nearest neighbour in (deflection, velocity) (each scaled by its spread) from
+    another cycle. A model error that is a function of the state cancels in the
+    difference; noise, white or coloured, does not (the two samples are a cycle apart).
+    """
+    from scipy.spatial import cKDTree
+
+    pts = np.column_stack([x / (np.std(x) or 1.0), v / (np.std(v) or 1.0)])
+    k = min(neighbours, r.size)
+    _, idx = cKDTree(pts).query(pts, k=k)
+    idx = np.atleast_2d(idx)
+    other = cycle[idx] != cycle[:, None]
+    has = other.any(axis=1)
+    if not has.any():
+        return float(np.mean(r * r))
+    first = np.argmax(other, axis=1)
+    nb = idx[np.arange(r.size), first]
+    d = (r - r[nb])[has]
+    return 0.5 * float(np.mean(d * d))
+
+
+def _cell_words(
+    cell: int, mean: float, unit: str, speed_edges: np.ndarray, x_edges: np.ndarray
+) -> str:
+    """E.g. "in rebound at 0.12-0.25 m/s, deflection -3.1 to 2.0 mm: mean -41 N"."""
+    direction = "rebound (v < 0)" if cell // 16 else "compression (v > 0)"
+    sq, xq = (cell % 16) // 4, cell % 4
+    s_lo = 0.0 if sq == 0 else float(speed_edges[sq - 1])
+    s_hi = float(speed_edges[sq]) if sq < 3 else float("inf")
+    x_lo = float(x_edges[xq - 1]) * 1e3 if xq > 0 else float("-inf")
+    x_hi = float(x_edges[xq]) * 1e3 if xq < 3 else float("inf")
+    speed = f"{s_lo:.3g}-{s_hi:.3g} m/s" if np.isfinite(s_hi) else f"above {s_lo:.3g} m/s"
+    if not np.isfinite(x_lo):
+        defl = f"deflection below {x_hi:.3g} mm"
+    elif not np.isfinite(x_hi):
+        defl = f"deflection above {x_lo:.3g} mm"
+    else:
+        defl = f"deflection {x_lo:.3g} to {x_hi:.3g} mm"
+    return f"in {direction} at {speed}, {defl}: mean {mean:+.3g} {unit}"

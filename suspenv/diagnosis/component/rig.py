@@ -1,0 +1,433 @@
+"""The rig a component was tested on: baseline physics, known parameters, signs, inputs.
+
+A component diagnosis compares a recording with a *baseline*: the base law of the
+model family plus the standard physics an engineer would include before looking for
+anything missing. "Missing physics" is only what lies beyond it.
+
+Standard baselines (:data:`STANDARD_BASELINE`; every family also gets
+:data:`DRIFT` on each output channel, a slowly drifting sensor zero):
+
+======================  =====================================================
+family                  baseline
+======================  =====================================================
+``damper``              ``F = c v`` + gas force ``f_0 + k_gas x`` (gas damper)
+``mr_damper``           ``F = c v + k x + f_0`` (its base holds the accumulator)
+``friction_guide``      ``F = m a + c v`` + a constant force offset
+``quarter_car_rig``     linear spring, damper and tyre (masses from the rig) + a
+                        zero offset on each sensor
+======================  =====================================================
+
+Where the description comes from, later entries overriding earlier ones:
+
+1. the recording's metadata ``meta["rig"]`` (see ``docs/recordings.md``)::
+
+       {"device": "quarter_car_rig", "known": {"m_s": 287.0, "m_u": 41.5},
+        "positive_stroke": "compression", "positive_force": "compression",
+        "extra_inputs": {"actuator_force": "..."}, "baseline": ["gas_spring"]}
+
+2. a model file (``--model rig.toml``; TOML with the same keys, ``family`` in place of
+   ``device``);
+3. the model text ``FAMILY[+KIND...][-KIND...]``: ``damper`` is the standard baseline,
+   ``damper+maxwell_viscoelastic`` adds an element to it, ``damper-gas_spring`` removes
+   one (``damper-gas_spring-zero_drift`` is the bare law ``F = c v``).
+
+Signs: inside suspenv a positive stroke (displacement, velocity, suspension deflection)
+is compression (bump) and a positive damper force pushes back against compression. A
+recording whose ``positive_stroke`` is ``"extension"`` has its stroke channels negated,
+one whose ``positive_force`` is ``"tension"`` its force channel, before anything else
+(the report says so).
+"""
+
+from __future__ import annotations
+
+import tomllib
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from suspenv.core.errors import ValidationError
+from suspenv.diagnosis.hypothesis import family_of
+from suspenv.diagnosis.protocols import RecordingLike
+from suspenv.models.components import FAMILIES, make_component
+from suspenv.models.components.base import ComponentModel
+from suspenv.models.effects import Effect, effect_kinds, make_effect
+
+#: sensor-zero drift, in every family's standard baseline on every output channel
+DRIFT = "zero_drift"
+
+#: baseline elements beyond each family's base law (the drift comes on top): a constant
+#: force or zero in every family (the damper's gas preload, the MR damper's own f_0, the
+#: guide's force offset, the quarter car's sensor zeros)
+STANDARD_BASELINE: dict[str, tuple[str, ...]] = {
+    "damper": ("gas_spring",),
+    "mr_damper": (),
+    "friction_guide": ("force_offset",),
+    "quarter_car_rig": ("sensor_offset",),
+}
+#: sensor elements of the baseline placed on every output channel (others: the first)
+EVERY_CHANNEL = (DRIFT, "sensor_offset")
+
+#: rig parameters a user may declare as known, per family (model options, SI units)
+KNOWN_PARAMETERS: dict[str, dict[str, str]] = {
+    "quarter_car_rig": {"m_s": "kg", "m_u": "kg"},
+}
+
+#: extra input channels a family reads when declared, and what it does with them
+EXTRA_INPUTS: dict[str, dict[str, str]] = {
+    "mr_damper": {"coil_voltage": "constant per recording: the fit holds for that field"},
+}
+
+STROKE_SIGNS = ("compression", "extension")
+FORCE_SIGNS = ("compression", "tension")
+#: channels negated when a recording's positive stroke is extension
+STROKE_CHANNELS = (
+    "displacement",
+    "velocity",
+    "deflection",
+    "stroke",
+    "travel",
+    "suspension_deflection",
+)
+FORCE_CHANNELS = ("force",)
+#: relative spread above which a coil voltage counts as varying
+VOLTAGE_SPREAD = 0.02
+
+
+@dataclass(frozen=True)
+class RigDescription:
+    """What the user states about the test, merged from metadata, model file and text.
+
+    Attributes:
+        family: model family (``"damper"``, ...).
+        baseline: effect kinds added to the base law before any search.
+        known: known rig parameters (model options, SI), e.g. ``{"m_s": 287.0}``.
+        positive_stroke: ``"compression"`` or ``"extension"``: what a positive stroke
+            channel means in the recording.
+        positive_force: ``"compression"`` or ``"tension"``: what a positive force means.
+        extra_inputs: declared extra input channels -> the user's description.
+        sources: where each entry came from, in words, for the report.
+    """
+
+    family: str
+    baseline: tuple[str, ...]
+    known: Mapping[str, float] = field(default_factory=dict)
+    positive_stroke: str = "compression"
+    positive_force: str = "compression"
+    extra_inputs: Mapping[str, str] = field(default_factory=dict)
+    sources: tuple[str, ...] = ()
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "family": self.family,
+            "baseline": list(self.baseline),
+            "known": dict(self.known),
+            "positive_stroke": self.positive_stroke,
+            "positive_force": self.positive_force,
+            "extra_inputs": dict(self.extra_inputs),
+            "sources": list(self.sources),
+        }
+
+
+def parse_model_text(text: str) -> tuple[str, list[str], list[str]]:
+    """``FAMILY[+KIND...][-KIND...]`` -> (family, kinds added, kinds removed)."""
+    parts: list[tuple[str, str]] = []
+    sign, word = "", ""
+    for ch in text.strip():
+        if ch in "+-":
+            parts.append((sign, word))
+            sign, word = ch, ""
+        else:
+            word += ch
+    parts.append((sign, word))
+    family = parts[0][1]
+    if parts[0][0] or not family:
+        raise ValidationError(
+            f"a model must read FAMILY[+KIND...][-KIND...], but got {text!r}"
+        )
+    added = [w for s, w in parts[1:] if s == "+"]
+    removed = [w for s, w in parts[1:] if s == "-"]
+    return family, added, removed
+
+
+def _check_family(family: str, where: str) -> None:
+    if family not in FAMILIES:
+        raise ValidationError(
+            f"{where}: unknown component family {family!r}; known families are "
+            f"{sorted(FAMILIES)}"
+        )
+
+
+def _check_kinds(kinds: Sequence[str], where: str) -> None:
+    known = effect_kinds()
+    bad = [k for k in kinds if k not in known]
+    if bad:
+        raise ValidationError(
+            f"{where}: unknown effect kind(s) {bad}; known kinds are {sorted(known)}"
+        )
+
+
+def _entries(raw: Mapping[str, Any], where: str) -> dict[str, Any]:
+    """Validated entries of a metadata ``rig`` table or a model file."""
+    allowed = {
+        "device",
+        "family",
+        "known",
+        "positive_stroke",
+        "positive_force",
+        "extra_inputs",
+        "baseline",
+    }
+    unknown = sorted(set(raw) - allowed)
+    if unknown:
+        raise ValidationError(
+            f"{where}: unknown rig entr(ies) {unknown}; the entries are {sorted(allowed)}"
+        )
+    out: dict[str, Any] = {}
+    fam = raw.get("family", raw.get("device"))
+    if fam is not None:
+        _check_family(str(fam), where)
+        out["family"] = str(fam)
+    for key, allowed_signs in (
+        ("positive_stroke", STROKE_SIGNS),
+        ("positive_force", FORCE_SIGNS),
+    ):
+        if key in raw:
+            if raw[key] not in allowed_signs:
+                raise ValidationError(
+                    f"{where}: `{key} in {allowed_signs}` must hold, but got {raw[key]!r}"
+                )
+            out[key] = str(raw[key])
+    if "known" in raw:
+        known = raw["known"]
+        if not isinstance(known, Mapping):
+            raise ValidationError(f"{where}: 'known' must be a table, but got {known!r}")
+        vals: dict[str, float] = {}
+        for k, v in known.items():
+            try:
+                x = float(v)
+            except (TypeError, ValueError):
+                raise ValidationError(
+                    f"{where}: known.{k} must be a number, but got {v!r}"
+                ) from None
+            if not (np.isfinite(x) and x > 0):
+                raise ValidationError(f"{where}: `known.{k} > 0` must hold, but got {x}")
+            vals[str(k)] = x
+        out["known"] = vals
+    if "extra_inputs" in raw:
+        extra = raw["extra_inputs"]
+        if not isinstance(extra, Mapping):
+            raise ValidationError(f"{where}: 'extra_inputs' must be a table, but got {extra!r}")
+        out["extra_inputs"] = {str(k): str(v) for k, v in extra.items()}
+    if "baseline" in raw:
+        base = raw["baseline"]
+        if isinstance(base, str) or not isinstance(base, Sequence):
+            raise ValidationError(
+                f"{where}: 'baseline' must be a list of effect kinds, but got {base!r}"
+            )
+        _check_kinds([str(b) for b in base], where)
+        out["baseline"] = tuple(str(b) for b in base)
+    return out
+
+
+def read_model_file(path: str | Path) -> dict[str, Any]:
+    """The entries of a model file (TOML; see the module docstring)."""
+    p = Path(path)
+    try:
+        raw = tomllib.loads(p.read_text())
+    except FileNotFoundError:
+        raise ValidationError(f"model file {str(p)!r} does not exist") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ValidationError(f"model file {str(p)!r} is not valid TOML: {exc}") from None
+    return _entries(raw, f"model file {p.name}")
+
+
+def _meta_entries(recordings: Sequence[RecordingLike]) -> dict[str, Any]:
+    """The ``meta["rig"]`` entries of the recordings (they must agree)."""
+    found: dict[str, Any] | None = None
+    first = ""
+    for rec in recordings:
+        meta = getattr(rec, "meta", None) or {}
+        raw = meta.get("rig")
+        if raw is None:
+            continue
+        if not isinstance(raw, Mapping):
+            raise ValidationError(
+                f"recording {rec.name!r}: meta['rig'] must be a table, but got {raw!r}"
+            )
+        entries = _entries(raw, f"recording {rec.name!r} meta['rig']")
+        if found is None:
+            found, first = entries, str(rec.name)
+        elif entries != found:
+            raise ValidationError(
+                f"recordings {first!r} and {rec.name!r} describe different rigs in "
+                f"meta['rig'] ({found} and {entries}); diagnose them separately"
+            )
+    return found or {}
+
+
+def describe_rig(
+    model: str | Path | ComponentModel | None,
+    recordings: Sequence[RecordingLike],
+    family_hint: str | None = None,
+) -> RigDescription:
+    """Merge recording metadata, a model file and the model text (see module docstring).
+
+    ``model``: the model text, a model file path (``.toml``), or None (family from the
+    metadata or ``family_hint``).
+    """
+    entries = _meta_entries(recordings)
+    sources = ["recording metadata"] if entries else []
+    added: list[str] = []
+    removed: list[str] = []
+    if isinstance(model, Path) or (isinstance(model, str) and model.endswith(".toml")):
+        entries.update(read_model_file(model))
+        sources.append(f"model file {Path(model).name}")
+    elif isinstance(model, str):
+        family, added, removed = parse_model_text(model)
+        _check_family(family, f"model {model!r}")
+        if "family" in entries and entries["family"] != family:
+            sources.append(
+                f"model {family!r} given (the recording metadata says {entries['family']!r})"
+            )
+        entries["family"] = family
+        _check_kinds(added + removed, f"model {model!r}")
+    family = entries.get("family") or family_hint
+    if family is None:
+        raise ValidationError(
+            "the model family is unknown: give one (--model damper | mr_damper | "
+            "friction_guide | quarter_car_rig) or declare meta['rig']['device']"
+        )
+    _check_family(family, "model")
+    base = list(entries.get("baseline", (*STANDARD_BASELINE.get(family, ()), DRIFT)))
+    base = [k for k in base + added if k not in removed]
+    base = list(dict.fromkeys(base))
+    known = dict(entries.get("known", {}))
+    allowed = KNOWN_PARAMETERS.get(family, {})
+    bad = sorted(set(known) - set(allowed))
+    if bad:
+        raise ValidationError(
+            f"known rig parameter(s) {bad} are not read by {family}; it reads "
+            f"{sorted(allowed) or 'none'}"
+        )
+    return RigDescription(
+        family=family,
+        baseline=tuple(base),
+        known=known,
+        positive_stroke=entries.get("positive_stroke", "compression"),
+        positive_force=entries.get("positive_force", "compression"),
+        extra_inputs=dict(entries.get("extra_inputs", {})),
+        sources=tuple(sources),
+    )
+
+
+def baseline_model(rig: RigDescription) -> ComponentModel:
+    """The family's model with the baseline elements and the known rig parameters."""
+    probe = make_component(rig.family, **dict(rig.known))
+    effects: list[Effect] = []
+    for kind in rig.baseline:
+        e = make_effect(kind)
+        if e.spec.role == "sensor":
+            channels = (
+                probe.output_channels if kind in EVERY_CHANNEL else probe.output_channels[:1]
+            )
+            for ch in channels:
+                name = kind if len(channels) == 1 else f"{kind}_{ch}"
+                effects.append(make_effect(kind, name=name, location=ch))
+        else:
+            effects.append(make_effect(kind, location=str(probe.location or "")))
+    defaults = probe.effect_defaults
+    effects = [e.with_params(defaults.get(e.kind, {})) for e in effects]
+    return make_component(rig.family, effects, **dict(rig.known))
+
+
+def baseline_families(model: ComponentModel) -> set[str]:
+    """Signature families the baseline already holds (not searched for again)."""
+    return {family_of(e.kind) for e in model.effects}
+
+
+def oriented(recordings: Sequence[RecordingLike], rig: RigDescription) -> list[RecordingLike]:
+    """The recordings in suspenv's signs (positive stroke = compression, positive force
+    pushes back against compression); unchanged when they already are."""
+    flip_stroke = rig.positive_stroke == "extension"
+    flip_force = rig.positive_force == "tension"
+    if not (flip_stroke or flip_force):
+        return list(recordings)
+    out: list[RecordingLike] = []
+    for rec in recordings:
+
+        def turn(chs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+            res = {}
+            for k, y in chs.items():
+                neg = (flip_stroke and k in STROKE_CHANNELS) or (flip_force and k in FORCE_CHANNELS)
+                res[k] = -np.asarray(y, float) if neg else y
+            return res
+
+        meta = dict(getattr(rec, "meta", {}) or {})
+        meta["oriented"] = {
+            "stroke_negated": flip_stroke,
+            "force_negated": flip_force,
+        }
+        out.append(
+            replace(  # type: ignore[type-var]
+                rec, inputs=turn(rec.inputs), outputs=turn(rec.outputs), meta=meta
+            )
+        )
+    return out
+
+
+def check_extra_inputs(recordings: Sequence[RecordingLike], rig: RigDescription) -> list[str]:
+    """Sentences on the declared extra inputs; refuses one the family cannot use.
+
+    A declared channel must be in the recording's inputs. The MR damper's coil voltage
+    must be constant per recording (the model has no field-dependent law); other families
+    read no extra input, so a declared one that changes the force is refused rather than
+    ignored.
+    """
+    reads = EXTRA_INPUTS.get(rig.family, {})
+    words: list[str] = []
+    for name, desc in rig.extra_inputs.items():
+        for rec in recordings:
+            if name not in rec.inputs:
+                raise ValidationError(
+                    f"recording {rec.name!r}: declared extra input {name!r} is not among its "
+                    f"inputs {sorted(rec.inputs)}"
+                )
+        if name not in reads:
+            raise ValidationError(
+                f"{rig.family} does not model the declared extra input {name!r} ({desc}); "
+                f"it reads {sorted(reads) or 'no extra input'}; a model that ignored it "
+                "would name its effect as missing physics"
+            )
+        if name == "coil_voltage":
+            for rec in recordings:
+                u = np.asarray(rec.inputs[name], float)
+                spread = float(np.ptp(u)) / max(float(np.mean(np.abs(u))), 0.05)
+                if spread > VOLTAGE_SPREAD:
+                    raise ValidationError(
+                        f"recording {rec.name!r}: coil_voltage varies by {100 * spread:.0f} % "
+                        f"(from {float(np.min(u)):.3g} to {float(np.max(u)):.3g} V); mr_damper "
+                        "has no field-dependent law, so it needs one constant voltage per "
+                        f"recording (at most {100 * VOLTAGE_SPREAD:.0f} % spread): split the "
+                        "recording at the voltage steps"
+                    )
+                words.append(
+                    f"recording {rec.name}: coil voltage {float(np.mean(u)):.3g} V (constant)"
+                )
+    return words
+
+
+def baseline_words(model: ComponentModel) -> str:
+    """The baseline in words, e.g. "linear viscous F = c v; gas spring force ..."."""
+    parts = [model.description.split("(base: ")[-1].rstrip(")")]
+    seen: set[str] = set()
+    for e in model.effects:
+        if e.kind in seen:
+            continue
+        seen.add(e.kind)
+        chans = [x.location for x in model.effects if x.kind == e.kind and x.location]
+        where = f" on {', '.join(chans)}" if e.spec.role == "sensor" and chans else ""
+        parts.append(f"{e.spec.words}{where}")
+    return "; ".join(parts)
