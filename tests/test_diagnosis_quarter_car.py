@@ -11,6 +11,7 @@ import pytest
 
 from suspenv.diagnosis.component.family import _force_view_signal_set
 from suspenv.diagnosis.component.motion import split
+from suspenv.diagnosis.component.rig import baseline_model, describe_rig
 from suspenv.diagnosis.component.signatures import score_signatures
 from suspenv.diagnosis.component.truth import make_case
 from suspenv.diagnosis.engine import diagnose, make_family
@@ -41,19 +42,33 @@ def test_deflection_rate_keeps_noise_small():
     assert np.std(v - clean) < 0.08 * np.std(clean)
 
 
+def _first_case(kind: str):
+    """The first development seed whose single concealed effect is ``kind``."""
+    for seed in range(40):
+        case = make_case("quarter_car_rig", seed, 1)
+        if case.truth.kinds == [kind]:
+            return case
+    raise AssertionError(f"no development seed conceals {kind}")
+
+
 @pytest.mark.parametrize(
-    ("seed", "family", "rivals"),
-    [(2, "friction", ("hysteresis",)), (0, "hysteresis", ("friction",))],
+    ("kind", "family", "rivals"),
+    [
+        ("coulomb_friction", "friction", ("hysteresis",)),
+        ("dahl_hysteresis", "hysteresis", ("friction",)),
+    ],
 )
-def test_force_view_tells_friction_from_hysteresis(seed, family, rivals):
-    # development seeds 2 (Coulomb friction) and 0 (Dahl hysteresis): in the suspension
-    # force seen through the body equation the true family's signature is the strongest
-    # (with the old 10 ms rate the friction case scored hysteresis 0.36, friction 0.04);
-    # a digressive knee stays close to friction here, the refits separate those two
-    case = make_case("quarter_car_rig", seed, 1)
-    assert {"2": "coulomb_friction", "0": "dahl_hysteresis"}[str(seed)] in case.truth.kinds
+def test_force_view_tells_friction_from_hysteresis(kind, family, rivals):
+    # development cases of Coulomb friction and Dahl hysteresis (with the standard
+    # baseline's sensor zeros and drifts, fitted and undone in the force view): in the
+    # suspension force seen through the body equation the true family's signature is the
+    # strongest (with the old 10 ms rate the friction case scored hysteresis 0.36,
+    # friction 0.04); a digressive knee stays close to friction here, the refits separate
+    # those two
+    case = _first_case(kind)
     sp = split(case.recording, 0.3)
-    base = fit(make_component("quarter_car_rig"), sp.fit_recordings, sp.fit_masks, max_nfev=15)
+    model = baseline_model(describe_rig("quarter_car_rig", []))
+    base = fit(model, sp.fit_recordings, sp.fit_masks, max_nfev=15)
     sset = _force_view_signal_set(base, sp)
     assert sset is not None and sset.unit == "N"
     sigs = {s.kind: s.score for s in score_signatures(sset)}

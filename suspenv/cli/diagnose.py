@@ -38,8 +38,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--model",
         default=None,
-        help="component family: damper, mr_damper, friction_guide, quarter_car_rig "
-        "(default: from the data)",
+        help="component model: damper, mr_damper, friction_guide, quarter_car_rig with "
+        "the family's standard baseline (damper: gas force; every family: a zero offset "
+        "and a linear zero drift); FAMILY+KIND adds an element to the baseline, FAMILY-KIND "
+        "removes one (damper-gas_spring-zero_drift: F = c v alone); or a model file "
+        "(.toml: family, baseline, known rig parameters, signs). Default: from the "
+        "data (meta['rig'])",
     )
     p.add_argument("--out", default=None, help="output folder (default: diagnosis_<name>)")
     p.add_argument(
@@ -51,9 +55,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--holdout",
         default=None,
-        help="held-out data: components: a fraction (default 0.3), 'cycles' / 'cycles:N' "
-        "(one motion cycle in N, interleaved) or another recording; K&C: rig test name(s) "
-        "(default single) or another .npz; ride: another .npz; road: another profile",
+        help="held-out data: components: 'cycles' / 'cycles:N' (one motion cycle in N, "
+        "interleaved; default one in 4, or the last 30 %% when a recording has fewer than 8 "
+        "cycles), a fraction (the last part of each recording) or another recording; "
+        "K&C: rig test name(s) (default single) or another .npz; ride: another .npz; "
+        "road: another profile",
     )
     p.add_argument("--data-dir", default=None, help="folder of the real recordings")
     p.set_defaults(func=_diagnose)

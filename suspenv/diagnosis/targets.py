@@ -184,8 +184,11 @@ def _component_target(
                 f"but got {target!r}"
             )
         rec = read(path)
-        suggested = rec.meta.get("suggested_model")
-        held, family, stem = 0.3, str(suggested) if suggested else None, path.stem
+        rig_meta = rec.meta.get("rig")
+        rig: dict[str, Any] = rig_meta if isinstance(rig_meta, dict) else {}
+        suggested = rec.meta.get("suggested_model") or rig.get("device") or rig.get("family")
+        # held-out data: the family's default (interleaved motion cycles)
+        held, family, stem = None, str(suggested) if suggested else None, path.stem
     if holdout is not None:
         try:
             held = float(holdout)

@@ -33,6 +33,7 @@ from typing import Any
 
 import numpy as np
 
+from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.component.asymmetry import asymmetry_check
 from suspenv.diagnosis.component.locate import Segment, locate
 from suspenv.diagnosis.component.motion import cycle_index, motion, split
@@ -312,10 +313,10 @@ class ComponentFamily(OptionalSteps):
             rig = describe_rig(self.model, recs)
             recs = oriented(recs, rig)
             if holdout is not None and not isinstance(holdout, float | int | str):
-                held = oriented(as_recordings(holdout), rig)
+                held = oriented(as_recordings(holdout), rig)  # type: ignore[arg-type]
             self.rig_notes = check_extra_inputs(recs, rig)
             self.rig = rig
-            model = baseline_model(rig)
+            model = baseline_model(rig, recs)
         known = baseline_families(model)
         cands = [
             c
@@ -354,7 +355,7 @@ class ComponentFamily(OptionalSteps):
         self, current: FitResult, candidate: str, signature: SignatureLike | None, setup: Setup
     ) -> FitResult:
         half, vmax = _stroke(setup.split)
-        return refit_with(
+        ext = refit_with(
             current,
             candidate,
             setup.split.fit_recordings,
@@ -365,6 +366,8 @@ class ComponentFamily(OptionalSteps):
             location=effect_location(setup.model, candidate),
             max_nfev=self.max_nfev,
         )
+        check_step_or_knee(candidate, ext, vmax)
+        return ext
 
     def words(self, candidate: str, setup: Setup) -> str:
         """Engineering words, e.g. "Coulomb friction in the guide"."""
@@ -413,6 +416,60 @@ class ComponentFamily(OptionalSteps):
             if remaining:
                 found.sentences.insert(0, remaining[0].sentence())
         return found
+
+
+#: a friction step completes within a few percent of the speed range, a valve knee lies
+#: at a tenth of it or more: a friction element fitted wider than FRICTION_MAX_FRACTION of
+#: the peak speed is a knee, a digressive curve fitted narrower than KNEE_MIN_FRACTION is
+#: a step; between the two both are fitted, and an equal fit is reported as inseparable
+FRICTION_MAX_FRACTION = 0.10
+KNEE_MIN_FRACTION = 0.03
+#: the transition width [m/s] of each kind whose shape a step or a knee can take
+TRANSITION_WIDTH = {
+    "coulomb_friction": "v_eps",
+    "stribeck_friction": "v_eps",
+    "directional_friction": "v_eps",
+    "digressive_damping": "v_knee",
+}
+
+
+def check_step_or_knee(candidate: str, ext: FitResult, vmax: float) -> None:
+    """Refuse a refit whose fitted transition contradicts its kind.
+
+    A regularised Coulomb step ``f_c tanh(v / v_eps)`` beside the viscous base and a
+    digressive curve ``c_low v_knee tanh(v / v_knee)`` are one function of velocity: on a
+    dyno the two fit the same data equally well, so the fitted width decides which
+    physics it is. A friction element fitted wider than ``FRICTION_MAX_FRACTION`` of the
+    peak speed ``vmax`` [m/s] is a valve knee; a digressive curve fitted narrower than
+    ``KNEE_MIN_FRACTION`` is a force step at reversal. Raises :class:`ValidationError`
+    (the hypothesis is recorded as failed with this reason) so the other kind, refitted
+    in the same round, is named.
+    """
+    kind = candidate.partition("@")[0]
+    width_name = TRANSITION_WIDTH.get(kind)
+    if width_name is None or vmax <= 0:
+        return
+    _, effects = ext.model.unpack(ext.theta)
+    width = next(
+        (float(np.ravel(e.params[width_name])[0]) for e in effects if e.kind == kind),
+        None,
+    )
+    if width is None:
+        return
+    frac = width / vmax
+    is_friction = kind != "digressive_damping"
+    if is_friction and frac > FRICTION_MAX_FRACTION:
+        raise ValidationError(
+            f"{kind}: the fitted step is {1e3 * width:.3g} mm/s wide, {100 * frac:.1f} % of the "
+            f"peak speed {vmax:.3g} m/s (> {100 * FRICTION_MAX_FRACTION:.0f} %): a gradual knee, "
+            "which is a digressive damper curve, not a friction step"
+        )
+    if not is_friction and frac < KNEE_MIN_FRACTION:
+        raise ValidationError(
+            f"{kind}: the fitted knee is at {1e3 * width:.3g} mm/s, {100 * frac:.1f} % of the "
+            f"peak speed {vmax:.3g} m/s (< {100 * KNEE_MIN_FRACTION:.0f} %): a force step at "
+            "every reversal, which is friction, not a valve knee"
+        )
 
 
 def _stroke(sp: Split) -> tuple[float, float]:

@@ -294,12 +294,13 @@ def describe_rig(
             )
         entries["family"] = family
         _check_kinds(added + removed, f"model {model!r}")
-    family = entries.get("family") or family_hint
-    if family is None:
+    chosen = entries.get("family") or family_hint
+    if chosen is None:
         raise ValidationError(
             "the model family is unknown: give one (--model damper | mr_damper | "
             "friction_guide | quarter_car_rig) or declare meta['rig']['device']"
         )
+    family = str(chosen)
     _check_family(family, "model")
     base = list(entries.get("baseline", (*STANDARD_BASELINE.get(family, ()), DRIFT)))
     base = [k for k in base + added if k not in removed]
@@ -323,9 +324,33 @@ def describe_rig(
     )
 
 
-def baseline_model(rig: RigDescription) -> ComponentModel:
-    """The family's model with the baseline elements and the known rig parameters."""
-    probe = make_component(rig.family, **dict(rig.known))
+def data_scales(
+    model: ComponentModel, recordings: Sequence[RecordingLike]
+) -> dict[str, float]:
+    """The largest force [N], deflection [m] and velocity [m/s] amplitudes the model
+    reads in ``recordings`` (its ``_scales``): the parameter bounds follow them."""
+    out: dict[str, float] = {}
+    for rec in recordings:
+        try:
+            sc = model._scales(rec)  # type: ignore[arg-type]  # the model's own reading
+        except (KeyError, ValueError, NotImplementedError):
+            continue
+        for k in ("force", "deflection", "velocity"):
+            val = float(sc.get(k, 0.0))
+            if np.isfinite(val) and val > out.get(k, 0.0):
+                out[k] = val
+    return out
+
+
+def baseline_model(
+    rig: RigDescription, recordings: Sequence[RecordingLike] = ()
+) -> ComponentModel:
+    """The family's model with the baseline elements and the known rig parameters; with
+    ``recordings``, its parameter bounds follow their scale (:func:`data_scales`)."""
+    known: dict[str, Any] = dict(rig.known)
+    if recordings:
+        known["scales"] = data_scales(make_component(rig.family, (), **known), recordings)
+    probe = make_component(rig.family, (), **known)
     effects: list[Effect] = []
     for kind in rig.baseline:
         e = make_effect(kind)
@@ -340,7 +365,7 @@ def baseline_model(rig: RigDescription) -> ComponentModel:
             effects.append(make_effect(kind, location=str(probe.location or "")))
     defaults = probe.effect_defaults
     effects = [e.with_params(defaults.get(e.kind, {})) for e in effects]
-    return make_component(rig.family, effects, **dict(rig.known))
+    return make_component(rig.family, effects, **known)
 
 
 def baseline_families(model: ComponentModel) -> set[str]:

@@ -21,6 +21,8 @@ from typing import Any
 import numpy as np
 
 from suspenv.diagnosis.component.family import resolve_model
+from suspenv.diagnosis.component.rig import DRIFT, baseline_families, baseline_model, describe_rig
+from suspenv.diagnosis.hypothesis import family_of
 from suspenv.measurements import Recording, save_recording
 from suspenv.models.effects import Effect, make_effect
 
@@ -57,6 +59,8 @@ class Truth:
     effects: list[dict[str, Any]]
     noise_rms: float
     noise_fraction: float
+    #: the standard baseline's elements the case carries (not concealed effects)
+    baseline: list[dict[str, Any]] = field(default_factory=list)
 
     @property
     def kinds(self) -> list[str]:
@@ -155,8 +159,40 @@ def draw_effect(kind: str, rng: np.random.Generator, sc: dict[str, float], base:
 
 
 def truth_pool(family: str) -> list[str]:
+    """Effect kinds concealed in ``family``'s cases: its candidates, less those its
+    standard baseline already holds (a gas force is not missing physics)."""
     model = resolve_model(family)
-    return [k for k in model.candidate_effects if k not in EXCLUDED.get(family, ())]
+    held = baseline_families(baseline_model(describe_rig(family, [])))
+    return [
+        k
+        for k in model.candidate_effects
+        if k not in EXCLUDED.get(family, ()) and family_of(k) not in held
+    ]
+
+
+def _baseline_truth(
+    family: str, rng: np.random.Generator, sc: dict[str, float], base: dict, rec: Recording
+) -> list[Effect]:
+    """The standard baseline's elements with random values: every case carries them (a
+    gas damper's gas force, a zero offset, a slowly drifting zero) as real rigs do.
+    Sensor elements are sized by the amplitude of the channel they sit on."""
+    model = resolve_model(family)
+    sim = model.simulate(model.theta_from(base), rec)
+    t_end = float(rec.time[-1])
+    out = []
+    for e in baseline_model(describe_rig(family, [])).effects:
+        if e.spec.role == "sensor":
+            y = np.asarray(sim[e.location or model.output_channels[0]], float)
+            amp = float(np.percentile(np.abs(y - np.median(y)), 98))
+        else:
+            amp = sc["force"]
+        if e.kind == DRIFT:
+            # drifts by 0-2 % of the channel's range over the recording
+            out.append(e.with_params({"rate": amp * float(rng.uniform(-0.02, 0.02)) / t_end}))
+        else:
+            drawn = draw_effect(e.kind, rng, {**sc, "channel": amp}, base)
+            out.append(e.with_params(drawn.params))
+    return out
 
 
 def make_case(family: str, seed: int, n_effects: int) -> Case:
@@ -171,15 +207,14 @@ def make_case(family: str, seed: int, n_effects: int) -> Case:
     pool = truth_pool(family)
     kinds = list(rng.choice(pool, size=n_effects, replace=False)) if n_effects else []
     # two effects of one signature family would be one finding; redraw the second
-    from suspenv.diagnosis.hypothesis import family_of
-
     while n_effects == 2 and family_of(kinds[0]) == family_of(kinds[1]):
         kinds[1] = str(rng.choice(pool))
     effects = [draw_effect(str(k), rng, sc, base) for k in kinds]
     # the family's own element constants (e.g. the quarter car's friction width)
     defaults = model.effect_defaults
     effects = [e.with_params(defaults.get(e.kind, {})) for e in effects]
-    truth_model = model.with_effects(effects)
+    standard = _baseline_truth(family, rng, sc, base, rec)
+    truth_model = model.with_effects(standard + effects)
     clean = truth_model.simulate(truth_model.theta_from(base), rec)
     frac = float(rng.uniform(0.01, 0.04))
     measured = {}
@@ -197,7 +232,16 @@ def make_case(family: str, seed: int, n_effects: int) -> Case:
         dict(rec.units),
         {"source": "synthetic blind case", "sampling": rec.meta.get("sampling", {})},
     )
-    truth = Truth(case_id, family, seed, base, [e.to_dict() for e in effects], noise_rms, frac)
+    truth = Truth(
+        case_id,
+        family,
+        seed,
+        base,
+        [e.to_dict() for e in effects],
+        noise_rms,
+        frac,
+        [e.to_dict() for e in standard],
+    )
     return Case(out, truth)
 
 

@@ -38,6 +38,9 @@ class ComponentModel:
         location: default location words of force effects (e.g. ``"damper"``).
         effect_defaults: per effect kind, shape constants this model fixes for the
             effects a diagnosis adds (empty: the effects library's defaults).
+        fitted_widths: effect kinds whose velocity width ``v_eps`` [m/s] (the friction
+            step's smoothing, held fixed by the library) this model fits: a real
+            friction step is not 1 mm/s wide by decree.
 
     The members the diagnosis reads (``suspenv.diagnosis.protocols.DiagnosableModel``)
     are all defined here with their defaults: ``difference_step`` (finite-difference
@@ -54,6 +57,7 @@ class ComponentModel:
     candidate_effects: ClassVar[tuple[str, ...]] = ()
     location: ClassVar[str] = ""
     effect_defaults: ClassVar[Mapping[str, Mapping[str, float]]] = {}
+    fitted_widths: ClassVar[tuple[str, ...]] = ()
 
     def __init__(self, effects: Sequence[Effect] = (), **options: Any):
         self.effects: tuple[Effect, ...] = tuple(effects)
@@ -106,7 +110,10 @@ class ComponentModel:
         return tuple(p.name for p in self.base_parameters)
 
     def _free(self, e: Effect) -> tuple[str, ...]:
-        return e.spec.free_parameter_names
+        names = e.spec.free_parameter_names
+        if e.kind in self.fitted_widths and "v_eps" in e.spec.parameter_names:
+            names = (*names, "v_eps")
+        return names
 
     @property
     def parameter_names(self) -> tuple[str, ...]:
@@ -124,14 +131,23 @@ class ComponentModel:
         return tuple(units)
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        """Lower and upper bounds of ``theta``."""
-        lo = [p.low for p in self.base_parameters]
-        hi = [p.high for p in self.base_parameters]
+        """Lower and upper bounds of ``theta``.
+
+        With the option ``scales`` (``{"force": F [N], "deflection": X [m], "velocity":
+        V [m/s]}``, the recording's amplitudes) every bound is widened, never narrowed,
+        to follow the data's scale (:func:`scaled_bound`): a 20 kN damper is not held
+        under a 5 kN friction cap, a soft spring not over a 1 kN/m floor."""
+        specs = list(self.base_parameters)
         for e in self.effects:
-            for p in self._free(e):
-                spec = e.spec.parameter(p)
-                lo.append(spec.low)
-                hi.append(spec.high)
+            specs += [e.spec.parameter(p) for p in self._free(e)]
+        sc = self.options.get("scales")
+        lo, hi = [], []
+        for spec in specs:
+            a, b = float(spec.low), float(spec.high)
+            if sc:
+                a, b = scaled_bound(a, b, spec.unit, sc)
+            lo.append(a)
+            hi.append(b)
         return np.array(lo, dtype=float), np.array(hi, dtype=float)
 
     # ------------------------------------------------------------------ theta <-> values
@@ -313,3 +329,44 @@ def robust_amplitude(x: np.ndarray) -> float:
     x = np.asarray(x, dtype=float)
     a = float(np.percentile(np.abs(x - np.median(x)), 98))
     return a if a > 0 else 1.0
+
+
+#: unit -> (force exponent, deflection exponent, velocity exponent) of its scale
+UNIT_SCALE = {
+    "N": (1, 0, 0),
+    "N/m": (1, -1, 0),
+    "N s/m": (1, 0, -1),
+    "N/m^3": (1, -3, 0),
+    "N/m^2": (1, -2, 0),
+    "m": (0, 1, 0),
+    "m/s": (0, 0, 1),
+}
+#: a bound is widened to this many times the data's scale (upper) or below its inverse
+#: (a positive lower bound)
+SCALE_SPAN = 1e3
+
+
+def scaled_bound(
+    low: float, high: float, unit: str, scales: Mapping[str, float]
+) -> tuple[float, float]:
+    """``(low, high)`` widened to the data's scale for parameters in ``unit``.
+
+    The scale is ``F^a X^b V^c`` (:data:`UNIT_SCALE`) from the recording's force ``F``
+    [N], deflection ``X`` [m] and velocity ``V`` [m/s] amplitudes: the upper bound
+    reaches at least ``SCALE_SPAN`` x the scale, a negative lower bound at least minus
+    that, a positive lower bound at most the scale / ``SCALE_SPAN``. Other units
+    (dimensionless, seconds) keep their bounds.
+    """
+    exps = UNIT_SCALE.get(unit)
+    if exps is None:
+        return low, high
+    f, x, v = (float(scales.get(k, 0.0)) for k in ("force", "deflection", "velocity"))
+    if not all(np.isfinite(q) and q > 0 for q, e in zip((f, x, v), exps, strict=True) if e):
+        return low, high
+    scale = (f ** exps[0]) * (x ** exps[1]) * (v ** exps[2])
+    high = max(high, SCALE_SPAN * scale)
+    if low < 0:
+        low = min(low, -SCALE_SPAN * scale)
+    elif low > 0:
+        low = min(low, scale / SCALE_SPAN)
+    return low, high

@@ -61,6 +61,7 @@ class DamperDynoModel(ComponentModel):
     input_channels = ("displacement", "velocity")
     output_channels = ("force",)
     channel_units = {"displacement": "m", "velocity": "m/s", "force": "N"}
+    fitted_widths = ("coulomb_friction", "stribeck_friction", "directional_friction")
     candidate_effects = (
         "digressive_damping",
         "damper_asymmetry",

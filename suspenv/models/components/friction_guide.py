@@ -36,6 +36,7 @@ class FrictionGuideModel(ComponentModel):
     input_channels = ("position", "velocity", "acceleration")
     output_channels = ("force",)
     channel_units = {"position": "m", "velocity": "m/s", "acceleration": "m/s^2", "force": "N"}
+    fitted_widths = ("coulomb_friction", "stribeck_friction", "directional_friction")
     candidate_effects = (
         "coulomb_friction",
         "directional_friction",

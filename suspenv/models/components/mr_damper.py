@@ -31,6 +31,7 @@ class MRDamperModel(ComponentModel):
     input_channels = ("displacement", "velocity")
     output_channels = ("force",)
     channel_units = {"displacement": "m", "velocity": "m/s", "force": "N"}
+    fitted_widths = ("coulomb_friction", "stribeck_friction", "directional_friction")
     candidate_effects = (
         "bouc_wen_hysteresis",
         "dahl_hysteresis",

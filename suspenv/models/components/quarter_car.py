@@ -36,7 +36,7 @@ elements carry a state integrated with the body and wheel. Two integrators
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import ClassVar
 
 import numpy as np
@@ -113,6 +113,7 @@ class QuarterCarRigModel(ComponentModel):
         dt_max: float = 1e-3,
         max_substeps: int = 20,
         integrator: str = "exact",
+        scales: Mapping[str, float] | None = None,
     ):
         if not (m_s > 0 and m_u > 0 and dt_max > 0 and max_substeps >= 1):
             raise ValidationError(
@@ -130,6 +131,7 @@ class QuarterCarRigModel(ComponentModel):
             dt_max=float(dt_max),
             max_substeps=int(max_substeps),
             integrator=str(integrator),
+            **({"scales": dict(scales)} if scales else {}),
         )
 
     def _check_effect(self, effect: Effect) -> None:
@@ -468,7 +470,8 @@ class QuarterCarRigModel(ComponentModel):
         """
         if not {"body_acceleration", "suspension_deflection"} <= set(rec.outputs):
             return None
-        x = np.asarray(rec.outputs["suspension_deflection"], float)
+        _, sensed = self.unpack(np.asarray(theta, float))
+        x = self._undo_sensors(sensed, "suspension_deflection", rec)
         v = _rate(x, rec.time)
 
         def predicted(th: np.ndarray) -> np.ndarray:
@@ -489,8 +492,25 @@ class QuarterCarRigModel(ComponentModel):
             th = theta.copy()
             th[i] += h
             jac[:, i] = (predicted(th) - f0) / h
-        measured = self.options["m_s"] * np.asarray(rec.outputs["body_acceleration"], float)
+        measured = self.options["m_s"] * self._undo_sensors(sensed, "body_acceleration", rec)
         return {"measured": measured, "predicted": f0, "x": x, "v": v, "jacobian": jac}
+
+    def _undo_sensors(self, effects: Sequence[Effect], channel: str, rec: Recording) -> np.ndarray:
+        """The recorded ``channel`` with the zero, drift and gain elements on it undone
+        (the true signal the force view needs); a sensor lag is left in place."""
+        y = np.asarray(rec.outputs[channel], float)
+        t = np.asarray(rec.time, float)
+        for e in reversed([e for e in effects if e.spec.role == "sensor"]):
+            if self._sensor_channel(e) != channel:
+                continue
+            p = {k: float(np.ravel(v)[0]) for k, v in e.params.items()}
+            if e.kind == "sensor_offset":
+                y = y - p["offset"]
+            elif e.kind == "zero_drift":
+                y = y - p["rate"] * t
+            elif e.kind == "sensor_gain":
+                y = y / p["gain"]
+        return y
 
     # ------------------------------------------------------------------ fast start
     def refine_start(
@@ -517,9 +537,10 @@ class QuarterCarRigModel(ComponentModel):
             if not {"body_acceleration", "suspension_deflection"} <= set(rec.outputs):
                 continue
             m = None if masks is None else masks[i]
-            x = np.asarray(rec.outputs["suspension_deflection"], float)
+            _, sensed = self.unpack(np.asarray(theta0, float))
+            x = self._undo_sensors(sensed, "suspension_deflection", rec)
             v = _rate(x, rec.time)
-            f = self.options["m_s"] * np.asarray(rec.outputs["body_acceleration"], float)
+            f = self.options["m_s"] * self._undo_sensors(sensed, "body_acceleration", rec)
             views.append((x, v, rec.time, f, np.ones(x.size, bool) if m is None else m))
         if not views:
             return None

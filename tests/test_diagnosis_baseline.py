@@ -1,0 +1,228 @@
+"""The component diagnosis's baseline, rig description, step/knee rule and residual check.
+
+References: planted physics with known values on the damper's example dyno programme
+(sines at four amplitude/frequency pairs, 2 ms); the truth is the closed-form force
+written here, independent of the effect library's code.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.signal import lfilter
+
+from suspenv.core.errors import ValidationError
+from suspenv.diagnosis.component.residual_left import neighbour_noise_power
+from suspenv.diagnosis.component.rig import (
+    baseline_model,
+    describe_rig,
+    oriented,
+    parse_model_text,
+)
+from suspenv.diagnosis.engine import diagnose
+from suspenv.measurements import Recording
+from suspenv.models.components import make_component
+from suspenv.models.effects import make_effect
+
+C, F0, K_GAS = 1500.0, 150.0, 3000.0
+
+
+@pytest.fixture(scope="module")
+def dyno() -> Recording:
+    return make_component("damper").example_recording(seed=5)
+
+
+def _with_force(rec: Recording, force: np.ndarray, seed: int = 2, meta: dict | None = None):
+    rng = np.random.default_rng(seed)
+    y = force + rng.normal(0.0, 0.02 * np.std(force), force.size)
+    out = rec.with_outputs({"force": y})
+    if meta:
+        out = Recording(
+            out.name, out.test, out.time, out.inputs, out.outputs, out.units, {**out.meta, **meta}
+        )
+    return out
+
+
+def _gas_damper(rec: Recording) -> np.ndarray:
+    x, v = rec.inputs["displacement"], rec.inputs["velocity"]
+    return C * v + F0 + K_GAS * x
+
+
+# ------------------------------------------------------------------ model text and rig
+
+
+def test_model_text_adds_and_removes_baseline_elements():
+    assert parse_model_text("damper+maxwell_viscoelastic-zero_drift") == (
+        "damper",
+        ["maxwell_viscoelastic"],
+        ["zero_drift"],
+    )
+    rig = describe_rig("damper+maxwell_viscoelastic-zero_drift", [])
+    assert rig.baseline == ("gas_spring", "maxwell_viscoelastic")
+    assert describe_rig("damper-gas_spring-zero_drift", []).baseline == ()
+    # the standard baselines (module table): gas force for dampers, drift everywhere
+    assert describe_rig("damper", []).baseline == ("gas_spring", "zero_drift")
+    assert describe_rig("friction_guide", []).baseline == ("force_offset", "zero_drift")
+
+
+def test_model_text_errors_name_the_value():
+    with pytest.raises(ValidationError, match=r"unknown effect kind\(s\) \['gas_sprung'\]"):
+        describe_rig("damper+gas_sprung", [])
+    with pytest.raises(ValidationError, match="unknown component family 'dampr'"):
+        describe_rig("dampr", [])
+    with pytest.raises(ValidationError, match="FAMILY"):
+        parse_model_text("+damper")
+
+
+def test_quarter_car_baseline_puts_sensor_zero_and_drift_on_each_channel():
+    model = baseline_model(describe_rig("quarter_car_rig", []))
+    where = sorted((e.kind, e.location) for e in model.effects)
+    assert where == [
+        ("sensor_offset", "body_acceleration"),
+        ("sensor_offset", "suspension_deflection"),
+        ("zero_drift", "body_acceleration"),
+        ("zero_drift", "suspension_deflection"),
+    ]
+
+
+def test_known_masses_come_from_the_recording_metadata(dyno):
+    rec = make_component("quarter_car_rig").example_recording(seed=1, duration=1.0)
+    rec = Recording(
+        rec.name,
+        rec.test,
+        rec.time,
+        rec.inputs,
+        {"body_acceleration": np.zeros_like(rec.time), "suspension_deflection": rec.time * 0},
+        rec.units,
+        {"rig": {"device": "quarter_car_rig", "known": {"m_s": 287.0, "m_u": 41.5}}},
+    )
+    rig = describe_rig(None, [rec])
+    model = baseline_model(rig)
+    assert (model.options["m_s"], model.options["m_u"]) == (287.0, 41.5)
+    bad = Recording(
+        rec.name, rec.test, rec.time, rec.inputs, rec.outputs, rec.units,
+        {"rig": {"device": "quarter_car_rig", "known": {"k_s": 2e4}}},
+    )  # fmt: skip
+    with pytest.raises(ValidationError, match=r"known rig parameter\(s\) \['k_s'\]"):
+        describe_rig(None, [bad])
+
+
+def test_extension_positive_recording_is_turned_to_compression_positive(dyno):
+    rec = _with_force(dyno, _gas_damper(dyno))
+    flipped = Recording(
+        rec.name,
+        rec.test,
+        rec.time,
+        {k: -v for k, v in rec.inputs.items()},
+        {"force": -rec.outputs["force"]},
+        rec.units,
+        {"rig": {"positive_stroke": "extension", "positive_force": "tension"}},
+    )
+    (turned,) = oriented([flipped], describe_rig("damper", [flipped]))
+    assert np.array_equal(turned.inputs["displacement"], rec.inputs["displacement"])
+    assert np.array_equal(turned.outputs["force"], rec.outputs["force"])
+    assert turned.meta["oriented"] == {"stroke_negated": True, "force_negated": True}
+
+
+def test_varying_coil_voltage_and_unread_extra_inputs_are_refused(dyno):
+    rec = _with_force(dyno, _gas_damper(dyno))
+    u = np.where(rec.time < rec.time[-1] / 2, 0.5, 2.0)
+    mr = Recording(
+        rec.name,
+        rec.test,
+        rec.time,
+        {**rec.inputs, "coil_voltage": u},
+        rec.outputs,
+        {**rec.units, "coil_voltage": "V"},
+        {"rig": {"extra_inputs": {"coil_voltage": "coil drive"}}},
+    )
+    with pytest.raises(ValidationError, match="coil_voltage varies by"):
+        diagnose(mr, "mr_damper")
+    with pytest.raises(ValidationError, match="does not model the declared extra input"):
+        diagnose(mr, "damper")
+
+
+# ------------------------------------------------------------------ naming
+
+
+def test_gas_force_is_baseline_and_friction_is_named(dyno):
+    # truth: gas damper (C, F0, K_GAS) plus Coulomb friction of 80 N
+    v = dyno.inputs["velocity"]
+    rec = _with_force(dyno, _gas_damper(dyno) + 80.0 * np.tanh(v / 0.001))
+    diag = diagnose(rec, "damper")
+    assert diag.named_kinds[0] == "coulomb_friction", diag.verdict
+    assert "gas spring" in diag.baseline["words"]
+    assert not any(h.kind == "gas_spring" for h in diag.hypotheses)
+
+
+@pytest.mark.parametrize("width", [0.005, 0.010])
+def test_wider_friction_steps_are_friction_with_their_width(dyno, width):
+    # a friction step regularised over 5-10 mm/s is the same function of velocity as a
+    # digressive curve with that knee; the fitted width (< 5 % of the peak speed) says
+    # which physics it is, and is recovered
+    v = dyno.inputs["velocity"]
+    rec = _with_force(dyno, _gas_damper(dyno) + 80.0 * np.tanh(v / width))
+    diag = diagnose(rec, "damper")
+    assert diag.named_kinds == ["coulomb_friction"], diag.verdict
+    got = diag.final_params["coulomb_friction.v_eps"]["value"]
+    assert abs(got - width) / width < 0.2
+    assert abs(diag.final_params["coulomb_friction.f_c"]["value"] - 80.0) / 80.0 < 0.2
+
+
+def test_valve_knee_is_a_digressive_curve(dyno):
+    # digressive curve: low-speed slope 3000, high-speed 800 N s/m, knee 50 mm/s
+    x, v = dyno.inputs["displacement"], dyno.inputs["velocity"]
+    force = 800 * v + 2200 * 0.05 * np.tanh(v / 0.05) + F0 + K_GAS * x
+    diag = diagnose(_with_force(dyno, force), "damper")
+    assert diag.named_kinds[0] == "digressive_damping", diag.verdict
+    assert not diag.unexplained
+
+
+# ------------------------------------------------------------------ residual left
+
+
+def test_out_of_library_physics_is_reported_as_unexplained(dyno):
+    # a cubic (progressive) damper term is not in the library
+    v = dyno.inputs["velocity"]
+    base = _gas_damper(dyno)
+    force = base + np.std(base) * (v / np.max(np.abs(v))) ** 3
+    diag = diagnose(_with_force(dyno, force), "damper")
+    assert diag.unexplained
+    assert diag.verdict.startswith("Unexplained residual above noise, not in the library")
+    assert not diag.confident
+
+
+@pytest.mark.parametrize("noise", ["white", "coloured", "drift"])
+def test_controls_are_not_flagged(dyno, noise):
+    base = _gas_damper(dyno)
+    t = dyno.time
+    s = float(np.std(base))
+    rng = np.random.default_rng(7)
+    if noise == "white":
+        e = rng.normal(0.0, 0.02 * s, t.size)
+    elif noise == "coloured":
+        e = lfilter([1.0], [1.0, -0.9], rng.normal(0.0, 1.0, t.size))
+        e *= 0.03 * s / np.std(e)
+    else:
+        e = rng.normal(0.0, 0.02 * s, t.size) + 0.04 * s * np.sin(2 * np.pi * t / (3 * t[-1]))
+    diag = diagnose(dyno.with_outputs({"force": base + e}), "damper")
+    assert not diag.named and not diag.unexplained, diag.verdict
+
+
+def test_neighbour_noise_power_sees_noise_not_structure():
+    # reference: the planted noise's variance; a function of the state cancels
+    rng = np.random.default_rng(3)
+    t = np.arange(20000) * 2e-3
+    x = 0.01 * np.sin(2 * np.pi * t)
+    v = 0.01 * 2 * np.pi * np.cos(2 * np.pi * t)
+    cycle = np.floor(t).astype(int)
+    noise = rng.normal(0.0, 2.0, t.size)
+    structure = 50.0 * (v / v.max()) ** 3 + 30.0 * np.sign(v) * (x / x.max()) ** 2
+    p = neighbour_noise_power(noise + structure, x, v, cycle)
+    assert abs(np.sqrt(p) - 2.0) / 2.0 < 0.05
+
+
+def test_zero_drift_is_rate_times_time():
+    e = make_effect("zero_drift", location="force").with_params({"rate": 0.5})
+    t = np.linspace(0.0, 4.0, 9)
+    assert np.allclose(e.sensor(np.ones_like(t), t), 1.0 + 0.5 * t)
