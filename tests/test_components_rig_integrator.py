@@ -214,3 +214,45 @@ def test_jacobian_twin_steers_the_fit_to_the_same_optimum():
         # the fit's residual is (measured - predicted) / scale
         col = -res.extra["jacobian"][: rec.n_samples, i] * res.scales["body_acceleration"]
         assert _rel_err(col, d) < 0.02, model.parameter_names[i]
+
+
+def test_actuator_force_matches_the_steady_state_transfer_function():
+    # reference: the closed-form harmonic response of the linear 2-DOF system to a force
+    # F_a = A sin(w t) between body and wheel (positive pushing them apart), road at rest
+    m_s, m_u = 320.0, 45.0
+    k_s, c_s, k_t = BASE["k_s"], BASE["c_s"], BASE["k_t"]
+    amp, f_hz, dt = 200.0, 3.0, 1e-3
+    t = np.arange(int(12.0 / dt)) * dt
+    w = 2 * np.pi * f_hz
+    rec = Recording(
+        "actuated",
+        "rig_actuator",
+        t,
+        {"road": np.zeros_like(t), "actuator_force": amp * np.sin(w * t)},
+        {},
+        {"road": "m", "actuator_force": "N", "body_acceleration": "m/s^2",
+         "suspension_deflection": "m"},
+    )  # fmt: skip
+    model = QuarterCarRigModel(m_s=m_s, m_u=m_u)
+    out = model.simulate(model.theta_from(BASE), rec)
+    # [-w^2 M + i w C + K] Z = B F with q = (z_s, z_u), B = (1, -1)
+    s = 1j * w
+    dyn = np.array(
+        [
+            [m_s * s**2 + c_s * s + k_s, -(c_s * s + k_s)],
+            [-(c_s * s + k_s), m_u * s**2 + c_s * s + k_s + k_t],
+        ]
+    )
+    z = np.linalg.solve(dyn, np.array([1.0, -1.0]) * amp)
+    want_acc = np.abs(s**2 * z[0])
+    want_defl = np.abs(z[1] - z[0])
+    tail = t > 8.0  # transients (time constants below 0.5 s) have decayed
+    got_acc = np.sqrt(2) * np.std(out["body_acceleration"][tail])
+    got_defl = np.sqrt(2) * np.std(out["suspension_deflection"][tail])
+    assert abs(got_acc - want_acc) / want_acc < 2e-3
+    assert abs(got_defl - want_defl) / want_defl < 2e-3
+    # the waveform, phase and sign included (F_a = Im(A e^{iwt}), so a = Im(s^2 Z_s e^{iwt})):
+    # a wrong sign of the actuator force would give the negated waveform
+    want = np.imag(s**2 * z[0] * np.exp(1j * w * t))
+    err = out["body_acceleration"][tail] - want[tail]
+    assert np.std(err) / np.std(want[tail]) < 5e-3

@@ -93,7 +93,7 @@ def test_blind_case_through_the_cli(tmp_path) -> None:
     out = tmp_path / "out"
     assert main(["diagnose", str(rec_path), "--model", "mr_damper", "--out", str(out)]) == 0
     md = (out / "report.md").read_text()
-    assert "Verdict" in md and "Hypotheses" in md and "residual_map.png" in md
+    assert "Evidence:" in md and "Hypotheses" in md and "residual_map.png" in md
     found = json.loads((out / "diagnosis.json").read_text())
     assert found["named"][0]["kind"] == "coulomb_friction"
     assert found["comparison"]["heldout_reduction"] > 0.5

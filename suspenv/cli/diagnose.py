@@ -87,7 +87,9 @@ def _diagnose(args: argparse.Namespace) -> int:
             target.recordings, target.family, target.holdout, progress=target.family == "knc"
         )
         paths = write_diagnosis_report(diag, out)
-        print(diag.verdict)
+        print(diag.headline)
+        for line in diag.evidence:
+            print(f"  - {line}")
     for p in paths:
         print(f"wrote {p}")
     return 0

@@ -67,6 +67,7 @@ class Diagnosis:
             ``residual``, ``detection_limits``).
         confident: False when the residual left says physics outside the candidate
             list remains.
+        evidence: the sentences behind the headline (ambiguities, the family's checks).
     """
 
     recording: str
@@ -90,6 +91,7 @@ class Diagnosis:
     final_fit: FitResult = field(repr=False)
     findings: dict[str, Any] = field(default_factory=dict)
     confident: bool = True
+    evidence: list[str] = field(default_factory=list)
 
     @property
     def named_kinds(self) -> list[str]:
@@ -125,6 +127,26 @@ class Diagnosis:
         return self.findings.get("residual")
 
     @property
+    def headline(self) -> str:
+        """The verdict in one short line (the evidence follows in :attr:`verdict` and the
+        report): what is missing, whether a residual nobody can name is left, or that the
+        model does not describe the recording."""
+        if self.findings.get("misfit"):
+            return "The model does not describe this recording: no verdict on missing physics"
+        named = "; then ".join(h.words for h in self.named)
+        if self.unexplained:
+            if named:
+                return (
+                    f"Missing physics (not confident): {named}; a residual above the noise "
+                    "remains that the library does not explain"
+                )
+            return "Unexplained residual above noise, not in the library"
+        if named:
+            head = "Missing physics" if self.confident else "Missing physics (not confident)"
+            return f"{head}: {named}"
+        return "No significant missing physics"
+
+    @property
     def unexplained(self) -> bool:
         """True when a residual above the noise floor is left that no named element
         explains (components and ride)."""
@@ -156,6 +178,8 @@ class Diagnosis:
             "verdict": self.verdict,
             "confident": self.confident,
             "unexplained": self.unexplained,
+            "headline": self.headline,
+            "evidence": self.evidence,
             "rule": self.rule.to_dict(),
             "named": [
                 {
@@ -321,6 +345,7 @@ def diagnose(
         final_fit=current,
         findings=found.findings,
         confident=found.confident and bool(named),
+        evidence=[a.sentence() for a in amb] + [x for x in found.sentences if x],
     )
 
 

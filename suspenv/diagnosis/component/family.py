@@ -370,8 +370,12 @@ class ComponentFamily(OptionalSteps):
         return ext
 
     def words(self, candidate: str, setup: Setup) -> str:
-        """Engineering words, e.g. "Coulomb friction in the guide"."""
-        return make_effect(candidate, location=effect_location(setup.model, candidate)).words
+        """Engineering words in the device's terms, e.g. "Coulomb friction in the guide",
+        "yield force of the MR fluid (...)" (the model's ``device_words`` first)."""
+        effect = make_effect(candidate, location=effect_location(setup.model, candidate))
+        if isinstance(setup.model, ComponentModel):
+            return setup.model.effect_words(effect)
+        return effect.words
 
     def ambiguities(
         self,
@@ -407,14 +411,36 @@ class ComponentFamily(OptionalSteps):
                 found.final_fit = asym.hypothesis.fit
             elif asym is not None:
                 found.sentences.append(asym.sentence)
+        final = found.final_fit or outcome.current
         if self.check_residual:
-            final = found.final_fit or outcome.current
             left = residual_left(final, setup.split, self.rule.alpha)
             found.findings["residual"] = left
             remaining = [r for r in left if r.remains]
             found.confident = not remaining
             if remaining:
                 found.sentences.insert(0, remaining[0].sentence())
+        at_bound = parameters_at_bounds(final, outcome.named)
+        if at_bound:
+            found.findings["at_bounds"] = at_bound
+            found.confident = False
+            found.sentences.append(
+                "parameter(s) ended at a bound, so the element is used outside its range to "
+                "absorb something else: " + "; ".join(at_bound)
+            )
+        share = explained_share(final, setup.split)
+        found.findings["explained_share"] = share
+        worst = min(share.values(), default=1.0)
+        if worst < MIN_EXPLAINED_SHARE:
+            ch = min(share, key=lambda c: share[c])
+            found.confident = False
+            found.findings["misfit"] = True
+            found.sentences.insert(
+                0,
+                f"the model describes only {100 * max(worst, 0.0):.0f} % of the variance of "
+                f"{ch}: the recording may not be of a {setup.model.family} on this rig, or a "
+                "channel is swapped, in another unit or of the other sign; no verdict on "
+                "missing physics is given",
+            )
         return found
 
 
@@ -470,6 +496,66 @@ def check_step_or_knee(candidate: str, ext: FitResult, vmax: float) -> None:
             f"peak speed {vmax:.3g} m/s (< {100 * KNEE_MIN_FRACTION:.0f} %): a force step at "
             "every reversal, which is friction, not a valve knee"
         )
+
+
+#: the final model must describe at least this share of each output's variance for any
+#: verdict on missing physics (below it the recording is not of this component, or a
+#: channel is misread: no library effect can be meaningfully named)
+MIN_EXPLAINED_SHARE = 0.5
+#: relative distance (of the bound span; in log(value) for positive bounds) within which
+#: a fitted parameter counts as on its bound
+BOUND_TOLERANCE = 1e-3
+
+
+def parameters_at_bounds(fit: FitResult, named: Sequence[Hypothesis]) -> list[str]:
+    """Base parameters and the named elements' parameters that ended on a fit bound, in
+    words (``"c = 1e+06 N s/m at its upper bound"``)."""
+    lo, hi = fit.model.bounds()
+    names = list(fit.model.parameter_names)
+    own = {k for h in named for k in h.params}
+    base = set(fit.model.base_names) if hasattr(fit.model, "base_names") else set()
+    units = list(getattr(fit.model, "parameter_units", [""] * len(names)))
+    out = []
+    for i, name in enumerate(names):
+        if name not in own and name not in base:
+            continue
+        th, a, b = float(fit.theta[i]), float(lo[i]), float(hi[i])
+        if not (np.isfinite(a) and np.isfinite(b) and b > a):
+            continue
+        if a > 0 and th > 0:
+            # positive bounds span decades: distance measured in log(value)
+            span = float(np.log(b / a))
+            near_lo = np.log(th / a) <= BOUND_TOLERANCE * span
+            near_hi = np.log(b / th) <= BOUND_TOLERANCE * span
+        else:
+            # a bound at zero is a physical limit (no friction, no extra damping), not one
+            # an element is pushed against to absorb something else
+            near_lo = False
+            near_hi = b - th <= BOUND_TOLERANCE * (b - a)
+        if near_lo or near_hi:
+            side = "lower" if near_lo else "upper"
+            out.append(f"{name} = {th:.4g} {units[i]} at its {side} bound".replace("  ", " "))
+    return out
+
+
+def explained_share(fit: FitResult, sp: Split) -> dict[str, float]:
+    """Per output channel, ``1 - var(residual) / var(measured)`` of the final model over
+    the fit samples (1: perfect; 0: no better than the mean)."""
+    parts = residuals(fit.model, fit.theta, sp.fit_recordings, fit.channels, sp.fit_masks)
+    out = {}
+    for ch in fit.channels:
+        r = np.concatenate([p[ch] for p in parts])
+        meas = np.concatenate(
+            [
+                np.asarray(rec.outputs[ch], float)[
+                    slice(None) if sp.fit_masks is None else sp.fit_masks[i]
+                ]
+                for i, rec in enumerate(sp.fit_recordings)
+            ]
+        )
+        var = float(np.var(meas))
+        out[ch] = 1.0 - float(np.var(r)) / var if var > 0 else 1.0
+    return out
 
 
 def _stroke(sp: Split) -> tuple[float, float]:

@@ -78,6 +78,9 @@ KNOWN_PARAMETERS: dict[str, dict[str, str]] = {
 #: extra input channels a family reads when declared, and what it does with them
 EXTRA_INPUTS: dict[str, dict[str, str]] = {
     "mr_damper": {"coil_voltage": "constant per recording: the fit holds for that field"},
+    "quarter_car_rig": {
+        "actuator_force": "a known force between body and wheel, positive pushing them apart"
+    },
 }
 
 STROKE_SIGNS = ("compression", "extension")
@@ -441,6 +444,8 @@ def check_extra_inputs(recordings: Sequence[RecordingLike], rig: RigDescription)
                 words.append(
                     f"recording {rec.name}: coil voltage {float(np.mean(u)):.3g} V (constant)"
                 )
+        else:
+            words.append(f"extra input {name}: {reads[name]}")
     return words
 
 

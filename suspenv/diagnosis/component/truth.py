@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.component.family import resolve_model
 from suspenv.diagnosis.component.rig import DRIFT, baseline_families, baseline_model, describe_rig
 from suspenv.diagnosis.hypothesis import family_of
@@ -61,10 +62,15 @@ class Truth:
     noise_fraction: float
     #: the standard baseline's elements the case carries (not concealed effects)
     baseline: list[dict[str, Any]] = field(default_factory=list)
+    #: "white", "coloured" or "drift" (:data:`CONTROL_NOISE`)
+    noise_kind: str = "white"
+    #: the concealed element is outside the effect library
+    outside: bool = False
 
     @property
     def kinds(self) -> list[str]:
-        return [e["kind"] for e in self.effects]
+        """Concealed library effect kinds (empty for controls and outside cases)."""
+        return [] if self.outside else [e["kind"] for e in self.effects]
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -195,9 +201,70 @@ def _baseline_truth(
     return out
 
 
-def make_case(family: str, seed: int, n_effects: int) -> Case:
-    """A concealed case: ``n_effects`` in {0, 1, 2} drawn from the family's pool."""
-    rng = np.random.default_rng([seed, n_effects, sum(map(ord, family))])
+#: physics outside the effect library, per family: closed-form forces added to the
+#: simulated force (component on a dyno or guide), or a pure delay of the recorded body
+#: acceleration (quarter car); the diagnosis cannot name them and must say so
+OUTSIDE_KINDS: dict[str, tuple[str, ...]] = {
+    "damper": ("cubic_damping", "velocity_dead_zone"),
+    "mr_damper": ("cubic_damping", "velocity_dead_zone"),
+    "friction_guide": ("cogging", "cubic_damping"),
+    "quarter_car_rig": ("time_delay",),
+}
+#: noise of the no-effect controls, by seed: white, coloured (AR(1), correlation time
+#: about 10 samples) and white plus a slow, curved zero drift
+CONTROL_NOISE = ("white", "coloured", "drift")
+
+
+def _outside(
+    kind: str, rng: np.random.Generator, sc: dict[str, float], rec: Recording
+) -> tuple[dict[str, float], np.ndarray | float]:
+    """Parameters and the added force [N] of an out-of-library element (force families;
+    zero for the quarter car's delay, which acts on the recorded channel)."""
+    from suspenv.diagnosis.component.motion import motion
+
+    x, v = motion(rec)
+    F, X, V = sc["force"], sc["stroke"], sc["speed"]
+    if kind == "cubic_damping":
+        c3 = float(rng.uniform(0.15, 0.3)) * F / V**3
+        return {"c3": c3}, c3 * v**3
+    if kind == "velocity_dead_zone":
+        # the damping force is missing below v_dz (a valve that opens late)
+        v_dz = float(rng.uniform(0.1, 0.2)) * V
+        c = F / max(V, 1e-9)
+        return {"v_dz": v_dz, "c": c}, -c * v * (np.abs(v) < v_dz)
+    if kind == "cogging":
+        amp = float(rng.uniform(0.1, 0.25)) * F
+        pitch = float(rng.uniform(0.1, 0.25)) * X
+        return {"amplitude": amp, "pitch": pitch}, amp * np.sin(2 * np.pi * x / pitch)
+    if kind == "time_delay":
+        return {"delay": float(rng.uniform(2.0, 5.0)) * float(np.median(np.diff(rec.time)))}, 0.0
+    raise ValidationError(f"unknown out-of-library kind {kind!r}")  # pragma: no cover
+
+
+def _noise(
+    kind: str, rng: np.random.Generator, y: np.ndarray, t: np.ndarray, frac: float
+) -> np.ndarray:
+    """Measurement noise of RMS ``frac * std(y)``: white, coloured or white plus drift."""
+    sd = frac * float(np.std(y))
+    if kind == "coloured":
+        from scipy.signal import lfilter
+
+        e = lfilter([1.0], [1.0, -0.9], rng.normal(0.0, 1.0, y.size))
+        return np.asarray(e * sd / np.std(e))
+    e = rng.normal(0.0, sd, y.size)
+    if kind == "drift":
+        span = float(t[-1] - t[0]) or 1.0
+        phase = float(rng.uniform(0, 2 * np.pi))
+        e = e + 2.0 * sd * np.sin(2 * np.pi * (t - t[0]) / (3.0 * span) + phase)
+    return e
+
+
+def make_case(family: str, seed: int, n_effects: int, outside: bool = False) -> Case:
+    """A concealed case: ``n_effects`` in {0, 1, 2} drawn from the family's pool, or with
+    ``outside`` one element from outside the library (:data:`OUTSIDE_KINDS`). Controls
+    (no effect) get the noise :data:`CONTROL_NOISE` ``[seed % 3]``."""
+    salt = 7 if outside else n_effects
+    rng = np.random.default_rng([seed, salt, sum(map(ord, family))])
     model = resolve_model(family)
     rec = model.example_recording(
         seed=int(rng.integers(1 << 30)), **CASE_RECORDING_OPTIONS.get(family, {})
@@ -205,9 +272,10 @@ def make_case(family: str, seed: int, n_effects: int) -> Case:
     base = {k: float(rng.uniform(*b)) for k, b in BASE_DRAWS[family].items()}
     sc = _scales(model, base, rec)
     pool = truth_pool(family)
-    kinds = list(rng.choice(pool, size=n_effects, replace=False)) if n_effects else []
+    n_drawn = 0 if outside else n_effects
+    kinds = list(rng.choice(pool, size=n_drawn, replace=False)) if n_drawn else []
     # two effects of one signature family would be one finding; redraw the second
-    while n_effects == 2 and family_of(kinds[0]) == family_of(kinds[1]):
+    while n_drawn == 2 and family_of(kinds[0]) == family_of(kinds[1]):
         kinds[1] = str(rng.choice(pool))
     effects = [draw_effect(str(k), rng, sc, base) for k in kinds]
     # the family's own element constants (e.g. the quarter car's friction width)
@@ -216,13 +284,27 @@ def make_case(family: str, seed: int, n_effects: int) -> Case:
     standard = _baseline_truth(family, rng, sc, base, rec)
     truth_model = model.with_effects(standard + effects)
     clean = truth_model.simulate(truth_model.theta_from(base), rec)
+    effect_dicts = [e.to_dict() for e in effects]
+    if outside:
+        kind = str(rng.choice(OUTSIDE_KINDS[family]))
+        params, added = _outside(kind, rng, sc, rec)
+        if kind == "time_delay":
+            from suspenv.models.effects.sensor import sensor_delay
+
+            clean["body_acceleration"] = sensor_delay(
+                np.asarray(clean["body_acceleration"], float), rec.time, params["delay"]
+            )
+        else:
+            clean["force"] = np.asarray(clean["force"], float) + added
+        effect_dicts = [{"kind": kind, "outside": True, "params": params}]
     frac = float(rng.uniform(0.01, 0.04))
+    noise_kind = CONTROL_NOISE[seed % 3] if (n_drawn == 0 and not outside) else "white"
     measured = {}
     for channel in model.output_channels:
         y = np.asarray(clean[channel], float)
-        measured[channel] = y + rng.normal(0.0, frac * float(np.std(y)), y.size)
+        measured[channel] = y + _noise(noise_kind, rng, y, rec.time, frac)
     noise_rms = frac * float(np.std(clean[model.output_channels[0]]))
-    case_id = f"{family}-{n_effects}-{seed}"
+    case_id = f"{family}-{'out' if outside else n_effects}-{seed}"
     out = Recording(
         case_id,
         rec.test,
@@ -237,10 +319,12 @@ def make_case(family: str, seed: int, n_effects: int) -> Case:
         family,
         seed,
         base,
-        [e.to_dict() for e in effects],
+        effect_dicts,
         noise_rms,
         frac,
         [e.to_dict() for e in standard],
+        noise_kind,
+        outside,
     )
     return Case(out, truth)
 

@@ -38,6 +38,8 @@ class ComponentModel:
         location: default location words of force effects (e.g. ``"damper"``).
         effect_defaults: per effect kind, shape constants this model fixes for the
             effects a diagnosis adds (empty: the effects library's defaults).
+        device_words: per effect kind, the words of this device for it (a controllable
+            damper's yield force is not "friction in the damper"); empty: the library's.
         fitted_widths: effect kinds whose velocity width ``v_eps`` [m/s] (the friction
             step's smoothing, held fixed by the library) this model fits: a real
             friction step is not 1 mm/s wide by decree.
@@ -58,6 +60,7 @@ class ComponentModel:
     location: ClassVar[str] = ""
     effect_defaults: ClassVar[Mapping[str, Mapping[str, float]]] = {}
     fitted_widths: ClassVar[tuple[str, ...]] = ()
+    device_words: ClassVar[Mapping[str, str]] = {}
 
     def __init__(self, effects: Sequence[Effect] = (), **options: Any):
         self.effects: tuple[Effect, ...] = tuple(effects)
@@ -294,7 +297,10 @@ class ComponentModel:
         }
 
     def effect_words(self, effect: Effect) -> str:
-        """Engineering words for ``effect`` in this model, e.g. "Coulomb friction in the guide"."""
+        """Engineering words for ``effect`` in this model, e.g. "Coulomb friction in the guide"
+        (the device's own words, ``device_words``, first)."""
+        if effect.kind in self.device_words:
+            return str(self.device_words[effect.kind])
         if effect.location or not self.location:
             return effect.words
         return f"{effect.spec.words} in the {self.location}"

@@ -32,6 +32,17 @@ class MRDamperModel(ComponentModel):
     output_channels = ("force",)
     channel_units = {"displacement": "m", "velocity": "m/s", "force": "N"}
     fitted_widths = ("coulomb_friction", "stribeck_friction", "directional_friction")
+    device_words = {
+        "coulomb_friction": "yield force of the MR fluid (Bingham plastic: a force step at "
+        "each reversal)",
+        "digressive_damping": "post-yield saturation of the MR fluid (the force levels off "
+        "with speed)",
+        "bouc_wen_hysteresis": "pre-yield hysteresis of the MR fluid (Bouc-Wen)",
+        "dahl_hysteresis": "pre-yield hysteresis of the MR fluid (Dahl)",
+        "maxwell_viscoelastic": "compliance lag of the MR damper (Maxwell element: fluid "
+        "compressibility, accumulator)",
+        "damper_asymmetry": "bump/rebound asymmetry of the MR damper",
+    }
     candidate_effects = (
         "bouc_wen_hysteresis",
         "dahl_hysteresis",

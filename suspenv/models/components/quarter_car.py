@@ -6,9 +6,12 @@ equilibrium (gravity balanced by the static spring force, so it does not appear)
 Suspension deflection ``x = z_u - z_s`` [m] is positive in compression (bump);
 the suspension force ``F_s`` [N] pushes body up and wheel down::
 
-    m_s z_s'' = F_s
-    m_u z_u'' = -F_s + k_t (z_r - z_u)
+    m_s z_s'' = F_s + F_a
+    m_u z_u'' = -F_s - F_a + k_t (z_r - z_u)
     F_s = k_s x + c_s x' + sum of effect forces(x, x')
+
+``F_a`` [N] is an optional known input ``actuator_force`` (an active rig's actuator
+between body and wheel, positive pushing them apart; exact integrator only).
 
 Outputs: ``body_acceleration`` z_s'' [m/s^2] and ``suspension_deflection`` x [m].
 The tyre stays in contact (linear point-contact tyre). Masses are known options
@@ -216,8 +219,18 @@ class QuarterCarRigModel(ComponentModel):
             }
             for e in effects
         ]
-        if self.options["integrator"] == "exact" and rig_integrator.supports(effects):
-            acc, defl = self._integrate_exact(flat_base, flat_eff, effects, t, road, rows)
+        actuator = rec.inputs.get("actuator_force")
+        exact = self.options["integrator"] == "exact" and rig_integrator.supports(effects)
+        if actuator is not None and not exact:
+            raise ValidationError(
+                f"{self.family}: an actuator_force input is integrated by the exact scheme "
+                "only, which does not support the effects "
+                f"{[e.kind for e in effects if not rig_integrator.supports([e])]}"
+            )
+        if exact:
+            acc, defl = self._integrate_exact(
+                flat_base, flat_eff, effects, t, road, rows, actuator
+            )
         elif rows == 1:
             row_base = {n: float(v[0]) for n, v in flat_base.items()}
             row_effects = [
@@ -254,6 +267,7 @@ class QuarterCarRigModel(ComponentModel):
         t: np.ndarray,
         road: np.ndarray,
         rows: int,
+        actuator: np.ndarray | None = None,
     ) -> tuple[np.ndarray, np.ndarray]:
         """The exact-linear, implicit-element scheme, row by row; ``(rows, T)`` outputs.
 
@@ -272,7 +286,7 @@ class QuarterCarRigModel(ComponentModel):
             ]
             try:
                 acc[i], defl[i] = rig_integrator.integrate(
-                    m_s, m_u, row_base, row_eff, t, road, nsub
+                    m_s, m_u, row_base, row_eff, t, road, nsub, actuator=actuator
                 )
             except (EvaluationError, OverflowError, ZeroDivisionError, ValueError) as exc:
                 failure = exc
@@ -493,7 +507,15 @@ class QuarterCarRigModel(ComponentModel):
             th[i] += h
             jac[:, i] = (predicted(th) - f0) / h
         measured = self.options["m_s"] * self._undo_sensors(sensed, "body_acceleration", rec)
+        measured = measured - self._actuator(rec)
         return {"measured": measured, "predicted": f0, "x": x, "v": v, "jacobian": jac}
+
+    @staticmethod
+    def _actuator(rec: Recording) -> np.ndarray | float:
+        """The known actuator force [N] between body and wheel (positive pushing them
+        apart), or 0 when the recording has none."""
+        act = rec.inputs.get("actuator_force")
+        return 0.0 if act is None else np.asarray(act, float)
 
     def _undo_sensors(self, effects: Sequence[Effect], channel: str, rec: Recording) -> np.ndarray:
         """The recorded ``channel`` with the zero, drift and gain elements on it undone
@@ -541,6 +563,7 @@ class QuarterCarRigModel(ComponentModel):
             x = self._undo_sensors(sensed, "suspension_deflection", rec)
             v = _rate(x, rec.time)
             f = self.options["m_s"] * self._undo_sensors(sensed, "body_acceleration", rec)
+            f = f - self._actuator(rec)
             views.append((x, v, rec.time, f, np.ones(x.size, bool) if m is None else m))
         if not views:
             return None

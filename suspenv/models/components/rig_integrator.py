@@ -232,16 +232,26 @@ def integrate(
     nsub: int = 1,
     tol: float = 1e-7,
     max_iter: int = 8,
+    actuator: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Body acceleration [m/s^2] and suspension deflection [m] at the samples ``t``.
 
     One parameter set (floats); ``effects`` are force effects with scalar parameters,
     all supported (:func:`supports`). ``nsub`` sub-steps per sample interval (the road
     linear between samples). Starts at rest on ``road[0]`` (static equilibrium). The
-    element force is solved to ``tol * (1 + |F|)`` [N] per step.
+    element force is solved to ``tol * (1 + |F|)`` [N] per step. ``actuator`` [N] (one
+    value per sample, linear between samples): a known force between body and wheel,
+    positive pushing them apart (it adds to the suspension force).
     """
     k_s, c_s, k_t = float(base["k_s"]), float(base["c_s"]), float(base["k_t"])
-    stateless = _sum_of([_element_law(e) for e in effects if e.kind in STATELESS])
+    element_force = _sum_of([_element_law(e) for e in effects if e.kind in STATELESS])
+    act_l = None if actuator is None else np.asarray(actuator, float).tolist()
+    fa_end = 0.0 if act_l is None else act_l[0]
+
+    def with_actuator(x: float, v: float) -> float:
+        return element_force(x, v) + fa_end
+
+    stateless = element_force if act_l is None else with_actuator
     states: list[Any] = [_STATE_TYPES[e.kind](e) for e in effects if e.kind in EXACT_STATEFUL]
     dts = np.diff(t)
     mats: dict[float, tuple[list[list[float]], ...]] = {}
@@ -263,7 +273,7 @@ def integrate(
     acc[0] = fe / m_s
     defl[0] = 0.0
     road_l, dts_l = road.tolist(), dts.tolist()
-    has_effects = bool(effects)
+    has_effects = bool(effects) or act_l is not None
     uniform = bool(np.all(np.abs(dts - dts[0]) <= 1e-9 * abs(dts[0])))
     h = dts_l[0] / nsub
     (p0, p1, p2, p3), (a0, a1, a2, a3), (b0, b1, b2, b3) = matrices(h)
@@ -278,6 +288,8 @@ def integrate(
         ra, dr = road_l[k], (road_l[k + 1] - road_l[k]) / nsub
         for j in range(nsub):
             r_start, r_end = ra + dr * j, ra + dr * (j + 1)
+            if act_l is not None:
+                fa_end = act_l[k] + (act_l[k + 1] - act_l[k]) * (j + 1) / nsub
             # end state without the unknown end force F1: known part + g * F1
             kz_s = p0[0] * zs + p0[1] * vs + p0[2] * zu + p0[3] * vu
             kz_s += a0[0] * r_start + a0[1] * fe + b0[0] * r_end

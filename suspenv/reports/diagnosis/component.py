@@ -131,9 +131,16 @@ def _param_table(params: dict[str, dict[str, float]]) -> list[str]:
 def markdown(diag: Diagnosis, figures: dict[str, str]) -> str:
     """The report text (figures referenced by relative file name)."""
     L = [f"# Diagnosis: {text(diag.recording)} ({diag.model})", ""]
-    L += [f"**Verdict: {diag.verdict}.**", ""]
-    for amb in diag.ambiguities:
-        L += [f"> **Ambiguity:** {amb.sentence()}.", ""]
+    L += [f"**{diag.headline}.**", ""]
+    base = diag.baseline
+    evidence = []
+    if base.get("words"):
+        where = ", ".join(base.get("rig", {}).get("sources", [])) or "the family's standard"
+        evidence.append(f"Baseline ({where}): {base['words']}")
+    evidence += [str(n) for n in base.get("rig_notes", [])]
+    evidence.append(f"Held out: {text(diag.holdout)}")
+    evidence += [e[0].upper() + e[1:] for e in diag.evidence]
+    L += ["Evidence:", ""] + [f"- {e.rstrip('.')}." for e in evidence] + [""]
     c = diag.comparison
     ch = diag.channel
     if c is not None:

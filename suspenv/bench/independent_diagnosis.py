@@ -1,0 +1,219 @@
+"""The component diagnosis on recordings from the independent generator, reported only.
+
+``python -m suspenv.bench.independent_diagnosis [--seeds 5000-5009] [--out DIR]``
+generates the cases with :mod:`suspenv.bench.independent` (which shares no code with the
+diagnosis engine or the component models), diagnoses each one as a user would (the
+model family and the rig from the recording's ``meta["rig"]``, every other setting at
+its default), scores the verdicts against the truth files, prints the table, and writes
+``docs/benchmarks/independent_diagnosis.json`` and the table between the markers of
+``docs/diagnosis.md``.
+
+Scores (per family and in total):
+
+* **single**: the first named element is of the truth's signature family (the truth's
+  labels are the generator's own vocabulary, mapped in :data:`LABEL_FAMILY`);
+* **control**: a false alarm is any named element or an "unexplained residual" verdict;
+* **outside** (physics not in the library): reported as unexplained;
+* a recording the diagnosis refuses counts as a miss, with its message kept;
+* time per diagnosis, wall and process CPU.
+
+Parameters are not scored here: the generator's parameterisations (LuGre, Bouc-Wen with
+its own exponents, piecewise valves) are not the library's, so a parameter-by-parameter
+comparison would measure the translation between them, not the diagnosis.
+
+The reported seed set is 5000-5009; it is run for reporting only.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import tempfile
+import time
+from collections import defaultdict
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from suspenv.bench.common import machine_info
+
+#: generator label -> the engine's signature family that names it
+LABEL_FAMILY = {
+    "friction": "friction",
+    "hysteresis": "hysteresis",
+    "digressive": "digressive",
+    "damper_asymmetry": "damper_asymmetry",
+    "viscoelastic": "viscoelastic",
+    "progressive": "progressive",
+    "end_stop": "end_stop",
+    "sensor_offset": "sensor_offset",
+    "sensor_gain": "sensor_gain",
+    "sensor_lag": "sensor_lag",
+}
+DOC_BEGIN = "<!-- independent-table:begin -->"
+DOC_END = "<!-- independent-table:end -->"
+REPORT_SEEDS = "5000-5009"
+
+
+def score_case(truth: dict[str, Any], diag: Any | None, error: str = "") -> dict[str, Any]:
+    """One case's record: what was concealed, what was said, and whether it was right."""
+    kind = truth["kind"]
+    labels = [e["label"] for e in truth.get("effects", [])]
+    row: dict[str, Any] = {
+        "case_id": truth["case_id"],
+        "family": truth["family"],
+        "kind": kind,
+        "labels": labels,
+        "noise": truth.get("noise", {}).get("kind"),
+        "refused": error,
+    }
+    if diag is None:
+        row.update(named=[], unexplained=False, right=False, verdict=error)
+        return row
+    named = diag.named_families
+    row.update(
+        named=named,
+        unexplained=bool(diag.unexplained),
+        verdict=diag.verdict,
+        wall_s=diag.seconds,
+    )
+    if kind == "single":
+        want = LABEL_FAMILY.get(labels[0], labels[0])
+        row["right"] = bool(named) and named[0] == want
+    elif kind == "control":
+        row["right"] = not named and not diag.unexplained
+    else:
+        row["right"] = bool(diag.unexplained)
+    return row
+
+
+def run(seeds: str, work: Path) -> dict[str, Any]:
+    """Generate, diagnose and score every case of ``seeds`` in ``work``."""
+    from suspenv.bench.independent.generate import main as generate
+    from suspenv.diagnosis.engine import diagnose
+    from suspenv.measurements import load_recording
+
+    generate(["--out", str(work), "--seeds", seeds, "--overwrite"])
+    manifest = json.loads((work / "manifest.json").read_text())
+    ids = manifest.get("cases") or manifest.get("case_ids") or []
+    rows = []
+    for i, cid in enumerate(ids):
+        truth = json.loads((work / "truth" / f"{cid}.json").read_text())
+        rec = load_recording(work / "cases" / f"{cid}.npz")
+        c0 = time.process_time()
+        t0 = time.perf_counter()
+        try:
+            diag = diagnose(rec, str(rec.meta.get("rig", {}).get("device", truth["family"])))
+            row = score_case(truth, diag)
+        except Exception as exc:  # a refusal or a failure is a miss, kept with its message
+            row = score_case(truth, None, f"{type(exc).__name__}: {exc}")
+        row["wall_s"] = time.perf_counter() - t0
+        row["cpu_s"] = time.process_time() - c0
+        rows.append(row)
+        print(
+            f"[{i + 1}/{len(ids)}] {cid}: {'right' if row['right'] else 'MISS'} "
+            f"({row['wall_s']:.1f} s) {str(row['verdict'])[:110]}",
+            flush=True,
+        )
+    return {"seeds": seeds, "generator": manifest.get("generator"), "cases": rows}
+
+
+def summarise(result: dict[str, Any]) -> dict[str, Any]:
+    """Rates per family and in total (see the module docstring)."""
+    groups: dict[str, list[dict[str, Any]]] = defaultdict(list)
+    for r in result["cases"]:
+        groups[r["family"]].append(r)
+        groups["all"].append(r)
+    out = {}
+    for fam, rows in groups.items():
+
+        def rate(kind: str, rows: list[dict[str, Any]] = rows) -> tuple[int, int]:
+            sel = [r for r in rows if r["kind"] == kind]
+            return sum(bool(r["right"]) for r in sel), len(sel)
+
+        wall = [r["wall_s"] for r in rows]
+        cpu = [r["cpu_s"] for r in rows]
+        single, control, outside = rate("single"), rate("control"), rate("outside")
+        out[fam] = {
+            "single_named_first": single,
+            "control_false_alarms": (control[1] - control[0], control[1]),
+            "outside_unexplained": outside,
+            "refused": sum(bool(r["refused"]) for r in rows),
+            "wall_s_median": float(np.median(wall)),
+            "wall_s_max": float(np.max(wall)),
+            "cpu_s_median": float(np.median(cpu)),
+            "cpu_s_max": float(np.max(cpu)),
+        }
+    return out
+
+
+def _frac(pair: tuple[int, int]) -> str:
+    k, n = pair
+    return f"{k}/{n} ({100 * k / n:.0f} %)" if n else "-"
+
+
+def table_markdown(summary: dict[str, Any], seeds: str) -> str:
+    families = ("damper", "mr_damper", "friction_guide", "quarter_car_rig")
+    order = [f for f in families if f in summary]
+    lines = [
+        f"Independent generator (`suspenv.bench.independent`), reported seeds {seeds}; "
+        "every case diagnosed with the defaults, the model and rig from the recording's "
+        "metadata.",
+        "",
+        "| family | one effect named first (target >= 90 %) | controls: false alarms "
+        "(target <= 10 %) | outside the library: reported unexplained (target >= 90 %) "
+        "| refused | time median / max, wall (CPU) |",
+        "|---|---|---|---|---|---|",
+    ]
+    for fam in [*order, "all"]:
+        s = summary[fam]
+        lines.append(
+            f"| {fam} | {_frac(s['single_named_first'])} | {_frac(s['control_false_alarms'])} "
+            f"| {_frac(s['outside_unexplained'])} | {s['refused']} | "
+            f"{s['wall_s_median']:.1f} s ({s['cpu_s_median']:.1f} s) / "
+            f"{s['wall_s_max']:.1f} s ({s['cpu_s_max']:.1f} s) |"
+        )
+    return "\n".join(lines)
+
+
+def update_doc(doc: Path, table: str) -> bool:
+    """Replace the table between the markers in ``doc``; False when they are absent."""
+    if not doc.is_file():
+        return False
+    text = doc.read_text()
+    if DOC_BEGIN not in text or DOC_END not in text:
+        return False
+    head, rest = text.split(DOC_BEGIN, 1)
+    _, tail = rest.split(DOC_END, 1)
+    doc.write_text(f"{head}{DOC_BEGIN}\n{table}\n{DOC_END}{tail}")
+    return True
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--seeds", default=REPORT_SEEDS)
+    ap.add_argument("--out", default=None, help="folder for the generated cases (default: temp)")
+    ap.add_argument("--no-docs", action="store_true", help="do not rewrite docs/")
+    args = ap.parse_args(argv)
+    with tempfile.TemporaryDirectory() as tmp:
+        work = Path(args.out) if args.out else Path(tmp)
+        t0 = time.perf_counter()
+        result = run(args.seeds, work)
+    result["summary"] = summarise(result)
+    result["command"] = "python -m suspenv.bench.independent_diagnosis"
+    result["machine"] = machine_info()
+    result["wall_s"] = time.perf_counter() - t0
+    table = table_markdown(result["summary"], args.seeds)
+    print(table)
+    if not args.no_docs:
+        out = Path("docs") / "benchmarks"
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "independent_diagnosis.json").write_text(json.dumps(result, indent=2) + "\n")
+        update_doc(Path("docs") / "diagnosis.md", table)
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())
