@@ -11,18 +11,24 @@ same run, on the same random designs of the study's box:
   the study's NSGA-II population) and one design at a time;
 - the study's handling objectives (``handling="study"``: the closed-loop nonlinear
   time-domain slalom), batched and one at a time;
-- the baseline, the code before these changes: the time-domain slalom and the steady
-  circle's bisection on the grid-search axle capacity (:func:`baseline_measures`, kept
-  here for the timing), batched and one at a time;
+- the previous default: the same evaluation with the spectral ride objectives by the
+  modal expansion of the whole 14-state ride model (``ride_spectral(...,
+  split=False)``, the algorithm before the default split the symmetric model into its
+  decoupled symmetric and antisymmetric halves; :class:`PreviousDefault`), batched and
+  one at a time;
+- the baseline, the code before the handling changes: the time-domain slalom and the
+  steady circle's bisection on the grid-search axle capacity, with the previous
+  default's ride (:func:`baseline_measures`, kept here for the timing), batched and one
+  at a time;
 - the parts of the default evaluation (ride, handling parameters, steady circle, linear
-  slalom), batched and one at a time.
+  slalom) and the previous default's ride, batched and one at a time.
 
 Targets: <= 5 ms per call one design at a time and <= 1 ms per design batched (issue
 17). suspenv limits BLAS to one thread, so the process's CPU time is one core's time;
 it is the reported figure (best of the repeats for batches, median of the single
-calls), with the wall time beside it (which a loaded machine inflates). The three
+calls), with the wall time beside it (which a loaded machine inflates). The
 evaluations are timed interleaved (each batch repeat, and each design one at a time,
-by all three in turn), so a load that changes during the run weighs on all alike.
+by all of them in turn), so a load that changes during the run weighs on all alike.
 
 Run: ``python -m suspenv.bench.minibus_speed [--quick]``; writes
 ``docs/benchmarks/minibus_speed.json``.
@@ -43,7 +49,7 @@ from tqdm import tqdm
 
 from suspenv.bench.common import BatchTiming, wall_and_cpu, write_result
 from suspenv.metrics.handling import slalom, slalom_linear
-from suspenv.metrics.ride import ride_objectives_all
+from suspenv.metrics.ride import ride_objectives_all, ride_spectral
 from suspenv.models.minibus.handling_model import HandlingParams, handling_parameters
 from suspenv.models.minibus.vehicle import LOAD_CASES
 from suspenv.problems.minibus import MinibusRideHandling
@@ -57,14 +63,34 @@ TARGET_BATCHED_MS = 1.0
 STUDY_EVALUATIONS = 30_000
 
 
-def baseline_measures(problem: MinibusRideHandling, X: np.ndarray) -> np.ndarray:
-    """The evaluation before these changes, for timing: spectral ride, bisection steady
-    circle, time-domain slalom; returns the five objectives (n, 5)."""
+def full_model_ride(
+    X: np.ndarray, problem: MinibusRideHandling
+) -> dict[str, dict[str, np.ndarray]]:
+    """The spectral ride objectives of both load cases by the modal expansion of the
+    whole ride model (the previous algorithm), shaped as :func:`ride_objectives_all`
+    returns them (m/s^2)."""
     X = np.atleast_2d(X)
     n = X.shape[0]
-    ride = ride_objectives_all(
-        X, LOAD_CASES, problem.road, problem.vehicle, dtype=np.float64, method="spectral"
-    )
+    sp = ride_spectral(X, LOAD_CASES, problem.road, problem.vehicle, split=False)
+    keys = ("aw_front", "aw_rear", "rms_front", "rms_rear", "ok")
+    return {lc: {k: sp[k][i * n : (i + 1) * n] for k in keys} for i, lc in enumerate(LOAD_CASES)}
+
+
+class PreviousDefault(MinibusRideHandling):
+    """The default problem with the previous spectral ride algorithm (:func:`full_model_ride`);
+    the same numbers to round-off (tests/test_ride_spectral.py)."""
+
+    def _ride(self, X: np.ndarray) -> dict[str, dict[str, np.ndarray]]:
+        return full_model_ride(X, self)
+
+
+def baseline_measures(problem: MinibusRideHandling, X: np.ndarray) -> np.ndarray:
+    """The evaluation before the handling changes, for timing: spectral ride (the previous
+    algorithm, :func:`full_model_ride`), bisection steady circle, time-domain slalom;
+    returns the five objectives (n, 5)."""
+    X = np.atleast_2d(X)
+    n = X.shape[0]
+    ride = full_model_ride(X, problem)
     P = HandlingParams.stack([handling_parameters(X, lc, problem.vehicle) for lc in LOAD_CASES])
     ay = steady_circle_bisection(P, problem.circle)
     sl = slalom(P, problem.slalom_config)
@@ -165,10 +191,12 @@ def main(argv: list[str] | None = None) -> int:
     n_single_slow = 3 if args.quick else 6
 
     problem = MinibusRideHandling()
+    previous = PreviousDefault()
     study = MinibusRideHandling(handling="study")
     rng = np.random.default_rng(0)
     X = problem.space.to_physical(rng.random((args.batch, problem.space.dim)))
     problem.evaluate(X[:2])  # warm-up: imports, cached grids and tables
+    previous.evaluate(X[:2])
 
     # parts of the default evaluation (CPU ms per design, batched and one at a time)
     def params(Z: np.ndarray) -> HandlingParams:
@@ -177,6 +205,9 @@ def main(argv: list[str] | None = None) -> int:
     parts: dict[str, Callable[[np.ndarray], Any]] = {
         "ride, spectral (both loads)": lambda Z: ride_objectives_all(
             Z, LOAD_CASES, problem.road, dtype=np.float64, method="spectral"
+        ),
+        "ride, spectral, previous algorithm (full model, both loads)": lambda Z: full_model_ride(
+            Z, problem
         ),
         "handling parameters (both loads)": params,
         "steady circle (both loads, with parameters)": lambda Z: steady_circle(
@@ -187,15 +218,15 @@ def main(argv: list[str] | None = None) -> int:
         ),
     }
     timings = _interleaved(
-        [problem, study, _Baseline(problem), *(_Part(fn) for fn in parts.values())],
+        [problem, previous, study, _Baseline(problem), *(_Part(fn) for fn in parts.values())],
         X,
         repeat,
-        [n_single, n_single_slow, n_single_slow, *([n_single] * len(parts))],
+        [n_single, n_single, n_single_slow, n_single_slow, *([n_single] * len(parts))],
     )
-    t_new, t_study, t_base = timings[:3]
+    t_new, t_prev, t_study, t_base = timings[:4]
     part_rows: list[dict[str, Any]] = []
     single_ms: list[float] = []
-    for name, t in zip(parts, timings[3:], strict=True):
+    for name, t in zip(parts, timings[4:], strict=True):
         single_ms.append(t.single_cpu_ms)
         part_rows.append(
             {
@@ -213,12 +244,17 @@ def main(argv: list[str] | None = None) -> int:
             "default (handling='standard'), one at a time",
         ),
         *part_rows,
+        *t_prev.rows(
+            f"previous default (full-model spectral ride), batch of {args.batch}",
+            "previous default (full-model spectral ride), one at a time",
+        ),
         *t_study.rows(
             f"study's handling (handling='study', time-domain slalom), batch of {args.batch}",
             "study's handling (handling='study'), one at a time",
         ),
         *t_base.rows(
-            f"baseline (before: time-domain slalom, bisection circle), batch of {args.batch}",
+            f"baseline (time-domain slalom, bisection circle, previous ride), "
+            f"batch of {args.batch}",
             "baseline (before), one at a time",
         ),
     ]
@@ -229,6 +265,14 @@ def main(argv: list[str] | None = None) -> int:
         "ms_per_call_single": t_new.single_cpu_ms,
         "wall_ms_per_candidate_batched": t_new.batched_wall_ms,
         "batching_gain": t_new.gain,
+        "previous_default_ms_per_candidate_batched": t_prev.batched_cpu_ms,
+        "previous_default_ms_per_call_single": t_prev.single_cpu_ms,
+        "speedup_batched_vs_previous_default": t_prev.batched_cpu_ms / t_new.batched_cpu_ms,
+        "speedup_single_vs_previous_default": t_prev.single_cpu_ms / t_new.single_cpu_ms,
+        "ride_ms_per_candidate_batched": part_rows[0]["cpu_ms_per_candidate"],
+        "ride_ms_per_call_single": single_ms[0],
+        "previous_ride_ms_per_candidate_batched": part_rows[1]["cpu_ms_per_candidate"],
+        "previous_ride_ms_per_call_single": single_ms[1],
         "study_handling_ms_per_candidate_batched": t_study.batched_cpu_ms,
         "study_handling_ms_per_call_single": t_study.single_cpu_ms,
         "baseline_ms_per_candidate_batched": t_base.batched_cpu_ms,

@@ -13,7 +13,8 @@ spectral integral of the equivalent-linear ride model over the ISO 8608 road PSD
 from __future__ import annotations
 
 import functools
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from typing import Any, NamedTuple
 
 import numpy as np
 from scipy import signal
@@ -30,8 +31,11 @@ from suspenv.rigs.road import CLASS_BAND, temporal_psd, track_coherence
 #: ride objective methods: exact spectral integral of the (equivalent-)linear model, or
 #: the study's time-domain run on one seeded road record
 RIDE_METHODS = ("spectral", "time")
-#: designs per block of the spectral method (work arrays stay in cache)
+#: designs per block of the spectral method's full-model path (``split=False``; work
+#: arrays stay in cache) and of its default split path (whose frequency sums run in
+#: blocks of their own, ``_BLOCK_ROWS``)
 SPECTRAL_CHUNK = 32
+SPLIT_CHUNK = 128
 #: ISO 2631-1 evaluation band (Hz) of the weighted values (as :func:`weighted_rms_fft`)
 ISO_BAND = (0.5, 80.0)
 
@@ -328,6 +332,453 @@ def _output_psd(
     return np.moveaxis(psd, 1, 2)
 
 
+# ------------------------------------------------------------------ symmetric split
+#: the base model's coordinates q = [z_f, z_r, phi, z_FL, z_FR, z_RL, z_RR] as its
+#: symmetric half x_s = T_SYM^T q (z_f, z_r, front wheel and rear axle bounce) and its
+#: antisymmetric half x_a = T_ANTI^T q (body roll, front wheel and rear axle roll), both
+#: in m (phi in rad); q = T_SYM x_s + T_ANTI x_a, [T_SYM, T_ANTI] orthonormal
+_H = float(np.sqrt(0.5))
+T_SYM = np.array(
+    [
+        [1.0, 0, 0, 0],
+        [0, 1.0, 0, 0],
+        [0, 0, 0, 0],
+        [0, 0, _H, 0],
+        [0, 0, _H, 0],
+        [0, 0, 0, _H],
+        [0, 0, 0, _H],
+    ]
+)
+T_ANTI = np.array(
+    [
+        [0, 0, 0],
+        [0, 0, 0],
+        [1.0, 0, 0],
+        [0, _H, 0],
+        [0, -_H, 0],
+        [0, 0, _H],
+        [0, 0, -_H],
+    ]
+)
+#: wheel inputs (FL, FR, RL, RR) from a half's axle inputs (front, rear): u = J u_half,
+#: with u_sym = (u_left + u_right)/2 and u_anti = (u_left - u_right)/2 per axle
+J_SYM = np.array([[1.0, 0], [1, 0], [0, 1], [0, 1]])
+J_ANTI = np.array([[1.0, 0], [-1, 0], [0, 1], [0, -1]])
+#: rows of :func:`_output_matrix` the split path evaluates: measuring points front and
+#: rear, then FL damper, RL damper and left leaf (their right-hand twins have the same
+#: RMS value: the symmetric parts equal, the antisymmetric ones opposite)
+_SPLIT_ROWS = (0, 1, 2, 4, 6)
+
+
+class _SplitGeometry(NamedTuple):
+    """Design-independent matrices of the two halves of the base model, stacked (axis 0:
+    symmetric, antisymmetric), each in d = 4 coordinates ``x = T^T q``: the
+    antisymmetric half's 3 plus an inert padding coordinate (no mass, element, input or
+    output; its two first-order states carry the fixed poles -1 +- i 1/s and zero
+    residues), so both halves share one batched eigen-decomposition. n_el = n_pos +
+    n_vel element rates per design (N/m, N m/rad, N s/m)."""
+
+    T: np.ndarray  # (2, nq, d)
+    D: np.ndarray  # (n_el, 2 * 2 d^2): rates @ D = -[K | C] (2, d, 2d), halves first
+    Gin: np.ndarray  # (n_el, 2 * 4 d): rates @ Gin = [K_in | C_in] (2, d, 4), axle inputs
+    co: np.ndarray  # (2, 5, d): the ``_SPLIT_ROWS`` outputs per x
+    A0: np.ndarray  # (2, 2d, 2d): the first-order matrices' constant part
+
+
+_SPLIT_D = 4
+_SPLIT_GEOMETRY: dict[tuple[int, float], tuple[Minibus, _SplitGeometry]] = {}
+
+
+def _split_geometry(model: RideModel) -> _SplitGeometry:
+    """The :class:`_SplitGeometry` of a seatless model (cached per vehicle object and
+    measuring point; the cache holds the vehicle, so its id stays its own)."""
+    key = (id(model.vehicle), model.measure_y)
+    hit = _SPLIT_GEOMETRY.get(key)
+    if hit is None or hit[0] is not model.vehicle:
+        if len(_SPLIT_GEOMETRY) >= 16:
+            _SPLIT_GEOMETRY.clear()
+        nq, npos, d = model.nq, model.n_pos, _SPLIT_D
+        n_el = model.E.shape[1]
+        co_all = _output_matrix(model)[list(_SPLIT_ROWS)]
+        T = np.zeros((2, nq, d))
+        T[0] = T_SYM
+        T[1, :, :3] = T_ANTI
+        D = np.zeros((n_el, 2, d, 2 * d))
+        Gin = np.zeros((n_el, 2, d, 4))
+        A0 = np.zeros((2, 2 * d, 2 * d))
+        for h, J in enumerate((J_SYM, J_ANTI)):
+            pos = (T[h].T @ model.E[:nq, :npos]).T  # (n_pos, d) element deflection per x
+            vel = (T[h].T @ model.E[nq:, npos:]).T  # (n_vel, d)
+            D[:npos, h, :, :d] = -pos[:, :, None] * pos[:, None, :]
+            D[npos:, h, :, d:] = -vel[:, :, None] * vel[:, None, :]
+            # road through the tyres (compression = road - wheel), per axle input
+            Gin[6:10, h, :, :2] = -pos[6:10, :, None] * J[:, None, :]
+            Gin[npos + 4 : npos + 8, h, :, 2:] = -vel[4:8, :, None] * J[:, None, :]
+            A0[h, :d, d:] = np.eye(d)
+        # the padding coordinate: x' = -x + v, v' = -x - v (decoupled; poles -1 +- i)
+        A0[1, d - 1, d - 1] = A0[1, 2 * d - 1, d - 1] = A0[1, 2 * d - 1, 2 * d - 1] = -1.0
+        geo = _SplitGeometry(
+            T, D.reshape(n_el, -1), Gin.reshape(n_el, -1), np.stack([co_all @ t for t in T]), A0
+        )
+        for a in geo:
+            a.flags.writeable = False
+        hit = _SPLIT_GEOMETRY[key] = (model.vehicle, geo)
+    return hit[1]
+
+
+class _Halves:
+    """The two decoupled halves of the symmetric base ride model (no seat) for a batch
+    of n designs, interleaved into 2 n rows (design i: row 2 i symmetric, row 2 i + 1
+    antisymmetric): ``x = T^T q``.
+
+    The model is mirror-symmetric about the vehicle's centreline (both tracks' springs,
+    dampers, tyres and wheel masses alike; the measuring points only enter the outputs),
+    so ``T_SYM^T (M, C, K) T_ANTI = 0`` and the 7-DOF system splits exactly into a 4-DOF
+    symmetric and a 3-DOF antisymmetric one. The axle inputs of the halves are
+    uncorrelated with PSDs ``Gq (1 + rho)/2`` and ``Gq (1 - rho)/2`` (rho the real
+    left/right coherency), so ``|g_L + rho g_R|^2 + (1 - rho^2)|g_R|^2`` of
+    :func:`ride_spectral` equals ``(1 + rho)/2 |g_s|^2 + (1 - rho)/2 |g_a|^2`` with
+    ``g_s = g_L + g_R`` and ``g_a = g_L - g_R`` the halves' responses per axle input.
+    """
+
+    def __init__(self, geo: _SplitGeometry, minv: np.ndarray, rates: np.ndarray):
+        """``minv`` (n, nq, nq): inverse mass matrices of q (1/kg, 1/(kg m^2));
+        ``rates`` (n, n_el): element rates (N/m, N m/rad, N s/m; left and right equal),
+        whose tyre columns give the road input matrices."""
+        n, d = rates.shape[0], _SPLIT_D
+        self.geo = geo
+        self.minv = (geo.T.transpose(0, 2, 1) @ minv[:, None] @ geo.T).reshape(2 * n, d, d)
+        B = np.zeros((2 * n, 2 * d, 4), dtype=complex)
+        B[:, d:] = self.minv @ (rates[:, None, :] @ geo.Gin).reshape(2 * n, d, 4)
+        self.B = B
+        self.A0 = np.tile(geo.A0, (n, 1, 1))
+        self.co = np.tile(geo.co, (n, 1, 1))
+        self.ridx = np.arange(2 * n)[:, None]
+
+    def modal(self, rates: np.ndarray) -> _Modes:
+        """Modal form of the halves for element rates (n, n_el): poles and residues as
+        :func:`modal_form` (residue of output p for axle input i at mode k: ``cv[p, k]
+        rm[k, i]``), each conjugate pair (or pair of real poles) summed into one real
+        second-order term (:class:`_Modes`, 2 n rows)."""
+        d = _SPLIT_D
+        A = self.A0.copy()
+        A[:, d:] += self.minv @ (rates[:, None, :] @ self.geo.D).reshape(-1, d, 2 * d)
+        lam, V = np.linalg.eig(A)
+        real = lam.imag == 0
+        if real.any():
+            # LAPACK returns conjugate pairs next to each other; real poles (an even
+            # number per row) go last, paired among themselves
+            order = np.argsort(real, axis=1, kind="stable")
+            lam, V = lam[self.ridx, order], V[self.ridx, :, order].transpose(0, 2, 1)
+        R = np.linalg.solve(V, self.B)  # (2n, 2d, 4)
+        cv = self.co @ V[:, :d, :]  # (2n, 5, 2d)
+        rows = lam.shape[0]
+        pairs = lam.reshape(rows, d, 2)
+        other = pairs[:, :, ::-1].reshape(rows, 2 * d, 1)  # the other pole of each pair
+        # P1/(s - l1) + P2/(s - l2) = (b s + a)/(s^2 - (l1 + l2) s + l1 l2) with the
+        # residues P = rm cv (rm = R_0 + lam R_1): b = P1 + P2, a = -(P1 l2 + P2 l1)
+        ab = np.empty((rows, 2 * d, 2, 2), dtype=complex)  # (mode, [a, b], axle input)
+        np.add(R[:, :, :2], lam[:, :, None] * R[:, :, 2:], out=ab[:, :, 1])
+        np.multiply(ab[:, :, 1], -other, out=ab[:, :, 0])
+        Q = ab.reshape(rows, 2 * d, 4, 1) * cv.transpose(0, 2, 1)[:, :, None, :]
+        Q = Q.reshape(rows, d, 2, 2, 2, 5).sum(axis=2).real  # (2n, d, [a, b], input, 5)
+        coef = Q.transpose(0, 3, 4, 2, 1).reshape(rows, 2, 5, 2 * d)
+        return _Modes(
+            (pairs[:, :, 0] * pairs[:, :, 1]).real, (pairs[:, :, 0] + pairs[:, :, 1]).real, coef
+        )
+
+
+class _Modes(NamedTuple):
+    """Modal form of :class:`_Halves` as d real second-order terms per row: the
+    displacement of output p (a row of ``_SPLIT_ROWS``) per axle input i (front, rear)
+    is ``sum_k (coef[i, p, k] + s coef[i, p, d + k]) / (s^2 - q1[k] s + q0[k])``."""
+
+    q0: np.ndarray  # (2n, d) product of the pair's poles (1/s^2), rows as _Halves
+    q1: np.ndarray  # (2n, d) sum of the pair's poles (1/s)
+    coef: np.ndarray  # (2n, 2, 5, 2d) numerators' constant and s terms
+
+
+#: designs x load cases per block of the split path's frequency sums (the blocks' work
+#: arrays stay in the level-2 cache)
+_BLOCK_ROWS = 16
+
+
+def _split_mean_square(
+    m: _Modes, rows: slice, grid: tuple[np.ndarray, ...], wt: np.ndarray
+) -> np.ndarray:
+    """``sum_f wt_h[f, j] |g_p(f)|^2`` summed over the halves h (n designs, p, j), with
+    ``g_p = H_p,front + e^{-i w L/v} H_p,rear`` a half's displacement response (output
+    unit per m of axle input) for the outputs ``rows`` of the ``_SPLIT_ROWS``, m's rows
+    interleaved as in :class:`_Halves`, on the grid ``grid = (w, w^2, Re, Im of
+    e^{-i w L/v})`` (w in rad/s, L/v the rear wheels' delay) with weights ``wt =
+    [wt_sym | wt_anti]`` (Nf, 2 j). In real arithmetic: ``H = E a + i w E b`` with
+    ``E = 1/(q0 - w^2 - i q1 w)``."""
+    w, w2, dr, di = grid
+    rows_all, d = m.q0.shape
+    nf = w.size
+    coef = m.coef[:, :, rows]
+    p = coef.shape[2]
+    coef = coef.reshape(rows_all, 2 * p, 2 * d)  # rows (front outputs, rear outputs)
+    out = np.empty((rows_all, p, wt.shape[1]))
+    for i in range(0, rows_all, _BLOCK_ROWS):
+        blk = slice(i, i + _BLOCK_ROWS)
+        q0, q1 = m.q0[blk, :, None], m.q1[blk, :, None]
+        basis = np.empty((q0.shape[0], 2 * d, 2 * nf))  # rows (E, i w E), cols (Re, Im)
+        er, ei = basis[:, :d, :nf], basis[:, :d, nf:]
+        np.subtract(q0, w2, out=er)
+        np.multiply(q1, w, out=ei)
+        den = er * er
+        den += ei * ei
+        er /= den
+        ei /= den
+        np.multiply(ei, -w, out=basis[:, d:, :nf])
+        np.multiply(er, w, out=basis[:, d:, nf:])
+        G = coef[blk] @ basis  # (rows, 2p, 2 Nf)
+        g0r, g0i, g1r, g1i = G[:, :p, :nf], G[:, :p, nf:], G[:, p:, :nf], G[:, p:, nf:]
+        gr = g0r + dr * g1r
+        gr -= di * g1i
+        gi = g0i + dr * g1i
+        gi += di * g1r
+        gr *= gr
+        gi *= gi
+        gr += gi
+        out[blk] = gr @ wt
+    j = wt.shape[1] // 2
+    return out[0::2, :, :j] + out[1::2, :, j:]
+
+
+_SPLIT_GRIDS: dict[tuple[int, int, int, bool], tuple[Any, ...]] = {}
+
+
+def _split_grid(
+    road: RandomRoad, n_freq: int, vehicle: Minibus, final: bool
+) -> tuple[tuple[np.ndarray, ...], np.ndarray]:
+    """:func:`_split_grid_values`, looked up by the identity of ``road`` and ``vehicle``
+    first (hashing a vehicle costs more than the lookup)."""
+    key = (id(road), id(vehicle), n_freq, final)
+    hit = _SPLIT_GRIDS.get(key)
+    if hit is None or hit[0] is not road or hit[1] is not vehicle:
+        if len(_SPLIT_GRIDS) >= 64:
+            _SPLIT_GRIDS.clear()
+        hit = (road, vehicle, _split_grid_values(road, n_freq, vehicle, final))
+        _SPLIT_GRIDS[key] = hit  # holds road and vehicle: their ids stay theirs
+    return hit[2]
+
+
+@functools.lru_cache(maxsize=32)
+def _split_grid_values(
+    road: RandomRoad, n_freq: int, vehicle: Minibus, final: bool
+) -> tuple[tuple[np.ndarray, ...], np.ndarray]:
+    """``((w, w^2, Re, Im of the rear delay factor), weights)`` on the
+    :func:`frequency_grid` of ``n_freq`` points (w = 2 pi f, rad/s). The weights (Nf, 4)
+    turn ``|g|^2`` (displacement per axle input) into mean squares: quadrature x Gq x
+    (1 + rho)/2 (columns 0-1, symmetric half) or (1 - rho)/2 (columns 2-3,
+    antisymmetric half) x, per column pair, ``final``: w^4 Wk^2 (weighted acceleration,
+    ISO band) and w^4 (acceleration, whole band); else 1 (displacement) and w^2
+    (velocity). Read-only, cached."""
+    f, wq, _, gq, delay, rho, wk2 = _road_grid(road, n_freq, vehicle)
+    w = 2 * np.pi * f
+    w2 = w * w
+    cols = (w2 * w2 * wk2, w2 * w2) if final else (np.ones_like(f), w2)
+    grid = (w, w2, np.ascontiguousarray(delay.real), np.ascontiguousarray(delay.imag))
+    wt = np.stack([wq * gq * (0.5 * half) * c for half in (1.0 + rho, 1.0 - rho) for c in cols])
+    wt = np.ascontiguousarray(wt.T)
+    for a in (*grid, wt):
+        a.flags.writeable = False
+    return grid, wt
+
+
+# ------------------------------------------------------------------ equivalent linear
+class _Linearisation:
+    """The nonlinear elements' data (dampers, two-stage leaf) of a nonlinear model's
+    designs, for the equivalent-linear rates of :func:`ride_spectral`."""
+
+    def __init__(self, nl: RideModel):
+        self.d_bl, self.d_bh, self.d_rl, self.d_rh = (
+            np.asarray(c, float).T for c in (nl.d_bl, nl.d_bh, nl.d_rl, nl.d_rh)
+        )
+        self.kb = np.asarray(nl.knee_b, float).T  # (1, 4) bump knee (m/s)
+        self.kr = -np.asarray(nl.knee_r, float).T  # (1, 4) rebound knee (> 0, m/s)
+        self.k1 = nl.K[:, 2:4]  # primary leaf rate (N/m)
+        self.dk = np.asarray(nl.leaf_dk, float).T  # composite - primary rate (N/m)
+        self.thr = np.asarray(nl.leaf_thr, float).T  # helper knee from static (m)
+
+    def rates(self, sig: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Gaussian equivalent damper rates (n, 4; N s/m) and leaf rates (n, 2; N/m) for
+        the RMS damper velocities (m/s) and leaf deflections (m) ``sig`` (n, 6)."""
+        sv, sd = np.maximum(sig[:, :4], 1e-12), np.maximum(sig[:, 4:], 1e-12)
+        pb, pr = ndtr(self.kb / sv), ndtr(self.kr / sv)
+        c_new = (
+            self.d_bl * (pb - 0.5)
+            + self.d_bh * (1 - pb)
+            + self.d_rl * (pr - 0.5)
+            + self.d_rh * (1 - pr)
+        )
+        k_new = self.k1 + self.dk * (1.0 - ndtr(self.thr / sd))
+        return c_new, k_new
+
+
+def _fixed_point(
+    damper_c: np.ndarray,
+    leaf_k: np.ndarray,
+    lz: _Linearisation | None,
+    modal: Callable[[np.ndarray, np.ndarray], Any],
+    sigma: Callable[[Any], np.ndarray],
+    iterations: int,
+    tol: float | None,
+    init_damping: float,
+) -> tuple[np.ndarray, np.ndarray, int, Any]:
+    """Equivalent-linear rates of :func:`ride_spectral` from the linearised model's
+    ``damper_c`` (n, 4) and ``leaf_k`` (n, 2): ``(damper_c, leaf_k, passes, modal form
+    of the rates)``; ``modal(c, k)`` builds a modal form, ``sigma`` gives its element
+    RMS values (n, 6); ``lz=None``: the plain linearised model."""
+    if lz is None:
+        return damper_c, leaf_k, 0, modal(damper_c, leaf_k)
+    # start from 0.85 x the mean low-speed damping (the fixed point lies at 0.76-0.94 x
+    # on class B at 80 km/h over the box; saves about one pass)
+    damper_c = damper_c * init_damping
+    n_iter = 0
+    m = None
+    for it in range(iterations):
+        m = modal(damper_c, leaf_k)
+        n_iter += 1
+        if tol is None and it == iterations - 1:
+            break  # fixed number of passes: the last pass's rates serve
+        c_new, k_new = lz.rates(sigma(m))
+        change = np.maximum(
+            np.max(np.abs(c_new - damper_c) / damper_c, axis=1),
+            np.max(np.abs(k_new - leaf_k) / leaf_k, axis=1),
+        )
+        # per design: a converged design keeps its rates (so its numbers never depend
+        # on the other designs of the batch); when all have converged, the rates of
+        # this pass are the fixed point within ``tol`` and its modal form serves
+        upd = change >= (0.0 if tol is None else tol)
+        if not upd.any():
+            break
+        damper_c = np.where(upd[:, None], c_new, damper_c)
+        leaf_k = np.where(upd[:, None], k_new, leaf_k)
+        m = None
+    if m is None:
+        m = modal(damper_c, leaf_k)
+    return damper_c, leaf_k, n_iter, m
+
+
+def _spectral_result(
+    aw: np.ndarray, rms_all: np.ndarray, damper_c: np.ndarray, leaf_k: np.ndarray, n_iter: int
+) -> dict[str, np.ndarray]:
+    """:func:`ride_spectral`'s dict from the weighted and unweighted RMS values (n, 2:
+    front, rear; m/s^2) and the rates used."""
+    ok = np.isfinite(aw).all(axis=1) & np.isfinite(rms_all).all(axis=1)
+    return {
+        "aw_front": aw[:, 0],
+        "aw_rear": aw[:, 1],
+        "rms_front": rms_all[:, 0],
+        "rms_rear": rms_all[:, 1],
+        "ok": ok,
+        "damper_c": damper_c,
+        "leaf_k": leaf_k,
+        "iterations": np.array(n_iter),
+    }
+
+
+def _spectral_split(
+    X: np.ndarray,
+    cases: list[str],
+    road: RandomRoad,
+    vehicle: Minibus,
+    seat: SeatMount | None,
+    n_freq: int,
+    equivalent_linear: bool,
+    iterations: int,
+    tol: float | None,
+    n_freq_iter: int,
+    init_damping: float,
+) -> dict[str, np.ndarray]:
+    """:func:`ride_spectral` of one chunk through the model's two decoupled halves
+    (:class:`_Halves`; no seat)."""
+    model = RideModel(_stacked_params(X, cases, vehicle), linear=not equivalent_linear)
+    n, nq, npos = model.n, model.nq, model.n_pos
+    minv = np.zeros((n, nq, nq))
+    idx = np.arange(nq)
+    minv[:, idx, idx] = model.minv_diag.T
+    minv[:, 0, 1] = minv[:, 1, 0] = model.m12
+    rates = model.K.astype(float)  # element rates, dampers and leaves set per pass
+    halves = _Halves(_split_geometry(model), minv, rates)
+
+    def modal(c: np.ndarray, k: np.ndarray) -> _Modes:
+        rates[:, 2:4] = k
+        rates[:, npos : npos + 4] = c
+        return halves.modal(rates)
+
+    grid_i, wt_i = _split_grid(road, n_freq_iter, vehicle, False)
+
+    def sigma(m: _Modes) -> np.ndarray:
+        # (n, 3 outputs: FL damper, RL damper, left leaf, 2: displacement, velocity)
+        sig = np.sqrt(_split_mean_square(m, slice(2, 5), grid_i, wt_i))
+        return np.concatenate([sig[:, [0, 0, 1, 1], 1], sig[:, [2, 2], 0]], axis=1)
+
+    lz = _Linearisation(model) if equivalent_linear else None
+    damper_c, leaf_k, n_iter, m = _fixed_point(
+        model.damper_mean.copy(),
+        model.leaf_static_rate.copy(),
+        lz,
+        modal,
+        sigma,
+        iterations,
+        tol,
+        init_damping,
+    )
+    grid, wt = _split_grid(road, n_freq, vehicle, True)
+    ms = _split_mean_square(m, slice(0, 2), grid, wt)
+    return _spectral_result(np.sqrt(ms[:, :, 0]), np.sqrt(ms[:, :, 1]), damper_c, leaf_k, n_iter)
+
+
+def _spectral_full(
+    X: np.ndarray,
+    cases: list[str],
+    road: RandomRoad,
+    vehicle: Minibus,
+    seat: SeatMount | None,
+    n_freq: int,
+    equivalent_linear: bool,
+    iterations: int,
+    tol: float | None,
+    n_freq_iter: int,
+    init_damping: float,
+) -> dict[str, np.ndarray]:
+    """:func:`ride_spectral` of one chunk by the modal expansion of the whole first-order
+    system (all 2 nq states, every wheel input; :func:`modal_form`)."""
+    params = _stacked_params(X, cases, vehicle)
+    lin = RideModel(params, seat=seat, linear=True)
+    Co = _output_matrix(lin)
+
+    def modal(c: np.ndarray, k: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return modal_form(*lin.linear_system(c, k), Co)
+
+    fi, wi, _, gqi, delayi, rhoi, _ = _road_grid(road, n_freq_iter, vehicle)
+
+    def sigma(m: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+        lam, P = m
+        G = modal_response(lam, P[:, :, 2:8], fi)
+        return np.sqrt(_output_psd(G, fi, gqi, delayi, rhoi, slice(2, 8)) @ wi)
+
+    lz = _Linearisation(RideModel(params, seat=seat)) if equivalent_linear else None
+    damper_c, leaf_k, n_iter, (lam, P) = _fixed_point(
+        lin.d_bl.T.astype(float).copy(),
+        lin.K[:, 2:4].astype(float).copy(),
+        lz,
+        modal,
+        sigma,
+        iterations,
+        tol,
+        init_damping,
+    )
+    f, wq, _, gq, delay, rho, wk2 = _road_grid(road, n_freq, vehicle)
+    G = modal_response(lam, P[:, :, 0:2], f)
+    psd = _output_psd(G, f, gq, delay, rho, slice(0, 2))
+    return _spectral_result(np.sqrt(psd @ (wq * wk2)), np.sqrt(psd @ wq), damper_c, leaf_k, n_iter)
+
+
 def ride_spectral(
     X: np.ndarray,
     load_cases: Sequence[str] = LOAD_CASES,
@@ -340,6 +791,7 @@ def ride_spectral(
     tol: float | None = None,
     n_freq_iter: int = 150,
     init_damping: float = 0.85,
+    split: bool = True,
 ) -> dict[str, np.ndarray]:
     """Ride RMS values by the exact spectral integral of the (equivalent-)linear model.
 
@@ -366,115 +818,44 @@ def ride_spectral(
     ``equivalent_linear=False``: the plain linearised model (mean low-speed damping,
     static leaf rate). Tyre lift-off and effects are not modelled.
 
+    ``split`` (default True; only without a seat): the mirror-symmetric model is
+    evaluated as its decoupled symmetric (4-DOF) and antisymmetric (3-DOF) halves
+    (:class:`_Halves`: one 8-state eigen-decomposition per half instead of one 14-state
+    one, one combined input per axle and half, only the outputs each stage needs, real
+    arithmetic in the frequency sums). The same integral as
+    ``split=False``, the modal expansion of the whole model over every wheel input (the
+    reference; always used with a seat, which breaks the symmetry): the values agree to
+    round-off (tests: relative 1e-10).
+
     Returns a dict with (n_rows,) arrays ``aw_front``, ``aw_rear``, ``rms_front``,
-    ``rms_rear``, ``ok`` for the load cases stacked in order, plus ``damper_c`` (n_rows,
-    4) and ``leaf_k`` (n_rows, 2), the rates used.
+    ``rms_rear`` (m/s^2), ``ok`` for the load cases stacked in order, plus ``damper_c``
+    (n_rows, 4; N s/m, FL, FR, RL, RR) and ``leaf_k`` (n_rows, 2; N/m, left, right), the
+    rates used, and ``iterations`` (passes run, the most of any design).
     """
     road = road or RandomRoad()
     X = np.atleast_2d(np.asarray(X, dtype=float))
     cases = [load_cases] if isinstance(load_cases, str) else list(load_cases)
+    use_split = split and seat is None
+    chunk = _spectral_split if use_split else _spectral_full
+    size = SPLIT_CHUNK if use_split else SPECTRAL_CHUNK
+    args = (cases, road, vehicle, seat, n_freq, equivalent_linear, iterations, tol)
     n = X.shape[0]
-    if n > SPECTRAL_CHUNK:
-        # chunks keep the (rows x frequencies x modes) work arrays in cache; a design's
-        # numbers do not depend on its chunk (every operation is per design)
-        parts = [
-            ride_spectral(
-                X[i : i + SPECTRAL_CHUNK],
-                cases,
-                road,
-                vehicle,
-                seat,
-                n_freq,
-                equivalent_linear,
-                iterations,
-                tol,
-                n_freq_iter,
-                init_damping,
-            )
-            for i in range(0, n, SPECTRAL_CHUNK)
-        ]
-        out: dict[str, np.ndarray] = {}
-        for key in parts[0]:
-            if key == "iterations":
-                out[key] = np.array(max(int(q[key]) for q in parts))
-                continue
-            out[key] = np.concatenate(
-                [
-                    q[key][
-                        j * (q["ok"].size // len(cases)) : (j + 1) * (q["ok"].size // len(cases))
-                    ]
-                    for j in range(len(cases))
-                    for q in parts
-                ]
-            )
-        return out
-    params = _stacked_params(X, cases, vehicle)
-    lin = RideModel(params, seat=seat, linear=True)
-    Co = _output_matrix(lin)
-    damper_c = lin.d_bl.T.astype(float).copy()  # start: mean low-speed damping
-    leaf_k = lin.K[:, 2:4].astype(float).copy()
-    n_iter = 0
-    lam: np.ndarray | None = None
-
-    def modal(c: np.ndarray, k: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        return modal_form(*lin.linear_system(c, k), Co)
-
-    if equivalent_linear:
-        nl = RideModel(params, seat=seat, linear=False)
-        d_bl, d_bh, d_rl, d_rh = (
-            np.asarray(c, float).T for c in (nl.d_bl, nl.d_bh, nl.d_rl, nl.d_rh)
+    if n <= size:
+        return chunk(X, *args, n_freq_iter, init_damping)
+    # chunks keep the (rows x frequencies x modes) work arrays in cache; a design's
+    # numbers do not depend on its chunk (every operation is per design)
+    parts = [chunk(X[i : i + size], *args, n_freq_iter, init_damping) for i in range(0, n, size)]
+    nc = len(cases)
+    out: dict[str, np.ndarray] = {}
+    for key in parts[0]:
+        if key == "iterations":
+            out[key] = np.array(max(int(q[key]) for q in parts))
+            continue
+        out[key] = np.concatenate(
+            [
+                q[key][j * (q["ok"].size // nc) : (j + 1) * (q["ok"].size // nc)]
+                for j in range(nc)
+                for q in parts
+            ]
         )
-        kb = np.asarray(nl.knee_b, float).T  # (1, 4) bump knee
-        kr = -np.asarray(nl.knee_r, float).T  # (1, 4) rebound knee (> 0)
-        k1 = nl.K[:, 2:4]
-        dk = np.asarray(nl.leaf_dk, float).T
-        thr = np.asarray(nl.leaf_thr, float).T
-        # start from 0.85 x the mean low-speed damping (the fixed point lies at 0.76-0.94 x
-        # on class B at 80 km/h over the box; saves about one pass)
-        damper_c = damper_c * init_damping
-        # the element RMS values converge on a coarser grid (they enter only the rates)
-        fi, wi, _, gqi, delayi, rhoi, _ = _road_grid(road, n_freq_iter, vehicle)
-        for it in range(iterations):
-            lam, P = modal(damper_c, leaf_k)
-            n_iter += 1
-            if tol is None and it == iterations - 1:
-                break  # fixed number of passes: the last pass's rates serve
-            G = modal_response(lam, P[:, :, 2:8], fi)
-            sig = np.sqrt(_output_psd(G, fi, gqi, delayi, rhoi, slice(2, 8)) @ wi)
-            sv, sd = np.maximum(sig[:, :4], 1e-12), np.maximum(sig[:, 4:], 1e-12)
-            pb, pr = ndtr(kb / sv), ndtr(kr / sv)
-            c_new = d_bl * (pb - 0.5) + d_bh * (1 - pb) + d_rl * (pr - 0.5) + d_rh * (1 - pr)
-            k_new = k1 + dk * (1.0 - ndtr(thr / sd))
-            change = np.maximum(
-                np.max(np.abs(c_new - damper_c) / damper_c, axis=1),
-                np.max(np.abs(k_new - leaf_k) / leaf_k, axis=1),
-            )
-            # per design: a converged design keeps its rates (so its numbers never depend
-            # on the other designs of the batch); when all have converged, the rates of
-            # this pass are the fixed point within ``tol`` and its modal form serves
-            upd = change >= (0.0 if tol is None else tol)
-            if not upd.any():
-                break
-            damper_c = np.where(upd[:, None], c_new, damper_c)
-            leaf_k = np.where(upd[:, None], k_new, leaf_k)
-            lam = None
-    else:
-        lam = None
-    if lam is None:
-        lam, P = modal(damper_c, leaf_k)
-    f, wq, _, gq, delay, rho, wk2 = _road_grid(road, n_freq, vehicle)
-    G = modal_response(lam, P[:, :, 0:2], f)
-    psd = _output_psd(G, f, gq, delay, rho, slice(0, 2))
-    aw = np.sqrt(psd @ (wq * wk2))
-    rms_all = np.sqrt(psd @ wq)
-    ok = np.isfinite(aw).all(axis=1) & np.isfinite(rms_all).all(axis=1)
-    return {
-        "aw_front": aw[:, 0],
-        "aw_rear": aw[:, 1],
-        "rms_front": rms_all[:, 0],
-        "rms_rear": rms_all[:, 1],
-        "ok": ok,
-        "damper_c": damper_c,
-        "leaf_k": leaf_k,
-        "iterations": np.array(n_iter),
-    }
+    return out

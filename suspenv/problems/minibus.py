@@ -263,12 +263,7 @@ class MinibusRideHandling(Problem):
         """
         X = np.atleast_2d(np.asarray(X, dtype=float))
         n = X.shape[0]
-        # float64: a design's numbers must not depend on the batch it is evaluated in
-        # (float32 matrix products round differently for other batch sizes, which would
-        # make runs with other worker counts drift apart); costs ~0.4 ms per candidate
-        ride = ride_objectives_all(
-            X, LOAD_CASES, self.road, self.vehicle, dtype=np.float64, method=self.ride_method
-        )
+        ride = self._ride(X)
         P = HandlingParams.stack([handling_parameters(X, lc, self.vehicle) for lc in LOAD_CASES])
         circle = steady_circle(P, self.circle)
         understeer = np.degrees(P.understeer_gradient()) * G_STD
@@ -298,6 +293,17 @@ class MinibusRideHandling(Problem):
             ride_ok = ride[lc].get("ok", np.ones(n, bool))
             out[f"ride_ok_{lc}"] = np.asarray(ride_ok, dtype=bool)
         return out
+
+    def _ride(self, X: np.ndarray) -> dict[str, dict[str, np.ndarray]]:
+        """Ride objectives of designs X (n, 8) for both load cases, as
+        :func:`ride_objectives_all` returns them (m/s^2)."""
+        # float64: a design's numbers must not depend on the batch it is evaluated in
+        # (float32 matrix products round differently for other batch sizes, which would
+        # make runs with other worker counts drift apart); costs ~0.4 ms per candidate
+        # with ride_method="time"
+        return ride_objectives_all(
+            X, LOAD_CASES, self.road, self.vehicle, dtype=np.float64, method=self.ride_method
+        )
 
     def _evaluate(self, X: np.ndarray) -> EvaluationBatch:
         m = self.measures(X)

@@ -286,9 +286,11 @@ def handling_parameters(
     w_rear = (ms * G * vp.a / L) / 2.0 + vehicle.unsprung_rear * G
 
     def full(value: float | np.ndarray) -> np.ndarray:
-        if np.ndim(value) == 0:
-            return np.full(n, float(value))
-        return np.array(value, dtype=float).reshape(n)
+        if isinstance(value, np.ndarray) and value.ndim:
+            return np.array(value, dtype=float).reshape(n)
+        out = np.empty(n)
+        out.fill(float(value))
+        return out
 
     return HandlingParams(
         m=full(m),

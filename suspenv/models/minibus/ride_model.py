@@ -240,6 +240,7 @@ class RideModel:
         minv_diag = np.zeros((n, nq))
         m12 = np.zeros(n)
         leaf_k1, leaf_dk, leaf_thr = np.zeros(n), np.zeros(n), np.zeros(n)
+        leaf_static, damper_mean = np.zeros((n, 2)), np.zeros((n, 4))
         d_bl, d_bh, d_rl, d_rh = (np.zeros((n, 4)) for _ in range(4))
         f0_tyre = np.zeros((n, 4))
         row = 0
@@ -274,6 +275,7 @@ class RideModel:
                 K[sl, nv0 + 8 : nv0 + 10] = self.seat.damping
             # leaf knee relative to the static position
             leaf_k1[sl] = d.rear_primary_rate
+            leaf_static[sl] = p.rear_static_rate[:, None]
             leaf_dk[sl] = d.rear_composite_rate - d.rear_primary_rate
             leaf_thr[sl] = v.helper_engagement - p.rear_static_deflection
             # damper curves scaled per design (front cols 0,1; rear cols 2,3)
@@ -282,8 +284,9 @@ class RideModel:
                 (slice(2, 4), v.damper_rear, d.rear_damper_scale),
             ):
                 sc = scale[:, None]
+                damper_mean[sl, cols] = damper_mean_coefficient(curve) * sc
                 if self.linear:
-                    c = damper_mean_coefficient(curve) * sc
+                    c = damper_mean[sl, cols]
                     d_bl[sl, cols] = d_rl[sl, cols] = d_bh[sl, cols] = d_rh[sl, cols] = c
                 else:
                     d_bl[sl, cols] = curve.bump_low * sc
@@ -293,6 +296,11 @@ class RideModel:
             f0_tyre[sl, 0:2] = p.front_static_load + v.unsprung_front * G
             f0_tyre[sl, 2:4] = p.rear_static_load + v.unsprung_rear * G
             row += p.n
+        # the linearised model's rates, kept for either model (float64, batch first):
+        # rear leaf rate at rest (N/m, left, right) and mean low-speed damper
+        # coefficient (N s/m, FL, FR, RL, RR)
+        self.leaf_static_rate = leaf_static
+        self.damper_mean = damper_mean
         # batch along the last axis (see rhs)
         self.K = K
         self.Kt = np.ascontiguousarray(K.T)
