@@ -226,3 +226,82 @@ def test_zero_drift_is_rate_times_time():
     e = make_effect("zero_drift", location="force").with_params({"rate": 0.5})
     t = np.linspace(0.0, 4.0, 9)
     assert np.allclose(e.sensor(np.ones_like(t), t), 1.0 + 0.5 * t)
+
+
+def test_garbage_forces_get_no_verdict_on_missing_physics(dyno):
+    # forces unrelated to the motion (1e5 N scale noise, below the plausibility limit of
+    # 1e6 N that refuses larger values before any fit): the model describes none of it
+    rng = np.random.default_rng(11)
+    rec = dyno.with_outputs({"force": rng.normal(0.0, 1e5, dyno.time.size)})
+    diag = diagnose(rec, "damper")
+    assert diag.findings.get("misfit") is True
+    assert diag.headline.startswith("The model does not describe this recording")
+    assert not diag.named or not diag.confident
+
+
+def test_position_ripple_on_a_guide_is_unexplained():
+    # a cogging force A sin(2 pi x / p) on the friction guide (few long moves: the
+    # replicates are time blocks) is outside the library and repeats with position
+    model = make_component("friction_guide")
+    rec = model.example_recording(seed=4)
+    x, v, a = (rec.inputs[k] for k in ("position", "velocity", "acceleration"))
+    force = 90.0 * a + 200.0 * v + 20.0 * np.tanh(v / 0.001) - 3.0
+    force = force + 0.15 * np.std(force) * np.sin(2 * np.pi * x / 0.03)
+    diag = diagnose(_with_force(rec, force, seed=5), "friction_guide")
+    assert diag.unexplained, diag.verdict
+
+
+def test_bounds_follow_the_data_scale():
+    # reference: the scaling rule (module docstring of models.components.base): a 20 kN
+    # damper's friction level is not capped at the library's 5 kN
+    from suspenv.models.components.base import scaled_bound
+
+    assert scaled_bound(0.0, 5000.0, "N", {"force": 2e4}) == (0.0, 2e7)
+    lo, hi = scaled_bound(1e3, 1e6, "N/m", {"force": 100.0, "deflection": 1.0})
+    assert lo == pytest.approx(0.1) and hi == 1e6
+    assert scaled_bound(0.0, 1.0, "s", {"force": 1.0}) == (0.0, 1.0)  # time keeps its own
+
+
+def test_headline_is_short_and_evidence_carries_the_rest(dyno):
+    v = dyno.inputs["velocity"]
+    rec = _with_force(dyno, _gas_damper(dyno) + 80.0 * np.tanh(v / 0.001))
+    diag = diagnose(rec, "damper")
+    assert diag.headline == "Missing physics: Coulomb friction in the damper"
+    assert len(diag.headline.split()) < 20
+    assert diag.to_dict()["headline"] == diag.headline
+
+
+def test_mr_damper_elements_are_named_in_its_own_words():
+    model = make_component("mr_damper")
+    e = make_effect("coulomb_friction", location="MR damper")
+    assert model.effect_words(e).startswith("yield force of the MR fluid")
+    assert make_component("damper").effect_words(make_effect("coulomb_friction")) == (
+        "Coulomb friction in the damper"
+    )
+
+
+def test_rig_description_refusals_name_the_key_and_value(dyno):
+    def with_rig(rig):
+        return Recording(
+            dyno.name, dyno.test, dyno.time, dyno.inputs,
+            {"force": _gas_damper(dyno)}, dyno.units, {"rig": rig},
+        )  # fmt: skip
+
+    with pytest.raises(ValidationError, match=r"unknown rig entr\(ies\) \['mass'\]"):
+        describe_rig("damper", [with_rig({"mass": 3.0})])
+    with pytest.raises(ValidationError, match=r"positive_stroke in .* but got 'up'"):
+        describe_rig("damper", [with_rig({"positive_stroke": "up"})])
+    with pytest.raises(ValidationError, match=r"known.m_s > 0` must hold, but got -1"):
+        describe_rig("quarter_car_rig", [with_rig({"known": {"m_s": -1}})])
+
+
+def test_model_file_declares_baseline_and_masses(tmp_path):
+    f = tmp_path / "rig.toml"
+    f.write_text(
+        'family = "quarter_car_rig"\nbaseline = ["zero_drift"]\n[known]\nm_s = 250.0\nm_u = 35.0\n'
+    )
+    rig = describe_rig(str(f), [])
+    assert rig.family == "quarter_car_rig" and rig.baseline == ("zero_drift",)
+    model = baseline_model(rig)
+    assert model.options["m_s"] == 250.0
+    assert [e.kind for e in model.effects] == ["zero_drift", "zero_drift"]

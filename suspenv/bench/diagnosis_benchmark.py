@@ -99,6 +99,8 @@ def score_case(diag: Diagnosis, case: Case) -> dict[str, Any]:
         else not named,
         "outside": bool(case.truth.outside),
         "unexplained": bool(diag.unexplained),
+        # the residual check's largest structured / noise RMS ratio over the channels
+        "residual_ratio": max((float(q.ratio) for q in (diag.residual or [])), default=None),
         "noise_kind": case.truth.noise_kind,
         # a control is a false alarm when anything is named or a residual is called
         # unexplained; an outside case is never a control
@@ -122,6 +124,7 @@ CASE_KEYS = (
     "family",
     "outside",
     "unexplained",
+    "residual_ratio",
     "noise_kind",
     "truth",
     "named",

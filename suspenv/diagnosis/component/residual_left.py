@@ -12,17 +12,22 @@ residual with its cycle-to-cycle scatter:
    cycles) is removed from the residual: a drifting zero is not structure;
 2. **state cells**: samples are binned by direction of motion (2), speed quartile (4)
    and deflection quartile (4): 32 cells;
-3. **replicates**: each motion cycle (:func:`~suspenv.diagnosis.component.motion.cycle_index`)
-   gives one mean per cell it visits; a cell with at least :data:`MIN_REPLICATES`
-   cycles gives ``m`` (mean over cycles), ``s`` (their spread) and ``t = m / (s/sqrt k)``,
-   whose two-sided p-value (Student t, k - 1 degrees of freedom) is turned into the
-   chi-square(1) value with the same tail; their sum over cells is chi-square(cells)
-   under the null. The scatter is measured, not assumed, so coloured noise with a
-   correlation time well below a cycle does not count as structure;
-4. **size**: the noise RMS ``N`` from pairs of samples in the same state in different
-   cycles (:func:`neighbour_noise_power`: a function of the state cancels in their
-   difference, noise does not), the structured RMS ``S`` from the rest of the residual's
-   variance. **A residual remains** when the test rejects at ``alpha`` *and*
+3. **replicates**: each motion cycle (with fewer than :data:`MIN_CYCLES`, each of
+   :data:`TIME_BLOCKS` time blocks; :func:`replicates`) gives one mean per cell it
+   visits; a cell with at least :data:`MIN_REPLICATES` of them gives ``m`` (mean over
+   replicates), ``s`` (their spread) and ``t = m / (s/sqrt k)``, whose two-sided
+   p-value (Student t, k - 1 degrees of freedom) is turned into the chi-square(1) value
+   with the same tail; their sum over cells is chi-square(cells) under the null. The
+   scatter is measured, not assumed, so coloured noise with a correlation time well
+   below a replicate does not count as structure;
+4. **nearest states**: each sample is paired with the nearest state (deflection,
+   velocity) met in another replicate; the mean product of the pair's residuals is the
+   power ``S^2`` of the part that is a function of the state (noise is not shared),
+   tested against zero over the replicates (:func:`neighbour_structure`); it sees
+   structure finer than the cells (a position ripple). The two tests are combined by
+   Bonferroni;
+5. **size**: the structured RMS ``S`` against the noise RMS ``N`` (the rest of the
+   residual's variance). **A residual remains** when the test rejects at ``alpha`` *and*
    ``S > MATERIAL_RATIO * N``: what is left is at least as large as the noise and
    repeats with the motion.
 
@@ -48,6 +53,10 @@ from suspenv.diagnosis.fitting import FitResult
 from suspenv.diagnosis.protocols import RecordingLike
 from suspenv.diagnosis.split import Split
 
+#: fewer motion cycles than this in a recording: replicates are time blocks instead
+MIN_CYCLES = 16
+#: time blocks per recording used as replicates when cycles are few
+TIME_BLOCKS = 16
 #: most degrees of the per-recording time trend removed before the check
 MAX_TREND_DEGREE = 6
 #: motion cycles per degree of that trend (a trend slower than a few cycles is drift)
@@ -121,6 +130,17 @@ def _detrend(t: np.ndarray, r: np.ndarray, cycles: int) -> np.ndarray:
     return np.asarray(r - basis @ coef)
 
 
+def replicates(t: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Replicate index of each sample: its motion cycle when the recording has at least
+    :data:`MIN_CYCLES` of them, else one of :data:`TIME_BLOCKS` equal time blocks (a
+    guide run with a handful of long moves still meets each state many times)."""
+    c = cycle_index(x)
+    if int(c.max()) + 1 >= MIN_CYCLES:
+        return c
+    span = float(t[-1] - t[0]) or 1.0
+    return np.minimum(((t - t[0]) / span * TIME_BLOCKS).astype(int), TIME_BLOCKS - 1)
+
+
 def _quartile(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     edges = np.quantile(a, [0.25, 0.5, 0.75])
     return np.searchsorted(edges, a, side="right"), edges
@@ -152,8 +172,8 @@ def residual_left(
             t = np.asarray(rec.time, float)
             r = np.asarray(rec.outputs[ch], float) - np.asarray(pred[ch], float)
             x, v = motion(rec)
-            c = cycle_index(x)
-            r = _detrend(t, r, int(c.max()) + 1)
+            c = replicates(t, x)
+            r = _detrend(t, r, int(cycle_index(x).max()) + 1)
             rs.append(r)
             xs.append(x)
             vs.append(v)
@@ -215,12 +235,16 @@ def _cell_test(
         dof += 1
         tops.append((abs(mean), int(c), mean))
     total = float(np.mean(r * r))
-    n2 = max(min(neighbour_noise_power(r, x, v, cycle), total), 1e-300)
+    _, p_neighbour = neighbour_structure(r, x, v, cycle)
+    # noise power from pairs in the same state (never negative); structure: the rest
+    n2 = max(min(neighbour_noise_power(r, x, v, cycle), total), 1e-12 * total, 1e-300)
     s2 = max(total - n2, 0.0)
     ratio = float(np.sqrt(s2 / n2))
-    p_value = float(stats.chi2.sf(chi2, dof)) if dof else 1.0
+    p_cells = float(stats.chi2.sf(chi2, dof)) if dof else 1.0
+    # two views of one question (state cells; nearest states): Bonferroni over the two
+    p_value = min(1.0, 2.0 * min(p_cells, p_neighbour))
     _, white_p = ljung_box(r)
-    remains = bool(dof and p_value < alpha and ratio > MATERIAL_RATIO)
+    remains = bool(p_value < alpha and ratio > MATERIAL_RATIO)
     tops.sort(reverse=True)
     where = [_cell_words(c, mean, unit, speed_edges, x_edges) for _, c, mean in tops[:3]]
     return ResidualLeft(
@@ -239,28 +263,66 @@ def _cell_test(
     )
 
 
-def neighbour_noise_power(
-    r: np.ndarray, x: np.ndarray, v: np.ndarray, cycle: np.ndarray, neighbours: int = 16
-) -> float:
-    """Noise power of ``r`` [unit^2] from pairs of samples in the same state of motion in
-    different cycles: half the mean square difference of each sample's residual and that
-    of its nearest neighbour in (deflection, velocity) (each scaled by its spread) from
-    another cycle. A model error that is a function of the state cancels in the
-    difference; noise, white or coloured, does not (the two samples are a cycle apart).
-    """
+def neighbour_structure(
+    r: np.ndarray, x: np.ndarray, v: np.ndarray, replicate: np.ndarray
+) -> tuple[float, float]:
+    """Power of the part of ``r`` that is a function of the state [unit^2] and the
+    one-sided p-value that it is zero.
+
+    Each sample is paired with its nearest neighbour in (deflection, velocity) (each
+    scaled by its spread) from another replicate (:func:`neighbour_pairs`); a function of
+    the state is shared by the pair, noise is not, so ``mean(r_i r_nb(i))`` estimates the
+    structure's power. The test is a t-test of that mean over the replicates' own means
+    (products of neighbouring samples are correlated through coloured noise; replicates
+    are not)."""
+    i, nb = neighbour_pairs(x, v, replicate)
+    if i.size < 8:
+        return 0.0, 1.0
+    prod = r[i] * r[nb]
+    blocks = replicate[i]
+    uniq, inv = np.unique(blocks, return_inverse=True)
+    if uniq.size < 3:
+        return float(np.mean(prod)), 1.0
+    means = np.bincount(inv, weights=prod) / np.bincount(inv)
+    sd = float(np.std(means, ddof=1))
+    m = float(np.mean(means))
+    if sd <= 0:
+        return m, 1.0 if m <= 0 else 0.0
+    t_stat = m / (sd / np.sqrt(uniq.size))
+    return float(np.mean(prod)), float(stats.t.sf(t_stat, uniq.size - 1))
+
+
+def neighbour_pairs(
+    x: np.ndarray, v: np.ndarray, replicate: np.ndarray, neighbours: int = 16
+) -> tuple[np.ndarray, np.ndarray]:
+    """Indices ``(i, nb)``: each sample and its nearest neighbour in (deflection,
+    velocity), each scaled by its spread, from another replicate (samples with none among
+    their ``neighbours`` nearest are left out)."""
     from scipy.spatial import cKDTree
 
     pts = np.column_stack([x / (np.std(x) or 1.0), v / (np.std(v) or 1.0)])
-    k = min(neighbours, r.size)
+    k = min(neighbours, x.size)
     _, idx = cKDTree(pts).query(pts, k=k)
     idx = np.atleast_2d(idx)
-    other = cycle[idx] != cycle[:, None]
+    other = replicate[idx] != replicate[:, None]
     has = other.any(axis=1)
-    if not has.any():
-        return float(np.mean(r * r))
     first = np.argmax(other, axis=1)
-    nb = idx[np.arange(r.size), first]
-    d = (r - r[nb])[has]
+    nb = idx[np.arange(x.size), first]
+    return np.flatnonzero(has), nb[has]
+
+
+def neighbour_noise_power(
+    r: np.ndarray, x: np.ndarray, v: np.ndarray, replicate: np.ndarray
+) -> float:
+    """Noise power of ``r`` [unit^2] from pairs of samples in the same state of motion in
+    different replicates (:func:`neighbour_pairs`): half the mean square difference of
+    their residuals. A model error that is a function of the state cancels in the
+    difference; noise, white or coloured, does not (the two samples are far apart in
+    time)."""
+    i, nb = neighbour_pairs(x, v, replicate)
+    if i.size == 0:
+        return float(np.mean(r * r))
+    d = r[i] - r[nb]
     return 0.5 * float(np.mean(d * d))
 
 

@@ -368,6 +368,10 @@ def baseline_model(
             effects.append(make_effect(kind, location=str(probe.location or "")))
     defaults = probe.effect_defaults
     effects = [e.with_params(defaults.get(e.kind, {})) for e in effects]
+    if recordings:
+        # the drift's shape is defined over the longest recording's duration
+        span = max(float(np.ptp(np.asarray(r.time, float))) for r in recordings) or 1.0
+        effects = [e.with_params({"span": span}) if e.kind == DRIFT else e for e in effects]
     return make_component(rig.family, effects, **known)
 
 

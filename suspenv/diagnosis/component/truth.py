@@ -202,13 +202,14 @@ def _baseline_truth(
 
 
 #: physics outside the effect library, per family: closed-form forces added to the
-#: simulated force (component on a dyno or guide), or a pure delay of the recorded body
-#: acceleration (quarter car); the diagnosis cannot name them and must say so
+#: simulated force (component on a dyno or guide), or a sensor that clips the body
+#: acceleration / a deflection transducer with a quadratic calibration error (quarter
+#: car); the diagnosis cannot name them and must say so
 OUTSIDE_KINDS: dict[str, tuple[str, ...]] = {
     "damper": ("cubic_damping", "velocity_dead_zone"),
     "mr_damper": ("cubic_damping", "velocity_dead_zone"),
     "friction_guide": ("cogging", "cubic_damping"),
-    "quarter_car_rig": ("time_delay",),
+    "quarter_car_rig": ("sensor_clipping", "transducer_nonlinearity"),
 }
 #: noise of the no-effect controls, by seed: white, coloured (AR(1), correlation time
 #: about 10 samples) and white plus a slow, curved zero drift
@@ -219,7 +220,7 @@ def _outside(
     kind: str, rng: np.random.Generator, sc: dict[str, float], rec: Recording
 ) -> tuple[dict[str, float], np.ndarray | float]:
     """Parameters and the added force [N] of an out-of-library element (force families;
-    zero for the quarter car's delay, which acts on the recorded channel)."""
+    zero for the quarter car's sensor faults, which act on the recorded channels)."""
     from suspenv.diagnosis.component.motion import motion
 
     x, v = motion(rec)
@@ -236,8 +237,12 @@ def _outside(
         amp = float(rng.uniform(0.1, 0.25)) * F
         pitch = float(rng.uniform(0.1, 0.25)) * X
         return {"amplitude": amp, "pitch": pitch}, amp * np.sin(2 * np.pi * x / pitch)
-    if kind == "time_delay":
-        return {"delay": float(rng.uniform(2.0, 5.0)) * float(np.median(np.diff(rec.time)))}, 0.0
+    if kind == "sensor_clipping":
+        # the accelerometer's range ends at 60-80 % of the largest body acceleration
+        return {"fraction_of_peak": float(rng.uniform(0.6, 0.8))}, 0.0
+    if kind == "transducer_nonlinearity":
+        # x_rec = x + q x |x| / X: 8-15 % error at the stroke amplitude
+        return {"q": float(rng.choice([-1.0, 1.0])) * float(rng.uniform(0.08, 0.15))}, 0.0
     raise ValidationError(f"unknown out-of-library kind {kind!r}")  # pragma: no cover
 
 
@@ -288,12 +293,14 @@ def make_case(family: str, seed: int, n_effects: int, outside: bool = False) -> 
     if outside:
         kind = str(rng.choice(OUTSIDE_KINDS[family]))
         params, added = _outside(kind, rng, sc, rec)
-        if kind == "time_delay":
-            from suspenv.models.effects.sensor import sensor_delay
-
-            clean["body_acceleration"] = sensor_delay(
-                np.asarray(clean["body_acceleration"], float), rec.time, params["delay"]
-            )
+        if kind == "sensor_clipping":
+            acc = np.asarray(clean["body_acceleration"], float)
+            limit = params["fraction_of_peak"] * float(np.max(np.abs(acc)))
+            params["limit"] = limit
+            clean["body_acceleration"] = np.clip(acc, -limit, limit)
+        elif kind == "transducer_nonlinearity":
+            x = np.asarray(clean["suspension_deflection"], float)
+            clean["suspension_deflection"] = x + params["q"] * x * np.abs(x) / sc["stroke"]
         else:
             clean["force"] = np.asarray(clean["force"], float) + added
         effect_dicts = [{"kind": kind, "outside": True, "params": params}]

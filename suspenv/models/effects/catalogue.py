@@ -323,11 +323,19 @@ KINDS = (
     ),
     EffectKind(
         "zero_drift",
-        "sensor zero drift (linear in time)",
+        "sensor zero drift (slow, smooth in time)",
         "sensor",
-        (_p("rate", -1e6, 1e6, "", 0.0, "drift rate, in the channel's unit per second"),),
+        (
+            _p("rate", -1e6, 1e6, "", 0.0, "drift rate, in the channel's unit per second"),
+            _p("bow", -1e6, 1e6, "", 0.0, "quadratic part over the span, in the channel's unit"),
+            _p("wave", -1e6, 1e6, "", 0.0, "cubic part over the span, in the channel's unit"),
+            _p("span", 1e-3, 1e7, "s", 1.0, "time span the drift shape is defined over"),
+        ),
         "slow trend in time, independent of the motion",
-        lambda y, t, rate: sensor.sensor_drift(y, t, bp(rate)),
+        lambda y, t, rate, bow, wave, span: sensor.sensor_drift(
+            y, t, bp(rate), bp(bow), bp(wave), bp(span)
+        ),
+        fit_fixed=("span",),
         needs_time=True,
     ),
     EffectKind(

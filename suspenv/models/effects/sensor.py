@@ -10,9 +10,9 @@ makes the recorded signal late.
   frequency ``w`` the recorded signal lags by ``atan(w tau)`` with amplitude ratio
   ``1 / sqrt(1 + (w tau)^2)``.
 * pure delay: ``y_rec(t) = y(t - delay)`` (linear interpolation, first value held).
-* zero drift: ``y_rec = y + rate * t`` (t in seconds from the recording's time
-  origin; the zero at t = 0 is an offset of its own): a load cell or displacement
-  transducer whose zero wanders slowly.
+* zero drift: ``y_rec = y + rate t + bow P2(u) + wave P3(u)`` (t in seconds from the
+  recording's time origin, ``u = 2 t / span - 1``; the zero at t = 0 is an offset of its
+  own): a load cell or displacement transducer whose zero wanders slowly.
 """
 
 from __future__ import annotations
@@ -36,14 +36,30 @@ def sensor_offset_gain(
 
 
 def sensor_drift(
-    y: np.ndarray | float, t: np.ndarray | None, rate: np.ndarray | float = 0.0
+    y: np.ndarray | float,
+    t: np.ndarray | None,
+    rate: np.ndarray | float = 0.0,
+    bow: np.ndarray | float = 0.0,
+    wave: np.ndarray | float = 0.0,
+    span: np.ndarray | float = 1.0,
 ) -> np.ndarray:
-    """Recorded value ``y + rate * t``: a zero that drifts linearly in time (``rate`` in
-    the channel's unit per second, ``t`` [s] from the recording's time origin; the zero
-    at ``t = 0`` is a separate offset)."""
+    """Recorded value ``y + rate t + bow P2(u) + wave P3(u)``: a zero that drifts slowly
+    and smoothly in time. ``t`` [s] from the recording's time origin, ``u = 2 t / span - 1``
+    (``span`` [s], the recording's duration, fixed), P2 and P3 the Legendre polynomials
+    (zero mean over the span, so the zero at the start stays with the offset); ``rate``
+    in the channel's unit per second, ``bow`` and ``wave`` in the channel's unit."""
     if t is None:
         raise ValueError("zero_drift needs the sample times t [s]")
-    return np.asarray(y, dtype=float) + np.asarray(rate, dtype=float) * np.asarray(t, float)
+    tt = np.asarray(t, float)
+    u = 2.0 * tt / np.asarray(span, dtype=float) - 1.0
+    p2 = 0.5 * (3.0 * u * u - 1.0)
+    p3 = 0.5 * (5.0 * u**3 - 3.0 * u)
+    return (
+        np.asarray(y, dtype=float)
+        + np.asarray(rate, dtype=float) * tt
+        + np.asarray(bow, dtype=float) * p2
+        + np.asarray(wave, dtype=float) * p3
+    )
 
 
 def sensor_lag_dydt(

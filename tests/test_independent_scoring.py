@@ -1,0 +1,59 @@
+"""Scoring of the independent benchmark (suspenv.bench.independent_diagnosis).
+
+Reference: the scoring rules of the module docstring, on hand-made truths and verdicts.
+"""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+from suspenv.bench.independent_diagnosis import score_case, summarise
+
+
+def _diag(families, unexplained=False):
+    return SimpleNamespace(
+        named_families=list(families), unexplained=unexplained, verdict="v", seconds=1.0
+    )
+
+
+def _truth(kind, labels=()):
+    return {
+        "case_id": f"damper-{kind}-1",
+        "family": "damper",
+        "kind": kind,
+        "effects": [{"label": lab} for lab in labels],
+    }
+
+
+def test_single_is_right_only_when_its_family_comes_first():
+    assert score_case(_truth("single", ["friction"]), _diag(["friction", "hysteresis"]))["right"]
+    assert not score_case(_truth("single", ["friction"]), _diag(["digressive", "friction"]))[
+        "right"
+    ]
+    assert score_case(_truth("single", ["viscoelastic"]), _diag(["viscoelastic"]))["right"]
+
+
+def test_a_control_is_a_false_alarm_when_anything_is_named_or_unexplained():
+    assert score_case(_truth("control"), _diag([]))["right"]
+    assert not score_case(_truth("control"), _diag(["sensor_lag"]))["right"]
+    assert not score_case(_truth("control"), _diag([], unexplained=True))["right"]
+
+
+def test_outside_is_right_only_when_reported_unexplained_and_refusals_are_misses():
+    assert score_case(_truth("outside", ["cubic_damper"]), _diag(["digressive"], True))["right"]
+    assert not score_case(_truth("outside", ["cubic_damper"]), _diag(["digressive"]))["right"]
+    refused = score_case(_truth("outside", ["backlash"]), None, "ValidationError: too short")
+    assert not refused["right"] and refused["refused"]
+
+
+def test_summary_counts_per_family_and_total():
+    rows = []
+    for kind, right in [("single", True), ("single", False), ("control", True), ("outside", True)]:
+        r = score_case(_truth(kind, ["friction"]), _diag(["friction"] if right else ["x"]))
+        r["right"] = right
+        r["wall_s"] = r["cpu_s"] = 1.0
+        rows.append(r)
+    s = summarise({"cases": rows})
+    assert s["damper"]["single_named_first"] == (1, 2)
+    assert s["damper"]["control_false_alarms"] == (0, 1)
+    assert s["all"]["outside_unexplained"] == (1, 1)
