@@ -463,12 +463,13 @@ def check_step_or_knee(candidate: str, ext: FitResult, vmax: float) -> None:
     """Refuse a refit whose fitted transition contradicts its kind.
 
     A regularised Coulomb step ``f_c tanh(v / v_eps)`` beside the viscous base and a
-    digressive curve ``c_low v_knee tanh(v / v_knee)`` are one function of velocity: on a
-    dyno the two fit the same data equally well, so the fitted width decides which
-    physics it is. A friction element fitted wider than ``FRICTION_MAX_FRACTION`` of the
-    peak speed ``vmax`` [m/s] is a valve knee; a digressive curve fitted narrower than
-    ``KNEE_MIN_FRACTION`` is a force step at reversal. Raises :class:`ValidationError`
-    (the hypothesis is recorded as failed with this reason) so the other kind, refitted
+    digressive curve ``c_low v / (1 + |v| / v_knee)`` are nearly one function of velocity
+    (both rise steeply and saturate): on a dyno the two fit much the same data, so the
+    fitted width decides which physics it is. A friction element fitted wider than
+    ``FRICTION_MAX_FRACTION`` of the peak speed ``vmax`` [m/s] is a valve knee; a
+    digressive curve fitted narrower than ``KNEE_MIN_FRACTION`` is a force step at
+    reversal. Raises :class:`ValidationError` (the hypothesis is recorded as failed with
+    this reason) so the other kind, refitted
     in the same round, is named.
     """
     kind = candidate.partition("@")[0]

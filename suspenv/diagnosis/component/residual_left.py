@@ -26,10 +26,11 @@ residual with its cycle-to-cycle scatter:
    tested against zero over the replicates (:func:`neighbour_structure`); it sees
    structure finer than the cells (a position ripple). The two tests are combined by
    Bonferroni;
-5. **size**: the structured RMS ``S`` against the noise RMS ``N`` (the rest of the
-   residual's variance). **A residual remains** when the test rejects at ``alpha`` *and*
-   ``S > MATERIAL_RATIO * N``: what is left is at least as large as the noise and
-   repeats with the motion.
+5. **size**: the noise RMS ``N`` from the differences of those pairs
+   (:func:`neighbour_noise_power`), the structured RMS ``S`` from the rest of the
+   residual's variance. **A residual remains** when the test rejects at ``alpha`` *and*
+   ``S > MATERIAL_RATIO * N``: what is left repeats with the motion and lifts the
+   residual at least 17 % above the noise.
 
 Whiteness (Ljung-Box, 20 lags) of the detrended residual is reported beside it: a
 white residual is noise; a non-white one may still be coloured noise, which is why
@@ -64,8 +65,10 @@ CYCLES_PER_TREND_DEGREE = 4
 #: cycles a state cell needs to count (its scatter is measured from them)
 MIN_REPLICATES = 4
 #: structured RMS / noise RMS above which a significant structure counts as a residual
-#: left (the residual's RMS is then at least sqrt(2) x the noise)
-MATERIAL_RATIO = 1.0
+#: left (the residual's RMS is then at least 1.17 x the noise). On the development seeds
+#: (0-9) of the concealed-effect benchmark the ratio left after the right element was
+#: at most 0.35, in the controls at most 0.45, in out-of-library cases at least 0.71
+MATERIAL_RATIO = 0.6
 #: test level of the check
 ALPHA = 0.01
 
