@@ -66,6 +66,20 @@ def test_overrides_and_changed_config_refused(tmp_path):
     assert s["n_resumed"] == 0
 
 
+def test_results_of_another_commit_are_not_resumed(tmp_path):
+    # a run folder whose versions.json names another suspenv commit holds results of
+    # other code: resuming would mix two versions, so it is refused (and --overwrite works)
+    cfg = load_config(_write(tmp_path), ["budget=24"])
+    run_dir, _ = run_experiment(cfg)
+    stored = json.loads((run_dir / "versions.json").read_text())
+    stored["suspenv_commit"] = "0" * 40
+    (run_dir / "versions.json").write_text(json.dumps(stored))
+    with pytest.raises(ValidationError, match=r"holds results of suspenv 0{40}, but this is"):
+        run_experiment(cfg)
+    _, s = run_experiment(cfg, overwrite=True)
+    assert s["n_resumed"] == 0
+
+
 @pytest.mark.parametrize(
     ("override", "needle"),
     [

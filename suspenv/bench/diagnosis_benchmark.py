@@ -502,13 +502,13 @@ def main(argv: list[str] | None = None) -> int:
     its run directory (as ``suspenv run`` would), then write the table into
     ``docs/diagnosis.md`` (between its markers) and ``docs/benchmarks/``."""
     from suspenv.runs.config import load_config
-    from suspenv.runs.run_dir import prepare_run_dir
+    from suspenv.runs.runner import run_experiment
 
     args = list(sys.argv[1:] if argv is None else argv)
     config = load_config(args[0] if args else "configs/diagnosis_benchmark.toml")
-    run_dir = prepare_run_dir(config)
     t0 = time.perf_counter()
-    summary = run_benchmark_pipeline(config, run_dir)
+    # as `suspenv run` does: resume only the same experiment of the same code
+    run_dir, summary = run_experiment(config)
     result = json.loads((run_dir / "benchmark.json").read_text())
     table = table_markdown(result)
     out = Path("docs") / "benchmarks"

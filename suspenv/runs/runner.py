@@ -12,6 +12,7 @@ Order, so that a bad config leaves nothing behind and two runs never share a dir
 
 from __future__ import annotations
 
+import json
 import shutil
 import time
 import tomllib
@@ -28,6 +29,7 @@ from suspenv.runs.run_dir import (
     prepare_run_dir,
     run_directory,
 )
+from suspenv.runs.versions import package_versions
 
 #: keys that may differ between a run and its resumption (they do not change numbers)
 RESUMABLE_DIFFERENCES = {"run", "config_path"}
@@ -75,6 +77,25 @@ def _clear(path: Path) -> None:
             child.unlink()
 
 
+def _check_same_code(path: Path) -> None:
+    """Refuse to resume results written by another suspenv commit: the resumed rows and
+    the new ones would come from two versions of the code (``versions.json``)."""
+    stored = path / "versions.json"
+    if not stored.is_file():
+        return
+    try:
+        old = json.loads(stored.read_text()).get("suspenv_commit")
+    except (json.JSONDecodeError, AttributeError):
+        return
+    new = package_versions().get("suspenv_commit")
+    if old and new and old != new:
+        raise ValidationError(
+            f"run directory {str(path)!r} holds results of suspenv {old}, but this is "
+            f"{new}: resuming would mix results of two versions of the code; use "
+            "--overwrite (or another `name`/`seed`)"
+        )
+
+
 def run_experiment(config: dict[str, Any], overwrite: bool = False) -> tuple[Path, dict[str, Any]]:
     """Run a resolved config; resume when its run directory holds the same experiment."""
     config = check_config(config)
@@ -93,6 +114,8 @@ def run_experiment(config: dict[str, Any], overwrite: bool = False) -> tuple[Pat
                 )
             elif overwrite:
                 _clear(path)
+            elif holds_results(path):
+                _check_same_code(path)
         run_dir = prepare_run_dir(config)
         pipeline = pipeline_function(config.get("pipeline", "optimize"))
         t0 = time.perf_counter()
