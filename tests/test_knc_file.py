@@ -27,7 +27,7 @@ from suspenv.measurements.knc_file import (
     load_measurement,
     write_measurement,
 )
-from suspenv.metrics.knc import OBJECTIVES, objectives
+from suspenv.metrics.knc import OBJECTIVE_NAMES, OBJECTIVES, objectives
 from suspenv.models.mcpherson.vehicle_file import REFERENCE_FILE, load_vehicle
 from suspenv.rigs.knc import ALL_TESTS, loop_path, run_tests
 from suspenv.rigs.knc_measured import measured_results, on_grid
@@ -119,7 +119,15 @@ def test_round_trip_gives_the_simulations_40_objectives(cli_folder, reference_re
     F_sim = objectives(reference_results)[0]
     F_file = objectives(measured_results(m))[0]
     assert len(F_file) == len(OBJECTIVES) == 40
-    np.testing.assert_allclose(F_file, F_sim, rtol=1e-6, atol=0)
+    # the reference axle is mirrored: in opposite travel the roll force and roll rate
+    # curvatures are zero by symmetry, and the simulation's values are round-off noise
+    # (below 1e-7 of their units) that the file's 15 significant digits shift relatively;
+    # those two are compared absolutely (reference: the simulation itself), all others
+    # relatively
+    zero = np.isin(OBJECTIVE_NAMES, ("opp_roll_force", "opp_roll_rate"))
+    assert np.abs(F_sim[zero]).max() < 1e-7
+    np.testing.assert_allclose(F_file[~zero], F_sim[~zero], rtol=1e-6, atol=0)
+    np.testing.assert_allclose(F_file[zero], F_sim[zero], rtol=0, atol=1e-9)
 
 
 def test_on_grid_of_an_exact_loop_is_the_rig_result(small_results):

@@ -1,8 +1,10 @@
 """The fast paths of the K&C evaluation against their reference paths.
 
-* revisited grid points of a path-independent model (return legs) are corrected in one
-  batched call (``run_tests(reuse_revisits=True)``, the default) instead of being solved
-  one after the other (``reuse_revisits=False``): same channels to solver tolerance;
+* a path-independent model solves every grid point once, its bump and rebound legs side
+  by side from the static state, and the return legs take the states of their grid
+  points (``run_tests(reuse_revisits=True)``, the default) instead of solving every step
+  of the loop one after the other (``reuse_revisits=False``): same channels to solver
+  tolerance;
 * a model with hysteresis or friction (path-dependent) always solves both legs;
 * the problem's internal chunking and the batched objectives change nothing.
 """

@@ -203,11 +203,31 @@ assert len(OBJECTIVES) == 40
 
 
 # ------------------------------------------------------------------ curves
-def _wheel_curves(res: KCResult, branch: str) -> dict[str, np.ndarray]:
-    """Per-wheel curves (n, G, 2) in edge units on one branch."""
-    b = lambda name: res.branch(name, branch)  # noqa: E731
-    sg = SIDE_SIGN
+#: the rig channels that the objectives read (:func:`_wheel_curves`)
+OBJECTIVE_CHANNELS = (
+    "toe",
+    "camber",
+    "caster",
+    "wheel_centre_x",
+    "wheel_centre_y",
+    "wheel_centre_z",
+    "contact_x",
+    "contact_y",
+    "tyre_fz",
+    "pad_z",
+)
+
+
+def _wheel_curves(res: KCResult, branch: str, window: slice | None = None) -> dict[str, np.ndarray]:
+    """Per-wheel curves (n, G, 2) in edge units on one branch (``window``: only the grid
+    points of that slice, which must hold the static position; the same numbers)."""
     st = res.static_index
+    if window is None:
+        b = lambda name: res.branch(name, branch)  # noqa: E731
+    else:
+        b = lambda name: res.branch(name, branch)[:, window]  # noqa: E731
+        st -= window.start
+    sg = SIDE_SIGN
     zw = b("wheel_centre_z")
     zp = b("pad_z")
     out = {
@@ -253,22 +273,26 @@ def quadratic_fit(x: np.ndarray, y: np.ndarray, centre: int, half: int = FIT_HAL
         )
     xs = x[..., lo:hi] - x[..., centre : centre + 1]
     ys = y[..., lo:hi]
-    V = np.stack([np.ones_like(xs), xs, xs * xs], axis=-1)  # (..., k, 3)
-    VtV = np.einsum("...ki,...kj->...ij", V, V)
-    Vty = np.einsum("...ki,...k->...i", V, ys)
+    # normal equations [[S0, S1, S2], [S1, S2, S3], [S2, S3, S4]] c = [T0, T1, T2] with
+    # Sk = sum xs^k, Tk = sum xs^k ys, solved by Cramer's rule (cofactors C..)
+    x2 = xs * xs
+    S0 = np.full(xs.shape[:-1], float(xs.shape[-1]))
+    S1, S2, S3, S4 = xs.sum(-1), x2.sum(-1), (x2 * xs).sum(-1), (x2 * x2).sum(-1)
+    T0, T1, T2 = ys.sum(-1), (xs * ys).sum(-1), (x2 * ys).sum(-1)
+    C00, C01, C02 = S2 * S4 - S3 * S3, S2 * S3 - S1 * S4, S1 * S3 - S2 * S2
+    C11, C12, C22 = S0 * S4 - S2 * S2, S1 * S2 - S0 * S3, S0 * S2 - S1 * S1
+    det = S0 * C00 + S1 * C01 + S2 * C02
     # degenerate or non-finite curves (e.g. a failed design's frozen state) give NaN
     spread = np.ptp(xs, axis=-1) if xs.shape[-1] else np.zeros(xs.shape[:-1])
-    bad = ~(np.isfinite(VtV).all(axis=(-1, -2)) & np.isfinite(Vty).all(axis=-1))
-    bad |= ~(spread > 0)
-    bad |= ~(
-        np.abs(np.linalg.det(np.where(bad[..., None, None], np.eye(3), VtV)))
-        > 1e-12 * np.maximum(spread, 1e-300) ** 6
-    )
-    VtV = np.where(bad[..., None, None], np.eye(3), VtV)
-    Vty = np.where(bad[..., None], 0.0, Vty)
-    coef = np.linalg.solve(VtV, Vty[..., None])[..., 0]
-    coef = np.where(bad[..., None], np.nan, coef)
-    return coef[..., 0], coef[..., 1], 2.0 * coef[..., 2]
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        bad = ~(np.isfinite(det) & np.isfinite(T0) & np.isfinite(T1) & np.isfinite(T2))
+        bad |= ~(spread > 0)
+        bad |= ~(np.abs(det) > 1e-12 * np.maximum(spread, 1e-300) ** 6)
+        inv = np.where(bad, np.nan, 1.0 / np.where(bad, 1.0, det))
+        c0 = (C00 * T0 + C01 * T1 + C02 * T2) * inv
+        c1 = (C01 * T0 + C11 * T1 + C12 * T2) * inv
+        c2 = (C02 * T0 + C12 * T1 + C22 * T2) * inv
+    return c0, c1, 2.0 * c2
 
 
 def _reduce(obj: KCObjective, curves: dict[str, np.ndarray], centre: int) -> np.ndarray:
@@ -308,9 +332,9 @@ def objectives(results: dict[str, KCResult]) -> np.ndarray:
         for br in ("down", "up"):
             key = (obj.test, br)
             if key not in cache:
-                cache[key] = _wheel_curves(res, br)
-            ys.append(cache[key][obj.curve][:, window][..., wheels])
-            xs.append(cache[key][obj.x][:, window][..., wheels])
+                cache[key] = _wheel_curves(res, br, window)
+            ys.append(cache[key][obj.curve][..., wheels])
+            xs.append(cache[key][obj.x][..., wheels])
     # (n, 40 * 2, G, 2) -> (n, 40, 2 branches, 2 wheels, G)
     x = np.moveaxis(np.stack(xs, axis=1), -1, 2)
     y = np.moveaxis(np.stack(ys, axis=1), -1, 2)

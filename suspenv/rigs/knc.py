@@ -47,23 +47,26 @@ branch (bump to rebound) and the *ascending* branch (rebound to design, then the
 first leg design to bump).
 
 All tests of all designs are solved as one batch (rows = test x design), each step
-warm-started from the previous converged step with a tangent predictor.
+warm-started from the previous converged step with a predictor (the tangent
+``-J^-1 dres/dinput`` for a leg's first step, then linear and quadratic extrapolation of
+the leg's converged states).
 
-Return leg of a path-independent model: when the model has no element whose force
-depends on the loading branch (no Dahl hysteresis at a bushing, no strut friction:
-:attr:`AxleSolver.path_dependent`, decided from the model, never from data), the
-state at a grid point does not depend on how the rig got there, so a revisited grid
-point (rebound leg from bump back to design, last leg from rebound back to design)
-reuses the state converged at the first visit instead of solving it again: both
-branches are then identical, and equal to what a re-solve would give to the solver
-tolerance (the re-solve starts from that very state and stops after one correction
-below ``xtol``/``rtol``/``ltol``). ``reuse_revisits=False`` solves every point (the
-reference path, kept for checks and the speed benchmark).
+Path-independent model: when the model has no element whose force depends on the
+loading branch (no Dahl hysteresis at a bushing, no strut friction:
+:attr:`AxleSolver.path_dependent`, decided from the model, never from data), the state
+at a grid point does not depend on how the rig got there, so every grid point is solved
+once: the bump leg (design -> bump) and the rebound leg (design -> rebound) are solved
+side by side from the static state (twice the rows per solver call, half the steps),
+and the loop's return legs take the state of their grid point. Both branches are then
+identical; each point is the same equilibrium that a sequential solve reaches, to the
+solver tolerance (``xtol``/``rtol``/``ltol``). ``reuse_revisits=False`` solves every
+step of the loop one after the other (the reference path, kept for checks and the speed
+benchmark); a path-dependent model always does.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -77,9 +80,11 @@ from suspenv.models.mcpherson.solver import (
     JACOBIAN_BLOCK,
     MAX_ROTATION,
     MAX_TRANSLATION,
-    NS,
+    OUTPUT_NAMES,
     AxleSolver,
     AxleState,
+    SharedInverse,
+    _inv_mul,
 )
 
 # the tests (TESTS: travel, FORCE_TESTS: compliance, STEER_TESTS: steering, ALL_TESTS)
@@ -116,7 +121,9 @@ _DRIVE_SHOWN = {"m": (1e3, "mm", 2), "N": (1.0, "N", 0), "N*m": (1.0, "N*m", 1)}
 #: numbers; False: compute both rotations every step, the reference path of the tests
 #: and the speed benchmark's baseline)
 PREDICTOR_CACHE = True
-
+#: states extrapolated by the predictor of the two-leg loop of a path-independent model
+#: (:func:`_sweep_legs`): 4, cubic (3: quadratic, as the sequential loop)
+LEG_ORDER = 4
 
 
 @dataclass
@@ -248,6 +255,7 @@ def run_tests(
     reuse_revisits: bool = True,
     moment_amplitude: float = MOMENT_AMPLITUDE,
     rack_amplitude: float = RACK_AMPLITUDE,
+    channels: Sequence[str] | None = None,
 ) -> dict[str, KCResult]:
     """Run the rig ``tests`` on every design of ``axle``; returns {test: KCResult}.
 
@@ -257,9 +265,12 @@ def run_tests(
     ``steering`` (module docstring). ``effects``: the axle's optional
     physics, effects-library elements placed at bushings or the strut
     (:mod:`suspenv.models.mcpherson.effects`). ``reuse_revisits``: for a
-    path-independent model (see the module docstring) take a revisited grid point's
-    state from its first visit instead of solving it again (``False``: solve every
-    step, the reference path); a path-dependent model always solves every step.
+    path-independent model (see the module docstring) solve every grid point once, the
+    two legs from the design position side by side, and give a revisited grid point the
+    state of its first visit (``False``: solve every step of the loop in sequence, the
+    reference path); a path-dependent model always solves every step.
+    ``channels``: the names of the channels to keep in the results (None: all of
+    :meth:`AxleSolver.outputs`; fewer channels hold less memory).
     """
     _check_tests(tuple(tests))
     if not force_amplitude > 0:
@@ -271,6 +282,12 @@ def run_tests(
     if not rack_amplitude > 0:
         raise ValidationError(
             f"`rack_amplitude > 0` must hold, but got rack_amplitude={rack_amplitude} m"
+        )
+    unknown = sorted(set(channels or ()) - set(OUTPUT_NAMES))
+    if unknown or (channels is not None and isinstance(channels, str)):
+        raise ValidationError(
+            f"`channels` must name rig channels, but got {channels!r}; the channels are "
+            f"{OUTPUT_NAMES}"
         )
     n, nt = axle.n, len(tests)
     grid = stroke_grid(amplitude, steps)
@@ -285,9 +302,16 @@ def run_tests(
     # static equilibrium once per design, then one row per (test, design)
     base = AxleSolver(axle, effects)
     st0, conv0, J0 = base.solve(base.initial_state(), base.pad_static)
+    assert isinstance(J0, np.ndarray)  # a fresh solve: one inverse Jacobian per design
     tile = np.tile(np.arange(n), nt)  # rows: test-major
-    solver = base.take(tile)
-    st, J = st0.take(tile), J0[tile]
+    solver = base.take(tile, axle=False)
+    # a path-independent model: both legs from the design position side by side, every
+    # grid point solved once (see _sweep_legs); else every step of the loop in sequence
+    reuse = reuse_revisits and not solver.path_dependent
+    st = st0.take(tile)
+    # the static inverse Jacobians: one per design (shared by the rows of the legs) or
+    # one per row (the sequential loop); in a box, so that the sweep can free them
+    J_box = [J0 if reuse else J0[tile]]
     del st0, J0  # the per-design copies are no longer needed (memory)
     signs = np.repeat(np.array([_PAD_SIGN.get(t, (0.0, 0.0)) for t in tests]), n, axis=0)
     # every row's own grid (nt*n, steps+1): the drive of its test at each grid point
@@ -313,36 +337,6 @@ def run_tests(
     _fail(ok, msgs, ~conv0[tile], "ConvergenceError: no static equilibrium at the design position")
     st = solver.commit(st)
 
-    trail: list[AxleState] = []  # converged state of every step (states are not mutated)
-    pending: list[tuple[AxleState, np.ndarray]] = []  # (state, pads) whose channels are due
-    parts: list[dict[str, np.ndarray]] = []  # channels (steps, rows, 2) of flushed steps
-    # channels are computed in vectorised calls of about 4 JACOBIAN_BLOCK row evaluations
-    # each, as the steps come (bounded memory: only the states of `visited` stay alive)
-    per = max(1, 4 * JACOBIAN_BLOCK // max(rows, 1))
-
-    def flush() -> None:
-        stacked = AxleState(
-            np.stack([x.r for x, _ in pending]),
-            np.stack([x.R for x, _ in pending]),
-            np.stack([x.lam for x, _ in pending]),
-        )
-        parts.append(solver.outputs(stacked, np.stack([q for _, q in pending])))
-        pending.clear()
-
-    history: list[AxleState] = []  # converged states of the current leg, newest last
-    # the last relative rotation the predictor computed (see _extrapolate; None: none kept)
-    rel: dict | None = {} if PREDICTOR_CACHE else None
-    visited: dict[int, AxleState] = {}  # last converged state at each grid point
-    prev_ds = 0.0
-
-    def load_at(gi: int) -> Load:
-        """(pad heights (rows, 2) [m], wheel load (rows, 2, 6|9) or None, rack travel
-        (rows, 2) [m] or None) at grid ``gi``."""
-        drive = row_grid[:, gi]
-        ext = None if ext_dir is None else ext_dir * drive[:, None, None]
-        rack = None if rack_dir is None else rack_dir * drive[:, None]
-        return pad0 + signs * grid[gi], ext, rack
-
     def where_text(gi: int) -> str:
         parts = []
         for t in tests:
@@ -353,65 +347,19 @@ def run_tests(
 
     # step descriptions of failure messages, formatted once per grid point
     where_at = [where_text(gi) for gi in range(steps + 1)]
-
-    # a path-independent model: every run of revisited grid points is corrected in one
-    # batched residual call (see _revisit_run); `revisits` holds the run's states by step
-    reuse = reuse_revisits and not solver.path_dependent
-    revisits: dict[int, AxleState] = {}
-    tried: set[int] = set()
-    prev_gi, prev_load = path[0], load_at(path[0])
-    for k, gi in enumerate(path):
-        load = load_at(gi)
-        if k > 0:
-            ds = grid[gi] - grid[prev_gi]
-            if prev_ds * ds <= 0:  # a reversal starts a new leg
-                history = []
-            history = [*history[-2:], st]
-            if reuse and k not in tried and gi in visited:  # first step of a run of revisits
-                run = [k]
-                while run[-1] + 1 < path.size and int(path[run[-1] + 1]) in visited:
-                    run.append(run[-1] + 1)
-                tried.update(run)
-                revisits = _revisit_run(
-                    solver,
-                    st,
-                    [visited[int(path[j])] for j in run],
-                    [load_at(path[j]) for j in run],
-                    ok,
-                    J,
-                    run,
-                )
-            if k in revisits:
-                st = revisits.pop(k)
-            else:
-                st, J = _step(
-                    solver,
-                    st,
-                    prev_load,
-                    load,
-                    ok,
-                    msgs,
-                    J,
-                    k,
-                    where_at[gi],
-                    history,
-                    visited.get(gi),
-                    rel,
-                )
-            prev_ds = ds
-        visited[gi] = st
-        if gi in (0, steps):  # loads and deflections peak at the ends of the stroke
-            _check_state(solver, st, ok, msgs, k, where_at[gi])
-        if keep_states:
-            trail.append(st)
-        pending.append((st, load[0]))
-        if len(pending) == per:
-            flush()
-        prev_gi, prev_load = gi, load
-
-    if pending:
-        flush()
-    out = {k: np.moveaxis(np.concatenate([q[k] for q in parts]), 0, 1) for k in parts[0]}
+    sweep = _Sweep(pad0, signs, grid, row_grid, ext_dir, rack_dir)
+    if reuse:
+        legs = solver.take(np.tile(np.arange(rows), 2), axle=False)  # leg x test x design
+        del solver
+        out, trail = _sweep_legs(
+            legs, st, J_box, nt, ok, msgs, sweep, where_at, path, keep_states, channels
+        )
+    else:
+        # channels in vectorised calls of about 4 JACOBIAN_BLOCK row evaluations each
+        per = max(1, 4 * JACOBIAN_BLOCK // max(rows, 1))
+        out, trail = _sweep_loop(
+            solver, st, J_box.pop(), ok, msgs, sweep, where_at, path, per, keep_states, channels
+        )
     results = {}
     for j, t in enumerate(tests):
         sl = slice(j * n, (j + 1) * n)
@@ -427,6 +375,257 @@ def run_tests(
     return results
 
 
+@dataclass(frozen=True)
+class _Sweep:
+    """The rig's inputs of every row (test x design): static pad heights ``pad0`` (m, 2)
+    [m], pad sign per unit stroke ``signs`` (m, 2), the travel grid ``grid`` (G,) [m],
+    each row's drive grid ``row_grid`` (m, G) (:data:`DRIVE_UNIT`), the wheel load per
+    unit drive ``ext_dir`` (m, 2, 6|9) or None and the rack travel per unit drive
+    ``rack_dir`` (m, 2) or None."""
+
+    pad0: np.ndarray
+    signs: np.ndarray
+    grid: np.ndarray
+    row_grid: np.ndarray
+    ext_dir: np.ndarray | None
+    rack_dir: np.ndarray | None
+
+    def load(self, gi: np.ndarray | int, reps: int = 1) -> Load:
+        """The rig's input at grid index ``gi`` (an int, or one per row of ``reps``
+        stacked copies of the rows): (pad heights (reps*m, 2) [m], wheel load
+        (reps*m, 2, 6|9) or None, rack travel (reps*m, 2) [m] or None)."""
+        m = self.pad0.shape[0]
+        if reps == 1 and np.ndim(gi) == 0:  # one grid point for every row
+            drive = self.row_grid[:, gi]
+            ext = None if self.ext_dir is None else self.ext_dir * drive[:, None, None]
+            rack = None if self.rack_dir is None else self.rack_dir * drive[:, None]
+            return self.pad0 + self.signs * self.grid[gi], ext, rack
+        g = np.broadcast_to(np.asarray(gi), (reps * m,))
+        rr = np.tile(np.arange(m), reps)
+        drive = self.row_grid[rr, g]
+        ext = None if self.ext_dir is None else self.ext_dir[rr] * drive[:, None, None]
+        rack = None if self.rack_dir is None else self.rack_dir[rr] * drive[:, None]
+        return self.pad0[rr] + self.signs[rr] * self.grid[g][:, None], ext, rack
+
+
+def _outputs(
+    solver: AxleSolver,
+    states: list[AxleState],
+    pads: list[np.ndarray],
+    per: int,
+    names: Sequence[str] | None = None,
+) -> dict[str, np.ndarray]:
+    """Channels {name: (len(states), rows, 2)} of ``states`` at pad heights ``pads``,
+    in vectorised calls of ``per`` states each (bounded memory); ``names``: only these
+    channels (None: all)."""
+    parts = []
+    for a in range(0, len(states), per):
+        chunk = states[a : a + per]
+        stacked = AxleState(
+            np.stack([x.r for x in chunk]),
+            np.stack([x.R for x in chunk]),
+            np.stack([x.lam for x in chunk]),
+        )
+        parts.append(solver.outputs(stacked, np.stack(pads[a : a + per]), names))
+    return {k: np.concatenate([q[k] for q in parts]) for k in parts[0]}
+
+
+def _sweep_loop(
+    solver: AxleSolver,
+    st: AxleState,
+    J: np.ndarray,
+    ok: np.ndarray,
+    msgs: list[str],
+    sweep: _Sweep,
+    where_at: list[str],
+    path: np.ndarray,
+    per: int,
+    keep_states: bool,
+    names: Sequence[str] | None,
+) -> tuple[dict[str, np.ndarray], list[AxleState]]:
+    """Every step of the loop ``path`` solved in sequence (a path-dependent model, or
+    the reference path ``reuse_revisits=False``). Returns (channels {name: (rows, P,
+    2)} of the channels ``names`` (None: all), states of every step when
+    ``keep_states``)."""
+    grid = sweep.grid
+    trail: list[AxleState] = []  # converged state of every step (states are not mutated)
+    pending: list[tuple[AxleState, np.ndarray]] = []  # (state, pads) whose channels are due
+    parts: list[dict[str, np.ndarray]] = []  # channels (steps, rows, 2) of flushed steps
+
+    def flush() -> None:
+        parts.append(_outputs(solver, [x for x, _ in pending], [q for _, q in pending], per, names))
+        pending.clear()
+
+    history: list[AxleState] = []  # converged states of the current leg, newest last
+    # the last relative rotation the predictor computed (see _extrapolate; None: none kept)
+    rel: dict | None = {} if PREDICTOR_CACHE else None
+    visited: dict[int, AxleState] = {}  # last converged state at each grid point
+    prev_ds = 0.0
+    prev_gi, prev_load = path[0], sweep.load(path[0])
+    for k, gi in enumerate(path):
+        load = sweep.load(gi)
+        at = f"step {k} ({where_at[gi]})"
+        if k > 0:
+            ds = grid[gi] - grid[prev_gi]
+            if prev_ds * ds <= 0:  # a reversal starts a new leg
+                history = []
+            history = [*history[-2:], st]
+            st, J = _step(
+                solver, st, prev_load, load, ok, msgs, J, at, history, visited.get(gi), rel
+            )
+            prev_ds = ds
+        visited[gi] = st
+        if gi in (0, grid.size - 1):  # loads and deflections peak at the ends of the stroke
+            _check_state(solver, st, ok, msgs, at)
+        if keep_states:
+            trail.append(st)
+        pending.append((st, load[0]))
+        if len(pending) == per:
+            flush()
+        prev_gi, prev_load = gi, load
+
+    if pending:
+        flush()
+    out = {k: np.moveaxis(np.concatenate([q[k] for q in parts]), 0, 1) for k in parts[0]}
+    return out, trail
+
+
+def _sweep_legs(
+    lsolver: AxleSolver,
+    st: AxleState,
+    J_box: list[np.ndarray],
+    nt: int,
+    ok: np.ndarray,
+    msgs: list[str],
+    sweep: _Sweep,
+    where_at: list[str],
+    path: np.ndarray,
+    keep_states: bool,
+    names: Sequence[str] | None,
+) -> tuple[dict[str, np.ndarray], list[AxleState]]:
+    """The loop of a path-independent model from its two legs, solved side by side.
+
+    The state at a grid point does not depend on how the rig got there (module
+    docstring), so every grid point is solved once: the bump leg (design -> bump) and
+    the rebound leg (design -> rebound) start together from the static state ``st``
+    (rows: leg x test x design, ``2 * rows`` in every solver call; ``lsolver`` the
+    solver of these rows) with the static inverse Jacobians (``J_box``: a list holding
+    them, one per design, emptied here; shared by the rows until the solver refreshes
+    one: :class:`~suspenv.models.mcpherson.solver.SharedInverse`), and the
+    loop's return legs take the state of their grid point. Both branches of the loop
+    are then identical. The first step of each leg starts from the tangent predictor,
+    the second from the quadratic through the first steps of both legs and the static
+    state (three equally spaced states), the others from the cubic through the leg's
+    last four states (:data:`LEG_ORDER`; the third step's include the other leg's first
+    step).
+
+    Failures are reported as the sequential loop reports them: the first failing step
+    of the loop (its index ``k`` in ``path``) in the message, and the row's last
+    converged state at every later step. Returns (channels {name: (rows, P, 2)} of the
+    channels ``names`` (None: all), states of every step when ``keep_states``).
+    """
+    m = st.r.shape[0]
+    steps = sweep.grid.size - 1
+    i0 = steps // 2
+    lst = st.take(np.tile(np.arange(m), 2))  # rows: leg-major (bump leg, rebound leg)
+    Jinv: np.ndarray | SharedInverse = SharedInverse(J_box.pop(), 2 * nt)
+    lok = np.tile(ok, 2)
+    lmsgs = msgs + msgs
+    direction = np.repeat([1, -1], m)
+    last = np.full(2 * m, i0)  # grid index of every leg row's last converged state
+    rel: dict | None = {} if PREDICTOR_CACHE else None
+    history: list[AxleState] = []
+    kept: list[AxleState] = [lst] if keep_states else []
+    # channels of every grid point (G, rows, 2), filled as the steps come: outputs in
+    # calls of about JACOBIAN_BLOCK rows (bounded memory), the pending states kept
+    ch: dict[str, np.ndarray] = {}
+    pending: list[tuple[int, AxleState, np.ndarray]] = []  # (step j, state, pads)
+    per = max(1, JACOBIAN_BLOCK // (2 * m))
+
+    def flush() -> None:
+        out = _outputs(lsolver, [x for _, x, _ in pending], [q for _, _, q in pending], per, names)
+        for name, v in out.items():  # (steps, 2 * rows, 2)
+            if name not in ch:
+                ch[name] = np.empty((steps + 1, m) + v.shape[2:])
+            for q, (j, _, _) in enumerate(pending):
+                ch[name][i0 + j] = v[q, :m]
+                if j:
+                    ch[name][i0 - j] = v[q, m:]
+        pending.clear()
+
+    prev_load = sweep.load(i0, 2)
+    pending.append((0, lst, prev_load[0]))
+    for j in range(1, i0 + 1):
+        gi = i0 + direction * j
+        load = sweep.load(gi, 2)
+        # the step of the sequential loop that first reaches each row's grid point
+        k = np.where(direction > 0, j, 2 * steps - i0 - gi)
+
+        def at(i: int, k=k, gi=gi) -> str:
+            return f"step {k[i]} ({where_at[gi[i]]})"
+
+        # the legs' first steps and the static state are three equally spaced states of
+        # both legs: the second step is extrapolated quadratically from them, the third
+        # cubically from them and the second step
+        if j == 2:
+            history = [lst.take(np.r_[m : 2 * m, 0:m]), history[-1], lst]
+        else:
+            history = [*history[-(LEG_ORDER - 1) :], lst]
+        lst, Jinv = _step(lsolver, lst, prev_load, load, lok, lmsgs, Jinv, at, history, None, rel)
+        last[lok] = gi[lok]
+        if j == i0:  # loads and deflections peak at the ends of the stroke
+            _check_state(lsolver, lst, lok, lmsgs, at)
+        if keep_states:
+            kept.append(lst)
+        pending.append((j, lst, load[0]))
+        if len(pending) >= per:
+            flush()
+        prev_load = load
+    if pending:
+        flush()
+    del Jinv, history  # (memory)
+    # a row fails when either leg fails; the bump leg comes first in the loop
+    up_ok, down_ok = lok[:m], lok[m:]
+    for i in range(m):
+        msgs[i] = lmsgs[i] if not up_ok[i] else lmsgs[m + i]
+    ok &= up_ok & down_ok
+    # every row's grid index at each step of the loop; a failed row keeps its last
+    # converged state from its failing step on (the step of that state in the loop)
+    P = path.size
+    k_last = np.where(~up_ok, last[:m] - i0, np.where(~down_ok, 2 * steps - i0 - last[m:], P))
+    frozen = np.where(~up_ok, last[:m], last[m:])
+    idx = np.where(np.arange(P)[None, :] >= k_last[:, None], frozen[:, None], path[None, :])
+    rr = np.arange(m)[:, None]
+    out = {name: v[idx, rr] for name, v in ch.items()}
+    bad = np.flatnonzero(k_last < P)
+    if bad.size:  # the frozen states' channels at the rig's input of every later step
+        rows = np.where(~up_ok[bad], bad, m + bad)  # the failed leg's row
+        frozen_st, sub = lst.take(rows), lsolver.take(rows, axle=False)
+        pads = np.stack([sweep.load(g)[0][bad] for g in path])  # (P, b, 2)
+        again = [np.broadcast_to(a, (P,) + a.shape) for a in (frozen_st.r, frozen_st.R)]
+        lam = np.broadcast_to(frozen_st.lam, (P,) + frozen_st.lam.shape)
+        late = sub.outputs(AxleState(again[0], again[1], lam), pads, names)
+        for q, row in enumerate(bad.tolist()):
+            for name, v in late.items():
+                out[name][row, k_last[row] :] = v[k_last[row] :, q]
+    del lst
+    trail: list[AxleState] = []
+    if keep_states:
+        # the state of every grid point: bump side from the bump leg, rebound side from
+        # the rebound leg (the design position is the static state of both)
+        def at_grid(x: np.ndarray) -> np.ndarray:  # (i0 + 1, 2 * rows, ...) -> (G, rows, ...)
+            return np.concatenate([x[:0:-1, m:], x[:, :m]])
+
+        r = at_grid(np.stack([x.r for x in kept]))
+        R = at_grid(np.stack([x.R for x in kept]))
+        lam = at_grid(np.stack([x.lam for x in kept]))
+        trail = [
+            AxleState(r[idx[:, q], rr[:, 0]], R[idx[:, q], rr[:, 0]], lam[idx[:, q], rr[:, 0]])
+            for q in range(P)
+        ]
+    return out, trail
+
+
 def _take_state(st: AxleState, sl: slice) -> AxleState:
     return AxleState(
         st.r[sl],
@@ -437,20 +636,24 @@ def _take_state(st: AxleState, sl: slice) -> AxleState:
     )
 
 
-def _fail(ok: np.ndarray, msgs: list[str], rows: np.ndarray, msg: str) -> None:
+def _fail(ok: np.ndarray, msgs: list[str], rows: np.ndarray, msg: str | Callable[[int], str]):
+    """Mark ``rows`` (bool mask) failed with message ``msg`` (text, or row -> text),
+    keeping the first message of rows that had already failed."""
     for i in np.flatnonzero(rows & ok):
-        msgs[i] = msg
+        msgs[i] = msg if isinstance(msg, str) else msg(int(i))
     ok &= ~rows
 
 
-def _step(solver, st, load_prev, load, ok, msgs, J, k, where, history, seen=None, rel=None):
+def _step(solver, st, load_prev, load, ok, msgs, J, at, history, seen=None, rel=None):
     """One rig step: predictor, Newton corrector, sub-stepping retry of failing rows.
 
     ``load_prev`` / ``load`` are (pad heights (n, 2) [m], wheel load (n, 2, 6|9) or
-    None, rack travel (n, 2) [m] or None) before and after the step; ``where`` describes
-    the step for messages. Predictor: the state last converged at the same grid point (a revisit;
-    exact for a path-independent model), else extrapolation along the leg (quadratic
-    from three states, linear from two), else the tangent ``-J^-1 dres/dload``.
+    None, rack travel (n, 2) [m] or None) before and after the step; ``at`` describes
+    the step for messages (text, or row -> text: ``"step k (drive)"``). ``J``: inverse
+    Jacobians, per row (n, 66, 66) or a :class:`SharedInverse`. Predictor: the state
+    last converged at the same grid point (a revisit; exact for a path-independent
+    model), else extrapolation along the leg (quadratic from the three states of
+    ``history``, linear from two), else the tangent ``-J^-1 dres/dload``.
     """
     (pad_prev, ext_prev, rack_prev), (pad, ext, rack) = load_prev, load
     if seen is not None:
@@ -459,6 +662,8 @@ def _step(solver, st, load_prev, load, ok, msgs, J, k, where, history, seen=None
         pred.r = np.where(rows, seen.r, st.r)
         pred.R = np.where(rows[..., None], seen.R, st.R)
         pred.lam = np.where(ok[:, None, None], seen.lam, st.lam)
+    elif len(history) >= 4:
+        pred = _extrapolate(st, history[-2], history[-3], ok, rel, history[-4])
     elif len(history) >= 3:
         pred = _extrapolate(st, history[-2], history[-3], ok, rel)
     elif len(history) == 2:
@@ -469,7 +674,7 @@ def _step(solver, st, load_prev, load, ok, msgs, J, k, where, history, seen=None
     bad = ok & ~conv
     if bad.any():  # retry the failing rows from the last converged state in 4 sub-steps
         idx = np.flatnonzero(bad)
-        sub = solver.take(idx)
+        sub = solver.take(idx, axle=False)
         trial = st.take(idx)
         sub_ok = np.ones(idx.size, bool)
         Jt = None
@@ -482,87 +687,20 @@ def _step(solver, st, load_prev, load, ok, msgs, J, k, where, history, seen=None
         rescued = np.zeros_like(bad)
         rescued[idx[sub_ok]] = True
         new.assign(_scatter(trial, idx, new), rescued)
-        _fail(
-            ok,
-            msgs,
-            bad & ~rescued,
-            f"ConvergenceError: Newton did not converge at step {k} ({where}); "
-            "the linkage locks up or the design has no equilibrium there",
-        )
+
+        def message(i: int) -> str:
+            return (
+                f"ConvergenceError: Newton did not converge at "
+                f"{at if isinstance(at, str) else at(i)}; "
+                "the linkage locks up or the design has no equilibrium there"
+            )
+
+        _fail(ok, msgs, bad & ~rescued, message)
     new = solver.commit(new)
     if not ok.all():  # failed rows keep their last converged state
         new = new.copy()
         new.assign(st, ~ok)
     return new, J
-
-
-def _revisit_run(
-    solver: AxleSolver,
-    st: AxleState,
-    seen: list[AxleState],
-    loads: list[Load],
-    ok: np.ndarray,
-    Jinv: np.ndarray,
-    steps: list[int],
-) -> dict[int, AxleState]:
-    """States {step: state} of a run of revisited grid points of a path-independent model,
-    solved together: one Newton correction ``dx = -J^-1 res`` from the state of each
-    point's first visit ``seen`` (the predictor :func:`_step` would use) with loads
-    ``loads`` (pad heights (n, 2) [m], wheel load (n, 2, 6|9) [N, N*m] or None, rack
-    travel (n, 2) [m] or None).
-
-    This is the arithmetic of solving the points one after the other (that solve also
-    starts from ``seen``, with the same ``Jinv``, which a first iteration never
-    refreshes, and stops after this first correction when it is below the tolerances),
-    in batched residual calls (blocks of about ``JACOBIAN_BLOCK`` row evaluations)
-    instead of one call per point. Rows that failed
-    earlier (``~ok``) keep their last converged state ``st``. Returns ``{}`` (solve the
-    points one by one instead) unless every correction of every row still being solved
-    is below the tolerances.
-    """
-    n, P = solver.n, len(seen)
-    r = np.stack([x.r for x in seen])
-    R = np.stack([x.R for x in seen])
-    lam = np.stack([x.lam for x in seen])
-    pad = np.stack([x[0] for x in loads])
-    exts = [x[1] for x in loads]
-    ext = None if any(e is None for e in exts) else np.stack(exts)  # type: ignore[arg-type]
-    racks = [x[2] for x in loads]
-    rack = None if any(q is None for q in racks) else np.stack(racks)  # type: ignore[arg-type]
-    # residuals in blocks of about JACOBIAN_BLOCK row evaluations (bounded memory)
-    per = max(1, JACOBIAN_BLOCK // max(n, 1))
-    res = np.empty((P, n, 2 * NS))
-    for a in range(0, P, per):
-        b = min(a + per, P)
-        solver.stats["residuals"] += 1
-        e = None if ext is None else ext[a:b]
-        q = None if rack is None else rack[a:b]
-        res[a:b] = solver.residual(r[a:b], R[a:b], lam[a:b], pad[a:b], st, e, rack=q).reshape(
-            b - a, n, 2 * NS
-        )
-    dx = -np.matmul(Jinv, res[..., None])[..., 0]
-    size = solver._step_size(dx.reshape(P * n, 2 * NS)).reshape(P, n)
-    if not (size[:, ok] < 1.0).all():  # also False for a non-finite step
-        return {}
-    okP = np.broadcast_to(ok, (P, n)).reshape(P * n)
-    moved = solver._apply(
-        AxleState(
-            r.reshape((P * n,) + r.shape[2:]),
-            R.reshape((P * n,) + R.shape[2:]),
-            lam.reshape((P * n,) + lam.shape[2:]),
-        ),
-        dx.reshape(P * n, 2 * NS),
-        okP,
-    )
-    out = {}
-    for p, k in enumerate(steps):
-        sl = slice(p * n, (p + 1) * n)
-        new = AxleState(moved.r[sl], moved.R[sl], moved.lam[sl])
-        if not ok.all():  # failed rows keep their last converged state
-            new.assign(st, ~ok)
-        out[k] = new
-    solver.stats["solves"] += P
-    return out
 
 
 def _scatter(part: AxleState, idx: np.ndarray, like: AxleState) -> AxleState:
@@ -579,7 +717,7 @@ def _scatter(part: AxleState, idx: np.ndarray, like: AxleState) -> AxleState:
 def _predict(
     solver: AxleSolver,
     st: AxleState,
-    Jinv: np.ndarray,
+    Jinv: np.ndarray | SharedInverse,
     dpad: np.ndarray,
     ok,
     ext_prev: np.ndarray | None = None,
@@ -598,22 +736,22 @@ def _predict(
             st.r, st.R, st.lam, pad, st, ext_prev, rack=rack_prev
         )
         dres = dres + change.reshape(n, -1, 1)
-    dx = -np.matmul(Jinv, dres)[..., 0]
+    dx = -_inv_mul(Jinv, dres[..., 0])
     dx = np.where(np.isfinite(dx), dx, 0.0)
     return solver._apply(st, dx, ok)
 
 
 def _relative_rotation(a: AxleState, b: AxleState, cache: dict | None) -> np.ndarray:
-    """Rotation vectors of ``a.R b.R^T``; ``cache`` (a dict or None) keeps the last one
-    computed, so that the next step's quadratic predictor, whose older pair is this
-    step's newer pair (states are never mutated), does not compute it again."""
+    """Rotation vectors of ``a.R b.R^T``; ``cache`` (a dict or None) keeps the last two
+    computed, so that the next step's predictor, whose older pairs are this step's newer
+    ones (states are never mutated), does not compute them again."""
     if cache is not None:
-        hit = cache.get("pair")
-        if hit is not None and hit[0] is a and hit[1] is b:
-            return hit[2]
+        for hit in cache.get("pairs", ()):
+            if hit[0] is a and hit[1] is b:
+                return hit[2]
     w = log_so3(np.matmul(a.R, np.swapaxes(b.R, -1, -2)))
     if cache is not None:
-        cache["pair"] = (a, b, w)
+        cache["pairs"] = [*cache.get("pairs", [])[-1:], (a, b, w)]
     return w
 
 
@@ -623,30 +761,43 @@ def _extrapolate(
     before2: AxleState | None,
     ok: np.ndarray,
     rel: dict | None = None,
+    before3: AxleState | None = None,
 ) -> AxleState:
-    """Extrapolate the last converged states one equal step along a leg: quadratic from
-    three states, linear from two (``before2=None``). ``rel``: a cache of the last
-    relative rotation (:func:`_relative_rotation`; the same numbers either way)."""
+    """Extrapolate the last converged states one equal step along a leg: cubic from
+    four states (``before3`` given), quadratic from three, linear from two
+    (``before2=None``); rotations through the relative rotation vectors of consecutive
+    states (extrapolated one order lower). ``rel``: a cache of the last relative
+    rotations (:func:`_relative_rotation`; the same numbers either way)."""
     rows = ok[:, None, None, None]
-    # the older pair first: it is the last step's newer pair (cached), then this one
+    # the older pairs first: they are the last steps' newer pairs (cached), then this one
+    wm = None if before3 is None or before2 is None else _relative_rotation(before2, before3, rel)
     w0 = None if before2 is None else _relative_rotation(before, before2, rel)
     w1 = _relative_rotation(st, before, rel)
     if before2 is None or w0 is None:
         r_new, w, lam_new = 2.0 * st.r - before.r, w1, 2.0 * st.lam - before.lam
-    else:
+    elif before3 is None or wm is None:
         r_new = 3.0 * (st.r - before.r) + before2.r
         w = 2.0 * w1 - w0
         lam_new = 3.0 * (st.lam - before.lam) + before2.lam
+    else:
+        r_new = 4.0 * (st.r + before2.r) - 6.0 * before.r - before3.r
+        w = 3.0 * (w1 - w0) + wm
+        lam_new = 4.0 * (st.lam + before2.lam) - 6.0 * before.lam - before3.lam
+    R_new = np.matmul(expm_so3(w), st.R)
+    if not ok.all():  # failed rows keep their state
+        r_new = np.where(rows, r_new, st.r)
+        R_new = np.where(rows[..., None], R_new, st.R)
+        lam_new = np.where(ok[:, None, None], lam_new, st.lam)
     return AxleState(  # the path-dependent histories copied as st.copy() does
-        np.where(rows, r_new, st.r),
-        np.where(rows[..., None], np.matmul(expm_so3(w), st.R), st.R),
-        np.where(ok[:, None, None], lam_new, st.lam),
+        r_new,
+        R_new,
+        lam_new,
         {k: (a.copy(), b.copy()) for k, (a, b) in st.hyst.items()},
         None if st.fric is None else (st.fric[0].copy(), st.fric[1].copy()),
     )
 
 
-def _check_state(solver, st, ok, msgs, k, where) -> None:
+def _check_state(solver, st, ok, msgs, at) -> None:
     """Physical plausibility of a converged step: bushing deflections within reason.
 
     A bushing deflecting more than 50 mm or 0.5 rad means the design cannot carry its
@@ -661,6 +812,7 @@ def _check_state(solver, st, ok, msgs, k, where) -> None:
             msgs[i] = (
                 f"LockupError: the {name} bushing deflects {tr[i] * 1e3:.1f} mm / "
                 f"{rot[i]:.2f} rad (limits {MAX_TRANSLATION * 1e3:g} mm, {MAX_ROTATION:g} rad) "
-                f"at step {k} ({where}): the design cannot carry its loads"
+                f"at {at if isinstance(at, str) else at(int(i))}: the design cannot carry "
+                "its loads"
             )
         ok &= ~bad

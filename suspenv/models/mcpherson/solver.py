@@ -38,9 +38,12 @@ objects placed at bushings or the strut (:mod:`suspenv.models.mcpherson.effects`
 compiled once per solver into per-bushing element parameters.
 
 Newton's method, vectorised over the batch: the Jacobian is a forward-difference
-Jacobian of the exact residual (all columns in one batched call, see
-:meth:`AxleSolver.jacobian`), inverted with a batched ``np.linalg.inv`` and reused
-along the sweep (chord steps); a row whose step shrinks by less than half per
+Jacobian of the exact residual in the body coordinates (columns with disjoint residual
+rows perturbed together, batched residual calls, see :meth:`AxleSolver.jacobian`) and
+exact in the constraint multipliers (in which the residual is linear), inverted with
+``np.linalg.inv`` in blocks of rows and reused along the sweep (chord steps; rows that
+start from the same Jacobian may share it, :class:`SharedInverse`); a row whose step
+shrinks by less than half per
 iteration gets a fresh Jacobian (only that row), and its steps are damped when even
 fresh-Jacobian steps stop shrinking (a cycle at a Dahl reversal). A row has
 converged when its Newton correction is below ``xtol`` = 1e-6 m, ``rtol`` = 1e-5 rad
@@ -64,7 +67,6 @@ paper); spring force positive in compression.
 
 from __future__ import annotations
 
-import contextlib
 import copy
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -97,6 +99,8 @@ MAX_TRANSLATION = 0.05
 MAX_ROTATION = 0.5
 #: body of each rotated body-fixed vector (see AxleSolver._vec)
 VEC_BODY = np.array([0, 0, 0, 1, 1, 1, 1, 1, 1, 1, 1, 1, 2, 2, 3, 3])
+#: the slices of VEC_BODY held by each body (0-3)
+VEC_GROUPS = ((0, 3), (3, 12), (12, 14), (14, 16))
 #: bushings in the order of the stacked arrays, and the body each one holds
 BUSH_ORDER = ("lca_front", "lca_rear", "top_mount", "arb_bush")
 BUSH_BODY = (0, 0, 2, 3)
@@ -115,8 +119,43 @@ DAHL_EPS_ROTATION = 1e-5
 CSCALE = 1e6
 #: row evaluations per batched residual call of the finite-difference Jacobian (its
 #: perturbations are evaluated in blocks of about this many rows x perturbations, which
-#: bounds the Jacobian's temporary memory to a few MB at any batch size)
-JACOBIAN_BLOCK = 512
+#: bounds the Jacobian's temporary memory to about 2 MB at any batch size); the
+#: Jacobians are inverted in blocks of JACOBIAN_BLOCK // 32 rows
+JACOBIAN_BLOCK = 256
+#: the finite-difference Jacobian perturbs the columns with disjoint residual rows
+#: together and takes the multiplier columns exactly (False: one perturbation per
+#: column, the reference path of the tests and the speed benchmark's baseline)
+JACOBIAN_COLOURED = True
+#: residual rows (of one side) that the lower arm's coordinates enter: its force and
+#: moment and the ball joint's constraint; the strut rod's enter none of them
+ARM_ROWS = np.r_[0:6, NQ : NQ + 3]
+NOT_ARM_ROWS = np.setdiff1d(np.arange(NS), ARM_ROWS)
+#: the channels of :meth:`AxleSolver.outputs`, in its order
+OUTPUT_NAMES = (
+    "wheel_centre_x",
+    "wheel_centre_y",
+    "wheel_centre_z",
+    "contact_x",
+    "contact_y",
+    "contact_z",
+    "pad_z",
+    "tyre_fz",
+    "toe",
+    "camber",
+    "caster",
+    "kpi",
+    "scrub_radius",
+    "trail",
+    "spring_length",
+    "spring_force",
+    "arb_twist",
+    "knuckle_pitch",
+    "strut_length",
+)
+#: Newton iterations after the first evaluate the residual of the rows still iterating
+#: only, when they are at most half the batch (the same numbers per row; False: every
+#: row at every iteration, the reference path of the speed benchmark's baseline)
+SUBSET_RESIDUALS = True
 
 
 @dataclass(frozen=True)
@@ -256,6 +295,50 @@ class AxleState:
             self.fric[1][rows] = other.fric[1][rows]
 
 
+class SharedInverse:
+    """Inverse Jacobians (66 x 66, units of :meth:`AxleSolver.jacobian` inverted) of
+    ``groups * nd`` rows that share one per design.
+
+    Row ``i`` (rows group-major: ``i = g * nd + d``) uses ``base[d]`` (the inverse of
+    design ``d``, e.g. at its static equilibrium) until :meth:`set` gives it its own.
+    The same numbers as ``base[np.tile(arange(nd), groups)]`` (one copy per row), held
+    once per design: the rig's rows (test x leg x design) start from the same static
+    Jacobian, and only the rows that the solver refreshes get a matrix of their own.
+    """
+
+    def __init__(self, base: np.ndarray, groups: int):
+        self.base = base
+        self.nd = base.shape[0]
+        self.groups = groups
+        self.slot = np.full(groups * self.nd, -1)  # row -> index into own (-1: shared)
+        self.own = np.empty((0,) + base.shape[1:])
+
+    def mul(self, res: np.ndarray) -> np.ndarray:
+        """``J^-1 res`` (m, 66) for residuals ``res`` (m, 66) of every row."""
+        out = np.matmul(self.base, res.reshape(self.groups, self.nd, -1, 1))
+        out = out.reshape(res.shape)
+        mine = np.flatnonzero(self.slot >= 0)
+        if mine.size:
+            out[mine] = np.matmul(self.own[self.slot[mine]], res[mine][..., None])[..., 0]
+        return out
+
+    def set(self, rows: np.ndarray, mats: np.ndarray) -> None:
+        """Give ``rows`` (bool mask) their own inverse Jacobians ``mats`` (k, 66, 66)."""
+        idx = np.flatnonzero(rows)
+        new = idx[self.slot[idx] < 0]
+        self.slot[new] = self.own.shape[0] + np.arange(new.size)
+        if new.size:
+            self.own = np.concatenate([self.own, np.empty((new.size,) + self.base.shape[1:])])
+        self.own[self.slot[idx]] = mats
+
+
+def _inv_mul(Jinv: np.ndarray | SharedInverse, res: np.ndarray) -> np.ndarray:
+    """``J^-1 res`` (m, 66) of per-row inverses (m, 66, 66) or a :class:`SharedInverse`."""
+    if isinstance(Jinv, SharedInverse):
+        return Jinv.mul(res)
+    return np.matmul(Jinv, res[..., None])[..., 0]
+
+
 def _perp_basis(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     helper = np.zeros_like(a)
     helper[..., 0] = 1.0
@@ -374,6 +457,10 @@ class AxleSolver:
             ],
             axis=2,
         )
+        # the same vectors grouped by body (VEC_GROUPS), each group's rows contiguous
+        self._vec_body = {
+            b: np.ascontiguousarray(self._vec[:, :, a:z]) for b, (a, z) in enumerate(VEC_GROUPS)
+        }
         self._K4 = np.stack([self.K[b] for b in BUSH_ORDER], axis=2)  # (n, 2, 4, 6)
         self._ground4 = np.stack([self.ground[b] for b in BUSH_ORDER], axis=2)
         # bushing frames (n, 2, 4, 3, 3) when a bushing has an orientation, else None
@@ -389,8 +476,12 @@ class AxleSolver:
         on the travel history; False for linear and cubic (elastic) bushings only."""
         return self._placed.path_dependent
 
-    def take(self, rows: np.ndarray) -> AxleSolver:
-        """A solver for the given design rows (index array or mask), sharing the set-up."""
+    def take(self, rows: np.ndarray, axle: bool = True) -> AxleSolver:
+        """A solver for the given design rows (index array or mask), sharing the set-up.
+
+        ``axle=False``: the solver's arrays only, its ``axle`` left whole (not taken
+        row by row; less memory): enough for everything but :meth:`initial_state`
+        (residuals, Jacobians, :meth:`solve`, outputs), e.g. the rig's rows."""
         idx = np.arange(self.n)[rows]
         out = copy.copy(self)
         for key, val in self.__dict__.items():
@@ -402,7 +493,8 @@ class AxleSolver:
                 and all(isinstance(v, np.ndarray) and v.shape[0] == self.n for v in val.values())
             ):
                 setattr(out, key, {k: v[idx] for k, v in val.items()})
-        out.axle = self.axle.take(idx)
+        if axle:
+            out.axle = self.axle.take(idx)
         out.n = idx.size
         out.stats = self.stats
         return out
@@ -531,6 +623,16 @@ class AxleSolver:
             phi = log_so3(R[..., [0, 0, 2, 3], :, :])
         return np.concatenate([pts - self._ground4, phi], axis=-1)
 
+    def _rotated(self, R: np.ndarray) -> np.ndarray:
+        """Every body-fixed vector (``_vec``) rotated by its body's rotation ``R``
+        (..., 2, 4, 3, 3): (..., 2, 16, 3), one product per body (``W R^T`` for the rows
+        ``W`` of its vectors)."""
+        V = np.empty(R.shape[:-3] + (len(VEC_BODY), 3))
+        Rt = np.swapaxes(R, -1, -2)
+        for b, (a, z) in enumerate(VEC_GROUPS):
+            V[..., a:z, :] = np.matmul(self._vec_body[b], Rt[..., b, :, :])
+        return V
+
     # ---------------------------------------------------------------- residual
     def residual(
         self,
@@ -552,7 +654,7 @@ class AxleSolver:
         of the tie-rod inner points along +y from their design position (None: zero).
         """
         lead = r.shape[:-2]
-        V = rotate(R[..., VEC_BODY, :, :], self._vec)  # (..., 16, 3) rotated vectors
+        V = self._rotated(R)  # (..., 16, 3) rotated body-fixed vectors
         r0, r1, r2, r3 = r[..., 0, :], r[..., 1, :], r[..., 2, :], r[..., 3, :]
         arms = np.zeros(lead + (N_SLOTS, 3))
         forces = np.zeros(lead + (N_SLOTS, 3))
@@ -562,13 +664,15 @@ class AxleSolver:
         # rotation, in one call (the same numbers as one call each: per matrix)
         R_bar = np.matmul(R[..., 0, 3, :, :], np.swapaxes(R[..., 1, 3, :, :], -1, -2))
         side = R.shape[:-4]
+        # (bodies 0, 2, 3 of both sides; the lower arm holds two bushings)
         logs = log_so3(
             np.concatenate(
-                [R[..., [0, 0, 2, 3], :, :].reshape(side + (8, 3, 3)), R_bar[..., None, :, :]],
+                [R[..., [0, 2, 3], :, :].reshape(side + (6, 3, 3)), R_bar[..., None, :, :]],
                 axis=-3,
             )
         )
-        phi, rho = logs[..., :8, :].reshape(side + (2, 4, 3)), logs[..., 8, :]
+        phi = logs[..., :6, :].reshape(side + (2, 3, 3))[..., [0, 0, 1, 2], :]
+        rho = logs[..., 6, :]
 
         # bushings (to the fixed body): slots 0-3
         f = self.bushing_loads(self._deflections(r, R, V[..., 0:2, :], phi), state.hyst)
@@ -612,7 +716,8 @@ class AxleSolver:
         arms[..., 12, :], forces[..., 12, :] = r2 - r1, -f_cyl
         M[..., 2, :] += m_rod
         M[..., 1, :] -= m_rod
-        aw = np.stack([ar, w], axis=-2)
+        aw = np.empty(lead + (2, 3))  # rod axis and rod point offset, rows
+        aw[..., 0, :], aw[..., 1, :] = ar, w
         c_cyl = np.swapaxes(np.matmul(uv, np.swapaxes(aw, -1, -2)), -1, -2).reshape(lead + (4,))
 
         # strut friction (Dahl) along the tube axis, rod against tube: slots 13-14
@@ -643,8 +748,9 @@ class AxleSolver:
         fC = -self.k_bar_shear * dC
         mC = -self.k_bar_rot * rho
         arms[..., 18, :] = V[..., 15, :]
-        forces[..., 18, :] = np.stack([fC, -fC], axis=-2)
-        M[..., 3, :] += np.stack([mC, -mC], axis=-2)
+        forces[..., 0, 18, :], forces[..., 1, 18, :] = fC, -fC
+        M[..., 0, 3, :] += mC
+        M[..., 1, 3, :] -= mC
 
         if record is not None:
             for k, b in enumerate(SLOT_BODY):
@@ -697,11 +803,101 @@ class AxleSolver:
     ) -> np.ndarray:
         """Jacobian (n, 66, 66) of the full residual with respect to (x_left, x_right).
 
-        Forward differences, the perturbations batched in blocks of about
-        :data:`JACOBIAN_BLOCK` row evaluations per residual call. Only the bar halves
-        couple the sides, so every other column is perturbed on both sides at once; the
-        bar-half columns are perturbed one side at a time.
+        Body coordinates: forward differences (step ``h`` [m] or [rad]), the
+        perturbations batched in blocks of about :data:`JACOBIAN_BLOCK` row evaluations
+        per residual call. Only the bar halves couple the sides, so every other column
+        is perturbed on both sides at once; the bar-half columns are perturbed one side
+        at a time. Columns whose residual rows are disjoint share a perturbation (a
+        lower-arm and a strut-rod coordinate: the lower arm's rows are its own force and
+        moment and the ball joint's constraint, which no strut-rod coordinate enters),
+        which gives the very numbers of perturbing them apart. The multiplier columns
+        are exact (:meth:`multiplier_columns`: the residual is linear in them).
+        ``JACOBIAN_COLOURED = False``: one perturbation per column, the multipliers
+        included (step 1 N), the reference path.
         """
+        if not JACOBIAN_COLOURED:
+            return self._jacobian_by_columns(st, pad, ext, h, rack)
+        n = self.n
+        exp_h = expm_so3(h * np.eye(3))  # rotations by h about x, y, z
+        base = self.residual(st.r, st.R, st.lam, pad, st, ext, rack=rack)  # (n, 2, 33)
+        J = np.zeros((n, 2 * NS, 2 * NS))
+        per = max(1, JACOBIAN_BLOCK // max(n, 1))
+        moves, scatter = _COLOURED_MOVES, _COLOURED_SCATTER
+        for a in range(0, _N_COLOURED, per):
+            P = min(per, _N_COLOURED - a)
+            r = np.broadcast_to(st.r, (P,) + st.r.shape).copy()
+            R = np.broadcast_to(st.R, (P,) + st.R.shape).copy()
+            # the coordinate moves of these perturbations: (perturbation, side, body, axis)
+            i0, i1 = np.searchsorted(moves[0], [a, a + P])
+            p, sd, b, k = (x[i0:i1] for x in moves)
+            tr = k < 3
+            r[p[tr] - a, :, sd[tr], b[tr], k[tr]] += h
+            ro = ~tr
+            turned = np.matmul(exp_h[k[ro] - 3][:, None], np.moveaxis(st.R[:, sd[ro], b[ro]], 0, 1))
+            R[p[ro] - a, :, sd[ro], b[ro]] = turned
+            d = self.residual(r, R, st.lam, pad, st, ext, rack=rack) - base  # (P, n, 2, 33)
+            d /= h
+            # every difference to its Jacobian entry (row, column)
+            i0, i1 = np.searchsorted(scatter[0], [a, a + P])
+            p, sd, row, jr, jc = (x[i0:i1] for x in scatter)
+            J[:, jr, jc] = d[p - a, :, sd, row].T
+        L = self.multiplier_columns(st, rack)  # (n, 2, 33, 9)
+        for s in (0, 1):
+            J[:, s * NS : (s + 1) * NS, s * NS + NQ : (s + 1) * NS] = L[:, s]
+        return J
+
+    def multiplier_columns(self, st: AxleState, rack: np.ndarray | None = None) -> np.ndarray:
+        """Exact derivative (n, 2, 33, 9) of each side's residual with respect to its
+        nine constraint multipliers (the residual is linear in them; see
+        :meth:`residual`): ball joint ``lam[0:3]`` (force on the arm, its opposite on the
+        knuckle), cylindrical joint moments ``lam[3:5]`` (rod axis x tube normals u, v,
+        on the rod, opposite on the knuckle) and forces ``lam[5:7]`` (along u, v on the
+        rod, opposite on the knuckle at the rod point), tie rod ``lam[7]`` and drop link
+        ``lam[8]`` (along the link per unit length, knuckle end; the bar end opposite).
+        Rows: force [N] and moment about the body reference point [N*m] of the four
+        bodies (6 each, vehicle axes), then the constraints (zero), per unit multiplier
+        (N; N*m for ``lam[3:5]``).
+        """
+        V = self._rotated(st.R)
+        r = st.r
+        r1, r2, r3 = r[..., 1, :], r[..., 2, :], r[..., 3, :]
+        L = np.zeros(r.shape[:-2] + (NS, NL))
+        eye = np.eye(3)
+        # ball joint: +e_k at the arm point (body 0), -e_k at the knuckle point (body 1)
+        L[..., 0:3, 0:3] = eye
+        L[..., 3:6, 0:3] = _skew(V[..., 2, :])
+        L[..., 6:9, 0:3] = -eye
+        L[..., 9:12, 0:3] = -_skew(V[..., 3, :])
+        ar, uu, vv = V[..., 13, :], V[..., 8, :], V[..., 9, :]
+        for c, e in ((3, uu), (4, vv)):  # moments ar x u, ar x v on the rod
+            m = cross(ar, e)
+            L[..., 15:18, c] = m
+            L[..., 9:12, c] = -m
+        for c, e in ((5, uu), (6, vv)):  # forces u, v on the rod; opposite at r2 - r1
+            L[..., 12:15, c] = e
+            L[..., 6:9, c] = -e
+            L[..., 9:12, c] = -cross(r2 - r1, e)
+        tri = self.tri if rack is None else self.tri + rack[..., None] * EY
+        f = (r1 + V[..., 4, :] - tri) / self.L_tie[..., None]
+        L[..., 6:9, 7] = f
+        L[..., 9:12, 7] = cross(V[..., 4, :], f)
+        f = (r1 + V[..., 5, :] - r3 - V[..., 14, :]) / self.L_drop[..., None]
+        L[..., 6:9, 8] = f
+        L[..., 9:12, 8] = cross(V[..., 5, :], f)
+        L[..., 18:21, 8] = -f
+        L[..., 21:24, 8] = -cross(V[..., 14, :], f)
+        return L
+
+    def _jacobian_by_columns(
+        self,
+        st: AxleState,
+        pad: np.ndarray,
+        ext: np.ndarray | None = None,
+        h: float = 1e-7,
+        rack: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """:meth:`jacobian` with one forward difference per column (multipliers by a
+        1 N step), the reference path."""
         n = self.n
         shared = [j for j in range(NS) if not 18 <= j < 24]  # 27 columns
         # perturbations: (column j, side) with side None for both sides at once
@@ -743,7 +939,9 @@ class AxleSolver:
     @staticmethod
     def _apply(st: AxleState, dx: np.ndarray, rows: np.ndarray) -> AxleState:
         """New state = st moved by dx (n, 66) on ``rows`` (bool mask)."""
-        dx = np.where(rows[:, None], dx, 0.0).reshape(st.r.shape[0], 2, NS)
+        if not rows.all():
+            dx = np.where(rows[:, None], dx, 0.0)
+        dx = dx.reshape(st.r.shape[0], 2, NS)
         dq = dx[..., :NQ].reshape(st.r.shape[0], 2, 4, 6)
         return AxleState(
             st.r + dq[..., :3],
@@ -768,13 +966,14 @@ class AxleSolver:
         pad: np.ndarray,
         ext: np.ndarray | None = None,
         active: np.ndarray | None = None,
-        Jinv: np.ndarray | None = None,
+        Jinv: np.ndarray | SharedInverse | None = None,
         rack: np.ndarray | None = None,
-    ) -> tuple[AxleState, np.ndarray, np.ndarray]:
+    ) -> tuple[AxleState, np.ndarray, np.ndarray | SharedInverse]:
         """Newton iteration from ``st`` for pad heights ``pad`` (n, 2), extra wheel load
         ``ext`` and rack travel ``rack`` (n, 2) [m] (see :meth:`residual`).
 
-        ``Jinv`` is an inverse Jacobian to start with (e.g. from the previous step); a
+        ``Jinv`` is an inverse Jacobian to start with (e.g. from the previous step; per
+        row (n, 66, 66) or a :class:`SharedInverse`); a
         row's Jacobian is refreshed when its Newton step shrinks by less than half, and
         its step is damped (halved, down to 1/64, for the rest of the solve) when even a
         fresh Jacobian's steps stop shrinking (a cycle, e.g. at a reversal of a Dahl
@@ -792,25 +991,51 @@ class AxleSolver:
         if Jinv is None:
             Jinv = self.inverse_jacobian(st, pad, ext, active, rack)
             fresh[:] = True
+        finite = np.ones(n, bool)  # rows whose last Newton step was finite
         for _ in range(self.maxit):
             self.stats["residuals"] += 1
-            res = self.residual(st.r, st.R, st.lam, pad, st, ext, rack=rack).reshape(n, 2 * NS)
-            dx = -np.matmul(Jinv, res[..., None])[..., 0]
+            need = active & ~conv & finite
+            if SUBSET_RESIDUALS and n >= 8 and 2 * need.sum() <= n:
+                # the residuals of the rows still iterating only (the same numbers per row);
+                # the others' steps are NaN (not taken, not converged)
+                idx = np.flatnonzero(need)
+                res = np.full((n, 2 * NS), np.nan)
+                res[idx] = (
+                    self.take(idx, axle=False)
+                    .residual(
+                        st.r[idx],
+                        st.R[idx],
+                        st.lam[idx],
+                        pad[idx],
+                        st.take(idx),
+                        None if ext is None else ext[idx],
+                        rack=None if rack is None else rack[idx],
+                    )
+                    .reshape(idx.size, 2 * NS)
+                )
+            else:
+                res = self.residual(st.r, st.R, st.lam, pad, st, ext, rack=rack).reshape(n, 2 * NS)
+            dx = -_inv_mul(Jinv, res)
             size = self._step_size(dx)
             ok = np.isfinite(size)
+            finite = ok
             todo = active & ~conv & ok
             if not todo.any():
                 break
             slow = todo & (size > 0.5 * prev)
             refresh = slow & ~fresh
             if refresh.any():  # refresh these rows' Jacobians (in place), recompute steps
-                Jinv[refresh] = self.take(refresh).inverse_jacobian(
+                fresh_inv = self.take(refresh, axle=False).inverse_jacobian(
                     st.take(refresh),
                     pad[refresh],
                     None if ext is None else ext[refresh],
                     rack=None if rack is None else rack[refresh],
                 )
-                dx[refresh] = -np.matmul(Jinv[refresh], res[refresh][..., None])[..., 0]
+                if isinstance(Jinv, SharedInverse):
+                    Jinv.set(refresh, fresh_inv)
+                else:
+                    Jinv[refresh] = fresh_inv
+                dx[refresh] = -np.matmul(fresh_inv, res[refresh][..., None])[..., 0]
                 size = np.where(refresh, self._step_size(dx), size)
             stuck = todo & fresh & (size > 0.9 * prev)  # exact Newton cycles: damp
             alpha = np.where(stuck, np.maximum(0.5 * alpha, 1.0 / 64), alpha)
@@ -836,15 +1061,20 @@ class AxleSolver:
             J[~active] = np.eye(2 * NS)
         bad = ~np.isfinite(J).all(axis=(1, 2))
         J[bad] = np.eye(2 * NS)
-        try:
-            Jinv = np.linalg.inv(J)
-        except np.linalg.LinAlgError:
-            Jinv = np.full(J.shape, np.nan)
-            for i in range(J.shape[0]):
-                with contextlib.suppress(np.linalg.LinAlgError):
-                    Jinv[i] = np.linalg.inv(J[i])
-        Jinv[bad] = np.nan
-        return Jinv
+        # inverted in place, in blocks of rows (bounded memory; the same numbers)
+        per = max(1, JACOBIAN_BLOCK // 32)
+        for a in range(0, J.shape[0], per):
+            blk = J[a : a + per]
+            try:
+                blk[...] = np.linalg.inv(blk)
+            except np.linalg.LinAlgError:
+                for i in range(blk.shape[0]):
+                    try:
+                        blk[i] = np.linalg.inv(blk[i])
+                    except np.linalg.LinAlgError:
+                        blk[i] = np.nan
+        J[bad] = np.nan
+        return J
 
     def pad_sensitivity(self, st: AxleState) -> np.ndarray:
         """d(residual)/d(pad height) (n, 2, 33): the tyre force and its moment on the knuckle."""
@@ -874,43 +1104,23 @@ class AxleSolver:
         return out
 
     # ----------------------------------------------------------------- outputs
-    def outputs(self, st: AxleState, pad: np.ndarray) -> dict[str, np.ndarray]:
-        """Channels (n, 2) [SI, ISO 8855] of a converged state; see ``docs/knc.md``."""
+    def outputs(
+        self, st: AxleState, pad: np.ndarray, names: Sequence[str] | None = None
+    ) -> dict[str, np.ndarray]:
+        """Channels (n, 2) [SI, ISO 8855] of a converged state; see ``docs/knc.md``.
+
+        ``names``: compute only these channels (None: all; the same numbers)."""
+
+        def want(*keys: str) -> bool:
+            return names is None or any(key in names for key in keys)
+
         R1 = st.R[..., 1, :, :]
         wc = st.r[..., 1, :]
         s = rotate(R1, self.s0)
-        cp = wc + self.Rw[..., None] * _down(s)
-        sg = SIDE_SIGN
-        h = sg[:, None] * cross(s, EZ)
-        h /= np.linalg.norm(h, axis=-1, keepdims=True)
-        toe = -sg * np.arctan2(h[..., 1], h[..., 0])
-        camber = -np.arcsin(np.clip(s[..., 2], -1, 1))
-        pB = wc + rotate(R1, self.kn_pts[:, :, 0])
-        top = st.r[..., 2, :]
-        k = top - pB
-        k /= np.linalg.norm(k, axis=-1, keepdims=True)
-        caster = np.arctan2(-k[..., 0], k[..., 2])
-        kpi = np.arctan2(-sg * k[..., 1], k[..., 2])
-        # steering axis meets the pad plane at g; the loaded contact point cpl is where the
-        # wheel plane's downward radius meets the pad plane; scrub radius (SAE sign:
-        # positive when g lies inboard of cpl) and trail (positive when g lies ahead of
-        # cpl) along the vehicle's y and x axes, as ADAMS/Car's suspension outputs
-        t = (pad - pB[..., 2]) / k[..., 2]
-        g = pB + t[..., None] * k
         down = _down(s)
-        cpl = wc + ((pad - wc[..., 2]) / down[..., 2])[..., None] * down
-        scrub = sg * (cpl[..., 1] - g[..., 1])
-        trail = g[..., 0] - cpl[..., 0]
-        # wheel-carrier pitch: rotation about +y of the knuckle from its design attitude
-        pitch = log_so3(R1)[..., 1]
-        strut = np.linalg.norm(top - wc - rotate(R1, self.kn_pts[:, :, 4]), axis=-1)
-        pL = wc + rotate(R1, self.kn_pts[:, :, 3])
-        pU = top + rotate(st.R[..., 2, :, :], self.s_upper_seat)
-        L = np.linalg.norm(pL - pU, axis=-1)
-        rho = log_so3(np.matmul(st.R[..., 0, 3, :, :], np.swapaxes(st.R[..., 1, 3, :, :], -1, -2)))[
-            ..., 1
-        ]
-        out = {
+        cp = wc + self.Rw[..., None] * down
+        sg = SIDE_SIGN
+        out: dict[str, np.ndarray] = {
             "wheel_centre_x": wc[..., 0],
             "wheel_centre_y": wc[..., 1],
             "wheel_centre_z": wc[..., 2],
@@ -919,19 +1129,49 @@ class AxleSolver:
             "contact_z": cp[..., 2],
             "pad_z": pad,
             "tyre_fz": self.kt * (pad - cp[..., 2]),
-            "toe": toe,
-            "camber": camber,
-            "caster": caster,
-            "kpi": kpi,
-            "scrub_radius": scrub,
-            "trail": trail,
-            "spring_length": L,
-            "spring_force": self.ks * (self.L_free - L),
-            "arb_twist": np.stack([rho, rho], axis=-1),
-            "knuckle_pitch": pitch,
-            "strut_length": strut,
         }
-        return {k: np.array(v, dtype=float) for k, v in out.items()}
+        if want("toe"):
+            h = sg[:, None] * cross(s, EZ)
+            h /= np.linalg.norm(h, axis=-1, keepdims=True)
+            out["toe"] = -sg * np.arctan2(h[..., 1], h[..., 0])
+        if want("camber"):
+            out["camber"] = -np.arcsin(np.clip(s[..., 2], -1, 1))
+        top = st.r[..., 2, :]
+        if want("caster", "kpi", "scrub_radius", "trail"):
+            pB = wc + rotate(R1, self.kn_pts[:, :, 0])
+            k = top - pB
+            k /= np.linalg.norm(k, axis=-1, keepdims=True)
+            out["caster"] = np.arctan2(-k[..., 0], k[..., 2])
+            out["kpi"] = np.arctan2(-sg * k[..., 1], k[..., 2])
+        if want("scrub_radius", "trail"):
+            # steering axis meets the pad plane at g; the loaded contact point cpl is where
+            # the wheel plane's downward radius meets the pad plane; scrub radius (SAE sign:
+            # positive when g lies inboard of cpl) and trail (positive when g lies ahead of
+            # cpl) along the vehicle's y and x axes, as ADAMS/Car's suspension outputs
+            t = (pad - pB[..., 2]) / k[..., 2]
+            g = pB + t[..., None] * k
+            cpl = wc + ((pad - wc[..., 2]) / down[..., 2])[..., None] * down
+            out["scrub_radius"] = sg * (cpl[..., 1] - g[..., 1])
+            out["trail"] = g[..., 0] - cpl[..., 0]
+        if want("spring_length", "spring_force"):
+            pL = wc + rotate(R1, self.kn_pts[:, :, 3])
+            pU = top + rotate(st.R[..., 2, :, :], self.s_upper_seat)
+            L = np.linalg.norm(pL - pU, axis=-1)
+            out["spring_length"] = L
+            out["spring_force"] = self.ks * (self.L_free - L)
+        if want("arb_twist"):
+            R_bar = np.matmul(st.R[..., 0, 3, :, :], np.swapaxes(st.R[..., 1, 3, :, :], -1, -2))
+            rho = log_so3(R_bar)[..., 1]
+            out["arb_twist"] = np.stack([rho, rho], axis=-1)
+        if want("knuckle_pitch"):
+            # wheel-carrier pitch: rotation about +y of the knuckle from its design attitude
+            out["knuckle_pitch"] = log_so3(R1)[..., 1]
+        if want("strut_length"):
+            out["strut_length"] = np.linalg.norm(
+                top - wc - rotate(R1, self.kn_pts[:, :, 4]), axis=-1
+            )
+        keep = OUTPUT_NAMES if names is None else [k for k in OUTPUT_NAMES if k in names]
+        return {k: np.array(out[k], dtype=float) for k in keep}
 
 
 def dahl_step(x_prev, x, sigma, f_c, z_prev, eps) -> np.ndarray:
@@ -951,10 +1191,53 @@ def dahl_step(x_prev, x, sigma, f_c, z_prev, eps) -> np.ndarray:
     return dahl_path(path, sigma, f_c, z0=np.broadcast_to(z_prev, x.shape))[..., -1]
 
 
+def _coloured_groups() -> tuple[np.ndarray, np.ndarray, int]:
+    """The perturbations of :meth:`AxleSolver.jacobian` (body coordinates): their
+    coordinate moves ``(perturbation, side, body, axis)`` and the Jacobian entries that
+    their differences fill ``(perturbation, side, residual row, Jacobian row, Jacobian
+    column)``, each sorted by perturbation, and their number.
+
+    Perturbations: lower arm + strut rod coordinate ``k`` on both sides at once (their
+    residual rows are disjoint: ARM_ROWS for the lower arm), knuckle coordinate ``k`` on
+    both sides at once, bar-half coordinate ``k`` one side at a time (the bar couples
+    the sides).
+    """
+    groups: list[list[tuple[int, int | None]]] = [[(k, None), (12 + k, None)] for k in range(6)]
+    groups += [[(6 + k, None)] for k in range(6)]
+    groups += [[(18 + k, s)] for s in (0, 1) for k in range(6)]
+    moves, scatter = [], []
+    for p, group in enumerate(groups):
+        for j, side in group:
+            b, k = divmod(j, 6)
+            for s in (0, 1) if side is None else (side,):
+                moves.append((p, s, b, k))
+        for s in (0, 1):  # the differences of both sides' rows
+            for row in range(NS):
+                if len(group) == 2:  # lower-arm rows to its column, the others to the rod's
+                    j, side = group[0] if row in ARM_ROWS else group[1]
+                else:
+                    j, side = group[0]
+                col = (s if side is None else side) * NS + j
+                scatter.append((p, s, row, s * NS + row, col))
+    return np.array(moves).T, np.array(scatter).T, len(groups)
+
+
+_COLOURED_MOVES, _COLOURED_SCATTER, _N_COLOURED = _coloured_groups()
+
+
+def _skew(v: np.ndarray) -> np.ndarray:
+    """Cross-product matrices (..., 3, 3) of ``v`` (..., 3): ``_skew(v) @ w = v x w``."""
+    out = np.zeros(v.shape + (3,))
+    out[..., 0, 1], out[..., 0, 2] = -v[..., 2], v[..., 1]
+    out[..., 1, 0], out[..., 1, 2] = v[..., 2], -v[..., 0]
+    out[..., 2, 0], out[..., 2, 1] = -v[..., 1], v[..., 0]
+    return out
+
+
 def _down(s: np.ndarray) -> np.ndarray:
     """Unit vector in the wheel plane pointing down (towards the contact point)."""
     d = dot(s, EZ)[..., None] * s - EZ
-    return d / np.linalg.norm(d, axis=-1, keepdims=True)
+    return d / np.sqrt((d * d).sum(-1, keepdims=True))
 
 
 __all__ = ["BODIES", "BUSHING_NAMES", "AxleSolver", "AxleState", "spin_axis"]
