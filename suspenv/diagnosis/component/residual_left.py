@@ -54,6 +54,11 @@ from suspenv.diagnosis.fitting import FitResult
 from suspenv.diagnosis.protocols import RecordingLike
 from suspenv.diagnosis.split import Split
 
+#: per model family: words of the two directions of motion and of the displacement
+MOTION_WORDS: dict[str, tuple[str, str, str]] = {
+    "": ("in compression (v > 0)", "in rebound (v < 0)", "deflection"),
+    "friction_guide": ("moving forward (v > 0)", "moving backward (v < 0)", "position"),
+}
 #: fewer motion cycles than this in a recording: replicates are time blocks instead
 MIN_CYCLES = 16
 #: time blocks per recording used as replicates when cycles are few
@@ -113,8 +118,7 @@ class ResidualLeft:
                 f"unexplained residual above noise, not in the library: in {self.channel} a "
                 f"part of {self.structured_rms:.3g} {self.unit} RMS repeats with the motion "
                 f"({self.ratio:.1f} x the noise of {self.noise_rms:.3g} {self.unit}; "
-                f"cycle-to-cycle test p = {self.p_value:.2g}), largest "
-                + "; ".join(self.where[:2])
+                f"cycle-to-cycle test p = {self.p_value:.2g}), largest " + "; ".join(self.where[:2])
             )
         return (
             f"the residual left in {self.channel} is at the noise floor "
@@ -188,6 +192,7 @@ def residual_left(
         unit = str(recs[0].units.get(ch, ""))
         out.append(
             _cell_test(
+                MOTION_WORDS.get(str(getattr(fit.model, "family", "")), MOTION_WORDS[""]),
                 np.concatenate(rs),
                 np.concatenate(xs),
                 np.concatenate(vs),
@@ -201,6 +206,7 @@ def residual_left(
 
 
 def _cell_test(
+    words: tuple[str, str, str],
     r: np.ndarray,
     x: np.ndarray,
     v: np.ndarray,
@@ -249,7 +255,7 @@ def _cell_test(
     _, white_p = ljung_box(r)
     remains = bool(p_value < alpha and ratio > MATERIAL_RATIO)
     tops.sort(reverse=True)
-    where = [_cell_words(c, mean, unit, speed_edges, x_edges) for _, c, mean in tops[:3]]
+    where = [_cell_words(words, c, mean, unit, speed_edges, x_edges) for _, c, mean in tops[:3]]
     return ResidualLeft(
         channel=channel,
         unit=unit,
@@ -330,10 +336,15 @@ def neighbour_noise_power(
 
 
 def _cell_words(
-    cell: int, mean: float, unit: str, speed_edges: np.ndarray, x_edges: np.ndarray
+    words: tuple[str, str, str],
+    cell: int,
+    mean: float,
+    unit: str,
+    speed_edges: np.ndarray,
+    x_edges: np.ndarray,
 ) -> str:
     """E.g. "in rebound at 0.12-0.25 m/s, deflection -3.1 to 2.0 mm: mean -41 N"."""
-    direction = "rebound (v < 0)" if cell // 16 else "compression (v > 0)"
+    direction = words[1] if cell // 16 else words[0]
     sq, xq = (cell % 16) // 4, cell % 4
     s_lo = 0.0 if sq == 0 else float(speed_edges[sq - 1])
     s_hi = float(speed_edges[sq]) if sq < 3 else float("inf")
@@ -341,9 +352,9 @@ def _cell_words(
     x_hi = float(x_edges[xq]) * 1e3 if xq < 3 else float("inf")
     speed = f"{s_lo:.3g}-{s_hi:.3g} m/s" if np.isfinite(s_hi) else f"above {s_lo:.3g} m/s"
     if not np.isfinite(x_lo):
-        defl = f"deflection below {x_hi:.3g} mm"
+        defl = f"{words[2]} below {x_hi:.3g} mm"
     elif not np.isfinite(x_hi):
-        defl = f"deflection above {x_lo:.3g} mm"
+        defl = f"{words[2]} above {x_lo:.3g} mm"
     else:
-        defl = f"deflection {x_lo:.3g} to {x_hi:.3g} mm"
-    return f"in {direction} at {speed}, {defl}: mean {mean:+.3g} {unit}"
+        defl = f"{words[2]} {x_lo:.3g} to {x_hi:.3g} mm"
+    return f"{direction} at {speed}, {defl}: mean {mean:+.3g} {unit}"

@@ -455,7 +455,8 @@ def check_extra_inputs(recordings: Sequence[RecordingLike], rig: RigDescription)
 
 def baseline_words(model: ComponentModel) -> str:
     """The baseline in words, e.g. "linear viscous F = c v; gas spring force ..."."""
-    parts = [model.description.split("(base: ")[-1].rstrip(")")]
+    desc = model.description
+    parts = [desc.split("(base: ")[-1][:-1] if "(base: " in desc else desc]
     seen: set[str] = set()
     for e in model.effects:
         if e.kind in seen:
