@@ -89,34 +89,46 @@ def score_case(truth: dict[str, Any], diag: Any | None, error: str = "") -> dict
     return row
 
 
-def run(seeds: str, work: Path) -> dict[str, Any]:
-    """Generate, diagnose and score every case of ``seeds`` in ``work``."""
-    from suspenv.bench.independent.generate import main as generate
+def diagnose_case(work: Path, cid: str) -> dict[str, Any]:
+    """Diagnose one generated case as a user would and score it (module docstring)."""
     from suspenv.diagnosis.engine import diagnose
     from suspenv.measurements import load_recording
 
-    generate(["--out", str(work), "--seeds", seeds, "--overwrite"])
+    truth = json.loads((work / "truth" / f"{cid}.json").read_text())
+    rec = load_recording(work / "cases" / f"{cid}.npz")
+    c0 = time.process_time()
+    t0 = time.perf_counter()
+    try:
+        diag = diagnose(rec, str(rec.meta.get("rig", {}).get("device", truth["family"])))
+        row = score_case(truth, diag)
+    except Exception as exc:  # a refusal or a failure is a miss, kept with its message
+        row = score_case(truth, None, f"{type(exc).__name__}: {exc}")
+    row["wall_s"] = time.perf_counter() - t0
+    row["cpu_s"] = time.process_time() - c0
+    return row
+
+
+def run(seeds: str, work: Path, jobs: int = 1) -> dict[str, Any]:
+    """Generate, diagnose and score every case of ``seeds`` in ``work``; ``jobs`` worker
+    processes (the times are per case: wall and the worker's process CPU)."""
+    from concurrent.futures import ProcessPoolExecutor
+
+    from suspenv.bench.independent.generate import main as generate
+
+    generate(["--out", str(work), "--seeds", seeds, "--overwrite", "--jobs", str(jobs)])
     manifest = json.loads((work / "manifest.json").read_text())
-    ids = manifest.get("cases") or manifest.get("case_ids") or []
+    ids = list(manifest.get("cases") or manifest.get("case_ids") or [])
     rows = []
-    for i, cid in enumerate(ids):
-        truth = json.loads((work / "truth" / f"{cid}.json").read_text())
-        rec = load_recording(work / "cases" / f"{cid}.npz")
-        c0 = time.process_time()
-        t0 = time.perf_counter()
-        try:
-            diag = diagnose(rec, str(rec.meta.get("rig", {}).get("device", truth["family"])))
-            row = score_case(truth, diag)
-        except Exception as exc:  # a refusal or a failure is a miss, kept with its message
-            row = score_case(truth, None, f"{type(exc).__name__}: {exc}")
-        row["wall_s"] = time.perf_counter() - t0
-        row["cpu_s"] = time.process_time() - c0
-        rows.append(row)
-        print(
-            f"[{i + 1}/{len(ids)}] {cid}: {'right' if row['right'] else 'MISS'} "
-            f"({row['wall_s']:.1f} s) {str(row['verdict'])[:110]}",
-            flush=True,
-        )
+    with ProcessPoolExecutor(max_workers=max(1, jobs)) as pool:
+        futures = [pool.submit(diagnose_case, work, cid) for cid in ids]
+        for i, fut in enumerate(futures):
+            row = fut.result()
+            rows.append(row)
+            print(
+                f"[{i + 1}/{len(ids)}] {row['case_id']}: {'right' if row['right'] else 'MISS'} "
+                f"({row['wall_s']:.1f} s) {str(row['verdict'])[:110]}",
+                flush=True,
+            )
     return {"seeds": seeds, "generator": manifest.get("generator"), "cases": rows}
 
 
@@ -196,11 +208,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seeds", default=REPORT_SEEDS)
     ap.add_argument("--out", default=None, help="folder for the generated cases (default: temp)")
     ap.add_argument("--no-docs", action="store_true", help="do not rewrite docs/")
+    ap.add_argument("--jobs", type=int, default=1, help="worker processes (default 1)")
     args = ap.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(args.out) if args.out else Path(tmp)
         t0 = time.perf_counter()
-        result = run(args.seeds, work)
+        result = run(args.seeds, work, args.jobs)
     result["summary"] = summarise(result)
     result["command"] = "python -m suspenv.bench.independent_diagnosis"
     result["machine"] = machine_info()
