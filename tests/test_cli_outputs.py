@@ -158,7 +158,11 @@ def test_diagnose_refuses_a_non_empty_folder_then_overwrites(tmp_path, capsys, m
 
     def fake_diagnose(recordings, family, holdout=None, **kw):
         calls.append(family)
-        return SimpleNamespace(verdict="no significant missing physics")
+        return SimpleNamespace(
+            verdict="no significant missing physics",
+            headline="No significant missing physics",
+            evidence=[],
+        )
 
     def fake_report(diag, out_dir):
         out_dir = Path(out_dir)
