@@ -4,7 +4,8 @@ Both are pure bookkeeping (the same operations on the same arrays, done fewer ti
 so the comparison is exact (bitwise), not to a tolerance:
 
 * the spring preload is sized with :class:`_OnePoseKinematics`, which computes the
-  knuckle pose once per coordinate array instead of once per point and direction
+  knuckle pose once per coordinate array instead of once per point and direction, and
+  evaluates the twelve perturbed coordinate sets of its Jacobian in one call
   (``solver.PRELOAD_KINEMATICS``; reference: the plain ``CornerKinematics``);
 * the quadratic predictor of the rig keeps its last relative rotation for the next
   step (``knc.PREDICTOR_CACHE``; reference: both rotations computed every step).
@@ -58,6 +59,9 @@ def test_one_pose_kinematics_equations_match_the_plain_class(X):
     z = axle.points["wheel_centre"][..., 2] + 0.01
     plain, once = CornerKinematics(axle), solver_module._OnePoseKinematics(axle)
     assert np.array_equal(plain.equations(q, z), once.equations(q, z))
+    # the twelve perturbed evaluations of the Jacobian in one batched call
+    assert np.array_equal(plain.jacobian(q, z), once.jacobian(q, z))
+    assert np.array_equal(plain.jacobian(q, z, h=1e-5), once.jacobian(q, z, h=1e-5))
     assert np.array_equal(plain.tangent(q, z), once.tangent(q, z))
     # a different array (even with the same values) is a new pose, never a stale one
     q2 = q + 1e-3

@@ -19,8 +19,11 @@ Two paths of the same evaluation, measured in the same run on the same candidate
   static inverse Jacobian (``solver.SharedInverse``), a Jacobian with the lower-arm and
   strut-rod columns perturbed together and exact multiplier columns
   (``solver.JACOBIAN_COLOURED``), Newton iterations on the rows still iterating only
-  (``solver.SUBSET_RESIDUALS``), the Jacobians inverted in blocks of rows, and only the
-  channels that the objectives read, fitted on their fit window in closed form;
+  (``solver.SUBSET_RESIDUALS``), the Jacobians inverted in blocks of rows, the
+  Jacobian's perturbations in blocks of at most ``solver.JACOBIAN_PERTURBATIONS``, the
+  rows of a single design sharing its arrays (``solver.SHARE_ONE_DESIGN``), the
+  channels in calls of at most ``knc.OUTPUT_STATES`` states, and only the channels that the
+  objectives read, fitted on their fit window in closed form one test at a time;
 * ``baseline``: the previous algorithm, kept as the reference path: the explicit
   problem options ``eval_chunk=None`` (the whole batch at once) and
   ``reuse_revisits=False`` (every step of the loop solved one after the other, one
@@ -32,7 +35,8 @@ Two paths of the same evaluation, measured in the same run on the same candidate
   :class:`~suspenv.models.mcpherson.kinematics.CornerKinematics` (five scipy rotations
   per kinematic equation evaluation instead of one: ``solver.PRELOAD_KINEMATICS``) and
   both relative rotations of the quadratic predictor computed at every step
-  (``knc.PREDICTOR_CACHE = False``). Both paths give the same objectives to solver
+  (``knc.PREDICTOR_CACHE = False``) and a copy of a design's arrays for each of its rows
+  (``solver.SHARE_ONE_DESIGN = False``). Both paths give the same objectives to solver
   tolerance; both use the same residual, outputs and fit arithmetic.
 
 Time: process CPU time (BLAS is limited to one thread by suspenv, so it is one core's
@@ -94,6 +98,7 @@ def reference_path() -> Iterator[None]:
         rig_module.PREDICTOR_CACHE,
         solver_module.JACOBIAN_COLOURED,
         solver_module.SUBSET_RESIDUALS,
+        solver_module.SHARE_ONE_DESIGN,
     )
     solver_module.JACOBIAN_BLOCK = rig_module.JACOBIAN_BLOCK = 1 << 62
     problem_module.objectives = lambda results: _objectives_one_by_one(results, {})
@@ -101,6 +106,7 @@ def reference_path() -> Iterator[None]:
     rig_module.PREDICTOR_CACHE = False
     solver_module.JACOBIAN_COLOURED = False
     solver_module.SUBSET_RESIDUALS = False
+    solver_module.SHARE_ONE_DESIGN = False
     try:
         yield
     finally:
@@ -110,6 +116,7 @@ def reference_path() -> Iterator[None]:
         rig_module.PREDICTOR_CACHE = saved[4]
         solver_module.JACOBIAN_COLOURED = saved[5]
         solver_module.SUBSET_RESIDUALS = saved[6]
+        solver_module.SHARE_ONE_DESIGN = saved[7]
 
 
 def _cpu_wall(fn: Any) -> tuple[float, float]:
@@ -218,8 +225,9 @@ def main(argv: list[str] | None = None) -> int:
             "same evaluation with eval_chunk=None, reuse_revisits=False (every step of "
             "the loop in sequence, one inverse Jacobian per row), a column-by-column "
             "finite-difference Jacobian, unbounded JACOBIAN_BLOCK, every row's residual "
-            "at every Newton iteration, per-objective fits, plain preload kinematics and "
-            "an uncached predictor (the previous algorithm)"
+            "at every Newton iteration, per-objective fits, plain preload kinematics, "
+            "an uncached predictor and a copy of a design's arrays per row (the previous "
+            "algorithm)"
         ),
         "eval_chunk": fast.eval_chunk,
         "target_ms": TARGET_MS,

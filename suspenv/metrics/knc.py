@@ -311,10 +311,10 @@ _PICK = {"value": 0, "gradient": 1, "rate": 1, "rate_gradient": 2}
 def objectives(results: dict[str, KCResult]) -> np.ndarray:
     """The 40 objectives (n, 40) from rig results of the three tests (see module doc).
 
-    All 40 objectives x 2 branches x 2 wheels are fitted in one batched
+    Each test's objectives x 2 branches x 2 wheels are fitted in one batched
     :func:`quadratic_fit` on the fit window only (the single-wheel test's moving wheel
-    twice, whose mean is itself); the arithmetic is that of :func:`_reduce` per
-    objective."""
+    twice, whose mean is itself), one test at a time (bounded memory); the arithmetic
+    is that of :func:`_reduce` per objective."""
     missing = sorted({o.test for o in OBJECTIVES} - set(results))
     if missing:
         raise ValidationError(f"objectives need the tests {missing}, which were not run")
@@ -325,25 +325,34 @@ def objectives(results: dict[str, KCResult]) -> np.ndarray:
         return _objectives_one_by_one(results, cache)
     centre = centres.pop()
     window = slice(centre - FIT_HALF_WIDTH, centre + FIT_HALF_WIDTH + 1)  # the fitted points
-    xs, ys = [], []
-    for obj in OBJECTIVES:
-        res = results[obj.test]
-        wheels = [0, 0] if obj.test == "single" else [0, 1]  # single: the moving wheel only
-        for br in ("down", "up"):
-            key = (obj.test, br)
-            if key not in cache:
-                cache[key] = _wheel_curves(res, br, window)
-            ys.append(cache[key][obj.curve][..., wheels])
-            xs.append(cache[key][obj.x][..., wheels])
-    # (n, 40 * 2, G, 2) -> (n, 40, 2 branches, 2 wheels, G)
-    x = np.moveaxis(np.stack(xs, axis=1), -1, 2)
-    y = np.moveaxis(np.stack(ys, axis=1), -1, 2)
-    n = x.shape[0]
-    shape = (n, len(OBJECTIVES), 2, 2, x.shape[-1])
-    fit = np.stack(quadratic_fit(x.reshape(shape), y.reshape(shape), FIT_HALF_WIDTH))
-    pick = fit[[_PICK[o.reduce] for o in OBJECTIVES], :, np.arange(len(OBJECTIVES))]
-    branch = pick.mean(axis=-1)  # (40, n, 2 branches): mean over the wheels
-    return (0.5 * (branch[..., 0] + branch[..., 1])).T
+    n = results[OBJECTIVES[0].test].ok.shape[0]
+    F = np.empty((n, len(OBJECTIVES)))
+    # one test's objectives at a time (memory: their curves and the fit's temporaries)
+    for test in dict.fromkeys(o.test for o in OBJECTIVES):
+        idx = [i for i, o in enumerate(OBJECTIVES) if o.test == test]
+        res = results[test]
+        curves = [_wheel_curves(res, br, window) for br in ("down", "up")]
+        # single: the moving wheel only (twice, broadcast), else both wheels
+        wheels = slice(0, 1) if test == "single" else slice(None)
+        # the curves (n, objectives, 2 branches, G, 2 wheels), filled in place, then
+        # (n, objectives, 2 branches, 2 wheels, G)
+        shape = (n, len(idx), 2, window.stop - window.start, 2)
+        xw, yw = np.empty(shape), np.empty(shape)
+        for q, i in enumerate(idx):
+            obj = OBJECTIVES[i]
+            for b in (0, 1):
+                yw[:, q, b] = curves[b][obj.curve][..., wheels]
+                xw[:, q, b] = curves[b][obj.x][..., wheels]
+        del curves
+        x = np.ascontiguousarray(np.moveaxis(xw, -1, 3))
+        y = np.ascontiguousarray(np.moveaxis(yw, -1, 3))
+        del xw, yw
+        fit = np.stack(quadratic_fit(x, y, FIT_HALF_WIDTH))
+        del x, y
+        pick = fit[[_PICK[OBJECTIVES[i].reduce] for i in idx], :, np.arange(len(idx))]
+        branch = pick.mean(axis=-1)  # (objectives, n, 2 branches): mean over the wheels
+        F[:, idx] = (0.5 * (branch[..., 0] + branch[..., 1])).T
+    return F
 
 
 def _objectives_one_by_one(

@@ -66,7 +66,8 @@ benchmark); a path-dependent model always does.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+import functools
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -124,6 +125,11 @@ PREDICTOR_CACHE = True
 #: states extrapolated by the predictor of the two-leg loop of a path-independent model
 #: (:func:`_sweep_legs`): 4, cubic (3: quadratic, as the sequential loop)
 LEG_ORDER = 4
+#: converged states per call of the channel outputs of the two-leg loop
+#: (:func:`_sweep_legs`) at most (fewer when JACOBIAN_BLOCK rows say so): the states
+#: wait for their channels in groups of at most this many, which bounds their memory at
+#: small batches (0.9 kB per row and state)
+OUTPUT_STATES = 4
 
 
 @dataclass
@@ -345,8 +351,8 @@ def run_tests(
             parts.append(f"{_DRIVE_NAME.get(t, 'stroke')} {value:+.{digits}f} {shown}")
         return ", ".join(dict.fromkeys(parts))
 
-    # step descriptions of failure messages, formatted once per grid point
-    where_at = [where_text(gi) for gi in range(steps + 1)]
+    # step descriptions of failure messages, formatted once per grid point when asked for
+    where_at = _Texts(where_text)
     sweep = _Sweep(pad0, signs, grid, row_grid, ext_dir, rack_dir)
     if reuse:
         legs = solver.take(np.tile(np.arange(rows), 2), axle=False)  # leg x test x design
@@ -401,11 +407,31 @@ class _Sweep:
             rack = None if self.rack_dir is None else self.rack_dir * drive[:, None]
             return self.pad0 + self.signs * self.grid[gi], ext, rack
         g = np.broadcast_to(np.asarray(gi), (reps * m,))
-        rr = np.tile(np.arange(m), reps)
+        rr = _tiled_rows(m, reps)
         drive = self.row_grid[rr, g]
         ext = None if self.ext_dir is None else self.ext_dir[rr] * drive[:, None, None]
         rack = None if self.rack_dir is None else self.rack_dir[rr] * drive[:, None]
         return self.pad0[rr] + self.signs[rr] * self.grid[g][:, None], ext, rack
+
+
+@functools.lru_cache(maxsize=8)
+def _tiled_rows(m: int, reps: int) -> np.ndarray:
+    """``np.tile(np.arange(m), reps)``, read-only and kept for the next call."""
+    out = np.tile(np.arange(m), reps)
+    out.flags.writeable = False
+    return out
+
+
+class _Texts(dict[int, str]):
+    """Texts by grid index, each made by ``make(index)`` when first asked for."""
+
+    def __init__(self, make: Callable[[int], str]):
+        super().__init__()
+        self._make = make
+
+    def __missing__(self, key: int) -> str:
+        text = self[key] = self._make(int(key))
+        return text
 
 
 def _outputs(
@@ -421,6 +447,11 @@ def _outputs(
     parts = []
     for a in range(0, len(states), per):
         chunk = states[a : a + per]
+        if len(chunk) == 1:  # one state: views, no copies (memory)
+            x = chunk[0]
+            stacked = AxleState(x.r[None], x.R[None], x.lam[None])
+            parts.append(solver.outputs(stacked, pads[a][None], names))
+            continue
         stacked = AxleState(
             np.stack([x.r for x in chunk]),
             np.stack([x.R for x in chunk]),
@@ -437,7 +468,7 @@ def _sweep_loop(
     ok: np.ndarray,
     msgs: list[str],
     sweep: _Sweep,
-    where_at: list[str],
+    where_at: Mapping[int, str],
     path: np.ndarray,
     per: int,
     keep_states: bool,
@@ -498,7 +529,7 @@ def _sweep_legs(
     ok: np.ndarray,
     msgs: list[str],
     sweep: _Sweep,
-    where_at: list[str],
+    where_at: Mapping[int, str],
     path: np.ndarray,
     keep_states: bool,
     names: Sequence[str] | None,
@@ -537,10 +568,11 @@ def _sweep_legs(
     history: list[AxleState] = []
     kept: list[AxleState] = [lst] if keep_states else []
     # channels of every grid point (G, rows, 2), filled as the steps come: outputs in
-    # calls of about JACOBIAN_BLOCK rows (bounded memory), the pending states kept
+    # calls of about JACOBIAN_BLOCK rows and at most OUTPUT_STATES states (bounded
+    # memory), the pending states kept
     ch: dict[str, np.ndarray] = {}
     pending: list[tuple[int, AxleState, np.ndarray]] = []  # (step j, state, pads)
-    per = max(1, JACOBIAN_BLOCK // (2 * m))
+    per = max(1, min(JACOBIAN_BLOCK // (2 * m), OUTPUT_STATES))
 
     def flush() -> None:
         out = _outputs(lsolver, [x for _, x, _ in pending], [q for _, _, q in pending], per, names)

@@ -68,6 +68,7 @@ paper); spring force positive in compression.
 from __future__ import annotations
 
 import copy
+import functools
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -122,6 +123,11 @@ CSCALE = 1e6
 #: bounds the Jacobian's temporary memory to about 2 MB at any batch size); the
 #: Jacobians are inverted in blocks of JACOBIAN_BLOCK // 32 rows
 JACOBIAN_BLOCK = 256
+#: perturbations per batched residual call of the finite-difference Jacobian at most
+#: (fewer when JACOBIAN_BLOCK says so): its temporaries, about 6.6 kB per row and
+#: perturbation, stay below about 80 kB per row at small batches too (the 24
+#: perturbations of a single row in one call: 157 kB)
+JACOBIAN_PERTURBATIONS = 12
 #: the finite-difference Jacobian perturbs the columns with disjoint residual rows
 #: together and takes the multiplier columns exactly (False: one perturbation per
 #: column, the reference path of the tests and the speed benchmark's baseline)
@@ -130,6 +136,10 @@ JACOBIAN_COLOURED = True
 #: moment and the ball joint's constraint; the strut rod's enter none of them
 ARM_ROWS = np.r_[0:6, NQ : NQ + 3]
 NOT_ARM_ROWS = np.setdiff1d(np.arange(NS), ARM_ROWS)
+#: :meth:`AxleSolver.take` of rows that are all one design (``axle=False``) shares that
+#: design's arrays as zero-stride views, the same numbers in less memory (False: a copy
+#: per row, the reference path of the speed benchmark's baseline)
+SHARE_ONE_DESIGN = True
 #: the channels of :meth:`AxleSolver.outputs`, in its order
 OUTPUT_NAMES = (
     "wheel_centre_x",
@@ -231,7 +241,8 @@ class _OnePoseKinematics(CornerKinematics):
     Its ``equations(q)`` asks for the pose of the same ``q`` five times (three points,
     two directions), each a scipy rotation; this keeps the last one (the same numbers:
     the same call on the same array, which nobody mutates: every ``q`` here is a fresh
-    temporary, and the one kept stays referenced so its identity cannot be reused).
+    temporary, and the one kept stays referenced so its identity cannot be reused); its
+    Jacobian evaluates the twelve perturbed coordinate sets in one call.
     """
 
     _last: tuple[np.ndarray, tuple[np.ndarray, np.ndarray]] | None = None
@@ -242,6 +253,16 @@ class _OnePoseKinematics(CornerKinematics):
         pose = super()._pose(q)
         self._last = (q, pose)
         return pose
+
+    def jacobian(self, q: np.ndarray, z_wc: np.ndarray, h: float = 1e-7) -> np.ndarray:
+        """:meth:`CornerKinematics.jacobian` (central differences, step ``h`` [m] or
+        [rad], (..., 6, 6)) with its twelve perturbed coordinate sets evaluated in one
+        batched call of the equations (the same numbers, element by element)."""
+        dq = h * np.eye(6)[:, None]  # (6, 1, 6): the step of each column
+        lead = (slice(None),) + (None,) * (q.ndim - 1)
+        qs = np.concatenate([q + dq[lead + (0,)], q - dq[lead + (0,)]])  # (12, ..., 6)
+        e = self.equations(qs, z_wc)
+        return np.stack([(e[j] - e[6 + j]) / (2 * h) for j in range(6)], axis=-1)
 
 
 #: the kinematics that sizes the spring preload (:meth:`AxleSolver._size_preload`):
@@ -481,18 +502,28 @@ class AxleSolver:
 
         ``axle=False``: the solver's arrays only, its ``axle`` left whole (not taken
         row by row; less memory): enough for everything but :meth:`initial_state`
-        (residuals, Jacobians, :meth:`solve`, outputs), e.g. the rig's rows."""
+        (residuals, Jacobians, :meth:`solve`, outputs), e.g. the rig's rows; rows that
+        are all the same design then share its arrays (read-only zero-stride views, the
+        same numbers)."""
         idx = np.arange(self.n)[rows]
+        share = SHARE_ONE_DESIGN and not axle and idx.size > 0
+        one = share and bool((idx == idx[0]).all())
+
+        def pick(v: np.ndarray) -> np.ndarray:
+            if one or (share and v.strides[0] == 0):  # one design's array
+                return _repeated(v[idx[0], ...], idx.size)
+            return v[idx]
+
         out = copy.copy(self)
         for key, val in self.__dict__.items():
             if isinstance(val, np.ndarray) and val.ndim and val.shape[0] == self.n:
-                setattr(out, key, val[idx])
+                setattr(out, key, pick(val))
             elif (
                 isinstance(val, dict)
                 and val
                 and all(isinstance(v, np.ndarray) and v.shape[0] == self.n for v in val.values())
             ):
-                setattr(out, key, {k: v[idx] for k, v in val.items()})
+                setattr(out, key, {k: pick(v) for k, v in val.items()})
         if axle:
             out.axle = self.axle.take(idx)
         out.n = idx.size
@@ -818,10 +849,10 @@ class AxleSolver:
         if not JACOBIAN_COLOURED:
             return self._jacobian_by_columns(st, pad, ext, h, rack)
         n = self.n
-        exp_h = expm_so3(h * np.eye(3))  # rotations by h about x, y, z
+        exp_h = _exp_h(h)  # rotations by h about x, y, z
         base = self.residual(st.r, st.R, st.lam, pad, st, ext, rack=rack)  # (n, 2, 33)
         J = np.zeros((n, 2 * NS, 2 * NS))
-        per = max(1, JACOBIAN_BLOCK // max(n, 1))
+        per = max(1, min(JACOBIAN_BLOCK // max(n, 1), JACOBIAN_PERTURBATIONS))
         moves, scatter = _COLOURED_MOVES, _COLOURED_SCATTER
         for a in range(0, _N_COLOURED, per):
             P = min(per, _N_COLOURED - a)
@@ -1223,6 +1254,23 @@ def _coloured_groups() -> tuple[np.ndarray, np.ndarray, int]:
 
 
 _COLOURED_MOVES, _COLOURED_SCATTER, _N_COLOURED = _coloured_groups()
+
+
+@functools.lru_cache(maxsize=4)
+def _exp_h(h: float) -> np.ndarray:
+    """Rotation matrices (3, 3, 3) by ``h`` [rad] about x, y, z (read-only, cached)."""
+    out = expm_so3(h * np.eye(3))
+    out.flags.writeable = False
+    return out
+
+
+def _repeated(v: np.ndarray, k: int) -> np.ndarray:
+    """``k`` copies of ``v`` stacked on a new first axis, as a read-only zero-stride view."""
+    if not v.flags.c_contiguous:
+        return np.broadcast_to(v, (k,) + v.shape)
+    out = np.ndarray((k,) + v.shape, v.dtype, v, 0, (0,) + v.strides)  # quicker to make
+    out.flags.writeable = False
+    return out
 
 
 def _skew(v: np.ndarray) -> np.ndarray:
