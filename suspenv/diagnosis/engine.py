@@ -335,7 +335,15 @@ def diagnose(
         hypotheses=hypotheses,
         named=named,
         ambiguities=amb,
-        verdict=verdict_words(named, hypotheses, amb, first_sigs, found.sentences, found.confident),
+        verdict=verdict_words(
+            named,
+            hypotheses,
+            amb,
+            first_sigs,
+            found.sentences,
+            found.confident,
+            found.overrides_verdict,
+        ),
         comparison=comparison,
         final_params=current.params(),
         seconds=time.perf_counter() - t0,
@@ -356,6 +364,7 @@ def verdict_words(
     signatures: Sequence[Any] = (),
     sentences: Sequence[str] = (),
     confident: bool = True,
+    overrides: bool = False,
 ) -> str:
     """The verdict: "missing physics: A; then B" (with "(not confident)" when the
     residual left says more is missing) and what cannot be separated, or "no significant
@@ -366,7 +375,7 @@ def verdict_words(
         text = f"{head}: " + "; then ".join(h.words for h in named)
         if amb:
             text += ". " + " ".join(a.sentence() for a in amb)
-    elif not confident and sentences:
+    elif overrides and sentences:
         # nothing in the library explains what is left: the family's sentence says so
         text = ""
     else:

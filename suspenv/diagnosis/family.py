@@ -110,6 +110,9 @@ class Conclusion:
     confident: bool = True
     findings: dict[str, Any] = field(default_factory=dict)
     baseline: dict[str, Any] = field(default_factory=dict)
+    #: the first sentence says what is left outside the library (or that the model does
+    #: not describe the recording) and stands in for "no significant missing physics"
+    overrides_verdict: bool = False
 
 
 class DiagnosisFamily(Protocol):

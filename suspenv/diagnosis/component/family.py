@@ -449,6 +449,7 @@ class ComponentFamily(OptionalSteps):
             found.confident = not remaining
             if remaining:
                 found.sentences.insert(0, remaining[0].sentence())
+                found.overrides_verdict = True
         at_bound = parameters_at_bounds(final, outcome.named)
         if at_bound:
             found.findings["at_bounds"] = at_bound
@@ -464,6 +465,7 @@ class ComponentFamily(OptionalSteps):
             ch = min(share, key=lambda c: share[c])
             found.confident = False
             found.findings["misfit"] = True
+            found.overrides_verdict = True
             found.sentences.insert(
                 0,
                 f"the model describes only {100 * max(worst, 0.0):.0f} % of the variance of "
