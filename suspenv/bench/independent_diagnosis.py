@@ -21,7 +21,8 @@ Parameters are not scored here: the generator's parameterisations (LuGre, Bouc-W
 its own exponents, piecewise valves) are not the library's, so a parameter-by-parameter
 comparison would measure the translation between them, not the diagnosis.
 
-The reported seed set is 5000-5009; it is run for reporting only.
+The reported seed set is 5000-5009; it is run for reporting only (``docs/diagnosis.md``
+says which of its seeds the committed table holds).
 """
 
 from __future__ import annotations
@@ -38,6 +39,7 @@ from typing import Any
 import numpy as np
 
 from suspenv.bench.common import machine_info
+from suspenv.core.jsonable import to_jsonable
 
 #: generator label -> the engine's signature family that names it
 LABEL_FAMILY = {
@@ -124,6 +126,9 @@ def run(seeds: str, work: Path, jobs: int = 1) -> dict[str, Any]:
         for i, fut in enumerate(futures):
             row = fut.result()
             rows.append(row)
+            # one line per case as it finishes: a stopped run keeps what it scored
+            with (work / "rows.jsonl").open("a") as fh:
+                fh.write(json.dumps(to_jsonable(row)) + "\n")
             print(
                 f"[{i + 1}/{len(ids)}] {row['case_id']}: {'right' if row['right'] else 'MISS'} "
                 f"({row['wall_s']:.1f} s) {str(row['verdict'])[:110]}",
