@@ -484,16 +484,17 @@ DOC_BEGIN = "<!-- benchmark-table:begin -->"
 DOC_END = "<!-- benchmark-table:end -->"
 
 
-def update_doc(doc: Path, table: str) -> bool:
-    """Replace the table between the markers in ``doc``; False when the markers are absent."""
+def update_doc(doc: Path, table: str, begin: str = DOC_BEGIN, end: str = DOC_END) -> bool:
+    """Replace the table between the markers ``begin`` and ``end`` in ``doc``; False when
+    the markers are absent."""
     if not doc.is_file():
         return False
     text = doc.read_text()
-    if DOC_BEGIN not in text or DOC_END not in text:
+    if begin not in text or end not in text:
         return False
-    head, rest = text.split(DOC_BEGIN, 1)
-    _, tail = rest.split(DOC_END, 1)
-    doc.write_text(f"{head}{DOC_BEGIN}\n{table}\n{DOC_END}{tail}")
+    head, rest = text.split(begin, 1)
+    _, tail = rest.split(end, 1)
+    doc.write_text(f"{head}{begin}\n{table}\n{end}{tail}")
     return True
 
 

@@ -195,19 +195,6 @@ def table_markdown(summary: dict[str, Any], seeds: str) -> str:
     return "\n".join(lines)
 
 
-def update_doc(doc: Path, table: str) -> bool:
-    """Replace the table between the markers in ``doc``; False when they are absent."""
-    if not doc.is_file():
-        return False
-    text = doc.read_text()
-    if DOC_BEGIN not in text or DOC_END not in text:
-        return False
-    head, rest = text.split(DOC_BEGIN, 1)
-    _, tail = rest.split(DOC_END, 1)
-    doc.write_text(f"{head}{DOC_BEGIN}\n{table}\n{DOC_END}{tail}")
-    return True
-
-
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--seeds", default=REPORT_SEEDS)
@@ -229,7 +216,9 @@ def main(argv: list[str] | None = None) -> int:
         out = Path("docs") / "benchmarks"
         out.mkdir(parents=True, exist_ok=True)
         (out / "independent_diagnosis.json").write_text(json.dumps(result, indent=2) + "\n")
-        update_doc(Path("docs") / "diagnosis.md", table)
+        from suspenv.bench.diagnosis_benchmark import update_doc
+
+        update_doc(Path("docs") / "diagnosis.md", table, DOC_BEGIN, DOC_END)
     return 0
 
 

@@ -101,24 +101,10 @@ def run(root: Path) -> dict[str, Any]:
 
 
 def table_markdown(result: dict[str, Any]) -> str:
-    lines = [
-        "| real recording | verdict | held-out RMS error: baseline -> final | further "
-        "recordings of the rig, never fitted: final better than baseline | median change "
-        "there | time: wall (CPU) |",
-        "|---|---|---|---|---|---|",
-    ]
-    for r in result["rows"]:
-        others = r["other_recordings"]
-        better = sum(o["after"] < o["before"] for o in others)
-        changes = [o["after"] / o["before"] - 1.0 for o in others if o["before"] > 0]
-        med = f"{100 * float(np.median(changes)):+.0f} %" if changes else "-"
-        change = 100 * (r["heldout_after"] / r["heldout_before"] - 1)
-        lines.append(
-            f"| {r['case']} | {r['headline']} | {r['heldout_before']:.4g} -> "
-            f"{r['heldout_after']:.4g} N ({change:+.0f} %) "
-            f"| {better} / {len(others)} | {med} | {r['wall_s']:.1f} s ({r['cpu_s']:.1f} s) |"
-        )
-    return "\n".join(lines)
+    """The table the README shows (:func:`suspenv.bench.readme.real_recordings_table`)."""
+    from suspenv.bench.readme import real_recordings_table
+
+    return real_recordings_table(result)
 
 
 def main(argv: list[str] | None = None) -> int:
