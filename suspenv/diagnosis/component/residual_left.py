@@ -92,7 +92,6 @@ class ResidualLeft:
         whiteness_p: Ljung-Box p-value of the detrended residual.
         remains: a residual above the noise floor is left.
         where: the cells with the largest structure, in words.
-        cells: cells tested.
     """
 
     channel: str
@@ -106,7 +105,6 @@ class ResidualLeft:
     whiteness_p: float
     remains: bool
     where: list[str] = field(default_factory=list)
-    cells: int = 0
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -137,13 +135,13 @@ def _detrend(t: np.ndarray, r: np.ndarray, cycles: int) -> np.ndarray:
     return np.asarray(r - basis @ coef)
 
 
-def replicates(t: np.ndarray, x: np.ndarray) -> np.ndarray:
+def replicates(t: np.ndarray, cycles: np.ndarray) -> np.ndarray:
     """Replicate index of each sample: its motion cycle when the recording has at least
     :data:`MIN_CYCLES` of them, else one of :data:`TIME_BLOCKS` equal time blocks (a
-    guide run with a handful of long moves still meets each state many times)."""
-    c = cycle_index(x)
-    if int(c.max()) + 1 >= MIN_CYCLES:
-        return c
+    guide run with a handful of long moves still meets each state many times).
+    ``cycles``: each sample's motion cycle (:func:`cycle_index`)."""
+    if int(cycles.max()) + 1 >= MIN_CYCLES:
+        return cycles
     span = float(t[-1] - t[0]) or 1.0
     return np.minimum(((t - t[0]) / span * TIME_BLOCKS).astype(int), TIME_BLOCKS - 1)
 
@@ -170,7 +168,7 @@ def residual_left(
     recs = _unique_recordings(sp)
     out = []
     for ch in channels or fit.channels:
-        rs, vs, xs, cyc, res_all = [], [], [], [], []
+        rs, vs, xs, cyc = [], [], [], []
         offset = 0
         for rec in recs:
             if ch not in rec.outputs:
@@ -179,14 +177,14 @@ def residual_left(
             t = np.asarray(rec.time, float)
             r = np.asarray(rec.outputs[ch], float) - np.asarray(pred[ch], float)
             x, v = motion(rec)
-            c = replicates(t, x)
-            r = _detrend(t, r, int(cycle_index(x).max()) + 1)
+            cycles = cycle_index(x)
+            c = replicates(t, cycles)
+            r = _detrend(t, r, int(cycles.max()) + 1)
             rs.append(r)
             xs.append(x)
             vs.append(v)
             cyc.append(c + offset)
             offset += int(c.max()) + 1
-            res_all.append(r)
         if not rs:
             continue
         unit = str(recs[0].units.get(ch, ""))
@@ -244,9 +242,10 @@ def _cell_test(
         dof += 1
         tops.append((abs(mean), int(c), mean))
     total = float(np.mean(r * r))
-    _, p_neighbour = neighbour_structure(r, x, v, cycle)
+    pairs = neighbour_pairs(x, v, cycle)
+    p_neighbour = neighbour_structure(r, cycle, pairs)
     # noise power from pairs in the same state (never negative); structure: the rest
-    n2 = max(min(neighbour_noise_power(r, x, v, cycle), total), 1e-12 * total, 1e-300)
+    n2 = max(min(neighbour_noise_power(r, x, v, cycle, pairs), total), 1e-12 * total, 1e-300)
     s2 = max(total - n2, 0.0)
     ratio = float(np.sqrt(s2 / n2))
     p_cells = float(stats.chi2.sf(chi2, dof)) if dof else 1.0
@@ -268,37 +267,32 @@ def _cell_test(
         whiteness_p=float(white_p),
         remains=remains,
         where=where,
-        cells=dof,
     )
 
 
 def neighbour_structure(
-    r: np.ndarray, x: np.ndarray, v: np.ndarray, replicate: np.ndarray
-) -> tuple[float, float]:
-    """Power of the part of ``r`` that is a function of the state [unit^2] and the
-    one-sided p-value that it is zero.
+    r: np.ndarray, replicate: np.ndarray, pairs: tuple[np.ndarray, np.ndarray]
+) -> float:
+    """One-sided p-value that no part of ``r`` is a function of the state.
 
-    Each sample is paired with its nearest neighbour in (deflection, velocity) (each
-    scaled by its spread) from another replicate (:func:`neighbour_pairs`); a function of
-    the state is shared by the pair, noise is not, so ``mean(r_i r_nb(i))`` estimates the
-    structure's power. The test is a t-test of that mean over the replicates' own means
-    (products of neighbouring samples are correlated through coloured noise; replicates
-    are not)."""
-    i, nb = neighbour_pairs(x, v, replicate)
+    ``pairs`` (:func:`neighbour_pairs`) joins each sample to the nearest state met in
+    another replicate; a function of the state is shared by the pair, noise is not, so
+    ``mean(r_i r_nb(i))`` estimates the structure's power. The test is a t-test of that
+    mean over the replicates' own means (products of neighbouring samples are correlated
+    through coloured noise; replicates are not)."""
+    i, nb = pairs
     if i.size < 8:
-        return 0.0, 1.0
+        return 1.0
     prod = r[i] * r[nb]
-    blocks = replicate[i]
-    uniq, inv = np.unique(blocks, return_inverse=True)
+    uniq, inv = np.unique(replicate[i], return_inverse=True)
     if uniq.size < 3:
-        return float(np.mean(prod)), 1.0
+        return 1.0
     means = np.bincount(inv, weights=prod) / np.bincount(inv)
     sd = float(np.std(means, ddof=1))
     m = float(np.mean(means))
     if sd <= 0:
-        return m, 1.0 if m <= 0 else 0.0
-    t_stat = m / (sd / np.sqrt(uniq.size))
-    return float(np.mean(prod)), float(stats.t.sf(t_stat, uniq.size - 1))
+        return 1.0 if m <= 0 else 0.0
+    return float(stats.t.sf(m / (sd / np.sqrt(uniq.size)), uniq.size - 1))
 
 
 def neighbour_pairs(
@@ -321,14 +315,18 @@ def neighbour_pairs(
 
 
 def neighbour_noise_power(
-    r: np.ndarray, x: np.ndarray, v: np.ndarray, replicate: np.ndarray
+    r: np.ndarray,
+    x: np.ndarray,
+    v: np.ndarray,
+    replicate: np.ndarray,
+    pairs: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> float:
     """Noise power of ``r`` [unit^2] from pairs of samples in the same state of motion in
-    different replicates (:func:`neighbour_pairs`): half the mean square difference of
-    their residuals. A model error that is a function of the state cancels in the
-    difference; noise, white or coloured, does not (the two samples are far apart in
-    time)."""
-    i, nb = neighbour_pairs(x, v, replicate)
+    different replicates (:func:`neighbour_pairs`, or ``pairs`` already found): half the
+    mean square difference of their residuals. A model error that is a function of the
+    state cancels in the difference; noise, white or coloured, does not (the two samples
+    are far apart in time)."""
+    i, nb = pairs if pairs is not None else neighbour_pairs(x, v, replicate)
     if i.size == 0:
         return float(np.mean(r * r))
     d = r[i] - r[nb]
