@@ -334,3 +334,14 @@ def test_asymmetric_digressive_curve_branches_and_symmetric_limit():
     assert same == pytest.approx(fx.damper_digressive(vv, 3000.0, 0.08), rel=1e-12)
     with pytest.raises(ValidationError, match="v_knee_rebound"):
         fx.damper_digressive_asymmetric(vv, 1.0, 0.1, 1.0, 0.0)
+
+
+def test_bouc_wen_state_at_the_lower_regime_fixed_point_stays_there():
+    # closed form: for w = sign(dx) z < 0, dw/du = A - (beta - gamma) w is zero at
+    # w = A / (beta - gamma) (gamma > beta); a state there never reaches zero
+    from suspenv.models.effects.hysteresis import bouc_wen_path
+
+    A, beta, gamma = 2.0, 0.5, 1.5
+    z0 = A / (beta - gamma)
+    z = bouc_wen_path(np.linspace(0.0, 0.01, 11), A, beta, gamma, 1.0, z0)
+    np.testing.assert_allclose(z, z0, rtol=1e-12)

@@ -37,6 +37,7 @@ from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.component.asymmetry import asymmetry_check
 from suspenv.diagnosis.component.locate import Segment, locate
 from suspenv.diagnosis.component.motion import cycle_index, motion, split
+from suspenv.diagnosis.component.motion_inputs import conditioned
 from suspenv.diagnosis.component.refit import current_effects, refit_with
 from suspenv.diagnosis.component.residual_left import residual_left
 from suspenv.diagnosis.component.rig import (
@@ -89,6 +90,7 @@ def default_holdout(recordings: Sequence[Any]) -> str | float:
         if int(cycle_index(motion(rec)[0]).max()) + 1 < MIN_CYCLES_INTERLEAVED:
             return FALLBACK_FRACTION
     return DEFAULT_HOLDOUT
+
 
 #: refit the candidates of this many signature families per round (default)
 SCREEN_FAMILIES = 4
@@ -341,11 +343,20 @@ class ComponentFamily(OptionalSteps):
         else:
             rig = describe_rig(self.model, recs)
             recs = oriented(recs, rig)
+            held_recs = None
             if holdout is not None and not isinstance(holdout, float | int | str):
-                held = oriented(as_recordings(holdout), rig)  # type: ignore[arg-type]
+                held_recs = oriented(as_recordings(holdout), rig)  # type: ignore[arg-type]
             self.rig_notes = check_extra_inputs(recs, rig)
             self.rig = rig
             model = baseline_model(rig, recs)
+            # the motion as the component felt it: noise removed, velocity consistent
+            motion_channels = model.input_channels
+            recs, checks = conditioned(recs, motion_channels, rig.velocity_source)
+            if held_recs is not None:
+                held_recs, more = conditioned(held_recs, motion_channels, rig.velocity_source)
+                held = held_recs
+                checks += more
+            self.rig_notes += [w for c in checks for w in c.words()]
         known = baseline_families(model)
         cands = [
             c

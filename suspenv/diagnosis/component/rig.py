@@ -23,7 +23,8 @@ Where the description comes from, later entries overriding earlier ones:
 
        {"device": "quarter_car_rig", "known": {"m_s": 287.0, "m_u": 41.5},
         "positive_stroke": "compression", "positive_force": "compression",
-        "extra_inputs": {"actuator_force": "..."}, "baseline": ["gas_spring"]}
+        "extra_inputs": {"actuator_force": "..."}, "baseline": ["gas_spring"],
+        "velocity_source": "auto"}
 
 2. a model file (``--model rig.toml``; TOML with the same keys, ``family`` in place of
    ``device``);
@@ -49,6 +50,7 @@ from typing import Any
 import numpy as np
 
 from suspenv.core.errors import ValidationError
+from suspenv.diagnosis.component.motion_inputs import VELOCITY_SOURCES
 from suspenv.diagnosis.hypothesis import family_of
 from suspenv.diagnosis.protocols import RecordingLike
 from suspenv.models.components import FAMILIES, make_component
@@ -111,6 +113,9 @@ class RigDescription:
             channel means in the recording.
         positive_force: ``"compression"`` or ``"tension"``: what a positive force means.
         extra_inputs: declared extra input channels -> the user's description.
+        velocity_source: ``"auto"``, ``"displacement"`` or ``"channel"``: where the
+            velocity driving the component comes from
+            (:mod:`suspenv.diagnosis.component.motion_inputs`).
         sources: where each entry came from, in words, for the report.
     """
 
@@ -121,6 +126,7 @@ class RigDescription:
     positive_force: str = "compression"
     extra_inputs: Mapping[str, str] = field(default_factory=dict)
     sources: tuple[str, ...] = ()
+    velocity_source: str = "auto"
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -130,6 +136,7 @@ class RigDescription:
             "positive_stroke": self.positive_stroke,
             "positive_force": self.positive_force,
             "extra_inputs": dict(self.extra_inputs),
+            "velocity_source": self.velocity_source,
             "sources": list(self.sources),
         }
 
@@ -147,9 +154,7 @@ def parse_model_text(text: str) -> tuple[str, list[str], list[str]]:
     parts.append((sign, word))
     family = parts[0][1]
     if parts[0][0] or not family:
-        raise ValidationError(
-            f"a model must read FAMILY[+KIND...][-KIND...], but got {text!r}"
-        )
+        raise ValidationError(f"a model must read FAMILY[+KIND...][-KIND...], but got {text!r}")
     added = [w for s, w in parts[1:] if s == "+"]
     removed = [w for s, w in parts[1:] if s == "-"]
     return family, added, removed
@@ -158,8 +163,7 @@ def parse_model_text(text: str) -> tuple[str, list[str], list[str]]:
 def _check_family(family: str, where: str) -> None:
     if family not in FAMILIES:
         raise ValidationError(
-            f"{where}: unknown component family {family!r}; known families are "
-            f"{sorted(FAMILIES)}"
+            f"{where}: unknown component family {family!r}; known families are {sorted(FAMILIES)}"
         )
 
 
@@ -182,6 +186,7 @@ def _entries(raw: Mapping[str, Any], where: str) -> dict[str, Any]:
         "positive_force",
         "extra_inputs",
         "baseline",
+        "velocity_source",
     }
     unknown = sorted(set(raw) - allowed)
     if unknown:
@@ -203,6 +208,13 @@ def _entries(raw: Mapping[str, Any], where: str) -> dict[str, Any]:
                     f"{where}: `{key} in {allowed_signs}` must hold, but got {raw[key]!r}"
                 )
             out[key] = str(raw[key])
+    if "velocity_source" in raw:
+        if raw["velocity_source"] not in VELOCITY_SOURCES:
+            raise ValidationError(
+                f"{where}: `velocity_source in {VELOCITY_SOURCES}` must hold, but got "
+                f"{raw['velocity_source']!r}"
+            )
+        out["velocity_source"] = str(raw["velocity_source"])
     if "known" in raw:
         known = raw["known"]
         if not isinstance(known, Mapping):
@@ -324,12 +336,11 @@ def describe_rig(
         positive_force=entries.get("positive_force", "compression"),
         extra_inputs=dict(entries.get("extra_inputs", {})),
         sources=tuple(sources),
+        velocity_source=entries.get("velocity_source", "auto"),
     )
 
 
-def data_scales(
-    model: ComponentModel, recordings: Sequence[RecordingLike]
-) -> dict[str, float]:
+def data_scales(model: ComponentModel, recordings: Sequence[RecordingLike]) -> dict[str, float]:
     """The largest force [N], deflection [m] and velocity [m/s] amplitudes the model
     reads in ``recordings`` (its ``_scales``): the parameter bounds follow them."""
     out: dict[str, float] = {}
@@ -345,9 +356,7 @@ def data_scales(
     return out
 
 
-def baseline_model(
-    rig: RigDescription, recordings: Sequence[RecordingLike] = ()
-) -> ComponentModel:
+def baseline_model(rig: RigDescription, recordings: Sequence[RecordingLike] = ()) -> ComponentModel:
     """The family's model with the baseline elements and the known rig parameters; with
     ``recordings``, its parameter bounds follow their scale (:func:`data_scales`)."""
     known: dict[str, Any] = dict(rig.known)
@@ -358,9 +367,7 @@ def baseline_model(
     for kind in rig.baseline:
         e = make_effect(kind)
         if e.spec.role == "sensor":
-            channels = (
-                probe.output_channels if kind in EVERY_CHANNEL else probe.output_channels[:1]
-            )
+            channels = probe.output_channels if kind in EVERY_CHANNEL else probe.output_channels[:1]
             for ch in channels:
                 name = kind if len(channels) == 1 else f"{kind}_{ch}"
                 effects.append(make_effect(kind, name=name, location=ch))

@@ -211,8 +211,11 @@ def _bw1_row(dx: list[float], a: float, beta: float, gamma: float, z: float) -> 
             if abs(lam_neg) < 1e-12:
                 u0 = -w / a
             else:
+                # w_inf: the lower regime's fixed point; a w at or below it (lam_neg
+                # < 0) never reaches zero
                 w_inf = a / lam_neg
-                ratio = w_inf / (w_inf - w)
+                gap = w_inf - w
+                ratio = w_inf / gap if gap != 0.0 else -1.0
                 u0 = -math.log(ratio) / lam_neg if ratio > 0.0 else math.inf
             if u0 >= u:
                 w = _relax_scalar(w, a, lam_neg, u)
