@@ -256,3 +256,34 @@ def test_actuator_force_matches_the_steady_state_transfer_function():
     want = np.imag(s**2 * z[0] * np.exp(1j * w * t))
     err = out["body_acceleration"][tail] - want[tail]
     assert np.std(err) / np.std(want[tail]) < 5e-3
+
+
+def test_rows_with_the_same_dynamics_are_integrated_once(monkeypatch):
+    # a Jacobian-like batch: a centre row, a sensor-offset column (same dynamics) and a
+    # friction column; reference: each row simulated alone
+    import suspenv.models.components.rig_integrator as integrator
+
+    effects = [
+        make_effect("coulomb_friction", f_c=250.0, v_eps=0.01),
+        make_effect("sensor_offset", location="body_acceleration"),
+    ]
+    model = QuarterCarRigModel(effects)
+    rec = model.example_recording(seed=3, duration=0.5)
+    theta = model.theta_from(BASE)
+    names = list(model.parameter_names)
+    rows = np.vstack([theta, theta, theta])
+    rows[1, names.index(next(n for n in names if "offset" in n))] += 0.1
+    rows[2, names.index(next(n for n in names if n.endswith("f_c")))] += 5.0
+    calls = []
+    real = integrator.integrate
+    monkeypatch.setattr(integrator, "integrate", lambda *a, **k: calls.append(1) or real(*a, **k))
+    batch = model.simulate(rows, rec)
+    assert len(calls) == 2
+    for i in range(3):
+        alone = model.simulate(rows[i], rec)
+        for ch, y in alone.items():
+            np.testing.assert_array_equal(batch[ch][i], y)
+    # the offset column differs from the centre by the offset only
+    np.testing.assert_allclose(
+        batch["body_acceleration"][1] - batch["body_acceleration"][0], 0.1, rtol=1e-12
+    )
