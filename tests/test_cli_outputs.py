@@ -162,6 +162,7 @@ def test_diagnose_refuses_a_non_empty_folder_then_overwrites(tmp_path, capsys, m
             verdict="no significant missing physics",
             headline="No significant missing physics",
             evidence=[],
+            baseline={},
         )
 
     def fake_report(diag, out_dir):
@@ -186,3 +187,27 @@ def test_diagnose_refuses_a_non_empty_folder_then_overwrites(tmp_path, capsys, m
     monkeypatch.chdir(tmp_path)
     assert main(["diagnose", str(rec), "--model", "damper"]) == 0
     assert (tmp_path / "diagnosis_damper_run" / "report.md").is_file()
+
+
+def test_diagnose_prints_what_it_did_to_a_smoothed_velocity_channel(tmp_path, capsys):
+    # a dyno file whose velocity is a Savitzky-Golay derivative of a noisy displacement
+    from scipy.signal import savgol_filter
+
+    t = np.arange(0.0, 8.0, 0.002)
+    rng = np.random.default_rng(0)
+    x = 0.01 * np.sin(2 * np.pi * 1.5 * t) + 0.004 * np.sin(2 * np.pi * 6.0 * t)
+    v = np.gradient(x, t)
+    xm = x + 2e-5 * rng.standard_normal(t.size)
+    rec = Recording(
+        "smoothed",
+        "dyno_sine",
+        t,
+        {"displacement": xm, "velocity": savgol_filter(xm, 31, 2, deriv=1, delta=0.002)},
+        {"force": 1500.0 * v + 2.0 * rng.standard_normal(t.size)},
+        {"displacement": "m", "velocity": "m/s", "force": "N"},
+    )
+    path = save_recording(rec, tmp_path / "smoothed.npz")
+    assert main(["diagnose", str(path), "--model", "damper", "--out", str(tmp_path / "o")]) == 0
+    printed = capsys.readouterr().out
+    assert "low-passed at" in printed
+    assert "the velocity channel is not the derivative of the displacement" in printed

@@ -88,7 +88,8 @@ def _diagnose(args: argparse.Namespace) -> int:
         )
         paths = write_diagnosis_report(diag, out)
         print(diag.headline)
-        for line in diag.evidence:
+        # what was read or changed about the rig and its channels, then the evidence
+        for line in [*diag.baseline.get("rig_notes", []), *diag.evidence]:
             print(f"  - {line}")
     for p in paths:
         print(f"wrote {p}")
