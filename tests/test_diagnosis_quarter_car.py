@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.component.family import _force_view_signal_set
 from suspenv.diagnosis.component.motion import split
 from suspenv.diagnosis.component.rig import baseline_model, describe_rig
@@ -16,6 +17,7 @@ from suspenv.diagnosis.component.signatures import score_signatures
 from suspenv.diagnosis.component.truth import make_case
 from suspenv.diagnosis.engine import diagnose, make_family
 from suspenv.diagnosis.fitting import fit
+from suspenv.measurements import Recording
 from suspenv.models.components import make_component
 from suspenv.models.components.quarter_car import _rate
 from suspenv.models.effects import make_effect
@@ -87,3 +89,35 @@ def test_sensor_gain_is_named_from_the_recorded_channel():
     assert diag.named_kinds == ["sensor_gain"]
     true = case.truth.effects[0]["params"]["gain"]
     assert diag.named[0].params["sensor_gain.gain"]["value"] == pytest.approx(true, rel=0.02)
+
+
+def test_deflection_transducer_ratio_scales_the_deflection_channel_only():
+    # closed form: the transducer reads ratio * x; the body acceleration does not see it
+    from suspenv.models.components import QuarterCarRigModel
+
+    plain, geared = QuarterCarRigModel(), QuarterCarRigModel(deflection_ratio=0.6)
+    rec = plain.example_recording(seed=2, duration=1.0)
+    theta = plain.theta_from({"k_s": 2.2e4, "c_s": 1500.0, "k_t": 2.0e5})
+    a, b = plain.simulate(theta, rec), geared.simulate(theta, rec)
+    np.testing.assert_array_equal(b["body_acceleration"], a["body_acceleration"])
+    np.testing.assert_allclose(b["suspension_deflection"], 0.6 * a["suspension_deflection"])
+    with pytest.raises(ValidationError, match=r"deflection_ratio > 0.*got deflection_ratio=-1"):
+        QuarterCarRigModel(deflection_ratio=-1.0)
+
+
+def test_declared_deflection_ratio_is_not_read_as_a_sensor_error():
+    # a development control whose deflection transducer sits across the damper (0.6 of
+    # the wheel travel): undeclared, the channel's scale leaves something to name or
+    # explain; declared in meta["rig"]["known"], nothing is missing
+    rec = make_case("quarter_car_rig", 0, 0).recording
+    outputs = dict(rec.outputs)
+    outputs["suspension_deflection"] = 0.6 * outputs["suspension_deflection"]
+
+    def with_rig(known: dict) -> Recording:
+        meta = {**rec.meta, "rig": {"device": "quarter_car_rig", "known": known}}
+        return Recording(rec.name, rec.test, rec.time, rec.inputs, outputs, rec.units, meta)
+
+    undeclared = diagnose(with_rig({}), "quarter_car_rig")
+    declared = diagnose(with_rig({"deflection_ratio": 0.6}), "quarter_car_rig")
+    assert undeclared.named_kinds or undeclared.unexplained, undeclared.headline
+    assert declared.named_kinds == [] and not declared.unexplained, declared.headline

@@ -74,7 +74,7 @@ EVERY_CHANNEL = (DRIFT, "sensor_offset")
 
 #: rig parameters a user may declare as known, per family (model options, SI units)
 KNOWN_PARAMETERS: dict[str, dict[str, str]] = {
-    "quarter_car_rig": {"m_s": "kg", "m_u": "kg"},
+    "quarter_car_rig": {"m_s": "kg", "m_u": "kg", "deflection_ratio": "-"},
 }
 
 #: extra input channels a family reads when declared, and what it does with them

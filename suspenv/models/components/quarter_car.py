@@ -13,7 +13,9 @@ the suspension force ``F_s`` [N] pushes body up and wheel down::
 ``F_a`` [N] is an optional known input ``actuator_force`` (an active rig's actuator
 between body and wheel, positive pushing them apart; exact integrator only).
 
-Outputs: ``body_acceleration`` z_s'' [m/s^2] and ``suspension_deflection`` x [m].
+Outputs: ``body_acceleration`` z_s'' [m/s^2] and ``suspension_deflection`` [m]: ``x``
+times the known option ``deflection_ratio`` (default 1; a transducer across the damper
+of a suspension with motion ratio ``r`` reads ``r x``).
 The tyre stays in contact (linear point-contact tyre). Masses are known options
 (they cannot be told apart from a common scaling of all stiffnesses otherwise);
 fitted base parameters are ``k_s``, ``c_s``, ``k_t``.
@@ -117,11 +119,16 @@ class QuarterCarRigModel(ComponentModel):
         max_substeps: int = 20,
         integrator: str = "exact",
         scales: Mapping[str, float] | None = None,
+        deflection_ratio: float = 1.0,
     ):
         if not (m_s > 0 and m_u > 0 and dt_max > 0 and max_substeps >= 1):
             raise ValidationError(
                 f"`m_s > 0, m_u > 0, dt_max > 0, max_substeps >= 1` must hold, but got "
                 f"(m_s={m_s}, m_u={m_u}, dt_max={dt_max}, max_substeps={max_substeps})"
+            )
+        if not (np.isfinite(deflection_ratio) and deflection_ratio > 0):
+            raise ValidationError(
+                f"`deflection_ratio > 0` must hold, but got deflection_ratio={deflection_ratio}"
             )
         if integrator not in INTEGRATORS:
             raise ValidationError(
@@ -135,7 +142,15 @@ class QuarterCarRigModel(ComponentModel):
             max_substeps=int(max_substeps),
             integrator=str(integrator),
             **({"scales": dict(scales)} if scales else {}),
+            **({"deflection_ratio": float(deflection_ratio)} if deflection_ratio != 1.0 else {}),
         )
+
+    @property
+    def deflection_ratio(self) -> float:
+        """Travel of the deflection transducer per unit of suspension deflection ``x``
+        (1: it reads ``x``; a transducer across the damper of a suspension with motion
+        ratio 0.6 reads ``0.6 x``); the recorded channel is this times ``x``."""
+        return float(self.options.get("deflection_ratio", 1.0))
 
     def _check_effect(self, effect: Effect) -> None:
         if effect.kind == "berg_hysteresis":
@@ -244,7 +259,7 @@ class QuarterCarRigModel(ComponentModel):
         shape = batch + (t.size,)
         return {
             "body_acceleration": acc.reshape(shape),
-            "suspension_deflection": defl.reshape(shape),
+            "suspension_deflection": self.deflection_ratio * defl.reshape(shape),
         }
 
     def jacobian_model(self) -> QuarterCarRigModel:
@@ -496,7 +511,7 @@ class QuarterCarRigModel(ComponentModel):
         if not {"body_acceleration", "suspension_deflection"} <= set(rec.outputs):
             return None
         _, sensed = self.unpack(np.asarray(theta, float))
-        x = self._undo_sensors(sensed, "suspension_deflection", rec)
+        x = self._undo_sensors(sensed, "suspension_deflection", rec) / self.deflection_ratio
         v = _rate(x, rec.time)
 
         def predicted(th: np.ndarray) -> np.ndarray:
@@ -571,7 +586,7 @@ class QuarterCarRigModel(ComponentModel):
                 continue
             m = None if masks is None else masks[i]
             _, sensed = self.unpack(np.asarray(theta0, float))
-            x = self._undo_sensors(sensed, "suspension_deflection", rec)
+            x = self._undo_sensors(sensed, "suspension_deflection", rec) / self.deflection_ratio
             v = _rate(x, rec.time)
             f = self.options["m_s"] * self._undo_sensors(sensed, "body_acceleration", rec)
             f = f - self._actuator(rec)
@@ -617,7 +632,7 @@ class QuarterCarRigModel(ComponentModel):
     def _base_guess(self, rec):
         guess = {p.name: p.reference for p in self.base_parameters}
         if {"body_acceleration", "suspension_deflection"} <= set(rec.outputs):
-            x = rec.outputs["suspension_deflection"]
+            x = rec.outputs["suspension_deflection"] / self.deflection_ratio
             v = _rate(x, rec.time)
             k_s, c_s = linear_lstsq([x, v], self.options["m_s"] * rec.outputs["body_acceleration"])
             lo, hi = self.bounds()
@@ -627,7 +642,7 @@ class QuarterCarRigModel(ComponentModel):
 
     def _scales(self, rec):
         if "suspension_deflection" in rec.outputs:
-            xd = rec.outputs["suspension_deflection"]
+            xd = rec.outputs["suspension_deflection"] / self.deflection_ratio
             x = robust_amplitude(xd)
             v = robust_amplitude(_rate(xd, rec.time))
         else:
