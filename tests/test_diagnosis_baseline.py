@@ -101,9 +101,9 @@ def test_known_masses_come_from_the_recording_metadata(dyno):
     assert (model.options["m_s"], model.options["m_u"]) == (287.0, 41.5)
     bad = Recording(
         rec.name, rec.test, rec.time, rec.inputs, rec.outputs, rec.units,
-        {"rig": {"device": "quarter_car_rig", "known": {"k_s": 2e4}}},
+        {"rig": {"device": "quarter_car_rig", "known": {"k_bar": 2e4}}},
     )  # fmt: skip
-    with pytest.raises(ValidationError, match=r"known rig parameter\(s\) \['k_s'\]"):
+    with pytest.raises(ValidationError, match=r"known rig parameter\(s\) \['k_bar'\]"):
         describe_rig(None, [bad])
 
 

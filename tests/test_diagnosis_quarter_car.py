@@ -121,3 +121,38 @@ def test_declared_deflection_ratio_is_not_read_as_a_sensor_error():
     declared = diagnose(with_rig({"deflection_ratio": 0.6}), "quarter_car_rig")
     assert undeclared.named_kinds or undeclared.unexplained, undeclared.headline
     assert declared.named_kinds == [] and not declared.unexplained, declared.headline
+
+
+def test_a_known_tyre_rate_is_held_and_not_fitted():
+    from suspenv.models.components import QuarterCarRigModel
+
+    full, held = QuarterCarRigModel(), QuarterCarRigModel(known_base={"k_t": 2.3e5})
+    assert "k_t" in full.parameter_names and "k_t" not in held.parameter_names
+    assert len(held.bounds()[0]) == len(held.parameter_names)
+    rec = full.example_recording(seed=2, duration=1.0)
+    both = {"k_s": 2.2e4, "c_s": 1500.0, "k_t": 2.3e5}
+    a = full.simulate(full.theta_from(both), rec)
+    b = held.simulate(held.theta_from(both), rec)
+    for ch in a:
+        np.testing.assert_array_equal(a[ch], b[ch])
+    with pytest.raises(ValidationError, match=r"known base parameter 'k_bar' is not one"):
+        QuarterCarRigModel(known_base={"k_bar": 1.0})
+    with pytest.raises(ValidationError, match=r"known_base\['k_t'\] > 0` must hold"):
+        QuarterCarRigModel(known_base={"k_t": -1.0})
+
+
+def test_known_tyre_rate_from_the_rig_description_reaches_the_fit():
+    # a development control, its tyre rate declared as known: held at the truth, the
+    # spring and damper rates come out within 5 % and nothing is named
+    case = make_case("quarter_car_rig", 1, 0)
+    rec = case.recording
+    k_t = case.truth.base["k_t"]
+    meta = {**rec.meta, "rig": {"device": "quarter_car_rig", "known": {"k_t": k_t}}}
+    rec = Recording(rec.name, rec.test, rec.time, rec.inputs, rec.outputs, rec.units, meta)
+    model = baseline_model(describe_rig(None, [rec]), [rec])
+    assert model.known_base == {"k_t": k_t} and "k_t" not in model.parameter_names
+    diag = diagnose(rec, "quarter_car_rig")
+    assert diag.named_kinds == [] and not diag.unexplained, diag.headline
+    fitted = diag.final_fit.model.values(diag.final_fit.theta)
+    for name in ("k_s", "c_s"):
+        assert fitted[name] == pytest.approx(case.truth.base[name], rel=0.05), name

@@ -74,7 +74,14 @@ EVERY_CHANNEL = (DRIFT, "sensor_offset")
 
 #: rig parameters a user may declare as known, per family (model options, SI units)
 KNOWN_PARAMETERS: dict[str, dict[str, str]] = {
-    "quarter_car_rig": {"m_s": "kg", "m_u": "kg", "deflection_ratio": "-"},
+    "quarter_car_rig": {
+        "m_s": "kg",
+        "m_u": "kg",
+        "deflection_ratio": "-",
+        "k_s": "N/m",
+        "c_s": "N s/m",
+        "k_t": "N/m",
+    },
 }
 
 #: extra input channels a family reads when declared, and what it does with them
@@ -360,6 +367,11 @@ def baseline_model(rig: RigDescription, recordings: Sequence[RecordingLike] = ()
     """The family's model with the baseline elements and the known rig parameters; with
     ``recordings``, its parameter bounds follow their scale (:func:`data_scales`)."""
     known: dict[str, Any] = dict(rig.known)
+    # known base-law parameters (a measured tyre rate) are held, not fitted
+    base_names = {p.name for p in FAMILIES[rig.family].base_parameters}
+    held = {k: known.pop(k) for k in list(known) if k in base_names}
+    if held:
+        known["known_base"] = held
     if recordings:
         known["scales"] = data_scales(make_component(rig.family, (), **known), recordings)
     probe = make_component(rig.family, (), **known)

@@ -65,6 +65,17 @@ class ComponentModel:
     def __init__(self, effects: Sequence[Effect] = (), **options: Any):
         self.effects: tuple[Effect, ...] = tuple(effects)
         self.options: dict[str, Any] = dict(options)
+        all_base = [p.name for p in self.base_parameters]
+        for name, value in dict(self.options.get("known_base", {})).items():
+            if name not in all_base:
+                raise ValidationError(
+                    f"{self.family}: known base parameter {name!r} is not one of its base "
+                    f"parameters {all_base}"
+                )
+            if not (np.isfinite(value) and value > 0):
+                raise ValidationError(
+                    f"{self.family}: `known_base[{name!r}] > 0` must hold, but got {value!r}"
+                )
         for e in self.effects:
             if not isinstance(e, Effect):
                 raise ValidationError(
@@ -109,8 +120,21 @@ class ComponentModel:
         return e.location or self.output_channels[0]
 
     @property
+    def known_base(self) -> dict[str, float]:
+        """Base parameters the user knows (option ``known_base``: name -> value, SI);
+        they are held at their values and are not in ``theta``."""
+        return dict(self.options.get("known_base", {}))
+
+    @property
+    def fitted_base_parameters(self) -> tuple[Parameter, ...]:
+        """The base parameters in ``theta``: all but the known ones."""
+        known = self.options.get("known_base", {})
+        return tuple(p for p in self.base_parameters if p.name not in known)
+
+    @property
     def base_names(self) -> tuple[str, ...]:
-        return tuple(p.name for p in self.base_parameters)
+        """Names of the fitted base parameters (the first entries of ``theta``)."""
+        return tuple(p.name for p in self.fitted_base_parameters)
 
     def _free(self, e: Effect) -> tuple[str, ...]:
         names = e.spec.free_parameter_names
@@ -128,7 +152,7 @@ class ComponentModel:
 
     @property
     def parameter_units(self) -> tuple[str, ...]:
-        units = [p.unit for p in self.base_parameters]
+        units = [p.unit for p in self.fitted_base_parameters]
         for e in self.effects:
             units += [e.spec.parameter(p).unit for p in self._free(e)]
         return tuple(units)
@@ -140,7 +164,7 @@ class ComponentModel:
         V [m/s]}``, the recording's amplitudes) every bound is widened, never narrowed,
         to follow the data's scale (:func:`scaled_bound`): a 20 kN damper is not held
         under a 5 kN friction cap, a soft spring not over a 1 kN/m floor."""
-        specs = list(self.base_parameters)
+        specs = list(self.fitted_base_parameters)
         for e in self.effects:
             specs += [e.spec.parameter(p) for p in self._free(e)]
         sc = self.options.get("scales")
@@ -181,6 +205,7 @@ class ComponentModel:
         cols = np.moveaxis(th, -1, 0)
         nb = len(self.base_names)
         base = {n: cols[i] for i, n in enumerate(self.base_names)}
+        base.update({n: np.full(cols.shape[1:], v) for n, v in self.known_base.items()})
         effects, k = [], nb
         for e in self.effects:
             free = self._free(e)

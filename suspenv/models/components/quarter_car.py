@@ -18,7 +18,8 @@ times the known option ``deflection_ratio`` (default 1; a transducer across the 
 of a suspension with motion ratio ``r`` reads ``r x``).
 The tyre stays in contact (linear point-contact tyre). Masses are known options
 (they cannot be told apart from a common scaling of all stiffnesses otherwise);
-fitted base parameters are ``k_s``, ``c_s``, ``k_t``.
+fitted base parameters are ``k_s``, ``c_s``, ``k_t``, less those the rig states as known
+(option ``known_base``, e.g. a measured tyre rate ``{"k_t": 2.3e5}``).
 
 Effects act on the suspension force; hysteresis (Dahl, Bouc-Wen), Maxwell and LuGre
 elements carry a state integrated with the body and wheel. Two integrators
@@ -120,6 +121,7 @@ class QuarterCarRigModel(ComponentModel):
         integrator: str = "exact",
         scales: Mapping[str, float] | None = None,
         deflection_ratio: float = 1.0,
+        known_base: Mapping[str, float] | None = None,
     ):
         if not (m_s > 0 and m_u > 0 and dt_max > 0 and max_substeps >= 1):
             raise ValidationError(
@@ -143,6 +145,7 @@ class QuarterCarRigModel(ComponentModel):
             integrator=str(integrator),
             **({"scales": dict(scales)} if scales else {}),
             **({"deflection_ratio": float(deflection_ratio)} if deflection_ratio != 1.0 else {}),
+            **({"known_base": {k: float(v) for k, v in known_base.items()}} if known_base else {}),
         )
 
     @property
@@ -636,8 +639,12 @@ class QuarterCarRigModel(ComponentModel):
             v = _rate(x, rec.time)
             k_s, c_s = linear_lstsq([x, v], self.options["m_s"] * rec.outputs["body_acceleration"])
             lo, hi = self.bounds()
-            guess["k_s"] = float(np.clip(k_s, lo[0], hi[0]))
-            guess["c_s"] = float(np.clip(c_s, lo[1], hi[1]))
+            names = self.parameter_names
+            for name, value in (("k_s", k_s), ("c_s", c_s)):
+                if name in names:  # fitted, not known
+                    i = names.index(name)
+                    guess[name] = float(np.clip(value, lo[i], hi[i]))
+        guess.update(self.known_base)
         return guess
 
     def _scales(self, rec):
