@@ -5,6 +5,7 @@ Reference: the scoring rules of the module docstring, on hand-made truths and ve
 
 from __future__ import annotations
 
+import json
 from types import SimpleNamespace
 
 from suspenv.bench.independent_diagnosis import score_case, summarise
@@ -57,3 +58,14 @@ def test_summary_counts_per_family_and_total():
     assert s["damper"]["single_named_first"] == (1, 2)
     assert s["damper"]["control_false_alarms"] == (0, 1)
     assert s["all"]["outside_unexplained"] == (1, 1)
+
+
+def test_a_stopped_run_resumes_from_its_rows(tmp_path):
+    from suspenv.bench.independent_diagnosis import _finished
+
+    rows = [{"case_id": "a", "right": True}, {"case_id": "x", "right": False}]
+    text = "\n".join(json.dumps(r) for r in rows) + '\n{"case_id": "b", "rig'  # killed mid-write
+    (tmp_path / "rows.jsonl").write_text(text)
+    done = _finished(tmp_path, ["a", "b"])
+    assert list(done) == ["a"]  # "x" is not a case of this run, "b" was cut off
+    assert _finished(tmp_path / "missing", ["a"]) == {}

@@ -110,9 +110,28 @@ def diagnose_case(work: Path, cid: str) -> dict[str, Any]:
     return row
 
 
-def run(seeds: str, work: Path, jobs: int = 1) -> dict[str, Any]:
+def _finished(work: Path, ids: list[str]) -> dict[str, dict[str, Any]]:
+    """Rows already scored in ``work/rows.jsonl`` for cases of ``ids`` (a stopped run
+    resumes from them); a truncated last line (a kill mid-write) is ignored."""
+    path = work / "rows.jsonl"
+    done: dict[str, dict[str, Any]] = {}
+    if not path.is_file():
+        return done
+    for line in path.read_text().splitlines():
+        try:
+            row = json.loads(line)
+        except json.JSONDecodeError:
+            continue
+        if row.get("case_id") in ids:
+            done[row["case_id"]] = row
+    return done
+
+
+def run(seeds: str, work: Path, jobs: int = 1, resume: bool = False) -> dict[str, Any]:
     """Generate, diagnose and score every case of ``seeds`` in ``work``; ``jobs`` worker
-    processes (the times are per case: wall and the worker's process CPU)."""
+    processes (the times are per case: wall and the worker's process CPU). ``resume``:
+    keep the rows ``work/rows.jsonl`` already holds for these cases (the cases are
+    generated again, identically, from their seeds); otherwise start a new file."""
     from concurrent.futures import ProcessPoolExecutor
 
     from suspenv.bench.independent.generate import main as generate
@@ -120,21 +139,30 @@ def run(seeds: str, work: Path, jobs: int = 1) -> dict[str, Any]:
     generate(["--out", str(work), "--seeds", seeds, "--overwrite", "--jobs", str(jobs)])
     manifest = json.loads((work / "manifest.json").read_text())
     ids = list(manifest.get("cases") or manifest.get("case_ids") or [])
-    rows = []
+    done = _finished(work, ids) if resume else {}
+    if not resume:
+        (work / "rows.jsonl").unlink(missing_ok=True)
+    todo = [cid for cid in ids if cid not in done]
     with ProcessPoolExecutor(max_workers=max(1, jobs)) as pool:
-        futures = [pool.submit(diagnose_case, work, cid) for cid in ids]
+        futures = [pool.submit(diagnose_case, work, cid) for cid in todo]
         for i, fut in enumerate(futures):
             row = fut.result()
-            rows.append(row)
+            done[row["case_id"]] = row
             # one line per case as it finishes: a stopped run keeps what it scored
             with (work / "rows.jsonl").open("a") as fh:
                 fh.write(json.dumps(to_jsonable(row)) + "\n")
             print(
-                f"[{i + 1}/{len(ids)}] {row['case_id']}: {'right' if row['right'] else 'MISS'} "
+                f"[{i + 1}/{len(todo)}] {row['case_id']}: {'right' if row['right'] else 'MISS'} "
                 f"({row['wall_s']:.1f} s) {str(row['verdict'])[:110]}",
                 flush=True,
             )
-    return {"seeds": seeds, "generator": manifest.get("generator"), "cases": rows}
+    rows = [done[cid] for cid in ids]
+    return {
+        "seeds": seeds,
+        "generator": manifest.get("generator"),
+        "cases": rows,
+        "resumed_rows": len(ids) - len(todo),
+    }
 
 
 def summarise(result: dict[str, Any]) -> dict[str, Any]:
@@ -201,11 +229,16 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", default=None, help="folder for the generated cases (default: temp)")
     ap.add_argument("--no-docs", action="store_true", help="do not rewrite docs/")
     ap.add_argument("--jobs", type=int, default=1, help="worker processes (default 1)")
+    ap.add_argument(
+        "--resume", action="store_true", help="keep the rows of --out's rows.jsonl (a stopped run)"
+    )
     args = ap.parse_args(argv)
+    if args.resume and not args.out:
+        ap.error("--resume needs --out (the folder of the stopped run)")
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(args.out) if args.out else Path(tmp)
         t0 = time.perf_counter()
-        result = run(args.seeds, work, args.jobs)
+        result = run(args.seeds, work, args.jobs, args.resume)
     result["summary"] = summarise(result)
     result["command"] = "python -m suspenv.bench.independent_diagnosis"
     result["machine"] = machine_info()

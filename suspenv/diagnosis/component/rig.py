@@ -21,7 +21,8 @@ Where the description comes from, later entries overriding earlier ones:
 
 1. the recording's metadata ``meta["rig"]`` (see ``docs/recordings.md``)::
 
-       {"device": "quarter_car_rig", "known": {"m_s": 287.0, "m_u": 41.5},
+       {"device": "quarter_car_rig",
+        "known": {"m_s": 287.0, "m_u": 41.5, "k_t": 2.3e5, "deflection_ratio": 1.0},
         "positive_stroke": "compression", "positive_force": "compression",
         "extra_inputs": {"actuator_force": "..."}, "baseline": ["gas_spring"],
         "velocity_source": "auto"}
