@@ -60,7 +60,7 @@ def test_clean_motion_gets_no_cut_off_and_an_unchanged_recording():
     t, x, v = _sine()
     rec = Recording("clean", "dyno", t, {"displacement": x, "velocity": v}, {"force": 0 * t}, UNITS)
     (out,), (check,) = conditioned([rec], ("displacement", "velocity"))
-    assert check.cutoff_hz is None and check.velocity_from == "channel"
+    assert check.cutoff_hz is None and check.worst_mismatch < 1e-6
     assert out is rec
 
 
@@ -101,21 +101,24 @@ def _derived(rec: Recording, noise: float = 0.002, window: int = 21) -> Recordin
     return Recording(rec.name, rec.test, rec.time, inputs, rec.outputs, rec.units, rec.meta)
 
 
-def test_a_filtered_derivative_channel_is_replaced_and_said():
+def test_a_filtered_derivative_channel_is_found_and_said():
     rec = _derived(make_case("damper", 0, 0).recording)
-    (out,), (check,) = conditioned([rec], ("displacement", "velocity"))
-    assert check.velocity_from == "displacement" and check.mismatch > VELOCITY_MISMATCH
-    assert check.cutoff_hz is not None
+    channels = ("displacement", "velocity")
+    (band,), (check,) = conditioned([rec], channels)
+    assert check.mismatch > VELOCITY_MISMATCH and check.cutoff_hz is not None
     words = " ".join(check.words())
     assert "not the derivative of the displacement" in words and "low-passed" in words
-    assert not np.array_equal(out.inputs["velocity"], rec.inputs["velocity"])
+    # "band": the channel low-passed; "displacement": the displacement's derivative
+    (derived,), _ = conditioned([rec], channels, "displacement")
+    np.testing.assert_array_equal(derived.inputs["displacement"], band.inputs["displacement"])
+    assert not np.allclose(derived.inputs["velocity"], band.inputs["velocity"])
     # "channel": the recording exactly as it was
-    kept, checks = conditioned([rec], ("displacement", "velocity"), "channel")
+    kept, checks = conditioned([rec], channels, "channel")
     assert kept[0] is rec and checks == []
 
 
 def test_velocity_source_is_validated_with_rule_and_value():
-    with pytest.raises(ValidationError, match=r"velocity_source in .* but got 'smooth'"):
+    with pytest.raises(ValidationError, match=r"version in .* but got 'smooth'"):
         conditioned([], ("displacement", "velocity"), "smooth")
     with pytest.raises(ValidationError, match=r"velocity_source in .* but got 'smooth'"):
         describe_rig("damper", [_meta_rig({"velocity_source": "smooth"})])
@@ -150,3 +153,49 @@ def test_effect_is_named_when_the_velocity_is_a_smoothed_derivative():
     assert [e["kind"] for e in case.truth.effects] == ["coulomb_friction"]
     diag = diagnose(_derived(case.recording), make_family("damper"))
     assert diag.named and diag.named_kinds[0] == "coulomb_friction", diag.headline
+
+
+def test_own_generator_records_the_motion_as_rigs_do_in_half_of_the_cases():
+    recorded = []
+    for seed in range(10):
+        case = make_case("damper", seed, 0)
+        if case.truth.motion is None:
+            continue
+        recorded.append(seed)
+        rec = case.recording
+        x, v = rec.inputs["displacement"], rec.inputs["velocity"]
+        assert 5e-4 <= case.truth.motion["noise_share"] <= 2e-3
+        # the recorded velocity is the Savitzky-Golay derivative of the noisy displacement
+        w = case.truth.motion["savgol_window"]
+        dt = float(np.median(np.diff(rec.time)))
+        np.testing.assert_allclose(v, savgol_filter(x, w, 2, deriv=1, delta=dt))
+        (_,), (check,) = conditioned([rec], ("displacement", "velocity"))
+        assert check.cutoff_hz is not None, seed
+    assert 3 <= len(recorded) <= 7
+
+
+@pytest.mark.parametrize("order", [1, 2])
+@pytest.mark.parametrize("cutoff", [None, 20.0])
+def test_derivative_noise_matches_differentiated_white_noise(order, cutoff):
+    # reference: white noise passed through the same low-pass and stencil, by sampling
+    from suspenv.diagnosis.component.motion_inputs import derivative_noise, lowpass
+
+    rng = np.random.default_rng(5)
+    e = 1e-4 * rng.standard_normal(200_000)
+    y = e if cutoff is None else lowpass(e, FS, cutoff)
+    for _ in range(order):
+        y = derivative(y, FS)
+    sampled = float(np.std(y[1000:-1000]))
+    assert derivative_noise(1e-8, FS, cutoff, order) == pytest.approx(sampled, rel=0.02)
+
+
+def test_preferred_version_keeps_consistent_rates_and_replaces_filtered_ones():
+    from suspenv.diagnosis.component.motion_inputs import MotionCheck, preferred_version
+
+    def check(mismatch: float, noise: float) -> MotionCheck:
+        return MotionCheck("r", None, 0.0, 0.0, mismatch, mismatch, "band", True, 0.0, noise)
+
+    assert preferred_version([check(1e-4, 0.05)]) == "band"  # noise alone does not decide
+    assert preferred_version([check(0.01, 0.002)]) == "displacement"
+    assert preferred_version([check(0.01, 0.03)]) is None  # both flawed: the fit decides
+    assert preferred_version([]) == "band"

@@ -32,12 +32,13 @@ from suspenv.bench.common import machine_info
 
 def _rms_errors(diag: Any, rec: Any) -> tuple[float, float]:
     """RMS error [channel unit] of the baseline and the final model on ``rec``, its motion
-    channels conditioned as the diagnosis conditions its own recordings
+    channels in the version the diagnosis chose for its own recordings
     (:mod:`suspenv.diagnosis.component.motion_inputs`)."""
     from suspenv.diagnosis.component.motion_inputs import conditioned
 
     ch = diag.channel
-    (rec,), _ = conditioned([rec], diag.base_fit.model.input_channels)
+    version = str(diag.baseline.get("motion_version", "channel"))
+    (rec,), _ = conditioned([rec], diag.base_fit.model.input_channels, version)
     meas = np.asarray(rec.outputs[ch], float)
     out = []
     for fit in (diag.base_fit, diag.final_fit):

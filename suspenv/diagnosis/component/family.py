@@ -37,7 +37,11 @@ from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.component.asymmetry import asymmetry_check
 from suspenv.diagnosis.component.locate import Segment, locate
 from suspenv.diagnosis.component.motion import cycle_index, motion, split
-from suspenv.diagnosis.component.motion_inputs import conditioned
+from suspenv.diagnosis.component.motion_inputs import (
+    choice_words,
+    conditioned,
+    preferred_version,
+)
 from suspenv.diagnosis.component.refit import current_effects, refit_with
 from suspenv.diagnosis.component.residual_left import residual_left
 from suspenv.diagnosis.component.rig import (
@@ -66,7 +70,7 @@ from suspenv.diagnosis.family import (
 )
 from suspenv.diagnosis.fitting import FitResult, fit, residuals
 from suspenv.diagnosis.hypothesis import Ambiguity, Hypothesis, family_of
-from suspenv.diagnosis.protocols import DiagnosableModel
+from suspenv.diagnosis.protocols import DiagnosableModel, RecordingLike
 from suspenv.diagnosis.screening import Location, Signature
 from suspenv.diagnosis.split import Holdout, Recordings, Split, as_recordings
 from suspenv.models.components.base import ComponentModel
@@ -309,6 +313,8 @@ class ComponentFamily(OptionalSteps):
     #: what the last :meth:`prepare` read about the rig (None for a model instance)
     rig: RigDescription | None = field(default=None, init=False)
     rig_notes: list[str] = field(default_factory=list, init=False)
+    #: the motion version the last :meth:`prepare` fitted (``motion_inputs.conditioned``)
+    motion_version: str = field(default="channel", init=False)
 
     def __post_init__(self) -> None:
         # an unknown model family or effect kind is an error before any work starts
@@ -349,14 +355,10 @@ class ComponentFamily(OptionalSteps):
             self.rig_notes = check_extra_inputs(recs, rig)
             self.rig = rig
             model = baseline_model(rig, recs)
-            # the motion as the component felt it: noise removed, velocity consistent
-            motion_channels = model.input_channels
-            recs, checks = conditioned(recs, motion_channels, rig.velocity_source)
+            # the motion as the component felt it: noise removed, rates consistent
+            recs, held_recs = self._motion(model, rig, recs, held_recs, held)
             if held_recs is not None:
-                held_recs, more = conditioned(held_recs, motion_channels, rig.velocity_source)
                 held = held_recs
-                checks += more
-            self.rig_notes += [w for c in checks for w in c.words()]
         known = baseline_families(model)
         cands = [
             c
@@ -366,6 +368,50 @@ class ComponentFamily(OptionalSteps):
         if held is None:
             held = default_holdout(recs)
         return Setup(split(recs, held), model, cands)
+
+    def _motion(
+        self,
+        model: ComponentModel,
+        rig: RigDescription,
+        recs: list[RecordingLike],
+        held_recs: list[RecordingLike] | None,
+        held: Holdout,
+    ) -> tuple[list[RecordingLike], list[RecordingLike] | None]:
+        """The fitted and held-out recordings in the motion version the rig asks for
+        (:mod:`~suspenv.diagnosis.component.motion_inputs`; ``"auto"``:
+        :func:`~suspenv.diagnosis.component.motion_inputs.preferred_version`, or the
+        version whose baseline fit leaves the smaller residual where it cannot tell)."""
+        channels = model.input_channels
+        source = rig.velocity_source
+        first = "band" if source == "auto" else source
+        conditioned_recs, checks = conditioned(recs, channels, first)
+        self.rig_notes += [w for c in checks for w in c.words()]
+        version = first
+        if source == "auto":
+            version = preferred_version(checks) or ""
+            if not version:  # the displacement's noise could not be separated: fit both
+                both = ("band", "displacement")
+                candidates = {v: conditioned(recs, channels, v)[0] for v in both}
+                rms: dict[str, float] = {}
+                for name, cand in candidates.items():
+                    sp = split(cand, held if held_recs is None else held_recs)
+                    fitted: Any = model  # a component model fits Recordings (the protocol's R)
+                    base = fit(fitted, sp.fit_recordings, sp.fit_masks, max_nfev=self.budget)
+                    rms[name] = base.rms()[model.output_channels[0]]
+                version = min(rms, key=lambda k: rms[k])
+                unit = model.channel_units.get(model.output_channels[0], "")
+                self.rig_notes.append(choice_words(checks, rms, unit))
+            elif version == "displacement":
+                self.rig_notes.append(
+                    "the velocity (and acceleration) used are the derivatives of the "
+                    'displacement (declare velocity_source = "channel" to keep the channels)'
+                )
+        self.motion_version = version
+        if version != first:
+            conditioned_recs = conditioned(recs, channels, version)[0]
+        if held_recs is not None:
+            held_recs = conditioned(held_recs, channels, version)[0]
+        return conditioned_recs, held_recs
 
     def fit_baseline(self, setup: Setup) -> FitResult:
         sp = setup.split
@@ -617,4 +663,5 @@ def _baseline_effects(base: FitResult, family: ComponentFamily | None = None) ->
     if family is not None and family.rig is not None:
         out["rig"] = family.rig.to_dict()
         out["rig_notes"] = list(family.rig_notes)
+        out["motion_version"] = family.motion_version
     return out

@@ -22,16 +22,23 @@ them treats them as exact. Two things a rig does to them make that wrong:
   error), its time derivative (a lag, positive when the channel lags) and its second
   derivative (a curvature of the gain with frequency); a lag and curvature part above
   :data:`VELOCITY_MISMATCH` of the velocity's RMS means the channel is not the
-  displacement's derivative, and the derivative is used (``velocity_source = "auto"``).
+  displacement's derivative, and the report says so.
 
-``velocity_source`` (rig description, :mod:`suspenv.diagnosis.component.rig`):
-``"auto"`` (above), ``"displacement"`` (always the derivative of the displacement),
-``"channel"`` (the channels exactly as recorded: no low-pass, no check).
+Which rates the fit uses (``velocity_source`` in the rig description,
+:mod:`suspenv.diagnosis.component.rig`): ``"auto"`` (default) low-passes every motion
+channel and keeps the recorded rates where they are the displacement's derivatives; a
+rate channel that is a filtered derivative is replaced by the displacement's
+derivative when that is clean (a clean displacement, or its noise above the cut-off);
+when the displacement's noise cannot be separated from the motion, the baseline is
+fitted with both and the smaller residual decides (:func:`preferred_version`), as the
+report says.
+``"displacement"`` always uses the derivatives, ``"channel"`` the channels exactly as
+recorded (no low-pass, no check).
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -41,6 +48,8 @@ from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.protocols import RecordingLike
 
 VELOCITY_SOURCES = ("auto", "displacement", "channel")
+#: versions of the motion a fit can be given (:func:`conditioned`)
+MOTION_VERSIONS = ("channel", "band", "displacement")
 #: a removed part up to this multiple of the white-noise expectation is noise
 NOISE_TOLERANCE = 1.25
 #: candidate cut-offs, as fractions of the Nyquist frequency (descending, 17 % apart)
@@ -60,6 +69,9 @@ VELOCITY_MISMATCH = 0.001
 #: transducer's quantisation noise is about 1.2e-5 of a sine's standard deviation
 #: spanning its range, and harmless to a fit)
 NEGLIGIBLE_NOISE = 1e-5
+#: the displacement's derivatives are clean when the noise they carry is at most this
+#: share of their RMS (at most the force noise of a dyno)
+DERIVATIVE_CLEAN = 0.01
 #: fewest samples for the noise estimate and the comparison
 MIN_SAMPLES = 256
 BUTTER_ORDER = 4
@@ -67,16 +79,25 @@ BUTTER_ORDER = 4
 
 @dataclass(frozen=True)
 class MotionCheck:
-    """What was done to one recording's motion channels.
+    """What was found and done in one recording's motion channels.
 
     Attributes:
         recording: recording name.
-        cutoff_hz: low-pass cut-off [Hz] applied to the motion channels (None: none).
+        cutoff_hz: low-pass cut-off [Hz] of the motion channels (None: no noise found).
         gain_error: ``g - 1`` of the velocity channel against the derivative (None: no
-            velocity channel or no check).
+            velocity channel).
         lag_s: delay of the velocity channel behind the derivative [s] (positive: lags).
-        mismatch: RMS of the fitted difference / RMS of the velocity (None: no check).
-        velocity_from: ``"channel"`` or ``"displacement"``: which velocity the fit uses.
+        mismatch: the velocity channel's frequency-dependent difference from the
+            derivative, as a share of its RMS (None: no velocity channel).
+        worst_mismatch: the largest such share over the velocity and acceleration
+            channels (0 when neither is recorded).
+        version: the version of the motion these recordings hold (:func:`conditioned`).
+        noisy: white noise was found on the displacement (:func:`noise_variance`).
+        difference: the largest RMS difference between a recorded rate channel and the
+            displacement's derivative of the same order (both low-passed alike), as a
+            share of the derivative's RMS (0 without rate channels).
+        derivative_noise: the largest RMS noise the displacement's white noise leaves on
+            those derivatives (:func:`derivative_noise`), as the same share.
     """
 
     recording: str
@@ -84,7 +105,11 @@ class MotionCheck:
     gain_error: float | None
     lag_s: float | None
     mismatch: float | None
-    velocity_from: str
+    worst_mismatch: float
+    version: str
+    noisy: bool = False
+    difference: float = 0.0
+    derivative_noise: float = 0.0
 
     def words(self) -> list[str]:
         """Sentences for the report's evidence."""
@@ -94,14 +119,13 @@ class MotionCheck:
                 f"recording {self.recording}: motion channels low-passed at "
                 f"{self.cutoff_hz:.3g} Hz (zero phase; what lies above it is white noise)"
             )
-        if self.velocity_from == "displacement" and self.mismatch is not None:
+        if self.mismatch is not None and self.mismatch > VELOCITY_MISMATCH:
             lag = "" if self.lag_s is None else f", lag {1e3 * self.lag_s:+.3g} ms"
             gain = "" if self.gain_error is None else f"gain {100 * self.gain_error:+.2g} %"
             out.append(
                 f"recording {self.recording}: the velocity channel is not the derivative of "
                 f"the displacement ({gain}{lag}; {100 * self.mismatch:.2g} % of its RMS, a "
-                "filtered derivative): the derivative of the displacement is used "
-                '(declare velocity_source = "channel" to keep the channel)'
+                "filtered derivative)"
             )
         return out
 
@@ -130,27 +154,41 @@ def _removed_share(fs: float, fc: float) -> float:
     return float(np.mean((1.0 - np.abs(h) ** 2) ** 2))
 
 
+def _removed(x: np.ndarray, fs: float, fc: float) -> float:
+    """Variance of what ``lowpass(x, fs, fc)`` removes, a few periods of the cut-off away
+    from the record's ends (the filter's start-up transients; at most 5 % of the samples
+    each side, so that no part of the test is left out)."""
+    k = min(int(np.ceil(3.0 * fs / fc)), x.size // 20)
+    return float(np.var((x - lowpass(x, fs, fc))[k : x.size - k]))
+
+
+def noise_variance(x: np.ndarray, fs: float) -> float:
+    """Variance [unit^2] of the white noise on ``x`` (sampled at ``fs`` [Hz]), read from
+    what lies above ``NOISE_BAND`` of the Nyquist frequency (an encoder's quantisation
+    counts as noise)."""
+    x = np.asarray(x, float)
+    top = NOISE_BAND * 0.5 * fs
+    return _removed(x, fs, top) / _removed_share(fs, top)
+
+
+def _negligible(s2: float, x: np.ndarray) -> bool:
+    """Noise of variance ``s2`` is negligible on the displacement ``x`` itself
+    (:data:`NEGLIGIBLE_NOISE`; not necessarily on its derivatives)."""
+    return not s2 > (NEGLIGIBLE_NOISE * float(np.std(x))) ** 2
+
+
 def motion_cutoff(x: np.ndarray, fs: float) -> float | None:
     """The low-pass cut-off [Hz] that removes white noise and nothing of the motion, or
     None when no cut-off removes noise alone (clean data, or a broadband motion)."""
     x = np.asarray(x, float)
     nyq = 0.5 * fs
-
-    def removed(fc: float) -> float:
-        # variance of what the filter removes, a few periods of the cut-off away from
-        # the record's ends (the filter's start-up transients; at most 5 % of the
-        # samples each side, so that no part of the test is left out)
-        k = min(int(np.ceil(3.0 * fs / fc)), x.size // 20)
-        return float(np.var((x - lowpass(x, fs, fc))[k : x.size - k]))
-
-    top = NOISE_BAND * nyq
-    s2 = removed(top) / _removed_share(fs, top)
-    if not s2 > (NEGLIGIBLE_NOISE * float(np.std(x))) ** 2:
+    s2 = noise_variance(x, fs)
+    if _negligible(s2, x):
         return None
     chosen = None
     for frac in CUTOFF_GRID:
         fc = frac * nyq
-        if removed(fc) > NOISE_TOLERANCE * s2 * _removed_share(fs, fc):
+        if _removed(x, fs, fc) > NOISE_TOLERANCE * s2 * _removed_share(fs, fc):
             break
         chosen = fc
     if chosen is None or chosen >= CUTOFF_GRID[0] * nyq:
@@ -189,7 +227,9 @@ def compare_velocity(
     spread = 1.4826 * float(np.median(np.abs(diff - np.median(diff))))
     keep = np.abs(diff - np.median(diff)) <= SPIKE_LIMIT * spread if spread > 0 else slice(None)
     basis, diff = basis[keep], diff[keep]
-    coef, *_ = np.linalg.lstsq(basis / scale, diff, rcond=None)
+    # a direction the motion does not excite (gain and curvature are one direction for
+    # a single sine) is left out rather than split into large opposite coefficients
+    coef, *_ = np.linalg.lstsq(basis / scale, diff, rcond=1e-6)
     coef = coef / scale
     dynamic = basis[:, 1:] @ coef[1:]  # what a gain cannot give: lag and curvature
     rms_v = float(np.sqrt(np.mean(v_x[trim] ** 2))) or 1.0
@@ -199,19 +239,23 @@ def compare_velocity(
 def conditioned(
     recordings: Sequence[RecordingLike],
     channels: Sequence[str],
-    velocity_source: str = "auto",
+    version: str = "band",
 ) -> tuple[list[RecordingLike], list[MotionCheck]]:
-    """The recordings with their motion channels conditioned (module docstring).
+    """The recordings with their motion channels in one ``version`` (module docstring).
 
     ``channels``: the model's motion inputs in order (displacement, velocity[,
-    acceleration]), e.g. ``("displacement", "velocity")``; a recording lacking one is
-    left as it is, as is every recording for ``velocity_source = "channel"``.
+    acceleration]), e.g. ``("displacement", "velocity")``. ``version``:
+    ``"channel"``: as recorded; ``"band"``: every motion channel low-passed at the
+    displacement's noise cut-off (a missing velocity or acceleration channel is the
+    displacement's derivative); ``"displacement"``: the displacement low-passed, the
+    velocity and acceleration its derivatives. The checks compare the recorded velocity
+    (and acceleration) with the derivatives, for every version but ``"channel"``. A
+    recording that is not uniformly sampled, lacks the displacement, or (``"band"``)
+    holds clean, consistent channels is returned as it was.
     """
-    if velocity_source not in VELOCITY_SOURCES:
-        raise ValidationError(
-            f"`velocity_source in {VELOCITY_SOURCES}` must hold, but got {velocity_source!r}"
-        )
-    if velocity_source == "channel" or len(channels) < 2:
+    if version not in MOTION_VERSIONS:
+        raise ValidationError(f"`version in {MOTION_VERSIONS}` must hold, but got {version!r}")
+    if version == "channel" or len(channels) < 2:
         return list(recordings), []
     xk, vk, *rest = channels
     out: list[RecordingLike] = []
@@ -228,31 +272,87 @@ def conditioned(
         def band(y: np.ndarray, rate: float = rate, cut: float | None = cut) -> np.ndarray:
             return y if cut is None else lowpass(y, rate, cut)
 
-        x_f = band(x)
-        v_x = derivative(x_f, fs)
         inputs = dict(rec.inputs)
-        inputs[xk] = x_f
+        inputs[xk] = band(x)
+        derived = [derivative(inputs[xk], fs)]
+        for _ in rest:
+            derived.append(derivative(derived[-1], fs))
         gain = lag = mismatch = None
-        use = "displacement"
-        if vk in rec.inputs and velocity_source == "auto":
-            v_f = band(np.asarray(rec.inputs[vk], float))
-            gain, lag, mismatch = compare_velocity(v_f, v_x, fs)
-            if mismatch <= VELOCITY_MISMATCH:
-                use = "channel"
-                inputs[vk] = v_f
-        if use == "displacement":
-            inputs[vk] = v_x
-        for ak in rest:
-            if ak in rec.inputs:
-                inputs[ak] = (
-                    derivative(v_x, fs)
-                    if use == "displacement"
-                    else band(np.asarray(rec.inputs[ak], float))
-                )
-        check = MotionCheck(str(rec.name), fc, gain, lag, mismatch, use)
-        if fc is None and use == "channel":
-            out.append(rec)  # nothing changed: the recording as it was
+        worst = difference = noise = 0.0
+        s2 = noise_variance(x, fs)
+        for k, (key, d) in enumerate(zip((vk, *rest), derived, strict=True)):
+            if key not in rec.inputs:
+                inputs[key] = d
+                continue
+            recorded = band(np.asarray(rec.inputs[key], float))
+            g, tau, mis = compare_velocity(recorded, d, fs)
+            if k == 0:
+                gain, lag, mismatch = g, tau, mis
+            rms = float(np.sqrt(np.mean(d**2))) or 1.0
+            worst = max(worst, mis)
+            spread = float(np.sqrt(np.mean((recorded - d)[8:-8] ** 2)))
+            difference = max(difference, spread / rms)
+            noise = max(noise, derivative_noise(s2, fs, fc, k + 1) / rms)
+            inputs[key] = d if version == "displacement" else recorded
+        noisy = not _negligible(s2, x)
+        check = MotionCheck(
+            str(rec.name), fc, gain, lag, mismatch, worst, version, noisy, difference, noise
+        )
+        checks.append(check)
+        if version == "band" and fc is None:
+            out.append(rec)  # nothing to remove: the recording as it was
         else:
             out.append(replace(rec, inputs=inputs))  # type: ignore[type-var]
-        checks.append(check)
     return out, checks
+
+
+def derivative_noise(s2: float, fs: float, fc: float | None, order: int) -> float:
+    """RMS noise [unit / s^order] that white noise of variance ``s2`` on a displacement
+    leaves on its ``order``-th derivative (:func:`derivative`, applied ``order`` times)
+    after the zero-phase low-pass at ``fc`` [Hz] (None: none): ``s2`` times the mean,
+    over 0 to the Nyquist frequency, of the filter's power gain ``|H|^4`` and the
+    five-point stencil's ``|D|^(2 order)``, ``D = (8 sin(w dt) - sin(2 w dt)) / (6 dt)``."""
+    if s2 <= 0.0:
+        return 0.0
+    f = np.linspace(0.0, 0.5 * fs, 4097)[1:]
+    w_dt = 2.0 * np.pi * f / fs
+    stencil = (8.0 * np.sin(w_dt) - np.sin(2.0 * w_dt)) * (fs / 6.0)
+    gain = np.ones_like(f)
+    if fc is not None:
+        sos = butter(BUTTER_ORDER, fc, fs=fs, output="sos")
+        gain = np.abs(sosfreqz(sos, worN=f, fs=fs)[1]) ** 4
+    return float(np.sqrt(s2 * np.mean(gain * stencil ** (2 * order))))
+
+
+def preferred_version(checks: Sequence[MotionCheck]) -> str | None:
+    """The motion version to fit (``"auto"``).
+
+    ``"band"`` (the recorded rates, low-passed) where no recorded rate has a
+    frequency-dependent mismatch with the displacement's derivative (noise alone does
+    not decide: a rate channel may be the cleaner of the two, an accelerometer against
+    a twice-differentiated displacement). Otherwise the displacement's derivatives where
+    they are clean (their noise within :data:`DERIVATIVE_CLEAN` of their RMS); None
+    where they are not: the fit chooses (:func:`choice_words`)."""
+
+    bad = [c for c in checks if c.worst_mismatch > VELOCITY_MISMATCH]
+    if not bad:
+        return "band"
+    if all(c.derivative_noise <= DERIVATIVE_CLEAN for c in bad):
+        return "displacement"
+    return None
+
+
+def choice_words(checks: Sequence[MotionCheck], rms: Mapping[str, float], unit: str) -> str:
+    """The sentence on the choice between the recorded rates and the displacement's
+    derivatives, with each version's baseline residual RMS [``unit``]."""
+    chosen = min(rms, key=lambda k: rms[k])
+    what = {
+        "band": "the recorded velocity (and acceleration) channels",
+        "displacement": "the derivatives of the displacement",
+    }
+    names = ", ".join(c.recording for c in checks)
+    return (
+        f"motion of {names}: the baseline's residual is {rms['band']:.4g} {unit} RMS with "
+        f"{what['band']} and {rms['displacement']:.4g} {unit} with {what['displacement']}: "
+        f"{what[chosen]} are used (declare velocity_source to fix the choice)"
+    )

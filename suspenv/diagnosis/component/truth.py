@@ -8,7 +8,10 @@ diagnosis says nothing about what was added; the truth is returned separately
 (:class:`Truth`) and written to a separate file by :func:`write_case`.
 
 Magnitudes are drawn relative to the base model's own force, stroke and speed
-scales (so an effect is neither invisible nor dominant); units SI.
+scales (so an effect is neither invisible nor dominant); units SI. In half of the dyno
+and guide cases the motion channels are recorded as rigs record them (a noisy
+displacement and its Savitzky-Golay derivatives; :func:`_recorded_motion`), while the
+component felt the exact motion.
 """
 
 from __future__ import annotations
@@ -66,6 +69,8 @@ class Truth:
     noise_kind: str = "white"
     #: the concealed element is outside the effect library
     outside: bool = False
+    #: how the rig recorded the motion (:func:`_recorded_motion`); None: exactly
+    motion: dict[str, Any] | None = None
 
     @property
     def kinds(self) -> list[str]:
@@ -246,6 +251,40 @@ def _outside(
     raise ValidationError(f"unknown out-of-library kind {kind!r}")  # pragma: no cover
 
 
+#: dyno and guide families whose motion channels are, in half of the cases, recorded as
+#: rigs record them (:func:`_recorded_motion`)
+RECORDED_MOTION_FAMILIES = ("damper", "mr_damper", "friction_guide")
+
+
+def _recorded_motion(
+    seed: int, family: str, rec: Recording, channels: tuple[str, ...]
+) -> tuple[dict[str, np.ndarray], dict[str, Any] | None]:
+    """The motion channels as a rig records them, in half of the cases (by a generator of
+    its own, so that every other draw of the case is unchanged): the displacement with
+    transducer noise (0.05-0.2 % of its amplitude) and the velocity (and a guide's
+    acceleration) from a Savitzky-Golay derivative of it (order 2, 15-31 samples), as a
+    rig's software makes them. The component felt the exact motion. Returns (inputs,
+    description or None)."""
+    from scipy.signal import savgol_filter
+
+    inputs = dict(rec.inputs)
+    rng = np.random.default_rng([seed, 11, sum(map(ord, family))])
+    if family not in RECORDED_MOTION_FAMILIES or rng.random() < 0.5:
+        return inputs, None
+    xk, vk, *rest = channels
+    x = np.asarray(inputs[xk], float)
+    dt = float(np.median(np.diff(rec.time)))
+    amp = float(np.percentile(np.abs(x - np.median(x)), 98))
+    share = float(rng.uniform(5e-4, 2e-3))
+    window = int(rng.choice([15, 21, 31]))
+    xm = x + share * amp * rng.standard_normal(x.size)
+    inputs[xk] = xm
+    inputs[vk] = savgol_filter(xm, window, 2, deriv=1, delta=dt)
+    for ak in rest:
+        inputs[ak] = savgol_filter(xm, window, 2, deriv=2, delta=dt)
+    return inputs, {"noise_share": share, "savgol_window": window, "order": 2}
+
+
 def _noise(
     kind: str, rng: np.random.Generator, y: np.ndarray, t: np.ndarray, frac: float
 ) -> np.ndarray:
@@ -312,11 +351,12 @@ def make_case(family: str, seed: int, n_effects: int, outside: bool = False) -> 
         measured[channel] = y + _noise(noise_kind, rng, y, rec.time, frac)
     noise_rms = frac * float(np.std(clean[model.output_channels[0]]))
     case_id = f"{family}-{'out' if outside else n_effects}-{seed}"
+    recorded, motion_record = _recorded_motion(seed, family, rec, model.input_channels)
     out = Recording(
         case_id,
         rec.test,
         rec.time,
-        dict(rec.inputs),
+        recorded,
         measured,
         dict(rec.units),
         {"source": "synthetic blind case", "sampling": rec.meta.get("sampling", {})},
@@ -332,6 +372,7 @@ def make_case(family: str, seed: int, n_effects: int, outside: bool = False) -> 
         [e.to_dict() for e in standard],
         noise_kind,
         outside,
+        motion_record,
     )
     return Case(out, truth)
 

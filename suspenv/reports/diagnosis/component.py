@@ -137,7 +137,8 @@ def markdown(diag: Diagnosis, figures: dict[str, str]) -> str:
     if base.get("words"):
         where = ", ".join(base.get("rig", {}).get("sources", [])) or "the family's standard"
         evidence.append(f"Baseline ({where}): {base['words']}")
-    evidence += [str(n) for n in base.get("rig_notes", [])]
+    # the rig notes quote recording names: literal text, not markup
+    evidence += [text(n) for n in base.get("rig_notes", [])]
     evidence.append(f"Held out: {text(diag.holdout)}")
     evidence += [e[0].upper() + e[1:] for e in diag.evidence]
     L += ["Evidence:", ""] + [f"- {e.rstrip('.')}." for e in evidence] + [""]
