@@ -22,6 +22,9 @@ Two paths of the same evaluation, measured in the same run on the same candidate
   (``solver.SUBSET_RESIDUALS``), the Jacobians inverted in blocks of rows, the
   Jacobian's perturbations in blocks of at most ``solver.JACOBIAN_PERTURBATIONS``, the
   rows of a single design sharing its arrays (``solver.SHARE_ONE_DESIGN``), the
+  residual of linear bushings and the rotation updates computed with the rows last,
+  i.e. every operation over all rows at once (``solver.RESIDUAL_ROWS_LAST``,
+  ``rotation.ROWS_LAST``), the
   channels in calls of at most ``knc.OUTPUT_STATES`` states, and only the channels that the
   objectives read, fitted on their fit window in closed form one test at a time;
 * ``baseline``: the previous algorithm, kept as the reference path: the explicit
@@ -36,8 +39,11 @@ Two paths of the same evaluation, measured in the same run on the same candidate
   per kinematic equation evaluation instead of one: ``solver.PRELOAD_KINEMATICS``) and
   both relative rotations of the quadratic predictor computed at every step
   (``knc.PREDICTOR_CACHE = False``) and a copy of a design's arrays for each of its rows
-  (``solver.SHARE_ONE_DESIGN = False``). Both paths give the same objectives to solver
-  tolerance; both use the same residual, outputs and fit arithmetic.
+  (``solver.SHARE_ONE_DESIGN = False``), the residual computed element slot by
+  element slot (``solver.RESIDUAL_ROWS_LAST = False``) and the rotation updates as
+  stacked matrix products (``rotation.ROWS_LAST = False``). Both paths give the same
+  objectives to solver tolerance; both use the same residual equations (summed in
+  another order), outputs and fit arithmetic.
 
 Time: process CPU time (BLAS is limited to one thread by suspenv, so it is one core's
 time), best of the repeats (3 at batch 42, 2 at batch 1000: a best of several against a
@@ -70,6 +76,7 @@ from typing import Any
 
 import numpy as np
 
+import suspenv.models.mcpherson.rotation as rotation_module
 import suspenv.models.mcpherson.solver as solver_module
 import suspenv.problems.kc_identification as problem_module
 import suspenv.rigs.knc as rig_module
@@ -99,6 +106,8 @@ def reference_path() -> Iterator[None]:
         solver_module.JACOBIAN_COLOURED,
         solver_module.SUBSET_RESIDUALS,
         solver_module.SHARE_ONE_DESIGN,
+        solver_module.RESIDUAL_ROWS_LAST,
+        rotation_module.ROWS_LAST,
     )
     solver_module.JACOBIAN_BLOCK = rig_module.JACOBIAN_BLOCK = 1 << 62
     problem_module.objectives = lambda results: _objectives_one_by_one(results, {})
@@ -107,6 +116,8 @@ def reference_path() -> Iterator[None]:
     solver_module.JACOBIAN_COLOURED = False
     solver_module.SUBSET_RESIDUALS = False
     solver_module.SHARE_ONE_DESIGN = False
+    solver_module.RESIDUAL_ROWS_LAST = False
+    rotation_module.ROWS_LAST = False
     try:
         yield
     finally:
@@ -117,6 +128,8 @@ def reference_path() -> Iterator[None]:
         solver_module.JACOBIAN_COLOURED = saved[5]
         solver_module.SUBSET_RESIDUALS = saved[6]
         solver_module.SHARE_ONE_DESIGN = saved[7]
+        solver_module.RESIDUAL_ROWS_LAST = saved[8]
+        rotation_module.ROWS_LAST = saved[9]
 
 
 def _cpu_wall(fn: Any) -> tuple[float, float]:
@@ -226,8 +239,9 @@ def main(argv: list[str] | None = None) -> int:
             "the loop in sequence, one inverse Jacobian per row), a column-by-column "
             "finite-difference Jacobian, unbounded JACOBIAN_BLOCK, every row's residual "
             "at every Newton iteration, per-objective fits, plain preload kinematics, "
-            "an uncached predictor and a copy of a design's arrays per row (the previous "
-            "algorithm)"
+            "an uncached predictor, a copy of a design's arrays per row, the residual "
+            "element slot by element slot and the rotation updates as stacked matrix "
+            "products (the previous algorithm)"
         ),
         "eval_chunk": fast.eval_chunk,
         "target_ms": TARGET_MS,

@@ -271,19 +271,20 @@ def quadratic_fit(x: np.ndarray, y: np.ndarray, centre: int, half: int = FIT_HAL
         raise ValidationError(
             f"fit window [{lo}, {hi}) must lie inside the grid of {x.shape[-1]} points"
         )
-    xs = x[..., lo:hi] - x[..., centre : centre + 1]
-    ys = y[..., lo:hi]
+    # the window's points first (each sum over them runs over all curves at once)
+    xs = np.ascontiguousarray(np.moveaxis(x[..., lo:hi] - x[..., centre : centre + 1], -1, 0))
+    ys = np.ascontiguousarray(np.moveaxis(y[..., lo:hi], -1, 0))
     # normal equations [[S0, S1, S2], [S1, S2, S3], [S2, S3, S4]] c = [T0, T1, T2] with
     # Sk = sum xs^k, Tk = sum xs^k ys, solved by Cramer's rule (cofactors C..)
     x2 = xs * xs
-    S0 = np.full(xs.shape[:-1], float(xs.shape[-1]))
-    S1, S2, S3, S4 = xs.sum(-1), x2.sum(-1), (x2 * xs).sum(-1), (x2 * x2).sum(-1)
-    T0, T1, T2 = ys.sum(-1), (xs * ys).sum(-1), (x2 * ys).sum(-1)
+    S0 = np.full(xs.shape[1:], float(xs.shape[0]))
+    S1, S2, S3, S4 = xs.sum(0), x2.sum(0), (x2 * xs).sum(0), (x2 * x2).sum(0)
+    T0, T1, T2 = ys.sum(0), (xs * ys).sum(0), (x2 * ys).sum(0)
     C00, C01, C02 = S2 * S4 - S3 * S3, S2 * S3 - S1 * S4, S1 * S3 - S2 * S2
     C11, C12, C22 = S0 * S4 - S2 * S2, S1 * S2 - S0 * S3, S0 * S2 - S1 * S1
     det = S0 * C00 + S1 * C01 + S2 * C02
     # degenerate or non-finite curves (e.g. a failed design's frozen state) give NaN
-    spread = np.ptp(xs, axis=-1) if xs.shape[-1] else np.zeros(xs.shape[:-1])
+    spread = np.ptp(xs, axis=0) if xs.shape[0] else np.zeros(xs.shape[1:])
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
         bad = ~(np.isfinite(det) & np.isfinite(T0) & np.isfinite(T1) & np.isfinite(T2))
         bad |= ~(spread > 0)

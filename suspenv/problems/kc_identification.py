@@ -243,7 +243,7 @@ class KCIdentification(Problem):
     #: candidates per internal chunk of :meth:`simulate` (None: the whole batch at once).
     #: A batch is split into equal chunks of at most this size. Every row of the rig
     #: batch is solved independently (per-row convergence and Jacobians), so chunking
-    #: does not change the results; it bounds the peak memory (about 0.14 MB per
+    #: does not change the results; it bounds the peak memory (about 0.17 MB per
     #: candidate inside a chunk, so that a population of 42 is evaluated in two chunks of
     #: 21 below 0.1 MB per candidate) while keeping most of the batching gain.
     eval_chunk: int | None = 32

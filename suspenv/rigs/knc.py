@@ -76,7 +76,7 @@ from suspenv.core.errors import ValidationError
 from suspenv.measurements.knc import ALL_TESTS, DRIVE_UNIT, FORCE_TESTS, STEER_TESTS, TESTS
 from suspenv.models.effects import Effect
 from suspenv.models.mcpherson.params import Axle
-from suspenv.models.mcpherson.rotation import expm_so3, log_so3
+from suspenv.models.mcpherson.rotation import relative_log, turned
 from suspenv.models.mcpherson.solver import (
     JACOBIAN_BLOCK,
     MAX_ROTATION,
@@ -628,8 +628,11 @@ def _sweep_legs(
     frozen = np.where(~up_ok, last[:m], last[m:])
     idx = np.where(np.arange(P)[None, :] >= k_last[:, None], frozen[:, None], path[None, :])
     rr = np.arange(m)[:, None]
-    out = {name: v[idx, rr] for name, v in ch.items()}
     bad = np.flatnonzero(k_last < P)
+    # every row's channels along the loop, then those of the failed rows' frozen states
+    out = {name: np.ascontiguousarray(v[path].swapaxes(0, 1)) for name, v in ch.items()}
+    for name, v in ch.items():
+        out[name][bad] = v[idx[bad], bad[:, None]]
     if bad.size:  # the frozen states' channels at the rig's input of every later step
         rows = np.where(~up_ok[bad], bad, m + bad)  # the failed leg's row
         frozen_st, sub = lst.take(rows), lsolver.take(rows, axle=False)
@@ -781,7 +784,7 @@ def _relative_rotation(a: AxleState, b: AxleState, cache: dict | None) -> np.nda
         for hit in cache.get("pairs", ()):
             if hit[0] is a and hit[1] is b:
                 return hit[2]
-    w = log_so3(np.matmul(a.R, np.swapaxes(b.R, -1, -2)))
+    w = relative_log(a.R, b.R)
     if cache is not None:
         cache["pairs"] = [*cache.get("pairs", [])[-1:], (a, b, w)]
     return w
@@ -815,7 +818,7 @@ def _extrapolate(
         r_new = 4.0 * (st.r + before2.r) - 6.0 * before.r - before3.r
         w = 3.0 * (w1 - w0) + wm
         lam_new = 4.0 * (st.lam + before2.lam) - 6.0 * before.lam - before3.lam
-    R_new = np.matmul(expm_so3(w), st.R)
+    R_new = turned(w, st.R)
     if not ok.all():  # failed rows keep their state
         r_new = np.where(rows, r_new, st.r)
         R_new = np.where(rows[..., None], R_new, st.R)

@@ -69,6 +69,7 @@ from __future__ import annotations
 
 import copy
 import functools
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 
@@ -84,7 +85,15 @@ from suspenv.models.mcpherson.effects import (
 )
 from suspenv.models.mcpherson.kinematics import CornerKinematics
 from suspenv.models.mcpherson.params import SIDE_SIGN, Axle
-from suspenv.models.mcpherson.rotation import cross, dot, expm_so3, log_so3, rotate
+from suspenv.models.mcpherson.rotation import (
+    cross,
+    dot,
+    expm_so3,
+    log_rows_last,
+    log_so3,
+    rotate,
+    turned,
+)
 
 BODIES = ("lower_arm", "knuckle", "strut_rod", "arb_half")
 NQ, NL = 24, 9
@@ -113,6 +122,16 @@ SLOT_SUM = np.zeros((4, N_SLOTS))
 SLOT_SUM[list(SLOT_BODY), np.arange(N_SLOTS)] = 1.0
 BUSH_SUM = np.zeros((4, 4))
 BUSH_SUM[list(BUSH_BODY), np.arange(4)] = 1.0
+#: :meth:`AxleSolver.residual` of linear bushings holds every quantity with its rows
+#: last (components first), so that each operation runs over all rows at once, and sums
+#: the loads body by body (the same equations as the element slots, summed in another
+#: order, i.e. equal to rounding; False: element slot by element slot, the reference
+#: path of the speed benchmark's baseline, and always with placed effects or a record)
+RESIDUAL_ROWS_LAST = True
+#: the sums over the loads with an arm of :meth:`AxleSolver._residual_rows_last` of
+#: each body (slots: 3 of body 0, 7 of body 1, 2 of body 2, 2 of body 3)
+LOAD_SUM = np.zeros((4, 14))
+LOAD_SUM[np.repeat(np.arange(4), [3, 7, 2, 2]), np.arange(14)] = 1.0
 #: smooth dead band of the Dahl elements at reversals (see dahl_step) [m], [rad]
 DAHL_EPS_TRANSLATION = 1e-6
 DAHL_EPS_ROTATION = 1e-5
@@ -449,6 +468,10 @@ class AxleSolver:
         self.u, self.v = _perp_basis(self.a)
         self.L_tie = np.linalg.norm(p["tie_rod_outer"] - p["tie_rod_inner"], axis=-1)
         self.L_drop = np.linalg.norm(p["drop_link_strut"] - p["arb_drop_link"], axis=-1)
+        # tie rod and drop link: lengths, squared and doubled (n, 2, 2)
+        self._L_links = np.stack([self.L_tie, self.L_drop], axis=-1)
+        self._L_links_sq = self._L_links**2
+        self._L_links_2 = 2 * self._L_links
         self.s0 = spin_axis(axle.camber0, axle.toe0)
         self.K = axle.bush
         self.kt, self.Rw = axle.tyre_rate, axle.wheel_radius
@@ -489,6 +512,10 @@ class AxleSolver:
         eye = np.broadcast_to(np.eye(3), axle.camber0.shape + (3, 3))
         self._Q = np.stack([frames.get(b, eye) for b in BUSH_ORDER], axis=2) if frames else None
         self.stats = {"solves": 0, "residuals": 0, "jacobians": 0}
+        # the arrays of the residual with the rows last (see _rows_last_consts)
+        self._rl_pack: np.ndarray | None = None
+        self._rl_layout: list[tuple[str, int, int, tuple[int, ...]]] = []
+        self._rl: dict[str, np.ndarray] | None = None
 
     @property
     def path_dependent(self) -> bool:
@@ -524,6 +551,15 @@ class AxleSolver:
                 and all(isinstance(v, np.ndarray) and v.shape[0] == self.n for v in val.values())
             ):
                 setattr(out, key, {k: pick(v) for k, v in val.items()})
+        out._rl = None
+        if self._rl_pack is not None:  # the rows-last arrays: rows on the last axis
+            pk = self._rl_pack
+            one_pk = one or (share and pk.strides[-1] == 0)
+            out._rl_pack = (
+                np.broadcast_to(pk[..., idx[0], None], pk.shape[:-1] + (idx.size,))
+                if one_pk
+                else pk[..., idx]
+            )
         if axle:
             out.axle = self.axle.take(idx)
         out.n = idx.size
@@ -683,7 +719,254 @@ class AxleSolver:
         (columns 6-8) at the wheel centre. ``record`` (a list) receives every element load
         as ``(body, point, force, moment)`` for balance checks. ``rack`` (n, 2) [m]: travel
         of the tie-rod inner points along +y from their design position (None: zero).
+        Rows per side: force [N] and moment about the reference point [N*m] of the four
+        bodies (vehicle axes), then the constraints times :data:`CSCALE`: ball joint
+        (3), cylindrical joint (4), tie rod, drop link.
+
+        Linear bushings (no placed effect) and no ``record``: computed with the rows last
+        (:meth:`_residual_rows_last`, the same equations); else element slot by element
+        slot (:meth:`_residual_by_slots`).
         """
+        if (
+            RESIDUAL_ROWS_LAST
+            and record is None
+            and not self._placed.cubic
+            and not self._placed.path_dependent
+            and r.shape[-4:-2] == (self.n, 2)
+            and R.shape[:-3] == r.shape[:-2]
+        ):
+            return self._residual_rows_last(r, R, lam, pad, ext, rack)
+        return self._residual_by_slots(r, R, lam, pad, state, ext, record, rack)
+
+    def _rows_last_consts(self, rows: tuple[int, ...]) -> dict[str, np.ndarray]:
+        """The solver's per-design arrays that :meth:`_residual_rows_last` reads, rows
+        last ((*shape, 2, M) for the M rows of ``rows`` (..., n)), as views of one array
+        (``_rl_pack`` (K, 2, n), made once and taken with the solver's rows by
+        :meth:`take`); those of ``rows == (n,)`` kept for the next call."""
+        if self._rl_pack is None:
+            parts = [
+                (name, np.broadcast_to(a, (self.n, 2) + a.shape[a.ndim - tail :]))
+                for name, a, tail in (
+                    ("vec", self._vec, 2),
+                    ("ground", self._ground4, 2),
+                    ("K", self._K4, 2),
+                    ("Q", self._Q, 3),
+                    ("tri", self.tri, 1),
+                    ("L_links", self._L_links, 1),
+                    ("L_links_sq", self._L_links_sq, 1),
+                    ("L_links_2", self._L_links_2, 1),
+                    ("ks", self.ks, 0),
+                    ("L_free", self.L_free, 0),
+                    ("Rw", self.Rw, 0),
+                    ("kt", self.kt, 0),
+                    ("W", self.wheel_weight, 0),
+                    ("k_bar_rot", self.k_bar_rot[:, None, :], 1),
+                )
+                if a is not None
+            ]
+            flat = [a.reshape(self.n, 2, -1) for _, a in parts]
+            self._rl_pack = np.ascontiguousarray(np.concatenate(flat, axis=-1).transpose(2, 1, 0))
+            self._rl_layout = []
+            at = 0
+            for (name, a), f in zip(parts, flat, strict=True):
+                self._rl_layout.append((name, at, at + f.shape[-1], a.shape[2:]))
+                at += f.shape[-1]
+        if rows == (self.n,) and self._rl is not None:
+            return self._rl
+        pack = self._rl_pack
+        M = math.prod(rows)
+        if rows != (self.n,):
+            lead = pack.shape[:2] + (1,) * (len(rows) - 1) + (self.n,)
+            pack = np.broadcast_to(pack.reshape(lead), pack.shape[:2] + rows)
+            pack = pack.reshape(pack.shape[:2] + (M,))
+        out = {name: pack[a:b].reshape(shape + (2, M)) for name, a, b, shape in self._rl_layout}
+        if rows == (self.n,):
+            self._rl = out
+        return out
+
+    def _residual_rows_last(
+        self,
+        r: np.ndarray,
+        R: np.ndarray,
+        lam: np.ndarray,
+        pad: np.ndarray,
+        ext: np.ndarray | None,
+        rack: np.ndarray | None,
+    ) -> np.ndarray:
+        """:meth:`residual` of linear bushings, every quantity held with its rows last
+        (components first: ``(..., 2, M)`` for the two sides of ``M`` rows), so that
+        each operation runs over all rows at once; body loads summed body by body."""
+        lead = r.shape[:-2]  # (..., n, 2)
+        rows = lead[:-1]
+        M = math.prod(rows)
+
+        def last(a: np.ndarray, tail: int) -> np.ndarray:
+            """``a`` (..., 2, *shape), broadcast to the rows -> (*shape, 2, M)."""
+            shape = a.shape[a.ndim - tail :] if tail else ()
+            if a.shape[: a.ndim - tail] != lead:
+                a = np.broadcast_to(a, lead + shape)
+            a = a.reshape((M, 2) + shape)
+            return np.ascontiguousarray(a.transpose(tuple(range(2, 2 + tail)) + (1, 0)))
+
+        c = self._rows_last_consts(rows)
+        rr = last(r, 2)  # (4, 3, 2, M)
+        RT = np.ascontiguousarray(R.reshape(M, 2, 4, 3, 3).transpose(3, 4, 2, 1, 0))
+        ll = last(lam, 1)  # (9, 2, M)
+        vec = c["vec"]  # (16, 3, 2, M)
+        # every body-fixed vector rotated: sum_k R[:, k] v_k with its body's R
+        V = np.multiply(RT[:, 0][:, VEC_BODY], vec[:, 0])  # (3, 16, 2, M)
+        for j in (1, 2):
+            col = RT[:, j][:, VEC_BODY]
+            col *= vec[:, j]
+            V += col
+        del col
+        V = V.transpose(1, 0, 2, 3)  # (16, 3, 2, M)
+        r0, r1, r2, r3 = rr
+        d21 = r2 - r1
+
+        # rotation vectors of bodies 0, 2, 3 (both sides) and of the bar halves'
+        # relative rotation R_left R_right^T, in one call
+        rot = np.empty((3, 3, 7, M))
+        bodies = rot[:, :, 0:6].reshape(3, 3, 3, 2, M)
+        bodies[:, :, 0] = RT[:, :, 0]
+        bodies[:, :, 1:3] = RT[:, :, 2:4]
+        B3 = RT[:, :, 3]  # (3, 3, 2, M)
+        np.sum(B3[:, None, :, 0] * B3[None, :, :, 1], axis=2, out=rot[:, :, 6])
+        logs = log_rows_last(rot)  # (3, 7, M)
+        del RT, rot, bodies, B3  # (memory)
+        phi = logs[:, 0:6].reshape(3, 3, 2, M).transpose(1, 0, 2, 3)  # (3 bodies, 3, 2, M)
+
+        # bushings: deflection (translation of the bushing point, rotation vector) and
+        # load, vehicle axes (through the bushing frames Q when oriented)
+        x = np.empty((4, 2, 3, 2, M))
+        x[0, 0] = r0 + V[0]
+        x[1, 0] = r0 + V[1]
+        x[2:4, 0] = rr[2:4]
+        x[:, 0] -= c["ground"]
+        x[0:2, 1] = phi[0]
+        x[2:4, 1] = phi[1:3]
+        K = c["K"].reshape(4, 2, 3, 2, M)
+        if "Q" not in c:
+            f = K * x
+        else:
+            Q = c["Q"][:, None]  # (4, 1, 3, 3, 2, M)
+            xb = Q[:, :, 0] * x[:, :, 0:1]  # Q^T x
+            xb += Q[:, :, 1] * x[:, :, 1:2]
+            xb += Q[:, :, 2] * x[:, :, 2:3]
+            xb *= K
+            f = Q[:, :, :, 0] * xb[:, :, 0:1]  # Q (K Q^T x)
+            f += Q[:, :, :, 1] * xb[:, :, 1:2]
+            f += Q[:, :, :, 2] * xb[:, :, 2:3]
+            del xb
+        del x  # (memory)
+
+        # tie rod (from the rack point), drop link, spring: the vectors between their ends
+        D = r1 + V[4:7]
+        D[0] -= c["tri"]
+        if rack is not None:  # the rack point moved along +y
+            D[0, 1] -= last(rack, 0)
+        D[1] -= r3 + V[14]
+        D[2] -= r2 + V[12]
+        DD = D[:, 0] * D[:, 0]
+        DD += D[:, 1] * D[:, 1]
+        DD += D[:, 2] * D[:, 2]  # (3, 2, M)
+        k = np.empty((3, 2, M))  # force per unit length along D
+        np.divide(ll[7:9], c["L_links"], out=k[0:2])
+        L = np.sqrt(DD[2])
+        k[2] = c["ks"] * (c["L_free"] - L) / L
+        F_link = k[:, None] * D  # tie rod, drop link, spring on the knuckle (3, 3, 2, M)
+
+        res = np.empty((NS, 2, M))
+        body = res[:NQ].reshape(4, 2, 3, 2, M)  # (force, moment) of each body
+        # constraints [m] (times CSCALE): ball joint, cylindrical joint (rod axis and rod
+        # point offset against the tube normals u, v), tie rod and drop link lengths
+        cons = res[NQ:]
+        np.multiply(r0 + V[2] - r1 - V[3], CSCALE, out=cons[0:3])
+        aw = np.empty((2, 1, 3, 2, M))  # rod axis, rod point offset
+        aw[0, 0] = V[13]
+        np.subtract(d21, V[7], out=aw[1, 0])
+        np.sum(aw * V[None, 8:10], axis=2, out=cons[3:7].reshape(2, 2, 2, M))
+        cons[3:7] *= CSCALE
+        np.multiply((DD[0:2] - c["L_links_sq"]) / c["L_links_2"], CSCALE, out=cons[7:9])
+        del D, aw  # (memory)
+
+        # tyre on the pad at the contact point (the wheel plane's downward radius)
+        s = V[11]
+        d = s * s[2]
+        d[2] -= 1.0
+        d *= c["Rw"] / np.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+        fz = c["kt"] * (last(pad, 0) - r1[2] - d[2])
+
+        # loads with an arm, body by body (LOAD_SUM): arms, forces (14, 3, 2, M). The
+        # cylindrical joint: the moment ar x (lam3 u + lam4 v) on the rod, opposite on
+        # the knuckle (the moment of lam3 u + lam4 v at the arm ar, taken out of the
+        # force sums below), and the force lam5 u + lam6 v on the rod, opposite on the
+        # knuckle at the rod point; the anti-roll bar: the halves meet at the bar's
+        # middle, stiff in shear and bending
+        u, v = V[8], V[9]
+        arms = np.concatenate([V[0:7], d21[None], d[None], V[[13, 13, 12, 14, 15]]])
+        F = np.empty((14, 3, 2, M))
+        np.negative(f[0:2, 0], out=F[0:2])
+        F[2] = ll[0:3]
+        np.negative(ll[0:3], out=F[3])
+        F[4:7] = F_link
+        np.multiply(ll[5], u, out=F[7])
+        F[7] += ll[6] * v  # f_cyl on the rod
+        f_cyl = F[7].copy()
+        np.negative(F[7], out=F[7])
+        F[8, 0:2] = 0.0
+        F[8, 2] = fz
+        if ext is not None:
+            e = last(ext, 1)
+            F[8] += e[0:3]
+        np.multiply(ll[3], u, out=F[10])
+        F[10] += ll[4] * v
+        np.negative(F[10], out=F[9])
+        np.negative(F_link[2], out=F[11])
+        np.negative(F_link[1], out=F[12])
+        dC = r3[:, 0] + V[15, :, 0] - r3[:, 1] - V[15, :, 1]
+        np.multiply(dC, -self.k_bar_shear, out=F[13, :, 0])
+        np.negative(F[13, :, 0], out=F[13, :, 1])
+        del V, u, v, s, F_link  # (memory)
+
+        shape = (4, 3, 2, M)
+        body[:, 0] = np.matmul(LOAD_SUM, F.reshape(len(F), -1)).reshape(shape)
+        C = _cross_rows_last(arms, F)
+        del arms  # (memory)
+        body[:, 1] = np.matmul(LOAD_SUM, C.reshape(len(C), -1)).reshape(shape)
+        del C
+        # forces and moments at the reference points: bushings, wheel weight, wheel-centre
+        # force, cylindrical joint on the rod, bar twist
+        body[1, 0] += F[10]  # (the cylindrical joint's moment is no force)
+        body[2, 0] -= F[10]
+        body[0, 1] -= f[0, 1] + f[1, 1]
+        body[1, 0, 2] -= c["W"]
+        if ext is not None:
+            body[1, 1] += e[3:6]
+            if ext.shape[-1] == 9:
+                body[1, 0] += e[6:9]
+        body[2, 0] += f_cyl
+        body[2:4] -= f[2:4]
+        mC = c["k_bar_rot"] * logs[:, None, 6]
+        body[3, 1, :, 0] -= mC[:, 0]
+        body[3, 1, :, 1] += mC[:, 1]
+
+        return np.ascontiguousarray(res.transpose(2, 1, 0)).reshape(lead + (NS,))
+
+    def _residual_by_slots(
+        self,
+        r: np.ndarray,
+        R: np.ndarray,
+        lam: np.ndarray,
+        pad: np.ndarray,
+        state: AxleState,
+        ext: np.ndarray | None = None,
+        record: list | None = None,
+        rack: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """:meth:`residual` element slot by element slot (19 load slots, every element's
+        load with its arm, summed per body): the reference path of the rows-last
+        residual, and the path of placed effects and of recorded element loads."""
         lead = r.shape[:-2]
         V = self._rotated(R)  # (..., 16, 3) rotated body-fixed vectors
         r0, r1, r2, r3 = r[..., 0, :], r[..., 1, :], r[..., 2, :], r[..., 3, :]
@@ -976,20 +1259,17 @@ class AxleSolver:
         dq = dx[..., :NQ].reshape(st.r.shape[0], 2, 4, 6)
         return AxleState(
             st.r + dq[..., :3],
-            np.matmul(expm_so3(dq[..., 3:]), st.R),
+            turned(dq[..., 3:], st.R),
             st.lam + dx[..., NQ:],
             {k: (a.copy(), b.copy()) for k, (a, b) in st.hyst.items()},
             None if st.fric is None else (st.fric[0].copy(), st.fric[1].copy()),
         )
 
     def _step_size(self, dx: np.ndarray) -> np.ndarray:
-        """Per-row size (n,) of a Newton step relative to the tolerances (< 1: converged)."""
-        d = np.abs(dx.reshape(dx.shape[0], 2, NS))
-        q = d[..., :NQ].reshape(dx.shape[0], 2, 4, 2, 3)
-        pos = q[..., 0, :].max(axis=(-1, -2, -3)) / self.xtol
-        rot = q[..., 1, :].max(axis=(-1, -2, -3)) / self.rtol
-        lam = d[..., NQ:].max(axis=(-1, -2)) / self.ltol
-        return np.maximum(np.maximum(pos, rot), lam)
+        """Per-row size (n,) of a Newton step relative to the tolerances (< 1: converged):
+        the largest of its translations over ``xtol``, rotations over ``rtol`` and
+        multipliers over ``ltol`` (NaN for a step that is not finite)."""
+        return (np.abs(dx) / _tolerances(self.xtol, self.rtol, self.ltol)).max(axis=-1)
 
     def solve(
         self,
@@ -1161,19 +1441,20 @@ class AxleSolver:
             "pad_z": pad,
             "tyre_fz": self.kt * (pad - cp[..., 2]),
         }
-        if want("toe"):
-            h = sg[:, None] * cross(s, EZ)
-            h /= np.linalg.norm(h, axis=-1, keepdims=True)
-            out["toe"] = -sg * np.arctan2(h[..., 1], h[..., 0])
+        if want("toe"):  # the wheel's heading sg (s x EZ) = sg (s_y, -s_x, 0), normalised
+            hx, hy = sg * s[..., 1], sg * -s[..., 0]
+            hn = np.sqrt(hx * hx + hy * hy)
+            out["toe"] = -sg * np.arctan2(hy / hn, hx / hn)
         if want("camber"):
             out["camber"] = -np.arcsin(np.clip(s[..., 2], -1, 1))
         top = st.r[..., 2, :]
         if want("caster", "kpi", "scrub_radius", "trail"):
             pB = wc + rotate(R1, self.kn_pts[:, :, 0])
             k = top - pB
-            k /= np.linalg.norm(k, axis=-1, keepdims=True)
+            k /= _length(k)
             out["caster"] = np.arctan2(-k[..., 0], k[..., 2])
-            out["kpi"] = np.arctan2(-sg * k[..., 1], k[..., 2])
+            if want("kpi"):
+                out["kpi"] = np.arctan2(-sg * k[..., 1], k[..., 2])
         if want("scrub_radius", "trail"):
             # steering axis meets the pad plane at g; the loaded contact point cpl is where
             # the wheel plane's downward radius meets the pad plane; scrub radius (SAE sign:
@@ -1257,6 +1538,16 @@ _COLOURED_MOVES, _COLOURED_SCATTER, _N_COLOURED = _coloured_groups()
 
 
 @functools.lru_cache(maxsize=4)
+def _tolerances(xtol: float, rtol: float, ltol: float) -> np.ndarray:
+    """The tolerance of every unknown (66,) of both sides (read-only, cached)."""
+    body = np.r_[np.full(3, xtol), np.full(3, rtol)]
+    side = np.r_[np.tile(body, 4), np.full(NL, ltol)]
+    out = np.tile(side, 2)
+    out.flags.writeable = False
+    return out
+
+
+@functools.lru_cache(maxsize=4)
 def _exp_h(h: float) -> np.ndarray:
     """Rotation matrices (3, 3, 3) by ``h`` [rad] about x, y, z (read-only, cached)."""
     out = expm_so3(h * np.eye(3))
@@ -1282,10 +1573,27 @@ def _skew(v: np.ndarray) -> np.ndarray:
     return out
 
 
+def _cross_rows_last(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Cross product of vectors (k, 3, ...) whose components run along axis 1."""
+    out = np.empty(a.shape)
+    np.subtract(a[:, 1] * b[:, 2], a[:, 2] * b[:, 1], out=out[:, 0])
+    np.subtract(a[:, 2] * b[:, 0], a[:, 0] * b[:, 2], out=out[:, 1])
+    np.subtract(a[:, 0] * b[:, 1], a[:, 1] * b[:, 0], out=out[:, 2])
+    return out
+
+
+def _length(v: np.ndarray) -> np.ndarray:
+    """Lengths (..., 1) of vectors (..., 3) (``np.linalg.norm``'s sum, in fewer calls)."""
+    x, y, z = v[..., 0:1], v[..., 1:2], v[..., 2:3]
+    return np.sqrt(x * x + y * y + z * z)
+
+
 def _down(s: np.ndarray) -> np.ndarray:
-    """Unit vector in the wheel plane pointing down (towards the contact point)."""
-    d = dot(s, EZ)[..., None] * s - EZ
-    return d / np.sqrt((d * d).sum(-1, keepdims=True))
+    """Unit vector in the wheel plane pointing down (towards the contact point):
+    ``(s . EZ) s - EZ``, normalised."""
+    d = s[..., 2:3] * s
+    d[..., 2] -= 1.0
+    return d / _length(d)
 
 
 __all__ = ["BODIES", "BUSHING_NAMES", "AxleSolver", "AxleState", "spin_axis"]
