@@ -26,14 +26,9 @@ def rotate(R: np.ndarray, v: np.ndarray) -> np.ndarray:
     return np.matmul(R, v[..., None])[..., 0]
 
 
-def expm_so3(w: np.ndarray) -> np.ndarray:
-    """Rotation matrices (..., 3, 3) of rotation vectors ``w`` (..., 3) (Rodrigues).
-
-    ``R = cos(t) I + sin(t)/t [w]x + (1 - cos(t))/t^2 w w^T`` with ``t = |w|`` (series
-    in ``t^2`` below ``t = 1e-6`` rad).
-    """
-    w = np.asarray(w, dtype=float)
-    th2 = (w * w).sum(-1)
+def _rodrigues_coefficients(th2: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``sin(t)/t``, ``(1 - cos(t))/t^2`` and ``cos(t)`` of rotation angles ``t`` given as
+    ``th2 = t^2`` [rad^2] (series in ``t^2`` below ``t = 1e-6`` rad)."""
     small = th2 < 1e-12
     if small.any():
         th = np.sqrt(np.where(small, 1.0, th2))
@@ -43,7 +38,18 @@ def expm_so3(w: np.ndarray) -> np.ndarray:
         th = np.sqrt(th2)
         A = np.sin(th) / th
         B = (1.0 - np.cos(th)) / (th * th)
-    C = 1.0 - B * th2  # = cos(t)
+    return A, B, 1.0 - B * th2
+
+
+def expm_so3(w: np.ndarray) -> np.ndarray:
+    """Rotation matrices (..., 3, 3) of rotation vectors ``w`` (..., 3) (Rodrigues).
+
+    ``R = cos(t) I + sin(t)/t [w]x + (1 - cos(t))/t^2 w w^T`` with ``t = |w|`` (series
+    in ``t^2`` below ``t = 1e-6`` rad).
+    """
+    w = np.asarray(w, dtype=float)
+    th2 = (w * w).sum(-1)
+    A, B, C = _rodrigues_coefficients(th2)
     x, y, z = w[..., 0], w[..., 1], w[..., 2]
     Ax, Ay, Az = A * x, A * y, A * z
     Bx = B * x
@@ -89,16 +95,7 @@ ROWS_LAST = True
 def expm_rows_last(w: np.ndarray) -> np.ndarray:
     """:func:`expm_so3` of rotation vectors ``w`` (3, ...): matrices (3, 3, ...)."""
     th2 = w[0] * w[0] + w[1] * w[1] + w[2] * w[2]
-    small = th2 < 1e-12
-    if small.any():
-        th = np.sqrt(np.where(small, 1.0, th2))
-        A = np.where(small, 1.0 - th2 / 6.0, np.sin(th) / th)
-        B = np.where(small, 0.5 - th2 / 24.0, (1.0 - np.cos(th)) / (th * th))
-    else:
-        th = np.sqrt(th2)
-        A = np.sin(th) / th
-        B = (1.0 - np.cos(th)) / (th * th)
-    C = 1.0 - B * th2  # = cos(t)
+    A, B, C = _rodrigues_coefficients(th2)
     Aw = A * w
     Bw = B * w
     R = Bw[:, None] * w[None, :]  # B w w^T
