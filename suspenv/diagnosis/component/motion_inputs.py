@@ -92,12 +92,8 @@ class MotionCheck:
         worst_mismatch: the largest such share over the velocity and acceleration
             channels (0 when neither is recorded).
         version: the version of the motion these recordings hold (:func:`conditioned`).
-        noisy: white noise was found on the displacement (:func:`noise_variance`).
-        difference: the largest RMS difference between a recorded rate channel and the
-            displacement's derivative of the same order (both low-passed alike), as a
-            share of the derivative's RMS (0 without rate channels).
         derivative_noise: the largest RMS noise the displacement's white noise leaves on
-            those derivatives (:func:`derivative_noise`), as the same share.
+            its derivatives (:func:`derivative_noise`), as a share of their RMS.
     """
 
     recording: str
@@ -107,8 +103,6 @@ class MotionCheck:
     mismatch: float | None
     worst_mismatch: float
     version: str
-    noisy: bool = False
-    difference: float = 0.0
     derivative_noise: float = 0.0
 
     def words(self) -> list[str]:
@@ -278,7 +272,7 @@ def conditioned(
         for _ in rest:
             derived.append(derivative(derived[-1], fs))
         gain = lag = mismatch = None
-        worst = difference = noise = 0.0
+        worst = noise = 0.0
         s2 = noise_variance(x, fs)
         for k, (key, d) in enumerate(zip((vk, *rest), derived, strict=True)):
             if key not in rec.inputs:
@@ -290,14 +284,9 @@ def conditioned(
                 gain, lag, mismatch = g, tau, mis
             rms = float(np.sqrt(np.mean(d**2))) or 1.0
             worst = max(worst, mis)
-            spread = float(np.sqrt(np.mean((recorded - d)[8:-8] ** 2)))
-            difference = max(difference, spread / rms)
             noise = max(noise, derivative_noise(s2, fs, fc, k + 1) / rms)
             inputs[key] = d if version == "displacement" else recorded
-        noisy = not _negligible(s2, x)
-        check = MotionCheck(
-            str(rec.name), fc, gain, lag, mismatch, worst, version, noisy, difference, noise
-        )
+        check = MotionCheck(str(rec.name), fc, gain, lag, mismatch, worst, version, noise)
         checks.append(check)
         if version == "band" and fc is None:
             out.append(rec)  # nothing to remove: the recording as it was
