@@ -193,7 +193,7 @@ def test_preferred_version_keeps_consistent_rates_and_replaces_filtered_ones():
     from suspenv.diagnosis.component.motion_inputs import MotionCheck, preferred_version
 
     def check(mismatch: float, noise: float) -> MotionCheck:
-        return MotionCheck("r", None, 0.0, 0.0, mismatch, mismatch, "band", noise)
+        return MotionCheck("r", None, 0.0, 0.0, mismatch, mismatch, noise)
 
     assert preferred_version([check(1e-4, 0.05)]) == "band"  # noise alone does not decide
     assert preferred_version([check(0.01, 0.002)]) == "displacement"

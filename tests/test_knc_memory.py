@@ -16,12 +16,12 @@ import tracemalloc
 
 import numpy as np
 import pytest
+from knc_checks import off_equilibrium
 
 import suspenv.models.mcpherson.solver as solver_module
 import suspenv.rigs.knc as rig_module
 from suspenv.metrics.knc import _objectives_one_by_one, objectives
 from suspenv.models.mcpherson import AxleSolver, build_axle, reference_design
-from suspenv.models.mcpherson.solver import NS
 from suspenv.problems.kc_identification import KCIdentification
 from suspenv.rigs.knc import run_tests
 
@@ -33,20 +33,10 @@ def X():
     return np.vstack([reference_design(), problem.space.to_physical(rng.random((2, 49)))])
 
 
-def _off_equilibrium(solver: AxleSolver, seed: int = 5):
-    st, conv, _ = solver.solve(solver.initial_state(), solver.pad_static)
-    assert conv.all()
-    rng = np.random.default_rng(seed)
-    st = solver._apply(st, rng.normal(scale=1e-3, size=(solver.n, 2 * NS)), conv)
-    ext = rng.normal(scale=300.0, size=(solver.n, 2, 9))
-    rack = rng.normal(scale=2e-3, size=(solver.n, 2))
-    return st, solver.pad_static + 0.01, ext, rack
-
-
 @pytest.mark.parametrize("per", [1, 5, 12])
 def test_jacobian_in_perturbation_blocks_is_the_one_call_jacobian(X, per, monkeypatch):
     solver = AxleSolver(build_axle(X[:1]))  # one row: the block size of a single candidate
-    st, pad, ext, rack = _off_equilibrium(solver)
+    st, pad, ext, rack = off_equilibrium(solver, 5)
     monkeypatch.setattr(solver_module, "JACOBIAN_PERTURBATIONS", 1 << 30)
     whole = solver.jacobian(st, pad, ext, rack=rack)
     monkeypatch.setattr(solver_module, "JACOBIAN_PERTURBATIONS", per)
@@ -61,7 +51,7 @@ def test_rows_of_one_design_share_its_arrays(X):
     assert again.n == 3 and again._vec.strides[0] == 0
     # reference: the solver of the design repeated, every array a copy of its own
     ref = AxleSolver(build_axle(X[[1, 1, 1, 1]]))
-    st, pad, ext, rack = _off_equilibrium(ref)
+    st, pad, ext, rack = off_equilibrium(ref, 5)
     for solver in (rows, ref):
         solver.stats = {"solves": 0, "residuals": 0, "jacobians": 0}
     res = rows.residual(st.r, st.R, st.lam, pad, st, ext, rack=rack)

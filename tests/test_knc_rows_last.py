@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from knc_checks import channel_tolerance, off_equilibrium
 
 import suspenv.models.mcpherson.rotation as rotation_module
 import suspenv.models.mcpherson.solver as solver_module
@@ -27,14 +28,8 @@ from suspenv.models.mcpherson.rotation import (
     relative_log,
     turned,
 )
-from suspenv.models.mcpherson.solver import NS
 from suspenv.problems.kc_identification import KCIdentification
 from suspenv.rigs.knc import TESTS, run_tests
-
-#: solver tolerances (AxleSolver defaults) with the force margin of test_knc_speed_paths
-XTOL, RTOL, FTOL = 1e-6, 1e-5, 1.0
-LENGTH = ("wheel_centre", "contact", "scrub_radius", "trail", "spring_length", "pad_z")
-FORCE = ("tyre_fz", "spring_force")
 
 
 @pytest.fixture(scope="module")
@@ -42,16 +37,6 @@ def X():
     rng = np.random.default_rng(41)
     problem = KCIdentification()
     return np.vstack([reference_design(), problem.space.to_physical(rng.random((3, 49)))])
-
-
-def _off_equilibrium(solver: AxleSolver, seed: int = 6):
-    st, conv, _ = solver.solve(solver.initial_state(), solver.pad_static)
-    assert conv.all()
-    rng = np.random.default_rng(seed)
-    st = solver._apply(st, rng.normal(scale=1e-3, size=(solver.n, 2 * NS)), conv)
-    ext = rng.normal(scale=300.0, size=(solver.n, 2, 9))
-    rack = rng.normal(scale=2e-3, size=(solver.n, 2))
-    return st, solver.pad_static + 0.01, ext, rack
 
 
 def _assert_same_residual(fast: np.ndarray, ref: np.ndarray) -> None:
@@ -66,7 +51,7 @@ def test_rows_last_residual_is_the_slot_residual(X, frames):
     orientation = {"lca_front": (10.0, 35.0, -20.0), "top_mount": (0.0, 15.0, 5.0)}
     solver = AxleSolver(build_axle(X, None, None, orientation if frames else None))
     assert (solver._Q is not None) == frames
-    st, pad, ext, rack = _off_equilibrium(solver)
+    st, pad, ext, rack = off_equilibrium(solver, 6)
     for e, q in ((None, None), (ext[..., :6], None), (ext, rack)):
         fast = solver.residual(st.r, st.R, st.lam, pad, st, e, rack=q)
         ref = solver._residual_by_slots(st.r, st.R, st.lam, pad, st, e, rack=q)
@@ -83,7 +68,7 @@ def test_rows_last_residual_of_taken_rows(X):
     # a taken solver's arrays (rows of one design shared, rows of several copied), after
     # the parent has made its rows-last arrays: the taken rows' own
     solver = AxleSolver(build_axle(X))
-    st, pad, ext, rack = _off_equilibrium(solver)
+    st, pad, ext, rack = off_equilibrium(solver, 6)
     solver.residual(st.r, st.R, st.lam, pad, st)  # the parent's rows-last arrays made
     for rows in (np.zeros(4, int), np.array([3, 1, 1, 0, 2])):
         sub, sst = solver.take(rows, axle=False), st.take(rows)
@@ -97,7 +82,7 @@ def test_rows_last_residual_of_taken_rows(X):
 def test_effects_and_records_take_the_slot_residual(X, monkeypatch):
     axle = build_axle(X[:2])
     cubic = AxleSolver(axle, [axle_effect("cubic_stiffness", "lower_arm", ratio=0.5)])
-    st, pad, ext, rack = _off_equilibrium(cubic)
+    st, pad, ext, rack = off_equilibrium(cubic, 6)
     calls = []
     monkeypatch.setattr(AxleSolver, "_residual_rows_last", lambda *a, **k: calls.append(1) or 1 / 0)
     cubic.residual(st.r, st.R, st.lam, pad, st, ext, rack=rack)
@@ -124,14 +109,6 @@ def test_rows_last_rotations_are_the_stacked_products():
     assert np.allclose(turned(w, A), np.matmul(expm_so3(w), A), rtol=0, atol=1e-15)
 
 
-def _tol(name: str) -> float:
-    if name.startswith(LENGTH):
-        return XTOL
-    if name.startswith(FORCE):
-        return FTOL
-    return RTOL  # angles [rad]
-
-
 def test_run_and_objectives_match_the_reference_arithmetic(X, monkeypatch):
     # reference: the slot residual and the stacked rotation products (both switches off)
     problem = KCIdentification()
@@ -146,7 +123,7 @@ def test_run_and_objectives_match_the_reference_arithmetic(X, monkeypatch):
         assert np.array_equal(fast[t].ok, ref[t].ok) and ref[t].ok.all()
         for name, v in ref[t].channels.items():
             err = np.abs(fast[t].channels[name] - v).max()
-            assert err <= _tol(name), (t, name, err)
+            assert err <= channel_tolerance(name), (t, name, err)
     assert ok_ref.all() and np.array_equal(ok_fast, ok_ref)
     # objectives [deg, mm, N, deg/mm ...]: the states agree far inside the tolerance
     # (about 1e-10 here), and so do the fitted objectives

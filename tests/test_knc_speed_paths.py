@@ -13,25 +13,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from knc_checks import RTOL, channel_tolerance
 
 from suspenv.metrics.knc import _objectives_one_by_one, objectives
 from suspenv.models.mcpherson import AxleSolver, axle_effect, build_axle, reference_design
 from suspenv.problems.kc_identification import KCIdentification
 from suspenv.rigs.knc import TESTS, run_tests
-
-#: solver tolerances (AxleSolver defaults): 1e-6 m, 1e-5 rad, 0.1 N (and a constraint
-#: force acts on the tyre force through the stiff links, so forces get a margin)
-XTOL, RTOL, FTOL = 1e-6, 1e-5, 1.0
-LENGTH = ("wheel_centre", "contact", "scrub_radius", "trail", "spring_length", "pad_z")
-FORCE = ("tyre_fz", "spring_force")
-
-
-def _tol(name: str) -> float:
-    if name.startswith(LENGTH):
-        return XTOL
-    if name.startswith(FORCE):
-        return FTOL
-    return RTOL  # angles [rad]
 
 
 @pytest.fixture(scope="module")
@@ -63,7 +50,7 @@ def test_reused_return_leg_equals_the_full_solve(axles, effects):
         assert ok.any()
         for name, v in full[t].channels.items():
             err = np.abs(fast[t].channels[name][ok] - v[ok]).max()
-            assert err <= _tol(name), (t, name, err)
+            assert err <= channel_tolerance(name), (t, name, err)
     # a path-independent model closes its loop: both branches agree to tolerance
     r = fast["parallel"]
     gap = np.abs(r.branch("toe", "up") - r.branch("toe", "down"))[r.ok].max()

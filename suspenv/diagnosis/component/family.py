@@ -40,6 +40,7 @@ from suspenv.diagnosis.component.motion import cycle_index, motion, split
 from suspenv.diagnosis.component.motion_inputs import (
     choice_words,
     conditioned,
+    motion_versions,
     preferred_version,
 )
 from suspenv.diagnosis.component.refit import current_effects, refit_with
@@ -383,35 +384,31 @@ class ComponentFamily(OptionalSteps):
         version whose baseline fit leaves the smaller residual where it cannot tell)."""
         channels = model.input_channels
         source = rig.velocity_source
-        first = "band" if source == "auto" else source
-        conditioned_recs, checks = conditioned(recs, channels, first)
+        if source == "channel":
+            self.motion_version = "channel"
+            return recs, held_recs
+        versions, checks = motion_versions(recs, channels)
         self.rig_notes += [w for c in checks for w in c.words()]
-        version = first
-        if source == "auto":
-            version = preferred_version(checks) or ""
-            if not version:  # the displacement's noise could not be separated: fit both
-                both = ("band", "displacement")
-                candidates = {v: conditioned(recs, channels, v)[0] for v in both}
-                rms: dict[str, float] = {}
-                for name, cand in candidates.items():
-                    sp = split(cand, held if held_recs is None else held_recs)
-                    fitted: Any = model  # a component model fits Recordings (the protocol's R)
-                    base = fit(fitted, sp.fit_recordings, sp.fit_masks, max_nfev=self.budget)
-                    rms[name] = base.rms()[model.output_channels[0]]
-                version = min(rms, key=lambda k: rms[k])
-                unit = model.channel_units.get(model.output_channels[0], "")
-                self.rig_notes.append(choice_words(checks, rms, unit))
-            elif version == "displacement":
-                self.rig_notes.append(
-                    "the velocity (and acceleration) used are the derivatives of the "
-                    'displacement (declare velocity_source = "channel" to keep the channels)'
-                )
+        version = source if source != "auto" else preferred_version(checks) or ""
+        if not version:  # the displacement's noise could not be separated: fit both
+            rms: dict[str, float] = {}
+            for name, cand in versions.items():
+                sp = split(cand, held if held_recs is None else held_recs)
+                fitted: Any = model  # a component model fits Recordings (the protocol's R)
+                base = fit(fitted, sp.fit_recordings, sp.fit_masks, max_nfev=self.budget)
+                rms[name] = base.rms()[model.output_channels[0]]
+            version = min(rms, key=lambda k: rms[k])
+            unit = model.channel_units.get(model.output_channels[0], "")
+            self.rig_notes.append(choice_words(checks, rms, unit))
+        elif source == "auto" and version == "displacement":
+            self.rig_notes.append(
+                "the velocity (and acceleration) used are the derivatives of the "
+                'displacement (declare velocity_source = "channel" to keep the channels)'
+            )
         self.motion_version = version
-        if version != first:
-            conditioned_recs = conditioned(recs, channels, version)[0]
         if held_recs is not None:
             held_recs = conditioned(held_recs, channels, version)[0]
-        return conditioned_recs, held_recs
+        return versions[version], held_recs
 
     def fit_baseline(self, setup: Setup) -> FitResult:
         sp = setup.split

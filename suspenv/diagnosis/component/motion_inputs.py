@@ -91,7 +91,6 @@ class MotionCheck:
             derivative, as a share of its RMS (None: no velocity channel).
         worst_mismatch: the largest such share over the velocity and acceleration
             channels (0 when neither is recorded).
-        version: the version of the motion these recordings hold (:func:`conditioned`).
         derivative_noise: the largest RMS noise the displacement's white noise leaves on
             its derivatives (:func:`derivative_noise`), as a share of their RMS.
     """
@@ -102,7 +101,6 @@ class MotionCheck:
     lag_s: float | None
     mismatch: float | None
     worst_mismatch: float
-    version: str
     derivative_noise: float = 0.0
 
     def words(self) -> list[str]:
@@ -171,12 +169,13 @@ def _negligible(s2: float, x: np.ndarray) -> bool:
     return not s2 > (NEGLIGIBLE_NOISE * float(np.std(x))) ** 2
 
 
-def motion_cutoff(x: np.ndarray, fs: float) -> float | None:
+def motion_cutoff(x: np.ndarray, fs: float, s2: float | None = None) -> float | None:
     """The low-pass cut-off [Hz] that removes white noise and nothing of the motion, or
-    None when no cut-off removes noise alone (clean data, or a broadband motion)."""
+    None when no cut-off removes noise alone (clean data, or a broadband motion);
+    ``s2``: :func:`noise_variance` of ``x`` when already known."""
     x = np.asarray(x, float)
     nyq = 0.5 * fs
-    s2 = noise_variance(x, fs)
+    s2 = noise_variance(x, fs) if s2 is None else s2
     if _negligible(s2, x):
         return None
     chosen = None
@@ -230,6 +229,61 @@ def compare_velocity(
     return float(coef[0]), float(-coef[1]), float(np.sqrt(np.mean(dynamic**2))) / rms_v
 
 
+def motion_versions(
+    recordings: Sequence[RecordingLike], channels: Sequence[str]
+) -> tuple[dict[str, list[RecordingLike]], list[MotionCheck]]:
+    """Both processed versions of the recordings' motion (:func:`conditioned`),
+    ``{"band": [...], "displacement": [...]}``, and the checks, each recording's noise,
+    cut-off and derivatives found once. ``channels``: the model's motion inputs in order
+    (displacement, velocity[, acceleration]), e.g. ``("displacement", "velocity")``."""
+    versions: dict[str, list[RecordingLike]] = {"band": [], "displacement": []}
+    checks: list[MotionCheck] = []
+    if len(channels) < 2:
+        return {v: list(recordings) for v in versions}, checks
+    xk, vk, *rest = channels
+    for rec in recordings:
+        fs = _sampling(np.asarray(rec.time, float))
+        if fs is None or xk not in rec.inputs:
+            for kept in versions.values():
+                kept.append(rec)
+            continue
+        x = np.asarray(rec.inputs[xk], float)
+        s2 = noise_variance(x, fs)
+        fc = motion_cutoff(x, fs, s2)
+        rate, cut = fs, fc
+
+        def band(y: np.ndarray, rate: float = rate, cut: float | None = cut) -> np.ndarray:
+            return y if cut is None else lowpass(y, rate, cut)
+
+        band_inputs = dict(rec.inputs)
+        band_inputs[xk] = band(x)
+        derived_inputs = dict(band_inputs)
+        d = band_inputs[xk]
+        gain = lag = mismatch = None
+        worst = noise = 0.0
+        added = False
+        for k, key in enumerate((vk, *rest)):
+            d = derivative(d, fs)
+            derived_inputs[key] = d
+            if key not in rec.inputs:
+                band_inputs[key], added = d, True
+                continue
+            recorded = band(np.asarray(rec.inputs[key], float))
+            g, tau, mis = compare_velocity(recorded, d, fs)
+            if k == 0:
+                gain, lag, mismatch = g, tau, mis
+            rms = float(np.sqrt(np.mean(d**2))) or 1.0
+            worst = max(worst, mis)
+            noise = max(noise, derivative_noise(s2, fs, fc, k + 1) / rms)
+            band_inputs[key] = recorded
+        checks.append(MotionCheck(str(rec.name), fc, gain, lag, mismatch, worst, noise))
+        # nothing to remove and nothing added: the recording as it was
+        clean = fc is None and not added
+        versions["band"].append(rec if clean else replace(rec, inputs=band_inputs))  # type: ignore[type-var]
+        versions["displacement"].append(replace(rec, inputs=derived_inputs))  # type: ignore[type-var]
+    return versions, checks
+
+
 def conditioned(
     recordings: Sequence[RecordingLike],
     channels: Sequence[str],
@@ -245,54 +299,14 @@ def conditioned(
     velocity and acceleration its derivatives. The checks compare the recorded velocity
     (and acceleration) with the derivatives, for every version but ``"channel"``. A
     recording that is not uniformly sampled, lacks the displacement, or (``"band"``)
-    holds clean, consistent channels is returned as it was.
+    holds clean channels with every rate recorded is returned as it was.
     """
     if version not in MOTION_VERSIONS:
         raise ValidationError(f"`version in {MOTION_VERSIONS}` must hold, but got {version!r}")
-    if version == "channel" or len(channels) < 2:
+    if version == "channel":
         return list(recordings), []
-    xk, vk, *rest = channels
-    out: list[RecordingLike] = []
-    checks: list[MotionCheck] = []
-    for rec in recordings:
-        fs = _sampling(np.asarray(rec.time, float))
-        if fs is None or xk not in rec.inputs:
-            out.append(rec)
-            continue
-        x = np.asarray(rec.inputs[xk], float)
-        fc = motion_cutoff(x, fs)
-        rate, cut = fs, fc
-
-        def band(y: np.ndarray, rate: float = rate, cut: float | None = cut) -> np.ndarray:
-            return y if cut is None else lowpass(y, rate, cut)
-
-        inputs = dict(rec.inputs)
-        inputs[xk] = band(x)
-        derived = [derivative(inputs[xk], fs)]
-        for _ in rest:
-            derived.append(derivative(derived[-1], fs))
-        gain = lag = mismatch = None
-        worst = noise = 0.0
-        s2 = noise_variance(x, fs)
-        for k, (key, d) in enumerate(zip((vk, *rest), derived, strict=True)):
-            if key not in rec.inputs:
-                inputs[key] = d
-                continue
-            recorded = band(np.asarray(rec.inputs[key], float))
-            g, tau, mis = compare_velocity(recorded, d, fs)
-            if k == 0:
-                gain, lag, mismatch = g, tau, mis
-            rms = float(np.sqrt(np.mean(d**2))) or 1.0
-            worst = max(worst, mis)
-            noise = max(noise, derivative_noise(s2, fs, fc, k + 1) / rms)
-            inputs[key] = d if version == "displacement" else recorded
-        check = MotionCheck(str(rec.name), fc, gain, lag, mismatch, worst, version, noise)
-        checks.append(check)
-        if version == "band" and fc is None:
-            out.append(rec)  # nothing to remove: the recording as it was
-        else:
-            out.append(replace(rec, inputs=inputs))  # type: ignore[type-var]
-    return out, checks
+    versions, checks = motion_versions(recordings, channels)
+    return versions[version], checks
 
 
 def derivative_noise(s2: float, fs: float, fc: float | None, order: int) -> float:

@@ -66,19 +66,24 @@ _SKEW_PLUS = np.array([7, 2, 3])
 _SKEW_MINUS = np.array([5, 6, 1])
 
 
+def _log_factor(s: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """``t / (2 sin(t))`` of rotation angles ``t = atan2(s, c)`` from ``s = sin(t)`` and
+    ``c = cos(t)``, the factor from the skew part ``vee`` to the rotation vector (series
+    in ``t^2`` below ``sin(t) = 1e-8``)."""
+    th = np.arctan2(s, c)
+    small = s < 1e-8
+    if small.any():
+        return np.where(small, 0.5 + th * th / 12.0, th / (2.0 * np.where(small, 1.0, s)))
+    return th / (2.0 * s)
+
+
 def log_so3(R: np.ndarray) -> np.ndarray:
     """Rotation vectors (..., 3) of rotation matrices (angles below pi)."""
     flat = R.reshape(R.shape[:-2] + (9,))
     vee = flat[..., _SKEW_PLUS] - flat[..., _SKEW_MINUS]
     s = 0.5 * np.sqrt((vee * vee).sum(-1))
     c = 0.5 * (flat[..., 0] + flat[..., 4] + flat[..., 8] - 1.0)
-    th = np.arctan2(s, c)
-    small = s < 1e-8
-    if small.any():
-        f = np.where(small, 0.5 + th * th / 12.0, th / (2.0 * np.where(small, 1.0, s)))
-    else:
-        f = th / (2.0 * s)
-    return f[..., None] * vee
+    return _log_factor(s, c)[..., None] * vee
 
 
 # ------------------------------------------------------- rows last (components first)
@@ -119,13 +124,7 @@ def log_rows_last(R: np.ndarray) -> np.ndarray:
     np.subtract(R[1, 0], R[0, 1], out=vee[2])
     s = 0.5 * np.sqrt((vee * vee).sum(axis=0))
     c = 0.5 * (R[0, 0] + R[1, 1] + R[2, 2] - 1.0)
-    th = np.arctan2(s, c)
-    small = s < 1e-8
-    if small.any():
-        f = np.where(small, 0.5 + th * th / 12.0, th / (2.0 * np.where(small, 1.0, s)))
-    else:
-        f = th / (2.0 * s)
-    vee *= f
+    vee *= _log_factor(s, c)
     return vee
 
 

@@ -1,0 +1,37 @@
+"""Shared pieces of the K&C solver tests: the solver's tolerances per channel and a
+state away from equilibrium (so that residual comparisons are not of zeros)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from suspenv.models.mcpherson import AxleSolver
+from suspenv.models.mcpherson.solver import NS
+
+#: solver tolerances (AxleSolver defaults): 1e-6 m, 1e-5 rad, 0.1 N (and a constraint
+#: force acts on the tyre force through the stiff links, so forces get a margin)
+XTOL, RTOL, FTOL = 1e-6, 1e-5, 1.0
+LENGTH = ("wheel_centre", "contact", "scrub_radius", "trail", "spring_length", "pad_z")
+FORCE = ("tyre_fz", "spring_force")
+
+
+def channel_tolerance(name: str) -> float:
+    """The solver's tolerance for rig channel ``name`` (m, N or rad)."""
+    if name.startswith(LENGTH):
+        return XTOL
+    if name.startswith(FORCE):
+        return FTOL
+    return RTOL  # angles [rad]
+
+
+def off_equilibrium(solver: AxleSolver, seed: int):
+    """A converged static state moved off equilibrium by 1 mm / 1 mrad noise, with random
+    wheel loads (n, 2, 9) [N, N*m], rack travel (n, 2) [m] and pads 10 mm up:
+    (state, pad, ext, rack)."""
+    st, conv, _ = solver.solve(solver.initial_state(), solver.pad_static)
+    assert conv.all()
+    rng = np.random.default_rng(seed)
+    st = solver._apply(st, rng.normal(scale=1e-3, size=(solver.n, 2 * NS)), conv)
+    ext = rng.normal(scale=300.0, size=(solver.n, 2, 9))
+    rack = rng.normal(scale=2e-3, size=(solver.n, 2))
+    return st, solver.pad_static + 0.01, ext, rack
