@@ -21,8 +21,11 @@ Internal element states advance with their exact solution along the step (Dahl: 
 exponential approach over the deflection increment, which keeps it rate
 independent; Maxwell: the first-order lag with a linear velocity).
 
-For one parameter set the loop runs in plain Python floats (no array overhead per
-sample); a batch of parameter sets runs row by row.
+For one parameter set the loop runs compiled (:mod:`.rig_kernel`, the same formulas in
+the same order) when every element kind has a compiled law, else in plain Python floats
+(no array overhead per sample; :data:`COMPILED` False, or ``compiled=False``, keeps the
+Python loop: the reference the compiled one is tested against); a batch of parameter
+sets runs row by row.
 """
 
 from __future__ import annotations
@@ -35,12 +38,16 @@ import numpy as np
 from scipy.linalg import expm
 
 from suspenv.core.errors import EvaluationError
+from suspenv.models.components import rig_kernel
 from suspenv.models.effects import Effect
 from suspenv.models.effects.pointwise import FLOAT_STATELESS, STATELESS
 
 #: force kinds with an exact (or implicit) step of their internal state (others use the
 #: RK4 scheme)
 EXACT_STATEFUL = ("dahl_hysteresis", "maxwell_viscoelastic", "lugre_friction")
+
+#: run the loop compiled (:mod:`.rig_kernel`) where it can; False: the Python loop
+COMPILED = True
 
 
 def supports(effects: Sequence[Effect]) -> bool:
@@ -233,6 +240,7 @@ def integrate(
     tol: float = 1e-7,
     max_iter: int = 8,
     actuator: np.ndarray | None = None,
+    compiled: bool | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Body acceleration [m/s^2] and suspension deflection [m] at the samples ``t``.
 
@@ -241,9 +249,16 @@ def integrate(
     linear between samples). Starts at rest on ``road[0]`` (static equilibrium). The
     element force is solved to ``tol * (1 + |F|)`` [N] per step. ``actuator`` [N] (one
     value per sample, linear between samples): a known force between body and wheel,
-    positive pushing them apart (it adds to the suspension force).
+    positive pushing them apart (it adds to the suspension force). ``compiled``: the
+    compiled loop (None: :data:`COMPILED`, where every element kind has a compiled law).
     """
     k_s, c_s, k_t = float(base["k_s"]), float(base["c_s"]), float(base["k_t"])
+    if (COMPILED if compiled is None else compiled) and all(
+        e.kind in rig_kernel.compiled_kinds() for e in effects
+    ):
+        return _integrate_compiled(
+            m_s, m_u, (k_s, c_s, k_t), effects, t, road, nsub, tol, max_iter, actuator
+        )
     element_force = _sum_of([_element_law(e) for e in effects if e.kind in STATELESS])
     act_l = None if actuator is None else np.asarray(actuator, float).tolist()
     fa_end = 0.0 if act_l is None else act_l[0]
@@ -333,6 +348,53 @@ def integrate(
             )
         acc[k + 1] = (k_s * x0 + c_s * v0 + fe) / m_s
         defl[k + 1] = x0
+    return acc, defl
+
+
+def _integrate_compiled(
+    m_s: float,
+    m_u: float,
+    base: tuple[float, float, float],
+    effects: Sequence[Effect],
+    t: np.ndarray,
+    road: np.ndarray,
+    nsub: int,
+    tol: float,
+    max_iter: int,
+    actuator: np.ndarray | None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`integrate` by the compiled loop: the step matrices of every distinct step
+    length (keyed as the Python loop keys them), then one call of :func:`rig_kernel.run`."""
+    k_s, c_s, k_t = base
+    dts = np.diff(np.asarray(t, float))
+    uniform = bool(np.all(np.abs(dts - dts[0]) <= 1e-9 * abs(dts[0])))
+    h_of_step = np.full(dts.size, dts[0] / nsub) if uniform else dts / nsub
+    keys: dict[float, int] = {}
+    mat_of_step = np.empty(dts.size, np.int64)
+    mats: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
+    for k, h in enumerate(h_of_step[:1] if uniform else h_of_step):
+        key = round(float(h), 15)
+        if key not in keys:
+            keys[key] = len(mats)
+            mats.append(step_matrices(m_s, m_u, k_s, c_s, k_t, float(h)))
+        mat_of_step[k] = keys[key]
+    if uniform:
+        mat_of_step[:] = 0
+    phis, g0s, g1s = (np.ascontiguousarray(np.stack([m[i] for m in mats])) for i in range(3))
+    law_codes, law_par, st_codes, st_par = rig_kernel.pack(effects)
+    act = np.zeros(1) if actuator is None else np.ascontiguousarray(actuator, float)
+    acc = np.empty(t.size)
+    defl = np.empty(t.size)
+    failed = rig_kernel.run(
+        phis, g0s, g1s, mat_of_step, h_of_step, int(nsub),
+        np.ascontiguousarray(road, float), act, actuator is not None,
+        law_codes, law_par, st_codes, st_par,
+        k_s, c_s, float(m_s), float(tol), int(max_iter), acc, defl,
+    )  # fmt: skip
+    if failed >= 0:
+        raise EvaluationError(
+            f"quarter_car_rig: simulation diverged at t={t[failed + 1]:.4g} s (sub-steps {nsub})"
+        )
     return acc, defl
 
 

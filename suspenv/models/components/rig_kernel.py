@@ -1,0 +1,402 @@
+"""Compiled loop of the quarter-car rig integrator (numba), the same scheme as the Python loop.
+
+:func:`suspenv.models.components.rig_integrator.integrate` advances the exact linear
+step and solves the implicit element force sample by sample in plain Python floats
+(about 10 us per sample). This module runs the same loop compiled: the same formulas in
+the same order of operations (the element laws of
+:func:`~suspenv.models.components.rig_integrator._element_law`, the state steppers
+``_Dahl``, ``_LuGre`` and ``_Maxwell``, the chord-then-secant root search), so its
+outputs agree with the Python loop to rounding (``tests/test_rig_kernel.py`` compares the
+two for every element kind). Frames, units and signs are those of
+:mod:`suspenv.models.components.rig_integrator`.
+
+Elements are passed as codes with their parameters in rows of a float array
+(:func:`pack`); an element kind without a code here keeps the Python loop
+(:func:`compiled_kinds`). Without numba (an unusual platform), :data:`AVAILABLE` is
+False and the Python loop runs.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import math
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+
+from suspenv.models.effects import Effect
+
+#: numba is there: the compiled loop can run (imported and compiled at the first call,
+#: so that importing suspenv does not pay for it)
+AVAILABLE = importlib.util.find_spec("numba") is not None
+
+#: stateless element kind -> (code, parameters packed from the effect's parameters)
+LAW_CODES: dict[str, int] = {
+    "coulomb_friction": 0,
+    "stribeck_friction": 1,
+    "directional_friction": 2,
+    "bump_stop": 3,
+    "rebound_stop": 4,
+    "cubic_stiffness": 5,
+    "progressive_stiffness": 6,
+    "damper_asymmetry": 7,
+    "digressive_damping": 8,
+    "gas_spring": 9,
+    "force_offset": 10,
+    "asymmetric_digressive_damping": 11,
+    "kelvin_voigt": 12,
+}
+#: stateful element kind -> code (the exact state steps of the Python loop)
+STATE_CODES: dict[str, int] = {"dahl_hysteresis": 0, "maxwell_viscoelastic": 1, "lugre_friction": 2}
+N_PAR = 5  # parameter slots per element
+
+
+def compiled_kinds() -> tuple[str, ...]:
+    """Element kinds the compiled loop runs (empty without numba)."""
+    return (*LAW_CODES, *STATE_CODES) if AVAILABLE else ()
+
+
+def _law_params(e: Effect) -> list[float]:
+    """The parameters of a stateless element as the Python loop binds them (reciprocals
+    of widths included, so the products are the same)."""
+    p = {k: float(v) for k, v in e.params.items()}
+    kind = e.kind
+    if kind == "coulomb_friction":
+        return [p["f_c"], 1.0 / p["v_eps"]]
+    if kind == "stribeck_friction":
+        return [p["f_c"], p["f_s"] - p["f_c"], 1.0 / p["v_eps"], 1.0 / p["v_s"]]
+    if kind == "directional_friction":
+        return [0.5 * (p["f_pos"] + p["f_neg"]), 0.5 * (p["f_pos"] - p["f_neg"]), 1.0 / p["v_eps"]]
+    if kind in ("bump_stop", "rebound_stop"):
+        return [p["k_stop"], p["gap"], p["p"]]
+    if kind == "cubic_stiffness":
+        return [p["k3"]]
+    if kind == "progressive_stiffness":
+        return [p["k_p"], p["x0"]]
+    if kind == "damper_asymmetry":
+        return [p["dc_rebound"]]
+    if kind == "digressive_damping":
+        return [p["c_low"], 1.0 / p["v_knee"]]
+    if kind == "gas_spring":
+        return [p["f_0"], p["k_gas"]]
+    if kind == "force_offset":
+        return [p["offset"]]
+    if kind == "asymmetric_digressive_damping":
+        return [p["c_bump"], p["v_knee_bump"], p["c_rebound"], p["v_knee_rebound"]]
+    if kind == "kelvin_voigt":
+        return [p["k"], p["c"]]
+    raise KeyError(kind)
+
+
+def _state_params(e: Effect) -> list[float]:
+    """The parameters of a stateful element as the Python steppers hold them."""
+    p = {k: float(v) for k, v in e.params.items()}
+    if e.kind == "dahl_hysteresis":
+        return [p["f_c"], p["sigma"] / p["f_c"] if p["f_c"] > 0.0 else 0.0]
+    if e.kind == "maxwell_viscoelastic":
+        return [p["k_m"], p["c_m"] / p["k_m"]]
+    if e.kind == "lugre_friction":
+        return [p["sigma0"], p["sigma1"], p["f_c"], p["f_s"] - p["f_c"], 1 / p["v_s"]]
+    raise KeyError(e.kind)
+
+
+def pack(effects: Sequence[Effect]) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(law codes (L,), law parameters (L, 5), state codes (S,), state parameters (S, 5))
+    of ``effects`` in their order (stateless and stateful kept apart, as the Python loop
+    sums them)."""
+    laws = [e for e in effects if e.kind in LAW_CODES]
+    states = [e for e in effects if e.kind in STATE_CODES]
+    law_par = np.zeros((len(laws), N_PAR))
+    for i, e in enumerate(laws):
+        vals = _law_params(e)
+        law_par[i, : len(vals)] = vals
+    st_par = np.zeros((len(states), N_PAR))
+    for i, e in enumerate(states):
+        vals = _state_params(e)
+        st_par[i, : len(vals)] = vals
+    return (
+        np.array([LAW_CODES[e.kind] for e in laws], np.int64),
+        law_par,
+        np.array([STATE_CODES[e.kind] for e in states], np.int64),
+        st_par,
+    )
+
+
+def _law(code: int, p: np.ndarray, x: float, v: float) -> float:
+    """Force [N] of one stateless element (the formulas of ``_element_law``)."""
+    if code == 0:
+        return p[0] * math.tanh(v * p[1])
+    if code == 1:
+        return (p[0] + p[1] * math.exp(-((v * p[3]) ** 2))) * math.tanh(v * p[2])
+    if code == 2:
+        return p[0] * math.tanh(v * p[2]) + p[1] * abs(math.tanh(v * p[2]))
+    if code == 3:
+        return p[0] * (x - p[1]) ** p[2] if x > p[1] else 0.0
+    if code == 4:
+        return -p[0] * (-x - p[1]) ** p[2] if -x > p[1] else 0.0
+    if code == 5:
+        return p[0] * x * x * x
+    if code == 6:
+        if abs(x) > p[1]:
+            return (p[0] if x > 0.0 else -p[0]) * (abs(x) - p[1]) ** 2
+        return 0.0
+    if code == 7:
+        return p[0] * v if v < 0.0 else 0.0
+    if code == 8:
+        return p[0] * v / (1.0 + abs(v) * p[1])
+    if code == 9:
+        return p[0] + p[1] * x
+    if code == 10:
+        return p[0]
+    if code == 11:
+        if v >= 0.0:
+            return p[0] * v / (1.0 + v / p[1])
+        return p[2] * v / (1.0 - v / p[3])
+    return p[0] * x + p[1] * v  # 12: kelvin_voigt
+
+
+def _stateless(codes: np.ndarray, par: np.ndarray, x: float, v: float, fa: float) -> float:
+    """Sum of the stateless elements' forces [N] plus the actuator force ``fa``."""
+    total = 0.0
+    if codes.size:
+        total = _law(codes[0], par[0], x, v)
+        for i in range(1, codes.size):
+            total += _law(codes[i], par[i], x, v)
+    return total + fa
+
+
+def _lugre_level(p: np.ndarray, v: float) -> float:
+    g = p[2] + p[3] * math.exp(-((v * p[4]) ** 2))
+    return g if g > 1e-12 else 1e-12
+
+
+def _state_step(
+    code: int, p: np.ndarray, mx: np.ndarray, z0: float, x0: float, x1: float, v0: float, v1: float
+) -> float:
+    """The state of one stateful element at the end of the step (``mx``: the Maxwell
+    coefficients of the step's length: decay, a, b)."""
+    dx = x1 - x0
+    if code == 0:  # Dahl
+        f_c, rate = p[0], p[1]
+        if rate == 0.0:
+            return 0.0
+        if dx > 0.0:
+            return f_c + (z0 - f_c) * math.exp(-rate * dx)
+        if dx < 0.0:
+            return -f_c + (z0 + f_c) * math.exp(rate * dx)
+        return z0
+    if code == 1:  # Maxwell
+        return mx[0] * z0 + mx[1] * v0 + mx[2] * (v1 - v0)
+    s0 = p[0]  # LuGre
+    g = _lugre_level(p, v1)
+    zss = g / s0
+    if dx > 0.0:
+        return zss + (z0 - zss) * math.exp(-s0 * dx / g)
+    if dx < 0.0:
+        return -zss + (z0 + zss) * math.exp(s0 * dx / g)
+    return z0
+
+
+def _states_residual(
+    f: float,
+    law_codes: np.ndarray,
+    law_par: np.ndarray,
+    st_codes: np.ndarray,
+    st_par: np.ndarray,
+    mx: np.ndarray,
+    z0: np.ndarray,
+    z_out: np.ndarray,
+    x0: float,
+    v0: float,
+    xk: float,
+    vk: float,
+    gx: float,
+    gv: float,
+    fa: float,
+) -> float:
+    """``F - f(x(F), v(F), z(F))`` with the element states written to ``z_out``."""
+    x, v = xk + gx * f, vk + gv * f
+    S = st_codes.size
+    for i in range(S):
+        z_out[i] = _state_step(st_codes[i], st_par[i], mx[i], z0[i], x0, x, v0, v)
+    if S == 1 and st_codes[0] != 2:  # one state that is the element force itself
+        return f - _stateless(law_codes, law_par, x, v, fa) - z_out[0]
+    total = _stateless(law_codes, law_par, x, v, fa)
+    for i in range(S):
+        if st_codes[i] == 2:
+            p = st_par[i]
+            total += p[0] * z_out[i] + p[1] * (v - p[0] * abs(v) * z_out[i] / _lugre_level(p, v))
+        else:
+            total += z_out[i]
+    return f - total
+
+
+def _maxwell_coefficients(st_codes: np.ndarray, st_par: np.ndarray, h: float, mx: np.ndarray):
+    for i in range(st_codes.size):
+        if st_codes[i] == 1:
+            k_m, tau = st_par[i, 0], st_par[i, 1]
+            decay = math.exp(-h / tau)
+            mx[i, 0] = decay
+            mx[i, 1] = k_m * tau * (1.0 - decay)
+            mx[i, 2] = k_m * (tau - tau * tau * (1.0 - decay) / h)
+
+
+def _run(
+    phis: np.ndarray,
+    g0s: np.ndarray,
+    g1s: np.ndarray,
+    mat_of_step: np.ndarray,
+    h_of_step: np.ndarray,
+    nsub: int,
+    road: np.ndarray,
+    act: np.ndarray,
+    has_act: bool,
+    law_codes: np.ndarray,
+    law_par: np.ndarray,
+    st_codes: np.ndarray,
+    st_par: np.ndarray,
+    k_s: float,
+    c_s: float,
+    m_s: float,
+    tol: float,
+    max_iter: int,
+    acc: np.ndarray,
+    defl: np.ndarray,
+) -> int:
+    """The loop of ``rig_integrator.integrate``; writes ``acc`` and ``defl`` (T,) and
+    returns -1, or the sample interval ``k`` after which the state is not finite."""
+    T = road.size
+    S = st_codes.size
+    has_effects = law_codes.size > 0 or S > 0 or has_act
+    fa_end = act[0] if has_act else 0.0
+    zs, vs, zu, vu = road[0], 0.0, road[0], 0.0
+    z = np.zeros(S)
+    z_a = np.zeros(S)
+    z_b = np.zeros(S)
+    mx = np.zeros((max(S, 1), 3))
+    x0, v0 = 0.0, 0.0
+    fe = _stateless(law_codes, law_par, 0.0, 0.0, fa_end)
+    acc[0] = fe / m_s
+    defl[0] = 0.0
+    slope = 1.0
+    f_prev = fe
+    last_mat = -1
+    last_h = -1.0
+    p = phis[0]
+    a = g0s[0]
+    b = g1s[0]
+    gx, gv = 0.0, 0.0
+    for k in range(T - 1):
+        mi = mat_of_step[k]
+        if mi != last_mat:
+            p, a, b = phis[mi], g0s[mi], g1s[mi]
+            gx, gv = b[2, 1] - b[0, 1], b[3, 1] - b[1, 1]
+            last_mat = mi
+        h = h_of_step[k]
+        if h != last_h:
+            _maxwell_coefficients(st_codes, st_par, h, mx)
+            last_h = h
+        ra, dr = road[k], (road[k + 1] - road[k]) / nsub
+        for j in range(nsub):
+            r_start, r_end = ra + dr * j, ra + dr * (j + 1)
+            if has_act:
+                fa_end = act[k] + (act[k + 1] - act[k]) * (j + 1) / nsub
+            kz_s = p[0, 0] * zs + p[0, 1] * vs + p[0, 2] * zu + p[0, 3] * vu
+            kz_s += a[0, 0] * r_start + a[0, 1] * fe + b[0, 0] * r_end
+            kv_s = p[1, 0] * zs + p[1, 1] * vs + p[1, 2] * zu + p[1, 3] * vu
+            kv_s += a[1, 0] * r_start + a[1, 1] * fe + b[1, 0] * r_end
+            kz_u = p[2, 0] * zs + p[2, 1] * vs + p[2, 2] * zu + p[2, 3] * vu
+            kz_u += a[2, 0] * r_start + a[2, 1] * fe + b[2, 0] * r_end
+            kv_u = p[3, 0] * zs + p[3, 1] * vs + p[3, 2] * zu + p[3, 3] * vu
+            kv_u += a[3, 0] * r_start + a[3, 1] * fe + b[3, 0] * r_end
+            f1 = 0.0
+            if has_effects:
+                xk, vk = kz_u - kz_s, kv_u - kv_s
+                if S:
+                    fa = fe
+                    ga = _states_residual(
+                        fa, law_codes, law_par, st_codes, st_par, mx, z, z_a,
+                        x0, v0, xk, vk, gx, gv, fa_end,
+                    )  # fmt: skip
+                    if abs(ga) <= tol * (1.0 + abs(fa)):
+                        f1 = fa
+                        z[:] = z_a
+                    else:
+                        fb = fa - ga / slope
+                        gb = _states_residual(
+                            fb, law_codes, law_par, st_codes, st_par, mx, z, z_b,
+                            x0, v0, xk, vk, gx, gv, fa_end,
+                        )  # fmt: skip
+                        for _ in range(max_iter):
+                            if abs(gb) <= tol * (1.0 + abs(fb)) or gb == ga:
+                                break
+                            fa, ga, fb = fb, gb, fb - gb * (fb - fa) / (gb - ga)
+                            gb = _states_residual(
+                                fb, law_codes, law_par, st_codes, st_par, mx, z, z_b,
+                                x0, v0, xk, vk, gx, gv, fa_end,
+                            )  # fmt: skip
+                        if fb != fa and gb != ga:
+                            slope = (gb - ga) / (fb - fa)
+                            if not slope > 0.05:
+                                slope = 1.0
+                        f1 = fb
+                        z[:] = z_b
+                else:
+                    fa = 2.0 * fe - f_prev
+                    ga = fa - _stateless(law_codes, law_par, xk + gx * fa, vk + gv * fa, fa_end)
+                    fb = fa - ga / slope
+                    gb = fb - _stateless(law_codes, law_par, xk + gx * fb, vk + gv * fb, fa_end)
+                    for _ in range(max_iter):
+                        if abs(gb) <= tol * (1.0 + abs(fb)) or gb == ga:
+                            break
+                        fa, ga, fb = fb, gb, fb - gb * (fb - fa) / (gb - ga)
+                        gb = fb - _stateless(
+                            law_codes, law_par, xk + gx * fb, vk + gv * fb, fa_end
+                        )
+                    if fb != fa and gb != ga:
+                        slope = (gb - ga) / (fb - fa)
+                        if not slope > 0.05:
+                            slope = 1.0
+                    f1 = fb
+            zs, vs = kz_s + b[0, 1] * f1, kv_s + b[1, 1] * f1
+            zu, vu = kz_u + b[2, 1] * f1, kv_u + b[3, 1] * f1
+            x0, v0, f_prev, fe = zu - zs, vu - vs, fe, f1
+        if not (math.isfinite(zs) and math.isfinite(zu) and math.isfinite(vs + vu)):
+            return k
+        acc[k + 1] = (k_s * x0 + c_s * v0 + fe) / m_s
+        defl[k + 1] = x0
+    return -1
+
+
+_compiled: Callable[..., int] | None = None
+
+
+def run(*args: Any) -> int:
+    """:func:`_run` compiled (compiled at the first call, then loaded from numba's cache:
+    about 10 s once per machine, 0.3 s per process); without numba, :func:`_run` itself."""
+    global _compiled
+    if _compiled is None:
+        _compiled = _compile() if AVAILABLE else _run
+    return _compiled(*args)
+
+
+def _compile() -> Callable[..., int]:
+    import numba
+
+    # error_model="numpy": a division by zero gives inf/nan (then "diverged"), as the
+    # Python loop's ZeroDivisionError ends the row; cache=True: compiled once per machine.
+    # The helpers are replaced by their compiled versions in this module's namespace,
+    # where the compiled loop looks them up.
+    jit = numba.njit(cache=True, error_model="numpy")
+    space = globals()
+    for name in (
+        "_law",
+        "_stateless",
+        "_lugre_level",
+        "_state_step",
+        "_states_residual",
+        "_maxwell_coefficients",
+    ):
+        space[name] = jit(space[name])
+    return jit(_run)
