@@ -18,18 +18,17 @@ False and the Python loop runs.
 
 from __future__ import annotations
 
-import importlib.util
 import math
 from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
 
+from suspenv.core import compiled
 from suspenv.models.effects import Effect
 
-#: numba is there: the compiled loop can run (imported and compiled at the first call,
-#: so that importing suspenv does not pay for it)
-AVAILABLE = importlib.util.find_spec("numba") is not None
+#: numba is there: the compiled loop can run (compiled at the first call)
+AVAILABLE = compiled.AVAILABLE
 
 #: stateless element kind -> (code, parameters packed from the effect's parameters)
 LAW_CODES: dict[str, int] = {
@@ -382,21 +381,12 @@ def run(*args: Any) -> int:
 
 
 def _compile() -> Callable[..., int]:
-    import numba
-
-    # error_model="numpy": a division by zero gives inf/nan (then "diverged"), as the
-    # Python loop's ZeroDivisionError ends the row; cache=True: compiled once per machine.
-    # The helpers are replaced by their compiled versions in this module's namespace,
-    # where the compiled loop looks them up.
-    jit = numba.njit(cache=True, error_model="numpy")
-    space = globals()
-    for name in (
+    helpers = (
         "_law",
         "_stateless",
         "_lugre_level",
         "_state_step",
         "_states_residual",
         "_maxwell_coefficients",
-    ):
-        space[name] = jit(space[name])
-    return jit(_run)
+    )
+    return compiled.compile_in(globals(), helpers, _run)

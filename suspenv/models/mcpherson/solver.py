@@ -77,6 +77,7 @@ import numpy as np
 
 from suspenv.core.errors import ValidationError
 from suspenv.models.effects import Effect, cubic_stiffness, dahl_path
+from suspenv.models.mcpherson import residual_kernel
 from suspenv.models.mcpherson.effects import (
     BUSHING_NAMES,
     MOMENT_ARM,
@@ -128,6 +129,15 @@ BUSH_SUM[list(BUSH_BODY), np.arange(4)] = 1.0
 #: order, i.e. equal to rounding; False: element slot by element slot, the reference
 #: path of the speed benchmark's baseline, and always with placed effects or a record)
 RESIDUAL_ROWS_LAST = True
+#: the residual of linear bushings computed row by row by the compiled loop
+#: (:mod:`.residual_kernel`, the same equations as the rows-last form, to rounding)
+#: where numba is installed; False: the rows-last numpy form
+RESIDUAL_COMPILED = True
+#: the offsets in ``AxleSolver._rl_pack`` that the compiled residual reads, in its order
+_KERNEL_FIELDS = (
+    "vec", "ground", "K", "Q", "tri", "L_links", "L_links_sq", "L_links_2",
+    "ks", "L_free", "Rw", "kt", "W", "k_bar_rot",
+)  # fmt: skip
 #: the sums over the loads with an arm of :meth:`AxleSolver._residual_rows_last` of
 #: each body (slots: 3 of body 0, 7 of body 1, 2 of body 2, 2 of body 3)
 LOAD_SUM = np.zeros((4, 14))
@@ -735,6 +745,8 @@ class AxleSolver:
             and r.shape[-4:-2] == (self.n, 2)
             and R.shape[:-3] == r.shape[:-2]
         ):
+            if RESIDUAL_COMPILED and residual_kernel.AVAILABLE:
+                return self._residual_compiled(r, R, lam, pad, ext, rack)
             return self._residual_rows_last(r, R, lam, pad, ext, rack)
         return self._residual_by_slots(r, R, lam, pad, state, ext, record, rack)
 
@@ -783,6 +795,56 @@ class AxleSolver:
         if rows == (self.n,):
             self._rl = out
         return out
+
+    def _residual_compiled(
+        self,
+        r: np.ndarray,
+        R: np.ndarray,
+        lam: np.ndarray,
+        pad: np.ndarray,
+        ext: np.ndarray | None,
+        rack: np.ndarray | None,
+    ) -> np.ndarray:
+        """:meth:`_residual_rows_last` by the compiled row loop
+        (:func:`.residual_kernel.residual`); the inputs flattened to rows (those given per
+        design row are read as such, others broadcast)."""
+        lead = r.shape[:-2]  # (..., n, 2)
+        rows = lead[:-1]
+        M = math.prod(rows)
+        self._rows_last_consts((self.n,))  # makes the pack (once)
+        assert self._rl_pack is not None
+        off = np.full(len(_KERNEL_FIELDS), -1, np.int64)
+        where = {name: a for name, a, _, _ in self._rl_layout}
+        for i, name in enumerate(_KERNEL_FIELDS):
+            off[i] = where.get(name, -1)
+
+        def rows_of(a: np.ndarray | None, tail: int) -> np.ndarray:
+            """``a`` (..., 2, *tail) as (rows or design rows, 2, *tail), or empty."""
+            if a is None:
+                return np.empty((0, 2) + (1,) * tail)
+            a = np.asarray(a, float)
+            head = a.shape[: a.ndim - 1 - tail]
+            shape = a.shape[a.ndim - 1 - tail :]
+            if head not in (rows, (self.n,)):
+                a = np.broadcast_to(a, lead + shape[1:])
+                head = rows
+            return np.ascontiguousarray(a.reshape((math.prod(head),) + shape))
+
+        out = np.empty((M, 2, NS))
+        residual_kernel.residual(
+            np.ascontiguousarray(r.reshape(M, 2, 4, 3)),
+            np.ascontiguousarray(R.reshape(M, 2, 4, 3, 3)),
+            rows_of(lam, 1),
+            rows_of(pad, 0),
+            rows_of(ext, 1),
+            rows_of(rack, 0),
+            np.ascontiguousarray(self._rl_pack),
+            off,
+            float(self.k_bar_shear),
+            CSCALE,
+            out,
+        )
+        return out.reshape(lead + (NS,))
 
     def _residual_rows_last(
         self,

@@ -1,0 +1,274 @@
+"""Compiled residual of the compliant axle with linear bushings, row by row (numba).
+
+The same equations as :meth:`~suspenv.models.mcpherson.solver.AxleSolver._residual_rows_last`
+(which stays the reference: ``tests/test_knc_residual_kernel.py`` compares the two, and
+the slot-by-slot residual, at random states): for every row and side, the body-fixed
+vectors rotated, the bushing deflections and loads (through the bushing frames when
+oriented), the tie rod, drop link and spring, the constraints times ``CSCALE``, the tyre
+on the pad, the loads with their arms summed body by body, and the anti-roll bar's
+halves joined at its middle. Frames, units and signs are the solver's (vehicle axes,
+x forward, y left, z up; SI; rotation vectors in radians). The numbers agree with the
+rows-last residual to rounding (sums taken in another order).
+
+One row needs a few hundred floating-point operations, so the numpy forms are
+overhead-bound for the few rows of a single design; compiled, a row costs about a
+microsecond.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from suspenv.core import compiled
+
+#: numba is there: the compiled residual can run (compiled at the first call)
+AVAILABLE = compiled.AVAILABLE
+
+#: body of each rotated body-fixed vector (as ``solver.VEC_BODY``)
+_VEC_BODY = np.array([0, 0, 0, 1, 1, 1, 1, 1, 1, 1, 1, 1, 2, 2, 3, 3], np.int64)
+#: the bodies whose rotation deflects a bushing: lower arm (both bushings), strut rod,
+#: bar half (as ``solver.BUSH_BODY``)
+_BUSH_BODY = np.array([0, 0, 2, 3], np.int64)
+#: the body whose load sum each of the 14 loads with an arm enters (``solver.LOAD_SUM``)
+_LOAD_BODY = np.array([0, 0, 0, 1, 1, 1, 1, 1, 1, 1, 2, 2, 3, 3], np.int64)
+
+
+def _log(R: np.ndarray, out: np.ndarray) -> None:
+    """Rotation vector [rad] of the rotation matrix ``R`` (3, 3) into ``out`` (3,)
+    (``rotation.log_so3``: the skew part times ``t / (2 sin t)``, series below
+    ``sin t = 1e-8``)."""
+    v0 = R[2, 1] - R[1, 2]
+    v1 = R[0, 2] - R[2, 0]
+    v2 = R[1, 0] - R[0, 1]
+    s = 0.5 * math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
+    c = 0.5 * (R[0, 0] + R[1, 1] + R[2, 2] - 1.0)
+    th = math.atan2(s, c)
+    f = 0.5 + th * th / 12.0 if s < 1e-8 else th / (2.0 * s)
+    out[0], out[1], out[2] = v0 * f, v1 * f, v2 * f
+
+
+def _cross_add(a: np.ndarray, b: np.ndarray, out: np.ndarray) -> None:
+    """``out += a x b`` for vectors (3,)."""
+    out[0] += a[1] * b[2] - a[2] * b[1]
+    out[1] += a[2] * b[0] - a[0] * b[2]
+    out[2] += a[0] * b[1] - a[1] * b[0]
+
+
+def _residual(
+    r: np.ndarray,
+    R: np.ndarray,
+    lam: np.ndarray,
+    pad: np.ndarray,
+    ext: np.ndarray,
+    rack: np.ndarray,
+    pack: np.ndarray,
+    off: np.ndarray,
+    k_bar_shear: float,
+    cscale: float,
+    out: np.ndarray,
+) -> None:
+    """Residual rows into ``out`` (M, 2, 33).
+
+    ``r`` (M, 2, 4, 3) [m], ``R`` (M, 2, 4, 3, 3): positions and rotations of the four
+    bodies of both sides; ``lam`` (L, 2, 9), ``pad`` (P, 2) [m], ``ext`` (E, 2, 6|9)
+    [N, N*m] (E = 0: none), ``rack`` (K, 2) [m] (K = 0: none): row ``m`` reads entry
+    ``m % L`` (and so on), as broadcasting over leading axes ending in the design rows
+    does. ``pack`` (K, 2, n): the solver's per-design arrays
+    (``AxleSolver._rl_pack``), row ``m`` reading design row ``m % n``; ``off``: the
+    offsets of vec, ground, K, Q (-1: isotropic bushings), tri, L_links, L_links_sq,
+    L_links_2, ks, L_free, Rw, kt, W, k_bar_rot in it.
+    """
+    M = r.shape[0]
+    n = pack.shape[2]
+    o_vec, o_gr, o_K, o_Q, o_tri = off[0], off[1], off[2], off[3], off[4]
+    o_L, o_Lsq, o_L2, o_ks, o_Lf = off[5], off[6], off[7], off[8], off[9]
+    o_Rw, o_kt, o_W, o_kbr = off[10], off[11], off[12], off[13]
+    n_ext = ext.shape[2] if ext.shape[0] else 0
+    V = np.empty((2, 16, 3))
+    phi = np.empty((2, 3, 3))  # rotation vectors of bodies 0, 2, 3 per side
+    rho = np.empty(3)  # rotation vector of the bar halves' relative rotation
+    Rbar = np.empty((3, 3))
+    x = np.empty((4, 2, 3))
+    f = np.empty((2, 4, 2, 3))  # bushing loads per side: (bushing, force/moment, xyz)
+    xb = np.empty(3)
+    F = np.empty((14, 3))
+    arm = np.empty((14, 3))
+    D = np.empty((3, 3))
+    k = np.empty(3)
+    dC = np.empty(3)
+    for m in range(M):
+        d = m % n
+        lm = lam[m % lam.shape[0]]
+        for s in range(2):
+            for i in range(16):
+                b = _VEC_BODY[i]
+                w0 = pack[o_vec + 3 * i, s, d]
+                w1 = pack[o_vec + 3 * i + 1, s, d]
+                w2 = pack[o_vec + 3 * i + 2, s, d]
+                Rb = R[m, s, b]
+                for a in range(3):
+                    V[s, i, a] = Rb[a, 0] * w0 + Rb[a, 1] * w1 + Rb[a, 2] * w2
+            _log(R[m, s, 0], phi[s, 0])
+            _log(R[m, s, 2], phi[s, 1])
+            _log(R[m, s, 3], phi[s, 2])
+        for i in range(3):
+            for j in range(3):
+                Rbar[i, j] = (
+                    R[m, 0, 3, i, 0] * R[m, 1, 3, j, 0]
+                    + R[m, 0, 3, i, 1] * R[m, 1, 3, j, 1]
+                    + R[m, 0, 3, i, 2] * R[m, 1, 3, j, 2]
+                )
+        _log(Rbar, rho)
+        for a in range(3):  # the bar halves' middle points apart (side 0 minus side 1)
+            dC[a] = r[m, 0, 3, a] + V[0, 15, a] - r[m, 1, 3, a] - V[1, 15, a]
+
+        for s in range(2):
+            res = out[m, s]
+            rr = r[m, s]
+            Vs = V[s]
+            ls = lm[s]
+            # bushings: deflection (translation of the bushing point, rotation vector)
+            for a in range(3):
+                x[0, 0, a] = rr[0, a] + Vs[0, a] - pack[o_gr + a, s, d]
+                x[1, 0, a] = rr[0, a] + Vs[1, a] - pack[o_gr + 3 + a, s, d]
+                x[2, 0, a] = rr[2, a] - pack[o_gr + 6 + a, s, d]
+                x[3, 0, a] = rr[3, a] - pack[o_gr + 9 + a, s, d]
+                x[0, 1, a] = phi[s, 0, a]
+                x[1, 1, a] = phi[s, 0, a]
+                x[2, 1, a] = phi[s, 1, a]
+                x[3, 1, a] = phi[s, 2, a]
+            fs = f[s]
+            for bb in range(4):
+                for t in range(2):
+                    if o_Q < 0:
+                        for a in range(3):
+                            fs[bb, t, a] = pack[o_K + 6 * bb + 3 * t + a, s, d] * x[bb, t, a]
+                    else:  # Q (K (Q^T x)) with the bushing frame Q
+                        q = o_Q + 9 * bb
+                        for a in range(3):
+                            xb[a] = (
+                                pack[q + a, s, d] * x[bb, t, 0]
+                                + pack[q + 3 + a, s, d] * x[bb, t, 1]
+                                + pack[q + 6 + a, s, d] * x[bb, t, 2]
+                            ) * pack[o_K + 6 * bb + 3 * t + a, s, d]
+                        for a in range(3):
+                            fs[bb, t, a] = (
+                                pack[q + 3 * a, s, d] * xb[0]
+                                + pack[q + 3 * a + 1, s, d] * xb[1]
+                                + pack[q + 3 * a + 2, s, d] * xb[2]
+                            )
+            # tie rod (from the rack point), drop link, spring
+            for a in range(3):
+                D[0, a] = rr[1, a] + Vs[4, a] - pack[o_tri + a, s, d]
+                D[1, a] = rr[1, a] + Vs[5, a] - (rr[3, a] + Vs[14, a])
+                D[2, a] = rr[1, a] + Vs[6, a] - (rr[2, a] + Vs[12, a])
+            if rack.shape[0]:
+                D[0, 1] -= rack[m % rack.shape[0], s]
+            DD0 = D[0, 0] * D[0, 0] + D[0, 1] * D[0, 1] + D[0, 2] * D[0, 2]
+            DD1 = D[1, 0] * D[1, 0] + D[1, 1] * D[1, 1] + D[1, 2] * D[1, 2]
+            DD2 = D[2, 0] * D[2, 0] + D[2, 1] * D[2, 1] + D[2, 2] * D[2, 2]
+            k[0] = ls[7] / pack[o_L, s, d]
+            k[1] = ls[8] / pack[o_L + 1, s, d]
+            L = math.sqrt(DD2)
+            k[2] = pack[o_ks, s, d] * (pack[o_Lf, s, d] - L) / L
+
+            # constraints (times CSCALE): ball joint, cylindrical joint, link lengths
+            for a in range(3):
+                res[24 + a] = (rr[0, a] + Vs[2, a] - rr[1, a] - Vs[3, a]) * cscale
+            c3 = c4 = c5 = c6 = 0.0
+            for a in range(3):
+                off_a = rr[2, a] - rr[1, a] - Vs[7, a]
+                c3 += Vs[13, a] * Vs[8, a]
+                c4 += Vs[13, a] * Vs[9, a]
+                c5 += off_a * Vs[8, a]
+                c6 += off_a * Vs[9, a]
+            res[27], res[28], res[29], res[30] = c3 * cscale, c4 * cscale, c5 * cscale, c6 * cscale
+            res[31] = (DD0 - pack[o_Lsq, s, d]) / pack[o_L2, s, d] * cscale
+            res[32] = (DD1 - pack[o_Lsq + 1, s, d]) / pack[o_L2 + 1, s, d] * cscale
+
+            # tyre on the pad at the contact point (the wheel plane's downward radius)
+            sz = Vs[11, 2]
+            d0, d1, d2 = Vs[11, 0] * sz, Vs[11, 1] * sz, Vs[11, 2] * sz - 1.0
+            scale = pack[o_Rw, s, d] / math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+            d0, d1, d2 = d0 * scale, d1 * scale, d2 * scale
+            fz = pack[o_kt, s, d] * (pad[m % pad.shape[0], s] - rr[1, 2] - d2)
+
+            # loads with an arm (LOAD_SUM order): bushings 0-1, ball joint on the arm and
+            # the knuckle, tie rod, drop link, spring on the knuckle, cylindrical joint
+            # force on the knuckle, tyre, the joint's moment pair, spring and drop link
+            # on the rod and bar, the bar's shear at its middle
+            for a in range(3):
+                u_a, v_a = Vs[8, a], Vs[9, a]
+                F[0, a] = -fs[0, 0, a]
+                F[1, a] = -fs[1, 0, a]
+                F[2, a] = ls[a]
+                F[3, a] = -ls[a]
+                F[4, a] = k[0] * D[0, a]
+                F[5, a] = k[1] * D[1, a]
+                F[6, a] = k[2] * D[2, a]
+                F[7, a] = -(ls[5] * u_a + ls[6] * v_a)
+                F[8, a] = 0.0
+                F[10, a] = ls[3] * u_a + ls[4] * v_a
+                F[9, a] = -F[10, a]
+                F[11, a] = -F[6, a]
+                F[12, a] = -F[5, a]
+                F[13, a] = -k_bar_shear * dC[a] if s == 0 else k_bar_shear * dC[a]
+                for i in range(7):
+                    arm[i, a] = Vs[i, a]
+                arm[7, a] = rr[2, a] - rr[1, a]
+                arm[9, a] = Vs[13, a]
+                arm[10, a] = Vs[13, a]
+                arm[11, a] = Vs[12, a]
+                arm[12, a] = Vs[14, a]
+                arm[13, a] = Vs[15, a]
+            arm[8, 0], arm[8, 1], arm[8, 2] = d0, d1, d2
+            F[8, 2] = fz
+            if n_ext:
+                e = ext[m % ext.shape[0], s]
+                for a in range(3):
+                    F[8, a] += e[a]
+            for i in range(24):
+                res[i] = 0.0
+            for j in range(14):
+                bj = 6 * _LOAD_BODY[j]
+                for a in range(3):
+                    res[bj + a] += F[j, a]
+                mom = res[bj + 3 : bj + 6]
+                _cross_add(arm[j], F[j], mom)
+            # forces and moments at the reference points: the cylindrical joint's moment
+            # pair is no force, bushing moments, wheel weight, wheel-centre force, the
+            # joint force on the rod, bar twist
+            for a in range(3):
+                res[6 + a] += F[10, a]
+                res[12 + a] -= F[10, a]
+                res[3 + a] -= fs[0, 1, a] + fs[1, 1, a]
+                res[12 + a] -= F[7, a]  # + f_cyl: the rod takes the joint force
+                res[12 + a] -= fs[2, 0, a]
+                res[15 + a] -= fs[2, 1, a]
+                res[18 + a] -= fs[3, 0, a]
+                res[21 + a] -= fs[3, 1, a]
+                mc = pack[o_kbr + a, s, d] * rho[a]
+                res[21 + a] += -mc if s == 0 else mc
+            res[8] -= pack[o_W, s, d]
+            if n_ext:
+                e = ext[m % ext.shape[0], s]
+                for a in range(3):
+                    res[9 + a] += e[3 + a]
+                if n_ext == 9:
+                    for a in range(3):
+                        res[6 + a] += e[6 + a]
+
+
+_compiled: Callable[..., None] | None = None
+
+
+def residual(*args: Any) -> None:
+    """:func:`_residual`, compiled at the first call (then loaded from numba's cache)."""
+    global _compiled
+    if _compiled is None:
+        _compiled = compiled.compile_in(globals(), ("_log", "_cross_add"), _residual)
+    _compiled(*args)
