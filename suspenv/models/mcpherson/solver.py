@@ -830,6 +830,11 @@ class AxleSolver:
                 head = rows
             return np.ascontiguousarray(a.reshape((math.prod(head),) + shape))
 
+        pack = self._rl_pack
+        if pack.strides[-1] == 0:  # the rows of one design: its arrays once (m % 1 = 0)
+            pack = pack[..., :1]
+        if not (pack.flags.c_contiguous and pack.flags.writeable):  # one compiled type
+            pack = np.array(pack, order="C")
         out = np.empty((M, 2, NS))
         residual_kernel.residual(
             np.ascontiguousarray(r.reshape(M, 2, 4, 3)),
@@ -838,7 +843,7 @@ class AxleSolver:
             rows_of(pad, 0),
             rows_of(ext, 1),
             rows_of(rack, 0),
-            np.ascontiguousarray(self._rl_pack),
+            pack,
             off,
             float(self.k_bar_shear),
             CSCALE,
