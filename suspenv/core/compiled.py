@@ -27,6 +27,7 @@ def compile_in(space: dict[str, Any], helpers: Sequence[str], main: Callable) ->
     import numba
 
     jit = numba.njit(cache=True, error_model="numpy")
-    for name in helpers:
-        space[name] = jit(space[name])
+    for name in helpers:  # (a helper another module compiled already stays as it is)
+        f = space[name]
+        space[name] = f if hasattr(f, "py_func") else jit(f)
     return jit(main)

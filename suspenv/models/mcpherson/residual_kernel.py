@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from suspenv.core import compiled
+from suspenv.models.mcpherson.rotation_kernel import _log
 
 #: numba is there: the compiled residual can run (compiled at the first call)
 AVAILABLE = compiled.AVAILABLE
@@ -35,20 +36,6 @@ _VEC_BODY = np.array([0, 0, 0, 1, 1, 1, 1, 1, 1, 1, 1, 1, 2, 2, 3, 3], np.int64)
 _BUSH_BODY = np.array([0, 0, 2, 3], np.int64)
 #: the body whose load sum each of the 14 loads with an arm enters (``solver.LOAD_SUM``)
 _LOAD_BODY = np.array([0, 0, 0, 1, 1, 1, 1, 1, 1, 1, 2, 2, 3, 3], np.int64)
-
-
-def _log(R: np.ndarray, out: np.ndarray) -> None:
-    """Rotation vector [rad] of the rotation matrix ``R`` (3, 3) into ``out`` (3,)
-    (``rotation.log_so3``: the skew part times ``t / (2 sin t)``, series below
-    ``sin t = 1e-8``)."""
-    v0 = R[2, 1] - R[1, 2]
-    v1 = R[0, 2] - R[2, 0]
-    v2 = R[1, 0] - R[0, 1]
-    s = 0.5 * math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
-    c = 0.5 * (R[0, 0] + R[1, 1] + R[2, 2] - 1.0)
-    th = math.atan2(s, c)
-    f = 0.5 + th * th / 12.0 if s < 1e-8 else th / (2.0 * s)
-    out[0], out[1], out[2] = v0 * f, v1 * f, v2 * f
 
 
 def _cross_add(a: np.ndarray, b: np.ndarray, out: np.ndarray) -> None:

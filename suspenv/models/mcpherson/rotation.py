@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from suspenv.models.mcpherson import rotation_kernel
+
 
 def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Cross product over the last axis (broadcasting; quicker than np.cross for small arrays)."""
@@ -95,6 +97,9 @@ def log_so3(R: np.ndarray) -> np.ndarray:
 #: to rounding; False: stacked matrix products, the reference path of the speed
 #: benchmark's baseline)
 ROWS_LAST = True
+#: :func:`relative_log` and :func:`turned` run compiled loops (:mod:`.rotation_kernel`,
+#: the same formulas matrix by matrix) where numba is installed; False: the numpy forms
+COMPILED = True
 
 
 def expm_rows_last(w: np.ndarray) -> np.ndarray:
@@ -138,6 +143,8 @@ def relative_log(A: np.ndarray, B: np.ndarray) -> np.ndarray:
     the same shape (``log_so3(A @ swapaxes(B))``, computed with the rows last)."""
     if not ROWS_LAST:
         return log_so3(np.matmul(A, np.swapaxes(B, -1, -2)))
+    if COMPILED and rotation_kernel.AVAILABLE:
+        return rotation_kernel.relative_log(A, B)
     a, b = _rows_last(A), _rows_last(B)
     ab = a[:, None, 0] * b[None, :, 0]  # (A B^T)_ij = sum_k A_ik B_jk
     ab += a[:, None, 1] * b[None, :, 1]
@@ -150,6 +157,8 @@ def turned(w: np.ndarray, R: np.ndarray) -> np.ndarray:
     ``R`` (..., 3, 3) of the same leading shape (computed with the rows last)."""
     if not ROWS_LAST:
         return np.matmul(expm_so3(w), R)
+    if COMPILED and rotation_kernel.AVAILABLE:
+        return rotation_kernel.turned(w, R)
     E = expm_rows_last(np.ascontiguousarray(w.reshape(-1, 3).T))
     Rl = _rows_last(R)
     out = E[:, 0, None] * Rl[0]  # sum_k E_ik R_kj

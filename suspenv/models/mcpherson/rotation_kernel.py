@@ -1,0 +1,105 @@
+"""Compiled loops of the rotation updates (numba): ``expm(w) R`` and ``log(A B^T)`` row by row.
+
+The same formulas as :func:`~suspenv.models.mcpherson.rotation.expm_so3` (Rodrigues,
+series in ``t^2`` below ``t = 1e-6`` rad) and
+:func:`~suspenv.models.mcpherson.rotation.log_so3` (skew part times ``t / (2 sin t)``,
+series below ``sin t = 1e-8``), one 3 x 3 matrix at a time: the Newton updates and
+predictors of the K&C sweep turn a few rows per call, where numpy's per-call overhead
+dominates. Rotation vectors in radians; matrices map body axes to vehicle axes.
+``tests/test_knc_rows_last.py`` compares them with the stacked products.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import numpy as np
+
+from suspenv.core import compiled
+
+#: numba is there: the compiled loops can run (compiled at the first call)
+AVAILABLE = compiled.AVAILABLE
+
+
+def _log(R: np.ndarray, out: np.ndarray) -> None:
+    """Rotation vector [rad] of the rotation matrix ``R`` (3, 3) into ``out`` (3,)."""
+    v0 = R[2, 1] - R[1, 2]
+    v1 = R[0, 2] - R[2, 0]
+    v2 = R[1, 0] - R[0, 1]
+    s = 0.5 * math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
+    c = 0.5 * (R[0, 0] + R[1, 1] + R[2, 2] - 1.0)
+    th = math.atan2(s, c)
+    f = 0.5 + th * th / 12.0 if s < 1e-8 else th / (2.0 * s)
+    out[0], out[1], out[2] = v0 * f, v1 * f, v2 * f
+
+
+def _turned(w: np.ndarray, R: np.ndarray, out: np.ndarray) -> None:
+    """``expm(w[i]) @ R[i]`` into ``out[i]`` for rotation vectors ``w`` (N, 3) and
+    matrices ``R`` (N, 3, 3)."""
+    E = np.empty((3, 3))
+    for i in range(w.shape[0]):
+        x, y, z = w[i, 0], w[i, 1], w[i, 2]
+        th2 = x * x + y * y + z * z
+        if th2 < 1e-12:
+            A = 1.0 - th2 / 6.0
+            B = 0.5 - th2 / 24.0
+        else:
+            th = math.sqrt(th2)
+            A = math.sin(th) / th
+            B = (1.0 - math.cos(th)) / (th * th)
+        C = 1.0 - B * th2
+        Bx = B * x
+        Bxy, Bxz, Byz = Bx * y, Bx * z, B * y * z
+        E[0, 0], E[0, 1], E[0, 2] = C + Bx * x, Bxy - A * z, Bxz + A * y
+        E[1, 0], E[1, 1], E[1, 2] = Bxy + A * z, C + B * y * y, Byz - A * x
+        E[2, 0], E[2, 1], E[2, 2] = Bxz - A * y, Byz + A * x, C + B * z * z
+        for a in range(3):
+            for b in range(3):
+                out[i, a, b] = E[a, 0] * R[i, 0, b] + E[a, 1] * R[i, 1, b] + E[a, 2] * R[i, 2, b]
+
+
+def _relative_log(A: np.ndarray, B: np.ndarray, out: np.ndarray) -> None:
+    """Rotation vectors of ``A[i] @ B[i]^T`` into ``out[i]`` (N, 3)."""
+    M = np.empty((3, 3))
+    for i in range(A.shape[0]):
+        Ai, Bi = A[i], B[i]
+        for a in range(3):
+            for b in range(3):
+                M[a, b] = Ai[a, 0] * Bi[b, 0] + Ai[a, 1] * Bi[b, 1] + Ai[a, 2] * Bi[b, 2]
+        _log(M, out[i])
+
+
+_loops: dict[str, Callable[..., None]] = {}
+
+
+def _loop(name: str) -> Callable[..., None]:
+    if not _loops:
+        _loops["turned"] = compiled.compile_in(globals(), (), _turned)
+        _loops["relative_log"] = compiled.compile_in(globals(), ("_log",), _relative_log)
+    return _loops[name]
+
+
+def turned(w: np.ndarray, R: np.ndarray) -> np.ndarray:
+    """``expm_so3(w) @ R`` (..., 3, 3) for rotation vectors (..., 3), compiled."""
+    out = np.empty(R.shape)
+    _loop("turned")(
+        np.ascontiguousarray(w, float).reshape(-1, 3),
+        np.ascontiguousarray(R, float).reshape(-1, 3, 3),
+        out.reshape(-1, 3, 3),
+    )
+    return out
+
+
+def relative_log(A: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """Rotation vectors (..., 3) of ``A @ B^T`` for matrices (..., 3, 3), compiled."""
+    out = np.empty(A.shape[:-1])
+    _loop("relative_log")(
+        np.ascontiguousarray(A, float).reshape(-1, 3, 3),
+        np.ascontiguousarray(B, float).reshape(-1, 3, 3),
+        out.reshape(-1, 3),
+    )
+    return out
+
+
+__all__ = ["AVAILABLE", "relative_log", "turned"]
