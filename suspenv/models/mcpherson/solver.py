@@ -133,6 +133,8 @@ RESIDUAL_ROWS_LAST = True
 #: (:mod:`.residual_kernel`, the same equations as the rows-last form, to rounding)
 #: where numba is installed; False: the rows-last numpy form
 RESIDUAL_COMPILED = True
+#: empty stand-ins (0, 2) and (0, 2, 1) for the compiled residual's absent inputs
+_NO_ROWS = (np.empty((0, 2)), np.empty((0, 2, 1)))
 #: the offsets in ``AxleSolver._rl_pack`` that the compiled residual reads, in its order
 _KERNEL_FIELDS = (
     "vec", "ground", "K", "Q", "tri", "L_links", "L_links_sq", "L_links_2",
@@ -526,6 +528,7 @@ class AxleSolver:
         self._rl_pack: np.ndarray | None = None
         self._rl_layout: list[tuple[str, int, int, tuple[int, ...]]] = []
         self._rl: dict[str, np.ndarray] | None = None
+        self._rl_off: np.ndarray | None = None  # the compiled residual's offsets in the pack
 
     @property
     def path_dependent(self) -> bool:
@@ -811,24 +814,24 @@ class AxleSolver:
         lead = r.shape[:-2]  # (..., n, 2)
         rows = lead[:-1]
         M = math.prod(rows)
-        self._rows_last_consts((self.n,))  # makes the pack (once)
+        if self._rl_off is None:
+            self._rows_last_consts((self.n,))  # makes the pack (once)
+            where = {name: a for name, a, _, _ in self._rl_layout}
+            self._rl_off = np.array([where.get(k, -1) for k in _KERNEL_FIELDS], np.int64)
+        off = self._rl_off
         assert self._rl_pack is not None
-        off = np.full(len(_KERNEL_FIELDS), -1, np.int64)
-        where = {name: a for name, a, _, _ in self._rl_layout}
-        for i, name in enumerate(_KERNEL_FIELDS):
-            off[i] = where.get(name, -1)
+        n = self.n
 
         def rows_of(a: np.ndarray | None, tail: int) -> np.ndarray:
             """``a`` (..., 2, *tail) as (rows or design rows, 2, *tail), or empty."""
             if a is None:
-                return np.empty((0, 2) + (1,) * tail)
-            a = np.asarray(a, float)
+                return _NO_ROWS[tail]
             head = a.shape[: a.ndim - 1 - tail]
-            shape = a.shape[a.ndim - 1 - tail :]
-            if head not in (rows, (self.n,)):
-                a = np.broadcast_to(a, lead + shape[1:])
-                head = rows
-            return np.ascontiguousarray(a.reshape((math.prod(head),) + shape))
+            if head == (n,) or head == rows:
+                k = n if head == (n,) else M
+            else:
+                a, k = np.broadcast_to(a, lead + a.shape[a.ndim - tail :]), M
+            return np.ascontiguousarray(a, dtype=float).reshape((k,) + a.shape[a.ndim - 1 - tail :])
 
         pack = self._rl_pack
         if pack.strides[-1] == 0:  # the rows of one design: its arrays once (m % 1 = 0)
