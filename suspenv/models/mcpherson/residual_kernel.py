@@ -45,6 +45,202 @@ def _cross_add(a: np.ndarray, b: np.ndarray, out: np.ndarray) -> None:
     out[2] += a[0] * b[1] - a[1] * b[0]
 
 
+def _residual_row(
+    rm: np.ndarray,
+    Rm: np.ndarray,
+    ls_all: np.ndarray,
+    pad_m: np.ndarray,
+    ext_m: np.ndarray,
+    n_ext: int,
+    rack_m: np.ndarray,
+    has_rack: bool,
+    pack: np.ndarray,
+    d: int,
+    off: np.ndarray,
+    k_bar_shear: float,
+    cscale: float,
+    out: np.ndarray,
+) -> None:
+    """The residual (2, 33) of one row into ``out``: positions ``rm`` (2, 4, 3) [m] and
+    rotations ``Rm`` (2, 4, 3, 3) of both sides, multipliers ``ls_all`` (2, 9), pad
+    heights ``pad_m`` (2,) [m], wheel loads ``ext_m`` (2, 6|9) (``n_ext`` columns, 0:
+    none), rack travel ``rack_m`` (2,) [m] (``has_rack``), design row ``d`` of ``pack``."""
+    o_vec, o_gr, o_K, o_Q, o_tri = off[0], off[1], off[2], off[3], off[4]
+    o_L, o_Lsq, o_L2, o_ks, o_Lf = off[5], off[6], off[7], off[8], off[9]
+    o_Rw, o_kt, o_W, o_kbr = off[10], off[11], off[12], off[13]
+    V = np.empty((2, 16, 3))
+    phi = np.empty((2, 3, 3))  # rotation vectors of bodies 0, 2, 3 per side
+    rho = np.empty(3)  # rotation vector of the bar halves' relative rotation
+    Rbar = np.empty((3, 3))
+    x = np.empty((4, 2, 3))
+    f = np.empty((2, 4, 2, 3))  # bushing loads per side: (bushing, force/moment, xyz)
+    xb = np.empty(3)
+    F = np.empty((14, 3))
+    arm = np.empty((14, 3))
+    D = np.empty((3, 3))
+    k = np.empty(3)
+    dC = np.empty(3)
+    lm = ls_all
+    for s in range(2):
+        for i in range(16):
+            b = _VEC_BODY[i]
+            w0 = pack[o_vec + 3 * i, s, d]
+            w1 = pack[o_vec + 3 * i + 1, s, d]
+            w2 = pack[o_vec + 3 * i + 2, s, d]
+            Rb = Rm[s, b]
+            for a in range(3):
+                V[s, i, a] = Rb[a, 0] * w0 + Rb[a, 1] * w1 + Rb[a, 2] * w2
+        _log(Rm[s, 0], phi[s, 0])
+        _log(Rm[s, 2], phi[s, 1])
+        _log(Rm[s, 3], phi[s, 2])
+    for i in range(3):
+        for j in range(3):
+            Rbar[i, j] = (
+                Rm[0, 3, i, 0] * Rm[1, 3, j, 0]
+                + Rm[0, 3, i, 1] * Rm[1, 3, j, 1]
+                + Rm[0, 3, i, 2] * Rm[1, 3, j, 2]
+            )
+    _log(Rbar, rho)
+    for a in range(3):  # the bar halves' middle points apart (side 0 minus side 1)
+        dC[a] = rm[0, 3, a] + V[0, 15, a] - rm[1, 3, a] - V[1, 15, a]
+
+    for s in range(2):
+        res = out[s]
+        rr = rm[s]
+        Vs = V[s]
+        ls = lm[s]
+        # bushings: deflection (translation of the bushing point, rotation vector)
+        for a in range(3):
+            x[0, 0, a] = rr[0, a] + Vs[0, a] - pack[o_gr + a, s, d]
+            x[1, 0, a] = rr[0, a] + Vs[1, a] - pack[o_gr + 3 + a, s, d]
+            x[2, 0, a] = rr[2, a] - pack[o_gr + 6 + a, s, d]
+            x[3, 0, a] = rr[3, a] - pack[o_gr + 9 + a, s, d]
+            x[0, 1, a] = phi[s, 0, a]
+            x[1, 1, a] = phi[s, 0, a]
+            x[2, 1, a] = phi[s, 1, a]
+            x[3, 1, a] = phi[s, 2, a]
+        fs = f[s]
+        for bb in range(4):
+            for t in range(2):
+                if o_Q < 0:
+                    for a in range(3):
+                        fs[bb, t, a] = pack[o_K + 6 * bb + 3 * t + a, s, d] * x[bb, t, a]
+                else:  # Q (K (Q^T x)) with the bushing frame Q
+                    q = o_Q + 9 * bb
+                    for a in range(3):
+                        xb[a] = (
+                            pack[q + a, s, d] * x[bb, t, 0]
+                            + pack[q + 3 + a, s, d] * x[bb, t, 1]
+                            + pack[q + 6 + a, s, d] * x[bb, t, 2]
+                        ) * pack[o_K + 6 * bb + 3 * t + a, s, d]
+                    for a in range(3):
+                        fs[bb, t, a] = (
+                            pack[q + 3 * a, s, d] * xb[0]
+                            + pack[q + 3 * a + 1, s, d] * xb[1]
+                            + pack[q + 3 * a + 2, s, d] * xb[2]
+                        )
+        # tie rod (from the rack point), drop link, spring
+        for a in range(3):
+            D[0, a] = rr[1, a] + Vs[4, a] - pack[o_tri + a, s, d]
+            D[1, a] = rr[1, a] + Vs[5, a] - (rr[3, a] + Vs[14, a])
+            D[2, a] = rr[1, a] + Vs[6, a] - (rr[2, a] + Vs[12, a])
+        if has_rack:
+            D[0, 1] -= rack_m[s]
+        DD0 = D[0, 0] * D[0, 0] + D[0, 1] * D[0, 1] + D[0, 2] * D[0, 2]
+        DD1 = D[1, 0] * D[1, 0] + D[1, 1] * D[1, 1] + D[1, 2] * D[1, 2]
+        DD2 = D[2, 0] * D[2, 0] + D[2, 1] * D[2, 1] + D[2, 2] * D[2, 2]
+        k[0] = ls[7] / pack[o_L, s, d]
+        k[1] = ls[8] / pack[o_L + 1, s, d]
+        L = math.sqrt(DD2)
+        k[2] = pack[o_ks, s, d] * (pack[o_Lf, s, d] - L) / L
+
+        # constraints (times CSCALE): ball joint, cylindrical joint, link lengths
+        for a in range(3):
+            res[24 + a] = (rr[0, a] + Vs[2, a] - rr[1, a] - Vs[3, a]) * cscale
+        c3 = c4 = c5 = c6 = 0.0
+        for a in range(3):
+            off_a = rr[2, a] - rr[1, a] - Vs[7, a]
+            c3 += Vs[13, a] * Vs[8, a]
+            c4 += Vs[13, a] * Vs[9, a]
+            c5 += off_a * Vs[8, a]
+            c6 += off_a * Vs[9, a]
+        res[27], res[28], res[29], res[30] = c3 * cscale, c4 * cscale, c5 * cscale, c6 * cscale
+        res[31] = (DD0 - pack[o_Lsq, s, d]) / pack[o_L2, s, d] * cscale
+        res[32] = (DD1 - pack[o_Lsq + 1, s, d]) / pack[o_L2 + 1, s, d] * cscale
+
+        # tyre on the pad at the contact point (the wheel plane's downward radius)
+        sz = Vs[11, 2]
+        d0, d1, d2 = Vs[11, 0] * sz, Vs[11, 1] * sz, Vs[11, 2] * sz - 1.0
+        scale = pack[o_Rw, s, d] / math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+        d0, d1, d2 = d0 * scale, d1 * scale, d2 * scale
+        fz = pack[o_kt, s, d] * (pad_m[s] - rr[1, 2] - d2)
+
+        # loads with an arm (LOAD_SUM order): bushings 0-1, ball joint on the arm and
+        # the knuckle, tie rod, drop link, spring on the knuckle, cylindrical joint
+        # force on the knuckle, tyre, the joint's moment pair, spring and drop link
+        # on the rod and bar, the bar's shear at its middle
+        for a in range(3):
+            u_a, v_a = Vs[8, a], Vs[9, a]
+            F[0, a] = -fs[0, 0, a]
+            F[1, a] = -fs[1, 0, a]
+            F[2, a] = ls[a]
+            F[3, a] = -ls[a]
+            F[4, a] = k[0] * D[0, a]
+            F[5, a] = k[1] * D[1, a]
+            F[6, a] = k[2] * D[2, a]
+            F[7, a] = -(ls[5] * u_a + ls[6] * v_a)
+            F[8, a] = 0.0
+            F[10, a] = ls[3] * u_a + ls[4] * v_a
+            F[9, a] = -F[10, a]
+            F[11, a] = -F[6, a]
+            F[12, a] = -F[5, a]
+            F[13, a] = -k_bar_shear * dC[a] if s == 0 else k_bar_shear * dC[a]
+            for i in range(7):
+                arm[i, a] = Vs[i, a]
+            arm[7, a] = rr[2, a] - rr[1, a]
+            arm[9, a] = Vs[13, a]
+            arm[10, a] = Vs[13, a]
+            arm[11, a] = Vs[12, a]
+            arm[12, a] = Vs[14, a]
+            arm[13, a] = Vs[15, a]
+        arm[8, 0], arm[8, 1], arm[8, 2] = d0, d1, d2
+        F[8, 2] = fz
+        if n_ext:
+            e = ext_m[s]
+            for a in range(3):
+                F[8, a] += e[a]
+        for i in range(24):
+            res[i] = 0.0
+        for j in range(14):
+            bj = 6 * _LOAD_BODY[j]
+            for a in range(3):
+                res[bj + a] += F[j, a]
+            mom = res[bj + 3 : bj + 6]
+            _cross_add(arm[j], F[j], mom)
+        # forces and moments at the reference points: the cylindrical joint's moment
+        # pair is no force, bushing moments, wheel weight, wheel-centre force, the
+        # joint force on the rod, bar twist
+        for a in range(3):
+            res[6 + a] += F[10, a]
+            res[12 + a] -= F[10, a]
+            res[3 + a] -= fs[0, 1, a] + fs[1, 1, a]
+            res[12 + a] -= F[7, a]  # + f_cyl: the rod takes the joint force
+            res[12 + a] -= fs[2, 0, a]
+            res[15 + a] -= fs[2, 1, a]
+            res[18 + a] -= fs[3, 0, a]
+            res[21 + a] -= fs[3, 1, a]
+            mc = pack[o_kbr + a, s, d] * rho[a]
+            res[21 + a] += -mc if s == 0 else mc
+        res[8] -= pack[o_W, s, d]
+        if n_ext:
+            e = ext_m[s]
+            for a in range(3):
+                res[9 + a] += e[3 + a]
+            if n_ext == 9:
+                for a in range(3):
+                    res[6 + a] += e[6 + a]
+
+
 def _residual(
     r: np.ndarray,
     R: np.ndarray,
@@ -71,191 +267,104 @@ def _residual(
     """
     M = r.shape[0]
     n = pack.shape[2]
-    o_vec, o_gr, o_K, o_Q, o_tri = off[0], off[1], off[2], off[3], off[4]
-    o_L, o_Lsq, o_L2, o_ks, o_Lf = off[5], off[6], off[7], off[8], off[9]
-    o_Rw, o_kt, o_W, o_kbr = off[10], off[11], off[12], off[13]
     n_ext = ext.shape[2] if ext.shape[0] else 0
-    V = np.empty((2, 16, 3))
-    phi = np.empty((2, 3, 3))  # rotation vectors of bodies 0, 2, 3 per side
-    rho = np.empty(3)  # rotation vector of the bar halves' relative rotation
-    Rbar = np.empty((3, 3))
-    x = np.empty((4, 2, 3))
-    f = np.empty((2, 4, 2, 3))  # bushing loads per side: (bushing, force/moment, xyz)
-    xb = np.empty(3)
-    F = np.empty((14, 3))
-    arm = np.empty((14, 3))
-    D = np.empty((3, 3))
-    k = np.empty(3)
-    dC = np.empty(3)
+    has_rack = rack.shape[0] > 0
+    no_ext = np.zeros((2, 1))
+    no_rack = np.zeros(2)
     for m in range(M):
-        d = m % n
-        lm = lam[m % lam.shape[0]]
-        for s in range(2):
-            for i in range(16):
-                b = _VEC_BODY[i]
-                w0 = pack[o_vec + 3 * i, s, d]
-                w1 = pack[o_vec + 3 * i + 1, s, d]
-                w2 = pack[o_vec + 3 * i + 2, s, d]
-                Rb = R[m, s, b]
-                for a in range(3):
-                    V[s, i, a] = Rb[a, 0] * w0 + Rb[a, 1] * w1 + Rb[a, 2] * w2
-            _log(R[m, s, 0], phi[s, 0])
-            _log(R[m, s, 2], phi[s, 1])
-            _log(R[m, s, 3], phi[s, 2])
-        for i in range(3):
-            for j in range(3):
-                Rbar[i, j] = (
-                    R[m, 0, 3, i, 0] * R[m, 1, 3, j, 0]
-                    + R[m, 0, 3, i, 1] * R[m, 1, 3, j, 1]
-                    + R[m, 0, 3, i, 2] * R[m, 1, 3, j, 2]
-                )
-        _log(Rbar, rho)
-        for a in range(3):  # the bar halves' middle points apart (side 0 minus side 1)
-            dC[a] = r[m, 0, 3, a] + V[0, 15, a] - r[m, 1, 3, a] - V[1, 15, a]
+        ext_m = ext[m % ext.shape[0]] if n_ext else no_ext
+        rack_m = rack[m % rack.shape[0]] if has_rack else no_rack
+        _residual_row(
+            r[m], R[m], lam[m % lam.shape[0]], pad[m % pad.shape[0]], ext_m, n_ext,
+            rack_m, has_rack, pack, m % n, off, k_bar_shear, cscale, out[m],
+        )  # fmt: skip
 
-        for s in range(2):
-            res = out[m, s]
-            rr = r[m, s]
-            Vs = V[s]
-            ls = lm[s]
-            # bushings: deflection (translation of the bushing point, rotation vector)
-            for a in range(3):
-                x[0, 0, a] = rr[0, a] + Vs[0, a] - pack[o_gr + a, s, d]
-                x[1, 0, a] = rr[0, a] + Vs[1, a] - pack[o_gr + 3 + a, s, d]
-                x[2, 0, a] = rr[2, a] - pack[o_gr + 6 + a, s, d]
-                x[3, 0, a] = rr[3, a] - pack[o_gr + 9 + a, s, d]
-                x[0, 1, a] = phi[s, 0, a]
-                x[1, 1, a] = phi[s, 0, a]
-                x[2, 1, a] = phi[s, 1, a]
-                x[3, 1, a] = phi[s, 2, a]
-            fs = f[s]
-            for bb in range(4):
-                for t in range(2):
-                    if o_Q < 0:
-                        for a in range(3):
-                            fs[bb, t, a] = pack[o_K + 6 * bb + 3 * t + a, s, d] * x[bb, t, a]
-                    else:  # Q (K (Q^T x)) with the bushing frame Q
-                        q = o_Q + 9 * bb
-                        for a in range(3):
-                            xb[a] = (
-                                pack[q + a, s, d] * x[bb, t, 0]
-                                + pack[q + 3 + a, s, d] * x[bb, t, 1]
-                                + pack[q + 6 + a, s, d] * x[bb, t, 2]
-                            ) * pack[o_K + 6 * bb + 3 * t + a, s, d]
-                        for a in range(3):
-                            fs[bb, t, a] = (
-                                pack[q + 3 * a, s, d] * xb[0]
-                                + pack[q + 3 * a + 1, s, d] * xb[1]
-                                + pack[q + 3 * a + 2, s, d] * xb[2]
+
+def _jacobian(
+    r: np.ndarray,
+    R: np.ndarray,
+    lam: np.ndarray,
+    pad: np.ndarray,
+    ext: np.ndarray,
+    rack: np.ndarray,
+    pack: np.ndarray,
+    off: np.ndarray,
+    k_bar_shear: float,
+    cscale: float,
+    h: float,
+    exp_h: np.ndarray,
+    moves: np.ndarray,
+    move_start: np.ndarray,
+    scatter: np.ndarray,
+    scatter_start: np.ndarray,
+    J: np.ndarray,
+) -> None:
+    """Forward-difference columns of the body coordinates into ``J`` (M, 66, 66).
+
+    Inputs as :func:`_residual`; ``h`` the step [m] or [rad] (rotations: ``exp_h[k]``
+    (3, 3, 3), by ``h`` about x, y, z, applied on the left); perturbation ``p`` moves the
+    coordinates ``moves[:, move_start[p]:move_start[p + 1]]`` (side, body, axis; axes
+    3-5 are rotations) together and its difference quotients fill the entries
+    ``scatter[:, scatter_start[p]:scatter_start[p + 1]]`` (side, residual row, Jacobian
+    row, Jacobian column) (``solver._coloured_groups``). Other entries are left as they
+    are (the caller's zeros and exact multiplier columns)."""
+    M = r.shape[0]
+    n = pack.shape[2]
+    n_ext = ext.shape[2] if ext.shape[0] else 0
+    has_rack = rack.shape[0] > 0
+    no_ext = np.zeros((2, 1))
+    no_rack = np.zeros(2)
+    base = np.empty((2, 33))
+    res = np.empty((2, 33))
+    for m in range(M):
+        ext_m = ext[m % ext.shape[0]] if n_ext else no_ext
+        rack_m = rack[m % rack.shape[0]] if has_rack else no_rack
+        lam_m, pad_m, d = lam[m % lam.shape[0]], pad[m % pad.shape[0]], m % n
+        _residual_row(
+            r[m], R[m], lam_m, pad_m, ext_m, n_ext, rack_m, has_rack, pack, d, off,
+            k_bar_shear, cscale, base,
+        )  # fmt: skip
+        for p in range(move_start.size - 1):
+            rp = r[m].copy()
+            Rp = R[m].copy()
+            for q in range(move_start[p], move_start[p + 1]):
+                s, b, k = moves[0, q], moves[1, q], moves[2, q]
+                if k < 3:
+                    rp[s, b, k] += h
+                else:
+                    E = exp_h[k - 3]
+                    for i in range(3):
+                        for j in range(3):
+                            Rp[s, b, i, j] = (
+                                E[i, 0] * R[m, s, b, 0, j]
+                                + E[i, 1] * R[m, s, b, 1, j]
+                                + E[i, 2] * R[m, s, b, 2, j]
                             )
-            # tie rod (from the rack point), drop link, spring
-            for a in range(3):
-                D[0, a] = rr[1, a] + Vs[4, a] - pack[o_tri + a, s, d]
-                D[1, a] = rr[1, a] + Vs[5, a] - (rr[3, a] + Vs[14, a])
-                D[2, a] = rr[1, a] + Vs[6, a] - (rr[2, a] + Vs[12, a])
-            if rack.shape[0]:
-                D[0, 1] -= rack[m % rack.shape[0], s]
-            DD0 = D[0, 0] * D[0, 0] + D[0, 1] * D[0, 1] + D[0, 2] * D[0, 2]
-            DD1 = D[1, 0] * D[1, 0] + D[1, 1] * D[1, 1] + D[1, 2] * D[1, 2]
-            DD2 = D[2, 0] * D[2, 0] + D[2, 1] * D[2, 1] + D[2, 2] * D[2, 2]
-            k[0] = ls[7] / pack[o_L, s, d]
-            k[1] = ls[8] / pack[o_L + 1, s, d]
-            L = math.sqrt(DD2)
-            k[2] = pack[o_ks, s, d] * (pack[o_Lf, s, d] - L) / L
-
-            # constraints (times CSCALE): ball joint, cylindrical joint, link lengths
-            for a in range(3):
-                res[24 + a] = (rr[0, a] + Vs[2, a] - rr[1, a] - Vs[3, a]) * cscale
-            c3 = c4 = c5 = c6 = 0.0
-            for a in range(3):
-                off_a = rr[2, a] - rr[1, a] - Vs[7, a]
-                c3 += Vs[13, a] * Vs[8, a]
-                c4 += Vs[13, a] * Vs[9, a]
-                c5 += off_a * Vs[8, a]
-                c6 += off_a * Vs[9, a]
-            res[27], res[28], res[29], res[30] = c3 * cscale, c4 * cscale, c5 * cscale, c6 * cscale
-            res[31] = (DD0 - pack[o_Lsq, s, d]) / pack[o_L2, s, d] * cscale
-            res[32] = (DD1 - pack[o_Lsq + 1, s, d]) / pack[o_L2 + 1, s, d] * cscale
-
-            # tyre on the pad at the contact point (the wheel plane's downward radius)
-            sz = Vs[11, 2]
-            d0, d1, d2 = Vs[11, 0] * sz, Vs[11, 1] * sz, Vs[11, 2] * sz - 1.0
-            scale = pack[o_Rw, s, d] / math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
-            d0, d1, d2 = d0 * scale, d1 * scale, d2 * scale
-            fz = pack[o_kt, s, d] * (pad[m % pad.shape[0], s] - rr[1, 2] - d2)
-
-            # loads with an arm (LOAD_SUM order): bushings 0-1, ball joint on the arm and
-            # the knuckle, tie rod, drop link, spring on the knuckle, cylindrical joint
-            # force on the knuckle, tyre, the joint's moment pair, spring and drop link
-            # on the rod and bar, the bar's shear at its middle
-            for a in range(3):
-                u_a, v_a = Vs[8, a], Vs[9, a]
-                F[0, a] = -fs[0, 0, a]
-                F[1, a] = -fs[1, 0, a]
-                F[2, a] = ls[a]
-                F[3, a] = -ls[a]
-                F[4, a] = k[0] * D[0, a]
-                F[5, a] = k[1] * D[1, a]
-                F[6, a] = k[2] * D[2, a]
-                F[7, a] = -(ls[5] * u_a + ls[6] * v_a)
-                F[8, a] = 0.0
-                F[10, a] = ls[3] * u_a + ls[4] * v_a
-                F[9, a] = -F[10, a]
-                F[11, a] = -F[6, a]
-                F[12, a] = -F[5, a]
-                F[13, a] = -k_bar_shear * dC[a] if s == 0 else k_bar_shear * dC[a]
-                for i in range(7):
-                    arm[i, a] = Vs[i, a]
-                arm[7, a] = rr[2, a] - rr[1, a]
-                arm[9, a] = Vs[13, a]
-                arm[10, a] = Vs[13, a]
-                arm[11, a] = Vs[12, a]
-                arm[12, a] = Vs[14, a]
-                arm[13, a] = Vs[15, a]
-            arm[8, 0], arm[8, 1], arm[8, 2] = d0, d1, d2
-            F[8, 2] = fz
-            if n_ext:
-                e = ext[m % ext.shape[0], s]
-                for a in range(3):
-                    F[8, a] += e[a]
-            for i in range(24):
-                res[i] = 0.0
-            for j in range(14):
-                bj = 6 * _LOAD_BODY[j]
-                for a in range(3):
-                    res[bj + a] += F[j, a]
-                mom = res[bj + 3 : bj + 6]
-                _cross_add(arm[j], F[j], mom)
-            # forces and moments at the reference points: the cylindrical joint's moment
-            # pair is no force, bushing moments, wheel weight, wheel-centre force, the
-            # joint force on the rod, bar twist
-            for a in range(3):
-                res[6 + a] += F[10, a]
-                res[12 + a] -= F[10, a]
-                res[3 + a] -= fs[0, 1, a] + fs[1, 1, a]
-                res[12 + a] -= F[7, a]  # + f_cyl: the rod takes the joint force
-                res[12 + a] -= fs[2, 0, a]
-                res[15 + a] -= fs[2, 1, a]
-                res[18 + a] -= fs[3, 0, a]
-                res[21 + a] -= fs[3, 1, a]
-                mc = pack[o_kbr + a, s, d] * rho[a]
-                res[21 + a] += -mc if s == 0 else mc
-            res[8] -= pack[o_W, s, d]
-            if n_ext:
-                e = ext[m % ext.shape[0], s]
-                for a in range(3):
-                    res[9 + a] += e[3 + a]
-                if n_ext == 9:
-                    for a in range(3):
-                        res[6 + a] += e[6 + a]
+            _residual_row(
+                rp, Rp, lam_m, pad_m, ext_m, n_ext, rack_m, has_rack, pack, d, off,
+                k_bar_shear, cscale, res,
+            )  # fmt: skip
+            for q in range(scatter_start[p], scatter_start[p + 1]):
+                s, row = scatter[0, q], scatter[1, q]
+                J[m, scatter[2, q], scatter[3, q]] = (res[s, row] - base[s, row]) / h
 
 
-_compiled: Callable[..., None] | None = None
+_loops: dict[str, Callable[..., None]] = {}
+
+
+def _loop(name: str) -> Callable[..., None]:
+    if not _loops:
+        helpers = ("_log", "_cross_add", "_residual_row")
+        _loops["residual"] = compiled.compile_in(globals(), helpers, _residual)
+        _loops["jacobian"] = compiled.compile_in(globals(), helpers, _jacobian)
+    return _loops[name]
 
 
 def residual(*args: Any) -> None:
     """:func:`_residual`, compiled at the first call (then loaded from numba's cache)."""
-    global _compiled
-    if _compiled is None:
-        _compiled = compiled.compile_in(globals(), ("_log", "_cross_add"), _residual)
-    _compiled(*args)
+    _loop("residual")(*args)
+
+
+def jacobian(*args: Any) -> None:
+    """:func:`_jacobian`, compiled at the first call (then loaded from numba's cache)."""
+    _loop("jacobian")(*args)

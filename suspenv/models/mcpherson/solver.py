@@ -133,6 +133,10 @@ RESIDUAL_ROWS_LAST = True
 #: (:mod:`.residual_kernel`, the same equations as the rows-last form, to rounding)
 #: where numba is installed; False: the rows-last numpy form
 RESIDUAL_COMPILED = True
+#: the coloured Jacobian of linear bushings by a compiled loop (each row perturbed and
+#: differenced in place, :func:`.residual_kernel.jacobian`) where the compiled residual
+#: runs; False: the perturbations in blocks through :meth:`AxleSolver.residual`
+JACOBIAN_COMPILED = True
 #: empty stand-ins (0, 2) and (0, 2, 1) for the compiled residual's absent inputs
 _NO_ROWS = (np.empty((0, 2)), np.empty((0, 2, 1)))
 #: the offsets in ``AxleSolver._rl_pack`` that the compiled residual reads, in its order
@@ -736,22 +740,28 @@ class AxleSolver:
         bodies (vehicle axes), then the constraints times :data:`CSCALE`: ball joint
         (3), cylindrical joint (4), tie rod, drop link.
 
-        Linear bushings (no placed effect) and no ``record``: computed with the rows last
-        (:meth:`_residual_rows_last`, the same equations); else element slot by element
-        slot (:meth:`_residual_by_slots`).
+        Linear bushings (no placed effect) and no ``record``: computed row by row by a
+        compiled loop (:meth:`_residual_compiled`) where numba is installed, else with
+        the rows last (:meth:`_residual_rows_last`), the same equations; otherwise element
+        slot by element slot (:meth:`_residual_by_slots`).
         """
-        if (
+        if self._rows_last_path(r, R, record):
+            if RESIDUAL_COMPILED and residual_kernel.AVAILABLE:
+                return self._residual_compiled(r, R, lam, pad, ext, rack)
+            return self._residual_rows_last(r, R, lam, pad, ext, rack)
+        return self._residual_by_slots(r, R, lam, pad, state, ext, record, rack)
+
+    def _rows_last_path(self, r: np.ndarray, R: np.ndarray, record: list | None = None) -> bool:
+        """The residual's equations of linear bushings apply (:data:`RESIDUAL_ROWS_LAST`,
+        no placed effect, no record, states of the solver's rows with leading axes)."""
+        return (
             RESIDUAL_ROWS_LAST
             and record is None
             and not self._placed.cubic
             and not self._placed.path_dependent
             and r.shape[-4:-2] == (self.n, 2)
             and R.shape[:-3] == r.shape[:-2]
-        ):
-            if RESIDUAL_COMPILED and residual_kernel.AVAILABLE:
-                return self._residual_compiled(r, R, lam, pad, ext, rack)
-            return self._residual_rows_last(r, R, lam, pad, ext, rack)
-        return self._residual_by_slots(r, R, lam, pad, state, ext, record, rack)
+        )
 
     def _rows_last_consts(self, rows: tuple[int, ...]) -> dict[str, np.ndarray]:
         """The solver's per-design arrays that :meth:`_residual_rows_last` reads, rows
@@ -799,7 +809,7 @@ class AxleSolver:
             self._rl = out
         return out
 
-    def _residual_compiled(
+    def _kernel_inputs(
         self,
         r: np.ndarray,
         R: np.ndarray,
@@ -807,10 +817,10 @@ class AxleSolver:
         pad: np.ndarray,
         ext: np.ndarray | None,
         rack: np.ndarray | None,
-    ) -> np.ndarray:
-        """:meth:`_residual_rows_last` by the compiled row loop
-        (:func:`.residual_kernel.residual`); the inputs flattened to rows (those given per
-        design row are read as such, others broadcast)."""
+    ) -> tuple:
+        """The arguments of :func:`.residual_kernel.residual` (and of its Jacobian): the
+        states flattened to rows, the inputs given per design row read as such (others
+        broadcast), the per-design pack with its offsets."""
         lead = r.shape[:-2]  # (..., n, 2)
         rows = lead[:-1]
         M = math.prod(rows)
@@ -818,7 +828,6 @@ class AxleSolver:
             self._rows_last_consts((self.n,))  # makes the pack (once)
             where = {name: a for name, a, _, _ in self._rl_layout}
             self._rl_off = np.array([where.get(k, -1) for k in _KERNEL_FIELDS], np.int64)
-        off = self._rl_off
         assert self._rl_pack is not None
         n = self.n
 
@@ -838,8 +847,7 @@ class AxleSolver:
             pack = pack[..., :1]
         if not (pack.flags.c_contiguous and pack.flags.writeable):  # one compiled type
             pack = np.array(pack, order="C")
-        out = np.empty((M, 2, NS))
-        residual_kernel.residual(
+        return (
             np.ascontiguousarray(r.reshape(M, 2, 4, 3)),
             np.ascontiguousarray(R.reshape(M, 2, 4, 3, 3)),
             rows_of(lam, 1),
@@ -847,11 +855,25 @@ class AxleSolver:
             rows_of(ext, 1),
             rows_of(rack, 0),
             pack,
-            off,
+            self._rl_off,
             float(self.k_bar_shear),
             CSCALE,
-            out,
         )
+
+    def _residual_compiled(
+        self,
+        r: np.ndarray,
+        R: np.ndarray,
+        lam: np.ndarray,
+        pad: np.ndarray,
+        ext: np.ndarray | None,
+        rack: np.ndarray | None,
+    ) -> np.ndarray:
+        """:meth:`_residual_rows_last` by the compiled row loop
+        (:func:`.residual_kernel.residual`)."""
+        lead = r.shape[:-2]
+        out = np.empty((math.prod(lead[:-1]), 2, NS))
+        residual_kernel.residual(*self._kernel_inputs(r, R, lam, pad, ext, rack), out)
         return out.reshape(lead + (NS,))
 
     def _residual_rows_last(
@@ -1203,8 +1225,22 @@ class AxleSolver:
             return self._jacobian_by_columns(st, pad, ext, h, rack)
         n = self.n
         exp_h = _exp_h(h)  # rotations by h about x, y, z
-        base = self.residual(st.r, st.R, st.lam, pad, st, ext, rack=rack)  # (n, 2, 33)
         J = np.zeros((n, 2 * NS, 2 * NS))
+        if (
+            JACOBIAN_COMPILED
+            and RESIDUAL_COMPILED
+            and residual_kernel.AVAILABLE
+            and self._rows_last_path(st.r, st.R)
+            and st.r.shape[:-3] == (n,)
+        ):
+            # the compiled loop: each row perturbed and differenced in place (no blocks)
+            args = self._kernel_inputs(st.r, st.R, st.lam, pad, ext, rack)
+            residual_kernel.jacobian(*args, h, exp_h, *_KERNEL_COLOURING, J)
+            L = self.multiplier_columns(st, rack)
+            for s in (0, 1):
+                J[:, s * NS : (s + 1) * NS, s * NS + NQ : (s + 1) * NS] = L[:, s]
+            return J
+        base = self.residual(st.r, st.R, st.lam, pad, st, ext, rack=rack)  # (n, 2, 33)
         per = max(1, min(JACOBIAN_BLOCK // max(n, 1), JACOBIAN_PERTURBATIONS))
         moves, scatter = _COLOURED_MOVES, _COLOURED_SCATTER
         for a in range(0, _N_COLOURED, per):
@@ -1605,6 +1641,15 @@ def _coloured_groups() -> tuple[np.ndarray, np.ndarray, int]:
 
 
 _COLOURED_MOVES, _COLOURED_SCATTER, _N_COLOURED = _coloured_groups()
+#: the colouring as the compiled Jacobian reads it: moves (side, body, axis) and their
+#: start per perturbation, scatter entries (side, residual row, Jacobian row and column)
+#: and their start per perturbation
+_KERNEL_COLOURING = (
+    np.ascontiguousarray(_COLOURED_MOVES[1:], dtype=np.int64),
+    np.searchsorted(_COLOURED_MOVES[0], np.arange(_N_COLOURED + 1)).astype(np.int64),
+    np.ascontiguousarray(_COLOURED_SCATTER[1:], dtype=np.int64),
+    np.searchsorted(_COLOURED_SCATTER[0], np.arange(_N_COLOURED + 1)).astype(np.int64),
+)
 
 
 @functools.lru_cache(maxsize=4)
