@@ -22,8 +22,10 @@ Two paths of the same evaluation, measured in the same run on the same candidate
   (``solver.SUBSET_RESIDUALS``), the Jacobians inverted in blocks of rows, the
   Jacobian's perturbations in blocks of at most ``solver.JACOBIAN_PERTURBATIONS``, the
   rows of a single design sharing its arrays (``solver.SHARE_ONE_DESIGN``), the
-  residual of linear bushings and the rotation updates computed with the rows last,
-  i.e. every operation over all rows at once (``solver.RESIDUAL_ROWS_LAST``,
+  residual of linear bushings, its coloured finite-difference Jacobian and the rotation
+  updates run as compiled loops, row by row (numba: ``solver.RESIDUAL_COMPILED``,
+  ``solver.JACOBIAN_COMPILED``, ``rotation.COMPILED``; without numba, computed with the
+  rows last, i.e. every operation over all rows at once: ``solver.RESIDUAL_ROWS_LAST``,
   ``rotation.ROWS_LAST``), the
   channels in calls of at most ``knc.OUTPUT_STATES`` states, and only the channels that the
   objectives read, fitted on their fit window in closed form one test at a time;
@@ -50,7 +52,11 @@ time), best of the repeats (3 at batch 42, 2 at batch 1000: a best of several ag
 single run would read load noise as a rise with the batch size; the median of
 ``--singles`` candidates at batch 1), with the wall time beside it (which a loaded
 machine inflates). Memory: the tracemalloc peak of one evaluation (a separate, untimed call)
-divided by the batch size. Targets: <= 2 ms per candidate at batch 42, <= 10 ms at
+divided by the batch size (the compiled loops' own scratch arrays, under 5 kB at any time
+and freed within each call, are made by numba's allocator, which tracemalloc does not
+see; every array they read or write is made by numpy and counted). The compiled loops
+are compiled (or loaded from numba's cache) by the warm-up call, before any timing.
+Targets: <= 2 ms per candidate at batch 42, <= 10 ms at
 batch 1, <= 0.1 MB per candidate at every batch size, no rise of the per-candidate
 time up to batch 1000 (on the same candidates: the 1000 candidates evaluated in batches
 of 42 against one call of 1000, best of two passes each; met when the time at batch
