@@ -35,23 +35,32 @@ def test_readme_blocks_are_the_rendering_of_the_committed_json() -> None:
 
 
 def test_knc_speed_cells_format_a_hand_made_summary() -> None:
+    # every target of issue 17 stated from the summary's own flags
     summary = {
         "ms_per_candidate_batched": 6.647676571428571,
-        "batching_gain": 10.124567550303757,
-        "target_ms": 10.0,
+        "ms_per_candidate_single": 23.4,
+        "ms_per_candidate_batch_1000": 7.1,
         "meets_stretch": False,
+        "meets_single_target_10ms": False,
+        "meets_no_rise_to_batch_1000": True,
+        "meets_memory_target_at_batch": {"1": False, "42": True, "1000": True},
+        "peak_mb_per_candidate": {"1": 0.171, "42": 0.0844, "1000": 0.0057},
         "speedup_vs_paper_20s": 3008.56995449495,
     }
     assert readme.knc_speed_cells(summary) == (
-        "6.6 ms CPU per candidate (about 3000x the paper's 20 s); 10x batching gain",
-        "<= 10 ms (stretch 2 ms: not met)",
+        "6.6 ms CPU per candidate at batch 42 (about 3000x the paper's 20 s), 23.4 ms one "
+        "at a time, 7.1 ms at batch 1000; peak 0.084 MB per candidate at batch 42, 0.17 MB "
+        "one at a time",
+        "<= 2 ms at batch 42 (not met), <= 10 ms one at a time (not met), <= 0.1 MB per "
+        "candidate (met at batch 42, 1000; not at batch 1), no rise to batch 1000 (met)",
     )
     faster = summary | {"ms_per_candidate_batched": 1.94, "meets_stretch": True}
     faster["speedup_vs_paper_20s"] = 20_000 / 1.94
-    assert readme.knc_speed_cells(faster) == (
-        "1.9 ms CPU per candidate (about 10000x the paper's 20 s); 10x batching gain",
-        "<= 10 ms (stretch 2 ms: met)",
-    )
+    faster["meets_memory_target_at_batch"] = {"1": True, "42": True, "1000": True}
+    result, target = readme.knc_speed_cells(faster)
+    assert result.startswith("1.9 ms CPU per candidate at batch 42 (about 10000x the paper")
+    assert target.startswith("<= 2 ms at batch 42 (met)")
+    assert "<= 0.1 MB per candidate (met)" in target
 
 
 @pytest.mark.parametrize(
@@ -104,7 +113,8 @@ def test_a_benchmark_rerun_that_changes_a_number_makes_the_readme_stale(tmp_path
     argv = ["--readme", str(readme.README), "--bench-dir", str(tmp_path), "--check"]
     assert readme.main(argv) == 1
     table = readme.render(readme.load(tmp_path))["performance"]
-    assert f"| 7.0 ms CPU per candidate (about {readme.significant(20_000 / 7.04)}x" in table
+    about = readme.significant(20_000 / 7.04)
+    assert f"| 7.0 ms CPU per candidate at batch 42 (about {about}x" in table
 
 
 def test_wording_that_the_json_contradicts_stops_the_rendering() -> None:
