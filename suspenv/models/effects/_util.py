@@ -14,6 +14,11 @@ from __future__ import annotations
 import numpy as np
 
 from suspenv.core.errors import ValidationError
+from suspenv.models.effects import kernels
+
+#: :func:`linear_recurrence` runs compiled (:func:`.kernels.recurrence`) where numba is
+#: installed; False: the float loop per row
+RECURRENCE_COMPILED = True
 
 
 def series(x: np.ndarray | float, name: str = "x") -> np.ndarray:
@@ -66,8 +71,9 @@ def linear_recurrence(a: np.ndarray, b: np.ndarray, z0: np.ndarray | float) -> n
     ``a`` and ``b`` are ``(..., T-1)`` (broadcast together), ``z0`` batch-shaped
     (a scalar applies to every batch row).
     The coefficients are computed vectorised by the callers; the recurrence itself
-    runs as a plain float loop per batch row, which is far faster than numpy
-    operations on tiny arrays.
+    runs compiled (:func:`.kernels.recurrence`, the same arithmetic) where numba is
+    installed and :data:`RECURRENCE_COMPILED`, else as a plain float loop per batch row
+    (the reference), which is far faster than numpy operations on tiny arrays.
     """
     a, b = np.broadcast_arrays(np.asarray(a, dtype=float), np.asarray(b, dtype=float))
     batch = np.broadcast_shapes(a.shape[:-1], np.shape(z0))
@@ -75,6 +81,10 @@ def linear_recurrence(a: np.ndarray, b: np.ndarray, z0: np.ndarray | float) -> n
     b = np.broadcast_to(b, batch + b.shape[-1:]).reshape(-1, b.shape[-1])
     z0f = np.broadcast_to(np.asarray(z0, dtype=float), batch).reshape(-1)
     out = np.empty((a.shape[0], a.shape[1] + 1))
+    if RECURRENCE_COMPILED and kernels.AVAILABLE:
+        args = (np.ascontiguousarray(v, dtype=float) for v in (a, b, z0f))
+        kernels.recurrence(*args, out)
+        return out.reshape(batch + (a.shape[1] + 1,))
     for r in range(a.shape[0]):
         z = float(z0f[r])
         row = [z]

@@ -50,12 +50,17 @@ import math
 import numpy as np
 
 from suspenv.core.errors import ValidationError
+from suspenv.models.effects import kernels
 from suspenv.models.effects._util import (
     batch_param,
     linear_recurrence,
     require_positive,
     series,
 )
+
+#: the exact n = 1 Bouc-Wen path runs compiled (:mod:`.kernels`, the same
+#: arithmetic) where numba is installed; False: the float loop per row
+COMPILED = True
 
 
 def dahl_dzdt(
@@ -175,7 +180,8 @@ def _bouc_wen_path_linear(x, a, b, g, z0, batch) -> np.ndarray:
     With ``w = sign(Δx) z`` and travel ``u = |Δx|``: ``dw/du = A - (beta + gamma) w``
     for ``w >= 0`` and ``dw/du = A - (beta - gamma) w`` for ``w < 0``; ``w`` only
     crosses zero upwards (``dw/du = A > 0`` there), so each segment is at most
-    two exponential relaxations. Runs as a float loop per batch row.
+    two exponential relaxations. Runs compiled (:mod:`.kernels`) where numba is
+    installed and :data:`COMPILED`, else as a float loop per batch row (the reference).
     """
     dx = np.broadcast_to(np.diff(x, axis=-1), batch + (x.shape[-1] - 1,)).reshape(
         -1, x.shape[-1] - 1
@@ -184,6 +190,10 @@ def _bouc_wen_path_linear(x, a, b, g, z0, batch) -> np.ndarray:
         np.broadcast_to(np.asarray(p, dtype=float), batch).reshape(-1) for p in (a, b, g, z0)
     )
     out = np.empty((dx.shape[0], dx.shape[1] + 1))
+    if COMPILED and kernels.AVAILABLE:
+        args = (np.ascontiguousarray(v, dtype=float) for v in (dx, a_, b_, g_, z0_))
+        kernels.bouc_wen_rows(*args, out)
+        return out.reshape(batch + (x.shape[-1],))
     for r in range(dx.shape[0]):
         out[r] = _bw1_row(dx[r].tolist(), float(a_[r]), float(b_[r]), float(g_[r]), float(z0_[r]))
     return out.reshape(batch + (x.shape[-1],))
