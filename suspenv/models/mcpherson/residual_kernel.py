@@ -265,19 +265,34 @@ def _residual(
     offsets of vec, ground, K, Q (-1: isotropic bushings), tri, L_links, L_links_sq,
     L_links_2, ks, L_free, Rw, kt, W, k_bar_rot in it.
     """
-    M = r.shape[0]
-    n = pack.shape[2]
+    for m in range(r.shape[0]):
+        _row_at(m, r[m], R[m], lam, pad, ext, rack, pack, off, k_bar_shear, cscale, out[m])
+
+
+def _row_at(
+    m: int,
+    rm: np.ndarray,
+    Rm: np.ndarray,
+    lam: np.ndarray,
+    pad: np.ndarray,
+    ext: np.ndarray,
+    rack: np.ndarray,
+    pack: np.ndarray,
+    off: np.ndarray,
+    k_bar_shear: float,
+    cscale: float,
+    out: np.ndarray,
+) -> None:
+    """:func:`_residual_row` of row ``m`` at the states ``rm``, ``Rm`` (its own, or
+    perturbed), its inputs read from the arrays of :func:`_residual`."""
     n_ext = ext.shape[2] if ext.shape[0] else 0
     has_rack = rack.shape[0] > 0
-    no_ext = np.zeros((2, 1))
-    no_rack = np.zeros(2)
-    for m in range(M):
-        ext_m = ext[m % ext.shape[0]] if n_ext else no_ext
-        rack_m = rack[m % rack.shape[0]] if has_rack else no_rack
-        _residual_row(
-            r[m], R[m], lam[m % lam.shape[0]], pad[m % pad.shape[0]], ext_m, n_ext,
-            rack_m, has_rack, pack, m % n, off, k_bar_shear, cscale, out[m],
-        )  # fmt: skip
+    ext_m = ext[m % ext.shape[0]] if n_ext else np.zeros((2, 1))
+    rack_m = rack[m % rack.shape[0]] if has_rack else np.zeros(2)
+    _residual_row(
+        rm, Rm, lam[m % lam.shape[0]], pad[m % pad.shape[0]], ext_m, n_ext, rack_m,
+        has_rack, pack, m % pack.shape[2], off, k_bar_shear, cscale, out,
+    )  # fmt: skip
 
 
 def _jacobian(
@@ -308,22 +323,10 @@ def _jacobian(
     ``scatter[:, scatter_start[p]:scatter_start[p + 1]]`` (side, residual row, Jacobian
     row, Jacobian column) (``solver._coloured_groups``). Other entries are left as they
     are (the caller's zeros and exact multiplier columns)."""
-    M = r.shape[0]
-    n = pack.shape[2]
-    n_ext = ext.shape[2] if ext.shape[0] else 0
-    has_rack = rack.shape[0] > 0
-    no_ext = np.zeros((2, 1))
-    no_rack = np.zeros(2)
     base = np.empty((2, 33))
     res = np.empty((2, 33))
-    for m in range(M):
-        ext_m = ext[m % ext.shape[0]] if n_ext else no_ext
-        rack_m = rack[m % rack.shape[0]] if has_rack else no_rack
-        lam_m, pad_m, d = lam[m % lam.shape[0]], pad[m % pad.shape[0]], m % n
-        _residual_row(
-            r[m], R[m], lam_m, pad_m, ext_m, n_ext, rack_m, has_rack, pack, d, off,
-            k_bar_shear, cscale, base,
-        )  # fmt: skip
+    for m in range(r.shape[0]):
+        _row_at(m, r[m], R[m], lam, pad, ext, rack, pack, off, k_bar_shear, cscale, base)
         for p in range(move_start.size - 1):
             rp = r[m].copy()
             Rp = R[m].copy()
@@ -340,10 +343,7 @@ def _jacobian(
                                 + E[i, 1] * R[m, s, b, 1, j]
                                 + E[i, 2] * R[m, s, b, 2, j]
                             )
-            _residual_row(
-                rp, Rp, lam_m, pad_m, ext_m, n_ext, rack_m, has_rack, pack, d, off,
-                k_bar_shear, cscale, res,
-            )  # fmt: skip
+            _row_at(m, rp, Rp, lam, pad, ext, rack, pack, off, k_bar_shear, cscale, res)
             for q in range(scatter_start[p], scatter_start[p + 1]):
                 s, row = scatter[0, q], scatter[1, q]
                 J[m, scatter[2, q], scatter[3, q]] = (res[s, row] - base[s, row]) / h
@@ -354,7 +354,7 @@ _loops: dict[str, Callable[..., None]] = {}
 
 def _loop(name: str) -> Callable[..., None]:
     if not _loops:
-        helpers = ("_log", "_cross_add", "_residual_row")
+        helpers = ("_log", "_cross_add", "_residual_row", "_row_at")
         _loops["residual"] = compiled.compile_in(globals(), helpers, _residual)
         _loops["jacobian"] = compiled.compile_in(globals(), helpers, _jacobian)
     return _loops[name]
