@@ -307,7 +307,7 @@ def _jacobian(
     k_bar_shear: float,
     cscale: float,
     h: float,
-    exp_h: np.ndarray,
+    turned: np.ndarray,
     moves: np.ndarray,
     move_start: np.ndarray,
     scatter: np.ndarray,
@@ -316,8 +316,10 @@ def _jacobian(
 ) -> None:
     """Forward-difference columns of the body coordinates into ``J`` (M, 66, 66).
 
-    Inputs as :func:`_residual`; ``h`` the step [m] or [rad] (rotations: ``exp_h[k]``
-    (3, 3, 3), by ``h`` about x, y, z, applied on the left); perturbation ``p`` moves the
+    Inputs as :func:`_residual`; ``h`` the step [m] or [rad]; ``turned`` (M, 2, 4, 3, 3, 3):
+    every body's rotation turned by ``h`` about x, y, z (on the left; made by the caller
+    with numpy, so that the perturbed states are those of the block Jacobian to the
+    bit); perturbation ``p`` moves the
     coordinates ``moves[:, move_start[p]:move_start[p + 1]]`` (side, body, axis; axes
     3-5 are rotations) together and its difference quotients fill the entries
     ``scatter[:, scatter_start[p]:scatter_start[p + 1]]`` (side, residual row, Jacobian
@@ -335,14 +337,7 @@ def _jacobian(
                 if k < 3:
                     rp[s, b, k] += h
                 else:
-                    E = exp_h[k - 3]
-                    for i in range(3):
-                        for j in range(3):
-                            Rp[s, b, i, j] = (
-                                E[i, 0] * R[m, s, b, 0, j]
-                                + E[i, 1] * R[m, s, b, 1, j]
-                                + E[i, 2] * R[m, s, b, 2, j]
-                            )
+                    Rp[s, b] = turned[m, s, b, k - 3]
             _row_at(m, rp, Rp, lam, pad, ext, rack, pack, off, k_bar_shear, cscale, res)
             for q in range(scatter_start[p], scatter_start[p + 1]):
                 s, row = scatter[0, q], scatter[1, q]

@@ -1235,7 +1235,10 @@ class AxleSolver:
         ):
             # the compiled loop: each row perturbed and differenced in place (no blocks)
             args = self._kernel_inputs(st.r, st.R, st.lam, pad, ext, rack)
-            residual_kernel.jacobian(*args, h, exp_h, *_KERNEL_COLOURING, J)
+            # every body turned by h about x, y, z: (n, 2, 4, axis, 3, 3)
+            turned = np.matmul(exp_h[:, None, None, None], st.R[None]).transpose(1, 2, 3, 0, 4, 5)
+            turned = np.ascontiguousarray(turned)
+            residual_kernel.jacobian(*args, h, turned, *_KERNEL_COLOURING, J)
             L = self.multiplier_columns(st, rack)
             for s in (0, 1):
                 J[:, s * NS : (s + 1) * NS, s * NS + NQ : (s + 1) * NS] = L[:, s]
