@@ -1,5 +1,6 @@
-"""Shared pieces of the K&C solver tests: the solver's tolerances per channel and a
-state away from equilibrium (so that residual comparisons are not of zeros)."""
+"""Shared pieces of the K&C solver tests: the solver's tolerances per channel, a state
+away from equilibrium (so that residual comparisons are not of zeros) and the comparison
+of two writings of the residual."""
 
 from __future__ import annotations
 
@@ -35,3 +36,11 @@ def off_equilibrium(solver: AxleSolver, seed: int):
     ext = rng.normal(scale=300.0, size=(solver.n, 2, 9))
     rack = rng.normal(scale=2e-3, size=(solver.n, 2))
     return st, solver.pad_static + 0.01, ext, rack
+
+
+def assert_same_residual(fast: np.ndarray, ref: np.ndarray) -> None:
+    """Two residuals of the same state equal to round-off of load sums of a few kN (N,
+    N*m rows) and of CSCALE-scaled lengths, and not a comparison of zeros."""
+    assert fast.shape == ref.shape
+    assert np.abs(ref).max() > 10.0  # off equilibrium: the comparison is not of zeros
+    assert np.allclose(fast, ref, rtol=0, atol=1e-8), np.abs(fast - ref).max()

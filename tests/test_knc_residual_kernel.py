@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from knc_checks import off_equilibrium
+from knc_checks import assert_same_residual, off_equilibrium
 
 import suspenv.models.mcpherson.solver as solver_module
 from suspenv.models.mcpherson import AxleSolver, build_axle, reference_design, residual_kernel
@@ -28,13 +28,6 @@ def X():
     return np.vstack([reference_design(), problem.space.to_physical(rng.random((3, 49)))])
 
 
-def _same(fast: np.ndarray, ref: np.ndarray) -> None:
-    # round-off of load sums of a few kN (N, N*m rows) and of CSCALE-scaled lengths
-    assert fast.shape == ref.shape
-    assert np.abs(ref).max() > 10.0  # off equilibrium: not a comparison of zeros
-    assert np.allclose(fast, ref, rtol=0, atol=1e-8), np.abs(fast - ref).max()
-
-
 @pytest.mark.parametrize("frames", [False, True])
 def test_compiled_residual_is_the_rows_last_residual(X, frames, monkeypatch):
     orientation = {"lca_front": (10.0, 35.0, -20.0), "top_mount": (0.0, 15.0, 5.0)}
@@ -45,8 +38,9 @@ def test_compiled_residual_is_the_rows_last_residual(X, frames, monkeypatch):
     monkeypatch.setattr(residual_kernel, "residual", lambda *a: calls.append(1) or kernel(*a))
     for e, q in ((None, None), (ext[..., :6], None), (ext, rack)):
         fast = solver.residual(st.r, st.R, st.lam, pad, st, e, rack=q)
-        _same(fast, solver._residual_rows_last(st.r, st.R, st.lam, pad, e, q))
-        _same(fast, solver._residual_by_slots(st.r, st.R, st.lam, pad, st, e, rack=q))
+        args = (st.r, st.R, st.lam, pad)
+        assert_same_residual(fast, solver._residual_rows_last(*args, e, q))
+        assert_same_residual(fast, solver._residual_by_slots(*args, st, e, rack=q))
     assert len(calls) == 3  # the default path is the compiled one
     # perturbed copies on a leading axis (the Jacobian's calls), multipliers and pads
     # given per design row (broadcast), loads and rack per row
@@ -55,7 +49,7 @@ def test_compiled_residual_is_the_rows_last_residual(X, frames, monkeypatch):
     R = np.matmul(expm_so3(rng.normal(scale=1e-3, size=(3,) + st.R.shape[:-1])), st.R)
     ext3 = np.broadcast_to(ext, (3,) + ext.shape) * rng.uniform(0.5, 1.5, size=(3, 1, 1, 1))
     fast = solver.residual(r, R, st.lam, pad, st, ext3, rack=rack)
-    _same(fast, solver._residual_rows_last(r, R, st.lam, pad, ext3, rack))
+    assert_same_residual(fast, solver._residual_rows_last(r, R, st.lam, pad, ext3, rack))
 
 
 def test_compiled_residual_of_taken_rows(X):
@@ -67,7 +61,7 @@ def test_compiled_residual_of_taken_rows(X):
         sub, sst = solver.take(rows, axle=False), st.take(rows)
         args = (sst.r, sst.R, sst.lam, pad[rows])
         fast = sub.residual(*args, sst, ext[rows], rack=rack[rows])
-        _same(fast, sub._residual_rows_last(*args, ext[rows], rack[rows]))
+        assert_same_residual(fast, sub._residual_rows_last(*args, ext[rows], rack[rows]))
 
 
 def test_switch_off_takes_the_rows_last_residual(X, monkeypatch):

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from knc_checks import channel_tolerance, off_equilibrium
+from knc_checks import assert_same_residual, channel_tolerance, off_equilibrium
 
 import suspenv.models.mcpherson.rotation as rotation_module
 import suspenv.models.mcpherson.solver as solver_module
@@ -39,13 +39,6 @@ def X():
     return np.vstack([reference_design(), problem.space.to_physical(rng.random((3, 49)))])
 
 
-def _assert_same_residual(fast: np.ndarray, ref: np.ndarray) -> None:
-    # round-off of load sums of a few kN (N, N*m rows) and of CSCALE-scaled lengths
-    assert fast.shape == ref.shape
-    assert np.abs(ref).max() > 10.0  # off equilibrium: the comparison is not of zeros
-    assert np.allclose(fast, ref, rtol=0, atol=1e-8), np.abs(fast - ref).max()
-
-
 @pytest.mark.parametrize("frames", [False, True])
 def test_rows_last_residual_is_the_slot_residual(X, frames):
     orientation = {"lca_front": (10.0, 35.0, -20.0), "top_mount": (0.0, 15.0, 5.0)}
@@ -55,13 +48,13 @@ def test_rows_last_residual_is_the_slot_residual(X, frames):
     for e, q in ((None, None), (ext[..., :6], None), (ext, rack)):
         fast = solver.residual(st.r, st.R, st.lam, pad, st, e, rack=q)
         ref = solver._residual_by_slots(st.r, st.R, st.lam, pad, st, e, rack=q)
-        _assert_same_residual(fast, ref)
+        assert_same_residual(fast, ref)
     # perturbed copies on a leading axis (the Jacobian's calls), multipliers broadcast
     rng = np.random.default_rng(2)
     r = st.r + rng.normal(scale=1e-4, size=(3,) + st.r.shape)
     R = np.matmul(expm_so3(rng.normal(scale=1e-3, size=(3,) + st.R.shape[:-1])), st.R)
     fast = solver.residual(r, R, st.lam, pad, st, ext, rack=rack)
-    _assert_same_residual(fast, solver._residual_by_slots(r, R, st.lam, pad, st, ext, rack=rack))
+    assert_same_residual(fast, solver._residual_by_slots(r, R, st.lam, pad, st, ext, rack=rack))
 
 
 def test_rows_last_residual_of_taken_rows(X):
@@ -76,7 +69,7 @@ def test_rows_last_residual_of_taken_rows(X):
         ref = sub._residual_by_slots(
             sst.r, sst.R, sst.lam, pad[rows], sst, ext[rows], rack=rack[rows]
         )
-        _assert_same_residual(fast, ref)
+        assert_same_residual(fast, ref)
 
 
 def test_effects_and_records_take_the_slot_residual(X, monkeypatch):

@@ -369,17 +369,13 @@ def _integrate_compiled(
     dts = np.diff(np.asarray(t, float))
     uniform = bool(np.all(np.abs(dts - dts[0]) <= 1e-9 * abs(dts[0])))
     h_of_step = np.full(dts.size, dts[0] / nsub) if uniform else dts / nsub
-    keys: dict[float, int] = {}
-    mat_of_step = np.empty(dts.size, np.int64)
-    mats: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
-    for k, h in enumerate(h_of_step[:1] if uniform else h_of_step):
-        key = round(float(h), 15)
-        if key not in keys:
-            keys[key] = len(mats)
-            mats.append(step_matrices(m_s, m_u, k_s, c_s, k_t, float(h)))
-        mat_of_step[k] = keys[key]
-    if uniform:
-        mat_of_step[:] = 0
+    # the distinct step lengths (to 1e-15 s) and each step's, the matrices of a length's
+    # first step
+    _, first, mat_of_step = np.unique(
+        np.round(h_of_step, 15), return_index=True, return_inverse=True
+    )
+    mats = [step_matrices(m_s, m_u, k_s, c_s, k_t, float(h_of_step[i])) for i in first]
+    mat_of_step = mat_of_step.astype(np.int64)
     phis, g0s, g1s = (np.ascontiguousarray(np.stack([m[i] for m in mats])) for i in range(3))
     law_codes, law_par, st_codes, st_par = rig_kernel.pack(effects)
     act = np.zeros(1) if actuator is None else np.ascontiguousarray(actuator, float)

@@ -19,8 +19,7 @@ False and the Python loop runs.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
-from typing import Any
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -368,25 +367,17 @@ def _run(
     return -1
 
 
-_compiled: Callable[..., int] | None = None
-
-
-def run(*args: Any) -> int:
-    """:func:`_run` compiled (compiled at the first call, then loaded from numba's cache:
-    about 10 s once per machine, 0.3 s per process); without numba, :func:`_run` itself."""
-    global _compiled
-    if _compiled is None:
-        _compiled = _compile() if AVAILABLE else _run
-    return _compiled(*args)
-
-
-def _compile() -> Callable[..., int]:
-    helpers = (
+#: :func:`_run`, compiled at its first call (about 10 s once per machine, then 0.3 s per
+#: process from numba's cache); without numba, :func:`_run` itself
+run = compiled.Lazy(
+    globals(),
+    (
         "_law",
         "_stateless",
         "_lugre_level",
         "_state_step",
         "_states_residual",
         "_maxwell_coefficients",
-    )
-    return compiled.compile_in(globals(), helpers, _run)
+    ),
+    _run,
+)

@@ -17,8 +17,6 @@ the displacement increments, ``A`` [1/m]-scaled as in the Bouc-Wen module.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from typing import Any
 
 import numpy as np
 
@@ -83,21 +81,7 @@ def _recurrence(a: np.ndarray, b: np.ndarray, z0: np.ndarray, out: np.ndarray) -
             out[r, k + 1] = z
 
 
-_loops: dict[str, Callable[..., None]] = {}
-
-
-def _loop(name: str) -> Callable[..., None]:
-    if not _loops:
-        _loops["bouc_wen"] = compiled.compile_in(globals(), ("_relax",), _rows)
-        _loops["recurrence"] = compiled.compile_in(globals(), (), _recurrence)
-    return _loops[name]
-
-
-def bouc_wen_rows(*args: Any) -> None:
-    """:func:`_rows` compiled: ``(dx (R, T-1), a, beta, gamma, z0 (R,), out (R, T))``."""
-    _loop("bouc_wen")(*args)
-
-
-def recurrence(*args: Any) -> None:
-    """:func:`_recurrence` compiled: ``(a (R, T-1), b (R, T-1), z0 (R,), out (R, T))``."""
-    _loop("recurrence")(*args)
+#: :func:`_rows` compiled: ``(dx (R, T-1), a, beta, gamma, z0 (R,), out (R, T))``
+bouc_wen_rows = compiled.Lazy(globals(), ("_relax",), _rows)
+#: :func:`_recurrence` compiled: ``(a (R, T-1), b (R, T-1), z0 (R,), out (R, T))``
+recurrence = compiled.Lazy(globals(), (), _recurrence)

@@ -18,8 +18,6 @@ microsecond.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from typing import Any
 
 import numpy as np
 
@@ -344,22 +342,8 @@ def _jacobian(
                 J[m, scatter[2, q], scatter[3, q]] = (res[s, row] - base[s, row]) / h
 
 
-_loops: dict[str, Callable[..., None]] = {}
-
-
-def _loop(name: str) -> Callable[..., None]:
-    if not _loops:
-        helpers = ("_log", "_cross_add", "_residual_row", "_row_at")
-        _loops["residual"] = compiled.compile_in(globals(), helpers, _residual)
-        _loops["jacobian"] = compiled.compile_in(globals(), helpers, _jacobian)
-    return _loops[name]
-
-
-def residual(*args: Any) -> None:
-    """:func:`_residual`, compiled at the first call (then loaded from numba's cache)."""
-    _loop("residual")(*args)
-
-
-def jacobian(*args: Any) -> None:
-    """:func:`_jacobian`, compiled at the first call (then loaded from numba's cache)."""
-    _loop("jacobian")(*args)
+_HELPERS = ("_log", "_cross_add", "_residual_row", "_row_at")
+#: :func:`_residual` and :func:`_jacobian`, compiled at their first call (then loaded
+#: from numba's cache)
+residual = compiled.Lazy(globals(), _HELPERS, _residual)
+jacobian = compiled.Lazy(globals(), _HELPERS, _jacobian)

@@ -12,7 +12,6 @@ dominates. Rotation vectors in radians; matrices map body axes to vehicle axes.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 
 import numpy as np
 
@@ -70,20 +69,14 @@ def _relative_log(A: np.ndarray, B: np.ndarray, out: np.ndarray) -> None:
         _log(M, out[i])
 
 
-_loops: dict[str, Callable[..., None]] = {}
-
-
-def _loop(name: str) -> Callable[..., None]:
-    if not _loops:
-        _loops["turned"] = compiled.compile_in(globals(), (), _turned)
-        _loops["relative_log"] = compiled.compile_in(globals(), ("_log",), _relative_log)
-    return _loops[name]
+_turned_loop = compiled.Lazy(globals(), (), _turned)
+_relative_log_loop = compiled.Lazy(globals(), ("_log",), _relative_log)
 
 
 def turned(w: np.ndarray, R: np.ndarray) -> np.ndarray:
     """``expm_so3(w) @ R`` (..., 3, 3) for rotation vectors (..., 3), compiled."""
     out = np.empty(R.shape)
-    _loop("turned")(
+    _turned_loop(
         np.ascontiguousarray(w, float).reshape(-1, 3),
         np.ascontiguousarray(R, float).reshape(-1, 3, 3),
         out.reshape(-1, 3, 3),
@@ -94,7 +87,7 @@ def turned(w: np.ndarray, R: np.ndarray) -> np.ndarray:
 def relative_log(A: np.ndarray, B: np.ndarray) -> np.ndarray:
     """Rotation vectors (..., 3) of ``A @ B^T`` for matrices (..., 3, 3), compiled."""
     out = np.empty(A.shape[:-1])
-    _loop("relative_log")(
+    _relative_log_loop(
         np.ascontiguousarray(A, float).reshape(-1, 3, 3),
         np.ascontiguousarray(B, float).reshape(-1, 3, 3),
         out.reshape(-1, 3),

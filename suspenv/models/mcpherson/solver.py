@@ -1224,7 +1224,6 @@ class AxleSolver:
         if not JACOBIAN_COLOURED:
             return self._jacobian_by_columns(st, pad, ext, h, rack)
         n = self.n
-        exp_h = _exp_h(h)  # rotations by h about x, y, z
         J = np.zeros((n, 2 * NS, 2 * NS))
         if (
             JACOBIAN_COMPILED
@@ -1236,13 +1235,30 @@ class AxleSolver:
             # the compiled loop: each row perturbed and differenced in place (no blocks)
             args = self._kernel_inputs(st.r, st.R, st.lam, pad, ext, rack)
             # every body turned by h about x, y, z: (n, 2, 4, axis, 3, 3)
-            turned = np.matmul(exp_h[:, None, None, None], st.R[None]).transpose(1, 2, 3, 0, 4, 5)
-            turned = np.ascontiguousarray(turned)
+            turned = np.matmul(_exp_h(h)[:, None, None, None], st.R[None])
+            turned = np.ascontiguousarray(turned.transpose(1, 2, 3, 0, 4, 5))
             residual_kernel.jacobian(*args, h, turned, *_KERNEL_COLOURING, J)
-            L = self.multiplier_columns(st, rack)
-            for s in (0, 1):
-                J[:, s * NS : (s + 1) * NS, s * NS + NQ : (s + 1) * NS] = L[:, s]
-            return J
+        else:
+            self._body_columns_in_blocks(st, pad, ext, h, rack, J)
+        L = self.multiplier_columns(st, rack)  # (n, 2, 33, 9)
+        for s in (0, 1):
+            J[:, s * NS : (s + 1) * NS, s * NS + NQ : (s + 1) * NS] = L[:, s]
+        return J
+
+    def _body_columns_in_blocks(
+        self,
+        st: AxleState,
+        pad: np.ndarray,
+        ext: np.ndarray | None,
+        h: float,
+        rack: np.ndarray | None,
+        J: np.ndarray,
+    ) -> None:
+        """The coloured perturbations of :meth:`jacobian` in blocks of at most
+        :data:`JACOBIAN_PERTURBATIONS` through :meth:`residual`, their differences into
+        the body-coordinate columns of ``J`` (n, 66, 66)."""
+        n = self.n
+        exp_h = _exp_h(h)  # rotations by h about x, y, z
         base = self.residual(st.r, st.R, st.lam, pad, st, ext, rack=rack)  # (n, 2, 33)
         per = max(1, min(JACOBIAN_BLOCK // max(n, 1), JACOBIAN_PERTURBATIONS))
         moves, scatter = _COLOURED_MOVES, _COLOURED_SCATTER
@@ -1264,10 +1280,6 @@ class AxleSolver:
             i0, i1 = np.searchsorted(scatter[0], [a, a + P])
             p, sd, row, jr, jc = (x[i0:i1] for x in scatter)
             J[:, jr, jc] = d[p - a, :, sd, row].T
-        L = self.multiplier_columns(st, rack)  # (n, 2, 33, 9)
-        for s in (0, 1):
-            J[:, s * NS : (s + 1) * NS, s * NS + NQ : (s + 1) * NS] = L[:, s]
-        return J
 
     def multiplier_columns(self, st: AxleState, rack: np.ndarray | None = None) -> np.ndarray:
         """Exact derivative (n, 2, 33, 9) of each side's residual with respect to its
