@@ -364,7 +364,8 @@ def _integrate_compiled(
     actuator: np.ndarray | None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """:func:`integrate` by the compiled loop: the step matrices of every distinct step
-    length (keyed as the Python loop keys them), then one call of :func:`rig_kernel.run`."""
+    length (to 1e-15 s, as the Python loop keys them), then one call of
+    :func:`rig_kernel.run`."""
     k_s, c_s, k_t = base
     dts = np.diff(np.asarray(t, float))
     uniform = bool(np.all(np.abs(dts - dts[0]) <= 1e-9 * abs(dts[0])))
