@@ -149,7 +149,7 @@ def test_no_false_alarm_when_the_velocity_is_a_smoothed_derivative(seed):
 
 
 def test_effect_is_named_when_the_velocity_is_a_smoothed_derivative():
-    case = make_case("damper", 4, 1)
+    case = make_case("damper", 6, 1)
     assert [e["kind"] for e in case.truth.effects] == ["coulomb_friction"]
     diag = diagnose(_derived(case.recording), make_family("damper"))
     assert diag.named and diag.named_kinds[0] == "coulomb_friction", diag.headline

@@ -34,6 +34,35 @@ def test_single_is_right_only_when_its_family_comes_first():
     assert score_case(_truth("single", ["viscoelastic"]), _diag(["viscoelastic"]))["right"]
 
 
+def _offset_truth(channel):
+    return {
+        "case_id": "friction_guide-single-1",
+        "family": "friction_guide",
+        "kind": "single",
+        "effects": [{"label": "sensor_offset", "params": {"channel": channel}}],
+    }
+
+
+def test_an_offset_the_baseline_holds_is_right_only_when_the_verdict_reports_it():
+    def diag(named=(), unexplained=False, offsets=()):
+        d = _diag(named, unexplained)
+        d.findings = {
+            "baseline_offsets": [{"channel": ch, "significant": sig} for ch, sig in offsets]
+        }
+        return d
+
+    truth = _offset_truth("force")
+    row = score_case(truth, diag(offsets=[("force", True)]))
+    assert row["right"] and row["baseline_offsets"] == ["force"]
+    # not said to be off zero, said on another channel, or something named / unexplained
+    assert not score_case(truth, diag(offsets=[("force", False)]))["right"]
+    assert not score_case(truth, diag(offsets=[("position", True)]))["right"]
+    assert not score_case(truth, diag(["friction"], offsets=[("force", True)]))["right"]
+    assert not score_case(truth, diag(unexplained=True, offsets=[("force", True)]))["right"]
+    # a recording without the finding (an older diagnosis) is a miss, not an error
+    assert not score_case(truth, _diag([]))["right"]
+
+
 def test_a_control_is_a_false_alarm_when_anything_is_named_or_unexplained():
     assert score_case(_truth("control"), _diag([]))["right"]
     assert not score_case(_truth("control"), _diag(["sensor_lag"]))["right"]

@@ -11,7 +11,12 @@ its default), scores the verdicts against the truth files, prints the table, and
 Scores (per family and in total):
 
 * **single**: the first named element is of the truth's signature family (the truth's
-  labels are the generator's own vocabulary, mapped in :data:`LABEL_FAMILY`);
+  labels are the generator's own vocabulary, mapped in :data:`LABEL_FAMILY`); a constant
+  sensor offset on a channel whose standard baseline already holds a zero offset (the
+  guide's force offset, the quarter car's sensor zeros) is not missing physics: it is
+  right when nothing is named, the residual is not left unexplained, and the verdict says
+  that the baseline's offset on that channel is off zero (the row's
+  ``baseline_offsets``);
 * **control**: a false alarm is any named element or an "unexplained residual" verdict;
 * **outside** (physics not in the library): reported as unexplained;
 * a recording the diagnosis refuses counts as a miss, with its message kept;
@@ -21,8 +26,8 @@ Parameters are not scored here: the generator's parameterisations (LuGre, Bouc-W
 its own exponents, piecewise valves) are not the library's, so a parameter-by-parameter
 comparison would measure the translation between them, not the diagnosis.
 
-The reported seed set is 5000-5009; it is run for reporting only (``docs/diagnosis.md``
-says which of its seeds the committed table holds).
+Every seed set is run once, for reporting, and then retired (``docs/diagnosis.md`` lists
+the sets and the code each was run with).
 """
 
 from __future__ import annotations
@@ -81,9 +86,18 @@ def score_case(truth: dict[str, Any], diag: Any | None, error: str = "") -> dict
         verdict=diag.verdict,
         wall_s=diag.seconds,
     )
+    # zero errors the recording's standard baseline holds (a guide's force offset, the
+    # quarter car's sensor zeros): not missing physics, said in the verdict when off zero
+    found = getattr(diag, "findings", {}).get("baseline_offsets", [])
+    offsets = [o for o in found if o["significant"]]
+    row["baseline_offsets"] = [o["channel"] for o in offsets]
     if kind == "single":
         want = LABEL_FAMILY.get(labels[0], labels[0])
         row["right"] = bool(named) and named[0] == want
+        if want == "sensor_offset" and not named and not diag.unexplained:
+            # right when the baseline's offset on the offset channel is said to be off zero
+            channel = truth["effects"][0].get("params", {}).get("channel")
+            row["right"] = channel in row["baseline_offsets"]
     elif kind == "control":
         row["right"] = not named and not diag.unexplained
     else:

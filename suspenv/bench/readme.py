@@ -421,8 +421,11 @@ def real_paragraph(bench: Json, ride: Json) -> str:
         len(roads) == 2 and all(r["named"] == "waviness_steeper" for r in roads),
         "measured road profiles: no longer both named waviness steeper",
     )
-    c = emps["checks"]
+    # the values of the published model's structure (friction first on the baseline);
+    # what the engine names beyond it follows
+    c = emps.get("checks_first_element") or emps["checks"]
     fc, visc, off = c["coulomb_friction.f_c"], c["c"], c["force_offset.offset"]
+    beyond = [k for k in str(emps["named"]).split("+")[1:] if k]
     groups = matched["groups"]
     hi = max(groups, key=lambda g: g["rebound_over_bump_raw"])
     lo = min(groups, key=lambda g: g["rebound_over_bump_raw"])
@@ -432,7 +435,9 @@ def real_paragraph(bench: Json, ride: Json) -> str:
             f"Real recordings: EMPS friction named (Coulomb {fc['value']:.1f} N, viscous "
             f"{visc['value']:.0f} N s/m, offset {off['value']:.1f} N;",
             f"published {fc['published']:g}, {visc['published']:g}, {off['published']:g}; the "
-            "offset is part of the guide's baseline); MR damper",
+            "offset is part of the guide's baseline"
+            + (f"; then {', '.join(k.replace('_', ' ') for k in beyond)}" if beyond else "")
+            + "); MR damper",
             f"hysteresis named (held-out error {percent(-mr['heldout_reduction'])}); "
             "racing damper on a dyno: digressive curve",
             f"named (held-out {percent(-dyno['heldout_reduction'])}); its bump/rebound "

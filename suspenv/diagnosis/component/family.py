@@ -451,6 +451,9 @@ class ComponentFamily(OptionalSteps):
             max_nfev=self.budget,
         )
         check_step_or_knee(candidate, ext, vmax)
+        check_loop_or_step(candidate, ext, half)
+        check_parallel_branch(candidate, ext)
+        check_friction_level(candidate, ext)
         return ext
 
     def words(self, candidate: str, setup: Setup) -> str:
@@ -504,6 +507,10 @@ class ComponentFamily(OptionalSteps):
             if remaining:
                 found.sentences.insert(0, remaining[0].sentence())
                 found.overrides_verdict = True
+        offsets = baseline_offsets(final)
+        if offsets:
+            found.findings["baseline_offsets"] = offsets
+            found.sentences.extend(o["sentence"] for o in offsets if o["significant"])
         at_bound = parameters_at_bounds(final, outcome.named)
         if at_bound:
             found.findings["at_bounds"] = at_bound
@@ -583,6 +590,188 @@ def check_step_or_knee(candidate: str, ext: FitResult, vmax: float) -> None:
             f"peak speed {vmax:.3g} m/s (< {100 * KNEE_MIN_FRACTION:.0f} %): a force step at "
             "every reversal, which is friction, not a valve knee"
         )
+
+
+#: a hysteresis loop of a material (a bushing, the MR fluid before yield) builds up over
+#: millimetres, the pre-sliding of friction over micrometres to tens of micrometres: on a
+#: stroke of tens of millimetres a loop that completes within this fraction of the
+#: half-stroke is a force step at every reversal with a pre-sliding stiffness
+HYSTERESIS_MIN_FRACTION = 0.005
+
+
+def hysteresis_transition(kind: str, params: dict[str, Any]) -> float | None:
+    """The displacement [m] over which a hysteresis element's force builds up after a
+    reversal: ``f_c / sigma`` (Dahl), the yield displacement ``x_y`` (Bouc-Wen); None for
+    other kinds."""
+    if kind == "dahl_hysteresis":
+        return float(np.ravel(params["f_c"])[0]) / float(np.ravel(params["sigma"])[0])
+    if kind == "bouc_wen_hysteresis":
+        return float(np.ravel(params["x_y"])[0])
+    return None
+
+
+def check_loop_or_step(candidate: str, ext: FitResult, half_stroke: float) -> None:
+    """Refuse a hysteresis refit whose loop completes within ``HYSTERESIS_MIN_FRACTION``
+    of the half-stroke ``half_stroke`` [m] after each reversal.
+
+    Such a loop is a force step at every reversal whose rise is the pre-sliding of
+    friction (LuGre, Dahl's friction model: tens of micrometres), not the loop of a
+    material that yields over a fair part of the stroke. Raises :class:`ValidationError`
+    (the hypothesis is recorded as failed with this reason), so the friction element
+    refitted in the same round is named.
+    """
+    kind = candidate.partition("@")[0]
+    if half_stroke <= 0:
+        return
+    _, effects = ext.model.unpack(ext.theta)
+    element = next((e for e in effects if e.kind == kind), None)
+    if element is None:
+        return
+    width = hysteresis_transition(kind, element.params)
+    if width is None or width >= HYSTERESIS_MIN_FRACTION * half_stroke:
+        return
+    raise ValidationError(
+        f"{kind}: the fitted loop completes within {1e6 * width:.3g} micrometres after each "
+        f"reversal, {100 * width / half_stroke:.2g} % of the half-stroke "
+        f"{1e3 * half_stroke:.3g} mm (< {100 * HYSTERESIS_MIN_FRACTION:.1f} %): a force step "
+        "at every reversal with the pre-sliding of friction, not a hysteresis loop"
+    )
+
+
+#: a Maxwell branch whose model keeps less than this share of the viscous coefficient in
+#: the base (or a base coefficient within two standard errors of zero) carries the whole
+#: viscous force
+WHOLE_FORCE_BASE_SHARE = 0.05
+
+
+def check_parallel_branch(candidate: str, ext: FitResult) -> None:
+    """Refuse a Maxwell refit that carries the whole viscous force.
+
+    The library's Maxwell element is a branch *beside* the base damping: ``F = c v + F_m``
+    with ``dF_m/dt = k_m (v - F_m / c_m)``. Fitted with the base coefficient ``c`` at zero
+    (within two standard errors, or under ``WHOLE_FORCE_BASE_SHARE`` of ``c + c_m``) it is
+    a first-order lag of the whole viscous force: what a lagging force sensor (or a
+    compliant mount in series with the whole part) does, not a parallel branch. Raises
+    :class:`ValidationError` (the hypothesis is recorded as failed with this reason), so
+    the sensor lag refitted in the same round is named. A model without a viscous base
+    parameter (``viscous_parameter``) is not checked.
+    """
+    kind = candidate.partition("@")[0]
+    model = ext.model
+    name = getattr(model, "viscous_parameter", "")
+    if kind != "maxwell_viscoelastic" or not name or name not in ext.names:
+        return
+    i = list(ext.names).index(name)
+    c, sd = float(ext.theta[i]), float(ext.stderr[i])
+    _, effects = model.unpack(ext.theta)
+    c_m = next((float(np.ravel(e.params["c_m"])[0]) for e in effects if e.kind == kind), None)
+    if c_m is None or not np.isfinite(sd):
+        return
+    if c <= 2.0 * sd or c < WHOLE_FORCE_BASE_SHARE * (c + c_m):
+        raise ValidationError(
+            f"{kind}: the fitted branch carries the whole viscous force (base {name} = "
+            f"{c:.3g} +- {sd:.2g} N s/m beside the branch's c_m = {c_m:.4g} N s/m): a lag of "
+            "the whole force, which a lagging force sensor (or a compliant mount in series "
+            "with the whole part) gives, not a viscoelastic branch beside the damping"
+        )
+
+
+#: the force levels [N] of each friction kind: a friction element is a finding only when
+#: one of them is resolved from zero
+FRICTION_LEVELS: dict[str, tuple[str, ...]] = {
+    "coulomb_friction": ("f_c",),
+    "stribeck_friction": ("f_c", "f_s"),
+    "directional_friction": ("f_pos", "f_neg"),
+    "lugre_friction": ("f_c", "f_s"),
+}
+#: a friction level counts as resolved when it is this many corrected standard errors
+#: from zero
+FRICTION_LEVEL_Z = 2.0
+
+
+def check_friction_level(candidate: str, ext: FitResult) -> None:
+    """Refuse a friction refit whose force levels are all zero within
+    ``FRICTION_LEVEL_Z`` corrected standard errors.
+
+    Such a fit improves the residual through the element's shape, not through friction:
+    LuGre's bristle damping ``sigma1 dz/dt`` is a viscous force at standstill whatever the
+    friction level, and it absorbs a drifting zero or noise in the rests. Raises
+    :class:`ValidationError` (the hypothesis is recorded as failed with this reason).
+    """
+    kind = candidate.partition("@")[0]
+    levels = FRICTION_LEVELS.get(kind)
+    if levels is None:
+        return
+    names = list(ext.names)
+    _, effects = ext.model.unpack(ext.theta)
+    element = next((e for e in effects if e.kind == kind), None)
+    if element is None:
+        return
+    seen = []
+    for q in levels:
+        key = f"{element.name}.{q}"
+        if key not in names:  # a level held fixed is not judged here
+            return
+        i = names.index(key)
+        value, sd = float(ext.theta[i]), float(ext.stderr_corrected[i])
+        if not np.isfinite(sd) or abs(value) > FRICTION_LEVEL_Z * sd:
+            return
+        seen.append(f"{q} = {value:.3g} +- {sd:.2g} N")
+    raise ValidationError(
+        f"{kind}: every fitted friction level is zero within {FRICTION_LEVEL_Z:g} standard "
+        f"errors ({', '.join(seen)}): the fit improves through the element's shape, not "
+        "through friction"
+    )
+
+
+#: baseline elements that are a constant zero error of a channel: reported with their
+#: value when it differs from zero (the element is not missing physics, but the user
+#: should hear that the zero is off)
+OFFSET_KINDS = ("force_offset", "sensor_offset")
+#: a baseline offset this many (serial-correlation corrected) standard errors from zero
+#: is said in the verdict
+OFFSET_Z = 5.0
+
+
+def baseline_offsets(fit: FitResult) -> list[dict[str, Any]]:
+    """The constant zero errors the baseline holds (``OFFSET_KINDS``), each with its
+    value, corrected standard error, whether it is ``OFFSET_Z`` standard errors from zero,
+    and a sentence in the channel's unit (``"the baseline's constant offset of force is
+    +3.14 +- 0.02 N ..."``)."""
+    out: list[dict[str, Any]] = []
+    names = list(fit.names)
+    model = fit.model
+    for e in getattr(model, "effects", ()):
+        if e.kind not in OFFSET_KINDS:
+            continue
+        key = f"{e.name}.offset"
+        if key not in names:
+            continue
+        i = names.index(key)
+        value = float(fit.theta[i])
+        sd = float(fit.stderr_corrected[i])
+        # a sensor element sits on its channel; a force element acts on the output force
+        sensor = e.spec.role == "sensor" and e.location
+        channel = e.location if sensor else (model.output_channels or ("",))[0]
+        unit = model.channel_units.get(channel, "") if hasattr(model, "channel_units") else ""
+        significant = bool(np.isfinite(sd) and sd > 0 and abs(value) > OFFSET_Z * sd)
+        z = abs(value) / sd if significant else 0.0
+        out.append(
+            {
+                "element": e.name,
+                "channel": channel,
+                "value": value,
+                "stderr_corrected": sd,
+                "significant": significant,
+                "sentence": (
+                    f"the baseline's constant offset of {channel} is {value:+.3g} +- {sd:.2g} "
+                    f"{unit} ({z:.0f} standard errors from zero): a zero error "
+                    "of the sensor or a constant force, part of the standard model, not "
+                    "missing physics"
+                ),
+            }
+        )
+    return out
 
 
 #: the final model must describe at least this share of each output's variance for any

@@ -43,6 +43,9 @@ class ComponentModel:
         fitted_widths: effect kinds whose velocity width ``v_eps`` [m/s] (the friction
             step's smoothing, held fixed by the library) this model fits: a real
             friction step is not 1 mm/s wide by decree.
+        viscous_parameter: the base parameter that is the component's viscous
+            coefficient [N s/m] ("" when it has none); a Maxwell branch fitted to carry
+            all of it is a lag of the whole force, not a parallel branch.
 
     The members the diagnosis reads (``suspenv.diagnosis.protocols.DiagnosableModel``)
     are all defined here with their defaults: ``difference_step`` (finite-difference
@@ -61,6 +64,7 @@ class ComponentModel:
     effect_defaults: ClassVar[Mapping[str, Mapping[str, float]]] = {}
     fitted_widths: ClassVar[tuple[str, ...]] = ()
     device_words: ClassVar[Mapping[str, str]] = {}
+    viscous_parameter: ClassVar[str] = ""
 
     def __init__(self, effects: Sequence[Effect] = (), **options: Any):
         self.effects: tuple[Effect, ...] = tuple(effects)

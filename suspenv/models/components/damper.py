@@ -71,9 +71,12 @@ class DamperDynoModel(ComponentModel):
         "maxwell_viscoelastic",
         "gas_spring",
         "force_offset",
+        "bump_stop",
+        "rebound_stop",
         "sensor_lag",
     )
     location = "damper"
+    viscous_parameter = "c"
 
     def _predict(self, base, effects, rec):
         x, v = rec.inputs["displacement"], rec.inputs["velocity"]

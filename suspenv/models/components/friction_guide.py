@@ -44,9 +44,15 @@ class FrictionGuideModel(ComponentModel):
         "lugre_friction",
         "force_offset",
         "cubic_stiffness",
+        "damper_asymmetry",
         "sensor_lag",
     )
+    device_words = {
+        "damper_asymmetry": "direction-dependent viscous friction in the guide (a viscous "
+        "coefficient that differs between the two directions of travel)",
+    }
     location = "guide"
+    viscous_parameter = "c"
 
     def _check_effect(self, effect):
         if effect.kind in ("bump_stop", "rebound_stop"):

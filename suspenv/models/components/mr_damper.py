@@ -53,6 +53,7 @@ class MRDamperModel(ComponentModel):
         "sensor_lag",
     )
     location = "MR damper"
+    viscous_parameter = "c"
 
     def _predict(self, base, effects, rec):
         x, v = rec.inputs["displacement"], rec.inputs["velocity"]

@@ -99,10 +99,13 @@ class QuarterCarRigModel(ComponentModel):
         "damper_asymmetry",
         "digressive_damping",
         "dahl_hysteresis",
+        "maxwell_viscoelastic",
         "sensor_offset",
         "sensor_gain",
+        "sensor_lag",
     )
     location = "suspension"
+    viscous_parameter = "c_s"
     #: element constants this model uses for effects it adds (friction regularised over
     #: 1 cm/s: a width of 1 mm/s would need about ten times more RK4 sub-steps)
     effect_defaults: ClassVar[dict[str, dict[str, float]]] = {
@@ -246,9 +249,7 @@ class QuarterCarRigModel(ComponentModel):
                 f"{[e.kind for e in effects if not rig_integrator.supports([e])]}"
             )
         if exact:
-            acc, defl = self._integrate_exact(
-                flat_base, flat_eff, effects, t, road, rows, actuator
-            )
+            acc, defl = self._integrate_exact(flat_base, flat_eff, effects, t, road, rows, actuator)
         elif rows == 1:
             row_base = {n: float(v[0]) for n, v in flat_base.items()}
             row_effects = [

@@ -1,0 +1,213 @@
+"""The component diagnosis's rules that tell look-alike elements apart.
+
+References, per rule:
+- Maxwell branch or sensor lag: the closed form of a first-order lag. A Maxwell branch
+  ``dF_m/dt = k_m (v - F_m / c_m)`` beside a base damping ``c = 0`` is the lag
+  ``tau dF/dt + F = c_m v`` with ``tau = c_m / k_m``, i.e. a sensor lag of the whole
+  force ``c_m v``; the rule refuses the branch there and keeps it where the base damping
+  stays (the generator's own models, simulated and diagnosed blind).
+- Loop or step: Dahl's characteristic length ``f_c / sigma`` and Bouc-Wen's yield
+  displacement ``x_y`` against the half-stroke.
+- Friction level: a friction element whose levels are zero within two standard errors.
+- Baseline offsets: a constant force offset added to a recording is reported with its
+  value; a recording without one reports none.
+"""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from suspenv.core.errors import ValidationError
+from suspenv.diagnosis.component.family import (
+    HYSTERESIS_MIN_FRACTION,
+    baseline_offsets,
+    check_friction_level,
+    check_loop_or_step,
+    check_parallel_branch,
+    hysteresis_transition,
+)
+from suspenv.diagnosis.component.truth import make_case
+from suspenv.diagnosis.engine import diagnose, make_family
+from suspenv.measurements import Recording
+from suspenv.models.components import DamperDynoModel, FrictionGuideModel
+from suspenv.models.effects import make_effect
+
+
+def _fit(model, base, stderr=None, stderr_corrected=None):
+    """A fit-like record of ``model`` at ``base`` (the fields the rules read)."""
+    theta = model.theta_from(base)
+    names = tuple(model.parameter_names)
+    sd = np.full(len(names), 1e-3) if stderr is None else np.asarray(stderr, float)
+    sdc = sd if stderr_corrected is None else np.asarray(stderr_corrected, float)
+    return SimpleNamespace(model=model, theta=theta, names=names, stderr=sd, stderr_corrected=sdc)
+
+
+def _with_force(rec: Recording, force: np.ndarray, name: str) -> Recording:
+    return Recording(
+        name,
+        rec.test,
+        rec.time,
+        dict(rec.inputs),
+        {"force": force},
+        dict(rec.units),
+        dict(rec.meta),
+    )
+
+
+# ------------------------------------------------------------ Maxwell branch or sensor lag
+def test_a_maxwell_branch_carrying_all_the_damping_is_a_lag_of_the_whole_force():
+    # closed form: with c = 0 the branch obeys tau dF/dt + F = c_m v, the sensor lag of
+    # the force c_m v with tau = c_m / k_m
+    rec = DamperDynoModel().example_recording(seed=1)
+    c_m, tau = 1800.0, 0.012
+    branch = DamperDynoModel(
+        [make_effect("maxwell_viscoelastic").with_params({"k_m": c_m / tau, "c_m": c_m})]
+    )
+    lagged = DamperDynoModel([make_effect("sensor_lag").with_params({"tau": tau})])
+    f_branch = branch.simulate(branch.theta_from({"c": 0.0}), rec)["force"]
+    f_lag = lagged.simulate(lagged.theta_from({"c": c_m}), rec)["force"]
+    # two discretisations of one ODE at 2 ms steps; the branch starts relaxed, the filter
+    # at the first sample's force: compared after ten time constants
+    late = rec.time > 10 * tau
+    rms = float(np.sqrt(np.mean(f_lag[late] ** 2)))
+    assert float(np.sqrt(np.mean((f_branch - f_lag)[late] ** 2))) < 0.01 * rms
+
+
+def test_the_branch_is_refused_only_when_the_base_damping_is_gone():
+    model = DamperDynoModel(
+        [make_effect("maxwell_viscoelastic").with_params({"k_m": 1.5e5, "c_m": 1800.0})]
+    )
+    n = len(model.parameter_names)
+    # base c = 3 +- 5 N s/m beside c_m = 1800: the whole viscous force is lagged
+    with pytest.raises(ValidationError, match=r"carries the whole viscous force.*base c = 3"):
+        check_parallel_branch("maxwell_viscoelastic", _fit(model, {"c": 3.0}, np.full(n, 5.0)))
+    # resolved from zero but under 5 % of the damping: still the whole force
+    with pytest.raises(ValidationError, match="whole viscous force"):
+        check_parallel_branch("maxwell_viscoelastic", _fit(model, {"c": 60.0}, np.full(n, 1.0)))
+    # a base damping that stays (1400 N s/m beside 1800): a parallel branch, kept
+    check_parallel_branch("maxwell_viscoelastic", _fit(model, {"c": 1400.0}, np.full(n, 50.0)))
+    # other kinds and a model without a viscous base parameter are not judged
+    check_parallel_branch("sensor_lag", _fit(model, {"c": 0.0}))
+
+
+def _lagged_damper_case(kind: str) -> Recording:
+    """A damper (viscous + gas force) with a sensor lag of the whole force, or with a
+    Maxwell branch beside its damping; 0.5 % white noise."""
+    model = DamperDynoModel()
+    rec = model.example_recording(seed=3)
+    gas = make_effect("gas_spring").with_params({"f_0": 150.0, "k_gas": 3000.0})
+    if kind == "sensor_lag":
+        extra = make_effect("sensor_lag").with_params({"tau": 0.015})
+        base = {"c": 1600.0}
+    else:
+        extra = make_effect("maxwell_viscoelastic").with_params({"k_m": 6.0e4, "c_m": 900.0})
+        base = {"c": 1400.0}
+    truth = model.with_effects([gas, extra])
+    f = np.asarray(truth.simulate(truth.theta_from(base), rec)["force"], float)
+    rng = np.random.default_rng(5)
+    noisy = f + 0.005 * float(np.std(f)) * rng.standard_normal(f.size)
+    return _with_force(rec, noisy, f"lag_case_{kind}")
+
+
+def test_a_lag_of_the_whole_force_is_named_a_sensor_lag():
+    diag = diagnose(_lagged_damper_case("sensor_lag"), make_family("damper"))
+    assert diag.named_kinds[:1] == ["sensor_lag"], diag.verdict
+    refused = [h for h in diag.hypotheses if h.kind == "maxwell_viscoelastic" and h.fit is None]
+    assert refused and "whole viscous force" in refused[0].signature_evidence
+
+
+def test_a_maxwell_branch_beside_the_damping_is_named_a_maxwell_branch():
+    diag = diagnose(_lagged_damper_case("maxwell"), make_family("damper"))
+    assert diag.named_kinds[:1] == ["maxwell_viscoelastic"], diag.verdict
+
+
+# ------------------------------------------------------------------ loop or step
+def test_hysteresis_transition_lengths():
+    assert hysteresis_transition("dahl_hysteresis", {"f_c": 50.0, "sigma": 1e5}) == 5e-4
+    assert hysteresis_transition("bouc_wen_hysteresis", {"x_y": 2e-3}) == 2e-3
+    assert hysteresis_transition("coulomb_friction", {"f_c": 1.0}) is None
+
+
+@pytest.mark.parametrize(
+    ("kind", "params"),
+    [
+        ("dahl_hysteresis", {"f_c": 60.0, "sigma": 6e5}),  # builds up over 0.1 mm
+        ("bouc_wen_hysteresis", {"f_y": 60.0, "x_y": 2e-5}),  # yields at 20 micrometres
+    ],
+)
+def test_a_loop_within_micrometres_is_a_friction_step(kind, params):
+    model = DamperDynoModel([make_effect(kind).with_params(params)])
+    half = 0.04  # m: 0.5 % of it is 0.2 mm
+    with pytest.raises(ValidationError, match="pre-sliding of friction"):
+        check_loop_or_step(kind, _fit(model, {"c": 1500.0}), half)
+    # the same loop on a stroke a hundred times shorter is a loop
+    check_loop_or_step(kind, _fit(model, {"c": 1500.0}), half / 100)
+    width = hysteresis_transition(kind, params)
+    assert width is not None and width < HYSTERESIS_MIN_FRACTION * half
+
+
+def test_a_loop_over_millimetres_is_kept():
+    model = DamperDynoModel([make_effect("bouc_wen_hysteresis").with_params({"x_y": 1.5e-3})])
+    check_loop_or_step("bouc_wen_hysteresis", _fit(model, {"c": 1500.0}), 0.04)
+
+
+# ------------------------------------------------------------------ friction level
+def test_friction_with_every_level_zero_within_its_error_is_refused():
+    model = FrictionGuideModel(
+        [make_effect("lugre_friction").with_params({"f_c": 5e-4, "f_s": 2e-4})]
+    )
+    names = tuple(model.parameter_names)
+    sd = np.array([3e-3 if n.endswith((".f_c", ".f_s")) else 1e-3 for n in names])
+    with pytest.raises(ValidationError, match=r"every fitted friction level is zero.*f_c = "):
+        check_friction_level("lugre_friction", _fit(model, {"m": 10.0, "c": 30.0}, sd))
+    # one level resolved from zero: friction
+    sd_small = np.full(len(names), 1e-5)
+    check_friction_level("lugre_friction", _fit(model, {"m": 10.0, "c": 30.0}, sd_small))
+    # not a friction kind: not judged
+    check_friction_level("cubic_stiffness", _fit(model, {"m": 10.0, "c": 30.0}, sd))
+
+
+# ------------------------------------------------------------------ baseline offsets
+def test_a_force_offset_is_reported_with_its_value_and_a_clean_zero_is_not():
+    case = make_case("friction_guide", 0, 0)  # a development control (white noise)
+    rec = case.recording
+    shifted = _with_force(rec, rec.outputs["force"] + 4.0, "guide_offset")
+    diag = diagnose(shifted, make_family("friction_guide"))
+    found = {o["channel"]: o for o in diag.findings["baseline_offsets"]}
+    base = diagnose(rec, make_family("friction_guide")).findings["baseline_offsets"]
+    base_value = {o["channel"]: o["value"] for o in base}["force"]
+    # the added 4 N is what the offset moves by (the control's own zero is fitted too)
+    assert found["force"]["significant"]
+    assert found["force"]["value"] - base_value == pytest.approx(4.0, abs=0.1)
+    assert "constant offset of force is +" in diag.verdict
+    assert not diag.named
+
+
+def test_baseline_offsets_read_the_fitted_offset_and_its_error():
+    model = FrictionGuideModel([make_effect("force_offset").with_params({"offset": 2.0})])
+    names = tuple(model.parameter_names)
+    sd = np.array([0.1 if n.endswith(".offset") else 1.0 for n in names])
+    (found,) = baseline_offsets(_fit(model, {"m": 10.0, "c": 30.0}, sd))
+    assert found["channel"] == "force" and found["value"] == 2.0 and found["significant"]
+    assert "+2 +- 0.1 N (20 standard errors" in found["sentence"]
+    (weak,) = baseline_offsets(_fit(model, {"m": 10.0, "c": 30.0}, 10 * sd))
+    assert not weak["significant"]
+
+
+# ------------------------------------------------------------ candidates of the families
+def test_an_end_stop_in_a_damper_is_named():
+    case = make_case("damper", 0, 1)  # development seed: a bump stop
+    assert case.truth.kinds == ["bump_stop"]
+    diag = diagnose(case.recording, make_family("damper"))
+    assert diag.named_kinds[:1] == ["bump_stop"], diag.verdict
+
+
+def test_direction_dependent_viscous_friction_in_a_guide_is_named_in_its_words():
+    case = make_case("friction_guide", 0, 1)  # development seed: one direction more viscous
+    assert case.truth.kinds == ["damper_asymmetry"]
+    diag = diagnose(case.recording, make_family("friction_guide"))
+    assert diag.named_kinds[:1] == ["damper_asymmetry"], diag.verdict
+    assert diag.verdict.startswith("missing physics: direction-dependent viscous friction")
