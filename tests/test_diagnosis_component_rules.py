@@ -211,3 +211,47 @@ def test_direction_dependent_viscous_friction_in_a_guide_is_named_in_its_words()
     diag = diagnose(case.recording, make_family("friction_guide"))
     assert diag.named_kinds[:1] == ["damper_asymmetry"], diag.verdict
     assert diag.verdict.startswith("missing physics: direction-dependent viscous friction")
+
+
+def test_a_sensor_gain_is_refitted_on_the_channel_its_signature_was_found_in():
+    # a development control of the quarter car with its deflection transducer reading
+    # 15 % low: the gain is found, refitted and named on that channel (the body
+    # accelerometer, the model's first channel, is right)
+    rec = make_case("quarter_car_rig", 0, 0).recording
+    outputs = dict(rec.outputs)
+    outputs["suspension_deflection"] = 0.85 * outputs["suspension_deflection"]
+    low = Recording(
+        "low_gain", rec.test, rec.time, dict(rec.inputs), outputs, dict(rec.units), dict(rec.meta)
+    )
+    # the quarter car's benchmark settings (FAMILY_SETTINGS)
+    diag = diagnose(low, make_family("quarter_car_rig", max_nfev=15, screen_families=2))
+    assert diag.named_kinds == ["sensor_gain"], diag.verdict
+    assert "on the suspension_deflection channel" in diag.verdict
+    assert diag.named[0].params["sensor_gain.gain"]["value"] == pytest.approx(0.85, rel=0.02)
+
+
+# ------------------------------------------------------------------ lag or delay
+@pytest.mark.parametrize(("tau", "said"), [(0.010, True), (0.050, False)])
+def test_a_sensor_lag_is_said_to_be_inseparable_from_a_delay_at_low_frequency(tau, said):
+    from suspenv.diagnosis.component.family import lag_or_delay
+
+    # a 2 Hz sine: the motion's angular frequency v_max / x_half is 2 pi 2 = 12.6 rad/s,
+    # so w tau = 0.126 (inseparable) or 0.63 (separable)
+    t = np.arange(0.0, 3.0, 0.001)
+    w = 2 * np.pi * 2.0
+    x, v = 0.01 * np.sin(w * t), 0.01 * w * np.cos(w * t)
+    rec = Recording(
+        "sine",
+        "dyno",
+        t,
+        {"displacement": x, "velocity": v},
+        {"force": 1500 * v},
+        {"displacement": "m", "velocity": "m/s", "force": "N"},
+        {},
+    )
+    named = [SimpleNamespace(kind="sensor_lag", params={"sensor_lag.tau": {"value": tau}})]
+    text = lag_or_delay(named, SimpleNamespace(fit_recordings=[rec]))
+    assert bool(text) is said
+    if said:
+        assert "w tau <= 0.13" in text and "15.9 Hz" in text
+    assert lag_or_delay([], SimpleNamespace(fit_recordings=[rec])) == ""

@@ -78,13 +78,16 @@ class Location:
 
 @dataclass
 class Signature:
-    """A detector's verdict: score in [0, 1], p-value, evidence sentence and numbers."""
+    """A detector's verdict: score in [0, 1], p-value, evidence sentence and numbers;
+    ``channel``: the recorded channel it was scored in ("" where it is the model's own
+    output or force view)."""
 
     kind: str
     score: float
     p_value: float
     evidence: str
     numbers: dict[str, float] = field(default_factory=dict)
+    channel: str = ""
 
     def to_dict(self) -> dict[str, object]:
         return asdict(self)

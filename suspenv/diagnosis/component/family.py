@@ -262,6 +262,7 @@ def _score_round(
         for sig in score_signatures(_signal_set(current, sp, ch, view=False), sensor_fams):
             if sig.kind not in best or sig.score > best[sig.kind].score:
                 sig.evidence = f"{sig.evidence} in {ch}"
+                sig.channel = ch
                 best[sig.kind] = sig
     return sorted(sigs + list(best.values()), key=lambda g: -g.score), True
 
@@ -316,6 +317,8 @@ class ComponentFamily(OptionalSteps):
     rig_notes: list[str] = field(default_factory=list, init=False)
     #: the motion version the last :meth:`prepare` fitted (``motion_inputs.conditioned``)
     motion_version: str = field(default="channel", init=False)
+    #: sensor signature family -> the recorded channel it was strongest in (last screen)
+    sensor_channels: dict[str, str] = field(default_factory=dict, init=False)
 
     def __post_init__(self) -> None:
         # an unknown model family or effect kind is an error before any work starts
@@ -432,6 +435,8 @@ class ComponentFamily(OptionalSteps):
             fams += [s.kind for s in sigs if s.kind in SENSOR_FAMILIES and s.kind in open_fams][:1]
             fams = list(dict.fromkeys(fams))
         sig_of = {s.kind: s for s in sigs}
+        # the recorded channel each sensor family was found in (its refit and words use it)
+        self.sensor_channels = {s.kind: s.channel for s in sigs if s.channel}
         chosen = [(k, sig_of.get(family_of(k))) for k in open_candidates if family_of(k) in fams]
         return Screening(sigs, chosen)
 
@@ -439,6 +444,10 @@ class ComponentFamily(OptionalSteps):
         self, current: FitResult, candidate: str, signature: SignatureLike | None, setup: Setup
     ) -> FitResult:
         half, vmax = _stroke(setup.split)
+        location = effect_location(setup.model, candidate)
+        if not location and isinstance(signature, Signature) and signature.channel:
+            # a sensor error sits on the recorded channel its signature was found in
+            location = signature.channel
         ext = refit_with(
             current,
             candidate,
@@ -447,7 +456,7 @@ class ComponentFamily(OptionalSteps):
             signature if isinstance(signature, Signature) else None,
             half,
             vmax,
-            location=effect_location(setup.model, candidate),
+            location=location,
             max_nfev=self.budget,
         )
         check_step_or_knee(candidate, ext, vmax)
@@ -460,6 +469,9 @@ class ComponentFamily(OptionalSteps):
         """Engineering words in the device's terms, e.g. "Coulomb friction in the guide",
         "yield force of the MR fluid (...)" (the model's ``device_words`` first)."""
         effect = make_effect(candidate, location=effect_location(setup.model, candidate))
+        channel = self.sensor_channels.get(family_of(candidate), "")
+        if effect.spec.role == "sensor" and channel:
+            return f"{effect.spec.words} on the {channel} channel"
         if isinstance(setup.model, ComponentModel):
             return setup.model.effect_words(effect)
         return effect.words
@@ -507,6 +519,9 @@ class ComponentFamily(OptionalSteps):
             if remaining:
                 found.sentences.insert(0, remaining[0].sentence())
                 found.overrides_verdict = True
+        lag = lag_or_delay(outcome.named, setup.split)
+        if lag:
+            found.sentences.append(lag)
         offsets = baseline_offsets(final)
         if offsets:
             found.findings["baseline_offsets"] = offsets
@@ -721,6 +736,40 @@ def check_friction_level(candidate: str, ext: FitResult) -> None:
         f"{kind}: every fitted friction level is zero within {FRICTION_LEVEL_Z:g} standard "
         f"errors ({', '.join(seen)}): the fit improves through the element's shape, not "
         "through friction"
+    )
+
+
+#: below this product of the lag and the motion's angular frequency a first-order lag
+#: and a pure time delay shift the phase alike and their gains differ by under 12 %
+LAG_DELAY_SEPARABLE = 0.5
+
+
+def lag_or_delay(named: Sequence[Hypothesis], sp: Split) -> str:
+    """When a sensor lag is named where it cannot be told from a pure time delay (not in
+    the library), the sentence that says so and names the test that would separate them;
+    "" otherwise.
+
+    A first-order lag ``tau`` shifts the phase by ``atan(w tau)`` and scales the gain by
+    ``1 / sqrt(1 + (w tau)^2)``; a delay ``T`` shifts it by ``w T`` at unit gain. At the
+    motion's highest angular frequency ``w = v_max / x_half`` (a sine's), below
+    ``w tau = LAG_DELAY_SEPARABLE`` the two differ by little more than the gain, which
+    the model's other parameters absorb.
+    """
+    lag = next((h for h in named if h.kind == "sensor_lag"), None)
+    if lag is None:
+        return ""
+    tau = float(lag.params.get("sensor_lag.tau", {}).get("value", np.nan))
+    half, vmax = _stroke(sp)
+    if not (np.isfinite(tau) and tau > 0 and half > 0):
+        return ""
+    wt = tau * vmax / half
+    if wt >= LAG_DELAY_SEPARABLE:
+        return ""
+    return (
+        f"the sensor lag ({1e3 * tau:.3g} ms) cannot be told from a pure time delay (a "
+        f"digital filter's or a transport delay, not in the library) at these frequencies "
+        f"(w tau <= {wt:.2g}); a test at {1.0 / (2 * np.pi * tau):.3g} Hz or above would "
+        "separate them (a lag's gain falls there, a delay's does not)"
     )
 
 

@@ -17,7 +17,7 @@ component felt the exact motion.
 from __future__ import annotations
 
 import json
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -322,6 +322,14 @@ def make_case(family: str, seed: int, n_effects: int, outside: bool = False) -> 
     while n_drawn == 2 and family_of(kinds[0]) == family_of(kinds[1]):
         kinds[1] = str(rng.choice(pool))
     effects = [draw_effect(str(k), rng, sc, base) for k in kinds]
+    # a sensor error sits on one of the recorded channels (the quarter car has two)
+    if len(model.output_channels) > 1:
+        effects = [
+            replace(e, location=str(rng.choice(model.output_channels)))
+            if e.spec.role == "sensor"
+            else e
+            for e in effects
+        ]
     # the family's own element constants (e.g. the quarter car's friction width)
     defaults = model.effect_defaults
     effects = [e.with_params(defaults.get(e.kind, {})) for e in effects]
