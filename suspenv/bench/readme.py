@@ -72,6 +72,11 @@ class FigureError(ValueError):
     """The JSON no longer supports the README's fixed wording (edit the template here)."""
 
 
+#: the guide's words for the elements the engine may name after EMPS's friction
+#: (``FrictionGuideModel.device_words``; this module imports no model)
+GUIDE_WORDS = {"damper_asymmetry": "direction-dependent viscous friction"}
+
+
 def _require(condition: bool, message: str) -> None:
     if not condition:
         raise FigureError(message)
@@ -436,7 +441,11 @@ def real_paragraph(bench: Json, ride: Json) -> str:
             f"{visc['value']:.0f} N s/m, offset {off['value']:.1f} N;",
             f"published {fc['published']:g}, {visc['published']:g}, {off['published']:g}; the "
             "offset is part of the guide's baseline"
-            + (f"; then {', '.join(k.replace('_', ' ') for k in beyond)}" if beyond else "")
+            + (
+                f"; then {', '.join(GUIDE_WORDS.get(k, k.replace('_', ' ')) for k in beyond)}"
+                if beyond
+                else ""
+            )
             + "); MR damper",
             f"hysteresis named (held-out error {percent(-mr['heldout_reduction'])}); "
             "racing damper on a dyno: digressive curve",
