@@ -234,21 +234,11 @@ def test_a_sensor_gain_is_refitted_on_the_channel_its_signature_was_found_in():
 @pytest.mark.parametrize(("tau", "said"), [(0.010, True), (0.050, False)])
 def test_a_sensor_lag_is_said_to_be_inseparable_from_a_delay_at_low_frequency(tau, said):
     from suspenv.diagnosis.component.family import lag_or_delay
+    from suspenv.models.components.damper import sine_blocks
 
     # a 2 Hz sine: the motion's angular frequency v_max / x_half is 2 pi 2 = 12.6 rad/s,
     # so w tau = 0.126 (inseparable) or 0.63 (separable)
-    t = np.arange(0.0, 3.0, 0.001)
-    w = 2 * np.pi * 2.0
-    x, v = 0.01 * np.sin(w * t), 0.01 * w * np.cos(w * t)
-    rec = Recording(
-        "sine",
-        "dyno",
-        t,
-        {"displacement": x, "velocity": v},
-        {"force": 1500 * v},
-        {"displacement": "m", "velocity": "m/s", "force": "N"},
-        {},
-    )
+    rec = sine_blocks([(0.01, 2.0, 6)], 0.001, "sine", "dyno")
     named = [SimpleNamespace(kind="sensor_lag", params={"sensor_lag.tau": {"value": tau}})]
     text = lag_or_delay(named, SimpleNamespace(fit_recordings=[rec]))
     assert bool(text) is said
