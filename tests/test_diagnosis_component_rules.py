@@ -24,9 +24,9 @@ from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.component.family import (
     HYSTERESIS_MIN_FRACTION,
     baseline_offsets,
-    check_friction_level,
     check_loop_or_step,
     check_parallel_branch,
+    check_resolved_size,
     hysteresis_transition,
 )
 from suspenv.diagnosis.component.truth import make_case
@@ -154,20 +154,35 @@ def test_a_loop_over_millimetres_is_kept():
     check_loop_or_step("bouc_wen_hysteresis", _fit(model, {"c": 1500.0}), 0.04)
 
 
-# ------------------------------------------------------------------ friction level
-def test_friction_with_every_level_zero_within_its_error_is_refused():
+# ------------------------------------------------------------------ resolved size
+def test_an_element_whose_size_is_zero_within_its_error_is_refused():
     model = FrictionGuideModel(
         [make_effect("lugre_friction").with_params({"f_c": 5e-4, "f_s": 2e-4})]
     )
     names = tuple(model.parameter_names)
     sd = np.array([3e-3 if n.endswith((".f_c", ".f_s")) else 1e-3 for n in names])
-    with pytest.raises(ValidationError, match=r"every fitted friction level is zero.*f_c = "):
-        check_friction_level("lugre_friction", _fit(model, {"m": 10.0, "c": 30.0}, sd))
+    with pytest.raises(ValidationError, match=r"size is zero within 2 standard errors.*f_c = "):
+        check_resolved_size("lugre_friction", _fit(model, {"m": 10.0, "c": 30.0}, sd))
     # one level resolved from zero: friction
     sd_small = np.full(len(names), 1e-5)
-    check_friction_level("lugre_friction", _fit(model, {"m": 10.0, "c": 30.0}, sd_small))
-    # not a friction kind: not judged
-    check_friction_level("cubic_stiffness", _fit(model, {"m": 10.0, "c": 30.0}, sd))
+    check_resolved_size("lugre_friction", _fit(model, {"m": 10.0, "c": 30.0}, sd_small))
+    # a kind without a listed size is not judged
+    check_resolved_size("maxwell_viscoelastic", _fit(model, {"m": 10.0, "c": 30.0}, sd))
+
+
+@pytest.mark.parametrize(("k3", "sd", "refused"), [(-14.7, 16.0, True), (55.0, 17.0, False)])
+def test_a_cubic_stiffness_is_judged_by_its_coefficient(k3, sd, refused):
+    # the two guide controls' fitted values: -14.7 +- 16 is no stiffness, 55 +- 17 is
+    # resolved (3.2 standard errors)
+    model = FrictionGuideModel([make_effect("cubic_stiffness").with_params({"k3": k3})])
+    names = tuple(model.parameter_names)
+    err = np.array([sd if n.endswith(".k3") else 1e-3 for n in names])
+    fit = _fit(model, {"m": 10.0, "c": 30.0}, err)
+    if refused:
+        with pytest.raises(ValidationError, match=r"k3 = -14.7 \+- 16"):
+            check_resolved_size("cubic_stiffness", fit)
+    else:
+        check_resolved_size("cubic_stiffness", fit)
 
 
 # ------------------------------------------------------------------ baseline offsets

@@ -462,7 +462,7 @@ class ComponentFamily(OptionalSteps):
         check_step_or_knee(candidate, ext, vmax)
         check_loop_or_step(candidate, ext, half)
         check_parallel_branch(candidate, ext)
-        check_friction_level(candidate, ext)
+        check_resolved_size(candidate, ext)
         return ext
 
     def words(self, candidate: str, setup: Setup) -> str:
@@ -691,31 +691,45 @@ def check_parallel_branch(candidate: str, ext: FitResult) -> None:
         )
 
 
-#: the force levels [N] of each friction kind: a friction element is a finding only when
-#: one of them is resolved from zero
-FRICTION_LEVELS: dict[str, tuple[str, ...]] = {
+#: the parameters that give each element kind its size, all with zero for "no element"
+#: (linear parameters only: a log-scaled one's standard error is not in its unit): an
+#: element is a finding only when one of them is resolved from zero
+ELEMENT_SIZE: dict[str, tuple[str, ...]] = {
     "coulomb_friction": ("f_c",),
     "stribeck_friction": ("f_c", "f_s"),
     "directional_friction": ("f_pos", "f_neg"),
     "lugre_friction": ("f_c", "f_s"),
+    "dahl_hysteresis": ("f_c",),
+    "bouc_wen_hysteresis": ("f_y",),
+    "cubic_stiffness": ("k3",),
+    "progressive_stiffness": ("k_p",),
+    "bump_stop": ("k_stop",),
+    "rebound_stop": ("k_stop",),
+    "digressive_damping": ("c_low",),
+    "asymmetric_digressive_damping": ("c_bump", "c_rebound"),
+    "damper_asymmetry": ("dc_rebound",),
+    "sensor_lag": ("tau",),
+    "sensor_offset": ("offset",),
+    "force_offset": ("offset",),
 }
-#: a friction level counts as resolved when it is this many corrected standard errors
-#: from zero
-FRICTION_LEVEL_Z = 2.0
+#: a size counts as resolved when it is this many corrected standard errors from zero
+SIZE_Z = 2.0
 
 
-def check_friction_level(candidate: str, ext: FitResult) -> None:
-    """Refuse a friction refit whose force levels are all zero within
-    ``FRICTION_LEVEL_Z`` corrected standard errors.
+def check_resolved_size(candidate: str, ext: FitResult) -> None:
+    """Refuse a refit whose element's size parameters (``ELEMENT_SIZE``) are all zero
+    within ``SIZE_Z`` corrected standard errors.
 
-    Such a fit improves the residual through the element's shape, not through friction:
-    LuGre's bristle damping ``sigma1 dz/dt`` is a viscous force at standstill whatever the
-    friction level, and it absorbs a drifting zero or noise in the rests. Raises
-    :class:`ValidationError` (the hypothesis is recorded as failed with this reason).
+    Such a fit improves the residual through something else than the element: its shape
+    at a size the data cannot tell from zero (LuGre's bristle damping ``sigma1 dz/dt`` is
+    a viscous force at standstill whatever the friction level, and it absorbed a guide
+    control's drifting zero), or the base parameters moving to a better optimum from the
+    refit's new start. Raises :class:`ValidationError` (the hypothesis is recorded as
+    failed with this reason).
     """
     kind = candidate.partition("@")[0]
-    levels = FRICTION_LEVELS.get(kind)
-    if levels is None:
+    sizes = ELEMENT_SIZE.get(kind)
+    if sizes is None:
         return
     names = list(ext.names)
     _, effects = ext.model.unpack(ext.theta)
@@ -723,19 +737,18 @@ def check_friction_level(candidate: str, ext: FitResult) -> None:
     if element is None:
         return
     seen = []
-    for q in levels:
+    for q in sizes:
         key = f"{element.name}.{q}"
-        if key not in names:  # a level held fixed is not judged here
+        if key not in names:  # a size held fixed is not judged here
             return
         i = names.index(key)
         value, sd = float(ext.theta[i]), float(ext.stderr_corrected[i])
-        if not np.isfinite(sd) or abs(value) > FRICTION_LEVEL_Z * sd:
+        if not np.isfinite(sd) or abs(value) > SIZE_Z * sd:
             return
-        seen.append(f"{q} = {value:.3g} +- {sd:.2g} N")
+        seen.append(f"{q} = {value:.3g} +- {sd:.2g}")
     raise ValidationError(
-        f"{kind}: every fitted friction level is zero within {FRICTION_LEVEL_Z:g} standard "
-        f"errors ({', '.join(seen)}): the fit improves through the element's shape, not "
-        "through friction"
+        f"{kind}: its fitted size is zero within {SIZE_Z:g} standard errors "
+        f"({', '.join(seen)}): the fit improves through something else than this element"
     )
 
 
