@@ -31,6 +31,7 @@ from suspenv.diagnosis.component.family import (
 )
 from suspenv.diagnosis.component.truth import make_case
 from suspenv.diagnosis.engine import diagnose, make_family
+from suspenv.diagnosis.fitting import FitResult
 from suspenv.measurements import Recording
 from suspenv.models.components import DamperDynoModel, FrictionGuideModel
 from suspenv.models.effects import make_effect
@@ -42,7 +43,9 @@ def _fit(model, base, stderr=None, stderr_corrected=None):
     names = tuple(model.parameter_names)
     sd = np.full(len(names), 1e-3) if stderr is None else np.asarray(stderr, float)
     sdc = sd if stderr_corrected is None else np.asarray(stderr_corrected, float)
-    return SimpleNamespace(model=model, theta=theta, names=names, stderr=sd, stderr_corrected=sdc)
+    fit = SimpleNamespace(model=model, theta=theta, names=names, stderr=sd, stderr_corrected=sdc)
+    fit.params = lambda: FitResult.params(fit)  # the real accessor on these fields
+    return fit
 
 
 def _with_force(rec: Recording, force: np.ndarray, name: str) -> Recording:

@@ -567,6 +567,13 @@ TRANSITION_WIDTH = {
 }
 
 
+def refitted_element(ext: FitResult, kind: str) -> Any | None:
+    """The element of ``kind`` in the refitted model, at its fitted values (None when the
+    model holds none)."""
+    _, effects = ext.model.unpack(ext.theta)
+    return next((e for e in effects if e.kind == kind), None)
+
+
 def check_step_or_knee(candidate: str, ext: FitResult, vmax: float) -> None:
     """Refuse a refit whose fitted transition contradicts its kind.
 
@@ -584,13 +591,10 @@ def check_step_or_knee(candidate: str, ext: FitResult, vmax: float) -> None:
     width_name = TRANSITION_WIDTH.get(kind)
     if width_name is None or vmax <= 0:
         return
-    _, effects = ext.model.unpack(ext.theta)
-    width = next(
-        (float(np.ravel(e.params[width_name])[0]) for e in effects if e.kind == kind),
-        None,
-    )
-    if width is None:
+    element = refitted_element(ext, kind)
+    if element is None:
         return
+    width = float(np.ravel(element.params[width_name])[0])
     frac = width / vmax
     is_friction = kind != "digressive_damping"
     if is_friction and frac > FRICTION_MAX_FRACTION:
@@ -638,8 +642,7 @@ def check_loop_or_step(candidate: str, ext: FitResult, half_stroke: float) -> No
     kind = candidate.partition("@")[0]
     if half_stroke <= 0:
         return
-    _, effects = ext.model.unpack(ext.theta)
-    element = next((e for e in effects if e.kind == kind), None)
+    element = refitted_element(ext, kind)
     if element is None:
         return
     width = hysteresis_transition(kind, element.params)
@@ -672,16 +675,15 @@ def check_parallel_branch(candidate: str, ext: FitResult) -> None:
     parameter (``viscous_parameter``) is not checked.
     """
     kind = candidate.partition("@")[0]
-    model = ext.model
-    name = getattr(model, "viscous_parameter", "")
-    if kind != "maxwell_viscoelastic" or not name or name not in ext.names:
+    name = getattr(ext.model, "viscous_parameter", "")
+    fitted = ext.params()
+    if kind != "maxwell_viscoelastic" or name not in fitted:
         return
-    i = list(ext.names).index(name)
-    c, sd = float(ext.theta[i]), float(ext.stderr[i])
-    _, effects = model.unpack(ext.theta)
-    c_m = next((float(np.ravel(e.params["c_m"])[0]) for e in effects if e.kind == kind), None)
-    if c_m is None or not np.isfinite(sd):
+    c, sd = fitted[name]["value"], fitted[name]["stderr"]
+    element = refitted_element(ext, kind)
+    if element is None or not np.isfinite(sd):
         return
+    c_m = float(np.ravel(element.params["c_m"])[0])
     if c <= 2.0 * sd or c < WHOLE_FORCE_BASE_SHARE * (c + c_m):
         raise ValidationError(
             f"{kind}: the fitted branch carries the whole viscous force (base {name} = "
@@ -731,18 +733,16 @@ def check_resolved_size(candidate: str, ext: FitResult) -> None:
     sizes = ELEMENT_SIZE.get(kind)
     if sizes is None:
         return
-    names = list(ext.names)
-    _, effects = ext.model.unpack(ext.theta)
-    element = next((e for e in effects if e.kind == kind), None)
+    element = refitted_element(ext, kind)
     if element is None:
         return
+    fitted = ext.params()
     seen = []
     for q in sizes:
         key = f"{element.name}.{q}"
-        if key not in names:  # a size held fixed is not judged here
+        if key not in fitted:  # a size held fixed is not judged here
             return
-        i = names.index(key)
-        value, sd = float(ext.theta[i]), float(ext.stderr_corrected[i])
+        value, sd = fitted[key]["value"], fitted[key]["stderr_corrected"]
         if not np.isfinite(sd) or abs(value) > SIZE_Z * sd:
             return
         seen.append(f"{q} = {value:.3g} +- {sd:.2g}")
@@ -801,17 +801,13 @@ def baseline_offsets(fit: FitResult) -> list[dict[str, Any]]:
     and a sentence in the channel's unit (``"the baseline's constant offset of force is
     +3.14 +- 0.02 N ..."``)."""
     out: list[dict[str, Any]] = []
-    names = list(fit.names)
+    fitted = fit.params()
     model = fit.model
     for e in getattr(model, "effects", ()):
-        if e.kind not in OFFSET_KINDS:
-            continue
         key = f"{e.name}.offset"
-        if key not in names:
+        if e.kind not in OFFSET_KINDS or key not in fitted:
             continue
-        i = names.index(key)
-        value = float(fit.theta[i])
-        sd = float(fit.stderr_corrected[i])
+        value, sd = fitted[key]["value"], fitted[key]["stderr_corrected"]
         # a sensor element sits on its channel; a force element acts on the output force
         sensor = e.spec.role == "sensor" and e.location
         channel = e.location if sensor else (model.output_channels or ("",))[0]
