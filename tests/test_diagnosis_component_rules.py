@@ -11,6 +11,9 @@ References, per rule:
 - Friction level: a friction element whose levels are zero within two standard errors.
 - Baseline offsets: a constant force offset added to a recording is reported with its
   value; a recording without one reports none.
+- Lag or delay: the closed form of a pure delay (a sine late by ``w T`` at unit gain);
+  a damper recorded late by a pure delay (simulated with the probe's element as truth)
+  and one with a first-order lag, diagnosed blind.
 """
 
 from __future__ import annotations
@@ -34,7 +37,7 @@ from suspenv.diagnosis.engine import diagnose, make_family
 from suspenv.diagnosis.fitting import FitResult
 from suspenv.measurements import Recording
 from suspenv.models.components import DamperDynoModel, FrictionGuideModel
-from suspenv.models.effects import make_effect
+from suspenv.models.effects import make_effect, sensor_delay
 
 
 def _fit(model, base, stderr=None, stderr_corrected=None):
@@ -263,3 +266,63 @@ def test_a_sensor_lag_is_said_to_be_inseparable_from_a_delay_at_low_frequency(ta
     if said:
         assert "w tau <= 0.13" in text and "15.9 Hz" in text
     assert lag_or_delay([], SimpleNamespace(fit_recordings=[rec])) == ""
+
+
+def test_a_pure_delay_keeps_the_gain_and_shifts_the_phase_by_w_t():
+    # closed form: y(t - T) of a sine is a sine late by w T at unit amplitude; positive
+    # delay = the recording is late; batch rows take their own delays
+    t = np.arange(0.0, 2.0, 1e-3)
+    w = 2 * np.pi * 3.0
+    y = np.stack([np.sin(w * t), np.sin(w * t)])
+    out = sensor_delay(y, t, np.array([0.02, 0.0]))
+    late = t > 0.05
+    assert out[0, late] == pytest.approx(np.sin(w * (t[late] - 0.02)), abs=1e-4)
+    assert out[1] == pytest.approx(y[1])
+    with pytest.raises(ValidationError, match="delay >= 0"):
+        sensor_delay(y, t, -0.01)
+
+
+def _delayed_damper_case(delay: float) -> Recording:
+    """A damper (viscous + gas force) whose force is recorded late by a pure delay of
+    ``delay`` [s] (not a library element: the catalogue's probe, simulated here as the
+    truth); 0.5 % white noise."""
+    model = DamperDynoModel()
+    rec = model.example_recording(seed=3)
+    gas = make_effect("gas_spring").with_params({"f_0": 150.0, "k_gas": 3000.0})
+    late = make_effect("sensor_delay").with_params({"delay": delay})
+    truth = model.with_effects([gas, late])
+    f = np.asarray(truth.simulate(truth.theta_from({"c": 1600.0}), rec)["force"], float)
+    rng = np.random.default_rng(5)
+    noisy = f + 0.005 * float(np.std(f)) * rng.standard_normal(f.size)
+    return _with_force(rec, noisy, "delay_case")
+
+
+def test_a_pure_delay_is_reported_as_outside_the_library_not_as_a_sensor_lag():
+    diag = diagnose(_delayed_damper_case(0.015), make_family("damper"))
+    assert "sensor_lag" not in diag.named_kinds, diag.verdict
+    assert diag.unexplained, diag.verdict
+    (left,) = diag.findings["beyond_library"]
+    assert left.remains and left.channel == "force"
+    assert left.delay_s == pytest.approx(0.015, rel=0.05)
+    assert "late by a pure time delay of 15" in diag.verdict
+    refused = [h for h in diag.hypotheses if h.kind == "sensor_lag" and h.fit is None]
+    assert refused and "fits the channel better than a first-order lag" in (
+        refused[0].signature_evidence
+    )
+
+
+def test_a_first_order_lag_is_not_mistaken_for_a_delay():
+    # the lag case of the Maxwell tests: the delay probe runs and loses (or ties)
+    diag = diagnose(_lagged_damper_case("sensor_lag"), make_family("damper"))
+    assert diag.named_kinds[:1] == ["sensor_lag"], diag.verdict
+    assert not diag.unexplained, diag.verdict
+    assert not diag.findings.get("beyond_library"), diag.verdict
+
+
+def test_the_lag_is_refused_only_when_the_delay_is_decisively_better():
+    from suspenv.diagnosis.component.delay import DELAY_DECISIVE_BIC, check_lag_not_delay
+
+    test = {"bic_difference": DELAY_DECISIVE_BIC + 0.1, "delay_s": 0.0123, "lag_s": 0.0151}
+    with pytest.raises(ValidationError, match=r"pure time delay of 12.3 ms.*lag of 15.1 ms"):
+        check_lag_not_delay(test)
+    check_lag_not_delay(test | {"bic_difference": DELAY_DECISIVE_BIC})  # not decisive

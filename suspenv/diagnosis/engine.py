@@ -152,6 +152,8 @@ class Diagnosis:
         explains (components and ride)."""
         left = self.findings.get("residual")
         records = left if isinstance(left, list) else [left] if left is not None else []
+        # a probe outside the library that removed a material part of the residual
+        records += list(self.findings.get("beyond_library", []))
         return any(bool(getattr(r, "remains", False)) for r in records)
 
     @property

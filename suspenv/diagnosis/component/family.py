@@ -35,6 +35,14 @@ import numpy as np
 
 from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.component.asymmetry import asymmetry_check
+from suspenv.diagnosis.component.delay import (
+    DELAY_DECISIVE_BIC,
+    check_lag_not_delay,
+    delay_against_lag,
+    delay_left,
+    element_value,
+    fit_delay,
+)
 from suspenv.diagnosis.component.locate import Segment, locate
 from suspenv.diagnosis.component.motion import cycle_index, motion, split
 from suspenv.diagnosis.component.motion_inputs import (
@@ -319,6 +327,9 @@ class ComponentFamily(OptionalSteps):
     motion_version: str = field(default="channel", init=False)
     #: sensor signature family -> the recorded channel it was strongest in (last screen)
     sensor_channels: dict[str, str] = field(default_factory=dict, init=False)
+    #: recorded channel -> the test where a pure time delay beat a refitted sensor lag
+    #: decisively in the last diagnosis (:mod:`~suspenv.diagnosis.component.delay`)
+    delay_tests: dict[str, dict[str, float]] = field(default_factory=dict, init=False)
 
     def __post_init__(self) -> None:
         # an unknown model family or effect kind is an error before any work starts
@@ -347,6 +358,7 @@ class ComponentFamily(OptionalSteps):
         recordings in suspenv's signs, the split and the open candidates."""
         recs = as_recordings(recordings)
         held = holdout
+        self.delay_tests = {}
         if isinstance(self.model, ComponentModel):
             model = self.model  # an explicit model instance is the baseline as given
             self.rig, self.rig_notes = None, []
@@ -463,6 +475,18 @@ class ComponentFamily(OptionalSteps):
         check_loop_or_step(candidate, ext, half)
         check_parallel_branch(candidate, ext)
         check_resolved_size(candidate, ext)
+        if candidate.partition("@")[0] == "sensor_lag":
+            # the same channel late by a pure delay instead (not a library element)
+            channel = location or setup.model.output_channels[0]
+            start = element_value(ext, "sensor_lag", "tau")
+            delay = fit_delay(current, setup.split, channel, start, self.budget)
+            test = delay_against_lag(ext, delay)
+            ext.extra["delay_against_lag"] = test
+            if (
+                test["bic_difference"] > DELAY_DECISIVE_BIC
+            ):  # the first decisive test of a channel is kept
+                self.delay_tests.setdefault(channel, test)
+            check_lag_not_delay(test)
         return ext
 
     def words(self, candidate: str, setup: Setup) -> str:
@@ -519,6 +543,23 @@ class ComponentFamily(OptionalSteps):
             if remaining:
                 found.sentences.insert(0, remaining[0].sentence())
                 found.overrides_verdict = True
+        for channel, test in self.delay_tests.items():
+            left_delay = delay_left(
+                final,
+                setup.split,
+                channel,
+                test["delay_s"],
+                test["bic_difference"],
+                self.budget,
+                self.rule,
+            )
+            found.findings.setdefault("beyond_library", []).append(left_delay)
+            if left_delay.remains:
+                found.confident = False
+                found.overrides_verdict = True
+                found.sentences.insert(0, left_delay.sentence())
+            else:
+                found.sentences.append(left_delay.sentence())
         lag = lag_or_delay(outcome.named, setup.split)
         if lag:
             found.sentences.append(lag)

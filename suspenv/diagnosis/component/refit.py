@@ -71,6 +71,8 @@ def signature_guess(
         g = {"gain": 1.0 + n.get("gain_error", 0.0)}
     elif kind == "sensor_lag":
         g = {"tau": max(n.get("lag_s", 0.0), 1e-4)}
+    elif kind == "sensor_delay":
+        g = {"delay": max(n.get("lag_s", 0.0), 1e-4)}
     return g
 
 
@@ -85,16 +87,19 @@ def refit_with(
     location: str = "",
     max_nfev: int = 200,
     both_starts: bool = False,
+    guess_given: dict[str, float] | None = None,
 ) -> FitResult:
     """Refit ``base.model`` with one more effect of ``kind``.
 
     The new element starts from the values read off its signature where there are
     some (else the model's own guess); ``both_starts`` also tries the model's guess
-    and keeps the better fit.
+    and keeps the better fit. ``guess_given``: starting values of the new element's own
+    parameters that replace those read off the signature (non-finite ones are dropped).
     """
     names_taken = {e.name for e in current_effects(base.model)}
     name = kind if kind not in names_taken else f"{kind}_{len(names_taken)}"
     guess = signature_guess(kind, signature, half_stroke, v_max)
+    guess.update({k: v for k, v in (guess_given or {}).items() if np.isfinite(v)})
     starts = [guess] if (guess and not both_starts) else [{}, guess] if guess else [{}]
     best: FitResult | None = None
     # a model may fix shape constants of its elements (e.g. the quarter car's friction

@@ -322,6 +322,16 @@ KINDS = (
         needs_time=True,
     ),
     EffectKind(
+        "sensor_delay",
+        "pure time delay of the sensor (transport or digital-filter delay)",
+        "sensor",
+        (_p("delay", 0.0, 1.0, "s", 0.005, "delay"),),
+        "residual proportional to the signal's derivative at small delays; phase lag "
+        "w delay at unit gain",
+        lambda y, t, delay: sensor.sensor_delay(y, t, delay),
+        needs_time=True,
+    ),
+    EffectKind(
         "zero_drift",
         "sensor zero drift (slow, smooth in time)",
         "sensor",

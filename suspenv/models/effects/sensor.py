@@ -89,11 +89,19 @@ def sensor_lag(y: np.ndarray, t: np.ndarray, tau: np.ndarray | float) -> np.ndar
     return linear_recurrence(a, e, y[..., 0])
 
 
-def sensor_delay(y: np.ndarray, t: np.ndarray, delay: float) -> np.ndarray:
-    """Pure delay of ``y[..., T]`` by ``delay`` [s] (scalar), linear interpolation."""
+def sensor_delay(y: np.ndarray, t: np.ndarray, delay: np.ndarray | float) -> np.ndarray:
+    """Pure delay of ``y[..., T]`` sampled at ``t[T]``: ``y_rec(t) = y(t - delay)``,
+    linear interpolation, the first value held before the record starts.
+
+    ``delay`` [s] is batch-shaped (scalar or ``y.shape[:-1]``); ``delay = 0`` returns
+    ``y`` unchanged. Under a sinusoid of angular frequency ``w`` the recorded signal lags
+    by ``w delay`` at unit amplitude ratio (a first-order lag's ratio falls instead).
+    """
     y = series(y, "y")
-    time_steps(t, y.shape[-1])
+    tt = np.asarray(t, dtype=float)
+    time_steps(tt, y.shape[-1])
     require_positive("delay", delay, strict=False)
+    d = np.broadcast_to(np.asarray(delay, dtype=float), y.shape[:-1]).reshape(-1)
     flat = y.reshape(-1, y.shape[-1])
-    out = np.stack([np.interp(np.asarray(t) - delay, t, row) for row in flat])
+    out = np.stack([np.interp(tt - di, tt, row) for di, row in zip(d, flat, strict=True)])
     return out.reshape(y.shape)

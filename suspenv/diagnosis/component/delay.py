@@ -1,0 +1,195 @@
+"""A pure time delay of a recorded channel: the evidence that tells it from a sensor lag.
+
+A first-order sensor lag ``tau`` and a pure delay ``T`` both make a channel late. Under a
+sinusoid of angular frequency ``w`` the lag shifts the phase by ``atan(w tau)`` and scales
+the gain by ``1 / sqrt(1 + (w tau)^2)``; the delay shifts it by ``w T`` at unit gain. To a
+force step (friction at a reversal) the lag answers with an exponential rise, the delay
+with the whole step, shifted. A delay (a digital filter's or a transport delay of the
+acquisition) is not an element of the diagnosis's library: it is fitted here only as a
+probe, in two places.
+
+1. **Lag or delay** (:func:`delay_against_lag`): where a sensor lag is refitted, the same
+   model with a delay of the same channel instead is fitted too. The two fits have one
+   parameter each, so their corrected BIC difference is a likelihood ratio of
+   non-nested models; a delay decisively better (by more than ``DELAY_DECISIVE_BIC``)
+   refuses the lag (:func:`check_lag_not_delay`).
+2. **Delay left** (:func:`delay_left`): after the last named element, a delay of that
+   channel is added to the final model. It is physics outside the library when it passes
+   the test every refit passes (serial-correlation corrected likelihood ratio, held-out
+   error down) *and* is material: the part of the residual it removes is at least
+   ``MATERIAL_RATIO`` times the residual left after it (the residual check's size rule,
+   :mod:`~suspenv.diagnosis.component.residual_left`).
+
+Units: delays in seconds; residuals in the channel's unit.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
+
+from suspenv.core.errors import ValidationError
+from suspenv.diagnosis.component.refit import refit_with
+from suspenv.diagnosis.component.residual_left import MATERIAL_RATIO
+from suspenv.diagnosis.decision import DecisionRule
+from suspenv.diagnosis.evidence import compare
+from suspenv.diagnosis.fitting import FitResult
+from suspenv.diagnosis.split import Split
+
+#: corrected BIC difference above which one of two fits of equal size is decisively
+#: better ("very strong" evidence on Kass and Raftery's scale)
+DELAY_DECISIVE_BIC = 10.0
+
+
+def element_value(fit: FitResult, kind: str, parameter: str) -> float:
+    """The fitted value of ``parameter`` of the element of ``kind`` in ``fit`` (NaN when
+    the model holds none)."""
+    _, effects = fit.model.unpack(fit.theta)
+    element = next((e for e in effects if e.kind == kind), None)
+    return float(np.ravel(element.params[parameter])[0]) if element is not None else np.nan
+
+
+def bic_difference(a: FitResult, b: FitResult) -> float:
+    """The corrected BIC of fit ``a`` less that of fit ``b``, two fits of equal size on the
+    same samples (positive favours ``b``): ``sum_c n_c ln(ssr_a,c / ssr_b,c)`` scaled by
+    ``n_eff / n = (1 - rho) / (1 + rho)``, ``rho`` the lag-1 autocorrelation of the better
+    fit's residual (the correction every likelihood ratio of the diagnosis takes:
+    :func:`~suspenv.diagnosis.evidence.likelihood_ratio`)."""
+    total = 0.0
+    for c in a.channels:
+        sa, sb = a.ssr.get(c, np.nan), b.ssr.get(c, np.nan)
+        if sa > 0 and sb > 0:
+            total += a.n[c] * float(np.log(sa / sb))
+    better = b if total > 0 else a
+    rho = max(float(better.extra.get("lag1_autocorrelation", 0.0)), 0.0)
+    return total * (1.0 - rho) / (1.0 + rho)
+
+
+def fit_delay(current: FitResult, sp: Split, channel: str, start: float, budget: int) -> FitResult:
+    """``current``'s model with a pure delay of ``channel`` (started at ``start`` [s]),
+    refitted on the fit samples."""
+    return refit_with(
+        current,
+        "sensor_delay",
+        sp.fit_recordings,
+        sp.fit_masks,
+        location=channel,
+        max_nfev=budget,
+        guess_given={"delay": start},
+    )
+
+
+def delay_against_lag(lag: FitResult, delay: FitResult) -> dict[str, float]:
+    """A sensor lag's fit (``lag``) against a pure delay's of the same channel
+    (``delay``): ``{"bic_difference"`` (:func:`bic_difference`, > 0 favours the delay),
+    ``"delay_s"``, ``"lag_s"``,
+    ``"ssr_lag"``, ``"ssr_delay"}`` (ssr summed over the channels)."""
+    return {
+        "bic_difference": bic_difference(lag, delay),
+        "delay_s": element_value(delay, "sensor_delay", "delay"),
+        "lag_s": element_value(lag, "sensor_lag", "tau"),
+        "ssr_lag": float(sum(lag.ssr.values())),
+        "ssr_delay": float(sum(delay.ssr.values())),
+    }
+
+
+def check_lag_not_delay(test: dict[str, float]) -> None:
+    """Refuse a sensor lag that a pure time delay of the same channel fits decisively
+    better (``test`` from :func:`delay_against_lag`: a corrected BIC difference above
+    ``DELAY_DECISIVE_BIC``). Raises
+    :class:`ValidationError` (the hypothesis is recorded as failed with this reason);
+    whether the delay is physics left is for :func:`delay_left` to say."""
+    if test["bic_difference"] <= DELAY_DECISIVE_BIC:
+        return
+    raise ValidationError(
+        f"sensor_lag: a pure time delay of {1e3 * test['delay_s']:.3g} ms (not in the "
+        f"library) fits the channel better than a first-order lag of "
+        f"{1e3 * test['lag_s']:.3g} ms (corrected BIC lower by {test['bic_difference']:.3g} "
+        f"> {DELAY_DECISIVE_BIC:g})"
+    )
+
+
+@dataclass(frozen=True)
+class DelayLeft:
+    """A pure delay of a channel added to the final model (:func:`delay_left`).
+
+    Attributes:
+        channel: the recorded channel.
+        delay_s: the fitted delay [s] (positive: the recording is late).
+        p_value_corrected: the likelihood-ratio test of the final model with the delay
+            against without (serial-correlation corrected, as every refit's).
+        heldout_reduction: relative drop of the held-out RMS error with the delay.
+        structured_ratio: RMS of the part of the fitted residual the delay removes over
+            the RMS of the residual it leaves.
+        lag_bic: the corrected BIC difference that refused a sensor lag of the channel.
+        remains: the delay is physics left that the library does not hold.
+    """
+
+    channel: str
+    delay_s: float
+    p_value_corrected: float
+    heldout_reduction: float
+    structured_ratio: float
+    lag_bic: float
+    remains: bool
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+    def sentence(self) -> str:
+        """One sentence for the verdict."""
+        evidence = (
+            f"it removes {self.structured_ratio:.2g} x the residual it leaves, corrected p = "
+            f"{self.p_value_corrected:.2g}, held-out error {-100 * self.heldout_reduction:+.1f} "
+            f"%; the library's first-order sensor lag fits worse, its corrected BIC higher by "
+            f"{self.lag_bic:.3g}"
+        )
+        if self.remains:
+            return (
+                f"unexplained, not in the library: the recorded {self.channel} is late by a "
+                f"pure time delay of {1e3 * self.delay_s:.3g} ms at unit gain, a transport or "
+                f"digital-filter delay of the acquisition ({evidence})"
+            )
+        return (
+            f"a pure time delay of the {self.channel} ({1e3 * self.delay_s:.3g} ms) fits "
+            f"better than a sensor lag but is not a finding added to the final model "
+            f"({evidence})"
+        )
+
+
+def delay_left(
+    final: FitResult,
+    sp: Split,
+    channel: str,
+    start: float,
+    lag_bic: float,
+    budget: int,
+    rule: DecisionRule,
+) -> DelayLeft:
+    """Whether a pure delay of ``channel`` is physics left after the final model (module
+    docstring, 2): the delay refitted on top of ``final`` from ``start`` [s] and judged
+    as a refit is (corrected p below ``rule.alpha``, held-out error down by
+    ``rule.min_heldout_gain``) and by the residual check's size rule."""
+    delayed = fit_delay(final, sp, channel, start, budget)
+    c = compare(
+        final, delayed, sp.fit_recordings, sp.fit_masks, sp.heldout_recordings, sp.heldout_masks
+    )
+    before = final.ssr.get(channel, np.nan)
+    after = delayed.ssr.get(channel, np.nan)
+    ratio = float(np.sqrt(max(before / after - 1.0, 0.0))) if after > 0 else 0.0
+    p = c.lr.p_value_corrected
+    return DelayLeft(
+        channel=channel,
+        delay_s=element_value(delayed, "sensor_delay", "delay"),
+        p_value_corrected=p,
+        heldout_reduction=c.heldout_reduction,
+        structured_ratio=ratio,
+        lag_bic=lag_bic,
+        remains=bool(
+            p < rule.alpha
+            and c.heldout_reduction >= rule.min_heldout_gain
+            and ratio > MATERIAL_RATIO
+        ),
+    )
