@@ -25,6 +25,7 @@ import pytest
 
 from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.component.family import (
+    COMPONENT_RULE,
     HYSTERESIS_MIN_FRACTION,
     baseline_offsets,
     check_loop_or_step,
@@ -320,9 +321,34 @@ def test_a_first_order_lag_is_not_mistaken_for_a_delay():
 
 
 def test_the_lag_is_refused_only_when_the_delay_is_decisively_better():
-    from suspenv.diagnosis.component.delay import DELAY_DECISIVE_BIC, check_lag_not_delay
+    from suspenv.diagnosis.component.delay import check_lag_not_delay
 
-    test = {"bic_difference": DELAY_DECISIVE_BIC + 0.1, "delay_s": 0.0123, "lag_s": 0.0151}
+    test = {"decisive": 1.0, "bic_difference": 234.0, "heldout_reduction": 0.04}
+    test |= {"delay_s": 0.0123, "lag_s": 0.0151, "ssr_lag": 1.08, "ssr_delay": 1.0}
     with pytest.raises(ValidationError, match=r"pure time delay of 12.3 ms.*lag of 15.1 ms"):
         check_lag_not_delay(test)
-    check_lag_not_delay(test | {"bic_difference": DELAY_DECISIVE_BIC})  # not decisive
+    check_lag_not_delay(test | {"decisive": 0.0})
+
+
+@pytest.mark.parametrize(
+    ("bic", "heldout", "decisive"),
+    [(234.0, 0.04, True), (29.0, 0.004, False), (5.0, 0.04, False), (-50.0, -0.1, False)],
+)
+def test_a_delay_is_decisive_by_the_bar_every_element_clears(bic, heldout, decisive):
+    # a corrected BIC difference above 10 and a held-out drop of at least the rule's
+    # min_heldout_gain (1 %): a 0.4 % drop "significant" on thousands of samples is not
+    from suspenv.diagnosis.component import delay as module
+
+    lag = SimpleNamespace(ssr={"force": 1.0})
+    late = SimpleNamespace(ssr={"force": 0.9})
+    saved = module.bic_difference, module.compare, module.element_value
+    module.bic_difference = lambda a, b: bic
+    module.compare = lambda *a: SimpleNamespace(heldout_reduction=heldout)
+    module.element_value = lambda fit, kind, name: 0.01
+    try:
+        sp = SimpleNamespace(fit_recordings=[], fit_masks=None)
+        sp.heldout_recordings, sp.heldout_masks = [], None
+        test = module.delay_against_lag(lag, late, sp, COMPONENT_RULE)
+    finally:
+        module.bic_difference, module.compare, module.element_value = saved
+    assert bool(test["decisive"]) is decisive

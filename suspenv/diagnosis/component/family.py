@@ -36,7 +36,6 @@ import numpy as np
 from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.component.asymmetry import asymmetry_check
 from suspenv.diagnosis.component.delay import (
-    DELAY_DECISIVE_BIC,
     check_lag_not_delay,
     delay_against_lag,
     delay_left,
@@ -480,11 +479,9 @@ class ComponentFamily(OptionalSteps):
             channel = location or setup.model.output_channels[0]
             start = element_value(ext, "sensor_lag", "tau")
             delay = fit_delay(current, setup.split, channel, start, self.budget)
-            test = delay_against_lag(ext, delay)
+            test = delay_against_lag(ext, delay, setup.split, self.rule)
             ext.extra["delay_against_lag"] = test
-            if (
-                test["bic_difference"] > DELAY_DECISIVE_BIC
-            ):  # the first decisive test of a channel is kept
+            if test["decisive"]:  # the first decisive test of a channel is kept
                 self.delay_tests.setdefault(channel, test)
             check_lag_not_delay(test)
         return ext
