@@ -11,11 +11,15 @@ probe, in two places.
 1. **Lag or delay** (:func:`delay_against_lag`): where a sensor lag is refitted, the same
    model with a delay of the same channel instead is fitted too. The two fits have one
    parameter each, so their corrected BIC difference is a likelihood ratio of
-   non-nested models. A delay decisively better (a difference above
-   ``DELAY_DECISIVE_BIC`` *and* a held-out error lower by the decision rule's
-   ``min_heldout_gain``, the bar every named element clears: under a misfit elsewhere in
-   the model a tiny difference is "significant" on thousands of samples) refuses the lag
-   (:func:`check_lag_not_delay`).
+   non-nested models. A delay decisively better refuses the lag
+   (:func:`check_lag_not_delay`): a difference above ``DELAY_DECISIVE_BIC``, a held-out
+   error lower by the decision rule's ``min_heldout_gain`` (the bar every named element
+   clears), and the encompassing test: the lag and the delay fitted together, the delay
+   is resolved from zero by ``RESOLVED_Z`` standard errors and the lag's time constant
+   is not (the lag adds nothing to the delay, the delay adds to the lag). Under a misfit
+   elsewhere in the model a difference of 1 % in residual power is "significant" on
+   thousands of samples; fitted together, the two then share the lateness, neither
+   resolved. Once refused for a channel, the lag is not refitted on it again.
 2. **Delay left** (:func:`delay_left`): after the last named element, a delay of that
    channel is added to the final model. It is physics outside the library when it passes
    the test every refit passes (serial-correlation corrected likelihood ratio, held-out
@@ -44,6 +48,20 @@ from suspenv.diagnosis.split import Split
 #: corrected BIC difference above which one of two fits of equal size is decisively
 #: better ("very strong" evidence on Kass and Raftery's scale)
 DELAY_DECISIVE_BIC = 10.0
+#: a time constant or delay is resolved from zero beyond this many corrected standard
+#: errors (the size rule of every element, ``family.SIZE_Z``)
+RESOLVED_Z = 2.0
+
+
+def parameter_and_error(fit: FitResult, kind: str, parameter: str) -> tuple[float, float]:
+    """The fitted value of ``parameter`` of the element of ``kind`` in ``fit`` and its
+    serial-correlation corrected standard error (NaN, NaN when the model holds none)."""
+    _, effects = fit.model.unpack(fit.theta)
+    element = next((e for e in effects if e.kind == kind), None)
+    if element is None:
+        return np.nan, np.nan
+    row = fit.params().get(f"{element.name}.{parameter}", {})
+    return float(row.get("value", np.nan)), float(row.get("stderr_corrected", np.nan))
 
 
 def element_value(fit: FitResult, kind: str, parameter: str) -> float:
@@ -84,25 +102,59 @@ def fit_delay(current: FitResult, sp: Split, channel: str, start: float, budget:
     )
 
 
+def delay_decisive(
+    bic: float,
+    heldout_reduction: float,
+    lag_together: tuple[float, float],
+    delay_together: tuple[float, float],
+    rule: DecisionRule,
+) -> bool:
+    """Whether a pure delay beats a sensor lag decisively (module docstring, 1): the
+    corrected BIC difference ``bic`` above ``DELAY_DECISIVE_BIC``, the held-out drop at
+    least ``rule.min_heldout_gain``, and, fitted together, the delay (value, corrected
+    standard error) [s] resolved from zero by ``RESOLVED_Z`` standard errors and the lag
+    not (a NaN error resolves nothing)."""
+    tau, tau_sd = lag_together
+    late, late_sd = delay_together
+    return bool(
+        bic > DELAY_DECISIVE_BIC
+        and heldout_reduction >= rule.min_heldout_gain
+        and not tau > RESOLVED_Z * tau_sd
+        and late > RESOLVED_Z * late_sd
+    )
+
+
 def delay_against_lag(
-    lag: FitResult, delay: FitResult, sp: Split, rule: DecisionRule
+    lag: FitResult, delay: FitResult, sp: Split, rule: DecisionRule, channel: str, budget: int
 ) -> dict[str, float]:
     """A sensor lag's fit (``lag``) against a pure delay's of the same channel
     (``delay``): ``{"bic_difference"`` (:func:`bic_difference`, > 0 favours the delay),
     ``"heldout_reduction"`` (the relative drop of the held-out RMS error from the lag's
-    fit to the delay's), ``"decisive"`` (1.0 when the delay is decisively better: a
-    corrected BIC difference above ``DELAY_DECISIVE_BIC`` and a held-out drop of at
-    least ``rule.min_heldout_gain``, the bar every named element clears; else 0.0),
+    fit to the delay's), the lag and the delay fitted together (``"together_lag_s"``,
+    ``"together_delay_s"`` and their corrected standard errors ``"..._stderr"`` [s]),
+    ``"decisive"`` (1.0 when the delay is decisively better: a corrected BIC difference
+    above ``DELAY_DECISIVE_BIC``, a held-out drop of at least ``rule.min_heldout_gain``
+    (the bar every named element clears), and, fitted together, a delay resolved from
+    zero by ``RESOLVED_Z`` standard errors beside a lag that is not; else 0.0),
     ``"delay_s"``, ``"lag_s"``, ``"ssr_lag"``, ``"ssr_delay"}`` (ssr summed over the
     channels)."""
     bic = bic_difference(lag, delay)
     c = compare(
         lag, delay, sp.fit_recordings, sp.fit_masks, sp.heldout_recordings, sp.heldout_masks
     )
-    decisive = bic > DELAY_DECISIVE_BIC and c.heldout_reduction >= rule.min_heldout_gain
+    # both fitted together (the encompassing model): the lag's time constant must vanish
+    # within its error beside a resolved delay
+    both = fit_delay(lag, sp, channel, element_value(delay, "sensor_delay", "delay"), budget)
+    tau, tau_sd = parameter_and_error(both, "sensor_lag", "tau")
+    late, late_sd = parameter_and_error(both, "sensor_delay", "delay")
+    decisive = delay_decisive(bic, c.heldout_reduction, (tau, tau_sd), (late, late_sd), rule)
     return {
         "bic_difference": bic,
         "heldout_reduction": c.heldout_reduction,
+        "together_lag_s": tau,
+        "together_lag_stderr": tau_sd,
+        "together_delay_s": late,
+        "together_delay_stderr": late_sd,
         "decisive": float(decisive),
         "delay_s": element_value(delay, "sensor_delay", "delay"),
         "lag_s": element_value(lag, "sensor_lag", "tau"),

@@ -459,6 +459,10 @@ class ComponentFamily(OptionalSteps):
         if not location and isinstance(signature, Signature) and signature.channel:
             # a sensor error sits on the recorded channel its signature was found in
             location = signature.channel
+        if candidate.partition("@")[0] == "sensor_lag":
+            refused = self.delay_tests.get(location or setup.model.output_channels[0])
+            if refused is not None:  # a delay beat the lag of this channel in an earlier round
+                check_lag_not_delay(refused)
         ext = refit_with(
             current,
             candidate,
@@ -479,7 +483,7 @@ class ComponentFamily(OptionalSteps):
             channel = location or setup.model.output_channels[0]
             start = element_value(ext, "sensor_lag", "tau")
             delay = fit_delay(current, setup.split, channel, start, self.budget)
-            test = delay_against_lag(ext, delay, setup.split, self.rule)
+            test = delay_against_lag(ext, delay, setup.split, self.rule, channel, self.budget)
             ext.extra["delay_against_lag"] = test
             if test["decisive"]:  # the first decisive test of a channel is kept
                 self.delay_tests.setdefault(channel, test)
