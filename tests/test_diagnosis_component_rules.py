@@ -330,21 +330,28 @@ def test_the_lag_is_refused_only_when_the_delay_is_decisively_better():
     check_lag_not_delay(test | {"decisive": 0.0})
 
 
+AT_BOUND = (0.0, np.nan, 0.015, 0.07)  # fitted together: the lag on its bound 0
+
+
 @pytest.mark.parametrize(
-    ("bic", "heldout", "lag", "late", "decisive"),
+    ("bic", "heldout", "p_lag", "p_delay", "together", "decisive"),
     [
-        # a retired independent case: a 9.8 ms delay, the lag gone beside it
-        (234.0, 0.049, (0.00036, 0.0026), (0.0094, 0.0026), True),
-        # a true 4 ms lag in a guide with a friction-step misfit: 1 % lower residual
-        # power for a delay ("significant"), but fitted together neither is resolved
-        (29.0, 0.011, (0.00098, 0.0017), (0.0030, 0.0017), False),
-        (5.0, 0.049, (0.0, 0.0026), (0.0094, 0.0026), False),  # BIC difference too small
-        (234.0, 0.004, (0.0, 0.0026), (0.0094, 0.0026), False),  # held-out drop under 1 %
-        (234.0, 0.049, (0.0060, 0.0026), (0.0094, 0.0026), False),  # the lag stays
-        (234.0, 0.049, (0.0, np.nan), (0.0094, 0.0026), True),  # NaN error: not resolved
+        (234.0, 0.049, 0.5, 1e-9, AT_BOUND, True),  # a delay; the lag adds nothing
+        (5.0, 0.049, 0.5, 1e-9, AT_BOUND, False),  # BIC difference too small
+        (234.0, 0.004, 0.5, 1e-9, AT_BOUND, False),  # held-out drop under 1 %
+        (234.0, 0.049, 1e-4, 1e-9, AT_BOUND, False),  # the lag adds beside the delay
+        (234.0, 0.049, 0.5, 0.3, AT_BOUND, False),  # the delay adds nothing beside the lag
+        # off the bound the errors judge too: a retired independent case, a 9.8 ms delay
+        (234.0, 0.049, 0.86, 1e-9, (0.00036, 0.0026, 0.0094, 0.0026), True),
+        # a true 4 ms lag in a guide with a friction-step misfit: the delay leads by a
+        # BIC of 29 and the likelihood ratios favour it, but fitted together the two
+        # share the lateness, neither resolved
+        (29.0, 0.011, 0.80, 1e-9, (0.00098, 0.0017, 0.0030, 0.0017), False),
     ],
 )
-def test_a_delay_is_decisive_by_the_bar_every_element_clears(bic, heldout, lag, late, decisive):
+def test_a_delay_is_decisive_by_the_bar_every_element_clears(
+    bic, heldout, p_lag, p_delay, together, decisive
+):
     from suspenv.diagnosis.component.delay import delay_decisive
 
-    assert delay_decisive(bic, heldout, lag, late, COMPONENT_RULE) is decisive
+    assert delay_decisive(bic, heldout, p_lag, p_delay, together, COMPONENT_RULE) is decisive

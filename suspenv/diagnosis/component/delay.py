@@ -15,10 +15,13 @@ probe, in two places.
    (:func:`check_lag_not_delay`): a difference above ``DELAY_DECISIVE_BIC``, a held-out
    error lower by the decision rule's ``min_heldout_gain`` (the bar every named element
    clears), and the encompassing test: the lag and the delay fitted together, the delay
-   is resolved from zero by ``RESOLVED_Z`` standard errors and the lag's time constant
-   is not (the lag adds nothing to the delay, the delay adds to the lag). Under a misfit
-   elsewhere in the model a difference of 1 % in residual power is "significant" on
-   thousands of samples; fitted together, the two then share the lateness, neither
+   is significant beside the lag and the lag is not beside the delay (the corrected
+   likelihood ratio of every refit, at the decision rule's ``alpha``), and where the
+   lag's fitted time constant stays off its bound 0, the delay resolved from zero by
+   ``RESOLVED_Z`` standard errors and the lag not (at the bound the two elements'
+   derivatives coincide, both the signal's rate, and the errors say nothing). Under a
+   misfit elsewhere in the model a difference of 1 % in residual power is "significant"
+   on thousands of samples; fitted together, the two then share the lateness, neither
    resolved. Once refused for a channel, the lag is not refitted on it again.
 2. **Delay left** (:func:`delay_left`): after the last named element, a delay of that
    channel is added to the final model. It is physics outside the library when it passes
@@ -41,15 +44,19 @@ from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.component.refit import refit_with
 from suspenv.diagnosis.component.residual_left import MATERIAL_RATIO
 from suspenv.diagnosis.decision import DecisionRule
-from suspenv.diagnosis.evidence import compare
+from suspenv.diagnosis.evidence import compare, fit_residual_series, likelihood_ratio
 from suspenv.diagnosis.fitting import FitResult
 from suspenv.diagnosis.split import Split
 
 #: corrected BIC difference above which one of two fits of equal size is decisively
 #: better ("very strong" evidence on Kass and Raftery's scale)
 DELAY_DECISIVE_BIC = 10.0
-#: a time constant or delay is resolved from zero beyond this many corrected standard
-#: errors (the size rule of every element, ``family.SIZE_Z``)
+#: fitted beside a delay, a lag's time constant at most this [s] is on its bound 0, where
+#: its derivative and the delay's coincide (both are the signal's rate) and standard
+#: errors say nothing
+LAG_AT_BOUND = 1e-6
+#: fitted together off that bound, a lag or a delay is resolved from zero beyond this
+#: many corrected standard errors (the size rule of every element, ``family.SIZE_Z``)
 RESOLVED_Z = 2.0
 
 
@@ -105,22 +112,27 @@ def fit_delay(current: FitResult, sp: Split, channel: str, start: float, budget:
 def delay_decisive(
     bic: float,
     heldout_reduction: float,
-    lag_together: tuple[float, float],
-    delay_together: tuple[float, float],
+    p_lag: float,
+    p_delay: float,
+    together: tuple[float, float, float, float],
     rule: DecisionRule,
 ) -> bool:
     """Whether a pure delay beats a sensor lag decisively (module docstring, 1): the
     corrected BIC difference ``bic`` above ``DELAY_DECISIVE_BIC``, the held-out drop at
-    least ``rule.min_heldout_gain``, and, fitted together, the delay (value, corrected
-    standard error) [s] resolved from zero by ``RESOLVED_Z`` standard errors and the lag
-    not (a NaN error resolves nothing)."""
-    tau, tau_sd = lag_together
-    late, late_sd = delay_together
+    least ``rule.min_heldout_gain``, and the encompassing test with the two fitted
+    together: the delay significant beside the lag (corrected p-value ``p_delay`` below
+    ``rule.alpha``), the lag not beside the delay (``p_lag`` at or above it), and where the
+    lag's time constant stays off its bound 0 (``together``: lag [s], its corrected
+    standard error, delay [s], its error; ``LAG_AT_BOUND``), the delay resolved from zero
+    by ``RESOLVED_Z`` standard errors and the lag not."""
+    tau, tau_sd, late, late_sd = together
+    if tau > LAG_AT_BOUND and not (late > RESOLVED_Z * late_sd and tau <= RESOLVED_Z * tau_sd):
+        return False
     return bool(
         bic > DELAY_DECISIVE_BIC
         and heldout_reduction >= rule.min_heldout_gain
-        and not tau > RESOLVED_Z * tau_sd
-        and late > RESOLVED_Z * late_sd
+        and p_delay < rule.alpha
+        and not p_lag < rule.alpha
     )
 
 
@@ -130,12 +142,12 @@ def delay_against_lag(
     """A sensor lag's fit (``lag``) against a pure delay's of the same channel
     (``delay``): ``{"bic_difference"`` (:func:`bic_difference`, > 0 favours the delay),
     ``"heldout_reduction"`` (the relative drop of the held-out RMS error from the lag's
-    fit to the delay's), the lag and the delay fitted together (``"together_lag_s"``,
-    ``"together_delay_s"`` and their corrected standard errors ``"..._stderr"`` [s]),
-    ``"decisive"`` (1.0 when the delay is decisively better: a corrected BIC difference
-    above ``DELAY_DECISIVE_BIC``, a held-out drop of at least ``rule.min_heldout_gain``
-    (the bar every named element clears), and, fitted together, a delay resolved from
-    zero by ``RESOLVED_Z`` standard errors beside a lag that is not; else 0.0),
+    fit to the delay's), the corrected likelihood-ratio p-values of the lag beside a
+    delay and of the delay beside a lag (``"p_lag_beside_delay"``,
+    ``"p_delay_beside_lag"``: the two fitted together against each alone), the two
+    fitted together (``"together_lag_s"``, ``"together_delay_s"`` and their corrected
+    standard errors ``"..._stderr"`` [s]),
+    ``"decisive"`` (1.0 when :func:`delay_decisive`; else 0.0),
     ``"delay_s"``, ``"lag_s"``, ``"ssr_lag"``, ``"ssr_delay"}`` (ssr summed over the
     channels)."""
     bic = bic_difference(lag, delay)
@@ -145,16 +157,23 @@ def delay_against_lag(
     # both fitted together (the encompassing model): the lag's time constant must vanish
     # within its error beside a resolved delay
     both = fit_delay(lag, sp, channel, element_value(delay, "sensor_delay", "delay"), budget)
-    tau, tau_sd = parameter_and_error(both, "sensor_lag", "tau")
-    late, late_sd = parameter_and_error(both, "sensor_delay", "delay")
-    decisive = delay_decisive(bic, c.heldout_reduction, (tau, tau_sd), (late, late_sd), rule)
+    residual = fit_residual_series(both, sp.fit_recordings, sp.fit_masks)
+    p_lag = likelihood_ratio(delay, both, residual).p_value_corrected  # the lag beside a delay
+    p_delay = likelihood_ratio(lag, both, residual).p_value_corrected  # the delay beside a lag
+    together = (
+        *parameter_and_error(both, "sensor_lag", "tau"),
+        *parameter_and_error(both, "sensor_delay", "delay"),
+    )
+    decisive = delay_decisive(bic, c.heldout_reduction, p_lag, p_delay, together, rule)
     return {
         "bic_difference": bic,
         "heldout_reduction": c.heldout_reduction,
-        "together_lag_s": tau,
-        "together_lag_stderr": tau_sd,
-        "together_delay_s": late,
-        "together_delay_stderr": late_sd,
+        "p_lag_beside_delay": p_lag,
+        "p_delay_beside_lag": p_delay,
+        "together_lag_s": together[0],
+        "together_lag_stderr": together[1],
+        "together_delay_s": together[2],
+        "together_delay_stderr": together[3],
         "decisive": float(decisive),
         "delay_s": element_value(delay, "sensor_delay", "delay"),
         "lag_s": element_value(lag, "sensor_lag", "tau"),
