@@ -306,6 +306,7 @@ def test_a_pure_delay_is_reported_as_outside_the_library_not_as_a_sensor_lag():
     assert left.remains and left.channel == "force"
     assert left.delay_s == pytest.approx(0.015, rel=0.05)
     assert "late by a pure time delay of 15" in diag.verdict
+    assert "not in the library: the recorded force is late by a pure time delay" in diag.headline
     refused = [h for h in diag.hypotheses if h.kind == "sensor_lag" and h.fit is None]
     assert refused and "fits the channel better than a first-order lag" in (
         refused[0].signature_evidence

@@ -135,12 +135,18 @@ class Diagnosis:
             return "The model does not describe this recording: no verdict on missing physics"
         named = "; then ".join(h.words for h in self.named)
         if self.unexplained:
+            # what a probe outside the library found (a pure time delay), in short
+            shapes = "; ".join(
+                r.short() for r in self.findings.get("beyond_library", []) if r.remains
+            )
             if named:
                 return (
                     f"Missing physics (not confident): {named}; a residual above the noise "
-                    "remains that the library does not explain"
+                    "remains that the library does not explain" + (f" ({shapes})" if shapes else "")
                 )
-            return "Unexplained residual above noise, not in the library"
+            return "Unexplained residual above noise, not in the library" + (
+                f": {shapes}" if shapes else ""
+            )
         if named:
             head = "Missing physics" if self.confident else "Missing physics (not confident)"
             return f"{head}: {named}"

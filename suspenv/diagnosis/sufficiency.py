@@ -288,9 +288,7 @@ def centre_passes(x: np.ndarray, band: float = CYCLE_BAND) -> int:
     return int(np.count_nonzero(side[1:] != side[:-1])) if side.size else 0
 
 
-def _part_passes(
-    recs: Sequence[RecordingLike], masks: Sequence[np.ndarray | None] | None
-) -> int:
+def _part_passes(recs: Sequence[RecordingLike], masks: Sequence[np.ndarray | None] | None) -> int:
     from suspenv.diagnosis.component.motion import motion
 
     total = 0

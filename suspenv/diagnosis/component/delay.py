@@ -225,6 +225,11 @@ class DelayLeft:
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
 
+    def short(self) -> str:
+        """A few words for the headline."""
+        late = f"{1e3 * self.delay_s:.3g} ms"
+        return f"the recorded {self.channel} is late by a pure time delay of {late}"
+
     def sentence(self) -> str:
         """One sentence for the verdict."""
         evidence = (
