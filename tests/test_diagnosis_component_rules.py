@@ -356,3 +356,10 @@ def test_a_delay_is_decisive_by_the_bar_every_element_clears(
     from suspenv.diagnosis.component.delay import delay_decisive
 
     assert delay_decisive(bic, heldout, p_lag, p_delay, together, COMPONENT_RULE) is decisive
+
+
+def test_a_delay_the_user_declares_is_part_of_the_baseline():
+    # a known acquisition delay declared as the baseline's: fitted with it, not missing
+    diag = diagnose(_delayed_damper_case(0.015), make_family("damper+gas_spring+sensor_delay"))
+    assert not diag.named and not diag.unexplained, diag.verdict
+    assert diag.final_params["sensor_delay.delay"]["value"] == pytest.approx(0.015, rel=0.01)
