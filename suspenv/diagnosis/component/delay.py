@@ -41,7 +41,7 @@ from typing import Any
 import numpy as np
 
 from suspenv.core.errors import ValidationError
-from suspenv.diagnosis.component.refit import refit_with
+from suspenv.diagnosis.component.refit import refit_with, refitted_element
 from suspenv.diagnosis.component.residual_left import MATERIAL_RATIO
 from suspenv.diagnosis.decision import DecisionRule
 from suspenv.diagnosis.evidence import compare, fit_residual_series, likelihood_ratio
@@ -63,20 +63,11 @@ RESOLVED_Z = 2.0
 def parameter_and_error(fit: FitResult, kind: str, parameter: str) -> tuple[float, float]:
     """The fitted value of ``parameter`` of the element of ``kind`` in ``fit`` and its
     serial-correlation corrected standard error (NaN, NaN when the model holds none)."""
-    _, effects = fit.model.unpack(fit.theta)
-    element = next((e for e in effects if e.kind == kind), None)
+    element = refitted_element(fit, kind)
     if element is None:
         return np.nan, np.nan
     row = fit.params().get(f"{element.name}.{parameter}", {})
     return float(row.get("value", np.nan)), float(row.get("stderr_corrected", np.nan))
-
-
-def element_value(fit: FitResult, kind: str, parameter: str) -> float:
-    """The fitted value of ``parameter`` of the element of ``kind`` in ``fit`` (NaN when
-    the model holds none)."""
-    _, effects = fit.model.unpack(fit.theta)
-    element = next((e for e in effects if e.kind == kind), None)
-    return float(np.ravel(element.params[parameter])[0]) if element is not None else np.nan
 
 
 def bic_difference(a: FitResult, b: FitResult) -> float:
@@ -156,7 +147,8 @@ def delay_against_lag(
     )
     # both fitted together (the encompassing model): the lag's time constant must vanish
     # within its error beside a resolved delay
-    both = fit_delay(lag, sp, channel, element_value(delay, "sensor_delay", "delay"), budget)
+    delay_s = parameter_and_error(delay, "sensor_delay", "delay")[0]
+    both = fit_delay(lag, sp, channel, delay_s, budget)
     residual = fit_residual_series(both, sp.fit_recordings, sp.fit_masks)
     p_lag = likelihood_ratio(delay, both, residual).p_value_corrected  # the lag beside a delay
     p_delay = likelihood_ratio(lag, both, residual).p_value_corrected  # the delay beside a lag
@@ -175,8 +167,8 @@ def delay_against_lag(
         "together_delay_s": together[2],
         "together_delay_stderr": together[3],
         "decisive": float(decisive),
-        "delay_s": element_value(delay, "sensor_delay", "delay"),
-        "lag_s": element_value(lag, "sensor_lag", "tau"),
+        "delay_s": delay_s,
+        "lag_s": parameter_and_error(lag, "sensor_lag", "tau")[0],
         "ssr_lag": float(sum(lag.ssr.values())),
         "ssr_delay": float(sum(delay.ssr.values())),
     }
@@ -274,7 +266,7 @@ def delay_left(
     p = c.lr.p_value_corrected
     return DelayLeft(
         channel=channel,
-        delay_s=element_value(delayed, "sensor_delay", "delay"),
+        delay_s=parameter_and_error(delayed, "sensor_delay", "delay")[0],
         p_value_corrected=p,
         heldout_reduction=c.heldout_reduction,
         structured_ratio=ratio,

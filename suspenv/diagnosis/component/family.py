@@ -39,8 +39,8 @@ from suspenv.diagnosis.component.delay import (
     check_lag_not_delay,
     delay_against_lag,
     delay_left,
-    element_value,
     fit_delay,
+    parameter_and_error,
 )
 from suspenv.diagnosis.component.locate import Segment, locate
 from suspenv.diagnosis.component.motion import cycle_index, motion, split
@@ -50,7 +50,7 @@ from suspenv.diagnosis.component.motion_inputs import (
     motion_versions,
     preferred_version,
 )
-from suspenv.diagnosis.component.refit import current_effects, refit_with
+from suspenv.diagnosis.component.refit import current_effects, refit_with, refitted_element
 from suspenv.diagnosis.component.residual_left import residual_left
 from suspenv.diagnosis.component.rig import (
     RigDescription,
@@ -459,8 +459,11 @@ class ComponentFamily(OptionalSteps):
         if not location and isinstance(signature, Signature) and signature.channel:
             # a sensor error sits on the recorded channel its signature was found in
             location = signature.channel
+        # a sensor lag's channel (the model's first output unless located)
+        lag_channel = ""
         if candidate.partition("@")[0] == "sensor_lag":
-            refused = self.delay_tests.get(location or setup.model.output_channels[0])
+            lag_channel = location or setup.model.output_channels[0]
+            refused = self.delay_tests.get(lag_channel)
             if refused is not None:  # a delay beat the lag of this channel in an earlier round
                 check_lag_not_delay(refused)
         ext = refit_with(
@@ -478,15 +481,14 @@ class ComponentFamily(OptionalSteps):
         check_loop_or_step(candidate, ext, half)
         check_parallel_branch(candidate, ext)
         check_resolved_size(candidate, ext)
-        if candidate.partition("@")[0] == "sensor_lag":
+        if lag_channel:
             # the same channel late by a pure delay instead (not a library element)
-            channel = location or setup.model.output_channels[0]
-            start = element_value(ext, "sensor_lag", "tau")
-            delay = fit_delay(current, setup.split, channel, start, self.budget)
-            test = delay_against_lag(ext, delay, setup.split, self.rule, channel, self.budget)
+            start = parameter_and_error(ext, "sensor_lag", "tau")[0]
+            delay = fit_delay(current, setup.split, lag_channel, start, self.budget)
+            test = delay_against_lag(ext, delay, setup.split, self.rule, lag_channel, self.budget)
             ext.extra["delay_against_lag"] = test
             if test["decisive"]:  # the first decisive test of a channel is kept
-                self.delay_tests.setdefault(channel, test)
+                self.delay_tests.setdefault(lag_channel, test)
             check_lag_not_delay(test)
         return ext
 
@@ -607,13 +609,6 @@ TRANSITION_WIDTH = {
     "directional_friction": "v_eps",
     "digressive_damping": "v_knee",
 }
-
-
-def refitted_element(ext: FitResult, kind: str) -> Any | None:
-    """The element of ``kind`` in the refitted model, at its fitted values (None when the
-    model holds none)."""
-    _, effects = ext.model.unpack(ext.theta)
-    return next((e for e in effects if e.kind == kind), None)
 
 
 def check_step_or_knee(candidate: str, ext: FitResult, vmax: float) -> None:

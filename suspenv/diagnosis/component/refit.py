@@ -31,6 +31,13 @@ def current_effects(model: DiagnosableModel[Any, E]) -> tuple[E, ...]:
     return tuple(model.effects)
 
 
+def refitted_element(ext: FitResult, kind: str) -> Any | None:
+    """The element of ``kind`` in the refitted model, at its fitted values (None when the
+    model holds none)."""
+    _, effects = ext.model.unpack(ext.theta)
+    return next((e for e in effects if e.kind == kind), None)
+
+
 def signature_guess(
     kind: str, sig: Signature | None, half_stroke: float, v_max: float
 ) -> dict[str, float]:
@@ -71,8 +78,6 @@ def signature_guess(
         g = {"gain": 1.0 + n.get("gain_error", 0.0)}
     elif kind == "sensor_lag":
         g = {"tau": max(n.get("lag_s", 0.0), 1e-4)}
-    elif kind == "sensor_delay":
-        g = {"delay": max(n.get("lag_s", 0.0), 1e-4)}
     return g
 
 
