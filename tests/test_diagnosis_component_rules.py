@@ -9,6 +9,9 @@ References, per rule:
 - Loop or step: Dahl's characteristic length ``f_c / sigma`` and Bouc-Wen's yield
   displacement ``x_y`` against the half-stroke.
 - Friction level: a friction element whose levels are zero within two standard errors.
+- Stiction: its definition (breakaway level ``f_s`` at or above the sliding level
+  ``f_c``) and the force balance at a reversal (a moving part's recorded force reaches
+  its breakaway level), on the fitted numbers of retired independent cases.
 - Baseline offsets: a constant force offset added to a recording is reported with its
   value; a recording without one reports none.
 - Lag or delay: the closed form of a pure delay (a sine late by ``w T`` at unit gain);
@@ -24,13 +27,16 @@ import numpy as np
 import pytest
 
 from suspenv.core.errors import ValidationError
+from suspenv.diagnosis.component.delay import phase_by_frequency, phase_words
 from suspenv.diagnosis.component.family import (
     COMPONENT_RULE,
     HYSTERESIS_MIN_FRACTION,
     baseline_offsets,
+    check_breakaway_recorded,
     check_loop_or_step,
     check_parallel_branch,
     check_resolved_size,
+    check_stiction_decays,
     hysteresis_transition,
 )
 from suspenv.diagnosis.component.truth import make_case
@@ -192,6 +198,66 @@ def test_a_cubic_stiffness_is_judged_by_its_coefficient(k3, sd, refused):
         check_resolved_size("cubic_stiffness", fit)
 
 
+# ------------------------------------------------------------ stiction and its breakaway
+def _stiction_fit(kind, f_c, f_s, sd_c, sd_s, v_s=0.01):
+    model = FrictionGuideModel(
+        [make_effect(kind).with_params({"f_c": f_c, "f_s": f_s, "v_s": v_s})]
+    )
+    names = tuple(model.parameter_names)
+    sd = {".f_c": sd_c, ".f_s": sd_s}
+    err = np.array([sd.get(n[n.rfind(".") :], 1e-3) for n in names])
+    return _fit(model, {"m": 10.0, "c": 30.0}, err)
+
+
+@pytest.mark.parametrize(
+    ("f_c", "f_s", "sd_c", "sd_s", "v_s", "vmax", "refused"),
+    [
+        # a quarter car with a velocity dead zone (retired case 5034): the level rises
+        # from zero at reversal to 615 N over v_s = 0.6 m/s, a third of the peak speed
+        (614.6, 0.0, 6.2, 0.46, 0.6, 1.84, True),
+        # the same rise over 5 % of the peak speed: the rounding of a step at reversal
+        (614.6, 0.0, 6.2, 0.46, 0.092, 1.84, False),
+        # a Coulomb step fitted as LuGre friction (own development case friction_guide-1-1):
+        # from zero to 12.7 N over 4.9 mm/s, 2.5 % of the peak speed
+        (12.75, 0.0078, 0.41, 0.0078, 0.0049, 0.2, False),
+        # a quarter car with stiction (retired case 5036): breakaway 2.8 x the sliding level
+        (119.4, 336.1, 0.21, 5.3, 0.0063, 1.49, False),
+        # a step without an overshoot: the two levels equal within their errors
+        (3.2, 2.9, 0.36, 0.04, 0.1, 0.2, False),
+    ],
+)
+@pytest.mark.parametrize("kind", ["stribeck_friction", "lugre_friction"])
+def test_stiction_whose_level_rises_over_the_speed_range_is_refused(
+    kind, f_c, f_s, sd_c, sd_s, v_s, vmax, refused
+):
+    fit = _stiction_fit(kind, f_c, f_s, sd_c, sd_s, v_s)
+    if refused:
+        with pytest.raises(ValidationError, match=r"f_s = 0 \+- 0.46 N is below .* f_c = 614.6"):
+            check_stiction_decays(kind, fit, vmax)
+    else:
+        check_stiction_decays(kind, fit, vmax)
+    # a friction kind without a breakaway level is not judged by this rule
+    check_stiction_decays("coulomb_friction", fit, vmax)
+
+
+def test_a_breakaway_above_every_recorded_force_is_refused():
+    # the numbers of a retired guide case with a Bouc-Wen loop, fitted as LuGre friction
+    # breaking away at 5115 N where the largest recorded force is 111 N
+    case = make_case("friction_guide", 0, 0)  # a development control: the forces only
+    rec = case.recording
+    largest = float(np.max(np.abs(rec.outputs["force"])))
+    split = SimpleNamespace(fit_recordings=[rec], heldout_recordings=[rec])
+    above = _stiction_fit("lugre_friction", 8.5, 46.0 * largest, 0.08, 0.0)
+    with pytest.raises(ValidationError, match="above every recorded force"):
+        check_breakaway_recorded("lugre_friction", above, split)
+    # a breakaway the recording can hold (below its largest force) is stiction
+    within = _stiction_fit("lugre_friction", 0.5 * largest, 0.9 * largest, 0.08, 0.1)
+    check_breakaway_recorded("lugre_friction", within, split)
+    # a model without a recorded force (the quarter car's channels) is not judged
+    no_force = SimpleNamespace(fit_recordings=[SimpleNamespace(outputs={})], heldout_recordings=[])
+    check_breakaway_recorded("lugre_friction", above, no_force)
+
+
 # ------------------------------------------------------------------ baseline offsets
 def test_a_force_offset_is_reported_with_its_value_and_a_clean_zero_is_not():
     case = make_case("friction_guide", 0, 0)  # a development control (white noise)
@@ -311,6 +377,41 @@ def test_a_pure_delay_is_reported_as_outside_the_library_not_as_a_sensor_lag():
     assert refused and "fits the channel better than a first-order lag" in (
         refused[0].signature_evidence
     )
+
+
+@pytest.mark.parametrize("late_kind", ["sensor_delay", "sensor_lag"])
+def test_the_phase_table_reads_how_late_the_channel_is_per_frequency(late_kind):
+    # closed forms: a pure delay T makes a sine late by w T, a first-order lag tau by
+    # atan(w tau); the table measures the recorded force's lateness behind the model with
+    # its lateness elements taken out, at each motion cycle's own frequency
+    model = DamperDynoModel()
+    rec = model.example_recording(seed=3)
+    gas = make_effect("gas_spring").with_params({"f_0": 150.0, "k_gas": 3000.0})
+    param = "delay" if late_kind == "sensor_delay" else "tau"
+    truth = model.with_effects([gas, make_effect(late_kind).with_params({param: 0.02})])
+    force = np.asarray(truth.simulate(truth.theta_from({"c": 1600.0}), rec)["force"], float)
+    recorded = _with_force(rec, force, "late_case")
+    # the "fitted together" model: both lateness elements, at values the table only quotes
+    both = model.with_effects(
+        [
+            gas,
+            make_effect("sensor_lag").with_params({"tau": 0.005}),
+            make_effect("sensor_delay").with_params({"delay": 0.01}),
+        ]
+    )
+    together = SimpleNamespace(model=both, theta=both.theta_from({"c": 1600.0}))
+    split = SimpleNamespace(fit_recordings=[recorded], heldout_recordings=[recorded])
+    rows = phase_by_frequency(together, split, "force", 0.03, 0.02)
+    assert len(rows) >= 2 and all(r.cycles >= 1 for r in rows)
+    for r in rows:
+        w = 2 * np.pi * r.frequency_hz
+        exact = w * 0.02 if late_kind == "sensor_delay" else np.arctan(w * 0.02)
+        # one motion cycle's window, whose period is known to a 2 ms sample: 2 % or 0.3 deg
+        assert r.measured_deg == pytest.approx(np.degrees(exact), rel=0.02, abs=0.3)
+        assert r.lag_deg == pytest.approx(np.degrees(np.arctan(w * 0.03)))
+        assert r.delay_deg == pytest.approx(np.degrees(w * 0.02))
+    assert "deg (lag" in phase_words(rows, "force")
+    assert phase_words([], "force") == ""
 
 
 def test_a_first_order_lag_is_not_mistaken_for_a_delay():

@@ -29,18 +29,23 @@ probe, in two places.
    error down) *and* is material: the part of the residual it removes is at least
    ``MATERIAL_RATIO`` times the residual left after it (the residual check's size rule,
    :mod:`~suspenv.diagnosis.component.residual_left`).
+3. **Phase against frequency** (:func:`phase_by_frequency`): the evidence stated with
+   both: per motion frequency, how late the recorded channel is behind the model without
+   its lag and delay, beside what the fitted lag and the fitted delay predict.
 
-Units: delays in seconds; residuals in the channel's unit.
+Units: delays in seconds; residuals in the channel's unit; phases in degrees.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
 
 from suspenv.core.errors import ValidationError
+from suspenv.diagnosis.component.motion import cycle_index, motion
 from suspenv.diagnosis.component.refit import refit_with, refitted_element
 from suspenv.diagnosis.component.residual_left import MATERIAL_RATIO
 from suspenv.diagnosis.decision import DecisionRule
@@ -58,6 +63,129 @@ LAG_AT_BOUND = 1e-6
 #: fitted together off that bound, a lag or a delay is resolved from zero beyond this
 #: many corrected standard errors (the size rule of every element, ``family.SIZE_Z``)
 RESOLVED_Z = 2.0
+
+#: whole motion cycles whose frequencies differ by less than this fraction share a row of
+#: the phase table
+PHASE_FREQUENCY_TOLERANCE = 0.1
+#: rows of the phase table at most (the frequencies with the most cycles)
+PHASE_ROWS = 6
+#: samples a motion cycle needs for its phase to be measured
+PHASE_MIN_SAMPLES = 8
+#: a motion cycle's stroke (peak to peak) at least this fraction of the recording's
+#: largest cycle's: crossings of the median by noise at a standstill or a turnaround
+#: make short cycles of no stroke, whose phase says nothing
+PHASE_MIN_STROKE = 0.1
+#: the elements that make a channel late
+LATENESS_KINDS = ("sensor_lag", "sensor_delay")
+
+
+@dataclass(frozen=True)
+class PhaseRow:
+    """How late a recorded channel is at one motion frequency (:func:`phase_by_frequency`).
+
+    Attributes:
+        frequency_hz: the motion cycles' frequency [Hz] (median over the row's cycles).
+        cycles: whole motion cycles measured.
+        measured_deg: the recorded channel's phase lag behind the model without a lag or a
+            delay, at the cycle's own frequency [deg] (positive: late; median over the
+            cycles).
+        lag_deg: the fitted first-order lag's phase lag ``atan(w tau)`` [deg].
+        delay_deg: the fitted pure delay's ``w T`` [deg].
+    """
+
+    frequency_hz: float
+    cycles: int
+    measured_deg: float
+    lag_deg: float
+    delay_deg: float
+
+    def words(self) -> str:
+        return (
+            f"{self.frequency_hz:.3g} Hz: {self.measured_deg:.3g} deg (lag "
+            f"{self.lag_deg:.3g}, delay {self.delay_deg:.3g})"
+        )
+
+
+def phase_words(rows: Sequence[PhaseRow], channel: str) -> str:
+    """The phase table in one clause ("" without rows)."""
+    if not rows:
+        return ""
+    return (
+        f"phase lag of the {channel} behind the model without lag or delay, per motion "
+        f"frequency (what each predicts in brackets): " + "; ".join(r.words() for r in rows)
+    )
+
+
+def phase_by_frequency(
+    together: FitResult, sp: Split, channel: str, tau: float, delay: float
+) -> list[PhaseRow]:
+    """The evidence of phase versus frequency: per motion frequency, how far the recorded
+    ``channel`` lags behind the model ``together`` with its lateness elements (sensor lags,
+    pure delays) taken out, beside what a first-order lag ``tau`` [s] (``atan(w tau)``,
+    saturating at 90 deg) and a pure delay ``delay`` [s] (``w T``, growing in proportion)
+    predict.
+
+    ``together`` is the fit with both a lag and a delay (neither favoured by the physics
+    it fits). Each whole motion cycle of every recording of the split (cycles between
+    upward crossings of the motion's median) gives its frequency ``1 / period`` and its
+    phase: the angle between the recorded and the modelled channel's Fourier
+    coefficients at that frequency over the cycle (cycles of under ``PHASE_MIN_STROKE`` of
+    the recording's largest stroke are left out). Cycles within
+    ``PHASE_FREQUENCY_TOLERANCE`` of a row's first frequency share the row (the median of
+    each column); the ``PHASE_ROWS`` rows with the most cycles are kept, by frequency.
+    """
+    # the same model and values without the lateness elements (values by parameter name)
+    _, effects = together.model.unpack(together.theta)
+    bare = together.model.with_effects([e for e in effects if e.kind not in LATENESS_KINDS])
+    names, values = together.model.parameter_names, np.asarray(together.theta, float)
+    value = dict(zip(names, values, strict=True))
+    theta = np.array([value[name] for name in bare.parameter_names])
+    seen: set[int] = set()
+    cycles: list[tuple[float, float]] = []  # (frequency [Hz], lateness [rad])
+    for rec in [*sp.fit_recordings, *sp.heldout_recordings]:
+        if id(rec) in seen or channel not in rec.outputs:
+            continue
+        seen.add(id(rec))
+        y = np.asarray(rec.outputs[channel], float)
+        model_y = np.asarray(bare.simulate(theta, rec)[channel], float)
+        t = np.asarray(rec.time, float)
+        x = motion(rec)[0]
+        index = cycle_index(x)
+        whole = range(1, int(index.max()))  # whole cycles: not the first or last
+        strokes = {k: float(np.ptp(x[index == k])) for k in whole if np.any(index == k)}
+        largest = max(strokes.values(), default=0.0)
+        for k in whole:
+            sel = index == k
+            n = int(sel.sum())
+            if n < PHASE_MIN_SAMPLES or strokes.get(k, 0.0) < PHASE_MIN_STROKE * largest:
+                continue
+            ts = t[sel]
+            period = float(ts[-1] - ts[0]) * n / (n - 1)
+            turn = np.exp(-2j * np.pi * ts / period)
+            recorded, modelled = np.sum(y[sel] * turn), np.sum(model_y[sel] * turn)
+            if abs(modelled) > 0 and abs(recorded) > 0:
+                cycles.append((1.0 / period, -float(np.angle(recorded / modelled))))
+    groups: list[list[tuple[float, float]]] = []
+    for f, late in sorted(cycles):
+        if groups and f <= groups[-1][0][0] * (1.0 + PHASE_FREQUENCY_TOLERANCE):
+            groups[-1].append((f, late))
+        else:
+            groups.append([(f, late)])
+    kept = sorted(sorted(groups, key=len, reverse=True)[:PHASE_ROWS], key=lambda g: g[0][0])
+    rows = []
+    for g in kept:
+        f = float(np.median([c[0] for c in g]))
+        w = 2.0 * np.pi * f
+        rows.append(
+            PhaseRow(
+                frequency_hz=f,
+                cycles=len(g),
+                measured_deg=float(np.degrees(np.median([c[1] for c in g]))),
+                lag_deg=float(np.degrees(np.arctan(w * tau))),
+                delay_deg=float(np.degrees(w * delay)),
+            )
+        )
+    return rows
 
 
 def parameter_and_error(fit: FitResult, kind: str, parameter: str) -> tuple[float, float]:
@@ -129,7 +257,7 @@ def delay_decisive(
 
 def delay_against_lag(
     lag: FitResult, delay: FitResult, sp: Split, rule: DecisionRule, channel: str, budget: int
-) -> dict[str, float]:
+) -> dict[str, Any]:
     """A sensor lag's fit (``lag``) against a pure delay's of the same channel
     (``delay``): ``{"bic_difference"`` (:func:`bic_difference`, > 0 favours the delay),
     ``"heldout_reduction"`` (the relative drop of the held-out RMS error from the lag's
@@ -139,8 +267,9 @@ def delay_against_lag(
     fitted together (``"together_lag_s"``, ``"together_delay_s"`` and their corrected
     standard errors ``"..._stderr"`` [s]),
     ``"decisive"`` (1.0 when :func:`delay_decisive`; else 0.0),
-    ``"delay_s"``, ``"lag_s"``, ``"ssr_lag"``, ``"ssr_delay"}`` (ssr summed over the
-    channels)."""
+    ``"delay_s"``, ``"lag_s"``, ``"ssr_lag"``, ``"ssr_delay"`` (ssr summed over the
+    channels), ``"phases"}`` (:func:`phase_by_frequency` of the two fitted together:
+    the evidence of phase versus frequency)."""
     bic = bic_difference(lag, delay)
     c = compare(
         lag, delay, sp.fit_recordings, sp.fit_masks, sp.heldout_recordings, sp.heldout_masks
@@ -157,6 +286,7 @@ def delay_against_lag(
         *parameter_and_error(both, "sensor_delay", "delay"),
     )
     decisive = delay_decisive(bic, c.heldout_reduction, p_lag, p_delay, together, rule)
+    lag_s = parameter_and_error(lag, "sensor_lag", "tau")[0]
     return {
         "bic_difference": bic,
         "heldout_reduction": c.heldout_reduction,
@@ -168,13 +298,14 @@ def delay_against_lag(
         "together_delay_stderr": together[3],
         "decisive": float(decisive),
         "delay_s": delay_s,
-        "lag_s": parameter_and_error(lag, "sensor_lag", "tau")[0],
+        "lag_s": lag_s,
         "ssr_lag": float(sum(lag.ssr.values())),
         "ssr_delay": float(sum(delay.ssr.values())),
+        "phases": tuple(phase_by_frequency(both, sp, channel, lag_s, delay_s)),
     }
 
 
-def check_lag_not_delay(test: dict[str, float]) -> None:
+def check_lag_not_delay(test: dict[str, Any]) -> None:
     """Refuse a sensor lag that a pure time delay of the same channel fits decisively
     better (``test`` from :func:`delay_against_lag`). Raises :class:`ValidationError`
     (the hypothesis is recorded as failed with this reason); whether the delay is
@@ -204,6 +335,9 @@ class DelayLeft:
             the RMS of the residual it leaves.
         lag_bic: the corrected BIC difference that refused a sensor lag of the channel.
         remains: the delay is physics left that the library does not hold.
+        phases: the phase lag of the channel per motion frequency beside what the lag and
+            the delay predict (:func:`phase_by_frequency`, from the test that refused
+            the lag).
     """
 
     channel: str
@@ -213,6 +347,7 @@ class DelayLeft:
     structured_ratio: float
     lag_bic: float
     remains: bool
+    phases: tuple[PhaseRow, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -230,6 +365,9 @@ class DelayLeft:
             f"%; the library's first-order sensor lag fits worse, its corrected BIC higher by "
             f"{self.lag_bic:.3g}"
         )
+        table = phase_words(self.phases, self.channel)
+        if table:
+            evidence += f"; {table}"
         if self.remains:
             return (
                 f"unexplained, not in the library: the recorded {self.channel} is late by a "
@@ -251,11 +389,13 @@ def delay_left(
     lag_bic: float,
     budget: int,
     rule: DecisionRule,
+    phases: Sequence[PhaseRow] = (),
 ) -> DelayLeft:
     """Whether a pure delay of ``channel`` is physics left after the final model (module
     docstring, 2): the delay refitted on top of ``final`` from ``start`` [s] and judged
     as a refit is (corrected p below ``rule.alpha``, held-out error down by
-    ``rule.min_heldout_gain``) and by the residual check's size rule."""
+    ``rule.min_heldout_gain``) and by the residual check's size rule. ``phases``: the
+    phase table of the test that refused the lag, carried as evidence."""
     delayed = fit_delay(final, sp, channel, start, budget)
     c = compare(
         final, delayed, sp.fit_recordings, sp.fit_masks, sp.heldout_recordings, sp.heldout_masks
@@ -276,4 +416,5 @@ def delay_left(
             and c.heldout_reduction >= rule.min_heldout_gain
             and ratio > MATERIAL_RATIO
         ),
+        phases=tuple(phases),
     )

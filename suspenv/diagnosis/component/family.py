@@ -328,7 +328,7 @@ class ComponentFamily(OptionalSteps):
     sensor_channels: dict[str, str] = field(default_factory=dict, init=False)
     #: recorded channel -> the test where a pure time delay beat a refitted sensor lag
     #: decisively in the last diagnosis (:mod:`~suspenv.diagnosis.component.delay`)
-    delay_tests: dict[str, dict[str, float]] = field(default_factory=dict, init=False)
+    delay_tests: dict[str, dict[str, Any]] = field(default_factory=dict, init=False)
 
     def __post_init__(self) -> None:
         # an unknown model family or effect kind is an error before any work starts
@@ -481,6 +481,8 @@ class ComponentFamily(OptionalSteps):
         check_loop_or_step(candidate, ext, half)
         check_parallel_branch(candidate, ext)
         check_resolved_size(candidate, ext)
+        check_stiction_decays(candidate, ext, vmax)
+        check_breakaway_recorded(candidate, ext, setup.split)
         if lag_channel:
             # the same channel late by a pure delay instead (not a library element)
             start = parameter_and_error(ext, "sensor_lag", "tau")[0]
@@ -555,6 +557,7 @@ class ComponentFamily(OptionalSteps):
                 test["bic_difference"],
                 self.budget,
                 self.rule,
+                test.get("phases", ()),
             )
             found.findings.setdefault("beyond_library", []).append(left_delay)
             if left_delay.remains:
@@ -786,6 +789,90 @@ def check_resolved_size(candidate: str, ext: FitResult) -> None:
     raise ValidationError(
         f"{kind}: its fitted size is zero within {SIZE_Z:g} standard errors "
         f"({', '.join(seen)}): the fit improves through something else than this element"
+    )
+
+
+#: the friction kinds with a breakaway (static) level ``f_s`` beside their sliding level
+#: ``f_c``: stiction, whose friction falls from ``f_s`` at reversal to ``f_c`` with speed
+STICTION_KINDS = ("stribeck_friction", "lugre_friction")
+
+
+def check_stiction_decays(candidate: str, ext: FitResult, vmax: float) -> None:
+    """Refuse a stiction refit whose level rises with speed over a fair part of the
+    speed range.
+
+    Stiction means the force needed to break away from rest exceeds the force that keeps
+    sliding: ``f_s >= f_c``, the level falling from ``f_s`` at reversal to ``f_c`` over the
+    Stribeck velocity ``v_s``. Fitted the other way round (``f_c - f_s`` more than
+    ``SIZE_Z`` corrected standard errors of the difference), the level *rises* from the
+    reversal with speed. Over a ``v_s`` within ``FRICTION_MAX_FRACTION`` of the peak
+    speed ``vmax`` [m/s] that rise is the rounding of the step at reversal, which the data
+    cannot tell from the step's own; over a wider ``v_s`` it is a force that grows
+    gradually with velocity (with ``f_s`` near zero about ``f_c (v / v_s)^2``), i.e. a
+    velocity-dependent damping (a progressive damper, or a force missing around zero
+    velocity), which the shape absorbs without being friction. Raises
+    :class:`ValidationError` (the hypothesis is recorded as failed with this reason); a
+    friction step of another kind refitted in the same round can still be named.
+    """
+    kind = candidate.partition("@")[0]
+    if kind not in STICTION_KINDS or vmax <= 0:
+        return
+    element = refitted_element(ext, kind)
+    if element is None:
+        return
+    v_s = float(np.ravel(element.params["v_s"])[0])
+    if v_s <= FRICTION_MAX_FRACTION * vmax:
+        return
+    fitted = ext.params()
+    sliding, breakaway = (fitted.get(f"{element.name}.{q}") for q in ("f_c", "f_s"))
+    if sliding is None or breakaway is None:  # a level held fixed is not judged here
+        return
+    f_c, sd_c = sliding["value"], sliding["stderr_corrected"]
+    f_s, sd_s = breakaway["value"], breakaway["stderr_corrected"]
+    sd = float(np.hypot(sd_c, sd_s))  # the covariance left out: the wider of the two bounds
+    if not np.isfinite(sd) or f_c - f_s <= SIZE_Z * sd:
+        return
+    raise ValidationError(
+        f"{kind}: the fitted breakaway level f_s = {f_s:.3g} +- {sd_s:.2g} N is below the "
+        f"sliding level f_c = {f_c:.4g} +- {sd_c:.2g} N, reached over v_s = {v_s:.3g} m/s "
+        f"({100 * v_s / vmax:.0f} % of the peak speed {vmax:.3g} m/s, > "
+        f"{100 * FRICTION_MAX_FRACTION:.0f} %): a force that grows gradually with speed "
+        "from the reversal, which is a velocity-dependent damping force, not stiction "
+        "(whose breakaway exceeds its sliding level)"
+    )
+
+
+def check_breakaway_recorded(candidate: str, ext: FitResult, sp: Split) -> None:
+    """Refuse a stiction refit whose breakaway level exceeds every recorded force.
+
+    To move, a part must be pushed past its breakaway force ``f_s``, and at each reversal
+    the recorded force holds the friction at that level (``F = m a + c v +- f_s`` about
+    zero speed, of either sign on the two sides of the reversal): no recording of a part
+    that moves holds only forces below its breakaway level. A fitted ``f_s`` above the
+    largest recorded force (over every recording of the split) is that level only over a
+    Stribeck velocity too small for any sample to see it; what the shape fits is the
+    transient the level drives (LuGre's bristle deflection ``z = g(v) / sigma0``, a loop
+    over a fair part of the stroke: a material's hysteresis). Raises
+    :class:`ValidationError` (the hypothesis is recorded as failed with this reason).
+    Models without a recorded ``force`` channel are not judged.
+    """
+    kind = candidate.partition("@")[0]
+    if kind not in STICTION_KINDS:
+        return
+    element = refitted_element(ext, kind)
+    recs = [*sp.fit_recordings, *sp.heldout_recordings]
+    forces = [np.asarray(r.outputs["force"], float) for r in recs if "force" in r.outputs]
+    if element is None or not forces:
+        return
+    f_s = float(np.ravel(element.params["f_s"])[0])
+    largest = max(float(np.max(np.abs(f))) for f in forces if f.size)
+    if f_s <= largest:
+        return
+    raise ValidationError(
+        f"{kind}: the fitted breakaway level f_s = {f_s:.4g} N is above every recorded force "
+        f"(largest {largest:.4g} N), which a part that moves cannot hold; the shape fits "
+        "the transient it drives over a Stribeck velocity too small to see, a loop over "
+        "the stroke, not stiction"
     )
 
 
