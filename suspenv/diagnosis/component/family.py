@@ -90,8 +90,11 @@ from suspenv.models.effects import make_effect
 #: would be extrapolated)
 DEFAULT_HOLDOUT = "cycles"
 #: fewer motion cycles than this in a recording: the default falls back to the last
-#: :data:`FALLBACK_FRACTION` of each recording (the sufficiency rules then judge it)
-MIN_CYCLES_INTERLEAVED = 8
+#: :data:`FALLBACK_FRACTION` of each recording (the sufficiency rules then judge it). The
+#: first and the last cycle of a recording are partial (:func:`cycle_index`), so the
+#: first held-out cycle (the fourth, index 3) lies inside the recording from 5 cycles on;
+#: a fallback fraction extrapolates the fitted zero drift into the held-out span
+MIN_CYCLES_INTERLEAVED = 5
 FALLBACK_FRACTION = 0.3
 
 
