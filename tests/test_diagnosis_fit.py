@@ -14,7 +14,7 @@ from suspenv.diagnosis.component.locate import (
     travel_since_reversal,
 )
 from suspenv.diagnosis.evidence import ljung_box
-from suspenv.diagnosis.fitting import fit
+from suspenv.diagnosis.fitting import fit, parameter_covariance
 
 
 class LinearDamper:
@@ -77,6 +77,24 @@ def test_fit_matches_ordinary_least_squares_and_its_standard_errors() -> None:
     np.testing.assert_allclose(res.theta, beta, rtol=1e-6)
     np.testing.assert_allclose(res.stderr, se, rtol=1e-3)
     assert res.rms()["force"] == pytest.approx(np.sqrt(np.mean(r**2)), rel=1e-6)
+
+
+def test_standard_errors_of_parameters_in_units_decades_apart() -> None:
+    # reference: the OLS covariance s^2 (X^T X)^-1 of well-scaled regressors X, carried to
+    # parameters whose regressors are X's columns times 1e-7 ... 1e7 (theta_j = beta_j /
+    # scale_j, so cov_theta = D^-1 cov_beta D^-1); a pseudo-inverse of J^T J drops the
+    # small singular values of such a J and gives errors thousands of times too small
+    rng = np.random.default_rng(0)
+    X = rng.standard_normal((2000, 5))
+    scale = np.array([1e-7, 1e-3, 1.0, 1e3, 1e7])
+    exact = np.linalg.inv(X.T @ X) / np.outer(scale, scale) * 0.3
+    cov = parameter_covariance(X * scale, 0.3)
+    np.testing.assert_allclose(np.sqrt(np.diag(cov)), np.sqrt(np.diag(exact)), rtol=1e-9)
+    np.testing.assert_allclose(cov, exact, rtol=1e-9, atol=0.0)
+    # a parameter the residual does not depend on gets zero variance, the others theirs
+    with_dead = parameter_covariance(np.c_[X * scale, np.zeros(2000)], 0.3)
+    assert with_dead[-1, -1] == 0.0
+    np.testing.assert_allclose(np.diag(with_dead)[:-1], np.diag(exact), rtol=1e-9)
 
 
 def test_information_criteria_closed_form() -> None:

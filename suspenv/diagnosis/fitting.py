@@ -226,6 +226,25 @@ def spread_scales(recs: Sequence[RecordingLike], channels: Sequence[str]) -> dic
     return out
 
 
+def parameter_covariance(jacobian: np.ndarray, s2: float) -> np.ndarray:
+    """Covariance ``s2 (J^T J)^-1`` of least-squares parameters from the Jacobian ``J``
+    ``(n_residuals, p)`` of the scaled residual and the residual variance ``s2``.
+
+    The columns are equilibrated first (each divided by its norm) and the pseudo-inverse
+    is taken of ``J`` itself, not of ``J^T J``: parameters in units decades apart (a tyre
+    rate of 1e5 N/m beside a sensor offset of 1e-6 m) make ``J^T J`` so ill-conditioned
+    that a pseudo-inverse of it drops its smallest singular values, i.e. the directions of
+    largest variance, and reports standard errors thousands of times too small. A column
+    of zeros (a parameter the residual does not depend on) gets zero variance, as the
+    pseudo-inverse gives it.
+    """
+    J = np.asarray(jacobian, float)
+    norms = np.linalg.norm(J, axis=0)
+    norms = np.where(norms > 0, norms, 1.0)
+    inverse = np.linalg.pinv(J / norms)  # (p, n) of the equilibrated columns
+    return (inverse @ inverse.T) / np.outer(norms, norms) * s2
+
+
 def _result(
     model: DiagnosableModel[R, E],
     theta: np.ndarray,
@@ -254,8 +273,7 @@ def _result(
         if r is None:
             r = stacked_residual(model, theta, recs, channels, scales, masks)
         dof = max(r.size - p, 1)
-        s2 = float(np.sum(r**2)) / dof
-        cov = np.linalg.pinv(jacobian.T @ jacobian) * s2
+        cov = parameter_covariance(jacobian, float(np.sum(r**2)) / dof)
         stderr = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     rho = float(
         np.mean([lag1_autocorrelation(q[c]) for q in parts for c in channels if q[c].size > 2])
