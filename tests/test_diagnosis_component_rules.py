@@ -42,6 +42,7 @@ from suspenv.diagnosis.component.family import (
 from suspenv.diagnosis.component.truth import make_case
 from suspenv.diagnosis.engine import diagnose, make_family
 from suspenv.diagnosis.fitting import FitResult
+from suspenv.diagnosis.split import Split
 from suspenv.measurements import Recording
 from suspenv.models.components import DamperDynoModel, FrictionGuideModel
 from suspenv.models.effects import make_effect, sensor_delay
@@ -246,7 +247,7 @@ def test_a_breakaway_above_every_recorded_force_is_refused():
     case = make_case("friction_guide", 0, 0)  # a development control: the forces only
     rec = case.recording
     largest = float(np.max(np.abs(rec.outputs["force"])))
-    split = SimpleNamespace(fit_recordings=[rec], heldout_recordings=[rec])
+    split = Split.separate([rec], [rec])
     above = _stiction_fit("lugre_friction", 8.5, 46.0 * largest, 0.08, 0.0)
     with pytest.raises(ValidationError, match="above every recorded force"):
         check_breakaway_recorded("lugre_friction", above, split)
@@ -254,7 +255,7 @@ def test_a_breakaway_above_every_recorded_force_is_refused():
     within = _stiction_fit("lugre_friction", 0.5 * largest, 0.9 * largest, 0.08, 0.1)
     check_breakaway_recorded("lugre_friction", within, split)
     # a model without a recorded force (the quarter car's channels) is not judged
-    no_force = SimpleNamespace(fit_recordings=[SimpleNamespace(outputs={})], heldout_recordings=[])
+    no_force = Split.separate([SimpleNamespace(outputs={})], [])
     check_breakaway_recorded("lugre_friction", above, no_force)
 
 
@@ -400,7 +401,7 @@ def test_the_phase_table_reads_how_late_the_channel_is_per_frequency(late_kind):
         ]
     )
     together = SimpleNamespace(model=both, theta=both.theta_from({"c": 1600.0}))
-    split = SimpleNamespace(fit_recordings=[recorded], heldout_recordings=[recorded])
+    split = Split.separate([recorded], [recorded])
     rows = phase_by_frequency(together, split, "force", 0.03, 0.02)
     assert len(rows) >= 2 and all(r.cycles >= 1 for r in rows)
     for r in rows:

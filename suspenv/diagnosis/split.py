@@ -40,6 +40,15 @@ class Split:
     description: str
     cycles_every: int | None = None
 
+    def recordings(self) -> list[RecordingLike]:
+        """Every recording of the split once, fit before held-out (a recording masked into
+        both parts counts once)."""
+        out: list[RecordingLike] = []
+        for r in [*self.fit_recordings, *self.heldout_recordings]:
+            if not any(r is q for q in out):
+                out.append(r)
+        return out
+
     @classmethod
     def separate(
         cls, fit: Sequence[RecordingLike], heldout: Sequence[RecordingLike], words: str = ""

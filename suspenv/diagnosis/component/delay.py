@@ -46,7 +46,7 @@ import numpy as np
 
 from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.component.motion import cycle_index, motion
-from suspenv.diagnosis.component.refit import refit_with, refitted_element
+from suspenv.diagnosis.component.refit import parameter_and_error, refit_with
 from suspenv.diagnosis.component.residual_left import MATERIAL_RATIO
 from suspenv.diagnosis.decision import DecisionRule
 from suspenv.diagnosis.evidence import compare, fit_residual_series, likelihood_ratio
@@ -140,24 +140,21 @@ def phase_by_frequency(
     names, values = together.model.parameter_names, np.asarray(together.theta, float)
     value = dict(zip(names, values, strict=True))
     theta = np.array([value[name] for name in bare.parameter_names])
-    seen: set[int] = set()
     cycles: list[tuple[float, float]] = []  # (frequency [Hz], lateness [rad])
-    for rec in [*sp.fit_recordings, *sp.heldout_recordings]:
-        if id(rec) in seen or channel not in rec.outputs:
+    for rec in sp.recordings():
+        if channel not in rec.outputs:
             continue
-        seen.add(id(rec))
         y = np.asarray(rec.outputs[channel], float)
         model_y = np.asarray(bare.simulate(theta, rec)[channel], float)
         t = np.asarray(rec.time, float)
         x = motion(rec)[0]
         index = cycle_index(x)
-        whole = range(1, int(index.max()))  # whole cycles: not the first or last
-        strokes = {k: float(np.ptp(x[index == k])) for k in whole if np.any(index == k)}
-        largest = max(strokes.values(), default=0.0)
-        for k in whole:
-            sel = index == k
+        # whole cycles (not the first or last) and their strokes
+        whole = [sel for sel in (index == k for k in range(1, int(index.max()))) if sel.any()]
+        largest = max((float(np.ptp(x[sel])) for sel in whole), default=0.0)
+        for sel in whole:
             n = int(sel.sum())
-            if n < PHASE_MIN_SAMPLES or strokes.get(k, 0.0) < PHASE_MIN_STROKE * largest:
+            if n < PHASE_MIN_SAMPLES or float(np.ptp(x[sel])) < PHASE_MIN_STROKE * largest:
                 continue
             ts = t[sel]
             period = float(ts[-1] - ts[0]) * n / (n - 1)
@@ -186,16 +183,6 @@ def phase_by_frequency(
             )
         )
     return rows
-
-
-def parameter_and_error(fit: FitResult, kind: str, parameter: str) -> tuple[float, float]:
-    """The fitted value of ``parameter`` of the element of ``kind`` in ``fit`` and its
-    serial-correlation corrected standard error (NaN, NaN when the model holds none)."""
-    element = refitted_element(fit, kind)
-    if element is None:
-        return np.nan, np.nan
-    row = fit.params().get(f"{element.name}.{parameter}", {})
-    return float(row.get("value", np.nan)), float(row.get("stderr_corrected", np.nan))
 
 
 def bic_difference(a: FitResult, b: FitResult) -> float:
@@ -269,7 +256,8 @@ def delay_against_lag(
     ``"decisive"`` (1.0 when :func:`delay_decisive`; else 0.0),
     ``"delay_s"``, ``"lag_s"``, ``"ssr_lag"``, ``"ssr_delay"`` (ssr summed over the
     channels), ``"phases"}`` (:func:`phase_by_frequency` of the two fitted together:
-    the evidence of phase versus frequency)."""
+    the evidence of phase versus frequency, which the delay's finding states; computed
+    where the delay is decisive, else empty)."""
     bic = bic_difference(lag, delay)
     c = compare(
         lag, delay, sp.fit_recordings, sp.fit_masks, sp.heldout_recordings, sp.heldout_masks
@@ -301,7 +289,9 @@ def delay_against_lag(
         "lag_s": lag_s,
         "ssr_lag": float(sum(lag.ssr.values())),
         "ssr_delay": float(sum(delay.ssr.values())),
-        "phases": tuple(phase_by_frequency(both, sp, channel, lag_s, delay_s)),
+        "phases": (
+            tuple(phase_by_frequency(both, sp, channel, lag_s, delay_s)) if decisive else ()
+        ),
     }
 
 

@@ -40,7 +40,6 @@ from suspenv.diagnosis.component.delay import (
     delay_against_lag,
     delay_left,
     fit_delay,
-    parameter_and_error,
 )
 from suspenv.diagnosis.component.locate import Segment, locate
 from suspenv.diagnosis.component.motion import cycle_index, motion, split
@@ -50,7 +49,12 @@ from suspenv.diagnosis.component.motion_inputs import (
     motion_versions,
     preferred_version,
 )
-from suspenv.diagnosis.component.refit import current_effects, refit_with, refitted_element
+from suspenv.diagnosis.component.refit import (
+    current_effects,
+    parameter_and_error,
+    refit_with,
+    refitted_element,
+)
 from suspenv.diagnosis.component.residual_left import residual_left
 from suspenv.diagnosis.component.rig import (
     RigDescription,
@@ -826,12 +830,9 @@ def check_stiction_decays(candidate: str, ext: FitResult, vmax: float) -> None:
     v_s = float(np.ravel(element.params["v_s"])[0])
     if v_s <= FRICTION_MAX_FRACTION * vmax:
         return
-    fitted = ext.params()
-    sliding, breakaway = (fitted.get(f"{element.name}.{q}") for q in ("f_c", "f_s"))
-    if sliding is None or breakaway is None:  # a level held fixed is not judged here
-        return
-    f_c, sd_c = sliding["value"], sliding["stderr_corrected"]
-    f_s, sd_s = breakaway["value"], breakaway["stderr_corrected"]
+    # NaN for a level held fixed, which is not judged here
+    f_c, sd_c = parameter_and_error(ext, kind, "f_c")
+    f_s, sd_s = parameter_and_error(ext, kind, "f_s")
     sd = float(np.hypot(sd_c, sd_s))  # the covariance left out: the wider of the two bounds
     if not np.isfinite(sd) or f_c - f_s <= SIZE_Z * sd:
         return
@@ -863,8 +864,9 @@ def check_breakaway_recorded(candidate: str, ext: FitResult, sp: Split) -> None:
     if kind not in STICTION_KINDS:
         return
     element = refitted_element(ext, kind)
-    recs = [*sp.fit_recordings, *sp.heldout_recordings]
-    forces = [np.asarray(r.outputs["force"], float) for r in recs if "force" in r.outputs]
+    forces = [
+        np.asarray(r.outputs["force"], float) for r in sp.recordings() if "force" in r.outputs
+    ]
     if element is None or not forces:
         return
     f_s = float(np.ravel(element.params["f_s"])[0])

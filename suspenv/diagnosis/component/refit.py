@@ -38,6 +38,17 @@ def refitted_element(ext: FitResult, kind: str) -> Any | None:
     return next((e for e in effects if e.kind == kind), None)
 
 
+def parameter_and_error(fit: FitResult, kind: str, parameter: str) -> tuple[float, float]:
+    """The fitted value of ``parameter`` of the element of ``kind`` in ``fit`` and its
+    serial-correlation corrected standard error (NaN, NaN when the model holds none or
+    holds the parameter fixed)."""
+    element = refitted_element(fit, kind)
+    if element is None:
+        return np.nan, np.nan
+    row = fit.params().get(f"{element.name}.{parameter}", {})
+    return float(row.get("value", np.nan)), float(row.get("stderr_corrected", np.nan))
+
+
 def signature_guess(
     kind: str, sig: Signature | None, half_stroke: float, v_max: float
 ) -> dict[str, float]:

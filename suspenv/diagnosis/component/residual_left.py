@@ -51,7 +51,6 @@ from scipy import stats
 from suspenv.diagnosis.component.motion import cycle_index, motion
 from suspenv.diagnosis.evidence import ljung_box
 from suspenv.diagnosis.fitting import FitResult
-from suspenv.diagnosis.protocols import RecordingLike
 from suspenv.diagnosis.split import Split
 
 #: per model family: words of the two directions of motion and of the displacement
@@ -151,21 +150,13 @@ def _quartile(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.searchsorted(edges, a, side="right"), edges
 
 
-def _unique_recordings(sp: Split) -> list[RecordingLike]:
-    out: list[RecordingLike] = []
-    for r in [*sp.fit_recordings, *sp.heldout_recordings]:
-        if not any(r is q for q in out):
-            out.append(r)
-    return out
-
-
 def residual_left(
     fit: FitResult, sp: Split, alpha: float = ALPHA, channels: Sequence[str] | None = None
 ) -> list[ResidualLeft]:
     """The check on every output channel of ``fit`` over all samples of the split's
     recordings (fit and held-out; the handful of fitted parameters barely shape a
     residual of thousands of samples)."""
-    recs = _unique_recordings(sp)
+    recs = sp.recordings()
     out = []
     for ch in channels or fit.channels:
         rs, vs, xs, cyc = [], [], [], []
