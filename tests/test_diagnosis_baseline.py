@@ -2,7 +2,9 @@
 
 References: planted physics with known values on the damper's example dyno programme
 (sines at four amplitude/frequency pairs, 2 ms); the truth is the closed-form force
-written here, independent of the effect library's code.
+written here, independent of the effect library's code. The residual check's tail rule:
+the Gaussian tail (a sample beyond six standard deviations has probability 2e-9) and
+the closed-form power of planted impulses.
 """
 
 from __future__ import annotations
@@ -12,7 +14,15 @@ import pytest
 from scipy.signal import lfilter
 
 from suspenv.core.errors import ValidationError
-from suspenv.diagnosis.component.residual_left import neighbour_noise_power
+from suspenv.diagnosis.component.residual_left import (
+    MATERIAL_RATIO,
+    TAIL_MIN_SAMPLES,
+    TAIL_Z,
+    ResidualLeft,
+    _tail_test,
+    inconsistent_motion,
+    neighbour_noise_power,
+)
 from suspenv.diagnosis.component.rig import (
     baseline_model,
     describe_rig,
@@ -230,6 +240,116 @@ def test_neighbour_noise_power_sees_noise_not_structure():
     structure = 50.0 * (v / v.max()) ** 3 + 30.0 * np.sign(v) * (x / x.max()) ** 2
     p = neighbour_noise_power(noise + structure, x, v, cycle)
     assert abs(np.sqrt(p) - 2.0) / 2.0 < 0.05
+
+
+def _tail_check(r: np.ndarray) -> ResidualLeft:
+    """The tail rule on residual ``r`` of a 2 ms recording with a 1 Hz motion."""
+    t = np.arange(r.size) * 2e-3
+    x, v = 0.01 * np.sin(2 * np.pi * t), 0.02 * np.pi * np.cos(2 * np.pi * t)
+    left = ResidualLeft("force", "N", 0.0, 1.0, 0.0, 0.0, 0, 1.0, 1.0, False)
+    _tail_test(left, ("in compression", "in rebound", "deflection"), r, x, v, t)
+    return left
+
+
+@pytest.mark.parametrize("colour", [0.0, 0.9])
+def test_gaussian_noise_white_or_coloured_has_no_tail(colour):
+    # Gaussian noise puts 2e-9 of its samples beyond six standard deviations: none of
+    # 40000, whatever its colour (an AR(1) with coefficient 0.9 here)
+    rng = np.random.default_rng(21)
+    e = lfilter([1.0], [1.0, -colour], rng.normal(0.0, 1.0, 40000))
+    left = _tail_check(e / np.std(e))
+    assert left.tail_samples < TAIL_MIN_SAMPLES and not left.tail_remains
+    assert abs(left.robust_scale - 1.0) < 0.03  # the robust scale is the noise's
+
+
+def test_contact_ringing_is_a_tail_above_the_noise():
+    # 60 impacts (a free play closing), each ringing as 20 e^(-k/3) sin(2 pi k / 8) noise
+    # scales at random times: not a function of the state, so only the tail rule sees it
+    rng = np.random.default_rng(22)
+    r = rng.normal(0.0, 1.0, 40000)
+    k = np.arange(16)
+    ring = 20.0 * np.exp(-k / 3.0) * np.sin(2 * np.pi * k / 8.0)
+    starts = rng.choice(np.arange(100, 39800, 400), 60, replace=False)
+    for a in starts:
+        r[a : a + 16] += ring
+    left = _tail_check(r)
+    # closed form of the excess power: 60 rings of sum(ring^2) over 40000 samples
+    excess = 60 * float(np.sum(ring**2)) / 40000
+    assert left.tail_remains and left.remains
+    assert abs(left.tail_rms - np.sqrt(excess)) < 0.1 * np.sqrt(excess)
+    assert left.tail_samples >= TAIL_MIN_SAMPLES
+    first = float(left.tail_where[0].split("t = ")[1].split(" s")[0])
+    assert np.min(np.abs(first - starts * 2e-3)) < 16 * 2e-3  # located in a ring
+    assert "beyond 6 x the noise's robust scale" in left.sentence()
+
+
+@pytest.mark.parametrize(
+    ("spikes", "height", "remains"),
+    [
+        (TAIL_MIN_SAMPLES, 40.0, True),  # excess RMS sqrt(10 * 1600 / 20000) = 0.89 > 0.6
+        (TAIL_MIN_SAMPLES - 1, 40.0, False),  # too few tail samples
+        (TAIL_MIN_SAMPLES, 20.0, False),  # excess RMS 0.45 < MATERIAL_RATIO
+    ],
+)
+def test_tail_rule_boundaries(spikes, height, remains):
+    rng = np.random.default_rng(23)
+    r = rng.normal(0.0, 1.0, 20000)
+    r[rng.choice(20000, spikes, replace=False)] += height
+    left = _tail_check(r)
+    assert left.tail_samples == spikes
+    assert (left.tail_rms > MATERIAL_RATIO * left.robust_scale) == (height == 40.0)
+    assert left.tail_remains is remains
+    assert TAIL_Z == 6.0
+
+
+def test_inconsistent_motion_marks_a_smoothed_velocity_at_a_kink_only():
+    # reference: the closed-form derivative. A sine whose amplitude jumps at t = 5 s (a
+    # test programme's block boundary, a kink of the displacement) recorded with an
+    # exact velocity: nothing marked; with a velocity smoothed over 0.2 s (a
+    # Savitzky-Golay-like moving average of the exact derivative): only the samples
+    # around the kink, where the smoothing is wrong by far more than elsewhere
+    t = np.arange(1000) * 0.01
+    a = np.where(t < 5.0, 0.010, 0.005)
+    x = a * np.sin(2 * np.pi * t)
+    v = np.gradient(x, t)
+    assert not inconsistent_motion(t, x, v).any()
+    smooth = np.convolve(v, np.ones(21) / 21, mode="same")
+    smooth[:10], smooth[-10:] = v[:10], v[-10:]
+    bad = inconsistent_motion(t, x, smooth)
+    assert bad.any() and bad.mean() < 0.1
+    assert np.all(np.abs(t[bad] - 5.0) < 0.25)
+
+
+def test_tail_rule_is_left_out_where_the_motion_was_low_passed():
+    # a guide whose motion channels carry noise is low-passed before the fit (the
+    # prediction then lacks the motion's content above the cut-off): no tail rule there,
+    # and the report says why; the same recording with clean motion keeps the rule
+    from suspenv.diagnosis.engine import make_family
+
+    rec = make_component("friction_guide").example_recording(seed=4)
+    x, v, a = (rec.inputs[k] for k in ("position", "velocity", "acceleration"))
+    rec = _with_force(rec, 90.0 * a + 200.0 * v + 20.0 * np.tanh(v / 0.001) - 3.0, seed=5)
+    rng = np.random.default_rng(24)
+    noisy = Recording(
+        rec.name,
+        rec.test,
+        rec.time,
+        {**rec.inputs, "position": x + rng.normal(0.0, 2e-3 * np.std(x), x.size)},
+        rec.outputs,
+        rec.units,
+        rec.meta,
+    )
+    family = make_family("friction_guide")
+    diag = diagnose(noisy, family)
+    assert family.motion_lowpass_hz is not None
+    assert diag.findings["tail_rule"].startswith("not applied: the motion channels were low-passed")
+    assert all(
+        left.tail_samples == 0 and not left.tail_remains for left in diag.findings["residual"]
+    )
+    clean_family = make_family("friction_guide")
+    clean = diagnose(rec, clean_family)
+    assert clean_family.motion_lowpass_hz is None and "tail_rule" not in clean.findings
+    assert all(left.robust_scale > 0 for left in clean.findings["residual"])
 
 
 def test_zero_drift_is_rate_times_time():
