@@ -281,6 +281,12 @@ def test_contact_ringing_is_a_tail_above_the_noise():
     first = float(left.tail_where[0].split("t = ")[1].split(" s")[0])
     assert np.min(np.abs(first - starts * 2e-3)) < 16 * 2e-3  # located in a ring
     assert "beyond 6 x the noise's robust scale" in left.sentence()
+    # with several recordings each place names its recording
+    t = np.arange(r.size) * 2e-3
+    named = ResidualLeft("force", "N", 0.0, 1.0, 0.0, 0.0, 0, 1.0, 1.0, False)
+    names = ["run_a" if i < r.size // 2 else "run_b" for i in range(r.size)]
+    _tail_test(named, ("up", "down", "deflection"), r, 0 * t, 0 * t + 1.0, t, names)
+    assert named.tail_where[0].startswith(("in run_a at t = ", "in run_b at t = "))
 
 
 @pytest.mark.parametrize(

@@ -213,7 +213,8 @@ def residual_left(
     recs = sp.recordings()
     out = []
     for ch in channels or fit.channels:
-        rs, vs, xs, cyc, ts, inner = [], [], [], [], [], []
+        rs, vs, xs, cyc, ts, inner, which = [], [], [], [], [], [], []
+        names: list[str] = []
         offset = 0
         for rec in recs:
             if ch not in rec.outputs:
@@ -229,6 +230,8 @@ def residual_left(
             xs.append(x)
             vs.append(v)
             ts.append(t)
+            which.append(np.full(t.size, len(names)))
+            names.append(str(rec.name))
             edge = int(TAIL_EDGE_FRACTION * t.size)
             rows = np.arange(t.size)
             inner.append((rows >= edge) & (rows < t.size - edge) & ~inconsistent_motion(t, x, v))
@@ -242,7 +245,9 @@ def residual_left(
         left = _cell_test(words, r_all, x_all, v_all, np.concatenate(cyc), ch, unit, alpha)
         if tails:
             keep = np.concatenate(inner)
-            _tail_test(left, words, r_all[keep], x_all[keep], v_all[keep], np.concatenate(ts)[keep])
+            t_all, rec_of = np.concatenate(ts), np.concatenate(which)
+            recording = [names[i] for i in rec_of[keep]] if len(names) > 1 else None
+            _tail_test(left, words, r_all[keep], x_all[keep], v_all[keep], t_all[keep], recording)
         out.append(left)
     return out
 
@@ -273,10 +278,14 @@ def _tail_test(
     x: np.ndarray,
     v: np.ndarray,
     t: np.ndarray,
+    recording: Sequence[str] | None = None,
 ) -> None:
     """Step 6 of the module docstring on one channel's pooled residual ``r``, its
-    motion ``x`` [m], ``v`` [m/s] and times ``t`` [s]: fills the tail fields of
-    ``left`` and adds the tail rule to ``left.remains``."""
+    motion ``x`` [m], ``v`` [m/s] and times ``t`` [s] (``recording``: each sample's
+    recording name, where there are several): fills the tail fields of ``left`` and
+    adds the tail rule to ``left.remains``."""
+    if r.size < 2 * TAIL_MIN_SAMPLES:
+        return
     centre = float(np.median(r))
     dev = np.abs(r - centre)
     scale = 1.4826 * float(np.median(dev))
@@ -293,7 +302,8 @@ def _tail_test(
     left.remains = left.remains or left.tail_remains
     largest = tail[np.argsort(-dev[tail])][:3]
     left.tail_where = [
-        f"at t = {t[i]:.3f} s, {words[0] if v[i] > 0 else words[1]} at {abs(v[i]):.3g} m/s, "
+        ("" if recording is None else f"in {recording[i]} ")
+        + f"at t = {t[i]:.3f} s, {words[0] if v[i] > 0 else words[1]} at {abs(v[i]):.3g} m/s, "
         f"{words[2]} {x[i] * 1e3:.3g} mm: {r[i] - centre:+.3g} {left.unit}"
         for i in largest
     ]
