@@ -189,6 +189,14 @@ def motion_cutoff(x: np.ndarray, fs: float, s2: float | None = None) -> float | 
     return chosen
 
 
+def robust_deviation(a: np.ndarray) -> tuple[np.ndarray, float]:
+    """Each sample's absolute deviation from the median of ``a``, and the robust scale
+    ``1.4826 x`` their median (the standard deviation of Gaussian samples, which a few
+    large ones barely move), in the unit of ``a``."""
+    dev = np.abs(a - np.median(a))
+    return dev, 1.4826 * float(np.median(dev))
+
+
 def derivative(y: np.ndarray, fs: float) -> np.ndarray:
     """Time derivative of ``y`` sampled at ``fs`` [Hz]: five-point central difference
     (gain error ``(w dt)^4 / 30``), second-order at the ends."""
@@ -217,8 +225,8 @@ def compare_velocity(
     scale = np.sqrt(np.mean(basis**2, axis=0))
     scale[scale == 0] = 1.0
     diff = (v_channel - v_x)[trim]
-    spread = 1.4826 * float(np.median(np.abs(diff - np.median(diff))))
-    keep = np.abs(diff - np.median(diff)) <= SPIKE_LIMIT * spread if spread > 0 else slice(None)
+    dev, spread = robust_deviation(diff)
+    keep = dev <= SPIKE_LIMIT * spread if spread > 0 else slice(None)
     basis, diff = basis[keep], diff[keep]
     # a direction the motion does not excite (gain and curvature are one direction for
     # a single sine) is left out rather than split into large opposite coefficients

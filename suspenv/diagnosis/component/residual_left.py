@@ -58,7 +58,7 @@ Units: the channel's (SI); ``S`` and ``N`` in the channel's unit.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
@@ -66,6 +66,7 @@ import numpy as np
 from scipy import stats
 
 from suspenv.diagnosis.component.motion import cycle_index, motion
+from suspenv.diagnosis.component.motion_inputs import robust_deviation
 from suspenv.diagnosis.evidence import ljung_box
 from suspenv.diagnosis.fitting import FitResult
 from suspenv.diagnosis.split import Split
@@ -117,15 +118,15 @@ class ResidualLeft:
         ratio: ``S / N``.
         chi2 / dof / p_value: the cycle-to-cycle test.
         whiteness_p: Ljung-Box p-value of the detrended residual.
-        remains: a residual above the noise floor is left (the state rule, step 5, or
-            the tail rule, step 6).
-        state_remains: the state rule holds.
+        state_remains: the state rule holds (step 5).
         where: the cells with the largest structure, in words.
         tail_samples: samples beyond :data:`TAIL_Z` robust scales (step 6).
         robust_scale: the robust scale [channel unit] (1.4826 x MAD).
         tail_rms: ``S_tail`` [channel unit].
         tail_remains: the tail rule holds (step 6; False where tails are not tested).
         tail_where: the largest tail samples, in words (time, state).
+
+    ``remains`` (a residual above the noise floor is left) is either rule.
     """
 
     channel: str
@@ -137,17 +138,21 @@ class ResidualLeft:
     dof: int
     p_value: float
     whiteness_p: float
-    remains: bool
+    state_remains: bool
     where: list[str] = field(default_factory=list)
-    state_remains: bool = False
     tail_samples: int = 0
     robust_scale: float = 0.0
     tail_rms: float = 0.0
     tail_remains: bool = False
     tail_where: list[str] = field(default_factory=list)
 
+    @property
+    def remains(self) -> bool:
+        """A residual above the noise floor is left: the state rule or the tail rule."""
+        return self.state_remains or self.tail_remains
+
     def to_dict(self) -> dict[str, Any]:
-        return asdict(self)
+        return {**asdict(self), "remains": self.remains}
 
     def sentence(self) -> str:
         """One sentence for the verdict."""
@@ -200,6 +205,49 @@ def _quartile(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.searchsorted(edges, a, side="right"), edges
 
 
+@dataclass(frozen=True)
+class _Run:
+    """One recording as the check reads it: its index among the split's recordings, the
+    recording, the model's prediction {channel: array}, times ``t`` [s], motion ``x`` [m]
+    and ``v`` [m/s], each sample's motion cycle and replicate (unique over the split),
+    and the samples the tail rule reads (None: the rule is not applied)."""
+
+    index: int
+    rec: Any
+    pred: Mapping[str, np.ndarray]
+    t: np.ndarray
+    x: np.ndarray
+    v: np.ndarray
+    cycles: np.ndarray
+    replicate: np.ndarray
+    read: np.ndarray | None
+
+    def residual(self, channel: str) -> np.ndarray:
+        """Recorded less predicted ``channel``, detrended (step 1)."""
+        r = np.asarray(self.rec.outputs[channel], float) - np.asarray(self.pred[channel], float)
+        return _detrend(self.t, r, int(self.cycles.max()) + 1)
+
+
+def _runs(fit: FitResult, sp: Split, tails: bool) -> list[_Run]:
+    """Every recording of the split, simulated and its motion read once for all channels."""
+    runs = []
+    offset = 0
+    for k, rec in enumerate(sp.recordings()):
+        t = np.asarray(rec.time, float)
+        x, v = motion(rec)
+        cycles = cycle_index(x)
+        c = replicates(t, cycles)
+        read = None
+        if tails:
+            edge = int(TAIL_EDGE_FRACTION * t.size)
+            rows = np.arange(t.size)
+            read = (rows >= edge) & (rows < t.size - edge) & ~inconsistent_motion(t, x, v)
+        pred = fit.model.simulate(fit.theta, rec)
+        runs.append(_Run(k, rec, pred, t, x, v, cycles, c + offset, read))
+        offset += int(c.max()) + 1
+    return runs
+
+
 def residual_left(
     fit: FitResult,
     sp: Split,
@@ -210,44 +258,26 @@ def residual_left(
     """The check on every output channel of ``fit`` over all samples of the split's
     recordings (fit and held-out; the handful of fitted parameters barely shape a
     residual of thousands of samples); ``tails``: apply the tail rule (step 6)."""
-    recs = sp.recordings()
+    runs = _runs(fit, sp, tails)
+    words = MOTION_WORDS.get(str(getattr(fit.model, "family", "")), MOTION_WORDS[""])
+    names = np.asarray([str(run.rec.name) for run in runs])
     out = []
     for ch in channels or fit.channels:
-        rs, vs, xs, cyc, ts, inner, which = [], [], [], [], [], [], []
-        names: list[str] = []
-        offset = 0
-        for rec in recs:
-            if ch not in rec.outputs:
-                continue
-            pred = fit.model.simulate(fit.theta, rec)
-            t = np.asarray(rec.time, float)
-            r = np.asarray(rec.outputs[ch], float) - np.asarray(pred[ch], float)
-            x, v = motion(rec)
-            cycles = cycle_index(x)
-            c = replicates(t, cycles)
-            r = _detrend(t, r, int(cycles.max()) + 1)
-            rs.append(r)
-            xs.append(x)
-            vs.append(v)
-            ts.append(t)
-            which.append(np.full(t.size, len(names)))
-            names.append(str(rec.name))
-            edge = int(TAIL_EDGE_FRACTION * t.size)
-            rows = np.arange(t.size)
-            inner.append((rows >= edge) & (rows < t.size - edge) & ~inconsistent_motion(t, x, v))
-            cyc.append(c + offset)
-            offset += int(c.max()) + 1
-        if not rs:
+        have = [run for run in runs if ch in run.rec.outputs]
+        if not have:
             continue
-        unit = str(recs[0].units.get(ch, ""))
-        words = MOTION_WORDS.get(str(getattr(fit.model, "family", "")), MOTION_WORDS[""])
-        r_all, x_all, v_all = np.concatenate(rs), np.concatenate(xs), np.concatenate(vs)
-        left = _cell_test(words, r_all, x_all, v_all, np.concatenate(cyc), ch, unit, alpha)
+        r = np.concatenate([run.residual(ch) for run in have])
+        x = np.concatenate([run.x for run in have])
+        v = np.concatenate([run.v for run in have])
+        replicate = np.concatenate([run.replicate for run in have])
+        unit = str(runs[0].rec.units.get(ch, ""))
+        left = _cell_test(words, r, x, v, replicate, ch, unit, alpha)
         if tails:
-            keep = np.concatenate(inner)
-            t_all, rec_of = np.concatenate(ts), np.concatenate(which)
-            recording = [names[i] for i in rec_of[keep]] if len(names) > 1 else None
-            _tail_test(left, words, r_all[keep], x_all[keep], v_all[keep], t_all[keep], recording)
+            keep = np.concatenate([run.read for run in have if run.read is not None])
+            t = np.concatenate([run.t for run in have])
+            which = np.concatenate([np.full(run.t.size, run.index) for run in have])
+            recording = names[which[keep]] if len(have) > 1 else None
+            _tail_test(left, words, r[keep], x[keep], v[keep], t[keep], recording)
         out.append(left)
     return out
 
@@ -259,9 +289,7 @@ def inconsistent_motion(t: np.ndarray, x: np.ndarray, v: np.ndarray) -> np.ndarr
     none where the two agree exactly (a velocity made from the displacement)."""
     if x.size < 3:
         return np.zeros(x.size, bool)
-    d = v - np.gradient(x, t)
-    dev = np.abs(d - np.median(d))
-    scale = 1.4826 * float(np.median(dev))
+    dev, scale = robust_deviation(v - np.gradient(x, t))
     if not scale > 0:
         return np.zeros(x.size, bool)
     bad = dev > TAIL_Z * scale
@@ -278,17 +306,16 @@ def _tail_test(
     x: np.ndarray,
     v: np.ndarray,
     t: np.ndarray,
-    recording: Sequence[str] | None = None,
+    recording: Sequence[str] | np.ndarray | None = None,
 ) -> None:
     """Step 6 of the module docstring on one channel's pooled residual ``r``, its
     motion ``x`` [m], ``v`` [m/s] and times ``t`` [s] (``recording``: each sample's
     recording name, where there are several): fills the tail fields of ``left`` and
-    adds the tail rule to ``left.remains``."""
+    so the tail rule (``left.tail_remains``)."""
     if r.size < 2 * TAIL_MIN_SAMPLES:
         return
     centre = float(np.median(r))
-    dev = np.abs(r - centre)
-    scale = 1.4826 * float(np.median(dev))
+    dev, scale = robust_deviation(r)
     if not scale > 0:
         return
     tail = np.flatnonzero(dev > TAIL_Z * scale)
@@ -299,7 +326,6 @@ def _tail_test(
     left.tail_remains = bool(
         tail.size >= TAIL_MIN_SAMPLES and left.tail_rms > MATERIAL_RATIO * scale
     )
-    left.remains = left.remains or left.tail_remains
     largest = tail[np.argsort(-dev[tail])][:3]
     left.tail_where = [
         ("" if recording is None else f"in {recording[i]} ")
@@ -371,9 +397,8 @@ def _cell_test(
         dof=dof,
         p_value=p_value,
         whiteness_p=float(white_p),
-        remains=remains,
-        where=where,
         state_remains=remains,
+        where=where,
     )
 
 
