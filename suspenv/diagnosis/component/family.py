@@ -499,7 +499,8 @@ class ComponentFamily(OptionalSteps):
             max_nfev=self.budget,
         )
         check_step_or_knee(candidate, ext, vmax)
-        check_loop_or_step(candidate, ext, half)
+        if not fits_presliding(setup.model, setup.candidates):
+            check_loop_or_step(candidate, ext, half)
         check_parallel_branch(candidate, ext)
         check_resolved_size(candidate, ext)
         check_stiction_decays(candidate, ext, vmax)
@@ -596,6 +597,8 @@ class ComponentFamily(OptionalSteps):
                 found.sentences.append(left_delay.sentence())
         lag = lag_or_delay(outcome.named, setup.split)
         if lag:
+            # the library's lag stands for an out-of-library delay as well: not confident
+            found.confident = False
             found.sentences.append(lag)
         offsets = baseline_offsets(final)
         if offsets:
@@ -697,6 +700,23 @@ def hysteresis_transition(kind: str, params: dict[str, Any]) -> float | None:
     return None
 
 
+def fits_presliding(model: Any, candidates: Sequence[str]) -> bool:
+    """True when ``candidates`` hold a friction law with a pre-sliding displacement of
+    its own that ``model`` fits: LuGre with its bristle stiffness ``sigma0`` among the
+    model's freed parameters (the guide's, whose contact creeps before it slides).
+
+    Then a small hysteresis loop and friction compete on the data
+    (:func:`check_loop_or_step` is not applied): friction's pre-sliding has its law,
+    with the stiction and the Stribeck fall that a rate-independent loop lacks, so a loop
+    that fits better is a loop. Without such a law, a small loop is the only element
+    that can take a friction contact's pre-sliding, and is refused as hysteresis.
+    """
+    freed = getattr(model, "freed_parameters", {})
+    if "sigma0" not in freed.get("lugre_friction", ()):
+        return False
+    return any(c.partition("@")[0] == "lugre_friction" for c in candidates)
+
+
 def check_loop_or_step(candidate: str, ext: FitResult, half_stroke: float) -> None:
     """Refuse a hysteresis refit whose loop completes within ``HYSTERESIS_MIN_FRACTION``
     of the half-stroke ``half_stroke`` [m] after each reversal.
@@ -705,7 +725,8 @@ def check_loop_or_step(candidate: str, ext: FitResult, half_stroke: float) -> No
     friction (LuGre, Dahl's friction model: tens of micrometres), not the loop of a
     material that yields over a fair part of the stroke. Raises :class:`ValidationError`
     (the hypothesis is recorded as failed with this reason), so the friction element
-    refitted in the same round is named.
+    refitted in the same round is named. Not applied where the candidates hold a
+    friction law whose pre-sliding the model fits (:func:`fits_presliding`).
     """
     kind = candidate.partition("@")[0]
     if half_stroke <= 0:
@@ -910,7 +931,8 @@ LAG_DELAY_SEPARABLE = 0.5
 def lag_or_delay(named: Sequence[Hypothesis], sp: Split) -> str:
     """When a sensor lag is named where it cannot be told from a pure time delay (not in
     the library), the sentence that says so and names the test that would separate them;
-    "" otherwise.
+    "" otherwise. The verdict is then not confident: the named lag may be the library's
+    nearest element to a delay.
 
     A first-order lag ``tau`` shifts the phase by ``atan(w tau)`` and scales the gain by
     ``1 / sqrt(1 + (w tau)^2)``; a delay ``T`` shifts it by ``w T`` at unit gain. At the

@@ -24,6 +24,14 @@ from suspenv.core.space import Parameter
 from suspenv.measurements import Recording
 from suspenv.models.effects import Effect
 
+#: the friction kinds whose velocity width ``v_eps`` a component model fits
+#: (:attr:`ComponentModel.freed_parameters`)
+FRICTION_WIDTHS: Mapping[str, tuple[str, ...]] = {
+    "coulomb_friction": ("v_eps",),
+    "stribeck_friction": ("v_eps",),
+    "directional_friction": ("v_eps",),
+}
+
 
 class ComponentModel:
     """Base class: subclasses set the class attributes and implement ``_predict``.
@@ -40,9 +48,12 @@ class ComponentModel:
             effects a diagnosis adds (empty: the effects library's defaults).
         device_words: per effect kind, the words of this device for it (a controllable
             damper's yield force is not "friction in the damper"); empty: the library's.
-        fitted_widths: effect kinds whose velocity width ``v_eps`` [m/s] (the friction
-            step's smoothing, held fixed by the library) this model fits: a real
-            friction step is not 1 mm/s wide by decree.
+        freed_parameters: per effect kind, parameters the library holds fixed that this
+            model fits: a friction step's velocity width ``v_eps`` [m/s] (a real step is
+            not 1 mm/s wide by decree), LuGre's bristle stiffness ``sigma0`` [N/m] (the
+            pre-sliding displacement ``f_c / sigma0`` of a guide's contact), a cubic
+            spring's neutral position ``x_0`` [m] (a guide's position is not measured
+            from it).
         viscous_parameter: the base parameter that is the component's viscous
             coefficient [N s/m] ("" when it has none); a Maxwell branch fitted to carry
             all of it is a lag of the whole force, not a parallel branch.
@@ -62,7 +73,7 @@ class ComponentModel:
     candidate_effects: ClassVar[tuple[str, ...]] = ()
     location: ClassVar[str] = ""
     effect_defaults: ClassVar[Mapping[str, Mapping[str, float]]] = {}
-    fitted_widths: ClassVar[tuple[str, ...]] = ()
+    freed_parameters: ClassVar[Mapping[str, tuple[str, ...]]] = {}
     device_words: ClassVar[Mapping[str, str]] = {}
     viscous_parameter: ClassVar[str] = ""
 
@@ -142,9 +153,8 @@ class ComponentModel:
 
     def _free(self, e: Effect) -> tuple[str, ...]:
         names = e.spec.free_parameter_names
-        if e.kind in self.fitted_widths and "v_eps" in e.spec.parameter_names:
-            names = (*names, "v_eps")
-        return names
+        freed = self.freed_parameters.get(e.kind, ())
+        return (*names, *(p for p in e.spec.parameter_names if p in freed and p not in names))
 
     @property
     def parameter_names(self) -> tuple[str, ...]:
@@ -262,6 +272,10 @@ class ComponentModel:
             "offset": 0.0,
             "gain": 1.0,
             "tau": 0.005,
+            # a pre-sliding displacement of 0.1 % of the stroke amplitude
+            "sigma0": 0.05 * f / (1e-3 * x),
+            # the middle of the travel where the model's scales give one (a guide's)
+            "x_0": sc.get("centre", 0.0),
         }
         return {p: g[p] for p in self._free(e) if p in g}
 
@@ -327,8 +341,10 @@ class ComponentModel:
 
     def effect_words(self, effect: Effect) -> str:
         """Engineering words for ``effect`` in this model, e.g. "Coulomb friction in the guide"
-        (the device's own words, ``device_words``, first)."""
-        if effect.kind in self.device_words:
+        (the device's own words, ``device_words``, first; an effect placed elsewhere, e.g.
+        on a bushing, keeps its own)."""
+        elsewhere = bool(effect.location) and effect.location != self.location
+        if effect.kind in self.device_words and not elsewhere:
             return str(self.device_words[effect.kind])
         if effect.location or not self.location:
             return effect.words

@@ -19,7 +19,13 @@ import numpy as np
 
 from suspenv.core.space import Parameter
 from suspenv.measurements import Recording
-from suspenv.models.components.base import ComponentModel, bp, linear_lstsq, robust_amplitude
+from suspenv.models.components.base import (
+    FRICTION_WIDTHS,
+    ComponentModel,
+    bp,
+    linear_lstsq,
+    robust_amplitude,
+)
 
 
 def sine_blocks(
@@ -61,7 +67,7 @@ class DamperDynoModel(ComponentModel):
     input_channels = ("displacement", "velocity")
     output_channels = ("force",)
     channel_units = {"displacement": "m", "velocity": "m/s", "force": "N"}
-    fitted_widths = ("coulomb_friction", "stribeck_friction", "directional_friction")
+    freed_parameters = FRICTION_WIDTHS
     candidate_effects = (
         "digressive_damping",
         "damper_asymmetry",

@@ -7,11 +7,19 @@ the drive force on the carriage along +position (output).
 Form: the model predicts the drive force from the measured motion (inverse
 dynamics), ``F = m a + c v + sum of effect forces(position, velocity)``. The base
 is linear in its parameters ``(m, c)`` (an ordinary least-squares problem);
-friction effects (Coulomb, direction-dependent, Stribeck, LuGre) and a constant
-force offset are the expected missing physics. Note that a friction force with a
+friction effects (Coulomb, direction-dependent, Stribeck, LuGre), a rate-independent
+hysteresis (Dahl, Bouc-Wen), a progressive spring and a constant force offset are the
+expected missing physics. Note that a friction force with a
 different level in each direction is exactly a symmetric friction plus a constant
 offset wherever the carriage moves, so those two hypotheses can only be separated
 by data with the carriage at rest under load.
+
+Fitted where the library holds them fixed (:attr:`freed_parameters`): the friction
+steps' velocity widths, LuGre's bristle stiffness ``sigma0`` (the contact's pre-sliding
+displacement ``f_c / sigma0``, from micrometres to a fraction of a millimetre on rolling
+guides) and a cubic spring's neutral position ``x_0`` [m] (the position is measured from
+an end of the travel, not from where a spring is relaxed; started at the middle of the
+travel).
 """
 
 from __future__ import annotations
@@ -21,7 +29,13 @@ import numpy as np
 from suspenv.core.errors import ValidationError
 from suspenv.core.space import Parameter
 from suspenv.measurements import Recording
-from suspenv.models.components.base import ComponentModel, bp, linear_lstsq, robust_amplitude
+from suspenv.models.components.base import (
+    FRICTION_WIDTHS,
+    ComponentModel,
+    bp,
+    linear_lstsq,
+    robust_amplitude,
+)
 
 
 class FrictionGuideModel(ComponentModel):
@@ -36,12 +50,18 @@ class FrictionGuideModel(ComponentModel):
     input_channels = ("position", "velocity", "acceleration")
     output_channels = ("force",)
     channel_units = {"position": "m", "velocity": "m/s", "acceleration": "m/s^2", "force": "N"}
-    fitted_widths = ("coulomb_friction", "stribeck_friction", "directional_friction")
+    freed_parameters = {
+        **FRICTION_WIDTHS,
+        "lugre_friction": ("sigma0",),
+        "cubic_stiffness": ("x_0",),
+    }
     candidate_effects = (
         "coulomb_friction",
         "directional_friction",
         "stribeck_friction",
         "lugre_friction",
+        "dahl_hysteresis",
+        "bouc_wen_hysteresis",
         "force_offset",
         "cubic_stiffness",
         "damper_asymmetry",
@@ -50,6 +70,10 @@ class FrictionGuideModel(ComponentModel):
     device_words = {
         "damper_asymmetry": "direction-dependent viscous friction in the guide (a viscous "
         "coefficient that differs between the two directions of travel)",
+        "dahl_hysteresis": "rate-independent hysteresis in the guide (Dahl: a force that "
+        "builds up over a displacement after each reversal and holds at rest)",
+        "bouc_wen_hysteresis": "rate-independent hysteresis in the guide (Bouc-Wen: a "
+        "force that builds up over a displacement after each reversal and holds at rest)",
     }
     location = "guide"
     viscous_parameter = "c"
@@ -75,7 +99,9 @@ class FrictionGuideModel(ComponentModel):
         x = robust_amplitude(rec.inputs["position"])
         v = robust_amplitude(rec.inputs["velocity"])
         f = robust_amplitude(rec.outputs["force"]) if "force" in rec.outputs else 200.0 * v
-        return {"force": f, "deflection": x, "velocity": v}
+        pos = np.asarray(rec.inputs["position"], float)
+        centre = 0.5 * float(np.max(pos) + np.min(pos))  # the middle of the travel
+        return {"force": f, "deflection": x, "velocity": v, "centre": centre}
 
     def example_recording(self, seed: int = 0) -> Recording:
         """EMPS-like back-and-forth trajectory (0.2 m stroke, rests between moves), 2 ms."""

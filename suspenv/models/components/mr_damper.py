@@ -14,7 +14,13 @@ import numpy as np
 
 from suspenv.core.space import Parameter
 from suspenv.measurements import Recording
-from suspenv.models.components.base import ComponentModel, bp, linear_lstsq, robust_amplitude
+from suspenv.models.components.base import (
+    FRICTION_WIDTHS,
+    ComponentModel,
+    bp,
+    linear_lstsq,
+    robust_amplitude,
+)
 from suspenv.models.components.damper import sine_blocks
 
 
@@ -31,7 +37,7 @@ class MRDamperModel(ComponentModel):
     input_channels = ("displacement", "velocity")
     output_channels = ("force",)
     channel_units = {"displacement": "m", "velocity": "m/s", "force": "N"}
-    fitted_widths = ("coulomb_friction", "stribeck_friction", "directional_friction")
+    freed_parameters = FRICTION_WIDTHS
     device_words = {
         "coulomb_friction": "yield force of the MR fluid (Bingham plastic: a force step at "
         "each reversal)",

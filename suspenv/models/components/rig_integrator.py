@@ -110,8 +110,8 @@ def _element_law(e: Effect) -> Callable[[float, float], float]:
         k, gap, n = p["k_stop"], p["gap"], p["p"]
         return lambda x, v: -k * (-x - gap) ** n if -x > gap else 0.0
     if kind == "cubic_stiffness":
-        k3 = p["k3"]
-        return lambda x, v: k3 * x * x * x
+        k3, x_0 = p["k3"], p["x_0"]
+        return lambda x, v: k3 * (x - x_0) * (x - x_0) * (x - x_0)
     if kind == "progressive_stiffness":
         k_p, x0 = p["k_p"], p["x0"]
         return lambda x, v: (k_p if x > 0.0 else -k_p) * (abs(x) - x0) ** 2 if abs(x) > x0 else 0.0

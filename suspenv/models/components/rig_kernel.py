@@ -69,7 +69,7 @@ def _law_params(e: Effect) -> list[float]:
     if kind in ("bump_stop", "rebound_stop"):
         return [p["k_stop"], p["gap"], p["p"]]
     if kind == "cubic_stiffness":
-        return [p["k3"]]
+        return [p["k3"], p["x_0"]]
     if kind == "progressive_stiffness":
         return [p["k_p"], p["x0"]]
     if kind == "damper_asymmetry":
@@ -134,7 +134,8 @@ def _law(code: int, p: np.ndarray, x: float, v: float) -> float:
     if code == 4:
         return -p[0] * (-x - p[1]) ** p[2] if -x > p[1] else 0.0
     if code == 5:
-        return p[0] * x * x * x
+        d = x - p[1]
+        return p[0] * d * d * d
     if code == 6:
         if abs(x) > p[1]:
             return (p[0] if x > 0.0 else -p[0]) * (abs(x) - p[1]) ** 2
@@ -349,9 +350,7 @@ def _run(
                         if abs(gb) <= tol * (1.0 + abs(fb)) or gb == ga:
                             break
                         fa, ga, fb = fb, gb, fb - gb * (fb - fa) / (gb - ga)
-                        gb = fb - _stateless(
-                            law_codes, law_par, xk + gx * fb, vk + gv * fb, fa_end
-                        )
+                        gb = fb - _stateless(law_codes, law_par, xk + gx * fb, vk + gv * fb, fa_end)
                     if fb != fa and gb != ga:
                         slope = (gb - ga) / (fb - fa)
                         if not slope > 0.05:

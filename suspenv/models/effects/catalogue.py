@@ -173,10 +173,19 @@ KINDS = (
                 "of k3)",
             ),
             _p("x_ref", 1e-5, 0.1, "m", 1e-3, "reference deflection of ratio", log=True),
+            _p(
+                "x_0",
+                -10.0,
+                10.0,
+                "m",
+                0.0,
+                "neutral position: the deflection at which the cubic force is zero (a host "
+                "whose deflection is not measured from it, e.g. a guide's position, fits it)",
+            ),
         ),
         "odd-symmetric residual growing with the cube of amplitude; 3rd harmonic",
-        lambda x, v, t, k3, ratio, x_ref: stiffness.cubic_stiffness(x, bp(k3)),
-        fit_fixed=("ratio", "x_ref"),
+        lambda x, v, t, k3, ratio, x_ref, x_0: stiffness.cubic_stiffness(x - bp(x_0), bp(k3)),
+        fit_fixed=("ratio", "x_ref", "x_0"),
     ),
     EffectKind(
         "progressive_stiffness",

@@ -52,7 +52,7 @@ STATELESS: dict[str, Callable[..., np.ndarray]] = {
     ),
     "bump_stop": lambda x, v, p: p["k_stop"] * _pos(x - p["gap"]) ** p["p"],
     "rebound_stop": lambda x, v, p: -p["k_stop"] * _pos(-x - p["gap"]) ** p["p"],
-    "cubic_stiffness": lambda x, v, p: p["k3"] * x**3,
+    "cubic_stiffness": lambda x, v, p: p["k3"] * (x - p["x_0"]) ** 3,
     "progressive_stiffness": lambda x, v, p: p["k_p"] * np.sign(x) * _pos(np.abs(x) - p["x0"]) ** 2,
     "damper_asymmetry": lambda x, v, p: p["dc_rebound"] * np.minimum(v, 0.0),
     "digressive_damping": lambda x, v, p: p["c_low"] * v / (1.0 + np.abs(v) / p["v_knee"]),
