@@ -326,10 +326,50 @@ def test_inconsistent_motion_marks_a_smoothed_velocity_at_a_kink_only():
     assert np.all(np.abs(t[bad] - 5.0) < 0.25)
 
 
-def test_tail_rule_is_left_out_where_the_motion_was_low_passed():
+def test_where_the_motion_was_low_passed_the_tail_rule_reads_the_moving_samples():
+    # a run with dwells: moving at up to 0.2 m/s, at rest (|v| = 1e-4 m/s, 0.05 % of the
+    # peak) between moves; the ends and the rest are left out only as the rule says
+    from suspenv.diagnosis.component.residual_left import TAIL_EDGE_FRACTION, tail_read
+
+    t = np.arange(0.0, 10.0, 0.002)
+    moving = np.where(np.sin(2 * np.pi * 0.5 * t) > 0.0, 0.2 * np.sin(2 * np.pi * 0.5 * t), 1e-4)
+    x = np.cumsum(moving) * 0.002
+    v = np.gradient(x, t)  # a velocity made from the displacement: consistent everywhere
+    edge = int(TAIL_EDGE_FRACTION * t.size)
+    inner = np.zeros(t.size, bool)
+    inner[edge : t.size - edge] = True
+    as_recorded = tail_read(t, x, v)
+    assert np.array_equal(as_recorded, inner)  # the motion agrees with itself
+    low_passed = tail_read(t, x, v, lowpass_hz=16.0)
+    assert np.array_equal(low_passed, inner & (np.abs(v) > 0.01 * 0.2))
+    assert not low_passed[np.abs(v) < 1e-3].any() and low_passed.sum() > 0.4 * t.size
+
+
+def test_the_tail_rule_reads_the_residual_low_passed_at_the_motion_cut_off():
+    # closed form: the zero-phase 4th-order Butterworth passes |H|^2 = 1 / (1 + (f/fc)^8),
+    # so a sine at fc/4 keeps its amplitude (1 - 8e-6) and one at 4 fc keeps 1.5e-5 of it
+    from suspenv.diagnosis.component.residual_left import _Run
+
+    t = np.arange(0.0, 20.0, 0.001)
+    fc = 16.0
+    low, high = np.sin(2 * np.pi * fc / 4 * t), np.sin(2 * np.pi * 4 * fc * t)
+    rec = Recording("r", "t", t, {}, {"force": low + high}, {"force": "N"}, {})
+    zero = np.zeros(t.size, int)
+    run = _Run(0, rec, {"force": np.zeros(t.size)}, t, t, t, zero, zero, None, fc)
+    as_is = _Run(0, rec, {"force": np.zeros(t.size)}, t, t, t, zero, zero, None, None)
+    assert np.array_equal(as_is.tail_residual("force"), as_is.residual("force"))
+    # the residual is detrended first (step 1), alike in both
+    inner = slice(2000, -2000)  # away from the filter's start and end
+    expected = as_is.residual("force") - high
+    assert np.max(np.abs(run.tail_residual("force") - expected)[inner]) < 1e-3
+
+
+def test_tail_rule_is_applied_low_passed_where_the_motion_was_low_passed():
     # a guide whose motion channels carry noise is low-passed before the fit (the
-    # prediction then lacks the motion's content above the cut-off): no tail rule there,
-    # and the report says why; the same recording with clean motion keeps the rule
+    # prediction then lacks the motion's content above the cut-off): the tail rule reads
+    # the residual low-passed at that cut-off, where the part moves, and the report says
+    # so; with the right element named nothing is left; the same recording with clean
+    # motion reads the residual as it is
     from suspenv.diagnosis.engine import make_family
 
     rec = make_component("friction_guide").example_recording(seed=4)
@@ -348,10 +388,9 @@ def test_tail_rule_is_left_out_where_the_motion_was_low_passed():
     family = make_family("friction_guide")
     diag = diagnose(noisy, family)
     assert family.motion_lowpass_hz is not None
-    assert diag.findings["tail_rule"].startswith("not applied: the motion channels were low-passed")
-    assert all(
-        left.tail_samples == 0 and not left.tail_remains for left in diag.findings["residual"]
-    )
+    assert diag.findings["tail_rule"].startswith("applied to the residual low-passed at")
+    assert diag.named_families[:1] == ["friction"], diag.verdict
+    assert not any(left.tail_remains for left in diag.findings["residual"]), diag.verdict
     clean_family = make_family("friction_guide")
     clean = diagnose(rec, clean_family)
     assert clean_family.motion_lowpass_hz is None and "tail_rule" not in clean.findings

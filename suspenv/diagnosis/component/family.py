@@ -55,7 +55,7 @@ from suspenv.diagnosis.component.refit import (
     refit_with,
     refitted_element,
 )
-from suspenv.diagnosis.component.residual_left import residual_left
+from suspenv.diagnosis.component.residual_left import MOVING_FRACTION, residual_left
 from suspenv.diagnosis.component.rig import (
     RigDescription,
     baseline_families,
@@ -315,13 +315,14 @@ class ComponentFamily(OptionalSteps):
             floor (:func:`~suspenv.diagnosis.component.residual_left.residual_left`);
             if not, the verdict says "unexplained residual above noise" and names no
             element with confidence.
-        check_tails: apply the residual check's tail rule. It is not applied where the
-            motion channels were low-passed (:attr:`motion_lowpass_hz`): the prediction
-            then lacks the motion's content above the cut-off, which leaves large
-            residual samples at the motion's sharpest features even where the model is
-            right (on the retired independent sets, servo-guide controls with motion
-            low-passed at 16 Hz had up to 14 samples beyond ten robust scales; controls
-            and named single effects with the motion as recorded at most 6 beyond six).
+        check_tails: apply the residual check's tail rule. Where the motion channels
+            were low-passed (:attr:`motion_lowpass_hz`) the prediction lacks the
+            motion's content above the cut-off, which leaves large residual samples at
+            the motion's sharpest features even where the model is right (on the
+            retired independent sets, servo-guide controls with motion low-passed at
+            16 Hz had up to 14 samples beyond ten robust scales): the rule then reads
+            the residual low-passed at that cut-off, where the part moves
+            (:func:`~suspenv.diagnosis.component.residual_left.residual_left`).
         rule: the decision rule (default :data:`COMPONENT_RULE`).
     """
 
@@ -563,13 +564,16 @@ class ComponentFamily(OptionalSteps):
                 found.sentences.append(asym.sentence)
         final = found.final_fit or outcome.current
         if self.check_residual:
-            tails = self.check_tails and self.motion_lowpass_hz is None
-            left = residual_left(final, setup.split, self.rule.alpha, tails=tails)
-            if self.check_tails and not tails:
+            cut = self.motion_lowpass_hz
+            left = residual_left(
+                final, setup.split, self.rule.alpha, tails=self.check_tails, lowpass_hz=cut
+            )
+            if self.check_tails and cut is not None:
                 found.findings["tail_rule"] = (
-                    f"not applied: the motion channels were low-passed at "
-                    f"{self.motion_lowpass_hz:.3g} Hz, so the prediction lacks the motion's "
-                    "content above it"
+                    f"applied to the residual low-passed at {cut:.3g} Hz, where the motion "
+                    "channels were low-passed (the prediction lacks the motion's content "
+                    f"above it), and where the part moves (above "
+                    f"{100 * MOVING_FRACTION:.0f} % of the peak speed)"
                 )
             found.findings["residual"] = left
             remaining = [r for r in left if r.remains]

@@ -47,7 +47,14 @@ residual with its cycle-to-cycle scatter:
    contradicts itself (:func:`inconsistent_motion`: the velocity channel beyond
    :data:`TAIL_Z` robust scales from the displacement's derivative, e.g. a smoothing
    differentiator at the kinks of a test programme): the model's input is wrong there,
-   and a large residual says nothing about the component.
+   and a large residual says nothing about the component. Where the motion channels were
+   low-passed (``lowpass_hz``: a Savitzky-Golay derivative, a filtered encoder), the
+   prediction has no content above that cut-off and the recorded output has: the rule
+   then reads the residual low-passed at the same cut-off (zero phase,
+   :data:`TAIL_FILTER_ORDER`), and only where the part moves (``|v|`` above
+   :data:`MOVING_FRACTION` of the recording's peak speed): at a standstill under a
+   position loop the force answers motion below the channels' resolution, which the
+   model cannot see.
 
 Whiteness (Ljung-Box, 20 lags) of the detrended residual is reported beside it: a
 white residual is noise; a non-white one may still be coloured noise, which is why
@@ -63,7 +70,7 @@ from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import numpy as np
-from scipy import stats
+from scipy import signal, stats
 
 from suspenv.diagnosis.component.motion import cycle_index, motion
 from suspenv.diagnosis.component.motion_inputs import robust_deviation
@@ -104,6 +111,14 @@ TAIL_MIN_SAMPLES = 10
 TAIL_EDGE_FRACTION = 0.02
 #: samples either side of an inconsistent motion sample also left out of the tail rule
 INCONSISTENT_MARGIN = 5
+#: order of the zero-phase Butterworth low-pass of the residual read by the tail rule
+#: where the motion channels were low-passed
+TAIL_FILTER_ORDER = 4
+#: where the motion channels were low-passed the tail rule reads the samples where the
+#: speed exceeds this share of the recording's peak speed (on the retired guides of
+#: 5022-5063 every control's largest tail samples were at standstill, below 0.1 % of the
+#: peak speed, and free play's at 30-100 % of it; 0.5-2 % gave the same verdicts)
+MOVING_FRACTION = 0.01
 
 
 @dataclass
@@ -210,7 +225,8 @@ class _Run:
     """One recording as the check reads it: its index among the split's recordings, the
     recording, the model's prediction {channel: array}, times ``t`` [s], motion ``x`` [m]
     and ``v`` [m/s], each sample's motion cycle and replicate (unique over the split),
-    and the samples the tail rule reads (None: the rule is not applied)."""
+    the samples the tail rule reads (None: the rule is not applied) and the cut-off [Hz]
+    of the residual it reads (None: the residual as it is)."""
 
     index: int
     rec: Any
@@ -221,14 +237,27 @@ class _Run:
     cycles: np.ndarray
     replicate: np.ndarray
     read: np.ndarray | None
+    lowpass_hz: float | None = None
 
     def residual(self, channel: str) -> np.ndarray:
         """Recorded less predicted ``channel``, detrended (step 1)."""
         r = np.asarray(self.rec.outputs[channel], float) - np.asarray(self.pred[channel], float)
         return _detrend(self.t, r, int(self.cycles.max()) + 1)
 
+    def tail_residual(self, channel: str) -> np.ndarray:
+        """The residual the tail rule reads: :meth:`residual`, low-passed at
+        :attr:`lowpass_hz` (zero phase) where that is below the Nyquist frequency."""
+        r = self.residual(channel)
+        if self.lowpass_hz is None or r.size < 4 * (3 * TAIL_FILTER_ORDER + 1):
+            return r
+        fs = 1.0 / float(np.median(np.diff(self.t)))
+        if not 0.0 < self.lowpass_hz < 0.45 * fs:
+            return r
+        sos = signal.butter(TAIL_FILTER_ORDER, self.lowpass_hz, fs=fs, output="sos")
+        return np.asarray(signal.sosfiltfilt(sos, r))
 
-def _runs(fit: FitResult, sp: Split, tails: bool) -> list[_Run]:
+
+def _runs(fit: FitResult, sp: Split, tails: bool, lowpass_hz: float | None) -> list[_Run]:
     """Every recording of the split, simulated and its motion read once for all channels."""
     runs = []
     offset = 0
@@ -237,13 +266,9 @@ def _runs(fit: FitResult, sp: Split, tails: bool) -> list[_Run]:
         x, v = motion(rec)
         cycles = cycle_index(x)
         c = replicates(t, cycles)
-        read = None
-        if tails:
-            edge = int(TAIL_EDGE_FRACTION * t.size)
-            rows = np.arange(t.size)
-            read = (rows >= edge) & (rows < t.size - edge) & ~inconsistent_motion(t, x, v)
+        read = tail_read(t, x, v, lowpass_hz) if tails else None
         pred = fit.model.simulate(fit.theta, rec)
-        runs.append(_Run(k, rec, pred, t, x, v, cycles, c + offset, read))
+        runs.append(_Run(k, rec, pred, t, x, v, cycles, c + offset, read, lowpass_hz))
         offset += int(c.max()) + 1
     return runs
 
@@ -254,11 +279,15 @@ def residual_left(
     alpha: float = ALPHA,
     channels: Sequence[str] | None = None,
     tails: bool = True,
+    lowpass_hz: float | None = None,
 ) -> list[ResidualLeft]:
     """The check on every output channel of ``fit`` over all samples of the split's
     recordings (fit and held-out; the handful of fitted parameters barely shape a
-    residual of thousands of samples); ``tails``: apply the tail rule (step 6)."""
-    runs = _runs(fit, sp, tails)
+    residual of thousands of samples); ``tails``: apply the tail rule (step 6);
+    ``lowpass_hz``: the cut-off [Hz] at which the motion channels were low-passed (None:
+    not low-passed), which the tail rule then applies to the residual, reading it where
+    the part moves (step 6)."""
+    runs = _runs(fit, sp, tails, lowpass_hz)
     words = MOTION_WORDS.get(str(getattr(fit.model, "family", "")), MOTION_WORDS[""])
     names = np.asarray([str(run.rec.name) for run in runs])
     out = []
@@ -277,9 +306,28 @@ def residual_left(
             t = np.concatenate([run.t for run in have])
             which = np.concatenate([np.full(run.t.size, run.index) for run in have])
             recording = names[which[keep]] if len(have) > 1 else None
-            _tail_test(left, words, r[keep], x[keep], v[keep], t[keep], recording)
+            rt = (
+                r if lowpass_hz is None else np.concatenate([run.tail_residual(ch) for run in have])
+            )
+            _tail_test(left, words, rt[keep], x[keep], v[keep], t[keep], recording)
         out.append(left)
     return out
+
+
+def tail_read(
+    t: np.ndarray, x: np.ndarray, v: np.ndarray, lowpass_hz: float | None = None
+) -> np.ndarray:
+    """The samples (bool) of one recording that the tail rule reads (step 6): all but the
+    first and last :data:`TAIL_EDGE_FRACTION` and those whose motion contradicts itself
+    (:func:`inconsistent_motion`); where the motion was low-passed (``lowpass_hz`` not
+    None) only those where the speed ``|v|`` [m/s] exceeds :data:`MOVING_FRACTION` of
+    its peak."""
+    edge = int(TAIL_EDGE_FRACTION * t.size)
+    rows = np.arange(t.size)
+    read = (rows >= edge) & (rows < t.size - edge) & ~inconsistent_motion(t, x, v)
+    if lowpass_hz is not None and v.size:
+        read &= np.abs(v) > MOVING_FRACTION * float(np.max(np.abs(v)))
+    return read
 
 
 def inconsistent_motion(t: np.ndarray, x: np.ndarray, v: np.ndarray) -> np.ndarray:
