@@ -480,3 +480,45 @@ def test_model_file_declares_baseline_and_masses(tmp_path):
     model = baseline_model(rig)
     assert model.options["m_s"] == 250.0
     assert [e.kind for e in model.effects] == ["zero_drift", "zero_drift"]
+
+
+# ------------------------------------------------------------------ a force missing at low speed
+def test_the_low_speed_deficit_is_the_step_of_friction_with_the_other_sign():
+    # golden: -f_d tanh(v / v_band): against the motion, odd in the speed, -f_d far out
+    e = make_effect("low_speed_deficit", f_d=80.0, v_band=0.05)
+    v = np.array([-1.0, -0.05, 0.0, 0.05, 1.0])
+    f = e.force(np.zeros(5), v)
+    assert f == pytest.approx(-80.0 * np.tanh(v / 0.05))
+    assert f[-1] == pytest.approx(-80.0) and f[0] == pytest.approx(80.0) and f[2] == 0.0
+
+
+def test_a_velocity_dead_band_is_reported_outside_the_library(dyno):
+    # a gas damper whose damping force is missing below v_dz = 15 % of the peak speed:
+    # F = c (v - clip(v, -v_dz, v_dz)) + gas force. Beyond the band that is the viscous
+    # law less c v_dz (closed form): a friction step with the sign no friction has
+    from suspenv.diagnosis.component.dead_band import DeadBandLeft
+
+    v = dyno.inputs["velocity"]
+    v_dz = 0.15 * float(np.max(np.abs(v)))
+    diag = diagnose(_with_force(dyno, _gas_damper(dyno) - C * np.clip(v, -v_dz, v_dz)), "damper")
+    band = [b for b in diag.findings["beyond_library"] if isinstance(b, DeadBandLeft)]
+    assert diag.unexplained and not diag.named and band and band[0].remains, diag.verdict
+    # the tanh band against the clip: the level within 15 %, the band's speed within 30 %
+    assert band[0].missing_force == pytest.approx(C * v_dz, rel=0.15)
+    assert band[0].band_speed == pytest.approx(v_dz, rel=0.3)
+    assert "lacks" in diag.verdict and " N beyond a band" in diag.verdict
+    # the same damper without the band: the probe finds nothing
+    clean = diagnose(_with_force(dyno, _gas_damper(dyno)), "damper")
+    probe = [b for b in clean.findings["beyond_library"] if isinstance(b, DeadBandLeft)]
+    assert probe and not probe[0].remains and not clean.unexplained, clean.verdict
+
+
+def test_reading_unexplained_leaves_the_findings_as_they_were(dyno):
+    # the probes' records are read beside the residual check's, not added to them
+    v = dyno.inputs["velocity"]
+    v_dz = 0.15 * float(np.max(np.abs(v)))
+    diag = diagnose(_with_force(dyno, _gas_damper(dyno) - C * np.clip(v, -v_dz, v_dz)), "damper")
+    before = list(diag.findings["residual"])
+    assert diag.unexplained and diag.unexplained
+    assert diag.findings["residual"] == before
+    assert all(hasattr(left, "ratio") for left in diag.findings["residual"])

@@ -27,7 +27,7 @@ import numpy as np
 import pytest
 
 from suspenv.core.errors import ValidationError
-from suspenv.diagnosis.component.delay import phase_by_frequency, phase_words
+from suspenv.diagnosis.component.delay import DelayLeft, phase_by_frequency, phase_words
 from suspenv.diagnosis.component.family import (
     COMPONENT_RULE,
     HYSTERESIS_MIN_FRACTION,
@@ -424,7 +424,8 @@ def test_a_pure_delay_is_reported_as_outside_the_library_not_as_a_sensor_lag():
     diag = diagnose(_delayed_damper_case(0.015), make_family("damper"))
     assert "sensor_lag" not in diag.named_kinds, diag.verdict
     assert diag.unexplained, diag.verdict
-    (left,) = diag.findings["beyond_library"]
+    # the delay probe's record (beside the dead-band probe's, which finds nothing here)
+    (left,) = [b for b in diag.findings["beyond_library"] if isinstance(b, DelayLeft)]
     assert left.remains and left.channel == "force"
     assert left.delay_s == pytest.approx(0.015, rel=0.05)
     assert "late by a pure time delay of 15" in diag.verdict
@@ -475,7 +476,8 @@ def test_a_first_order_lag_is_not_mistaken_for_a_delay():
     diag = diagnose(_lagged_damper_case("sensor_lag"), make_family("damper"))
     assert diag.named_kinds[:1] == ["sensor_lag"], diag.verdict
     assert not diag.unexplained, diag.verdict
-    assert not diag.findings.get("beyond_library"), diag.verdict
+    assert not [b for b in diag.findings["beyond_library"] if isinstance(b, DelayLeft)]
+    assert not any(b.remains for b in diag.findings["beyond_library"]), diag.verdict
     # 15 ms on the example's sines is w tau <= 0.24 (lag_or_delay): a delay would fit
     # alike, so the lag, the library's nearest element to a delay, is not confident
     assert "cannot be told from a pure time delay" in diag.verdict, diag.verdict

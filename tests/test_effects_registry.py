@@ -172,6 +172,7 @@ def test_zero_level_is_the_absent_element():
         "kelvin_voigt": {"k": 0.0, "c": 0.0},
         "gas_spring": {"f_0": 0.0, "k_gas": 0.0},
         "force_offset": {"offset": 0.0},
+        "low_speed_deficit": {"f_d": 0.0},
     }
     t = np.linspace(0, 1, 201)
     x = 0.1 * np.sin(2 * np.pi * 2 * t)

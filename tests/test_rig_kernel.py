@@ -38,6 +38,7 @@ ONE_OF_EACH = [
         v_knee_rebound=0.2,
     ),
     make_effect("kelvin_voigt", k=5000.0, c=300.0),
+    make_effect("low_speed_deficit", f_d=80.0, v_band=0.05),
     make_effect("dahl_hysteresis", f_c=300.0, sigma=1.5e5),
     make_effect("maxwell_viscoelastic", k_m=2e4, c_m=800.0),
     make_effect("lugre_friction", sigma0=2e5, sigma1=300.0, f_c=150.0, f_s=250.0, v_s=0.05),

@@ -157,7 +157,8 @@ class Diagnosis:
         """True when a residual above the noise floor is left that no named element
         explains (components and ride)."""
         left = self.findings.get("residual")
-        records = left if isinstance(left, list) else [left] if left is not None else []
+        # a new list: the findings are not to grow each time this is read
+        records = list(left) if isinstance(left, list) else [left] if left is not None else []
         # a probe outside the library that removed a material part of the residual
         records += list(self.findings.get("beyond_library", []))
         return any(bool(getattr(r, "remains", False)) for r in records)

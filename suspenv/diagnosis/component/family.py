@@ -35,6 +35,7 @@ import numpy as np
 
 from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.component.asymmetry import asymmetry_check
+from suspenv.diagnosis.component.dead_band import DEFICIT_KIND, dead_band_left
 from suspenv.diagnosis.component.delay import (
     check_lag_not_delay,
     delay_against_lag,
@@ -599,6 +600,18 @@ class ComponentFamily(OptionalSteps):
                 found.sentences.insert(0, left_delay.sentence())
             else:
                 found.sentences.append(left_delay.sentence())
+        band = dead_band_left(
+            final,
+            setup.split,
+            effect_location(setup.model, DEFICIT_KIND),
+            self.budget,
+            self.rule,
+        )
+        found.findings.setdefault("beyond_library", []).append(band)
+        if band.remains:
+            found.confident = False
+            found.overrides_verdict = True
+            found.sentences.insert(0, band.sentence())
         lag = lag_or_delay(outcome.named, setup.split)
         if lag:
             # the library's lag stands for an out-of-library delay as well: not confident

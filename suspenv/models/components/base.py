@@ -272,6 +272,8 @@ class ComponentModel:
             "offset": 0.0,
             "gain": 1.0,
             "tau": 0.005,
+            "f_d": 0.05 * f,
+            "v_band": 0.1 * v,
             # a pre-sliding displacement of 0.1 % of the stroke amplitude
             "sigma0": 0.05 * f / (1e-3 * x),
             # the middle of the travel where the model's scales give one (a guide's)

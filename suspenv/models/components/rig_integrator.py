@@ -127,6 +127,9 @@ def _element_law(e: Effect) -> Callable[[float, float], float]:
     if kind == "force_offset":
         off = p["offset"]
         return lambda x, v: off
+    if kind == "low_speed_deficit":
+        f_d, w = p["f_d"], 1.0 / p["v_band"]
+        return lambda x, v: -f_d * tanh(v * w)
     fast = FLOAT_STATELESS.get(kind)
     if fast is not None:
         return lambda x, v: fast(x, v, p)

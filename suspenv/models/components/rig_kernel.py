@@ -44,6 +44,7 @@ LAW_CODES: dict[str, int] = {
     "force_offset": 10,
     "asymmetric_digressive_damping": 11,
     "kelvin_voigt": 12,
+    "low_speed_deficit": 13,
 }
 #: stateful element kind -> code (the exact state steps of the Python loop)
 STATE_CODES: dict[str, int] = {"dahl_hysteresis": 0, "maxwell_viscoelastic": 1, "lugre_friction": 2}
@@ -84,6 +85,8 @@ def _law_params(e: Effect) -> list[float]:
         return [p["c_bump"], p["v_knee_bump"], p["c_rebound"], p["v_knee_rebound"]]
     if kind == "kelvin_voigt":
         return [p["k"], p["c"]]
+    if kind == "low_speed_deficit":
+        return [p["f_d"], 1.0 / p["v_band"]]
     raise KeyError(kind)
 
 
@@ -152,6 +155,8 @@ def _law(code: int, p: np.ndarray, x: float, v: float) -> float:
         if v >= 0.0:
             return p[0] * v / (1.0 + v / p[1])
         return p[2] * v / (1.0 - v / p[3])
+    if code == 13:  # low_speed_deficit
+        return -p[0] * math.tanh(v * p[1])
     return p[0] * x + p[1] * v  # 12: kelvin_voigt
 
 

@@ -274,6 +274,19 @@ KINDS = (
         needs_time=True,
     ),
     EffectKind(
+        "low_speed_deficit",
+        "force missing around zero speed (a velocity dead band)",
+        "force",
+        (
+            _p("f_d", 0.0, 5000.0, "N", 20.0, "force missing beyond the band"),
+            _p("v_band", 1e-4, 10.0, "m/s", 0.05, "speed over which it goes missing", log=True),
+        ),
+        "a step against the motion at every reversal, spread over a band of speed: the "
+        "force a friction step would add, missing (a probe of the residual check, not a "
+        "candidate: friction cannot be negative)",
+        lambda x, v, t, f_d, v_band: -bp(f_d) * np.tanh(np.asarray(v, float) / bp(v_band)),
+    ),
+    EffectKind(
         "kelvin_voigt",
         "parallel spring and dashpot (Kelvin-Voigt)",
         "force",

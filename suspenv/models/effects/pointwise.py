@@ -62,6 +62,7 @@ STATELESS: dict[str, Callable[..., np.ndarray]] = {
         p["c_rebound"] * v / (1.0 + np.abs(v) / p["v_knee_rebound"]),
     ),
     "kelvin_voigt": lambda x, v, p: p["k"] * x + p["c"] * v,
+    "low_speed_deficit": lambda x, v, p: -p["f_d"] * _tanh(v / p["v_band"]),
     "gas_spring": lambda x, v, p: p["f_0"] + p["k_gas"] * x,
     "force_offset": lambda x, v, p: p["offset"] + 0.0 * x,
 }

@@ -1,0 +1,154 @@
+"""A force missing around zero speed: the probe that tells a dead band from noise.
+
+A friction step adds ``f_c tanh(v / v_eps)`` to the force: at every reversal the force
+jumps by ``2 f_c`` within a narrow band of speed. Some components do the opposite: a
+valve that opens late, a clearance in the linkage, a damper whose force vanishes below
+some speed. Their force *lacks* such a step: beyond the band the viscous law holds, less
+a constant, and inside it the force is missing. Friction cannot be negative, so no
+library element takes this up; the library's friction fitted to it ends at its bound 0
+and is refused, and the residual check may find the deficit too small a share of the
+residual in its speed cells.
+
+So after the last named element a ``low_speed_deficit`` element (``-f_d tanh(v /
+v_band)``, the step of friction with the sign no friction has) is added to the final
+model and refitted, as the delay probe is (:mod:`~suspenv.diagnosis.component.delay`).
+It is physics outside the library when it passes the test every refit passes (serial-
+correlation corrected likelihood ratio at the decision rule's ``alpha``, held-out error
+down by its ``min_heldout_gain``), its level ``f_d`` is resolved from zero
+(``SIZE_Z`` corrected standard errors, the rule of every element's size), its band lies
+inside the speeds run (``v_band`` at most ``BAND_MAX_FRACTION`` of the peak speed: wider,
+``tanh`` is a smooth curve over the whole range, a nonlinear damping law such as a cubic
+one, not a band about zero speed), and it is material: the part of the residual it
+removes is at least ``MATERIAL_RATIO`` times the residual left after it (the residual
+check's size rule).
+
+Units: ``f_d`` in the force's unit [N], ``v_band`` in m/s (the model's velocity: a
+damper's stroke rate, a guide's speed, a quarter car's deflection rate).
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
+
+from suspenv.diagnosis.component.motion import motion
+from suspenv.diagnosis.component.refit import parameter_and_error, refit_with
+from suspenv.diagnosis.component.residual_left import MATERIAL_RATIO
+from suspenv.diagnosis.decision import DecisionRule
+from suspenv.diagnosis.evidence import compare
+from suspenv.diagnosis.fitting import FitResult
+from suspenv.diagnosis.split import Split
+
+#: the probe's element kind (not a candidate of any family)
+DEFICIT_KIND = "low_speed_deficit"
+#: corrected standard errors that resolve the missing level from zero (as every
+#: element's size, ``check_resolved_size``)
+SIZE_Z = 2.0
+#: widest band, as a share of the peak speed, that is a band about zero speed
+BAND_MAX_FRACTION = 0.5
+
+
+@dataclass(frozen=True)
+class DeadBandLeft:
+    """The low-speed deficit added to the final model (:func:`dead_band_left`).
+
+    Attributes:
+        channel: the channel whose residual is judged (the model's main output).
+        missing_force: the fitted level ``f_d`` [channel unit]: the force missing beyond
+            the band, at every reversal twice that.
+        band_speed: the fitted ``v_band`` [m/s].
+        peak_speed: the largest speed of the fitted recordings [m/s].
+        level_z: ``f_d`` over its corrected standard error.
+        p_value_corrected: the likelihood-ratio test of the final model with the element
+            against without (serial-correlation corrected, as every refit's).
+        heldout_reduction: relative drop of the held-out RMS error with the element.
+        structured_ratio: RMS of the part of the fitted residual the element removes
+            over the RMS of the residual it leaves.
+        remains: the deficit is physics left that the library does not hold.
+        unit: the channel's unit.
+    """
+
+    channel: str
+    missing_force: float
+    band_speed: float
+    peak_speed: float
+    level_z: float
+    p_value_corrected: float
+    heldout_reduction: float
+    structured_ratio: float
+    remains: bool
+    unit: str = ""
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+    def short(self) -> str:
+        """A few words for the headline."""
+        return f"a force of {self.missing_force:.3g} {self.unit} missing around zero speed"
+
+    def sentence(self) -> str:
+        """One sentence for the verdict."""
+        evidence = (
+            f"it removes {self.structured_ratio:.2g} x the residual it leaves, level "
+            f"{self.level_z:.3g} standard errors from zero, corrected p = "
+            f"{self.p_value_corrected:.2g}, held-out error "
+            f"{-100 * self.heldout_reduction:+.1f} %; peak speed {self.peak_speed:.3g} m/s"
+        )
+        if self.remains:
+            return (
+                f"unexplained, not in the library: the {self.channel} lacks "
+                f"{self.missing_force:.3g} {self.unit} beyond a band of "
+                f"{self.band_speed:.3g} m/s about zero speed, the step of friction with "
+                "the sign no friction has (a velocity "
+                "dead band: a valve that opens late, a clearance in the linkage; the library's "
+                f"friction cannot be negative; {evidence})"
+            )
+        return (
+            f"a force missing around zero speed ({self.missing_force:.3g} {self.unit} beyond "
+            f"{self.band_speed:.3g} m/s) is not a finding added to the final model ({evidence})"
+        )
+
+
+def dead_band_left(
+    final: FitResult, sp: Split, location: str, budget: int, rule: DecisionRule
+) -> DeadBandLeft:
+    """Whether a force missing around zero speed is physics left after the final model
+    (module docstring): the element refitted on top of ``final`` (placed at ``location``,
+    the model's force element place) and judged as a refit is, by its level's resolution
+    and by the residual check's size rule."""
+    ext = refit_with(
+        final, DEFICIT_KIND, sp.fit_recordings, sp.fit_masks, location=location, max_nfev=budget
+    )
+    c = compare(
+        final, ext, sp.fit_recordings, sp.fit_masks, sp.heldout_recordings, sp.heldout_masks
+    )
+    channel = final.main_channel()
+    before = final.ssr.get(channel, np.nan)
+    after = ext.ssr.get(channel, np.nan)
+    ratio = float(np.sqrt(max(before / after - 1.0, 0.0))) if after > 0 else 0.0
+    level, sd = parameter_and_error(ext, DEFICIT_KIND, "f_d")
+    band = parameter_and_error(ext, DEFICIT_KIND, "v_band")[0]
+    z = float(level / sd) if np.isfinite(sd) and sd > 0 else 0.0
+    p = c.lr.p_value_corrected
+    units = [str(r.units.get(channel, "")) for r in sp.recordings() if channel in r.units]
+    peak = max((float(np.max(np.abs(motion(r)[1]))) for r in sp.fit_recordings), default=0.0)
+    return DeadBandLeft(
+        channel=channel,
+        missing_force=float(level),
+        band_speed=float(band),
+        peak_speed=peak,
+        level_z=z,
+        p_value_corrected=p,
+        heldout_reduction=c.heldout_reduction,
+        structured_ratio=ratio,
+        remains=bool(
+            p < rule.alpha
+            and c.heldout_reduction >= rule.min_heldout_gain
+            and z >= SIZE_Z
+            and float(band) <= BAND_MAX_FRACTION * peak
+            and ratio > MATERIAL_RATIO
+        ),
+        unit=units[0] if units else "",
+    )
