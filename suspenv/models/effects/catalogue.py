@@ -282,8 +282,8 @@ KINDS = (
             _p("v_band", 1e-4, 10.0, "m/s", 0.05, "speed over which it goes missing", log=True),
         ),
         "a step against the motion at every reversal, spread over a band of speed: the "
-        "force a friction step would add, missing (a probe of the residual check, not a "
-        "candidate: friction cannot be negative)",
+        "force a friction step would add, missing (a probe of the component diagnosis, "
+        "fitted after its last named element; not a candidate: friction cannot be negative)",
         lambda x, v, t, f_d, v_band: -bp(f_d) * np.tanh(np.asarray(v, float) / bp(v_band)),
     ),
     EffectKind(
