@@ -357,11 +357,11 @@ def test_the_tail_rule_reads_the_residual_low_passed_at_the_motion_cut_off():
     zero = np.zeros(t.size, int)
     run = _Run(0, rec, {"force": np.zeros(t.size)}, t, t, t, zero, zero, None, fc)
     as_is = _Run(0, rec, {"force": np.zeros(t.size)}, t, t, t, zero, zero, None, None)
-    assert np.array_equal(as_is.tail_residual("force"), as_is.residual("force"))
+    assert np.array_equal(as_is.low_passed(as_is.residual("force")), as_is.residual("force"))
     # the residual is detrended first (step 1), alike in both
     inner = slice(2000, -2000)  # away from the filter's start and end
     expected = as_is.residual("force") - high
-    assert np.max(np.abs(run.tail_residual("force") - expected)[inner]) < 1e-3
+    assert np.max(np.abs(run.low_passed(run.residual("force")) - expected)[inner]) < 1e-3
 
 
 def test_tail_rule_is_applied_low_passed_where_the_motion_was_low_passed():

@@ -33,9 +33,8 @@ from typing import Any
 
 import numpy as np
 
-from suspenv.diagnosis.component.motion import motion
 from suspenv.diagnosis.component.refit import parameter_and_error, refit_with
-from suspenv.diagnosis.component.residual_left import MATERIAL_RATIO
+from suspenv.diagnosis.component.residual_left import MATERIAL_RATIO, removed_over_left
 from suspenv.diagnosis.decision import DecisionRule
 from suspenv.diagnosis.evidence import compare
 from suspenv.diagnosis.fitting import FitResult
@@ -112,12 +111,13 @@ class DeadBandLeft:
 
 
 def dead_band_left(
-    final: FitResult, sp: Split, location: str, budget: int, rule: DecisionRule
+    final: FitResult, sp: Split, location: str, peak: float, budget: int, rule: DecisionRule
 ) -> DeadBandLeft:
     """Whether a force missing around zero speed is physics left after the final model
     (module docstring): the element refitted on top of ``final`` (placed at ``location``,
-    the model's force element place) and judged as a refit is, by its level's resolution
-    and by the residual check's size rule."""
+    the model's force element place) and judged as a refit is, by its level's resolution,
+    by its band against the fitted motion's peak speed ``peak`` [m/s] and by the residual
+    check's size rule."""
     ext = refit_with(
         final, DEFICIT_KIND, sp.fit_recordings, sp.fit_masks, location=location, max_nfev=budget
     )
@@ -125,15 +125,12 @@ def dead_band_left(
         final, ext, sp.fit_recordings, sp.fit_masks, sp.heldout_recordings, sp.heldout_masks
     )
     channel = final.main_channel()
-    before = final.ssr.get(channel, np.nan)
-    after = ext.ssr.get(channel, np.nan)
-    ratio = float(np.sqrt(max(before / after - 1.0, 0.0))) if after > 0 else 0.0
+    ratio = removed_over_left(final, ext, channel)
     level, sd = parameter_and_error(ext, DEFICIT_KIND, "f_d")
     band = parameter_and_error(ext, DEFICIT_KIND, "v_band")[0]
     z = float(level / sd) if np.isfinite(sd) and sd > 0 else 0.0
     p = c.lr.p_value_corrected
     units = [str(r.units.get(channel, "")) for r in sp.recordings() if channel in r.units]
-    peak = max((float(np.max(np.abs(motion(r)[1]))) for r in sp.fit_recordings), default=0.0)
     return DeadBandLeft(
         channel=channel,
         missing_force=float(level),

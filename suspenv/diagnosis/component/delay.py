@@ -47,7 +47,7 @@ import numpy as np
 from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.component.motion import cycle_index, motion
 from suspenv.diagnosis.component.refit import parameter_and_error, refit_with
-from suspenv.diagnosis.component.residual_left import MATERIAL_RATIO
+from suspenv.diagnosis.component.residual_left import MATERIAL_RATIO, removed_over_left
 from suspenv.diagnosis.decision import DecisionRule
 from suspenv.diagnosis.evidence import compare, fit_residual_series, likelihood_ratio
 from suspenv.diagnosis.fitting import FitResult
@@ -390,9 +390,7 @@ def delay_left(
     c = compare(
         final, delayed, sp.fit_recordings, sp.fit_masks, sp.heldout_recordings, sp.heldout_masks
     )
-    before = final.ssr.get(channel, np.nan)
-    after = delayed.ssr.get(channel, np.nan)
-    ratio = float(np.sqrt(max(before / after - 1.0, 0.0))) if after > 0 else 0.0
+    ratio = removed_over_left(final, delayed, channel)
     p = c.lr.p_value_corrected
     return DelayLeft(
         channel=channel,

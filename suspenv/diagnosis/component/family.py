@@ -582,6 +582,20 @@ class ComponentFamily(OptionalSteps):
             if remaining:
                 found.sentences.insert(0, remaining[0].sentence())
                 found.overrides_verdict = True
+            # a force missing at low speed, which no library element can take up
+            band = dead_band_left(
+                final,
+                setup.split,
+                effect_location(setup.model, DEFICIT_KIND),
+                _stroke(setup.split)[1],
+                self.budget,
+                self.rule,
+            )
+            found.findings.setdefault("beyond_library", []).append(band)
+            if band.remains:
+                found.confident = False
+                found.overrides_verdict = True
+                found.sentences.insert(0, band.sentence())
         for channel, test in self.delay_tests.items():
             left_delay = delay_left(
                 final,
@@ -600,18 +614,6 @@ class ComponentFamily(OptionalSteps):
                 found.sentences.insert(0, left_delay.sentence())
             else:
                 found.sentences.append(left_delay.sentence())
-        band = dead_band_left(
-            final,
-            setup.split,
-            effect_location(setup.model, DEFICIT_KIND),
-            self.budget,
-            self.rule,
-        )
-        found.findings.setdefault("beyond_library", []).append(band)
-        if band.remains:
-            found.confident = False
-            found.overrides_verdict = True
-            found.sentences.insert(0, band.sentence())
         lag = lag_or_delay(outcome.named, setup.split)
         if lag:
             # the library's lag stands for an out-of-library delay as well: not confident

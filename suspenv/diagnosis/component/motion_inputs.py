@@ -122,7 +122,7 @@ class MotionCheck:
         return out
 
 
-def _sampling(t: np.ndarray) -> float | None:
+def sampling_rate(t: np.ndarray) -> float | None:
     """The sampling rate [Hz] of a uniformly sampled time axis, else None."""
     dt = np.diff(t)
     if dt.size < MIN_SAMPLES or not np.all(dt > 0):
@@ -250,7 +250,7 @@ def motion_versions(
         return {v: list(recordings) for v in versions}, checks
     xk, vk, *rest = channels
     for rec in recordings:
-        fs = _sampling(np.asarray(rec.time, float))
+        fs = sampling_rate(np.asarray(rec.time, float))
         if fs is None or xk not in rec.inputs:
             for kept in versions.values():
                 kept.append(rec)

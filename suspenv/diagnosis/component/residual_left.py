@@ -50,8 +50,8 @@ residual with its cycle-to-cycle scatter:
    and a large residual says nothing about the component. Where the motion channels were
    low-passed (``lowpass_hz``: a Savitzky-Golay derivative, a filtered encoder), the
    prediction has no content above that cut-off and the recorded output has: the rule
-   then reads the residual low-passed at the same cut-off (zero phase,
-   :data:`TAIL_FILTER_ORDER`), and only where the part moves (``|v|`` above
+   then reads the residual low-passed at the same cut-off by the same zero-phase filter,
+   and only where the part moves (``|v|`` above
    :data:`MOVING_FRACTION` of the recording's peak speed): at a standstill under a
    position loop the force answers motion below the channels' resolution, which the
    model cannot see.
@@ -70,10 +70,10 @@ from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import numpy as np
-from scipy import signal, stats
+from scipy import stats
 
 from suspenv.diagnosis.component.motion import cycle_index, motion
-from suspenv.diagnosis.component.motion_inputs import robust_deviation
+from suspenv.diagnosis.component.motion_inputs import lowpass, robust_deviation, sampling_rate
 from suspenv.diagnosis.evidence import ljung_box
 from suspenv.diagnosis.fitting import FitResult
 from suspenv.diagnosis.split import Split
@@ -111,9 +111,9 @@ TAIL_MIN_SAMPLES = 10
 TAIL_EDGE_FRACTION = 0.02
 #: samples either side of an inconsistent motion sample also left out of the tail rule
 INCONSISTENT_MARGIN = 5
-#: order of the zero-phase Butterworth low-pass of the residual read by the tail rule
-#: where the motion channels were low-passed
-TAIL_FILTER_ORDER = 4
+#: fewest samples of a recording whose residual is low-passed for the tail rule (the
+#: zero-phase filter's padding needs a few times its order)
+MIN_FILTERED_SAMPLES = 52
 #: where the motion channels were low-passed the tail rule reads the samples where the
 #: speed exceeds this share of the recording's peak speed (on the retired guides of
 #: 5022-5063 every control's largest tail samples were at standstill, below 0.1 % of the
@@ -244,17 +244,18 @@ class _Run:
         r = np.asarray(self.rec.outputs[channel], float) - np.asarray(self.pred[channel], float)
         return _detrend(self.t, r, int(self.cycles.max()) + 1)
 
-    def tail_residual(self, channel: str) -> np.ndarray:
-        """The residual the tail rule reads: :meth:`residual`, low-passed at
-        :attr:`lowpass_hz` (zero phase) where that is below the Nyquist frequency."""
-        r = self.residual(channel)
-        if self.lowpass_hz is None or r.size < 4 * (3 * TAIL_FILTER_ORDER + 1):
+    def low_passed(self, r: np.ndarray) -> np.ndarray:
+        """This recording's residual ``r`` as the tail rule reads it: low-passed at
+        :attr:`lowpass_hz` by the filter the motion channels got
+        (:func:`~suspenv.diagnosis.component.motion_inputs.lowpass`), where the recording
+        is uniformly sampled and the cut-off is below its Nyquist frequency; else as
+        it is."""
+        fs = sampling_rate(self.t)
+        if self.lowpass_hz is None or fs is None or r.size < MIN_FILTERED_SAMPLES:
             return r
-        fs = 1.0 / float(np.median(np.diff(self.t)))
         if not 0.0 < self.lowpass_hz < 0.45 * fs:
             return r
-        sos = signal.butter(TAIL_FILTER_ORDER, self.lowpass_hz, fs=fs, output="sos")
-        return np.asarray(signal.sosfiltfilt(sos, r))
+        return lowpass(r, fs, self.lowpass_hz)
 
 
 def _runs(fit: FitResult, sp: Split, tails: bool, lowpass_hz: float | None) -> list[_Run]:
@@ -295,7 +296,8 @@ def residual_left(
         have = [run for run in runs if ch in run.rec.outputs]
         if not have:
             continue
-        r = np.concatenate([run.residual(ch) for run in have])
+        parts = [run.residual(ch) for run in have]
+        r = np.concatenate(parts)
         x = np.concatenate([run.x for run in have])
         v = np.concatenate([run.v for run in have])
         replicate = np.concatenate([run.replicate for run in have])
@@ -306,12 +308,22 @@ def residual_left(
             t = np.concatenate([run.t for run in have])
             which = np.concatenate([np.full(run.t.size, run.index) for run in have])
             recording = names[which[keep]] if len(have) > 1 else None
-            rt = (
-                r if lowpass_hz is None else np.concatenate([run.tail_residual(ch) for run in have])
-            )
+            rt = np.concatenate([run.low_passed(q) for run, q in zip(have, parts, strict=True)])
             _tail_test(left, words, rt[keep], x[keep], v[keep], t[keep], recording)
         out.append(left)
     return out
+
+
+def removed_over_left(before: FitResult, after: FitResult, channel: str) -> float:
+    """RMS of the part of ``channel``'s fitted residual that the model ``after`` removes
+    from ``before`` over the RMS of the residual it leaves: the size rule's ratio for an
+    element added by a probe (its power ``ssr_before - ssr_after`` against ``ssr_after``);
+    0 where nothing is left."""
+    ssr_before = before.ssr.get(channel, np.nan)
+    ssr_after = after.ssr.get(channel, np.nan)
+    if not ssr_after > 0:
+        return 0.0
+    return float(np.sqrt(max(ssr_before / ssr_after - 1.0, 0.0)))
 
 
 def tail_read(

@@ -284,7 +284,7 @@ KINDS = (
         "a step against the motion at every reversal, spread over a band of speed: the "
         "force a friction step would add, missing (a probe of the component diagnosis, "
         "fitted after its last named element; not a candidate: friction cannot be negative)",
-        lambda x, v, t, f_d, v_band: -bp(f_d) * np.tanh(np.asarray(v, float) / bp(v_band)),
+        lambda x, v, t, f_d, v_band: -friction.coulomb_smooth(v, bp(f_d), bp(v_band)),
     ),
     EffectKind(
         "kelvin_voigt",
