@@ -34,6 +34,7 @@ from suspenv.diagnosis.component.family import (
     baseline_offsets,
     check_breakaway_recorded,
     check_loop_or_step,
+    check_loop_resolved,
     check_parallel_branch,
     check_resolved_size,
     check_stiction_decays,
@@ -193,6 +194,40 @@ def test_a_loop_within_micrometres_is_a_friction_step(kind, params):
 def test_a_loop_over_millimetres_is_kept():
     model = DamperDynoModel([make_effect("bouc_wen_hysteresis").with_params({"x_y": 1.5e-3})])
     check_loop_or_step("bouc_wen_hysteresis", _fit(model, {"c": 1500.0}), 0.04)
+
+
+def test_a_loop_within_the_displacement_noise_is_not_resolved():
+    # Dahl: the force builds up over f_c / sigma = 0.05 / 5e4 = 1 micrometre
+    params = {"f_c": 0.05, "sigma": 5.0e4}
+    model = DamperDynoModel([make_effect("dahl_hysteresis").with_params(params)])
+    fitted = _fit(model, {"c": 1500.0})
+    with pytest.raises(ValidationError, match=r"1 micrometres.*under 2 standard deviations"):
+        check_loop_resolved("dahl_hysteresis", fitted, 3e-6)  # 2 x 3 um > 1 um
+    check_loop_resolved("dahl_hysteresis", fitted, 1e-7)  # 2 x 0.1 um < 1 um: a loop
+    check_loop_resolved("dahl_hysteresis", fitted, 0.0)  # noise not measured: not judged
+    check_loop_resolved("coulomb_friction", fitted, 3e-6)  # not a loop: not judged
+
+
+def test_the_displacement_noise_is_read_from_the_recording():
+    from suspenv.diagnosis.component.motion_inputs import motion_versions
+
+    # reference: the white noise added to a 1 Hz, 20 mm sine sampled at 1 kHz
+    t = np.arange(0.0, 10.0, 1e-3)
+    x = 0.02 * np.sin(2 * np.pi * t)
+    sd = 5e-6
+    noisy = x + sd * np.random.default_rng(3).standard_normal(t.size)
+    v = np.gradient(x, t)
+    rec = Recording(
+        "sine",
+        "dyno",
+        t,
+        {"displacement": noisy, "velocity": v},
+        {"force": 0 * t},
+        {"time": "s", "displacement": "m", "velocity": "m/s", "force": "N"},
+        {},
+    )
+    _, checks = motion_versions([rec], ("displacement", "velocity"))
+    assert checks[0].displacement_noise == pytest.approx(sd, rel=0.1)
 
 
 def _guide_case(effects, shift: float = 0.0) -> Recording:

@@ -344,6 +344,9 @@ class ComponentFamily(OptionalSteps):
     #: the lowest low-pass cut-off [Hz] of the motion channels in the last :meth:`prepare`
     #: (None: used as recorded)
     motion_lowpass_hz: float | None = field(default=None, init=False)
+    #: the largest white-noise standard deviation of the recorded displacement [m] in the
+    #: last :meth:`prepare` (0: not measured)
+    displacement_noise_m: float = field(default=0.0, init=False)
     #: sensor signature family -> the recorded channel it was strongest in (last screen)
     sensor_channels: dict[str, str] = field(default_factory=dict, init=False)
     #: recorded channel -> the test where a pure time delay beat a refitted sensor lag
@@ -379,6 +382,7 @@ class ComponentFamily(OptionalSteps):
         held = holdout
         self.delay_tests = {}
         self.motion_lowpass_hz = None
+        self.displacement_noise_m = 0.0
         if isinstance(self.model, ComponentModel):
             model = self.model  # an explicit model instance is the baseline as given
             self.rig, self.rig_notes = None, []
@@ -426,6 +430,7 @@ class ComponentFamily(OptionalSteps):
         self.rig_notes += [w for c in checks for w in c.words()]
         cutoffs = [c.cutoff_hz for c in checks if c.cutoff_hz is not None]
         self.motion_lowpass_hz = min(cutoffs) if cutoffs else None
+        self.displacement_noise_m = max((c.displacement_noise for c in checks), default=0.0)
         version = source if source != "auto" else preferred_version(checks) or ""
         if not version:  # the displacement's noise could not be separated: fit both
             rms: dict[str, float] = {}
@@ -503,6 +508,8 @@ class ComponentFamily(OptionalSteps):
         check_step_or_knee(candidate, ext, vmax)
         if not fits_presliding(setup.model, setup.candidates):
             check_loop_or_step(candidate, ext, half)
+        else:
+            check_loop_resolved(candidate, ext, self.displacement_noise_m)
         check_parallel_branch(candidate, ext)
         check_resolved_size(candidate, ext)
         check_stiction_decays(candidate, ext, vmax)
@@ -734,6 +741,40 @@ def fits_presliding(model: Any, candidates: Sequence[str]) -> bool:
     if "sigma0" not in freed.get("lugre_friction", ()):
         return False
     return any(c.partition("@")[0] == "lugre_friction" for c in candidates)
+
+
+#: a loop is seen as a loop only when it builds up over more than this many standard
+#: deviations of the displacement's noise
+LOOP_NOISE_MULTIPLE = 2.0
+
+
+def check_loop_resolved(candidate: str, ext: FitResult, displacement_noise: float) -> None:
+    """Refuse a hysteresis refit whose loop completes within ``LOOP_NOISE_MULTIPLE``
+    standard deviations of the recorded displacement's white noise ``displacement_noise``
+    [m] (where :func:`check_loop_or_step` is not applied: :func:`fits_presliding`).
+
+    A force that builds up over less displacement than the displacement's own noise is,
+    as far as the recording can tell, a force step at every reversal: the loop's shape is
+    below the resolution of the motion it is read against, and a step at every reversal
+    is friction's (the friction refitted in the same round competes for it). Raises
+    :class:`ValidationError` (the hypothesis is recorded as failed with this reason); not
+    applied when the displacement's noise was not measured (0).
+    """
+    kind = candidate.partition("@")[0]
+    if not displacement_noise > 0:
+        return
+    element = refitted_element(ext, kind)
+    if element is None:
+        return
+    width = hysteresis_transition(kind, element.params)
+    if width is None or width >= LOOP_NOISE_MULTIPLE * displacement_noise:
+        return
+    raise ValidationError(
+        f"{kind}: the fitted loop completes within {1e6 * width:.3g} micrometres after each "
+        f"reversal, under {LOOP_NOISE_MULTIPLE:g} standard deviations of the displacement's "
+        f"noise ({1e6 * displacement_noise:.3g} micrometres): a force step at every "
+        "reversal as far as the recording can tell, not a loop it resolves"
+    )
 
 
 def check_loop_or_step(candidate: str, ext: FitResult, half_stroke: float) -> None:

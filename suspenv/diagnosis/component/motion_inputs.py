@@ -93,6 +93,8 @@ class MotionCheck:
             channels (0 when neither is recorded).
         derivative_noise: the largest RMS noise the displacement's white noise leaves on
             its derivatives (:func:`derivative_noise`), as a share of their RMS.
+        displacement_noise: the standard deviation of the displacement's white noise as
+            recorded, sample by sample (:func:`noise_variance`) [displacement unit].
     """
 
     recording: str
@@ -102,6 +104,7 @@ class MotionCheck:
     mismatch: float | None
     worst_mismatch: float
     derivative_noise: float = 0.0
+    displacement_noise: float = 0.0
 
     def words(self) -> list[str]:
         """Sentences for the report's evidence."""
@@ -284,7 +287,9 @@ def motion_versions(
             worst = max(worst, mis)
             noise = max(noise, derivative_noise(s2, fs, fc, k + 1) / rms)
             band_inputs[key] = recorded
-        checks.append(MotionCheck(str(rec.name), fc, gain, lag, mismatch, worst, noise))
+        checks.append(
+            MotionCheck(str(rec.name), fc, gain, lag, mismatch, worst, noise, float(np.sqrt(s2)))
+        )
         # nothing to remove and nothing added: the recording as it was
         clean = fc is None and not added
         versions["band"].append(rec if clean else replace(rec, inputs=band_inputs))  # type: ignore[type-var]
