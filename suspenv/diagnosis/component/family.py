@@ -726,6 +726,13 @@ def hysteresis_transition(kind: str, params: dict[str, Any]) -> float | None:
     return None
 
 
+def fitted_loop_width(kind: str, ext: FitResult) -> float | None:
+    """The transition length [m] of the refitted hysteresis element of ``kind`` in
+    ``ext`` (:func:`hysteresis_transition`); None for another kind or no such element."""
+    element = refitted_element(ext, kind)
+    return None if element is None else hysteresis_transition(kind, element.params)
+
+
 def fits_presliding(model: Any, candidates: Sequence[str]) -> bool:
     """True when ``candidates`` hold a friction law with a pre-sliding displacement of
     its own that ``model`` fits: LuGre with its bristle stiffness ``sigma0`` among the
@@ -761,12 +768,7 @@ def check_loop_resolved(candidate: str, ext: FitResult, displacement_noise: floa
     applied when the displacement's noise was not measured (0).
     """
     kind = candidate.partition("@")[0]
-    if not displacement_noise > 0:
-        return
-    element = refitted_element(ext, kind)
-    if element is None:
-        return
-    width = hysteresis_transition(kind, element.params)
+    width = fitted_loop_width(kind, ext) if displacement_noise > 0 else None
     if width is None or width >= LOOP_NOISE_MULTIPLE * displacement_noise:
         return
     raise ValidationError(
@@ -789,12 +791,7 @@ def check_loop_or_step(candidate: str, ext: FitResult, half_stroke: float) -> No
     friction law whose pre-sliding the model fits (:func:`fits_presliding`).
     """
     kind = candidate.partition("@")[0]
-    if half_stroke <= 0:
-        return
-    element = refitted_element(ext, kind)
-    if element is None:
-        return
-    width = hysteresis_transition(kind, element.params)
+    width = fitted_loop_width(kind, ext) if half_stroke > 0 else None
     if width is None or width >= HYSTERESIS_MIN_FRACTION * half_stroke:
         return
     raise ValidationError(
