@@ -115,7 +115,7 @@ def test_a_lag_of_a_spring_and_damper_is_the_spring_and_a_branch_without_base_da
     assert float(np.sqrt(np.mean((f_wrong - f_lag)[late] ** 2))) > 0.01 * rms
 
 
-def test_the_branch_is_refused_only_when_the_base_share_is_resolved_small():
+def test_the_branch_is_kept_only_where_its_base_damping_is_resolved_from_zero():
     model = DamperDynoModel(
         [make_effect("maxwell_viscoelastic").with_params({"k_m": 1.5e5, "c_m": 1800.0})]
     )
@@ -123,13 +123,22 @@ def test_the_branch_is_refused_only_when_the_base_share_is_resolved_small():
     # base c = 3 +- 5 N s/m beside c_m = 1800: the whole viscous force is lagged
     with pytest.raises(ValidationError, match=r"carries the whole viscous force.*base c = 3"):
         check_parallel_branch("maxwell_viscoelastic", _fit(model, {"c": 3.0}, np.full(n, 5.0)))
-    # resolved from zero, its upper end (400 + 2 x 50) under a quarter of 2200: refused
-    with pytest.raises(ValidationError, match="under 25 % of the two"):
-        check_parallel_branch("maxwell_viscoelastic", _fit(model, {"c": 400.0}, np.full(n, 50.0)))
-    # the same share unresolved (400 +- 300: up to 1000 of 2200): not refused, the branch
-    # competes with the sensor lag
-    check_parallel_branch("maxwell_viscoelastic", _fit(model, {"c": 400.0}, np.full(n, 300.0)))
-    # a base damping that stays (1400 N s/m beside 1800): a parallel branch, kept
+    # 60 +- 30 (2 standard errors) and 400 +- 300: not resolved at 1 % (2.58): refused
+    for c, sd in ((60.0, 30.0), (400.0, 300.0)):
+        with pytest.raises(ValidationError, match="not 2.58 standard errors from zero"):
+            check_parallel_branch("maxwell_viscoelastic", _fit(model, {"c": c}, np.full(n, sd)))
+    # at 5 % alpha (1.96) a 120 +- 55 base is resolved, at 1 % (2.58) not: the quantile
+    # follows the rule
+    fit_120 = _fit(model, {"c": 120.0}, np.full(n, 55.0))
+    check_parallel_branch("maxwell_viscoelastic", fit_120, 0.05)
+    with pytest.raises(ValidationError, match="not 2.58 standard errors"):
+        check_parallel_branch("maxwell_viscoelastic", fit_120)
+    # resolved from zero but under 5 % of the damping (60 +- 1 of 1860): the whole force
+    with pytest.raises(ValidationError, match="under 5 % of the two"):
+        check_parallel_branch("maxwell_viscoelastic", _fit(model, {"c": 60.0}, np.full(n, 1.0)))
+    # a base damping resolved from zero and over 5 % (120 +- 30, 6 % of the total) stays
+    # beside the branch, and so does a large one (1400 +- 50)
+    check_parallel_branch("maxwell_viscoelastic", _fit(model, {"c": 120.0}, np.full(n, 30.0)))
     check_parallel_branch("maxwell_viscoelastic", _fit(model, {"c": 1400.0}, np.full(n, 50.0)))
     # other kinds and a model without a viscous base parameter are not judged
     check_parallel_branch("sensor_lag", _fit(model, {"c": 0.0}))
