@@ -33,7 +33,7 @@ from typing import Any
 
 import numpy as np
 
-from suspenv.diagnosis.component.refit import parameter_and_error, refit_with
+from suspenv.diagnosis.component.refit import SIZE_Z, parameter_and_error, refit_with
 from suspenv.diagnosis.component.residual_left import MATERIAL_RATIO, removed_over_left
 from suspenv.diagnosis.decision import DecisionRule
 from suspenv.diagnosis.evidence import compare
@@ -42,9 +42,6 @@ from suspenv.diagnosis.split import Split
 
 #: the probe's element kind (not a candidate of any family)
 DEFICIT_KIND = "low_speed_deficit"
-#: corrected standard errors that resolve the missing level from zero (as every
-#: element's size, ``check_resolved_size``)
-SIZE_Z = 2.0
 #: widest band, as a share of the peak speed, that is a band about zero speed
 BAND_MAX_FRACTION = 0.5
 

@@ -18,7 +18,7 @@ probe, in two places.
    is significant beside the lag and the lag is not beside the delay (the corrected
    likelihood ratio of every refit, at the decision rule's ``alpha``), and where the
    lag's fitted time constant stays off its bound 0, the delay resolved from zero by
-   ``RESOLVED_Z`` standard errors and the lag not (at the bound the two elements'
+   ``SIZE_Z`` standard errors and the lag not (at the bound the two elements'
    derivatives coincide, both the signal's rate, and the errors say nothing). Under a
    misfit elsewhere in the model a difference of 1 % in residual power is "significant"
    on thousands of samples; fitted together, the two then share the lateness, neither
@@ -46,7 +46,7 @@ import numpy as np
 
 from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.component.motion import cycle_index, motion
-from suspenv.diagnosis.component.refit import parameter_and_error, refit_with
+from suspenv.diagnosis.component.refit import SIZE_Z, parameter_and_error, refit_with
 from suspenv.diagnosis.component.residual_left import MATERIAL_RATIO, removed_over_left
 from suspenv.diagnosis.decision import DecisionRule
 from suspenv.diagnosis.evidence import compare, fit_residual_series, likelihood_ratio
@@ -60,9 +60,6 @@ DELAY_DECISIVE_BIC = 10.0
 #: its derivative and the delay's coincide (both are the signal's rate) and standard
 #: errors say nothing
 LAG_AT_BOUND = 1e-6
-#: fitted together off that bound, a lag or a delay is resolved from zero beyond this
-#: many corrected standard errors (the size rule of every element, ``family.SIZE_Z``)
-RESOLVED_Z = 2.0
 
 #: whole motion cycles whose frequencies differ by less than this fraction share a row of
 #: the phase table
@@ -230,9 +227,9 @@ def delay_decisive(
     ``rule.alpha``), the lag not beside the delay (``p_lag`` at or above it), and where the
     lag's time constant stays off its bound 0 (``together``: lag [s], its corrected
     standard error, delay [s], its error; ``LAG_AT_BOUND``), the delay resolved from zero
-    by ``RESOLVED_Z`` standard errors and the lag not."""
+    by ``SIZE_Z`` standard errors and the lag not."""
     tau, tau_sd, late, late_sd = together
-    if tau > LAG_AT_BOUND and not (late > RESOLVED_Z * late_sd and tau <= RESOLVED_Z * tau_sd):
+    if tau > LAG_AT_BOUND and not (late > SIZE_Z * late_sd and tau <= SIZE_Z * tau_sd):
         return False
     return bool(
         bic > DELAY_DECISIVE_BIC

@@ -52,6 +52,7 @@ from suspenv.diagnosis.component.motion_inputs import (
     preferred_version,
 )
 from suspenv.diagnosis.component.refit import (
+    SIZE_Z,
     current_effects,
     parameter_and_error,
     refit_with,
@@ -870,8 +871,6 @@ ELEMENT_SIZE: dict[str, tuple[str, ...]] = {
     "sensor_offset": ("offset",),
     "force_offset": ("offset",),
 }
-#: a size counts as resolved when it is this many corrected standard errors from zero
-SIZE_Z = 2.0
 
 
 def check_resolved_size(candidate: str, ext: FitResult) -> None:

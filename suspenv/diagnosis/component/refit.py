@@ -38,6 +38,11 @@ def refitted_element(ext: FitResult, kind: str) -> Any | None:
     return next((e for e in effects if e.kind == kind), None)
 
 
+#: a size counts as resolved when it is this many corrected standard errors from zero
+#: (:func:`parameter_and_error`): the size rule of every element and probe
+SIZE_Z = 2.0
+
+
 def parameter_and_error(fit: FitResult, kind: str, parameter: str) -> tuple[float, float]:
     """The fitted value of ``parameter`` of the element of ``kind`` in ``fit`` and its
     serial-correlation corrected standard error (NaN, NaN when the model holds none or
