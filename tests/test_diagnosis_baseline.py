@@ -388,6 +388,10 @@ def test_tail_rule_is_applied_low_passed_where_the_motion_was_low_passed():
     family = make_family("friction_guide")
     diag = diagnose(noisy, family)
     assert family.motion_lowpass_hz is not None
+    # its cut-off keeps about 4 harmonics of the motion's cycle: too few to compare the
+    # force low-passed (OUTPUT_LOWPASS_HARMONICS), so it is compared as recorded
+    assert family.recorded_outputs == {}
+    assert any("compared as recorded" in note for note in family.rig_notes)
     assert diag.findings["tail_rule"].startswith("applied to the residual low-passed at")
     assert diag.named_families[:1] == ["friction"], diag.verdict
     assert not any(left.tail_remains for left in diag.findings["residual"]), diag.verdict
@@ -522,3 +526,35 @@ def test_reading_unexplained_leaves_the_findings_as_they_were(dyno):
     assert diag.unexplained and diag.unexplained
     assert diag.findings["residual"] == before
     assert all(hasattr(left, "ratio") for left in diag.findings["residual"])
+
+
+def test_a_guide_whose_cut_off_keeps_ten_harmonics_is_compared_low_passed():
+    # the same guide with a hundred times less position noise: its motion is low-passed
+    # at about 4 Hz, twelve harmonics of its cycle, so the force is compared low-passed
+    # (and the prediction beyond inertia and damping alike); the friction is named and
+    # the check of the residual, reading the force as recorded, finds nothing left
+    from suspenv.diagnosis.component.motion_inputs import OUTPUT_LOWPASS_HARMONICS, harmonics_kept
+    from suspenv.diagnosis.engine import make_family
+
+    rec = make_component("friction_guide").example_recording(seed=4)
+    x, v, a = (rec.inputs[k] for k in ("position", "velocity", "acceleration"))
+    rec = _with_force(rec, 90.0 * a + 200.0 * v + 20.0 * np.tanh(v / 0.001) - 3.0, seed=5)
+    rng = np.random.default_rng(24)
+    quiet = Recording(
+        rec.name,
+        rec.test,
+        rec.time,
+        {**rec.inputs, "position": x + rng.normal(0.0, 2e-5 * np.std(x), x.size)},
+        rec.outputs,
+        rec.units,
+        rec.meta,
+    )
+    family = make_family("friction_guide")
+    diag = diagnose(quiet, family)
+    assert family.motion_lowpass_hz is not None
+    assert harmonics_kept(quiet, family.motion_lowpass_hz) >= OUTPUT_LOWPASS_HARMONICS
+    assert list(family.recorded_outputs) == [str(quiet.name)]
+    assert np.array_equal(family.recorded_outputs[str(quiet.name)]["force"], rec.outputs["force"])
+    assert any("compared low-passed" in note for note in family.rig_notes)
+    assert diag.named_families[:1] == ["friction"], diag.verdict
+    assert not any(r.state_remains or r.tail_remains for r in diag.findings["residual"])

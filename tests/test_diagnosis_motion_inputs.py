@@ -18,6 +18,7 @@ from suspenv.diagnosis.component.motion_inputs import (
     compare_velocity,
     conditioned,
     derivative,
+    lowpass,
     motion_cutoff,
 )
 from suspenv.diagnosis.component.rig import describe_rig
@@ -199,3 +200,126 @@ def test_preferred_version_keeps_consistent_rates_and_replaces_filtered_ones():
     assert preferred_version([check(0.01, 0.002)]) == "displacement"
     assert preferred_version([check(0.01, 0.03)]) is None  # both flawed: the fit decides
     assert preferred_version([]) == "band"
+
+
+# ------------------------------------------------- outputs compared low-passed (the guide)
+def _moves(fs: float = 500.0) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Time [s], position [m], velocity [m/s], acceleration [m/s^2] of three cubic-spline
+    moves of 0.1 m with rests between them: the acceleration jumps where a move starts or
+    ends, so its content runs far above any motion cut-off."""
+    t = np.arange(0.0, 6.0, 1.0 / fs)
+    x = np.zeros_like(t)
+    for start, sign in ((0.5, 1.0), (2.5, -1.0), (4.5, 1.0)):
+        s = np.clip((t - start) / 1.0, 0.0, 1.0)
+        x += sign * 0.1 * (3 * s**2 - 2 * s**3)
+    v = np.gradient(x, t)
+    a = np.gradient(v, t)
+    return t, x, v, a
+
+
+def test_the_guide_prediction_is_low_passed_beyond_its_inertia_and_damping():
+    from scipy.signal import butter, sosfiltfilt
+
+    from suspenv.models.components import FrictionGuideModel
+    from suspenv.models.components.base import OUTPUT_LOWPASS_KEY
+    from suspenv.models.effects import make_effect
+
+    t, x, v, a = _moves()
+    units = {"time": "s", "position": "m", "velocity": "m/s", "acceleration": "m/s^2"}
+    rec = Recording(
+        "moves", "guide", t, {"position": x, "velocity": v, "acceleration": a}, {}, units, {}
+    )
+    model = FrictionGuideModel([make_effect("coulomb_friction").with_params({"f_c": 5.0})])
+    theta = model.theta_from({"m": 20.0, "c": 50.0})
+    raw = model.simulate(theta, rec)["force"]
+    tagged = Recording("moves", "guide", t, dict(rec.inputs), {}, units, {OUTPUT_LOWPASS_KEY: 15.0})
+    low = model.simulate(theta, tagged)["force"]
+    # reference: scipy's zero-phase Butterworth (order 4 each way) of the friction force only
+    sos = butter(4, 15.0, fs=500.0, output="sos")
+    linear = 20.0 * a + 50.0 * v
+    assert np.allclose(low, linear + sosfiltfilt(sos, raw - linear), atol=1e-9)
+    assert not np.allclose(low, raw, atol=0.1)  # the friction step is smoothed ...
+    assert np.allclose(low - linear, sosfiltfilt(sos, raw - linear), atol=1e-9)  # ... alone
+
+
+def test_outputs_low_passed_with_the_motion_cancel_a_linear_force_exactly():
+    from suspenv.diagnosis.component.motion_inputs import low_passed_outputs
+    from suspenv.models.components import FrictionGuideModel
+    from suspenv.models.components.base import OUTPUT_LOWPASS_KEY
+
+    t, x, v, a = _moves()
+    fs, fc = 500.0, 12.0
+    force = 20.0 * a + 50.0 * v  # a guide without friction: inertia and damping only
+    noise = 0.05 * np.random.default_rng(4).standard_normal(t.size)
+    units = {"time": "s", "position": "m", "velocity": "m/s", "acceleration": "m/s^2", "force": "N"}
+    # the motion as the conditioning gives it: low-passed at fc
+    inputs = {
+        "position": lowpass(x, fs, fc),
+        "velocity": lowpass(v, fs, fc),
+        "acceleration": lowpass(a, fs, fc),
+    }
+    rec = Recording("moves", "guide", t, inputs, {"force": force + noise}, units, {})
+    model = FrictionGuideModel()
+    theta = model.theta_from({"m": 20.0, "c": 50.0})
+    # the recorded force against the low-passed motion misses the inertia's content
+    # above fc where the moves start and end ...
+    miss = rec.outputs["force"] - model.simulate(theta, rec)["force"]
+    assert np.max(np.abs(miss)) > 20 * 0.05
+    # ... which comparing the force low-passed alike removes, leaving the noise in band
+    low = low_passed_outputs(rec, fc)
+    assert low.meta[OUTPUT_LOWPASS_KEY] == fc
+    left = low.outputs["force"] - model.simulate(theta, low)["force"]
+    assert np.allclose(left, lowpass(noise, fs, fc), atol=1e-9)
+
+
+def test_the_residual_check_reads_outputs_compared_low_passed_as_recorded():
+    from suspenv.diagnosis.component.motion_inputs import as_recorded, low_passed_outputs
+    from suspenv.diagnosis.component.residual_left import residual_left
+    from suspenv.diagnosis.fitting import fit
+    from suspenv.diagnosis.split import Split
+    from suspenv.models.components import FrictionGuideModel
+    from suspenv.models.components.base import OUTPUT_LOWPASS_KEY
+
+    fs, fc = 500.0, 10.0
+    t = np.arange(0.0, 40.0, 1.0 / fs)
+    w = 2 * np.pi * 0.5
+    x = 0.05 * np.sin(w * t)
+    v, a = 0.05 * w * np.cos(w * t), -0.05 * w * w * np.sin(w * t)
+    rng = np.random.default_rng(8)
+    # a guide of 20 kg and 50 N s/m, a position ripple (below 6 Hz) and white noise of 2 N
+    force = 20.0 * a + 50.0 * v + 0.8 * np.sin(2 * np.pi * x / 0.03) + rng.normal(0, 2.0, t.size)
+    units = {"time": "s", "position": "m", "velocity": "m/s", "acceleration": "m/s^2", "force": "N"}
+    inputs = {"position": x, "velocity": v, "acceleration": a}
+    raw = Recording("sweep", "guide", t, inputs, {"force": force}, units, {})
+    low = low_passed_outputs(raw, fc)
+    # as_recorded undoes low_passed_outputs: the channels as recorded, no cut-off in meta
+    back = as_recorded(low, raw.outputs)
+    assert OUTPUT_LOWPASS_KEY in low.meta and OUTPUT_LOWPASS_KEY not in back.meta
+    assert np.array_equal(back.outputs["force"], force)
+    model = FrictionGuideModel()
+    res = fit(model, [low])
+    split = Split([low], None, [], None, "all samples")
+    read = residual_left(res, split, recorded={"sweep": raw.outputs})[0]
+    # reference: the same model and parameters on a split of the raw recording itself
+    same = residual_left(res, Split([raw], None, [], None, "all samples"))[0]
+    assert read.noise_rms == pytest.approx(same.noise_rms, rel=1e-12)
+    assert read.structured_rms == pytest.approx(same.structured_rms, rel=1e-12)
+    # the ripple (0.57 N RMS) is small against the 2 N of noise as recorded, large against
+    # what is left of the noise below 10 Hz: read low-passed it would count
+    assert read.ratio < 0.6 and not read.state_remains
+    filtered = residual_left(res, split)[0]
+    assert filtered.ratio > 0.6
+
+
+def test_harmonics_kept_counts_the_motion_cycles_under_a_cut_off():
+    from suspenv.diagnosis.component.motion_inputs import harmonics_kept
+
+    t = np.arange(0.0, 40.0, 0.002)
+    units = {"time": "s", "position": "m", "velocity": "m/s", "force": "N"}
+    x = 0.05 * np.sin(2 * np.pi * 0.5 * t + 0.3)  # 0.5 Hz: 20 cycles
+    rec = Recording("sine", "guide", t, {"position": x}, {"force": x}, units, {})
+    # the cycles counted between upward crossings (19 whole ones in 40 s): about fc / 0.5 Hz
+    assert harmonics_kept(rec, 10.0) == pytest.approx(20.0, rel=0.06)
+    assert harmonics_kept(rec, 2.0) == pytest.approx(4.0, rel=0.06)
+    still = Recording("still", "guide", t, {"position": 0 * t + 0.01}, {"force": x}, units, {})
+    assert harmonics_kept(still, 10.0) == float("inf")  # no cycle: nothing to resolve

@@ -46,8 +46,12 @@ from suspenv.diagnosis.component.delay import (
 from suspenv.diagnosis.component.locate import Segment, locate
 from suspenv.diagnosis.component.motion import cycle_index, motion, split
 from suspenv.diagnosis.component.motion_inputs import (
+    OUTPUT_LOWPASS_HARMONICS,
+    MotionCheck,
     choice_words,
     conditioned,
+    harmonics_kept,
+    low_passed_outputs,
     motion_versions,
     preferred_version,
 )
@@ -346,6 +350,9 @@ class ComponentFamily(OptionalSteps):
     #: the lowest low-pass cut-off [Hz] of the motion channels in the last :meth:`prepare`
     #: (None: used as recorded)
     motion_lowpass_hz: float | None = field(default=None, init=False)
+    #: by recording name, the output channels as recorded where the last :meth:`prepare`
+    #: low-passed them with the motion (``output_lowpass``; empty: compared as recorded)
+    recorded_outputs: dict[str, dict[str, np.ndarray]] = field(default_factory=dict, init=False)
     #: the largest white-noise standard deviation of the recorded displacement [m] in the
     #: last :meth:`prepare` (0: not measured)
     displacement_noise_m: float = field(default=0.0, init=False)
@@ -384,6 +391,7 @@ class ComponentFamily(OptionalSteps):
         held = holdout
         self.delay_tests = {}
         self.motion_lowpass_hz = None
+        self.recorded_outputs = {}
         self.displacement_noise_m = 0.0
         if isinstance(self.model, ComponentModel):
             model = self.model  # an explicit model instance is the baseline as given
@@ -450,9 +458,50 @@ class ComponentFamily(OptionalSteps):
                 'displacement (declare velocity_source = "channel" to keep the channels)'
             )
         self.motion_version = version
+        held_checks: list[MotionCheck] = []
         if held_recs is not None:
-            held_recs = conditioned(held_recs, channels, version)[0]
-        return versions[version], held_recs
+            held_recs, held_checks = conditioned(held_recs, channels, version)
+        chosen = versions[version]
+        if getattr(model, "output_lowpass", False) and self.motion_lowpass_hz is not None:
+            # the outputs low-passed like each recording's motion (and the prediction
+            # alike: ComponentModel.simulate), where the cut-off keeps enough harmonics of
+            # the motion cycle; the residual check reads them as recorded
+            cut = {
+                c.recording: c.cutoff_hz for c in [*checks, *held_checks] if c.cutoff_hz is not None
+            }
+            for r in [*chosen, *(held_recs or [])]:
+                name = str(r.name)
+                if name in cut and harmonics_kept(r, cut[name]) >= OUTPUT_LOWPASS_HARMONICS:
+                    self.recorded_outputs[name] = dict(r.outputs)
+
+            def alike(rs: list[RecordingLike]) -> list[RecordingLike]:
+                return [
+                    low_passed_outputs(r, cut[str(r.name)])
+                    if str(r.name) in self.recorded_outputs
+                    else r
+                    for r in rs
+                ]
+
+            chosen = alike(chosen)
+            held_recs = None if held_recs is None else alike(held_recs)
+            outs = ", ".join(model.output_channels)
+            if self.recorded_outputs:
+                self.rig_notes.append(
+                    f"the recorded {outs} is compared low-passed like the motion (at "
+                    f"{self.motion_lowpass_hz:.3g} Hz, which keeps "
+                    f"{OUTPUT_LOWPASS_HARMONICS} or more harmonics of the motion cycle), and "
+                    "so is the model's force beyond its inertia and damping, which the "
+                    "low-passed motion carries exactly; the check of the residual left "
+                    "reads it as recorded"
+                )
+            else:
+                self.rig_notes.append(
+                    f"the recorded {outs} is compared as recorded: the motion's cut-off "
+                    f"({self.motion_lowpass_hz:.3g} Hz) keeps fewer than "
+                    f"{OUTPUT_LOWPASS_HARMONICS} harmonics of its cycle, too few for the "
+                    "shape of a step"
+                )
+        return chosen, held_recs
 
     def fit_baseline(self, setup: Setup) -> FitResult:
         sp = setup.split
@@ -576,7 +625,12 @@ class ComponentFamily(OptionalSteps):
         if self.check_residual:
             cut = self.motion_lowpass_hz
             left = residual_left(
-                final, setup.split, self.rule.alpha, tails=self.check_tails, lowpass_hz=cut
+                final,
+                setup.split,
+                self.rule.alpha,
+                tails=self.check_tails,
+                lowpass_hz=cut,
+                recorded=self.recorded_outputs or None,
             )
             if self.check_tails and cut is not None:
                 found.findings["tail_rule"] = (

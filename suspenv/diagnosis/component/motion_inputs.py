@@ -42,10 +42,13 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy.signal import butter, sosfiltfilt, sosfreqz
+from scipy.signal import butter, sosfreqz
 
 from suspenv.core.errors import ValidationError
+from suspenv.diagnosis.component.motion import cycle_index, motion
 from suspenv.diagnosis.protocols import RecordingLike
+from suspenv.models.components.base import LOWPASS_ORDER, OUTPUT_LOWPASS_KEY
+from suspenv.models.components.base import lowpass as component_lowpass
 
 VELOCITY_SOURCES = ("auto", "displacement", "channel")
 #: versions of the motion a fit can be given (:func:`conditioned`)
@@ -74,7 +77,7 @@ NEGLIGIBLE_NOISE = 1e-5
 DERIVATIVE_CLEAN = 0.01
 #: fewest samples for the noise estimate and the comparison
 MIN_SAMPLES = 256
-BUTTER_ORDER = 4
+BUTTER_ORDER = LOWPASS_ORDER
 
 
 @dataclass(frozen=True)
@@ -137,9 +140,46 @@ def sampling_rate(t: np.ndarray) -> float | None:
 
 
 def lowpass(y: np.ndarray, fs: float, fc: float) -> np.ndarray:
-    """Zero-phase Butterworth low-pass of ``y`` at ``fc`` [Hz] (order 4 each way)."""
-    sos = butter(BUTTER_ORDER, fc, fs=fs, output="sos")
-    return np.asarray(sosfiltfilt(sos, y))
+    """Zero-phase Butterworth low-pass of ``y`` at ``fc`` [Hz] (order 4 each way; the
+    components' :func:`~suspenv.models.components.base.lowpass`)."""
+    return component_lowpass(y, fs, fc)
+
+
+#: fewest harmonics of a recording's motion cycle that a cut-off must keep for its outputs
+#: to be compared low-passed (:func:`harmonics_kept`): with fewer, a friction step or an
+#: impact is smoothed over more than a twentieth of a cycle and its shape is lost, while
+#: what stays of the residual is slow noise
+OUTPUT_LOWPASS_HARMONICS = 10
+
+
+def harmonics_kept(rec: RecordingLike, fc: float) -> float:
+    """Harmonics of ``rec``'s motion cycle below the cut-off ``fc`` [Hz]: ``fc`` over
+    the cycle rate (motion cycles, :func:`~suspenv.diagnosis.component.motion.cycle_index`,
+    per second); inf for a recording without a whole cycle."""
+    t = np.asarray(rec.time, float)
+    cycles = int(cycle_index(motion(rec)[0]).max())
+    if cycles < 1 or not t[-1] > t[0]:
+        return float("inf")
+    return float(fc) * float(t[-1] - t[0]) / cycles
+
+
+def low_passed_outputs(rec: RecordingLike, fc: float) -> RecordingLike:
+    """``rec`` with its output channels low-passed at ``fc`` [Hz] by :func:`lowpass`, its
+    meta naming the cut-off (``OUTPUT_LOWPASS_KEY``: the prediction is then low-passed
+    alike); unchanged without a regular time base. :func:`as_recorded` undoes it."""
+    fs = sampling_rate(np.asarray(rec.time, float))
+    if fs is None:
+        return rec
+    outputs = {k: lowpass(np.asarray(v, float), fs, fc) for k, v in rec.outputs.items()}
+    meta = {**dict(rec.meta), OUTPUT_LOWPASS_KEY: float(fc)}
+    return replace(rec, outputs=outputs, meta=meta)  # type: ignore[type-var]
+
+
+def as_recorded(rec: RecordingLike, outputs: Mapping[str, np.ndarray]) -> RecordingLike:
+    """``rec`` with the output channels ``outputs`` (as recorded) and no
+    ``OUTPUT_LOWPASS_KEY`` in its meta: the prediction is then not low-passed."""
+    meta = {k: v for k, v in dict(rec.meta).items() if k != OUTPUT_LOWPASS_KEY}
+    return replace(rec, outputs=dict(outputs), meta=meta)  # type: ignore[type-var]
 
 
 def _removed_share(fs: float, fc: float) -> float:

@@ -7,6 +7,13 @@ meets an independent draw of noise. A model error is a function of that state an
 repeats from cycle to cycle. The check therefore compares, state by state, the mean
 residual with its cycle-to-cycle scatter:
 
+0. **as recorded**: where a family compared its outputs low-passed with the motion
+   (:attr:`~suspenv.models.components.base.ComponentModel.output_lowpass`, the
+   guide), the check reads the outputs as recorded against the final model's
+   prediction from the same motion (``recorded``): a force low-passed at a few hertz
+   keeps a slow coloured noise or drift and loses what physics outside the library
+   shows above the cut-off, so the residual the fit compared is not the one to judge;
+
 1. **detrend**: per recording, a Legendre polynomial in time of degree up to
    :data:`MAX_TREND_DEGREE` (one degree per :data:`CYCLES_PER_TREND_DEGREE` motion
    cycles) is removed from the residual: a drifting zero is not structure;
@@ -73,7 +80,12 @@ import numpy as np
 from scipy import stats
 
 from suspenv.diagnosis.component.motion import cycle_index, motion
-from suspenv.diagnosis.component.motion_inputs import lowpass, robust_deviation, sampling_rate
+from suspenv.diagnosis.component.motion_inputs import (
+    as_recorded,
+    lowpass,
+    robust_deviation,
+    sampling_rate,
+)
 from suspenv.diagnosis.evidence import ljung_box
 from suspenv.diagnosis.fitting import FitResult
 from suspenv.diagnosis.split import Split
@@ -258,11 +270,20 @@ class _Run:
         return lowpass(r, fs, self.lowpass_hz)
 
 
-def _runs(fit: FitResult, sp: Split, tails: bool, lowpass_hz: float | None) -> list[_Run]:
-    """Every recording of the split, simulated and its motion read once for all channels."""
+def _runs(
+    fit: FitResult,
+    sp: Split,
+    tails: bool,
+    lowpass_hz: float | None,
+    recorded: Mapping[str, Mapping[str, np.ndarray]] | None = None,
+) -> list[_Run]:
+    """Every recording of the split, simulated and its motion read once for all
+    channels; a recording named in ``recorded`` with those output channels."""
     runs = []
     offset = 0
     for k, rec in enumerate(sp.recordings()):
+        if recorded is not None and str(rec.name) in recorded:
+            rec = as_recorded(rec, recorded[str(rec.name)])
         t = np.asarray(rec.time, float)
         x, v = motion(rec)
         cycles = cycle_index(x)
@@ -281,14 +302,16 @@ def residual_left(
     channels: Sequence[str] | None = None,
     tails: bool = True,
     lowpass_hz: float | None = None,
+    recorded: Mapping[str, Mapping[str, np.ndarray]] | None = None,
 ) -> list[ResidualLeft]:
     """The check on every output channel of ``fit`` over all samples of the split's
     recordings (fit and held-out; the handful of fitted parameters barely shape a
     residual of thousands of samples); ``tails``: apply the tail rule (step 6);
     ``lowpass_hz``: the cut-off [Hz] at which the motion channels were low-passed (None:
     not low-passed), which the tail rule then applies to the residual, reading it where
-    the part moves (step 6)."""
-    runs = _runs(fit, sp, tails, lowpass_hz)
+    the part moves (step 6); ``recorded``: by recording name, the output channels as
+    recorded where the fit compared them low-passed (step 0 of the module docstring)."""
+    runs = _runs(fit, sp, tails, lowpass_hz, recorded)
     words = MOTION_WORDS.get(str(getattr(fit.model, "family", "")), MOTION_WORDS[""])
     names = np.asarray([str(run.rec.name) for run in runs])
     out = []

@@ -14,10 +14,12 @@ sign conventions.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping, Sequence
 from typing import Any, ClassVar
 
 import numpy as np
+from scipy.signal import butter, sosfiltfilt
 
 from suspenv.core.errors import ValidationError
 from suspenv.core.space import Parameter
@@ -31,6 +33,28 @@ FRICTION_WIDTHS: Mapping[str, tuple[str, ...]] = {
     "stribeck_friction": ("v_eps",),
     "directional_friction": ("v_eps",),
 }
+
+
+#: meta key of a recording whose output channels were low-passed (zero phase, at this
+#: cut-off [Hz]) together with its motion channels; the prediction is then low-passed
+#: alike (:meth:`ComponentModel.simulate`)
+OUTPUT_LOWPASS_KEY = "output_lowpass_hz"
+#: order of the zero-phase Butterworth low-pass (each way)
+LOWPASS_ORDER = 4
+
+
+@functools.lru_cache(maxsize=64)
+def _butterworth(fc: float, fs: float) -> np.ndarray:
+    """Second-order sections of the :data:`LOWPASS_ORDER` Butterworth low-pass (a
+    diagnosis filters thousands of predictions with one cut-off: designed once)."""
+    return np.asarray(butter(LOWPASS_ORDER, fc, fs=fs, output="sos"))
+
+
+def lowpass(y: np.ndarray, fs: float, fc: float) -> np.ndarray:
+    """Zero-phase Butterworth low-pass of ``y`` along its last axis at ``fc`` [Hz],
+    sampled at ``fs`` [Hz] (order :data:`LOWPASS_ORDER` each way)."""
+    # a copy: scipy's filter takes a writeable array, and the cached design stays intact
+    return np.asarray(sosfiltfilt(_butterworth(float(fc), float(fs)).copy(), y, axis=-1))
 
 
 class ComponentModel:
@@ -57,6 +81,11 @@ class ComponentModel:
         viscous_parameter: the base parameter that is the component's viscous
             coefficient [N s/m] ("" when it has none); a Maxwell branch fitted to carry
             all of it is a lag of the whole force, not a parallel branch.
+        output_lowpass: where the diagnosis low-passes the motion channels, also compare
+            the outputs low-passed by the same filter (needs :meth:`linear_part`): the
+            recorded outputs are low-passed, and so is the prediction's part that is not
+            linear in the motion, while the linear part is computed from the low-passed
+            motion, which carries the filter through it exactly.
 
     The members the diagnosis reads (``suspenv.diagnosis.protocols.DiagnosableModel``)
     are all defined here with their defaults: ``difference_step`` (finite-difference
@@ -76,6 +105,7 @@ class ComponentModel:
     freed_parameters: ClassVar[Mapping[str, tuple[str, ...]]] = {}
     device_words: ClassVar[Mapping[str, str]] = {}
     viscous_parameter: ClassVar[str] = ""
+    output_lowpass: ClassVar[bool] = False
 
     def __init__(self, effects: Sequence[Effect] = (), **options: Any):
         self.effects: tuple[Effect, ...] = tuple(effects)
@@ -291,11 +321,25 @@ class ComponentModel:
         base, effects = self.unpack(theta)
         force_effects = [e for e in effects if e.spec.role == "force"]
         out = self._predict(base, force_effects, rec)
+        fc = rec.meta.get(OUTPUT_LOWPASS_KEY) if isinstance(rec.meta, Mapping) else None
+        linear = self.linear_part(base, rec) if fc else None
+        if linear is not None and fc is not None:
+            # outputs compared low-passed: the linear part is exact from the low-passed
+            # motion; the rest (the elements' forces) is low-passed by the same filter
+            fs = 1.0 / float(np.median(np.diff(np.asarray(rec.time, float))))
+            for ch, part in linear.items():
+                out[ch] = part + lowpass(out[ch] - part, fs, float(fc))
         for e in effects:
             if e.spec.role == "sensor":
                 ch = self._sensor_channel(e)
                 out[ch] = e.sensor(out[ch], rec.time)
         return out
+
+    def linear_part(self, base: Mapping[str, Any], rec: Recording) -> dict[str, np.ndarray] | None:
+        """The part of the predicted outputs that is linear in the motion channels (a
+        guide's ``m a + c v`` [N]), by output channel; None: none is separated (the
+        outputs are not compared low-passed, :attr:`output_lowpass`)."""
+        return None
 
     def effect_force(
         self, effects: Sequence[Effect], x: np.ndarray, v: np.ndarray, t: np.ndarray

@@ -42,6 +42,9 @@ class FrictionGuideModel(ComponentModel):
     """Mass on a guide driven by a measured force; base ``F = m a + c v``."""
 
     family = "friction_guide"
+    # the motion's content above a low-pass is largest where a move starts or ends, and
+    # the inertia carries it into the force: compare the force low-passed alike
+    output_lowpass = True
     description = "mass on a friction guide, inverse model F = m a + c v (linear in m, c)"
     base_parameters = (
         Parameter("m", 0.0, 1e4, unit="kg", default=100.0, description="moving mass"),
@@ -86,6 +89,11 @@ class FrictionGuideModel(ComponentModel):
         x, v, a = (rec.inputs[c] for c in self.input_channels)
         f = bp(base["m"]) * a + bp(base["c"]) * v + self.effect_force(effects, x, v, rec.time)
         return {"force": np.broadcast_to(f, np.broadcast_shapes(np.shape(f), v.shape)).copy()}
+
+    def linear_part(self, base, rec):
+        """The inertia and viscous force ``m a + c v`` [N]."""
+        _, v, a = (rec.inputs[c] for c in self.input_channels)
+        return {"force": bp(base["m"]) * a + bp(base["c"]) * v}
 
     def _base_guess(self, rec):
         if "force" in rec.outputs:
