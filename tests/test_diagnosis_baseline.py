@@ -364,14 +364,10 @@ def test_the_tail_rule_reads_the_residual_low_passed_at_the_motion_cut_off():
     assert np.max(np.abs(run.low_passed(run.residual("force")) - expected)[inner]) < 1e-3
 
 
-def test_tail_rule_is_applied_low_passed_where_the_motion_was_low_passed():
-    # a guide whose motion channels carry noise is low-passed before the fit (the
-    # prediction then lacks the motion's content above the cut-off): the tail rule reads
-    # the residual low-passed at that cut-off, where the part moves, and the report says
-    # so; with the right element named nothing is left; the same recording with clean
-    # motion reads the residual as it is
-    from suspenv.diagnosis.engine import make_family
-
+def _guide_with_position_noise(level: float) -> tuple[Recording, Recording]:
+    """A guide of 90 kg, 200 N s/m and 20 N of Coulomb friction with a -3 N force zero
+    (force noise from :func:`_with_force`), clean and with white noise of ``level``
+    times the position's standard deviation on its position channel."""
     rec = make_component("friction_guide").example_recording(seed=4)
     x, v, a = (rec.inputs[k] for k in ("position", "velocity", "acceleration"))
     rec = _with_force(rec, 90.0 * a + 200.0 * v + 20.0 * np.tanh(v / 0.001) - 3.0, seed=5)
@@ -380,11 +376,23 @@ def test_tail_rule_is_applied_low_passed_where_the_motion_was_low_passed():
         rec.name,
         rec.test,
         rec.time,
-        {**rec.inputs, "position": x + rng.normal(0.0, 2e-3 * np.std(x), x.size)},
+        {**rec.inputs, "position": x + rng.normal(0.0, level * np.std(x), x.size)},
         rec.outputs,
         rec.units,
         rec.meta,
     )
+    return rec, noisy
+
+
+def test_tail_rule_is_applied_low_passed_where_the_motion_was_low_passed():
+    # a guide whose motion channels carry noise is low-passed before the fit (the
+    # prediction then lacks the motion's content above the cut-off): the tail rule reads
+    # the residual low-passed at that cut-off, where the part moves, and the report says
+    # so; with the right element named nothing is left; the same recording with clean
+    # motion reads the residual as it is
+    from suspenv.diagnosis.engine import make_family
+
+    rec, noisy = _guide_with_position_noise(2e-3)
     family = make_family("friction_guide")
     diag = diagnose(noisy, family)
     assert family.motion_lowpass_hz is not None
@@ -536,19 +544,7 @@ def test_a_guide_whose_cut_off_keeps_ten_harmonics_is_compared_low_passed():
     from suspenv.diagnosis.component.motion_inputs import OUTPUT_LOWPASS_HARMONICS, harmonics_kept
     from suspenv.diagnosis.engine import make_family
 
-    rec = make_component("friction_guide").example_recording(seed=4)
-    x, v, a = (rec.inputs[k] for k in ("position", "velocity", "acceleration"))
-    rec = _with_force(rec, 90.0 * a + 200.0 * v + 20.0 * np.tanh(v / 0.001) - 3.0, seed=5)
-    rng = np.random.default_rng(24)
-    quiet = Recording(
-        rec.name,
-        rec.test,
-        rec.time,
-        {**rec.inputs, "position": x + rng.normal(0.0, 2e-5 * np.std(x), x.size)},
-        rec.outputs,
-        rec.units,
-        rec.meta,
-    )
+    rec, quiet = _guide_with_position_noise(2e-5)
     family = make_family("friction_guide")
     diag = diagnose(quiet, family)
     assert family.motion_lowpass_hz is not None
