@@ -469,9 +469,11 @@ class ComponentFamily(OptionalSteps):
             cut = {
                 c.recording: c.cutoff_hz for c in [*checks, *held_checks] if c.cutoff_hz is not None
             }
-            for r in [*chosen, *(held_recs or [])]:
+            for r in [*chosen, *(held_recs or [])]:  # a held-out recording may repeat one
                 name = str(r.name)
-                if name in cut and harmonics_kept(r, cut[name]) >= OUTPUT_LOWPASS_HARMONICS:
+                if name in self.recorded_outputs or name not in cut:
+                    continue
+                if harmonics_kept(r, cut[name]) >= OUTPUT_LOWPASS_HARMONICS:
                     self.recorded_outputs[name] = dict(r.outputs)
 
             def alike(rs: list[RecordingLike]) -> list[RecordingLike]:
@@ -789,6 +791,15 @@ def fitted_loop_width(kind: str, ext: FitResult) -> float | None:
     return None if element is None else hysteresis_transition(kind, element.params)
 
 
+def _loop_narrower_than(candidate: str, ext: FitResult, limit: float) -> tuple[str, float] | None:
+    """(kind, transition length [m]) of the hysteresis element refitted for ``candidate``
+    in ``ext`` when its loop completes within ``limit`` [m] (> 0); None otherwise (no
+    such element, a wider loop, or no limit)."""
+    kind = candidate.partition("@")[0]
+    width = fitted_loop_width(kind, ext) if limit > 0 else None
+    return None if width is None or width >= limit else (kind, width)
+
+
 def fits_presliding(model: Any, candidates: Sequence[str]) -> bool:
     """True when ``candidates`` hold a friction law with a pre-sliding displacement of
     its own that ``model`` fits: LuGre with its bristle stiffness ``sigma0`` among the
@@ -823,10 +834,10 @@ def check_loop_resolved(candidate: str, ext: FitResult, displacement_noise: floa
     :class:`ValidationError` (the hypothesis is recorded as failed with this reason); not
     applied when the displacement's noise was not measured (0).
     """
-    kind = candidate.partition("@")[0]
-    width = fitted_loop_width(kind, ext) if displacement_noise > 0 else None
-    if width is None or width >= LOOP_NOISE_MULTIPLE * displacement_noise:
+    narrow = _loop_narrower_than(candidate, ext, LOOP_NOISE_MULTIPLE * displacement_noise)
+    if narrow is None:
         return
+    kind, width = narrow
     raise ValidationError(
         f"{kind}: the fitted loop completes within {1e6 * width:.3g} micrometres after each "
         f"reversal, under {LOOP_NOISE_MULTIPLE:g} standard deviations of the displacement's "
@@ -846,10 +857,10 @@ def check_loop_or_step(candidate: str, ext: FitResult, half_stroke: float) -> No
     refitted in the same round is named. Not applied where the candidates hold a
     friction law whose pre-sliding the model fits (:func:`fits_presliding`).
     """
-    kind = candidate.partition("@")[0]
-    width = fitted_loop_width(kind, ext) if half_stroke > 0 else None
-    if width is None or width >= HYSTERESIS_MIN_FRACTION * half_stroke:
+    narrow = _loop_narrower_than(candidate, ext, HYSTERESIS_MIN_FRACTION * half_stroke)
+    if narrow is None:
         return
+    kind, width = narrow
     raise ValidationError(
         f"{kind}: the fitted loop completes within {1e6 * width:.3g} micrometres after each "
         f"reversal, {100 * width / half_stroke:.2g} % of the half-stroke "

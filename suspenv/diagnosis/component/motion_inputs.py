@@ -42,13 +42,12 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy.signal import butter, sosfreqz
+from scipy.signal import sosfreqz
 
 from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.component.motion import cycle_index, motion
 from suspenv.diagnosis.protocols import RecordingLike
-from suspenv.models.components.base import LOWPASS_ORDER, OUTPUT_LOWPASS_KEY
-from suspenv.models.components.base import lowpass as component_lowpass
+from suspenv.models.components.base import OUTPUT_LOWPASS_KEY, butterworth, lowpass
 
 VELOCITY_SOURCES = ("auto", "displacement", "channel")
 #: versions of the motion a fit can be given (:func:`conditioned`)
@@ -77,7 +76,6 @@ NEGLIGIBLE_NOISE = 1e-5
 DERIVATIVE_CLEAN = 0.01
 #: fewest samples for the noise estimate and the comparison
 MIN_SAMPLES = 256
-BUTTER_ORDER = LOWPASS_ORDER
 
 
 @dataclass(frozen=True)
@@ -139,12 +137,6 @@ def sampling_rate(t: np.ndarray) -> float | None:
     return 1.0 / step
 
 
-def lowpass(y: np.ndarray, fs: float, fc: float) -> np.ndarray:
-    """Zero-phase Butterworth low-pass of ``y`` at ``fc`` [Hz] (order 4 each way; the
-    components' :func:`~suspenv.models.components.base.lowpass`)."""
-    return component_lowpass(y, fs, fc)
-
-
 #: fewest harmonics of a recording's motion cycle that a cut-off must keep for its outputs
 #: to be compared low-passed (:func:`harmonics_kept`): with fewer, a friction step or an
 #: impact is smoothed over more than a twentieth of a cycle and its shape is lost, while
@@ -184,8 +176,7 @@ def as_recorded(rec: RecordingLike, outputs: Mapping[str, np.ndarray]) -> Record
 
 def _removed_share(fs: float, fc: float) -> float:
     """Share of white-noise variance that ``y - lowpass(y, fc)`` keeps."""
-    sos = butter(BUTTER_ORDER, fc, fs=fs, output="sos")
-    _, h = sosfreqz(sos, worN=4096, fs=fs)
+    _, h = sosfreqz(butterworth(fc, fs), worN=4096, fs=fs)
     return float(np.mean((1.0 - np.abs(h) ** 2) ** 2))
 
 
@@ -375,8 +366,7 @@ def derivative_noise(s2: float, fs: float, fc: float | None, order: int) -> floa
     stencil = (8.0 * np.sin(w_dt) - np.sin(2.0 * w_dt)) * (fs / 6.0)
     gain = np.ones_like(f)
     if fc is not None:
-        sos = butter(BUTTER_ORDER, fc, fs=fs, output="sos")
-        gain = np.abs(sosfreqz(sos, worN=f, fs=fs)[1]) ** 4
+        gain = np.abs(sosfreqz(butterworth(fc, fs), worN=f, fs=fs)[1]) ** 4
     return float(np.sqrt(s2 * np.mean(gain * stencil ** (2 * order))))
 
 

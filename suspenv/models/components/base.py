@@ -44,17 +44,20 @@ LOWPASS_ORDER = 4
 
 
 @functools.lru_cache(maxsize=64)
-def _butterworth(fc: float, fs: float) -> np.ndarray:
-    """Second-order sections of the :data:`LOWPASS_ORDER` Butterworth low-pass (a
-    diagnosis filters thousands of predictions with one cut-off: designed once)."""
-    return np.asarray(butter(LOWPASS_ORDER, fc, fs=fs, output="sos"))
+def butterworth(fc: float, fs: float) -> np.ndarray:
+    """Second-order sections (read-only) of the :data:`LOWPASS_ORDER` Butterworth
+    low-pass at ``fc`` [Hz] for sampling at ``fs`` [Hz] (a diagnosis filters thousands of
+    predictions with one cut-off: designed once)."""
+    sos = np.asarray(butter(LOWPASS_ORDER, float(fc), fs=float(fs), output="sos"))
+    sos.flags.writeable = False
+    return sos
 
 
 def lowpass(y: np.ndarray, fs: float, fc: float) -> np.ndarray:
     """Zero-phase Butterworth low-pass of ``y`` along its last axis at ``fc`` [Hz],
     sampled at ``fs`` [Hz] (order :data:`LOWPASS_ORDER` each way)."""
-    # a copy: scipy's filter takes a writeable array, and the cached design stays intact
-    return np.asarray(sosfiltfilt(_butterworth(float(fc), float(fs)).copy(), y, axis=-1))
+    # a copy: scipy's filter takes only a writeable array
+    return np.asarray(sosfiltfilt(butterworth(float(fc), float(fs)).copy(), y, axis=-1))
 
 
 class ComponentModel:
