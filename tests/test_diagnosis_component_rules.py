@@ -45,7 +45,7 @@ from suspenv.diagnosis.engine import diagnose, make_family
 from suspenv.diagnosis.fitting import FitResult
 from suspenv.diagnosis.split import Split
 from suspenv.measurements import Recording
-from suspenv.models.components import DamperDynoModel, FrictionGuideModel
+from suspenv.models.components import DamperDynoModel, FrictionGuideModel, MRDamperModel
 from suspenv.models.effects import make_effect, sensor_delay
 
 
@@ -259,7 +259,8 @@ def test_a_small_loop_competes_with_friction_where_its_presliding_has_a_law():
     assert fits_presliding(guide, guide.candidate_effects)  # LuGre, its sigma0 fitted
     others = [c for c in guide.candidate_effects if c != "lugre_friction"]
     assert not fits_presliding(guide, others)
-    assert not fits_presliding(DamperDynoModel(), DamperDynoModel.candidate_effects)
+    assert fits_presliding(DamperDynoModel(), DamperDynoModel.candidate_effects)  # a seal's
+    assert not fits_presliding(MRDamperModel(), MRDamperModel.candidate_effects)
     # a Bouc-Wen loop yielding at 0.3 mm on a 0.11 m half-stroke (0.3 %, under the 0.5 %
     # of check_loop_or_step): with LuGre among the candidates the loop is named, its
     # force and yield displacement recovered
@@ -275,6 +276,94 @@ def test_a_small_loop_competes_with_friction_where_its_presliding_has_a_law():
     refused = [h for h in alone.hypotheses if h.family == "hysteresis" and h.fit is None]
     assert refused and all("pre-sliding of friction" in h.signature_evidence for h in refused)
     assert "hysteresis" not in alone.named_families, alone.verdict
+
+
+def test_a_dampers_seal_friction_with_presliding_and_stiction_is_named_friction():
+    # LuGre seal friction (Canudas de Wit et al. 1995): sliding level 30 N, breakaway 55 N
+    # falling over 20 mm/s, pre-sliding f_c / sigma0 = 75 micrometres on the example run's
+    # 6-20 mm sines (0.375 % of the 20 mm half-stroke), 1 % white noise
+    seal = make_effect("lugre_friction").with_params(
+        {"f_c": 30.0, "f_s": 55.0, "v_s": 0.02, "sigma0": 4e5}
+    )
+    model = DamperDynoModel([seal])
+    rec = model.example_recording(seed=2)
+    f = np.asarray(model.simulate(model.theta_from({"c": 1500.0}), rec)["force"])
+    noise = 0.01 * float(np.std(f)) * np.random.default_rng(7).standard_normal(f.size)
+    rec = _with_force(rec, f + noise, "damper seal")
+    diag = diagnose(rec, "damper")
+    assert diag.named_kinds == ["lugre_friction"], diag.verdict
+    got = {k: v["value"] for k, v in diag.named[0].params.items()}
+    assert got["lugre_friction.f_c"] == pytest.approx(30.0, rel=0.05)
+    assert got["lugre_friction.f_s"] == pytest.approx(55.0, rel=0.05)
+    assert got["lugre_friction.sigma0"] == pytest.approx(4e5, rel=0.1)
+    assert diag.verdict.startswith("missing physics: seal friction of the damper")
+    # without a friction law for the pre-sliding, the loop it leaves is named hysteresis
+    others = [c for c in DamperDynoModel.candidate_effects if c != "lugre_friction"]
+    alone = diagnose(rec, "damper", candidates=others)
+    assert alone.named_families[:1] == ["hysteresis"], alone.verdict
+
+
+def _lugre_fit(f_c: float, sigma0: float, rel_c: float, rel_sigma0: float, corr: float):
+    """A damper's LuGre refit at ``f_c`` [N], ``sigma0`` [N/m] with relative standard
+    errors ``rel_c``, ``rel_sigma0`` and correlation ``corr`` (serial correlation
+    inflating the errors 1.5 times)."""
+    model = DamperDynoModel(
+        [make_effect("lugre_friction").with_params({"f_c": f_c, "f_s": f_c, "sigma0": sigma0})]
+    )
+    fit = _fit(model, {"c": 1500.0})
+    names = list(fit.names)
+    i, j = names.index("lugre_friction.f_c"), names.index("lugre_friction.sigma0")
+    sd = np.full(len(names), 1e-3)
+    sd[i], sd[j] = rel_c * f_c, rel_sigma0 * sigma0
+    cov = np.diag(sd**2)
+    cov[i, j] = cov[j, i] = corr * sd[i] * sd[j]
+    fit.stderr, fit.stderr_corrected, fit.covariance = sd / 1.5, sd, cov / 1.5**2
+    return fit
+
+
+def test_the_error_of_a_ratio_of_two_fitted_parameters_holds_their_covariance():
+    from suspenv.diagnosis.component.family import ratio_and_error
+
+    fit = _lugre_fit(40.0, 2e5, 0.05, 0.08, 0.9)
+    ratio, sd = ratio_and_error(fit, "lugre_friction", "f_c", "sigma0")
+    assert ratio == pytest.approx(2e-4)
+    # reference: the spread of the ratio over draws of the two parameters from their
+    # (inflated) joint normal distribution
+    i, j = (list(fit.names).index(f"lugre_friction.{n}") for n in ("f_c", "sigma0"))
+    draws = np.random.default_rng(5).multivariate_normal(
+        fit.theta[[i, j]], fit.covariance[np.ix_([i, j], [i, j])] * 1.5**2, 200_000
+    )
+    assert sd == pytest.approx(np.std(draws[:, 0] / draws[:, 1]), rel=0.03)
+    # the correlation matters: uncorrelated, the same errors give a wider ratio
+    apart = _lugre_fit(40.0, 2e5, 0.05, 0.08, 0.0)
+    assert ratio_and_error(apart, "lugre_friction", "f_c", "sigma0")[1] > 2 * sd
+    assert np.isnan(ratio_and_error(fit, "dahl_hysteresis", "f_c", "sigma")[0])
+
+
+@pytest.mark.parametrize(
+    ("f_c", "sigma0", "rel", "refused"),
+    [
+        # bristles deflecting 1.5 mm, 7.5 % of a 20 mm half-stroke, even at 2 standard
+        # errors of the logarithm (rel 0.5: at least 0.55 mm): a material's loop
+        (55.9, 37_900.0, 0.35, True),
+        # 75 micrometres, 0.375 %: friction's pre-sliding
+        (30.0, 4e5, 0.02, False),
+        # 150 micrometres (0.75 %) but hardly resolved: at least 40 micrometres
+        (30.0, 2e5, 0.47, False),
+    ],
+)
+def test_a_lugre_whose_bristles_deflect_over_a_fair_part_of_the_stroke_is_refused(
+    f_c, sigma0, rel, refused
+):
+    from suspenv.diagnosis.component.family import check_presliding_is_friction
+
+    fit = _lugre_fit(f_c, sigma0, rel, rel, 0.0)
+    if refused:
+        with pytest.raises(ValidationError, match=r"deflect f_c / sigma0 = 1.47e\+03 \+- 7"):
+            check_presliding_is_friction("lugre_friction", fit, 0.02)
+    else:
+        check_presliding_is_friction("lugre_friction", fit, 0.02)
+    check_presliding_is_friction("coulomb_friction", fit, 0.02)  # not judged: no bristles
 
 
 def test_a_guide_spring_is_found_about_its_neutral_position():
@@ -364,6 +453,29 @@ def test_stiction_whose_level_rises_over_the_speed_range_is_refused(
         check_stiction_decays(kind, fit, vmax)
     # a friction kind without a breakaway level is not judged by this rule
     check_stiction_decays("coulomb_friction", fit, vmax)
+
+
+def test_a_rise_is_not_rounding_where_the_law_rounds_its_own_step():
+    from suspenv.diagnosis.component.family import rounds_own_step
+    from suspenv.models.components import QuarterCarRigModel
+
+    # the guide fits a Stribeck step's width and LuGre's bristle stiffness, the damper
+    # its seal's bristle stiffness; the quarter car keeps its 1 cm/s step width
+    assert rounds_own_step(FrictionGuideModel(), "stribeck_friction")
+    assert rounds_own_step(FrictionGuideModel(), "lugre_friction")
+    assert rounds_own_step(DamperDynoModel(), "lugre_friction")
+    assert not rounds_own_step(QuarterCarRigModel(), "stribeck_friction")
+    assert not rounds_own_step(FrictionGuideModel(), "coulomb_friction")
+    # a damper's two-slope digressive curve fitted as LuGre (retired case 5100): from
+    # 4.6 N at reversal to 60.5 N over 43 mm/s, 9 % of the peak speed 0.467 m/s
+    for kind in ("stribeck_friction", "lugre_friction"):
+        fit = _stiction_fit(kind, 60.5, 4.6, 0.16, 0.12, 0.043)
+        check_stiction_decays(kind, fit, 0.467)  # a fixed rounding: within 10 %
+        with pytest.raises(ValidationError, match=r"rounded by its own (v_eps|sigma0)"):
+            check_stiction_decays(kind, fit, 0.467, rounded=True)
+    # stiction (breakaway above the sliding level) is kept either way
+    fit = _stiction_fit("lugre_friction", 30.0, 55.0, 0.3, 0.5, 0.02)
+    check_stiction_decays("lugre_friction", fit, 0.4, rounded=True)
 
 
 def test_a_breakaway_above_every_recorded_force_is_refused():

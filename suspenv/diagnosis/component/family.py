@@ -559,13 +559,17 @@ class ComponentFamily(OptionalSteps):
             max_nfev=self.budget,
         )
         check_step_or_knee(candidate, ext, vmax)
-        if not fits_presliding(setup.model, setup.candidates):
-            check_loop_or_step(candidate, ext, half)
-        else:
+        presliding = fits_presliding(setup.model, setup.candidates)
+        if presliding and getattr(setup.model, "dwells_between_moves", False):
             check_loop_resolved(candidate, ext, self.displacement_noise_m)
+        else:
+            check_loop_or_step(candidate, ext, half)
+        if presliding:
+            check_presliding_is_friction(candidate, ext, half)
         check_parallel_branch(candidate, ext, self.rule.alpha)
         check_resolved_size(candidate, ext)
-        check_stiction_decays(candidate, ext, vmax)
+        rounded = rounds_own_step(setup.model, candidate.partition("@")[0])
+        check_stiction_decays(candidate, ext, vmax, rounded)
         check_breakaway_recorded(candidate, ext, setup.split)
         if lag_channel:
             # the same channel late by a pure delay instead (not a library element)
@@ -869,6 +873,65 @@ def check_loop_or_step(candidate: str, ext: FitResult, half_stroke: float) -> No
     )
 
 
+def ratio_and_error(ext: FitResult, kind: str, num: str, den: str) -> tuple[float, float]:
+    """The ratio ``num / den`` of two fitted parameters of the element of ``kind`` in
+    ``ext`` and its standard error (first order, with their covariance, inflated for
+    serially correlated residuals like ``stderr_corrected``); NaN, NaN when either is
+    not fitted or not positive."""
+    element = refitted_element(ext, kind)
+    if element is None:
+        return np.nan, np.nan
+    names = list(ext.names)
+    try:
+        i, j = names.index(f"{element.name}.{num}"), names.index(f"{element.name}.{den}")
+    except ValueError:  # held fixed
+        return np.nan, np.nan
+    a, b = float(ext.theta[i]), float(ext.theta[j])
+    if not (a > 0 and b > 0):
+        return np.nan, np.nan
+    infl = np.where(ext.stderr > 0, ext.stderr_corrected / np.maximum(ext.stderr, 1e-300), 1.0)
+    cov = np.asarray(ext.covariance)[np.ix_([i, j], [i, j])] * np.outer(infl[[i, j]], infl[[i, j]])
+    rel = cov[0, 0] / a**2 + cov[1, 1] / b**2 - 2.0 * cov[0, 1] / (a * b)
+    return a / b, a / b * float(np.sqrt(max(rel, 0.0)))
+
+
+def check_presliding_is_friction(candidate: str, ext: FitResult, half_stroke: float) -> None:
+    """Refuse a LuGre refit whose pre-sliding is resolved wider than
+    ``HYSTERESIS_MIN_FRACTION`` of the half-stroke ``half_stroke`` [m].
+
+    The mirror of :func:`check_loop_or_step`, for the families whose LuGre fits its
+    bristle stiffness (:func:`fits_presliding`): the bristles deflect ``f_c / sigma0``
+    while sliding, friction's pre-sliding of micrometres to tens of micrometres. A
+    deflection wider than the bound by more than ``SIZE_Z`` corrected standard errors of
+    its logarithm (:func:`ratio_and_error`) is
+    a force that builds up over a fair part of the stroke after each reversal: a
+    material's loop (a bushing's, an MR fluid's before yield), whose build-up the LuGre
+    law can follow with its bristles while its Stribeck levels take a velocity-dependent
+    force beside it. Raises :class:`ValidationError` (the hypothesis is recorded as failed
+    with this reason), so the hysteresis refitted in the same round is named. Not judged
+    where the width or its error is not known.
+    """
+    kind = candidate.partition("@")[0]
+    if kind != "lugre_friction" or half_stroke <= 0:
+        return
+    width, sd = ratio_and_error(ext, kind, "f_c", "sigma0")
+    if not np.isfinite(sd):
+        return
+    bound = HYSTERESIS_MIN_FRACTION * half_stroke
+    # a ratio of two positive parameters: its error read on the logarithm
+    least = width * float(np.exp(-SIZE_Z * sd / width))
+    if least <= bound:
+        return
+    raise ValidationError(
+        f"{kind}: the fitted bristles deflect f_c / sigma0 = {1e6 * width:.3g} +- "
+        f"{1e6 * sd:.2g} micrometres while sliding, {100 * width / half_stroke:.2g} % of the "
+        f"half-stroke {1e3 * half_stroke:.3g} mm, and at least {1e6 * least:.3g} micrometres "
+        f"({SIZE_Z:g} standard errors of its logarithm; > {100 * HYSTERESIS_MIN_FRACTION:.1f} "
+        "%): a force that builds up over a fair part of the stroke after each reversal, "
+        "which is a hysteresis loop, not the pre-sliding of friction"
+    )
+
+
 #: a Maxwell branch whose base keeps less than this share of the viscous coefficient
 #: ``c + c_m`` carries the whole viscous force, however well the share is resolved
 WHOLE_FORCE_BASE_SHARE = 0.05
@@ -977,22 +1040,42 @@ def check_resolved_size(candidate: str, ext: FitResult) -> None:
 STICTION_KINDS = ("stribeck_friction", "lugre_friction")
 
 
-def check_stiction_decays(candidate: str, ext: FitResult, vmax: float) -> None:
+#: the parameter that rounds each stiction law's step at reversal by itself: the width
+#: of the regularised step (Stribeck) or the bristle stiffness, whose pre-sliding
+#: displacement ``f / sigma0`` rounds the step over the travel after the reversal (LuGre)
+STEP_ROUNDING = {"stribeck_friction": "v_eps", "lugre_friction": "sigma0"}
+
+
+def rounds_own_step(model: Any, kind: str) -> bool:
+    """True when ``model`` fits the parameter that rounds the stiction law ``kind``'s step
+    (:data:`STEP_ROUNDING` among its ``freed_parameters``); that law then needs no rising
+    level to round its step (:func:`check_stiction_decays`)."""
+    freed = getattr(model, "freed_parameters", {})
+    return STEP_ROUNDING.get(kind, "") in freed.get(kind, ())
+
+
+def check_stiction_decays(
+    candidate: str, ext: FitResult, vmax: float, rounded: bool = False
+) -> None:
     """Refuse a stiction refit whose level rises with speed over a fair part of the
-    speed range.
+    speed range, or at all where the law's step is rounded by a parameter of its own.
 
     Stiction means the force needed to break away from rest exceeds the force that keeps
     sliding: ``f_s >= f_c``, the level falling from ``f_s`` at reversal to ``f_c`` over the
     Stribeck velocity ``v_s``. Fitted the other way round (``f_c - f_s`` more than
     ``SIZE_Z`` corrected standard errors of the difference), the level *rises* from the
-    reversal with speed. Over a ``v_s`` within ``FRICTION_MAX_FRACTION`` of the peak
-    speed ``vmax`` [m/s] that rise is the rounding of the step at reversal, which the data
-    cannot tell from the step's own; over a wider ``v_s`` it is a force that grows
+    reversal with speed. Where the law's step has a fixed rounding, a rise over a ``v_s``
+    within ``FRICTION_MAX_FRACTION`` of the peak speed ``vmax`` [m/s] is the rounding of
+    the step at reversal, which the data cannot tell from the step's own. Where the model
+    fits the parameter that rounds the step (``rounded``: :func:`rounds_own_step`, the
+    step's width or LuGre's bristle stiffness), the rise is not needed for that, and any
+    resolved rise is refused. A rise that is not the rounding is a force that grows
     gradually with velocity (with ``f_s`` near zero about ``f_c (v / v_s)^2``), i.e. a
-    velocity-dependent damping (a progressive damper, or a force missing around zero
-    velocity), which the shape absorbs without being friction. Raises
-    :class:`ValidationError` (the hypothesis is recorded as failed with this reason); a
-    friction step of another kind refitted in the same round can still be named.
+    velocity-dependent damping (a digressive valve's knee, a progressive damper, or a
+    force missing around zero velocity), which the shape absorbs without being friction.
+    Raises :class:`ValidationError` (the hypothesis is recorded as failed with this
+    reason); a friction step of another kind refitted in the same round can still be
+    named.
     """
     kind = candidate.partition("@")[0]
     if kind not in STICTION_KINDS or vmax <= 0:
@@ -1001,7 +1084,7 @@ def check_stiction_decays(candidate: str, ext: FitResult, vmax: float) -> None:
     if element is None:
         return
     v_s = float(np.ravel(element.params["v_s"])[0])
-    if v_s <= FRICTION_MAX_FRACTION * vmax:
+    if not rounded and v_s <= FRICTION_MAX_FRACTION * vmax:
         return
     # NaN for a level held fixed, which is not judged here
     f_c, sd_c = parameter_and_error(ext, kind, "f_c")
@@ -1012,10 +1095,15 @@ def check_stiction_decays(candidate: str, ext: FitResult, vmax: float) -> None:
     raise ValidationError(
         f"{kind}: the fitted breakaway level f_s = {f_s:.3g} +- {sd_s:.2g} N is below the "
         f"sliding level f_c = {f_c:.4g} +- {sd_c:.2g} N, reached over v_s = {v_s:.3g} m/s "
-        f"({100 * v_s / vmax:.0f} % of the peak speed {vmax:.3g} m/s, > "
-        f"{100 * FRICTION_MAX_FRACTION:.0f} %): a force that grows gradually with speed "
-        "from the reversal, which is a velocity-dependent damping force, not stiction "
-        "(whose breakaway exceeds its sliding level)"
+        f"({100 * v_s / vmax:.0f} % of the peak speed {vmax:.3g} m/s, "
+        + (
+            f"the step rounded by its own {STEP_ROUNDING[kind]}"
+            if rounded
+            else f"> {100 * FRICTION_MAX_FRACTION:.0f} %"
+        )
+        + "): a force that grows gradually with speed from the reversal, which is a "
+        "velocity-dependent damping force, not stiction (whose breakaway exceeds its "
+        "sliding level)"
     )
 
 

@@ -89,6 +89,11 @@ class ComponentModel:
             recorded outputs are low-passed, and so is the prediction's part that is not
             linear in the motion, while the linear part is computed from the low-passed
             motion, which carries the filter through it exactly.
+        dwells_between_moves: the family's test holds the part still between moves (a
+            guide's trajectory), where a hysteresis loop holds its force and friction
+            does not: a small loop and friction's pre-sliding then compete on the data
+            (``suspenv.diagnosis.component.family.check_loop_or_step``); on a test that
+            keeps moving (a dyno's sines) the loop's width decides.
 
     The members the diagnosis reads (``suspenv.diagnosis.protocols.DiagnosableModel``)
     are all defined here with their defaults: ``difference_step`` (finite-difference
@@ -109,6 +114,7 @@ class ComponentModel:
     device_words: ClassVar[Mapping[str, str]] = {}
     viscous_parameter: ClassVar[str] = ""
     output_lowpass: ClassVar[bool] = False
+    dwells_between_moves: ClassVar[bool] = False
 
     def __init__(self, effects: Sequence[Effect] = (), **options: Any):
         self.effects: tuple[Effect, ...] = tuple(effects)

@@ -67,11 +67,18 @@ class DamperDynoModel(ComponentModel):
     input_channels = ("displacement", "velocity")
     output_channels = ("force",)
     channel_units = {"displacement": "m", "velocity": "m/s", "force": "N"}
-    freed_parameters = FRICTION_WIDTHS
+    # a damper's seal friction creeps before it slides (LuGre, its bristle stiffness
+    # fitted), and breaks away above the level it slides at
+    freed_parameters = {**FRICTION_WIDTHS, "lugre_friction": ("sigma0",)}
+    device_words = {
+        "lugre_friction": "seal friction of the damper (LuGre: pre-sliding, then a "
+        "breakaway above the sliding level)",
+    }
     candidate_effects = (
         "digressive_damping",
         "damper_asymmetry",
         "coulomb_friction",
+        "lugre_friction",
         "dahl_hysteresis",
         "bouc_wen_hysteresis",
         "maxwell_viscoelastic",

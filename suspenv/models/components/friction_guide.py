@@ -45,6 +45,8 @@ class FrictionGuideModel(ComponentModel):
     # the motion's content above a low-pass is largest where a move starts or ends, and
     # the inertia carries it into the force: compare the force low-passed alike
     output_lowpass = True
+    # a guide's trajectory holds the carriage still between moves
+    dwells_between_moves = True
     description = "mass on a friction guide, inverse model F = m a + c v (linear in m, c)"
     base_parameters = (
         Parameter("m", 0.0, 1e4, unit="kg", default=100.0, description="moving mass"),
