@@ -807,13 +807,17 @@ def _loop_narrower_than(candidate: str, ext: FitResult, limit: float) -> tuple[s
 def fits_presliding(model: Any, candidates: Sequence[str]) -> bool:
     """True when ``candidates`` hold a friction law with a pre-sliding displacement of
     its own that ``model`` fits: LuGre with its bristle stiffness ``sigma0`` among the
-    model's freed parameters (the guide's, whose contact creeps before it slides).
+    model's freed parameters (a guide's contact, a damper's seal: both creep before they
+    slide).
 
-    Then a small hysteresis loop and friction compete on the data
-    (:func:`check_loop_or_step` is not applied): friction's pre-sliding has its law,
-    with the stiction and the Stribeck fall that a rate-independent loop lacks, so a loop
-    that fits better is a loop. Without such a law, a small loop is the only element
-    that can take a friction contact's pre-sliding, and is refused as hysteresis.
+    Then that law's pre-sliding is bounded like a loop's width
+    (:func:`check_presliding_is_friction`). Where the model's test also dwells between
+    moves (``dwells_between_moves``: a loop holds its force at rest, friction does not),
+    a small hysteresis loop and friction compete on the data (:func:`check_loop_or_step`
+    is not applied): friction's pre-sliding has its law, with the stiction and the
+    Stribeck fall that a rate-independent loop lacks, so a loop that fits better is a
+    loop. Elsewhere, or without such a law, a small loop is refused as hysteresis (the
+    width decides).
     """
     freed = getattr(model, "freed_parameters", {})
     if "sigma0" not in freed.get("lugre_friction", ()):
@@ -829,7 +833,8 @@ LOOP_NOISE_MULTIPLE = 2.0
 def check_loop_resolved(candidate: str, ext: FitResult, displacement_noise: float) -> None:
     """Refuse a hysteresis refit whose loop completes within ``LOOP_NOISE_MULTIPLE``
     standard deviations of the recorded displacement's white noise ``displacement_noise``
-    [m] (where :func:`check_loop_or_step` is not applied: :func:`fits_presliding`).
+    [m] (where :func:`check_loop_or_step` is not applied: :func:`fits_presliding` on a
+    test that dwells between moves).
 
     A force that builds up over less displacement than the displacement's own noise is,
     as far as the recording can tell, a force step at every reversal: the loop's shape is
@@ -859,7 +864,8 @@ def check_loop_or_step(candidate: str, ext: FitResult, half_stroke: float) -> No
     material that yields over a fair part of the stroke. Raises :class:`ValidationError`
     (the hypothesis is recorded as failed with this reason), so the friction element
     refitted in the same round is named. Not applied where the candidates hold a
-    friction law whose pre-sliding the model fits (:func:`fits_presliding`).
+    friction law whose pre-sliding the model fits (:func:`fits_presliding`) and the test
+    dwells between moves.
     """
     narrow = _loop_narrower_than(candidate, ext, HYSTERESIS_MIN_FRACTION * half_stroke)
     if narrow is None:
