@@ -366,6 +366,27 @@ def test_a_lugre_whose_bristles_deflect_over_a_fair_part_of_the_stroke_is_refuse
     check_presliding_is_friction("coulomb_friction", fit, 0.02)  # not judged: no bristles
 
 
+def test_a_contacts_bristle_damping_is_fitted_with_its_stiffness(monkeypatch):
+    from suspenv.models.components.base import LUGRE_BRISTLES
+
+    # LuGre friction of a guide's contact: sliding 3 N, breakaway 5.7 N over 28 mm/s,
+    # pre-sliding f_c / sigma0 = 0.1 mm, bristle time sigma1 / sigma0 = 0.5 ms
+    truth = {"f_c": 3.0, "f_s": 5.7, "v_s": 0.028, "sigma0": 3e4, "sigma1": 15.0}
+    rec = _guide_case([make_effect("lugre_friction").with_params(truth)])
+    assert FrictionGuideModel.freed_parameters["lugre_friction"] == LUGRE_BRISTLES
+    diag = diagnose(rec, "friction_guide")
+    assert diag.named_kinds == ["lugre_friction"], diag.verdict
+    got = {k.rpartition(".")[2]: v["value"] for k, v in diag.named[0].params.items()}
+    for name in ("f_c", "f_s", "v_s", "sigma0"):
+        assert got[name] == pytest.approx(truth[name], rel=0.05), name
+    assert got["sigma1"] == pytest.approx(truth["sigma1"], rel=0.2)
+    # the library's 300 N s/m held beside a fitted stiffness (a 10 ms bristle time here):
+    # the contact's friction is taken for a loop
+    held = {**FrictionGuideModel.freed_parameters, "lugre_friction": ("sigma0",)}
+    monkeypatch.setattr(FrictionGuideModel, "freed_parameters", held)
+    assert diagnose(rec, "friction_guide").named_families[:1] == ["hysteresis"]
+
+
 def test_a_guide_spring_is_found_about_its_neutral_position():
     # the position measured from 0.15 m below the middle of the travel, a cubic spring
     # relaxed 10 mm above the middle: k3 (x - x_0)^3 with x_0 = 0.16 m

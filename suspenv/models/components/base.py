@@ -34,6 +34,13 @@ FRICTION_WIDTHS: Mapping[str, tuple[str, ...]] = {
     "directional_friction": ("v_eps",),
 }
 
+#: LuGre's bristles, where a model fits them (a guide's contact, a damper's seal): the
+#: stiffness ``sigma0`` [N/m] sets the pre-sliding displacement ``f_c / sigma0``, and the
+#: damping ``sigma1`` [N s/m] is fitted with it (the library's fixed 300 N s/m belongs to
+#: its default 1e5 N/m: beside a fitted stiffness of 1e4 N/m it is a bristle time
+#: ``sigma1 / sigma0`` of 30 ms, where a contact's is under a millisecond)
+LUGRE_BRISTLES: tuple[str, ...] = ("sigma0", "sigma1")
+
 
 #: meta key of a recording whose output channels were low-passed (zero phase, at this
 #: cut-off [Hz]) together with its motion channels; the prediction is then low-passed
@@ -78,7 +85,8 @@ class ComponentModel:
         freed_parameters: per effect kind, parameters the library holds fixed that this
             model fits: a friction step's velocity width ``v_eps`` [m/s] (a real step is
             not 1 mm/s wide by decree), LuGre's bristle stiffness ``sigma0`` [N/m] (the
-            pre-sliding displacement ``f_c / sigma0`` of a guide's contact), a cubic
+            pre-sliding displacement ``f_c / sigma0`` of a guide's contact or a damper's
+            seal) and bristle damping ``sigma1`` [N s/m] (:data:`LUGRE_BRISTLES`), a cubic
             spring's neutral position ``x_0`` [m] (a guide's position is not measured
             from it).
         viscous_parameter: the base parameter that is the component's viscous

@@ -21,6 +21,7 @@ from suspenv.core.space import Parameter
 from suspenv.measurements import Recording
 from suspenv.models.components.base import (
     FRICTION_WIDTHS,
+    LUGRE_BRISTLES,
     ComponentModel,
     bp,
     linear_lstsq,
@@ -69,7 +70,7 @@ class DamperDynoModel(ComponentModel):
     channel_units = {"displacement": "m", "velocity": "m/s", "force": "N"}
     # a damper's seal friction creeps before it slides (LuGre, its bristle stiffness
     # fitted), and breaks away above the level it slides at
-    freed_parameters = {**FRICTION_WIDTHS, "lugre_friction": ("sigma0",)}
+    freed_parameters = {**FRICTION_WIDTHS, "lugre_friction": LUGRE_BRISTLES}
     device_words = {
         "lugre_friction": "seal friction of the damper (LuGre: pre-sliding, then a "
         "breakaway above the sliding level)",

@@ -31,6 +31,7 @@ from suspenv.core.space import Parameter
 from suspenv.measurements import Recording
 from suspenv.models.components.base import (
     FRICTION_WIDTHS,
+    LUGRE_BRISTLES,
     ComponentModel,
     bp,
     linear_lstsq,
@@ -57,7 +58,7 @@ class FrictionGuideModel(ComponentModel):
     channel_units = {"position": "m", "velocity": "m/s", "acceleration": "m/s^2", "force": "N"}
     freed_parameters = {
         **FRICTION_WIDTHS,
-        "lugre_friction": ("sigma0",),
+        "lugre_friction": LUGRE_BRISTLES,
         "cubic_stiffness": ("x_0",),
     }
     candidate_effects = (
