@@ -56,7 +56,8 @@ def _fit(model, base, stderr=None, stderr_corrected=None):
     sd = np.full(len(names), 1e-3) if stderr is None else np.asarray(stderr, float)
     sdc = sd if stderr_corrected is None else np.asarray(stderr_corrected, float)
     fit = SimpleNamespace(model=model, theta=theta, names=names, stderr=sd, stderr_corrected=sdc)
-    fit.params = lambda: FitResult.params(fit)  # the real accessor on these fields
+    fit.params = lambda: FitResult.params(fit)  # the real accessors on these fields
+    fit.covariance_corrected = lambda: FitResult.covariance_corrected(fit)
     return fit
 
 

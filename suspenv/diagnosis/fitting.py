@@ -142,6 +142,14 @@ class FitResult:
     def bic(self) -> float:
         return float(self.n_params * np.log(max(self.n_samples, 1)) - 2.0 * self.log_likelihood())
 
+    def covariance_corrected(self) -> np.ndarray:
+        """The parameter covariance (SI units squared) inflated for serially correlated
+        residuals like ``stderr_corrected`` (its diagonal is ``stderr_corrected**2``)."""
+        infl = np.where(
+            self.stderr > 0, self.stderr_corrected / np.maximum(self.stderr, 1e-300), 1.0
+        )
+        return np.asarray(self.covariance) * np.outer(infl, infl)
+
     def params(self) -> dict[str, dict[str, float]]:
         """``{name: {"value", "stderr", "stderr_corrected"}}`` (JSON-friendly)."""
         return {

@@ -95,10 +95,7 @@ def _rebound_bump_ratio(result: FitResult, v_ref: float) -> tuple[float, float]:
         th = result.theta.copy()
         th[i] += h
         grad[i] = (ratio(th) - r0) / h
-    infl = np.where(
-        result.stderr > 0, result.stderr_corrected / np.maximum(result.stderr, 1e-300), 1.0
-    )
-    cov = result.covariance * np.outer(infl, infl)
+    cov = result.covariance_corrected()
     return r0, float(np.sqrt(max(grad @ cov @ grad, 0.0)))
 
 

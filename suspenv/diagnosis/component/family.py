@@ -819,10 +819,9 @@ def fits_presliding(model: Any, candidates: Sequence[str]) -> bool:
     loop. Elsewhere, or without such a law, a small loop is refused as hysteresis (the
     width decides).
     """
-    freed = getattr(model, "freed_parameters", {})
-    if "sigma0" not in freed.get("lugre_friction", ()):
-        return False
-    return any(c.partition("@")[0] == "lugre_friction" for c in candidates)
+    return rounds_own_step(model, "lugre_friction") and any(
+        c.partition("@")[0] == "lugre_friction" for c in candidates
+    )
 
 
 #: a loop is seen as a loop only when it builds up over more than this many standard
@@ -895,8 +894,7 @@ def ratio_and_error(ext: FitResult, kind: str, num: str, den: str) -> tuple[floa
     a, b = float(ext.theta[i]), float(ext.theta[j])
     if not (a > 0 and b > 0):
         return np.nan, np.nan
-    infl = np.where(ext.stderr > 0, ext.stderr_corrected / np.maximum(ext.stderr, 1e-300), 1.0)
-    cov = np.asarray(ext.covariance)[np.ix_([i, j], [i, j])] * np.outer(infl[[i, j]], infl[[i, j]])
+    cov = ext.covariance_corrected()[np.ix_([i, j], [i, j])]
     rel = cov[0, 0] / a**2 + cov[1, 1] / b**2 - 2.0 * cov[0, 1] / (a * b)
     return a / b, a / b * float(np.sqrt(max(rel, 0.0)))
 
@@ -909,13 +907,13 @@ def check_presliding_is_friction(candidate: str, ext: FitResult, half_stroke: fl
     bristle stiffness (:func:`fits_presliding`): the bristles deflect ``f_c / sigma0``
     while sliding, friction's pre-sliding of micrometres to tens of micrometres. A
     deflection wider than the bound by more than ``SIZE_Z`` corrected standard errors of
-    its logarithm (:func:`ratio_and_error`) is
-    a force that builds up over a fair part of the stroke after each reversal: a
-    material's loop (a bushing's, an MR fluid's before yield), whose build-up the LuGre
-    law can follow with its bristles while its Stribeck levels take a velocity-dependent
-    force beside it. Raises :class:`ValidationError` (the hypothesis is recorded as failed
-    with this reason), so the hysteresis refitted in the same round is named. Not judged
-    where the width or its error is not known.
+    its logarithm (:func:`ratio_and_error`) is a force that builds up over a fair part
+    of the stroke after each reversal: a material's loop (a bushing's, an MR fluid's
+    before yield), whose build-up the LuGre law can follow with its bristles while its
+    Stribeck levels take a velocity-dependent force beside it. Raises
+    :class:`ValidationError` (the hypothesis is recorded as failed with this reason), so
+    the hysteresis refitted in the same round is named. Not judged where the width or
+    its error is not known.
     """
     kind = candidate.partition("@")[0]
     if kind != "lugre_friction" or half_stroke <= 0:
