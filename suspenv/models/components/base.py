@@ -48,6 +48,14 @@ LUGRE_BRISTLES: tuple[str, ...] = ("sigma0", "sigma1")
 OUTPUT_LOWPASS_KEY = "output_lowpass_hz"
 #: order of the zero-phase Butterworth low-pass (each way)
 LOWPASS_ORDER = 4
+#: length [periods of the cut-off] by which :func:`lowpass` extends each end of a record
+#: before filtering: the filter's response to the extension's far end has died out long
+#: before the record starts
+LOWPASS_PAD_PERIODS = 3.0
+#: samples [periods of the cut-off] at each end of a record that give :func:`lowpass` the
+#: end's value and curvature (a least-squares quadratic: on a noisy channel its value is
+#: the mean of many samples, not the last one's noise)
+LOWPASS_END_PERIODS = 0.5
 
 
 @functools.lru_cache(maxsize=64)
@@ -62,9 +70,57 @@ def butterworth(fc: float, fs: float) -> np.ndarray:
 
 def lowpass(y: np.ndarray, fs: float, fc: float) -> np.ndarray:
     """Zero-phase Butterworth low-pass of ``y`` along its last axis at ``fc`` [Hz],
-    sampled at ``fs`` [Hz] (order :data:`LOWPASS_ORDER` each way)."""
-    # a copy: scipy's filter takes only a writeable array
-    return np.asarray(sosfiltfilt(butterworth(float(fc), float(fs)).copy(), y, axis=-1))
+    sampled at ``fs`` [Hz] (order :data:`LOWPASS_ORDER` each way).
+
+    Each end is extended by :data:`LOWPASS_PAD_PERIODS` periods of the cut-off before
+    filtering: the record reflected through the end's value with the end's curvature
+    kept, both from a quadratic fitted to the last :data:`LOWPASS_END_PERIODS` periods
+    (``q(j) + q(-j) - y(-j)`` at ``j`` samples beyond the end, ``q`` that quadratic),
+    its departure from the end value tapered to nothing at the far end
+    (:func:`_end_taper`), where the filter starts from rest at that value. A motion
+    curved at the record's end and the noise of its last sample then start no
+    transient; the plain odd extension through the end sample starts both (on a guide's
+    noisy acceleration channel, a transient of the whole mass's force for half a second
+    at either end). Linear in ``y``, like the filter.
+    """
+    y = np.asarray(y, float)
+    sos = butterworth(float(fc), float(fs)).copy()  # scipy's filter takes a writeable array
+    n = y.shape[-1]
+    if n < 8:
+        return np.asarray(sosfiltfilt(sos, y, axis=-1))
+    pad = min(n - 1, int(np.ceil(LOWPASS_PAD_PERIODS * float(fs) / float(fc))))
+    w = max(5, min(n, int(np.ceil(LOWPASS_END_PERIODS * float(fs) / float(fc)))))
+    fit = _end_quadratic(w)  # (3, w): value, slope, curvature at the end sample
+    j = np.arange(1, pad + 1, dtype=float)
+    taper = _end_taper(pad)
+
+    def beyond(inward: np.ndarray) -> np.ndarray:  # the samples from an end inwards
+        coef = inward[..., :w] @ fit.T
+        away = coef[..., :1] + 2.0 * coef[..., 2:3] * j * j - inward[..., 1 : pad + 1]
+        return coef[..., :1] + taper * away
+
+    ext = np.concatenate([beyond(y)[..., ::-1], y, beyond(y[..., ::-1])], axis=-1)
+    return np.asarray(sosfiltfilt(sos, ext, axis=-1, padtype=None)[..., pad : pad + n])
+
+
+@functools.lru_cache(maxsize=16)
+def _end_taper(pad: int) -> np.ndarray:
+    """Weights (pad,) of the extension's departure from the end value: 1 over the first
+    third, then a half cosine down to 0 at the far end, where the extension is the
+    constant end value that the filter's initial state assumes."""
+    u = np.clip((np.arange(1, pad + 1) / pad - 1.0 / 3.0) * 1.5, 0.0, 1.0)
+    out = 0.5 * (1.0 + np.cos(np.pi * u))
+    out.flags.writeable = False
+    return out
+
+
+@functools.lru_cache(maxsize=16)
+def _end_quadratic(w: int) -> np.ndarray:
+    """Least-squares map (3, w) from ``w`` samples, the first at the end, to the
+    coefficients of ``a + b j + c j^2`` (``j`` samples from the end)."""
+    out = np.linalg.pinv(np.polynomial.polynomial.polyvander(np.arange(w, dtype=float), 2))
+    out.flags.writeable = False
+    return out
 
 
 class ComponentModel:
