@@ -61,7 +61,7 @@ LABEL_FAMILY = {
 }
 DOC_BEGIN = "<!-- independent-table:begin -->"
 DOC_END = "<!-- independent-table:end -->"
-REPORT_SEEDS = "5142-5153"
+REPORT_SEEDS = "5154-5165"
 
 
 def score_case(truth: dict[str, Any], diag: Any | None, error: str = "") -> dict[str, Any]:
