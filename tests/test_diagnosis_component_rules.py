@@ -323,7 +323,7 @@ def _lugre_fit(f_c: float, sigma0: float, rel_c: float, rel_sigma0: float, corr:
 
 
 def test_the_error_of_a_ratio_of_two_fitted_parameters_holds_their_covariance():
-    from suspenv.diagnosis.component.family import ratio_and_error
+    from suspenv.diagnosis.component.refit import ratio_and_error
 
     fit = _lugre_fit(40.0, 2e5, 0.05, 0.08, 0.9)
     ratio, sd = ratio_and_error(fit, "lugre_friction", "f_c", "sigma0")

@@ -54,6 +54,27 @@ def parameter_and_error(fit: FitResult, kind: str, parameter: str) -> tuple[floa
     return float(row.get("value", np.nan)), float(row.get("stderr_corrected", np.nan))
 
 
+def ratio_and_error(ext: FitResult, kind: str, num: str, den: str) -> tuple[float, float]:
+    """The ratio ``num / den`` of two fitted parameters of the element of ``kind`` in
+    ``ext`` and its standard error (first order, with their covariance, inflated for
+    serially correlated residuals like ``stderr_corrected``); NaN, NaN when either is
+    not fitted or not positive."""
+    element = refitted_element(ext, kind)
+    if element is None:
+        return np.nan, np.nan
+    names = list(ext.names)
+    try:
+        i, j = names.index(f"{element.name}.{num}"), names.index(f"{element.name}.{den}")
+    except ValueError:  # held fixed
+        return np.nan, np.nan
+    a, b = float(ext.theta[i]), float(ext.theta[j])
+    if not (a > 0 and b > 0):
+        return np.nan, np.nan
+    cov = ext.covariance_corrected()[np.ix_([i, j], [i, j])]
+    rel = cov[0, 0] / a**2 + cov[1, 1] / b**2 - 2.0 * cov[0, 1] / (a * b)
+    return a / b, a / b * float(np.sqrt(max(rel, 0.0)))
+
+
 def signature_guess(
     kind: str, sig: Signature | None, half_stroke: float, v_max: float
 ) -> dict[str, float]:
