@@ -10,17 +10,18 @@ import numpy as np
 import pytest
 
 from suspenv.core.errors import ValidationError
-from suspenv.diagnosis.component.family import _force_view_signal_set
+from suspenv.diagnosis.component.family import _force_view_signal_set, _sensor_rank
 from suspenv.diagnosis.component.motion import split
 from suspenv.diagnosis.component.rig import baseline_model, describe_rig
 from suspenv.diagnosis.component.signatures import score_signatures
 from suspenv.diagnosis.component.truth import make_case
 from suspenv.diagnosis.engine import diagnose, make_family
 from suspenv.diagnosis.fitting import fit
+from suspenv.diagnosis.screening import Signature
 from suspenv.measurements import Recording
 from suspenv.models.components import make_component
 from suspenv.models.components.quarter_car import _rate
-from suspenv.models.effects import make_effect
+from suspenv.models.effects import Effect, make_effect
 
 #: the benchmark's options for this family (configs/diagnosis_benchmark.toml)
 RIG_OPTIONS = {"max_effects": 2, "max_nfev": 15, "screen_families": 2}
@@ -157,3 +158,59 @@ def test_known_tyre_rate_from_the_rig_description_reaches_the_fit():
     fitted = diag.final_fit.model.values(diag.final_fit.theta)
     for name in ("k_s", "c_s"):
         assert fitted[name] == pytest.approx(case.truth.base[name], rel=0.05), name
+
+
+def test_stops_on_both_sides_are_named_as_the_pair():
+    # a development case concealing a bump stop (its truth, noise and drifts), with the
+    # same stop mirrored into rebound (same gap and stiffness) added to its recording: the
+    # recording plus the response difference the rebound side makes, simulated through
+    # the case's recorded road. Two one-sided stops of one family are one finding, so the
+    # engine must name the pair, not a symmetric progressive spring
+    case = _first_case("bump_stop")
+    stop = case.truth.effects[0]["params"]
+    model = make_component("quarter_car_rig")
+    standard = [Effect.from_dict(d) for d in case.truth.baseline]
+    one = model.with_effects([*standard, make_effect("bump_stop", **stop)])
+    pair = make_effect(
+        "bump_and_rebound_stops",
+        gap_bump=stop["gap"],
+        k_bump=stop["k_stop"],
+        gap_rebound=stop["gap"],
+        k_rebound=stop["k_stop"],
+    )
+    both = model.with_effects([*standard, pair])
+    rec = case.recording
+    y_one = one.simulate(one.theta_from(case.truth.base), rec)
+    y_both = both.simulate(both.theta_from(case.truth.base), rec)
+    # the rebound side is reached: the recording changes by more than its noise
+    acc = "body_acceleration"
+    assert np.std(y_both[acc] - y_one[acc]) > 3 * case.truth.noise_rms
+    measured = {ch: rec.outputs[ch] + (y_both[ch] - y_one[ch]) for ch in rec.outputs}
+    diag = diagnose(
+        rec.with_outputs(measured), make_family("quarter_car_rig", **RIG_OPTIONS), holdout=0.3
+    )
+    assert diag.named_kinds[:1] == ["bump_and_rebound_stops"], diag.verdict
+    found = diag.named[0].params
+    assert found["bump_and_rebound_stops.gap_bump"]["value"] == pytest.approx(stop["gap"], rel=0.2)
+    assert found["bump_and_rebound_stops.gap_rebound"]["value"] == pytest.approx(
+        stop["gap"], rel=0.2
+    )
+
+
+def test_a_sensor_lag_is_placed_in_a_channel_it_delays_not_one_it_leads():
+    # retired independent case 5157: a lag of 8.6 ms on the body accelerometer; the
+    # baseline bent its tyre rate to it, so the deflection channel's residual followed
+    # the signal's rate as a 5.7 ms lead (score 0.47), above the accelerometer's lag. A
+    # first-order sensor only delays: the lag is refitted where the signature is a delay
+    lead = Signature("sensor_lag", 0.47, 0.0, "lead", {"lag_s": -0.0057}, "suspension_deflection")
+    lag = Signature("sensor_lag", 0.30, 0.0, "lag", {"lag_s": 0.0040}, "body_acceleration")
+    assert max([lead, lag], key=_sensor_rank) is lag
+    # two delays, or two leads: the stronger signature
+    lag2 = Signature("sensor_lag", 0.50, 0.0, "lag", {"lag_s": 0.0010}, "suspension_deflection")
+    assert max([lag, lag2], key=_sensor_rank) is lag2
+    lead2 = Signature("sensor_lag", 0.10, 0.0, "lead", {"lag_s": -0.001}, "body_acceleration")
+    assert max([lead, lead2], key=_sensor_rank) is lead
+    # a gain error has no direction: the stronger channel
+    g1 = Signature("sensor_gain", 0.2, 0.0, "gain", {"gain_error": -0.05}, "body_acceleration")
+    g2 = Signature("sensor_gain", 0.3, 0.0, "gain", {"gain_error": 0.05}, "suspension_deflection")
+    assert max([g1, g2], key=_sensor_rank) is g2

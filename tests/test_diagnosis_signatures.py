@@ -72,6 +72,22 @@ def test_planted_effect_ranks_first(kind: str) -> None:
     assert sigs[0].evidence
 
 
+def test_end_stop_signature_tells_one_side_from_both() -> None:
+    # X reaches +-20 mm; a bump stop at 12 mm and a rebound stop at 10 mm (library elements)
+    one = score_signatures(_signals(BASE + PLANTED["end_stop"]() + NOISE), ["end_stop"])[0]
+    assert one.numbers["sides"] == 1.0
+    # thresholds are quantiles of x (a coarse grid): on the right side, near the contact
+    assert one.numbers["threshold_bump_m"] == pytest.approx(0.012, abs=0.004)
+    assert "threshold_rebound_m" not in one.numbers
+    pair = stiffness.bump_and_rebound_stops(X, 0.012, 3e5, 0.010, 2e5)
+    both = score_signatures(_signals(BASE + pair + NOISE), ["end_stop"])[0]
+    assert both.numbers["sides"] == 2.0
+    assert both.numbers["threshold_bump_m"] == pytest.approx(0.012, abs=0.004)
+    assert both.numbers["threshold_rebound_m"] == pytest.approx(-0.010, abs=0.004)
+    assert "compression" in both.evidence and "extension" in both.evidence
+    assert both.score > 0.9
+
+
 def test_viscoelastic_lag_found_under_a_two_tone_input() -> None:
     # two tones: a Maxwell element's lag differs per frequency, so a single spring and
     # damper cannot absorb it (at one frequency it could)

@@ -231,6 +231,24 @@ def test_end_stops_are_one_sided_with_threshold():
         fx.bump_stop(x, gap=-0.01, k_stop=1.0)
 
 
+def test_bump_and_rebound_stops_act_on_their_own_side_with_their_own_onset():
+    x = np.linspace(-0.1, 0.1, 2001)
+    f = fx.bump_and_rebound_stops(x, gap_bump=0.04, k_bump=2e5, gap_rebound=0.06, k_rebound=1e5)
+    # golden values by hand: compression (x > 0) pushes back (+), extension pulls back (-)
+    assert np.all(f[(x >= -0.06) & (x <= 0.04)] == 0.0)
+    assert f[-1] == pytest.approx(2e5 * (0.1 - 0.04))
+    assert f[0] == pytest.approx(-1e5 * (0.1 - 0.06))
+    assert np.all(f[x > 0.04] > 0) and np.all(f[x < -0.06] < 0)
+    # the two one-sided stops summed
+    both = fx.bump_stop(x, 0.04, 2e5) + fx.rebound_stop(x, 0.06, 1e5)
+    assert np.array_equal(f, both)
+    # equal sides with p = 2: the progressive spring beyond a free range (its closed form)
+    sym = fx.bump_and_rebound_stops(x, 0.02, 1e6, 0.02, 1e6, p=2.0)
+    assert sym == pytest.approx(1e6 * np.sign(x) * np.maximum(np.abs(x) - 0.02, 0.0) ** 2)
+    with pytest.raises(ValidationError, match="gap_rebound >= 0"):
+        fx.bump_and_rebound_stops(x, 0.01, 1.0, -0.01, 1.0)
+
+
 # ------------------------------------------------------------------ damper curves
 def test_damper_curves_limits_and_energy():
     v = np.array([-2.0, -0.01, 0.0, 0.01, 2.0])

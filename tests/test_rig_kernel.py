@@ -24,6 +24,9 @@ ONE_OF_EACH = [
     make_effect("directional_friction", f_pos=90.0, f_neg=60.0, v_eps=0.01),
     make_effect("bump_stop", gap=0.01, k_stop=1e5),
     make_effect("rebound_stop", gap=0.01, k_stop=1e5),
+    make_effect(
+        "bump_and_rebound_stops", gap_bump=0.008, k_bump=1e5, gap_rebound=0.012, k_rebound=2e5
+    ),
     make_effect("cubic_stiffness", k3=3e7, x_0=0.002),  # about a neutral position
     make_effect("progressive_stiffness", x0=0.005, k_p=3e6),
     make_effect("damper_asymmetry", dc_rebound=-800.0),
@@ -43,6 +46,10 @@ ONE_OF_EACH = [
     make_effect("maxwell_viscoelastic", k_m=2e4, c_m=800.0),
     make_effect("lugre_friction", sigma0=2e5, sigma1=300.0, f_c=150.0, f_s=250.0, v_s=0.05),
 ]
+
+
+def _of(kind: str):
+    return next(e for e in ONE_OF_EACH if e.kind == kind)
 
 
 def _road(n: int = 1500, dt: float = 0.002, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
@@ -85,8 +92,8 @@ def test_compiled_loop_equals_the_python_loop_for_each_kind(effect):
     [
         [],
         ONE_OF_EACH[:3],  # three stateless laws (summed in order)
-        [ONE_OF_EACH[0], ONE_OF_EACH[13]],  # friction + Dahl
-        [ONE_OF_EACH[8], ONE_OF_EACH[14], ONE_OF_EACH[15]],  # damping + Maxwell + LuGre
+        [_of("coulomb_friction"), _of("dahl_hysteresis")],
+        [_of("digressive_damping"), _of("maxwell_viscoelastic"), _of("lugre_friction")],
         ONE_OF_EACH,
     ],
     ids=["linear", "three_laws", "law_and_state", "two_states", "all"],
@@ -101,7 +108,7 @@ def test_uneven_steps_and_an_actuator_force_agree():
     rng = np.random.default_rng(3)
     t = np.cumsum(np.r_[0.0, 0.002 * (1.0 + 0.3 * rng.random(t.size - 1))])
     actuator = 300.0 * np.sin(2 * np.pi * 2.0 * t)
-    effects = [ONE_OF_EACH[0], ONE_OF_EACH[14]]
+    effects = [_of("coulomb_friction"), _of("dahl_hysteresis")]
     py, co = _both(effects, t, road, nsub=3, actuator=actuator)
     _assert_same(py, co)
     # the actuator moved the rig: without it the deflection differs

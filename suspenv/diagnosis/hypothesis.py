@@ -33,6 +33,7 @@ FAMILY_OF_KIND = {
     "progressive_stiffness": "progressive",
     "bump_stop": "end_stop",
     "rebound_stop": "end_stop",
+    "bump_and_rebound_stops": "end_stop",
     "digressive_damping": "digressive",
     "damper_asymmetry": "damper_asymmetry",
     "asymmetric_digressive_damping": "damper_asymmetry",

@@ -280,13 +280,22 @@ def _score_round(
     sigs = score_signatures(sset, force_fams) if force_fams else []
     best: dict[str, Signature] = {}
     for ch in current.channels if sensor_fams else []:
-        # each recorded channel may carry its own sensor error: keep the strongest
+        # each recorded channel may carry its own sensor error: keep the strongest of
+        # those a sensor can make (a lag, not a lead)
         for sig in score_signatures(_signal_set(current, sp, ch, view=False), sensor_fams):
-            if sig.kind not in best or sig.score > best[sig.kind].score:
-                sig.evidence = f"{sig.evidence} in {ch}"
-                sig.channel = ch
+            sig.evidence = f"{sig.evidence} in {ch}"
+            sig.channel = ch
+            if sig.kind not in best or _sensor_rank(sig) > _sensor_rank(best[sig.kind]):
                 best[sig.kind] = sig
     return sorted(sigs + list(best.values()), key=lambda g: -g.score), True
+
+
+def _sensor_rank(sig: Signature) -> tuple[bool, float]:
+    """A sensor signature's rank among the recorded channels: first whether a sensor can
+    leave it (a first-order lag delays its signal, ``lag_s > 0``; a lead in one channel
+    is what a fit leaves when it bends the model to a lag in another), then its score."""
+    possible = sig.kind != "sensor_lag" or sig.numbers.get("lag_s", 0.0) > 0.0
+    return possible, sig.score
 
 
 def _structural_ambiguity(
@@ -976,6 +985,7 @@ ELEMENT_SIZE: dict[str, tuple[str, ...]] = {
     "progressive_stiffness": ("k_p",),
     "bump_stop": ("k_stop",),
     "rebound_stop": ("k_stop",),
+    "bump_and_rebound_stops": ("k_bump", "k_rebound"),
     "digressive_damping": ("c_low",),
     "asymmetric_digressive_damping": ("c_bump", "c_rebound"),
     "damper_asymmetry": ("dc_rebound",),

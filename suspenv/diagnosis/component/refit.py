@@ -102,6 +102,13 @@ def signature_guess(
         g = {"k3": n.get("extra_at_full_stroke", 0.0) / half_stroke**3}
     elif kind in ("bump_stop", "rebound_stop") and np.isfinite(n.get("threshold_m", np.nan)):
         g = {"gap": abs(n["threshold_m"])}
+    elif kind == "bump_and_rebound_stops" and np.isfinite(n.get("threshold_m", np.nan)):
+        # a side without its own threshold starts at the other side's travel
+        one = abs(n["threshold_m"])
+        g = {
+            "gap_bump": max(n.get("threshold_bump_m", one), 0.0),
+            "gap_rebound": max(-n.get("threshold_rebound_m", -one), 0.0),
+        }
     elif kind == "digressive_damping":
         g = {"v_knee": max(n.get("knee_velocity", 0.1), 1e-3)}
     elif kind == "maxwell_viscoelastic":

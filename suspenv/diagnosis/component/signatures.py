@@ -17,7 +17,8 @@ hysteresis         a loop that settles over a displacement after each reversal, 
                    at any rate: unit Dahl state along x (transition 3-30 % of half-stroke)
 spring             in phase with displacement: k x (parallel or gas spring)
 progressive        odd-symmetric, growing faster than x: x³ (3rd harmonic of a sine)
-end_stop           only beyond a travel threshold, one side: max(x - x_th, 0) or min(...)
+end_stop           only beyond a travel threshold: max(x - x_th, 0) or min(...), or both
+                   sides with their own thresholds when the second ramp is significant
 damper_asymmetry   depends on the sign of velocity, even in v: |v| (bump != rebound slope)
 digressive         odd in v, slope falling with speed: sign(v) min(|v|, v_k)
 viscoelastic       rate-dependent lag: first-order low-pass of the velocity (Maxwell)
@@ -263,19 +264,70 @@ def detect_spring(s: SignalSet, basis: np.ndarray | None) -> Signature:
     )
 
 
+#: a second ramp (the other side's stop) is reported when the share of what the best
+#: one-sided ramp leaves that it explains has a score-test p-value below this
+END_STOP_SECOND_SIDE_P = 1e-3
+END_STOP_QUANTILES = (0.7, 0.8, 0.9, 0.95)
+
+
 def detect_end_stop(s: SignalSet, basis: np.ndarray | None) -> Signature:
+    """Ramps beyond a travel threshold: the best one-sided ramp over the thresholds at the
+    ``END_STOP_QUANTILES`` of ``x``, then the best pair (one threshold per side); the
+    pair is the signature when its second ramp is significant (``END_STOP_SECOND_SIDE_P``).
+    Thresholds [m] in the deflection frame: compression beyond ``threshold_bump_m``,
+    extension below ``threshold_rebound_m``."""
+    highs = [float(np.quantile(s.x, q)) for q in END_STOP_QUANTILES]
+    lows = [float(np.quantile(s.x, 1.0 - q)) for q in END_STOP_QUANTILES]
     cands = []
-    for q in (0.7, 0.8, 0.9, 0.95):
-        hi = float(np.quantile(s.x, q))
-        lo = float(np.quantile(s.x, 1.0 - q))
+    for hi, lo in zip(highs, lows, strict=True):
         cands.append((hi, np.maximum(s.x - hi, 0.0)))
         cands.append((lo, np.minimum(s.x - lo, 0.0)))
     thr, r2, coef, fitted = _best_of(s, basis, cands)
+    pair = (float("nan"), float("nan"), r2, fitted)
+    for hi in highs:
+        for lo in lows:
+            feats = np.column_stack([np.maximum(s.x - hi, 0.0), np.minimum(s.x - lo, 0.0)])
+            r2_pair, _, fitted_pair = explain(s.residual, feats, basis)
+            if r2_pair > pair[2]:
+                pair = (hi, lo, r2_pair, fitted_pair)
+    gain = (pair[2] - r2) / max(1.0 - r2, 1e-12)
+    both = (
+        np.isfinite(thr)
+        and np.isfinite(pair[0])
+        and gain > 0.0
+        and _p_value(gain, s.residual - pair[3]) < END_STOP_SECOND_SIDE_P
+    )
+    e_all = float(np.sum(s.residual**2)) or 1.0
+    if both:
+        hi, lo, r2, fitted = pair
+        beyond = (s.x > hi) | (s.x < lo)
+        share = float(np.sum(s.residual[beyond] ** 2) / e_all)
+        frac = float(np.mean(beyond))
+        return Signature(
+            "end_stop",
+            r2,
+            _p_value(r2, s.residual - fitted, q=2),
+            f"{100 * share:.0f} % of the residual energy lies beyond {1e3 * hi:.3g} mm in "
+            f"compression and beyond {1e3 * lo:.3g} mm in extension, which hold "
+            f"{100 * frac:.0f} % of the samples (a ramp on each side explains "
+            f"{100 * r2:.0f} %)",
+            {
+                "threshold_m": hi if abs(hi) >= abs(lo) else lo,
+                "threshold_bump_m": hi,
+                "threshold_rebound_m": lo,
+                "sides": 2.0,
+                "share_beyond": share,
+                "fraction_beyond": frac,
+                "r2": r2,
+            },
+        )
     side = "compression" if np.isfinite(thr) and thr >= np.median(s.x) else "extension"
     beyond = s.x > thr if side == "compression" else s.x < thr
-    e_all = float(np.sum(s.residual**2)) or 1.0
     share = float(np.sum(s.residual[beyond] ** 2) / e_all) if np.isfinite(thr) else 0.0
     frac = float(np.mean(beyond)) if np.isfinite(thr) else 0.0
+    numbers = {"threshold_m": thr, "sides": 1.0, "share_beyond": share, "fraction_beyond": frac}
+    if np.isfinite(thr):
+        numbers["threshold_bump_m" if side == "compression" else "threshold_rebound_m"] = thr
     return Signature(
         "end_stop",
         r2,
@@ -283,7 +335,7 @@ def detect_end_stop(s: SignalSet, basis: np.ndarray | None) -> Signature:
         f"{100 * share:.0f} % of the residual energy lies beyond {1e3 * thr:.3g} mm on the "
         f"{side} side, which holds {100 * frac:.0f} % of the samples "
         f"(a one-sided ramp explains {100 * r2:.0f} %)",
-        {"threshold_m": thr, "share_beyond": share, "fraction_beyond": frac, "r2": r2},
+        {**numbers, "r2": r2},
     )
 
 

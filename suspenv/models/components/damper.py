@@ -87,6 +87,7 @@ class DamperDynoModel(ComponentModel):
         "force_offset",
         "bump_stop",
         "rebound_stop",
+        "bump_and_rebound_stops",
         "sensor_lag",
     )
     location = "damper"

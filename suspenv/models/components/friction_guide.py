@@ -85,7 +85,7 @@ class FrictionGuideModel(ComponentModel):
     viscous_parameter = "c"
 
     def _check_effect(self, effect):
-        if effect.kind in ("bump_stop", "rebound_stop"):
+        if effect.kind in ("bump_stop", "rebound_stop", "bump_and_rebound_stops"):
             raise ValidationError(f"{self.family}: end stops are not part of a guide model")
 
     def _predict(self, base, effects, rec):

@@ -94,6 +94,7 @@ class QuarterCarRigModel(ComponentModel):
         "stribeck_friction",
         "bump_stop",
         "rebound_stop",
+        "bump_and_rebound_stops",
         "cubic_stiffness",
         "progressive_stiffness",
         "damper_asymmetry",
@@ -191,6 +192,9 @@ class QuarterCarRigModel(ComponentModel):
                 rate = max(rate, level / (float(np.min(p["v_eps"])) * m_u))
             elif e.kind in ("bump_stop", "rebound_stop"):
                 rate = max(rate, np.sqrt(float(np.max(p["k_stop"])) / m_u) * 2.0)
+            elif e.kind == "bump_and_rebound_stops":
+                k_max = max(float(np.max(p["k_bump"])), float(np.max(p["k_rebound"])))
+                rate = max(rate, np.sqrt(k_max / m_u) * 2.0)
             elif e.kind == "dahl_hysteresis":
                 rate = max(
                     rate,

@@ -109,6 +109,11 @@ def _element_law(e: Effect) -> Callable[[float, float], float]:
     if kind == "rebound_stop":
         k, gap, n = p["k_stop"], p["gap"], p["p"]
         return lambda x, v: -k * (-x - gap) ** n if -x > gap else 0.0
+    if kind == "bump_and_rebound_stops":
+        k_b, g_b, k_r, g_r, n = p["k_bump"], p["gap_bump"], p["k_rebound"], p["gap_rebound"], p["p"]
+        return lambda x, v: (
+            k_b * (x - g_b) ** n if x > g_b else (-k_r * (-x - g_r) ** n if -x > g_r else 0.0)
+        )
     if kind == "cubic_stiffness":
         k3, x_0 = p["k3"], p["x_0"]
         return lambda x, v: k3 * (x - x_0) * (x - x_0) * (x - x_0)

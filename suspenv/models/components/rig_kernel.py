@@ -45,6 +45,7 @@ LAW_CODES: dict[str, int] = {
     "asymmetric_digressive_damping": 11,
     "kelvin_voigt": 12,
     "low_speed_deficit": 13,
+    "bump_and_rebound_stops": 14,
 }
 #: stateful element kind -> code (the exact state steps of the Python loop)
 STATE_CODES: dict[str, int] = {"dahl_hysteresis": 0, "maxwell_viscoelastic": 1, "lugre_friction": 2}
@@ -69,6 +70,8 @@ def _law_params(e: Effect) -> list[float]:
         return [0.5 * (p["f_pos"] + p["f_neg"]), 0.5 * (p["f_pos"] - p["f_neg"]), 1.0 / p["v_eps"]]
     if kind in ("bump_stop", "rebound_stop"):
         return [p["k_stop"], p["gap"], p["p"]]
+    if kind == "bump_and_rebound_stops":
+        return [p["k_bump"], p["gap_bump"], p["p"], p["k_rebound"], p["gap_rebound"]]
     if kind == "cubic_stiffness":
         return [p["k3"], p["x_0"]]
     if kind == "progressive_stiffness":
@@ -157,6 +160,10 @@ def _law(code: int, p: np.ndarray, x: float, v: float) -> float:
         return p[2] * v / (1.0 - v / p[3])
     if code == 13:  # low_speed_deficit
         return -p[0] * math.tanh(v * p[1])
+    if code == 14:  # bump_and_rebound_stops
+        if x > p[1]:
+            return p[0] * (x - p[1]) ** p[2]
+        return -p[3] * (-x - p[4]) ** p[2] if -x > p[4] else 0.0
     return p[0] * x + p[1] * v  # 12: kelvin_voigt
 
 

@@ -55,6 +55,7 @@ from suspenv.models.effects.sensor import (
     sensor_offset_gain,
 )
 from suspenv.models.effects.stiffness import (
+    bump_and_rebound_stops,
     bump_stop,
     cubic_stiffness,
     progressive_spring,
@@ -76,6 +77,7 @@ __all__ = [
     "bouc_wen_force_path",
     "bouc_wen_path",
     "bouc_wen_ultimate",
+    "bump_and_rebound_stops",
     "bump_stop",
     "coulomb_directional",
     "coulomb_smooth",

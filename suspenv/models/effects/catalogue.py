@@ -225,6 +225,26 @@ KINDS = (
         fit_fixed=("p",),
     ),
     EffectKind(
+        "bump_and_rebound_stops",
+        "bump and rebound stop contact",
+        "force",
+        (
+            _p("gap_bump", 0.0, 0.3, "m", 0.03, "free travel before bump contact"),
+            _p("k_bump", 0.0, 1e8, "N/m^p", 1e5, "bump stop stiffness"),
+            _p("gap_rebound", 0.0, 0.3, "m", 0.05, "free travel before rebound contact"),
+            _p("k_rebound", 0.0, 1e8, "N/m^p", 1e5, "rebound stop stiffness"),
+            _p("p", 1.0, 3.0, "", 1.0, "stop force exponent (both stops)"),
+        ),
+        "residual only beyond a compression threshold and beyond an extension threshold, "
+        "each side with its own onset and slope",
+        lambda x, v, t, gap_bump, k_bump, gap_rebound, k_rebound, p: (
+            stiffness.bump_and_rebound_stops(
+                x, bp(gap_bump), bp(k_bump), bp(gap_rebound), bp(k_rebound), bp(p)
+            )
+        ),
+        fit_fixed=("p",),
+    ),
+    EffectKind(
         "digressive_damping",
         "digressive damper curve (blow-off)",
         "force",

@@ -52,6 +52,10 @@ STATELESS: dict[str, Callable[..., np.ndarray]] = {
     ),
     "bump_stop": lambda x, v, p: p["k_stop"] * _pos(x - p["gap"]) ** p["p"],
     "rebound_stop": lambda x, v, p: -p["k_stop"] * _pos(-x - p["gap"]) ** p["p"],
+    "bump_and_rebound_stops": lambda x, v, p: (
+        p["k_bump"] * _pos(x - p["gap_bump"]) ** p["p"]
+        - p["k_rebound"] * _pos(-x - p["gap_rebound"]) ** p["p"]
+    ),
     "cubic_stiffness": lambda x, v, p: p["k3"] * (x - p["x_0"]) ** 3,
     "progressive_stiffness": lambda x, v, p: p["k_p"] * np.sign(x) * _pos(np.abs(x) - p["x0"]) ** 2,
     "damper_asymmetry": lambda x, v, p: p["dc_rebound"] * np.minimum(v, 0.0),

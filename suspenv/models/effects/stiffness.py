@@ -16,6 +16,13 @@ positive deflection. All functions are pointwise (numpy broadcasting).
 
   ``gap`` [m] >= 0 is the free travel, ``k_stop`` [N/m^p], ``p >= 1`` (1 linear,
   2 a typical progressive elastomer stop).
+* Bump and rebound stops as one element (a strut's travel limited both ways), each side
+  with its own free travel and stiffness and one exponent::
+
+      F = k_bump max(x - gap_bump, 0)^p - k_rebound max(-x - gap_rebound, 0)^p
+
+  With equal gaps and stiffnesses and ``p = 2`` this is the progressive spring above;
+  with ``p = 1`` it is linear beyond each gap.
 """
 
 from __future__ import annotations
@@ -70,3 +77,20 @@ def rebound_stop(
     _check_stop(gap, k_stop, p)
     x = np.asarray(x, dtype=float)
     return -k_stop * np.maximum(-x - gap, 0.0) ** p
+
+
+def bump_and_rebound_stops(
+    x: np.ndarray | float,
+    gap_bump: np.ndarray | float,
+    k_bump: np.ndarray | float,
+    gap_rebound: np.ndarray | float,
+    k_rebound: np.ndarray | float,
+    p: np.ndarray | float = 1.0,
+) -> np.ndarray:
+    """Bump stop plus rebound stop [N]: positive beyond ``x > gap_bump``, negative beyond
+    ``x < -gap_rebound``, zero between."""
+    for name, value in (("gap_bump", gap_bump), ("gap_rebound", gap_rebound)):
+        require_positive(name, value, strict=False)
+    for name, value in (("k_bump", k_bump), ("k_rebound", k_rebound)):
+        require_positive(name, value, strict=False)
+    return bump_stop(x, gap_bump, k_bump, p) + rebound_stop(x, gap_rebound, k_rebound, p)
