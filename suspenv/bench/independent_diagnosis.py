@@ -61,7 +61,7 @@ LABEL_FAMILY = {
 }
 DOC_BEGIN = "<!-- independent-table:begin -->"
 DOC_END = "<!-- independent-table:end -->"
-REPORT_SEEDS = "5154-5165"
+REPORT_SEEDS = "5166-5177"
 
 
 def score_case(truth: dict[str, Any], diag: Any | None, error: str = "") -> dict[str, Any]:
