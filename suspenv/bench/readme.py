@@ -310,12 +310,19 @@ def independent_row(d: Json) -> str:
     def frac(pair: Sequence[int]) -> str:
         return count(pair[0], pair[1])
 
+    k, n = a.get("parameters_within_20_percent", (0, 0))
+    params = (
+        f" {100 * a['parameter_error_median']:.0f} % median error (target <= 20 %); "
+        f"{frac((k, n))} within 20 % (where the generator's law has an exact counterpart) "
+        if n
+        else " "
+    )
     return (
         f"| components, independent generator (`suspenv.bench.independent`: own integrator, "
         f"literature parameterisations; seeds {d['seeds']} run for reporting only; "
         f"{len(d['cases'])} cases) | {frac(a['single_named_first'])} (target >= 90 %); outside "
         f"the library reported as unexplained: {frac(a['outside_unexplained'])} (target >= "
-        f"90 %) | {frac(a['control_false_alarms'])} (target <= 10 %) | | | "
+        f"90 %) | {frac(a['control_false_alarms'])} (target <= 10 %) | |{params}| "
         f"{seconds(a['wall_s_median'])} s median, {seconds(a['wall_s_max'])} s max wall "
         f"({seconds(a['cpu_s_max'])} s CPU) |"
     )
