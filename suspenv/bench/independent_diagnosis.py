@@ -285,7 +285,7 @@ def _parameters(s: dict[str, Any]) -> str:
     k, n = s.get("parameters_within_20_percent", (0, 0))
     if not n:
         return "-"
-    return f"{_frac((k, n))}, {100 * s['parameter_error_median']:.0f} %"
+    return f"{_frac((k, n))}, {100 * s['parameter_error_median']:.2g} %"
 
 
 def table_markdown(summary: dict[str, Any], seeds: str) -> str:

@@ -312,7 +312,7 @@ def independent_row(d: Json) -> str:
 
     k, n = a.get("parameters_within_20_percent", (0, 0))
     params = (
-        f" {100 * a['parameter_error_median']:.0f} % median error (target <= 20 %); "
+        f" {100 * a['parameter_error_median']:.2g} % median error (target <= 20 %); "
         f"{frac((k, n))} within 20 % (where the generator's law has an exact counterpart) "
         if n
         else " "
