@@ -40,6 +40,7 @@ from suspenv.diagnosis.component.family import (
     check_stiction_decays,
     hysteresis_transition,
 )
+from suspenv.diagnosis.component.refit import SIZE_Z
 from suspenv.diagnosis.component.truth import make_case
 from suspenv.diagnosis.engine import diagnose, make_family
 from suspenv.diagnosis.fitting import FitResult
@@ -55,7 +56,14 @@ def _fit(model, base, stderr=None, stderr_corrected=None):
     names = tuple(model.parameter_names)
     sd = np.full(len(names), 1e-3) if stderr is None else np.asarray(stderr, float)
     sdc = sd if stderr_corrected is None else np.asarray(stderr_corrected, float)
-    fit = SimpleNamespace(model=model, theta=theta, names=names, stderr=sd, stderr_corrected=sdc)
+    fit = SimpleNamespace(
+        model=model,
+        theta=theta,
+        names=names,
+        stderr=sd,
+        stderr_corrected=sdc,
+        covariance=np.diag(sd**2),  # uncorrelated unless a test sets its own
+    )
     fit.params = lambda: FitResult.params(fit)  # the real accessors on these fields
     fit.covariance_corrected = lambda: FitResult.covariance_corrected(fit)
     return fit
@@ -475,6 +483,77 @@ def test_stiction_whose_level_rises_over_the_speed_range_is_refused(
         check_stiction_decays(kind, fit, vmax)
     # a friction kind without a breakaway level is not judged by this rule
     check_stiction_decays("coulomb_friction", fit, vmax)
+
+
+def _ridge_fit(f_c, f_s, v_s, rel_c, sd_s, corr):
+    """A guide's LuGre refit whose sliding level and Stribeck velocity lie on a ridge
+    ``f_c / v_s^2`` = const (relative errors 2:1, correlation ``corr``), as a fit gives
+    when ``v_s`` is far above the recorded speeds."""
+    model = FrictionGuideModel(
+        [make_effect("lugre_friction").with_params({"f_c": f_c, "f_s": f_s, "v_s": v_s})]
+    )
+    fit = _fit(model, {"m": 10.0, "c": 30.0})
+    names = list(fit.names)
+    i, j, k = (names.index(f"lugre_friction.{q}") for q in ("f_c", "f_s", "v_s"))
+    sd = np.full(len(names), 1e-3)
+    sd[i], sd[j], sd[k] = rel_c * f_c, sd_s, 0.5 * rel_c * v_s
+    cov = np.diag(sd**2)
+    cov[i, k] = cov[k, i] = corr * sd[i] * sd[k]
+    fit.stderr, fit.stderr_corrected, fit.covariance = sd, sd, cov
+    return fit
+
+
+def test_a_rise_is_judged_over_the_recorded_speeds_not_by_its_asymptote():
+    from suspenv.diagnosis.component.refit import stribeck_rise_and_error
+
+    # own development case friction_guide-out-7 (cubic damping c3 v^3): LuGre fitted
+    # f_c = 4.6e4 +- 1.7e6 N, v_s = 8.2 m/s far above the peak speed 0.227 m/s, so only
+    # f_c / v_s^2 is resolved; f_c - f_s is unresolved, the rise up to 0.227 m/s is not
+    fit = _ridge_fit(4.587e4, 1.25, 8.2, 37.0, 0.072, 1.0 - 1e-12)
+    rise, sd = stribeck_rise_and_error(fit, "lugre_friction", 0.227)
+    # closed form of the rise: (f_c - f_s)(1 - exp(-(vmax / v_s)^2))
+    assert rise == pytest.approx((4.587e4 - 1.25) * -np.expm1(-((0.227 / 8.2) ** 2)))
+    assert rise > 1.5 * SIZE_Z * sd
+    with pytest.raises(ValidationError, match=r"rises by 35.* up to the peak speed"):
+        check_stiction_decays("lugre_friction", fit, 0.227, rounded=True)
+    # off the ridge (f_c and v_s uncorrelated) the rise is not resolved either: kept
+    loose = _ridge_fit(4.587e4, 1.25, 8.2, 37.0, 0.072, 0.0)
+    check_stiction_decays("lugre_friction", loose, 0.227, rounded=True)
+
+
+def test_the_error_of_a_rise_holds_the_covariance_of_its_three_parameters():
+    from suspenv.diagnosis.component.refit import stribeck_rise_and_error
+
+    # a ridge small enough for first order to hold (relative errors 10 % and 5 %)
+    fit = _ridge_fit(400.0, 20.0, 0.5, 0.1, 2.0, 0.95)
+    rise, sd = stribeck_rise_and_error(fit, "lugre_friction", 0.3)
+    # reference: the spread over draws from the joint normal distribution
+    names = list(fit.names)
+    idx = [names.index(f"lugre_friction.{q}") for q in ("f_c", "f_s", "v_s")]
+    draws = np.random.default_rng(3).multivariate_normal(
+        fit.theta[idx], fit.covariance[np.ix_(idx, idx)], 200_000
+    )
+    sample = (draws[:, 0] - draws[:, 1]) * -np.expm1(-((0.3 / draws[:, 2]) ** 2))
+    assert rise == pytest.approx(np.mean(sample), rel=0.02)
+    assert sd == pytest.approx(np.std(sample), rel=0.05)
+    # with f_c and v_s uncorrelated the same errors give a wider rise
+    assert (
+        stribeck_rise_and_error(_ridge_fit(400.0, 20.0, 0.5, 0.1, 2.0, 0.0), "lugre_friction", 0.3)[
+            1
+        ]
+        > 1.5 * sd
+    )
+
+
+def test_cubic_damping_in_a_guide_is_not_named_friction():
+    # own development case friction_guide-out-7: a cubic damping c3 v^3 (outside the
+    # library) was named LuGre friction then a hysteresis loop, the LuGre level rising
+    # from 1.25 N at reversal by 35 N up to the peak speed
+    case = make_case("friction_guide", 7, 0, outside=True)
+    assert case.truth.effects[0]["kind"] == "cubic_damping"
+    diag = diagnose(case.recording, "friction_guide")
+    assert "friction" not in diag.named_families, diag.verdict
+    assert diag.unexplained, diag.verdict
 
 
 def test_a_rise_is_not_rounding_where_the_law_rounds_its_own_step():

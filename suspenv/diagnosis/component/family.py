@@ -62,6 +62,7 @@ from suspenv.diagnosis.component.refit import (
     ratio_and_error,
     refit_with,
     refitted_element,
+    stribeck_rise_and_error,
 )
 from suspenv.diagnosis.component.residual_left import MOVING_FRACTION, residual_left
 from suspenv.diagnosis.component.rig import (
@@ -1083,8 +1084,10 @@ def check_stiction_decays(
     # NaN for a level held fixed, which is not judged here
     f_c, sd_c = parameter_and_error(ext, kind, "f_c")
     f_s, sd_s = parameter_and_error(ext, kind, "f_s")
-    sd = float(np.hypot(sd_c, sd_s))  # the covariance left out: the wider of the two bounds
-    if not np.isfinite(sd) or f_c - f_s <= SIZE_Z * sd:
+    # the rise over the recorded speeds, not f_c - f_s: with v_s far above the peak
+    # speed only their ratio is resolved, and the difference alone can be any size
+    rise, sd = stribeck_rise_and_error(ext, kind, vmax)
+    if not np.isfinite(sd) or rise <= SIZE_Z * sd:
         return
     raise ValidationError(
         f"{kind}: the fitted breakaway level f_s = {f_s:.3g} +- {sd_s:.2g} N is below the "
@@ -1095,7 +1098,8 @@ def check_stiction_decays(
             if rounded
             else f"> {100 * FRICTION_MAX_FRACTION:.0f} %"
         )
-        + "): a force that grows gradually with speed from the reversal, which is a "
+        + f"; it rises by {rise:.3g} +- {sd:.2g} N up to the peak speed): a force that "
+        "grows gradually with speed from the reversal, which is a "
         "velocity-dependent damping force, not stiction (whose breakaway exceeds its "
         "sliding level)"
     )

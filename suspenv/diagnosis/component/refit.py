@@ -75,6 +75,39 @@ def ratio_and_error(ext: FitResult, kind: str, num: str, den: str) -> tuple[floa
     return a / b, a / b * float(np.sqrt(max(rel, 0.0)))
 
 
+def stribeck_rise_and_error(ext: FitResult, kind: str, vmax: float) -> tuple[float, float]:
+    """How much a Stribeck level rises from reversal to the peak speed ``vmax`` [m/s]:
+    ``(f_c - f_s) (1 - exp(-(vmax / v_s)^2))`` [N] of the element of ``kind`` in ``ext``
+    (positive: a level rising with speed), and its standard error (first order, with the
+    covariance of ``f_c``, ``f_s`` and ``v_s``, inflated like ``stderr_corrected``; a
+    parameter held fixed adds none). This is what the recorded speeds resolve: with
+    ``v_s`` far above ``vmax`` only ``(f_c - f_s) / v_s^2`` is, and ``f_c - f_s`` alone
+    can be any size. NaN, NaN when the element or a level is not fitted."""
+    element = refitted_element(ext, kind)
+    if element is None:
+        return np.nan, np.nan
+    names = list(ext.names)
+    index = {}
+    for q in ("f_c", "f_s", "v_s"):
+        key = f"{element.name}.{q}"
+        if key in names:
+            index[q] = names.index(key)
+    if "f_c" not in index or "f_s" not in index:
+        return np.nan, np.nan
+    f_c, f_s = (float(ext.theta[index[q]]) for q in ("f_c", "f_s"))
+    v_s = float(np.ravel(element.params["v_s"])[0])
+    if not (vmax > 0 and v_s > 0):
+        return np.nan, np.nan
+    u = (vmax / v_s) ** 2
+    reach = -float(np.expm1(-u))  # 1 - exp(-u), exact for small u
+    rise = (f_c - f_s) * reach
+    grad = {"f_c": reach, "f_s": -reach, "v_s": -(f_c - f_s) * np.exp(-u) * 2.0 * u / v_s}
+    keys = list(index)
+    g = np.array([grad[q] for q in keys])
+    cov = ext.covariance_corrected()[np.ix_([index[q] for q in keys], [index[q] for q in keys])]
+    return rise, float(np.sqrt(max(float(g @ cov @ g), 0.0)))
+
+
 def signature_guess(
     kind: str, sig: Signature | None, half_stroke: float, v_max: float
 ) -> dict[str, float]:
