@@ -250,9 +250,9 @@ class _Run:
     """One recording as the check reads it: its index among the split's recordings, the
     recording, the model's prediction {channel: array}, times ``t`` [s], motion ``x`` [m]
     and ``v`` [m/s], each sample's motion cycle and replicate (unique over the split),
-    the samples the tail rule reads (None: the rule is not applied), the cut-off [Hz]
-    of the residual it reads (None: the residual as it is) and the samples past the
-    filter's settling (:func:`settled`; None: all)."""
+    the samples the tail rule reads (None: the rule is not applied), the samples the
+    check reads (past the filter's settling, :func:`settled`) and the cut-off [Hz] of the
+    residual it reads (None: the residual as it is)."""
 
     index: int
     rec: Any
@@ -263,13 +263,8 @@ class _Run:
     cycles: np.ndarray
     replicate: np.ndarray
     read: np.ndarray | None
+    settled: np.ndarray
     lowpass_hz: float | None = None
-    settled: np.ndarray | None = None
-
-    def kept(self) -> np.ndarray:
-        """The samples (bool) the check reads: all but the filter's settling
-        (:func:`settled`)."""
-        return np.ones(self.t.size, bool) if self.settled is None else self.settled
 
     def residual(self, channel: str) -> np.ndarray:
         """Recorded less predicted ``channel``, detrended (step 1)."""
@@ -311,7 +306,7 @@ def _runs(
         keep = settled(t, lowpass_hz)
         read = tail_read(t, x, v, lowpass_hz) & keep if tails else None
         pred = fit.model.simulate(fit.theta, rec)
-        runs.append(_Run(k, rec, pred, t, x, v, cycles, c + offset, read, lowpass_hz, keep))
+        runs.append(_Run(k, rec, pred, t, x, v, cycles, c + offset, read, keep, lowpass_hz))
         offset += int(c.max()) + 1
     return runs
 
@@ -346,7 +341,7 @@ def residual_left(
         v = np.concatenate([run.v for run in have])
         replicate = np.concatenate([run.replicate for run in have])
         unit = str(runs[0].rec.units.get(ch, ""))
-        ok = np.concatenate([run.kept() for run in have])
+        ok = np.concatenate([run.settled for run in have])
         left = _cell_test(words, r[ok], x[ok], v[ok], replicate[ok], ch, unit, alpha)
         if tails:
             keep = np.concatenate([run.read for run in have if run.read is not None])

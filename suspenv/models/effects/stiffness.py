@@ -48,9 +48,14 @@ def progressive_spring(
     return np.asarray(k_p, dtype=float) * np.sign(x) * np.maximum(np.abs(x) - x0, 0.0) ** 2
 
 
-def _check_stop(gap: np.ndarray | float, k_stop: np.ndarray | float, p: np.ndarray | float) -> None:
-    require_positive("gap", gap, strict=False)
-    require_positive("k_stop", k_stop, strict=False)
+def _check_stop(
+    gap: np.ndarray | float,
+    k_stop: np.ndarray | float,
+    p: np.ndarray | float,
+    names: tuple[str, str] = ("gap", "k_stop"),
+) -> None:
+    require_positive(names[0], gap, strict=False)
+    require_positive(names[1], k_stop, strict=False)
     if np.any(np.asarray(p, dtype=float) < 1.0):
         raise ValidationError(f"`p >= 1` must hold, but got p={p!r}")
 
@@ -89,8 +94,10 @@ def bump_and_rebound_stops(
 ) -> np.ndarray:
     """Bump stop plus rebound stop [N]: positive beyond ``x > gap_bump``, negative beyond
     ``x < -gap_rebound``, zero between."""
-    for name, value in (("gap_bump", gap_bump), ("gap_rebound", gap_rebound)):
-        require_positive(name, value, strict=False)
-    for name, value in (("k_bump", k_bump), ("k_rebound", k_rebound)):
-        require_positive(name, value, strict=False)
-    return bump_stop(x, gap_bump, k_bump, p) + rebound_stop(x, gap_rebound, k_rebound, p)
+    _check_stop(gap_bump, k_bump, p, ("gap_bump", "k_bump"))
+    _check_stop(gap_rebound, k_rebound, p, ("gap_rebound", "k_rebound"))
+    x = np.asarray(x, dtype=float)
+    return (
+        k_bump * np.maximum(x - gap_bump, 0.0) ** p
+        - k_rebound * np.maximum(-x - gap_rebound, 0.0) ** p
+    )
