@@ -16,7 +16,7 @@ import pytest
 
 from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.decision import DecisionRule, decide
-from suspenv.diagnosis.evidence import heldout_noise_units
+from suspenv.diagnosis.evidence import heldout_confirmation_z, heldout_noise_units
 from suspenv.diagnosis.hypothesis import Hypothesis
 
 
@@ -51,6 +51,51 @@ def test_gain_distribution_follows_gaussian_algebra(real):
     se_mean = np.sqrt(4 * lam / gains.size)
     assert abs(gains.mean() - expected) < 4 * se_mean
     assert gains.var() == pytest.approx(4 * lam, rel=0.1)
+
+
+def _ar1(rng: np.random.Generator, n: int, rho: float, sigma: float) -> np.ndarray:
+    """AR(1) noise of lag-1 autocorrelation ``rho`` and marginal scale ``sigma``."""
+    e = rng.normal(0.0, sigma * np.sqrt(1.0 - rho**2), n)
+    out = np.empty(n)
+    out[0] = rng.normal(0.0, sigma)
+    for i in range(1, n):
+        out[i] = rho * out[i - 1] + e[i]
+    return out
+
+
+@pytest.mark.parametrize("rho", [0.0, 0.6])
+def test_confirmation_z_is_standard_normal_for_a_change_that_fitted_noise(rho):
+    """A change ``d`` the held-out samples do not hold: ``z = (G + L) / (2 sqrt(L k))``
+    with ``k = (1 + rho) / (1 - rho)``, the AR(1) variance factor of a slowly varying
+    ``d`` against noise of lag-1 autocorrelation ``rho``: mean 0, variance 1 over noise
+    draws (without ``k`` the variance would be ``k`` = 4 at rho = 0.6)."""
+    rng = np.random.default_rng(5)
+    sigma, n = 0.5, 2000
+    d = 0.02 * np.sin(np.linspace(0.0, 9.0, n))
+    zs = np.array(
+        [
+            heldout_confirmation_z({"c": e}, {"c": e - d}, {"c": sigma}, rho)
+            for e in (_ar1(rng, n, rho, sigma) for _ in range(1500))
+        ]
+    )
+    assert abs(zs.mean()) < 4.0 / np.sqrt(zs.size)
+    assert zs.var() == pytest.approx(1.0, rel=0.15)
+
+
+def test_confirmation_z_grows_with_a_real_effect_and_is_zero_without_change():
+    """A real effect: ``G`` about ``L``, so ``z`` about ``sqrt(L)`` (white noise); a
+    change too small for a relative drop of 1 % of the held-out error is still
+    confirmed on many samples; no change of prediction gives 0."""
+    rng = np.random.default_rng(8)
+    sigma, n = 1.0, 20000
+    d = 0.12 * np.sin(np.linspace(0.0, 60.0, n))
+    e = rng.normal(0.0, sigma, n)
+    lam = float(np.sum(d**2) / sigma**2)
+    z = heldout_confirmation_z({"c": e + d}, {"c": e}, {"c": sigma}, 0.0)
+    assert z == pytest.approx(np.sqrt(lam), abs=3.0)
+    relative_drop = 1.0 - np.sqrt(np.mean(e**2)) / np.sqrt(np.mean((e + d) ** 2))
+    assert relative_drop < 0.01 and z > 8.0
+    assert heldout_confirmation_z({"c": e}, {"c": e}, {"c": sigma}, 0.0) == 0.0
 
 
 def _hyp(p: float, reduction: float, z: float) -> Hypothesis:

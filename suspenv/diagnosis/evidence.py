@@ -84,6 +84,33 @@ def heldout_noise_units(
     return gain, signal
 
 
+def heldout_confirmation_z(
+    before: dict[str, np.ndarray],
+    after: dict[str, np.ndarray],
+    noise: dict[str, float],
+    rho: float,
+) -> float:
+    """How many standard deviations a model change's held-out chi-square drop lies above
+    what a change that fitted only noise gives (0 when the change does not move the
+    held-out prediction).
+
+    ``G`` and ``L`` of :func:`heldout_noise_units` taken with each channel's noise scale
+    ``noise`` (channel unit): a change that captures nothing the held-out samples hold
+    gives ``G ~ N(-L, 4 L k)``, ``k = (1 + rho) / (1 - rho)`` for noise of lag-1
+    autocorrelation ``rho >= 0`` (an AR(1) variance factor, the correction every
+    likelihood ratio of the diagnosis takes), so ``z = (G + L) / (2 sqrt(L k))``. Unlike a
+    relative drop of the held-out RMS error, it does not ask more of a change than the
+    noise floor leaves: a model already close to the noise can be improved by little, but
+    that little is confirmed or refuted on many held-out samples.
+    """
+    gain, signal = heldout_noise_units(before, after, noise)
+    if signal <= 0.0:
+        return 0.0
+    r = min(max(float(rho), 0.0), 0.99)
+    factor = (1.0 + r) / (1.0 - r)
+    return float((gain + signal) / (2.0 * np.sqrt(signal * factor)))
+
+
 def scaled_rms(rms: dict[str, float], scales: dict[str, float]) -> float:
     """One number across channels: RMS of the per-channel RMS divided by channel scale."""
     vals = [rms[c] / scales[c] for c in rms if np.isfinite(rms[c])]

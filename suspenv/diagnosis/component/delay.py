@@ -12,14 +12,18 @@ probe, in two places.
    model with a delay of the same channel instead is fitted too. The two fits have one
    parameter each, so their corrected BIC difference is a likelihood ratio of
    non-nested models. A delay decisively better refuses the lag
-   (:func:`check_lag_not_delay`): a difference above ``DELAY_DECISIVE_BIC``, a held-out
-   error lower by the decision rule's ``min_heldout_gain`` (the bar every named element
-   clears), and the encompassing test: the lag and the delay fitted together, the delay
+   (:func:`check_lag_not_delay`): a difference above ``DELAY_DECISIVE_BIC``, the
+   held-out samples confirming it (:func:`heldout_z_of_delay`: the held-out chi-square
+   drop in noise units, at the decision rule's ``alpha``; a relative drop of the
+   held-out error would ask for more than the noise floor leaves when the lag already
+   fits close to it, as a first-order lag does a delay at small ``w T``), and the
+   encompassing test: the lag and the delay fitted together, the delay
    is significant beside the lag and the lag is not beside the delay (the corrected
    likelihood ratio of every refit, at the decision rule's ``alpha``), and where the
-   lag's fitted time constant stays off its bound 0, the delay resolved from zero by
-   ``SIZE_Z`` standard errors and the lag not (at the bound the two elements'
-   derivatives coincide, both the signal's rate, and the errors say nothing). Under a
+   lag carries more than ``LAG_SHARE_AT_BOUND`` of the two's lateness, the delay
+   resolved from zero by ``SIZE_Z`` standard errors and the lag not (below it the lag is
+   on its bound 0, where the two elements' derivatives nearly coincide, both about the
+   signal's rate, and the errors of the split say nothing). Under a
    misfit elsewhere in the model a difference of 1 % in residual power is "significant"
    on thousands of samples; fitted together, the two then share the lateness, neither
    resolved. Once refused for a channel, the lag is not refitted on it again.
@@ -43,23 +47,31 @@ from dataclasses import asdict, dataclass
 from typing import Any
 
 import numpy as np
+from scipy import stats
 
 from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.component.motion import cycle_index, motion
 from suspenv.diagnosis.component.refit import SIZE_Z, parameter_and_error, refit_with
 from suspenv.diagnosis.component.residual_left import MATERIAL_RATIO, removed_over_left
 from suspenv.diagnosis.decision import DecisionRule
-from suspenv.diagnosis.evidence import compare, fit_residual_series, likelihood_ratio
+from suspenv.diagnosis.evidence import (
+    compare,
+    fit_residual_series,
+    heldout_confirmation_z,
+    heldout_residuals,
+    likelihood_ratio,
+)
 from suspenv.diagnosis.fitting import FitResult
 from suspenv.diagnosis.split import Split
 
 #: corrected BIC difference above which one of two fits of equal size is decisively
 #: better ("very strong" evidence on Kass and Raftery's scale)
 DELAY_DECISIVE_BIC = 10.0
-#: fitted beside a delay, a lag's time constant at most this [s] is on its bound 0, where
-#: its derivative and the delay's coincide (both are the signal's rate) and standard
-#: errors say nothing
-LAG_AT_BOUND = 1e-6
+#: fitted beside a delay, a lag that carries at most this share of the two's lateness
+#: (``tau / (tau + T)``) is on its bound 0: there its derivative and the delay's nearly
+#: coincide (both about the signal's rate, ``w T`` small) and the standard errors of
+#: the split say nothing
+LAG_SHARE_AT_BOUND = 0.01
 
 #: whole motion cycles whose frequencies differ by less than this fraction share a row of
 #: the phase table
@@ -212,30 +224,84 @@ def fit_delay(current: FitResult, sp: Split, channel: str, start: float, budget:
     )
 
 
+#: the lag and the delay fitted together start from each one's own fit with the other
+#: element at this fraction of its own fitted size
+TOGETHER_START = 0.1
+
+
+def fit_together(
+    lag: FitResult, delay: FitResult, sp: Split, channel: str, budget: int
+) -> FitResult:
+    """A sensor lag and a pure delay of ``channel`` fitted together (the encompassing
+    model of :func:`delay_against_lag`), from two starts: the lag's fit with a delay
+    added, and the delay's fit with a lag added, the added element at
+    ``TOGETHER_START`` times its own fitted size. The fit of lower residual is kept.
+
+    Their sum is well resolved, their split is not (a long valley of the fit), and a fit
+    of a few evaluations ends near its start: one start alone would favour the element it
+    starts from (a start of both at full size, the lateness counted twice, splits it
+    anywhere along the valley)."""
+    tau = parameter_and_error(lag, "sensor_lag", "tau")[0]
+    late = parameter_and_error(delay, "sensor_delay", "delay")[0]
+    from_lag = fit_delay(lag, sp, channel, TOGETHER_START * late, budget)
+    from_delay = refit_with(
+        delay,
+        "sensor_lag",
+        sp.fit_recordings,
+        sp.fit_masks,
+        location=channel,
+        max_nfev=budget,
+        guess_given={"tau": TOGETHER_START * tau},
+    )
+    return min(from_lag, from_delay, key=lambda f: float(sum(f.ssr.values())))
+
+
 def delay_decisive(
     bic: float,
-    heldout_reduction: float,
+    heldout_z: float,
     p_lag: float,
     p_delay: float,
     together: tuple[float, float, float, float],
     rule: DecisionRule,
 ) -> bool:
     """Whether a pure delay beats a sensor lag decisively (module docstring, 1): the
-    corrected BIC difference ``bic`` above ``DELAY_DECISIVE_BIC``, the held-out drop at
-    least ``rule.min_heldout_gain``, and the encompassing test with the two fitted
+    corrected BIC difference ``bic`` above ``DELAY_DECISIVE_BIC``, the held-out samples
+    confirming it (``heldout_z``, :func:`heldout_z_of_delay`, at least the one-sided
+    normal quantile of ``rule.alpha``), and the encompassing test with the two fitted
     together: the delay significant beside the lag (corrected p-value ``p_delay`` below
     ``rule.alpha``), the lag not beside the delay (``p_lag`` at or above it), and where the
-    lag's time constant stays off its bound 0 (``together``: lag [s], its corrected
-    standard error, delay [s], its error; ``LAG_AT_BOUND``), the delay resolved from zero
-    by ``SIZE_Z`` standard errors and the lag not."""
+    lag carries more than ``LAG_SHARE_AT_BOUND`` of the two's lateness (``together``: lag
+    [s], its corrected standard error, delay [s], its error), the delay resolved from
+    zero by ``SIZE_Z`` standard errors and the lag not."""
     tau, tau_sd, late, late_sd = together
-    if tau > LAG_AT_BOUND and not (late > SIZE_Z * late_sd and tau <= SIZE_Z * tau_sd):
+    off_bound = tau > LAG_SHARE_AT_BOUND * (tau + late)
+    if off_bound and not (late > SIZE_Z * late_sd and tau <= SIZE_Z * tau_sd):
         return False
     return bool(
         bic > DELAY_DECISIVE_BIC
-        and heldout_reduction >= rule.min_heldout_gain
+        and heldout_z >= float(stats.norm.isf(rule.alpha))
         and p_delay < rule.alpha
         and not p_lag < rule.alpha
+    )
+
+
+def heldout_z_of_delay(lag: FitResult, delay: FitResult, sp: Split) -> float:
+    """The held-out confirmation of the delay's fit over the lag's
+    (:func:`~suspenv.diagnosis.evidence.heldout_confirmation_z`, positive: the delay
+    predicts the held-out samples better than a change fitted to noise would), each
+    channel's noise scale the better fit's residual RMS on the fit samples, and its lag-1
+    autocorrelation."""
+    noise = {
+        c: float(np.sqrt(min(lag.ssr[c] / lag.n[c], delay.ssr[c] / delay.n[c])))
+        for c in lag.channels
+    }
+    better = delay if sum(delay.ssr.values()) < sum(lag.ssr.values()) else lag
+    rho = float(better.extra.get("lag1_autocorrelation", 0.0))
+    return heldout_confirmation_z(
+        heldout_residuals(lag, sp.heldout_recordings, sp.heldout_masks),
+        heldout_residuals(delay, sp.heldout_recordings, sp.heldout_masks),
+        noise,
+        rho,
     )
 
 
@@ -259,10 +325,11 @@ def delay_against_lag(
     c = compare(
         lag, delay, sp.fit_recordings, sp.fit_masks, sp.heldout_recordings, sp.heldout_masks
     )
+    z = heldout_z_of_delay(lag, delay, sp)
     # both fitted together (the encompassing model): the lag's time constant must vanish
     # within its error beside a resolved delay
     delay_s = parameter_and_error(delay, "sensor_delay", "delay")[0]
-    both = fit_delay(lag, sp, channel, delay_s, budget)
+    both = fit_together(lag, delay, sp, channel, budget)
     residual = fit_residual_series(both, sp.fit_recordings, sp.fit_masks)
     p_lag = likelihood_ratio(delay, both, residual).p_value_corrected  # the lag beside a delay
     p_delay = likelihood_ratio(lag, both, residual).p_value_corrected  # the delay beside a lag
@@ -270,11 +337,12 @@ def delay_against_lag(
         *parameter_and_error(both, "sensor_lag", "tau"),
         *parameter_and_error(both, "sensor_delay", "delay"),
     )
-    decisive = delay_decisive(bic, c.heldout_reduction, p_lag, p_delay, together, rule)
+    decisive = delay_decisive(bic, z, p_lag, p_delay, together, rule)
     lag_s = parameter_and_error(lag, "sensor_lag", "tau")[0]
     return {
         "bic_difference": bic,
         "heldout_reduction": c.heldout_reduction,
+        "heldout_z": z,
         "p_lag_beside_delay": p_lag,
         "p_delay_beside_lag": p_delay,
         "together_lag_s": together[0],
@@ -303,7 +371,8 @@ def check_lag_not_delay(test: dict[str, Any]) -> None:
         f"sensor_lag: a pure time delay of {1e3 * test['delay_s']:.3g} ms (not in the "
         f"library) fits the channel better than a first-order lag of "
         f"{1e3 * test['lag_s']:.3g} ms (corrected BIC lower by {test['bic_difference']:.3g}, "
-        f"held-out error {-100 * test['heldout_reduction']:+.1f} %; the lag leaves "
+        f"held-out error {-100 * test['heldout_reduction']:+.2g} %, confirmed at z = "
+        f"{test['heldout_z']:.2g} in noise units; the lag leaves "
         f"{test['ssr_lag'] / test['ssr_delay']:.3g} x the delay's residual power)"
     )
 
