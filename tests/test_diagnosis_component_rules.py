@@ -154,6 +154,55 @@ def test_the_branch_is_kept_only_where_its_base_damping_is_resolved_from_zero():
     check_parallel_branch("sensor_lag", _fit(model, {"c": 0.0}))
 
 
+def test_an_unresolved_base_share_is_told_from_a_resolved_small_one():
+    # the ways a branch is refused: its base share unresolved (the data fit a lag of the
+    # whole force and a branch beside part of the damping alike: an ambiguity to state),
+    # or bounded or resolved under 5 % (a lag of the whole force: nothing to separate)
+    from suspenv.diagnosis.component.family import branch_share_unresolved
+
+    model = DamperDynoModel(
+        [make_effect("maxwell_viscoelastic").with_params({"k_m": 1.5e5, "c_m": 1800.0})]
+    )
+    n = len(model.parameter_names)
+
+    def unresolved(c: float, sd: float, alpha: float = 0.01) -> bool:
+        fit = _fit(model, {"c": c}, np.full(n, sd))
+        return branch_share_unresolved("maxwell_viscoelastic", fit, alpha)
+
+    # not resolved from zero, and a base of 5 % of the damping (90-100 N s/m) not
+    # excluded: 60 +- 30 reaches 137 at 2.58 errors, 400 +- 300 and 120 +- 55 more
+    assert unresolved(60.0, 30.0) and unresolved(400.0, 300.0)
+    assert unresolved(120.0, 55.0) and not unresolved(120.0, 55.0, 0.05)  # 2.18 sd
+    # 3 +- 5 N s/m is at most 16 at 2.58 errors, under 5 % of 1803: a whole-force lag
+    assert not unresolved(3.0, 5.0)
+    assert not unresolved(60.0, 1.0)  # resolved, 3 % of the damping: a whole-force lag
+    assert not unresolved(1400.0, 50.0)
+    assert not branch_share_unresolved("sensor_lag", _fit(model, {"c": 0.0}))
+
+
+@pytest.mark.parametrize(
+    ("flag", "location", "said"),
+    [
+        (True, "force", True),
+        (True, "", True),
+        (False, "force", False),
+        (True, "displacement", False),
+    ],
+)
+def test_a_force_lag_beside_an_unresolved_branch_is_stated_inseparable(flag, location, said):
+    from suspenv.diagnosis.hypothesis import Hypothesis
+
+    fam = make_family("damper")
+    setup = fam.prepare(DamperDynoModel().example_recording(seed=1), None, None)
+    fam.branch_unresolved = flag
+    winner = Hypothesis.failed("sensor_lag", location, "sensor lag", 1, "")
+    found = fam.ambiguities(winner, [winner], SimpleNamespace(), setup)
+    assert [(a.a, a.b) for a in found] == ([("sensor_lag", "maxwell_viscoelastic")] if said else [])
+    if said:
+        assert "cannot separate sensor lag from viscoelastic lag (Maxwell" in found[0].sentence()
+        assert "a second, independent sensor on the same channel" in found[0].sentence()
+
+
 def _lagged_damper_case(kind: str) -> Recording:
     """A damper (viscous + gas force) with a sensor lag of the whole force, or with a
     Maxwell branch beside its damping; 0.5 % white noise."""

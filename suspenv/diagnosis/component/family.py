@@ -372,6 +372,10 @@ class ComponentFamily(OptionalSteps):
     #: recorded channel -> the test where a pure time delay beat a refitted sensor lag
     #: decisively in the last diagnosis (:mod:`~suspenv.diagnosis.component.delay`)
     delay_tests: dict[str, dict[str, Any]] = field(default_factory=dict, init=False)
+    #: a Maxwell refit of the current round was refused with its base share of the
+    #: damping unresolved (:func:`branch_share_unresolved`): a sensor lag of the force
+    #: named in that round cannot be told from such a branch
+    branch_unresolved: bool = field(default=False, init=False)
 
     def __post_init__(self) -> None:
         # an unknown model family or effect kind is an error before any work starts
@@ -526,6 +530,7 @@ class ComponentFamily(OptionalSteps):
     def screen(
         self, current: FitResult, setup: Setup, open_candidates: Sequence[str], round_: int
     ) -> Screening:
+        self.branch_unresolved = False
         channel = current.main_channel()
         sigs, viewed = _score_round(current, setup.split, channel, open_candidates)
         open_fams = {family_of(k) for k in open_candidates}
@@ -577,6 +582,8 @@ class ComponentFamily(OptionalSteps):
             check_loop_or_step(candidate, ext, half)
         if presliding:
             check_presliding_is_friction(candidate, ext, half)
+        if branch_share_unresolved(candidate, ext, self.rule.alpha):
+            self.branch_unresolved = True
         check_parallel_branch(candidate, ext, self.rule.alpha)
         check_resolved_size(candidate, ext)
         rounded = rounds_own_step(setup.model, candidate.partition("@")[0])
@@ -611,7 +618,30 @@ class ComponentFamily(OptionalSteps):
         parent: FitResult,
         setup: Setup,
     ) -> list[Ambiguity]:
-        return _structural_ambiguity(winner, parent, setup.split, self.budget)
+        """The structural ambiguity of the winner (:func:`_structural_ambiguity`); and,
+        on a device whose one recorded output is its force, a sensor lag of the force
+        named where the round's Maxwell refit left the base's share of the damping
+        unresolved (:attr:`branch_unresolved`): the two are inseparable on these
+        recordings, and the verdict says so with the test that would separate them."""
+        found = _structural_ambiguity(winner, parent, setup.split, self.budget)
+        # a lag of the recorded force only: the force is the branch's whole effect there
+        # (a quarter car's branch also moves its deflection, which a lag of the
+        # accelerometer does not)
+        force = setup.model.output_channels == ("force",)
+        if (
+            winner.kind == "sensor_lag"
+            and force
+            and winner.location in ("", "force")
+            and self.branch_unresolved
+        ):
+            branch = "maxwell_viscoelastic"
+            test, reason = separating_test(family_of(winner.kind), family_of(branch))
+            found.append(
+                Ambiguity(
+                    winner.kind, branch, winner.words, self.words(branch, setup), test, reason
+                )
+            )
+        return found
 
     def conclude(self, outcome: Outcome, setup: Setup) -> Conclusion:
         """The asymmetry check where a digressive curve was named, then the residual
@@ -949,27 +979,55 @@ def check_parallel_branch(candidate: str, ext: FitResult, alpha: float = 0.01) -
     hypothesis is recorded as failed with this reason). A model without a viscous base
     parameter (``viscous_parameter``) is not checked.
     """
-    kind = candidate.partition("@")[0]
-    name = getattr(ext.model, "viscous_parameter", "")
-    fitted = ext.params()
-    if kind != "maxwell_viscoelastic" or name not in fitted:
+    found = _branch_base(candidate, ext)
+    if found is None:
         return
-    c, sd = fitted[name]["value"], fitted[name]["stderr"]
-    element = refitted_element(ext, kind)
-    if element is None or not np.isfinite(sd):
-        return
+    name, c, sd, c_m = found
     z = float(stats.norm.isf(0.5 * alpha))
-    c_m = float(np.ravel(element.params["c_m"])[0])
     if c >= z * sd and c >= WHOLE_FORCE_BASE_SHARE * (c + c_m):
         return
     raise ValidationError(
-        f"{kind}: the fitted branch carries the whole viscous force (base {name} = "
-        f"{c:.3g} +- {sd:.2g} N s/m beside the branch's c_m = {c_m:.4g} N s/m: not "
-        f"{z:.3g} standard errors from zero, or under "
+        f"{candidate.partition('@')[0]}: the fitted branch carries the whole viscous force "
+        f"(base {name} = {c:.3g} +- {sd:.2g} N s/m beside the branch's c_m = {c_m:.4g} N s/m: "
+        f"not {z:.3g} standard errors from zero, or under "
         f"{100 * WHOLE_FORCE_BASE_SHARE:.0f} % of the two): a lag of the whole force, which "
         "a lagging force sensor (or a compliant mount in series with the whole part) gives "
         "with one parameter, not a viscoelastic branch beside the damping"
     )
+
+
+def branch_share_unresolved(candidate: str, ext: FitResult, alpha: float = 0.01) -> bool:
+    """Whether a Maxwell refit leaves open a branch beside the damping: its base
+    coefficient ``c`` not resolved from zero (within the two-sided ``alpha`` quantile
+    ``z`` of the normal, in standard errors: :func:`check_parallel_branch`) while the
+    data do not exclude a base share of ``WHOLE_FORCE_BASE_SHARE`` either
+    (``c + z sd`` at least that share of ``c + c_m``). The data then fit a lag of the
+    whole force and a branch beside part of the damping alike (at ``w tau`` small the two
+    differ only at second order: Limits in ``docs/diagnosis.md``). A base bounded below
+    the share (``c = 4 +- 7`` beside ``c_m = 1100``) is a lag of the whole force, and a
+    share resolved and small is too: nothing to separate."""
+    found = _branch_base(candidate, ext)
+    if found is None:
+        return False
+    _, c, sd, c_m = found
+    z = float(stats.norm.isf(0.5 * alpha))
+    return bool(c < z * sd and c + z * sd >= WHOLE_FORCE_BASE_SHARE * (c + c_m))
+
+
+def _branch_base(candidate: str, ext: FitResult) -> tuple[str, float, float, float] | None:
+    """(name of the base viscous parameter, its value [N s/m], its standard error, the
+    branch's ``c_m`` [N s/m]) of a Maxwell refit; None for another candidate, a model
+    without a viscous base parameter (``viscous_parameter``) or an error not computed."""
+    kind = candidate.partition("@")[0]
+    name = getattr(ext.model, "viscous_parameter", "")
+    fitted = ext.params()
+    if kind != "maxwell_viscoelastic" or name not in fitted:
+        return None
+    c, sd = fitted[name]["value"], fitted[name]["stderr"]
+    element = refitted_element(ext, kind)
+    if element is None or not np.isfinite(sd):
+        return None
+    return name, float(c), float(sd), float(np.ravel(element.params["c_m"])[0])
 
 
 #: the parameters that give each element kind its size, all with zero for "no element"
