@@ -111,6 +111,17 @@ def heldout_confirmation_z(
     return float((gain + signal) / (2.0 * np.sqrt(signal * factor)))
 
 
+def relative_drop(
+    before: dict[str, np.ndarray], after: dict[str, np.ndarray], scales: dict[str, float]
+) -> float:
+    """Relative drop of the RMS error from residuals ``before`` to ``after`` (per channel,
+    channel unit), channels combined by :func:`scaled_rms` with ``scales``; 0 when there
+    was no error."""
+    rms_before = scaled_rms(_channel_rms(before), scales)
+    rms_after = scaled_rms(_channel_rms(after), scales)
+    return float(1.0 - rms_after / rms_before) if rms_before > 0 else 0.0
+
+
 def scaled_rms(rms: dict[str, float], scales: dict[str, float]) -> float:
     """One number across channels: RMS of the per-channel RMS divided by channel scale."""
     vals = [rms[c] / scales[c] for c in rms if np.isfinite(rms[c])]
@@ -248,16 +259,13 @@ def compare(
     r_ext = fit_residual_series(ext, fit_recordings, fit_masks)
     res_before = heldout_residuals(base, heldout_recordings, heldout_masks)
     res_after = heldout_residuals(ext, heldout_recordings, heldout_masks)
-    h_before, h_after = _channel_rms(res_before), _channel_rms(res_after)
     gain, signal = heldout_noise_units(res_before, res_after, base.scales)
-    before = scaled_rms(h_before, base.scales)
-    after = scaled_rms(h_after, base.scales)
     return Comparison(
-        heldout_rms_before=h_before,
-        heldout_rms_after=h_after,
+        heldout_rms_before=_channel_rms(res_before),
+        heldout_rms_after=_channel_rms(res_after),
         fit_rms_before=base.rms(),
         fit_rms_after=ext.rms(),
-        heldout_reduction=float(1.0 - after / before) if before > 0 else 0.0,
+        heldout_reduction=relative_drop(res_before, res_after, base.scales),
         aic_before=base.aic(),
         aic_after=ext.aic(),
         bic_before=base.bic(),

@@ -60,6 +60,7 @@ from suspenv.diagnosis.evidence import (
     heldout_confirmation_z,
     heldout_residuals,
     likelihood_ratio,
+    relative_drop,
 )
 from suspenv.diagnosis.fitting import FitResult
 from suspenv.diagnosis.split import Split
@@ -285,24 +286,24 @@ def delay_decisive(
     )
 
 
-def heldout_z_of_delay(lag: FitResult, delay: FitResult, sp: Split) -> float:
+def heldout_z_of_delay(
+    lag: FitResult,
+    delay: FitResult,
+    lag_heldout: dict[str, np.ndarray],
+    delay_heldout: dict[str, np.ndarray],
+) -> float:
     """The held-out confirmation of the delay's fit over the lag's
     (:func:`~suspenv.diagnosis.evidence.heldout_confirmation_z`, positive: the delay
-    predicts the held-out samples better than a change fitted to noise would), each
-    channel's noise scale the better fit's residual RMS on the fit samples, and its lag-1
-    autocorrelation."""
+    predicts the held-out samples better than a change fitted to noise would) from the
+    two fits' held-out residuals, each channel's noise scale the better fit's residual RMS
+    on the fit samples, and its lag-1 autocorrelation."""
     noise = {
         c: float(np.sqrt(min(lag.ssr[c] / lag.n[c], delay.ssr[c] / delay.n[c])))
         for c in lag.channels
     }
     better = delay if sum(delay.ssr.values()) < sum(lag.ssr.values()) else lag
     rho = float(better.extra.get("lag1_autocorrelation", 0.0))
-    return heldout_confirmation_z(
-        heldout_residuals(lag, sp.heldout_recordings, sp.heldout_masks),
-        heldout_residuals(delay, sp.heldout_recordings, sp.heldout_masks),
-        noise,
-        rho,
-    )
+    return heldout_confirmation_z(lag_heldout, delay_heldout, noise, rho)
 
 
 def delay_against_lag(
@@ -322,10 +323,11 @@ def delay_against_lag(
     the evidence of phase versus frequency, which the delay's finding states; computed
     where the delay is decisive, else empty)."""
     bic = bic_difference(lag, delay)
-    c = compare(
-        lag, delay, sp.fit_recordings, sp.fit_masks, sp.heldout_recordings, sp.heldout_masks
-    )
-    z = heldout_z_of_delay(lag, delay, sp)
+    # each fit's held-out residuals once: the relative drop and the confirmation
+    lag_heldout = heldout_residuals(lag, sp.heldout_recordings, sp.heldout_masks)
+    delay_heldout = heldout_residuals(delay, sp.heldout_recordings, sp.heldout_masks)
+    reduction = relative_drop(lag_heldout, delay_heldout, lag.scales)
+    z = heldout_z_of_delay(lag, delay, lag_heldout, delay_heldout)
     # both fitted together (the encompassing model): the lag's time constant must vanish
     # within its error beside a resolved delay
     delay_s = parameter_and_error(delay, "sensor_delay", "delay")[0]
@@ -341,7 +343,7 @@ def delay_against_lag(
     lag_s = parameter_and_error(lag, "sensor_lag", "tau")[0]
     return {
         "bic_difference": bic,
-        "heldout_reduction": c.heldout_reduction,
+        "heldout_reduction": reduction,
         "heldout_z": z,
         "p_lag_beside_delay": p_lag,
         "p_delay_beside_lag": p_delay,
