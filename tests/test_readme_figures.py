@@ -20,6 +20,7 @@ ALLOWED_IMPORTS = {
     "math",
     "pathlib",
     "sys",
+    "textwrap",
     "typing",
 }
 
@@ -32,6 +33,80 @@ def test_readme_blocks_are_the_rendering_of_the_committed_json() -> None:
         "`python -m suspenv.bench.readme` (edit suspenv/bench/readme.py for wording):\n"
         + "\n".join(stale.values())
     )
+
+
+def test_document_blocks_are_the_rendering_of_the_committed_json() -> None:
+    for doc, blocks in readme.render_documents(readme.load()).items():
+        text = (readme.ROOT / doc).read_text()
+        stale = readme.stale_blocks(text, blocks, doc)
+        assert not stale, f"{doc} is stale; run `python -m suspenv.bench.readme`"
+
+
+def _study_json() -> dict:
+    summary = {
+        "config": "configs/minibus_nsga2.toml",
+        "workers": 2,
+        "command_wall_s": 12.04,
+        "command_wall_s_slowest": 13.6,
+        "loop_wall_s": 7.19,
+        "rest_wall_s": 4.85,
+        "one_worker_command_wall_s": 15.2,
+        "one_worker_loop_wall_s": 11.07,
+        "bare_loop_wall_s": 10.77,
+        "two_workers_loop_wall_vs_one": 0.6496,
+        "cores_free_2proc": 1.976,
+        "target_s": 60.0,
+        "meets_target": True,
+        "same_numbers_1_and_2_workers": True,
+        "bare_loop_same_designs": True,
+        "study": {
+            "evaluations": 30000,
+            "ok": 30000,
+            "feasible": 29033,
+            "pareto_front": 7099,
+            "baseline_objectives": [1.236, 1.884, -17.80, 143.34, 7.294],
+            "ride_focused_pick_objectives": [1.093, 1.682, -17.81, 142.05, 7.013],
+            "ride_focused_pick_x": {"K1": 60.257, "T1": 85004.9, "C1": 0.80468},
+        },
+    }
+    return {"summary": summary, "rows": [{"way": "command, 2 workers", "repeats": 3}]}
+
+
+def test_minibus_study_row_and_paragraph_format_a_hand_made_json() -> None:
+    d = _study_json()
+    assert readme.minibus_study_cells(d["summary"]) == (
+        "12 s for the whole command (7.2 s loop, 4.8 s start-up and report); 1 worker 15 s; "
+        "pymoo's bare loop, one process, 11 s",
+        "<= 60 s (met)",
+    )
+    text = " ".join(readme.minibus_study_paragraph(d).split())
+    assert "runs 30,000 evaluations in **7.2 s of loop wall time**, 12 s for the whole" in text
+    assert "the median of 3 runs, the slowest 14 s), inside the 60 s goal" in text
+    # 11.07 / 10.77 = 1.028; 1 - 0.6496 = 35 %
+    assert "takes 1.03x the bare loop's time in one process, and the pool of 2 takes 35 %" in text
+    assert "29,033 were feasible, 7,099 on the Pareto front" in text
+    assert "lowered f1 from 1.236 to 1.093 m/s² and f2 from 1.884 to 1.682 m/s²" in text
+    assert "(f3 -17.81 against -17.80 m/s², f4 142.1 against 143.3 deg" in text
+    assert text.endswith("K1 60.3, T1 8.5e4, C1 0.805).")
+    assert max(len(line) for line in readme.minibus_study_paragraph(d).splitlines()) <= 88
+
+
+@pytest.mark.parametrize(
+    ("key", "value", "match"),
+    [
+        ("ride_focused_pick_objectives", [1.0, 1.5, -17.0, 142.0, 7.0], "f3, f4 and f5"),
+        ("same_numbers_1_and_2_workers", False, "workers"),
+        ("bare_loop_same_designs", False, "bare loop"),
+    ],
+)
+def test_minibus_study_words_the_json_contradicts_stop_the_rendering(key, value, match) -> None:
+    d = _study_json()
+    if key in d["summary"]["study"]:
+        d["summary"]["study"][key] = value
+    else:
+        d["summary"][key] = value
+    with pytest.raises(readme.FigureError, match=match):
+        readme.minibus_study_paragraph(d)
 
 
 def test_knc_speed_cells_format_a_hand_made_summary() -> None:

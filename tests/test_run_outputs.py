@@ -60,8 +60,9 @@ plots = {plots}
 """
 
 
-def write(tmp_path, name="exp", strategy="random", options="{}", budget=100, plots=False,
-          progress=False) -> Path:
+def write(
+    tmp_path, name="exp", strategy="random", options="{}", budget=100, plots=False, progress=False
+) -> Path:
     path = tmp_path / f"{name}.toml"
     path.write_text(
         CONFIG.format(
@@ -88,9 +89,7 @@ def build(name: str, problem, **options):
 
 # ------------------------------------------------------------- resolved configs
 @pytest.mark.parametrize("strategy", ["cmaes", "nsga2", "pymoo_nsga2", "random", "lhs"])
-def test_resolved_config_holds_every_default_and_reruns_as_the_same_experiment(
-    tmp_path, strategy
-):
+def test_resolved_config_holds_every_default_and_reruns_as_the_same_experiment(tmp_path, strategy):
     run_dir, first = run_experiment(load_config(write(tmp_path, strategy=strategy)))
     resolved = tomllib.loads((run_dir / "config.resolved.toml").read_text())
     problem = make_problem("ZDT1")
@@ -185,8 +184,9 @@ def test_default_figures_above_eight_objectives_stay_small(tmp_path):
     rng = np.random.default_rng(1)
     F = rng.lognormal(size=(200, 12))
     notes: list[str] = []
-    figures.write_run_figures(F, np.ones(200, bool), [f"g{j}" for j in range(12)], tmp_path,
-                              notes=notes)
+    figures.write_run_figures(
+        F, np.ones(200, bool), [f"g{j}" for j in range(12)], tmp_path, notes=notes
+    )
     sizes = {p.name: png_size(p) for p in tmp_path.glob("*.png")}
     assert sizes["pareto_pairs.png"] == (2080, 2080)  # 8 x 8, not 12 x 12 (3120 px)
     assert all(max(s) <= figures.MAX_PIXELS for s in sizes.values()), sizes
@@ -343,3 +343,25 @@ def test_a_partial_run_resumes_through_the_loop_with_a_storage(tmp_path):
         U = archive.arrays()["unit"]
     stored = np.array([[t.params[f"u{i}"] for i in range(6)] for t in trials])
     np.testing.assert_array_equal(stored, U)
+
+
+def test_polylines_draw_every_row_through_its_values_as_one_artist():
+    # reference: the definition of a parallel-coordinate line (row k passes through
+    # (j, values[k, j])), read back from the drawn collection
+    from suspenv.reports._mpl import add_polylines, pyplot
+
+    plt = pyplot()
+    values = np.array([[0.0, 1.0, 0.5], [2.0, -1.0, 0.25]])
+    fig, ax = plt.subplots()
+    try:
+        lines = add_polylines(ax, values, colors="k", lw=0.5)
+        assert len(ax.collections) == 1 and not ax.lines
+        drawn = [np.asarray(p) for p in lines.get_segments()]
+        assert len(drawn) == 2
+        for row, seg in zip(values, drawn, strict=True):
+            assert np.array_equal(seg[:, 0], [0.0, 1.0, 2.0])
+            assert np.array_equal(seg[:, 1], row)
+        lo, hi = ax.get_ylim()
+        assert lo <= -1.0 and hi >= 2.0  # the axes take the lines in
+    finally:
+        plt.close(fig)

@@ -1,28 +1,28 @@
 """The README's benchmark figures, rendered from the JSON the benchmark scripts write.
 
-Two blocks of README.md are generated, each between marker comments:
+Three blocks are generated, each between marker comments:
 
-- ``performance``: the table of the "Performance" section (``overhead.json``,
-  ``knc_speed.json``, ``tey2014_pipeline.json``, ``minibus_speed.json``,
-  ``planar_speed.json``);
-- ``diagnosis``: the blind-benchmark table, the "Real recordings" paragraph and the
-  real-recordings table under "A diagnosis, on real recordings"
+- ``performance`` (README.md): the table of the "Performance" section (``overhead.json``,
+  ``knc_speed.json``, ``identify_reference.json``, ``tey2014_pipeline.json``,
+  ``minibus_speed.json``, ``minibus_study.json``, ``planar_speed.json``);
+- ``diagnosis`` (README.md): the blind-benchmark table, the "Real recordings" paragraph
+  and the real-recordings table under "A diagnosis, on real recordings"
   (``diagnosis_benchmark.json``, ``independent_diagnosis.json``, ``real_recordings.json``,
-  ``knc_diagnosis.json``, ``ride_diagnosis.json``).
+  ``knc_diagnosis.json``, ``ride_diagnosis.json``);
+- ``minibus-study`` (docs/minibus_handling.md): "The study's run, measured"
+  (``minibus_study.json``).
 
 Only the numbers come from the JSON; the wording, columns and targets are this module's
-templates. Figures no JSON holds stay static text here: the Tey et al. pipeline's fastest
-run, 91 s (docs/tey2014.md; the JSON holds the last run); the minibus study's loop and
-command wall times, against 60 s (docs/minibus_handling.md); the K&C stretch target, 2 ms
-(``STRETCH_MS`` in knc_speed.py); the component targets (docs/diagnosis.md); the concealed
-road waviness, w = 2.5; the dyno's drift inside each speed, 0.2-1.3 N/s
+templates. Figures no JSON holds stay static text here: the K&C stretch target, 2 ms
+(``STRETCH_MS`` in knc_speed.py); the component targets (docs/diagnosis.md); the
+concealed road waviness, w = 2.5; the dyno's drift inside each speed, 0.2-1.3 N/s
 (docs/diagnosis.md). Where the wording states a verdict (a target met, an effect named)
 the rendering checks the JSON still says so and stops with :class:`FigureError` otherwise,
 so the words cannot go stale either.
 
 Run: ``python -m suspenv.bench.readme`` rewrites the blocks in place and prints what
-changed; ``python -m suspenv.bench.readme --check`` exits 1 when README.md differs from
-the rendering. Standard library only: no model, no numpy, no matplotlib.
+changed; ``python -m suspenv.bench.readme --check`` exits 1 when a file differs from the
+rendering. Standard library only: no model, no numpy, no matplotlib.
 """
 
 from __future__ import annotations
@@ -32,6 +32,7 @@ import difflib
 import json
 import math
 import sys
+import textwrap
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -49,6 +50,7 @@ SOURCES: dict[str, tuple[str, ...]] = {
         "identify_reference",
         "tey2014_pipeline",
         "minibus_speed",
+        "minibus_study",
         "planar_speed",
     ),
     "diagnosis": (
@@ -60,10 +62,8 @@ SOURCES: dict[str, tuple[str, ...]] = {
     ),
 }
 
-#: the minibus study's run [s]: loop wall time and the whole command, report included
-#: (docs/minibus_handling.md, "The study's run, measured")
-MINIBUS_STUDY_LOOP_S = 46.0
-MINIBUS_STUDY_TOTAL_S = 72.0
+#: documents other than README.md with generated blocks (path relative to the repository)
+DOCUMENT_BLOCKS: dict[str, tuple[str, ...]] = {"docs/minibus_handling.md": ("minibus-study",)}
 
 Json = Mapping[str, Any]
 
@@ -199,6 +199,69 @@ def minibus_speed_cells(s: Json) -> tuple[str, str]:
     return result, target
 
 
+def minibus_study_cells(s: Json) -> tuple[str, str]:
+    """(result, target) of the minibus study's row from ``minibus_study.json``."""
+    result = (
+        f"{seconds(s['command_wall_s'])} s for the whole command ("
+        f"{seconds(s['loop_wall_s'])} s loop, {seconds(s['rest_wall_s'])} s start-up and "
+        f"report); 1 worker {seconds(s['one_worker_command_wall_s'])} s; pymoo's bare loop, "
+        f"one process, {seconds(s['bare_loop_wall_s'])} s"
+    )
+    met = "met" if s["meets_target"] else "not met"
+    return result, f"<= {s['target_s']:g} s ({met})"
+
+
+def short(x: float) -> str:
+    """``85004.9 -> "8.5e4"``, ``1522.4 -> "1520"``, ``0.8047 -> "0.805"``: a design
+    variable in a sentence."""
+    if abs(x) >= 1e4:
+        mantissa, exponent = f"{x:.1e}".split("e")
+        return f"{mantissa}e{int(exponent)}"
+    return significant(x, 3)
+
+
+def minibus_study_paragraph(d: Json) -> str:
+    """docs/minibus_handling.md's "The study's run, measured" from ``minibus_study.json``."""
+    s = d["summary"]
+    st = s["study"]
+    rows = {r["way"]: r for r in d["rows"]}
+    base, pick = st["baseline_objectives"], st["ride_focused_pick_objectives"]
+    _require(
+        all(p <= b + 1e-12 for p, b in zip(pick[2:5], base[2:5], strict=True)),
+        "the ride-focused pick no longer keeps f3, f4 and f5 at the baseline's",
+    )
+    _require(s["same_numbers_1_and_2_workers"], "1 and 2 workers archived different numbers")
+    _require(s["bare_loop_same_designs"], "the bare loop no longer evaluates the run's designs")
+    one, bare = s["one_worker_loop_wall_s"], s["bare_loop_wall_s"]
+    variables = ", ".join(f"{k} {short(v)}" for k, v in st["ride_focused_pick_x"].items())
+    met = "inside" if s["meets_target"] else "outside"
+    repeats = rows["command, 2 workers"]["repeats"]
+    of_runs = "one run" if repeats == 1 else f"the median of {repeats} runs"
+    text = (
+        f"**The study's run, measured** (`python -m suspenv.bench.minibus_study`, "
+        f"[docs/benchmarks/minibus_study.json](benchmarks/minibus_study.json)): `suspenv run "
+        f"{s['config']}` (pymoo's NSGA-II, `run.workers = {s['workers']}`, on the 2-core "
+        f"machine, {s['cores_free_2proc']:.1f} cores free) runs {st['evaluations']:,} "
+        f"evaluations in **{seconds(s['loop_wall_s'])} s of loop wall time**, "
+        f"{seconds(s['command_wall_s'])} s for the whole command ({seconds(s['rest_wall_s'])} s "
+        f"of start-up, CSV export and report; {of_runs}, the slowest "
+        f"{seconds(s['command_wall_s_slowest'])} s), {met} the "
+        f"{s['target_s']:g} s goal. With `run.workers = 1` the loop takes {seconds(one)} s; "
+        f"pymoo's bare ask/tell loop over the same batched evaluations in one process (no "
+        f"archive, run folder or report) {seconds(bare)} s. So the framework's loop takes "
+        f"{one / bare:.2f}x the bare loop's time in one process, and the pool of 2 takes "
+        f"{percent(1.0 - s['two_workers_loop_wall_vs_one'])} off it; both "
+        f"runs archive the same numbers. {st['ok']:,} of {st['evaluations']:,} evaluations "
+        f"succeeded, {st['feasible']:,} were feasible, {st['pareto_front']:,} on the Pareto "
+        f"front. The ride-focused pick (rule above) lowered f1 from {base[0]:.3f} to "
+        f"{pick[0]:.3f} m/s² and f2 from {base[1]:.3f} to {pick[1]:.3f} m/s² against the "
+        f"baseline with f3, f4 and f5 no worse (f3 {pick[2]:.2f} against {base[2]:.2f} m/s², "
+        f"f4 {pick[3]:.1f} against {base[3]:.1f} deg, f5 {pick[4]:.2f} against "
+        f"{base[4]:.2f} deg; {variables})."
+    )
+    return textwrap.fill(text, width=88, break_long_words=False, break_on_hyphens=False)
+
+
 def planar_speed_cells(s: Json) -> tuple[str, str]:
     """(result, target) of the planar linkage row from ``planar_speed.json``."""
     result = (
@@ -250,14 +313,11 @@ def render_performance(data: Mapping[str, Json]) -> str:
                 bench("minibus_speed"),
                 minibus_speed_cells(data["minibus_speed"]["summary"]),
             ),
-            # no JSON holds the study's run: docs/minibus_handling.md records it
             row(
-                "the minibus study: NSGA-II, 30,000 evaluations, 2 workers",
-                "`suspenv run configs/minibus_nsga2.toml`",
-                (
-                    f"{MINIBUS_STUDY_LOOP_S:g} s loop, {MINIBUS_STUDY_TOTAL_S:g} s with report",
-                    "<= 60 s",
-                ),
+                "the minibus study: NSGA-II, 30,000 evaluations, 2 workers "
+                "(`suspenv run configs/minibus_nsga2.toml`)",
+                bench("minibus_study"),
+                minibus_study_cells(data["minibus_study"]["summary"]),
             ),
             row(
                 "planar linkage: analytic 61-point sweep vs the pymunk simulation",
@@ -499,9 +559,11 @@ def render_diagnosis(data: Mapping[str, Json]) -> str:
 
 
 RENDERERS = {"performance": render_performance, "diagnosis": render_diagnosis}
+#: the blocks of the other documents (:data:`DOCUMENT_BLOCKS`), by block name
+DOCUMENT_RENDERERS = {"minibus-study": lambda data: minibus_study_paragraph(data["minibus_study"])}
 
 
-# ------------------------------------------------------------------ README blocks
+# ------------------------------------------------------------------ blocks
 def load(bench_dir: Path = BENCH_DIR) -> dict[str, Json]:
     """Every JSON file the blocks read, by file stem."""
     data: dict[str, Json] = {}
@@ -515,20 +577,30 @@ def load(bench_dir: Path = BENCH_DIR) -> dict[str, Json]:
 
 
 def render(data: Mapping[str, Json]) -> dict[str, str]:
-    """Block name -> rendered Markdown."""
+    """README.md's blocks: block name -> rendered Markdown."""
     return {name: fn(data) for name, fn in RENDERERS.items()}
+
+
+def render_documents(data: Mapping[str, Json]) -> dict[str, dict[str, str]]:
+    """The other documents' blocks: path (relative to the repository) -> block name ->
+    rendered Markdown."""
+    return {
+        doc: {name: DOCUMENT_RENDERERS[name](data) for name in names}
+        for doc, names in DOCUMENT_BLOCKS.items()
+    }
 
 
 def markers(name: str) -> tuple[str, str]:
     return f"<!-- readme-table:{name}:begin -->", f"<!-- readme-table:{name}:end -->"
 
 
-def read_block(text: str, name: str) -> str:
-    """The text between block ``name``'s markers (without the newlines next to them)."""
+def read_block(text: str, name: str, label: str = "README.md") -> str:
+    """The text between block ``name``'s markers (without the newlines next to them);
+    ``label`` names the document in the error."""
     begin, end = markers(name)
     _require(
         text.count(begin) == 1 and text.count(end) == 1 and text.index(begin) < text.index(end),
-        f"README.md needs one {begin} ... {end} pair",
+        f"{label} needs one {begin} ... {end} pair",
     )
     return text.split(begin, 1)[1].split(end, 1)[0].strip("\n")
 
@@ -542,48 +614,61 @@ def write_block(text: str, name: str, body: str) -> str:
     return f"{head}{begin}\n{body}\n{end}{tail}"
 
 
-def stale_blocks(text: str, blocks: Mapping[str, str]) -> dict[str, str]:
-    """Block name -> unified diff (README -> rendering) for every block that differs."""
+def stale_blocks(text: str, blocks: Mapping[str, str], label: str = "README.md") -> dict[str, str]:
+    """Block name -> unified diff (the document ``label`` -> rendering) for every block
+    that differs."""
     out = {}
     for name, body in blocks.items():
-        old = read_block(text, name)
+        old = read_block(text, name, label)
         if old != body:
             diff = difflib.unified_diff(
-                old.splitlines(), body.splitlines(), "README.md", "rendering", lineterm="", n=0
+                old.splitlines(), body.splitlines(), label, "rendering", lineterm="", n=0
             )
             out[name] = "\n".join(diff)
     return out
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """``python -m suspenv.bench.readme [--check] [--readme PATH] [--bench-dir DIR]``."""
+    """``python -m suspenv.bench.readme [--check] [--readme PATH] [--docs-root DIR]
+    [--bench-dir DIR]``."""
     parser = argparse.ArgumentParser(
         prog="python -m suspenv.bench.readme",
-        description="Render the README's benchmark tables from docs/benchmarks/*.json.",
+        description="Render the README's (and docs') benchmark figures from "
+        "docs/benchmarks/*.json.",
     )
-    parser.add_argument("--check", action="store_true", help="exit 1 if README.md is stale")
+    parser.add_argument("--check", action="store_true", help="exit 1 if a document is stale")
     parser.add_argument("--readme", type=Path, default=README)
+    parser.add_argument(
+        "--docs-root", type=Path, default=ROOT, help="where the other documents' paths start"
+    )
     parser.add_argument("--bench-dir", type=Path, default=BENCH_DIR)
     args = parser.parse_args(argv)
     try:
-        blocks = render(load(args.bench_dir))
-        text = args.readme.read_text()
-        stale = stale_blocks(text, blocks)
+        data = load(args.bench_dir)
+        documents = {args.readme: render(data)}
+        documents |= {args.docs_root / doc: b for doc, b in render_documents(data).items()}
+        texts = {path: path.read_text() for path in documents}
+        stale = {
+            path: stale_blocks(texts[path], blocks, path.name) for path, blocks in documents.items()
+        }
     except FigureError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 1
-    for name in blocks:
-        print(f"{name}: {'changed' if name in stale else 'up to date'}")
-        if name in stale:
-            print(stale[name])
+    for path, blocks in documents.items():
+        for name in blocks:
+            print(f"{path.name} {name}: {'changed' if name in stale[path] else 'up to date'}")
+            if name in stale[path]:
+                print(stale[path][name])
+    changed = [path for path in documents if stale[path]]
     if args.check:
-        if stale:
-            print(f"{args.readme} is stale: run python -m suspenv.bench.readme", file=sys.stderr)
-        return 1 if stale else 0
-    for name, body in blocks.items():
-        text = write_block(text, name, body)
-    if stale:
-        args.readme.write_text(text)
+        for path in changed:
+            print(f"{path} is stale: run python -m suspenv.bench.readme", file=sys.stderr)
+        return 1 if changed else 0
+    for path in changed:
+        text = texts[path]
+        for name, body in documents[path].items():
+            text = write_block(text, name, body)
+        path.write_text(text)
     return 0
 
 

@@ -17,7 +17,7 @@ import numpy as np
 from suspenv.core.problem import Problem
 from suspenv.models.minibus.vehicle import BASELINE_DESIGN, STUDY_PICK
 from suspenv.problems.minibus import MinibusRideHandling, pareto_mask, ride_focused_pick
-from suspenv.reports._mpl import pyplot
+from suspenv.reports._mpl import add_polylines, pyplot
 from suspenv.reports.suspension import write_suspension_report
 
 
@@ -76,8 +76,8 @@ def _plot_parallel(
     fig, axes = plt.subplots(1, 2, figsize=(14, 4.5), gridspec_kw={"width_ratios": [5, 8]})
     Fn = (F[front] - lo) / span
     Un = problem.space.to_unit(X[front])
-    axes[0].plot(np.arange(F.shape[1]), Fn.T, c="tab:blue", alpha=0.08, lw=0.7)
-    axes[1].plot(np.arange(X.shape[1]), Un.T, c="tab:blue", alpha=0.08, lw=0.7)
+    add_polylines(axes[0], Fn, colors="tab:blue", alpha=0.08, lw=0.7)
+    add_polylines(axes[1], Un, colors="tab:blue", alpha=0.08, lw=0.7)
     colours = ("k", "tab:red", "tab:green", "tab:purple")
     for (label, (f, x)), col in zip(marks.items(), colours, strict=False):
         axes[0].plot(np.arange(F.shape[1]), (f - lo) / span, c=col, lw=2.2, label=label)

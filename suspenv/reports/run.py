@@ -35,7 +35,7 @@ from typing import Any
 import numpy as np
 
 from suspenv.core.pareto import nondominated
-from suspenv.reports._mpl import pyplot
+from suspenv.reports._mpl import add_polylines, pyplot
 from suspenv.runs.optimize_pipeline import best_so_far
 
 #: above this many objectives the pair plot shows this many (largest relative spread)
@@ -262,8 +262,6 @@ def plot_parallel(
     """Parallel coordinates of the non-dominated set, each objective min-max scaled
     (at most :data:`MAX_POINTS` lines: a seeded subsample above); ``front``: the
     non-dominated mask over the feasible rows when already known."""
-    from matplotlib.collections import LineCollection
-
     plt = pyplot()
     F = objectives[feasible]
     if front is None:
@@ -276,9 +274,7 @@ def plot_parallel(
     many = m > MAX_PAIR_OBJECTIVES
     width = min(0.5 * m + 2, 24.0) if many else 1.6 * m + 2
     fig, ax = plt.subplots(figsize=(width, 5.0 if many else 3.6))
-    x = np.arange(m, dtype=float)
-    segments = np.stack([np.broadcast_to(x, drawn.shape), drawn], axis=-1)
-    ax.add_collection(LineCollection(list(segments), colors="tab:blue", alpha=0.25, lw=0.8))
+    add_polylines(ax, drawn, colors="tab:blue", alpha=0.25, lw=0.8)
     ax.set_xlim(-0.2, m - 0.8)
     ax.set_ylim(-0.05, 1.05)
     if highlight is not None:
