@@ -49,6 +49,20 @@ def test_no_effect_control_is_not_claimed() -> None:
     assert diag.verdict.startswith("no significant missing physics")
 
 
+def test_a_component_verdict_quotes_no_held_out_gain_in_noise_units() -> None:
+    # a control whose strongest candidate was refitted and rejected; a component's fits
+    # are weighted by the force's spread, not its noise, so no held-out gain "in noise
+    # units" is computed or quoted (it would be in no stated unit); the relative held-out
+    # change is
+    case = make_case("damper", 2, 0)
+    diag = diagnose(case.recording, "damper")
+    assert diag.named == []
+    comps = [h.comparison for h in diag.hypotheses if h.comparison is not None]
+    assert comps and all(np.isnan(c.heldout_z) and np.isnan(c.heldout_gain) for c in comps)
+    assert all(np.isfinite(c.heldout_reduction) for c in comps)
+    assert "held-out z" not in diag.verdict and "held-out error change" in diag.verdict
+
+
 def test_two_effects_both_found() -> None:
     case = make_case("damper", 1, 2)  # dahl hysteresis + digressive curve
     diag = diagnose(case.recording, "damper")

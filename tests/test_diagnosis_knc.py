@@ -171,6 +171,12 @@ def test_noise_only_claims_nothing(noise_case):
     assert diag.verdict.startswith("no significant missing physics")
     # under pure noise the score tests stay near N(0, 1)
     assert max(s.score for s in diag.signatures) < 3.0
+    # the K&C rule judges held-out data in noise units: every refit's held-out z is
+    # computed (the fits are weighted by noise levels) and the verdict quotes the
+    # strongest candidate's
+    comps = [h.comparison for h in diag.hypotheses if h.comparison is not None]
+    assert comps and all(np.isfinite(c.heldout_z) for c in comps)
+    assert "held-out z = " in diag.verdict
 
 
 def test_report_files(noise_case, tmp_path):

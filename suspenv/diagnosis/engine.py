@@ -219,6 +219,16 @@ def _jsonable(v: Any) -> Any:
     return v.to_dict() if hasattr(v, "to_dict") else v
 
 
+def noise_levels(fam: DiagnosisFamily, fit: FitResult) -> dict[str, float] | None:
+    """Each channel's noise level (channel unit) for the held-out gain in noise units
+    (:func:`~suspenv.diagnosis.evidence.compare`): the fit's scales where the family's
+    rule judges the held-out data in noise units (``heldout_rule = "noise"``, whose
+    families weight their fits by noise levels: the K&C family's
+    :func:`~suspenv.diagnosis.fitting.noise_scales`); None elsewhere, where the scales
+    are a channel's spread and the gain would be in no stated unit."""
+    return dict(fit.scales) if fam.rule.heldout_rule == "noise" else None
+
+
 def diagnose(
     recordings: Recordings,
     family: DiagnosisFamily | str,
@@ -290,6 +300,7 @@ def diagnose(
                 sp.fit_masks,
                 sp.heldout_recordings,
                 sp.heldout_masks,
+                noise_levels(fam, current),
             )
             evidence = sig.evidence if sig is not None else ""
             hyps.append(
@@ -326,7 +337,13 @@ def diagnose(
     comparison = None
     if named:
         comparison = compare(
-            base, current, sp.fit_recordings, sp.fit_masks, sp.heldout_recordings, sp.heldout_masks
+            base,
+            current,
+            sp.fit_recordings,
+            sp.fit_masks,
+            sp.heldout_recordings,
+            sp.heldout_masks,
+            noise_levels(fam, base),
         )
     baseline = baseline_summary(
         base, sp.fit_recordings, sp.heldout_recordings, sp.fit_masks, sp.heldout_masks

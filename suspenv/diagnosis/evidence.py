@@ -14,7 +14,7 @@ the test becomes appropriately more cautious.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -199,7 +199,7 @@ class Comparison:
     ljung_box_after: tuple[float, float]
     params_after: dict[str, dict[str, float]] = field(default_factory=dict)
     #: held-out chi-square drop and prediction change in noise units
-    #: (:func:`heldout_noise_units`)
+    #: (:func:`heldout_noise_units`; NaN when :func:`compare` had no noise levels)
     heldout_gain: float = float("nan")
     heldout_signal: float = float("nan")
 
@@ -253,13 +253,22 @@ def compare(
     fit_masks: Sequence[np.ndarray | None] | None,
     heldout_recordings: Recordings,
     heldout_masks: Sequence[np.ndarray | None] | None,
+    noise: Mapping[str, float] | None = None,
 ) -> Comparison:
-    """Everything that shows whether ``ext`` is better than ``base``."""
+    """Everything that shows whether ``ext`` is better than ``base``.
+
+    ``noise``: each channel's noise level (channel unit), for the held-out gain and
+    signal in noise units (:func:`heldout_noise_units`; ``Comparison.heldout_gain``,
+    ``heldout_signal``, ``heldout_z``); None leaves them NaN: with fits weighted by
+    anything else (a channel's spread) they would be in no unit their names state.
+    """
     r_base = fit_residual_series(base, fit_recordings, fit_masks)
     r_ext = fit_residual_series(ext, fit_recordings, fit_masks)
     res_before = heldout_residuals(base, heldout_recordings, heldout_masks)
     res_after = heldout_residuals(ext, heldout_recordings, heldout_masks)
-    gain, signal = heldout_noise_units(res_before, res_after, base.scales)
+    gain = signal = float("nan")
+    if noise is not None:
+        gain, signal = heldout_noise_units(res_before, res_after, dict(noise))
     return Comparison(
         heldout_rms_before=_channel_rms(res_before),
         heldout_rms_after=_channel_rms(res_after),
