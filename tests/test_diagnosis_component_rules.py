@@ -21,6 +21,7 @@ References, per rule:
 
 from __future__ import annotations
 
+import json
 import re
 from types import SimpleNamespace
 
@@ -28,7 +29,12 @@ import numpy as np
 import pytest
 
 from suspenv.core.errors import ValidationError
-from suspenv.diagnosis.component.delay import DelayLeft, phase_by_frequency, phase_words
+from suspenv.diagnosis.component.delay import (
+    DelayLeft,
+    judge_beside_delay,
+    phase_by_frequency,
+    phase_words,
+)
 from suspenv.diagnosis.component.family import (
     COMPONENT_RULE,
     HYSTERESIS_MIN_FRACTION,
@@ -41,10 +47,13 @@ from suspenv.diagnosis.component.family import (
     check_stiction_decays,
     hysteresis_transition,
 )
-from suspenv.diagnosis.component.refit import SIZE_Z
+from suspenv.diagnosis.component.motion import split
+from suspenv.diagnosis.component.refit import SIZE_Z, refit_with
 from suspenv.diagnosis.component.truth import make_case
 from suspenv.diagnosis.engine import diagnose, make_family
-from suspenv.diagnosis.fitting import FitResult
+from suspenv.diagnosis.evidence import compare
+from suspenv.diagnosis.fitting import FitResult, fit
+from suspenv.diagnosis.hypothesis import Hypothesis
 from suspenv.diagnosis.split import Split
 from suspenv.measurements import Recording
 from suspenv.models.components import DamperDynoModel, FrictionGuideModel, MRDamperModel
@@ -888,6 +897,78 @@ def test_a_delay_is_decisive_by_the_bic_the_heldout_samples_and_the_encompassing
     from suspenv.diagnosis.component.delay import delay_decisive
 
     assert delay_decisive(bic, heldout_z, p_lag, p_delay, together, COMPONENT_RULE) is decisive
+
+
+def _judged_beside_delay(concealed: list, element: str) -> tuple[FitResult, list]:
+    """A damper recorded 15 ms late (viscous base, white noise of 0.5 % of the force's
+    spread) with the ``concealed`` elements too, fitted with ``element`` named as a
+    round names it, then that element judged again beside the delay."""
+    model = DamperDynoModel()
+    rec = model.example_recording(seed=3)
+    late = make_effect("sensor_delay").with_params({"delay": 0.015})
+    truth = model.with_effects([*concealed, late])
+    f = np.asarray(truth.simulate(truth.theta_from({"c": 1600.0}), rec)["force"], float)
+    f = f + 0.005 * float(np.std(f)) * np.random.default_rng(5).standard_normal(f.size)
+    sp = split(_with_force(rec, f, "late"), 0.25)
+    base = fit(model, sp.fit_recordings, sp.fit_masks)
+    named = refit_with(base, element, sp.fit_recordings, sp.fit_masks, max_nfev=400)
+    comp = compare(
+        base, named, sp.fit_recordings, sp.fit_masks, sp.heldout_recordings, sp.heldout_masks
+    )
+    h = Hypothesis.from_comparison(element, "", element, 1, base, named, comp)
+    return judge_beside_delay(named, [h], "force", 0.01, sp, 400, COMPONENT_RULE)
+
+
+def test_an_element_that_stood_in_for_a_delay_is_withdrawn_beside_it():
+    # reference: the truth holds no Maxwell branch, only the delay; a branch refitted to
+    # it takes up part of the lateness, and beside the delay it adds nothing
+    final, out = _judged_beside_delay([], "maxwell_viscoelastic")
+    assert [w.hypothesis.kind for w in out] == ["maxwell_viscoelastic"]
+    w = out[0]
+    assert w.p_value_corrected > COMPONENT_RULE.alpha or w.delta_bic_corrected >= 0.0
+    assert w.delay_s == pytest.approx(0.015, rel=0.05)
+    # the final model is refitted without the element (and without the delay, which is
+    # not a library element)
+    assert [e.kind for e in final.model.effects] == []
+    assert "before the delay was found, is withdrawn" in w.sentence()
+
+
+def test_an_element_the_recording_holds_is_kept_beside_a_delay():
+    # reference: the truth holds Coulomb friction of 150 N beside the delay; a delay
+    # cannot make a force step at each reversal, so the friction stays significant
+    friction = make_effect("coulomb_friction").with_params({"f_c": 150.0})
+    final, out = _judged_beside_delay([friction], "coulomb_friction")
+    assert out == []
+    assert [e.kind for e in final.model.effects] == ["coulomb_friction"]
+
+
+def test_the_verdict_names_no_element_a_later_delay_withdrew():
+    # an MR damper whose force is recorded 20 ms late, nothing else concealed (the
+    # reference: the truth's element list is empty). The first round names a Maxwell
+    # branch (it makes the force late too); the delay found after it leaves the branch
+    # without support, so the verdict names nothing and says why
+    model = MRDamperModel()
+    rec = model.example_recording(seed=0)
+    truth = model.with_effects([make_effect("sensor_delay").with_params({"delay": 0.02})])
+    base = {"c0": 373.7, "c1": 322.0, "c": 1101.7, "k": 1796.7, "f_0": 138.0}
+    f = np.asarray(truth.simulate(truth.theta_from(base), rec)["force"], float)
+    f = f + 0.005 * float(np.std(f)) * np.random.default_rng(11).standard_normal(f.size)
+    diag = diagnose(_with_force(rec, f, "mr_late"), make_family("mr_damper"))
+    assert diag.named == [] and diag.unexplained, diag.verdict
+    (gone,) = [h for h in diag.hypotheses if h.withdrawn]
+    assert gone.kind == "maxwell_viscoelastic" and gone.significant
+    assert gone.withdrawn[1:] in diag.verdict  # (the verdict capitalises its sentences)
+    assert diag.verdict.startswith("Unexplained, not in the library: the recorded force is late")
+    # the final model is the baseline's (the MR damper's zero drift is baseline physics)
+    assert [e.kind for e in diag.final_fit.model.effects] == ["zero_drift"]
+    # the withdrawn hypothesis is kept, with its reason, and the check's record
+    record = json.loads(json.dumps(diag.to_dict()))
+    assert [h["withdrawn"] != "" for h in record["hypotheses"]].count(True) == 1
+    assert record["findings"]["withdrawn"][0]["candidate"] == "maxwell_viscoelastic"
+    from suspenv.reports.diagnosis.component import markdown
+
+    figures = {k: f"{k}.png" for k in ("residual_map", "overlay", "loops")}
+    assert "| yes, then withdrawn (see the verdict) |" in markdown(diag, figures)
 
 
 def test_a_delay_the_user_declares_is_part_of_the_baseline():

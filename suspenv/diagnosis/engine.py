@@ -331,6 +331,7 @@ def diagnose(
 
     found = fam.conclude(Outcome(base, current, named, hypotheses, first_sigs, location), setup)
     named += found.named
+    named = [h for h in named if all(h is not w for w in found.withdrawn)]
     hypotheses += found.hypotheses
     amb += found.ambiguities
     current = found.final_fit or current

@@ -94,6 +94,9 @@ class Conclusion:
 
     Attributes:
         named / hypotheses / ambiguities: added to the search's.
+        withdrawn: named hypotheses (the search's or these) the checks withdraw, each
+            with its reason in ``Hypothesis.withdrawn``; ``final_fit`` is then the model
+            without them.
         final_fit: the model after the checks (None: the search's).
         sentences: said after the verdict's main sentence.
         confident: False when the residual left says something is still missing.
@@ -105,6 +108,7 @@ class Conclusion:
     named: list[Hypothesis] = field(default_factory=list)
     hypotheses: list[Hypothesis] = field(default_factory=list)
     ambiguities: list[Ambiguity] = field(default_factory=list)
+    withdrawn: list[Hypothesis] = field(default_factory=list)
     final_fit: FitResult | None = None
     sentences: list[str] = field(default_factory=list)
     confident: bool = True

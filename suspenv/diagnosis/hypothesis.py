@@ -86,6 +86,8 @@ class Hypothesis:
         heldout_reduction: relative drop of the held-out RMS error (0.1 = 10 % lower).
         params: the element's own fitted parameters ``{name: {value, stderr, ...}}``.
         significant: set by :func:`suspenv.diagnosis.decision.decide`.
+        withdrawn: why a named hypothesis was withdrawn after the search, by a family's
+            checks (e.g. judged again beside a delay found later); "" when it was not.
         fit / comparison: the refit and its comparison with the model it extends.
     """
 
@@ -104,6 +106,7 @@ class Hypothesis:
     heldout_reduction: float
     params: dict[str, dict[str, float]] = field(default_factory=dict)
     significant: bool = False
+    withdrawn: str = ""
     fit: FitResult | None = field(default=None, repr=False)
     comparison: Comparison | None = field(default=None, repr=False)
 

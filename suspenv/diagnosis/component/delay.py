@@ -36,6 +36,12 @@ probe, in two places.
 3. **Phase against frequency** (:func:`phase_by_frequency`): the evidence stated with
    both: per motion frequency, how late the recorded channel is behind the model without
    its lag and delay, beside what the fitted lag and the fitted delay predict.
+4. **Named before the delay** (:func:`judge_beside_delay`): an element named in a round
+   before the delay was found may have stood in for part of the lateness (a hysteresis
+   loop or a Maxwell branch also makes a force late). With a delay left, each named
+   element is judged again as a refit is, against the model with the delay and without
+   it; one that is no longer significant beside the delay is withdrawn (the weakest
+   first, then the others judged again), and the final model is refitted without it.
 
 Units: delays in seconds; residuals in the channel's unit; phases in degrees.
 """
@@ -53,7 +59,7 @@ from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.component.motion import cycle_index, motion
 from suspenv.diagnosis.component.refit import SIZE_Z, parameter_and_error, refit_with
 from suspenv.diagnosis.component.residual_left import MATERIAL_RATIO, removed_over_left
-from suspenv.diagnosis.decision import DecisionRule
+from suspenv.diagnosis.decision import DecisionRule, decide
 from suspenv.diagnosis.evidence import (
     compare,
     fit_residual_series,
@@ -62,7 +68,8 @@ from suspenv.diagnosis.evidence import (
     likelihood_ratio,
     relative_drop,
 )
-from suspenv.diagnosis.fitting import FitResult
+from suspenv.diagnosis.fitting import FitResult, fit
+from suspenv.diagnosis.hypothesis import Hypothesis
 from suspenv.diagnosis.split import Split
 
 #: corrected BIC difference above which one of two fits of equal size is decisively
@@ -474,3 +481,137 @@ def delay_left(
         ),
         phases=tuple(phases),
     )
+
+
+@dataclass
+class Withdrawal:
+    """A named element withdrawn beside a delay left (:func:`judge_beside_delay`).
+
+    Attributes:
+        hypothesis: the element as it was named.
+        channel: the delayed channel; delay_s: the delay [s] it was judged beside.
+        p_value_corrected, delta_bic_corrected, heldout_reduction: the element's test
+            against the model with the delay and without the element (the test of every
+            refit; ``heldout_reduction`` the relative drop of the held-out RMS error the
+            element gives beside the delay).
+    """
+
+    hypothesis: Hypothesis
+    channel: str
+    delay_s: float
+    p_value_corrected: float
+    delta_bic_corrected: float
+    heldout_reduction: float
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "candidate": self.hypothesis.candidate,
+            "words": self.hypothesis.words,
+            "round": self.hypothesis.round,
+            "channel": self.channel,
+            "delay_s": self.delay_s,
+            "p_value_corrected": self.p_value_corrected,
+            "delta_bic_corrected": self.delta_bic_corrected,
+            "heldout_reduction": self.heldout_reduction,
+            "sentence": self.sentence(),
+        }
+
+    def sentence(self) -> str:
+        """One sentence for the verdict."""
+        return (
+            f"{self.hypothesis.words}, named in round {self.hypothesis.round} before the "
+            f"delay was found, is withdrawn: beside a delay of the {self.channel} it is no "
+            f"longer significant (corrected p = {self.p_value_corrected:.2g}, corrected BIC "
+            f"change {self.delta_bic_corrected:+.3g}, held-out error "
+            f"{-100 * self.heldout_reduction:+.1f} %)"
+        )
+
+
+def without_element(current: FitResult, name: str, sp: Split, budget: int) -> FitResult:
+    """``current``'s model without its element ``name``, refitted on the fit samples from
+    ``current``'s values of the other parameters."""
+    kept = [e for e in current.model.effects if e.name != name]
+    if len(kept) == len(current.model.effects):
+        raise ValidationError(
+            f"the element to leave out must be in the model, but got {name!r}; the model "
+            f"holds {[e.name for e in current.model.effects]}"
+        )
+    theta0 = {
+        k: float(v)
+        for k, v in zip(current.names, current.theta, strict=True)
+        if not k.startswith(f"{name}.")
+    }
+    return fit(
+        current.model.with_effects(kept),
+        sp.fit_recordings,
+        sp.fit_masks,
+        theta0=theta0,
+        scales=current.scales,
+        max_nfev=budget,
+    )
+
+
+def _element_name(h: Hypothesis) -> str | None:
+    """The name of ``h``'s element in the models (None for a hypothesis without a fit)."""
+    if h.fit is None:
+        return None
+    effect = h.fit.extra.get("effect") or {}
+    return str(effect["name"]) if "name" in effect else None
+
+
+def judge_beside_delay(
+    final: FitResult,
+    named: Sequence[Hypothesis],
+    channel: str,
+    start: float,
+    sp: Split,
+    budget: int,
+    rule: DecisionRule,
+) -> tuple[FitResult, list[Withdrawal]]:
+    """The elements ``named`` (each in ``final``'s model) judged again beside a pure delay
+    of ``channel`` (module docstring, 4).
+
+    The delay is fitted on top of the model (from ``start`` [s]); each element is then
+    left out of that fit and the refit without it compared with it by ``rule``, as a
+    refit is (:func:`~suspenv.diagnosis.decision.decide`, one test per element: the
+    benefit of the doubt goes to the element already named). If some are not
+    significant, the one of the largest corrected p-value is withdrawn: the model is
+    refitted without it (and without the delay, which is not a library element) and the
+    rest are judged again. Returns (the final model, the withdrawals in order)."""
+    withdrawals: list[Withdrawal] = []
+    left = [h for h in named if _element_name(h) in {e.name for e in final.model.effects}]
+    while left:
+        delayed = fit_delay(final, sp, channel, start, budget)
+        judged: list[tuple[Hypothesis, Hypothesis]] = []
+        for h in left:
+            reduced = without_element(delayed, str(_element_name(h)), sp, budget)
+            c = compare(
+                reduced,
+                delayed,
+                sp.fit_recordings,
+                sp.fit_masks,
+                sp.heldout_recordings,
+                sp.heldout_masks,
+            )
+            again = Hypothesis.from_comparison(
+                h.kind, h.location, h.words, h.round, reduced, delayed, c
+            )
+            judged.append((h, again))
+        decide([again for _, again in judged], 1, rule)
+        out = [(h, again) for h, again in judged if not again.significant]
+        if not out:
+            break
+        h, again = max(out, key=lambda pair: pair[1].p_value_corrected)
+        withdrawals.append(
+            Withdrawal(
+                hypothesis=h,
+                channel=channel,
+                delay_s=parameter_and_error(delayed, "sensor_delay", "delay")[0],
+                p_value_corrected=again.p_value_corrected,
+                delta_bic_corrected=again.delta_bic_corrected,
+                heldout_reduction=again.heldout_reduction,
+            )
+        )
+        final = without_element(final, str(_element_name(h)), sp, budget)
+        left = [x for x in left if x is not h]
+    return final, withdrawals

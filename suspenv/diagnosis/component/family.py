@@ -38,10 +38,12 @@ from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.component.asymmetry import asymmetry_check
 from suspenv.diagnosis.component.dead_band import DEFICIT_KIND, dead_band_left
 from suspenv.diagnosis.component.delay import (
+    DelayLeft,
     check_lag_not_delay,
     delay_against_lag,
     delay_left,
     fit_delay,
+    judge_beside_delay,
 )
 from suspenv.diagnosis.component.locate import Segment, locate
 from suspenv.diagnosis.component.motion import cycle_index, motion, split
@@ -669,6 +671,31 @@ class ComponentFamily(OptionalSteps):
             elif asym is not None:
                 found.sentences.append(asym.sentence)
         final = found.final_fit or outcome.current
+        # a delay left after the search, and the elements named before it judged again
+        # beside it (the residual checks then read the model without those withdrawn)
+        delays = self._delays_left(final, setup)
+        kept = [*outcome.named, *found.named]
+        remaining_delay = next((d for d in delays if d.remains), None)
+        if remaining_delay is not None and kept:
+            final, withdrawals = judge_beside_delay(
+                final,
+                kept,
+                remaining_delay.channel,
+                remaining_delay.delay_s,
+                setup.split,
+                self.budget,
+                self.rule,
+            )
+            if withdrawals:
+                found.withdrawn = [w.hypothesis for w in withdrawals]
+                for w in withdrawals:
+                    w.hypothesis.withdrawn = w.sentence()
+                found.findings["withdrawn"] = withdrawals
+                found.final_fit = final
+                kept = [h for h in kept if all(h is not w.hypothesis for w in withdrawals)]
+                delays = self._delays_left(final, setup)
+        else:
+            withdrawals = []
         if self.check_residual:
             cut = self.motion_lowpass_hz
             left = residual_left(
@@ -706,17 +733,7 @@ class ComponentFamily(OptionalSteps):
                 found.confident = False
                 found.overrides_verdict = True
                 found.sentences.insert(0, band.sentence())
-        for channel, test in self.delay_tests.items():
-            left_delay = delay_left(
-                final,
-                setup.split,
-                channel,
-                test["delay_s"],
-                test["bic_difference"],
-                self.budget,
-                self.rule,
-                test.get("phases", ()),
-            )
+        for left_delay in delays:
             found.findings.setdefault("beyond_library", []).append(left_delay)
             if left_delay.remains:
                 found.confident = False
@@ -724,7 +741,9 @@ class ComponentFamily(OptionalSteps):
                 found.sentences.insert(0, left_delay.sentence())
             else:
                 found.sentences.append(left_delay.sentence())
-        lag = lag_or_delay(outcome.named, setup.split)
+        for w in reversed(withdrawals):  # right after the delay's sentence
+            found.sentences.insert(1, w.sentence())
+        lag = lag_or_delay(kept, setup.split)
         if lag:
             # the library's lag stands for an out-of-library delay as well: not confident
             found.confident = False
@@ -733,7 +752,7 @@ class ComponentFamily(OptionalSteps):
         if offsets:
             found.findings["baseline_offsets"] = offsets
             found.sentences.extend(o["sentence"] for o in offsets if o["significant"])
-        at_bound = parameters_at_bounds(final, outcome.named)
+        at_bound = parameters_at_bounds(final, kept)
         if at_bound:
             found.findings["at_bounds"] = at_bound
             found.confident = False
@@ -757,6 +776,22 @@ class ComponentFamily(OptionalSteps):
                 "missing physics is given",
             )
         return found
+
+    def _delays_left(self, final: FitResult, setup: Setup) -> list[DelayLeft]:
+        """:func:`delay_left` of every channel whose lag the search refused for a delay."""
+        return [
+            delay_left(
+                final,
+                setup.split,
+                channel,
+                test["delay_s"],
+                test["bic_difference"],
+                self.budget,
+                self.rule,
+                test.get("phases", ()),
+            )
+            for channel, test in self.delay_tests.items()
+        ]
 
 
 #: a friction step completes within a few percent of the speed range, a valve knee lies

@@ -121,6 +121,13 @@ def loops(diag: Diagnosis, path: Path) -> Path:
     return path
 
 
+def _significance(h: Any) -> str:
+    """ "yes", "no", or "yes, then withdrawn" (judged again after the search)."""
+    if not h.significant:
+        return "no"
+    return "yes, then withdrawn (see the verdict)" if h.withdrawn else "yes"
+
+
 def _param_table(params: dict[str, dict[str, float]]) -> list[str]:
     lines = ["| parameter | value | std. error (corrected for correlation) |", "|---|---|---|"]
     for k, p in params.items():
@@ -235,7 +242,7 @@ def markdown(diag: Diagnosis, figures: dict[str, str]) -> str:
     ]
     for i, h in enumerate(diag.hypotheses, 1):
         L.append(
-            f"| {i} (round {h.round}) | {h.words} | {'yes' if h.significant else 'no'} | "
+            f"| {i} (round {h.round}) | {h.words} | {_significance(h)} | "
             f"{_fmt(h.delta_bic_corrected)} | {h.p_value_corrected:.2g} | "
             f"{-100 * h.heldout_reduction:+.1f} % | {h.signature_score:.2f} |"
         )
