@@ -109,6 +109,23 @@ def test_minibus_study_words_the_json_contradicts_stop_the_rendering(key, value,
         readme.minibus_study_paragraph(d)
 
 
+def test_ride_noise_cells_format_a_hand_made_summary() -> None:
+    summary = {
+        "default_method": "spectral",
+        "spectral_max_cv_percent": 4.0182413126450673e-14,
+        "time_max_cv_percent": 9.773336258538148,
+        "target_cv_percent": 1.0,
+        "default_meets_target": True,
+    }
+    assert readme.ride_noise_cells(summary) == (
+        "largest scatter of any ride objective 4e-14 % with the exact spectral integral (the "
+        "default); 9.8 % with a 10 s time-domain record",
+        "<= 1 % (met)",
+    )
+    with pytest.raises(readme.FigureError, match="spectral"):
+        readme.ride_noise_cells(summary | {"default_method": "time"})
+
+
 def test_knc_speed_cells_format_a_hand_made_summary() -> None:
     # every target of issue 17 stated from the summary's own flags
     summary = {

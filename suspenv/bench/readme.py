@@ -4,7 +4,8 @@ Three blocks are generated, each between marker comments:
 
 - ``performance`` (README.md): the table of the "Performance" section (``overhead.json``,
   ``knc_speed.json``, ``identify_reference.json``, ``tey2014_pipeline.json``,
-  ``minibus_speed.json``, ``minibus_study.json``, ``planar_speed.json``);
+  ``minibus_speed.json``, ``ride_noise.json``, ``minibus_study.json``,
+  ``planar_speed.json``);
 - ``diagnosis`` (README.md): the blind-benchmark table, the "Real recordings" paragraph
   and the real-recordings table under "A diagnosis, on real recordings"
   (``diagnosis_benchmark.json``, ``independent_diagnosis.json``, ``real_recordings.json``,
@@ -50,6 +51,7 @@ SOURCES: dict[str, tuple[str, ...]] = {
         "identify_reference",
         "tey2014_pipeline",
         "minibus_speed",
+        "ride_noise",
         "minibus_study",
         "planar_speed",
     ),
@@ -199,6 +201,18 @@ def minibus_speed_cells(s: Json) -> tuple[str, str]:
     return result, target
 
 
+def ride_noise_cells(s: Json) -> tuple[str, str]:
+    """(result, target) of the ride objectives' noise row from ``ride_noise.json``."""
+    _require(s["default_method"] == "spectral", "the default ride method is no longer spectral")
+    result = (
+        f"largest scatter of any ride objective {s['spectral_max_cv_percent']:.0e} % with the "
+        f"exact spectral integral (the default); {s['time_max_cv_percent']:.1f} % with a 10 s "
+        "time-domain record"
+    )
+    met = "met" if s["default_meets_target"] else "not met"
+    return result, f"<= {s['target_cv_percent']:g} % ({met})"
+
+
 def minibus_study_cells(s: Json) -> tuple[str, str]:
     """(result, target) of the minibus study's row from ``minibus_study.json``."""
     result = (
@@ -312,6 +326,12 @@ def render_performance(data: Mapping[str, Json]) -> str:
                 "linear-range slalom), batch 500 and one at a time",
                 bench("minibus_speed"),
                 minibus_speed_cells(data["minibus_speed"]["summary"]),
+            ),
+            row(
+                "minibus ride objectives: seed-to-seed scatter over 20 road seeds (ISO 8608 "
+                "class B, 80 km/h), the study's pick, the baseline and 3 random designs",
+                bench("ride_noise"),
+                ride_noise_cells(data["ride_noise"]["summary"]),
             ),
             row(
                 "the minibus study: NSGA-II, 30,000 evaluations, 2 workers "
