@@ -126,6 +126,11 @@ def order_of(p: float) -> str:
 
 
 # ------------------------------------------------------------------ performance
+def met(flag: bool) -> str:
+    """A target's state in a table cell."""
+    return "met" if flag else "not met"
+
+
 def overhead_cells(s: Json) -> tuple[str, str]:
     """(result, target) of the framework-overhead row from ``overhead.json``'s summary."""
     result = (
@@ -150,9 +155,6 @@ def knc_speed_cells(s: Json) -> tuple[str, str]:
         f"{s['worst_memory_batch']}, of {len(mb)} batch sizes from {min(map(int, mb))} to "
         f"{max(map(int, mb))})"
     )
-
-    def met(flag: bool) -> str:
-        return "met" if flag else "not met"
 
     per_batch = s["meets_memory_target_at_batch"]
     memory = (
@@ -209,8 +211,7 @@ def ride_noise_cells(s: Json) -> tuple[str, str]:
         f"exact spectral integral (the default); {s['time_max_cv_percent']:.1f} % with a 10 s "
         "time-domain record"
     )
-    met = "met" if s["default_meets_target"] else "not met"
-    return result, f"<= {s['target_cv_percent']:g} % ({met})"
+    return result, f"<= {s['target_cv_percent']:g} % ({met(s['default_meets_target'])})"
 
 
 def minibus_study_cells(s: Json) -> tuple[str, str]:
@@ -221,8 +222,7 @@ def minibus_study_cells(s: Json) -> tuple[str, str]:
         f"report); 1 worker {seconds(s['one_worker_command_wall_s'])} s; pymoo's bare loop, "
         f"one process, {seconds(s['bare_loop_wall_s'])} s"
     )
-    met = "met" if s["meets_target"] else "not met"
-    return result, f"<= {s['target_s']:g} s ({met})"
+    return result, f"<= {s['target_s']:g} s ({met(s['meets_target'])})"
 
 
 def short(x: float) -> str:
