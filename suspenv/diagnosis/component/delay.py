@@ -59,6 +59,7 @@ from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.component.motion import cycle_index, motion
 from suspenv.diagnosis.component.refit import SIZE_Z, parameter_and_error, refit_with
 from suspenv.diagnosis.component.residual_left import MATERIAL_RATIO, removed_over_left
+from suspenv.diagnosis.component.withdrawal import Withdrawal, element_name, without_element
 from suspenv.diagnosis.decision import DecisionRule, decide
 from suspenv.diagnosis.evidence import (
     compare,
@@ -68,7 +69,7 @@ from suspenv.diagnosis.evidence import (
     likelihood_ratio,
     relative_drop,
 )
-from suspenv.diagnosis.fitting import FitResult, fit
+from suspenv.diagnosis.fitting import FitResult
 from suspenv.diagnosis.hypothesis import Hypothesis
 from suspenv.diagnosis.split import Split
 
@@ -483,82 +484,6 @@ def delay_left(
     )
 
 
-@dataclass
-class Withdrawal:
-    """A named element withdrawn beside a delay left (:func:`judge_beside_delay`).
-
-    Attributes:
-        hypothesis: the element as it was named.
-        channel: the delayed channel; delay_s: the delay [s] it was judged beside.
-        p_value_corrected, delta_bic_corrected, heldout_reduction: the element's test
-            against the model with the delay and without the element (the test of every
-            refit; ``heldout_reduction`` the relative drop of the held-out RMS error the
-            element gives beside the delay).
-    """
-
-    hypothesis: Hypothesis
-    channel: str
-    delay_s: float
-    p_value_corrected: float
-    delta_bic_corrected: float
-    heldout_reduction: float
-
-    def to_dict(self) -> dict[str, Any]:
-        return {
-            "candidate": self.hypothesis.candidate,
-            "words": self.hypothesis.words,
-            "round": self.hypothesis.round,
-            "channel": self.channel,
-            "delay_s": self.delay_s,
-            "p_value_corrected": self.p_value_corrected,
-            "delta_bic_corrected": self.delta_bic_corrected,
-            "heldout_reduction": self.heldout_reduction,
-            "sentence": self.sentence(),
-        }
-
-    def sentence(self) -> str:
-        """One sentence for the verdict."""
-        return (
-            f"{self.hypothesis.words}, named in round {self.hypothesis.round} before the "
-            f"delay was found, is withdrawn: beside a delay of the {self.channel} it is no "
-            f"longer significant (corrected p = {self.p_value_corrected:.2g}, corrected BIC "
-            f"change {self.delta_bic_corrected:+.3g}, held-out error "
-            f"{-100 * self.heldout_reduction:+.1f} %)"
-        )
-
-
-def without_element(current: FitResult, name: str, sp: Split, budget: int) -> FitResult:
-    """``current``'s model without its element ``name``, refitted on the fit samples from
-    ``current``'s values of the other parameters."""
-    kept = [e for e in current.model.effects if e.name != name]
-    if len(kept) == len(current.model.effects):
-        raise ValidationError(
-            f"the element to leave out must be in the model, but got {name!r}; the model "
-            f"holds {[e.name for e in current.model.effects]}"
-        )
-    theta0 = {
-        k: float(v)
-        for k, v in zip(current.names, current.theta, strict=True)
-        if not k.startswith(f"{name}.")
-    }
-    return fit(
-        current.model.with_effects(kept),
-        sp.fit_recordings,
-        sp.fit_masks,
-        theta0=theta0,
-        scales=current.scales,
-        max_nfev=budget,
-    )
-
-
-def _element_name(h: Hypothesis) -> str | None:
-    """The name of ``h``'s element in the models (None for a hypothesis without a fit)."""
-    if h.fit is None:
-        return None
-    effect = h.fit.extra.get("effect") or {}
-    return str(effect["name"]) if "name" in effect else None
-
-
 def judge_beside_delay(
     final: FitResult,
     named: Sequence[Hypothesis],
@@ -579,12 +504,12 @@ def judge_beside_delay(
     refitted without it (and without the delay, which is not a library element) and the
     rest are judged again. Returns (the final model, the withdrawals in order)."""
     withdrawals: list[Withdrawal] = []
-    left = [h for h in named if _element_name(h) in {e.name for e in final.model.effects}]
+    left = [h for h in named if element_name(h) in {e.name for e in final.model.effects}]
     while left:
         delayed = fit_delay(final, sp, channel, start, budget)
         judged: list[tuple[Hypothesis, Hypothesis]] = []
         for h in left:
-            reduced = without_element(delayed, str(_element_name(h)), sp, budget)
+            reduced = without_element(delayed, str(element_name(h)), sp, budget)
             c = compare(
                 reduced,
                 delayed,
@@ -602,16 +527,16 @@ def judge_beside_delay(
         if not out:
             break
         h, again = max(out, key=lambda pair: pair[1].p_value_corrected)
+        late = parameter_and_error(delayed, "sensor_delay", "delay")[0]
         withdrawals.append(
             Withdrawal(
                 hypothesis=h,
-                channel=channel,
-                delay_s=parameter_and_error(delayed, "sensor_delay", "delay")[0],
+                beside=f"the delay of the {channel} found after it ({1e3 * late:.3g} ms)",
                 p_value_corrected=again.p_value_corrected,
                 delta_bic_corrected=again.delta_bic_corrected,
                 heldout_reduction=again.heldout_reduction,
             )
         )
-        final = without_element(final, str(_element_name(h)), sp, budget)
+        final = without_element(final, str(element_name(h)), sp, budget)
         left = [x for x in left if x is not h]
     return final, withdrawals

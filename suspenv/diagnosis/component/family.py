@@ -45,6 +45,7 @@ from suspenv.diagnosis.component.delay import (
     fit_delay,
     judge_beside_delay,
 )
+from suspenv.diagnosis.component.drift_check import judge_beside_drift
 from suspenv.diagnosis.component.locate import Segment, locate
 from suspenv.diagnosis.component.motion import cycle_index, motion, split
 from suspenv.diagnosis.component.motion_inputs import (
@@ -78,6 +79,7 @@ from suspenv.diagnosis.component.rig import (
     read_model_file,
 )
 from suspenv.diagnosis.component.signatures import SIGNATURE_KINDS, SignalSet, score_signatures
+from suspenv.diagnosis.component.withdrawal import Withdrawal
 from suspenv.diagnosis.decision import (
     EQUIVALENT_COMBINATIONS,
     DecisionRule,
@@ -343,6 +345,9 @@ class ComponentFamily(OptionalSteps):
             16 Hz had up to 14 samples beyond ten robust scales): the rule then reads
             the residual low-passed at that cut-off, where the part moves
             (:func:`~suspenv.diagnosis.component.residual_left.residual_left`).
+        check_drift: after the search, judge every named element again beside a zero
+            drift of more shape than the baseline's and withdraw one no longer
+            significant (:mod:`~suspenv.diagnosis.component.drift_check`).
         rule: the decision rule (default :data:`COMPONENT_RULE`).
     """
 
@@ -353,6 +358,7 @@ class ComponentFamily(OptionalSteps):
     check_asymmetry: bool = True
     check_residual: bool = True
     check_tails: bool = True
+    check_drift: bool = True
     rule: DecisionRule = COMPONENT_RULE
     name: str = field(default="component", init=False)
     #: what the last :meth:`prepare` read about the rig (None for a model instance)
@@ -687,15 +693,21 @@ class ComponentFamily(OptionalSteps):
                 self.rule,
             )
             if withdrawals:
-                found.withdrawn = [w.hypothesis for w in withdrawals]
-                for w in withdrawals:
-                    w.hypothesis.withdrawn = w.sentence()
-                found.findings["withdrawn"] = withdrawals
-                found.final_fit = final
+                self._withdraw(found, withdrawals, final)
                 kept = [h for h in kept if all(h is not w.hypothesis for w in withdrawals)]
                 delays = self._delays_left(final, setup)
         else:
             withdrawals = []
+        # the named elements judged again beside a zero drift of more shape
+        drift_withdrawals: list[Withdrawal] = []
+        if self.check_drift and kept:
+            final, drift_withdrawals = judge_beside_drift(
+                final, kept, setup.split, self.budget, self.rule
+            )
+            if drift_withdrawals:
+                self._withdraw(found, drift_withdrawals, final)
+                kept = [h for h in kept if all(h is not w.hypothesis for w in drift_withdrawals)]
+                delays = self._delays_left(final, setup)
         if self.check_residual:
             cut = self.motion_lowpass_hz
             left = residual_left(
@@ -743,6 +755,7 @@ class ComponentFamily(OptionalSteps):
                 found.sentences.append(left_delay.sentence())
         for w in reversed(withdrawals):  # right after the delay's sentence
             found.sentences.insert(1, w.sentence())
+        found.sentences.extend(w.sentence() for w in drift_withdrawals)
         lag = lag_or_delay(kept, setup.split)
         if lag:
             # the library's lag stands for an out-of-library delay as well: not confident
@@ -776,6 +789,15 @@ class ComponentFamily(OptionalSteps):
                 "missing physics is given",
             )
         return found
+
+    @staticmethod
+    def _withdraw(found: Conclusion, withdrawals: list[Withdrawal], final: FitResult) -> None:
+        """Record ``withdrawals`` on the conclusion, whose final model is now ``final``."""
+        found.withdrawn += [w.hypothesis for w in withdrawals]
+        for w in withdrawals:
+            w.hypothesis.withdrawn = w.sentence()
+        found.findings.setdefault("withdrawn", []).extend(withdrawals)
+        found.final_fit = final
 
     def _delays_left(self, final: FitResult, setup: Setup) -> list[DelayLeft]:
         """:func:`delay_left` of every channel whose lag the search refused for a delay."""

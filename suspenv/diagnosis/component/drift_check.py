@@ -1,0 +1,203 @@
+"""Named elements judged again beside a zero drift of more shape than the baseline's.
+
+The baseline's zero drift (``zero_drift``: a rate and the Legendre polynomials P2, P3 of
+time over the record) follows a slow, smooth trend of a sensor's zero. A zero that
+wanders more (a random walk smoothed over a few seconds, as a strain gauge's or a charge
+amplifier's does) outruns it and leaves a slow residual. An element whose mean force
+differs between the motion's blocks can take that up: a bump/rebound asymmetry (its mean
+over a cycle is proportional to the cycle's speed), a hysteresis loop. Its refit then
+passes the test on a recording that holds no such element.
+
+After the search each named element is therefore judged again beside a drift of more
+shape: the Legendre polynomials P4 ... P\\ :data:`DRIFT_ORDER` of time over each
+recording added on every channel the model drifts, with and without the element. The
+drift's terms enter the prediction linearly, so each model is fitted with them by
+backfitting (:func:`fit_beside_drift`): the model fitted, the terms fitted to its
+residual on the fit samples by least squares and taken off the recording, the model
+fitted again, :data:`BACKFIT_ROUNDS` times. The elements are judged in the order the
+search named them, each in the model it was named in (the baseline with the elements
+named before it, less any withdrawn), with and without it, both beside the drift of more
+shape. It stays when their likelihood ratio, corrected for serial correlation as every
+refit's, is significant at the decision rule's ``alpha`` (one test per element: the
+benefit of the doubt goes to the element named) and the corrected BIC falls. It is
+withdrawn when it passes the same test beside the baseline's drift but not beside the
+drift of more shape: the drift, not a held-out gain or the test's context, is what takes
+its support. The final model is then refitted without it (with the baseline's drift). The
+held-out samples are not read here: the drift's terms are fitted on the fit samples of
+each model apart.
+
+A real element keeps a shape within each motion cycle that no slow drift has (an
+asymmetry's half-wave with its even harmonics; a friction step at each reversal; a loop's
+width), so it stays. ``DRIFT_ORDER = 8`` gives features of about a sixth of the record
+(2-3 s on the dyno's 15-20 s records): slower than a motion cycle (0.3-1.2 s) by a
+factor of two or more.
+
+Units: time [s]; residuals and drift in each channel's unit.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from numpy.polynomial import legendre
+from scipy import stats
+
+from suspenv.diagnosis.component.withdrawal import Withdrawal, element_name, without_element
+from suspenv.diagnosis.decision import DecisionRule
+from suspenv.diagnosis.evidence import fit_residual_series
+from suspenv.diagnosis.fitting import FitResult, fit, lag1_autocorrelation, residuals
+from suspenv.diagnosis.hypothesis import Hypothesis, corrected_delta_bic
+from suspenv.diagnosis.split import Split
+
+#: highest Legendre order of the drift judged beside (the baseline's is 3)
+DRIFT_ORDER = 8
+#: rounds of backfitting (model, then the drift's terms on its residual)
+BACKFIT_ROUNDS = 3
+#: the kind of the baseline's drift element (one per drifting channel)
+DRIFT_KIND = "zero_drift"
+
+
+def drift_basis(time: np.ndarray, order: int = DRIFT_ORDER) -> np.ndarray:
+    """The Legendre polynomials P4 ... P``order`` of ``u = 2 (t - t0) / T - 1`` over a
+    recording's times ``time`` [s] (``T`` its duration), one column each (n, order - 3):
+    the drift's shape beyond the baseline's P0-P3."""
+    t = np.asarray(time, float)
+    span = float(t[-1] - t[0]) if t.size > 1 and t[-1] > t[0] else 1.0
+    u = 2.0 * (t - t[0]) / span - 1.0
+    return legendre.legvander(u, order)[:, 4:]
+
+
+def drifting_channels(model: Any) -> list[str]:
+    """The channels the model's baseline gives a zero drift (its elements' locations)."""
+    return [str(e.location) for e in model.effects if e.kind == DRIFT_KIND]
+
+
+def fit_beside_drift(
+    model: Any,
+    theta0: dict[str, float],
+    sp: Split,
+    scales: dict[str, float],
+    channels: Sequence[str],
+    budget: int,
+) -> FitResult:
+    """``model`` fitted on the fit samples beside the drift's extra terms on
+    ``channels`` (module docstring): the fit of the last backfitting round, on the
+    recordings with the drift it found taken off."""
+    masks = sp.fit_masks
+    # the component rigs' recordings (:class:`~suspenv.measurements.Recording`)
+    corrected: list[Any] = list(sp.fit_recordings)
+    res = fit(model, corrected, masks, theta0=theta0, scales=scales, max_nfev=budget)
+    for _ in range(BACKFIT_ROUNDS - 1):
+        parts = residuals(res.model, res.theta, corrected, res.channels)
+        new: list[Any] = []
+        for i, (rec, part) in enumerate(zip(corrected, parts, strict=True)):
+            m = np.ones(len(rec.time), bool) if masks is None or masks[i] is None else masks[i]
+            basis = drift_basis(np.asarray(rec.time, float))
+            outputs = {}
+            for c in channels:
+                if c not in part:
+                    continue
+                r = np.asarray(part[c], float)
+                ok = m & np.isfinite(r)
+                coef, *_ = np.linalg.lstsq(basis[ok], r[ok], rcond=None)
+                outputs[c] = np.asarray(rec.outputs[c], float) - basis @ coef
+            new.append(rec.with_outputs({**rec.outputs, **outputs}) if outputs else rec)
+        corrected = new
+        res = fit(
+            model,
+            corrected,
+            masks,
+            theta0=dict(zip(res.names, res.theta, strict=True)),
+            scales=scales,
+            max_nfev=budget,
+        )
+    res.extra["drift_corrected"] = corrected
+    return res
+
+
+def _test(full: FitResult, reduced: FitResult, rho: float) -> tuple[float, float]:
+    """(corrected p-value, corrected BIC change) of ``full`` against ``reduced`` (the
+    likelihood ratio scaled by ``(1 - rho) / (1 + rho)`` for a residual of lag-1
+    autocorrelation ``rho >= 0``, as every refit's)."""
+    stat = max(2.0 * (full.log_likelihood() - reduced.log_likelihood()), 0.0)
+    dof = max(full.n_params - reduced.n_params, 1)
+    stat_c = stat * (1.0 - rho) / (1.0 + rho)
+    return float(stats.chi2.sf(stat_c, dof)), corrected_delta_bic(stat_c, dof, full.n_samples)
+
+
+def judge_beside_drift(
+    final: FitResult,
+    named: Sequence[Hypothesis],
+    sp: Split,
+    budget: int,
+    rule: DecisionRule,
+) -> tuple[FitResult, list[Withdrawal]]:
+    """The elements ``named`` (each in ``final``'s model) judged again beside a zero
+    drift of more shape (module docstring), in the order the search named them, each in
+    the model it was named in: the baseline with the elements named before it (less any
+    withdrawn). Returns (the final model, refitted without the withdrawn elements; the
+    withdrawals in that order); without a drifting channel, (``final``, [])."""
+    channels = drifting_channels(final.model)
+    present = {e.name for e in final.model.effects}
+    order = sorted((h for h in named if element_name(h) in present), key=lambda h: h.round)
+    if not channels or not order:
+        return final, []
+    beside = (
+        f"a zero drift of more shape (Legendre terms to order {DRIFT_ORDER} over the "
+        f"record on {', '.join(channels)})"
+    )
+    values = dict(zip(final.names, final.theta, strict=True))
+    named_names = {str(element_name(h)) for h in order}
+
+    def with_elements(kept: Sequence[str], drift: bool) -> FitResult:
+        """The baseline with the named elements ``kept`` only (started from the final
+        fit's values), beside the drift of more shape or (``drift=False``) the
+        baseline's."""
+        effects = [e for e in final.model.effects if e.name not in named_names or e.name in kept]
+        dropped = tuple(f"{n}." for n in named_names - set(kept))
+        theta0 = {k: float(v) for k, v in values.items() if not k.startswith(dropped)}
+        model = final.model.with_effects(effects)
+        if drift:
+            return fit_beside_drift(model, theta0, sp, final.scales, channels, budget)
+        res = fit(
+            model,
+            sp.fit_recordings,
+            sp.fit_masks,
+            theta0=theta0,
+            scales=final.scales,
+            max_nfev=budget,
+        )
+        res.extra["drift_corrected"] = list(sp.fit_recordings)
+        return res
+
+    def significance(with_it: FitResult, without: FitResult) -> tuple[float, float, bool]:
+        rho = max(
+            lag1_autocorrelation(
+                fit_residual_series(with_it, with_it.extra["drift_corrected"], sp.fit_masks)
+            ),
+            0.0,
+        )
+        p_c, bic_c = _test(with_it, without, rho)
+        return p_c, bic_c, p_c < rule.alpha and bic_c < 0.0
+
+    context: list[str] = []
+    without = {d: with_elements(context, d) for d in (True, False)}
+    withdrawals: list[Withdrawal] = []
+    for h in order:
+        name = str(element_name(h))
+        with_it = {d: with_elements([*context, name], d) for d in (True, False)}
+        p_c, bic_c, beside_drift = significance(with_it[True], without[True])
+        # the same test with the baseline's drift: an element that does not pass it
+        # either (named by the held-out data, or by a model that held other elements)
+        # is not this check's to withdraw; the drift must be what takes its support
+        plain = significance(with_it[False], without[False])[2]
+        if beside_drift or not plain:
+            context.append(name)
+            without = with_it
+        else:
+            withdrawals.append(Withdrawal(h, beside, p_c, bic_c))
+    for w in withdrawals:
+        final = without_element(final, str(element_name(w.hypothesis)), sp, budget)
+    return final, withdrawals
