@@ -17,14 +17,15 @@ residual on the fit samples by least squares and taken off the recording, the mo
 fitted again, :data:`BACKFIT_ROUNDS` times. The elements are judged in the order the
 search named them, each in the model it was named in (the baseline with the elements
 named before it, less any withdrawn), with and without it, both beside the drift of more
-shape. It stays when their likelihood ratio, corrected for serial correlation as every
-refit's, is significant at the decision rule's ``alpha`` (one test per element: the
-benefit of the doubt goes to the element named) and the corrected BIC falls. It is
-withdrawn when it passes the same test beside the baseline's drift but not beside the
-drift of more shape: the drift, not a held-out gain or the test's context, is what takes
-its support. The final model is then refitted without it (with the baseline's drift). The
-held-out samples are not read here: the drift's terms are fitted on the fit samples of
-each model apart.
+shape: their likelihood ratio, corrected for serial correlation as every refit's, at
+the decision rule's ``alpha``, and the corrected BIC (one test per element: the benefit
+of the doubt goes to the element named). An element is withdrawn when it passes that
+test beside the baseline's drift while beside the drift of more shape its likelihood
+ratio is no longer significant: the drift, not a held-out gain or the test's context,
+is what takes its support (a BIC that rises while the ratio stays significant does not
+withdraw an element already named). The final model is then refitted without it (with
+the baseline's drift). The held-out samples are not read here: the drift's terms are
+fitted on the fit samples of each model apart.
 
 A real element keeps a shape within each motion cycle that no slow drift has (an
 asymmetry's half-wave with its even harmonics; a friction step at each reversal; a loop's
@@ -188,12 +189,14 @@ def judge_beside_drift(
     for h in order:
         name = str(element_name(h))
         with_it = {d: with_elements([*context, name], d) for d in (True, False)}
-        p_c, bic_c, beside_drift = significance(with_it[True], without[True])
+        p_c, bic_c, _ = significance(with_it[True], without[True])
         # the same test with the baseline's drift: an element that does not pass it
         # either (named by the held-out data, or by a model that held other elements)
-        # is not this check's to withdraw; the drift must be what takes its support
+        # is not this check's to withdraw; the drift must be what takes its support, and
+        # its likelihood ratio must lose significance (a rise of the BIC alone, which
+        # counts its parameters, does not withdraw an element already named)
         plain = significance(with_it[False], without[False])[2]
-        if beside_drift or not plain:
+        if p_c < rule.alpha or not plain:
             context.append(name)
             without = with_it
         else:
