@@ -43,6 +43,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -50,8 +51,7 @@ import numpy as np
 
 from suspenv.bench.common import write_result
 from suspenv.bench.overhead import cores_free
-from suspenv.models.minibus.vehicle import BASELINE_DESIGN
-from suspenv.problems.minibus import pareto_mask, ride_focused_pick
+from suspenv.problems.minibus import study_outcome
 from suspenv.registry import make_problem
 from suspenv.runs.archive import RunArchive
 from suspenv.runs.compare import load_summary
@@ -137,9 +137,10 @@ def bare_pymoo_loop(cfg: dict[str, Any]) -> dict[str, Any]:
         G = np.column_stack([G, (~ok).astype(float)])
         Evaluator().eval(StaticProblem(space, F=F, G=G), infill)
         algorithm.tell(infills=infill)
+    wall = time.perf_counter() - w0
     return {
-        "wall_s": time.perf_counter() - w0,
-        "loop_wall_s": time.perf_counter() - w0,
+        "wall_s": wall,
+        "loop_wall_s": wall,
         "cpu_s": time.process_time() - c0,
         "evaluations": generations * pop,
         "feasible": feasible,
@@ -147,29 +148,26 @@ def bare_pymoo_loop(cfg: dict[str, Any]) -> dict[str, Any]:
     }
 
 
-def study_results(run_dir: Path, problem_name: str, options: dict[str, Any]) -> dict[str, Any]:
-    """What the study found (the report's figures) from a run folder's archive."""
-    with RunArchive(run_dir) as archive:
-        arrays = archive.arrays()
-    F = np.asarray(arrays["objectives"], dtype=float)
-    ok = np.asarray(arrays["ok"], dtype=bool) & np.isfinite(F).all(axis=1)
-    G = np.asarray(arrays["constraints"], dtype=float)
-    feasible = ok & (np.nan_to_num(G, nan=1.0) <= 0).all(axis=1)
-    front = pareto_mask(F, feasible if feasible.any() else ok)
+def study_results(
+    arrays: dict[str, np.ndarray], problem_name: str, options: dict[str, Any]
+) -> dict[str, Any]:
+    """What the study found (the report's figures, :func:`study_outcome`) from a run
+    folder's archive ``arrays``."""
     problem = make_problem(problem_name, **options)
-    F_base = problem.evaluate(np.atleast_2d(BASELINE_DESIGN)).objectives[0]
-    pick = ride_focused_pick(F, front, F_base)
+    found = study_outcome(problem, arrays)
+    if found is None:
+        raise RuntimeError("the study's run archived no successful evaluation")
     return {
-        "evaluations": int(ok.size),
-        "ok": int(ok.sum()),
-        "feasible": int(feasible.sum()),
-        "pareto_front": int(front.sum()),
+        "evaluations": int(found.ok.size),
+        "ok": int(found.ok.sum()),
+        "feasible": int(found.feasible.sum()),
+        "pareto_front": int(found.front.sum()),
         "objective_names": list(problem.objective_names),
         "objective_units": list(problem.objective_units or ()),
-        "baseline_objectives": [float(v) for v in F_base],
-        "ride_focused_pick_objectives": [float(v) for v in F[pick]],
+        "baseline_objectives": [float(v) for v in found.baseline],
+        "ride_focused_pick_objectives": [float(v) for v in found.F[found.pick]],
         "ride_focused_pick_x": dict(
-            zip(problem.space.names, (float(v) for v in arrays["x"][pick]), strict=True)
+            zip(problem.space.names, (float(v) for v in found.X[found.pick]), strict=True)
         ),
     }
 
@@ -180,18 +178,17 @@ def _shown(path: Path) -> str:
     return str(full.relative_to(ROOT)) if full.is_relative_to(ROOT) else str(path)
 
 
-def _same_archive(a: Path, b: Path) -> bool:
-    """Both run folders archived the same designs and objectives, row by row."""
-    with RunArchive(a) as x, RunArchive(b) as y:
-        fa, fb = x.arrays(), y.arrays()
-    return all(np.array_equal(fa[k], fb[k], equal_nan=True) for k in ("x", "objectives"))
-
-
-def _same_designs(run_dir: Path, X: np.ndarray) -> bool:
-    """The run folder's archive holds the designs ``X`` (physical units), row by row."""
+def archive_arrays(run_dir: Path) -> dict[str, np.ndarray]:
+    """The arrays a run folder's archive holds (:meth:`RunArchive.arrays`)."""
     with RunArchive(run_dir) as archive:
-        x = archive.arrays()["x"]
-    return x.shape == X.shape and bool(np.array_equal(x, X))
+        return archive.arrays()
+
+
+def same_rows(a: dict[str, np.ndarray], b: dict[str, np.ndarray], keys: Sequence[str]) -> bool:
+    """``a`` and ``b`` hold the same arrays under ``keys``, row by row (NaN equal)."""
+    return all(
+        a[k].shape == b[k].shape and np.array_equal(a[k], b[k], equal_nan=True) for k in keys
+    )
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -223,11 +220,12 @@ def main(argv: list[str] | None = None) -> int:
             bare_x = r.pop("x")
             runs[ways[2]].append(r)
             print(f"{ways[2]}: {r}", file=sys.stderr)
+        two_workers, one_worker = (archive_arrays(first[w]) for w in ways[:2])
         study = study_results(
-            first[ways[0]], cfg["problem"]["name"], cfg["problem"].get("options", {})
+            two_workers, cfg["problem"]["name"], cfg["problem"].get("options", {})
         )
-        same = _same_archive(first[ways[0]], first[ways[1]])
-        same_as_bare = _same_designs(first[ways[0]], bare_x)
+        same = same_rows(two_workers, one_worker, ("x", "objectives"))
+        same_as_bare = same_rows(two_workers, {"x": bare_x}, ("x",))
 
     def med(way: str, key: str) -> float:
         return float(statistics.median(r[key] for r in runs[way]))

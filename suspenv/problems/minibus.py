@@ -52,6 +52,7 @@ the load case; the other rows of the batch are unaffected.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -65,6 +66,7 @@ from suspenv.metrics.handling import slalom, slalom_linear
 from suspenv.metrics.ride import RIDE_METHODS, ride_objectives_all
 from suspenv.models.minibus.handling_model import HandlingParams, handling_parameters
 from suspenv.models.minibus.vehicle import (
+    BASELINE_DESIGN,
     LOAD_CASES,
     REFERENCE_MINIBUS,
     design_space,
@@ -391,3 +393,37 @@ def ride_focused_pick(F: np.ndarray, front: np.ndarray, F_base: np.ndarray) -> i
     keeps = np.all(F[idx, 2:5] <= F_base[2:5] + 1e-12, axis=1)
     pool = np.where(keeps, ride, np.inf) if keeps.any() else ride
     return int(idx[int(np.argmin(pool))])
+
+
+@dataclass(frozen=True)
+class StudyOutcome:
+    """What a run of the study found, from its archive's arrays: objectives ``F`` (N, 5)
+    and designs ``X`` (N, 8) (physical units), the masks ``ok`` (evaluated, finite),
+    ``feasible`` (ok and every constraint <= 0) and ``front`` (non-dominated among the
+    feasible, or among the ok ones when none is feasible), the ``baseline`` design's
+    objectives and the ``pick`` (:func:`ride_focused_pick`, a row index)."""
+
+    F: np.ndarray
+    X: np.ndarray
+    ok: np.ndarray
+    feasible: np.ndarray
+    front: np.ndarray
+    baseline: np.ndarray
+    pick: int
+
+
+def study_outcome(problem: Problem, arrays: dict[str, np.ndarray]) -> StudyOutcome | None:
+    """The :class:`StudyOutcome` of a run's archive ``arrays`` (None when no evaluation
+    succeeded); the baseline design evaluated by ``problem``."""
+    F = np.asarray(arrays["objectives"], dtype=float)
+    ok = np.asarray(arrays["ok"], dtype=bool) & np.isfinite(F).all(axis=1)
+    G = np.asarray(arrays["constraints"], dtype=float)
+    feasible = ok & (np.nan_to_num(G, nan=1.0) <= 0).all(axis=1)
+    pool = feasible if feasible.any() else ok
+    if not pool.any():
+        return None
+    front = pareto_mask(F, pool)
+    baseline = problem.evaluate(np.atleast_2d(BASELINE_DESIGN)).objectives[0]
+    pick = ride_focused_pick(F, front, baseline)
+    X = np.asarray(arrays["x"], dtype=float)
+    return StudyOutcome(F, X, ok, feasible, front, baseline, pick)

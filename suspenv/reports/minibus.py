@@ -16,7 +16,7 @@ import numpy as np
 
 from suspenv.core.problem import Problem
 from suspenv.models.minibus.vehicle import BASELINE_DESIGN, STUDY_PICK
-from suspenv.problems.minibus import MinibusRideHandling, pareto_mask, ride_focused_pick
+from suspenv.problems.minibus import MinibusRideHandling, study_outcome
 from suspenv.reports._mpl import add_polylines, pyplot
 from suspenv.reports.suspension import write_suspension_report
 
@@ -101,19 +101,22 @@ def write_minibus_report(
 ) -> list[Path]:
     """Write the minibus report files into ``run_dir`` from archive arrays; return paths."""
     run_dir.mkdir(parents=True, exist_ok=True)
-    F = np.asarray(arrays["objectives"], dtype=float)
-    X = np.asarray(arrays["x"], dtype=float)
-    ok = np.asarray(arrays["ok"], dtype=bool) & np.isfinite(F).all(axis=1)
-    G = np.asarray(arrays["constraints"], dtype=float)
-    feasible = ok & (np.nan_to_num(G, nan=1.0) <= 0).all(axis=1)
-    pool = feasible if feasible.any() else ok
-    if not pool.any():
+    found = study_outcome(problem, arrays)
+    if found is None:
         return []
-    front = pareto_mask(F, pool)
+    F, X, ok, feasible, front, pick = (
+        found.F,
+        found.X,
+        found.ok,
+        found.feasible,
+        found.front,
+        found.pick,
+    )
     refs = {"baseline": BASELINE_DESIGN, "study pick": STUDY_PICK}
-    ref_eval = problem.evaluate(np.vstack(list(refs.values())))
-    F_refs = dict(zip(refs, ref_eval.objectives, strict=True))
-    pick = ride_focused_pick(F, front, F_refs["baseline"])
+    F_refs = {
+        "baseline": found.baseline,
+        "study pick": problem.evaluate(np.atleast_2d(STUDY_PICK)).objectives[0],
+    }
     names = problem.objective_names
     marks_f = {**F_refs, "ride-focused pick": F[pick]}
     marks_fx = {k: (F_refs[k], refs[k]) for k in refs}

@@ -43,12 +43,11 @@ from typing import Any
 
 import numpy as np
 from numpy.polynomial import legendre
-from scipy import stats
 
 from suspenv.diagnosis.component.withdrawal import Withdrawal, element_name, without_element
 from suspenv.diagnosis.decision import DecisionRule
-from suspenv.diagnosis.evidence import fit_residual_series
-from suspenv.diagnosis.fitting import FitResult, fit, lag1_autocorrelation, residuals
+from suspenv.diagnosis.evidence import fit_residual_series, likelihood_ratio
+from suspenv.diagnosis.fitting import FitResult, fit, residuals
 from suspenv.diagnosis.hypothesis import Hypothesis, corrected_delta_bic
 from suspenv.diagnosis.split import Split
 
@@ -89,13 +88,13 @@ def fit_beside_drift(
     masks = sp.fit_masks
     # the component rigs' recordings (:class:`~suspenv.measurements.Recording`)
     corrected: list[Any] = list(sp.fit_recordings)
+    bases = [drift_basis(np.asarray(rec.time, float)) for rec in corrected]
     res = fit(model, corrected, masks, theta0=theta0, scales=scales, max_nfev=budget)
     for _ in range(BACKFIT_ROUNDS - 1):
         parts = residuals(res.model, res.theta, corrected, res.channels)
         new: list[Any] = []
-        for i, (rec, part) in enumerate(zip(corrected, parts, strict=True)):
+        for i, (rec, part, basis) in enumerate(zip(corrected, parts, bases, strict=True)):
             m = np.ones(len(rec.time), bool) if masks is None or masks[i] is None else masks[i]
-            basis = drift_basis(np.asarray(rec.time, float))
             outputs = {}
             for c in channels:
                 if c not in part:
@@ -116,16 +115,6 @@ def fit_beside_drift(
         )
     res.extra["drift_corrected"] = corrected
     return res
-
-
-def _test(full: FitResult, reduced: FitResult, rho: float) -> tuple[float, float]:
-    """(corrected p-value, corrected BIC change) of ``full`` against ``reduced`` (the
-    likelihood ratio scaled by ``(1 - rho) / (1 + rho)`` for a residual of lag-1
-    autocorrelation ``rho >= 0``, as every refit's)."""
-    stat = max(2.0 * (full.log_likelihood() - reduced.log_likelihood()), 0.0)
-    dof = max(full.n_params - reduced.n_params, 1)
-    stat_c = stat * (1.0 - rho) / (1.0 + rho)
-    return float(stats.chi2.sf(stat_c, dof)), corrected_delta_bic(stat_c, dof, full.n_samples)
 
 
 def judge_beside_drift(
@@ -152,55 +141,62 @@ def judge_beside_drift(
     values = dict(zip(final.names, final.theta, strict=True))
     named_names = {str(element_name(h)) for h in order}
 
+    fits: dict[tuple[tuple[str, ...], bool], FitResult] = {}
+
     def with_elements(kept: Sequence[str], drift: bool) -> FitResult:
         """The baseline with the named elements ``kept`` only (started from the final
         fit's values), beside the drift of more shape or (``drift=False``) the
-        baseline's."""
-        effects = [e for e in final.model.effects if e.name not in named_names or e.name in kept]
-        dropped = tuple(f"{n}." for n in named_names - set(kept))
-        theta0 = {k: float(v) for k, v in values.items() if not k.startswith(dropped)}
-        model = final.model.with_effects(effects)
-        if drift:
-            return fit_beside_drift(model, theta0, sp, final.scales, channels, budget)
-        res = fit(
-            model,
-            sp.fit_recordings,
-            sp.fit_masks,
-            theta0=theta0,
-            scales=final.scales,
-            max_nfev=budget,
-        )
-        res.extra["drift_corrected"] = list(sp.fit_recordings)
-        return res
+        baseline's; each fitted once, when first asked for."""
+        key = (tuple(kept), drift)
+        if key not in fits:
+            effects = [
+                e for e in final.model.effects if e.name not in named_names or e.name in kept
+            ]
+            dropped = tuple(f"{n}." for n in named_names - set(kept))
+            theta0 = {k: float(v) for k, v in values.items() if not k.startswith(dropped)}
+            model = final.model.with_effects(effects)
+            fits[key] = (
+                fit_beside_drift(model, theta0, sp, final.scales, channels, budget)
+                if drift
+                else fit(
+                    model,
+                    sp.fit_recordings,
+                    sp.fit_masks,
+                    theta0=theta0,
+                    scales=final.scales,
+                    max_nfev=budget,
+                )
+            )
+        return fits[key]
 
-    def significance(with_it: FitResult, without: FitResult) -> tuple[float, float, bool]:
-        rho = max(
-            lag1_autocorrelation(
-                fit_residual_series(with_it, with_it.extra["drift_corrected"], sp.fit_masks)
-            ),
-            0.0,
+    def test(kept: Sequence[str], name: str, drift: bool) -> tuple[float, float]:
+        """(corrected p-value, corrected BIC change) of the element ``name`` added to
+        the baseline with ``kept`` (the likelihood ratio of every refit)."""
+        with_it, without = with_elements([*kept, name], drift), with_elements(kept, drift)
+        recordings = with_it.extra["drift_corrected"] if drift else sp.fit_recordings
+        lr = likelihood_ratio(
+            without, with_it, fit_residual_series(with_it, recordings, sp.fit_masks)
         )
-        p_c, bic_c = _test(with_it, without, rho)
-        return p_c, bic_c, p_c < rule.alpha and bic_c < 0.0
+        bic = corrected_delta_bic(lr.statistic_corrected, lr.dof, with_it.n_samples)
+        return lr.p_value_corrected, bic
 
     context: list[str] = []
-    without = {d: with_elements(context, d) for d in (True, False)}
     withdrawals: list[Withdrawal] = []
     for h in order:
         name = str(element_name(h))
-        with_it = {d: with_elements([*context, name], d) for d in (True, False)}
-        p_c, bic_c, _ = significance(with_it[True], without[True])
-        # the same test with the baseline's drift: an element that does not pass it
-        # either (named by the held-out data, or by a model that held other elements)
-        # is not this check's to withdraw; the drift must be what takes its support, and
-        # its likelihood ratio must lose significance (a rise of the BIC alone, which
-        # counts its parameters, does not withdraw an element already named)
-        plain = significance(with_it[False], without[False])[2]
-        if p_c < rule.alpha or not plain:
-            context.append(name)
-            without = with_it
-        else:
-            withdrawals.append(Withdrawal(h, beside, p_c, bic_c))
+        p_c, bic_c = test(context, name, drift=True)
+        if p_c >= rule.alpha:
+            # the same test with the baseline's drift: an element that does not pass it
+            # either (named by the held-out data, or by a model that held other
+            # elements) is not this check's to withdraw; the drift must be what takes
+            # its support, and its likelihood ratio must lose significance (a rise of
+            # the BIC alone, which counts its parameters, does not withdraw an element
+            # already named)
+            p_plain, bic_plain = test(context, name, drift=False)
+            if p_plain < rule.alpha and bic_plain < 0.0:
+                withdrawals.append(Withdrawal(h, beside, p_c, bic_c))
+                continue
+        context.append(name)
     for w in withdrawals:
         final = without_element(final, str(element_name(w.hypothesis)), sp, budget)
     return final, withdrawals

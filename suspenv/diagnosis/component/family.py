@@ -682,6 +682,7 @@ class ComponentFamily(OptionalSteps):
         delays = self._delays_left(final, setup)
         kept = [*outcome.named, *found.named]
         remaining_delay = next((d for d in delays if d.remains), None)
+        withdrawals: list[Withdrawal] = []
         if remaining_delay is not None and kept:
             final, withdrawals = judge_beside_delay(
                 final,
@@ -693,11 +694,8 @@ class ComponentFamily(OptionalSteps):
                 self.rule,
             )
             if withdrawals:
-                self._withdraw(found, withdrawals, final)
-                kept = [h for h in kept if all(h is not w.hypothesis for w in withdrawals)]
+                kept = self._withdraw(found, withdrawals, final, kept)
                 delays = self._delays_left(final, setup)
-        else:
-            withdrawals = []
         # the named elements judged again beside a zero drift of more shape
         drift_withdrawals: list[Withdrawal] = []
         if self.check_drift and kept:
@@ -705,8 +703,7 @@ class ComponentFamily(OptionalSteps):
                 final, kept, setup.split, self.budget, self.rule
             )
             if drift_withdrawals:
-                self._withdraw(found, drift_withdrawals, final)
-                kept = [h for h in kept if all(h is not w.hypothesis for w in drift_withdrawals)]
+                kept = self._withdraw(found, drift_withdrawals, final, kept)
                 delays = self._delays_left(final, setup)
         if self.check_residual:
             cut = self.motion_lowpass_hz
@@ -791,13 +788,20 @@ class ComponentFamily(OptionalSteps):
         return found
 
     @staticmethod
-    def _withdraw(found: Conclusion, withdrawals: list[Withdrawal], final: FitResult) -> None:
-        """Record ``withdrawals`` on the conclusion, whose final model is now ``final``."""
+    def _withdraw(
+        found: Conclusion,
+        withdrawals: list[Withdrawal],
+        final: FitResult,
+        kept: list[Hypothesis],
+    ) -> list[Hypothesis]:
+        """Record ``withdrawals`` on the conclusion, whose final model is now ``final``;
+        returns the named hypotheses ``kept`` less the withdrawn."""
         found.withdrawn += [w.hypothesis for w in withdrawals]
         for w in withdrawals:
             w.hypothesis.withdrawn = w.sentence()
         found.findings.setdefault("withdrawn", []).extend(withdrawals)
         found.final_fit = final
+        return [h for h in kept if all(h is not w.hypothesis for w in withdrawals)]
 
     def _delays_left(self, final: FitResult, setup: Setup) -> list[DelayLeft]:
         """:func:`delay_left` of every channel whose lag the search refused for a delay."""

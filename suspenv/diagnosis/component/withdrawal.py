@@ -11,6 +11,7 @@ what it was judged beside and the numbers of that test.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -57,7 +58,7 @@ class Withdrawal:
         """One sentence for the verdict."""
         held = (
             ""
-            if self.heldout_reduction != self.heldout_reduction  # NaN: not judged
+            if math.isnan(self.heldout_reduction)  # not judged
             else f", held-out error {-100 * self.heldout_reduction:+.1f} %"
         )
         return (
