@@ -91,7 +91,7 @@ def test_shared_inverse_is_one_copy_per_row(X):
     nd, groups = X.shape[0], 6
     base = rng.normal(size=(nd, 2 * NS, 2 * NS))
     res = rng.normal(size=(groups * nd, 2 * NS))
-    shared = SharedInverse(base, groups)
+    shared = SharedInverse(base, groups, np.float64)  # bitwise against double precision
     per_row = base[np.tile(np.arange(nd), groups)]
     assert np.array_equal(shared.mul(res), np.matmul(per_row, res[..., None])[..., 0])
     # rows refreshed by the solver get their own matrix, the others keep the shared one
@@ -107,6 +107,26 @@ def test_shared_inverse_is_one_copy_per_row(X):
     per_row[7] = own[0]
     assert np.array_equal(shared.mul(res), np.matmul(per_row, res[..., None])[..., 0])
     assert shared.own.shape[0] == 3
+
+
+def test_shared_inverse_in_single_precision_is_the_product_rounded():
+    # the default precision (SHARED_INVERSE_DTYPE, single): half the memory, and every
+    # product that of the matrices and residuals rounded to single precision, i.e. within
+    # about 1e-7 of the double-precision product (reference: float32 numpy, float64 numpy)
+    assert solver_module.SHARED_INVERSE_DTYPE is np.float32
+    rng = np.random.default_rng(2)
+    nd, groups = 3, 6
+    base = rng.normal(size=(nd, 2 * NS, 2 * NS))
+    res = rng.normal(size=(groups * nd, 2 * NS))
+    shared = SharedInverse(base, groups)
+    assert shared.base.dtype == np.float32 and shared.base.nbytes == base.nbytes // 2
+    per_row = base[np.tile(np.arange(nd), groups)]
+    single = np.matmul(per_row.astype(np.float32), res.astype(np.float32)[..., None])[..., 0]
+    out = shared.mul(res)
+    assert out.dtype == np.float64 and np.array_equal(out, single.astype(np.float64))
+    double = np.matmul(per_row, res[..., None])[..., 0]
+    scale = np.abs(per_row) @ np.abs(res)[..., None]
+    assert np.abs(out - double).max() / scale.max() < 1e-6
 
 
 def test_residuals_of_the_iterating_rows_only_change_nothing(X, monkeypatch):
@@ -201,12 +221,81 @@ def test_a_failure_at_rebound_is_reported_at_its_step_of_the_loop(monkeypatch):
                 ok[i] = False
 
     monkeypatch.setattr(rig_module, "_check_state", check)
-    out = _compare_failures(build_axle(np.tile(reference_design(), (n, 1))))
+    axle = build_axle(np.tile(reference_design(), (n, 1)))
+    out = _compare_failures(axle)
     for t in TESTS:
         r = out[t]
         assert r.ok.tolist() == [False, True], t
         # path position 15 of 21: grid 0, the rebound end, first reached on the rebound leg
         assert r.messages[0] == "LockupError: rejected at step 15 (stroke -40.00 mm)", t
+    _compare_window(axle, out)  # a failure outside the window, on the second leg
+
+
+# ------------------------------------------------------------------ the window
+
+
+def _compare_window(axle, full, window=2, steps=10):
+    """A run keeping the window's channels only against ``full`` (every grid point) read
+    at the loop's visits of the window's points: the same numbers, the same verdicts."""
+    win = run_tests(axle, TESTS, steps=steps, window=window)
+    kept = rig_module.window_steps(steps, window)
+    i0 = steps // 2
+    for t in TESTS:
+        w, f = win[t], full[t]
+        assert np.array_equal(w.grid, f.grid[i0 - window : i0 + window + 1]), t
+        assert np.array_equal(w.path, rig_module.loop_path(2 * window)), t
+        assert np.array_equal(f.path[kept], w.path + i0 - window), t  # the same points
+        assert np.array_equal(w.ok, f.ok) and w.messages == f.messages, t
+        assert set(w.channels) == set(f.channels), t
+        for name, v in f.channels.items():
+            assert np.array_equal(w.channels[name], v[:, kept]), (t, name)
+    return win
+
+
+def test_window_steps_are_the_loops_visits_of_the_window():
+    # golden: steps 10 (grid 0..10, design at 5), window 2: design -> 7 (steps 0-2), down to
+    # 3 (steps 9-12 of the loop 5..10, 9..0, 1..5), back up to 5 (steps 19, 20)
+    assert rig_module.window_steps(10, 2).tolist() == [0, 1, 2, 9, 10, 11, 12, 19, 20]
+    for steps, window in ((10, 5), (30, 3), (4, 1)):
+        kept = rig_module.window_steps(steps, window)
+        full = rig_module.loop_path(steps)
+        assert np.array_equal(full[kept] - (steps // 2 - window), rig_module.loop_path(2 * window))
+    # the whole grid: every step of the loop
+    assert np.array_equal(rig_module.window_steps(10, 5), np.arange(21))
+
+
+def test_a_window_keeps_the_channels_of_the_full_run_at_its_points():
+    # reference: the same run keeping every grid point. Rows: the reference car, no static
+    # equilibrium (an absurd corner load), a top mount too soft to carry the bump end (a
+    # failure outside the window, on the first leg; its frozen state read inside it)
+    axle = build_axle(np.tile(reference_design(), (3, 1)))
+    axle.corner_load[1] = 1e7
+    axle.bush["top_mount"][2:, :, :3] *= 1e-3
+    full = run_tests(axle, TESTS, steps=10)
+    assert full["parallel"].ok.tolist() == [True, False, False]
+    _compare_window(axle, full)
+    _compare_window(axle, full, window=5)  # the whole grid: the same result
+
+
+def test_a_window_is_checked_and_left_to_the_two_leg_loop():
+    axle = build_axle(reference_design()[None, :])
+    for bad in (0, 6, 2.0, True, "3"):
+        with pytest.raises(ValidationError, match="window"):
+            run_tests(axle, TESTS, steps=10, window=bad)
+    # the sequential loop keeps every grid point (a path-dependent model's branches
+    # differ at the window's edges)
+    loop = run_tests(axle, TESTS, steps=10, reuse_revisits=False, window=2)
+    assert loop["parallel"].grid.size == 11 and loop["parallel"].path.size == 21
+
+
+def test_the_problems_objectives_from_the_window_are_those_of_every_point(X):
+    # reference: the same problem keeping the channels of every grid point
+    problem = KCIdentification(steps=10)
+    F, ok, msgs = problem.simulate(X)
+    problem.window = None
+    F_all, ok_all, msgs_all = problem.simulate(X)
+    assert ok.all() and np.array_equal(ok, ok_all) and msgs == msgs_all
+    assert np.array_equal(F, F_all)
 
 
 # ------------------------------------------------------------------ the fit

@@ -65,7 +65,10 @@ SOURCES: dict[str, tuple[str, ...]] = {
 }
 
 #: documents other than README.md with generated blocks (path relative to the repository)
-DOCUMENT_BLOCKS: dict[str, tuple[str, ...]] = {"docs/minibus_handling.md": ("minibus-study",)}
+DOCUMENT_BLOCKS: dict[str, tuple[str, ...]] = {
+    "docs/minibus_handling.md": ("minibus-study",),
+    "docs/knc.md": ("knc-speed",),
+}
 
 Json = Mapping[str, Any]
 
@@ -145,26 +148,47 @@ def knc_speed_cells(s: Json) -> tuple[str, str]:
     (issue 17's targets: 2 ms at batch 42, 10 ms one at a time, 0.1 MB per candidate at
     every batch size of the memory sweep, no rise of the per-candidate time up to batch 1000)."""
     mb = s["peak_mb_per_candidate"]
+    alone = s.get("memory_one_at_a_time")
+    one = (
+        f"{mb['1']:.2f} MB one at a time"
+        if alone is None
+        else f"{alone['median_mb']:.3f} MB one at a time (median of {alone['candidates']} "
+        f"candidates, {alone['within_target']} within 0.1 MB, at most {alone['max_mb']:.2f} MB)"
+    )
     result = (
         f"{s['ms_per_candidate_batched']:.1f} ms CPU per candidate at batch 42 (about "
         f"{significant(s['speedup_vs_paper_20s'])}x the paper's 20 s), "
         f"{s['ms_per_candidate_single']:.1f} ms one at a time, "
         f"{s['ms_per_candidate_batch_1000']:.1f} ms at batch 1000; peak "
-        f"{mb['42']:.3f} MB per candidate at batch 42, {mb['1']:.2f} MB one at a time, "
-        f"{s['worst_peak_mb_per_candidate']:.2f} MB at most (batch "
+        f"{mb['42']:.3f} MB per candidate at batch 42, {one}, "
+        f"{s['worst_peak_mb_per_candidate']:.3f} MB at most over the batch sizes (batch "
         f"{s['worst_memory_batch']}, of {len(mb)} batch sizes from {min(map(int, mb))} to "
         f"{max(map(int, mb))})"
     )
 
     per_batch = s["meets_memory_target_at_batch"]
     memory = (
-        "met"
+        "met at every batch size"
         if all(per_batch.values())
         else "met at batch "
         + ", ".join(b for b, ok in per_batch.items() if ok)
         + "; not at batch "
         + ", ".join(b for b, ok in per_batch.items() if not ok)
     )
+    if alone is not None:
+        left = alone["candidates"] - alone["within_target"]
+        memory += (
+            "; met for every candidate one at a time"
+            if left == 0
+            else f"; one at a time not for {left} of {alone['candidates']} candidates"
+        )
+        batches = alone.get("batches_ending_with_a_fresh_jacobian") or {}
+        over = [b for b, v in batches.get("peak_mb_per_candidate", {}).items() if v > 0.1]
+        if over:
+            memory += (
+                f", those whose sweep refreshes a Jacobian, nor for batches of "
+                f"{', '.join(over)} holding one"
+            )
     target = (
         f"<= 2 ms at batch 42 ({met(s['meets_stretch'])}), <= 10 ms one at a time "
         f"({met(s['meets_single_target_10ms'])}), <= 0.1 MB per candidate ({memory}), "
@@ -579,8 +603,69 @@ def render_diagnosis(data: Mapping[str, Json]) -> str:
 
 
 RENDERERS = {"performance": render_performance, "diagnosis": render_diagnosis}
+
+
+def knc_speed_tables(d: Json) -> str:
+    """docs/knc.md's speed and memory tables from ``knc_speed.json``: time and peak
+    memory per candidate of both paths at batch 1, 42 and 1000, the optimised path's
+    memory over the batch sizes, and one at a time candidate by candidate."""
+    s = d["summary"]
+    rows = {(r["path"], r["batch"]): r for r in d["rows"]}
+    names = {1: "one at a time", 42: "batch of 42", 1000: "batch of 1000"}
+    lines = [
+        "| mode | CPU ms / candidate | baseline (same run) | peak MB / candidate | "
+        "baseline peak MB |",
+        "|---|---|---|---|---|",
+    ]
+    for b, name in names.items():
+        fast, base = rows["optimised", b], rows["baseline", b]
+        mb_fast = significant(fast["peak_mb_per_candidate"], 3)
+        mb_base = significant(base["peak_mb_per_candidate"], 2)
+        lines.append(
+            f"| {name} | {fast['cpu_ms_per_candidate']:.2f} | "
+            f"{base['cpu_ms_per_candidate']:.3g} | {mb_fast} | {mb_base} |"
+        )
+    mb = s["peak_mb_per_candidate"]
+    lines += [
+        "",
+        "| batch | " + " | ".join(mb) + " |",
+        "|---|" + "---|" * len(mb),
+        "| peak MB / candidate | " + " | ".join(significant(v, 3) for v in mb.values()) + " |",
+    ]
+    alone = s["memory_one_at_a_time"]
+    fresh = alone["with_fresh_jacobian"]
+    text = (
+        f"One at a time, candidate by candidate ({alone['candidates']} random designs): "
+        f"median {alone['median_mb']:.3f} MB, at most {alone['max_mb']:.3f} MB; "
+        f"{alone['within_target']} of {alone['candidates']} within 0.1 MB. "
+    )
+    if fresh:
+        text += (
+            f"{fresh} of them had a row's Jacobian refreshed during the sweep (peak "
+            f"{alone['min_mb_with_fresh_jacobian']:.2f} MB or more); the others peak at "
+            f"{alone['max_mb_without_fresh_jacobian']:.3f} MB at most."
+        )
+        batches = alone.get("batches_ending_with_a_fresh_jacobian")
+        if batches:
+            per = ", ".join(
+                f"{significant(v, 2)} MB at batch {b}"
+                for b, v in batches["peak_mb_per_candidate"].items()
+            )
+            text += (
+                f" Batches ending with the first of them (candidate {batches['candidate']}), "
+                f"per candidate: {per}."
+            )
+    else:
+        text += "None of them had a Jacobian refreshed during the sweep."
+    lines += ["", textwrap.fill(text, width=88, break_long_words=False, break_on_hyphens=False)]
+    return "\n".join(lines)
+
+
 #: the blocks of the other documents (:data:`DOCUMENT_BLOCKS`), by block name
-DOCUMENT_RENDERERS = {"minibus-study": lambda data: minibus_study_paragraph(data["minibus_study"])}
+DOCUMENT_RENDERERS = {
+    "minibus-study": lambda data: minibus_study_paragraph(data["minibus_study"]),
+    "knc-speed": lambda data: knc_speed_tables(data["knc_speed"]),
+}
 
 
 # ------------------------------------------------------------------ blocks

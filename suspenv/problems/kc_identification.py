@@ -45,6 +45,7 @@ from suspenv.core import DesignSpace, EvaluationBatch, Problem
 from suspenv.core.errors import ValidationError
 from suspenv.core.options import check_keywords, integer, number, text, texts
 from suspenv.metrics.knc import (
+    FIT_HALF_WIDTH,
     OBJECTIVE_CHANNELS,
     OBJECTIVE_NAMES,
     OBJECTIVE_UNITS,
@@ -243,15 +244,21 @@ class KCIdentification(Problem):
     #: candidates per internal chunk of :meth:`simulate` (None: the whole batch at once).
     #: A batch is split into equal chunks of at most this size. Every row of the rig
     #: batch is solved independently (per-row convergence and Jacobians), so chunking
-    #: does not change the results; it bounds the peak memory (about 0.17 MB per
-    #: candidate inside a chunk, so that a population of 42 is evaluated in two chunks of
-    #: 21 below 0.1 MB per candidate) while keeping most of the batching gain.
+    #: does not change the results; it bounds the peak memory (below 0.1 MB per candidate
+    #: inside a chunk, about 0.04 MB per candidate for a population of 42 in two chunks
+    #: of 21; docs/knc.md "Speed") while keeping most of the batching gain.
     eval_chunk: int | None = 32
     #: a path-independent model solves every grid point once, both legs of the loop
     #: side by side, the return legs taking the states of their grid points
     #: (:func:`suspenv.rigs.knc.run_tests` ``reuse_revisits``); False: the reference
     #: path that solves every step of the loop one after the other (speed benchmark)
     reuse_revisits: bool = True
+    #: the channels are kept at the objectives' fit window only (the grid points within
+    #: :data:`~suspenv.metrics.knc.FIT_HALF_WIDTH` steps of the design position, all the
+    #: objectives read), every step of the loop still solved and judged
+    #: (:func:`suspenv.rigs.knc.run_tests` ``window``; the same objectives); None: the
+    #: channels of every grid point (the speed benchmark's reference path)
+    window: int | None = FIT_HALF_WIDTH
 
     def simulate(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[str]]:
         """Simulated objectives (n, 40), ok (n,), messages for physical designs X (n, 49).
@@ -278,6 +285,7 @@ class KCIdentification(Problem):
             self.model_effects,
             reuse_revisits=self.reuse_revisits,
             channels=OBJECTIVE_CHANNELS,  # only those the objectives read (memory)
+            window=self.window,  # only where the objectives read them (memory, time)
         )
         ok = np.ones(X.shape[0], bool)
         msgs = [""] * X.shape[0]

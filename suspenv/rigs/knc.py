@@ -201,6 +201,18 @@ def loop_path(steps: int) -> np.ndarray:
     return np.r_[np.arange(i0, steps + 1), np.arange(steps - 1, -1, -1), np.arange(1, i0 + 1)]
 
 
+def window_steps(steps: int, window: int) -> np.ndarray:
+    """The steps of :func:`loop_path` ``(steps)`` that make the loop over the grid points
+    within ``window`` steps of the design position: the visits of those points in loop
+    order, each point once per visit as :func:`loop_path` ``(2 * window)`` takes them
+    (design -> bump edge -> rebound edge -> design), as indices into the full loop."""
+    i0 = steps // 2
+    up = np.arange(i0, i0 + window + 1)  # design -> bump edge: step g - i0
+    down = np.arange(i0 + window - 1, i0 - window - 1, -1)  # down to the rebound edge
+    back = np.arange(i0 - window + 1, i0 + 1)  # back up to the design position
+    return np.r_[up - i0, 2 * steps - i0 - down, 2 * steps - i0 + back]
+
+
 def pad_offsets(test: str, s: np.ndarray) -> np.ndarray:
     """Pad offsets (..., 2) [m] of ``test`` for left-pad stroke ``s`` (zero for a
     compliance or steering test, whose pads stay at their static height)."""
@@ -262,6 +274,7 @@ def run_tests(
     moment_amplitude: float = MOMENT_AMPLITUDE,
     rack_amplitude: float = RACK_AMPLITUDE,
     channels: Sequence[str] | None = None,
+    window: int | None = None,
 ) -> dict[str, KCResult]:
     """Run the rig ``tests`` on every design of ``axle``; returns {test: KCResult}.
 
@@ -276,7 +289,18 @@ def run_tests(
     state of its first visit (``False``: solve every step of the loop in sequence, the
     reference path); a path-dependent model always solves every step.
     ``channels``: the names of the channels to keep in the results (None: all of
-    :meth:`AxleSolver.outputs`; fewer channels hold less memory).
+    :meth:`AxleSolver.outputs`; fewer channels hold less memory). ``window``: keep the
+    channels of the grid points within this many steps of the design position only
+    (e.g. the objectives' fit window, :data:`suspenv.metrics.knc.FIT_HALF_WIDTH`; None:
+    every grid point), for a path-independent model solved on its two legs
+    (``reuse_revisits``), whose two visits of a grid point are the same state. Every
+    step of the loop is still solved and judged (``ok`` and the messages are those of
+    the whole loop); the results then describe the loop over the window's points:
+    ``grid`` its ``2 * window + 1`` points, ``path`` ``loop_path(2 * window)``, each
+    channel its value at the loop's visit of that point (a failed row's frozen state
+    from its failing step on, as without a window), computed at those points only (less
+    memory and time). A path-dependent model (or ``reuse_revisits=False``) keeps every
+    grid point: its loop's branches differ at the window's edges.
     """
     _check_tests(tuple(tests))
     if not force_amplitude > 0:
@@ -295,6 +319,12 @@ def run_tests(
             f"`channels` must name rig channels, but got {channels!r}; the channels are "
             f"{OUTPUT_NAMES}"
         )
+    whole = isinstance(window, int | np.integer) and not isinstance(window, bool)
+    if window is not None and not (whole and 0 < window <= steps // 2):
+        raise ValidationError(
+            f"`window` must be a whole number of grid steps in 1..steps/2 = 1..{steps // 2} "
+            f"(or None), but got window={window!r}"
+        )
     n, nt = axle.n, len(tests)
     grid = stroke_grid(amplitude, steps)
     force_grid = stroke_grid(force_amplitude, steps) if set(tests) & set(FORCE_TESTS) else None
@@ -311,9 +341,14 @@ def run_tests(
     assert isinstance(J0, np.ndarray)  # a fresh solve: one inverse Jacobian per design
     tile = np.tile(np.arange(n), nt)  # rows: test-major
     solver = base.take(tile, axle=False)
+    del base  # the rows' solver holds what the sweep needs (memory)
     # a path-independent model: both legs from the design position side by side, every
     # grid point solved once (see _sweep_legs); else every step of the loop in sequence
     reuse = reuse_revisits and not solver.path_dependent
+    # the steps of the loop whose channels are kept: all, or the loop over the window
+    # (the two-leg loop only: each visit of a grid point is then the same state)
+    window = window if reuse else None
+    kept_steps = np.arange(path.size) if window is None else window_steps(steps, window)
     st = st0.take(tile)
     # the static inverse Jacobians: one per design (shared by the rows of the legs) or
     # one per row (the sequential loop); in a box, so that the sweep can free them
@@ -356,23 +391,27 @@ def run_tests(
     sweep = _Sweep(pad0, signs, grid, row_grid, ext_dir, rack_dir)
     if reuse:
         legs = solver.take(np.tile(np.arange(rows), 2), axle=False)  # leg x test x design
-        del solver
+        st_box = [st]  # (the sweep frees the static state once its legs start from it)
+        del solver, st
         out, trail = _sweep_legs(
-            legs, st, J_box, nt, ok, msgs, sweep, where_at, path, keep_states, channels
-        )
+            legs, st_box, J_box, nt, ok, msgs, sweep, where_at, path, keep_states, channels,
+            kept_steps,
+        )  # fmt: skip
     else:
         # channels in vectorised calls of about 4 JACOBIAN_BLOCK row evaluations each
         per = max(1, 4 * JACOBIAN_BLOCK // max(rows, 1))
         out, trail = _sweep_loop(
             solver, st, J_box.pop(), ok, msgs, sweep, where_at, path, per, keep_states, channels
         )
+    i0 = steps // 2
+    points = slice(None) if window is None else slice(i0 - window, i0 + window + 1)
     results = {}
     for j, t in enumerate(tests):
         sl = slice(j * n, (j + 1) * n)
         results[t] = KCResult(
             t,
-            test_grids[t],
-            path,
+            test_grids[t][points],
+            path if window is None else loop_path(2 * window),
             {name: v[sl] for name, v in out.items()},
             ok[sl].copy(),
             msgs[sl],
@@ -523,7 +562,7 @@ def _sweep_loop(
 
 def _sweep_legs(
     lsolver: AxleSolver,
-    st: AxleState,
+    st_box: list[AxleState],
     J_box: list[np.ndarray],
     nt: int,
     ok: np.ndarray,
@@ -533,18 +572,20 @@ def _sweep_legs(
     path: np.ndarray,
     keep_states: bool,
     names: Sequence[str] | None,
+    kept_steps: np.ndarray,
 ) -> tuple[dict[str, np.ndarray], list[AxleState]]:
     """The loop of a path-independent model from its two legs, solved side by side.
 
     The state at a grid point does not depend on how the rig got there (module
     docstring), so every grid point is solved once: the bump leg (design -> bump) and
-    the rebound leg (design -> rebound) start together from the static state ``st``
-    (rows: leg x test x design, ``2 * rows`` in every solver call; ``lsolver`` the
-    solver of these rows) with the static inverse Jacobians (``J_box``: a list holding
-    them, one per design, emptied here; shared by the rows until the solver refreshes
-    one: :class:`~suspenv.models.mcpherson.solver.SharedInverse`), and the
-    loop's return legs take the state of their grid point. Both branches of the loop
-    are then identical. The first step of each leg starts from the tangent predictor,
+    the rebound leg (design -> rebound) start together from the static state
+    (``st_box``: a list holding it, emptied here; rows: leg x test x design, ``2 * rows``
+    in every solver call; ``lsolver`` the solver of these rows) with the static inverse
+    Jacobians (``J_box``: a list holding them, one per design, emptied here; shared by
+    the rows until the solver refreshes one:
+    :class:`~suspenv.models.mcpherson.solver.SharedInverse`), and the loop's return legs
+    take the state of their grid point. Both branches of the loop are then identical.
+    The first step of each leg starts from the tangent predictor,
     the second from the quadratic through the first steps of both legs and the static
     state (three equally spaced states), the others from the cubic through the leg's
     last four states (:data:`LEG_ORDER`; the third step's include the other leg's first
@@ -552,13 +593,17 @@ def _sweep_legs(
 
     Failures are reported as the sequential loop reports them: the first failing step
     of the loop (its index ``k`` in ``path``) in the message, and the row's last
-    converged state at every later step. Returns (channels {name: (rows, P, 2)} of the
-    channels ``names`` (None: all), states of every step when ``keep_states``).
+    converged state at every later step. Returns (channels {name: (rows, Q, 2)} of the
+    channels ``names`` (None: all) at the ``Q`` steps ``kept_steps`` of the loop (indices
+    into ``path``; the channels of the grid points they visit only are computed),
+    states of those steps when ``keep_states``).
     """
+    st = st_box.pop()
     m = st.r.shape[0]
     steps = sweep.grid.size - 1
     i0 = steps // 2
     lst = st.take(np.tile(np.arange(m), 2))  # rows: leg-major (bump leg, rebound leg)
+    del st  # (memory)
     Jinv: np.ndarray | SharedInverse = SharedInverse(J_box.pop(), 2 * nt)
     lok = np.tile(ok, 2)
     lmsgs = msgs + msgs
@@ -567,22 +612,28 @@ def _sweep_legs(
     rel: dict | None = {} if PREDICTOR_CACHE else None
     history: list[AxleState] = []
     kept: list[AxleState] = [lst] if keep_states else []
-    # channels of every grid point (G, rows, 2), filled as the steps come: outputs in
-    # calls of about JACOBIAN_BLOCK rows and at most OUTPUT_STATES states (bounded
+    # channels of the grid points that the kept steps visit (grid indices lo .. lo + G - 1,
+    # the steps j <= reach of both legs) (G, rows, 2), filled as the steps come: outputs
+    # in calls of about JACOBIAN_BLOCK rows and at most OUTPUT_STATES states (bounded
     # memory), the pending states kept
+    grid_at = path[kept_steps]  # grid index of every kept step
+    reach = int(np.abs(grid_at - i0).max())
+    lo = i0 - reach
     ch: dict[str, np.ndarray] = {}
     pending: list[tuple[int, AxleState, np.ndarray]] = []  # (step j, state, pads)
-    per = max(1, min(JACOBIAN_BLOCK // (2 * m), OUTPUT_STATES))
+    # a window's few states each get their channels right after their step (views, no
+    # stacked copies: the least memory, a handful of calls)
+    per = 1 if reach < i0 else max(1, min(JACOBIAN_BLOCK // (2 * m), OUTPUT_STATES))
 
     def flush() -> None:
         out = _outputs(lsolver, [x for _, x, _ in pending], [q for _, _, q in pending], per, names)
         for name, v in out.items():  # (steps, 2 * rows, 2)
             if name not in ch:
-                ch[name] = np.empty((steps + 1, m) + v.shape[2:])
+                ch[name] = np.empty((2 * reach + 1, m) + v.shape[2:])
             for q, (j, _, _) in enumerate(pending):
-                ch[name][i0 + j] = v[q, :m]
+                ch[name][reach + j] = v[q, :m]
                 if j:
-                    ch[name][i0 - j] = v[q, m:]
+                    ch[name][reach - j] = v[q, m:]
         pending.clear()
 
     prev_load = sweep.load(i0, 2)
@@ -604,12 +655,19 @@ def _sweep_legs(
         else:
             history = [*history[-(LEG_ORDER - 1) :], lst]
         lst, Jinv = _step(lsolver, lst, prev_load, load, lok, lmsgs, Jinv, at, history, None, rel)
+        # the predictor's relative rotations of the states before the last are cached: no
+        # later step reads their rotation matrices (unless their channels are due)
+        if rel is not None and not keep_states:
+            for old in history[:-1]:
+                if all(x is not old for _, x, _ in pending):
+                    _release_rotations(old)
         last[lok] = gi[lok]
         if j == i0:  # loads and deflections peak at the ends of the stroke
             _check_state(lsolver, lst, lok, lmsgs, at)
         if keep_states:
             kept.append(lst)
-        pending.append((j, lst, load[0]))
+        if j <= reach:
+            pending.append((j, lst, load[0]))
         if len(pending) >= per:
             flush()
         prev_load = load
@@ -621,28 +679,29 @@ def _sweep_legs(
     for i in range(m):
         msgs[i] = lmsgs[i] if not up_ok[i] else lmsgs[m + i]
     ok &= up_ok & down_ok
-    # every row's grid index at each step of the loop; a failed row keeps its last
+    # every row's grid index at each kept step of the loop; a failed row keeps its last
     # converged state from its failing step on (the step of that state in the loop)
     P = path.size
     k_last = np.where(~up_ok, last[:m] - i0, np.where(~down_ok, 2 * steps - i0 - last[m:], P))
     frozen = np.where(~up_ok, last[:m], last[m:])
-    idx = np.where(np.arange(P)[None, :] >= k_last[:, None], frozen[:, None], path[None, :])
+    later = kept_steps[None, :] >= k_last[:, None]  # (rows, Q): from the failing step on
+    idx = np.where(later, frozen[:, None], grid_at[None, :])
     rr = np.arange(m)[:, None]
     bad = np.flatnonzero(k_last < P)
-    # every row's channels along the loop, then those of the failed rows' frozen states
-    out = {name: np.ascontiguousarray(v[path].swapaxes(0, 1)) for name, v in ch.items()}
-    for name, v in ch.items():
-        out[name][bad] = v[idx[bad], bad[:, None]]
-    if bad.size:  # the frozen states' channels at the rig's input of every later step
+    # every row's channels along the kept steps, then those of the failed rows' frozen
+    # states at the rig's input of every later step
+    out = {name: np.ascontiguousarray(v[grid_at - lo].swapaxes(0, 1)) for name, v in ch.items()}
+    if bad.size:
         rows = np.where(~up_ok[bad], bad, m + bad)  # the failed leg's row
         frozen_st, sub = lst.take(rows), lsolver.take(rows, axle=False)
-        pads = np.stack([sweep.load(g)[0][bad] for g in path])  # (P, b, 2)
-        again = [np.broadcast_to(a, (P,) + a.shape) for a in (frozen_st.r, frozen_st.R)]
-        lam = np.broadcast_to(frozen_st.lam, (P,) + frozen_st.lam.shape)
+        pads = np.stack([sweep.load(g)[0][bad] for g in grid_at])  # (Q, b, 2)
+        Q = grid_at.size
+        again = [np.broadcast_to(a, (Q,) + a.shape) for a in (frozen_st.r, frozen_st.R)]
+        lam = np.broadcast_to(frozen_st.lam, (Q,) + frozen_st.lam.shape)
         late = sub.outputs(AxleState(again[0], again[1], lam), pads, names)
         for q, row in enumerate(bad.tolist()):
             for name, v in late.items():
-                out[name][row, k_last[row] :] = v[k_last[row] :, q]
+                out[name][row, later[row]] = v[later[row], q]
     del lst
     trail: list[AxleState] = []
     if keep_states:
@@ -656,9 +715,21 @@ def _sweep_legs(
         lam = at_grid(np.stack([x.lam for x in kept]))
         trail = [
             AxleState(r[idx[:, q], rr[:, 0]], R[idx[:, q], rr[:, 0]], lam[idx[:, q], rr[:, 0]])
-            for q in range(P)
+            for q in range(kept_steps.size)
         ]
     return out, trail
+
+
+#: the rotation matrices of a state that no step reads again (no rows: a read fails)
+_RELEASED_ROTATIONS = np.empty((0, 2, 4, 3, 3))
+_RELEASED_ROTATIONS.flags.writeable = False
+
+
+def _release_rotations(st: AxleState) -> None:
+    """Free the rotation matrices (rows, 2, 4, 3, 3) of a state of the two-leg loop that
+    only the predictor's cached relative rotations stand for now (memory: half a state);
+    its positions and multipliers stay for the extrapolation."""
+    st.R = _RELEASED_ROTATIONS
 
 
 def _take_state(st: AxleState, sl: slice) -> AxleState:
@@ -705,7 +776,10 @@ def _step(solver, st, load_prev, load, ok, msgs, J, at, history, seen=None, rel=
         pred = _extrapolate(st, history[-2], None, ok, rel)
     else:
         pred = _predict(solver, st, J, pad - pad_prev, ok, ext_prev, ext, rack_prev, rack)
-    new, conv, J = solver.solve(pred, pad, ext, active=ok, Jinv=J, rack=rack)
+    # the prediction is handed over, not kept: Newton frees each iterate it leaves (memory)
+    handed = [pred]
+    del pred
+    new, conv, J = solver.solve(handed.pop(), pad, ext, active=ok, Jinv=J, rack=rack)
     bad = ok & ~conv
     if bad.any():  # retry the failing rows from the last converged state in 4 sub-steps
         idx = np.flatnonzero(bad)

@@ -175,6 +175,19 @@ NOT_ARM_ROWS = np.setdiff1d(np.arange(NS), ARM_ROWS)
 #: design's arrays as zero-stride views, the same numbers in less memory (False: a copy
 #: per row, the reference path of the speed benchmark's baseline)
 SHARE_ONE_DESIGN = True
+#: the precision in which :class:`SharedInverse` holds the inverse Jacobians that the
+#: rig's rows share: single (half the memory). The chord iteration only needs an
+#: approximate inverse: rounding it to single precision changes the Newton contraction
+#: by about 1e-6 (||I - M J|| measured on the static Jacobians, whose condition number
+#: is about 3e9 in norm but whose entries are rounded relative to their own size), and
+#: a row converges to the same tolerances (``np.float64``: the reference path of the
+#: tests and the speed benchmark's baseline)
+SHARED_INVERSE_DTYPE: type = np.float32
+#: :class:`AxleSolver` arrays without design rows on their first axis, which
+#: :meth:`AxleSolver.take` must not take rows of even when that axis happens to be as
+#: long as the batch (the compiled residual's offsets are 14 numbers: a batch of 14
+#: designs took them as rows); the pack has its rows last and is taken apart
+_NOT_PER_ROW = frozenset({"_rl_off", "_rl_pack", "_rl"})
 #: the channels of :meth:`AxleSolver.outputs`, in its order
 OUTPUT_NAMES = (
     "wheel_centre_x",
@@ -360,23 +373,28 @@ class SharedInverse:
     The same numbers as ``base[np.tile(arange(nd), groups)]`` (one copy per row), held
     once per design: the rig's rows (test x leg x design) start from the same static
     Jacobian, and only the rows that the solver refreshes get a matrix of their own.
+    Held in ``dtype`` (default :data:`SHARED_INVERSE_DTYPE`); the products are computed
+    in it and returned in the residual's precision.
     """
 
-    def __init__(self, base: np.ndarray, groups: int):
-        self.base = base
+    def __init__(self, base: np.ndarray, groups: int, dtype: type | None = None):
+        self.dtype = np.dtype(SHARED_INVERSE_DTYPE if dtype is None else dtype)
+        self.base = np.asarray(base, dtype=self.dtype)
         self.nd = base.shape[0]
         self.groups = groups
         self.slot = np.full(groups * self.nd, -1)  # row -> index into own (-1: shared)
-        self.own = np.empty((0,) + base.shape[1:])
+        self.own = np.empty((0,) + base.shape[1:], self.dtype)
 
     def mul(self, res: np.ndarray) -> np.ndarray:
         """``J^-1 res`` (m, 66) for residuals ``res`` (m, 66) of every row."""
-        out = np.matmul(self.base, res.reshape(self.groups, self.nd, -1, 1))
+        r = res.astype(self.dtype, copy=False)
+        out = np.matmul(self.base, r.reshape(self.groups, self.nd, -1, 1))
         out = out.reshape(res.shape)
         mine = np.flatnonzero(self.slot >= 0)
         if mine.size:
-            out[mine] = np.matmul(self.own[self.slot[mine]], res[mine][..., None])[..., 0]
-        return out
+            out[mine] = np.matmul(self.own[self.slot[mine]], r[mine][..., None])[..., 0]
+        del r  # before the product is cast back (memory)
+        return out.astype(res.dtype, copy=False)
 
     def set(self, rows: np.ndarray, mats: np.ndarray) -> None:
         """Give ``rows`` (bool mask) their own inverse Jacobians ``mats`` (k, 66, 66)."""
@@ -384,7 +402,8 @@ class SharedInverse:
         new = idx[self.slot[idx] < 0]
         self.slot[new] = self.own.shape[0] + np.arange(new.size)
         if new.size:
-            self.own = np.concatenate([self.own, np.empty((new.size,) + self.base.shape[1:])])
+            grown = np.empty((new.size,) + self.base.shape[1:], self.dtype)
+            self.own = np.concatenate([self.own, grown])
         self.own[self.slot[idx]] = mats
 
 
@@ -496,7 +515,7 @@ class AxleSolver:
         self.L_spring0 = np.linalg.norm(p["spring_lower_seat"] - p["spring_upper_seat"], axis=-1)
         self._size_preload()
         # every body-fixed vector, rotated in one batched product by the residual
-        self._vec = np.stack(
+        vec = np.stack(
             [
                 self.lca_pts[:, :, 0],  # 0 lower-arm front bush
                 self.lca_pts[:, :, 1],  # 1 lower-arm rear bush
@@ -517,9 +536,10 @@ class AxleSolver:
             ],
             axis=2,
         )
-        # the same vectors grouped by body (VEC_GROUPS), each group's rows contiguous
+        # the same vectors grouped by body (VEC_GROUPS), each group's rows contiguous (held
+        # once: :attr:`_vec` puts them back together)
         self._vec_body = {
-            b: np.ascontiguousarray(self._vec[:, :, a:z]) for b, (a, z) in enumerate(VEC_GROUPS)
+            b: np.ascontiguousarray(vec[:, :, a:z]) for b, (a, z) in enumerate(VEC_GROUPS)
         }
         self._K4 = np.stack([self.K[b] for b in BUSH_ORDER], axis=2)  # (n, 2, 4, 6)
         self._ground4 = np.stack([self.ground[b] for b in BUSH_ORDER], axis=2)
@@ -533,6 +553,12 @@ class AxleSolver:
         self._rl_layout: list[tuple[str, int, int, tuple[int, ...]]] = []
         self._rl: dict[str, np.ndarray] | None = None
         self._rl_off: np.ndarray | None = None  # the compiled residual's offsets in the pack
+
+    @property
+    def _vec(self) -> np.ndarray:
+        """Every body-fixed vector (n, 2, 16, 3) [m or unit], in the order of
+        :data:`VEC_BODY` (made from the per-body groups :attr:`_vec_body`)."""
+        return np.concatenate([self._vec_body[b] for b in range(len(VEC_GROUPS))], axis=2)
 
     @property
     def path_dependent(self) -> bool:
@@ -560,6 +586,8 @@ class AxleSolver:
 
         out = copy.copy(self)
         for key, val in self.__dict__.items():
+            if key in _NOT_PER_ROW or key in ("K", "ground"):  # not rows, or views (below)
+                continue
             if isinstance(val, np.ndarray) and val.ndim and val.shape[0] == self.n:
                 setattr(out, key, pick(val))
             elif (
@@ -568,15 +596,25 @@ class AxleSolver:
                 and all(isinstance(v, np.ndarray) and v.shape[0] == self.n for v in val.values())
             ):
                 setattr(out, key, {k: pick(v) for k, v in val.items()})
+        # the bushings' stiffnesses and ground points by name: views of the stacked arrays
+        # (held once)
+        out.K = {b: out._K4[:, :, BUSH_ORDER.index(b)] for b in self.K}
+        out.ground = {b: out._ground4[:, :, BUSH_ORDER.index(b)] for b in self.ground}
         out._rl = None
         if self._rl_pack is not None:  # the rows-last arrays: rows on the last axis
+            # row m reads the pack's column m % c (c columns: the compiled residual's
+            # rule), so that rows repeating the designs in order share the pack
             pk = self._rl_pack
-            one_pk = one or (share and pk.strides[-1] == 0)
-            out._rl_pack = (
-                np.broadcast_to(pk[..., idx[0], None], pk.shape[:-1] + (idx.size,))
-                if one_pk
-                else pk[..., idx]
-            )
+            c = pk.shape[-1]
+            col = idx % c
+            if c == 1 or (
+                share and idx.size % c == 0 and np.array_equal(col, np.arange(idx.size) % c)
+            ):
+                out._rl_pack = pk  # the designs repeated in order (e.g. the rig's rows)
+            elif one or (share and pk.strides[-1] == 0):  # one design: its column, once
+                out._rl_pack = np.ascontiguousarray(pk[..., col[0], None])
+            else:
+                out._rl_pack = pk[..., col]
         if axle:
             out.axle = self.axle.take(idx)
         out.n = idx.size
@@ -666,7 +704,8 @@ class AxleSolver:
     def deflections(self, r: np.ndarray, R: np.ndarray) -> dict[str, np.ndarray]:
         """Bushing deflections (..., 2, 6): translation [m] and rotation vector [rad], in
         each bushing's frame (vehicle axes for a bushing without an orientation)."""
-        x = self._deflections(r, R, rotate(R[..., [0, 0], :, :], self._vec[..., 0:2, :]))
+        arm = self._vec_body[0][..., 0:2, :]  # the lower arm's two bushes
+        x = self._deflections(r, R, rotate(R[..., [0, 0], :, :], arm))
         x = self._to_bush(x)
         return {name: x[..., j, :] for j, name in enumerate(BUSH_ORDER)}
 
@@ -766,8 +805,10 @@ class AxleSolver:
     def _rows_last_consts(self, rows: tuple[int, ...]) -> dict[str, np.ndarray]:
         """The solver's per-design arrays that :meth:`_residual_rows_last` reads, rows
         last ((*shape, 2, M) for the M rows of ``rows`` (..., n)), as views of one array
-        (``_rl_pack`` (K, 2, n), made once and taken with the solver's rows by
-        :meth:`take`); those of ``rows == (n,)`` kept for the next call."""
+        (``_rl_pack`` (K, 2, c), made once and taken with the solver's rows by
+        :meth:`take`, row ``m`` reading column ``m % c``: c = n, or fewer columns
+        shared by rows that repeat the designs in order); those of ``rows == (n,)``
+        kept for the next call."""
         if self._rl_pack is None:
             parts = [
                 (name, np.broadcast_to(a, (self.n, 2) + a.shape[a.ndim - tail :]))
@@ -799,6 +840,8 @@ class AxleSolver:
         if rows == (self.n,) and self._rl is not None:
             return self._rl
         pack = self._rl_pack
+        if pack.shape[-1] != self.n:  # columns shared by the rows: row m reads m % c
+            pack = pack[..., np.arange(self.n) % pack.shape[-1]]
         M = math.prod(rows)
         if rows != (self.n,):
             lead = pack.shape[:2] + (1,) * (len(rows) - 1) + (self.n,)
@@ -1390,7 +1433,9 @@ class AxleSolver:
         """Per-row size (n,) of a Newton step relative to the tolerances (< 1: converged):
         the largest of its translations over ``xtol``, rotations over ``rtol`` and
         multipliers over ``ltol`` (NaN for a step that is not finite)."""
-        return (np.abs(dx) / _tolerances(self.xtol, self.rtol, self.ltol)).max(axis=-1)
+        size = np.abs(dx)
+        size /= _tolerances(self.xtol, self.rtol, self.ltol)  # in place (memory)
+        return size.max(axis=-1)
 
     def solve(
         self,
@@ -1447,7 +1492,8 @@ class AxleSolver:
                 )
             else:
                 res = self.residual(st.r, st.R, st.lam, pad, st, ext, rack=rack).reshape(n, 2 * NS)
-            dx = -_inv_mul(Jinv, res)
+            dx = _inv_mul(Jinv, res)  # a new array: negated in place (memory)
+            np.negative(dx, out=dx)
             size = self._step_size(dx)
             ok = np.isfinite(size)
             finite = ok
@@ -1468,13 +1514,18 @@ class AxleSolver:
                 else:
                     Jinv[refresh] = fresh_inv
                 dx[refresh] = -np.matmul(fresh_inv, res[refresh][..., None])[..., 0]
+                del fresh_inv  # kept by Jinv (memory)
                 size = np.where(refresh, self._step_size(dx), size)
+            del res  # not read again this iteration (memory)
             stuck = todo & fresh & (size > 0.9 * prev)  # exact Newton cycles: damp
             alpha = np.where(stuck, np.maximum(0.5 * alpha, 1.0 / 64), alpha)
             fresh = refresh
             prev = np.where(todo, size, prev)
             step = np.where(size < 1.0, 1.0, alpha)  # a converging step is taken in full
-            st = self._apply(st, np.where(todo[:, None], step[:, None] * dx, 0.0), todo)
+            dx *= step[:, None]  # in place (memory): dx is not read again
+            dx[~todo] = 0.0
+            st = self._apply(st, dx, todo)
+            del dx  # freed before the next iteration makes its own (memory)
             small = todo & (size < 1.0)
             # path-dependent elements: the kink of a reversal can leave the first small step
             # inaccurate, so they need two small steps in a row
