@@ -290,3 +290,49 @@ def test_the_renderer_imports_only_light_standard_modules() -> None:
     imported = {a.name for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names}
     imported |= {n.module or "" for n in ast.walk(tree) if isinstance(n, ast.ImportFrom)}
     assert imported <= ALLOWED_IMPORTS, imported - ALLOWED_IMPORTS
+
+
+def test_identify_reference_block_formats_a_hand_made_json() -> None:
+    # docs/identify.md's block: who won, one table row per case, the noise-only errors
+    def row(case, seed, answer, identified, err, named):
+        return {
+            "case": case,
+            "seed": seed,
+            "curves_within_1.5": "33/33",
+            "worst_rms_over_noise": 1.104,
+            "answer": f"polish from the {answer}",
+            "identified": identified,
+            "determined_combinations": 14,
+            "identified_max_err_%": err,
+            "all_mean_err_%": 20.06,
+            "next_test": "steering",
+            "named": named,
+            "wall_s": 9.6,
+            "cpu_s": 10.4,
+            "rerun_identified": 3,
+        }
+
+    rows = [
+        row("noise only", 0, "start design", 3, 0.1688, "none"),
+        row("default concealed", 1, "CMA-ES best", 0, float("nan"), "progressive,loop"),
+    ]
+    text = readme.identify_reference_block({"rows": rows})
+    lines = text.splitlines()
+    assert " ".join(lines[:2]) == (
+        '"answer": which polish had the lower cost. The global stage\'s valley won on 1 of '
+        "the 2 cases (default concealed seed 1); on the others the polish from the start did."
+    )
+    assert lines[5] == (
+        "| noise only | 0 | 33 / 33 | 1.10 | start design | 3 | 14 | 0.17 | 20.1 | steering "
+        "| 3 | nothing | 10 / 10 |"
+    )
+    assert lines[6] == (
+        "| default concealed | 1 | 33 / 33 | 1.10 | CMA-ES best | 0 | 14 | - | 20.1 | "
+        "steering | 3 | cubic, loop | 10 / 10 |"
+    )
+    assert " ".join(lines[8:]) == (
+        "With noise only, 3 parameters are identified on each seed, the worst of them "
+        "within 0.17 % of its range; all 49 have a mean error of 20 % of the range."
+    )
+    with pytest.raises(readme.FigureError, match="answer"):
+        readme.identify_reference_block({"rows": [row("noise only", 0, "moon", 3, 0.1, "none")]})

@@ -68,6 +68,7 @@ SOURCES: dict[str, tuple[str, ...]] = {
 DOCUMENT_BLOCKS: dict[str, tuple[str, ...]] = {
     "docs/minibus_handling.md": ("minibus-study",),
     "docs/knc.md": ("knc-speed",),
+    "docs/identify.md": ("identify-reference",),
 }
 
 Json = Mapping[str, Any]
@@ -661,8 +662,76 @@ def knc_speed_tables(d: Json) -> str:
     return "\n".join(lines)
 
 
+#: the diagnosis screen's pattern names as docs/identify.md words them
+SCREEN_WORDS = {"lr_asymmetry": "left/right asymmetry", "progressive": "cubic", "loop": "loop"}
+
+
+def identify_reference_block(d: Json) -> str:
+    """docs/identify.md's results on the reference car's test car from
+    ``identify_reference.json``: which polish won, the table of the eight cases, and the
+    noise-only errors."""
+    rows = d["rows"]
+    global_wins = [r for r in rows if r["answer"] == "polish from the CMA-ES best"]
+    _require(
+        all(
+            r["answer"] in ("polish from the CMA-ES best", "polish from the start design")
+            for r in rows
+        ),
+        "an answer other than the two polishes",
+    )
+    won = ", ".join(f"{r['case']} seed {r['seed']}" for r in global_wins) or "none"
+    lines = [
+        textwrap.fill(
+            f'"answer": which polish had the lower cost. The global stage\'s valley won on '
+            f"{len(global_wins)} of the {len(rows)} cases ({won}); on the others the polish "
+            f"from the start did.",
+            width=88,
+            break_long_words=False,
+            break_on_hyphens=False,
+        ),
+        "",
+        "| case | seed | curves within 1.5 x noise | worst curve / noise | answer | identified "
+        "| determined combinations | worst error of the identified [% range] | all 49: mean "
+        "error [% range] | next test | re-run: identified | diagnosis names | wall / CPU [s] |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        answer = "CMA-ES best" if r["answer"].endswith("CMA-ES best") else "start design"
+        worst = r["identified_max_err_%"]
+        worst_text = "-" if not math.isfinite(worst) else f"{worst:.2f}"
+        names = (
+            "nothing"
+            if r["named"] == "none"
+            else ", ".join(SCREEN_WORDS.get(n, n) for n in r["named"].split(","))
+        )
+        lines.append(
+            f"| {r['case']} | {r['seed']} | {count_text(r['curves_within_1.5'])} | "
+            f"{r['worst_rms_over_noise']:.2f} | {answer} | {r['identified']} | "
+            f"{r['determined_combinations']} | {worst_text} | {r['all_mean_err_%']:.1f} | "
+            f"{r['next_test']} | {r['rerun_identified']} | {names} | "
+            f"{r['wall_s']:.0f} / {r['cpu_s']:.0f} |"
+        )
+    quiet = [r for r in rows if r["case"] == "noise only"]
+    errs = [r["identified_max_err_%"] for r in quiet]
+    means = [r["all_mean_err_%"] for r in quiet]
+    counts = sorted({r["identified"] for r in quiet})
+    lines += [
+        "",
+        textwrap.fill(
+            f"With noise only, {' or '.join(map(str, counts))} parameters are identified on "
+            f"each seed, the worst of them within {max(errs):.2f} % of its range; all 49 "
+            f"have a mean error of {span(min(means), max(means))} % of the range.",
+            width=88,
+            break_long_words=False,
+            break_on_hyphens=False,
+        ),
+    ]
+    return "\n".join(lines)
+
+
 #: the blocks of the other documents (:data:`DOCUMENT_BLOCKS`), by block name
 DOCUMENT_RENDERERS = {
+    "identify-reference": lambda data: identify_reference_block(data["identify_reference"]),
     "minibus-study": lambda data: minibus_study_paragraph(data["minibus_study"]),
     "knc-speed": lambda data: knc_speed_tables(data["knc_speed"]),
 }
