@@ -336,3 +336,72 @@ def test_identify_reference_block_formats_a_hand_made_json() -> None:
     )
     with pytest.raises(readme.FigureError, match="answer"):
         readme.identify_reference_block({"rows": [row("noise only", 0, "moon", 3, 0.1, "none")]})
+
+
+def _overhead_json() -> dict:
+    loops = []
+    for lib, bare_ms, lean, full in (
+        ("pycma", 0.0352, 0.98, 1.153),
+        ("pymoo", 0.0311, 1.056, 1.198),
+        ("optuna", 0.503, 1.193, 1.195),
+    ):
+        loops += [
+            {"library": lib, "case": "bare", "ms_per_eval": bare_ms, "ratio_vs_bare": 1.0},
+            {"library": lib, "case": "suspenv, no archive", "ratio_vs_bare": lean},
+            {"library": lib, "case": "suspenv + archive", "ratio_vs_bare": full},
+        ]
+    for r in loops:
+        r["ratio_of_best"] = r["ratio_vs_bare"]
+    workers = []
+    # K&C: 4 batches of 42; 100 ms CPU in-process (25 ms a batch, 23 ms of it the problem)
+    for w, chunk, cpu, wall in ((1, "default", 0.100, 0.100), (2, "default", 0.150, 0.11)):
+        workers.append((w, chunk, cpu, wall))
+    workers += [(2, "5", 0.27, 0.18), (2, "1", 0.79, 0.48)]
+    for w, chunk, cpu, wall in workers:
+        for case in readme.WORKER_PROBLEMS:
+            loops.append(
+                {
+                    "library": "workers",
+                    "case": f"{case}: workers={w}, chunk={chunk}",
+                    "evaluations": 168,
+                    "batch": 42,
+                    "cpu_s": cpu,
+                    "cpu_vs_workers_1": cpu / 0.100,
+                    "wall_vs_workers_1": wall / 0.100,
+                    "evaluation_ms_per_batch": 23.0,
+                    "cores_free_2proc": 1.97,
+                }
+            )
+    return {"rows": loops}
+
+
+def test_overhead_tables_format_a_hand_made_json() -> None:
+    # docs/runs.md's blocks: the loops against the bare libraries; the workers study with
+    # k = (0.79 - 0.15) s / (4 batches x 40 extra chunks) = 4 ms and the prediction
+    # rest + k + e / 2 = 2 + 4 + 23 / 2 = 17.5 ms against 25 ms in-process
+    d = _overhead_json()
+    loops = readme.overhead_loop_table(d).splitlines()
+    assert loops[2] == (
+        "| pycma `ask`/`tell`, 49-D sphere, population 42 | 0.035 | 0.98x; 0.98x | "
+        "**1.15x**; 1.15x |"
+    )
+    block = readme.overhead_workers_block(d).splitlines()
+    assert block[3] == (
+        "| K&C identification | 25 ms (23 ms) | 4.0 ms | 1.50x | 1.10x (4 batches) | "
+        "2.0 + 4.0 + 23 / 2 = 18 ms per batch: 1.4x faster |"
+    )
+    summary = {
+        "framework_overhead_ms_per_eval": 0.0049,
+        "ratio_vs_bare_pycma": 1.153,
+        "ratio_vs_bare_pymoo": 1.198,
+        "ratio_vs_bare_optuna": 1.195,
+        "repeat": 21,
+        "target_overhead_ms_per_eval": 0.2,
+        "target_ratio": 1.2,
+        "meets_targets": True,
+    }
+    assert readme.overhead_cells(summary) == (
+        "0.005 ms over bare pycma; with the archive 1.15x bare pycma, 1.20x bare pymoo, "
+        "1.20x optuna's own loop (medians of 21)",
+        "<= 0.2 ms, <= 1.2x each (met)",
+    )

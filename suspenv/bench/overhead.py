@@ -26,7 +26,9 @@ worker per batch) and with chunks of 5 and 1 designs, on a cheap problem (the sp
 K&C identification (a large fixed cost per call) and ``Burn`` (5 ms per call plus 20 ms
 per design of pure CPU); CPU of the main process and the pool's workers, wall time, pool
 start included. Each row also records the cores two processes got at once just before
-(:func:`cores_free`): wall-time gains need idle cores, CPU time does not.
+(:func:`cores_free`): wall-time gains need idle cores, CPU time does not; and the
+problem's own CPU per batch in-process (:func:`_evaluation_ms`), the part a pool divides
+(the rest of a batch is the strategy's and the loop's, in the main process).
 
 Run: ``python -m suspenv.bench.overhead [--repeat N] [--scale S] [--workers-repeat N]
 [--output DIR]``; ``--only-workers`` prints the workers study alone.
@@ -207,6 +209,22 @@ def _workers_run(case: str, workers: int, chunk_size: int | None) -> dict[str, f
     }
 
 
+def _evaluation_ms(case: str, repeat: int = 5) -> float:
+    """CPU milliseconds of one in-process call of the case's problem on a batch of its
+    population (random designs; the median of ``repeat`` calls after a warm-up): the
+    part of a batch that a pool divides among its workers."""
+    import numpy as np
+
+    from suspenv.registry import make_problem
+
+    name, options, strategy_options, _ = WORKER_CASES[case]
+    problem = make_problem(name, **options) if isinstance(name, str) else name(**options)
+    rng = np.random.default_rng(0)
+    X = problem.space.to_physical(rng.random((strategy_options["popsize"], problem.space.dim)))
+    problem.evaluate(X)
+    return 1e3 * statistics.median(_measure(lambda: problem.evaluate(X))[0] for _ in range(repeat))
+
+
 def _spin(seconds: float) -> float:
     until = time.process_time() + seconds
     while time.process_time() < until:
@@ -246,6 +264,7 @@ def workers_study(repeat: int) -> list[dict[str, Any]]:
                 runs[c].append(_workers_run(case, *c))
         _, _, so, gen = WORKER_CASES[case]
         n = gen * so["popsize"]
+        evaluation = _evaluation_ms(case)
         base = statistics.median(r["wall_s"] for r in runs[(1, None)])
         base_cpu = statistics.median(r["cpu_main_s"] + r["cpu_workers_s"] for r in runs[(1, None)])
         for (workers, chunk), rs in runs.items():
@@ -264,6 +283,8 @@ def workers_study(repeat: int) -> list[dict[str, Any]]:
                     "ms_per_eval_cpu": 1e3 * cpu / n,
                     "wall_vs_workers_1": wall / base,
                     "cpu_vs_workers_1": cpu / base_cpu,
+                    # the problem's own CPU per batch in-process (what a pool divides)
+                    "evaluation_ms_per_batch": evaluation,
                     # other processes' demand on the machine's cores when the runs began
                     "load_1min": statistics.median(r["load"] for r in rs),
                     # cores two processes got at once, measured before each repetition
