@@ -405,3 +405,98 @@ def test_overhead_tables_format_a_hand_made_json() -> None:
         "1.20x optuna's own loop (medians of 21)",
         "<= 0.2 ms, <= 1.2x each (met)",
     )
+
+
+def test_knc_diagnosis_tables_format_a_hand_made_json() -> None:
+    # docs/diagnosis_knc.md's tables: scores counted from the rows, the per-seed words
+    def row(seed, case_type, truth, named, snr, detectable, where, where_ok, ambiguous, err):
+        n_true = 0 if truth == "none" else len(truth.split(","))
+        return {
+            "seed": seed,
+            "case_type": case_type,
+            "truth": truth,
+            "named": named,
+            "n_true": n_true,
+            "snr": snr,
+            "detectable": detectable,
+            "top1_ok": named.split(",")[0] in truth.split(","),
+            "all_found": set(truth.split(",")) <= set(named.split(",")),
+            "false_alarms": int(truth == "none" and named != "none"),
+            "hysteresis_where": where,
+            "where_ok": where_ok,
+            "where_ok_or_ambiguous": ambiguous,
+            "heldout_ratio": 1.0 if named == "none" else 0.8274,
+            "model_error_ratio": 1.0 if named == "none" else 0.2118,
+            "param_rel_err": err,
+            "noise_scale": 1.406,
+            "seconds": 13.6,
+            "cpu_seconds": 9.3,
+        }
+
+    rows = [
+        row(1000, "hysteresis@all", "dahl_hysteresis", "dahl_hysteresis", "73.7", True,
+            "dahl_hysteresis@lower_arm", False, True, 0.006),
+        row(1001, "asymmetry", "lr_asymmetry", "lr_asymmetry,sensor_gain", "4.7", False,
+            "", None, None, 0.0254),
+        row(1003, "none", "none", "none", "", False, "", None, None, float("nan")),
+    ]  # fmt: skip
+    summary = {
+        "top1_accuracy_one_effect": 1.0,
+        "top1_accuracy_one_effect_detectable": 1.0,
+        "extra_kinds_named_per_effect_case": 0.5,
+        "hysteresis_location_correct": 0.0,
+        "median_heldout_ratio_effect_cases": 0.8274,
+        "median_model_error_ratio_effect_cases": 0.2118,
+        "median_model_error_ratio_detectable_effect_cases": 0.1869,
+        "median_excess_ratio_effect_cases": 0.2913,
+        "median_param_rel_err": 0.0157,
+        "median_seconds_per_diagnosis": 12.3,
+        "max_seconds_per_diagnosis": 65.2,
+        "median_cpu_seconds_per_diagnosis": 8.4,
+        "max_cpu_seconds_per_diagnosis": 43.6,
+        "top1_by_case_type": {"asymmetry": "1/1", "hysteresis@all": "1/1"},
+    }
+    lines = readme.knc_diagnosis_tables({"rows": rows, "summary": summary}).splitlines()
+    assert "| top-1 naming, one-effect cases, all | 2 / 2 (1.00) | >= 0.90 |" in lines
+    assert "| false alarms, no-effect cases | 0 / 1 | <= 0.10 |" in lines
+    assert "| extra (untrue) kinds named per effect case | 0.50 (1 in 2) | |" in lines
+    assert "| wall time per diagnosis, median / max | 12 s / 65 s | < 300 s |" in lines
+    assert (
+        "Top-1 naming by single-effect type: every type 1 / 1 (asymmetry, hysteresis @ all)."
+        in lines
+    )
+    assert lines[-3:] == [
+        "| 1000 | hysteresis @ all, noise x1.41 | 73.7 | hysteresis (lower arm), true location "
+        "stated not separable | 0.83 / 0.21 | 0.6 % | 14 / 9 |",
+        "| 1001 | asymmetry, noise x1.41 | 4.7 (< 5) | L/R asymmetry + sensor gain | 0.83 / "
+        "0.21 | 2.5 % | 14 / 9 |",
+        "| 1003 | none, noise x1.41 | - | none | 1 / 1 |  | 14 / 9 |",
+    ]
+
+
+def test_tey_pipeline_paragraph_formats_a_hand_made_json() -> None:
+    # docs/tey2014.md's sentence: the totals, their ratio and the slowest step (not the
+    # total or the baseline rows)
+    d = {
+        "summary": {
+            "evaluations": 2726,
+            "pipeline_wall_s": 5.34,
+            "bare_evaluation_s": 1.68,
+            "pipeline_over_bare_evaluation": 3.19,
+            "target_s": 120.0,
+            "within_target": True,
+            "workers": 1,
+        },
+        "rows": [
+            {"step": "optimisation", "seconds": 2.04},
+            {"step": "report", "seconds": 2.51},
+            {"step": "total (pipeline)", "seconds": 5.34},
+            {"step": "baseline: bare evaluation of 2726 designs", "seconds": 1.68},
+        ],
+    }
+    assert " ".join(readme.tey_pipeline_paragraph(d).splitlines()) == (
+        "The run recorded in the JSON (in-process): 5.3 s for 2,726 evaluations, against "
+        "1.7 s for the bare batch evaluation of as many designs (3.2x; the rest: the "
+        "analysis, the identifiability profiles and the report; the slowest step: report, "
+        "2.5 s); within the target of 120 s."
+    )

@@ -70,6 +70,8 @@ DOCUMENT_BLOCKS: dict[str, tuple[str, ...]] = {
     "docs/knc.md": ("knc-speed",),
     "docs/identify.md": ("identify-reference",),
     "docs/runs.md": ("overhead-loops", "overhead-workers"),
+    "docs/diagnosis_knc.md": ("knc-diagnosis",),
+    "docs/tey2014.md": ("tey-pipeline",),
 }
 
 Json = Mapping[str, Any]
@@ -757,6 +759,147 @@ def overhead_workers_block(d: Json) -> str:
     return "\n".join(lines)
 
 
+#: docs/diagnosis_knc.md's words for the K&C effect kinds
+KNC_KIND_WORDS = {
+    "coulomb_friction": "strut friction",
+    "cubic_stiffness": "cubic",
+    "lr_asymmetry": "L/R asymmetry",
+    "sensor_gain": "sensor gain",
+    "sensor_offset": "sensor offset",
+}
+#: ... and for where the hysteresis is
+KNC_WHERE_WORDS = {"top_mount": "top mount", "lower_arm": "lower arm", "": "all three"}
+
+
+def _knc_named(r: Json) -> str:
+    """The named column of a K&C diagnosis row: kinds in the order named, hysteresis
+    with its location (and the ambiguity the verdict states)."""
+    if r["named"] == "none":
+        return "none"
+    words = []
+    for kind in r["named"].split(","):
+        if kind == "dahl_hysteresis":
+            where = r["hysteresis_where"].partition("@")[2]
+            text = f"hysteresis ({KNC_WHERE_WORDS[where]})"
+            if r["where_ok"] is False and r["where_ok_or_ambiguous"]:
+                text += ", true location stated not separable"
+            words.append(text)
+        else:
+            words.append(KNC_KIND_WORDS[kind])
+    return " + ".join(words)
+
+
+def knc_diagnosis_tables(d: Json) -> str:
+    """docs/diagnosis_knc.md's score table, top-1 by type and per-seed table from
+    ``knc_diagnosis.json`` (targets: the issue's, as in the README)."""
+    s = d["summary"]
+    rows = d["rows"]
+    one = [r for r in rows if r["n_true"] == 1]
+    two = [r for r in rows if r["n_true"] == 2]
+    none = [r for r in rows if r["n_true"] == 0]
+    det, undet = [r for r in one if r["detectable"]], [r for r in one if not r["detectable"]]
+    two_det = [r for r in two if r["detectable"]]
+    effect = [r for r in rows if r["n_true"] > 0]
+    extra = sum(len(set(r["named"].split(",")) - set(r["truth"].split(","))) for r in effect)
+    located = [r for r in rows if r["where_ok"] is not None]
+
+    def k_of(rs: list, key: str) -> str:
+        return f"{sum(bool(r[key]) for r in rs)} / {len(rs)}"
+
+    lines = [
+        "| score | value | target |",
+        "|---|---|---|",
+        f"| top-1 naming, one-effect cases, all | {k_of(one, 'top1_ok')} "
+        f"({s['top1_accuracy_one_effect']:.2f}) | >= 0.90 |",
+        f"| top-1 naming, one-effect cases with `snr >= 5` (detectable) | {k_of(det, 'top1_ok')} "
+        f"({s['top1_accuracy_one_effect_detectable']:.2f}) | >= 0.90 |",
+        f"| top-1 naming, one-effect cases with `snr < 5` (scored apart) | "
+        f"{k_of(undet, 'top1_ok')} | |",
+        f"| all effects found, two-effect cases | {k_of(two, 'all_found')}; with both effects "
+        f"`snr >= 5`: {k_of(two_det, 'all_found')} | |",
+        f"| false alarms, no-effect cases | {sum(r['false_alarms'] > 0 for r in none)} / "
+        f"{len(none)} | <= 0.10 |",
+        f"| extra (untrue) kinds named per effect case | "
+        f"{s['extra_kinds_named_per_effect_case']:.2f} ({extra} in {len(effect)}) | |",
+        f"| hysteresis location exactly right | {k_of(located, 'where_ok')} "
+        f"({s['hysteresis_location_correct']:.2f}) | |",
+        f"| hysteresis location right or stated as not separable from the named one | "
+        f"{k_of(located, 'where_ok_or_ambiguous')} | |",
+        f"| held-out RMS vs the *measured* held-out data, final / baseline (median, effect "
+        f"cases) | {s['median_heldout_ratio_effect_cases']:.2f} | |",
+        f"| held-out *model error* (vs the noise-free truth), final / baseline (median, "
+        f"effect cases) | {s['median_model_error_ratio_effect_cases']:.2f} (reduction "
+        f"{percent(1 - s['median_model_error_ratio_effect_cases'])}) | <= 0.50 |",
+        f"| the same, detectable effect cases | "
+        f"{s['median_model_error_ratio_detectable_effect_cases']:.2f} | |",
+        f"| held-out RMS in excess of the noise floor, final / baseline (median, effect "
+        f"cases) | {s['median_excess_ratio_effect_cases']:.2f} | |",
+        f"| recovered effect, median relative error (correctly named) | "
+        f"{percent(s['median_param_rel_err'], 1)} | <= 20 % |",
+        f"| wall time per diagnosis, median / max | {s['median_seconds_per_diagnosis']:.0f} s / "
+        f"{s['max_seconds_per_diagnosis']:.0f} s | < 300 s |",
+        f"| process CPU time per diagnosis, median / max | "
+        f"{s['median_cpu_seconds_per_diagnosis']:.0f} s / "
+        f"{s['max_cpu_seconds_per_diagnosis']:.0f} s | |",
+        "",
+    ]
+    by_type = s["top1_by_case_type"]
+    same = set(by_type.values())
+    types = ", ".join(t.replace("@", " @ ") for t in by_type)
+    text = (
+        f"Top-1 naming by single-effect type: every type {same.pop().replace('/', ' / ')} "
+        f"({types})."
+        if len(same) == 1
+        else "Top-1 naming by single-effect type: "
+        + ", ".join(f"{t.replace('@', ' @ ')} {v.replace('/', ' / ')}" for t, v in by_type.items())
+        + "."
+    )
+    lines += [textwrap.fill(text, width=88, break_long_words=False, break_on_hyphens=False), ""]
+    lines += [
+        "| seed | truth (type) | snr | named (hysteresis location) | held-out ratio: measured "
+        "/ model error | param. error | wall / CPU s |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        truth = r["case_type"].replace("@", " @ ").replace("+", " + ")
+        snr = r["snr"] or "-"
+        if r["snr"] and not r["detectable"]:
+            snr += " (< 5)"
+        if r["named"] == "none" and r["heldout_ratio"] == 1.0 and r["model_error_ratio"] == 1.0:
+            ratios = "1 / 1"
+        else:
+            ratios = f"{r['heldout_ratio']:.2f} / {r['model_error_ratio']:.2f}"
+        err = r["param_rel_err"]
+        err_text = "" if not math.isfinite(err) else percent(err, 1)
+        lines.append(
+            f"| {r['seed']} | {truth}, noise x{r['noise_scale']:.2f} | {snr} | {_knc_named(r)} | "
+            f"{ratios} | {err_text} | {r['seconds']:.0f} / {r['cpu_seconds']:.0f} |"
+        )
+    return "\n".join(lines)
+
+
+def tey_pipeline_paragraph(d: Json) -> str:
+    """docs/tey2014.md's performance sentence from ``tey2014_pipeline.json``."""
+    s = d["summary"]
+    steps = {
+        r["step"]: r["seconds"]
+        for r in d["rows"]
+        if not r["step"].startswith(("total", "baseline"))
+    }
+    slowest = max(steps, key=lambda k: steps[k])
+    where = "in-process" if s["workers"] == 1 else f"{s['workers']} workers"
+    text = (
+        f"The run recorded in the JSON ({where}): {seconds(s['pipeline_wall_s'])} s for "
+        f"{s['evaluations']:,} evaluations, against {seconds(s['bare_evaluation_s'])} s for "
+        f"the bare batch evaluation of as many designs "
+        f"({s['pipeline_over_bare_evaluation']:.1f}x; the rest: the analysis, the "
+        f"identifiability profiles and the report; the slowest step: "
+        f"{slowest.replace('_', ' ')}, {seconds(steps[slowest])} s); "
+        f"{'within' if s['within_target'] else 'outside'} the target of {s['target_s']:g} s."
+    )
+    return textwrap.fill(text, width=88, break_long_words=False, break_on_hyphens=False)
+
+
 #: the diagnosis screen's pattern names as docs/identify.md words them
 SCREEN_WORDS = {"lr_asymmetry": "left/right asymmetry", "progressive": "cubic", "loop": "loop"}
 
@@ -829,6 +972,8 @@ DOCUMENT_RENDERERS = {
     "overhead-loops": lambda data: overhead_loop_table(data["overhead"]),
     "overhead-workers": lambda data: overhead_workers_block(data["overhead"]),
     "identify-reference": lambda data: identify_reference_block(data["identify_reference"]),
+    "knc-diagnosis": lambda data: knc_diagnosis_tables(data["knc_diagnosis"]),
+    "tey-pipeline": lambda data: tey_pipeline_paragraph(data["tey2014_pipeline"]),
     "minibus-study": lambda data: minibus_study_paragraph(data["minibus_study"]),
     "knc-speed": lambda data: knc_speed_tables(data["knc_speed"]),
 }
