@@ -113,6 +113,11 @@ def count_text(k_of_n: str) -> str:
     return f"{int(k)} / {int(n)}"
 
 
+def paragraph(text: str) -> str:
+    """``text`` wrapped at 88 columns, as the documents' paragraphs are (no word split)."""
+    return textwrap.fill(text, width=88, break_long_words=False, break_on_hyphens=False)
+
+
 def significant(x: float, digits: int = 2) -> str:
     """``3008.6 -> "3000"``: ``x`` rounded to ``digits`` significant figures."""
     if x == 0 or not math.isfinite(x):
@@ -304,7 +309,7 @@ def minibus_study_paragraph(d: Json) -> str:
         f"f4 {pick[3]:.1f} against {base[3]:.1f} deg, f5 {pick[4]:.2f} against "
         f"{base[4]:.2f} deg; {variables})."
     )
-    return textwrap.fill(text, width=88, break_long_words=False, break_on_hyphens=False)
+    return paragraph(text)
 
 
 def planar_speed_cells(s: Json) -> tuple[str, str]:
@@ -664,7 +669,7 @@ def knc_speed_tables(d: Json) -> str:
             )
     else:
         text += "None of them had a Jacobian refreshed during the sweep."
-    lines += ["", textwrap.fill(text, width=88, break_long_words=False, break_on_hyphens=False)]
+    lines += ["", paragraph(text)]
     return "\n".join(lines)
 
 
@@ -755,7 +760,7 @@ def overhead_workers_block(d: Json) -> str:
         f"includes the pool's start, spread over the run's few batches. The CPU of smaller "
         f"chunks against in-process, with 2 workers: " + "; ".join(chunking) + "."
     )
-    lines += ["", textwrap.fill(text, width=88, break_long_words=False, break_on_hyphens=False)]
+    lines += ["", paragraph(text)]
     return "\n".join(lines)
 
 
@@ -854,7 +859,7 @@ def knc_diagnosis_tables(d: Json) -> str:
         + ", ".join(f"{t.replace('@', ' @ ')} {v.replace('/', ' / ')}" for t, v in by_type.items())
         + "."
     )
-    lines += [textwrap.fill(text, width=88, break_long_words=False, break_on_hyphens=False), ""]
+    lines += [paragraph(text), ""]
     lines += [
         "| seed | truth (type) | snr | named (hysteresis location) | held-out ratio: measured "
         "/ model error | param. error | wall / CPU s |",
@@ -897,7 +902,7 @@ def tey_pipeline_paragraph(d: Json) -> str:
         f"{slowest.replace('_', ' ')}, {seconds(steps[slowest])} s); "
         f"{'within' if s['within_target'] else 'outside'} the target of {s['target_s']:g} s."
     )
-    return textwrap.fill(text, width=88, break_long_words=False, break_on_hyphens=False)
+    return paragraph(text)
 
 
 #: the diagnosis screen's pattern names as docs/identify.md words them
@@ -919,13 +924,10 @@ def identify_reference_block(d: Json) -> str:
     )
     won = ", ".join(f"{r['case']} seed {r['seed']}" for r in global_wins) or "none"
     lines = [
-        textwrap.fill(
+        paragraph(
             f'"answer": which polish had the lower cost. The global stage\'s valley won on '
             f"{len(global_wins)} of the {len(rows)} cases ({won}); on the others the polish "
-            f"from the start did.",
-            width=88,
-            break_long_words=False,
-            break_on_hyphens=False,
+            f"from the start did."
         ),
         "",
         "| case | seed | curves within 1.5 x noise | worst curve / noise | answer | identified "
@@ -955,13 +957,10 @@ def identify_reference_block(d: Json) -> str:
     counts = sorted({r["identified"] for r in quiet})
     lines += [
         "",
-        textwrap.fill(
+        paragraph(
             f"With noise only, {' or '.join(map(str, counts))} parameters are identified on "
             f"each seed, the worst of them within {max(errs):.2f} % of its range; all 49 "
-            f"have a mean error of {span(min(means), max(means))} % of the range.",
-            width=88,
-            break_long_words=False,
-            break_on_hyphens=False,
+            f"have a mean error of {span(min(means), max(means))} % of the range."
         ),
     ]
     return "\n".join(lines)
