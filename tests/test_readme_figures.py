@@ -140,6 +140,7 @@ def test_knc_speed_cells_format_a_hand_made_summary() -> None:
         "worst_peak_mb_per_candidate": 0.171,
         "worst_memory_batch": 1,
         "speedup_vs_paper_20s": 3008.56995449495,
+        "target_mb_per_candidate": 0.1,
     }
     assert readme.knc_speed_cells(summary) == (
         "6.6 ms CPU per candidate at batch 42 (about 3000x the paper's 20 s), 23.4 ms one "
@@ -162,7 +163,12 @@ def test_knc_speed_cells_format_a_hand_made_summary() -> None:
     assert "0.099 MB one at a time (median of 200 candidates, 190 within 0.1 MB, at most " in result
     assert "(met at every batch size; one at a time not for 10 of 200 candidates)" in target
     batches = {"candidate": 31, "peak_mb_per_candidate": {"2": 0.18, "4": 0.126, "8": 0.098}}
-    with_batches = alone | {"batches_ending_with_a_fresh_jacobian": batches}
+    # the misses are exactly the candidates that refresh a Jacobian (the others within)
+    with_batches = alone | {
+        "batches_ending_with_a_fresh_jacobian": batches,
+        "with_fresh_jacobian": 10,
+        "max_mb_without_fresh_jacobian": 0.099,
+    }
     _, target = readme.knc_speed_cells(faster | {"memory_one_at_a_time": with_batches})
     assert (
         "one at a time not for 10 of 200 candidates, those whose sweep refreshes a Jacobian, "
@@ -199,7 +205,11 @@ def test_knc_speed_tables_format_a_hand_made_json() -> None:
             "peak_mb_per_candidate": {"2": 0.1823, "4": 0.1263, "8": 0.0983},
         },
     }
-    summary = {"peak_mb_per_candidate": {"1": 0.1004, "2": 0.0946}, "memory_one_at_a_time": alone}
+    summary = {
+        "peak_mb_per_candidate": {"1": 0.1004, "2": 0.0946},
+        "memory_one_at_a_time": alone,
+        "target_mb_per_candidate": 0.1,
+    }
     text = readme.knc_speed_tables({"rows": rows, "summary": summary})
     assert text.splitlines()[:9] == [
         "| mode | CPU ms / candidate | baseline (same run) | peak MB / candidate | "

@@ -762,24 +762,15 @@ def _step(solver, st, load_prev, load, ok, msgs, J, at, history, seen=None, rel=
     ``history``, linear from two), else the tangent ``-J^-1 dres/dload``.
     """
     (pad_prev, ext_prev, rack_prev), (pad, ext, rack) = load_prev, load
-    if seen is not None:
-        pred = st.copy()
-        rows = ok[:, None, None, None]
-        pred.r = np.where(rows, seen.r, st.r)
-        pred.R = np.where(rows[..., None], seen.R, st.R)
-        pred.lam = np.where(ok[:, None, None], seen.lam, st.lam)
-    elif len(history) >= 4:
-        pred = _extrapolate(st, history[-2], history[-3], ok, rel, history[-4])
-    elif len(history) >= 3:
-        pred = _extrapolate(st, history[-2], history[-3], ok, rel)
-    elif len(history) == 2:
-        pred = _extrapolate(st, history[-2], None, ok, rel)
-    else:
-        pred = _predict(solver, st, J, pad - pad_prev, ok, ext_prev, ext, rack_prev, rack)
-    # the prediction is handed over, not kept: Newton frees each iterate it leaves (memory)
-    handed = [pred]
-    del pred
-    new, conv, J = solver.solve(handed.pop(), pad, ext, active=ok, Jinv=J, rack=rack)
+    # the prediction goes straight to Newton, which frees each iterate it leaves (memory)
+    new, conv, J = solver.solve(
+        _prediction(solver, st, load_prev, load, ok, J, history, seen, rel),
+        pad,
+        ext,
+        active=ok,
+        Jinv=J,
+        rack=rack,
+    )
     bad = ok & ~conv
     if bad.any():  # retry the failing rows from the last converged state in 4 sub-steps
         idx = np.flatnonzero(bad)
@@ -810,6 +801,26 @@ def _step(solver, st, load_prev, load, ok, msgs, J, at, history, seen=None, rel=
         new = new.copy()
         new.assign(st, ~ok)
     return new, J
+
+
+def _prediction(solver, st, load_prev, load, ok, J, history, seen, rel) -> AxleState:
+    """The predictor of :func:`_step` (its docstring): the revisited state, the
+    extrapolation along the leg, or the tangent."""
+    (pad_prev, ext_prev, rack_prev), (pad, ext, rack) = load_prev, load
+    if seen is not None:
+        pred = st.copy()
+        rows = ok[:, None, None, None]
+        pred.r = np.where(rows, seen.r, st.r)
+        pred.R = np.where(rows[..., None], seen.R, st.R)
+        pred.lam = np.where(ok[:, None, None], seen.lam, st.lam)
+        return pred
+    if len(history) >= 4:
+        return _extrapolate(st, history[-2], history[-3], ok, rel, history[-4])
+    if len(history) >= 3:
+        return _extrapolate(st, history[-2], history[-3], ok, rel)
+    if len(history) == 2:
+        return _extrapolate(st, history[-2], None, ok, rel)
+    return _predict(solver, st, J, pad - pad_prev, ok, ext_prev, ext, rack_prev, rack)
 
 
 def _scatter(part: AxleState, idx: np.ndarray, like: AxleState) -> AxleState:

@@ -611,7 +611,7 @@ class AxleSolver:
                 share and idx.size % c == 0 and np.array_equal(col, np.arange(idx.size) % c)
             ):
                 out._rl_pack = pk  # the designs repeated in order (e.g. the rig's rows)
-            elif one or (share and pk.strides[-1] == 0):  # one design: its column, once
+            elif one:  # one design: its column, once
                 out._rl_pack = np.ascontiguousarray(pk[..., col[0], None])
             else:
                 out._rl_pack = pk[..., col]
@@ -885,9 +885,7 @@ class AxleSolver:
                 a, k = np.broadcast_to(a, lead + a.shape[a.ndim - tail :]), M
             return np.ascontiguousarray(a, dtype=float).reshape((k,) + a.shape[a.ndim - 1 - tail :])
 
-        pack = self._rl_pack
-        if pack.strides[-1] == 0:  # the rows of one design: its arrays once (m % 1 = 0)
-            pack = pack[..., :1]
+        pack = self._rl_pack  # row m reads column m % c (take() shares or takes columns)
         if not (pack.flags.c_contiguous and pack.flags.writeable):  # one compiled type
             pack = np.array(pack, order="C")
         return (
