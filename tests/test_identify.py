@@ -7,6 +7,7 @@ all 49 parameters are ``@pytest.mark.slow`` (about two minutes each).
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from types import SimpleNamespace
 
 import numpy as np
@@ -261,6 +262,16 @@ def test_outputs_and_identified_vehicle_round_trip(tmp_path, few_result):
     head = text.split("## Fit per curve")[0]
     for word in ("**Fit**", "**Identified**", "**Not identified**", "**Remaining residual**"):
         assert word in head
+
+
+def test_data_warnings_are_on_the_first_screen(tmp_path, few_result):
+    """A loader's warning (suspenv/measurements/knc_checks.py, e.g. a spike) is printed
+    before the fit's lines, above the first table."""
+    m = few_result.measurement
+    warned = replace(m, meta={**m.meta, "warnings": ["toe_left at data row 8: a spike"]})
+    write_outputs(replace(few_result, measurement=warned), tmp_path, figures=False)
+    head = (tmp_path / "report.md").read_text().split("## Fit per curve")[0]
+    assert "- **Data warning**: toe_left at data row 8: a spike" in head
 
 
 def test_next_test_and_rerun_are_reported(few_result):

@@ -220,10 +220,6 @@ class Comparison:
     def delta_bic(self) -> float:
         return self.bic_after - self.bic_before
 
-    @property
-    def delta_aic(self) -> float:
-        return self.aic_after - self.aic_before
-
     def to_dict(self) -> dict[str, Any]:
         return {
             "heldout_rms_before": self.heldout_rms_before,

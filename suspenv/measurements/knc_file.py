@@ -62,6 +62,7 @@ from suspenv.core.errors import ValidationError
 from suspenv.core.tomlfile import read_toml
 from suspenv.measurements import knc as _knc
 from suspenv.measurements.errors import RecordingError
+from suspenv.measurements.knc_checks import check_manifest_keys, check_tests
 from suspenv.measurements.limits import check_text, read_limit
 from suspenv.measurements.units import FACTORS
 
@@ -719,7 +720,7 @@ def _read_csv(path: Path, limit: int) -> tuple[list[str], list[list[str]]]:
         raise RecordingError(f"{path.name}: the test's file does not exist in {str(path.parent)!r}")
     check_text(path, limit)
     try:
-        text = path.read_text(encoding="utf-8")
+        text = path.read_text(encoding="utf-8-sig")  # a BOM (Excel's "CSV UTF-8") is dropped
     except UnicodeDecodeError as exc:
         raise RecordingError(f"{path.name}: not UTF-8 text ({exc})") from None
     try:
@@ -893,6 +894,7 @@ def load_measurement(
         max_bytes: read limit (:mod:`suspenv.measurements.limits`).
     """
     folder, data = _manifest(Path(path))
+    check_manifest_keys(data, MANIFEST)
     where = MANIFEST
     wheels = list(data.get("wheels", list(SIDES)))
     if both_wheels and len(wheels) < 2:
@@ -929,6 +931,7 @@ def load_measurement(
         "steps": {t: s for t, m in loaded.items() if (s := m.uniform_steps()) is not None},
         "units": {t: m.units for t, m in loaded.items()},
         "path": str(folder),
+        "warnings": check_tests(loaded, {t: s["file"] for t, s in data["tests"].items()}, CHANNELS),
     }
     if "notes" in data:
         meta["notes"] = data["notes"]

@@ -21,7 +21,7 @@ from scipy import signal
 from scipy.special import ndtr
 
 from suspenv.core.errors import ValidationError
-from suspenv.metrics.iso2631 import weighted_rms_fft, weighted_signal, weighting_magnitude
+from suspenv.metrics.iso2631 import weighted_rms_fft, weighting_magnitude
 from suspenv.models.effects.effect import Effect
 from suspenv.models.minibus.ride_model import RideModel, SeatMount
 from suspenv.models.minibus.vehicle import LOAD_CASES, REFERENCE_MINIBUS, Minibus
@@ -75,11 +75,6 @@ def vibration_dose_value(a: np.ndarray, fs: float) -> np.ndarray:
     """VDV = (integral of a^4 dt)^(1/4) (m/s^1.75) of an (already weighted) record."""
     a = _record(a, fs)
     return (np.sum(a**4, axis=-1) / fs) ** 0.25
-
-
-def weighted_vdv(a: np.ndarray, fs: float, name: str = "Wk") -> np.ndarray:
-    """VDV of the record after ISO 2631-1 weighting (time-domain filters; fs > 200 Hz)."""
-    return vibration_dose_value(weighted_signal(_record(a, fs), fs, name), fs)
 
 
 def band_rms(f: np.ndarray, psd: np.ndarray, band: tuple[float, float]) -> np.ndarray:

@@ -223,6 +223,7 @@ def _first_screen(result: IdentifyResult, s: dict[str, Any]) -> list[str]:
         f"{result.model.dim} parameters "
         f"({'left and right sides apart' if result.model.two_sided else 'left = right'}).",
         "",
+        *(f"- **Data warning**: {text(w)}" for w in result.measurement.meta.get("warnings", ())),
         f"- **Fit**: {fit_ok} of {s['n_curves']} curves within {FIT_RATIO} x their noise RMS; "
         f"worst: {worst['test']} {CHANNEL_WORDS.get(worst['channel'], worst['channel'])} "
         f"({worst['rms_over_noise']:.2f} x noise). Answer: the {result.fit.final.name}, "

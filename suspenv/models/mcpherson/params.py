@@ -485,19 +485,6 @@ class AxleConstants:
         return replace(cls(), **conv)
 
 
-def adams_to_iso(p_mm: np.ndarray, side: int) -> np.ndarray:
-    """Left-side ADAMS/Car point(s) [mm] -> ISO 8855 point(s) [m] on ``side`` (0 left, 1 right)."""
-    p = np.asarray(p_mm, dtype=float) / 1000.0
-    s = np.array([-1.0, -SIDE_SIGN[side], 1.0])
-    return p * s
-
-
-def iso_to_adams(p_m: np.ndarray, side: int) -> np.ndarray:
-    """Inverse of :func:`adams_to_iso` (ISO [m] on ``side`` -> left-side ADAMS [mm])."""
-    s = np.array([-1.0, -SIDE_SIGN[side], 1.0])
-    return np.asarray(p_m, dtype=float) * s * 1000.0
-
-
 @dataclass
 class Axle:
     """Batched axle data in SI / ISO 8855; every array has leading shape (n, 2) (design, side).

@@ -72,6 +72,7 @@ from suspenv.models.mcpherson.params import (
     design_physics_errors,
     design_space,
 )
+from suspenv.models.mcpherson.vehicle_checks import check_geometry
 
 #: the reference vehicle shipped with suspenv (the paper's car with the paper's bounds)
 VEHICLE_DIR = Path(__file__).resolve().parents[2] / "data" / "vehicles"
@@ -228,6 +229,7 @@ def load_vehicle(path: str | Path, assemble: bool = False) -> VehicleFile:
         raise ValidationError(f"vehicle file {str(path)!r} does not exist")
     data = read_toml(path, f"vehicle file {str(path)!r}", MAX_FILE_BYTES)
     vehicle = vehicle_from_dict(data, path.name, path.stem)
+    check_geometry(vehicle.axle(), vehicle.effects, f"vehicle file {path.name}")
     if assemble:
         check_assembles(vehicle)
     return vehicle

@@ -40,15 +40,6 @@ def leaf_force(
     return k1 * d + (np.asarray(k2, dtype=float) - k1) * np.maximum(d - d_helper, 0.0)
 
 
-def leaf_rate(
-    d: np.ndarray, k1: np.ndarray | float, k2: np.ndarray | float, d_helper: float
-) -> np.ndarray:
-    """Local leaf rate dF/dd (N/m): k1 before helper contact, k2 after."""
-    return np.where(np.asarray(d, dtype=float) > d_helper, k2, k1) * np.ones_like(
-        np.asarray(k1, dtype=float)
-    )
-
-
 def leaf_static_deflection(
     load: np.ndarray | float, k1: np.ndarray, k2: np.ndarray, d_helper: float
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -75,15 +66,6 @@ def torsion_bar_wheel_rate(bar_stiffness: np.ndarray | float, lever: float) -> n
     if lever <= 0:
         raise ValidationError(f"`lever > 0` must hold, but got lever={lever}")
     return np.asarray(bar_stiffness, dtype=float) / lever**2
-
-
-def stabiliser_moment(
-    roll_stiffness: np.ndarray | float, body_roll: np.ndarray, axle_roll: np.ndarray
-) -> np.ndarray:
-    """Stabiliser moment (N*m) of an axle-roll-stiffness bar: K (phi_body - phi_axle)."""
-    return np.asarray(roll_stiffness, dtype=float) * (
-        np.asarray(body_roll, dtype=float) - np.asarray(axle_roll, dtype=float)
-    )
 
 
 def spring_pair_roll_stiffness(rate: np.ndarray | float, spacing: float) -> np.ndarray:
@@ -117,17 +99,3 @@ def damper_mean_coefficient(curve: DamperCurve) -> float:
     The conventional single number for damping-ratio checks of an asymmetric damper.
     """
     return 0.5 * (curve.bump_low + curve.rebound_low)
-
-
-def damper_slopes(curve: DamperCurve) -> np.ndarray:
-    """Slopes and knees packed for the vectorised ride model: [bl, bh, bk, rl, rh, rk]."""
-    return np.array(
-        [
-            curve.bump_low,
-            curve.bump_high,
-            curve.bump_knee,
-            curve.rebound_low,
-            curve.rebound_high,
-            curve.rebound_knee,
-        ]
-    )

@@ -383,11 +383,6 @@ class VehicleParams:
     def n(self) -> int:
         return self.design.n
 
-    @property
-    def total_mass(self) -> float:
-        v = self.vehicle
-        return self.load.sprung_mass + 2 * v.unsprung_front + 2 * v.unsprung_rear
-
 
 def vehicle_parameters(
     X: np.ndarray, load_case: str | LoadCase = "no_load", vehicle: Minibus = REFERENCE_MINIBUS
