@@ -37,6 +37,7 @@ import numpy as np
 from suspenv.core.pareto import nondominated
 from suspenv.reports._mpl import add_polylines, pyplot
 from suspenv.runs.optimize_pipeline import best_so_far
+from suspenv.runs.run_dir import atomic_path
 
 #: above this many objectives the pair plot shows this many (largest relative spread)
 MAX_PAIR_OBJECTIVES = 8
@@ -146,7 +147,8 @@ def subsample(rows: np.ndarray, limit: int | None = None) -> np.ndarray:
 def _save(fig: Any, path: Path, dpi: float) -> Path:
     """Save at ``dpi``, lowered so that neither side exceeds :data:`MAX_PIXELS`."""
     w, h = fig.get_size_inches()
-    fig.savefig(path, dpi=min(dpi, MAX_PIXELS / max(w, h)))
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=min(dpi, MAX_PIXELS / max(w, h)))
     return path
 
 

@@ -11,12 +11,22 @@ table with named columns.
 Tables:
     meta(key TEXT PRIMARY KEY, value TEXT)        JSON values: names, config, versions...
     evaluations(id, batch, row, unit, x, objectives, constraints, ok, message,
-                wall_time, created)               one row per evaluated design
+                wall_time, created, checksum)     one row per evaluated design
+
+Integrity: SQLite has no checksum of its pages, so each row carries its own
+(:func:`row_checksum`: BLAKE2b-128 of batch, row, status, message and the unit, x,
+objectives and constraints bytes). Every read that results are taken from (the replay
+of a resume, :meth:`RunArchive.arrays` behind exports and the CSV) checks it, and a
+changed byte is a ValidationError naming the row. An archive written before rows had
+checksums gets them when it is first opened (meta ``checksums_added``: the time), and the
+count check (:meth:`RunArchive.check_count`) refuses an archive holding fewer rows than
+its meta says were evaluated.
 """
 
 from __future__ import annotations
 
 import csv
+import hashlib
 import json
 import sqlite3
 import time
@@ -28,6 +38,7 @@ import numpy as np
 
 from suspenv.core.errors import ValidationError
 from suspenv.core.result import EvaluationBatch
+from suspenv.runs.run_dir import atomic_path, write_fault
 
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
@@ -43,9 +54,26 @@ CREATE TABLE IF NOT EXISTS evaluations (
     message TEXT NOT NULL,
     wall_time REAL NOT NULL,
     created REAL NOT NULL,
+    checksum BLOB,
     UNIQUE (batch, row)
 );
 """
+
+#: the columns a row's checksum covers, in :func:`row_checksum`'s order
+CHECKED = "batch, row, unit, x, objectives, constraints, ok, message"
+
+
+def row_checksum(
+    batch: Any, row: Any, unit: Any, x: Any, f: Any, g: Any, ok: Any, message: Any
+) -> bytes:
+    """BLAKE2b-128 of one evaluations row's results (the columns :data:`CHECKED`): the
+    scalars by their ``repr`` (types included), each blob with its length."""
+    h = hashlib.blake2b(repr((batch, row, ok, message)).encode(), digest_size=16)
+    for blob in (unit, x, f, g):
+        data = blob if isinstance(blob, bytes) else repr(blob).encode()
+        h.update(len(data).to_bytes(8, "little"))
+        h.update(data)
+    return h.digest()
 
 
 #: one chunk handed to the archive: (batch index, rows in the batch, U, X, results,
@@ -82,7 +110,7 @@ def _records(
         return []
     b = int(batch_index)
     per = float(wall_time) / n
-    return list(
+    checked = list(
         zip(
             [b] * n,
             np.asarray(rows, dtype=np.int64).tolist(),
@@ -92,11 +120,10 @@ def _records(
             _row_blobs(result.constraints, n),
             np.asarray(result.ok, dtype=bool).astype(int).tolist(),
             [str(m) for m in result.messages],
-            [per] * n,
-            [now] * n,
             strict=True,
         )
     )
+    return [(*r, per, now, row_checksum(*r)) for r in checked]
 
 
 def _unblob(b: bytes) -> np.ndarray:
@@ -127,10 +154,14 @@ class RunArchive:
             self._con.executescript(_SCHEMA)
             self._con.commit()
             self._check_columns()
+        except sqlite3.OperationalError as exc:  # a read-only folder, a full disk
+            self._con.close()
+            raise write_fault(path, f"SQLite: {exc}") from None
         except (sqlite3.DatabaseError, UnicodeDecodeError) as exc:
             self._con.close()
             raise ValidationError(
-                f"{str(path)!r} is not a suspenv run archive (SQLite: {exc})"
+                f"{str(path)!r} is not a suspenv run archive (SQLite: {exc}); move it "
+                "away, or start the run anew with --overwrite"
             ) from None
 
     def _check_columns(self) -> None:
@@ -142,14 +173,63 @@ class RunArchive:
                 f"{str(self.path)!r} is not a suspenv run archive: its evaluations table "
                 f"lacks {sorted(want - have)}"
             )
+        if "checksum" not in have:
+            self._add_checksums()
+
+    def _add_checksums(self) -> None:
+        """Migrate an archive written before rows had checksums: add the column and the
+        checksum of every row as it is now (meta ``checksums_added`` records when)."""
+        rows = self._con.execute(f"SELECT id, {CHECKED} FROM evaluations").fetchall()
+        with self._con:
+            self._con.execute("ALTER TABLE evaluations ADD COLUMN checksum BLOB")
+            self._con.executemany(
+                "UPDATE evaluations SET checksum = ? WHERE id = ?",
+                [(row_checksum(*r[1:]), r[0]) for r in rows],
+            )
+            self._con.execute(
+                "INSERT OR REPLACE INTO meta(key, value) VALUES ('checksums_added', ?)",
+                (json.dumps(time.strftime("%Y-%m-%d %H:%M:%S")),),
+            )
+
+    def _write(self, sql: str, data: list[tuple[Any, ...]]) -> None:
+        """One transaction of ``executemany``; a failed write (a full disk, a read-only
+        file) is rolled back and named."""
+        try:
+            with self._con:
+                self._con.executemany(sql, data)
+        except sqlite3.OperationalError as exc:
+            raise write_fault(self.path, f"SQLite: {exc}") from None
+
+    def _verify(self, rows: list[tuple[Any, ...]]) -> None:
+        """Each row ``(checksum, *CHECKED columns)`` against its checksum."""
+        for stored, *checked in rows:
+            if stored != row_checksum(*checked):
+                raise ValidationError(
+                    f"archive {str(self.path)!r} is damaged: the evaluation of batch "
+                    f"{checked[0]!r}, row {checked[1]!r} does not match its checksum (a "
+                    "value changed after it was written); restore the archive from a copy, "
+                    "or start the run anew with --overwrite"
+                )
+
+    def check_count(self, expected: Any, source: str) -> None:
+        """Refuse an archive holding fewer evaluations than ``expected`` (what ``source``
+        says were evaluated): resuming would evaluate the lost rows again silently."""
+        if not isinstance(expected, int) or isinstance(expected, bool):
+            return
+        have = len(self)
+        if have < expected:
+            raise ValidationError(
+                f"archive {str(self.path)!r} holds {have} evaluation(s), but {source} says "
+                f"{expected} were done: evaluations were lost; restore the archive from a "
+                "copy, or start the run anew with --overwrite"
+            )
 
     # ------------------------------------------------------------------ meta
     def set_meta(self, **items: Any) -> None:
-        with self._con:
-            self._con.executemany(
-                "INSERT OR REPLACE INTO meta(key, value) VALUES (?, ?)",
-                [(k, json.dumps(v, default=_json_default)) for k, v in items.items()],
-            )
+        self._write(
+            "INSERT OR REPLACE INTO meta(key, value) VALUES (?, ?)",
+            [(k, json.dumps(v, default=_json_default)) for k, v in items.items()],
+        )
 
     def meta(self) -> dict[str, Any]:
         out = {}
@@ -194,12 +274,11 @@ class RunArchive:
             data += _records(*chunk, now)
         if not data:
             return
-        with self._con:
-            self._con.executemany(
-                "INSERT INTO evaluations(batch, row, unit, x, objectives, constraints, ok, "
-                "message, wall_time, created) VALUES (?,?,?,?,?,?,?,?,?,?)",
-                data,
-            )
+        self._write(
+            f"INSERT INTO evaluations({CHECKED}, wall_time, created, checksum) "
+            "VALUES (?,?,?,?,?,?,?,?,?,?,?)",
+            data,
+        )
 
     # ----------------------------------------------------------------- reads
     def __len__(self) -> int:
@@ -208,13 +287,14 @@ class RunArchive:
     def batch(self, batch_index: int) -> dict[int, tuple[np.ndarray, EvaluationBatch]]:
         """``{row: (unit design, one-row EvaluationBatch)}`` archived for one batch."""
         out: dict[int, tuple[np.ndarray, EvaluationBatch]] = {}
-        rows = self._read(
-            "SELECT row, unit, objectives, constraints, ok, message FROM evaluations "
-            "WHERE batch = ? ORDER BY row",
+        checked = self._read(
+            f"SELECT checksum, {CHECKED} FROM evaluations WHERE batch = ? ORDER BY row",
             (int(batch_index),),
         )
-        if not rows:  # the usual case while a run goes on: no meta to read
+        if not checked:  # the usual case while a run goes on: no meta to read
             return out
+        self._verify(checked)
+        rows = [(r[2], r[3], r[5], r[6], r[7], r[8]) for r in checked]
         names = {
             str(key): json.loads(value)
             for key, value in self._read(
@@ -255,10 +335,12 @@ class RunArchive:
         """Every evaluation in evaluation order (batch, row): unit, x, objectives, constraints,
         ok, message, batch, row, wall_time."""
         rows = self._read(
-            "SELECT unit, x, objectives, constraints, ok, message, batch, row, wall_time "
-            "FROM evaluations ORDER BY batch, row"
+            "SELECT unit, x, objectives, constraints, ok, message, batch, row, wall_time, "
+            f"checksum, {CHECKED} FROM evaluations ORDER BY batch, row"
         )
+        self._verify([r[9:] for r in rows])
         meta = self.meta()
+        self.check_count(meta.get("n_evaluations"), "its meta")
         d = len(meta.get("parameter_names", [])) or (
             self._values(rows[0][0], None, "unit").size if rows else 0
         )
@@ -305,8 +387,7 @@ class RunArchive:
         pnames = meta.get("parameter_names") or [f"x{i}" for i in range(a["x"].shape[1])]
         onames = meta.get("objective_names") or [f"f{i}" for i in range(a["objectives"].shape[1])]
         cnames = meta.get("constraint_names") or [f"g{i}" for i in range(a["constraints"].shape[1])]
-        path = Path(path)
-        with path.open("w", newline="") as fh:
+        with atomic_path(path) as tmp, tmp.open("w", newline="") as fh:
             w = csv.writer(fh)
             w.writerow(["batch", "row", *pnames, *onames, *cnames, "ok", "message", "wall_time"])
             for i in range(len(a["ok"])):
@@ -322,7 +403,7 @@ class RunArchive:
                         f"{a['wall_time'][i]:.6g}",
                     ]
                 )
-        return path
+        return Path(path)
 
     def close(self) -> None:
         self._con.close()

@@ -28,7 +28,7 @@ import sys
 import threading
 import time
 from collections.abc import Iterator, Mapping
-from concurrent.futures import CancelledError, Executor, Future, as_completed
+from concurrent.futures import FIRST_COMPLETED, CancelledError, Executor, Future, wait
 from concurrent.futures import TimeoutError as FuturesTimeout
 from dataclasses import asdict, dataclass
 from typing import Any
@@ -38,7 +38,7 @@ import numpy as np
 from suspenv.core.errors import InfrastructureError, ValidationError
 from suspenv.core.problem import Problem
 from suspenv.core.result import EvaluationBatch
-from suspenv.runs.executors import Restartable
+from suspenv.runs.executors import HEARTBEAT_S, Connected, Restartable
 
 #: seconds a process pool or cluster may add to a round of chunks (worker start, imports)
 POOL_STARTUP_S = 30.0
@@ -185,7 +185,7 @@ def evaluate_chunks(
                 failed.append(s)
         handled: set[Future[Any]] = set()
         try:
-            for fut in as_completed(futures, timeout=limit):
+            for fut in _completed(futures, limit, executor):
                 handled.add(fut)
                 s = futures[fut]
                 res, fault = _outcome(fut)
@@ -210,6 +210,8 @@ def evaluate_chunks(
             )
         if not failed:
             return
+        if isinstance(executor, Connected) and (lost := executor.lost()):
+            raise InfrastructureError(lost)
         attempt += 1
         n_rows = sum(len(rows[s]) for s in failed)
         if attempt > policy.retries:
@@ -225,6 +227,28 @@ def evaluate_chunks(
             executor.restart()
         time.sleep(policy.pause(attempt))
         pending = failed
+
+
+def _completed(
+    futures: dict[Future[Any], slice], limit: float, executor: Executor
+) -> Iterator[Future[Any]]:
+    """``as_completed(futures, timeout=limit)`` that also checks, every
+    :data:`~suspenv.runs.executors.HEARTBEAT_S` seconds, that a :class:`Connected`
+    executor still has its cluster: a lost one stops the run at once
+    (:class:`InfrastructureError`), whatever the evaluation timeout."""
+    deadline = time.monotonic() + limit
+    waiting = set(futures)
+    while waiting:
+        lost = executor.lost() if isinstance(executor, Connected) else None
+        if lost:
+            for fut in waiting:
+                fut.cancel()
+            raise InfrastructureError(lost)
+        left = deadline - time.monotonic()
+        if left <= 0:
+            raise FuturesTimeout()
+        done, waiting = wait(waiting, timeout=min(left, HEARTBEAT_S), return_when=FIRST_COMPLETED)
+        yield from done
 
 
 def _in_process(

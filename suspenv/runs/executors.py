@@ -5,10 +5,13 @@
 its workers, hung or not, and starts fresh ones), and its workers die with the process
 that owns them, so a killed run leaves no orphans evaluating into the void.
 
-A Dask executor (``run.dask_scheduler``) is Dask's own ``client.get_executor()``: Dask
-reschedules work from a lost worker itself; a lost scheduler surfaces as failed futures,
-which :mod:`suspenv.runs.evaluation` retries and, if the scheduler stays away, stops the
-run with a message (the archive keeps everything evaluated; rerunning resumes).
+A Dask executor (``run.dask_scheduler``) is a :class:`DaskExecutor` around Dask's own
+``client.get_executor()``: Dask reschedules work from a lost worker itself. A lost
+scheduler is noticed by the client's connection status, which
+:mod:`suspenv.runs.evaluation` reads every :data:`HEARTBEAT_S` seconds while it waits
+(:meth:`DaskExecutor.lost`), independently of the evaluation timeout: a scheduler that
+stays unreachable for :data:`SCHEDULER_GRACE_S` seconds stops the run with a message (the
+archive keeps everything evaluated; rerunning resumes).
 
 Security: a Dask scheduler runs whatever pickled code its clients send, and its default
 transport is unauthenticated TCP. Use it on a trusted network only, or with TLS
@@ -20,6 +23,7 @@ from __future__ import annotations
 
 import contextlib
 import ctypes
+import logging
 import os
 import signal
 import sys
@@ -31,6 +35,11 @@ from typing import Any, Protocol, runtime_checkable
 
 #: seconds between a worker's checks that the process that started it is still alive
 PARENT_POLL_S = 0.5
+#: seconds between checks of a cluster's connection while chunks are evaluated
+HEARTBEAT_S = 1.0
+#: seconds a Dask scheduler may stay unreachable (the client reconnecting) before the
+#: run stops
+SCHEDULER_GRACE_S = 10.0
 
 
 @runtime_checkable
@@ -113,6 +122,51 @@ class ProcessPool(Executor):
         self._pool.shutdown(wait=wait, cancel_futures=cancel_futures)
 
 
+@runtime_checkable
+class Connected(Protocol):
+    """An executor that can tell that its cluster is gone (see :class:`DaskExecutor`)."""
+
+    def lost(self) -> str | None: ...
+
+
+class DaskExecutor(Executor):
+    """Dask's ``client.get_executor()`` that can tell when its scheduler is gone."""
+
+    def __init__(self, client: Any, address: str, grace_s: float = SCHEDULER_GRACE_S):
+        self.client, self.address, self.grace_s = client, address, grace_s
+        self._executor = client.get_executor()
+        self._away_since: float | None = None
+
+    def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Future[Any]:
+        return self._executor.submit(fn, *args, **kwargs)
+
+    def lost(self) -> str | None:
+        """None while the client is connected to its scheduler (or has been away less
+        than ``grace_s`` seconds, reconnecting); else what happened."""
+        status = str(getattr(self.client, "status", "running"))
+        if status == "running":
+            self._away_since = None
+            return None
+        now = time.monotonic()
+        if self._away_since is None:
+            self._away_since = now
+            # the client's reconnect attempts, and their cancellation when the run stops,
+            # are logged as errors with tracebacks; the run's own lines say what happens
+            for name in list(logging.root.manager.loggerDict):
+                if name.split(".")[0] in ("distributed", "tornado"):
+                    logging.getLogger(name).setLevel(logging.CRITICAL)
+        away = now - self._away_since
+        if away < self.grace_s and status != "closed":
+            return None
+        return (
+            f"the Dask scheduler {self.address} is unreachable (the client's connection "
+            f"is {status!r}, for {away:.0f} s)"
+        )
+
+    def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
+        self._executor.shutdown(wait=wait)
+
+
 @contextlib.contextmanager
 def make_executor(run: dict[str, Any]) -> Iterator[Executor | None]:
     """None (in-process), a :class:`ProcessPool` (``workers > 1``) or a Dask executor
@@ -122,7 +176,7 @@ def make_executor(run: dict[str, Any]) -> Iterator[Executor | None]:
         from distributed import Client
 
         with Client(address) as client:
-            yield client.get_executor()
+            yield DaskExecutor(client, address)
     elif run.get("workers", 1) > 1:
         pool = ProcessPool(run["workers"])
         try:

@@ -170,6 +170,18 @@ def optimize(
         )
 
 
+def _close(archive: RunArchive, writer: ArchiveWriter | None, **meta: Any) -> None:
+    """Commit every evaluation handed over (a clean stop, an error or Ctrl-C lose
+    nothing), record ``meta`` and close the archive, even when a write fails (a full
+    disk: the failure is raised after the archive is closed)."""
+    try:
+        if writer is not None:
+            writer.flush()
+        archive.set_meta(**meta)
+    finally:
+        archive.close()
+
+
 def _optimize(
     problem: Problem,
     strategy: Any,
@@ -188,6 +200,7 @@ def _optimize(
     archive = RunArchive(run_dir) if run_dir is not None else None
     writer = ArchiveWriter(archive) if archive is not None else None
     if archive is not None:
+        archive.check_count(archive.meta().get("n_evaluations"), "its meta")
         archive.set_meta(
             problem=getattr(problem, "name", type(problem).__name__),
             parameter_names=list(problem.space.names),
@@ -326,11 +339,8 @@ def _optimize(
         if bar is not None:
             bar.close()
         wall = time.perf_counter() - t_start
-        if writer is not None:
-            writer.flush()  # a clean stop, an error or Ctrl-C: every evaluation is committed
         if archive is not None:
-            archive.set_meta(stop_reason=stop_reason, n_evaluations=used, wall_time_s=wall)
-            archive.close()
+            _close(archive, writer, stop_reason=stop_reason, n_evaluations=used, wall_time_s=wall)
     return RunResult(
         n_evaluations=used,
         n_batches=b,

@@ -51,7 +51,7 @@ from suspenv.runs.archive import RunArchive
 from suspenv.runs.evaluation import FaultPolicy
 from suspenv.runs.executors import executor_workers, make_executor
 from suspenv.runs.loop import optimize
-from suspenv.runs.run_dir import dump_toml, run_directory
+from suspenv.runs.run_dir import dump_toml, run_directory, write_json
 from suspenv.runs.versions import package_versions
 
 #: seconds of drawing after which the figure progress is printed to stderr
@@ -148,7 +148,7 @@ def write_run_outputs(
             progress.close()
         versions = package_versions(imported=True)
         archive.set_meta(versions=versions)
-    (run_dir / "versions.json").write_text(json.dumps(versions, indent=2) + "\n")
+    write_json(run_dir / "versions.json", versions)
     finite = np.isfinite(curve)
     summary = {
         "name": config["name"],
@@ -168,7 +168,7 @@ def write_run_outputs(
         "figures": [str(Path(f).name) for f in figures],
         "figure_notes": notes,
     }
-    (run_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    write_json(run_dir / "summary.json", summary)
     return summary
 
 
@@ -303,6 +303,26 @@ def check_optimize_config(config: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
+def _check_summary(run_dir: Path) -> None:
+    """Before a resume: the archive holds at least the evaluations that the run's
+    ``summary.json`` counts (an archive emptied or replaced beside it would otherwise be
+    evaluated again silently); a damaged summary is named."""
+    path = run_dir / "summary.json"
+    if not path.is_file():
+        return
+    try:
+        summary = json.loads(path.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise ValidationError(
+            f"{str(path)!r} is damaged ({type(exc).__name__}: {exc}); start the run anew "
+            "with --overwrite, or restore the file from a copy"
+        ) from None
+    with RunArchive(run_dir) as archive:
+        archive.check_count(
+            summary.get("n_evaluations") if isinstance(summary, dict) else None, str(path)
+        )
+
+
 def run_optimize_pipeline(config: dict[str, Any], run_dir: Path) -> dict[str, Any]:
     """Run the config's strategy on its problem; write every output into ``run_dir``."""
     problem = make_problem(config["problem"]["name"], **config["problem"].get("options", {}))
@@ -312,6 +332,7 @@ def run_optimize_pipeline(config: dict[str, Any], run_dir: Path) -> dict[str, An
         seed=config["seed"],
         **config["strategy"].get("options", {}),
     )
+    _check_summary(run_dir)
     bind_run = getattr(strategy, "bind_run", None)
     if callable(bind_run):
         bind_run(run_id_of(run_dir))

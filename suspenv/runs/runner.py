@@ -6,13 +6,16 @@ Order, so that a bad config leaves nothing behind and two runs never share a dir
 2. the run directory is locked (:func:`suspenv.runs.run_dir.locked`);
 3. an existing run directory either holds the same experiment (the run resumes), holds no
    results yet (it is replaced: e.g. what a crashed start left), or is refused unless
-   ``overwrite``;
-4. the resolved config and versions are written, then the pipeline runs.
+   ``overwrite``; a damaged ``config.resolved.toml`` or ``versions.json`` is named, and
+   ``overwrite`` starts such a folder anew;
+4. the resolved config and versions are written (atomically, as every file of a run
+   directory: :func:`suspenv.runs.run_dir.write_file`), then the pipeline runs.
 """
 
 from __future__ import annotations
 
 import json
+import os
 import shutil
 import time
 import tomllib
@@ -77,6 +80,46 @@ def _clear(path: Path) -> None:
             child.unlink()
 
 
+def _damaged(path: Path, exc: Exception) -> ValidationError:
+    return ValidationError(
+        f"{str(path)!r} is damaged ({type(exc).__name__}: {exc}); the run directory cannot "
+        "be resumed from it: start it anew with --overwrite (deletes what it holds), or "
+        "restore the file from a copy"
+    )
+
+
+def _read_resolved(path: Path) -> dict[str, Any]:
+    """The run directory's ``config.resolved.toml``; a damaged file is named."""
+    try:
+        return tomllib.loads(path.read_text())
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise _damaged(path, exc) from None
+
+
+def _differences_from(resolved: Path, config: dict[str, Any]) -> list[str]:
+    """How ``config`` differs from the run directory's ``config.resolved.toml``; a damaged
+    file differs in everything (refused when the folder holds results, else replaced)."""
+    try:
+        old = _read_resolved(resolved)
+    except ValidationError:
+        if holds_results(resolved.parent):
+            raise
+        return ["config.resolved.toml: damaged"]
+    return _differences(_resolved(old), config)
+
+
+def _refuse_links(path: Path) -> None:
+    """A symbolic link inside a run directory would take the run's writes out of its
+    output folder: refused, naming it (``--overwrite`` removes the link itself)."""
+    for entry in path.rglob("*"):
+        if entry.is_symlink():
+            raise ValidationError(
+                f"run directory {str(path)!r} holds a symbolic link {entry.name!r} (to "
+                f"{os.readlink(entry)!r}); a run writes only inside its output folder: "
+                "remove the link, or start the run anew with --overwrite"
+            )
+
+
 def _check_same_code(path: Path) -> None:
     """Refuse to resume results written by another suspenv commit: the resumed rows and
     the new ones would come from two versions of the code (``versions.json``)."""
@@ -84,9 +127,10 @@ def _check_same_code(path: Path) -> None:
     if not stored.is_file():
         return
     try:
-        old = json.loads(stored.read_text()).get("suspenv_commit")
-    except (json.JSONDecodeError, AttributeError):
-        return
+        versions = json.loads(stored.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise _damaged(stored, exc) from None
+    old = versions.get("suspenv_commit") if isinstance(versions, dict) else None
     new = package_versions().get("suspenv_commit")
     if old and new and old != new:
         raise ValidationError(
@@ -102,18 +146,18 @@ def run_experiment(config: dict[str, Any], overwrite: bool = False) -> tuple[Pat
     path = run_directory(config)
     with locked(path):
         resolved = path / "config.resolved.toml"
+        if overwrite:
+            _clear(path)  # whatever it holds, damaged files and links included
+        _refuse_links(path)
         if resolved.exists():
-            old = _resolved(tomllib.loads(resolved.read_text()))
-            diff = _differences(old, config)
-            if diff and (overwrite or not holds_results(path)):
+            diff = _differences_from(resolved, config)
+            if diff and not holds_results(path):
                 _clear(path)
             elif diff:
                 raise ValidationError(
                     f"run directory {str(path)!r} holds a different experiment "
                     f"({'; '.join(diff[:5])}); use another `name`/`seed`, or --overwrite"
                 )
-            elif overwrite:
-                _clear(path)
             elif holds_results(path):
                 _check_same_code(path)
         run_dir = prepare_run_dir(config)

@@ -1,0 +1,219 @@
+"""The files of a run directory: written atomically, checked when read back.
+
+* Atomic writes: every file goes to a temporary name, is flushed and renamed; a write
+  that fails (a full disk, simulated by making ``os.write``/``os.replace`` raise ENOSPC,
+  or a read-only folder) is a named error and leaves the previous file whole.
+* Damaged files (a truncated ``config.resolved.toml``, ``versions.json`` or
+  ``summary.json``) are named with what to do, and ``--overwrite`` starts such a folder
+  anew.
+* Links: a run directory that is a link, or holds one, is refused; ``--overwrite``
+  never follows it (the link's target is left as it was).
+* Archive integrity: one flipped byte of a stored row (the ``x`` column) is caught on
+  resume, CSV regeneration and export; an archive emptied beside a summary that counts
+  evaluations is refused; an archive written before rows had checksums is migrated.
+"""
+
+from __future__ import annotations
+
+import errno
+import os
+import sqlite3
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from suspenv import make_problem
+from suspenv.core.errors import InfrastructureError, ValidationError
+from suspenv.registry import make_strategy
+from suspenv.runs import run_dir as run_dir_module
+from suspenv.runs.archive import RunArchive
+from suspenv.runs.config import load_config
+from suspenv.runs.loop import optimize
+from suspenv.runs.run_dir import write_file
+from suspenv.runs.runner import run_experiment
+
+CONFIG = """
+name = "files"
+seed = 2
+budget = 24
+[problem]
+name = "Sphere"
+options = {{ dim = 3 }}
+[strategy]
+name = "random"
+options = {{ batch_size = 6 }}
+[run]
+output = "{output}"
+plots = false
+progress = false
+"""
+
+
+def config_file(tmp_path: Path) -> Path:
+    path = tmp_path / "files.toml"
+    path.write_text(CONFIG.format(output=tmp_path / "runs"))
+    return path
+
+
+def finished_run(tmp_path: Path) -> Path:
+    run_dir, summary = run_experiment(load_config(config_file(tmp_path)))
+    assert summary["n_evaluations"] == 24
+    return run_dir
+
+
+# ------------------------------------------------------------------ atomic writes
+def test_a_failed_write_is_named_and_leaves_the_old_file_whole(tmp_path, monkeypatch):
+    target = tmp_path / "summary.json"
+    write_file(target, "old\n")
+
+    def full(fd, data):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(os, "write", full)
+    with pytest.raises(InfrastructureError, match=r"no space left on the device \(ENOSPC\)"):
+        write_file(target, "new content\n" * 1000)
+    monkeypatch.undo()
+    assert target.read_text() == "old\n"
+    assert [p.name for p in tmp_path.iterdir()] == ["summary.json"]  # no temporary left
+
+
+def test_a_failed_rename_is_named_and_leaves_no_temporary(tmp_path, monkeypatch):
+    target = tmp_path / "config.resolved.toml"
+
+    def read_only(src, dst):
+        raise OSError(errno.EROFS, "Read-only file system")
+
+    monkeypatch.setattr(os, "replace", read_only)
+    with pytest.raises(InfrastructureError, match="read-only.*run the same command again"):
+        write_file(target, "x = 1\n")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_full_disk_at_the_end_of_a_run_is_named_and_resume_completes(tmp_path, monkeypatch):
+    path = config_file(tmp_path)
+    real = run_dir_module.os.replace
+
+    def full(src, dst):
+        if str(dst).endswith("summary.json"):
+            raise OSError(errno.ENOSPC, "No space left on device")
+        real(src, dst)
+
+    monkeypatch.setattr(run_dir_module.os, "replace", full)
+    with pytest.raises(InfrastructureError, match="summary.json.*no space left"):
+        run_experiment(load_config(path))
+    monkeypatch.undo()
+    run_dir = tmp_path / "runs" / "files-seed2"
+    assert not (run_dir / "summary.json").exists()
+    assert not [p for p in run_dir.iterdir() if ".tmp-" in p.name]
+    _, summary = run_experiment(load_config(path))
+    assert summary["n_resumed"] == 24 and summary["n_evaluations"] == 24
+
+
+# ------------------------------------------------------------------ damaged files
+@pytest.mark.parametrize("name", ["config.resolved.toml", "versions.json", "summary.json"])
+def test_a_truncated_run_file_is_named_and_overwrite_starts_anew(tmp_path, name):
+    run_dir = finished_run(tmp_path)
+    text = (run_dir / name).read_text()
+    (run_dir / name).write_text(text[: len(text) // 2])
+    with pytest.raises(ValidationError, match=f"{name}' is damaged.*--overwrite"):
+        run_experiment(load_config(config_file(tmp_path)))
+    _, summary = run_experiment(load_config(config_file(tmp_path)), overwrite=True)
+    assert summary["n_evaluations"] == 24 and summary["n_resumed"] == 0
+
+
+def test_a_damaged_config_beside_no_results_is_replaced(tmp_path):
+    run_dir = tmp_path / "runs" / "files-seed2"
+    run_dir.mkdir(parents=True)
+    (run_dir / "config.resolved.toml").write_text('name = "fi')
+    _, summary = run_experiment(load_config(config_file(tmp_path)))
+    assert summary["n_evaluations"] == 24
+
+
+# -------------------------------------------------------------------------- links
+def test_a_linked_run_directory_is_refused_with_and_without_overwrite(tmp_path):
+    outside = tmp_path / "outside"
+    outside.mkdir()
+    (outside / "keep.txt").write_text("mine")
+    (tmp_path / "runs").mkdir()
+    (tmp_path / "runs" / "files-seed2").symlink_to(outside, target_is_directory=True)
+    for overwrite in (False, True):
+        with pytest.raises(ValidationError, match="is a symbolic link"):
+            run_experiment(load_config(config_file(tmp_path)), overwrite=overwrite)
+    assert (outside / "keep.txt").read_text() == "mine"
+    assert [p.name for p in outside.iterdir()] == ["keep.txt"]
+
+
+def test_a_link_inside_a_run_directory_is_refused_and_overwrite_removes_only_it(tmp_path):
+    run_dir = finished_run(tmp_path)
+    outside = tmp_path / "outside.sqlite"
+    outside.write_bytes(b"not yours")
+    (run_dir / "archive.sqlite").unlink()
+    (run_dir / "archive.sqlite").symlink_to(outside)
+    with pytest.raises(ValidationError, match="holds a symbolic link 'archive.sqlite'"):
+        run_experiment(load_config(config_file(tmp_path)))
+    _, summary = run_experiment(load_config(config_file(tmp_path)), overwrite=True)
+    assert summary["n_evaluations"] == 24
+    assert outside.read_bytes() == b"not yours"
+    assert not (run_dir / "archive.sqlite").is_symlink()
+
+
+# -------------------------------------------------------------- archive integrity
+def flip_x_byte(db: Path, row_id: int = 3) -> None:
+    """Change one byte of one stored design's physical ``x`` value."""
+    with sqlite3.connect(db) as con:
+        (x,) = con.execute("SELECT x FROM evaluations WHERE id = ?", (row_id,)).fetchone()
+        bad = bytearray(x)
+        bad[5] ^= 0x01
+        con.execute("UPDATE evaluations SET x = ? WHERE id = ?", (bytes(bad), row_id))
+
+
+def test_a_flipped_byte_in_x_is_caught_on_resume_csv_and_export(tmp_path):
+    run_dir = finished_run(tmp_path)
+    flip_x_byte(run_dir / "archive.sqlite")
+    (run_dir / "summary.json").unlink()  # a resume that reaches the replay
+    with pytest.raises(ValidationError, match="does not match its checksum"):
+        run_experiment(load_config(config_file(tmp_path)))
+    with RunArchive(run_dir) as archive, pytest.raises(ValidationError, match="checksum"):
+        archive.to_csv(tmp_path / "out.csv")
+    assert not (tmp_path / "out.csv").exists()
+    pytest.importorskip("optuna")
+    from suspenv.runs.export import export_optuna
+
+    with pytest.raises(ValidationError, match="checksum"):
+        export_optuna(run_dir, str(tmp_path / "study.db"))
+
+
+def test_an_emptied_archive_beside_its_summary_is_refused(tmp_path):
+    run_dir = finished_run(tmp_path)
+    (run_dir / "archive.sqlite").unlink()
+    with pytest.raises(ValidationError, match=r"holds 0 evaluation\(s\), but .*summary.json"):
+        run_experiment(load_config(config_file(tmp_path)))
+
+
+def test_deleted_rows_are_refused_by_the_archive_meta(tmp_path):
+    p = make_problem("Sphere", dim=2)
+    optimize(p, make_strategy("random", p, seed=1, batch_size=4), 12, run_dir=tmp_path)
+    with sqlite3.connect(tmp_path / "archive.sqlite") as con:
+        con.execute("DELETE FROM evaluations WHERE batch = 2")
+    with pytest.raises(ValidationError, match=r"holds 8 evaluation\(s\), but its meta says 12"):
+        optimize(p, make_strategy("random", p, seed=1, batch_size=4), 12, run_dir=tmp_path)
+
+
+def test_an_archive_without_checksums_is_migrated_and_then_checked(tmp_path):
+    p = make_problem("Sphere", dim=2)
+    optimize(p, make_strategy("random", p, seed=1, batch_size=4), 8, run_dir=tmp_path)
+    db = tmp_path / "archive.sqlite"
+    with RunArchive(db) as archive:
+        before = archive.arrays()
+    with sqlite3.connect(db) as con:  # the layout of an archive written before checksums
+        con.execute("ALTER TABLE evaluations DROP COLUMN checksum")
+    with RunArchive(db) as archive:
+        after = archive.arrays()
+        assert "checksums_added" in archive.meta()
+    for key in ("unit", "x", "objectives", "ok"):
+        np.testing.assert_array_equal(before[key], after[key])
+    flip_x_byte(db, 1)
+    with RunArchive(db) as archive, pytest.raises(ValidationError, match="checksum"):
+        archive.arrays()
+
