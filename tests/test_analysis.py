@@ -217,6 +217,11 @@ def test_targets_log_spaced_from_worst_to_best_final():
     np.testing.assert_allclose(make_targets([100.0, 1.0], n_targets=3), [100, 10, 1])
     np.testing.assert_allclose(make_targets([2.0, -2.0], n_targets=3), [2, 0, -2])
     assert make_targets([np.inf, None]).size == 0
+    # the ends are the finals exactly: the best run reaches the hardest target it defines
+    finals = [0.086298079084, 0.059114615191408815, 0.1149912761602]
+    for f_opt in (None, 0.0):
+        t = make_targets(finals, f_opt=f_opt)
+        assert t[0] == max(finals) and t[-1] == min(finals)
 
 
 # ------------------------------------------------------- performance profile
@@ -268,7 +273,8 @@ def test_runs_without_a_feasible_value_rank_last():
 
 # ---------------------------------------------------------------- IOH lines
 def test_ioh_dat_lines_are_improvements_and_the_last_evaluation():
-    assert dat_lines(as_curve([None, 4, 4, 2, 2, 2])) == ["2 4.0", "4 2.0", "6 2.0"]
+    # a run starts at evaluation 1 (IOHprofiler's readers split runs there), inf if infeasible
+    assert dat_lines(as_curve([None, 4, 4, 2, 2, 2])) == ["1 inf", "2 4.0", "4 2.0", "6 2.0"]
     assert dat_lines(as_curve([3, 1])) == ["1 3.0", "2 1.0"]
     # full precision: a tiny improvement is still an improvement after parsing
     lines = dat_lines(as_curve([0.1, 0.1 - 1e-15]))

@@ -7,8 +7,9 @@ are in ``docs/analysis.md``; in short:
 
 - A *problem configuration* is (problem name, options with defaults filled in, objective
   names, quality name, what the quality was normalised on, pipeline); a *strategy
-  configuration* is (strategy name, resolved options, without the seed and where the run
-  keeps its state). Each has an 8-hex hash; a group is one strategy configuration on one
+  configuration* is (strategy name, options as the user configured them, without the
+  seed and where the run keeps its state; the values the run resolved are kept beside).
+  Each has an 8-hex hash; a group is one strategy configuration on one
   problem configuration, labelled ``name[hash]``.
 - Runs of different problem configurations are never pooled: refused, naming the
   differences, unless ``suite=True`` (then every problem is reported on its own and a
@@ -504,6 +505,7 @@ def _analyse_problem(
             "strategy": g.strategy,
             "hash": g.strategy_hash,
             "options": g.options,
+            "resolved_options": g.runs[0].strategy_resolved,
             "differs": g.differs,
             "seeds": g.seeds,
             "budgets": g.budgets,
@@ -595,9 +597,11 @@ def compare(
 
 
 DEFINITIONS = {
-    "grouping": "group = strategy name + resolved options (seed and state location excluded), "
-    "hash = first 8 hex of SHA-256 of canonical JSON; problem = name + options with "
-    "defaults + objectives + quality + normalisation + pipeline",
+    "grouping": "group = strategy name + options as configured (seed and state location "
+    "excluded; an option the strategy resolves from the problem, such as CMA-ES's "
+    "population, counts only when set to another value; the values used are listed as "
+    "resolved_options), hash = first 8 hex of SHA-256 of canonical JSON; problem = name + "
+    "options with defaults + objectives + quality + normalisation + pipeline",
     "best_so_far": "running minimum of the measure over evaluations; +inf before the first "
     "feasible value; quantiles over runs count +inf as the worst value",
     "fixed_budget": "quantiles over runs of the best-so-far at 10, 25, 50, 100 % of the "

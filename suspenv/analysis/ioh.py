@@ -14,10 +14,14 @@ of the comparison), one ``.dat`` file per dimension. The JSON holds ``version``,
 (["evaluations", "raw_y"]) and ``scenarios``: [{dimension, path, runs: [{instance,
 evals, best: {evals, y, x}}]}]. Every run is instance 1 (seeds are repetitions on one
 problem instance). A ``.dat`` file holds the runs in order, each starting with the line
-``evaluations raw_y`` followed by ``<evaluations> <value>`` at every improvement of the
-compared measure (its best-so-far) and at the last evaluation, values in Python's
-shortest round-trip form (they parse back to the same float64). Runs with no feasible
-value are left out (``compare.json`` lists them).
+``evaluations raw_y`` followed by ``<evaluations> <value>`` at the first evaluation,
+at every improvement of the compared measure (its best-so-far) and at the last
+evaluation the run used, values in
+Python's shortest round-trip form (they parse back to the same float64). A run that
+stopped before its budget ends at the evaluations it used, and its ``evals`` says so:
+the export is true to each run (``compare`` keeps such a run's best up to the budget
+only for its fixed-budget view). Runs with no feasible value are left out
+(``compare.json`` lists them).
 """
 
 from __future__ import annotations
@@ -45,10 +49,13 @@ def safe_name(text: str) -> str:
 
 
 def dat_lines(curve: np.ndarray) -> list[str]:
-    """``evaluations value`` lines of one run: each improvement of the best-so-far (the
-    first finite value included) and the last evaluation."""
+    """``evaluations value`` lines of one run: the first evaluation (``inf`` when it has no
+    feasible value: IOHprofiler's readers start a new run at evaluation 1), each
+    improvement of the best-so-far and the last evaluation."""
     c = np.asarray(curve, dtype=float)
-    lines = []
+    if not np.isfinite(c).any():
+        return []
+    lines = [] if np.isfinite(c[0]) else [f"1 {float(c[0])!r}"]
     prev = np.inf
     for i, v in enumerate(c):
         if np.isfinite(v) and v < prev:
@@ -71,8 +78,9 @@ def write_ioh(comparison: Comparison, folder: str | Path) -> Path:
             data_dir.mkdir(parents=True, exist_ok=True)
             by_dim: dict[int, list[tuple[Any, np.ndarray]]] = {}
             for r, c in zip(g.runs, g.curves, strict=True):
-                if np.isfinite(c).any():
-                    by_dim.setdefault(int(r.dimension or 0), []).append((r, c))
+                used = c[: r.evaluations_used]  # not the budget: what the run evaluated
+                if np.isfinite(used).any():
+                    by_dim.setdefault(int(r.dimension or 0), []).append((r, used))
             scenarios = []
             for dim, items in sorted(by_dim.items()):
                 dat = data_dir / f"IOHprofiler_f{fid}_DIM{dim}.dat"

@@ -86,11 +86,53 @@ def _problem_defaults(name: str) -> str | None:
 
 @cache
 def _strategy_defaults(name: str) -> str | None:
+    if ":" in name:  # a plug-in: its code is not imported by the analysis
+        return None
     try:
         d = _defaults(strategy_class(name), _STRATEGY_CONTEXT)
     except ValidationError:
         return None
     return None if d is None else json.dumps(d, default=_json_default, sort_keys=True)
+
+
+@cache
+def _problem_resolved(name: str, dim: int, m: int, k: int) -> str | None:
+    """JSON of the options strategy ``name`` resolves with none given, on a problem of
+    ``dim`` variables, ``m`` objectives and ``k`` constraints (None: it cannot be built
+    here; a ``module:Class`` plug-in is never imported by the analysis)."""
+    if ":" in name:
+        return None
+    try:
+        cls = strategy_class(name)
+        options = getattr(cls(dim=dim, n_objectives=m, n_constraints=k, seed=0), "options", None)
+        return None if options is None else json.dumps(options(), default=_json_default)
+    except (ValidationError, TypeError, ValueError, ImportError):
+        return None
+
+
+def configured_strategy_options(
+    name: str, options: dict[str, Any], shape: tuple[int, int, int] | None
+) -> dict[str, Any]:
+    """A strategy's identity: the options as the user configured them.
+
+    An option whose constructor default is None is resolved by the strategy from the
+    problem (CMA-ES's population from the dimension, NSGA-II's mutation probability
+    1/d): it is None here unless its value differs from what the strategy resolves on a
+    problem of this ``shape`` (dim, objectives, constraints) with no option given. So
+    one configuration keeps one hash on problems of every size; an option set to
+    exactly the value its default resolves to on that problem counts as the default.
+    The resolved values are kept beside (:attr:`RunRecord.strategy_resolved`)."""
+    if ":" in name:
+        return dict(options)
+    defaults = json.loads(_strategy_defaults(name) or "{}")
+    auto = {k for k, v in defaults.items() if v is None}
+    resolved = _problem_resolved(name, *shape) if shape is not None else None
+    base = json.loads(resolved) if resolved is not None else {}
+    out = dict(options)
+    for key in auto & set(out):
+        if out[key] is None or (key in base and base[key] == out[key]):
+            out[key] = None
+    return out
 
 
 def resolved_problem_options(name: str, options: dict[str, Any]) -> dict[str, Any]:
@@ -117,6 +159,8 @@ def resolved_strategy_options(
 class RunRecord:
     """One finished run, as the analysis sees it.
 
+    ``strategy_options`` are the options as configured (the strategy's identity, see
+    :func:`configured_strategy_options`), ``strategy_resolved`` the values the run used.
     ``curve`` is the best-so-far quality after each evaluation it covers (``+inf`` before
     the first feasible value); ``evaluations_used`` is its length (for a ``tey2014`` run
     the CMA-ES evaluations after the design of experiments). ``normalisation`` identifies
@@ -140,6 +184,8 @@ class RunRecord:
     normalisation_source: str | None
     dimension: int | None
     archive_dir: Path | None
+    strategy_resolved: dict[str, Any] = field(default_factory=dict)
+    meta: dict[str, Any] = field(default_factory=dict, repr=False)
     _arrays: dict[str, np.ndarray] | None = field(default=None, repr=False)
 
     @property
@@ -169,7 +215,7 @@ class RunRecord:
 
     @property
     def strategy_config(self) -> dict[str, Any]:
-        """What defines the strategy: its name and resolved options (seed excluded)."""
+        """What defines the strategy: its name and configured options (seed excluded)."""
         return {"strategy": self.strategy, "options": self.strategy_options}
 
     @property
@@ -257,20 +303,11 @@ def load_run(run_dir: str | Path) -> RunRecord:
     cand = path / "cmaes" if pipeline == "tey2014" else path
     archive_dir = cand if (cand / RunArchive.FILENAME).is_file() else None
     meta: dict[str, Any] = {}
-    names = s.get("objective_names") or s.get("kept_objectives")
-    if archive_dir is not None and (names is None or not isinstance(s.get("best_x"), dict)):
+    if archive_dir is not None:
         with RunArchive(archive_dir) as archive:
             meta = archive.meta()
-        names = names or meta.get("objective_names")
+    names = s.get("objective_names") or s.get("kept_objectives") or meta.get("objective_names")
     strategy = str(s.get("strategy") or (config.get("strategy") or {}).get("name") or "?")
-    recorded = s.get("strategy_options")
-    if isinstance(recorded, dict):
-        s_opts = resolved_strategy_options(strategy, recorded, recorded=True)
-    else:
-        given = dict((config.get("strategy") or {}).get("options") or {})
-        s_opts = resolved_strategy_options(strategy, given)
-    if pipeline == "tey2014" and "study" in config:
-        s_opts["study"] = config["study"]
     quality_name = str(s.get("quality_name") or "quality")
     norm, source = _normalisation(path, pipeline, quality_name)
     if isinstance(s.get("best_x"), dict):
@@ -279,6 +316,10 @@ def load_run(run_dir: str | Path) -> RunRecord:
         dimension = int(s["n_parameters"])
     else:
         dimension = len(meta["parameter_names"]) if meta.get("parameter_names") else None
+    shape = None
+    if dimension is not None:
+        shape = (dimension, len(names or []) or 1, len(meta.get("constraint_names") or []))
+    s_opts, s_used = _strategy_options(strategy, s, config, pipeline, shape)
     curve = s.get("quality_curve")
     if not isinstance(curve, list):
         raise ValidationError(
@@ -305,7 +346,30 @@ def load_run(run_dir: str | Path) -> RunRecord:
         normalisation_source=source,
         dimension=dimension,
         archive_dir=archive_dir,
+        strategy_resolved=s_used,
+        meta=meta,
     )
+
+
+def _strategy_options(
+    strategy: str,
+    summary: dict[str, Any],
+    config: dict[str, Any],
+    pipeline: str,
+    shape: tuple[int, int, int] | None,
+) -> tuple[dict[str, Any], dict[str, Any]]:
+    """(configured options: the identity, options the run used), state options left out.
+    The run's own record (``summary.json``'s ``strategy_options``) when it has one, else
+    its config's options with the constructor's defaults filled in."""
+    recorded = summary.get("strategy_options")
+    if isinstance(recorded, dict):
+        used = resolved_strategy_options(strategy, recorded, recorded=True)
+    else:
+        given = dict((config.get("strategy") or {}).get("options") or {})
+        used = resolved_strategy_options(strategy, given)
+    if pipeline == "tey2014" and "study" in config:
+        used["study"] = config["study"]
+    return configured_strategy_options(strategy, used, shape), used
 
 
 def load_runs(runs: Iterable[str | Path | RunRecord]) -> list[RunRecord]:

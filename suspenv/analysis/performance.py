@@ -122,12 +122,19 @@ def make_targets(
         if d_worst <= 0:  # every run reached the optimum
             return np.array([float(f_opt)])
         d_best = max(best - f_opt, 1e-8 * d_worst)
-        return f_opt + np.logspace(np.log10(d_worst), np.log10(d_best), n)
-    if worst == best:
+        t = f_opt + np.logspace(np.log10(d_worst), np.log10(d_best), n)
+    elif worst == best:
         return np.array([worst])
-    if best > 0:
-        return np.logspace(np.log10(worst), np.log10(best), n)
-    return np.linspace(worst, best, n)
+    elif best > 0:
+        t = np.logspace(np.log10(worst), np.log10(best), n)
+    else:
+        t = np.linspace(worst, best, n)
+    # the ends are the finals themselves (10**log10(v) may round below v, and the best
+    # run would then miss the hardest target it defines)
+    t[0] = worst
+    if f_opt is None or best - f_opt >= 1e-8 * (worst - f_opt):
+        t[-1] = best
+    return t
 
 
 def runtimes(curve: np.ndarray, targets: np.ndarray) -> np.ndarray:
