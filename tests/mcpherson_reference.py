@@ -148,12 +148,13 @@ def residual(
     arms[..., 15, :] = cp_arm
     forces[..., 15, 2] = solver.kt * (pad - r1[..., 2] - cp_arm[..., 2])
     forces[..., 16, 2] = -solver.wheel_weight
-    if ext is not None:
-        arms[..., 17, :], forces[..., 17, :] = cp_arm, ext[..., :3]
+    if ext is not None:  # through the pad at the loaded contact point (on the pad plane)
+        load_arm = cp_arm * ((pad - r1[..., 2]) / cp_arm[..., 2])[..., None]
+        arms[..., 17, :], forces[..., 17, :] = load_arm, ext[..., :3]
         M[..., 1, :] += ext[..., 3:6]
         if ext.shape[-1] == 9:  # a force at the wheel centre: at the contact point
             forces[..., 17, :] += ext[..., 6:9]  # plus the moment (wc - cp) x f
-            M[..., 1, :] -= cross(cp_arm, ext[..., 6:9])
+            M[..., 1, :] -= cross(load_arm, ext[..., 6:9])
 
     # anti-roll bar: the halves meet at the bar's middle (slot 18); stiff in shear and
     # bending, the bar's torsional stiffness about the vehicle y axis

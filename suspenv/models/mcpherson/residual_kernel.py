@@ -8,10 +8,11 @@ states off equilibrium, with and without bushing frames, placed effects, loads a
 travel). For every row and side: the body-fixed vectors rotated, the bushing deflections
 and loads (linear, through the bushing frames when oriented, plus the placed effects'
 loads given by the caller), the tie rod, drop link and spring, the constraints times
-``CSCALE``, the tyre on the pad, the strut friction (given by the caller), the loads with
-their arms summed body by body, and the anti-roll bar's halves joined at its middle.
-Frames, units and signs are the solver's (vehicle axes, x forward, y left, z up; SI;
-rotation vectors in radians).
+``CSCALE``, the tyre on the pad, the rig's wheel loads (through the pad at the loaded
+contact point, or at the wheel centre), the strut friction (given by the caller), the
+loads with their arms summed body by body, and the anti-roll bar's halves joined at its
+middle. Frames, units and signs are the solver's (vehicle axes, x forward, y left, z up;
+SI; rotation vectors in radians).
 
 One row needs a few hundred floating-point operations, so a numpy form is
 overhead-bound for the few rows of a single design; compiled, a row costs about a
@@ -67,10 +68,12 @@ def _residual_row(
     """The residual (2, 33) of one row into ``out``: positions ``rm`` (2, 4, 3) [m] and
     rotations ``Rm`` (2, 4, 3, 3) of both sides, multipliers ``ls_all`` (2, 9), pad
     heights ``pad_m`` (2,) [m], wheel loads ``ext_m`` (2, 6|9) (``n_ext`` columns, 0:
-    none), rack travel ``rack_m`` (2,) [m] (``has_rack``), the placed effects' loads
-    ``extra_m`` (2, 25) (``has_extra``: columns 0-23 the loads (bushing, force xyz [N] then
-    moment xyz [N*m]) that the four bushings exert against their deflection beyond the
-    linear ones, vehicle axes; column 24 the strut friction force [N] along the tube
+    none: force [N] and moment [N*m] at the loaded contact point, where the wheel
+    plane's downward radius meets the pad plane, then a force [N] at the wheel centre),
+    rack travel ``rack_m`` (2,) [m] (``has_rack``), the placed effects' loads
+    ``extra_m`` (2, 25) (``has_extra``: columns 0-23 the loads (bushing, force xyz [N]
+    then moment xyz [N*m]) that the four bushings exert against their deflection beyond
+    the linear ones, vehicle axes; column 24 the strut friction force [N] along the tube
     axis, on the knuckle, opposite on the rod), design row ``d`` of ``pack``."""
     o_vec, o_gr, o_K, o_Q, o_tri = off[0], off[1], off[2], off[3], off[4]
     o_L, o_Lsq, o_L2, o_ks, o_Lf = off[5], off[6], off[7], off[8], off[9]
@@ -217,10 +220,6 @@ def _residual_row(
             arm[13, a] = Vs[15, a]
         arm[8, 0], arm[8, 1], arm[8, 2] = d0, d1, d2
         F[8, 2] = fz
-        if n_ext:
-            e = ext_m[s]
-            for a in range(3):
-                F[8, a] += e[a]
         for i in range(24):
             res[i] = 0.0
         for j in range(14):
@@ -245,9 +244,15 @@ def _residual_row(
             res[21 + a] += -mc if s == 0 else mc
         res[8] -= pack[o_W, s, d]
         if n_ext:
+            # the rig's load through the pad, at the loaded contact point (the wheel
+            # plane's downward radius stretched to the pad plane), its moment about it
             e = ext_m[s]
+            g = (pad_m[s] - rr[1, 2]) / d2
+            xb[0], xb[1], xb[2] = d0 * g, d1 * g, d2 * g
             for a in range(3):
+                res[6 + a] += e[a]
                 res[9 + a] += e[3 + a]
+            _cross_add(xb, e[0:3], res[9:12])
             if n_ext == 9:
                 for a in range(3):
                     res[6 + a] += e[6 + a]

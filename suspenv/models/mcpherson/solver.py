@@ -737,7 +737,8 @@ class AxleSolver:
         ``R`` (..., n, 2, 4, 3, 3); the inputs broadcast against (..., n, 2).
 
         ``pad`` (n, 2) pad heights [m]; ``ext`` (n, 2, 6) extra force [N] and moment
-        [N*m] on the wheel at the contact point, or (n, 2, 9) with a further force [N]
+        [N*m] on the wheel at the loaded contact point (where the wheel plane's downward
+        radius meets the pad plane: the rig's pad), or (n, 2, 9) with a further force [N]
         (columns 6-8) at the wheel centre. ``rack`` (n, 2) [m]: travel of the tie-rod
         inner points along +y from their design position (None: zero). ``state``: the
         history of the path-dependent effects. Rows per side: force [N] and moment about
