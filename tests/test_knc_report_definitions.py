@@ -38,7 +38,6 @@ from suspenv.models.mcpherson import AxleSolver, build_axle, reference_design
 from suspenv.models.mcpherson.kinematics import CornerKinematics
 from suspenv.models.mcpherson.params import BUSHINGS, PARAMETER_NAMES, SIDE_SIGN, AxleConstants
 from suspenv.models.mcpherson.rotation import cross, rotate
-from suspenv.models.mcpherson.solver import _down
 from suspenv.rigs.knc import KCResult, loop_path, run_tests
 
 IDX = {n: i for i, n in enumerate(PARAMETER_NAMES)}
@@ -335,19 +334,10 @@ def test_anti_dive_and_anti_lift_match_loaded_solves(tight, ref, report):
     # paths of parallel travel instead; for a linear elastic axle the two agree
     # (Maxwell-Betti reciprocity: dz/dFx = dx/dFz)
     solver, st = tight
-    pad = solver.pad_static
-    wc = st.r[:, :, 1]
-    s = rotate(st.R[:, :, 1], solver.s0)
-    d = _down(s)
-    cp = wc + solver.Rw[..., None] * d  # where the solver applies a contact-point load
-    P = wc + ((pad - wc[..., 2]) / d[..., 2])[..., None] * d
 
-    def at_P(col):
-        F = np.zeros((1, 2, 3))
-        F[..., col] = 1.0
+    def at_P(col):  # the solver applies a contact-point load at P
         ext = np.zeros((1, 2, 9))
-        ext[..., 0:3] = F
-        ext[..., 3:6] = cross(P - cp, F)  # the force moved from cp to P
+        ext[..., col] = 1.0
         return ext
 
     wc_x = np.zeros((1, 2, 9))

@@ -8,6 +8,7 @@ form of the tie-rod geometry, and mirror symmetry of the reference axle.
 
 from __future__ import annotations
 
+import mcpherson_reference as reference
 import numpy as np
 import pytest
 
@@ -137,19 +138,23 @@ def test_travel_results_do_not_change_when_the_new_tests_share_the_batch(axle):
 
 def test_traction_equals_the_braking_force_plus_the_moment_f_h_about_the_spin_axis(axle, runs):
     # reference: statics. A force F along +x at the wheel centre is the same force at the
-    # contact point plus the moment (wc - cp) x F, i.e. F*h about +y (h the loaded radius,
-    # wheel centre above contact point) and -F*(wc - cp)_y about +z. Applied explicitly
-    # through the solver's contact-point load path and solved from the static state in
-    # one go (an independent Newton solve), it must give the traction test's state.
+    # loaded contact point P (where the rig's pad applies its loads: the wheel plane's
+    # downward radius met with the pad plane) plus the moment (wc - P) x F, i.e. F*h about
+    # +y (h the loaded radius, wheel centre above the pad) and -F*(wc - P)_y about +z.
+    # Applied explicitly through the solver's contact-point load path and solved from the
+    # static state in one go (an independent Newton solve), it must give the traction
+    # test's state.
     solver = AxleSolver(axle)
     st0, conv, _ = solver.solve(solver.initial_state(), solver.pad_static)
     assert conv.all()
     tr, lon = runs["traction"], runs["longitudinal"]
     k = int(np.flatnonzero(tr.grid[tr.path] == tr.grid[-1])[0])  # +2500 N
     F = tr.grid[-1]
-    arm = np.stack([tr.channels[f"wheel_centre_{a}"][0, k] for a in "xyz"], axis=-1) - np.stack(
-        [tr.channels[f"contact_{a}"][0, k] for a in "xyz"], axis=-1
-    )  # (2, 3): wheel centre - contact point
+    wc = np.stack([tr.channels[f"wheel_centre_{a}"][0, k] for a in "xyz"], axis=-1)
+    cp = np.stack([tr.channels[f"contact_{a}"][0, k] for a in "xyz"], axis=-1)
+    pad = tr.channels["pad_z"][0, k]
+    P = wc + ((pad - wc[:, 2]) / (cp[:, 2] - wc[:, 2]))[:, None] * (cp - wc)
+    arm = wc - P  # (2, 3): wheel centre - loaded contact point
     h = arm[:, 2]
     assert np.all((h > 0.25) & (h < 0.35))  # m: a loaded radius
     ext = np.zeros((1, 2, 6))
@@ -174,8 +179,8 @@ def test_every_body_is_in_balance_under_the_new_loads(axle, runs):
         r = runs[t]
         for k, st in enumerate(r.states):
             d = r.grid[r.path[k]]
-            F, M = solver.body_loads(
-                st, solver.pad_static, wheel_loads(t, d)[None], rack=rack_travel(t, d)[None]
+            F, M = reference.body_loads(
+                solver, st, solver.pad_static, wheel_loads(t, d)[None], rack=rack_travel(t, d)[None]
             )
             assert np.abs(F).max() < 0.05, (t, k)  # N, against kN loads
             assert np.abs(M).max() < 0.05, (t, k)  # N*m

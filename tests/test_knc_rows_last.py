@@ -1,13 +1,9 @@
-"""The rows-last arithmetic of the K&C evaluation against its reference paths.
+"""The rows-last rotation arithmetic of the K&C evaluation against its reference paths.
 
-* the residual of linear bushings with every quantity held rows last
-  (``solver.RESIDUAL_ROWS_LAST``; reference: the element slot by element slot residual,
-  which also serves placed effects and the recorded element loads): the same equations
-  summed in another order, so equal to round-off of the load sums;
 * the rotation updates of the Newton steps and the predictor (``rotation.ROWS_LAST``;
   reference: stacked matrix products of ``expm_so3`` and ``log_so3``), and the rows-last
   forms of ``expm_so3`` and ``log_so3`` themselves (bitwise, element by element);
-* a whole rig run and the problem's objectives with both switches off: the same
+* a whole rig run and the problem's objectives with the switch off: the same
   channels and objectives to the solver tolerance (``test_knc_speed_paths``' bounds).
 """
 
@@ -15,11 +11,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from knc_checks import assert_same_residual, channel_tolerance, off_equilibrium
+from knc_checks import channel_tolerance
 
 import suspenv.models.mcpherson.rotation as rotation_module
 import suspenv.models.mcpherson.solver as solver_module
-from suspenv.models.mcpherson import AxleSolver, axle_effect, build_axle, reference_design
+from suspenv.models.mcpherson import build_axle, reference_design
 from suspenv.models.mcpherson.rotation import (
     expm_rows_last,
     expm_so3,
@@ -37,51 +33,6 @@ def X():
     rng = np.random.default_rng(41)
     problem = KCIdentification()
     return np.vstack([reference_design(), problem.space.to_physical(rng.random((3, 49)))])
-
-
-@pytest.mark.parametrize("frames", [False, True])
-def test_rows_last_residual_is_the_slot_residual(X, frames):
-    orientation = {"lca_front": (10.0, 35.0, -20.0), "top_mount": (0.0, 15.0, 5.0)}
-    solver = AxleSolver(build_axle(X, None, None, orientation if frames else None))
-    assert (solver._Q is not None) == frames
-    st, pad, ext, rack = off_equilibrium(solver, 6)
-    for e, q in ((None, None), (ext[..., :6], None), (ext, rack)):
-        fast = solver.residual(st.r, st.R, st.lam, pad, st, e, rack=q)
-        ref = solver._residual_by_slots(st.r, st.R, st.lam, pad, st, e, rack=q)
-        assert_same_residual(fast, ref)
-    # perturbed copies on a leading axis (the Jacobian's calls), multipliers broadcast
-    rng = np.random.default_rng(2)
-    r = st.r + rng.normal(scale=1e-4, size=(3,) + st.r.shape)
-    R = np.matmul(expm_so3(rng.normal(scale=1e-3, size=(3,) + st.R.shape[:-1])), st.R)
-    fast = solver.residual(r, R, st.lam, pad, st, ext, rack=rack)
-    assert_same_residual(fast, solver._residual_by_slots(r, R, st.lam, pad, st, ext, rack=rack))
-
-
-def test_rows_last_residual_of_taken_rows(X):
-    # a taken solver's arrays (rows of one design shared, rows of several copied), after
-    # the parent has made its rows-last arrays: the taken rows' own
-    solver = AxleSolver(build_axle(X))
-    st, pad, ext, rack = off_equilibrium(solver, 6)
-    solver.residual(st.r, st.R, st.lam, pad, st)  # the parent's rows-last arrays made
-    for rows in (np.zeros(4, int), np.array([3, 1, 1, 0, 2])):
-        sub, sst = solver.take(rows, axle=False), st.take(rows)
-        fast = sub.residual(sst.r, sst.R, sst.lam, pad[rows], sst, ext[rows], rack=rack[rows])
-        ref = sub._residual_by_slots(
-            sst.r, sst.R, sst.lam, pad[rows], sst, ext[rows], rack=rack[rows]
-        )
-        assert_same_residual(fast, ref)
-
-
-def test_effects_and_records_take_the_slot_residual(X, monkeypatch):
-    axle = build_axle(X[:2])
-    cubic = AxleSolver(axle, [axle_effect("cubic_stiffness", "lower_arm", ratio=0.5)])
-    st, pad, ext, rack = off_equilibrium(cubic, 6)
-    calls = []
-    monkeypatch.setattr(AxleSolver, "_residual_rows_last", lambda *a, **k: calls.append(1) or 1 / 0)
-    cubic.residual(st.r, st.R, st.lam, pad, st, ext, rack=rack)
-    plain = AxleSolver(axle)
-    plain.residual(st.r, st.R, st.lam, pad, st, ext, [], rack)  # a record
-    assert not calls
 
 
 def test_rows_last_rotations_are_the_stacked_products():
@@ -103,15 +54,14 @@ def test_rows_last_rotations_are_the_stacked_products():
 
 
 def test_run_and_objectives_match_the_reference_arithmetic(X, monkeypatch):
-    # reference: the slot residual and the stacked rotation products (both switches off);
-    # both with the shared inverse Jacobian in double precision, so that the chord
-    # iterations of the two arithmetics differ by their round-off only
+    # reference: the stacked rotation products (switch off); both with the shared
+    # inverse Jacobian in double precision, so that the chord iterations of the two
+    # arithmetics differ by their round-off only
     monkeypatch.setattr(solver_module, "SHARED_INVERSE_DTYPE", np.float64)
     problem = KCIdentification()
     axle = build_axle(X)
     fast = run_tests(axle, TESTS, steps=10)
     F_fast, ok_fast, _ = problem.simulate(X)
-    monkeypatch.setattr(solver_module, "RESIDUAL_ROWS_LAST", False)
     monkeypatch.setattr(rotation_module, "ROWS_LAST", False)
     ref = run_tests(build_axle(X), TESTS, steps=10)
     F_ref, ok_ref, _ = problem.simulate(X)
@@ -126,6 +76,5 @@ def test_run_and_objectives_match_the_reference_arithmetic(X, monkeypatch):
     assert np.allclose(F_fast, F_ref, rtol=1e-6, atol=1e-8), np.abs(F_fast - F_ref).max()
 
 
-def test_defaults_are_the_rows_last_paths():
-    assert solver_module.RESIDUAL_ROWS_LAST is True
+def test_default_is_the_rows_last_path():
     assert rotation_module.ROWS_LAST is True

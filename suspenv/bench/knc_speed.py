@@ -15,42 +15,38 @@ Two paths of the same evaluation, measured in the same run on the same candidate
   model, every grid point solved once: the bump and rebound legs side by side from the
   static state, the return legs taking the states of their grid points
   (``reuse_revisits``; see :mod:`suspenv.rigs.knc`; a cubic predictor along the legs,
-  ``knc.LEG_ORDER``), the rows sharing their design's
-  static inverse Jacobian (``solver.SharedInverse``), a Jacobian with the lower-arm and
-  strut-rod columns perturbed together and exact multiplier columns
-  (``solver.JACOBIAN_COLOURED``), Newton iterations on the rows still iterating only
-  (``solver.SUBSET_RESIDUALS``), the Jacobians inverted in blocks of rows, the
-  Jacobian's perturbations in blocks of at most ``solver.JACOBIAN_PERTURBATIONS``, the
-  rows of a single design sharing its arrays (``solver.SHARE_ONE_DESIGN``), the
-  residual of linear bushings, its coloured finite-difference Jacobian and the rotation
-  updates run as compiled loops, row by row (numba: ``solver.RESIDUAL_COMPILED``,
-  ``solver.JACOBIAN_COMPILED``, ``rotation.COMPILED``; without numba, computed with the
-  rows last, i.e. every operation over all rows at once: ``solver.RESIDUAL_ROWS_LAST``,
-  ``rotation.ROWS_LAST``), the shared inverse Jacobians held in single precision
-  (``solver.SHARED_INVERSE_DTYPE``), the rows repeating the designs reading their
-  packed arrays in place, and only the channels that the objectives read, kept at
+  ``knc.LEG_ORDER``), the rows sharing their design's static inverse Jacobian
+  (``solver.SharedInverse``), a Jacobian with the lower-arm and strut-rod columns
+  perturbed together and exact multiplier columns (``solver.JACOBIAN_COLOURED``), Newton
+  iterations on the rows still iterating only (``solver.SUBSET_RESIDUALS``), the
+  Jacobians inverted in blocks of rows, the Jacobian's perturbations in blocks of at
+  most ``solver.JACOBIAN_PERTURBATIONS``, the rows of a single design sharing its arrays
+  (``solver.SHARE_ONE_DESIGN``), the coloured finite-difference Jacobian and the
+  rotation updates run as compiled loops, row by row (numba:
+  ``solver.JACOBIAN_COMPILED``, ``rotation.COMPILED``; without numba, the rotations with
+  the rows last: ``rotation.ROWS_LAST``), the shared inverse Jacobians held in single
+  precision (``solver.SHARED_INVERSE_DTYPE``), the rows repeating the designs reading
+  their packed arrays in place, and only the channels that the objectives read, kept at
   their fit window only (``KCIdentification.window``; one state per output call there)
   and fitted in closed form one test at a time;
-* ``baseline``: the previous algorithm, kept as the reference path: the explicit
-  problem options ``eval_chunk=None`` (the whole batch at once) and
-  ``reuse_revisits=False`` (every step of the loop solved one after the other, one
-  inverse Jacobian per row), and, inside :func:`reference_path`, the finite-difference
-  Jacobian with one perturbation per column (multipliers included) and the channels in
-  one residual/output call each (``JACOBIAN_BLOCK`` unbounded), every row's residual at
-  every Newton iteration, one quadratic fit per objective (``_objectives_one_by_one``),
-  the spring preload sized with the plain
+* ``baseline``: the previous algorithm, kept as the reference path: the explicit problem
+  options ``eval_chunk=None`` (the whole batch at once) and ``reuse_revisits=False``
+  (every step of the loop solved one after the other, one inverse Jacobian per row),
+  and, inside :func:`reference_path`, the finite-difference Jacobian with one
+  perturbation per column (multipliers included) and the channels in one residual/output
+  call each (``JACOBIAN_BLOCK`` unbounded), every row's residual at every Newton
+  iteration, one quadratic fit per objective (``_objectives_one_by_one``), the spring
+  preload sized with the plain
   :class:`~suspenv.models.mcpherson.kinematics.CornerKinematics` (five scipy rotations
   per kinematic equation evaluation instead of one: ``solver.PRELOAD_KINEMATICS``) and
   both relative rotations of the quadratic predictor computed at every step
   (``knc.PREDICTOR_CACHE = False``) and a copy of a design's arrays for each of its rows
-  (``solver.SHARE_ONE_DESIGN = False``), the residual computed element slot by
-  element slot (``solver.RESIDUAL_ROWS_LAST = False``) and the rotation updates as
-  stacked matrix products (``rotation.ROWS_LAST = False``), the shared inverse
-  Jacobians in double precision (``solver.SHARED_INVERSE_DTYPE = np.float64``) and the
-  channels of every grid point (``window=None``), in calls of at most
-  ``knc.OUTPUT_STATES`` states. Both paths give the same
-  objectives to solver tolerance; both use the same residual equations (summed in
-  another order), outputs and fit arithmetic.
+  (``solver.SHARE_ONE_DESIGN = False``) and the rotation updates as stacked matrix
+  products (``rotation.ROWS_LAST = False``), the shared inverse Jacobians in double
+  precision (``solver.SHARED_INVERSE_DTYPE = np.float64``) and the channels of every
+  grid point (``window=None``), in calls of at most ``knc.OUTPUT_STATES`` states. Both
+  paths give the same objectives to solver tolerance; both use the same residual (the
+  compiled one), outputs and fit arithmetic.
 
 Time: process CPU time (BLAS is limited to one thread by suspenv, so it is one core's
 time), best of the repeats (3 at batch 42, 2 at batch 1000: a best of several against a
@@ -138,7 +134,6 @@ def reference_path() -> Iterator[None]:
         solver_module.JACOBIAN_COLOURED,
         solver_module.SUBSET_RESIDUALS,
         solver_module.SHARE_ONE_DESIGN,
-        solver_module.RESIDUAL_ROWS_LAST,
         rotation_module.ROWS_LAST,
         solver_module.SHARED_INVERSE_DTYPE,
     )
@@ -149,7 +144,6 @@ def reference_path() -> Iterator[None]:
     solver_module.JACOBIAN_COLOURED = False
     solver_module.SUBSET_RESIDUALS = False
     solver_module.SHARE_ONE_DESIGN = False
-    solver_module.RESIDUAL_ROWS_LAST = False
     rotation_module.ROWS_LAST = False
     solver_module.SHARED_INVERSE_DTYPE = np.float64
     try:
@@ -162,9 +156,8 @@ def reference_path() -> Iterator[None]:
         solver_module.JACOBIAN_COLOURED = saved[5]
         solver_module.SUBSET_RESIDUALS = saved[6]
         solver_module.SHARE_ONE_DESIGN = saved[7]
-        solver_module.RESIDUAL_ROWS_LAST = saved[8]
-        rotation_module.ROWS_LAST = saved[9]
-        solver_module.SHARED_INVERSE_DTYPE = saved[10]
+        rotation_module.ROWS_LAST = saved[8]
+        solver_module.SHARED_INVERSE_DTYPE = saved[9]
 
 
 def _cpu_wall(fn: Any) -> tuple[float, float]:
@@ -346,9 +339,8 @@ def main(argv: list[str] | None = None) -> int:
             "the loop in sequence, one inverse Jacobian per row), a column-by-column "
             "finite-difference Jacobian, unbounded JACOBIAN_BLOCK, every row's residual "
             "at every Newton iteration, per-objective fits, plain preload kinematics, "
-            "an uncached predictor, a copy of a design's arrays per row, the residual "
-            "element slot by element slot and the rotation updates as stacked matrix "
-            "products (the previous algorithm)"
+            "an uncached predictor, a copy of a design's arrays per row and the rotation "
+            "updates as stacked matrix products (the previous algorithm)"
         ),
         "eval_chunk": fast.eval_chunk,
         "target_ms": TARGET_MS,

@@ -13,7 +13,9 @@ the heights of the two wheel pads relative to the static pad height
 
 The compliance tests (:data:`FORCE_TESTS`) hold both pads at their static height and
 apply the same load to both wheels (the pads carry no horizontal force or moment, so
-the suspension takes it all):
+the suspension takes it all). A contact-point load acts where a K&C rig applies it:
+through the pad at the loaded contact point, where the wheel plane's downward radius
+meets the pad plane (not at the undeformed wheel's lowest point, ~14 mm below it):
 
 * ``lateral``: ``+F`` [N] along +y at both contact points (the tyre forces of a
   left-hand turn: outboard on the left wheel, inboard on the right);

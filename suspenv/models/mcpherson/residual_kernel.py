@@ -1,18 +1,22 @@
-"""Compiled residual of the compliant axle with linear bushings, row by row (numba).
+"""The residual of the compliant McPherson axle, row by row (compiled with numba).
 
-The same equations as :meth:`~suspenv.models.mcpherson.solver.AxleSolver._residual_rows_last`
-(which stays the reference: ``tests/test_knc_residual_kernel.py`` compares the two, and
-the slot-by-slot residual, at random states): for every row and side, the body-fixed
-vectors rotated, the bushing deflections and loads (through the bushing frames when
-oriented), the tie rod, drop link and spring, the constraints times ``CSCALE``, the tyre
-on the pad, the loads with their arms summed body by body, and the anti-roll bar's
-halves joined at its middle. Frames, units and signs are the solver's (vehicle axes,
-x forward, y left, z up; SI; rotation vectors in radians). The numbers agree with the
-rows-last residual to rounding (sums taken in another order).
+The one writing of the axle's equations in the product (:meth:`AxleSolver.residual
+<suspenv.models.mcpherson.solver.AxleSolver.residual>` and its Jacobian call it; a joint
+is edited here only). Checked against the plain-numpy element-by-element residual kept
+in ``tests/mcpherson_reference.py`` (``tests/test_knc_residual_kernel.py``, at random
+states off equilibrium, with and without bushing frames, placed effects, loads and rack
+travel). For every row and side: the body-fixed vectors rotated, the bushing deflections
+and loads (linear, through the bushing frames when oriented, plus the placed effects'
+loads given by the caller), the tie rod, drop link and spring, the constraints times
+``CSCALE``, the tyre on the pad, the rig's wheel loads (through the pad at the loaded
+contact point, or at the wheel centre), the strut friction (given by the caller), the
+loads with their arms summed body by body, and the anti-roll bar's halves joined at its
+middle. Frames, units and signs are the solver's (vehicle axes, x forward, y left, z up;
+SI; rotation vectors in radians).
 
-One row needs a few hundred floating-point operations, so the numpy forms are
+One row needs a few hundred floating-point operations, so a numpy form is
 overhead-bound for the few rows of a single design; compiled, a row costs about a
-microsecond.
+microsecond. Without numba the same functions run as plain Python (slowly).
 """
 
 from __future__ import annotations
@@ -52,6 +56,8 @@ def _residual_row(
     n_ext: int,
     rack_m: np.ndarray,
     has_rack: bool,
+    extra_m: np.ndarray,
+    has_extra: bool,
     pack: np.ndarray,
     d: int,
     off: np.ndarray,
@@ -62,7 +68,13 @@ def _residual_row(
     """The residual (2, 33) of one row into ``out``: positions ``rm`` (2, 4, 3) [m] and
     rotations ``Rm`` (2, 4, 3, 3) of both sides, multipliers ``ls_all`` (2, 9), pad
     heights ``pad_m`` (2,) [m], wheel loads ``ext_m`` (2, 6|9) (``n_ext`` columns, 0:
-    none), rack travel ``rack_m`` (2,) [m] (``has_rack``), design row ``d`` of ``pack``."""
+    none: force [N] and moment [N*m] at the loaded contact point, where the wheel
+    plane's downward radius meets the pad plane, then a force [N] at the wheel centre),
+    rack travel ``rack_m`` (2,) [m] (``has_rack``), the placed effects' loads
+    ``extra_m`` (2, 25) (``has_extra``: columns 0-23 the loads (bushing, force xyz [N]
+    then moment xyz [N*m]) that the four bushings exert against their deflection beyond
+    the linear ones, vehicle axes; column 24 the strut friction force [N] along the tube
+    axis, on the knuckle, opposite on the rod), design row ``d`` of ``pack``."""
     o_vec, o_gr, o_K, o_Q, o_tri = off[0], off[1], off[2], off[3], off[4]
     o_L, o_Lsq, o_L2, o_ks, o_Lf = off[5], off[6], off[7], off[8], off[9]
     o_Rw, o_kt, o_W, o_kbr = off[10], off[11], off[12], off[13]
@@ -137,6 +149,10 @@ def _residual_row(
                             + pack[q + 3 * a + 1, s, d] * xb[1]
                             + pack[q + 3 * a + 2, s, d] * xb[2]
                         )
+            if has_extra:
+                for t in range(2):
+                    for a in range(3):
+                        fs[bb, t, a] += extra_m[s, 6 * bb + 3 * t + a]
         # tie rod (from the rack point), drop link, spring
         for a in range(3):
             D[0, a] = rr[1, a] + Vs[4, a] - pack[o_tri + a, s, d]
@@ -175,8 +191,9 @@ def _residual_row(
 
         # loads with an arm (LOAD_SUM order): bushings 0-1, ball joint on the arm and
         # the knuckle, tie rod, drop link, spring on the knuckle, cylindrical joint
-        # force on the knuckle, tyre, the joint's moment pair, spring and drop link
-        # on the rod and bar, the bar's shear at its middle
+        # force (with the strut friction) on the knuckle, tyre, the joint's moment pair,
+        # spring and drop link on the rod and bar, the bar's shear at its middle
+        zf = extra_m[s, 24] if has_extra else 0.0
         for a in range(3):
             u_a, v_a = Vs[8, a], Vs[9, a]
             F[0, a] = -fs[0, 0, a]
@@ -186,7 +203,7 @@ def _residual_row(
             F[4, a] = k[0] * D[0, a]
             F[5, a] = k[1] * D[1, a]
             F[6, a] = k[2] * D[2, a]
-            F[7, a] = -(ls[5] * u_a + ls[6] * v_a)
+            F[7, a] = zf * Vs[10, a] - (ls[5] * u_a + ls[6] * v_a)
             F[8, a] = 0.0
             F[10, a] = ls[3] * u_a + ls[4] * v_a
             F[9, a] = -F[10, a]
@@ -203,10 +220,6 @@ def _residual_row(
             arm[13, a] = Vs[15, a]
         arm[8, 0], arm[8, 1], arm[8, 2] = d0, d1, d2
         F[8, 2] = fz
-        if n_ext:
-            e = ext_m[s]
-            for a in range(3):
-                F[8, a] += e[a]
         for i in range(24):
             res[i] = 0.0
         for j in range(14):
@@ -217,7 +230,7 @@ def _residual_row(
             _cross_add(arm[j], F[j], mom)
         # forces and moments at the reference points: the cylindrical joint's moment
         # pair is no force, bushing moments, wheel weight, wheel-centre force, the
-        # joint force on the rod, bar twist
+        # joint force (and friction) on the rod, bar twist
         for a in range(3):
             res[6 + a] += F[10, a]
             res[12 + a] -= F[10, a]
@@ -231,9 +244,15 @@ def _residual_row(
             res[21 + a] += -mc if s == 0 else mc
         res[8] -= pack[o_W, s, d]
         if n_ext:
+            # the rig's load through the pad, at the loaded contact point (the wheel
+            # plane's downward radius stretched to the pad plane), its moment about it
             e = ext_m[s]
+            g = (pad_m[s] - rr[1, 2]) / d2
+            xb[0], xb[1], xb[2] = d0 * g, d1 * g, d2 * g
             for a in range(3):
+                res[6 + a] += e[a]
                 res[9 + a] += e[3 + a]
+            _cross_add(xb, e[0:3], res[9:12])
             if n_ext == 9:
                 for a in range(3):
                     res[6 + a] += e[6 + a]
@@ -246,6 +265,7 @@ def _residual(
     pad: np.ndarray,
     ext: np.ndarray,
     rack: np.ndarray,
+    extra: np.ndarray,
     pack: np.ndarray,
     off: np.ndarray,
     k_bar_shear: float,
@@ -256,7 +276,8 @@ def _residual(
 
     ``r`` (M, 2, 4, 3) [m], ``R`` (M, 2, 4, 3, 3): positions and rotations of the four
     bodies of both sides; ``lam`` (L, 2, 9), ``pad`` (P, 2) [m], ``ext`` (E, 2, 6|9)
-    [N, N*m] (E = 0: none), ``rack`` (K, 2) [m] (K = 0: none): row ``m`` reads entry
+    [N, N*m] (E = 0: none), ``rack`` (K, 2) [m] (K = 0: none), ``extra`` (X, 2, 25) the
+    placed effects' loads (X = 0: none; :func:`_residual_row`): row ``m`` reads entry
     ``m % L`` (and so on), as broadcasting over leading axes ending in the design rows
     does. ``pack`` (K, 2, n): the solver's per-design arrays
     (``AxleSolver._rl_pack``), row ``m`` reading design row ``m % n``; ``off``: the
@@ -264,7 +285,7 @@ def _residual(
     L_links_2, ks, L_free, Rw, kt, W, k_bar_rot in it.
     """
     for m in range(r.shape[0]):
-        _row_at(m, r[m], R[m], lam, pad, ext, rack, pack, off, k_bar_shear, cscale, out[m])
+        _row_at(m, r[m], R[m], lam, pad, ext, rack, extra, pack, off, k_bar_shear, cscale, out[m])
 
 
 def _row_at(
@@ -275,6 +296,7 @@ def _row_at(
     pad: np.ndarray,
     ext: np.ndarray,
     rack: np.ndarray,
+    extra: np.ndarray,
     pack: np.ndarray,
     off: np.ndarray,
     k_bar_shear: float,
@@ -287,9 +309,11 @@ def _row_at(
     has_rack = rack.shape[0] > 0
     ext_m = ext[m % ext.shape[0]] if n_ext else np.zeros((2, 1))
     rack_m = rack[m % rack.shape[0]] if has_rack else np.zeros(2)
+    has_extra = extra.shape[0] > 0
+    extra_m = extra[m % extra.shape[0]] if has_extra else np.zeros((2, 1))
     _residual_row(
         rm, Rm, lam[m % lam.shape[0]], pad[m % pad.shape[0]], ext_m, n_ext, rack_m,
-        has_rack, pack, m % pack.shape[2], off, k_bar_shear, cscale, out,
+        has_rack, extra_m, has_extra, pack, m % pack.shape[2], off, k_bar_shear, cscale, out,
     )  # fmt: skip
 
 
@@ -300,6 +324,7 @@ def _jacobian(
     pad: np.ndarray,
     ext: np.ndarray,
     rack: np.ndarray,
+    extra: np.ndarray,
     pack: np.ndarray,
     off: np.ndarray,
     k_bar_shear: float,
@@ -314,19 +339,20 @@ def _jacobian(
 ) -> None:
     """Forward-difference columns of the body coordinates into ``J`` (M, 66, 66).
 
-    Inputs as :func:`_residual`; ``h`` the step [m] or [rad]; ``turned`` (M, 2, 4, 3, 3, 3):
-    every body's rotation turned by ``h`` about x, y, z (on the left; made by the caller
-    with numpy, so that the perturbed states are those of the block Jacobian to the
-    bit); perturbation ``p`` moves the
-    coordinates ``moves[:, move_start[p]:move_start[p + 1]]`` (side, body, axis; axes
-    3-5 are rotations) together and its difference quotients fill the entries
-    ``scatter[:, scatter_start[p]:scatter_start[p + 1]]`` (side, residual row, Jacobian
-    row, Jacobian column) (``solver._coloured_groups``). Other entries are left as they
-    are (the caller's zeros and exact multiplier columns)."""
+    Inputs as :func:`_residual` (``extra``: loads held fixed while the coordinates
+    move, so empty for an axle with placed effects, whose loads follow the
+    deflections); ``h`` the step [m] or [rad]; ``turned`` (M, 2, 4, 3, 3, 3): every
+    body's rotation turned by ``h`` about x, y, z (on the left; made by the caller with
+    numpy, so that the perturbed states are those of the block Jacobian to the bit);
+    perturbation ``p`` moves the coordinates ``moves[:, move_start[p]:move_start[p + 1]]``
+    (side, body, axis; axes 3-5 are rotations) together and its difference quotients
+    fill the entries ``scatter[:, scatter_start[p]:scatter_start[p + 1]]`` (side,
+    residual row, Jacobian row, Jacobian column) (``solver._coloured_groups``). Other
+    entries are left as they are (the caller's zeros and exact multiplier columns)."""
     base = np.empty((2, 33))
     res = np.empty((2, 33))
     for m in range(r.shape[0]):
-        _row_at(m, r[m], R[m], lam, pad, ext, rack, pack, off, k_bar_shear, cscale, base)
+        _row_at(m, r[m], R[m], lam, pad, ext, rack, extra, pack, off, k_bar_shear, cscale, base)
         for p in range(move_start.size - 1):
             rp = r[m].copy()
             Rp = R[m].copy()
@@ -336,7 +362,7 @@ def _jacobian(
                     rp[s, b, k] += h
                 else:
                     Rp[s, b] = turned[m, s, b, k - 3]
-            _row_at(m, rp, Rp, lam, pad, ext, rack, pack, off, k_bar_shear, cscale, res)
+            _row_at(m, rp, Rp, lam, pad, ext, rack, extra, pack, off, k_bar_shear, cscale, res)
             for q in range(scatter_start[p], scatter_start[p + 1]):
                 s, row = scatter[0, q], scatter[1, q]
                 J[m, scatter[2, q], scatter[3, q]] = (res[s, row] - base[s, row]) / h

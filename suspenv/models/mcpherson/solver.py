@@ -90,7 +90,6 @@ from suspenv.models.mcpherson.rotation import (
     cross,
     dot,
     expm_so3,
-    log_rows_last,
     log_so3,
     rotate,
     turned,
@@ -115,39 +114,20 @@ VEC_GROUPS = ((0, 3), (3, 12), (12, 14), (14, 16))
 #: bushings in the order of the stacked arrays, and the body each one holds
 BUSH_ORDER = ("lca_front", "lca_rear", "top_mount", "arb_bush")
 BUSH_BODY = (0, 0, 2, 3)
-#: body of each load slot of the residual (bushings, ball joint x2, tie rod, drop link x2,
-#: spring x2, cylindrical joint x2, strut friction x2, tyre, wheel weight, external, bar)
-SLOT_BODY = (0, 0, 2, 3, 0, 1, 1, 1, 3, 1, 2, 2, 1, 2, 1, 1, 1, 1, 3)
-N_SLOTS = len(SLOT_BODY)
-SLOT_SUM = np.zeros((4, N_SLOTS))
-SLOT_SUM[list(SLOT_BODY), np.arange(N_SLOTS)] = 1.0
-BUSH_SUM = np.zeros((4, 4))
-BUSH_SUM[list(BUSH_BODY), np.arange(4)] = 1.0
-#: :meth:`AxleSolver.residual` of linear bushings holds every quantity with its rows
-#: last (components first), so that each operation runs over all rows at once, and sums
-#: the loads body by body (the same equations as the element slots, summed in another
-#: order, i.e. equal to rounding; False: element slot by element slot, the reference
-#: path of the speed benchmark's baseline, and always with placed effects or a record)
-RESIDUAL_ROWS_LAST = True
-#: the residual of linear bushings computed row by row by the compiled loop
-#: (:mod:`.residual_kernel`, the same equations as the rows-last form, to rounding)
-#: where numba is installed; False: the rows-last numpy form
-RESIDUAL_COMPILED = True
-#: the coloured Jacobian of linear bushings by a compiled loop (each row perturbed and
-#: differenced in place, :func:`.residual_kernel.jacobian`) where the compiled residual
-#: runs; False: the perturbations in blocks through :meth:`AxleSolver.residual`
+#: the coloured Jacobian of an axle without placed effects by a compiled loop (each row
+#: perturbed and differenced in place, :func:`.residual_kernel.jacobian`); False: the
+#: perturbations in blocks through :meth:`AxleSolver.residual`
 JACOBIAN_COMPILED = True
 #: empty stand-ins (0, 2) and (0, 2, 1) for the compiled residual's absent inputs
 _NO_ROWS = (np.empty((0, 2)), np.empty((0, 2, 1)))
+#: columns of the placed effects' loads that the compiled residual takes per side: the
+#: four bushings' loads beyond the linear ones (6 each), the strut friction force
+N_EXTRA = 25
 #: the offsets in ``AxleSolver._rl_pack`` that the compiled residual reads, in its order
 _KERNEL_FIELDS = (
     "vec", "ground", "K", "Q", "tri", "L_links", "L_links_sq", "L_links_2",
     "ks", "L_free", "Rw", "kt", "W", "k_bar_rot",
 )  # fmt: skip
-#: the sums over the loads with an arm of :meth:`AxleSolver._residual_rows_last` of
-#: each body (slots: 3 of body 0, 7 of body 1, 2 of body 2, 2 of body 3)
-LOAD_SUM = np.zeros((4, 14))
-LOAD_SUM[np.repeat(np.arange(4), [3, 7, 2, 2]), np.arange(14)] = 1.0
 #: smooth dead band of the Dahl elements at reversals (see dahl_step) [m], [rad]
 DAHL_EPS_TRANSLATION = 1e-6
 DAHL_EPS_ROTATION = 1e-5
@@ -187,7 +167,7 @@ SHARED_INVERSE_DTYPE: type = np.float32
 #: :meth:`AxleSolver.take` must not take rows of even when that axis happens to be as
 #: long as the batch (the compiled residual's offsets are 14 numbers: a batch of 14
 #: designs took them as rows); the pack has its rows last and is taken apart
-_NOT_PER_ROW = frozenset({"_rl_off", "_rl_pack", "_rl"})
+_NOT_PER_ROW = frozenset({"_rl_off", "_rl_pack"})
 #: the channels of :meth:`AxleSolver.outputs`, in its order
 OUTPUT_NAMES = (
     "wheel_centre_x",
@@ -548,10 +528,8 @@ class AxleSolver:
         eye = np.broadcast_to(np.eye(3), axle.camber0.shape + (3, 3))
         self._Q = np.stack([frames.get(b, eye) for b in BUSH_ORDER], axis=2) if frames else None
         self.stats = {"solves": 0, "residuals": 0, "jacobians": 0}
-        # the arrays of the residual with the rows last (see _rows_last_consts)
+        # the per-design arrays of the compiled residual (see _pack)
         self._rl_pack: np.ndarray | None = None
-        self._rl_layout: list[tuple[str, int, int, tuple[int, ...]]] = []
-        self._rl: dict[str, np.ndarray] | None = None
         self._rl_off: np.ndarray | None = None  # the compiled residual's offsets in the pack
 
     @property
@@ -600,7 +578,6 @@ class AxleSolver:
         # (held once)
         out.K = {b: out._K4[:, :, BUSH_ORDER.index(b)] for b in self.K}
         out.ground = {b: out._ground4[:, :, BUSH_ORDER.index(b)] for b in self.ground}
-        out._rl = None
         if self._rl_pack is not None:  # the rows-last arrays: rows on the last axis
             # row m reads the pack's column m % c (c columns: the compiled residual's
             # rule), so that rows repeating the designs in order share the pack
@@ -681,14 +658,16 @@ class AxleSolver:
             raise ValidationError("the axle has no strut friction")
         return self._placed.friction
 
-    def _bush_load(self, name: str, x: np.ndarray, hist: dict) -> np.ndarray:
-        """Generalised force (..., 6) the bushing exerts *against* deflection ``x`` (..., 6)."""
-        K = self.K[name]
-        f = K * x
+    def _bush_extra(self, name: str, x: np.ndarray, hist: dict) -> np.ndarray:
+        """The load (..., 6) that bushing ``name`` exerts *against* its deflection ``x``
+        (..., 6) (bushing frame) beyond its linear stiffness: the placed cubic stiffness
+        and Dahl element (``hist``: bushing -> (deflection, Dahl force) of the last
+        committed step); zero for a linear bushing."""
+        f = np.zeros(np.broadcast_shapes(x.shape, self.K[name].shape))
         if name in self._placed.cubic:
             ratio, x_ref = self._placed.cubic[name]
-            k3 = ratio * K[..., :3] / x_ref**2
-            f = f + np.concatenate([cubic_stiffness(x[..., :3], k3), 0.0 * x[..., 3:]], axis=-1)
+            k3 = ratio * self.K[name][..., :3] / x_ref**2
+            f[..., :3] += cubic_stiffness(x[..., :3], k3)
         if name in hist:
             f = f + self._dahl(name, x, hist[name])
         return f
@@ -723,19 +702,6 @@ class AxleSolver:
             return f
         return np.concatenate([rotate(self._Q, f[..., :3]), rotate(self._Q, f[..., 3:])], axis=-1)
 
-    def bushing_loads(self, x: np.ndarray, hist: dict | None = None) -> np.ndarray:
-        """Generalised loads (..., 2, 4, 6) [N, N*m] that the bushings (BUSH_ORDER) exert
-        *against* the vehicle-axes deflections ``x`` (..., 2, 4, 6) [m, rad], in vehicle
-        axes: linear stiffness and the placed effects in each bushing's frame; ``hist``:
-        the Dahl elements' history (bushing -> (deflection, force), bushing frame)."""
-        hist = {} if hist is None else hist
-        xb = self._to_bush(x)
-        f = self._K4 * xb
-        for j, name in enumerate(BUSH_ORDER):
-            if name in hist or name in self._placed.cubic:
-                f[..., j, :] = self._bush_load(name, xb[..., j, :], hist)
-        return self._to_vehicle(f)
-
     def _deflections(
         self, r: np.ndarray, R: np.ndarray, arms_lca: np.ndarray, phi: np.ndarray | None = None
     ) -> np.ndarray:
@@ -765,50 +731,69 @@ class AxleSolver:
         pad: np.ndarray,
         state: AxleState,
         ext: np.ndarray | None = None,
-        record: list | None = None,
         rack: np.ndarray | None = None,
     ) -> np.ndarray:
-        """Residual (..., 2, 33) of trial coordinates; leading axes broadcast against (n, 2).
+        """Residual (..., n, 2, 33) of trial coordinates ``r`` (..., n, 2, 4, 3) [m] and
+        ``R`` (..., n, 2, 4, 3, 3); the inputs broadcast against (..., n, 2).
 
         ``pad`` (n, 2) pad heights [m]; ``ext`` (n, 2, 6) extra force [N] and moment
-        [N*m] on the wheel at the contact point, or (n, 2, 9) with a further force [N]
-        (columns 6-8) at the wheel centre. ``record`` (a list) receives every element load
-        as ``(body, point, force, moment)`` for balance checks. ``rack`` (n, 2) [m]: travel
-        of the tie-rod inner points along +y from their design position (None: zero).
-        Rows per side: force [N] and moment about the reference point [N*m] of the four
-        bodies (vehicle axes), then the constraints times :data:`CSCALE`: ball joint
-        (3), cylindrical joint (4), tie rod, drop link.
+        [N*m] on the wheel at the loaded contact point (where the wheel plane's downward
+        radius meets the pad plane: the rig's pad), or (n, 2, 9) with a further force [N]
+        (columns 6-8) at the wheel centre. ``rack`` (n, 2) [m]: travel of the tie-rod
+        inner points along +y from their design position (None: zero). ``state``: the
+        history of the path-dependent effects. Rows per side: force [N] and moment about
+        the reference point [N*m] of the four bodies (vehicle axes), then the constraints
+        times :data:`CSCALE`: ball joint (3), cylindrical joint (4), tie rod, drop link.
 
-        Linear bushings (no placed effect) and no ``record``: computed row by row by a
-        compiled loop (:meth:`_residual_compiled`) where numba is installed, else with
-        the rows last (:meth:`_residual_rows_last`), the same equations; otherwise element
-        slot by element slot (:meth:`_residual_by_slots`).
+        Computed row by row by the compiled loop :func:`.residual_kernel.residual` (the
+        one writing of the equations); the placed effects' loads (cubic and Dahl
+        bushings, strut friction: :meth:`_effect_loads`) are computed here from the
+        deflections and handed to it.
         """
-        if self._rows_last_path(r, R, record):
-            if RESIDUAL_COMPILED and residual_kernel.AVAILABLE:
-                return self._residual_compiled(r, R, lam, pad, ext, rack)
-            return self._residual_rows_last(r, R, lam, pad, ext, rack)
-        return self._residual_by_slots(r, R, lam, pad, state, ext, record, rack)
+        if r.shape[-4:-2] != (self.n, 2) or R.shape[:-3] != r.shape[:-2]:
+            raise ValidationError(
+                f"residual: states must be (..., n, 2, 4, 3) and (..., n, 2, 4, 3, 3) with "
+                f"n = {self.n}, but got {r.shape} and {R.shape}"
+            )
+        extra = self._effect_loads(r, R, state)
+        lead = r.shape[:-2]
+        out = np.empty((math.prod(lead[:-1]), 2, NS))
+        residual_kernel.residual(*self._kernel_inputs(r, R, lam, pad, ext, rack, extra), out)
+        return out.reshape(lead + (NS,))
 
-    def _rows_last_path(self, r: np.ndarray, R: np.ndarray, record: list | None = None) -> bool:
-        """The residual's equations of linear bushings apply (:data:`RESIDUAL_ROWS_LAST`,
-        no placed effect, no record, states of the solver's rows with leading axes)."""
-        return (
-            RESIDUAL_ROWS_LAST
-            and record is None
-            and not self._placed.cubic
-            and not self._placed.path_dependent
-            and r.shape[-4:-2] == (self.n, 2)
-            and R.shape[:-3] == r.shape[:-2]
-        )
+    def _effect_loads(self, r: np.ndarray, R: np.ndarray, state: AxleState) -> np.ndarray | None:
+        """The placed effects' loads (..., n, 2, :data:`N_EXTRA`) at the coordinates
+        ``r``, ``R`` (None without placed effects): the four bushings' loads beyond the
+        linear ones [N, N*m] (vehicle axes; cubic stiffness and Dahl elements in each
+        bushing's frame, history from ``state``) and the strut friction force [N] along
+        the tube axis on the knuckle (Dahl, from the slide of the rod in the tube)."""
+        placed = self._placed
+        if not (placed.cubic or placed.hysteresis or placed.friction):
+            return None
+        out = np.zeros(r.shape[:-2] + (N_EXTRA,))
+        if placed.cubic or placed.hysteresis:
+            arm = rotate(R[..., [0, 0], :, :], self._vec_body[0][..., 0:2, :])
+            xb = self._to_bush(self._deflections(r, R, arm))
+            f = np.zeros_like(xb)
+            for j, name in enumerate(BUSH_ORDER):
+                if name in placed.cubic or name in state.hyst:
+                    x = xb[..., j, :]
+                    f[..., j, :] = self._bush_extra(name, x, state.hyst)
+            out[..., :24] = self._to_vehicle(f).reshape(out.shape[:-1] + (24,))
+        if state.fric is not None:
+            R1 = R[..., 1, :, :]
+            ak = rotate(R1, self.a)
+            slide = dot(r[..., 2, :] - r[..., 1, :] - rotate(R1, self.kn_pts[..., 4, :]), ak)
+            s_prev, z_prev = (np.broadcast_to(q, slide.shape) for q in state.fric)
+            f_c, sigma = self._friction()
+            out[..., 24] = dahl_step(s_prev, slide, sigma, f_c, z_prev, DAHL_EPS_TRANSLATION)
+        return out
 
-    def _rows_last_consts(self, rows: tuple[int, ...]) -> dict[str, np.ndarray]:
-        """The solver's per-design arrays that :meth:`_residual_rows_last` reads, rows
-        last ((*shape, 2, M) for the M rows of ``rows`` (..., n)), as views of one array
-        (``_rl_pack`` (K, 2, c), made once and taken with the solver's rows by
-        :meth:`take`, row ``m`` reading column ``m % c``: c = n, or fewer columns
-        shared by rows that repeat the designs in order); those of ``rows == (n,)``
-        kept for the next call."""
+    def _pack(self) -> np.ndarray:
+        """The solver's per-design arrays that the compiled residual reads (K, 2, c),
+        made once (``_rl_pack``; offsets ``_rl_off``) and taken with the solver's rows by
+        :meth:`take`, row ``m`` reading column ``m % c`` (c = n, or fewer columns
+        shared by rows that repeat the designs in order)."""
         if self._rl_pack is None:
             parts = [
                 (name, np.broadcast_to(a, (self.n, 2) + a.shape[a.ndim - tail :]))
@@ -832,25 +817,12 @@ class AxleSolver:
             ]
             flat = [a.reshape(self.n, 2, -1) for _, a in parts]
             self._rl_pack = np.ascontiguousarray(np.concatenate(flat, axis=-1).transpose(2, 1, 0))
-            self._rl_layout = []
-            at = 0
-            for (name, a), f in zip(parts, flat, strict=True):
-                self._rl_layout.append((name, at, at + f.shape[-1], a.shape[2:]))
+            where, at = {}, 0
+            for (name, _), f in zip(parts, flat, strict=True):
+                where[name] = at
                 at += f.shape[-1]
-        if rows == (self.n,) and self._rl is not None:
-            return self._rl
-        pack = self._rl_pack
-        if pack.shape[-1] != self.n:  # columns shared by the rows: row m reads m % c
-            pack = pack[..., np.arange(self.n) % pack.shape[-1]]
-        M = math.prod(rows)
-        if rows != (self.n,):
-            lead = pack.shape[:2] + (1,) * (len(rows) - 1) + (self.n,)
-            pack = np.broadcast_to(pack.reshape(lead), pack.shape[:2] + rows)
-            pack = pack.reshape(pack.shape[:2] + (M,))
-        out = {name: pack[a:b].reshape(shape + (2, M)) for name, a, b, shape in self._rl_layout}
-        if rows == (self.n,):
-            self._rl = out
-        return out
+            self._rl_off = np.array([where.get(k, -1) for k in _KERNEL_FIELDS], np.int64)
+        return self._rl_pack
 
     def _kernel_inputs(
         self,
@@ -860,6 +832,7 @@ class AxleSolver:
         pad: np.ndarray,
         ext: np.ndarray | None,
         rack: np.ndarray | None,
+        extra: np.ndarray | None = None,
     ) -> tuple:
         """The arguments of :func:`.residual_kernel.residual` (and of its Jacobian): the
         states flattened to rows, the inputs given per design row read as such (others
@@ -867,11 +840,7 @@ class AxleSolver:
         lead = r.shape[:-2]  # (..., n, 2)
         rows = lead[:-1]
         M = math.prod(rows)
-        if self._rl_off is None:
-            self._rows_last_consts((self.n,))  # makes the pack (once)
-            where = {name: a for name, a, _, _ in self._rl_layout}
-            self._rl_off = np.array([where.get(k, -1) for k in _KERNEL_FIELDS], np.int64)
-        assert self._rl_pack is not None
+        pack = self._pack()  # row m reads column m % c (take() shares or takes columns)
         n = self.n
 
         def rows_of(a: np.ndarray | None, tail: int) -> np.ndarray:
@@ -885,7 +854,6 @@ class AxleSolver:
                 a, k = np.broadcast_to(a, lead + a.shape[a.ndim - tail :]), M
             return np.ascontiguousarray(a, dtype=float).reshape((k,) + a.shape[a.ndim - 1 - tail :])
 
-        pack = self._rl_pack  # row m reads column m % c (take() shares or takes columns)
         if not (pack.flags.c_contiguous and pack.flags.writeable):  # one compiled type
             pack = np.array(pack, order="C")
         return (
@@ -895,351 +863,14 @@ class AxleSolver:
             rows_of(pad, 0),
             rows_of(ext, 1),
             rows_of(rack, 0),
+            rows_of(extra, 1),
             pack,
             self._rl_off,
             float(self.k_bar_shear),
             CSCALE,
         )
 
-    def _residual_compiled(
-        self,
-        r: np.ndarray,
-        R: np.ndarray,
-        lam: np.ndarray,
-        pad: np.ndarray,
-        ext: np.ndarray | None,
-        rack: np.ndarray | None,
-    ) -> np.ndarray:
-        """:meth:`_residual_rows_last` by the compiled row loop
-        (:func:`.residual_kernel.residual`)."""
-        lead = r.shape[:-2]
-        out = np.empty((math.prod(lead[:-1]), 2, NS))
-        residual_kernel.residual(*self._kernel_inputs(r, R, lam, pad, ext, rack), out)
-        return out.reshape(lead + (NS,))
-
-    def _residual_rows_last(
-        self,
-        r: np.ndarray,
-        R: np.ndarray,
-        lam: np.ndarray,
-        pad: np.ndarray,
-        ext: np.ndarray | None,
-        rack: np.ndarray | None,
-    ) -> np.ndarray:
-        """:meth:`residual` of linear bushings, every quantity held with its rows last
-        (components first: ``(..., 2, M)`` for the two sides of ``M`` rows), so that
-        each operation runs over all rows at once; body loads summed body by body."""
-        lead = r.shape[:-2]  # (..., n, 2)
-        rows = lead[:-1]
-        M = math.prod(rows)
-
-        def last(a: np.ndarray, tail: int) -> np.ndarray:
-            """``a`` (..., 2, *shape), broadcast to the rows -> (*shape, 2, M)."""
-            shape = a.shape[a.ndim - tail :] if tail else ()
-            if a.shape[: a.ndim - tail] != lead:
-                a = np.broadcast_to(a, lead + shape)
-            a = a.reshape((M, 2) + shape)
-            return np.ascontiguousarray(a.transpose(tuple(range(2, 2 + tail)) + (1, 0)))
-
-        c = self._rows_last_consts(rows)
-        rr = last(r, 2)  # (4, 3, 2, M)
-        RT = np.ascontiguousarray(R.reshape(M, 2, 4, 3, 3).transpose(3, 4, 2, 1, 0))
-        ll = last(lam, 1)  # (9, 2, M)
-        vec = c["vec"]  # (16, 3, 2, M)
-        # every body-fixed vector rotated: sum_k R[:, k] v_k with its body's R
-        V = np.multiply(RT[:, 0][:, VEC_BODY], vec[:, 0])  # (3, 16, 2, M)
-        for j in (1, 2):
-            col = RT[:, j][:, VEC_BODY]
-            col *= vec[:, j]
-            V += col
-        del col
-        V = V.transpose(1, 0, 2, 3)  # (16, 3, 2, M)
-        r0, r1, r2, r3 = rr
-        d21 = r2 - r1
-
-        # rotation vectors of bodies 0, 2, 3 (both sides) and of the bar halves'
-        # relative rotation R_left R_right^T, in one call
-        rot = np.empty((3, 3, 7, M))
-        bodies = rot[:, :, 0:6].reshape(3, 3, 3, 2, M)
-        bodies[:, :, 0] = RT[:, :, 0]
-        bodies[:, :, 1:3] = RT[:, :, 2:4]
-        B3 = RT[:, :, 3]  # (3, 3, 2, M)
-        np.sum(B3[:, None, :, 0] * B3[None, :, :, 1], axis=2, out=rot[:, :, 6])
-        logs = log_rows_last(rot)  # (3, 7, M)
-        del RT, rot, bodies, B3  # (memory)
-        phi = logs[:, 0:6].reshape(3, 3, 2, M).transpose(1, 0, 2, 3)  # (3 bodies, 3, 2, M)
-
-        # bushings: deflection (translation of the bushing point, rotation vector) and
-        # load, vehicle axes (through the bushing frames Q when oriented)
-        x = np.empty((4, 2, 3, 2, M))
-        x[0, 0] = r0 + V[0]
-        x[1, 0] = r0 + V[1]
-        x[2:4, 0] = rr[2:4]
-        x[:, 0] -= c["ground"]
-        x[0:2, 1] = phi[0]
-        x[2:4, 1] = phi[1:3]
-        K = c["K"].reshape(4, 2, 3, 2, M)
-        if "Q" not in c:
-            f = K * x
-        else:
-            Q = c["Q"][:, None]  # (4, 1, 3, 3, 2, M)
-            xb = Q[:, :, 0] * x[:, :, 0:1]  # Q^T x
-            xb += Q[:, :, 1] * x[:, :, 1:2]
-            xb += Q[:, :, 2] * x[:, :, 2:3]
-            xb *= K
-            f = Q[:, :, :, 0] * xb[:, :, 0:1]  # Q (K Q^T x)
-            f += Q[:, :, :, 1] * xb[:, :, 1:2]
-            f += Q[:, :, :, 2] * xb[:, :, 2:3]
-            del xb
-        del x  # (memory)
-
-        # tie rod (from the rack point), drop link, spring: the vectors between their ends
-        D = r1 + V[4:7]
-        D[0] -= c["tri"]
-        if rack is not None:  # the rack point moved along +y
-            D[0, 1] -= last(rack, 0)
-        D[1] -= r3 + V[14]
-        D[2] -= r2 + V[12]
-        DD = D[:, 0] * D[:, 0]
-        DD += D[:, 1] * D[:, 1]
-        DD += D[:, 2] * D[:, 2]  # (3, 2, M)
-        k = np.empty((3, 2, M))  # force per unit length along D
-        np.divide(ll[7:9], c["L_links"], out=k[0:2])
-        L = np.sqrt(DD[2])
-        k[2] = c["ks"] * (c["L_free"] - L) / L
-        F_link = k[:, None] * D  # tie rod, drop link, spring on the knuckle (3, 3, 2, M)
-
-        res = np.empty((NS, 2, M))
-        body = res[:NQ].reshape(4, 2, 3, 2, M)  # (force, moment) of each body
-        # constraints [m] (times CSCALE): ball joint, cylindrical joint (rod axis and rod
-        # point offset against the tube normals u, v), tie rod and drop link lengths
-        cons = res[NQ:]
-        np.multiply(r0 + V[2] - r1 - V[3], CSCALE, out=cons[0:3])
-        aw = np.empty((2, 1, 3, 2, M))  # rod axis, rod point offset
-        aw[0, 0] = V[13]
-        np.subtract(d21, V[7], out=aw[1, 0])
-        np.sum(aw * V[None, 8:10], axis=2, out=cons[3:7].reshape(2, 2, 2, M))
-        cons[3:7] *= CSCALE
-        np.multiply((DD[0:2] - c["L_links_sq"]) / c["L_links_2"], CSCALE, out=cons[7:9])
-        del D, aw  # (memory)
-
-        # tyre on the pad at the contact point (the wheel plane's downward radius)
-        s = V[11]
-        d = s * s[2]
-        d[2] -= 1.0
-        d *= c["Rw"] / np.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
-        fz = c["kt"] * (last(pad, 0) - r1[2] - d[2])
-
-        # loads with an arm, body by body (LOAD_SUM): arms, forces (14, 3, 2, M). The
-        # cylindrical joint: the moment ar x (lam3 u + lam4 v) on the rod, opposite on
-        # the knuckle (the moment of lam3 u + lam4 v at the arm ar, taken out of the
-        # force sums below), and the force lam5 u + lam6 v on the rod, opposite on the
-        # knuckle at the rod point; the anti-roll bar: the halves meet at the bar's
-        # middle, stiff in shear and bending
-        u, v = V[8], V[9]
-        arms = np.concatenate([V[0:7], d21[None], d[None], V[[13, 13, 12, 14, 15]]])
-        F = np.empty((14, 3, 2, M))
-        np.negative(f[0:2, 0], out=F[0:2])
-        F[2] = ll[0:3]
-        np.negative(ll[0:3], out=F[3])
-        F[4:7] = F_link
-        np.multiply(ll[5], u, out=F[7])
-        F[7] += ll[6] * v  # f_cyl on the rod
-        f_cyl = F[7].copy()
-        np.negative(F[7], out=F[7])
-        F[8, 0:2] = 0.0
-        F[8, 2] = fz
-        if ext is not None:
-            e = last(ext, 1)
-            F[8] += e[0:3]
-        np.multiply(ll[3], u, out=F[10])
-        F[10] += ll[4] * v
-        np.negative(F[10], out=F[9])
-        np.negative(F_link[2], out=F[11])
-        np.negative(F_link[1], out=F[12])
-        dC = r3[:, 0] + V[15, :, 0] - r3[:, 1] - V[15, :, 1]
-        np.multiply(dC, -self.k_bar_shear, out=F[13, :, 0])
-        np.negative(F[13, :, 0], out=F[13, :, 1])
-        del V, u, v, s, F_link  # (memory)
-
-        shape = (4, 3, 2, M)
-        body[:, 0] = np.matmul(LOAD_SUM, F.reshape(len(F), -1)).reshape(shape)
-        C = _cross_rows_last(arms, F)
-        del arms  # (memory)
-        body[:, 1] = np.matmul(LOAD_SUM, C.reshape(len(C), -1)).reshape(shape)
-        del C
-        # forces and moments at the reference points: bushings, wheel weight, wheel-centre
-        # force, cylindrical joint on the rod, bar twist
-        body[1, 0] += F[10]  # (the cylindrical joint's moment is no force)
-        body[2, 0] -= F[10]
-        body[0, 1] -= f[0, 1] + f[1, 1]
-        body[1, 0, 2] -= c["W"]
-        if ext is not None:
-            body[1, 1] += e[3:6]
-            if ext.shape[-1] == 9:
-                body[1, 0] += e[6:9]
-        body[2, 0] += f_cyl
-        body[2:4] -= f[2:4]
-        mC = c["k_bar_rot"] * logs[:, None, 6]
-        body[3, 1, :, 0] -= mC[:, 0]
-        body[3, 1, :, 1] += mC[:, 1]
-
-        return np.ascontiguousarray(res.transpose(2, 1, 0)).reshape(lead + (NS,))
-
-    def _residual_by_slots(
-        self,
-        r: np.ndarray,
-        R: np.ndarray,
-        lam: np.ndarray,
-        pad: np.ndarray,
-        state: AxleState,
-        ext: np.ndarray | None = None,
-        record: list | None = None,
-        rack: np.ndarray | None = None,
-    ) -> np.ndarray:
-        """:meth:`residual` element slot by element slot (19 load slots, every element's
-        load with its arm, summed per body): the reference path of the rows-last
-        residual, and the path of placed effects and of recorded element loads."""
-        lead = r.shape[:-2]
-        V = self._rotated(R)  # (..., 16, 3) rotated body-fixed vectors
-        r0, r1, r2, r3 = r[..., 0, :], r[..., 1, :], r[..., 2, :], r[..., 3, :]
-        arms = np.zeros(lead + (N_SLOTS, 3))
-        forces = np.zeros(lead + (N_SLOTS, 3))
-        M = np.zeros(lead + (4, 3))
-
-        # the rotation vectors of the bushings' bodies and of the bar halves' relative
-        # rotation, in one call (the same numbers as one call each: per matrix)
-        R_bar = np.matmul(R[..., 0, 3, :, :], np.swapaxes(R[..., 1, 3, :, :], -1, -2))
-        side = R.shape[:-4]
-        # (bodies 0, 2, 3 of both sides; the lower arm holds two bushings)
-        logs = log_so3(
-            np.concatenate(
-                [R[..., [0, 2, 3], :, :].reshape(side + (6, 3, 3)), R_bar[..., None, :, :]],
-                axis=-3,
-            )
-        )
-        phi = logs[..., :6, :].reshape(side + (2, 3, 3))[..., [0, 0, 1, 2], :]
-        rho = logs[..., 6, :]
-
-        # bushings (to the fixed body): slots 0-3
-        f = self.bushing_loads(self._deflections(r, R, V[..., 0:2, :], phi), state.hyst)
-        arms[..., 0:2, :] = V[..., 0:2, :]
-        forces[..., 0:4, :] = -f[..., :3]
-        M -= np.matmul(BUSH_SUM, f[..., 3:])
-
-        # lower ball joint: slots 4-5
-        lb = lam[..., 0:3]
-        arms[..., 4, :], forces[..., 4, :] = V[..., 2, :], lb
-        arms[..., 5, :], forces[..., 5, :] = V[..., 3, :], -lb
-
-        # tie rod from the rack point (moved by the rack travel along +y): slot 6
-        tri = self.tri if rack is None else self.tri + rack[..., None] * EY
-        d = r1 + V[..., 4, :] - tri
-        arms[..., 6, :] = V[..., 4, :]
-        forces[..., 6, :] = (lam[..., 7] / self.L_tie)[..., None] * d
-        c_tie = (dot(d, d) - self.L_tie**2) / (2 * self.L_tie)
-
-        # drop link: slots 7-8
-        d = r1 + V[..., 5, :] - r3 - V[..., 14, :]
-        fd = (lam[..., 8] / self.L_drop)[..., None] * d
-        arms[..., 7, :], forces[..., 7, :] = V[..., 5, :], fd
-        arms[..., 8, :], forces[..., 8, :] = V[..., 14, :], -fd
-        c_drop = (dot(d, d) - self.L_drop**2) / (2 * self.L_drop)
-
-        # coil spring between the seats: slots 9-10
-        e = r1 + V[..., 6, :] - r2 - V[..., 12, :]
-        L = np.sqrt(dot(e, e))
-        fs = (self.ks * (self.L_free - L) / L)[..., None] * e
-        arms[..., 9, :], forces[..., 9, :] = V[..., 6, :], fs
-        arms[..., 10, :], forces[..., 10, :] = V[..., 12, :], -fs
-
-        # cylindrical joint, rod in tube: slots 11-12 (-f on the knuckle at the rod point)
-        w = r2 - r1 - V[..., 7, :]
-        uv = V[..., 8:10, :]
-        ar = V[..., 13, :]
-        f_cyl = lam[..., 5, None] * V[..., 8, :] + lam[..., 6, None] * V[..., 9, :]
-        m_rod = cross(ar, lam[..., 3, None] * V[..., 8, :] + lam[..., 4, None] * V[..., 9, :])
-        forces[..., 11, :] = f_cyl
-        arms[..., 12, :], forces[..., 12, :] = r2 - r1, -f_cyl
-        M[..., 2, :] += m_rod
-        M[..., 1, :] -= m_rod
-        aw = np.empty(lead + (2, 3))  # rod axis and rod point offset, rows
-        aw[..., 0, :], aw[..., 1, :] = ar, w
-        c_cyl = np.swapaxes(np.matmul(uv, np.swapaxes(aw, -1, -2)), -1, -2).reshape(lead + (4,))
-
-        # strut friction (Dahl) along the tube axis, rod against tube: slots 13-14
-        if state.fric is not None:
-            ak = V[..., 10, :]
-            slide = dot(w, ak)
-            s_prev, z_prev = (np.broadcast_to(q, slide.shape) for q in state.fric)
-            f_c, sigma = self._friction()
-            zf = dahl_step(s_prev, slide, sigma, f_c, z_prev, DAHL_EPS_TRANSLATION)
-            forces[..., 13, :] = -zf[..., None] * ak
-            arms[..., 14, :], forces[..., 14, :] = r2 - r1, zf[..., None] * ak
-
-        # tyre on the pad (slot 15), wheel weight (16), external wheel load (17)
-        cp_arm = self.Rw[..., None] * _down(V[..., 11, :])
-        arms[..., 15, :] = cp_arm
-        forces[..., 15, 2] = self.kt * (pad - r1[..., 2] - cp_arm[..., 2])
-        forces[..., 16, 2] = -self.wheel_weight
-        if ext is not None:
-            arms[..., 17, :], forces[..., 17, :] = cp_arm, ext[..., :3]
-            M[..., 1, :] += ext[..., 3:6]
-            if ext.shape[-1] == 9:  # a force at the wheel centre: at the contact point
-                forces[..., 17, :] += ext[..., 6:9]  # plus the moment (wc - cp) x f
-                M[..., 1, :] -= cross(cp_arm, ext[..., 6:9])
-
-        # anti-roll bar: the halves meet at the bar's middle (slot 18); stiff in shear and
-        # bending, the bar's torsional stiffness about the vehicle y axis
-        dC = r3[..., 0, :] + V[..., 0, 15, :] - r3[..., 1, :] - V[..., 1, 15, :]
-        fC = -self.k_bar_shear * dC
-        mC = -self.k_bar_rot * rho
-        arms[..., 18, :] = V[..., 15, :]
-        forces[..., 0, 18, :], forces[..., 1, 18, :] = fC, -fC
-        M[..., 0, 3, :] += mC
-        M[..., 1, 3, :] -= mC
-
-        if record is not None:
-            for k, b in enumerate(SLOT_BODY):
-                record.append((b, r[..., b, :] + arms[..., k, :], forces[..., k, :], 0.0 * r1))
-            for b in range(4):
-                record.append((b, r[..., b, :], 0.0 * r1, M[..., b, :]))
-
-        Fb = np.matmul(SLOT_SUM, forces)
-        Mb = M + np.matmul(SLOT_SUM, cross(arms, forces))
-        cons = np.concatenate(
-            [r0 + V[..., 2, :] - r1 - V[..., 3, :], c_cyl, c_tie[..., None], c_drop[..., None]],
-            axis=-1,
-        )
-        return np.concatenate(
-            [np.concatenate([Fb, Mb], axis=-1).reshape(lead + (NQ,)), CSCALE * cons], axis=-1
-        )
-
     # ---------------------------------------------------------------- Jacobian
-    def body_loads(
-        self,
-        st: AxleState,
-        pad: np.ndarray,
-        ext: np.ndarray | None = None,
-        history=None,
-        rack: np.ndarray | None = None,
-    ) -> tuple[np.ndarray, np.ndarray]:
-        """Net force [N] and moment about the global origin [N*m] on every body,
-        (n, 2, 4, 3) each, summed from the element loads :meth:`residual` records at
-        state ``st`` (``history``: the state whose path-dependent element history to
-        use, default ``st``; ``rack``: as in :meth:`residual`). Zero at an equilibrium:
-        for balance checks."""
-        loads: list = []
-        hist = st if history is None else history
-        self.residual(st.r, st.R, st.lam, pad, hist, ext, loads, rack)
-        F = np.zeros(st.r.shape[:-2] + (4, 3))
-        M = np.zeros_like(F)
-        for body, p, f, m in loads:
-            p, f, m = np.broadcast_arrays(p, f, m)
-            F[..., body, :] += f
-            M[..., body, :] += cross(p, f) + m
-        return F, M
-
     def jacobian(
         self,
         st: AxleState,
@@ -1266,13 +897,7 @@ class AxleSolver:
             return self._jacobian_by_columns(st, pad, ext, h, rack)
         n = self.n
         J = np.zeros((n, 2 * NS, 2 * NS))
-        if (
-            JACOBIAN_COMPILED
-            and RESIDUAL_COMPILED
-            and residual_kernel.AVAILABLE
-            and self._rows_last_path(st.r, st.R)
-            and st.r.shape[:-3] == (n,)
-        ):
+        if JACOBIAN_COMPILED and self._effect_loads(st.r, st.R, st) is None:
             # the compiled loop: each row perturbed and differenced in place (no blocks)
             args = self._kernel_inputs(st.r, st.R, st.lam, pad, ext, rack)
             # every body turned by h about x, y, z: (n, 2, 4, axis, 3, 3)
@@ -1749,15 +1374,6 @@ def _skew(v: np.ndarray) -> np.ndarray:
     out[..., 0, 1], out[..., 0, 2] = -v[..., 2], v[..., 1]
     out[..., 1, 0], out[..., 1, 2] = v[..., 2], -v[..., 0]
     out[..., 2, 0], out[..., 2, 1] = -v[..., 1], v[..., 0]
-    return out
-
-
-def _cross_rows_last(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Cross product of vectors (k, 3, ...) whose components run along axis 1."""
-    out = np.empty(a.shape)
-    np.subtract(a[:, 1] * b[:, 2], a[:, 2] * b[:, 1], out=out[:, 0])
-    np.subtract(a[:, 2] * b[:, 0], a[:, 0] * b[:, 2], out=out[:, 1])
-    np.subtract(a[:, 0] * b[:, 1], a[:, 1] * b[:, 0], out=out[:, 2])
     return out
 
 
