@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from suspenv.metrics.handling import slalom_linear
+from suspenv.metrics.handling import slalom_linear, yaw_response
 from suspenv.models.minibus.handling_model import (
     HandlingParams,
     HandlingState,
@@ -25,9 +25,11 @@ from suspenv.rigs.handling import (
     _steady_loads,
     axle_capacity,
     axle_capacity_tabulated,
+    secant_axle_stiffness,
     steady_circle,
     steady_circle_bisection,
     steady_state_sweep,
+    understeer_gradients,
 )
 
 U = 60.0 / 3.6
@@ -97,9 +99,11 @@ def test_steady_state_response_is_the_closed_forms():
 
 def test_slalom_linear_follows_the_course():
     # the path's lateral acceleration A (pi u / s)^2 and yaw rate near a_y / u
+    # (small-amplitude linearisation: at the course's 0.39 g the secant tyres slip more
+    # and the sideslip rate moves the yaw rate further, up to 10 % loaded)
     cfg = SlalomConfig()
     P = _params(_designs(5))
-    lin = slalom_linear(P, cfg)
+    lin = slalom_linear(P, cfg, working_point=False)
     ay = cfg.amplitude * (np.pi * cfg.speed / cfg.spacing) ** 2
     np.testing.assert_allclose(lin.ay_amplitude, ay)
     # r = (a_y - dv/dt) / u: the sideslip rate moves it a few per cent off a_y / u
@@ -163,3 +167,153 @@ def test_reference_minibus_understeers_through_the_linear_range(load_case):
     secant = np.degrees((sw.steer - P.wheelbase / 15.0) / ays[:, None]) * G
     assert np.all(secant[:3] > 0.5), secant[:3].min()
     assert np.all(secant[3] > 0.0), secant[3].min()
+
+
+# ------------------------------------------------------------------ where the course runs
+def _independent_understeer(X: np.ndarray, load_case: str, ay: float) -> np.ndarray:
+    """Secant understeer (steer - L/R) / a_y (rad per m/s^2) of designs X at lateral
+    acceleration ``ay``, written here from the vehicle data alone: a textbook steady
+    load transfer per axle (Milliken & Milliken, *Race Car Vehicle Dynamics*, 1995,
+    ch. 18: elastic part by the axles' share of the roll stiffness, geometric part by
+    the roll-centre height, unsprung part at wheel-centre height), each axle's slip
+    angle solved by scipy's brentq on the tyre curve at the two wheel loads, plus the
+    roll and compliance steers; none of the rigs' or the handling model's functions."""
+    from scipy.optimize import brentq
+
+    from suspenv.models.minibus.handling_model import DEFAULT_LEAF_GEOMETRY
+    from suspenv.models.minibus.tyre import LIGHT_TRUCK_TYRE
+    from suspenv.models.minibus.vehicle import REFERENCE_MINIBUS, vehicle_parameters
+
+    leaf, tyre, v = DEFAULT_LEAF_GEOMETRY, LIGHT_TRUCK_TYRE, REFERENCE_MINIBUS
+
+    vp = vehicle_parameters(X, load_case, v)
+    lc = v.load_case(load_case)
+    L, ms = v.wheelbase, lc.sprung_mass
+    muf, mur = 2 * v.unsprung_front, 2 * v.unsprung_rear
+    m = ms + muf + mur
+    a_s = np.broadcast_to(vp.a, (X.shape[0],))  # sprung CoM behind the front axle
+    a = (ms * a_s + mur * L) / m
+    h_rf = v.front_ic_height * (v.track_front / 2) / v.front_ic_inboard
+    h_rr = v.rear_roll_centre_height
+    h_prime = lc.cg_z - (h_rf + (h_rr - h_rf) * a_s / L)
+    kt = v.tyre_vertical_stiffness * v.track_front**2 / 2  # both tracks alike
+    ks_f = vp.design.front_wheel_rate * v.track_front**2 / 2 + vp.design.front_roll_arb
+    ks_r = vp.rear_static_rate * v.leaf_spacing**2 / 2 + vp.design.rear_roll_arb
+    k_f, k_r = ks_f * kt / (ks_f + kt), ks_r * kt / (ks_r + kt)
+    phi = ms * h_prime * ay / (k_f + k_r - ms * h_prime * G)
+    out = []
+    for i in range(X.shape[0]):
+        ms_f, ms_r = ms * (L - a_s[i]) / L, ms * a_s[i] / L
+        dfz_f = (k_f[i] * phi[i] + (ms_f * h_rf + muf * v.tyre_loaded_radius) * ay) / v.track_front
+        dfz_r = (k_r[i] * phi[i] + (ms_r * h_rr + mur * v.tyre_loaded_radius) * ay) / v.track_rear
+        fz_f = ms_f * G / 2 + v.unsprung_front * G
+        fz_r = ms_r * G / 2 + v.unsprung_rear * G
+        fy_f, fy_r = m * ay * (L - a[i]) / L, m * ay * a[i] / L
+
+        def slip(fz: float, dfz: float, fy: float) -> float:
+            return brentq(
+                lambda al: float(
+                    tyre.lateral_force(al, fz - dfz) + tyre.lateral_force(al, fz + dfz) - fy
+                ),
+                0.0,
+                0.1,
+                xtol=1e-14,
+            )
+
+        k3 = vp.design.leaf_bush_radial[i]
+        l1, ls = leaf.axle_from_front_eye, v.leaf_length
+        eps_r = (
+            v.rear_roll_steer
+            + vp.rear_static_rate[i] * (l1 / ls) * np.tan(np.radians(leaf.shackle_angle_deg)) / k3
+        )
+        c_r = ((ls - l1) / (2 * k3) - l1 / (2 * leaf.shackle_lateral_ratio * k3)) / ls**2
+        c_f = -leaf.steering_trail / leaf.steering_stiffness
+        steer_minus_kinematic = (
+            slip(fz_f, dfz_f, fy_f)
+            - slip(fz_r, dfz_r, fy_r)
+            - leaf.front_roll_steer * phi[i]
+            - c_f * fy_f
+            + eps_r * phi[i]
+            + c_r * fy_r
+        )
+        out.append(steer_minus_kinematic / ay)
+    return np.array(out)
+
+
+@pytest.mark.parametrize("load_case", LOAD_CASES)
+def test_bars_move_understeer_at_the_course_with_their_real_signs(load_case):
+    # at the slalom's 0.39 g (3.8 m/s^2) a stiffer front bar moves load transfer to the
+    # front axle, whose load-sensitive tyres then need more slip: more understeer; a
+    # stiffer rear bar the other way. The reference: the independent steady load
+    # transfer above. The model's secant (the course's linearisation) must carry the
+    # same signs and values (1e-6 relative: brentq's and the Illinois solve's
+    # tolerances), and so must the slalom objective built on it.
+    cfg = SlalomConfig()
+    ay = cfg.amplitude * (np.pi * cfg.speed / cfg.spacing) ** 2
+    lo, hi = 2e5, 9e5
+    X = np.tile(BASELINE_DESIGN, (4, 1))
+    X[0, 4], X[1, 4], X[2, 5], X[3, 5] = lo, hi, lo, hi  # T2 front bar, T3 rear bar
+    ref = _independent_understeer(X, load_case, ay)
+    assert ref[1] > ref[0] and ref[3] < ref[2]
+    P = handling_parameters(X, load_case)
+    sw = steady_state_sweep(P, np.array([ay]), SteadyCircleConfig(radius=1e9))
+    model = (sw.steer[0] - P.wheelbase / 1e9) / ay
+    np.testing.assert_allclose(model, ref, rtol=1e-6)
+    # the slalom objective at the working point moves the same way, the
+    # small-amplitude one does not see the front bar's effect
+    wheel = slalom_linear(P, cfg).steering_wheel_amplitude
+    assert wheel[1] > wheel[0] and wheel[3] < wheel[2]
+    small = slalom_linear(P, cfg, working_point=False).steering_wheel_amplitude
+    assert small[1] < small[0]
+
+
+def test_secant_linear_model_reproduces_the_steady_state_at_its_acceleration():
+    # the linear model with the secant axle stiffnesses at a_y: its steady response
+    # (f = 0) needs exactly the quasi-steady sweep's steer minus L/R for that a_y
+    P = _params(_designs(6))
+    for ay in (1.0, 3.8, 5.0):
+        stiff = secant_axle_stiffness(P, ay)
+        H = steer_response(P, U, 0.0, linear_system(P, U, stiff))
+        sw = steady_state_sweep(P, np.array([ay]), SteadyCircleConfig(radius=U**2 / ay))
+        np.testing.assert_allclose(ay / H.ay[:, 0].real, sw.steer[0], rtol=1e-9)
+
+
+def test_iso4138_gradient_is_the_slope_of_the_sweep():
+    # central difference over 0.2 m/s^2 against one over 0.02 m/s^2 (steer solved to
+    # round-off): they differ by the truncation term (step^2 / 24 times the third
+    # derivative) only, measured below 5e-6 rad/(m/s^2) (0.003 deg/g) on these designs
+    P = _params(_designs(4))
+    ay = np.array([1.0, 2.0, 3.0])
+    K = understeer_gradients(P, ay, step=0.2)
+    fine = understeer_gradients(P, ay, step=0.02)
+    np.testing.assert_allclose(K, fine, rtol=0, atol=1e-5)
+    hi, lo = steady_state_sweep(P, ay + 0.01), steady_state_sweep(P, ay - 0.01)
+    np.testing.assert_allclose(fine, (hi.steer - lo.steer) / 0.02, rtol=1e-12)
+
+
+def test_yaw_response_of_a_second_order_system_is_the_textbook_one():
+    # golden: yaw rate r/delta = w^2 / (s^2 + 2 z w s + w^2) (states v inert, r, q = r',
+    # p inert): overshoot exp(-pi z / sqrt(1 - z^2)), peak time pi / w_d, bandwidth
+    # (gain 1/sqrt 2) w sqrt(1 - 2 z^2 + sqrt(4 z^4 - 4 z^2 + 2)) / (2 pi), the 90 %
+    # time by brentq on the textbook step response
+    from scipy.optimize import brentq
+
+    z, w = 0.4, 2 * np.pi * 1.2
+    A = np.zeros((1, 4, 4))
+    A[0, 0, 0] = A[0, 3, 3] = -5.0
+    A[0, 1, 2] = 1.0
+    A[0, 2, 1], A[0, 2, 2] = -(w**2), -2 * z * w
+    B = np.array([[0.0, 0.0, w**2, 0.0]])
+    res = yaw_response(A, B)
+    wd = w * np.sqrt(1 - z**2)
+
+    def step(t: float) -> float:
+        return 1 - np.exp(-z * w * t) * (np.cos(wd * t) + z / np.sqrt(1 - z**2) * np.sin(wd * t))
+
+    t90 = brentq(lambda t: step(t) - 0.9, 1e-6, np.pi / wd, xtol=1e-14)
+    np.testing.assert_allclose(res.gain, 1.0, rtol=1e-12)
+    np.testing.assert_allclose(res.response_time, t90, rtol=1e-9)
+    np.testing.assert_allclose(res.peak_time, np.pi / wd, rtol=1e-9)
+    np.testing.assert_allclose(res.overshoot, np.exp(-np.pi * z / np.sqrt(1 - z**2)), rtol=1e-9)
+    band = w * np.sqrt(1 - 2 * z**2 + np.sqrt(4 * z**4 - 4 * z**2 + 2)) / (2 * np.pi)
+    np.testing.assert_allclose(res.bandwidth, band, rtol=1e-7)

@@ -23,6 +23,7 @@ one 4x4 complex solve per design.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -33,7 +34,13 @@ from suspenv.models.minibus.handling_model import (
     linear_system,
     steer_response,
 )
-from suspenv.rigs.handling import SLALOM_SIGNALS, SlalomConfig, slalom_run
+from suspenv.rigs.handling import (
+    SLALOM_SIGNALS,
+    SlalomConfig,
+    SteadyCircleConfig,
+    secant_axle_stiffness,
+    slalom_run,
+)
 
 
 class WindowedPeaks:
@@ -194,17 +201,44 @@ class SlalomLinearResult:
     stable: np.ndarray
 
 
-def slalom_linear(P: HandlingParams, config: SlalomConfig | None = None) -> SlalomLinearResult:
-    """The slalom course followed exactly by the linearised vehicle (module docstring)."""
+def course_lateral_acceleration(config: SlalomConfig) -> float:
+    """Lateral acceleration amplitude (m/s^2) of the course's path: ``A (pi u / s)^2``."""
+    return float(config.amplitude * (np.pi * config.speed / config.spacing) ** 2)
+
+
+def slalom_linear(
+    P: HandlingParams,
+    config: SlalomConfig | None = None,
+    circle: SteadyCircleConfig | None = None,
+    working_point: bool = True,
+    stiffness: tuple[np.ndarray, np.ndarray] | None = None,
+) -> SlalomLinearResult:
+    """The slalom course followed exactly by the linearised vehicle (module docstring).
+
+    ``working_point=True`` (default): the axles' tyres at their quasi-steady secant
+    stiffness at the course's lateral acceleration amplitude
+    (:func:`course_lateral_acceleration`, 3.8 m/s^2 = 0.39 g at 60 km/h and 30 m; by
+    :func:`suspenv.rigs.handling.secant_axle_stiffness`), so the load transfer (the
+    stabiliser bars' balance), the tyres' load sensitivity and the compliances enter
+    as they do where the course runs; ``False``: the small-amplitude linearisation
+    about straight running (the bars' split then only moves the roll steer).
+    ``stiffness``: the secant stiffnesses (front, rear; N/rad, (n,)) if already at hand.
+    """
     config = config or SlalomConfig()
     u = config.speed
     f = u / (2.0 * config.spacing)  # one cycle per two cones
-    A, B = linear_system(P, u)
+    ay = course_lateral_acceleration(config)
+    if working_point and stiffness is None:
+        stiffness = secant_axle_stiffness(P, ay, circle)
+    elif not working_point:
+        stiffness = None
+    A, B = linear_system(P, u, stiffness)
     H = steer_response(P, u, f, (A, B))
-    ay = config.amplitude * (2.0 * np.pi * f) ** 2
     gain = np.abs(H.ay[:, 0])
     steer = ay / gain
     ratio = P.vehicle.steering_ratio
+    with np.errstate(invalid="ignore"):
+        stable = np.all(np.linalg.eigvals(np.nan_to_num(A, nan=1.0)).real < 0, axis=-1)
     return SlalomLinearResult(
         steering_wheel_amplitude=ratio * steer,
         steer_amplitude=steer,
@@ -213,5 +247,92 @@ def slalom_linear(P: HandlingParams, config: SlalomConfig | None = None) -> Slal
         ay_amplitude=np.full(P.n, ay),
         yaw_rate_gain=np.abs(H.yaw_rate[:, 0]) / ratio,
         frequency=f,
-        stable=np.all(np.linalg.eigvals(A).real < 0, axis=-1),
+        stable=stable & np.isfinite(A).all(axis=(1, 2)),
     )
+
+
+# ------------------------------------------------------------------ ISO 7401
+@dataclass
+class YawResponse:
+    """ISO 7401 yaw-rate response of a linear handling system (arrays (n,)).
+
+    Attributes:
+        gain: 1/s, steady yaw rate per rad of road-wheel steer.
+        response_time: s, from a steer step to 90 % of the steady yaw rate (ISO 7401's
+            response time, measured from 50 % of the steer input: an ideal step).
+        peak_time: s, to the yaw rate's first peak (``t_end`` when it has none).
+        overshoot: -, peak yaw rate over the steady one, minus 1 (0 without a peak).
+        bandwidth: Hz, lowest frequency at which the yaw-rate gain has fallen to
+            ``1/sqrt(2)`` of the steady gain (``f_max`` where it has not).
+    """
+
+    gain: np.ndarray
+    response_time: np.ndarray
+    peak_time: np.ndarray
+    overshoot: np.ndarray
+    bandwidth: np.ndarray
+
+
+def yaw_response(
+    A: np.ndarray, B: np.ndarray, t_end: float = 3.0, dt: float = 0.01, f_max: float = 5.0
+) -> YawResponse:
+    """Step and frequency response of the yaw rate of the linear system ``(A, B)``
+    (:func:`linear_system`, state (v, r, phi, p), unit road-wheel steer), in closed form
+    through the eigen-decomposition ``A = V diag(lam) V^-1``: with ``w = (V^-1 B)_k
+    V[r, k] / lam_k``, the step response is ``r(t) = sum_k w_k (e^(lam_k t) - 1)`` and
+    the frequency response ``H(f) = sum_k w_k lam_k / (i 2 pi f - lam_k)``. The 90 %
+    crossing and the first peak are found on a grid of ``dt`` (s) up to ``t_end`` and
+    refined by Newton steps on the closed form, the bandwidth on a log grid to ``f_max``
+    (Hz) refined by bisection in log f (both to round-off). Rows must be stable."""
+    lam, V = np.linalg.eig(A)
+    c = np.linalg.solve(V, B[..., None].astype(complex))[..., 0]  # (n, 4)
+    w = V[:, 1, :] * c / lam  # (n, 4)
+    r_ss = -np.sum(w, axis=1).real  # x(inf) = -A^-1 B
+    wn = w / r_ss[:, None]  # normalised: y(t) = r(t) / r_ss, |H(f)| / |H(0)|
+
+    def y(t: np.ndarray, order: int) -> np.ndarray:
+        """d^order y / dt^order at times t (n, k)."""
+        e = np.exp(lam[:, None, :] * t[..., None]) * lam[:, None, :] ** order
+        return ((e - (order == 0)) @ wn[:, :, None])[..., 0].real
+
+    def rel_gain(f: np.ndarray) -> np.ndarray:
+        """|H(f)| / |H(0)| at frequencies f (n, k)."""
+        s = 2j * np.pi * f[..., None]
+        return np.abs(((lam[:, None, :] / (s - lam[:, None, :])) @ wn[:, :, None])[..., 0])
+
+    n = A.shape[0]
+    rows = np.arange(n)
+    grid = np.arange(0.0, t_end + 0.5 * dt, dt)
+    yg = y(np.broadcast_to(grid, (n, grid.size)), 0)
+    k = np.maximum(np.argmax(yg >= 0.9, axis=1), 1)
+    t90 = (k - 1 + (0.9 - yg[rows, k - 1]) / (yg[rows, k] - yg[rows, k - 1])) * dt
+    j = np.argmax(yg, axis=1)
+    has_peak = (j > 0) & (j < grid.size - 1)
+    tp = grid[np.clip(j, 1, grid.size - 2)]
+    for _ in range(4):  # Newton on y(t) = 0.9 and y'(t) = 0
+        t90 = t90 - (y(t90[:, None], 0)[:, 0] - 0.9) / y(t90[:, None], 1)[:, 0]
+        tp = tp - y(tp[:, None], 1)[:, 0] / y(tp[:, None], 2)[:, 0]
+    peak = y(tp[:, None], 0)[:, 0]
+    return YawResponse(
+        gain=r_ss,
+        response_time=t90,
+        peak_time=np.where(has_peak, tp, t_end),
+        overshoot=np.where(has_peak, np.maximum(peak - 1.0, 0.0), 0.0),
+        bandwidth=_half_power(rel_gain, n, f_max),
+    )
+
+
+def _half_power(rel_gain: Callable[[np.ndarray], np.ndarray], n: int, f_max: float) -> np.ndarray:
+    """Lowest frequency (Hz, (n,)) where ``rel_gain`` (f (n, k) -> (n, k)) falls below
+    ``1/sqrt(2)``: a log grid 0.01..``f_max`` Hz, then 26 bisections in log f on the
+    bracketing interval; ``f_max`` where it does not fall."""
+    half = np.sqrt(0.5)
+    f = np.geomspace(0.01, f_max, 120)
+    below = rel_gain(np.broadcast_to(f, (n, f.size))) < half
+    k = np.argmax(below, axis=1)
+    lo, hi = np.log(f[np.maximum(k - 1, 0)]), np.log(f[k])
+    for _ in range(26):  # the grid cell (0.052 in log f) to 1e-9
+        mid = 0.5 * (lo + hi)
+        under = rel_gain(np.exp(mid)[:, None])[:, 0] < half
+        lo, hi = np.where(under, lo, mid), np.where(under, mid, hi)
+    return np.where(below.any(axis=1), np.exp(0.5 * (lo + hi)), f_max)

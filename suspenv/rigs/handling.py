@@ -46,7 +46,7 @@ Pylon-course slalom (:func:`slalom_run`)
 from __future__ import annotations
 
 import functools
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import Protocol
 
 import numpy as np
@@ -303,7 +303,8 @@ class SteadyStateSweep:
 
     Attributes:
         ay: m/s^2 (N,); steer: rad, front road-wheel steer command; roll: rad;
-        alpha_front, alpha_rear: rad, axle slip angles; feasible: bool.
+        alpha_front, alpha_rear: rad, axle slip angles; force_front, force_rear: N, the
+        axle forces the state needs; feasible: bool.
     """
 
     ay: np.ndarray
@@ -311,7 +312,19 @@ class SteadyStateSweep:
     roll: np.ndarray
     alpha_front: np.ndarray
     alpha_rear: np.ndarray
+    force_front: np.ndarray
+    force_rear: np.ndarray
     feasible: np.ndarray
+
+    def take(self, rows: slice | np.ndarray) -> SteadyStateSweep:
+        """The states of some of the accelerations (rows of the first axis)."""
+        return SteadyStateSweep(*(getattr(self, f.name)[rows] for f in fields(self)))
+
+
+#: regula-falsi (Illinois) passes of the steady state's slip-angle solve: a fixed count
+#: (no data-dependent stopping, so a row's result does not depend on its batch); the
+#: residual after them is at round-off on the rising branch (tests)
+SLIP_SOLVE_PASSES = 14
 
 
 def _slip_for_force(
@@ -321,17 +334,29 @@ def _slip_for_force(
     force: np.ndarray,
     config: SteadyCircleConfig,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Slip angle on the rising branch at which an axle carries ``force`` (bisection)."""
+    """Slip angle on the rising branch at which an axle carries ``force``, and whether
+    it can (``force`` <= its capacity). Illinois regula falsi on ``[0, peak slip]``,
+    where the axle force rises monotonically (:data:`SLIP_SOLVE_PASSES` passes)."""
     cap, a_peak = axle_capacity(P, fz_a, fz_b, config)
-    lo = np.zeros_like(force)
-    hi = a_peak.copy()
-    for _ in range(50):
-        mid = 0.5 * (lo + hi)
-        f = P.tyre.lateral_force(mid, fz_a) + P.tyre.lateral_force(mid, fz_b)
-        below = f < force
-        lo = np.where(below, mid, lo)
-        hi = np.where(below, hi, mid)
-    return 0.5 * (lo + hi), cap >= force
+
+    def residual(alpha: np.ndarray) -> np.ndarray:
+        return P.tyre.lateral_force(alpha, fz_a) + P.tyre.lateral_force(alpha, fz_b) - force
+
+    lo, hi = np.zeros_like(force), np.broadcast_to(a_peak, force.shape).copy()
+    r_lo, r_hi = -force, residual(hi)
+    side = np.zeros(force.shape, dtype=np.int8)
+    for _ in range(SLIP_SOLVE_PASSES):
+        span = r_hi - r_lo
+        mid = np.where(span > 0, (lo * r_hi - hi * r_lo) / np.where(span > 0, span, 1.0), hi)
+        r_mid = residual(mid)
+        below = r_mid < 0
+        # Illinois: halve the residual of the end that stays twice in a row
+        r_hi = np.where(below & (side == -1), 0.5 * r_hi, r_hi)
+        r_lo = np.where(~below & (side == 1), 0.5 * r_lo, r_lo)
+        lo, r_lo = np.where(below, mid, lo), np.where(below, r_mid, r_lo)
+        hi, r_hi = np.where(below, hi, mid), np.where(below, r_hi, r_mid)
+        side = np.where(below, -1, 1).astype(np.int8)
+    return np.where(np.abs(r_lo) < np.abs(r_hi), lo, hi), cap >= force
 
 
 def steady_state_sweep(
@@ -341,42 +366,101 @@ def steady_state_sweep(
 
     Steer from the kinematics of the single-track model:
     delta = L/R + alpha_f - alpha_r - eps_f phi - c_Ff Fyf + eps_r phi + c_F Fyr.
+    All accelerations in one vectorised pass (arrays (N, n)).
     """
     config = config or SteadyCircleConfig()
     ay = np.asarray(ay, dtype=float)
     if ay.ndim != 1 or np.any(ay < 0):
         raise ValidationError(f"`ay` must be a 1-D array of values >= 0, but got {ay!r}")
     L = P.wheelbase
-    out: dict[str, list[np.ndarray]] = {k: [] for k in ("steer", "roll", "af", "ar", "ok")}
-    for a_y in ay:
-        acc = np.full(P.n, a_y)
-        phi, fl, fr, rl, rr = _steady_loads(P, acc)
-        fyf = P.m * acc * P.b / L
-        fyr = P.m * acc * P.a / L
-        af, ok_f = _slip_for_force(P, fl, fr, fyf, config)
-        ar, ok_r = _slip_for_force(P, rl, rr, fyr, config)
-        steer = (
-            L / config.radius
-            + af
-            - ar
-            - P.roll_steer_front * phi
-            - P.force_steer_front * fyf
-            + P.roll_steer_rear * phi
-            + P.force_steer_rear * fyr
-        )
-        out["steer"].append(steer)
-        out["roll"].append(phi)
-        out["af"].append(af)
-        out["ar"].append(ar)
-        out["ok"].append(ok_f & ok_r & ((fl > 0) | (rl > 0)))
+    acc = np.broadcast_to(ay[:, None], (ay.size, P.n))
+    phi, fl, fr, rl, rr = _steady_loads(P, acc)
+    fyf = P.m * acc * P.b / L
+    fyr = P.m * acc * P.a / L
+    # both axles in one solve (axis 0: front, rear)
+    alpha, ok = _slip_for_force(
+        P, np.stack([fl, rl]), np.stack([fr, rr]), np.stack([fyf, fyr]), config
+    )
+    af, ar = alpha
+    steer = (
+        L / config.radius
+        + af
+        - ar
+        - P.roll_steer_front * phi
+        - P.force_steer_front * fyf
+        + P.roll_steer_rear * phi
+        + P.force_steer_rear * fyr
+    )
     return SteadyStateSweep(
         ay=ay,
-        steer=np.array(out["steer"]),
-        roll=np.array(out["roll"]),
-        alpha_front=np.array(out["af"]),
-        alpha_rear=np.array(out["ar"]),
-        feasible=np.array(out["ok"]),
+        steer=steer,
+        roll=phi,
+        alpha_front=af,
+        alpha_rear=ar,
+        force_front=fyf,
+        force_rear=fyr,
+        feasible=ok[0] & ok[1] & ((fl > 0) | (rl > 0)),
     )
+
+
+def secant_axle_stiffness(
+    P: HandlingParams,
+    ay: np.ndarray | float,
+    config: SteadyCircleConfig | None = None,
+    sweep: SteadyStateSweep | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Quasi-steady secant cornering stiffness of each axle's two tyres, N/rad, arrays
+    of shape ``ay.shape + (n,)`` (front, rear).
+
+    At the steady state on the circle at lateral acceleration ``ay`` (m/s^2, > 0;
+    :func:`steady_state_sweep`, or ``sweep`` if already at hand for exactly these
+    accelerations): the axle force the state needs (``m a_y b/L`` front, ``m a_y a/L``
+    rear) over its tyres' slip angle, at the wheel loads that the load transfer leaves
+    (so the stabiliser bars, the roll-centre heights and the tyres' load sensitivity
+    enter as they do at ``ay``). In place of the static-load stiffnesses, the linear
+    model (:func:`suspenv.models.minibus.handling_model.linear_system`) reproduces the
+    steady state at ``ay`` exactly. NaN where no steady state exists.
+    """
+    acc = np.asarray(ay, dtype=float)
+    if not np.all(acc > 0):
+        raise ValidationError(f"`ay > 0` must hold, but got ay={ay!r}")
+    sw = sweep if sweep is not None else steady_state_sweep(P, acc.reshape(-1), config)
+    cf = np.where(sw.feasible, sw.force_front / sw.alpha_front, np.nan)
+    cr = np.where(sw.feasible, sw.force_rear / sw.alpha_rear, np.nan)
+    shape = acc.shape + (P.n,)
+    return cf.reshape(shape), cr.reshape(shape)
+
+
+def gradient_accelerations(ay: np.ndarray, step: float = 0.2) -> np.ndarray:
+    """The sweep's accelerations (m/s^2, (2N,)) of :func:`understeer_gradients`:
+    ``ay - step/2`` then ``ay + step/2``."""
+    ay = np.asarray(ay, dtype=float)
+    h = 0.5 * step
+    if ay.ndim != 1 or np.any(ay - h < 0):
+        raise ValidationError(f"`ay - step/2 >= 0` must hold for every ay, but got {ay!r}")
+    return np.concatenate([ay - h, ay + h])
+
+
+def understeer_gradients(
+    P: HandlingParams,
+    ay: np.ndarray,
+    config: SteadyCircleConfig | None = None,
+    step: float = 0.2,
+    sweep: SteadyStateSweep | None = None,
+) -> np.ndarray:
+    """ISO 4138 understeer gradient ``d delta / d a_y`` (rad of road-wheel steer per
+    m/s^2) on the constant-radius circle at each lateral acceleration ``ay`` (N,), for
+    every row: (N, n). Central difference of :func:`steady_state_sweep`'s steer over
+    ``ay +- step/2`` (m/s^2; ``sweep``: that sweep if already at hand, at
+    :func:`gradient_accelerations`); the steer is solved to round-off, so the
+    difference's error is the curvature term, ``step^2/24`` times the third derivative.
+    NaN where a state does not exist.
+    """
+    points = gradient_accelerations(ay, step)
+    sw = sweep if sweep is not None else steady_state_sweep(P, points, config)
+    steer = np.where(sw.feasible, sw.steer, np.nan)
+    n = points.size // 2
+    return (steer[n:] - steer[:n]) / step
 
 
 # ------------------------------------------------------------------ slalom

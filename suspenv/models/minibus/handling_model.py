@@ -483,7 +483,9 @@ def roll_damping(P: HandlingParams) -> np.ndarray:
     return front * P.damper_scale_front + rear * P.damper_scale_rear
 
 
-def linear_system(P: HandlingParams, u: float) -> tuple[np.ndarray, np.ndarray]:
+def linear_system(
+    P: HandlingParams, u: float, axle_stiffness: tuple[np.ndarray, np.ndarray] | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """State matrix A (n, 4, 4) and steer input B (n, 4) of the linearised handling model.
 
     State (v, r, phi, p), input the front road-wheel steer delta (rad), speed ``u``
@@ -492,8 +494,13 @@ def linear_system(P: HandlingParams, u: float) -> tuple[np.ndarray, np.ndarray]:
     order), the compliance steers solved into effective axle stiffnesses
     ``C' = C / (1 - C c_F)``, the dampers at their low-speed slopes
     (:func:`roll_damping`). Exact for this model in the limit of small amplitudes.
+
+    ``axle_stiffness``: the axles' tyre cornering stiffnesses (front, rear; N/rad, (n,)
+    each) to use instead, e.g. the quasi-steady secants at a manoeuvre's lateral
+    acceleration (:func:`suspenv.rigs.handling.secant_axle_stiffness`), which carry the
+    load transfer's effect on the axles.
     """
-    cf, cr = P.axle_cornering_stiffness()
+    cf, cr = axle_stiffness if axle_stiffness is not None else P.axle_cornering_stiffness()
     cf = cf / (1.0 - cf * P.force_steer_front)
     cr = cr / (1.0 - cr * P.force_steer_rear)
     a, b, m, iz = P.a, P.b, P.m, P.iz
