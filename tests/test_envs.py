@@ -280,6 +280,10 @@ def test_rank_sum_needs_the_vector_env():
 
 
 # ------------------------------------------------------------- vector env
+#: a sum of a few positive terms in two orders: within a few ulps (2.2e-16 each)
+SUM_RTOL = 8 * np.finfo(float).eps
+
+
 def test_vector_env_matches_single_env_row_by_row():
     n = 6
     vec = make_vector_env("CarSideImpact", num_envs=n, budget=4, weights=[1.0, 3.0, 2.0])
@@ -294,10 +298,14 @@ def test_vector_env_matches_single_env_row_by_row():
         for i, env in enumerate(singles):
             sobs, srew, sterm, strunc, sinfo = env.step(A[i])
             np.testing.assert_array_equal(vobs[i], sobs)
-            assert (vrew[i], vterm[i], vtrunc[i]) == (srew, sterm, strunc)
+            assert (vterm[i], vtrunc[i]) == (sterm, strunc)
+            # the batch scalarises with a matrix product, one env with a dot product: the
+            # same positive terms summed in another order (BLAS kernel, thread count)
+            assert vrew[i] == pytest.approx(srew, rel=SUM_RTOL)
+            assert vinfo["scalarized"][i] == pytest.approx(sinfo["scalarized"], rel=SUM_RTOL)
             for key in ("objectives", "constraints"):
                 np.testing.assert_array_equal(vinfo[key][i], sinfo[key])
-            for key in ("ok", "message", "violation", "scalarized", "evaluations"):
+            for key in ("ok", "message", "violation", "evaluations"):
                 assert vinfo[key][i] == sinfo[key], key
             params = {k: v[i] for k, v in vinfo["parameters"].items() if not k.startswith("_")}
             assert params == sinfo["parameters"]

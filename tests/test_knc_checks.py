@@ -1,5 +1,5 @@
 """Plausibility rules of measured K&C folders (suspenv/measurements/knc_checks.py): each
-bad file of issue's kinds (a wrong unit, swapped sides, y against ISO 8855, a spike, a
+bad file of the kinds users write (a wrong unit, swapped sides, y against ISO 8855, a spike, a
 misspelt key, a BOM) is named on loading, before any fit; clean data, simulated or
 noisy, raise nothing and warn nothing (the rules do not fire on what a rig records).
 

@@ -94,6 +94,25 @@ def refused(path: Path, pattern: str, **kw) -> str:
     return str(exc.value)
 
 
+def solver_zero_bound(opp) -> np.ndarray:
+    """Largest |opp_roll_force| [N/mm^2] and |opp_roll_rate| [N*m/deg^2] a mirrored axle
+    may show from the solver's tolerance alone. Each tyre force is within kt x 1e-6 m of
+    its exact value (the solver's position tolerance), so half the force difference is
+    within kt x 1e-6 m and the roll moment within that x the contact track; a 7-point
+    least-squares quadratic on spacing h turns a noise e into a curvature 2c of at most
+    2 sum|k^2 - 4| / (84 h^2) e = 0.476 e / h^2 (k = -3..3). Spacing: the smallest step of
+    half the wheel-travel difference [mm] and of the roll angle [deg] near static."""
+    st, kt = opp.static_index, 252.18e3  # N/m, the reference tyre rate
+    z = opp.branch("wheel_centre_z", "down")[0][st - 3 : st + 4]
+    cy = opp.branch("contact_y", "down")[0][st]
+    wy = opp.branch("wheel_centre_y", "down")[0][st]
+    half = 0.5 * (z[:, 0] - z[:, 1]) * 1e3
+    roll = np.degrees(np.arctan((z[:, 0] - z[:, 1]) / (wy[0] - wy[1])))
+    noise = kt * 1e-6 * np.array([1.0, cy[0] - cy[1]])
+    h = np.array([np.abs(np.diff(half)).min(), np.abs(np.diff(roll)).min()])
+    return 0.476 * noise / h**2
+
+
 # ------------------------------------------------------------------ round trip
 def test_cli_output_loads_back_to_the_simulated_channels(cli_folder, reference_results):
     m = load_measurement(cli_folder)
@@ -120,13 +139,15 @@ def test_round_trip_gives_the_simulations_40_objectives(cli_folder, reference_re
     F_file = objectives(measured_results(m))[0]
     assert len(F_file) == len(OBJECTIVES) == 40
     # the reference axle is mirrored: in opposite travel the roll force and roll rate
-    # curvatures are zero by symmetry, and the simulation's values are round-off noise
-    # (below 1e-7 of their units) that the file's 15 significant digits shift relatively;
-    # those two are compared absolutely (reference: the simulation itself), all others
-    # relatively
+    # curvatures are zero by symmetry, and the simulation's values are the solver's
+    # convergence noise (solver_zero_bound) that the file's 15 significant digits shift
+    # relatively; those two are compared absolutely (reference: the simulation itself),
+    # all others relatively
     zero = np.isin(OBJECTIVE_NAMES, ("opp_roll_force", "opp_roll_rate"))
-    assert np.abs(F_sim[zero]).max() < 1e-7
+    bound = solver_zero_bound(reference_results["opposite"])
+    assert np.all(np.abs(F_sim[zero]) <= bound), (F_sim[zero], bound)
     np.testing.assert_allclose(F_file[~zero], F_sim[~zero], rtol=1e-6, atol=0)
+    # the file's rounding (5e-16 of ~4 kN, 0.5 e / h^2 as above) moves them by < 5e-11
     np.testing.assert_allclose(F_file[zero], F_sim[zero], rtol=0, atol=1e-9)
 
 

@@ -7,6 +7,7 @@ import dataclasses
 import mcpherson_reference as reference
 import numpy as np
 import pytest
+from knc_checks import XTOL, channel_tolerance
 from scipy.spatial.transform import Rotation
 
 from suspenv.core.errors import ValidationError
@@ -105,21 +106,28 @@ def test_mirrored_axle_gives_mirrored_and_antisymmetric_results(reference_runs):
     # reference: mirror symmetry about the x-z plane
     _, results = reference_runs
     par, opp = results["parallel"], results["opposite"]
+    # tolerance: each side is converged to the solver's tolerances on its own round-off,
+    # so the sides may differ by twice those (knc_checks.channel_tolerance); a mirror
+    # error is millimetres
     for name in ("toe", "camber", "caster", "tyre_fz", "wheel_centre_z", "wheel_centre_x"):
+        tol = 2 * channel_tolerance(name)
         ch = par.channels[name]
-        assert np.allclose(ch[..., 0], ch[..., 1], atol=1e-8), name
+        assert np.allclose(ch[..., 0], ch[..., 1], rtol=0, atol=tol), name
         # opposite travel: the left wheel at +s is the right wheel at -s
         for br in ("down", "up"):
             b = opp.branch(name, br)
-            assert np.allclose(b[:, :, 0], b[:, ::-1, 1], atol=1e-8), name
+            assert np.allclose(b[:, :, 0], b[:, ::-1, 1], rtol=0, atol=tol), name
     y = par.channels["wheel_centre_y"]
-    assert np.allclose(y[..., 0], -y[..., 1], atol=1e-10)
+    assert np.allclose(y[..., 0], -y[..., 1], rtol=0, atol=2 * XTOL)
     # antisymmetric axle quantities vanish at static and are odd in the stroke (to the
-    # solver tolerance: 1e-6 m steps times the tyre rate is a few mN)
+    # solver tolerance: each of the four tyre forces within the tyre rate x 1e-6 m, about
+    # 0.25 N, of its exact value; the roll force at 40 mm is hundreds of N)
+    axle, _ = reference_runs
+    tol = 4 * float(axle.tyre_rate.max()) * XTOL
     fz = opp.branch("tyre_fz", "down")
     dF = fz[..., 0] - fz[..., 1]
-    assert np.allclose(dF, -dF[:, ::-1], rtol=0, atol=0.02)
-    assert np.abs(dF[:, opp.static_index]).max() < 0.02
+    assert np.allclose(dF, -dF[:, ::-1], rtol=0, atol=tol)
+    assert np.abs(dF[:, opp.static_index]).max() < tol
 
 
 def test_plain_model_loop_closes(reference_runs):

@@ -266,7 +266,7 @@ def _check_travel(where: str, test: str, d: np.ndarray, z: np.ndarray) -> None:
         )
     if wrong:
         raise RecordingError(
-            f"{where}: the left pad drives a {test} test (bump +), so {'; '.join(wrong)}: "
+            f"{where}: the left pad drives the {test} test (bump +), so {'; '.join(wrong)}: "
             "the left and right columns are swapped, or the stroke or wheel travel sign is "
             "against ISO 8855 (z up, bump positive)"
         )

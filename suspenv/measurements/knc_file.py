@@ -630,6 +630,7 @@ def _manifest(path: Path) -> tuple[Path, dict[str, Any]]:
         )
     data = read_toml(toml, f"measured-K&C manifest {str(toml)!r}")
     where = toml.name
+    check_manifest_keys(data, where)
     if data.get("format") != FORMAT:
         raise _refuse(where, f"format must be {FORMAT!r}, but got {data.get('format')!r}")
     if data.get("version") != VERSION:
@@ -894,7 +895,6 @@ def load_measurement(
         max_bytes: read limit (:mod:`suspenv.measurements.limits`).
     """
     folder, data = _manifest(Path(path))
-    check_manifest_keys(data, MANIFEST)
     where = MANIFEST
     wheels = list(data.get("wheels", list(SIDES)))
     if both_wheels and len(wheels) < 2:
