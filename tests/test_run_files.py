@@ -217,3 +217,36 @@ def test_an_archive_without_checksums_is_migrated_and_then_checked(tmp_path):
     with RunArchive(db) as archive, pytest.raises(ValidationError, match="checksum"):
         archive.arrays()
 
+
+
+# ------------------------------------------------------------- checked at load
+@pytest.mark.parametrize(
+    ("key", "value", "needle"),
+    [
+        ("run.dask_scheduler", '"http://127.0.0.1:8786"', "run.dask_scheduler"),
+        ("run.dask_scheduler", '"tcp://"', "run.dask_scheduler"),
+        ("stduy", "{}", "unknown key 'stduy'"),  # a top-level key of no pipeline
+    ],
+)
+def test_bad_values_are_refused_when_the_config_is_loaded(tmp_path, key, value, needle):
+    with pytest.raises(ValidationError, match=needle):
+        load_config(config_file(tmp_path), [f"{key}={value}"])
+
+
+@pytest.mark.parametrize(
+    ("pipeline", "table"),
+    [("tey2014", "study"), ("identify", "identify"), ("diagnosis_benchmark", "benchmark")],
+)
+def test_every_pipeline_refuses_unknown_top_level_keys(tmp_path, pipeline, table):
+    overrides = [f'pipeline="{pipeline}"', f"{table}={{}}"]
+    load_config(config_file(tmp_path), overrides)  # its own table is known
+    with pytest.raises(ValidationError, match=f"unknown key '{table}x'; did you mean '{table}'"):
+        load_config(config_file(tmp_path), [*overrides, f"{table}x={{}}"])
+
+
+def test_a_budget_smaller_than_the_first_batch_is_refused(tmp_path):
+    p = make_problem("Sphere", dim=2)
+    with pytest.raises(ValidationError, match="budget=5 is smaller than .* first batch of 12"):
+        optimize(p, make_strategy("random", p, seed=1, batch_size=12), 5, run_dir=tmp_path)
+    with RunArchive(tmp_path) as archive:
+        assert len(archive) == 0
