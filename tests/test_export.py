@@ -7,6 +7,9 @@ constraints, attributes); optuna-dashboard need not be installed.
 
 from __future__ import annotations
 
+import re
+import sqlite3
+
 import numpy as np
 import optuna
 import pytest
@@ -19,7 +22,7 @@ from suspenv.core import DesignSpace, EvaluationBatch, Parameter, Problem
 from suspenv.core.errors import ValidationError
 from suspenv.runs.archive import RunArchive
 from suspenv.runs.config import load_config
-from suspenv.runs.export import export_optuna, storage_url
+from suspenv.runs.export import DRIVERS, export_optuna, storage_url
 from suspenv.runs.runner import run_experiment
 
 
@@ -154,3 +157,57 @@ def test_without_the_problem_the_bounds_are_the_observed_ranges(run_dir, tmp_pat
         x = archive.arrays()["x"]
     dist = study.get_trials()[0].distributions["thickness"]
     assert (dist.low, dist.high) == (x[:, 0].min(), x[:, 0].max())
+
+
+@pytest.mark.parametrize(
+    ("storage", "needle"),
+    [
+        ("foo://host/db", "unknown kind of database 'foo'"),
+        ("http://localhost:8080/db", "unknown kind of database 'http'"),
+        ("postgresql+nodriver://u@localhost/db", "unknown kind of database"),
+        ("mysql+nosuchdriver://u@h/db", "unknown kind of database"),
+        ("sqlite:///{tmp}/no/such/folder/x.db", "cannot be opened (unable to open database"),
+        ("sqlite://", "in-memory database"),
+        ("sqlite:///:memory:", "in-memory database"),
+        ("postgresql://user@:bad:port/db", "is not a database URL"),
+    ],
+)
+def test_a_bad_storage_url_is_named_before_anything_is_written(run_dir, tmp_path, storage, needle):
+    with pytest.raises(ValidationError, match=re.escape(needle)):
+        export_optuna(run_dir, storage.format(tmp=tmp_path))
+
+
+@pytest.mark.parametrize("url", ["postgresql://u@localhost/db", "mysql://u@localhost/db"])
+def test_a_missing_driver_is_named_with_its_package(run_dir, url):
+    import sqlalchemy
+
+    try:
+        sqlalchemy.create_engine(url).dispose()
+    except ImportError as exc:
+        module = exc.name
+    else:
+        pytest.skip(f"the driver of {url} is installed")
+    package = DRIVERS.get(str(module), module)
+    with pytest.raises(
+        ValidationError,
+        match=re.escape(f"{module!r}, which is not installed: pip install {package}"),
+    ):
+        export_optuna(run_dir, url)
+
+
+def test_the_runs_own_archive_and_other_databases_are_refused(run_dir, tmp_path):
+    db = run_dir / "archive.sqlite"
+    before = db.read_bytes()
+    with pytest.raises(ValidationError, match="the run's own archive"):
+        export_optuna(run_dir, str(db))
+    with pytest.raises(ValidationError, match="the run's own archive"):
+        export_optuna(run_dir, f"sqlite:///{db}")
+    assert db.read_bytes() == before
+    other = tmp_path / "other.sqlite"
+    with sqlite3.connect(other) as con:
+        con.execute("CREATE TABLE invoices (id INTEGER)")
+    with pytest.raises(ValidationError, match=r"holds tables \(invoices\) but is not an optuna"):
+        export_optuna(run_dir, str(other))
+    with sqlite3.connect(other) as con:
+        tables = {r[0] for r in con.execute("SELECT name FROM sqlite_master WHERE type='table'")}
+    assert tables == {"invoices"}

@@ -217,3 +217,74 @@ def test_an_archive_without_checksums_is_migrated_and_then_checked(tmp_path):
     with RunArchive(db) as archive, pytest.raises(ValidationError, match="checksum"):
         archive.arrays()
 
+
+
+# ------------------------------------------------------------- checked at load
+@pytest.mark.parametrize(
+    ("key", "value", "needle"),
+    [
+        ("run.dask_scheduler", '"http://127.0.0.1:8786"', "run.dask_scheduler"),
+        ("run.dask_scheduler", '"tcp://"', "run.dask_scheduler"),
+        ("stduy", "{}", "unknown key 'stduy'"),  # a top-level key of no pipeline
+    ],
+)
+def test_bad_values_are_refused_when_the_config_is_loaded(tmp_path, key, value, needle):
+    with pytest.raises(ValidationError, match=needle):
+        load_config(config_file(tmp_path), [f"{key}={value}"])
+
+
+@pytest.mark.parametrize(
+    ("pipeline", "table"),
+    [("tey2014", "study"), ("identify", "identify"), ("diagnosis_benchmark", "benchmark")],
+)
+def test_every_pipeline_refuses_unknown_top_level_keys(tmp_path, pipeline, table):
+    overrides = [f'pipeline="{pipeline}"', f"{table}={{}}"]
+    load_config(config_file(tmp_path), overrides)  # its own table is known
+    with pytest.raises(ValidationError, match=f"unknown key '{table}x'; did you mean '{table}'"):
+        load_config(config_file(tmp_path), [*overrides, f"{table}x={{}}"])
+
+
+def test_a_budget_smaller_than_the_first_batch_is_refused(tmp_path):
+    p = make_problem("Sphere", dim=2)
+    with pytest.raises(ValidationError, match="budget=5 is smaller than .* first batch of 12"):
+        optimize(p, make_strategy("random", p, seed=1, batch_size=12), 5, run_dir=tmp_path)
+    with RunArchive(tmp_path) as archive:
+        assert len(archive) == 0
+
+
+@pytest.fixture
+def small_disk(tmp_path):
+    """A 384 KiB tmpfs (needs the right to mount: skipped elsewhere)."""
+    import subprocess
+
+    mount = tmp_path / "small"
+    mount.mkdir()
+    done = subprocess.run(
+        ["mount", "-t", "tmpfs", "-o", "size=384k", "tmpfs", str(mount)],
+        capture_output=True,
+        check=False,
+    )
+    if done.returncode != 0:
+        pytest.skip(f"cannot mount a tmpfs here: {done.stderr.decode().strip()}")
+    try:
+        yield mount
+    finally:
+        subprocess.run(["umount", "-l", str(mount)], check=False)
+
+
+def test_a_full_disk_under_the_archive_is_named_and_the_archive_stays_whole(
+    small_disk, monkeypatch
+):
+    from suspenv.runs.archive import ArchiveWriter
+
+    monkeypatch.setattr(ArchiveWriter, "COMMIT_AFTER_S", 0.0)  # a commit per batch
+    p = make_problem("Sphere", dim=40)
+    with pytest.raises(InfrastructureError, match="cannot write .*archive.sqlite.*full"):
+        optimize(p, make_strategy("random", p, seed=3, batch_size=40), 40_000, run_dir=small_disk)
+    with RunArchive(small_disk) as archive:  # every committed row reads back, checksums hold
+        a = archive.arrays()
+    n = len(a["ok"])
+    assert 0 < n < 40_000 and n % 40 == 0  # whole batches only
+    np.testing.assert_array_equal(a["batch"], np.repeat(np.arange(n // 40), 40))
+    with RunArchive(small_disk) as archive:
+        assert archive.meta().get("n_evaluations", 0) <= n  # never counts what is not there

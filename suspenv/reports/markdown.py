@@ -1,7 +1,10 @@
-"""Markdown helpers shared by every report: one cell formatter, one table builder."""
+"""Markdown helpers shared by every report: one cell formatter, one table builder, one
+escaping rule for text taken from data (:func:`text`)."""
 
 from __future__ import annotations
 
+import re
+import unicodedata
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -20,13 +23,30 @@ def fmt(v: Any, digits: int = 4, missing: str = "n/a") -> str:
 
 #: characters that Markdown or HTML would read as markup in text taken from data files
 _MARKUP = {c: f"&#{ord(c)};" for c in "&<>[]`*|\\"}
+#: what starts a Markdown block (heading, list, quote, setext underline) at a line's start
+_BLOCK_START = re.compile(r"\s*([#+=-]|\d+[.)])")
+
+
+def one_line(value: object) -> str:
+    """``str(value)`` with every line break and control character (Unicode categories
+    Cc, Zl, Zp) replaced by a space: text from data cannot start a new line."""
+    return "".join(
+        " " if unicodedata.category(c) in ("Cc", "Zl", "Zp") else c for c in str(value)
+    )
 
 
 def text(value: object) -> str:
-    """Text from a data file (a recording name, a file name, a path) as literal Markdown:
-    HTML and Markdown markup characters become character references, so a name cannot
-    inject tags, images or links into a report."""
-    return "".join(_MARKUP.get(c, c) for c in str(value))
+    """Text from a data file (a recording name, a file name, a path) as literal Markdown,
+    on one line (:func:`one_line`): HTML and Markdown markup characters become character
+    references, and so does a block marker at its start (``#``, ``-``, ``+``, ``=``,
+    ``1.``), so a name cannot inject tags, images, links, headings or lists into a
+    report."""
+    out = "".join(_MARKUP.get(c, c) for c in one_line(value))
+    start = _BLOCK_START.match(out)
+    if start:
+        i = start.end() - 1
+        out = f"{out[:i]}&#{ord(out[i])};{out[i + 1 :]}"
+    return out
 
 
 def markdown_table(
@@ -37,13 +57,20 @@ def markdown_table(
     """A GitHub-flavoured Markdown table of dict rows (cells by :func:`fmt`), newline-ended.
 
     ``columns`` defaults to the first row's keys; a row without a column gets a blank cell;
-    no rows give ``"(none)"``.
+    no rows give ``"(none)"``. Every cell and header is kept on one line and a ``|`` in it
+    becomes a character reference, so that no value can break the table (markup a writer
+    puts in a cell stays: escape data with :func:`text`).
     """
     if not rows:
         return "(none)\n"
     cols = list(columns or rows[0])
-    out = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
+
+    def cell(v: object) -> str:
+        return one_line(v).replace("|", "&#124;")
+
+    out = ["| " + " | ".join(map(cell, cols)) + " |", "|" + "---|" * len(cols)]
     out += [
-        "| " + " | ".join(fmt(r.get(c, ""), missing=missing) for c in cols) + " |" for r in rows
+        "| " + " | ".join(cell(fmt(r.get(c, ""), missing=missing)) for c in cols) + " |"
+        for r in rows
     ]
     return "\n".join(out) + "\n"

@@ -467,11 +467,12 @@ class ArchiveWriter:
             self.flush()
 
     def flush(self) -> None:
-        """Commit every chunk handed over (one transaction)."""
-        chunks, self._pending = self._pending, []
+        """Commit every chunk handed over (one transaction). A failed commit (a full
+        disk) keeps them pending and raises: nothing is counted as archived that is not."""
         self._last_commit = time.perf_counter()
-        if chunks:
-            self.archive.append_chunks(chunks)
+        if self._pending:
+            self.archive.append_chunks(self._pending)
+            self._pending = []
 
     def wait(self) -> None:
         """Same as :meth:`flush` (kept for callers of the earlier background writer)."""

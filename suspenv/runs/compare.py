@@ -28,7 +28,10 @@ def load_summary(run_dir: str | Path) -> dict[str, Any]:
     try:
         summary = json.loads(path.read_text())
     except (ValueError, UnicodeDecodeError) as exc:
-        raise ValidationError(f"{str(path)!r} is not valid JSON: {exc}") from None
+        raise ValidationError(
+            f"{str(path)!r} is damaged (not valid JSON: {exc}); restore it from a copy, "
+            "or start the run anew with `suspenv run CONFIG --overwrite`"
+        ) from None
     if not isinstance(summary, dict):
         raise ValidationError(
             f"{str(path)!r} must hold a JSON object, but holds a {type(summary).__name__}"

@@ -25,9 +25,12 @@ A config (see ``configs/*.toml``)::
     retries = 3                  # retries of a chunk after a fault of the machinery
     retry_backoff_s = 1.0        # wait before the first retry; doubles for each next one
 
-Pipelines may read further tables of their own (e.g. ``[study]``), which the pipeline's
-check (:func:`suspenv.registry.pipeline_check`) validates before any work; unknown keys of
-the ``[problem]``, ``[strategy]`` and ``[run]`` tables are errors for every pipeline.
+Pipelines may read further tables of their own (:data:`PIPELINE_TABLES`, e.g.
+``[study]``), which the pipeline's check (:func:`suspenv.registry.pipeline_check`)
+validates before any work. Unknown keys are errors for every pipeline: at the top level
+(any key that is neither in :data:`KNOWN_TOP` nor one of the pipeline's own tables) and
+in the ``[problem]``, ``[strategy]`` and ``[run]`` tables. A pipeline registered by a
+user, whose tables are not known here, has its top level checked by its own check.
 """
 
 from __future__ import annotations
@@ -73,6 +76,15 @@ KNOWN_RUN = {
 }
 #: keys of the [problem] and [strategy] tables
 KNOWN_PART = {"name", "options"}
+#: the tables each shipped pipeline reads besides :data:`KNOWN_TOP`
+PIPELINE_TABLES: dict[str, set[str]] = {
+    "optimize": set(),
+    "tey2014": {"study"},
+    "identify": {"identify"},
+    "diagnosis_benchmark": {"benchmark", "diagnosis"},
+}
+#: address schemes of Dask's transports
+DASK_SCHEMES = ("tcp", "tls", "ucx", "ws", "wss", "inproc")
 
 
 def _merge(base: dict[str, Any], extra: dict[str, Any]) -> dict[str, Any]:
@@ -170,8 +182,10 @@ def validate(config: dict[str, Any], allow_code: bool = False) -> dict[str, Any]
         _check_unknown(set(cfg[table]), KNOWN_PART, f"{table}.")
     if not isinstance(cfg["pipeline"], str):
         raise ValidationError(f"config: `pipeline` must be a string, but got {cfg['pipeline']!r}")
+    tables = PIPELINE_TABLES.get(cfg["pipeline"])
+    if tables is not None:
+        _check_unknown(set(cfg), KNOWN_TOP | tables, "")
     if cfg["pipeline"] == "optimize":
-        _check_unknown(set(cfg), KNOWN_TOP, "")
         for table in ("problem", "strategy"):
             if not isinstance(cfg[table].get("name"), str):
                 raise ValidationError(
@@ -217,10 +231,12 @@ def _check_run(run: dict[str, Any]) -> None:
             f"config: `run.output` must be a folder name, but got {run['output']!r}"
         )
     address = run.get("dask_scheduler")
-    if address is not None and (not isinstance(address, str) or "://" not in address):
+    scheme, _, host = address.partition("://") if isinstance(address, str) else ("", "", "")
+    if address is not None and (scheme not in DASK_SCHEMES or not host.strip("/")):
         raise ValidationError(
-            "config: `run.dask_scheduler` must be a scheduler address such as "
-            f"'tcp://host:8786' or 'tls://host:8786', but got {address!r}"
+            "config: `run.dask_scheduler` must be a scheduler address "
+            f"({'|'.join(DASK_SCHEMES)}://host:port, e.g. 'tcp://host:8786' or "
+            f"'tls://host:8786'), but got {address!r}"
         )
     timeout = run.get("timeout_s")
     FaultPolicy(

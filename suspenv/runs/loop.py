@@ -12,7 +12,8 @@ Example::
 
 Rules:
 - ``budget`` counts evaluations. Batches are never truncated: the loop stops before a
-  batch that would not fit in what is left of the budget (stop reason says so).
+  batch that would not fit in what is left of the budget (stop reason says so); a budget
+  smaller than the first batch is a ValidationError (the run would evaluate nothing).
 - Evaluation goes through any :class:`concurrent.futures.Executor` (in-process when
   None): each batch is split into chunks (default: one per worker), and every chunk is
   handed to the archive as it completes; the archive commits them in groups, at most
@@ -247,6 +248,12 @@ def _optimize(
                 break
             U = np.atleast_2d(strategy.ask())
             n = U.shape[0]
+            if used + n > budget and b == 0:
+                raise ValidationError(
+                    f"`budget >= the first batch` must hold, but budget={budget} is smaller "
+                    f"than the strategy's first batch of {n} designs: nothing would be "
+                    f"evaluated; give a budget of at least {n}, or a smaller batch"
+                )
             if used + n > budget:
                 stop_reason = (
                     f"budget: the next batch of {n} would exceed the budget "

@@ -48,6 +48,7 @@ from suspenv.registry import (
     strategy_class,
 )
 from suspenv.runs.archive import RunArchive
+from suspenv.runs.compare import load_summary
 from suspenv.runs.evaluation import FaultPolicy
 from suspenv.runs.executors import executor_workers, make_executor
 from suspenv.runs.loop import optimize
@@ -307,20 +308,11 @@ def _check_summary(run_dir: Path) -> None:
     """Before a resume: the archive holds at least the evaluations that the run's
     ``summary.json`` counts (an archive emptied or replaced beside it would otherwise be
     evaluated again silently); a damaged summary is named."""
-    path = run_dir / "summary.json"
-    if not path.is_file():
+    if not (run_dir / "summary.json").is_file():
         return
-    try:
-        summary = json.loads(path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise ValidationError(
-            f"{str(path)!r} is damaged ({type(exc).__name__}: {exc}); start the run anew "
-            "with --overwrite, or restore the file from a copy"
-        ) from None
+    summary = load_summary(run_dir)
     with RunArchive(run_dir) as archive:
-        archive.check_count(
-            summary.get("n_evaluations") if isinstance(summary, dict) else None, str(path)
-        )
+        archive.check_count(summary.get("n_evaluations"), str(run_dir / "summary.json"))
 
 
 def run_optimize_pipeline(config: dict[str, Any], run_dir: Path) -> dict[str, Any]:

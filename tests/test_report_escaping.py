@@ -1,0 +1,54 @@
+"""Names taken from data cannot inject markup into a report (suspenv.reports.markdown).
+
+Reference: CommonMark's block rules (a line starting with ``#``, ``-``, ``+``, ``=`` or
+``1.`` starts a heading, list or setext underline) and GFM's table rule (``|`` splits
+cells, a line break ends the row); HTML's ``<``/``&``.
+"""
+
+from __future__ import annotations
+
+import re
+
+import pytest
+
+from suspenv.reports.markdown import markdown_table, text
+
+NASTY = "car 7\n# Verdict: all good\r\n- [x](http://example.invalid) <b>|</b>\u2028> quote"
+
+
+def test_text_keeps_a_name_on_one_line_without_markup():
+    out = text(NASTY)
+    assert "\n" not in out and "\r" not in out and "\u2028" not in out
+    assert not re.search(r"[<>\[\]|`*]", out)
+    assert out.startswith("car 7 # Verdict")  # the name is all there, as text
+
+
+@pytest.mark.parametrize("name", ["# heading", "- item", "+ item", "=== ", "3. item", " 2) x"])
+def test_a_block_marker_at_the_start_of_a_name_is_escaped(name):
+    out = text(name)
+    assert "&#" in out and not re.match(r"\s*([#+=-]|\d+[.)])", out)
+
+
+def test_text_leaves_plain_names_alone():
+    assert text("quarter_car rig-2024 (run 3)") == "quarter_car rig-2024 (run 3)"
+
+
+def test_a_table_cell_cannot_break_the_table():
+    table = markdown_table([{"name": NASTY, "value": 1.5}], ["name", "value"])
+    lines = table.rstrip("\n").split("\n")
+    assert len(lines) == 3  # header, rule, one row
+    assert all(line.count("|") == 3 for line in lines)
+
+
+def test_a_newline_in_a_recording_name_adds_no_heading_to_the_diagnosis_report(tmp_path):
+    from suspenv.diagnosis.component.truth import make_case
+    from suspenv.diagnosis.engine import diagnose, make_family
+    from suspenv.reports.diagnosis import write_diagnosis_report
+
+    case = make_case("damper", 1000, 0)
+    case.recording.name = "front left\n# Verdict: all good"
+    diag = diagnose(case.recording, make_family("damper", max_effects=1, screen_families=1))
+    write_diagnosis_report(diag, tmp_path)
+    report = (tmp_path / "report.md").read_text()
+    assert "\n# Verdict" not in report
+    assert "front left # Verdict: all good" in report
