@@ -124,3 +124,35 @@ def test_a_suite_run_writes_ordinary_run_directories(tmp_path):
         assert summary["n_evaluations"] == run["budget"] == 100
     with pytest.raises(ValidationError, match="budget_scale"):
         run_suite(["random"], [1], tmp_path, budget_scale=0.0, progress=False)
+
+
+def test_plugins_run_from_a_config_and_from_a_suite_run(tmp_path, monkeypatch, capsys):
+    from suspenv.analysis import compare
+    from suspenv.cli.main import main
+
+    # the user's layout: a project folder with strategies/centre.py, paths relative to it
+    root = Path(__file__).parents[1]
+    monkeypatch.chdir(root)
+    name = "strategies/centre.py:Centre"
+    cfg = tmp_path / "centre.toml"
+    cfg.write_text(
+        f'name = "centre"\nseed = 1\nbudget = 8\n[problem]\nname = "Sphere"\n'
+        f'[strategy]\nname = "{name}"\n[run]\noutput = "{tmp_path / "runs"}"\n'
+        "plots = false\nprogress = false\n"
+    )
+    # a config names code only when the user allows it
+    assert main(["run", str(cfg)]) != 0
+    assert "--allow-code" in capsys.readouterr().err
+    assert main(["run", str(cfg), "--allow-code"]) == 0
+    summary = json.loads((tmp_path / "runs" / "centre-seed1" / "summary.json").read_text())
+    assert summary["strategy"] == name and summary["n_evaluations"] == 8
+    # the command line names it directly
+    result = run_suite(
+        [name, "random"], [1, 2], tmp_path / "suite", ["sphere-10d"], budget_scale=0.01,
+        progress=False,
+    )
+    dirs = [Path(r["run_dir"]).name for r in result["runs"]]
+    assert "sphere-10d-i1-centre-Centre-seed1" in dirs
+    labels = {g.label.split("[")[0] for g in compare([r["run_dir"] for r in result["runs"]])
+              .problems[0].groups}
+    assert labels == {name, "random"}

@@ -24,7 +24,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     actions = p.add_subparsers(dest="action", metavar="ACTION")
 
     run = actions.add_parser("run", help="run strategies x seeds over the suite's instances")
-    run.add_argument("--strategies", nargs="+", required=True, help="registered strategies")
+    run.add_argument(
+        "--strategies",
+        nargs="+",
+        required=True,
+        help="registered strategies (`suspenv list`) or plug-ins strategies/FILE.py:CLASS",
+    )
     run.add_argument("--seeds", nargs="+", type=int, default=[1, 2, 3, 4, 5])
     run.add_argument(
         "--functions", nargs="+", help="suite functions or NAME/iN instances (default: all)"

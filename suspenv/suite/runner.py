@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -35,7 +36,7 @@ def suite_config(
     option validated) with its defaults filled in."""
     inst = build(function, instance)
     config = {
-        "name": f"{function}-i{instance}-{strategy}",
+        "name": f"{function}-i{instance}-{run_label(strategy)}",
         "seed": seed,
         "budget": budget,
         "description": f"suite {SUITE_VERSION}: {inst.name} with {strategy}",
@@ -43,7 +44,18 @@ def suite_config(
         "strategy": {"name": strategy, "options": dict(strategy_options or {})},
         "run": {"output": str(output), "plots": False, "progress": False, "workers": workers},
     }
-    return check_config(validate(config))
+    # a plug-in named on the command line (``path.py:Class``) is the user's own choice
+    return check_config(validate(config, allow_code=True))
+
+
+def run_label(strategy: str) -> str:
+    """A strategy as part of a run name: a registered name as it is, a plug-in
+    (``strategies/centre.py:Centre``) by its file or module and class (``centre-Centre``)."""
+    if ":" not in strategy:
+        return strategy
+    where, _, cls = strategy.rpartition(":")
+    stem = Path(where).stem if where.endswith(".py") else where.rpartition(".")[2]
+    return re.sub(r"[^A-Za-z0-9_.-]+", "_", f"{stem}-{cls}")
 
 
 def run_suite(
@@ -57,6 +69,8 @@ def run_suite(
     progress: bool = True,
 ) -> dict[str, Any]:
     """Run every strategy with every seed on the selected instances (all by default).
+    A strategy is a registered name or a plug-in ``path.py:Class`` / ``module:Class``
+    (:func:`suspenv.registry.strategy_class`).
 
     ``budget_scale`` multiplies each instance's budget (for quick looks; the table of a
     full run uses 1). Writes ``<output>/suite.json`` and returns its content.
