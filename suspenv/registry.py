@@ -13,8 +13,13 @@ name (:func:`report_function`). ``tests/test_architecture.py`` checks every targ
 from __future__ import annotations
 
 import difflib
+import hashlib
 import importlib
+import importlib.metadata
+import importlib.util
+import sys
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 from suspenv.core.errors import ValidationError
@@ -134,11 +139,68 @@ def register_strategy(name: str, target: str | Callable[..., Any], overwrite: bo
     _register(_STRATEGIES, "strategy", name, target, overwrite)
 
 
+#: the entry-point group through which an installed package registers its strategies
+#: (``[project.entry-points."suspenv.strategies"] mine = "my_package.module:Mine"``)
+ENTRY_POINT_GROUP = "suspenv.strategies"
+
+#: the methods of the strategy seam (:mod:`suspenv.strategies.base`)
+SEAM = ("ask", "tell", "stop")
+
+
+def _installed_strategies() -> None:
+    """Add the strategies installed packages register (:data:`ENTRY_POINT_GROUP`); a name
+    registered here already keeps its target. Imports nothing until one is used."""
+    for ep in importlib.metadata.entry_points(group=ENTRY_POINT_GROUP):
+        _STRATEGIES.setdefault(ep.name, ep.value)
+
+
 def strategy_class(name: str) -> Any:
+    """The strategy class registered (or installed) as ``name``, or a plug-in named by
+    where its code is: ``"strategies/centre.py:Centre"`` (a file, relative to the
+    working directory) or ``"package.module:Class"``. A plug-in is a class with the
+    seam's methods (:data:`SEAM`; a subclass of :class:`suspenv.strategies.base.Strategy`).
+    Naming code runs it: a config may do so only when the user allows it (``suspenv run
+    --allow-code``)."""
+    if ":" in name:  # a plug-in: checked for the seam's methods (SEAM)
+        return _plugin(name)
+    if name not in _STRATEGIES:
+        _installed_strategies()
     return _resolve("strategy", _STRATEGIES, name)
 
 
+def _plugin(name: str) -> Any:
+    where, _, attr = name.rpartition(":")
+    if where.endswith(".py"):
+        path = Path(where).resolve()
+        if not path.is_file():
+            raise ValidationError(f"strategy {name!r}: no file {str(path)!r}")
+        digest = hashlib.sha256(str(path).encode()).hexdigest()[:8]
+        module_name = f"suspenv_plugin_{path.stem}_{digest}"
+        module = sys.modules.get(module_name)
+        if module is None:
+            spec = importlib.util.spec_from_file_location(module_name, path)
+            assert spec is not None and spec.loader is not None
+            module = importlib.util.module_from_spec(spec)
+            sys.modules[module_name] = module  # pickled designs and pools find it
+            spec.loader.exec_module(module)
+    else:
+        try:
+            module = importlib.import_module(where)
+        except ImportError as exc:
+            raise ValidationError(f"strategy {name!r}: cannot import {where!r} ({exc})") from None
+    cls = getattr(module, attr, None)
+    if not (isinstance(cls, type) and all(callable(getattr(cls, m, None)) for m in SEAM)):
+        raise ValidationError(
+            f"strategy {name!r}: {attr!r} in {where!r} must be a class with the methods "
+            f"{', '.join(SEAM)} (a subclass of suspenv.strategies.base.Strategy), but got "
+            f"{cls!r}"
+        )
+    return cls
+
+
 def list_strategies() -> list[str]:
+    """Registered and installed strategy names (plug-ins named by path are not listed)."""
+    _installed_strategies()
     return sorted(_STRATEGIES)
 
 

@@ -1,4 +1,7 @@
-"""Contract tests for every registered strategy, plus each adapter's own promises."""
+"""Contract tests for every registered strategy and every plug-in of ``strategies/``, plus
+each adapter's own promises."""
+
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -11,6 +14,15 @@ from suspenv.registry import list_strategies, make_strategy, register_strategy, 
 from suspenv.strategies.base import Strategy
 from suspenv.strategies.extras import MissingExtraError
 
+#: the plug-ins shipped in the top-level ``strategies/`` folder, named by file
+PLUGINS = [
+    f"{f}:{cls}"
+    for f, cls in (
+        (Path(__file__).parents[1] / "strategies" / "centre.py", "Centre"),
+        (Path(__file__).parents[1] / "strategies" / "pymoo_pso.py", "PymooPSO"),
+    )
+]
+
 
 def make_or_skip(name, problem, **options):
     """``make_strategy``, or skip when the strategy's optional package is not installed."""
@@ -20,7 +32,7 @@ def make_or_skip(name, problem, **options):
         pytest.skip(str(exc))
 
 
-@pytest.mark.parametrize("name", list_strategies())
+@pytest.mark.parametrize("name", list_strategies() + PLUGINS)
 def test_contract_ask_tell_in_unit_cube(name):
     problem = make_problem("ZDT1", dim=4)
     s = make_or_skip(name, problem, seed=3)
@@ -35,7 +47,7 @@ def test_contract_ask_tell_in_unit_cube(name):
         s.tell(U, problem.evaluate_unit(U))
 
 
-@pytest.mark.parametrize("name", list_strategies())
+@pytest.mark.parametrize("name", list_strategies() + PLUGINS)
 def test_contract_same_seed_same_designs(name):
     problem = make_problem("ZDT1", dim=3)
     runs = []
@@ -52,7 +64,7 @@ def test_contract_same_seed_same_designs(name):
     assert not np.array_equal(other, runs[0][: len(other)])
 
 
-@pytest.mark.parametrize("name", list_strategies())
+@pytest.mark.parametrize("name", list_strategies() + PLUGINS)
 def test_contract_partial_tell_rejected(name):
     problem = make_problem("Sphere", dim=3)
     s = make_or_skip(name, problem, seed=0)
@@ -219,3 +231,41 @@ def test_pymoo_nsga2_approaches_zdt1_front_and_survives_failures():
     # ZDT1 Pareto front (closed form): f2 = 1 - sqrt(f1); the population lies close to it
     gap = F[:, 1] - (1 - np.sqrt(F[:, 0]))
     assert np.median(gap) < 0.05
+
+
+def test_plugin_by_file_and_module_and_refusals(tmp_path, monkeypatch):
+    problem = make_problem("Sphere", dim=2)
+    cls = strategy_class(PLUGINS[0])
+    assert cls.__name__ == "Centre" and strategy_class(PLUGINS[0]) is cls  # imported once
+    monkeypatch.syspath_prepend(str(tmp_path))
+    (tmp_path / "my_plugins.py").write_text(
+        "from suspenv.strategies.random_search import RandomSearch as Mine\nNot = int\n"
+    )
+    assert strategy_class("my_plugins:Mine").name == "random"
+    with pytest.raises(ValidationError, match="must be a class with the methods ask, tell, stop"):
+        make_strategy("my_plugins:Not", problem)
+    with pytest.raises(ValidationError, match="no file"):
+        make_strategy(str(tmp_path / "absent.py") + ":X", problem)
+    with pytest.raises(ValidationError, match="cannot import 'no_such_module'"):
+        make_strategy("no_such_module:X", problem)
+
+
+def test_installed_package_registers_through_the_entry_point_group(tmp_path, monkeypatch):
+    # an installed distribution as importlib.metadata finds it: a .dist-info folder on
+    # sys.path with entry_points.txt (what `pip install` of a package declaring
+    # [project.entry-points."suspenv.strategies"] writes)
+    (tmp_path / "ep_pkg.py").write_text(
+        "from suspenv.strategies.random_search import RandomSearch\n"
+        "class EpRandom(RandomSearch):\n    name = 'ep_random'\n"
+    )
+    info = tmp_path / "ep_pkg-1.0.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: ep-pkg\nVersion: 1.0\n")
+    (info / "entry_points.txt").write_text("[suspenv.strategies]\nep_random = ep_pkg:EpRandom\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    from suspenv import registry
+
+    monkeypatch.setattr(registry, "_STRATEGIES", dict(registry._STRATEGIES))
+    assert "ep_random" in list_strategies()
+    s = make_strategy("ep_random", make_problem("Sphere", dim=3), seed=1)
+    assert type(s).__name__ == "EpRandom" and s.ask().shape[1] == 3

@@ -124,3 +124,70 @@ def test_a_suite_run_writes_ordinary_run_directories(tmp_path):
         assert summary["n_evaluations"] == run["budget"] == 100
     with pytest.raises(ValidationError, match="budget_scale"):
         run_suite(["random"], [1], tmp_path, budget_scale=0.0, progress=False)
+
+
+def test_plugins_run_from_a_config_and_from_a_suite_run(tmp_path, monkeypatch, capsys):
+    from suspenv.analysis import compare
+    from suspenv.cli.main import main
+
+    # the user's layout: a project folder with strategies/centre.py, paths relative to it
+    root = Path(__file__).parents[1]
+    monkeypatch.chdir(root)
+    name = "strategies/centre.py:Centre"
+    cfg = tmp_path / "centre.toml"
+    cfg.write_text(
+        f'name = "centre"\nseed = 1\nbudget = 8\n[problem]\nname = "Sphere"\n'
+        f'[strategy]\nname = "{name}"\n[run]\noutput = "{tmp_path / "runs"}"\n'
+        "plots = false\nprogress = false\n"
+    )
+    # a config names code only when the user allows it
+    assert main(["run", str(cfg)]) != 0
+    assert "--allow-code" in capsys.readouterr().err
+    assert main(["run", str(cfg), "--allow-code"]) == 0
+    summary = json.loads((tmp_path / "runs" / "centre-seed1" / "summary.json").read_text())
+    assert summary["strategy"] == name and summary["n_evaluations"] == 8
+    # the command line names it directly
+    result = run_suite(
+        [name, "random"], [1, 2], tmp_path / "suite", ["sphere-10d"], budget_scale=0.05,
+        progress=False,
+    )
+    dirs = [Path(r["run_dir"]).name for r in result["runs"]]
+    assert "sphere-10d-i1-centre-Centre-seed1" in dirs
+    labels = {g.label.split("[")[0] for g in compare([r["run_dir"] for r in result["runs"]])
+              .problems[0].groups}
+    assert labels == {name, "random"}
+
+
+def test_seed_plan_says_before_running_whether_the_seeds_can_separate():
+    from suspenv.analysis.stats import min_holm_p, rank_tests
+    from suspenv.suite.runner import seed_plan
+
+    # the report: 6 strategies x 5 seeds; the floor by hand: 15 pairs x 2 / C(10, 5)
+    assert min_holm_p(6, 5) == pytest.approx(15 * 2 / 252)
+    seeds, note = seed_plan(6, [1, 2, 3, 4, 5])
+    assert seeds == [1, 2, 3, 4, 5]
+    assert "0.119 >= alpha 0.05" in note and "6 seeds are needed" in note
+    # chosen: the fewest that can (15 x 2 / C(12, 6) = 0.0325 < 0.05), never below 5
+    assert seed_plan(6, None)[0] == [1, 2, 3, 4, 5, 6]
+    assert seed_plan(2, None)[0] == [1, 2, 3, 4, 5]
+    assert "one strategy" in seed_plan(1, None)[1]
+    # the floor is what rank_tests reaches with complete separation: 6 groups, 6 seeds
+    samples = {f"s{g}": [10.0 * g + k for k in range(6)] for g in range(6)}
+    pairs = rank_tests(samples)["pairs"]
+    assert min(p["p_holm"] for p in pairs) == pytest.approx(min_holm_p(6, 6))
+    assert all("better" in p["verdict"] for p in pairs)
+
+
+def test_suite_run_refuses_repeated_seeds_and_too_short_budgets(tmp_path, capsys):
+    from suspenv.cli.main import main
+
+    with pytest.raises(ValidationError, match=r"seeds of a suite run must be distinct.*\[1, 1\]"):
+        run_suite(["random"], [1, 1], tmp_path, progress=False)
+    with pytest.raises(ValidationError, match=r"kc-exact/i1 22 evaluations for 49 variables"):
+        run_suite(["random"], [1], tmp_path, functions=["kc-exact"], budget_scale=0.01,
+                  progress=False)
+    # the command line: a named error, no traceback, nothing run
+    assert main(["suite", "run", "--strategies", "random", "--seeds", "1", "1",
+                 "--out", str(tmp_path)]) != 0
+    assert "must be distinct" in capsys.readouterr().err
+    assert not (tmp_path / SUITE_FILE).exists()

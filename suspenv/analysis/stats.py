@@ -54,6 +54,28 @@ def min_two_sided_p(n1: int, n2: int) -> float:
     return min(1.0, 2.0 / comb(n1 + n2, n1))
 
 
+def min_holm_p(n_groups: int, n_seeds: int) -> float:
+    """Smallest Holm-adjusted p the pairwise tests of ``n_groups`` groups with ``n_seeds``
+    runs each can give: Holm multiplies the smallest p by the number of pairs, so
+    ``C(n_groups, 2) * 2 / C(2 n_seeds, n_seeds)``, at most 1 (1 for fewer than 2 groups).
+    Below ``alpha`` is needed for any pair to be told apart."""
+    pairs = comb(n_groups, 2)
+    return min(1.0, pairs * min_two_sided_p(n_seeds, n_seeds)) if pairs else 1.0
+
+
+def seeds_needed(n_groups: int, alpha: float) -> int:
+    """The fewest seeds per group with :func:`min_holm_p` below ``alpha`` (1 for fewer
+    than two groups: nothing to tell apart)."""
+    if not 0 < alpha < 1:
+        raise ValidationError(f"`0 < alpha < 1` must hold, but got alpha={alpha!r}")
+    if n_groups < 2:
+        return 1
+    n = 1
+    while min_holm_p(n_groups, n) >= alpha:
+        n += 1
+    return n
+
+
 def _finite_for_ranks(x: np.ndarray, big: float) -> np.ndarray:
     return np.where(np.isfinite(x), x, big)
 

@@ -24,8 +24,22 @@ def register(sub: argparse._SubParsersAction) -> None:
     actions = p.add_subparsers(dest="action", metavar="ACTION")
 
     run = actions.add_parser("run", help="run strategies x seeds over the suite's instances")
-    run.add_argument("--strategies", nargs="+", required=True, help="registered strategies")
-    run.add_argument("--seeds", nargs="+", type=int, default=[1, 2, 3, 4, 5])
+    run.add_argument(
+        "--strategies",
+        nargs="+",
+        required=True,
+        help="registered strategies (`suspenv list`) or plug-ins strategies/FILE.py:CLASS",
+    )
+    run.add_argument(
+        "--seeds",
+        nargs="+",
+        type=int,
+        help="distinct seeds (default: 1..n, n the larger of 5 and the fewest that let "
+        "the rank tests tell the strategies apart at --alpha after Holm's correction)",
+    )
+    run.add_argument(
+        "--alpha", type=float, default=0.05, help="level of the rank tests (default 0.05)"
+    )
     run.add_argument(
         "--functions", nargs="+", help="suite functions or NAME/iN instances (default: all)"
     )
@@ -71,11 +85,13 @@ def _list(args: argparse.Namespace) -> int:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from suspenv.suite.runner import run_suite
+    from suspenv.suite.runner import run_suite, seed_plan
 
+    seeds, note = seed_plan(len(args.strategies), args.seeds, args.alpha)
+    print(note + (f" (seeds {seeds[0]}..{seeds[-1]} chosen)" if args.seeds is None else ""))
     result = run_suite(
         args.strategies,
-        args.seeds,
+        seeds,
         args.out,
         functions=args.functions,
         budget_scale=args.budget_scale,

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -35,7 +36,7 @@ def suite_config(
     option validated) with its defaults filled in."""
     inst = build(function, instance)
     config = {
-        "name": f"{function}-i{instance}-{strategy}",
+        "name": f"{function}-i{instance}-{run_label(strategy)}",
         "seed": seed,
         "budget": budget,
         "description": f"suite {SUITE_VERSION}: {inst.name} with {strategy}",
@@ -43,7 +44,77 @@ def suite_config(
         "strategy": {"name": strategy, "options": dict(strategy_options or {})},
         "run": {"output": str(output), "plots": False, "progress": False, "workers": workers},
     }
-    return check_config(validate(config))
+    # a plug-in named on the command line (``path.py:Class``) is the user's own choice
+    return check_config(validate(config, allow_code=True))
+
+
+def run_label(strategy: str) -> str:
+    """A strategy as part of a run name: a registered name as it is, a plug-in
+    (``strategies/centre.py:Centre``) by its file or module and class (``centre-Centre``)."""
+    if ":" not in strategy:
+        return strategy
+    where, _, cls = strategy.rpartition(":")
+    stem = Path(where).stem if where.endswith(".py") else where.rpartition(".")[2]
+    return re.sub(r"[^A-Za-z0-9_.-]+", "_", f"{stem}-{cls}")
+
+
+#: the shortest budget a suite run may give an instance, in evaluations per variable
+MIN_EVALUATIONS_PER_VARIABLE = 10
+
+
+def scaled_budgets(pairs: Sequence[tuple[str, int]], budget_scale: float) -> dict[str, int]:
+    """Each instance's budget times ``budget_scale`` (rounded). Rules: ``0 < budget_scale
+    <= 10``, and every scaled budget at least :data:`MIN_EVALUATIONS_PER_VARIABLE` times
+    the instance's dimension (a shorter run hardly leaves its first batches)."""
+    if not (0 < budget_scale <= 10) or not math.isfinite(budget_scale):
+        raise ValidationError(
+            f"`0 < budget_scale <= 10` must hold, but got budget_scale={budget_scale!r}"
+        )
+    out, need = {}, {}
+    for f, i in pairs:
+        inst = build(f, i)
+        out[inst.name] = round(inst.function.budget * budget_scale)
+        need[inst.name] = (MIN_EVALUATIONS_PER_VARIABLE * inst.problem.space.dim, inst)
+    short = [k for k in out if out[k] < need[k][0]]
+    if short:
+        least = max(need[k][0] / need[k][1].function.budget for k in need)
+        k = short[0]
+        raise ValidationError(
+            f"budget_scale={budget_scale!r} gives {k} {out[k]} evaluations for "
+            f"{need[k][1].problem.space.dim} variables, but a suite budget must be at least "
+            f"{MIN_EVALUATIONS_PER_VARIABLE} evaluations per variable ({need[k][0]}; "
+            f"{len(short)} instance(s) short): use budget_scale >= "
+            f"{math.ceil(least * 1000) / 1000:g} for these instances"
+        )
+    return out
+
+
+def seed_plan(
+    n_strategies: int, seeds: Sequence[int] | None, alpha: float = 0.05
+) -> tuple[list[int], str]:
+    """The seeds of a suite run and what they can tell apart, said before running.
+
+    ``seeds`` None: seeds 1..n with n the larger of 5 and the fewest that let the rank
+    tests separate ``n_strategies`` strategies at ``alpha`` after Holm's correction
+    (:func:`suspenv.analysis.stats.seeds_needed`). Given seeds are kept; the message
+    then says whether they can."""
+    from suspenv.analysis.stats import min_holm_p, seeds_needed
+
+    need = seeds_needed(n_strategies, alpha)
+    chosen = list(seeds) if seeds is not None else list(range(1, max(5, need) + 1))
+    n = len(chosen)
+    floor = min_holm_p(n_strategies, n)
+    if n_strategies < 2:
+        return chosen, f"{n} seed(s), one strategy: no rank test"
+    head = (
+        f"{n_strategies} strategies with {n} seeds each: the smallest attainable "
+        f"Holm-adjusted p of the pairwise rank tests is {floor:.3g}"
+    )
+    if floor < alpha:
+        return chosen, f"{head} < alpha {alpha:g}: they can be told apart"
+    return chosen, (
+        f"{head} >= alpha {alpha:g}: no pair can be told apart; {need} seeds are needed"
+    )
 
 
 def run_suite(
@@ -57,22 +128,27 @@ def run_suite(
     progress: bool = True,
 ) -> dict[str, Any]:
     """Run every strategy with every seed on the selected instances (all by default).
+    A strategy is a registered name or a plug-in ``path.py:Class`` / ``module:Class``
+    (:func:`suspenv.registry.strategy_class`).
 
     ``budget_scale`` multiplies each instance's budget (for quick looks; the table of a
     full run uses 1). Writes ``<output>/suite.json`` and returns its content.
     """
     if not strategies or not seeds:
         raise ValidationError("a suite run needs at least one strategy and one seed")
-    if not (0 < budget_scale <= 10) or not math.isfinite(budget_scale):
-        raise ValidationError(
-            f"`0 < budget_scale <= 10` must hold, but got budget_scale={budget_scale!r}"
-        )
+    for what, items in (("strategies", strategies), ("seeds", seeds)):
+        if len(set(items)) != len(items):
+            raise ValidationError(
+                f"the {what} of a suite run must be distinct (a repeated one would be "
+                f"counted twice), but got {list(items)}"
+            )
     output = Path(output)
     pairs = selection(list(functions) if functions else None)
+    budgets = scaled_budgets(pairs, budget_scale)
     jobs = [(f, i, s, seed) for f, i in pairs for s in strategies for seed in seeds]
     configs = []
     for f, i, s, seed in jobs:  # every config checked before any run starts
-        budget = max(1, round(build(f, i).function.budget * budget_scale))
+        budget = budgets[f"{f}/i{i}"]
         configs.append(
             suite_config(f, i, s, seed, output, budget, (strategy_options or {}).get(s), workers)
         )
