@@ -392,8 +392,12 @@ def from_results(
     row: int = 0,
     *,
     source: str = "suspenv virtual K&C rig",
+    travel_drive: str = "pad",
 ) -> KncMeasurement:
     """Rig results (:func:`suspenv.rigs.knc.run_tests`) as a measurement.
+
+    ``travel_drive``: what the travel tests drove (:data:`TRAVEL_DRIVES`, the
+    ``run_tests`` keyword of the results), kept in the manifest.
 
     Design ``row`` of every result; the channels of :data:`CHANNELS` the result holds
     (SI, raw ISO 8855, unchanged); drive = ``grid[path]``; branch =
@@ -401,6 +405,10 @@ def from_results(
     channel; the other channels get :func:`estimate_noise` (for noise-free simulated
     data, its small floor). A design whose rig test failed is refused.
     """
+    if travel_drive not in TRAVEL_DRIVES:
+        raise ValidationError(
+            f"`travel_drive` must be one of {TRAVEL_DRIVES}, but got {travel_drive!r}"
+        )
     tests: dict[str, MeasuredTest] = {}
     amplitude: dict[str, float] = {}
     steps_of: dict[str, int] = {}
@@ -433,7 +441,7 @@ def from_results(
         {
             "source": source,
             "sign_convention": SIGN_CONVENTION,
-            "travel_drive": "pad",
+            "travel_drive": travel_drive,
             "wheels": list(SIDES),
             "amplitude": amplitude,
             "steps": steps_of,

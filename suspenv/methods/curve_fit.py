@@ -123,9 +123,11 @@ def rig_run(
     steps: int,
     effects: Sequence[Effect],
     amplitudes: Mapping[str, float],
+    travel_drive: str = "pad",
 ) -> dict[str, KCResult]:
     """:func:`suspenv.rigs.knc.run_tests` with the amplitude keywords of ``amplitudes``
-    (:func:`amplitude_kwargs`; a keyword not given keeps the rig's default)."""
+    (:func:`amplitude_kwargs`; a keyword not given keeps the rig's default) and the
+    travel tests' ``travel_drive`` (pads or wheel centres)."""
     from suspenv.rigs import knc as rig
 
     return run_tests(
@@ -137,6 +139,7 @@ def rig_run(
         force_amplitude=float(amplitudes.get("force_amplitude", rig.FORCE_AMPLITUDE)),
         moment_amplitude=float(amplitudes.get("moment_amplitude", rig.MOMENT_AMPLITUDE)),
         rack_amplitude=float(amplitudes.get("rack_amplitude", rig.RACK_AMPLITUDE)),
+        travel_drive=travel_drive,
     )
 
 
@@ -229,6 +232,8 @@ class CurveModel:
         chunk: designs per rig call (bounded memory, about 0.5 MB per design and test).
         orientation: bushing frame orientations of the vehicle (see
             :func:`suspenv.models.mcpherson.params.build_axle`).
+        travel_drive: what the measured travel tests drove, ``"pad"`` or
+            ``"wheel_centre"`` (:func:`suspenv.rigs.knc.run_tests`).
     """
 
     def __init__(
@@ -243,7 +248,9 @@ class CurveModel:
         two_sided: bool = False,
         chunk: int = 64,
         orientation: Mapping[str, Sequence[float]] | None = None,
+        travel_drive: str = "pad",
     ):
+        self.travel_drive = travel_drive
         self.tests = list(tests)
         if not self.tests:
             raise ValidationError("the fit needs at least one measured test, but got none")
@@ -359,7 +366,7 @@ class CurveModel:
             b = min(n, a + self.chunk)
             axle = self.axle(X[a:b])
             for steps, kw, names in groups:
-                res = rig_run(axle, names, steps, self.effects, kw)
+                res = rig_run(axle, names, steps, self.effects, kw, self.travel_drive)
                 for t, r in res.items():
                     out[t].append(r)
                     for i in np.flatnonzero(~r.ok):

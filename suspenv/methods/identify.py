@@ -285,11 +285,6 @@ def build_model(
     orientation, effects); the tests the rig cannot simulate are refused."""
     from suspenv.measurements.knc import ALL_TESTS
 
-    if measurement.meta.get("travel_drive", "pad") != "pad":
-        raise ValidationError(
-            'identify: travel tests must drive the wheel pads (`travel_drive = "pad"`), but '
-            f"the measurement says travel_drive = {measurement.meta.get('travel_drive')!r}"
-        )
     unknown = [t for t in measurement.tests if t not in ALL_TESTS]
     if unknown:
         raise ValidationError(
@@ -315,6 +310,7 @@ def build_model(
         vehicle.effects,
         two_sided=two_sided,
         orientation=vehicle.orientation,
+        travel_drive=measurement.meta.get("travel_drive", "pad"),
     )
 
 
@@ -332,7 +328,7 @@ def _simulated_tests(
         "rack_amplitude": rig.RACK_AMPLITUDE,
     }
     steps = model.tests[0].steps
-    res = rig_run(model.axle(x[None]), tests, steps, model.effects, kw)
+    res = rig_run(model.axle(x[None]), tests, steps, model.effects, kw, model.travel_drive)
     out = []
     channels = sorted(model.sigma)
     for t, r in res.items():
@@ -402,7 +398,9 @@ def screen_residual(model: CurveModel, measurement: Any, x: np.ndarray) -> dict[
         if not all(ch in meas.channels for ch, _, _ in REC_CHANNELS.values()):
             return {"skipped": f"test {t.test} lacks a channel the screen reads"}
         amps = amplitude_kwargs(t.test, t.amplitude)
-        sim = rig_run(model.axle(x[None]), (t.test,), t.steps, model.effects, amps)[t.test]
+        sim = rig_run(
+            model.axle(x[None]), (t.test,), t.steps, model.effects, amps, model.travel_drive
+        )[t.test]
         rec = to_recording(meas)
         p = channels_of(sim)
         recs.append(rec)

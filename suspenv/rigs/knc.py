@@ -75,6 +75,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from suspenv.core.errors import ValidationError
+from suspenv.measurements import knc_file
 from suspenv.measurements.knc import ALL_TESTS, DRIVE_UNIT, FORCE_TESTS, STEER_TESTS, TESTS
 from suspenv.models.effects import Effect
 from suspenv.models.mcpherson.params import Axle
@@ -109,8 +110,15 @@ MOMENT_AMPLITUDE = 250.0
 RACK_AMPLITUDE = 0.030
 
 #: the rig's input at one grid point: (pad heights (rows, 2) [m], wheel load
-#: (rows, 2, 6|9) [N, N*m] or None, rack travel (rows, 2) [m] or None)
-Load = tuple[np.ndarray, np.ndarray | None, np.ndarray | None]
+#: (rows, 2, 6|9) [N, N*m] or None, rack travel (rows, 2) [m] or None, wheel-centre
+#: heights to reach (rows, 2) [m] (NaN: the pad is held) or None); with wheel-centre
+#: heights the pad heights are the solver's first guess, which it moves in place
+Load = tuple[np.ndarray, np.ndarray | None, np.ndarray | None, np.ndarray | None]
+#: what a travel test drives (``run_tests``' ``travel_drive``, the measured-K&C format's
+#: :data:`~suspenv.measurements.knc_file.TRAVEL_DRIVES`): the pads, or the wheel centres
+#: (the rig moves each driven wheel's pad until its wheel centre is at the stroke, as a
+#: rig in wheel-centre travel control does)
+TRAVEL_DRIVES = knc_file.TRAVEL_DRIVES
 #: step descriptions of failure messages: drive name, scale to the shown unit, shown unit
 _DRIVE_NAME = {
     "lateral": "contact force",
@@ -277,6 +285,7 @@ def run_tests(
     rack_amplitude: float = RACK_AMPLITUDE,
     channels: Sequence[str] | None = None,
     window: int | None = None,
+    travel_drive: str = "pad",
 ) -> dict[str, KCResult]:
     """Run the rig ``tests`` on every design of ``axle``; returns {test: KCResult}.
 
@@ -302,8 +311,18 @@ def run_tests(
     channel its value at the loop's visit of that point (a failed row's frozen state
     from its failing step on, as without a window), computed at those points only (less
     memory and time). A path-dependent model (or ``reuse_revisits=False``) keeps every
-    grid point: its loop's branches differ at the window's edges.
+    grid point: its loop's branches differ at the window's edges. ``travel_drive``
+    (:data:`TRAVEL_DRIVES`): ``"pad"`` drives the travel tests' pads by the stroke;
+    ``"wheel_centre"`` drives the wheel centres instead (each moving wheel's centre
+    height from its static height by the stroke, the same signs; the pad of a still
+    wheel, the right one of ``single``, stays at its static height): the grid is then
+    the left wheel centre's travel, and the ``pad_z`` channel holds the pad heights the
+    rig needed.
     """
+    if travel_drive not in TRAVEL_DRIVES:
+        raise ValidationError(
+            f"`travel_drive` must be one of {TRAVEL_DRIVES}, but got {travel_drive!r}"
+        )
     _check_tests(tuple(tests))
     if not force_amplitude > 0:
         raise ValidationError(f"`force_amplitude > 0` must hold, but got {force_amplitude} N")
@@ -379,18 +398,24 @@ def run_tests(
     pad0 = solver.pad_static
     _fail(ok, msgs, ~conv0[tile], "ConvergenceError: no static equilibrium at the design position")
     st = solver.commit(st)
+    # wheel-centre drive: the static wheel-centre heights of the moving wheels (NaN: held
+    # by the pad)
+    centre0 = (
+        np.where(signs != 0, st.r[:, :, 1, 2], np.nan) if travel_drive == "wheel_centre" else None
+    )
 
     def where_text(gi: int) -> str:
         parts = []
         for t in tests:
             scale, shown, digits = _DRIVE_SHOWN[DRIVE_UNIT[t]]
             value = test_grids[t][gi] * scale
-            parts.append(f"{_DRIVE_NAME.get(t, 'stroke')} {value:+.{digits}f} {shown}")
+            stroke = "wheel-centre travel" if centre0 is not None else "stroke"
+            parts.append(f"{_DRIVE_NAME.get(t, stroke)} {value:+.{digits}f} {shown}")
         return ", ".join(dict.fromkeys(parts))
 
     # step descriptions of failure messages, formatted once per grid point when asked for
     where_at = _Texts(where_text)
-    sweep = _Sweep(pad0, signs, grid, row_grid, ext_dir, rack_dir)
+    sweep = _Sweep(pad0, signs, grid, row_grid, ext_dir, rack_dir, centre0)
     if reuse:
         legs = solver.take(np.tile(np.arange(rows), 2), axle=False)  # leg x test x design
         st_box = [st]  # (the sweep frees the static state once its legs start from it)
@@ -427,8 +452,9 @@ class _Sweep:
     """The rig's inputs of every row (test x design): static pad heights ``pad0`` (m, 2)
     [m], pad sign per unit stroke ``signs`` (m, 2), the travel grid ``grid`` (G,) [m],
     each row's drive grid ``row_grid`` (m, G) (:data:`DRIVE_UNIT`), the wheel load per
-    unit drive ``ext_dir`` (m, 2, 6|9) or None and the rack travel per unit drive
-    ``rack_dir`` (m, 2) or None."""
+    unit drive ``ext_dir`` (m, 2, 6|9) or None, the rack travel per unit drive
+    ``rack_dir`` (m, 2) or None and, for a wheel-centre travel drive, the static
+    wheel-centre heights ``centre0`` (m, 2) [m] (NaN where the pad is held) or None."""
 
     pad0: np.ndarray
     signs: np.ndarray
@@ -436,23 +462,29 @@ class _Sweep:
     row_grid: np.ndarray
     ext_dir: np.ndarray | None
     rack_dir: np.ndarray | None
+    centre0: np.ndarray | None = None
 
     def load(self, gi: np.ndarray | int, reps: int = 1) -> Load:
         """The rig's input at grid index ``gi`` (an int, or one per row of ``reps``
         stacked copies of the rows): (pad heights (reps*m, 2) [m], wheel load
-        (reps*m, 2, 6|9) or None, rack travel (reps*m, 2) [m] or None)."""
+        (reps*m, 2, 6|9) or None, rack travel (reps*m, 2) [m] or None, wheel-centre
+        heights (reps*m, 2) [m] or None)."""
         m = self.pad0.shape[0]
         if reps == 1 and np.ndim(gi) == 0:  # one grid point for every row
             drive = self.row_grid[:, gi]
             ext = None if self.ext_dir is None else self.ext_dir * drive[:, None, None]
             rack = None if self.rack_dir is None else self.rack_dir * drive[:, None]
-            return self.pad0 + self.signs * self.grid[gi], ext, rack
+            stroke = self.signs * self.grid[gi]
+            centre = None if self.centre0 is None else self.centre0 + stroke
+            return self.pad0 + stroke, ext, rack, centre
         g = np.broadcast_to(np.asarray(gi), (reps * m,))
         rr = _tiled_rows(m, reps)
         drive = self.row_grid[rr, g]
         ext = None if self.ext_dir is None else self.ext_dir[rr] * drive[:, None, None]
         rack = None if self.rack_dir is None else self.rack_dir[rr] * drive[:, None]
-        return self.pad0[rr] + self.signs[rr] * self.grid[g][:, None], ext, rack
+        stroke = self.signs[rr] * self.grid[g][:, None]
+        centre = None if self.centre0 is None else self.centre0[rr] + stroke
+        return self.pad0[rr] + stroke, ext, rack, centre
 
 
 @functools.lru_cache(maxsize=8)
@@ -756,14 +788,21 @@ def _step(solver, st, load_prev, load, ok, msgs, J, at, history, seen=None, rel=
     """One rig step: predictor, Newton corrector, sub-stepping retry of failing rows.
 
     ``load_prev`` / ``load`` are (pad heights (n, 2) [m], wheel load (n, 2, 6|9) or
-    None, rack travel (n, 2) [m] or None) before and after the step; ``at`` describes
+    None, rack travel (n, 2) [m] or None, wheel-centre heights (n, 2) [m] or None: see
+    :data:`Load`) before and after the step; a wheel-centre drive's pads are first
+    guessed from the last step's (moved by the change of the wheel-centre height) and
+    then moved by the solver, in place; ``at`` describes
     the step for messages (text, or row -> text: ``"step k (drive)"``). ``J``: inverse
     Jacobians, per row (n, 66, 66) or a :class:`SharedInverse`. Predictor: the state
     last converged at the same grid point (a revisit; exact for a path-independent
     model), else extrapolation along the leg (quadratic from the three states of
     ``history``, linear from two), else the tangent ``-J^-1 dres/dload``.
     """
-    (pad_prev, ext_prev, rack_prev), (pad, ext, rack) = load_prev, load
+    (pad_prev, ext_prev, rack_prev, centre_prev), (pad, ext, rack, centre) = load_prev, load
+    guess = None
+    if centre is not None and centre_prev is not None:
+        np.copyto(pad, pad_prev + (centre - centre_prev), where=np.isfinite(centre))
+        guess = pad.copy()  # the sub-steps below start from it
     # the prediction goes straight to Newton, which frees each iterate it leaves (memory)
     new, conv, J = solver.solve(
         _prediction(solver, st, load_prev, load, ok, J, history, seen, rel),
@@ -772,6 +811,7 @@ def _step(solver, st, load_prev, load, ok, msgs, J, at, history, seen=None, rel=
         active=ok,
         Jinv=J,
         rack=rack,
+        centre=centre,
     )
     bad = ok & ~conv
     if bad.any():  # retry the failing rows from the last converged state in 4 sub-steps
@@ -780,15 +820,21 @@ def _step(solver, st, load_prev, load, ok, msgs, J, at, history, seen=None, rel=
         trial = st.take(idx)
         sub_ok = np.ones(idx.size, bool)
         Jt = None
+        aim = pad if guess is None else guess
         for f in (0.25, 0.5, 0.75, 1.0):
-            p = pad_prev[idx] + f * (pad[idx] - pad_prev[idx])
+            p = pad_prev[idx] + f * (aim[idx] - pad_prev[idx])
             e = None if ext is None else ext_prev[idx] + f * (ext[idx] - ext_prev[idx])
             q = None if rack is None else rack_prev[idx] + f * (rack[idx] - rack_prev[idx])
-            trial, c, Jt = sub.solve(trial, p, e, active=sub_ok, Jinv=Jt, rack=q)
+            c_ = None
+            if centre is not None and centre_prev is not None:
+                c_ = centre_prev[idx] + f * (centre[idx] - centre_prev[idx])
+            trial, c, Jt = sub.solve(trial, p, e, active=sub_ok, Jinv=Jt, rack=q, centre=c_)
             sub_ok &= c
         rescued = np.zeros_like(bad)
         rescued[idx[sub_ok]] = True
         new.assign(_scatter(trial, idx, new), rescued)
+        if guess is not None:  # the rescued rows' pads; the failed rows' last ones
+            pad[idx] = np.where(sub_ok[:, None], p, pad_prev[idx])
 
         def message(i: int) -> str:
             return (
@@ -808,7 +854,7 @@ def _step(solver, st, load_prev, load, ok, msgs, J, at, history, seen=None, rel=
 def _prediction(solver, st, load_prev, load, ok, J, history, seen, rel) -> AxleState:
     """The predictor of :func:`_step` (its docstring): the revisited state, the
     extrapolation along the leg, or the tangent."""
-    (pad_prev, ext_prev, rack_prev), (pad, ext, rack) = load_prev, load
+    (pad_prev, ext_prev, rack_prev, _), (pad, ext, rack, _) = load_prev, load
     if seen is not None:
         pred = st.copy()
         rows = ok[:, None, None, None]

@@ -1052,13 +1052,17 @@ class AxleSolver:
             None if st.fric is None else (st.fric[0].copy(), st.fric[1].copy()),
         )
 
-    def _step_size(self, dx: np.ndarray) -> np.ndarray:
+    def _step_size(self, dx: np.ndarray, dp: np.ndarray | None = None) -> np.ndarray:
         """Per-row size (n,) of a Newton step relative to the tolerances (< 1: converged):
         the largest of its translations over ``xtol``, rotations over ``rtol`` and
-        multipliers over ``ltol`` (NaN for a step that is not finite)."""
+        multipliers over ``ltol`` (NaN for a step that is not finite), and of the pad
+        steps ``dp`` (n, 2) [m] of a wheel-centre drive over ``xtol``."""
         size = np.abs(dx)
         size /= _tolerances(self.xtol, self.rtol, self.ltol)  # in place (memory)
-        return size.max(axis=-1)
+        out = size.max(axis=-1)
+        if dp is not None:
+            out = np.maximum(out, np.abs(dp).max(axis=-1) / self.xtol)
+        return out
 
     def solve(
         self,
@@ -1068,6 +1072,7 @@ class AxleSolver:
         active: np.ndarray | None = None,
         Jinv: np.ndarray | SharedInverse | None = None,
         rack: np.ndarray | None = None,
+        centre: np.ndarray | None = None,
     ) -> tuple[AxleState, np.ndarray, np.ndarray | SharedInverse]:
         """Newton iteration from ``st`` for pad heights ``pad`` (n, 2), extra wheel load
         ``ext`` and rack travel ``rack`` (n, 2) [m] (see :meth:`residual`).
@@ -1080,6 +1085,12 @@ class AxleSolver:
         element). Returns (state, converged (n,) bool, inverse Jacobian);
         ``Jinv`` is updated in place. Rows not in ``active`` are left untouched and
         reported as not converged.
+
+        ``centre`` (n, 2) [m]: wheel-centre heights to reach (NaN: that wheel's pad is
+        held at ``pad``), the rig's wheel-centre travel drive: the pad heights of those
+        wheels become unknowns, updated in place in ``pad`` with the bordered Newton step
+        of :class:`_CentreDrive`; a row has converged when its pad steps are below
+        ``xtol`` too.
         """
         n = self.n
         active = np.ones(n, bool) if active is None else active.copy()
@@ -1092,6 +1103,7 @@ class AxleSolver:
             Jinv = self.inverse_jacobian(st, pad, ext, active, rack)
             fresh[:] = True
         finite = np.ones(n, bool)  # rows whose last Newton step was finite
+        drive = None if centre is None else _CentreDrive(self, st, Jinv, centre)
         for _ in range(self.maxit):
             self.stats["residuals"] += 1
             need = active & ~conv & finite
@@ -1117,7 +1129,8 @@ class AxleSolver:
                 res = self.residual(st.r, st.R, st.lam, pad, st, ext, rack=rack).reshape(n, 2 * NS)
             dx = _inv_mul(Jinv, res)  # a new array: negated in place (memory)
             np.negative(dx, out=dx)
-            size = self._step_size(dx)
+            dp = None if drive is None else drive.border(st, dx)
+            size = self._step_size(dx, dp)
             ok = np.isfinite(size)
             finite = ok
             todo = active & ~conv & ok
@@ -1138,7 +1151,9 @@ class AxleSolver:
                     Jinv[refresh] = fresh_inv
                 dx[refresh] = -np.matmul(fresh_inv, res[refresh][..., None])[..., 0]
                 del fresh_inv  # kept by Jinv (memory)
-                size = np.where(refresh, self._step_size(dx), size)
+                if drive is not None and dp is not None:
+                    dp = np.where(refresh[:, None], drive.border(st, dx, refresh), dp)
+                size = np.where(refresh, self._step_size(dx, dp), size)
             del res  # not read again this iteration (memory)
             stuck = todo & fresh & (size > 0.9 * prev)  # exact Newton cycles: damp
             alpha = np.where(stuck, np.maximum(0.5 * alpha, 1.0 / 64), alpha)
@@ -1148,6 +1163,8 @@ class AxleSolver:
             dx *= step[:, None]  # in place (memory): dx is not read again
             dx[~todo] = 0.0
             st = self._apply(st, dx, todo)
+            if dp is not None:  # the driven wheels' pads move with the step
+                pad += np.where(todo[:, None], dp * step[:, None], 0.0)
             del dx  # freed before the next iteration makes its own (memory)
             small = todo & (size < 1.0)
             # path-dependent elements: the kink of a reversal can leave the first small step
@@ -1279,6 +1296,46 @@ class AxleSolver:
             )
         keep = OUTPUT_NAMES if names is None else [k for k in OUTPUT_NAMES if k in names]
         return {k: np.array(out[k], dtype=float) for k in keep}
+
+
+#: the wheel-centre height of side ``s`` among a row's unknowns (knuckle z): s*NS + this
+_WC_Z = 6 + 2
+
+
+class _CentreDrive:
+    """The rig's wheel-centre travel drive in :meth:`AxleSolver.solve`: the driven
+    wheels' pad heights ``p`` are unknowns beside the state ``x``, with the equations
+    ``z_wc(x) = centre``. The bordered Newton step from the state step ``dx0 = -J^-1
+    res`` (chord inverse ``J^-1``): ``dx = dx0 - (J^-1 B) dp`` with ``B = dres/dpad``
+    (:meth:`AxleSolver.pad_sensitivity`, one column per wheel) and ``dp`` from
+    ``C dx = centre - z_wc``, i.e. ``(C J^-1 B) dp = C dx0 - (centre - z_wc)``, ``C``
+    picking the wheel-centre heights; a wheel whose ``centre`` is NaN keeps ``dp = 0``.
+    ``J^-1 B`` is taken once, at the state the solve starts from (a chord, as ``J^-1``).
+    """
+
+    def __init__(self, solver: AxleSolver, st: AxleState, Jinv, centre: np.ndarray):
+        n = solver.n
+        B = np.zeros((2, n, 2 * NS))  # column per wheel: d(residual)/d(its pad)
+        sens = solver.pad_sensitivity(st)  # (n, 2, NS)
+        for w in (0, 1):
+            B[w, :, w * NS : (w + 1) * NS] = sens[:, w]
+        self.JB = np.stack([_inv_mul(Jinv, B[w]) for w in (0, 1)], axis=-1)  # (n, 66, 2)
+        self.driven = np.isfinite(centre)
+        self.centre = np.where(self.driven, centre, 0.0)
+        S = self.JB[:, [_WC_Z, NS + _WC_Z], :]  # (n, 2 wheel heights, 2 pads)
+        both = self.driven[:, :, None] & self.driven[:, None, :]
+        self.S = np.where(both, S, np.eye(2))  # undriven: dp = 0 (identity, zero rhs)
+
+    def border(self, st: AxleState, dx: np.ndarray, rows: np.ndarray | None = None) -> np.ndarray:
+        """The pad steps ``dp`` (n, 2) [m] of the state steps ``dx`` (n, 66), which it
+        corrects in place (``rows``: those rows only, bool mask; the others' ``dp`` 0)."""
+        rows = np.ones(dx.shape[0], bool) if rows is None else rows
+        gap = self.centre - st.r[:, :, 1, 2]  # centre - z_wc
+        rhs = np.where(self.driven, dx[:, [_WC_Z, NS + _WC_Z]] - gap, 0.0)
+        dp = np.linalg.solve(self.S, rhs[..., None])[..., 0]
+        dp[~rows] = 0.0
+        dx -= np.matmul(self.JB, dp[..., None])[..., 0]
+        return dp
 
 
 def dahl_step(x_prev, x, sigma, f_c, z_prev, eps) -> np.ndarray:
