@@ -24,8 +24,13 @@ from suspenv.core.errors import ValidationError
 from suspenv.metrics.iso2631 import weighted_rms_fft, weighting_magnitude
 from suspenv.models.effects.effect import Effect
 from suspenv.models.minibus.ride_model import RideModel, SeatMount
-from suspenv.models.minibus.vehicle import LOAD_CASES, REFERENCE_MINIBUS, Minibus
-from suspenv.rigs.ride import RandomRoad, _stacked_params, random_road_run
+from suspenv.models.minibus.vehicle import (
+    LOAD_CASES,
+    REFERENCE_MINIBUS,
+    Minibus,
+    stacked_vehicle_parameters,
+)
+from suspenv.rigs.ride import RandomRoad, random_road_run
 from suspenv.rigs.road import CLASS_BAND, temporal_psd, track_coherence
 
 #: ride objective methods: exact spectral integral of the (equivalent-)linear model, or
@@ -691,7 +696,7 @@ def _spectral_split(
 ) -> dict[str, np.ndarray]:
     """:func:`ride_spectral` of one chunk through the model's two decoupled halves
     (:class:`_Halves`; no seat)."""
-    model = RideModel(_stacked_params(X, cases, vehicle), linear=not equivalent_linear)
+    model = RideModel(stacked_vehicle_parameters(X, cases, vehicle), linear=not equivalent_linear)
     n, nq, npos = model.n, model.nq, model.n_pos
     minv = np.zeros((n, nq, nq))
     idx = np.arange(nq)
@@ -743,7 +748,7 @@ def _spectral_full(
 ) -> dict[str, np.ndarray]:
     """:func:`ride_spectral` of one chunk by the modal expansion of the whole first-order
     system (all 2 nq states, every wheel input; :func:`modal_form`)."""
-    params = _stacked_params(X, cases, vehicle)
+    params = stacked_vehicle_parameters(X, cases, vehicle)
     lin = RideModel(params, seat=seat, linear=True)
     Co = _output_matrix(lin)
 

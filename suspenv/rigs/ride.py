@@ -39,7 +39,7 @@ from suspenv.models.minibus.vehicle import (
     LOAD_CASES,
     REFERENCE_MINIBUS,
     Minibus,
-    vehicle_parameters,
+    stacked_vehicle_parameters,
 )
 from suspenv.rigs.road import contact_length_filter, generate_profile, triangular_bump
 
@@ -117,10 +117,6 @@ def random_road_inputs(
     return z, zd
 
 
-def _stacked_params(X: np.ndarray, load_cases: Sequence[str], vehicle: Minibus) -> list:
-    return [vehicle_parameters(X, lc, vehicle) for lc in load_cases]
-
-
 def random_road_run(
     X: np.ndarray,
     load_cases: str | Sequence[str] = LOAD_CASES,
@@ -139,7 +135,11 @@ def random_road_run(
     road = road or RandomRoad()
     cases = [load_cases] if isinstance(load_cases, str) else list(load_cases)
     model = RideModel(
-        _stacked_params(X, cases, vehicle), effects=effects, seat=seat, linear=linear, dtype=dtype
+        stacked_vehicle_parameters(X, cases, vehicle),
+        effects=effects,
+        seat=seat,
+        linear=linear,
+        dtype=dtype,
     )
     z, zd = random_road_inputs(road, vehicle)
     return model.simulate(z, zd, road.dt, record_states=record_states, discard=road.n_settle)
@@ -209,7 +209,7 @@ def pulse_run(
     """Pulse test: peak |vertical acceleration| (m/s^2) above front and rear suspension."""
     pulse = pulse or PulseBump()
     cases = [load_cases] if isinstance(load_cases, str) else list(load_cases)
-    model = RideModel(_stacked_params(X, cases, vehicle), effects=effects, seat=seat)
+    model = RideModel(stacked_vehicle_parameters(X, cases, vehicle), effects=effects, seat=seat)
     z, zd = pulse_inputs(pulse, vehicle)
     rec = model.simulate(z, zd, 1.0 / pulse.sample_rate)
     return PulseResult(

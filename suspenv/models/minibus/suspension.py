@@ -15,14 +15,11 @@ designs (arrays of shape (n,)) and a batch of states (n, ...) work alike.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from dataclasses import dataclass
 
 import numpy as np
 
 from suspenv.core.errors import ValidationError
-
-if TYPE_CHECKING:
-    from suspenv.models.minibus.vehicle import DamperCurve
 
 
 # ------------------------------------------------------------------ two-stage leaf
@@ -74,6 +71,23 @@ def spring_pair_roll_stiffness(rate: np.ndarray | float, spacing: float) -> np.n
 
 
 # ------------------------------------------------------------------ dampers
+@dataclass(frozen=True)
+class DamperCurve:
+    """Nonlinear, asymmetric, digressive damper characteristic at the wheel (scale 1).
+
+    Force (N, resisting motion) vs suspension velocity v (m/s, + = bump):
+    ``c_low * v`` up to the knee speed, then slope ``c_high`` beyond it, with separate
+    values in bump and rebound. The design scale C multiplies the whole curve.
+    """
+
+    bump_low: float  # N*s/m
+    bump_high: float  # N*s/m
+    bump_knee: float  # m/s
+    rebound_low: float  # N*s/m
+    rebound_high: float  # N*s/m
+    rebound_knee: float  # m/s
+
+
 def damper_force(v: np.ndarray, curve: DamperCurve, scale: np.ndarray | float = 1.0) -> np.ndarray:
     """Damper force (N, + resists bump) at compression rate v (m/s), curve scaled by ``scale``.
 

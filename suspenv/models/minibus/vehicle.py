@@ -19,6 +19,7 @@ Every number carries its source or the reason for the choice (see also
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -26,6 +27,7 @@ import numpy as np
 
 from suspenv.core.errors import ValidationError
 from suspenv.core.space import DesignSpace, Parameter
+from suspenv.models.minibus.suspension import DamperCurve, leaf_static_deflection
 
 G = 9.81  # m/s^2, standard gravity (rounded)
 NMM_PER_DEG_TO_NM_PER_RAD = 1e-3 * 180.0 / np.pi  # N*mm/deg -> N*m/rad
@@ -148,29 +150,6 @@ class LoadCase:
     def yaw_inertia(self) -> float:
         """kg*m^2 about the z axis through the sprung CoM."""
         return self.sprung_mass * self.yaw_gyration**2
-
-
-@dataclass(frozen=True)
-class DamperCurve:
-    """Nonlinear, asymmetric, digressive damper characteristic at the wheel (scale 1).
-
-    Force (N, resisting motion) vs suspension velocity v (m/s, + = bump):
-    ``c_low * v`` up to the knee speed, then slope ``c_high`` beyond it, with separate
-    values in bump and rebound. The design scale C multiplies the whole curve.
-    """
-
-    bump_low: float  # N*s/m
-    bump_high: float  # N*s/m
-    bump_knee: float  # m/s
-    rebound_low: float  # N*s/m
-    rebound_high: float  # N*s/m
-    rebound_knee: float  # m/s
-
-    def force(self, v: np.ndarray, scale: np.ndarray | float = 1.0) -> np.ndarray:
-        """Damper force (N, + opposes bump motion) at velocity v (m/s, + = bump)."""
-        from suspenv.models.minibus.suspension import damper_force
-
-        return damper_force(v, self, scale)
 
 
 @dataclass(frozen=True)
@@ -384,6 +363,14 @@ class VehicleParams:
         return self.design.n
 
 
+def stacked_vehicle_parameters(
+    X: np.ndarray, load_cases: Sequence[str], vehicle: Minibus = REFERENCE_MINIBUS
+) -> list[VehicleParams]:
+    """:func:`vehicle_parameters` of designs X for each load case, in order (the ride
+    model stacks them row-wise)."""
+    return [vehicle_parameters(X, lc, vehicle) for lc in load_cases]
+
+
 def vehicle_parameters(
     X: np.ndarray, load_case: str | LoadCase = "no_load", vehicle: Minibus = REFERENCE_MINIBUS
 ) -> VehicleParams:
@@ -393,8 +380,6 @@ def vehicle_parameters(
     the static leaf deflection uses the two-stage law (K1 up to the helper-engagement
     deflection, K2 beyond).
     """
-    from suspenv.models.minibus.suspension import leaf_static_deflection
-
     load = vehicle.load_case(load_case)
     design = design_to_si(X, vehicle)
     if not 0.0 < load.cg_x < vehicle.wheelbase:
