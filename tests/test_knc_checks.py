@@ -109,6 +109,18 @@ def test_noisy_data_pass_without_a_warning(tmp_path, results):
     assert load_measurement(tmp_path).meta["warnings"] == []
 
 
+def test_the_test_car_with_its_concealed_effects_passes_without_a_warning(tmp_path):
+    """The built-in test car (hysteresis, tolerances, rig noise) in the travel tests and
+    two compliance tests: what a rig records with a real axle's loops and kinks is no
+    error and no spike."""
+    from suspenv.methods.identify import measure_test_car
+
+    tests = ("parallel", "opposite", "single", "lateral", "aligning")
+    m, _ = measure_test_car(0, tests=tests, steps=10)
+    write_measurement(m, tmp_path)
+    assert load_measurement(tmp_path).meta["warnings"] == []
+
+
 def test_a_bom_is_accepted(folder):
     """Excel's "CSV UTF-8" starts the file with U+FEFF; the values are the same."""
     before = load_measurement(folder)
