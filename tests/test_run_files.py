@@ -184,6 +184,35 @@ def test_a_flipped_byte_in_x_is_caught_on_resume_csv_and_export(tmp_path):
         export_optuna(run_dir, str(tmp_path / "study.db"))
 
 
+def test_the_row_checksum_definition_is_fixed():
+    # golden: integer arithmetic only (no float operation), so the same on every machine;
+    # a change would make every archive written before it unreadable
+    from suspenv.runs.archive import checksums
+
+    cols = [np.array([[0.5]]), np.array([[2.0]]), np.array([[1.0, -1.0]]), np.zeros((1, 0))]
+    assert checksums([1], [2], [1], ["m"], cols)[0].hex() == "28aa04235e8d2f26"
+
+
+@pytest.mark.parametrize(
+    ("column", "byte"),
+    [("unit", 0), ("x", 7), ("objectives", 3), ("ok", None), ("message", None), ("row", None)],
+)
+def test_a_change_in_any_checked_column_is_caught(tmp_path, column, byte):
+    p = make_problem("Sphere", dim=3)
+    optimize(p, make_strategy("random", p, seed=1, batch_size=4), 8, run_dir=tmp_path)
+    with sqlite3.connect(tmp_path / "archive.sqlite") as con:
+        (value,) = con.execute(f"SELECT {column} FROM evaluations WHERE id = 6").fetchone()
+        if byte is not None:
+            changed: object = bytes(b ^ (1 if i == byte else 0) for i, b in enumerate(value))
+        elif column == "message":
+            changed = value + " "
+        else:
+            changed = value + 10 if column == "row" else 1 - value
+        con.execute(f"UPDATE evaluations SET {column} = ? WHERE id = 6", (changed,))
+    with RunArchive(tmp_path) as archive, pytest.raises(ValidationError, match="checksum"):
+        archive.arrays()
+
+
 def test_an_emptied_archive_beside_its_summary_is_refused(tmp_path):
     run_dir = finished_run(tmp_path)
     (run_dir / "archive.sqlite").unlink()

@@ -14,8 +14,10 @@ Tables:
                 wall_time, created, checksum)     one row per evaluated design
 
 Integrity: SQLite has no checksum of its pages, so each row carries its own
-(:func:`row_checksum`: BLAKE2b-128 of batch, row, status, message and the unit, x,
-objectives and constraints bytes). Every read that results are taken from (the replay
+(:func:`checksums`: a 64-bit multilinear hash of batch, row, status, the message's
+CRC-32, the columns' widths and every 8-byte word of the unit, x, objectives and
+constraints; a change confined to one word is always caught, since every word's
+multiplier is odd). Every read that results are taken from (the replay
 of a resume, :meth:`RunArchive.arrays` behind exports and the CSV) checks it, and a
 changed byte is a ValidationError naming the row. An archive written before rows had
 checksums gets them when it is first opened (meta ``checksums_added``: the time), and the
@@ -26,10 +28,11 @@ its meta says were evaluated.
 from __future__ import annotations
 
 import csv
-import hashlib
+import functools
 import json
 import sqlite3
 import time
+import zlib
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -59,21 +62,74 @@ CREATE TABLE IF NOT EXISTS evaluations (
 );
 """
 
-#: the columns a row's checksum covers, in :func:`row_checksum`'s order
+#: the columns a row's checksum covers, in :func:`table_checksums`'s order
 CHECKED = "batch, row, unit, x, objectives, constraints, ok, message"
 
 
-def row_checksum(
-    batch: Any, row: Any, unit: Any, x: Any, f: Any, g: Any, ok: Any, message: Any
-) -> bytes:
-    """BLAKE2b-128 of one evaluations row's results (the columns :data:`CHECKED`): the
-    scalars by their ``repr`` (types included), each blob with its length."""
-    h = hashlib.blake2b(repr((batch, row, ok, message)).encode(), digest_size=16)
-    for blob in (unit, x, f, g):
-        data = blob if isinstance(blob, bytes) else repr(blob).encode()
-        h.update(len(data).to_bytes(8, "little"))
-        h.update(data)
-    return h.digest()
+@functools.lru_cache(maxsize=16)
+def _multipliers(width: int) -> np.ndarray:
+    """Odd 64-bit multipliers, one per word of a row (fixed: seeded)."""
+    rng = np.random.default_rng(0x5EED)
+    return rng.integers(0, 2**64, size=width, dtype=np.uint64, endpoint=False) | np.uint64(1)
+
+
+def checksums(
+    batch: Sequence[int],
+    row: Sequence[int],
+    ok: Sequence[int],
+    message: Sequence[str],
+    columns: Sequence[np.ndarray],
+) -> list[bytes]:
+    """The 8-byte checksum of each of n rows (see the module docstring): ``columns`` are
+    the unit, x, objectives and constraints as (n, width) float64 arrays."""
+    n = len(batch)
+    crc = [zlib.crc32(m.encode("utf-8", "surrogatepass")) if m else 0 for m in message]
+    head = np.array([batch, row, ok, crc], dtype=np.int64).T.reshape(n, 4).view(np.uint64)
+    widths = np.repeat(np.array([[c.shape[1] for c in columns]], dtype=np.uint64), n, axis=0)
+    words = np.hstack(
+        [head, widths, *(np.ascontiguousarray(c, dtype="<f8").view("<u8") for c in columns)]
+    )
+    with np.errstate(over="ignore"):
+        sums = (words.astype(np.uint64) * _multipliers(words.shape[1])).sum(axis=1, dtype=np.uint64)
+    raw = sums.astype("<u8").tobytes()
+    return [raw[i : i + 8] for i in range(0, 8 * n, 8)]
+
+
+def _plausible(row: Sequence[Any]) -> bool:
+    """A row of the :data:`CHECKED` columns has the types and sizes suspenv writes."""
+    batch, r, unit, x, f, g, ok, message = row
+    return (
+        all(type(v) is int and -(2**63) <= v < 2**63 for v in (batch, r, ok))
+        and type(message) is str
+        and all(type(b) is bytes and len(b) % 8 == 0 for b in (unit, x, f, g))
+    )
+
+
+def table_checksums(rows: Sequence[Sequence[Any]]) -> list[bytes | None]:
+    """The checksum of each row of :data:`CHECKED` columns as read from the table, rows
+    of equal widths in one :func:`checksums` call; None for a row whose types or sizes
+    no suspenv archive writes (never equal to a checksum)."""
+    out: list[bytes | None] = [None] * len(rows)
+    groups: dict[tuple[int, ...], list[int]] = {}
+    for i, row in enumerate(rows):
+        if _plausible(row):
+            groups.setdefault(tuple(len(b) // 8 for b in row[2:6]), []).append(i)
+    for widths, idx in groups.items():
+        picked = [rows[i] for i in idx]
+        cols = [
+            np.frombuffer(b"".join(r[2 + j] for r in picked), dtype="<f8").reshape(len(idx), w)
+            for j, w in enumerate(widths)
+        ]
+        sums = checksums(
+            [r[0] for r in picked],
+            [r[1] for r in picked],
+            [r[6] for r in picked],
+            [r[7] for r in picked],
+            cols,
+        )
+        for i, c in zip(idx, sums, strict=True):
+            out[i] = c
+    return out
 
 
 #: one chunk handed to the archive: (batch index, rows in the batch, U, X, results,
@@ -108,22 +164,25 @@ def _records(
         )
     if n == 0:
         return []
-    b = int(batch_index)
+    b = [int(batch_index)] * n
     per = float(wall_time) / n
-    checked = list(
+    r = np.asarray(rows, dtype=np.int64).tolist()
+    ok = np.asarray(result.ok, dtype=bool).astype(int).tolist()
+    msg = [str(m) for m in result.messages]
+    cols = [np.reshape(a, (n, -1)) for a in (U, X, result.objectives, result.constraints)]
+    return list(
         zip(
-            [b] * n,
-            np.asarray(rows, dtype=np.int64).tolist(),
-            _row_blobs(U, n),
-            _row_blobs(X, n),
-            _row_blobs(result.objectives, n),
-            _row_blobs(result.constraints, n),
-            np.asarray(result.ok, dtype=bool).astype(int).tolist(),
-            [str(m) for m in result.messages],
+            b,
+            r,
+            *(_row_blobs(c, n) for c in cols),
+            ok,
+            msg,
+            [per] * n,
+            [now] * n,
+            checksums(b, r, ok, msg, cols),
             strict=True,
         )
     )
-    return [(*r, per, now, row_checksum(*r)) for r in checked]
 
 
 def _unblob(b: bytes) -> np.ndarray:
@@ -184,7 +243,10 @@ class RunArchive:
             self._con.execute("ALTER TABLE evaluations ADD COLUMN checksum BLOB")
             self._con.executemany(
                 "UPDATE evaluations SET checksum = ? WHERE id = ?",
-                [(row_checksum(*r[1:]), r[0]) for r in rows],
+                [
+                    (c, r[0])
+                    for c, r in zip(table_checksums([r[1:] for r in rows]), rows, strict=True)
+                ],
             )
             self._con.execute(
                 "INSERT OR REPLACE INTO meta(key, value) VALUES ('checksums_added', ?)",
@@ -201,14 +263,15 @@ class RunArchive:
             raise write_fault(self.path, f"SQLite: {exc}") from None
 
     def _verify(self, rows: list[tuple[Any, ...]]) -> None:
-        """Each row ``(checksum, *CHECKED columns)`` against its checksum."""
-        for stored, *checked in rows:
-            if stored != row_checksum(*checked):
+        """Each row ``(checksum, *CHECKED columns, ...)`` against its checksum."""
+        sums = table_checksums([r[1:9] for r in rows])
+        for (stored, batch, row, *_), c in zip(rows, sums, strict=True):
+            if stored is None or stored != c:
                 raise ValidationError(
                     f"archive {str(self.path)!r} is damaged: the evaluation of batch "
-                    f"{checked[0]!r}, row {checked[1]!r} does not match its checksum (a "
-                    "value changed after it was written); restore the archive from a copy, "
-                    "or start the run anew with --overwrite"
+                    f"{batch!r}, row {row!r} does not match its checksum (a value changed "
+                    "after it was written); restore the archive from a copy, or start the "
+                    "run anew with --overwrite"
                 )
 
     def check_count(self, expected: Any, source: str) -> None:
@@ -335,37 +398,37 @@ class RunArchive:
         """Every evaluation in evaluation order (batch, row): unit, x, objectives, constraints,
         ok, message, batch, row, wall_time."""
         rows = self._read(
-            "SELECT unit, x, objectives, constraints, ok, message, batch, row, wall_time, "
-            f"checksum, {CHECKED} FROM evaluations ORDER BY batch, row"
+            f"SELECT checksum, {CHECKED}, wall_time FROM evaluations ORDER BY batch, row"
         )
-        self._verify([r[9:] for r in rows])
+        self._verify(rows)
         meta = self.meta()
         self.check_count(meta.get("n_evaluations"), "its meta")
+        # column positions in `rows`: 0 checksum, 1 batch, 2 row, 3 unit, 4 x,
+        # 5 objectives, 6 constraints, 7 ok, 8 message, 9 wall_time
         d = len(meta.get("parameter_names", [])) or (
-            self._values(rows[0][0], None, "unit").size if rows else 0
+            self._values(rows[0][3], None, "unit").size if rows else 0
         )
         m = len(meta.get("objective_names", [])) or (
-            self._values(rows[0][2], None, "objectives").size if rows else 0
+            self._values(rows[0][5], None, "objectives").size if rows else 0
         )
         k = len(meta.get("constraint_names", []))
-        names = ("unit", "x", "objectives", "constraints")
 
-        def stack(col: int, width: int) -> np.ndarray:
+        def stack(col: int, width: int, name: str) -> np.ndarray:
             if not rows:
                 return np.zeros((0, width))
-            return np.vstack([self._values(r[col], width, names[col]) for r in rows])
+            return np.vstack([self._values(r[col], width, name) for r in rows])
 
         return {
-            "unit": stack(0, d),
-            "x": stack(1, d),
-            "objectives": stack(2, m),
-            "constraints": stack(3, k) if k else np.zeros((len(rows), 0)),
-            "ok": np.array([bool(r[4]) for r in rows], dtype=bool),
-            "message": np.array([str(r[5]) for r in rows], dtype=object),
-            "batch": self._integers([r[6] for r in rows], "batch"),
-            "row": self._integers([r[7] for r in rows], "row"),
+            "unit": stack(3, d, "unit"),
+            "x": stack(4, d, "x"),
+            "objectives": stack(5, m, "objectives"),
+            "constraints": stack(6, k, "constraints") if k else np.zeros((len(rows), 0)),
+            "ok": np.array([bool(r[7]) for r in rows], dtype=bool),
+            "message": np.array([str(r[8]) for r in rows], dtype=object),
+            "batch": self._integers([r[1] for r in rows], "batch"),
+            "row": self._integers([r[2] for r in rows], "row"),
             "wall_time": np.array(
-                [r[8] if isinstance(r[8], int | float) else np.nan for r in rows], dtype=float
+                [r[9] if isinstance(r[9], int | float) else np.nan for r in rows], dtype=float
             ),
         }
 
