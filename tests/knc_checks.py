@@ -16,12 +16,19 @@ LENGTH = ("wheel_centre", "contact", "scrub_radius", "trail", "spring_length", "
 FORCE = ("tyre_fz", "spring_force")
 
 
+#: the handwheel torque: the tie-rod forces (multipliers, to FTOL) times the rack gain
+#: (about 8 mm/rad) [N*m]
+TORQUE_TOL = FTOL * 0.01
+
+
 def channel_tolerance(name: str) -> float:
-    """The solver's tolerance for rig channel ``name`` (m, N or rad)."""
+    """The solver's tolerance for rig channel ``name`` (m, N, N*m or rad)."""
     if name.startswith(LENGTH):
         return XTOL
     if name.startswith(FORCE):
         return FTOL
+    if name == "handwheel_torque":
+        return TORQUE_TOL
     return RTOL  # angles [rad]
 
 

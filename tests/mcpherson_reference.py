@@ -51,6 +51,20 @@ def bushing_loads(solver: AxleSolver, x: np.ndarray, hist: dict) -> np.ndarray:
     return solver._to_vehicle(f)
 
 
+def rack_give(solver: AxleSolver, lam: np.ndarray, gap: np.ndarray) -> np.ndarray:
+    """The rack's travel (..., n) [m] along +y under the net lateral force of both tie
+    rods, found by fixed-point iteration of ``shift = C F(shift)``: ``C`` the rack travel
+    per newton (``solver.C_rack``), ``F = -sum_s k_s (gap_s - shift)`` the tie rods' net
+    force on the rack (``k_s`` multiplier per unit length, ``gap`` (..., n, 2) the
+    tie rods' y extent before the rack gives). The iteration contracts by ``C sum k``
+    (about 1e-3 here) per pass; 60 passes reach round-off."""
+    k = lam[..., 7] / solver.L_tie
+    shift = np.zeros(gap.shape[:-1])
+    for _ in range(60):
+        shift = solver.C_rack * -(k * (gap - shift[..., None])).sum(axis=-1)
+    return shift
+
+
 def residual(
     solver: AxleSolver,
     r: np.ndarray,
@@ -98,9 +112,11 @@ def residual(
     arms[..., 4, :], forces[..., 4, :] = V[..., 2, :], lb
     arms[..., 5, :], forces[..., 5, :] = V[..., 3, :], -lb
 
-    # tie rod from the rack point (moved by the rack travel along +y): slot 6
+    # tie rod from the rack point (moved by the rack travel along +y and, with a
+    # compliant steering system, by the rack's give under both tie rods' net force): slot 6
     tri = solver.tri if rack is None else solver.tri + rack[..., None] * EY
     d = r1 + V[..., 4, :] - tri
+    d[..., 1] -= rack_give(solver, lam, d[..., 1])[..., None]
     arms[..., 6, :] = V[..., 4, :]
     forces[..., 6, :] = (lam[..., 7] / solver.L_tie)[..., None] * d
     c_tie = (dot(d, d) - solver.L_tie**2) / (2 * solver.L_tie)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import mcpherson_reference as reference
 import numpy as np
 import pytest
@@ -107,9 +109,13 @@ def test_compliance_slopes_match_the_linearised_compliance_matrix(axle):
     # reference: the compliance matrix of the linearised equilibrium (inverse Jacobian,
     # suspenv.metrics.knc.compliance_matrix) with the load on the left wheel alone; the
     # right wheel's load reaches the left only through the anti-roll bar, which resists
-    # the one-sided jacking of a single loaded wheel (2.4 % in longitudinal camber)
+    # the one-sided jacking of a single loaded wheel (2.4 % in longitudinal camber), and
+    # through the rack, held rigid here (a compliant one carries the right tie rod's
+    # force to the left wheel: tests/test_knc_steering_compliance.py)
     from suspenv.cli.knc import compliance_slopes
     from suspenv.metrics.knc import compliance_matrix
+
+    axle = replace(axle, rack_compliance=np.zeros(axle.n))
 
     C, labels = compliance_matrix(axle)
     res = run_tests(axle, CONTACT, steps=10, force_amplitude=500.0)

@@ -71,8 +71,25 @@ def test_coloured_jacobian_equals_one_difference_per_column(off_equilibrium, mon
 
 def test_multiplier_columns_are_central_differences(off_equilibrium):
     # reference: central differences of the residual in each multiplier (the residual is
-    # linear in them, so a 10 N step is exact up to round-off); a sign error fails here
+    # linear in them, so a 10 N step is exact up to round-off); a sign error fails here.
+    # The tie-rod multiplier of a compliant steering system moves the rack and so both
+    # sides' rows: its columns of the Jacobian against central differences of 1 N
     solver, st, pad, ext, rack = off_equilibrium
+    J = solver.jacobian(st, pad, ext, rack=rack)
+    for s in (0, 1):
+        lp, lm = st.lam.copy(), st.lam.copy()
+        lp[:, s, 7] += 1.0
+        lm[:, s, 7] -= 1.0
+        d = solver.residual(st.r, st.R, lp, pad, st, ext, rack=rack) - solver.residual(
+            st.r, st.R, lm, pad, st, ext, rack=rack
+        )
+        fd = d.reshape(solver.n, 2 * NS) / 2.0
+        assert np.abs(fd[:, (1 - s) * NS : (2 - s) * NS]).max() > 0.01  # the other side's
+        assert np.allclose(J[:, :, s * NS + NQ + 7], fd, rtol=0, atol=1e-6)
+    rigid = solver.take(np.arange(solver.n), axle=False)
+    rigid.C_rack = np.zeros(solver.n)
+    rigid._rl_pack = None  # the pack again, with the rigid rack
+    solver = rigid
     L = solver.multiplier_columns(st, rack)  # (n, 2, 33, 9)
     for k in range(9):
         lp, lm = st.lam.copy(), st.lam.copy()

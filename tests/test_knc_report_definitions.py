@@ -105,12 +105,12 @@ GOLDEN = {
     "anti_dive": 38.06041,
     "anti_lift": 18.59559,
     "roll_rate": 2164.224,
-    "roll_steer": -0.0459092,
-    "roll_camber": -0.1194333,
+    "roll_steer": -0.03664285,
+    "roll_camber": -0.120268,
     "arb_motion_ratio": -0.2854578,
-    "steer_gradient": -0.4100897,
-    "steer_ratio": 17.55713,
-    "ackermann_error": -1.282694,
+    "steer_gradient": -0.4096139,
+    "steer_ratio": 17.57753,
+    "ackermann_error": -1.279441,
 }
 
 

@@ -68,7 +68,9 @@ def test_every_body_is_in_force_and_moment_balance(reference_runs):
 
 def test_joints_hold_exactly(reference_runs):
     # reference: the ball joint is one point of two bodies; tie rod and drop link keep
-    # their design lengths (exact constraints, no penalty gap)
+    # their design lengths (exact constraints, no penalty gap); the tie rods' inner
+    # ends sit on the rack, which the steering system lets move by C F along y (F the
+    # tie rods' net force, from the multipliers: AxleSolver.rack_force)
     axle, results = reference_runs
     s = AxleSolver(axle)
     p = axle.points
@@ -79,7 +81,9 @@ def test_joints_hold_exactly(reference_runs):
             b_kn = r[:, :, 1] + np.einsum("nsij,nsj->nsi", R[:, :, 1], s.kn_pts[:, :, 0])
             assert np.abs(b_arm - b_kn).max() < 1e-7
             tro = r[:, :, 1] + np.einsum("nsij,nsj->nsi", R[:, :, 1], s.kn_pts[:, :, 1])
-            L = np.linalg.norm(tro - p["tie_rod_inner"], axis=-1)
+            shift = s.C_rack * s.rack_force(st)  # (n,) m along +y
+            tri = p["tie_rod_inner"] + shift[:, None, None] * np.array([0.0, 1.0, 0.0])
+            L = np.linalg.norm(tro - tri, axis=-1)
             assert np.allclose(L, s.L_tie, atol=1e-7)
 
 
@@ -289,8 +293,12 @@ def test_compliance_from_the_jacobian_equals_finite_differences_of_loaded_solves
             k = scale.get(name, 1e3) * mirror
             fd = (outs[0][name] - outs[1][name])[0, 0] / 100.0 * k * 1e3  # per kN (kN*m)
             assert C[0, 0, i, j] == pytest.approx(fd, rel=0.02, abs=1e-4), (load, name)
-    # a symmetric axle has equal wheels
-    assert np.allclose(C[:, 0], C[:, 1], rtol=1e-6, atol=1e-9)
+    # a symmetric axle has equal wheels; rtol 1e-5: the Jacobian's columns move both
+    # knuckles at once, so the compliant rack's cross-side coupling through them (about
+    # 1e-4 of those entries, ~C k with C the rack compliance and k a tie rod's force per
+    # length) is lumped into each side's own column, which breaks the mirror symmetry of
+    # the linearisation by ~1e-6 of its values
+    assert np.allclose(C[:, 0], C[:, 1], rtol=1e-5, atol=1e-6)
 
 
 def test_balance_holds_with_hysteresis_and_friction():

@@ -20,6 +20,21 @@ The rig runs with the identification problem's settings (+-40 mm pad stroke in 3
 intervals, +-2500 N in the compliance tests). Regenerate only after a deliberate
 change of a definition, and say why in the commit: the golden test guards against
 unintended changes (a snapshot), it does not show that the numbers are right.
+
+Tolerances (written beside the values, read by ``tests/test_knc_golden.py``), so that
+the snapshot holds on any BLAS kernel, thread count or machine:
+
+* a channel: the solver's tolerance on the state (:data:`SOLVER_TOLERANCE`: Newton stops
+  when its correction is below 1e-6 m, 1e-5 rad, 0.1 N, and a row whose steps shrink by
+  less than half gets a fresh Jacobian, so what is left is below the last correction;
+  another machine's rounding can move the stopping point anywhere inside it; tyre
+  forces through the tyre rate, 252 N/mm x 1e-6 m, and the multipliers: 1 N), plus the
+  rounding of the stored number (:data:`SIG_FIGS`: 5e-7 relative);
+* an objective: those channel tolerances carried through its definition (each channel
+  sample the objective reads moved by its tolerance, one at a time, and the changes of
+  the objective added in absolute value: the linear bound), plus float precision
+  (:data:`FLOAT_MARGIN` times the same sum with each sample moved by its own rounding,
+  ``eps |y|``), plus the stored rounding.
 """
 
 from __future__ import annotations
@@ -27,6 +42,7 @@ from __future__ import annotations
 import json
 import re
 import sys
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -41,6 +57,28 @@ SIG_FIGS = 7  # relative rounding error <= 5e-7, inside the test's rtol of 1e-6
 AMPLITUDE_MM = 40.0
 STEPS = 30
 GRID_INDEX = (0, 9, 15, 21, 30)  # -40, -16, 0, +16, +40 mm (or -2500 .. +2500 N)
+#: the solver's tolerance on a converged state (AxleSolver's xtol, rtol; forces: the
+#: multipliers' 0.1 N with a margin for the stiff links, as tests/knc_checks.py), SI
+SOLVER_TOLERANCE = {"m": 1e-6, "rad": 1e-5, "N": 1.0, "N*m": 0.01}
+#: the SI unit of each channel the objectives read (metrics.knc.OBJECTIVE_CHANNELS)
+CHANNEL_SI = {
+    "toe": "rad",
+    "camber": "rad",
+    "caster": "rad",
+    "wheel_centre_x": "m",
+    "wheel_centre_y": "m",
+    "wheel_centre_z": "m",
+    "contact_x": "m",
+    "contact_y": "m",
+    "tyre_fz": "N",
+    "pad_z": "m",
+}
+#: round-off of the arithmetic from channels to an objective, in units of eps |y| per
+#: sample (a few operations per sample: fits, differences, ratios)
+FLOAT_MARGIN = 64.0
+#: relative rounding of a stored number (SIG_FIGS significant figures: half a unit of the
+#: last figure)
+STORED = 0.5 * 10.0 ** (1 - SIG_FIGS)
 #: channel -> (scale from SI, unit) of the recorded channels (raw rig channels, ISO 8855)
 CHANNELS = {
     "toe": (180.0 / np.pi, "deg"),
@@ -64,9 +102,66 @@ def rounded(a) -> float | list:
     return [rounded(x) for x in arr]
 
 
+def _rounded1(v: float) -> float:
+    """One number rounded to SIG_FIGS significant figures."""
+    return float(f"{float(v):.{SIG_FIGS}g}")
+
+
 def objective_dict(results) -> dict[str, float]:
     F = objectives(results)[0]
     return {name: rounded(v) for name, v in zip(OBJECTIVE_NAMES, F, strict=True)}
+
+
+def _moved(results, test: str, name: str, step: np.ndarray) -> dict:
+    """``results`` with one more design row per sample of channel ``name`` of ``test``:
+    row ``k`` has that sample (path step, wheel) moved by ``step`` (P, 2)."""
+    base = results[test]
+    P = base.path.size
+    rows = 2 * P
+    out = dict(results)
+    chans = {}
+    for ch, v in base.channels.items():
+        v = np.repeat(v[:1], rows, axis=0)
+        if ch == name:
+            k = np.arange(rows)
+            v[k, k // 2, k % 2] += step[k // 2, k % 2]
+        chans[ch] = v
+    out[test] = replace(base, channels=chans, ok=np.ones(rows, bool), messages=[""] * rows)
+    for t in results:
+        if t != test:
+            r = results[t]
+            reps = {ch: np.repeat(v[:1], rows, axis=0) for ch, v in r.channels.items()}
+            out[t] = replace(r, channels=reps, ok=np.ones(rows, bool), messages=[""] * rows)
+    return out
+
+
+def objective_tolerances(results) -> dict[str, float]:
+    """Each objective's tolerance (module docstring): the channel tolerances and the
+    float precision carried through its definition, plus the stored rounding."""
+    F0 = objectives(results)[0]
+    solver = np.zeros_like(F0)
+    precision = np.zeros_like(F0)
+    for test in TESTS:
+        for name, si in CHANNEL_SI.items():
+            y = results[test].channels[name][0]
+            tol = np.full(y.shape, SOLVER_TOLERANCE[si])
+            solver += np.abs(objectives(_moved(results, test, name, tol)) - F0).sum(axis=0)
+            ulp = np.maximum(np.abs(y), 1e-300) * np.finfo(float).eps
+            # the change per ulp, scaled up from a step of 1e6 ulp (above round-off)
+            d = objectives(_moved(results, test, name, 1e6 * ulp)) - F0
+            precision += np.abs(d).sum(axis=0) / 1e6 * FLOAT_MARGIN
+    total = solver + precision + STORED * np.abs(F0)
+    return {name: _rounded1(v) for name, v in zip(OBJECTIVE_NAMES, total, strict=True)}
+
+
+def channel_tolerances() -> dict[str, float]:
+    """Each snapshot channel's tolerance in its stored unit: the solver's tolerance
+    (the stored rounding is added per value by the test)."""
+    si = {"deg": "rad", "mm": "m", "N": "N"}
+    return {
+        name: _rounded1(SOLVER_TOLERANCE[si[unit]] * scale)
+        for name, (scale, unit) in CHANNELS.items()
+    }
 
 
 def channel_dict(results) -> dict:
@@ -117,6 +212,12 @@ def main() -> int:
                 "branches": "down = bump to rebound, up = rebound to design to bump",
             },
             "rounding": f"{SIG_FIGS} significant figures",
+            "tolerance": "channel_tolerance: the solver's tolerance on a converged state "
+            "(1e-6 m, 1e-5 rad, 1 N) in the stored unit; objective_tolerance (per vehicle): "
+            "those carried through each objective's definition (linear bound over the "
+            "samples it reads) plus 64 eps |y| per sample of float round-off; both plus "
+            "5e-7 relative for the stored rounding (tools/make_golden_knc.py docstring)",
+            "channel_tolerance": channel_tolerances(),
             "channel_units": {name: unit for name, (_, unit) in CHANNELS.items()},
             "channel_layout": "[grid point][wheel]; wheel 0 = left, 1 = right; raw ISO 8855 "
             "channels (x forward, y left, z up), not mapped outboard",
@@ -128,6 +229,7 @@ def main() -> int:
                 "description": "build_axle(reference_design()[None, :]): the reference "
                 "vehicle (Tey et al. 2014 Table 1 values), mirrored, no concealed effects",
                 "objectives": objective_dict(ref),
+                "objective_tolerance": objective_tolerances(ref),
                 "channels": channel_dict(ref),
             },
             "test_car": {
@@ -135,6 +237,7 @@ def main() -> int:
                 "description": "truth_vehicle(seed=0, noise=False): the reference plus "
                 "left/right tolerances and rubber hysteresis (Dahl), run with its effects",
                 "objectives": objective_dict(car_res),
+                "objective_tolerance": objective_tolerances(car_res),
             },
         },
     }

@@ -137,6 +137,7 @@ CHANNELS: dict[str, str] = {
     "contact_z": "length",
     "pad_z": "length",
     "tyre_fz": "force",
+    "handwheel_torque": "moment",
     "spring_force": "force",
     "spring_length": "length",
     "scrub_radius": "length",

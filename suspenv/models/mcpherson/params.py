@@ -103,6 +103,14 @@ BUSHING_LOW = 50.0
 #: upper bound of bushing stiffness in the paper's design space (identification bound of
 #: the reference car only; a vehicle file's stiffness is limited by physics, > 0)
 BUSHING_HIGH = 50000.0
+#: the steering system's default stiffnesses (:class:`AxleConstants`): rack mounts [N/mm]
+#: and column [N*m/deg]. Chosen (the split is not from a source) so that the reference
+#: car's in-phase aligning-torque compliance is 1.0 deg/kN*m, the middle of the 0.5-1.5
+#: deg/kN*m of production cars (docs/knc.md "Steering system"; the range gathered in
+#: shared/spec/knc_sheet.md from public K&C rig descriptions); with a rigid steering
+#: system the reference car gives 0.19 deg/kN*m
+RACK_MOUNT_RATE = 20000.0
+COLUMN_TORSION_RATE = 12.0
 
 #: physical limit of the static alignment: |static_camber| and |static_toe| < 10 deg
 ALIGNMENT_LIMIT_DEG = 10.0
@@ -378,7 +386,16 @@ class AxleConstants:
         front_brake_share [-]: front axle's share of the braking force; front_drive_share
             [-]: front axle's share of the tractive force (1 for front-wheel drive).
         rack_travel_per_rev [mm/rev]: rack travel per steering-wheel revolution (the
-            steering gear's c-factor), for the overall steer ratio.
+            steering gear's c-factor), for the overall steer ratio and the handwheel
+            torque.
+        rack_mount_rate [N/mm]: lateral (y) stiffness of the rack housing's mounts to
+            the body, both mounts together.
+        column_torsion_rate [N*m/deg]: torsional stiffness between the held handwheel
+            and the pinion (column, intermediate shaft, the steering gear's input). With the
+            mounts in series it lets the rack move by ``F (1 / k_mount + c^2 /
+            k_column)`` under the net lateral force ``F`` of the tie rods (``c`` the
+            rack travel per pinion radian): the steering system's share of the
+            aligning-torque compliance (:meth:`rack_compliance`).
     """
 
     wheel_centre: tuple[float, float, float] = (0.0, -745.0, 20.0)
@@ -399,6 +416,8 @@ class AxleConstants:
     front_brake_share: float = 0.7
     front_drive_share: float = 1.0
     rack_travel_per_rev: float = 50.0
+    rack_mount_rate: float = RACK_MOUNT_RATE
+    column_torsion_rate: float = COLUMN_TORSION_RATE
 
     def __post_init__(self) -> None:
         """Validate every constant; an error names the rule and the value.
@@ -406,7 +425,8 @@ class AxleConstants:
         Rules: points (``wheel_centre``, ``arb_bush``, ``spring_lower_seat_offset``,
         ``drop_link_offset``) are three finite numbers [mm]; ``spring_rate``,
         ``tyre_rate``, ``wheel_radius``, ``sprung_mass``, ``wheel_mass``, ``wheelbase``,
-        ``cg_height``, ``rack_travel_per_rev`` and ``drop_link_d`` are finite and > 0;
+        ``cg_height``, ``rack_travel_per_rev``, ``drop_link_d``, ``rack_mount_rate`` and
+        ``column_torsion_rate`` are finite and > 0;
         the seats are ordered along the strut line, ``0 <= spring_upper_seat_d <
         spring_lower_seat_d``; ``0 < front_share < 1``; ``front_brake_share`` and
         ``front_drive_share`` lie in [0, 1].
@@ -432,6 +452,8 @@ class AxleConstants:
             "cg_height",
             "rack_travel_per_rev",
             "drop_link_d",
+            "rack_mount_rate",
+            "column_torsion_rate",
         ):
             v = getattr(self, name)
             if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
@@ -462,6 +484,20 @@ class AxleConstants:
                 raise ValidationError(
                     f"AxleConstants: `0 <= {name} <= 1` must hold, but got {name}={v!r}"
                 )
+
+    @property
+    def rack_gain(self) -> float:
+        """Rack travel per radian of the pinion (and of the held handwheel) [m/rad]."""
+        return self.rack_travel_per_rev / 1000.0 / (2.0 * math.pi)
+
+    @property
+    def rack_compliance(self) -> float:
+        """Rack travel per newton of net lateral tie-rod force [m/N]: the rack mounts
+        and the column in series, ``1 / k_mount + c^2 / k_column`` (``c`` =
+        :attr:`rack_gain`; 0 for a rigid steering system)."""
+        k_mount = self.rack_mount_rate * 1e3  # N/m
+        k_column = self.column_torsion_rate * 180.0 / math.pi  # N*m/rad
+        return 1.0 / k_mount + self.rack_gain**2 / k_column
 
     @property
     def corner_sprung_load(self) -> float:
@@ -500,6 +536,8 @@ class Axle:
             the bushing axes) for the bushings with an orientation; a bushing not listed
             has its frame parallel to the vehicle axes (``bush`` is then in vehicle axes,
             otherwise in the bushing frame).
+        rack_compliance: (n,) [m/N] rack travel per newton of net lateral tie-rod
+            force, per design (None: every design's is ``constants.rack_compliance``).
     """
 
     points: dict[str, np.ndarray]
@@ -515,6 +553,7 @@ class Axle:
     spring_free_length: np.ndarray | None = None
     constants: AxleConstants = field(default_factory=AxleConstants)
     frames: dict[str, np.ndarray] = field(default_factory=dict)
+    rack_compliance: np.ndarray | None = None
 
     @property
     def n(self) -> int:
@@ -537,6 +576,7 @@ class Axle:
             None if self.spring_free_length is None else self.spring_free_length[idx],
             self.constants,
             {k: v[idx] for k, v in self.frames.items()},
+            None if self.rack_compliance is None else self.rack_compliance[idx],
         )
 
 

@@ -8,7 +8,8 @@ states off equilibrium, with and without bushing frames, placed effects, loads a
 travel). For every row and side: the body-fixed vectors rotated, the bushing deflections
 and loads (linear, through the bushing frames when oriented, plus the placed effects'
 loads given by the caller), the tie rod, drop link and spring, the constraints times
-``CSCALE``, the tyre on the pad, the rig's wheel loads (through the pad at the loaded
+``CSCALE`` (the tie rods from a rack that a compliant steering system lets move), the
+tyre on the pad, the rig's wheel loads (through the pad at the loaded
 contact point, or at the wheel centre), the strut friction (given by the caller), the
 loads with their arms summed body by body, and the anti-roll bar's halves joined at its
 middle. Frames, units and signs are the solver's (vehicle axes, x forward, y left, z up;
@@ -77,7 +78,7 @@ def _residual_row(
     axis, on the knuckle, opposite on the rod), design row ``d`` of ``pack``."""
     o_vec, o_gr, o_K, o_Q, o_tri = off[0], off[1], off[2], off[3], off[4]
     o_L, o_Lsq, o_L2, o_ks, o_Lf = off[5], off[6], off[7], off[8], off[9]
-    o_Rw, o_kt, o_W, o_kbr = off[10], off[11], off[12], off[13]
+    o_Rw, o_kt, o_W, o_kbr, o_C = off[10], off[11], off[12], off[13], off[14]
     V = np.empty((2, 16, 3))
     phi = np.empty((2, 3, 3))  # rotation vectors of bodies 0, 2, 3 per side
     rho = np.empty(3)  # rotation vector of the bar halves' relative rotation
@@ -113,6 +114,7 @@ def _residual_row(
     _log(Rbar, rho)
     for a in range(3):  # the bar halves' middle points apart (side 0 minus side 1)
         dC[a] = rm[0, 3, a] + V[0, 15, a] - rm[1, 3, a] - V[1, 15, a]
+    shift = _rack_shift(rm, V, lm, rack_m, has_rack, pack, d, o_tri, o_L, o_C)
 
     for s in range(2):
         res = out[s]
@@ -158,6 +160,7 @@ def _residual_row(
             D[0, a] = rr[1, a] + Vs[4, a] - pack[o_tri + a, s, d]
             D[1, a] = rr[1, a] + Vs[5, a] - (rr[3, a] + Vs[14, a])
             D[2, a] = rr[1, a] + Vs[6, a] - (rr[2, a] + Vs[12, a])
+        D[0, 1] -= shift
         if has_rack:
             D[0, 1] -= rack_m[s]
         DD0 = D[0, 0] * D[0, 0] + D[0, 1] * D[0, 1] + D[0, 2] * D[0, 2]
@@ -256,6 +259,40 @@ def _residual_row(
             if n_ext == 9:
                 for a in range(3):
                     res[6 + a] += e[6 + a]
+
+
+def _rack_shift(
+    rm: np.ndarray,
+    V: np.ndarray,
+    lm: np.ndarray,
+    rack_m: np.ndarray,
+    has_rack: bool,
+    pack: np.ndarray,
+    d: int,
+    o_tri: int,
+    o_L: int,
+    o_C: int,
+) -> float:
+    """The rack's travel [m] along +y under the net lateral force of both tie rods, of a
+    compliant steering system (rack travel per newton ``C``, the pack's ``C_rack``: the
+    rack mounts and the column in series; 0: rigid). Tie rod ``s`` pulls its rack end
+    with ``k_s D_s`` (``k_s`` its multiplier per unit length, ``D_s`` knuckle end minus
+    rack end), so the rack takes ``F = -sum k_s D_s,y`` and moves by ``C F``; with
+    ``D_s,y = g_s - shift`` (``g_s`` the rack end's gap before it moves) this is solved in
+    closed form: ``shift = -C sum k_s g_s / (1 - C sum k_s)``."""
+    C = pack[o_C, 0, d] if o_C >= 0 else 0.0
+    if C == 0.0:
+        return 0.0
+    num = 0.0
+    den = 0.0
+    for s in range(2):
+        k_s = lm[s, 7] / pack[o_L, s, d]
+        g = rm[s, 1, 1] + V[s, 4, 1] - pack[o_tri + 1, s, d]
+        if has_rack:
+            g -= rack_m[s]
+        num += k_s * g
+        den += k_s
+    return -C * num / (1.0 - C * den)
 
 
 def _residual(
@@ -368,7 +405,7 @@ def _jacobian(
                 J[m, scatter[2, q], scatter[3, q]] = (res[s, row] - base[s, row]) / h
 
 
-_HELPERS = ("_log", "_cross_add", "_residual_row", "_row_at")
+_HELPERS = ("_log", "_cross_add", "_rack_shift", "_residual_row", "_row_at")
 #: :func:`_residual` and :func:`_jacobian`, compiled at their first call (then loaded
 #: from numba's cache)
 residual = compiled.Lazy(globals(), _HELPERS, _residual)

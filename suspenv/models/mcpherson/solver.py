@@ -126,7 +126,7 @@ N_EXTRA = 25
 #: the offsets in ``AxleSolver._rl_pack`` that the compiled residual reads, in its order
 _KERNEL_FIELDS = (
     "vec", "ground", "K", "Q", "tri", "L_links", "L_links_sq", "L_links_2",
-    "ks", "L_free", "Rw", "kt", "W", "k_bar_rot",
+    "ks", "L_free", "Rw", "kt", "W", "k_bar_rot", "C_rack",
 )  # fmt: skip
 #: smooth dead band of the Dahl elements at reversals (see dahl_step) [m], [rad]
 DAHL_EPS_TRANSLATION = 1e-6
@@ -189,6 +189,7 @@ OUTPUT_NAMES = (
     "arb_twist",
     "knuckle_pitch",
     "strut_length",
+    "handwheel_torque",
 )
 #: Newton iterations after the first evaluate the residual of the rows still iterating
 #: only, when they are at most half the batch (the same numbers per row; False: every
@@ -492,6 +493,13 @@ class AxleSolver:
         self.kt, self.Rw = axle.tyre_rate, axle.wheel_radius
         self.ks = axle.spring_rate
         self.wheel_weight = axle.wheel_weight
+        # the steering system: rack travel per newton of net tie-rod force (n,) [m/N]
+        # and per pinion radian [m/rad]
+        c_rack = axle.constants.rack_compliance
+        self.C_rack = (
+            np.full(self.n, c_rack) if axle.rack_compliance is None else axle.rack_compliance
+        )
+        self.rack_gain = axle.constants.rack_gain
         self.L_spring0 = np.linalg.norm(p["spring_lower_seat"] - p["spring_upper_seat"], axis=-1)
         self._size_preload()
         # every body-fixed vector, rotated in one batched product by the residual
@@ -812,6 +820,7 @@ class AxleSolver:
                     ("kt", self.kt, 0),
                     ("W", self.wheel_weight, 0),
                     ("k_bar_rot", self.k_bar_rot[:, None, :], 1),
+                    ("C_rack", self.C_rack[:, None], 0),
                 )
                 if a is not None
             ]
@@ -909,7 +918,28 @@ class AxleSolver:
         L = self.multiplier_columns(st, rack)  # (n, 2, 33, 9)
         for s in (0, 1):
             J[:, s * NS : (s + 1) * NS, s * NS + NQ : (s + 1) * NS] = L[:, s]
+        if np.any(self.C_rack > 0):
+            self._tie_rod_columns(st, pad, ext, rack, J)
         return J
+
+    def _tie_rod_columns(
+        self,
+        st: AxleState,
+        pad: np.ndarray,
+        ext: np.ndarray | None,
+        rack: np.ndarray | None,
+        J: np.ndarray,
+    ) -> None:
+        """The tie-rod multiplier columns of ``J`` (n, 66, 66) of a compliant steering
+        system by forward differences (step 1 N): the rack then moves with both tie-rod
+        forces, so each enters both sides' rows, not linearly (the exact columns of
+        :meth:`multiplier_columns` hold for a rigid rack)."""
+        base = self.residual(st.r, st.R, st.lam, pad, st, ext, rack=rack)
+        for s in (0, 1):
+            lam = st.lam.copy()
+            lam[:, s, 7] += 1.0
+            d = self.residual(st.r, st.R, lam, pad, st, ext, rack=rack) - base
+            J[:, :, s * NS + NQ + 7] = d.reshape(self.n, 2 * NS)
 
     def _body_columns_in_blocks(
         self,
@@ -1000,10 +1030,13 @@ class AxleSolver:
         """:meth:`jacobian` with one forward difference per column (multipliers by a
         1 N step), the reference path."""
         n = self.n
-        shared = [j for j in range(NS) if not 18 <= j < 24]  # 27 columns
+        # the bar halves and the tie-rod multiplier (a compliant rack moves with both
+        # tie rods) couple the sides: their columns one side at a time
+        apart = [18 + k for k in range(6)] + [NQ + 7]
+        shared = [j for j in range(NS) if j not in apart]  # 26 columns
         # perturbations: (column j, side) with side None for both sides at once
         cols: list[tuple[int, int | None]] = [(j, None) for j in shared]
-        cols += [(18 + k, s) for s in (0, 1) for k in range(6)]
+        cols += [(j, s) for s in (0, 1) for j in apart]
         hl = 1.0
         exp_h = expm_so3(h * np.eye(3))  # rotations by h about x, y, z
         base = self.residual(st.r, st.R, st.lam, pad, st, ext, rack=rack)  # (n, 2, 33)
@@ -1227,6 +1260,18 @@ class AxleSolver:
         return out
 
     # ----------------------------------------------------------------- outputs
+    def rack_force(self, st: AxleState) -> np.ndarray:
+        """Net lateral force (..., n) [N] of both tie rods on the rack at a converged
+        state, along +y. Each tie rod pulls its rack end towards its knuckle end with
+        its multiplier per unit length; the rack end's y is where the tie rod's design
+        length puts it (its x and z are the inner point's: the rack moves along y
+        only), on the side of the inner point it had at design."""
+        pt = st.r[..., 1, :] + rotate(st.R[..., 1, :, :], self.kn_pts[:, :, 1])
+        d = pt - self.tri  # knuckle end - rack end, y still to be set
+        side = np.sign(self.ref0[..., 1, 1] + self.kn_pts[..., 1, 1] - self.tri[..., 1])
+        d_y = side * np.sqrt(np.maximum(self.L_tie**2 - d[..., 0] ** 2 - d[..., 2] ** 2, 0.0))
+        return -(st.lam[..., 7] / self.L_tie * d_y).sum(axis=-1)
+
     def outputs(
         self, st: AxleState, pad: np.ndarray, names: Sequence[str] | None = None
     ) -> dict[str, np.ndarray]:
@@ -1294,6 +1339,9 @@ class AxleSolver:
             out["strut_length"] = np.linalg.norm(
                 top - wc - rotate(R1, self.kn_pts[:, :, 4]), axis=-1
             )
+        if want("handwheel_torque"):
+            f = self.rack_force(st)
+            out["handwheel_torque"] = np.stack([f, f], axis=-1) * self.rack_gain
         keep = OUTPUT_NAMES if names is None else [k for k in OUTPUT_NAMES if k in names]
         return {k: np.array(out[k], dtype=float) for k in keep}
 
