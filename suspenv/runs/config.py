@@ -180,19 +180,7 @@ def validate(config: dict[str, Any], allow_code: bool = False) -> dict[str, Any]
     _check_unknown(set(cfg["run"]), KNOWN_RUN, "run.")
     for table in ("problem", "strategy"):
         _check_unknown(set(cfg[table]), KNOWN_PART, f"{table}.")
-    if not isinstance(cfg["pipeline"], str):
-        raise ValidationError(f"config: `pipeline` must be a string, but got {cfg['pipeline']!r}")
-    tables = PIPELINE_TABLES.get(cfg["pipeline"])
-    if tables is not None:
-        _check_unknown(set(cfg), KNOWN_TOP | tables, "")
-    if cfg["pipeline"] == "optimize":
-        for table in ("problem", "strategy"):
-            if not isinstance(cfg[table].get("name"), str):
-                raise ValidationError(
-                    f"config: `{table}.name` must be a string, but got {cfg[table].get('name')!r}"
-                )
-        if "budget" not in cfg:
-            raise ValidationError("config: `budget` (number of evaluations) is required")
+    _check_pipeline_keys(cfg)
     seed = cfg["seed"]
     if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
         raise ValidationError(f"config: `seed` must be an integer >= 0, but got {seed!r}")
@@ -205,6 +193,25 @@ def validate(config: dict[str, Any], allow_code: bool = False) -> dict[str, Any]
         if not isinstance(cfg[table].get("options", {}), dict):
             raise ValidationError(f"config: `{table}.options` must be a table")
     return cfg
+
+
+def _check_pipeline_keys(cfg: dict[str, Any]) -> None:
+    """The top-level keys the config's pipeline knows (:data:`PIPELINE_TABLES`), and what
+    the optimize pipeline requires: problem and strategy names, a budget."""
+    if not isinstance(cfg["pipeline"], str):
+        raise ValidationError(f"config: `pipeline` must be a string, but got {cfg['pipeline']!r}")
+    tables = PIPELINE_TABLES.get(cfg["pipeline"])
+    if tables is not None:
+        _check_unknown(set(cfg), KNOWN_TOP | tables, "")
+    if cfg["pipeline"] != "optimize":
+        return
+    for table in ("problem", "strategy"):
+        if not isinstance(cfg[table].get("name"), str):
+            raise ValidationError(
+                f"config: `{table}.name` must be a string, but got {cfg[table].get('name')!r}"
+            )
+    if "budget" not in cfg:
+        raise ValidationError("config: `budget` (number of evaluations) is required")
 
 
 def _is_int(v: Any) -> bool:

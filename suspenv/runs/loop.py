@@ -171,6 +171,24 @@ def optimize(
         )
 
 
+def _beyond_budget(n: int, used: int, budget: int) -> str:
+    """The stop reason when a batch of ``n`` would not fit in what is left of the budget
+    ('' when it fits); a ValidationError when not even the first batch fits (the run
+    would evaluate nothing)."""
+    if used + n <= budget:
+        return ""
+    if used == 0:
+        raise ValidationError(
+            f"`budget >= the first batch` must hold, but budget={budget} is smaller than "
+            f"the strategy's first batch of {n} designs: nothing would be evaluated; give "
+            f"a budget of at least {n}, or a smaller batch"
+        )
+    return (
+        f"budget: the next batch of {n} would exceed the budget ({used} of {budget} "
+        "used); batches are never truncated"
+    )
+
+
 def _close(archive: RunArchive, writer: ArchiveWriter | None, **meta: Any) -> None:
     """Commit every evaluation handed over (a clean stop, an error or Ctrl-C lose
     nothing), record ``meta`` and close the archive, even when a write fails (a full
@@ -248,17 +266,8 @@ def _optimize(
                 break
             U = np.atleast_2d(strategy.ask())
             n = U.shape[0]
-            if used + n > budget and b == 0:
-                raise ValidationError(
-                    f"`budget >= the first batch` must hold, but budget={budget} is smaller "
-                    f"than the strategy's first batch of {n} designs: nothing would be "
-                    f"evaluated; give a budget of at least {n}, or a smaller batch"
-                )
-            if used + n > budget:
-                stop_reason = (
-                    f"budget: the next batch of {n} would exceed the budget "
-                    f"({used} of {budget} used); batches are never truncated"
-                )
+            stop_reason = _beyond_budget(n, used, budget)
+            if stop_reason:
                 break
             X = problem.space.to_physical(U)
             results: list[EvaluationBatch | None] = [None] * n
