@@ -229,8 +229,6 @@ def _lookup(table: Any, problem: str, problem_hash: str) -> Any:
 
 
 def _choose_measure(runs: list[RunRecord], measure: str) -> tuple[str, str]:
-    if measure not in MEASURES:
-        raise ValidationError(f"measure must be one of {list(MEASURES)}, but got {measure!r}")
     r0 = runs[0]
     multi = len(r0.objective_names) >= 2
     if measure == "quality":
@@ -567,6 +565,7 @@ def compare(
     keyed by problem hash or problem name. ``measure``: "auto", "quality" or
     "hypervolume". Raises :class:`ValidationError` for runs that may not be pooled.
     """
+    check_options(f_opt, n_targets, alpha, measure)
     recs = load_runs(runs)
     by_problem: dict[str, list[RunRecord]] = defaultdict(list)
     for r in recs:
@@ -594,6 +593,24 @@ def compare(
         "definitions": DEFINITIONS,
     }
     return Comparison(problems, result, profile)
+
+
+def check_options(f_opt: Any, n_targets: Any, alpha: Any, measure: str = "auto") -> None:
+    """The comparison's options, checked before any run is read. Rules: ``f_opt`` finite
+    (each value of a mapping too), ``n_targets`` an integer >= 1, ``0 < alpha < 1``,
+    ``measure`` one of :data:`MEASURES`."""
+    values = f_opt.values() if isinstance(f_opt, Mapping) else [f_opt]
+    for v in values:
+        if v is not None and not (isinstance(v, int | float) and np.isfinite(v)):
+            raise ValidationError(f"f_opt must be a finite number, but got f_opt={v!r}")
+    if isinstance(n_targets, bool) or not isinstance(n_targets, int) or n_targets < 1:
+        raise ValidationError(
+            f"n_targets must be an integer >= 1, but got n_targets={n_targets!r}"
+        )
+    if not (isinstance(alpha, int | float) and 0 < alpha < 1):
+        raise ValidationError(f"`0 < alpha < 1` must hold, but got alpha={alpha!r}")
+    if measure not in MEASURES:
+        raise ValidationError(f"measure must be one of {list(MEASURES)}, but got {measure!r}")
 
 
 DEFINITIONS = {

@@ -121,8 +121,13 @@ def plot_fixed_target(comparison: Comparison, path: Path) -> Path:
         if _log_ok(t):
             ax.set_xscale("log")
             ax.tick_params(axis="x", which="minor", labelbottom=False)
-        ax.invert_xaxis()
-        ax.set_yscale("log")
+        if len(t):
+            ax.invert_xaxis()
+        ert_all = np.concatenate([p.ert[g.label] for g in p.groups]) if p.groups else t
+        if _log_ok(ert_all):  # no target reached (every run failed): a linear axis
+            ax.set_yscale("log")
+        else:
+            ax.text(0.5, 0.5, "no target reached", transform=ax.transAxes, ha="center")
         ax.set_xlabel("target - f_opt" if p.f_opt is not None else "target")
         ax.set_ylabel("ERT (evaluations)")
         ax.set_title(f"{p.name}: expected running time", fontsize=9)
