@@ -108,7 +108,8 @@ def spec_sheet(env: Any, with_scales: bool = False, **env_kwargs: Any) -> str:
     lines.append(
         f"`-(s + penalty * v)`, reward mode **{adapter.reward}**, scalarizer "
         f"`{adapter.scalarizer_name}`, penalty {adapter.penalty:g}; a failed evaluation "
-        f"earns `-fail_value` = {-adapter.fail_value:g}."
+        "earns the lowest reward of a working design seen so far minus `0.1 * |lowest| "
+        f"+ 1` (`-fail_value` = {-adapter.fail_value:g} only while none has worked)."
     )
     if adapter.reward == "normalized":
         lines.append(
