@@ -1,9 +1,9 @@
 """Runs compared: grouped by their full configuration, checked for poolability, measured.
 
 :func:`compare` is the computation behind ``suspenv compare`` (figures are drawn by
-:mod:`suspenv.reports.analysis`; :func:`write_compare_files` writes ``compare.json``,
-``compare.md`` and, on request, the IOHprofiler export). Definitions, formulas and rules
-are in ``docs/analysis.md``; in short:
+:mod:`suspenv.reports.analysis`; :func:`write_compare_files` writes ``compare.json`` and
+``compare.md``, :func:`suspenv.analysis.ioh.write_ioh` the IOHprofiler export).
+Definitions, formulas and rules are in ``docs/analysis.md``; in short:
 
 - A *problem configuration* is (problem name, options with defaults filled in, objective
   names, quality name, what the quality was normalised on, pipeline); a *strategy
@@ -807,15 +807,12 @@ def markdown(comparison: Comparison) -> str:
     return "\n".join(md) + "\n"
 
 
-def write_compare_files(comparison: Comparison, out: str | Path, ioh: bool = False) -> list[Path]:
-    """Write ``compare.json`` and ``compare.md`` (and the IOHprofiler export ``ioh/``)."""
-    from suspenv.analysis.ioh import write_ioh
-
+def write_compare_files(comparison: Comparison, out: str | Path) -> list[Path]:
+    """Write ``compare.json`` and ``compare.md`` (the IOHprofiler export is
+    :func:`suspenv.analysis.ioh.write_ioh`)."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     paths = [out / "compare.json", out / "compare.md"]
     paths[0].write_text(json.dumps(to_jsonable(comparison.result), indent=2) + "\n")
     paths[1].write_text(markdown(comparison))
-    if ioh:
-        paths.append(write_ioh(comparison, out / "ioh"))
     return paths

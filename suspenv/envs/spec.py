@@ -14,7 +14,7 @@ import sys
 from typing import Any
 
 from suspenv.envs.adapter import FAIL_VALUE, OBS_LIMIT, default_reward
-from suspenv.envs.registration import NAMESPACE, VERSION
+from suspenv.envs.registration import NAMESPACE, VERSION, resolve_env_id
 from suspenv.envs.scales import SAMPLE_SEED, SAMPLE_SIZE, SPREAD_FRACTION
 
 #: the section headers every spec sheet (and every env class docstring) has, in order
@@ -40,12 +40,10 @@ def spec_sheet(env: Any, with_scales: bool = False, **env_kwargs: Any) -> str:
 
     ``with_scales``: list each objective's scale of the normalised reward (computes them:
     65 evaluations of the problem)."""
-    if isinstance(env, str):
-        from suspenv.envs.problem_env import ProblemEnv
-        from suspenv.envs.registration import resolve_env_id
+    if isinstance(env, str):  # built through gymnasium's registry (no import of the env)
+        import gymnasium as gym
 
-        name = resolve_env_id(env).removeprefix(f"{NAMESPACE}/").rsplit("-v", 1)[0]
-        env = ProblemEnv(name, **env_kwargs)
+        env = gym.make(resolve_env_id(env), **env_kwargs)
     env = getattr(env, "unwrapped", env)
     adapter = env.adapter
     problem = adapter.problem

@@ -30,6 +30,7 @@ from suspenv.analysis.compare import (
     compare,
     write_compare_files,
 )
+from suspenv.analysis.ioh import write_ioh
 from suspenv.analysis.performance import curve_matrix, curve_quantiles, runtime_ecdf
 from suspenv.core.jsonable import to_jsonable
 from suspenv.reports._mpl import pyplot
@@ -226,7 +227,9 @@ def write_compared(
     """Write a finished comparison (files, figures, export) into ``out``; returns the
     content of ``compare.json``."""
     out = Path(out)
-    written = write_compare_files(comparison, out, ioh=ioh)
+    written = write_compare_files(comparison, out)
+    if ioh:
+        written.append(write_ioh(comparison, out / "ioh"))
     if figures:
         written += write_comparison_figures(comparison, out)
     comparison.result["files"] = sorted({p.name for p in written})
