@@ -15,7 +15,7 @@ limit_blas_threads()
 # every registered problem is a Gymnasium env ``suspenv/<Name>-v0`` as soon as suspenv is
 # imported (registration is lazy: no problem module is imported here)
 from suspenv import envs as _envs  # noqa: E402, F401
-from suspenv.core import DesignSpace  # noqa: E402, EvaluationBatch, Parameter, Problem
+from suspenv.core import DesignSpace, EvaluationBatch, Parameter, Problem  # noqa: E402
 from suspenv.registry import list_problems, make_problem  # noqa: E402
 
 __version__ = "0.1.0"

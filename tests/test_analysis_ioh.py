@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from suspenv.analysis.compare import write_compare_files
+from suspenv.analysis.ioh import write_ioh
 from suspenv.analysis.performance import ert, runtime_matrix
 from suspenv.suite.compare import compare_suite
 from suspenv.suite.runner import run_suite
@@ -57,7 +57,7 @@ def _reader_ert(folder: Path, fid: int, label: str, targets: np.ndarray) -> np.n
 
 def _check_suite(folder: Path, out: Path) -> int:
     comparison = compare_suite(folder)
-    write_compare_files(comparison, out, ioh=True)
+    write_ioh(comparison, out / "ioh")
     stopped = 0
     for fid, p in enumerate(comparison.problems, start=1):
         for g in p.groups:

@@ -229,7 +229,9 @@ def test_failed_evaluation_is_a_documented_finite_observation():
     obs, reward, term, trunc, info = env.step(np.array([0.8, 0.0]))  # x0 = 0.9 > 0.5
     assert info["ok"] is False and "locks up" in info["message"]
     np.testing.assert_array_equal(obs, [FAIL_VALUE, FAIL_VALUE])
-    assert obs in env.observation_space and reward == -FAIL_VALUE
+    # the reward: the lowest seen (the reference design x = (0.5, 0): f = (0.5, 0),
+    # g = -0.5 feasible, reward -0.5) minus 0.1 * 0.5 + 1, not -1e10
+    assert obs in env.observation_space and reward == pytest.approx(-0.5 - 1.05)
     np.testing.assert_array_equal(info["constraints"], [FAIL_VALUE])
     obs, reward, _, _, info = env.step(np.array([-1.0, 0.0]))  # x0 = 0: fine
     assert info["ok"] is True and info["message"] == ""
@@ -251,6 +253,37 @@ class NotFinite(Problem):
         return EvaluationBatch(
             np.full((n, 1), np.inf), np.zeros((n, 0)), np.ones(n, bool), [""] * n
         )
+
+
+def test_failed_reward_follows_the_lowest_seen_and_vector_reward():
+    env = ProblemEnv(Flaky(), budget=5, penalty=10.0)
+    env.reset(seed=0)
+    _, r, _, _, _ = env.step(np.array([-1.0, 1.0]))  # x = (0, 1): f = (0, 1), g = 0.5
+    assert r == pytest.approx(-(1.0 + 10 * 0.5))
+    _, r_fail, _, _, _ = env.step(np.array([0.8, 0.0]))
+    assert r_fail == pytest.approx(-6.0 - (0.6 + 1.0)) and np.isfinite(r_fail)
+    # MO-Gymnasium's convention: one reward per objective, each maximised
+    vec = ProblemEnv(Flaky(), budget=5, reward="vector", penalty=10.0)
+    vec.reset(seed=0)
+    assert vec.reward_dim == 2 and vec.reward_space.shape == (2,)
+    _, r, _, _, _ = vec.step(np.array([-1.0, 1.0]))
+    np.testing.assert_allclose(r, [-(0.0 + 5.0), -(1.0 + 5.0)])
+    _, r_fail, _, _, info = vec.step(np.array([0.8, 0.0]))
+    assert info["ok"] is False
+    # lowest per component: (-5, -6) against the reference's (-0.5, 0)
+    np.testing.assert_allclose(r_fail, [-5.0 - 1.5, -6.0 - 1.6])
+    venv = ProblemVectorEnv(Flaky(), num_envs=2, reward="vector")
+    venv.reset(seed=0)
+    assert venv.step(np.zeros((2, 2)))[1].shape == (2, 2)
+    with pytest.raises(ValidationError, match="reward='vector' needs two or more objectives"):
+        ProblemEnv("Sphere", reward="vector")
+
+
+def test_complex_actions_are_refused_not_truncated():
+    env = ProblemEnv(Flaky())
+    env.reset(seed=0)
+    with pytest.raises(ValidationError, match="real numbers, but got complex"):
+        env.step(np.array([0.1 + 0.5j, 0.0]))
 
 
 def test_non_finite_objectives_count_as_failed():
@@ -348,7 +381,9 @@ def test_vector_env_failed_rows_and_bad_actions():
     vec.reset(seed=0)
     obs, reward, _, _, info = vec.step(np.array([[0.8, 0.0], [-1.0, 0.5], [-0.5, -0.5]]))
     np.testing.assert_array_equal(info["ok"], [False, True, True])
-    assert reward[0] == -FAIL_VALUE and "locks up" in info["message"][0]
+    # rows 1 and 2: f = (0, 0.25), (0.25, 0.25), feasible; the reference design -0.5
+    np.testing.assert_allclose(reward[1:], [-0.25, -0.5])
+    assert reward[0] == pytest.approx(-0.5 - 1.05) and "locks up" in info["message"][0]
     assert obs in vec.observation_space
     with pytest.raises(ValidationError, match=r"finite, but row 1 component 0 \('x0'\)"):
         vec.step(np.array([[0.0, 0.0], [np.inf, 0.0], [0.0, 0.0]]))

@@ -149,7 +149,9 @@ def test_vector_env_normalised_matches_single_env_row_by_row():
 
 @pytest.mark.parametrize("reward", ["mean", 1, ""])
 def test_bad_reward_is_refused(reward):
-    with pytest.raises(ValidationError, match=r"`reward` must be one of \['normalized', 'sum'\]"):
+    with pytest.raises(
+        ValidationError, match=r"`reward` must be one of \['normalized', 'sum', 'vector'\]"
+    ):
         ProblemEnv("Sphere", reward=reward)
 
 

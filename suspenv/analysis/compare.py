@@ -1,9 +1,9 @@
 """Runs compared: grouped by their full configuration, checked for poolability, measured.
 
 :func:`compare` is the computation behind ``suspenv compare`` (figures are drawn by
-:mod:`suspenv.reports.analysis`; :func:`write_compare_files` writes ``compare.json``,
-``compare.md`` and, on request, the IOHprofiler export). Definitions, formulas and rules
-are in ``docs/analysis.md``; in short:
+:mod:`suspenv.reports.analysis`; :func:`write_compare_files` writes ``compare.json`` and
+``compare.md``, :func:`suspenv.analysis.ioh.write_ioh` the IOHprofiler export).
+Definitions, formulas and rules are in ``docs/analysis.md``; in short:
 
 - A *problem configuration* is (problem name, options with defaults filled in, objective
   names, quality name, what the quality was normalised on, pipeline); a *strategy
@@ -229,8 +229,6 @@ def _lookup(table: Any, problem: str, problem_hash: str) -> Any:
 
 
 def _choose_measure(runs: list[RunRecord], measure: str) -> tuple[str, str]:
-    if measure not in MEASURES:
-        raise ValidationError(f"measure must be one of {list(MEASURES)}, but got {measure!r}")
     r0 = runs[0]
     multi = len(r0.objective_names) >= 2
     if measure == "quality":
@@ -567,6 +565,7 @@ def compare(
     keyed by problem hash or problem name. ``measure``: "auto", "quality" or
     "hypervolume". Raises :class:`ValidationError` for runs that may not be pooled.
     """
+    check_options(f_opt, n_targets, alpha, measure)
     recs = load_runs(runs)
     by_problem: dict[str, list[RunRecord]] = defaultdict(list)
     for r in recs:
@@ -594,6 +593,24 @@ def compare(
         "definitions": DEFINITIONS,
     }
     return Comparison(problems, result, profile)
+
+
+def check_options(f_opt: Any, n_targets: Any, alpha: Any, measure: str = "auto") -> None:
+    """The comparison's options, checked before any run is read. Rules: ``f_opt`` finite
+    (each value of a mapping too), ``n_targets`` an integer >= 1, ``0 < alpha < 1``,
+    ``measure`` one of :data:`MEASURES`."""
+    values = f_opt.values() if isinstance(f_opt, Mapping) else [f_opt]
+    for v in values:
+        if v is not None and not (isinstance(v, int | float) and np.isfinite(v)):
+            raise ValidationError(f"f_opt must be a finite number, but got f_opt={v!r}")
+    if isinstance(n_targets, bool) or not isinstance(n_targets, int) or n_targets < 1:
+        raise ValidationError(
+            f"n_targets must be an integer >= 1, but got n_targets={n_targets!r}"
+        )
+    if not (isinstance(alpha, int | float) and 0 < alpha < 1):
+        raise ValidationError(f"`0 < alpha < 1` must hold, but got alpha={alpha!r}")
+    if measure not in MEASURES:
+        raise ValidationError(f"measure must be one of {list(MEASURES)}, but got {measure!r}")
 
 
 DEFINITIONS = {
@@ -790,15 +807,12 @@ def markdown(comparison: Comparison) -> str:
     return "\n".join(md) + "\n"
 
 
-def write_compare_files(comparison: Comparison, out: str | Path, ioh: bool = False) -> list[Path]:
-    """Write ``compare.json`` and ``compare.md`` (and the IOHprofiler export ``ioh/``)."""
-    from suspenv.analysis.ioh import write_ioh
-
+def write_compare_files(comparison: Comparison, out: str | Path) -> list[Path]:
+    """Write ``compare.json`` and ``compare.md`` (the IOHprofiler export is
+    :func:`suspenv.analysis.ioh.write_ioh`)."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     paths = [out / "compare.json", out / "compare.md"]
     paths[0].write_text(json.dumps(to_jsonable(comparison.result), indent=2) + "\n")
     paths[1].write_text(markdown(comparison))
-    if ioh:
-        paths.append(write_ioh(comparison, out / "ioh"))
     return paths

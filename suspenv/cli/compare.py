@@ -64,7 +64,10 @@ def _g(v: Any) -> str:
 
 
 def _compare(args: argparse.Namespace) -> int:
+    from suspenv.analysis.compare import check_options
     from suspenv.suite.runner import SUITE_FILE
+
+    check_options(args.f_opt, args.n_targets, args.alpha, args.measure)
 
     options: dict[str, Any] = {
         "allow_unequal_budgets": args.allow_unequal_budgets,

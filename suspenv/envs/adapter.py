@@ -14,7 +14,14 @@ Conventions (all float64):
   is reported with every objective (and constraint, in ``info``) equal to
   ``fail_value`` (default :data:`FAIL_VALUE`, finite and worse than any real design).
 * reward = -(scalarised objectives + penalty * total constraint violation), where the
-  violation is ``sum_j max(g_j, 0)``; a failed evaluation gets ``-fail_value``. With
+  violation is ``sum_j max(g_j, 0)``; a failed evaluation gets the lowest reward of a
+  working design this env has seen (the reset's reference design included) minus a
+  margin of ``0.1 * |lowest| + 1`` (:meth:`ProblemAdapter.failed_reward`): finite,
+  below every working design, on the scale of the episode (``-fail_value`` only while
+  no design has worked). ``reward="vector"`` (two or more objectives, MO-Gymnasium's
+  convention: every component maximised) gives ``-(f_j + penalty * v)`` per objective,
+  in the objectives' units, and a failure the lowest seen per component minus the same
+  margin. With
   ``reward="normalized"`` each objective is divided by its scale
   (:mod:`suspenv.envs.scales`) before it is scalarised; ``reward="sum"`` scalarises the
   objectives in their own units. The default is "normalized" for the problems of
@@ -43,8 +50,9 @@ OBS_LIMIT = 1.0e300
 
 Scalarizer = str | Callable[[np.ndarray], np.ndarray]
 
-#: the reward modes: objectives divided by their scales, or in their own units
-REWARDS = ("normalized", "sum")
+#: the reward modes: objectives divided by their scales, in their own units, or one
+#: reward per objective (multi-objective problems, MO-Gymnasium's convention)
+REWARDS = ("normalized", "sum", "vector")
 #: problems whose env reward is normalised unless ``reward="sum"`` is asked for: their
 #: objectives are in mixed units and the plain sum is dominated by one that no design
 #: moves (KCIdentification: ``opp_roll_rate``, 57 % of the reference design's sum)
@@ -63,6 +71,11 @@ def check_reward(reward: Any, problem: Problem) -> str:
         return default_reward(problem)
     if not isinstance(reward, str) or reward not in REWARDS:
         raise ValidationError(f"`reward` must be one of {list(REWARDS)}, but got reward={reward!r}")
+    if reward == "vector" and problem.n_objectives < 2:
+        raise ValidationError(
+            f"reward='vector' needs two or more objectives, but {problem.name} has "
+            f"{problem.n_objectives}: use 'sum' or 'normalized'"
+        )
     return reward
 
 
@@ -130,6 +143,17 @@ class ProblemAdapter:
         self.reward = check_reward(reward, problem)
         self._scales_key = scales_key
         self._scales: ObjectiveScales | None = None
+        #: the lowest reward of a working design seen so far (per component for "vector")
+        self.lowest_reward: np.ndarray | None = None
+
+    def failed_reward(self) -> np.ndarray:
+        """The reward of a failed evaluation: the lowest reward of a working design seen
+        so far minus ``0.1 * |lowest| + 1``; ``-fail_value`` while none has worked."""
+        width = self.m if self.reward == "vector" else 1
+        if self.lowest_reward is None:
+            return np.full(width, -self.fail_value)
+        low = self.lowest_reward
+        return low - (0.1 * np.abs(low) + 1.0)
 
     # ---------------------------------------------------------------- scales
     @property
@@ -181,7 +205,12 @@ class ProblemAdapter:
     # --------------------------------------------------------------- actions
     def actions_to_designs(self, actions: Any, n: int) -> np.ndarray:
         """Actions (n, d) in [-1, 1] -> physical designs (n, d). Rejects NaN/inf/shape."""
-        A = np.asarray(actions, dtype=float)
+        raw = np.asarray(actions)
+        if np.iscomplexobj(raw):  # a float cast would drop the imaginary part silently
+            raise ValidationError(
+                f"action values must be real numbers, but got complex values (dtype {raw.dtype})"
+            )
+        A = np.asarray(raw, dtype=float)
         if A.shape != (n, self.dim) and not (n == 1 and A.shape == (self.dim,)):
             want = f"({self.dim},)" if n == 1 else f"({n}, {self.dim})"
             raise ValidationError(f"action must have shape {want}, but got {np.shape(actions)}")
@@ -230,14 +259,16 @@ class ProblemAdapter:
             ).reshape(-1)
         with np.errstate(over="ignore", invalid="ignore"):
             reward = -(scal + self.penalty * violation)
-        for i in np.flatnonzero(ok & ~np.isfinite(reward)):
+            if self.reward == "vector":
+                reward = -(F + self.penalty * violation[:, None])
+        for i in np.flatnonzero(ok & ~np.isfinite(reward.reshape(len(ok), -1)).all(axis=1)):
             ok[i] = False
             messages[i] = f"scalarized objective is not finite ({scal[i]})"
         fail = self.fail_value
         obs = np.where(ok[:, None], F, fail)
         return {
             "obs": obs,
-            "reward": np.where(ok, reward, -fail),
+            "reward": self._with_failed(reward, ok),
             "objectives": obs.copy(),
             "constraints": np.where(ok[:, None], G, fail),
             "ok": ok,
@@ -246,6 +277,17 @@ class ProblemAdapter:
             "scalarized": np.where(ok, scal, fail),
             "x": np.asarray(X, dtype=float),
         }
+
+    def _with_failed(self, reward: np.ndarray, ok: np.ndarray) -> np.ndarray:
+        """Rewards with every failed row set to :meth:`failed_reward`, after the lowest
+        reward seen is updated with this batch's working rows."""
+        R = reward.reshape(len(ok), -1)
+        if ok.any():
+            low = R[ok].min(axis=0)
+            seen = self.lowest_reward
+            self.lowest_reward = low if seen is None else np.minimum(seen, low)
+        R = np.where(ok[:, None], R, self.failed_reward()[None, :])
+        return R if self.reward == "vector" else R[:, 0]
 
     def info_row(self, out: dict[str, Any], i: int, evaluations: int) -> dict[str, Any]:
         """The ``info`` dict of row ``i`` (fresh objects every call)."""

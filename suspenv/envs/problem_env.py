@@ -54,7 +54,7 @@ class ProblemEnv(gym.Env[np.ndarray, np.ndarray]):
     to the unit cube ``u = (a + 1) / 2`` and to physical values through the problem's
     :class:`~suspenv.core.DesignSpace` (linear or log per parameter; each parameter's
     name, unit and bounds are in the spec sheet). Finite actions outside [-1, 1] are
-    clipped; NaN/inf actions or a wrong shape raise
+    clipped; NaN/inf or complex actions or a wrong shape raise
     :class:`~suspenv.core.errors.ValidationError`. ``design_to_action(x)`` inverts the map.
 
     ## Observation Space
@@ -83,7 +83,13 @@ class ProblemEnv(gym.Env[np.ndarray, np.ndarray]):
     * ``v = sum_j max(g_j, 0)`` is the total constraint violation (constraints are
       feasible when ``g <= 0``), in the constraints' own units (never normalised);
       ``penalty`` defaults to 100.
-    * A failed evaluation earns ``-fail_value``.
+    * A failed evaluation earns the lowest reward of a working design this env has seen
+      (the reset's reference design included) minus ``0.1 * |lowest| + 1``: finite and
+      below every working design (``-fail_value`` only while none has worked).
+    * ``reward="vector"`` (two or more objectives): MO-Gymnasium's convention, a reward
+      vector ``-(f_j + penalty * v)`` (m,), every component maximised, in the objectives'
+      units; ``reward_space`` and ``reward_dim`` are set; a failure gets the lowest seen
+      per component minus the same margin.
 
     The batch-normalised "rank_sum" needs a population: use the vector env.
 
@@ -120,7 +126,7 @@ class ProblemEnv(gym.Env[np.ndarray, np.ndarray]):
     * ``problem``: registered problem name (see ``suspenv list``) or a Problem instance.
     * ``problem_options``: constructor options of a named problem.
     * ``budget``: evaluations per episode, an integer >= 1 (default 100).
-    * ``reward``: "normalized" or "sum" (default: the problem's, see Rewards).
+    * ``reward``: "normalized", "sum" or "vector" (default: the problem's, see Rewards).
     * ``scalarizer``, ``weights``, ``penalty`` (>= 0), ``fail_value`` (0 <= . <= 1e300):
       reward shaping, see Rewards.
     * ``render_mode``: None or "rgb_array".
@@ -166,6 +172,9 @@ class ProblemEnv(gym.Env[np.ndarray, np.ndarray]):
             )
         self.render_mode = render_mode
         self.action_space, self.observation_space = single_spaces(self.adapter)
+        if self.adapter.reward == "vector":  # MO-Gymnasium's attributes
+            self.reward_space = spaces.Box(-np.inf, np.inf, shape=(self.adapter.m,))
+            self.reward_dim = self.adapter.m
         self._reference: tuple[np.ndarray, dict[str, Any]] | None = None
         self._steps = 0
         self._done = False
@@ -197,7 +206,9 @@ class ProblemEnv(gym.Env[np.ndarray, np.ndarray]):
         self._done = self._steps >= self.budget
         self._last_x = X[0].copy()
         info = self.adapter.info_row(out, 0, self._steps)
-        return out["obs"][0].copy(), float(out["reward"][0]), False, self._done, info
+        r = out["reward"][0]
+        reward = r.copy() if self.adapter.reward == "vector" else float(r)
+        return out["obs"][0].copy(), reward, False, self._done, info
 
     def render(self) -> np.ndarray | None:
         if self.render_mode != "rgb_array" or self._last_x is None:

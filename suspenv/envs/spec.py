@@ -14,7 +14,7 @@ import sys
 from typing import Any
 
 from suspenv.envs.adapter import FAIL_VALUE, OBS_LIMIT, default_reward
-from suspenv.envs.registration import NAMESPACE, VERSION
+from suspenv.envs.registration import NAMESPACE, VERSION, resolve_env_id
 from suspenv.envs.scales import SAMPLE_SEED, SAMPLE_SIZE, SPREAD_FRACTION
 
 #: the section headers every spec sheet (and every env class docstring) has, in order
@@ -40,12 +40,10 @@ def spec_sheet(env: Any, with_scales: bool = False, **env_kwargs: Any) -> str:
 
     ``with_scales``: list each objective's scale of the normalised reward (computes them:
     65 evaluations of the problem)."""
-    if isinstance(env, str):
-        from suspenv.envs.problem_env import ProblemEnv
-        from suspenv.envs.registration import resolve_env_id
+    if isinstance(env, str):  # built through gymnasium's registry (no import of the env)
+        import gymnasium as gym
 
-        name = resolve_env_id(env).removeprefix(f"{NAMESPACE}/").rsplit("-v", 1)[0]
-        env = ProblemEnv(name, **env_kwargs)
+        env = gym.make(resolve_env_id(env), **env_kwargs)
     env = getattr(env, "unwrapped", env)
     adapter = env.adapter
     problem = adapter.problem
@@ -108,7 +106,8 @@ def spec_sheet(env: Any, with_scales: bool = False, **env_kwargs: Any) -> str:
     lines.append(
         f"`-(s + penalty * v)`, reward mode **{adapter.reward}**, scalarizer "
         f"`{adapter.scalarizer_name}`, penalty {adapter.penalty:g}; a failed evaluation "
-        f"earns `-fail_value` = {-adapter.fail_value:g}."
+        "earns the lowest reward of a working design seen so far minus `0.1 * |lowest| "
+        f"+ 1` (`-fail_value` = {-adapter.fail_value:g} only while none has worked)."
     )
     if adapter.reward == "normalized":
         lines.append(

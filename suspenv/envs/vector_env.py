@@ -143,7 +143,8 @@ class ProblemVectorEnv(VectorEnv):
         n = self.num_envs
         if self._autoreset:
             obs, info = self.reset()
-            return obs, np.zeros(n), np.zeros(n, bool), np.zeros(n, bool), info
+            width = (n, self.adapter.m) if self.adapter.reward == "vector" else (n,)
+            return obs, np.zeros(width), np.zeros(n, bool), np.zeros(n, bool), info
         X = self.adapter.actions_to_designs(actions, n)
         out = self.adapter.outputs(X, self.problem.evaluate(X))
         self._steps += 1

@@ -30,6 +30,7 @@ from suspenv.analysis.compare import (
     compare,
     write_compare_files,
 )
+from suspenv.analysis.ioh import write_ioh
 from suspenv.analysis.performance import curve_matrix, curve_quantiles, runtime_ecdf
 from suspenv.core.jsonable import to_jsonable
 from suspenv.reports._mpl import pyplot
@@ -121,8 +122,13 @@ def plot_fixed_target(comparison: Comparison, path: Path) -> Path:
         if _log_ok(t):
             ax.set_xscale("log")
             ax.tick_params(axis="x", which="minor", labelbottom=False)
-        ax.invert_xaxis()
-        ax.set_yscale("log")
+        if len(t):
+            ax.invert_xaxis()
+        ert_all = np.concatenate([p.ert[g.label] for g in p.groups]) if p.groups else t
+        if _log_ok(ert_all):  # no target reached (every run failed): a linear axis
+            ax.set_yscale("log")
+        else:
+            ax.text(0.5, 0.5, "no target reached", transform=ax.transAxes, ha="center")
         ax.set_xlabel("target - f_opt" if p.f_opt is not None else "target")
         ax.set_ylabel("ERT (evaluations)")
         ax.set_title(f"{p.name}: expected running time", fontsize=9)
@@ -221,7 +227,9 @@ def write_compared(
     """Write a finished comparison (files, figures, export) into ``out``; returns the
     content of ``compare.json``."""
     out = Path(out)
-    written = write_compare_files(comparison, out, ioh=ioh)
+    written = write_compare_files(comparison, out)
+    if ioh:
+        written.append(write_ioh(comparison, out / "ioh"))
     if figures:
         written += write_comparison_figures(comparison, out)
     comparison.result["files"] = sorted({p.name for p in written})
