@@ -104,3 +104,23 @@ def test_ride_metrics_against_closed_forms():
         band_rms(f, p, (5.0, 1.0))
     with pytest.raises(ValidationError, match=">= 2 samples"):
         vibration_dose_value(np.array([1.0]), fs)
+
+
+def test_fft_weighted_signal_of_a_sine_is_the_weighting_times_the_sine():
+    # golden: a sine on an FFT line comes out scaled by |W(f)| and shifted by arg W(f)
+    # (the standard's complex weighting), so its RMS is weighted_rms_fft's, its crest
+    # factor sqrt(2) and its VDV |W| A (3 T / 8)^(1/4) (closed forms of a sine)
+    from suspenv.metrics.iso2631 import weighted_rms_fft, weighted_signal_fft, weighting_response
+    from suspenv.metrics.ride import crest_factor, vibration_dose_value
+
+    fs, T, f0, amp = 100.0, 10.0, 4.0, 1.3
+    t = np.arange(int(fs * T)) / fs
+    w = weighting_response(np.array([f0]), "Wk")[0]
+    out = weighted_signal_fft(amp * np.sin(2 * np.pi * f0 * t), fs, "Wk")
+    expected = amp * abs(w) * np.sin(2 * np.pi * f0 * t + np.angle(w))
+    np.testing.assert_allclose(out, expected, atol=1e-12)
+    a = amp * np.sin(2 * np.pi * f0 * t)
+    assert np.sqrt(np.mean(out**2)) == pytest.approx(weighted_rms_fft(a, fs, "Wk"), rel=1e-12)
+    assert crest_factor(out) == pytest.approx(np.sqrt(2), rel=1e-3)
+    vdv = amp * abs(w) * (3 * T / 8) ** 0.25
+    assert vibration_dose_value(out, fs) == pytest.approx(vdv, rel=1e-9)

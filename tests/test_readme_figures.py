@@ -59,11 +59,20 @@ def _study_json() -> dict:
         "meets_target": True,
         "same_numbers_1_and_2_workers": True,
         "bare_loop_same_designs": True,
+        "other_blas_kernel": {
+            "kernel": "Sandybridge",
+            "first_different_generation": 5,
+            "max_relative_objective_difference_before": 1.36e-14,
+            "feasible": 27396,
+            "pareto_front": 11343,
+        },
         "study": {
             "evaluations": 30000,
             "ok": 30000,
             "feasible": 29033,
             "pareto_front": 7099,
+            "objective_names": ["f1_a", "f2_b", "f3_yaw_response_time", "f4_c", "f5_d"],
+            "objective_units": ["m/s^2", "m/s^2", "s", "deg", "deg"],
             "baseline_objectives": [1.236, 1.884, -17.80, 143.34, 7.294],
             "ride_focused_pick_objectives": [1.093, 1.682, -17.81, 142.05, 7.013],
             "ride_focused_pick_x": {"K1": 60.257, "T1": 85004.9, "C1": 0.80468},
@@ -85,8 +94,10 @@ def test_minibus_study_row_and_paragraph_format_a_hand_made_json() -> None:
     # 11.07 / 10.77 = 1.028; 1 - 0.6496 = 35 %
     assert "takes 1.03x the bare loop's time in one process, and the pool of 2 takes 35 %" in text
     assert "29,033 were feasible, 7,099 on the Pareto front" in text
+    assert "(`OPENBLAS_CORETYPE=Sandybridge`) the objectives differ by up to 1e-14" in text
+    assert "flips in generation 5 and the run ends with 27,396 feasible, 11,343" in text
     assert "lowered f1 from 1.236 to 1.093 m/s² and f2 from 1.884 to 1.682 m/s²" in text
-    assert "(f3 -17.81 against -17.80 m/s², f4 142.1 against 143.3 deg" in text
+    assert "(f3 -17.8 against -17.8 s, f4 142 against 143 deg, f5 7.01 against 7.29 deg" in text
     assert text.endswith("K1 60.3, T1 8.5e4, C1 0.805).")
     assert max(len(line) for line in readme.minibus_study_paragraph(d).splitlines()) <= 88
 
@@ -510,3 +521,26 @@ def test_tey_pipeline_paragraph_formats_a_hand_made_json() -> None:
         "analysis, the identifiability profiles and the report; the slowest step: report, "
         "2.5 s); within the target of 120 s."
     )
+
+
+def test_minibus_paper_table_formats_a_hand_made_json() -> None:
+    names = ("baseline", "pick")
+    figures = {
+        f"{stem}_{lc}": [0.5, 0.25]
+        for lc in ("no_load", "full_load")
+        for stem, *_ in readme.PAPER_FIGURES
+    }
+    block = {"names": ["f1"], "units": ["s"], "values": {n: [1.23456] for n in names}}
+    table = {
+        "designs": {n: [60.0, 130.0, 1000.0, 7e4, 2e5, 2e5, 0.6, 0.6] for n in names},
+        "default": block,
+        "study": block,
+        "figures": figures,
+    }
+    text = readme.minibus_paper_table({"summary": {"paper_table": table}})
+    lines = text.splitlines()
+    assert lines[0] == "| | baseline | pick |"
+    assert "| T1 | 7.0e4 | 7.0e4 |" in lines
+    assert "| f1 [s], default set | 1.235 | 1.235 |" in lines
+    assert "| front share of roll stiffness (%), full load | 50.0 | 25.0 |" in lines
+    assert "| front/rear frequency ratio, no load | 0.500 | 0.250 |" in lines

@@ -6,9 +6,16 @@ default set (``handling="standard"``) and the study's (``handling="study"``, on 
 subset: its time-domain slalom is slow), and so are the per-load-case measures behind
 them. Spread = (max - min) / |median| over the designs, in %, and the robust spread
 (95th - 5th percentile) / |median|, which corners of the box cannot inflate; the target:
-every default objective's robust spread >= 3 %. Numerical noise: the largest relative difference between
-the batch's value and the same designs evaluated one at a time (every default path is
-deterministic, so this is round-off).
+every default objective's robust spread >= 3 %. Numerical noise: the largest relative
+difference between the batch's value and the same designs evaluated one at a time
+(every default path is deterministic, so this is round-off).
+
+The study's table side by side (``summary.paper_table``): the baseline, the study's
+pick and the ride-focused pick of the last study run (read from
+``docs/benchmarks/minibus_study.json``, so run ``minibus_study`` first): their designs,
+both sets' objectives and the routine figures of the study's step 5 (natural
+frequencies and their ratio, damping ratios, front share of the roll stiffness; no
+load and full load, :func:`suspenv.reports.suspension.suspension_figures`).
 
 Run: ``python -m suspenv.bench.minibus_objectives [--designs N]``; writes
 ``docs/benchmarks/minibus_objectives.json``.
@@ -17,7 +24,9 @@ Run: ``python -m suspenv.bench.minibus_objectives [--designs N]``; writes
 from __future__ import annotations
 
 import argparse
+import json
 import sys
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -25,6 +34,11 @@ import numpy as np
 from suspenv.bench.common import write_result
 from suspenv.models.minibus import BASELINE_DESIGN, STUDY_PICK, design_space
 from suspenv.problems.minibus import MinibusRideHandling
+from suspenv.reports.suspension import suspension_figures
+
+STUDY_JSON = Path(__file__).resolve().parents[2] / "docs" / "benchmarks" / "minibus_study.json"
+#: routine figures of the study's step 5 in the side-by-side table
+FIGURES = ("freq_front", "freq_rear", "freq_ratio", "zeta_front", "zeta_rear", "roll_share_front")
 
 TARGET_SPREAD_PERCENT = 3.0
 #: per-load-case measures reported besides the objectives
@@ -48,9 +62,7 @@ def _robust_spread(v: np.ndarray) -> float:
     return float(100.0 * (hi - lo) / abs(np.median(v)))
 
 
-def _rows(
-    label: str, p: MinibusRideHandling, X: np.ndarray, n_single: int
-) -> list[dict[str, Any]]:
+def _rows(label: str, p: MinibusRideHandling, X: np.ndarray, n_single: int) -> list[dict[str, Any]]:
     b = p.evaluate(X)
     ok = b.ok
     single = np.vstack([p.evaluate(X[i : i + 1]).objectives for i in range(n_single)])
@@ -91,6 +103,30 @@ def _rows(
     return rows
 
 
+def paper_table(study_json: Path = STUDY_JSON) -> dict[str, Any]:
+    """Designs, both sets' objectives and the routine figures of the baseline, the
+    study's pick and the last study run's ride-focused pick (module docstring)."""
+    pick = json.loads(study_json.read_text())["summary"]["study"]["ride_focused_pick_x"]
+    names = ("baseline", "study's pick", "ride-focused pick")
+    X = np.vstack([BASELINE_DESIGN, STUDY_PICK, [pick[k] for k in design_space().names]])
+    table: dict[str, Any] = {"designs": dict(zip(names, X.tolist(), strict=True))}
+    for label, p in (
+        ("default", MinibusRideHandling()),
+        ("study", MinibusRideHandling(handling="study")),
+    ):
+        F = p.evaluate(X).objectives
+        table[label] = {
+            "names": list(p.objective_names),
+            "units": list(p.objective_units or ()),
+            "values": dict(zip(names, F.tolist(), strict=True)),
+        }
+    figs = suspension_figures(X)
+    table["figures"] = {
+        f"{key}_{lc}": figs[lc][key].tolist() for lc in ("no_load", "full_load") for key in FIGURES
+    }
+    return table
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--designs", type=int, default=2000, help="random designs (default 2000)")
@@ -102,9 +138,7 @@ def main(argv: list[str] | None = None) -> int:
         [STUDY_PICK, BASELINE_DESIGN, design_space().to_physical(rng.random((args.designs, 8)))]
     )
     rows = _rows("default", MinibusRideHandling(), X, 20)
-    rows += _rows(
-        "study", MinibusRideHandling(handling="study"), X[: args.study_designs + 2], 3
-    )
+    rows += _rows("study", MinibusRideHandling(handling="study"), X[: args.study_designs + 2], 3)
     default = [r for r in rows if r["set"] == "default"]
     summary = {
         "what": f"spread (max - min)/|median| over {args.designs} random designs + the "
@@ -117,6 +151,7 @@ def main(argv: list[str] | None = None) -> int:
         "default_meets_target": all(
             r["p5_p95_spread_percent"] >= TARGET_SPREAD_PERCENT for r in default
         ),
+        "paper_table": paper_table(),
         "below_target": [
             f"{r['set']}:{r['quantity']}"
             for r in rows

@@ -2,11 +2,12 @@
 
 A full evaluation is what the problem does for every candidate: both load cases of the
 ride objectives (the exact spectral integral, class B, 80 km/h), the steady-state
-circular test and the slalom, then the 5 objectives and 6 constraints. Measured in the
-same run, on the same random designs of the study's box:
+circular test, the slalom and the step steer, then the 5 objectives and the
+constraints. Measured in the same run, on the same random designs of the study's box:
 
-- the default problem (``handling="standard"``: the slalom's steering-wheel angle and
-  roll amplitudes from the linearised vehicle's frequency response; the steady circle's
+- the default problem (``handling="standard"``: the step steer's yaw response time and
+  the slalom's steering-wheel angle and roll amplitudes from the vehicle linearised at
+  the manoeuvres' lateral acceleration, one quasi-steady sweep; the steady circle's
   limit searched on a tabulated axle capacity, many candidates per pass), batched (500,
   the study's NSGA-II population) and one design at a time;
 - the study's handling objectives (``handling="study"``: the closed-loop nonlinear
@@ -213,7 +214,7 @@ def main(argv: list[str] | None = None) -> int:
         "steady circle (both loads, with parameters)": lambda Z: steady_circle(
             params(Z), problem.circle
         ),
-        "slalom, linear frequency response (both loads, with parameters)": lambda Z: slalom_linear(
+        "slalom at the course's a_y (both loads, with parameters)": lambda Z: slalom_linear(
             params(Z), problem.slalom_config
         ),
     }

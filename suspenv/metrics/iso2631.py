@@ -191,6 +191,25 @@ def weighted_rms_fft(
     return np.sqrt(power)
 
 
+def weighted_signal_fft(
+    a: np.ndarray,
+    fs: float,
+    name: str | Weighting = "Wk",
+    band: tuple[float, float] = (0.5, 80.0),
+) -> np.ndarray:
+    """Frequency-weighted time history (m/s^2) of records ``a`` (time on the last axis)
+    by weighting their FFT with the complex response (magnitude and phase) over ``band``
+    Hz; the record is treated as one period. Any sample rate (the time-domain biquads of
+    :func:`weighted_signal` need fs well above 200 Hz); its RMS is
+    :func:`weighted_rms_fft`'s. For the peak and fourth-power measures (crest factor,
+    VDV) of ISO 2631-1."""
+    a = np.asarray(a, dtype=float)
+    n = a.shape[-1]
+    f = np.fft.rfftfreq(n, 1.0 / fs)
+    w = np.where((f >= band[0]) & (f <= band[1]), weighting_response(f, name), 0.0)
+    return np.fft.irfft(np.fft.rfft(a, axis=-1) * w, n=n, axis=-1)
+
+
 def comfort_reaction(a_w: float) -> str:
     """ISO 2631-1 Annex C wording for a weighted RMS acceleration (m/s^2).
 

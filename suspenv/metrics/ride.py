@@ -21,7 +21,11 @@ from scipy import signal
 from scipy.special import ndtr
 
 from suspenv.core.errors import ValidationError
-from suspenv.metrics.iso2631 import weighted_rms_fft, weighting_magnitude
+from suspenv.metrics.iso2631 import (
+    weighted_rms_fft,
+    weighted_signal_fft,
+    weighting_magnitude,
+)
 from suspenv.models.effects.effect import Effect
 from suspenv.models.minibus.ride_model import RideModel, SeatMount
 from suspenv.models.minibus.vehicle import (
@@ -108,6 +112,9 @@ def ride_objectives_all(
     "rms_rear": (n,), "ok": (n,)}}``: ISO 2631-1 Wk-weighted (aw_*) and unweighted
     (rms_*) RMS vertical acceleration (m/s^2) above the front and rear suspension; rows
     whose integration diverged have ``ok`` False and NaN values (the batch goes on).
+    ``method="time"`` adds, from the weighted record (:func:`weighted_signal_fft`), its
+    crest factor ``crest_*`` (-) and vibration dose value ``vdv_*`` (m/s^1.75, over the
+    record): ISO 2631-1 asks for the VDV beside the RMS where the crest factor exceeds 9.
 
     The integration runs in float32 by default (about 1.4x faster; the weighted RMS
     agrees with float64 to ~1e-6, see tests); pass ``dtype=np.float64`` to change that.
@@ -139,20 +146,19 @@ def ride_objectives_all(
     bad = ~ok
     a_f, a_r = rec.acc_front.astype(float), rec.acc_rear.astype(float)
     a_f[bad], a_r[bad] = 0.0, 0.0
-    aw_f = np.where(bad, np.nan, weighted_rms_fft(a_f, fs, "Wk"))
-    aw_r = np.where(bad, np.nan, weighted_rms_fft(a_r, fs, "Wk"))
-    rms_f = np.where(bad, np.nan, np.sqrt(np.mean(a_f**2, axis=-1)))
-    rms_r = np.where(bad, np.nan, np.sqrt(np.mean(a_r**2, axis=-1)))
+    values = {}
+    for end, a in (("front", a_f), ("rear", a_r)):
+        w = weighted_signal_fft(a, fs, "Wk")
+        values[f"aw_{end}"] = weighted_rms_fft(a, fs, "Wk")
+        with np.errstate(invalid="ignore", divide="ignore"):
+            values[f"crest_{end}"] = crest_factor(w)
+        values[f"vdv_{end}"] = vibration_dose_value(w, fs)
+        values[f"rms_{end}"] = np.sqrt(np.mean(a**2, axis=-1))
     out = {}
     for i, lc in enumerate(load_cases):
         sl = slice(i * n, (i + 1) * n)
-        out[lc] = {
-            "aw_front": aw_f[sl],
-            "aw_rear": aw_r[sl],
-            "rms_front": rms_f[sl],
-            "rms_rear": rms_r[sl],
-            "ok": ok[sl],
-        }
+        out[lc] = {k: np.where(bad[sl], np.nan, v[sl]) for k, v in values.items()}
+        out[lc]["ok"] = ok[sl]
     return out
 
 

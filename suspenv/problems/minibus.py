@@ -302,7 +302,10 @@ class MinibusRideHandling(Problem):
         the flags ``completed_<load case>`` (slalom completed; for ``"standard"``: the
         linearised vehicle is stable at the slalom and step-steer speeds) and
         ``ride_ok_<load case>`` (road run); ``handling="standard"`` adds the measures of
-        :meth:`_standard_handling`.
+        :meth:`_standard_handling`; ``ride_method="time"`` the weighted record's crest
+        factors ``crest_front``/``crest_rear`` (-) and vibration dose values
+        ``vdv_front``/``vdv_rear`` (m/s^1.75; ISO 2631-1 asks for them where the crest
+        factor exceeds 9).
         """
         X = np.atleast_2d(np.asarray(X, dtype=float))
         n = X.shape[0]
@@ -328,6 +331,9 @@ class MinibusRideHandling(Problem):
             out[f"aw_rear_{lc}"] = ride[lc]["aw_rear"]
             for key, value in both.items():
                 out[f"{key}_{lc}"] = value[rows]
+            for key in ("crest_front", "crest_rear", "vdv_front", "vdv_rear"):
+                if key in ride[lc]:  # ride_method="time": from the weighted record
+                    out[f"{key}_{lc}"] = ride[lc][key]
             ride_ok = ride[lc].get("ok", np.ones(n, bool))
             out[f"ride_ok_{lc}"] = np.asarray(ride_ok, dtype=bool)
         return out

@@ -338,9 +338,11 @@ def _slip_for_force(
     it can (``force`` <= its capacity). Illinois regula falsi on ``[0, peak slip]``,
     where the axle force rises monotonically (:data:`SLIP_SOLVE_PASSES` passes)."""
     cap, a_peak = axle_capacity(P, fz_a, fz_b, config)
+    wheels = P.tyre.curve(np.stack([fz_a, fz_b]))
 
     def residual(alpha: np.ndarray) -> np.ndarray:
-        return P.tyre.lateral_force(alpha, fz_a) + P.tyre.lateral_force(alpha, fz_b) - force
+        f = wheels(alpha[None])
+        return f[0] + f[1] - force
 
     lo, hi = np.zeros_like(force), np.broadcast_to(a_peak, force.shape).copy()
     r_lo, r_hi = -force, residual(hi)

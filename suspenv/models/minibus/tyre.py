@@ -28,6 +28,7 @@ documented choice for a 195/70 R15C light-truck tyre, see its docstring.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -101,16 +102,24 @@ class LateralTyre:
         Broadcasts ``alpha`` against ``fz``. A lifted wheel (``fz <= 0``) gives 0.
         Odd in ``alpha``: Fy(-alpha) = -Fy(alpha).
         """
-        alpha = np.asarray(alpha, dtype=float)
+        return self.curve(fz)(alpha)
+
+    def curve(self, fz: np.ndarray | float) -> Callable[[np.ndarray | float], np.ndarray]:
+        """The force curve ``alpha -> Fy`` [rad -> N] at fixed loads ``fz`` [N], its
+        load-dependent factors (D, B, E) computed once (for solves that evaluate many
+        slip angles at the same loads)."""
         fz = np.maximum(np.asarray(fz, dtype=float), 0.0)
         dfz = (fz - self.fz0) / self.fz0
         d = np.maximum(self.pDy1 * (1.0 + self.pDy2 * dfz), 0.05) * fz
         c = self.pCy1
-        ky = self.cornering_stiffness(fz)
-        b = ky / np.maximum(c * d, 1e-9)
+        b = self.cornering_stiffness(fz) / np.maximum(c * d, 1e-9)
         e = np.minimum(self.pEy1 + self.pEy2 * dfz, 1.0)
-        ba = b * alpha
-        return d * np.sin(c * np.arctan(ba - e * (ba - np.arctan(ba))))
+
+        def force(alpha: np.ndarray | float) -> np.ndarray:
+            ba = b * np.asarray(alpha, dtype=float)
+            return d * np.sin(c * np.arctan(ba - e * (ba - np.arctan(ba))))
+
+        return force
 
     def peak_slip_angle(self, fz: np.ndarray | float) -> np.ndarray:
         """Slip angle [rad] where the force peaks (the argument of atan reaches tan(pi/2C)).
