@@ -1,14 +1,16 @@
 """Quasi-static equilibrium of a compliant McPherson front axle, vectorised over designs.
 
 Frame ISO 8855 (x forward, y left, z up), SI units (m, N, N*m, rad). Body fixed;
-steering rack fixed unless a rack travel is given (``rack``: both tie-rod inner points
-move by it along +y). Side index 0 = left (y > 0), 1 = right.
+the steering rack (both tie-rod inner points) moves along +y by the rack travel given
+(``rack``) and by its give under the tie rods' net lateral force, ``C F`` (rack mounts
+and column in series, ``C_rack`` from the axle's constants; 0: rigid). Side index
+0 = left (y > 0), 1 = right.
 
 Model (per side, four rigid bodies, each with 6 coordinates)
 -----------------------------------------------------------
 0. lower control arm: front and rear bushes to the body (6-D linear springs);
 1. knuckle with strut tube, hub and wheel: lower ball joint to the arm (3 exact
-   constraints), tie rod from the fixed rack point (exact distance constraint),
+   constraints), tie rod from the rack point (exact distance constraint),
    drop link to the anti-roll bar (exact distance constraint), tyre as a vertical
    spring between the lowest point of the wheel and the rig pad (frictionless pad:
    vertical force only), the wheel's weight at the wheel centre;
@@ -934,12 +936,14 @@ class AxleSolver:
         system by forward differences (step 1 N): the rack then moves with both tie-rod
         forces, so each enters both sides' rows, not linearly (the exact columns of
         :meth:`multiplier_columns` hold for a rigid rack)."""
-        base = self.residual(st.r, st.R, st.lam, pad, st, ext, rack=rack)
+        # the state, then each side's tie-rod multiplier moved, in one residual call
+        lam = np.repeat(st.lam[None], 3, axis=0)
+        lam[1, :, 0, 7] += 1.0
+        lam[2, :, 1, 7] += 1.0
+        r, R = (np.broadcast_to(a, (3,) + a.shape) for a in (st.r, st.R))
+        res = self.residual(r, R, lam, pad, st, ext, rack=rack)
         for s in (0, 1):
-            lam = st.lam.copy()
-            lam[:, s, 7] += 1.0
-            d = self.residual(st.r, st.R, lam, pad, st, ext, rack=rack) - base
-            J[:, :, s * NS + NQ + 7] = d.reshape(self.n, 2 * NS)
+            J[:, :, s * NS + NQ + 7] = (res[1 + s] - res[0]).reshape(self.n, 2 * NS)
 
     def _body_columns_in_blocks(
         self,
