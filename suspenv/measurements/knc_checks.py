@@ -80,7 +80,7 @@ LIMITS: dict[str, tuple[float, str]] = {
     "moment": (1e4, "aligning moments at a contact patch stay below about 1e3 N*m"),
 }
 #: quantity -> the smallest plausible reach of a test's drive [SI]: below it the declared
-#: unit is too small (a stroke of 40 um is 40 mm labelled m... the other way round)
+#: unit is too small (a stroke of 0.04 labelled mm is 40 mm written in metres)
 MIN_DRIVE: dict[str, float] = {"travel": 1e-3, "force": 10.0, "moment": 1.0}
 #: unit the messages quote a quantity in: (unit, its size in SI)
 SHOWN: dict[str, tuple[str, float]] = {
@@ -178,7 +178,7 @@ def _check_magnitudes(where: str, t: TestLike, quantity: Mapping[str, str]) -> N
         if not ok.size:
             continue
         limit, why = LIMITS[q]
-        i = int(np.argmax(np.abs(v) * np.isfinite(v)))
+        i = int(np.argmax(np.where(np.isfinite(v), np.abs(v), -1.0)))
         if abs(v[i]) > limit:
             raise RecordingError(
                 f"{where}: {what} reaches {_shown(float(v[i]), q)} at data row {i + 1}, an "
