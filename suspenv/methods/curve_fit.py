@@ -40,7 +40,7 @@ from typing import Any
 import numpy as np
 
 from suspenv.core.errors import ValidationError
-from suspenv.core.space import DesignSpace
+from suspenv.core.space import DesignSpace, Parameter
 from suspenv.models.effects import Effect
 from suspenv.models.mcpherson.params import AxleConstants, build_axle
 from suspenv.rigs.knc import KCResult, run_tests
@@ -75,6 +75,11 @@ CHANNEL_UNITS = {
 }
 #: stiffness units: these parameters are mapped to the unit cube logarithmically
 STIFFNESS_UNITS = ("N/mm", "N*mm/deg", "N*m/rad")
+#: effect kinds whose force depends on the loading history (a rig loop is then solved
+#: step after step)
+PATH_DEPENDENT = ("dahl_hysteresis", "coulomb_friction")
+#: a batch of a path-dependent model is split between two processes from this many rows
+SPLIT_ROWS = 2
 #: forward-difference step in the unit cube (0.01 % of a parameter's range)
 FD_STEP = 1e-4
 #: residual of a design the rig cannot solve (noise units), so the polish steps back
@@ -162,6 +167,7 @@ class MeasuredCurves:
     # interpolation: grid interval index and weight per sample, descending-branch mask
     _i0: np.ndarray = field(default_factory=lambda: np.zeros(0, int), repr=False)
     _w: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
+    _start: np.ndarray = field(default_factory=lambda: np.zeros(0, bool), repr=False)
 
     def __post_init__(self) -> None:
         grid = np.linspace(-self.amplitude, self.amplitude, self.steps + 1)
@@ -169,15 +175,21 @@ class MeasuredCurves:
         i0 = np.clip(np.searchsorted(grid, d, side="right") - 1, 0, self.steps - 1)
         self._i0 = i0
         self._w = (d - grid[i0]) / (grid[i0 + 1] - grid[i0])
+        # the loop's start (branch 0 at the design drive): the state before any travel,
+        # which path-dependent elements (hysteresis, friction) leave only once
+        self._start = (self.branch == 0) & (self.drive == 0.0)
 
     def read(self, res: KCResult, channel: str) -> np.ndarray:
-        """Simulated ``channel`` (n, P, 2) of ``res`` at the measured samples (per branch)."""
+        """Simulated ``channel`` (n, P, 2) of ``res`` at the measured samples (per branch;
+        the loop's start sample from the path's first state)."""
         down = res.branch(channel, "down")
         up = res.branch(channel, "up")
         w = self._w[None, :, None]
         a = (1 - w) * down[:, self._i0] + w * down[:, self._i0 + 1]
         b = (1 - w) * up[:, self._i0] + w * up[:, self._i0 + 1]
-        return np.where((self.branch == 1)[None, :, None], a, b)
+        out = np.where((self.branch == 1)[None, :, None], a, b)
+        out[:, self._start] = res.channels[channel][:, :1]
+        return out
 
 
 def measured_curves(measured: Any, steps: int | None = None) -> MeasuredCurves:
@@ -219,7 +231,8 @@ class CurveModel:
             not fitted.
         space: the design space (physical bounds of the 49 parameters).
         base: full design (49,) the parameters not in ``free`` are held at.
-        free: names of the fitted parameters (default: all of ``space``).
+        free: names of the fitted parameters (default: all of ``space`` and of
+            ``effect_free``).
         constants: the vehicle's :class:`AxleConstants`; ``effects``: the simulated
             model's fixed effects (path-dependent ones make every call slower).
         two_sided: False (default): one design for both sides (left = right); True: each
@@ -229,6 +242,16 @@ class CurveModel:
         chunk: designs per rig call (bounded memory, about 0.5 MB per design and test).
         orientation: bushing frame orientations of the vehicle (see
             :func:`suspenv.models.mcpherson.params.build_axle`).
+        effect_free: parameters of ``effects`` that a design carries, each named
+            ``<effect name>.<parameter>`` with its bounds (a positive range on a log
+            scale); a model design (``width`` values) is the design (49, or 98
+            two-sided), then these values. Rows with different values are solved apart.
+        elastic_jacobian: with path-dependent effects, the Jacobian's design columns
+            come from the model without them (a loop's mean changes with the design as
+            the elastic model's curve; one batched path-independent call instead of a
+            step-by-step loop per column); the effects' columns and every residual from
+            the whole model. The least squares then converges to the whole model's
+            optimum along an approximate Jacobian.
     """
 
     def __init__(
@@ -243,37 +266,38 @@ class CurveModel:
         two_sided: bool = False,
         chunk: int = 64,
         orientation: Mapping[str, Sequence[float]] | None = None,
+        effect_free: Sequence[Parameter] = (),
+        elastic_jacobian: bool = False,
     ):
         self.tests = list(tests)
         if not self.tests:
             raise ValidationError("the fit needs at least one measured test, but got none")
         self.space = fit_space(space)
+        self.two_sided = bool(two_sided)
+        self.effects = tuple(effects)
+        self.effect_free = tuple(_effect_parameters(self.effects, effect_free))
         self.base = np.asarray(base, float).copy()
-        if self.base.shape != (self.space.dim,):
+        if self.base.ndim != 1 or not (
+            self.base.size == self.space.dim or self.sides <= self.base.size <= self.width
+        ):
             raise ValidationError(
-                f"base design must have {self.space.dim} values, but got {self.base.shape}"
+                f"base design must have {self.space.dim} or {self.sides}..{self.width} values, "
+                f"but got {self.base.shape}"
             )
-        names = list(self.space.names if free is None else free)
+        self.base = self.full(self.base)[0]
+        own = [p.name for p in self.effect_free]
+        names = list([*self.space.names, *own] if free is None else free)
         for n in names:
-            self.space.index(n)  # unknown names are errors with suggestions
+            if n not in own:
+                self.space.index(n)  # unknown names are errors with suggestions
         if len(set(names)) != len(names) or not names:
             raise ValidationError(f"free parameters must be unique and not empty, got {names}")
         self.free = names
-        self.two_sided = bool(two_sided)
-        d = self.space.dim
-        index = [self.space.index(n) for n in names]
-        params = [self.space.parameters[i] for i in index]
-        if self.two_sided:
-            twins = [i for i in index if self.space.names[i] != "arb_torsion"]
-            index += [d + i for i in twins]
-            params += [
-                replace(self.space.parameters[i], name=f"{self.space.names[i]}@right")
-                for i in twins
-            ]
-        self.free_index = np.array(index)
-        self.sub = DesignSpace(params)
+        self.free_index, self.sub = self._fitted(names)
+        #: an executor that solves half of a large path-dependent batch (None: none)
+        self.pool: Any = None
+        self.elastic_jacobian = bool(elastic_jacobian)
         self.constants = constants or AxleConstants()
-        self.effects = tuple(effects)
         self.orientation = dict(orientation or {})
         self.chunk = int(chunk)
         self.sigma: dict[str, float] = {}
@@ -303,73 +327,147 @@ class CurveModel:
         self.stats = {"designs": 0, "calls": 0, "seconds": 0.0}
         self._groups = _call_groups(self.tests)
 
+    def variant(self, **changes: Any) -> CurveModel:
+        """The same model with other keywords of the constructor (``tests``: other
+        measured curves, e.g. a test held out of the fit; ``base``, ``free``, ...)."""
+        kw: dict[str, Any] = {
+            "tests": self.tests,
+            "sigma": self.sigma,
+            "space": self.space,
+            "base": self.base[: self.sides] if "two_sided" in changes else self.base,
+            "free": self.free,
+            "constants": self.constants,
+            "effects": self.effects,
+            "two_sided": self.two_sided,
+            "chunk": self.chunk,
+            "orientation": self.orientation,
+            "effect_free": self.effect_free,
+            "elastic_jacobian": self.elastic_jacobian,
+        }
+        kw.update(changes)
+        return CurveModel(**kw)
+
     # ------------------------------------------------------------------ designs
+    def _fitted(self, names: Sequence[str]) -> tuple[np.ndarray, DesignSpace]:
+        """Columns of a model design the fitted values sit in, and their space: the free
+        design parameters, their right twins (two-sided), the fitted effect parameters."""
+        d = self.space.dim
+        own = [p.name for p in self.effect_free]
+        index = [self.space.index(n) for n in names if n not in own]
+        params = [self.space.parameters[i] for i in index]
+        if self.two_sided:
+            twins = [i for i in index if self.space.names[i] != "arb_torsion"]
+            index += [d + i for i in twins]
+            params += [
+                replace(self.space.parameters[i], name=f"{self.space.names[i]}@right")
+                for i in twins
+            ]
+        mine = [j for j, n in enumerate(own) if n in names]
+        index += [self.sides + j for j in mine]
+        params += [self.effect_free[j] for j in mine]
+        return np.array(index, int), DesignSpace(params)
+
     @property
     def dim(self) -> int:
-        """Number of fitted values (free parameters, and their right twins if two-sided)."""
+        """Number of fitted values (free parameters, their right twins if two-sided, and
+        the fitted effect parameters)."""
         return int(self.free_index.size)
 
     @property
+    def sides(self) -> int:
+        """Design values of a model design: 49, or 98 two-sided (left then right)."""
+        return self.space.dim * (2 if self.two_sided else 1)
+
+    @property
+    def width(self) -> int:
+        """Values of a model design: :attr:`sides`, then the fitted effect parameters."""
+        return self.sides + len(self.effect_free)
+
+    @property
     def names(self) -> list[str]:
-        """Names of the fitted values (``<name>@right`` for a right twin)."""
+        """Names of the fitted values (``<name>@right`` for a right twin,
+        ``<effect>.<parameter>`` for an effect's)."""
         return list(self.sub.names)
 
     def full(self, X: np.ndarray) -> np.ndarray:
-        """Designs (n, 49) or (n, 98) as the model's designs: a 49-value design of a
-        two-sided model is the same on both sides."""
+        """Designs (n, 49), (n, 98) or (n, width) as the model's (n, width): a 49-value
+        design of a two-sided model is the same on both sides; the fitted effect
+        parameters not given are the effects' own values."""
         X = np.atleast_2d(np.asarray(X, float))
-        if self.two_sided and X.shape[1] == self.space.dim:
-            return np.concatenate([X, X], axis=1)
+        d = self.space.dim
+        if self.two_sided and X.shape[1] in (d, d + len(self.effect_free)):
+            X = np.concatenate([X[:, :d], X], axis=1)
+        k = X.shape[1] - self.sides
+        if 0 <= k < len(self.effect_free):
+            own = [_effect_value(self.effects, p.name) for p in self.effect_free[k:]]
+            X = np.concatenate([X, np.tile(own, (X.shape[0], 1))], axis=1)
         return X
 
     def designs(self, U: np.ndarray) -> np.ndarray:
-        """Physical designs (n, 49), two-sided (n, 98), of unit-cube points (n, dim)."""
+        """Model designs (n, width) of unit-cube points U (n, dim)."""
         U = np.atleast_2d(np.asarray(U, float))
-        X = self.full(np.tile(self.base, (U.shape[0], 1)))
+        X = np.tile(self.base, (U.shape[0], 1))
         X[:, self.free_index] = self.sub.to_physical(U)
         return X
 
     def unit(self, x: np.ndarray) -> np.ndarray:
-        """Unit-cube point (dim,) of the fitted values of a physical design (49,) or (98,)."""
+        """Unit-cube point (dim,) of the fitted values of a design (see :meth:`full`)."""
         x = self.full(x)[0]
         return np.clip(self.sub.to_unit(x[self.free_index][None])[0], 0, 1)
 
+    def effects_at(self, x: np.ndarray) -> tuple[Effect, ...]:
+        """The model's effects with the fitted effect parameters of design ``x``."""
+        vals = self.full(x)[0][self.sides :]
+        out = []
+        for e in self.effects:
+            mine = {
+                p.name.partition(".")[2]: float(v)
+                for p, v in zip(self.effect_free, vals, strict=True)
+                if p.name.partition(".")[0] == e.name
+            }
+            out.append(e.with_params(mine) if mine else e)
+        return tuple(out)
+
     # --------------------------------------------------------------- simulation
     def axle(self, X: np.ndarray) -> Any:
-        """The batched :class:`~suspenv.models.mcpherson.params.Axle` of designs X (n, 49)
-        or, two-sided, (n, 98) (left then right)."""
+        """The batched :class:`~suspenv.models.mcpherson.params.Axle` of designs X (see
+        :meth:`full`)."""
         X = self.full(X)
         d = self.space.dim
-        right = X[:, d:] if X.shape[1] == 2 * d else None
+        right = X[:, d : 2 * d] if self.two_sided else None
         return build_axle(X[:, :d], right, self.constants, self.orientation or None)
 
     def simulate(self, X: np.ndarray) -> tuple[dict[str, KCResult], np.ndarray, list[str]]:
-        """Rig results {test: KCResult} of physical designs X (n, 49), ok (n,), messages.
+        """Rig results {test: KCResult} of designs X (see :meth:`full`), ok (n,), messages.
 
-        Tests are run in groups sharing an amplitude and grid (one batched call each),
-        in chunks of :attr:`chunk` designs."""
+        Rows sharing the fitted effect values are solved together (the solver takes one
+        value per effect parameter); tests are run in groups sharing an amplitude and
+        grid (one batched call each), in chunks of :attr:`chunk` designs."""
         X = self.full(X)
         n = X.shape[0]
         t0 = time.perf_counter()
-        groups = self._groups
         out: dict[str, list[KCResult]] = {t.test: [] for t in self.tests}
         ok = np.ones(n, bool)
         msgs = [""] * n
-        for a in range(0, n, self.chunk):
-            b = min(n, a + self.chunk)
-            axle = self.axle(X[a:b])
-            for steps, kw, names in groups:
-                res = rig_run(axle, names, steps, self.effects, kw)
-                for t, r in res.items():
-                    out[t].append(r)
-                    for i in np.flatnonzero(~r.ok):
-                        if ok[a + i]:
-                            msgs[a + i] = f"{t}: {r.messages[i]}"
-                        ok[a + i] = False
+        order: list[int] = []
+        for rows in _same_rows(X[:, self.sides :]):
+            effects = self.effects_at(X[rows[0]])
+            for a in range(0, len(rows), self.chunk):
+                part = rows[a : a + self.chunk]
+                order += part
+                axle = self.axle(X[part])
+                for steps, kw, names in self._groups:
+                    for t, r in rig_run(axle, names, steps, effects, kw).items():
+                        out[t].append(r)
+                        for i in np.flatnonzero(~r.ok):
+                            if ok[part[i]]:
+                                msgs[part[i]] = f"{t}: {r.messages[i]}"
+                            ok[part[i]] = False
         self.stats["designs"] += n
         self.stats["calls"] += 1
         self.stats["seconds"] += time.perf_counter() - t0
-        return {t: _concat(parts) for t, parts in out.items()}, ok, msgs
+        back = np.argsort(order)
+        return {t: _concat(parts, back) for t, parts in out.items()}, ok, msgs
 
     def predict(self, results: Mapping[str, KCResult]) -> np.ndarray:
         """Simulated values at the measured samples, scaled by sigma: (n, size)."""
@@ -380,8 +478,34 @@ class CurveModel:
             parts.append(v.reshape(v.shape[0], -1) / self.sigma[c])
         return np.concatenate(parts, axis=1)
 
+    def __getstate__(self) -> dict[str, Any]:
+        return {**self.__dict__, "pool": None}  # a process pool stays in its process
+
     def residuals_x(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[str]]:
-        """Residuals (n, size) of physical designs X (n, 49) (NaN rows where the rig fails)."""
+        """Residuals (n, size) of designs X (see :meth:`full`; NaN rows where the rig
+        fails). With a process pool (:attr:`pool`) and a path-dependent model, the
+        second half of a batch of at least :data:`SPLIT_ROWS` rows is solved there."""
+        X = self.full(X)
+        if self.pool is not None and X.shape[0] >= SPLIT_ROWS and self._path_dependent:
+            half = X.shape[0] // 2
+            other = self.pool.submit(_residuals_of, self, X[half:])
+            R1, ok1, m1 = self._residuals_here(X[:half])
+            R2, ok2, m2 = other.result()
+            self.stats["designs"] += X.shape[0] - half
+            return np.vstack([R1, R2]), np.r_[ok1, ok2], m1 + m2
+        return self._residuals_here(X)
+
+    @property
+    def _path_dependent(self) -> bool:
+        return any(e.kind in PATH_DEPENDENT for e in self.effects)
+
+    @property
+    def free_design(self) -> list[str]:
+        """The free design parameters (without the effects' parameters)."""
+        own = {p.name for p in self.effect_free}
+        return [n for n in self.free if n not in own]
+
+    def _residuals_here(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[str]]:
         res, ok, msgs = self.simulate(X)
         R = self.predict(res) - self.measured
         R[~ok] = np.nan
@@ -406,17 +530,50 @@ class CurveModel:
         h = np.where(u + step <= 1.0, step, -step)
         U = np.tile(u, (self.dim + 1, 1))
         U[1:] += np.diag(h)
-        R, ok, msgs = self.residuals(U)
+        cols = np.arange(self.dim)
+        if self.elastic_jacobian and self._path_dependent:
+            cols = np.flatnonzero(self.free_index >= self.sides)  # the effects' columns
+        R, ok, msgs = self.residuals(U[np.r_[0, 1 + cols]])
         if not ok[0]:
             raise ValidationError(f"the rig cannot solve the design being fitted: {msgs[0]}")
+        J = np.zeros((self.size, self.dim))
+        J[:, cols] = (R[1:] - R[0]).T / h[cols]
+        J[:, cols[~ok[1:]]] = 0.0
+        if cols.size < self.dim:
+            J[:, self._elastic_columns()] = self._elastic_jacobian(U)
+        return R[0], J
+
+    def _elastic_columns(self) -> np.ndarray:
+        return np.flatnonzero(self.free_index < self.sides)
+
+    def _elastic_jacobian(self, U: np.ndarray) -> np.ndarray:
+        """Design columns of the Jacobian from the model without its path-dependent
+        effects (their loop mean), the forward differences of ``U`` (dim + 1, dim)."""
+        keep = tuple(e for e in self.effects if e.kind not in PATH_DEPENDENT)
+        elastic = self.variant(
+            effects=keep,
+            effect_free=(),
+            free=self.free_design,
+            base=self.base[: self.sides],
+            elastic_jacobian=False,
+        )
+        cols = self._elastic_columns()
+        X = self.designs(U[np.r_[0, 1 + cols]])[:, : self.sides]
+        R, ok, _ = elastic.residuals_x(X)
+        h = (U[1 + cols] - U[0])[np.arange(cols.size), cols]
         J = (R[1:] - R[0]).T / h
         J[:, ~ok[1:]] = 0.0
-        return R[0], J
+        return J
 
     # ----------------------------------------------------------------- reading
     def block_rms(self, r: np.ndarray) -> dict[tuple[str, str], float]:
         """RMS of the scaled residual ``r`` (size,) per (test, channel): 1 = noise level."""
         return {(t, c): float(np.sqrt(np.mean(r[s] ** 2))) for t, c, s in self.blocks}
+
+
+def _residuals_of(model: CurveModel, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    """:meth:`CurveModel.residuals_x` in a worker process."""
+    return model.residuals_x(X)
 
 
 def _call_groups(
@@ -437,18 +594,52 @@ def _call_groups(
     return [(s, kw, tuple(names)) for s, kw, names in groups]
 
 
-def _concat(parts: list[KCResult]) -> KCResult:
-    if len(parts) == 1:
+def _concat(parts: list[KCResult], order: np.ndarray) -> KCResult:
+    """The rows of ``parts`` stacked, then taken in ``order``."""
+    if len(parts) == 1 and np.array_equal(order, np.arange(order.size)):
         return parts[0]
     p0 = parts[0]
+    msgs = [m for p in parts for m in p.messages]
     return KCResult(
         p0.test,
         p0.grid,
         p0.path,
-        {k: np.concatenate([p.channels[k] for p in parts]) for k in p0.channels},
-        np.concatenate([p.ok for p in parts]),
-        [m for p in parts for m in p.messages],
+        {k: np.concatenate([p.channels[k] for p in parts])[order] for k in p0.channels},
+        np.concatenate([p.ok for p in parts])[order],
+        [msgs[i] for i in order],
     )
+
+
+def _same_rows(V: np.ndarray) -> list[list[int]]:
+    """Row indices of ``V`` (n, k) grouped by equal rows, in order of first appearance."""
+    groups: dict[bytes, list[int]] = {}
+    for i, row in enumerate(np.ascontiguousarray(V)):
+        groups.setdefault(row.tobytes(), []).append(i)
+    return list(groups.values())
+
+
+def _effect_value(effects: Sequence[Effect], name: str) -> float:
+    """Value of the effect parameter ``<effect>.<parameter>`` among ``effects``."""
+    owner, _, param = name.partition(".")
+    for e in effects:
+        if e.name == owner:
+            return float(np.ravel(e.params[param])[0])
+    raise ValidationError(
+        f"fitted effect parameter {name!r}: no effect named {owner!r} among "
+        f"{[e.name for e in effects]}"
+    )
+
+
+def _effect_parameters(effects: Sequence[Effect], params: Sequence[Parameter]) -> list[Parameter]:
+    """The fitted effect parameters (named ``<effect>.<parameter>``), checked against
+    ``effects``; a positive range is mapped to the unit cube logarithmically."""
+    out = []
+    for p in params:
+        _effect_value(effects, p.name)
+        out.append(replace(p, log=True) if p.low > 0 else p)
+    if len({p.name for p in out}) != len(out):
+        raise ValidationError(f"fitted effect parameters must be unique, but got {params}")
+    return out
 
 
 # ====================================================================== stages

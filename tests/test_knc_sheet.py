@@ -1,0 +1,84 @@
+"""The K&C sheet: compliance numbers against an independent linear solve, the report on
+channel sets without contact-patch positions, and the delta-method interval."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from suspenv.metrics.knc_report import (
+    compliance_report,
+    knc_report,
+    report_needs,
+)
+from suspenv.models.mcpherson import build_axle, reference_design
+from suspenv.rigs.knc import run_tests
+
+
+@pytest.fixture(scope="module")
+def ref_results():
+    axle = build_axle(reference_design()[None])
+    return run_tests(
+        axle, ("parallel", "opposite", "steering", "lateral", "longitudinal", "aligning")
+    )
+
+
+#: rig test -> (load of compliance_matrix_full, sign of the other wheel's load in its own
+#: sense relative to this wheel's, sign of the sheet's load relative to the matrix's)
+_RIG_LOADS = {
+    "lateral": ("Fy", -1.0, 1.0),
+    "aligning": ("Mz", -1.0, 1.0),
+    "longitudinal": ("Fx", 1.0, -1.0),
+}
+
+
+@pytest.mark.parametrize("test", sorted(_RIG_LOADS))
+def test_compliance_slopes_match_the_linearised_compliance_matrix(ref_results, test):
+    """Reference: :func:`suspenv.metrics.knc.compliance_matrix_full`, the solver's linear
+    solve at the static position (a unit load on one wheel alone, no rig loop). The rig
+    loads both wheels at once, so a wheel's slope is its direct term plus the other
+    wheel's cross term times that wheel's load in its own sense (lateral and aligning:
+    the ISO-equal loads are opposite in the wheels' own senses; braking: equal). The
+    quadratic fit over +-3 grid points (+-500 N, +-50 N m) truncates the curvature: 1 %."""
+    from suspenv.metrics.knc import (
+        FULL_COMPLIANCE_LOADS,
+        FULL_COMPLIANCE_OUTPUTS,
+        compliance_matrix_full,
+    )
+
+    rep = compliance_report(ref_results)
+    C, _ = compliance_matrix_full(build_axle(reference_design()[None]))
+    load, other, sheet_sign = _RIG_LOADS[test]
+    k = FULL_COMPLIANCE_LOADS.index(load)
+    for suffix, out in (
+        ("steer", "toe"),
+        ("camber", "camber"),
+        ("wc_x", "wheel_centre_x"),
+        ("wc_y", "wheel_centre_y"),
+    ):
+        o = FULL_COMPLIANCE_OUTPUTS.index(out)
+        want = [sheet_sign * (C[0, i, o, k, i] + other * C[0, i, o, k, 1 - i]) for i in (0, 1)]
+        got = rep[f"{test}_compliance_{suffix}"][0]
+        scale = np.abs(want).max() + 1e-6
+        np.testing.assert_allclose(got, want, rtol=0.01, atol=0.01 * scale)
+
+
+def test_report_without_contact_patch_channels_says_what_is_missing(ref_results):
+    full = knc_report(ref_results)
+    cut = {}
+    for t, r in ref_results.items():
+        chans = {
+            k: v
+            for k, v in r.channels.items()
+            if k not in ("contact_x", "contact_y", "contact_z", "scrub_radius", "trail")
+        }
+        cut[t] = type(r)(r.test, r.grid, r.path, chans, r.ok, r.messages)
+    rep = knc_report(cut)  # no KeyError
+    needs = report_needs(cut)
+    assert "scrub_radius" in needs and "channel parallel:scrub_radius" in needs["scrub_radius"]
+    assert "roll_rate" in needs and "contact_y" in needs["roll_rate"]
+    for name, v in rep.items():
+        if name in needs:
+            assert not np.all(np.isfinite(v))
+        else:  # every number the channels allow is the full report's
+            np.testing.assert_allclose(v, full[name], rtol=1e-12, atol=1e-12)
