@@ -928,6 +928,7 @@ def polish(
     min_gain: float = RESTART_GAIN,
     progress: bool = False,
     prior: np.ndarray | None = None,
+    ftol: float = 1e-5,
 ) -> tuple[StageResult, np.ndarray, np.ndarray]:
     """:func:`polish_stage` restarted from its own answer (a fresh trust region) until a
     restart lowers the cost by less than ``min_gain`` (squared noise units: a change of
@@ -935,12 +936,12 @@ def polish(
     ``max_nfev`` evaluations in all. One stage in the result; ``stop`` says which
     criterion ended it."""
     t0 = time.perf_counter()
-    stage, r, J = polish_stage(model, u0, max_nfev, progress=progress, prior=prior)
+    stage, r, J = polish_stage(model, u0, max_nfev, ftol, progress=progress, prior=prior)
     evals, history, runs = stage.evaluations, list(stage.history), 1
     left = max_nfev - len(stage.history)
     stop = stage.stop
     while runs < restarts and left > 2 and stage.stop.startswith("converged"):
-        again, r2, J2 = polish_stage(model, stage.u, left, progress=progress, prior=prior)
+        again, r2, J2 = polish_stage(model, stage.u, left, ftol, progress=progress, prior=prior)
         runs += 1
         evals += again.evaluations
         history += again.history

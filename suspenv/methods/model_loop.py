@@ -31,12 +31,15 @@ from typing import Any
 import numpy as np
 
 from suspenv.core.space import Parameter
-from suspenv.methods.curve_fit import CurveFit, CurveModel, polish
+from suspenv.methods.curve_fit import RESTART_GAIN, CurveFit, CurveModel, polish
 from suspenv.models.effects import Effect
 
 #: residual families the loop models by adding an effect to the axle (the others: see
 #: :data:`SIDES_FAMILY` and the sensor families, which are reported only)
 EFFECT_FAMILIES = ("loop", "progressive")
+#: the refit's Jacobian: design columns from the model without its path-dependent
+#: effects (True) or every column from the whole model (False; see CurveModel)
+ELASTIC_JACOBIAN = False
 #: the family that puts the sides apart
 SIDES_FAMILY = "lr_asymmetry"
 
@@ -195,10 +198,15 @@ def refine(
     if not changes:
         return None
     say("loop: all parameters refitted together")
-    model = model.variant(elastic_jacobian=True)
+    model = model.variant(elastic_jacobian=ELASTIC_JACOBIAN)
     model.pool = pool  # half of each path-dependent batch in a second process
     prior = model.unit(_start(model, x0))
-    stage, r, J = polish(model, model.unit(x), polish_nfev, progress=progress, prior=prior)
+    # stop when a step gains less than one squared noise unit at a fit to the noise
+    # (each path-dependent step costs a rig loop: no crawling along flat valleys)
+    ftol = RESTART_GAIN / model.size
+    stage, r, J = polish(
+        model, model.unit(x), polish_nfev, progress=progress, prior=prior, ftol=ftol
+    )
     stage.name = "refit with " + "; ".join(changes)
     out = CurveFit(model, stage.u, model.designs(stage.u[None])[0], r, J, [stage], stage)
     return Refinement(changes, tried, out, time.perf_counter() - t0, skipped)

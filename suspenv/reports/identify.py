@@ -379,7 +379,7 @@ def _sheet_section(s: dict[str, Any]) -> list[str]:
 
 
 def _first_screen(result: IdentifyResult, s: dict[str, Any]) -> list[str]:
-    ident = result.identifiability
+    ident = result.final_identifiability
     counts = summary_counts(ident.verdicts)
     fit_ok = s["curves_within_1_5_noise"]
     worst = max(s["curves"], key=lambda r: r["rms_over_noise"])
@@ -407,6 +407,7 @@ def _first_screen(result: IdentifyResult, s: dict[str, Any]) -> list[str]:
         + ".",
     ]
     if result.candidates:
+        first_n = result.identifiability.n_determined  # the next test is the first fit's
         best = result.candidates[0]
         new = best.newly_identified
         if new:
@@ -414,13 +415,13 @@ def _first_screen(result: IdentifyResult, s: dict[str, Any]) -> list[str]:
             lines.append(
                 f"- **Next test**: `{best.test}`: predicted to identify {len(new)} more "
                 f"parameter{'s' if len(new) != 1 else ''} ({', '.join(new[:6])}{more}) and to "
-                f"determine {best.n_determined_after} combinations (now {ident.n_determined})."
+                f"determine {best.n_determined_after} combinations (now {first_n})."
             )
         else:
             lines.append(
                 f"- **Next test**: `{best.test}`: no single rig test identifies another "
                 f"parameter under the rule; this one determines {best.n_determined_after} "
-                f"combinations (now {ident.n_determined}) and shrinks the standard errors of "
+                f"combinations (now {first_n}) and shrinks the standard errors of "
                 f"those not identified by a factor {10**best.mean_log_gain:.2g} on geometric "
                 "mean."
             )
@@ -458,6 +459,10 @@ def _first_screen(result: IdentifyResult, s: dict[str, Any]) -> list[str]:
                 "- **Remaining residual**: the K&C diagnosis names nothing (no signature above "
                 f"{diag['threshold']:g} holding {100 * diag['named_share']:.0f} % of the residual)."
             )
+    after = result.loop_diagnosis
+    if after is not None and "skipped" not in after:
+        names = "; ".join(n["words"] for n in after["named"]) or "nothing"
+        lines.append(f"- **Residual after the loop**: the K&C diagnosis names {names}.")
     if result.truth is not None and "recovery_error_pct_range" in s:
         e = s["recovery_error_pct_range"]
         if e["identified_max"] is not None:
