@@ -117,6 +117,11 @@ def test_the_delta_method_interval_matches_a_parametric_bootstrap(test_car):
     rows = {row.name: row for row in knc_sheet(fit, cov)}
     names = ("bump_steer", "camber_gain")
     se = {n: rows[n].half_width[0] / Z95 for n in names}
+    # symmetry: a one-sided model's sides are equal, so is every error the fit allows
+    for row in rows.values():
+        d = row.to_dict()
+        assert abs(d["asymmetry"]) <= 1e-9 * (1 + abs(row.identified[0]))
+        assert d["asymmetry_ci95_half_width"] <= 1e-9 * (1 + row.half_width[0])
     # bootstrap: the fitted model's curves plus fresh noise, refitted
     clean = model.predict(model.simulate(fit.x[None])[0])[0]
     rng = np.random.default_rng(7)

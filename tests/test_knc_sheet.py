@@ -82,3 +82,31 @@ def test_report_without_contact_patch_channels_says_what_is_missing(ref_results)
             assert not np.all(np.isfinite(v))
         else:  # every number the channels allow is the full report's
             np.testing.assert_allclose(v, full[name], rtol=1e-12, atol=1e-12)
+
+
+def test_ackermann_percentage_is_0_for_parallel_and_100_for_the_ackermann_pair():
+    """Golden: the definition's two anchors (closed form of the Ackermann pair:
+    inner = atan(L tan d_o / (L - t tan d_o))); half-way angles give 50 %."""
+    from suspenv.metrics.knc_report import ackermann_pct
+    from suspenv.rigs.knc import KCResult, loop_path
+
+    def fake(dl: np.ndarray, dr: np.ndarray) -> KCResult:
+        steps = dl.size - 1
+        path = loop_path(steps)
+        toe = np.stack([-dl, dr], axis=-1)[path]  # toe-in = -delta (left), +delta (right)
+        grid = np.linspace(-0.03, 0.03, steps + 1)
+        return KCResult("steering", grid, path, {"toe": np.deg2rad(toe)[None]},
+                        np.ones(1, bool), [""])
+
+    L, t = 2600.0, 1400.0
+    do = np.deg2rad(np.linspace(0.0, 15.0, 6))
+    di = np.rad2deg(np.arctan(L * np.tan(do) / (L - t * np.tan(do))))
+    do = np.rad2deg(do)
+    tr = np.array([t])
+    par = np.r_[-do[::-1], do[1:]]
+    assert ackermann_pct(fake(par, par), "down", L, tr)[0] == pytest.approx(0.0, abs=1e-9)
+    pair = fake(np.r_[-do[::-1], di[1:]], np.r_[-di[::-1], do[1:]])
+    assert ackermann_pct(pair, "down", L, tr)[0] == pytest.approx(100.0, abs=1e-9)
+    mid = 0.5 * (di + do)
+    half = fake(np.r_[-do[::-1], mid[1:]], np.r_[-mid[::-1], do[1:]])
+    assert ackermann_pct(half, "down", L, tr)[0] == pytest.approx(50.0, abs=1e-9)

@@ -82,6 +82,7 @@ DEFAULTS: dict[str, Any] = {
     "rerun_next": True,
     "diagnose": True,
     "loop": True,  # add what the residual screen names (sides apart, an effect) and refit
+    "loop_nfev": 15,  # least-squares evaluations of the loop's refit (path-dependent: slow)
     "sheet": True,  # the identified car's K&C sheet with 95 % intervals
     "held_out": "",  # a rig test kept out of the fit and predicted ("": none)
     "figures": True,
@@ -120,7 +121,8 @@ def check_options(options: Mapping[str, Any]) -> dict[str, Any]:
         raise ValidationError(
             f"identify: `initial` must be one of {(*INITIALS, 'auto')}, but got {o['initial']!r}"
         )
-    for key, lo in (("global_evaluations", 0), ("popsize", 4), ("polish_nfev", 1), ("workers", 1)):
+    ints = (("global_evaluations", 0), ("popsize", 4), ("polish_nfev", 1), ("workers", 1))
+    for key, lo in (*ints, ("loop_nfev", 1)):
         v = o[key]
         if not isinstance(v, int) or isinstance(v, bool) or v < lo:
             raise ValidationError(f"identify: `{key}` must be an integer >= {lo}, but got {v!r}")
@@ -747,6 +749,7 @@ def _model_loop(result: IdentifyResult, progress: bool) -> None:
             named,
             result.x0,
             result.options["polish_nfev"],
+            result.options["loop_nfev"],
             say=lambda m: _say(progress, m),
             pool=pool,
             progress=progress,

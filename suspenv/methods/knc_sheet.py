@@ -14,6 +14,8 @@ standard error is ``sqrt(g' C g)``, the 95 % interval +-1.96 of it. The gradient
 taken on the model without its path-dependent elements (a hysteresis loop's mean moves
 with the design as the elastic curve does); the value itself on the whole model. A
 metric that the measured curves do not determine gets a wide interval, not a false one.
+The right-minus-left asymmetry gets its own interval from the difference of the two
+wheels' gradients (errors the sides share cancel).
 """
 
 from __future__ import annotations
@@ -51,6 +53,7 @@ class SheetRow:
     half_width: np.ndarray  # (2,) 95 % half-width (delta method)
     measured: np.ndarray | None  # (2,) or None (the test was not measured)
     needs: str = ""  # why the measured value is missing
+    asymmetry_half_width: float = 0.0  # 95 % half-width of right - left (delta method)
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -63,6 +66,8 @@ class SheetRow:
             "measured": None if self.measured is None else self.measured.tolist(),
             "status": "measured" if self.measured is not None else "predicted",
             "needs": self.needs,
+            "asymmetry": float(self.identified[1] - self.identified[0]),
+            "asymmetry_ci95_half_width": self.asymmetry_half_width,
         }
 
 
@@ -109,6 +114,8 @@ def knc_sheet(
         g = (grads[name][1:] - grads[name][0]) / h[:, None]  # (dim, 2)
         g = np.where(np.isfinite(g), g, 0.0)
         se = np.sqrt(np.maximum(np.einsum("ik,ij,jk->k", g, cov_unit, g), 0.0))
+        gd = g[:, 1] - g[:, 0]  # right - left: the sides' common errors cancel
+        se_d = float(np.sqrt(max(gd @ cov_unit @ gd, 0.0)))
         item = items[name]
         m = meas.get(name)
         have = m is not None and bool(np.all(np.isfinite(m[0])))
@@ -122,6 +129,7 @@ def knc_sheet(
                 Z95 * se,
                 m[0] if have and m is not None else None,
                 needs.get(name, "" if have else f"needs: the {item.test} test"),
+                Z95 * se_d,
             )
         )
     return rows

@@ -149,13 +149,16 @@ def refine(
     named: Sequence[str],
     x0: np.ndarray,
     polish_nfev: int = 150,
+    refit_nfev: int = 15,
     say: Callable[[str], None] | None = None,
     pool: Any = None,
     progress: bool = False,
 ) -> Refinement | None:
     """Add to ``fit.model`` what the screen named (families ``named``, strongest first)
     and refit; None when nothing named is modelled. ``x0``: the start design of the
-    first fit (the polish's weak pull stays towards it)."""
+    first fit (the polish's weak pull stays towards it); ``polish_nfev``: budget of the
+    sides-apart polish (path-independent, cheap), ``refit_nfev``: of the final refit
+    (each evaluation of a path-dependent model is a rig loop solved step by step)."""
     t0 = time.perf_counter()
     say = say or (lambda _m: None)
     model, x = fit.model, fit.x
@@ -169,7 +172,12 @@ def refine(
         changes.append("sides apart: every free parameter but the anti-roll bar gets a right twin")
         say("loop: sides apart (a right-side twin of every free parameter)")
         stage, _, _ = polish(
-            model, model.unit(x), polish_nfev, progress=progress, prior=model.unit(x0)
+            model,
+            model.unit(x),
+            polish_nfev,
+            progress=progress,
+            prior=model.unit(x0),
+            ftol=RESTART_GAIN / model.size,
         )
         x = model.designs(stage.u[None])[0]
     for family in [f for f in named if f in EFFECT_FAMILIES]:
@@ -201,11 +209,11 @@ def refine(
     model = model.variant(elastic_jacobian=ELASTIC_JACOBIAN)
     model.pool = pool  # half of each path-dependent batch in a second process
     prior = model.unit(_start(model, x0))
-    # stop when a step gains less than one squared noise unit at a fit to the noise
-    # (each path-dependent step costs a rig loop: no crawling along flat valleys)
+    # both polishes stop when a step gains less than one squared noise unit at a fit to
+    # the noise (each path-dependent step costs a rig loop: no crawling along valleys)
     ftol = RESTART_GAIN / model.size
     stage, r, J = polish(
-        model, model.unit(x), polish_nfev, progress=progress, prior=prior, ftol=ftol
+        model, model.unit(x), refit_nfev, progress=progress, prior=prior, ftol=ftol
     )
     stage.name = "refit with " + "; ".join(changes)
     out = CurveFit(model, stage.u, model.designs(stage.u[None])[0], r, J, [stage], stage)

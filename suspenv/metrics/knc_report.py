@@ -262,6 +262,15 @@ STEERING_ITEMS: tuple[ReportItem, ...] = (
         "the largest rack travel",
         "+ inner wheel steers more than Ackermann",
     ),
+    ReportItem(
+        "ackermann_pct",
+        "%",
+        "steering",
+        False,
+        "100 (inner - outer) / (Ackermann inner - outer) of the road-wheel angles, mean of "
+        "both turn directions at the largest rack travel (0 % parallel steer, 100 % ideal)",
+        "+ towards Ackermann",
+    ),
 )
 
 
@@ -694,7 +703,27 @@ def steering_report(
         ends.append(0.5 * (e[:, 0] + e[:, -1]))
     err = 0.5 * (ends[0] + ends[1])
     out["ackermann_error"] = np.repeat(err[:, None], 2, axis=-1)
+    pct = np.mean([ackermann_pct(res, br, c.wheelbase, track) for br in BRANCHES], axis=0)
+    out["ackermann_pct"] = np.repeat(pct[:, None], 2, axis=-1)
     return out
+
+
+def ackermann_pct(
+    res: KCResult, branch: str, wheelbase_mm: float, track_mm: np.ndarray
+) -> np.ndarray:
+    """Ackermann percentage (n,) on ``branch``: ``100 (d_i - d_o) / (d_A - d_o)`` at both
+    ends of the rack travel, averaged (``d_i``, ``d_o`` the inner and outer wheels' steer
+    angles, ``d_A`` the Ackermann angle for ``d_o``: :func:`ackermann_error_curve`)."""
+    d = steer_angle(res, branch)
+    err = ackermann_error_curve(res, branch, wheelbase_mm, track_mm)
+    out = []
+    for end in (0, -1):
+        turn = np.sign(d[:, end].mean(axis=-1))
+        inner = np.where(turn > 0, d[:, end, 0], d[:, end, 1]) * turn
+        outer = np.where(turn > 0, d[:, end, 1], d[:, end, 0]) * turn
+        ideal = inner - err[:, end]
+        out.append(100.0 * (inner - outer) / (ideal - outer))
+    return 0.5 * (out[0] + out[1])
 
 
 def knc_report(

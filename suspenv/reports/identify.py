@@ -354,6 +354,7 @@ def _sheet_section(s: dict[str, Any]) -> list[str]:
             "measured L / R": _pair(r["measured"]) or text(r["needs"]),
             "identified L / R": _pair(r["identified"]),
             "95 % +- L / R": _pair(r["ci95_half_width"], 2),
+            "R - L (95 %)": f"{r['asymmetry']:.3g} +- {r['asymmetry_ci95_half_width']:.2g}",
         }
         if "truth" in r:
             row["truth L / R"] = _pair(r["truth"])
