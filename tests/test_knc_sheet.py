@@ -110,3 +110,27 @@ def test_ackermann_percentage_is_0_for_parallel_and_100_for_the_ackermann_pair()
     mid = 0.5 * (di + do)
     half = fake(np.r_[-do[::-1], mid[1:]], np.r_[-mid[::-1], do[1:]])
     assert ackermann_pct(half, "down", L, tr)[0] == pytest.approx(50.0, abs=1e-9)
+
+
+def test_suspenv_knc_prints_the_sheet_of_a_rig_channel_set(capsys):
+    """A measurement with what rigs record (no contact-patch position, scrub radius,
+    trail or knuckle pitch) gets the sheet's numbers its channels allow and says what
+    the others need (no KeyError)."""
+    import dataclasses
+
+    from suspenv.cli.knc import print_measured_sheet
+    from suspenv.methods.identify import measure_test_car
+
+    m, _ = measure_test_car(0, ("noise",), tests=("parallel", "opposite", "lateral"))
+    drop = {"contact_x", "contact_y", "contact_z", "scrub_radius", "trail", "knuckle_pitch"}
+    tests = {
+        t: dataclasses.replace(mt, channels={k: v for k, v in mt.channels.items()
+                                             if k not in drop})
+        for t, mt in m.tests.items()
+    }
+    print_measured_sheet(dataclasses.replace(m, tests=tests))
+    out = capsys.readouterr().out
+    assert "bump_steer" in out and "lateral_compliance_steer" in out
+    assert "scrub_radius" in out and "needs: channel parallel:scrub_radius" in out
+    assert "roll_rate" in out and "opposite:contact_y" in out
+    assert "steer_ratio" in out and "needs: the steering test" in out
