@@ -142,3 +142,42 @@ def _fit_of(model, stage, r, J):
     from suspenv.methods.curve_fit import CurveFit
 
     return CurveFit(model, stage.u, model.designs(stage.u[None])[0], r, J, [stage], stage)
+
+
+@pytest.mark.slow
+def test_the_job_follows_its_screen_and_reports_before_and_after(test_car, tmp_path):
+    """End to end on the test car with a few parameters free: the screen names the
+    sides and the loop, the loop adds them, the fit improves, the held-out test is
+    predicted, the report opens with before -> after and the sheet, and identified.toml
+    is a vehicle file with the sides and the fitted effect."""
+    import json
+
+    from suspenv.methods.identify import run_identify, write_outputs
+    from suspenv.models.mcpherson.vehicle_file import load_vehicle
+
+    m, truth = test_car
+    free = ["static_toe", "static_camber", "tie_rod_inner_z", "top_mount_kz"]
+    opts = {
+        "free": free,
+        "global_evaluations": 0,
+        "next_test": False,
+        "held_out": "lateral",
+        "polish_nfev": 40,
+        "loop_nfev": 8,
+        "workers": 1,
+    }
+    res = run_identify(m, resolve_vehicle(None), opts, truth=truth, x0=truth.mean_design)
+    assert res.loop is not None and res.held_out is not None
+    assert res.loop.model.two_sided and res.loop.model.effect_free
+    assert res.loop.fit.cost < 0.5 * res.fit.cost
+    assert res.held_out.after["toe"] < res.held_out.before["toe"]
+    files = write_outputs(res, tmp_path, figures=True)
+    assert {"curves.png", "residual.png"} <= {f.name for f in files}
+    text = (tmp_path / "report.md").read_text()
+    head = text.split("## K&C sheet")[0]
+    assert "before -> after the loop" in head and "Held-out test" in head
+    assert text.index("## K&C sheet") < text.index("## Before and after the loop")
+    s = json.loads((tmp_path / "identify.json").read_text())
+    assert s["loop"]["curves_within_1_5_noise_after"] >= s["loop"]["curves_within_1_5_noise_before"]
+    v = load_vehicle(tmp_path / "identified.toml")
+    assert not np.allclose(v.left, v.right) and v.effects

@@ -134,3 +134,27 @@ def test_suspenv_knc_prints_the_sheet_of_a_rig_channel_set(capsys):
     assert "scrub_radius" in out and "needs: channel parallel:scrub_radius" in out
     assert "roll_rate" in out and "opposite:contact_y" in out
     assert "steer_ratio" in out and "needs: the steering test" in out
+
+
+def test_loop_half_width_matches_the_strut_friction_hand_calculation():
+    """Reference: hand calculation (as tests/test_knc_effects.py). A saturated friction
+    force f between rod and tube reverses between the branches (2 f along the strut);
+    through the motion ratio MR it reaches the wheel, which shares it between the tyre
+    (k_t) and the suspension (wheel rate k_w): the wheel load's half-width is
+    f MR k_t / (k_t + k_w). Without friction there is no loop."""
+    from suspenv.metrics.knc import objectives_subset
+    from suspenv.metrics.knc_report import loop_half_width
+    from suspenv.models.mcpherson import AxleSolver
+    from suspenv.models.mcpherson.effects import axle_effect
+
+    axle = build_axle(reference_design()[None])
+    f = 100.0
+    eff = [axle_effect("coulomb_friction", "strut", f_c=f, sigma=5e6)]
+    res = run_tests(axle, ("parallel",), steps=10, effects=eff)["parallel"]
+    plain = run_tests(axle, ("parallel",), steps=10)
+    k_w = objectives_subset(plain, ("par_susp_ride_rate_pos",))[0, 0]
+    k_t = axle.constants.tyre_rate
+    mr = AxleSolver(axle).motion_ratio_kinematic[0, 0]
+    hand = f * mr * k_t / (k_t + k_w)
+    assert loop_half_width(res, "tyre_fz")[0, 0] == pytest.approx(hand, rel=0.03)
+    assert np.abs(loop_half_width(plain["parallel"], "tyre_fz")).max() < 0.025

@@ -931,8 +931,8 @@ def _sheet_summary(result: IdentifyResult) -> dict[str, Any]:
     hits = []
     for r in rows:
         t = truth.get(r["name"])
-        if t is None or not np.all(np.isfinite(t)):
-            continue
+        if t is None or not np.all(np.isfinite([*t, *r["ci95_half_width"]])):
+            continue  # no truth, or no interval (a loop width)
         inside = np.abs(np.asarray(r["identified"]) - t) <= np.asarray(r["ci95_half_width"])
         r["truth"] = t.tolist()
         r["truth_inside_ci95"] = inside.tolist()

@@ -14,6 +14,7 @@ standard error is ``sqrt(g' C g)``, the 95 % interval +-1.96 of it. The gradient
 taken on the model without its path-dependent elements (a hysteresis loop's mean moves
 with the design as the elastic curve does); the value itself on the whole model. A
 metric that the measured curves do not determine gets a wide interval, not a false one.
+Loop widths (hysteresis) get no interval (that model has no loop).
 The right-minus-left asymmetry gets its own interval from the difference of the two
 wheels' gradients (errors the sides share cancel).
 """
@@ -97,6 +98,8 @@ def knc_sheet(
     loops on a grid), whose metrics are shown beside the identified ones."""
     from suspenv.metrics.knc_report import ALL_ITEMS, COMPLIANCE_ITEMS, report_needs
 
+    loops = {n for n in COMPLIANCE_ITEMS if "_loop_width_" in n}
+
     model = fit.model
     steps = max(t.steps for t in model.tests)
     x = model.full(fit.x)
@@ -116,6 +119,8 @@ def knc_sheet(
         se = np.sqrt(np.maximum(np.einsum("ik,ij,jk->k", g, cov_unit, g), 0.0))
         gd = g[:, 1] - g[:, 0]  # right - left: the sides' common errors cancel
         se_d = float(np.sqrt(max(gd @ cov_unit @ gd, 0.0)))
+        if name in loops:  # the gradient's model has no loop: no interval
+            se, se_d = np.full(2, np.nan), float("nan")
         item = items[name]
         m = meas.get(name)
         have = m is not None and bool(np.all(np.isfinite(m[0])))

@@ -313,20 +313,60 @@ def _compliance_items() -> tuple[ReportItem, ...]:
     return tuple(out)
 
 
-#: compliance numbers (:func:`compliance_report`)
-COMPLIANCE_ITEMS: dict[str, ReportItem] = {i.name: i for i in _compliance_items()}
+#: channels whose hysteresis loop width is reported: channel -> (scale from SI, unit)
+LOOP_CHANNELS = {"toe": (180 / np.pi, "deg"), "camber": (180 / np.pi, "deg"), "tyre_fz": (1.0, "N")}
+#: tests whose loop widths are reported
+LOOP_TESTS = ("parallel", "opposite", "single", "lateral", "longitudinal", "traction", "aligning")
+
+
+def _loop_items() -> tuple[ReportItem, ...]:
+    return tuple(
+        ReportItem(
+            f"{test}_loop_width_{chan}",
+            unit,
+            test,
+            True,
+            "hysteresis: half the difference between the loading and unloading branches "
+            "at the static position (the branches' mean is the other numbers' value)",
+            "+ the loading branch above the unloading one",
+        )
+        for test in LOOP_TESTS
+        for chan, (_, unit) in LOOP_CHANNELS.items()
+    )
+
+
+#: compliance numbers and loop widths (:func:`compliance_report`)
+COMPLIANCE_ITEMS: dict[str, ReportItem] = {
+    i.name: i for i in _compliance_items() + _loop_items()
+}
 
 
 def compliance_report(results: dict[str, KCResult]) -> dict[str, np.ndarray]:
     """Compliance numbers of the force tests present (:data:`COMPLIANCE_ITEMS`), each
     (n, 2): the loop mean of the slope at zero load of each wheel's output against the
-    load in that wheel's own sense (:data:`_OWN_LOAD`). NaN where a channel is missing."""
+    load in that wheel's own sense (:data:`_OWN_LOAD`), and the loop widths of every test
+    present (:func:`loop_half_width`). NaN where a channel is missing."""
     out: dict[str, np.ndarray] = {}
     for test in _OWN_LOAD:
         if test in results:
             for suffix in _OWN_OUTPUT:
                 out[f"{test}_compliance_{suffix}"] = _compliance(results[test], test, suffix)
+    for test in LOOP_TESTS:
+        if test in results:
+            for chan in LOOP_CHANNELS:
+                out[f"{test}_loop_width_{chan}"] = loop_half_width(results[test], chan)
     return out
+
+
+def loop_half_width(res: KCResult, chan: str) -> np.ndarray:
+    """Half the gap (n, 2) between the ascending (loading) and descending (unloading)
+    branches of channel ``chan`` at the static position, in :data:`LOOP_CHANNELS` units
+    (NaN when the channel is missing)."""
+    if chan not in res.channels:
+        return np.full((res.ok.size, 2), np.nan)
+    i = res.static_index
+    gap = res.branch(chan, "up")[:, i] - res.branch(chan, "down")[:, i]
+    return 0.5 * gap * LOOP_CHANNELS[chan][0]
 
 
 def _compliance(res: KCResult, test: str, suffix: str) -> np.ndarray:

@@ -507,7 +507,12 @@ def write_identify_report(result: IdentifyResult, out: Path, figures: bool = Tru
         figs["residual"] = plot_residual(result, fdir / "residual.png")
         figs["convergence"] = plot_convergence(result, fdir / "convergence.png")
         files += list(figs.values())
-    lines = _first_screen(result, s) + [""] + _sheet_section(s) + _before_after(result, s)
+    lines = _first_screen(result, s) + [""]
+    if "residual" in figs:  # the fit before and after the loop: the first thing seen
+        lines += ["![fit per curve: initial, first fit, after the loop](figures/residual.png)", ""]
+    lines += _sheet_section(s) + _before_after(result, s)
+    if "curves" in figs:
+        lines += ["", "![measured vs first fit vs after the loop](figures/curves.png)", ""]
     ident = result.final_identifiability
     rows = []
     for v in ident.verdicts:
@@ -535,8 +540,6 @@ def write_identify_report(result: IdentifyResult, out: Path, figures: bool = Tru
         "",
         markdown_table(rows),
     ]
-    if "curves" in figs:
-        lines += ["", "![measured vs initial vs identified](figures/curves.png)"]
     lines += [
         "",
         "## Fit per curve",
@@ -546,8 +549,6 @@ def write_identify_report(result: IdentifyResult, out: Path, figures: bool = Tru
         "",
         _curve_table(result),
     ]
-    if "residual" in figs:
-        lines += ["![residual per curve](figures/residual.png)", ""]
     rows = []
     for v in ident.verdicts:
         if v.identified:
