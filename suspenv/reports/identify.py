@@ -483,36 +483,18 @@ def _first_screen(result: IdentifyResult, s: dict[str, Any]) -> list[str]:
     return lines
 
 
-def write_identify_report(result: IdentifyResult, out: Path, figures: bool = True) -> list[Path]:
-    """Write ``identified.toml``, ``identify.json``, ``report.md`` and ``figures/*.png``
-    into ``out`` (created); returns the paths written."""
-    from suspenv.models.mcpherson.vehicle_file import dump_vehicle
-
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    files: list[Path] = []
-    toml = out / "identified.toml"
-    toml.write_text(dump_vehicle(result.identified_vehicle))
-    files.append(toml)
-    s = summary(result)
-    js = out / "identify.json"
-    js.write_text(json.dumps(to_jsonable(s), indent=2) + "\n")
-    files.append(js)
+def _figures(result: IdentifyResult, out: Path) -> dict[str, Path]:
+    fdir = out / "figures"
     figs: dict[str, Path] = {}
-    if figures:
-        fdir = out / "figures"
-        p = plot_curves(result, fdir / "curves.png")
-        if p is not None:
-            figs["curves"] = p
-        figs["residual"] = plot_residual(result, fdir / "residual.png")
-        figs["convergence"] = plot_convergence(result, fdir / "convergence.png")
-        files += list(figs.values())
-    lines = _first_screen(result, s) + [""]
-    if "residual" in figs:  # the fit before and after the loop: the first thing seen
-        lines += ["![fit per curve: initial, first fit, after the loop](figures/residual.png)", ""]
-    lines += _sheet_section(s) + _before_after(result, s)
-    if "curves" in figs:
-        lines += ["", "![measured vs first fit vs after the loop](figures/curves.png)", ""]
+    p = plot_curves(result, fdir / "curves.png")
+    if p is not None:
+        figs["curves"] = p
+    figs["residual"] = plot_residual(result, fdir / "residual.png")
+    figs["convergence"] = plot_convergence(result, fdir / "convergence.png")
+    return figs
+
+
+def _identified_section(result: IdentifyResult) -> list[str]:
     ident = result.final_identifiability
     rows = []
     for v in ident.verdicts:
@@ -529,7 +511,7 @@ def write_identify_report(result: IdentifyResult, out: Path, figures: bool = Tru
             row["truth"] = v.truth
             row["error % range"] = v.error_pct
         rows.append(row)
-    lines += [
+    return [
         "",
         "## Identified",
         "",
@@ -540,17 +522,11 @@ def write_identify_report(result: IdentifyResult, out: Path, figures: bool = Tru
         "",
         markdown_table(rows),
     ]
-    lines += [
-        "",
-        "## Fit per curve",
-        "",
-        "RMS of (identified - measured) over the noise RMS, both wheels and both loading "
-        f"branches (1 = at the noise floor; `!` above {FIT_RATIO}). Noise: {_sigma_text(result)}.",
-        "",
-        _curve_table(result),
-    ]
+
+
+def _not_identified_section(result: IdentifyResult) -> list[str]:
     rows = []
-    for v in ident.verdicts:
+    for v in result.final_identifiability.verdicts:
         if v.identified:
             continue
         row = {
@@ -564,7 +540,11 @@ def write_identify_report(result: IdentifyResult, out: Path, figures: bool = Tru
         if v.truth is not None:
             row["truth"] = v.truth
         rows.append(row)
-    lines += ["## Not identified", "", markdown_table(rows)]
+    return ["## Not identified", "", markdown_table(rows)]
+
+
+def _next_test_section(result: IdentifyResult, s: dict[str, Any]) -> list[str]:
+    lines: list[str] = []
     if result.candidates:
         rows = [
             {
@@ -580,7 +560,7 @@ def write_identify_report(result: IdentifyResult, out: Path, figures: bool = Tru
             "## Next test",
             "",
             "Predicted standard errors with each rig test suspenv simulates and the "
-            "measurement lacks added (its Jacobian at the identified design, the same noise "
+            "measurement lacks added (its Jacobian at the first fit's design, the same noise "
             "model, the rig's default amplitude).",
             "",
             markdown_table(rows),
@@ -589,52 +569,90 @@ def write_identify_report(result: IdentifyResult, out: Path, figures: bool = Tru
         r = s["rerun"]
         lines += [
             f"Re-run on the test car with `{r['test']}` measured (simulated, same noise "
-            f"model), least squares from the identified design: {r['n_identified_before']} -> "
-            f"{r['n_identified_after']} identified parameters; worst curve "
+            f"model), least squares from the first fit's design: {r['n_identified_before']} "
+            f"-> {r['n_identified_after']} identified parameters; worst curve "
             f"{r['worst_curve_rms_over_noise']:.2f} x noise; {r['stop']}.",
             "",
         ]
-        rows = []
-        for v in result.rerun.identifiability.verdicts:
-            if v.identified:
-                rows.append(
-                    {
-                        "parameter": v.name,
-                        "value": v.value,
-                        "+- (1 s.e.)": v.stderr,
-                        "truth": v.truth if v.truth is not None else "",
-                        "error % range": v.error_pct if v.error_pct is not None else "",
-                    }
-                )
-        lines += [markdown_table(rows)]
-    diag = result.diagnosis
-    if diag is not None and "skipped" not in diag:
         rows = [
-            {"signature": d["kind"], "score": d["score"], "evidence": d["evidence"]}
-            for d in diag["signatures"]
+            {
+                "parameter": v.name,
+                "value": v.value,
+                "+- (1 s.e.)": v.stderr,
+                "truth": v.truth if v.truth is not None else "",
+                "error % range": v.error_pct if v.error_pct is not None else "",
+            }
+            for v in result.rerun.identifiability.verdicts
+            if v.identified
         ]
-        cells = sorted(diag["residual_map"]["cells"], key=lambda c: -c["rms"])[:6]
-        lines += [
-            "## Remaining residual: the K&C diagnosis' screen",
-            "",
-            "Signature scores of the identified model's residual (about N(0, 1) under pure "
-            f"noise; named stepwise above {diag['threshold']:g} when the pattern holds "
-            f"{100 * diag['named_share']:.0f} % of the residual; "
-            "suspenv.diagnosis.knc.signatures).",
-            "",
-            markdown_table(rows),
-            "Largest residual cells (RMS in noise units estimated from the residual's roughness):",
-            "",
-            markdown_table(cells, ["test", "channel", "branch", "side", "rms"]),
-        ]
+        lines += [markdown_table(rows)]
+    return lines
+
+
+def _diagnosis_section(result: IdentifyResult) -> list[str]:
+    diag = result.diagnosis
+    if diag is None or "skipped" in diag:
+        return []
+    rows = [
+        {"signature": d["kind"], "score": d["score"], "evidence": d["evidence"]}
+        for d in diag["signatures"]
+    ]
+    cells = sorted(diag["residual_map"]["cells"], key=lambda c: -c["rms"])[:6]
+    return [
+        "## Residual of the first fit: the K&C diagnosis' screen",
+        "",
+        "Signature scores of the first fit's residual (about N(0, 1) under pure "
+        f"noise; named stepwise above {diag['threshold']:g} when the pattern holds "
+        f"{100 * diag['named_share']:.0f} % of the residual; "
+        "suspenv.diagnosis.knc.signatures).",
+        "",
+        markdown_table(rows),
+        "Largest residual cells (RMS in noise units estimated from the residual's roughness):",
+        "",
+        markdown_table(cells, ["test", "channel", "branch", "side", "rms"]),
+    ]
+
+
+def write_identify_report(result: IdentifyResult, out: Path, figures: bool = True) -> list[Path]:
+    """Write ``identified.toml``, ``identify.json``, ``report.md`` and ``figures/*.png``
+    into ``out`` (created); returns the paths written."""
+    from suspenv.models.mcpherson.vehicle_file import dump_vehicle
+
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    toml = out / "identified.toml"
+    toml.write_text(dump_vehicle(result.identified_vehicle))
+    s = summary(result)
+    js = out / "identify.json"
+    js.write_text(json.dumps(to_jsonable(s), indent=2) + "\n")
+    figs = _figures(result, out) if figures else {}
+    lines = _first_screen(result, s) + [""]
+    if "residual" in figs:  # the fit before and after the loop: the first thing seen
+        lines += ["![fit per curve: initial, first fit, after the loop](figures/residual.png)", ""]
+    lines += _sheet_section(s) + _before_after(result, s)
+    if "curves" in figs:
+        lines += ["", "![measured vs first fit vs after the loop](figures/curves.png)", ""]
+    lines += _identified_section(result)
+    lines += [
+        "",
+        "## Fit per curve (first fit)",
+        "",
+        "RMS of (identified - measured) over the noise RMS, both wheels and both loading "
+        f"branches (1 = at the noise floor; `!` above {FIT_RATIO}). Noise: {_sigma_text(result)}.",
+        "",
+        _curve_table(result),
+    ]
+    lines += _not_identified_section(result) + _next_test_section(result, s)
+    lines += _diagnosis_section(result)
     rows = [s_.to_dict() for s_ in result.fit.stages]
+    if result.loop is not None:
+        rows += [s_.to_dict() for s_ in result.loop.fit.stages]
     lines += ["## Stages", "", markdown_table(rows)]
     if "convergence" in figs:
         lines += ["![convergence](figures/convergence.png)", ""]
     rep = out / "report.md"
     rep.write_text("\n".join(lines) + "\n")
-    files.append(rep)
-    return files
+    return [toml, js, *figs.values(), rep]
 
 
 __all__ = ["fmt", "summary", "write_identify_report"]
