@@ -970,6 +970,24 @@ def identify_reference_block(d: Json) -> str:
             f"{r['next_test']} | {r['rerun_identified']} | {names} | "
             f"{r['wall_s']:.0f} / {r['cpu_s']:.0f} |"
         )
+    looped = [r for r in rows if r.get("loop_curves_within_1.5")]
+    if looped:
+        lines += [
+            "",
+            paragraph(
+                "The main job's loop (sides apart, the named hysteresis at the place that "
+                "fits best, all refitted): "
+                + "; ".join(
+                    f"{r['case']} seed {r['seed']}: {count_text(r['loop_curves_within_1.5'])} "
+                    f"curves within 1.5 x noise (worst {r['loop_worst_rms_over_noise']:.2f}), "
+                    f"held-out {r['held_out']} {r['held_out_worst_after']:.2f} x noise (first "
+                    f"fit {r['held_out_worst_before']:.1f}), K&C sheet intervals holding the "
+                    f"truth for {100 * r['sheet_coverage']:.0f} % of {r['sheet_values']} values"
+                    for r in looped
+                )
+                + "."
+            ),
+        ]
     quiet = [r for r in rows if r["case"] == "noise only"]
     errs = [r["identified_max_err_%"] for r in quiet]
     means = [r["all_mean_err_%"] for r in quiet]
