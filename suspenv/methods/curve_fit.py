@@ -41,6 +41,7 @@ import numpy as np
 
 from suspenv.core.errors import ValidationError
 from suspenv.core.space import DesignSpace, Parameter
+from suspenv.diagnosis.knc.family import PATH_DEPENDENT
 from suspenv.models.effects import Effect
 from suspenv.models.mcpherson.params import AxleConstants, build_axle
 from suspenv.rigs.knc import KCResult, run_tests
@@ -75,9 +76,6 @@ CHANNEL_UNITS = {
 }
 #: stiffness units: these parameters are mapped to the unit cube logarithmically
 STIFFNESS_UNITS = ("N/mm", "N*mm/deg", "N*m/rad")
-#: effect kinds whose force depends on the loading history (a rig loop is then solved
-#: step after step)
-PATH_DEPENDENT = ("dahl_hysteresis", "coulomb_friction")
 #: a batch of a path-dependent model is split between two processes from this many rows
 SPLIT_ROWS = 2
 #: forward-difference step in the unit cube (0.01 % of a parameter's range)
@@ -246,12 +244,6 @@ class CurveModel:
             ``<effect name>.<parameter>`` with its bounds (a positive range on a log
             scale); a model design (``width`` values) is the design (49, or 98
             two-sided), then these values. Rows with different values are solved apart.
-        elastic_jacobian: with path-dependent effects, the Jacobian's design columns
-            come from the model without them (a loop's mean changes with the design as
-            the elastic model's curve; one batched path-independent call instead of a
-            step-by-step loop per column); the effects' columns and every residual from
-            the whole model. The least squares then converges to the whole model's
-            optimum along an approximate Jacobian.
     """
 
     def __init__(
@@ -267,7 +259,6 @@ class CurveModel:
         chunk: int = 64,
         orientation: Mapping[str, Sequence[float]] | None = None,
         effect_free: Sequence[Parameter] = (),
-        elastic_jacobian: bool = False,
     ):
         self.tests = list(tests)
         if not self.tests:
@@ -296,7 +287,6 @@ class CurveModel:
         self.free_index, self.sub = self._fitted(names)
         #: an executor that solves half of a large path-dependent batch (None: none)
         self.pool: Any = None
-        self.elastic_jacobian = bool(elastic_jacobian)
         self.constants = constants or AxleConstants()
         self.orientation = dict(orientation or {})
         self.chunk = int(chunk)
@@ -342,7 +332,6 @@ class CurveModel:
             "chunk": self.chunk,
             "orientation": self.orientation,
             "effect_free": self.effect_free,
-            "elastic_jacobian": self.elastic_jacobian,
         }
         kw.update(changes)
         return CurveModel(**kw)
@@ -499,12 +488,6 @@ class CurveModel:
     def _path_dependent(self) -> bool:
         return any(e.kind in PATH_DEPENDENT for e in self.effects)
 
-    @property
-    def free_design(self) -> list[str]:
-        """The free design parameters (without the effects' parameters)."""
-        own = {p.name for p in self.effect_free}
-        return [n for n in self.free if n not in own]
-
     def _residuals_here(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[str]]:
         res, ok, msgs = self.simulate(X)
         R = self.predict(res) - self.measured
@@ -530,40 +513,12 @@ class CurveModel:
         h = np.where(u + step <= 1.0, step, -step)
         U = np.tile(u, (self.dim + 1, 1))
         U[1:] += np.diag(h)
-        cols = np.arange(self.dim)
-        if self.elastic_jacobian and self._path_dependent:
-            cols = np.flatnonzero(self.free_index >= self.sides)  # the effects' columns
-        R, ok, msgs = self.residuals(U[np.r_[0, 1 + cols]])
+        R, ok, msgs = self.residuals(U)
         if not ok[0]:
             raise ValidationError(f"the rig cannot solve the design being fitted: {msgs[0]}")
-        J = np.zeros((self.size, self.dim))
-        J[:, cols] = (R[1:] - R[0]).T / h[cols]
-        J[:, cols[~ok[1:]]] = 0.0
-        if cols.size < self.dim:
-            J[:, self._elastic_columns()] = self._elastic_jacobian(U)
-        return R[0], J
-
-    def _elastic_columns(self) -> np.ndarray:
-        return np.flatnonzero(self.free_index < self.sides)
-
-    def _elastic_jacobian(self, U: np.ndarray) -> np.ndarray:
-        """Design columns of the Jacobian from the model without its path-dependent
-        effects (their loop mean), the forward differences of ``U`` (dim + 1, dim)."""
-        keep = tuple(e for e in self.effects if e.kind not in PATH_DEPENDENT)
-        elastic = self.variant(
-            effects=keep,
-            effect_free=(),
-            free=self.free_design,
-            base=self.base[: self.sides],
-            elastic_jacobian=False,
-        )
-        cols = self._elastic_columns()
-        X = self.designs(U[np.r_[0, 1 + cols]])[:, : self.sides]
-        R, ok, _ = elastic.residuals_x(X)
-        h = (U[1 + cols] - U[0])[np.arange(cols.size), cols]
         J = (R[1:] - R[0]).T / h
         J[:, ~ok[1:]] = 0.0
-        return J
+        return R[0], J
 
     # ----------------------------------------------------------------- reading
     def block_rms(self, r: np.ndarray) -> dict[tuple[str, str], float]:

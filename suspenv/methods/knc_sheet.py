@@ -26,7 +26,8 @@ from typing import Any
 
 import numpy as np
 
-from suspenv.methods.curve_fit import FD_STEP, PATH_DEPENDENT, CurveFit, rig_run
+from suspenv.diagnosis.knc.family import PATH_DEPENDENT
+from suspenv.methods.curve_fit import FD_STEP, CurveFit, rig_run
 
 #: rig tests the sheet runs on the identified model
 SHEET_TESTS = (

@@ -37,9 +37,6 @@ from suspenv.models.effects import Effect
 #: residual families the loop models by adding an effect to the axle (the others: see
 #: :data:`SIDES_FAMILY` and the sensor families, which are reported only)
 EFFECT_FAMILIES = ("loop", "progressive")
-#: the refit's Jacobian: design columns from the model without its path-dependent
-#: effects (True) or every column from the whole model (False; see CurveModel)
-ELASTIC_JACOBIAN = False
 #: the family that puts the sides apart
 SIDES_FAMILY = "lr_asymmetry"
 
@@ -206,7 +203,6 @@ def refine(
     if not changes:
         return None
     say("loop: all parameters refitted together")
-    model = model.variant(elastic_jacobian=ELASTIC_JACOBIAN)
     model.pool = pool  # half of each path-dependent batch in a second process
     prior = model.unit(_start(model, x0))
     # both polishes stop when a step gains less than one squared noise unit at a fit to
