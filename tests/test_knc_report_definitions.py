@@ -22,7 +22,6 @@ from suspenv.metrics.knc import (
     compliance_matrix,
     compliance_matrix_full,
     objectives,
-    usual_outputs,
 )
 from suspenv.metrics.knc_report import (
     ALL_ITEMS,
@@ -32,6 +31,7 @@ from suspenv.metrics.knc_report import (
     patch_point,
     steer_angle,
     travel_report,
+    usual_outputs,
     wheel_travel,
 )
 from suspenv.models.mcpherson import AxleSolver, build_axle, reference_design

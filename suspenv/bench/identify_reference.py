@@ -12,6 +12,10 @@ with the default concealed effects (hysteresis, left/right tolerances, noise). P
 * the next test and, with it added (re-run), identified parameters and their worst
   error;
 * the K&C diagnosis' screen on the remaining residual: the signature families named;
+* the main job's loop (options of ``configs/identify_reference.toml``): curves within
+  1.5 x noise after it, the held-out test's worst channel before and after, and the
+  K&C sheet's 95 % intervals holding the truth (share of metric x wheel values; seed 0
+  is the test car, the other seeds, fixed in :data:`SEEDS` before any run, blind cars);
 * wall and CPU time (this process and its finished children: the polish that runs
   beside the global stage, :func:`suspenv.methods.identify.cpu_seconds`).
 
@@ -28,6 +32,39 @@ from typing import Any
 import numpy as np
 
 CASES = {"noise only": ("noise",), "default concealed": ("hysteresis", "tolerance", "noise")}
+#: truth seeds: 0 the default test car, the others blind cars (fixed before any run)
+SEEDS = "0,1,2,3"
+#: the main job's config, whose ``[identify]`` options every case runs with
+CONFIG = "configs/identify_reference.toml"
+
+
+def main_job_options() -> dict[str, Any]:
+    """The ``[identify]`` table of the main job's config (its own options)."""
+    import tomllib
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    return dict(tomllib.loads((root / CONFIG).read_text()).get("identify", {}))
+
+
+def loop_cells(res: Any) -> dict[str, Any]:
+    """The loop's, the held-out test's and the sheet's columns of a case."""
+    from suspenv.methods.identify import summary
+
+    s = summary(res)
+    loop, held, sheet = s.get("loop"), s.get("held_out"), s.get("sheet", {})
+    return {
+        "loop_changes": "; ".join(loop["changes"]) if loop else "none",
+        "loop_curves_within_1.5": (
+            f"{loop['curves_within_1_5_noise_after']}/{len(loop['curves'])}" if loop else ""
+        ),
+        "loop_worst_rms_over_noise": loop["worst_curve_rms_over_noise_after"] if loop else None,
+        "held_out": held["test"] if held else "",
+        "held_out_worst_before": held["worst_before"] if held else None,
+        "held_out_worst_after": held["worst_after"] if held else None,
+        "sheet_coverage": sheet.get("coverage"),
+        "sheet_values": sheet.get("n_values"),
+    }
 
 
 def run_case(label: str, concealed: tuple[str, ...], seed: int) -> dict[str, Any]:
@@ -40,7 +77,7 @@ def run_case(label: str, concealed: tuple[str, ...], seed: int) -> dict[str, Any
 
     t0, c0 = time.perf_counter(), cpu_seconds()
     m, truth = measure_test_car(seed, concealed)
-    res = run_identify(m, resolve_vehicle(None), {}, truth=truth)
+    res = run_identify(m, resolve_vehicle(None), main_job_options(), truth=truth)
     wall, cpu = time.perf_counter() - t0, cpu_seconds() - c0
     rms = res.curve_rms()
     ident = [v for v in res.identifiability.verdicts if v.identified]
@@ -65,6 +102,7 @@ def run_case(label: str, concealed: tuple[str, ...], seed: int) -> dict[str, Any
         "wall_s": wall,
         "cpu_s": cpu,
     }
+    row.update(loop_cells(res))
     if res.rerun is not None:
         ident2 = [v for v in res.rerun.identifiability.verdicts if v.identified]
         err2 = [float(v.error_pct) for v in ident2 if v.error_pct is not None]
@@ -73,11 +111,37 @@ def run_case(label: str, concealed: tuple[str, ...], seed: int) -> dict[str, Any
     return row
 
 
+def main_job_summary(rows: list[dict[str, Any]]) -> dict[str, Any]:
+    """The main job's targets: the default test car (seed 0, default concealed effects),
+    and the sheet's coverage on the test car and on the blind cars."""
+    main = [r for r in rows if r["case"] == "default concealed" and r["seed"] == 0]
+    blind = [r for r in rows if r["seed"] != 0 and r["sheet_coverage"] is not None]
+    out: dict[str, Any] = {}
+    if main:
+        r = main[0]
+        out.update(
+            main_curves_before=r["curves_within_1.5"],
+            main_curves_after=r["loop_curves_within_1.5"],
+            main_held_out=r["held_out"],
+            main_held_out_worst_before=r["held_out_worst_before"],
+            main_held_out_worst_after=r["held_out_worst_after"],
+            main_wall_s=r["wall_s"],
+            main_cpu_s=r["cpu_s"],
+            test_car_sheet_coverage=r["sheet_coverage"],
+        )
+    if blind:
+        n = sum(r["sheet_values"] for r in blind)
+        hit = sum(r["sheet_coverage"] * r["sheet_values"] for r in blind)
+        out["blind_sheet_coverage"] = hit / n
+        out["blind_seeds"] = sorted({r["seed"] for r in blind})
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     from suspenv.bench.common import write_result
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--seeds", default="0,1,2,3", help="comma-separated truth seeds")
+    ap.add_argument("--seeds", default=SEEDS, help="comma-separated truth seeds")
     ap.add_argument("--cases", default=",".join(CASES), help="comma-separated case labels")
     ap.add_argument("--out", default=None, help="result folder (default docs/benchmarks)")
     args = ap.parse_args(argv)
@@ -95,6 +159,7 @@ def main(argv: list[str] | None = None) -> int:
         ),
         "max_wall_s": max(r["wall_s"] for r in rows),
         "max_cpu_s": max(r["cpu_s"] for r in rows),
+        **main_job_summary(rows),
     }
     write_result(
         "identify_reference",

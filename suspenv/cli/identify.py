@@ -69,6 +69,17 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="processes (default 2: the polish from the start runs beside the global stage; "
         "1: one after the other, the same numbers)",
     )
+    p.add_argument(
+        "--held-out",
+        default="",
+        help="a rig test kept out of the fit and predicted (a test of the measurement, or "
+        "any rig test on the test car)",
+    )
+    p.add_argument(
+        "--no-loop",
+        action="store_true",
+        help="stop after the residual screen (do not add what it names and refit)",
+    )
     p.add_argument("--seed", type=int, default=1, help="seed of the global stage")
     p.add_argument("--no-figures", action="store_true", help="write no PNG figures")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
@@ -84,7 +95,12 @@ def _identify(args: argparse.Namespace) -> int:
         write_outputs,
     )
 
-    options: dict = {"figures": not args.no_figures, "sides": args.sides}
+    options: dict = {
+        "figures": not args.no_figures,
+        "sides": args.sides,
+        "held_out": args.held_out,
+        "loop": not args.no_loop,
+    }
     if args.free:
         options["free"] = [n.strip() for n in args.free.split(",") if n.strip()]
     if args.global_evaluations is not None:

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -183,6 +183,36 @@ def compliance_slopes(res: KCResult) -> dict[str, float]:
     return out
 
 
+def print_measured_sheet(m: Any) -> None:
+    """The K&C sheet's numbers the measured loops of both wheels allow (docs/knc.md), and
+    for each other number the test or channel it needs."""
+    from suspenv.metrics.knc_report import (
+        ALL_ITEMS,
+        COMPLIANCE_ITEMS,
+        compliance_report,
+        knc_report,
+        report_needs,
+    )
+    from suspenv.rigs.knc_measured import measured_results
+
+    if len(m.wheels) < 2:
+        print("\nK&C sheet: needs both wheels (this measurement holds one)")
+        return
+    results = measured_results(m)
+    values = {**knc_report(results), **compliance_report(results)}
+    needs = report_needs(results)
+    items = {**ALL_ITEMS, **COMPLIANCE_ITEMS}
+    print("\nK&C sheet of the measured loops (docs/knc.md):")
+    print(f"  {'':34s} {'left':>10s} {'right':>10s}  {'unit':8s} sign")
+    for name, v in values.items():
+        if name in needs or not np.all(np.isfinite(v[0])):
+            continue
+        it = items[name]
+        print(f"  {name:34s} {v[0, 0]:10.4g} {v[0, 1]:10.4g}  {it.unit:8s} {it.sign}")
+    for name, why in needs.items():
+        print(f"  {name:34s} {why}")
+
+
 # ------------------------------------------------------------------ measured data
 def is_measurement(source: str) -> bool:
     """True when ``source`` is a measured-K&C folder (holding ``knc.toml``) or that file."""
@@ -240,6 +270,7 @@ def run_measured(args: argparse.Namespace) -> int:
     for ch, sigma in m.noise.items():
         unit = EDGE_UNIT[CHANNELS[ch]]
         print(f"    {ch:16s} {sigma / UNITS[unit][0]:10.3g} {unit}  ({m.noise_source[ch]})")
+    print_measured_sheet(m)
     for test in m.tests:
         if test not in FORCE_TESTS or "toe" not in m.tests[test].channels:
             continue

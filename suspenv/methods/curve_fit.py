@@ -40,7 +40,8 @@ from typing import Any
 import numpy as np
 
 from suspenv.core.errors import ValidationError
-from suspenv.core.space import DesignSpace
+from suspenv.core.space import DesignSpace, Parameter
+from suspenv.diagnosis.knc.family import PATH_DEPENDENT
 from suspenv.models.effects import Effect
 from suspenv.models.mcpherson.params import AxleConstants, build_axle
 from suspenv.rigs.knc import KCResult, run_tests
@@ -75,6 +76,8 @@ CHANNEL_UNITS = {
 }
 #: stiffness units: these parameters are mapped to the unit cube logarithmically
 STIFFNESS_UNITS = ("N/mm", "N*mm/deg", "N*m/rad")
+#: a batch of a path-dependent model is split between two processes from this many rows
+SPLIT_ROWS = 2
 #: forward-difference step in the unit cube (0.01 % of a parameter's range)
 FD_STEP = 1e-4
 #: residual of a design the rig cannot solve (noise units), so the polish steps back
@@ -165,6 +168,7 @@ class MeasuredCurves:
     # interpolation: grid interval index and weight per sample, descending-branch mask
     _i0: np.ndarray = field(default_factory=lambda: np.zeros(0, int), repr=False)
     _w: np.ndarray = field(default_factory=lambda: np.zeros(0), repr=False)
+    _start: np.ndarray = field(default_factory=lambda: np.zeros(0, bool), repr=False)
 
     def __post_init__(self) -> None:
         grid = np.linspace(-self.amplitude, self.amplitude, self.steps + 1)
@@ -172,15 +176,21 @@ class MeasuredCurves:
         i0 = np.clip(np.searchsorted(grid, d, side="right") - 1, 0, self.steps - 1)
         self._i0 = i0
         self._w = (d - grid[i0]) / (grid[i0 + 1] - grid[i0])
+        # the loop's start (branch 0 at the design drive): the state before any travel,
+        # which path-dependent elements (hysteresis, friction) leave only once
+        self._start = (self.branch == 0) & (self.drive == 0.0)
 
     def read(self, res: KCResult, channel: str) -> np.ndarray:
-        """Simulated ``channel`` (n, P, 2) of ``res`` at the measured samples (per branch)."""
+        """Simulated ``channel`` (n, P, 2) of ``res`` at the measured samples (per branch;
+        the loop's start sample from the path's first state)."""
         down = res.branch(channel, "down")
         up = res.branch(channel, "up")
         w = self._w[None, :, None]
         a = (1 - w) * down[:, self._i0] + w * down[:, self._i0 + 1]
         b = (1 - w) * up[:, self._i0] + w * up[:, self._i0 + 1]
-        return np.where((self.branch == 1)[None, :, None], a, b)
+        out = np.where((self.branch == 1)[None, :, None], a, b)
+        out[:, self._start] = res.channels[channel][:, :1]
+        return out
 
 
 def measured_curves(measured: Any, steps: int | None = None) -> MeasuredCurves:
@@ -222,7 +232,8 @@ class CurveModel:
             not fitted.
         space: the design space (physical bounds of the 49 parameters).
         base: full design (49,) the parameters not in ``free`` are held at.
-        free: names of the fitted parameters (default: all of ``space``).
+        free: names of the fitted parameters (default: all of ``space`` and of
+            ``effect_free``).
         constants: the vehicle's :class:`AxleConstants`; ``effects``: the simulated
             model's fixed effects (path-dependent ones make every call slower).
         two_sided: False (default): one design for both sides (left = right); True: each
@@ -234,6 +245,10 @@ class CurveModel:
             :func:`suspenv.models.mcpherson.params.build_axle`).
         travel_drive: what the measured travel tests drove, ``"pad"`` or
             ``"wheel_centre"`` (:func:`suspenv.rigs.knc.run_tests`).
+        effect_free: parameters of ``effects`` that a design carries, each named
+            ``<effect name>.<parameter>`` with its bounds (a positive range on a log
+            scale); a model design (``width`` values) is the design (49, or 98
+            two-sided), then these values. Rows with different values are solved apart.
     """
 
     def __init__(
@@ -249,38 +264,37 @@ class CurveModel:
         chunk: int = 64,
         orientation: Mapping[str, Sequence[float]] | None = None,
         travel_drive: str = "pad",
+        effect_free: Sequence[Parameter] = (),
     ):
         self.travel_drive = travel_drive
         self.tests = list(tests)
         if not self.tests:
             raise ValidationError("the fit needs at least one measured test, but got none")
         self.space = fit_space(space)
+        self.two_sided = bool(two_sided)
+        self.effects = tuple(effects)
+        self.effect_free = tuple(_effect_parameters(self.effects, effect_free))
         self.base = np.asarray(base, float).copy()
-        if self.base.shape != (self.space.dim,):
+        if self.base.ndim != 1 or not (
+            self.base.size == self.space.dim or self.sides <= self.base.size <= self.width
+        ):
             raise ValidationError(
-                f"base design must have {self.space.dim} values, but got {self.base.shape}"
+                f"base design must have {self.space.dim} or {self.sides}..{self.width} values, "
+                f"but got {self.base.shape}"
             )
-        names = list(self.space.names if free is None else free)
+        self.base = self.full(self.base)[0]
+        own = [p.name for p in self.effect_free]
+        names = list([*self.space.names, *own] if free is None else free)
         for n in names:
-            self.space.index(n)  # unknown names are errors with suggestions
+            if n not in own:
+                self.space.index(n)  # unknown names are errors with suggestions
         if len(set(names)) != len(names) or not names:
             raise ValidationError(f"free parameters must be unique and not empty, got {names}")
         self.free = names
-        self.two_sided = bool(two_sided)
-        d = self.space.dim
-        index = [self.space.index(n) for n in names]
-        params = [self.space.parameters[i] for i in index]
-        if self.two_sided:
-            twins = [i for i in index if self.space.names[i] != "arb_torsion"]
-            index += [d + i for i in twins]
-            params += [
-                replace(self.space.parameters[i], name=f"{self.space.names[i]}@right")
-                for i in twins
-            ]
-        self.free_index = np.array(index)
-        self.sub = DesignSpace(params)
+        self.free_index, self.sub = self._fitted(names)
+        #: an executor that solves half of a large path-dependent batch (None: none)
+        self.pool: Any = None
         self.constants = constants or AxleConstants()
-        self.effects = tuple(effects)
         self.orientation = dict(orientation or {})
         self.chunk = int(chunk)
         self.sigma: dict[str, float] = {}
@@ -310,73 +324,146 @@ class CurveModel:
         self.stats = {"designs": 0, "calls": 0, "seconds": 0.0}
         self._groups = _call_groups(self.tests)
 
+    def variant(self, **changes: Any) -> CurveModel:
+        """The same model with other keywords of the constructor (``tests``: other
+        measured curves, e.g. a test held out of the fit; ``base``, ``free``, ...)."""
+        kw: dict[str, Any] = {
+            "tests": self.tests,
+            "sigma": self.sigma,
+            "space": self.space,
+            "base": self.base[: self.sides] if "two_sided" in changes else self.base,
+            "free": self.free,
+            "constants": self.constants,
+            "effects": self.effects,
+            "two_sided": self.two_sided,
+            "chunk": self.chunk,
+            "orientation": self.orientation,
+            "effect_free": self.effect_free,
+        }
+        kw.update(changes)
+        return CurveModel(**kw)
+
     # ------------------------------------------------------------------ designs
+    def _fitted(self, names: Sequence[str]) -> tuple[np.ndarray, DesignSpace]:
+        """Columns of a model design the fitted values sit in, and their space: the free
+        design parameters, their right twins (two-sided), the fitted effect parameters."""
+        d = self.space.dim
+        own = [p.name for p in self.effect_free]
+        index = [self.space.index(n) for n in names if n not in own]
+        params = [self.space.parameters[i] for i in index]
+        if self.two_sided:
+            twins = [i for i in index if self.space.names[i] != "arb_torsion"]
+            index += [d + i for i in twins]
+            params += [
+                replace(self.space.parameters[i], name=f"{self.space.names[i]}@right")
+                for i in twins
+            ]
+        mine = [j for j, n in enumerate(own) if n in names]
+        index += [self.sides + j for j in mine]
+        params += [self.effect_free[j] for j in mine]
+        return np.array(index, int), DesignSpace(params)
+
     @property
     def dim(self) -> int:
-        """Number of fitted values (free parameters, and their right twins if two-sided)."""
+        """Number of fitted values (free parameters, their right twins if two-sided, and
+        the fitted effect parameters)."""
         return int(self.free_index.size)
 
     @property
+    def sides(self) -> int:
+        """Design values of a model design: 49, or 98 two-sided (left then right)."""
+        return self.space.dim * (2 if self.two_sided else 1)
+
+    @property
+    def width(self) -> int:
+        """Values of a model design: :attr:`sides`, then the fitted effect parameters."""
+        return self.sides + len(self.effect_free)
+
+    @property
     def names(self) -> list[str]:
-        """Names of the fitted values (``<name>@right`` for a right twin)."""
+        """Names of the fitted values (``<name>@right`` for a right twin,
+        ``<effect>.<parameter>`` for an effect's)."""
         return list(self.sub.names)
 
     def full(self, X: np.ndarray) -> np.ndarray:
-        """Designs (n, 49) or (n, 98) as the model's designs: a 49-value design of a
-        two-sided model is the same on both sides."""
+        """Designs (n, 49), (n, 98) or (n, width) as the model's (n, width): a 49-value
+        design of a two-sided model is the same on both sides; the fitted effect
+        parameters not given are the effects' own values."""
         X = np.atleast_2d(np.asarray(X, float))
-        if self.two_sided and X.shape[1] == self.space.dim:
-            return np.concatenate([X, X], axis=1)
+        d = self.space.dim
+        if self.two_sided and X.shape[1] in (d, d + len(self.effect_free)):
+            X = np.concatenate([X[:, :d], X], axis=1)
+        k = X.shape[1] - self.sides
+        if 0 <= k < len(self.effect_free):
+            own = [_effect_value(self.effects, p.name) for p in self.effect_free[k:]]
+            X = np.concatenate([X, np.tile(own, (X.shape[0], 1))], axis=1)
         return X
 
     def designs(self, U: np.ndarray) -> np.ndarray:
-        """Physical designs (n, 49), two-sided (n, 98), of unit-cube points (n, dim)."""
+        """Model designs (n, width) of unit-cube points U (n, dim)."""
         U = np.atleast_2d(np.asarray(U, float))
-        X = self.full(np.tile(self.base, (U.shape[0], 1)))
+        X = np.tile(self.base, (U.shape[0], 1))
         X[:, self.free_index] = self.sub.to_physical(U)
         return X
 
     def unit(self, x: np.ndarray) -> np.ndarray:
-        """Unit-cube point (dim,) of the fitted values of a physical design (49,) or (98,)."""
+        """Unit-cube point (dim,) of the fitted values of a design (see :meth:`full`)."""
         x = self.full(x)[0]
         return np.clip(self.sub.to_unit(x[self.free_index][None])[0], 0, 1)
 
+    def effects_at(self, x: np.ndarray) -> tuple[Effect, ...]:
+        """The model's effects with the fitted effect parameters of design ``x``."""
+        vals = self.full(x)[0][self.sides :]
+        out = []
+        for e in self.effects:
+            mine = {
+                p.name.partition(".")[2]: float(v)
+                for p, v in zip(self.effect_free, vals, strict=True)
+                if p.name.partition(".")[0] == e.name
+            }
+            out.append(e.with_params(mine) if mine else e)
+        return tuple(out)
+
     # --------------------------------------------------------------- simulation
     def axle(self, X: np.ndarray) -> Any:
-        """The batched :class:`~suspenv.models.mcpherson.params.Axle` of designs X (n, 49)
-        or, two-sided, (n, 98) (left then right)."""
+        """The batched :class:`~suspenv.models.mcpherson.params.Axle` of designs X (see
+        :meth:`full`)."""
         X = self.full(X)
         d = self.space.dim
-        right = X[:, d:] if X.shape[1] == 2 * d else None
+        right = X[:, d : 2 * d] if self.two_sided else None
         return build_axle(X[:, :d], right, self.constants, self.orientation or None)
 
     def simulate(self, X: np.ndarray) -> tuple[dict[str, KCResult], np.ndarray, list[str]]:
-        """Rig results {test: KCResult} of physical designs X (n, 49), ok (n,), messages.
+        """Rig results {test: KCResult} of designs X (see :meth:`full`), ok (n,), messages.
 
-        Tests are run in groups sharing an amplitude and grid (one batched call each),
-        in chunks of :attr:`chunk` designs."""
+        Rows sharing the fitted effect values are solved together (the solver takes one
+        value per effect parameter); tests are run in groups sharing an amplitude and
+        grid (one batched call each), in chunks of :attr:`chunk` designs."""
         X = self.full(X)
         n = X.shape[0]
         t0 = time.perf_counter()
-        groups = self._groups
         out: dict[str, list[KCResult]] = {t.test: [] for t in self.tests}
         ok = np.ones(n, bool)
         msgs = [""] * n
-        for a in range(0, n, self.chunk):
-            b = min(n, a + self.chunk)
-            axle = self.axle(X[a:b])
-            for steps, kw, names in groups:
-                res = rig_run(axle, names, steps, self.effects, kw, self.travel_drive)
-                for t, r in res.items():
-                    out[t].append(r)
-                    for i in np.flatnonzero(~r.ok):
-                        if ok[a + i]:
-                            msgs[a + i] = f"{t}: {r.messages[i]}"
-                        ok[a + i] = False
+        order: list[int] = []
+        for rows in _same_rows(X[:, self.sides :]):
+            effects = self.effects_at(X[rows[0]])
+            for a in range(0, len(rows), self.chunk):
+                part = rows[a : a + self.chunk]
+                order += part
+                axle = self.axle(X[part])
+                for steps, kw, names in self._groups:
+                    for t, r in rig_run(axle, names, steps, effects, kw, self.travel_drive).items():
+                        out[t].append(r)
+                        for i in np.flatnonzero(~r.ok):
+                            if ok[part[i]]:
+                                msgs[part[i]] = f"{t}: {r.messages[i]}"
+                            ok[part[i]] = False
         self.stats["designs"] += n
         self.stats["calls"] += 1
         self.stats["seconds"] += time.perf_counter() - t0
-        return {t: _concat(parts) for t, parts in out.items()}, ok, msgs
+        back = np.argsort(order)
+        return {t: _concat(parts, back) for t, parts in out.items()}, ok, msgs
 
     def predict(self, results: Mapping[str, KCResult]) -> np.ndarray:
         """Simulated values at the measured samples, scaled by sigma: (n, size)."""
@@ -387,8 +474,28 @@ class CurveModel:
             parts.append(v.reshape(v.shape[0], -1) / self.sigma[c])
         return np.concatenate(parts, axis=1)
 
+    def __getstate__(self) -> dict[str, Any]:
+        return {**self.__dict__, "pool": None}  # a process pool stays in its process
+
     def residuals_x(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[str]]:
-        """Residuals (n, size) of physical designs X (n, 49) (NaN rows where the rig fails)."""
+        """Residuals (n, size) of designs X (see :meth:`full`; NaN rows where the rig
+        fails). With a process pool (:attr:`pool`) and a path-dependent model, the
+        second half of a batch of at least :data:`SPLIT_ROWS` rows is solved there."""
+        X = self.full(X)
+        if self.pool is not None and X.shape[0] >= SPLIT_ROWS and self._path_dependent:
+            half = X.shape[0] // 2
+            other = self.pool.submit(_residuals_of, self, X[half:])
+            R1, ok1, m1 = self._residuals_here(X[:half])
+            R2, ok2, m2 = other.result()
+            self.stats["designs"] += X.shape[0] - half
+            return np.vstack([R1, R2]), np.r_[ok1, ok2], m1 + m2
+        return self._residuals_here(X)
+
+    @property
+    def _path_dependent(self) -> bool:
+        return any(e.kind in PATH_DEPENDENT for e in self.effects)
+
+    def _residuals_here(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[str]]:
         res, ok, msgs = self.simulate(X)
         R = self.predict(res) - self.measured
         R[~ok] = np.nan
@@ -426,6 +533,11 @@ class CurveModel:
         return {(t, c): float(np.sqrt(np.mean(r[s] ** 2))) for t, c, s in self.blocks}
 
 
+def _residuals_of(model: CurveModel, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    """:meth:`CurveModel.residuals_x` in a worker process."""
+    return model.residuals_x(X)
+
+
 def _call_groups(
     tests: Sequence[MeasuredCurves],
 ) -> list[tuple[int, dict[str, float], tuple[str, ...]]]:
@@ -444,18 +556,52 @@ def _call_groups(
     return [(s, kw, tuple(names)) for s, kw, names in groups]
 
 
-def _concat(parts: list[KCResult]) -> KCResult:
-    if len(parts) == 1:
+def _concat(parts: list[KCResult], order: np.ndarray) -> KCResult:
+    """The rows of ``parts`` stacked, then taken in ``order``."""
+    if len(parts) == 1 and np.array_equal(order, np.arange(order.size)):
         return parts[0]
     p0 = parts[0]
+    msgs = [m for p in parts for m in p.messages]
     return KCResult(
         p0.test,
         p0.grid,
         p0.path,
-        {k: np.concatenate([p.channels[k] for p in parts]) for k in p0.channels},
-        np.concatenate([p.ok for p in parts]),
-        [m for p in parts for m in p.messages],
+        {k: np.concatenate([p.channels[k] for p in parts])[order] for k in p0.channels},
+        np.concatenate([p.ok for p in parts])[order],
+        [msgs[i] for i in order],
     )
+
+
+def _same_rows(V: np.ndarray) -> list[list[int]]:
+    """Row indices of ``V`` (n, k) grouped by equal rows, in order of first appearance."""
+    groups: dict[bytes, list[int]] = {}
+    for i, row in enumerate(np.ascontiguousarray(V)):
+        groups.setdefault(row.tobytes(), []).append(i)
+    return list(groups.values())
+
+
+def _effect_value(effects: Sequence[Effect], name: str) -> float:
+    """Value of the effect parameter ``<effect>.<parameter>`` among ``effects``."""
+    owner, _, param = name.partition(".")
+    for e in effects:
+        if e.name == owner:
+            return float(np.ravel(e.params[param])[0])
+    raise ValidationError(
+        f"fitted effect parameter {name!r}: no effect named {owner!r} among "
+        f"{[e.name for e in effects]}"
+    )
+
+
+def _effect_parameters(effects: Sequence[Effect], params: Sequence[Parameter]) -> list[Parameter]:
+    """The fitted effect parameters (named ``<effect>.<parameter>``), checked against
+    ``effects``; a positive range is mapped to the unit cube logarithmically."""
+    out = []
+    for p in params:
+        _effect_value(effects, p.name)
+        out.append(replace(p, log=True) if p.low > 0 else p)
+    if len({p.name for p in out}) != len(out):
+        raise ValidationError(f"fitted effect parameters must be unique, but got {params}")
+    return out
 
 
 # ====================================================================== stages
@@ -744,6 +890,7 @@ def polish(
     min_gain: float = RESTART_GAIN,
     progress: bool = False,
     prior: np.ndarray | None = None,
+    ftol: float = 1e-5,
 ) -> tuple[StageResult, np.ndarray, np.ndarray]:
     """:func:`polish_stage` restarted from its own answer (a fresh trust region) until a
     restart lowers the cost by less than ``min_gain`` (squared noise units: a change of
@@ -751,12 +898,12 @@ def polish(
     ``max_nfev`` evaluations in all. One stage in the result; ``stop`` says which
     criterion ended it."""
     t0 = time.perf_counter()
-    stage, r, J = polish_stage(model, u0, max_nfev, progress=progress, prior=prior)
+    stage, r, J = polish_stage(model, u0, max_nfev, ftol, progress=progress, prior=prior)
     evals, history, runs = stage.evaluations, list(stage.history), 1
     left = max_nfev - len(stage.history)
     stop = stage.stop
     while runs < restarts and left > 2 and stage.stop.startswith("converged"):
-        again, r2, J2 = polish_stage(model, stage.u, left, progress=progress, prior=prior)
+        again, r2, J2 = polish_stage(model, stage.u, left, ftol, progress=progress, prior=prior)
         runs += 1
         evals += again.evaluations
         history += again.history

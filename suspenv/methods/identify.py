@@ -27,6 +27,7 @@ same :class:`~suspenv.measurements.knc_file.KncMeasurement` path as a file.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import os
 import time
@@ -53,6 +54,8 @@ from suspenv.methods.curve_fit import (
     rig_run,
 )
 from suspenv.methods.identifiability import CandidateGain, Identifiability, assess, rank_tests
+from suspenv.methods.knc_sheet import SheetRow
+from suspenv.methods.model_loop import Refinement, refine
 from suspenv.models.mcpherson.params import paper_initial_values
 from suspenv.models.mcpherson.truth import CHANNEL_NOISE, TruthVehicle, truth_vehicle
 from suspenv.models.mcpherson.vehicle_file import REFERENCE_FILE, VehicleFile, load_vehicle
@@ -78,6 +81,10 @@ DEFAULTS: dict[str, Any] = {
     "next_test": True,
     "rerun_next": True,
     "diagnose": True,
+    "loop": True,  # add what the residual screen names (sides apart, an effect) and refit
+    "loop_nfev": 15,  # least-squares evaluations of the loop's refit (path-dependent: slow)
+    "sheet": True,  # the identified car's K&C sheet with 95 % intervals
+    "held_out": "",  # a rig test kept out of the fit and predicted ("": none)
     "figures": True,
 }
 #: a residual signature scoring above this names its pattern (scores are about N(0, 1)
@@ -114,7 +121,8 @@ def check_options(options: Mapping[str, Any]) -> dict[str, Any]:
         raise ValidationError(
             f"identify: `initial` must be one of {(*INITIALS, 'auto')}, but got {o['initial']!r}"
         )
-    for key, lo in (("global_evaluations", 0), ("popsize", 4), ("polish_nfev", 1), ("workers", 1)):
+    ints = (("global_evaluations", 0), ("popsize", 4), ("polish_nfev", 1), ("workers", 1))
+    for key, lo in (*ints, ("loop_nfev", 1)):
         v = o[key]
         if not isinstance(v, int) or isinstance(v, bool) or v < lo:
             raise ValidationError(f"identify: `{key}` must be an integer >= {lo}, but got {v!r}")
@@ -129,7 +137,14 @@ def check_options(options: Mapping[str, Any]) -> dict[str, Any]:
         raise ValidationError(
             f"identify: `sides` must be one of {SIDES_OPTIONS}, but got {o['sides']!r}"
         )
-    for key in ("next_test", "rerun_next", "diagnose", "figures"):
+    from suspenv.measurements.knc import ALL_TESTS
+
+    if o["held_out"] not in ("", *ALL_TESTS):
+        raise ValidationError(
+            f"identify: `held_out` must be a rig test {ALL_TESTS} or '' (none), but got "
+            f"{o['held_out']!r}"
+        )
+    for key in ("next_test", "rerun_next", "diagnose", "loop", "sheet", "figures"):
         if not isinstance(o[key], bool):
             raise ValidationError(f"identify: `{key}` must be true or false, but got {o[key]!r}")
     return o
@@ -226,6 +241,27 @@ class Rerun:
 
 
 @dataclass
+class HeldOut:
+    """A rig test kept out of the fit and predicted: RMS / noise per channel (both
+    wheels, both branches) by the first fit and by the loop's refit."""
+
+    test: str
+    source: str
+    before: dict[str, float]
+    after: dict[str, float]
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "test": self.test,
+            "source": self.source,
+            "rms_over_noise_before": self.before,
+            "rms_over_noise_after": self.after,
+            "worst_before": max(self.before.values()),
+            "worst_after": max(self.after.values()),
+        }
+
+
+@dataclass
 class IdentifyResult:
     """Everything the job computed (input of :mod:`suspenv.reports.identify`)."""
 
@@ -240,23 +276,40 @@ class IdentifyResult:
     candidates: list[CandidateGain] = field(default_factory=list)
     rerun: Rerun | None = None
     diagnosis: dict[str, Any] | None = None
+    truth_vehicle: TruthVehicle | None = None
+    loop: Refinement | None = None
+    loop_identifiability: Identifiability | None = None
+    loop_diagnosis: dict[str, Any] | None = None
+    held_out: HeldOut | None = None
+    sheet: list[SheetRow] = field(default_factory=list)
+    sheet_truth: dict[str, np.ndarray] | None = None
     truth: np.ndarray | None = None
     timings: dict[str, float] = field(default_factory=dict)
     cpu_seconds: float = 0.0
     start: str = "the vehicle file's design"
 
     @property
+    def final_fit(self) -> CurveFit:
+        """The answer: the loop's refit when the loop ran, else the first fit."""
+        return self.loop.fit if self.loop is not None else self.fit
+
+    @property
+    def final_identifiability(self) -> Identifiability:
+        return self.loop_identifiability or self.identifiability
+
+    @property
     def identified_vehicle(self) -> VehicleFile:
         v = self.vehicle
-        x = self.model.full(self.fit.x)[0]
-        d = self.model.space.dim
-        right = x[d:] if x.size == 2 * d else x[:d]
+        fit = self.final_fit
+        x = fit.model.full(fit.x)[0]
+        d = fit.model.space.dim
+        right = x[d : 2 * d] if fit.model.two_sided else x[:d]
         return VehicleFile(
             f"{v.name} identified",
             x[:d].copy(),
             right.copy(),
             v.constants,
-            v.effects,
+            fit.model.effects_at(x),
             f"identified by suspenv identify from {self.measurement.name}",
             dict(v.bounds),
             dict(v.orientation),
@@ -399,7 +452,7 @@ def screen_residual(model: CurveModel, measurement: Any, x: np.ndarray) -> dict[
             return {"skipped": f"test {t.test} lacks a channel the screen reads"}
         amps = amplitude_kwargs(t.test, t.amplitude)
         sim = rig_run(
-            model.axle(x[None]), (t.test,), t.steps, model.effects, amps, model.travel_drive
+            model.axle(x[None]), (t.test,), t.steps, model.effects_at(x), amps, model.travel_drive
         )[t.test]
         rec = to_recording(meas)
         p = channels_of(sim)
@@ -576,6 +629,7 @@ def run_identify(
     else:
         x0 = 0.5 * (vehicle.left + vehicle.right)
     two = opts["sides"] == "both"
+    measurement, held, held_source = split_held_out(measurement, opts["held_out"], truth)
     model = build_model(measurement, vehicle, x0, opts["free"], two)
     _say(
         progress,
@@ -605,14 +659,7 @@ def run_identify(
     )
     lap.restart()  # the fit's stages timed themselves (staged)
     truth_x = None if truth is None else truth.mean_design
-    truth_map: dict[str, float] | None = None
-    if truth is not None:
-        # symmetric: the truth is the mean of the test car's sides; two-sided: each side
-        left = truth.left if two else truth.mean_design
-        truth_map = {n: float(v) for n, v in zip(space.names, left, strict=True)}
-        truth_map.update(
-            {f"{n}@right": float(v) for n, v in zip(space.names, truth.right, strict=True)}
-        )
+    truth_map = _truth_map(truth, model)
     ident = assess(fit.jacobian, fit.residual, fit.u, model.sub, truth_map)
     lap("identifiability")
     result = IdentifyResult(
@@ -627,6 +674,7 @@ def run_identify(
         truth=truth_x,
         timings=timings,
         start=start,
+        truth_vehicle=truth,
     )
     if opts["next_test"] and ident.not_identified():
         _say(progress, "next test: Jacobians of the rig tests not measured")
@@ -654,9 +702,125 @@ def run_identify(
         _say(progress, "residual screen (K&C diagnosis signatures)")
         result.diagnosis = screen_residual(model, measurement, fit.x)
         lap("diagnosis")
+    if opts["loop"] and result.diagnosis and result.diagnosis.get("named"):
+        _model_loop(result, progress)
+        lap("loop")
+    if held is not None:
+        result.held_out = predict_held_out(result, held, held_source)
+        lap("held_out")
+    if opts["sheet"]:
+        _say(progress, "K&C sheet: the identified car's metrics with 95 % intervals")
+        _sheet(result)
+        lap("sheet")
     timings["total"] = time.perf_counter() - t_start
     result.cpu_seconds = cpu_seconds() - c_start
     return result
+
+
+def _truth_map(truth: TruthVehicle | None, model: CurveModel) -> dict[str, float] | None:
+    """The test car's values of ``model``'s fitted names: symmetric, the mean of its
+    sides; two-sided, each side; an effect's parameter where the car has that effect
+    at that place."""
+    if truth is None:
+        return None
+    names = model.space.names
+    left = truth.left if model.two_sided else truth.mean_design
+    out = {n: float(v) for n, v in zip(names, left, strict=True)}
+    out.update({f"{n}@right": float(v) for n, v in zip(names, truth.right, strict=True)})
+    for e in model.effects:
+        for t in truth.effects:
+            if (t.kind, t.location) == (e.kind, e.location):
+                out.update({f"{e.name}.{k}": float(np.ravel(v)[0]) for k, v in t.params.items()})
+    return out
+
+
+def _model_loop(result: IdentifyResult, progress: bool) -> None:
+    """Add what the screen named, refit, judge and screen the refit (in ``result``)."""
+    assert result.diagnosis is not None
+    from suspenv.runs.executors import ProcessPool
+
+    named = [n["family"] for n in result.diagnosis["named"]]
+    with contextlib.ExitStack() as stack:
+        pool = stack.enter_context(ProcessPool(1)) if result.options["workers"] > 1 else None
+        ref = refine(
+            result.fit,
+            named,
+            result.x0,
+            result.options["polish_nfev"],
+            result.options["loop_nfev"],
+            say=lambda m: _say(progress, m),
+            pool=pool,
+            progress=progress,
+        )
+    if ref is None:
+        return
+    result.loop = ref
+    f = ref.fit
+    truth_map = _truth_map(result.truth_vehicle, ref.model)
+    result.loop_identifiability = assess(f.jacobian, f.residual, f.u, ref.model.sub, truth_map)
+    if result.options["diagnose"]:
+        result.loop_diagnosis = screen_residual(ref.model, result.measurement, f.x)
+
+
+def _sheet(result: IdentifyResult) -> None:
+    """The K&C sheet of the answer (and, on the test car, the truth's metrics)."""
+    from suspenv.methods.knc_sheet import SHEET_TESTS, knc_sheet, sheet_values
+    from suspenv.rigs.knc_measured import measured_results
+
+    fit = result.final_fit
+    steps = max(t.steps for t in fit.model.tests)
+    measured = measured_results(result.measurement, steps)
+    result.sheet = knc_sheet(fit, result.final_identifiability.cov_unit, measured)
+    tv = result.truth_vehicle
+    if tv is not None:
+        res = rig_run(
+            tv.axle(), SHEET_TESTS, steps, tv.effects, {"amplitude": _travel_amplitude(fit.model)}
+        )
+        result.sheet_truth = {k: v[0] for k, v in sheet_values(res, tv.constants).items()}
+
+
+def split_held_out(measurement: Any, test: str, truth: TruthVehicle | None) -> tuple[Any, Any, str]:
+    """(the measurement fitted, the held-out test's measurement or None, its source).
+
+    A test of the measurement is taken out of it; the test car measures a test it lacks
+    (the same noise model, its own seeded stream); otherwise the rule is broken."""
+    from suspenv.measurements.knc_file import from_results
+
+    if not test:
+        return measurement, None, ""
+    if test in measurement.tests:
+        if len(measurement.tests) < 2:
+            raise ValidationError(
+                f"identify: `held_out = {test!r}` would leave no test to fit (the measurement "
+                f"holds only {list(measurement.tests)})"
+            )
+        rest = {k: v for k, v in measurement.tests.items() if k != test}
+        held = dataclasses.replace(measurement, tests={test: measurement.tests[test]})
+        return dataclasses.replace(measurement, tests=rest), held, "measured, kept out of the fit"
+    if truth is None:
+        raise ValidationError(
+            f"identify: `held_out` must name a test of the measurement {list(measurement.tests)}"
+            f" (or any rig test on the built-in test car), but got {test!r}"
+        )
+    steps = next(iter(measurement.meta.get("steps", {}).values()), 30)
+    amplitude = next(iter(measurement.meta.get("amplitude", {}).values()), 0.040)
+    more = measure_truth(truth, [test], float(amplitude), int(steps))
+    held = from_results(more, f"held out: {test}", noise=dict(measurement.noise))
+    return measurement, held, "the test car measured with the same noise model, not fitted"
+
+
+def predict_held_out(result: IdentifyResult, held: Any, source: str) -> HeldOut:
+    """RMS / noise per channel of the held-out test predicted by the first fit and by the
+    answer (the loop's refit when it ran)."""
+    curves = build_model(held, result.vehicle, result.x0).tests
+    out = []
+    for fit in (result.fit, result.final_fit):
+        m = fit.model.variant(tests=curves)
+        R, ok, msg = m.residuals_x(fit.x[None])
+        if not ok[0]:
+            raise ValidationError(f"identify: the held-out test cannot be simulated: {msg[0]}")
+        out.append({c: v for (_, c), v in m.block_rms(R[0]).items()})
+    return HeldOut(next(iter(held.tests)), source, out[0], out[1])
 
 
 def _travel_amplitude(model: CurveModel) -> float:
@@ -746,6 +910,61 @@ def summary(result: IdentifyResult) -> dict[str, Any]:
         }
     if result.diagnosis is not None:
         out["diagnosis"] = result.diagnosis
+    if result.loop is not None:
+        out["loop"] = _loop_summary(result)
+    if result.held_out is not None:
+        out["held_out"] = result.held_out.to_dict()
+    if result.sheet:
+        out["sheet"] = _sheet_summary(result)
+    return out
+
+
+def _sheet_summary(result: IdentifyResult) -> dict[str, Any]:
+    """The sheet's rows; on the test car, each row's truth and whether the 95 % interval
+    holds it (per wheel), and the share of metrics whose intervals hold the truth."""
+    rows = [r.to_dict() for r in result.sheet]
+    truth = result.sheet_truth
+    if truth is None:
+        return {"rows": rows}
+    hits = []
+    for r in rows:
+        t = truth.get(r["name"])
+        if t is None or not np.all(np.isfinite([*t, *r["ci95_half_width"]])):
+            continue  # no truth, or no interval (a loop width)
+        inside = np.abs(np.asarray(r["identified"]) - t) <= np.asarray(r["ci95_half_width"])
+        r["truth"] = t.tolist()
+        r["truth_inside_ci95"] = inside.tolist()
+        hits += inside.tolist()
+    return {"rows": rows, "coverage": float(np.mean(hits)) if hits else None, "n_values": len(hits)}
+
+
+def _loop_summary(result: IdentifyResult) -> dict[str, Any]:
+    """The loop's part of ``identify.json``: what was added, each curve before and after."""
+    assert result.loop is not None and result.loop_identifiability is not None
+    ref = result.loop
+    before = result.curve_rms()
+    after = ref.model.block_rms(ref.fit.residual)
+    ident = result.loop_identifiability
+    out = {
+        "changes": ref.changes,
+        "candidates": [c.to_dict() for c in ref.candidates],
+        "not_modelled": ref.skipped,
+        "curves": [
+            {"test": t, "channel": c, "before": before[(t, c)], "after": v}
+            for (t, c), v in after.items()
+        ],
+        "curves_within_1_5_noise_before": int(sum(v <= FIT_RATIO for v in before.values())),
+        "curves_within_1_5_noise_after": int(sum(v <= FIT_RATIO for v in after.values())),
+        "worst_curve_rms_over_noise_after": max(after.values()),
+        "n_parameters": ref.model.dim,
+        "cost": ref.fit.cost,
+        "stop": ref.fit.final.stop,
+        "identified": [v.name for v in ident.verdicts if v.identified],
+        "effects": [e.to_dict() for e in ref.model.effects_at(ref.fit.x)],
+        "seconds": ref.seconds,
+    }
+    if result.loop_diagnosis is not None:
+        out["diagnosis"] = result.loop_diagnosis
     return out
 
 
@@ -849,4 +1068,3 @@ def run_identify_pipeline(config: dict[str, Any], run_dir: Path) -> dict[str, An
     )
     (run_dir / "summary.json").write_text(json.dumps(to_jsonable(s), indent=2) + "\n")
     return s
-

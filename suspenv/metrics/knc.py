@@ -379,31 +379,6 @@ def loop_width(results: dict[str, KCResult], name: str = "tyre_fz", test: str = 
     return np.abs(r.branch(name, "down") - r.branch(name, "up")).max(axis=1)
 
 
-# -------------------------------------------------------- usual K&C outputs
-def usual_outputs(results: dict[str, KCResult]) -> dict[str, np.ndarray]:
-    """Classic K&C numbers per design (n,) (left wheel unless an axle quantity), edge units:
-    the left-wheel column of the K&C report (:func:`suspenv.metrics.knc_report.travel_report`,
-    whose docstring and ``docs/knc.md`` give every definition and sign).
-
-    caster, kpi [deg]; scrub_radius (SAE: positive when the steering axis meets the pad
-    plane inboard of the loaded contact point), trail (positive when it meets it ahead)
-    [mm]; roll_centre_height [mm above the pad plane] from the front-view instant centres
-    of the wheel carriers' points at the loaded contact points in parallel travel;
-    motion_ratio = -d(spring length)/d(wheel-centre travel); wheel_rate (against
-    wheel-centre travel), ride_rate (against pad travel) [N/mm]; roll_rate [N*m/deg];
-    roll_steer, roll_camber [deg/deg].
-    """
-    from suspenv.metrics.knc_report import travel_report
-
-    rep = travel_report(results)
-    keys = {"spring_motion_ratio": "motion_ratio"}
-    names = (
-        "caster", "kpi", "scrub_radius", "trail", "roll_centre_height", "spring_motion_ratio",
-        "wheel_rate", "ride_rate", "roll_rate", "roll_steer", "roll_camber",
-    )  # fmt: skip
-    return {keys.get(k, k): rep[k][:, 0] for k in names}
-
-
 def objectives_subset(results: dict[str, KCResult], names: tuple[str, ...]) -> np.ndarray:
     """Only the named objectives (n, len(names))."""
     idx = [OBJECTIVE_NAMES.index(n) for n in names]

@@ -32,6 +32,7 @@ Points (see :func:`patch_point` and :func:`carrier_patch_velocity`):
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -261,7 +262,126 @@ STEERING_ITEMS: tuple[ReportItem, ...] = (
         "the largest rack travel",
         "+ inner wheel steers more than Ackermann",
     ),
+    ReportItem(
+        "ackermann_pct",
+        "%",
+        "steering",
+        False,
+        "100 (inner - outer) / (Ackermann inner - outer) of the road-wheel angles, mean of "
+        "both turn directions at the largest rack travel (0 % parallel steer, 100 % ideal)",
+        "+ towards Ackermann",
+    ),
 )
+
+
+#: compliance test -> (load in each wheel's own sense per unit of the rig's drive (left,
+#: right), unit of that load, its words)
+_OWN_LOAD = {
+    "lateral": (SIDE_SIGN * 1e-3, "kN", "outward (cornering) force at the contact patch"),
+    "longitudinal": (
+        np.array([-1e-3, -1e-3]),
+        "kN",
+        "rearward (braking) force at the contact patch",
+    ),
+    "traction": (np.array([1e-3, 1e-3]), "kN", "forward (tractive) force at the wheel centre"),
+    "aligning": (SIDE_SIGN * 1e-3, "kN m", "toe-out moment about the vertical"),
+}
+#: compliance outputs: suffix -> (channel, scale per wheel from SI, unit, sense)
+_OWN_OUTPUT = {
+    "steer": ("toe", np.array([1.0, 1.0]) * 180 / np.pi, "deg", "toe-in"),
+    "camber": ("camber", np.array([1.0, 1.0]) * 180 / np.pi, "deg", "top outward"),
+    "wc_x": ("wheel_centre_x", np.array([1e3, 1e3]), "mm", "wheel centre forward"),
+    "wc_y": ("wheel_centre_y", SIDE_SIGN * 1e3, "mm", "wheel centre outboard"),
+}
+
+
+def _compliance_items() -> tuple[ReportItem, ...]:
+    out = []
+    for test, (_, lu, lw) in _OWN_LOAD.items():
+        for suffix, (_, _, ou, sense) in _OWN_OUTPUT.items():
+            out.append(
+                ReportItem(
+                    f"{test}_compliance_{suffix}",
+                    f"{ou}/{lu}",
+                    test,
+                    True,
+                    f"slope at zero load of the output against the {lw}, both wheels loaded "
+                    "in phase, pads static",
+                    f"+ {sense} per {lu} of {lw}",
+                )
+            )
+    return tuple(out)
+
+
+#: channels whose hysteresis loop width is reported: channel -> (scale from SI, unit)
+LOOP_CHANNELS = {"toe": (180 / np.pi, "deg"), "camber": (180 / np.pi, "deg"), "tyre_fz": (1.0, "N")}
+#: tests whose loop widths are reported
+LOOP_TESTS = ("parallel", "opposite", "single", "lateral", "longitudinal", "traction", "aligning")
+
+
+def _loop_items() -> tuple[ReportItem, ...]:
+    return tuple(
+        ReportItem(
+            f"{test}_loop_width_{chan}",
+            unit,
+            test,
+            True,
+            "hysteresis: half the difference between the loading and unloading branches "
+            "at the static position (the branches' mean is the other numbers' value)",
+            "+ the loading branch above the unloading one",
+        )
+        for test in LOOP_TESTS
+        for chan, (_, unit) in LOOP_CHANNELS.items()
+    )
+
+
+#: compliance numbers and loop widths (:func:`compliance_report`)
+COMPLIANCE_ITEMS: dict[str, ReportItem] = {
+    i.name: i for i in _compliance_items() + _loop_items()
+}
+
+
+def compliance_report(results: dict[str, KCResult]) -> dict[str, np.ndarray]:
+    """Compliance numbers of the force tests present (:data:`COMPLIANCE_ITEMS`), each
+    (n, 2): the loop mean of the slope at zero load of each wheel's output against the
+    load in that wheel's own sense (:data:`_OWN_LOAD`), and the loop widths of every test
+    present (:func:`loop_half_width`). NaN where a channel is missing."""
+    out: dict[str, np.ndarray] = {}
+    for test in _OWN_LOAD:
+        if test in results:
+            for suffix in _OWN_OUTPUT:
+                out[f"{test}_compliance_{suffix}"] = _compliance(results[test], test, suffix)
+    for test in LOOP_TESTS:
+        if test in results:
+            for chan in LOOP_CHANNELS:
+                out[f"{test}_loop_width_{chan}"] = loop_half_width(results[test], chan)
+    return out
+
+
+def loop_half_width(res: KCResult, chan: str) -> np.ndarray:
+    """Half the gap (n, 2) between the ascending (loading) and descending (unloading)
+    branches of channel ``chan`` at the static position, in :data:`LOOP_CHANNELS` units
+    (NaN when the channel is missing)."""
+    if chan not in res.channels:
+        return np.full((res.ok.size, 2), np.nan)
+    i = res.static_index
+    gap = res.branch(chan, "up")[:, i] - res.branch(chan, "down")[:, i]
+    return 0.5 * gap * LOOP_CHANNELS[chan][0]
+
+
+def _compliance(res: KCResult, test: str, suffix: str) -> np.ndarray:
+    """Loop mean of one compliance slope (n, 2) (:func:`compliance_report`)."""
+    per = _OWN_LOAD[test][0]
+    chan, scale, _, _ = _OWN_OUTPUT[suffix]
+    if chan not in res.channels:
+        return np.full((res.ok.size, 2), np.nan)
+    load = res.grid[None, :, None] * per[None, None, :]
+
+    def slope(br: str) -> np.ndarray:
+        y = res.branch(chan, br) * scale
+        return _fit(np.broadcast_to(load, y.shape), y, res.static_index)[1]
+
+    return _loop(res, slope)
 
 
 # ------------------------------------------------------------------ helpers
@@ -522,6 +642,29 @@ def travel_report(
     return out
 
 
+# -------------------------------------------------------- usual K&C outputs
+def usual_outputs(results: dict[str, KCResult]) -> dict[str, np.ndarray]:
+    """Classic K&C numbers per design (n,) (left wheel unless an axle quantity), edge units:
+    the left-wheel column of the K&C report (:func:`suspenv.metrics.knc_report.travel_report`,
+    whose docstring and ``docs/knc.md`` give every definition and sign).
+
+    caster, kpi [deg]; scrub_radius (SAE: positive when the steering axis meets the pad
+    plane inboard of the loaded contact point), trail (positive when it meets it ahead)
+    [mm]; roll_centre_height [mm above the pad plane] from the front-view instant centres
+    of the wheel carriers' points at the loaded contact points in parallel travel;
+    motion_ratio = -d(spring length)/d(wheel-centre travel); wheel_rate (against
+    wheel-centre travel), ride_rate (against pad travel) [N/mm]; roll_rate [N*m/deg];
+    roll_steer, roll_camber [deg/deg].
+    """
+    rep = travel_report(results)
+    keys = {"spring_motion_ratio": "motion_ratio"}
+    names = (
+        "caster", "kpi", "scrub_radius", "trail", "roll_centre_height", "spring_motion_ratio",
+        "wheel_rate", "ride_rate", "roll_rate", "roll_steer", "roll_camber",
+    )  # fmt: skip
+    return {keys.get(k, k): rep[k][:, 0] for k in names}
+
+
 # ------------------------------------------------------------------ steering
 def steer_angle(res: KCResult, branch: str) -> np.ndarray:
     """Road-wheel steer angle delta (n, G, 2) [deg] from static, about +z (ISO: + the
@@ -600,14 +743,89 @@ def steering_report(
         ends.append(0.5 * (e[:, 0] + e[:, -1]))
     err = 0.5 * (ends[0] + ends[1])
     out["ackermann_error"] = np.repeat(err[:, None], 2, axis=-1)
+    pct = np.mean([ackermann_pct(res, br, c.wheelbase, track) for br in BRANCHES], axis=0)
+    out["ackermann_pct"] = np.repeat(pct[:, None], 2, axis=-1)
     return out
+
+
+def ackermann_pct(
+    res: KCResult, branch: str, wheelbase_mm: float, track_mm: np.ndarray
+) -> np.ndarray:
+    """Ackermann percentage (n,) on ``branch``: ``100 (d_i - d_o) / (d_A - d_o)`` at both
+    ends of the rack travel, averaged (``d_i``, ``d_o`` the inner and outer wheels' steer
+    angles, ``d_A`` the Ackermann angle for ``d_o``: :func:`ackermann_error_curve`)."""
+    d = steer_angle(res, branch)
+    err = ackermann_error_curve(res, branch, wheelbase_mm, track_mm)
+    out = []
+    for end in (0, -1):
+        turn = np.sign(d[:, end].mean(axis=-1))
+        inner = np.where(turn > 0, d[:, end, 0], d[:, end, 1]) * turn
+        outer = np.where(turn > 0, d[:, end, 1], d[:, end, 0]) * turn
+        ideal = inner - err[:, end]
+        out.append(100.0 * (inner - outer) / (ideal - outer))
+    return 0.5 * (out[0] + out[1])
 
 
 def knc_report(
     results: dict[str, KCResult], constants: AxleConstants | None = None
 ) -> dict[str, np.ndarray]:
     """Every report number the ``results`` allow: :func:`travel_report` (needs
-    ``parallel`` and ``opposite``) and :func:`steering_report` (needs ``steering``)."""
+    ``parallel`` and ``opposite``) and :func:`steering_report` (needs ``steering``).
+    A channel the results lack (a rig that records no contact-patch position, say)
+    makes the numbers that read it NaN (:func:`report_needs` says which)."""
+    with np.errstate(all="ignore"):
+        return knc_report_filled(_filled(results, np.nan), constants)
+
+
+#: channels whose absence the report handles itself (the numbers reading them are NaN,
+#: the others computed without them)
+OPTIONAL_CHANNELS = ("knuckle_pitch", "spring_length", "strut_length", "arb_twist")
+
+
+def _filled(results: dict[str, KCResult], value: float, only: str = "") -> dict[str, KCResult]:
+    """``results`` with every rig channel they lack set to NaN, or, probing the missing
+    channel ``only`` (``"test:channel"``), that one NaN (absent if optional) and the
+    other missing ones ``value``. Optional channels (:data:`OPTIONAL_CHANNELS`) stay
+    absent unless probed with a finite ``value``."""
+    from suspenv.models.mcpherson.solver import OUTPUT_NAMES
+
+    out = {}
+    for t, r in results.items():
+        shape = next(iter(r.channels.values())).shape
+        extra = {}
+        for c in OUTPUT_NAMES:
+            probed = f"{t}:{c}" == only
+            if c in r.channels or (c in OPTIONAL_CHANNELS and (probed or np.isnan(value))):
+                continue
+            extra[c] = np.full(shape, np.nan if probed else value)
+        out[t] = dataclasses.replace(r, channels={**r.channels, **extra}) if extra else r
+    return out
+
+
+def report_needs(results: dict[str, KCResult]) -> dict[str, str]:
+    """Report items the ``results`` cannot give, each with what it needs: a test not
+    run, or the channels (``test:channel``) the rig did not record."""
+    from suspenv.models.mcpherson.solver import OUTPUT_NAMES
+
+    needs: dict[str, list[str]] = {}
+    for item in ALL_ITEMS.values():
+        if item.test not in results or (item.test == "parallel" and "opposite" not in results):
+            tests = [t for t in (item.test, "opposite") if t not in results]
+            needs[item.name] = [f"the {t} test" for t in dict.fromkeys(tests)]
+    missing = [f"{t}:{c}" for t, r in results.items() for c in OUTPUT_NAMES if c not in r.channels]
+    for m in missing:
+        with np.errstate(all="ignore"):
+            rep = knc_report_filled(_filled(results, 0.0, only=m))
+        for name, v in rep.items():
+            if not np.all(np.isfinite(v)):
+                needs.setdefault(name, []).append(f"channel {m}")
+    return {k: "needs: " + ", ".join(v) for k, v in needs.items()}
+
+
+def knc_report_filled(
+    results: dict[str, KCResult], constants: AxleConstants | None = None
+) -> dict[str, np.ndarray]:
+    """:func:`knc_report` of results that hold every channel (no filling)."""
     out: dict[str, np.ndarray] = {}
     if "parallel" in results and "opposite" in results:
         out.update(travel_report(results, constants))

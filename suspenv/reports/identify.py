@@ -25,12 +25,27 @@ from suspenv.reports.markdown import fmt, markdown_table, text
 if TYPE_CHECKING:
     from suspenv.methods.identify import IdentifyResult
 
-#: figure rows: channel, label, scale from SI
-FIGURE_CHANNELS = (
-    ("toe", "toe [deg] (+ toe-in)", np.rad2deg(1.0)),
-    ("camber", "camber [deg] (- top inboard)", np.rad2deg(1.0)),
-    ("caster", "caster [deg]", np.rad2deg(1.0)),
-)
+#: axis label (unit, sign convention: ISO 8855, each wheel's raw sign) and scale from
+#: SI of every fitted channel
+AXIS_LABELS = {
+    "toe": ("toe [deg] (+ toe-in)", np.rad2deg(1.0)),
+    "camber": ("camber [deg] (+ top outward)", np.rad2deg(1.0)),
+    "caster": ("caster [deg] (+ axis top rearward)", np.rad2deg(1.0)),
+    "kpi": ("KPI [deg] (+ axis top inboard)", np.rad2deg(1.0)),
+    "tyre_fz": ("wheel load [N] (+ compression)", 1.0),
+    "wheel_centre_x": ("wheel centre x [mm] (ISO, + forward)", 1e3),
+    "wheel_centre_y": ("wheel centre y [mm] (ISO, + left)", 1e3),
+    "wheel_centre_z": ("wheel centre z [mm] (+ up)", 1e3),
+    "contact_x": ("contact x [mm] (ISO, + forward)", 1e3),
+    "contact_y": ("contact y [mm] (ISO, + left)", 1e3),
+    "contact_z": ("contact z [mm] (+ up)", 1e3),
+}
+#: the drive of each test on the figures' abscissa: label and scale from SI
+DRIVE_LABELS = {
+    "m": ("left pad stroke [mm] (bump +)", 1e3),
+    "N": ("load per wheel [N]", 1.0),
+    "N*m": ("moment per wheel [N m]", 1.0),
+}
 CHANNEL_WORDS = {
     "toe": "toe",
     "camber": "camber",
@@ -55,70 +70,96 @@ def _save(fig: Any, path: Path) -> Path:
     return path
 
 
-def plot_curves(result: IdentifyResult, path: Path) -> Path | None:
-    """Measured vs initial vs identified toe, camber and caster of the left wheel against
-    wheel travel (wheel-centre height change, bump +) in each measured travel test."""
-    from suspenv.measurements.knc import TESTS
+def _worst_first(result: IdentifyResult) -> list[str]:
+    """Fitted channels, the one with the worst curve (the answer's RMS / noise) first."""
+    fit = result.final_fit
+    rms = fit.model.block_rms(fit.residual)
+    worst: dict[str, float] = {}
+    for (_, c), v in rms.items():
+        worst[c] = max(v, worst.get(c, 0.0))
+    return sorted(worst, key=lambda c: -worst[c])
 
-    model = result.model
-    tests = [t for t in model.tests if t.test in TESTS]
-    chans = [(c, lab, s) for c, lab, s in FIGURE_CHANNELS if any(c in t.values for t in tests)]
+
+def plot_curves(result: IdentifyResult, path: Path) -> Path | None:
+    """Every fitted channel (rows, the worst curve first) of every measured test and both
+    wheels (columns): measured, the first fit and the answer (after the loop) against
+    the test's drive; units and signs on the axes."""
+    from suspenv.measurements.knc import DRIVE_UNIT
+
+    first, final = result.fit, result.final_fit
+    tests = final.model.tests
+    chans = _worst_first(result)
     if not tests or not chans:
         return None
-    res, ok, _ = model.simulate(np.vstack([model.full(result.x0), model.full(result.fit.x)]))
+    sims = []
+    for f in (first, final):
+        res, ok, _ = f.model.simulate(f.x[None])
+        sims.append((res, bool(ok[0])))
     plt = pyplot()
+    ncol = 2 * len(tests)
     fig, axes = plt.subplots(
-        len(chans), len(tests), figsize=(4.2 * len(tests), 3.0 * len(chans)), squeeze=False
+        len(chans), ncol, figsize=(2.9 * ncol, 2.1 * len(chans)), squeeze=False
     )
+    rms = final.model.block_rms(final.residual)
     for j, t in enumerate(tests):
-        if "wheel_centre_z" in t.values:
-            z = t.values["wheel_centre_z"][:, 0]
-            xm = (z - z[0]) * 1e3
-            sim_z = t.read(res[t.test], "wheel_centre_z")[:, :, 0]
-            xs = (sim_z - sim_z[:, :1]) * 1e3
-            xlabel = "left wheel travel [mm] (wheel centre, bump +)"
-        else:
-            xm = t.drive * 1e3
-            xs = np.tile(xm, (2, 1))
-            xlabel = "left pad travel [mm] (bump +)"
-        for i, (c, label, scale) in enumerate(chans):
-            ax = axes[i, j]
-            if c not in t.values:
-                ax.set_visible(False)
-                continue
-            sim = t.read(res[t.test], c)[:, :, 0] * scale
-            ax.plot(xm, t.values[c][:, 0] * scale, ".", ms=3, color="k", label="measured")
-            if ok[0]:
-                ax.plot(xs[0], sim[0], "-", lw=1, color="tab:gray", label="initial")
-            if ok[1]:
-                ax.plot(xs[1], sim[1], "-", lw=1.5, color="tab:red", label="identified")
-            ax.set_ylabel(label)
-            ax.set_xlabel(xlabel)
-            ax.grid(alpha=0.3)
-            if i == 0:
-                ax.set_title(f"{t.test} travel")
-            if i == 0 and j == 0:
-                ax.legend(fontsize=7)
-    fig.suptitle(f"{result.measurement.name}: measured vs initial vs identified (left wheel)")
+        xlabel, xs = DRIVE_LABELS[DRIVE_UNIT.get(t.test, "m")]
+        for i, c in enumerate(chans):
+            label, scale = AXIS_LABELS.get(c, (c, 1.0))
+            for w, wheel in enumerate(("left", "right")):
+                ax = axes[i, 2 * j + w]
+                if c not in t.values:
+                    ax.set_visible(False)
+                    continue
+                x = t.drive * xs
+                ax.plot(x, t.values[c][:, w] * scale, ".", ms=2, color="k", label="measured")
+                for (sim, solved), colour, name in zip(
+                    sims, ("tab:gray", "tab:red"), ("first fit", "after the loop"), strict=True
+                ):
+                    if solved:
+                        y = t.read(sim[t.test], c)[0, :, w] * scale
+                        ax.plot(x, y, "-", lw=1, color=colour, label=name)
+                ax.set_title(f"{t.test}, {wheel}: {rms[(t.test, c)]:.2f} x noise", fontsize=7)
+                ax.tick_params(labelsize=6)
+                ax.grid(alpha=0.3)
+                if w == 0 and j == 0:
+                    ax.set_ylabel(label, fontsize=7)
+                if i == len(chans) - 1:
+                    ax.set_xlabel(xlabel, fontsize=7)
+    axes[0, 0].legend(fontsize=6)
+    fig.suptitle(
+        f"{result.measurement.name}: measured vs first fit vs after the loop "
+        "(rows: worst curve first; RMS / noise of both wheels after the loop)",
+        fontsize=9,
+    )
     fig.tight_layout()
     return _save(fig, path)
 
 
 def plot_residual(result: IdentifyResult, path: Path) -> Path:
-    """RMS residual over noise per curve, initial and identified (log scale)."""
-    rms = result.curve_rms()
-    rms0 = result.curve_rms(result.initial_residual)
-    keys = list(rms)
+    """RMS residual over noise per curve: the initial model, the first fit and the
+    answer after the loop (log scale), the worst curve after the loop first."""
+    final = result.final_fit
+    after = final.model.block_rms(final.residual)
+    bars = [
+        ("initial", result.curve_rms(result.initial_residual), "tab:gray"),
+        ("first fit", result.curve_rms(), "tab:blue"),
+    ]
+    if result.loop is not None:
+        bars.append(("after the loop", after, "tab:red"))
+    keys = sorted(after, key=lambda k: -after[k])
     plt = pyplot()
-    fig, ax = plt.subplots(figsize=(max(6, 0.28 * len(keys) + 2), 3.6))
+    fig, ax = plt.subplots(figsize=(max(6, 0.3 * len(keys) + 2), 3.8))
     pos = np.arange(len(keys))
-    ax.bar(pos - 0.2, [rms0[k] for k in keys], 0.4, color="tab:gray", label="initial")
-    ax.bar(pos + 0.2, [rms[k] for k in keys], 0.4, color="tab:red", label="identified")
+    w = 0.8 / len(bars)
+    for k, (name, rms, colour) in enumerate(bars):
+        ax.bar(
+            pos + (k - (len(bars) - 1) / 2) * w, [rms[q] for q in keys], w, color=colour, label=name
+        )
     ax.axhline(1.0, color="k", lw=0.8)
     ax.axhline(FIT_RATIO, color="k", lw=0.8, ls="--", label=f"{FIT_RATIO} x noise")
     ax.set_yscale("log")
     ax.set_xticks(pos, [f"{t} {CHANNEL_WORDS.get(c, c)}" for t, c in keys], rotation=90, fontsize=7)
-    ax.set_ylabel("RMS residual / noise RMS")
+    ax.set_ylabel("RMS residual / noise RMS (both wheels)")
     ax.legend(fontsize=7)
     ax.grid(alpha=0.3, axis="y")
     return _save(fig, path)
@@ -210,8 +251,136 @@ def _model_next(result: IdentifyResult, named: list[dict[str, Any]]) -> list[str
     return [f"- **Then**: {'; '.join(todo)}."]
 
 
+def _loop_lines(s: dict[str, Any]) -> list[str]:
+    """The first screen's opening: the fit before and after the loop, the held-out test."""
+    out = []
+    loop = s.get("loop")
+    if loop is not None:
+        out.append(
+            f"- **Fit, before -> after the loop**: {loop['curves_within_1_5_noise_before']} -> "
+            f"**{loop['curves_within_1_5_noise_after']} of {len(loop['curves'])}** curves "
+            f"within {FIT_RATIO} x their noise RMS (worst {s['worst_curve_rms_over_noise']:.2f}"
+            f" -> {loop['worst_curve_rms_over_noise_after']:.2f} x noise). Added: "
+            f"{'; '.join(text(c) for c in loop['changes'])}; "
+            f"{loop['n_parameters']} parameters refitted together ({text(loop['stop'])})."
+        )
+    h = s.get("held_out")
+    if h is not None:
+        out.append(
+            f"- **Held-out test** `{h['test']}` ({text(h['source'])}): predicted within "
+            f"**{h['worst_after']:.2f} x its noise** (worst channel; first fit "
+            f"{h['worst_before']:.2f})."
+        )
+    return out
+
+
+def _before_after(result: IdentifyResult, s: dict[str, Any]) -> list[str]:
+    """Section: each curve's RMS / noise initial, first fit, after the loop; the
+    held-out test's prediction; the places tried for each named pattern."""
+    loop, h = s.get("loop"), s.get("held_out")
+    if loop is None and h is None:
+        return []
+    lines = ["## Before and after the loop", ""]
+    if loop is not None:
+        init = result.curve_rms(result.initial_residual)
+        rows = [
+            {
+                "test": r["test"],
+                "channel": CHANNEL_WORDS.get(r["channel"], r["channel"]),
+                "initial": init[(r["test"], r["channel"])],
+                "first fit": r["before"],
+                "after the loop": f"{r['after']:.2f}" + ("" if r["after"] <= FIT_RATIO else " !"),
+            }
+            for r in sorted(loop["curves"], key=lambda r: -r["after"])
+        ]
+        lines += [
+            "RMS residual over the noise RMS per curve (both wheels, both branches; `!` above "
+            f"{FIT_RATIO}), worst after the loop first.",
+            "",
+            markdown_table(rows),
+        ]
+        tried = [
+            {
+                "pattern": c["family"],
+                "place tried (effect alone, design held)": text(c["words"]),
+                "cost": c["cost"],
+                "fitted": ", ".join(f"{k} = {v:.4g}" for k, v in c["values"].items()),
+            }
+            for c in loop["candidates"]
+        ]
+        if tried:
+            lines += [
+                "Places tried for each named pattern (the least cost is kept):",
+                "",
+                markdown_table(tried),
+            ]
+    if h is not None:
+        rows = [
+            {
+                "channel": CHANNEL_WORDS.get(c, c),
+                "first fit": v,
+                "after the loop": h["rms_over_noise_after"][c],
+            }
+            for c, v in h["rms_over_noise_before"].items()
+        ]
+        lines += [
+            f"Held-out test `{h['test']}` ({text(h['source'])}), predicted, never fitted: RMS "
+            "over noise per channel.",
+            "",
+            markdown_table(rows),
+        ]
+    return lines
+
+
+def _pair(v: Any, digits: int = 4) -> str:
+    """Left / right values as text ("" when None)."""
+    if v is None:
+        return ""
+    return " / ".join(f"{x:.{digits}g}" for x in v)
+
+
+def _sheet_section(s: dict[str, Any]) -> list[str]:
+    """The K&C sheet: every metric measured, identified with its 95 % interval, or
+    predicted; the truth beside it on the test car."""
+    sheet = s.get("sheet")
+    if not sheet:
+        return []
+    rows = []
+    for r in sheet["rows"]:
+        row = {
+            "metric": r["name"],
+            "unit": r["unit"],
+            "sign": r["sign"],
+            "measured L / R": _pair(r["measured"]) or text(r["needs"]),
+            "identified L / R": _pair(r["identified"]),
+            "95 % +- L / R": _pair(r["ci95_half_width"], 2),
+            "R - L (95 %)": f"{r['asymmetry']:.3g} +- {r['asymmetry_ci95_half_width']:.2g}",
+        }
+        if "truth" in r:
+            row["truth L / R"] = _pair(r["truth"])
+            row["in 95 %"] = " / ".join("yes" if b else "NO" for b in r["truth_inside_ci95"])
+        rows.append(row)
+    lines = [
+        "## K&C sheet of the identified car",
+        "",
+        "Per wheel (left / right); the identified value is the answer's model on the rig's "
+        "tests (predicted where the measurement lacks the test), its 95 % interval by the "
+        "delta method from the fit's covariance (suspenv.methods.knc_sheet); the measured "
+        "value is the same reduction of the measured loops. Definitions and signs: "
+        "docs/knc.md.",
+        "",
+    ]
+    if sheet.get("coverage") is not None:
+        lines += [
+            f"Test car: the 95 % intervals hold the truth for {100 * sheet['coverage']:.0f} % "
+            f"of {sheet['n_values']} values (metric x wheel).",
+            "",
+        ]
+    return lines + [markdown_table(rows), ""]
+
+
 def _first_screen(result: IdentifyResult, s: dict[str, Any]) -> list[str]:
-    ident = result.identifiability
+    ident = result.final_identifiability
     counts = summary_counts(ident.verdicts)
     fit_ok = s["curves_within_1_5_noise"]
     worst = max(s["curves"], key=lambda r: r["rms_over_noise"])
@@ -224,7 +393,9 @@ def _first_screen(result: IdentifyResult, s: dict[str, Any]) -> list[str]:
         f"({'left and right sides apart' if result.model.two_sided else 'left = right'}).",
         "",
         *(f"- **Data warning**: {text(w)}" for w in result.measurement.meta.get("warnings", ())),
-        f"- **Fit**: {fit_ok} of {s['n_curves']} curves within {FIT_RATIO} x their noise RMS; "
+        *_loop_lines(s),
+        f"- **{'First fit' if result.loop is not None else 'Fit'}**: {fit_ok} of "
+        f"{s['n_curves']} curves within {FIT_RATIO} x noise; "
         f"worst: {worst['test']} {CHANNEL_WORDS.get(worst['channel'], worst['channel'])} "
         f"({worst['rms_over_noise']:.2f} x noise). Answer: the {result.fit.final.name}, "
         f"{result.fit.final.stop}.",
@@ -238,6 +409,7 @@ def _first_screen(result: IdentifyResult, s: dict[str, Any]) -> list[str]:
         + ".",
     ]
     if result.candidates:
+        first_n = result.identifiability.n_determined  # the next test is the first fit's
         best = result.candidates[0]
         new = best.newly_identified
         if new:
@@ -245,13 +417,13 @@ def _first_screen(result: IdentifyResult, s: dict[str, Any]) -> list[str]:
             lines.append(
                 f"- **Next test**: `{best.test}`: predicted to identify {len(new)} more "
                 f"parameter{'s' if len(new) != 1 else ''} ({', '.join(new[:6])}{more}) and to "
-                f"determine {best.n_determined_after} combinations (now {ident.n_determined})."
+                f"determine {best.n_determined_after} combinations (now {first_n})."
             )
         else:
             lines.append(
                 f"- **Next test**: `{best.test}`: no single rig test identifies another "
                 f"parameter under the rule; this one determines {best.n_determined_after} "
-                f"combinations (now {ident.n_determined}) and shrinks the standard errors of "
+                f"combinations (now {first_n}) and shrinks the standard errors of "
                 f"those not identified by a factor {10**best.mean_log_gain:.2g} on geometric "
                 "mean."
             )
@@ -289,6 +461,10 @@ def _first_screen(result: IdentifyResult, s: dict[str, Any]) -> list[str]:
                 "- **Remaining residual**: the K&C diagnosis names nothing (no signature above "
                 f"{diag['threshold']:g} holding {100 * diag['named_share']:.0f} % of the residual)."
             )
+    after = result.loop_diagnosis
+    if after is not None and "skipped" not in after:
+        names = "; ".join(n["words"] for n in after["named"]) or "nothing"
+        lines.append(f"- **Residual after the loop**: the K&C diagnosis names {names}.")
     if result.truth is not None and "recovery_error_pct_range" in s:
         e = s["recovery_error_pct_range"]
         if e["identified_max"] is not None:
@@ -308,32 +484,19 @@ def _first_screen(result: IdentifyResult, s: dict[str, Any]) -> list[str]:
     return lines
 
 
-def write_identify_report(result: IdentifyResult, out: Path, figures: bool = True) -> list[Path]:
-    """Write ``identified.toml``, ``identify.json``, ``report.md`` and ``figures/*.png``
-    into ``out`` (created); returns the paths written."""
-    from suspenv.models.mcpherson.vehicle_file import dump_vehicle
-
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    files: list[Path] = []
-    toml = out / "identified.toml"
-    toml.write_text(dump_vehicle(result.identified_vehicle))
-    files.append(toml)
-    s = summary(result)
-    js = out / "identify.json"
-    js.write_text(json.dumps(to_jsonable(s), indent=2) + "\n")
-    files.append(js)
+def _figures(result: IdentifyResult, out: Path) -> dict[str, Path]:
+    fdir = out / "figures"
     figs: dict[str, Path] = {}
-    if figures:
-        fdir = out / "figures"
-        p = plot_curves(result, fdir / "curves.png")
-        if p is not None:
-            figs["curves"] = p
-        figs["residual"] = plot_residual(result, fdir / "residual.png")
-        figs["convergence"] = plot_convergence(result, fdir / "convergence.png")
-        files += list(figs.values())
-    lines = _first_screen(result, s)
-    ident = result.identifiability
+    p = plot_curves(result, fdir / "curves.png")
+    if p is not None:
+        figs["curves"] = p
+    figs["residual"] = plot_residual(result, fdir / "residual.png")
+    figs["convergence"] = plot_convergence(result, fdir / "convergence.png")
+    return figs
+
+
+def _identified_section(result: IdentifyResult) -> list[str]:
+    ident = result.final_identifiability
     rows = []
     for v in ident.verdicts:
         if not v.identified:
@@ -349,7 +512,7 @@ def write_identify_report(result: IdentifyResult, out: Path, figures: bool = Tru
             row["truth"] = v.truth
             row["error % range"] = v.error_pct
         rows.append(row)
-    lines += [
+    return [
         "",
         "## Identified",
         "",
@@ -360,21 +523,11 @@ def write_identify_report(result: IdentifyResult, out: Path, figures: bool = Tru
         "",
         markdown_table(rows),
     ]
-    if "curves" in figs:
-        lines += ["", "![measured vs initial vs identified](figures/curves.png)"]
-    lines += [
-        "",
-        "## Fit per curve",
-        "",
-        "RMS of (identified - measured) over the noise RMS, both wheels and both loading "
-        f"branches (1 = at the noise floor; `!` above {FIT_RATIO}). Noise: {_sigma_text(result)}.",
-        "",
-        _curve_table(result),
-    ]
-    if "residual" in figs:
-        lines += ["![residual per curve](figures/residual.png)", ""]
+
+
+def _not_identified_section(result: IdentifyResult) -> list[str]:
     rows = []
-    for v in ident.verdicts:
+    for v in result.final_identifiability.verdicts:
         if v.identified:
             continue
         row = {
@@ -388,7 +541,11 @@ def write_identify_report(result: IdentifyResult, out: Path, figures: bool = Tru
         if v.truth is not None:
             row["truth"] = v.truth
         rows.append(row)
-    lines += ["## Not identified", "", markdown_table(rows)]
+    return ["## Not identified", "", markdown_table(rows)]
+
+
+def _next_test_section(result: IdentifyResult, s: dict[str, Any]) -> list[str]:
+    lines: list[str] = []
     if result.candidates:
         rows = [
             {
@@ -404,7 +561,7 @@ def write_identify_report(result: IdentifyResult, out: Path, figures: bool = Tru
             "## Next test",
             "",
             "Predicted standard errors with each rig test suspenv simulates and the "
-            "measurement lacks added (its Jacobian at the identified design, the same noise "
+            "measurement lacks added (its Jacobian at the first fit's design, the same noise "
             "model, the rig's default amplitude).",
             "",
             markdown_table(rows),
@@ -413,53 +570,90 @@ def write_identify_report(result: IdentifyResult, out: Path, figures: bool = Tru
         r = s["rerun"]
         lines += [
             f"Re-run on the test car with `{r['test']}` measured (simulated, same noise "
-            f"model), least squares from the identified design: {r['n_identified_before']} -> "
-            f"{r['n_identified_after']} identified parameters; worst curve "
+            f"model), least squares from the first fit's design: {r['n_identified_before']} "
+            f"-> {r['n_identified_after']} identified parameters; worst curve "
             f"{r['worst_curve_rms_over_noise']:.2f} x noise; {r['stop']}.",
             "",
         ]
-        rows = []
-        for v in result.rerun.identifiability.verdicts:
-            if v.identified:
-                rows.append(
-                    {
-                        "parameter": v.name,
-                        "value": v.value,
-                        "+- (1 s.e.)": v.stderr,
-                        "truth": v.truth if v.truth is not None else "",
-                        "error % range": v.error_pct if v.error_pct is not None else "",
-                    }
-                )
-        lines += [markdown_table(rows)]
-    diag = result.diagnosis
-    if diag is not None and "skipped" not in diag:
         rows = [
-            {"signature": d["kind"], "score": d["score"], "evidence": d["evidence"]}
-            for d in diag["signatures"]
+            {
+                "parameter": v.name,
+                "value": v.value,
+                "+- (1 s.e.)": v.stderr,
+                "truth": v.truth if v.truth is not None else "",
+                "error % range": v.error_pct if v.error_pct is not None else "",
+            }
+            for v in result.rerun.identifiability.verdicts
+            if v.identified
         ]
-        cells = sorted(diag["residual_map"]["cells"], key=lambda c: -c["rms"])[:6]
-        lines += [
-            "## Remaining residual: the K&C diagnosis' screen",
-            "",
-            "Signature scores of the identified model's residual (about N(0, 1) under pure "
-            f"noise; named stepwise above {diag['threshold']:g} when the pattern holds "
-            f"{100 * diag['named_share']:.0f} % of the residual; "
-            "suspenv.diagnosis.knc.signatures).",
-            "",
-            markdown_table(rows),
-            "Largest residual cells (RMS in noise units estimated from the residual's roughness):",
-            "",
-            markdown_table(cells, ["test", "channel", "branch", "side", "rms"]),
-        ]
+        lines += [markdown_table(rows)]
+    return lines
+
+
+def _diagnosis_section(result: IdentifyResult) -> list[str]:
+    diag = result.diagnosis
+    if diag is None or "skipped" in diag:
+        return []
+    rows = [
+        {"signature": d["kind"], "score": d["score"], "evidence": d["evidence"]}
+        for d in diag["signatures"]
+    ]
+    cells = sorted(diag["residual_map"]["cells"], key=lambda c: -c["rms"])[:6]
+    return [
+        "## Residual of the first fit: the K&C diagnosis' screen",
+        "",
+        "Signature scores of the first fit's residual (about N(0, 1) under pure "
+        f"noise; named stepwise above {diag['threshold']:g} when the pattern holds "
+        f"{100 * diag['named_share']:.0f} % of the residual; "
+        "suspenv.diagnosis.knc.signatures).",
+        "",
+        markdown_table(rows),
+        "Largest residual cells (RMS in noise units estimated from the residual's roughness):",
+        "",
+        markdown_table(cells, ["test", "channel", "branch", "side", "rms"]),
+    ]
+
+
+def write_identify_report(result: IdentifyResult, out: Path, figures: bool = True) -> list[Path]:
+    """Write ``identified.toml``, ``identify.json``, ``report.md`` and ``figures/*.png``
+    into ``out`` (created); returns the paths written."""
+    from suspenv.models.mcpherson.vehicle_file import dump_vehicle
+
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    toml = out / "identified.toml"
+    toml.write_text(dump_vehicle(result.identified_vehicle))
+    s = summary(result)
+    js = out / "identify.json"
+    js.write_text(json.dumps(to_jsonable(s), indent=2) + "\n")
+    figs = _figures(result, out) if figures else {}
+    lines = _first_screen(result, s) + [""]
+    if "residual" in figs:  # the fit before and after the loop: the first thing seen
+        lines += ["![fit per curve: initial, first fit, after the loop](figures/residual.png)", ""]
+    lines += _sheet_section(s) + _before_after(result, s)
+    if "curves" in figs:
+        lines += ["", "![measured vs first fit vs after the loop](figures/curves.png)", ""]
+    lines += _identified_section(result)
+    lines += [
+        "",
+        "## Fit per curve (first fit)",
+        "",
+        "RMS of (identified - measured) over the noise RMS, both wheels and both loading "
+        f"branches (1 = at the noise floor; `!` above {FIT_RATIO}). Noise: {_sigma_text(result)}.",
+        "",
+        _curve_table(result),
+    ]
+    lines += _not_identified_section(result) + _next_test_section(result, s)
+    lines += _diagnosis_section(result)
     rows = [s_.to_dict() for s_ in result.fit.stages]
+    if result.loop is not None:
+        rows += [s_.to_dict() for s_ in result.loop.fit.stages]
     lines += ["## Stages", "", markdown_table(rows)]
     if "convergence" in figs:
         lines += ["![convergence](figures/convergence.png)", ""]
     rep = out / "report.md"
     rep.write_text("\n".join(lines) + "\n")
-    files.append(rep)
-    return files
-
+    return [toml, js, *figs.values(), rep]
 
 
 __all__ = ["fmt", "summary", "write_identify_report"]

@@ -1,0 +1,141 @@
+"""The identified car's K&C sheet: each standard metric measured (where the data have
+the test), identified, with a 95 % interval, or predicted (a test not measured).
+
+Metrics and their units and signs: :data:`suspenv.metrics.knc_report.ALL_ITEMS` (the
+travel and steering numbers of ``docs/knc.md``) and the compliance numbers of
+:func:`suspenv.metrics.knc_report.compliance_report`; ``/work/shared/spec/knc_sheet.md``
+lists what a sheet holds.
+
+Interval (delta method): the metric's gradient ``g`` with respect to the fitted values
+(the fit's unit cube, forward differences of :data:`~suspenv.methods.curve_fit.FD_STEP`,
+all ``dim + 1`` designs in one batched rig call per test group) and the fit's covariance
+``C`` (:func:`suspenv.methods.identifiability.unit_covariance`: ``s^2 (J'J)^-1``): the
+standard error is ``sqrt(g' C g)``, the 95 % interval +-1.96 of it. The gradient is
+taken on the model without its path-dependent elements (a hysteresis loop's mean moves
+with the design as the elastic curve does); the value itself on the whole model. A
+metric that the measured curves do not determine gets a wide interval, not a false one.
+Loop widths (hysteresis) get no interval (that model has no loop).
+The right-minus-left asymmetry gets its own interval from the difference of the two
+wheels' gradients (errors the sides share cancel).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from suspenv.diagnosis.knc.family import PATH_DEPENDENT
+from suspenv.methods.curve_fit import FD_STEP, CurveFit, rig_run
+
+#: rig tests the sheet runs on the identified model
+SHEET_TESTS = (
+    "parallel",
+    "opposite",
+    "steering",
+    "lateral",
+    "longitudinal",
+    "traction",
+    "aligning",
+)
+#: two-sided 95 % quantile of the normal distribution
+Z95 = 1.959963984540054
+
+
+@dataclass
+class SheetRow:
+    """One metric: per wheel (left, right) values in its unit."""
+
+    name: str
+    unit: str
+    test: str
+    sign: str
+    identified: np.ndarray  # (2,)
+    half_width: np.ndarray  # (2,) 95 % half-width (delta method)
+    measured: np.ndarray | None  # (2,) or None (the test was not measured)
+    needs: str = ""  # why the measured value is missing
+    asymmetry_half_width: float = 0.0  # 95 % half-width of right - left (delta method)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "name": self.name,
+            "unit": self.unit,
+            "test": self.test,
+            "sign": self.sign,
+            "identified": self.identified.tolist(),
+            "ci95_half_width": self.half_width.tolist(),
+            "measured": None if self.measured is None else self.measured.tolist(),
+            "status": "measured" if self.measured is not None else "predicted",
+            "needs": self.needs,
+            "asymmetry": float(self.identified[1] - self.identified[0]),
+            "asymmetry_ci95_half_width": self.asymmetry_half_width,
+        }
+
+
+def sheet_values(results: dict[str, Any], constants: Any = None) -> dict[str, np.ndarray]:
+    """Every sheet metric the results allow: name -> (n, 2)."""
+    from suspenv.metrics.knc_report import compliance_report, knc_report
+
+    return {**knc_report(results, constants), **compliance_report(results)}
+
+
+def _run(fit: CurveFit, X: np.ndarray, effects: Any, steps: int) -> dict[str, Any]:
+    from suspenv.methods.curve_fit import amplitude_kwargs
+
+    model = fit.model
+    amps: dict[str, float] = {}
+    for t in model.tests:
+        amps.update(amplitude_kwargs(t.test, t.amplitude))
+    travel = {k: v for k, v in amps.items() if k == "amplitude"}  # the rig's default loads
+    return rig_run(model.axle(X), SHEET_TESTS, steps, effects, travel)
+
+
+def knc_sheet(
+    fit: CurveFit, cov_unit: np.ndarray, measured: dict[str, Any] | None = None
+) -> list[SheetRow]:
+    """The sheet of the fitted car ``fit`` with the fit's unit-cube covariance
+    ``cov_unit`` (dim, dim); ``measured``: {test: KCResult} of the measurement (its
+    loops on a grid), whose metrics are shown beside the identified ones."""
+    from suspenv.metrics.knc_report import ALL_ITEMS, COMPLIANCE_ITEMS, report_needs
+
+    loops = {n for n in COMPLIANCE_ITEMS if "_loop_width_" in n}
+
+    model = fit.model
+    steps = max(t.steps for t in model.tests)
+    x = model.full(fit.x)
+    value = sheet_values(_run(fit, x, model.effects_at(fit.x), steps), model.constants)
+    h = np.where(fit.u + FD_STEP <= 1.0, FD_STEP, -FD_STEP)
+    U = np.tile(fit.u, (model.dim + 1, 1))
+    U[1:] += np.diag(h)
+    elastic = tuple(e for e in model.effects_at(fit.x) if e.kind not in PATH_DEPENDENT)
+    grads = sheet_values(_run(fit, model.designs(U), elastic, steps), model.constants)
+    meas = sheet_values(measured, model.constants) if measured else {}
+    needs = report_needs(measured) if measured else {}
+    items = {**ALL_ITEMS, **COMPLIANCE_ITEMS}
+    rows = []
+    for name, v in value.items():
+        g = (grads[name][1:] - grads[name][0]) / h[:, None]  # (dim, 2)
+        g = np.where(np.isfinite(g), g, 0.0)
+        se = np.sqrt(np.maximum(np.einsum("ik,ij,jk->k", g, cov_unit, g), 0.0))
+        gd = g[:, 1] - g[:, 0]  # right - left: the sides' common errors cancel
+        se_d = float(np.sqrt(max(gd @ cov_unit @ gd, 0.0)))
+        if name in loops:  # the gradient's model has no loop: no interval
+            se, se_d = np.full(2, np.nan), float("nan")
+        item = items[name]
+        m = meas.get(name)
+        have = m is not None and bool(np.all(np.isfinite(m[0])))
+        rows.append(
+            SheetRow(
+                name,
+                item.unit,
+                item.test,
+                item.sign,
+                v[0],
+                Z95 * se,
+                m[0] if have and m is not None else None,
+                needs.get(name, "" if have else f"needs: the {item.test} test"),
+                Z95 * se_d,
+            )
+        )
+    return rows

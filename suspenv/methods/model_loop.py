@@ -1,0 +1,239 @@
+"""The identification's second half: add what the residual screen names, refit.
+
+After the first fit (:func:`suspenv.methods.curve_fit.fit_curves`) the K&C diagnosis'
+signatures screen the residual (:func:`suspenv.methods.identify.screen_residual`) and
+name patterns. :func:`refine` turns each named pattern into model physics through the
+same :class:`~suspenv.methods.curve_fit.CurveModel` the first fit used:
+
+* ``lr_asymmetry`` (left and right residuals differ): the sides apart, every free
+  parameter but the one anti-roll bar gets a right-side twin (``sides = "both"``);
+* a path-dependent or elastic pattern (``loop``: hysteresis or friction;
+  ``progressive``: cubic stiffness): every candidate place the K&C diagnosis knows for
+  that family (:attr:`suspenv.diagnosis.knc.model.KncAxleModel.candidate_effects`,
+  e.g. Dahl hysteresis in the lower-arm bushes, in the top mount, in both, Coulomb
+  friction in the strut) is fitted alone, the design held (its parameters only, the
+  diagnosis' start values and bounds); the candidate with the least sum of squared
+  residuals is kept, which names the place;
+* patterns of the sensors (load-cell gain or offset) are reported, not modelled.
+
+Then all parameters, the design's and the effects', are polished together from the
+first fit's answer (least squares with the batched Jacobian and the same weak pull
+towards the start design as the first fit), and the residual is screened again.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from suspenv.core.space import Parameter
+from suspenv.methods.curve_fit import RESTART_GAIN, CurveFit, CurveModel, polish
+from suspenv.models.effects import Effect
+
+#: residual families the loop models by adding an effect to the axle (the others: see
+#: :data:`SIDES_FAMILY` and the sensor families, which are reported only)
+EFFECT_FAMILIES = ("loop", "progressive")
+#: the family that puts the sides apart
+SIDES_FAMILY = "lr_asymmetry"
+
+
+@dataclass
+class Candidate:
+    """One place tried for a named pattern: its effect fitted alone (design held)."""
+
+    family: str
+    candidate: str
+    words: str
+    cost: float
+    values: dict[str, float]
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "family": self.family,
+            "candidate": self.candidate,
+            "words": self.words,
+            "cost": self.cost,
+            "values": self.values,
+        }
+
+
+@dataclass
+class Refinement:
+    """What the loop added and the refit's answer."""
+
+    changes: list[str]
+    candidates: list[Candidate]
+    fit: CurveFit
+    seconds: float
+    skipped: list[str] = field(default_factory=list)
+
+    @property
+    def model(self) -> CurveModel:
+        return self.fit.model
+
+
+def effect_candidates(family: str) -> list[str]:
+    """Candidate effects (``kind@location``) of a residual family that the axle's solver
+    simulates: the K&C diagnosis' own list."""
+    from suspenv.diagnosis.knc.model import KncAxleModel, base_kind
+    from suspenv.diagnosis.knc.signatures import FAMILY_KINDS
+    from suspenv.models.mcpherson.effects import PLACEMENTS
+
+    kinds = [k for k in FAMILY_KINDS.get(family, ()) if k in PLACEMENTS]
+    return [c for c in KncAxleModel.candidate_effects if base_kind(c) in kinds]
+
+
+def effect_parameters(effect: Effect) -> list[Parameter]:
+    """The fitted parameters of ``effect`` named ``<effect>.<parameter>`` (the K&C
+    diagnosis' bounds and start values)."""
+    from suspenv.diagnosis.knc.model import fitted_parameters
+
+    return [replace(p, name=f"{effect.name}.{p.name}") for p in fitted_parameters(effect)]
+
+
+#: an effect parameter's trial values for the place screen, as multiples of its start
+TRIAL_FACTORS = (1.0, 2.5)
+
+
+def _candidate_fit(
+    model: CurveModel, x: np.ndarray, r0: np.ndarray, family: str, name: str
+) -> tuple[Candidate, Effect]:
+    """Effect ``name`` added at design ``x`` (held), its one fitted parameter ``p``
+    chosen by a quadratic in ``p`` through the residual without the effect (``r0``, p =
+    0) and at :data:`TRIAL_FACTORS` x its start (one rig call each): the least sum of
+    squares of that quadratic over the parameter's bounds, which is the place's cost."""
+    from suspenv.diagnosis.knc.model import effect_words, make_candidate
+
+    effect = make_candidate(name)
+    (param,) = effect_parameters(effect)  # the K&C candidates fit one value each
+    sub = model.variant(
+        base=model.full(x)[0],
+        free=[param.name],
+        effects=(*model.effects, effect),
+        effect_free=(*model.effect_free, param),
+    )
+    start = float(param.default if param.default is not None else param.low)
+    p = np.array([0.0, *(f * start for f in TRIAL_FACTORS)])
+    R = [r0] + [_residual(sub, v) for v in p[1:]]
+    # r(p) = r0 + a p + b p^2 per residual, through the three points
+    V = np.vander(p, 3, increasing=True)
+    coef = np.linalg.solve(V, np.vstack(R))
+    grid = np.geomspace(param.low, param.high, 400)
+    pred = coef[0] + np.outer(grid, coef[1]) + np.outer(grid**2, coef[2])
+    cost = np.einsum("ij,ij->i", pred, pred)
+    best = float(grid[np.argmin(cost)])
+    short = param.name.partition(".")[2]
+    cand = Candidate(family, name, effect_words(effect), float(cost.min()), {short: best})
+    return cand, effect.with_params({short: best})
+
+
+def _residual(model: CurveModel, value: float) -> np.ndarray:
+    """Residual of ``model``'s base design with its one free value set to ``value``."""
+    X = model.base.copy()[None]
+    X[:, model.free_index] = value
+    R, ok, msg = model.residuals_x(X)
+    if not ok[0]:
+        return np.full(model.size, 1e4)
+    return R[0]
+
+
+def refine(
+    fit: CurveFit,
+    named: Sequence[str],
+    x0: np.ndarray,
+    polish_nfev: int = 150,
+    refit_nfev: int = 15,
+    say: Callable[[str], None] | None = None,
+    pool: Any = None,
+    progress: bool = False,
+) -> Refinement | None:
+    """Add to ``fit.model`` what the screen named (families ``named``, strongest first)
+    and refit; None when nothing named is modelled. ``x0``: the start design of the
+    first fit (the polish's weak pull stays towards it); ``polish_nfev``: budget of the
+    sides-apart polish (path-independent, cheap), ``refit_nfev``: of the final refit
+    (each evaluation of a path-dependent model is a rig loop solved step by step)."""
+    t0 = time.perf_counter()
+    say = say or (lambda _m: None)
+    model, x = fit.model, fit.x
+    changes: list[str] = []
+    tried: list[Candidate] = []
+    skipped = [f for f in named if f != SIDES_FAMILY and f not in EFFECT_FAMILIES]
+    if SIDES_FAMILY in named and not model.two_sided:
+        d = model.space.dim
+        model = model.variant(two_sided=True, base=np.r_[x[:d], x[model.sides :]])
+        x = model.base
+        changes.append("sides apart: every free parameter but the anti-roll bar gets a right twin")
+        say("loop: sides apart (a right-side twin of every free parameter)")
+        stage, _, _ = polish(
+            model,
+            model.unit(x),
+            polish_nfev,
+            progress=progress,
+            prior=model.unit(x0),
+            ftol=RESTART_GAIN / model.size,
+        )
+        x = model.designs(stage.u[None])[0]
+    for family in [f for f in named if f in EFFECT_FAMILIES]:
+        names = effect_candidates(family)
+        if not names:
+            skipped.append(family)
+            continue
+        say(f"loop: {family}: each place alone ({', '.join(names)})")
+        r0 = _residual_at(model, x)
+        # half of the places in the second process when there is one
+        there = [] if pool is None else names[1::2]
+        futures = [pool.submit(_candidate_fit, model, x, r0, family, n) for n in there]
+        fits = [_candidate_fit(model, x, r0, family, n) for n in names if n not in there]
+        fits += [f.result() for f in futures]
+        tried += [f[0] for f in fits]
+        cand, effect = min(fits, key=lambda f: f[0].cost)
+        params = effect_parameters(effect)
+        model = model.variant(
+            base=x,
+            free=[*model.free, *(p.name for p in params)],
+            effects=(*model.effects, effect),
+            effect_free=(*model.effect_free, *params),
+        )
+        x = model.base
+        changes.append(f"{cand.words} ({cand.candidate})")
+    if not changes:
+        return None
+    say("loop: all parameters refitted together")
+    model.pool = pool  # half of each path-dependent batch in a second process
+    prior = model.unit(_start(model, x0))
+    # both polishes stop when a step gains less than one squared noise unit at a fit to
+    # the noise (each path-dependent step costs a rig loop: no crawling along valleys)
+    ftol = RESTART_GAIN / model.size
+    stage, r, J = polish(
+        model, model.unit(x), refit_nfev, progress=progress, prior=prior, ftol=ftol
+    )
+    stage.name = "refit with " + "; ".join(changes)
+    out = CurveFit(model, stage.u, model.designs(stage.u[None])[0], r, J, [stage], stage)
+    return Refinement(changes, tried, out, time.perf_counter() - t0, skipped)
+
+
+def _residual_at(model: CurveModel, x: np.ndarray) -> np.ndarray:
+    R, ok, msg = model.residuals_x(model.full(x))
+    if not ok[0]:
+        raise ValueError(f"the rig cannot solve the design being refined: {msg[0]}")
+    return R[0]
+
+
+def _start(model: CurveModel, x0: np.ndarray) -> np.ndarray:
+    """The first fit's start design as a design of ``model`` (effects at their starts)."""
+    from suspenv.diagnosis.knc.model import fitted_parameters
+
+    starts: Mapping[str, float] = {
+        f"{e.name}.{p.name}": float(p.default if p.default is not None else p.low)
+        for e in model.effects
+        for p in fitted_parameters(e)
+    }
+    x = model.full(np.asarray(x0, float)[: model.space.dim])[0]
+    x[model.sides :] = [
+        starts.get(p.name, v) for p, v in zip(model.effect_free, x[model.sides :], strict=True)
+    ]
+    return x
