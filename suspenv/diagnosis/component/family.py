@@ -28,13 +28,14 @@ Units: SI; residuals divided by each channel's measured spread.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 from scipy import stats
 
 from suspenv.core.errors import ValidationError
+from suspenv.diagnosis.component.assumed import estimate_unsprung_mass, mass_words, power_sign
 from suspenv.diagnosis.component.asymmetry import asymmetry_check
 from suspenv.diagnosis.component.dead_band import DEFICIT_KIND, dead_band_left
 from suspenv.diagnosis.component.delay import (
@@ -384,6 +385,10 @@ class ComponentFamily(OptionalSteps):
     #: damping unresolved (:func:`branch_share_unresolved`): a sensor lag of the force
     #: named in that round cannot be told from such a branch
     branch_unresolved: bool = field(default=False, init=False)
+    #: the signs found where none was declared (last :meth:`prepare`), in words
+    sign_words: list[str] = field(default_factory=list, init=False)
+    #: the last :meth:`prepare` fitted the quarter car's unsprung mass with the baseline
+    mass_estimated: bool = field(default=False, init=False)
 
     def __post_init__(self) -> None:
         # an unknown model family or effect kind is an error before any work starts
@@ -421,7 +426,7 @@ class ComponentFamily(OptionalSteps):
             self.rig, self.rig_notes = None, []
         else:
             rig = describe_rig(self.model, recs)
-            recs = oriented(recs, rig)
+            rig, recs = self._signs(rig, recs)
             held_recs = None
             if holdout is not None and not isinstance(holdout, float | int | str):
                 held_recs = oriented(as_recordings(holdout), rig)  # type: ignore[arg-type]
@@ -440,7 +445,43 @@ class ComponentFamily(OptionalSteps):
         ]
         if held is None:
             held = default_holdout(recs)
-        return Setup(split(recs, held), model, cands)
+        sp = split(recs, held)
+        self.mass_estimated = False
+        if self.rig is not None and "m_u" in model.options and "m_u" not in self.rig.known:
+            model = estimate_unsprung_mass(model, sp, self.budget)
+            self.mass_estimated = True
+        return Setup(sp, model, cands)
+
+    def _signs(
+        self, rig: RigDescription, recs: list[RecordingLike]
+    ) -> tuple[RigDescription, list[RecordingLike]]:
+        """The recordings in suspenv's signs; where neither sign is declared and the
+        recorded force takes power from the motion the other way round (``mean(F v) <
+        0``, :func:`~suspenv.diagnosis.component.assumed.power_sign`), its sign is
+        reversed, and the convention found is said (:attr:`sign_words`)."""
+        out = oriented(recs, rig)
+        power = power_sign(out)
+        self.sign_words = []
+        if not np.isfinite(power) or {"positive_stroke", "positive_force"} & set(rig.declared):
+            return rig, out
+        if power < 0:
+            rig = replace(rig, positive_force="tension")
+            out = oriented(recs, rig)
+        self.sign_words.append(
+            "the stroke and force signs (not declared) read off the power the force takes "
+            f"from the motion, mean F v = {abs(power):.3g} W > 0 with a positive stroke in "
+            f"compression and a positive force in {rig.positive_force}"
+        )
+        return rig, out
+
+    def assumptions(self, setup: Setup) -> list[str]:
+        """The defaults and estimates used for what the recordings do not say: the signs
+        (read off the dissipated power), the quarter car's masses."""
+        said = list(self.sign_words)
+        model = setup.model
+        if self.rig is not None and isinstance(model, ComponentModel) and "m_s" in model.options:
+            said += mass_words(model, list(self.rig.known), self.mass_estimated)
+        return said
 
     def _motion(
         self,

@@ -98,6 +98,7 @@ def measure_truth(
     tests: Sequence[str] = TESTS,
     design: np.ndarray | None = None,
     force_amplitude: float = FORCE_AMPLITUDE,
+    outside: Sequence[Mapping[str, Any]] | None = None,
 ) -> dict[str, Recording]:
     """ "Measured" K&C recordings of a truth vehicle with concealed ``effects`` (seeded).
 
@@ -105,7 +106,9 @@ def measure_truth(
     ``{"hysteresis": {"f_c": 100.0}}``; ``{}`` is the plain reference vehicle.
     ``noise_scale`` multiplies the rig's sensor noise (``0`` gives exact loops).
     ``amplitude`` [m] is the travel tests' stroke, ``force_amplitude`` [N] the
-    compliance tests' force.
+    compliance tests' force. ``outside`` lists physics outside the K&C library to
+    conceal as well, each the keyword arguments of :func:`add_strut_stop` (the strut's
+    bump stop).
     """
     if noise_scale < 0:
         raise ValidationError(f"`noise_scale >= 0` must hold, but got {noise_scale}")
@@ -141,7 +144,31 @@ def measure_truth(
             ch = res.channels[name]
             res.channels[name] = ch + rng.normal(0.0, noise_scale * CHANNEL_NOISE[name], ch.shape)
     info = {"source": "suspenv truth vehicle (concealed effects)", "seed": int(seed)}
-    return to_recordings(results, meta=info)
+    recs = to_recordings(results, meta=info)
+    for stop in outside or ():
+        add_strut_stop(recs, **stop)
+    return recs
+
+
+def add_strut_stop(
+    recs: Mapping[str, Recording],
+    gap: float = 0.02,
+    k_stop: float = 2.0e4,
+    sides: Sequence[str] = ("left", "right"),
+) -> None:
+    """Conceal a strut bump stop (a jounce bumper, outside the K&C model's library) in
+    ``recs``: past ``gap`` [m] of a side's pad travel (bump positive) the tyre load cell
+    of that side reads ``k_stop`` [N/m] times the travel beyond the gap more (wheel load
+    positive up). The stop acts on the load cell only (the kinematic channels are left
+    as the solver gave them), in every travel test; compliance tests hold the pads at
+    zero travel and are not touched."""
+    for rec in recs.values():
+        for side in sides:
+            pad = np.asarray(rec.inputs.get(f"pad_{side}", np.zeros(0)), float)
+            key = f"tyre_fz_{side}"
+            if pad.size and key in rec.outputs:
+                over = np.maximum(pad - gap, 0.0)
+                rec.outputs[key] = np.asarray(rec.outputs[key], float) + k_stop * over
 
 
 # ------------------------------------------------------------------ blind cases
