@@ -18,6 +18,7 @@ from suspenv.diagnosis.checks.residual_left import RESIDUAL_LIMIT, judge, lag1
 from suspenv.diagnosis.decision import DecisionRule, decide
 from suspenv.diagnosis.engine import diagnose, make_family
 from suspenv.diagnosis.hypothesis import Hypothesis
+from suspenv.diagnosis.knc.story import knc_story
 
 FAMILIES = ("damper", "quarter_car_rig", "knc", "ride")
 
@@ -129,6 +130,15 @@ def test_knc_concealed_strut_stop_is_reported_unexplained_not_named(sides):
     assert left.numbers["worst_rms"] > 10 * RESIDUAL_LIMIT
     assert "no significant missing physics" not in d.verdict.lower()
     assert "times the noise" in d.verdict and "assumed" in d.verdict.lower()
+    # the story a K&C job builds on: the load-cell curves stay far above their noise,
+    # the kinematic curves are at it, and a left-only stop shows as the sides differing
+    story = knc_story(d).to_dict()
+    fz = [c for c in story["curves"] if c["channel"] == "tyre_fz_left" and c["data"] == "fit"]
+    toe = [c for c in story["curves"] if c["channel"] == "toe_left"]
+    assert max(c["after"] for c in fz) > 10 * RESIDUAL_LIMIT
+    assert max(c["after"] for c in toe) < RESIDUAL_LIMIT
+    differ = {(r["test"], r["channel"]) for r in story["sides_differ"]}
+    assert (("parallel", "tyre_fz") in differ) == (sides == ["left"])
 
 
 @pytest.mark.slow
@@ -189,3 +199,57 @@ def test_damper_force_sign_read_off_the_dissipated_power():
     said_b = " ".join(b.findings["assumptions"].numbers["assumptions"])
     assert "positive force in compression" in said_a
     assert "positive force in tension" in said_b
+
+
+# ---------------------------------------------------------------- words
+def _sine_segment(step: bool):
+    from suspenv.diagnosis.component.locate import Segment
+
+    # a dyno programme: 1 Hz sines of 20 mm, then of 5 Hz (25 times the acceleration),
+    # the velocity as a rig's software gives it (the derivative of a noisy displacement)
+    t = np.arange(0.0, 10.0, 1e-3)
+    rng = np.random.default_rng(5)
+    f = np.where(t < 5.0, 1.0, 5.0)
+    x = 0.02 * np.sin(2 * np.pi * f * t)
+    v = np.gradient(x + rng.normal(0.0, 2e-5, t.size), t)
+    if step:
+        v = v + 0.5 * ((t > 2.5) & (t < 2.6))  # a velocity jump of 0.5 m/s: an impact
+    return Segment(test="sine", t=t, x=x, v=v, residual={"force": rng.normal(size=t.size)})
+
+
+def test_after_impacts_only_where_the_excitation_has_impacts():
+    from suspenv.diagnosis.component.locate import locate
+
+    assert not locate([_sine_segment(False)]).by_dimension("after impacts")
+    parts = {s.part for s in locate([_sine_segment(True)]).by_dimension("after impacts")}
+    assert parts == {"after impacts", "elsewhere"}
+
+
+def test_a_loop_in_the_device_is_not_called_a_rubber_bushing():
+    from suspenv.models.components import make_component
+    from suspenv.models.effects import make_effect
+
+    for family in ("damper", "quarter_car_rig"):
+        model = make_component(family)
+        words = model.effect_words(make_effect("dahl_hysteresis"))
+        assert "rubber" not in words and words.startswith("rate-independent hysteresis")
+
+
+def test_dead_band_sentence_speaks_of_a_force_in_newtons():
+    from suspenv.diagnosis.component.dead_band import DeadBandLeft
+
+    left = DeadBandLeft(
+        "suspension_deflection",
+        290.0,
+        0.05,
+        1.0,
+        9.0,
+        1e-9,
+        0.2,
+        2.0,
+        True,
+        where="force in the suspension",
+    )
+    text = left.sentence()
+    assert "the force in the suspension lacks 290 N" in text and " m beyond" not in text
+    assert "290 N" in left.short()

@@ -167,6 +167,13 @@ class Diagnosis:
         return records
 
     @property
+    def assumptions(self) -> list[str]:
+        """The defaults and estimates used for what the recordings do not say
+        (:mod:`suspenv.diagnosis.checks.assumptions`)."""
+        found = self.findings.get("assumptions")
+        return list(found.numbers["assumptions"]) if found is not None else []
+
+    @property
     def detection_limits(self) -> dict[str, dict[str, Any]]:
         """Smallest effects the fitted tests would have shown (K&C, when nothing is named)."""
         limits: dict[str, dict[str, Any]] = self.findings.get("detection_limits", {})
@@ -191,6 +198,7 @@ class Diagnosis:
             "confident": self.confident,
             "unexplained": self.unexplained,
             "headline": self.headline,
+            "assumptions": self.assumptions,
             "evidence": self.evidence,
             "rule": self.rule.to_dict(),
             "named": [

@@ -10,6 +10,9 @@ defaults), so a new family gets honest verdicts the day it joins:
 * ``assumptions(setup)``: the defaults used for what the recordings do not say
   (:mod:`.assumptions`).
 
+The other checks read only the final fit: parameters on a bound (:mod:`.bounds`), the
+share of each output the model describes (:mod:`.misfit`).
+
 :func:`run` runs :data:`CHECKS` in order; the engine folds the findings into the verdict
 (:func:`fold`).
 """
@@ -78,9 +81,10 @@ Check = Callable[[Context], Finding | None]
 
 
 def _checks() -> tuple[Check, ...]:
-    from suspenv.diagnosis.checks import assumptions, residual_left
+    from suspenv.diagnosis.checks import assumptions, bounds, misfit, residual_left
 
-    return (residual_left.run, assumptions.run)
+    # a leading sentence goes first: the misfit's, folded last, leads the verdict
+    return (residual_left.run, bounds.run, assumptions.run, misfit.run)
 
 
 def run(ctx: Context, checks: Sequence[Check] | None = None) -> list[Finding]:

@@ -273,6 +273,26 @@ def _signals(
     return res, pred
 
 
+def curves_in_noise_units(
+    fit_: FitResult, recs: Sequence[Any]
+) -> dict[tuple[str, str], np.ndarray]:
+    """The residual of ``fit_`` on ``recs`` in noise units, per (rig test, channel): each
+    channel's noise estimated from the roughness of this residual
+    (:func:`~suspenv.diagnosis.knc.locate.residual_map`), never below
+    :data:`NOISE_FLOOR` of the channel's recorded spread (noise-free curves)."""
+    res = residuals(fit_.model, fit_.theta, recs, fit_.channels)
+    floor = {
+        c: NOISE_FLOOR * max(float(np.ptp(np.asarray(r.outputs[c], float))) for r in recs)
+        for c in fit_.channels
+    }
+    noise = residual_map(recs, res, fit_.scales, floor).noise
+    return {
+        (rig_test(rec), c): np.asarray(r[c], float) / noise[c]
+        for rec, r in zip(recs, res, strict=True)
+        for c in fit_.channels
+    }
+
+
 @dataclass
 class KncFamily:
     """The K&C family's steps of the diagnosis loop (see the module docstring).
@@ -416,22 +436,9 @@ class KncFamily:
         return location_ambiguities(winner, ranked)
 
     def noise_units(self, fit_: FitResult, setup: Setup) -> dict[tuple[str, str], np.ndarray]:
-        """The residual of ``fit_`` over the fitted rig tests in noise units, per (test,
-        channel): each channel's noise estimated from the roughness of this residual
-        (:func:`~suspenv.diagnosis.knc.locate.residual_map`), never below
-        :data:`NOISE_FLOOR` of the channel's recorded spread (noise-free curves)."""
-        recs = setup.split.fit_recordings
-        res = residuals(fit_.model, fit_.theta, recs, fit_.channels)
-        floor = {
-            c: NOISE_FLOOR * max(float(np.ptp(np.asarray(r.outputs[c], float))) for r in recs)
-            for c in fit_.channels
-        }
-        noise = residual_map(recs, res, fit_.scales, floor).noise
-        return {
-            (rig_test(rec), c): np.asarray(r[c], float) / noise[c]
-            for rec, r in zip(recs, res, strict=True)
-            for c in fit_.channels
-        }
+        """The residual of ``fit_`` over the fitted rig tests in noise units
+        (:func:`curves_in_noise_units`)."""
+        return curves_in_noise_units(fit_, setup.split.fit_recordings)
 
     def assumptions(self, setup: Setup) -> list[str]:
         """What the K&C diagnosis takes as given."""

@@ -293,3 +293,30 @@ def blind_case(
         r.meta.pop("seed", None)
         r.name = f"knc-blind-{seed}:{rig_test(r)}"
     return case, truth
+
+
+# ------------------------------------------------------------------ outside the library
+#: sides of a concealed strut stop, by seed (cycled): both wheels, the left, the right
+STOP_SIDES = (("left", "right"), ("left",), ("right",))
+
+
+def outside_case(
+    seed: int, steps: int = 8, amplitude: float = 0.040, tests: Sequence[str] = BLIND_TESTS
+) -> tuple[dict[str, Any], dict[str, Any]]:
+    """``(case, truth)`` of a blind case with physics outside the K&C library: a strut bump
+    stop (:func:`add_strut_stop`) on the sides ``STOP_SIDES[seed % 3]``, its gap (15-30 mm
+    of bump) and rate (10-40 kN/m) and the noise level drawn from the seed. A correct
+    verdict names nothing with confidence and reports the residual left."""
+    rng = np.random.default_rng([seed, 77])
+    stop = {
+        "gap": float(rng.uniform(0.015, 0.030)),
+        "k_stop": float(rng.uniform(1.0e4, 4.0e4)),
+        "sides": list(STOP_SIDES[seed % len(STOP_SIDES)]),
+    }
+    noise = float(rng.uniform(0.5, 2.0))
+    recs = measure_truth({}, seed, amplitude, steps, noise, tests, outside=[stop])
+    for r in recs.values():
+        r.meta.pop("seed", None)
+        r.name = f"knc-outside-{seed}:{rig_test(r)}"
+    truth = {"seed": int(seed), "case_type": "strut_stop", "outside": stop, "noise_scale": noise}
+    return {"id": f"knc-outside-{seed}", "recordings": recs}, truth
