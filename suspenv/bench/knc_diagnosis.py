@@ -33,7 +33,9 @@ Scores against the truth kept apart:
 Development seeds (``--dev``, 100-135) differ from the reported seeds (1000-1035); only the
 reported run writes ``docs/benchmarks/knc_diagnosis.json`` (``--out`` elsewhere). Rows
 are appended to ``--rows`` (a JSON-lines file) as they finish, so a killed run loses
-nothing and ``--resume`` skips the finished seeds.
+nothing and ``--resume`` skips the finished seeds. ``--outside`` runs the cases with a
+strut bump stop outside the library (seeds 2000-2005, ``knc_outside.json``): right is a
+verdict that names nothing with confidence and reports the residual left.
 """
 
 from __future__ import annotations
@@ -53,6 +55,9 @@ from suspenv.diagnosis.evidence import scaled_rms
 
 DEV_SEEDS = tuple(range(100, 136))
 REPORT_SEEDS = tuple(range(1000, 1036))
+#: cases with physics outside the library (``--outside``: a strut bump stop,
+#: :func:`~suspenv.diagnosis.knc.truth.outside_case`), fixed before their one run
+OUTSIDE_SEEDS = tuple(range(2000, 2006))
 STEPS = 6
 
 
@@ -211,6 +216,39 @@ def run_case(seed: int) -> dict[str, Any]:
     }
 
 
+def run_outside_case(seed: int) -> dict[str, Any]:
+    """One case outside the library: right when the verdict names nothing with
+    confidence and reports the residual left."""
+    from suspenv.diagnosis.engine import diagnose
+    from suspenv.diagnosis.knc.truth import outside_case
+
+    case, truth = outside_case(seed, steps=STEPS)
+    c0 = time.process_time()
+    diag = diagnose(case["recordings"], "knc", holdout="single")
+    left = diag.findings.get("residual_left")
+    return {
+        "seed": seed,
+        "sides": ",".join(truth["outside"]["sides"]),
+        "gap_mm": 1e3 * truth["outside"]["gap"],
+        "k_stop_n_per_mm": 1e-3 * truth["outside"]["k_stop"],
+        "named": ",".join(diag.named_kinds) or "none",
+        "confident": diag.confident,
+        "unexplained": diag.unexplained,
+        "residual_x_noise": left.numbers["worst_rms"] if left is not None else float("nan"),
+        "cpu_seconds": time.process_time() - c0,
+        "verdict": diag.verdict,
+    }
+
+
+def summarise_outside(rows: list[dict]) -> dict[str, Any]:
+    return {
+        "cases": len(rows),
+        "reported_unexplained": sum(r["unexplained"] for r in rows) / max(len(rows), 1),
+        "confident_wrong_names": sum(r["confident"] for r in rows),
+        "median_cpu_s": _median(rows, "cpu_seconds"),
+    }
+
+
 def _mean(rows: list[dict], key: str) -> float:
     vals = [r[key] for r in rows if r[key] is not None]
     return float(np.mean(vals)) if vals else float("nan")
@@ -277,10 +315,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--resume", action="store_true", help="skip seeds already in the rows file")
     ap.add_argument("--out", default=None, help="result folder (default docs/benchmarks)")
     ap.add_argument("--rows", default=None, help="JSON-lines file of finished cases")
+    ap.add_argument("--outside", action="store_true", help="cases outside the library")
     args = ap.parse_args(argv)
-    seeds = DEV_SEEDS if args.dev else REPORT_SEEDS
+    seeds = OUTSIDE_SEEDS if args.outside else DEV_SEEDS if args.dev else REPORT_SEEDS
     seeds = seeds[: args.cases] if args.cases else seeds
-    name = "knc_diagnosis_dev" if args.dev else "knc_diagnosis"
+    name = "knc_outside" if args.outside else "knc_diagnosis_dev" if args.dev else "knc_diagnosis"
+    run, summary = (run_outside_case, summarise_outside) if args.outside else (run_case, summarise)
     out = Path(args.out) if args.out else (Path(tempfile.gettempdir()) if args.dev else None)
     rows_path = Path(args.rows or Path(tempfile.gettempdir()) / f"suspenv_{name}.rows.jsonl")
     rows_path.parent.mkdir(parents=True, exist_ok=True)
@@ -291,13 +331,13 @@ def main(argv: list[str] | None = None) -> int:
         rows_path.unlink()
     done = {r["seed"] for r in rows}
     for seed in tqdm([s for s in seeds if s not in done], desc="K&C blind cases", mininterval=0):
-        row = run_case(seed)
+        row = run(seed)
         rows.append(row)
         with rows_path.open("a") as f:
             f.write(json.dumps(row) + "\n")
     rows.sort(key=lambda r: r["seed"])
-    cmd = "python -m suspenv.bench.knc_diagnosis" + (" --dev" if args.dev else "")
-    write_result(name, rows, summarise(rows), cmd, output_dir=out)
+    flag = " --outside" if args.outside else " --dev" if args.dev else ""
+    write_result(name, rows, summary(rows), "python -m suspenv.bench.knc_diagnosis" + flag, out)
     return 0
 
 

@@ -15,9 +15,11 @@ minibus on ride tests (:class:`~suspenv.diagnosis.ride.family.RideFamily`). The 
    in the round) and rank them; the best significant one is named, **settled** (made
    ready to be the next round's null model) and becomes the current model; the search
    stops when nothing is significant or after ``family.max_effects`` rounds;
-4. the family's **conclude** checks (damper asymmetry, the residual left, detection
-   limits), then the final model is compared with the baseline on the held-out data
-   and the verdict is worded (:func:`verdict_words`).
+4. the family's **conclude** probes (damper asymmetry, a delay or drift beside the named
+   elements, detection limits), then the checks every family gets
+   (:mod:`suspenv.diagnosis.checks`: the residual left in the family's noise units, the
+   assumptions made); the final model is compared with the baseline on the held-out
+   data and the verdict is worded from the findings (:func:`verdict_words`).
 
 The returned :class:`Diagnosis` holds everything and turns into JSON with
 :meth:`Diagnosis.to_dict`.
@@ -33,6 +35,7 @@ from typing import Any
 import numpy as np
 
 from suspenv.core.errors import EvaluationError, ValidationError
+from suspenv.diagnosis import checks
 from suspenv.diagnosis.decision import DecisionRule, ambiguities, decide, rank
 from suspenv.diagnosis.evidence import Comparison, baseline_summary, compare
 from suspenv.diagnosis.family import DiagnosisFamily, Outcome, recording_names
@@ -136,9 +139,7 @@ class Diagnosis:
         named = "; then ".join(h.words for h in self.named)
         if self.unexplained:
             # what a probe outside the library found (a pure time delay), in short
-            shapes = "; ".join(
-                r.short() for r in self.findings.get("beyond_library", []) if r.remains
-            )
+            shapes = "; ".join(r.short() for r in self._records() if _remains_short(r))
             if named:
                 return (
                     f"Missing physics (not confident): {named}; a residual above the noise "
@@ -156,12 +157,21 @@ class Diagnosis:
     def unexplained(self) -> bool:
         """True when a residual above the noise floor is left that no named element
         explains (components and ride)."""
-        left = self.findings.get("residual")
-        # a new list: the findings are not to grow each time this is read
-        records = list(left) if isinstance(left, list) else [left] if left is not None else []
-        # a probe outside the library that removed a material part of the residual
-        records += list(self.findings.get("beyond_library", []))
-        return any(bool(getattr(r, "remains", False)) for r in records)
+        return any(bool(getattr(r, "remains", False)) for r in self._records())
+
+    def _records(self) -> list[Any]:
+        """Every check's record (a finding holds one, or a list of them)."""
+        records: list[Any] = []
+        for v in self.findings.values():
+            records += list(v) if isinstance(v, list) else [v]
+        return records
+
+    @property
+    def assumptions(self) -> list[str]:
+        """The defaults and estimates used for what the recordings do not say
+        (:mod:`suspenv.diagnosis.checks.assumptions`)."""
+        found = self.findings.get("assumptions")
+        return list(found.numbers["assumptions"]) if found is not None else []
 
     @property
     def detection_limits(self) -> dict[str, dict[str, Any]]:
@@ -188,6 +198,7 @@ class Diagnosis:
             "confident": self.confident,
             "unexplained": self.unexplained,
             "headline": self.headline,
+            "assumptions": self.assumptions,
             "evidence": self.evidence,
             "rule": self.rule.to_dict(),
             "named": [
@@ -211,6 +222,11 @@ class Diagnosis:
             "findings": {k: _jsonable(v) for k, v in self.findings.items()},
             "seconds": self.seconds,
         }
+
+
+def _remains_short(record: Any) -> bool:
+    """True for a record of a residual left that says itself in short (``short()``)."""
+    return bool(getattr(record, "remains", False)) and hasattr(record, "short")
 
 
 def _jsonable(v: Any) -> Any:
@@ -335,6 +351,8 @@ def diagnose(
     hypotheses += found.hypotheses
     amb += found.ambiguities
     current = found.final_fit or current
+    outcome = Outcome(base, current, named, hypotheses, first_sigs, location)
+    checks.fold(found, checks.run(checks.Context(fam, setup, outcome, fam.rule)))
     comparison = None
     if named:
         comparison = compare(

@@ -52,7 +52,7 @@ class DeadBandLeft:
 
     Attributes:
         channel: the channel whose residual is judged (the model's main output).
-        missing_force: the fitted level ``f_d`` [channel unit]: the force missing beyond
+        missing_force: the fitted level ``f_d`` [N]: the force missing beyond
             the band, at every reversal twice that.
         band_speed: the fitted ``v_band`` [m/s].
         peak_speed: the largest speed of the fitted recordings [m/s].
@@ -63,7 +63,8 @@ class DeadBandLeft:
         structured_ratio: RMS of the part of the fitted residual the element removes
             over the RMS of the residual it leaves.
         remains: the deficit is physics left that the library does not hold.
-        unit: the channel's unit.
+        unit: the unit of ``missing_force`` (N: the element is a force whichever
+            channel shows it).
     """
 
     channel: str
@@ -75,7 +76,9 @@ class DeadBandLeft:
     heldout_reduction: float
     structured_ratio: float
     remains: bool
-    unit: str = ""
+    unit: str = "N"
+    #: the force the deficit is missing from, in words (e.g. "force in the suspension")
+    where: str = "force"
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -94,7 +97,7 @@ class DeadBandLeft:
         )
         if self.remains:
             return (
-                f"unexplained, not in the library: the {self.channel} lacks "
+                f"unexplained, not in the library: the {self.where} lacks "
                 f"{self.missing_force:.3g} {self.unit} beyond a band of "
                 f"{self.band_speed:.3g} m/s about zero speed, the step of friction with "
                 "the sign no friction has (a velocity "
@@ -127,7 +130,6 @@ def dead_band_left(
     band = parameter_and_error(ext, DEFICIT_KIND, "v_band")[0]
     z = float(level / sd) if np.isfinite(sd) and sd > 0 else 0.0
     p = c.lr.p_value_corrected
-    units = [str(r.units.get(channel, "")) for r in sp.recordings() if channel in r.units]
     return DeadBandLeft(
         channel=channel,
         missing_force=float(level),
@@ -144,5 +146,6 @@ def dead_band_left(
             and float(band) <= BAND_MAX_FRACTION * peak
             and ratio > MATERIAL_RATIO
         ),
-        unit=units[0] if units else "",
+        # the element's level f_d is a force [N] whichever channel shows it
+        where=f"force in the {location}" if location else "force",
     )

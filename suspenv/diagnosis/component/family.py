@@ -28,13 +28,14 @@ Units: SI; residuals divided by each channel's measured spread.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 from scipy import stats
 
 from suspenv.core.errors import ValidationError
+from suspenv.diagnosis.component.assumed import estimate_unsprung_mass, mass_words, power_sign
 from suspenv.diagnosis.component.asymmetry import asymmetry_check
 from suspenv.diagnosis.component.dead_band import DEFICIT_KIND, dead_band_left
 from suspenv.diagnosis.component.delay import (
@@ -321,6 +322,28 @@ def _structural_ambiguity(
 
 
 @dataclass
+class _Probes:
+    """What the component family's probes after the search share: the conclusion so
+    far, the final model, the named elements kept, the delays left and the withdrawals."""
+
+    found: Conclusion
+    final: FitResult
+    kept: list[Hypothesis] = field(default_factory=list)
+    delays: list[DelayLeft] = field(default_factory=list)
+    delay_withdrawals: list[Withdrawal] = field(default_factory=list)
+    drift_withdrawals: list[Withdrawal] = field(default_factory=list)
+
+    def withdraw(self, withdrawals: list[Withdrawal]) -> None:
+        """Record ``withdrawals`` (the final model is already the one without them)."""
+        self.found.withdrawn += [w.hypothesis for w in withdrawals]
+        for w in withdrawals:
+            w.hypothesis.withdrawn = w.sentence()
+        self.found.findings.setdefault("withdrawn", []).extend(withdrawals)
+        self.found.final_fit = self.final
+        self.kept = [h for h in self.kept if all(h is not w.hypothesis for w in withdrawals)]
+
+
+@dataclass
 class ComponentFamily(OptionalSteps):
     """The component family's steps of the diagnosis loop (see the module docstring).
 
@@ -384,6 +407,10 @@ class ComponentFamily(OptionalSteps):
     #: damping unresolved (:func:`branch_share_unresolved`): a sensor lag of the force
     #: named in that round cannot be told from such a branch
     branch_unresolved: bool = field(default=False, init=False)
+    #: the signs found where none was declared (last :meth:`prepare`), in words
+    sign_words: list[str] = field(default_factory=list, init=False)
+    #: the last :meth:`prepare` fitted the quarter car's unsprung mass with the baseline
+    mass_estimated: bool = field(default=False, init=False)
 
     def __post_init__(self) -> None:
         # an unknown model family or effect kind is an error before any work starts
@@ -421,7 +448,7 @@ class ComponentFamily(OptionalSteps):
             self.rig, self.rig_notes = None, []
         else:
             rig = describe_rig(self.model, recs)
-            recs = oriented(recs, rig)
+            rig, recs = self._signs(rig, recs)
             held_recs = None
             if holdout is not None and not isinstance(holdout, float | int | str):
                 held_recs = oriented(as_recordings(holdout), rig)  # type: ignore[arg-type]
@@ -440,7 +467,43 @@ class ComponentFamily(OptionalSteps):
         ]
         if held is None:
             held = default_holdout(recs)
-        return Setup(split(recs, held), model, cands)
+        sp = split(recs, held)
+        self.mass_estimated = False
+        if self.rig is not None and "m_u" in model.options and "m_u" not in self.rig.known:
+            model = estimate_unsprung_mass(model, sp, self.budget)
+            self.mass_estimated = True
+        return Setup(sp, model, cands)
+
+    def _signs(
+        self, rig: RigDescription, recs: list[RecordingLike]
+    ) -> tuple[RigDescription, list[RecordingLike]]:
+        """The recordings in suspenv's signs; where neither sign is declared and the
+        recorded force takes power from the motion the other way round (``mean(F v) <
+        0``, :func:`~suspenv.diagnosis.component.assumed.power_sign`), its sign is
+        reversed, and the convention found is said (:attr:`sign_words`)."""
+        out = oriented(recs, rig)
+        power = power_sign(out)
+        self.sign_words = []
+        if not np.isfinite(power) or {"positive_stroke", "positive_force"} & set(rig.declared):
+            return rig, out
+        if power < 0:
+            rig = replace(rig, positive_force="tension")
+            out = oriented(recs, rig)
+        self.sign_words.append(
+            "the stroke and force signs (not declared) read off the power the force takes "
+            f"from the motion, mean F v = {abs(power):.3g} W > 0 with a positive stroke in "
+            f"compression and a positive force in {rig.positive_force}"
+        )
+        return rig, out
+
+    def assumptions(self, setup: Setup) -> list[str]:
+        """The defaults and estimates used for what the recordings do not say: the signs
+        (read off the dissipated power), the quarter car's masses."""
+        said = list(self.sign_words)
+        model = setup.model
+        if self.rig is not None and isinstance(model, ComponentModel) and "m_s" in model.options:
+            said += mass_words(model, list(self.rig.known), self.mass_estimated)
+        return said
 
     def _motion(
         self,
@@ -652,97 +715,117 @@ class ComponentFamily(OptionalSteps):
         return found
 
     def conclude(self, outcome: Outcome, setup: Setup) -> Conclusion:
-        """The asymmetry check where a digressive curve was named, then the residual
-        left against the noise floor (:mod:`~suspenv.diagnosis.component.residual_left`)."""
-        found = Conclusion(baseline=_baseline_effects(outcome.base, self))
-        named_kinds = [h.kind for h in outcome.named]
-        if (
+        """The family's probes after the search, in order (each reads and updates one
+        :class:`_Probes`): the damper's bump/rebound asymmetry where a digressive curve
+        was named; the named elements judged again beside a delay left and beside a zero
+        drift of more shape, withdrawn where these take their support; the residual
+        left against the noise floor and a force missing at low speed; the delays left;
+        a lag that stands for a delay; the baseline's offsets. The checks every family
+        gets (bounds, misfit, assumptions) follow in the loop
+        (:mod:`suspenv.diagnosis.checks`)."""
+        st = _Probes(Conclusion(baseline=_baseline_effects(outcome.base, self)), outcome.current)
+        st.kept = list(outcome.named)
+        for probe in (
+            self._asymmetry,
+            self._beside_delay,
+            self._beside_drift,
+            self._residual,
+            self._delays_said,
+            self._lag_and_offsets,
+        ):
+            probe(st, outcome, setup)
+        return st.found
+
+    def _asymmetry(self, st: _Probes, outcome: Outcome, setup: Setup) -> None:
+        """Where a digressive curve was named: the asymmetric curve against the symmetric
+        one plus a constant force (:mod:`~suspenv.diagnosis.component.asymmetry`)."""
+        if not (
             self.check_asymmetry
-            and "digressive_damping" in named_kinds
+            and "digressive_damping" in [h.kind for h in outcome.named]
             and "damper_asymmetry" in setup.candidates
             and "damper_asymmetry" not in {h.family for h in outcome.named}
         ):
-            asym = asymmetry_check(
-                outcome.current,
-                setup.split,
-                self.rule.alpha,
-                self.rule.min_heldout_gain,
-                self.budget,
+            return
+        asym = asymmetry_check(
+            outcome.current, setup.split, self.rule.alpha, self.rule.min_heldout_gain, self.budget
+        )
+        st.found.findings["asymmetry"] = asym
+        if asym is not None and asym.supported and asym.hypothesis is not None:
+            st.found.named.append(asym.hypothesis)
+            st.found.hypotheses.append(asym.hypothesis)
+            st.found.final_fit = asym.hypothesis.fit
+            st.final = asym.hypothesis.fit or st.final
+            st.kept.append(asym.hypothesis)
+        elif asym is not None:
+            st.found.sentences.append(asym.sentence)
+
+    def _beside_delay(self, st: _Probes, outcome: Outcome, setup: Setup) -> None:
+        """A delay left after the search, and the elements named before it judged again
+        beside it (the residual probes then read the model without those withdrawn)."""
+        st.delays = self._delays_left(st.final, setup)
+        left = next((d for d in st.delays if d.remains), None)
+        if left is None or not st.kept:
+            return
+        st.final, st.delay_withdrawals = judge_beside_delay(
+            st.final, st.kept, left.channel, left.delay_s, setup.split, self.budget, self.rule
+        )
+        if st.delay_withdrawals:
+            st.withdraw(st.delay_withdrawals)
+            st.delays = self._delays_left(st.final, setup)
+
+    def _beside_drift(self, st: _Probes, outcome: Outcome, setup: Setup) -> None:
+        """The named elements judged again beside a zero drift of more shape
+        (:mod:`~suspenv.diagnosis.component.drift_check`)."""
+        if not (self.check_drift and st.kept):
+            return
+        st.final, st.drift_withdrawals = judge_beside_drift(
+            st.final, st.kept, setup.split, self.budget, self.rule
+        )
+        if st.drift_withdrawals:
+            st.withdraw(st.drift_withdrawals)
+            st.delays = self._delays_left(st.final, setup)
+
+    def _residual(self, st: _Probes, outcome: Outcome, setup: Setup) -> None:
+        """The residual left against the noise floor
+        (:mod:`~suspenv.diagnosis.component.residual_left`) and a force missing at low
+        speed that no library element takes up (:mod:`~suspenv.diagnosis.component.dead_band`)."""
+        if not self.check_residual:
+            return
+        found, cut = st.found, self.motion_lowpass_hz
+        left = residual_left(
+            st.final,
+            setup.split,
+            self.rule.alpha,
+            tails=self.check_tails,
+            lowpass_hz=cut,
+            recorded=self.recorded_outputs or None,
+        )
+        if self.check_tails and cut is not None:
+            found.findings["tail_rule"] = (
+                f"applied to the residual low-passed at {cut:.3g} Hz, where the motion "
+                "channels were low-passed (the prediction lacks the motion's content "
+                f"above it), and where the part moves (above "
+                f"{100 * MOVING_FRACTION:.0f} % of the peak speed)"
             )
-            found.findings["asymmetry"] = asym
-            if asym is not None and asym.supported and asym.hypothesis is not None:
-                found.named.append(asym.hypothesis)
-                found.hypotheses.append(asym.hypothesis)
-                found.final_fit = asym.hypothesis.fit
-            elif asym is not None:
-                found.sentences.append(asym.sentence)
-        final = found.final_fit or outcome.current
-        # a delay left after the search, and the elements named before it judged again
-        # beside it (the residual checks then read the model without those withdrawn)
-        delays = self._delays_left(final, setup)
-        kept = [*outcome.named, *found.named]
-        remaining_delay = next((d for d in delays if d.remains), None)
-        withdrawals: list[Withdrawal] = []
-        if remaining_delay is not None and kept:
-            final, withdrawals = judge_beside_delay(
-                final,
-                kept,
-                remaining_delay.channel,
-                remaining_delay.delay_s,
-                setup.split,
-                self.budget,
-                self.rule,
-            )
-            if withdrawals:
-                kept = self._withdraw(found, withdrawals, final, kept)
-                delays = self._delays_left(final, setup)
-        # the named elements judged again beside a zero drift of more shape
-        drift_withdrawals: list[Withdrawal] = []
-        if self.check_drift and kept:
-            final, drift_withdrawals = judge_beside_drift(
-                final, kept, setup.split, self.budget, self.rule
-            )
-            if drift_withdrawals:
-                kept = self._withdraw(found, drift_withdrawals, final, kept)
-                delays = self._delays_left(final, setup)
-        if self.check_residual:
-            cut = self.motion_lowpass_hz
-            left = residual_left(
-                final,
-                setup.split,
-                self.rule.alpha,
-                tails=self.check_tails,
-                lowpass_hz=cut,
-                recorded=self.recorded_outputs or None,
-            )
-            if self.check_tails and cut is not None:
-                found.findings["tail_rule"] = (
-                    f"applied to the residual low-passed at {cut:.3g} Hz, where the motion "
-                    "channels were low-passed (the prediction lacks the motion's content "
-                    f"above it), and where the part moves (above "
-                    f"{100 * MOVING_FRACTION:.0f} % of the peak speed)"
-                )
-            found.findings["residual"] = left
-            remaining = [r for r in left if r.remains]
-            found.confident = not remaining
-            if remaining:
-                found.sentences.insert(0, remaining[0].sentence())
-                found.overrides_verdict = True
-            # a force missing at low speed, which no library element can take up
-            band = dead_band_left(
-                final,
-                setup.split,
-                effect_location(setup.model, DEFICIT_KIND),
-                _stroke(setup.split)[1],
-                self.budget,
-                self.rule,
-            )
-            found.findings.setdefault("beyond_library", []).append(band)
-            if band.remains:
-                found.confident = False
-                found.overrides_verdict = True
-                found.sentences.insert(0, band.sentence())
-        for left_delay in delays:
+        found.findings["residual"] = left
+        remaining = [r for r in left if r.remains]
+        found.confident = not remaining
+        if remaining:
+            found.sentences.insert(0, remaining[0].sentence())
+            found.overrides_verdict = True
+        where = effect_location(setup.model, DEFICIT_KIND)
+        vmax = _stroke(setup.split)[1]
+        band = dead_band_left(st.final, setup.split, where, vmax, self.budget, self.rule)
+        found.findings.setdefault("beyond_library", []).append(band)
+        if band.remains:
+            found.confident = False
+            found.overrides_verdict = True
+            found.sentences.insert(0, band.sentence())
+
+    def _delays_said(self, st: _Probes, outcome: Outcome, setup: Setup) -> None:
+        """The delays left (a lead sentence where one remains) and the withdrawals."""
+        found = st.found
+        for left_delay in st.delays:
             found.findings.setdefault("beyond_library", []).append(left_delay)
             if left_delay.remains:
                 found.confident = False
@@ -750,58 +833,20 @@ class ComponentFamily(OptionalSteps):
                 found.sentences.insert(0, left_delay.sentence())
             else:
                 found.sentences.append(left_delay.sentence())
-        for w in reversed(withdrawals):  # right after the delay's sentence
+        for w in reversed(st.delay_withdrawals):  # right after the delay's sentence
             found.sentences.insert(1, w.sentence())
-        found.sentences.extend(w.sentence() for w in drift_withdrawals)
-        lag = lag_or_delay(kept, setup.split)
-        if lag:
-            # the library's lag stands for an out-of-library delay as well: not confident
-            found.confident = False
-            found.sentences.append(lag)
-        offsets = baseline_offsets(final)
-        if offsets:
-            found.findings["baseline_offsets"] = offsets
-            found.sentences.extend(o["sentence"] for o in offsets if o["significant"])
-        at_bound = parameters_at_bounds(final, kept)
-        if at_bound:
-            found.findings["at_bounds"] = at_bound
-            found.confident = False
-            found.sentences.append(
-                "parameter(s) ended at a bound, so the element is used outside its range to "
-                "absorb something else: " + "; ".join(at_bound)
-            )
-        share = explained_share(final, setup.split)
-        found.findings["explained_share"] = share
-        worst = min(share.values(), default=1.0)
-        if worst < MIN_EXPLAINED_SHARE:
-            ch = min(share, key=lambda c: share[c])
-            found.confident = False
-            found.findings["misfit"] = True
-            found.overrides_verdict = True
-            found.sentences.insert(
-                0,
-                f"the model describes only {100 * max(worst, 0.0):.0f} % of the variance of "
-                f"{ch}: the recording may not be of a {setup.model.family} on this rig, or a "
-                "channel is swapped, in another unit or of the other sign; no verdict on "
-                "missing physics is given",
-            )
-        return found
+        found.sentences.extend(w.sentence() for w in st.drift_withdrawals)
 
-    @staticmethod
-    def _withdraw(
-        found: Conclusion,
-        withdrawals: list[Withdrawal],
-        final: FitResult,
-        kept: list[Hypothesis],
-    ) -> list[Hypothesis]:
-        """Record ``withdrawals`` on the conclusion, whose final model is now ``final``;
-        returns the named hypotheses ``kept`` less the withdrawn."""
-        found.withdrawn += [w.hypothesis for w in withdrawals]
-        for w in withdrawals:
-            w.hypothesis.withdrawn = w.sentence()
-        found.findings.setdefault("withdrawn", []).extend(withdrawals)
-        found.final_fit = final
-        return [h for h in kept if all(h is not w.hypothesis for w in withdrawals)]
+    def _lag_and_offsets(self, st: _Probes, outcome: Outcome, setup: Setup) -> None:
+        """A named lag that stands for a delay (not confident), the baseline's offsets."""
+        lag = lag_or_delay(st.kept, setup.split)
+        if lag:
+            st.found.confident = False
+            st.found.sentences.append(lag)
+        offsets = baseline_offsets(st.final)
+        if offsets:
+            st.found.findings["baseline_offsets"] = offsets
+            st.found.sentences.extend(o["sentence"] for o in offsets if o["significant"])
 
     def _delays_left(self, final: FitResult, setup: Setup) -> list[DelayLeft]:
         """:func:`delay_left` of every channel whose lag the search refused for a delay."""
@@ -1337,66 +1382,6 @@ def baseline_offsets(fit: FitResult) -> list[dict[str, Any]]:
                 ),
             }
         )
-    return out
-
-
-#: the final model must describe at least this share of each output's variance for any
-#: verdict on missing physics (below it the recording is not of this component, or a
-#: channel is misread: no library effect can be meaningfully named)
-MIN_EXPLAINED_SHARE = 0.5
-#: relative distance (of the bound span; in log(value) for positive bounds) within which
-#: a fitted parameter counts as on its bound
-BOUND_TOLERANCE = 1e-3
-
-
-def parameters_at_bounds(fit: FitResult, named: Sequence[Hypothesis]) -> list[str]:
-    """Base parameters and the named elements' parameters that ended on a fit bound, in
-    words (``"c = 1e+06 N s/m at its upper bound"``)."""
-    lo, hi = fit.model.bounds()
-    names = list(fit.model.parameter_names)
-    own = {k for h in named for k in h.params}
-    base = set(fit.model.base_names) if hasattr(fit.model, "base_names") else set()
-    units = list(getattr(fit.model, "parameter_units", [""] * len(names)))
-    out = []
-    for i, name in enumerate(names):
-        if name not in own and name not in base:
-            continue
-        th, a, b = float(fit.theta[i]), float(lo[i]), float(hi[i])
-        if not (np.isfinite(a) and np.isfinite(b) and b > a):
-            continue
-        if a > 0 and th > 0:
-            # positive bounds span decades: distance measured in log(value)
-            span = float(np.log(b / a))
-            near_lo = np.log(th / a) <= BOUND_TOLERANCE * span
-            near_hi = np.log(b / th) <= BOUND_TOLERANCE * span
-        else:
-            # a bound at zero is a physical limit (no friction, no extra damping), not one
-            # an element is pushed against to absorb something else
-            near_lo = False
-            near_hi = b - th <= BOUND_TOLERANCE * (b - a)
-        if near_lo or near_hi:
-            side = "lower" if near_lo else "upper"
-            out.append(f"{name} = {th:.4g} {units[i]} at its {side} bound".replace("  ", " "))
-    return out
-
-
-def explained_share(fit: FitResult, sp: Split) -> dict[str, float]:
-    """Per output channel, ``1 - var(residual) / var(measured)`` of the final model over
-    the fit samples (1: perfect; 0: no better than the mean)."""
-    parts = residuals(fit.model, fit.theta, sp.fit_recordings, fit.channels, sp.fit_masks)
-    out = {}
-    for ch in fit.channels:
-        r = np.concatenate([p[ch] for p in parts])
-        meas = np.concatenate(
-            [
-                np.asarray(rec.outputs[ch], float)[
-                    slice(None) if sp.fit_masks is None else sp.fit_masks[i]
-                ]
-                for i, rec in enumerate(sp.fit_recordings)
-            ]
-        )
-        var = float(np.var(meas))
-        out[ch] = 1.0 - float(np.var(r)) / var if var > 0 else 1.0
     return out
 
 

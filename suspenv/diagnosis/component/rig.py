@@ -135,6 +135,8 @@ class RigDescription:
     extra_inputs: Mapping[str, str] = field(default_factory=dict)
     sources: tuple[str, ...] = ()
     velocity_source: str = "auto"
+    #: the entries the user declared (metadata or model file); the others are defaults
+    declared: tuple[str, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -146,6 +148,7 @@ class RigDescription:
             "extra_inputs": dict(self.extra_inputs),
             "velocity_source": self.velocity_source,
             "sources": list(self.sources),
+            "declared": list(self.declared),
         }
 
 
@@ -345,6 +348,7 @@ def describe_rig(
         extra_inputs=dict(entries.get("extra_inputs", {})),
         sources=tuple(sources),
         velocity_source=entries.get("velocity_source", "auto"),
+        declared=tuple(sorted(entries)),
     )
 
 

@@ -28,6 +28,7 @@ from suspenv.diagnosis.component.family import resolve_model
 from suspenv.diagnosis.component.rig import DRIFT, baseline_families, baseline_model, describe_rig
 from suspenv.diagnosis.hypothesis import family_of
 from suspenv.measurements import Recording, save_recording
+from suspenv.models.components import make_component
 from suspenv.models.effects import Effect, make_effect
 
 #: base parameter draws per family: name -> (low, high), uniform
@@ -311,13 +312,21 @@ def _noise(
     return e
 
 
-def make_case(family: str, seed: int, n_effects: int, outside: bool = False) -> Case:
+def make_case(
+    family: str,
+    seed: int,
+    n_effects: int,
+    outside: bool = False,
+    options: dict[str, Any] | None = None,
+) -> Case:
     """A concealed case: ``n_effects`` in {0, 1, 2} drawn from the family's pool, or with
     ``outside`` one element from outside the library (:data:`OUTSIDE_KINDS`). Controls
-    (no effect) get the noise :data:`CONTROL_NOISE` ``[seed % 3]``."""
+    (no effect) get the noise :data:`CONTROL_NOISE` ``[seed % 3]``. ``options`` are the
+    truth model's options where they differ from the family's defaults (e.g. the
+    quarter car's masses ``{"m_s": 250.0}``), which the recording does not declare."""
     salt = 7 if outside else n_effects
     rng = np.random.default_rng([seed, salt, sum(map(ord, family))])
-    model = resolve_model(family)
+    model = make_component(family, **options) if options else resolve_model(family)
     rec = model.example_recording(
         seed=int(rng.integers(1 << 30)), **CASE_RECORDING_OPTIONS.get(family, {})
     )

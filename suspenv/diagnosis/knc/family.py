@@ -77,6 +77,9 @@ PATH_DEPENDENT = ("dahl_hysteresis", "coulomb_friction")
 #: log-likelihood by about n * 1e-4 / 2 (well below one unit for K&C data sets)
 COARSE_TOL = 1e-4
 FINE_TOL = 1e-7
+#: the noise level of a channel is never read below this share of its recorded spread
+#: (noise-free curves leave a residual of round-off, which is not the noise)
+NOISE_FLOOR = 1e-5
 
 
 def axle_model(model: object) -> KncAxleModel:
@@ -270,6 +273,26 @@ def _signals(
     return res, pred
 
 
+def curves_in_noise_units(
+    fit_: FitResult, recs: Sequence[Any]
+) -> dict[tuple[str, str], np.ndarray]:
+    """The residual of ``fit_`` on ``recs`` in noise units, per (rig test, channel): each
+    channel's noise estimated from the roughness of this residual
+    (:func:`~suspenv.diagnosis.knc.locate.residual_map`), never below
+    :data:`NOISE_FLOOR` of the channel's recorded spread (noise-free curves)."""
+    res = residuals(fit_.model, fit_.theta, recs, fit_.channels)
+    floor = {
+        c: NOISE_FLOOR * max(float(np.ptp(np.asarray(r.outputs[c], float))) for r in recs)
+        for c in fit_.channels
+    }
+    noise = residual_map(recs, res, fit_.scales, floor).noise
+    return {
+        (rig_test(rec), c): np.asarray(r[c], float) / noise[c]
+        for rec, r in zip(recs, res, strict=True)
+        for c in fit_.channels
+    }
+
+
 @dataclass
 class KncFamily:
     """The K&C family's steps of the diagnosis loop (see the module docstring).
@@ -411,6 +434,21 @@ class KncFamily:
         setup: Setup,
     ) -> list[Ambiguity]:
         return location_ambiguities(winner, ranked)
+
+    def noise_units(self, fit_: FitResult, setup: Setup) -> dict[tuple[str, str], np.ndarray]:
+        """The residual of ``fit_`` over the fitted rig tests in noise units
+        (:func:`curves_in_noise_units`)."""
+        return curves_in_noise_units(fit_, setup.split.fit_recordings)
+
+    def assumptions(self, setup: Setup) -> list[str]:
+        """What the K&C diagnosis takes as given."""
+        model = axle_model(setup.model)
+        return [
+            f"the axle's parameters other than {', '.join(model.fit_parameters)} at the "
+            "start design (the reference vehicle unless given)",
+            "left and right alike (the model is symmetric) unless an asymmetry is named",
+            "each channel's noise read from the roughness of the residual along the loops",
+        ]
 
     def conclude(self, outcome: Outcome, setup: Setup) -> Conclusion:
         model = axle_model(setup.model)

@@ -98,6 +98,7 @@ def measure_truth(
     tests: Sequence[str] = TESTS,
     design: np.ndarray | None = None,
     force_amplitude: float = FORCE_AMPLITUDE,
+    outside: Sequence[Mapping[str, Any]] | None = None,
 ) -> dict[str, Recording]:
     """ "Measured" K&C recordings of a truth vehicle with concealed ``effects`` (seeded).
 
@@ -105,7 +106,9 @@ def measure_truth(
     ``{"hysteresis": {"f_c": 100.0}}``; ``{}`` is the plain reference vehicle.
     ``noise_scale`` multiplies the rig's sensor noise (``0`` gives exact loops).
     ``amplitude`` [m] is the travel tests' stroke, ``force_amplitude`` [N] the
-    compliance tests' force.
+    compliance tests' force. ``outside`` lists physics outside the K&C library to
+    conceal as well, each the keyword arguments of :func:`add_strut_stop` (the strut's
+    bump stop).
     """
     if noise_scale < 0:
         raise ValidationError(f"`noise_scale >= 0` must hold, but got {noise_scale}")
@@ -141,7 +144,31 @@ def measure_truth(
             ch = res.channels[name]
             res.channels[name] = ch + rng.normal(0.0, noise_scale * CHANNEL_NOISE[name], ch.shape)
     info = {"source": "suspenv truth vehicle (concealed effects)", "seed": int(seed)}
-    return to_recordings(results, meta=info)
+    recs = to_recordings(results, meta=info)
+    for stop in outside or ():
+        add_strut_stop(recs, **stop)
+    return recs
+
+
+def add_strut_stop(
+    recs: Mapping[str, Recording],
+    gap: float = 0.02,
+    k_stop: float = 2.0e4,
+    sides: Sequence[str] = ("left", "right"),
+) -> None:
+    """Conceal a strut bump stop (a jounce bumper, outside the K&C model's library) in
+    ``recs``: past ``gap`` [m] of a side's pad travel (bump positive) the tyre load cell
+    of that side reads ``k_stop`` [N/m] times the travel beyond the gap more (wheel load
+    positive up). The stop acts on the load cell only (the kinematic channels are left
+    as the solver gave them), in every travel test; compliance tests hold the pads at
+    zero travel and are not touched."""
+    for rec in recs.values():
+        for side in sides:
+            pad = np.asarray(rec.inputs.get(f"pad_{side}", np.zeros(0)), float)
+            key = f"tyre_fz_{side}"
+            if pad.size and key in rec.outputs:
+                over = np.maximum(pad - gap, 0.0)
+                rec.outputs[key] = np.asarray(rec.outputs[key], float) + k_stop * over
 
 
 # ------------------------------------------------------------------ blind cases
@@ -266,3 +293,30 @@ def blind_case(
         r.meta.pop("seed", None)
         r.name = f"knc-blind-{seed}:{rig_test(r)}"
     return case, truth
+
+
+# ------------------------------------------------------------------ outside the library
+#: sides of a concealed strut stop, by seed (cycled): both wheels, the left, the right
+STOP_SIDES = (("left", "right"), ("left",), ("right",))
+
+
+def outside_case(
+    seed: int, steps: int = 8, amplitude: float = 0.040, tests: Sequence[str] = BLIND_TESTS
+) -> tuple[dict[str, Any], dict[str, Any]]:
+    """``(case, truth)`` of a blind case with physics outside the K&C library: a strut bump
+    stop (:func:`add_strut_stop`) on the sides ``STOP_SIDES[seed % 3]``, its gap (15-30 mm
+    of bump) and rate (10-40 kN/m) and the noise level drawn from the seed. A correct
+    verdict names nothing with confidence and reports the residual left."""
+    rng = np.random.default_rng([seed, 77])
+    stop = {
+        "gap": float(rng.uniform(0.015, 0.030)),
+        "k_stop": float(rng.uniform(1.0e4, 4.0e4)),
+        "sides": list(STOP_SIDES[seed % len(STOP_SIDES)]),
+    }
+    noise = float(rng.uniform(0.5, 2.0))
+    recs = measure_truth({}, seed, amplitude, steps, noise, tests, outside=[stop])
+    for r in recs.values():
+        r.meta.pop("seed", None)
+        r.name = f"knc-outside-{seed}:{rig_test(r)}"
+    truth = {"seed": int(seed), "case_type": "strut_stop", "outside": stop, "noise_scale": noise}
+    return {"id": f"knc-outside-{seed}", "recordings": recs}, truth

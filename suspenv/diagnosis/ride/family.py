@@ -279,4 +279,5 @@ class RideFamily(OptionalSteps):
             confident=left.confident,
             findings={"residual": left},
             baseline={"effects": []},
+            overrides_verdict=left.residual_remains,
         )

@@ -116,6 +116,15 @@ class ResidualCheck:
         """A named element that leaves only noise, with no parameter on its bound."""
         return self.named and not self.residual_remains and not self.params_on_bound
 
+    @property
+    def remains(self) -> bool:
+        """A residual above the noise rule is left (the engine's unexplained flag)."""
+        return self.residual_remains
+
+    def short(self) -> str:
+        """The residual left in a few words (the headline's)."""
+        return f"{self.excess_ratio:.2f} x the sensor-noise floor"
+
     def sentence(self) -> str:
         """The verdict's sentence about what is left."""
         pct = 100 * self.heldout_after / self.heldout_before if self.heldout_before else np.nan

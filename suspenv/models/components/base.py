@@ -467,7 +467,12 @@ class ComponentModel:
             return str(self.device_words[effect.kind])
         if effect.location or not self.location:
             return effect.words
-        return f"{effect.spec.words} in the {self.location}"
+        # a loop in the device itself is not a bushing's (a friction device's pre-sliding,
+        # a damper's mounts or fluid): the mechanism-neutral words
+        words = effect.spec.words.replace(
+            "rubber bushing hysteresis", "rate-independent hysteresis"
+        )
+        return f"{words} in the {self.location}"
 
     def __repr__(self) -> str:
         effs = ", ".join(f"{e.kind}:{e.name}" for e in self.effects)

@@ -139,6 +139,8 @@ def markdown(diag: Diagnosis, figures: dict[str, str]) -> str:
     """The report text (figures referenced by relative file name)."""
     L = [f"# Diagnosis: {text(diag.recording)} ({diag.model})", ""]
     L += [f"**{diag.headline}.**", ""]
+    if diag.assumptions:
+        L += ["Assumed where the recording does not say: " + "; ".join(diag.assumptions) + ".", ""]
     base = diag.baseline
     evidence = []
     if base.get("words"):
