@@ -23,7 +23,7 @@ from suspenv.models.components import make_component
 from suspenv.models.components.quarter_car import _rate
 from suspenv.models.effects import Effect, make_effect
 
-#: the benchmark's options for this family (configs/diagnosis_benchmark.toml)
+#: the benchmark's options for this family (experiments/diagnosis_benchmark.toml)
 RIG_OPTIONS = {"max_effects": 2, "max_nfev": 15, "screen_families": 2}
 
 

@@ -139,7 +139,7 @@ def test_experiment_configs_are_valid(name):
 
     from suspenv.runs.config import load_config
 
-    path = Path(__file__).resolve().parents[1] / "configs" / f"{name}.toml"
+    path = Path(__file__).resolve().parents[1] / "experiments" / f"{name}.toml"
     cfg = load_config(path)
     assert cfg["pipeline"] == "tey2014"
     opts = study_options(cfg)

@@ -186,7 +186,7 @@ def test_report_files(problem, evaluated, tmp_path):
 
 @pytest.mark.parametrize("name", ["minibus_nsga2.toml", "minibus_quick.toml"])
 def test_experiment_configs(name):
-    cfg = tomllib.loads((ROOT / "configs" / name).read_text())
+    cfg = tomllib.loads((ROOT / "experiments" / name).read_text())
     assert cfg["problem"]["name"] == "MinibusRideHandling"
     assert cfg["strategy"]["name"] in ("nsga2", "pymoo_nsga2")
     pop = cfg["strategy"]["options"]["population_size"]

@@ -209,7 +209,7 @@ def test_teaching_experiment_runs_and_beats_the_baseline(tmp_path):
     from suspenv.runs.config import load_config
     from suspenv.runs.runner import run_experiment
 
-    config_path = Path(__file__).resolve().parents[1] / "configs" / "planar_camber.toml"
+    config_path = Path(__file__).resolve().parents[1] / "experiments" / "planar_camber.toml"
     config = load_config(
         config_path, ["budget=120", f'run.output="{tmp_path}"', "run.progress=false"]
     )

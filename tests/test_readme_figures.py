@@ -44,7 +44,7 @@ def test_document_blocks_are_the_rendering_of_the_committed_json() -> None:
 
 def _study_json() -> dict:
     summary = {
-        "config": "configs/minibus_nsga2.toml",
+        "config": "experiments/minibus_nsga2.toml",
         "workers": 2,
         "command_wall_s": 12.04,
         "command_wall_s_slowest": 13.6,

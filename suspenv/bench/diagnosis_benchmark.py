@@ -26,7 +26,7 @@ The development seed set and the reported seed set are both stated in the config
 (``seeds_dev``, ``seeds_report``) and must not overlap; ``seed_set`` picks one.
 
 Run the committed configuration with
-``python -m suspenv.bench.diagnosis_benchmark configs/diagnosis_benchmark.toml``.
+``python -m suspenv.bench.diagnosis_benchmark experiments/diagnosis_benchmark.toml``.
 """
 
 from __future__ import annotations
@@ -524,7 +524,7 @@ def main(argv: list[str] | None = None) -> int:
     from suspenv.runs.runner import run_experiment
 
     args = list(sys.argv[1:] if argv is None else argv)
-    config = load_config(args[0] if args else "configs/diagnosis_benchmark.toml")
+    config = load_config(args[0] if args else "experiments/diagnosis_benchmark.toml")
     t0 = time.perf_counter()
     # as `suspenv run` does: resume only the same experiment of the same code
     run_dir, summary = run_experiment(config)
@@ -533,7 +533,7 @@ def main(argv: list[str] | None = None) -> int:
     out = Path("docs") / "benchmarks"
     out.mkdir(parents=True, exist_ok=True)
     result["command"] = (
-        "python -m suspenv.bench.diagnosis_benchmark configs/diagnosis_benchmark.toml"
+        "python -m suspenv.bench.diagnosis_benchmark experiments/diagnosis_benchmark.toml"
     )
     result["machine"] = machine_info()
     (out / "diagnosis_benchmark.json").write_text(json.dumps(result, indent=2) + "\n")

@@ -12,7 +12,7 @@ with the default concealed effects (hysteresis, left/right tolerances, noise). P
 * the next test and, with it added (re-run), identified parameters and their worst
   error;
 * the K&C diagnosis' screen on the remaining residual: the signature families named;
-* the main job's loop (options of ``configs/identify_reference.toml``): curves within
+* the main job's loop (options of ``experiments/identify_reference.toml``): curves within
   1.5 x noise after it, the held-out test's worst channel before and after, and the
   K&C sheet's 95 % intervals holding the truth (share of metric x wheel values; seed 0
   is the test car, the other seeds, fixed in :data:`SEEDS` before any run, blind cars);
@@ -35,7 +35,7 @@ CASES = {"noise only": ("noise",), "default concealed": ("hysteresis", "toleranc
 #: truth seeds: 0 the default test car, the others blind cars (fixed before any run)
 SEEDS = "0,1,2,3"
 #: the main job's config, whose ``[identify]`` options every case runs with
-CONFIG = "configs/identify_reference.toml"
+CONFIG = "experiments/identify_reference.toml"
 
 
 def main_job_options() -> dict[str, Any]:

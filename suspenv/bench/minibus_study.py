@@ -1,4 +1,4 @@
-"""The minibus study end to end: ``suspenv run configs/minibus_nsga2.toml``, timed in one
+"""The minibus study end to end: ``suspenv run experiments/minibus_nsga2.toml``, timed in one
 run against its baselines.
 
 The study's settings (pymoo's NSGA-II, population 500 for 60 generations: 30,000
@@ -65,7 +65,7 @@ from suspenv.runs.compare import load_summary
 from suspenv.runs.config import load_config
 
 ROOT = Path(__file__).resolve().parents[2]
-CONFIG = ROOT / "configs" / "minibus_nsga2.toml"
+CONFIG = ROOT / "experiments" / "minibus_nsga2.toml"
 TARGET_S = 60.0
 #: the three ways, in the order of the rows
 WAYS = ("command, 2 workers", "command, 1 worker", "bare pymoo loop")

@@ -440,7 +440,7 @@ def render_performance(data: Mapping[str, Json]) -> str:
             ),
             row(
                 "the minibus study: NSGA-II, 30,000 evaluations, 2 workers "
-                "(`suspenv run configs/minibus_nsga2.toml`)",
+                "(`suspenv run experiments/minibus_nsga2.toml`)",
                 bench("minibus_study"),
                 minibus_study_cells(data["minibus_study"]["summary"]),
             ),

@@ -12,7 +12,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         description="Run an experiment config. Re-running the same config resumes a run that "
         "died, without re-evaluating what is archived.",
     )
-    p.add_argument("config", help="path to an experiment TOML file (see configs/)")
+    p.add_argument("config", help="path to an experiment TOML file (see experiments/)")
     p.add_argument(
         "--set",
         dest="overrides",

@@ -1,6 +1,6 @@
 """Experiment configuration: TOML files, ``--set key=value`` overrides, validation.
 
-A config (see ``configs/*.toml``)::
+A config (see ``experiments/*.toml``)::
 
     name = "sphere_cmaes"        # run name (default: the file's stem)
     seed = 1                     # every run has a seed
