@@ -17,11 +17,11 @@ from typing import Any
 
 import numpy as np
 
-from suspenv.bench.independent.cases import TEST_NAME, Case
+from benchmarks.independent.cases import TEST_NAME, Case
 from suspenv.measurements import Recording, save_recording
 from suspenv.measurements.units import FACTORS
 
-GENERATOR = "suspenv.bench.independent"
+GENERATOR = "benchmarks.independent"
 VERSION = "1.0"
 
 

@@ -21,8 +21,8 @@ concealed road waviness, w = 2.5; the dyno's drift inside each speed, 0.2-1.3 N/
 the rendering checks the JSON still says so and stops with :class:`FigureError` otherwise,
 so the words cannot go stale either.
 
-Run: ``python -m suspenv.bench.readme`` rewrites the blocks in place and prints what
-changed; ``python -m suspenv.bench.readme --check`` exits 1 when a file differs from the
+Run: ``python -m benchmarks.readme`` rewrites the blocks in place and prints what
+changed; ``python -m benchmarks.readme --check`` exits 1 when a file differs from the
 rendering. Standard library only: no model, no numpy, no matplotlib.
 """
 
@@ -38,8 +38,8 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-#: repository root (this file is suspenv/bench/readme.py)
-ROOT = Path(__file__).resolve().parents[2]
+#: repository root (this file is benchmarks/readme.py)
+ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
 BENCH_DIR = ROOT / "docs" / "benchmarks"
 
@@ -295,7 +295,7 @@ def minibus_study_paragraph(d: Json) -> str:
     repeats = rows["command, 2 workers"]["repeats"]
     of_runs = "one run" if repeats == 1 else f"the median of {repeats} runs"
     text = (
-        f"**The study's run, measured** (`python -m suspenv.bench.minibus_study`, "
+        f"**The study's run, measured** (`python -m benchmarks.minibus_study`, "
         f"[docs/benchmarks/minibus_study.json](benchmarks/minibus_study.json)): `suspenv run "
         f"{s['config']}` (pymoo's NSGA-II, `run.workers = {s['workers']}`, on the 2-core "
         f"machine, {s['cores_free_2proc']:.1f} cores free) runs {st['evaluations']:,} "
@@ -335,7 +335,7 @@ def render_performance(data: Mapping[str, Json]) -> str:
         return f"| {what} | {command} | {cells[0]} | {cells[1]} |"
 
     def bench(name: str) -> str:
-        return f"`python -m suspenv.bench.{name}`"
+        return f"`python -m benchmarks.{name}`"
 
     return "\n".join(
         [
@@ -441,7 +441,7 @@ def independent_row(d: Json) -> str:
         else " "
     )
     return (
-        f"| components, independent generator (`suspenv.bench.independent`: own integrator, "
+        f"| components, independent generator (`benchmarks.independent`: own integrator, "
         f"literature parameterisations; seeds {d['seeds']} run for reporting only; "
         f"{len(d['cases'])} cases) | {frac(a['single_named_first'])} (target >= 90 %); outside "
         f"the library reported as unexplained: {frac(a['outside_unexplained'])} (target >= "
@@ -1052,10 +1052,10 @@ def stale_blocks(text: str, blocks: Mapping[str, str], label: str = "README.md")
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """``python -m suspenv.bench.readme [--check] [--readme PATH] [--docs-root DIR]
+    """``python -m benchmarks.readme [--check] [--readme PATH] [--docs-root DIR]
     [--bench-dir DIR]``."""
     parser = argparse.ArgumentParser(
-        prog="python -m suspenv.bench.readme",
+        prog="python -m benchmarks.readme",
         description="Render the README's (and docs') benchmark figures from "
         "docs/benchmarks/*.json.",
     )
@@ -1085,7 +1085,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     changed = [path for path in documents if stale[path]]
     if args.check:
         for path in changed:
-            print(f"{path} is stale: run python -m suspenv.bench.readme", file=sys.stderr)
+            print(f"{path} is stale: run python -m benchmarks.readme", file=sys.stderr)
         return 1 if changed else 0
     for path in changed:
         text = texts[path]

@@ -20,7 +20,7 @@ returned (best of the built runs), and beside it ``python -X importtime -c "impo
 suspenv"``'s cumulative time of ``suspenv`` (wall time, which a loaded machine inflates;
 best of five). Targets: first evaluation <= 3 s CPU, import <= 0.5 s CPU.
 
-Run: ``python -m suspenv.bench.first_run [--repeats N]``; writes
+Run: ``python -m benchmarks.first_run [--repeats N]``; writes
 ``docs/benchmarks/first_run.json``.
 """
 
@@ -37,11 +37,11 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-from suspenv.bench.common import write_result
+from benchmarks.common import write_result
 
 FIRST_TARGET_S = 3.0
 IMPORT_TARGET_S = 0.5
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[1]
 
 #: run in the fresh install: CPU seconds since the interpreter's start at each step
 CHILD = """
@@ -141,7 +141,7 @@ def main(argv: list[str] | None = None) -> int:
         "meets_import_target": bool(summary_import(rows) <= IMPORT_TARGET_S),
         "all_ok": all(r["ok"] for r in rows),
     }
-    command = "python -m suspenv.bench.first_run" + (
+    command = "python -m benchmarks.first_run" + (
         f" --repeats {args.repeats}" if args.repeats != 2 else ""
     )
     write_result("first_run", rows, summary, command, output_dir=args.output_dir)

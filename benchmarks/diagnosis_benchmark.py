@@ -26,7 +26,7 @@ The development seed set and the reported seed set are both stated in the config
 (``seeds_dev``, ``seeds_report``) and must not overlap; ``seed_set`` picks one.
 
 Run the committed configuration with
-``python -m suspenv.bench.diagnosis_benchmark configs/diagnosis_benchmark.toml``.
+``python -m benchmarks.diagnosis_benchmark configs/diagnosis_benchmark.toml``.
 """
 
 from __future__ import annotations
@@ -40,7 +40,7 @@ from typing import Any
 
 import numpy as np
 
-from suspenv.bench.common import machine_info
+from benchmarks.common import machine_info
 from suspenv.core.errors import ValidationError
 from suspenv.core.jsonable import to_jsonable
 from suspenv.diagnosis.component.truth import Case, make_case, write_case
@@ -517,7 +517,7 @@ def update_doc(doc: Path, table: str, begin: str = DOC_BEGIN, end: str = DOC_END
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``python -m suspenv.bench.diagnosis_benchmark [CONFIG.toml]``: run the benchmark into
+    """``python -m benchmarks.diagnosis_benchmark [CONFIG.toml]``: run the benchmark into
     its run directory (as ``suspenv run`` would), then write the table into
     ``docs/diagnosis.md`` (between its markers) and ``docs/benchmarks/``."""
     from suspenv.runs.config import load_config
@@ -533,7 +533,7 @@ def main(argv: list[str] | None = None) -> int:
     out = Path("docs") / "benchmarks"
     out.mkdir(parents=True, exist_ok=True)
     result["command"] = (
-        "python -m suspenv.bench.diagnosis_benchmark configs/diagnosis_benchmark.toml"
+        "python -m benchmarks.diagnosis_benchmark configs/diagnosis_benchmark.toml"
     )
     result["machine"] = machine_info()
     (out / "diagnosis_benchmark.json").write_text(json.dumps(result, indent=2) + "\n")

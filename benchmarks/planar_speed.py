@@ -5,7 +5,7 @@ candidate when candidates come in batches. Measured in the same run: the analyti
 one candidate at a time, and the pymunk simulation (the independent second solver) per
 candidate. Candidates are random designs of the default ``PlanarLinkage`` problem.
 
-Run: ``python -m suspenv.bench.planar_speed [--quick]``; writes
+Run: ``python -m benchmarks.planar_speed [--quick]``; writes
 ``docs/benchmarks/planar_speed.json``.
 """
 
@@ -19,7 +19,7 @@ import time
 import numpy as np
 from tqdm import tqdm
 
-from suspenv.bench.common import best_time, write_result
+from benchmarks.common import best_time, write_result
 from suspenv.models.planar import solve_sweep, sweep_outputs
 from suspenv.models.planar.pymunk_model import simulate_sweep
 from suspenv.registry import make_problem
@@ -93,7 +93,7 @@ def main(argv: list[str] | None = None) -> int:
         "planar_speed",
         rows,
         summary,
-        "python -m suspenv.bench.planar_speed" + (" --quick" if args.quick else ""),
+        "python -m benchmarks.planar_speed" + (" --quick" if args.quick else ""),
         output_dir=args.output_dir,
     )
     return 0

@@ -29,9 +29,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from suspenv.bench.independent.effects import ForceLaw, contact, dead_band
-from suspenv.bench.independent.integrate import integrate
-from suspenv.bench.independent.signals import MinJerkPath, SineBlocks, SumOfSines, Tabulated
+from benchmarks.independent.effects import ForceLaw, contact, dead_band
+from benchmarks.independent.integrate import integrate
+from benchmarks.independent.signals import MinJerkPath, SineBlocks, SumOfSines, Tabulated
 
 RTOL = 1e-7
 RTOL_QC = 1e-6  # relative tolerance of the quarter car (closed-form error ~5e-6)

@@ -43,7 +43,7 @@ from typing import Any
 
 import numpy as np
 
-from suspenv.bench.independent.devices import (
+from benchmarks.independent.devices import (
     Backlash,
     Controller,
     QuarterCar,
@@ -52,7 +52,7 @@ from suspenv.bench.independent.devices import (
     simulate_guide,
     simulate_quarter_car,
 )
-from suspenv.bench.independent.effects import (
+from benchmarks.independent.effects import (
     IN_LIBRARY,
     MODEL_TEXT,
     OUTSIDE,
@@ -60,9 +60,9 @@ from suspenv.bench.independent.effects import (
     STATEFUL,
     ForceLaw,
 )
-from suspenv.bench.independent.integrate import delayed, first_order_lag, integrate
-from suspenv.bench.independent.noise import NOISE_KINDS, add_noise, sg_derivative
-from suspenv.bench.independent.signals import MinJerkPath, SineBlocks, SumOfSines
+from benchmarks.independent.integrate import delayed, first_order_lag, integrate
+from benchmarks.independent.noise import NOISE_KINDS, add_noise, sg_derivative
+from benchmarks.independent.signals import MinJerkPath, SineBlocks, SumOfSines
 
 FAMILIES = ("damper", "mr_damper", "friction_guide", "quarter_car_rig")
 KIND_CODE = {"control": 0, "single": 1, "outside": 2}
@@ -900,7 +900,7 @@ def make_case(spec: CaseSpec) -> Case:
             "actuator_force": "force between body and wheel, positive pushing them apart"
         }
     meta = {
-        "source": "independent synthetic generator (suspenv.bench.independent)",
+        "source": "independent synthetic generator (benchmarks.independent)",
         "sampling": {"dt_s": dt},
         "rig": rig,
     }

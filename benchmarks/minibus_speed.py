@@ -30,7 +30,7 @@ calls), with the wall time beside it (which a loaded machine inflates). The
 evaluations are timed interleaved (each batch repeat, and each design one at a time,
 by all of them in turn), so a load that changes during the run weighs on all alike.
 
-Run: ``python -m suspenv.bench.minibus_speed [--quick]``; writes
+Run: ``python -m benchmarks.minibus_speed [--quick]``; writes
 ``docs/benchmarks/minibus_speed.json``.
 """
 
@@ -47,7 +47,7 @@ from typing import Any
 import numpy as np
 from tqdm import tqdm
 
-from suspenv.bench.common import BatchTiming, wall_and_cpu, write_result
+from benchmarks.common import BatchTiming, wall_and_cpu, write_result
 from suspenv.metrics.handling import slalom, slalom_linear
 from suspenv.metrics.ride import ride_objectives_all, ride_spectral
 from suspenv.models.minibus.handling_model import HandlingParams, handling_parameters
@@ -287,7 +287,7 @@ def main(argv: list[str] | None = None) -> int:
         "study_30000_evaluations_cpu_s_estimate": STUDY_EVALUATIONS * t_new.batched_cpu_ms / 1e3,
         "load_average_1min": os.getloadavg()[0],
     }
-    cmd = "python -m suspenv.bench.minibus_speed" + (" --quick" if args.quick else "")
+    cmd = "python -m benchmarks.minibus_speed" + (" --quick" if args.quick else "")
     write_result("minibus_speed", rows, summary, cmd, args.output_dir)
     return 0
 

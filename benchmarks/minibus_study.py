@@ -29,7 +29,7 @@ the pool).
 
 Target (issue 17): the whole command <= 60 s wall on 2 cores.
 
-Run: ``python -m suspenv.bench.minibus_study [--repeat N] [--output-dir DIR]``; writes
+Run: ``python -m benchmarks.minibus_study [--repeat N] [--output-dir DIR]``; writes
 ``docs/benchmarks/minibus_study.json``.
 """
 
@@ -49,15 +49,15 @@ from typing import Any
 
 import numpy as np
 
-from suspenv.bench.common import write_result
-from suspenv.bench.overhead import cores_free
+from benchmarks.common import write_result
+from benchmarks.overhead import cores_free
 from suspenv.problems.minibus import study_outcome
 from suspenv.registry import make_problem
 from suspenv.runs.archive import RunArchive
 from suspenv.runs.compare import load_summary
 from suspenv.runs.config import load_config
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[1]
 CONFIG = ROOT / "configs" / "minibus_nsga2.toml"
 TARGET_S = 60.0
 #: the three ways, in the order of the rows
@@ -277,7 +277,7 @@ def main(argv: list[str] | None = None) -> int:
         "minibus_study",
         rows,
         summary,
-        "python -m suspenv.bench.minibus_study",
+        "python -m benchmarks.minibus_study",
         args.output_dir,
     )
     return 0

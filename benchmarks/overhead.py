@@ -30,7 +30,7 @@ start included. Each row also records the cores two processes got at once just b
 problem's own CPU per batch in-process (:func:`_evaluation_ms`), the part a pool divides
 (the rest of a batch is the strategy's and the loop's, in the main process).
 
-Run: ``python -m suspenv.bench.overhead [--repeat N] [--scale S] [--workers-repeat N]
+Run: ``python -m benchmarks.overhead [--repeat N] [--scale S] [--workers-repeat N]
 [--output DIR]``; ``--only-workers`` prints the workers study alone.
 Target (issue 17): each suspenv loop with its archive <= 1.2x its bare library loop.
 """
@@ -53,7 +53,7 @@ import cma
 import numpy as np
 import optuna
 
-from suspenv.bench.common import write_result
+from benchmarks.common import write_result
 from suspenv.problems.toy import ZDT1, Sphere
 from suspenv.runs.loop import optimize
 from suspenv.strategies.cmaes import CMAES
@@ -312,7 +312,7 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--only-workers", action="store_true", help="run the workers study only")
     args = ap.parse_args(argv)
     if args.only_workers:
-        from suspenv.bench.common import format_table
+        from benchmarks.common import format_table
 
         print(format_table(workers_study(max(args.workers_repeat, 1))))
         return
@@ -390,7 +390,7 @@ def main(argv: list[str] | None = None) -> None:
     }
     if args.workers_repeat > 0:
         rows += workers_study(args.workers_repeat)
-    write_result("overhead", rows, summary, "python -m suspenv.bench.overhead", args.output)
+    write_result("overhead", rows, summary, "python -m benchmarks.overhead", args.output)
 
 
 if __name__ == "__main__":

@@ -21,7 +21,7 @@ Both wall time and process CPU time are recorded because the machine may be shar
 in turn at each batch size (best of the repeats; the spectral ones get more repeats at
 small batches), so a load that changes during the run weighs on all of them.
 
-Run: ``python -m suspenv.bench.minibus_ride_speed [--quick]``; writes
+Run: ``python -m benchmarks.minibus_ride_speed [--quick]``; writes
 ``docs/benchmarks/minibus_ride_speed.json``.
 """
 
@@ -35,7 +35,7 @@ import time
 import numpy as np
 from tqdm import tqdm
 
-from suspenv.bench.common import write_result
+from benchmarks.common import write_result
 from suspenv.metrics.ride import ride_objectives_all, ride_spectral
 from suspenv.models.minibus import design_space
 from suspenv.rigs.ride import RandomRoad
@@ -127,7 +127,7 @@ def main(argv: list[str] | None = None) -> int:
         "meets_batch1_target_cpu": bool(s1["ms_per_candidate_cpu"] <= TARGET_MS_BATCH1),
         "meets_batch500_target_cpu": bool(s500["ms_per_candidate_cpu"] <= TARGET_MS_BATCH500),
     }
-    command = "python -m suspenv.bench.minibus_ride_speed" + (" --quick" if args.quick else "")
+    command = "python -m benchmarks.minibus_ride_speed" + (" --quick" if args.quick else "")
     write_result("minibus_ride_speed", rows, summary, command, args.output_dir)
     return 0
 

@@ -1,6 +1,6 @@
 """Every real component recording in the shared data through the diagnosis, held out.
 
-``python -m suspenv.bench.real_recordings [--data-dir DIR]`` runs the component diagnosis
+``python -m benchmarks.real_recordings [--data-dir DIR]`` runs the component diagnosis
 (defaults, as ``suspenv diagnose`` does) on the real recordings of
 :data:`suspenv.measurements.catalog.REAL_CASES` (EMPS friction guide, MR damper on a
 shaking table, racing damper on a dyno), then evaluates the baseline and the final model
@@ -9,7 +9,7 @@ on **every** further recording of the same rig that was not fitted: all MR-dampe
 EMPS runs. For each it reports the RMS error of the baseline and of the final model
 (parameters as fitted, nothing refitted), so a named element is judged on data it never
 saw. Writes ``docs/benchmarks/real_recordings.json`` and prints a table; the README's
-table is generated from that file (``python -m suspenv.bench.readme``).
+table is generated from that file (``python -m benchmarks.readme``).
 
 Sources and licences: ``../shared/data/README.md`` (EMPS: Janot, Gautier, Brunot; MR
 damper: A. N. Vargas, 2021, Zenodo, MIT; racing damper: a Formula Student team's public
@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from suspenv.bench.common import machine_info
+from benchmarks.common import machine_info
 
 
 def _rms_errors(diag: Any, rec: Any) -> tuple[float, float]:
@@ -107,8 +107,8 @@ def run(root: Path) -> dict[str, Any]:
 
 
 def table_markdown(result: dict[str, Any]) -> str:
-    """The table the README shows (:func:`suspenv.bench.readme.real_recordings_table`)."""
-    from suspenv.bench.readme import real_recordings_table
+    """The table the README shows (:func:`benchmarks.readme.real_recordings_table`)."""
+    from benchmarks.readme import real_recordings_table
 
     return real_recordings_table(result)
 
@@ -125,7 +125,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"real recordings folder {str(root)!r} does not exist; nothing to run")
         return 1
     result = run(root)
-    result["command"] = "python -m suspenv.bench.real_recordings"
+    result["command"] = "python -m benchmarks.real_recordings"
     result["machine"] = machine_info()
     print(table_markdown(result))
     if not args.no_docs:

@@ -16,7 +16,7 @@ case in a fresh Python process, and records:
 
 ``--before PATH`` also measures another implementation of ``write_run_figures`` (a .py
 file, e.g. the previous one: ``git show 364eb8b:suspenv/reports/run.py > /tmp/before.py``)
-on the main case. Run: ``python -m suspenv.bench.run_figures [--before PATH]``; writes
+on the main case. Run: ``python -m benchmarks.run_figures [--before PATH]``; writes
 ``docs/benchmarks/run_figures.json``.
 """
 
@@ -33,7 +33,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from suspenv.bench.common import write_result
+from benchmarks.common import write_result
 
 #: (objectives, evaluations) of the cases; the first is the reported one
 CASES = ((40, 2500), (40, 20000), (5, 2500))
@@ -93,7 +93,7 @@ def _worker(module: str | None, m: int, n: int) -> dict[str, Any]:
 
 def measure(module: str | None, m: int, n: int) -> dict[str, Any]:
     """Measure ``write_run_figures`` of ``module`` (None: suspenv's) in a fresh process."""
-    args = [sys.executable, "-m", "suspenv.bench.run_figures", "--worker", str(m), str(n)]
+    args = [sys.executable, "-m", "benchmarks.run_figures", "--worker", str(m), str(n)]
     if module is not None:
         args += ["--module", module]
     done = subprocess.run(args, capture_output=True, text=True, check=False)
@@ -157,7 +157,7 @@ def main(argv: list[str] | None = None) -> int:
         "run_figures",
         table,
         summary,
-        "python -m suspenv.bench.run_figures --before <previous reports/run.py>",
+        "python -m benchmarks.run_figures --before <previous reports/run.py>",
         args.output_dir,
     )
     return 0

@@ -1,7 +1,7 @@
 """The component diagnosis on recordings from the independent generator, reported only.
 
-``python -m suspenv.bench.independent_diagnosis [--seeds 5000-5009] [--out DIR]``
-generates the cases with :mod:`suspenv.bench.independent` (which shares no code with the
+``python -m benchmarks.independent_diagnosis [--seeds 5000-5009] [--out DIR]``
+generates the cases with :mod:`benchmarks.independent` (which shares no code with the
 diagnosis engine or the component models), diagnoses each one as a user would (the
 model family and the rig from the recording's ``meta["rig"]``, every other setting at
 its default), scores the verdicts against the truth files, prints the table, and writes
@@ -48,7 +48,7 @@ from typing import Any
 
 import numpy as np
 
-from suspenv.bench.common import machine_info
+from benchmarks.common import machine_info
 from suspenv.core.jsonable import to_jsonable
 
 #: generator label -> the engine's signature family that names it
@@ -209,7 +209,7 @@ def run(seeds: str, work: Path, jobs: int = 1, resume: bool = False) -> dict[str
     generated again, identically, from their seeds); otherwise start a new file."""
     from concurrent.futures import ProcessPoolExecutor
 
-    from suspenv.bench.independent.generate import main as generate
+    from benchmarks.independent.generate import main as generate
 
     generate(["--out", str(work), "--seeds", seeds, "--overwrite", "--jobs", str(jobs)])
     manifest = json.loads((work / "manifest.json").read_text())
@@ -292,7 +292,7 @@ def table_markdown(summary: dict[str, Any], seeds: str) -> str:
     families = ("damper", "mr_damper", "friction_guide", "quarter_car_rig")
     order = [f for f in families if f in summary]
     lines = [
-        f"Independent generator (`suspenv.bench.independent`), reported seeds {seeds}; "
+        f"Independent generator (`benchmarks.independent`), reported seeds {seeds}; "
         "every case diagnosed with the defaults, the model and rig from the recording's "
         "metadata.",
         "",
@@ -329,7 +329,7 @@ def main(argv: list[str] | None = None) -> int:
         t0 = time.perf_counter()
         result = run(args.seeds, work, args.jobs, args.resume)
     result["summary"] = summarise(result)
-    result["command"] = "python -m suspenv.bench.independent_diagnosis"
+    result["command"] = "python -m benchmarks.independent_diagnosis"
     result["machine"] = machine_info()
     result["wall_s"] = time.perf_counter() - t0
     table = table_markdown(result["summary"], args.seeds)
@@ -338,7 +338,7 @@ def main(argv: list[str] | None = None) -> int:
         out = Path("docs") / "benchmarks"
         out.mkdir(parents=True, exist_ok=True)
         (out / "independent_diagnosis.json").write_text(json.dumps(result, indent=2) + "\n")
-        from suspenv.bench.diagnosis_benchmark import update_doc
+        from benchmarks.diagnosis_benchmark import update_doc
 
         update_doc(Path("docs") / "diagnosis.md", table, DOC_BEGIN, DOC_END)
     return 0

@@ -18,7 +18,7 @@ nonlinear time-domain model averaged over 6 independent 200 s records (1200 s; s
 error of the truth's mean square per value reported), compared with the spectral value
 and with the mean of the 10 s time-domain values.
 
-Run: ``python -m suspenv.bench.ride_noise [--quick]``; writes
+Run: ``python -m benchmarks.ride_noise [--quick]``; writes
 ``docs/benchmarks/ride_noise.json``.
 """
 
@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 from tqdm import tqdm
 
-from suspenv.bench.common import write_result
+from benchmarks.common import write_result
 from suspenv.metrics.iso2631 import weighted_rms_fft
 from suspenv.models.minibus import BASELINE_DESIGN, STUDY_PICK, design_space
 from suspenv.models.minibus.vehicle import LOAD_CASES
@@ -136,7 +136,7 @@ def main(argv: list[str] | None = None) -> int:
             <= TARGET_CV_PERCENT
         ),
     }
-    command = "python -m suspenv.bench.ride_noise" + (" --quick" if args.quick else "")
+    command = "python -m benchmarks.ride_noise" + (" --quick" if args.quick else "")
     write_result("ride_noise", rows, summary, command, args.output_dir)
     return 0
 

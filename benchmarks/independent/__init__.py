@@ -1,5 +1,5 @@
 """An independent generator of recordings with concealed physics, for reporting a
-diagnosis benchmark (``python -m suspenv.bench.independent.generate``).
+diagnosis benchmark (``python -m benchmarks.independent.generate``).
 
 It shares no code with suspenv's diagnosis engine or its component and rig models: it
 imports only :mod:`suspenv.measurements` (the :class:`~suspenv.measurements.Recording`

@@ -25,7 +25,7 @@ different set). Rows are appended to ``<tmp>/suspenv_bench/ride_diagnosis.rows.j
 finish (nothing is lost if killed; ``--resume`` reuses them); the table and summary
 go to ``docs/benchmarks/ride_diagnosis.json``.
 
-Run: ``python -m suspenv.bench.ride_diagnosis [--dev] [--quick] [--resume]``.
+Run: ``python -m benchmarks.ride_diagnosis [--dev] [--quick] [--resume]``.
 """
 
 from __future__ import annotations
@@ -41,7 +41,7 @@ from typing import Any
 import numpy as np
 from tqdm import tqdm
 
-from suspenv.bench.common import DEFAULT_OUTPUT_DIR, write_result
+from benchmarks.common import DEFAULT_OUTPUT_DIR, write_result
 from suspenv.diagnosis.engine import diagnose
 from suspenv.diagnosis.ride.family import RideFamily
 from suspenv.diagnosis.ride.mismatch import OUT_OF_LIBRARY_KINDS, mismatch_words
@@ -280,7 +280,7 @@ def main(argv: list[str] | None = None) -> int:
         "road_w2.5_mean_fit": float(np.mean([r["w_fit"] for r in road if "steeper" in r["truth"]])),
     }
     cmd = (
-        "python -m suspenv.bench.ride_diagnosis"
+        "python -m benchmarks.ride_diagnosis"
         + (" --dev" if args.dev else "")
         + (" --quick" if args.quick else "")
         + (" --only-out-of-library" if args.only_out_of_library else "")

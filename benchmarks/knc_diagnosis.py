@@ -1,4 +1,4 @@
-"""Blind benchmark of the K&C diagnosis (``python -m suspenv.bench.knc_diagnosis``).
+"""Blind benchmark of the K&C diagnosis (``python -m benchmarks.knc_diagnosis``).
 
 Each case is a truth vehicle with none, one or two concealed effects
 (:func:`suspenv.diagnosis.knc.truth.blind_case`): the case type comes from a fixed
@@ -48,7 +48,7 @@ from typing import Any
 import numpy as np
 from tqdm import tqdm
 
-from suspenv.bench.common import write_result
+from benchmarks.common import write_result
 from suspenv.diagnosis.evidence import scaled_rms
 
 DEV_SEEDS = tuple(range(100, 136))
@@ -296,7 +296,7 @@ def main(argv: list[str] | None = None) -> int:
         with rows_path.open("a") as f:
             f.write(json.dumps(row) + "\n")
     rows.sort(key=lambda r: r["seed"])
-    cmd = "python -m suspenv.bench.knc_diagnosis" + (" --dev" if args.dev else "")
+    cmd = "python -m benchmarks.knc_diagnosis" + (" --dev" if args.dev else "")
     write_result(name, rows, summarise(rows), cmd, output_dir=out)
     return 0
 

@@ -80,7 +80,7 @@ every one of those candidates is within it. For the first of them whose sweep
 refreshed a Jacobian, the small batches ending with it are measured too (its extra
 matrices shared out over the batch).
 
-Run: ``python -m suspenv.bench.knc_speed [--quick]``; writes
+Run: ``python -m benchmarks.knc_speed [--quick]``; writes
 ``docs/benchmarks/knc_speed.json``.
 """
 
@@ -102,7 +102,7 @@ import suspenv.models.mcpherson.rotation as rotation_module
 import suspenv.models.mcpherson.solver as solver_module
 import suspenv.problems.kc_identification as problem_module
 import suspenv.rigs.knc as rig_module
-from suspenv.bench.common import write_result
+from benchmarks.common import write_result
 from suspenv.metrics.knc import _objectives_one_by_one
 from suspenv.models.mcpherson.kinematics import CornerKinematics
 from suspenv.models.mcpherson.solver import AxleSolver
@@ -372,7 +372,7 @@ def main(argv: list[str] | None = None) -> int:
         "tests": 3,
         "load_average_1min": os.getloadavg()[0],
     }
-    cmd = "python -m suspenv.bench.knc_speed" + (" --quick" if args.quick else "")
+    cmd = "python -m benchmarks.knc_speed" + (" --quick" if args.quick else "")
     write_result("knc_speed", rows, summary, cmd, args.output_dir)
     return 0
 

@@ -1,4 +1,4 @@
-"""Command line: ``python -m suspenv.bench.independent.generate --out DIR --seeds 5000-5009``.
+"""Command line: ``python -m benchmarks.independent.generate --out DIR --seeds 5000-5009``.
 
 Options: ``--families damper,mr_damper,friction_guide,quarter_car_rig`` (default all),
 ``--jobs N`` worker processes (default 1), ``--overwrite`` to write into a non-empty
@@ -14,8 +14,8 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
-from suspenv.bench.independent.cases import FAMILIES, CaseSpec, make_case, plan
-from suspenv.bench.independent.export import write_case, write_manifest
+from benchmarks.independent.cases import FAMILIES, CaseSpec, make_case, plan
+from benchmarks.independent.export import write_case, write_manifest
 
 
 def parse_seeds(text: str) -> list[int]:

@@ -1,6 +1,6 @@
 """Wall time of the whole Tey et al. (2014) pipeline (500 LHS + 2250 CMA-ES + analysis).
 
-Run: ``python -m suspenv.bench.tey2014_pipeline [--problem NAME] [--doe N] [--budget N]``.
+Run: ``python -m benchmarks.tey2014_pipeline [--problem NAME] [--doe N] [--budget N]``.
 Baseline measured in the same run: the bare batch evaluations of as many designs as the
 pipeline evaluates (``problem.evaluate`` on 42-design batches, no archive, no analysis),
 so the ratio is the pipeline's own overhead. Target: <= 120 s on 2 cores (the paper:
@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from suspenv.bench.common import write_result
+from benchmarks.common import write_result
 
 TARGET_S = 120.0
 PAPER_OPTIMISATION_S = 5 * 24 * 3600.0  # "about 5 days" for 2250 evaluations
@@ -77,7 +77,7 @@ def main(argv: list[str] | None = None) -> int:
         "k": summary["k"],
         "kept_objectives": len(summary["kept_objectives"]),
     }
-    command = "python -m suspenv.bench.tey2014_pipeline " + " ".join(argv or sys.argv[1:])
+    command = "python -m benchmarks.tey2014_pipeline " + " ".join(argv or sys.argv[1:])
     write_result("tey2014_pipeline", rows, result, command.strip(), args.output_dir)
     return 0
 

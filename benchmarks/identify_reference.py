@@ -1,5 +1,5 @@
 """The targets of ``suspenv identify`` on the reference car's test car
-(``python -m suspenv.bench.identify_reference``).
+(``python -m benchmarks.identify_reference``).
 
 Cases (truth seeds ``--seeds``, default 0-3): the test car with sensor noise only, and
 with the default concealed effects (hysteresis, left/right tolerances, noise). Per case:
@@ -74,7 +74,7 @@ def run_case(label: str, concealed: tuple[str, ...], seed: int) -> dict[str, Any
 
 
 def main(argv: list[str] | None = None) -> int:
-    from suspenv.bench.common import write_result
+    from benchmarks.common import write_result
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", default="0,1,2,3", help="comma-separated truth seeds")
@@ -100,7 +100,7 @@ def main(argv: list[str] | None = None) -> int:
         "identify_reference",
         rows,
         summary,
-        "python -m suspenv.bench.identify_reference",
+        "python -m benchmarks.identify_reference",
         output_dir=args.out,
     )
     return 0
