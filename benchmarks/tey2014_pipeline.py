@@ -43,7 +43,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--output-dir", default=None, help="where the JSON goes (docs/benchmarks)")
     args = ap.parse_args(argv)
 
-    from suspenv.methods.tey2014 import build_problem, run_tey2014_pipeline
+    from suspenv.methods.tey2014.pipeline import build_problem, run_tey2014_pipeline
 
     config = {
         "name": "bench_tey2014",

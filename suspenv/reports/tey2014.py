@@ -16,14 +16,14 @@ import numpy as np
 from scipy.cluster import hierarchy
 
 from suspenv.methods.identification import best_so_far
-from suspenv.methods.tey2014 import PAPER_REFERENCE, study_summary
+from suspenv.methods.tey2014.pipeline import PAPER_REFERENCE, study_summary
 from suspenv.reports._mpl import pyplot
 from suspenv.reports.markdown import markdown_table
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-    from suspenv.methods.tey2014 import RunArrays, Tey2014Study
+    from suspenv.methods.tey2014.pipeline import RunArrays, Tey2014Study
 
 
 def _save(fig: Figure, path: Path) -> Path:

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from suspenv.core.errors import ValidationError
-from suspenv.methods.clustering import ClusteringResult
+from suspenv.methods.tey2014.clustering import ClusteringResult
 
 REPRESENTATIVE_RULES = ("medoid", "most_sensitive")
 CRITERIA = ("rank", "silhouette")

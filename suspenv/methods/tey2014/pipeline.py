@@ -48,13 +48,6 @@ from suspenv.core.errors import ValidationError
 from suspenv.core.laps import Laps
 from suspenv.core.problem import Problem
 from suspenv.core.result import EvaluationBatch
-from suspenv.methods.cluster_count import (
-    CRITERIA,
-    REPRESENTATIVE_RULES,
-    ClusterSelection,
-    select_objectives,
-)
-from suspenv.methods.clustering import LINKAGE_METHODS, ClusteringResult, cluster_objectives
 from suspenv.methods.identification import (
     FixedRankSum,
     IdentificationResult,
@@ -68,9 +61,16 @@ from suspenv.methods.identification import (
     profile_scan,
     recovery_table,
 )
-from suspenv.methods.rank_sum import ScalarisationComparison, compare_rank_sum_euclidean
-from suspenv.methods.sensitivity import SensitivityResult, spearman_matrix
-from suspenv.methods.strategy_comparison import QUALITY_NAME
+from suspenv.methods.tey2014.cluster_count import (
+    CRITERIA,
+    REPRESENTATIVE_RULES,
+    ClusterSelection,
+    select_objectives,
+)
+from suspenv.methods.tey2014.clustering import LINKAGE_METHODS, ClusteringResult, cluster_objectives
+from suspenv.methods.tey2014.rank_sum import ScalarisationComparison, compare_rank_sum_euclidean
+from suspenv.methods.tey2014.sensitivity import SensitivityResult, spearman_matrix
+from suspenv.methods.tey2014.strategy_comparison import QUALITY_NAME
 from suspenv.problems.views import ObjectiveSubset, WithSignedResponses
 from suspenv.registry import report_function
 
@@ -546,7 +546,7 @@ def run_study(config: dict[str, Any], run_dir: Path) -> Tey2014Study:
         lap("all_objectives_run")
 
     if opts["compare_strategies"]:
-        from suspenv.methods.strategy_comparison import compare_strategies
+        from suspenv.methods.tey2014.strategy_comparison import compare_strategies
 
         study.strategy_comparison = compare_strategies(
             sub,
