@@ -168,12 +168,10 @@ class ForceLaw:
         p, lab, var = self.p, self.label, self.variant
         zero = np.zeros(np.broadcast(x, v).shape)
         if lab == "friction":
-            if var == "tanh":
+            if var in ("tanh", "bingham"):
                 return zero + p["Fc"] * np.tanh(v / p["vs"])
             if var == "stribeck":
                 return zero + np.asarray(self._g(v)) * np.tanh(v / p["vs"])
-            if var == "bingham":
-                return zero + p["Fc"] * np.tanh(v / p["vs"])
             return zero + s + p["tau_b"] * np.asarray(self._lugre_rate(v, s))  # LuGre
         if lab == "hysteresis":
             return zero + p["alpha"] * s
