@@ -35,6 +35,7 @@ import math
 import sys
 import textwrap
 from collections.abc import Mapping, Sequence
+from functools import cache
 from pathlib import Path
 from typing import Any
 
@@ -42,6 +43,8 @@ from typing import Any
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
 BENCH_DIR = ROOT / "docs" / "benchmarks"
+#: the blocks' wording (format templates, one [section] per text)
+TEMPLATES = Path(__file__).resolve().parent / "templates" / "readme.txt"
 
 #: the JSON files the blocks read, by file stem
 SOURCES: dict[str, tuple[str, ...]] = {
@@ -89,6 +92,28 @@ GUIDE_WORDS = {"damper_asymmetry": "direction-dependent viscous friction"}
 def _require(condition: bool, message: str) -> None:
     if not condition:
         raise FigureError(message)
+
+
+@cache
+def _templates() -> dict[str, str]:
+    """The [sections] of templates/readme.txt: each one line of text, its lines joined
+    with spaces, or (``[name/lines]``) its lines as they are."""
+    sections: dict[str, list[str]] = {}
+    lines: list[str] = []
+    for line in TEMPLATES.read_text(encoding="utf-8").splitlines():
+        if line.startswith("[") and line.endswith("]"):
+            lines = sections.setdefault(line[1:-1], [])
+        elif line.strip() and not line.startswith("#"):
+            lines.append(line.strip())
+    return {
+        name.removesuffix("/lines"): ("\n" if name.endswith("/lines") else " ").join(lines)
+        for name, lines in sections.items()
+    }
+
+
+def fill(section: str, **values: Any) -> str:
+    """The template ``section`` with its format fields filled from ``values``."""
+    return _templates()[section].format_map(values)
 
 
 # ------------------------------------------------------------------ number formats
@@ -145,14 +170,7 @@ def met(flag: bool) -> str:
 
 def overhead_cells(s: Json) -> tuple[str, str]:
     """(result, target) of the framework-overhead row from ``overhead.json``'s summary."""
-    result = (
-        f"{s['framework_overhead_ms_per_eval']:.3f} ms over bare pycma; with the archive "
-        f"{s['ratio_vs_bare_pycma']:.2f}x bare pycma, {s['ratio_vs_bare_pymoo']:.2f}x bare "
-        f"pymoo, {s['ratio_vs_bare_optuna']:.2f}x optuna's own loop (medians of "
-        f"{s['repeat']})"
-    )
-    target = f"<= {s['target_overhead_ms_per_eval']:g} ms, <= {s['target_ratio']:g}x each"
-    return result, f"{target} ({met(s['meets_targets'])})"
+    return fill("overhead.result", s=s), fill("overhead.target", s=s, met=met(s["meets_targets"]))
 
 
 def knc_speed_cells(s: Json) -> tuple[str, str]:
@@ -218,7 +236,7 @@ def knc_speed_cells(s: Json) -> tuple[str, str]:
 
 def tey_pipeline_cells(s: Json) -> tuple[str, str]:
     """(result, target) of the Tey et al. pipeline row from ``tey2014_pipeline.json``."""
-    return f"{float(s['pipeline_wall_s']):.0f} s wall", f"<= {s['target_s']:g} s"
+    return fill("tey.result", wall=float(s["pipeline_wall_s"])), fill("tey.target", s=s)
 
 
 def identify_cells(s: Json) -> tuple[str, str]:
@@ -226,46 +244,32 @@ def identify_cells(s: Json) -> tuple[str, str]:
     ``identify_reference.json`` (issue targets: every curve within 1.5 x its noise,
     identified parameters within 2 % of their range, <= 2 min on 2 cores)."""
     curves = "every curve" if s["noise_only_every_curve_within_1.5"] else "NOT every curve"
-    result = (
-        f"noise only: {curves} within 1.5 x its noise, identified parameters within "
-        f"{float(s['noise_only_identified_max_err_%']):.2f} % of their range; slowest case "
-        f"{float(s['max_wall_s']):.0f} s wall, {float(s['max_cpu_s']):.0f} s CPU"
-    )
-    return result, "<= 1.5 x noise, <= 2 %, <= 120 s"
+    keys = ("noise_only_identified_max_err_%", "max_wall_s", "max_cpu_s")
+    err, wall, cpu = (float(s[k]) for k in keys)
+    result = fill("identify.result", curves=curves, err=err, wall=wall, cpu=cpu)
+    return result, fill("identify.target")
 
 
 def minibus_speed_cells(s: Json) -> tuple[str, str]:
     """(result, target) of the minibus evaluation row from ``minibus_speed.json``."""
-    result = (
-        f"{s['ms_per_candidate_batched']:.1f} ms CPU per candidate batched, "
-        f"{s['ms_per_call_single']:.1f} ms one at a time (before: "
-        f"{s['baseline_ms_per_candidate_batched']:.1f} / "
-        f"{s['baseline_ms_per_call_single']:.0f} ms)"
-    )
-    target = f"<= {s['target_batched_ms']:g} ms batched, <= {s['target_single_ms']:g} ms single"
-    return result, target
+    return fill("minibus_speed.result", s=s), fill("minibus_speed.target", s=s)
 
 
 def ride_noise_cells(s: Json) -> tuple[str, str]:
     """(result, target) of the ride objectives' noise row from ``ride_noise.json``."""
     _require(s["default_method"] == "spectral", "the default ride method is no longer spectral")
-    result = (
-        f"largest scatter of any ride objective {s['spectral_max_cv_percent']:.0e} % with the "
-        f"exact spectral integral (the default); {s['time_max_cv_percent']:.1f} % with a 10 s "
-        "time-domain record"
-    )
-    return result, f"<= {s['target_cv_percent']:g} % ({met(s['default_meets_target'])})"
+    met_ = met(s["default_meets_target"])
+    return fill("ride_noise.result", s=s), fill("ride_noise.target", s=s, met=met_)
 
 
 def minibus_study_cells(s: Json) -> tuple[str, str]:
     """(result, target) of the minibus study's row from ``minibus_study.json``."""
-    result = (
-        f"{seconds(s['command_wall_s'])} s for the whole command ("
-        f"{seconds(s['loop_wall_s'])} s loop, {seconds(s['rest_wall_s'])} s start-up and "
-        f"report); 1 worker {seconds(s['one_worker_command_wall_s'])} s; pymoo's bare loop, "
-        f"one process, {seconds(s['bare_loop_wall_s'])} s"
-    )
-    return result, f"<= {s['target_s']:g} s ({met(s['meets_target'])})"
+    times = {k: seconds(s[f"{k}_wall_s"]) for k in ("command", "loop", "rest", "bare_loop")}
+    result = fill(
+        "minibus_study.result", command=times["command"], loop=times["loop"],
+        rest=times["rest"], one=seconds(s["one_worker_command_wall_s"]), bare=times["bare_loop"],
+    )  # fmt: skip
+    return result, fill("minibus_study.target", s=s, met=met(s["meets_target"]))
 
 
 def short(x: float) -> str:
@@ -281,7 +285,6 @@ def minibus_study_paragraph(d: Json) -> str:
     """docs/minibus_handling.md's "The study's run, measured" from ``minibus_study.json``."""
     s = d["summary"]
     st = s["study"]
-    rows = {r["way"]: r for r in d["rows"]}
     base, pick = st["baseline_objectives"], st["ride_focused_pick_objectives"]
     _require(
         all(p <= b + 1e-12 for p, b in zip(pick[2:5], base[2:5], strict=True)),
@@ -289,43 +292,25 @@ def minibus_study_paragraph(d: Json) -> str:
     )
     _require(s["same_numbers_1_and_2_workers"], "1 and 2 workers archived different numbers")
     _require(s["bare_loop_same_designs"], "the bare loop no longer evaluates the run's designs")
-    one, bare = s["one_worker_loop_wall_s"], s["bare_loop_wall_s"]
-    variables = ", ".join(f"{k} {short(v)}" for k, v in st["ride_focused_pick_x"].items())
-    met = "inside" if s["meets_target"] else "outside"
-    repeats = rows["command, 2 workers"]["repeats"]
-    of_runs = "one run" if repeats == 1 else f"the median of {repeats} runs"
-    text = (
-        f"**The study's run, measured** (`python -m benchmarks.minibus_study`, "
-        f"[docs/benchmarks/minibus_study.json](benchmarks/minibus_study.json)): `suspenv run "
-        f"{s['config']}` (pymoo's NSGA-II, `run.workers = {s['workers']}`, on the 2-core "
-        f"machine, {s['cores_free_2proc']:.1f} cores free) runs {st['evaluations']:,} "
-        f"evaluations in **{seconds(s['loop_wall_s'])} s of loop wall time**, "
-        f"{seconds(s['command_wall_s'])} s for the whole command ({seconds(s['rest_wall_s'])} s "
-        f"of start-up, CSV export and report; {of_runs}, the slowest "
-        f"{seconds(s['command_wall_s_slowest'])} s), {met} the "
-        f"{s['target_s']:g} s goal. With `run.workers = 1` the loop takes {seconds(one)} s; "
-        f"pymoo's bare ask/tell loop over the same batched evaluations in one process (no "
-        f"archive, run folder or report) {seconds(bare)} s. So the framework's loop takes "
-        f"{one / bare:.2f}x the bare loop's time in one process, and the pool of 2 takes "
-        f"{percent(1.0 - s['two_workers_loop_wall_vs_one'])} off it; both "
-        f"runs archive the same numbers. {st['ok']:,} of {st['evaluations']:,} evaluations "
-        f"succeeded, {st['feasible']:,} were feasible, {st['pareto_front']:,} on the Pareto "
-        f"front. The ride-focused pick (rule above) lowered f1 from {base[0]:.3f} to "
-        f"{pick[0]:.3f} m/s² and f2 from {base[1]:.3f} to {pick[1]:.3f} m/s² against the "
-        f"baseline with f3, f4 and f5 no worse (f3 {pick[2]:.2f} against {base[2]:.2f} m/s², "
-        f"f4 {pick[3]:.1f} against {base[3]:.1f} deg, f5 {pick[4]:.2f} against "
-        f"{base[4]:.2f} deg; {variables})."
-    )
+    repeats = {r["way"]: r for r in d["rows"]}["command, 2 workers"]["repeats"]
+    text = fill(
+        "minibus_study.paragraph", s=s, st=st, base=base, pick=pick,
+        loop=seconds(s["loop_wall_s"]), command=seconds(s["command_wall_s"]),
+        rest=seconds(s["rest_wall_s"]), slowest=seconds(s["command_wall_s_slowest"]),
+        of_runs="one run" if repeats == 1 else f"the median of {repeats} runs",
+        inside="inside" if s["meets_target"] else "outside",
+        one=seconds(s["one_worker_loop_wall_s"]), bare=seconds(s["bare_loop_wall_s"]),
+        one_over_bare=s["one_worker_loop_wall_s"] / s["bare_loop_wall_s"],
+        pool_gain=percent(1.0 - s["two_workers_loop_wall_vs_one"]),
+        variables=", ".join(f"{k} {short(v)}" for k, v in st["ride_focused_pick_x"].items()),
+    )  # fmt: skip
     return paragraph(text)
 
 
 def planar_speed_cells(s: Json) -> tuple[str, str]:
     """(result, target) of the planar linkage row from ``planar_speed.json``."""
-    result = (
-        f"{s['analytic_ms_per_candidate_batch1000']:.2f} ms per candidate; "
-        f"pymunk {s['pymunk_ms_per_candidate'] / 1000:.2f} s"
-    )
-    return result, f"<= {s['target_ms_per_candidate']:g} ms"
+    pymunk_s = s["pymunk_ms_per_candidate"] / 1000
+    return fill("planar.result", s=s, pymunk_s=pymunk_s), fill("planar.target", s=s)
 
 
 def render_performance(data: Mapping[str, Json]) -> str:
@@ -568,36 +553,14 @@ def real_paragraph(bench: Json, ride: Json) -> str:
     hi = max(groups, key=lambda g: g["rebound_over_bump_raw"])
     lo = min(groups, key=lambda g: g["rebound_over_bump_raw"])
     w1, w2 = (float(r["w_fit"]) for r in roads)
-    return "\n".join(
-        [
-            f"Real recordings: EMPS friction named (Coulomb {fc['value']:.1f} N, viscous "
-            f"{visc['value']:.0f} N s/m, offset {off['value']:.1f} N;",
-            f"published {fc['published']:g}, {visc['published']:g}, {off['published']:g}; the "
-            "offset is part of the guide's baseline"
-            + (
-                f"; then {', '.join(GUIDE_WORDS.get(k, k.replace('_', ' ')) for k in beyond)}"
-                if beyond
-                else ""
-            )
-            + "); MR damper",
-            f"hysteresis named (held-out error {percent(-mr['heldout_reduction'])}); "
-            "racing damper on a dyno: digressive curve",
-            f"named (held-out {percent(-dyno['heldout_reduction'])}); its bump/rebound "
-            "difference, compared at matched speeds (rebound",
-            f"{percent(hi['rebound_over_bump_raw'], 1, sign=True)} at "
-            f"{hi['speed_m_s']:.3f} m/s, {percent(lo['rebound_over_bump_raw'], 1, sign=True)} "
-            f"at {lo['speed_m_s']:.3f} m/s), is shown not to be a constant gas force or",
-            f"offset (p ~ {order_of(matched['p_constant'])}), but the speeds were run in "
-            "increasing order and the force drifts",
-            "inside each speed by 0.2-1.3 N/s, so the tool reports that it cannot separate the",
-            "asymmetry from a drifting zero with this recording and names the test that would;",
-            'both measured road profiles named "waviness steeper than ISO 8608\'s 2" '
-            f"(w = {w1:.2f} and",
-            f"{w2:.2f}). Tables and method: [docs/diagnosis.md](docs/diagnosis.md),",
-            "[docs/diagnosis_knc.md](docs/diagnosis_knc.md), "
-            "[docs/diagnosis_ride.md](docs/diagnosis_ride.md).",
-        ]
-    )
+    then = ", ".join(GUIDE_WORDS.get(k, k.replace("_", " ")) for k in beyond)
+    return fill(
+        "real.paragraph", fc=fc, visc=visc, off=off, then=f"; then {then}" if beyond else "",
+        mr_gain=percent(-mr["heldout_reduction"]), dyno_gain=percent(-dyno["heldout_reduction"]),
+        hi=hi, lo=lo, hi_gain=percent(hi["rebound_over_bump_raw"], 1, sign=True),
+        lo_gain=percent(lo["rebound_over_bump_raw"], 1, sign=True),
+        p_order=order_of(matched["p_constant"]), w1=w1, w2=w2,
+    )  # fmt: skip
 
 
 def render_diagnosis(data: Mapping[str, Json]) -> str:
@@ -900,16 +863,12 @@ def tey_pipeline_paragraph(d: Json) -> str:
         if not r["step"].startswith(("total", "baseline"))
     }
     slowest = max(steps, key=lambda k: steps[k])
-    where = "in-process" if s["workers"] == 1 else f"{s['workers']} workers"
-    text = (
-        f"The run recorded in the JSON ({where}): {seconds(s['pipeline_wall_s'])} s for "
-        f"{s['evaluations']:,} evaluations, against {seconds(s['bare_evaluation_s'])} s for "
-        f"the bare batch evaluation of as many designs "
-        f"({s['pipeline_over_bare_evaluation']:.1f}x; the rest: the analysis, the "
-        f"identifiability profiles and the report; the slowest step: "
-        f"{slowest.replace('_', ' ')}, {seconds(steps[slowest])} s); "
-        f"{'within' if s['within_target'] else 'outside'} the target of {s['target_s']:g} s."
-    )
+    text = fill(
+        "tey.paragraph", s=s, wall=seconds(s["pipeline_wall_s"]),
+        where="in-process" if s["workers"] == 1 else f"{s['workers']} workers",
+        bare=seconds(s["bare_evaluation_s"]), slowest=slowest.replace("_", " "),
+        slowest_s=seconds(steps[slowest]), within="within" if s["within_target"] else "outside",
+    )  # fmt: skip
     return paragraph(text)
 
 

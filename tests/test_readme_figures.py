@@ -16,6 +16,7 @@ ALLOWED_IMPORTS = {
     "argparse",
     "collections.abc",
     "difflib",
+    "functools",
     "json",
     "math",
     "pathlib",
