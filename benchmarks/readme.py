@@ -183,20 +183,13 @@ def knc_speed_cells(s: Json) -> tuple[str, str]:
     one = (
         f"{mb['1']:.2f} MB one at a time"
         if alone is None
-        else f"{alone['median_mb']:.3f} MB one at a time (median of {alone['candidates']} "
-        f"candidates, {alone['within_target']} within {limit:g} MB, at most "
-        f"{alone['max_mb']:.2f} MB)"
+        else fill("knc_speed.one", alone=alone, limit=limit)
     )
-    result = (
-        f"{s['ms_per_candidate_batched']:.1f} ms CPU per candidate at batch 42 (about "
-        f"{significant(s['speedup_vs_paper_20s'])}x the paper's 20 s), "
-        f"{s['ms_per_candidate_single']:.1f} ms one at a time, "
-        f"{s['ms_per_candidate_batch_1000']:.1f} ms at batch 1000; peak "
-        f"{mb['42']:.3f} MB per candidate at batch 42, {one}, "
-        f"{s['worst_peak_mb_per_candidate']:.3f} MB at most over the batch sizes (batch "
-        f"{s['worst_memory_batch']}, of {len(mb)} batch sizes from {min(map(int, mb))} to "
-        f"{max(map(int, mb))})"
-    )
+    result = fill(
+        "knc_speed.result", s=s, mb42=mb["42"], one=one,
+        paper=significant(s["speedup_vs_paper_20s"]), n_batches=len(mb),
+        lo=min(map(int, mb)), hi=max(map(int, mb)),
+    )  # fmt: skip
 
     per_batch = s["meets_memory_target_at_batch"]
     memory = (
@@ -226,11 +219,10 @@ def knc_speed_cells(s: Json) -> tuple[str, str]:
         if over:
             one_of = "one" if which else "a candidate that refreshes a Jacobian"
             memory += f", nor for batches of {', '.join(over)} holding {one_of}"
-    target = (
-        f"<= 2 ms at batch 42 ({met(s['meets_stretch'])}), <= 10 ms one at a time "
-        f"({met(s['meets_single_target_10ms'])}), <= {limit:g} MB per candidate ({memory}), "
-        f"no rise to batch 1000 ({met(s['meets_no_rise_to_batch_1000'])})"
-    )
+    target = fill(
+        "knc_speed.target", stretch=met(s["meets_stretch"]), limit=limit, memory=memory,
+        single=met(s["meets_single_target_10ms"]), rise=met(s["meets_no_rise_to_batch_1000"]),
+    )  # fmt: skip
     return result, target
 
 
@@ -616,28 +608,16 @@ def knc_speed_tables(d: Json) -> str:
     ]
     alone = s["memory_one_at_a_time"]
     fresh = alone["with_fresh_jacobian"]
-    text = (
-        f"One at a time, candidate by candidate ({alone['candidates']} random designs): "
-        f"median {alone['median_mb']:.3f} MB, at most {alone['max_mb']:.3f} MB; "
-        f"{alone['within_target']} of {alone['candidates']} within "
-        f"{s['target_mb_per_candidate']:g} MB. "
-    )
+    text = fill("knc_speed.alone", alone=alone, s=s) + " "
     if fresh:
-        text += (
-            f"{fresh} of them had a row's Jacobian refreshed during the sweep (peak "
-            f"{alone['min_mb_with_fresh_jacobian']:.2f} MB or more); the others peak at "
-            f"{alone['max_mb_without_fresh_jacobian']:.3f} MB at most."
-        )
+        text += fill("knc_speed.fresh", fresh=fresh, alone=alone)
         batches = alone.get("batches_ending_with_a_fresh_jacobian")
         if batches:
             per = ", ".join(
                 f"{significant(v, 2)} MB at batch {b}"
                 for b, v in batches["peak_mb_per_candidate"].items()
             )
-            text += (
-                f" Batches ending with the first of them (candidate {batches['candidate']}), "
-                f"per candidate: {per}."
-            )
+            text += " " + fill("knc_speed.fresh_batches", batches=batches, per=per)
     else:
         text += "None of them had a Jacobian refreshed during the sweep."
     lines += ["", paragraph(text)]
@@ -725,12 +705,7 @@ def overhead_workers_block(d: Json) -> str:
             f"{words.split(':')[0]}: chunks of 5 designs {five['cpu_vs_workers_1']:.1f}x, of 1 "
             f"design {single['cpu_vs_workers_1']:.1f}x"
         )
-    text = (
-        f"While this benchmark ran, two spinning processes got {free:.2f} cores together "
-        f"(`cores_free_2proc`, at least; 2.0 on an idle 2-core machine). The measured wall "
-        f"includes the pool's start, spread over the run's few batches. The CPU of smaller "
-        f"chunks against in-process, with 2 workers: " + "; ".join(chunking) + "."
-    )
+    text = fill("overhead.workers", free=free, chunking="; ".join(chunking))
     lines += ["", paragraph(text)]
     return "\n".join(lines)
 
