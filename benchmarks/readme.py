@@ -379,53 +379,36 @@ def component_row(d: Json) -> str:
         set(d["per_family"]) == COMPONENT_FAMILIES,
         f"diagnosis_benchmark families {sorted(d['per_family'])} differ from the README's list",
     )
-    return (
-        "| components: damper, MR damper, friction guide, quarter car on a rig "
-        f"({s['n_cases']} cases) | {percent(s['single_top1_family'])} (target >= 90 %) | "
-        f"{percent(s['control_false_alarm'])} (target <= 10 %) | "
-        f"{percent(-s['median_heldout_reduction'])} median (target <= -50 %) | "
-        f"{percent(s['median_param_rel_err'])} median error (target <= 20 %) | "
-        f"{seconds(s['median_seconds'])} s median, {seconds(s['max_seconds'])} s max wall "
-        f"({seconds(s['max_cpu_seconds'])} s CPU) |"
-    )
+    return fill(
+        "diagnosis.component", s=s, top1=percent(s["single_top1_family"]),
+        false_alarm=percent(s["control_false_alarm"]),
+        heldout=percent(-s["median_heldout_reduction"]), param=percent(s["median_param_rel_err"]),
+        median=seconds(s["median_seconds"]), max=seconds(s["max_seconds"]),
+        cpu=seconds(s["max_cpu_seconds"]),
+    )  # fmt: skip
 
 
 def component_outside_row(d: Json) -> str:
     """The components' out-of-library row from ``diagnosis_benchmark.json``."""
-    s = d["summary"]
     n = sum(1 for c in d["cases"] if c.get("outside"))
     k = sum(1 for c in d["cases"] if c.get("outside") and c.get("unexplained"))
-    return (
-        f"| components, physics outside the library ({n} cases: cubic damping, a velocity "
-        "dead zone, motor cogging, a clipping accelerometer, a non-linear transducer) | "
-        f"reported as unexplained residual: {count(k, n)} "
-        f"({percent(s['outside_unexplained'])}, target >= 90 %) | | | | |"
-    )
+    rate = percent(d["summary"]["outside_unexplained"])
+    return fill("diagnosis.component_outside", n=n, k_of_n=count(k, n), rate=rate)
 
 
 def independent_row(d: Json) -> str:
     """The independent generator's row from ``independent_diagnosis.json``."""
     a = d["summary"]["all"]
-
-    def frac(pair: Sequence[int]) -> str:
-        return count(pair[0], pair[1])
-
     k, n = a.get("parameters_within_20_percent", (0, 0))
-    params = (
-        f" {100 * a['parameter_error_median']:.2g} % median error (target <= 20 %); "
-        f"{frac((k, n))} within 20 % (where the generator's law has an exact counterpart) "
-        if n
-        else " "
-    )
-    return (
-        f"| components, independent generator (`benchmarks.independent`: own integrator, "
-        f"literature parameterisations; seeds {d['seeds']} run for reporting only; "
-        f"{len(d['cases'])} cases) | {frac(a['single_named_first'])} (target >= 90 %); outside "
-        f"the library reported as unexplained: {frac(a['outside_unexplained'])} (target >= "
-        f"90 %) | {frac(a['control_false_alarms'])} (target <= 10 %) | |{params}| "
-        f"{seconds(a['wall_s_median'])} s median, {seconds(a['wall_s_max'])} s max wall "
-        f"({seconds(a['cpu_s_max'])} s CPU) |"
-    )
+    median = 100 * a.get("parameter_error_median", 0.0)
+    params = fill("diagnosis.independent_params", median=median, k_of_n=count(k, n))
+    return fill(
+        "diagnosis.independent", seeds=d["seeds"], n=len(d["cases"]),
+        named=count(*a["single_named_first"]), outside=count(*a["outside_unexplained"]),
+        alarms=count(*a["control_false_alarms"]), params=f" {params} " if n else " ",
+        median=seconds(a["wall_s_median"]), max=seconds(a["wall_s_max"]),
+        cpu=seconds(a["cpu_s_max"]),
+    )  # fmt: skip
 
 
 def real_recordings_table(d: Json) -> str:
@@ -453,21 +436,17 @@ def knc_row(d: Json) -> str:
     s = d["summary"]
     one, detectable = s["one_effect_cases"], s["one_effect_detectable_cases"]
     controls = s["no_effect_cases"]
-    return (
-        "| K&C rig loops of the McPherson axle, travel and compliance tests "
-        f"({s['cases']} cases) | {count(s['top1_accuracy_one_effect'] * one, one)} "
-        f"({count(s['top1_accuracy_one_effect_detectable'] * detectable, detectable)} "
-        "where the effect is above the noise; these seeds were run again after a held-out "
-        "rule change found on them, see [docs/diagnosis_knc.md](docs/diagnosis_knc.md)) | "
-        f"{count(s['false_alarm_rate_no_effect'] * controls, controls)} | "
-        "model error vs noise-free truth "
-        f"{percent(s['median_model_error_ratio_effect_cases'] - 1)} median (held-out RMS "
-        f"{percent(s['median_heldout_ratio_effect_cases'] - 1)}: sensor noise dominates it) | "
-        f"{percent(s['median_param_rel_err'], 1)} | "
-        f"{seconds(s['median_seconds_per_diagnosis'])} s median, "
-        f"{seconds(s['max_seconds_per_diagnosis'])} s max wall "
-        f"({seconds(s['max_cpu_seconds_per_diagnosis'])} s CPU) |"
-    )
+    return fill(
+        "diagnosis.knc", s=s, top1=count(s["top1_accuracy_one_effect"] * one, one),
+        detectable=count(s["top1_accuracy_one_effect_detectable"] * detectable, detectable),
+        alarms=count(s["false_alarm_rate_no_effect"] * controls, controls),
+        model=percent(s["median_model_error_ratio_effect_cases"] - 1),
+        heldout=percent(s["median_heldout_ratio_effect_cases"] - 1),
+        param=percent(s["median_param_rel_err"], 1),
+        median=seconds(s["median_seconds_per_diagnosis"]),
+        max=seconds(s["max_seconds_per_diagnosis"]),
+        cpu=seconds(s["max_cpu_seconds_per_diagnosis"]),
+    )  # fmt: skip
 
 
 def _part(d: Json, part: str) -> list[Json]:
@@ -491,21 +470,24 @@ def ride_rows(d: Json) -> list[str]:
         w = [float(r["wall_seconds"]) for r in rows]
         return f"{span(min(w), max(w))} s"
 
+    named = count(sum(bool(r["correct_top1"]) for r in effect), len(effect))
     return [
-        f"| minibus ride recordings ({len(ride)} cases) | "
-        f"{count(sum(bool(r['correct_top1']) for r in effect), len(effect))} | "
-        f"{count_text(s['ride_false_alarms'])} | "
-        f"final/plain {s['ride_heldout_rms_after_over_before_median']:.2f} | "
-        f"{percent(worst, 1)} worst | {walls(ride)} |",
-        f"| minibus ride, physics outside the candidate list ({len(outside)} cases) | "
-        "wrong candidate named with confidence: "
-        f"{count_text(s['ride_out_of_library_wrong_name_confident'])} | | "
-        f"residual left flagged: {count_text(s['ride_out_of_library_residual_flagged'])} | | "
-        f"{walls(outside)} |",
-        f"| road profiles: waviness w = 2.5 vs ISO 8608's 2 ({len(road)} cases) | "
-        f"{count_text(s['road_detection_w2.5'])} found | {count_text(s['road_false_alarms_w2'])}"
-        f" | | mean fitted w {s['road_w2.5_mean_fit']:.2f} | |",
-    ]
+        fill(
+            "diagnosis.ride", n=len(ride), named=named,
+            alarms=count_text(s["ride_false_alarms"]),
+            ratio=s["ride_heldout_rms_after_over_before_median"], worst=percent(worst, 1),
+            walls=walls(ride),
+        ),
+        fill(
+            "diagnosis.ride_outside", n=len(outside),
+            wrong=count_text(s["ride_out_of_library_wrong_name_confident"]),
+            flagged=count_text(s["ride_out_of_library_residual_flagged"]), walls=walls(outside),
+        ),
+        fill(
+            "diagnosis.road", n=len(road), found=count_text(s["road_detection_w2.5"]),
+            alarms=count_text(s["road_false_alarms_w2"]), w=s["road_w2.5_mean_fit"],
+        ),
+    ]  # fmt: skip
 
 
 def _real(d: Json, case: str) -> Json:
