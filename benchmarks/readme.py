@@ -306,66 +306,18 @@ def planar_speed_cells(s: Json) -> tuple[str, str]:
 
 
 def render_performance(data: Mapping[str, Json]) -> str:
-    """The "Performance" table."""
-
-    def row(what: str, command: str, cells: tuple[str, str]) -> str:
-        return f"| {what} | {command} | {cells[0]} | {cells[1]} |"
-
-    def bench(name: str) -> str:
-        return f"`python -m benchmarks.{name}`"
-
-    return "\n".join(
-        [
-            "| what | command | result | target |",
-            "|---|---|---|---|",
-            row(
-                "framework overhead per evaluation (ask + tell + SQLite archive) vs the "
-                "bare pycma (d = 49, population 42), pymoo and optuna loops",
-                bench("overhead"),
-                overhead_cells(data["overhead"]["summary"]),
-            ),
-            row(
-                "K&C evaluation: 3 tests, full axle, compliant, both sweep directions, "
-                "40 objectives",
-                bench("knc_speed"),
-                knc_speed_cells(data["knc_speed"]["summary"]),
-            ),
-            row(
-                "K&C identification (the main job's method): whole curves, test car with "
-                "noise only and with the default concealed effects, seeds 0-3",
-                bench("identify_reference"),
-                identify_cells(data["identify_reference"]["summary"]),
-            ),
-            row(
-                "Tey et al. pipeline: 500 LHS + 2226 CMA-ES + analysis and report",
-                bench("tey2014_pipeline"),
-                tey_pipeline_cells(data["tey2014_pipeline"]["summary"]),
-            ),
-            row(
-                "minibus full evaluation (both loads: spectral ride, steady circle, "
-                "linear-range slalom), batch 500 and one at a time",
-                bench("minibus_speed"),
-                minibus_speed_cells(data["minibus_speed"]["summary"]),
-            ),
-            row(
-                "minibus ride objectives: seed-to-seed scatter over 20 road seeds (ISO 8608 "
-                "class B, 80 km/h), the study's pick, the baseline and 3 random designs",
-                bench("ride_noise"),
-                ride_noise_cells(data["ride_noise"]["summary"]),
-            ),
-            row(
-                "the minibus study: NSGA-II, 30,000 evaluations, 2 workers "
-                "(`suspenv run configs/minibus_nsga2.toml`)",
-                bench("minibus_study"),
-                minibus_study_cells(data["minibus_study"]["summary"]),
-            ),
-            row(
-                "planar linkage: analytic 61-point sweep vs the pymunk simulation",
-                bench("planar_speed"),
-                planar_speed_cells(data["planar_speed"]["summary"]),
-            ),
-        ]
-    )
+    """The "Performance" table: a row per benchmark, its cells from its summary."""
+    cells = {
+        "overhead": overhead_cells,
+        "knc_speed": knc_speed_cells,
+        "identify_reference": identify_cells,
+        "tey2014_pipeline": tey_pipeline_cells,
+        "minibus_speed": minibus_speed_cells,
+        "ride_noise": ride_noise_cells,
+        "minibus_study": minibus_study_cells,
+        "planar_speed": planar_speed_cells,
+    }
+    return fill("performance.table", **{k: f(data[k]["summary"]) for k, f in cells.items()})
 
 
 # ------------------------------------------------------------------ diagnosis
