@@ -692,42 +692,18 @@ def knc_diagnosis_tables(d: Json) -> str:
         return f"{sum(bool(r[key]) for r in rs)} / {len(rs)}"
 
     lines = [
-        "| score | value | target |",
-        "|---|---|---|",
-        f"| top-1 naming, one-effect cases, all | {k_of(one, 'top1_ok')} "
-        f"({s['top1_accuracy_one_effect']:.2f}) | >= 0.90 |",
-        f"| top-1 naming, one-effect cases with `snr >= 5` (detectable) | {k_of(det, 'top1_ok')} "
-        f"({s['top1_accuracy_one_effect_detectable']:.2f}) | >= 0.90 |",
-        f"| top-1 naming, one-effect cases with `snr < 5` (scored apart) | "
-        f"{k_of(undet, 'top1_ok')} | |",
-        f"| all effects found, two-effect cases | {k_of(two, 'all_found')}; with both effects "
-        f"`snr >= 5`: {k_of(two_det, 'all_found')} | |",
-        f"| false alarms, no-effect cases | {sum(r['false_alarms'] > 0 for r in none)} / "
-        f"{len(none)} | <= 0.10 |",
-        f"| extra (untrue) kinds named per effect case | "
-        f"{s['extra_kinds_named_per_effect_case']:.2f} ({extra} in {len(effect)}) | |",
-        f"| hysteresis location exactly right | {k_of(located, 'where_ok')} "
-        f"({s['hysteresis_location_correct']:.2f}) | |",
-        f"| hysteresis location right or stated as not separable from the named one | "
-        f"{k_of(located, 'where_ok_or_ambiguous')} | |",
-        f"| held-out RMS vs the *measured* held-out data, final / baseline (median, effect "
-        f"cases) | {s['median_heldout_ratio_effect_cases']:.2f} | |",
-        f"| held-out *model error* (vs the noise-free truth), final / baseline (median, "
-        f"effect cases) | {s['median_model_error_ratio_effect_cases']:.2f} (reduction "
-        f"{percent(1 - s['median_model_error_ratio_effect_cases'])}) | <= 0.50 |",
-        f"| the same, detectable effect cases | "
-        f"{s['median_model_error_ratio_detectable_effect_cases']:.2f} | |",
-        f"| held-out RMS in excess of the noise floor, final / baseline (median, effect "
-        f"cases) | {s['median_excess_ratio_effect_cases']:.2f} | |",
-        f"| recovered effect, median relative error (correctly named) | "
-        f"{percent(s['median_param_rel_err'], 1)} | <= 20 % |",
-        f"| wall time per diagnosis, median / max | {s['median_seconds_per_diagnosis']:.0f} s / "
-        f"{s['max_seconds_per_diagnosis']:.0f} s | < 300 s |",
-        f"| process CPU time per diagnosis, median / max | "
-        f"{s['median_cpu_seconds_per_diagnosis']:.0f} s / "
-        f"{s['max_cpu_seconds_per_diagnosis']:.0f} s | |",
+        fill(
+            "knc_diagnosis.scores", s=s, one_top1=k_of(one, "top1_ok"),
+            det_top1=k_of(det, "top1_ok"), undet_top1=k_of(undet, "top1_ok"),
+            two_all=k_of(two, "all_found"), two_det_all=k_of(two_det, "all_found"),
+            alarms=f"{sum(r['false_alarms'] > 0 for r in none)} / {len(none)}",
+            extra=extra, n_effect=len(effect), where_ok=k_of(located, "where_ok"),
+            where_amb=k_of(located, "where_ok_or_ambiguous"),
+            reduction=percent(1 - s["median_model_error_ratio_effect_cases"]),
+            param=percent(s["median_param_rel_err"], 1),
+        ),
         "",
-    ]
+    ]  # fmt: skip
     by_type = s["top1_by_case_type"]
     same = set(by_type.values())
     types = ", ".join(t.replace("@", " @ ") for t in by_type)
