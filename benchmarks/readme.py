@@ -776,46 +776,29 @@ def identify_reference_block(d: Json) -> str:
     )
     won = ", ".join(f"{r['case']} seed {r['seed']}" for r in global_wins) or "none"
     lines = [
-        paragraph(
-            f'"answer": which polish had the lower cost. The global stage\'s valley won on '
-            f"{len(global_wins)} of the {len(rows)} cases ({won}); on the others the polish "
-            f"from the start did."
-        ),
+        paragraph(fill("identify.answer", n_won=len(global_wins), n=len(rows), won=won)),
         "",
-        "| case | seed | curves within 1.5 x noise | worst curve / noise | answer | identified "
-        "| determined combinations | worst error of the identified [% range] | all 49: mean "
-        "error [% range] | next test | re-run: identified | diagnosis names | wall / CPU [s] |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+        fill("identify.header"),
     ]
     for r in rows:
-        answer = "CMA-ES best" if r["answer"].endswith("CMA-ES best") else "start design"
         worst = r["identified_max_err_%"]
-        worst_text = "-" if not math.isfinite(worst) else f"{worst:.2f}"
-        names = (
-            "nothing"
-            if r["named"] == "none"
-            else ", ".join(SCREEN_WORDS.get(n, n) for n in r["named"].split(","))
-        )
+        names = ", ".join(SCREEN_WORDS.get(n, n) for n in r["named"].split(","))
         lines.append(
-            f"| {r['case']} | {r['seed']} | {count_text(r['curves_within_1.5'])} | "
-            f"{r['worst_rms_over_noise']:.2f} | {answer} | {r['identified']} | "
-            f"{r['determined_combinations']} | {worst_text} | {r['all_mean_err_%']:.1f} | "
-            f"{r['next_test']} | {r['rerun_identified']} | {names} | "
-            f"{r['wall_s']:.0f} / {r['cpu_s']:.0f} |"
+            fill(
+                "identify.row", r=r, curves=count_text(r["curves_within_1.5"]),
+                answer="CMA-ES best" if r["answer"].endswith("CMA-ES best") else "start design",
+                worst=f"{worst:.2f}" if math.isfinite(worst) else "-",
+                names="nothing" if r["named"] == "none" else names,
+            )  # fmt: skip
         )
     quiet = [r for r in rows if r["case"] == "noise only"]
-    errs = [r["identified_max_err_%"] for r in quiet]
     means = [r["all_mean_err_%"] for r in quiet]
-    counts = sorted({r["identified"] for r in quiet})
-    lines += [
-        "",
-        paragraph(
-            f"With noise only, {' or '.join(map(str, counts))} parameters are identified on "
-            f"each seed, the worst of them within {max(errs):.2f} % of its range; all 49 "
-            f"have a mean error of {span(min(means), max(means))} % of the range."
-        ),
-    ]
-    return "\n".join(lines)
+    counts = " or ".join(map(str, sorted({r["identified"] for r in quiet})))
+    text = fill(
+        "identify.noise_only", counts=counts,
+        worst=max(r["identified_max_err_%"] for r in quiet), mean=span(min(means), max(means)),
+    )  # fmt: skip
+    return "\n".join([*lines, "", paragraph(text)])
 
 
 #: the blocks of the other documents (:data:`DOCUMENT_BLOCKS`), by block name
