@@ -13,8 +13,9 @@ Three blocks are generated, each between marker comments:
 - ``minibus-study`` (docs/minibus_handling.md): "The study's run, measured"
   (``minibus_study.json``).
 
-Only the numbers come from the JSON; the wording, columns and targets are this module's
-templates. Figures no JSON holds stay static text here: the K&C stretch target, 2 ms
+Only the numbers come from the JSON; the wording, columns and targets are the templates
+of ``benchmarks/templates/readme.txt`` (Python format fields, filled by :func:`fill`).
+Figures no JSON holds stay static text there: the K&C stretch target, 2 ms
 (``STRETCH_MS`` in knc_speed.py); the component targets (docs/diagnosis.md); the
 concealed road waviness, w = 2.5; the dyno's drift inside each speed, 0.2-1.3 N/s
 (docs/diagnosis.md). Where the wording states a verdict (a target met, an effect named)
@@ -81,7 +82,7 @@ Json = Mapping[str, Any]
 
 
 class FigureError(ValueError):
-    """The JSON no longer supports the README's fixed wording (edit the template here)."""
+    """The JSON no longer supports the README's fixed wording (edit templates/readme.txt)."""
 
 
 #: the guide's words for the elements the engine may name after EMPS's friction

@@ -31,7 +31,7 @@ def test_readme_blocks_are_the_rendering_of_the_committed_json() -> None:
     stale = readme.stale_blocks(text, readme.render(readme.load()))
     assert not stale, (
         "README.md's benchmark figures differ from docs/benchmarks/*.json; run "
-        "`python -m benchmarks.readme` (edit benchmarks/readme.py for wording):\n"
+        "`python -m benchmarks.readme` (edit benchmarks/templates/readme.txt for wording):\n"
         + "\n".join(stale.values())
     )
 
