@@ -5,7 +5,7 @@ Three blocks are generated, each between marker comments:
 - ``performance`` (README.md): the table of the "Performance" section (``overhead.json``,
   ``knc_speed.json``, ``identify_reference.json``, ``tey2014_pipeline.json``,
   ``minibus_speed.json``, ``ride_noise.json``, ``minibus_study.json``,
-  ``planar_speed.json``);
+  ``planar_speed.json``, ``first_run.json``);
 - ``diagnosis`` (README.md): the blind-benchmark table, the "Real recordings" paragraph
   and the real-recordings table under "A diagnosis, on real recordings"
   (``diagnosis_benchmark.json``, ``independent_diagnosis.json``, ``real_recordings.json``,
@@ -58,6 +58,7 @@ SOURCES: dict[str, tuple[str, ...]] = {
         "ride_noise",
         "minibus_study",
         "planar_speed",
+        "first_run",
     ),
     "diagnosis": (
         "diagnosis_benchmark",
@@ -306,6 +307,15 @@ def planar_speed_cells(s: Json) -> tuple[str, str]:
     return fill("planar.result", s=s, pymunk_s=pymunk_s), fill("planar.target", s=s)
 
 
+def first_run_cells(s: Json) -> tuple[str, str]:
+    """(result, target) of the fresh install's first run from ``first_run.json``."""
+    _require(s["all_ok"], "a first run's evaluation failed")
+    met_first, met_import = met(s["meets_first_target"]), met(s["meets_import_target"])
+    return fill("first_run.result", s=s), fill(
+        "first_run.target", s=s, first=met_first, imported=met_import
+    )
+
+
 def render_performance(data: Mapping[str, Json]) -> str:
     """The "Performance" table: a row per benchmark, its cells from its summary."""
     cells = {
@@ -317,6 +327,7 @@ def render_performance(data: Mapping[str, Json]) -> str:
         "ride_noise": ride_noise_cells,
         "minibus_study": minibus_study_cells,
         "planar_speed": planar_speed_cells,
+        "first_run": first_run_cells,
     }
     return fill("performance.table", **{k: f(data[k]["summary"]) for k, f in cells.items()})
 
