@@ -17,4 +17,5 @@ assert spec is not None and spec.loader is not None
 compiled = sys.modules[spec.name] = importlib.util.module_from_spec(spec)
 spec.loader.exec_module(compiled)
 
-setup(ext_modules=[compiled.extension(ROOT)])
+kernels = compiled.extension(ROOT)
+setup(ext_modules=[kernels] if kernels is not None else [])

@@ -116,14 +116,19 @@ class Lazy:
 
 def extension(root: Path) -> Any:
     """The setuptools extension ``suspenv.core._kernels`` with the loops of :data:`AHEAD`,
-    compiled by numba's ``pycc`` from the sources under ``root`` (called by ``setup.py``
-    in the build environment, which has numba and numpy but not suspenv's other
-    dependencies: the kernel modules are loaded without their packages' ``__init__``)."""
+    compiled by numba's ``pycc`` from the sources under ``root`` (None where numba has no
+    ``pycc``). Called by ``setup.py`` in the build environment, which has numba and numpy
+    but not suspenv's other dependencies: the kernel modules are loaded without their
+    packages' ``__init__``."""
     import types
     import warnings
 
     import numba
-    from numba.pycc import CC
+
+    try:
+        from numba.pycc import CC
+    except ImportError:  # a numba without pycc: the loops compile at their first call
+        return None
 
     for package in ("suspenv", "suspenv.core", "suspenv.models", "suspenv.models.mcpherson",
                     "suspenv.models.effects"):  # fmt: skip
