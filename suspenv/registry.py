@@ -50,9 +50,9 @@ _STRATEGIES: dict[str, str | Callable[..., Any]] = {
 
 _PIPELINES: dict[str, str | Callable[..., Any]] = {
     "optimize": "suspenv.runs.optimize_pipeline:run_optimize_pipeline",
-    "tey2014": "suspenv.methods.tey2014:run_tey2014_pipeline",
+    "tey2014": "suspenv.methods.tey2014.pipeline:run_tey2014_pipeline",
     "identify": "suspenv.methods.identify:run_identify_pipeline",
-    "diagnosis_benchmark": "suspenv.bench.diagnosis_benchmark:run_benchmark_pipeline",
+    "diagnosis_benchmark": "benchmarks.diagnosis_benchmark:run_benchmark_pipeline",
 }
 
 #: checks of a pipeline's config, run before any work: ``check(config) -> config`` raises
@@ -60,9 +60,9 @@ _PIPELINES: dict[str, str | Callable[..., Any]] = {
 #: default the pipeline will use filled in
 _PIPELINE_CHECKS: dict[str, str | Callable[..., Any]] = {
     "optimize": "suspenv.runs.optimize_pipeline:check_optimize_config",
-    "tey2014": "suspenv.methods.tey2014:check_tey2014_config",
+    "tey2014": "suspenv.methods.tey2014.pipeline:check_tey2014_config",
     "identify": "suspenv.methods.identify:check_identify_config",
-    "diagnosis_benchmark": "suspenv.bench.diagnosis_benchmark:check_benchmark_config",
+    "diagnosis_benchmark": "benchmarks.diagnosis_benchmark:check_benchmark_config",
 }
 
 #: report writers and drawings; keyed by problem name for a problem's own run report

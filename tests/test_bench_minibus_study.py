@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from suspenv.bench import minibus_study
+from benchmarks import minibus_study
 
 SMALL_STUDY = """
 description = "minibus study benchmark, small"

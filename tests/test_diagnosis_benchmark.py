@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from suspenv.bench.diagnosis_benchmark import _seeds, summarise
+from benchmarks.diagnosis_benchmark import _seeds, summarise
 from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.component.truth import make_case
 from suspenv.diagnosis.hypothesis import family_of
@@ -114,7 +114,7 @@ def test_quarter_car_case_offsets_are_in_the_channel_unit() -> None:
 
 
 def test_separate_families_stay_out_of_the_totals() -> None:
-    from suspenv.bench.diagnosis_benchmark import table_markdown
+    from benchmarks.diagnosis_benchmark import table_markdown
 
     row = {
         "param_rel_errs": [],
@@ -144,7 +144,7 @@ def test_separate_families_stay_out_of_the_totals() -> None:
 
 
 def test_inseparable_pairs_are_scored_apart_from_the_strict_rate() -> None:
-    from suspenv.bench.diagnosis_benchmark import case_record
+    from benchmarks.diagnosis_benchmark import case_record
 
     base = {"param_rel_errs": [], "seconds": 1.0, "heldout_reduction": 0.5, "family": "f"}
     single = base | {"n_true": 1, "top1_kind_ok": False, "all_found": False}

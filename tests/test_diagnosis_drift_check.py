@@ -120,8 +120,8 @@ def test_the_reported_drifting_controls_name_nothing(family, seed):
     # the two false alarms of the independent set 5214-5225 (its generator shares no code
     # with the engine; reference: a control conceals nothing): a zero wandering by 2-5 %
     # of the force's range, before this check named a bump/rebound asymmetry
-    from suspenv.bench.independent.cases import make_case, plan
-    from suspenv.bench.independent.export import to_recording
+    from benchmarks.independent.cases import make_case, plan
+    from benchmarks.independent.export import to_recording
     from suspenv.diagnosis.engine import diagnose
 
     (spec,) = [s for s in plan(family, seed) if s.kind == "control"]

@@ -299,7 +299,7 @@ def test_location_ambiguity_is_stated_only_for_equal_fits():
 def test_blind_plan_covers_every_kind_and_location():
     from collections import Counter
 
-    from suspenv.bench.knc_diagnosis import DEV_SEEDS, REPORT_SEEDS
+    from benchmarks.knc_diagnosis import DEV_SEEDS, REPORT_SEEDS
     from suspenv.diagnosis.knc.truth import (
         BLIND_PLAN,
         HYSTERESIS_LOCATIONS,
@@ -379,7 +379,7 @@ def test_top_mount_hysteresis_below_the_noise_is_not_claimed():
 
 
 def test_benchmark_scores_undetectable_cases_apart():
-    from suspenv.bench.knc_diagnosis import summarise
+    from benchmarks.knc_diagnosis import summarise
 
     def row(ctype, n, ok, detectable, seconds=10.0):
         return {

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from suspenv.bench.diagnosis_benchmark import real_row
+from benchmarks.diagnosis_benchmark import real_row
 from suspenv.diagnosis.engine import diagnose
 from suspenv.diagnosis.hypothesis import family_of
 from suspenv.measurements.catalog import REAL_CASES

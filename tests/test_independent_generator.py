@@ -1,4 +1,4 @@
-"""The independent concealed-effect generator (suspenv.bench.independent): files and
+"""The independent concealed-effect generator (benchmarks.independent): files and
 metadata per its contract, loading, determinism, the integrator against closed forms,
 the energy sign of dampers and the declared units. Development seeds only (90000+)."""
 
@@ -12,19 +12,19 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from suspenv.bench.independent import generate
-from suspenv.bench.independent.cases import (
+from benchmarks.independent import generate
+from benchmarks.independent.cases import (
     FAMILIES,
     PLAUSIBLE,
     CaseSpec,
     make_case,
     plan,
 )
-from suspenv.bench.independent.devices import QuarterCar, simulate_quarter_car
-from suspenv.bench.independent.effects import IN_LIBRARY, OUTSIDE, ForceLaw
-from suspenv.bench.independent.export import to_recording, write_case
-from suspenv.bench.independent.integrate import delayed, first_order_lag, integrate
-from suspenv.bench.independent.signals import SumOfSines
+from benchmarks.independent.devices import QuarterCar, simulate_quarter_car
+from benchmarks.independent.effects import IN_LIBRARY, OUTSIDE, ForceLaw
+from benchmarks.independent.export import to_recording, write_case
+from benchmarks.independent.integrate import delayed, first_order_lag, integrate
+from benchmarks.independent.signals import SumOfSines
 from suspenv.measurements import load_recording
 
 PACKAGE = Path(__file__).resolve().parents[1] / "suspenv" / "bench" / "independent"
@@ -80,7 +80,7 @@ def generated(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 def test_files_and_metadata_follow_the_contract(generated: Path) -> None:
     manifest = json.loads((generated / "manifest.json").read_text())
-    assert manifest["generator"] == "suspenv.bench.independent"
+    assert manifest["generator"] == "benchmarks.independent"
     assert manifest["version"] and manifest["seeds"] == [SEED]
     assert manifest["families"] == ["damper", "mr_damper", "friction_guide"]
     assert len(manifest["cases"]) == 12
@@ -115,7 +115,7 @@ def test_files_and_metadata_follow_the_contract(generated: Path) -> None:
         assert set(rec.outputs) == outs
         assert rec.n_samples <= 40_000
         rig = rec.meta["rig"]
-        assert rec.meta["source"] == ("independent synthetic generator (suspenv.bench.independent)")
+        assert rec.meta["source"] == ("independent synthetic generator (benchmarks.independent)")
         assert rec.meta["sampling"]["dt_s"] == pytest.approx(rec.sample_interval)
         assert rig["device"] == fam
         assert rig["positive_stroke"] in ("compression", "extension")

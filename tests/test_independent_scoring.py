@@ -1,4 +1,4 @@
-"""Scoring of the independent benchmark (suspenv.bench.independent_diagnosis).
+"""Scoring of the independent benchmark (benchmarks.independent_diagnosis).
 
 Reference: the scoring rules of the module docstring, on hand-made truths and verdicts.
 """
@@ -10,7 +10,7 @@ from types import SimpleNamespace
 
 import pytest
 
-from suspenv.bench.independent_diagnosis import parameter_errors, score_case, summarise
+from benchmarks.independent_diagnosis import parameter_errors, score_case, summarise
 
 
 def _diag(families, unexplained=False):
@@ -92,7 +92,7 @@ def test_summary_counts_per_family_and_total():
 
 
 def test_a_stopped_run_resumes_from_its_rows(tmp_path):
-    from suspenv.bench.independent_diagnosis import _finished
+    from benchmarks.independent_diagnosis import _finished
 
     rows = [{"case_id": "a", "right": True}, {"case_id": "x", "right": False}]
     text = "\n".join(json.dumps(r) for r in rows) + '\n{"case_id": "b", "rig'  # killed mid-write

@@ -8,13 +8,13 @@ from scipy.cluster import hierarchy
 from scipy.spatial.distance import pdist, squareform
 
 from suspenv.core.errors import ValidationError
-from suspenv.methods.cluster_count import (
+from suspenv.methods.tey2014.cluster_count import (
     rank_method,
     representatives,
     select_objectives,
     silhouette_samples,
 )
-from suspenv.methods.clustering import LINKAGE_METHODS, cluster_objectives, cut_tree
+from suspenv.methods.tey2014.clustering import LINKAGE_METHODS, cluster_objectives, cut_tree
 
 
 def _planted_groups(sizes=(6, 4, 5), spread=0.03, seed=0):

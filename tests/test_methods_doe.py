@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from suspenv.core.errors import ValidationError
-from suspenv.methods.doe import evaluate_in_batches, latin_hypercube, run_doe
+from suspenv.methods.tey2014.doe import evaluate_in_batches, latin_hypercube, run_doe
 from suspenv.problems.synthetic import SyntheticIdentification
 from suspenv.problems.toy import Sphere
 

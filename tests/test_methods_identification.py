@@ -6,7 +6,6 @@ import numpy as np
 import pytest
 
 from suspenv.core import DesignSpace, Parameter
-from suspenv.methods.doe import run_doe
 from suspenv.methods.identification import (
     FixedRankSum,
     best_so_far,
@@ -19,6 +18,7 @@ from suspenv.methods.identification import (
     recovery_table,
     rerank_archive,
 )
+from suspenv.methods.tey2014.doe import run_doe
 from suspenv.problems.synthetic import SyntheticIdentification
 
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from suspenv.core.errors import ValidationError
-from suspenv.methods.tey2014 import run_study, study_options
+from suspenv.methods.tey2014.pipeline import run_study, study_options
 from suspenv.problems.synthetic import TRUTH, SyntheticIdentification
 from suspenv.registry import pipeline_function
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from suspenv.core.errors import ValidationError
-from suspenv.methods.rank_sum import compare_rank_sum_euclidean, normalised_mismatch
+from suspenv.methods.tey2014.rank_sum import compare_rank_sum_euclidean, normalised_mismatch
 
 
 def test_euclidean_is_dominated_by_the_objective_in_large_units():

@@ -7,7 +7,7 @@ import pytest
 from scipy import stats
 
 from suspenv.core.errors import ValidationError
-from suspenv.methods.sensitivity import spearman_matrix
+from suspenv.methods.tey2014.sensitivity import spearman_matrix
 
 
 def _planted(n=300, seed=0):

@@ -7,7 +7,7 @@ import json
 import numpy as np
 
 from suspenv.methods.identification import FixedRankSum
-from suspenv.methods.strategy_comparison import compare_strategies
+from suspenv.methods.tey2014.strategy_comparison import compare_strategies
 from suspenv.problems.synthetic import SyntheticIdentification
 from suspenv.problems.views import ObjectiveSubset
 from suspenv.runs.archive import RunArchive

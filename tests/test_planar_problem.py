@@ -196,7 +196,7 @@ def test_env_render_returns_the_linkage_picture():
 def test_speed_benchmark_runs(tmp_path):
     import json
 
-    from suspenv.bench import planar_speed
+    from benchmarks import planar_speed
 
     assert planar_speed.main(["--quick", "--output-dir", str(tmp_path)]) == 0
     summary = json.loads((tmp_path / "planar_speed.json").read_text())["summary"]

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from suspenv.bench import readme
+from benchmarks import readme
 
 #: what the renderer may import: the standard library's light modules, nothing of suspenv
 ALLOWED_IMPORTS = {
@@ -16,6 +16,7 @@ ALLOWED_IMPORTS = {
     "argparse",
     "collections.abc",
     "difflib",
+    "functools",
     "json",
     "math",
     "pathlib",
@@ -30,7 +31,7 @@ def test_readme_blocks_are_the_rendering_of_the_committed_json() -> None:
     stale = readme.stale_blocks(text, readme.render(readme.load()))
     assert not stale, (
         "README.md's benchmark figures differ from docs/benchmarks/*.json; run "
-        "`python -m suspenv.bench.readme` (edit suspenv/bench/readme.py for wording):\n"
+        "`python -m benchmarks.readme` (edit benchmarks/templates/readme.txt for wording):\n"
         + "\n".join(stale.values())
     )
 
@@ -39,7 +40,7 @@ def test_document_blocks_are_the_rendering_of_the_committed_json() -> None:
     for doc, blocks in readme.render_documents(readme.load()).items():
         text = (readme.ROOT / doc).read_text()
         stale = readme.stale_blocks(text, blocks, doc)
-        assert not stale, f"{doc} is stale; run `python -m suspenv.bench.readme`"
+        assert not stale, f"{doc} is stale; run `python -m benchmarks.readme`"
 
 
 def _study_json() -> dict:

@@ -135,7 +135,7 @@ def _identify(args: argparse.Namespace) -> int:
 
 def _tey2014(args: argparse.Namespace, out: Path, concealed: list[str]) -> int:
     """The paper's pipeline on the same targets (``KCIdentification`` with the data)."""
-    from suspenv.methods.tey2014 import check_tey2014_config, run_tey2014_pipeline
+    from suspenv.methods.tey2014.pipeline import check_tey2014_config, run_tey2014_pipeline
 
     options: dict = {}
     if args.measurements == "test-car":

@@ -1,20 +1,81 @@
-"""Compiled loops (numba), compiled at their first call and cached per machine.
+"""Compiled loops (numba): built ahead of time at install, else compiled at their first call.
 
 A module with a compiled loop keeps it as plain Python functions (the same code runs
-without numba) and exposes it as a :class:`Lazy` loop, compiled at its first call with
-:func:`compile_in`, so importing suspenv does not pay numba's import and compile time.
-``cache=True``: the machine code is written next to the module (or to numba's user cache)
-and loaded by later processes (about 0.3 s instead of several seconds).
+without numba) and exposes it as a :class:`Lazy` loop. The loops a K&C evaluation runs
+(:data:`AHEAD`) are compiled when the package is built (``setup.py`` calls
+:func:`extension`: numba's ``pycc`` makes the extension module ``suspenv.core._kernels``), so
+a fresh install's first evaluation compiles nothing. Each compiled loop is exported
+under a name carrying the hash of its source files (:func:`export_name`): a loop whose
+source changed since the build (an editable install being edited) is not found there
+and is compiled at its first call instead with numba's JIT (``cache=True``: the machine
+code is written next to the module, or to numba's user cache folder when the package
+folder is read-only, and loaded by later processes). Without numba, ``main`` itself
+runs. ``SUSPENV_COMPILED=jit`` ignores the built loops (the benchmark's baseline).
 """
 
 from __future__ import annotations
 
+import hashlib
+import importlib
 import importlib.util
+import os
+import sys
 from collections.abc import Callable, Sequence
+from pathlib import Path
 from typing import Any
 
 #: numba is installed: compiled loops can run
 AVAILABLE = importlib.util.find_spec("numba") is not None
+
+#: the loops built ahead of time: module -> {Lazy attribute: numba signature}
+AHEAD: dict[str, dict[str, str]] = {}
+
+
+def _arr(dtype: str, ndim: int) -> str:
+    """numba's type of a C-contiguous array."""
+    return f"{dtype}[{', '.join([':'] * (ndim - 1) + ['::1'])}]"
+
+
+def _signatures() -> None:
+    f, i = (lambda n: _arr("float64", n)), (lambda n: _arr("int64", n))
+    rows = [f(4), f(5), f(3), f(2), f(3), f(2), f(3), i(1), "float64", "float64"]
+    jac = rows + ["float64", f(6), i(2), i(1), i(2), i(1), f(3)]
+    AHEAD["suspenv.models.mcpherson.residual_kernel"] = {
+        "residual": f"void({', '.join([*rows, f(3)])})",
+        "jacobian": f"void({', '.join(jac)})",
+    }
+    AHEAD["suspenv.models.mcpherson.rotation_kernel"] = {
+        "_turned_loop": f"void({f(2)}, {f(3)}, {f(3)})",
+        "_relative_log_loop": f"void({f(3)}, {f(3)}, {f(2)})",
+    }
+    AHEAD["suspenv.models.effects.kernels"] = {
+        "recurrence": f"void({f(2)}, {f(2)}, {f(1)}, {f(2)})",
+    }
+
+
+_signatures()
+
+
+def export_name(space: dict[str, Any], helpers: Sequence[str], main: Callable) -> str:
+    """The name of ``main``'s built loop: module, function and the hash of the source
+    files of ``main`` and its ``helpers`` (any edit of them gives another name)."""
+    digest = hashlib.sha256()
+    for f in (main, *(space[h] for h in helpers)):
+        f = getattr(f, "py_func", f)
+        digest.update(Path(sys.modules[f.__module__].__file__ or "").read_bytes())
+    return f"{main.__module__.rsplit('.', 1)[-1]}_{main.__name__}_{digest.hexdigest()[:12]}"
+
+
+def _built(space: dict[str, Any], helpers: Sequence[str], main: Callable) -> Callable | None:
+    """``main``'s loop from ``suspenv.core._kernels`` (None: not built, or built from other
+    source)."""
+    if os.environ.get("SUSPENV_COMPILED") == "jit":
+        return None
+    try:
+        kernels = importlib.import_module("suspenv.core._kernels")
+    except ImportError:
+        return None
+    return getattr(kernels, export_name(space, helpers, main), None)
 
 
 def compile_in(space: dict[str, Any], helpers: Sequence[str], main: Callable) -> Callable:
@@ -34,8 +95,9 @@ def compile_in(space: dict[str, Any], helpers: Sequence[str], main: Callable) ->
 
 
 class Lazy:
-    """The loop ``main`` of the module namespace ``space``, compiled (with its
-    ``helpers``) at the first call; without numba, ``main`` itself runs."""
+    """The loop ``main`` of the module namespace ``space``: the built one where there is
+    one, else compiled (with its ``helpers``) at the first call; without numba,
+    ``main`` itself runs."""
 
     def __init__(self, space: dict[str, Any], helpers: Sequence[str], main: Callable) -> None:
         self._space, self._helpers, self._main = space, tuple(helpers), main
@@ -44,7 +106,45 @@ class Lazy:
 
     def __call__(self, *args: Any) -> Any:
         if self._loop is None:
+            self._loop = _built(self._space, self._helpers, self._main)
+        if self._loop is None:
             self._loop = (
                 compile_in(self._space, self._helpers, self._main) if AVAILABLE else self._main
             )
         return self._loop(*args)
+
+
+def extension(root: Path) -> Any:
+    """The setuptools extension ``suspenv.core._kernels`` with the loops of :data:`AHEAD`,
+    compiled by numba's ``pycc`` from the sources under ``root`` (None where numba has no
+    ``pycc``). Called by ``setup.py`` in the build environment, which has numba and numpy
+    but not suspenv's other dependencies: the kernel modules are loaded without their
+    packages' ``__init__``."""
+    import types
+    import warnings
+
+    import numba
+
+    try:
+        from numba.pycc import CC
+    except ImportError:  # a numba without pycc: the loops compile at their first call
+        return None
+
+    for package in ("suspenv", "suspenv.core", "suspenv.models", "suspenv.models.mcpherson",
+                    "suspenv.models.effects"):  # fmt: skip
+        stub = types.ModuleType(package)
+        stub.__path__ = [str(root.joinpath(*package.split(".")))]
+        sys.modules.setdefault(package, stub)
+    warnings.simplefilter("ignore", numba.NumbaPendingDeprecationWarning)
+    cc = CC("_kernels")
+    jit = numba.njit(error_model="numpy")
+    for module_name, loops in AHEAD.items():
+        module = importlib.import_module(module_name)
+        for attribute, signature in loops.items():
+            lazy = getattr(module, attribute)
+            name = export_name(lazy._space, lazy._helpers, lazy._main)
+            for h in lazy._helpers:
+                f = lazy._space[h]
+                lazy._space[h] = f if hasattr(f, "py_func") else jit(f)
+            cc.export(name, signature)(lazy._main)
+    return cc.distutils_extension(optional=True)

@@ -242,7 +242,7 @@ def profile_scan(
 
     ``scale`` holds one spread per entry of ``objectives``.
     """
-    from suspenv.methods.doe import evaluate_in_batches
+    from suspenv.methods.tey2014.doe import evaluate_in_batches
 
     space = problem.space
     x_center = space.check_batch(x_center)[0]

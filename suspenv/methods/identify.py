@@ -18,7 +18,7 @@ The job (:func:`run_identify`):
    ``identify.json`` into the output folder (:mod:`suspenv.reports.identify`).
 
 ``method = "tey2014"`` runs the paper's pipeline on the measured targets instead
-(:mod:`suspenv.methods.tey2014`).
+(:mod:`suspenv.methods.tey2014.pipeline`).
 
 The built-in test car (:func:`measure_test_car`): the reference vehicle plus concealed
 effects (:func:`suspenv.models.mcpherson.truth.truth_vehicle`), measured through the
@@ -1014,7 +1014,7 @@ def check_identify_config(config: dict[str, Any]) -> dict[str, Any]:
     opts = _identify_table(config)
     _problem(config)
     if opts["method"] == "tey2014":
-        from suspenv.methods.tey2014 import check_tey2014_config
+        from suspenv.methods.tey2014.pipeline import check_tey2014_config
 
         rest = {k: v for k, v in config.items() if k != "identify"}
         return {**check_tey2014_config(rest), "identify": opts}
@@ -1031,7 +1031,7 @@ def run_identify_pipeline(config: dict[str, Any], run_dir: Path) -> dict[str, An
     run_dir.mkdir(parents=True, exist_ok=True)
     opts = _identify_table(config)
     if opts["method"] == "tey2014":
-        from suspenv.methods.tey2014 import run_tey2014_pipeline
+        from suspenv.methods.tey2014.pipeline import run_tey2014_pipeline
 
         return run_tey2014_pipeline({k: v for k, v in config.items() if k != "identify"}, run_dir)
     t0 = time.perf_counter()

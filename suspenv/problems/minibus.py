@@ -26,7 +26,7 @@ stiffness at the manoeuvre's lateral acceleration
 the tyres' load sensitivity and the compliances enter with the signs they have there
 (:func:`suspenv.metrics.handling.slalom_linear`); one frequency-response solve and one
 closed-form step response per design, no time loop. Every objective of this set varies
-over the design box by more than 3 % (``python -m suspenv.bench.minibus_objectives``);
+over the design box by more than 3 % (``python -m benchmarks.minibus_objectives``);
 the steady-circle limit (a measure, ``ay_max``) varies by under 1 % and is not one of
 them (docs/minibus_handling.md).
 

@@ -16,14 +16,14 @@ import numpy as np
 from scipy.cluster import hierarchy
 
 from suspenv.methods.identification import best_so_far
-from suspenv.methods.tey2014 import PAPER_REFERENCE, study_summary
+from suspenv.methods.tey2014.pipeline import PAPER_REFERENCE, study_summary
 from suspenv.reports._mpl import pyplot
 from suspenv.reports.markdown import markdown_table
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-    from suspenv.methods.tey2014 import RunArrays, Tey2014Study
+    from suspenv.methods.tey2014.pipeline import RunArrays, Tey2014Study
 
 
 def _save(fig: Figure, path: Path) -> Path:
@@ -304,23 +304,35 @@ def flat_direction_lines(study: Tey2014Study, max_lines: int = 8, terms: int = 4
     return lines
 
 
+def _figures(study: Tey2014Study, fig_dir: Path) -> dict[str, Path | None]:
+    """The report's figures by key (None: a figure its study has no data for)."""
+    return {
+        "sensitivity": plot_sensitivity(study, fig_dir / "sensitivity_heatmap.png"),
+        "dendrogram": plot_dendrogram(study, fig_dir / "dendrogram.png"),
+        "silhouette": plot_silhouette(study, fig_dir / "silhouette.png"),
+        "convergence": plot_convergence(study, fig_dir / "convergence.png"),
+        "rank": plot_rank_vs_euclidean(study, fig_dir / "rank_sum_vs_euclidean.png"),
+        "profiles": plot_profiles(study, fig_dir / "profiles.png"),
+        "recovery": plot_recovery(study, fig_dir / "recovery.png"),
+    }
+
+
+def _cophenetic_rows(cophenetic: dict[str, float], is_paper: bool) -> list[dict[str, Any]]:
+    """One row per linkage, with the paper's value beside it on the paper's problem."""
+    rows: list[dict[str, Any]] = []
+    for k, v in cophenetic.items():
+        row: dict[str, Any] = {"linkage": k, "cophenetic correlation": v}
+        if is_paper:
+            row["paper"] = PAPER_REFERENCE["cophenetic"][k]
+        rows.append(row)
+    return rows
+
+
 def write_tey2014_report(study: Tey2014Study, run_dir: Path, figures: bool = True) -> Path:
     """Write ``report.md`` (and its figures unless ``figures`` is False) into ``run_dir``."""
     run_dir = Path(run_dir)
     fig_dir = run_dir / "figures"
-    figs: dict[str, Path | None] = (
-        {}
-        if not figures
-        else {
-            "sensitivity": plot_sensitivity(study, fig_dir / "sensitivity_heatmap.png"),
-            "dendrogram": plot_dendrogram(study, fig_dir / "dendrogram.png"),
-            "silhouette": plot_silhouette(study, fig_dir / "silhouette.png"),
-            "convergence": plot_convergence(study, fig_dir / "convergence.png"),
-            "rank": plot_rank_vs_euclidean(study, fig_dir / "rank_sum_vs_euclidean.png"),
-            "profiles": plot_profiles(study, fig_dir / "profiles.png"),
-            "recovery": plot_recovery(study, fig_dir / "recovery.png"),
-        }
-    )
+    figs = _figures(study, fig_dir) if figures else {}
     curve_figs = plot_curves(study, fig_dir) if figures else []
     s = study_summary(study)
     p, sel, c = study.problem, study.selection, study.clustering
@@ -358,13 +370,7 @@ def write_tey2014_report(study: Tey2014Study, run_dir: Path, figures: bool = Tru
     md.append("## 2. Clustering of objectives\n")
     paper = PAPER_REFERENCE
     is_paper = p.name == paper["problem"]
-    coph_rows = []
-    for k, v in c.cophenetic.items():
-        row: dict[str, Any] = {"linkage": k, "cophenetic correlation": v}
-        if is_paper:
-            row["paper"] = paper["cophenetic"][k]
-        coph_rows.append(row)
-    md.append(markdown_table(coph_rows))
+    md.append(markdown_table(_cophenetic_rows(c.cophenetic, is_paper)))
     md.append(f"\nChosen linkage: **{c.method}**.\n\n")
     md.append(img("dendrogram", "dendrogram"))
     md.append(img("silhouette", "silhouette against number of clusters"))

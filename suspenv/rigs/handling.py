@@ -279,7 +279,7 @@ def steady_circle_bisection(
     """Maximum quasi-steady lateral acceleration (n,) [m/s^2] by the previous search:
     plain bisection with the grid-search axle capacity (:func:`axle_capacity`) at every
     step. Kept as the reference of :func:`steady_circle` (tests) and the baseline of
-    ``python -m suspenv.bench.minibus_speed``."""
+    ``python -m benchmarks.minibus_speed``."""
     cfg = config or SteadyCircleConfig()
     lo = np.zeros(P.n)
     hi = np.full(P.n, cfg.ay_upper)

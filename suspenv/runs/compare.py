@@ -1,7 +1,7 @@
 """Finished runs side by side: their summaries, and strategies x seeds compared.
 
 ``suspenv show`` and ``suspenv compare`` are the command-line faces;
-:mod:`suspenv.methods.strategy_comparison` compares strategies with it. The comparison
+:mod:`suspenv.methods.tey2014.strategy_comparison` compares strategies with it. The comparison
 itself is :mod:`suspenv.analysis` (figures: :mod:`suspenv.reports.analysis`), reached
 through the report registry because both sit above this layer.
 """

@@ -19,70 +19,15 @@ share of each output the model describes (:mod:`.misfit`).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
-from typing import Any
+from collections.abc import Sequence
 
-from suspenv.diagnosis.decision import DecisionRule
-from suspenv.diagnosis.family import Conclusion, DiagnosisFamily, Outcome, Setup
+from suspenv.diagnosis.checks import assumptions, bounds, misfit, residual_left
+from suspenv.diagnosis.checks.finding import Check, Context, Finding, fold
 
-
-@dataclass
-class Context:
-    """What a check reads: the family (to ask), the run's data and model, the search's
-    outcome (its ``current`` is the final model after the family's own probes) and the
-    decision rule."""
-
-    family: DiagnosisFamily
-    setup: Setup
-    outcome: Outcome
-    rule: DecisionRule
-
-
-@dataclass
-class Finding:
-    """One check's result.
-
-    Attributes:
-        name: the check's name (the key of the diagnosis' ``findings``).
-        remains: a residual above the family's noise rule is left unexplained.
-        confident: False when the verdict may not name an element with confidence.
-        sentence: said after the verdict's main sentence ("" for nothing).
-        lead: the sentence leads the verdict and stands in for "no significant missing
-            physics".
-        numbers: the check's numbers (JSON-ready).
-    """
-
-    name: str
-    remains: bool = False
-    confident: bool = True
-    sentence: str = ""
-    lead: bool = False
-    numbers: dict[str, Any] = field(default_factory=dict)
-
-    def short(self) -> str:
-        """The residual left in a few words (the headline's)."""
-        n = self.numbers
-        if "worst_rms" not in n:
-            return self.name
-        return f"{n['worst_rms']:.3g} x noise in {n['worst_channel']}"
-
-    def to_dict(self) -> dict[str, Any]:
-        return {
-            "name": self.name,
-            "remains": self.remains,
-            "confident": self.confident,
-            "sentence": self.sentence,
-            **self.numbers,
-        }
-
-
-Check = Callable[[Context], Finding | None]
+__all__ = ["Check", "Context", "Finding", "fold", "run"]
 
 
 def _checks() -> tuple[Check, ...]:
-    from suspenv.diagnosis.checks import assumptions, bounds, misfit, residual_left
-
     # a leading sentence goes first: the misfit's, folded last, leads the verdict
     return (residual_left.run, bounds.run, assumptions.run, misfit.run)
 
@@ -92,16 +37,3 @@ def run(ctx: Context, checks: Sequence[Check] | None = None) -> list[Finding]:
     check with nothing to say returns None and is left out."""
     found = [check(ctx) for check in (checks if checks is not None else _checks())]
     return [f for f in found if f is not None]
-
-
-def fold(found: Conclusion, findings: Sequence[Finding]) -> None:
-    """Add ``findings`` to a family's conclusion: each is kept by name, its sentence said
-    (first when it leads), and the verdict made not confident where one says so."""
-    for f in findings:
-        found.findings[f.name] = f
-        found.confident = found.confident and f.confident and not f.remains
-        if f.sentence and f.lead:
-            found.sentences.insert(0, f.sentence)
-            found.overrides_verdict = True
-        elif f.sentence:
-            found.sentences.append(f.sentence)

@@ -7,7 +7,7 @@ report shows them on its first screen. They never change the verdict's confidenc
 
 from __future__ import annotations
 
-from suspenv.diagnosis.checks import Context, Finding
+from suspenv.diagnosis.checks.finding import Context, Finding
 
 
 def run(ctx: Context) -> Finding | None:

@@ -11,7 +11,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from suspenv.diagnosis.checks import Context, Finding
+from suspenv.diagnosis.checks.finding import Context, Finding
 from suspenv.diagnosis.fitting import FitResult
 from suspenv.diagnosis.hypothesis import Hypothesis
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from suspenv.diagnosis.checks import Context, Finding
+from suspenv.diagnosis.checks.finding import Context, Finding
 from suspenv.diagnosis.fitting import FitResult, residuals
 from suspenv.diagnosis.split import Split
 

@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 from scipy import stats
 
-from suspenv.diagnosis.checks import Context, Finding
+from suspenv.diagnosis.checks.finding import Context, Finding
 
 #: a channel whose residual RMS exceeds this many noise levels is a residual left
 RESIDUAL_LIMIT = 3.0

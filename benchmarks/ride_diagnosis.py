@@ -1,0 +1,293 @@
+"""Blind benchmark of the ride and road diagnosis.
+
+Ride: for each concealed kind (bump stop, leaf interleaf friction, damper friction,
+seat mount) and no-effect controls, a seeded truth minibus generates pulse runs at
+20 and 50 km/h (x2) and a class-C random-road run; the diagnosis sees the first
+pulse runs, holds out the rest and is scored on: named kind and location (top-1),
+false alarms on the controls, held-out RMS error before/after, recovered effect
+parameters vs truth. Baseline in the same run: the plain fitted model (no effect),
+whose held-out error is the "before" number.
+
+Out-of-library ride cases (scored on their own rows): truths whose extra physics is
+not a candidate (damper curve of another shape, other tyres, a seat accelerometer
+with a gain error or a lag; :mod:`suspenv.diagnosis.ride.mismatch`). Scored on the
+wrong-name rate (a candidate named with confidence although the truth is outside
+the library), held-out error before/after against the noise floor, and whether the
+verdict says a residual remains (:mod:`suspenv.diagnosis.ride.residual`).
+
+Road: synthetic Gaussian profiles of ISO 8608 class B with w = 2 (controls) and
+w = 2.5 (planted), scored on false/true detections and the recovered w; and the
+real ``profile_1/2.txt`` (when the shared data is present,
+:func:`suspenv.measurements.data_dir`).
+
+Seeds: ``--dev`` runs the tuning seeds; the default runs the reported seeds (a
+different set). Rows are appended to ``<tmp>/suspenv_bench/ride_diagnosis.rows.jsonl`` as they
+finish (nothing is lost if killed; ``--resume`` reuses them); the table and summary
+go to ``docs/benchmarks/ride_diagnosis.json``.
+
+Run: ``python -m benchmarks.ride_diagnosis [--dev] [--quick] [--resume]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from tqdm import tqdm
+
+from benchmarks.common import DEFAULT_OUTPUT_DIR, write_result
+from suspenv.diagnosis.engine import diagnose
+from suspenv.diagnosis.ride.family import RideFamily
+from suspenv.diagnosis.ride.mismatch import OUT_OF_LIBRARY_KINDS, mismatch_words
+from suspenv.diagnosis.ride.truth import make_ride_case
+from suspenv.diagnosis.road import (
+    diagnose_road,
+    fit_psd,
+    load_profile_txt,
+    synthetic_profile,
+    waviness_test,
+)
+from suspenv.measurements import data_dir
+from suspenv.rigs.road import ROAD_CLASS_GD0
+
+DEV_SEEDS = (11, 12)
+REPORT_SEEDS = (501, 502)
+KINDS: tuple[str | None, ...] = (
+    "bump_stop",
+    "leaf_friction",
+    "damper_friction",
+    "seat_mount",
+    None,
+)
+#: truth kind -> the (kind@location) prefix a correct diagnosis names
+EXPECTED_KIND = {
+    "bump_stop": "bump_stop",
+    "leaf_friction": "dahl_hysteresis",
+    "damper_friction": "coulomb_friction",
+    "seat_mount": "kelvin_voigt",
+}
+
+
+def ride_row(kind: str | None, seed: int) -> dict[str, Any]:
+    case = make_ride_case(seed, kind)
+    wall, cpu = time.perf_counter(), time.process_time()
+    diag = diagnose(case.fit, RideFamily(screen_count=3, max_effects=1), holdout=case.heldout)
+    wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
+    truth = case.truth.effects
+    expected = f"{truth[0].kind}@{truth[0].location}" if truth else ""
+    res = diag.residual
+    common = {
+        "confident": diag.confident,
+        "residual_remains": bool(res.residual_remains),
+        "noise_floor_scaled": res.noise_floor,
+        "excess_ratio_after": res.excess_ratio,
+        "explained_share": res.explained_share,
+        "ljung_box_p_after": res.ljung_box_p,
+        "params_on_bound": ";".join(res.params_on_bound),
+        "wall_seconds": wall,
+        "cpu_seconds": cpu,
+    }
+    if not case.truth.in_library:
+        mismatch = case.truth.mismatch
+        assert mismatch is not None  # invariant: in_library is defined as `mismatch is None`
+        named = diag.named_candidates
+        return {
+            "part": "ride (out of library)",
+            "case": f"{kind}/{seed}",
+            "truth": mismatch_words(mismatch),
+            "named": ";".join(named) or "none",
+            "wrong_name_confident": bool(named and diag.confident),
+            "named_any": bool(named),
+            "heldout_scaled_rms_before": res.heldout_before,
+            "heldout_scaled_rms_after": res.heldout_after,
+            **common,
+            "verdict": diag.verdict,
+        }
+    named = diag.named_candidates
+    before = diag.baseline["heldout_rms"]
+    scales = diag.base_fit.scales
+    b = float(np.sqrt(np.mean([(before[c] / scales[c]) ** 2 for c in before])))
+    after = b
+    if diag.comparison is not None:
+        h = diag.comparison.heldout_rms_after
+        after = float(np.sqrt(np.mean([(h[c] / scales[c]) ** 2 for c in h])))
+    rel_err = []
+    if truth and named and named[0] == expected:
+        for p, v in truth[0].params.items():
+            key = f"{truth[0].name}.{p}"
+            if key in diag.final_params and v:
+                rel_err.append(abs(diag.final_params[key]["value"] / float(v) - 1.0))
+    return {
+        "part": "ride",
+        "case": f"{kind or 'none'}/{seed}",
+        "truth": expected or "none",
+        "named": ";".join(named) or "none",
+        "correct_top1": bool(named[0] == expected) if truth else not named,
+        "false_alarm": bool(not truth and named),
+        "heldout_scaled_rms_before": b,
+        "heldout_scaled_rms_after": after,
+        "param_rel_error_max": max(rel_err) if rel_err else float("nan"),
+        **common,
+    }
+
+
+def road_rows(seeds: tuple[int, ...]) -> list[dict[str, Any]]:
+    rows = []
+    for w in (2.0, 2.5):
+        for s in seeds:
+            rec = synthetic_profile(544.0, 0.25, ROAD_CLASS_GD0["B"], w, seed=s)
+            free, std = fit_psd(rec), fit_psd(rec, waviness=2.0)
+            t = waviness_test(free, std)
+            rows.append(
+                {
+                    "part": "road",
+                    "case": f"synthetic w={w:g}/{s}",
+                    "truth": "w=2 (none)" if w == 2.0 else f"steeper w={w:g}",
+                    "named": t.direction or "none",
+                    "correct_top1": (t.significant and t.direction == "steeper")
+                    if w > 2
+                    else not t.significant,
+                    "false_alarm": bool(w == 2.0 and t.significant),
+                    "w_fit": free.waviness,
+                    "w_se": free.waviness_se,
+                    "class": free.road_class if w > 2 else std.road_class,
+                }
+            )
+    return rows
+
+
+def real_road_rows() -> list[dict[str, Any]]:
+    shared_road = data_dir() / "real" / "road_profiles"
+    if not shared_road.is_dir():
+        print(f"real road profiles not found at {shared_road}; skipped", file=sys.stderr)
+        return []
+    p1, p2 = shared_road / "profile_1.txt", shared_road / "profile_2.txt"
+    rows = []
+    for a, b in ((p1, p2), (p2, p1)):
+        d = diagnose_road(load_profile_txt(a), heldout=load_profile_txt(b))
+        rows.append(
+            {
+                "part": "road (real)",
+                "case": f"{a.stem} -> held out {b.stem}",
+                "truth": "published: class B, steeper than w = 2",
+                "named": ";".join(d.named_kinds) or "none",
+                "correct_top1": bool(d.named_kinds == ["waviness_steeper"]),
+                "w_fit": d.free.waviness,
+                "w_se": d.free.waviness_se,
+                "class": d.free.road_class,
+                "heldout_w": d.heldout["heldout_waviness"],
+                "heldout_loglik_gain_per_line": d.heldout["heldout_loglik_gain_per_line"],
+                "aw_front_ratio": d.ride.get("ratio_front", float("nan")),
+                "aw_rear_ratio": d.ride.get("ratio_rear", float("nan")),
+            }
+        )
+    return rows
+
+
+def _median(rows: list[dict[str, Any]], key: str) -> float:
+    vals = [r[key] for r in rows if key in r]
+    return float(np.median(vals)) if vals else float("nan")
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--dev", action="store_true", help="tuning seeds (not the reported ones)")
+    ap.add_argument(
+        "--quick", action="store_true", help="one seed; bump stop, none and one out-of-library"
+    )
+    ap.add_argument(
+        "--only-out-of-library", action="store_true", help="ride: the out-of-library cases only"
+    )
+    ap.add_argument("--resume", action="store_true", help="reuse rows of an interrupted run")
+    ap.add_argument("--output-dir", default=None)
+    args = ap.parse_args(argv)
+    seeds = DEV_SEEDS if args.dev else REPORT_SEEDS
+    kinds: tuple[str | None, ...] = (
+        ("bump_stop", None, "seat_sensor_gain") if args.quick else KINDS + OUT_OF_LIBRARY_KINDS
+    )
+    if args.only_out_of_library:
+        kinds = tuple(k for k in kinds if k in OUT_OF_LIBRARY_KINDS)
+    ride_seeds = seeds[:1] if args.quick else seeds
+    out_dir = Path(args.output_dir) if args.output_dir else DEFAULT_OUTPUT_DIR
+    out_dir.mkdir(parents=True, exist_ok=True)
+    name = "ride_diagnosis" + ("_dev" if args.dev else "")
+    log = Path(tempfile.gettempdir()) / "suspenv_bench" / f"{name}.rows.jsonl"
+    log.parent.mkdir(parents=True, exist_ok=True)
+    done = {}
+    if log.is_file() and not args.resume:
+        log.unlink()
+    if log.is_file():
+        for line in log.read_text().splitlines():
+            if line.strip():
+                r = json.loads(line)
+                done[r["case"]] = r
+    rows: list[dict[str, Any]] = []
+    jobs = [(k, s) for s in ride_seeds for k in kinds]
+    for kind, seed in tqdm(jobs, desc="ride cases"):
+        key = f"{kind or 'none'}/{seed}"
+        if key in done:
+            rows.append(done[key])
+            continue
+        row = ride_row(kind, seed)
+        rows.append(row)
+        with log.open("a") as fh:
+            fh.write(json.dumps(row, default=float) + "\n")
+    road_seeds = tuple(range(seeds[0] * 100, seeds[0] * 100 + (5 if args.quick else 20)))
+    rows += road_rows(road_seeds)
+    rows += real_road_rows()
+
+    ride = [r for r in rows if r["part"] == "ride"]
+    planted = [r for r in ride if r["truth"] != "none"]
+    controls = [r for r in ride if r["truth"] == "none"]
+    road = [r for r in rows if r["part"] == "road"]
+    ool = [r for r in rows if r["part"] == "ride (out of library)"]
+    in_lib = planted + controls
+    summary = {
+        "seeds": "dev" if args.dev else "reported",
+        "ride_top1_accuracy": float(np.mean([r["correct_top1"] for r in planted]))
+        if planted
+        else float("nan"),
+        "ride_false_alarms": f"{sum(r['false_alarm'] for r in controls)}/{len(controls)}",
+        "ride_heldout_rms_after_over_before_median": float(
+            np.median(
+                [r["heldout_scaled_rms_after"] / r["heldout_scaled_rms_before"] for r in planted]
+            )
+        )
+        if planted
+        else float("nan"),
+        "ride_in_library_residual_flagged": f"{sum(r['residual_remains'] for r in in_lib)}/"
+        f"{len(in_lib)}",
+        "ride_out_of_library_wrong_name_confident": f"{sum(r['wrong_name_confident'] for r in ool)}"
+        f"/{len(ool)}",
+        "ride_out_of_library_named_any": f"{sum(r['named_any'] for r in ool)}/{len(ool)}",
+        "ride_out_of_library_residual_flagged": f"{sum(r['residual_remains'] for r in ool)}/"
+        f"{len(ool)}",
+        "ride_out_of_library_heldout_before_median": _median(ool, "heldout_scaled_rms_before"),
+        "ride_out_of_library_heldout_after_median": _median(ool, "heldout_scaled_rms_after"),
+        "ride_out_of_library_excess_ratio_median": _median(ool, "excess_ratio_after"),
+        "ride_wall_seconds_median": _median(ride + ool, "wall_seconds"),
+        "ride_cpu_seconds_median": _median(ride + ool, "cpu_seconds"),
+        "road_false_alarms_w2": f"{sum(r['false_alarm'] for r in road)}/"
+        f"{sum(1 for r in road if r['truth'].startswith('w=2'))}",
+        "road_detection_w2.5": f"{sum(r['correct_top1'] for r in road if 'steeper' in r['truth'])}/"
+        f"{sum(1 for r in road if 'steeper' in r['truth'])}",
+        "road_w2.5_mean_fit": float(np.mean([r["w_fit"] for r in road if "steeper" in r["truth"]])),
+    }
+    cmd = (
+        "python -m benchmarks.ride_diagnosis"
+        + (" --dev" if args.dev else "")
+        + (" --quick" if args.quick else "")
+        + (" --only-out-of-library" if args.only_out_of_library else "")
+    )
+    write_result(name, rows, summary, cmd, out_dir)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

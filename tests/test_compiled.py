@@ -1,0 +1,77 @@
+"""The loops built ahead of time (suspenv.core._kernels) and their guard against stale source.
+
+References: each built loop is compared with its own plain-Python definition (the same
+arithmetic, run by the interpreter) on random inputs, to rounding; the stale-source guard
+is checked on a module written here.
+"""
+
+from __future__ import annotations
+
+import importlib
+import sys
+
+import numpy as np
+import pytest
+
+from suspenv.core import compiled
+
+
+def _built_or_skip(module: str, attribute: str):
+    lazy = getattr(importlib.import_module(module), attribute)
+    loop = compiled._built(lazy._space, lazy._helpers, lazy._main)
+    if loop is None:
+        pytest.skip("suspenv.core._kernels not built from this source (JIT at first call)")
+    return lazy, loop
+
+
+def test_export_name_changes_with_the_source(tmp_path, monkeypatch):
+    """Any edit of a loop's source file gives another export name, so a stale build is
+    never called (the loop is compiled at its first call instead)."""
+    path = tmp_path / "loop_mod.py"
+    path.write_text("def f(x):\n    return x + 1\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    mod = importlib.import_module("loop_mod")
+    before = compiled.export_name(vars(mod), (), mod.f)
+    path.write_text("def f(x):\n    return x + 2\n")
+    assert compiled.export_name(vars(mod), (), mod.f) != before
+    assert before.startswith("loop_mod_f_")
+    del sys.modules["loop_mod"]
+
+
+def test_jit_setting_ignores_the_build(monkeypatch):
+    monkeypatch.setenv("SUSPENV_COMPILED", "jit")
+    lazy = importlib.import_module("suspenv.models.effects.kernels").recurrence
+    assert compiled._built(lazy._space, lazy._helpers, lazy._main) is None
+
+
+def test_every_ahead_loop_names_a_lazy_loop():
+    for module, loops in compiled.AHEAD.items():
+        mod = importlib.import_module(module)
+        for attribute in loops:
+            assert isinstance(getattr(mod, attribute), compiled.Lazy), (module, attribute)
+
+
+def test_built_recurrence_matches_python():
+    lazy, loop = _built_or_skip("suspenv.models.effects.kernels", "recurrence")
+    rng = np.random.default_rng(3)
+    a, b, z0 = rng.normal(size=(4, 50)), rng.uniform(-1, 1, (4, 50)), rng.normal(size=4)
+    got, want = np.empty((4, 51)), np.empty((4, 51))
+    loop(a, b, z0, got)
+    lazy._main(a, b, z0, want)
+    np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12)
+
+
+def test_built_rotation_loops_match_python():
+    rng = np.random.default_rng(4)
+    w, R = rng.normal(size=(6, 3)), rng.normal(size=(6, 3, 3))
+    lazy, loop = _built_or_skip("suspenv.models.mcpherson.rotation_kernel", "_turned_loop")
+    got, want = np.empty((6, 3, 3)), np.empty((6, 3, 3))
+    loop(w, R, got)
+    lazy._main(w, R, want)
+    np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12)
+    lazy, loop = _built_or_skip("suspenv.models.mcpherson.rotation_kernel", "_relative_log_loop")
+    Q = np.linalg.qr(rng.normal(size=(2, 6, 3, 3)))[0]
+    got, want = np.empty((6, 3)), np.empty((6, 3))
+    loop(Q[0], Q[1], got)
+    lazy._main(Q[0], Q[1], want)
+    np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12)
