@@ -75,3 +75,21 @@ def test_built_rotation_loops_match_python():
     loop(Q[0], Q[1], got)
     lazy._main(Q[0], Q[1], want)
     np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12)
+
+
+def test_every_ahead_signature_has_the_loops_arity():
+    """A signature out of step with its loop would fail the build (which then goes on
+    without the built loops): each names as many arguments as the loop takes."""
+    import inspect
+
+    for module, loops in compiled.AHEAD.items():
+        mod = importlib.import_module(module)
+        for attribute, signature in loops.items():
+            main = getattr(mod, attribute)._main
+            inner = signature[signature.index("(") + 1 : signature.rindex(")")]
+            depth, count = 0, 1
+            for ch in inner:
+                depth += ch == "["
+                depth -= ch == "]"
+                count += ch == "," and depth == 0
+            assert count == len(inspect.signature(main).parameters), (module, attribute)

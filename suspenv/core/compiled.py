@@ -38,7 +38,8 @@ def _arr(dtype: str, ndim: int) -> str:
 
 def _signatures() -> None:
     f, i = (lambda n: _arr("float64", n)), (lambda n: _arr("int64", n))
-    rows = [f(4), f(5), f(3), f(2), f(3), f(2), f(3), i(1), "float64", "float64"]
+    # r, R, lam, pad, ext, rack, extra, pack, off, k_bar_shear, cscale (residual_kernel)
+    rows = [f(4), f(5), f(3), f(2), f(3), f(2), f(3), f(3), i(1), "float64", "float64"]
     jac = rows + ["float64", f(6), i(2), i(1), i(2), i(1), f(3)]
     AHEAD["suspenv.models.mcpherson.residual_kernel"] = {
         "residual": f"void({', '.join([*rows, f(3)])})",
