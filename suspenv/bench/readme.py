@@ -366,7 +366,8 @@ def render_performance(data: Mapping[str, Json]) -> str:
             ),
             row(
                 "K&C identification (the main job's method): whole curves, test car with "
-                "noise only and with the default concealed effects, seeds 0-3",
+                "noise only and with the default concealed effects, seeds "
+                + ", ".join(sorted({str(r["seed"]) for r in data["identify_reference"]["rows"]})),
                 bench("identify_reference"),
                 identify_cells(data["identify_reference"]["summary"]),
             ),
