@@ -383,7 +383,9 @@ def render_performance(data: Mapping[str, Json]) -> str:
         "planar_speed": planar_speed_cells,
         "first_run": first_run_cells,
     }
-    return fill("performance.table", **{k: f(data[k]["summary"]) for k, f in cells.items()})
+    seeds = ", ".join(sorted({str(r["seed"]) for r in data["identify_reference"]["rows"]}))
+    values = {k: f(data[k]["summary"]) for k, f in cells.items()}
+    return fill("performance.table", seeds=seeds, **values)
 
 
 # ------------------------------------------------------------------ diagnosis

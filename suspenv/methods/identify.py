@@ -751,6 +751,9 @@ def _model_loop(result: IdentifyResult, progress: bool) -> None:
             say=lambda m: _say(progress, m),
             pool=pool,
             progress=progress,
+            screen=lambda model, x: [
+                n["family"] for n in screen_residual(model, result.measurement, x).get("named", [])
+            ],
         )
     if ref is None:
         return

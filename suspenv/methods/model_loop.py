@@ -16,6 +16,9 @@ same :class:`~suspenv.methods.curve_fit.CurveModel` the first fit used:
   residuals is kept, which names the place;
 * patterns of the sensors (load-cell gain or offset) are reported, not modelled.
 
+Once the sides are apart the residual is screened again and only the patterns still
+named are modelled (a left/right difference also leaves cubic-looking residuals).
+
 Then all parameters, the design's and the effects', are polished together from the
 first fit's answer (least squares with the batched Jacobian and the same weak pull
 towards the start design as the first fit), and the residual is screened again.
@@ -150,12 +153,15 @@ def refine(
     say: Callable[[str], None] | None = None,
     pool: Any = None,
     progress: bool = False,
+    screen: Callable[[CurveModel, np.ndarray], list[str]] | None = None,
 ) -> Refinement | None:
     """Add to ``fit.model`` what the screen named (families ``named``, strongest first)
     and refit; None when nothing named is modelled. ``x0``: the start design of the
     first fit (the polish's weak pull stays towards it); ``polish_nfev``: budget of the
     sides-apart polish (path-independent, cheap), ``refit_nfev``: of the final refit
-    (each evaluation of a path-dependent model is a rig loop solved step by step)."""
+    (each evaluation of a path-dependent model is a rig loop solved step by step);
+    ``screen(model, x)``: the residual screen's named families at a design, asked again
+    once the sides are apart (None: the families ``named`` stand)."""
     t0 = time.perf_counter()
     say = say or (lambda _m: None)
     model, x = fit.model, fit.x
@@ -169,14 +175,12 @@ def refine(
         changes.append("sides apart: every free parameter but the anti-roll bar gets a right twin")
         say("loop: sides apart (a right-side twin of every free parameter)")
         stage, _, _ = polish(
-            model,
-            model.unit(x),
-            polish_nfev,
-            progress=progress,
-            prior=model.unit(x0),
-            ftol=RESTART_GAIN / model.size,
+            model, model.unit(x), polish_nfev, progress=progress, prior=model.unit(x0)
         )
         x = model.designs(stage.u[None])[0]
+        if screen is not None:  # what the sides apart leave: a pattern may have gone
+            named = [SIDES_FAMILY, *screen(model, x)]
+            say(f"loop: the screen now names {named[1:] or 'nothing more'}")
     for family in [f for f in named if f in EFFECT_FAMILIES]:
         names = effect_candidates(family)
         if not names:
@@ -205,8 +209,8 @@ def refine(
     say("loop: all parameters refitted together")
     model.pool = pool  # half of each path-dependent batch in a second process
     prior = model.unit(_start(model, x0))
-    # both polishes stop when a step gains less than one squared noise unit at a fit to
-    # the noise (each path-dependent step costs a rig loop: no crawling along valleys)
+    # stop when a step gains less than one squared noise unit at a fit to the noise
+    # (each path-dependent step costs a rig loop: no crawling along valleys)
     ftol = RESTART_GAIN / model.size
     stage, r, J = polish(
         model, model.unit(x), refit_nfev, progress=progress, prior=prior, ftol=ftol

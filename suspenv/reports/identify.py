@@ -131,7 +131,7 @@ def plot_curves(result: IdentifyResult, path: Path) -> Path | None:
         "(rows: worst curve first; RMS / noise of both wheels after the loop)",
         fontsize=9,
     )
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0, 1, 0.985))  # room for the title
     return _save(fig, path)
 
 
