@@ -34,6 +34,7 @@ from suspenv.models.minibus.vehicle import (
     Minibus,
     stacked_vehicle_parameters,
 )
+from suspenv.models.minibus.vehicle import G as G_STD
 from suspenv.rigs.ride import RandomRoad, random_road_run
 from suspenv.rigs.road import CLASS_BAND, temporal_psd, track_coherence
 
@@ -123,7 +124,8 @@ def ride_objectives_all(
     road record of ``road`` and weights its FFT; ``"spectral"`` integrates the output
     PSD of the equivalent-linear model over the road PSD (:func:`ride_spectral`: no road
     seed, no record length, no noise; ``road.seed``, ``duration_s``, ``settle_s`` and
-    ``dtype`` are unused; effects are not supported).
+    ``dtype`` are unused; effects are not supported) and adds its equivalent-linear
+    rates ``damper_c`` (n, 4) and ``leaf_k`` (n, 2) (for :func:`working_space`).
     """
     road = road or RandomRoad()
     X = np.atleast_2d(np.asarray(X, dtype=float))
@@ -136,7 +138,7 @@ def ride_objectives_all(
                 "the spectral ride method models no effects; use method='time' with effects"
             )
         sp = ride_spectral(X, load_cases, road, vehicle, seat)
-        keys = ("aw_front", "aw_rear", "rms_front", "rms_rear", "ok")
+        keys = ("aw_front", "aw_rear", "rms_front", "rms_rear", "ok", "damper_c", "leaf_k")
         return {
             lc: {k: sp[k][i * n : (i + 1) * n] for k in keys} for i, lc in enumerate(load_cases)
         }
@@ -319,9 +321,11 @@ def _output_psd(
     road_in: np.ndarray,
     delay: np.ndarray,
     rho: np.ndarray,
-    rows: slice,
+    power: Sequence[int],
 ) -> np.ndarray:
-    """One-sided output PSDs (n, p, Nf) from displacement responses G (n, Nf, p, 4)."""
+    """One-sided output PSDs (n, p, Nf) from responses G (n, Nf, p, 4) per wheel input
+    displacement; output j's PSD is multiplied by ``(2 pi f)^(2 power[j])`` (0: as G,
+    1: its rate, 2: its second derivative)."""
     # wheel inputs from the two tracks: front now, rear delayed by L/v; road inputs enter
     # as z (through Kin) and its rate (through Cin), both already in G
     g_left = G[..., 0] + delay[None, :, None] * G[..., 2]
@@ -331,10 +335,8 @@ def _output_psd(
     h1 = g_left + r * g_right
     h2 = np.sqrt(np.maximum(1.0 - r * r, 0.0)) * g_right
     psd = (h1.real**2 + h1.imag**2 + h2.real**2 + h2.imag**2) * road_in[None, :, None]
-    # displacement -> acceleration (rows 0-1) or velocity (rows 2-5)
     w2 = (2 * np.pi * f) ** 2
-    power = np.array([2.0, 2, 1, 1, 1, 1, 0, 0])[rows]
-    psd *= w2[None, :, None] ** power[None, None, :]
+    psd *= w2[None, :, None] ** np.asarray(power, dtype=float)[None, None, :]
     return np.moveaxis(psd, 1, 2)
 
 
@@ -766,7 +768,7 @@ def _spectral_full(
     def sigma(m: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
         lam, P = m
         G = modal_response(lam, P[:, :, 2:8], fi)
-        return np.sqrt(_output_psd(G, fi, gqi, delayi, rhoi, slice(2, 8)) @ wi)
+        return np.sqrt(_output_psd(G, fi, gqi, delayi, rhoi, (1, 1, 1, 1, 0, 0)) @ wi)
 
     lz = _Linearisation(RideModel(params, seat=seat)) if equivalent_linear else None
     damper_c, leaf_k, n_iter, (lam, P) = _fixed_point(
@@ -781,7 +783,7 @@ def _spectral_full(
     )
     f, wq, _, gq, delay, rho, wk2 = _road_grid(road, n_freq, vehicle)
     G = modal_response(lam, P[:, :, 0:2], f)
-    psd = _output_psd(G, f, gq, delay, rho, slice(0, 2))
+    psd = _output_psd(G, f, gq, delay, rho, (2, 2))
     return _spectral_result(np.sqrt(psd @ (wq * wk2)), np.sqrt(psd @ wq), damper_c, leaf_k, n_iter)
 
 
@@ -865,3 +867,85 @@ def ride_spectral(
             ]
         )
     return out
+
+
+# ------------------------------------------------------------------ working space
+def tyre_load_response(
+    G_wheel: np.ndarray, f: np.ndarray, k_tyre: float, c_tyre: float, inputs: Sequence[int]
+) -> np.ndarray:
+    """Dynamic tyre loads (N per m of road input; + = more load) (n, Nf, p, m) from the
+    wheel-centre displacement responses ``G_wheel`` (n, Nf, p, m) of wheels standing on
+    road inputs ``inputs`` (p entries, input index per wheel): ``(k + i w c)(u_j - z_j)``,
+    the tyre compression (road minus wheel) through the tyre's spring and damper."""
+    Gt = -np.asarray(G_wheel, dtype=complex)
+    for j, i in enumerate(inputs):
+        Gt[:, :, j, i] += 1.0
+    return Gt * (k_tyre + 2j * np.pi * np.asarray(f)[None, :, None, None] * c_tyre)
+
+
+def working_space(
+    X: np.ndarray,
+    load_cases: Sequence[str] = LOAD_CASES,
+    road: RandomRoad | None = None,
+    vehicle: Minibus = REFERENCE_MINIBUS,
+    damper_c: np.ndarray | None = None,
+    leaf_k: np.ndarray | None = None,
+    n_freq: int = 400,
+) -> dict[str, np.ndarray]:
+    """RMS suspension deflection and dynamic tyre load per axle by the spectral integral.
+
+    Same model, road and grid as :func:`ride_spectral` (whose equivalent-linear rates
+    ``damper_c`` (n_rows, 4) and ``leaf_k`` (n_rows, 2) it takes; computed when None).
+    Returns (n_rows,) arrays for the load cases stacked in order:
+    ``defl_front``/``defl_rear`` (m): RMS compression of the front spring (wheel centre
+    minus body at the wheel) and of the rear leaf at its seat (axle minus body), the
+    relative motion that uses up the travel to the bump stop; ``tyre_front``/
+    ``tyre_rear`` (-): RMS dynamic tyre load over the static wheel load (sprung share
+    plus unsprung weight). Left and right are equal (mirror-symmetric model and road
+    statistics); the left side is computed.
+    """
+    road = road or RandomRoad()
+    X = np.atleast_2d(np.asarray(X, dtype=float))
+    cases = [load_cases] if isinstance(load_cases, str) else list(load_cases)
+    if damper_c is None or leaf_k is None:
+        sp = ride_spectral(X, cases, road, vehicle)
+        damper_c, leaf_k = sp["damper_c"], sp["leaf_k"]
+    params = stacked_vehicle_parameters(X, cases, vehicle)
+    lin = RideModel(params, linear=True)
+    nq = lin.nq
+    Co = np.zeros((4, nq))
+    Co[0], Co[1] = lin.E[:nq, 0], lin.E[:nq, 2]  # front spring FL, rear leaf L
+    Co[2, 3] = Co[3, 5] = 1.0  # wheel centres FL, RL
+    lam, P = modal_form(*lin.linear_system(damper_c, leaf_k), Co)
+    f, wq, _, gq, delay, rho, _ = _road_grid(road, n_freq, vehicle)
+    G = modal_response(lam, P, f)
+    Gt = tyre_load_response(
+        G[:, :, 2:4], f, vehicle.tyre_vertical_stiffness, vehicle.tyre_vertical_damping, (0, 2)
+    )
+    rms = np.sqrt(
+        _output_psd(np.concatenate([G[:, :, :2], Gt], axis=2), f, gq, delay, rho, (0,) * 4) @ wq
+    )
+    static = np.concatenate(
+        [
+            np.column_stack(
+                [
+                    np.full(p.n, p.front_static_load + vehicle.unsprung_front * G_STD),
+                    np.full(p.n, p.rear_static_load + vehicle.unsprung_rear * G_STD),
+                ]
+            )
+            for p in params
+        ]
+    )
+    return {
+        "defl_front": rms[:, 0],
+        "defl_rear": rms[:, 1],
+        "tyre_front": rms[:, 2] / static[:, 0],
+        "tyre_rear": rms[:, 3] / static[:, 1],
+    }
+
+
+def exceedance_probability(travel: float | np.ndarray, sigma: np.ndarray) -> np.ndarray:
+    """Probability (-) that a zero-mean Gaussian response of RMS ``sigma`` reaches
+    ``|x| >= travel`` at a given instant: ``2 (1 - Phi(travel / sigma))`` (both
+    directions: bump stop and, at the same gap, rebound stop)."""
+    return 2.0 * ndtr(-np.asarray(travel, dtype=float) / np.asarray(sigma, dtype=float))

@@ -44,7 +44,11 @@ rear; no load, full load) minus ``rms_limit``; each load case's slalom roll ampl
 minus ``roll_limit_deg``; with ``handling="standard"`` also ``min_understeer`` minus each
 load case's smallest ISO 4138 understeer gradient at 0.1, 0.2 and 0.3 g (the vehicle
 understeers through the range the manoeuvres use; without it, a smaller f4 would reward
-designs that turn oversteer).
+designs that turn oversteer). ``working_space=True`` adds, per load case, the worse
+axle's probability of reaching its bump stop minus ``bump_stop_limit`` and the worse
+axle's RMS dynamic / static tyre load minus ``tyre_load_limit``, both from the spectral
+integral (:func:`suspenv.metrics.ride.working_space`; docs/minibus.md, "Working space
+and road holding").
 
 The weighted-RMS limit: the study writes "0.6 g"; 0.6 g = 5.9 m/s^2 can never bind for
 a minibus on a class-B road at 80 km/h, and 0.6 m/s^2 lies below every design of the
@@ -79,7 +83,12 @@ from suspenv.metrics.handling import (
     slalom_linear,
     yaw_response,
 )
-from suspenv.metrics.ride import RIDE_METHODS, ride_objectives_all
+from suspenv.metrics.ride import (
+    RIDE_METHODS,
+    exceedance_probability,
+    ride_objectives_all,
+    working_space,
+)
 from suspenv.models.minibus.handling_model import (
     HandlingParams,
     handling_parameters,
@@ -195,6 +204,13 @@ class MinibusRideHandling(Problem):
             ``slalom_dt`` is used only here).
         min_understeer [deg/g]: smallest ISO 4138 understeer gradient allowed at 0.1,
             0.2 and 0.3 g (``handling="standard"`` only); finite.
+        working_space: add the working-space and road-holding constraints (module
+            docstring; off by default: about 4 ms more per design, and on the default
+            class-B road at 80 km/h neither binds anywhere in the box).
+        bump_stop_limit [-]: largest probability of reaching a bump stop,
+            ``0 < p < 1`` (with ``working_space``).
+        tyre_load_limit [-]: largest RMS dynamic tyre load over the static wheel load,
+            > 0 (with ``working_space``).
     """
 
     name = "MinibusRideHandling"
@@ -223,6 +239,9 @@ class MinibusRideHandling(Problem):
         ride_method: str = DEFAULT_RIDE_METHOD,
         handling: str = DEFAULT_HANDLING,
         min_understeer: float = 0.0,
+        working_space: bool = False,
+        bump_stop_limit: float = 0.01,
+        tyre_load_limit: float = 0.3,
     ):
         owner = self.name
         self.load_weight = positive(owner, "load_weight", load_weight)
@@ -241,6 +260,15 @@ class MinibusRideHandling(Problem):
         self.ride_method = choice(owner, "ride_method", ride_method, list(RIDE_METHODS))
         self.handling = choice(owner, "handling", handling, list(HANDLING_METHODS))
         self.min_understeer = number(owner, "min_understeer", min_understeer)
+        if not isinstance(working_space, bool):
+            raise ValidationError(
+                f"{owner}: `working_space` must be true or false, but got {working_space!r}"
+            )
+        self.working_space = working_space
+        self.bump_stop_limit = number(
+            owner, "bump_stop_limit", bump_stop_limit, lo=0.0, hi=1.0, lo_open=True, hi_open=True
+        )
+        self.tyre_load_limit = positive(owner, "tyre_load_limit", tyre_load_limit)
         self.road = RandomRoad(
             road_class=road_class,
             speed_kmh=speed_kmh,
@@ -274,6 +302,9 @@ class MinibusRideHandling(Problem):
             "ride_method": self.ride_method,
             "handling": self.handling,
             "min_understeer": self.min_understeer,
+            "working_space": self.working_space,
+            "bump_stop_limit": self.bump_stop_limit,
+            "tyre_load_limit": self.tyre_load_limit,
         }
         self.vehicle = REFERENCE_MINIBUS
         self.space = design_space()
@@ -288,6 +319,10 @@ class MinibusRideHandling(Problem):
             "roll_no_load",
             "roll_full_load",
         ) + (() if study else ("understeer_no_load", "understeer_full_load"))
+        if working_space:
+            self.constraint_names += tuple(
+                f"{kind}_{lc}" for kind in ("bump_stop", "tyre_load") for lc in LOAD_CASES
+            )
 
     def config(self) -> dict[str, Any]:
         return dict(self._options)
@@ -334,6 +369,8 @@ class MinibusRideHandling(Problem):
             for key in ("crest_front", "crest_rear", "vdv_front", "vdv_rear"):
                 if key in ride[lc]:  # ride_method="time": from the weighted record
                     out[f"{key}_{lc}"] = ride[lc][key]
+            for key, value in self._working_space(X, ride).items():
+                out[f"{key}_{lc}"] = value[i * n : (i + 1) * n]
             ride_ok = ride[lc].get("ok", np.ones(n, bool))
             out[f"ride_ok_{lc}"] = np.asarray(ride_ok, dtype=bool)
         return out
@@ -390,6 +427,29 @@ class MinibusRideHandling(Problem):
             X, LOAD_CASES, self.road, self.vehicle, dtype=np.float64, method=self.ride_method
         )
 
+    def _working_space(
+        self, X: np.ndarray, ride: dict[str, dict[str, np.ndarray]]
+    ) -> dict[str, np.ndarray]:
+        """With ``working_space``: (2n,) per load case stacked (no load, full load) of
+        :func:`working_space` (``defl_*`` m, ``tyre_*`` -), each axle's probability of
+        reaching its bump stop ``bump_stop_front``/``_rear`` (-, Gaussian), and the
+        worse axle's ``bump_stop`` and ``tyre_load``; the equivalent-linear rates of the
+        spectral ride method when it ran; else empty."""
+        if not self.working_space:
+            return {}
+        first = ride[LOAD_CASES[0]]
+        c = k = None
+        if "damper_c" in first:  # spectral ride method: reuse its equivalent-linear rates
+            c = np.concatenate([ride[lc]["damper_c"] for lc in LOAD_CASES])
+            k = np.concatenate([ride[lc]["leaf_k"] for lc in LOAD_CASES])
+        ws = working_space(X, LOAD_CASES, self.road, self.vehicle, c, k)
+        v = self.vehicle
+        ws["bump_stop_front"] = exceedance_probability(v.bump_stop_travel_front, ws["defl_front"])
+        ws["bump_stop_rear"] = exceedance_probability(v.bump_stop_travel_rear, ws["defl_rear"])
+        ws["bump_stop"] = np.maximum(ws["bump_stop_front"], ws["bump_stop_rear"])
+        ws["tyre_load"] = np.maximum(ws["tyre_front"], ws["tyre_rear"])
+        return ws
+
     def _evaluate(self, X: np.ndarray) -> EvaluationBatch:
         m = self.measures(X)
         w = self.load_weight
@@ -413,6 +473,9 @@ class MinibusRideHandling(Problem):
         limits += [m[f"roll_{lc}"] - self.roll_limit_deg for lc in LOAD_CASES]
         if not study:
             limits += [self.min_understeer - m[f"understeer_min_{lc}"] for lc in LOAD_CASES]
+        if self.working_space:
+            limits += [m[f"bump_stop_{lc}"] - self.bump_stop_limit for lc in LOAD_CASES]
+            limits += [m[f"tyre_load_{lc}"] - self.tyre_load_limit for lc in LOAD_CASES]
         G = np.column_stack(limits)
         flags = [m[f"{kind}_{lc}"] for kind in ("completed", "ride_ok") for lc in LOAD_CASES]
         ok = np.logical_and.reduce(flags) & np.isfinite(F).all(axis=1)

@@ -201,6 +201,13 @@ class Minibus:
     #: vertical contact length used to filter short obstacles [CHOICE: ~0.16 m footprint
     #: of a 195R15C tyre at ~7 kN]
     tyre_contact_length: float = 0.16  # m
+    #: compression travel from the static ride position to bump-stop contact, front
+    #: (spring at the wheel) and rear (leaf at its seat), for the working-space
+    #: constraint. [CHOICE] 75 mm both: the sources give none; the lower end of the
+    #: 70-100 mm of jounce travel a light-commercial van typically keeps at design ride
+    #: height (the smaller the travel, the sooner the constraint binds)
+    bump_stop_travel_front: float = 0.075  # m
+    bump_stop_travel_rear: float = 0.075  # m
     # rear axle lateral compliance / roll steer (handling side) -----------------
     #: bushes per side (front eye + shackle eye) [CHOICE: conventional Hotchkiss leaf]
     leaf_bushes_per_side: int = 2
