@@ -1,13 +1,16 @@
 """The one place that chooses matplotlib's backend: Agg (files only, no display), lazily;
-and parallel-coordinate lines drawn as one collection."""
+figures saved atomically; and parallel-coordinate lines drawn as one collection."""
 
 from __future__ import annotations
 
 from functools import cache
+from pathlib import Path
 from types import ModuleType
 from typing import Any
 
 import numpy as np
+
+from suspenv.runs.run_dir import atomic_path
 
 
 @cache
@@ -19,6 +22,14 @@ def pyplot() -> ModuleType:
     import matplotlib.pyplot as plt
 
     return plt
+
+
+def save_figure(fig: Any, path: Path | str, **savefig: Any) -> Path:
+    """``fig.savefig`` to ``path`` atomically (:func:`suspenv.runs.run_dir.atomic_path`:
+    the old figure or the new one whole, never a part); ``savefig``: its keywords."""
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, **savefig)
+    return Path(path)
 
 
 def add_polylines(ax: Any, values: np.ndarray, **style: Any) -> Any:

@@ -12,7 +12,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from suspenv.reports._mpl import pyplot
+from suspenv.reports._mpl import pyplot, save_figure
+from suspenv.runs.run_dir import write_file
 
 if TYPE_CHECKING:
     from suspenv.problems.kc_identification import KCIdentification
@@ -59,7 +60,7 @@ def write_kc_report(problem: KCIdentification, run_dir: Path, archive: Any) -> l
     ]
     lines += ["", "![curves](kc_curves.png)", ""]
     md = run_dir / "kc_report.md"
-    md.write_text("\n".join(lines))
+    write_file(md, "\n".join(lines))
     png = run_dir / "kc_curves.png"
     plot_measured_vs_model(problem.measured_curves(), problem.curves(x_best), png)
     return [md, png]
@@ -84,5 +85,5 @@ def plot_measured_vs_model(measured: Curves, model: Curves, path: Path) -> None:
             ax.set_ylabel(label)
             ax.grid(alpha=0.3)
     axes[0, 0].legend()
-    fig.savefig(path, dpi=100)
+    save_figure(fig, path, dpi=100)
     plt.close(fig)

@@ -17,8 +17,9 @@ import numpy as np
 from suspenv.core.problem import Problem
 from suspenv.models.minibus.vehicle import BASELINE_DESIGN, STUDY_PICK
 from suspenv.problems.minibus import MinibusRideHandling, study_outcome
-from suspenv.reports._mpl import add_polylines, pyplot
+from suspenv.reports._mpl import add_polylines, pyplot, save_figure
 from suspenv.reports.suspension import write_suspension_report
+from suspenv.runs.run_dir import write_file
 
 
 def write_minibus_run_report(
@@ -56,7 +57,7 @@ def _plot_pairs(
     fig.legend(handles, labels, loc="upper right")
     fig.suptitle("Pareto front (blue) among successful evaluations (grey)")
     fig.subplots_adjust(left=0.08, right=0.98, bottom=0.07, top=0.94, wspace=0.35, hspace=0.3)
-    fig.savefig(path, dpi=100)
+    save_figure(fig, path, dpi=100)
     plt.close(fig)
     return path
 
@@ -91,7 +92,7 @@ def _plot_parallel(
         ax.legend(fontsize=8, loc="upper right")
     fig.suptitle("Parallel coordinates of the Pareto front")
     fig.subplots_adjust(left=0.06, right=0.99, bottom=0.18, top=0.9, wspace=0.15)
-    fig.savefig(path, dpi=100)
+    save_figure(fig, path, dpi=100)
     plt.close(fig)
     return path
 
@@ -168,5 +169,5 @@ def write_minibus_report(
         "",
     ]
     md = run_dir / "minibus_report.md"
-    md.write_text("\n".join(lines))
+    write_file(md, "\n".join(lines))
     return [md, pairs, par, *susp]

@@ -19,8 +19,9 @@ import numpy as np
 from suspenv.metrics.iso2631 import comfort_reaction
 from suspenv.metrics.ride import acceleration_psd, ride_spectral
 from suspenv.models.minibus.vehicle import LOAD_CASES, REFERENCE_MINIBUS, Minibus
-from suspenv.reports._mpl import pyplot
+from suspenv.reports._mpl import pyplot, save_figure
 from suspenv.rigs.ride import PulseBump, RandomRoad, pulse_run, random_road_run
+from suspenv.runs.run_dir import write_file
 
 
 def write_minibus_ride_report(
@@ -91,7 +92,7 @@ def write_minibus_ride_report(
     axes[0, 0].legend()
     fig.tight_layout()
     psd_png = out / "ride_psd.png"
-    fig.savefig(psd_png, dpi=110)
+    save_figure(fig, psd_png, dpi=110)
     plt.close(fig)
 
     fig, axes = plt.subplots(len(pulse_speeds_kmh), 2, figsize=(11, 3.2 * len(pulse_speeds_kmh)),
@@ -110,10 +111,10 @@ def write_minibus_ride_report(
     axes[0, 0].legend()
     fig.tight_layout()
     pulse_png = out / "ride_pulse.png"
-    fig.savefig(pulse_png, dpi=110)
+    save_figure(fig, pulse_png, dpi=110)
     plt.close(fig)
 
     lines += ["", f"![acceleration PSD]({psd_png.name})", "", f"![pulse]({pulse_png.name})", ""]
     md = out / "ride_report.md"
-    md.write_text("\n".join(lines))
+    write_file(md, "\n".join(lines))
     return [md, psd_png, pulse_png]

@@ -17,7 +17,8 @@ import numpy as np
 from suspenv.models.planar.analytic import PlanarSweep
 from suspenv.models.planar.geometry import DoubleWishbone, PlanarGeometry, geometry_to_toml
 from suspenv.models.planar.outputs import SweepOutputs
-from suspenv.reports._mpl import pyplot
+from suspenv.reports._mpl import pyplot, save_figure
+from suspenv.runs.run_dir import write_file
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -199,7 +200,7 @@ def save_linkage_figure(
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig = linkage_figure(geom, sweep, outputs)
-    fig.savefig(path, dpi=90)
+    save_figure(fig, path, dpi=90)
     plt.close(fig)
     return path
 
@@ -212,7 +213,7 @@ def save_curves_figure(path: str | Path, outputs: Sequence[tuple[str, SweepOutpu
     fig, axes = plt.subplots(1, 5, figsize=(20, 4))
     plot_curves(list(axes), outputs)
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
+    save_figure(fig, path, dpi=100)
     plt.close(fig)
     return path
 
@@ -256,7 +257,7 @@ def write_planar_report(problem: PlanarLinkage, run_dir: Path, archive: Any) -> 
     geom, sw, out = problem.single_sweep(x)
     geom = replace(geom, name=f"{problem.baseline.name} (optimised)")
     toml_path = run_dir / "planar_best.toml"
-    toml_path.write_text(geometry_to_toml(geom))
+    write_file(toml_path, geometry_to_toml(geom))
     _, base_sw, base_out = problem.single_sweep(problem.space.reference())
     curves = [("optimised", out), ("baseline", base_out)]
     if problem.target_outputs is not None:
@@ -299,5 +300,5 @@ def write_planar_report(problem: PlanarLinkage, run_dir: Path, archive: Any) -> 
         "",
     ]
     md_path = run_dir / "planar_report.md"
-    md_path.write_text("\n".join(lines))
+    write_file(md_path, "\n".join(lines))
     return [toml_path, fig_path, md_path]

@@ -46,7 +46,8 @@ from suspenv.models.minibus.vehicle import (
     design_to_si,
     vehicle_parameters,
 )
-from suspenv.reports._mpl import pyplot
+from suspenv.reports._mpl import pyplot, save_figure
+from suspenv.runs.run_dir import write_file
 
 
 def _axle_figures(p: VehicleParams) -> dict[str, np.ndarray]:
@@ -194,7 +195,7 @@ def plot_elements(
     fig.tight_layout()
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
     return path
 
@@ -207,5 +208,5 @@ def write_suspension_report(
     out.mkdir(parents=True, exist_ok=True)
     png = plot_elements(designs, out / "suspension_elements.png", vehicle)
     md = out / "suspension_report.md"
-    md.write_text(report_markdown(designs, vehicle) + f"\n![suspension elements]({png.name})\n")
+    write_file(md, report_markdown(designs, vehicle) + f"\n![suspension elements]({png.name})\n")
     return [md, png]

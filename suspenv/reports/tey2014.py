@@ -17,8 +17,9 @@ from scipy.cluster import hierarchy
 
 from suspenv.methods.identification import best_so_far
 from suspenv.methods.tey2014.pipeline import PAPER_REFERENCE, study_summary
-from suspenv.reports._mpl import pyplot
+from suspenv.reports._mpl import pyplot, save_figure
 from suspenv.reports.markdown import markdown_table
+from suspenv.runs.run_dir import write_file
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -29,7 +30,7 @@ if TYPE_CHECKING:
 def _save(fig: Figure, path: Path) -> Path:
     plt = pyplot()
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=100, bbox_inches="tight")
+    save_figure(fig, path, dpi=100, bbox_inches="tight")
     plt.close(fig)
     return path
 
@@ -552,5 +553,5 @@ def write_tey2014_report(study: Tey2014Study, run_dir: Path, figures: bool = Tru
     md.append("\n## Timings (s)\n")
     md.append(markdown_table([{"step": k, "seconds": v} for k, v in study.timings.items()]))
     path = run_dir / "report.md"
-    path.write_text("\n".join(md))
+    write_file(path, "\n".join(md))
     return path

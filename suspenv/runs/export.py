@@ -92,6 +92,13 @@ def check_storage(url: str, run_dir: Path) -> None:
     from sqlalchemy.engine import make_url
 
     rule = f"optuna export: --storage {url!r}"
+    try:  # optuna fills the URL as a str.format template ({SCHEMA_VERSION})
+        url.format(SCHEMA_VERSION=0)
+    except (ValueError, LookupError, AttributeError) as exc:
+        raise ValidationError(
+            f"{rule} has braces that are not a template field ({exc}); optuna reads "
+            "`{` and `}` as one, so write them `{{` and `}}`"
+        ) from None
     try:
         parsed = make_url(url)
         engine = sqlalchemy.create_engine(parsed)

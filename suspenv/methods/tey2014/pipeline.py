@@ -73,6 +73,7 @@ from suspenv.methods.tey2014.sensitivity import SensitivityResult, spearman_matr
 from suspenv.methods.tey2014.strategy_comparison import QUALITY_NAME
 from suspenv.problems.views import ObjectiveSubset, WithSignedResponses
 from suspenv.registry import report_function
+from suspenv.runs.run_dir import write_file
 
 #: the ``[study]`` table of a config, with its defaults (the paper's settings)
 STUDY_DEFAULTS: dict[str, Any] = {
@@ -668,8 +669,8 @@ def run_tey2014_pipeline(config: dict[str, Any], run_dir: Path) -> dict[str, Any
         report=files[0] if files else None,
     )
     text = json.dumps(summary, indent=2, default=_json) + "\n"
-    (run_dir / "study.json").write_text(text)
-    (run_dir / "summary.json").write_text(text)
+    write_file(run_dir / "study.json", text)
+    write_file(run_dir / "summary.json", text)
     return summary
 
 

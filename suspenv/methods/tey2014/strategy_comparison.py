@@ -14,7 +14,6 @@ population 42 on the kept objectives; random search and Latin hypercube in batch
 
 from __future__ import annotations
 
-import json
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -24,6 +23,7 @@ import numpy as np
 from suspenv.core.problem import Problem
 from suspenv.methods.identification import FixedRankSum, best_so_far
 from suspenv.runs.compare import compare_runs
+from suspenv.runs.run_dir import write_json
 
 #: options per strategy unless the caller overrides them
 STRATEGY_OPTIONS: dict[str, dict[str, Any]] = {
@@ -90,7 +90,7 @@ def run_one(
         "best_quality": float(curve[-1]) if curve.size and np.isfinite(curve[-1]) else None,
         "quality_curve": [float(v) if np.isfinite(v) else None for v in curve],
     }
-    (run_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    write_json(run_dir / "summary.json", summary)
     return summary
 
 

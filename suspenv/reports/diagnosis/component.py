@@ -18,9 +18,10 @@ import numpy as np
 from suspenv.core.jsonable import to_jsonable
 from suspenv.diagnosis.component.motion import motion
 from suspenv.diagnosis.engine import Diagnosis
-from suspenv.reports._mpl import pyplot
+from suspenv.reports._mpl import pyplot, save_figure
 from suspenv.reports.markdown import fmt as _fmt
 from suspenv.reports.markdown import text
+from suspenv.runs.run_dir import write_file
 
 
 def residual_map(diag: Diagnosis, path: Path) -> Path:
@@ -42,7 +43,7 @@ def residual_map(diag: Diagnosis, path: Path) -> Path:
         ax.tick_params(axis="x", labelsize=7)
     axes[-1, 0].set_xlabel("share of residual energy [%] (outline: share of samples)")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
     return path
 
@@ -81,7 +82,7 @@ def overlay(diag: Diagnosis, path: Path, max_seconds: float = 4.0) -> Path:
     a2.set_xlabel("time [s]")
     a2.legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
     return path
 
@@ -116,7 +117,7 @@ def loops(diag: Diagnosis, path: Path) -> Path:
     axes[0].legend(fontsize=7, markerscale=6)
     fig.suptitle("loops on the fit data", fontsize=9)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
     return path
 
@@ -271,7 +272,7 @@ def write_component_report(diag: Diagnosis, out_dir: Path | str) -> list[Path]:
         "loops": loops(diag, out / "loops.png").name,
     }
     md = out / "report.md"
-    md.write_text(markdown(diag, figs))
+    write_file(md, markdown(diag, figs))
     js = out / "diagnosis.json"
-    js.write_text(json.dumps(to_jsonable(diag.to_dict()), indent=2) + "\n")
+    write_file(js, json.dumps(to_jsonable(diag.to_dict()), indent=2) + "\n")
     return [md, js, *(out / f for f in figs.values())]

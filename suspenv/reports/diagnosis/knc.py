@@ -25,8 +25,9 @@ from suspenv.measurements.knc import (
     reading_drive,
     rig_test,
 )
-from suspenv.reports._mpl import pyplot
+from suspenv.reports._mpl import pyplot, save_figure
 from suspenv.reports.markdown import markdown_table, text
+from suspenv.runs.run_dir import write_file
 
 #: plot scale and unit per channel
 PLOT_UNITS = {
@@ -59,7 +60,7 @@ def plot_residual_map(diag: Any, path: Path) -> Path:
     fig.colorbar(im, ax=ax, label="baseline residual RMS / noise level")
     ax.set_title("Where the baseline misses (fit data)")
     fig.subplots_adjust(left=0.35, right=0.95, bottom=0.12, top=0.92)
-    fig.savefig(path, dpi=90)
+    save_figure(fig, path, dpi=90)
     plt.close(fig)
     return path
 
@@ -98,7 +99,7 @@ def plot_loops(diag: Any, recs: list[Any], path: Path) -> Path:
     axes[0, 0].plot([], [], color="tab:blue", label="final model")
     axes[0, 0].legend(fontsize=7, title="left -, right --", title_fontsize=7)
     fig.subplots_adjust(left=0.08, right=0.98, bottom=0.07, top=0.95, wspace=0.35, hspace=0.3)
-    fig.savefig(path, dpi=80)
+    save_figure(fig, path, dpi=80)
     plt.close(fig)
     return path
 
@@ -144,7 +145,7 @@ def plot_left_right(diag: Any, recs: list[Any], path: Path) -> Path:
             ax.set_xlabel(xlabel, fontsize=8)
     axes[0, 0].legend(fontsize=7)
     fig.subplots_adjust(left=0.07, right=0.98, bottom=0.1, top=0.92, wspace=0.3, hspace=0.5)
-    fig.savefig(path, dpi=80)
+    save_figure(fig, path, dpi=80)
     plt.close(fig)
     return path
 
@@ -162,7 +163,7 @@ def write_knc_report(diag: Any, out_dir: str | Path) -> list[Path]:
     recs = list(diag.fit_recordings) + list(diag.heldout_recordings)
     paths.append(plot_loops(diag, recs, out / "loops.png"))
     paths.append(plot_left_right(diag, recs, out / "left_right.png"))
-    (out / "diagnosis.json").write_text(json.dumps(diag.to_dict(), indent=2, default=float))
+    write_file(out / "diagnosis.json", json.dumps(diag.to_dict(), indent=2, default=float))
     paths.append(out / "diagnosis.json")
 
     lines = [
@@ -270,7 +271,7 @@ def write_knc_report(diag: Any, out_dir: str | Path) -> list[Path]:
         "![left-right](left_right.png)",
         "",
     ]
-    (out / "report.md").write_text("\n".join(lines))
+    write_file(out / "report.md", "\n".join(lines))
     paths.append(out / "report.md")
     return paths
 

@@ -16,8 +16,9 @@ from suspenv.core.jsonable import to_jsonable
 from suspenv.diagnosis.engine import Diagnosis
 from suspenv.diagnosis.ride.residual import NOISE_BAND_HZ
 from suspenv.metrics.ride import acceleration_psd
-from suspenv.reports._mpl import pyplot
+from suspenv.reports._mpl import pyplot, save_figure
 from suspenv.reports.markdown import text
+from suspenv.runs.run_dir import write_file
 
 
 def _pred(fit: Any, rec: Any) -> dict[str, np.ndarray]:
@@ -55,7 +56,7 @@ def time_overlays(diag: Diagnosis, path: Path) -> Path:
         ax.set_ylabel("acceleration (m/s^2)")
     axes[0, 0].legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
+    save_figure(fig, path, dpi=100)
     plt.close(fig)
     return path
 
@@ -93,7 +94,7 @@ def psd_overlays(diag: Diagnosis, path: Path) -> Path | None:
     axes[0, 0].set_ylabel("PSD ((m/s^2)^2/Hz)")
     axes[0, 0].legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
+    save_figure(fig, path, dpi=100)
     plt.close(fig)
     return path
 
@@ -112,7 +113,7 @@ def residual_map(diag: Diagnosis, path: Path) -> Path:
         ax.set_title(dim, fontsize=9)
     axes[0, 0].legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
+    save_figure(fig, path, dpi=100)
     plt.close(fig)
     return path
 
@@ -198,7 +199,7 @@ def write_ride_diagnosis_report(diag: Diagnosis, out_dir: str | Path) -> list[Pa
     lines.append("")
     lines += [f"![{p.stem}]({p.name})" for p in figs]
     md = out / "ride_diagnosis.md"
-    md.write_text("\n".join(lines) + "\n")
+    write_file(md, "\n".join(lines) + "\n")
     js = out / "ride_diagnosis.json"
-    js.write_text(json.dumps(to_jsonable(diag.to_dict()), indent=2))
+    write_file(js, json.dumps(to_jsonable(diag.to_dict()), indent=2))
     return [md, js, *figs]

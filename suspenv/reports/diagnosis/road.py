@@ -14,9 +14,10 @@ from pathlib import Path
 import numpy as np
 
 from suspenv.diagnosis.road import RoadDiagnosis
-from suspenv.reports._mpl import pyplot
+from suspenv.reports._mpl import pyplot, save_figure
 from suspenv.reports.markdown import text
 from suspenv.rigs.road import N0, ROAD_CLASS_GD0
+from suspenv.runs.run_dir import write_file
 
 
 def write_road_report(diag: RoadDiagnosis, out_dir: str | Path) -> list[Path]:
@@ -53,7 +54,7 @@ def write_road_report(diag: RoadDiagnosis, out_dir: str | Path) -> list[Path]:
     ax2.grid(True, which="both", alpha=0.3)
     fig.tight_layout()
     png = out / "road_psd.png"
-    fig.savefig(png, dpi=110)
+    save_figure(fig, png, dpi=110)
     plt.close(fig)
 
     f, s, t, h = diag.free, diag.standard, diag.test, diag.heldout
@@ -112,7 +113,7 @@ def write_road_report(diag: RoadDiagnosis, out_dir: str | Path) -> list[Path]:
         )
     lines += ["", f"![PSD and residual by band]({png.name})", ""]
     md = out / "road_diagnosis.md"
-    md.write_text("\n".join(lines))
+    write_file(md, "\n".join(lines))
     js = out / "road_diagnosis.json"
-    js.write_text(json.dumps(diag.to_dict(), indent=2, default=float))
+    write_file(js, json.dumps(diag.to_dict(), indent=2, default=float))
     return [md, png, js]
