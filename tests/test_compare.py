@@ -372,6 +372,27 @@ def test_tidy_loader_is_long_form_for_pandas(sphere_runs):
     assert per_run["best_quality"].iloc[0] == s["best_quality"]
 
 
+def test_tidy_of_multiobjective_runs_has_designs_and_hypervolume(zdt1_runs):
+    # the report: no design-variable columns, and best_so_far was the sum of objectives
+    dirs = zdt1_runs["cmaes"][:1] + zdt1_runs["nsga2"][:1]
+    t = tidy(dirs)
+    assert np.isnan(t["best_so_far"]).all()  # a sum across objectives is never shown
+    with RunArchive(dirs[0]) as a:
+        arrays, meta = a.arrays(), a.meta()
+    first = t["run"] == dirs[0].name
+    for j, (name, unit) in enumerate(
+        zip(meta["parameter_names"], meta["parameter_units"], strict=True)
+    ):
+        np.testing.assert_array_equal(t[f"design:{name} [{unit or '-'}]"][first], arrays["x"][:, j])
+    # the hypervolume column is compare's (the same front, normalisation, reference point)
+    res = compare(dirs)
+    (p,) = res.problems
+    for g in p.groups:
+        mine = t["hypervolume"][t["run"] == g.runs[0].name]
+        np.testing.assert_array_equal(mine, g.hv_curves[0])
+        assert np.all(np.diff(mine) >= 0)  # never falls
+
+
 def test_cli_prints_the_hash_column_and_refusals_as_one_line(sphere_runs, tmp_path, capsys):
     dirs = [str(d) for d in sphere_runs["cmaes6"] + sphere_runs["cmaes12"]]
     assert main(["compare", *dirs, "--out", str(tmp_path / "c"), "--no-plots"]) == 0

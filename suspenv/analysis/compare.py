@@ -34,7 +34,6 @@ from typing import Any
 import numpy as np
 
 from suspenv.analysis.indicators import (
-    KNOWN_FRONTS,
     feasible_front,
     hypervolume,
     hypervolume_curve,
@@ -43,7 +42,13 @@ from suspenv.analysis.indicators import (
     normalise,
     reference_point,
 )
-from suspenv.analysis.load import SUM_QUALITIES, RunRecord, load_runs
+from suspenv.analysis.load import (
+    SUM_QUALITIES,
+    RunRecord,
+    load_runs,
+    reference_front,
+    sums_objectives,
+)
 from suspenv.analysis.performance import (
     curve_matrix,
     curve_quantiles,
@@ -246,7 +251,7 @@ def _choose_measure(runs: list[RunRecord], measure: str) -> tuple[str, str]:
                 f"measure 'hypervolume' needs each run's archive, missing for {missing}"
             )
         return "hypervolume deficit", ""
-    if multi and r0.quality_name in SUM_QUALITIES:
+    if sums_objectives(r0):
         if m > HV_MAX_OBJECTIVES:
             return "quality", (
                 f"{m} objectives compared by {r0.quality_name!r} (a plain sum): hypervolumes "
@@ -262,48 +267,12 @@ def _choose_measure(runs: list[RunRecord], measure: str) -> tuple[str, str]:
     return "quality", ""
 
 
-def _reference_front(runs: list[RunRecord], given: Any) -> tuple[np.ndarray, str, float | None]:
-    """(front in raw objectives, where it comes from, exact HV in normalised space or None)."""
-    r0 = runs[0]
-    if given is not None:
-        front = np.atleast_2d(np.asarray(given, dtype=float))
-        if front.shape[1] != len(r0.objective_names):
-            raise ValidationError(
-                f"the reference front of {r0.problem} must have {len(r0.objective_names)} "
-                f"columns ({r0.objective_names}), but got shape {front.shape}"
-            )
-        return front, "given by the caller", None
-    known = KNOWN_FRONTS.get(r0.problem)
-    if known is not None and tuple(r0.objective_names) == known.objectives:
-        front = known.sample(1001)
-        exact = None
-        if known.exact_hypervolume is not None:
-            exact = known.exact_hypervolume(reference_point(front.shape[1]))
-        return front, f"{known.source}, sampled at 1001 points", exact
-    parts = []
-    for r in runs:
-        a, feas = r.arrays(), r.feasible()
-        if a is not None and feas is not None:
-            parts.append(a["objectives"][feas])
-    F = np.vstack(parts) if parts else np.zeros((0, len(r0.objective_names)))
-    front = feasible_front(F, np.ones(len(F), bool))
-    if not len(front):
-        raise ValidationError(
-            f"no run of {r0.problem} has a feasible evaluation: there is no reference front"
-        )
-    return (
-        front,
-        f"non-dominated union of the {len(runs)} compared runs ({len(front)} points)",
-        None,
-    )
-
-
 def _multiobjective(
     pc: ProblemComparison, runs: list[RunRecord], given_front: Any, curves: bool
 ) -> dict[str, Any]:
     """Final hypervolume and IGD per run (and hypervolume curves when ``curves``)."""
     m = len(runs[0].objective_names)
-    front, source, exact = _reference_front(runs, given_front)
+    front, source, exact = reference_front(runs, given_front)
     ideal, nadir = normalisation(front)
     ref = reference_point(m)
     Rn = normalise(front, ideal, nadir)

@@ -25,6 +25,14 @@ from typing import Any
 
 import numpy as np
 
+from suspenv.analysis.indicators import (
+    KNOWN_FRONTS,
+    feasible_front,
+    hypervolume_curve,
+    normalisation,
+    normalise,
+    reference_point,
+)
 from suspenv.analysis.performance import as_curve
 from suspenv.core.errors import ValidationError
 from suspenv.registry import problem_class, strategy_class
@@ -372,6 +380,50 @@ def _strategy_options(
     return configured_strategy_options(strategy, used, shape), used
 
 
+def reference_front(runs: list[RunRecord], given: Any) -> tuple[np.ndarray, str, float | None]:
+    """The reference front of multi-objective runs of one problem: (front in raw
+    objectives, where it comes from, exact HV in normalised space or None). Given, else
+    the problem's analytic front, else the non-dominated union of the runs."""
+    r0 = runs[0]
+    if given is not None:
+        front = np.atleast_2d(np.asarray(given, dtype=float))
+        if front.shape[1] != len(r0.objective_names):
+            raise ValidationError(
+                f"the reference front of {r0.problem} must have {len(r0.objective_names)} "
+                f"columns ({r0.objective_names}), but got shape {front.shape}"
+            )
+        return front, "given by the caller", None
+    known = KNOWN_FRONTS.get(r0.problem)
+    if known is not None and tuple(r0.objective_names) == known.objectives:
+        front = known.sample(1001)
+        exact = None
+        if known.exact_hypervolume is not None:
+            exact = known.exact_hypervolume(reference_point(front.shape[1]))
+        return front, f"{known.source}, sampled at 1001 points", exact
+    parts = []
+    for r in runs:
+        a, feas = r.arrays(), r.feasible()
+        if a is not None and feas is not None:
+            parts.append(a["objectives"][feas])
+    F = np.vstack(parts) if parts else np.zeros((0, len(r0.objective_names)))
+    front = feasible_front(F, np.ones(len(F), bool))
+    if not len(front):
+        raise ValidationError(
+            f"no run of {r0.problem} has a feasible evaluation: there is no reference front"
+        )
+    return (
+        front,
+        f"non-dominated union of the {len(runs)} compared runs ({len(front)} points)",
+        None,
+    )
+
+
+def sums_objectives(r: RunRecord) -> bool:
+    """True when a run's quality is a plain sum of its two or more objectives (mixed
+    units): its progress is then measured by the hypervolume, never by that sum."""
+    return len(r.objective_names) >= 2 and r.quality_name in SUM_QUALITIES
+
+
 def load_runs(runs: Iterable[str | Path | RunRecord]) -> list[RunRecord]:
     """:func:`load_run` of each (records pass through); duplicates refused."""
     out = [r if isinstance(r, RunRecord) else load_run(r) for r in runs]
@@ -416,54 +468,83 @@ def tidy(runs: Sequence[str | Path | RunRecord], objectives: bool = True) -> dic
     """One row per (run, evaluation), long form, for ``pandas.DataFrame(tidy(dirs))``.
 
     Columns: run, problem, problem_hash, strategy, strategy_hash, group, seed,
-    evaluation (1-based), best_so_far (NaN before the first feasible value); with
-    ``objectives`` and an archive matching the curve also ok, feasible and one column
-    ``objective:<name>`` per objective (NaN for runs without one).
+    evaluation (1-based), and the run's progress: ``best_so_far`` (the best quality so
+    far, NaN before the first feasible value, and NaN for a run whose quality is a plain
+    sum of objectives in mixed units, :func:`sums_objectives`) and, for multi-objective
+    runs, ``hypervolume`` (of the feasible evaluations so far, objectives normalised by
+    the ideal and nadir of the reference front, :func:`reference_front`, reference point
+    1.1 in each; NaN for other runs). With ``objectives`` and an archive matching the
+    curve also ok, feasible, one column per design variable ``design:<name> [<unit>]``
+    (physical value), per objective ``objective:<name>`` and per constraint
+    ``constraint:<name>`` (its value g, feasible when g <= 0); NaN where a run has none.
     """
     recs = load_runs(runs)
-    cols: dict[str, list[np.ndarray]] = {
-        k: []
-        for k in (
-            "run",
-            "problem",
-            "problem_hash",
-            "strategy",
-            "strategy_hash",
-            "group",
-            "seed",
-            "evaluation",
-            "best_so_far",
-        )
-    }
-    extra: dict[str, list[np.ndarray]] = {}
-    names: list[str] = []
+    keys = ("run", "problem", "problem_hash", "strategy", "strategy_hash", "group")
+    cols: dict[str, list[np.ndarray]] = {k: [] for k in (*keys, "seed", "evaluation")}
+    cols["best_so_far"], cols["hypervolume"] = [], []
+    hv = _hypervolume_progress(recs)
+    names: dict[str, None] = {}
     if objectives:
         for r in recs:
-            names += [n for n in r.objective_names if n not in names]
-        extra = {"ok": [], "feasible": [], **{f"objective:{n}": [] for n in names}}
+            names.update(dict.fromkeys(_columns(r)))
+        cols.update({"ok": [], "feasible": [], **{k: [] for k in names}})
     for r in recs:
         n = r.curve.size
-        for key, value in (
-            ("run", r.name),
-            ("problem", r.problem),
-            ("problem_hash", r.problem_hash),
-            ("strategy", r.strategy),
-            ("strategy_hash", r.strategy_hash),
-            ("group", f"{r.strategy}[{r.strategy_hash}]"),
-        ):
+        values = (r.name, r.problem, r.problem_hash, r.strategy, r.strategy_hash,
+                  f"{r.strategy}[{r.strategy_hash}]")
+        for key, value in zip(keys, values, strict=True):
             cols[key].append(np.full(n, value, dtype=object))
         cols["seed"].append(np.full(n, -1 if r.seed is None else r.seed, dtype=int))
         cols["evaluation"].append(np.arange(1, n + 1))
-        cols["best_so_far"].append(np.where(np.isfinite(r.curve), r.curve, np.nan))
+        best = np.where(np.isfinite(r.curve), r.curve, np.nan)
+        cols["best_so_far"].append(np.full(n, np.nan) if sums_objectives(r) else best)
+        cols["hypervolume"].append(hv.get(r.path, np.full(n, np.nan)))
         if objectives:
-            a = r.arrays()
-            feas = r.feasible()
-            extra["ok"].append(a["ok"] if a is not None else np.zeros(n, bool))
-            extra["feasible"].append(feas if feas is not None else np.zeros(n, bool))
+            a, feas = r.arrays(), r.feasible()
+            cols["ok"].append(a["ok"] if a is not None else np.zeros(n, bool))
+            cols["feasible"].append(feas if feas is not None else np.zeros(n, bool))
+            own = _columns(r) if a is not None else {}
             for name in names:
                 col = np.full(n, np.nan)
-                if a is not None and name in r.objective_names:
-                    col = a["objectives"][:, r.objective_names.index(name)]
-                extra[f"objective:{name}"].append(col)
-    out = {k: np.concatenate(v) if v else np.zeros(0) for k, v in {**cols, **extra}.items()}
+                if a is not None and name in own:
+                    part, j = own[name]
+                    col = a[part][:, j]
+                cols[name].append(col)
+    return {k: np.concatenate(v) if v else np.zeros(0) for k, v in cols.items()}
+
+
+def _columns(r: RunRecord) -> dict[str, tuple[str, int]]:
+    """A run's tidy value columns: name -> (array of :meth:`RunRecord.arrays`, column)."""
+    m = r.meta
+    units = list(m.get("parameter_units") or [])
+    out: dict[str, tuple[str, int]] = {}
+    for j, name in enumerate(m.get("parameter_names") or []):
+        unit = units[j] if j < len(units) and units[j] else "-"
+        out[f"design:{name} [{unit}]"] = ("x", j)
+    for j, name in enumerate(r.objective_names):
+        out[f"objective:{name}"] = ("objectives", j)
+    for j, name in enumerate(m.get("constraint_names") or []):
+        out[f"constraint:{name}"] = ("constraints", j)
+    return out
+
+
+def _hypervolume_progress(recs: Sequence[RunRecord]) -> dict[Path, np.ndarray]:
+    """Hypervolume after each evaluation of every multi-objective run with an archive,
+    per problem against its :func:`reference_front` (normalised, reference point 1.1)."""
+    by: dict[str, list[RunRecord]] = {}
+    for r in recs:
+        if len(r.objective_names) >= 2 and r.arrays() is not None:
+            by.setdefault(r.problem_hash, []).append(r)
+    out: dict[Path, np.ndarray] = {}
+    for group in by.values():
+        try:
+            front, _, _ = reference_front(group, None)
+        except ValidationError:  # no feasible evaluation anywhere: no front, no volume
+            continue
+        ideal, nadir = normalisation(front)
+        ref = reference_point(front.shape[1])
+        for r in group:
+            a, feas = r.arrays(), r.feasible()
+            assert a is not None and feas is not None
+            out[r.path] = hypervolume_curve(normalise(a["objectives"], ideal, nadir), feas, ref)
     return out
