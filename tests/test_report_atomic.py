@@ -25,7 +25,17 @@ WRITERS = [
     *sorted((ROOT / "reports" / "diagnosis").glob("*.py")),
     *(
         ROOT / "reports" / f"{n}.py"
-        for n in ("tey2014", "minibus", "minibus_ride", "planar", "kc_identification", "suspension")
+        for n in (
+            "tey2014",
+            "minibus",
+            "minibus_ride",
+            "planar",
+            "kc_identification",
+            "suspension",
+            "identify",
+            "knc_signs",
+            "knc_rig",
+        )
     ),
     *sorted((ROOT / "methods" / "tey2014").glob("*.py")),
 ]

@@ -10,7 +10,6 @@ units for parameters (mm, N/mm, N*mm/deg, N*m/rad, deg); curves in mm and deg.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -19,8 +18,9 @@ import numpy as np
 from suspenv.core.jsonable import to_jsonable
 from suspenv.methods.identifiability import K_SIGMA, TOLERANCE_PCT, summary_counts
 from suspenv.methods.identify import FIT_RATIO, summary
-from suspenv.reports._mpl import pyplot
+from suspenv.reports._mpl import pyplot, save_figure
 from suspenv.reports.markdown import fmt, markdown_table, text
+from suspenv.runs.run_dir import write_file, write_json
 
 if TYPE_CHECKING:
     from suspenv.methods.identify import IdentifyResult
@@ -65,7 +65,7 @@ CHANNEL_WORDS = {
 def _save(fig: Any, path: Path) -> Path:
     plt = pyplot()
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=100, bbox_inches="tight")
+    save_figure(fig, path, dpi=100, bbox_inches="tight")
     plt.close(fig)
     return path
 
@@ -622,10 +622,10 @@ def write_identify_report(result: IdentifyResult, out: Path, figures: bool = Tru
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     toml = out / "identified.toml"
-    toml.write_text(dump_vehicle(result.identified_vehicle))
+    write_file(toml, dump_vehicle(result.identified_vehicle))
     s = summary(result)
     js = out / "identify.json"
-    js.write_text(json.dumps(to_jsonable(s), indent=2) + "\n")
+    write_json(js, to_jsonable(s))
     figs = _figures(result, out) if figures else {}
     lines = _first_screen(result, s) + [""]
     if "residual" in figs:  # the fit before and after the loop: the first thing seen
@@ -652,7 +652,7 @@ def write_identify_report(result: IdentifyResult, out: Path, figures: bool = Tru
     if "convergence" in figs:
         lines += ["![convergence](figures/convergence.png)", ""]
     rep = out / "report.md"
-    rep.write_text("\n".join(lines) + "\n")
+    write_file(rep, "\n".join(lines) + "\n")
     return [toml, js, *figs.values(), rep]
 
 

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from suspenv.models.mcpherson.params import SIDE_SIGN
-from suspenv.reports._mpl import pyplot
+from suspenv.reports._mpl import pyplot, save_figure
 from suspenv.rigs.knc import FORCE_TESTS, KCResult
 
 #: CSV/plot channels: column stem -> (rig channel, scale to edge units, outboard-mirrored)
@@ -96,5 +96,5 @@ def plot_rig_curves(res: KCResult, path: Path, title: str) -> None:
         ax.grid(alpha=0.3)
     axes[0, 0].legend()
     fig.suptitle(title)
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from suspenv.reports._mpl import pyplot
+from suspenv.reports._mpl import pyplot, save_figure
 
 DPI = 80
 BLUE, RED, GREEN, GREY = "#1f5fa8", "#c0392b", "#1e8449", "#7f8c8d"
@@ -97,7 +97,7 @@ def front_view(path: Path) -> None:
     ax.set_ylabel("z up [mm]")
     ax.set_title("Front view of the left wheel (from in front, looking rearward)", fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=DPI)
+    save_figure(fig, path, dpi=DPI)
     plt.close(fig)
 
 
@@ -145,7 +145,7 @@ def side_view(path: Path) -> None:
     ax.set_ylabel("z up [mm]")
     ax.set_title("Side view of the left wheel, from the left", fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=DPI)
+    save_figure(fig, path, dpi=DPI)
     plt.close(fig)
 
 
@@ -190,7 +190,7 @@ def top_view(path: Path) -> None:
     ax.set_yticks([])
     ax.set_title("Top view of the front axle (forward up)", fontsize=10)
     fig.tight_layout()
-    fig.savefig(path, dpi=DPI)
+    save_figure(fig, path, dpi=DPI)
     plt.close(fig)
 
 
