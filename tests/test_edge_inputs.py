@@ -24,7 +24,7 @@ def one_run(tmp_path_factory) -> Path:
         {
             "name": "one",
             "seed": 1,
-            "budget": 30,
+            "budget": 100,
             "problem": {"name": "Sphere", "options": {"dim": 3}},
             "strategy": {"name": "random"},
             "run": {"output": str(out), "plots": False, "progress": False},
