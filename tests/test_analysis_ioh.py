@@ -98,5 +98,9 @@ def test_reader_ert_equals_compare_on_zdt1_and_sphere(tmp_path):
 
 @pytest.mark.slow
 def test_reader_ert_equals_compare_on_every_suite_function(tmp_path):
-    run_suite(["cmaes", "random"], [1, 2], tmp_path / "s", budget_scale=0.25, progress=False)
+    from suspenv.suite.instances import FUNCTIONS
+
+    first = [f"{name}/i{f.instances[0]}" for name, f in FUNCTIONS.items()]
+    run_suite(["cmaes", "random"], [1, 2], tmp_path / "s", first, budget_scale=0.25,
+              progress=False)
     _check_suite(tmp_path / "s", tmp_path / "c")
