@@ -32,7 +32,7 @@ column by column where the batch cannot be simulated.
 from __future__ import annotations
 
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, TypeVar
 
@@ -164,6 +164,44 @@ class FitResult:
         }
 
 
+class _NoBatchError(Exception):
+    """The model cannot be simulated for a batch of parameter rows (or its batch
+    disagrees with its single-row simulation)."""
+
+
+def _batch_works(
+    batch: Callable[[np.ndarray, Any], np.ndarray], x0: np.ndarray, f0: np.ndarray, model: Any
+) -> bool:
+    """The batched probe ``[x0, x0]`` of ``model`` runs and its first row is ``f0``."""
+    try:
+        probe = batch(np.vstack([x0, x0]), model)
+        return probe.shape == (2, f0.size) and bool(np.allclose(probe[0], f0))
+    except Exception:  # noqa: BLE001 - any failure: fall back to one simulation per column
+        return False
+
+
+def _probing_jac(
+    jac: Callable[..., np.ndarray], x0: np.ndarray, f0: np.ndarray
+) -> Callable[[np.ndarray], np.ndarray]:
+    """``jac`` whose first call (at ``x0``, where ``least_squares`` asks first) also
+    checks the batch: raises :class:`_NoBatchError` where the batch fails or its base row is
+    not ``f0``; later calls are ``jac``'s own (its column fallback included)."""
+    first = [True]
+
+    def probing(theta: np.ndarray) -> np.ndarray:
+        if not first[0]:
+            return jac(theta)
+        first[0] = False
+        if not np.array_equal(theta, x0):
+            raise _NoBatchError("the first Jacobian is not asked at the start point")
+        try:
+            return jac(theta, check=f0)
+        except Exception as exc:  # noqa: BLE001 - any failure: least_squares' differences
+            raise _NoBatchError(str(exc)) from exc
+
+    return probing
+
+
 def residuals(
     model: DiagnosableModel[R, E],
     theta: np.ndarray,
@@ -219,6 +257,30 @@ def stacked_residual(
     return np.where(np.isfinite(out), out, PENALTY)
 
 
+def _unstacked(
+    scaled: np.ndarray | None,
+    recs: Sequence[R],
+    channels: Sequence[str],
+    scales: Mapping[str, float],
+    masks: Masks | None,
+) -> list[dict[str, np.ndarray]] | None:
+    """The per-recording residuals (channel unit) of a :func:`stacked_residual` vector,
+    without simulating again; None where there is none or it holds a :data:`PENALTY`
+    (a non-finite sample: the simulation's own values are needed)."""
+    if scaled is None or np.any(scaled == PENALTY):
+        return None
+    out, k = [], 0
+    for i, rec in enumerate(recs):
+        m = None if masks is None else masks[i]
+        n = len(rec.time) if m is None else int(np.count_nonzero(m))
+        part = {}
+        for c in channels:
+            part[c] = scaled[k : k + n] * scales[c]
+            k += n
+        out.append(part)
+    return out if k == scaled.size else None
+
+
 def noise_scales(fit: FitResult, floor: float = 1e-12) -> dict[str, float]:
     """Per-channel scale = the fit's RMS residual (channel unit)."""
     return {c: max(v, floor) for c, v in fit.rms().items()}
@@ -270,7 +332,9 @@ def _result(
     """The :class:`FitResult` of ``model`` at ``theta``; standard errors from
     ``jacobian`` (NaN without one) and the scaled residual (computed when not given)."""
     channels = list(scales)
-    parts = residuals(model, theta, recs, channels, masks)
+    parts = _unstacked(scaled_residual, recs, channels, scales, masks)
+    if parts is None:
+        parts = residuals(model, theta, recs, channels, masks)
     ssr = {c: float(sum(np.sum(p[c] ** 2) for p in parts)) for c in channels}
     n = {c: int(sum(p[c].size for p in parts)) for c in channels}
     p = theta.size
@@ -432,13 +496,23 @@ def fit(
             raise ValidationError("batched simulation returned the wrong number of rows")
         return out
 
-    def jac(theta: np.ndarray, sim: DiagnosableModel[R, E] = jac_model) -> np.ndarray:
+    def jac(
+        theta: np.ndarray,
+        sim: DiagnosableModel[R, E] = jac_model,
+        check: np.ndarray | None = None,
+    ) -> np.ndarray:
         """Forward-difference Jacobian, all columns in one batched simulation (column
         by column where the batch as a whole cannot be simulated); ``sim`` defaults to
-        the Jacobian twin."""
+        the Jacobian twin. ``check``: the residual at ``theta``; the batch must run and
+        reproduce it (no column fallback)."""
         h = np.asarray(model.difference_step(theta, lo, hi), float)
         step = np.where(theta + h <= hi, h, -h)
         thetas = np.vstack([theta, theta + np.diag(step)])
+        if check is not None:
+            rows = batch_residuals(thetas, sim)
+            if rows.shape[1] != check.size or not np.allclose(rows[0], check):
+                raise _NoBatchError("the batch's base row is not the single-row residual")
+            return ((rows[1:] - rows[0]) / step[:, None]).T
         try:
             rows = batch_residuals(thetas, sim)
         except EvaluationError:
@@ -456,21 +530,24 @@ def fit(
     # solutions row by row (the K&C axle) then reuses the row instead of solving it in
     # another batch
     f0 = fun(x0)
-    try:
-        probe = batch_residuals(np.vstack([x0, x0]), model)
-        use_batch = probe.shape == (2, n_res) and bool(np.allclose(probe[0], f0))
-    except Exception:  # noqa: BLE001 - any failure: fall back to one simulation per column
-        use_batch = False
     ls_options: dict[str, Any] = {} if tol is None else {"ftol": tol, "xtol": tol}
-    sol = least_squares(
-        fun,
-        x0,
-        jac=jac if use_batch else "2-point",
-        bounds=(lo, hi),
-        x_scale="jac",
-        max_nfev=max_nfev,
-        **ls_options,
-    )
+
+    def solve(how: Any) -> Any:
+        return least_squares(
+            fun, x0, jac=how, bounds=(lo, hi), x_scale="jac", max_nfev=max_nfev, **ls_options
+        )
+
+    if jac_model is model:
+        # the first Jacobian (at x0) is the probe: its first row must be the residual
+        # at x0; where it is not, or the batch fails, the search starts again with
+        # least_squares' own differences (one batched simulation saved per fit)
+        try:
+            sol, use_batch = solve(_probing_jac(jac, x0, f0)), True
+        except _NoBatchError:
+            sol, use_batch = solve("2-point"), False
+    else:
+        use_batch = _batch_works(batch_residuals, x0, f0, model)
+        sol = solve(jac if use_batch else "2-point")
     theta = np.asarray(sol.x, float)
     J = np.asarray(sol.jac, float)
     if use_batch and jac_model is not model:
