@@ -32,7 +32,7 @@ column by column where the batch cannot be simulated.
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, TypeVar
 
@@ -167,39 +167,6 @@ class FitResult:
 class _NoBatchError(Exception):
     """The model cannot be simulated for a batch of parameter rows (or its batch
     disagrees with its single-row simulation)."""
-
-
-def _batch_works(
-    batch: Callable[[np.ndarray, Any], np.ndarray], x0: np.ndarray, f0: np.ndarray, model: Any
-) -> bool:
-    """The batched probe ``[x0, x0]`` of ``model`` runs and its first row is ``f0``."""
-    try:
-        probe = batch(np.vstack([x0, x0]), model)
-        return probe.shape == (2, f0.size) and bool(np.allclose(probe[0], f0))
-    except Exception:  # noqa: BLE001 - any failure: fall back to one simulation per column
-        return False
-
-
-def _probing_jac(
-    jac: Callable[..., np.ndarray], x0: np.ndarray, f0: np.ndarray
-) -> Callable[[np.ndarray], np.ndarray]:
-    """``jac`` whose first call (at ``x0``, where ``least_squares`` asks first) also
-    checks the batch: raises :class:`_NoBatchError` where the batch fails or its base row is
-    not ``f0``; later calls are ``jac``'s own (its column fallback included)."""
-    first = [True]
-
-    def probing(theta: np.ndarray) -> np.ndarray:
-        if not first[0]:
-            return jac(theta)
-        first[0] = False
-        if not np.array_equal(theta, x0):
-            raise _NoBatchError("the first Jacobian is not asked at the start point")
-        try:
-            return jac(theta, check=f0)
-        except Exception as exc:  # noqa: BLE001 - any failure: least_squares' differences
-            raise _NoBatchError(str(exc)) from exc
-
-    return probing
 
 
 def residuals(
@@ -496,27 +463,31 @@ def fit(
             raise ValidationError("batched simulation returned the wrong number of rows")
         return out
 
-    def jac(
-        theta: np.ndarray,
-        sim: DiagnosableModel[R, E] = jac_model,
-        check: np.ndarray | None = None,
-    ) -> np.ndarray:
+    # where the Jacobian model is the model itself, its first Jacobian is the batch probe
+    probing = [jac_model is model]
+
+    def jac(theta: np.ndarray, sim: DiagnosableModel[R, E] = jac_model) -> np.ndarray:
         """Forward-difference Jacobian, all columns in one batched simulation (column
         by column where the batch as a whole cannot be simulated); ``sim`` defaults to
-        the Jacobian twin. ``check``: the residual at ``theta``; the batch must run and
-        reproduce it (no column fallback)."""
+        the Jacobian twin. As the probe, the batch must run and its base row be the
+        single-row residual (else :class:`_NoBatchError`)."""
         h = np.asarray(model.difference_step(theta, lo, hi), float)
         step = np.where(theta + h <= hi, h, -h)
         thetas = np.vstack([theta, theta + np.diag(step)])
-        if check is not None:
-            rows = batch_residuals(thetas, sim)
-            if rows.shape[1] != check.size or not np.allclose(rows[0], check):
+        if probing[0]:
+            probing[0] = False
+            try:
+                rows = batch_residuals(thetas, sim)
+                same = rows.shape[1] == n_res and bool(np.allclose(rows[0], fun(theta)))
+            except Exception as exc:  # noqa: BLE001 - any failure: least_squares' differences
+                raise _NoBatchError(str(exc)) from exc
+            if not same:
                 raise _NoBatchError("the batch's base row is not the single-row residual")
-            return ((rows[1:] - rows[0]) / step[:, None]).T
-        try:
-            rows = batch_residuals(thetas, sim)
-        except EvaluationError:
-            rows = np.vstack([fun(th) for th in thetas])
+        else:
+            try:
+                rows = batch_residuals(thetas, sim)
+            except EvaluationError:
+                rows = np.vstack([fun(th) for th in thetas])
         return ((rows[1:] - rows[0]) / step[:, None]).T
 
     refined = model.refine_start(x0, recs, masks)
@@ -537,16 +508,19 @@ def fit(
             fun, x0, jac=how, bounds=(lo, hi), x_scale="jac", max_nfev=max_nfev, **ls_options
         )
 
-    if jac_model is model:
-        # the first Jacobian (at x0) is the probe: its first row must be the residual
-        # at x0; where it is not, or the batch fails, the search starts again with
-        # least_squares' own differences (one batched simulation saved per fit)
+    if probing[0]:
+        # the first Jacobian (at x0, cached residual) probes the batch; where it fails the
+        # search starts again with least_squares' own differences (one batch saved a fit)
         try:
-            sol, use_batch = solve(_probing_jac(jac, x0, f0)), True
+            sol, use_batch = solve(jac), True
         except _NoBatchError:
             sol, use_batch = solve("2-point"), False
     else:
-        use_batch = _batch_works(batch_residuals, x0, f0, model)
+        try:
+            probe = batch_residuals(np.vstack([x0, x0]), model)
+            use_batch = probe.shape == (2, n_res) and bool(np.allclose(probe[0], f0))
+        except Exception:  # noqa: BLE001 - any failure: fall back to one simulation per column
+            use_batch = False
         sol = solve(jac if use_batch else "2-point")
     theta = np.asarray(sol.x, float)
     J = np.asarray(sol.jac, float)
