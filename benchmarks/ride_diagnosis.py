@@ -89,7 +89,9 @@ def ride_row(kind: str | None, seed: int) -> dict[str, Any]:
         "excess_ratio_after": res.excess_ratio,
         "explained_share": res.explained_share,
         "ljung_box_p_after": res.ljung_box_p,
-        "params_on_bound": ";".join(res.params_on_bound),
+        "params_on_bound": ";".join(
+            diag.findings["at_bounds"].numbers["at_bounds"] if "at_bounds" in diag.findings else []
+        ),
         "wall_seconds": wall,
         "cpu_seconds": cpu,
     }

@@ -14,9 +14,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from suspenv.diagnosis.checks.residual_left import RESIDUAL_LIMIT, judge, lag1
+from suspenv.diagnosis.checks.residual_left import RESIDUAL_LIMIT, judge
 from suspenv.diagnosis.decision import DecisionRule, decide
 from suspenv.diagnosis.engine import diagnose, make_family
+from suspenv.diagnosis.fitting import lag1_autocorrelation
 from suspenv.diagnosis.hypothesis import Hypothesis
 from suspenv.diagnosis.knc.story import knc_story
 
@@ -107,7 +108,7 @@ def test_a_smooth_residual_above_the_limit_is_left_and_located():
     assert n["where"] == {"test": "opposite", "channel": "fz"}
     assert n["lag1"] > 0.5  # smooth: structured, not noise
     # lag-1 autocorrelation of white noise is about 0 (+- 1 / sqrt(n))
-    assert abs(lag1(rng.normal(size=10000))) < 4 / 100
+    assert abs(lag1_autocorrelation(rng.normal(size=10000))) < 4 / 100
 
 
 # ---------------------------------------------------------------- K&C: a strut stop

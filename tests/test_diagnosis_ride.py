@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -19,7 +20,6 @@ from suspenv.diagnosis.ride.model import (
 )
 from suspenv.diagnosis.ride.residual import (
     noise_floor,
-    params_on_bound,
     residual_check,
     white_noise_sd,
 )
@@ -317,9 +317,12 @@ def test_residual_check_flags_a_gain_error_but_not_pure_noise(gain_case_baseline
     assert not c0.residual_remains and c0.excess_ratio < 1.1, c0
 
 
-def test_params_on_bound_detects_a_stretched_element(gain_case_baseline):
-    # planted: a seat-mount element with its stiffness at the fit bound
+def test_bounds_check_detects_a_stretched_ride_element(gain_case_baseline):
+    # planted: a seat-mount element with its stiffness at the fit bound; the shared
+    # check (checks.bounds) reads the named element's parameters
     import dataclasses
+
+    from suspenv.diagnosis.checks.bounds import parameters_at_bounds
 
     _, fit = gain_case_baseline
     model = MinibusRideAdapter([ride_effect("kelvin_voigt", "seat_mount")])
@@ -327,8 +330,11 @@ def test_params_on_bound_detects_a_stretched_element(gain_case_baseline):
     theta = np.concatenate([fit.theta, [hi[-2], 0.5 * (lo[-1] + hi[-1])]])
     names = model.parameter_names
     on = dataclasses.replace(fit, model=model, theta=theta, names=tuple(names))
-    assert params_on_bound(on, ["kelvin_voigt@seat_mount"]) == ["kelvin_voigt@seat_mount.k"]
-    assert params_on_bound(fit, ["kelvin_voigt@seat_mount"]) == []
+    named = [SimpleNamespace(params={n: 0.0 for n in names if n.startswith("kelvin_voigt@")})]
+    at = parameters_at_bounds(on, named)  # type: ignore[arg-type]
+    assert len(at) == 1 and at[0].startswith("kelvin_voigt@seat_mount.k = "), at
+    assert at[0].endswith("at its upper bound"), at
+    assert parameters_at_bounds(fit, named) == []  # type: ignore[arg-type]
 
 
 @pytest.mark.slow

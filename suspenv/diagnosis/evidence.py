@@ -50,11 +50,41 @@ def heldout_rms(
     return _channel_rms(heldout_residuals(fit, recordings, masks))
 
 
+def remembered_residuals(
+    fit: FitResult, recordings: Recordings, masks: Sequence[np.ndarray | None] | None = None
+) -> list[dict[str, np.ndarray]]:
+    """:func:`~suspenv.diagnosis.fitting.residuals` of ``fit`` on ``recordings``,
+    remembered on the fit (``extra["residuals"]``): a parent model is compared with each
+    of its candidates on the same recordings and is simulated once. An entry is reused
+    only for the same model object, the same parameter values and the very same
+    recording and mask objects."""
+    recs = as_recordings(recordings)
+    memo: list[tuple[Any, ...]] = fit.extra.setdefault("residuals", [])
+    for model, theta, seen, seen_masks, parts in memo:
+        if (
+            model is fit.model
+            and np.array_equal(theta, fit.theta)
+            and _same(seen, recs)
+            and _same(seen_masks, masks)
+        ):
+            return parts
+    parts = residuals(fit.model, fit.theta, recs, fit.channels, masks)
+    memo.append((fit.model, np.array(fit.theta, float), list(recs), masks, parts))
+    return parts
+
+
+def _same(a: Sequence[Any] | None, b: Sequence[Any] | None) -> bool:
+    """The same objects in the same order (or both None)."""
+    if a is None or b is None:
+        return a is b
+    return len(a) == len(b) and all(x is y for x, y in zip(a, b, strict=True))
+
+
 def heldout_residuals(
     fit: FitResult, recordings: Recordings, masks: Sequence[np.ndarray | None] | None = None
 ) -> dict[str, np.ndarray]:
     """Per-channel residual of a fitted model on (held-out) samples, recordings stacked."""
-    parts = residuals(fit.model, fit.theta, as_recordings(recordings), fit.channels, masks)
+    parts = remembered_residuals(fit, recordings, masks)
     return {c: np.concatenate([p[c] for p in parts]) for c in fit.channels}
 
 
@@ -152,7 +182,7 @@ def fit_residual_series(
     fit: FitResult, recordings: Recordings, masks: Sequence[np.ndarray | None] | None = None
 ) -> np.ndarray:
     """The fit's scaled residual, channels and recordings stacked (for whiteness tests)."""
-    parts = residuals(fit.model, fit.theta, as_recordings(recordings), fit.channels, masks)
+    parts = remembered_residuals(fit, recordings, masks)
     return np.concatenate([p[c] / fit.scales[c] for p in parts for c in fit.channels])
 
 

@@ -164,6 +164,11 @@ class FitResult:
         }
 
 
+class _NoBatchError(Exception):
+    """The model cannot be simulated for a batch of parameter rows (or its batch
+    disagrees with its single-row simulation)."""
+
+
 def residuals(
     model: DiagnosableModel[R, E],
     theta: np.ndarray,
@@ -219,6 +224,30 @@ def stacked_residual(
     return np.where(np.isfinite(out), out, PENALTY)
 
 
+def _unstacked(
+    scaled: np.ndarray | None,
+    recs: Sequence[R],
+    channels: Sequence[str],
+    scales: Mapping[str, float],
+    masks: Masks | None,
+) -> list[dict[str, np.ndarray]] | None:
+    """The per-recording residuals (channel unit) of a :func:`stacked_residual` vector,
+    without simulating again; None where there is none or it holds a :data:`PENALTY`
+    (a non-finite sample: the simulation's own values are needed)."""
+    if scaled is None or np.any(scaled == PENALTY):
+        return None
+    out, k = [], 0
+    for i, rec in enumerate(recs):
+        m = None if masks is None else masks[i]
+        n = len(rec.time) if m is None else int(np.count_nonzero(m))
+        part = {}
+        for c in channels:
+            part[c] = scaled[k : k + n] * scales[c]
+            k += n
+        out.append(part)
+    return out if k == scaled.size else None
+
+
 def noise_scales(fit: FitResult, floor: float = 1e-12) -> dict[str, float]:
     """Per-channel scale = the fit's RMS residual (channel unit)."""
     return {c: max(v, floor) for c, v in fit.rms().items()}
@@ -270,7 +299,9 @@ def _result(
     """The :class:`FitResult` of ``model`` at ``theta``; standard errors from
     ``jacobian`` (NaN without one) and the scaled residual (computed when not given)."""
     channels = list(scales)
-    parts = residuals(model, theta, recs, channels, masks)
+    parts = _unstacked(scaled_residual, recs, channels, scales, masks)
+    if parts is None:
+        parts = residuals(model, theta, recs, channels, masks)
     ssr = {c: float(sum(np.sum(p[c] ** 2) for p in parts)) for c in channels}
     n = {c: int(sum(p[c].size for p in parts)) for c in channels}
     p = theta.size
@@ -432,17 +463,31 @@ def fit(
             raise ValidationError("batched simulation returned the wrong number of rows")
         return out
 
+    # where the Jacobian model is the model itself, its first Jacobian is the batch probe
+    probing = [jac_model is model]
+
     def jac(theta: np.ndarray, sim: DiagnosableModel[R, E] = jac_model) -> np.ndarray:
         """Forward-difference Jacobian, all columns in one batched simulation (column
         by column where the batch as a whole cannot be simulated); ``sim`` defaults to
-        the Jacobian twin."""
+        the Jacobian twin. As the probe, the batch must run and its base row be the
+        single-row residual (else :class:`_NoBatchError`)."""
         h = np.asarray(model.difference_step(theta, lo, hi), float)
         step = np.where(theta + h <= hi, h, -h)
         thetas = np.vstack([theta, theta + np.diag(step)])
-        try:
-            rows = batch_residuals(thetas, sim)
-        except EvaluationError:
-            rows = np.vstack([fun(th) for th in thetas])
+        if probing[0]:
+            probing[0] = False
+            try:
+                rows = batch_residuals(thetas, sim)
+                same = rows.shape[1] == n_res and bool(np.allclose(rows[0], fun(theta)))
+            except Exception as exc:  # noqa: BLE001 - any failure: least_squares' differences
+                raise _NoBatchError(str(exc)) from exc
+            if not same:
+                raise _NoBatchError("the batch's base row is not the single-row residual")
+        else:
+            try:
+                rows = batch_residuals(thetas, sim)
+            except EvaluationError:
+                rows = np.vstack([fun(th) for th in thetas])
         return ((rows[1:] - rows[0]) / step[:, None]).T
 
     refined = model.refine_start(x0, recs, masks)
@@ -456,21 +501,27 @@ def fit(
     # solutions row by row (the K&C axle) then reuses the row instead of solving it in
     # another batch
     f0 = fun(x0)
-    try:
-        probe = batch_residuals(np.vstack([x0, x0]), model)
-        use_batch = probe.shape == (2, n_res) and bool(np.allclose(probe[0], f0))
-    except Exception:  # noqa: BLE001 - any failure: fall back to one simulation per column
-        use_batch = False
     ls_options: dict[str, Any] = {} if tol is None else {"ftol": tol, "xtol": tol}
-    sol = least_squares(
-        fun,
-        x0,
-        jac=jac if use_batch else "2-point",
-        bounds=(lo, hi),
-        x_scale="jac",
-        max_nfev=max_nfev,
-        **ls_options,
-    )
+
+    def solve(how: Any) -> Any:
+        return least_squares(
+            fun, x0, jac=how, bounds=(lo, hi), x_scale="jac", max_nfev=max_nfev, **ls_options
+        )
+
+    if probing[0]:
+        # the first Jacobian (at x0, cached residual) probes the batch; where it fails the
+        # search starts again with least_squares' own differences (one batch saved a fit)
+        try:
+            sol, use_batch = solve(jac), True
+        except _NoBatchError:
+            sol, use_batch = solve("2-point"), False
+    else:
+        try:
+            probe = batch_residuals(np.vstack([x0, x0]), model)
+            use_batch = probe.shape == (2, n_res) and bool(np.allclose(probe[0], f0))
+        except Exception:  # noqa: BLE001 - any failure: fall back to one simulation per column
+            use_batch = False
+        sol = solve(jac if use_batch else "2-point")
     theta = np.asarray(sol.x, float)
     J = np.asarray(sol.jac, float)
     if use_batch and jac_model is not model:

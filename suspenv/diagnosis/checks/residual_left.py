@@ -24,16 +24,10 @@ import numpy as np
 from scipy import stats
 
 from suspenv.diagnosis.checks.finding import Context, Finding
+from suspenv.diagnosis.fitting import lag1_autocorrelation
 
 #: a channel whose residual RMS exceeds this many noise levels is a residual left
 RESIDUAL_LIMIT = 3.0
-
-
-def lag1(r: np.ndarray) -> float:
-    """Lag-1 autocorrelation of ``r`` (0 for fewer than 3 samples or a constant)."""
-    r = np.asarray(r, float) - float(np.mean(r))
-    den = float(np.sum(r**2))
-    return float(np.sum(r[1:] * r[:-1]) / den) if r.size > 2 and den > 0 else 0.0
 
 
 def judge(cells: dict[tuple[str, str], np.ndarray], alpha: float) -> dict[str, Any]:
@@ -59,7 +53,7 @@ def judge(cells: dict[tuple[str, str], np.ndarray], alpha: float) -> dict[str, A
         "worst_rms": rms[worst],
         "where": {"test": where[0], "channel": where[1]},
         "where_share": max(excess[where], 0.0) / total,
-        "lag1": lag1(cells[where]),
+        "lag1": lag1_autocorrelation(cells[where]),
         "remains": bool(rms[worst] > RESIDUAL_LIMIT and p[worst] < alpha),
     }
 

@@ -23,9 +23,9 @@ named elements, or the baseline when nothing is named):
 * **residual remains** when the excess ratio exceeds :data:`EXCESS_LIMIT` *and*
   the Ljung-Box p-value is below :data:`WHITENESS_ALPHA`: the model error left is
   at least ~ 0.46 x the noise in RMS and it is structured, not noise.
-* **named with confidence**: something is named, no residual remains and no
-  parameter of a named element sits on its fit bound (an element pushed to its
-  bound is being used outside its physical range to absorb something else).
+* **named with confidence**: something is named and no residual remains (a named
+  element's parameter on its fit bound is the shared check's,
+  :mod:`suspenv.diagnosis.checks.bounds`).
 
 Limits: a recording low-pass filtered below the band (anti-aliasing) makes the
 floor too low and the check too cautious (it reports a residual); model error with
@@ -52,8 +52,6 @@ NOISE_BAND_HZ = 50.0
 EXCESS_LIMIT = 1.10
 #: Ljung-Box p below which the held-out residual is not white
 WHITENESS_ALPHA = 0.01
-#: relative distance (of the bound span) within which a parameter counts as on its bound
-BOUND_TOLERANCE = 1e-3
 
 
 def white_noise_sd(r: np.ndarray, dt: float, f_min: float = NOISE_BAND_HZ) -> tuple[float, int]:
@@ -105,7 +103,6 @@ class ResidualCheck:
     ljung_box_q: float
     ljung_box_p: float
     residual_remains: bool
-    params_on_bound: list[str] = field(default_factory=list)
     named: bool = False
     per_channel_floor: dict[str, float] = field(default_factory=dict)
     excess_limit: float = EXCESS_LIMIT
@@ -113,8 +110,8 @@ class ResidualCheck:
 
     @property
     def confident(self) -> bool:
-        """A named element that leaves only noise, with no parameter on its bound."""
-        return self.named and not self.residual_remains and not self.params_on_bound
+        """A named element that leaves only noise."""
+        return self.named and not self.residual_remains
 
     @property
     def remains(self) -> bool:
@@ -132,18 +129,12 @@ class ResidualCheck:
             f"held-out error {pct:.0f} % of the baseline's, {self.excess_ratio:.2f} x the "
             f"sensor-noise floor; Ljung-Box p = {self.ljung_box_p:.2g}"
         )
-        bound = (
-            f" The fitted {', '.join(self.params_on_bound)} sit(s) on the fit bound: the element "
-            "is stretched to absorb something it does not describe."
-            if self.params_on_bound
-            else ""
-        )
         if self.named and self.residual_remains:
             share = max(self.explained_share, 0.0)
             return (
                 f"Residual left after the named effect: {left}. The named effect explains "
                 f"{100 * share:.0f} % of the baseline's model error; the rest is physics "
-                f"outside the candidate list.{bound}"
+                f"outside the candidate list."
             )
         small = (
             "noise only"
@@ -151,7 +142,7 @@ class ResidualCheck:
             else f"small but not white (below the {self.excess_limit:g} x floor limit)"
         )
         if self.named:
-            return f"Residual left after the named effect: {left}: {small}.{bound}"
+            return f"Residual left after the named effect: {left}: {small}."
         if self.residual_remains:
             return (
                 f"A residual remains that no candidate explains: {left}; the model misses "
@@ -164,21 +155,6 @@ class ResidualCheck:
         d["confident"] = self.confident
         d["sentence"] = self.sentence()
         return d
-
-
-def params_on_bound(fit: FitResult, names: list[str]) -> list[str]:
-    """The parameters among ``names`` (effect element names) fitted on a bound."""
-    lo, hi = fit.model.bounds()
-    out = []
-    for i, n in enumerate(fit.names):
-        if not any(n.startswith(e + ".") for e in names):
-            continue
-        span = hi[i] - lo[i]
-        if not np.isfinite(span) or span <= 0:
-            continue
-        if min(fit.theta[i] - lo[i], hi[i] - fit.theta[i]) <= BOUND_TOLERANCE * span:
-            out.append(n)
-    return out
 
 
 def residual_check(
@@ -222,7 +198,6 @@ def residual_check(
         ljung_box_q=q,
         ljung_box_p=p,
         residual_remains=bool(excess > excess_limit and p < alpha),
-        params_on_bound=params_on_bound(final, named_elements),
         named=bool(named_elements),
         per_channel_floor=floor_c,
         excess_limit=excess_limit,
