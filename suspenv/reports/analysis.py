@@ -16,7 +16,6 @@ figures.
 
 from __future__ import annotations
 
-import json
 import shutil
 from collections.abc import Sequence
 from pathlib import Path
@@ -33,7 +32,8 @@ from suspenv.analysis.compare import (
 from suspenv.analysis.ioh import write_ioh
 from suspenv.analysis.performance import curve_matrix, curve_quantiles, runtime_ecdf
 from suspenv.core.jsonable import to_jsonable
-from suspenv.reports._mpl import pyplot
+from suspenv.reports._mpl import pyplot, save_figure
+from suspenv.runs.run_dir import write_json
 
 
 def _axes(n: int, width: float = 5.2, height: float = 3.8) -> tuple[Any, list[Any]]:
@@ -50,7 +50,7 @@ def _axes(n: int, width: float = 5.2, height: float = 3.8) -> tuple[Any, list[An
 def _save(fig: Any, path: Path) -> Path:
     plt = pyplot()
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
     return path
 
@@ -234,5 +234,5 @@ def write_compared(
         written += write_comparison_figures(comparison, out)
     comparison.result["files"] = sorted({p.name for p in written})
     result: dict[str, Any] = to_jsonable(comparison.result)
-    (out / "compare.json").write_text(json.dumps(result, indent=2) + "\n")
+    write_json(out / "compare.json", result)
     return result
