@@ -43,7 +43,7 @@ def main_job_options() -> dict[str, Any]:
     import tomllib
     from pathlib import Path
 
-    root = Path(__file__).resolve().parents[2]
+    root = Path(__file__).resolve().parents[1]
     return dict(tomllib.loads((root / CONFIG).read_text()).get("identify", {}))
 
 

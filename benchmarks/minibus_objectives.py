@@ -36,7 +36,7 @@ from suspenv.models.minibus import BASELINE_DESIGN, STUDY_PICK, design_space
 from suspenv.problems.minibus import MinibusRideHandling
 from suspenv.reports.suspension import suspension_figures
 
-STUDY_JSON = Path(__file__).resolve().parents[2] / "docs" / "benchmarks" / "minibus_study.json"
+STUDY_JSON = Path(__file__).resolve().parents[1] / "docs" / "benchmarks" / "minibus_study.json"
 #: routine figures of the study's step 5 in the side-by-side table
 FIGURES = ("freq_front", "freq_rear", "freq_ratio", "zeta_front", "zeta_rear", "roll_share_front")
 

@@ -455,7 +455,8 @@ def _first_screen(result: IdentifyResult, s: dict[str, Any]) -> list[str]:
             )
             lines.append(f"- **Remaining residual**: the K&C diagnosis names: {named}.")
             lines.append(f"  {text(diag['residual_map']['summary'])}.")
-            lines += _model_next(result, diag["named"])
+            if result.loop is None:  # the loop carries these changes out itself
+                lines += _model_next(result, diag["named"])
         else:
             lines.append(
                 "- **Remaining residual**: the K&C diagnosis names nothing (no signature above "
