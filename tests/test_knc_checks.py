@@ -211,6 +211,54 @@ def test_swapped_travel_columns_of_the_single_test_are_refused(folder):
     refused(folder, "single test .*must move less than the driven left one")
 
 
+def _set_column(path: Path, column: str, values: np.ndarray) -> None:
+    header, rows = _table(path)
+    j = header.index(column)
+    for r, v in zip(rows, values, strict=True):
+        r[j] = repr(float(v))
+    _write(path, header, rows)
+
+
+def _column(path: Path, column: str) -> np.ndarray:
+    header, rows = _table(path)
+    return np.array([float(r[header.index(column)]) for r in rows])
+
+
+def test_wheel_travel_with_its_own_origin_is_accepted(folder):
+    """The travel and the wheel-centre height are the same motion; a travel measured
+    from another origin (+5 mm) is the same data."""
+    p = folder / "parallel.csv"
+    z = _column(p, "wheel_centre_z_left [mm]")
+    _set_column(p, "wheel_travel_left [mm]", z - z[0] + 5.0)
+    load_measurement(folder)
+
+
+@pytest.mark.parametrize(
+    "how, column",
+    [
+        ("pad stroke", "wheel_travel_left [mm]"),  # the pad's travel as the wheel's
+        ("negated", "wheel_travel_right [mm]"),  # bump negative
+        ("cm labelled mm", "wheel_travel_left [mm]"),  # a tenth of the travel
+    ],
+)
+def test_wheel_travel_against_the_wheel_centre_height_is_refused(folder, how, column):
+    """Reference: the simulated wheel-centre height of the same file (the travel is
+    its change from static). Each edit is one a user makes: the pad's stroke written
+    as the wheel travel (the tyre deflects, so it is about 1.25 times the wheel
+    centre's on the reference car), the sign of bump flipped, a unit off by ten."""
+    p = folder / "parallel.csv"
+    travel = _column(p, column)
+    new = {
+        "pad stroke": _column(p, "stroke [mm]"),
+        "negated": -travel,
+        "cm labelled mm": travel / 10.0,
+    }[how]
+    _set_column(p, column, new)
+    side = column.split("_")[2].split()[0]
+    msg = refused(folder, f"parallel.csv .*wheel_travel_{side} must be wheel_centre_z_{side}")
+    assert "data row" in msg and "the limit is" in msg
+
+
 def test_a_contact_moving_against_the_force_is_refused(folder):
     """The left contact point's motion reflected about its mean (its position and the
     track unchanged): it then moves against the lateral force, which no compliance does

@@ -29,7 +29,13 @@ Rules (frame and signs of ``docs/knc.md`` "Measured K&C format": ISO 8855, raw y
    ``contact_y`` along +y in ``lateral``, ``contact_x`` along +x in ``longitudinal``,
    ``wheel_centre_x`` along +x in ``traction``. A direction counts when the
    correlation with the drive passes :data:`MIN_CORRELATION` (noise alone does not).
-4. **Spikes** (warning): a sample away from the line through its two neighbours (in
+4. **Wheel travel** (error, :func:`check_wheel_travel`): a file that gives both
+   ``wheel_travel_<side>`` and the ``wheel_centre_z`` channel gives the same motion
+   twice; the travel must be the wheel-centre height up to its origin (the static
+   height), within :data:`TRAVEL_AGREEMENT` of the wheel's travel span or
+   :data:`TRAVEL_FLOOR`, whichever is larger (a pad's travel, the other wheel's, the
+   other sign or another unit than declared is refused).
+5. **Spikes** (warning): a sample away from the line through its two neighbours (in
    the drive, within a branch) by more than :data:`SPIKE_SIGMA` robust standard
    deviations of those deviations, :data:`SPIKE_SPAN` of the channel's span and
    :data:`RESOLUTION`, with its neighbours pulled the other way (the signature of one
@@ -100,6 +106,13 @@ MIN_CORRELATION = 0.5
 RIGHT_WHEEL_SENSE = {"parallel": 1, "opposite": -1, "single": 0}
 #: force tests: the channel the load moves along its own direction
 LOADED_POINT = {"lateral": "contact_y", "longitudinal": "contact_x", "traction": "wheel_centre_x"}
+#: wheel travel against wheel_centre_z: largest disagreement as a fraction of the wheel's
+#: travel span (a pad's stroke written as wheel travel, about 1.25 times the wheel
+#: centre's on a road car, is off by about 12 % of the span at the ends) ...
+TRAVEL_AGREEMENT = 0.05
+#: ... or this many metres (50 times a K&C rig's 0.01 mm resolution: a small span, as
+#: the still wheel of single travel or any wheel of a force test, is noise)
+TRAVEL_FLOOR = 0.5e-3
 #: a spike: this many robust standard deviations of the neighbour-line deviations ...
 SPIKE_SIGMA = 20.0
 #: ... and this fraction of the channel's span ...
@@ -270,6 +283,29 @@ def _check_travel(where: str, test: str, d: np.ndarray, z: np.ndarray) -> None:
             "the left and right columns are swapped, or the stroke or wheel travel sign is "
             "against ISO 8855 (z up, bump positive)"
         )
+
+
+def check_wheel_travel(where: str, travel: np.ndarray, z: np.ndarray) -> None:
+    """Rule 4: the ``wheel_travel_<side>`` columns ``travel`` (P, 2) [m] against the
+    ``wheel_centre_z`` channel ``z`` (P, 2) [m] (ISO 8855, up positive) of one test; a
+    wheel not measured (NaN) is skipped. Raises :class:`RecordingError` naming the
+    column, the data row and the disagreement."""
+    for w, side in enumerate(SIDES):
+        t, h = np.asarray(travel[:, w], float), np.asarray(z[:, w], float)
+        if not (np.isfinite(t).all() and np.isfinite(h).all()):
+            continue
+        dev = (t - h) - float(np.median(t - h))  # the origins may differ
+        limit = max(TRAVEL_AGREEMENT * float(np.ptp(h)), TRAVEL_FLOOR)
+        i = int(np.argmax(np.abs(dev)))
+        if abs(dev[i]) > limit:
+            raise RecordingError(
+                f"{where}: wheel_travel_{side} must be wheel_centre_z_{side} from its static "
+                f"height (the same motion up to an offset), but differs from it by "
+                f"{_shown(float(dev[i]), 'travel')} at data row {i + 1} (the limit is "
+                f"{_shown(limit, 'travel')}: {TRAVEL_AGREEMENT:.0%} of the wheel's travel span "
+                f"or {_shown(TRAVEL_FLOOR, 'travel')}): the travel is the pad's, the other "
+                "wheel's, of the other sign, or in another unit than declared"
+            )
 
 
 # ------------------------------------------------------------------ spikes

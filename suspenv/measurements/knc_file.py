@@ -62,7 +62,7 @@ from suspenv.core.errors import ValidationError
 from suspenv.core.tomlfile import read_toml
 from suspenv.measurements import knc as _knc
 from suspenv.measurements.errors import RecordingError
-from suspenv.measurements.knc_checks import check_manifest_keys, check_tests
+from suspenv.measurements.knc_checks import check_manifest_keys, check_tests, check_wheel_travel
 from suspenv.measurements.limits import check_text, read_limit
 from suspenv.measurements.units import FACTORS
 
@@ -867,13 +867,15 @@ def _load_test(
             i, fac, _ = cols[f"{ch}_{s}"]
             arr[:, SIDES.index(s)] = values[:, i] * fac
         channels[ch] = arr
-    if "wheel_centre_z" not in channels and all(f"{TRAVEL_COLUMN}_{s}" in cols for s in wheels):
-        # wheel-centre height from its travel: origin at the static height
+    if all(f"{TRAVEL_COLUMN}_{s}" in cols for s in wheels):
         arr = np.full((P, 2), np.nan)
         for s in wheels:
             i, fac, _ = cols[f"{TRAVEL_COLUMN}_{s}"]
             arr[:, SIDES.index(s)] = values[:, i] * fac
-        channels["wheel_centre_z"] = arr
+        if "wheel_centre_z" in channels:  # both given: they must agree
+            check_wheel_travel(where, arr, channels["wheel_centre_z"])
+        else:  # wheel-centre height from its travel: origin at the static height
+            channels["wheel_centre_z"] = arr
     units = {header[i]: u for _, (i, _, u) in cols.items() if u}
     return MeasuredTest(test, drive, branch, channels, tuple(wheels), units)
 
