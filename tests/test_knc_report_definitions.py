@@ -105,6 +105,7 @@ GOLDEN = {
     "anti_dive": 38.06041,
     "anti_lift": 18.59559,
     "roll_rate": 2164.224,
+    "tramp_rate": 1505.999,
     "roll_steer": -0.03664285,
     "roll_camber": -0.120268,
     "arb_motion_ratio": -0.2854578,

@@ -38,6 +38,8 @@ SHEET_TESTS = (
     "longitudinal",
     "traction",
     "aligning",
+    "lateral_opposed",
+    "aligning_opposed",
 )
 #: two-sided 95 % quantile of the normal distribution
 Z95 = 1.959963984540054

@@ -223,6 +223,17 @@ def _items() -> tuple[ReportItem, ...]:
             "+ moves left (ISO +y) as phi grows (left wheel up relative to the body)",
         ),
         R(
+            "tramp_rate",
+            "N*m/deg",
+            "opposite",
+            False,
+            "axle roll (tramp) rate at the contact patches, body held: d(0.5 (F_zL - F_zR) "
+            "t_cp)/d phi_pad, phi_pad = atan((z_pL - z_pR)/t_cp) from the pad heights: the "
+            "suspension with its anti-roll bar in series with the tyres (roll_rate: the "
+            "suspension alone, against the wheel centres)",
+            "+ resists axle roll",
+        ),
+        R(
             "arb_motion_ratio",
             "deg/mm",
             "opposite",
@@ -285,6 +296,16 @@ _OWN_LOAD = {
     ),
     "traction": (np.array([1e-3, 1e-3]), "kN", "forward (tractive) force at the wheel centre"),
     "aligning": (SIDE_SIGN * 1e-3, "kN m", "toe-out moment about the vertical"),
+    "lateral_opposed": (
+        np.array([1e-3, 1e-3]),
+        "kN",
+        "outward force at the contact patch, the two wheels opposed",
+    ),
+    "aligning_opposed": (
+        np.array([1e-3, 1e-3]),
+        "kN m",
+        "toe-out moment about the vertical, the two wheels opposed",
+    ),
 }
 #: compliance outputs: suffix -> (channel, scale per wheel from SI, unit, sense)
 _OWN_OUTPUT = {
@@ -306,7 +327,8 @@ def _compliance_items() -> tuple[ReportItem, ...]:
                     test,
                     True,
                     f"slope at zero load of the output against the {lw}, both wheels loaded "
-                    "in phase, pads static",
+                    f"{'in opposite ISO directions' if 'opposed' in test else 'in phase'}, "
+                    "pads static",
                     f"+ {sense} per {lu} of {lw}",
                 )
             )
@@ -335,9 +357,49 @@ def _loop_items() -> tuple[ReportItem, ...]:
     )
 
 
-#: compliance numbers and loop widths (:func:`compliance_report`)
+#: wheel-centre stiffness -> (compliance test, its compliance number's suffix): the
+#: reciprocal of that compliance (the load per unit displacement at zero load)
+_STIFFNESS = {
+    "lateral_stiffness_wc": ("lateral", "wc_y"),
+    "longitudinal_stiffness_wc": ("traction", "wc_x"),
+}
+_FORCE_ITEMS = (
+    ReportItem(
+        "lateral_stiffness_wc",
+        "N/mm",
+        "lateral",
+        True,
+        "1 / lateral_compliance_wc_y: outward force at the contact patch per mm of outward "
+        "wheel-centre displacement at zero load, both wheels loaded in phase, pads static",
+        "+ the wheel centre moves with the force",
+    ),
+    ReportItem(
+        "longitudinal_stiffness_wc",
+        "N/mm",
+        "traction",
+        True,
+        "1 / traction_compliance_wc_x: forward force at the wheel centre per mm of forward "
+        "wheel-centre displacement at zero load, both wheels loaded in phase, pads static",
+        "+ the wheel centre moves with the force",
+    ),
+    ReportItem(
+        "force_roll_centre_height",
+        "mm",
+        "lateral",
+        False,
+        "front view, lateral test: through each wheel's loaded contact point P the line "
+        "of the ground's load change per unit outward force (outward 1, up dF_z/dF_y, "
+        "the jacking coefficient at zero load); the two lines meet at the force-based "
+        "roll centre, its height above the mean pad plane",
+        "+ above the ground (an outward force then unloads the pad)",
+    ),
+)
+
+
+#: compliance numbers, loop widths, wheel-centre stiffnesses and the force-based roll
+#: centre (:func:`compliance_report`)
 COMPLIANCE_ITEMS: dict[str, ReportItem] = {
-    i.name: i for i in _compliance_items() + _loop_items()
+    i.name: i for i in _compliance_items() + _loop_items() + _FORCE_ITEMS
 }
 
 
@@ -355,7 +417,41 @@ def compliance_report(results: dict[str, KCResult]) -> dict[str, np.ndarray]:
         if test in results:
             for chan in LOOP_CHANNELS:
                 out[f"{test}_loop_width_{chan}"] = loop_half_width(results[test], chan)
+    for name, (test, suffix) in _STIFFNESS.items():
+        if test in results:
+            with np.errstate(divide="ignore"):
+                out[name] = 1e3 / out[f"{test}_compliance_{suffix}"]
+    if "lateral" in results:
+        out["force_roll_centre_height"] = _both(force_roll_centre(results["lateral"])[1])
     return out
+
+
+def force_roll_centre(res: KCResult) -> tuple[np.ndarray, np.ndarray]:
+    """Force-based roll centre (y ISO [mm], height above the mean pad plane [mm]), each
+    (n,), of the lateral test ``res`` (pads static, +F along +y at both loaded contact
+    points P; or the ``lateral_opposed`` test, outboard at both): each wheel's jacking
+    coefficient j = dF_z/dF_y (tyre load, compression +, against the outward force at
+    zero load, loop mean of the 7-point fit) gives the direction (outward 1, up j) of
+    the ground's load change on that wheel; its line through P (static,
+    :func:`patch_point`) carries the load into the body, and the two wheels' lines meet
+    at the roll centre. NaN when a channel it reads is missing. With rigid tyres and no
+    load path between the wheels each line runs through the wheel's front-view instant
+    centre (virtual work: the load does no work on the held wheel), so the opposed test
+    gives the kinematic roll centre; the in-phase test adds the anti-roll bar's and the
+    tyres' share (docs/knc.md)."""
+    if res.test not in ("lateral", "lateral_opposed"):
+        raise ValidationError(f"force_roll_centre needs a lateral test, but got {res.test!r}")
+    if any(c not in res.channels for c in compliance_reads("force_roll_centre_height")):
+        nan = np.full(res.ok.size, np.nan)
+        return nan, nan
+    j = _own_slope(res, res.test, "tyre_fz", np.ones(2)) * 1e-3  # N per N
+    st = res.static_index
+    P = 0.5 * (patch_point(res, "down") + patch_point(res, "up"))[:, st]  # (n, 2, 3)
+    v = np.zeros_like(P)  # the line's normal (_lines_meet): direction (s_w, j) in y-z
+    v[..., 1], v[..., 2] = -j, SIDE_SIGN
+    y, z = _lines_meet(P, v)
+    ground = 0.5 * (P[..., 0, 2] + P[..., 1, 2])
+    return y * 1e3, (z - ground) * 1e3
 
 
 def loop_half_width(res: KCResult, chan: str) -> np.ndarray:
@@ -371,8 +467,14 @@ def loop_half_width(res: KCResult, chan: str) -> np.ndarray:
 
 def _compliance(res: KCResult, test: str, suffix: str) -> np.ndarray:
     """Loop mean of one compliance slope (n, 2) (:func:`compliance_report`)."""
-    per = _OWN_LOAD[test][0]
     chan, scale, _, _ = _OWN_OUTPUT[suffix]
+    return _own_slope(res, test, chan, scale)
+
+
+def _own_slope(res: KCResult, test: str, chan: str, scale: np.ndarray) -> np.ndarray:
+    """Loop mean (n, 2) of the slope at zero load of channel ``chan`` times ``scale``
+    (per wheel) against each wheel's own load (:data:`_OWN_LOAD`, per kN or kN m)."""
+    per = _OWN_LOAD[test][0]
     if chan not in res.channels:
         return np.full((res.ok.size, 2), np.nan)
     load = res.grid[None, :, None] * per[None, None, :]
@@ -629,7 +731,14 @@ def travel_report(
         t_cp = (cy[..., 0] - cy[..., 1])[:, oi : oi + 1]
         return _both(0.5 * (fz[..., 0] - fz[..., 1]) * t_cp)
 
+    def pad_roll(res: KCResult, br: str) -> np.ndarray:  # phi_pad [deg], zero at static
+        zp, cy = res.branch("pad_z", br), res.branch("contact_y", br)
+        t_cp = (cy[..., 0] - cy[..., 1])[:, oi : oi + 1]
+        phi = np.arctan((zp[..., 0] - zp[..., 1]) / t_cp) * RAD2DEG
+        return _both(phi - phi[:, oi : oi + 1])
+
     out["roll_rate"] = _grad(opp, roll_moment, roll_axis)
+    out["tramp_rate"] = _grad(opp, roll_moment, pad_roll)
     out["roll_steer"] = _grad(opp, chan(opp, "toe", RAD2DEG), own_roll)
     out["roll_camber"] = _grad(opp, chan(opp, "camber", RAD2DEG), own_roll)
     out["roll_centre_y_iso"] = _value(opp, rc_y(opp), roll_axis)
@@ -803,8 +912,9 @@ def _filled(results: dict[str, KCResult], value: float, only: str = "") -> dict[
 
 
 def report_needs(results: dict[str, KCResult]) -> dict[str, str]:
-    """Report items the ``results`` cannot give, each with what it needs: a test not
-    run, or the channels (``test:channel``) the rig did not record."""
+    """Report and compliance items (:data:`ALL_ITEMS`, :data:`COMPLIANCE_ITEMS`) the
+    ``results`` cannot give, each with what it needs: a test not run, or the channels
+    (``test:channel``) the rig did not record."""
     from suspenv.models.mcpherson.solver import OUTPUT_NAMES
 
     needs: dict[str, list[str]] = {}
@@ -812,6 +922,14 @@ def report_needs(results: dict[str, KCResult]) -> dict[str, str]:
         if item.test not in results or (item.test == "parallel" and "opposite" not in results):
             tests = [t for t in (item.test, "opposite") if t not in results]
             needs[item.name] = [f"the {t} test" for t in dict.fromkeys(tests)]
+    for item in COMPLIANCE_ITEMS.values():
+        if item.test not in results:
+            needs[item.name] = [f"the {item.test} test"]
+            continue
+        have = results[item.test].channels
+        lacks = [f"channel {item.test}:{c}" for c in compliance_reads(item.name) if c not in have]
+        if lacks:
+            needs[item.name] = lacks
     missing = [f"{t}:{c}" for t, r in results.items() for c in OUTPUT_NAMES if c not in r.channels]
     for m in missing:
         with np.errstate(all="ignore"):
@@ -820,6 +938,21 @@ def report_needs(results: dict[str, KCResult]) -> dict[str, str]:
             if not np.all(np.isfinite(v)):
                 needs.setdefault(name, []).append(f"channel {m}")
     return {k: "needs: " + ", ".join(v) for k, v in needs.items()}
+
+
+#: channels the loaded contact point P is built from (:func:`patch_point`)
+_PATCH_CHANNELS = ("wheel_centre_x", "wheel_centre_y", "wheel_centre_z", "toe", "camber", "pad_z")
+
+
+def compliance_reads(name: str) -> tuple[str, ...]:
+    """The rig channels a :data:`COMPLIANCE_ITEMS` number reads."""
+    if name == "force_roll_centre_height":
+        return ("tyre_fz", *_PATCH_CHANNELS)
+    if name in _STIFFNESS:
+        return (_OWN_OUTPUT[_STIFFNESS[name][1]][0],)
+    if "_loop_width_" in name:
+        return (name.rpartition("_loop_width_")[2],)
+    return (_OWN_OUTPUT[name.rpartition("_compliance_")[2]][0],)
 
 
 def knc_report_filled(

@@ -32,6 +32,14 @@ meets the pad plane (not at the undeformed wheel's lowest point, ~14 mm below it
   sense (:func:`suspenv.measurements.knc.drive`) is toe-out positive: ``+M`` on the
   left wheel, ``-M`` on the right.
 
+The opposed compliance tests (:data:`OPPOSED_TESTS`, rig only) load the two wheels in
+opposite ISO directions, so both take the same load in their own senses:
+``lateral_opposed`` ``+F`` outboard at both contact points (+y left, -y right; a
+negative ``F`` converges the wheels), ``aligning_opposed`` ``+M`` toe-out at both
+(+z left, -z right). A left/right symmetric axle then deflects symmetrically: the
+anti-roll bar does not twist, and each wheel's response is its direct compliance plus
+the other wheel's cross term (the in-phase tests give the difference).
+
 The steering test (:data:`STEER_TESTS`, ``steering``) holds both pads at their static
 height and moves the rack by ``s`` [m] along +y (ISO 8855, to the left): both tie-rod
 inner points move by ``s`` in y. Which way the wheels steer depends on the geometry:
@@ -101,7 +109,17 @@ _LOAD_AXIS = {
     "longitudinal": (0, (1.0, 1.0)),
     "traction": (6, (1.0, 1.0)),
     "aligning": (5, (1.0, 1.0)),
+    "lateral_opposed": (1, (1.0, -1.0)),
+    "aligning_opposed": (5, (1.0, -1.0)),
 }
+#: opposed (anti-phase) compliance tests -> the in-phase test whose load they turn on
+#: the right wheel, so that both wheels take the same load in their own senses (as K&C
+#: rigs run them; rig tests only, not yet of the measured-K&C format):
+#: ``lateral_opposed`` ``+F`` [N] outboard at both contact points (+y left, -y right),
+#: ``aligning_opposed`` ``+M`` [N*m] toe-out at both (+z left, -z right)
+OPPOSED_TESTS = {"lateral_opposed": "lateral", "aligning_opposed": "aligning"}
+#: every test the rig runs
+RIG_TESTS = ALL_TESTS + tuple(OPPOSED_TESTS)
 #: default force amplitude of the compliance tests [N]
 FORCE_AMPLITUDE = 2500.0
 #: default moment amplitude of the aligning-moment test [N*m]
@@ -126,6 +144,8 @@ _DRIVE_NAME = {
     "traction": "wheel-centre force",
     "aligning": "contact moment",
     "steering": "rack travel",
+    "lateral_opposed": "opposed contact force",
+    "aligning_opposed": "opposed contact moment",
 }
 _DRIVE_SHOWN = {"m": (1e3, "mm", 2), "N": (1.0, "N", 0), "N*m": (1.0, "N*m", 1)}
 #: keep the quadratic predictor's last relative rotation for the next step (the same
@@ -170,7 +190,7 @@ class KCResult:
     def unit(self) -> str:
         """Unit of :attr:`grid` (:data:`DRIVE_UNIT`): ``"m"`` (travel, steering), ``"N"``
         (force) or ``"N*m"`` (aligning)."""
-        return DRIVE_UNIT[self.test]
+        return drive_unit(self.test)
 
     @property
     def static_index(self) -> int:
@@ -193,6 +213,11 @@ class KCResult:
     def mean_branch(self, name: str) -> np.ndarray:
         """Average of the two branches (n, steps+1, 2): the loop's mid-line."""
         return 0.5 * (self.branch(name, "down") + self.branch(name, "up"))
+
+
+def drive_unit(test: str) -> str:
+    """Unit of ``test``'s drive: :data:`DRIVE_UNIT`, an opposed test its in-phase one's."""
+    return DRIVE_UNIT[OPPOSED_TESTS.get(test, test)]
 
 
 def stroke_grid(amplitude: float = 0.040, steps: int = 30) -> np.ndarray:
@@ -268,8 +293,8 @@ def rack_travel(test: str, s: np.ndarray | float) -> np.ndarray:
 
 def _check_tests(tests: tuple[str, ...]) -> None:
     for t in tests:
-        if t not in ALL_TESTS:
-            raise ValidationError(f"unknown K&C test {t!r}; known tests are {ALL_TESTS}")
+        if t not in RIG_TESTS:
+            raise ValidationError(f"unknown K&C test {t!r}; known tests are {RIG_TESTS}")
 
 
 def run_tests(
@@ -348,9 +373,14 @@ def run_tests(
         )
     n, nt = axle.n, len(tests)
     grid = stroke_grid(amplitude, steps)
-    force_grid = stroke_grid(force_amplitude, steps) if set(tests) & set(FORCE_TESTS) else None
+    loaded = set(tests) & {*FORCE_TESTS, *OPPOSED_TESTS}
+    force_grid = stroke_grid(force_amplitude, steps) if loaded else None
     # each test's own grid (travel: pad stroke [m]; force [N]; moment [N*m]; rack [m])
-    own_amplitude = {"aligning": moment_amplitude, "steering": rack_amplitude}
+    own_amplitude = {
+        "aligning": moment_amplitude,
+        "aligning_opposed": moment_amplitude,
+        "steering": rack_amplitude,
+    }
     test_grids = {
         t: grid if t in TESTS else stroke_grid(own_amplitude.get(t, force_amplitude), steps)
         for t in tests
@@ -407,7 +437,7 @@ def run_tests(
     def where_text(gi: int) -> str:
         parts = []
         for t in tests:
-            scale, shown, digits = _DRIVE_SHOWN[DRIVE_UNIT[t]]
+            scale, shown, digits = _DRIVE_SHOWN[drive_unit(t)]
             value = test_grids[t][gi] * scale
             stroke = "wheel-centre travel" if centre0 is not None else "stroke"
             parts.append(f"{_DRIVE_NAME.get(t, stroke)} {value:+.{digits}f} {shown}")
