@@ -102,6 +102,7 @@ GOLDEN = {
     "damper_motion_ratio": 0.9609161,
     "roll_centre_height": 2.93642,
     "roll_centre_migration": -3.219042,
+    "geometric_roll_centre_height": 3.281826,
     "anti_dive": 38.06041,
     "anti_lift": 18.59559,
     "roll_rate": 2164.224,

@@ -159,6 +159,18 @@ def _items() -> tuple[ReportItem, ...]:
             "+ above the ground",
         ),
         R(
+            "geometric_roll_centre_height",
+            "mm",
+            "parallel",
+            False,
+            "front-view construction at the static position from the hard points: each "
+            "wheel's instant centre where the lower arm's line (its pivot axis pierced by "
+            "the ball joint's transverse plane, to the ball joint) meets the normal to the "
+            "strut axis at the strut top; the lines from the loaded contact points through "
+            "them meet at the roll centre, its height above the mean pad plane",
+            "+ above the ground",
+        ),
+        R(
             "roll_centre_migration",
             "mm/mm",
             "parallel",
@@ -596,6 +608,48 @@ def roll_centre_curve(res: KCResult, branch: str) -> tuple[np.ndarray, np.ndarra
     return y * 1e3, (z - ground) * 1e3
 
 
+def _meet(p: np.ndarray, d: np.ndarray, q: np.ndarray, e: np.ndarray) -> np.ndarray:
+    """Where the lines p + a d and q + b e meet (..., 2), in a plane (points and
+    directions (..., 2))."""
+    det = d[..., 0] * -e[..., 1] + e[..., 0] * d[..., 1]
+    r = q - p
+    a = (r[..., 0] * -e[..., 1] + e[..., 0] * r[..., 1]) / det
+    return p + a[..., None] * d
+
+
+def front_view_instant_centre(points: dict[str, np.ndarray]) -> np.ndarray:
+    """Each wheel's front-view instant centre (y, z) ISO [m] (n, 2, 2) of a McPherson
+    corner from its hard points (n, 2, 3) [m] (:func:`~suspenv.rigs.knc.static_hard_points`):
+    the lower arm's line, from where its pivot axis (front to rear bush) crosses the
+    transverse plane of the ball joint to the ball joint, meets the line through the
+    strut top perpendicular to the strut axis (strut top to strut axis point), both
+    projected on the y-z plane (the drawing-board construction; exact for a linkage
+    whose arm axis is along x and strut axis in the y-z plane)."""
+    F, Rr, B = points["lca_front_bush"], points["lca_rear_bush"], points["lower_ball_joint"]
+    T, S = points["strut_top"], points["strut_axis_point"]
+    A = F + ((B[..., 0] - F[..., 0]) / (Rr[..., 0] - F[..., 0]))[..., None] * (Rr - F)
+    k = S - T
+    normal = np.stack([k[..., 2], -k[..., 1]], axis=-1)
+    return _meet(A[..., 1:], B[..., 1:] - A[..., 1:], T[..., 1:], normal)
+
+
+def geometric_roll_centre(res: KCResult) -> tuple[np.ndarray, np.ndarray]:
+    """Geometric roll centre (y ISO [mm], height above the mean pad plane [mm]), each
+    (n,), at the static position of ``res`` (a rig result with
+    :attr:`~suspenv.rigs.knc.KCResult.static_points`): the lines from each wheel's loaded
+    contact point P (:func:`patch_point`, static) through its
+    :func:`front_view_instant_centre` meet at it. It equals the kinematic roll centre
+    (:func:`roll_centre_curve`) where the construction is exact; off design and for a
+    skewed arm axis or strut they differ."""
+    st = res.static_index
+    P = 0.5 * (patch_point(res, "down") + patch_point(res, "up"))[:, st]  # (n, 2, 3)
+    ic = front_view_instant_centre(res.static_points)
+    p = P[..., 1:]
+    y, z = np.moveaxis(_meet(p[:, 0], ic[:, 0] - p[:, 0], p[:, 1], ic[:, 1] - p[:, 1]), -1, 0)
+    ground = 0.5 * (P[..., 0, 2] + P[..., 1, 2])
+    return y * 1e3, (z - ground) * 1e3
+
+
 def roll_angle(res: KCResult, branch: str) -> np.ndarray:
     """Roll angle phi (n, G) [deg] = atan((z_wL - z_wR)/t), t the static wheel-centre
     track, zero at static (as the 40 objectives)."""
@@ -707,6 +761,9 @@ def travel_report(
 
     out["roll_centre_height"] = _value(par, rc_height(par), mean_wheel_travel)
     out["roll_centre_migration"] = _grad(par, rc_height(par), mean_wheel_travel)
+    out["geometric_roll_centre_height"] = (
+        _both(geometric_roll_centre(par)[1]) if par.static_points else nan
+    )
 
     # side-view paths: anti-dive (carrier patch point), anti-lift (wheel centre)
     lever = c.wheelbase / c.cg_height
@@ -922,6 +979,11 @@ def report_needs(results: dict[str, KCResult]) -> dict[str, str]:
         if item.test not in results or (item.test == "parallel" and "opposite" not in results):
             tests = [t for t in (item.test, "opposite") if t not in results]
             needs[item.name] = [f"the {t} test" for t in dict.fromkeys(tests)]
+    par = results.get("parallel")
+    if par is not None and not par.static_points:
+        needs.setdefault("geometric_roll_centre_height", []).append(
+            "the hard points (a model of the axle; a rig does not record them)"
+        )
     for item in COMPLIANCE_ITEMS.values():
         if item.test not in results:
             needs[item.name] = [f"the {item.test} test"]

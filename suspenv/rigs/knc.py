@@ -87,7 +87,7 @@ from suspenv.measurements import knc_file
 from suspenv.measurements.knc import ALL_TESTS, DRIVE_UNIT, FORCE_TESTS, STEER_TESTS, TESTS
 from suspenv.models.effects import Effect
 from suspenv.models.mcpherson.params import Axle
-from suspenv.models.mcpherson.rotation import relative_log, turned
+from suspenv.models.mcpherson.rotation import relative_log, rotate, turned
 from suspenv.models.mcpherson.solver import (
     JACOBIAN_BLOCK,
     MAX_ROTATION,
@@ -176,6 +176,9 @@ class KCResult:
         channels: name -> (n, P, 2) values along the loop (SI, ISO 8855; see docs/knc.md).
         ok: (n,) True where every step converged.
         messages: (n,) failure reasons ("" when ok).
+        static_points: hard points of each design's static state (the rig's design
+            position), name -> (n, 2, 3) [m] ISO 8855 (:func:`static_hard_points`);
+            empty for measured data (a rig records no hard points).
     """
 
     test: str
@@ -185,6 +188,7 @@ class KCResult:
     ok: np.ndarray
     messages: list[str]
     states: list[AxleState] = field(default_factory=list, repr=False)
+    static_points: dict[str, np.ndarray] = field(default_factory=dict, repr=False)
 
     @property
     def unit(self) -> str:
@@ -213,6 +217,24 @@ class KCResult:
     def mean_branch(self, name: str) -> np.ndarray:
         """Average of the two branches (n, steps+1, 2): the loop's mid-line."""
         return 0.5 * (self.branch(name, "down") + self.branch(name, "up"))
+
+
+def static_hard_points(solver: AxleSolver, st: AxleState) -> dict[str, np.ndarray]:
+    """Hard points (n, 2, 3) [m], ISO 8855, of the converged state ``st`` of ``solver``:
+    the lower arm's bushes and ball joint (on the arm), the strut top (the top mount's
+    body) and the strut axis point (on the knuckle): what a front-view construction of
+    the instant centres reads (:func:`suspenv.metrics.knc_report.geometric_roll_centre`)."""
+    arm = st.r[..., 0, :][..., None, :] + rotate(
+        st.R[..., 0, None, :, :], solver.lca_pts
+    )  # (n, 2, 3 points, 3)
+    knuckle = st.r[..., 1, :] + rotate(st.R[..., 1, :, :], solver.kn_pts[:, :, 4])
+    return {
+        "lca_front_bush": arm[..., 0, :],
+        "lca_rear_bush": arm[..., 1, :],
+        "lower_ball_joint": arm[..., 2, :],
+        "strut_top": st.r[..., 2, :].copy(),
+        "strut_axis_point": knuckle,
+    }
 
 
 def drive_unit(test: str) -> str:
@@ -390,6 +412,7 @@ def run_tests(
     base = AxleSolver(axle, effects)
     st0, conv0, J0 = base.solve(base.initial_state(), base.pad_static)
     assert isinstance(J0, np.ndarray)  # a fresh solve: one inverse Jacobian per design
+    hard_points = static_hard_points(base, st0)
     tile = np.tile(np.arange(n), nt)  # rows: test-major
     solver = base.take(tile, axle=False)
     del base  # the rows' solver holds what the sweep needs (memory)
@@ -473,6 +496,7 @@ def run_tests(
             ok[sl].copy(),
             msgs[sl],
             [_take_state(x, sl) for x in trail] if keep_states else [],
+            hard_points,
         )
     return results
 
