@@ -54,6 +54,7 @@ import re
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
+from statistics import NormalDist
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -973,7 +974,9 @@ class ComplianceAnalysis:
             ``a + b x + c x^2 + d x^3`` (what is left after the asymmetry and
             saturation), ``noise`` the channel's noise (declared or estimated).
         slope_positive / slope_negative: lines through the samples with drive >= 0 /
-            <= 0; ``asymmetry`` = (positive - negative) / their mean.
+            <= 0; ``asymmetry`` = (positive - negative) / their mean, ``asymmetry_ci95``
+            its 95 % half-width (:func:`_asymmetry_ci95`: noise alone gives a symmetric
+            axle an asymmetry of that size).
         slope_small / slope_large: lines through the samples with |drive| <=
             :data:`SMALL_FRACTION` x max and through each end's samples with |drive| >=
             :data:`LARGE_FRACTION` x max (mean of the two ends' slopes);
@@ -992,6 +995,7 @@ class ComplianceAnalysis:
     slope_positive: float
     slope_negative: float
     asymmetry: float
+    asymmetry_ci95: float
     slope_small: float
     slope_large: float
     saturation: float
@@ -1025,7 +1029,11 @@ class ComplianceAnalysis:
             ),
             (f"positive {col} slope", f"{self.slope_positive * k:.4g} {unit} per {per}"),
             (f"negative {col} slope", f"{self.slope_negative * k:.4g} {unit} per {per}"),
-            ("asymmetry", f"{100 * self.asymmetry:+.1f} % (positive - negative, of their mean)"),
+            (
+                "asymmetry",
+                f"{100 * self.asymmetry:+.1f} % +- {100 * self.asymmetry_ci95:.1f} % (positive "
+                "- negative, of their mean; 95 % interval from the lines' scatter)",
+            ),
             (
                 f"small {col} slope",
                 f"{self.slope_small * k:.4g} {unit} per {per} (|{col}| <= "
@@ -1054,6 +1062,30 @@ def _line(x: np.ndarray, y: np.ndarray, what: str) -> tuple[float, float]:
         )
     b, a = np.polyfit(x, y, 1)
     return float(b), float(a)
+
+
+def _asymmetry_ci95(x: np.ndarray, y: np.ndarray) -> float:
+    """95 % half-width of the asymmetry ``2 (p - n) / (p + n)`` of the lines through the
+    samples with drive ``x >= 0`` (slope p) and ``x <= 0`` (slope n), by the delta
+    method for white noise: each slope is linear in the samples (weights ``w``, a sample
+    at zero drive in both), so the asymmetry's gradient is ``g = dA/dp w_p + dA/dn
+    w_n`` and its standard error ``s |g|``, ``s`` the two lines' pooled residual
+    scatter (a loop's hysteresis and any curvature count as scatter: conservative).
+    NaN with fewer than 5 samples or a zero mean slope."""
+    fits = []
+    for sel in (x >= 0, x <= 0):
+        xc = x[sel] - x[sel].mean()
+        w = np.zeros_like(x)
+        w[sel] = xc / (xc @ xc) if np.any(xc) else np.nan
+        b = float(w @ y)
+        fits.append((b, w, y[sel] - y[sel].mean() - b * xc))
+    (p, wp, rp), (n, wn, rn) = fits
+    dof = rp.size + rn.size - 4
+    if dof < 1 or p + n == 0:
+        return float("nan")
+    s = math.sqrt(float(rp @ rp + rn @ rn) / dof)
+    g = 4.0 * (n * wp - p * wn) / (p + n) ** 2
+    return NormalDist().inv_cdf(0.975) * s * float(np.linalg.norm(g))
 
 
 def compliance_analysis(
@@ -1110,6 +1142,7 @@ def compliance_analysis(
         pos,
         neg,
         (pos - neg) / mean if mean else float("nan"),
+        _asymmetry_ci95(x, y),
         s_small,
         s_large,
         s_large / s_small if s_small else float("nan"),
