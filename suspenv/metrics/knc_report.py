@@ -40,7 +40,7 @@ import numpy as np
 from suspenv.core.errors import ValidationError
 from suspenv.metrics.knc import FIT_HALF_WIDTH, RAD2DEG, quadratic_fit
 from suspenv.models.mcpherson.params import SIDE_SIGN, AxleConstants
-from suspenv.rigs.knc import KCResult
+from suspenv.rigs.knc import OPPOSED_TESTS, KCResult
 
 BRANCHES = ("down", "up")
 
@@ -308,17 +308,18 @@ _OWN_LOAD = {
     ),
     "traction": (np.array([1e-3, 1e-3]), "kN", "forward (tractive) force at the wheel centre"),
     "aligning": (SIDE_SIGN * 1e-3, "kN m", "toe-out moment about the vertical"),
-    "lateral_opposed": (
-        np.array([1e-3, 1e-3]),
-        "kN",
-        "outward force at the contact patch, the two wheels opposed",
-    ),
-    "aligning_opposed": (
-        np.array([1e-3, 1e-3]),
-        "kN m",
-        "toe-out moment about the vertical, the two wheels opposed",
-    ),
 }
+# the opposed tests: the in-phase load turned on the right wheel (suspenv.rigs.knc)
+_OWN_LOAD.update(
+    {
+        o: (
+            _OWN_LOAD[p][0] * np.array([1.0, -1.0]),
+            _OWN_LOAD[p][1],
+            f"{_OWN_LOAD[p][2]}, the two wheels opposed",
+        )
+        for o, p in OPPOSED_TESTS.items()
+    }
+)
 #: compliance outputs: suffix -> (channel, scale per wheel from SI, unit, sense)
 _OWN_OUTPUT = {
     "steer": ("toe", np.array([1.0, 1.0]) * 180 / np.pi, "deg", "toe-in"),

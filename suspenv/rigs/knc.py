@@ -109,8 +109,6 @@ _LOAD_AXIS = {
     "longitudinal": (0, (1.0, 1.0)),
     "traction": (6, (1.0, 1.0)),
     "aligning": (5, (1.0, 1.0)),
-    "lateral_opposed": (1, (1.0, -1.0)),
-    "aligning_opposed": (5, (1.0, -1.0)),
 }
 #: opposed (anti-phase) compliance tests -> the in-phase test whose load they turn on
 #: the right wheel, so that both wheels take the same load in their own senses (as K&C
@@ -118,6 +116,7 @@ _LOAD_AXIS = {
 #: ``lateral_opposed`` ``+F`` [N] outboard at both contact points (+y left, -y right),
 #: ``aligning_opposed`` ``+M`` [N*m] toe-out at both (+z left, -z right)
 OPPOSED_TESTS = {"lateral_opposed": "lateral", "aligning_opposed": "aligning"}
+_LOAD_AXIS.update({o: (_LOAD_AXIS[p][0], (1.0, -1.0)) for o, p in OPPOSED_TESTS.items()})
 #: every test the rig runs
 RIG_TESTS = ALL_TESTS + tuple(OPPOSED_TESTS)
 #: default force amplitude of the compliance tests [N]
@@ -398,13 +397,11 @@ def run_tests(
     loaded = set(tests) & {*FORCE_TESTS, *OPPOSED_TESTS}
     force_grid = stroke_grid(force_amplitude, steps) if loaded else None
     # each test's own grid (travel: pad stroke [m]; force [N]; moment [N*m]; rack [m])
-    own_amplitude = {
-        "aligning": moment_amplitude,
-        "aligning_opposed": moment_amplitude,
-        "steering": rack_amplitude,
-    }
+    own_amplitude = {"aligning": moment_amplitude, "steering": rack_amplitude}
     test_grids = {
-        t: grid if t in TESTS else stroke_grid(own_amplitude.get(t, force_amplitude), steps)
+        t: grid
+        if t in TESTS
+        else stroke_grid(own_amplitude.get(OPPOSED_TESTS.get(t, t), force_amplitude), steps)
         for t in tests
     }
     path = loop_path(steps)
