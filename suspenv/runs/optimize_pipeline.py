@@ -325,6 +325,9 @@ def run_optimize_pipeline(config: dict[str, Any], run_dir: Path) -> dict[str, An
         **config["strategy"].get("options", {}),
     )
     _check_summary(run_dir)
+    bind_problem = getattr(strategy, "bind_problem", None)
+    if callable(bind_problem):  # names a live study (optuna) after the problem
+        bind_problem(problem)
     bind_run = getattr(strategy, "bind_run", None)
     if callable(bind_run):
         bind_run(run_id_of(run_dir))
