@@ -251,8 +251,10 @@ def test_zdt1_nsga2_beats_weighted_sum_cmaes_by_hypervolume(zdt1_runs, tmp_path)
     dirs = zdt1_runs["cmaes"] + zdt1_runs["nsga2"]
     result = compare_runs(dirs, tmp_path, ioh=True)
     rows = {r["strategy"]: r for r in result["table"]}
-    # the report: by the sum of objectives (the runs' own quality) CMA-ES looks better
-    assert rows["cmaes"]["best_max"] < rows["pymoo_nsga2"]["best_min"]
+    # the report: by the sum of objectives (the runs' own quality then) CMA-ES looked
+    # better; ZDT1 has no scalar quality now, so the table shows no "best" at all
+    for row in rows.values():
+        assert row["best_median"] is None and row["best_min"] is None
     prob = result["problems"][0]
     assert prob["measure_kind"] == "hypervolume deficit"
     mo = prob["multiobjective"]

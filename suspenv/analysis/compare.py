@@ -43,7 +43,6 @@ from suspenv.analysis.indicators import (
     reference_point,
 )
 from suspenv.analysis.load import (
-    SUM_QUALITIES,
     RunRecord,
     load_runs,
     reference_front,
@@ -365,7 +364,9 @@ def _analyse_problem(
     if kind == "quality":
         pc.measure_name = r0.quality_name
         given = _lookup(f_opt, r0.problem, phash)
-        if given is None and r0.quality_name in SUM_QUALITIES and r0.normalisation is None:
+        # the objective itself (the default quality; its name before "objective")
+        plain = r0.quality_name in ("objective", "objective (sum if several)")
+        if given is None and plain and r0.normalisation is None:
             given = KNOWN_OPTIMA.get(r0.problem) if len(r0.objective_names) == 1 else None
         pc.f_opt = None if given is None else float(given)
         for g in groups:
@@ -432,7 +433,7 @@ def _analyse_problem(
         at_common = M[:, -1]
         samples[g.label] = at_common.tolist()
         seeds[g.label] = [r.seed if r.seed is not None else -1 for r in g.runs]
-        best = np.array([r.final for r in g.runs])
+        best = np.array([r.best_quality for r in g.runs])
         wall = [r.summary.get("wall_time_s") for r in g.runs]
         wall_f = [float(w) for w in wall if isinstance(w, int | float)]
         q = curve_quantiles(at_common.reshape(-1, 1))
@@ -483,7 +484,7 @@ def _analyse_problem(
                     "budget": r.budget,
                     "evaluations": r.evaluations_used,
                     "final": float(c[-1]) if c.size else None,
-                    "summary_best_quality": r.final,
+                    "summary_best_quality": _finite_or_nan(r.best_quality),
                 }
                 for r, c in zip(g.runs, g.curves, strict=True)
             ],

@@ -62,6 +62,35 @@ CREATE TABLE IF NOT EXISTS evaluations (
 );
 """
 
+#: value columns of an evaluation: (kind, array of RunArchive.arrays, meta prefix, fallback)
+_VALUES = (
+    ("design", "x", "parameter", "x"),
+    ("objective", "objectives", "objective", "f"),
+    ("constraint", "constraints", "constraint", "g"),
+)
+
+
+def value_columns(
+    meta: dict[str, Any], arrays: dict[str, np.ndarray]
+) -> list[tuple[str, str, int]]:
+    """The named value columns of archived evaluations, as ``evaluations.csv`` and
+    :func:`suspenv.analysis.load.tidy` write them: (column, array, index).
+
+    ``design:<name> [<unit>]`` (the physical value; unit ``-`` when the problem gives
+    none), ``objective:<name> [<unit>]`` (minimised; ``[<unit>]`` when the problem gives
+    one) and ``constraint:<name>`` (the constraint's value g, feasible when g <= 0); names
+    and units from the archive's meta (``x0``, ``f0``, ``g0``... where it has none)."""
+    out = []
+    for kind, key, prefix, fallback in _VALUES:
+        names = list(meta.get(f"{prefix}_names") or [])
+        units = list(meta.get(f"{prefix}_units") or [])
+        for j in range(arrays[key].shape[1]):
+            name = names[j] if j < len(names) else f"{fallback}{j}"
+            unit = units[j] if j < len(units) and units[j] else ("-" if key == "x" else "")
+            out.append((f"{kind}:{name}" + (f" [{unit}]" if unit else ""), key, j))
+    return out
+
+
 #: the columns a row's checksum covers, in :func:`table_checksums`'s order
 CHECKED = "batch, row, unit, x, objectives, constraints, ok, message"
 
@@ -440,27 +469,25 @@ class RunArchive:
         return np.array(values, dtype=int)
 
     def to_csv(self, path: str | Path) -> Path:
-        """Write every evaluation as CSV with named columns; returns the path.
+        """Write every evaluation as CSV with named columns (:func:`value_columns`; then
+        ok, message and the evaluation's wall time in seconds); returns the path.
 
         Numbers are plain decimal text that reads back to the archive's float64 values
         exactly (Python's shortest round-trip form; ``nan``/``inf`` as such), so
         ``pandas.read_csv`` or ``numpy.genfromtxt`` get numeric columns."""
         a = self.arrays()
-        meta = self.meta()
-        pnames = meta.get("parameter_names") or [f"x{i}" for i in range(a["x"].shape[1])]
-        onames = meta.get("objective_names") or [f"f{i}" for i in range(a["objectives"].shape[1])]
-        cnames = meta.get("constraint_names") or [f"g{i}" for i in range(a["constraints"].shape[1])]
+        columns = value_columns(self.meta(), a)
         with atomic_path(path) as tmp, tmp.open("w", newline="") as fh:
             w = csv.writer(fh)
-            w.writerow(["batch", "row", *pnames, *onames, *cnames, "ok", "message", "wall_time"])
+            w.writerow(
+                ["batch", "row", *(c for c, _, _ in columns), "ok", "message", "wall_time [s]"]
+            )
             for i in range(len(a["ok"])):
                 w.writerow(
                     [
                         a["batch"][i],
                         a["row"][i],
-                        *map(_number, a["x"][i]),
-                        *map(_number, a["objectives"][i]),
-                        *map(_number, a["constraints"][i]),
+                        *(_number(a[key][i, j]) for _, key, j in columns),
                         int(a["ok"][i]),
                         a["message"][i],
                         f"{a['wall_time'][i]:.6g}",
