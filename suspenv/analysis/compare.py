@@ -61,6 +61,7 @@ from suspenv.analysis.performance import (
 from suspenv.analysis.stats import rank_tests
 from suspenv.core.errors import ValidationError
 from suspenv.core.jsonable import to_jsonable
+from suspenv.runs.run_dir import write_file, write_json
 
 #: known optima of a problem's plain quality (the objective itself), by problem name
 KNOWN_OPTIMA: dict[str, float] = {"Sphere": 0.0}
@@ -777,12 +778,16 @@ def markdown(comparison: Comparison) -> str:
     return "\n".join(md) + "\n"
 
 
-def write_compare_files(comparison: Comparison, out: str | Path) -> list[Path]:
-    """Write ``compare.json`` and ``compare.md`` (the IOHprofiler export is
-    :func:`suspenv.analysis.ioh.write_ioh`)."""
+def write_compare_files(
+    comparison: Comparison, out: str | Path, written: Sequence[Path] = ()
+) -> list[Path]:
+    """Write ``compare.md`` and then ``compare.json``, whose ``files`` names these two and
+    the files already ``written`` for the comparison (figures, the IOHprofiler export of
+    :func:`suspenv.analysis.ioh.write_ioh`); returns all their paths."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    paths = [out / "compare.json", out / "compare.md"]
-    paths[0].write_text(json.dumps(to_jsonable(comparison.result), indent=2) + "\n")
-    paths[1].write_text(markdown(comparison))
+    paths = [out / "compare.json", write_file(out / "compare.md", markdown(comparison))]
+    paths += written
+    comparison.result["files"] = sorted({p.name for p in paths})
+    write_json(paths[0], to_jsonable(comparison.result))
     return paths

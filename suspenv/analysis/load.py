@@ -1,7 +1,7 @@
 """Run directories read for analysis: one :class:`RunRecord` per run, and tidy tables.
 
 A run directory holds ``summary.json`` (every pipeline writes one; see
-:func:`suspenv.runs.compare.load_summary`), usually ``config.resolved.toml`` and an
+:func:`suspenv.runs.run_dir.load_summary`), usually ``config.resolved.toml`` and an
 ``archive.sqlite`` of every evaluation (a ``tey2014`` run keeps its CMA-ES evaluations in
 ``cmaes/archive.sqlite`` and its design of experiments in ``doe/archive.sqlite``).
 
@@ -37,8 +37,8 @@ from suspenv.analysis.performance import as_curve
 from suspenv.core.errors import ValidationError
 from suspenv.registry import problem_class, strategy_class
 from suspenv.runs.archive import RunArchive, value_columns
-from suspenv.runs.compare import load_summary
 from suspenv.runs.quality import feasible, scalar_recorded
+from suspenv.runs.run_dir import load_summary
 
 #: strategy options that say where a run keeps its state, not how it searches (optuna's
 #: study name defaults to one per seed); left out of the strategy configuration

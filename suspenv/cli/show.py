@@ -59,7 +59,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _show(args: argparse.Namespace) -> int:
-    from suspenv.runs.compare import load_summary
+    from suspenv.runs.run_dir import load_summary
 
     print(format_summary(load_summary(args.run)))
     return 0

@@ -49,11 +49,10 @@ from suspenv.registry import (
 )
 from suspenv.runs import quality as run_quality
 from suspenv.runs.archive import RunArchive
-from suspenv.runs.compare import load_summary
 from suspenv.runs.evaluation import FaultPolicy
 from suspenv.runs.executors import executor_workers, make_executor
 from suspenv.runs.loop import optimize
-from suspenv.runs.run_dir import dump_toml, run_directory, write_json
+from suspenv.runs.run_dir import dump_toml, load_summary, run_directory, write_json
 from suspenv.runs.versions import package_versions
 
 #: seconds of drawing after which the figure progress is printed to stderr
