@@ -17,7 +17,8 @@ Definitions, formulas and rules are in ``docs/analysis.md``; in short:
   different budgets are refused unless ``allow_unequal_budgets``; different budgets
   between groups are flagged, and fixed-budget numbers are taken at the common budget.
 - The measure compared is the run's quality (``summary.json``), except for
-  multi-objective runs whose quality is a plain sum of objectives: their measure is the
+  multi-objective runs without a scalar quality (:mod:`suspenv.runs.quality`; or with a
+  recorded plain sum of objectives): their measure is the
   hypervolume deficit ``HV_ref - HV(run)`` against a reference front (analytic where
   known, else given, else the non-dominated union of all compared runs).
 """
@@ -252,16 +253,16 @@ def _choose_measure(runs: list[RunRecord], measure: str) -> tuple[str, str]:
             )
         return "hypervolume deficit", ""
     if sums_objectives(r0):
+        what = f"{r0.quality_name!r} (a plain sum)" if r0.quality_name else "no scalar quality"
         if m > HV_MAX_OBJECTIVES:
             return "quality", (
-                f"{m} objectives compared by {r0.quality_name!r} (a plain sum): hypervolumes "
-                f"are computed for at most {HV_MAX_OBJECTIVES} objectives"
+                f"{m} objectives compared by {what}: hypervolumes are computed for at most "
+                f"{HV_MAX_OBJECTIVES} objectives"
             )
         if missing:
             return "quality", (
-                f"multi-objective runs compared by {r0.quality_name!r} (a plain sum of "
-                f"objectives): the archives needed for the hypervolume are missing for "
-                f"{missing}"
+                f"multi-objective runs compared by {what}: the archives needed for the "
+                f"hypervolume are missing for {missing}"
             )
         return "hypervolume deficit", ""
     return "quality", ""
@@ -603,8 +604,8 @@ DEFINITIONS = {
     "performance_profile": "Dolan & More 2002: ratio of a strategy's ERT to the best ERT "
     "per (problem, target) instance; rho(tau) = fraction of instances with ratio <= tau",
     "hypervolume": "normalised objectives (ideal/nadir of the reference front), reference "
-    "point 1.1 in each; measure = HV_ref - HV(run) for multi-objective runs with a "
-    "sum quality",
+    "point 1.1 in each; measure = HV_ref - HV(run) for multi-objective runs without a "
+    "scalar quality",
     "igd": "mean over reference-front points of the distance to the nearest point of the "
     "run's final feasible non-dominated set, normalised objectives",
     "json": "non-finite numbers are written as null (inf: never reached / no value)",

@@ -45,7 +45,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         choices=("auto", "quality", "hypervolume"),
         default="auto",
         help="what is compared; auto: the run's quality, or the hypervolume deficit for "
-        "multi-objective runs whose quality is a plain sum of objectives",
+        "multi-objective runs without a scalar quality",
     )
     p.add_argument(
         "--f-opt", type=float, default=None, help="known optimum of the quality (targets)"
