@@ -115,3 +115,27 @@ def test_show_never_prints_a_recorded_sum_of_objectives():
     }
     shown = format_summary(old)
     assert "7.5" not in shown and "best" not in shown
+
+
+def test_evaluations_csv_and_tidy_name_their_columns_alike(tmp_path):
+    # reference: the problem's own names and units, written out here
+    config = {
+        "name": "minibus",
+        "seed": 1,
+        "budget": 4,
+        "problem": {"name": "MinibusRideHandling"},
+        "strategy": {"name": "random", "options": {"batch_size": 4}},
+        "run": {"output": str(tmp_path), "plots": False, "progress": False},
+    }
+    run_dir, _ = run_experiment(config)
+    p = make_problem("MinibusRideHandling")
+    header = (run_dir / "evaluations.csv").read_text().splitlines()[0].split(",")
+    designs = [f"design:{q.name} [{q.unit or '-'}]" for q in p.space.parameters]
+    objectives = [
+        f"objective:{n} [{u}]" for n, u in zip(p.objective_names, p.objective_units, strict=True)
+    ]
+    constraints = [f"constraint:{n}" for n in p.constraint_names]
+    values = [*designs, *objectives, *constraints]
+    assert header == ["batch", "row", *values, "ok", "message", "wall_time [s]"]
+    t = tidy([run_dir])
+    assert [c for c in t if ":" in c] == values
