@@ -91,6 +91,21 @@ def value_columns(
     return out
 
 
+#: SQLite result codes (prefixes of ``sqlite_errorname``) of a fault of the machine, such
+#: as a read-only folder or a full disk; any other error opening an archive is its content's
+_MACHINE_FAULTS = (
+    "SQLITE_READONLY", "SQLITE_FULL", "SQLITE_CANTOPEN", "SQLITE_IOERR", "SQLITE_BUSY",
+    "SQLITE_LOCKED", "SQLITE_PERM", "SQLITE_NOMEM", "SQLITE_AUTH",
+)
+
+
+def _machine_fault(exc: sqlite3.Error) -> bool:
+    """True when SQLite's error is the machine's (:data:`_MACHINE_FAULTS`), not the file's
+    content (a damaged header reads as "unsupported file format", also an
+    OperationalError)."""
+    return str(getattr(exc, "sqlite_errorname", "")).startswith(_MACHINE_FAULTS)
+
+
 #: the columns a row's checksum covers, in :func:`table_checksums`'s order
 CHECKED = "batch, row, unit, x, objectives, constraints, ok, message"
 
@@ -242,11 +257,10 @@ class RunArchive:
             self._con.executescript(_SCHEMA)
             self._con.commit()
             self._check_columns()
-        except sqlite3.OperationalError as exc:  # a read-only folder, a full disk
-            self._con.close()
-            raise write_fault(path, f"SQLite: {exc}") from None
         except (sqlite3.DatabaseError, UnicodeDecodeError) as exc:
             self._con.close()
+            if isinstance(exc, sqlite3.OperationalError) and _machine_fault(exc):
+                raise write_fault(path, f"SQLite: {exc}") from None
             raise ValidationError(
                 f"{str(path)!r} is not a suspenv run archive (SQLite: {exc}); move it "
                 "away, or start the run anew with --overwrite"
