@@ -61,8 +61,8 @@ from benchmarks.overhead import cores_free
 from suspenv.problems.minibus import study_outcome
 from suspenv.registry import make_problem
 from suspenv.runs.archive import RunArchive
-from suspenv.runs.compare import load_summary
 from suspenv.runs.config import load_config
+from suspenv.runs.run_dir import load_summary
 
 ROOT = Path(__file__).resolve().parents[1]
 CONFIG = ROOT / "experiments" / "minibus_nsga2.toml"

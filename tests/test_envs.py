@@ -211,7 +211,8 @@ def test_reward_weights_and_constraint_penalty():
     # CarSideImpact at x = 1 (hand calculation in test_carside): F = (29.05001, 4.03,
     # 12.175625); relative violations 0.000296875 (rib lower) + 0.0075 (pubic force)
     x = np.ones(7)
-    env = ProblemEnv("CarSideImpact", weights=[1.0, 2.0, 0.5], penalty=10.0)
+    # the weights in the objectives' own units: asked for (the default normalises them)
+    env = ProblemEnv("CarSideImpact", weights=[1.0, 2.0, 0.5], penalty=10.0, reward="sum")
     env.reset(seed=0)
     _, reward, _, _, info = env.step(env.design_to_action(x))
     s = 29.05001 + 2 * 4.03 + 0.5 * 12.175625

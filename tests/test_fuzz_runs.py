@@ -158,6 +158,16 @@ def test_a_damaged_archive_reads_or_names_its_damage(tmp_path, archive_bytes, fl
         assert "archive" in str(exc)
 
 
+def test_a_header_naming_an_unknown_schema_format_is_named_damage(tmp_path, archive_bytes):
+    # found by the test above: SQLite reports this damage as an OperationalError
+    # ("unsupported file format"), which was taken for a full disk or a read-only folder
+    data = bytearray(archive_bytes)
+    data[47] = 5  # the header's schema format number (bytes 44-47): 1 to 4 exist
+    (tmp_path / "archive.sqlite").write_bytes(bytes(data))
+    with pytest.raises(ValidationError, match="is not a suspenv run archive"):
+        _read(tmp_path / "archive.sqlite")
+
+
 @SETTINGS
 @given(
     blob=st.binary(max_size=40),

@@ -8,8 +8,9 @@ import pytest
 
 from suspenv.cli.show import format_summary
 from suspenv.core.errors import ValidationError
-from suspenv.runs.compare import compare_runs, load_summary
+from suspenv.reports.analysis import write_comparison
 from suspenv.runs.config import load_config, parse_override
+from suspenv.runs.run_dir import load_summary
 from suspenv.runs.runner import run_experiment
 
 CONFIG = """
@@ -119,7 +120,7 @@ def test_compare_strategies_over_seeds(tmp_path):
         for seed in (1, 2):
             cfg = load_config(_write(tmp_path, strat, f"{strat}"), [f"seed={seed}"])
             runs.append(run_experiment(cfg)[0])
-    result = compare_runs(runs, tmp_path / "cmp")
+    result = write_comparison(runs, tmp_path / "cmp")
     rows = {r["strategy"]: r for r in result["table"]}
     assert rows["cmaes"]["runs"] == 2 and rows["random"]["seeds"] == [1, 2]
     # on a 4-D sphere with 120 evaluations CMA-ES beats random search (both seeds)

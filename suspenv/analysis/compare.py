@@ -17,7 +17,8 @@ Definitions, formulas and rules are in ``docs/analysis.md``; in short:
   different budgets are refused unless ``allow_unequal_budgets``; different budgets
   between groups are flagged, and fixed-budget numbers are taken at the common budget.
 - The measure compared is the run's quality (``summary.json``), except for
-  multi-objective runs whose quality is a plain sum of objectives: their measure is the
+  multi-objective runs without a scalar quality (:mod:`suspenv.runs.quality`; or with a
+  recorded plain sum of objectives): their measure is the
   hypervolume deficit ``HV_ref - HV(run)`` against a reference front (analytic where
   known, else given, else the non-dominated union of all compared runs).
 """
@@ -43,7 +44,6 @@ from suspenv.analysis.indicators import (
     reference_point,
 )
 from suspenv.analysis.load import (
-    SUM_QUALITIES,
     RunRecord,
     load_runs,
     reference_front,
@@ -62,6 +62,7 @@ from suspenv.analysis.performance import (
 from suspenv.analysis.stats import rank_tests
 from suspenv.core.errors import ValidationError
 from suspenv.core.jsonable import to_jsonable
+from suspenv.runs.run_dir import write_file, write_json
 
 #: known optima of a problem's plain quality (the objective itself), by problem name
 KNOWN_OPTIMA: dict[str, float] = {"Sphere": 0.0}
@@ -252,16 +253,16 @@ def _choose_measure(runs: list[RunRecord], measure: str) -> tuple[str, str]:
             )
         return "hypervolume deficit", ""
     if sums_objectives(r0):
+        what = f"{r0.quality_name!r} (a plain sum)" if r0.quality_name else "no scalar quality"
         if m > HV_MAX_OBJECTIVES:
             return "quality", (
-                f"{m} objectives compared by {r0.quality_name!r} (a plain sum): hypervolumes "
-                f"are computed for at most {HV_MAX_OBJECTIVES} objectives"
+                f"{m} objectives compared by {what}: hypervolumes are computed for at most "
+                f"{HV_MAX_OBJECTIVES} objectives"
             )
         if missing:
             return "quality", (
-                f"multi-objective runs compared by {r0.quality_name!r} (a plain sum of "
-                f"objectives): the archives needed for the hypervolume are missing for "
-                f"{missing}"
+                f"multi-objective runs compared by {what}: the archives needed for the "
+                f"hypervolume are missing for {missing}"
             )
         return "hypervolume deficit", ""
     return "quality", ""
@@ -365,7 +366,9 @@ def _analyse_problem(
     if kind == "quality":
         pc.measure_name = r0.quality_name
         given = _lookup(f_opt, r0.problem, phash)
-        if given is None and r0.quality_name in SUM_QUALITIES and r0.normalisation is None:
+        # the objective itself (the default quality; its name before "objective")
+        plain = r0.quality_name in ("objective", "objective (sum if several)")
+        if given is None and plain and r0.normalisation is None:
             given = KNOWN_OPTIMA.get(r0.problem) if len(r0.objective_names) == 1 else None
         pc.f_opt = None if given is None else float(given)
         for g in groups:
@@ -432,7 +435,7 @@ def _analyse_problem(
         at_common = M[:, -1]
         samples[g.label] = at_common.tolist()
         seeds[g.label] = [r.seed if r.seed is not None else -1 for r in g.runs]
-        best = np.array([r.final for r in g.runs])
+        best = np.array([r.best_quality for r in g.runs])
         wall = [r.summary.get("wall_time_s") for r in g.runs]
         wall_f = [float(w) for w in wall if isinstance(w, int | float)]
         q = curve_quantiles(at_common.reshape(-1, 1))
@@ -483,7 +486,7 @@ def _analyse_problem(
                     "budget": r.budget,
                     "evaluations": r.evaluations_used,
                     "final": float(c[-1]) if c.size else None,
-                    "summary_best_quality": r.final,
+                    "summary_best_quality": _finite_or_nan(r.best_quality),
                 }
                 for r, c in zip(g.runs, g.curves, strict=True)
             ],
@@ -601,8 +604,8 @@ DEFINITIONS = {
     "performance_profile": "Dolan & More 2002: ratio of a strategy's ERT to the best ERT "
     "per (problem, target) instance; rho(tau) = fraction of instances with ratio <= tau",
     "hypervolume": "normalised objectives (ideal/nadir of the reference front), reference "
-    "point 1.1 in each; measure = HV_ref - HV(run) for multi-objective runs with a "
-    "sum quality",
+    "point 1.1 in each; measure = HV_ref - HV(run) for multi-objective runs without a "
+    "scalar quality",
     "igd": "mean over reference-front points of the distance to the nearest point of the "
     "run's final feasible non-dominated set, normalised objectives",
     "json": "non-finite numbers are written as null (inf: never reached / no value)",
@@ -776,12 +779,16 @@ def markdown(comparison: Comparison) -> str:
     return "\n".join(md) + "\n"
 
 
-def write_compare_files(comparison: Comparison, out: str | Path) -> list[Path]:
-    """Write ``compare.json`` and ``compare.md`` (the IOHprofiler export is
-    :func:`suspenv.analysis.ioh.write_ioh`)."""
+def write_compare_files(
+    comparison: Comparison, out: str | Path, written: Sequence[Path] = ()
+) -> list[Path]:
+    """Write ``compare.md`` and then ``compare.json``, whose ``files`` names these two and
+    the files already ``written`` for the comparison (figures, the IOHprofiler export of
+    :func:`suspenv.analysis.ioh.write_ioh`); returns all their paths."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    paths = [out / "compare.json", out / "compare.md"]
-    paths[0].write_text(json.dumps(to_jsonable(comparison.result), indent=2) + "\n")
-    paths[1].write_text(markdown(comparison))
+    paths = [out / "compare.json", write_file(out / "compare.md", markdown(comparison))]
+    paths += written
+    comparison.result["files"] = sorted({p.name for p in paths})
+    write_json(paths[0], to_jsonable(comparison.result))
     return paths

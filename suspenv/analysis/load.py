@@ -1,7 +1,7 @@
 """Run directories read for analysis: one :class:`RunRecord` per run, and tidy tables.
 
 A run directory holds ``summary.json`` (every pipeline writes one; see
-:func:`suspenv.runs.compare.load_summary`), usually ``config.resolved.toml`` and an
+:func:`suspenv.runs.run_dir.load_summary`), usually ``config.resolved.toml`` and an
 ``archive.sqlite`` of every evaluation (a ``tey2014`` run keeps its CMA-ES evaluations in
 ``cmaes/archive.sqlite`` and its design of experiments in ``doe/archive.sqlite``).
 
@@ -36,8 +36,9 @@ from suspenv.analysis.indicators import (
 from suspenv.analysis.performance import as_curve
 from suspenv.core.errors import ValidationError
 from suspenv.registry import problem_class, strategy_class
-from suspenv.runs.archive import RunArchive
-from suspenv.runs.compare import load_summary
+from suspenv.runs.archive import RunArchive, value_columns
+from suspenv.runs.quality import feasible, scalar_recorded
+from suspenv.runs.run_dir import load_summary
 
 #: strategy options that say where a run keeps its state, not how it searches (optuna's
 #: study name defaults to one per seed); left out of the strategy configuration
@@ -46,9 +47,6 @@ STATE_OPTIONS = frozenset({"seed", "storage", "study_name", "resume"})
 #: constructor arguments a strategy gets from the problem and the run, not from options
 _STRATEGY_CONTEXT = frozenset({"self", "dim", "n_objectives", "n_constraints", "seed"})
 
-#: quality names meaning "the plain sum of the objectives" (the problem base class's
-#: default and the minibus problem's): no measure to compare multi-objective runs by
-SUM_QUALITIES = frozenset({"objective (sum if several)", "sum of objectives"})
 
 
 def config_hash(obj: Any) -> str:
@@ -209,6 +207,12 @@ class RunRecord:
         return float(self.curve[-1]) if self.curve.size else float("inf")
 
     @property
+    def best_quality(self) -> float:
+        """The best quality of the run; NaN when none was feasible or the run has no
+        scalar quality (:func:`sums_objectives`)."""
+        return self.final if np.isfinite(self.final) and not sums_objectives(self) else np.nan
+
+    @property
     def problem_config(self) -> dict[str, Any]:
         """What defines the problem being compared: name, resolved options, objectives,
         the quality measure and what it was normalised on, the pipeline."""
@@ -251,10 +255,7 @@ class RunRecord:
         a = self.arrays()
         if a is None:
             return None
-        ok = a["ok"] & np.isfinite(a["objectives"]).all(axis=1)
-        if a["constraints"].size:
-            ok &= np.nan_to_num(a["constraints"], nan=1.0).max(axis=1) <= 0
-        return ok
+        return feasible(a["ok"], a["constraints"]) & np.isfinite(a["objectives"]).all(axis=1)
 
 
 def _read_config(path: Path) -> dict[str, Any]:
@@ -316,7 +317,8 @@ def load_run(run_dir: str | Path) -> RunRecord:
             meta = archive.meta()
     names = s.get("objective_names") or s.get("kept_objectives") or meta.get("objective_names")
     strategy = str(s.get("strategy") or (config.get("strategy") or {}).get("name") or "?")
-    quality_name = str(s.get("quality_name") or "quality")
+    # None: several objectives without a quality (suspenv.runs.quality); absent: "quality"
+    quality_name = str(s.get("quality_name", "quality") or "")
     norm, source = _normalisation(path, pipeline, quality_name)
     if isinstance(s.get("best_x"), dict):
         dimension: int | None = len(s["best_x"])
@@ -329,6 +331,8 @@ def load_run(run_dir: str | Path) -> RunRecord:
         shape = (dimension, len(names or []) or 1, len(meta.get("constraint_names") or []))
     s_opts, s_used = _strategy_options(strategy, s, config, pipeline, shape)
     curve = s.get("quality_curve")
+    if curve is None and not quality_name and isinstance(s.get("n_evaluations"), int):
+        curve = [None] * s["n_evaluations"]  # no scalar quality: the run's length only
     if not isinstance(curve, list):
         raise ValidationError(
             f"run {str(path)!r}: summary.json has no `quality_curve` list (best-so-far per "
@@ -419,9 +423,10 @@ def reference_front(runs: list[RunRecord], given: Any) -> tuple[np.ndarray, str,
 
 
 def sums_objectives(r: RunRecord) -> bool:
-    """True when a run's quality is a plain sum of its two or more objectives (mixed
-    units): its progress is then measured by the hypervolume, never by that sum."""
-    return len(r.objective_names) >= 2 and r.quality_name in SUM_QUALITIES
+    """True when a run of two or more objectives has no scalar quality, or a plain sum of
+    them in mixed units (:func:`suspenv.runs.quality.scalar_recorded`): its progress is
+    then measured by the hypervolume, never by that sum."""
+    return not scalar_recorded(r.quality_name, len(r.objective_names))
 
 
 def load_runs(runs: Iterable[str | Path | RunRecord]) -> list[RunRecord]:
@@ -443,8 +448,9 @@ def load_runs(runs: Iterable[str | Path | RunRecord]) -> list[RunRecord]:
 
 def runs_table(runs: Sequence[str | Path | RunRecord]) -> dict[str, np.ndarray]:
     """One row per run: run, path, problem, problem_hash, strategy, strategy_hash, group
-    (``strategy[hash]``), seed, budget, evaluations, best_quality (NaN: none feasible),
-    quality_name. Long form: ``pandas.DataFrame(runs_table(dirs))``."""
+    (``strategy[hash]``), seed, budget, evaluations, best_quality (NaN: none feasible, or
+    no scalar quality, :func:`sums_objectives`), quality_name. Long form:
+    ``pandas.DataFrame(runs_table(dirs))``."""
     recs = load_runs(runs)
     return {
         "run": np.array([r.name for r in recs], dtype=object),
@@ -457,9 +463,7 @@ def runs_table(runs: Sequence[str | Path | RunRecord]) -> dict[str, np.ndarray]:
         "seed": np.array([-1 if r.seed is None else r.seed for r in recs], dtype=int),
         "budget": np.array([-1 if r.budget is None else r.budget for r in recs], dtype=int),
         "evaluations": np.array([r.evaluations_used for r in recs], dtype=int),
-        "best_quality": np.array(
-            [r.final if np.isfinite(r.final) else np.nan for r in recs], dtype=float
-        ),
+        "best_quality": np.array([r.best_quality for r in recs], dtype=float),
         "quality_name": np.array([r.quality_name for r in recs], dtype=object),
     }
 
@@ -469,14 +473,14 @@ def tidy(runs: Sequence[str | Path | RunRecord], objectives: bool = True) -> dic
 
     Columns: run, problem, problem_hash, strategy, strategy_hash, group, seed,
     evaluation (1-based), and the run's progress: ``best_so_far`` (the best quality so
-    far, NaN before the first feasible value, and NaN for a run whose quality is a plain
-    sum of objectives in mixed units, :func:`sums_objectives`) and, for multi-objective
+    far, NaN before the first feasible value, and NaN for a run without a scalar quality,
+    :func:`sums_objectives`) and, for multi-objective
     runs, ``hypervolume`` (of the feasible evaluations so far, objectives normalised by
     the ideal and nadir of the reference front, :func:`reference_front`, reference point
     1.1 in each; NaN for other runs). With ``objectives`` and an archive matching the
-    curve also ok, feasible, one column per design variable ``design:<name> [<unit>]``
-    (physical value), per objective ``objective:<name>`` and per constraint
-    ``constraint:<name>`` (its value g, feasible when g <= 0); NaN where a run has none.
+    curve also ok, feasible and the value columns of ``evaluations.csv``
+    (:func:`suspenv.runs.archive.value_columns`: ``design:<name> [<unit>]``,
+    ``objective:<name> [<unit>]``, ``constraint:<name>``); NaN where a run has none.
     """
     recs = load_runs(runs)
     keys = ("run", "problem", "problem_hash", "strategy", "strategy_hash", "group")
@@ -503,7 +507,7 @@ def tidy(runs: Sequence[str | Path | RunRecord], objectives: bool = True) -> dic
             a, feas = r.arrays(), r.feasible()
             cols["ok"].append(a["ok"] if a is not None else np.zeros(n, bool))
             cols["feasible"].append(feas if feas is not None else np.zeros(n, bool))
-            own = _columns(r) if a is not None else {}
+            own = _columns(r)
             for name in names:
                 col = np.full(n, np.nan)
                 if a is not None and name in own:
@@ -514,18 +518,10 @@ def tidy(runs: Sequence[str | Path | RunRecord], objectives: bool = True) -> dic
 
 
 def _columns(r: RunRecord) -> dict[str, tuple[str, int]]:
-    """A run's tidy value columns: name -> (array of :meth:`RunRecord.arrays`, column)."""
-    m = r.meta
-    units = list(m.get("parameter_units") or [])
-    out: dict[str, tuple[str, int]] = {}
-    for j, name in enumerate(m.get("parameter_names") or []):
-        unit = units[j] if j < len(units) and units[j] else "-"
-        out[f"design:{name} [{unit}]"] = ("x", j)
-    for j, name in enumerate(r.objective_names):
-        out[f"objective:{name}"] = ("objectives", j)
-    for j, name in enumerate(m.get("constraint_names") or []):
-        out[f"constraint:{name}"] = ("constraints", j)
-    return out
+    """A run's tidy value columns (:func:`suspenv.runs.archive.value_columns`): name ->
+    (array of :meth:`RunRecord.arrays`, column); none without a matching archive."""
+    a = r.arrays()
+    return {} if a is None else {c: (key, j) for c, key, j in value_columns(r.meta, a)}
 
 
 def _hypervolume_progress(recs: Sequence[RunRecord]) -> dict[Path, np.ndarray]:

@@ -45,7 +45,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         choices=("auto", "quality", "hypervolume"),
         default="auto",
         help="what is compared; auto: the run's quality, or the hypervolume deficit for "
-        "multi-objective runs whose quality is a plain sum of objectives",
+        "multi-objective runs without a scalar quality",
     )
     p.add_argument(
         "--f-opt", type=float, default=None, help="known optimum of the quality (targets)"
@@ -64,11 +64,12 @@ def _g(v: Any) -> str:
 
 
 def _compare(args: argparse.Namespace) -> int:
-    from suspenv.analysis.compare import check_options
+    from suspenv.analysis.compare import check_options, compare
+    from suspenv.reports.analysis import write_compared
+    from suspenv.suite.compare import compare_suite
     from suspenv.suite.runner import SUITE_FILE
 
     check_options(args.f_opt, args.n_targets, args.alpha, args.measure)
-
     options: dict[str, Any] = {
         "allow_unequal_budgets": args.allow_unequal_budgets,
         "measure": args.measure,
@@ -76,23 +77,10 @@ def _compare(args: argparse.Namespace) -> int:
         "alpha": args.alpha,
     }
     if len(args.runs) == 1 and (Path(args.runs[0]) / SUITE_FILE).is_file():
-        from suspenv.reports.analysis import write_compared
-        from suspenv.suite.compare import compare_suite
-
         comparison = compare_suite(args.runs[0], **options)
-        result = write_compared(comparison, args.out, figures=not args.no_plots, ioh=args.ioh)
     else:
-        from suspenv.runs.compare import compare_runs
-
-        result = compare_runs(
-            args.runs,
-            args.out,
-            suite=args.suite,
-            f_opt=args.f_opt,
-            ioh=args.ioh,
-            figures=not args.no_plots,
-            **options,
-        )
+        comparison = compare(args.runs, suite=args.suite, f_opt=args.f_opt, **options)
+    result = write_compared(comparison, args.out, figures=not args.no_plots, ioh=args.ioh)
     for prob in result["problems"]:
         print(
             f"problem: {prob['problem']}[{prob['hash']}]   measure: {prob['measure']} "

@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from suspenv.runs.quality import scalar_recorded
+
 
 def format_summary(s: dict[str, Any]) -> str:
     """The summary table of an optimisation run; other pipelines show their scalar items."""
@@ -27,14 +29,23 @@ def format_summary(s: dict[str, Any]) -> str:
         ("ok / feasible", f"{s.get('n_ok')} / {s.get('n_feasible')}"),
         ("stop reason", s.get("stop_reason")),
         ("wall time [s]", _fmt(s.get("wall_time_s"))),
-        (f"best {s.get('quality_name', 'quality')}", _fmt(s.get("best_quality"))),
+        *_best(s),
     ]
-    best = s.get("best_objectives")
-    if best:
-        for n, v in zip(s.get("objective_names", []), best, strict=False):
-            rows.append((f"  best row: {n}", _fmt(v)))
     w = max(len(str(k)) for k, _ in rows)
     return "\n".join(f"{k:<{w}}  {v}" for k, v in rows if v is not None)
+
+
+def _best(s: dict[str, Any]) -> list[tuple[str, Any]]:
+    """The run's best quality (:mod:`suspenv.runs.quality`); for several objectives
+    without one (or a recorded plain sum of them), the size of its feasible front."""
+    name = s.get("quality_name", "quality")
+    names = s.get("objective_names") or []
+    if scalar_recorded(name, len(names)):
+        best = zip(names, s.get("best_objectives") or [], strict=False)
+        return [(f"best {name}", _fmt(s.get("best_quality")))] + [
+            (f"  best row: {n}", _fmt(v)) for n, v in best
+        ]
+    return [("feasible front [designs]", s.get("front_size"))]
 
 
 def _fmt(v: Any) -> Any:
@@ -48,7 +59,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _show(args: argparse.Namespace) -> int:
-    from suspenv.runs.compare import load_summary
+    from suspenv.runs.run_dir import load_summary
 
     print(format_summary(load_summary(args.run)))
     return 0

@@ -106,16 +106,18 @@ class Problem(ABC):
         """Options that rebuild this problem (stored in run directories)."""
         return {}
 
-    def quality(self, F: np.ndarray) -> np.ndarray:
-        """One number per row to compare runs and strategies (lower is better).
+    def quality(self, F: np.ndarray) -> np.ndarray | None:
+        """One number per row to compare runs and strategies (lower is better), or None.
 
-        Default: the objective itself for one objective, the plain sum for several.
-        Problems override this with something meaningful to their users.
+        Default: the objective itself for one objective; None for several, whose units
+        differ: they have no scalar best (runs are compared by their fronts, see
+        :mod:`suspenv.runs.quality`). A problem whose objectives share a scale may
+        override this.
         """
         F = np.atleast_2d(F)
-        return F[:, 0] if F.shape[1] == 1 else F.sum(axis=1)
+        return F[:, 0] if F.shape[1] == 1 else None
 
-    quality_name: ClassVar[str] = "objective (sum if several)"
+    quality_name: ClassVar[str] = "objective"
 
     def write_report(self, run_dir: Path, archive: Any) -> list[Path]:
         """Problem-specific report files for a finished run (optional). Returns paths."""

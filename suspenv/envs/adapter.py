@@ -24,8 +24,8 @@ Conventions (all float64):
   margin. With
   ``reward="normalized"`` each objective is divided by its scale
   (:mod:`suspenv.envs.scales`) before it is scalarised; ``reward="sum"`` scalarises the
-  objectives in their own units. The default is "normalized" for the problems of
-  :data:`NORMALIZED_BY_DEFAULT` and "sum" for the others.
+  objectives in their own units. The default is "normalized" for objectives in more
+  than one unit and "sum" otherwise (:func:`default_reward`).
 """
 
 from __future__ import annotations
@@ -53,15 +53,13 @@ Scalarizer = str | Callable[[np.ndarray], np.ndarray]
 #: the reward modes: objectives divided by their scales, in their own units, or one
 #: reward per objective (multi-objective problems, MO-Gymnasium's convention)
 REWARDS = ("normalized", "sum", "vector")
-#: problems whose env reward is normalised unless ``reward="sum"`` is asked for: their
-#: objectives are in mixed units and the plain sum is dominated by one that no design
-#: moves (KCIdentification: ``opp_roll_rate``, 57 % of the reference design's sum)
-NORMALIZED_BY_DEFAULT = frozenset({"KCIdentification"})
-
-
 def default_reward(problem: Problem) -> str:
-    """The reward mode an env uses when none is given (see :data:`NORMALIZED_BY_DEFAULT`)."""
-    return "normalized" if problem.name in NORMALIZED_BY_DEFAULT else "sum"
+    """The reward mode an env uses when none is given: "normalized" when the objectives
+    are in more than one unit (their plain sum weighs them by accident of unit:
+    KCIdentification's ``opp_roll_rate`` was 57 % of the reference design's sum), "sum"
+    for one objective or several in one unit (or without units)."""
+    units = set(problem.objective_units or ())
+    return "normalized" if problem.n_objectives > 1 and len(units) > 1 else "sum"
 
 
 def check_reward(reward: Any, problem: Problem) -> str:

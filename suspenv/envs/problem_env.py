@@ -78,8 +78,9 @@ class ProblemEnv(gym.Env[np.ndarray, np.ndarray]):
         contributes at most 1 and an objective no design can move never dominates; or
       - ``reward="sum"``: the objectives in their own units (the reward of earlier
         versions; reproduces their numbers).
-      The default is "normalized" for KCIdentification (40 mismatches in 8 units) and
-      "sum" for every other problem (:data:`~suspenv.envs.adapter.NORMALIZED_BY_DEFAULT`).
+      The default is "normalized" for objectives in more than one unit (KCIdentification,
+      MinibusRideHandling, CarSideImpact) and "sum" otherwise
+      (:func:`~suspenv.envs.adapter.default_reward`).
     * ``v = sum_j max(g_j, 0)`` is the total constraint violation (constraints are
       feasible when ``g <= 0``), in the constraints' own units (never normalised);
       ``penalty`` defaults to 100.
@@ -133,8 +134,9 @@ class ProblemEnv(gym.Env[np.ndarray, np.ndarray]):
 
     ## Version History
 
-    * v0: initial version. Later in v0: the ``reward`` argument; KCIdentification's
-      default reward became "normalized" (pass ``reward="sum"`` for the earlier numbers).
+    * v0: initial version. Later in v0: the ``reward`` argument; the default reward of
+      objectives in several units became "normalized" (KCIdentification first, then
+      every such problem; pass ``reward="sum"`` for the earlier numbers).
     """
 
     metadata: dict[str, Any] = {"render_modes": ["rgb_array"], "render_fps": 4}

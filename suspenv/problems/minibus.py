@@ -219,7 +219,6 @@ class MinibusRideHandling(Problem):
         "steering-wheel angle and roll; "
         "no load + 1.5 x full load"
     )
-    quality_name = "sum of objectives"
 
     def __init__(
         self,

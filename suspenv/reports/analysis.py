@@ -33,7 +33,6 @@ from suspenv.analysis.ioh import write_ioh
 from suspenv.analysis.performance import curve_matrix, curve_quantiles, runtime_ecdf
 from suspenv.core.jsonable import to_jsonable
 from suspenv.reports._mpl import pyplot, save_figure
-from suspenv.runs.run_dir import write_json
 
 
 def _axes(n: int, width: float = 5.2, height: float = 3.8) -> tuple[Any, list[Any]]:
@@ -227,12 +226,11 @@ def write_compared(
     """Write a finished comparison (files, figures, export) into ``out``; returns the
     content of ``compare.json``."""
     out = Path(out)
-    written = write_compare_files(comparison, out)
+    written: list[Path] = []
     if ioh:
         written.append(write_ioh(comparison, out / "ioh"))
     if figures:
         written += write_comparison_figures(comparison, out)
-    comparison.result["files"] = sorted({p.name for p in written})
+    write_compare_files(comparison, out, written)
     result: dict[str, Any] = to_jsonable(comparison.result)
-    write_json(out / "compare.json", result)
     return result

@@ -18,6 +18,7 @@ from suspenv.models.planar.analytic import PlanarSweep
 from suspenv.models.planar.geometry import DoubleWishbone, PlanarGeometry, geometry_to_toml
 from suspenv.models.planar.outputs import SweepOutputs
 from suspenv.reports._mpl import pyplot, save_figure
+from suspenv.runs import quality as run_quality
 from suspenv.runs.run_dir import write_file
 
 if TYPE_CHECKING:
@@ -245,13 +246,12 @@ def write_planar_report(problem: PlanarLinkage, run_dir: Path, archive: Any) -> 
     arrays = archive.arrays()
     objectives = np.asarray(arrays["objectives"], float)
     ok = np.asarray(arrays["ok"], bool)
-    cons = np.asarray(arrays["constraints"], float)
-    feasible = ok & (np.nan_to_num(cons, nan=1.0) <= 0).all(axis=1)
-    pool = feasible if feasible.any() else ok
-    if not pool.any():
+    feasible = run_quality.feasible(ok, arrays["constraints"])
+    # the run's best (suspenv.runs.quality); the best ok design when none is feasible
+    q = run_quality.quality(problem, objectives)
+    best = None if q is None else run_quality.best_row(q, feasible if feasible.any() else ok)
+    if best is None:
         return []
-    score = np.where(pool, objectives[:, 0], np.inf)
-    best = int(np.argmin(score))
     x = np.asarray(arrays["x"], float)[best]
     run_dir = Path(run_dir)
     geom, sw, out = problem.single_sweep(x)

@@ -36,7 +36,7 @@ import numpy as np
 
 from suspenv.core.pareto import nondominated
 from suspenv.reports._mpl import add_polylines, pyplot
-from suspenv.runs.optimize_pipeline import best_so_far
+from suspenv.runs.quality import best_so_far
 from suspenv.runs.run_dir import atomic_path
 
 #: above this many objectives the pair plot shows this many (largest relative spread)

@@ -62,6 +62,50 @@ CREATE TABLE IF NOT EXISTS evaluations (
 );
 """
 
+#: value columns of an evaluation: (kind, array of RunArchive.arrays, meta prefix, fallback)
+_VALUES = (
+    ("design", "x", "parameter", "x"),
+    ("objective", "objectives", "objective", "f"),
+    ("constraint", "constraints", "constraint", "g"),
+)
+
+
+def value_columns(
+    meta: dict[str, Any], arrays: dict[str, np.ndarray]
+) -> list[tuple[str, str, int]]:
+    """The named value columns of archived evaluations, as ``evaluations.csv`` and
+    :func:`suspenv.analysis.load.tidy` write them: (column, array, index).
+
+    ``design:<name> [<unit>]`` (the physical value; unit ``-`` when the problem gives
+    none), ``objective:<name> [<unit>]`` (minimised; ``[<unit>]`` when the problem gives
+    one) and ``constraint:<name>`` (the constraint's value g, feasible when g <= 0); names
+    and units from the archive's meta (``x0``, ``f0``, ``g0``... where it has none)."""
+    out = []
+    for kind, key, prefix, fallback in _VALUES:
+        names = list(meta.get(f"{prefix}_names") or [])
+        units = list(meta.get(f"{prefix}_units") or [])
+        for j in range(arrays[key].shape[1]):
+            name = names[j] if j < len(names) else f"{fallback}{j}"
+            unit = units[j] if j < len(units) and units[j] else ("-" if key == "x" else "")
+            out.append((f"{kind}:{name}" + (f" [{unit}]" if unit else ""), key, j))
+    return out
+
+
+#: SQLite result codes (prefixes of ``sqlite_errorname``) of a fault of the machine, such
+#: as a read-only folder or a full disk; any other error opening an archive is its content's
+_MACHINE_FAULTS = (
+    "SQLITE_READONLY", "SQLITE_FULL", "SQLITE_CANTOPEN", "SQLITE_IOERR", "SQLITE_BUSY",
+    "SQLITE_LOCKED", "SQLITE_PERM", "SQLITE_NOMEM", "SQLITE_AUTH",
+)
+
+
+def _machine_fault(exc: sqlite3.Error) -> bool:
+    """True when SQLite's error is the machine's (:data:`_MACHINE_FAULTS`), not the file's
+    content (a damaged header reads as "unsupported file format", also an
+    OperationalError)."""
+    return str(getattr(exc, "sqlite_errorname", "")).startswith(_MACHINE_FAULTS)
+
+
 #: the columns a row's checksum covers, in :func:`table_checksums`'s order
 CHECKED = "batch, row, unit, x, objectives, constraints, ok, message"
 
@@ -213,11 +257,10 @@ class RunArchive:
             self._con.executescript(_SCHEMA)
             self._con.commit()
             self._check_columns()
-        except sqlite3.OperationalError as exc:  # a read-only folder, a full disk
-            self._con.close()
-            raise write_fault(path, f"SQLite: {exc}") from None
         except (sqlite3.DatabaseError, UnicodeDecodeError) as exc:
             self._con.close()
+            if isinstance(exc, sqlite3.OperationalError) and _machine_fault(exc):
+                raise write_fault(path, f"SQLite: {exc}") from None
             raise ValidationError(
                 f"{str(path)!r} is not a suspenv run archive (SQLite: {exc}); move it "
                 "away, or start the run anew with --overwrite"
@@ -440,27 +483,25 @@ class RunArchive:
         return np.array(values, dtype=int)
 
     def to_csv(self, path: str | Path) -> Path:
-        """Write every evaluation as CSV with named columns; returns the path.
+        """Write every evaluation as CSV with named columns (:func:`value_columns`; then
+        ok, message and the evaluation's wall time in seconds); returns the path.
 
         Numbers are plain decimal text that reads back to the archive's float64 values
         exactly (Python's shortest round-trip form; ``nan``/``inf`` as such), so
         ``pandas.read_csv`` or ``numpy.genfromtxt`` get numeric columns."""
         a = self.arrays()
-        meta = self.meta()
-        pnames = meta.get("parameter_names") or [f"x{i}" for i in range(a["x"].shape[1])]
-        onames = meta.get("objective_names") or [f"f{i}" for i in range(a["objectives"].shape[1])]
-        cnames = meta.get("constraint_names") or [f"g{i}" for i in range(a["constraints"].shape[1])]
+        columns = value_columns(self.meta(), a)
         with atomic_path(path) as tmp, tmp.open("w", newline="") as fh:
             w = csv.writer(fh)
-            w.writerow(["batch", "row", *pnames, *onames, *cnames, "ok", "message", "wall_time"])
+            w.writerow(
+                ["batch", "row", *(c for c, _, _ in columns), "ok", "message", "wall_time [s]"]
+            )
             for i in range(len(a["ok"])):
                 w.writerow(
                     [
                         a["batch"][i],
                         a["row"][i],
-                        *map(_number, a["x"][i]),
-                        *map(_number, a["objectives"][i]),
-                        *map(_number, a["constraints"][i]),
+                        *(_number(a[key][i, j]) for _, key, j in columns),
                         int(a["ok"][i]),
                         a["message"][i],
                         f"{a['wall_time'][i]:.6g}",

@@ -41,6 +41,7 @@ import numpy as np
 from suspenv.core.errors import InfrastructureError, ValidationError
 from suspenv.core.problem import Problem
 from suspenv.core.result import EvaluationBatch
+from suspenv.runs import quality as run_quality
 from suspenv.runs.archive import ArchiveWriter, RunArchive
 from suspenv.runs.evaluation import (
     FaultPolicy,
@@ -84,6 +85,8 @@ class RunResult:
     stop_reason: str
     wall_time: float
     n_resumed: int = 0
+    #: the best feasible evaluation by the problem's quality (:mod:`suspenv.runs.quality`);
+    #: None when there is none, and always for several objectives without a quality
     best_index: int | None = None
     best_x: dict[str, float] | None = None
     best_objectives: list[float] | None = None
@@ -225,6 +228,7 @@ def _optimize(
             parameter_names=list(problem.space.names),
             parameter_units=list(problem.space.units),
             objective_names=list(problem.objective_names),
+            objective_units=list(getattr(problem, "objective_units", ()) or ()),
             constraint_names=list(problem.constraint_names),
             strategy=getattr(strategy, "name", type(strategy).__name__),
             seed=seed,
@@ -318,15 +322,14 @@ def _optimize(
                         results[r] = res.take([j])
                 batch = EvaluationBatch.concatenate(results)  # type: ignore[arg-type]
             strategy.tell(U, batch)
-            # bookkeeping: best feasible by the first objective (or the mean of objectives)
+            # bookkeeping: the best feasible design by the problem's quality (none for
+            # several objectives without one: suspenv.runs.quality)
             F, ok = batch.objectives, batch.ok
-            # EvaluationBatch.feasible without its NaN handling (NaN <= 0 is False)
-            feasible = ok & (batch.constraints <= 0.0).all(axis=1) if batch.n_constraints else ok
-            f = F[:, 0] if F.shape[1] == 1 else F.mean(axis=1)
-            f = np.where(feasible & np.isfinite(f), f, np.inf)
-            i = int(f.argmin())
-            if f[i] < best[0]:
-                best = (float(f[i]), used + i, F[i].tolist(), X[i].copy())
+            feasible = run_quality.feasible(ok, batch.constraints)
+            q = run_quality.quality(problem, F)
+            i = None if q is None else run_quality.best_row(q, feasible)
+            if q is not None and i is not None and q[i] < best[0]:
+                best = (float(q[i]), used + i, F[i].tolist(), X[i].copy())
             history.append(
                 {
                     "batch": b,

@@ -47,34 +47,18 @@ from suspenv.registry import (
     report_function,
     strategy_class,
 )
+from suspenv.runs import quality as run_quality
 from suspenv.runs.archive import RunArchive
-from suspenv.runs.compare import load_summary
 from suspenv.runs.evaluation import FaultPolicy
 from suspenv.runs.executors import executor_workers, make_executor
 from suspenv.runs.loop import optimize
-from suspenv.runs.run_dir import dump_toml, run_directory, write_json
+from suspenv.runs.run_dir import dump_toml, load_summary, run_directory, write_json
 from suspenv.runs.versions import package_versions
 
 #: seconds of drawing after which the figure progress is printed to stderr
 PROGRESS_AFTER_S = 2.0
 #: strategy constructor arguments that come from the problem and the run, not the options
 STRATEGY_RESERVED = ("dim", "n_objectives", "n_constraints", "seed")
-
-
-def best_so_far(values: np.ndarray, feasible: np.ndarray) -> np.ndarray:
-    """Running minimum over evaluations of feasible values (inf before the first)."""
-    v = np.where(feasible & np.isfinite(values), values, np.inf)
-    return np.minimum.accumulate(v)
-
-
-def quality_curve(problem: Any, arrays: dict[str, np.ndarray]) -> np.ndarray:
-    """Best-so-far of the problem's quality measure over evaluations."""
-    F = arrays["objectives"]
-    feasible = arrays["ok"].copy()
-    if arrays["constraints"].size:
-        feasible &= np.nan_to_num(arrays["constraints"], nan=1.0).max(axis=1) <= 0
-    q = problem.quality(F) if len(F) else np.zeros(0)
-    return best_so_far(np.asarray(q, float), feasible)
 
 
 class FigureProgress:
@@ -131,10 +115,8 @@ def write_run_outputs(
         arrays = archive.arrays()
         archive.to_csv(run_dir / "evaluations.csv")
         names = list(problem.objective_names)
-        feasible = arrays["ok"].copy()
-        if arrays["constraints"].size:
-            feasible &= np.nan_to_num(arrays["constraints"], nan=1.0).max(axis=1) <= 0
-        curve = quality_curve(problem, arrays)
+        feasible = run_quality.feasible(arrays["ok"], arrays["constraints"])
+        curve = run_quality.quality_curve(problem, arrays)
         figures: list[Path] = []
         progress = FigureProgress(on=bool(config["run"].get("progress", True)))
         try:
@@ -150,7 +132,6 @@ def write_run_outputs(
         versions = package_versions(imported=True)
         archive.set_meta(versions=versions)
     write_json(run_dir / "versions.json", versions)
-    finite = np.isfinite(curve)
     summary = {
         "name": config["name"],
         "seed": config["seed"],
@@ -163,14 +144,32 @@ def write_run_outputs(
         "n_ok": int(arrays["ok"].sum()),
         "n_feasible": int(feasible.sum()),
         "objective_names": names,
-        "quality_name": problem.quality_name,
-        "best_quality": float(curve[finite][-1]) if finite.any() else None,
-        "quality_curve": [float(v) if np.isfinite(v) else None for v in curve],
+        **_quality_items(problem, arrays, feasible, curve),
         "figures": [str(Path(f).name) for f in figures],
         "figure_notes": notes,
     }
     write_json(run_dir / "summary.json", summary)
     return summary
+
+
+def _quality_items(
+    problem: Any, arrays: dict[str, np.ndarray], feasible: np.ndarray, curve: np.ndarray | None
+) -> dict[str, Any]:
+    """The summary's "best" (:mod:`suspenv.runs.quality`): the best-so-far quality curve
+    and its last finite value; for several objectives without a quality, the front size."""
+    if curve is None:
+        return {
+            "quality_name": None,
+            "best_quality": None,
+            "quality_curve": None,
+            "front_size": run_quality.front_size(arrays["objectives"], feasible),
+        }
+    finite = np.isfinite(curve)
+    return {
+        "quality_name": problem.quality_name,
+        "best_quality": float(curve[finite][-1]) if finite.any() else None,
+        "quality_curve": [float(v) if np.isfinite(v) else None for v in curve],
+    }
 
 
 def _toml_round_trip(options: dict[str, Any]) -> dict[str, Any] | None:
@@ -325,6 +324,9 @@ def run_optimize_pipeline(config: dict[str, Any], run_dir: Path) -> dict[str, An
         **config["strategy"].get("options", {}),
     )
     _check_summary(run_dir)
+    bind_problem = getattr(strategy, "bind_problem", None)
+    if callable(bind_problem):  # names a live study (optuna) after the problem
+        bind_problem(problem)
     bind_run = getattr(strategy, "bind_run", None)
     if callable(bind_run):
         bind_run(run_id_of(run_dir))

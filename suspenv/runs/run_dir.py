@@ -1,4 +1,5 @@
-"""Run directories: ``<output>/<name>-seed<seed>/`` with the resolved config and versions."""
+"""Run directories: ``<output>/<name>-seed<seed>/`` with the resolved config and versions;
+the ``summary.json`` of a finished one (:func:`load_summary`)."""
 
 from __future__ import annotations
 
@@ -210,3 +211,25 @@ def holds_results(path: Path) -> bool:
         if n:
             return True
     return False
+
+
+def load_summary(run_dir: str | Path) -> dict[str, Any]:
+    """The ``summary.json`` of a finished run directory."""
+    path = Path(run_dir) / "summary.json"
+    if not path.is_file():
+        raise ValidationError(
+            f"{str(run_dir)!r} is not a finished run directory (no summary.json); "
+            "a run that died can be resumed with `suspenv run CONFIG`"
+        )
+    try:
+        summary = json.loads(path.read_text())
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise ValidationError(
+            f"{str(path)!r} is damaged (not valid JSON: {exc}); restore it from a copy, "
+            "or start the run anew with `suspenv run CONFIG --overwrite`"
+        ) from None
+    if not isinstance(summary, dict):
+        raise ValidationError(
+            f"{str(path)!r} must hold a JSON object, but holds a {type(summary).__name__}"
+        )
+    return summary

@@ -13,6 +13,10 @@ every value <= 0, the same convention as suspenv). Failed evaluations are told a
 an optuna storage URL (e.g. ``sqlite:///study.db`` or an RDB URL) and a ``study_name``
 to keep the study (optuna-dashboard) or to share it between many workers.
 
+A run names the study after its problem (:meth:`NSGA2.bind_problem`, :class:`StudyDesign`):
+parameters are the design variables by name with distributions of their bounds, metric
+names the objectives', so a stored study reads in optuna-dashboard as the physical design.
+
 Storages and resuming (rules, checked when the study is opened on the first ask):
 
 * Building the strategy touches no storage: the study is opened (created when missing) on
@@ -54,15 +58,63 @@ from suspenv.core.options import integer, number, text
 from suspenv.core.result import EvaluationBatch
 from suspenv.strategies.base import Strategy
 
-_CONSTRAINTS_KEY = "suspenv_constraints"
+CONSTRAINTS_KEY = "suspenv_constraints"
 #: user attribute of every trial the strategy creates: [run id, batch, row]
 RUN_KEY = "suspenv_run"
 #: optuna >= 5 takes constraints per trial (``Trial.set_constraint``); older: constraints_func
-_PER_TRIAL_CONSTRAINTS = hasattr(optuna.trial.Trial, "set_constraint")
+PER_TRIAL_CONSTRAINTS = hasattr(optuna.trial.Trial, "set_constraint")
 
 
-def _constraints_of(trial: optuna.trial.FrozenTrial) -> list[float]:
-    return list(trial.user_attrs.get(_CONSTRAINTS_KEY, []))
+def constraints_of(trial: optuna.trial.FrozenTrial) -> list[float]:
+    return list(trial.user_attrs.get(CONSTRAINTS_KEY, []))
+
+
+class StudyDesign:
+    """The design as an optuna study holds it.
+
+    Unbound: ``u0 .. u{d-1}``, each ``FloatDistribution(0, 1)`` (the unit cube). Bound to a
+    problem (:meth:`bind`, before the first ask): the problem's parameter names, each with
+    ``FloatDistribution(low, high, log)`` of its design-space bounds, and the objectives'
+    names as the study's metric names, so a live study (optuna-dashboard) reads as the
+    physical design; asked values go back to the unit cube through the design space
+    (:meth:`unit`).
+    """
+
+    def __init__(self, dim: int):
+        self.space: Any = None
+        self.metric_names: list[str] = []
+        self.dists: dict[str, BaseDistribution] = {
+            f"u{i}": FloatDistribution(0.0, 1.0) for i in range(dim)
+        }
+
+    def bind(self, problem: Any) -> None:
+        """Name the study after ``problem`` (its ``space`` and ``objective_names``)."""
+        space = problem.space
+        if space.dim != len(self.dists):
+            raise ValidationError(
+                f"optuna study: the problem has {space.dim} design variables, but the "
+                f"strategy was built for {len(self.dists)}"
+            )
+        self.space = space
+        self.dists = {
+            p.name: FloatDistribution(float(p.low), float(p.high), log=p.log)
+            for p in space.parameters
+        }
+        self.metric_names = [str(n) for n in problem.objective_names]
+
+    def unit(self, trials: list[Any]) -> np.ndarray:
+        """(n, d) unit-cube designs of asked ``trials``, clipped to [0, 1]."""
+        X = np.array([[t.params[n] for n in self.dists] for t in trials], dtype=float)
+        U = X if self.space is None else self.space.to_unit(X)
+        return np.clip(U, 0.0, 1.0)
+
+    def name_metrics(self, study: optuna.Study) -> None:
+        """The objectives' names as the study's metric names (when it has one value per
+        objective; optuna's CMA-ES is told a single weighted sum)."""
+        if self.metric_names and len(study.directions) == len(self.metric_names):
+            with warnings.catch_warnings():  # "experimental" in optuna 3.2-5
+                warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
+                study.set_metric_names(self.metric_names)
 
 
 def _of_run(trial: FrozenTrial, run_id: str | None) -> bool:
@@ -137,14 +189,12 @@ class NSGA2(Strategy):
                 swapping_prob=self.swapping_prob,
                 seed=self.seed,
                 constraints_func=(
-                    _constraints_of if self.n_constraints and not _PER_TRIAL_CONSTRAINTS else None
+                    constraints_of if self.n_constraints and not PER_TRIAL_CONSTRAINTS else None
                 ),
             )
         self._study: optuna.Study | None = None
         self._run_id: str | None = None
-        self._dists: dict[str, BaseDistribution] = {
-            f"u{i}": FloatDistribution(0.0, 1.0) for i in range(self.dim)
-        }
+        self.design = StudyDesign(self.dim)
         self._trials: list[optuna.trial.Trial | FrozenTrial] = []
         #: stored trials of the bound run by batch (served again when a run is resumed)
         self._stored: dict[int, dict[int, FrozenTrial]] = {}
@@ -157,6 +207,13 @@ class NSGA2(Strategy):
         if self._study is not None:
             raise RuntimeError(f"{self.name}: bind_run() must come before the first ask()")
         self._run_id = text(self.name, "run_id", run_id)
+
+    def bind_problem(self, problem: Any) -> None:
+        """Name the study's parameters and metrics after ``problem`` (before the first
+        ask; :class:`StudyDesign`)."""
+        if self._study is not None:
+            raise RuntimeError(f"{self.name}: bind_problem() must come before the first ask()")
+        self.design.bind(problem)
 
     @property
     def study(self) -> optuna.Study:
@@ -206,6 +263,11 @@ class NSGA2(Strategy):
         self._refuse_foreign(study.get_trials(deepcopy=False), run_id)
 
     def _open_study(self) -> optuna.Study:
+        study = self._load_or_create()
+        self.design.name_metrics(study)
+        return study
+
+    def _load_or_create(self) -> optuna.Study:
         if self.storage is None:
             return optuna.create_study(
                 sampler=self._sampler,
@@ -234,7 +296,7 @@ class NSGA2(Strategy):
         return study
 
     def _new_trial(self, batch: int, row: int) -> optuna.trial.Trial:
-        trial = self.study.ask(self._dists)
+        trial = self.study.ask(self.design.dists)
         trial.set_user_attr(RUN_KEY, [self._run_id, batch, row])
         return trial
 
@@ -247,7 +309,7 @@ class NSGA2(Strategy):
             stored[r] if r in stored else self._new_trial(b, r)
             for r in range(self.population_size)
         ]
-        return np.array([[t.params[f"u{i}"] for i in range(self.dim)] for t in self._trials])
+        return self.design.unit(self._trials)
 
     def _tell(self, U: np.ndarray, batch: EvaluationBatch) -> None:
         for i, asked in enumerate(self._trials):
@@ -261,11 +323,11 @@ class NSGA2(Strategy):
             if not batch.ok[i] or not np.isfinite(batch.objectives[i]).all():
                 self.study.tell(trial, state=TrialState.FAIL)
                 continue
-            if self.n_constraints and _PER_TRIAL_CONSTRAINTS:
+            if self.n_constraints and PER_TRIAL_CONSTRAINTS:
                 for j, g in enumerate(batch.constraints[i]):
                     trial.set_constraint(f"g{j}", float(g))
             elif self.n_constraints:
-                trial.set_user_attr(_CONSTRAINTS_KEY, batch.constraints[i].tolist())
+                trial.set_user_attr(CONSTRAINTS_KEY, batch.constraints[i].tolist())
             self.study.tell(trial, batch.objectives[i].tolist())
         self._trials = []
 

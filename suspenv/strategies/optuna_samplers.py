@@ -4,9 +4,10 @@ One strategy per sampler, registered as ``optuna_tpe``, ``optuna_cmaes``, ``optu
 and ``optuna_gp`` (NSGA-II over optuna is ``nsga2``, :mod:`suspenv.strategies.nsga2`). They
 share the machinery of :class:`OptunaSampler`:
 
-- The design is ``d`` floats ``u0 .. u{d-1}`` in [0, 1] (``FloatDistribution(0, 1)``): the
-  problem's :class:`~suspenv.core.DesignSpace` maps them to physical values, so the
-  strategy never needs their names.
+- The study's parameters are the problem's design variables by name, with distributions of
+  their bounds, and its metric names the objectives' (:meth:`OptunaSampler.bind_problem`,
+  which a run calls; :class:`~suspenv.strategies.nsga2.StudyDesign`); unbound, ``u0 ..
+  u{d-1}`` in [0, 1]. The strategy asks and is told unit-cube designs either way.
 - Each :meth:`ask` asks ``batch_size`` trials of an in-memory study, one after the other;
   :meth:`tell` tells them in the same order. Model-based samplers (TPE, GP) ask one trial
   per batch by default: each trial is then chosen from every result before it, which is
@@ -46,7 +47,6 @@ from typing import Any, ClassVar
 
 import numpy as np
 import optuna
-from optuna.distributions import BaseDistribution, FloatDistribution
 from optuna.trial import TrialState
 
 from suspenv.core.errors import ValidationError
@@ -55,14 +55,12 @@ from suspenv.core.result import EvaluationBatch
 from suspenv.core.scalarize import weighted_sum
 from suspenv.strategies.base import Strategy
 from suspenv.strategies.extras import require, told_losses
-
-_CONSTRAINTS_KEY = "suspenv_constraints"
-#: optuna >= 5 takes constraints per trial (``Trial.set_constraint``); older: constraints_func
-_PER_TRIAL_CONSTRAINTS = hasattr(optuna.trial.Trial, "set_constraint")
-
-
-def _constraints_of(trial: optuna.trial.FrozenTrial) -> list[float]:
-    return list(trial.user_attrs.get(_CONSTRAINTS_KEY, []))
+from suspenv.strategies.nsga2 import (
+    CONSTRAINTS_KEY,
+    PER_TRIAL_CONSTRAINTS,
+    StudyDesign,
+    constraints_of,
+)
 
 
 @contextmanager
@@ -96,22 +94,27 @@ class OptunaSampler(Strategy):
             study_name=f"suspenv-{self.name}-{self.seed}",
             directions=["minimize"] * n_values,
         )
-        self._dists: dict[str, BaseDistribution] = {
-            f"u{i}": FloatDistribution(0.0, 1.0) for i in range(self.dim)
-        }
+        self.design = StudyDesign(self.dim)
         self._trials: list[optuna.trial.Trial] = []
 
     def _constraints_func(self) -> Any:
         """``constraints_func`` for samplers of optuna < 5 (None from optuna 5 on)."""
-        if self.n_constraints and self.native_constraints and not _PER_TRIAL_CONSTRAINTS:
-            return _constraints_of
+        if self.n_constraints and self.native_constraints and not PER_TRIAL_CONSTRAINTS:
+            return constraints_of
         return None
 
     def _ask(self) -> np.ndarray:
         with _quiet():
-            self._trials = [self.study.ask(self._dists) for _ in range(self.batch_size)]
-        U = np.array([[t.params[f"u{i}"] for i in range(self.dim)] for t in self._trials])
-        return np.clip(U, 0.0, 1.0)
+            self._trials = [self.study.ask(self.design.dists) for _ in range(self.batch_size)]
+        return self.design.unit(self._trials)
+
+    def bind_problem(self, problem: Any) -> None:
+        """Name the study's parameters and metrics after ``problem`` (before the first
+        ask; :class:`~suspenv.strategies.nsga2.StudyDesign`)."""
+        if self.study.trials:
+            raise RuntimeError(f"{self.name}: bind_problem() must come before the first ask()")
+        self.design.bind(problem)
+        self.design.name_metrics(self.study)
 
     def _values(self, batch: EvaluationBatch) -> np.ndarray:
         """Values told to optuna, (n, directions); rows of failed designs are not used."""
@@ -128,11 +131,11 @@ class OptunaSampler(Strategy):
                 if self.n_constraints and self.native_constraints:
                     # an unknown constraint value is a large violation (optuna refuses NaN)
                     g = np.nan_to_num(batch.constraints[i], nan=1e300, posinf=1e300, neginf=-1e300)
-                    if _PER_TRIAL_CONSTRAINTS:
+                    if PER_TRIAL_CONSTRAINTS:
                         for j, gj in enumerate(g):
                             trial.set_constraint(f"g{j}", float(gj))
                     else:
-                        trial.set_user_attr(_CONSTRAINTS_KEY, g.tolist())
+                        trial.set_user_attr(CONSTRAINTS_KEY, g.tolist())
                 self.study.tell(trial, values[i].tolist())
         self._trials = []
 

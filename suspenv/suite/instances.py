@@ -122,7 +122,10 @@ def _at(p: Problem, x: np.ndarray, kind: str, source: str) -> Known:
     batch = p.evaluate(np.asarray(x, dtype=float)[None, :])
     if not batch.ok[0]:
         raise ValidationError(f"suite: the known design of {p.name} fails: {batch.messages[0]}")
-    f = float(p.quality(batch.objectives)[0])
+    q = p.quality(batch.objectives)
+    if q is None:
+        raise ValidationError(f"suite: {p.name} has no scalar quality for a known {kind}")
+    f = float(q[0])
     return Known(kind, f, tuple(float(v) for v in x), source=source)
 
 

@@ -2,8 +2,8 @@
 
 Every (strategy, seed) run is an ordinary run directory (``archive.sqlite`` and a
 ``summary.json`` with a best-so-far quality curve), so ``suspenv compare DIR...`` reads
-them; :func:`compare_strategies` calls the same comparison
-(:func:`suspenv.runs.compare.compare_runs`) and returns its table.
+them; :func:`compare_strategies` calls the same comparison (the registered report
+``comparison``, :func:`suspenv.reports.analysis.write_comparison`) and returns its table.
 
 Quality (lower is better): the rank-sum of the kept objectives with its min-max
 normalisation frozen on the design of experiments
@@ -22,7 +22,7 @@ import numpy as np
 
 from suspenv.core.problem import Problem
 from suspenv.methods.identification import FixedRankSum, best_so_far
-from suspenv.runs.compare import compare_runs
+from suspenv.registry import report_function
 from suspenv.runs.run_dir import write_json
 
 #: options per strategy unless the caller overrides them
@@ -118,6 +118,6 @@ def compare_strategies(
             d = out_dir / f"{name}-seed{seed}"
             run_one(problem, name, seed, budget, quality, d, run_cfg, (options or {}).get(name))
             dirs.append(d)
-    result = compare_runs(dirs, out_dir)
+    result: dict[str, Any] = report_function("comparison")(dirs, out_dir)
     result["runs"] = [str(d.relative_to(out_dir)) for d in dirs]
     return result

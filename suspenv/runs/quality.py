@@ -1,0 +1,75 @@
+""""Best" in a run: the one definition, by the problem's quality measure.
+
+* Feasible: the evaluation succeeded and every constraint is <= 0 (NaN is a violation).
+* Quality: :meth:`suspenv.core.problem.Problem.quality` (lower is better): the objective
+  itself for one objective; None for several, unless the problem defines a scalar of its
+  own. Several objectives in their own units have no scalar best (a sum would weigh them
+  by accident of unit): a multi-objective run is reported by its front
+  (:func:`front_size`) and compared by hypervolume (:mod:`suspenv.analysis.compare`).
+* Best so far: the running minimum of the quality over feasible evaluations with a
+  finite quality (+inf before the first); the best row is the first that attains it.
+
+The run loop's bookkeeping, the run summary (``best_quality``, ``quality_curve``,
+``best_*``, ``front_size``), ``suspenv show``, ``tidy`` and ``compare`` all read these.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+#: quality names of a plain sum of several objectives: the problem base class's and the
+#: minibus problem's before this definition, and KCIdentification's (still a sum): such a
+#: recorded quality is never shown as a "best" (:func:`scalar_recorded`)
+SUM_QUALITIES = frozenset({"objective (sum if several)", "sum of objectives"})
+
+
+def scalar_recorded(quality_name: str | None, n_objectives: int) -> bool:
+    """Whether a run's recorded quality (its summary's ``quality_name``) is a scalar best:
+    always for one objective; for several, only a quality that is not a plain sum."""
+    return n_objectives <= 1 or bool(quality_name) and quality_name not in SUM_QUALITIES
+
+
+def feasible(ok: np.ndarray, constraints: np.ndarray) -> np.ndarray:
+    """(n,) True where ``ok`` and every constraint (n, k) is <= 0 (NaN: infeasible)."""
+    out = np.asarray(ok, bool).copy()
+    g = np.asarray(constraints, float)
+    if g.size:
+        out &= np.nan_to_num(g, nan=1.0).max(axis=1) <= 0
+    return out
+
+
+def quality(problem: Any, F: np.ndarray) -> np.ndarray | None:
+    """The problem's quality of each row of ``F`` (n, m), or None when it has none."""
+    q = problem.quality(np.asarray(F, dtype=float).reshape(-1, problem.n_objectives))
+    return None if q is None else np.asarray(q, dtype=float)
+
+
+def best_so_far(values: np.ndarray, feasible: np.ndarray) -> np.ndarray:
+    """Running minimum over evaluations of feasible finite values (inf before the first)."""
+    v = np.where(feasible & np.isfinite(values), values, np.inf)
+    return np.minimum.accumulate(v)
+
+
+def quality_curve(problem: Any, arrays: dict[str, np.ndarray]) -> np.ndarray | None:
+    """Best-so-far quality after each archived evaluation (None: no scalar quality)."""
+    q = quality(problem, arrays["objectives"])
+    if q is None:
+        return None
+    return best_so_far(q, feasible(arrays["ok"], arrays["constraints"]))
+
+
+def best_row(q: np.ndarray, feasible: np.ndarray) -> int | None:
+    """Index of the first feasible row with the least finite quality ``q`` (None: none)."""
+    v = np.where(feasible & np.isfinite(q), q, np.inf)
+    if not v.size or not np.isfinite(v.min()):
+        return None
+    return int(v.argmin())
+
+
+def front_size(F: np.ndarray, feasible: np.ndarray) -> int:
+    """Feasible evaluations with finite objectives that no other such evaluation dominates."""
+    from suspenv.core.pareto import nondominated  # pymoo: only where a front is counted
+
+    return int(nondominated(F, feasible).sum()) if len(F) else 0
