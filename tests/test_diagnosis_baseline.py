@@ -246,7 +246,7 @@ def _tail_check(r: np.ndarray) -> ResidualLeft:
     """The tail rule on residual ``r`` of a 2 ms recording with a 1 Hz motion."""
     t = np.arange(r.size) * 2e-3
     x, v = 0.01 * np.sin(2 * np.pi * t), 0.02 * np.pi * np.cos(2 * np.pi * t)
-    left = ResidualLeft("force", "N", 0.0, 1.0, 0.0, 0.0, 0, 1.0, 1.0, False)
+    left = ResidualLeft("force", "N", 0.0, 1.0, 0.0, 0.0, 0, 1.0, 1.0)
     _tail_test(left, ("in compression", "in rebound", "deflection"), r, x, v, t)
     return left
 
@@ -280,10 +280,10 @@ def test_contact_ringing_is_a_tail_above_the_noise():
     assert left.tail_samples >= TAIL_MIN_SAMPLES
     first = float(left.tail_where[0].split("t = ")[1].split(" s")[0])
     assert np.min(np.abs(first - starts * 2e-3)) < 16 * 2e-3  # located in a ring
-    assert "beyond 6 x the noise's robust scale" in left.sentence()
+    assert "beyond 6 x the noise's robust scale" in left.views()[1].test
     # with several recordings each place names its recording
     t = np.arange(r.size) * 2e-3
-    named = ResidualLeft("force", "N", 0.0, 1.0, 0.0, 0.0, 0, 1.0, 1.0, False)
+    named = ResidualLeft("force", "N", 0.0, 1.0, 0.0, 0.0, 0, 1.0, 1.0)
     names = ["run_a" if i < r.size // 2 else "run_b" for i in range(r.size)]
     _tail_test(named, ("up", "down", "deflection"), r, 0 * t, 0 * t + 1.0, t, names)
     assert named.tail_where[0].startswith(("in run_a at t = ", "in run_b at t = "))
@@ -445,11 +445,11 @@ def test_tail_rule_is_applied_low_passed_where_the_motion_was_low_passed():
     assert any("compared as recorded" in note for note in family.rig_notes)
     assert diag.findings["tail_rule"].startswith("applied to the residual low-passed at")
     assert diag.named_families[:1] == ["friction"], diag.verdict
-    assert not any(left.tail_remains for left in diag.findings["residual"]), diag.verdict
+    assert not any(left.tail_remains for left in diag.residual), diag.verdict
     clean_family = make_family("friction_guide")
     clean = diagnose(rec, clean_family)
     assert clean_family.motion_lowpass_hz is None and "tail_rule" not in clean.findings
-    assert all(left.robust_scale > 0 for left in clean.findings["residual"])
+    assert all(left.robust_scale > 0 for left in clean.residual)
 
 
 def test_zero_drift_is_rate_times_time():
@@ -573,10 +573,10 @@ def test_reading_unexplained_leaves_the_findings_as_they_were(dyno):
     v = dyno.inputs["velocity"]
     v_dz = 0.15 * float(np.max(np.abs(v)))
     diag = diagnose(_with_force(dyno, _gas_damper(dyno) - C * np.clip(v, -v_dz, v_dz)), "damper")
-    before = list(diag.findings["residual"])
+    before = list(diag.residual)
     assert diag.unexplained and diag.unexplained
-    assert diag.findings["residual"] == before
-    assert all(hasattr(left, "ratio") for left in diag.findings["residual"])
+    assert diag.residual == before
+    assert all(hasattr(left, "ratio") for left in diag.residual)
 
 
 def test_a_guide_whose_cut_off_keeps_ten_harmonics_is_compared_low_passed():
@@ -596,4 +596,4 @@ def test_a_guide_whose_cut_off_keeps_ten_harmonics_is_compared_low_passed():
     assert np.array_equal(family.recorded_outputs[str(quiet.name)]["force"], rec.outputs["force"])
     assert any("compared low-passed" in note for note in family.rig_notes)
     assert diag.named_families[:1] == ["friction"], diag.verdict
-    assert not any(r.state_remains or r.tail_remains for r in diag.findings["residual"])
+    assert not any(r.state_remains or r.tail_remains for r in diag.residual)

@@ -157,7 +157,10 @@ def test_ride_report_files(bump_stop_diagnosis, tmp_path):
     text = (tmp_path / "ride_diagnosis.md").read_text()
     assert "bump stop" in text and "time window" in text and "What is left" in text
     js = json.loads((tmp_path / "ride_diagnosis.json").read_text())
-    assert js["confident"] == d.confident and "excess_ratio" in js["findings"]["residual"]
+    assert (
+        js["confident"] == d.confident
+        and "excess_ratio" in js["findings"]["residual_left"]["record"]
+    )
 
 
 @pytest.mark.slow
@@ -307,7 +310,7 @@ def test_residual_check_flags_a_gain_error_but_not_pure_noise(gain_case_baseline
     chk = residual_check(fit, fit, case.heldout, [])
     # a seat gain error of 8-15 % is far above 2-4 % noise and structured
     assert chk.residual_remains and chk.excess_ratio > 1.5 and chk.ljung_box_p < 0.01
-    assert "no candidate explains" in chk.sentence() and not chk.confident
+    assert chk.view().remains and "sensor-noise floor" in chk.sentence() and not chk.confident
     # control: a no-effect case fitted by the right model leaves white noise only
     ctrl = make_ride_case(4, None, speeds_kmh=(50.0,), random_road=False)
     from suspenv.diagnosis.fitting import fit

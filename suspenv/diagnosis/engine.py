@@ -36,6 +36,7 @@ import numpy as np
 
 from suspenv.core.errors import EvaluationError, ValidationError
 from suspenv.diagnosis import checks
+from suspenv.diagnosis.checks.finding import jsonable
 from suspenv.diagnosis.decision import DecisionRule, ambiguities, decide, rank
 from suspenv.diagnosis.evidence import Comparison, baseline_summary, compare
 from suspenv.diagnosis.family import DiagnosisFamily, Outcome, recording_names
@@ -66,8 +67,8 @@ class Diagnosis:
         final_params: the final model's parameters with standard errors.
         seconds: wall time.
         rule: the decision rule used.
-        findings: the family's checks after the search by name (``asymmetry``,
-            ``residual``, ``detection_limits``).
+        findings: the checks after the search by name (``residual_left``,
+            ``assumptions``, a family's ``asymmetry``, ``detection_limits``, ...).
         confident: False when the residual left says physics outside the candidate
             list remains.
         evidence: the sentences behind the headline (ambiguities, the family's checks).
@@ -125,9 +126,13 @@ class Diagnosis:
 
     @property
     def residual(self) -> Any:
-        """The residual-left check (ride: one record; components: one per output
-        channel, :mod:`~suspenv.diagnosis.component.residual_left`; None elsewhere)."""
-        return self.findings.get("residual")
+        """The family's record behind the residual-left check
+        (:mod:`suspenv.diagnosis.checks.residual_left`; components: one
+        :class:`~suspenv.diagnosis.component.residual_left.ResidualLeft` per output
+        channel; ride: :class:`~suspenv.diagnosis.ride.residual.ResidualCheck`; None
+        where the family has no noise model)."""
+        found = self.findings.get("residual_left")
+        return found.record if found is not None else None
 
     @property
     def headline(self) -> str:
@@ -219,7 +224,7 @@ class Diagnosis:
             "location": self.location.to_dict(),
             "signatures": [s.to_dict() for s in self.signatures],
             "hypotheses": [h.to_dict() for h in self.hypotheses],
-            "findings": {k: _jsonable(v) for k, v in self.findings.items()},
+            "findings": {k: jsonable(v) for k, v in self.findings.items()},
             "seconds": self.seconds,
         }
 
@@ -227,12 +232,6 @@ class Diagnosis:
 def _remains_short(record: Any) -> bool:
     """True for a record of a residual left that says itself in short (``short()``)."""
     return bool(getattr(record, "remains", False)) and hasattr(record, "short")
-
-
-def _jsonable(v: Any) -> Any:
-    if isinstance(v, list | tuple):
-        return [_jsonable(x) for x in v]
-    return v.to_dict() if hasattr(v, "to_dict") else v
 
 
 def noise_levels(fam: DiagnosisFamily, fit: FitResult) -> dict[str, float] | None:

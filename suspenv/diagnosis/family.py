@@ -17,8 +17,10 @@ The family owns everything that depends on the model:
 * ``settle``: make a named winner ready to be the next round's null model (or None);
 * ``ambiguities``: what the data cannot tell apart from the winner beyond the
   loop's own family-pair rule;
-* ``conclude``: checks after the search (damper asymmetry, the residual left, the
-  smallest effects these tests could have shown).
+* ``conclude``: the family's probes after the search (damper asymmetry, a delay or
+  drift beside the named elements, the smallest effects these tests could have shown);
+* ``residual_left`` (optional): the family's noise model, which the shared rule judges
+  (:mod:`suspenv.diagnosis.checks.residual_left`).
 """
 
 from __future__ import annotations
@@ -99,8 +101,8 @@ class Conclusion:
             without them.
         final_fit: the model after the checks (None: the search's).
         sentences: said after the verdict's main sentence.
-        confident: False when the residual left says something is still missing.
-        findings: the checks' own records by name (``asymmetry``, ``residual``,
+        confident: False when a probe says something is still missing.
+        findings: the checks' own records by name (``asymmetry``, ``beyond_library``,
             ``detection_limits``), kept on the :class:`~suspenv.diagnosis.engine.Diagnosis`.
         baseline: extra numbers of the baseline for the report.
     """
@@ -117,6 +119,16 @@ class Conclusion:
     #: the first sentence says what is left outside the library (or that the model does
     #: not describe the recording) and stands in for "no significant missing physics"
     overrides_verdict: bool = False
+    #: how many sentences at the front are leads (:meth:`lead`)
+    leading: int = 0
+
+    def lead(self, sentence: str, at: int = 0) -> None:
+        """Say ``sentence`` among the leading ones (at position ``at``): it says what
+        is left outside the library and stands in for "no significant missing
+        physics"."""
+        self.sentences.insert(at, sentence)
+        self.leading += 1
+        self.overrides_verdict = True
 
 
 class DiagnosisFamily(Protocol):

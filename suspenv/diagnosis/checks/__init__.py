@@ -5,8 +5,8 @@ Each check is a module with ``run(ctx) -> Finding`` (:class:`Context` in,
 through optional methods (:class:`~suspenv.diagnosis.family.OptionalSteps` gives their
 defaults), so a new family gets honest verdicts the day it joins:
 
-* ``noise_units(fit, setup)``: the residual of a fit in the family's noise units, one
-  array per (test, channel) (:mod:`.residual_left`);
+* ``residual_left(outcome, setup, alpha)``: the family's noise model, views of the final
+  model's residual in its noise units with the family's limit (:mod:`.residual_left`);
 * ``assumptions(setup)``: the defaults used for what the recordings do not say
   (:mod:`.assumptions`).
 
@@ -28,7 +28,8 @@ __all__ = ["Check", "Context", "Finding", "fold", "run"]
 
 
 def _checks() -> tuple[Check, ...]:
-    # a leading sentence goes first: the misfit's, folded last, leads the verdict
+    # of the checks' leading sentences (after the family's own) the misfit's, folded last,
+    # goes first
     return (residual_left.run, bounds.run, assumptions.run, misfit.run)
 
 

@@ -36,6 +36,8 @@ class Finding:
         lead: the sentence leads the verdict and stands in for "no significant missing
             physics".
         numbers: the check's numbers (JSON-ready).
+        record: the family's own record behind the numbers (``to_dict()`` where it has
+            one; the residual left's: the family's noise-model numbers).
     """
 
     name: str
@@ -44,6 +46,7 @@ class Finding:
     sentence: str = ""
     lead: bool = False
     numbers: dict[str, Any] = field(default_factory=dict)
+    record: Any = None
 
     def short(self) -> str:
         """The residual left in a few words (the headline's)."""
@@ -59,7 +62,14 @@ class Finding:
             "confident": self.confident,
             "sentence": self.sentence,
             **self.numbers,
+            **({"record": jsonable(self.record)} if self.record is not None else {}),
         }
+
+
+def jsonable(v: Any) -> Any:
+    if isinstance(v, list | tuple):
+        return [jsonable(x) for x in v]
+    return v.to_dict() if hasattr(v, "to_dict") else v
 
 
 Check = Callable[[Context], Finding | None]
@@ -67,12 +77,13 @@ Check = Callable[[Context], Finding | None]
 
 def fold(found: Conclusion, findings: Sequence[Finding]) -> None:
     """Add ``findings`` to a family's conclusion: each is kept by name, its sentence said
-    (first when it leads), and the verdict made not confident where one says so."""
+    (when it leads: after the family's leads, a later one before an earlier one), and the
+    verdict made not confident where one says so."""
     for f in findings:
         found.findings[f.name] = f
         found.confident = found.confident and f.confident and not f.remains
         if f.sentence and f.lead:
-            found.sentences.insert(0, f.sentence)
-            found.overrides_verdict = True
+            # after the family's own leads, which say more precisely what is left
+            found.lead(f.sentence, found.leading)
         elif f.sentence:
             found.sentences.append(f.sentence)

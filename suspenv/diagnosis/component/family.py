@@ -35,6 +35,7 @@ import numpy as np
 from scipy import stats
 
 from suspenv.core.errors import ValidationError
+from suspenv.diagnosis.checks.residual_left import Left
 from suspenv.diagnosis.component.assumed import estimate_unsprung_mass, mass_words, power_sign
 from suspenv.diagnosis.component.asymmetry import asymmetry_check
 from suspenv.diagnosis.component.dead_band import DEFICIT_KIND, dead_band_left
@@ -68,7 +69,11 @@ from suspenv.diagnosis.component.refit import (
     refitted_element,
     stribeck_rise_and_error,
 )
-from suspenv.diagnosis.component.residual_left import MOVING_FRACTION, residual_left
+from suspenv.diagnosis.component.residual_left import (
+    MOVING_FRACTION,
+    ResidualLeft,
+    residual_left,
+)
 from suspenv.diagnosis.component.rig import (
     RigDescription,
     baseline_families,
@@ -719,9 +724,9 @@ class ComponentFamily(OptionalSteps):
         :class:`_Probes`): the damper's bump/rebound asymmetry where a digressive curve
         was named; the named elements judged again beside a delay left and beside a zero
         drift of more shape, withdrawn where these take their support; the residual
-        left against the noise floor and a force missing at low speed; the delays left;
-        a lag that stands for a delay; the baseline's offsets. The checks every family
-        gets (bounds, misfit, assumptions) follow in the loop
+        a force missing at low speed; the delays left; a lag that stands for a delay; the
+        baseline's offsets. The checks every family gets (the residual left, bounds,
+        misfit, assumptions) follow in the loop
         (:mod:`suspenv.diagnosis.checks`)."""
         st = _Probes(Conclusion(baseline=_baseline_effects(outcome.base, self)), outcome.current)
         st.kept = list(outcome.named)
@@ -729,7 +734,7 @@ class ComponentFamily(OptionalSteps):
             self._asymmetry,
             self._beside_delay,
             self._beside_drift,
-            self._residual,
+            self._dead_band,
             self._delays_said,
             self._lag_and_offsets,
         ):
@@ -785,21 +790,32 @@ class ComponentFamily(OptionalSteps):
             st.withdraw(st.drift_withdrawals)
             st.delays = self._delays_left(st.final, setup)
 
-    def _residual(self, st: _Probes, outcome: Outcome, setup: Setup) -> None:
-        """The residual left against the noise floor
-        (:mod:`~suspenv.diagnosis.component.residual_left`) and a force missing at low
-        speed that no library element takes up (:mod:`~suspenv.diagnosis.component.dead_band`)."""
+    def residual_left(
+        self, outcome: Outcome, setup: Setup, alpha: float
+    ) -> tuple[list[Left], list[ResidualLeft]]:
+        """The component's noise model for the shared residual rule: per output channel
+        the cycle-to-cycle state test and the tail rule of the final model
+        (:func:`~suspenv.diagnosis.component.residual_left.residual_left`); none where
+        :attr:`check_residual` is off."""
+        if not self.check_residual:
+            return [], []
+        left = residual_left(
+            outcome.current,
+            setup.split,
+            alpha,
+            tails=self.check_tails,
+            lowpass_hz=self.motion_lowpass_hz,
+            recorded=self.recorded_outputs or None,
+        )
+        return [v for r in left for v in r.views()], left
+
+    def _dead_band(self, st: _Probes, outcome: Outcome, setup: Setup) -> None:
+        """A force missing at low speed that no library element takes up
+        (:mod:`~suspenv.diagnosis.component.dead_band`); where the motion was low-passed,
+        how the residual rule reads the residual (:meth:`residual_left`)."""
         if not self.check_residual:
             return
         found, cut = st.found, self.motion_lowpass_hz
-        left = residual_left(
-            st.final,
-            setup.split,
-            self.rule.alpha,
-            tails=self.check_tails,
-            lowpass_hz=cut,
-            recorded=self.recorded_outputs or None,
-        )
         if self.check_tails and cut is not None:
             found.findings["tail_rule"] = (
                 f"applied to the residual low-passed at {cut:.3g} Hz, where the motion "
@@ -807,20 +823,13 @@ class ComponentFamily(OptionalSteps):
                 f"above it), and where the part moves (above "
                 f"{100 * MOVING_FRACTION:.0f} % of the peak speed)"
             )
-        found.findings["residual"] = left
-        remaining = [r for r in left if r.remains]
-        found.confident = not remaining
-        if remaining:
-            found.sentences.insert(0, remaining[0].sentence())
-            found.overrides_verdict = True
         where = effect_location(setup.model, DEFICIT_KIND)
         vmax = _stroke(setup.split)[1]
         band = dead_band_left(st.final, setup.split, where, vmax, self.budget, self.rule)
         found.findings.setdefault("beyond_library", []).append(band)
         if band.remains:
             found.confident = False
-            found.overrides_verdict = True
-            found.sentences.insert(0, band.sentence())
+            found.lead(band.sentence())
 
     def _delays_said(self, st: _Probes, outcome: Outcome, setup: Setup) -> None:
         """The delays left (a lead sentence where one remains) and the withdrawals."""
@@ -829,12 +838,12 @@ class ComponentFamily(OptionalSteps):
             found.findings.setdefault("beyond_library", []).append(left_delay)
             if left_delay.remains:
                 found.confident = False
-                found.overrides_verdict = True
-                found.sentences.insert(0, left_delay.sentence())
+                found.lead(left_delay.sentence())
             else:
                 found.sentences.append(left_delay.sentence())
         for w in reversed(st.delay_withdrawals):  # right after the delay's sentence
             found.sentences.insert(1, w.sentence())
+            found.leading += int(found.leading > 0)  # one of the leads where it follows one
         found.sentences.extend(w.sentence() for w in st.drift_withdrawals)
 
     def _lag_and_offsets(self, st: _Probes, outcome: Outcome, setup: Setup) -> None:

@@ -47,6 +47,7 @@ from typing import Any
 import numpy as np
 
 from suspenv.core.errors import ValidationError
+from suspenv.diagnosis.checks.residual_left import Left, from_cells
 from suspenv.diagnosis.decision import DecisionRule
 from suspenv.diagnosis.family import Conclusion, Outcome, Screening, Setup, SignatureLike
 from suspenv.diagnosis.fitting import FitResult, evaluate, fit, noise_scales, residuals
@@ -435,10 +436,13 @@ class KncFamily:
     ) -> list[Ambiguity]:
         return location_ambiguities(winner, ranked)
 
-    def noise_units(self, fit_: FitResult, setup: Setup) -> dict[tuple[str, str], np.ndarray]:
-        """The residual of ``fit_`` over the fitted rig tests in noise units
-        (:func:`curves_in_noise_units`)."""
-        return curves_in_noise_units(fit_, setup.split.fit_recordings)
+    def residual_left(
+        self, outcome: Outcome, setup: Setup, alpha: float
+    ) -> tuple[list[Left], dict[str, Any]]:
+        """The final model's residual over the fitted rig tests in noise units
+        (:func:`curves_in_noise_units`), judged against a known noise level
+        (:func:`~suspenv.diagnosis.checks.residual_left.from_cells`)."""
+        return from_cells(curves_in_noise_units(outcome.current, setup.split.fit_recordings), alpha)
 
     def assumptions(self, setup: Setup) -> list[str]:
         """What the K&C diagnosis takes as given."""

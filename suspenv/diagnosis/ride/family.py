@@ -19,11 +19,10 @@ single stroke ``x`` does not exist:
 Decision rule: the loop's (:mod:`suspenv.diagnosis.decision`) with the held-out RMS
 error asked to fall by at least 1 %.
 
-What is left (:mod:`suspenv.diagnosis.ride.residual`): the held-out error of the
-final model against the sensor-noise floor and the whiteness of that residual. A
-named element that leaves a structured residual well above the noise is reported
-as "not confident: physics outside the candidate list remains" (the candidate list
-is finite; a real vehicle is not).
+What is left: the ride family's noise model (:mod:`suspenv.diagnosis.ride.residual`,
+the held-out error of the final model against the sensor-noise floor and the
+whiteness of that residual) judged by the shared rule
+(:mod:`suspenv.diagnosis.checks.residual_left`).
 """
 
 from __future__ import annotations
@@ -36,6 +35,7 @@ import numpy as np
 from scipy import stats
 
 from suspenv.core.errors import EvaluationError, ValidationError
+from suspenv.diagnosis.checks.residual_left import Left
 from suspenv.diagnosis.decision import DecisionRule
 from suspenv.diagnosis.evidence import fit_residual_series
 from suspenv.diagnosis.family import (
@@ -54,7 +54,7 @@ from suspenv.diagnosis.ride.model import (
     effect_words,
     ride_effect,
 )
-from suspenv.diagnosis.ride.residual import residual_check
+from suspenv.diagnosis.ride.residual import ResidualCheck, residual_check
 from suspenv.diagnosis.screening import Location, Share, Signature, effective_n
 from suspenv.diagnosis.split import (
     Holdout,
@@ -268,16 +268,19 @@ class RideFamily(OptionalSteps):
     def words(self, candidate: str, setup: Setup) -> str:
         return effect_words(ride_effect(*split_candidate(candidate)))
 
-    def conclude(self, outcome: Outcome, setup: Setup) -> Conclusion:
-        """The residual left against the sensor-noise floor and its whiteness: a named
-        element that leaves a structured residual well above the noise is "not
-        confident" (the candidate list is finite; a real vehicle is not)."""
-        names = [h.fit.extra["effect"]["name"] for h in outcome.named if h.fit is not None]
-        left = residual_check(outcome.base, outcome.current, setup.split.heldout_recordings, names)
-        return Conclusion(
-            sentences=[left.sentence()],
-            confident=left.confident,
-            findings={"residual": left},
-            baseline={"effects": []},
-            overrides_verdict=left.residual_remains,
+    def residual_left(
+        self, outcome: Outcome, setup: Setup, alpha: float
+    ) -> tuple[list[Left], ResidualCheck]:
+        """The held-out residual against the sensor-noise floor and its whiteness at the
+        rule's level (:func:`~suspenv.diagnosis.ride.residual.residual_check`)."""
+        left = residual_check(
+            outcome.base,
+            outcome.current,
+            setup.split.heldout_recordings,
+            [h.words for h in outcome.named],
+            alpha=alpha,
         )
+        return [left.view()], left
+
+    def conclude(self, outcome: Outcome, setup: Setup) -> Conclusion:
+        return Conclusion(baseline={"effects": []})

@@ -20,9 +20,10 @@ named elements, or the baseline when nothing is named):
   (before^2 - floor^2)``.
 * **whiteness**: Ljung-Box test (20 lags) of the final held-out scaled residual,
   recordings and channels stacked.
-* **residual remains** when the excess ratio exceeds :data:`EXCESS_LIMIT` *and*
-  the Ljung-Box p-value is below :data:`WHITENESS_ALPHA`: the model error left is
-  at least ~ 0.46 x the noise in RMS and it is structured, not noise.
+* **residual remains** by the shared rule (:mod:`suspenv.diagnosis.checks.residual_left`):
+  the excess ratio (the RMS in noise units) above :data:`EXCESS_LIMIT` *and* the
+  Ljung-Box p-value below the rule's level: the model error left is at least ~ 0.46 x
+  the noise in RMS and it is structured, not noise.
 * **named with confidence**: something is named and no residual remains (a named
   element's parameter on its fit bound is the shared check's,
   :mod:`suspenv.diagnosis.checks.bounds`).
@@ -41,6 +42,7 @@ from typing import Any
 import numpy as np
 
 from suspenv.core.errors import ValidationError
+from suspenv.diagnosis.checks.residual_left import Left
 from suspenv.diagnosis.evidence import ljung_box, scaled_rms
 from suspenv.diagnosis.fitting import FitResult, residuals
 
@@ -93,7 +95,8 @@ def noise_floor(fit: FitResult, recordings: Any, f_min: float = NOISE_BAND_HZ) -
 
 @dataclass
 class ResidualCheck:
-    """The held-out residual left after the diagnosis, against the noise floor."""
+    """The held-out residual left after the diagnosis, against the noise floor: the ride
+    family's noise model (:meth:`view` is its view for the shared rule)."""
 
     heldout_before: float  # scaled held-out RMS of the baseline
     heldout_after: float  # same, final model
@@ -102,56 +105,49 @@ class ResidualCheck:
     explained_share: float  # of the baseline's model-error energy
     ljung_box_q: float
     ljung_box_p: float
-    residual_remains: bool
     named: bool = False
     per_channel_floor: dict[str, float] = field(default_factory=dict)
     excess_limit: float = EXCESS_LIMIT
     whiteness_alpha: float = WHITENESS_ALPHA
+
+    def view(self) -> Left:
+        """The shared rule's view (:mod:`suspenv.diagnosis.checks.residual_left`): the
+        excess ratio against :attr:`excess_limit`, structured where the residual is not
+        white."""
+        return Left(
+            "the held-out channels (pooled)",
+            self.excess_ratio,
+            self.excess_limit,
+            self.ljung_box_p < self.whiteness_alpha,
+            f"Ljung-Box p = {self.ljung_box_p:.2g}",
+            self.sentence(),
+        )
+
+    @property
+    def residual_remains(self) -> bool:
+        """A residual above the noise rule is left."""
+        return self.view().remains
 
     @property
     def confident(self) -> bool:
         """A named element that leaves only noise."""
         return self.named and not self.residual_remains
 
-    @property
-    def remains(self) -> bool:
-        """A residual above the noise rule is left (the engine's unexplained flag)."""
-        return self.residual_remains
-
-    def short(self) -> str:
-        """The residual left in a few words (the headline's)."""
-        return f"{self.excess_ratio:.2f} x the sensor-noise floor"
-
     def sentence(self) -> str:
-        """The verdict's sentence about what is left."""
+        """The numbers in words."""
         pct = 100 * self.heldout_after / self.heldout_before if self.heldout_before else np.nan
-        left = (
+        said = (
             f"held-out error {pct:.0f} % of the baseline's, {self.excess_ratio:.2f} x the "
-            f"sensor-noise floor; Ljung-Box p = {self.ljung_box_p:.2g}"
+            "sensor-noise floor"
         )
-        if self.named and self.residual_remains:
-            share = max(self.explained_share, 0.0)
-            return (
-                f"Residual left after the named effect: {left}. The named effect explains "
-                f"{100 * share:.0f} % of the baseline's model error; the rest is physics "
-                f"outside the candidate list."
-            )
-        small = (
-            "noise only"
-            if self.ljung_box_p >= self.whiteness_alpha
-            else f"small but not white (below the {self.excess_limit:g} x floor limit)"
-        )
-        if self.named:
-            return f"Residual left after the named effect: {left}: {small}."
-        if self.residual_remains:
-            return (
-                f"A residual remains that no candidate explains: {left}; the model misses "
-                "physics outside the candidate list."
-            )
-        return f"Residual: {left}: {small}."
+        if not self.named:
+            return said
+        share = 100 * max(self.explained_share, 0.0)
+        return f"{said}; the named effect explains {share:.0f} % of the baseline's model error"
 
     def to_dict(self) -> dict[str, Any]:
         d = asdict(self)
+        d["residual_remains"] = self.residual_remains
         d["confident"] = self.confident
         d["sentence"] = self.sentence()
         return d
@@ -197,7 +193,6 @@ def residual_check(
         explained_share=float(explained),
         ljung_box_q=q,
         ljung_box_p=p,
-        residual_remains=bool(excess > excess_limit and p < alpha),
         named=bool(named_elements),
         per_channel_floor=floor_c,
         excess_limit=excess_limit,
