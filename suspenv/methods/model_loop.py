@@ -112,10 +112,11 @@ def _candidate_fit(
 ) -> tuple[Candidate, Effect]:
     """Effect ``name`` added at design ``x``, its one fitted parameter ``p`` chosen by a
     quadratic in ``p`` through the residual without the effect (``r0``, p = 0) and at
-    :data:`TRIAL_FACTORS` x its start (one rig call each): the least cost of that
-    quadratic over the parameter's bounds, which is the place's cost. The cost is the
-    sum of squares once the design takes its best first-order step (:func:`_free_cost`
-    with the design's Jacobian ``J`` at ``x``; None: the design held)."""
+    :data:`TRIAL_FACTORS` x its start (one rig call each) and minimised over the
+    parameter's bounds; that minimiser is solved too (a third rig call), and the least
+    cost solved is the place's. A cost is the sum of squares once the design takes its
+    best first-order step (:func:`_free_cost` with the design's Jacobian ``J`` at
+    ``x``; None: the design held)."""
     from suspenv.diagnosis.knc.model import effect_words, make_candidate
 
     effect = make_candidate(name)
@@ -134,8 +135,11 @@ def _candidate_fit(
     coef = np.linalg.solve(V, np.vstack(R))
     grid = np.geomspace(param.low, param.high, 400)
     pred = coef[0] + np.outer(grid, coef[1]) + np.outer(grid**2, coef[2])
-    cost = _free_cost(pred, J)
-    best = float(grid[np.argmin(cost)])
+    # the quadratic is a model of the loop's growth, far from exact where it extrapolates:
+    # its minimiser is solved too, and the place's cost is the least one solved
+    values = np.r_[p[1:], grid[np.argmin(_free_cost(pred, J))]]
+    cost = _free_cost(np.vstack([*R[1:], _residual(sub, float(values[-1]))]), J)
+    best = float(values[np.argmin(cost)])
     short = param.name.partition(".")[2]
     cand = Candidate(family, name, effect_words(effect), float(cost.min()), {short: best})
     return cand, effect.with_params({short: best})
