@@ -294,3 +294,17 @@ def test_auto_held_out_on_a_measurement_takes_one_of_its_tests(test_car):
     # the test car keeps its tests and holds out one it was not measured in
     test, scores = auto_held_out(m, v, truth.mean_design, truth)
     assert test in scores and not set(scores) & set(m.tests)
+
+
+def test_the_loops_partition_the_residual_by_test_and_wheel(test_car):
+    """Definition: every residual row in exactly one loop, one loop per test and wheel,
+    a loop's rows all of one wheel (samples (P, 2) flattened: even rows left)."""
+    m, truth = test_car
+    model = build_model(m, resolve_vehicle(None), truth.mean_design)
+    loops = model.loops()
+    assert len(loops) == 2 * len(model.tests)
+    rows = np.sort(np.concatenate(loops))
+    np.testing.assert_array_equal(rows, np.arange(model.size))
+    for rows in loops:  # one wheel: the same parity within each block
+        start = [next(s.start for _, _, s in model.blocks if s.start <= r < s.stop) for r in rows]
+        assert len(set((rows - np.array(start)) % 2)) == 1

@@ -560,13 +560,15 @@ class CurveModel:
         return R[0], J
 
     # ----------------------------------------------------------------- reading
-    def curves(self) -> list[np.ndarray]:
-        """Residual rows (indices) of each measured curve: one test, channel and wheel."""
-        out = []
-        for _, _, s in self.blocks:
+    def loops(self) -> list[np.ndarray]:
+        """Residual rows (indices) of each measured loop: one test and wheel, every
+        channel recorded over it."""
+        out: dict[tuple[str, int], list[np.ndarray]] = {}
+        for test, _, s in self.blocks:
             rows = np.arange(s.start, s.stop)
-            out += [rows[0::2], rows[1::2]]  # samples (P, 2) flattened: left, right
-        return out
+            for wheel in (0, 1):  # samples (P, 2) flattened: left, right
+                out.setdefault((test, wheel), []).append(rows[wheel::2])
+        return [np.concatenate(parts) for parts in out.values()]
 
     def block_rms(self, r: np.ndarray) -> dict[tuple[str, str], float]:
         """RMS of the scaled residual ``r`` (size,) per (test, channel): 1 = noise level."""

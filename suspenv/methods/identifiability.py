@@ -71,11 +71,11 @@ def sandwich_covariance(
 ) -> np.ndarray:
     """Cluster-robust covariance ``A^-1 B A^-1`` (dim, dim) of the unit-cube fit: ``A =
     J' J`` (inverted as :func:`unit_covariance`), ``B = sum_c s_c s_c'`` with ``s_c =
-    J_c' r_c`` the score of cluster ``c`` (the residual rows ``clusters[c]``: one measured
-    curve). Under independent unit noise ``E[B] = A`` and this is ``(J' J)^-1`` again;
-    a misfit correlated along each curve (physics the model lacks) makes the curves
-    disagree about the parameters and widens it in the directions they disagree on,
-    where ``s^2`` spreads a misfit over every direction alike."""
+    J_c' r_c`` the score of cluster ``c`` (the residual rows ``clusters[c]``, e.g. one
+    measured loop). Under independent unit noise ``E[B] = A`` and this is ``(J' J)^-1``
+    again; a misfit correlated within each cluster (physics the model lacks) makes the
+    clusters disagree about the parameters and widens it in the directions they
+    disagree on, where ``s^2`` spreads a misfit over every direction alike."""
     J, r = np.asarray(J, float), np.asarray(r, float)
     scores = np.array([J[rows].T @ r[rows] for rows in clusters])
     A_inv = unit_covariance(J, 1.0, rcond)

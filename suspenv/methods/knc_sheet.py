@@ -11,10 +11,11 @@ Interval (delta method): the metric's gradient ``g`` with respect to the fitted 
 all ``dim + 1`` designs in one batched rig call per test group) and the fit's covariance
 ``C`` (:func:`suspenv.methods.identifiability.unit_covariance`: ``s^2 (J'J)^-1``): the
 standard error is ``sqrt(g' C g)``, the 95 % interval +-1.96 of it. ``C`` is the larger
-(per metric) of that and the cluster-robust sandwich over the measured curves
-(:func:`~suspenv.methods.identifiability.sandwich_covariance`): a misfit correlated
-along the curves (a loop modelled at a place near the true one) biases the metrics the
-curves disagree on, which ``s^2``, one factor for every direction, does not see. The gradient is
+(per metric) of that and the cluster-robust sandwich over the measured loops (one test
+and wheel, every channel: :func:`~suspenv.methods.identifiability.sandwich_covariance`):
+a misfit of a loop's physics (hysteresis of another shape, a fit stopped short) is
+correlated over every channel recorded through it and biases the metrics the loops
+disagree on, which ``s^2``, one factor for every direction, does not see. The gradient is
 taken on the model without its path-dependent elements (a hysteresis loop's mean moves
 with the design as the elastic curve does); the value itself on the whole model. A
 metric that the measured curves do not determine gets a wide interval, not a false one.
@@ -129,7 +130,7 @@ def knc_sheet(
     needs = report_needs(measured) if measured else {}
     items = {**ALL_ITEMS, **COMPLIANCE_ITEMS}
     rows = []
-    covs = (cov_unit, sandwich_covariance(fit.jacobian, fit.residual, model.curves()))
+    covs = (cov_unit, sandwich_covariance(fit.jacobian, fit.residual, model.loops()))
     for name, v in value.items():
         g = (grads[name][1:] - grads[name][0]) / h[:, None]  # (dim, 2)
         g = np.where(np.isfinite(g), g, 0.0)
