@@ -218,10 +218,10 @@ def main(argv: list[str] | None = None) -> int:
         **main_job_summary(rows),
     }
     if steering:
-        summary["steering_car_aligning_compliance_err_%"] = steering[0]["aligning_compliance_err_%"]
+        summary["steering_car"] = steering[0]
     write_result(
         "identify_reference",
-        rows + steering,
+        rows,
         summary,
         "python -m benchmarks.identify_reference",
         output_dir=args.out,
