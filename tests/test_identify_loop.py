@@ -275,6 +275,10 @@ def test_steering_constants_are_fitted_values_when_the_aligning_test_is_measured
     R1, _, _ = model.residuals_x(X[1:])
     assert ok.all()
     np.testing.assert_allclose(R[1], R1[0], rtol=0, atol=1e-9)
+    # the sides apart: one steering system, so no right twin of a constant
+    two = model.variant(two_sided=True, base=x)
+    assert two.names[-2:] == names and two.dim == 2 * 49 - 1 + 2
+    assert two.constants_at(two.base) == v.constants
     res = model.run(X, ("aligning",), 12, (), {})["aligning"]
     span = np.ptp(res.channels["toe"], axis=1)  # (2, 2): rows x wheels
     assert np.all(span[1] > span[0])

@@ -276,12 +276,13 @@ class CurveModel:
         self.constants = constants or AxleConstants()
         self.effect_free = tuple(_effect_parameters(self.effects, self.constants, effect_free))
         self.base = np.asarray(base, float).copy()
+        d, k = self.space.dim, len(self.effect_free)
         if self.base.ndim != 1 or not (
-            self.base.size == self.space.dim or self.sides <= self.base.size <= self.width
+            self.base.size in (d, d + k) or self.sides <= self.base.size <= self.width
         ):
             raise ValidationError(
-                f"base design must have {self.space.dim} or {self.sides}..{self.width} values, "
-                f"but got {self.base.shape}"
+                f"base design must have {d}, {d + k} (one side and the fitted effect values) "
+                f"or {self.sides}..{self.width} values, but got {self.base.shape}"
             )
         self.base = self.full(self.base)[0]
         own = [p.name for p in self.effect_free]
@@ -338,6 +339,7 @@ class CurveModel:
             "two_sided": self.two_sided,
             "chunk": self.chunk,
             "orientation": self.orientation,
+            "travel_drive": self.travel_drive,
             "effect_free": self.effect_free,
         }
         kw.update(changes)

@@ -455,17 +455,7 @@ def candidate_jacobians(model: CurveModel, u: np.ndarray) -> dict[str, dict[str,
     sims = _simulated_tests(model, x, missing) if missing else []
     if not sims:
         return {}
-    other = CurveModel(
-        sims,
-        model.sigma,
-        model.space,
-        model.base,
-        model.free,
-        model.constants,
-        model.effects,
-        two_sided=model.two_sided,
-        orientation=model.orientation,
-    )
+    other = model.variant(tests=sims)
     _, J = other.jacobian(u)
     out: dict[str, dict[str, np.ndarray]] = {}
     for test, channel, sl in other.blocks:
