@@ -173,7 +173,11 @@ def test_the_job_follows_its_screen_and_reports_before_and_after(test_car, tmp_p
     assert res.loop is not None and res.held_out is not None
     assert res.loop.model.two_sided and res.loop.model.effect_free
     assert res.loop.fit.cost < 0.5 * res.fit.cost
-    assert res.held_out.after["toe"] < res.held_out.before["toe"]
+    # the held-out test is judged by its worst channel: the camber of the sides apart
+    # (the first fit's one design gives both wheels the mean camber, 21 x noise)
+    before, after = res.held_out.before, res.held_out.after
+    assert max(after.values()) < 0.5 * max(before.values())
+    assert after["camber"] < 0.2 * before["camber"]
     files = write_outputs(res, tmp_path, figures=True)
     assert {"curves.png", "residual.png"} <= {f.name for f in files}
     text = (tmp_path / "report.md").read_text()
