@@ -16,6 +16,9 @@ with the default concealed effects (hysteresis, left/right tolerances, noise). P
   1.5 x noise after it, the held-out test's worst channel before and after, and the
   K&C sheet's 95 % intervals holding the truth (share of metric x wheel values; seed 0
   is the test car, the other seeds, fixed in :data:`SEEDS` before any run, blind cars);
+* the blind car with a compliant steering system (:data:`STEERING_RATES` of the
+  reference car's rates, seed :data:`STEERING_SEED`, the steering and aligning tests
+  measured too): its aligning compliance against the truth's, the fitted rates;
 * wall and CPU time (this process and its finished children: the polish that runs
   beside the global stage, :func:`suspenv.methods.identify.cpu_seconds`).
 
@@ -36,6 +39,12 @@ CASES = {"noise only": ("noise",), "default concealed": ("hysteresis", "toleranc
 SEEDS = "0,1,2,3"
 #: the main job's config, whose ``[identify]`` options every case runs with
 CONFIG = "experiments/identify_reference.toml"
+#: the blind car with a compliant steering system (fixed before any run): its truth
+#: seed (default concealed effects), its rig tests, and its rack-mount and column rates
+#: as multiples of the reference car's
+STEERING_SEED = 5
+STEERING_TESTS = ("parallel", "opposite", "single", "steering", "aligning")
+STEERING_RATES = {"rack_mount_rate": 0.4, "column_torsion_rate": 0.5}
 
 
 def main_job_options() -> dict[str, Any]:
@@ -111,6 +120,51 @@ def run_case(label: str, concealed: tuple[str, ...], seed: int) -> dict[str, Any
     return row
 
 
+def run_steering_car() -> dict[str, Any]:
+    """The blind car of :data:`STEERING_SEED` and :data:`STEERING_RATES` identified
+    with the main job's options: its aligning compliance (steer per aligning moment,
+    the sheet's metric) against the truth's, and the fitted steering rates."""
+    from dataclasses import replace
+
+    from suspenv.methods.identify import (
+        cpu_seconds,
+        measure_test_car,
+        resolve_vehicle,
+        run_identify,
+    )
+
+    vehicle = resolve_vehicle(None)
+    rates = {k: f * getattr(vehicle.constants, k) for k, f in STEERING_RATES.items()}
+    t0, c0 = time.perf_counter(), cpu_seconds()
+    car = replace(vehicle.constants, **rates)
+    concealed = CASES["default concealed"]
+    m, truth = measure_test_car(STEERING_SEED, concealed, STEERING_TESTS, constants=car)
+    res = run_identify(m, vehicle, main_job_options(), truth=truth)
+    wall, cpu = time.perf_counter() - t0, cpu_seconds() - c0
+    row = {r.name: r for r in res.sheet}["aligning_compliance_steer"]
+    assert res.sheet_truth is not None
+    want = res.sheet_truth["aligning_compliance_steer"]
+    fit = res.final_fit
+    fitted = fit.model.constants_at(fit.x)
+    out: dict[str, Any] = {
+        "case": "steering compliance",
+        "seed": STEERING_SEED,
+        "tests": ",".join(STEERING_TESTS),
+        "aligning_compliance_truth": want.tolist(),
+        "aligning_compliance_identified": row.identified.tolist(),
+        "aligning_compliance_ci95": row.half_width.tolist(),
+        "aligning_compliance_err_%": float(np.max(np.abs(row.identified / want - 1.0)) * 100),
+        "held_out": res.held_out.test if res.held_out else "",
+        "wall_s": wall,
+        "cpu_s": cpu,
+    }
+    for k in STEERING_RATES:
+        out[f"{k}_truth"] = rates[k]
+        out[f"{k}_fitted"] = float(getattr(fitted, k))
+    out.update(loop_cells(res))
+    return out
+
+
 def main_job_summary(rows: list[dict[str, Any]]) -> dict[str, Any]:
     """The main job's targets: the default test car (seed 0, default concealed effects),
     and the sheet's coverage on the test car and on the blind cars."""
@@ -143,11 +197,13 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", default=SEEDS, help="comma-separated truth seeds")
     ap.add_argument("--cases", default=",".join(CASES), help="comma-separated case labels")
+    ap.add_argument("--no-steering", action="store_true", help="skip the steering car")
     ap.add_argument("--out", default=None, help="result folder (default docs/benchmarks)")
     args = ap.parse_args(argv)
     seeds = [int(s) for s in args.seeds.split(",") if s.strip()]
     labels = [c.strip() for c in args.cases.split(",") if c.strip()]
     rows = [run_case(c, CASES[c], s) for c in labels for s in seeds]
+    steering = [] if args.no_steering else [run_steering_car()]
 
     def within(label: str) -> bool:
         return all(r["worst_rms_over_noise"] <= 1.5 for r in rows if r["case"] == label)
@@ -161,6 +217,8 @@ def main(argv: list[str] | None = None) -> int:
         "max_cpu_s": max(r["cpu_s"] for r in rows),
         **main_job_summary(rows),
     }
+    if steering:
+        summary["steering_car"] = steering[0]
     write_result(
         "identify_reference",
         rows,

@@ -254,6 +254,9 @@ def identify_cells(s: Json) -> tuple[str, str]:
             blind=100 * float(s.get("blind_sheet_coverage", float("nan"))),
         )  # fmt: skip
         target += fill("identify.loop_target")
+    if "steering_car" in s:
+        result += fill("identify.steering", err=s["steering_car"]["aligning_compliance_err_%"])
+        target += fill("identify.steering_target")
     return result, target
 
 

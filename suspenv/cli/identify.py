@@ -73,7 +73,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--held-out",
         default="",
         help="a rig test kept out of the fit and predicted (a test of the measurement, or "
-        "any rig test on the test car)",
+        "any rig test on the test car; 'auto': the one the others determine best)",
     )
     p.add_argument(
         "--no-loop",

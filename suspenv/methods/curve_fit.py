@@ -273,14 +273,16 @@ class CurveModel:
         self.space = fit_space(space)
         self.two_sided = bool(two_sided)
         self.effects = tuple(effects)
-        self.effect_free = tuple(_effect_parameters(self.effects, effect_free))
+        self.constants = constants or AxleConstants()
+        self.effect_free = tuple(_effect_parameters(self.effects, self.constants, effect_free))
         self.base = np.asarray(base, float).copy()
+        d, k = self.space.dim, len(self.effect_free)
         if self.base.ndim != 1 or not (
-            self.base.size == self.space.dim or self.sides <= self.base.size <= self.width
+            self.base.size in (d, d + k) or self.sides <= self.base.size <= self.width
         ):
             raise ValidationError(
-                f"base design must have {self.space.dim} or {self.sides}..{self.width} values, "
-                f"but got {self.base.shape}"
+                f"base design must have {d}, {d + k} (one side and the fitted effect values) "
+                f"or {self.sides}..{self.width} values, but got {self.base.shape}"
             )
         self.base = self.full(self.base)[0]
         own = [p.name for p in self.effect_free]
@@ -294,7 +296,6 @@ class CurveModel:
         self.free_index, self.sub = self._fitted(names)
         #: an executor that solves half of a large path-dependent batch (None: none)
         self.pool: Any = None
-        self.constants = constants or AxleConstants()
         self.orientation = dict(orientation or {})
         self.chunk = int(chunk)
         self.sigma: dict[str, float] = {}
@@ -338,6 +339,7 @@ class CurveModel:
             "two_sided": self.two_sided,
             "chunk": self.chunk,
             "orientation": self.orientation,
+            "travel_drive": self.travel_drive,
             "effect_free": self.effect_free,
         }
         kw.update(changes)
@@ -395,7 +397,7 @@ class CurveModel:
             X = np.concatenate([X[:, :d], X], axis=1)
         k = X.shape[1] - self.sides
         if 0 <= k < len(self.effect_free):
-            own = [_effect_value(self.effects, p.name) for p in self.effect_free[k:]]
+            own = [_own_value(self.effects, self.constants, p.name) for p in self.effect_free[k:]]
             X = np.concatenate([X, np.tile(own, (X.shape[0], 1))], axis=1)
         return X
 
@@ -424,14 +426,46 @@ class CurveModel:
             out.append(e.with_params(mine) if mine else e)
         return tuple(out)
 
+    def constants_at(self, x: np.ndarray) -> AxleConstants:
+        """The vehicle's constants with the fitted ones (``constants.<name>``) of ``x``."""
+        vals = self.full(x)[0][self.sides :]
+        mine: dict[str, Any] = {
+            p.name.partition(".")[2]: float(v)
+            for p, v in zip(self.effect_free, vals, strict=True)
+            if p.name.partition(".")[0] == CONSTANTS
+        }
+        return replace(self.constants, **mine) if mine else self.constants
+
     # --------------------------------------------------------------- simulation
     def axle(self, X: np.ndarray) -> Any:
         """The batched :class:`~suspenv.models.mcpherson.params.Axle` of designs X (see
-        :meth:`full`)."""
+        :meth:`full`; the rows share their fitted constants, those of the first)."""
         X = self.full(X)
         d = self.space.dim
         right = X[:, d : 2 * d] if self.two_sided else None
-        return build_axle(X[:, :d], right, self.constants, self.orientation or None)
+        return build_axle(X[:, :d], right, self.constants_at(X[0]), self.orientation or None)
+
+    def run(
+        self,
+        X: np.ndarray,
+        tests: Sequence[str],
+        steps: int,
+        effects: Sequence[Effect],
+        amplitudes: Mapping[str, float],
+    ) -> dict[str, KCResult]:
+        """:func:`rig_run` of designs X (see :meth:`full`) with ``effects`` held and the
+        rig's own travel drive (the pads), rows with other fitted constants solved apart
+        (an axle takes one set)."""
+        X = self.full(X)
+        parts: dict[str, list[KCResult]] = {t: [] for t in tests}
+        order: list[int] = []
+        for rows in _same_rows(X[:, self.sides :]):
+            order += rows
+            res = rig_run(self.axle(X[rows]), tests, steps, effects, amplitudes)
+            for t, r in res.items():
+                parts[t].append(r)
+        back = np.argsort(order)
+        return {t: _concat(p, back) for t, p in parts.items()}
 
     def simulate(self, X: np.ndarray) -> tuple[dict[str, KCResult], np.ndarray, list[str]]:
         """Rig results {test: KCResult} of designs X (see :meth:`full`), ok (n,), messages.
@@ -528,6 +562,16 @@ class CurveModel:
         return R[0], J
 
     # ----------------------------------------------------------------- reading
+    def loops(self) -> list[np.ndarray]:
+        """Residual rows (indices) of each measured loop: one test and wheel, every
+        channel recorded over it."""
+        out: dict[tuple[str, int], list[np.ndarray]] = {}
+        for test, _, s in self.blocks:
+            rows = np.arange(s.start, s.stop)
+            for wheel in (0, 1):  # samples (P, 2) flattened: left, right
+                out.setdefault((test, wheel), []).append(rows[wheel::2])
+        return [np.concatenate(parts) for parts in out.values()]
+
     def block_rms(self, r: np.ndarray) -> dict[tuple[str, str], float]:
         """RMS of the scaled residual ``r`` (size,) per (test, channel): 1 = noise level."""
         return {(t, c): float(np.sqrt(np.mean(r[s] ** 2))) for t, c, s in self.blocks}
@@ -580,9 +624,18 @@ def _same_rows(V: np.ndarray) -> list[list[int]]:
     return list(groups.values())
 
 
-def _effect_value(effects: Sequence[Effect], name: str) -> float:
-    """Value of the effect parameter ``<effect>.<parameter>`` among ``effects``."""
+#: owner of a fitted value that is a vehicle constant (``constants.<name>``)
+CONSTANTS = "constants"
+
+
+def _own_value(effects: Sequence[Effect], constants: AxleConstants, name: str) -> float:
+    """Value of the fitted ``<effect>.<parameter>`` among ``effects``, or of the vehicle
+    constant ``constants.<name>``."""
     owner, _, param = name.partition(".")
+    if owner == CONSTANTS:
+        if not hasattr(constants, param):
+            raise ValidationError(f"fitted constant {name!r}: no axle constant named {param!r}")
+        return float(getattr(constants, param))
     for e in effects:
         if e.name == owner:
             return float(np.ravel(e.params[param])[0])
@@ -592,12 +645,15 @@ def _effect_value(effects: Sequence[Effect], name: str) -> float:
     )
 
 
-def _effect_parameters(effects: Sequence[Effect], params: Sequence[Parameter]) -> list[Parameter]:
-    """The fitted effect parameters (named ``<effect>.<parameter>``), checked against
-    ``effects``; a positive range is mapped to the unit cube logarithmically."""
+def _effect_parameters(
+    effects: Sequence[Effect], constants: AxleConstants, params: Sequence[Parameter]
+) -> list[Parameter]:
+    """The fitted effect parameters and constants (named ``<effect>.<parameter>``,
+    ``constants.<name>``), checked against ``effects`` and ``constants``; a positive
+    range is mapped to the unit cube logarithmically."""
     out = []
     for p in params:
-        _effect_value(effects, p.name)
+        _own_value(effects, constants, p.name)
         out.append(replace(p, log=True) if p.low > 0 else p)
     if len({p.name for p in out}) != len(out):
         raise ValidationError(f"fitted effect parameters must be unique, but got {params}")

@@ -66,6 +66,22 @@ def unit_covariance(J: np.ndarray, scale2: float = 1.0, rcond: float = RCOND) ->
     return scale2 * (V / w) @ V.T
 
 
+def sandwich_covariance(
+    J: np.ndarray, r: np.ndarray, clusters: Sequence[np.ndarray], rcond: float = RCOND
+) -> np.ndarray:
+    """Cluster-robust covariance ``A^-1 B A^-1`` (dim, dim) of the unit-cube fit: ``A =
+    J' J`` (inverted as :func:`unit_covariance`), ``B = sum_c s_c s_c'`` with ``s_c =
+    J_c' r_c`` the score of cluster ``c`` (the residual rows ``clusters[c]``, e.g. one
+    measured loop). Under independent unit noise ``E[B] = A`` and this is ``(J' J)^-1``
+    again; a misfit correlated within each cluster (physics the model lacks) makes the
+    clusters disagree about the parameters and widens it in the directions they
+    disagree on, where ``s^2`` spreads a misfit over every direction alike."""
+    J, r = np.asarray(J, float), np.asarray(r, float)
+    scores = np.array([J[rows].T @ r[rows] for rows in clusters])
+    A_inv = unit_covariance(J, 1.0, rcond)
+    return A_inv @ (scores.T @ scores) @ A_inv
+
+
 def determined_directions(
     J: np.ndarray, scale2: float = 1.0, names: Sequence[str] = (), top: int = 3
 ) -> tuple[int, list[tuple[float, list[tuple[str, float]]]]]:

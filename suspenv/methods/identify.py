@@ -41,7 +41,7 @@ import numpy as np
 from suspenv.core.errors import ValidationError
 from suspenv.core.jsonable import to_jsonable
 from suspenv.core.laps import Laps
-from suspenv.core.space import DesignSpace
+from suspenv.core.space import DesignSpace, Parameter
 from suspenv.methods.curve_fit import (
     CurveFit,
     CurveModel,
@@ -56,7 +56,7 @@ from suspenv.methods.curve_fit import (
 from suspenv.methods.identifiability import CandidateGain, Identifiability, assess, rank_tests
 from suspenv.methods.knc_sheet import SheetRow
 from suspenv.methods.model_loop import Refinement, refine
-from suspenv.models.mcpherson.params import paper_initial_values
+from suspenv.models.mcpherson.params import AxleConstants, paper_initial_values
 from suspenv.models.mcpherson.truth import CHANNEL_NOISE, TruthVehicle, truth_vehicle
 from suspenv.models.mcpherson.vehicle_file import REFERENCE_FILE, VehicleFile, load_vehicle
 
@@ -67,6 +67,15 @@ SIDES_OPTIONS = ("symmetric", "both")
 #: a curve is fitted when its RMS residual is within this many noise RMS
 FIT_RATIO = 1.5
 INITIALS = ("vehicle", "paper")
+#: vehicle constants fitted when the measurement holds a test that sees them: the
+#: steering system's compliance (rack-housing mounts, column torsion), which the
+#: aligning test loads and the steering test moves (name -> (unit, tests))
+FITTED_CONSTANTS = {
+    "rack_mount_rate": ("N/mm", ("steering", "aligning")),
+    "column_torsion_rate": ("N*m/deg", ("steering", "aligning")),
+}
+#: a fitted constant's box: the vehicle file's value divided and multiplied by this
+CONSTANT_RANGE = 10.0
 #: the job's options and defaults (``[identify]`` of a config, CLI flags)
 DEFAULTS: dict[str, Any] = {
     "method": "curves",
@@ -84,7 +93,7 @@ DEFAULTS: dict[str, Any] = {
     "loop": True,  # add what the residual screen names (sides apart, an effect) and refit
     "loop_nfev": 15,  # least-squares evaluations of the loop's refit (path-dependent: slow)
     "sheet": True,  # the identified car's K&C sheet with 95 % intervals
-    "held_out": "",  # a rig test kept out of the fit and predicted ("": none)
+    "held_out": "",  # a rig test kept out of the fit and predicted ("": none; "auto")
     "figures": True,
 }
 #: a residual signature scoring above this names its pattern (scores are about N(0, 1)
@@ -139,9 +148,10 @@ def check_options(options: Mapping[str, Any]) -> dict[str, Any]:
         )
     from suspenv.measurements.knc import ALL_TESTS
 
-    if o["held_out"] not in ("", *ALL_TESTS):
+    if o["held_out"] not in ("", "auto", *ALL_TESTS):
         raise ValidationError(
-            f"identify: `held_out` must be a rig test {ALL_TESTS} or '' (none), but got "
+            f"identify: `held_out` must be a rig test {ALL_TESTS}, 'auto' (the test the fit "
+            f"determines best) or '' (none), but got "
             f"{o['held_out']!r}"
         )
     for key in ("next_test", "rerun_next", "diagnose", "loop", "sheet", "figures"):
@@ -194,10 +204,12 @@ def measure_test_car(
     tests: Sequence[str] = ("parallel", "opposite", "single"),
     amplitude: float = 0.040,
     steps: int = 30,
+    constants: AxleConstants | None = None,
 ) -> tuple[Any, TruthVehicle]:
     """The built-in test car measured through the measured-K&C path: (KncMeasurement,
     truth). Its noise is declared (the rig's :data:`~suspenv.models.mcpherson.truth.
-    CHANNEL_NOISE`, also when ``"noise"`` is not concealed: the fit's weights)."""
+    CHANNEL_NOISE`, also when ``"noise"`` is not concealed: the fit's weights);
+    ``constants``: the car's (default: the reference car's)."""
     from suspenv.measurements.knc_file import from_results
 
     bad = sorted(set(concealed) - set(CONCEALED))
@@ -209,6 +221,8 @@ def measure_test_car(
         tolerance="tolerance" in concealed,
         noise="noise" in concealed,
     )
+    if constants is not None:
+        truth = dataclasses.replace(truth, constants=constants)
     results = measure_truth(truth, tests, amplitude, steps)
     conc = "+".join(sorted(concealed)) or "none"
     m = from_results(
@@ -249,11 +263,29 @@ class HeldOut:
     source: str
     before: dict[str, float]
     after: dict[str, float]
+    #: ``held_out = "auto"``: every candidate test's predicted-curve standard deviation
+    #: at the start design under the others' covariance, worst channel, noise units
+    #: (:func:`choose_held_out`; the least is held out); empty when the test was named
+    choice: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def why(self) -> str:
+        """Why this test was held out."""
+        if not self.choice:
+            return "named in the options"
+        return (
+            "the candidate the fitted tests determine best at the start design: its "
+            "predicted curves' standard deviation under the covariance of a fit to the "
+            f"others (delta method, worst channel) is {self.choice[self.test]:.3g} x its "
+            "noise, the least of " + ", ".join(f"{t} {v:.3g}" for t, v in self.choice.items())
+        )
 
     def to_dict(self) -> dict[str, Any]:
         return {
             "test": self.test,
             "source": self.source,
+            "why": self.why,
+            "predicted_sd_over_noise": self.choice,
             "rms_over_noise_before": self.before,
             "rms_over_noise_after": self.after,
             "worst_before": max(self.before.values()),
@@ -308,7 +340,7 @@ class IdentifyResult:
             f"{v.name} identified",
             x[:d].copy(),
             right.copy(),
-            v.constants,
+            fit.model.constants_at(x),
             fit.model.effects_at(x),
             f"identified by suspenv identify from {self.measurement.name}",
             dict(v.bounds),
@@ -364,7 +396,21 @@ def build_model(
         two_sided=two_sided,
         orientation=vehicle.orientation,
         travel_drive=measurement.meta.get("travel_drive", "pad"),
+        effect_free=fitted_constants(vehicle, measurement.tests),
     )
+
+
+def fitted_constants(vehicle: VehicleFile, tests: Sequence[str]) -> list[Parameter]:
+    """The vehicle constants (:data:`FITTED_CONSTANTS`) that ``tests`` see, as fitted
+    values ``constants.<name>``: the vehicle file's value divided and multiplied by
+    :data:`CONSTANT_RANGE` as bounds, on a log scale."""
+    out = []
+    for name, (unit, seen_by) in FITTED_CONSTANTS.items():
+        if any(t in tests for t in seen_by):
+            v = float(getattr(vehicle.constants, name))
+            low, high = v / CONSTANT_RANGE, v * CONSTANT_RANGE
+            out.append(Parameter(f"constants.{name}", low, high, unit, True, v))
+    return out
 
 
 def _simulated_tests(
@@ -397,35 +443,86 @@ def _simulated_tests(
     return out
 
 
-def candidate_jacobians(model: CurveModel, u: np.ndarray) -> dict[str, np.ndarray]:
+def candidate_jacobians(model: CurveModel, u: np.ndarray) -> dict[str, dict[str, np.ndarray]]:
     """Jacobians (noise-scaled, in the fit's unit cube) at ``u`` of every rig test the
-    measurement lacks: {test: (N_t, dim)}, all tests in one batched evaluation."""
+    measurement lacks, per channel: {test: {channel: (N_tc, dim)}}, all tests in one
+    batched evaluation."""
     from suspenv.measurements.knc import ALL_TESTS
 
     have = {t.test for t in model.tests}
     missing = [t for t in ALL_TESTS if t not in have]
-    if not missing:
-        return {}
     x = model.designs(u[None])[0]
-    sims = _simulated_tests(model, x, missing)
+    sims = _simulated_tests(model, x, missing) if missing else []
     if not sims:
         return {}
-    other = CurveModel(
-        sims,
-        model.sigma,
-        model.space,
-        model.base,
-        model.free,
-        model.constants,
-        model.effects,
-        two_sided=model.two_sided,
-        orientation=model.orientation,
-    )
+    other = model.variant(tests=sims)
     _, J = other.jacobian(u)
-    out: dict[str, list[np.ndarray]] = {}
-    for test, _, sl in other.blocks:
-        out.setdefault(test, []).append(J[sl])
-    return {t: np.vstack(parts) for t, parts in out.items()}
+    out: dict[str, dict[str, np.ndarray]] = {}
+    for test, channel, sl in other.blocks:
+        out.setdefault(test, {})[channel] = J[sl]
+    return out
+
+
+def choose_held_out(
+    blocks: Mapping[str, Mapping[str, np.ndarray]],
+    measured: Sequence[str],
+    candidates: Sequence[str],
+) -> tuple[str, dict[str, float]]:
+    """The rig test to hold out: the candidate whose curves the others determine best.
+
+    ``blocks``: {test: {channel: Jacobian (N, dim)}} (noise-scaled, unit cube, one
+    design) of the measured tests and the candidates; ``measured``: the tests the fit
+    can use. A candidate's covariance is that of a fit to the measured tests other than
+    itself with the polish's weak pull towards the start, ``(J'J + w^2 I)^-1`` (``w``
+    :data:`~suspenv.methods.curve_fit.PRIOR_WEIGHT`: a direction no curve sees is known
+    to the whole range); a channel's predicted-curve standard deviation in noise units
+    is the delta method's ``sqrt(mean_i J_i C J_i')`` over its samples, a test's score
+    its worst channel's (the held-out test is judged by its worst channel). Returns the
+    candidate of the least score and every candidate's score. A test the fitted ones
+    leave undetermined says little when it misses or when it hits."""
+    from suspenv.methods.curve_fit import PRIOR_WEIGHT
+
+    scores = {}
+    for test in candidates:
+        rest = [J for t in measured if t != test for J in blocks[t].values()]
+        if not rest:
+            continue
+        A = np.vstack(rest)
+        cov = np.linalg.inv(A.T @ A + PRIOR_WEIGHT**2 * np.eye(A.shape[1]))
+        scores[test] = max(
+            float(np.sqrt(np.mean(np.einsum("ij,jk,ik->i", J, cov, J))))
+            for J in blocks[test].values()
+        )
+    if not scores:
+        raise ValidationError(
+            "identify: `held_out = 'auto'` needs a test left to fit, but the measurement "
+            f"holds only {list(measured)}"
+        )
+    return min(scores, key=lambda t: scores[t]), scores
+
+
+def auto_held_out(
+    measurement: Any,
+    vehicle: VehicleFile,
+    x0: np.ndarray,
+    truth: TruthVehicle | None,
+    free: Sequence[str] = (),
+) -> tuple[str, dict[str, float]]:
+    """:func:`choose_held_out` at the start design ``x0``, before any fit. Candidates:
+    on the built-in test car (``truth``), the rig tests it was not measured in (it can
+    be measured in them, so the fit keeps all its data); on a measurement, its own
+    tests. One batched Jacobian per set of tests."""
+    model = build_model(measurement, vehicle, x0, free)
+    u0 = model.unit(x0)
+    _, J = model.jacobian(u0)
+    blocks: dict[str, dict[str, np.ndarray]] = {}
+    for test, channel, sl in model.blocks:
+        blocks.setdefault(test, {})[channel] = J[sl]
+    measured = list(measurement.tests)
+    if truth is None:
+        return choose_held_out(blocks, measured, measured)
+    extra = candidate_jacobians(model, u0)
+    return choose_held_out({**blocks, **extra}, measured, list(extra))
 
 
 def screen_residual(model: CurveModel, measurement: Any, x: np.ndarray) -> dict[str, Any]:
@@ -629,7 +726,13 @@ def run_identify(
     else:
         x0 = 0.5 * (vehicle.left + vehicle.right)
     two = opts["sides"] == "both"
-    measurement, held, held_source = split_held_out(measurement, opts["held_out"], truth)
+    held_out: str = opts["held_out"]
+    choice: dict[str, float] = {}
+    if held_out == "auto":
+        _say(progress, "held-out test: the one the others determine best (at the start)")
+        held_out, choice = auto_held_out(measurement, vehicle, x0, truth, opts["free"])
+        lap("held_out_choice")
+    measurement, held, held_source = split_held_out(measurement, held_out, truth)
     model = build_model(measurement, vehicle, x0, opts["free"], two)
     _say(
         progress,
@@ -678,26 +781,8 @@ def run_identify(
     )
     if opts["next_test"] and ident.not_identified():
         _say(progress, "next test: Jacobians of the rig tests not measured")
-        extra = candidate_jacobians(model, fit.u)
-        result.candidates = rank_tests(ident, fit.jacobian, extra, fit.u, model.sub)
+        _next_test(result, candidate_jacobians(model, fit.u), truth_map, progress)
         lap("next_test")
-        best = result.candidates[0] if result.candidates else None
-        if truth is not None and opts["rerun_next"] and best is not None:
-            _say(progress, f"re-run with the {best.test} test added (test car, noisy)")
-            t0 = time.perf_counter()
-            more = measure_truth(truth, [best.test], _travel_amplitude(model), model.tests[0].steps)
-            from suspenv.measurements.knc_file import from_results
-
-            added = from_results(more, "added", noise=dict(measurement.noise))
-            both = _merged(measurement, added)
-            model2 = build_model(both, vehicle, x0, opts["free"], two)
-            stage, r2, J2 = polish(
-                model2, fit.u, opts["polish_nfev"], progress=progress, prior=model2.unit(x0)
-            )
-            fit2 = CurveFit(model2, stage.u, model2.designs(stage.u[None])[0], r2, J2, [stage])
-            ident2 = assess(J2, r2, stage.u, model2.sub, truth_map)
-            result.rerun = Rerun(best.test, fit2, ident2, time.perf_counter() - t0)
-            lap("rerun_next")
     if opts["diagnose"]:
         _say(progress, "residual screen (K&C diagnosis signatures)")
         result.diagnosis = screen_residual(model, measurement, fit.x)
@@ -706,7 +791,7 @@ def run_identify(
         _model_loop(result, progress)
         lap("loop")
     if held is not None:
-        result.held_out = predict_held_out(result, held, held_source)
+        result.held_out = predict_held_out(result, held, held_source, choice)
         lap("held_out")
     if opts["sheet"]:
         _say(progress, "K&C sheet: the identified car's metrics with 95 % intervals")
@@ -715,6 +800,41 @@ def run_identify(
     timings["total"] = time.perf_counter() - t_start
     result.cpu_seconds = cpu_seconds() - c_start
     return result
+
+
+def _next_test(
+    result: IdentifyResult,
+    extra: Mapping[str, Mapping[str, np.ndarray]],
+    truth_map: Mapping[str, float] | None,
+    progress: bool,
+) -> None:
+    """The rig tests not measured ranked (``result.candidates``); on the test car, the
+    best one measured too and the fit repeated from the answer (``result.rerun``)."""
+    fit, model, opts = result.fit, result.model, result.options
+    stacked = {t: np.vstack(list(ch.values())) for t, ch in extra.items()}
+    result.candidates = rank_tests(result.identifiability, fit.jacobian, stacked, fit.u, model.sub)
+    best = result.candidates[0] if result.candidates else None
+    truth = result.truth_vehicle
+    if truth is None or not opts["rerun_next"] or best is None:
+        return
+    _say(progress, f"re-run with the {best.test} test added (test car, noisy)")
+    t0 = time.perf_counter()
+    more = measure_truth(truth, [best.test], _travel_amplitude(model), model.tests[0].steps)
+    from suspenv.measurements.knc_file import from_results
+
+    added = from_results(more, "added", noise=dict(result.measurement.noise))
+    both = _merged(result.measurement, added)
+    model2 = build_model(both, result.vehicle, result.x0, opts["free"], model.two_sided)
+    stage, r2, J2 = polish(  # from the answer (a test may add fitted constants)
+        model2,
+        model2.unit(fit.x),
+        opts["polish_nfev"],
+        progress=progress,
+        prior=model2.unit(result.x0),
+    )
+    fit2 = CurveFit(model2, stage.u, model2.designs(stage.u[None])[0], r2, J2, [stage])
+    ident2 = assess(J2, r2, stage.u, model2.sub, dict(truth_map) if truth_map else None)
+    result.rerun = Rerun(best.test, fit2, ident2, time.perf_counter() - t0)
 
 
 def _truth_map(truth: TruthVehicle | None, model: CurveModel) -> dict[str, float] | None:
@@ -727,6 +847,7 @@ def _truth_map(truth: TruthVehicle | None, model: CurveModel) -> dict[str, float
     left = truth.left if model.two_sided else truth.mean_design
     out = {n: float(v) for n, v in zip(names, left, strict=True)}
     out.update({f"{n}@right": float(v) for n, v in zip(names, truth.right, strict=True)})
+    out.update({f"constants.{n}": float(getattr(truth.constants, n)) for n in FITTED_CONSTANTS})
     for e in model.effects:
         for t in truth.effects:
             if (t.kind, t.location) == (e.kind, e.location):
@@ -812,9 +933,12 @@ def split_held_out(measurement: Any, test: str, truth: TruthVehicle | None) -> t
     return measurement, held, "the test car measured with the same noise model, not fitted"
 
 
-def predict_held_out(result: IdentifyResult, held: Any, source: str) -> HeldOut:
+def predict_held_out(
+    result: IdentifyResult, held: Any, source: str, choice: Mapping[str, float] | None = None
+) -> HeldOut:
     """RMS / noise per channel of the held-out test predicted by the first fit and by the
-    answer (the loop's refit when it ran)."""
+    answer (the loop's refit when it ran); ``choice``: the scores it was chosen by
+    (:func:`choose_held_out`)."""
     curves = build_model(held, result.vehicle, result.x0).tests
     out = []
     for fit in (result.fit, result.final_fit):
@@ -823,7 +947,7 @@ def predict_held_out(result: IdentifyResult, held: Any, source: str) -> HeldOut:
         if not ok[0]:
             raise ValidationError(f"identify: the held-out test cannot be simulated: {msg[0]}")
         out.append({c: v for (_, c), v in m.block_rms(R[0]).items()})
-    return HeldOut(next(iter(held.tests)), source, out[0], out[1])
+    return HeldOut(next(iter(held.tests)), source, out[0], out[1], dict(choice or {}))
 
 
 def _travel_amplitude(model: CurveModel) -> float:

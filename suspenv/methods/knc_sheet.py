@@ -10,7 +10,12 @@ Interval (delta method): the metric's gradient ``g`` with respect to the fitted 
 (the fit's unit cube, forward differences of :data:`~suspenv.methods.curve_fit.FD_STEP`,
 all ``dim + 1`` designs in one batched rig call per test group) and the fit's covariance
 ``C`` (:func:`suspenv.methods.identifiability.unit_covariance`: ``s^2 (J'J)^-1``): the
-standard error is ``sqrt(g' C g)``, the 95 % interval +-1.96 of it. The gradient is
+standard error is ``sqrt(g' C g)``, the 95 % interval +-1.96 of it. ``C`` is the larger
+(per metric) of that and the cluster-robust sandwich over the measured loops (one test
+and wheel, every channel: :func:`~suspenv.methods.identifiability.sandwich_covariance`):
+a misfit of a loop's physics (hysteresis of another shape, a fit stopped short) is
+correlated over every channel recorded through it and biases the metrics the loops
+disagree on, which ``s^2``, one factor for every direction, does not see. The gradient is
 taken on the model without its path-dependent elements (a hysteresis loop's mean moves
 with the design as the elastic curve does); the value itself on the whole model. A
 metric that the measured curves do not determine gets a wide interval, not a false one.
@@ -27,7 +32,8 @@ from typing import Any
 import numpy as np
 
 from suspenv.diagnosis.knc.family import PATH_DEPENDENT
-from suspenv.methods.curve_fit import FD_STEP, CurveFit, rig_run
+from suspenv.methods.curve_fit import FD_STEP, CurveFit
+from suspenv.methods.identifiability import sandwich_covariance
 
 #: rig tests the sheet runs on the identified model
 SHEET_TESTS = (
@@ -90,7 +96,17 @@ def _run(fit: CurveFit, X: np.ndarray, effects: Any, steps: int) -> dict[str, An
     for t in model.tests:
         amps.update(amplitude_kwargs(t.test, t.amplitude))
     travel = {k: v for k, v in amps.items() if k == "amplitude"}  # the rig's default loads
-    return rig_run(model.axle(X), SHEET_TESTS, steps, effects, travel)
+    return model.run(X, SHEET_TESTS, steps, effects, travel)
+
+
+def _standard_errors(
+    g: np.ndarray, gd: np.ndarray, covs: tuple[np.ndarray, ...]
+) -> tuple[np.ndarray, float]:
+    """Standard errors of the two wheels' values (gradients ``g`` (dim, 2)) and of their
+    difference (``gd`` (dim,)): the largest over the covariances ``covs``."""
+    se = np.max([np.einsum("ik,ij,jk->k", g, c, g) for c in covs], axis=0)
+    se_d = max(float(gd @ c @ gd) for c in covs)
+    return np.sqrt(np.maximum(se, 0.0)), float(np.sqrt(max(se_d, 0.0)))
 
 
 def knc_sheet(
@@ -116,12 +132,12 @@ def knc_sheet(
     needs = report_needs(measured) if measured else {}
     items = {**ALL_ITEMS, **COMPLIANCE_ITEMS}
     rows = []
+    covs = (cov_unit, sandwich_covariance(fit.jacobian, fit.residual, model.loops()))
     for name, v in value.items():
         g = (grads[name][1:] - grads[name][0]) / h[:, None]  # (dim, 2)
         g = np.where(np.isfinite(g), g, 0.0)
-        se = np.sqrt(np.maximum(np.einsum("ik,ij,jk->k", g, cov_unit, g), 0.0))
         gd = g[:, 1] - g[:, 0]  # right - left: the sides' common errors cancel
-        se_d = float(np.sqrt(max(gd @ cov_unit @ gd, 0.0)))
+        se, se_d = _standard_errors(g, gd, covs)
         if name in loops:  # the gradient's model has no loop: no interval
             se, se_d = np.full(2, np.nan), float("nan")
         item = items[name]

@@ -11,9 +11,9 @@ same :class:`~suspenv.methods.curve_fit.CurveModel` the first fit used:
   ``progressive``: cubic stiffness): every candidate place the K&C diagnosis knows for
   that family (:attr:`suspenv.diagnosis.knc.model.KncAxleModel.candidate_effects`,
   e.g. Dahl hysteresis in the lower-arm bushes, in the top mount, in both, Coulomb
-  friction in the strut) is fitted alone, the design held (its parameters only, the
-  diagnosis' start values and bounds); the candidate with the least sum of squared
-  residuals is kept, which names the place;
+  friction in the strut) is fitted alone (its parameters only, the diagnosis' start
+  values and bounds) with the design free to first order (its Jacobian); the
+  candidate with the least sum of squared residuals is kept, which names the place;
 * patterns of the sensors (load-cell gain or offset) are reported, not modelled.
 
 Once the sides are apart the residual is screened again and only the patterns still
@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 
 from suspenv.core.space import Parameter
-from suspenv.methods.curve_fit import RESTART_GAIN, CurveFit, CurveModel, polish
+from suspenv.methods.curve_fit import PRIOR_WEIGHT, RESTART_GAIN, CurveFit, CurveModel, polish
 from suspenv.models.effects import Effect
 
 #: residual families the loop models by adding an effect to the axle (the others: see
@@ -103,12 +103,20 @@ TRIAL_FACTORS = (1.0, 2.5)
 
 
 def _candidate_fit(
-    model: CurveModel, x: np.ndarray, r0: np.ndarray, family: str, name: str
+    model: CurveModel,
+    x: np.ndarray,
+    r0: np.ndarray,
+    family: str,
+    name: str,
+    J: np.ndarray | None = None,
 ) -> tuple[Candidate, Effect]:
-    """Effect ``name`` added at design ``x`` (held), its one fitted parameter ``p``
-    chosen by a quadratic in ``p`` through the residual without the effect (``r0``, p =
-    0) and at :data:`TRIAL_FACTORS` x its start (one rig call each): the least sum of
-    squares of that quadratic over the parameter's bounds, which is the place's cost."""
+    """Effect ``name`` added at design ``x``, its one fitted parameter ``p`` chosen by a
+    quadratic in ``p`` through the residual without the effect (``r0``, p = 0) and at
+    :data:`TRIAL_FACTORS` x its start (one rig call each) and minimised over the
+    parameter's bounds; that minimiser is solved too (a third rig call), and the least
+    cost solved is the place's. A cost is the sum of squares once the design takes its
+    best first-order step (:func:`_free_cost` with the design's Jacobian ``J`` at
+    ``x``; None: the design held)."""
     from suspenv.diagnosis.knc.model import effect_words, make_candidate
 
     effect = make_candidate(name)
@@ -127,11 +135,29 @@ def _candidate_fit(
     coef = np.linalg.solve(V, np.vstack(R))
     grid = np.geomspace(param.low, param.high, 400)
     pred = coef[0] + np.outer(grid, coef[1]) + np.outer(grid**2, coef[2])
-    cost = np.einsum("ij,ij->i", pred, pred)
-    best = float(grid[np.argmin(cost)])
+    # the quadratic is a model of the loop's growth, far from exact where it extrapolates:
+    # its minimiser is solved too, and the place's cost is the least one solved
+    values = np.r_[p[1:], grid[np.argmin(_free_cost(pred, J))]]
+    cost = _free_cost(np.vstack([*R[1:], _residual(sub, float(values[-1]))]), J)
+    best = float(values[np.argmin(cost)])
     short = param.name.partition(".")[2]
     cand = Candidate(family, name, effect_words(effect), float(cost.min()), {short: best})
     return cand, effect.with_params({short: best})
+
+
+def _free_cost(R: np.ndarray, J: np.ndarray | None) -> np.ndarray:
+    """Sum of squares (k,) of residuals ``R`` (k, N) after the design's best first-order
+    step ``d`` under the polish's pull towards its start: ``min_d |r + J d|^2 +
+    w^2 |d|^2 = r'r - r'J (J'J + w^2 I)^-1 J'r`` (``w`` :data:`PRIOR_WEIGHT`). A place
+    is judged by what the design cannot explain: held, the design's own error (a start
+    in another valley, a side's offset) would be charged to the places alike, and the
+    effect whose pattern happens to cancel it would win."""
+    cost = np.einsum("ij,ij->i", R, R)
+    if J is None:
+        return cost
+    Z = R @ J
+    H = J.T @ J + PRIOR_WEIGHT**2 * np.eye(J.shape[1])
+    return cost - np.einsum("ij,ji->i", Z, np.linalg.solve(H, Z.T))
 
 
 def _residual(model: CurveModel, value: float) -> np.ndarray:
@@ -164,7 +190,7 @@ def refine(
     once the sides are apart (None: the families ``named`` stand)."""
     t0 = time.perf_counter()
     say = say or (lambda _m: None)
-    model, x = fit.model, fit.x
+    model, x, J = fit.model, fit.x, fit.jacobian
     changes: list[str] = []
     tried: list[Candidate] = []
     skipped = [f for f in named if f != SIDES_FAMILY and f not in EFFECT_FAMILIES]
@@ -174,7 +200,7 @@ def refine(
         x = model.base
         changes.append("sides apart: every free parameter but the anti-roll bar gets a right twin")
         say("loop: sides apart (a right-side twin of every free parameter)")
-        stage, _, _ = polish(
+        stage, _, J = polish(
             model, model.unit(x), polish_nfev, progress=progress, prior=model.unit(x0)
         )
         x = model.designs(stage.u[None])[0]
@@ -190,8 +216,8 @@ def refine(
         r0 = _residual_at(model, x)
         # half of the places in the second process when there is one
         there = [] if pool is None else names[1::2]
-        futures = [pool.submit(_candidate_fit, model, x, r0, family, n) for n in there]
-        fits = [_candidate_fit(model, x, r0, family, n) for n in names if n not in there]
+        futures = [pool.submit(_candidate_fit, model, x, r0, family, n, J) for n in there]
+        fits = [_candidate_fit(model, x, r0, family, n, J) for n in names if n not in there]
         fits += [f.result() for f in futures]
         tried += [f[0] for f in fits]
         cand, effect = min(fits, key=lambda f: f[0].cost)

@@ -269,7 +269,7 @@ def _loop_lines(s: dict[str, Any]) -> list[str]:
         out.append(
             f"- **Held-out test** `{h['test']}` ({text(h['source'])}): predicted within "
             f"**{h['worst_after']:.2f} x its noise** (worst channel; first fit "
-            f"{h['worst_before']:.2f})."
+            f"{h['worst_before']:.2f}). Held out because: {text(h['why'])}."
         )
     return out
 
@@ -302,7 +302,7 @@ def _before_after(result: IdentifyResult, s: dict[str, Any]) -> list[str]:
         tried = [
             {
                 "pattern": c["family"],
-                "place tried (effect alone, design held)": text(c["words"]),
+                "place tried (effect alone, design free to first order)": text(c["words"]),
                 "cost": c["cost"],
                 "fitted": ", ".join(f"{k} = {v:.4g}" for k, v in c["values"].items()),
             }
