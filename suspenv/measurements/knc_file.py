@@ -630,6 +630,8 @@ def _check_quantity(where: str, unit: str, si: str, quantity: str) -> None:
 
 
 def _manifest(path: Path) -> tuple[Path, dict[str, Any]]:
+    """(folder, manifest table) of a measurement folder or its ``knc.toml``, every key
+    of the manifest checked (:func:`_check_manifest`)."""
     path = Path(path)
     folder = path if path.is_dir() else path.parent
     toml = folder / MANIFEST if path.is_dir() else path
@@ -639,8 +641,22 @@ def _manifest(path: Path) -> tuple[Path, dict[str, Any]]:
             f"holding {MANIFEST} and one CSV per test)"
         )
     data = read_toml(toml, f"measured-K&C manifest {str(toml)!r}")
-    where = toml.name
+    _check_manifest(data, toml.name)
+    return folder, data
+
+
+def _check_manifest(data: dict[str, Any], where: str) -> None:
+    """The manifest's rules, in the order a reader meets its keys."""
     check_manifest_keys(data, where)
+    _check_identity(data, where)
+    _check_wheels(data.get("wheels", list(SIDES)), where)
+    chans = _check_channel_list(data.get("channels"), where)
+    _check_test_table(data.get("tests"), where)
+    _check_noise_table(data.get("noise", {}), chans, where)
+
+
+def _check_identity(data: dict[str, Any], where: str) -> None:
+    """Format, version, sign convention, the text keys and ``travel_drive``."""
     if data.get("format") != FORMAT:
         raise _refuse(where, f"format must be {FORMAT!r}, but got {data.get('format')!r}")
     if data.get("version") != VERSION:
@@ -659,7 +675,10 @@ def _manifest(path: Path) -> tuple[Path, dict[str, Any]]:
     drive = data.get("travel_drive", "pad")
     if drive not in TRAVEL_DRIVES:
         raise _refuse(where, f"travel_drive must be one of {TRAVEL_DRIVES}, but got {drive!r}")
-    wheels = data.get("wheels", list(SIDES))
+
+
+def _check_wheels(wheels: Any, where: str) -> None:
+    """``wheels``: a non-empty list of distinct :data:`SIDES`."""
     if (
         not isinstance(wheels, list)
         or not wheels
@@ -670,7 +689,10 @@ def _manifest(path: Path) -> tuple[Path, dict[str, Any]]:
             where,
             f"wheels must be a list of distinct wheels from {list(SIDES)}, but got {wheels!r}",
         )
-    chans = data.get("channels")
+
+
+def _check_channel_list(chans: Any, where: str) -> list[str]:
+    """``channels``: a non-empty list of :data:`CHANNELS` names; returned."""
     if not isinstance(chans, list) or not chans or not all(isinstance(c, str) for c in chans):
         raise _refuse(
             where, f"channels must be a non-empty list of channel names, but got {chans!r}"
@@ -680,7 +702,11 @@ def _manifest(path: Path) -> tuple[Path, dict[str, Any]]:
         raise _refuse(
             where, f"unknown channel(s) {unknown}; the format's channels are {list(CHANNELS)}"
         )
-    tests = data.get("tests")
+    return chans
+
+
+def _check_test_table(tests: Any, where: str) -> None:
+    """``[tests]``: at least one known test, each with a plain file name."""
     if not isinstance(tests, dict) or not tests:
         raise _refuse(
             where, "[tests] must name at least one test, e.g. [tests.parallel] file = ..."
@@ -697,7 +723,11 @@ def _manifest(path: Path) -> tuple[Path, dict[str, Any]]:
                 f"[tests.{t}] file must be a plain file name in the folder, but got "
                 f"{spec['file']!r}",
             )
-    noise = data.get("noise", {})
+
+
+def _check_noise_table(noise: Any, chans: list[str], where: str) -> None:
+    """``[noise]``: a table of declared channels -> ``{ sigma > 0, unit }``, the unit
+    of the channel's quantity."""
     if not isinstance(noise, dict):
         raise _refuse(where, f"[noise] must be a table, but got {noise!r}")
     for c, spec in noise.items():
@@ -723,10 +753,10 @@ def _manifest(path: Path) -> tuple[Path, dict[str, Any]]:
             raise _refuse(where, f"[noise] {c}: unit must be text, but got {spec['unit']!r}")
         _, si = _unit(spec["unit"], f"{where} [noise] {c}")
         _check_quantity(f"{where} [noise] {c}", spec["unit"], si, CHANNELS[c])
-    return folder, data
 
 
 def _read_csv(path: Path, limit: int) -> tuple[list[str], list[list[str]]]:
+    """(header cells, data rows) of a test's CSV; blank rows are dropped."""
     if not path.is_file():
         raise RecordingError(f"{path.name}: the test's file does not exist in {str(path.parent)!r}")
     check_text(path, limit)
@@ -745,18 +775,49 @@ def _read_csv(path: Path, limit: int) -> tuple[list[str], list[list[str]]]:
     return [c.strip() for c in rows[0]], rows[1:]
 
 
+@dataclass(frozen=True)
+class _Layout:
+    """What a test's CSV must hold: the test, its drive column and the manifest's
+    channels and wheels."""
+
+    where: str
+    test: str
+    chans: list[str]
+    wheels: list[str]
+
+    @property
+    def drive(self) -> str:
+        return DRIVE_COLUMN[self.test][0]
+
+
+#: a parsed column: (index in the row, factor to SI, the unit its header declared)
+_Column = tuple[int, float, str]
+
+
 def _load_test(
     folder: Path, test: str, spec: dict, chans: list[str], wheels: list[str], limit: int
 ) -> MeasuredTest:
+    """One test's CSV as a :class:`MeasuredTest` (SI): read the table, map its columns,
+    convert and check the numbers, build the channels."""
     path = folder / spec["file"]
     header, rows = _read_csv(path, limit)
-    where = f"{path.name} (test {test!r})"
+    lay = _Layout(f"{path.name} (test {test!r})", test, chans, wheels)
+    cols = _map_columns(lay, header)
+    _check_complete(lay, cols, len(rows))
+    values = _to_numbers(lay.where, header, rows, cols)
+    branch, drive = _check_rows(lay, header, values, cols)
+    channels = _channels(lay, values, cols)
+    units = {header[i]: u for i, _, u in cols.values() if u}
+    return MeasuredTest(test, drive, branch, channels, tuple(wheels), units)
+
+
+def _map_columns(lay: _Layout, header: list[str]) -> dict[str, _Column]:
+    """The header's columns: name -> (index, factor to SI, unit), each header checked
+    (``<name> [<unit>]``, a column of this test, a unit of its quantity)."""
     dup = sorted({h for h in header if header.count(h) > 1})
     if dup:
-        raise _refuse(where, f"the header repeats the column(s) {dup}")
-    drive_name, drive_q = DRIVE_COLUMN[test]
-    # parse the header: name -> (column index, factor, unit)
-    cols: dict[str, tuple[int, float, str]] = {}
+        raise _refuse(lay.where, f"the header repeats the column(s) {dup}")
+    cols: dict[str, _Column] = {}
     for i, h in enumerate(header):
         if h in ("step", "branch"):
             cols[h] = (i, 1.0, "")
@@ -764,47 +825,64 @@ def _load_test(
         mt = _HEADER.match(h)
         if not mt:
             raise _refuse(
-                where,
+                lay.where,
                 f"column {h!r} must be written '<name> [<unit>]' (e.g. 'toe_left [deg]'), "
                 "or be 'step' / 'branch'",
             )
         name, unit = mt.group(1), mt.group(2)
-        factor, si = _unit(unit, f"{where} column {h!r}")
-        if name == drive_name:
-            quantity = drive_q
-        else:
-            stem, _, side = name.rpartition("_")
-            if side not in SIDES or (stem not in chans and stem != TRAVEL_COLUMN):
-                raise _refuse(
-                    where,
-                    f"column {h!r} is not one of this test's columns: 'step', 'branch', "
-                    f"'{drive_name} [unit]', '{TRAVEL_COLUMN}_<side> [unit]' or "
-                    f"'<channel>_<side> [unit]' with a channel of knc.toml {chans} and a "
-                    f"side of {list(wheels)}",
-                )
-            if side not in wheels:
-                raise _refuse(
-                    where,
-                    f"column {h!r} is of the {side} wheel, which knc.toml's wheels {wheels} omit",
-                )
-            quantity = "length" if stem == TRAVEL_COLUMN else CHANNELS[stem]
-        _check_quantity(f"{where} column {h!r}", unit, si, quantity)
+        factor, si = _unit(unit, f"{lay.where} column {h!r}")
+        _check_quantity(f"{lay.where} column {h!r}", unit, si, _quantity(lay, h, name))
         cols[name] = (i, factor, unit)
-    need = ["step", "branch", drive_name] + [f"{c}_{s}" for c in chans for s in wheels]
-    if test in TRAVEL_TESTS:
-        need += [f"{TRAVEL_COLUMN}_{s}" for s in wheels]
+    return cols
+
+
+def _quantity(lay: _Layout, h: str, name: str) -> str:
+    """The quantity of column ``name`` (header ``h``): the drive's, the wheel travel's
+    (length) or its channel's; a column not of this test is refused."""
+    if name == lay.drive:
+        return DRIVE_COLUMN[lay.test][1]
+    stem, _, side = name.rpartition("_")
+    if side not in SIDES or (stem not in lay.chans and stem != TRAVEL_COLUMN):
+        raise _refuse(
+            lay.where,
+            f"column {h!r} is not one of this test's columns: 'step', 'branch', "
+            f"'{lay.drive} [unit]', '{TRAVEL_COLUMN}_<side> [unit]' or "
+            f"'<channel>_<side> [unit]' with a channel of knc.toml {lay.chans} and a "
+            f"side of {list(lay.wheels)}",
+        )
+    if side not in lay.wheels:
+        raise _refuse(
+            lay.where,
+            f"column {h!r} is of the {side} wheel, which knc.toml's wheels {lay.wheels} omit",
+        )
+    return "length" if stem == TRAVEL_COLUMN else CHANNELS[stem]
+
+
+def _check_complete(lay: _Layout, cols: Mapping[str, _Column], rows: int) -> None:
+    """Every column the test needs is present and there are :data:`MIN_SAMPLES` rows."""
+    need = ["step", "branch", lay.drive] + [f"{c}_{s}" for c in lay.chans for s in lay.wheels]
+    if lay.test in TRAVEL_TESTS:
+        need += [f"{TRAVEL_COLUMN}_{s}" for s in lay.wheels]
     missing = [n for n in need if n not in cols]
     if missing:
-        lacks_wheel = [s for s in wheels if any(n.endswith("_" + s) for n in missing)]
+        lacks_wheel = [s for s in lay.wheels if any(n.endswith("_" + s) for n in missing)]
         hint = (
             '; a test needs both wheels\' columns (declare wheels = ["left"] in knc.toml '
             "for a one-wheel bench measurement)"
-            if lacks_wheel and len(wheels) == 2
+            if lacks_wheel and len(lay.wheels) == 2
             else ""
         )
-        raise _refuse(where, f"missing column(s) {missing} (units in brackets){hint}")
-    if len(rows) < MIN_SAMPLES:
-        raise _refuse(where, f"`samples >= {MIN_SAMPLES}` must hold, but got {len(rows)} rows")
+        raise _refuse(lay.where, f"missing column(s) {missing} (units in brackets){hint}")
+    if rows < MIN_SAMPLES:
+        raise _refuse(lay.where, f"`samples >= {MIN_SAMPLES}` must hold, but got {rows} rows")
+
+
+def _to_numbers(
+    where: str, header: list[str], rows: list[list[str]], cols: Mapping[str, _Column]
+) -> np.ndarray:
+    """The rows as numbers (rows, columns), as written (not yet SI); a row of the
+    wrong width, a cell that is not a number or a missing/NaN/inf value of a mapped
+    column is refused."""
     width = len(header)
     values = np.full((len(rows), width), np.nan)
     for r, row in enumerate(rows):
@@ -831,6 +909,15 @@ def _load_test(
                 f"value(s), the first run of {run} from data row {first + 1} (file line "
                 f"{first + 2}); drop or fill those rows",
             )
+    return values
+
+
+def _check_rows(
+    lay: _Layout, header: list[str], values: np.ndarray, cols: Mapping[str, _Column]
+) -> tuple[np.ndarray, np.ndarray]:
+    """(branch (P,) int, drive (P,) [SI]): ``step`` increases strictly, ``branch`` is 0,
+    1 or 2, the drive is strictly monotonic within each branch and varies."""
+    where = lay.where
     step = values[:, cols["step"][0]]
     if not np.all(np.diff(step) > 0):
         k = int(np.argmax(np.diff(step) <= 0))
@@ -844,11 +931,10 @@ def _load_test(
         k = int(np.argmax(~np.isin(branch_f, (0.0, 1.0, 2.0))))
         raise _refuse(where, f"'branch' must be 0, 1 or 2, but row {k + 1} holds {branch_f[k]:g}")
     branch = branch_f.astype(int)
-    di, dfac, _ = cols[drive_name]
-    drive = values[:, di] * dfac
+    di, dfac, _ = cols[lay.drive]
     for b, sense in ((0, 1.0), (1, -1.0), (2, 1.0)):
         idx = np.flatnonzero(branch == b)
-        d = np.diff(drive[idx]) * sense
+        d = np.diff(values[idx, di] * dfac) * sense
         if d.size and not np.all(d > 0):
             k = int(np.argmax(d <= 0))
             word = "decrease" if sense < 0 else "increase"
@@ -858,27 +944,38 @@ def _load_test(
                 f"{idx[k] + 1} and {idx[k + 1] + 1} hold {values[idx[k], di]:g} and "
                 f"{values[idx[k + 1], di]:g}",
             )
+    drive = values[:, di] * dfac
     if not np.ptp(drive) > 0:
         raise _refuse(where, f"the drive '{header[di]}' must vary, but is constant")
-    P = len(rows)
-    channels: dict[str, np.ndarray] = {}
-    for ch in chans:
-        arr = np.full((P, 2), np.nan)
-        for s in wheels:
-            i, fac, _ = cols[f"{ch}_{s}"]
-            arr[:, SIDES.index(s)] = values[:, i] * fac
-        channels[ch] = arr
-    if all(f"{TRAVEL_COLUMN}_{s}" in cols for s in wheels):
-        arr = np.full((P, 2), np.nan)
-        for s in wheels:
-            i, fac, _ = cols[f"{TRAVEL_COLUMN}_{s}"]
-            arr[:, SIDES.index(s)] = values[:, i] * fac
-        if "wheel_centre_z" in channels:  # both given: they must agree
-            check_wheel_travel(where, arr, channels["wheel_centre_z"])
-        else:  # wheel-centre height from its travel: origin at the static height
-            channels["wheel_centre_z"] = arr
-    units = {header[i]: u for _, (i, _, u) in cols.items() if u}
-    return MeasuredTest(test, drive, branch, channels, tuple(wheels), units)
+    return branch, drive
+
+
+def _per_wheel(
+    values: np.ndarray, cols: Mapping[str, _Column], stem: str, wheels: list[str]
+) -> np.ndarray:
+    """Columns ``<stem>_<side>`` in SI as (P, 2) (left, right); a wheel not in
+    ``wheels`` is NaN."""
+    arr = np.full((values.shape[0], 2), np.nan)
+    for s in wheels:
+        i, fac, _ = cols[f"{stem}_{s}"]
+        arr[:, SIDES.index(s)] = values[:, i] * fac
+    return arr
+
+
+def _channels(
+    lay: _Layout, values: np.ndarray, cols: Mapping[str, _Column]
+) -> dict[str, np.ndarray]:
+    """The declared channels (SI, (P, 2)); ``wheel_centre_z`` from the wheel-travel
+    columns when the file has them but not the channel (origin at the static height),
+    else the two checked to agree (:func:`check_wheel_travel`)."""
+    channels = {ch: _per_wheel(values, cols, ch, lay.wheels) for ch in lay.chans}
+    if all(f"{TRAVEL_COLUMN}_{s}" in cols for s in lay.wheels):
+        travel = _per_wheel(values, cols, TRAVEL_COLUMN, lay.wheels)
+        if "wheel_centre_z" in channels:
+            check_wheel_travel(lay.where, travel, channels["wheel_centre_z"])
+        else:
+            channels["wheel_centre_z"] = travel
+    return channels
 
 
 def load_measurement(
