@@ -28,7 +28,9 @@ Frames, units and signs:
   when the rig drives the wheel centre instead), the force at both contact points
   (``lateral`` +y, ``longitudinal`` +x) or wheel centres (``traction`` +x), the moment
   about +z at both contact points (``aligning``) or the rack travel along +y
-  (``steering``);
+  (``steering``); an opposed test's force outboard at both contact points
+  (``lateral_opposed``: +y left, -y right) or toe-out moment at both
+  (``aligning_opposed``: +z left, -z right), the columns of its in-phase test;
 * ``branch`` is 0 on the first leg design -> +end, 1 on +end -> -end, 2 on -end -> design
   (:func:`suspenv.measurements.knc.branch_index`); the drive must be strictly monotonic
   within a branch (increasing on 0 and 2, decreasing on 1).
@@ -78,15 +80,14 @@ SIGN_CONVENTION = "ISO 8855"
 SIDES = ("left", "right")
 
 #: travel, compliance (force or moment) and steering tests of the format
-TRAVEL_TESTS = ("parallel", "opposite", "single")
-FORCE_TESTS = ("lateral", "longitudinal", "traction", "aligning")
-STEER_TESTS = ("steering",)
-#: every test the format knows (the rig's names, plus those it may not run yet)
-KNOWN_TESTS: tuple[str, ...] = tuple(
-    dict.fromkeys((*_knc.ALL_TESTS, *TRAVEL_TESTS, *FORCE_TESTS, *STEER_TESTS))
-)
+TRAVEL_TESTS = _knc.TESTS
+FORCE_TESTS = _knc.FORCE_TESTS
+STEER_TESTS = _knc.STEER_TESTS
+#: every test the format knows: the rig's in-phase tests and the opposed ones
+KNOWN_TESTS: tuple[str, ...] = (*_knc.ALL_TESTS, *_knc.OPPOSED_TESTS)
 
-#: test -> (drive column name, quantity of its unit)
+#: test -> (drive column name, quantity of its unit); an opposed test has its in-phase
+#: test's column
 DRIVE_COLUMN: dict[str, tuple[str, str]] = {
     **{t: ("stroke", "length") for t in TRAVEL_TESTS},
     "lateral": ("force", "force"),
@@ -95,6 +96,7 @@ DRIVE_COLUMN: dict[str, tuple[str, str]] = {
     "aligning": ("moment", "moment"),
     "steering": ("rack_travel", "length"),
 }
+DRIVE_COLUMN.update({o: DRIVE_COLUMN[p] for o, p in _knc.OPPOSED_TESTS.items()})
 
 #: SI unit -> quantity
 QUANTITY = {"m": "length", "rad": "angle", "N": "force", "N*m": "moment"}
@@ -1040,11 +1042,37 @@ def load_measurement(
         "steps": {t: s for t, m in loaded.items() if (s := m.uniform_steps()) is not None},
         "units": {t: m.units for t, m in loaded.items()},
         "path": str(folder),
-        "warnings": check_tests(loaded, {t: s["file"] for t, s in data["tests"].items()}, CHANNELS),
+        "warnings": check_tests(*_check_views(loaded, data["tests"]), CHANNELS),
     }
     if "notes" in data:
         meta["notes"] = data["notes"]
     return _assemble(data["name"], loaded, declared, meta)
+
+
+def _check_views(
+    tests: Mapping[str, MeasuredTest], specs: Mapping[str, Mapping[str, Any]]
+) -> tuple[dict[str, MeasuredTest], dict[str, str]]:
+    """(tests, test -> file name) as :func:`check_tests` reads them. An opposed test is
+    its in-phase test one wheel at a time, each wheel driven by its own load (the
+    right wheel's is the in-phase load negated), so every wheel meets the in-phase
+    test's rules; the left-right rule (the track) needs both wheels of one test and is
+    left to the other tests of the folder."""
+    views: dict[str, MeasuredTest] = {}
+    files: dict[str, str] = {}
+    for name, t in tests.items():
+        in_phase = _knc.OPPOSED_TESTS.get(name)
+        if in_phase is None:
+            views[name], files[name] = t, specs[name]["file"]
+            continue
+        for w, side in enumerate(SIDES):
+            if side not in t.wheels:
+                continue
+            key = f"{name}, {side} wheel"
+            one = {c: np.where(np.arange(2) == w, v, np.nan) for c, v in t.channels.items()}
+            drive = -t.drive if side == "right" else t.drive
+            views[key] = MeasuredTest(in_phase, drive, t.branch, one, (side,))
+            files[key] = specs[name]["file"]
+    return views, files
 
 
 # ------------------------------------------------------------------ compliance analysis
