@@ -175,11 +175,6 @@ def drive_label(rec: RecordingLike) -> tuple[str, float]:
     return "own pad travel [mm]", 1e3
 
 
-def grid_of(rec: RecordingLike) -> tuple[np.ndarray, np.ndarray]:
-    """(grid index (P,) int, branch (P,) int) of a K&C recording."""
-    return rec.inputs["grid"].astype(int), rec.inputs["branch"].astype(int)
-
-
 def half_loops(rec: RecordingLike, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """A channel along the loop split into its two branches on the grid.
 
@@ -188,7 +183,7 @@ def half_loops(rec: RecordingLike, values: np.ndarray) -> tuple[np.ndarray, np.n
     then the first leg design -> bump).
     """
     steps = int(rec.meta["steps"])
-    gi, br = grid_of(rec)
+    gi, br = rec.inputs["grid"].astype(int), rec.inputs["branch"].astype(int)
     v = np.asarray(values, float)
     down = np.full(steps + 1, np.nan)
     up = np.full(steps + 1, np.nan)
