@@ -560,3 +560,21 @@ def test_opposed_tests_meet_the_in_phase_rules_wheel_by_wheel(tmp_path, opposed_
 
     edit_csv(path, in_kn)
     refused(tmp_path, r"lateral_opposed\.csv .*the drive reaches only")
+
+
+def test_the_sheets_opposed_compliances_come_from_a_loaded_folder(tmp_path, opposed_results):
+    """Reference: the compliance report of the rig's own opposed results. The same
+    report of the folder written and loaded back gives every opposed item (slopes over
+    +-2500 N and +-250 N*m of values kept to 15 digits: 1e-9 relative is far above the
+    rounding)."""
+    from suspenv.metrics.knc_report import compliance_report
+    from suspenv.rigs.knc_measured import measured_results
+
+    write_measurement(from_results(opposed_results, "car"), tmp_path)
+    sim = compliance_report(opposed_results)
+    loaded = compliance_report(measured_results(load_measurement(tmp_path)))
+    opposed = [k for k in sim if "opposed" in k]
+    assert len(opposed) == 8
+    for k in opposed:
+        assert np.all(np.isfinite(sim[k])), k
+        np.testing.assert_allclose(loaded[k], sim[k], rtol=1e-9, atol=0, err_msg=k)
