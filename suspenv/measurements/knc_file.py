@@ -76,7 +76,7 @@ VERSION = 1
 #: the manifest's file name inside a measurement folder
 MANIFEST = "knc.toml"
 SIGN_CONVENTION = "ISO 8855"
-SIDES = ("left", "right")
+SIDES = _knc.SIDES
 
 #: travel, compliance (force or moment) and steering tests of the format
 TRAVEL_TESTS = _knc.TESTS
