@@ -483,3 +483,98 @@ def test_garbage_csv_is_refused_with_a_named_error(
     path.write_bytes(header + data)
     with contextlib.suppress(ValidationError):  # RecordingError is a ValidationError
         load_measurement(folder)
+
+
+# ------------------------------------------------------------------ opposed tests
+OPPOSED = ("lateral_opposed", "aligning_opposed")
+
+
+@pytest.fixture(scope="module")
+def opposed_results():
+    """The rig's opposed tests of the reference vehicle (10 steps, default loads)."""
+    v = load_vehicle(REFERENCE_FILE)
+    return run_tests(v.axle(), OPPOSED, 0.040, 10, v.effects)
+
+
+def test_the_formats_opposed_tests_are_the_rigs(opposed_results):
+    """measurements.knc.OPPOSED_TESTS (the measurement layer does not import the rig)
+    names the rig's opposed tests and their in-phase tests, none of which is in the
+    pinned ALL_TESTS."""
+    from suspenv.measurements.knc import OPPOSED_TESTS
+    from suspenv.rigs.knc import OPPOSED_TESTS as RIG_OPPOSED
+
+    assert OPPOSED_TESTS == RIG_OPPOSED
+    assert not set(OPPOSED_TESTS) & set(ALL_TESTS)
+    assert set(opposed_results) == set(OPPOSED)
+
+
+def test_opposed_tests_written_to_a_folder_load_back_as_the_rigs_output(
+    tmp_path, opposed_results
+):
+    """Reference: the rig's own results. The file holds 15 significant digits of
+    mm/deg/N/N*m values, so drive and channels agree to 1e-13 of their size; the
+    drive column is the in-phase test's (force [N], moment [N*m])."""
+    write_measurement(from_results(opposed_results, "car"), tmp_path)
+    m = load_measurement(tmp_path)
+    assert set(m.tests) == set(OPPOSED) and m.meta["warnings"] == []
+    header = (tmp_path / "lateral_opposed.csv").read_text().splitlines()[0].split(",")
+    assert header[2] == "force [N]"
+    assert (tmp_path / "aligning_opposed.csv").read_text().split(",")[2] == "moment [N*m]"
+    for test, res in opposed_results.items():
+        mt = m.tests[test]
+        np.testing.assert_array_equal(mt.branch, branch_index(10).astype(int))
+        np.testing.assert_allclose(mt.drive, res.grid[res.path], rtol=1e-14, atol=0)
+        assert mt.uniform_steps() == 10 and m.meta["steps"][test] == 10
+        for name in m.channels:
+            v = res.channels[name][0]
+            scale = np.max(np.abs(v)) or 1.0
+            np.testing.assert_allclose(mt.channels[name], v, rtol=0, atol=1e-13 * scale)
+        back = on_grid(mt)
+        assert back.unit == res.unit
+        np.testing.assert_array_equal(back.path, res.path)
+
+
+def test_opposed_tests_meet_the_in_phase_rules_wheel_by_wheel(tmp_path, opposed_results):
+    """The in-phase lateral rule (each contact point moves along its own load) with each
+    wheel's own sense: the right contact point of ``lateral_opposed`` moves along -y
+    with +F, so reflecting it about its mean (track unchanged) is refused, and a force
+    written in kN labelled N is refused as a force too small for any rig."""
+    write_measurement(from_results(opposed_results, "car"), tmp_path)
+    path = tmp_path / "lateral_opposed.csv"
+    header = path.read_text().splitlines()[0].split(",")
+    j = header.index("contact_y_right [mm]")
+
+    def reflect(header: list[str], rows: list[list[str]]) -> None:
+        y = np.array([float(r[j]) for r in rows])
+        for r, v in zip(rows, 2 * y.mean() - y, strict=True):
+            r[j] = repr(float(v))
+
+    original = path.read_text()
+    edit_csv(path, reflect)
+    refused(tmp_path, r"lateral_opposed\.csv .*contact_y_right must move along the force")
+    path.write_text(original)
+
+    def in_kn(header: list[str], rows: list[list[str]]) -> None:
+        for r in rows:
+            r[2] = repr(float(r[2]) / 1e3)
+
+    edit_csv(path, in_kn)
+    refused(tmp_path, r"lateral_opposed\.csv .*the drive reaches only")
+
+
+def test_the_sheets_opposed_compliances_come_from_a_loaded_folder(tmp_path, opposed_results):
+    """Reference: the compliance report of the rig's own opposed results. The same
+    report of the folder written and loaded back gives every opposed item (slopes over
+    +-2500 N and +-250 N*m of values kept to 15 digits: 1e-9 relative is far above the
+    rounding)."""
+    from suspenv.metrics.knc_report import compliance_report
+    from suspenv.rigs.knc_measured import measured_results
+
+    write_measurement(from_results(opposed_results, "car"), tmp_path)
+    sim = compliance_report(opposed_results)
+    loaded = compliance_report(measured_results(load_measurement(tmp_path)))
+    opposed = [k for k in sim if "opposed" in k]
+    assert len(opposed) == 8
+    for k in opposed:
+        assert np.all(np.isfinite(sim[k])), k
+        np.testing.assert_allclose(loaded[k], sim[k], rtol=1e-9, atol=0, err_msg=k)

@@ -1,6 +1,6 @@
 """The Formula Student toe-compliance data as measured-K&C data
 (suspenv/measurements/sources/fsae_knc.py) and the compliance analysis
-(suspenv.measurements.knc_file.compliance_analysis).
+(suspenv.measurements.knc_compliance.compliance_analysis).
 
 The analysis is first checked on closed-form curves (exact slopes, asymmetry and
 saturation); the real file's tests skip where the shared data is absent."""
@@ -13,10 +13,10 @@ import pytest
 from suspenv.cli.main import main
 from suspenv.core.errors import ValidationError
 from suspenv.measurements import RecordingError
+from suspenv.measurements.knc_compliance import compliance_analysis
 from suspenv.measurements.knc_file import (
     KncMeasurement,
     MeasuredTest,
-    compliance_analysis,
     load_measurement,
     write_measurement,
 )

@@ -228,13 +228,13 @@ def run_measured(args: argparse.Namespace) -> int:
     print its tests and noise and the compliance analysis of each compliance test's toe.
     ``suspenv knc fsae``: first write the shared FSAE moment file in the format into
     ``--out`` (:func:`~suspenv.measurements.sources.fsae_knc.fsae_aligning`)."""
+    from suspenv.measurements.knc_compliance import compliance_analysis
     from suspenv.measurements.knc_file import (
         CHANNELS,
         DRIVE_COLUMN,
         EDGE_UNIT,
         FORCE_TESTS,
         UNITS,
-        compliance_analysis,
         load_measurement,
         write_measurement,
     )

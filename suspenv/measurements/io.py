@@ -101,9 +101,34 @@ def load_recording(
     ``meta["converted_from"]``); an unknown unit is refused, never taken as SI.
     """
     path = Path(path)
+    header, chans, time = _read_archive(path, read_limit(max_bytes))
+    where = f"{path.name}: recording {header['name']!r} (test {header['test']!r})"
+    declared: dict[str, str] = header["units"]
+    _check_expected_units(where, declared, expect_units or {})
+    units = dict(declared)
+    clock = {"time": time}
+    converted = _convert_to_si(where, (chans["in"], chans["out"], clock), units)
+    meta = dict(header.get("meta", {}))
+    if converted:
+        meta["converted_from"] = converted
+    try:
+        rec = Recording(
+            header["name"], header["test"], clock["time"], chans["in"], chans["out"], units, meta
+        )
+        rec.require(require_inputs, require_outputs)
+    except RecordingError as exc:
+        raise RecordingError(f"{path.name}: {exc}") from None
+    return rec
+
+
+def _read_archive(
+    path: Path, limit: int
+) -> tuple[dict[str, Any], dict[str, dict[str, np.ndarray]], np.ndarray]:
+    """(checked header, ``{"in": ..., "out": ...}`` channels, time) of the archive
+    ``path``, its expanded size bounded by ``limit`` [bytes] before anything is read."""
     if not path.is_file():
         raise RecordingError(f"recording file {str(path)!r} does not exist")
-    check_npz(path, read_limit(max_bytes))
+    check_npz(path, limit)
     try:
         npz = np.load(path, allow_pickle=False)
     except Exception as exc:  # noqa: BLE001 - any reader failure means "not our format"
@@ -125,9 +150,14 @@ def load_recording(
                     raise RecordingError(f"{path.name}: missing {kind} channel {name!r}")
                 chans[prefix][name] = _numbers(_member(npz, key, path), name, path)
         time = _numbers(_member(npz, "time", path), "time", path)
-    where = f"{path.name}: recording {header['name']!r} (test {header['test']!r})"
-    declared: dict[str, str] = header["units"]
-    for name, unit in (expect_units or {}).items():
+    return header, chans, time
+
+
+def _check_expected_units(
+    where: str, declared: Mapping[str, str], expect_units: Mapping[str, str]
+) -> None:
+    """Every channel of ``expect_units`` is declared in the file in that unit."""
+    for name, unit in expect_units.items():
         if name not in declared:
             raise RecordingError(f"{where}: missing channel {name!r} (expected unit {unit!r})")
         if declared[name] != unit:
@@ -135,10 +165,17 @@ def load_recording(
                 f"{where}: channel {name!r} must be in {unit!r}, but its unit is "
                 f"{declared[name]!r}"
             )
-    units = dict(declared)
+
+
+def _convert_to_si(
+    where: str, groups: Iterable[dict[str, np.ndarray]], units: dict[str, str]
+) -> dict[str, str]:
+    """Convert, in place, every channel of ``groups`` whose unit in ``units`` is not SI
+    (``units`` updated to the SI unit); returns channel -> the unit converted from. A
+    channel without a unit is left to :class:`Recording`'s own rule; an unknown unit
+    is refused."""
     converted: dict[str, str] = {}
-    clock = {"time": time}
-    for group in (chans["in"], chans["out"], clock):
+    for group in groups:
         for name in list(group):
             stored = units.get(name)
             if stored is None or stored in SI_UNITS:
@@ -151,18 +188,7 @@ def load_recording(
                     f"are {sorted(FACTORS)}"
                 ) from None
             converted[name] = stored
-    time = clock["time"]
-    meta = dict(header.get("meta", {}))
-    if converted:
-        meta["converted_from"] = converted
-    try:
-        rec = Recording(
-            header["name"], header["test"], time, chans["in"], chans["out"], units, meta
-        )
-        rec.require(require_inputs, require_outputs)
-    except RecordingError as exc:
-        raise RecordingError(f"{path.name}: {exc}") from None
-    return rec
+    return converted
 
 
 def _member(npz: Any, key: str, path: Path) -> np.ndarray:
@@ -206,6 +232,12 @@ def _header(raw: np.ndarray, path: Path) -> dict[str, Any]:
         raise RecordingError(
             f"{path.name}: '__meta__' must be a JSON object, but got {type(header).__name__}"
         )
+    _check_header_keys(header, path)
+    return header
+
+
+def _check_header_keys(header: dict[str, Any], path: Path) -> None:
+    """The header's format tag, version, keys and their types."""
     if header.get("format") != FORMAT:
         raise RecordingError(
             f"{path.name}: format must be {FORMAT!r}, but got {header.get('format')!r}"
@@ -243,4 +275,3 @@ def _header(raw: np.ndarray, path: Path) -> dict[str, Any]:
             f"{path.name}: '__meta__' 'meta' must be a JSON object, but got "
             f"{type(header['meta']).__name__}"
         )
-    return header

@@ -50,6 +50,13 @@ FORCE_TESTS = ("lateral", "longitudinal", "traction", "aligning")
 #: steering test: rack travel along +y (ISO 8855, to the left), pads static
 STEER_TESTS = ("steering",)
 ALL_TESTS = TESTS + FORCE_TESTS + STEER_TESTS
+#: opposed (anti-phase) compliance tests -> the in-phase test whose load they turn on
+#: the right wheel (:data:`suspenv.rigs.knc.OPPOSED_TESTS`, pinned equal by a test):
+#: ``lateral_opposed`` +F [N] outboard at both contact points (+y left, -y right),
+#: ``aligning_opposed`` +M [N*m] toe-out at both (+z left, -z right). Not in
+#: :data:`ALL_TESTS` (the identification's tests and its next-test advice); the
+#: measured-K&C format loads them
+OPPOSED_TESTS: dict[str, str] = {"lateral_opposed": "lateral", "aligning_opposed": "aligning"}
 #: unit of each test's drive (the rig grid, ``KCResult.unit``, a recording's amplitude):
 #: pad stroke [m], force [N], moment [N*m] or rack travel [m]
 DRIVE_UNIT: dict[str, str] = {
@@ -168,11 +175,6 @@ def drive_label(rec: RecordingLike) -> tuple[str, float]:
     return "own pad travel [mm]", 1e3
 
 
-def grid_of(rec: RecordingLike) -> tuple[np.ndarray, np.ndarray]:
-    """(grid index (P,) int, branch (P,) int) of a K&C recording."""
-    return rec.inputs["grid"].astype(int), rec.inputs["branch"].astype(int)
-
-
 def half_loops(rec: RecordingLike, values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """A channel along the loop split into its two branches on the grid.
 
@@ -181,7 +183,7 @@ def half_loops(rec: RecordingLike, values: np.ndarray) -> tuple[np.ndarray, np.n
     then the first leg design -> bump).
     """
     steps = int(rec.meta["steps"])
-    gi, br = grid_of(rec)
+    gi, br = rec.inputs["grid"].astype(int), rec.inputs["branch"].astype(int)
     v = np.asarray(values, float)
     down = np.full(steps + 1, np.nan)
     up = np.full(steps + 1, np.nan)

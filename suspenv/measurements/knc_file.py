@@ -28,7 +28,9 @@ Frames, units and signs:
   when the rig drives the wheel centre instead), the force at both contact points
   (``lateral`` +y, ``longitudinal`` +x) or wheel centres (``traction`` +x), the moment
   about +z at both contact points (``aligning``) or the rack travel along +y
-  (``steering``);
+  (``steering``); an opposed test's force outboard at both contact points
+  (``lateral_opposed``: +y left, -y right) or toe-out moment at both
+  (``aligning_opposed``: +z left, -z right), the columns of its in-phase test;
 * ``branch`` is 0 on the first leg design -> +end, 1 on +end -> -end, 2 on -end -> design
   (:func:`suspenv.measurements.knc.branch_index`); the drive must be strictly monotonic
   within a branch (increasing on 0 and 2, decreasing on 1).
@@ -54,7 +56,6 @@ import re
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from statistics import NormalDist
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -75,18 +76,17 @@ VERSION = 1
 #: the manifest's file name inside a measurement folder
 MANIFEST = "knc.toml"
 SIGN_CONVENTION = "ISO 8855"
-SIDES = ("left", "right")
+SIDES = _knc.SIDES
 
 #: travel, compliance (force or moment) and steering tests of the format
-TRAVEL_TESTS = ("parallel", "opposite", "single")
-FORCE_TESTS = ("lateral", "longitudinal", "traction", "aligning")
-STEER_TESTS = ("steering",)
-#: every test the format knows (the rig's names, plus those it may not run yet)
-KNOWN_TESTS: tuple[str, ...] = tuple(
-    dict.fromkeys((*_knc.ALL_TESTS, *TRAVEL_TESTS, *FORCE_TESTS, *STEER_TESTS))
-)
+TRAVEL_TESTS = _knc.TESTS
+FORCE_TESTS = _knc.FORCE_TESTS
+STEER_TESTS = _knc.STEER_TESTS
+#: every test the format knows: the rig's in-phase tests and the opposed ones
+KNOWN_TESTS: tuple[str, ...] = (*_knc.ALL_TESTS, *_knc.OPPOSED_TESTS)
 
-#: test -> (drive column name, quantity of its unit)
+#: test -> (drive column name, quantity of its unit); an opposed test has its in-phase
+#: test's column
 DRIVE_COLUMN: dict[str, tuple[str, str]] = {
     **{t: ("stroke", "length") for t in TRAVEL_TESTS},
     "lateral": ("force", "force"),
@@ -95,6 +95,7 @@ DRIVE_COLUMN: dict[str, tuple[str, str]] = {
     "aligning": ("moment", "moment"),
     "steering": ("rack_travel", "length"),
 }
+DRIVE_COLUMN.update({o: DRIVE_COLUMN[p] for o, p in _knc.OPPOSED_TESTS.items()})
 
 #: SI unit -> quantity
 QUANTITY = {"m": "length", "rad": "angle", "N": "force", "N*m": "moment"}
@@ -630,6 +631,8 @@ def _check_quantity(where: str, unit: str, si: str, quantity: str) -> None:
 
 
 def _manifest(path: Path) -> tuple[Path, dict[str, Any]]:
+    """(folder, manifest table) of a measurement folder or its ``knc.toml``, every key
+    of the manifest checked (:func:`_check_manifest`)."""
     path = Path(path)
     folder = path if path.is_dir() else path.parent
     toml = folder / MANIFEST if path.is_dir() else path
@@ -639,8 +642,22 @@ def _manifest(path: Path) -> tuple[Path, dict[str, Any]]:
             f"holding {MANIFEST} and one CSV per test)"
         )
     data = read_toml(toml, f"measured-K&C manifest {str(toml)!r}")
-    where = toml.name
+    _check_manifest(data, toml.name)
+    return folder, data
+
+
+def _check_manifest(data: dict[str, Any], where: str) -> None:
+    """The manifest's rules, in the order a reader meets its keys."""
     check_manifest_keys(data, where)
+    _check_identity(data, where)
+    _check_wheels(data.get("wheels", list(SIDES)), where)
+    chans = _check_channel_list(data.get("channels"), where)
+    _check_test_table(data.get("tests"), where)
+    _check_noise_table(data.get("noise", {}), chans, where)
+
+
+def _check_identity(data: dict[str, Any], where: str) -> None:
+    """Format, version, sign convention, the text keys and ``travel_drive``."""
     if data.get("format") != FORMAT:
         raise _refuse(where, f"format must be {FORMAT!r}, but got {data.get('format')!r}")
     if data.get("version") != VERSION:
@@ -659,7 +676,10 @@ def _manifest(path: Path) -> tuple[Path, dict[str, Any]]:
     drive = data.get("travel_drive", "pad")
     if drive not in TRAVEL_DRIVES:
         raise _refuse(where, f"travel_drive must be one of {TRAVEL_DRIVES}, but got {drive!r}")
-    wheels = data.get("wheels", list(SIDES))
+
+
+def _check_wheels(wheels: Any, where: str) -> None:
+    """``wheels``: a non-empty list of distinct :data:`SIDES`."""
     if (
         not isinstance(wheels, list)
         or not wheels
@@ -670,7 +690,10 @@ def _manifest(path: Path) -> tuple[Path, dict[str, Any]]:
             where,
             f"wheels must be a list of distinct wheels from {list(SIDES)}, but got {wheels!r}",
         )
-    chans = data.get("channels")
+
+
+def _check_channel_list(chans: Any, where: str) -> list[str]:
+    """``channels``: a non-empty list of :data:`CHANNELS` names; returned."""
     if not isinstance(chans, list) or not chans or not all(isinstance(c, str) for c in chans):
         raise _refuse(
             where, f"channels must be a non-empty list of channel names, but got {chans!r}"
@@ -680,7 +703,11 @@ def _manifest(path: Path) -> tuple[Path, dict[str, Any]]:
         raise _refuse(
             where, f"unknown channel(s) {unknown}; the format's channels are {list(CHANNELS)}"
         )
-    tests = data.get("tests")
+    return chans
+
+
+def _check_test_table(tests: Any, where: str) -> None:
+    """``[tests]``: at least one known test, each with a plain file name."""
     if not isinstance(tests, dict) or not tests:
         raise _refuse(
             where, "[tests] must name at least one test, e.g. [tests.parallel] file = ..."
@@ -697,7 +724,11 @@ def _manifest(path: Path) -> tuple[Path, dict[str, Any]]:
                 f"[tests.{t}] file must be a plain file name in the folder, but got "
                 f"{spec['file']!r}",
             )
-    noise = data.get("noise", {})
+
+
+def _check_noise_table(noise: Any, chans: list[str], where: str) -> None:
+    """``[noise]``: a table of declared channels -> ``{ sigma > 0, unit }``, the unit
+    of the channel's quantity."""
     if not isinstance(noise, dict):
         raise _refuse(where, f"[noise] must be a table, but got {noise!r}")
     for c, spec in noise.items():
@@ -723,10 +754,10 @@ def _manifest(path: Path) -> tuple[Path, dict[str, Any]]:
             raise _refuse(where, f"[noise] {c}: unit must be text, but got {spec['unit']!r}")
         _, si = _unit(spec["unit"], f"{where} [noise] {c}")
         _check_quantity(f"{where} [noise] {c}", spec["unit"], si, CHANNELS[c])
-    return folder, data
 
 
 def _read_csv(path: Path, limit: int) -> tuple[list[str], list[list[str]]]:
+    """(header cells, data rows) of a test's CSV; blank rows are dropped."""
     if not path.is_file():
         raise RecordingError(f"{path.name}: the test's file does not exist in {str(path.parent)!r}")
     check_text(path, limit)
@@ -745,18 +776,49 @@ def _read_csv(path: Path, limit: int) -> tuple[list[str], list[list[str]]]:
     return [c.strip() for c in rows[0]], rows[1:]
 
 
+@dataclass(frozen=True)
+class _Layout:
+    """What a test's CSV must hold: the test, its drive column and the manifest's
+    channels and wheels."""
+
+    where: str
+    test: str
+    chans: list[str]
+    wheels: list[str]
+
+    @property
+    def drive(self) -> str:
+        return DRIVE_COLUMN[self.test][0]
+
+
+#: a parsed column: (index in the row, factor to SI, the unit its header declared)
+_Column = tuple[int, float, str]
+
+
 def _load_test(
     folder: Path, test: str, spec: dict, chans: list[str], wheels: list[str], limit: int
 ) -> MeasuredTest:
+    """One test's CSV as a :class:`MeasuredTest` (SI): read the table, map its columns,
+    convert and check the numbers, build the channels."""
     path = folder / spec["file"]
     header, rows = _read_csv(path, limit)
-    where = f"{path.name} (test {test!r})"
+    lay = _Layout(f"{path.name} (test {test!r})", test, chans, wheels)
+    cols = _map_columns(lay, header)
+    _check_complete(lay, cols, len(rows))
+    values = _to_numbers(lay.where, header, rows, cols)
+    branch, drive = _check_rows(lay, header, values, cols)
+    channels = _channels(lay, values, cols)
+    units = {header[i]: u for i, _, u in cols.values() if u}
+    return MeasuredTest(test, drive, branch, channels, tuple(wheels), units)
+
+
+def _map_columns(lay: _Layout, header: list[str]) -> dict[str, _Column]:
+    """The header's columns: name -> (index, factor to SI, unit), each header checked
+    (``<name> [<unit>]``, a column of this test, a unit of its quantity)."""
     dup = sorted({h for h in header if header.count(h) > 1})
     if dup:
-        raise _refuse(where, f"the header repeats the column(s) {dup}")
-    drive_name, drive_q = DRIVE_COLUMN[test]
-    # parse the header: name -> (column index, factor, unit)
-    cols: dict[str, tuple[int, float, str]] = {}
+        raise _refuse(lay.where, f"the header repeats the column(s) {dup}")
+    cols: dict[str, _Column] = {}
     for i, h in enumerate(header):
         if h in ("step", "branch"):
             cols[h] = (i, 1.0, "")
@@ -764,47 +826,64 @@ def _load_test(
         mt = _HEADER.match(h)
         if not mt:
             raise _refuse(
-                where,
+                lay.where,
                 f"column {h!r} must be written '<name> [<unit>]' (e.g. 'toe_left [deg]'), "
                 "or be 'step' / 'branch'",
             )
         name, unit = mt.group(1), mt.group(2)
-        factor, si = _unit(unit, f"{where} column {h!r}")
-        if name == drive_name:
-            quantity = drive_q
-        else:
-            stem, _, side = name.rpartition("_")
-            if side not in SIDES or (stem not in chans and stem != TRAVEL_COLUMN):
-                raise _refuse(
-                    where,
-                    f"column {h!r} is not one of this test's columns: 'step', 'branch', "
-                    f"'{drive_name} [unit]', '{TRAVEL_COLUMN}_<side> [unit]' or "
-                    f"'<channel>_<side> [unit]' with a channel of knc.toml {chans} and a "
-                    f"side of {list(wheels)}",
-                )
-            if side not in wheels:
-                raise _refuse(
-                    where,
-                    f"column {h!r} is of the {side} wheel, which knc.toml's wheels {wheels} omit",
-                )
-            quantity = "length" if stem == TRAVEL_COLUMN else CHANNELS[stem]
-        _check_quantity(f"{where} column {h!r}", unit, si, quantity)
+        factor, si = _unit(unit, f"{lay.where} column {h!r}")
+        _check_quantity(f"{lay.where} column {h!r}", unit, si, _quantity(lay, h, name))
         cols[name] = (i, factor, unit)
-    need = ["step", "branch", drive_name] + [f"{c}_{s}" for c in chans for s in wheels]
-    if test in TRAVEL_TESTS:
-        need += [f"{TRAVEL_COLUMN}_{s}" for s in wheels]
+    return cols
+
+
+def _quantity(lay: _Layout, h: str, name: str) -> str:
+    """The quantity of column ``name`` (header ``h``): the drive's, the wheel travel's
+    (length) or its channel's; a column not of this test is refused."""
+    if name == lay.drive:
+        return DRIVE_COLUMN[lay.test][1]
+    stem, _, side = name.rpartition("_")
+    if side not in SIDES or (stem not in lay.chans and stem != TRAVEL_COLUMN):
+        raise _refuse(
+            lay.where,
+            f"column {h!r} is not one of this test's columns: 'step', 'branch', "
+            f"'{lay.drive} [unit]', '{TRAVEL_COLUMN}_<side> [unit]' or "
+            f"'<channel>_<side> [unit]' with a channel of knc.toml {lay.chans} and a "
+            f"side of {list(lay.wheels)}",
+        )
+    if side not in lay.wheels:
+        raise _refuse(
+            lay.where,
+            f"column {h!r} is of the {side} wheel, which knc.toml's wheels {lay.wheels} omit",
+        )
+    return "length" if stem == TRAVEL_COLUMN else CHANNELS[stem]
+
+
+def _check_complete(lay: _Layout, cols: Mapping[str, _Column], rows: int) -> None:
+    """Every column the test needs is present and there are :data:`MIN_SAMPLES` rows."""
+    need = ["step", "branch", lay.drive] + [f"{c}_{s}" for c in lay.chans for s in lay.wheels]
+    if lay.test in TRAVEL_TESTS:
+        need += [f"{TRAVEL_COLUMN}_{s}" for s in lay.wheels]
     missing = [n for n in need if n not in cols]
     if missing:
-        lacks_wheel = [s for s in wheels if any(n.endswith("_" + s) for n in missing)]
+        lacks_wheel = [s for s in lay.wheels if any(n.endswith("_" + s) for n in missing)]
         hint = (
             '; a test needs both wheels\' columns (declare wheels = ["left"] in knc.toml '
             "for a one-wheel bench measurement)"
-            if lacks_wheel and len(wheels) == 2
+            if lacks_wheel and len(lay.wheels) == 2
             else ""
         )
-        raise _refuse(where, f"missing column(s) {missing} (units in brackets){hint}")
-    if len(rows) < MIN_SAMPLES:
-        raise _refuse(where, f"`samples >= {MIN_SAMPLES}` must hold, but got {len(rows)} rows")
+        raise _refuse(lay.where, f"missing column(s) {missing} (units in brackets){hint}")
+    if rows < MIN_SAMPLES:
+        raise _refuse(lay.where, f"`samples >= {MIN_SAMPLES}` must hold, but got {rows} rows")
+
+
+def _to_numbers(
+    where: str, header: list[str], rows: list[list[str]], cols: Mapping[str, _Column]
+) -> np.ndarray:
+    """The rows as numbers (rows, columns), as written (not yet SI); a row of the
+    wrong width, a cell that is not a number or a missing/NaN/inf value of a mapped
+    column is refused."""
     width = len(header)
     values = np.full((len(rows), width), np.nan)
     for r, row in enumerate(rows):
@@ -831,6 +910,15 @@ def _load_test(
                 f"value(s), the first run of {run} from data row {first + 1} (file line "
                 f"{first + 2}); drop or fill those rows",
             )
+    return values
+
+
+def _check_rows(
+    lay: _Layout, header: list[str], values: np.ndarray, cols: Mapping[str, _Column]
+) -> tuple[np.ndarray, np.ndarray]:
+    """(branch (P,) int, drive (P,) [SI]): ``step`` increases strictly, ``branch`` is 0,
+    1 or 2, the drive is strictly monotonic within each branch and varies."""
+    where = lay.where
     step = values[:, cols["step"][0]]
     if not np.all(np.diff(step) > 0):
         k = int(np.argmax(np.diff(step) <= 0))
@@ -844,11 +932,10 @@ def _load_test(
         k = int(np.argmax(~np.isin(branch_f, (0.0, 1.0, 2.0))))
         raise _refuse(where, f"'branch' must be 0, 1 or 2, but row {k + 1} holds {branch_f[k]:g}")
     branch = branch_f.astype(int)
-    di, dfac, _ = cols[drive_name]
-    drive = values[:, di] * dfac
+    di, dfac, _ = cols[lay.drive]
     for b, sense in ((0, 1.0), (1, -1.0), (2, 1.0)):
         idx = np.flatnonzero(branch == b)
-        d = np.diff(drive[idx]) * sense
+        d = np.diff(values[idx, di] * dfac) * sense
         if d.size and not np.all(d > 0):
             k = int(np.argmax(d <= 0))
             word = "decrease" if sense < 0 else "increase"
@@ -858,27 +945,38 @@ def _load_test(
                 f"{idx[k] + 1} and {idx[k + 1] + 1} hold {values[idx[k], di]:g} and "
                 f"{values[idx[k + 1], di]:g}",
             )
+    drive = values[:, di] * dfac
     if not np.ptp(drive) > 0:
         raise _refuse(where, f"the drive '{header[di]}' must vary, but is constant")
-    P = len(rows)
-    channels: dict[str, np.ndarray] = {}
-    for ch in chans:
-        arr = np.full((P, 2), np.nan)
-        for s in wheels:
-            i, fac, _ = cols[f"{ch}_{s}"]
-            arr[:, SIDES.index(s)] = values[:, i] * fac
-        channels[ch] = arr
-    if all(f"{TRAVEL_COLUMN}_{s}" in cols for s in wheels):
-        arr = np.full((P, 2), np.nan)
-        for s in wheels:
-            i, fac, _ = cols[f"{TRAVEL_COLUMN}_{s}"]
-            arr[:, SIDES.index(s)] = values[:, i] * fac
-        if "wheel_centre_z" in channels:  # both given: they must agree
-            check_wheel_travel(where, arr, channels["wheel_centre_z"])
-        else:  # wheel-centre height from its travel: origin at the static height
-            channels["wheel_centre_z"] = arr
-    units = {header[i]: u for _, (i, _, u) in cols.items() if u}
-    return MeasuredTest(test, drive, branch, channels, tuple(wheels), units)
+    return branch, drive
+
+
+def _per_wheel(
+    values: np.ndarray, cols: Mapping[str, _Column], stem: str, wheels: list[str]
+) -> np.ndarray:
+    """Columns ``<stem>_<side>`` in SI as (P, 2) (left, right); a wheel not in
+    ``wheels`` is NaN."""
+    arr = np.full((values.shape[0], 2), np.nan)
+    for s in wheels:
+        i, fac, _ = cols[f"{stem}_{s}"]
+        arr[:, SIDES.index(s)] = values[:, i] * fac
+    return arr
+
+
+def _channels(
+    lay: _Layout, values: np.ndarray, cols: Mapping[str, _Column]
+) -> dict[str, np.ndarray]:
+    """The declared channels (SI, (P, 2)); ``wheel_centre_z`` from the wheel-travel
+    columns when the file has them but not the channel (origin at the static height),
+    else the two checked to agree (:func:`check_wheel_travel`)."""
+    channels = {ch: _per_wheel(values, cols, ch, lay.wheels) for ch in lay.chans}
+    if all(f"{TRAVEL_COLUMN}_{s}" in cols for s in lay.wheels):
+        travel = _per_wheel(values, cols, TRAVEL_COLUMN, lay.wheels)
+        if "wheel_centre_z" in channels:
+            check_wheel_travel(lay.where, travel, channels["wheel_centre_z"])
+        else:
+            channels["wheel_centre_z"] = travel
+    return channels
 
 
 def load_measurement(
@@ -943,209 +1041,34 @@ def load_measurement(
         "steps": {t: s for t, m in loaded.items() if (s := m.uniform_steps()) is not None},
         "units": {t: m.units for t, m in loaded.items()},
         "path": str(folder),
-        "warnings": check_tests(loaded, {t: s["file"] for t, s in data["tests"].items()}, CHANNELS),
+        "warnings": check_tests(*_check_views(loaded, data["tests"]), CHANNELS),
     }
     if "notes" in data:
         meta["notes"] = data["notes"]
     return _assemble(data["name"], loaded, declared, meta)
 
 
-# ------------------------------------------------------------------ compliance analysis
-#: drive quantity -> (per-unit of the reported slopes, its size in SI)
-_PER = {"force": ("kN", 1e3), "moment": ("100 N*m", 100.0), "length": ("mm", 1e-3)}
-#: |drive| below this fraction of the largest is "small" for the saturation slope
-SMALL_FRACTION = 0.25
-#: |drive| above this fraction of the largest is "large"
-LARGE_FRACTION = 0.6
-
-
-@dataclass
-class ComplianceAnalysis:
-    """A compliance test's channel against its drive on one wheel, linear and beyond.
-
-    All slopes are in SI (channel unit per drive unit: rad per N*m for toe against an
-    aligning moment); :meth:`lines` prints them in edge units (deg per 100 N*m).
-
-    Attributes:
-        test, channel, wheel: what was analysed.
-        slope: least-squares straight line through every sample (the linear
-            compliance); ``intercept`` its value at zero drive.
-        rms_linear: RMS residual of that line; ``rms_cubic`` of the cubic
-            ``a + b x + c x^2 + d x^3`` (what is left after the asymmetry and
-            saturation), ``noise`` the channel's noise (declared or estimated).
-        slope_positive / slope_negative: lines through the samples with drive >= 0 /
-            <= 0; ``asymmetry`` = (positive - negative) / their mean, ``asymmetry_ci95``
-            its 95 % half-width (:func:`_asymmetry_ci95`: noise alone gives a symmetric
-            axle an asymmetry of that size).
-        slope_small / slope_large: lines through the samples with |drive| <=
-            :data:`SMALL_FRACTION` x max and through each end's samples with |drive| >=
-            :data:`LARGE_FRACTION` x max (mean of the two ends' slopes);
-            ``saturation`` = large / small (< 1: the compliance stiffens, saturates).
-        drive_range: (min, max) of the drive [SI]; ``samples`` the count.
-    """
-
-    test: str
-    channel: str
-    wheel: str
-    slope: float
-    intercept: float
-    rms_linear: float
-    rms_cubic: float
-    noise: float
-    slope_positive: float
-    slope_negative: float
-    asymmetry: float
-    asymmetry_ci95: float
-    slope_small: float
-    slope_large: float
-    saturation: float
-    drive_range: tuple[float, float]
-    samples: int
-
-    def scales(self) -> tuple[str, float, str, float]:
-        """(per-unit text, its SI size, channel edge unit, its SI size)."""
-        per, per_si = _PER[DRIVE_COLUMN[self.test][1]]
-        unit = EDGE_UNIT[CHANNELS[self.channel]]
-        return per, per_si, unit, _factor(unit)
-
-    def lines(self) -> list[str]:
-        """The analysis as text in edge units."""
-        per, per_si, unit, u = self.scales()
-        k = per_si / u  # SI slope -> unit per `per`
-        col = DRIVE_COLUMN[self.test][0]
-        lo, hi = self.drive_range
-        dq = EDGE_UNIT[DRIVE_COLUMN[self.test][1]]
-        du = _factor(dq)
-        rows = [
-            (
-                "linear compliance",
-                f"{self.slope * k:.4g} {unit} per {per} (least squares through all "
-                f"samples; {self.channel} at zero {col} {self.intercept / u:+.3g} {unit})",
-            ),
-            (
-                "residual of the line",
-                f"{self.rms_linear / u:.3g} {unit} RMS (noise {self.noise / u:.3g} {unit}; "
-                f"a cubic leaves {self.rms_cubic / u:.3g})",
-            ),
-            (f"positive {col} slope", f"{self.slope_positive * k:.4g} {unit} per {per}"),
-            (f"negative {col} slope", f"{self.slope_negative * k:.4g} {unit} per {per}"),
-            (
-                "asymmetry",
-                f"{100 * self.asymmetry:+.1f} % +- {100 * self.asymmetry_ci95:.1f} % (positive "
-                "- negative, of their mean; 95 % interval from the lines' scatter)",
-            ),
-            (
-                f"small {col} slope",
-                f"{self.slope_small * k:.4g} {unit} per {per} (|{col}| <= "
-                f"{SMALL_FRACTION:g} x max)",
-            ),
-            (
-                f"large {col} slope",
-                f"{self.slope_large * k:.4g} {unit} per {per} (|{col}| >= "
-                f"{LARGE_FRACTION:g} x max, both ends)",
-            ),
-            ("saturation", f"{self.saturation:.3g} (large / small slope; < 1: stiffens with load)"),
-        ]
-        head = (
-            f"{self.test} test, {self.channel} of the {self.wheel} wheel against {col} "
-            f"({self.samples} samples, {lo / du:g} to {hi / du:g} {dq}):"
-        )
-        return [head, *(f"  {label:24s} {text}" for label, text in rows)]
-
-
-def _line(x: np.ndarray, y: np.ndarray, what: str) -> tuple[float, float]:
-    """(slope, intercept) of the least-squares line; fewer than 2 distinct x refused."""
-    if np.unique(x).size < 2:
-        raise ValidationError(
-            f"compliance analysis: the {what} samples need 2 distinct drive values for a "
-            f"slope, but got {x.size} sample(s)"
-        )
-    b, a = np.polyfit(x, y, 1)
-    return float(b), float(a)
-
-
-def _asymmetry_ci95(x: np.ndarray, y: np.ndarray) -> float:
-    """95 % half-width of the asymmetry ``2 (p - n) / (p + n)`` of the lines through the
-    samples with drive ``x >= 0`` (slope p) and ``x <= 0`` (slope n), by the delta
-    method for white noise: each slope is linear in the samples (weights ``w``, a sample
-    at zero drive in both), so the asymmetry's gradient is ``g = dA/dp w_p + dA/dn
-    w_n`` and its standard error ``s |g|``, ``s`` the two lines' pooled residual
-    scatter (a loop's hysteresis and any curvature count as scatter: conservative).
-    NaN with fewer than 5 samples or a zero mean slope."""
-    fits = []
-    for sel in (x >= 0, x <= 0):
-        xc = x[sel] - x[sel].mean()
-        w = np.zeros_like(x)
-        w[sel] = xc / (xc @ xc) if np.any(xc) else np.nan
-        b = float(w @ y)
-        fits.append((b, w, y[sel] - y[sel].mean() - b * xc))
-    (p, wp, rp), (n, wn, rn) = fits
-    dof = rp.size + rn.size - 4
-    if dof < 1 or p + n == 0:
-        return float("nan")
-    s = math.sqrt(float(rp @ rp + rn @ rn) / dof)
-    g = 4.0 * (n * wp - p * wn) / (p + n) ** 2
-    return NormalDist().inv_cdf(0.975) * s * float(np.linalg.norm(g))
-
-
-def compliance_analysis(
-    m: KncMeasurement, test: str = "aligning", channel: str = "toe", wheel: str | None = None
-) -> ComplianceAnalysis:
-    """Linear compliance of ``channel`` against the drive of a compliance test of
-    ``m``, and what the line leaves: asymmetry (positive against negative drive) and
-    saturation (slope at small against large drive). ``wheel`` defaults to the first
-    measured wheel. Every sample of every branch enters (a loop's two branches average
-    out its hysteresis in the fitted line)."""
-    if test not in FORCE_TESTS:
-        raise ValidationError(
-            f"compliance analysis needs a test of {FORCE_TESTS}, but got {test!r}"
-        )
-    if test not in m.tests:
-        raise ValidationError(f"the measurement holds no {test!r} test; it holds {list(m.tests)}")
-    mt = m.tests[test]
-    if channel not in mt.channels:
-        raise ValidationError(
-            f"the {test} test holds no channel {channel!r}; it holds {sorted(mt.channels)}"
-        )
-    side = wheel or mt.wheels[0]
-    if side not in mt.wheels:
-        raise ValidationError(f"wheel must be one of the measured {mt.wheels}, but got {side!r}")
-    x = mt.drive
-    y = mt.channels[channel][:, SIDES.index(side)]
-    slope, intercept = _line(x, y, "")
-    rms_lin = float(np.sqrt(np.mean((y - (intercept + slope * x)) ** 2)))
-    cubic = np.polyfit(x, y, 3) if np.unique(x).size >= 4 else np.polyfit(x, y, 1)
-    rms_cub = float(np.sqrt(np.mean((y - np.polyval(cubic, x)) ** 2)))
-    pos, _ = _line(x[x >= 0], y[x >= 0], "positive-drive")
-    neg, _ = _line(x[x <= 0], y[x <= 0], "negative-drive")
-    amax = float(np.max(np.abs(x)))
-    small = np.abs(x) <= SMALL_FRACTION * amax
-    s_small, _ = _line(x[small], y[small], "small-drive")
-    ends = [x >= LARGE_FRACTION * amax, x <= -LARGE_FRACTION * amax]
-    large = [_line(x[e], y[e], "large-drive")[0] for e in ends if np.unique(x[e]).size >= 2]
-    if not large:
-        raise ValidationError(
-            f"compliance analysis: no end of the drive has 2 samples with |drive| >= "
-            f"{LARGE_FRACTION} x {amax:g}"
-        )
-    s_large = float(np.mean(large))
-    mean = 0.5 * (pos + neg)
-    return ComplianceAnalysis(
-        test,
-        channel,
-        side,
-        slope,
-        intercept,
-        rms_lin,
-        rms_cub,
-        float(m.noise.get(channel, float("nan"))),
-        pos,
-        neg,
-        (pos - neg) / mean if mean else float("nan"),
-        _asymmetry_ci95(x, y),
-        s_small,
-        s_large,
-        s_large / s_small if s_small else float("nan"),
-        (float(x.min()), float(x.max())),
-        int(x.size),
-    )
+def _check_views(
+    tests: Mapping[str, MeasuredTest], specs: Mapping[str, Mapping[str, Any]]
+) -> tuple[dict[str, MeasuredTest], dict[str, str]]:
+    """(tests, test -> file name) as :func:`check_tests` reads them. An opposed test is
+    its in-phase test one wheel at a time, each wheel driven by its own load (the
+    right wheel's is the in-phase load negated), so every wheel meets the in-phase
+    test's rules; the left-right rule (the track) needs both wheels of one test and is
+    left to the other tests of the folder."""
+    views: dict[str, MeasuredTest] = {}
+    files: dict[str, str] = {}
+    for name, t in tests.items():
+        in_phase = _knc.OPPOSED_TESTS.get(name)
+        if in_phase is None:
+            views[name], files[name] = t, specs[name]["file"]
+            continue
+        for w, side in enumerate(SIDES):
+            if side not in t.wheels:
+                continue
+            key = f"{name}, {side} wheel"
+            one = {c: np.where(np.arange(2) == w, v, np.nan) for c, v in t.channels.items()}
+            drive = -t.drive if side == "right" else t.drive
+            views[key] = MeasuredTest(in_phase, drive, t.branch, one, (side,))
+            files[key] = specs[name]["file"]
+    return views, files

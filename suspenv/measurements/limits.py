@@ -70,6 +70,8 @@ def read_limit(max_bytes: int | None = None) -> int:
 
 
 def _too_big(path: Path, what: str, size: int, limit: int) -> RecordingError:
+    """``path``'s ``what`` ``size`` [bytes] is past the read ``limit``: the error, how to
+    raise the limit."""
     return RecordingError(
         f"{path.name}: {what} {size} bytes ({_mib(size)}), more than the read limit of "
         f"{limit} bytes ({_mib(limit)}); raise it with max_bytes= or the environment "
@@ -90,13 +92,11 @@ def check_text(path: Path, limit: int) -> None:
     (:data:`TEXT_EXPANSION` bytes of memory per byte of text)."""
     size = path.stat().st_size
     if size * TEXT_EXPANSION > limit:
-        raise RecordingError(
-            f"{path.name}: a text file of {size} bytes ({_mib(size)}) may expand to "
-            f"{TEXT_EXPANSION * size} bytes of float64 values ({TEXT_EXPANSION} bytes per "
-            f"character), more than the read limit of {limit} bytes ({_mib(limit)}); raise "
-            f"it with max_bytes= or the environment variable {MAX_READ_ENV} if the file "
-            "is trusted"
+        what = (
+            f"a text file of {size} bytes ({_mib(size)}) may expand to float64 values of "
+            f"{TEXT_EXPANSION} bytes per character,"
         )
+        raise _too_big(path, what, TEXT_EXPANSION * size, limit)
 
 
 def _npy_header(fp: IO[bytes], name: str, path: Path) -> tuple[tuple[int, ...], np.dtype]:

@@ -22,7 +22,7 @@ Import (:func:`fsae_aligning`): one ``aligning`` test of the measured-K&C format
   +end); :meth:`~suspenv.measurements.knc_file.MeasuredTest.loop` takes the
   missing descending branch equal to it;
 * a one-wheel measurement serves the compliance analysis
-  (:func:`~suspenv.measurements.knc_file.compliance_analysis`), not the identification
+  (:func:`~suspenv.measurements.knc_compliance.compliance_analysis`), not the identification
   (``load_measurement`` refuses it unless ``both_wheels=False``).
 
 The workbook ``Compliance Testing ZR25.xlsx`` beside it (hanging masses and dial
