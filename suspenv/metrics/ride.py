@@ -54,8 +54,9 @@ RIDE_METHODS = ("spectral", "time")
 #: blocks of their own, ``_BLOCK_ROWS``)
 SPECTRAL_CHUNK = 32
 SPLIT_CHUNK = 128
-#: statistical-linearisation passes of the spectral method without and with effects
-#: (friction and stops converge more slowly: tests, docs/minibus.md)
+#: statistical-linearisation passes of the spectral method: without effects or with
+#: leaf friction only, and with stops or damper friction (whose rates fall as their
+#: RMS rises: slower convergence; tests, docs/minibus.md)
 PASSES, PASSES_EFFECTS = 4, 8
 #: ISO 2631-1 evaluation band (Hz) of the weighted values (as :func:`weighted_rms_fft`)
 ISO_BAND = (0.5, 80.0)
@@ -785,20 +786,19 @@ def _halves_mean_square(
     modes: list[tuple[np.ndarray, np.ndarray]],
     rows: list[int],
     grid: tuple[np.ndarray, ...],
-    powers: Sequence[int],
+    wt: np.ndarray,
 ) -> np.ndarray:
-    """Mean squares (n, len(rows)) of the outputs ``rows`` summed over the two halves'
-    modal forms (:func:`modal_form` per half, inputs front and rear axle; see
-    :class:`_Halves` for the halves' uncorrelated inputs), on ``grid`` (a
-    :func:`_road_grid`); output j's PSD is multiplied by ``(2 pi f)^(2 powers[j])``."""
-    f, wq, _, gq, delay, rho, _ = grid
-    w2p = (2 * np.pi * f)[None, :, None] ** (2 * np.asarray(powers, dtype=float))[None, None]
-    total = np.zeros((modes[0][0].shape[0], len(rows)))
-    for (lam, P), sign in zip(modes, (1.0, -1.0), strict=True):
-        G = modal_response(lam, P[:, :, rows], f)  # (n, Nf, p, 2)
-        g = G[..., 0] + delay[None, :, None] * G[..., 1]
-        psd = (g.real**2 + g.imag**2) * w2p
-        total += np.einsum("nfp,f->np", psd, wq * gq * 0.5 * (1.0 + sign * rho))
+    """:func:`_split_mean_square` (n, len(rows), 2) for the halves' complex modal forms
+    (:func:`modal_form` per half, inputs front and rear axle), same grid and weights
+    (:func:`_split_grid`)."""
+    w, _, dr, di = grid
+    delay = (dr + 1j * di)[None, :, None]
+    total = np.zeros((modes[0][0].shape[0], len(rows), 2))
+    for h, (lam, P) in enumerate(modes):
+        G = modal_response(lam, P[:, :, rows], w / (2 * np.pi))  # (n, Nf, p, 2)
+        g = G[..., 0] + delay * G[..., 1]
+        g2 = g.real**2 + g.imag**2
+        total += np.matmul(g2.transpose(0, 2, 1), wt[:, 2 * h : 2 * h + 2])
     return total
 
 
@@ -843,22 +843,22 @@ def _spectral_effects_split(
             )
         return out
 
-    grid_i = _road_grid(road, n_freq_iter, vehicle)
-    # FL damper, RL damper (velocity), left leaf, FL spring, left leaf (velocity), Dahl
-    rows = [2, 3, 4, 5, 4] + ([6] if dahl else [])
-    powers = (1, 1, 0, 0, 1, 0)[: len(rows)]
+    grid_i, wt_i = _split_grid(road, n_freq_iter, vehicle, False)
+    # FL damper, RL damper, left leaf, FL spring, Dahl force (per column: displacement
+    # or force, rate)
+    rows = [2, 3, 4, 5] + ([6] if dahl else [])
 
     def sigma(m: list[tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
-        sig = np.sqrt(_halves_mean_square(m, rows, grid_i, powers))
-        z = sig[:, 5] * _H if dahl else np.zeros(sig.shape[0])  # z_L = (z_s + z_a)/sqrt 2
-        return np.column_stack([sig[:, [0, 0, 1, 1, 2, 2, 3, 3, 4, 4]], z, z])
+        ms = _halves_mean_square(m, rows, grid_i, wt_i)
+        # z_L = (z_s + z_a)/sqrt 2 with the halves uncorrelated
+        z = np.sqrt(0.5 * ms[:, 4, 0]) if dahl else np.zeros(ms.shape[0])
+        sig = np.sqrt(ms[:, [0, 0, 1, 1, 2, 2, 3, 3, 2, 2], [1, 1, 1, 1, 0, 0, 0, 0, 1, 1]])
+        return np.column_stack([sig, z, z])
 
     r, n_iter, m = _fixed_point(lz.initial(init_damping), lz, modal, sigma, iterations, tol)
-    grid = _road_grid(road, n_freq, vehicle)
-    wk2 = grid[6]
-    f, wq = grid[0], grid[1]
-    aw = np.sqrt(_halves_mean_square(m, [0, 1], (f, wq * wk2, *grid[2:]), (2, 2)))
-    rms = np.sqrt(_halves_mean_square(m, [0, 1], grid, (2, 2)))
+    grid, wt = _split_grid(road, n_freq, vehicle, True)
+    ms = _halves_mean_square(m, [0, 1], grid, wt)
+    aw, rms = np.sqrt(ms[:, :, 0]), np.sqrt(ms[:, :, 1])
     return _spectral_result(aw, rms, r, n_iter)
 
 
@@ -907,9 +907,9 @@ def ride_spectral(
     SUPPORTED_EFFECTS`): end stops and damper Coulomb friction enter through their
     Gaussian equivalent rates, the rear leaves' Dahl interleaf friction through Wen's
     equivalent-linear first-order element (one state per leaf; :mod:`suspenv.models.
-    minibus.linearisation`), all in the same fixed-point passes (the default 8 reach the
-    fixed point within 1e-6 with leaf friction, within 0.5 % with stops or damper
-    friction; tests); the model's halves then carry complex modal sums
+    minibus.linearisation`), all in the same fixed-point passes (by default 4 with leaf
+    friction only, within 1e-3 of the fixed point, 8 with stops or damper friction,
+    within 0.5 %; tests); the model's halves then carry complex modal sums
     (:func:`_spectral_effects_split`; with a seat or ``split=False`` the whole model).
 
     ``split`` (default True; only without a seat): the mirror-symmetric model is
@@ -931,7 +931,8 @@ def ride_spectral(
     cases = [load_cases] if isinstance(load_cases, str) else list(load_cases)
     use_split = split and seat is None and not effects
     if iterations is None:
-        iterations = PASSES_EFFECTS if effects else PASSES
+        slow = any(e.kind != "dahl_hysteresis" for e in effects)
+        iterations = PASSES_EFFECTS if slow else PASSES
     if effects and not equivalent_linear:
         raise ValidationError("ride effects need equivalent_linear=True, but it is False")
     chunk: Callable[..., dict[str, np.ndarray]] = _spectral_split if use_split else _spectral_full
