@@ -380,7 +380,9 @@ def minibus_effects_block(d: Json) -> str:
     ignored = " | ".join(f"{s[f'{e}_ignoring_max_abs_percent']:.0f}" for e in sets)
     lines.append(f"| largest deviation ignoring the effects (%) | {ignored} |")
     met_1 = met(s["meets_batch1_target_cpu"])
-    return "\n".join(lines) + "\n\n" + paragraph(fill("minibus_effects.paragraph", s=s, met=met_1))
+    inside = "within" if s["study_command_cpu_s"] <= s["target_study_s"] else "over"
+    text = fill("minibus_effects.paragraph", s=s, met=met_1, study_met=inside)
+    return "\n".join(lines) + "\n\n" + paragraph(text)
 
 
 def planar_speed_cells(s: Json) -> tuple[str, str]:
