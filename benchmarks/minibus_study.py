@@ -74,12 +74,16 @@ FAILED_F = 1e10
 
 
 def run_command(
-    config: Path, out_dir: Path, workers: int, env: dict[str, str] | None = None
+    config: Path,
+    out_dir: Path,
+    workers: int,
+    env: dict[str, str] | None = None,
+    sets: Sequence[str] = (),
 ) -> dict[str, Any]:
-    """``suspenv run config`` with ``run.workers = workers`` and its run folder under
-    ``out_dir``, in a subprocess (environment ``env`` added to this one's): wall time
-    [s], loop wall time [s] from the run's ``summary.json``, CPU time [s] of the command
-    and its workers, the run folder."""
+    """``suspenv run config`` with ``run.workers = workers``, the further ``--set``
+    overrides ``sets`` and its run folder under ``out_dir``, in a subprocess (environment
+    ``env`` added to this one's): wall time [s], loop wall time [s] from the run's
+    ``summary.json``, CPU time [s] of the command and its workers, the run folder."""
     cmd = [
         sys.executable,
         "-c",
@@ -90,6 +94,7 @@ def run_command(
         f'run.output="{out_dir}"',
         "--set",
         f"run.workers={workers}",
+        *(arg for item in sets for arg in ("--set", item)),
     ]
     k0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     w0 = time.perf_counter()

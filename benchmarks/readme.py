@@ -62,7 +62,7 @@ SOURCES: dict[str, tuple[str, ...]] = {
         "planar_speed",
         "first_run",
     ),
-    "documents": ("minibus_objectives",),
+    "documents": ("minibus_objectives", "minibus_ride_effects"),
     "diagnosis": (
         "diagnosis_benchmark",
         "independent_diagnosis",
@@ -75,7 +75,7 @@ SOURCES: dict[str, tuple[str, ...]] = {
 #: documents other than README.md with generated blocks (path relative to the repository)
 DOCUMENT_BLOCKS: dict[str, tuple[str, ...]] = {
     "docs/minibus_handling.md": ("minibus-study",),
-    "docs/minibus.md": ("minibus-paper",),
+    "docs/minibus.md": ("minibus-paper", "minibus-effects"),
     "docs/knc.md": ("knc-speed",),
     "docs/identify.md": ("identify-reference",),
     "docs/runs.md": ("overhead-loops", "overhead-workers"),
@@ -356,6 +356,36 @@ def minibus_paper_table(d: Json) -> str:
             cells = " | ".join(f"{v * factor:.{digits}f}" for v in vals)
             lines.append(f"| {text}, {lc.replace('_', ' ')} | {cells} |")
     return "\n".join(lines)
+
+
+def minibus_effects_block(d: Json) -> str:
+    """docs/minibus.md's effects validation (``minibus_ride_effects.json``): per design
+    and load case, per effect set, the spectral value's deviation from the long runs
+    (front / rear, %), then the speed paragraph."""
+    s, rows = d["summary"], d["rows"]
+    sets = list(dict.fromkeys(r["effects"] for r in rows))
+    cell = {(r["effects"], r["design"], r["load_case"], r["end"]): r for r in rows}
+    lines = [
+        "| design, load case | " + " | ".join(x.replace("_", " ") for x in sets) + " |",
+        "|---|" + "---|" * len(sets),
+    ]
+    for lc in dict.fromkeys(r["load_case"] for r in rows):
+        for name in dict.fromkeys(r["design"] for r in rows):
+            vals = [
+                " / ".join(
+                    f"{cell[e, name, lc, end]['error_percent']:+.1f}" for end in ("front", "rear")
+                )
+                for e in sets
+            ]
+            lines.append(f"| {name}, {lc.replace('_', ' ')} | " + " | ".join(vals) + " |")
+    within = " | ".join(s[f"{e}_within_target"] for e in sets)
+    lines.append(f"| within {s['target_percent']:g} % | {within} |")
+    ignored = " | ".join(f"{s[f'{e}_ignoring_max_abs_percent']:.0f}" for e in sets)
+    lines.append(f"| largest deviation ignoring the effects (%) | {ignored} |")
+    met_1 = met(s["meets_batch1_target_cpu"])
+    inside = "within" if s["study_command_cpu_s"] <= s["target_study_s"] else "over"
+    text = fill("minibus_effects.paragraph", s=s, met=met_1, study_met=inside)
+    return "\n".join(lines) + "\n\n" + paragraph(text)
 
 
 def planar_speed_cells(s: Json) -> tuple[str, str]:
@@ -901,6 +931,7 @@ DOCUMENT_RENDERERS = {
     "tey-pipeline": lambda data: tey_pipeline_paragraph(data["tey2014_pipeline"]),
     "minibus-study": lambda data: minibus_study_paragraph(data["minibus_study"]),
     "minibus-paper": lambda data: minibus_paper_table(data["minibus_objectives"]),
+    "minibus-effects": lambda data: minibus_effects_block(data["minibus_ride_effects"]),
     "knc-speed": lambda data: knc_speed_tables(data["knc_speed"]),
 }
 

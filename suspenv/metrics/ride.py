@@ -27,6 +27,14 @@ from suspenv.metrics.iso2631 import (
     weighting_magnitude,
 )
 from suspenv.models.effects.effect import Effect
+from suspenv.models.minibus.linearisation import (
+    DAHL_C,
+    DAHL_K,
+    DAMPER,
+    FRONT,
+    LEAF,
+    ElementLinearisation,
+)
 from suspenv.models.minibus.ride_model import RideModel, SeatMount
 from suspenv.models.minibus.vehicle import (
     LOAD_CASES,
@@ -46,6 +54,10 @@ RIDE_METHODS = ("spectral", "time")
 #: blocks of their own, ``_BLOCK_ROWS``)
 SPECTRAL_CHUNK = 32
 SPLIT_CHUNK = 128
+#: statistical-linearisation passes of the spectral method: without effects or with
+#: leaf friction only, and with stops or damper friction (whose rates fall as their
+#: RMS rises: slower convergence; tests, docs/minibus.md)
+PASSES, PASSES_EFFECTS = 4, 8
 #: ISO 2631-1 evaluation band (Hz) of the weighted values (as :func:`weighted_rms_fft`)
 ISO_BAND = (0.5, 80.0)
 
@@ -124,8 +136,9 @@ def ride_objectives_all(
     road record of ``road`` and weights its FFT; ``"spectral"`` integrates the output
     PSD of the equivalent-linear model over the road PSD (:func:`ride_spectral`: no road
     seed, no record length, no noise; ``road.seed``, ``duration_s``, ``settle_s`` and
-    ``dtype`` are unused; effects are not supported) and adds its equivalent-linear
-    rates ``damper_c`` (n, 4) and ``leaf_k`` (n, 2) (for :func:`working_space`).
+    ``dtype`` are unused; effects by their equivalent-linear rates) and adds its
+    equivalent-linear rates ``damper_c`` (n, 4) and ``leaf_k`` (n, 2) (for
+    :func:`working_space`).
     """
     road = road or RandomRoad()
     X = np.atleast_2d(np.asarray(X, dtype=float))
@@ -133,11 +146,7 @@ def ride_objectives_all(
     if method not in RIDE_METHODS:
         raise ValidationError(f"ride method must be one of {RIDE_METHODS}, but got {method!r}")
     if method == "spectral":
-        if effects:
-            raise ValidationError(
-                "the spectral ride method models no effects; use method='time' with effects"
-            )
-        sp = ride_spectral(X, load_cases, road, vehicle, seat)
+        sp = ride_spectral(X, load_cases, road, vehicle, seat, effects=effects)
         keys = ("aw_front", "aw_rear", "rms_front", "rms_rear", "ok", "damper_c", "leaf_k")
         return {
             lc: {k: sp[k][i * n : (i + 1) * n] for k in keys} for i, lc in enumerate(load_cases)
@@ -258,9 +267,10 @@ def modal_form(
     Kin: np.ndarray,
     Cin: np.ndarray,
     Co: np.ndarray,
+    hyst: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Poles (n, 2nq) and residues (n, 2nq, p, m) of ``M qdd + C qd + K q = Kin u + Cin ud``
-    with output ``y = Co q``, for :func:`modal_response`.
+    """Poles (n, ns) and residues (n, ns, p, m) of ``M qdd + C qd + K q = Kin u + Cin ud``
+    with output ``y = Co q``, for :func:`modal_response` (ns = 2 nq states).
 
     Output ``y = Co q`` (Co (p, nq)) per unit harmonic input u (m inputs) at frequencies
     f (Hz): ``H = Co (K - w^2 M + i w C)^-1 (Kin + i w Cin)``, computed as
@@ -268,24 +278,38 @@ def modal_form(
     the eigen-decomposition ``A = V diag(lam) V^-1`` (batched over n): per mode
     ``(B0 + s B1)/(s - lam) = R1 + (R0 + lam R1)/(s - lam)`` with ``R = V^-1 B``; the
     constant part maps to ``C_x V R1 = C_x B1 = 0`` (B1 acts on velocities only). Cost:
-    one (Nf x 2nq) @ (2nq x p m) product per design. Velocity/acceleration responses are
+    one (Nf x ns) @ (ns x p m) product per design. Velocity/acceleration responses are
     ``i w H`` and ``-w^2 H``.
+
+    ``hyst = (Pz, cz, kz)``: nz linear first-order force elements ``dz/dt = cz (Pz qd) -
+    kz z`` (Pz (nz, nq): element deflection per q; cz (n, nz) N/m, kz (n, nz) 1/s) acting
+    on q as ``-Pz^T z`` (the linearised Dahl elements); they add nz states (ns = 2 nq +
+    nz) and nz outputs, the forces z (N), after Co's p rows.
     """
     n, nq = M.shape[0], M.shape[1]
     m_in = Kin.shape[-1]
-    MiK = np.linalg.solve(M, K)
-    MiC = np.linalg.solve(M, C)
-    A = np.zeros((n, 2 * nq, 2 * nq))
-    A[:, :nq, nq:] = np.eye(nq)
-    A[:, nq:, :nq] = -MiK
-    A[:, nq:, nq:] = -MiC
-    B = np.zeros((n, 2 * nq, 2 * m_in), dtype=complex)
-    B[:, nq:, :m_in] = np.linalg.solve(M, Kin)
-    B[:, nq:, m_in:] = np.linalg.solve(M, Cin)
-    lam, V = np.linalg.eig(A)  # (n, 2nq), (n, 2nq, 2nq)
+    nz = 0 if hyst is None else hyst[0].shape[0]
+    ns = 2 * nq + nz
+    Minv = np.linalg.inv(M)
+    A = np.zeros((n, ns, ns))
+    A[:, :nq, nq : 2 * nq] = np.eye(nq)
+    A[:, nq : 2 * nq, :nq] = -Minv @ K
+    A[:, nq : 2 * nq, nq : 2 * nq] = -Minv @ C
+    B = np.zeros((n, ns, 2 * m_in), dtype=complex)
+    B[:, nq : 2 * nq, :m_in] = Minv @ Kin
+    B[:, nq : 2 * nq, m_in:] = Minv @ Cin
+    Cx = np.zeros((Co.shape[0] + nz, ns))
+    Cx[: Co.shape[0], :nq] = Co
+    if hyst is not None:
+        Pz, cz, kz = hyst
+        A[:, nq : 2 * nq, 2 * nq :] = -Minv @ Pz.T
+        A[:, 2 * nq :, nq : 2 * nq] = cz[:, :, None] * Pz[None]
+        A[:, 2 * nq :, 2 * nq :] = -kz[:, :, None] * np.eye(nz)
+        Cx[Co.shape[0] :, 2 * nq :] = np.eye(nz)
+    lam, V = np.linalg.eig(A)  # (n, ns), (n, ns, ns)
     R = np.linalg.solve(V, B)
-    Rm = R[:, :, :m_in] + lam[:, :, None] * R[:, :, m_in:]  # (n, 2nq, m)
-    CV = np.einsum("pi,nik->npk", Co, V[:, :nq, :])  # (n, p, 2nq)
+    Rm = R[:, :, :m_in] + lam[:, :, None] * R[:, :, m_in:]  # (n, ns, m)
+    CV = np.einsum("pi,nik->npk", Cx, V)  # (n, p, ns)
     # P[k, p, i] = CV[p, k] Rm[k, i]: residue of mode k from input i to output p
     P = CV.transpose(0, 2, 1)[:, :, :, None] * Rm[:, :, None, :]
     return lam, P
@@ -597,85 +621,47 @@ def _split_grid_values(
 
 
 # ------------------------------------------------------------------ equivalent linear
-class _Linearisation:
-    """The nonlinear elements' data (dampers, two-stage leaf) of a nonlinear model's
-    designs, for the equivalent-linear rates of :func:`ride_spectral`."""
-
-    def __init__(self, nl: RideModel):
-        self.d_bl, self.d_bh, self.d_rl, self.d_rh = (
-            np.asarray(c, float).T for c in (nl.d_bl, nl.d_bh, nl.d_rl, nl.d_rh)
-        )
-        self.kb = np.asarray(nl.knee_b, float).T  # (1, 4) bump knee (m/s)
-        self.kr = -np.asarray(nl.knee_r, float).T  # (1, 4) rebound knee (> 0, m/s)
-        self.k1 = nl.K[:, 2:4]  # primary leaf rate (N/m)
-        self.dk = np.asarray(nl.leaf_dk, float).T  # composite - primary rate (N/m)
-        self.thr = np.asarray(nl.leaf_thr, float).T  # helper knee from static (m)
-
-    def rates(self, sig: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Gaussian equivalent damper rates (n, 4; N s/m) and leaf rates (n, 2; N/m) for
-        the RMS damper velocities (m/s) and leaf deflections (m) ``sig`` (n, 6)."""
-        sv, sd = np.maximum(sig[:, :4], 1e-12), np.maximum(sig[:, 4:], 1e-12)
-        pb, pr = ndtr(self.kb / sv), ndtr(self.kr / sv)
-        c_new = (
-            self.d_bl * (pb - 0.5)
-            + self.d_bh * (1 - pb)
-            + self.d_rl * (pr - 0.5)
-            + self.d_rh * (1 - pr)
-        )
-        k_new = self.k1 + self.dk * (1.0 - ndtr(self.thr / sd))
-        return c_new, k_new
-
-
 def _fixed_point(
-    damper_c: np.ndarray,
-    leaf_k: np.ndarray,
-    lz: _Linearisation | None,
-    modal: Callable[[np.ndarray, np.ndarray], Any],
+    r: np.ndarray,
+    lz: ElementLinearisation | None,
+    modal: Callable[[np.ndarray], Any],
     sigma: Callable[[Any], np.ndarray],
     iterations: int,
     tol: float | None,
-    init_damping: float,
-) -> tuple[np.ndarray, np.ndarray, int, Any]:
-    """Equivalent-linear rates of :func:`ride_spectral` from the linearised model's
-    ``damper_c`` (n, 4) and ``leaf_k`` (n, 2): ``(damper_c, leaf_k, passes, modal form
-    of the rates)``; ``modal(c, k)`` builds a modal form, ``sigma`` gives its element
-    RMS values (n, 6); ``lz=None``: the plain linearised model."""
+) -> tuple[np.ndarray, int, Any]:
+    """Equivalent-linear rates of :func:`ride_spectral` from the starting rates ``r``
+    (n, n_rates; columns of :mod:`suspenv.models.minibus.linearisation`): ``(rates,
+    passes, modal form of the rates)``; ``modal(r)`` builds a modal form, ``sigma`` gives
+    its element RMS values; ``lz=None``: the plain linearised model (``r`` as given)."""
     if lz is None:
-        return damper_c, leaf_k, 0, modal(damper_c, leaf_k)
-    # start from 0.85 x the mean low-speed damping (the fixed point lies at 0.76-0.94 x
-    # on class B at 80 km/h over the box; saves about one pass)
-    damper_c = damper_c * init_damping
+        return r, 0, modal(r)
     n_iter = 0
     m = None
     for it in range(iterations):
-        m = modal(damper_c, leaf_k)
+        m = modal(r)
         n_iter += 1
         if tol is None and it == iterations - 1:
             break  # fixed number of passes: the last pass's rates serve
-        c_new, k_new = lz.rates(sigma(m))
-        change = np.maximum(
-            np.max(np.abs(c_new - damper_c) / damper_c, axis=1),
-            np.max(np.abs(k_new - leaf_k) / leaf_k, axis=1),
-        )
+        r_new = lz.rates(sigma(m), r)
+        change = np.max(np.abs(r_new - r) / np.maximum(np.abs(r), 1e-300), axis=1)
         # per design: a converged design keeps its rates (so its numbers never depend
         # on the other designs of the batch); when all have converged, the rates of
         # this pass are the fixed point within ``tol`` and its modal form serves
         upd = change >= (0.0 if tol is None else tol)
         if not upd.any():
             break
-        damper_c = np.where(upd[:, None], c_new, damper_c)
-        leaf_k = np.where(upd[:, None], k_new, leaf_k)
+        r = np.where(upd[:, None], r_new, r)
         m = None
     if m is None:
-        m = modal(damper_c, leaf_k)
-    return damper_c, leaf_k, n_iter, m
+        m = modal(r)
+    return r, n_iter, m
 
 
 def _spectral_result(
-    aw: np.ndarray, rms_all: np.ndarray, damper_c: np.ndarray, leaf_k: np.ndarray, n_iter: int
+    aw: np.ndarray, rms_all: np.ndarray, r: np.ndarray, n_iter: int
 ) -> dict[str, np.ndarray]:
     """:func:`ride_spectral`'s dict from the weighted and unweighted RMS values (n, 2:
-    front, rear; m/s^2) and the rates used."""
+    front, rear; m/s^2) and the rates used (n, n_rates)."""
     ok = np.isfinite(aw).all(axis=1) & np.isfinite(rms_all).all(axis=1)
     return {
         "aw_front": aw[:, 0],
@@ -683,8 +669,8 @@ def _spectral_result(
         "rms_front": rms_all[:, 0],
         "rms_rear": rms_all[:, 1],
         "ok": ok,
-        "damper_c": damper_c,
-        "leaf_k": leaf_k,
+        "damper_c": r[:, DAMPER],
+        "leaf_k": r[:, LEAF],
         "iterations": np.array(n_iter),
     }
 
@@ -713,9 +699,9 @@ def _spectral_split(
     rates = model.K.astype(float)  # element rates, dampers and leaves set per pass
     halves = _Halves(_split_geometry(model), minv, rates)
 
-    def modal(c: np.ndarray, k: np.ndarray) -> _Modes:
-        rates[:, 2:4] = k
-        rates[:, npos : npos + 4] = c
+    def modal(r: np.ndarray) -> _Modes:
+        rates[:, 2:4] = r[:, LEAF]
+        rates[:, npos : npos + 4] = r[:, DAMPER]
         return halves.modal(rates)
 
     grid_i, wt_i = _split_grid(road, n_freq_iter, vehicle, False)
@@ -725,20 +711,14 @@ def _spectral_split(
         sig = np.sqrt(_split_mean_square(m, slice(2, 5), grid_i, wt_i))
         return np.concatenate([sig[:, [0, 0, 1, 1], 1], sig[:, [2, 2], 0]], axis=1)
 
-    lz = _Linearisation(model) if equivalent_linear else None
-    damper_c, leaf_k, n_iter, m = _fixed_point(
-        model.damper_mean.copy(),
-        model.leaf_static_rate.copy(),
-        lz,
-        modal,
-        sigma,
-        iterations,
-        tol,
-        init_damping,
+    lz = ElementLinearisation(model) if equivalent_linear else None
+    r0 = np.hstack([model.damper_mean, model.leaf_static_rate])
+    r, n_iter, m = _fixed_point(
+        r0 if lz is None else lz.initial(init_damping), lz, modal, sigma, iterations, tol
     )
     grid, wt = _split_grid(road, n_freq, vehicle, True)
     ms = _split_mean_square(m, slice(0, 2), grid, wt)
-    return _spectral_result(np.sqrt(ms[:, :, 0]), np.sqrt(ms[:, :, 1]), damper_c, leaf_k, n_iter)
+    return _spectral_result(np.sqrt(ms[:, :, 0]), np.sqrt(ms[:, :, 1]), r, n_iter)
 
 
 def _spectral_full(
@@ -753,38 +733,133 @@ def _spectral_full(
     tol: float | None,
     n_freq_iter: int,
     init_damping: float,
+    effects: Sequence[Effect] = (),
 ) -> dict[str, np.ndarray]:
     """:func:`ride_spectral` of one chunk by the modal expansion of the whole first-order
-    system (all 2 nq states, every wheel input; :func:`modal_form`)."""
+    system (all 2 nq states, every wheel input; :func:`modal_form`); with ``effects``
+    also the front springs' and the Dahl elements' equivalent-linear rates (a Dahl
+    element adds one first-order state per leaf)."""
     params = stacked_vehicle_parameters(X, cases, vehicle)
     lin = RideModel(params, seat=seat, linear=True)
+    lz = ElementLinearisation(RideModel(params, effects, seat)) if equivalent_linear else None
+    dahl = lz is not None and lz.dahl is not None
+    nq = lin.nq
     Co = _output_matrix(lin)
+    if effects:
+        # front spring compressions FL, FR and the leaf rows again (for their rates)
+        Co = np.vstack([Co, lin.E[:nq, 0:2].T, Co[6:8]])
+    leaves = lin.E[:nq, 2:4].T  # (2, nq) leaf compression at the seats per q
 
-    def modal(c: np.ndarray, k: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        return modal_form(*lin.linear_system(c, k), Co)
+    def modal(r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        front = r[:, FRONT] if effects else None
+        hyst = (leaves, r[:, DAHL_C], r[:, DAHL_K]) if dahl else None
+        return modal_form(*lin.linear_system(r[:, DAMPER], r[:, LEAF], front), Co, hyst)
 
     fi, wi, _, gqi, delayi, rhoi, _ = _road_grid(road, n_freq_iter, vehicle)
+    powers = (1, 1, 1, 1, 0, 0) + ((0, 0, 1, 1, 0, 0) if effects else ())
 
     def sigma(m: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
         lam, P = m
-        G = modal_response(lam, P[:, :, 2:8], fi)
-        return np.sqrt(_output_psd(G, fi, gqi, delayi, rhoi, (1, 1, 1, 1, 0, 0)) @ wi)
+        G = modal_response(lam, P[:, :, 2:], fi)
+        if effects and not dahl:
+            G = np.concatenate([G, np.zeros_like(G[:, :, :2])], axis=2)  # no Dahl force
+        return np.sqrt(_output_psd(G, fi, gqi, delayi, rhoi, powers) @ wi)
 
-    lz = _Linearisation(RideModel(params, seat=seat)) if equivalent_linear else None
-    damper_c, leaf_k, n_iter, (lam, P) = _fixed_point(
-        lin.d_bl.T.astype(float).copy(),
-        lin.K[:, 2:4].astype(float).copy(),
-        lz,
-        modal,
-        sigma,
-        iterations,
-        tol,
-        init_damping,
-    )
+    if lz is None:
+        r0 = np.hstack([lin.damper_mean, lin.leaf_static_rate])
+    else:
+        r0 = lz.initial(init_damping)
+    r, n_iter, (lam, P) = _fixed_point(r0, lz, modal, sigma, iterations, tol)
     f, wq, _, gq, delay, rho, wk2 = _road_grid(road, n_freq, vehicle)
     G = modal_response(lam, P[:, :, 0:2], f)
     psd = _output_psd(G, f, gq, delay, rho, (2, 2))
-    return _spectral_result(np.sqrt(psd @ (wq * wk2)), np.sqrt(psd @ wq), damper_c, leaf_k, n_iter)
+    return _spectral_result(np.sqrt(psd @ (wq * wk2)), np.sqrt(psd @ wq), r, n_iter)
+
+
+#: the halves of the mirror-symmetric model for the effects path: (T, J, S) with T the
+#: half's coordinates, J its axle inputs and S (1, 2) its share of the left and right
+#: Dahl forces, z_h = S (z_L, z_R)
+_HALF_MAPS = ((T_SYM, J_SYM, np.array([[_H, _H]])), (T_ANTI, J_ANTI, np.array([[_H, -_H]])))
+
+
+def _halves_mean_square(
+    modes: list[tuple[np.ndarray, np.ndarray]],
+    rows: list[int],
+    grid: tuple[np.ndarray, ...],
+    wt: np.ndarray,
+) -> np.ndarray:
+    """:func:`_split_mean_square` (n, len(rows), 2) for the halves' complex modal forms
+    (:func:`modal_form` per half, inputs front and rear axle), same grid and weights
+    (:func:`_split_grid`)."""
+    w, _, dr, di = grid
+    delay = (dr + 1j * di)[None, :, None]
+    total = np.zeros((modes[0][0].shape[0], len(rows), 2))
+    for h, (lam, P) in enumerate(modes):
+        G = modal_response(lam, P[:, :, rows], w / (2 * np.pi))  # (n, Nf, p, 2)
+        g = G[..., 0] + delay * G[..., 1]
+        g2 = g.real**2 + g.imag**2
+        total += np.matmul(g2.transpose(0, 2, 1), wt[:, 2 * h : 2 * h + 2])
+    return total
+
+
+def _spectral_effects_split(
+    X: np.ndarray,
+    cases: list[str],
+    road: RandomRoad,
+    vehicle: Minibus,
+    seat: SeatMount | None,
+    n_freq: int,
+    equivalent_linear: bool,
+    iterations: int,
+    tol: float | None,
+    n_freq_iter: int,
+    init_damping: float,
+    effects: Sequence[Effect] = (),
+) -> dict[str, np.ndarray]:
+    """:func:`ride_spectral` with effects for a seatless model: the same integral as
+    :func:`_spectral_full` through the model's decoupled symmetric and antisymmetric
+    halves (:class:`_Halves`; each with one Dahl state for the pair of leaves, ``z_h =
+    S (z_L, z_R)``), complex modal sums on the left-hand elements only (the right-hand
+    ones have the same RMS values)."""
+    params = stacked_vehicle_parameters(X, cases, vehicle)
+    lin = RideModel(params, linear=True)
+    lz = ElementLinearisation(RideModel(params, effects))
+    dahl = lz.dahl is not None
+    nq = lin.nq
+    # rows: measuring points front, rear; FL damper, RL damper, left leaf, FL spring
+    Co = np.vstack([_output_matrix(lin)[[0, 1, 2, 4, 6]], lin.E[:nq, 0]])
+    leaves = lin.E[:nq, 2:4].T  # (2, nq)
+
+    def modal(r: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+        M, C, K, Kin, Cin = lin.linear_system(r[:, DAMPER], r[:, LEAF], r[:, FRONT])
+        out = []
+        for T, J, S in _HALF_MAPS:
+            hyst = (S @ leaves @ T, r[:, DAHL_C][:, :1], r[:, DAHL_K][:, :1]) if dahl else None
+            tt = T.T
+            out.append(
+                modal_form(
+                    tt @ M @ T, tt @ C @ T, tt @ K @ T, tt @ Kin @ J, tt @ Cin @ J, Co @ T, hyst
+                )
+            )
+        return out
+
+    grid_i, wt_i = _split_grid(road, n_freq_iter, vehicle, False)
+    # FL damper, RL damper, left leaf, FL spring, Dahl force (per column: displacement
+    # or force, rate)
+    rows = [2, 3, 4, 5] + ([6] if dahl else [])
+
+    def sigma(m: list[tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
+        ms = _halves_mean_square(m, rows, grid_i, wt_i)
+        # z_L = (z_s + z_a)/sqrt 2 with the halves uncorrelated
+        z = np.sqrt(0.5 * ms[:, 4, 0]) if dahl else np.zeros(ms.shape[0])
+        sig = np.sqrt(ms[:, [0, 0, 1, 1, 2, 2, 3, 3, 2, 2], [1, 1, 1, 1, 0, 0, 0, 0, 1, 1]])
+        return np.column_stack([sig, z, z])
+
+    r, n_iter, m = _fixed_point(lz.initial(init_damping), lz, modal, sigma, iterations, tol)
+    grid, wt = _split_grid(road, n_freq, vehicle, True)
+    ms = _halves_mean_square(m, [0, 1], grid, wt)
+    aw, rms = np.sqrt(ms[:, :, 0]), np.sqrt(ms[:, :, 1])
+    return _spectral_result(aw, rms, r, n_iter)
 
 
 def ride_spectral(
@@ -795,11 +870,12 @@ def ride_spectral(
     seat: SeatMount | None = None,
     n_freq: int = 400,
     equivalent_linear: bool = True,
-    iterations: int = 4,
+    iterations: int | None = None,
     tol: float | None = None,
     n_freq_iter: int = 150,
     init_damping: float = 0.85,
     split: bool = True,
+    effects: Sequence[Effect] = (),
 ) -> dict[str, np.ndarray]:
     """Ride RMS values by the exact spectral integral of the (equivalent-)linear model.
 
@@ -819,12 +895,22 @@ def ride_spectral(
     deflection of the RMS the linear model predicts, on an ``n_freq_iter``-point grid),
     iterated towards the fixed point from ``init_damping`` x the mean low-speed damping:
     ``tol=None`` (default) runs exactly ``iterations`` passes (``iterations - 1``
-    updates) for every design, so the objectives are smooth functions of the design
-    (no data-dependent stopping); with a number, each design stops when every rate's
-    relative change is below ``tol`` (at most ``iterations`` passes). At the defaults
-    the objectives lie within 0.1 % of the exact fixed point on fine grids (tests).
+    updates; None: ``PASSES``, with effects ``PASSES_EFFECTS``) for every design, so
+    the objectives are smooth functions of the design (no data-dependent stopping);
+    with a number, each design stops when every rate's relative change is below
+    ``tol`` (at most ``iterations`` passes). At the defaults the objectives lie within
+    0.1 % of the exact fixed point on fine grids (tests).
     ``equivalent_linear=False``: the plain linearised model (mean low-speed damping,
-    static leaf rate). Tyre lift-off and effects are not modelled.
+    static leaf rate). Tyre lift-off is not modelled.
+
+    ``effects`` (the ride model's, :data:`suspenv.models.minibus.ride_model.
+    SUPPORTED_EFFECTS`): end stops and damper Coulomb friction enter through their
+    Gaussian equivalent rates, the rear leaves' Dahl interleaf friction through Wen's
+    equivalent-linear first-order element (one state per leaf; :mod:`suspenv.models.
+    minibus.linearisation`), all in the same fixed-point passes (by default 4 with leaf
+    friction only, within 1e-3 of the fixed point, 8 with stops or damper friction,
+    within 0.5 %; tests); the model's halves then carry complex modal sums
+    (:func:`_spectral_effects_split`; with a seat or ``split=False`` the whole model).
 
     ``split`` (default True; only without a seat): the mirror-symmetric model is
     evaluated as its decoupled symmetric (4-DOF) and antisymmetric (3-DOF) halves
@@ -843,8 +929,16 @@ def ride_spectral(
     road = road or RandomRoad()
     X = np.atleast_2d(np.asarray(X, dtype=float))
     cases = [load_cases] if isinstance(load_cases, str) else list(load_cases)
-    use_split = split and seat is None
-    chunk = _spectral_split if use_split else _spectral_full
+    use_split = split and seat is None and not effects
+    if iterations is None:
+        slow = any(e.kind != "dahl_hysteresis" for e in effects)
+        iterations = PASSES_EFFECTS if slow else PASSES
+    if effects and not equivalent_linear:
+        raise ValidationError("ride effects need equivalent_linear=True, but it is False")
+    chunk: Callable[..., dict[str, np.ndarray]] = _spectral_split if use_split else _spectral_full
+    if effects:
+        chunk = _spectral_effects_split if split and seat is None else _spectral_full
+        chunk = functools.partial(chunk, effects=tuple(effects))
     size = SPLIT_CHUNK if use_split else SPECTRAL_CHUNK
     args = (cases, road, vehicle, seat, n_freq, equivalent_linear, iterations, tol)
     n = X.shape[0]

@@ -67,6 +67,7 @@ the load case; the other rows of the batch are unaffected.
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -89,11 +90,13 @@ from suspenv.metrics.ride import (
     ride_objectives_all,
     working_space,
 )
+from suspenv.models.effects.effect import Effect
 from suspenv.models.minibus.handling_model import (
     HandlingParams,
     handling_parameters,
     linear_system,
 )
+from suspenv.models.minibus.ride_model import SUPPORTED_EFFECTS
 from suspenv.models.minibus.vehicle import (
     BASELINE_DESIGN,
     LOAD_CASES,
@@ -211,6 +214,13 @@ class MinibusRideHandling(Problem):
             ``0 < p < 1`` (with ``working_space``).
         tyre_load_limit [-]: largest RMS dynamic tyre load over the static wheel load,
             > 0 (with ``working_space``).
+        ride_effects: optional physics of the ride model, a list of ``{"kind",
+            "location", "params"}`` (:func:`ride_effect_list`): interleaf friction
+            ``dahl_hysteresis`` at ``rear_leaf``, ``coulomb_friction`` at
+            ``front_damper``/``rear_damper``, ``bump_stop``/``rebound_stop`` at
+            ``front_suspension``/``rear_suspension``; both ride methods model them
+            (the spectral one by statistical linearisation, docs/minibus.md). The
+            working-space constraints see them only through the damper and leaf rates.
     """
 
     name = "MinibusRideHandling"
@@ -241,6 +251,7 @@ class MinibusRideHandling(Problem):
         working_space: bool = False,
         bump_stop_limit: float = 0.01,
         tyre_load_limit: float = 0.3,
+        ride_effects: Sequence[Mapping[str, Any]] = (),
     ):
         owner = self.name
         self.load_weight = positive(owner, "load_weight", load_weight)
@@ -268,6 +279,7 @@ class MinibusRideHandling(Problem):
             owner, "bump_stop_limit", bump_stop_limit, lo=0.0, hi=1.0, lo_open=True, hi_open=True
         )
         self.tyre_load_limit = positive(owner, "tyre_load_limit", tyre_load_limit)
+        self.ride_effects = ride_effect_list(owner, ride_effects)
         self.road = RandomRoad(
             road_class=road_class,
             speed_kmh=speed_kmh,
@@ -304,6 +316,10 @@ class MinibusRideHandling(Problem):
             "working_space": self.working_space,
             "bump_stop_limit": self.bump_stop_limit,
             "tyre_load_limit": self.tyre_load_limit,
+            "ride_effects": [
+                {"kind": e.kind, "location": e.location, "params": e.to_dict()["params"]}
+                for e in self.ride_effects
+            ],
         }
         self.vehicle = REFERENCE_MINIBUS
         self.space = design_space()
@@ -423,7 +439,13 @@ class MinibusRideHandling(Problem):
         # make runs with other worker counts drift apart); costs ~0.4 ms per candidate
         # with ride_method="time"
         return ride_objectives_all(
-            X, LOAD_CASES, self.road, self.vehicle, dtype=np.float64, method=self.ride_method
+            X,
+            LOAD_CASES,
+            self.road,
+            self.vehicle,
+            self.ride_effects,
+            dtype=np.float64,
+            method=self.ride_method,
         )
 
     def _working_space(
@@ -536,6 +558,36 @@ def ride_focused_pick(F: np.ndarray, front: np.ndarray, F_base: np.ndarray) -> i
     keeps = np.all(F[idx, 2:5] <= F_base[2:5] + 1e-12, axis=1)
     pool = np.where(keeps, ride, np.inf) if keeps.any() else ride
     return int(idx[int(np.argmin(pool))])
+
+
+def ride_effect_list(owner: str, specs: Sequence[Mapping[str, Any]]) -> tuple[Effect, ...]:
+    """Ride-model effects from plain data ``[{"kind", "location", "params": {...}}]`` (a
+    config runs no code): the (kind, location) pairs the ride model supports, parameters
+    the effect kind knows (its defaults fill the rest), finite and >= 0."""
+    if isinstance(specs, (str, Mapping)) or not isinstance(specs, Sequence):
+        raise ValidationError(f"{owner}: `ride_effects` must be a list, but got {specs!r}")
+    out = []
+    for spec in specs:
+        if not isinstance(spec, Mapping) or set(spec) - {"kind", "location", "params"}:
+            raise ValidationError(
+                f"{owner}: each ride effect must be a mapping with keys kind, location, "
+                f"params, but got {spec!r}"
+            )
+        kind, loc = spec.get("kind"), spec.get("location")
+        if (kind, loc) not in SUPPORTED_EFFECTS:
+            raise ValidationError(
+                f"{owner}: ride effect (kind, location) must be one of "
+                f"{sorted(SUPPORTED_EFFECTS)}, but got ({kind!r}, {loc!r})"
+            )
+        params = dict(spec.get("params", {}))
+        for k, v in params.items():
+            if not isinstance(v, (int, float)) or not np.isfinite(v) or v < 0:
+                raise ValidationError(
+                    f"{owner}: ride effect {kind}@{loc}: `{k} >= 0` must hold (finite), "
+                    f"but got {v!r}"
+                )
+        out.append(Effect(str(kind), f"{kind}@{loc}", params, str(loc)))
+    return tuple(out)
 
 
 @dataclass(frozen=True)

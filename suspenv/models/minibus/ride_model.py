@@ -517,29 +517,22 @@ class RideModel:
         Valid for ``linear=True`` models (raises otherwise). Only for reports/tests; the
         time integration never forms them.
         """
-        if not self.linear:
-            raise ValidationError("linear_matrices needs a model built with linear=True")
-        npos, nq = self.n_pos, self.nq
-        pos, vel = self.E[:nq, :npos], self.E[nq:, npos:]
-        Kel, Cel = self.K[:, :npos].copy(), self.K[:, npos:].copy()
-        Cel[:, :4] = self.d_bl.T
-        Kmat = np.einsum("ie,ne,je->nij", pos, Kel, pos)
-        Cmat = np.einsum("ie,ne,je->nij", vel, Cel, vel)
-        Minv = np.zeros((self.n, nq, nq))
-        idx = np.arange(nq)
-        Minv[:, idx, idx] = self.minv_diag.T
-        Minv[:, 0, 1] = Minv[:, 1, 0] = self.m12
-        return np.linalg.inv(Minv), Cmat, Kmat
+        M, C, K, _, _ = self.linear_system()
+        return M, C, K
 
     def linear_system(
-        self, damper_c: np.ndarray | None = None, leaf_k: np.ndarray | None = None
+        self,
+        damper_c: np.ndarray | None = None,
+        leaf_k: np.ndarray | None = None,
+        front_k: np.ndarray | None = None,
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Mass, damping, stiffness (n, nq, nq) and road input matrices (n, nq, 4).
 
         ``M qdd + C qd + K q = Kin u + Cin ud`` with u the wheel road inputs (FL, FR, RL,
-        RR). ``damper_c`` (n, 4) and ``leaf_k`` (n, 2) override the damper coefficients
-        and the rear leaf rates (equivalent-linear values); by default the linearised
-        model's (mean low-speed damping, static leaf rate). Valid for ``linear=True``.
+        RR). ``damper_c`` (n, 4), ``leaf_k`` (n, 2) and ``front_k`` (n, 2) override the
+        damper coefficients, the rear leaf rates and the front wheel rates
+        (equivalent-linear values); by default the linearised model's (mean low-speed
+        damping, static leaf rate, front wheel rate). Valid for ``linear=True``.
         """
         if not self.linear:
             raise ValidationError("linear_system needs a model built with linear=True")
@@ -549,6 +542,8 @@ class RideModel:
         Cel[:, :4] = self.d_bl.T if damper_c is None else damper_c
         if leaf_k is not None:
             Kel[:, 2:4] = leaf_k
+        if front_k is not None:
+            Kel[:, 0:2] = front_k
         Kmat = np.einsum("ie,ne,je->nij", pos, Kel, pos)
         Cmat = np.einsum("ie,ne,je->nij", vel, Cel, vel)
         Minv = np.zeros((self.n, nq, nq))

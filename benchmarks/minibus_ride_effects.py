@@ -1,0 +1,225 @@
+"""Minibus ride with effects: the spectral method's statistical linearisation against
+long nonlinear time-domain runs, and its cost.
+
+Effect sets (``SCENARIOS``; magnitudes inside the ride diagnosis' ranges,
+:func:`suspenv.diagnosis.ride.truth.draw_truth_effect`): none; rear-leaf interleaf
+friction (Dahl, ``f_c`` 400 N over 5 mm and 900 N over 2.5 mm of pre-sliding travel);
+bump stops front and rear (15 mm from rest, 300 kN/m); leaf friction (600 N, 3.5 mm)
+with the stops. Designs spanning the box: its centre, the all-low and all-high corners,
+the two alternating corners, the study's pick and two random designs; both load cases,
+both measuring points.
+
+For each: the spectral value (:func:`suspenv.metrics.ride.ride_spectral` with the
+effects, no seed) against the nonlinear model's mean square over ``--seeds`` independent
+120 s records (RK4 at 100 Hz, 1 s settling; standard error between records), and the
+spectral value that ignores the effects (what the default gave before).
+
+Speed, CPU ms per candidate (both load cases), in the same run: the spectral method with
+leaf friction, the plain spectral method (the baseline without effects) and the 10 s
+time-domain run with the friction (the method the effects needed before), at batch 1
+and 500.
+
+The study with leaf friction (unless ``--quick``): ``suspenv run
+experiments/minibus_nsga2.toml`` (30,000 evaluations, 2 workers) with ``ride_effects``
+= 600 N leaf friction and ``rms_limit`` = ``STUDY_RMS_LIMIT`` (with the friction the
+empty rear lies above the default 0.9 m/s^2 everywhere in the box): the command's CPU
+time with its workers, its loop's wall time, evaluations that succeeded and feasible
+ones (:func:`benchmarks.minibus_study.run_command`).
+
+Run: ``python -m benchmarks.minibus_ride_effects [--quick]``; writes
+``docs/benchmarks/minibus_ride_effects.json``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import tempfile
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+from tqdm import tqdm
+
+from benchmarks.common import write_result
+from suspenv.metrics.iso2631 import weighted_rms_fft
+from suspenv.metrics.ride import ride_objectives_all, ride_spectral
+from suspenv.models.effects.effect import Effect, make_effect
+from suspenv.models.minibus import BASELINE_DESIGN, STUDY_PICK, design_space
+from suspenv.models.minibus.vehicle import LOAD_CASES
+from suspenv.rigs.ride import RandomRoad, random_road_run
+from suspenv.runs.compare import load_summary
+
+#: agreement asked of the spectral values with the long runs (%)
+TARGET_PERCENT = 2.0
+#: per-design budgets (ms CPU, both load cases): one design at a time
+TARGET_MS_BATCH1 = 5.0
+RECORD_S = 120.0
+#: the study's budget (s, on 2 cores) and its weighted-RMS limit with leaf friction
+#: (m/s^2; about the 90th percentile of the empty rear value over random designs)
+TARGET_STUDY_S = 60.0
+STUDY_RMS_LIMIT = 1.25
+STUDY_FRICTION = (
+    'problem.options.ride_effects=[{kind="dahl_hysteresis", location="rear_leaf", '
+    "params={f_c=600.0, sigma=171428.6}}]"
+)
+
+
+def _dahl(f_c: float, travel: float) -> Effect:
+    return make_effect("dahl_hysteresis", location="rear_leaf", f_c=f_c, sigma=f_c / travel)
+
+
+STOPS = [
+    make_effect("bump_stop", location="front_suspension", gap=0.015, k_stop=3e5),
+    make_effect("bump_stop", location="rear_suspension", gap=0.015, k_stop=3e5),
+]
+SCENARIOS: dict[str, list[Effect]] = {
+    "none": [],
+    "leaf_friction_400N": [_dahl(400.0, 5e-3)],
+    "leaf_friction_900N": [_dahl(900.0, 2.5e-3)],
+    "bump_stops": STOPS,
+    "leaf_friction_and_stops": [_dahl(600.0, 3.5e-3), *STOPS],
+}
+
+
+def designs() -> tuple[list[str], np.ndarray]:
+    space = design_space()
+    alt = np.arange(8) % 2
+    unit = [np.zeros(8), np.ones(8), alt.astype(float), 1.0 - alt]
+    rand = np.random.default_rng(4).random((2, 8))
+    names = ["centre", "low corner", "high corner", "alternating 0101", "alternating 1010"]
+    names += ["study's pick", "random 1", "random 2"]
+    X = np.vstack([BASELINE_DESIGN, space.to_physical(np.array(unit)), STUDY_PICK])
+    return names, np.vstack([X, space.to_physical(rand)])
+
+
+def long_runs(X: np.ndarray, effects: list[Effect], seeds: int) -> tuple[np.ndarray, np.ndarray]:
+    """Weighted RMS (m/s^2) and its standard error, (2 ends, n x load cases), from the
+    mean square over ``seeds`` records of ``RECORD_S``."""
+    ms = []
+    for k in range(seeds):
+        road = RandomRoad(duration_s=RECORD_S, seed=500 + k)
+        rec = random_road_run(X, LOAD_CASES, road, effects=effects)
+        fs = road.sample_rate
+        ms.append(
+            [weighted_rms_fft(rec.acc_front, fs) ** 2, weighted_rms_fft(rec.acc_rear, fs) ** 2]
+        )
+    a = np.array(ms)
+    mean, se = a.mean(axis=0), a.std(axis=0, ddof=1) / np.sqrt(seeds)
+    return np.sqrt(mean), se / (2 * np.sqrt(mean))
+
+
+def _cpu_ms(fn: Callable[[np.ndarray], object], X: np.ndarray, repeat: int) -> float:
+    """Best CPU time (ms) per row of ``X`` of ``fn(X)`` over ``repeat`` calls."""
+    best = float("inf")
+    for _ in range(repeat):
+        c0 = time.process_time()
+        fn(X)
+        best = min(best, time.process_time() - c0)
+    return 1e3 * best / X.shape[0]
+
+
+def speed(quick: bool) -> dict[str, float]:
+    """CPU ms per candidate (both load cases) at batch 1 and 500."""
+    X = design_space().to_physical(np.random.default_rng(0).random((500, 8)))
+    leaf = SCENARIOS["leaf_friction_400N"]
+    out: dict[str, float] = {}
+    calls = {
+        "spectral_leaf_friction": lambda Xb: ride_spectral(Xb, effects=leaf),
+        "spectral_plain": lambda Xb: ride_spectral(Xb),
+        "time_10s_leaf_friction": lambda Xb: ride_objectives_all(
+            Xb, effects=leaf, dtype=np.float64
+        ),
+    }
+    for batch in (1, 500):
+        Xb = X[:batch]
+        for name, call in calls.items():
+            call(Xb)  # warm-up
+            reps = 1 if quick or (batch == 500 and name.startswith("time")) else 3
+            reps *= 20 if batch == 1 and name.startswith("spectral") else 1
+            out[f"{name}_batch{batch}_ms_cpu"] = _cpu_ms(call, Xb, reps)
+    return out
+
+
+def study() -> dict[str, float]:
+    """The minibus study with leaf friction, timed (see the module docstring)."""
+    from benchmarks.minibus_study import run_command
+
+    config = Path(__file__).resolve().parents[1] / "experiments" / "minibus_nsga2.toml"
+    with tempfile.TemporaryDirectory() as tmp:
+        sets = (STUDY_FRICTION, f"problem.options.rms_limit={STUDY_RMS_LIMIT}")
+        r = run_command(config, Path(tmp), 2, sets=sets)
+        summary = load_summary(r["run_dir"])
+    return {
+        "study_command_cpu_s": r["cpu_s"],
+        "study_command_wall_s": r["wall_s"],
+        "study_loop_wall_s": r["loop_wall_s"],
+        "study_evaluations": summary["n_evaluations"],
+        "study_ok": summary["n_ok"],
+        "study_feasible": summary["n_feasible"],
+        "study_rms_limit": STUDY_RMS_LIMIT,
+        "target_study_s": TARGET_STUDY_S,
+        "load_average_1min": os.getloadavg()[0],
+    }
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="3 records, fewer repeats")
+    parser.add_argument("--seeds", type=int, default=6, help="120 s records per design")
+    parser.add_argument("--output-dir", default=None, help="default docs/benchmarks")
+    args = parser.parse_args(argv)
+    seeds = 3 if args.quick else args.seeds
+    names, X = designs()
+    n = len(names)
+    rows = []
+    for scen, effects in tqdm(SCENARIOS.items(), desc="effect sets", file=sys.stderr):
+        td, se = long_runs(X, effects, seeds)
+        sp, plain = ride_spectral(X, effects=effects), ride_spectral(X)
+        for j, end in enumerate(("front", "rear")):
+            el, ign = sp[f"aw_{end}"], plain[f"aw_{end}"]
+            for i in range(2 * n):
+                rows.append(
+                    {
+                        "effects": scen,
+                        "design": names[i % n],
+                        "load_case": LOAD_CASES[i // n],
+                        "end": end,
+                        "spectral": float(el[i]),
+                        "time_120s": float(td[j, i]),
+                        "time_se_percent": float(100 * se[j, i] / td[j, i]),
+                        "error_percent": float(100 * (el[i] / td[j, i] - 1)),
+                        "ignoring_effects_error_percent": float(100 * (ign[i] / td[j, i] - 1)),
+                    }
+                )
+    summary: dict[str, object] = {
+        "what": f"spectral ride values with effects vs {seeds} x {RECORD_S:.0f} s nonlinear "
+        f"runs, {n} designs x 2 load cases x 2 ends per effect set",
+        "records_per_value": seeds,
+        "record_s": RECORD_S,
+        "target_percent": TARGET_PERCENT,
+    }
+    for scen in SCENARIOS:
+        err = np.array([r["error_percent"] for r in rows if r["effects"] == scen])
+        ign = np.array([r["ignoring_effects_error_percent"] for r in rows if r["effects"] == scen])
+        summary[f"{scen}_error_min_percent"] = float(err.min())
+        summary[f"{scen}_error_max_percent"] = float(err.max())
+        summary[f"{scen}_within_target"] = f"{int((abs(err) <= TARGET_PERCENT).sum())}/{err.size}"
+        summary[f"{scen}_ignoring_max_abs_percent"] = float(np.abs(ign).max())
+    summary["time_se_max_percent"] = max(r["time_se_percent"] for r in rows)
+    summary.update(speed(args.quick))
+    if not args.quick:
+        summary.update(study())
+    summary["target_ms_batch1_cpu"] = TARGET_MS_BATCH1
+    summary["meets_batch1_target_cpu"] = bool(
+        summary["spectral_leaf_friction_batch1_ms_cpu"] <= TARGET_MS_BATCH1  # type: ignore[operator]
+    )
+    command = "python -m benchmarks.minibus_ride_effects" + (" --quick" if args.quick else "")
+    write_result("minibus_ride_effects", rows, summary, command, args.output_dir)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,193 @@
+"""Gaussian equivalent-linear rates of the minibus ride model's nonlinear elements.
+
+Statistical linearisation (Roberts & Spanos, *Random Vibration and Statistical
+Linearization*, ch. 5-6; Kazakov; Atalik & Utku 1976): an element force F(x) of a
+zero-mean Gaussian element deflection or velocity x of RMS s is replaced by the
+mean-square-optimal linear rate ``k_eq = E[F'(x)]`` (Stein's lemma: ``E[F x] / s^2``).
+The spectral ride method (:func:`suspenv.metrics.ride.ride_spectral`) takes the RMS
+values from the linear model built with these rates and iterates to consistency.
+
+Signs and units as :mod:`suspenv.models.minibus.ride_model`: deflections and
+velocities positive in compression (m, m/s), forces positive when they resist
+compression (N); rates in N/m and N s/m. Laws (the ride model's):
+
+- asymmetric digressive damper: slopes ``c_bl``/``c_bh`` (bump, below/above the knee
+  ``k_b``), ``c_rl``/``c_rh`` (rebound, knee ``k_r > 0``):
+  ``c_eq = c_bl (Phi(k_b/s) - 1/2) + c_bh (1 - Phi(k_b/s)) + (same for rebound)``;
+- two-stage leaf, extra rate ``dk`` beyond the knee ``e_k`` from rest:
+  ``k_eq = K_1 + dk (1 - Phi(e_k/s))``;
+- end stop ``F = k_stop max(x - gap, 0)^p`` (bump; rebound mirrored):
+  ``k_eq = p k_stop E[max(x - gap, 0)^(p - 1)]``, the stop's stiffness times the
+  Gaussian probability of contact for p = 1 (:func:`stop_rate`);
+- smoothed Coulomb friction ``F = f_c tanh(v / v_eps)``:
+  ``c_eq = E[F'(v)]``, which tends to ``f_c sqrt(2/pi) / s`` for ``v_eps << s``
+  (:func:`coulomb_rate`);
+- Dahl hysteresis (interleaf friction) ``dz/dt = sigma v (1 - z/f_c sign(v))``, the
+  force z a state: Wen's linearisation of the Bouc-Wen element (Wen 1980, J. Appl.
+  Mech. 47:150; Dahl = Bouc-Wen with n = 1, A = sigma, beta = sigma/f_c, gamma = 0)
+  ``dz/dt = c_z v - k_z z`` with ``c_z = sigma (1 - sqrt(2/pi) E[v z] / (f_c s_v))`` and
+  ``k_z = sigma/f_c sqrt(2/pi) s_v``, jointly Gaussian (v, z) (:func:`dahl_rates`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.special import gamma, ndtr, pbdv
+
+from suspenv.models.minibus.ride_model import RideModel
+
+SQRT_2_PI = float(np.sqrt(2.0 / np.pi))
+#: Gauss-Legendre nodes for the Coulomb law's Gaussian expectation
+_GL_X, _GL_W = np.polynomial.legendre.leggauss(96)
+
+#: columns of the rate vector (n, n_rates) the spectral method iterates: damper
+#: coefficients FL, FR, RL, RR (N s/m), rear leaf rates L, R (N/m); with effects also
+#: the front spring rates FL, FR (N/m) and the linearised Dahl coefficients c_z (N/m)
+#: and k_z (1/s) of the left and right leaf
+DAMPER = slice(0, 4)
+LEAF = slice(4, 6)
+FRONT = slice(6, 8)
+DAHL_C = slice(8, 10)
+DAHL_K = slice(10, 12)
+#: columns of the RMS vector (n, n_sig) the rates are computed from: damper velocities
+#: (m/s), leaf deflections (m); with effects also the front spring deflections (m), the
+#: leaf deflection rates (m/s) and the Dahl forces (N)
+SIG_DAMPER = slice(0, 4)
+SIG_LEAF = slice(4, 6)
+SIG_FRONT = slice(6, 8)
+SIG_LEAF_V = slice(8, 10)
+SIG_DAHL = slice(10, 12)
+
+
+def tail_moment(a: np.ndarray, m: np.ndarray | float) -> np.ndarray:
+    """``E[max(t - a, 0)^m]`` (-) for a standard normal t, m >= 0:
+    ``Gamma(m + 1) exp(-a^2/4) D_{-m-1}(a) / sqrt(2 pi)`` with D the parabolic cylinder
+    function (the integral representation of D_{-nu}; Abramowitz & Stegun 19.5.1);
+    m = 0 gives ``1 - Phi(a)``, m = 1 ``phi(a) - a (1 - Phi(a))``."""
+    a = np.asarray(a, dtype=float)
+    m = np.asarray(m, dtype=float)
+    d = pbdv(-m - 1.0, a)[0]
+    return gamma(m + 1.0) * np.exp(-0.25 * a * a) * d / np.sqrt(2.0 * np.pi)
+
+
+def stop_rate(gap: float, k_stop: float, p: float, sigma: np.ndarray) -> np.ndarray:
+    """Equivalent stiffness (N/m) of a bump or a rebound stop (the same: mirror images)
+    for a zero-mean Gaussian deflection of RMS ``sigma`` (m):
+    ``p k_stop sigma^(p-1) E[max(t - gap/sigma, 0)^(p-1)]``."""
+    s = np.maximum(np.asarray(sigma, dtype=float), 1e-12)
+    return p * k_stop * s ** (p - 1.0) * tail_moment(gap / s, p - 1.0)
+
+
+def coulomb_rate(f_c: float, v_eps: float, sigma: np.ndarray) -> np.ndarray:
+    """Equivalent viscous coefficient (N s/m) of ``f_c tanh(v / v_eps)`` for a zero-mean
+    Gaussian velocity of RMS ``sigma`` (m/s): ``E[f_c/v_eps sech^2(v/v_eps)]``, by
+    96-point Gauss-Legendre quadrature over ``|v| <= min(12 v_eps, 10 sigma)`` (the
+    narrower factor's width; beyond, sech^2 < 2e-10 or the density < 2e-22 of its
+    peak); ``-> f_c sqrt(2/pi)/sigma`` as ``v_eps/sigma -> 0``."""
+    s = np.maximum(np.asarray(sigma, dtype=float), 1e-12)[..., None]
+    half = np.minimum(12.0 * v_eps, 10.0 * s)
+    v = half * _GL_X
+    sech2 = 1.0 / np.cosh(v / v_eps) ** 2
+    dens = np.exp(-0.5 * (v / s) ** 2) / (np.sqrt(2.0 * np.pi) * s)
+    return f_c / v_eps * half[..., 0] * ((sech2 * dens) @ _GL_W)
+
+
+def dahl_rates(
+    sigma: float,
+    f_c: float,
+    s_v: np.ndarray,
+    s_z: np.ndarray,
+    c_z: np.ndarray,
+    k_z: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Wen's equivalent-linear Dahl element ``dz/dt = c_z v - k_z z``: new ``(c_z
+    (N/m), k_z (1/s))`` from the RMS element velocity ``s_v`` (m/s) and force ``s_z``
+    (N) of the linear model built with the current ``c_z``, ``k_z``.
+
+    The cross-moment comes from that model's stationarity, ``E[z dz/dt] = 0``, so
+    ``E[v z] = k_z s_z^2 / c_z`` (no cross-spectrum needed)."""
+    s_v = np.maximum(s_v, 1e-12)
+    evz = k_z * s_z * s_z / np.maximum(c_z, 1e-9 * sigma)
+    c_new = sigma * (1.0 - SQRT_2_PI * evz / (f_c * s_v))
+    k_new = sigma / f_c * SQRT_2_PI * s_v
+    return np.maximum(c_new, 1e-3 * sigma), k_new
+
+
+#: starting guess of the leaf deflection rate's RMS (m/s) for the first Dahl rates
+_DAHL_START_SV = 0.05
+
+
+class ElementLinearisation:
+    """The nonlinear elements of a (nonlinear) :class:`RideModel`'s designs and their
+    Gaussian equivalent-linear rates as one vector per design (columns ``DAMPER``,
+    ``LEAF`` and, when the model has effects, ``FRONT``, ``DAHL_C``, ``DAHL_K``)."""
+
+    def __init__(self, nl: RideModel):
+        self.d_bl, self.d_bh, self.d_rl, self.d_rh = (
+            np.asarray(c, float).T for c in (nl.d_bl, nl.d_bh, nl.d_rl, nl.d_rh)
+        )
+        self.kb = np.asarray(nl.knee_b, float).T  # (1, 4) bump knee (m/s)
+        self.kr = -np.asarray(nl.knee_r, float).T  # (1, 4) rebound knee (> 0, m/s)
+        self.k1 = np.asarray(nl.K[:, 2:4], float)  # primary leaf rate (N/m)
+        self.k_front = np.asarray(nl.K[:, 0:2], float)  # front wheel rate (N/m)
+        self.dk = np.asarray(nl.leaf_dk, float).T  # composite - primary rate (N/m)
+        self.thr = np.asarray(nl.leaf_thr, float).T  # helper knee from static (m)
+        self.leaf_static = nl.leaf_static_rate
+        self.damper_mean = nl.damper_mean
+        self.effects = nl.effects
+        self.dahl = next((e.params for e in nl.effects if e.kind == "dahl_hysteresis"), None)
+        self.n_rates = 12 if self.effects else 6
+
+    def initial(self, init_damping: float) -> np.ndarray:
+        """Starting rates (n, n_rates): ``init_damping`` x the mean low-speed damping, the
+        leaf's static rate, the front wheel rate, Dahl at its pre-sliding stiffness."""
+        r = np.zeros((self.leaf_static.shape[0], self.n_rates))
+        r[:, DAMPER] = init_damping * self.damper_mean
+        r[:, LEAF] = self.leaf_static
+        if self.effects:
+            r[:, FRONT] = self.k_front
+            r[:, DAHL_K] = 1.0  # an inert state without Dahl (c_z = 0)
+            if self.dahl is not None:
+                sig, fc = self.dahl["sigma"], self.dahl["f_c"]
+                r[:, DAHL_C] = sig
+                r[:, DAHL_K] = sig / fc * SQRT_2_PI * _DAHL_START_SV
+        return r
+
+    def rates(self, sig: np.ndarray, r: np.ndarray) -> np.ndarray:
+        """New rates (n, n_rates) from the element RMS values ``sig`` (n, 6 or 12:
+        columns ``SIG_*``) of the linear model built with the rates ``r``."""
+        sv, sd = np.maximum(sig[:, SIG_DAMPER], 1e-12), np.maximum(sig[:, SIG_LEAF], 1e-12)
+        pb, pr = ndtr(self.kb / sv), ndtr(self.kr / sv)
+        out = np.empty_like(r)
+        out[:, DAMPER] = (
+            self.d_bl * (pb - 0.5)
+            + self.d_bh * (1 - pb)
+            + self.d_rl * (pr - 0.5)
+            + self.d_rh * (1 - pr)
+        )
+        out[:, LEAF] = self.k1 + self.dk * (1.0 - ndtr(self.thr / sd))
+        if self.effects:
+            self._effect_rates(sig, r, out)
+        return out
+
+    def _effect_rates(self, sig: np.ndarray, r: np.ndarray, out: np.ndarray) -> None:
+        out[:, FRONT] = self.k_front
+        out[:, DAHL_C], out[:, DAHL_K] = r[:, DAHL_C], r[:, DAHL_K]
+        for e in self.effects:
+            front = e.location.startswith("front")
+            if e.kind == "dahl_hysteresis":
+                out[:, DAHL_C], out[:, DAHL_K] = dahl_rates(
+                    e.params["sigma"],
+                    e.params["f_c"],
+                    sig[:, SIG_LEAF_V],
+                    sig[:, SIG_DAHL],
+                    r[:, DAHL_C],
+                    r[:, DAHL_K],
+                )
+            elif e.kind == "coulomb_friction":
+                cols = slice(0, 2) if front else slice(2, 4)
+                out[:, cols] += coulomb_rate(e.params["f_c"], e.params["v_eps"], sig[:, cols])
+            else:  # bump_stop, rebound_stop
+                cols, scols = (FRONT, SIG_FRONT) if front else (LEAF, SIG_LEAF)
+                p = e.params
+                out[:, cols] += stop_rate(p["gap"], p["k_stop"], p["p"], sig[:, scols])

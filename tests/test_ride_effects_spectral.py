@@ -1,0 +1,269 @@
+"""Effects in the spectral ride method (statistical linearisation): the Gaussian
+expectations against numerical integration, a single-DOF Coulomb oscillator against its
+closed-form linearisation and a Monte-Carlo run, the Dahl element against its complex
+stiffness, the halves against the whole model, the fixed point, and the long-run check
+against the nonlinear time-domain model (slow)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy import integrate
+from scipy.special import ndtr
+
+from suspenv.metrics.iso2631 import weighted_rms_fft
+from suspenv.metrics.ride import _output_matrix, modal_form, modal_response, ride_spectral
+from suspenv.models.effects.effect import make_effect
+from suspenv.models.minibus import STUDY_PICK, design_space
+from suspenv.models.minibus.linearisation import (
+    coulomb_rate,
+    dahl_rates,
+    stop_rate,
+    tail_moment,
+)
+from suspenv.models.minibus.ride_model import RideModel
+from suspenv.models.minibus.vehicle import LOAD_CASES, stacked_vehicle_parameters
+from suspenv.rigs.ride import RandomRoad, random_road_run
+
+LEAF_FRICTION = make_effect("dahl_hysteresis", location="rear_leaf", f_c=600.0, sigma=600 / 3.5e-3)
+STOPS = [
+    make_effect("bump_stop", location="front_suspension", gap=0.012, k_stop=3e5),
+    make_effect("rebound_stop", location="rear_suspension", gap=0.015, k_stop=2e5, p=2.0),
+]
+DAMPER_FRICTION = make_effect("coulomb_friction", location="rear_damper", f_c=250.0, v_eps=0.03)
+
+
+def _phi(t: float) -> float:
+    return float(np.exp(-0.5 * t * t) / np.sqrt(2 * np.pi))
+
+
+@pytest.mark.parametrize("m", [0.0, 0.5, 1.0, 1.5, 2.0])
+@pytest.mark.parametrize("a", [-1.5, 0.0, 0.7, 3.0])
+def test_tail_moment_equals_numerical_integral(a, m):
+    """E[max(t - a, 0)^m] against scipy's adaptive quadrature (rel 1e-8)."""
+    ref = integrate.quad(lambda t: (t - a) ** m * _phi(t), a, np.inf, epsabs=0, epsrel=1e-11)[0]
+    assert float(tail_moment(np.array([a]), m)[0]) == pytest.approx(ref, rel=1e-8, abs=1e-14)
+
+
+def test_stop_rate_is_stiffness_times_contact_probability_and_derivative_mean():
+    """p = 1: k_stop P(x > gap) (Gaussian contact probability); any p: E[F'(x)] by
+    quadrature of the stop law's derivative, and Stein's lemma E[F x]/sigma^2."""
+    s = np.array([0.004, 0.01, 0.03])
+    assert stop_rate(0.015, 3e5, 1.0, s) == pytest.approx(3e5 * ndtr(-0.015 / s), rel=1e-12)
+    for p in (1.0, 1.7, 2.0):
+        for sig in s:
+
+            def dens(x: float, sig: float = sig) -> float:
+                return _phi(x / sig) / sig
+
+            def law(x: float, p: float = p) -> float:
+                return 3e5 * max(x - 0.015, 0.0) ** p
+
+            stein = integrate.quad(
+                lambda x: law(x) * x * dens(x), 0.015, 1.0, epsabs=0, epsrel=1e-11
+            )[0]
+            assert float(stop_rate(0.015, 3e5, p, np.array([sig]))[0]) == pytest.approx(
+                stein / sig**2, rel=1e-7
+            )
+
+
+def test_coulomb_rate_against_quadrature_and_the_sign_limit():
+    """E[d/dv f_c tanh(v/v_eps)] by quadrature; v_eps/sigma -> 0 gives the ideal Coulomb
+    law's f_c sqrt(2/pi)/sigma (Roberts & Spanos)."""
+    for v_eps, sig in ((0.03, 0.05), (0.001, 0.2), (0.05, 0.01)):
+        ref = integrate.quad(
+            lambda v, e=v_eps, s=sig: (
+                200.0 / e / np.cosh(min(abs(v / e), 300.0)) ** 2 * _phi(v / s) / s
+            ),
+            -np.inf,
+            np.inf,
+            epsabs=0,
+            epsrel=1e-11,
+        )[0]
+        assert float(coulomb_rate(200.0, v_eps, np.array([sig]))[0]) == pytest.approx(ref, 1e-8)
+    sig = np.array([0.05, 0.1])
+    lim = coulomb_rate(200.0, 1e-7, sig)
+    assert lim == pytest.approx(200.0 * np.sqrt(2 / np.pi) / sig, rel=1e-6)
+
+
+def _sdof_el_sigma_v(m: float, c: float, k: float, f_c: float, s0: float) -> float:
+    """Statistical linearisation of m x'' + c x' + f_c sign(x') + k x = w (two-sided
+    force PSD s0): var(x') = pi s0 / (m c_tot), c_tot = c + f_c sqrt(2/pi)/sigma_v
+    (Roberts & Spanos), a quadratic in sigma_v."""
+    b = f_c * np.sqrt(2 / np.pi)
+    return float((-b + np.sqrt(b * b + 4 * c * np.pi * s0 / m)) / (2 * c))
+
+
+def test_sdof_coulomb_fixed_point_and_monte_carlo():
+    """A 1-DOF oscillator (1 Hz, damping ratio 0.1) with Coulomb friction under white
+    force noise. (1) The fixed point of coulomb_rate (v_eps -> 0) with the linear
+    oscillator's variance pi s0/(m c) equals the quadratic's root. (2) Monte Carlo: 600
+    paths, 12 s after 6 s of settling, semi-implicit Euler at 1 ms (its own bias at
+    f_c = 0 is below 0.5 %); the linearised RMS velocity lies within 3 standard errors
+    (between paths) + 2 % of the simulated one (Gaussian linearisation's own error for
+    this friction level: measured -1.5 % with 4000 paths x 30 s)."""
+    m, k, c, f_c, s0 = 1.0, (2 * np.pi) ** 2, 0.4 * np.pi, 0.2, 0.01
+    sv = np.sqrt(np.pi * s0 / (m * c))
+    for _ in range(60):
+        c_eq = c + float(coulomb_rate(f_c, 1e-7, np.array([sv]))[0])
+        sv = np.sqrt(np.pi * s0 / (m * c_eq))
+    sv_el = _sdof_el_sigma_v(m, c, k, f_c, s0)
+    assert sv == pytest.approx(sv_el, rel=1e-9)
+    rng = np.random.default_rng(3)
+    n, dt = 600, 1e-3
+    x, v = np.zeros(n), np.zeros(n)
+    sd = np.sqrt(2 * np.pi * s0 / dt)  # white force of two-sided PSD s0, sampled at dt
+    acc, cnt = np.zeros(n), 0
+    for i in range(18000):
+        a = (sd * rng.standard_normal(n) - c * v - k * x - f_c * np.tanh(v / 1e-3)) / m
+        v += a * dt
+        x += v * dt
+        if i >= 6000:
+            acc += v * v
+            cnt += 1
+    per_path = acc / cnt
+    ms, se = per_path.mean(), per_path.std(ddof=1) / np.sqrt(n)
+    assert sv_el**2 == pytest.approx(ms, abs=3 * se + 0.04 * ms)
+    # the friction matters here: the linear oscillator's RMS is 1.5x the simulated one
+    assert np.sqrt(np.pi * s0 / (m * c)) > 1.3 * np.sqrt(ms)
+
+
+def test_dahl_rates_limits():
+    """Wen's linearised Dahl element: with no force yet (s_z = 0) c_z is the pre-sliding
+    stiffness sigma; k_z = sigma/f_c sqrt(2/pi) s_v, so at high velocity the element is a
+    dashpot c_z/k_z; and the stationarity identity E[v z] = k_z s_z^2/c_z enters c_z."""
+    sig, fc = 2e5, 600.0
+    c, k = dahl_rates(sig, fc, np.array([0.05]), np.array([0.0]), np.array([sig]), np.array([1.0]))
+    assert c[0] == pytest.approx(sig) and k[0] == pytest.approx(
+        sig / fc * np.sqrt(2 / np.pi) * 0.05
+    )
+    c2, _ = dahl_rates(
+        sig, fc, np.array([0.05]), np.array([300.0]), np.array([1e5]), np.array([20.0])
+    )
+    evz = 20.0 * 300.0**2 / 1e5
+    assert c2[0] == pytest.approx(sig * (1 - np.sqrt(2 / np.pi) * evz / (fc * 0.05)))
+
+
+def test_modal_form_with_dahl_states_equals_complex_stiffness_solve():
+    """The first-order Dahl element dz/dt = c_z e' - k_z z is a Maxwell element of
+    complex stiffness c_z i w / (i w + k_z) on the leaf deflection: the modal form with
+    its states equals ``Co (K + Pz^T D(w) Pz - w^2 M + i w C)^-1 (Kin + i w Cin)`` solved
+    per frequency (rel 1e-8), and its force output equals D(w) Pz q."""
+    X = design_space().to_physical(np.random.default_rng(2).random((3, 8)))
+    lin = RideModel(stacked_vehicle_parameters(X, LOAD_CASES), linear=True)
+    M, C, K, Kin, Cin = lin.linear_system()
+    Co = _output_matrix(lin)
+    Pz = lin.E[: lin.nq, 2:4].T
+    cz = np.array([[1.5e5, 1.5e5], [9e4, 9e4], [2e5, 2e5]] * 2)
+    kz = np.array([[30.0, 30.0], [80.0, 80.0], [5.0, 5.0]] * 2)
+    f = np.geomspace(0.3, 40.0, 37)
+    lam, P = modal_form(M, C, K, Kin, Cin, Co, (Pz, cz, kz))
+    H = modal_response(lam, P, f)
+    for i, fi in enumerate(f):
+        w = 2 * np.pi * fi
+        D = cz * 1j * w / (1j * w + kz)  # (n, 2)
+        Z = K + np.einsum("ai,na,aj->nij", Pz, D, Pz) - w * w * M + 1j * w * C
+        q = np.linalg.solve(Z, Kin + 1j * w * Cin)
+        ref = np.concatenate([Co @ q, D[:, :, None] * (Pz @ q)], axis=1)
+        assert H[:, i] == pytest.approx(ref, rel=1e-8, abs=1e-12 * np.abs(ref).max())
+
+
+@pytest.mark.parametrize(
+    "effects", [[LEAF_FRICTION], STOPS, [DAMPER_FRICTION, LEAF_FRICTION] + STOPS]
+)
+def test_halves_equal_the_whole_model_with_effects(effects):
+    """The split halves (one Dahl state each) equal the whole 16-state model (rel 1e-10),
+    rates included."""
+    X = design_space().to_physical(np.random.default_rng(5).random((6, 8)))
+    a = ride_spectral(X, effects=effects)
+    b = ride_spectral(X, effects=effects, split=False)
+    for key in ("aw_front", "aw_rear", "rms_front", "rms_rear", "damper_c", "leaf_k"):
+        assert a[key] == pytest.approx(b[key], rel=1e-10)
+
+
+def test_effects_that_never_act_change_nothing():
+    """Stops far beyond the travel and zero friction give the plain spectral values
+    (the whole-model path, rel 1e-9)."""
+    X = design_space().to_physical(np.random.default_rng(6).random((4, 8)))
+    none = [
+        make_effect("bump_stop", location="front_suspension", gap=0.3, k_stop=1e6),
+        make_effect("rebound_stop", location="rear_suspension", gap=0.3, k_stop=1e6),
+        make_effect("coulomb_friction", location="front_damper", f_c=0.0),
+    ]
+    a = ride_spectral(X, effects=none)
+    b = ride_spectral(X, split=False, iterations=8)
+    for key in ("aw_front", "aw_rear"):
+        assert a[key] == pytest.approx(b[key], rel=1e-9)
+
+
+@pytest.mark.parametrize(
+    "effects, rel",
+    [([LEAF_FRICTION], 1e-3), (STOPS, 5e-3), ([DAMPER_FRICTION], 5e-3)],
+)
+def test_default_passes_reach_the_fixed_point(effects, rel):
+    """The default passes lie near the fixed point (tol 1e-10) over random designs of
+    the box, both load cases: leaf friction alone (4 passes) within 0.1 % (measured
+    1.2e-4 at 900 N), stops and damper friction (8 passes), whose rates fall as their
+    RMS rises and converge linearly, within 0.5 % (measured up to 0.34 % for a front
+    stop 8 mm away)."""
+    X = design_space().to_physical(np.random.default_rng(7).random((12, 8)))
+    a = ride_spectral(X, effects=effects)
+    b = ride_spectral(X, effects=effects, iterations=200, tol=1e-10)
+    assert int(b["iterations"]) < 200
+    for key in ("aw_front", "aw_rear"):
+        assert a[key] == pytest.approx(b[key], rel=rel)
+
+
+@pytest.mark.slow
+def test_leaf_friction_against_long_time_domain_runs():
+    """The study's pick with rear interleaf friction: the spectral values lie within 3
+    standard errors + 3 % of the nonlinear time-domain model's mean square over three
+    120 s records (benchmarks/minibus_ride_effects.py measures the box); ignoring the
+    friction errs by more than 15 % at the rear, no load."""
+    X = STUDY_PICK[None, :]
+    ms = []
+    for seed in range(3):
+        rec = random_road_run(
+            X, LOAD_CASES, RandomRoad(duration_s=120.0, seed=200 + seed), effects=[LEAF_FRICTION]
+        )
+        ms.append(
+            [
+                weighted_rms_fft(rec.acc_front, 100.0) ** 2,
+                weighted_rms_fft(rec.acc_rear, 100.0) ** 2,
+            ]
+        )
+    a = np.array(ms)  # (seed, end, load case)
+    mean, se = a.mean(axis=0), a.std(axis=0, ddof=1) / np.sqrt(len(a))
+    sp = ride_spectral(X, effects=[LEAF_FRICTION])
+    plain = ride_spectral(X)
+    for j, key in enumerate(("aw_front", "aw_rear")):
+        for lc in range(2):
+            el = float(sp[key][lc]) ** 2
+            tol = 3 * float(se[j, lc]) + 0.06 * float(mean[j, lc])
+            assert el == pytest.approx(float(mean[j, lc]), abs=tol)
+    assert plain["aw_rear"][0] ** 2 < 0.7 * mean[1][0]
+
+
+def test_problem_option_passes_the_effects_to_the_ride():
+    """MinibusRideHandling(ride_effects=...) gives the spectral values with the effects
+    (same numbers as ride_spectral), its config holds them as plain data that rebuilds
+    the same problem, and bad entries are refused naming the rule."""
+    from suspenv.core.errors import ValidationError
+    from suspenv.problems.minibus import MinibusRideHandling
+
+    spec = {"kind": "dahl_hysteresis", "location": "rear_leaf", "params": {"f_c": 600.0}}
+    spec["params"]["sigma"] = 600 / 3.5e-3
+    p = MinibusRideHandling(ride_effects=[spec])
+    m = p.measures(STUDY_PICK[None, :])
+    ref = ride_spectral(STUDY_PICK[None, :], effects=[LEAF_FRICTION])
+    assert m["aw_rear_no_load"][0] == pytest.approx(ref["aw_rear"][0], rel=1e-12)
+    again = MinibusRideHandling(**p.config())
+    assert again.measures(STUDY_PICK[None, :])["aw_rear_no_load"][0] == m["aw_rear_no_load"][0]
+    for bad in (
+        [{"kind": "dahl_hysteresis", "location": "front_damper"}],
+        [{"kind": "bump_stop", "location": "rear_suspension", "params": {"gap": -0.01}}],
+        [{"kind": "bump_stop", "location": "rear_suspension", "code": "x"}],
+        "dahl_hysteresis",
+    ):
+        with pytest.raises(ValidationError, match="ride_effects|ride effect"):
+            MinibusRideHandling(ride_effects=bad)
