@@ -171,6 +171,7 @@ def test_switching_current_recorded_is_diagnosed_whole(case):
     assert isinstance(diag.final_fit.model, MRFieldDamperModel)
     assert not diag.findings["missing_input"].remains
     assert not diag.unexplained and diag.named == []
+    assert not any("not read" in a for a in diag.assumptions)
     # the force is explained to its noise: residual RMS within 20 % of the noise drawn
     rec = case.recording
     pred = diag.final_fit.model.simulate(diag.final_fit.theta, rec)["force"]
@@ -190,6 +191,8 @@ def test_unread_recorded_input_is_named_in_the_finding(case):
     assert found.remains
     assert found.numbers["cause"] == "unread"
     assert "follows the recorded coil_current" in found.sentence
+    # and the first screen says the channel is not read
+    assert any("coil_current [A] is not read by the damper" in a for a in diag.assumptions)
 
 
 @pytest.mark.parametrize("family", ["damper", "mr_damper"])

@@ -41,6 +41,7 @@ from typing import Any
 import numpy as np
 from scipy import signal, stats
 
+from suspenv.diagnosis.checks.assumptions import unread_inputs
 from suspenv.diagnosis.checks.finding import Context, Finding
 from suspenv.diagnosis.fitting import FitResult, lag1_autocorrelation, residuals
 from suspenv.diagnosis.protocols import RecordingLike
@@ -210,13 +211,6 @@ def cause(n: dict[str, Any], alpha: float, unread: Sequence[str] = ()) -> str | 
     return "unread" if all(s & set(unread) for s in found) else None
 
 
-def _unread(ctx: Context) -> list[str]:
-    """Recorded inputs the model does not read."""
-    reads = set(getattr(ctx.setup.model, "input_channels", ()))
-    recs = ctx.setup.split.recordings()
-    return sorted({k for rec in recs for k in rec.inputs} - reads) if reads else []
-
-
 def sentence(rec: str, ch: str, n: dict[str, Any], unread: Sequence[str]) -> str:
     """The finding in words."""
     head = (
@@ -249,7 +243,7 @@ def run(ctx: Context) -> Finding | None:
     cells = _cells(ctx)
     if not cells:
         return None
-    alpha, unread = ctx.rule.alpha / len(cells), _unread(ctx)
+    alpha, unread = ctx.rule.alpha / len(cells), unread_inputs(ctx.setup)
     fired = [(c, cause(c[2], alpha, unread)) for c in cells]
     fired = [f for f in fired if f[1] is not None]
     numbers: dict[str, Any] = {"judged": {f"{r} {ch}": n for r, ch, n in cells}}

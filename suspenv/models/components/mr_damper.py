@@ -176,6 +176,10 @@ class MRFieldDamperModel(MRDamperModel):
         return str(self.options.get("field", ""))
 
     @property
+    def reads_inputs(self) -> tuple[str, ...]:
+        return (*self.input_channels, self.field)
+
+    @property
     def parameter_units(self) -> tuple[str, ...]:
         unit = FIELD_INPUTS[self.field]
         return tuple(u.replace("/field", f"/{unit}") for u in super().parameter_units)
