@@ -201,3 +201,27 @@ def test_effect_free_controls_are_not_a_missing_input(family, seed):
     # seeds 0, 1, 2 are the white, coloured and drifting noise of the controls
     diag = diagnose(make_case(family, seed, 0).recording, family)
     assert not diag.findings["missing_input"].remains, diag.verdict
+
+
+# ------------------------------------------------------------------ real recordings
+@pytest.mark.realdata
+def test_real_mr_damper_is_not_a_missing_input(shared_data):
+    # the shaking-table runs (Vargas 2021) record no coil channel; at a constant field the
+    # Bouc-Wen model leaves a residual that is a function of the motion (coherence above
+    # the limit or a static relation), which is not an unrecorded input
+    from suspenv.diagnosis.component.motion_inputs import conditioned
+    from suspenv.measurements.catalog import REAL_CASES
+    from suspenv.measurements.sources import load_mr_damper
+
+    fit, hold, family, _ = REAL_CASES["mr_damper"](shared_data / "real")
+    diag = diagnose(fit, family, holdout=hold)
+    assert "hysteresis" in diag.named_families
+    assert not diag.findings["missing_input"].remains
+    version = str(diag.baseline.get("motion_version", "channel"))
+    folder = shared_data / "real" / "mr_damper_shaking_table"
+    for name in ("ensaio.vali.1.mat", "ensaio4.2.mat", "ensaio.B.10.mat"):
+        (rec,), _ = conditioned(
+            [load_mr_damper(folder / name)], ("displacement", "velocity"), version
+        )
+        for n in mi.judge_recording(diag.final_fit, rec).values():
+            assert mi.cause(n, diag.rule.alpha) is None, name
