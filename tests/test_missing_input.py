@@ -154,6 +154,19 @@ def test_switching_test_tells_a_switched_gain_from_coloured_noise():
     assert mi.switching(0.3 * level * y + 0.05 * coloured, y, [y])["p_switching"] < 1e-6
 
 
+def test_a_ripple_along_a_recorded_input_is_a_relation_not_a_missing_input():
+    # cogging: a force periodic in the position (pitch 1/10 of the travel), a function of
+    # a recorded input that neither the coherence nor a coarse grid of cells sees
+    rng = np.random.default_rng(2)
+    t = np.arange(6000) * 0.01
+    x = np.sin(2 * np.pi * 0.21 * t) + 0.3 * np.sin(2 * np.pi * 0.53 * t + 1.0)
+    y = 3.0 * np.gradient(x, t)
+    r = np.sin(2 * np.pi * x / 0.25) + 0.05 * rng.normal(size=t.size)
+    n = mi.judge(r, y + r, {"position": x, mi.PREDICTION: y}, 100.0)
+    assert n["state_shares"]["position"] > mi.STATE_SHARE_LIMIT
+    assert mi.cause(n, 0.01) is None
+
+
 # ------------------------------------------------------------------ the check in the loop
 def test_switching_current_not_recorded_is_a_missing_input(case):
     diag = diagnose(_without(case.recording, "coil_current"), "mr_damper")

@@ -21,14 +21,15 @@ unrecorded input** when all of these hold:
    averaged over frequency with the weight of the residual's own spectrum: the share of
    its power a linear filter of that signal explains) with every recorded input and
    with the prediction stays below :data:`COHERENCE_LIMIT`;
-3. **no static relation**: the residual's means over a grid of :data:`STATE_BINS` x
-   :data:`STATE_BINS` quantile cells of every pair of those signals explain less than
+3. **no static relation**: the residual's means over :data:`FINE_BINS` quantile bins
+   of each of those signals (a fine ripple along one input) and over a grid of
+   :data:`STATE_BINS` x :data:`STATE_BINS` quantile cells of every pair explain less than
    :data:`STATE_SHARE_LIMIT` of its variance (a stop, a dead band or a friction step is
    a function of the state and is left to the residual-left checks).
 
 The verdict then says that an input the recording does not carry (or one it carries
 that the model does not read) may drive the residual, with its size (RMS in % of the
-output's, and in multiples of what the block-wise fits leave) and the evidence; it is
+output's, and in multiples of its white floor) and the evidence; it is
 not confident. Recordings too short for the blocks (K&C loops) are not judged.
 """
 
@@ -54,12 +55,18 @@ MIN_BLOCKS = 16
 SIZE_LIMIT = 3.0
 #: largest spectrum-weighted coherence with a recorded signal of an unrecorded cause
 COHERENCE_LIMIT = 0.5
-#: quantile bins per signal of the static-relation test, and the largest share of the
-#: residual's variance the cell means may explain
+#: quantile bins per signal of the static-relation test on a pair of signals
 STATE_BINS = 6
+#: quantile bins of a single signal (a fine ripple along one input, e.g. cogging along
+#: the position), at most one per :data:`SAMPLES_PER_FINE_BIN` samples
+FINE_BINS = 64
+SAMPLES_PER_FINE_BIN = 20
+#: the largest share of the residual's variance the cell means may explain
 STATE_SHARE_LIMIT = 0.5
 #: the name of the prediction among the signals
 PREDICTION = "the model's prediction"
+#: the switching test's numbers where it cannot be run (too few blocks, no prediction)
+NO_SWITCHING = {"p_switching": 1.0, "block_samples": 0, "gain_lag1": 0.0, "blocks": 0}
 
 
 def white_floor(r: np.ndarray) -> float:
@@ -76,14 +83,15 @@ def block_gains(r: np.ndarray, y: np.ndarray, length: int) -> np.ndarray:
     time removed first (a slowly drifting zero is not a gain)."""
     blocks = r.size // length
     ramp = np.linspace(-1.0, 1.0, length)
-    line = np.column_stack([np.ones(length), ramp])
-    out = np.zeros(blocks)
-    for b in range(blocks):
-        part = np.column_stack([r[b * length : (b + 1) * length], y[b * length : (b + 1) * length]])
-        rb, yb = (part - line @ np.linalg.lstsq(line, part, rcond=None)[0]).T
-        norm = float(np.sqrt(np.dot(yb, yb)))
-        out[b] = float(np.dot(yb, rb)) / norm if norm > 0 else 0.0
-    return out
+
+    def detrended(x: np.ndarray) -> np.ndarray:
+        b = x[: blocks * length].reshape(blocks, length)
+        b = b - b.mean(axis=1, keepdims=True)
+        return b - np.outer(b @ ramp / (ramp @ ramp), ramp)
+
+    rb, yb = detrended(r), detrended(y)
+    norm = np.sqrt(np.sum(yb * yb, axis=1))
+    return np.sum(rb * yb, axis=1) / np.where(norm > 0, norm, np.inf)
 
 
 def block_features(signals: Sequence[np.ndarray], length: int) -> np.ndarray:
@@ -92,7 +100,8 @@ def block_features(signals: Sequence[np.ndarray], length: int) -> np.ndarray:
     cols = []
     for s in signals:
         b = s[: s.size // length * length].reshape(-1, length)
-        cols += [np.log(np.std(b, axis=1) + 1e-300), np.log(np.std(np.diff(b), axis=1) + 1e-300)]
+        tiny = 1e-9 * float(np.std(s)) + 1e-300  # a block at rest: a floor, not log(0)
+        cols += [np.log(np.std(b, axis=1) + tiny), np.log(np.std(np.diff(b), axis=1) + tiny)]
     return np.column_stack(cols)
 
 
@@ -111,12 +120,10 @@ def switching(r: np.ndarray, y: np.ndarray, signals: Sequence[np.ndarray]) -> di
             continue
         a = np.column_stack([np.ones(g.size), block_features(signals, length)])
         g = g - a @ np.linalg.lstsq(a, g, rcond=None)[0]
-        if not np.any(np.abs(g) > 1e-12 * np.max(np.abs(a))):
-            continue
         rho = lag1_autocorrelation(g)
         tried.append((float(stats.norm.sf(rho * np.sqrt(g.size))), length, rho, g.size))
     if not tried:
-        return {"p_switching": 1.0, "block_samples": 0, "gain_lag1": 0.0, "blocks": 0}
+        return dict(NO_SWITCHING)
     p, length, rho, blocks = min(tried)
     return {
         "p_switching": min(1.0, p * len(tried)),
@@ -136,14 +143,15 @@ def weighted_coherence(r: np.ndarray, s: np.ndarray, fs: float) -> float:
     return float(np.sum(c * prr) / max(float(np.sum(prr)), 1e-300))
 
 
-def state_share(r: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
-    """Share of ``r``'s variance its means over quantile cells of ``(a, b)`` explain."""
+def state_share(r: np.ndarray, signals: Sequence[np.ndarray], bins: int) -> float:
+    """Share of ``r``'s variance its means over the cells of ``bins`` quantile bins of
+    each of ``signals`` explain."""
     cells = np.zeros(r.size, dtype=int)
-    for s in (a, b):
-        edges = np.quantile(s, np.linspace(0.0, 1.0, STATE_BINS + 1)[1:-1])
-        cells = cells * STATE_BINS + np.searchsorted(edges, s)
-    counts = np.bincount(cells, minlength=STATE_BINS**2)
-    means = np.bincount(cells, weights=r, minlength=STATE_BINS**2) / np.maximum(counts, 1)
+    for s in signals:
+        edges = np.quantile(s, np.linspace(0.0, 1.0, bins + 1)[1:-1])
+        cells = cells * bins + np.searchsorted(edges, s)
+    counts = np.bincount(cells)
+    means = np.bincount(cells, weights=r) / np.maximum(counts, 1)
     var = float(np.var(r))
     return float(np.var(means[cells]) / var) if var > 0 else 0.0
 
@@ -154,11 +162,19 @@ def judge(
     """The tests on one residual ``r`` of the output ``y`` with the recorded
     ``signals`` (name -> series: the inputs and the prediction)."""
     named = {k: np.asarray(s, float) for k, s in signals.items() if np.ptp(s) > 0}
-    out: dict[str, Any] = dict(switching(r, named.get(PREDICTION, r), list(named.values())))
+    pred = named.get(PREDICTION)
+    out: dict[str, Any] = dict(
+        switching(r, pred, list(named.values())) if pred is not None else NO_SWITCHING
+    )
     out["size"] = float(np.sqrt(np.mean(r**2)) / max(white_floor(r), 1e-300))
     coh = {k: weighted_coherence(r, s, fs) for k, s in named.items()}
     out["coherence"] = coh
-    shares = {f"{a} & {b}": state_share(r, named[a], named[b]) for a, b in combinations(named, 2)}
+    fine = int(min(FINE_BINS, r.size // SAMPLES_PER_FINE_BIN))
+    shares = {k: state_share(r, [s], fine) for k, s in named.items()}
+    shares |= {
+        f"{a} & {b}": state_share(r, [named[a], named[b]], STATE_BINS)
+        for a, b in combinations(named, 2)
+    }
     out["state_shares"] = shares
     out["state_share"] = max(shares.values(), default=0.0)
     out["share_of_output"] = float(np.std(r) / max(float(np.std(y)), 1e-300))

@@ -125,7 +125,10 @@ class MRFieldDamperModel(MRDamperModel):
     ``c_field`` is in N s/m per unit of ``u`` and ``f_field`` in N per unit of ``u``.
     """
 
-    description = "MR damper with a field input (Spencer 1997 Bouc-Wen, linear in u)"
+    description = (
+        "MR damper with a field input u (base: F = (c + c_field u) v + k x + f_0 + "
+        "(f_y + f_field u) z, Bouc-Wen z, Spencer et al. 1997)"
+    )
     base_parameters = (
         *MRDamperModel.base_parameters,
         Parameter(
