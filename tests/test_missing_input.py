@@ -238,3 +238,23 @@ def test_real_mr_damper_is_not_a_missing_input(shared_data):
         )
         for n in mi.judge_recording(diag.final_fit, rec).values():
             assert mi.cause(n, diag.rule.alpha) is None, name
+
+
+def test_field_law_where_the_field_varies_within_or_between_recordings(case):
+    from suspenv.diagnosis.component.rig import baseline_model, check_extra_inputs, describe_rig
+
+    rec = _short(case)
+
+    def at(level: float) -> Recording:
+        u = np.full(rec.time.size, level)
+        return Recording(
+            f"at {level}", rec.test, rec.time, {**rec.inputs, "coil_current": u}, {}, rec.units
+        )
+
+    one = [at(0.5)]
+    rig = describe_rig("mr_damper", one)
+    assert rig.extra_inputs == {"coil_current": "recorded"}  # recorded under its name
+    assert "field" not in baseline_model(rig, one).options
+    assert check_extra_inputs(one, rig) == ["coil_current constant (0.5 A)"]
+    two = [at(0.2), at(1.0)]
+    assert baseline_model(describe_rig("mr_damper", two), two).options["field"] == "coil_current"

@@ -42,10 +42,11 @@ one whose ``positive_force`` is ``"tension"`` its force channel, before anything
 Extra inputs (:data:`EXTRA_INPUTS`): a channel a family reads beyond its motion, declared
 in ``extra_inputs`` or, where none is declared, recorded in every recording under its
 own name (its unit checked by the model). An MR damper's ``coil_current`` [A] or
-``coil_voltage`` [V] that varies within a recording makes its baseline the
-field-dependent law (:class:`~suspenv.models.components.mr_damper.MRFieldDamperModel`;
-a constant one leaves the passive law, fitted for that field); a declared channel the
-family does not read is refused.
+``coil_voltage`` [V] that varies (within a recording or between recordings) makes its
+baseline the field-dependent law
+(:class:`~suspenv.models.components.mr_damper.MRFieldDamperModel`; one constant field
+leaves the passive law, fitted for that field); a declared channel the family does not
+read is refused.
 """
 
 from __future__ import annotations
@@ -479,7 +480,7 @@ def check_extra_inputs(recordings: Sequence[RecordingLike], rig: RigDescription)
             )
         if name in FIELD_INPUTS and field_input(rig, recordings) is None:
             values = ", ".join(f"{float(np.mean(r.inputs[name])):.3g}" for r in recordings)
-            words.append(f"{name} constant per recording ({values} {FIELD_INPUTS[name]})")
+            words.append(f"{name} constant ({values} {FIELD_INPUTS[name]})")
         else:
             words.append(f"extra input {name}: {reads[name]}")
     return words
@@ -487,8 +488,9 @@ def check_extra_inputs(recordings: Sequence[RecordingLike], rig: RigDescription)
 
 def field_input(rig: RigDescription, recordings: Sequence[RecordingLike] = ()) -> str | None:
     """The coil channel an MR damper's field-dependent law reads: the declared one, where
-    it varies in some recording by more than :data:`FIELD_SPREAD` (a constant field is
-    the passive law's, fitted for that field); None otherwise."""
+    it varies over the recordings (within one, or from one to another) by more than
+    :data:`FIELD_SPREAD` (one constant field is the passive law's, fitted for that
+    field); None otherwise."""
     if rig.family != "mr_damper":
         return None
     found = [k for k in rig.extra_inputs if k in FIELD_INPUTS]
@@ -497,14 +499,12 @@ def field_input(rig: RigDescription, recordings: Sequence[RecordingLike] = ()) -
             f"mr_damper reads one field input, but {found} are declared; declare the one "
             "that drives the coil (the current where both are recorded)"
         )
-    varies = found and any(field_spread(r, found[0]) > FIELD_SPREAD for r in recordings)
-    return found[0] if varies else None
-
-
-def field_spread(rec: RecordingLike, name: str) -> float:
-    """Range of the field channel over its mean magnitude (at least 0.05 of its unit)."""
-    u = np.asarray(rec.inputs[name], float) if name in rec.inputs else np.zeros(1)
-    return float(np.ptp(u)) / max(float(np.mean(np.abs(u))), 0.05)
+    if not found or not recordings:
+        return None
+    u = np.concatenate([np.asarray(r.inputs.get(found[0], [0.0]), float) for r in recordings])
+    # range over mean magnitude (at least 0.05 of the channel's unit)
+    spread = float(np.ptp(u)) / max(float(np.mean(np.abs(u))), 0.05)
+    return found[0] if spread > FIELD_SPREAD else None
 
 
 def baseline_words(model: ComponentModel) -> str:
