@@ -469,17 +469,21 @@ def real_recordings_table(d: Json) -> str:
     further recordings, from ``real_recordings.json``."""
     lines = [
         "| real recording | verdict (headline) | held-out RMS error: baseline -> final | "
-        "further recordings of the rig, never fitted: final better | time |",
-        "|---|---|---|---|---|",
+        "further recordings of the rig, never fitted: final better | an unrecorded input "
+        "flagged: fitted, further | time |",
+        "|---|---|---|---|---|---|",
     ]
     for r in d["rows"]:
         others = r["other_recordings"]
         better = sum(o["after"] < o["before"] for o in others)
+        flagged = sum(bool(o.get("missing_input")) for o in others)
         change = r["heldout_after"] / r["heldout_before"] - 1.0
         lines.append(
             f"| {r['case']} | {r['headline']} | {r['heldout_before']:.4g} -> "
             f"{r['heldout_after']:.4g} N ({percent(change, sign=True)}) | "
-            f"{count(better, len(others)) if others else '-'} | {seconds(r['wall_s'])} s |"
+            f"{count(better, len(others)) if others else '-'} | "
+            f"{'yes' if r.get('missing_input') else 'no'}, "
+            f"{count(flagged, len(others)) if others else '-'} | {seconds(r['wall_s'])} s |"
         )
     return "\n".join(lines)
 

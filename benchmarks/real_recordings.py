@@ -11,6 +11,12 @@ EMPS runs. For each it reports the RMS error of the baseline and of the final mo
 saw. Writes ``docs/benchmarks/real_recordings.json`` and prints a table; the README's
 table is generated from that file (``python -m benchmarks.readme``).
 
+Each recording, fitted or further, is also put to the missing-input check
+(:mod:`suspenv.diagnosis.checks.missing_input`) with the final model: a flag would say an
+input the recording does not carry drives the residual. For the MR damper the variables
+of every ``.mat`` file are listed (``mat_variables``): none is a coil voltage or current
+(``coil_channel``), so the field-dependent MR law cannot be fitted to these runs.
+
 Sources and licences: ``../shared/data/README.md`` (EMPS: Janot, Gautier, Brunot; MR
 damper: A. N. Vargas, 2021, Zenodo, MIT; racing damper: a Formula Student team's public
 repository). The data are read in place, never copied.
@@ -30,15 +36,22 @@ import numpy as np
 from benchmarks.common import machine_info
 
 
-def _rms_errors(diag: Any, rec: Any) -> tuple[float, float]:
-    """RMS error [channel unit] of the baseline and the final model on ``rec``, its motion
-    channels in the version the diagnosis chose for its own recordings
-    (:mod:`suspenv.diagnosis.component.motion_inputs`)."""
+def _conditioned(diag: Any, rec: Any) -> Any:
+    """``rec`` with its motion channels in the version the diagnosis chose for its own
+    recordings (:mod:`suspenv.diagnosis.component.motion_inputs`)."""
     from suspenv.diagnosis.component.motion_inputs import conditioned
 
-    ch = diag.channel
     version = str(diag.baseline.get("motion_version", "channel"))
-    (rec,), _ = conditioned([rec], diag.base_fit.model.input_channels, version)
+    (out,), _ = conditioned([rec], diag.base_fit.model.input_channels, version)
+    return out
+
+
+def _rms_errors(diag: Any, rec: Any) -> tuple[float, float]:
+    """RMS error [channel unit] of the baseline and the final model on ``rec``
+    (:func:`_conditioned`)."""
+
+    ch = diag.channel
+    rec = _conditioned(diag, rec)
     meas = np.asarray(rec.outputs[ch], float)
     out = []
     for fit in (diag.base_fit, diag.final_fit):
@@ -59,6 +72,25 @@ def _extra_recordings(name: str, root: Path, used: set[str]) -> list[Any]:
         d = root / "emps"
         return [load_emps(p) for p in sorted(d.glob("DATA_EMPS*.mat")) if p.name not in used]
     return []
+
+
+def _missing_input(diag: Any, rec: Any) -> str | None:
+    """The missing-input check's cause on ``rec`` with the final model (None: no flag)."""
+    from suspenv.diagnosis.checks.missing_input import cause, judge_recording
+
+    judged = judge_recording(diag.final_fit, rec)
+    causes = [cause(n, diag.rule.alpha / len(judged)) for n in judged.values()]
+    return next((c for c in causes if c), None)
+
+
+def _mat_variables(root: Path) -> list[str]:
+    """Every variable name in the MR damper's ``.mat`` files (read from their headers)."""
+    from scipy.io import whosmat
+
+    names = set()
+    for p in sorted((root / "mr_damper_shaking_table").glob("ensaio*.mat")):
+        names |= {n for n, _, _ in whosmat(p)}
+    return sorted(names)
 
 
 def run(root: Path) -> dict[str, Any]:
@@ -90,17 +122,32 @@ def run(root: Path) -> dict[str, Any]:
             "cpu_s": cpu,
             "other_recordings": [],
         }
+        found = diag.findings.get("missing_input")
+        entry["missing_input"] = found.numbers.get("cause") if found is not None else None
         used = {Path(f).name for f in fitted + held}
         for rec in _extra_recordings(name, root, used):
             before, after = _rms_errors(diag, rec)
             entry["other_recordings"].append(
-                {"file": str(rec.meta.get("file", rec.name)), "before": before, "after": after}
+                {
+                    "file": str(rec.meta.get("file", rec.name)),
+                    "before": before,
+                    "after": after,
+                    "missing_input": _missing_input(diag, _conditioned(diag, rec)),
+                }
+            )
+        if name == "mr_damper":
+            entry["mat_variables"] = _mat_variables(root)
+            words = ("volt", "current", "coil", "corrente", "tensao")
+            entry["coil_channel"] = any(
+                w in v.lower() for v in entry["mat_variables"] for w in words
             )
         rows.append(entry)
+        flagged = sum(bool(o["missing_input"]) for o in entry["other_recordings"])
         print(
             f"{name}: {diag.headline}; held out {entry['heldout_before']:.4g} -> "
             f"{entry['heldout_after']:.4g} ({len(entry['other_recordings'])} further "
-            f"recordings) in {wall:.1f} s",
+            f"recordings) in {wall:.1f} s; missing input flagged: "
+            f"{entry['missing_input'] or 'no'} (fitted), {flagged} further",
             flush=True,
         )
     return {"rows": rows}

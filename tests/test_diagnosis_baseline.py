@@ -134,7 +134,7 @@ def test_extension_positive_recording_is_turned_to_compression_positive(dyno):
     assert turned.meta["oriented"] == {"stroke_negated": True, "force_negated": True}
 
 
-def test_varying_coil_voltage_and_unread_extra_inputs_are_refused(dyno):
+def test_coil_voltage_selects_the_field_law_and_unread_extra_inputs_are_refused(dyno):
     rec = _with_force(dyno, _gas_damper(dyno))
     u = np.where(rec.time < rec.time[-1] / 2, 0.5, 2.0)
     mr = Recording(
@@ -146,10 +146,21 @@ def test_varying_coil_voltage_and_unread_extra_inputs_are_refused(dyno):
         {**rec.units, "coil_voltage": "V"},
         {"rig": {"extra_inputs": {"coil_voltage": "coil drive"}}},
     )
-    with pytest.raises(ValidationError, match="coil_voltage varies by"):
-        diagnose(mr, "mr_damper")
+    rig = describe_rig("mr_damper", [mr])
+    assert baseline_model(rig, [mr]).options["field"] == "coil_voltage"
     with pytest.raises(ValidationError, match="does not model the declared extra input"):
         diagnose(mr, "damper")
+    both = Recording(
+        mr.name,
+        mr.test,
+        mr.time,
+        {**mr.inputs, "coil_current": u / 4.0},
+        mr.outputs,
+        {**mr.units, "coil_current": "A"},
+        {"rig": {"extra_inputs": {"coil_voltage": "drive", "coil_current": "coil"}}},
+    )
+    with pytest.raises(ValidationError, match="reads one field input"):
+        diagnose(both, "mr_damper")
 
 
 # ------------------------------------------------------------------ naming

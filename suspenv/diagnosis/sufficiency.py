@@ -77,6 +77,7 @@ PLAUSIBLE: dict[str, tuple[float, str, str]] = {
     ),
     "rad/s": (1e4, "angular velocity", "wheel and steering speeds stay below about 1e3 rad/s"),
     "V": (1e3, "voltage", "drive commands and sensor signals stay below about 100 V"),
+    "A": (1e3, "electric current", "coil and actuator drive currents stay below about 100 A"),
     "s": (
         1e7,
         "time span",

@@ -30,6 +30,7 @@ SI_UNITS: dict[str, str] = {
     "rad": "angle",
     "rad/s": "angular velocity",
     "V": "voltage",
+    "A": "electric current",
     "1": "dimensionless",
     "-": "dimensionless",
 }
@@ -56,6 +57,9 @@ FACTORS: dict[str, tuple[float, str]] = {
     "sec": (1.0, "s"),
     "ms": (1e-3, "s"),
     "V": (1.0, "V"),
+    "mV": (1e-3, "V"),
+    "A": (1.0, "A"),
+    "mA": (1e-3, "A"),
     "rad": (1.0, "rad"),
     "deg": (np.pi / 180.0, "rad"),
     "rad/s": (1.0, "rad/s"),

@@ -10,8 +10,9 @@ defaults), so a new family gets honest verdicts the day it joins:
 * ``assumptions(setup)``: the defaults used for what the recordings do not say
   (:mod:`.assumptions`).
 
-The other checks read only the final fit: parameters on a bound (:mod:`.bounds`), the
-share of each output the model describes (:mod:`.misfit`).
+The other checks read only the final fit and the recordings: a residual driven by an
+input the recording does not carry (:mod:`.missing_input`), parameters on a bound
+(:mod:`.bounds`), the share of each output the model describes (:mod:`.misfit`).
 
 :func:`run` runs :data:`CHECKS` in order; the engine folds the findings into the verdict
 (:func:`fold`).
@@ -21,7 +22,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from suspenv.diagnosis.checks import assumptions, bounds, misfit, residual_left
+from suspenv.diagnosis.checks import assumptions, bounds, misfit, missing_input, residual_left
 from suspenv.diagnosis.checks.finding import Check, Context, Finding, fold
 
 __all__ = ["Check", "Context", "Finding", "fold", "run"]
@@ -30,7 +31,7 @@ __all__ = ["Check", "Context", "Finding", "fold", "run"]
 def _checks() -> tuple[Check, ...]:
     # of the checks' leading sentences (after the family's own) the misfit's, folded last,
     # goes first
-    return (residual_left.run, bounds.run, assumptions.run, misfit.run)
+    return (residual_left.run, missing_input.run, bounds.run, assumptions.run, misfit.run)
 
 
 def run(ctx: Context, checks: Sequence[Check] | None = None) -> list[Finding]:

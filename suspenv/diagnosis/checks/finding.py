@@ -51,6 +51,8 @@ class Finding:
     def short(self) -> str:
         """The residual left in a few words (the headline's)."""
         n = self.numbers
+        if "short" in n:
+            return str(n["short"])
         if "worst_rms" not in n:
             return self.name
         return f"{n['worst_rms']:.3g} x noise in {n['worst_channel']}"

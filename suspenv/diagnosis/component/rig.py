@@ -38,6 +38,15 @@ is compression (bump) and a positive damper force pushes back against compressio
 recording whose ``positive_stroke`` is ``"extension"`` has its stroke channels negated,
 one whose ``positive_force`` is ``"tension"`` its force channel, before anything else
 (the report says so).
+
+Extra inputs (:data:`EXTRA_INPUTS`): a channel a family reads beyond its motion, declared
+in ``extra_inputs`` or, where none is declared, recorded in every recording under its
+own name (its unit checked by the model). An MR damper's ``coil_current`` [A] or
+``coil_voltage`` [V] that varies (within a recording or between recordings) makes its
+baseline the field-dependent law
+(:class:`~suspenv.models.components.mr_damper.MRFieldDamperModel`; one constant field
+leaves the passive law, fitted for that field); a declared channel the family does not
+read is refused.
 """
 
 from __future__ import annotations
@@ -56,6 +65,7 @@ from suspenv.diagnosis.hypothesis import family_of
 from suspenv.diagnosis.protocols import RecordingLike
 from suspenv.models.components import FAMILIES, make_component
 from suspenv.models.components.base import ComponentModel
+from suspenv.models.components.mr_damper import FIELD_INPUTS
 from suspenv.models.effects import Effect, effect_kinds, make_effect
 
 #: sensor-zero drift, in every family's standard baseline on every output channel
@@ -87,7 +97,11 @@ KNOWN_PARAMETERS: dict[str, dict[str, str]] = {
 
 #: extra input channels a family reads when declared, and what it does with them
 EXTRA_INPUTS: dict[str, dict[str, str]] = {
-    "mr_damper": {"coil_voltage": "constant per recording: the fit holds for that field"},
+    "mr_damper": {
+        name: f"the field ({unit}): the yield force and the viscous damping grow linearly "
+        "with it (Spencer et al. 1997 Bouc-Wen)"
+        for name, unit in FIELD_INPUTS.items()
+    },
     "quarter_car_rig": {
         "actuator_force": "a known force between body and wheel, positive pushing them apart"
     },
@@ -105,8 +119,8 @@ STROKE_CHANNELS = (
     "suspension_deflection",
 )
 FORCE_CHANNELS = ("force",)
-#: relative spread above which a coil voltage counts as varying
-VOLTAGE_SPREAD = 0.02
+#: relative spread above which an MR damper's field input counts as varying
+FIELD_SPREAD = 0.02
 
 
 @dataclass(frozen=True)
@@ -339,13 +353,18 @@ def describe_rig(
             f"known rig parameter(s) {bad} are not read by {family}; it reads "
             f"{sorted(allowed) or 'none'}"
         )
+    extra = dict(entries.get("extra_inputs", {}))
+    if not extra and recordings:
+        # a channel the family reads, recorded under its own name and unit, declares itself
+        recorded = set.intersection(*(set(r.inputs) for r in recordings))
+        extra = {k: "recorded" for k in EXTRA_INPUTS.get(family, {}) if k in recorded}
     return RigDescription(
         family=family,
         baseline=tuple(base),
         known=known,
         positive_stroke=entries.get("positive_stroke", "compression"),
         positive_force=entries.get("positive_force", "compression"),
-        extra_inputs=dict(entries.get("extra_inputs", {})),
+        extra_inputs=extra,
         sources=tuple(sources),
         velocity_source=entries.get("velocity_source", "auto"),
         declared=tuple(sorted(entries)),
@@ -377,6 +396,9 @@ def baseline_model(rig: RigDescription, recordings: Sequence[RecordingLike] = ()
     held = {k: known.pop(k) for k in list(known) if k in base_names}
     if held:
         known["known_base"] = held
+    field = field_input(rig, recordings)
+    if field:
+        known["field"] = field
     if recordings:
         known["scales"] = data_scales(make_component(rig.family, (), **known), recordings)
     probe = make_component(rig.family, (), **known)
@@ -437,10 +459,9 @@ def oriented(recordings: Sequence[RecordingLike], rig: RigDescription) -> list[R
 def check_extra_inputs(recordings: Sequence[RecordingLike], rig: RigDescription) -> list[str]:
     """Sentences on the declared extra inputs; refuses one the family cannot use.
 
-    A declared channel must be in the recording's inputs. The MR damper's coil voltage
-    must be constant per recording (the model has no field-dependent law); other families
-    read no extra input, so a declared one that changes the force is refused rather than
-    ignored.
+    A declared channel must be in every recording's inputs; a family that reads no such
+    input refuses it rather than ignore it (its effect would be named as missing
+    physics).
     """
     reads = EXTRA_INPUTS.get(rig.family, {})
     words: list[str] = []
@@ -457,24 +478,33 @@ def check_extra_inputs(recordings: Sequence[RecordingLike], rig: RigDescription)
                 f"it reads {sorted(reads) or 'no extra input'}; a model that ignored it "
                 "would name its effect as missing physics"
             )
-        if name == "coil_voltage":
-            for rec in recordings:
-                u = np.asarray(rec.inputs[name], float)
-                spread = float(np.ptp(u)) / max(float(np.mean(np.abs(u))), 0.05)
-                if spread > VOLTAGE_SPREAD:
-                    raise ValidationError(
-                        f"recording {rec.name!r}: coil_voltage varies by {100 * spread:.0f} % "
-                        f"(from {float(np.min(u)):.3g} to {float(np.max(u)):.3g} V); mr_damper "
-                        "has no field-dependent law, so it needs one constant voltage per "
-                        f"recording (at most {100 * VOLTAGE_SPREAD:.0f} % spread): split the "
-                        "recording at the voltage steps"
-                    )
-                words.append(
-                    f"recording {rec.name}: coil voltage {float(np.mean(u)):.3g} V (constant)"
-                )
+        if name in FIELD_INPUTS and field_input(rig, recordings) is None:
+            values = ", ".join(f"{float(np.mean(r.inputs[name])):.3g}" for r in recordings)
+            words.append(f"{name} constant ({values} {FIELD_INPUTS[name]})")
         else:
             words.append(f"extra input {name}: {reads[name]}")
     return words
+
+
+def field_input(rig: RigDescription, recordings: Sequence[RecordingLike] = ()) -> str | None:
+    """The coil channel an MR damper's field-dependent law reads: the declared one, where
+    it varies over the recordings (within one, or from one to another) by more than
+    :data:`FIELD_SPREAD` (one constant field is the passive law's, fitted for that
+    field); None otherwise."""
+    if rig.family != "mr_damper":
+        return None
+    found = [k for k in rig.extra_inputs if k in FIELD_INPUTS]
+    if len(found) > 1:
+        raise ValidationError(
+            f"mr_damper reads one field input, but {found} are declared; declare the one "
+            "that drives the coil (the current where both are recorded)"
+        )
+    if not found or not recordings:
+        return None
+    u = np.concatenate([np.asarray(r.inputs.get(found[0], [0.0]), float) for r in recordings])
+    # range over mean magnitude (at least 0.05 of the channel's unit)
+    spread = float(np.ptp(u)) / max(float(np.mean(np.abs(u))), 0.05)
+    return found[0] if spread > FIELD_SPREAD else None
 
 
 def baseline_words(model: ComponentModel) -> str:

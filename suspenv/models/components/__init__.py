@@ -14,7 +14,7 @@ from suspenv.core.errors import ValidationError
 from suspenv.models.components.base import ComponentModel
 from suspenv.models.components.damper import DamperDynoModel
 from suspenv.models.components.friction_guide import FrictionGuideModel
-from suspenv.models.components.mr_damper import MRDamperModel
+from suspenv.models.components.mr_damper import MRDamperModel, MRFieldDamperModel
 from suspenv.models.components.quarter_car import QuarterCarRigModel
 from suspenv.models.components.truth import simulate_truth
 from suspenv.models.effects import Effect
@@ -27,7 +27,10 @@ FAMILIES: dict[str, type[ComponentModel]] = {
 
 def make_component(family: str, effects: Sequence[Effect] = (), **options: Any) -> ComponentModel:
     """A component model by family name (``"damper"``, ``"mr_damper"``, ``"friction_guide"``,
-    ``"quarter_car_rig"``)."""
+    ``"quarter_car_rig"``); an MR damper with the option ``field`` (a coil channel) is
+    :class:`MRFieldDamperModel`."""
+    if family == MRDamperModel.family and options.get("field"):
+        return MRFieldDamperModel(effects, **options)
     try:
         cls = FAMILIES[family]
     except KeyError:
@@ -43,6 +46,7 @@ __all__ = [
     "DamperDynoModel",
     "FrictionGuideModel",
     "MRDamperModel",
+    "MRFieldDamperModel",
     "QuarterCarRigModel",
     "make_component",
     "simulate_truth",

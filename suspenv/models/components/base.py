@@ -158,6 +158,8 @@ class ComponentModel:
             does not: a small loop and friction's pre-sliding then compete on the data
             (``suspenv.diagnosis.component.family.check_loop_or_step``); on a test that
             keeps moving (a dyno's sines) the loop's width decides.
+        optional_inputs: input channels read where a recording carries them (a quarter
+            car rig's ``actuator_force``); :attr:`reads_inputs` lists every channel read.
 
     The members the diagnosis reads (``suspenv.diagnosis.protocols.DiagnosableModel``)
     are all defined here with their defaults: ``difference_step`` (finite-difference
@@ -179,6 +181,7 @@ class ComponentModel:
     viscous_parameter: ClassVar[str] = ""
     output_lowpass: ClassVar[bool] = False
     dwells_between_moves: ClassVar[bool] = False
+    optional_inputs: ClassVar[tuple[str, ...]] = ()
 
     def __init__(self, effects: Sequence[Effect] = (), **options: Any):
         self.effects: tuple[Effect, ...] = tuple(effects)
@@ -216,6 +219,11 @@ class ComponentModel:
                     f"{self.output_channels}, but got location={e.location!r}"
                 )
             self._check_effect(e)
+
+    @property
+    def reads_inputs(self) -> tuple[str, ...]:
+        """Every input channel this model reads (required, then optional)."""
+        return (*self.input_channels, *self.optional_inputs)
 
     # ------------------------------------------------------------------ hooks
     def _check_effect(self, effect: Effect) -> None:

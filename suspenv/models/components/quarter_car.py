@@ -87,6 +87,7 @@ class QuarterCarRigModel(ComponentModel):
         Parameter("k_t", 1e4, 2e6, unit="N/m", default=2e5, log=True, description="tyre rate"),
     )
     input_channels = ("road",)
+    optional_inputs = ("actuator_force",)
     output_channels = ("body_acceleration", "suspension_deflection")
     channel_units = {"road": "m", "body_acceleration": "m/s^2", "suspension_deflection": "m"}
     candidate_effects = (

@@ -1,0 +1,260 @@
+"""The field-dependent MR damper and the missing-input check.
+
+References: the MR law against scipy's ``solve_ivp`` of the same ODE (a second solver),
+its u = 0 limit against the passive MR model with a Bouc-Wen element, its odd symmetry;
+the check's definitions against closed forms (white noise's second difference has
+variance 6 sigma^2; a filtered copy of a signal is fully coherent with it), and the
+check on synthetic cases whose truth is known (a switching coil current recorded or
+not; the effect-free controls of :mod:`suspenv.diagnosis.component.truth`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+from scipy.signal import lfilter
+
+from suspenv.core.errors import ValidationError
+from suspenv.diagnosis.checks import missing_input as mi
+from suspenv.diagnosis.component.truth import MR_FIELD_TRUTH, make_case, mr_field_case
+from suspenv.diagnosis.engine import diagnose
+from suspenv.measurements import Recording
+from suspenv.measurements.units import to_si
+from suspenv.models.components import MRFieldDamperModel, make_component
+from suspenv.models.effects import make_effect
+
+TRUTH = dict(MR_FIELD_TRUTH)
+
+
+def _without(rec: Recording, channel: str) -> Recording:
+    keep = {k: v for k, v in rec.inputs.items() if k != channel}
+    units = {k: u for k, u in rec.units.items() if k != channel}
+    return Recording(rec.name, rec.test, rec.time, keep, rec.outputs, units, rec.meta)
+
+
+@pytest.fixture(scope="module")
+def case():
+    return mr_field_case(0)
+
+
+# ------------------------------------------------------------------ the MR law
+def _short(case, n=600):
+    rec = case.recording
+    sl = slice(0, n)
+    return Recording(
+        "short",
+        rec.test,
+        rec.time[sl],
+        {k: v[sl] for k, v in rec.inputs.items()},
+        {},
+        {k: u for k, u in rec.units.items() if k != "force"},
+    )
+
+
+def test_field_law_matches_solve_ivp(case):
+    # the same ODE, dz/dt = (xdot - (b |xdot| z + (1 - b) xdot |z|)) / x_y, integrated
+    # in time by an adaptive Runge-Kutta solver along the piecewise-linear displacement
+    rec = _short(case)
+    model = make_component("mr_damper", field="coil_current")
+    force = model.simulate(model.theta_from(TRUTH), rec)["force"]
+    t, x = rec.time, rec.inputs["displacement"]
+    xy, b = TRUTH["x_y"], TRUTH["shape"]
+
+    def rhs(tt, z):
+        k = min(int(np.searchsorted(t, tt, side="right")) - 1, t.size - 2)
+        xd = (x[k + 1] - x[k]) / (t[k + 1] - t[k])
+        return [(xd - (b * abs(xd) * z[0] + (1 - b) * xd * abs(z[0]))) / xy]
+
+    z = [0.0]
+    for k in range(t.size - 1):  # segment by segment: the slope is constant on each
+        z.append(solve_ivp(rhs, (t[k], t[k + 1]), [z[-1]], rtol=1e-10, atol=1e-12).y[0, -1])
+    u, v = rec.inputs["coil_current"], rec.inputs["velocity"]
+    ref = (
+        (TRUTH["c"] + TRUTH["c_field"] * u) * v
+        + TRUTH["k"] * x
+        + TRUTH["f_0"]
+        + (TRUTH["f_y"] + TRUTH["f_field"] * u) * np.array(z)
+    )
+    # solver tolerance 1e-10 on z (|z| <= 1) times forces of a few hundred N
+    assert np.max(np.abs(force - ref)) < 1e-5 * np.max(np.abs(ref))
+
+
+def test_zero_field_is_the_passive_model_with_bouc_wen(case):
+    rec = _short(case)
+    zero = Recording(
+        rec.name,
+        rec.test,
+        rec.time,
+        {**rec.inputs, "coil_current": np.zeros_like(rec.time)},
+        {},
+        rec.units,
+    )
+    field = make_component("mr_damper", field="coil_current")
+    f_field = field.simulate(field.theta_from(TRUTH), zero)["force"]
+    bw = make_effect("bouc_wen_hysteresis").with_params(
+        {"f_y": TRUTH["f_y"], "x_y": TRUTH["x_y"], "shape": TRUTH["shape"], "n": 1.0}
+    )
+    passive = make_component("mr_damper", [bw])
+    base = {k: TRUTH[k] for k in ("c", "k", "f_0")}
+    f_passive = passive.simulate(passive.theta_from(base), zero)["force"]
+    np.testing.assert_allclose(f_field, f_passive, rtol=1e-12, atol=1e-9)
+
+
+def test_field_law_is_odd_in_the_motion(case):
+    # F(-x, -v, u) = -F(x, v, u) from rest (z0 = 0) without a static force
+    rec = _short(case)
+    flip = Recording(
+        rec.name,
+        rec.test,
+        rec.time,
+        {
+            **rec.inputs,
+            "displacement": -rec.inputs["displacement"],
+            "velocity": -rec.inputs["velocity"],
+        },
+        {},
+        rec.units,
+    )
+    model = make_component("mr_damper", field="coil_current")
+    th = model.theta_from({**TRUTH, "f_0": 0.0})
+    np.testing.assert_allclose(
+        model.simulate(th, flip)["force"], -model.simulate(th, rec)["force"], atol=1e-9
+    )
+
+
+def test_field_option_and_units_are_checked():
+    with pytest.raises(ValidationError, match="field in"):
+        MRFieldDamperModel(field="coil_flux")
+    model = make_component("mr_damper", field="coil_voltage")
+    assert model.parameter_units[model.parameter_names.index("f_field")] == "N/V"
+    assert to_si(np.array([250.0]), "mA") == (pytest.approx(np.array([0.25])), "A")
+
+
+# ------------------------------------------------------------------ the check's parts
+def test_white_floor_and_coherence_definitions():
+    rng = np.random.default_rng(0)
+    e = rng.normal(0.0, 2.0, 20000)
+    # var(e[k+2] - 2 e[k+1] + e[k]) = 6 sigma^2 for white noise: the floor is sigma
+    assert mi.white_floor(e) == pytest.approx(2.0, rel=0.03)
+    s = rng.normal(size=20000)
+    filtered = lfilter([0.5, 0.3], [1.0, -0.4], s)
+    assert mi.weighted_coherence(filtered, s, 100.0) > 0.98
+    # independent series: coherence is the estimator's bias, about 1 / segments
+    assert mi.weighted_coherence(e, s, 100.0) < 0.05
+
+
+def test_switching_test_tells_a_switched_gain_from_coloured_noise():
+    rng = np.random.default_rng(1)
+    t = np.arange(6000) * 0.01
+    y = np.sin(2 * np.pi * 1.3 * t) + 0.5 * np.sin(2 * np.pi * 0.7 * t)
+    coloured = lfilter([1.0], [1.0, -0.9], rng.normal(size=t.size))
+    assert mi.switching(coloured, y, [y])["p_switching"] > 0.01
+    level = np.where((t // 3.7) % 2 == 0, -1.0, 1.0)
+    assert mi.switching(0.3 * level * y + 0.05 * coloured, y, [y])["p_switching"] < 1e-6
+
+
+def test_a_ripple_along_a_recorded_input_is_a_relation_not_a_missing_input():
+    # cogging: a force periodic in the position (pitch 1/10 of the travel), a function of
+    # a recorded input that neither the coherence nor a coarse grid of cells sees
+    rng = np.random.default_rng(2)
+    t = np.arange(6000) * 0.01
+    x = np.sin(2 * np.pi * 0.21 * t) + 0.3 * np.sin(2 * np.pi * 0.53 * t + 1.0)
+    y = 3.0 * np.gradient(x, t)
+    r = np.sin(2 * np.pi * x / 0.25) + 0.05 * rng.normal(size=t.size)
+    n = mi.judge(r, y + r, {"position": x, mi.PREDICTION: y}, 100.0)
+    assert n["state_shares"]["position"] > mi.STATE_SHARE_LIMIT
+    assert mi.cause(n, 0.01) is None
+
+
+# ------------------------------------------------------------------ the check in the loop
+def test_switching_current_not_recorded_is_a_missing_input(case):
+    diag = diagnose(_without(case.recording, "coil_current"), "mr_damper")
+    found = diag.findings["missing_input"]
+    assert found.remains and not found.confident and not diag.confident
+    assert "an input the recording does not carry" in diag.verdict
+    assert "no significant missing physics" not in diag.verdict.lower()
+    assert "switching with no recorded cause" in diag.headline
+    n = found.numbers["judged"][f"{case.recording.name} force"]
+    assert n["share_of_output"] > 0.2 and n["size"] > mi.SIZE_LIMIT
+
+
+def test_switching_current_recorded_is_diagnosed_whole(case):
+    diag = diagnose(case.recording, "mr_damper")
+    assert isinstance(diag.final_fit.model, MRFieldDamperModel)
+    assert not diag.findings["missing_input"].remains
+    assert not diag.unexplained and diag.named == []
+    assert not any("not read" in a for a in diag.assumptions)
+    # the force is explained to its noise: residual RMS within 20 % of the noise drawn
+    rec = case.recording
+    pred = diag.final_fit.model.simulate(diag.final_fit.theta, rec)["force"]
+    rms = float(np.sqrt(np.mean((rec.outputs["force"] - pred) ** 2)))
+    assert rms < 1.2 * case.truth.noise_rms
+    got = {k: v["value"] for k, v in diag.final_params.items()}
+    for name in ("c", "c_field", "f_y", "f_field", "x_y"):
+        assert got[name] == pytest.approx(TRUTH[name], rel=0.05), name
+
+
+def test_unread_recorded_input_is_named_in_the_finding(case):
+    # a damper model does not read a coil current: the recording carries the cause, and
+    # the finding says the model does not read it
+    rec = case.recording
+    diag = diagnose(rec, "damper")
+    found = diag.findings["missing_input"]
+    assert found.remains
+    assert found.numbers["cause"] == "unread"
+    assert "follows the recorded coil_current" in found.sentence
+    # and the first screen says the channel is not read
+    assert any("coil_current [A] is not read by the damper" in a for a in diag.assumptions)
+
+
+@pytest.mark.parametrize("family", ["damper", "mr_damper"])
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_effect_free_controls_are_not_a_missing_input(family, seed):
+    # seeds 0, 1, 2 are the white, coloured and drifting noise of the controls
+    diag = diagnose(make_case(family, seed, 0).recording, family)
+    assert not diag.findings["missing_input"].remains, diag.verdict
+
+
+# ------------------------------------------------------------------ real recordings
+@pytest.mark.realdata
+def test_real_mr_damper_is_not_a_missing_input(shared_data):
+    # the shaking-table runs (Vargas 2021) record no coil channel; at a constant field the
+    # Bouc-Wen model leaves a residual that is a function of the motion (coherence above
+    # the limit or a static relation), which is not an unrecorded input
+    from suspenv.diagnosis.component.motion_inputs import conditioned
+    from suspenv.measurements.catalog import REAL_CASES
+    from suspenv.measurements.sources import load_mr_damper
+
+    fit, hold, family, _ = REAL_CASES["mr_damper"](shared_data / "real")
+    diag = diagnose(fit, family, holdout=hold)
+    assert "hysteresis" in diag.named_families
+    assert not diag.findings["missing_input"].remains
+    version = str(diag.baseline.get("motion_version", "channel"))
+    folder = shared_data / "real" / "mr_damper_shaking_table"
+    for name in ("ensaio.vali.1.mat", "ensaio4.2.mat", "ensaio.B.10.mat"):
+        (rec,), _ = conditioned(
+            [load_mr_damper(folder / name)], ("displacement", "velocity"), version
+        )
+        for n in mi.judge_recording(diag.final_fit, rec).values():
+            assert mi.cause(n, diag.rule.alpha) is None, name
+
+
+def test_field_law_where_the_field_varies_within_or_between_recordings(case):
+    from suspenv.diagnosis.component.rig import baseline_model, check_extra_inputs, describe_rig
+
+    rec = _short(case)
+
+    def at(level: float) -> Recording:
+        u = np.full(rec.time.size, level)
+        return Recording(
+            f"at {level}", rec.test, rec.time, {**rec.inputs, "coil_current": u}, {}, rec.units
+        )
+
+    one = [at(0.5)]
+    rig = describe_rig("mr_damper", one)
+    assert rig.extra_inputs == {"coil_current": "recorded"}  # recorded under its name
+    assert "field" not in baseline_model(rig, one).options
+    assert check_extra_inputs(one, rig) == ["coil_current constant (0.5 A)"]
+    two = [at(0.2), at(1.0)]
+    assert baseline_model(describe_rig("mr_damper", two), two).options["field"] == "coil_current"
