@@ -50,7 +50,7 @@ from suspenv.models.effects.effect import Effect, make_effect
 from suspenv.models.minibus import BASELINE_DESIGN, STUDY_PICK, design_space
 from suspenv.models.minibus.vehicle import LOAD_CASES
 from suspenv.rigs.ride import RandomRoad, random_road_run
-from suspenv.runs.compare import load_summary
+from suspenv.runs.run_dir import load_summary
 
 #: agreement asked of the spectral values with the long runs (%)
 TARGET_PERCENT = 2.0
