@@ -33,9 +33,11 @@ Scores against the truth kept apart:
 Development seeds (``--dev``, 100-135) differ from the reported seeds (1000-1035); only the
 reported run writes ``docs/benchmarks/knc_diagnosis.json`` (``--out`` elsewhere). Rows
 are appended to ``--rows`` (a JSON-lines file) as they finish, so a killed run loses
-nothing and ``--resume`` skips the finished seeds. ``--outside`` runs the cases with a
-strut bump stop outside the library (seeds 2000-2005, ``knc_outside.json``): right is a
-verdict that names nothing with confidence and reports the residual left.
+nothing and ``--resume`` skips the finished seeds. ``--outside`` runs the cases outside
+the library (seeds 2000-2017, ``knc_outside.json``: a strut bump stop, a progressive or
+a preloaded bushing, subframe compliance, load-cell cross-talk, the toe channels'
+sign reversed; 3 of each): right is a verdict that names nothing with confidence and
+reports the residual left.
 """
 
 from __future__ import annotations
@@ -55,9 +57,11 @@ from suspenv.diagnosis.evidence import scaled_rms
 
 DEV_SEEDS = tuple(range(100, 136))
 REPORT_SEEDS = tuple(range(1000, 1036))
-#: cases with physics outside the library (``--outside``: a strut bump stop,
-#: :func:`~suspenv.diagnosis.knc.truth.outside_case`), fixed before their one run
-OUTSIDE_SEEDS = tuple(range(2000, 2006))
+#: cases with physics outside the library (``--outside``, the kind cycling with the seed:
+#: strut stop, progressive and preloaded bushings, subframe compliance, load-cell
+#: cross-talk, toe sign reversed; :func:`~suspenv.diagnosis.knc.truth.outside_case`),
+#: fixed before their one run: 3 cases of each kind
+OUTSIDE_SEEDS = tuple(range(2000, 2018))
 STEPS = 6
 
 
@@ -228,9 +232,9 @@ def run_outside_case(seed: int) -> dict[str, Any]:
     left = diag.findings.get("residual_left")
     return {
         "seed": seed,
-        "sides": ",".join(truth["outside"]["sides"]),
-        "gap_mm": 1e3 * truth["outside"]["gap"],
-        "k_stop_n_per_mm": 1e-3 * truth["outside"]["k_stop"],
+        "kind": truth["case_type"],
+        "params": json.dumps(truth["outside"]),
+        "noise_scale": truth["noise_scale"],
         "named": ",".join(diag.named_kinds) or "none",
         "confident": diag.confident,
         "unexplained": diag.unexplained,
@@ -241,10 +245,18 @@ def run_outside_case(seed: int) -> dict[str, Any]:
 
 
 def summarise_outside(rows: list[dict]) -> dict[str, Any]:
+    kinds = sorted({r["kind"] for r in rows})
     return {
         "cases": len(rows),
         "reported_unexplained": sum(r["unexplained"] for r in rows) / max(len(rows), 1),
-        "confident_wrong_names": sum(r["confident"] for r in rows),
+        "confident_wrong_names": sum(bool(r["confident"] and r["named"] != "none") for r in rows),
+        "confident_verdicts": sum(r["confident"] for r in rows),
+        "unexplained_by_kind": {
+            k: f"{sum(r['unexplained'] for r in rows if r['kind'] == k)}/"
+            f"{sum(r['kind'] == k for r in rows)}"
+            for k in kinds
+        },
+        "named_any": sum(r["named"] != "none" for r in rows),
         "median_cpu_s": _median(rows, "cpu_seconds"),
     }
 

@@ -68,6 +68,7 @@ SOURCES: dict[str, tuple[str, ...]] = {
         "independent_diagnosis",
         "real_recordings",
         "knc_diagnosis",
+        "knc_outside",
         "ride_diagnosis",
     ),
 }
@@ -503,6 +504,18 @@ def knc_row(d: Json) -> str:
         median=seconds(s["median_seconds_per_diagnosis"]),
         max=seconds(s["max_seconds_per_diagnosis"]),
         cpu=seconds(s["max_cpu_seconds_per_diagnosis"]),
+        cpu_median=seconds(s["median_cpu_seconds_per_diagnosis"]),
+    )  # fmt: skip
+
+
+def knc_outside_row(d: Json) -> str:
+    """The K&C row of physics outside the library from ``knc_outside.json``."""
+    s = d["summary"]
+    return fill(
+        "diagnosis.knc_outside", n=s["cases"],
+        k_of_n=count(s["reported_unexplained"] * s["cases"], s["cases"]),
+        rate=percent(s["reported_unexplained"]),
+        wrong=count(s["confident_wrong_names"], s["cases"]), median=seconds(s["median_cpu_s"]),
     )  # fmt: skip
 
 
@@ -523,9 +536,9 @@ def ride_rows(d: Json) -> list[str]:
         if math.isfinite(float(r["param_rel_error_max"]))
     )
 
-    def walls(rows: Sequence[Json]) -> str:
-        w = [float(r["wall_seconds"]) for r in rows]
-        return f"{span(min(w), max(w))} s"
+    def cpus(rows: Sequence[Json]) -> str:
+        c = [float(r["cpu_seconds"]) for r in rows]
+        return f"{seconds(min(c))}-{seconds(max(c))} s"
 
     named = count(sum(bool(r["correct_top1"]) for r in effect), len(effect))
     return [
@@ -533,12 +546,14 @@ def ride_rows(d: Json) -> list[str]:
             "diagnosis.ride", n=len(ride), named=named,
             alarms=count_text(s["ride_false_alarms"]),
             ratio=s["ride_heldout_rms_after_over_before_median"], worst=percent(worst, 1),
-            walls=walls(ride),
+            cpus=cpus(ride), median=seconds(s["ride_cpu_seconds_median"]),
+            baseline=seconds(s["speed_baseline_cpu_seconds_median_numpy_loop"]),
+            compiled=seconds(s["speed_baseline_cpu_seconds_median_compiled"]),
         ),
         fill(
             "diagnosis.ride_outside", n=len(outside),
             wrong=count_text(s["ride_out_of_library_wrong_name_confident"]),
-            flagged=count_text(s["ride_out_of_library_residual_flagged"]), walls=walls(outside),
+            flagged=count_text(s["ride_out_of_library_residual_flagged"]), cpus=cpus(outside),
         ),
         fill(
             "diagnosis.road", n=len(road), found=count_text(s["road_detection_w2.5"]),
@@ -606,6 +621,7 @@ def render_diagnosis(data: Mapping[str, Json]) -> str:
             component_outside_row(bench),
             independent_row(data["independent_diagnosis"]),
             knc_row(data["knc_diagnosis"]),
+            knc_outside_row(data["knc_outside"]),
             *ride_rows(ride),
             "",
             real_paragraph(bench, ride),

@@ -10,7 +10,8 @@ whose held-out error is the "before" number.
 
 Out-of-library ride cases (scored on their own rows): truths whose extra physics is
 not a candidate (damper curve of another shape, other tyres, a seat accelerometer
-with a gain error or a lag; :mod:`suspenv.diagnosis.ride.mismatch`). Scored on the
+with a gain error, a lag or upside down, an undeclared payload, tyre run-out the
+recordings do not carry; :mod:`suspenv.diagnosis.ride.mismatch`). Scored on the
 wrong-name rate (a candidate named with confidence although the truth is outside
 the library), held-out error before/after against the noise floor, and whether the
 verdict says a residual remains (:mod:`suspenv.diagnosis.ride.residual`).
@@ -19,6 +20,10 @@ Road: synthetic Gaussian profiles of ISO 8608 class B with w = 2 (controls) and
 w = 2.5 (planted), scored on false/true detections and the recovered w; and the
 real ``profile_1/2.txt`` (when the shared data is present,
 :func:`suspenv.measurements.data_dir`).
+
+Speed baseline in the same run: the in-library cases of the first seed diagnosed
+again with the ride model's numpy loop (``ride_model.COMPILED`` off), CPU time
+(``time.process_time``, the machine is shared) and whether the outcome is the same.
 
 Seeds: ``--dev`` runs the tuning seeds; the default runs the reported seeds (a
 different set). Rows are appended to ``<tmp>/suspenv_bench/ride_diagnosis.rows.jsonl`` as they
@@ -56,8 +61,6 @@ from suspenv.diagnosis.road import (
 from suspenv.measurements import data_dir
 from suspenv.rigs.road import ROAD_CLASS_GD0
 
-DEV_SEEDS = (11, 12)
-REPORT_SEEDS = (501, 502)
 KINDS: tuple[str | None, ...] = (
     "bump_stop",
     "leaf_friction",
@@ -65,6 +68,13 @@ KINDS: tuple[str | None, ...] = (
     "seat_mount",
     None,
 )
+DEV_SEEDS = (11, 12)
+#: the reported seeds, fixed before the run (501, 502 before the blind user's conditions
+#: were added; 503-505 added with them)
+REPORT_SEEDS = (501, 502, 503, 504, 505)
+#: cases run again with the numpy loop (the speed baseline, same run): the in-library
+#: kinds and a control of the first reported seed
+BASELINE_KINDS: tuple[str | None, ...] = KINDS
 #: truth kind -> the (kind@location) prefix a correct diagnosis names
 EXPECTED_KIND = {
     "bump_stop": "bump_stop",
@@ -136,6 +146,41 @@ def ride_row(kind: str | None, seed: int) -> dict[str, Any]:
         "heldout_scaled_rms_after": after,
         "param_rel_error_max": max(rel_err) if rel_err else float("nan"),
         **common,
+    }
+
+
+def baseline_row(kind: str | None, seed: int, compiled: dict[str, Any]) -> dict[str, Any]:
+    """The case ``kind/seed`` diagnosed again with the ride model's numpy loop
+    (:data:`suspenv.models.minibus.ride_model.COMPILED` off): its CPU time against the
+    compiled run's row ``compiled``, and whether the outcome is the same (named
+    candidates; the largest relative difference of the final parameters)."""
+    from suspenv.models.minibus import ride_model
+
+    case = make_ride_case(seed, kind)
+    family = RideFamily(screen_count=3, max_effects=1)
+    runs = []
+    for flag in (False, True):
+        ride_model.COMPILED = flag
+        try:
+            cpu = time.process_time()
+            diag = diagnose(case.fit, family, holdout=case.heldout)
+            runs.append((diag, time.process_time() - cpu))
+        finally:
+            ride_model.COMPILED = True
+    (slow, cpu_numpy), (fast, _) = runs
+    a, b = slow.final_params, fast.final_params
+    diff = max(
+        (abs(b[k]["value"] - a[k]["value"]) / max(abs(a[k]["value"]), 1e-300) for k in a if k in b),
+        default=0.0,
+    )
+    return {
+        "part": "speed baseline",
+        "case": f"{kind or 'none'}/{seed}",
+        "cpu_seconds_numpy_loop": cpu_numpy,
+        "cpu_seconds_compiled": compiled["cpu_seconds"],
+        "same_named": slow.named_candidates == fast.named_candidates
+        and ";".join(fast.named_candidates or ["none"]) == compiled["named"],
+        "final_param_rel_diff_max": float(diff),
     }
 
 
@@ -240,6 +285,11 @@ def main(argv: list[str] | None = None) -> int:
         rows.append(row)
         with log.open("a") as fh:
             fh.write(json.dumps(row, default=float) + "\n")
+    if not (args.quick or args.only_out_of_library):
+        by_case = {r["case"]: r for r in rows}
+        for kind in tqdm(BASELINE_KINDS, desc="numpy-loop baseline"):
+            key = f"{kind or 'none'}/{seeds[0]}"
+            rows.append(baseline_row(kind, seeds[0], by_case[key]))
     road_seeds = tuple(range(seeds[0] * 100, seeds[0] * 100 + (5 if args.quick else 20)))
     rows += road_rows(road_seeds)
     rows += real_road_rows()
@@ -249,6 +299,7 @@ def main(argv: list[str] | None = None) -> int:
     controls = [r for r in ride if r["truth"] == "none"]
     road = [r for r in rows if r["part"] == "road"]
     ool = [r for r in rows if r["part"] == "ride (out of library)"]
+    speed = [r for r in rows if r["part"] == "speed baseline"]
     in_lib = planted + controls
     summary = {
         "seeds": "dev" if args.dev else "reported",
@@ -275,6 +326,18 @@ def main(argv: list[str] | None = None) -> int:
         "ride_out_of_library_excess_ratio_median": _median(ool, "excess_ratio_after"),
         "ride_wall_seconds_median": _median(ride + ool, "wall_seconds"),
         "ride_cpu_seconds_median": _median(ride + ool, "cpu_seconds"),
+        "ride_cpu_seconds_max": float(max(r["cpu_seconds"] for r in ride + ool)),
+        "ride_out_of_library_unexplained_by_kind": {
+            k: f"{sum(r['residual_remains'] for r in ool if r['case'].startswith(k + '/'))}/"
+            f"{sum(r['case'].startswith(k + '/') for r in ool)}"
+            for k in dict.fromkeys(r["case"].split("/")[0] for r in ool)
+        },
+        "speed_baseline_cpu_seconds_median_numpy_loop": _median(speed, "cpu_seconds_numpy_loop"),
+        "speed_baseline_cpu_seconds_median_compiled": _median(speed, "cpu_seconds_compiled"),
+        "speed_baseline_same_named": f"{sum(r['same_named'] for r in speed)}/{len(speed)}",
+        "speed_baseline_final_param_rel_diff_max": max(
+            (r["final_param_rel_diff_max"] for r in speed), default=float("nan")
+        ),
         "road_false_alarms_w2": f"{sum(r['false_alarm'] for r in road)}/"
         f"{sum(1 for r in road if r['truth'].startswith('w=2'))}",
         "road_detection_w2.5": f"{sum(r['correct_top1'] for r in road if 'steeper' in r['truth'])}/"

@@ -80,6 +80,8 @@ class Truth:
     outside: bool = False
     #: how the rig recorded the motion (:func:`_recorded_motion`); None: exactly
     motion: dict[str, Any] | None = None
+    #: the blind user's condition (:data:`CONDITIONS`) and its values; None: none
+    condition: dict[str, Any] | None = None
 
     @property
     def kinds(self) -> list[str]:
@@ -260,6 +262,57 @@ def _outside(
     raise ValidationError(f"unknown out-of-library kind {kind!r}")  # pragma: no cover
 
 
+#: the blind user's conditions a case may carry (:func:`make_case` ``condition``; what
+#: the recording does not say): the quarter car's masses other than the defaults the
+#: engine assumes; the output recorded with the other sign (a load cell read
+#: tension-positive, a deflection transducer rebound-positive); a force a recorded
+#: input does not explain (a valve or coil switched by a signal the recording lacks;
+#: dyno and guide families)
+CONDITIONS = ("masses_undeclared", "sign_reversed", "input_missing")
+
+
+def draw_condition(condition: str, family: str, seed: int) -> dict[str, Any]:
+    """Seeded values of ``condition`` (:data:`CONDITIONS`), by a generator of its own so
+    that every other draw of the case is unchanged."""
+    rng = np.random.default_rng([seed, 23, sum(map(ord, family))])
+    if condition == "masses_undeclared" and family == "quarter_car_rig":
+        # body 0.6-0.85 or 1.2-1.5 times, wheel 0.7-1.5 times the 300 / 40 kg defaults
+        body = rng.uniform(0.6, 0.85) if rng.random() < 0.5 else rng.uniform(1.2, 1.5)
+        return {"kind": condition, "m_s": 300.0 * body, "m_u": 40.0 * rng.uniform(0.7, 1.5)}
+    if condition == "sign_reversed":
+        return {"kind": condition}
+    if condition == "input_missing" and family in RECORDED_MOTION_FAMILIES:
+        # extra damping 30-60 % of the base level, switched on and off 4-10 times
+        return {
+            "kind": condition,
+            "share": float(rng.uniform(0.3, 0.6)),
+            "switches": np.sort(rng.uniform(0.0, 1.0, int(rng.integers(4, 11)))).tolist(),
+        }
+    raise ValidationError(
+        f"condition must be one of {CONDITIONS} and apply to the family (masses: "
+        f"quarter_car_rig; input_missing: {RECORDED_MOTION_FAMILIES}), but got "
+        f"({condition!r}, {family!r})"
+    )
+
+
+def _apply_condition(
+    cond: dict[str, Any], clean: dict[str, Any], sc: dict[str, float], rec: Recording
+) -> None:
+    """Apply a drawn condition to the noise-free outputs ``clean`` in place (masses act
+    through the truth model's options instead)."""
+    from suspenv.diagnosis.component.motion import motion
+
+    out = "suspension_deflection" if "suspension_deflection" in clean else "force"
+    if cond["kind"] == "sign_reversed":
+        clean[out] = -np.asarray(clean[out], float)
+    elif cond["kind"] == "input_missing":
+        _, v = motion(rec)
+        t = (rec.time - rec.time[0]) / max(float(rec.time[-1] - rec.time[0]), 1e-12)
+        on = np.searchsorted(np.asarray(cond["switches"]), t) % 2 == 1
+        c = cond["share"] * sc["force"] / max(sc["speed"], 1e-12)
+        clean[out] = np.asarray(clean[out], float) + c * v * on
+
+
 #: dyno and guide families whose motion channels are, in half of the cases, recorded as
 #: rigs record them (:func:`_recorded_motion`)
 RECORDED_MOTION_FAMILIES = ("damper", "mr_damper", "friction_guide")
@@ -318,12 +371,18 @@ def make_case(
     n_effects: int,
     outside: bool = False,
     options: dict[str, Any] | None = None,
+    condition: str | None = None,
 ) -> Case:
     """A concealed case: ``n_effects`` in {0, 1, 2} drawn from the family's pool, or with
     ``outside`` one element from outside the library (:data:`OUTSIDE_KINDS`). Controls
     (no effect) get the noise :data:`CONTROL_NOISE` ``[seed % 3]``. ``options`` are the
     truth model's options where they differ from the family's defaults (e.g. the
-    quarter car's masses ``{"m_s": 250.0}``), which the recording does not declare."""
+    quarter car's masses ``{"m_s": 250.0}``), which the recording does not declare.
+    ``condition`` adds one of the blind user's :data:`CONDITIONS` (:func:`draw_condition`;
+    the random draws of the case are those without it)."""
+    cond = draw_condition(condition, family, seed) if condition else None
+    if cond is not None and cond["kind"] == "masses_undeclared":
+        options = {**(options or {}), "m_s": cond["m_s"], "m_u": cond["m_u"]}
     salt = 7 if outside else n_effects
     rng = np.random.default_rng([seed, salt, sum(map(ord, family))])
     model = make_component(family, **options) if options else resolve_model(family)
@@ -368,6 +427,8 @@ def make_case(
         else:
             clean["force"] = np.asarray(clean["force"], float) + added
         effect_dicts = [{"kind": kind, "outside": True, "params": params}]
+    if cond is not None:
+        _apply_condition(cond, clean, sc, rec)
     frac = float(rng.uniform(0.01, 0.04))
     noise_kind = CONTROL_NOISE[seed % 3] if (n_drawn == 0 and not outside) else "white"
     measured = {}
@@ -376,6 +437,7 @@ def make_case(
         measured[channel] = y + _noise(noise_kind, rng, y, rec.time, frac)
     noise_rms = frac * float(np.std(clean[model.output_channels[0]]))
     case_id = f"{family}-{'out' if outside else n_effects}-{seed}"
+    case_id += f"-{cond['kind']}" if cond else ""
     recorded, motion_record = _recorded_motion(seed, family, rec, model.input_channels)
     out = Recording(
         case_id,
@@ -398,6 +460,7 @@ def make_case(
         noise_kind,
         outside,
         motion_record,
+        cond,
     )
     return Case(out, truth)
 

@@ -296,27 +296,115 @@ def blind_case(
 
 
 # ------------------------------------------------------------------ outside the library
-#: sides of a concealed strut stop, by seed (cycled): both wheels, the left, the right
-STOP_SIDES = (("left", "right"), ("left",), ("right",))
+#: physics outside the K&C library (and a convention the recordings do not declare) of
+#: the blind cases outside the library, each concealed by :func:`conceal_outside`
+OUTSIDE_KINDS = (
+    "strut_stop",
+    "progressive_bushing",
+    "preloaded_bushing",
+    "subframe_compliance",
+    "load_cell_crosstalk",
+    "toe_sign",
+)
+#: compliance tests and the contact-point channels their force moves
+COMPLIANCE_TESTS = {"lateral": "contact_lateral", "longitudinal": "contact_x"}
+#: outputs a bushing's deflection moves in a compliance test
+BUSHING_CHANNELS = ("toe", "camber", "contact_lateral", "contact_x")
+
+
+def _compliance_shape(recs: Mapping[str, Recording], shape: Any) -> None:
+    """Reshape every compliance output's response to the force: the part of channel ``y``
+    that follows the force ``F`` [N] (``y - y0``, ``y0`` its least-squares value at
+    ``F = 0``) becomes ``(y - y0) * shape(F)``: a bushing whose rate is not constant."""
+    for test in COMPLIANCE_TESTS:
+        rec = recs.get(test)
+        if rec is None:
+            continue
+        F = np.asarray(rec.inputs["force"], float)
+        A = np.stack([np.ones_like(F), F], axis=1)
+        g = shape(F)
+        for side in ("left", "right"):
+            for ch in BUSHING_CHANNELS:
+                y = np.asarray(rec.outputs[f"{ch}_{side}"], float)
+                y0 = np.linalg.lstsq(A, y, rcond=None)[0][0]
+                rec.outputs[f"{ch}_{side}"] = y0 + (y - y0) * g
+
+
+def conceal_outside(recs: Mapping[str, Recording], kind: str, p: Mapping[str, Any]) -> None:
+    """Conceal outside-library ``kind`` (:data:`OUTSIDE_KINDS`) with parameters ``p`` in
+    ``recs`` (after the sensor noise, on the channels the physics reaches):
+
+    * ``strut_stop``: :func:`add_strut_stop` (``gap`` [m], ``k_stop`` [N/m], ``sides``);
+    * ``progressive_bushing``: the compliance response stiffens with the force,
+      ``(y - y0) / (1 + b (F / F_ref)^2)`` (``b``, ``f_ref`` [N]);
+    * ``preloaded_bushing``: nothing moves until the force passes the preload,
+      ``(y - y0) max(|F| - F_p, 0) / |F|`` (``f_p`` [N]);
+    * ``subframe_compliance``: the subframe moves on its mounts under the sum of both
+      wheels' forces: both contact points move ``2 F / k`` more (``k`` [N/m]);
+    * ``load_cell_crosstalk``: each tyre load cell reads ``c F`` of the horizontal
+      contact force ``F`` (``c`` [-]);
+    * ``toe_sign``: both toe channels recorded toe-out positive (sign reversed).
+    """
+    if kind == "strut_stop":
+        add_strut_stop(recs, p["gap"], p["k_stop"], p["sides"])
+    elif kind == "progressive_bushing":
+        _compliance_shape(recs, lambda F: 1.0 / (1.0 + p["b"] * (F / p["f_ref"]) ** 2))
+    elif kind == "preloaded_bushing":
+        _compliance_shape(
+            recs,
+            lambda F: np.maximum(np.abs(F) - p["f_p"], 0.0) / np.maximum(np.abs(F), 1e-9),
+        )
+    elif kind in ("subframe_compliance", "load_cell_crosstalk"):
+        for test, contact in COMPLIANCE_TESTS.items():
+            rec = recs.get(test)
+            if rec is None:
+                continue
+            F = np.asarray(rec.inputs["force"], float)
+            for side in ("left", "right"):
+                key = f"{contact}_{side}" if kind == "subframe_compliance" else f"tyre_fz_{side}"
+                add = 2.0 * F / p["k"] if kind == "subframe_compliance" else p["c"] * F
+                rec.outputs[key] = np.asarray(rec.outputs[key], float) + add
+    elif kind == "toe_sign":
+        for rec in recs.values():
+            for side in ("left", "right"):
+                rec.outputs[f"toe_{side}"] = -np.asarray(rec.outputs[f"toe_{side}"], float)
+    else:
+        raise ValidationError(f"outside kind must be one of {OUTSIDE_KINDS}, but got {kind!r}")
+
+
+def draw_outside(kind: str, rng: np.random.Generator) -> dict[str, Any]:
+    """Seeded parameters of one outside-library ``kind`` (SI, see :func:`conceal_outside`)."""
+    if kind == "strut_stop":  # 15-30 mm of bump, 10-40 kN/m, both sides, the left or right
+        sides = [["left", "right"], ["left"], ["right"]][int(rng.integers(3))]
+        return {"gap": rng.uniform(0.015, 0.030), "k_stop": rng.uniform(1e4, 4e4), "sides": sides}
+    if kind == "progressive_bushing":  # 25-50 % stiffer at the test force
+        return {"b": rng.uniform(0.25, 0.5), "f_ref": FORCE_AMPLITUDE}
+    if kind == "preloaded_bushing":  # preload 10-25 % of the test force
+        return {"f_p": rng.uniform(0.10, 0.25) * FORCE_AMPLITUDE}
+    if kind == "subframe_compliance":  # lateral mount rate 2-6 kN/mm for the subframe
+        return {"k": rng.uniform(2e6, 6e6)}
+    if kind == "load_cell_crosstalk":  # 1-3 % of the horizontal force, either sign
+        return {"c": float(rng.choice([-1.0, 1.0])) * rng.uniform(0.01, 0.03)}
+    if kind == "toe_sign":
+        return {}
+    raise ValidationError(f"outside kind must be one of {OUTSIDE_KINDS}, but got {kind!r}")
 
 
 def outside_case(
     seed: int, steps: int = 8, amplitude: float = 0.040, tests: Sequence[str] = BLIND_TESTS
 ) -> tuple[dict[str, Any], dict[str, Any]]:
-    """``(case, truth)`` of a blind case with physics outside the K&C library: a strut bump
-    stop (:func:`add_strut_stop`) on the sides ``STOP_SIDES[seed % 3]``, its gap (15-30 mm
-    of bump) and rate (10-40 kN/m) and the noise level drawn from the seed. A correct
-    verdict names nothing with confidence and reports the residual left."""
+    """``(case, truth)`` of a blind case outside the K&C library: kind
+    ``OUTSIDE_KINDS[seed % 6]`` (:func:`conceal_outside`), its size and the noise level
+    drawn from the seed, on the plain test car. A correct verdict names nothing with
+    confidence and reports the residual left."""
+    kind = OUTSIDE_KINDS[int(seed) % len(OUTSIDE_KINDS)]
     rng = np.random.default_rng([seed, 77])
-    stop = {
-        "gap": float(rng.uniform(0.015, 0.030)),
-        "k_stop": float(rng.uniform(1.0e4, 4.0e4)),
-        "sides": list(STOP_SIDES[seed % len(STOP_SIDES)]),
-    }
+    params = {k: (float(v) if np.ndim(v) == 0 else v) for k, v in draw_outside(kind, rng).items()}
     noise = float(rng.uniform(0.5, 2.0))
-    recs = measure_truth({}, seed, amplitude, steps, noise, tests, outside=[stop])
+    recs = measure_truth({}, seed, amplitude, steps, noise, tests)
+    conceal_outside(recs, kind, params)
     for r in recs.values():
         r.meta.pop("seed", None)
         r.name = f"knc-outside-{seed}:{rig_test(r)}"
-    truth = {"seed": int(seed), "case_type": "strut_stop", "outside": stop, "noise_scale": noise}
+    truth = {"seed": int(seed), "case_type": kind, "outside": params, "noise_scale": noise}
     return {"id": f"knc-outside-{seed}", "recordings": recs}, truth

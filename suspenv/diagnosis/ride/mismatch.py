@@ -16,7 +16,15 @@ Each truth is physical and cheap to simulate with the same 7-DOF ride model:
   +10 to +15 %;
 * ``seat_sensor_gain``: the seat-rail accelerometer reads x 0.85-0.92 or x 1.08-1.15;
 * ``seat_sensor_lag``: the seat-rail accelerometer lags by 5-10 ms (an exact delay,
-  applied in the frequency domain to the noise-free signal).
+  applied in the frequency domain to the noise-free signal);
+* ``seat_sensor_sign``: the seat-rail accelerometer mounted upside down (a sign the
+  recording does not declare);
+* ``payload``: an undeclared payload of 150-300 kg on the floor (1.0 m high), 0.8-2.4 m
+  behind the front axle: the sprung mass, its centre and pitch and roll inertia change
+  (the recording still says "no_load");
+* ``tyre_nonuniformity``: each tyre has a radial run-out of 0.5-1.5 mm (once per
+  revolution, its own phase): an input the recording does not carry, added to the
+  road under that wheel in the truth's simulation only.
 
 None of these is a candidate of :data:`~suspenv.diagnosis.ride.model.RIDE_CANDIDATES`
 (the damper curve scales C1, C2 the fit adjusts scale a curve, they cannot change
@@ -33,7 +41,7 @@ import numpy as np
 
 from suspenv.core.errors import ValidationError
 from suspenv.models.minibus import REFERENCE_MINIBUS
-from suspenv.models.minibus.vehicle import DamperCurve, Minibus
+from suspenv.models.minibus.vehicle import DamperCurve, LoadCase, Minibus
 
 #: truth kinds whose extra physics is outside the candidate list
 OUT_OF_LIBRARY_KINDS = (
@@ -42,6 +50,9 @@ OUT_OF_LIBRARY_KINDS = (
     "tyre_stiffness",
     "seat_sensor_gain",
     "seat_sensor_lag",
+    "seat_sensor_sign",
+    "payload",
+    "tyre_nonuniformity",
 )
 
 
@@ -74,6 +85,16 @@ def draw_mismatch(kind: str, rng: np.random.Generator) -> dict[str, Any]:
         return {"kind": kind, "channel": "acc_seat", "gain": float(gain)}
     if kind == "seat_sensor_lag":
         return {"kind": kind, "channel": "acc_seat", "delay_s": float(rng.uniform(0.005, 0.010))}
+    if kind == "seat_sensor_sign":
+        return {"kind": kind, "channel": "acc_seat", "gain": -1.0}
+    if kind == "payload":
+        return {"kind": kind, "mass": rng.uniform(150.0, 300.0), "x": rng.uniform(0.8, 2.4)}
+    if kind == "tyre_nonuniformity":
+        return {
+            "kind": kind,
+            "runout_m": rng.uniform(0.5e-3, 1.5e-3, 4).tolist(),
+            "phase": rng.uniform(0.0, 2 * np.pi, 4).tolist(),
+        }
     raise ValidationError(
         f"out-of-library kind must be one of {OUT_OF_LIBRARY_KINDS}, but got {kind!r}"
     )
@@ -106,7 +127,54 @@ def mismatch_vehicle(mismatch: dict[str, Any], vehicle: Minibus = REFERENCE_MINI
         return vehicle.with_(
             tyre_vertical_stiffness=vehicle.tyre_vertical_stiffness * float(mismatch["factor"])
         )
+    if kind == "payload":
+        return vehicle.with_(no_load=with_payload(vehicle.no_load, mismatch["mass"], mismatch["x"]))
     return vehicle
+
+
+#: height of an undeclared payload's centre above the ground (m) [CHOICE: on the floor]
+PAYLOAD_HEIGHT = 1.0
+
+
+def with_payload(load: LoadCase, mass: float, x: float) -> LoadCase:
+    """``load`` with a point payload of ``mass`` [kg] at ``x`` [m] behind the front axle on
+    the centreline, :data:`PAYLOAD_HEIGHT` high: the new sprung mass, its centre, and the
+    radii of gyration about it (parallel-axis theorem; the yaw radius kept)."""
+    m0, m = load.sprung_mass, load.sprung_mass + mass
+    cx = (m0 * load.cg_x + mass * x) / m
+    cz = (m0 * load.cg_z + mass * PAYLOAD_HEIGHT) / m
+    pitch = (
+        m0 * (load.pitch_gyration**2 + (load.cg_x - cx) ** 2 + (load.cg_z - cz) ** 2)
+        + mass * ((x - cx) ** 2 + (PAYLOAD_HEIGHT - cz) ** 2)
+    ) / m
+    roll = (
+        m0 * (load.roll_gyration**2 + (load.cg_z - cz) ** 2) + mass * (PAYLOAD_HEIGHT - cz) ** 2
+    ) / m
+    return replace(
+        load,
+        sprung_mass=m,
+        cg_x=cx,
+        cg_z=cz,
+        roll_gyration=np.sqrt(roll),
+        pitch_gyration=np.sqrt(pitch),
+    )
+
+
+def felt_inputs(
+    mismatch: dict[str, Any] | None, road: dict[str, np.ndarray], t: np.ndarray, speed_kmh: float
+) -> dict[str, np.ndarray]:
+    """The road each wheel of the truth feels [m]: the recorded ``road`` (channel ->
+    elevation at times ``t`` [s]), plus each tyre's radial run-out for
+    ``tyre_nonuniformity`` (a sine once per revolution of the loaded radius at
+    ``speed_kmh``); the recorded road otherwise."""
+    if mismatch is None or mismatch["kind"] != "tyre_nonuniformity":
+        return road
+    turns = speed_kmh / 3.6 * t / (2 * np.pi * REFERENCE_MINIBUS.tyre_loaded_radius)
+    out = {}
+    for i, (c, z) in enumerate(road.items()):
+        run = mismatch["runout_m"][i] * np.sin(2 * np.pi * turns + mismatch["phase"][i])
+        out[c] = np.asarray(z, float) + run
+    return out
 
 
 def delay_signal(y: np.ndarray, delay_s: float, dt: float) -> np.ndarray:
@@ -125,7 +193,7 @@ def delay_signal(y: np.ndarray, delay_s: float, dt: float) -> np.ndarray:
 def apply_sensor(mismatch: dict[str, Any], outputs: dict[str, np.ndarray], dt: float) -> None:
     """Apply a sensor mismatch (gain or lag) in place to the noise-free ``outputs``."""
     kind = mismatch["kind"]
-    if kind == "seat_sensor_gain":
+    if kind in ("seat_sensor_gain", "seat_sensor_sign"):
         ch = mismatch["channel"]
         outputs[ch] = outputs[ch] * float(mismatch["gain"])
     elif kind == "seat_sensor_lag":
@@ -149,4 +217,10 @@ def mismatch_words(mismatch: dict[str, Any]) -> str:
         return f"seat accelerometer gain {mismatch['gain']:.3f}"
     if k == "seat_sensor_lag":
         return f"seat accelerometer lag {1e3 * mismatch['delay_s']:.1f} ms"
+    if k == "seat_sensor_sign":
+        return "seat accelerometer upside down"
+    if k == "payload":
+        return f"payload {mismatch['mass']:.0f} kg at {mismatch['x']:.2f} m, not declared"
+    if k == "tyre_nonuniformity":
+        return f"tyre radial run-out {1e3 * max(mismatch['runout_m']):.1f} mm at most"
     return k

@@ -271,13 +271,14 @@ def _batch(e: Effect, B: int) -> Effect:
 def seat_mount_response(a_floor: np.ndarray, dt: float, k: float, c: float) -> np.ndarray:
     """Absolute seat acceleration [m/s^2] on a mount (k [N/m], c [N s/m], SEAT_MASS) driven
     by the floor acceleration: H(s) = (c s + k) / (m s^2 + c s + k), bilinear at ``dt``
-    with the mount's natural frequency pre-warped."""
+    with the mount's natural frequency pre-warped (the discrete resonance sits at wn).
+
+    The bilinear map s = K (1 - 1/z) / (1 + 1/z), K = 2 / (dt warp), written out for
+    this second-order H (the coefficients ``scipy.signal.bilinear`` gives)."""
     m = SEAT_MASS
     wn = np.sqrt(k / m)
-    fs = 1.0 / dt
-    b, a = signal.bilinear([c, k], [m, c, k], fs)
-    # pre-warp H(s / warp): the discrete resonance then sits at wn
-    if wn * dt < 1.0:
-        warp = np.tan(wn * dt / 2.0) / (wn * dt / 2.0)
-        b, a = signal.bilinear([c / warp, k], [m / warp**2, c / warp, k], fs)
-    return signal.lfilter(b, a, a_floor)
+    warp = np.tan(wn * dt / 2.0) / (wn * dt / 2.0) if wn * dt < 1.0 else 1.0
+    K = 2.0 / (dt * warp)
+    b = np.array([c * K + k, 2.0 * k, k - c * K])
+    a = np.array([m * K**2 + c * K + k, 2.0 * (k - m * K**2), m * K**2 - c * K + k])
+    return signal.lfilter(b / a[0], a / a[0], a_floor)

@@ -23,15 +23,16 @@ The case's recordings do not say what was added; the :class:`RideTruth` is kept
 apart (:func:`write_ride_case` writes it to a separate folder).
 
 Out-of-library truths (:data:`~suspenv.diagnosis.ride.mismatch.OUT_OF_LIBRARY_KINDS`:
-a damper curve of another shape, other tyres, a seat accelerometer with a gain error
-or a lag) put physics into the truth that no candidate element describes; see
+a damper curve of another shape, other tyres, a seat accelerometer with a gain error,
+a lag or upside down, an undeclared payload, tyre run-out the recordings do not carry)
+put physics into the truth that no candidate element describes; see
 :mod:`suspenv.diagnosis.ride.mismatch`.
 """
 
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -42,6 +43,7 @@ from suspenv.diagnosis.ride.mismatch import (
     OUT_OF_LIBRARY_KINDS,
     apply_sensor,
     draw_mismatch,
+    felt_inputs,
     mismatch_vehicle,
 )
 from suspenv.diagnosis.ride.model import (
@@ -212,9 +214,11 @@ def measure(
     rng,
     mismatch: dict[str, Any] | None = None,
 ) -> Recording:
-    """``rec`` with the model's outputs (through a mismatched sensor, if any) plus white
-    noise of ``noise`` x channel RMS."""
-    pred = {c: np.asarray(v, float) for c, v in model.simulate(theta, rec).items()}
+    """``rec`` with the model's outputs (on the road the truth feels, through a mismatched
+    sensor, if any) plus white noise of ``noise`` x channel RMS."""
+    road = felt_inputs(mismatch, rec.inputs, rec.time, float(rec.meta.get("speed_kmh", 0.0)))
+    felt = replace(rec, inputs=road) if road is not rec.inputs else rec
+    pred = {c: np.asarray(v, float) for c, v in model.simulate(theta, felt).items()}
     if mismatch is not None:
         apply_sensor(mismatch, pred, rec.sample_interval)
     outs = {}

@@ -27,6 +27,9 @@ Integration: classic fixed-step RK4; the whole batch is one state array (n_state
 with the batch on the last, contiguous axis (long inner loops for every operation).
 Road inputs are sampled on the half-step grid. Body accelerations are recorded at each
 step start (the RK4 first stage), so no extra right-hand-side evaluation is needed.
+float64 models run the same scheme compiled, design by design (:mod:`.ride_kernel`,
+effect parameters checked once at construction; :data:`COMPILED`); float32 models and
+platforms without numba run the numpy loop.
 
 Effects (off by default), element laws from :mod:`suspenv.models.effects`:
 ``dahl_hysteresis`` at location ``"rear_leaf"`` (interleaf friction, one Dahl state
@@ -47,10 +50,14 @@ import numpy as np
 from suspenv.core.errors import EvaluationError, ValidationError
 from suspenv.models.effects import friction, hysteresis, stiffness
 from suspenv.models.effects.effect import Effect
+from suspenv.models.minibus import ride_kernel
 from suspenv.models.minibus.suspension import damper_mean_coefficient
 from suspenv.models.minibus.vehicle import G, VehicleParams
 
 N_BASE_DOF = 7
+#: float64 models integrate by the compiled loop (:mod:`.ride_kernel`, design by design)
+#: where numba is installed; False: the numpy loop (:meth:`RideModel.rhs`) always
+COMPILED = True
 #: element columns (position-type then velocity-type)
 POS_ELEMENTS = ("s_FL", "s_FR", "s_RL", "s_RR", "arb_F", "arb_R", "t_FL", "t_FR", "t_RL", "t_RR")
 VEL_ELEMENTS = ("d_FL", "d_FR", "d_RL", "d_RR", "tc_FL", "tc_FR", "tc_RL", "tc_RR")
@@ -352,6 +359,26 @@ class RideModel:
                 self._stops.append((cols, e))
         self.n_hyst = 2 if self._hyst is not None else 0
         self.n_states = 2 * self.nq + self.n_hyst
+        compiled = COMPILED and ride_kernel.AVAILABLE and self.dtype == np.float64
+        self._packed = self._pack() if compiled else None
+
+    def _pack(self) -> tuple:
+        """The coefficients and effects as the compiled loop takes them (float64; effect
+        parameters checked once here)."""
+        n = self.n
+        pv = np.ascontiguousarray(np.vstack([self.Pt, self.Vt]), dtype=float)
+        minv = np.ascontiguousarray(self.minv_diag.T, dtype=float)
+        leaf = np.stack(
+            [np.broadcast_to(a[0], (n,)) for a in (self.leaf_dk, self.leaf_thr, self.leaf_base)], 1
+        )
+        damp = np.ascontiguousarray(
+            np.stack([c.T for c in (self.d_bl, self.d_bh, self.d_rl, self.d_rh)], 1)
+        )
+        knees = np.ascontiguousarray(np.vstack([self.knee_b[:, 0], self.knee_r[:, 0]]), dtype=float)
+        f0 = np.ascontiguousarray(self.f0_tyre.T, dtype=float)
+        coeffs = (pv, self.Bt, np.ascontiguousarray(self.K, dtype=float), minv, self.m12)
+        shapes = (np.ascontiguousarray(leaf, dtype=float), damp, knees, f0, self.linear)
+        return (*coeffs, *shapes, *ride_kernel.pack_effects(self.effects, n))
 
     # -------------------------------------------------------------- dynamics
     def road_vector(self, z: np.ndarray, zd: np.ndarray) -> np.ndarray:
@@ -449,6 +476,8 @@ class RideModel:
                 f"`0 <= discard < steps` must hold, but got ({discard}, {n_steps})"
             )
         R = self.road_vector(z_road, zd_road).astype(self.dtype)
+        if self._packed is not None:
+            return self._simulate_compiled(R, dt, record_states, discard)
         n, S, nq = self.n, self.n_states, self.nq
         dt_ = self.dtype
         X = np.zeros((S, n), dt_)
@@ -509,6 +538,33 @@ class RideModel:
             states=None if states is None else np.moveaxis(states, (0, 1, 2), (2, 1, 0)),
             ok=ok,
         )
+
+    def _simulate_compiled(
+        self, R: np.ndarray, dt: float, record_states: bool, discard: int
+    ) -> RideRecord:
+        """:meth:`simulate` by the compiled loop (:mod:`.ride_kernel`), design by design."""
+        assert self._packed is not None  # invariant: set where the compiled loop runs
+        n, S, nq = self.n, self.n_states, self.nq
+        n_rec = (R.shape[0] - 1) // 2 - discard
+        rows = np.array([nq, nq + 1, nq + 2] + ([nq + 7, nq + 8] if self.seat else []))
+        rec = np.empty((n, rows.size, n_rec))
+        states = np.empty((n, S, n_rec if record_states else 0))
+        final = np.empty((n, S))
+        ride_kernel.run(R, float(dt), int(discard), nq, self.n_pos, *self._packed, rows, rec,
+                        states, final)  # fmt: skip
+        ok = np.asarray(np.isfinite(final).all(axis=1) & np.isfinite(rec).all(axis=(1, 2)))
+        if not ok.any():
+            raise EvaluationError(
+                "ride model integration diverged (non-finite state) for every design; step "
+                f"too large for the stiffest element? dt={dt}"
+            )
+        body = rec[:, :3]
+        if self.seat:
+            a_f, a_r = rec[:, 3], rec[:, 4]
+        else:
+            a_f = body[:, 0] + self.measure_y * body[:, 2]
+            a_r = body[:, 1] + self.measure_y * body[:, 2]
+        return RideRecord(dt, body, a_f, a_r, states if record_states else None, ok)
 
     # -------------------------------------------------------------- linear algebra
     def linear_matrices(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
