@@ -316,3 +316,38 @@ def test_the_loops_partition_the_residual_by_test_and_wheel(test_car):
     for rows in loops:  # one wheel: the same parity within each block
         start = [next(s.start for _, _, s in model.blocks if s.start <= r < s.stop) for r in rows]
         assert len(set((rows - np.array(start)) % 2)) == 1
+
+
+def test_near_tied_places_are_those_the_bic_does_not_tell_apart():
+    """Reference: Kass & Raftery's first step, a BIC difference (cost + k ln n) below 2.
+    With n = e^2 one added value costs 2 exactly, so the differences are set by hand."""
+    from suspenv.methods.model_loop import BIC_TIE, MAX_TIED, bic, near_ties
+
+    n = int(round(np.exp(2.0)))  # 7: ln n = 1.95
+    assert bic(10.0, 2, n) == pytest.approx(10.0 + 2 * np.log(7))
+    # screened costs of four one-value places: 100 best, 101.9 tied, 102.1 and 150 not
+    assert near_ties([101.9, 150.0, 100.0, 102.1], [1, 1, 1, 1], n) == [2, 0]
+    # a place with one value more pays ln n: 100.5 + ln 7 is more than 2 above 100
+    assert near_ties([100.0, 100.5], [1, 2], n) == [0]
+    # a place with one value fewer gains ln n: 101.5 - ln 7 is below 100, so it leads
+    assert near_ties([100.0, 101.5], [2, 1], n) == [1, 0]
+    # exact ties are kept in screen order, at most MAX_TIED of them
+    assert near_ties([5.0] * 5, [1] * 5, n) == list(range(MAX_TIED))
+    assert BIC_TIE == 2.0
+    # the screen's measured errors widen the tie: 100 +- 30 and 150 +- 25 overlap,
+    # 100 +- 30 and 200 +- 5 do not
+    assert near_ties([100.0, 150.0, 200.0], [1, 1, 1], n, [30.0, 25.0, 5.0]) == [0, 1]
+
+
+def test_tie_options_swap_one_family_place_at_a_time():
+    """Every family's best place first, then each near-tied place in its family's slot,
+    the other families at their best; at most MAX_TIED sets."""
+    from suspenv.methods.model_loop import MAX_TIED, tie_options
+
+    ties = [["loop_a", "loop_b"], ["prog_a", "prog_b", "prog_c"]]
+    got = tie_options(ties)
+    assert got[0] == ["loop_a", "prog_a"]
+    assert got[1] == ["loop_b", "prog_a"]
+    assert got[2] == ["loop_a", "prog_b"]
+    assert len(got) == MAX_TIED == 3
+    assert tie_options([["only"]]) == [["only"]]

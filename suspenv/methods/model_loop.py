@@ -13,7 +13,10 @@ same :class:`~suspenv.methods.curve_fit.CurveModel` the first fit used:
   e.g. Dahl hysteresis in the lower-arm bushes, in the top mount, in both, Coulomb
   friction in the strut) is fitted alone (its parameters only, the diagnosis' start
   values and bounds) with the design free to first order (its Jacobian); the
-  candidate with the least sum of squared residuals is kept, which names the place;
+  candidate with the least sum of squared residuals names the place. The screen is an
+  approximation with a measured error (:func:`near_ties`): the places it cannot tell
+  from the best (at most :data:`MAX_TIED` effect sets) are each refitted in full below
+  and the one with the least BIC of its refit is kept;
 * patterns of the sensors (load-cell gain or offset) are reported, not modelled.
 
 Once the sides are apart the residual is screened again and only the patterns still
@@ -53,6 +56,9 @@ class Candidate:
     words: str
     cost: float
     values: dict[str, float]
+    #: the screen's measured error (cost units): the solved cost at the quadratic's
+    #: minimiser minus the quadratic's prediction there, in magnitude
+    error: float = 0.0
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -61,6 +67,7 @@ class Candidate:
             "words": self.words,
             "cost": self.cost,
             "values": self.values,
+            "error": self.error,
         }
 
 
@@ -98,6 +105,11 @@ def effect_parameters(effect: Effect) -> list[Parameter]:
     return [replace(p, name=f"{effect.name}.{p.name}") for p in fitted_parameters(effect)]
 
 
+#: screened places whose BIC differences to the best are below this are not positively
+#: different (Kass & Raftery 1995, J. Am. Stat. Assoc. 90:773, the scale's first step)
+BIC_TIE = 2.0
+#: at most this many effect sets refitted in full (each refit solves rig loops step by step)
+MAX_TIED = 3
 #: an effect parameter's trial values for the place screen, as multiples of its start
 TRIAL_FACTORS = (1.0, 2.5)
 
@@ -137,11 +149,14 @@ def _candidate_fit(
     pred = coef[0] + np.outer(grid, coef[1]) + np.outer(grid**2, coef[2])
     # the quadratic is a model of the loop's growth, far from exact where it extrapolates:
     # its minimiser is solved too, and the place's cost is the least one solved
-    values = np.r_[p[1:], grid[np.argmin(_free_cost(pred, J))]]
+    predicted = _free_cost(pred, J)
+    values = np.r_[p[1:], grid[np.argmin(predicted)]]
     cost = _free_cost(np.vstack([*R[1:], _residual(sub, float(values[-1]))]), J)
+    # the screen's own error, measured: the quadratic's miss where it was checked
+    error = abs(float(cost[-1] - predicted.min()))
     best = float(values[np.argmin(cost)])
     short = param.name.partition(".")[2]
-    cand = Candidate(family, name, effect_words(effect), float(cost.min()), {short: best})
+    cand = Candidate(family, name, effect_words(effect), float(cost.min()), {short: best}, error)
     return cand, effect.with_params({short: best})
 
 
@@ -207,6 +222,7 @@ def refine(
         if screen is not None:  # what the sides apart leave: a pattern may have gone
             named = [SIDES_FAMILY, *screen(model, x)]
             say(f"loop: the screen now names {named[1:] or 'nothing more'}")
+    plain, ties = model, []
     for family in [f for f in named if f in EFFECT_FAMILIES]:
         names = effect_candidates(family)
         if not names:
@@ -220,30 +236,98 @@ def refine(
         fits = [_candidate_fit(model, x, r0, family, n, J) for n in names if n not in there]
         fits += [f.result() for f in futures]
         tried += [f[0] for f in fits]
-        cand, effect = min(fits, key=lambda f: f[0].cost)
-        params = effect_parameters(effect)
-        model = model.variant(
-            base=x,
-            free=[*model.free, *(p.name for p in params)],
-            effects=(*model.effects, effect),
-            effect_free=(*model.effect_free, *params),
+        # the K&C candidates fit one value each: k = 1 apiece
+        cands = [f[0] for f in fits]
+        keep = near_ties(
+            [c.cost for c in cands], [1] * len(fits), r0.size, [c.error for c in cands]
         )
-        x = model.base
-        changes.append(f"{cand.words} ({cand.candidate})")
-    if not changes:
+        ties.append([fits[i] for i in keep])
+        model = _with_effects(plain, x, [t[0][1] for t in ties])
+    if not ties:
         return None
+    options = tie_options(ties)
+    if len(options) > 1:
+        say(f"loop: near-tied places, each refitted in full: {' | '.join(map(_names, options))}")
     say("loop: all parameters refitted together")
+    refits = [
+        _refit(_with_effects(plain, x, [e for _, e in o]), x0, refit_nfev, pool, progress)
+        for o in options
+    ]
+    scores = [bic(f.cost, f.model.dim, f.model.size) for f in refits]
+    pick = int(np.argmin(scores))
+    changes += [f"{c.words} ({c.candidate})" for c, _ in options[pick]]
+    if len(options) > 1:
+        changes.append(
+            "near-tied places refitted in full, the least BIC kept: "
+            + "; ".join(f"{_names(o)}: {v:.1f}" for o, v in zip(options, scores, strict=True))
+        )
+    out = refits[pick]
+    out.final.name = "refit with " + "; ".join(changes)
+    return Refinement(changes, tried, out, time.perf_counter() - t0, skipped)
+
+
+def bic(cost: float, k: int, n: int) -> float:
+    """Bayesian information criterion of a least-squares fit in noise units: ``cost``
+    (sum of squared residuals / noise, i.e. -2 log likelihood up to a constant) plus
+    ``k ln n`` for ``k`` fitted values and ``n`` residuals."""
+    return float(cost) + k * float(np.log(n))
+
+
+def near_ties(
+    costs: Sequence[float], ks: Sequence[int], n: int, errors: Sequence[float] | None = None
+) -> list[int]:
+    """Indices of the screened places carried to the full refit, best first (at most
+    :data:`MAX_TIED`): those the screen cannot tell from the best. The screen is an
+    approximation with a measured error per place (``errors``, cost units; None: 0): a
+    place is tied when its screened :func:`bic` exceeds the least by less than
+    :data:`BIC_TIE` (not positively different) plus both places' errors (their cost
+    intervals overlap)."""
+    score = np.array([bic(c, k, n) for c, k in zip(costs, ks, strict=True)])
+    err = np.zeros(score.size) if errors is None else np.abs(np.asarray(errors, float))
+    order = np.argsort(score, kind="stable")
+    b = order[0]
+    return [int(i) for i in order if score[i] - score[b] < BIC_TIE + err[b] + err[i]][:MAX_TIED]
+
+
+def tie_options(
+    ties: Sequence[Sequence[tuple[Candidate, Effect]]],
+) -> list[list[tuple[Candidate, Effect]]]:
+    """The effect sets refitted in full: every family's best place, then each near-tied
+    place of a family in place of its best (the others at their best), at most
+    :data:`MAX_TIED` in all."""
+    best = [t[0] for t in ties]
+    out = [best]
+    for j, t in enumerate(ties):
+        out += [[*best[:j], alt, *best[j + 1 :]] for alt in t[1:]]
+    return out[:MAX_TIED]
+
+
+def _names(option: Sequence[tuple[Candidate, Effect]]) -> str:
+    return " + ".join(c.candidate for c, _ in option)
+
+
+def _with_effects(model: CurveModel, x: np.ndarray, effects: Sequence[Effect]) -> CurveModel:
+    """``model`` at design ``x`` with ``effects`` added, their parameters fitted."""
+    params = [p for e in effects for p in effect_parameters(e)]
+    return model.variant(
+        base=x,
+        free=[*model.free, *(p.name for p in params)],
+        effects=(*model.effects, *effects),
+        effect_free=(*model.effect_free, *params),
+    )
+
+
+def _refit(model: CurveModel, x0: np.ndarray, nfev: int, pool: Any, progress: bool) -> CurveFit:
+    """All of ``model``'s parameters polished together from its base, the weak pull
+    towards the first fit's start design ``x0`` (effects at their starts)."""
     model.pool = pool  # half of each path-dependent batch in a second process
     prior = model.unit(_start(model, x0))
     # stop when a step gains less than one squared noise unit at a fit to the noise
     # (each path-dependent step costs a rig loop: no crawling along valleys)
     ftol = RESTART_GAIN / model.size
-    stage, r, J = polish(
-        model, model.unit(x), refit_nfev, progress=progress, prior=prior, ftol=ftol
-    )
-    stage.name = "refit with " + "; ".join(changes)
-    out = CurveFit(model, stage.u, model.designs(stage.u[None])[0], r, J, [stage], stage)
-    return Refinement(changes, tried, out, time.perf_counter() - t0, skipped)
+    u0 = model.unit(model.base)
+    stage, r, J = polish(model, u0, nfev, progress=progress, prior=prior, ftol=ftol)
+    return CurveFit(model, stage.u, model.designs(stage.u[None])[0], r, J, [stage], stage)
 
 
 def _residual_at(model: CurveModel, x: np.ndarray) -> np.ndarray:
