@@ -79,7 +79,7 @@ import numpy as np
 
 from suspenv.core.errors import ValidationError
 from suspenv.models.effects import Effect, cubic_stiffness, dahl_path
-from suspenv.models.mcpherson import residual_kernel
+from suspenv.models.mcpherson import residual_kernel, sweep_kernel
 from suspenv.models.mcpherson.effects import (
     BUSHING_NAMES,
     MOMENT_ARM,
@@ -1235,6 +1235,47 @@ class AxleSolver:
                         blk[i] = np.nan
         J[bad] = np.nan
         return J
+
+    def two_leg_sweep(
+        self,
+        pad_off: np.ndarray,
+        ext: np.ndarray | None,
+        rack: np.ndarray | None,
+        kept: slice,
+        h: float = 1e-7,
+    ) -> tuple[AxleState, np.ndarray]:
+        """The rig's two-leg sweep of every design in one compiled call
+        (:func:`.sweep_kernel.sweep`: static equilibrium, then every test's bump and
+        rebound legs from it, Newton step by step as :meth:`solve`) for an axle without
+        placed effects. Per test and grid point (T, G): pad offsets ``pad_off`` (T, G,
+        2) [m] from :attr:`pad_static`, wheel loads ``ext`` (T, G, 2, 6|9) [N, N*m] or
+        None, rack travel ``rack`` (T, G, 2) [m] or None. Returns the states at the grid
+        points ``kept`` (T, Q, n, ...) and every design's status (n,) (0: converged
+        everywhere, else :data:`.sweep_kernel.NO_STATIC`, ``NO_STEP`` or ``LOCKED``)."""
+        if self._placed.cubic or self._placed.hysteresis or self._placed.friction:
+            raise ValidationError("two_leg_sweep: the compiled sweep takes no placed effects")
+        T, G = pad_off.shape[:2]
+        Q = len(range(G)[kept])
+        n = self.n
+        r = np.empty((T, Q, n, 2, 4, 3))
+        R = np.empty((T, Q, n, 2, 4, 3, 3))
+        lam = np.empty((T, Q, n, 2, NL))
+        status = np.zeros(n, np.int64)
+        pack = self._pack()
+        if not (pack.flags.c_contiguous and pack.flags.writeable):  # one compiled type
+            pack = np.array(pack, order="C")
+        sweep_kernel.sweep(
+            pack, self._rl_off, float(self.k_bar_shear), CSCALE,
+            np.ascontiguousarray(self.ref0, dtype=float),
+            np.ascontiguousarray(np.broadcast_to(self.pad_static, (n, 2)), dtype=float),
+            np.ascontiguousarray(pad_off, dtype=float),
+            np.empty((0, 0, 2, 1)) if ext is None else np.ascontiguousarray(ext, dtype=float),
+            np.empty((0, 0, 2)) if rack is None else np.ascontiguousarray(rack, dtype=float),
+            np.array(_tolerances(self.xtol, self.rtol, self.ltol)), self.maxit, h,
+            np.array(_exp_h(h)), *_KERNEL_COLOURING,
+            np.array([MAX_TRANSLATION, MAX_ROTATION]), range(G)[kept][0], r, R, lam, status,
+        )  # fmt: skip
+        return AxleState(r, R, lam), status
 
     def pad_sensitivity(self, st: AxleState) -> np.ndarray:
         """d(residual)/d(pad height) (n, 2, 33): the tyre force and its moment on the knuckle."""
