@@ -127,15 +127,17 @@ def _invert(ws) -> bool:
 
 def _step(JiT: np.ndarray, res: np.ndarray, tol: np.ndarray, dx: np.ndarray) -> float:
     """The Newton step ``dx = -J^-1 res`` (66,) from the transposed inverse Jacobian
-    ``JiT`` (66, 66) (its rows added up, which vectorises), and its size: the largest
-    ``|dx| / tol`` (NaN when not finite)."""
-    dx[:] = 0.0
+    ``JiT`` (66, 66) (its rows added up in its single precision, which vectorises, as
+    the numpy path's products with its shared single-precision inverses), and its size:
+    the largest ``|dx| / tol`` (NaN when not finite)."""
+    acc = np.zeros(NX, np.float32)  # in the inverse's precision (vectorised)
     for j in range(NX):
-        c = -res[j // NS, j % NS]
+        c = np.float32(-res[j // NS, j % NS])
         if c != 0.0:
             row = JiT[j]
             for i in range(NX):
-                dx[i] += c * row[i]
+                acc[i] += c * row[i]
+    dx[:] = acc
     size = 0.0
     for i in range(NX):
         q = abs(dx[i]) / tol[i]
@@ -219,30 +221,29 @@ def _load_at(t, g, pad0_d, pad_off, ext, rack, load) -> None:
                 ext1[0, s, c] = ext[t, g, s, c]
 
 
-def _extrapolate(Gr, GR, Gl, g, dirn, cubic, r, R, lam1) -> None:
+def _extrapolate(Gr, GR, Gl, rel, g, dirn, cubic, r, R, lam1) -> None:
     """The state at grid point ``g`` extrapolated from those at ``g - dirn``,
     ``g - 2 dirn``, ``g - 3 dirn`` (quadratic) and ``g - 4 dirn`` (``cubic``), the
     rotations through the relative rotation vectors of consecutive states
-    (extrapolated one order lower), as the rig's predictor (``knc._extrapolate``)."""
+    (extrapolated one order lower; kept in ``rel`` for the next steps,
+    :func:`_relative_at`), as the rig's predictor (``knc._extrapolate``)."""
     a, b, c, e = g - dirn, g - 2 * dirn, g - 3 * dirn, g - 4 * dirn
-    M = np.empty((3, 3))
     E = np.empty((3, 3))
-    w1, w0, wm = np.empty(3), np.empty(3), np.empty(3)
+    w = np.empty(3)
+    w1, w0 = _relative_at(GR, rel, a, dirn), _relative_at(GR, rel, b, dirn)
+    wm = _relative_at(GR, rel, c, dirn) if cubic else w0
     for s in range(2):
         for k in range(4):
-            _relative(GR[a, s, k], GR[b, s, k], M, w1)
-            _relative(GR[b, s, k], GR[c, s, k], M, w0)
             if cubic:
-                _relative(GR[c, s, k], GR[e, s, k], M, wm)
                 for x in range(3):
                     r[s, k, x] = 4.0 * (Gr[a, s, k, x] + Gr[c, s, k, x]) - 6.0 * Gr[b, s, k, x]
                     r[s, k, x] -= Gr[e, s, k, x]
-                    w1[x] = 3.0 * (w1[x] - w0[x]) + wm[x]
+                    w[x] = 3.0 * (w1[s, k, x] - w0[s, k, x]) + wm[s, k, x]
             else:
                 for x in range(3):
                     r[s, k, x] = 3.0 * (Gr[a, s, k, x] - Gr[b, s, k, x]) + Gr[c, s, k, x]
-                    w1[x] = 2.0 * w1[x] - w0[x]
-            _expm(w1[0], w1[1], w1[2], E)
+                    w[x] = 2.0 * w1[s, k, x] - w0[s, k, x]
+            _expm(w[0], w[1], w[2], E)
             _times(E, GR[a, s, k], R[s, k])
         for x in range(NS - NQ):
             if cubic:
@@ -250,6 +251,19 @@ def _extrapolate(Gr, GR, Gl, g, dirn, cubic, r, R, lam1) -> None:
             else:
                 v = 3.0 * (Gl[a, s, x] - Gl[b, s, x]) + Gl[c, s, x]
             lam1[0, s, x] = v
+
+
+def _relative_at(GR: np.ndarray, rel, x: int, dirn: int) -> np.ndarray:
+    """The rotation vectors (2, 4, 3) of ``GR[x] GR[x - dirn]^T`` body by body, from
+    ``rel`` (vectors (G, 2, 4, 3), made (G,)) or computed and kept there."""
+    W, made = rel
+    if not made[x]:
+        M = np.empty((3, 3))
+        for s in range(2):
+            for k in range(4):
+                _relative(GR[x, s, k], GR[x - dirn, s, k], M, W[x, s, k])
+        made[x] = 1
+    return W[x]
 
 
 def _relative(A: np.ndarray, B: np.ndarray, M: np.ndarray, out: np.ndarray) -> None:
@@ -324,9 +338,10 @@ def _leg(d, t, dirn, i0, st, inputs, model, jac, chord, own, settings) -> int:
     r, R, lam1, Gr, GR, Gl, load = st
     pad0_d, pad_off, ext, rack = inputs
     tol, maxit, limits = settings
+    rel = (np.empty((Gr.shape[0], 2, 4, 3)), np.zeros(Gr.shape[0], np.int64))
     for j in range(2, i0 + 1):
         g = i0 + dirn * j
-        _extrapolate(Gr, GR, Gl, g, dirn, j >= 3, r, R, lam1)
+        _extrapolate(Gr, GR, Gl, rel, g, dirn, j >= 3, r, R, lam1)
         _load_at(t, g, pad0_d, pad_off, ext, rack, load)
         conv, own = _newton(d, r, R, lam1, load, model, jac, chord, own, tol, maxit, False)
         if not conv:
@@ -443,7 +458,7 @@ def _sweep(
 _HELPERS = (
     "_log", "_expm", "_cross_add", "_rack_shift", "_residual_row", "_row_at",
     "_row_jacobian", "_factor", "_invert", "_step", "_apply", "_times", "_newton", "_load_at",
-    "_extrapolate", "_relative", "_locked", "_first_step", "_leg", "_design",
+    "_extrapolate", "_relative_at", "_relative", "_locked", "_first_step", "_leg", "_design",
 )  # fmt: skip
 #: :func:`_sweep`, built ahead of time or compiled at its first call
 sweep = compiled.Lazy(globals(), _HELPERS, _sweep)
