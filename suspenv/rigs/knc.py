@@ -384,16 +384,16 @@ def _run_compiled(
     kept = slice(None) if window is None else slice(i0 - window, i0 + window + 1)
     pad_off = np.stack([pad_offsets(t, grid) for t in tests])  # (T, G, 2) [m]
     cols = 9 if "traction" in tests else 6
-    ext = np.stack([wheel_loads(t, test_grids[t])[..., :cols] for t in tests])
-    rack = np.stack([rack_travel(t, test_grids[t]) for t in tests])
-    st, status = base.two_leg_sweep(
-        pad_off,
-        ext if set(tests) & set(FORCE_TESTS) else None,
-        rack if set(tests) & set(STEER_TESTS) else None,
-        kept,
-    )
+    ext = None  # wheel loads (T, G, 2, cols) [N, N*m] and rack travel (T, G, 2) [m]
+    if set(tests) & set(FORCE_TESTS):
+        ext = np.stack([wheel_loads(t, test_grids[t])[..., :cols] for t in tests])
+    rack = None
+    if set(tests) & set(STEER_TESTS):
+        rack = np.stack([rack_travel(t, test_grids[t]) for t in tests])
+    st, status = base.two_leg_sweep(pad_off, ext, rack, kept)
     bad = np.flatnonzero(status)
-    st.r[:, :, bad], st.R[:, :, bad], st.lam[:, :, bad] = base.ref0[bad], np.eye(3), 0.0
+    if bad.size:  # their states: the design position (their channels come from rerun)
+        st.r[:, :, bad], st.R[:, :, bad], st.lam[:, :, bad] = base.ref0[bad], np.eye(3), 0.0
     pads = base.pad_static + pad_off[:, kept, None, :]  # (T, Q, n, 2) [m]
     ch = base.outputs(st, pads, channels)  # (T, Q, n, 2)
     kept_steps = np.arange(path.size) if window is None else window_steps(steps, window)
@@ -409,7 +409,7 @@ def _run_compiled(
         )
         for j, t in enumerate(tests)
     }
-    if bad.size:  # (their channels at the design position replaced here)
+    if bad.size:
         again = rerun(bad)
         for t, res in results.items():
             for name, v in res.channels.items():
@@ -1037,13 +1037,7 @@ def _extrapolate(
         r_new = np.where(rows, r_new, st.r)
         R_new = np.where(rows[..., None], R_new, st.R)
         lam_new = np.where(ok[:, None, None], lam_new, st.lam)
-    return AxleState(  # the path-dependent histories copied as st.copy() does
-        r_new,
-        R_new,
-        lam_new,
-        {k: (a.copy(), b.copy()) for k, (a, b) in st.hyst.items()},
-        None if st.fric is None else (st.fric[0].copy(), st.fric[1].copy()),
-    )
+    return st.moved(r_new, R_new, lam_new)  # the path-dependent histories copied
 
 
 def _check_state(solver, st, ok, msgs, at) -> None:

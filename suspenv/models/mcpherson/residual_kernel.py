@@ -35,7 +35,7 @@ AVAILABLE = compiled.AVAILABLE
 #: body of each rotated body-fixed vector (as ``solver.VEC_BODY``)
 _VEC_BODY = np.array([0, 0, 0, 1, 1, 1, 1, 1, 1, 1, 1, 1, 2, 2, 3, 3], np.int64)
 #: the bodies whose rotation deflects a bushing: lower arm (both bushings), strut rod,
-#: bar half (as ``solver.BUSH_BODY``)
+#: bar half (as ``solver.BUSH_BODY``; the compiled sweep's lock-up check reads it)
 _BUSH_BODY = np.array([0, 0, 2, 3], np.int64)
 #: the body whose load sum each of the 14 loads with an arm enters (``solver.LOAD_SUM``)
 _LOAD_BODY = np.array([0, 0, 0, 1, 1, 1, 1, 1, 1, 1, 2, 2, 3, 3], np.int64)

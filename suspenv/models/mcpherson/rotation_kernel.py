@@ -57,24 +57,34 @@ def _turned(w: np.ndarray, R: np.ndarray, out: np.ndarray) -> None:
     E = np.empty((3, 3))
     for i in range(w.shape[0]):
         _expm(w[i, 0], w[i, 1], w[i, 2], E)
-        for a in range(3):
-            for b in range(3):
-                out[i, a, b] = E[a, 0] * R[i, 0, b] + E[a, 1] * R[i, 1, b] + E[a, 2] * R[i, 2, b]
+        _times(E, R[i], out[i])
+
+
+def _times(A: np.ndarray, B: np.ndarray, out: np.ndarray) -> None:
+    """``out = A @ B`` for (3, 3) matrices (``out`` not one of them)."""
+    for a in range(3):
+        for b in range(3):
+            out[a, b] = A[a, 0] * B[0, b] + A[a, 1] * B[1, b] + A[a, 2] * B[2, b]
 
 
 def _relative_log(A: np.ndarray, B: np.ndarray, out: np.ndarray) -> None:
     """Rotation vectors of ``A[i] @ B[i]^T`` into ``out[i]`` (N, 3)."""
     M = np.empty((3, 3))
     for i in range(A.shape[0]):
-        Ai, Bi = A[i], B[i]
-        for a in range(3):
-            for b in range(3):
-                M[a, b] = Ai[a, 0] * Bi[b, 0] + Ai[a, 1] * Bi[b, 1] + Ai[a, 2] * Bi[b, 2]
-        _log(M, out[i])
+        _relative(A[i], B[i], M, out[i])
 
 
-_turned_loop = compiled.Lazy(globals(), ("_expm",), _turned)
-_relative_log_loop = compiled.Lazy(globals(), ("_log",), _relative_log)
+def _relative(A: np.ndarray, B: np.ndarray, M: np.ndarray, out: np.ndarray) -> None:
+    """The rotation vector of ``A @ B^T`` ((3, 3) each) into ``out`` (3,) (``M`` scratch
+    (3, 3))."""
+    for a in range(3):
+        for b in range(3):
+            M[a, b] = A[a, 0] * B[b, 0] + A[a, 1] * B[b, 1] + A[a, 2] * B[b, 2]
+    _log(M, out)
+
+
+_turned_loop = compiled.Lazy(globals(), ("_expm", "_times"), _turned)
+_relative_log_loop = compiled.Lazy(globals(), ("_log", "_relative"), _relative_log)
 
 
 def turned(w: np.ndarray, R: np.ndarray) -> np.ndarray:

@@ -152,7 +152,6 @@ JACOBIAN_COLOURED = True
 #: residual rows (of one side) that the lower arm's coordinates enter: its force and
 #: moment and the ball joint's constraint; the strut rod's enter none of them
 ARM_ROWS = np.r_[0:6, NQ : NQ + 3]
-NOT_ARM_ROWS = np.setdiff1d(np.arange(NS), ARM_ROWS)
 #: :meth:`AxleSolver.take` of rows that are all one design (``axle=False``) shares that
 #: design's arrays as zero-stride views, the same numbers in less memory (False: a copy
 #: per row, the reference path of the speed benchmark's baseline)
@@ -318,10 +317,15 @@ class AxleState:
     fric: tuple[np.ndarray, np.ndarray] | None = None
 
     def copy(self) -> AxleState:
+        return self.moved(self.r.copy(), self.R.copy(), self.lam.copy())
+
+    def moved(self, r: np.ndarray, R: np.ndarray, lam: np.ndarray) -> AxleState:
+        """A state at ``r``, ``R``, ``lam`` with a copy of this one's path-dependent
+        histories."""
         return AxleState(
-            self.r.copy(),
-            self.R.copy(),
-            self.lam.copy(),
+            r,
+            R,
+            lam,
             {k: (a.copy(), b.copy()) for k, (a, b) in self.hyst.items()},
             None if self.fric is None else (self.fric[0].copy(), self.fric[1].copy()),
         )
@@ -1081,13 +1085,7 @@ class AxleSolver:
             dx = np.where(rows[:, None], dx, 0.0)
         dx = dx.reshape(st.r.shape[0], 2, NS)
         dq = dx[..., :NQ].reshape(st.r.shape[0], 2, 4, 6)
-        return AxleState(
-            st.r + dq[..., :3],
-            turned(dq[..., 3:], st.R),
-            st.lam + dx[..., NQ:],
-            {k: (a.copy(), b.copy()) for k, (a, b) in st.hyst.items()},
-            None if st.fric is None else (st.fric[0].copy(), st.fric[1].copy()),
-        )
+        return st.moved(st.r + dq[..., :3], turned(dq[..., 3:], st.R), st.lam + dx[..., NQ:])
 
     def _step_size(self, dx: np.ndarray, dp: np.ndarray | None = None) -> np.ndarray:
         """Per-row size (n,) of a Newton step relative to the tolerances (< 1: converged):

@@ -37,13 +37,14 @@ import numpy as np
 
 from suspenv.core import compiled
 from suspenv.models.mcpherson.residual_kernel import (  # the row's helpers: compiled too
+    _BUSH_BODY,
     _cross_add,  # noqa: F401
     _rack_shift,  # noqa: F401
     _residual_row,  # noqa: F401
     _row_at,
     _row_jacobian,
 )
-from suspenv.models.mcpherson.rotation_kernel import _expm, _log
+from suspenv.models.mcpherson.rotation_kernel import _expm, _log, _relative, _times
 
 NS, NQ, NX = 33, 24, 66
 #: status of a design: converged everywhere, or where it failed
@@ -164,13 +165,6 @@ def _apply(r: np.ndarray, R: np.ndarray, lam1: np.ndarray, dx: np.ndarray, f: fl
             lam1[0, s, c] += f * dx[s * NS + NQ + c]
 
 
-def _times(A: np.ndarray, B: np.ndarray, out: np.ndarray) -> None:
-    """``out = A @ B`` for (3, 3) matrices."""
-    for a in range(3):
-        for b in range(3):
-            out[a, b] = A[a, 0] * B[0, b] + A[a, 1] * B[1, b] + A[a, 2] * B[2, b]
-
-
 def _newton(d, r, R, lam1, load, model, jac, chord, own, tol, maxit, fresh):
     """Newton's method of :meth:`AxleSolver.solve` on one design's row, in place:
     chord steps with ``chord`` (1, 66, 66) (a transposed inverse Jacobian,
@@ -266,24 +260,15 @@ def _relative_at(GR: np.ndarray, rel, x: int, dirn: int) -> np.ndarray:
     return W[x]
 
 
-def _relative(A: np.ndarray, B: np.ndarray, M: np.ndarray, out: np.ndarray) -> None:
-    """The rotation vector of ``A B^T`` into ``out`` (``M`` scratch (3, 3))."""
-    for i in range(3):
-        for j in range(3):
-            M[i, j] = A[i, 0] * B[j, 0] + A[i, 1] * B[j, 1] + A[i, 2] * B[j, 2]
-    _log(M, out)
-
-
 def _locked(d, r, R, pack, off, limits) -> bool:
     """A bushing deflects beyond ``limits`` (translation [m], rotation [rad]) in its
     own frame (``knc._check_state``), or a deflection is not finite."""
     o_vec, o_gr, o_Q = off[0], off[1], off[3]
     x = np.empty((2, 3))
     xb = np.empty(3)
-    bodies = (0, 0, 2, 3)
     for s in range(2):
         for bb in range(4):
-            body = bodies[bb]
+            body = _BUSH_BODY[bb]
             _log(R[s, body], x[1])
             for a in range(3):
                 x[0, a] = r[s, body, a] - pack[o_gr + 3 * bb + a, s, d]
