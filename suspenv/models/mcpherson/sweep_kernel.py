@@ -40,8 +40,8 @@ from suspenv.models.mcpherson.residual_kernel import (  # the row's helpers: com
     _BUSH_BODY,
     _cross_add,  # noqa: F401
     _rack_shift,  # noqa: F401
-    _residual_row,  # noqa: F401
-    _row_at,
+    _residual_row,
+    _row_at,  # noqa: F401
     _row_jacobian,
 )
 from suspenv.models.mcpherson.rotation_kernel import _expm, _log, _relative, _times
@@ -56,7 +56,7 @@ def _factor(d, r, R, lam1, load, model, jac, out) -> bool:
     under ``load``, transposed, into ``out`` (66, 66) (single precision, as the numpy
     path's shared inverses). False: the Jacobian is not finite or singular."""
     pad1, ext1, rack1 = load
-    pack, off, k_bar_shear, cscale, extra0 = model
+    pack, off, k_bar_shear, cscale, extra0 = model[:5]
     h, exp_h, moves, move_start, scatter, scatter_start = jac
     ws = (np.zeros((NX, NX)), np.empty(NX), np.empty(NX, np.int64))  # (freed on return)
     JT = ws[0]
@@ -71,12 +71,12 @@ def _factor(d, r, R, lam1, load, model, jac, out) -> bool:
     )  # fmt: skip
     base = np.empty((2, NS))
     res = np.empty((2, NS))
-    _row_at(d, r, R, lam1, pad1, ext1, rack1, extra0, pack, off, k_bar_shear, cscale, base)
+    _res(d, r, R, lam1, load, model, base)
     for s in range(2):  # the multiplier columns: forward differences of 1 N
         for c in range(NS - NQ):
             kept = lam1[0, s, c]
             lam1[0, s, c] = kept + 1.0
-            _row_at(d, r, R, lam1, pad1, ext1, rack1, extra0, pack, off, k_bar_shear, cscale, res)
+            _res(d, r, R, lam1, load, model, res)
             lam1[0, s, c] = kept
             for t in range(2):
                 for row in range(NS):
@@ -87,6 +87,21 @@ def _factor(d, r, R, lam1, load, model, jac, out) -> bool:
         for j in range(NX):
             out[i, j] = JT[i, j]
     return True
+
+
+def _res(d, r, R, lam1, load, model, out) -> None:
+    """The residual (2, 33) of design ``d`` at ``r``, ``R``, ``lam1`` under ``load``
+    into ``out`` (:func:`.residual_kernel._residual_row`; ``model``: the pack, its
+    offsets, the constants, then empty and zero stand-ins for absent inputs)."""
+    pad1, ext1, rack1 = load
+    pack, off, k_bar_shear, cscale, _, zeros2, zeros21 = model
+    n_ext = ext1.shape[2] if ext1.shape[0] else 0
+    has_rack = rack1.shape[0] > 0
+    _residual_row(
+        r, R, lam1[0], pad1[0], ext1[0] if n_ext else zeros21, n_ext,
+        rack1[0] if has_rack else zeros2, has_rack, zeros21, False, pack, d, off, k_bar_shear,
+        cscale, out,
+    )  # fmt: skip
 
 
 def _invert(ws) -> bool:
@@ -173,13 +188,11 @@ def _newton(d, r, R, lam1, load, model, jac, chord, own, tol, maxit, fresh):
     whenever a step shrinks by less than half; damped when fresh steps stop
     shrinking. ``fresh``: ``chord`` is the Jacobian at the starting state. Returns
     (True when a step smaller than the tolerances was taken, ``own``)."""
-    pad1, ext1, rack1 = load
-    pack, off, k_bar_shear, cscale, extra0 = model
     res = np.empty((2, NS))
     dx = np.empty(NX)
     prev, alpha = math.inf, 1.0
     for _ in range(maxit):
-        _row_at(d, r, R, lam1, pad1, ext1, rack1, extra0, pack, off, k_bar_shear, cscale, res)
+        _res(d, r, R, lam1, load, model, res)
         size = _step(own[0] if own.shape[0] else chord[0], res, tol, dx)
         if math.isnan(size):
             return False, own
@@ -298,12 +311,10 @@ def _first_step(d, t, g, st, res0, inputs, model, jac, chord, settings):
     the grid arrays of ``st``. Returns (status, the row's own Jacobian)."""
     r, R, lam1, Gr, GR, Gl, load = st
     pad0_d, pad_off, ext, rack = inputs
-    pack, off, k_bar_shear, cscale, extra0 = model
     tol, maxit, limits = settings
     res1, dx = np.empty((2, NS)), np.empty(NX)
     _load_at(t, g, pad0_d, pad_off, ext, rack, load)
-    _row_at(d, r, R, lam1, load[0], load[1], load[2], extra0, pack, off, k_bar_shear, cscale,
-            res1)  # fmt: skip
+    _res(d, r, R, lam1, load, model, res1)
     _step(chord[0], res1 - res0, tol, dx)
     for i in range(NX):
         if not abs(dx[i]) < math.inf:
@@ -342,7 +353,6 @@ def _design(d, inputs, model, jac, settings, lo, out) -> int:
     ref0, pad0, pad_off, ext, rack = inputs
     r_out, R_out, l_out = out
     tol, maxit, limits = settings
-    pack, off, k_bar_shear, cscale, extra0 = model
     i0 = (pad_off.shape[1] - 1) // 2
     r = ref0[d].copy()
     R = np.zeros((2, 4, 3, 3))
@@ -374,8 +384,7 @@ def _design(d, inputs, model, jac, settings, lo, out) -> int:
     for t in range(pad_off.shape[0]):
         Gr[i0], GR[i0], Gl[i0] = r, R, lam1[0]
         _load_at(t, i0, pad0[d], pad_off, ext, rack, load)
-        _row_at(d, r, R, lam1, load[0], load[1], load[2], extra0, pack, off, k_bar_shear,
-                cscale, res0)  # fmt: skip
+        _res(d, r, R, lam1, load, model, res0)
         # the first steps of both legs (the second steps read both), then each leg on
         up, own_up = _first_step(d, t, i0 + 1, st, res0, leg_inputs, model, jac, chord, settings)
         down, own_down = _first_step(
@@ -432,7 +441,7 @@ def _sweep(
     n, 2, 4, 3), ``R_out`` (T, Q, n, 2, 4, 3, 3), ``l_out`` (T, Q, n, 2, 9) and every
     design's status (:data:`OK`, :data:`NO_STATIC`, :data:`NO_STEP`, :data:`LOCKED`)
     into ``status`` (n,)."""
-    model = (pack, off, k_bar_shear, cscale, np.empty((0, 2, 1)))
+    model = (pack, off, k_bar_shear, cscale, np.empty((0, 2, 1)), np.zeros(2), np.zeros((2, 1)))
     jac = (h, exp_h, moves, move_start, scatter, scatter_start)
     settings = (tol, maxit, limits)
     inputs = (ref0, pad0, pad_off, ext, rack)
@@ -442,8 +451,9 @@ def _sweep(
 
 _HELPERS = (
     "_log", "_expm", "_cross_add", "_rack_shift", "_residual_row", "_row_at",
-    "_row_jacobian", "_factor", "_invert", "_step", "_apply", "_times", "_newton", "_load_at",
-    "_extrapolate", "_relative_at", "_relative", "_locked", "_first_step", "_leg", "_design",
+    "_row_jacobian", "_factor", "_res", "_invert", "_step", "_apply", "_times", "_newton",
+    "_load_at", "_extrapolate", "_relative_at", "_relative", "_locked", "_first_step", "_leg",
+    "_design",
 )  # fmt: skip
 #: :func:`_sweep`, built ahead of time or compiled at its first call
 sweep = compiled.Lazy(globals(), _HELPERS, _sweep)
