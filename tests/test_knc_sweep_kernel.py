@@ -4,7 +4,7 @@ an axle without placed effects) against the rig's numpy path.
 Reference: the same rig run with ``knc.COMPILED_SWEEP = False`` (the sweep driven from
 Python, vectorised over the rows, kept as the reference path). Both converge every step
 to the solver's tolerance (1e-6 m, 1e-5 rad, 0.1 N) from slightly different Jacobians
-(the compiled one in double precision, multiplier columns by differences), so their
+(the compiled one inverted by Gauss-Jordan, multiplier columns by differences), so their
 channels agree to the channel's tolerance (``knc_checks.channel_tolerance``), not to
 the bit. Failures: a design the compiled sweep flags is run through the numpy path,
 so its messages are the numpy path's, word for word.

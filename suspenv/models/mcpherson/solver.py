@@ -86,7 +86,7 @@ from suspenv.models.mcpherson.effects import (
     bushings_at,
     check_placement,
 )
-from suspenv.models.mcpherson.kinematics import CornerKinematics
+from suspenv.models.mcpherson.kinematics import CornerKinematics, _perp_basis
 from suspenv.models.mcpherson.params import SIDE_SIGN, Axle
 from suspenv.models.mcpherson.rotation import (
     cross,
@@ -399,14 +399,6 @@ def _inv_mul(Jinv: np.ndarray | SharedInverse, res: np.ndarray) -> np.ndarray:
     if isinstance(Jinv, SharedInverse):
         return Jinv.mul(res)
     return np.matmul(Jinv, res[..., None])[..., 0]
-
-
-def _perp_basis(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    helper = np.zeros_like(a)
-    helper[..., 0] = 1.0
-    u = cross(a, helper)
-    u /= np.linalg.norm(u, axis=-1, keepdims=True)
-    return u, cross(a, u)
 
 
 def spin_axis(camber: np.ndarray, toe: np.ndarray) -> np.ndarray:

@@ -14,12 +14,13 @@ Jacobian until a step shrinks by less than half, when the leg's row gets a Jacob
 of its own; steps damped when even fresh-Jacobian steps stop shrinking. The
 equations, tolerances and rules are those of :meth:`AxleSolver.solve
 <suspenv.models.mcpherson.solver.AxleSolver.solve>` (residual rows:
-:func:`.residual_kernel._row_at`; body columns of the Jacobian:
+:func:`.residual_kernel._residual_row`; body columns of the Jacobian:
 :func:`.residual_kernel._row_jacobian`); the differences from the numpy path: the
 multiplier columns by forward differences of 1 N (the residual is linear in them but
 for a compliant rack's tie rods, which the numpy path differences too), the Jacobian
-factored (LU, partial pivoting) in double precision instead of inverted (the numpy
-path shares single-precision inverses), and the secant of the residual as the
+inverted by Gauss-Jordan elimination (not LAPACK) and held in single precision as the
+numpy path's shared inverses (also the static one, which the numpy path holds in
+double precision for the static solve), and the secant of the residual as the
 tangent predictor's load change. The converged states agree with the numpy path's
 to the solver tolerance (``tests/test_knc_sweep_kernel.py``).
 
