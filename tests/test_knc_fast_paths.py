@@ -24,6 +24,13 @@ from suspenv.problems.kc_identification import KCIdentification
 from suspenv.rigs.knc import TESTS, run_tests
 
 
+@pytest.fixture(autouse=True)
+def numpy_sweep(monkeypatch):
+    """The rig's numpy path (``knc.COMPILED_SWEEP = False``): its internals are checked
+    here (the compiled sweep against it: ``test_knc_sweep_kernel``)."""
+    monkeypatch.setattr(rig_module, "COMPILED_SWEEP", False)
+
+
 @pytest.fixture(scope="module")
 def X():
     rng = np.random.default_rng(11)

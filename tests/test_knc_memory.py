@@ -122,6 +122,7 @@ def test_rows_repeating_the_designs_share_the_pack(X):
 
 
 def test_rotations_freed_along_the_legs_change_no_number(X, monkeypatch):
+    monkeypatch.setattr(rig_module, "COMPILED_SWEEP", False)  # the numpy path
     # the two-leg loop frees the rotation matrices of the states behind the last (their
     # relative rotations are in the predictor's cache). Reference: the same run keeping
     # every state (keep_states, which frees nothing), bitwise
@@ -146,6 +147,7 @@ def test_rotations_freed_along_the_legs_change_no_number(X, monkeypatch):
 
 
 def test_channels_in_small_output_calls_are_the_same_numbers(X, monkeypatch):
+    monkeypatch.setattr(rig_module, "COMPILED_SWEEP", False)  # the numpy path
     axle = build_axle(X[:1])
     monkeypatch.setattr(rig_module, "OUTPUT_STATES", 1)  # one grid point per call
     small = run_tests(axle)

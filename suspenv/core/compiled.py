@@ -49,6 +49,11 @@ def _signatures() -> None:
         "_turned_loop": f"void({f(2)}, {f(3)}, {f(3)})",
         "_relative_log_loop": f"void({f(3)}, {f(3)}, {f(2)})",
     }
+    # pack, off, k_bar_shear, cscale, ref0, pad0, pad_off, ext, rack, tol, maxit, h,
+    # exp_h, moves, move_start, scatter, scatter_start, limits, lo, outputs (sweep_kernel)
+    sweep = [f(3), i(1), "float64", "float64", f(4), f(2), f(3), f(4), f(3), f(1), "int64"]
+    sweep += ["float64", f(3), i(2), i(1), i(2), i(1), f(1), "int64", f(6), f(7), f(5), i(1)]
+    AHEAD["suspenv.models.mcpherson.sweep_kernel"] = {"sweep": f"void({', '.join(sweep)})"}
     AHEAD["suspenv.models.effects.kernels"] = {
         "recurrence": f"void({f(2)}, {f(2)}, {f(1)}, {f(2)})",
     }
@@ -89,10 +94,23 @@ def compile_in(space: dict[str, Any], helpers: Sequence[str], main: Callable) ->
     import numba
 
     jit = numba.njit(cache=True, error_model="numpy")
-    for name in helpers:  # (a helper another module compiled already stays as it is)
-        f = space[name]
-        space[name] = f if hasattr(f, "py_func") else jit(f)
+    jit_helpers(space, helpers, jit)
     return jit(main)
+
+
+def jit_helpers(space: dict[str, Any], helpers: Sequence[str], jit: Callable) -> None:
+    """Replace the functions ``helpers`` of the namespace ``space`` by ``jit`` of them,
+    there and in the modules that define the helpers (where the helpers calling each
+    other find them); a helper compiled already stays as it is."""
+    plain = [getattr(space[name], "py_func", space[name]) for name in helpers]
+    spaces = [space] + [vars(sys.modules[f.__module__]) for f in plain]
+    done = {id(v.py_func): v for ns in spaces for v in ns.values() if hasattr(v, "py_func")}
+    for f in plain:
+        done.setdefault(id(f), jit(f))
+    for ns in spaces:
+        for key, value in list(ns.items()):
+            if id(value) in done and not hasattr(value, "py_func"):
+                ns[key] = done[id(value)]
 
 
 class Lazy:
@@ -144,8 +162,6 @@ def extension(root: Path) -> Any:
         for attribute, signature in loops.items():
             lazy = getattr(module, attribute)
             name = export_name(lazy._space, lazy._helpers, lazy._main)
-            for h in lazy._helpers:
-                f = lazy._space[h]
-                lazy._space[h] = f if hasattr(f, "py_func") else jit(f)
+            jit_helpers(lazy._space, lazy._helpers, jit)
             cc.export(name, signature)(lazy._main)
     return cc.distutils_extension(optional=True)

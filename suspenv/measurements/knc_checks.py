@@ -220,7 +220,7 @@ def _check_track(where: str, t: TestLike) -> None:
         cause = (
             "the left and right columns are swapped, or y is negated (ISO 8855: y left "
             "positive)"
-            if track < 0
+            if track < -MIN_TRACK  # a mirrored right wheel gives about 0, of either sign
             else "the right wheel's values are mirrored outboard (the format holds raw y: "
             "left +745 mm, right -745 mm)"
         )

@@ -82,6 +82,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from suspenv.core import compiled
 from suspenv.core.errors import ValidationError
 from suspenv.measurements import knc_file
 from suspenv.measurements.knc import ALL_TESTS, DRIVE_UNIT, FORCE_TESTS, STEER_TESTS, TESTS
@@ -119,6 +120,8 @@ OPPOSED_TESTS = {"lateral_opposed": "lateral", "aligning_opposed": "aligning"}
 _LOAD_AXIS.update({o: (_LOAD_AXIS[p][0], (1.0, -1.0)) for o, p in OPPOSED_TESTS.items()})
 #: every test the rig runs
 RIG_TESTS = ALL_TESTS + tuple(OPPOSED_TESTS)
+#: the tests that load the wheels (their drive is a force or a moment)
+LOADED_TESTS = (*FORCE_TESTS, *OPPOSED_TESTS)
 #: default force amplitude of the compliance tests [N]
 FORCE_AMPLITUDE = 2500.0
 #: default moment amplitude of the aligning-moment test [N*m]
@@ -151,6 +154,11 @@ _DRIVE_SHOWN = {"m": (1e3, "mm", 2), "N": (1.0, "N", 0), "N*m": (1.0, "N*m", 1)}
 #: numbers; False: compute both rotations every step, the reference path of the tests
 #: and the speed benchmark's baseline)
 PREDICTOR_CACHE = True
+#: an axle without placed effects on its two-leg loop (pads driven, no states kept) is
+#: swept by one compiled call for all its designs (:func:`_run_compiled`); False: the
+#: sweep driven from Python (:func:`_run_numpy`), the reference path of the tests and
+#: the speed benchmark's baseline
+COMPILED_SWEEP = True
 #: states extrapolated by the predictor of the two-leg loop of a path-independent model
 #: (:func:`_sweep_legs`): 4, cubic (3: quadratic, as the sequential loop)
 LEG_ORDER = 4
@@ -392,10 +400,7 @@ def run_tests(
             f"`window` must be a whole number of grid steps in 1..steps/2 = 1..{steps // 2} "
             f"(or None), but got window={window!r}"
         )
-    n, nt = axle.n, len(tests)
     grid = stroke_grid(amplitude, steps)
-    loaded = set(tests) & {*FORCE_TESTS, *OPPOSED_TESTS}
-    force_grid = stroke_grid(force_amplitude, steps) if loaded else None
     # each test's own grid (travel: pad stroke [m]; force [N]; moment [N*m]; rack [m])
     own_amplitude = {"aligning": moment_amplitude, "steering": rack_amplitude}
     test_grids = {
@@ -404,9 +409,91 @@ def run_tests(
         else stroke_grid(own_amplitude.get(OPPOSED_TESTS.get(t, t), force_amplitude), steps)
         for t in tests
     }
+    base = AxleSolver(axle, effects)
+    args = (tests, test_grids, grid, keep_states, reuse_revisits, channels, window, travel_drive)
+    two_legs = reuse_revisits and not keep_states and travel_drive == "pad"
+    if COMPILED_SWEEP and compiled.AVAILABLE and two_legs and not base.effects:
+        return _run_compiled(
+            base, args, lambda rows: _run_numpy(AxleSolver(axle.take(rows), effects), *args)
+        )
+    return _run_numpy(base, *args)
+
+
+def _run_compiled(
+    base: AxleSolver, args: tuple, rerun: Callable[[np.ndarray], dict[str, KCResult]]
+) -> dict[str, KCResult]:
+    """:func:`run_tests` (``args``: those of :func:`_run_numpy`) of an axle without
+    placed effects on its two-leg loop, by one compiled sweep of all its designs
+    (:meth:`AxleSolver.two_leg_sweep`: the rules of :func:`_sweep_legs`, the same
+    states to the solver tolerance); the designs it flags are run again by ``rerun``
+    (design rows -> results: the numpy path, which retries in sub-steps and words the
+    failure)."""
+    tests, test_grids, grid, _, _, channels, window, _ = args
+    n, steps = base.n, grid.size - 1
+    i0, path = steps // 2, loop_path(steps)
+    kept = slice(None) if window is None else slice(i0 - window, i0 + window + 1)
+    pad_off = np.stack([pad_offsets(t, grid) for t in tests])  # (T, G, 2) [m]
+    cols = 9 if "traction" in tests else 6
+    ext = None  # wheel loads (T, G, 2, cols) [N, N*m] and rack travel (T, G, 2) [m]
+    if set(tests) & set(LOADED_TESTS):
+        ext = np.stack([wheel_loads(t, test_grids[t])[..., :cols] for t in tests])
+    rack = None
+    if set(tests) & set(STEER_TESTS):
+        rack = np.stack([rack_travel(t, test_grids[t]) for t in tests])
+    st, status = base.two_leg_sweep(pad_off, ext, rack, kept)
+    bad = np.flatnonzero(status)
+    if bad.size:  # their states: the design position (their channels come from rerun)
+        st.r[:, :, bad], st.R[:, :, bad], st.lam[:, :, bad] = base.ref0[bad], np.eye(3), 0.0
+    pads = base.pad_static + pad_off[:, kept, None, :]  # (T, Q, n, 2) [m]
+    ch = base.outputs(st, pads, channels)  # (T, Q, n, 2)
+    kept_steps = np.arange(path.size) if window is None else window_steps(steps, window)
+    at = path[kept_steps] - range(grid.size)[kept][0]  # each kept step's state
+    mid = i0 - range(grid.size)[kept][0]  # the design position: every drive is zero there
+    hard = static_hard_points(base, AxleState(st.r[0, mid], st.R[0, mid], st.lam[0, mid]))
+    results = {
+        t: KCResult(
+            t,
+            test_grids[t][kept],
+            path if window is None else loop_path(2 * window),
+            {name: np.ascontiguousarray(v[j, at].swapaxes(0, 1)) for name, v in ch.items()},
+            np.ones(n, bool),
+            [""] * n,
+            static_points=hard,
+        )
+        for j, t in enumerate(tests)
+    }
+    if bad.size:
+        again = rerun(bad)
+        for name, v in hard.items():
+            v[bad] = again[tests[0]].static_points[name]
+        for t, res in results.items():
+            for name, v in res.channels.items():
+                v[bad] = again[t].channels[name]
+            res.ok[bad] = again[t].ok
+            for q, i in enumerate(bad.tolist()):
+                res.messages[i] = again[t].messages[q]
+    return results
+
+
+def _run_numpy(
+    base: AxleSolver,
+    tests: tuple[str, ...],
+    test_grids: dict[str, np.ndarray],
+    grid: np.ndarray,
+    keep_states: bool,
+    reuse_revisits: bool,
+    channels: Sequence[str] | None,
+    window: int | None,
+    travel_drive: str,
+) -> dict[str, KCResult]:
+    """:func:`run_tests` (its arguments checked) with the solver ``base`` of the axle,
+    the tests' grids ``test_grids`` and the travel grid ``grid``: the sweeps driven from
+    Python, every call vectorised over the rows (test x design), the reference path
+    of :func:`_run_compiled`."""
+    n, nt = base.n, len(tests)
+    steps = grid.size - 1
     path = loop_path(steps)
     # static equilibrium once per design, then one row per (test, design)
-    base = AxleSolver(axle, effects)
     st0, conv0, J0 = base.solve(base.initial_state(), base.pad_static)
     assert isinstance(J0, np.ndarray)  # a fresh solve: one inverse Jacobian per design
     hard_points = static_hard_points(base, st0)
@@ -433,7 +520,7 @@ def run_tests(
     cols = 9 if "traction" in tests else 6
     ext_dir = (
         None
-        if force_grid is None
+        if not set(tests) & set(LOADED_TESTS)
         else np.repeat(np.stack([wheel_loads(t, 1.0)[..., :cols] for t in tests]), n, axis=0)
     )
     # steering test: tie-rod inner point travel per metre of rack travel (nt*n, 2)
@@ -1007,13 +1094,7 @@ def _extrapolate(
         r_new = np.where(rows, r_new, st.r)
         R_new = np.where(rows[..., None], R_new, st.R)
         lam_new = np.where(ok[:, None, None], lam_new, st.lam)
-    return AxleState(  # the path-dependent histories copied as st.copy() does
-        r_new,
-        R_new,
-        lam_new,
-        {k: (a.copy(), b.copy()) for k, (a, b) in st.hyst.items()},
-        None if st.fric is None else (st.fric[0].copy(), st.fric[1].copy()),
-    )
+    return st.moved(r_new, R_new, lam_new)  # the path-dependent histories copied
 
 
 def _check_state(solver, st, ok, msgs, at) -> None:

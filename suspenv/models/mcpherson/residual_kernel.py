@@ -35,7 +35,7 @@ AVAILABLE = compiled.AVAILABLE
 #: body of each rotated body-fixed vector (as ``solver.VEC_BODY``)
 _VEC_BODY = np.array([0, 0, 0, 1, 1, 1, 1, 1, 1, 1, 1, 1, 2, 2, 3, 3], np.int64)
 #: the bodies whose rotation deflects a bushing: lower arm (both bushings), strut rod,
-#: bar half (as ``solver.BUSH_BODY``)
+#: bar half (as ``solver.BUSH_BODY``; the compiled sweep's lock-up check reads it)
 _BUSH_BODY = np.array([0, 0, 2, 3], np.int64)
 #: the body whose load sum each of the 14 loads with an arm enters (``solver.LOAD_SUM``)
 _LOAD_BODY = np.array([0, 0, 0, 1, 1, 1, 1, 1, 1, 1, 2, 2, 3, 3], np.int64)
@@ -386,26 +386,55 @@ def _jacobian(
     fill the entries ``scatter[:, scatter_start[p]:scatter_start[p + 1]]`` (side,
     residual row, Jacobian row, Jacobian column) (``solver._coloured_groups``). Other
     entries are left as they are (the caller's zeros and exact multiplier columns)."""
+    for m in range(r.shape[0]):
+        _row_jacobian(
+            m, r[m], R[m], turned[m], lam, pad, ext, rack, extra, pack, off, k_bar_shear,
+            cscale, h, moves, move_start, scatter, scatter_start, J[m],
+        )  # fmt: skip
+
+
+def _row_jacobian(
+    m: int,
+    rm: np.ndarray,
+    Rm: np.ndarray,
+    turned_m: np.ndarray,
+    lam: np.ndarray,
+    pad: np.ndarray,
+    ext: np.ndarray,
+    rack: np.ndarray,
+    extra: np.ndarray,
+    pack: np.ndarray,
+    off: np.ndarray,
+    k_bar_shear: float,
+    cscale: float,
+    h: float,
+    moves: np.ndarray,
+    move_start: np.ndarray,
+    scatter: np.ndarray,
+    scatter_start: np.ndarray,
+    Jm: np.ndarray,
+) -> None:
+    """The body-coordinate columns of row ``m``'s Jacobian into ``Jm`` (66, 66) (see
+    :func:`_jacobian`; ``turned_m`` (2, 4, 3, 3, 3) its bodies turned by ``h``)."""
     base = np.empty((2, 33))
     res = np.empty((2, 33))
-    for m in range(r.shape[0]):
-        _row_at(m, r[m], R[m], lam, pad, ext, rack, extra, pack, off, k_bar_shear, cscale, base)
-        for p in range(move_start.size - 1):
-            rp = r[m].copy()
-            Rp = R[m].copy()
-            for q in range(move_start[p], move_start[p + 1]):
-                s, b, k = moves[0, q], moves[1, q], moves[2, q]
-                if k < 3:
-                    rp[s, b, k] += h
-                else:
-                    Rp[s, b] = turned[m, s, b, k - 3]
-            _row_at(m, rp, Rp, lam, pad, ext, rack, extra, pack, off, k_bar_shear, cscale, res)
-            for q in range(scatter_start[p], scatter_start[p + 1]):
-                s, row = scatter[0, q], scatter[1, q]
-                J[m, scatter[2, q], scatter[3, q]] = (res[s, row] - base[s, row]) / h
+    _row_at(m, rm, Rm, lam, pad, ext, rack, extra, pack, off, k_bar_shear, cscale, base)
+    for p in range(move_start.size - 1):
+        rp = rm.copy()
+        Rp = Rm.copy()
+        for q in range(move_start[p], move_start[p + 1]):
+            s, b, k = moves[0, q], moves[1, q], moves[2, q]
+            if k < 3:
+                rp[s, b, k] += h
+            else:
+                Rp[s, b] = turned_m[s, b, k - 3]
+        _row_at(m, rp, Rp, lam, pad, ext, rack, extra, pack, off, k_bar_shear, cscale, res)
+        for q in range(scatter_start[p], scatter_start[p + 1]):
+            s, row = scatter[0, q], scatter[1, q]
+            Jm[scatter[2, q], scatter[3, q]] = (res[s, row] - base[s, row]) / h
 
 
-_HELPERS = ("_log", "_cross_add", "_rack_shift", "_residual_row", "_row_at")
+_HELPERS = ("_log", "_cross_add", "_rack_shift", "_residual_row", "_row_at", "_row_jacobian")
 #: :func:`_residual` and :func:`_jacobian`, compiled at their first call (then loaded
 #: from numba's cache)
 residual = compiled.Lazy(globals(), _HELPERS, _residual)

@@ -33,44 +33,58 @@ def _log(R: np.ndarray, out: np.ndarray) -> None:
     out[0], out[1], out[2] = v0 * f, v1 * f, v2 * f
 
 
+def _expm(x: float, y: float, z: float, E: np.ndarray) -> None:
+    """The rotation matrix ``expm([x, y, z])`` (rotation vector [rad]) into ``E`` (3, 3)."""
+    th2 = x * x + y * y + z * z
+    if th2 < 1e-12:
+        A = 1.0 - th2 / 6.0
+        B = 0.5 - th2 / 24.0
+    else:
+        th = math.sqrt(th2)
+        A = math.sin(th) / th
+        B = (1.0 - math.cos(th)) / (th * th)
+    C = 1.0 - B * th2
+    Bx = B * x
+    Bxy, Bxz, Byz = Bx * y, Bx * z, B * y * z
+    E[0, 0], E[0, 1], E[0, 2] = C + Bx * x, Bxy - A * z, Bxz + A * y
+    E[1, 0], E[1, 1], E[1, 2] = Bxy + A * z, C + B * y * y, Byz - A * x
+    E[2, 0], E[2, 1], E[2, 2] = Bxz - A * y, Byz + A * x, C + B * z * z
+
+
 def _turned(w: np.ndarray, R: np.ndarray, out: np.ndarray) -> None:
     """``expm(w[i]) @ R[i]`` into ``out[i]`` for rotation vectors ``w`` (N, 3) and
     matrices ``R`` (N, 3, 3)."""
     E = np.empty((3, 3))
     for i in range(w.shape[0]):
-        x, y, z = w[i, 0], w[i, 1], w[i, 2]
-        th2 = x * x + y * y + z * z
-        if th2 < 1e-12:
-            A = 1.0 - th2 / 6.0
-            B = 0.5 - th2 / 24.0
-        else:
-            th = math.sqrt(th2)
-            A = math.sin(th) / th
-            B = (1.0 - math.cos(th)) / (th * th)
-        C = 1.0 - B * th2
-        Bx = B * x
-        Bxy, Bxz, Byz = Bx * y, Bx * z, B * y * z
-        E[0, 0], E[0, 1], E[0, 2] = C + Bx * x, Bxy - A * z, Bxz + A * y
-        E[1, 0], E[1, 1], E[1, 2] = Bxy + A * z, C + B * y * y, Byz - A * x
-        E[2, 0], E[2, 1], E[2, 2] = Bxz - A * y, Byz + A * x, C + B * z * z
-        for a in range(3):
-            for b in range(3):
-                out[i, a, b] = E[a, 0] * R[i, 0, b] + E[a, 1] * R[i, 1, b] + E[a, 2] * R[i, 2, b]
+        _expm(w[i, 0], w[i, 1], w[i, 2], E)
+        _times(E, R[i], out[i])
+
+
+def _times(A: np.ndarray, B: np.ndarray, out: np.ndarray) -> None:
+    """``out = A @ B`` for (3, 3) matrices (``out`` not one of them)."""
+    for a in range(3):
+        for b in range(3):
+            out[a, b] = A[a, 0] * B[0, b] + A[a, 1] * B[1, b] + A[a, 2] * B[2, b]
 
 
 def _relative_log(A: np.ndarray, B: np.ndarray, out: np.ndarray) -> None:
     """Rotation vectors of ``A[i] @ B[i]^T`` into ``out[i]`` (N, 3)."""
     M = np.empty((3, 3))
     for i in range(A.shape[0]):
-        Ai, Bi = A[i], B[i]
-        for a in range(3):
-            for b in range(3):
-                M[a, b] = Ai[a, 0] * Bi[b, 0] + Ai[a, 1] * Bi[b, 1] + Ai[a, 2] * Bi[b, 2]
-        _log(M, out[i])
+        _relative(A[i], B[i], M, out[i])
 
 
-_turned_loop = compiled.Lazy(globals(), (), _turned)
-_relative_log_loop = compiled.Lazy(globals(), ("_log",), _relative_log)
+def _relative(A: np.ndarray, B: np.ndarray, M: np.ndarray, out: np.ndarray) -> None:
+    """The rotation vector of ``A @ B^T`` ((3, 3) each) into ``out`` (3,) (``M`` scratch
+    (3, 3))."""
+    for a in range(3):
+        for b in range(3):
+            M[a, b] = A[a, 0] * B[b, 0] + A[a, 1] * B[b, 1] + A[a, 2] * B[b, 2]
+    _log(M, out)
+
+
+_turned_loop = compiled.Lazy(globals(), ("_expm", "_times"), _turned)
+_relative_log_loop = compiled.Lazy(globals(), ("_log", "_relative"), _relative_log)
 
 
 def turned(w: np.ndarray, R: np.ndarray) -> np.ndarray:

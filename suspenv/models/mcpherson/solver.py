@@ -79,14 +79,14 @@ import numpy as np
 
 from suspenv.core.errors import ValidationError
 from suspenv.models.effects import Effect, cubic_stiffness, dahl_path
-from suspenv.models.mcpherson import residual_kernel
+from suspenv.models.mcpherson import residual_kernel, sweep_kernel
 from suspenv.models.mcpherson.effects import (
     BUSHING_NAMES,
     MOMENT_ARM,
     bushings_at,
     check_placement,
 )
-from suspenv.models.mcpherson.kinematics import CornerKinematics
+from suspenv.models.mcpherson.kinematics import CornerKinematics, _perp_basis
 from suspenv.models.mcpherson.params import SIDE_SIGN, Axle
 from suspenv.models.mcpherson.rotation import (
     cross,
@@ -152,7 +152,6 @@ JACOBIAN_COLOURED = True
 #: residual rows (of one side) that the lower arm's coordinates enter: its force and
 #: moment and the ball joint's constraint; the strut rod's enter none of them
 ARM_ROWS = np.r_[0:6, NQ : NQ + 3]
-NOT_ARM_ROWS = np.setdiff1d(np.arange(NS), ARM_ROWS)
 #: :meth:`AxleSolver.take` of rows that are all one design (``axle=False``) shares that
 #: design's arrays as zero-stride views, the same numbers in less memory (False: a copy
 #: per row, the reference path of the speed benchmark's baseline)
@@ -318,10 +317,15 @@ class AxleState:
     fric: tuple[np.ndarray, np.ndarray] | None = None
 
     def copy(self) -> AxleState:
+        return self.moved(self.r.copy(), self.R.copy(), self.lam.copy())
+
+    def moved(self, r: np.ndarray, R: np.ndarray, lam: np.ndarray) -> AxleState:
+        """A state at ``r``, ``R``, ``lam`` with a copy of this one's path-dependent
+        histories."""
         return AxleState(
-            self.r.copy(),
-            self.R.copy(),
-            self.lam.copy(),
+            r,
+            R,
+            lam,
             {k: (a.copy(), b.copy()) for k, (a, b) in self.hyst.items()},
             None if self.fric is None else (self.fric[0].copy(), self.fric[1].copy()),
         )
@@ -395,14 +399,6 @@ def _inv_mul(Jinv: np.ndarray | SharedInverse, res: np.ndarray) -> np.ndarray:
     if isinstance(Jinv, SharedInverse):
         return Jinv.mul(res)
     return np.matmul(Jinv, res[..., None])[..., 0]
-
-
-def _perp_basis(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    helper = np.zeros_like(a)
-    helper[..., 0] = 1.0
-    u = cross(a, helper)
-    u /= np.linalg.norm(u, axis=-1, keepdims=True)
-    return u, cross(a, u)
 
 
 def spin_axis(camber: np.ndarray, toe: np.ndarray) -> np.ndarray:
@@ -1081,13 +1077,7 @@ class AxleSolver:
             dx = np.where(rows[:, None], dx, 0.0)
         dx = dx.reshape(st.r.shape[0], 2, NS)
         dq = dx[..., :NQ].reshape(st.r.shape[0], 2, 4, 6)
-        return AxleState(
-            st.r + dq[..., :3],
-            turned(dq[..., 3:], st.R),
-            st.lam + dx[..., NQ:],
-            {k: (a.copy(), b.copy()) for k, (a, b) in st.hyst.items()},
-            None if st.fric is None else (st.fric[0].copy(), st.fric[1].copy()),
-        )
+        return st.moved(st.r + dq[..., :3], turned(dq[..., 3:], st.R), st.lam + dx[..., NQ:])
 
     def _step_size(self, dx: np.ndarray, dp: np.ndarray | None = None) -> np.ndarray:
         """Per-row size (n,) of a Newton step relative to the tolerances (< 1: converged):
@@ -1235,6 +1225,47 @@ class AxleSolver:
                         blk[i] = np.nan
         J[bad] = np.nan
         return J
+
+    def two_leg_sweep(
+        self,
+        pad_off: np.ndarray,
+        ext: np.ndarray | None,
+        rack: np.ndarray | None,
+        kept: slice,
+        h: float = 1e-7,
+    ) -> tuple[AxleState, np.ndarray]:
+        """The rig's two-leg sweep of every design in one compiled call
+        (:func:`.sweep_kernel.sweep`: static equilibrium, then every test's bump and
+        rebound legs from it, Newton step by step as :meth:`solve`) for an axle without
+        placed effects. Per test and grid point (T, G): pad offsets ``pad_off`` (T, G,
+        2) [m] from :attr:`pad_static`, wheel loads ``ext`` (T, G, 2, 6|9) [N, N*m] or
+        None, rack travel ``rack`` (T, G, 2) [m] or None. Returns the states at the grid
+        points ``kept`` (T, Q, n, ...) and every design's status (n,) (0: converged
+        everywhere, else :data:`.sweep_kernel.NO_STATIC`, ``NO_STEP`` or ``LOCKED``)."""
+        if self._placed.cubic or self._placed.hysteresis or self._placed.friction:
+            raise ValidationError("two_leg_sweep: the compiled sweep takes no placed effects")
+        T, G = pad_off.shape[:2]
+        Q = len(range(G)[kept])
+        n = self.n
+        r = np.empty((T, Q, n, 2, 4, 3))
+        R = np.empty((T, Q, n, 2, 4, 3, 3))
+        lam = np.empty((T, Q, n, 2, NL))
+        status = np.zeros(n, np.int64)
+        pack = self._pack()
+        if not (pack.flags.c_contiguous and pack.flags.writeable):  # one compiled type
+            pack = np.array(pack, order="C")
+        sweep_kernel.sweep(
+            pack, self._rl_off, float(self.k_bar_shear), CSCALE,
+            np.ascontiguousarray(self.ref0, dtype=float),
+            np.ascontiguousarray(np.broadcast_to(self.pad_static, (n, 2)), dtype=float),
+            np.ascontiguousarray(pad_off, dtype=float),
+            np.empty((0, 0, 2, 1)) if ext is None else np.ascontiguousarray(ext, dtype=float),
+            np.empty((0, 0, 2)) if rack is None else np.ascontiguousarray(rack, dtype=float),
+            np.array(_tolerances(self.xtol, self.rtol, self.ltol)), self.maxit, h,
+            np.array(_exp_h(h)), *_KERNEL_COLOURING,
+            np.array([MAX_TRANSLATION, MAX_ROTATION]), range(G)[kept][0], r, R, lam, status,
+        )  # fmt: skip
+        return AxleState(r, R, lam), status
 
     def pad_sensitivity(self, st: AxleState) -> np.ndarray:
         """d(residual)/d(pad height) (n, 2, 33): the tyre force and its moment on the knuckle."""

@@ -1,0 +1,460 @@
+"""The rig's two-leg K&C sweep of a path-independent axle, design by design (numba).
+
+One compiled call runs what :func:`suspenv.rigs.knc.run_tests` does for a model
+without path-dependent or placed effects on its two-leg loop (``reuse_revisits``,
+pads driven): for every design, the static equilibrium at the static pad heights
+(Newton from the design position with a fresh Jacobian), then for every test its
+bump leg (design -> bump) and rebound leg (design -> rebound) step by step: the
+first step of each leg from the tangent predictor ``-J^-1 (res(input) -
+res(previous input))`` at the static state, the second from the quadratic through
+the other leg's first step, the static state and its own first step, the others from
+the cubic through the leg's last four states (rotations through the relative rotation
+vectors of consecutive states), each corrected by chord Newton steps with the static
+Jacobian until a step shrinks by less than half, when the leg's row gets a Jacobian
+of its own; steps damped when even fresh-Jacobian steps stop shrinking. The
+equations, tolerances and rules are those of :meth:`AxleSolver.solve
+<suspenv.models.mcpherson.solver.AxleSolver.solve>` (residual rows:
+:func:`.residual_kernel._residual_row`; body columns of the Jacobian:
+:func:`.residual_kernel._row_jacobian`); the differences from the numpy path: the
+multiplier columns by forward differences of 1 N (the residual is linear in them but
+for a compliant rack's tie rods, which the numpy path differences too), the Jacobian
+inverted by Gauss-Jordan elimination (not LAPACK) and held in single precision as the
+numpy path's shared inverses (also the static one, which the numpy path holds in
+double precision for the static solve), and the secant of the residual as the
+tangent predictor's load change. The converged states agree with the numpy path's
+to the solver tolerance (``tests/test_knc_sweep_kernel.py``).
+
+A design whose sweep fails anywhere (no static equilibrium, a step that does not
+converge, a bushing over its lock-up limits at a leg's end) is flagged
+(``status``); the rig then runs it through the numpy path, which retries in
+sub-steps and words the failure. Frames, units and signs: the solver's.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from suspenv.core import compiled
+from suspenv.models.mcpherson.residual_kernel import (  # the row's helpers: compiled too
+    _BUSH_BODY,
+    _cross_add,  # noqa: F401
+    _rack_shift,  # noqa: F401
+    _residual_row,
+    _row_at,  # noqa: F401
+    _row_jacobian,
+)
+from suspenv.models.mcpherson.rotation_kernel import _expm, _log, _relative, _times
+
+NS, NQ, NX = 33, 24, 66
+#: status of a design: converged everywhere, or where it failed
+OK, NO_STATIC, NO_STEP, LOCKED = 0, 1, 2, 3
+
+
+def _factor(d, r, R, lam1, load, model, jac, out) -> bool:
+    """The inverse of the Jacobian (66, 66) of design ``d`` at ``r``, ``R``, ``lam1``
+    under ``load``, transposed, into ``out`` (66, 66) (single precision, as the numpy
+    path's shared inverses). False: the Jacobian is not finite or singular."""
+    pad1, ext1, rack1 = load
+    pack, off, k_bar_shear, cscale, extra0 = model[:5]
+    h, exp_h, moves, move_start, scatter, scatter_start = jac
+    ws = (np.zeros((NX, NX)), np.empty(NX), np.empty(NX, np.int64))  # (freed on return)
+    JT = ws[0]
+    turned = np.empty((2, 4, 3, 3, 3))
+    for s in range(2):
+        for b in range(4):
+            for k in range(3):
+                _times(exp_h[k], R[s, b], turned[s, b, k])
+    _row_jacobian(
+        d, r, R, turned, lam1, pad1, ext1, rack1, extra0, pack, off, k_bar_shear, cscale, h,
+        moves, move_start, scatter, scatter_start, JT.T,
+    )  # fmt: skip
+    base = np.empty((2, NS))
+    res = np.empty((2, NS))
+    _res(d, r, R, lam1, load, model, base)
+    for s in range(2):  # the multiplier columns: forward differences of 1 N
+        for c in range(NS - NQ):
+            kept = lam1[0, s, c]
+            lam1[0, s, c] = kept + 1.0
+            _res(d, r, R, lam1, load, model, res)
+            lam1[0, s, c] = kept
+            for t in range(2):
+                for row in range(NS):
+                    JT[s * NS + NQ + c, t * NS + row] = res[t, row] - base[t, row]
+    if not _invert(ws):
+        return False
+    for i in range(NX):
+        for j in range(NX):
+            out[i, j] = JT[i, j]
+    return True
+
+
+def _res(d, r, R, lam1, load, model, out) -> None:
+    """The residual (2, 33) of design ``d`` at ``r``, ``R``, ``lam1`` under ``load``
+    into ``out`` (:func:`.residual_kernel._residual_row`; ``model``: the pack, its
+    offsets, the constants, then empty and zero stand-ins for absent inputs)."""
+    pad1, ext1, rack1 = load
+    pack, off, k_bar_shear, cscale, _, zeros2, zeros21 = model
+    n_ext = ext1.shape[2] if ext1.shape[0] else 0
+    has_rack = rack1.shape[0] > 0
+    _residual_row(
+        r, R, lam1[0], pad1[0], ext1[0] if n_ext else zeros21, n_ext,
+        rack1[0] if has_rack else zeros2, has_rack, zeros21, False, pack, d, off, k_bar_shear,
+        cscale, out,
+    )  # fmt: skip
+
+
+def _invert(ws) -> bool:
+    """The matrix ``ws[0]`` (n, n) replaced by its inverse in place (Gauss-Jordan with
+    partial pivoting; ``ws[1]`` (n,) and ``ws[2]`` (n,) int scratch); False when a
+    pivot is zero or not finite."""
+    A, row, perm = ws
+    n = A.shape[0]
+    for c in range(n):
+        p, big = c, abs(A[c, c])
+        for i in range(c + 1, n):
+            if abs(A[i, c]) > big:
+                p, big = i, abs(A[i, c])
+        if not (big > 0.0 and big < math.inf):
+            return False
+        perm[c] = p
+        if p != c:
+            for j in range(n):
+                A[c, j], A[p, j] = A[p, j], A[c, j]
+        inv = 1.0 / A[c, c]
+        A[c, c] = 1.0
+        for j in range(n):
+            A[c, j] *= inv
+            row[j] = A[c, j]
+        for i in range(n):
+            f = A[i, c]
+            if i != c and f != 0.0:
+                A[i, c] = 0.0
+                Ai = A[i]
+                for j in range(n):
+                    Ai[j] -= f * row[j]
+    for c in range(n - 1, -1, -1):  # the row swaps undone on the columns
+        p = perm[c]
+        if p != c:
+            for i in range(n):
+                A[i, c], A[i, p] = A[i, p], A[i, c]
+    return True
+
+
+def _step(JiT: np.ndarray, res: np.ndarray, tol: np.ndarray, dx: np.ndarray) -> float:
+    """The Newton step ``dx = -J^-1 res`` (66,) from the transposed inverse Jacobian
+    ``JiT`` (66, 66) (its rows added up in its single precision, which vectorises, as
+    the numpy path's products with its shared single-precision inverses), and its size:
+    the largest ``|dx| / tol`` (NaN when not finite)."""
+    acc = np.zeros(NX, np.float32)  # in the inverse's precision (vectorised)
+    for j in range(NX):
+        c = np.float32(-res[j // NS, j % NS])
+        if c != 0.0:
+            row = JiT[j]
+            for i in range(NX):
+                acc[i] += c * row[i]
+    dx[:] = acc
+    size = 0.0
+    for i in range(NX):
+        q = abs(dx[i]) / tol[i]
+        if not q < math.inf:
+            return math.nan
+        size = max(size, q)
+    return size
+
+
+def _apply(r: np.ndarray, R: np.ndarray, lam1: np.ndarray, dx: np.ndarray, f: float) -> None:
+    """Move the state by ``f dx`` in place (translations, left rotation increments,
+    multipliers; :meth:`AxleSolver._apply`)."""
+    E = np.empty((3, 3))
+    M = np.empty((3, 3))
+    for s in range(2):
+        for b in range(4):
+            q = s * NS + 6 * b
+            for k in range(3):
+                r[s, b, k] += f * dx[q + k]
+            _expm(f * dx[q + 3], f * dx[q + 4], f * dx[q + 5], E)
+            _times(E, R[s, b], M)
+            R[s, b] = M
+        for c in range(NS - NQ):
+            lam1[0, s, c] += f * dx[s * NS + NQ + c]
+
+
+def _newton(d, r, R, lam1, load, model, jac, chord, own, tol, maxit, fresh):
+    """Newton's method of :meth:`AxleSolver.solve` on one design's row, in place:
+    chord steps with ``chord`` (1, 66, 66) (a transposed inverse Jacobian,
+    :func:`_factor`) until a step shrinks by less than half, from then on with the
+    row's own ``own`` ((1, 66, 66), made then; (0, 66, 66): none yet), refreshed
+    whenever a step shrinks by less than half; damped when fresh steps stop
+    shrinking. ``fresh``: ``chord`` is the Jacobian at the starting state. Returns
+    (True when a step smaller than the tolerances was taken, ``own``)."""
+    res = np.empty((2, NS))
+    dx = np.empty(NX)
+    prev, alpha = math.inf, 1.0
+    for _ in range(maxit):
+        _res(d, r, R, lam1, load, model, res)
+        size = _step(own[0] if own.shape[0] else chord[0], res, tol, dx)
+        if math.isnan(size):
+            return False, own
+        refresh = size > 0.5 * prev and not fresh
+        if refresh:
+            if not own.shape[0]:
+                own = np.empty((1, NX, NX), np.float32)
+            if not _factor(d, r, R, lam1, load, model, jac, own[0]):
+                return False, own
+            size = _step(own[0], res, tol, dx)
+            if math.isnan(size):
+                return False, own
+        if fresh and size > 0.9 * prev:  # exact Newton cycles: damp
+            alpha = max(0.5 * alpha, 1.0 / 64)
+        fresh = refresh
+        prev = size
+        _apply(r, R, lam1, dx, 1.0 if size < 1.0 else alpha)
+        if size < 1.0:
+            return True, own
+    return False, own
+
+
+def _load_at(t, g, pad0_d, pad_off, ext, rack, load) -> None:
+    """The rig's input of test ``t`` at grid point ``g`` into ``load`` (pad heights
+    (1, 2) [m], wheel loads (1|0, 2, C), rack travel (1|0, 2) [m])."""
+    pad1, ext1, rack1 = load
+    for s in range(2):
+        pad1[0, s] = pad0_d[s] + pad_off[t, g, s]
+        if rack1.shape[0]:
+            rack1[0, s] = rack[t, g, s]
+        if ext1.shape[0]:
+            for c in range(ext1.shape[2]):
+                ext1[0, s, c] = ext[t, g, s, c]
+
+
+def _extrapolate(Gr, GR, Gl, rel, g, dirn, cubic, r, R, lam1) -> None:
+    """The state at grid point ``g`` extrapolated from those at ``g - dirn``,
+    ``g - 2 dirn``, ``g - 3 dirn`` (quadratic) and ``g - 4 dirn`` (``cubic``), the
+    rotations through the relative rotation vectors of consecutive states
+    (extrapolated one order lower; kept in ``rel`` for the next steps,
+    :func:`_relative_at`), as the rig's predictor (``knc._extrapolate``)."""
+    a, b, c, e = g - dirn, g - 2 * dirn, g - 3 * dirn, g - 4 * dirn
+    E = np.empty((3, 3))
+    w = np.empty(3)
+    w1, w0 = _relative_at(GR, rel, a, dirn), _relative_at(GR, rel, b, dirn)
+    wm = _relative_at(GR, rel, c, dirn) if cubic else w0
+    for s in range(2):
+        for k in range(4):
+            if cubic:
+                for x in range(3):
+                    r[s, k, x] = 4.0 * (Gr[a, s, k, x] + Gr[c, s, k, x]) - 6.0 * Gr[b, s, k, x]
+                    r[s, k, x] -= Gr[e, s, k, x]
+                    w[x] = 3.0 * (w1[s, k, x] - w0[s, k, x]) + wm[s, k, x]
+            else:
+                for x in range(3):
+                    r[s, k, x] = 3.0 * (Gr[a, s, k, x] - Gr[b, s, k, x]) + Gr[c, s, k, x]
+                    w[x] = 2.0 * w1[s, k, x] - w0[s, k, x]
+            _expm(w[0], w[1], w[2], E)
+            _times(E, GR[a, s, k], R[s, k])
+        for x in range(NS - NQ):
+            if cubic:
+                v = 4.0 * (Gl[a, s, x] + Gl[c, s, x]) - 6.0 * Gl[b, s, x] - Gl[e, s, x]
+            else:
+                v = 3.0 * (Gl[a, s, x] - Gl[b, s, x]) + Gl[c, s, x]
+            lam1[0, s, x] = v
+
+
+def _relative_at(GR: np.ndarray, rel, x: int, dirn: int) -> np.ndarray:
+    """The rotation vectors (2, 4, 3) of ``GR[x] GR[x - dirn]^T`` body by body, from
+    ``rel`` (vectors (G, 2, 4, 3), made (G,)) or computed and kept there."""
+    W, made = rel
+    if not made[x]:
+        M = np.empty((3, 3))
+        for s in range(2):
+            for k in range(4):
+                _relative(GR[x, s, k], GR[x - dirn, s, k], M, W[x, s, k])
+        made[x] = 1
+    return W[x]
+
+
+def _locked(d, r, R, pack, off, limits) -> bool:
+    """A bushing deflects beyond ``limits`` (translation [m], rotation [rad]) in its
+    own frame (``knc._check_state``), or a deflection is not finite."""
+    o_vec, o_gr, o_Q = off[0], off[1], off[3]
+    x = np.empty((2, 3))
+    xb = np.empty(3)
+    for s in range(2):
+        for bb in range(4):
+            body = _BUSH_BODY[bb]
+            _log(R[s, body], x[1])
+            for a in range(3):
+                x[0, a] = r[s, body, a] - pack[o_gr + 3 * bb + a, s, d]
+                if bb < 2:  # the lower arm's bushes: their points on the arm
+                    for j in range(3):
+                        x[0, a] += R[s, 0, a, j] * pack[o_vec + 3 * bb + j, s, d]
+            for t in range(2):
+                if o_Q >= 0:  # into the bushing frame: Q^T x
+                    q = o_Q + 9 * bb
+                    for a in range(3):
+                        xb[a] = (
+                            pack[q + a, s, d] * x[t, 0]
+                            + pack[q + 3 + a, s, d] * x[t, 1]
+                            + pack[q + 6 + a, s, d] * x[t, 2]
+                        )
+                else:
+                    xb[:] = x[t]
+                for a in range(3):
+                    if not abs(xb[a]) <= limits[t]:
+                        return True
+    return False
+
+
+def _first_step(d, t, g, st, res0, inputs, model, jac, chord, settings):
+    """The first step of a leg, to grid point ``g``, from the static state ``st``
+    (``res0`` its residual under the static input) by the tangent predictor; stored in
+    the grid arrays of ``st``. Returns (status, the row's own Jacobian)."""
+    r, R, lam1, Gr, GR, Gl, load = st
+    pad0_d, pad_off, ext, rack = inputs
+    tol, maxit, limits = settings
+    res1, dx = np.empty((2, NS)), np.empty(NX)
+    _load_at(t, g, pad0_d, pad_off, ext, rack, load)
+    _res(d, r, R, lam1, load, model, res1)
+    _step(chord[0], res1 - res0, tol, dx)
+    for i in range(NX):
+        if not abs(dx[i]) < math.inf:
+            dx[i] = 0.0
+    rs, Rs, ls = r.copy(), R.copy(), lam1.copy()
+    _apply(rs, Rs, ls, dx, 1.0)
+    own = np.empty((0, NX, NX), np.float32)
+    conv, own = _newton(d, rs, Rs, ls, load, model, jac, chord, own, tol, maxit, False)
+    Gr[g], GR[g], Gl[g] = rs, Rs, ls[0]
+    return OK if conv else NO_STEP, own
+
+
+def _leg(d, t, dirn, i0, st, inputs, model, jac, chord, own, settings) -> int:
+    """Steps 2 .. i0 of the leg of test ``t`` in direction ``dirn`` (its first step
+    and the static state in the grid arrays of ``st`` already), each stored there;
+    returns the design's status."""
+    r, R, lam1, Gr, GR, Gl, load = st
+    pad0_d, pad_off, ext, rack = inputs
+    tol, maxit, limits = settings
+    rel = (np.empty((Gr.shape[0], 2, 4, 3)), np.zeros(Gr.shape[0], np.int64))
+    for j in range(2, i0 + 1):
+        g = i0 + dirn * j
+        _extrapolate(Gr, GR, Gl, rel, g, dirn, j >= 3, r, R, lam1)
+        _load_at(t, g, pad0_d, pad_off, ext, rack, load)
+        conv, own = _newton(d, r, R, lam1, load, model, jac, chord, own, tol, maxit, False)
+        if not conv:
+            return NO_STEP
+        Gr[g], GR[g], Gl[g] = r, R, lam1[0]
+    if _locked(d, r, R, model[0], model[1], limits):  # loads and deflections peak at the ends
+        return LOCKED
+    return OK
+
+
+def _design(d, inputs, model, jac, settings, lo, out) -> int:
+    """The sweep of design ``d`` (:func:`_sweep`); returns its status."""
+    ref0, pad0, pad_off, ext, rack = inputs
+    r_out, R_out, l_out = out
+    tol, maxit, limits = settings
+    i0 = (pad_off.shape[1] - 1) // 2
+    r = ref0[d].copy()
+    R = np.zeros((2, 4, 3, 3))
+    for s in range(2):
+        for b in range(4):
+            for a in range(3):
+                R[s, b, a, a] = 1.0
+    lam1 = np.zeros((1, 2, NS - NQ))
+    load = (
+        np.zeros((1, 2)),
+        np.zeros((1 if ext.shape[0] else 0, 2, ext.shape[3])),
+        np.zeros((1 if rack.shape[0] else 0, 2)),
+    )
+    for s in range(2):
+        load[0][0, s] = pad0[d, s]
+    chord = np.empty((1, NX, NX), np.float32)
+    if not _factor(d, r, R, lam1, load, model, jac, chord[0]):
+        return NO_STATIC
+    conv, chord = _newton(d, r, R, lam1, load, model, jac, chord, chord, tol, maxit, True)
+    if not conv:
+        return NO_STATIC
+    G = pad_off.shape[1]  # every grid point's state (made after the static Jacobian: memory)
+    Gr, GR, Gl = np.empty((G, 2, 4, 3)), np.empty((G, 2, 4, 3, 3)), np.empty((G, 2, NS - NQ))
+    res0 = np.empty((2, NS))
+    leg_inputs = (pad0[d], pad_off, ext, rack)
+    st = (r, R, lam1, Gr, GR, Gl, load)
+    walk = (np.empty((2, 4, 3)), np.empty((2, 4, 3, 3)), np.empty((1, 2, NS - NQ)), Gr, GR, Gl,
+            load)  # fmt: skip
+    for t in range(pad_off.shape[0]):
+        Gr[i0], GR[i0], Gl[i0] = r, R, lam1[0]
+        _load_at(t, i0, pad0[d], pad_off, ext, rack, load)
+        _res(d, r, R, lam1, load, model, res0)
+        # the first steps of both legs (the second steps read both), then each leg on
+        up, own_up = _first_step(d, t, i0 + 1, st, res0, leg_inputs, model, jac, chord, settings)
+        down, own_down = _first_step(
+            d, t, i0 - 1, st, res0, leg_inputs, model, jac, chord, settings
+        )
+        if up != OK or down != OK:
+            return NO_STEP
+        for dirn, own in ((1, own_up), (-1, own_down)):
+            status = _leg(d, t, dirn, i0, walk, leg_inputs, model, jac, chord, own, settings)
+            if status != OK:
+                return status
+        for q in range(r_out.shape[1]):
+            r_out[t, q, d], R_out[t, q, d], l_out[t, q, d] = Gr[lo + q], GR[lo + q], Gl[lo + q]
+    return OK
+
+
+def _sweep(
+    pack: np.ndarray,
+    off: np.ndarray,
+    k_bar_shear: float,
+    cscale: float,
+    ref0: np.ndarray,
+    pad0: np.ndarray,
+    pad_off: np.ndarray,
+    ext: np.ndarray,
+    rack: np.ndarray,
+    tol: np.ndarray,
+    maxit: int,
+    h: float,
+    exp_h: np.ndarray,
+    moves: np.ndarray,
+    move_start: np.ndarray,
+    scatter: np.ndarray,
+    scatter_start: np.ndarray,
+    limits: np.ndarray,
+    lo: int,
+    r_out: np.ndarray,
+    R_out: np.ndarray,
+    l_out: np.ndarray,
+    status: np.ndarray,
+) -> None:
+    """The two-leg sweep of every design (module docstring).
+
+    ``pack``, ``off``, ``k_bar_shear``, ``cscale``: the solver's per-design arrays and
+    constants as :func:`.residual_kernel._residual` reads them (``pack`` (K, 2, n));
+    ``ref0`` (n, 2, 4, 3) [m] the bodies' reference points at design, ``pad0`` (n, 2)
+    [m] the static pad heights; per test and grid point (T, G): the pad offsets
+    ``pad_off`` (T, G, 2) [m], wheel loads ``ext`` (T, G, 2, C) [N, N*m] ((0, 0, 2, 1):
+    none) and rack travel ``rack`` (T, G, 2) [m] ((0, 0, 2): none); Newton's
+    tolerance of each unknown ``tol`` (66,) and ``maxit``; the Jacobian's step ``h``,
+    the rotations by ``h`` about x, y, z ``exp_h`` (3, 3, 3) and its colouring
+    (``solver._KERNEL_COLOURING``); the lock-up ``limits`` (2,) [m, rad]. Writes the
+    states at the grid points ``lo .. lo + Q - 1`` of every test into ``r_out`` (T, Q,
+    n, 2, 4, 3), ``R_out`` (T, Q, n, 2, 4, 3, 3), ``l_out`` (T, Q, n, 2, 9) and every
+    design's status (:data:`OK`, :data:`NO_STATIC`, :data:`NO_STEP`, :data:`LOCKED`)
+    into ``status`` (n,)."""
+    model = (pack, off, k_bar_shear, cscale, np.empty((0, 2, 1)), np.zeros(2), np.zeros((2, 1)))
+    jac = (h, exp_h, moves, move_start, scatter, scatter_start)
+    settings = (tol, maxit, limits)
+    inputs = (ref0, pad0, pad_off, ext, rack)
+    for d in range(ref0.shape[0]):
+        status[d] = _design(d, inputs, model, jac, settings, lo, (r_out, R_out, l_out))
+
+
+_HELPERS = (
+    "_log", "_expm", "_cross_add", "_rack_shift", "_residual_row", "_row_at",
+    "_row_jacobian", "_factor", "_res", "_invert", "_step", "_apply", "_times", "_newton",
+    "_load_at", "_extrapolate", "_relative_at", "_relative", "_locked", "_first_step", "_leg",
+    "_design",
+)  # fmt: skip
+#: :func:`_sweep`, built ahead of time or compiled at its first call
+sweep = compiled.Lazy(globals(), _HELPERS, _sweep)
