@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from suspenv.diagnosis.checks.residual_left import RESIDUAL_LIMIT, judge
+from suspenv.diagnosis.checks.residual_left import judge
 from suspenv.diagnosis.decision import DecisionRule, decide
 from suspenv.diagnosis.engine import diagnose, make_family
 from suspenv.diagnosis.fitting import lag1_autocorrelation
@@ -104,7 +104,7 @@ def test_a_smooth_residual_above_the_limit_is_left_and_located():
     cells[("opposite", "fz")] = rng.normal(size=17) + stop
     cells[("opposite", "toe")] = rng.normal(size=17)
     n = judge(cells, 0.01)
-    assert n["remains"] and n["worst_channel"] == "fz" and n["worst_rms"] > RESIDUAL_LIMIT
+    assert n["remains"] and n["worst_channel"] == "fz" and n["worst_rms"] > n["limit"]["fz"]
     assert n["where"] == {"test": "opposite", "channel": "fz"}
     assert n["lag1"] > 0.5  # smooth: structured, not noise
     # lag-1 autocorrelation of white noise is about 0 (+- 1 / sqrt(n))
@@ -128,7 +128,8 @@ def test_knc_concealed_strut_stop_is_reported_unexplained_not_named(sides):
     left = d.findings["residual_left"]
     assert d.unexplained and not d.confident, d.verdict
     assert left.numbers["worst_channel"].startswith("tyre_fz_")
-    assert left.numbers["worst_rms"] > 10 * RESIDUAL_LIMIT
+    limit = left.numbers["limit"]  # the channels' limits: same samples, same limit
+    assert left.numbers["worst_rms"] > 10 * limit
     assert "no significant missing physics" not in d.verdict.lower()
     assert "times the noise" in d.verdict and "assumed" in d.verdict.lower()
     # the story a K&C job builds on: the load-cell curves stay far above their noise,
@@ -136,8 +137,8 @@ def test_knc_concealed_strut_stop_is_reported_unexplained_not_named(sides):
     story = knc_story(d).to_dict()
     fz = [c for c in story["curves"] if c["channel"] == "tyre_fz_left" and c["data"] == "fit"]
     toe = [c for c in story["curves"] if c["channel"] == "toe_left"]
-    assert max(c["after"] for c in fz) > 10 * RESIDUAL_LIMIT
-    assert max(c["after"] for c in toe) < RESIDUAL_LIMIT
+    assert max(c["after"] for c in fz) > 10 * limit
+    assert max(c["after"] for c in toe) < limit
     differ = {(r["test"], r["channel"]) for r in story["sides_differ"]}
     assert (("parallel", "tyre_fz") in differ) == (sides == ["left"])
 
@@ -146,7 +147,8 @@ def test_knc_concealed_strut_stop_is_reported_unexplained_not_named(sides):
 def test_knc_same_car_without_the_stop_stays_clean():
     d = _knc(None)
     assert not d.unexplained and not d.named, d.verdict
-    assert d.findings["residual_left"].numbers["worst_rms"] < RESIDUAL_LIMIT
+    numbers = d.findings["residual_left"].numbers
+    assert numbers["worst_rms"] < numbers["limit"]
 
 
 # ---------------------------------------------------------------- undeclared masses

@@ -2,9 +2,11 @@
 family's noise model: a structured residual above the family's limit is reported with
 its size and place; noise alone is not.
 
-References: a residual built from a known structure plus white Gaussian noise of known
-standard deviation (the size in noise units is then sqrt(1 + (S/N)^2) in closed form);
-the chi-square distribution of a sum of squares of unit normal samples (K&C cells).
+References: Monte-Carlo draws of white Gaussian noise for the size limits' false-alarm
+rates (the noise level estimated as each family estimates it); a residual built from a
+known structure plus white Gaussian noise of known standard deviation (the size in
+noise units is then sqrt(1 + (S/N)^2) in closed form); the chi-square distribution of
+a sum of squares of unit normal samples (K&C cells).
 """
 
 from __future__ import annotations
@@ -14,7 +16,13 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from suspenv.diagnosis.checks.residual_left import RESIDUAL_LIMIT, Left, from_cells, run
+from suspenv.diagnosis.checks.residual_left import (
+    Left,
+    from_cells,
+    roughness_factor,
+    run,
+    size_limit,
+)
 from suspenv.diagnosis.decision import DecisionRule
 
 
@@ -81,20 +89,75 @@ def test_knc_cells_structure_is_reported_with_size_and_place_noise_is_not():
     cells[("parallel", "fz")] = cells[("parallel", "fz")] + 12.0 * (np.arange(50) >= 30)
     views, numbers = from_cells(cells, 0.01)
     (left,) = views
-    assert left.remains and left.channel == "fz" and left.rms > RESIDUAL_LIMIT
+    assert left.remains and left.channel == "fz" and left.rms > left.limit
     assert "parallel test's fz" in left.where and numbers["lag1"] > 0.5
     assert f"{left.rms:.3g} times the noise" in _finding(views).sentence
 
 
 def test_ride_view_needs_size_and_structure():
-    from suspenv.diagnosis.ride.residual import EXCESS_LIMIT, ResidualCheck
+    from suspenv.diagnosis.ride.residual import ResidualCheck
+
+    limit = 1.05
 
     def check(excess: float, p: float) -> ResidualCheck:
-        return ResidualCheck(1.0, excess * 0.1, 0.1, excess, 0.5, 50.0, p, named=True)
+        return ResidualCheck(1.0, excess * 0.1, 0.1, excess, 0.5, 50.0, p, limit, named=True)
 
     assert check(1.8, 1e-6).view().remains  # large and not white
     assert not check(1.8, 0.5).view().remains  # large but white: noise of another level
-    assert not check(0.5 * (1 + EXCESS_LIMIT), 1e-6).view().remains  # below the limit
+    assert not check(0.5 * (1 + limit), 1e-6).view().remains  # below the limit
     found = _finding([check(1.8, 1e-6).view()])
     assert "1.8 times the noise" in found.sentence and "Ljung-Box p = 1e-06" in found.sentence
     assert "sensor-noise floor" in found.sentence  # where: the held-out error in words
+
+
+def _rate_within(alarms: int, rounds: int, alpha: float) -> None:
+    """The false-alarm rate is at most ``alpha`` within 4 binomial standard errors, and
+    the limit is not needlessly wide (the rate is above a tenth of ``alpha``)."""
+    rate, se = alarms / rounds, np.sqrt(alpha * (1 - alpha) / rounds)
+    assert alpha / 10 < rate <= alpha + 4 * se, (rate, se)
+
+
+def test_roughness_factor_matches_a_monte_carlo_of_the_noise_estimate():
+    # reference: the variance of the K&C noise estimate (median absolute second
+    # difference, suspenv.diagnosis.knc.locate.residual_map) over 4000 draws of 400
+    # white samples; 1.36 would be the median absolute deviation of independent samples
+    r = np.random.default_rng(11).normal(size=(4000, 400))
+    d = r[:, 1:-1] - 0.5 * (r[:, :-2] + r[:, 2:])
+    sigma = 1.4826 * np.median(np.abs(d), axis=1) / np.sqrt(1.5)
+    # relative standard error of a variance estimate from 4000 draws: sqrt(2 / 4000)
+    assert np.var(sigma) * d.shape[1] == pytest.approx(roughness_factor(), rel=0.1)
+
+
+@pytest.mark.parametrize("alpha", [0.01, 0.05])
+def test_knc_size_limit_false_alarm_rate_under_noise_is_at_most_alpha(alpha):
+    # 6 channels x 3 tests of 50 samples of white noise in unknown units, each channel's
+    # noise read from its roughness; the size limit alone (no chi-square test)
+    rng = np.random.default_rng(12)
+    rounds, alarms = 4000, 0
+    for _ in range(rounds):
+        r = rng.normal(size=(6, 3, 50))
+        d = r[:, :, 1:-1] - 0.5 * (r[:, :, :-2] + r[:, :, 2:])
+        sigma = 1.4826 * np.median(np.abs(d).reshape(6, -1), axis=1) / np.sqrt(1.5)
+        cells = {(t, f"c{c}"): r[c, t] / sigma[c] for c in range(6) for t in range(3)}
+        views, numbers = from_cells(cells, alpha)
+        limit = size_limit(roughness_factor() / (3 * 48), 150, alpha, 6)
+        assert numbers["limit"]["c0"] == pytest.approx(limit, rel=1e-12)
+        alarms += max(numbers["rms_noise_units"].values()) > limit
+    _rate_within(alarms, rounds, alpha)
+
+
+@pytest.mark.parametrize("alpha", [0.01, 0.05])
+def test_ride_size_limit_false_alarm_rate_under_noise_is_at_most_alpha(alpha):
+    # 2 recordings of 1024 white samples at 200 Hz, noise read from the Hann periodogram
+    # above 50 Hz (suspenv.diagnosis.ride.residual.white_noise_sd), pooled as the floor
+    from suspenv.diagnosis.ride.residual import white_noise_sd
+
+    rng = np.random.default_rng(13)
+    rounds, alarms = 3000, 0
+    for _ in range(rounds):
+        r = rng.normal(size=(2, 1024))
+        sd, var2 = zip(*(white_noise_sd(x, 0.005) for x in r), strict=True)
+        floor = np.sqrt(np.mean(np.square(sd)))
+        limit = size_limit(0.25 / sum(1 / v for v in var2), r.size, alpha)
+        alarms += np.sqrt(np.mean(r**2)) / floor > limit
+    _rate_within(alarms, rounds, alpha)

@@ -16,10 +16,22 @@ and its own record of the numbers (for the report). The rule is the same everywh
 is a size, not only a test: noise levels are themselves estimates, and a test alone
 would read a noise level estimated a little low as missing physics.
 
+**The size limit** (:func:`size_limit`) follows from how well the noise level is known.
+Under noise only the RMS in noise units is ``rms / sigma_hat``: the RMS of ``n``
+unit-variance samples has relative variance ``1 / (2 n)``, the noise estimate
+``sigma_hat`` its own relative variance ``v`` (the family's, from the number of samples
+or spectral lines it is read from), so the ratio's standard error is
+``se = sqrt(v + 1 / (2 n))`` and the ratio exceeds ``1 + z(alpha / m) se`` with
+probability at most ``alpha / m`` (normal approximation, ``z`` the upper quantile);
+with ``m`` channels tested (Bonferroni) the false-alarm rate of the size limit under
+noise only is at most ``alpha``.
+
 For a family whose residual comes in noise units per (test, channel) with the noise
-level known (the K&C family's, from the roughness of the residual along each loop),
-:func:`from_cells` is its view: a chi-square test per channel (Bonferroni over the
-channels) and :data:`RESIDUAL_LIMIT`.
+level read from the roughness of the residual itself (the K&C family's:
+:func:`~suspenv.diagnosis.knc.locate.residual_map`, the median absolute second
+difference), :func:`from_cells` is its view: a chi-square test per channel (Bonferroni
+over the channels) and the size limit with ``v`` of that estimate
+(:func:`roughness_factor` over the number of second differences).
 
 The finding says the size, where it lives, the test, and which candidates the search
 refitted without taking it up; it stands in for "no significant missing physics".
@@ -29,6 +41,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from functools import cache
 from typing import Any
 
 import numpy as np
@@ -37,11 +50,39 @@ from scipy import stats
 from suspenv.diagnosis.checks.finding import Context, Finding
 from suspenv.diagnosis.fitting import lag1_autocorrelation
 
-#: a channel whose residual RMS exceeds this many noise levels is a residual left, where
-#: the noise level is read from the residual's roughness along a loop of about 50
-#: samples (within about 20 %, so a limit close to 1 would read an estimate 20 % low as
-#: physics; 3 noise levels is more than ten standard errors of such an estimate)
-RESIDUAL_LIMIT = 3.0
+
+def size_limit(noise_variance: float, n: int, alpha: float, tests: int = 1) -> float:
+    """The RMS in noise units above which a residual counts (module docstring):
+    ``1 + z(alpha / tests) sqrt(noise_variance + 1 / (2 n))``.
+
+    Args:
+        noise_variance: relative variance of the noise level's estimate (dimensionless).
+        n: samples behind the RMS.
+        alpha: the rule's level; tests: the views tested (Bonferroni).
+    """
+    se = np.sqrt(noise_variance + 0.5 / n)
+    return float(1.0 + stats.norm.isf(alpha / tests) * se)
+
+
+@cache
+def roughness_factor() -> float:
+    """``n`` times the relative variance of the noise level read from ``n`` second
+    differences ``d_i = r_i - (r_(i-1) + r_(i+1)) / 2`` of white Gaussian noise by their
+    median absolute value (:func:`~suspenv.diagnosis.knc.locate.residual_map`).
+
+    The sample median ``q`` of ``|d|`` has asymptotic variance ``sum_k g_k / (n f^2)``,
+    ``f`` the density of ``|d|`` at its median and ``g_k`` the covariance of the
+    indicators ``|d_i| <= q`` at lag ``k`` (the differences are correlated -2/3 at lag 1
+    and 1/6 at lag 2, independent beyond). In units of the standard deviation of ``d``:
+    ``q = z(1/4)``, ``f = 2 phi(q)``; the relative variance is that over ``q^2``
+    (1.36 / n for independent samples, the median absolute deviation's)."""
+    q = float(stats.norm.isf(0.25))
+    g = 0.25  # lag 0: the indicator's variance p (1 - p), p = 1/2
+    for rho in (-2.0 / 3.0, 1.0 / 6.0):
+        mvn = stats.multivariate_normal(cov=[[1.0, rho], [rho, 1.0]])
+        both = mvn.cdf([q, q]) - 2 * mvn.cdf([q, -q]) + mvn.cdf([-q, -q])
+        g += 2 * (both - 0.25)
+    return float(g / (2 * stats.norm.pdf(q) * q) ** 2)
 
 
 @dataclass
@@ -75,18 +116,23 @@ class Left:
 
 
 def judge(cells: dict[tuple[str, str], np.ndarray], alpha: float) -> dict[str, Any]:
-    """The numbers of the rule on ``cells`` ((test, channel) -> residual in noise units):
-    per channel RMS and corrected p-value, the worst channel, where the excess lives."""
+    """The numbers of the rule on ``cells`` ((test, channel) -> residual in noise units,
+    the noise level read from the roughness of the same residual): per channel RMS,
+    size limit (:func:`size_limit`) and corrected p-value, the worst channel, where the
+    excess lives."""
     by_channel: dict[str, list[np.ndarray]] = {}
     for (_, ch), r in cells.items():
         by_channel.setdefault(ch, []).append(np.asarray(r, float))
-    rms, p = {}, {}
+    rms, p, limit = {}, {}, {}
     for ch, parts in by_channel.items():
         r = np.concatenate(parts)
         rms[ch] = float(np.sqrt(np.mean(r**2)))
+        # the noise level is read from the second differences within each part
+        rough = roughness_factor() / max(sum(x.size - 2 for x in parts), 1)
+        limit[ch] = size_limit(rough, r.size, alpha, len(by_channel))
         # sum of squares of n unit-variance samples: chi-square with n degrees of freedom
         p[ch] = min(1.0, len(by_channel) * float(stats.chi2.sf(np.sum(r**2), r.size)))
-    worst = max(rms, key=lambda c: rms[c])
+    worst = max(rms, key=lambda c: rms[c] / limit[c])
     excess = {k: float(np.sum(np.asarray(r) ** 2) - r.size) for k, r in cells.items()}
     where = max(excess, key=lambda k: excess[k])
     total = sum(max(v, 0.0) for v in excess.values()) or 1.0
@@ -95,10 +141,11 @@ def judge(cells: dict[tuple[str, str], np.ndarray], alpha: float) -> dict[str, A
         "p_corrected": p,
         "worst_channel": worst,
         "worst_rms": rms[worst],
+        "limit": limit,
         "where": {"test": where[0], "channel": where[1]},
         "where_share": max(excess[where], 0.0) / total,
         "lag1": lag1_autocorrelation(cells[where]),
-        "remains": bool(rms[worst] > RESIDUAL_LIMIT and p[worst] < alpha),
+        "remains": bool(rms[worst] > limit[worst] and p[worst] < alpha),
     }
 
 
@@ -113,7 +160,7 @@ def from_cells(
     left = Left(
         ch,
         n["rms_noise_units"][ch],
-        RESIDUAL_LIMIT,
+        n["limit"][ch],
         n["p_corrected"][ch] < alpha,
         f"chi-square test against the noise p = {n['p_corrected'][ch]:.2g}",
         f"{100 * n['where_share']:.0f} % of the excess in the {n['where']['test']} test's "

@@ -21,9 +21,14 @@ named elements, or the baseline when nothing is named):
 * **whiteness**: Ljung-Box test (20 lags) of the final held-out scaled residual,
   recordings and channels stacked.
 * **residual remains** by the shared rule (:mod:`suspenv.diagnosis.checks.residual_left`):
-  the excess ratio (the RMS in noise units) above :data:`EXCESS_LIMIT` *and* the
-  Ljung-Box p-value below the rule's level: the model error left is at least ~ 0.46 x
-  the noise in RMS and it is structured, not noise.
+  the excess ratio (the RMS in noise units) above its size limit *and* the Ljung-Box
+  p-value below the rule's level. The limit is
+  :func:`~suspenv.diagnosis.checks.residual_left.size_limit` of how well the floor is
+  known: the mean of ``K`` Hann-tapered periodogram lines of white noise estimates
+  ``sigma^2`` with relative variance ``c / K``, ``c = N sum(w^4) / sum(w^2)^2`` (35/18
+  for the Hann taper: neighbouring lines are correlated), so ``sigma`` has ``c / (4 K)``;
+  ``K`` counts the lines over the held-out recordings and channels, the RMS's ``n`` their
+  samples (channels taken as equally weighted in the pooled ratio).
 * **named with confidence**: something is named and no residual remains (a named
   element's parameter on its fit bound is the shared check's,
   :mod:`suspenv.diagnosis.checks.bounds`).
@@ -42,23 +47,20 @@ from typing import Any
 import numpy as np
 
 from suspenv.core.errors import ValidationError
-from suspenv.diagnosis.checks.residual_left import Left
+from suspenv.diagnosis.checks.residual_left import Left, size_limit
 from suspenv.diagnosis.evidence import ljung_box, scaled_rms
 from suspenv.diagnosis.fitting import FitResult, residuals
 
 #: band (Hz) where the sensor-noise floor is measured
 NOISE_BAND_HZ = 50.0
-#: held-out error after / noise floor above which a residual is reported: a model
-#: error of RMS >= 0.46 x the noise. Dev seeds 11, 12: in-library cases after the
-#: named element and no-effect controls 0.99-1.03; out-of-library cases >= 1.19
-EXCESS_LIMIT = 1.10
 #: Ljung-Box p below which the held-out residual is not white
 WHITENESS_ALPHA = 0.01
 
 
-def white_noise_sd(r: np.ndarray, dt: float, f_min: float = NOISE_BAND_HZ) -> tuple[float, int]:
+def white_noise_sd(r: np.ndarray, dt: float, f_min: float = NOISE_BAND_HZ) -> tuple[float, float]:
     """Standard deviation of the white part of ``r`` from its periodogram above ``f_min``
-    (Hz), and the number of Fourier lines used."""
+    (Hz), and the relative variance of ``sd^2`` for white noise (``c / K``, module
+    docstring)."""
     r = np.asarray(r, float)
     r = r[np.isfinite(r)]
     n = r.size
@@ -74,23 +76,28 @@ def white_noise_sd(r: np.ndarray, dt: float, f_min: float = NOISE_BAND_HZ) -> tu
     # 1/f^3 (a plain periodogram's falls as 1/f and would swamp the noise)
     w = np.hanning(n)
     p = np.abs(np.fft.rfft((r - r.mean()) * w)[band]) ** 2
-    return float(np.sqrt(np.mean(p) / np.sum(w**2))), int(band.sum())
+    taper = n * np.sum(w**4) / np.sum(w**2) ** 2
+    return float(np.sqrt(np.mean(p) / np.sum(w**2))), float(taper / band.sum())
 
 
-def noise_floor(fit: FitResult, recordings: Any, f_min: float = NOISE_BAND_HZ) -> dict[str, float]:
+def noise_floor(
+    fit: FitResult, recordings: Any, f_min: float = NOISE_BAND_HZ
+) -> tuple[dict[str, float], float]:
     """Per-channel noise standard deviation (channel unit) over ``recordings`` (each
-    recording weighted by its samples, as the held-out RMS pools them)."""
+    recording weighted by its samples, as the held-out RMS pools them), and the
+    relative variance of the pooled floor (module docstring)."""
     parts = residuals(fit.model, fit.theta, list(recordings), fit.channels)
-    out = {}
+    out, precision = {}, 0.0
     for c in fit.channels:
         num, den = 0.0, 0
         for rec, part in zip(recordings, parts, strict=True):
-            sd, _ = white_noise_sd(part[c], rec.sample_interval, f_min)
+            sd, var2 = white_noise_sd(part[c], rec.sample_interval, f_min)
+            precision += 1.0 / var2  # the lines behind this estimate, in white-noise units
             n = int(np.isfinite(part[c]).sum())
             num += sd**2 * n
             den += n
         out[c] = float(np.sqrt(num / den)) if den else float("nan")
-    return out
+    return out, 0.25 / precision if precision else float("inf")
 
 
 @dataclass
@@ -105,9 +112,9 @@ class ResidualCheck:
     explained_share: float  # of the baseline's model-error energy
     ljung_box_q: float
     ljung_box_p: float
+    excess_limit: float  # size limit of the excess ratio (module docstring)
     named: bool = False
     per_channel_floor: dict[str, float] = field(default_factory=dict)
-    excess_limit: float = EXCESS_LIMIT
     whiteness_alpha: float = WHITENESS_ALPHA
 
     def view(self) -> Left:
@@ -158,7 +165,6 @@ def residual_check(
     final: FitResult,
     heldout: Any,
     named_elements: list[str],
-    excess_limit: float = EXCESS_LIMIT,
     alpha: float = WHITENESS_ALPHA,
 ) -> ResidualCheck:
     """The :class:`ResidualCheck` of a diagnosis (``final`` is ``base`` when nothing
@@ -178,9 +184,10 @@ def residual_check(
 
     before = scaled_rms(rms(parts_b), scales)
     after = scaled_rms(rms(parts_f), scales)
-    floor_c = noise_floor(final, held)
+    floor_c, floor_variance = noise_floor(final, held)
     floor = scaled_rms(floor_c, scales)
     series = np.concatenate([p[c] / scales[c] for p in parts_f for c in final.channels])
+    n = int(np.isfinite(series).sum())
     q, p = ljung_box(series[np.isfinite(series)])
     excess = after / floor if floor > 0 else float("inf")
     den = before**2 - floor**2
@@ -193,8 +200,8 @@ def residual_check(
         explained_share=float(explained),
         ljung_box_q=q,
         ljung_box_p=p,
+        excess_limit=size_limit(floor_variance, n, alpha),
         named=bool(named_elements),
         per_channel_floor=floor_c,
-        excess_limit=excess_limit,
         whiteness_alpha=alpha,
     )
