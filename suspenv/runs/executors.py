@@ -136,6 +136,10 @@ class DaskExecutor(Executor):
         self.client, self.address, self.grace_s = client, address, grace_s
         self._executor = client.get_executor()
         self._away_since: float | None = None
+        # tornado logs a callback's exception (a connection to the scheduler closed) with
+        # a traceback the moment the scheduler goes, before :meth:`lost` can tell; the
+        # run's own lines say what happens
+        _quiet(("tornado",))
 
     def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Future[Any]:
         return self._executor.submit(fn, *args, **kwargs)
@@ -152,9 +156,7 @@ class DaskExecutor(Executor):
             self._away_since = now
             # the client's reconnect attempts, and their cancellation when the run stops,
             # are logged as errors with tracebacks; the run's own lines say what happens
-            for name in list(logging.root.manager.loggerDict):
-                if name.split(".")[0] in ("distributed", "tornado"):
-                    logging.getLogger(name).setLevel(logging.CRITICAL)
+            _quiet(("distributed", "tornado"))
         away = now - self._away_since
         if away < self.grace_s and status != "closed":
             return None
@@ -165,6 +167,13 @@ class DaskExecutor(Executor):
 
     def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
         self._executor.shutdown(wait=wait)
+
+
+def _quiet(packages: tuple[str, ...]) -> None:
+    """Log only critical records from the loggers of ``packages`` (and their children)."""
+    for name in [*packages, *logging.root.manager.loggerDict]:
+        if name.split(".")[0] in packages:
+            logging.getLogger(name).setLevel(logging.CRITICAL)
 
 
 @contextlib.contextmanager
