@@ -211,6 +211,40 @@ def test_swapped_travel_columns_of_the_single_test_are_refused(folder):
     refused(folder, "single test .*must move less than the driven left one")
 
 
+# ------------------------------------------------------------------ opposed tests
+@pytest.fixture(scope="module")
+def opposed_results():
+    v = load_vehicle(REFERENCE_FILE)
+    return run_tests(v.axle(), ("lateral_opposed", "aligning_opposed"), 0.040, 10, v.effects)
+
+
+@pytest.fixture
+def opposed(tmp_path, opposed_results):
+    write_measurement(from_results(opposed_results, "car"), tmp_path)
+    return tmp_path
+
+
+def test_opposed_tests_pass_clean(opposed):
+    assert load_measurement(opposed).meta["warnings"] == []
+
+
+@pytest.mark.parametrize("test", ["lateral_opposed", "aligning_opposed"])
+def test_swapped_sides_of_an_opposed_test_are_refused_by_the_track(opposed, test):
+    """The track rule holds for the opposed tests as for the others. In
+    ``aligning_opposed`` no direction rule applies (a moment moves no contact point
+    along it), so the track is the only rule that sees the swap."""
+    swap_sides(opposed / f"{test}.csv")
+    msg = refused(opposed, rf"{test}\.csv \(test '{test}'\): .*the track")
+    assert "swapped" in msg
+
+
+@pytest.mark.parametrize("test", ["lateral_opposed", "aligning_opposed"])
+def test_right_values_mirrored_outboard_in_an_opposed_test_are_refused(opposed, test):
+    scale_column(opposed / f"{test}.csv", "wheel_centre_y_right [mm]", -1.0)
+    msg = refused(opposed, rf"{test}\.csv .*must be at least {MIN_TRACK * 1e3:g} mm")
+    assert "mirrored outboard" in msg
+
+
 def _set_column(path: Path, column: str, values: np.ndarray) -> None:
     header, rows = _table(path)
     j = header.index(column)

@@ -29,7 +29,7 @@ from suspenv.measurements.knc_file import (
 )
 from suspenv.metrics.knc import OBJECTIVE_NAMES, OBJECTIVES, objectives
 from suspenv.models.mcpherson.vehicle_file import REFERENCE_FILE, load_vehicle
-from suspenv.rigs.knc import ALL_TESTS, loop_path, run_tests
+from suspenv.rigs.knc import ALL_TESTS, RIG_TESTS, loop_path, run_tests
 from suspenv.rigs.knc_measured import measured_results, on_grid
 
 
@@ -38,7 +38,7 @@ from suspenv.rigs.knc_measured import measured_results, on_grid
 def reference_results():
     """``run_tests`` of the reference vehicle, every test, the CLI's defaults."""
     v = load_vehicle(REFERENCE_FILE)
-    return run_tests(v.axle(), ALL_TESTS, 0.040, 30, v.effects, force_amplitude=2500.0)
+    return run_tests(v.axle(), RIG_TESTS, 0.040, 30, v.effects, force_amplitude=2500.0)
 
 
 @pytest.fixture(scope="module")
@@ -116,7 +116,7 @@ def solver_zero_bound(opp) -> np.ndarray:
 # ------------------------------------------------------------------ round trip
 def test_cli_output_loads_back_to_the_simulated_channels(cli_folder, reference_results):
     m = load_measurement(cli_folder)
-    assert set(m.tests) == set(ALL_TESTS)
+    assert set(m.tests) == set(RIG_TESTS)
     assert m.meta["files"]["parallel"] == "mcpherson_reference_parallel.csv"
     for test, res in reference_results.items():
         mt = m.tests[test]
@@ -497,15 +497,28 @@ def opposed_results():
 
 
 def test_the_formats_opposed_tests_are_the_rigs(opposed_results):
-    """measurements.knc.OPPOSED_TESTS (the measurement layer does not import the rig)
-    names the rig's opposed tests and their in-phase tests, none of which is in the
-    pinned ALL_TESTS."""
-    from suspenv.measurements.knc import OPPOSED_TESTS
-    from suspenv.rigs.knc import OPPOSED_TESTS as RIG_OPPOSED
+    """measurements.knc.OPPOSED_TESTS names the rig's opposed tests, none of which is in
+    the pinned ALL_TESTS; an opposed test loads each wheel in its own sense, so its
+    recording (the residual screen's input) gives both wheels the drive itself, and a
+    symmetric axle equal channels at every sample (reference: mirror symmetry of the
+    reference axle; 1e-9 of each channel's size is far above the solver tolerance's
+    effect on a symmetric pair, far below the channels' change with the load)."""
+    from suspenv.measurements.knc import OPPOSED_TESTS, drive, drive_label, mirrored
+    from suspenv.rigs.knc_recording import to_recording
 
-    assert OPPOSED_TESTS == RIG_OPPOSED
     assert not set(OPPOSED_TESTS) & set(ALL_TESTS)
     assert set(opposed_results) == set(OPPOSED)
+    for test, res in opposed_results.items():
+        rec = to_recording(res)
+        own = rec.inputs["force"] / res.grid[-1]
+        assert np.array_equal(drive(rec, "left"), own)
+        assert np.array_equal(drive(rec, "right"), own) and not mirrored(rec)
+        want = {"lateral_opposed": "own outboard contact force", "aligning_opposed": "own toe-out"}
+        assert drive_label(rec)[0].startswith(want[test])
+        for ch in ("toe", "camber", "tyre_fz", "contact_lateral"):
+            a, b = rec.outputs[f"{ch}_left"], rec.outputs[f"{ch}_right"]
+            assert np.ptp(a) > 1e-6 * np.max(np.abs(a)), (test, ch)  # the load moves it
+            np.testing.assert_allclose(b, a, rtol=0, atol=1e-9 * np.max(np.abs(a)))
 
 
 def test_opposed_tests_written_to_a_folder_load_back_as_the_rigs_output(

@@ -17,6 +17,7 @@ from suspenv.measurements.knc import (
     ALL_TESTS,
     DRIVE_UNIT,
     FORCE_TESTS,
+    OPPOSED_TESTS,
     STEER_TESTS,
     TESTS,
     drive,
@@ -73,7 +74,8 @@ def test_test_names_units_and_grids(runs):
     assert (*TESTS, "lateral", "longitudinal", "traction", "aligning", "steering") == ALL_TESTS
     assert FORCE_TESTS == ("lateral", "longitudinal", "traction", "aligning")
     assert STEER_TESTS == ("steering",)
-    assert set(DRIVE_UNIT) == set(ALL_TESTS)
+    assert set(DRIVE_UNIT) == set(ALL_TESTS) | set(OPPOSED_TESTS)
+    assert all(DRIVE_UNIT[o] == DRIVE_UNIT[p] for o, p in OPPOSED_TESTS.items())
     want = {"traction": ("N", 2500.0), "aligning": ("N*m", 250.0), "steering": ("m", 0.030)}
     for t, (unit, amp) in want.items():
         r = runs[t]

@@ -1,14 +1,13 @@
-"""``suspenv knc VEHICLE.toml --test parallel|opposite|single|lateral|longitudinal|all
-[--plot] [--out DIR]``.
+"""``suspenv knc VEHICLE.toml --test TEST|all [--plot] [--out DIR]``.
 
 Runs the virtual K&C rig on a McPherson vehicle file (format: ``docs/knc.md``),
 writes the loop curves in the measured-K&C format (``docs/knc.md`` "Measured K&C
 format": ``knc.toml`` and one CSV per test, one row per rig step, both wheels, units in
 the column names: mm, deg, N, N*m; raw ISO 8855 signs), which
 :func:`suspenv.measurements.knc_file.load_measurement` reads back, and, with ``--plot``,
-a PNG of the usual curves against wheel travel (travel tests) or contact-point force (compliance
-tests). Prints the travel test's objectives, the compliance test's slopes, and the
-classic K&C numbers.
+a PNG of the usual curves against wheel travel (travel tests) or the load (compliance
+tests, in phase or opposed: :data:`TEST_CHOICES`, docs/knc.md). Prints the travel
+test's objectives, the compliance test's slopes, and the classic K&C numbers.
 
 Files are ``knc.toml`` and ``<vehicle name>_<test>.csv`` / ``.png`` with the vehicle's
 ``name`` made a plain file name (``../x`` -> ``_x``), so nothing is written outside
@@ -28,8 +27,8 @@ import numpy as np
 if TYPE_CHECKING:
     from suspenv.rigs.knc import KCResult
 
-#: the rig tests (``suspenv.rigs.knc.ALL_TESTS``, pinned by a test; the CLI does not
-#: import the solver before a command needs it)
+#: the rig tests (``suspenv.measurements.knc.RIG_TESTS``, pinned by a test; the CLI
+#: does not import the solver before a command needs it)
 TEST_CHOICES = (
     "parallel",
     "opposite",
@@ -39,6 +38,8 @@ TEST_CHOICES = (
     "traction",
     "aligning",
     "steering",
+    "lateral_opposed",
+    "aligning_opposed",
 )
 
 
@@ -47,9 +48,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         "knc",
         help="run a virtual K&C rig on a McPherson vehicle file",
         description="Parallel, opposite or single wheel travel (+-40 mm, 30 steps, loop "
-        "design -> bump -> rebound -> design), or a lateral or longitudinal force at both "
-        "contact points (+-2500 N, same loop), of a McPherson axle; writes CSV curves and "
-        "optionally a plot.",
+        "design -> bump -> rebound -> design), a compliance test (+-2500 N or +-250 N*m at "
+        "both wheels, in phase or opposed, same loop) or rack travel, of a McPherson axle; "
+        "writes CSV curves and optionally a plot.",
     )
     p.add_argument(
         "vehicle",
@@ -80,12 +81,13 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _run(args: argparse.Namespace) -> int:
+    from suspenv.measurements.knc import LOADED_TESTS, RIG_TESTS, TESTS
     from suspenv.measurements.knc_file import from_results, write_measurement
     from suspenv.measurements.paths import check_output_dir, output_file, plain_file_name
     from suspenv.metrics.knc import OBJECTIVES, objectives
     from suspenv.models.mcpherson.vehicle_file import REFERENCE_FILE, load_vehicle
     from suspenv.reports.knc_rig import plot_rig_curves
-    from suspenv.rigs.knc import ALL_TESTS, FORCE_TESTS, TESTS, run_tests
+    from suspenv.rigs.knc import run_tests
 
     if args.vehicle == "fsae" or is_measurement(args.vehicle):
         return run_measured(args)
@@ -93,7 +95,7 @@ def _run(args: argparse.Namespace) -> int:
     vehicle = load_vehicle(path)
     out = check_output_dir(Path(args.out), args.overwrite)
     stem = plain_file_name(vehicle.name, fallback="vehicle")
-    tests = ALL_TESTS if args.test == "all" else (args.test,)
+    tests = RIG_TESTS if args.test == "all" else (args.test,)
     # the objectives and classic numbers need the three travel tests; they are cheap
     run = tuple(dict.fromkeys([*TESTS, *tests]))
     results = run_tests(
@@ -120,7 +122,7 @@ def _run(args: argparse.Namespace) -> int:
     for test in tests:
         if args.plot:
             png = output_file(out, f"{stem}_{test}.png")
-            what = "force at the contact points" if test in FORCE_TESTS else "wheel travel"
+            what = "load" if test in LOADED_TESTS else "wheel travel"
             plot_rig_curves(results[test], png, f"{vehicle.name}: {test} {what}")
             print(f"wrote {png}")
         if test not in TESTS:
@@ -164,9 +166,10 @@ def compliance_slopes(res: KCResult) -> dict[str, float]:
     """Left wheel's response to a compliance or steering test: central difference of the
     loop's mid-line through the static position, per kN of force (deg/kN, mm/kN, N/kN),
     per kN*m of moment (``aligning``) or per mm of rack travel (``steering``). The left
-    wheel's own sense is the test's positive sense: +y outboard (``lateral``), +x forward
-    (``longitudinal`` at the contact point, ``traction`` at the wheel centre), +z a
-    toe-out moment (``aligning``), +y rack travel towards the left (``steering``)."""
+    wheel's own sense is the test's positive sense: +y outboard (``lateral``,
+    ``lateral_opposed``), +x forward (``longitudinal`` at the contact point, ``traction``
+    at the wheel centre), +z a toe-out moment (``aligning``, ``aligning_opposed``), +y
+    rack travel towards the left (``steering``)."""
     i = res.static_index
     per, scale_in = {"N": ("kN", 1e3), "N*m": ("kN*m", 1e3), "m": ("mm", 1e-3)}[res.unit]
     df = (res.grid[i + 1] - res.grid[i - 1]) / scale_in
@@ -228,12 +231,12 @@ def run_measured(args: argparse.Namespace) -> int:
     print its tests and noise and the compliance analysis of each compliance test's toe.
     ``suspenv knc fsae``: first write the shared FSAE moment file in the format into
     ``--out`` (:func:`~suspenv.measurements.sources.fsae_knc.fsae_aligning`)."""
+    from suspenv.measurements.knc import LOADED_TESTS
     from suspenv.measurements.knc_compliance import compliance_analysis
     from suspenv.measurements.knc_file import (
         CHANNELS,
         DRIVE_COLUMN,
         EDGE_UNIT,
-        FORCE_TESTS,
         UNITS,
         load_measurement,
         write_measurement,
@@ -272,7 +275,7 @@ def run_measured(args: argparse.Namespace) -> int:
         print(f"    {ch:16s} {sigma / UNITS[unit][0]:10.3g} {unit}  ({m.noise_source[ch]})")
     print_measured_sheet(m)
     for test in m.tests:
-        if test not in FORCE_TESTS or "toe" not in m.tests[test].channels:
+        if test not in LOADED_TESTS or "toe" not in m.tests[test].channels:
             continue
         for wheel in m.tests[test].wheels:
             print()

@@ -51,13 +51,17 @@ FORCE_TESTS = ("lateral", "longitudinal", "traction", "aligning")
 STEER_TESTS = ("steering",)
 ALL_TESTS = TESTS + FORCE_TESTS + STEER_TESTS
 #: opposed (anti-phase) compliance tests -> the in-phase test whose load they turn on
-#: the right wheel (:data:`suspenv.rigs.knc.OPPOSED_TESTS`, pinned equal by a test):
+#: the right wheel (see :mod:`suspenv.rigs.knc`):
 #: ``lateral_opposed`` +F [N] outboard at both contact points (+y left, -y right),
 #: ``aligning_opposed`` +M [N*m] toe-out at both (+z left, -z right). Not in
-#: :data:`ALL_TESTS` (the identification's tests and its next-test advice); the
-#: measured-K&C format loads them
+#: :data:`ALL_TESTS` (the test car's tests and the next-test advice); the rig runs them,
+#: the measured-K&C format loads them and the identification fits them
 OPPOSED_TESTS: dict[str, str] = {"lateral_opposed": "lateral", "aligning_opposed": "aligning"}
-#: unit of each test's drive (the rig grid, ``KCResult.unit``, a recording's amplitude):
+#: every test the rig runs and the measured-K&C format knows
+RIG_TESTS: tuple[str, ...] = (*ALL_TESTS, *OPPOSED_TESTS)
+#: the tests that load the wheels (their drive, input ``force``, is a force or a moment)
+LOADED_TESTS: tuple[str, ...] = (*FORCE_TESTS, *OPPOSED_TESTS)
+#: unit of each rig test's drive (the rig grid, ``KCResult.unit``, a recording's amplitude):
 #: pad stroke [m], force [N], moment [N*m] or rack travel [m]
 DRIVE_UNIT: dict[str, str] = {
     "parallel": "m",
@@ -69,6 +73,7 @@ DRIVE_UNIT: dict[str, str] = {
     "aligning": "N*m",
     "steering": "m",
 }
+DRIVE_UNIT.update({o: DRIVE_UNIT[p] for o, p in OPPOSED_TESTS.items()})
 
 SIDES = ("left", "right")
 #: recorded channels: name -> (rig channel, unit, outboard sign flip on the right)
@@ -108,16 +113,17 @@ def is_knc(rec: object) -> bool:
 def rig_test(rec: RecordingLike) -> str:
     """The rig test (``parallel`` ...) of a K&C recording."""
     test = str(rec.meta.get("knc_test", rec.test.removeprefix(TEST_PREFIX)))
-    if test not in ALL_TESTS:
+    if test not in RIG_TESTS:
         raise ValidationError(
-            f"recording {rec.name!r}: the K&C test must be one of {ALL_TESTS}, but got {test!r}"
+            f"recording {rec.name!r}: the K&C test must be one of {RIG_TESTS}, but got {test!r}"
         )
     return test
 
 
 def is_force_test(rec: RecordingLike) -> bool:
-    """True for a compliance (force or moment, input ``force``) recording."""
-    return rig_test(rec) in FORCE_TESTS
+    """True for a compliance (force or moment, input ``force``) recording, in phase or
+    opposed."""
+    return rig_test(rec) in LOADED_TESTS
 
 
 def drive(rec: RecordingLike, side: str) -> np.ndarray:
@@ -128,7 +134,8 @@ def drive(rec: RecordingLike, side: str) -> np.ndarray:
     see opposite signs); forward positive in ``longitudinal`` and ``traction``; in
     ``aligning`` positive for a moment that turns that wheel's front outboard (a
     toe-out moment: +z on the left wheel, -z on the right, so the two wheels of a +z
-    moment see opposite signs). Steering test: the rack travel towards the wheel's
+    moment see opposite signs); an opposed test loads both wheels in their own sense,
+    so both see the drive. Steering test: the rack travel towards the wheel's
     own outboard side (+y on the left wheel, -y on the right). A symmetric axle gives
     equal left and right channels at equal drive.
     """
@@ -160,7 +167,7 @@ def mirrored(rec: RecordingLike) -> bool:
 
 def drive_label(rec: RecordingLike) -> tuple[str, float]:
     """(axis label, factor from SI to the plotted unit) of a recording's drive."""
-    test = rig_test(rec)
+    test = OPPOSED_TESTS.get(rig_test(rec), rig_test(rec))
     if test == "aligning":
         return "own toe-out moment about z at the contact point [N*m]", 1.0
     if test in STEER_TESTS:
@@ -170,7 +177,7 @@ def drive_label(rec: RecordingLike) -> tuple[str, float]:
             test, "forward contact"
         )
         return f"own {what} force [kN]", 1e-3
-    if rig_test(rec) == "single":
+    if test == "single":
         return "left pad travel [mm] (the right pad stays)", 1e3
     return "own pad travel [mm]", 1e3
 

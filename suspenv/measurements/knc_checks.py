@@ -46,6 +46,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
 from typing import Any, Protocol
 
 import numpy as np
@@ -53,7 +54,7 @@ import numpy as np
 from suspenv.core.errors import ValidationError
 from suspenv.core.options import check_keywords
 from suspenv.measurements.errors import RecordingError
-from suspenv.measurements.knc import DRIVE_UNIT, SIDES
+from suspenv.measurements.knc import DRIVE_UNIT, OPPOSED_TESTS, SIDES
 
 #: keys of ``knc.toml`` (docs/knc.md "Measured K&C format")
 MANIFEST_KEYS = (
@@ -160,9 +161,39 @@ def check_tests(
         where = f"{files.get(name, name)} (test {name!r})"
         _check_magnitudes(where, t, quantity)
         _check_track(where, t)
-        _check_directions(where, t)
+        for view in _wheel_views(t):
+            _check_directions(where, view)
         warnings += _spikes(where, t, quantity)
     return warnings
+
+
+@dataclass
+class _View:
+    """A test as the direction rules read it (:class:`TestLike`)."""
+
+    test: str
+    drive: np.ndarray
+    branch: np.ndarray
+    channels: dict[str, np.ndarray]
+
+
+def _wheel_views(t: TestLike) -> list[TestLike]:
+    """The test itself; an opposed test (:data:`OPPOSED_TESTS`) is its in-phase test
+    one wheel at a time, each wheel driven by its own load (the right wheel's is the
+    in-phase load negated), so that every wheel meets the in-phase test's direction
+    rules (the other wheel's channels NaN, which the rules skip)."""
+    in_phase = OPPOSED_TESTS.get(t.test)
+    if in_phase is None:
+        return [t]
+    return [
+        _View(
+            in_phase,
+            -np.asarray(t.drive) if side == "right" else np.asarray(t.drive),
+            t.branch,
+            {c: np.where(np.arange(2) == w, v, np.nan) for c, v in t.channels.items()},
+        )
+        for w, side in enumerate(SIDES)
+    ]
 
 
 # ------------------------------------------------------------------ magnitudes

@@ -16,11 +16,11 @@ from statistics import NormalDist
 import numpy as np
 
 from suspenv.core.errors import ValidationError
+from suspenv.measurements.knc import LOADED_TESTS
 from suspenv.measurements.knc_file import (
     CHANNELS,
     DRIVE_COLUMN,
     EDGE_UNIT,
-    FORCE_TESTS,
     SIDES,
     UNITS,
     KncMeasurement,
@@ -171,9 +171,9 @@ def compliance_analysis(
     saturation (slope at small against large drive). ``wheel`` defaults to the first
     measured wheel. Every sample of every branch enters (a loop's two branches average
     out its hysteresis in the fitted line)."""
-    if test not in FORCE_TESTS:
+    if test not in LOADED_TESTS:
         raise ValidationError(
-            f"compliance analysis needs a test of {FORCE_TESTS}, but got {test!r}"
+            f"compliance analysis needs a test of {LOADED_TESTS}, but got {test!r}"
         )
     if test not in m.tests:
         raise ValidationError(f"the measurement holds no {test!r} test; it holds {list(m.tests)}")

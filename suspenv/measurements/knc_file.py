@@ -1031,44 +1031,19 @@ def load_measurement(
     for c, spec in data.get("noise", {}).items():
         factor, _ = _unit(spec["unit"], f"{where} [noise] {c}")
         declared[c] = float(spec["sigma"]) * factor
+    files = {t: spec["file"] for t, spec in data["tests"].items()}
     meta: dict[str, Any] = {
         "source": data.get("source", ""),
         "sign_convention": SIGN_CONVENTION,
         "travel_drive": data.get("travel_drive", "pad"),
         "wheels": wheels,
-        "files": {t: spec["file"] for t, spec in data["tests"].items()},
+        "files": files,
         "amplitude": {t: float(np.max(np.abs(m.drive))) for t, m in loaded.items()},
         "steps": {t: s for t, m in loaded.items() if (s := m.uniform_steps()) is not None},
         "units": {t: m.units for t, m in loaded.items()},
         "path": str(folder),
-        "warnings": check_tests(*_check_views(loaded, data["tests"]), CHANNELS),
+        "warnings": check_tests(loaded, files, CHANNELS),
     }
     if "notes" in data:
         meta["notes"] = data["notes"]
     return _assemble(data["name"], loaded, declared, meta)
-
-
-def _check_views(
-    tests: Mapping[str, MeasuredTest], specs: Mapping[str, Mapping[str, Any]]
-) -> tuple[dict[str, MeasuredTest], dict[str, str]]:
-    """(tests, test -> file name) as :func:`check_tests` reads them. An opposed test is
-    its in-phase test one wheel at a time, each wheel driven by its own load (the
-    right wheel's is the in-phase load negated), so every wheel meets the in-phase
-    test's rules; the left-right rule (the track) needs both wheels of one test and is
-    left to the other tests of the folder."""
-    views: dict[str, MeasuredTest] = {}
-    files: dict[str, str] = {}
-    for name, t in tests.items():
-        in_phase = _knc.OPPOSED_TESTS.get(name)
-        if in_phase is None:
-            views[name], files[name] = t, specs[name]["file"]
-            continue
-        for w, side in enumerate(SIDES):
-            if side not in t.wheels:
-                continue
-            key = f"{name}, {side} wheel"
-            one = {c: np.where(np.arange(2) == w, v, np.nan) for c, v in t.channels.items()}
-            drive = -t.drive if side == "right" else t.drive
-            views[key] = MeasuredTest(in_phase, drive, t.branch, one, (side,))
-            files[key] = specs[name]["file"]
-    return views, files

@@ -146,11 +146,11 @@ def check_options(options: Mapping[str, Any]) -> dict[str, Any]:
         raise ValidationError(
             f"identify: `sides` must be one of {SIDES_OPTIONS}, but got {o['sides']!r}"
         )
-    from suspenv.measurements.knc import ALL_TESTS
+    from suspenv.measurements.knc import RIG_TESTS
 
-    if o["held_out"] not in ("", "auto", *ALL_TESTS):
+    if o["held_out"] not in ("", "auto", *RIG_TESTS):
         raise ValidationError(
-            f"identify: `held_out` must be a rig test {ALL_TESTS}, 'auto' (the test the fit "
+            f"identify: `held_out` must be a rig test {RIG_TESTS}, 'auto' (the test the fit "
             f"determines best) or '' (none), but got "
             f"{o['held_out']!r}"
         )
@@ -172,13 +172,13 @@ def measure_truth(
     The travel tests are :func:`suspenv.problems.kc_identification.measure` (the data
     of ``KCIdentification``); every other test is run at the rig's default amplitude
     and gets the same noise model from its own seeded stream."""
-    from suspenv.measurements.knc import ALL_TESTS, TESTS
+    from suspenv.measurements.knc import RIG_TESTS, TESTS
     from suspenv.problems.kc_identification import measure
     from suspenv.rigs.knc import run_tests
 
-    bad = [t for t in tests if t not in ALL_TESTS]
+    bad = [t for t in tests if t not in RIG_TESTS]
     if bad:
-        raise ValidationError(f"unknown K&C test(s) {bad}; known tests are {ALL_TESTS}")
+        raise ValidationError(f"unknown K&C test(s) {bad}; known tests are {RIG_TESTS}")
     out: dict[str, Any] = {}
     if any(t in TESTS for t in tests):
         travel = measure(truth, amplitude, steps)
@@ -189,7 +189,7 @@ def measure_truth(
         res = run_tests(truth.axle(), (t,), amplitude, steps, truth.effects)[t]
         if not res.ok.all():
             raise ValidationError(f"the truth vehicle fails the {t} test: {res.messages[0]}")
-        rng = np.random.default_rng(20_000 + 100 * truth.seed + ALL_TESTS.index(t))
+        rng = np.random.default_rng(20_000 + 100 * truth.seed + RIG_TESTS.index(t))
         for name in sorted(truth.noise):
             res.channels[name] = res.channels[name] + rng.normal(
                 0.0, truth.noise[name], res.channels[name].shape
@@ -368,12 +368,12 @@ def build_model(
 ) -> CurveModel:
     """The :class:`CurveModel` of a measurement on a vehicle (its space, constants,
     orientation, effects); the tests the rig cannot simulate are refused."""
-    from suspenv.measurements.knc import ALL_TESTS
+    from suspenv.measurements.knc import RIG_TESTS
 
-    unknown = [t for t in measurement.tests if t not in ALL_TESTS]
+    unknown = [t for t in measurement.tests if t not in RIG_TESTS]
     if unknown:
         raise ValidationError(
-            f"identify: the rig simulates the tests {ALL_TESTS}, but the measurement holds "
+            f"identify: the rig simulates the tests {RIG_TESTS}, but the measurement holds "
             f"{unknown}"
         )
     tests = []

@@ -5,7 +5,7 @@ deg, N; ISO 8855 signs with lateral positions mirrored outboard positive.
 :func:`write_csv` writes one test in the measured-K&C format instead
 (:mod:`suspenv.measurements.knc_file`, raw ISO 8855). The figure draws toe, camber,
 caster, tyre force, hub and contact-patch lateral position against wheel travel (travel
-tests) or the contact-point force (compliance tests). Used by ``suspenv knc``.
+tests) or the load (compliance tests, in phase or opposed). Used by ``suspenv knc``.
 """
 
 from __future__ import annotations
@@ -14,9 +14,10 @@ from pathlib import Path
 
 import numpy as np
 
+from suspenv.measurements.knc import LOADED_TESTS
 from suspenv.models.mcpherson.params import SIDE_SIGN
 from suspenv.reports._mpl import pyplot, save_figure
-from suspenv.rigs.knc import FORCE_TESTS, KCResult
+from suspenv.rigs.knc import KCResult
 
 #: CSV/plot channels: column stem -> (rig channel, scale to edge units, outboard-mirrored)
 CHANNELS = {
@@ -39,7 +40,7 @@ CHANNELS = {
 
 def curve_table(res: KCResult) -> tuple[list[str], np.ndarray]:
     """Column names and rows (P, columns) of one design's loop (row 0 of the batch)."""
-    force = res.test in FORCE_TESTS
+    force = res.test in LOADED_TESTS
     cols = ["step", "force_N" if force else "stroke_mm", "direction"]
     data = [np.arange(res.path.size), res.grid[res.path] * (1.0 if force else 1e3)]
     d = np.sign(np.diff(res.grid[res.path], prepend=res.grid[res.path][0]))
@@ -69,7 +70,7 @@ def write_csv(res: KCResult, path: Path, row: int = 0) -> Path:
 
 def plot_rig_curves(res: KCResult, path: Path, title: str) -> None:
     """Toe, camber, caster, tyre force, hub and contact-patch lateral against wheel travel
-    (travel tests) or the contact-point force (compliance tests)."""
+    (travel tests) or the load (compliance tests)."""
     plt = pyplot()
     cols, rows = curve_table(res)
     col = {c: i for i, c in enumerate(cols)}
@@ -81,14 +82,14 @@ def plot_rig_curves(res: KCResult, path: Path, title: str) -> None:
         "hub_y_out_mm",
         "contact_y_out_mm",
     ]
-    force = res.test in FORCE_TESTS
+    force = res.test in LOADED_TESTS
     fig, axes = plt.subplots(2, 3, figsize=(12, 7), constrained_layout=True)
     for ax, stem in zip(axes.ravel(), panels, strict=True):
         for side, style in (("left", "-"), ("right", "--")):
             x = rows[:, col["force_N"]] if force else rows[:, col[f"wheel_travel_mm_{side}"]]
             ax.plot(x, rows[:, col[f"{stem}_{side}"]], style, lw=1.2, label=side)
         ax.set_xlabel(
-            f"force at both contact points [N] (+{'y' if res.test == 'lateral' else 'x'})"
+            f"{res.test} load [{res.unit}]"
             if force
             else "wheel travel [mm] (bump +)"
         )

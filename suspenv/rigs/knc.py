@@ -32,7 +32,7 @@ meets the pad plane (not at the undeformed wheel's lowest point, ~14 mm below it
   sense (:func:`suspenv.measurements.knc.drive`) is toe-out positive: ``+M`` on the
   left wheel, ``-M`` on the right.
 
-The opposed compliance tests (:data:`OPPOSED_TESTS`, rig only) load the two wheels in
+The opposed compliance tests (:data:`OPPOSED_TESTS`) load the two wheels in
 opposite ISO directions, so both take the same load in their own senses:
 ``lateral_opposed`` ``+F`` outboard at both contact points (+y left, -y right; a
 negative ``F`` converges the wheels), ``aligning_opposed`` ``+M`` toe-out at both
@@ -85,7 +85,16 @@ import numpy as np
 from suspenv.core import compiled
 from suspenv.core.errors import ValidationError
 from suspenv.measurements import knc_file
-from suspenv.measurements.knc import ALL_TESTS, DRIVE_UNIT, FORCE_TESTS, STEER_TESTS, TESTS
+from suspenv.measurements.knc import ALL_TESTS as ALL_TESTS
+from suspenv.measurements.knc import (
+    DRIVE_UNIT,
+    LOADED_TESTS,
+    OPPOSED_TESTS,
+    RIG_TESTS,
+    STEER_TESTS,
+    TESTS,
+)
+from suspenv.measurements.knc import FORCE_TESTS as FORCE_TESTS
 from suspenv.models.effects import Effect
 from suspenv.models.mcpherson.params import Axle
 from suspenv.models.mcpherson.rotation import relative_log, rotate, turned
@@ -100,8 +109,8 @@ from suspenv.models.mcpherson.solver import (
     _inv_mul,
 )
 
-# the tests (TESTS: travel, FORCE_TESTS: compliance, STEER_TESTS: steering, ALL_TESTS)
-# are named once, by the recording format of K&C loops
+# the tests (TESTS: travel, FORCE_TESTS: compliance, STEER_TESTS: steering, ALL_TESTS,
+# OPPOSED_TESTS, RIG_TESTS: all) are named once, by the recording format of K&C loops
 _PAD_SIGN = {"parallel": (1.0, 1.0), "opposite": (1.0, -1.0), "single": (1.0, 0.0)}
 #: compliance test -> (column of the wheel load (contact force x y z, moment x y z about
 #: the contact point, wheel-centre force x y z; ISO 8855), sign on the (left, right) wheel)
@@ -111,17 +120,9 @@ _LOAD_AXIS = {
     "traction": (6, (1.0, 1.0)),
     "aligning": (5, (1.0, 1.0)),
 }
-#: opposed (anti-phase) compliance tests -> the in-phase test whose load they turn on
-#: the right wheel, so that both wheels take the same load in their own senses (as K&C
-#: rigs run them; rig tests only, not yet of the measured-K&C format):
-#: ``lateral_opposed`` ``+F`` [N] outboard at both contact points (+y left, -y right),
-#: ``aligning_opposed`` ``+M`` [N*m] toe-out at both (+z left, -z right)
-OPPOSED_TESTS = {"lateral_opposed": "lateral", "aligning_opposed": "aligning"}
+# the opposed tests (OPPOSED_TESTS) turn their in-phase test's load on the right wheel,
+# so that both wheels take the same load in their own senses (as K&C rigs run them)
 _LOAD_AXIS.update({o: (_LOAD_AXIS[p][0], (1.0, -1.0)) for o, p in OPPOSED_TESTS.items()})
-#: every test the rig runs
-RIG_TESTS = ALL_TESTS + tuple(OPPOSED_TESTS)
-#: the tests that load the wheels (their drive is a force or a moment)
-LOADED_TESTS = (*FORCE_TESTS, *OPPOSED_TESTS)
 #: default force amplitude of the compliance tests [N]
 FORCE_AMPLITUDE = 2500.0
 #: default moment amplitude of the aligning-moment test [N*m]
@@ -245,8 +246,8 @@ def static_hard_points(solver: AxleSolver, st: AxleState) -> dict[str, np.ndarra
 
 
 def drive_unit(test: str) -> str:
-    """Unit of ``test``'s drive: :data:`DRIVE_UNIT`, an opposed test its in-phase one's."""
-    return DRIVE_UNIT[OPPOSED_TESTS.get(test, test)]
+    """Unit of ``test``'s drive (:data:`DRIVE_UNIT`)."""
+    return DRIVE_UNIT[test]
 
 
 def stroke_grid(amplitude: float = 0.040, steps: int = 30) -> np.ndarray:

@@ -18,7 +18,7 @@ import numpy as np
 from suspenv.core.errors import ValidationError
 from suspenv.measurements.knc import (
     CHANNELS,
-    FORCE_TESTS,
+    LOADED_TESTS,
     SIDES,
     TEST_PREFIX,
     branch_index,
@@ -53,7 +53,7 @@ def to_recording(
     steps = result.grid.size - 1
     amp = float(amplitude if amplitude is not None else result.grid[-1])
     s = result.grid[result.path]
-    force = result.test in FORCE_TESTS
+    force = result.test in LOADED_TESTS
     pads = pad_offsets(result.test, s)  # zero in a compliance test
     drive_key = "force" if force else "stroke"
     inputs = {
