@@ -202,7 +202,7 @@ class KCResult:
     def unit(self) -> str:
         """Unit of :attr:`grid` (:data:`DRIVE_UNIT`): ``"m"`` (travel, steering), ``"N"``
         (force) or ``"N*m"`` (aligning)."""
-        return drive_unit(self.test)
+        return DRIVE_UNIT[self.test]
 
     @property
     def static_index(self) -> int:
@@ -243,11 +243,6 @@ def static_hard_points(solver: AxleSolver, st: AxleState) -> dict[str, np.ndarra
         "strut_top": st.r[..., 2, :].copy(),
         "strut_axis_point": knuckle,
     }
-
-
-def drive_unit(test: str) -> str:
-    """Unit of ``test``'s drive (:data:`DRIVE_UNIT`)."""
-    return DRIVE_UNIT[test]
 
 
 def stroke_grid(amplitude: float = 0.040, steps: int = 30) -> np.ndarray:
@@ -379,16 +374,10 @@ def run_tests(
             f"`travel_drive` must be one of {TRAVEL_DRIVES}, but got {travel_drive!r}"
         )
     _check_tests(tuple(tests))
-    if not force_amplitude > 0:
-        raise ValidationError(f"`force_amplitude > 0` must hold, but got {force_amplitude} N")
-    if not moment_amplitude > 0:
-        raise ValidationError(
-            f"`moment_amplitude > 0` must hold, but got moment_amplitude={moment_amplitude} N*m"
-        )
-    if not rack_amplitude > 0:
-        raise ValidationError(
-            f"`rack_amplitude > 0` must hold, but got rack_amplitude={rack_amplitude} m"
-        )
+    amplitudes = {"force": force_amplitude, "moment": moment_amplitude, "rack": rack_amplitude}
+    for (key, value), unit in zip(amplitudes.items(), ("N", "N*m", "m"), strict=True):
+        if not value > 0:
+            raise ValidationError(f"`{key}_amplitude > 0` must hold, but got {value} {unit}")
     unknown = sorted(set(channels or ()) - set(OUTPUT_NAMES))
     if unknown or (channels is not None and isinstance(channels, str)):
         raise ValidationError(
@@ -545,7 +534,7 @@ def _run_numpy(
     def where_text(gi: int) -> str:
         parts = []
         for t in tests:
-            scale, shown, digits = _DRIVE_SHOWN[drive_unit(t)]
+            scale, shown, digits = _DRIVE_SHOWN[DRIVE_UNIT[t]]
             value = test_grids[t][gi] * scale
             stroke = "wheel-centre travel" if centre0 is not None else "stroke"
             parts.append(f"{_DRIVE_NAME.get(t, stroke)} {value:+.{digits}f} {shown}")
@@ -758,18 +747,14 @@ def _sweep_legs(
     the rows until the solver refreshes one:
     :class:`~suspenv.models.mcpherson.solver.SharedInverse`), and the loop's return legs
     take the state of their grid point. Both branches of the loop are then identical.
-    The first step of each leg starts from the tangent predictor,
-    the second from the quadratic through the first steps of both legs and the static
-    state (three equally spaced states), the others from the cubic through the leg's
-    last four states (:data:`LEG_ORDER`; the third step's include the other leg's first
-    step).
+    Predictors: the tangent for a leg's first step, then the quadratic and the cubic
+    through the leg's last states (:data:`LEG_ORDER`; see the loop's comments).
 
     Failures are reported as the sequential loop reports them: the first failing step
     of the loop (its index ``k`` in ``path``) in the message, and the row's last
-    converged state at every later step. Returns (channels {name: (rows, Q, 2)} of the
-    channels ``names`` (None: all) at the ``Q`` steps ``kept_steps`` of the loop (indices
-    into ``path``; the channels of the grid points they visit only are computed),
-    states of those steps when ``keep_states``).
+    converged state at every later step. Returns (channels {name: (rows, Q, 2)} of
+    ``names`` (None: all) at the ``Q`` steps ``kept_steps`` of the loop (indices into
+    ``path``), states of those steps when ``keep_states``).
     """
     st = st_box.pop()
     m = st.r.shape[0]
@@ -785,32 +770,10 @@ def _sweep_legs(
     rel: dict | None = {} if PREDICTOR_CACHE else None
     history: list[AxleState] = []
     kept: list[AxleState] = [lst] if keep_states else []
-    # channels of the grid points that the kept steps visit (grid indices lo .. lo + G - 1,
-    # the steps j <= reach of both legs) (G, rows, 2), filled as the steps come: outputs
-    # in calls of about JACOBIAN_BLOCK rows and at most OUTPUT_STATES states (bounded
-    # memory), the pending states kept
     grid_at = path[kept_steps]  # grid index of every kept step
-    reach = int(np.abs(grid_at - i0).max())
-    lo = i0 - reach
-    ch: dict[str, np.ndarray] = {}
-    pending: list[tuple[int, AxleState, np.ndarray]] = []  # (step j, state, pads)
-    # a window's few states each get their channels right after their step (views, no
-    # stacked copies: the least memory, a handful of calls)
-    per = 1 if reach < i0 else max(1, min(JACOBIAN_BLOCK // (2 * m), OUTPUT_STATES))
-
-    def flush() -> None:
-        out = _outputs(lsolver, [x for _, x, _ in pending], [q for _, _, q in pending], per, names)
-        for name, v in out.items():  # (steps, 2 * rows, 2)
-            if name not in ch:
-                ch[name] = np.empty((2 * reach + 1, m) + v.shape[2:])
-            for q, (j, _, _) in enumerate(pending):
-                ch[name][reach + j] = v[q, :m]
-                if j:
-                    ch[name][reach - j] = v[q, m:]
-        pending.clear()
-
+    chans = _LegChannels(lsolver, m, int(np.abs(grid_at - i0).max()), i0, names)
     prev_load = sweep.load(i0, 2)
-    pending.append((0, lst, prev_load[0]))
+    chans.pending.append((0, lst, prev_load[0]))
     for j in range(1, i0 + 1):
         gi = i0 + direction * j
         load = sweep.load(gi, 2)
@@ -831,21 +794,15 @@ def _sweep_legs(
         # the predictor's relative rotations of the states before the last are cached: no
         # later step reads their rotation matrices (unless their channels are due)
         if rel is not None and not keep_states:
-            for old in history[:-1]:
-                if all(x is not old for _, x, _ in pending):
-                    _release_rotations(old)
+            chans.release(history[:-1])
         last[lok] = gi[lok]
         if j == i0:  # loads and deflections peak at the ends of the stroke
             _check_state(lsolver, lst, lok, lmsgs, at)
         if keep_states:
             kept.append(lst)
-        if j <= reach:
-            pending.append((j, lst, load[0]))
-        if len(pending) >= per:
-            flush()
+        chans.add(j, lst, load[0])
         prev_load = load
-    if pending:
-        flush()
+    chans.flush()
     del Jinv, history  # (memory)
     # a row fails when either leg fails; the bump leg comes first in the loop
     up_ok, down_ok = lok[:m], lok[m:]
@@ -860,21 +817,14 @@ def _sweep_legs(
     later = kept_steps[None, :] >= k_last[:, None]  # (rows, Q): from the failing step on
     idx = np.where(later, frozen[:, None], grid_at[None, :])
     rr = np.arange(m)[:, None]
+    out = {
+        name: np.ascontiguousarray(v[grid_at - chans.lo].swapaxes(0, 1))
+        for name, v in chans.ch.items()
+    }
     bad = np.flatnonzero(k_last < P)
-    # every row's channels along the kept steps, then those of the failed rows' frozen
-    # states at the rig's input of every later step
-    out = {name: np.ascontiguousarray(v[grid_at - lo].swapaxes(0, 1)) for name, v in ch.items()}
-    if bad.size:
-        rows = np.where(~up_ok[bad], bad, m + bad)  # the failed leg's row
-        frozen_st, sub = lst.take(rows), lsolver.take(rows, axle=False)
-        pads = np.stack([sweep.load(g)[0][bad] for g in grid_at])  # (Q, b, 2)
-        Q = grid_at.size
-        again = [np.broadcast_to(a, (Q,) + a.shape) for a in (frozen_st.r, frozen_st.R)]
-        lam = np.broadcast_to(frozen_st.lam, (Q,) + frozen_st.lam.shape)
-        late = sub.outputs(AxleState(again[0], again[1], lam), pads, names)
-        for q, row in enumerate(bad.tolist()):
-            for name, v in late.items():
-                out[name][row, later[row]] = v[later[row], q]
+    if bad.size:  # the failed leg's row of each failed row
+        rows = np.where(~up_ok[bad], bad, m + bad)
+        _freeze_failed(out, lsolver, lst, rows, bad, later, sweep, grid_at, names)
     del lst
     trail: list[AxleState] = []
     if keep_states:
@@ -891,6 +841,61 @@ def _sweep_legs(
             for q in range(kept_steps.size)
         ]
     return out, trail
+
+
+class _LegChannels:
+    """The channels of the two-leg loop's states (rows: leg x ``m``) at the grid points
+    ``i0 - reach .. i0 + reach`` (the steps ``j <= reach`` of both legs) as the steps
+    come, in calls of about JACOBIAN_BLOCK rows and at most OUTPUT_STATES states (bounded
+    memory); a window's few states (``reach < i0``) one by one (views: the least memory)."""
+
+    def __init__(self, lsolver: AxleSolver, m: int, reach: int, i0: int, names) -> None:
+        self.solver, self.m, self.reach, self.lo, self.names = lsolver, m, reach, i0 - reach, names
+        self.per = 1 if reach < i0 else max(1, min(JACOBIAN_BLOCK // (2 * m), OUTPUT_STATES))
+        self.ch: dict[str, np.ndarray] = {}  # name -> (2 * reach + 1, m, 2)
+        self.pending: list[tuple[int, AxleState, np.ndarray]] = []  # (step j, state, pads)
+
+    def add(self, j: int, st: AxleState, pads: np.ndarray) -> None:
+        """Leg step ``j``'s state ``st`` at pad heights ``pads``, kept while its channels
+        are due."""
+        if j <= self.reach:
+            self.pending.append((j, st, pads))
+        if len(self.pending) >= self.per:
+            self.flush()
+
+    def release(self, old: list[AxleState]) -> None:
+        """:func:`_release_rotations` of the states ``old`` whose channels are not due."""
+        for x in old:
+            if all(p is not x for _, p, _ in self.pending):
+                _release_rotations(x)
+
+    def flush(self) -> None:
+        """The channels of the pending states."""
+        if not self.pending:
+            return
+        states, pads = [x for _, x, _ in self.pending], [q for _, _, q in self.pending]
+        m, reach = self.m, self.reach
+        for name, v in _outputs(self.solver, states, pads, self.per, self.names).items():
+            if name not in self.ch:  # v: (states, 2 * m, 2)
+                self.ch[name] = np.empty((2 * reach + 1, m) + v.shape[2:])
+            for q, (j, _, _) in enumerate(self.pending):
+                self.ch[name][reach + j] = v[q, :m]
+                if j:
+                    self.ch[name][reach - j] = v[q, m:]
+        self.pending.clear()
+
+
+def _freeze_failed(out, lsolver, lst, rows, bad, later, sweep, grid_at, names) -> None:
+    """Into the channels ``out`` {name: (m, Q, 2)} of the failed rows ``bad`` (b,), from
+    their failing step on (``later`` (m, Q)): those of their failed legs' last states
+    (rows ``rows`` of ``lst``) at the rig's input of each kept step (grid ``grid_at``)."""
+    pads = np.stack([sweep.load(g)[0][bad] for g in grid_at])  # (Q, b, 2)
+    st, Q = lst.take(rows), grid_at.size
+    r, R, lam = (np.broadcast_to(a, (Q,) + a.shape) for a in (st.r, st.R, st.lam))
+    late = lsolver.take(rows, axle=False).outputs(AxleState(r, R, lam), pads, names)
+    for q, row in enumerate(bad.tolist()):
+        for name, v in late.items():
+            out[name][row, later[row]] = v[later[row], q]
 
 
 #: the rotation matrices of a state that no step reads again (no rows: a read fails)
@@ -1001,12 +1006,9 @@ def _prediction(solver, st, load_prev, load, ok, J, history, seen, rel) -> AxleS
         pred.R = np.where(rows[..., None], seen.R, st.R)
         pred.lam = np.where(ok[:, None, None], seen.lam, st.lam)
         return pred
-    if len(history) >= 4:
-        return _extrapolate(st, history[-2], history[-3], ok, rel, history[-4])
-    if len(history) >= 3:
-        return _extrapolate(st, history[-2], history[-3], ok, rel)
-    if len(history) == 2:
-        return _extrapolate(st, history[-2], None, ok, rel)
+    if len(history) >= 2:  # (before, before2, before3) of st = history[-1], None if absent
+        older = [*history[-2:-5:-1], None, None]
+        return _extrapolate(st, older[0], older[1], ok, rel, older[2])
     return _predict(solver, st, J, pad - pad_prev, ok, ext_prev, ext, rack_prev, rack)
 
 
