@@ -447,10 +447,23 @@ def test_estimated_noise_is_marked_estimated_on_load(folder):
 def test_cli_reads_a_measured_folder_and_analyses_its_compliance(folder, capsys):
     assert main(["knc", str(folder)]) == 0
     out = capsys.readouterr().out
-    assert "parallel        21 samples, stroke -40 to 40 mm, branches [0, 1, 2]" in out
+    assert "parallel           21 samples, stroke -40 to 40 mm, branches [0, 1, 2]" in out
     assert "lateral test, toe of the left wheel against force" in out
     assert "lateral test, toe of the right wheel against force" in out
     assert "(estimated)" in out
+
+
+def test_cli_says_why_a_coarse_loop_has_no_compliance_analysis(tmp_path, capsys):
+    """A loop of 6 steps has one drive value within 0.25 x its reach (the small-drive
+    slope needs two): the analysis names that and the command goes on."""
+    v = load_vehicle(REFERENCE_FILE)
+    res = run_tests(v.axle(), ("lateral", "aligning"), 0.040, 6, v.effects)
+    write_measurement(from_results(res, "coarse"), tmp_path)
+    assert main(["knc", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    for test in res:
+        assert f"{test} test, toe of the right wheel: no compliance analysis: " in out
+    assert "small-drive samples need 2 distinct drive values" in out
 
 
 def test_cli_refuses_a_bad_measured_folder_with_the_rule(folder, capsys):
