@@ -27,7 +27,8 @@ Rules (frame and signs of ``docs/knc.md`` "Measured K&C format": ISO 8855, raw y
    (``opposite``) or moves less than the left (``single``). In a force test the loaded
    point moves along the force (a compliance matrix is positive definite):
    ``contact_y`` along +y in ``lateral``, ``contact_x`` along +x in ``longitudinal``,
-   ``wheel_centre_x`` along +x in ``traction``. A direction counts when the
+   ``wheel_centre_x`` along +x in ``traction``; an opposed test wheel by wheel as its
+   in-phase test under that wheel's own load. A direction counts when the
    correlation with the drive passes :data:`MIN_CORRELATION` (noise alone does not).
 4. **Wheel travel** (error, :func:`check_wheel_travel`): a file that gives both
    ``wheel_travel_<side>`` and the ``wheel_centre_z`` channel gives the same motion
