@@ -40,10 +40,7 @@ Three paths of the same evaluation, measured in the same run on the same candida
   and, inside :func:`reference_path`, the finite-difference Jacobian with one
   perturbation per column (multipliers included) and the channels in one residual/output
   call each (``JACOBIAN_BLOCK`` unbounded), every row's residual at every Newton
-  iteration, one quadratic fit per objective (``_objectives_one_by_one``), the spring
-  preload sized with the plain
-  :class:`~suspenv.models.mcpherson.kinematics.CornerKinematics` (five scipy rotations
-  per kinematic equation evaluation instead of one: ``solver.PRELOAD_KINEMATICS``) and
+  iteration, one quadratic fit per objective (``_objectives_one_by_one``) and
   both relative rotations of the quadratic predictor computed at every step
   (``knc.PREDICTOR_CACHE = False``) and a copy of a design's arrays for each of its rows
   (``solver.SHARE_ONE_DESIGN = False``) and the rotation updates as stacked matrix
@@ -74,12 +71,8 @@ size, over a sweep of batch sizes (:data:`MEMORY_BATCHES`, the optimised path on
 batch up to an internal chunk is evaluated whole, so its peak per candidate is the
 footprint of one candidate's rows, while larger batches divide a chunk's peak among more
 candidates. One at a time the peak is also measured candidate by candidate over
-:data:`MEMORY_SINGLES` candidates, each with whether its sweep refreshed a Jacobian (a
-row whose Newton steps stop shrinking gets a Jacobian of its own: 66 x 66 in double
-precision, inverted); the memory target is met when every batch size of the sweep and
-every one of those candidates is within it. For the first of them whose sweep
-refreshed a Jacobian, the small batches ending with it are measured too (its extra
-matrices shared out over the batch).
+:data:`MEMORY_SINGLES` candidates; the memory target is met when every batch size of the
+sweep and every one of those candidates is within it.
 
 Run: ``python -m benchmarks.knc_speed [--quick]``; writes
 ``docs/benchmarks/knc_speed.json``.
@@ -105,8 +98,6 @@ import suspenv.problems.kc_identification as problem_module
 import suspenv.rigs.knc as rig_module
 from benchmarks.common import write_result
 from suspenv.metrics.knc import _objectives_one_by_one
-from suspenv.models.mcpherson.kinematics import CornerKinematics
-from suspenv.models.mcpherson.solver import AxleSolver
 from suspenv.registry import make_problem
 
 TARGET_MS = 10.0
@@ -131,13 +122,12 @@ RISE_PASSES = 3
 
 @contextlib.contextmanager
 def reference_path() -> Iterator[None]:
-    """The previous algorithm's one-call Jacobian/channels, per-objective fits, plain
-    preload kinematics and uncached predictor rotations."""
+    """The previous algorithm's one-call Jacobian/channels, per-objective fits and
+    uncached predictor rotations."""
     saved = (
         solver_module.JACOBIAN_BLOCK,
         rig_module.JACOBIAN_BLOCK,
         problem_module.objectives,
-        solver_module.PRELOAD_KINEMATICS,
         rig_module.PREDICTOR_CACHE,
         solver_module.JACOBIAN_COLOURED,
         solver_module.SUBSET_RESIDUALS,
@@ -147,7 +137,6 @@ def reference_path() -> Iterator[None]:
     )
     solver_module.JACOBIAN_BLOCK = rig_module.JACOBIAN_BLOCK = 1 << 62
     problem_module.objectives = lambda results: _objectives_one_by_one(results, {})
-    solver_module.PRELOAD_KINEMATICS = CornerKinematics
     rig_module.PREDICTOR_CACHE = False
     solver_module.JACOBIAN_COLOURED = False
     solver_module.SUBSET_RESIDUALS = False
@@ -159,13 +148,12 @@ def reference_path() -> Iterator[None]:
     finally:
         solver_module.JACOBIAN_BLOCK, rig_module.JACOBIAN_BLOCK = saved[:2]
         problem_module.objectives = saved[2]
-        solver_module.PRELOAD_KINEMATICS = saved[3]
-        rig_module.PREDICTOR_CACHE = saved[4]
-        solver_module.JACOBIAN_COLOURED = saved[5]
-        solver_module.SUBSET_RESIDUALS = saved[6]
-        solver_module.SHARE_ONE_DESIGN = saved[7]
-        rotation_module.ROWS_LAST = saved[8]
-        solver_module.SHARED_INVERSE_DTYPE = saved[9]
+        rig_module.PREDICTOR_CACHE = saved[3]
+        solver_module.JACOBIAN_COLOURED = saved[4]
+        solver_module.SUBSET_RESIDUALS = saved[5]
+        solver_module.SHARE_ONE_DESIGN = saved[6]
+        rotation_module.ROWS_LAST = saved[7]
+        solver_module.SHARED_INVERSE_DTYPE = saved[8]
 
 
 def _path(name: str) -> contextlib.AbstractContextManager:
@@ -202,60 +190,14 @@ def _peak_mb(fn: Any) -> float:
         tracemalloc.stop()
 
 
-@contextlib.contextmanager
-def _counting_jacobians(counts: list[int]) -> Iterator[None]:
-    """Count the solver's Jacobian inversions into ``counts[0]`` (the static solve
-    inverts one per design; every further one is a row's Jacobian refreshed by Newton)."""
-    real = AxleSolver.inverse_jacobian
-
-    def counted(self: AxleSolver, *args: Any, **kwargs: Any) -> np.ndarray:
-        counts[0] += 1
-        return real(self, *args, **kwargs)
-
-    AxleSolver.inverse_jacobian = counted  # type: ignore[method-assign]
-    try:
-        yield
-    finally:
-        AxleSolver.inverse_jacobian = real  # type: ignore[method-assign]
-
-
 def _one_at_a_time_memory(problem: Any, X: np.ndarray) -> dict:
-    """Peak MB of each candidate of ``X`` evaluated alone, and whether its sweep
-    refreshed a Jacobian (a second inversion after the static one); for the first
-    candidate that did, the peak per candidate of the small batches that end with it
-    (the candidates before it in ``X`` first). The count sees the inversions of the
-    sweep driven from Python only: when none is seen (the compiled sweep refreshes its
-    Jacobians inside its loop), the refresh fields are None."""
-    peaks, refreshed, seen = [], [], 0
-    for x in X:
-        counts = [0]
-        with _counting_jacobians(counts):
-            peaks.append(_peak_mb(lambda x=x: problem.evaluate(x[None, :])))
-        refreshed.append(counts[0] > 1)
-        seen += counts[0]
-    mb, fresh = np.array(peaks), np.array(refreshed)
-    with_fresh: dict[str, Any] | None = None
-    if fresh.any():
-        k = int(np.flatnonzero(fresh)[0])
-        sizes = [b for b in MEMORY_BATCHES if 1 < b <= min(k + 1, problem.eval_chunk or k + 1)]
-        with_fresh = {
-            "candidate": k,
-            "peak_mb_per_candidate": {
-                str(b): _peak_mb(lambda b=b: problem.evaluate(X[k + 1 - b : k + 1])) / b
-                for b in sizes
-            },
-        }
+    """Peak MB of each candidate of ``X`` evaluated alone."""
+    mb = np.array([_peak_mb(lambda x=x: problem.evaluate(x[None, :])) for x in X])
     return {
         "candidates": int(mb.size),
         "median_mb": float(np.median(mb)),
         "max_mb": float(mb.max()),
         "within_target": int((mb <= TARGET_MB).sum()),
-        "with_fresh_jacobian": int(fresh.sum()) if seen else None,
-        "max_mb_without_fresh_jacobian": (
-            float(mb[~fresh].max()) if seen and (~fresh).any() else None
-        ),
-        "min_mb_with_fresh_jacobian": float(mb[fresh].min()) if fresh.any() else None,
-        "batches_ending_with_a_fresh_jacobian": with_fresh,
     }
 
 
@@ -377,9 +319,9 @@ def main(argv: list[str] | None = None) -> int:
             "same evaluation with eval_chunk=None, reuse_revisits=False (every step of "
             "the loop in sequence, one inverse Jacobian per row), a column-by-column "
             "finite-difference Jacobian, unbounded JACOBIAN_BLOCK, every row's residual "
-            "at every Newton iteration, per-objective fits, plain preload kinematics, "
-            "an uncached predictor, a copy of a design's arrays per row and the rotation "
-            "updates as stacked matrix products (the previous algorithm)"
+            "at every Newton iteration, per-objective fits, an uncached predictor, a copy "
+            "of a design's arrays per row and the rotation updates as stacked matrix "
+            "products (the previous algorithm)"
         ),
         "eval_chunk": fast.eval_chunk,
         "target_ms": TARGET_MS,

@@ -211,23 +211,11 @@ def knc_speed_cells(s: Json) -> tuple[str, str]:
     )
     if alone is not None:
         left = alone["candidates"] - alone["within_target"]
-        # the misses are the candidates that refresh a Jacobian when every other is within
-        others = alone.get("max_mb_without_fresh_jacobian")
-        which = (
-            ", those whose sweep refreshes a Jacobian"
-            if others is not None and others <= limit and left == alone["with_fresh_jacobian"]
-            else ""
-        )
         memory += (
             "; met for every candidate one at a time"
             if left == 0
-            else f"; one at a time not for {left} of {alone['candidates']} candidates{which}"
+            else f"; one at a time not for {left} of {alone['candidates']} candidates"
         )
-        batches = alone.get("batches_ending_with_a_fresh_jacobian") or {}
-        over = [b for b, v in batches.get("peak_mb_per_candidate", {}).items() if v > limit]
-        if over:
-            one_of = "one" if which else "a candidate that refreshes a Jacobian"
-            memory += f", nor for batches of {', '.join(over)} holding {one_of}"
     target = fill(
         "knc_speed.target", stretch=met(s["meets_stretch"]), limit=limit, memory=memory,
         single=met(s["meets_single_target_10ms"]), rise=met(s["meets_no_rise_to_batch_1000"]),
@@ -666,21 +654,7 @@ def knc_speed_tables(d: Json) -> str:
         "| peak MB / candidate | " + " | ".join(significant(v, 3) for v in mb.values()) + " |",
     ]
     alone = s["memory_one_at_a_time"]
-    fresh = alone["with_fresh_jacobian"]
-    text = fill("knc_speed.alone", alone=alone, s=s) + " "
-    if fresh is None:
-        text += "Jacobian refreshes happen inside the compiled sweep and are not counted."
-    elif fresh:
-        text += fill("knc_speed.fresh", fresh=fresh, alone=alone)
-        batches = alone.get("batches_ending_with_a_fresh_jacobian")
-        if batches:
-            per = ", ".join(
-                f"{significant(v, 2)} MB at batch {b}"
-                for b, v in batches["peak_mb_per_candidate"].items()
-            )
-            text += " " + fill("knc_speed.fresh_batches", batches=batches, per=per)
-    else:
-        text += "None of them had a Jacobian refreshed during the sweep."
+    text = fill("knc_speed.alone", alone=alone, s=s)
     lines += ["", paragraph(text)]
     return "\n".join(lines)
 

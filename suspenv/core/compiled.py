@@ -11,6 +11,8 @@ and is compiled at its first call instead with numba's JIT (``cache=True``: the 
 code is written next to the module, or to numba's user cache folder when the package
 folder is read-only, and loaded by later processes). Without numba, ``main`` itself
 runs. ``SUSPENV_COMPILED=jit`` ignores the built loops (the benchmark's baseline).
+``python suspenv/core/compiled.py`` rebuilds the extension of a source tree in place
+(e.g. a worktree whose loops changed) without reinstalling the package.
 """
 
 from __future__ import annotations
@@ -139,6 +141,13 @@ def extension(root: Path) -> Any:
     ``pycc``). Called by ``setup.py`` in the build environment, which has numba and numpy
     but not suspenv's other dependencies: the kernel modules are loaded without their
     packages' ``__init__``."""
+    cc = _exports(root)
+    return None if cc is None else cc.distutils_extension(optional=True)
+
+
+def _exports(root: Path) -> Any:
+    """numba's ``pycc`` module ``_kernels`` with the loops of :data:`AHEAD` exported from
+    the sources under ``root`` (None: a numba without ``pycc``)."""
     import types
     import warnings
 
@@ -164,4 +173,15 @@ def extension(root: Path) -> Any:
             name = export_name(lazy._space, lazy._helpers, lazy._main)
             jit_helpers(lazy._space, lazy._helpers, jit)
             cc.export(name, signature)(lazy._main)
-    return cc.distutils_extension(optional=True)
+    return cc
+
+
+if __name__ == "__main__":  # pragma: no cover - ``python suspenv/core/compiled.py``
+    # rebuild suspenv/core/_kernels*.so of this source tree in place (no reinstall)
+    sys.modules.setdefault("suspenv.core.compiled", sys.modules["__main__"])
+    here = Path(__file__).resolve().parent
+    kernels = _exports(here.parents[1])
+    if kernels is None:
+        sys.exit("numba has no pycc: the loops compile at their first call")
+    kernels.output_dir = str(here)
+    kernels.compile()

@@ -26,7 +26,7 @@ wheel travel uses the moving (left) wheel.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -221,12 +221,14 @@ OBJECTIVE_CHANNELS = (
 def _wheel_curves(res: KCResult, branch: str, window: slice | None = None) -> dict[str, np.ndarray]:
     """Per-wheel curves (n, G, 2) in edge units on one branch (``window``: only the grid
     points of that slice, which must hold the static position; the same numbers)."""
-    st = res.static_index
-    if window is None:
-        b = lambda name: res.branch(name, branch)  # noqa: E731
-    else:
-        b = lambda name: res.branch(name, branch)[:, window]  # noqa: E731
-        st -= window.start
+    points = slice(None) if window is None else window
+    st = res.static_index - (0 if window is None else window.start)
+    return _curves(lambda name: res.branch(name, branch)[:, points], st)
+
+
+def _curves(b: Callable[[str], np.ndarray], st: int) -> dict[str, np.ndarray]:
+    """The curves of :func:`_wheel_curves` from the channels ``b(name)`` (rows, G, 2) on
+    a branch, the static position at grid index ``st``."""
     sg = SIDE_SIGN
     zw = b("wheel_centre_z")
     zp = b("pad_z")
@@ -312,11 +314,13 @@ _PICK = {"value": 0, "gradient": 1, "rate": 1, "rate_gradient": 2}
 def objectives(results: dict[str, KCResult]) -> np.ndarray:
     """The 40 objectives (n, 40) from rig results of the three tests (see module doc).
 
-    Each test's objectives x 2 branches x 2 wheels are fitted in one batched
-    :func:`quadratic_fit` on the fit window only (the single-wheel test's moving wheel
-    twice, whose mean is itself), one test at a time (bounded memory); the arithmetic
-    is that of :func:`_reduce` per objective."""
-    missing = sorted({o.test for o in OBJECTIVES} - set(results))
+    Each test's curves are made for both branches at once and its objectives x 2
+    branches x 2 wheels fitted in one batched :func:`quadratic_fit` on the fit window
+    only (the single-wheel test's moving wheel twice, whose mean is itself), one
+    test at a time (bounded memory); the arithmetic is that of :func:`_reduce` per
+    objective."""
+    tests, channels = dict.fromkeys(o.test for o in OBJECTIVES), OBJECTIVE_CHANNELS
+    missing = sorted(set(tests) - set(results))
     if missing:
         raise ValidationError(f"objectives need the tests {missing}, which were not run")
     cache: dict[tuple[str, str], dict[str, np.ndarray]] = {}
@@ -326,33 +330,31 @@ def objectives(results: dict[str, KCResult]) -> np.ndarray:
         return _objectives_one_by_one(results, cache)
     centre = centres.pop()
     window = slice(centre - FIT_HALF_WIDTH, centre + FIT_HALF_WIDTH + 1)  # the fitted points
-    n = results[OBJECTIVES[0].test].ok.shape[0]
+    n, size, C = results[OBJECTIVES[0].test].ok.shape[0], window.stop - window.start, len(channels)
     F = np.empty((n, len(OBJECTIVES)))
-    # one test's objectives at a time (memory: their curves and the fit's temporaries)
-    for test in dict.fromkeys(o.test for o in OBJECTIVES):
-        idx = [i for i, o in enumerate(OBJECTIVES) if o.test == test]
+    for test in tests:  # one test at a time (memory)
         res = results[test]
-        curves = [_wheel_curves(res, br, window) for br in ("down", "up")]
-        # single: the moving wheel only (twice, broadcast), else both wheels
-        wheels = slice(0, 1) if test == "single" else slice(None)
-        # the curves (n, objectives, 2 branches, G, 2 wheels), filled in place, then
-        # (n, objectives, 2 branches, 2 wheels, G)
-        shape = (n, len(idx), 2, window.stop - window.start, 2)
-        xw, yw = np.empty(shape), np.empty(shape)
-        for q, i in enumerate(idx):
-            obj = OBJECTIVES[i]
-            for b in (0, 1):
-                yw[:, q, b] = curves[b][obj.curve][..., wheels]
-                xw[:, q, b] = curves[b][obj.x][..., wheels]
+        # its channels: the rows (channel x design) of one result, whose branches are
+        # taken at once, then the curves of the rows (branch x design) (the same
+        # numbers, element by element)
+        every = KCResult(
+            test, res.grid, res.path,
+            {"": np.concatenate([res.channels[c] for c in channels])}, res.ok, res.messages,
+        )  # fmt: skip
+        both = np.stack([every.branch("", br)[:, window] for br in ("down", "up")])
+        both = both.reshape(2, C, n, size, 2).swapaxes(0, 1).reshape(C, 2 * n, size, 2)
+        curves = _curves(dict(zip(channels, both, strict=True)).__getitem__, FIT_HALF_WIDTH)
+        del every, both
+        idx = [i for i, o in enumerate(OBJECTIVES) if o.test == test]
+        wheels = [0, 0] if test == "single" else [0, 1]  # the moving wheel twice
+        x = np.stack([curves[OBJECTIVES[i].x] for i in idx])[..., wheels]
+        y = np.stack([curves[OBJECTIVES[i].curve] for i in idx])[..., wheels]
         del curves
-        x = np.ascontiguousarray(np.moveaxis(xw, -1, 3))
-        y = np.ascontiguousarray(np.moveaxis(yw, -1, 3))
-        del xw, yw
-        fit = np.stack(quadratic_fit(x, y, FIT_HALF_WIDTH))
+        fit = quadratic_fit(np.moveaxis(x, -1, 2), np.moveaxis(y, -1, 2), FIT_HALF_WIDTH)
         del x, y
-        pick = fit[[_PICK[OBJECTIVES[i].reduce] for i in idx], :, np.arange(len(idx))]
-        branch = pick.mean(axis=-1)  # (objectives, n, 2 branches): mean over the wheels
-        F[:, idx] = (0.5 * (branch[..., 0] + branch[..., 1])).T
+        pick = np.stack(fit)[[_PICK[OBJECTIVES[i].reduce] for i in idx], range(len(idx))]
+        branch = pick.mean(axis=-1)  # (objectives, 2 n): mean over the wheels
+        F[:, idx] = (0.5 * (branch[:, :n] + branch[:, n:])).T
     return F
 
 

@@ -440,12 +440,15 @@ def _run_compiled(
     at = path[kept_steps] - range(grid.size)[kept][0]  # each kept step's state
     mid = i0 - range(grid.size)[kept][0]  # the design position: every drive is zero there
     hard = static_hard_points(base, AxleState(st.r[0, mid], st.R[0, mid], st.lam[0, mid]))
+    # every test's channels along its loop at once (T, n, P, 2), each test a view
+    ch = {name: np.ascontiguousarray(v[:, at].swapaxes(1, 2)) for name, v in ch.items()}
+    path = path if window is None else loop_path(2 * window)
     results = {
         t: KCResult(
             t,
             test_grids[t][kept],
-            path if window is None else loop_path(2 * window),
-            {name: np.ascontiguousarray(v[j, at].swapaxes(0, 1)) for name, v in ch.items()},
+            path,
+            {name: v[j] for name, v in ch.items()},
             np.ones(n, bool),
             [""] * n,
             static_points=hard,

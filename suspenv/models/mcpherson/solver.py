@@ -86,7 +86,7 @@ from suspenv.models.mcpherson.effects import (
     bushings_at,
     check_placement,
 )
-from suspenv.models.mcpherson.kinematics import CornerKinematics, _perp_basis
+from suspenv.models.mcpherson.kinematics import _perp_basis
 from suspenv.models.mcpherson.params import SIDE_SIGN, Axle
 from suspenv.models.mcpherson.rotation import (
     cross,
@@ -263,42 +263,6 @@ def _compile(effects: Sequence[Effect]) -> _Placed:
             else:
                 cubic[b] = (_scalar(e, "ratio"), _scalar(e, "x_ref"))
     return _Placed(hyst, cubic, friction)
-
-
-class _OnePoseKinematics(CornerKinematics):
-    """:class:`CornerKinematics` that computes the knuckle pose once per coordinate array.
-
-    Its ``equations(q)`` asks for the pose of the same ``q`` five times (three points,
-    two directions), each a scipy rotation; this keeps the last one (the same numbers:
-    the same call on the same array, which nobody mutates: every ``q`` here is a fresh
-    temporary, and the one kept stays referenced so its identity cannot be reused); its
-    Jacobian evaluates the twelve perturbed coordinate sets in one call.
-    """
-
-    _last: tuple[np.ndarray, tuple[np.ndarray, np.ndarray]] | None = None
-
-    def _pose(self, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        if self._last is not None and self._last[0] is q:
-            return self._last[1]
-        pose = super()._pose(q)
-        self._last = (q, pose)
-        return pose
-
-    def jacobian(self, q: np.ndarray, z_wc: np.ndarray, h: float = 1e-7) -> np.ndarray:
-        """:meth:`CornerKinematics.jacobian` (central differences, step ``h`` [m] or
-        [rad], (..., 6, 6)) with its twelve perturbed coordinate sets evaluated in one
-        batched call of the equations (the same numbers, element by element)."""
-        dq = h * np.eye(6)[:, None]  # (6, 1, 6): the step of each column
-        lead = (slice(None),) + (None,) * (q.ndim - 1)
-        qs = np.concatenate([q + dq[lead + (0,)], q - dq[lead + (0,)]])  # (12, ..., 6)
-        e = self.equations(qs, z_wc)
-        return np.stack([(e[j] - e[6 + j]) / (2 * h) for j in range(6)], axis=-1)
-
-
-#: the kinematics that sizes the spring preload (:meth:`AxleSolver._size_preload`):
-#: :class:`_OnePoseKinematics` (the same numbers as :class:`CornerKinematics`, the
-#: reference path kept for the tests and the speed benchmark's baseline, in fewer calls)
-PRELOAD_KINEMATICS: type[CornerKinematics] = _OnePoseKinematics
 
 
 @dataclass
@@ -611,37 +575,53 @@ class AxleSolver:
         With ideal joints (no bushing deflection) the design position is in exact
         equilibrium under the static tyre load (corner load + wheel weight) when the
         spring force is ``F = (Fz dz_cp - W dz_wc) / (-dL)`` along the kinematic
-        motion (dz_wc = 1). The static pad height loads the tyre by ``Fz / kt``.
+        motion (dz_wc = 1). The static pad height loads the tyre by ``Fz / kt``. The
+        motion is that of :class:`~suspenv.models.mcpherson.kinematics.CornerKinematics`
+        (its six ideal-joint equations), in closed form at the design position: a
+        knuckle move (translation ``dt``, rotation ``dw``) moves its point ``p`` by
+        ``dt + dw x (p - wheel centre)``.
         """
-        ax = self.axle
-        kin = PRELOAD_KINEMATICS(ax)
-        q0 = np.zeros(ax.camber0.shape + (6,))
-        dq = kin.tangent(q0, ax.points["wheel_centre"][..., 2])
-        h = 1e-6
+        ax, p = self.axle, self.axle.points
+        wc = p["wheel_centre"]
 
-        def spring_len(q: np.ndarray) -> np.ndarray:
-            ak = kin.direction(q, kin.a)
-            pu = kin.ST + ak * np.linalg.norm(
-                ax.points["spring_upper_seat"] - kin.ST, axis=-1, keepdims=True
-            )
-            return np.linalg.norm(kin.point(q, ax.points["spring_lower_seat"]) - pu, axis=-1)
+        def along(e: np.ndarray, at: np.ndarray) -> np.ndarray:  # d(e . point at) / d(dt, dw)
+            return np.concatenate([e, cross(at - wc, e)], axis=-1)
 
-        def cp_z(q: np.ndarray) -> np.ndarray:
-            s = kin.direction(q, self.s0)
-            return (kin.point(q, ax.points["wheel_centre"]) + self.Rw[..., None] * _down(s))[..., 2]
+        def unit(v: np.ndarray) -> np.ndarray:
+            return v / _length(v)
 
-        qp, qm = q0 + h * dq, q0 - h * dq  # each pose computed once (_OnePoseKinematics)
-        len_p, cp_p = spring_len(qp), cp_z(qp)
-        len_m, cp_m = spring_len(qm), cp_z(qm)
-        dL = (len_p - len_m) / (2 * h)
-        dcp = (cp_p - cp_m) / (2 * h)
+        strut = p["strut_axis_point"]
+        gap = p["strut_top"] - strut  # the strut top stays on the knuckle's strut line
+        zero3 = np.zeros_like(wc)
+        rows = [
+            along(unit(p["lower_ball_joint"] - p["lca_front_bush"]), p["lower_ball_joint"]),
+            along(unit(p["lower_ball_joint"] - p["lca_rear_bush"]), p["lower_ball_joint"]),
+            along(unit(p["tie_rod_outer"] - p["tie_rod_inner"]), p["tie_rod_outer"]),
+            *(
+                np.concatenate([zero3, cross(d, gap)], -1) - along(d, strut)
+                for d in (self.u, self.v)
+            ),
+            np.concatenate([zero3 + EZ, zero3], axis=-1),  # the wheel-centre height
+        ]
+        rhs = np.zeros(wc.shape[:-1] + (6, 1))
+        rhs[..., 5, 0] = 1.0
+        dq = np.linalg.solve(np.stack(rows, axis=-2), rhs)[..., 0]  # per metre of dz_wc
+        # the spring: from the lower seat (knuckle) to the upper seat on the strut rod
+        seat = _length(p["spring_upper_seat"] - p["strut_top"])  # along the rod
+        e = unit(p["spring_lower_seat"] - p["strut_top"] - seat * self.a)
+        turn = dot(cross(self.a, e), dq[..., 3:])  # the rod turns with the knuckle
+        dL = dot(along(e, p["spring_lower_seat"]), dq) - seat[..., 0] * turn
+        # the contact point: the wheel centre's height minus Rw sqrt(1 - s_z^2)
+        s = self.s0
+        ds_z = cross(dq[..., 3:], s)[..., 2]
+        dcp = dq[..., 2] + self.Rw * s[..., 2] * ds_z / np.sqrt(1.0 - s[..., 2] ** 2)
         Fz = ax.corner_load + ax.wheel_weight
         F_spring = (Fz * dcp - ax.wheel_weight) / (-dL)
         self.motion_ratio_kinematic = -dL
         self.spring_preload = F_spring
         self.L_free = self.L_spring0 + F_spring / self.ks
         ax.spring_free_length = self.L_free
-        self.cp0 = cp_z(q0)
+        self.cp0 = (wc + self.Rw[..., None] * _down(s))[..., 2]
         self.pad_static = self.cp0 + Fz / self.kt
 
     def initial_state(self) -> AxleState:
