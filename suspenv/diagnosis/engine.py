@@ -279,6 +279,13 @@ def diagnose(
     # refuse data the diagnosis cannot judge before any fitting (values, samples, cycles)
     check_setup(setup, fam.name, fam.max_effects)
     sp = setup.split
+
+    def versus(parent: FitResult, child: FitResult) -> Comparison:
+        return compare(
+            parent, child, sp.fit_recordings, sp.fit_masks, sp.heldout_recordings,
+            sp.heldout_masks, noise_levels(fam, parent),
+        )  # fmt: skip
+
     base = fam.fit_baseline(setup)
     say(f"baseline fitted ({base.nfev} evaluations)")
     location, channel = fam.locate(base, setup)
@@ -308,15 +315,7 @@ def diagnose(
             except (ValidationError, EvaluationError, np.linalg.LinAlgError) as exc:
                 hypotheses.append(Hypothesis.failed(kind, loc, words, rnd, str(exc), score))
                 continue
-            comp = compare(
-                current,
-                ext,
-                sp.fit_recordings,
-                sp.fit_masks,
-                sp.heldout_recordings,
-                sp.heldout_masks,
-                noise_levels(fam, current),
-            )
+            comp = versus(current, ext)
             evidence = sig.evidence if sig is not None else ""
             hyps.append(
                 Hypothesis.from_comparison(
@@ -352,17 +351,7 @@ def diagnose(
     current = found.final_fit or current
     outcome = Outcome(base, current, named, hypotheses, first_sigs, location)
     checks.fold(found, checks.run(checks.Context(fam, setup, outcome, fam.rule)))
-    comparison = None
-    if named:
-        comparison = compare(
-            base,
-            current,
-            sp.fit_recordings,
-            sp.fit_masks,
-            sp.heldout_recordings,
-            sp.heldout_masks,
-            noise_levels(fam, base),
-        )
+    comparison = versus(base, current) if named else None
     baseline = baseline_summary(
         base, sp.fit_recordings, sp.heldout_recordings, sp.fit_masks, sp.heldout_masks
     )

@@ -35,7 +35,7 @@ share explained) judge its verdict.
   fitted spectrum vs the standard-waviness fit, averaged over road seeds, and on the
   measured profile itself (both wheel tracks in phase).
 
-The Welch PSD (Hann, 50 % overlap, linear detrend) is computed for plots only.
+The Welch PSD (:func:`~suspenv.rigs.road.welch_psd`, 64 m segments) is for plots only.
 """
 
 from __future__ import annotations
@@ -47,7 +47,7 @@ from pathlib import Path
 from typing import Any, ClassVar
 
 import numpy as np
-from scipy import optimize, signal, stats
+from scipy import optimize, stats
 
 from suspenv.core.errors import ValidationError
 from suspenv.diagnosis import engine
@@ -61,7 +61,7 @@ from suspenv.diagnosis.protocols import DiagnosableModel, RecordingLike
 from suspenv.diagnosis.split import Holdout, Recordings, Split, as_recordings, heldout_recordings
 from suspenv.measurements import Recording
 from suspenv.measurements.sources.road_profile import load_profile_txt, profile_recording
-from suspenv.rigs.road import N0, ROAD_CLASS_GD0, RoadProfile, generate_profile
+from suspenv.rigs.road import N0, ROAD_CLASS_GD0, RoadProfile, generate_profile, welch_psd
 
 #: default fitted band (cycle/m): long waves of a ~500 m profile up to 1 cycle/m (below
 #: the 2 cycle/m Nyquist line of a 0.25 m grid, where interpolation and profiler
@@ -113,14 +113,6 @@ def _profile(rec: Recording) -> tuple[np.ndarray, float]:
 
 
 # ------------------------------------------------------------------ spectra
-def welch_spatial_psd(
-    z: np.ndarray, dx: float, segment_length: float = 64.0
-) -> tuple[np.ndarray, np.ndarray]:
-    """One-sided Welch PSD (m^3) in spatial frequency (cycle/m); Hann, 50 %, linear detrend."""
-    nper = min(int(round(segment_length / dx)), len(z))
-    return signal.welch(np.asarray(z, float), fs=1.0 / dx, nperseg=nper, detrend="linear")
-
-
 def slope_periodogram(z: np.ndarray, dx: float) -> tuple[np.ndarray, np.ndarray]:
     """(n, I): one-sided periodogram of the first difference of z (m^3), lines 1..N/2-1."""
     d = np.diff(np.asarray(z, float))
@@ -292,7 +284,7 @@ def whittle_fit(model: DiagnosableModel, recs: Sequence[RecordingLike]) -> FitRe
     # the scaled residual has unit variance: J = X gives cov = (X^T X)^-1, Whittle's
     X = np.column_stack([np.ones_like(x), -x])[:, : theta.size]
     out = evaluate(model, theta, recs, {"log_periodogram": np.sqrt(LOG_LINE_VARIANCE)}, None, X)
-    out.log_lik = -nll(w)
+    out.log_lik = whittle_loglik(out, recs)
     return out
 
 
@@ -370,7 +362,7 @@ def octaves(fit: FitResult, recs: Sequence[RecordingLike]) -> Octaves:
     log-line residual in its noise units (``z``: standard normal under the model, its
     noise variance pi^2/6 over the lines being known)."""
     x = np.concatenate([r.inputs["log_frequency"] for r in recs])
-    r = np.concatenate([p["log_periodogram"] for p in fitting_residuals(fit, recs)])
+    r = log_residual(fit, recs)
     rows, lo = [], N0 * float(np.exp(x.min()))
     while lo < N0 * np.exp(x.max()):
         sel = (x >= np.log(lo / N0)) & (x < np.log(2 * lo / N0))
@@ -389,8 +381,19 @@ def octaves(fit: FitResult, recs: Sequence[RecordingLike]) -> Octaves:
     return Octaves(rows)
 
 
-def fitting_residuals(fit: FitResult, recs: Sequence[RecordingLike]) -> list[dict[str, np.ndarray]]:
-    return residuals(fit.model, fit.theta, list(recs), fit.channels)
+def log_residual(fit: FitResult, recs: Sequence[RecordingLike]) -> np.ndarray:
+    """The log-line residual of ``fit`` on ``recs`` (``ln(I / S) + gamma``), stacked."""
+    return np.concatenate(
+        [p["log_periodogram"] for p in residuals(fit.model, fit.theta, recs, fit.channels)]
+    )
+
+
+def whittle_loglik(fit: FitResult, recs: Sequence[RecordingLike]) -> float:
+    """Whittle log-likelihood ``-sum(ln S + I / S)`` of ``recs``' lines under ``fit``
+    (I over the differencing gain, whose log is a constant of the data)."""
+    r = log_residual(fit, recs) - np.euler_gamma
+    y = np.concatenate([q.outputs["log_periodogram"] for q in recs])
+    return float(np.sum(r - np.exp(r) - y))
 
 
 @dataclass
@@ -469,7 +472,7 @@ class RoadFamily(OptionalSteps):
           correlated along the frequency (Ljung-Box) or one line stands out beyond what n
           Exp(1) lines give (a periodic component; Bonferroni over the two)."""
         recs = setup.split.recordings()
-        r = np.concatenate([p["log_periodogram"] for p in fitting_residuals(outcome.current, recs)])
+        r = log_residual(outcome.current, recs)
         n = r.size
         _, p_lb = ljung_box(r)
         top = int(np.argmax(r))
@@ -594,7 +597,7 @@ def _heldout_numbers(diag: Diagnosis, free: FitResult, band: tuple[float, float]
     own = whittle_fit(RoadSpectrum((Waviness(),)), held)
 
     def per_line(fit: FitResult) -> float:
-        return whittle_fit_loglik(fit, held) / own.n_samples
+        return whittle_loglik(fit, held) / own.n_samples
 
     w, se = float(free.theta[1]), float(free.stderr[1])
     return {
@@ -610,13 +613,6 @@ def _heldout_numbers(diag: Diagnosis, free: FitResult, band: tuple[float, float]
         "heldout_lines": own.n_samples,
         "heldout_reduction": float(diag.hypotheses[0].heldout_reduction),
     }
-
-
-def whittle_fit_loglik(fit: FitResult, recs: Sequence[RecordingLike]) -> float:
-    """Whittle log-likelihood of ``recs``' lines under ``fit`` (no refit)."""
-    r = np.concatenate([p["log_periodogram"] for p in fitting_residuals(fit, recs)])
-    y = np.concatenate([q.outputs["log_periodogram"] for q in recs])
-    return float(np.sum((r - np.euler_gamma) - np.exp(r - np.euler_gamma) - y))
 
 
 def diagnose_road(
@@ -706,7 +702,7 @@ def diagnose_road(
         octave_bands=bands,
         seconds=time.perf_counter() - t0,
         diagnosis=diag,
-        welch=welch_spatial_psd(*_profile(rec)),
+        welch=welch_psd(*_profile(rec), segment_length=64.0),
         recordings=[rec] + ([held] if held is not None else []),
     )
 
