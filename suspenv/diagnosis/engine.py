@@ -4,7 +4,8 @@
 ``family`` (:mod:`suspenv.diagnosis.family`) supplies what depends on the model: a
 component on a dyno or rig (:class:`~suspenv.diagnosis.component.family.ComponentFamily`),
 the McPherson axle on a K&C rig (:class:`~suspenv.diagnosis.knc.family.KncFamily`), the
-minibus on ride tests (:class:`~suspenv.diagnosis.ride.family.RideFamily`). The loop:
+minibus on ride tests (:class:`~suspenv.diagnosis.ride.family.RideFamily`), a road
+profile's spectrum (:class:`~suspenv.diagnosis.road.RoadFamily`). The loop:
 
 1. **fit** the baseline (the plain model);
 2. **locate** where its residual lives;
@@ -52,7 +53,7 @@ class Diagnosis:
 
     Attributes:
         recording: names of the fitted recordings.
-        family: the diagnosis family (``"component"``, ``"knc"``, ``"ride"``).
+        family: the diagnosis family (``"component"``, ``"knc"``, ``"ride"``, ``"road"``).
         model: the model family (``"damper"``, ``"knc_axle"``, ``"minibus_ride"``, ...).
         holdout: the held-out data in words.
         channel: the channel where the baseline's residual is largest.
@@ -257,7 +258,7 @@ def diagnose(
         recordings: one recording, a list, or a mapping test -> recording.
         family: a :class:`~suspenv.diagnosis.family.DiagnosisFamily`, or a name:
             a component model family (``"damper"``, ``"mr_damper"``,
-            ``"friction_guide"``, ``"quarter_car_rig"``, ...), ``"knc"`` or ``"ride"``
+            ``"friction_guide"``, ``"quarter_car_rig"``, ...), ``"knc"``, ``"ride"`` or ``"road"``
             (with the family's defaults; see :func:`make_family`).
         holdout: the held-out data, in the family's terms (default: the family's).
         candidates: candidate names to consider (default: the model's own list).
@@ -440,8 +441,9 @@ def make_family(name: str, **options: Any) -> DiagnosisFamily:
     (:class:`~suspenv.diagnosis.knc.family.KncFamily`), ``"ride"``
     (:class:`~suspenv.diagnosis.ride.family.RideFamily`), or a component model family
     name such as ``"damper"`` (:class:`~suspenv.diagnosis.component.family.ComponentFamily`;
-    see :func:`suspenv.models.components.make_component`). Only that family's modules
-    are imported."""
+    see :func:`suspenv.models.components.make_component`), ``"road"``
+    (:class:`~suspenv.diagnosis.road.RoadFamily`). Only that family's modules are
+    imported."""
     maker: type
     if name == "knc":
         from suspenv.diagnosis.knc.family import KncFamily
@@ -451,6 +453,10 @@ def make_family(name: str, **options: Any) -> DiagnosisFamily:
         from suspenv.diagnosis.ride.family import RideFamily
 
         maker = RideFamily
+    elif name == "road":
+        from suspenv.diagnosis.road import RoadFamily
+
+        maker = RoadFamily
     else:
         from suspenv.diagnosis.component.family import ComponentFamily
 

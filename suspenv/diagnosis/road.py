@@ -407,11 +407,11 @@ class RoadFamily(OptionalSteps):
 
     band: tuple[float, float] = DEFAULT_BAND
     rule: DecisionRule = ROAD_RULE
-    name: str = "road"
+    name: str = field(default="road", init=False)
     max_effects: int = 1
     #: the log lines' known noise variance, for the share of variance explained
     noise_variance: dict[str, float] = field(
-        default_factory=lambda: {"log_periodogram": LOG_LINE_VARIANCE}
+        default_factory=lambda: {"log_periodogram": LOG_LINE_VARIANCE}, init=False
     )
 
     def prepare(self, recordings: Recordings, holdout: Holdout, candidates: Any) -> Setup:
