@@ -590,7 +590,7 @@ class RoadDiagnosis:
         }
 
 
-def _heldout_numbers(diag: Diagnosis, free: FitResult, band: tuple[float, float]) -> dict[str, Any]:
+def _heldout_numbers(diag: Diagnosis, free: FitResult) -> dict[str, Any]:
     """The held-out check in numbers: both models' Whittle log-likelihood per held-out
     line, and the waviness fitted to the held-out profile(s) on their own."""
     held = diag.split.heldout_recordings
@@ -697,7 +697,7 @@ def diagnose_road(
         free=free,
         standard=std,
         test=test,
-        heldout=_heldout_numbers(diag, hyp.fit, band),
+        heldout=_heldout_numbers(diag, hyp.fit),
         ride=ride_info,
         octave_bands=bands,
         seconds=time.perf_counter() - t0,
@@ -730,21 +730,6 @@ def _road_verdict(
 
 
 # ------------------------------------------------------------------ ride consequence
-def _inputs_from_profile(
-    prof: RoadProfile, speed: float, dt: float, n_settle: int, n_steps: int, wheelbase: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """Wheel inputs (2N+1, 4) on the half-step grid from a periodic two-track profile."""
-    period = prof.left.size
-    m = 2 * n_steps + 1
-    rl, rr = prof.shifted(wheelbase)
-    sfl, sfr = prof.slopes()
-    srl, srr = prof.slopes(wheelbase)
-    idx = (np.arange(m) - 2 * n_settle) % period
-    z = np.stack([prof.left, prof.right, rl, rr], axis=1)[idx]
-    zd = speed * np.stack([sfl, sfr, srl, srr], axis=1)[idx]
-    return z, zd
-
-
 def _in_phase_inputs(
     track: np.ndarray, dx: float, speed: float, n_steps: int, wheelbase: float
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -779,6 +764,7 @@ def ride_consequence(
     from suspenv.metrics.iso2631 import weighted_rms_fft
     from suspenv.models.minibus import REFERENCE_MINIBUS, STUDY_PICK, vehicle_parameters
     from suspenv.models.minibus.ride_model import RideModel
+    from suspenv.rigs.ride import profile_inputs
 
     veh = REFERENCE_MINIBUS
     model = RideModel(vehicle_parameters(STUDY_PICK[None, :], "no_load", veh))
@@ -791,7 +777,7 @@ def ride_consequence(
     length = 2 * n_rec * dx
 
     def aw(prof: RoadProfile) -> tuple[float, float]:
-        z, zd = _inputs_from_profile(prof, v, dt, n_settle, n_steps, veh.wheelbase)
+        z, zd = profile_inputs(prof, v, 2 * n_steps + 1, n_settle, veh.wheelbase)
         rec = model.simulate(z, zd, dt, discard=n_settle)
         return (
             float(weighted_rms_fft(rec.acc_front, sample_rate, "Wk")[0]),
