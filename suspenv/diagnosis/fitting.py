@@ -32,7 +32,7 @@ column by column where the batch cannot be simulated.
 from __future__ import annotations
 
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, TypeVar
 
@@ -95,6 +95,8 @@ class FitResult:
             what callers add (e.g. ``effect``).
         log_lik: the log-likelihood under the family's own noise law where it is not
             Gaussian (a spectral family's Whittle likelihood); None: Gaussian.
+        deviance: per sample, the deviance of a residual (channel unit squared) under
+            that law, for the held-out comparison (None: Gaussian, ``r^2``).
     """
 
     model: DiagnosableModel[Any, Any]
@@ -113,6 +115,7 @@ class FitResult:
     seconds: float
     extra: dict[str, Any] = field(default_factory=dict)
     log_lik: float | None = None
+    deviance: Callable[[np.ndarray], np.ndarray] | None = None
 
     @property
     def n_params(self) -> int:

@@ -285,7 +285,16 @@ def whittle_fit(model: DiagnosableModel, recs: Sequence[RecordingLike]) -> FitRe
     X = np.column_stack([np.ones_like(x), -x])[:, : theta.size]
     out = evaluate(model, theta, recs, {"log_periodogram": np.sqrt(LOG_LINE_VARIANCE)}, None, X)
     out.log_lik = whittle_loglik(out, recs)
+    out.deviance = whittle_deviance
     return out
+
+
+def whittle_deviance(r: np.ndarray) -> np.ndarray:
+    """Per line, the Whittle deviance ``2 (I/S - 1 - ln(I/S))`` of the log-line residual
+    ``r = ln(I/S) + gamma`` (about ``r^2`` near the mode): the held-out comparison's
+    error, so that it judges what the Whittle likelihood does."""
+    u = np.asarray(r, float) - np.euler_gamma
+    return 2.0 * (np.expm1(u) - u)
 
 
 @dataclass
@@ -460,8 +469,11 @@ class RoadFamily(OptionalSteps):
     def residual_left(
         self, outcome: Outcome, setup: Setup, alpha: float
     ) -> tuple[list[Left], dict[str, Any]]:
-        """The final model's log lines over every profile (fit and held out) in noise
-        units (the noise level is known, not estimated), two views:
+        """The final model's log lines over every profile (fit and held out), refitted to
+        all of them (a half fitted alone carries its estimation error into the other
+        half, which is no error of the model's form), in noise units (the noise level is
+        known, not estimated), three views (Bonferroni over
+        them):
 
         * octaves: the RMS over the octaves of each octave's mean residual in its noise
           units (:func:`octaves`; shape errors: a knee, a hump), limit
@@ -470,15 +482,18 @@ class RoadFamily(OptionalSteps):
         * lines: the lines' RMS over sqrt(pi^2/6) (the limit's variance 1/(2n) grows to
           (kurtosis - 1)/(4n) for the log-Exp law), structured where the lines are
           correlated along the frequency (Ljung-Box) or one line stands out beyond what n
-          Exp(1) lines give (a periodic component; Bonferroni over the two)."""
+          Exp(1) lines give (a periodic component);
+        * curvature: a look-alike of more shape than the free waviness
+          (:func:`curvature_view`: a knee or a bend of the log spectrum)."""
         recs = setup.split.recordings()
-        r = log_residual(outcome.current, recs)
+        final = whittle_fit(outcome.current.model, recs)
+        r = log_residual(final, recs)
         n = r.size
         _, p_lb = ljung_box(r)
         top = int(np.argmax(r))
         p_peak = float(-np.expm1(n * np.log1p(-np.exp(-np.exp(r[top] - np.euler_gamma)))))
         x = np.concatenate([q.inputs["log_frequency"] for q in recs])
-        table = octaves(outcome.current, recs).rows
+        table = octaves(final, recs).rows
         z = np.array([row["z"] for row in table])
         worst = table[int(np.argmax(np.abs(z)))]
         p_bands = float(stats.chi2.sf(np.sum(z**2), z.size))
@@ -487,7 +502,7 @@ class RoadFamily(OptionalSteps):
             Left(
                 "the octave means of the log periodogram",
                 float(np.sqrt(np.mean(z**2))),
-                size_limit(0.0, z.size, alpha, 2),
+                size_limit(0.0, z.size, alpha, 3),
                 p_bands < alpha,
                 f"chi-square of the octave means p = {p_bands:.2g}",
                 f"measured / model {worst['ratio']:.2f} in {worst['n_low']:.3g}-"
@@ -496,14 +511,39 @@ class RoadFamily(OptionalSteps):
             Left(
                 "the log periodogram lines",
                 float(np.sqrt(np.mean(r**2) / LOG_LINE_VARIANCE)),
-                size_limit(extra / n, n, alpha, 2),
+                size_limit(extra / n, n, alpha, 3),
                 min(p_lb, p_peak) < alpha / 2,
                 f"Ljung-Box along the frequency p = {p_lb:.2g}, largest line p = {p_peak:.2g}",
                 f"largest line {np.exp(r[top] - np.euler_gamma):.0f} x the model at "
                 f"{N0 * np.exp(x[top]):.3g} cycle/m",
             ),
+            curvature_view(recs, alpha / 3),
         ]
         return views, {"octaves": table, "ljung_box_p": p_lb, "peak_p": p_peak}
+
+
+def curvature_view(recs: Sequence[RecordingLike], alpha: float) -> Left:
+    """Whether the log spectrum of ``recs`` bends: the Whittle score test of a term
+    ``c (ln(n/n0))^2`` added to ln S at the free-waviness fit of every line. With ``q``
+    that term's regressor made orthogonal to ``[1, ln(n/n0)]`` (the parameters fitted),
+    the score ``U = sum q (I / S - 1)`` has variance ``sum q^2`` under the model (the
+    Whittle Fisher information), so ``z = U / sqrt(sum q^2)`` is standard normal. Its
+    size is ``|z|`` against the two-sided quantile of ``alpha``; the sign says which way
+    the spectrum bends (a knee to a steeper slope bends it down)."""
+    free = whittle_fit(RoadSpectrum((Waviness(),)), recs)
+    x = np.concatenate([q.inputs["log_frequency"] for q in recs])
+    basis = np.column_stack([np.ones_like(x), x])
+    q = x**2 - basis @ np.linalg.lstsq(basis, x**2, rcond=None)[0]
+    z = float(q @ np.expm1(log_residual(free, recs) - np.euler_gamma) / np.sqrt(q @ q))
+    limit = float(stats.norm.isf(alpha / 2))
+    return Left(
+        "the curvature of the log spectrum",
+        abs(z),
+        limit,
+        abs(z) > limit,
+        f"Whittle score test of a bend, z = {z:+.2f}",
+        f"the spectrum bends {'down' if z < 0 else 'up'} across the band against one slope",
+    )
 
 
 def _as_profile(rec: RecordingLike) -> Recording:
