@@ -339,16 +339,6 @@ class PsdFit:
         return d
 
 
-def fit_psd(
-    rec: Recording, band: tuple[float, float] = DEFAULT_BAND, waviness: float | None = None
-) -> PsdFit:
-    """Whittle fit of (Gd(n0), w) to a profile (``waviness`` = 2: the standard's form)."""
-    if waviness not in (None, STANDARD_WAVINESS):
-        raise ValidationError(f"waviness must be None (free) or 2, but got {waviness}")
-    model = RoadSpectrum(() if waviness else (Waviness(),))
-    return PsdFit.of(whittle_fit(model, [spectrum_recording(rec, band)]), band)
-
-
 # ------------------------------------------------------------------ the family
 #: the road family's decision rule: the loop's, the held-out log-line error asked not
 #: to grow
