@@ -12,6 +12,7 @@ from suspenv.diagnosis.engine import diagnose
 from suspenv.diagnosis.road import (
     LOG_LINE_KURTOSIS,
     LOG_LINE_VARIANCE,
+    RoadFamily,
     diagnose_road,
     road_class,
     slope_periodogram,
@@ -124,8 +125,8 @@ def test_steeper_road_is_named_and_waviness_recovered():
         lo, hi = d.free.gd0_ci95
         assert lo / 1.5 < GD_B < hi * 1.5
         assert d.free.road_class == "B"
-        # the same loop by the family's name: the one element, the same test
-        plain = diagnose(rec, "road")
+        # the same loop with the family itself: the one element, the same test
+        plain = diagnose(rec, RoadFamily())
         assert plain.named_kinds == ["waviness"] and plain.confident
         assert plain.named[0].p_value_corrected == pytest.approx(d.test.p_value, rel=1e-12)
 

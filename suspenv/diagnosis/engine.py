@@ -258,7 +258,7 @@ def diagnose(
         recordings: one recording, a list, or a mapping test -> recording.
         family: a :class:`~suspenv.diagnosis.family.DiagnosisFamily`, or a name:
             a component model family (``"damper"``, ``"mr_damper"``,
-            ``"friction_guide"``, ``"quarter_car_rig"``, ...), ``"knc"``, ``"ride"`` or ``"road"``
+            ``"friction_guide"``, ``"quarter_car_rig"``, ...), ``"knc"`` or ``"ride"``
             (with the family's defaults; see :func:`make_family`).
         holdout: the held-out data, in the family's terms (default: the family's).
         candidates: candidate names to consider (default: the model's own list).
@@ -441,9 +441,9 @@ def make_family(name: str, **options: Any) -> DiagnosisFamily:
     (:class:`~suspenv.diagnosis.knc.family.KncFamily`), ``"ride"``
     (:class:`~suspenv.diagnosis.ride.family.RideFamily`), or a component model family
     name such as ``"damper"`` (:class:`~suspenv.diagnosis.component.family.ComponentFamily`;
-    see :func:`suspenv.models.components.make_component`), ``"road"``
-    (:class:`~suspenv.diagnosis.road.RoadFamily`). Only that family's modules are
-    imported."""
+    see :func:`suspenv.models.components.make_component`). Only that family's modules
+    are imported. (A road profile's family, :class:`~suspenv.diagnosis.road.RoadFamily`,
+    is passed as an object: its module calls this one.)"""
     maker: type
     if name == "knc":
         from suspenv.diagnosis.knc.family import KncFamily
@@ -453,10 +453,6 @@ def make_family(name: str, **options: Any) -> DiagnosisFamily:
         from suspenv.diagnosis.ride.family import RideFamily
 
         maker = RideFamily
-    elif name == "road":
-        from suspenv.diagnosis.road import RoadFamily
-
-        maker = RoadFamily
     else:
         from suspenv.diagnosis.component.family import ComponentFamily
 
