@@ -548,8 +548,15 @@ def ride_rows(d: Json) -> list[str]:
             flagged=count_text(s["ride_out_of_library_residual_flagged"]), cpus=cpus(outside),
         ),
         fill(
-            "diagnosis.road", n=len(road), found=count_text(s["road_detection_w2.5"]),
-            alarms=count_text(s["road_false_alarms_w2"]), w=s["road_w2.5_mean_fit"],
+            "diagnosis.road", n=len(road), alarms=count_text(s["road_false_alarms_w2"]),
+            found=count(sum(bool(r["correct_top1"]) for r in road if r["truth"] != "w=2 (none)"),
+                        sum(r["truth"] != "w=2 (none)" for r in road)),
+            w=s["road_w2.5_mean_fit"], median=f"{s['road_cpu_seconds_median']:.2f}",
+        ),
+        fill(
+            "diagnosis.road_outside", n=len(_part(d, "road (out of library)")),
+            wrong=count_text(s["road_out_of_library_wrong_name_confident"]),
+            flagged=count_text(s["road_out_of_library_unexplained"]),
         ),
     ]  # fmt: skip
 

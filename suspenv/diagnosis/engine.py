@@ -4,7 +4,8 @@
 ``family`` (:mod:`suspenv.diagnosis.family`) supplies what depends on the model: a
 component on a dyno or rig (:class:`~suspenv.diagnosis.component.family.ComponentFamily`),
 the McPherson axle on a K&C rig (:class:`~suspenv.diagnosis.knc.family.KncFamily`), the
-minibus on ride tests (:class:`~suspenv.diagnosis.ride.family.RideFamily`). The loop:
+minibus on ride tests (:class:`~suspenv.diagnosis.ride.family.RideFamily`), a road
+profile's spectrum (:class:`~suspenv.diagnosis.road.RoadFamily`). The loop:
 
 1. **fit** the baseline (the plain model);
 2. **locate** where its residual lives;
@@ -52,7 +53,7 @@ class Diagnosis:
 
     Attributes:
         recording: names of the fitted recordings.
-        family: the diagnosis family (``"component"``, ``"knc"``, ``"ride"``).
+        family: the diagnosis family (``"component"``, ``"knc"``, ``"ride"``, ``"road"``).
         model: the model family (``"damper"``, ``"knc_axle"``, ``"minibus_ride"``, ...).
         holdout: the held-out data in words.
         channel: the channel where the baseline's residual is largest.
@@ -279,6 +280,13 @@ def diagnose(
     # refuse data the diagnosis cannot judge before any fitting (values, samples, cycles)
     check_setup(setup, fam.name, fam.max_effects)
     sp = setup.split
+
+    def versus(parent: FitResult, child: FitResult) -> Comparison:
+        return compare(
+            parent, child, sp.fit_recordings, sp.fit_masks, sp.heldout_recordings,
+            sp.heldout_masks, noise_levels(fam, parent),
+        )  # fmt: skip
+
     base = fam.fit_baseline(setup)
     say(f"baseline fitted ({base.nfev} evaluations)")
     location, channel = fam.locate(base, setup)
@@ -308,15 +316,7 @@ def diagnose(
             except (ValidationError, EvaluationError, np.linalg.LinAlgError) as exc:
                 hypotheses.append(Hypothesis.failed(kind, loc, words, rnd, str(exc), score))
                 continue
-            comp = compare(
-                current,
-                ext,
-                sp.fit_recordings,
-                sp.fit_masks,
-                sp.heldout_recordings,
-                sp.heldout_masks,
-                noise_levels(fam, current),
-            )
+            comp = versus(current, ext)
             evidence = sig.evidence if sig is not None else ""
             hyps.append(
                 Hypothesis.from_comparison(
@@ -352,17 +352,7 @@ def diagnose(
     current = found.final_fit or current
     outcome = Outcome(base, current, named, hypotheses, first_sigs, location)
     checks.fold(found, checks.run(checks.Context(fam, setup, outcome, fam.rule)))
-    comparison = None
-    if named:
-        comparison = compare(
-            base,
-            current,
-            sp.fit_recordings,
-            sp.fit_masks,
-            sp.heldout_recordings,
-            sp.heldout_masks,
-            noise_levels(fam, base),
-        )
+    comparison = versus(base, current) if named else None
     baseline = baseline_summary(
         base, sp.fit_recordings, sp.heldout_recordings, sp.fit_masks, sp.heldout_masks
     )
@@ -452,7 +442,8 @@ def make_family(name: str, **options: Any) -> DiagnosisFamily:
     (:class:`~suspenv.diagnosis.ride.family.RideFamily`), or a component model family
     name such as ``"damper"`` (:class:`~suspenv.diagnosis.component.family.ComponentFamily`;
     see :func:`suspenv.models.components.make_component`). Only that family's modules
-    are imported."""
+    are imported. (A road profile's family, :class:`~suspenv.diagnosis.road.RoadFamily`,
+    is passed as an object: its module calls this one.)"""
     maker: type
     if name == "knc":
         from suspenv.diagnosis.knc.family import KncFamily

@@ -3,7 +3,9 @@ likelihood-ratio test, residual whiteness, parameters with uncertainty.
 
 Units: RMS errors are in each channel's unit; information criteria are
 dimensionless (Gaussian log-likelihood with each channel's noise variance at its
-maximum-likelihood value).
+maximum-likelihood value, or the family's own: ``FitResult.log_lik``). Where a family's
+noise law is not Gaussian, its held-out "RMS" errors are root mean deviances under that
+law (``FitResult.deviance``), so that the held-out leg judges what the likelihood does.
 
 The likelihood-ratio statistic assumes independent samples; recordings are serially
 correlated, so the statistic is also given scaled by ``n_eff / n`` of the *extended*
@@ -14,7 +16,7 @@ the test becomes appropriately more cautious.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -47,7 +49,7 @@ def heldout_rms(
     fit: FitResult, recordings: Recordings, masks: Sequence[np.ndarray | None] | None = None
 ) -> dict[str, float]:
     """Per-channel RMS error of a fitted model on (held-out) samples (channel unit)."""
-    return _channel_rms(heldout_residuals(fit, recordings, masks))
+    return _channel_rms(heldout_residuals(fit, recordings, masks), fit.deviance)
 
 
 def remembered_residuals(
@@ -88,8 +90,13 @@ def heldout_residuals(
     return {c: np.concatenate([p[c] for p in parts]) for c in fit.channels}
 
 
-def _channel_rms(res: dict[str, np.ndarray]) -> dict[str, float]:
-    return {c: float(np.sqrt(np.mean(r**2))) if r.size else float("nan") for c, r in res.items()}
+def _channel_rms(
+    res: dict[str, np.ndarray], deviance: Callable[[np.ndarray], np.ndarray] | None = None
+) -> dict[str, float]:
+    """Per channel, the root mean square of the residuals (of their ``deviance`` where
+    given: a noise law other than Gaussian)."""
+    dev = deviance or np.square
+    return {c: float(np.sqrt(np.mean(dev(r)))) if r.size else float("nan") for c, r in res.items()}
 
 
 def heldout_noise_units(
@@ -142,13 +149,16 @@ def heldout_confirmation_z(
 
 
 def relative_drop(
-    before: dict[str, np.ndarray], after: dict[str, np.ndarray], scales: dict[str, float]
+    before: dict[str, np.ndarray],
+    after: dict[str, np.ndarray],
+    scales: dict[str, float],
+    deviance: Callable[[np.ndarray], np.ndarray] | None = None,
 ) -> float:
-    """Relative drop of the RMS error from residuals ``before`` to ``after`` (per channel,
-    channel unit), channels combined by :func:`scaled_rms` with ``scales``; 0 when there
-    was no error."""
-    rms_before = scaled_rms(_channel_rms(before), scales)
-    rms_after = scaled_rms(_channel_rms(after), scales)
+    """Relative drop of the RMS error (root mean ``deviance``, where given) from
+    residuals ``before`` to ``after`` (per channel, channel unit), channels combined by
+    :func:`scaled_rms` with ``scales``; 0 when there was no error."""
+    rms_before = scaled_rms(_channel_rms(before, deviance), scales)
+    rms_after = scaled_rms(_channel_rms(after, deviance), scales)
     return float(1.0 - rms_after / rms_before) if rms_before > 0 else 0.0
 
 
@@ -296,11 +306,11 @@ def compare(
     if noise is not None:
         gain, signal = heldout_noise_units(res_before, res_after, dict(noise))
     return Comparison(
-        heldout_rms_before=_channel_rms(res_before),
-        heldout_rms_after=_channel_rms(res_after),
+        heldout_rms_before=_channel_rms(res_before, base.deviance),
+        heldout_rms_after=_channel_rms(res_after, ext.deviance),
         fit_rms_before=base.rms(),
         fit_rms_after=ext.rms(),
-        heldout_reduction=relative_drop(res_before, res_after, base.scales),
+        heldout_reduction=relative_drop(res_before, res_after, base.scales, base.deviance),
         aic_before=base.aic(),
         aic_after=ext.aic(),
         bic_before=base.bic(),

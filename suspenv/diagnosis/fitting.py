@@ -32,7 +32,7 @@ column by column where the batch cannot be simulated.
 from __future__ import annotations
 
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, TypeVar
 
@@ -93,6 +93,10 @@ class FitResult:
         seconds: wall time of the fit.
         extra: ``lag1_autocorrelation``, ``jacobian`` (of the scaled residual), and
             what callers add (e.g. ``effect``).
+        log_lik: the log-likelihood under the family's own noise law where it is not
+            Gaussian (a spectral family's Whittle likelihood); None: Gaussian.
+        deviance: per sample, the deviance of a residual (channel unit squared) under
+            that law, for the held-out comparison (None: Gaussian, ``r^2``).
     """
 
     model: DiagnosableModel[Any, Any]
@@ -110,6 +114,8 @@ class FitResult:
     nfev: int
     seconds: float
     extra: dict[str, Any] = field(default_factory=dict)
+    log_lik: float | None = None
+    deviance: Callable[[np.ndarray], np.ndarray] | None = None
 
     @property
     def n_params(self) -> int:
@@ -128,7 +134,11 @@ class FitResult:
         return {c: float(np.sqrt(self.ssr[c] / max(self.n[c], 1))) for c in self.channels}
 
     def log_likelihood(self) -> float:
-        """Gaussian log-likelihood with each channel's noise variance at its MLE."""
+        """The family's log-likelihood (:attr:`log_lik`) where it set one; else Gaussian
+        with each channel's noise variance at its MLE (the AIC, the BIC and the
+        likelihood-ratio test of :func:`~suspenv.diagnosis.evidence.compare` read this)."""
+        if self.log_lik is not None:
+            return self.log_lik
         total = 0.0
         for c in self.channels:
             n = self.n[c]

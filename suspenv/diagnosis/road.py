@@ -1,48 +1,67 @@
-"""Diagnosis of a measured road profile against the ISO 8608 model.
+"""Diagnosis of a measured road profile against the ISO 8608 model, in the one loop.
 
 Frame and units: distance x along the road (m, + in the direction of travel),
 elevation z (m, + up), spatial frequency n (cycle/m); PSDs are one-sided (m^3).
 ISO 8608: Gd(n) = Gd(n0) (n / n0)^-w, n0 = 0.1 cycle/m, standard waviness w = 2.
 
-Method (one criterion, stated once):
+Method: the road family (:class:`RoadFamily`) runs in
+:func:`~suspenv.diagnosis.engine.diagnose` like every other family, so the shared
+checks (:mod:`suspenv.diagnosis.checks`: the residual left, the assumptions, the
+share explained) judge its verdict.
 
 * The profile is put on a uniform grid and first-differenced (pre-whitening: the
   slope of a w = 2 road is nearly white, so the periodogram has no leakage from the
   strong long waves); its one-sided periodogram ``I_k`` at the Fourier lines inside
   ``band`` is modelled as ``S(n) = 4 sin^2(pi n dx) Gd(n0) (n/n0)^-w`` times an
-  Exp(1) variable (Whittle likelihood; independent lines).
-* Two fits: free (Gd(n0), w) and the standard (Gd(n0), w = 2). Standard errors from
-  the Whittle Fisher information, ``cov = (X^T X)^-1`` with columns ``[1, -ln(n/n0)]``
-  in (ln Gd(n0), w).
-* Test: likelihood ratio ``2 (l_free - l_w2)`` against chi^2 with 1 dof, and the BIC
-  change. "Waviness steeper (shallower) than ISO 8608's 2" is named when the p-value
-  is below ``alpha`` **and** the BIC falls; otherwise the standard model stands.
+  Exp(1) variable, independent lines (:func:`spectrum_recording`, :class:`RoadSpectrum`).
+* The likelihood is Whittle's, not least squares: each fit (:func:`whittle_fit`)
+  maximises it and carries it on its :class:`~suspenv.diagnosis.fitting.FitResult`,
+  so the loop's likelihood-ratio test and BIC leg are the Whittle ones. (Least squares
+  on the log lines, whose variance pi^2/6 is known, would be valid too but keeps only
+  6 / pi^2 = 61 % of the information: the Whittle estimate of w is the efficient one.)
+  Standard errors from the Whittle Fisher information ``(X^T X)^-1``, columns
+  ``[1, -ln(n/n0)]`` in (ln Gd(n0), w).
+* Baseline: the standard's form (Gd(n0) fitted, w = 2); the one candidate sets w free.
+  "Waviness steeper (shallower) than ISO 8608's 2" is named by the loop's rule
+  (:data:`ROAD_RULE`: p below ``alpha``, the BIC falls, the held-out log-line error
+  does not grow).
+* Held out: the second half of a single profile (the first is fitted), or another
+  profile; the held-out Whittle log-likelihood per line of both models is reported.
+* What is left: the final model's log lines over every profile in noise units, with
+  the known noise variance (:meth:`RoadFamily.residual_left`).
 * Class: the ISO 8608 class whose range (half to double its mean) holds Gd(n0).
-* Held-out check: the fits of one profile (or the first half) predict the
-  periodogram of the other profile (or the second half); the held-out Whittle
-  log-likelihood per line of both models is compared.
 * Ride consequence: Wk-weighted RMS vertical acceleration of the reference minibus
   (:mod:`suspenv.models.minibus.ride_model`) on synthetic two-track roads with the
   fitted spectrum vs the standard-waviness fit, averaged over road seeds, and on the
   measured profile itself (both wheel tracks in phase).
 
-The Welch PSD (Hann, 50 % overlap, linear detrend) is computed for plots only.
+The Welch PSD (:func:`~suspenv.rigs.road.welch_psd`, 64 m segments) is for plots only.
 """
 
 from __future__ import annotations
 
 import time
-from dataclasses import asdict, dataclass, field
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
-from scipy import optimize, signal, stats
+from scipy import optimize, stats
 
 from suspenv.core.errors import ValidationError
+from suspenv.diagnosis import engine
+from suspenv.diagnosis.checks.residual_left import Left, size_limit
+from suspenv.diagnosis.decision import DecisionRule
+from suspenv.diagnosis.engine import Diagnosis
+from suspenv.diagnosis.evidence import ljung_box
+from suspenv.diagnosis.family import OptionalSteps, Outcome, Screening, Setup
+from suspenv.diagnosis.fitting import FitResult, evaluate, residuals
+from suspenv.diagnosis.protocols import DiagnosableModel, RecordingLike
+from suspenv.diagnosis.split import Holdout, Recordings, Split, as_recordings, heldout_recordings
 from suspenv.measurements import Recording
 from suspenv.measurements.sources.road_profile import load_profile_txt, profile_recording
-from suspenv.rigs.road import N0, ROAD_CLASS_GD0, RoadProfile, generate_profile
+from suspenv.rigs.road import N0, ROAD_CLASS_GD0, RoadProfile, generate_profile, welch_psd
 
 #: default fitted band (cycle/m): long waves of a ~500 m profile up to 1 cycle/m (below
 #: the 2 cycle/m Nyquist line of a 0.25 m grid, where interpolation and profiler
@@ -58,8 +77,10 @@ def synthetic_profile(
     waviness: float = 2.0,
     seed: int = 0,
     name: str | None = None,
+    shape: Callable[[np.ndarray], np.ndarray] | None = None,
 ) -> Recording:
-    """A Gaussian random profile with Gd(n) = gd0 (n/n0)^-waviness (test/benchmark input).
+    """A Gaussian random profile with Gd(n) = gd0 (n/n0)^-waviness (test/benchmark input),
+    times ``shape(n)`` where given (a spectrum outside ISO 8608's form).
 
     Complex Gaussian line amplitudes (a true Gaussian process, so periodograms
     scatter as Exp(1)) on a grid four times longer than ``length``; a window of
@@ -70,7 +91,7 @@ def synthetic_profile(
     dn = 1.0 / (n_long * dx)
     rng = np.random.default_rng(seed)
     psd = np.zeros_like(n)
-    psd[1:] = gd0 * (n[1:] / N0) ** (-waviness)
+    psd[1:] = gd0 * (n[1:] / N0) ** (-waviness) * (shape(n[1:]) if shape else 1.0)
     coef = np.sqrt(psd * dn / 4.0) * (
         rng.standard_normal(n.size) + 1j * rng.standard_normal(n.size)
     )
@@ -92,14 +113,6 @@ def _profile(rec: Recording) -> tuple[np.ndarray, float]:
 
 
 # ------------------------------------------------------------------ spectra
-def welch_spatial_psd(
-    z: np.ndarray, dx: float, segment_length: float = 64.0
-) -> tuple[np.ndarray, np.ndarray]:
-    """One-sided Welch PSD (m^3) in spatial frequency (cycle/m); Hann, 50 %, linear detrend."""
-    nper = min(int(round(segment_length / dx)), len(z))
-    return signal.welch(np.asarray(z, float), fs=1.0 / dx, nperseg=nper, detrend="linear")
-
-
 def slope_periodogram(z: np.ndarray, dx: float) -> tuple[np.ndarray, np.ndarray]:
     """(n, I): one-sided periodogram of the first difference of z (m^3), lines 1..N/2-1."""
     d = np.diff(np.asarray(z, float))
@@ -117,7 +130,173 @@ def difference_gain(n: np.ndarray, dx: float) -> np.ndarray:
     return 4.0 * np.sin(np.pi * n * dx) ** 2
 
 
-# ------------------------------------------------------------------ fit
+# ------------------------------------------------------------------ the spectral model
+def road_class(gd0: float) -> str:
+    """ISO 8608 class whose range (half to double its mean) holds Gd(n0) (m^3)."""
+    letters = "ABCDEFGH"
+    i = int(np.round(np.log(gd0 / ROAD_CLASS_GD0["A"]) / np.log(4.0)))
+    if i < 0:
+        return "A (smoother than class A's range)"
+    if i >= len(letters):
+        return "H (rougher than class H's range)"
+    return letters[i]
+
+
+def spectrum_recording(rec: Recording, band: tuple[float, float] = DEFAULT_BAND) -> Recording:
+    """The lines of ``rec``'s pre-whitened periodogram inside ``band`` as a recording the
+    loop reads: input ``log_frequency`` = ln(n / n0), output ``log_periodogram`` =
+    ln(I / (4 sin^2(pi n dx) x 1 m^3)) (both dimensionless), one sample per line (the
+    sample axis ``time`` counts the lines)."""
+    z, dx = _profile(rec)
+    n, i_ = slope_periodogram(z, dx)
+    lo, hi = band
+    if not 0 < lo < hi:
+        raise ValidationError(f"`0 < low < high` must hold for the band, but got ({lo}, {hi})")
+    sel = (n >= lo) & (n <= hi)
+    if sel.sum() < 8:
+        raise ValidationError(
+            f"the band {band} cycle/m must hold >= 8 Fourier lines of the profile, but holds "
+            f"{int(sel.sum())} (length {len(z) * dx:.1f} m, dx {dx} m)"
+        )
+    return Recording(
+        name=f"{rec.name}:spectrum",
+        test="road_spectrum",
+        time=np.arange(int(sel.sum()), dtype=float),
+        inputs={"log_frequency": np.log(n[sel] / N0)},
+        outputs={"log_periodogram": np.log(i_[sel] / difference_gain(n[sel], dx))},
+        units={"log_frequency": "1", "log_periodogram": "1"},
+        meta={"profile": rec.name, "dx": dx, "band": [float(lo), float(hi)]},
+    )
+
+
+@dataclass(frozen=True)
+class Waviness:
+    """The element the road search adds: the waviness ``w`` set free (ISO 8608's form
+    fixes it at 2); an :class:`~suspenv.diagnosis.protocols.EffectLike`."""
+
+    w: float = STANDARD_WAVINESS
+    kind: str = "waviness"
+    name: str = "waviness"
+    location: str = ""
+
+    @property
+    def params(self) -> dict[str, float]:
+        return {"w": self.w}
+
+    def with_params(self, values: Mapping[str, Any]) -> Waviness:
+        return Waviness(float(np.ravel(values.get("w", self.w))[0]))
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"kind": self.kind, "name": self.name, "location": "", "params": self.params}
+
+
+class RoadSpectrum:
+    """ISO 8608's displacement PSD, Gd(n) = Gd(n0) (n / n0)^-w, as a model of the
+    expected log periodogram lines (:func:`spectrum_recording`): ``ln Gd(n0) - w ln(n/n0)
+    - gamma`` (gamma: Euler's constant, the mean of the log of an Exp(1) line), so the
+    residual is ``ln(I / S) + gamma``, of mean 0 and variance pi^2 / 6 (model family
+    ``road_profile``; parameters ``log_gd0`` [ln m^3], ``waviness.w`` [-])."""
+
+    family = "road_profile"
+    location = ""
+    output_channels = ("log_periodogram",)
+    input_channels = ("log_frequency",)
+    channel_units: ClassVar[dict[str, str]] = {"log_frequency": "1", "log_periodogram": "1"}
+    effect_defaults: ClassVar[dict[str, dict[str, float]]] = {}
+    candidate_effects = ("waviness",)
+    base_names = ("log_gd0",)
+
+    def __init__(self, effects: Sequence[Waviness] = ()):
+        self.effects = tuple(effects)
+
+    @property
+    def parameter_names(self) -> tuple[str, ...]:
+        return self.base_names + tuple(f"{e.name}.w" for e in self.effects)
+
+    @property
+    def parameter_units(self) -> tuple[str, ...]:
+        return ("ln m^3",) + ("-",) * len(self.effects)
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        k = len(self.effects)
+        return np.array([np.log(1e-10)] + [0.2] * k), np.array([np.log(1e-2)] + [6.0] * k)
+
+    def initial_guess(self, rec: Recording) -> np.ndarray:
+        x, y = rec.inputs["log_frequency"], rec.outputs["log_periodogram"]
+        a = np.log(np.mean(np.exp(y + STANDARD_WAVINESS * x)))
+        return np.array([a] + [STANDARD_WAVINESS] * len(self.effects))
+
+    def simulate(self, theta: np.ndarray, rec: Recording) -> dict[str, np.ndarray]:
+        th = np.asarray(theta, float)
+        a, w = th[..., :1], th[..., 1:2] if self.effects else STANDARD_WAVINESS
+        y = a - w * rec.inputs["log_frequency"] - np.euler_gamma
+        return {"log_periodogram": y}
+
+    def unpack(self, theta: np.ndarray) -> tuple[dict[str, np.ndarray], list[Waviness]]:
+        th = np.asarray(theta, float)
+        return {"log_gd0": th[..., 0]}, [e.with_params({"w": th[..., 1]}) for e in self.effects]
+
+    def with_effects(self, effects: Sequence[Waviness]) -> RoadSpectrum:
+        return RoadSpectrum(effects)
+
+    def difference_step(self, theta: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+        return 1e-6 * (1.0 + np.abs(np.asarray(theta, float)))
+
+    def refine_start(self, theta0: np.ndarray, recordings: Any, masks: Any) -> None:
+        return None
+
+    def jacobian_model(self) -> RoadSpectrum:
+        return self
+
+    def force_view(self, theta: np.ndarray, rec: Recording) -> None:
+        return None
+
+
+#: variance of the log of an Exp(1) periodogram line (the residual's, known exactly)
+LOG_LINE_VARIANCE = float(np.pi**2 / 6.0)
+#: its fourth moment over the variance squared (3 + the Gumbel law's excess kurtosis 12/5)
+LOG_LINE_KURTOSIS = 5.4
+
+
+def whittle_fit(model: DiagnosableModel, recs: Sequence[RecordingLike]) -> FitResult:
+    """Whittle maximum-likelihood fit of ``model`` to spectrum recordings: Gd(n0) in
+    closed form for a given w (the mean of I / (gain (n/n0)^-w)), w (when free) by a
+    bounded 1-D search. The result carries the Whittle log-likelihood
+    ``-sum(ln S + I / S)`` (:attr:`FitResult.log_lik`, so the loop's likelihood-ratio
+    test and BIC are the Whittle ones) and the Whittle Fisher information ``X^T X``,
+    ``X = [1, -ln(n/n0)]`` in (ln Gd(n0), w), for the standard errors."""
+    x = np.concatenate([r.inputs["log_frequency"] for r in recs])
+    y = np.concatenate([r.outputs["log_periodogram"] for r in recs])
+
+    def log_gd0(w: float) -> float:
+        return float(np.log(np.mean(np.exp(y + w * x))))
+
+    def nll(w: float) -> float:
+        a = log_gd0(w)
+        return float(np.sum(a - w * x + np.exp(y - a + w * x)))
+
+    if model.effects:
+        lo, hi = model.bounds()
+        w = float(optimize.minimize_scalar(nll, bounds=(lo[1], hi[1]), method="bounded").x)
+    else:
+        w = STANDARD_WAVINESS
+    theta = np.array([log_gd0(w)] + [w] * len(model.effects))
+    # the scaled residual has unit variance: J = X gives cov = (X^T X)^-1, Whittle's
+    X = np.column_stack([np.ones_like(x), -x])[:, : theta.size]
+    out = evaluate(model, theta, recs, {"log_periodogram": np.sqrt(LOG_LINE_VARIANCE)}, None, X)
+    out.log_lik = whittle_loglik(out, recs)
+    out.deviance = whittle_deviance
+    return out
+
+
+def whittle_deviance(r: np.ndarray) -> np.ndarray:
+    """Per line, the Whittle deviance ``2 (I/S - 1 - ln(I/S))`` of the log-line residual
+    ``r = ln(I/S) + gamma`` (about ``r^2`` near the mode): the held-out comparison's
+    error, so that it judges what the Whittle likelihood does."""
+    u = np.asarray(r, float) - np.euler_gamma
+    return 2.0 * (np.expm1(u) - u)
+
+
 @dataclass
 class PsdFit:
     """A Whittle fit of Gd(n) = gd0 (n/n0)^-w over ``band`` (SI: m^3, cycle/m)."""
@@ -130,6 +309,22 @@ class PsdFit:
     n_lines: int
     band: tuple[float, float]
     fixed_waviness: bool
+
+    @classmethod
+    def of(cls, fit: FitResult, band: tuple[float, float]) -> PsdFit:
+        """The numbers of a :func:`whittle_fit`."""
+        a, se_a = float(fit.theta[0]), float(fit.stderr[0])
+        free = fit.theta.size > 1
+        return cls(
+            gd0=float(np.exp(a)),
+            gd0_ci95=(float(np.exp(a - 1.96 * se_a)), float(np.exp(a + 1.96 * se_a))),
+            waviness=float(fit.theta[1]) if free else STANDARD_WAVINESS,
+            waviness_se=float(fit.stderr[1]) if free else 0.0,
+            loglik=fit.log_likelihood(),
+            n_lines=fit.n_samples,
+            band=(float(band[0]), float(band[1])),
+            fixed_waviness=not free,
+        )
 
     @property
     def road_class(self) -> str:
@@ -144,95 +339,223 @@ class PsdFit:
         return d
 
 
-def road_class(gd0: float) -> str:
-    """ISO 8608 class whose range (half to double its mean) holds Gd(n0) (m^3)."""
-    letters = "ABCDEFGH"
-    i = int(np.round(np.log(gd0 / ROAD_CLASS_GD0["A"]) / np.log(4.0)))
-    if i < 0:
-        return "A (smoother than class A's range)"
-    if i >= len(letters):
-        return "H (rougher than class H's range)"
-    return letters[i]
+# ------------------------------------------------------------------ the family
+#: the road family's decision rule: the loop's, the held-out log-line error asked not
+#: to grow
+ROAD_RULE = DecisionRule(alpha=0.01, heldout_rule="fraction", min_heldout_gain=0.0)
 
 
-def _lines(rec_or_z: Any, dx: float | None, band: tuple[float, float]):
-    if isinstance(rec_or_z, Recording):
-        z, dx = _profile(rec_or_z)
-    else:
-        z = np.asarray(rec_or_z, float)
-    if dx is None:
-        raise ValidationError("dx must be given with a bare elevation array")
-    n, I_ = slope_periodogram(z, dx)
-    lo, hi = band
-    if not 0 < lo < hi:
-        raise ValidationError(f"`0 < low < high` must hold for the band, but got ({lo}, {hi})")
-    sel = (n >= lo) & (n <= hi)
-    if sel.sum() < 8:
-        raise ValidationError(
-            f"the band {band} cycle/m must hold >= 8 Fourier lines of the profile, but holds "
-            f"{int(sel.sum())} (length {len(z) * dx:.1f} m, dx {dx} m)"
-        )
-    return n[sel], I_[sel] / difference_gain(n[sel], dx)
+@dataclass
+class Octaves:
+    """Mean measured line over the model's, per octave band (1: the model holds)."""
+
+    rows: list[dict[str, float]]
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"octaves": self.rows}
 
 
-def _whittle(n: np.ndarray, ratio: np.ndarray, gd0: float, w: float) -> float:
-    """Whittle log-likelihood of lines ``ratio`` = I / gain against Gd(n) (the gain's
-    log is a constant that cancels in every comparison and is left out)."""
-    s = gd0 * (n / N0) ** (-w)
-    return float(-np.sum(np.log(s) + ratio / s))
+def octaves(fit: FitResult, recs: Sequence[RecordingLike]) -> Octaves:
+    """:class:`Octaves` of ``fit`` over ``recs``: per octave (``n_low``, ``n_high``
+    cycle/m) the lines, the mean measured line over the model's (``ratio``) and the mean
+    log-line residual in its noise units (``z``: standard normal under the model, its
+    noise variance pi^2/6 over the lines being known)."""
+    x = np.concatenate([r.inputs["log_frequency"] for r in recs])
+    r = log_residual(fit, recs)
+    rows, lo = [], N0 * float(np.exp(x.min()))
+    while lo < N0 * np.exp(x.max()):
+        sel = (x >= np.log(lo / N0)) & (x < np.log(2 * lo / N0))
+        m = int(sel.sum())
+        if m >= 2:
+            rows.append(
+                {
+                    "n_low": lo,
+                    "n_high": 2 * lo,
+                    "lines": m,
+                    "ratio": float(np.mean(np.exp(r[sel] - np.euler_gamma))),
+                    "z": float(np.mean(r[sel]) * np.sqrt(m / LOG_LINE_VARIANCE)),
+                }
+            )
+        lo *= 2
+    return Octaves(rows)
 
 
-def _gd0_hat(n: np.ndarray, ratio: np.ndarray, w: float) -> float:
-    return float(np.mean(ratio * (n / N0) ** w))
-
-
-def fit_psd(
-    rec: Any,
-    dx: float | None = None,
-    band: tuple[float, float] = DEFAULT_BAND,
-    waviness: float | None = None,
-) -> PsdFit:
-    """Whittle fit of (Gd(n0), w) to a profile (``waviness`` given: w fixed at it)."""
-    n, ratio = _lines(rec, dx, band)
-
-    def nll(w: float) -> float:
-        return -_whittle(n, ratio, _gd0_hat(n, ratio, w), w)
-
-    if waviness is None:
-        res = optimize.minimize_scalar(
-            nll, bounds=(0.2, 6.0), method="bounded", options={"xatol": 1e-6}
-        )
-        w = float(res.x)
-    else:
-        w = float(waviness)
-    gd0 = _gd0_hat(n, ratio, w)
-    X = np.column_stack([np.ones_like(n), -np.log(n / N0)])
-    cov = np.linalg.inv(X.T @ X)
-    if waviness is not None:
-        cov = np.array([[1.0 / n.size, 0.0], [0.0, 0.0]])
-    se_a = float(np.sqrt(cov[0, 0]))
-    return PsdFit(
-        gd0=gd0,
-        gd0_ci95=(gd0 * float(np.exp(-1.96 * se_a)), gd0 * float(np.exp(1.96 * se_a))),
-        waviness=w,
-        waviness_se=float(np.sqrt(cov[1, 1])),
-        loglik=_whittle(n, ratio, gd0, w),
-        n_lines=int(n.size),
-        band=(float(band[0]), float(band[1])),
-        fixed_waviness=waviness is not None,
+def log_residual(fit: FitResult, recs: Sequence[RecordingLike]) -> np.ndarray:
+    """The log-line residual of ``fit`` on ``recs`` (``ln(I / S) + gamma``), stacked."""
+    return np.concatenate(
+        [p["log_periodogram"] for p in residuals(fit.model, fit.theta, recs, fit.channels)]
     )
 
 
-def heldout_loglik(fit: PsdFit, rec: Any, dx: float | None = None) -> float:
-    """Whittle log-likelihood per line of another profile under ``fit`` (no refit)."""
-    n, ratio = _lines(rec, dx, fit.band)
-    return _whittle(n, ratio, fit.gd0, fit.waviness) / n.size
+def whittle_loglik(fit: FitResult, recs: Sequence[RecordingLike]) -> float:
+    """Whittle log-likelihood ``-sum(ln S + I / S)`` of ``recs``' lines under ``fit``
+    (I over the differencing gain, whose log is a constant of the data)."""
+    r = log_residual(fit, recs) - np.euler_gamma
+    y = np.concatenate([q.outputs["log_periodogram"] for q in recs])
+    return float(np.sum(r - np.exp(r) - y))
+
+
+@dataclass
+class RoadFamily(OptionalSteps):
+    """A measured road profile against ISO 8608, in the one loop
+    (:func:`~suspenv.diagnosis.engine.diagnose`): the baseline is the standard's form
+    (w = 2, Gd(n0) fitted), the one candidate sets w free; both are fitted by the Whittle
+    likelihood (:func:`whittle_fit`). Held out by default: the second half of a single
+    profile (or whole other profiles). What is left is judged on the log lines of every
+    profile in noise units (:meth:`residual_left`)."""
+
+    band: tuple[float, float] = DEFAULT_BAND
+    rule: DecisionRule = ROAD_RULE
+    name: str = field(default="road", init=False)
+    max_effects: int = 1
+    #: the log lines' known noise variance, for the share of variance explained
+    noise_variance: dict[str, float] = field(
+        default_factory=lambda: {"log_periodogram": LOG_LINE_VARIANCE}, init=False
+    )
+
+    def prepare(self, recordings: Recordings, holdout: Holdout, candidates: Any) -> Setup:
+        profiles = [_as_profile(r) for r in as_recordings(recordings)]
+        if holdout is None and len(profiles) == 1:
+            first, second = _halves(profiles[0])
+            fit, held = [first], [second]
+            words = f"fit on the first half of {profiles[0].name}, held out its second half"
+        else:
+            fit, held = profiles, [_as_profile(r) for r in heldout_recordings(holdout)]
+            words = ""
+        sp = Split.separate(
+            [spectrum_recording(r, self.band) for r in fit],
+            [spectrum_recording(r, self.band) for r in held],
+            words,
+        )
+        return Setup(sp, RoadSpectrum(), list(candidates or RoadSpectrum.candidate_effects))
+
+    def fit_baseline(self, setup: Setup) -> FitResult:
+        return whittle_fit(setup.model, setup.split.fit_recordings)
+
+    def locate(self, base: FitResult, setup: Setup) -> tuple[Octaves, str]:
+        return octaves(base, setup.split.fit_recordings), "log_periodogram"
+
+    def screen(
+        self, current: FitResult, setup: Setup, open_candidates: Any, round_: int
+    ) -> Screening:
+        return Screening([], [(c, None) for c in open_candidates])
+
+    def refit(self, current: FitResult, candidate: str, signature: Any, setup: Setup) -> FitResult:
+        out = whittle_fit(current.model.with_effects([Waviness()]), setup.split.fit_recordings)
+        out.extra["effect"] = Waviness().to_dict()
+        return out
+
+    def words(self, candidate: str, setup: Setup) -> str:
+        return "a waviness other than ISO 8608's 2"
+
+    def assumptions(self, setup: Setup) -> list[str]:
+        """What the spectral test takes for granted."""
+        return [
+            "the profile's slope is a stationary Gaussian process (periodogram lines "
+            "independent, Exp(1) about the spectrum: the Whittle likelihood)",
+            f"the spectrum is judged in {self.band[0]:g}-{self.band[1]:g} cycle/m",
+        ]
+
+    def residual_left(
+        self, outcome: Outcome, setup: Setup, alpha: float
+    ) -> tuple[list[Left], dict[str, Any]]:
+        """The final model's log lines over every profile (fit and held out), refitted to
+        all of them (a half fitted alone carries its estimation error into the other
+        half, which is no error of the model's form), in noise units (the noise level is
+        known, not estimated), three views (Bonferroni over
+        them):
+
+        * octaves: the RMS over the octaves of each octave's mean residual in its noise
+          units (:func:`octaves`; shape errors: a knee, a hump), limit
+          :func:`size_limit` over the octaves, structured by the chi-square test of those
+          means;
+        * lines: the lines' RMS over sqrt(pi^2/6) (the limit's variance 1/(2n) grows to
+          (kurtosis - 1)/(4n) for the log-Exp law), structured where the lines are
+          correlated along the frequency (Ljung-Box) or one line stands out beyond what n
+          Exp(1) lines give (a periodic component);
+        * curvature: a look-alike of more shape than the free waviness
+          (:func:`curvature_view`: a knee or a bend of the log spectrum)."""
+        recs = setup.split.recordings()
+        final = whittle_fit(outcome.current.model, recs)
+        r = log_residual(final, recs)
+        n = r.size
+        _, p_lb = ljung_box(r)
+        top = int(np.argmax(r))
+        p_peak = float(-np.expm1(n * np.log1p(-np.exp(-np.exp(r[top] - np.euler_gamma)))))
+        x = np.concatenate([q.inputs["log_frequency"] for q in recs])
+        table = octaves(final, recs).rows
+        z = np.array([row["z"] for row in table])
+        worst = table[int(np.argmax(np.abs(z)))]
+        p_bands = float(stats.chi2.sf(np.sum(z**2), z.size))
+        extra = (LOG_LINE_KURTOSIS - 1.0) / 4.0 - 0.5
+        views = [
+            Left(
+                "the octave means of the log periodogram",
+                float(np.sqrt(np.mean(z**2))),
+                size_limit(0.0, z.size, alpha, 3),
+                p_bands < alpha,
+                f"chi-square of the octave means p = {p_bands:.2g}",
+                f"measured / model {worst['ratio']:.2f} in {worst['n_low']:.3g}-"
+                f"{worst['n_high']:.3g} cycle/m",
+            ),
+            Left(
+                "the log periodogram lines",
+                float(np.sqrt(np.mean(r**2) / LOG_LINE_VARIANCE)),
+                size_limit(extra / n, n, alpha, 3),
+                min(p_lb, p_peak) < alpha / 2,
+                f"Ljung-Box along the frequency p = {p_lb:.2g}, largest line p = {p_peak:.2g}",
+                f"largest line {np.exp(r[top] - np.euler_gamma):.0f} x the model at "
+                f"{N0 * np.exp(x[top]):.3g} cycle/m",
+            ),
+            curvature_view(recs, alpha / 3),
+        ]
+        return views, {"octaves": table, "ljung_box_p": p_lb, "peak_p": p_peak}
+
+
+def curvature_view(recs: Sequence[RecordingLike], alpha: float) -> Left:
+    """Whether the log spectrum of ``recs`` bends: the Whittle score test of a term
+    ``c (ln(n/n0))^2`` added to ln S at the free-waviness fit of every line. With ``q``
+    that term's regressor made orthogonal to ``[1, ln(n/n0)]`` (the parameters fitted),
+    the score ``U = sum q (I / S - 1)`` has variance ``sum q^2`` under the model (the
+    Whittle Fisher information), so ``z = U / sqrt(sum q^2)`` is standard normal. Its
+    size is ``|z|`` against the two-sided quantile of ``alpha``; the sign says which way
+    the spectrum bends (a knee to a steeper slope bends it down)."""
+    free = whittle_fit(RoadSpectrum((Waviness(),)), recs)
+    x = np.concatenate([q.inputs["log_frequency"] for q in recs])
+    basis = np.column_stack([np.ones_like(x), x])
+    q = x**2 - basis @ np.linalg.lstsq(basis, x**2, rcond=None)[0]
+    z = float(q @ np.expm1(log_residual(free, recs) - np.euler_gamma) / np.sqrt(q @ q))
+    limit = float(stats.norm.isf(alpha / 2))
+    return Left(
+        "the curvature of the log spectrum",
+        abs(z),
+        limit,
+        abs(z) > limit,
+        f"Whittle score test of a bend, z = {z:+.2f}",
+        f"the spectrum bends {'down' if z < 0 else 'up'} across the band against one slope",
+    )
+
+
+def _as_profile(rec: RecordingLike) -> Recording:
+    if not isinstance(rec, Recording):
+        raise ValidationError(f"a road profile must be a Recording, but got {type(rec).__name__}")
+    return rec
+
+
+def _halves(rec: Recording) -> tuple[Recording, Recording]:
+    k = rec.n_samples // 2
+    return (
+        rec.select(slice(0, k), f"{rec.name}:first_half"),
+        rec.select(slice(k, None), f"{rec.name}:second_half"),
+    )
 
 
 # ------------------------------------------------------------------ diagnosis
 @dataclass
 class WavinessTest:
-    """Free fit vs the standard's w = 2: LR statistic, p-value, BIC change."""
+    """The loop's test of the free waviness against the standard's w = 2: the corrected
+    likelihood-ratio statistic, its p-value (before the Bonferroni split), the corrected
+    BIC change, the decision and its direction."""
 
     lr_statistic: float
     p_value: float
@@ -244,20 +567,10 @@ class WavinessTest:
         return asdict(self)
 
 
-def waviness_test(free: PsdFit, standard: PsdFit, alpha: float = 0.01) -> WavinessTest:
-    lr = max(2.0 * (free.loglik - standard.loglik), 0.0)
-    p = float(stats.chi2.sf(lr, 1))
-    dbic = -lr + np.log(free.n_lines)
-    sig = bool(p < alpha and dbic < 0)
-    direction = ""
-    if sig:
-        direction = "steeper" if free.waviness > STANDARD_WAVINESS else "shallower"
-    return WavinessTest(lr, p, float(dbic), sig, direction)
-
-
 @dataclass
 class RoadDiagnosis:
-    """Outcome of :func:`diagnose_road`; ``to_dict()`` is the machine-readable report."""
+    """Outcome of :func:`diagnose_road`; ``to_dict()`` is the machine-readable report.
+    ``diagnosis`` is the loop's (its findings: the residual left, the assumptions)."""
 
     recording: str
     family: str
@@ -270,6 +583,7 @@ class RoadDiagnosis:
     ride: dict[str, Any]
     octave_bands: list[dict[str, float]]
     seconds: float
+    diagnosis: Diagnosis = field(repr=False)
     welch: tuple[np.ndarray, np.ndarray] = field(repr=False, default=None)  # type: ignore[assignment]
     recordings: list[Recording] = field(repr=False, default_factory=list)
 
@@ -277,11 +591,23 @@ class RoadDiagnosis:
     def named_kinds(self) -> list[str]:
         return [h["kind"] for h in self.named]
 
+    @property
+    def unexplained(self) -> bool:
+        return self.diagnosis.unexplained
+
+    @property
+    def confident(self) -> bool:
+        return self.diagnosis.confident
+
     def to_dict(self) -> dict[str, Any]:
+        d = self.diagnosis.to_dict()
         return {
             "recording": self.recording,
             "family": self.family,
             "verdict": self.verdict,
+            "confident": self.confident,
+            "unexplained": self.unexplained,
+            "assumptions": d["assumptions"],
             "named": self.named,
             "free_fit": self.free.to_dict(),
             "standard_fit": self.standard.to_dict(),
@@ -289,36 +615,34 @@ class RoadDiagnosis:
             "heldout": self.heldout,
             "ride": self.ride,
             "octave_bands": self.octave_bands,
+            "findings": d["findings"],
             "seconds": self.seconds,
         }
 
 
-def octave_table(rec: Recording, free: PsdFit, standard: PsdFit) -> list[dict[str, float]]:
-    """Per octave band of the fitted band: mean periodogram / model, both fits."""
-    n, ratio = _lines(rec, None, free.band)
-    rows, lo = [], free.band[0]
-    while lo < free.band[1]:
-        sel = (n >= lo) & (n < 2 * lo)
-        if sel.sum() >= 2:
-            rows.append(
-                {
-                    "n_low": float(lo),
-                    "n_high": float(2 * lo),
-                    "lines": int(sel.sum()),
-                    "measured_over_free": float(np.mean(ratio[sel] / free.psd(n[sel]))),
-                    "measured_over_standard": float(np.mean(ratio[sel] / standard.psd(n[sel]))),
-                }
-            )
-        lo *= 2
-    return rows
+def _heldout_numbers(diag: Diagnosis, free: FitResult) -> dict[str, Any]:
+    """The held-out check in numbers: both models' Whittle log-likelihood per held-out
+    line, and the waviness fitted to the held-out profile(s) on their own."""
+    held = diag.split.heldout_recordings
+    own = whittle_fit(RoadSpectrum((Waviness(),)), held)
 
+    def per_line(fit: FitResult) -> float:
+        return whittle_loglik(fit, held) / own.n_samples
 
-def _halves(rec: Recording) -> tuple[Recording, Recording]:
-    k = rec.n_samples // 2
-    return (
-        rec.select(slice(0, k), f"{rec.name}:first_half"),
-        rec.select(slice(k, None), f"{rec.name}:second_half"),
-    )
+    w, se = float(free.theta[1]), float(free.stderr[1])
+    return {
+        "description": diag.holdout,
+        "fit_waviness": w,
+        "fit_waviness_se": se,
+        "heldout_waviness": float(own.theta[1]),
+        "heldout_waviness_se": float(own.stderr[1]),
+        "waviness_agreement_z": float((own.theta[1] - w) / np.hypot(own.stderr[1], se)),
+        "heldout_loglik_per_line_free": per_line(free),
+        "heldout_loglik_per_line_standard": per_line(diag.base_fit),
+        "heldout_loglik_gain_per_line": per_line(free) - per_line(diag.base_fit),
+        "heldout_lines": own.n_samples,
+        "heldout_reduction": float(diag.hypotheses[0].heldout_reduction),
+    }
 
 
 def diagnose_road(
@@ -330,77 +654,51 @@ def diagnose_road(
     ride_speed_kmh: float = 80.0,
     ride_seeds: tuple[int, ...] = (0, 1, 2),
 ) -> RoadDiagnosis:
-    """Diagnose a measured road profile against ISO 8608 (see the module docstring).
+    """Diagnose a measured road profile against ISO 8608 in the one loop (see the
+    module docstring).
 
     Args:
         recording: a profile Recording (or a ``profile_*.txt`` path).
-        heldout: another profile for the held-out check (default: the second half of
-            ``recording``; the fit for that check then uses the first half).
+        heldout: another profile held out (default: the second half of ``recording``;
+            the fit then uses the first half).
         band: fitted spatial-frequency band (cycle/m).
-        alpha: significance level of the likelihood-ratio test.
+        alpha: the decision rule's level.
         ride: also compute the ride consequence (a few short ride-model runs).
     """
     t0 = time.perf_counter()
     rec = recording if isinstance(recording, Recording) else load_profile_txt(recording)
-    free = fit_psd(rec, band=band)
-    std = fit_psd(rec, band=band, waviness=STANDARD_WAVINESS)
-    test = waviness_test(free, std, alpha)
-
-    if heldout is None:
-        fit_part, held = _halves(rec)
-        how = f"fit on the first half of {rec.name}, validate on its second half"
-    else:
-        held = heldout if isinstance(heldout, Recording) else load_profile_txt(heldout)
-        fit_part = rec
-        how = f"fit on {rec.name}, validate on {held.name}"
-    f_free = fit_psd(fit_part, band=band)
-    f_std = fit_psd(fit_part, band=band, waviness=STANDARD_WAVINESS)
-    held_free = fit_psd(held, band=band)
-    ll_free = heldout_loglik(f_free, held)
-    ll_std = heldout_loglik(f_std, held)
-    z = (held_free.waviness - f_free.waviness) / np.hypot(held_free.waviness_se, f_free.waviness_se)
-    heldout_info = {
-        "description": how,
-        "fit_waviness": f_free.waviness,
-        "fit_waviness_se": f_free.waviness_se,
-        "heldout_waviness": held_free.waviness,
-        "heldout_waviness_se": held_free.waviness_se,
-        "waviness_agreement_z": float(z),
-        "heldout_loglik_per_line_free": ll_free,
-        "heldout_loglik_per_line_standard": ll_std,
-        "heldout_loglik_gain_per_line": ll_free - ll_std,
-        "heldout_lines": held_free.n_lines,
-        "heldout_test": waviness_test(
-            held_free, fit_psd(held, band=band, waviness=STANDARD_WAVINESS), alpha
-        ).to_dict(),
-    }
-
+    held = (
+        heldout if heldout is None or isinstance(heldout, Recording) else load_profile_txt(heldout)
+    )
+    family = RoadFamily(band=band, rule=replace(ROAD_RULE, alpha=alpha))
+    diag = engine.diagnose(rec, family, holdout=held)
+    hyp = diag.hypotheses[0]
+    assert hyp.fit is not None and hyp.comparison is not None  # the one candidate's refit
+    free, std = PsdFit.of(hyp.fit, band), PsdFit.of(diag.base_fit, band)
+    direction = ""
     named = []
-    if test.significant:
-        words = f"waviness {test.direction} than ISO 8608's 2 (w = {free.waviness:.2f} " + (
-            f"+- {free.waviness_se:.2f})"
-        )
+    if diag.named:
+        direction = "steeper" if free.waviness > STANDARD_WAVINESS else "shallower"
         named.append(
             {
-                "kind": f"waviness_{test.direction}",
+                "kind": f"waviness_{direction}",
                 "family": "road_spectrum",
-                "words": words,
+                "words": f"waviness {direction} than ISO 8608's 2 (w = {free.waviness:.2f} "
+                f"+- {free.waviness_se:.2f})",
                 "params": {
                     "waviness": {"value": free.waviness, "stderr": free.waviness_se},
                     "gd0": {"value": free.gd0, "ci95": list(free.gd0_ci95)},
                 },
             }
         )
-        verdict = (
-            f"{words}; class {free.road_class} by Gd(n0) = {free.gd0 * 1e6:.1f}e-6 m^3 "
-            f"(LR = {test.lr_statistic:.1f}, p = {test.p_value:.2g}, dBIC = {test.delta_bic:.1f})"
-        )
-    else:
-        verdict = (
-            f"no significant waviness deviation from ISO 8608's 2 (w = {free.waviness:.2f} +- "
-            f"{free.waviness_se:.2f}, p = {test.p_value:.2g}); class {std.road_class} by "
-            f"Gd(n0) = {std.gd0 * 1e6:.1f}e-6 m^3"
-        )
+    test = WavinessTest(
+        hyp.lr_statistic_corrected,
+        hyp.p_value_corrected,
+        hyp.delta_bic_corrected,
+        bool(diag.named),
+        direction,
+    )
+    verdict = _road_verdict(diag, named, free, std, test)
     ride_info: dict[str, Any] = {}
     if ride:
         ride_info = ride_consequence(free, std, rec, ride_speed_kmh, ride_seeds)
@@ -411,6 +709,16 @@ def diagnose_road(
                 f"{ride_info['aw_front_standard']:.3f} m/s^2 on the w = 2 fit "
                 f"({100 * (ride_info['ratio_front'] - 1):+.0f} %)"
             )
+    table = octaves(hyp.fit, diag.split.fit_recordings).rows
+    base_table = octaves(diag.base_fit, diag.split.fit_recordings).rows
+    bands = [
+        {
+            **{k: a[k] for k in ("n_low", "n_high", "lines")},
+            "measured_over_free": a["ratio"],
+            "measured_over_standard": b["ratio"],
+        }
+        for a, b in zip(table, base_table, strict=True)
+    ]
     return RoadDiagnosis(
         recording=rec.name,
         family="road_profile",
@@ -419,31 +727,39 @@ def diagnose_road(
         free=free,
         standard=std,
         test=test,
-        heldout=heldout_info,
+        heldout=_heldout_numbers(diag, hyp.fit),
         ride=ride_info,
-        octave_bands=octave_table(rec, free, std),
+        octave_bands=bands,
         seconds=time.perf_counter() - t0,
-        welch=welch_spatial_psd(*_profile(rec)),
-        recordings=[rec, held],
+        diagnosis=diag,
+        welch=welch_psd(*_profile(rec), segment_length=64.0),
+        recordings=[rec] + ([held] if held is not None else []),
     )
 
 
+def _road_verdict(
+    diag: Diagnosis, named: list[dict[str, Any]], free: PsdFit, std: PsdFit, test: WavinessTest
+) -> str:
+    """The verdict: the waviness found (or not), the class, the test's numbers, then the
+    loop's sentences (what is left, what was assumed)."""
+    numbers = f"LR = {test.lr_statistic:.1f}, p = {test.p_value:.2g}, dBIC = {test.delta_bic:.1f}"
+    if named:
+        head = (
+            f"{named[0]['words']}; class {free.road_class} by Gd(n0) = {free.gd0 * 1e6:.1f}e-6 "
+            f"m^3 ({numbers})"
+        )
+        if not diag.confident:
+            head = "not confident: " + head
+    else:
+        head = (
+            f"no significant waviness deviation from ISO 8608's 2 (w = {free.waviness:.2f} +- "
+            f"{free.waviness_se:.2f}, {numbers}); class {std.road_class} by "
+            f"Gd(n0) = {std.gd0 * 1e6:.1f}e-6 m^3"
+        )
+    return ". ".join([head, *diag.evidence])
+
+
 # ------------------------------------------------------------------ ride consequence
-def _inputs_from_profile(
-    prof: RoadProfile, speed: float, dt: float, n_settle: int, n_steps: int, wheelbase: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """Wheel inputs (2N+1, 4) on the half-step grid from a periodic two-track profile."""
-    period = prof.left.size
-    m = 2 * n_steps + 1
-    rl, rr = prof.shifted(wheelbase)
-    sfl, sfr = prof.slopes()
-    srl, srr = prof.slopes(wheelbase)
-    idx = (np.arange(m) - 2 * n_settle) % period
-    z = np.stack([prof.left, prof.right, rl, rr], axis=1)[idx]
-    zd = speed * np.stack([sfl, sfr, srl, srr], axis=1)[idx]
-    return z, zd
-
-
 def _in_phase_inputs(
     track: np.ndarray, dx: float, speed: float, n_steps: int, wheelbase: float
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -478,6 +794,7 @@ def ride_consequence(
     from suspenv.metrics.iso2631 import weighted_rms_fft
     from suspenv.models.minibus import REFERENCE_MINIBUS, STUDY_PICK, vehicle_parameters
     from suspenv.models.minibus.ride_model import RideModel
+    from suspenv.rigs.ride import profile_inputs
 
     veh = REFERENCE_MINIBUS
     model = RideModel(vehicle_parameters(STUDY_PICK[None, :], "no_load", veh))
@@ -490,7 +807,7 @@ def ride_consequence(
     length = 2 * n_rec * dx
 
     def aw(prof: RoadProfile) -> tuple[float, float]:
-        z, zd = _inputs_from_profile(prof, v, dt, n_settle, n_steps, veh.wheelbase)
+        z, zd = profile_inputs(prof, v, 2 * n_steps + 1, n_settle, veh.wheelbase)
         rec = model.simulate(z, zd, dt, discard=n_settle)
         return (
             float(weighted_rms_fft(rec.acc_front, sample_rate, "Wk")[0]),

@@ -41,7 +41,12 @@ from suspenv.models.minibus.vehicle import (
     Minibus,
     stacked_vehicle_parameters,
 )
-from suspenv.rigs.road import contact_length_filter, generate_profile, triangular_bump
+from suspenv.rigs.road import (
+    RoadProfile,
+    contact_length_filter,
+    generate_profile,
+    triangular_bump,
+)
 
 
 @dataclass(frozen=True)
@@ -108,12 +113,22 @@ def random_road_inputs(
     prof = generate_profile(period * dx, dx, road.road_class, road.seed, vehicle.track_front)
     if road.enveloping:
         prof = prof.enveloped(road.enveloping)
-    rl, rr = prof.shifted(vehicle.wheelbase)
+    return profile_inputs(prof, v, m, road.n_settle, vehicle.wheelbase)
+
+
+def profile_inputs(
+    prof: RoadProfile, speed: float, m: int, n_settle: int, wheelbase: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Wheel inputs (m, 4) on the half-step grid (``prof.dx`` apart) from a periodic
+    two-track profile: elevation (m) and rate (m/s) at ``speed`` (m/s), columns FL, FR,
+    RL, RR (the rear tracks ``wheelbase`` behind), the profile's start reached after
+    ``n_settle`` steps."""
+    rl, rr = prof.shifted(wheelbase)
     sfl, sfr = prof.slopes()
-    srl, srr = prof.slopes(vehicle.wheelbase)
-    idx = (np.arange(m) - 2 * road.n_settle) % period
+    srl, srr = prof.slopes(wheelbase)
+    idx = (np.arange(m) - 2 * n_settle) % prof.left.size
     z = np.stack([prof.left, prof.right, rl, rr], axis=1)[idx]
-    zd = v * np.stack([sfl, sfr, srl, srr], axis=1)[idx]
+    zd = speed * np.stack([sfl, sfr, srl, srr], axis=1)[idx]
     return z, zd
 
 
