@@ -14,7 +14,9 @@ Conventions (all float64):
   is reported with every objective (and constraint, in ``info``) equal to
   ``fail_value`` (default :data:`FAIL_VALUE`, finite and worse than any real design).
 * reward = -(scalarised objectives + penalty * total constraint violation), where the
-  violation is ``sum_j max(g_j, 0)``; a failed evaluation gets the lowest reward of a
+  violation is the batch's dimensionless ``sum_j max(g_j / s_j, 0)``
+  (:attr:`EvaluationBatch.violation <suspenv.core.result.EvaluationBatch.violation>`,
+  ``s_j`` the problem's constraint scales); a failed evaluation gets the lowest reward of a
   working design this env has seen (the reset's reference design included) minus a
   margin of ``0.1 * |lowest| + 1`` (:meth:`ProblemAdapter.failed_reward`): finite,
   below every working design, on the scale of the episode (``-fail_value`` only while
@@ -249,7 +251,7 @@ class ProblemAdapter:
                 if not finite[i]
                 else f"objective outside the observation space [-{OBS_LIMIT:g}, {OBS_LIMIT:g}]"
             )
-        violation = np.clip(np.where(ok[:, None], G, 0.0), 0.0, None).sum(axis=1)
+        violation = np.where(ok, batch.violation, 0.0)
         scal = np.full(len(batch), np.nan)
         if ok.any():
             scal[ok] = np.asarray(

@@ -81,8 +81,9 @@ class ProblemEnv(gym.Env[np.ndarray, np.ndarray]):
       The default is "normalized" for objectives in more than one unit (KCIdentification,
       MinibusRideHandling, CarSideImpact) and "sum" otherwise
       (:func:`~suspenv.envs.adapter.default_reward`).
-    * ``v = sum_j max(g_j, 0)`` is the total constraint violation (constraints are
-      feasible when ``g <= 0``), in the constraints' own units (never normalised);
+    * ``v = sum_j max(g_j / s_j, 0)`` is the total constraint violation (constraints are
+      feasible when ``g <= 0``; ``s_j`` the problem's constraint scales), dimensionless
+      (:attr:`EvaluationBatch.violation <suspenv.core.result.EvaluationBatch.violation>`);
       ``penalty`` defaults to 100.
     * A failed evaluation earns the lowest reward of a working design this env has seen
       (the reset's reference design included) minus ``0.1 * |lowest| + 1``: finite and
