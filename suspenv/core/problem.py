@@ -87,7 +87,7 @@ class Problem(ABC):
         Physics failures become failed rows. The batch carries the constraint scales.
         """
         X = self.space.check_batch(X)
-        scales = self._scales()
+        scales = self._checked_constraint_scales()
         try:
             batch = self._evaluate(X)
         except MemoryError:
@@ -106,10 +106,10 @@ class Problem(ABC):
     def with_scales(self, batch: EvaluationBatch) -> EvaluationBatch:
         """``batch`` carrying this problem's :attr:`constraint_scales` (None when none
         are declared: every scale 1), e.g. for rows read back from an archive."""
-        batch.constraint_scales = self._scales()
+        batch.constraint_scales = self._checked_constraint_scales()
         return batch
 
-    def _scales(self) -> np.ndarray | None:
+    def _checked_constraint_scales(self) -> np.ndarray | None:
         """:attr:`constraint_scales` checked (:func:`check_scales`), or None when empty."""
         if not self.constraint_scales:
             return None
@@ -139,6 +139,14 @@ class Problem(ABC):
         return F[:, 0] if F.shape[1] == 1 else None
 
     quality_name: ClassVar[str] = "objective"
+
+    @property
+    def objective_scales(self) -> np.ndarray | None:
+        """(m,) scale of each objective in its unit (finite, > 0) that makes
+        ``f_j / s_j`` comparable across objectives, or None (default) when the problem
+        declares none. Used by the envs' normalised reward (:mod:`suspenv.envs.scales`),
+        which falls back to its own rule without them."""
+        return None
 
     def write_report(self, run_dir: Path, archive: Any) -> list[Path]:
         """Problem-specific report files for a finished run (optional). Returns paths."""
