@@ -128,3 +128,50 @@ def test_scales_survive_take_concatenate_and_the_env():
     _, reward, *_, info = env.step(env.design_to_action(np.array([3.0])))
     assert info["violation"] == pytest.approx(0.5, rel=1e-12)
     assert reward == pytest.approx(-(3.0 + 10.0 * 0.5), rel=1e-12)
+
+
+class TwoUnits(Problem):
+    """f = |x - (3, 3)|^2; g0 = x0 - 1 [mm], scale 0.001 mm; g1 = x1 - 1 [m], scale 1000
+    m: the scaled and the plain totals rank infeasible designs differently."""
+
+    name = "TwoUnits"
+
+    def __init__(self):
+        self.space = DesignSpace([Parameter(f"x{i}", 0.0, 4.0, default=2.0) for i in (0, 1)])
+        self.objective_names = ("f",)
+        self.constraint_names = ("g0", "g1")
+        self.constraint_scales = (0.001, 1000.0)
+
+    def _evaluate(self, X):
+        n = len(X)
+        F = ((X - 3.0) ** 2).sum(axis=1)
+        return EvaluationBatch(F[:, None], X - 1.0, np.ones(n, bool), [""] * n)
+
+
+def test_a_resumed_run_sees_the_same_violation(tmp_path):
+    """Rows replayed from the archive carry the problem's scales: a run stopped after
+    batch 4 and resumed asks exactly the designs of an uninterrupted run (CMA-ES ranks
+    infeasible designs by violation)."""
+    from suspenv.registry import make_strategy
+    from suspenv.runs.archive import RunArchive
+    from suspenv.runs.loop import optimize
+
+    p = TwoUnits()
+
+    def stop(b, U, batch):
+        if b == 4:
+            raise RuntimeError("stop")
+
+    with pytest.raises(RuntimeError, match="stop"):
+        optimize(
+            p,
+            make_strategy("cmaes", p, seed=2, popsize=6),
+            60,
+            run_dir=tmp_path / "run",
+            callbacks=[stop],
+        )
+    run = optimize(p, make_strategy("cmaes", p, seed=2, popsize=6), 60, run_dir=tmp_path / "run")
+    ref = optimize(p, make_strategy("cmaes", p, seed=2, popsize=6), 60, run_dir=tmp_path / "ref")
+    assert run.n_resumed == 30 and run.n_evaluations == ref.n_evaluations == 60
+    with RunArchive(tmp_path / "run") as a, RunArchive(tmp_path / "ref") as b:
+        np.testing.assert_array_equal(a.arrays()["unit"], b.arrays()["unit"])
