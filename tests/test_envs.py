@@ -14,7 +14,7 @@ from gymnasium.utils.env_checker import check_env
 from suspenv.core import DesignSpace, EvaluationBatch, Parameter, Problem
 from suspenv.core.errors import EvaluationError, ValidationError
 from suspenv.envs import ProblemEnv, ProblemVectorEnv, env_id, make_env, make_vector_env
-from suspenv.envs.adapter import FAIL_VALUE
+from suspenv.envs.adapter import FAIL_VALUE, MixedUnitsWarning
 from suspenv.registry import list_problems, make_problem
 
 
@@ -212,7 +212,8 @@ def test_reward_weights_and_constraint_penalty():
     # 12.175625); relative violations 0.000296875 (rib lower) + 0.0075 (pubic force)
     x = np.ones(7)
     # the weights in the objectives' own units: asked for (the default normalises them)
-    env = ProblemEnv("CarSideImpact", weights=[1.0, 2.0, 0.5], penalty=10.0, reward="sum")
+    with pytest.warns(MixedUnitsWarning, match=r"\(kN, kg, m/s\)"):
+        env = ProblemEnv("CarSideImpact", weights=[1.0, 2.0, 0.5], penalty=10.0, reward="sum")
     env.reset(seed=0)
     _, reward, _, _, info = env.step(env.design_to_action(x))
     s = 29.05001 + 2 * 4.03 + 0.5 * 12.175625

@@ -19,8 +19,8 @@ import pytest
 from suspenv.core import DesignSpace, EvaluationBatch, Parameter, Problem
 from suspenv.core.errors import ValidationError
 from suspenv.envs import ProblemEnv, ProblemVectorEnv, env_id, make_vector_env
+from suspenv.envs.adapter import MixedUnitsWarning
 from suspenv.envs.scales import (
-    MAX_REFERENCE_SHARE,
     SAMPLE_SEED,
     SAMPLE_SIZE,
     SPREAD_FRACTION,
@@ -43,7 +43,9 @@ def kc_env():
 def test_sum_reward_is_dominated_by_an_objective_no_design_moves():
     """The report, reproduced: with the old reward ("sum") one objective, opp_roll_rate,
     is 57 % of the reference design's reward, and no design in a seeded sample moves it."""
-    env = ProblemEnv("KCIdentification", reward="sum")
+    units = r"reward='sum' adds .* across units \(N\*m/deg, .*, mm/mm\)"
+    with pytest.warns(MixedUnitsWarning, match=units):
+        env = ProblemEnv("KCIdentification", reward="sum")
     obs, info = env.reset(seed=0)
     problem = env.problem
     j = problem.objective_names.index("opp_roll_rate")
@@ -55,17 +57,17 @@ def test_sum_reward_is_dominated_by_an_objective_no_design_moves():
     assert np.ptp(F[:, j]) < 1e-3 * obs[j]
 
 
-def test_normalised_reward_is_the_kc_default_and_no_objective_dominates(kc_env):
+def test_normalised_reward_is_the_kc_default_in_standard_errors(kc_env):
+    """One definition: the env's scales are the problem's declared standard errors (the
+    scales of its quality), and the objective no design moves no longer dominates."""
     env = kc_env.unwrapped
     assert env.reward_mode == "normalized"
     obs, info = kc_env.reset(seed=0)
     s = env.objective_scales
+    np.testing.assert_array_equal(s, env.problem.objective_scales)
+    assert env.adapter.scales.declared
     shares = (np.abs(obs) / s) / (np.abs(obs) / s).sum()
-    names = env.problem.objective_names
-    assert shares.max() <= MAX_REFERENCE_SHARE, names[int(np.argmax(shares))]
-    assert shares[names.index("opp_roll_rate")] <= MAX_REFERENCE_SHARE
-    # every objective contributes at most 1 at the reference design
-    assert (np.abs(obs) / s <= 1 + 1e-12).all()
+    assert shares[env.problem.objective_names.index("opp_roll_rate")] < 0.01
     # the reward of a step: minus the sum of the objectives over their scales
     action = np.random.default_rng(2).uniform(-1, 1, env.problem.space.dim)
     obs, reward, *_ , info = kc_env.step(action)
@@ -76,7 +78,8 @@ def test_normalised_reward_is_the_kc_default_and_no_objective_dominates(kc_env):
 
 def test_the_old_reward_stays_available_and_reproduces_old_numbers():
     new = ProblemEnv("KCIdentification", budget=2)
-    old = ProblemEnv("KCIdentification", budget=2, reward="sum")
+    with pytest.warns(MixedUnitsWarning):
+        old = ProblemEnv("KCIdentification", budget=2, reward="sum")
     new.reset(seed=0)
     old.reset(seed=0)
     a = np.zeros(new.problem.space.dim)
@@ -119,6 +122,31 @@ def test_scale_rule_by_hand():
         _, reward, *_ , info = env.step(np.array([a]))
         x = info["parameters"]["x"]
         assert reward == pytest.approx(-(x / want[0] + 1.0), rel=1e-12)
+
+
+def test_declared_scales_are_used_and_checked():
+    class Declared(Constant):
+        def __init__(self, scales):
+            super().__init__()
+            self._declared = scales
+
+        @property
+        def objective_scales(self):
+            return self._declared
+
+    env = ProblemEnv(Declared(np.array([2.0, 3.0, 0.5])), reward="normalized")
+    env.reset(seed=0)
+    _, reward, *_, info = env.step(np.array([1.0]))  # x = 2: f = (2, 3, 0)
+    assert reward == pytest.approx(-(2 / 2.0 + 3 / 3.0 + 0 / 0.5), rel=1e-12)
+    for bad in (np.array([1.0, 0.0, 1.0]), np.ones(2)):
+        env = ProblemEnv(Declared(bad), reward="normalized")
+        with pytest.raises(ValidationError, match="objective scales must be 3 finite numbers"):
+            env.reset(seed=0)
+
+
+def test_sum_reward_on_one_unit_does_not_warn(recwarn):
+    ProblemEnv("ZDT1", reward="sum")
+    assert not [w for w in recwarn if issubclass(w.category, MixedUnitsWarning)]
 
 
 def test_scales_do_not_depend_on_the_agent():

@@ -65,8 +65,10 @@ def test_kc_targets_are_the_truths_quality_and_vary_by_instance():
         assert inst.known.kind == "target" and inst.known.f == pytest.approx(f, rel=1e-12)
         values.append(f)
     assert values[0] != values[1]  # instances differ by the truth's seed
+    # the same car with sensor noise: another measurement, another truth's quality (the
+    # noise adds about one standard error to each mismatch, up or down)
     noisy = build("kc-noisy", 1)
-    assert noisy.function.noisy and noisy.known.f > build("kc-tolerance", 1).known.f
+    assert noisy.function.noisy and noisy.known.f != build("kc-tolerance", 1).known.f
 
 
 def test_instance_names_and_errors():

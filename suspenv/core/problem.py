@@ -21,7 +21,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from suspenv.core.result import EvaluationBatch
+from suspenv.core.result import EvaluationBatch, check_scales
 from suspenv.core.space import DesignSpace
 
 
@@ -37,6 +37,10 @@ class Problem(ABC):
         space: the :class:`DesignSpace`.
         objective_names: names of the m objectives (minimised).
         constraint_names: names of the k constraints (feasible when <= 0).
+        constraint_scales: k scales, each > 0 in its constraint's unit, that make the
+            total violation dimensionless (:mod:`suspenv.core.result`): e.g. the
+            magnitude of the limit the constraint compares with. Empty (default): every
+            scale is 1, for constraints that are already dimensionless.
         objective_units: optional units, same length as ``objective_names``.
 
     Optional method:
@@ -50,6 +54,7 @@ class Problem(ABC):
     space: DesignSpace
     objective_names: tuple[str, ...]
     constraint_names: tuple[str, ...] = ()
+    constraint_scales: tuple[float, ...] = ()
     objective_units: tuple[str, ...] = ()
     render_rgb: Callable[[np.ndarray], np.ndarray] | None = None
     #: objectives that may be NaN in a successful row: columns a view adds for information
@@ -78,21 +83,37 @@ class Problem(ABC):
         """Evaluate a batch of physical designs (n, d) -> :class:`EvaluationBatch`.
 
         Raises :class:`~suspenv.core.errors.ValidationError` for a malformed batch
-        (wrong shape, NaN/inf). Physics failures become failed rows.
+        (wrong shape, NaN/inf) or malformed :attr:`constraint_scales`, before any work.
+        Physics failures become failed rows. The batch carries the constraint scales.
         """
         X = self.space.check_batch(X)
+        scales = self._checked_constraint_scales()
         try:
             batch = self._evaluate(X)
         except MemoryError:
             raise
         except Exception:  # noqa: BLE001 - isolate the failing rows below
             if X.shape[0] == 1:
-                return self._failed_row(X[0])
+                return self.with_scales(self._failed_row(X[0]))
             return EvaluationBatch.concatenate([self.evaluate(x[None, :]) for x in X])
         self._check_shapes(batch, X.shape[0])
-        return _non_finite_failed(
+        batch = _non_finite_failed(
             batch, self.objective_names, self.constraint_names, self.informational_objectives
         )
+        batch.constraint_scales = scales
+        return batch
+
+    def with_scales(self, batch: EvaluationBatch) -> EvaluationBatch:
+        """``batch`` carrying this problem's :attr:`constraint_scales` (None when none
+        are declared: every scale 1), e.g. for rows read back from an archive."""
+        batch.constraint_scales = self._checked_constraint_scales()
+        return batch
+
+    def _checked_constraint_scales(self) -> np.ndarray | None:
+        """:attr:`constraint_scales` checked (:func:`check_scales`), or None when empty."""
+        if not self.constraint_scales:
+            return None
+        return check_scales(self.constraint_scales, self.n_constraints)
 
     def evaluate_unit(self, U: np.ndarray) -> EvaluationBatch:
         """Evaluate unit-cube designs (n, d)."""
@@ -118,6 +139,14 @@ class Problem(ABC):
         return F[:, 0] if F.shape[1] == 1 else None
 
     quality_name: ClassVar[str] = "objective"
+
+    @property
+    def objective_scales(self) -> np.ndarray | None:
+        """(m,) scale of each objective in its unit (finite, > 0) that makes
+        ``f_j / s_j`` comparable across objectives, or None (default) when the problem
+        declares none. Used by the envs' normalised reward (:mod:`suspenv.envs.scales`),
+        which falls back to its own rule without them."""
+        return None
 
     def write_report(self, run_dir: Path, archive: Any) -> list[Path]:
         """Problem-specific report files for a finished run (optional). Returns paths."""

@@ -1,4 +1,15 @@
-"""The result of evaluating a batch of designs."""
+"""The result of evaluating a batch of designs, and its total constraint violation.
+
+Total violation (the one definition; penalties, DE's ranking, the envs' reward and the
+optimiser adapters all read it): ``v = sum_j max(g_j / s_j, 0)``, dimensionless, where
+``g_j`` is constraint j in its own unit (feasible when <= 0) and ``s_j > 0`` the scale
+the problem declares for it in the same unit (:attr:`Problem.constraint_scales
+<suspenv.core.problem.Problem.constraint_scales>`, e.g. the magnitude of the limit the
+constraint compares with; 1 for constraints that are already dimensionless). This is
+pymoo's CV ``sum_j max(0, g_j)`` on constraints normalised as pymoo recommends
+(``g = r / limit - 1`` for a response r and its limit). Dividing by ``s_j > 0`` leaves
+the sign of every ``g_j``, so which designs are feasible does not depend on the scales.
+"""
 
 from __future__ import annotations
 
@@ -21,6 +32,9 @@ class EvaluationBatch:
         messages: n strings; the failure reason where ``ok`` is False, else "".
         extras: optional named per-row arrays (first axis n) a problem wants archived
             or reported, e.g. auxiliary metrics. Kept small.
+        constraint_scales: (k,) scale of each constraint in its unit, finite and > 0
+            (see the module docstring); None: every scale is 1. Set by
+            :meth:`Problem.evaluate <suspenv.core.problem.Problem.evaluate>`.
     """
 
     objectives: np.ndarray
@@ -28,6 +42,7 @@ class EvaluationBatch:
     ok: np.ndarray
     messages: list[str]
     extras: dict[str, np.ndarray] = field(default_factory=dict)
+    constraint_scales: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         self.objectives = np.atleast_2d(np.asarray(self.objectives, dtype=float))
@@ -41,6 +56,10 @@ class EvaluationBatch:
                 "EvaluationBatch parts must have the same number of rows, but got "
                 f"objectives={self.objectives.shape}, constraints={self.constraints.shape}, "
                 f"ok={self.ok.shape}, messages={len(self.messages)}"
+            )
+        if self.constraint_scales is not None:
+            self.constraint_scales = check_scales(
+                self.constraint_scales, self.constraints.shape[1]
             )
 
     # ----------------------------------------------------------- constructors
@@ -65,6 +84,7 @@ class EvaluationBatch:
             np.concatenate([p.ok for p in parts]),
             [m for p in parts for m in p.messages],
             {k: np.concatenate([np.asarray(p.extras[k]) for p in parts]) for k in sorted(keys)},
+            next((p.constraint_scales for p in parts if p.constraint_scales is not None), None),
         )
 
     # ----------------------------------------------------------------- views
@@ -80,11 +100,19 @@ class EvaluationBatch:
         return self.constraints.shape[1]
 
     @property
+    def scaled_constraints(self) -> np.ndarray:
+        """(n, k) dimensionless constraints ``g_j / s_j`` (feasible when <= 0)."""
+        if self.constraint_scales is None:
+            return self.constraints
+        return self.constraints / self.constraint_scales
+
+    @property
     def violation(self) -> np.ndarray:
-        """(n,) total constraint violation sum(max(g, 0)); NaN for failed rows."""
+        """(n,) total constraint violation ``sum_j max(g_j / s_j, 0)`` (dimensionless, see
+        the module docstring); NaN for failed rows."""
         if self.n_constraints == 0:
             return np.where(self.ok, 0.0, np.nan)
-        v = np.clip(self.constraints, 0.0, None).sum(axis=1)
+        v = np.clip(self.scaled_constraints, 0.0, None).sum(axis=1)
         return np.where(self.ok, v, np.nan)
 
     @property
@@ -101,4 +129,17 @@ class EvaluationBatch:
             self.ok[idx],
             [self.messages[i] for i in np.arange(len(self))[idx]],
             {k: np.asarray(v)[idx] for k, v in self.extras.items()},
+            self.constraint_scales,
         )
+
+
+def check_scales(scales: Sequence[float] | np.ndarray, k: int) -> np.ndarray:
+    """``scales`` as a (k,) float array, or a ValidationError naming the rule and value:
+    one scale per constraint, each finite and > 0."""
+    s = np.asarray(scales, dtype=float).reshape(-1)
+    if s.shape != (k,) or not (np.isfinite(s).all() and (s > 0).all()):
+        raise ValidationError(
+            f"constraint scales must be {k} finite numbers > 0 (one per constraint), but "
+            f"got {np.asarray(scales).tolist()!r}"
+        )
+    return s

@@ -14,7 +14,9 @@ Conventions (all float64):
   is reported with every objective (and constraint, in ``info``) equal to
   ``fail_value`` (default :data:`FAIL_VALUE`, finite and worse than any real design).
 * reward = -(scalarised objectives + penalty * total constraint violation), where the
-  violation is ``sum_j max(g_j, 0)``; a failed evaluation gets the lowest reward of a
+  violation is the batch's dimensionless ``sum_j max(g_j / s_j, 0)``
+  (:attr:`EvaluationBatch.violation <suspenv.core.result.EvaluationBatch.violation>`,
+  ``s_j`` the problem's constraint scales); a failed evaluation gets the lowest reward of a
   working design this env has seen (the reset's reference design included) minus a
   margin of ``0.1 * |lowest| + 1`` (:meth:`ProblemAdapter.failed_reward`): finite,
   below every working design, on the scale of the episode (``-fail_value`` only while
@@ -31,6 +33,7 @@ Conventions (all float64):
 from __future__ import annotations
 
 import numbers
+import warnings
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -53,18 +56,35 @@ Scalarizer = str | Callable[[np.ndarray], np.ndarray]
 #: the reward modes: objectives divided by their scales, in their own units, or one
 #: reward per objective (multi-objective problems, MO-Gymnasium's convention)
 REWARDS = ("normalized", "sum", "vector")
+
+
+class MixedUnitsWarning(UserWarning):
+    """``reward="sum"`` adds objectives of different units (see :func:`check_reward`)."""
+
+
+def mixed_units(problem: Problem) -> list[str]:
+    """The distinct units of ``problem``'s objectives when there are several (sorted),
+    else []: the objectives a plain sum would add across units."""
+    units = sorted(set(problem.objective_units or ()))
+    return units if problem.n_objectives > 1 and len(units) > 1 else []
+
+
 def default_reward(problem: Problem) -> str:
     """The reward mode an env uses when none is given: "normalized" when the objectives
     are in more than one unit (their plain sum weighs them by accident of unit:
     KCIdentification's ``opp_roll_rate`` was 57 % of the reference design's sum), "sum"
     for one objective or several in one unit (or without units)."""
-    units = set(problem.objective_units or ())
-    return "normalized" if problem.n_objectives > 1 and len(units) > 1 else "sum"
+    return "normalized" if mixed_units(problem) else "sum"
 
 
 def check_reward(reward: Any, problem: Problem) -> str:
     """``reward`` as one of :data:`REWARDS` (None: the problem's default), or a
-    ValidationError naming the rule and the value."""
+    ValidationError naming the rule and the value.
+
+    ``reward="sum"`` on objectives in several units is allowed (it reproduces the numbers
+    of earlier versions, and ``weights`` may convert the units) but warned about before
+    any evaluation with a :class:`MixedUnitsWarning` naming the units (shown once per
+    process under Python's default warning filters)."""
     if reward is None:
         return default_reward(problem)
     if not isinstance(reward, str) or reward not in REWARDS:
@@ -73,6 +93,15 @@ def check_reward(reward: Any, problem: Problem) -> str:
         raise ValidationError(
             f"reward='vector' needs two or more objectives, but {problem.name} has "
             f"{problem.n_objectives}: use 'sum' or 'normalized'"
+        )
+    units = mixed_units(problem) if reward == "sum" else []
+    if units:
+        warnings.warn(
+            f"reward='sum' adds {problem.name}'s objectives across units ({', '.join(units)}):"
+            " suspenv adds values of different units only when asked; use "
+            "reward='normalized' (or 'vector'), or weights that convert the units",
+            MixedUnitsWarning,
+            stacklevel=3,
         )
     return reward
 
@@ -249,7 +278,7 @@ class ProblemAdapter:
                 if not finite[i]
                 else f"objective outside the observation space [-{OBS_LIMIT:g}, {OBS_LIMIT:g}]"
             )
-        violation = np.clip(np.where(ok[:, None], G, 0.0), 0.0, None).sum(axis=1)
+        violation = np.where(ok, batch.violation, 0.0)
         scal = np.full(len(batch), np.nan)
         if ok.any():
             scal[ok] = np.asarray(

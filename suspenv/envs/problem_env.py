@@ -71,18 +71,22 @@ class ProblemEnv(gym.Env[np.ndarray, np.ndarray]):
 
     * ``s`` is the scalarised objectives (``scalarizer`` "weighted_sum" with ``weights``,
       default all 1, or a callable ``F (n, m) -> (n,)``) of either
-      - ``reward="normalized"``: each objective divided by its scale
-        ``s_j = max(|f_j(x_ref)|, 0.1 * IQR_j)`` (its value at the reference design, at
-        least a tenth of its interquartile range over a fixed seeded sample of 64
-        designs; :mod:`suspenv.envs.scales`), so at the reference design each objective
-        contributes at most 1 and an objective no design can move never dominates; or
+      - ``reward="normalized"``: each objective divided by its scale: the problem's
+        declared ``objective_scales`` (KCIdentification: each objective's standard
+        error), else ``s_j = max(|f_j(x_ref)|, 0.1 * IQR_j)`` (its value at the
+        reference design, at least a tenth of its interquartile range over a fixed
+        seeded sample of 64 designs; :mod:`suspenv.envs.scales`), so at the reference
+        design each objective contributes at most 1 and an objective no design can move
+        never dominates; or
       - ``reward="sum"``: the objectives in their own units (the reward of earlier
-        versions; reproduces their numbers).
+        versions; reproduces their numbers); on objectives in several units a
+        :class:`~suspenv.envs.adapter.MixedUnitsWarning` names them.
       The default is "normalized" for objectives in more than one unit (KCIdentification,
       MinibusRideHandling, CarSideImpact) and "sum" otherwise
       (:func:`~suspenv.envs.adapter.default_reward`).
-    * ``v = sum_j max(g_j, 0)`` is the total constraint violation (constraints are
-      feasible when ``g <= 0``), in the constraints' own units (never normalised);
+    * ``v = sum_j max(g_j / s_j, 0)`` is the total constraint violation (constraints are
+      feasible when ``g <= 0``; ``s_j`` the problem's constraint scales), dimensionless
+      (:attr:`EvaluationBatch.violation <suspenv.core.result.EvaluationBatch.violation>`);
       ``penalty`` defaults to 100.
     * A failed evaluation earns the lowest reward of a working design this env has seen
       (the reset's reference design included) minus ``0.1 * |lowest| + 1``: finite and
@@ -136,7 +140,10 @@ class ProblemEnv(gym.Env[np.ndarray, np.ndarray]):
 
     * v0: initial version. Later in v0: the ``reward`` argument; the default reward of
       objectives in several units became "normalized" (KCIdentification first, then
-      every such problem; pass ``reward="sum"`` for the earlier numbers).
+      every such problem; pass ``reward="sum"`` for the earlier numbers). Later: a
+      problem's declared objective scales set the normalised reward (KCIdentification:
+      standard errors); the violation is dimensionless; ``reward="sum"`` on objectives
+      in several units warns.
     """
 
     metadata: dict[str, Any] = {"render_modes": ["rgb_array"], "render_fps": 4}
@@ -232,7 +239,8 @@ class ProblemEnv(gym.Env[np.ndarray, np.ndarray]):
     @property
     def objective_scales(self) -> np.ndarray:
         """The scales ``s_j`` (m,) of the normalised reward, in the objectives' units
-        (computed on first use: 65 evaluations; see :mod:`suspenv.envs.scales`)."""
+        (the problem's declared ones, else computed on first use by 65 evaluations; see
+        :mod:`suspenv.envs.scales`)."""
         return self.adapter.scales.scales.copy()
 
     def spec_sheet(self, with_scales: bool = False) -> str:

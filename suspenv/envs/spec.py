@@ -109,7 +109,13 @@ def spec_sheet(env: Any, with_scales: bool = False, **env_kwargs: Any) -> str:
         "earns the lowest reward of a working design seen so far minus `0.1 * |lowest| "
         f"+ 1` (`-fail_value` = {-adapter.fail_value:g} only while none has worked)."
     )
-    if adapter.reward == "normalized":
+    if adapter.reward == "normalized" and problem.objective_scales is not None:
+        lines.append(
+            "`s` scalarises `f_j / s_j` with `s_j` the scales the problem declares "
+            "(`problem.objective_scales`, in the objectives' units). "
+            "`reward=\"sum\"` gives the objectives in their own units."
+        )
+    elif adapter.reward == "normalized":
         lines.append(
             "`s` scalarises `f_j / s_j` with `s_j = max(|f_j(x_ref)|, "
             f"{SPREAD_FRACTION:g} * IQR_j)`: the objective at the reference design, at "

@@ -13,6 +13,10 @@ After Tey et al. 2014 (see ``docs/knc.md`` and the spec ``kc_identification.md``
   what the paper did with its measured loops.
 * Objectives (40, minimised): per-objective mismatch ``|simulated - measured|`` in
   the objective's unit (see :data:`suspenv.metrics.knc.OBJECTIVES`).
+* Quality (the one scalar of the suite, ``compare``, run summaries): the RMS of the 40
+  mismatches, each in standard errors of its measured number
+  (:func:`noise_scaled_rms`, scales :attr:`KCIdentification.objective_scales` from
+  :func:`objective_noise`); dimensionless, the same for any choice of units.
 * No constraints. A design whose Newton iteration fails or whose bushings deflect
   beyond reason (a design that cannot carry its loads) is a failed evaluation with
   the reason.
@@ -35,7 +39,7 @@ effects-library elements at bushings or the strut
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from functools import lru_cache
+from functools import cached_property, lru_cache
 from pathlib import Path
 from typing import Any
 
@@ -86,6 +90,54 @@ def measure(truth: TruthVehicle, amplitude: float = 0.040, steps: int = 30) -> d
             ch = res.channels[name]
             res.channels[name] = ch + rng.normal(0.0, truth.noise[name], ch.shape)
     return results
+
+
+def objective_noise(results: Mapping[str, KCResult], noise: Mapping[str, float]) -> np.ndarray:
+    """Standard error (40,) of each objective measured from ``results``, in the
+    objective's own unit (:data:`~suspenv.metrics.knc.OBJECTIVE_UNITS`).
+
+    The rig's noise: every recorded sample of channel ``c`` (each wheel, each step of
+    the loop) carries independent Gaussian noise of standard deviation ``noise[c]`` [SI,
+    the channel's unit], as the test car's sensors (:func:`measure`) and a measured
+    folder's ``[noise]`` (or its estimate) declare. Propagated to first order through
+    :func:`~suspenv.metrics.knc.objectives` itself (fits, branch and wheel means,
+    abscissas that are channels too): ``se_j^2 = sum_k (noise_k * dF_j/dy_k)^2`` over
+    the samples ``y_k`` of the fit window, each derivative a central difference with
+    step ``noise_k`` (exact for the objectives that are linear in their samples). Only
+    channels the objectives read count; correlations between objectives (value and
+    gradient of one fit) are left out.
+    """
+    tests = list(results)
+    st = {t: results[t].static_index for t in tests}
+    rows: list[tuple[str, str, int, int, float]] = []  # test, channel, path index, wheel, h
+    for t in tests:
+        near = np.flatnonzero(np.abs(results[t].path - st[t]) <= FIT_HALF_WIDTH)
+        for c in OBJECTIVE_CHANNELS:
+            h = float(noise.get(c, 0.0))
+            if h > 0:
+                rows += [(t, c, int(i), w, h) for i in near for w in (0, 1)]
+    n = 2 * len(rows)
+    batch = {}
+    for t in tests:
+        r = results[t]
+        ch = {c: np.repeat(r.channels[c][:1], n, axis=0) for c in OBJECTIVE_CHANNELS}
+        batch[t] = KCResult(t, r.grid, r.path, ch, np.ones(n, bool), [""] * n)
+    for k, (t, c, i, w, h) in enumerate(rows):
+        batch[t].channels[c][2 * k, i, w] += h
+        batch[t].channels[c][2 * k + 1, i, w] -= h
+    F = objectives(batch)
+    half_steps = 0.5 * (F[0::2] - F[1::2])  # noise_k * dF/dy_k, (samples, 40)
+    se: np.ndarray = np.sqrt((half_steps**2).sum(axis=0))
+    return se
+
+
+def noise_scaled_rms(F: np.ndarray, scales: np.ndarray) -> np.ndarray:
+    """``sqrt(mean_j (F_j / s_j)^2)`` per row of mismatches F (n, m) [objective units]
+    with scales s (m,) in the same units: dimensionless (1: every mismatch one standard
+    error on average, root mean square)."""
+    r = np.atleast_2d(F) / np.asarray(scales, dtype=float)
+    out: np.ndarray = np.sqrt(np.mean(r * r, axis=1))
+    return out
 
 
 #: keys of an axle-effect table (``model_effects`` items)
@@ -352,23 +404,38 @@ class KCIdentification(Problem):
         """The test vehicle's measured loops, same layout as :meth:`curves`."""
         return _curves(self.measured)
 
-    #: the suite's and compare's scalar for this problem (40 objectives are too many for a
-    #: hypervolume); still a plain sum over 8 units, to be replaced by a dimensionless one
-    quality_name = "sum of objectives"
+    #: the suite's, compare's and the run summaries' scalar (40 objectives are too many
+    #: for a hypervolume): :func:`noise_scaled_rms` of the mismatches
+    quality_name = "RMS mismatch in standard errors"
+
+    @cached_property
+    def objective_scales(self) -> np.ndarray:
+        """Standard error (40,) of each measured objective, in its unit
+        (:data:`~suspenv.metrics.knc.OBJECTIVE_UNITS`): :func:`objective_noise` of the
+        measured loops under the measurement's channel noise (the test car: the rig's
+        declared :data:`~suspenv.models.mcpherson.truth.CHANNEL_NOISE`, also when no noise
+        is concealed; a measured folder: its ``[noise]`` or the estimate)."""
+        s = objective_noise(self.measured, self.measurement.noise)
+        bad = [n for n, v in zip(OBJECTIVE_NAMES, s, strict=True) if not (v > 0 and np.isfinite(v))]
+        if bad:
+            raise ValidationError(
+                f"{self.name}: every objective's standard error must be > 0 and finite (the "
+                f"channels it reads need a noise > 0), but it is not for {bad}"
+            )
+        return s
 
     def quality(self, F: np.ndarray) -> np.ndarray:
-        """The plain sum of the 40 mismatches per row (see :attr:`quality_name`)."""
-        return np.atleast_2d(F).sum(axis=1)
+        """RMS over the 40 mismatches F (n, 40) of ``F_j / objective_scales[j]`` per row
+        (:func:`noise_scaled_rms`; dimensionless, lower is better)."""
+        return noise_scaled_rms(F, self.objective_scales)
 
     def best_index(self, F: np.ndarray, ok: np.ndarray) -> int | None:
-        """Row of the best valid design: least sum of mismatches, each divided by its
-        spread over the valid rows (a fixed-scale stand-in for the rank-sum)."""
+        """Row of the best valid design: the least :meth:`quality` (the run's best)."""
         valid = np.asarray(ok, bool) & np.isfinite(F).all(axis=1)
         if not valid.any():
             return None
-        spread = np.ptp(F[valid], axis=0)
-        total = (F / np.where(spread > 0, spread, 1.0)).sum(axis=1)
-        return int(np.flatnonzero(valid)[np.argmin(total[valid])])
+        q = np.where(valid, self.quality(np.where(valid[:, None], F, 0.0)), np.inf)
+        return int(np.argmin(q))  # the first of equals, as the run's best row
 
     def write_report(self, run_dir: Path, archive: Any) -> list[Path]:
         """``kc_report.md`` (targets vs initial vs best model per objective) and

@@ -50,6 +50,13 @@ axle's RMS dynamic / static tyre load minus ``tyre_load_limit``, both from the s
 integral (:func:`suspenv.metrics.ride.working_space`; docs/minibus.md, "Working space
 and road holding").
 
+Constraint scales (:attr:`constraint_scales`, each in its constraint's unit; the total
+violation ``sum_j max(g_j / s_j, 0)`` is dimensionless, :mod:`suspenv.core.result`):
+the limit's magnitude where the constraint is a measure minus its limit (``rms_limit``
+m/s^2, ``roll_limit_deg`` deg, ``bump_stop_limit`` -, ``tyre_load_limit`` -), so a
+violation of 1 means the measure is twice its limit; for the understeer margin, whose
+limit may be 0, :data:`UNDERSTEER_SCALE` = 1 deg/g.
+
 The weighted-RMS limit: the study writes "0.6 g"; 0.6 g = 5.9 m/s^2 can never bind for
 a minibus on a class-B road at 80 km/h, and 0.6 m/s^2 lies below every design of the
 box in this model (the no-load rear value spans about 0.77-1.0 m/s^2), so neither
@@ -133,6 +140,8 @@ DEFAULT_RIDE_METHOD = "spectral"
 
 #: handling objective definitions (see the module docstring and docs/minibus_handling.md)
 HANDLING_METHODS = ("standard", "study")
+#: [deg/g] scale of the understeer-margin constraints (their limit may be 0)
+UNDERSTEER_SCALE = 1.0
 DEFAULT_HANDLING = "standard"
 
 OBJECTIVE_NAMES = (
@@ -334,9 +343,15 @@ class MinibusRideHandling(Problem):
             "roll_no_load",
             "roll_full_load",
         ) + (() if study else ("understeer_no_load", "understeer_full_load"))
+        n_lc = len(LOAD_CASES)
+        self.constraint_scales = (2 * n_lc) * (self.rms_limit,) + n_lc * (self.roll_limit_deg,)
+        self.constraint_scales += () if study else n_lc * (UNDERSTEER_SCALE,)
         if working_space:
             self.constraint_names += tuple(
                 f"{kind}_{lc}" for kind in ("bump_stop", "tyre_load") for lc in LOAD_CASES
+            )
+            self.constraint_scales += n_lc * (self.bump_stop_limit,) + n_lc * (
+                self.tyre_load_limit,
             )
 
     def config(self) -> dict[str, Any]:

@@ -39,6 +39,7 @@ class ObjectiveSubset(Problem):
         self.space = base.space
         self.objective_names = tuple(base.objective_names[i] for i in idx)
         self.constraint_names = tuple(base.constraint_names)
+        self.constraint_scales = tuple(base.constraint_scales)
         units = tuple(getattr(base, "objective_units", ()) or ())
         self.objective_units = tuple(units[i] for i in idx) if len(units) == m else ()
 
@@ -82,6 +83,7 @@ class WithSignedResponses(Problem):
         self.objective_names = tuple(base.objective_names) + signed
         self.informational_objectives = signed  # NaN where the base provides none
         self.constraint_names = tuple(base.constraint_names)
+        self.constraint_scales = tuple(base.constraint_scales)
         units = tuple(getattr(base, "objective_units", ()) or ())
         self.objective_units = units + units if len(units) == m else ()
 

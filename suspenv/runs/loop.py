@@ -287,7 +287,7 @@ def _optimize(
                         "strategy asks now; the seed, strategy options or problem changed. "
                         f"Use a new run directory (archive: {archive.path})"
                     )
-                results[r] = res
+                results[r] = problem.with_scales(res)  # archived rows carry no scales
             resumed += len(done)
             todo = (
                 np.arange(n)

@@ -19,9 +19,10 @@ from typing import Any
 
 import numpy as np
 
-#: quality names of a plain sum of several objectives: the problem base class's and the
-#: minibus problem's before this definition, and KCIdentification's (still a sum): such a
-#: recorded quality is never shown as a "best" (:func:`scalar_recorded`)
+#: quality names of a plain sum of several objectives, as recorded by runs written before
+#: this definition (the problem base class's and the minibus problem's; KCIdentification's
+#: before its RMS in standard errors): such a recorded quality is never shown as a "best"
+#: (:func:`scalar_recorded`)
 SUM_QUALITIES = frozenset({"objective (sum if several)", "sum of objectives"})
 
 

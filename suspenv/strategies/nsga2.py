@@ -8,10 +8,12 @@ the tell.
 
 Constraints go through optuna's constraint mechanism (``Trial.set_constraint`` in optuna
 >= 5, ``constraints_func`` before; feasible when
-every value <= 0, the same convention as suspenv). Failed evaluations are told as
-``TrialState.FAIL`` and take no part in selection. Storage is in memory by default; pass
-an optuna storage URL (e.g. ``sqlite:///study.db`` or an RDB URL) and a ``study_name``
-to keep the study (optuna-dashboard) or to share it between many workers.
+every value <= 0, the same convention as suspenv), each divided by the problem's constraint
+scale (:attr:`EvaluationBatch.scaled_constraints`): optuna sums the violations.
+Failed evaluations are told as ``TrialState.FAIL`` and take no part in selection.
+Storage is in memory by default; pass an optuna storage URL (e.g. ``sqlite:///study.db``
+or an RDB URL) and a ``study_name`` to keep the study (optuna-dashboard) or to share it
+between many workers.
 
 A run names the study after its problem (:meth:`NSGA2.bind_problem`, :class:`StudyDesign`):
 parameters are the design variables by name with distributions of their bounds, metric
@@ -324,10 +326,10 @@ class NSGA2(Strategy):
                 self.study.tell(trial, state=TrialState.FAIL)
                 continue
             if self.n_constraints and PER_TRIAL_CONSTRAINTS:
-                for j, g in enumerate(batch.constraints[i]):
+                for j, g in enumerate(batch.scaled_constraints[i]):
                     trial.set_constraint(f"g{j}", float(g))
             elif self.n_constraints:
-                trial.set_user_attr(CONSTRAINTS_KEY, batch.constraints[i].tolist())
+                trial.set_user_attr(CONSTRAINTS_KEY, batch.scaled_constraints[i].tolist())
             self.study.tell(trial, batch.objectives[i].tolist())
         self._trials = []
 

@@ -20,7 +20,8 @@ share the machinery of :class:`OptunaSampler`:
   same designs (resume replays a run this way).
 - Several objectives are minimised together where the sampler supports them (TPE, NSGA-III,
   GP); optuna's CMA-ES takes one value, the weighted sum of the objectives (``weights``).
-- Constraints (feasible when every value <= 0) go through optuna's constraint mechanism
+- Constraints (feasible when every value <= 0), divided by the problem's constraint scales
+  (:attr:`EvaluationBatch.scaled_constraints`), go through optuna's constraint mechanism
   (``Trial.set_constraint`` in optuna >= 5, ``constraints_func`` before) for TPE, NSGA-III
   and GP. optuna's CMA-ES ignores constraints, so ``optuna_cmaes`` tells an infeasible
   design the penalty of :func:`suspenv.strategies.extras.told_losses` instead (CMA-ES only
@@ -130,7 +131,9 @@ class OptunaSampler(Strategy):
                     continue
                 if self.n_constraints and self.native_constraints:
                     # an unknown constraint value is a large violation (optuna refuses NaN)
-                    g = np.nan_to_num(batch.constraints[i], nan=1e300, posinf=1e300, neginf=-1e300)
+                    g = np.nan_to_num(
+                        batch.scaled_constraints[i], nan=1e300, posinf=1e300, neginf=-1e300
+                    )
                     if PER_TRIAL_CONSTRAINTS:
                         for j, gj in enumerate(g):
                             trial.set_constraint(f"g{j}", float(gj))
@@ -264,7 +267,10 @@ class OptunaCMAES(OptunaSampler):
     def _values(self, batch: EvaluationBatch) -> np.ndarray:
         ok = np.asarray(batch.ok, bool) & np.isfinite(batch.objectives).all(axis=1)
         f = weighted_sum(np.nan_to_num(batch.objectives), self.weights, valid=ok)
-        scalar = EvaluationBatch(f[:, None], batch.constraints, ok, batch.messages)
+        scalar = EvaluationBatch(
+            f[:, None], batch.constraints, ok, batch.messages,
+            constraint_scales=batch.constraint_scales,
+        )
         return told_losses(scalar)
 
     def options(self) -> dict[str, Any]:

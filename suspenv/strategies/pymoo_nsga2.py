@@ -7,7 +7,9 @@ generation with array operations. Use ``nsga2`` for optuna storages shared by ma
 workers, ``pymoo_nsga2`` for large single-machine runs.
 
 Conventions: designs live in the unit cube; constraints g <= 0 are passed to pymoo as
-inequality constraints. Failed evaluations get a large finite objective value
+inequality constraints, divided by the problem's constraint scales
+(:attr:`EvaluationBatch.scaled_constraints`), so pymoo's CV is the batch's violation.
+Failed evaluations get a large finite objective value
 (:data:`FAILED_OBJECTIVE`, dominated by every working design) and, on a constrained
 problem, one extra constraint column (0 when ok, 1 when failed) so they are also
 infeasible; an unconstrained problem stays unconstrained in pymoo (its constraint
@@ -102,7 +104,7 @@ class PymooNSGA2(Strategy):
         ok = batch.ok & np.isfinite(batch.objectives).all(axis=1)
         F = np.where(ok[:, None], batch.objectives, FAILED_OBJECTIVE)
         if self.n_constraints:
-            G = np.where(ok[:, None], np.nan_to_num(batch.constraints, nan=1.0), 1.0)
+            G = np.where(ok[:, None], np.nan_to_num(batch.scaled_constraints, nan=1.0), 1.0)
             G = np.column_stack([G, (~ok).astype(float)])
             static = StaticProblem(self._problem, F=F, G=G)
         else:

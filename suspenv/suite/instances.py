@@ -32,7 +32,7 @@ from suspenv.core.problem import Problem
 from suspenv.registry import make_problem
 
 #: changes with any change of an instance's definition (problem, options, budget, optimum)
-SUITE_VERSION = "2026.11-1"
+SUITE_VERSION = "2026.11-2"
 
 
 @dataclass(frozen=True)
