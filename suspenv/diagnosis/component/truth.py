@@ -271,28 +271,37 @@ def _outside(
 CONDITIONS = ("masses_undeclared", "sign_reversed", "input_missing")
 
 
+def condition_families(condition: str) -> tuple[str, ...]:
+    """The families a blind user's ``condition`` (:data:`CONDITIONS`) applies to."""
+    return {
+        "masses_undeclared": ("quarter_car_rig",),
+        "sign_reversed": tuple(BASE_DRAWS),
+        "input_missing": RECORDED_MOTION_FAMILIES,
+    }.get(condition, ())
+
+
 def draw_condition(condition: str, family: str, seed: int) -> dict[str, Any]:
     """Seeded values of ``condition`` (:data:`CONDITIONS`), by a generator of its own so
     that every other draw of the case is unchanged."""
     rng = np.random.default_rng([seed, 23, sum(map(ord, family))])
-    if condition == "masses_undeclared" and family == "quarter_car_rig":
+    if family not in condition_families(condition):
+        raise ValidationError(
+            f"condition must be one of {CONDITIONS} and apply to the family (masses: "
+            f"quarter_car_rig; input_missing: {RECORDED_MOTION_FAMILIES}), but got "
+            f"({condition!r}, {family!r})"
+        )
+    if condition == "masses_undeclared":
         # body 0.6-0.85 or 1.2-1.5 times, wheel 0.7-1.5 times the 300 / 40 kg defaults
         body = rng.uniform(0.6, 0.85) if rng.random() < 0.5 else rng.uniform(1.2, 1.5)
         return {"kind": condition, "m_s": 300.0 * body, "m_u": 40.0 * rng.uniform(0.7, 1.5)}
     if condition == "sign_reversed":
         return {"kind": condition}
-    if condition == "input_missing" and family in RECORDED_MOTION_FAMILIES:
-        # extra damping 30-60 % of the base level, switched on and off 4-10 times
-        return {
-            "kind": condition,
-            "share": float(rng.uniform(0.3, 0.6)),
-            "switches": np.sort(rng.uniform(0.0, 1.0, int(rng.integers(4, 11)))).tolist(),
-        }
-    raise ValidationError(
-        f"condition must be one of {CONDITIONS} and apply to the family (masses: "
-        f"quarter_car_rig; input_missing: {RECORDED_MOTION_FAMILIES}), but got "
-        f"({condition!r}, {family!r})"
-    )
+    # input_missing: extra damping 30-60 % of the base level, switched on and off 4-10 times
+    return {
+        "kind": condition,
+        "share": float(rng.uniform(0.3, 0.6)),
+        "switches": np.sort(rng.uniform(0.0, 1.0, int(rng.integers(4, 11)))).tolist(),
+    }
 
 
 def _apply_condition(
