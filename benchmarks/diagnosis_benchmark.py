@@ -118,7 +118,8 @@ def score_case(diag: Diagnosis, case: Case) -> dict[str, Any]:
         "false_alarm": bool(not truth_kinds and not case.truth.outside)
         and bool(named or (diag.unexplained and cond != "input_missing")),
         "condition": cond,
-        "missing_input_said": "missing_input" in diag.findings,
+        # the missing-input check called the residual driven by an unrecorded input
+        "missing_input_said": bool(getattr(diag.findings.get("missing_input"), "remains", False)),
         "assumptions": diag.assumptions,
         "heldout_before": diag.baseline["heldout_rms"][diag.channel],
         "heldout_after": (c.heldout_rms_after[diag.channel] if c else float("nan")),
