@@ -43,7 +43,13 @@ import numpy as np
 from benchmarks.common import machine_info
 from suspenv.core.errors import ValidationError
 from suspenv.core.jsonable import to_jsonable
-from suspenv.diagnosis.component.truth import Case, make_case, write_case
+from suspenv.diagnosis.component.truth import (
+    CONDITIONS,
+    Case,
+    condition_families,
+    make_case,
+    write_case,
+)
 from suspenv.diagnosis.decision import derived_values, families_covered
 from suspenv.diagnosis.engine import Diagnosis, diagnose, make_family
 from suspenv.diagnosis.hypothesis import family_of
@@ -71,6 +77,11 @@ def param_errors(diag: Diagnosis, case: Case) -> list[float]:
 
 
 def score_case(diag: Diagnosis, case: Case) -> dict[str, Any]:
+    """One blind case scored against its truth. A control is a false alarm when anything
+    is named or a residual is called unexplained; under the condition ``input_missing``
+    (a force switched by an unrecorded signal) a residual called unexplained is the right
+    report, and only an element named is a false alarm."""
+    cond = (case.truth.condition or {}).get("kind")
     truth_kinds = case.truth.kinds
     truth_fams = [family_of(k) for k in truth_kinds]
     named = diag.named_kinds
@@ -105,7 +116,11 @@ def score_case(diag: Diagnosis, case: Case) -> dict[str, Any]:
         # a control is a false alarm when anything is named or a residual is called
         # unexplained; an outside case is never a control
         "false_alarm": bool(not truth_kinds and not case.truth.outside)
-        and bool(named or diag.unexplained),
+        and bool(named or (diag.unexplained and cond != "input_missing")),
+        "condition": cond,
+        # the missing-input check called the residual driven by an unrecorded input
+        "missing_input_said": bool(getattr(diag.findings.get("missing_input"), "remains", False)),
+        "assumptions": diag.assumptions,
         "heldout_before": diag.baseline["heldout_rms"][diag.channel],
         "heldout_after": (c.heldout_rms_after[diag.channel] if c else float("nan")),
         "heldout_reduction": (c.heldout_reduction if c else 0.0),
@@ -136,6 +151,9 @@ CASE_KEYS = (
     "param_rel_errs",
     "ambiguities",
     "inseparable_from_first",
+    "condition",
+    "missing_input_said",
+    "assumptions",
 )
 
 
@@ -203,6 +221,23 @@ def summarise(rows: list[dict[str, Any]]) -> dict[str, Any]:
 def per_family(rows: list[dict[str, Any]]) -> dict[str, dict[str, Any]]:
     fams = sorted({r["family"] for r in rows})
     return {f: summarise([r for r in rows if r["family"] == f]) for f in fams}
+
+
+def per_condition(rows: list[dict[str, Any]], seeds: list[int]) -> dict[str, Any]:
+    """Scores of the cases under each blind user's condition, over all its families and
+    per family: named first (single effect, signature family) and false alarms on the
+    controls (:func:`score_case`), with the seed set fixed in the config before the run."""
+    out: dict[str, Any] = {}
+    for cond in sorted({str(r["condition"]) for r in rows}):
+        rs = [r for r in rows if r["condition"] == cond]
+        out[cond] = {
+            "seeds": seeds,
+            "seeds_fixed": "in the committed config before the run",
+            "all": summarise(rs),
+            "per_family": per_family(rs),
+            "missing_input_said": float(np.mean([bool(r["missing_input_said"]) for r in rs])),
+        }
+    return out
 
 
 # ------------------------------------------------------------------ real data
@@ -278,6 +313,8 @@ BENCHMARK_KEYS = (
     "real_data_dir",
     "real_cases",
     "outside",
+    "conditions",
+    "condition_effects",
 )
 
 
@@ -306,6 +343,11 @@ def check_benchmark_config(config: dict[str, Any]) -> dict[str, Any]:
         if not isinstance(n, int) or isinstance(n, bool) or not 0 <= n <= 3:
             raise ValidationError(
                 f"config: `benchmark.n_effects` must hold integers in [0, 3], but got {n!r}"
+            )
+    for cond in b.get("conditions", []):
+        if cond not in CONDITIONS:
+            raise ValidationError(
+                f"config: `benchmark.conditions` must hold names in {CONDITIONS}, but got {cond!r}"
             )
     for name in b.get("real_cases", []):
         if name not in REAL_CASES:
@@ -347,12 +389,26 @@ def run_benchmark_pipeline(config: dict[str, Any], run_dir: Path) -> dict[str, A
     rows_path = run_dir / "rows.jsonl"
     done = _load_rows(rows_path)
     kinds: list[int | str] = [*n_effects, *(["out"] if b.get("outside", False) else [])]
-    jobs = [(f, n, s) for f in families for n in kinds for s in seeds]
-    for fam, n, seed in tqdm(jobs, desc="blind cases", unit="case"):
-        case_id = f"{fam}-{n}-{seed}"
+    jobs = [(f, n, s, "") for f in families for n in kinds for s in seeds]
+    # the blind user's conditions, on the same seed set, fixed before the run
+    conds = list(b.get("conditions", []))
+    jobs += [
+        (f, int(n), s, c)
+        for c in conds
+        for f in families
+        if f in condition_families(c)
+        for n in b.get("condition_effects", (0, 1))
+        for s in seeds
+    ]
+    for fam, n, seed, cond in tqdm(jobs, desc="blind cases", unit="case"):
+        case_id = f"{fam}-{n}-{seed}" + (f"-{cond}" if cond else "")
         if case_id in done:
             continue
-        case = make_case(fam, seed, 0, outside=True) if n == "out" else make_case(fam, seed, int(n))
+        case = (
+            make_case(fam, seed, 0, outside=True)
+            if n == "out"
+            else make_case(fam, seed, int(n), condition=cond or None)
+        )
         write_case(case, run_dir / "cases", run_dir / "truth")
         cpu0 = time.process_time()
         family_opts = opts | dict(fam_opts.get(fam, {}))
@@ -384,7 +440,8 @@ def run_benchmark_pipeline(config: dict[str, Any], run_dir: Path) -> dict[str, A
             done[key] = to_jsonable(row)
             real_rows.append(done[key])
 
-    blind_rows = [done[f"{f}-{n}-{s}"] for f, n, s in jobs]
+    every = [done[f"{f}-{n}-{s}" + (f"-{c}" if c else "")] for f, n, s, c in jobs]
+    blind_rows = [r for r in every if not r.get("condition")]
     # families scored on their own (not in the headline totals), e.g. the quarter car
     separate = set(b.get("separate_families", []))
     summary = summarise([r for r in blind_rows if r["family"] not in separate])
@@ -394,8 +451,9 @@ def run_benchmark_pipeline(config: dict[str, Any], run_dir: Path) -> dict[str, A
     result = {
         "summary": summary,
         "per_family": per_family(blind_rows),
+        "conditions": per_condition([r for r in every if r.get("condition")], seeds),
         "real": real_rows,
-        "cases": [case_record(r) for r in blind_rows],
+        "cases": [case_record(r) for r in every],
         "config": config,
     }
     (run_dir / "benchmark.json").write_text(json.dumps(to_jsonable(result), indent=2) + "\n")
@@ -415,6 +473,28 @@ def _secs(f: dict[str, Any], which: str) -> str:
     wall = f"{f[f'{key}seconds']:.1f} s"
     cpu = f.get(f"{key}cpu_seconds", float("nan"))
     return f"{wall} ({cpu:.1f} s)" if isinstance(cpu, float) and np.isfinite(cpu) else wall
+
+
+def _condition_table(conds: dict[str, Any]) -> list[str]:
+    """Rows of the blind user's conditions (target: named first >= 95 %, false alarms
+    <= 5 %), over all families and per family."""
+    if not conds:
+        return []
+    L = [
+        "",
+        "| condition (not declared by the recording) | family | cases | single effect: named "
+        "first [>= 95 %] | controls: false alarm [<= 5 %] | residual called unexplained | "
+        "time median: wall (CPU) |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for cond, c in conds.items():
+        for fam, f in [("all", c["all"]), *c["per_family"].items()]:
+            L.append(
+                f"| {cond} | {fam} | {f['n_cases']} | {_pct(f['single_top1_family'])} | "
+                f"{_pct(f['control_false_alarm'])} | {_pct(f['single_unexplained'])} (single) | "
+                f"{_secs(f, 'median')} |"
+            )
+    return L
 
 
 def table_markdown(result: dict[str, Any]) -> str:
@@ -464,6 +544,7 @@ def table_markdown(result: dict[str, Any]) -> str:
             f"{_pct(f['median_heldout_reduction'])} | {_pct(f['median_param_rel_err'])} | "
             f"{_secs(f, 'median')} / {_secs(f, 'max')} |"
         )
+    L += _condition_table(result.get("conditions", {}))
     if result["real"]:
         L += [
             "",

@@ -442,6 +442,34 @@ def component_outside_row(d: Json) -> str:
     return fill("diagnosis.component_outside", n=n, k_of_n=count(k, n), rate=rate)
 
 
+#: the blind user's conditions of ``diagnosis_benchmark.json`` in the README's words
+CONDITION_WORDS = {
+    "masses_undeclared": "quarter-car masses not declared",
+    "sign_reversed": "output sign reversed, signs not declared",
+    "input_missing": "a switched input not recorded",
+}
+
+
+def component_condition_rows(d: Json) -> list[str]:
+    """One row per blind user's condition of ``diagnosis_benchmark.json`` (none where the
+    run had none): named first on single effects, false alarms on the controls."""
+    rows = []
+    for cond, c in d.get("conditions", {}).items():
+        a = c["all"]
+        rows.append(
+            fill(
+                "diagnosis.component_condition",
+                words=CONDITION_WORDS.get(cond, cond),
+                n=a["n_cases"],
+                named=percent(a["single_top1_family"]),
+                alarms=percent(a["control_false_alarm"]),
+                median=seconds(a["median_seconds"]),
+                cpu=seconds(a["median_cpu_seconds"]),
+            )
+        )
+    return rows
+
+
 def independent_row(d: Json) -> str:
     """The independent generator's row from ``independent_diagnosis.json``."""
     a = d["summary"]["all"]
@@ -618,6 +646,7 @@ def render_diagnosis(data: Mapping[str, Json]) -> str:
             "|---|---|---|---|---|---|",
             component_row(bench),
             component_outside_row(bench),
+            *component_condition_rows(bench),
             independent_row(data["independent_diagnosis"]),
             knc_row(data["knc_diagnosis"]),
             knc_outside_row(data["knc_outside"]),

@@ -256,3 +256,39 @@ def test_dead_band_sentence_speaks_of_a_force_in_newtons():
     text = left.sentence()
     assert "the force in the suspension lacks 290 N" in text and " m beyond" not in text
     assert "290 N" in left.short()
+
+
+def test_power_through_the_body_equation_closed_form():
+    from suspenv.diagnosis.component.assumed import power_sign
+    from suspenv.measurements import Recording
+
+    # a pure damper force c v seen through the body equation: a = F / m_s, so the power
+    # m_s a v averages c v^2 (closed form; v the deflection's rate, np.gradient as the
+    # diagnosis reads it); reversing the deflection reverses the sign
+    t = np.arange(0.0, 4.0, 1e-3)
+    x = 0.01 * np.sin(2 * np.pi * 1.5 * t)
+    v = np.gradient(x, t)
+    c, m_s = 1500.0, 280.0
+    units = {"road": "m", "suspension_deflection": "m", "body_acceleration": "m/s^2"}
+
+    def rec(sign: float) -> Recording:
+        out = {"suspension_deflection": sign * x, "body_acceleration": c * v / m_s}
+        return Recording("qc", "road", t, {"road": x}, out, units)
+
+    assert power_sign([rec(1.0)], m_s) == pytest.approx(c * np.mean(v**2), rel=1e-9)
+    assert power_sign([rec(-1.0)], m_s) == pytest.approx(-c * np.mean(v**2), rel=1e-9)
+
+
+def test_quarter_car_deflection_sign_read_off_the_body_equation_power():
+    from suspenv.diagnosis.component.truth import make_case
+
+    plain = make_case("quarter_car_rig", 4, 1)
+    turned = make_case("quarter_car_rig", 4, 1, condition="sign_reversed")
+    a, b = (
+        diagnose(plain.recording, "quarter_car_rig"),
+        diagnose(turned.recording, "quarter_car_rig"),
+    )
+    # the same element named whichever way the deflection transducer reads
+    assert b.named_kinds[:1] == a.named_kinds[:1] == turned.truth.kinds, (a.verdict, b.verdict)
+    assert "positive deflection in compression" in " ".join(a.assumptions)
+    assert "positive deflection in extension" in " ".join(b.assumptions)

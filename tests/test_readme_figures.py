@@ -532,3 +532,20 @@ def test_minibus_paper_table_formats_a_hand_made_json() -> None:
     assert "| f1 [s], default set | 1.235 | 1.235 |" in lines
     assert "| front share of roll stiffness (%), full load | 50.0 | 25.0 |" in lines
     assert "| front/rear frequency ratio, no load | 0.500 | 0.250 |" in lines
+
+
+def test_component_condition_rows_format_a_hand_made_json() -> None:
+    summary = {
+        "n_cases": 20,
+        "single_top1_family": 0.95,
+        "control_false_alarm": 0.05,
+        "median_seconds": 3.21,
+        "median_cpu_seconds": 1.04,
+    }
+    d = {"conditions": {"masses_undeclared": {"all": summary}}}
+    assert readme.component_condition_rows(d) == [
+        "| components, quarter-car masses not declared (20 cases, seeds fixed before the "
+        "run) | 95 % (target >= 95 %) | 5 % (target <= 5 %) | | | 3.2 s median wall (1.0 s "
+        "CPU) |"
+    ]
+    assert readme.component_condition_rows({}) == []

@@ -376,6 +376,139 @@ def evaluate(
     )
 
 
+def _start_point(
+    model: DiagnosableModel[R, E],
+    recs: Sequence[R],
+    theta0: np.ndarray | Mapping[str, float] | None,
+    lo: np.ndarray,
+    hi: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The start point (``theta0`` over ``model.initial_guess``) strictly inside the
+    bounds, and the span used to keep points there."""
+    names = tuple(model.parameter_names)
+    x0 = np.asarray(model.initial_guess(recs[0]), float)
+    if isinstance(theta0, Mapping):
+        for k, v in theta0.items():
+            if k in names:
+                x0[names.index(k)] = v
+    elif theta0 is not None:
+        x0 = np.asarray(theta0, float).copy()
+    if x0.shape != (len(names),):
+        raise ValidationError(
+            f"theta0 must have one value per parameter, but got (theta0={x0.shape}, "
+            f"parameters={len(names)})"
+        )
+    # keep the start strictly inside the bounds (least_squares requires it)
+    span = np.where(np.isfinite(hi - lo), hi - lo, np.abs(x0) + 1.0)
+    return np.clip(x0, lo + 1e-6 * span, hi - 1e-6 * span), span
+
+
+@dataclass
+class _Problem:
+    """The scaled residual of ``model`` on ``recs`` as ``least_squares`` asks for it:
+    :meth:`fun` (the last point cached; :data:`PENALTY` where the model cannot be
+    evaluated), :meth:`batch` (one batched simulation per recording) and :meth:`jac`
+    (forward differences, all columns in one batch)."""
+
+    model: Any
+    recs: Sequence[Any]
+    channels: list[str]
+    weights: dict[str, float]
+    masks: Masks | None
+    n_res: int
+    lo: np.ndarray
+    hi: np.ndarray
+    last: dict[bytes, np.ndarray] = field(default_factory=dict)
+    #: the next Jacobian of the twin is the batch probe (:meth:`jac`)
+    probing: bool = False
+
+    def fun(self, theta: np.ndarray) -> np.ndarray:
+        key = np.asarray(theta, float).tobytes()
+        if key in self.last:  # the start point is asked for more than once
+            return self.last[key].copy()
+        try:
+            out = stacked_residual(
+                self.model, theta, self.recs, self.channels, self.weights, self.masks
+            )
+        except EvaluationError:
+            return np.full(self.n_res, PENALTY)
+        self.last.clear()
+        self.last[key] = out
+        return out.copy()
+
+    def batch(self, thetas: np.ndarray, sim: Any) -> np.ndarray:
+        """(B, n_res) scaled residuals from one batched simulation per recording."""
+        out = stacked_residual(sim, thetas, self.recs, self.channels, self.weights, self.masks)
+        if out.ndim != 2 or out.shape[0] != thetas.shape[0]:
+            raise ValidationError("batched simulation returned the wrong number of rows")
+        return out
+
+    def jac(self, theta: np.ndarray, sim: Any) -> np.ndarray:
+        """Forward-difference Jacobian, all columns in one batched simulation of ``sim``
+        (column by column where the batch as a whole cannot be simulated). As the probe,
+        the batch must run and its base row be the single-row residual (else
+        :class:`_NoBatchError`)."""
+        h = np.asarray(self.model.difference_step(theta, self.lo, self.hi), float)
+        step = np.where(theta + h <= self.hi, h, -h)
+        thetas = np.vstack([theta, theta + np.diag(step)])
+        if self.probing:
+            self.probing = False
+            try:
+                rows = self.batch(thetas, sim)
+                same = rows.shape[1] == self.n_res and bool(np.allclose(rows[0], self.fun(theta)))
+            except Exception as exc:  # noqa: BLE001 - any failure: least_squares' differences
+                raise _NoBatchError(str(exc)) from exc
+            if not same:
+                raise _NoBatchError("the batch's base row is not the single-row residual")
+        else:
+            try:
+                rows = self.batch(thetas, sim)
+            except EvaluationError:
+                rows = np.vstack([self.fun(th) for th in thetas])
+        return ((rows[1:] - rows[0]) / step[:, None]).T
+
+
+def _solve(
+    pb: _Problem, jac_model: Any, x0: np.ndarray, max_nfev: int, tol: float | None
+) -> tuple[Any, bool]:
+    """``least_squares`` from ``x0`` with the batched Jacobian of the model's Jacobian
+    twin ``jac_model`` where it runs, else its own differences. Returns (solution, batch
+    used)."""
+    model = pb.model
+    # where the Jacobian model is the model itself, its first Jacobian is the batch probe
+    pb.probing = jac_model is model
+    f0 = pb.fun(x0)
+    ls_options: dict[str, Any] = {} if tol is None else {"ftol": tol, "xtol": tol}
+
+    def solve(how: Any) -> Any:
+        return least_squares(
+            pb.fun,
+            x0,
+            jac=how,
+            bounds=(pb.lo, pb.hi),
+            x_scale="jac",
+            max_nfev=max_nfev,
+            **ls_options,
+        )
+
+    def jac(theta: np.ndarray) -> np.ndarray:
+        return pb.jac(theta, jac_model)
+
+    if pb.probing:
+        # the first Jacobian (at x0, cached residual) probes the batch; where it fails the
+        # search starts again with least_squares' own differences (one batch saved a fit)
+        try:
+            return solve(jac), True
+        except _NoBatchError:
+            return solve("2-point"), False
+    try:
+        probe = pb.batch(np.vstack([x0, x0]), model)
+        use_batch = probe.shape == (2, pb.n_res) and bool(np.allclose(probe[0], f0))
+    except Exception:  # noqa: BLE001 - any failure: fall back to one simulation per column
+        use_batch = False
+    return solve(jac if use_batch else "2-point"), use_batch
+
+
 def fit(
     model: DiagnosableModel[R, E],
     recordings: R | Sequence[R],
@@ -407,49 +540,17 @@ def fit(
             "one mask per recording must be given, but got "
             f"(masks={len(masks)}, recordings={len(recs)})"
         )
-    names = tuple(model.parameter_names)
     lo, hi = (np.asarray(b, float) for b in model.bounds())
-    x0 = np.asarray(model.initial_guess(recs[0]), float)
-    if isinstance(theta0, Mapping):
-        for k, v in theta0.items():
-            if k in names:
-                x0[names.index(k)] = v
-    elif theta0 is not None:
-        x0 = np.asarray(theta0, float).copy()
-    if x0.shape != (len(names),):
-        raise ValidationError(
-            f"theta0 must have one value per parameter, but got (theta0={x0.shape}, "
-            f"parameters={len(names)})"
-        )
-    # keep the start strictly inside the bounds (least_squares requires it)
-    span = np.where(np.isfinite(hi - lo), hi - lo, np.abs(x0) + 1.0)
-    x0 = np.clip(x0, lo + 1e-6 * span, hi - 1e-6 * span)
-
+    x0, span = _start_point(model, recs, theta0, lo, hi)
     weights = (
         spread_scales(recs, fitted_channels(model, recs[0], x0)) if scales is None else dict(scales)
     )
-    channels = list(weights)
     n_res = sum(
         int(np.count_nonzero(m)) if m is not None else len(r.time)
         for r, m in zip(recs, masks or [None] * len(recs), strict=True)
-    ) * len(channels)
-
-    last: dict[bytes, np.ndarray] = {}
-
-    def fun(theta: np.ndarray) -> np.ndarray:
-        key = np.asarray(theta, float).tobytes()
-        if key in last:  # the start point is asked for more than once
-            return last[key].copy()
-        try:
-            out = stacked_residual(model, theta, recs, channels, weights, masks)
-        except EvaluationError:
-            return np.full(n_res, PENALTY)
-        last.clear()
-        last[key] = out
-        return out.copy()
-
-    if not names:
-        r0 = fun(x0)
+    ) * len(weights)
+    pb = _Problem(model, recs, list(weights), weights, masks, n_res, lo, hi)
+    if not model.parameter_names:
         return _result(
             model,
             x0,
@@ -457,87 +558,30 @@ def fit(
             weights,
             masks,
             np.zeros((n_res, 0)),
-            r0,
+            pb.fun(x0),
             success=True,
             message="no free parameters",
             nfev=1,
             seconds=time.perf_counter() - t_start,
         )
-
     jac_model = model.jacobian_model()
-
-    def batch_residuals(thetas: np.ndarray, sim: DiagnosableModel[R, E]) -> np.ndarray:
-        """(B, n_res) scaled residuals from one batched simulation per recording."""
-        out = stacked_residual(sim, thetas, recs, channels, weights, masks)
-        if out.ndim != 2 or out.shape[0] != thetas.shape[0]:
-            raise ValidationError("batched simulation returned the wrong number of rows")
-        return out
-
-    # where the Jacobian model is the model itself, its first Jacobian is the batch probe
-    probing = [jac_model is model]
-
-    def jac(theta: np.ndarray, sim: DiagnosableModel[R, E] = jac_model) -> np.ndarray:
-        """Forward-difference Jacobian, all columns in one batched simulation (column
-        by column where the batch as a whole cannot be simulated); ``sim`` defaults to
-        the Jacobian twin. As the probe, the batch must run and its base row be the
-        single-row residual (else :class:`_NoBatchError`)."""
-        h = np.asarray(model.difference_step(theta, lo, hi), float)
-        step = np.where(theta + h <= hi, h, -h)
-        thetas = np.vstack([theta, theta + np.diag(step)])
-        if probing[0]:
-            probing[0] = False
-            try:
-                rows = batch_residuals(thetas, sim)
-                same = rows.shape[1] == n_res and bool(np.allclose(rows[0], fun(theta)))
-            except Exception as exc:  # noqa: BLE001 - any failure: least_squares' differences
-                raise _NoBatchError(str(exc)) from exc
-            if not same:
-                raise _NoBatchError("the batch's base row is not the single-row residual")
-        else:
-            try:
-                rows = batch_residuals(thetas, sim)
-            except EvaluationError:
-                rows = np.vstack([fun(th) for th in thetas])
-        return ((rows[1:] - rows[0]) / step[:, None]).T
-
     refined = model.refine_start(x0, recs, masks)
     if refined is not None:
         # a model-specific fast start (e.g. an equation-error fit); kept only where it
         # lowers the simulation residual
         x1 = np.clip(np.asarray(refined, float), lo + 1e-6 * span, hi - 1e-6 * span)
-        if np.sum(fun(x1) ** 2) < np.sum(fun(x0) ** 2):
+        if np.sum(pb.fun(x1) ** 2) < np.sum(pb.fun(x0) ** 2):
             x0 = x1
-    # the single-row residual first, then the batched probe: a model that caches its
-    # solutions row by row (the K&C axle) then reuses the row instead of solving it in
-    # another batch
-    f0 = fun(x0)
-    ls_options: dict[str, Any] = {} if tol is None else {"ftol": tol, "xtol": tol}
-
-    def solve(how: Any) -> Any:
-        return least_squares(
-            fun, x0, jac=how, bounds=(lo, hi), x_scale="jac", max_nfev=max_nfev, **ls_options
-        )
-
-    if probing[0]:
-        # the first Jacobian (at x0, cached residual) probes the batch; where it fails the
-        # search starts again with least_squares' own differences (one batch saved a fit)
-        try:
-            sol, use_batch = solve(jac), True
-        except _NoBatchError:
-            sol, use_batch = solve("2-point"), False
-    else:
-        try:
-            probe = batch_residuals(np.vstack([x0, x0]), model)
-            use_batch = probe.shape == (2, n_res) and bool(np.allclose(probe[0], f0))
-        except Exception:  # noqa: BLE001 - any failure: fall back to one simulation per column
-            use_batch = False
-        sol = solve(jac if use_batch else "2-point")
+    # the single-row residual first (in _solve), then the batched probe: a model that
+    # caches its solutions row by row (the K&C axle) then reuses the row instead of
+    # solving it in another batch
+    sol, use_batch = _solve(pb, jac_model, x0, max_nfev, tol)
     theta = np.asarray(sol.x, float)
     J = np.asarray(sol.jac, float)
     if use_batch and jac_model is not model:
         # the twin's sensitivities are close enough to steer the fit, not to report:
         # standard errors (and the residual basis of the signatures) use the model's own
-        J = jac(theta, model)
+        J = pb.jac(theta, model)
     return _result(
         model,
         theta,

@@ -12,7 +12,10 @@ estimates instead of assuming.
 * **Signs**: a damper's force dissipates power, ``mean(F v) > 0`` in suspenv's signs
   (positive stroke compression, positive force pushing back against it). Where the
   recording declares neither sign, the sign is read off that power
-  (:func:`power_sign`) and the convention found is said.
+  (:func:`power_sign`) and the convention found is said. Without a force channel (the
+  quarter car) the force is the suspension force through the body equation, ``m_s``
+  times the body acceleration, and the deflection's sign is read off its power (a
+  body accelerometer read downward-positive gives the same power; the words say so).
 """
 
 from __future__ import annotations
@@ -69,14 +72,29 @@ def mass_words(model: ComponentModel, declared: Sequence[str], estimated: bool) 
     return out
 
 
-def power_sign(recordings: Sequence[RecordingLike]) -> float:
-    """The mean power ``mean(F v)`` [W] the recorded force takes from the motion over
-    ``recordings`` (suspenv's signs; NaN without a force channel)."""
+def _force(rec: RecordingLike, sprung_mass: float) -> np.ndarray | None:
+    """The force [N] a recording shows: its ``force`` channel, or where it has none the
+    suspension force through the body equation, ``sprung_mass`` times the
+    ``body_acceleration`` less a recorded ``actuator_force`` (the quarter car's signs);
+    None without either."""
+    if "force" in rec.outputs:
+        return np.asarray(rec.outputs["force"], float)
+    if "body_acceleration" not in rec.outputs:
+        return None
+    acc = np.asarray(rec.outputs["body_acceleration"], float)
+    return sprung_mass * acc - np.asarray(rec.inputs.get("actuator_force", 0.0), float)
+
+
+def power_sign(recordings: Sequence[RecordingLike], sprung_mass: float = 1.0) -> float:
+    """The mean power ``mean(F v)`` [W] the recorded force (:func:`_force`; ``sprung_mass``
+    [kg] where it is read through the body equation) takes from the motion over
+    ``recordings`` (suspenv's signs; NaN without a force)."""
     num, n = 0.0, 0
     for rec in recordings:
-        if "force" not in rec.outputs:
+        f = _force(rec, sprung_mass)
+        if f is None:
             return float("nan")
         v = motion(rec)[1]
-        num += float(np.sum(np.asarray(rec.outputs["force"], float) * v))
+        num += float(np.sum(f * v))
         n += v.size
     return num / n if n else float("nan")

@@ -485,19 +485,30 @@ class ComponentFamily(OptionalSteps):
         """The recordings in suspenv's signs; where neither sign is declared and the
         recorded force takes power from the motion the other way round (``mean(F v) <
         0``, :func:`~suspenv.diagnosis.component.assumed.power_sign`), its sign is
-        reversed, and the convention found is said (:attr:`sign_words`)."""
+        reversed (the deflection's where the force is read through the body equation),
+        and the convention found is said (:attr:`sign_words`)."""
         out = oriented(recs, rig)
-        power = power_sign(out)
+        m_s = float(rig.known.get("m_s", resolve_model(rig.family).options.get("m_s", 1.0)))
+        power = power_sign(out, m_s)
         self.sign_words = []
         if not np.isfinite(power) or {"positive_stroke", "positive_force"} & set(rig.declared):
             return rig, out
+        has_force = all("force" in rec.outputs for rec in recs)
         if power < 0:
-            rig = replace(rig, positive_force="tension")
+            flip = {"positive_force": "tension"} if has_force else {"positive_stroke": "extension"}
+            rig = replace(rig, **flip)  # type: ignore[arg-type]
             out = oriented(recs, rig)
+        if has_force:
+            found = f"a positive stroke in compression and a positive force in {rig.positive_force}"
+        else:
+            found = (
+                f"the suspension force m_s x body acceleration and a positive deflection in "
+                f"{rig.positive_stroke} (a body accelerometer read downward-positive would "
+                "give the same power)"
+            )
         self.sign_words.append(
             "the stroke and force signs (not declared) read off the power the force takes "
-            f"from the motion, mean F v = {abs(power):.3g} W > 0 with a positive stroke in "
-            f"compression and a positive force in {rig.positive_force}"
+            f"from the motion, mean F v = {abs(power):.3g} W > 0 with {found}"
         )
         return rig, out
 

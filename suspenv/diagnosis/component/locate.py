@@ -138,88 +138,73 @@ def impact_samples(t: np.ndarray, v: np.ndarray) -> np.ndarray:
     return a > IMPACT_RATIO * np.repeat(level, w)[: a.size] + 1e-12
 
 
-def locate(segments: Sequence[Segment], reversal_fraction: float = 0.1) -> Location:
-    """Partition the residual energy of ``segments`` along every applicable dimension."""
-    total = sum(_energy(s.residual) for s in segments)
-    n_samples = sum(s.t.size for s in segments)
-    loc = Location()
+def _channel_shares(segments: Sequence[Segment], total: float) -> list[Share]:
+    """Residual energy by output channel (fraction 1 / number of channels: each has
+    every sample) and by side where channels are left and right; none for one channel."""
     channels = list(dict.fromkeys(c for s in segments for c in s.residual))
-    n_ch = len(channels)
+    if len(channels) < 2:
+        return []
 
-    # channel: fraction = 1 / number of channels (each channel has every sample)
-    if n_ch > 1:
-        for c in channels:
-            e = sum(float(np.sum(s.residual[c] ** 2)) for s in segments if c in s.residual)
-            loc.shares.append(Share("channel", c, e / total if total else 0.0, 1.0 / n_ch))
-        sides: dict[str, float] = {}
-        for c in channels:
-            side = _side_of(c)
-            if side:
-                e = sum(float(np.sum(s.residual[c] ** 2)) for s in segments if c in s.residual)
-                sides[side] = sides.get(side, 0.0) + e
-        if len(sides) == 2:
-            n_sided = sum(1 for c in channels if _side_of(c))
-            for side, e in sides.items():
-                frac = sum(1 for c in channels if _side_of(c) == side) / n_sided
-                loc.shares.append(Share("side", side, e / max(sum(sides.values()), 1e-300), frac))
+    def energy(c: str) -> float:
+        return sum(float(np.sum(s.residual[c] ** 2)) for s in segments if c in s.residual)
 
-    tests = {s.test for s in segments}
-    if len(tests) > 1:
-        loc.shares += _partition(
-            "test", segments, lambda s: {s.test: np.ones(s.t.size, bool)}, total, n_samples
-        )
+    out = [
+        Share("channel", c, energy(c) / total if total else 0.0, 1.0 / len(channels))
+        for c in channels
+    ]
+    sides: dict[str, float] = {}
+    for c in channels:
+        side = _side_of(c)
+        if side:
+            sides[side] = sides.get(side, 0.0) + energy(c)
+    if len(sides) == 2:
+        n_sided = sum(1 for c in channels if _side_of(c))
+        for side, e in sides.items():
+            frac = sum(1 for c in channels if _side_of(c) == side) / n_sided
+            out.append(Share("side", side, e / max(sum(sides.values()), 1e-300), frac))
+    return out
 
-    loc.shares += _partition(
-        "branch",
-        segments,
-        lambda s: {"bump (v > 0)": s.v > 0, "rebound (v < 0)": s.v < 0},
-        total,
-        n_samples,
-    )
 
-    def near_reversal(s: Segment) -> dict[str, np.ndarray]:
-        stroke = float(np.ptp(s.x)) or 1.0
-        near = travel_since_reversal(s.x, s.v) < reversal_fraction * stroke
-        return {"near reversal": near, "away from reversal": ~near}
+def _amplitude(s: Segment) -> dict[str, np.ndarray]:
+    centre = 0.5 * (np.max(s.x) + np.min(s.x))
+    half = 0.5 * float(np.ptp(s.x)) or 1.0
+    a = np.abs(s.x - centre) / half
+    edges = [0.0, 0.25, 0.5, 0.75, 1.0 + 1e-12]
+    return {
+        f"{int(lo * 100)}-{int(min(hi, 1.0) * 100)} % of half-stroke": (a >= lo) & (a < hi)
+        for lo, hi in zip(edges[:-1], edges[1:], strict=True)
+    }
 
-    loc.shares += _partition("reversal", segments, near_reversal, total, n_samples)
 
-    def amplitude(s: Segment) -> dict[str, np.ndarray]:
-        centre = 0.5 * (np.max(s.x) + np.min(s.x))
-        half = 0.5 * float(np.ptp(s.x)) or 1.0
-        a = np.abs(s.x - centre) / half
-        edges = [0.0, 0.25, 0.5, 0.75, 1.0 + 1e-12]
-        return {
-            f"{int(lo * 100)}-{int(min(hi, 1.0) * 100)} % of half-stroke": (a >= lo) & (a < hi)
-            for lo, hi in zip(edges[:-1], edges[1:], strict=True)
-        }
+def _travel_side(s: Segment) -> dict[str, np.ndarray]:
+    centre = 0.5 * (np.max(s.x) + np.min(s.x))
+    return {"compression half (x > centre)": s.x > centre, "extension half": s.x <= centre}
 
-    loc.shares += _partition("amplitude", segments, amplitude, total, n_samples)
 
-    def travel_side(s: Segment) -> dict[str, np.ndarray]:
-        centre = 0.5 * (np.max(s.x) + np.min(s.x))
-        return {"compression half (x > centre)": s.x > centre, "extension half": s.x <= centre}
+def _impacts(s: Segment) -> dict[str, np.ndarray]:
+    if s.t.size < 16:
+        return {}
+    hits = np.flatnonzero(impact_samples(s.t, s.v))
+    if hits.size == 0:
+        return {}
+    window = IMPACT_WINDOW * float(s.t[-1] - s.t[0])
+    after = np.zeros(s.t.size, bool)
+    for h in hits:
+        after |= (s.t >= s.t[h]) & (s.t <= s.t[h] + window)
+    return {"after impacts": after, "elsewhere": ~after}
 
-    loc.shares += _partition("travel side", segments, travel_side, total, n_samples)
 
-    def impacts(s: Segment) -> dict[str, np.ndarray]:
-        if s.t.size < 16:
-            return {}
-        hits = np.flatnonzero(impact_samples(s.t, s.v))
-        if hits.size == 0:
-            return {}
-        window = IMPACT_WINDOW * float(s.t[-1] - s.t[0])
-        after = np.zeros(s.t.size, bool)
-        for h in hits:
-            after |= (s.t >= s.t[h]) & (s.t <= s.t[h] + window)
-        return {"after impacts": after, "elsewhere": ~after}
+#: frequency bands relative to the dominant excitation frequency f0: names and edges
+BAND_NAMES = ("drift (< 0.5 f0)", "f0 (0.5-1.5 f0)", "2 f0", "3 f0", "high (> 3.5 f0)")
+BAND_EDGES = (0.0, 0.5, 1.5, 2.5, 3.5, np.inf)
 
-    loc.shares += _partition("after impacts", segments, impacts, total, n_samples)
 
-    # frequency bands, relative to the dominant excitation frequency (Parseval shares)
+def _band_shares(segments: Sequence[Segment]) -> list[Share]:
+    """Residual energy by frequency band relative to the dominant excitation frequency
+    (Parseval shares); a band's "fraction" is its share of the spectral lines (white
+    residual = fair)."""
+    bands = list(zip(BAND_NAMES, BAND_EDGES[:-1], BAND_EDGES[1:], strict=True))
     band_e: dict[str, float] = {}
-    band_names = ("drift (< 0.5 f0)", "f0 (0.5-1.5 f0)", "2 f0", "3 f0", "high (> 3.5 f0)")
-    edges = [0.0, 0.5, 1.5, 2.5, 3.5, np.inf]
     spec_total = 0.0
     for s in segments:
         f0 = dominant_frequency(s.t, s.x)
@@ -230,17 +215,53 @@ def locate(segments: Sequence[Segment], reversal_fraction: float = 0.1) -> Locat
         for r in s.residual.values():
             p = np.abs(np.fft.rfft(r)) ** 2
             spec_total += float(np.sum(p))
-            for name, lo, hi in zip(band_names, edges[:-1], edges[1:], strict=True):
+            for name, lo, hi in bands:
                 band_e[name] = band_e.get(name, 0.0) + float(
                     np.sum(p[(freqs >= lo) & (freqs < hi)])
                 )
-    if spec_total > 0:
-        # "fraction" of a band = its share of the spectral lines (white residual = fair)
-        seg0 = segments[0]
-        f0 = dominant_frequency(seg0.t, seg0.x)
-        dt = float(np.median(np.diff(seg0.t)))
-        freqs = np.fft.rfftfreq(seg0.t.size, dt) / f0
-        for name, lo, hi in zip(band_names, edges[:-1], edges[1:], strict=True):
-            frac = float(np.mean((freqs >= lo) & (freqs < hi)))
-            loc.shares.append(Share("frequency band", name, band_e[name] / spec_total, frac))
+    if not spec_total > 0:
+        return []
+    seg0 = segments[0]
+    f0 = dominant_frequency(seg0.t, seg0.x)
+    dt = float(np.median(np.diff(seg0.t)))
+    freqs = np.fft.rfftfreq(seg0.t.size, dt) / f0
+    return [
+        Share(
+            "frequency band",
+            name,
+            band_e[name] / spec_total,
+            float(np.mean((freqs >= lo) & (freqs < hi))),
+        )
+        for name, lo, hi in bands
+    ]
+
+
+def locate(segments: Sequence[Segment], reversal_fraction: float = 0.1) -> Location:
+    """Partition the residual energy of ``segments`` along every applicable dimension."""
+    total = sum(_energy(s.residual) for s in segments)
+    n_samples = sum(s.t.size for s in segments)
+    loc = Location()
+    loc.shares += _channel_shares(segments, total)
+    if len({s.test for s in segments}) > 1:
+        loc.shares += _partition(
+            "test", segments, lambda s: {s.test: np.ones(s.t.size, bool)}, total, n_samples
+        )
+
+    def branch(s: Segment) -> dict[str, np.ndarray]:
+        return {"bump (v > 0)": s.v > 0, "rebound (v < 0)": s.v < 0}
+
+    def near_reversal(s: Segment) -> dict[str, np.ndarray]:
+        stroke = float(np.ptp(s.x)) or 1.0
+        near = travel_since_reversal(s.x, s.v) < reversal_fraction * stroke
+        return {"near reversal": near, "away from reversal": ~near}
+
+    for dim, part in (
+        ("branch", branch),
+        ("reversal", near_reversal),
+        ("amplitude", _amplitude),
+        ("travel side", _travel_side),
+        ("after impacts", _impacts),
+    ):
+        loc.shares += _partition(dim, segments, part, total, n_samples)
+    loc.shares += _band_shares(segments)
     return loc

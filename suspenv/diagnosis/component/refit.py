@@ -109,6 +109,25 @@ def stribeck_rise_and_error(ext: FitResult, kind: str, vmax: float) -> tuple[flo
     return drop * reach, float(np.sqrt(max(float(g @ cov @ g), 0.0)))
 
 
+def _friction_guess(kind: str, n: dict[str, float], half_stroke: float) -> dict[str, float]:
+    """Starting values of a friction or hysteresis element from its signature's numbers
+    ``n`` (empty for another kind)."""
+    if kind in ("coulomb_friction", "stribeck_friction", "lugre_friction"):
+        fc = max(0.5 * n.get("step", 0.0), 1e-3)
+        return {"f_c": fc} if kind == "coulomb_friction" else {"f_c": fc, "f_s": 1.2 * fc}
+    if kind == "directional_friction":
+        fc = max(0.5 * n.get("step", 0.0), 1e-3)
+        return {"f_pos": fc, "f_neg": fc}
+    if kind == "dahl_hysteresis":
+        fc = max(0.5 * n.get("loop_width", 0.0), 1e-3)
+        delta = max(n.get("transition_fraction", 0.1) * half_stroke, 1e-6)
+        return {"f_c": fc, "sigma": fc / delta}
+    if kind == "bouc_wen_hysteresis":
+        fy = max(0.5 * n.get("loop_width", 0.0), 1e-3)
+        return {"f_y": fy, "x_y": max(n.get("transition_fraction", 0.1) * half_stroke / 3, 1e-6)}
+    return {}
+
+
 def signature_guess(
     kind: str, sig: Signature | None, half_stroke: float, v_max: float
 ) -> dict[str, float]:
@@ -116,23 +135,10 @@ def signature_guess(
     if sig is None:
         return {}
     n = sig.numbers
-    g: dict[str, float] = {}
-    if kind in ("coulomb_friction", "stribeck_friction", "lugre_friction"):
-        fc = max(0.5 * n.get("step", 0.0), 1e-3)
-        g = {"f_c": fc}
-        if kind != "coulomb_friction":
-            g["f_s"] = 1.2 * fc
-    elif kind == "directional_friction":
-        fc = max(0.5 * n.get("step", 0.0), 1e-3)
-        g = {"f_pos": fc, "f_neg": fc}
-    elif kind == "dahl_hysteresis":
-        fc = max(0.5 * n.get("loop_width", 0.0), 1e-3)
-        delta = max(n.get("transition_fraction", 0.1) * half_stroke, 1e-6)
-        g = {"f_c": fc, "sigma": fc / delta}
-    elif kind == "bouc_wen_hysteresis":
-        fy = max(0.5 * n.get("loop_width", 0.0), 1e-3)
-        g = {"f_y": fy, "x_y": max(n.get("transition_fraction", 0.1) * half_stroke / 3, 1e-6)}
-    elif kind == "cubic_stiffness" and half_stroke > 0:
+    g = _friction_guess(kind, n, half_stroke)
+    if g:
+        return g
+    if kind == "cubic_stiffness" and half_stroke > 0:
         g = {"k3": n.get("extra_at_full_stroke", 0.0) / half_stroke**3}
     elif kind in ("bump_stop", "rebound_stop") and np.isfinite(n.get("threshold_m", np.nan)):
         g = {"gap": abs(n["threshold_m"])}

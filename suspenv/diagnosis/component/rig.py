@@ -201,6 +201,22 @@ def _check_kinds(kinds: Sequence[str], where: str) -> None:
         )
 
 
+def _known(known: Any, where: str) -> dict[str, float]:
+    """The validated ``known`` table of a rig: positive numbers by parameter name."""
+    if not isinstance(known, Mapping):
+        raise ValidationError(f"{where}: 'known' must be a table, but got {known!r}")
+    vals: dict[str, float] = {}
+    for k, v in known.items():
+        try:
+            x = float(v)
+        except (TypeError, ValueError):
+            raise ValidationError(f"{where}: known.{k} must be a number, but got {v!r}") from None
+        if not (np.isfinite(x) and x > 0):
+            raise ValidationError(f"{where}: `known.{k} > 0` must hold, but got {x}")
+        vals[str(k)] = x
+    return vals
+
+
 def _entries(raw: Mapping[str, Any], where: str) -> dict[str, Any]:
     """Validated entries of a metadata ``rig`` table or a model file."""
     allowed = {
@@ -223,39 +239,19 @@ def _entries(raw: Mapping[str, Any], where: str) -> dict[str, Any]:
     if fam is not None:
         _check_family(str(fam), where)
         out["family"] = str(fam)
-    for key, allowed_signs in (
+    for key, choices in (
         ("positive_stroke", STROKE_SIGNS),
         ("positive_force", FORCE_SIGNS),
+        ("velocity_source", VELOCITY_SOURCES),
     ):
         if key in raw:
-            if raw[key] not in allowed_signs:
+            if raw[key] not in choices:
                 raise ValidationError(
-                    f"{where}: `{key} in {allowed_signs}` must hold, but got {raw[key]!r}"
+                    f"{where}: `{key} in {choices}` must hold, but got {raw[key]!r}"
                 )
             out[key] = str(raw[key])
-    if "velocity_source" in raw:
-        if raw["velocity_source"] not in VELOCITY_SOURCES:
-            raise ValidationError(
-                f"{where}: `velocity_source in {VELOCITY_SOURCES}` must hold, but got "
-                f"{raw['velocity_source']!r}"
-            )
-        out["velocity_source"] = str(raw["velocity_source"])
     if "known" in raw:
-        known = raw["known"]
-        if not isinstance(known, Mapping):
-            raise ValidationError(f"{where}: 'known' must be a table, but got {known!r}")
-        vals: dict[str, float] = {}
-        for k, v in known.items():
-            try:
-                x = float(v)
-            except (TypeError, ValueError):
-                raise ValidationError(
-                    f"{where}: known.{k} must be a number, but got {v!r}"
-                ) from None
-            if not (np.isfinite(x) and x > 0):
-                raise ValidationError(f"{where}: `known.{k} > 0` must hold, but got {x}")
-            vals[str(k)] = x
-        out["known"] = vals
+        out["known"] = _known(raw["known"], where)
     if "extra_inputs" in raw:
         extra = raw["extra_inputs"]
         if not isinstance(extra, Mapping):

@@ -124,31 +124,47 @@ def _scales(model: Any, base: dict[str, float], rec: Recording) -> dict[str, flo
     }
 
 
-def draw_effect(kind: str, rng: np.random.Generator, sc: dict[str, float], base: dict) -> Effect:
-    """One effect of ``kind`` with random magnitude and shape relative to the scales."""
-    F, X, V, W = sc["force"], sc["stroke"], sc["speed"], sc["frequency"]
-    c = float(base.get("c", F / max(V, 1e-9)))
-    u = rng.uniform
-    mag = u(0.08, 0.2) * F
-    p: dict[str, float]
+def _draw_friction(kind: str, u: Any, mag: float, X: float, V: float) -> dict[str, float]:
+    """Parameters of a friction or hysteresis element of size ``mag`` [N] over the stroke
+    ``X`` [m] and speed ``V`` [m/s] scales (``u``: the case's uniform draw; empty for
+    another kind)."""
     if kind == "coulomb_friction":
-        p = {"f_c": mag}
-    elif kind == "directional_friction":
-        p = {"f_pos": mag, "f_neg": mag * u(0.5, 0.8)}
-    elif kind == "stribeck_friction":
-        p = {"f_c": mag, "f_s": mag * u(1.5, 2.5), "v_s": u(0.05, 0.2) * V}
-    elif kind == "lugre_friction":
-        p = {
+        return {"f_c": mag}
+    if kind == "directional_friction":
+        return {"f_pos": mag, "f_neg": mag * u(0.5, 0.8)}
+    if kind == "stribeck_friction":
+        return {"f_c": mag, "f_s": mag * u(1.5, 2.5), "v_s": u(0.05, 0.2) * V}
+    if kind == "lugre_friction":
+        return {
             "f_c": mag,
             "f_s": mag * u(1.3, 2.0),
             "v_s": u(0.05, 0.2) * V,
             "sigma0": mag / (1e-3 * X),
         }
-    elif kind == "dahl_hysteresis":
-        p = {"f_c": mag, "sigma": mag / (u(0.03, 0.15) * X)}
-    elif kind == "bouc_wen_hysteresis":
-        p = {"f_y": mag, "x_y": u(0.03, 0.15) * X}
-    elif kind == "cubic_stiffness":
+    if kind == "dahl_hysteresis":
+        return {"f_c": mag, "sigma": mag / (u(0.03, 0.15) * X)}
+    if kind == "bouc_wen_hysteresis":
+        return {"f_y": mag, "x_y": u(0.03, 0.15) * X}
+    return {}
+
+
+def draw_effect(kind: str, rng: np.random.Generator, sc: dict[str, float], base: dict) -> Effect:
+    """One effect of ``kind`` with random magnitude and shape relative to the scales."""
+    mag = rng.uniform(0.08, 0.2) * sc["force"]
+    p = _draw_friction(kind, rng.uniform, mag, sc["stroke"], sc["speed"])
+    return make_effect(kind).with_params(p or _draw_other(kind, rng, sc, base, mag))
+
+
+def _draw_other(
+    kind: str, rng: np.random.Generator, sc: dict[str, float], base: dict, mag: float
+) -> dict[str, float]:
+    """Parameters of an element other than friction or hysteresis (:func:`draw_effect`;
+    empty for a kind without a draw rule, which keeps its defaults)."""
+    F, X, V, W = sc["force"], sc["stroke"], sc["speed"], sc["frequency"]
+    c = float(base.get("c", F / max(V, 1e-9)))
+    u = rng.uniform
+    p: dict[str, float] = {}
+    if kind == "cubic_stiffness":
         p = {"k3": float(rng.choice([-1.0, 1.0])) * u(0.1, 0.25) * F / X**3}
     elif kind == "progressive_stiffness":
         x0 = u(0.2, 0.5) * X
@@ -175,9 +191,7 @@ def draw_effect(kind: str, rng: np.random.Generator, sc: dict[str, float], base:
     elif kind == "sensor_offset":
         # in the unit of the channel it sits on (equal to `mag` for a force channel)
         p = {"offset": float(rng.choice([-1.0, 1.0])) * mag * sc.get("channel", F) / F}
-    else:  # pragma: no cover - a new kind without a draw rule keeps its defaults
-        p = {}
-    return make_effect(kind).with_params(p)
+    return p
 
 
 def truth_pool(family: str) -> list[str]:
@@ -271,28 +285,37 @@ def _outside(
 CONDITIONS = ("masses_undeclared", "sign_reversed", "input_missing")
 
 
+def condition_families(condition: str) -> tuple[str, ...]:
+    """The families a blind user's ``condition`` (:data:`CONDITIONS`) applies to."""
+    return {
+        "masses_undeclared": ("quarter_car_rig",),
+        "sign_reversed": tuple(BASE_DRAWS),
+        "input_missing": RECORDED_MOTION_FAMILIES,
+    }.get(condition, ())
+
+
 def draw_condition(condition: str, family: str, seed: int) -> dict[str, Any]:
     """Seeded values of ``condition`` (:data:`CONDITIONS`), by a generator of its own so
     that every other draw of the case is unchanged."""
     rng = np.random.default_rng([seed, 23, sum(map(ord, family))])
-    if condition == "masses_undeclared" and family == "quarter_car_rig":
+    if family not in condition_families(condition):
+        raise ValidationError(
+            f"condition must be one of {CONDITIONS} and apply to the family (masses: "
+            f"quarter_car_rig; input_missing: {RECORDED_MOTION_FAMILIES}), but got "
+            f"({condition!r}, {family!r})"
+        )
+    if condition == "masses_undeclared":
         # body 0.6-0.85 or 1.2-1.5 times, wheel 0.7-1.5 times the 300 / 40 kg defaults
         body = rng.uniform(0.6, 0.85) if rng.random() < 0.5 else rng.uniform(1.2, 1.5)
         return {"kind": condition, "m_s": 300.0 * body, "m_u": 40.0 * rng.uniform(0.7, 1.5)}
     if condition == "sign_reversed":
         return {"kind": condition}
-    if condition == "input_missing" and family in RECORDED_MOTION_FAMILIES:
-        # extra damping 30-60 % of the base level, switched on and off 4-10 times
-        return {
-            "kind": condition,
-            "share": float(rng.uniform(0.3, 0.6)),
-            "switches": np.sort(rng.uniform(0.0, 1.0, int(rng.integers(4, 11)))).tolist(),
-        }
-    raise ValidationError(
-        f"condition must be one of {CONDITIONS} and apply to the family (masses: "
-        f"quarter_car_rig; input_missing: {RECORDED_MOTION_FAMILIES}), but got "
-        f"({condition!r}, {family!r})"
-    )
+    # input_missing: extra damping 30-60 % of the base level, switched on and off 4-10 times
+    return {
+        "kind": condition,
+        "share": float(rng.uniform(0.3, 0.6)),
+        "switches": np.sort(rng.uniform(0.0, 1.0, int(rng.integers(4, 11)))).tolist(),
+    }
 
 
 def _apply_condition(
