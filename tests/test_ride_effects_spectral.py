@@ -6,6 +6,8 @@ against the nonlinear time-domain model (slow)."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 from scipy import integrate
@@ -16,13 +18,20 @@ from suspenv.metrics.ride import _output_matrix, modal_form, modal_response, rid
 from suspenv.models.effects.effect import make_effect
 from suspenv.models.minibus import STUDY_PICK, design_space
 from suspenv.models.minibus.linearisation import (
+    DAMPER,
+    ElementLinearisation,
     coulomb_rate,
     dahl_rates,
     stop_rate,
     tail_moment,
 )
 from suspenv.models.minibus.ride_model import RideModel
-from suspenv.models.minibus.vehicle import LOAD_CASES, stacked_vehicle_parameters
+from suspenv.models.minibus.suspension import DamperCurve, damper_force
+from suspenv.models.minibus.vehicle import (
+    LOAD_CASES,
+    REFERENCE_MINIBUS,
+    stacked_vehicle_parameters,
+)
 from suspenv.rigs.ride import RandomRoad, random_road_run
 
 LEAF_FRICTION = make_effect("dahl_hysteresis", location="rear_leaf", f_c=600.0, sigma=600 / 3.5e-3)
@@ -35,6 +44,34 @@ DAMPER_FRICTION = make_effect("coulomb_friction", location="rear_damper", f_c=25
 
 def _phi(t: float) -> float:
     return float(np.exp(-0.5 * t * t) / np.sqrt(2 * np.pi))
+
+
+@pytest.mark.parametrize("digressive", [False, True])
+def test_damper_rate_is_the_gaussian_equivalent_of_the_curve(digressive):
+    """The damper's equivalent rate (``ElementLinearisation.rates``, the E[F'(v)] form)
+    against ``E[F(v) v] / s^2`` of the curve itself (:func:`damper_force`, trapezoid
+    over +-12 s) and, for a piecewise-linear asymmetric curve (no digression), against
+    the closed form (c_b + c_r)/2 for any zero-mean Gaussian velocity."""
+    curve = DamperCurve(1300.0, 520.0, 0.13, 3900.0, 1560.0, 0.13)
+    if not digressive:
+        curve = DamperCurve(1300.0, 1300.0, 0.13, 3900.0, 3900.0, 0.13)
+    vehicle = dataclasses.replace(REFERENCE_MINIBUS, damper_front=curve, damper_rear=curve)
+    X = np.vstack([STUDY_PICK, design_space().to_physical(np.full((1, 8), 0.3))])
+    model = RideModel(stacked_vehicle_parameters(X, LOAD_CASES, vehicle))
+    lz = ElementLinearisation(model)
+    s = np.array([0.02, 0.1, 0.13, 0.3, 1.0])  # RMS velocities (m/s), across the knee
+    sig = np.zeros((model.n, 6))
+    scale = np.concatenate([p.design.front_damper_scale for p in model.params])
+    for s_k in s:
+        sig[:, :4] = s_k
+        c_eq = lz.rates(sig, lz.initial(1.0))[:, DAMPER]
+        v = np.linspace(-12 * s_k, 12 * s_k, 400_001)
+        dens = np.exp(-0.5 * (v / s_k) ** 2) / (np.sqrt(2 * np.pi) * s_k)
+        ref = np.trapezoid(damper_force(v, curve) * v * dens, v) / s_k**2
+        # trapezoid error: O(h^2) at the curve's kinks, h = 6e-5 s, far below 1e-6
+        np.testing.assert_allclose(c_eq[:, 0], scale * ref, rtol=1e-6)
+        if not digressive:
+            np.testing.assert_allclose(c_eq[:, 0], scale * (1300.0 + 3900.0) / 2, rtol=1e-12)
 
 
 @pytest.mark.parametrize("m", [0.0, 0.5, 1.0, 1.5, 2.0])
