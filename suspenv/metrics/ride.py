@@ -99,15 +99,6 @@ def vibration_dose_value(a: np.ndarray, fs: float) -> np.ndarray:
     return (np.sum(a**4, axis=-1) / fs) ** 0.25
 
 
-def band_rms(f: np.ndarray, psd: np.ndarray, band: tuple[float, float]) -> np.ndarray:
-    """RMS (m/s^2) in a frequency band from a one-sided PSD (trapezoid integration)."""
-    lo, hi = band
-    if not lo < hi:
-        raise ValidationError(f"`low < high` must hold, but got (low={lo}, high={hi})")
-    sel = (f >= lo) & (f <= hi)
-    return np.sqrt(np.trapezoid(np.asarray(psd)[..., sel], f[sel], axis=-1))
-
-
 # ------------------------------------------------------------------ minibus objectives
 def ride_objectives_all(
     X: np.ndarray,
@@ -315,24 +306,9 @@ def modal_form(
     return lam, P
 
 
-def linear_frequency_response(
-    M: np.ndarray,
-    C: np.ndarray,
-    K: np.ndarray,
-    Kin: np.ndarray,
-    Cin: np.ndarray,
-    Co: np.ndarray,
-    f: np.ndarray,
-) -> np.ndarray:
-    """Displacement responses (n, Nf, p, m) of ``M qdd + C qd + K q = Kin u + Cin ud``
-    (see :func:`modal_form`)."""
-    lam, P = modal_form(M, C, K, Kin, Cin, Co)
-    return modal_response(lam, P, f)
-
-
 def modal_response(lam: np.ndarray, P: np.ndarray, f: np.ndarray) -> np.ndarray:
     """``H(f) = sum_k P_k / (i 2 pi f - lam_k)``: (n, Nf, p, m) from poles lam (n, K) and
-    residues P (n, K, p, m) (see :func:`linear_frequency_response`)."""
+    residues P (n, K, p, m) (see :func:`modal_form`)."""
     n, k, p, m = P.shape
     s = 2j * np.pi * np.asarray(f, dtype=float)
     Wm = 1.0 / (s[None, :, None] - lam[:, None, :])  # (n, Nf, K)
