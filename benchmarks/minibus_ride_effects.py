@@ -18,7 +18,8 @@ Where the plain method's own deviation comes from (``damper_attribution``): the 
 set "none" again with the model's dampers changed (``DAMPER_VARIANTS``: as they are;
 symmetric, bump and rebound at their mean with the knee kept; no knee, the high-speed
 slopes equal to the low-speed ones; symmetric and linear), spectral values against
-the same long runs, per end and load case.
+the same long runs, per end and load case; and the linearised model (every element
+linear: static leaf rate, mean low-speed damping, no lift-off) by both methods.
 
 Speed, CPU ms per candidate (both load cases), in the same run: the spectral method with
 leaf friction, the plain spectral method (the baseline without effects) and the 10 s
@@ -119,14 +120,19 @@ DAMPER_VARIANTS: dict[str, Callable[[DamperCurve], DamperCurve]] = {
 
 
 def long_runs(
-    X: np.ndarray, effects: list[Effect], seeds: int, vehicle: Minibus = REFERENCE_MINIBUS
+    X: np.ndarray,
+    effects: list[Effect],
+    seeds: int,
+    vehicle: Minibus = REFERENCE_MINIBUS,
+    linear: bool = False,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Weighted RMS (m/s^2) and its standard error, (2 ends, n x load cases), from the
-    mean square over ``seeds`` records of ``RECORD_S``."""
+    mean square over ``seeds`` records of ``RECORD_S`` (``linear``: of the linearised
+    model)."""
     ms = []
     for k in range(seeds):
         road = RandomRoad(duration_s=RECORD_S, seed=500 + k)
-        rec = random_road_run(X, LOAD_CASES, road, vehicle, effects)
+        rec = random_road_run(X, LOAD_CASES, road, vehicle, effects, linear=linear)
         fs = road.sample_rate
         ms.append(
             [weighted_rms_fft(rec.acc_front, fs) ** 2, weighted_rms_fft(rec.acc_rear, fs) ** 2]
@@ -137,16 +143,20 @@ def long_runs(
 
 
 def damper_attribution(X: np.ndarray, seeds: int) -> dict[str, dict[str, object]]:
-    """Per ``DAMPER_VARIANTS`` entry (no effects): the spectral values' deviation (%)
-    from the long runs, its range per end and load case and the count within target."""
+    """Per ``DAMPER_VARIANTS`` entry (no effects), and for the linearised model
+    (``linear_model``: every element linear, both methods): the spectral values'
+    deviation (%) from the long runs, its range per end and load case and the count
+    within target."""
     out: dict[str, dict[str, object]] = {}
-    for name, change in DAMPER_VARIANTS.items():
-        v = REFERENCE_MINIBUS
+    v = REFERENCE_MINIBUS
+    for name in [*DAMPER_VARIANTS, "linear_model"]:
+        change = DAMPER_VARIANTS.get(name, DAMPER_VARIANTS["model"])
         vehicle = dataclasses.replace(
             v, damper_front=change(v.damper_front), damper_rear=change(v.damper_rear)
         )
-        td, _ = long_runs(X, [], seeds, vehicle)
-        sp = ride_spectral(X, vehicle=vehicle)
+        linear = name == "linear_model"
+        td, _ = long_runs(X, [], seeds, vehicle, linear)
+        sp = ride_spectral(X, vehicle=vehicle, equivalent_linear=not linear)
         err = 100 * (np.vstack([sp["aw_front"], sp["aw_rear"]]) / td - 1)  # (end, rows)
         n = X.shape[0]
         ranges = {

@@ -774,10 +774,11 @@ def _spectral_modal(
     dahl = lz is not None and lz.dahl is not None
     nq = lin.nq
     # rows: measuring points front, rear; dampers FL..RR; leaves L, R; front springs FL,
-    # FR (with effects); Dahl forces after them (one per leaf, or per half)
-    Co = _output_matrix(lin)
-    if effects:
-        Co = np.vstack([Co, lin.E[:nq, 0:2].T])
+    # FR (with effects); with halves only the left-hand elements (the right-hand ones
+    # have the same RMS values); the Dahl forces after them (per leaf, or per half)
+    n_el = 8 if effects else 6
+    keep = [0, 1, 2, 4, 6, 8][: 2 + n_el // 2] if halves else list(range(2 + n_el))
+    Co = np.vstack([_output_matrix(lin), lin.E[:nq, 0:2].T])[keep]
     leaves = lin.E[:nq, 2:4].T  # (2, nq) leaf compression at the seats per q
     maps = _HALF_MAPS if halves else _WHOLE_MAP
 
@@ -797,12 +798,11 @@ def _spectral_modal(
         return out
 
     mean_square = _halves_mean_square if halves else _whole_mean_square
-    n_el = Co.shape[0] - 2
     # per element (dampers FL..RR, leaves L, R, front springs FL, FR) its row of Co,
-    # with halves its left-hand twin's; the Dahl forces' rows after Co's (with halves
-    # one, the pair's, z_L^2 = (z_s^2 + z_a^2)/2)
+    # with halves its left-hand twin's; with halves one Dahl row, the pair's:
+    # z_L^2 = (z_s^2 + z_a^2)/2
     twin = [j // 2 if halves else j for j in range(n_el)]
-    rows = [2 + 2 * j if halves else 2 + j for j in range(max(twin) + 1)]
+    rows = list(range(2, Co.shape[0]))
     z_rows = ([Co.shape[0]] if halves else [Co.shape[0], Co.shape[0] + 1]) if dahl else []
 
     def sigma(m: list[tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
