@@ -14,6 +14,13 @@ effects, no seed) against the nonlinear model's mean square over ``--seeds`` ind
 120 s records (RK4 at 100 Hz, 1 s settling; standard error between records), and the
 spectral value that ignores the effects (what the default gave before).
 
+Where the plain method's own deviation comes from (``damper_attribution``): the effect
+set "none" again with the model's dampers changed (``DAMPER_VARIANTS``: as they are;
+symmetric, bump and rebound at their mean with the knee kept; no knee, the high-speed
+slopes equal to the low-speed ones; symmetric and linear), spectral values against
+the same long runs, per end and load case; and the linearised model (every element
+linear: static leaf rate, mean low-speed damping, no lift-off) by both methods.
+
 Speed, CPU ms per candidate (both load cases), in the same run: the spectral method with
 leaf friction, the plain spectral method (the baseline without effects) and the 10 s
 time-domain run with the friction (the method the effects needed before), at batch 1
@@ -33,6 +40,7 @@ Run: ``python -m benchmarks.minibus_ride_effects [--quick]``; writes
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import os
 import sys
 import tempfile
@@ -48,7 +56,8 @@ from suspenv.metrics.iso2631 import weighted_rms_fft
 from suspenv.metrics.ride import ride_objectives_all, ride_spectral
 from suspenv.models.effects.effect import Effect, make_effect
 from suspenv.models.minibus import BASELINE_DESIGN, STUDY_PICK, design_space
-from suspenv.models.minibus.vehicle import LOAD_CASES
+from suspenv.models.minibus.suspension import DamperCurve
+from suspenv.models.minibus.vehicle import LOAD_CASES, REFERENCE_MINIBUS, Minibus
 from suspenv.rigs.ride import RandomRoad, random_road_run
 from suspenv.runs.run_dir import load_summary
 
@@ -95,13 +104,35 @@ def designs() -> tuple[list[str], np.ndarray]:
     return names, np.vstack([X, space.to_physical(rand)])
 
 
-def long_runs(X: np.ndarray, effects: list[Effect], seeds: int) -> tuple[np.ndarray, np.ndarray]:
+#: the dampers of ``damper_attribution``: per variant, the curve from the model's one
+DAMPER_VARIANTS: dict[str, Callable[[DamperCurve], DamperCurve]] = {
+    "model": lambda c: c,
+    "symmetric": lambda c: dataclasses.replace(
+        c,
+        bump_low=(c.bump_low + c.rebound_low) / 2,
+        rebound_low=(c.bump_low + c.rebound_low) / 2,
+        bump_high=(c.bump_high + c.rebound_high) / 2,
+        rebound_high=(c.bump_high + c.rebound_high) / 2,
+    ),
+    "no_knee": lambda c: dataclasses.replace(c, bump_high=c.bump_low, rebound_high=c.rebound_low),
+    "symmetric_linear": lambda c: DAMPER_VARIANTS["symmetric"](DAMPER_VARIANTS["no_knee"](c)),
+}
+
+
+def long_runs(
+    X: np.ndarray,
+    effects: list[Effect],
+    seeds: int,
+    vehicle: Minibus = REFERENCE_MINIBUS,
+    linear: bool = False,
+) -> tuple[np.ndarray, np.ndarray]:
     """Weighted RMS (m/s^2) and its standard error, (2 ends, n x load cases), from the
-    mean square over ``seeds`` records of ``RECORD_S``."""
+    mean square over ``seeds`` records of ``RECORD_S`` (``linear``: of the linearised
+    model)."""
     ms = []
     for k in range(seeds):
         road = RandomRoad(duration_s=RECORD_S, seed=500 + k)
-        rec = random_road_run(X, LOAD_CASES, road, effects=effects)
+        rec = random_road_run(X, LOAD_CASES, road, vehicle, effects, linear=linear)
         fs = road.sample_rate
         ms.append(
             [weighted_rms_fft(rec.acc_front, fs) ** 2, weighted_rms_fft(rec.acc_rear, fs) ** 2]
@@ -109,6 +140,34 @@ def long_runs(X: np.ndarray, effects: list[Effect], seeds: int) -> tuple[np.ndar
     a = np.array(ms)
     mean, se = a.mean(axis=0), a.std(axis=0, ddof=1) / np.sqrt(seeds)
     return np.sqrt(mean), se / (2 * np.sqrt(mean))
+
+
+def damper_attribution(X: np.ndarray, seeds: int) -> dict[str, dict[str, object]]:
+    """Per ``DAMPER_VARIANTS`` entry (no effects), and for the linearised model
+    (``linear_model``: every element linear, both methods): the spectral values'
+    deviation (%) from the long runs, its range per end and load case and the count
+    within target."""
+    out: dict[str, dict[str, object]] = {}
+    v = REFERENCE_MINIBUS
+    for name in [*DAMPER_VARIANTS, "linear_model"]:
+        change = DAMPER_VARIANTS.get(name, DAMPER_VARIANTS["model"])
+        vehicle = dataclasses.replace(
+            v, damper_front=change(v.damper_front), damper_rear=change(v.damper_rear)
+        )
+        linear = name == "linear_model"
+        td, _ = long_runs(X, [], seeds, vehicle, linear)
+        sp = ride_spectral(X, vehicle=vehicle, equivalent_linear=not linear)
+        err = 100 * (np.vstack([sp["aw_front"], sp["aw_rear"]]) / td - 1)  # (end, rows)
+        n = X.shape[0]
+        ranges = {
+            f"{end}_{lc}": [float(e.min()), float(e.max())]
+            for j, end in enumerate(("front", "rear"))
+            for i, lc in enumerate(LOAD_CASES)
+            for e in [err[j, i * n : (i + 1) * n]]
+        }
+        within = int((np.abs(err) <= TARGET_PERCENT).sum())
+        out[name] = {"error_range_percent": ranges, "within_target": f"{within}/{err.size}"}
+    return out
 
 
 def _cpu_ms(fn: Callable[[np.ndarray], object], X: np.ndarray, repeat: int) -> float:
@@ -209,6 +268,7 @@ def main(argv: list[str] | None = None) -> int:
         summary[f"{scen}_within_target"] = f"{int((abs(err) <= TARGET_PERCENT).sum())}/{err.size}"
         summary[f"{scen}_ignoring_max_abs_percent"] = float(np.abs(ign).max())
     summary["time_se_max_percent"] = max(r["time_se_percent"] for r in rows)
+    summary["damper_attribution"] = damper_attribution(X, seeds)
     summary.update(speed(args.quick))
     if not args.quick:
         summary.update(study())

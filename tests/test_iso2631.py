@@ -82,7 +82,6 @@ def test_comfort_scale_wording_and_validation():
 def test_ride_metrics_against_closed_forms():
     from suspenv.metrics.ride import (
         acceleration_psd,
-        band_rms,
         crest_factor,
         peak,
         vibration_dose_value,
@@ -99,9 +98,7 @@ def test_ride_metrics_against_closed_forms():
     rng = np.random.default_rng(1)
     noise = rng.normal(scale=0.5, size=(2, 20000))
     f, p = acceleration_psd(noise, fs)
-    np.testing.assert_allclose(band_rms(f, p, (0.0, fs / 2)), 0.5, rtol=0.03)
-    with pytest.raises(ValidationError, match="low < high"):
-        band_rms(f, p, (5.0, 1.0))
+    np.testing.assert_allclose(np.sqrt(np.trapezoid(p, f, axis=-1)), 0.5, rtol=0.03)
     with pytest.raises(ValidationError, match=">= 2 samples"):
         vibration_dose_value(np.array([1.0]), fs)
 

@@ -291,10 +291,11 @@ def yaw_response(
     r_ss = -np.sum(w, axis=1).real  # x(inf) = -A^-1 B
     wn = w / r_ss[:, None]  # normalised: y(t) = r(t) / r_ss, |H(f)| / |H(0)|
 
-    def y(t: np.ndarray, order: int) -> np.ndarray:
-        """d^order y / dt^order at times t (n, k)."""
-        e = np.exp(lam[:, None, :] * t[..., None]) * lam[:, None, :] ** order
-        return ((e - (order == 0)) @ wn[:, :, None])[..., 0].real
+    def y(t: np.ndarray, *orders: int) -> list[np.ndarray]:
+        """d^order y / dt^order at times t (n, k), one array per order."""
+        e = np.exp(lam[:, None, :] * t[..., None])
+        lo = lam[:, None, :]
+        return [((e * lo**o - (o == 0)) @ wn[:, :, None])[..., 0].real for o in orders]
 
     def rel_gain(f: np.ndarray) -> np.ndarray:
         """|H(f)| / |H(0)| at frequencies f (n, k)."""
@@ -304,16 +305,17 @@ def yaw_response(
     n = A.shape[0]
     rows = np.arange(n)
     grid = np.arange(0.0, t_end + 0.5 * dt, dt)
-    yg = y(np.broadcast_to(grid, (n, grid.size)), 0)
+    (yg,) = y(np.broadcast_to(grid, (n, grid.size)), 0)
     k = np.maximum(np.argmax(yg >= 0.9, axis=1), 1)
     t90 = (k - 1 + (0.9 - yg[rows, k - 1]) / (yg[rows, k] - yg[rows, k - 1])) * dt
     j = np.argmax(yg, axis=1)
     has_peak = (j > 0) & (j < grid.size - 1)
     tp = grid[np.clip(j, 1, grid.size - 2)]
-    for _ in range(4):  # Newton on y(t) = 0.9 and y'(t) = 0
-        t90 = t90 - (y(t90[:, None], 0)[:, 0] - 0.9) / y(t90[:, None], 1)[:, 0]
-        tp = tp - y(tp[:, None], 1)[:, 0] / y(tp[:, None], 2)[:, 0]
-    peak = y(tp[:, None], 0)[:, 0]
+    for _ in range(4):  # Newton on y(t) = 0.9 and y'(t) = 0, both times in one pass
+        y0, y1, y2 = y(np.column_stack([t90, tp]), 0, 1, 2)
+        t90 = t90 - (y0[:, 0] - 0.9) / y1[:, 0]
+        tp = tp - y1[:, 1] / y2[:, 1]
+    peak = y(tp[:, None], 0)[0][:, 0]
     return YawResponse(
         gain=r_ss,
         response_time=t90,

@@ -99,15 +99,6 @@ def vibration_dose_value(a: np.ndarray, fs: float) -> np.ndarray:
     return (np.sum(a**4, axis=-1) / fs) ** 0.25
 
 
-def band_rms(f: np.ndarray, psd: np.ndarray, band: tuple[float, float]) -> np.ndarray:
-    """RMS (m/s^2) in a frequency band from a one-sided PSD (trapezoid integration)."""
-    lo, hi = band
-    if not lo < hi:
-        raise ValidationError(f"`low < high` must hold, but got (low={lo}, high={hi})")
-    sel = (f >= lo) & (f <= hi)
-    return np.sqrt(np.trapezoid(np.asarray(psd)[..., sel], f[sel], axis=-1))
-
-
 # ------------------------------------------------------------------ minibus objectives
 def ride_objectives_all(
     X: np.ndarray,
@@ -315,24 +306,9 @@ def modal_form(
     return lam, P
 
 
-def linear_frequency_response(
-    M: np.ndarray,
-    C: np.ndarray,
-    K: np.ndarray,
-    Kin: np.ndarray,
-    Cin: np.ndarray,
-    Co: np.ndarray,
-    f: np.ndarray,
-) -> np.ndarray:
-    """Displacement responses (n, Nf, p, m) of ``M qdd + C qd + K q = Kin u + Cin ud``
-    (see :func:`modal_form`)."""
-    lam, P = modal_form(M, C, K, Kin, Cin, Co)
-    return modal_response(lam, P, f)
-
-
 def modal_response(lam: np.ndarray, P: np.ndarray, f: np.ndarray) -> np.ndarray:
     """``H(f) = sum_k P_k / (i 2 pi f - lam_k)``: (n, Nf, p, m) from poles lam (n, K) and
-    residues P (n, K, p, m) (see :func:`linear_frequency_response`)."""
+    residues P (n, K, p, m) (see :func:`modal_form`)."""
     n, k, p, m = P.shape
     s = 2j * np.pi * np.asarray(f, dtype=float)
     Wm = 1.0 / (s[None, :, None] - lam[:, None, :])  # (n, Nf, K)
@@ -721,77 +697,45 @@ def _spectral_split(
     return _spectral_result(np.sqrt(ms[:, :, 0]), np.sqrt(ms[:, :, 1]), r, n_iter)
 
 
-def _spectral_full(
-    X: np.ndarray,
-    cases: list[str],
-    road: RandomRoad,
-    vehicle: Minibus,
-    seat: SeatMount | None,
-    n_freq: int,
-    equivalent_linear: bool,
-    iterations: int,
-    tol: float | None,
-    n_freq_iter: int,
-    init_damping: float,
-    effects: Sequence[Effect] = (),
-) -> dict[str, np.ndarray]:
-    """:func:`ride_spectral` of one chunk by the modal expansion of the whole first-order
-    system (all 2 nq states, every wheel input; :func:`modal_form`); with ``effects``
-    also the front springs' and the Dahl elements' equivalent-linear rates (a Dahl
-    element adds one first-order state per leaf)."""
-    params = stacked_vehicle_parameters(X, cases, vehicle)
-    lin = RideModel(params, seat=seat, linear=True)
-    lz = ElementLinearisation(RideModel(params, effects, seat)) if equivalent_linear else None
-    dahl = lz is not None and lz.dahl is not None
-    nq = lin.nq
-    Co = _output_matrix(lin)
-    if effects:
-        # front spring compressions FL, FR and the leaf rows again (for their rates)
-        Co = np.vstack([Co, lin.E[:nq, 0:2].T, Co[6:8]])
-    leaves = lin.E[:nq, 2:4].T  # (2, nq) leaf compression at the seats per q
-
-    def modal(r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        front = r[:, FRONT] if effects else None
-        hyst = (leaves, r[:, DAHL_C], r[:, DAHL_K]) if dahl else None
-        return modal_form(*lin.linear_system(r[:, DAMPER], r[:, LEAF], front), Co, hyst)
-
-    fi, wi, _, gqi, delayi, rhoi, _ = _road_grid(road, n_freq_iter, vehicle)
-    powers = (1, 1, 1, 1, 0, 0) + ((0, 0, 1, 1, 0, 0) if effects else ())
-
-    def sigma(m: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
-        lam, P = m
-        G = modal_response(lam, P[:, :, 2:], fi)
-        if effects and not dahl:
-            G = np.concatenate([G, np.zeros_like(G[:, :, :2])], axis=2)  # no Dahl force
-        return np.sqrt(_output_psd(G, fi, gqi, delayi, rhoi, powers) @ wi)
-
-    if lz is None:
-        r0 = np.hstack([lin.damper_mean, lin.leaf_static_rate])
-    else:
-        r0 = lz.initial(init_damping)
-    r, n_iter, (lam, P) = _fixed_point(r0, lz, modal, sigma, iterations, tol)
-    f, wq, _, gq, delay, rho, wk2 = _road_grid(road, n_freq, vehicle)
-    G = modal_response(lam, P[:, :, 0:2], f)
-    psd = _output_psd(G, f, gq, delay, rho, (2, 2))
-    return _spectral_result(np.sqrt(psd @ (wq * wk2)), np.sqrt(psd @ wq), r, n_iter)
-
-
-#: the halves of the mirror-symmetric model for the effects path: (T, J, S) with T the
-#: half's coordinates, J its axle inputs and S (1, 2) its share of the left and right
-#: Dahl forces, z_h = S (z_L, z_R)
+#: the halves of the mirror-symmetric model for :func:`_spectral_modal`: (T, J, S) with
+#: T the half's coordinates, J its axle inputs and S (1, 2) its share of the left and
+#: right Dahl forces, z_h = S (z_L, z_R); the whole model: (None, None, I)
 _HALF_MAPS = ((T_SYM, J_SYM, np.array([[_H, _H]])), (T_ANTI, J_ANTI, np.array([[_H, -_H]])))
+_WHOLE_MAP = ((None, None, np.eye(2)),)
+
+
+def _whole_mean_square(
+    modes: list[tuple[np.ndarray, np.ndarray]],
+    rows: list[int],
+    road: RandomRoad,
+    n_freq: int,
+    vehicle: Minibus,
+    final: bool,
+) -> np.ndarray:
+    """Mean squares (n, len(rows), 2) of the whole model's outputs ``rows`` (one
+    :func:`modal_form`, every wheel input) on the ``n_freq``-point grid: ``final``:
+    (Wk-weighted acceleration in the ISO band, acceleration), else (displacement,
+    rate)."""
+    lam, P = modes[0]
+    f, wq, _, gq, delay, rho, wk2 = _road_grid(road, n_freq, vehicle)
+    G = modal_response(lam, P[:, :, rows], f)
+    psd = _output_psd(G, f, gq, delay, rho, (0,) * len(rows))
+    w2 = (2 * np.pi * f) ** 2
+    cols = (w2 * w2 * wk2, w2 * w2) if final else (np.ones_like(f), w2)
+    return psd @ np.column_stack([wq * c for c in cols])
 
 
 def _halves_mean_square(
     modes: list[tuple[np.ndarray, np.ndarray]],
     rows: list[int],
-    grid: tuple[np.ndarray, ...],
-    wt: np.ndarray,
+    road: RandomRoad,
+    n_freq: int,
+    vehicle: Minibus,
+    final: bool,
 ) -> np.ndarray:
-    """:func:`_split_mean_square` (n, len(rows), 2) for the halves' complex modal forms
-    (:func:`modal_form` per half, inputs front and rear axle), same grid and weights
-    (:func:`_split_grid`)."""
-    w, _, dr, di = grid
+    """:func:`_whole_mean_square` for the halves' complex modal forms (:func:`modal_form`
+    per half, inputs front and rear axle; weights of :func:`_split_grid`)."""
+    (w, _, dr, di), wt = _split_grid(road, n_freq, vehicle, final)
     delay = (dr + 1j * di)[None, :, None]
     total = np.zeros((modes[0][0].shape[0], len(rows), 2))
     for h, (lam, P) in enumerate(modes):
@@ -802,7 +746,7 @@ def _halves_mean_square(
     return total
 
 
-def _spectral_effects_split(
+def _spectral_modal(
     X: np.ndarray,
     cases: list[str],
     road: RandomRoad,
@@ -815,51 +759,70 @@ def _spectral_effects_split(
     n_freq_iter: int,
     init_damping: float,
     effects: Sequence[Effect] = (),
+    halves: bool = False,
 ) -> dict[str, np.ndarray]:
-    """:func:`ride_spectral` with effects for a seatless model: the same integral as
-    :func:`_spectral_full` through the model's decoupled symmetric and antisymmetric
-    halves (:class:`_Halves`; each with one Dahl state for the pair of leaves, ``z_h =
-    S (z_L, z_R)``), complex modal sums on the left-hand elements only (the right-hand
-    ones have the same RMS values)."""
+    """:func:`ride_spectral` of one chunk by complex modal sums (:func:`modal_form`):
+    of the whole first-order system (all 2 nq states, every wheel input), or with
+    ``halves`` (seatless) of its decoupled symmetric and antisymmetric halves (each with
+    one Dahl state for the pair of leaves, ``z_h = S (z_L, z_R)``; left-hand elements
+    only, the right-hand ones have the same RMS values). With ``effects`` also the front
+    springs' and the Dahl elements' equivalent-linear rates (a Dahl element adds one
+    first-order state per leaf)."""
     params = stacked_vehicle_parameters(X, cases, vehicle)
-    lin = RideModel(params, linear=True)
-    lz = ElementLinearisation(RideModel(params, effects))
-    dahl = lz.dahl is not None
+    lin = RideModel(params, seat=seat, linear=True)
+    lz = ElementLinearisation(RideModel(params, effects, seat)) if equivalent_linear else None
+    dahl = lz is not None and lz.dahl is not None
     nq = lin.nq
-    # rows: measuring points front, rear; FL damper, RL damper, left leaf, FL spring
-    Co = np.vstack([_output_matrix(lin)[[0, 1, 2, 4, 6]], lin.E[:nq, 0]])
-    leaves = lin.E[:nq, 2:4].T  # (2, nq)
+    # rows: measuring points front, rear; dampers FL..RR; leaves L, R; front springs FL,
+    # FR (with effects); with halves only the left-hand elements (the right-hand ones
+    # have the same RMS values); the Dahl forces after them (per leaf, or per half)
+    n_el = 8 if effects else 6
+    keep = [0, 1, 2, 4, 6, 8][: 2 + n_el // 2] if halves else list(range(2 + n_el))
+    Co = np.vstack([_output_matrix(lin), lin.E[:nq, 0:2].T])[keep]
+    leaves = lin.E[:nq, 2:4].T  # (2, nq) leaf compression at the seats per q
+    maps = _HALF_MAPS if halves else _WHOLE_MAP
 
     def modal(r: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
-        M, C, K, Kin, Cin = lin.linear_system(r[:, DAMPER], r[:, LEAF], r[:, FRONT])
+        system = lin.linear_system(r[:, DAMPER], r[:, LEAF], r[:, FRONT] if effects else None)
         out = []
-        for T, J, S in _HALF_MAPS:
-            hyst = (S @ leaves @ T, r[:, DAHL_C][:, :1], r[:, DAHL_K][:, :1]) if dahl else None
-            tt = T.T
-            out.append(
-                modal_form(
-                    tt @ M @ T, tt @ C @ T, tt @ K @ T, tt @ Kin @ J, tt @ Cin @ J, Co @ T, hyst
-                )
-            )
+        for T, J, S in maps:
+            M, C, K, Kin, Cin = system
+            co, pz = Co, leaves
+            if T is not None:
+                tt = T.T
+                M, C, K, Kin, Cin = tt @ M @ T, tt @ C @ T, tt @ K @ T, tt @ Kin @ J, tt @ Cin @ J
+                co, pz = Co @ T, S @ leaves @ T
+            nz = S.shape[0]
+            hyst = (pz, r[:, DAHL_C][:, :nz], r[:, DAHL_K][:, :nz]) if dahl else None
+            out.append(modal_form(M, C, K, Kin, Cin, co, hyst))
         return out
 
-    grid_i, wt_i = _split_grid(road, n_freq_iter, vehicle, False)
-    # FL damper, RL damper, left leaf, FL spring, Dahl force (per column: displacement
-    # or force, rate)
-    rows = [2, 3, 4, 5] + ([6] if dahl else [])
+    mean_square = _halves_mean_square if halves else _whole_mean_square
+    # per element (dampers FL..RR, leaves L, R, front springs FL, FR) its row of Co,
+    # with halves its left-hand twin's; with halves one Dahl row, the pair's:
+    # z_L^2 = (z_s^2 + z_a^2)/2
+    twin = [j // 2 if halves else j for j in range(n_el)]
+    rows = list(range(2, Co.shape[0]))
+    z_rows = ([Co.shape[0]] if halves else [Co.shape[0], Co.shape[0] + 1]) if dahl else []
 
     def sigma(m: list[tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
-        ms = _halves_mean_square(m, rows, grid_i, wt_i)
-        # z_L = (z_s + z_a)/sqrt 2 with the halves uncorrelated
-        z = np.sqrt(0.5 * ms[:, 4, 0]) if dahl else np.zeros(ms.shape[0])
-        sig = np.sqrt(ms[:, [0, 0, 1, 1, 2, 2, 3, 3, 2, 2], [1, 1, 1, 1, 0, 0, 0, 0, 1, 1]])
-        return np.column_stack([sig, z, z])
+        ms = mean_square(m, rows + z_rows, road, n_freq_iter, vehicle, False)
+        e = ms[:, twin]
+        sq = [e[:, 0:4, 1], e[:, 4:6, 0]]  # damper rates, leaf deflections
+        if effects:
+            z = np.zeros_like(sq[1])
+            if dahl:
+                z = ms[:, [len(rows)] * 2, 0] / 2 if halves else ms[:, len(rows) :, 0]
+            sq += [e[:, 6:8, 0], e[:, 4:6, 1], z]  # front springs, leaf rates, Dahl
+        return np.sqrt(np.concatenate(sq, axis=1))
 
-    r, n_iter, m = _fixed_point(lz.initial(init_damping), lz, modal, sigma, iterations, tol)
-    grid, wt = _split_grid(road, n_freq, vehicle, True)
-    ms = _halves_mean_square(m, [0, 1], grid, wt)
-    aw, rms = np.sqrt(ms[:, :, 0]), np.sqrt(ms[:, :, 1])
-    return _spectral_result(aw, rms, r, n_iter)
+    if lz is None:
+        r0 = np.hstack([lin.damper_mean, lin.leaf_static_rate])
+    else:
+        r0 = lz.initial(init_damping)
+    r, n_iter, m = _fixed_point(r0, lz, modal, sigma, iterations, tol)
+    ms = mean_square(m, [0, 1], road, n_freq, vehicle, True)
+    return _spectral_result(np.sqrt(ms[:, :, 0]), np.sqrt(ms[:, :, 1]), r, n_iter)
 
 
 def ride_spectral(
@@ -910,7 +873,7 @@ def ride_spectral(
     minibus.linearisation`), all in the same fixed-point passes (by default 4 with leaf
     friction only, within 1e-3 of the fixed point, 8 with stops or damper friction,
     within 0.5 %; tests); the model's halves then carry complex modal sums
-    (:func:`_spectral_effects_split`; with a seat or ``split=False`` the whole model).
+    (:func:`_spectral_modal`; with a seat or ``split=False`` the whole model).
 
     ``split`` (default True; only without a seat): the mirror-symmetric model is
     evaluated as its decoupled symmetric (4-DOF) and antisymmetric (3-DOF) halves
@@ -935,10 +898,10 @@ def ride_spectral(
         iterations = PASSES_EFFECTS if slow else PASSES
     if effects and not equivalent_linear:
         raise ValidationError("ride effects need equivalent_linear=True, but it is False")
-    chunk: Callable[..., dict[str, np.ndarray]] = _spectral_split if use_split else _spectral_full
-    if effects:
-        chunk = _spectral_effects_split if split and seat is None else _spectral_full
-        chunk = functools.partial(chunk, effects=tuple(effects))
+    chunk: Callable[..., dict[str, np.ndarray]] = _spectral_split
+    if not use_split:
+        halves = bool(effects) and split and seat is None
+        chunk = functools.partial(_spectral_modal, effects=tuple(effects), halves=halves)
     size = SPLIT_CHUNK if use_split else SPECTRAL_CHUNK
     args = (cases, road, vehicle, seat, n_freq, equivalent_linear, iterations, tol)
     n = X.shape[0]

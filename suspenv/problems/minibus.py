@@ -389,6 +389,7 @@ class MinibusRideHandling(Problem):
             both["completed"] = sl.completed
         else:
             both.update(self._standard_handling(P))
+        ws = self._working_space(X, ride)
         out: dict[str, np.ndarray] = {}
         for i, lc in enumerate(LOAD_CASES):
             rows = slice(i * n, (i + 1) * n)
@@ -399,7 +400,7 @@ class MinibusRideHandling(Problem):
             for key in ("crest_front", "crest_rear", "vdv_front", "vdv_rear"):
                 if key in ride[lc]:  # ride_method="time": from the weighted record
                     out[f"{key}_{lc}"] = ride[lc][key]
-            for key, value in self._working_space(X, ride).items():
+            for key, value in ws.items():
                 out[f"{key}_{lc}"] = value[i * n : (i + 1) * n]
             ride_ok = ride[lc].get("ok", np.ones(n, bool))
             out[f"ride_ok_{lc}"] = np.asarray(ride_ok, dtype=bool)

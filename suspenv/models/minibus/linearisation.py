@@ -70,6 +70,12 @@ def tail_moment(a: np.ndarray, m: np.ndarray | float) -> np.ndarray:
     return gamma(m + 1.0) * np.exp(-0.25 * a * a) * d / np.sqrt(2.0 * np.pi)
 
 
+def _excess(a: np.ndarray) -> np.ndarray:
+    """``E[max(t - a, 0)] = phi(a) - a (1 - Phi(a))`` (-), standard normal t: the
+    :func:`tail_moment` of order 1 in a form that stays finite for any a."""
+    return np.exp(-0.5 * a * a) / np.sqrt(2.0 * np.pi) - a * ndtr(-a)
+
+
 def stop_rate(gap: float, k_stop: float, p: float, sigma: np.ndarray) -> np.ndarray:
     """Equivalent stiffness (N/m) of a bump or a rebound stop (the same: mirror images)
     for a zero-mean Gaussian deflection of RMS ``sigma`` (m):
@@ -165,10 +171,41 @@ class ElementLinearisation:
             + self.d_rl * (pr - 0.5)
             + self.d_rh * (1 - pr)
         )
-        out[:, LEAF] = self.k1 + self.dk * (1.0 - ndtr(self.thr / sd))
+        m = self.leaf_mean(sv[:, 2:4], sd)
+        out[:, LEAF] = self.k1 + self.dk * (1.0 - ndtr((self.thr - m) / sd))
         if self.effects:
             self._effect_rates(sig, r, out)
         return out
+
+    def damper_mean_force(self, sv: np.ndarray, cols: slice = DAMPER) -> np.ndarray:
+        """Mean damper force (N, + resisting compression) for a zero-mean Gaussian
+        velocity of RMS ``sv`` (m/s) per column ``cols`` of the dampers: ``E[F(v)]``,
+        ``c_bl (s/sqrt(2 pi) - s T(k_b/s)) + c_bh s T(k_b/s)`` minus the same for
+        rebound, with ``T(a) = E[max(t - a, 0)]`` (:func:`_excess`). Negative for
+        a rebound-heavy damper: it pulls the suspension into compression (jacking)."""
+        s0 = sv / np.sqrt(2.0 * np.pi)
+        tb, tr = sv * _excess(self.kb[:, cols] / sv), sv * _excess(self.kr[:, cols] / sv)
+        bump = self.d_bl[:, cols] * (s0 - tb) + self.d_bh[:, cols] * tb
+        return bump - (self.d_rl[:, cols] * (s0 - tr) + self.d_rh[:, cols] * tr)
+
+    def leaf_mean(self, sv: np.ndarray, sd: np.ndarray) -> np.ndarray:
+        """Mean leaf compression from rest (m, (n, 2)) under zero-mean Gaussian rear
+        damper velocities of RMS ``sv`` (m/s) and leaf deflections of RMS ``sd`` (m).
+
+        The body's weight and centre of mass fix each axle's mean suspension force
+        (two axles: statically determinate; the tyres stay in contact), so per side
+        the leaf's mean force change from rest balances the damper's mean force:
+        ``E[dF_leaf(m + x)] = -E[F_damper]`` with ``dF_leaf(d) = K_1 d + dk (max(d -
+        e_k, 0) - max(-e_k, 0))``, i.e. ``K_1 m + dk (s T((e_k - m)/s) - max(-e_k, 0))
+        = -E[F_damper]``: Newton's method from the linear guess, a fixed 6 steps
+        (the left side rises monotonically in m, slope K_1 .. K_2)."""
+        rhs = -self.damper_mean_force(sv, slice(2, 4)) + self.dk * np.maximum(-self.thr, 0.0)
+        m = (rhs - self.dk * sd * _excess(self.thr / sd)) / self.k1
+        for _ in range(6):
+            a = (self.thr - m) / sd
+            f = self.k1 * m + self.dk * sd * _excess(a) - rhs
+            m = m - f / (self.k1 + self.dk * (1.0 - ndtr(a)))
+        return m
 
     def _effect_rates(self, sig: np.ndarray, r: np.ndarray, out: np.ndarray) -> None:
         out[:, FRONT] = self.k_front
