@@ -81,7 +81,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from suspenv.measurements.knc import LOADED_TESTS, RIG_TESTS, TESTS
+    from suspenv.measurements.knc import RIG_TESTS, TESTS
     from suspenv.measurements.knc_file import from_results, write_measurement
     from suspenv.measurements.paths import check_output_dir, output_file, plain_file_name
     from suspenv.metrics.knc import OBJECTIVES, objectives
@@ -122,8 +122,7 @@ def _run(args: argparse.Namespace) -> int:
     for test in tests:
         if args.plot:
             png = output_file(out, f"{stem}_{test}.png")
-            what = "load" if test in LOADED_TESTS else "wheel travel"
-            plot_rig_curves(results[test], png, f"{vehicle.name}: {test} {what}")
+            plot_rig_curves(results[test], png, f"{vehicle.name}: {test} test")
             print(f"wrote {png}")
         if test not in TESTS:
             print(f"\n{test} (left wheel, own sense, slope through the static position):")

@@ -4,8 +4,8 @@
 deg, N; ISO 8855 signs with lateral positions mirrored outboard positive.
 :func:`write_csv` writes one test in the measured-K&C format instead
 (:mod:`suspenv.measurements.knc_file`, raw ISO 8855). The figure draws toe, camber,
-caster, tyre force, hub and contact-patch lateral position against wheel travel (travel
-tests) or the load (compliance tests, in phase or opposed). Used by ``suspenv knc``.
+caster, tyre force, hub and contact-patch lateral position against the test's drive
+(:func:`x_axis`). Used by ``suspenv knc``.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from suspenv.measurements.knc import LOADED_TESTS
+from suspenv.measurements.knc import LOADED_TESTS, TESTS
 from suspenv.models.mcpherson.params import SIDE_SIGN
 from suspenv.reports._mpl import pyplot, save_figure
 from suspenv.rigs.knc import KCResult
@@ -68,9 +68,25 @@ def write_csv(res: KCResult, path: Path, row: int = 0) -> Path:
     return write_test_csv(m.tests[res.test], Path(path))
 
 
+def x_axis(res: KCResult) -> tuple[str, dict[str, np.ndarray]]:
+    """(axis label, x per wheel ``left``/``right``) of the figure: each wheel's travel
+    [mm] (bump +) in a travel test, else the rig's drive (``res.grid`` along the loop):
+    the load [``res.unit``] of a compliance test or the rack travel [mm] (+y, to the
+    left) of the steering test, the same on both wheels."""
+    cols, rows = curve_table(res)
+    if res.test in TESTS:
+        x = {s: rows[:, cols.index(f"wheel_travel_mm_{s}")] for s in ("left", "right")}
+        return "wheel travel [mm] (bump +)", x
+    if res.test in LOADED_TESTS:
+        label = f"{res.test} load [{res.unit}]"
+    else:
+        label = "rack travel [mm] (+y, to the left)"
+    return label, {"left": rows[:, 1], "right": rows[:, 1]}
+
+
 def plot_rig_curves(res: KCResult, path: Path, title: str) -> None:
-    """Toe, camber, caster, tyre force, hub and contact-patch lateral against wheel travel
-    (travel tests) or the load (compliance tests)."""
+    """Toe, camber, caster, tyre force, hub and contact-patch lateral against the test's
+    drive (:func:`x_axis`)."""
     plt = pyplot()
     cols, rows = curve_table(res)
     col = {c: i for i, c in enumerate(cols)}
@@ -82,17 +98,12 @@ def plot_rig_curves(res: KCResult, path: Path, title: str) -> None:
         "hub_y_out_mm",
         "contact_y_out_mm",
     ]
-    force = res.test in LOADED_TESTS
+    xlabel, x = x_axis(res)
     fig, axes = plt.subplots(2, 3, figsize=(12, 7), constrained_layout=True)
     for ax, stem in zip(axes.ravel(), panels, strict=True):
         for side, style in (("left", "-"), ("right", "--")):
-            x = rows[:, col["force_N"]] if force else rows[:, col[f"wheel_travel_mm_{side}"]]
-            ax.plot(x, rows[:, col[f"{stem}_{side}"]], style, lw=1.2, label=side)
-        ax.set_xlabel(
-            f"{res.test} load [{res.unit}]"
-            if force
-            else "wheel travel [mm] (bump +)"
-        )
+            ax.plot(x[side], rows[:, col[f"{stem}_{side}"]], style, lw=1.2, label=side)
+        ax.set_xlabel(xlabel)
         ax.set_ylabel(stem.replace("_", " "))
         ax.grid(alpha=0.3)
     axes[0, 0].legend()
