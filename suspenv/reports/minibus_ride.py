@@ -93,7 +93,6 @@ def write_minibus_ride_report(
     fig.tight_layout()
     psd_png = out / "ride_psd.png"
     save_figure(fig, psd_png, dpi=110)
-    plt.close(fig)
 
     fig, axes = plt.subplots(len(pulse_speeds_kmh), 2, figsize=(11, 3.2 * len(pulse_speeds_kmh)),
                              squeeze=False)  # fmt: skip
@@ -112,7 +111,6 @@ def write_minibus_ride_report(
     fig.tight_layout()
     pulse_png = out / "ride_pulse.png"
     save_figure(fig, pulse_png, dpi=110)
-    plt.close(fig)
 
     lines += ["", f"![acceleration PSD]({psd_png.name})", "", f"![pulse]({pulse_png.name})", ""]
     md = out / "ride_report.md"

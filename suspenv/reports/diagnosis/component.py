@@ -42,9 +42,7 @@ def residual_map(diag: Diagnosis, path: Path) -> Path:
         ax.set_title(dim, fontsize=8, loc="left")
         ax.tick_params(axis="x", labelsize=7)
     axes[-1, 0].set_xlabel("share of residual energy [%] (outline: share of samples)")
-    fig.tight_layout()
-    save_figure(fig, path, dpi=110)
-    plt.close(fig)
+    save_figure(fig, path, dpi=110, tight=True)
     return path
 
 
@@ -81,9 +79,7 @@ def overlay(diag: Diagnosis, path: Path, max_seconds: float = 4.0) -> Path:
     a2.set_ylabel(f"residual [{unit}]")
     a2.set_xlabel("time [s]")
     a2.legend(fontsize=7)
-    fig.tight_layout()
-    save_figure(fig, path, dpi=110)
-    plt.close(fig)
+    save_figure(fig, path, dpi=110, tight=True)
     return path
 
 
@@ -116,9 +112,7 @@ def loops(diag: Diagnosis, path: Path) -> Path:
     axes[2].legend(fontsize=7)
     axes[0].legend(fontsize=7, markerscale=6)
     fig.suptitle("loops on the fit data", fontsize=9)
-    fig.tight_layout()
-    save_figure(fig, path, dpi=110)
-    plt.close(fig)
+    save_figure(fig, path, dpi=110, tight=True)
     return path
 
 

@@ -55,7 +55,6 @@ def write_road_report(diag: RoadDiagnosis, out_dir: str | Path) -> list[Path]:
     fig.tight_layout()
     png = out / "road_psd.png"
     save_figure(fig, png, dpi=110)
-    plt.close(fig)
 
     f, s, t, h = diag.free, diag.standard, diag.test, diag.heldout
     lines = [
