@@ -5,8 +5,9 @@ writes the loop curves in the measured-K&C format (``docs/knc.md`` "Measured K&C
 format": ``knc.toml`` and one CSV per test, one row per rig step, both wheels, units in
 the column names: mm, deg, N, N*m; raw ISO 8855 signs), which
 :func:`suspenv.measurements.knc_file.load_measurement` reads back, and, with ``--plot``,
-a PNG of the usual curves against wheel travel (travel tests) or the load (compliance
-tests, in phase or opposed: :data:`TEST_CHOICES`, docs/knc.md). Prints the travel
+a PNG of the usual curves against wheel travel (travel tests), the load (compliance
+tests, in phase or opposed: :data:`TEST_CHOICES`, docs/knc.md) or the rack travel
+(steering). Prints the travel
 test's objectives, the compliance test's slopes, and the classic K&C numbers.
 
 Files are ``knc.toml`` and ``<vehicle name>_<test>.csv`` / ``.png`` with the vehicle's

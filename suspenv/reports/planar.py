@@ -209,8 +209,7 @@ def save_curves_figure(path: str | Path, outputs: Sequence[tuple[str, SweepOutpu
     path.parent.mkdir(parents=True, exist_ok=True)
     fig, axes = plt.subplots(1, 5, figsize=(20, 4))
     plot_curves(list(axes), outputs)
-    save_figure(fig, path, dpi=100, tight=True)
-    return path
+    return save_figure(fig, path, dpi=100, tight=True)
 
 
 def render_rgb(

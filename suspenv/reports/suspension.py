@@ -195,8 +195,7 @@ def plot_elements(
     fig.tight_layout()
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    save_figure(fig, path, dpi=110)
-    return path
+    return save_figure(fig, path, dpi=110)
 
 
 def write_suspension_report(

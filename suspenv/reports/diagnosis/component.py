@@ -42,8 +42,7 @@ def residual_map(diag: Diagnosis, path: Path) -> Path:
         ax.set_title(dim, fontsize=8, loc="left")
         ax.tick_params(axis="x", labelsize=7)
     axes[-1, 0].set_xlabel("share of residual energy [%] (outline: share of samples)")
-    save_figure(fig, path, dpi=110, tight=True)
-    return path
+    return save_figure(fig, path, dpi=110, tight=True)
 
 
 def _predictions(diag: Diagnosis, rec: Any) -> tuple[np.ndarray, np.ndarray]:
@@ -79,8 +78,7 @@ def overlay(diag: Diagnosis, path: Path, max_seconds: float = 4.0) -> Path:
     a2.set_ylabel(f"residual [{unit}]")
     a2.set_xlabel("time [s]")
     a2.legend(fontsize=7)
-    save_figure(fig, path, dpi=110, tight=True)
-    return path
+    return save_figure(fig, path, dpi=110, tight=True)
 
 
 def loops(diag: Diagnosis, path: Path) -> Path:
@@ -112,8 +110,7 @@ def loops(diag: Diagnosis, path: Path) -> Path:
     axes[2].legend(fontsize=7)
     axes[0].legend(fontsize=7, markerscale=6)
     fig.suptitle("loops on the fit data", fontsize=9)
-    save_figure(fig, path, dpi=110, tight=True)
-    return path
+    return save_figure(fig, path, dpi=110, tight=True)
 
 
 def _significance(h: Any) -> str:

@@ -55,8 +55,7 @@ def time_overlays(diag: Diagnosis, path: Path) -> Path:
     for ax in axes[:, 0]:
         ax.set_ylabel("acceleration (m/s^2)")
     axes[0, 0].legend(fontsize=7)
-    save_figure(fig, path, dpi=100, tight=True)
-    return path
+    return save_figure(fig, path, dpi=100, tight=True)
 
 
 def psd_overlays(diag: Diagnosis, path: Path) -> Path | None:
@@ -91,8 +90,7 @@ def psd_overlays(diag: Diagnosis, path: Path) -> Path | None:
             ax.grid(True, alpha=0.3)
     axes[0, 0].set_ylabel("PSD ((m/s^2)^2/Hz)")
     axes[0, 0].legend(fontsize=7)
-    save_figure(fig, path, dpi=100, tight=True)
-    return path
+    return save_figure(fig, path, dpi=100, tight=True)
 
 
 def residual_map(diag: Diagnosis, path: Path) -> Path:
@@ -108,8 +106,7 @@ def residual_map(diag: Diagnosis, path: Path) -> Path:
         ax.set_yticks(y, [p.part for p in parts], fontsize=7)
         ax.set_title(dim, fontsize=9)
     axes[0, 0].legend(fontsize=7)
-    save_figure(fig, path, dpi=100, tight=True)
-    return path
+    return save_figure(fig, path, dpi=100, tight=True)
 
 
 def write_ride_diagnosis_report(diag: Diagnosis, out_dir: str | Path) -> list[Path]:
