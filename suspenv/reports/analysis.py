@@ -184,18 +184,16 @@ def write_comparison_figures(comparison: Comparison, out: Path) -> list[Path]:
     """Every figure of a comparison into ``out``; returns the paths written."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    paths = [plot_convergence(comparison, out / "convergence.png")]
-    shutil.copyfile(paths[0], out / "compare.png")
-    paths.append(out / "compare.png")
-    paths.append(plot_ecdf(comparison, out / "ecdf.png"))
-    paths.append(plot_fixed_target(comparison, out / "fixed_target.png"))
-    for extra in (
+    convergence = plot_convergence(comparison, out / "convergence.png")
+    paths = [
+        convergence,
+        Path(shutil.copyfile(convergence, out / "compare.png")),
+        plot_ecdf(comparison, out / "ecdf.png"),
+        plot_fixed_target(comparison, out / "fixed_target.png"),
         plot_profile(comparison, out / "profile.png"),
         plot_hypervolume(comparison, out / "hypervolume.png"),
-    ):
-        if extra is not None:
-            paths.append(extra)
-    return paths
+    ]
+    return [p for p in paths if p is not None]  # no profile, no hypervolume: None
 
 
 def write_comparison(
