@@ -25,7 +25,8 @@ from suspenv.runs.run_dir import write_file
 
 
 def residual_map(diag: Diagnosis, path: Path) -> Path:
-    """Bars of residual-energy share per part (text: enrichment), one panel per dimension."""
+    """Bars of residual-energy share per part (text: enrichment), one panel per dimension
+    (also the ride diagnosis' map)."""
     plt = pyplot()
     dims = [d for d in diag.location.dimensions() if d != "frequency band"]
     dims.append("frequency band") if "frequency band" in diag.location.dimensions() else None
