@@ -26,6 +26,7 @@ from suspenv.measurements.knc_file import (
     from_results,
     load_measurement,
     write_measurement,
+    write_test_csv,
 )
 from suspenv.metrics.knc import OBJECTIVE_NAMES, OBJECTIVES, objectives
 from suspenv.models.mcpherson.vehicle_file import REFERENCE_FILE, load_vehicle
@@ -472,10 +473,9 @@ def test_cli_refuses_a_bad_measured_folder_with_the_rule(folder, capsys):
     assert "knc.toml: version must be 1, but got 7" in capsys.readouterr().err
 
 
-def test_report_write_csv_writes_one_test_of_the_format(tmp_path, small_results):
-    from suspenv.reports.knc_rig import write_csv
-
-    path = write_csv(small_results["lateral"], tmp_path / "lateral.csv")
+def test_write_test_csv_writes_one_test_of_the_format(tmp_path, small_results):
+    m = from_results({"lateral": small_results["lateral"]}, "lateral")
+    path = write_test_csv(m.tests["lateral"], tmp_path / "lateral.csv")
     header = path.read_text().splitlines()[0].split(",")
     assert header[:3] == ["step", "branch", "force [N]"]
     assert "contact_y_right [mm]" in header and "toe_left [deg]" in header

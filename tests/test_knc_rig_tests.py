@@ -330,3 +330,22 @@ def test_each_new_loop_returns_to_its_start(axle, test):
         v = r.channels[ch][0]
         assert np.allclose(v[0], v[-1], rtol=0, atol=atol), (test, ch, v[0] - v[-1])
         assert np.ptp(v) > 10 * atol or ch != "toe", (test, ch)  # the loop did move
+
+
+def test_steering_figure_is_drawn_against_the_rack_travel(runs, tmp_path, monkeypatch):
+    # reference: the rig's own rack loop 0 -> +RACK_AMPLITUDE -> -RACK_AMPLITUDE -> 0
+    # (its drive grid); wheel travel in this test is about 1 mm, the rack 30 mm
+    import suspenv.reports.knc_rig as knc_rig
+
+    drawn = []
+    monkeypatch.setattr(knc_rig, "save_figure", lambda fig, path, **kw: drawn.append(fig))
+    res = runs["steering"]
+    knc_rig.plot_rig_curves(res, tmp_path / "steering.png", "steering")
+    (fig,) = drawn
+    rack_mm = res.grid[res.path] * 1e3
+    assert rack_mm.max() == pytest.approx(RACK_AMPLITUDE * 1e3)
+    assert rack_mm.min() == pytest.approx(-RACK_AMPLITUDE * 1e3)
+    for ax in fig.axes:
+        assert "rack travel" in ax.get_xlabel()
+        for line in ax.get_lines():
+            np.testing.assert_array_equal(line.get_xdata(), rack_mm)

@@ -9,8 +9,8 @@ normalised and raw spaces coincide and the reference point is (1.1, 1.1).
 
 - :func:`hypervolume`: exact. Two objectives: sort by the first and sum the rectangles
   (:func:`hypervolume_2d`, our own); three and more: pymoo's exact indicator
-  (``pymoo.indicators.hv.HV``); :func:`hypervolume_slicing` is an independent exact
-  dimension-sweep (HSO) used to check it on small fronts.
+  (``pymoo.indicators.hv.HV``), checked in the tests against an independent exact
+  dimension sweep (HSO) on small fronts.
 - :func:`igd`: mean over the reference points of the Euclidean distance to the nearest
   point of the approximation set.
 - :func:`hypervolume_curve`: the hypervolume of the feasible non-dominated set after every
@@ -113,33 +113,6 @@ def hypervolume_2d(F: np.ndarray, ref: np.ndarray) -> float:
     low = np.minimum.accumulate(P[:, 1])
     widths = np.diff(np.r_[P[:, 0], ref[0]])
     return float(np.sum(widths * (ref[1] - low)))
-
-
-def hypervolume_slicing(F: np.ndarray, ref: np.ndarray) -> float:
-    """Exact hypervolume by slicing along the last objective (HSO), for any m >= 2.
-
-    Sorted by the last objective, the slab between the i-th and (i+1)-th value (the last
-    one up to ``ref``) is covered by the (m-1)-objective hypervolume of the first i
-    points. O(n^(m-1) log n): an independent check of :func:`hypervolume` on small fronts.
-    """
-    P = _points(F, "objectives")
-    ref = np.asarray(ref, dtype=float)
-    P = P[np.isfinite(P).all(axis=1) & (ref > P).all(axis=1)]
-    m = P.shape[1]
-    if not len(P):
-        return 0.0
-    if m == 1:
-        return float(ref[0] - P[:, 0].min())
-    if m == 2:
-        return hypervolume_2d(P, ref)
-    P = P[np.argsort(P[:, -1], kind="stable")]
-    z = np.r_[P[:, -1], ref[-1]]
-    total = 0.0
-    for i in range(len(P)):
-        depth = z[i + 1] - z[i]
-        if depth > 0:
-            total += depth * hypervolume_slicing(P[: i + 1, :-1], ref[:-1])
-    return float(total)
 
 
 def hypervolume(F: np.ndarray, ref: np.ndarray) -> float:

@@ -82,20 +82,17 @@ def _defaults(cls: Any, skip: frozenset[str]) -> dict[str, Any] | None:
 
 
 @cache
-def _problem_defaults(name: str) -> str | None:
-    try:
-        d = _defaults(problem_class(name), frozenset({"self"}))
-    except ValidationError:
-        return None
-    return None if d is None else json.dumps(d, default=_json_default, sort_keys=True)
-
-
-@cache
-def _strategy_defaults(name: str) -> str | None:
-    if ":" in name:  # a plug-in: its code is not imported by the analysis
+def _defaults_json(kind: str, name: str) -> str | None:
+    """JSON of the constructor defaults of the ``kind`` ("problem" or "strategy") named
+    ``name``; None when it is not registered or cannot be read, or for a strategy plug-in
+    (``module:Class``: its code is not imported by the analysis)."""
+    if kind == "strategy" and ":" in name:
         return None
     try:
-        d = _defaults(strategy_class(name), _STRATEGY_CONTEXT)
+        if kind == "problem":
+            d = _defaults(problem_class(name), frozenset({"self"}))
+        else:
+            d = _defaults(strategy_class(name), _STRATEGY_CONTEXT)
     except ValidationError:
         return None
     return None if d is None else json.dumps(d, default=_json_default, sort_keys=True)
@@ -130,7 +127,7 @@ def configured_strategy_options(
     The resolved values are kept beside (:attr:`RunRecord.strategy_resolved`)."""
     if ":" in name:
         return dict(options)
-    defaults = json.loads(_strategy_defaults(name) or "{}")
+    defaults = json.loads(_defaults_json("strategy", name) or "{}")
     auto = {k for k, v in defaults.items() if v is None}
     resolved = _problem_resolved(name, *shape) if shape is not None else None
     base = json.loads(resolved) if resolved is not None else {}
@@ -144,7 +141,7 @@ def configured_strategy_options(
 def resolved_problem_options(name: str, options: dict[str, Any]) -> dict[str, Any]:
     """A problem's options with its constructor's defaults filled in (``{}`` and
     ``{"dim": 10}`` are the same Sphere); as given when the problem is not registered."""
-    d = _problem_defaults(name)
+    d = _defaults_json("problem", name)
     base = json.loads(d) if d is not None else {}
     return {**base, **json.loads(json.dumps(options, default=_json_default))}
 
@@ -155,7 +152,7 @@ def resolved_strategy_options(
     """A strategy's options without :data:`STATE_OPTIONS`: as ``recorded`` by the strategy
     itself at run time (``summary.json``'s ``strategy_options``), else the given ones
     with the constructor's current defaults filled in."""
-    d = None if recorded else _strategy_defaults(name)
+    d = None if recorded else _defaults_json("strategy", name)
     base = json.loads(d) if d is not None else {}
     merged = {**base, **json.loads(json.dumps(options, default=_json_default))}
     return {k: v for k, v in merged.items() if k not in STATE_OPTIONS}

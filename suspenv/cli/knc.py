@@ -5,8 +5,9 @@ writes the loop curves in the measured-K&C format (``docs/knc.md`` "Measured K&C
 format": ``knc.toml`` and one CSV per test, one row per rig step, both wheels, units in
 the column names: mm, deg, N, N*m; raw ISO 8855 signs), which
 :func:`suspenv.measurements.knc_file.load_measurement` reads back, and, with ``--plot``,
-a PNG of the usual curves against wheel travel (travel tests) or the load (compliance
-tests, in phase or opposed: :data:`TEST_CHOICES`, docs/knc.md). Prints the travel
+a PNG of the usual curves against wheel travel (travel tests), the load (compliance
+tests, in phase or opposed: :data:`TEST_CHOICES`, docs/knc.md) or the rack travel
+(steering). Prints the travel
 test's objectives, the compliance test's slopes, and the classic K&C numbers.
 
 Files are ``knc.toml`` and ``<vehicle name>_<test>.csv`` / ``.png`` with the vehicle's
@@ -81,7 +82,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from suspenv.measurements.knc import LOADED_TESTS, RIG_TESTS, TESTS
+    from suspenv.measurements.knc import RIG_TESTS, TESTS
     from suspenv.measurements.knc_file import from_results, write_measurement
     from suspenv.measurements.paths import check_output_dir, output_file, plain_file_name
     from suspenv.metrics.knc import OBJECTIVES, objectives
@@ -122,8 +123,7 @@ def _run(args: argparse.Namespace) -> int:
     for test in tests:
         if args.plot:
             png = output_file(out, f"{stem}_{test}.png")
-            what = "load" if test in LOADED_TESTS else "wheel travel"
-            plot_rig_curves(results[test], png, f"{vehicle.name}: {test} {what}")
+            plot_rig_curves(results[test], png, f"{vehicle.name}: {test} test")
             print(f"wrote {png}")
         if test not in TESTS:
             print(f"\n{test} (left wheel, own sense, slope through the static position):")

@@ -1,5 +1,5 @@
 """The one place that chooses matplotlib's backend: Agg (files only, no display), lazily;
-figures saved atomically; and parallel-coordinate lines drawn as one collection."""
+figures saved atomically and closed; and parallel-coordinate lines drawn as one collection."""
 
 from __future__ import annotations
 
@@ -24,11 +24,18 @@ def pyplot() -> ModuleType:
     return plt
 
 
-def save_figure(fig: Any, path: Path | str, **savefig: Any) -> Path:
+def save_figure(fig: Any, path: Path | str, tight: bool = False, **savefig: Any) -> Path:
     """``fig.savefig`` to ``path`` atomically (:func:`suspenv.runs.run_dir.atomic_path`:
-    the old figure or the new one whole, never a part); ``savefig``: its keywords."""
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, **savefig)
+    the old figure or the new one whole, never a part), after ``fig.tight_layout()`` when
+    ``tight``; then pyplot closes the figure, also when the write fails (it can still be
+    saved again). ``savefig``: its keywords."""
+    try:
+        if tight:
+            fig.tight_layout()
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, **savefig)
+    finally:
+        pyplot().close(fig)
     return Path(path)
 
 

@@ -46,14 +46,6 @@ def _axes(n: int, width: float = 5.2, height: float = 3.8) -> tuple[Any, list[An
     return fig, flat[:n]
 
 
-def _save(fig: Any, path: Path) -> Path:
-    plt = pyplot()
-    fig.tight_layout()
-    save_figure(fig, path, dpi=110)
-    plt.close(fig)
-    return path
-
-
 def _log_ok(values: np.ndarray) -> bool:
     v = values[np.isfinite(values)]
     return bool(v.size) and bool((v > 0).all())
@@ -87,7 +79,7 @@ def plot_convergence(comparison: Comparison, path: Path) -> Path:
         ax.set_title(f"{p.name}: median, 25-75 % (band), min-max (dotted)", fontsize=9)
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7)
-    return _save(fig, path)
+    return save_figure(fig, path, tight=True, dpi=110)
 
 
 def plot_ecdf(comparison: Comparison, path: Path) -> Path:
@@ -107,7 +99,7 @@ def plot_ecdf(comparison: Comparison, path: Path) -> Path:
         ax.set_title(f"{p.name}: runtime ECDF, {len(p.targets)} targets", fontsize=9)
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7)
-    return _save(fig, path)
+    return save_figure(fig, path, tight=True, dpi=110)
 
 
 def plot_fixed_target(comparison: Comparison, path: Path) -> Path:
@@ -133,7 +125,7 @@ def plot_fixed_target(comparison: Comparison, path: Path) -> Path:
         ax.set_title(f"{p.name}: expected running time", fontsize=9)
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7)
-    return _save(fig, path)
+    return save_figure(fig, path, tight=True, dpi=110)
 
 
 def plot_profile(comparison: Comparison, path: Path) -> Path | None:
@@ -156,7 +148,7 @@ def plot_profile(comparison: Comparison, path: Path) -> Path | None:
     )
     ax.grid(alpha=0.3)
     ax.legend(fontsize=7)
-    return _save(fig, path)
+    return save_figure(fig, path, tight=True, dpi=110)
 
 
 def plot_hypervolume(comparison: Comparison, path: Path) -> Path | None:
@@ -185,25 +177,23 @@ def plot_hypervolume(comparison: Comparison, path: Path) -> Path | None:
         ax.set_title(f"{p.name}: hypervolume, median and 25-75 %", fontsize=9)
         ax.grid(alpha=0.3)
         ax.legend(fontsize=7)
-    return _save(fig, path)
+    return save_figure(fig, path, tight=True, dpi=110)
 
 
 def write_comparison_figures(comparison: Comparison, out: Path) -> list[Path]:
     """Every figure of a comparison into ``out``; returns the paths written."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    paths = [plot_convergence(comparison, out / "convergence.png")]
-    shutil.copyfile(paths[0], out / "compare.png")
-    paths.append(out / "compare.png")
-    paths.append(plot_ecdf(comparison, out / "ecdf.png"))
-    paths.append(plot_fixed_target(comparison, out / "fixed_target.png"))
-    for extra in (
+    convergence = plot_convergence(comparison, out / "convergence.png")
+    paths = [
+        convergence,
+        Path(shutil.copyfile(convergence, out / "compare.png")),
+        plot_ecdf(comparison, out / "ecdf.png"),
+        plot_fixed_target(comparison, out / "fixed_target.png"),
         plot_profile(comparison, out / "profile.png"),
         plot_hypervolume(comparison, out / "hypervolume.png"),
-    ):
-        if extra is not None:
-            paths.append(extra)
-    return paths
+    ]
+    return [p for p in paths if p is not None]  # no profile, no hypervolume: None
 
 
 def write_comparison(

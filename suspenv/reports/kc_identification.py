@@ -86,4 +86,3 @@ def plot_measured_vs_model(measured: Curves, model: Curves, path: Path) -> None:
             ax.grid(alpha=0.3)
     axes[0, 0].legend()
     save_figure(fig, path, dpi=100)
-    plt.close(fig)

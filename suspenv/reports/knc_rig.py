@@ -1,11 +1,8 @@
-"""K&C rig curves of one design in edge units: a CSV table and a PNG of the usual curves.
-
-:func:`curve_table` (the plot's data): one row per rig step, both wheels; units mm,
-deg, N; ISO 8855 signs with lateral positions mirrored outboard positive.
-:func:`write_csv` writes one test in the measured-K&C format instead
-(:mod:`suspenv.measurements.knc_file`, raw ISO 8855). The figure draws toe, camber,
-caster, tyre force, hub and contact-patch lateral position against wheel travel (travel
-tests) or the load (compliance tests, in phase or opposed). Used by ``suspenv knc``.
+"""K&C rig curves of one design as a PNG, in edge units (mm, deg, N; ISO 8855 signs with
+lateral positions mirrored outboard positive): toe, camber, caster, tyre force, hub and
+contact-patch lateral position against the test's drive (:func:`x_axis`). The CSV of a
+test is the measured-K&C format (:mod:`suspenv.measurements.knc_file`). Used by
+``suspenv knc``.
 """
 
 from __future__ import annotations
@@ -14,88 +11,52 @@ from pathlib import Path
 
 import numpy as np
 
-from suspenv.measurements.knc import LOADED_TESTS
+from suspenv.measurements.knc import LOADED_TESTS, TESTS
 from suspenv.models.mcpherson.params import SIDE_SIGN
 from suspenv.reports._mpl import pyplot, save_figure
 from suspenv.rigs.knc import KCResult
 
-#: CSV/plot channels: column stem -> (rig channel, scale to edge units, outboard-mirrored)
-CHANNELS = {
-    "wheel_travel_mm": ("wheel_centre_z", 1e3, False),
-    "pad_mm": ("pad_z", 1e3, False),
-    "toe_deg": ("toe", np.rad2deg(1.0), False),
-    "camber_deg": ("camber", np.rad2deg(1.0), False),
-    "caster_deg": ("caster", np.rad2deg(1.0), False),
-    "kpi_deg": ("kpi", np.rad2deg(1.0), False),
-    "hub_x_mm": ("wheel_centre_x", 1e3, False),
-    "hub_y_out_mm": ("wheel_centre_y", 1e3, True),
-    "contact_x_mm": ("contact_x", 1e3, False),
-    "contact_y_out_mm": ("contact_y", 1e3, True),
-    "tyre_fz_N": ("tyre_fz", 1.0, False),
-    "spring_force_N": ("spring_force", 1.0, False),
-    "scrub_radius_mm": ("scrub_radius", 1e3, False),
-    "trail_mm": ("trail", 1e3, False),
+SIDES = ("left", "right")
+#: panels: label -> (rig channel, scale to edge units, outboard-mirrored)
+PANELS = {
+    "toe [deg]": ("toe", np.rad2deg(1.0), False),
+    "camber [deg]": ("camber", np.rad2deg(1.0), False),
+    "caster [deg]": ("caster", np.rad2deg(1.0), False),
+    "tyre fz [N]": ("tyre_fz", 1.0, False),
+    "hub y outboard [mm]": ("wheel_centre_y", 1e3, True),
+    "contact y outboard [mm]": ("contact_y", 1e3, True),
 }
 
 
-def curve_table(res: KCResult) -> tuple[list[str], np.ndarray]:
-    """Column names and rows (P, columns) of one design's loop (row 0 of the batch)."""
-    force = res.test in LOADED_TESTS
-    cols = ["step", "force_N" if force else "stroke_mm", "direction"]
-    data = [np.arange(res.path.size), res.grid[res.path] * (1.0 if force else 1e3)]
-    d = np.sign(np.diff(res.grid[res.path], prepend=res.grid[res.path][0]))
-    data.append(d)
-    for stem, (ch, scale, mirrored) in CHANNELS.items():
-        for w, side in enumerate(("left", "right")):
-            v = res.channels[ch][0, :, w] * scale
-            if ch in ("wheel_centre_z", "pad_z"):  # travel from the static position
-                v = (res.channels[ch][0, :, w] - res.channels[ch][0, 0, w]) * scale
-            if mirrored:
-                v = v * SIDE_SIGN[w]
-            cols.append(f"{stem}_{side}")
-            data.append(v)
-    return cols, np.column_stack(data)
-
-
-def write_csv(res: KCResult, path: Path, row: int = 0) -> Path:
-    """Design ``row``'s loop as one test's CSV of the measured-K&C format
-    (:func:`suspenv.measurements.knc_file.write_test_csv`: raw ISO 8855, units in the
-    column names, mm, deg, N, N*m). ``suspenv knc`` writes the whole folder (with its
-    ``knc.toml``) through :func:`~suspenv.measurements.knc_file.write_measurement`."""
-    from suspenv.measurements.knc_file import from_results, write_test_csv
-
-    m = from_results({res.test: res}, res.test, row=row)
-    return write_test_csv(m.tests[res.test], Path(path))
+def x_axis(res: KCResult) -> tuple[str, dict[str, np.ndarray]]:
+    """(axis label, x per wheel ``left``/``right``) of design 0's loop: each wheel's
+    travel from the static position [mm] (bump +) in a travel test, else the rig's drive
+    (``res.grid`` along the loop, the same on both wheels): the load [``res.unit``] of a
+    compliance test or the rack travel [mm] (+y, to the left) of the steering test."""
+    if res.test in TESTS:
+        z = res.channels["wheel_centre_z"][0]
+        x = {s: (z[:, w] - z[0, w]) * 1e3 for w, s in enumerate(SIDES)}
+        return "wheel travel [mm] (bump +)", x
+    if res.test in LOADED_TESTS:
+        label, scale = f"{res.test} load [{res.unit}]", 1.0
+    else:
+        label, scale = "rack travel [mm] (+y, to the left)", 1e3
+    drive = res.grid[res.path] * scale
+    return label, dict.fromkeys(SIDES, drive)
 
 
 def plot_rig_curves(res: KCResult, path: Path, title: str) -> None:
-    """Toe, camber, caster, tyre force, hub and contact-patch lateral against wheel travel
-    (travel tests) or the load (compliance tests)."""
+    """:data:`PANELS` of design 0 against the test's drive (:func:`x_axis`), both wheels."""
     plt = pyplot()
-    cols, rows = curve_table(res)
-    col = {c: i for i, c in enumerate(cols)}
-    panels = [
-        "toe_deg",
-        "camber_deg",
-        "caster_deg",
-        "tyre_fz_N",
-        "hub_y_out_mm",
-        "contact_y_out_mm",
-    ]
-    force = res.test in LOADED_TESTS
+    xlabel, x = x_axis(res)
     fig, axes = plt.subplots(2, 3, figsize=(12, 7), constrained_layout=True)
-    for ax, stem in zip(axes.ravel(), panels, strict=True):
-        for side, style in (("left", "-"), ("right", "--")):
-            x = rows[:, col["force_N"]] if force else rows[:, col[f"wheel_travel_mm_{side}"]]
-            ax.plot(x, rows[:, col[f"{stem}_{side}"]], style, lw=1.2, label=side)
-        ax.set_xlabel(
-            f"{res.test} load [{res.unit}]"
-            if force
-            else "wheel travel [mm] (bump +)"
-        )
-        ax.set_ylabel(stem.replace("_", " "))
+    for ax, (label, (ch, scale, mirrored)) in zip(axes.ravel(), PANELS.items(), strict=True):
+        for w, (side, style) in enumerate(zip(SIDES, ("-", "--"), strict=True)):
+            y = res.channels[ch][0, :, w] * scale * (SIDE_SIGN[w] if mirrored else 1.0)
+            ax.plot(x[side], y, style, lw=1.2, label=side)
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel(label)
         ax.grid(alpha=0.3)
     axes[0, 0].legend()
     fig.suptitle(title)
     save_figure(fig, path, dpi=110)
-    plt.close(fig)

@@ -96,9 +96,7 @@ def front_view(path: Path) -> None:
     ax.set_xlabel("y outboard [mm] (left wheel: ISO +y)")
     ax.set_ylabel("z up [mm]")
     ax.set_title("Front view of the left wheel (from in front, looking rearward)", fontsize=10)
-    fig.tight_layout()
-    save_figure(fig, path, dpi=DPI)
-    plt.close(fig)
+    save_figure(fig, path, dpi=DPI, tight=True)
 
 
 def side_view(path: Path) -> None:
@@ -144,9 +142,7 @@ def side_view(path: Path) -> None:
     ax.set_xlabel("x [mm] (forward to the left)")
     ax.set_ylabel("z up [mm]")
     ax.set_title("Side view of the left wheel, from the left", fontsize=10)
-    fig.tight_layout()
-    save_figure(fig, path, dpi=DPI)
-    plt.close(fig)
+    save_figure(fig, path, dpi=DPI, tight=True)
 
 
 def top_view(path: Path) -> None:
@@ -189,9 +185,7 @@ def top_view(path: Path) -> None:
     ax.set_xticks([])
     ax.set_yticks([])
     ax.set_title("Top view of the front axle (forward up)", fontsize=10)
-    fig.tight_layout()
-    save_figure(fig, path, dpi=DPI)
-    plt.close(fig)
+    save_figure(fig, path, dpi=DPI, tight=True)
 
 
 def write_all(out: Path) -> list[Path]:

@@ -57,9 +57,7 @@ def _plot_pairs(
     fig.legend(handles, labels, loc="upper right")
     fig.suptitle("Pareto front (blue) among successful evaluations (grey)")
     fig.subplots_adjust(left=0.08, right=0.98, bottom=0.07, top=0.94, wspace=0.35, hspace=0.3)
-    save_figure(fig, path, dpi=100)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=100)
 
 
 def _plot_parallel(
@@ -92,9 +90,7 @@ def _plot_parallel(
         ax.legend(fontsize=8, loc="upper right")
     fig.suptitle("Parallel coordinates of the Pareto front")
     fig.subplots_adjust(left=0.06, right=0.99, bottom=0.18, top=0.9, wspace=0.15)
-    save_figure(fig, path, dpi=100)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=100)
 
 
 def write_minibus_report(

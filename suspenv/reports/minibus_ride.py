@@ -90,10 +90,8 @@ def write_minibus_ride_report(
     for ax in axes[-1]:
         ax.set_xlabel("frequency (Hz)")
     axes[0, 0].legend()
-    fig.tight_layout()
     psd_png = out / "ride_psd.png"
-    save_figure(fig, psd_png, dpi=110)
-    plt.close(fig)
+    save_figure(fig, psd_png, dpi=110, tight=True)
 
     fig, axes = plt.subplots(len(pulse_speeds_kmh), 2, figsize=(11, 3.2 * len(pulse_speeds_kmh)),
                              squeeze=False)  # fmt: skip
@@ -109,10 +107,8 @@ def write_minibus_ride_report(
             ax.set_ylabel("acceleration (m/s^2)")
             ax.grid(True, alpha=0.3)
     axes[0, 0].legend()
-    fig.tight_layout()
     pulse_png = out / "ride_pulse.png"
-    save_figure(fig, pulse_png, dpi=110)
-    plt.close(fig)
+    save_figure(fig, pulse_png, dpi=110, tight=True)
 
     lines += ["", f"![acceleration PSD]({psd_png.name})", "", f"![pulse]({pulse_png.name})", ""]
     md = out / "ride_report.md"

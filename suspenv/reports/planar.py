@@ -197,13 +197,9 @@ def save_linkage_figure(
     outputs: Sequence[tuple[str, SweepOutputs]],
 ) -> Path:
     """Write :func:`linkage_figure` as PNG; returns the path."""
-    plt = pyplot()
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig = linkage_figure(geom, sweep, outputs)
-    save_figure(fig, path, dpi=90)
-    plt.close(fig)
-    return path
+    return save_figure(linkage_figure(geom, sweep, outputs), path, dpi=90)
 
 
 def save_curves_figure(path: str | Path, outputs: Sequence[tuple[str, SweepOutputs]]) -> Path:
@@ -213,10 +209,7 @@ def save_curves_figure(path: str | Path, outputs: Sequence[tuple[str, SweepOutpu
     path.parent.mkdir(parents=True, exist_ok=True)
     fig, axes = plt.subplots(1, 5, figsize=(20, 4))
     plot_curves(list(axes), outputs)
-    fig.tight_layout()
-    save_figure(fig, path, dpi=100)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=100, tight=True)
 
 
 def render_rgb(

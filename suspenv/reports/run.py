@@ -35,9 +35,8 @@ from typing import Any
 import numpy as np
 
 from suspenv.core.pareto import nondominated
-from suspenv.reports._mpl import add_polylines, pyplot
+from suspenv.reports._mpl import add_polylines, pyplot, save_figure
 from suspenv.runs.quality import best_so_far
-from suspenv.runs.run_dir import atomic_path
 
 #: above this many objectives the pair plot shows this many (largest relative spread)
 MAX_PAIR_OBJECTIVES = 8
@@ -144,12 +143,10 @@ def subsample(rows: np.ndarray, limit: int | None = None) -> np.ndarray:
     return np.sort(rng.choice(rows, size=limit, replace=False))
 
 
-def _save(fig: Any, path: Path, dpi: float) -> Path:
-    """Save at ``dpi``, lowered so that neither side exceeds :data:`MAX_PIXELS`."""
-    w, h = fig.get_size_inches()
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=min(dpi, MAX_PIXELS / max(w, h)))
-    return path
+def _save(fig: Any, path: Path, dpi: float, tight: bool = False) -> Path:
+    """Save and close (:func:`~suspenv.reports._mpl.save_figure`) at ``dpi``, lowered so
+    that neither side exceeds :data:`MAX_PIXELS`."""
+    return save_figure(fig, path, tight, dpi=min(dpi, MAX_PIXELS / max(fig.get_size_inches())))
 
 
 def plot_convergence(
@@ -194,11 +191,7 @@ def plot_convergence(
             left=0.04, right=0.99, bottom=0.5 / (size[1] * rows), top=1 - 0.75 / (size[1] * rows),
             wspace=0.35, hspace=0.45,
         )
-    else:
-        fig.tight_layout()
-    _save(fig, path, 110)
-    plt.close(fig)
-    return path
+    return _save(fig, path, 110, tight=not grid)
 
 
 def plot_pareto_pairs(
@@ -248,9 +241,7 @@ def plot_pareto_pairs(
         left=0.75 / side, right=1 - 0.15 / side, bottom=0.6 / side, top=1 - 0.7 / side,
         wspace=0.35, hspace=0.3,
     )
-    _save(fig, path, 100)
-    plt.close(fig)
-    return path
+    return _save(fig, path, 100)
 
 
 def plot_parallel(
@@ -292,7 +283,4 @@ def plot_parallel(
     if len(drawn) < len(front):
         title += f"; {len(drawn)} drawn (seeded subsample)"
     ax.set_title(title)
-    fig.tight_layout()
-    _save(fig, path, 110)
-    plt.close(fig)
-    return path
+    return _save(fig, path, 110, tight=True)

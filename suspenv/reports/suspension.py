@@ -192,12 +192,9 @@ def plot_elements(
     for ax in axes:
         ax.grid(True, alpha=0.3)
         ax.legend()
-    fig.tight_layout()
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    save_figure(fig, path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=110, tight=True)
 
 
 def write_suspension_report(

@@ -28,11 +28,8 @@ if TYPE_CHECKING:
 
 
 def _save(fig: Figure, path: Path) -> Path:
-    plt = pyplot()
     path.parent.mkdir(parents=True, exist_ok=True)
-    save_figure(fig, path, dpi=100, bbox_inches="tight")
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=100, bbox_inches="tight")
 
 
 # ---------------------------------------------------------------- figures

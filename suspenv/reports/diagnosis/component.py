@@ -25,7 +25,8 @@ from suspenv.runs.run_dir import write_file
 
 
 def residual_map(diag: Diagnosis, path: Path) -> Path:
-    """Bars of residual-energy share per part (text: enrichment), one panel per dimension."""
+    """Bars of residual-energy share per part (text: enrichment), one panel per dimension
+    (also the ride diagnosis' map)."""
     plt = pyplot()
     dims = [d for d in diag.location.dimensions() if d != "frequency band"]
     dims.append("frequency band") if "frequency band" in diag.location.dimensions() else None
@@ -42,10 +43,7 @@ def residual_map(diag: Diagnosis, path: Path) -> Path:
         ax.set_title(dim, fontsize=8, loc="left")
         ax.tick_params(axis="x", labelsize=7)
     axes[-1, 0].set_xlabel("share of residual energy [%] (outline: share of samples)")
-    fig.tight_layout()
-    save_figure(fig, path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=110, tight=True)
 
 
 def _predictions(diag: Diagnosis, rec: Any) -> tuple[np.ndarray, np.ndarray]:
@@ -81,10 +79,7 @@ def overlay(diag: Diagnosis, path: Path, max_seconds: float = 4.0) -> Path:
     a2.set_ylabel(f"residual [{unit}]")
     a2.set_xlabel("time [s]")
     a2.legend(fontsize=7)
-    fig.tight_layout()
-    save_figure(fig, path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=110, tight=True)
 
 
 def loops(diag: Diagnosis, path: Path) -> Path:
@@ -116,10 +111,7 @@ def loops(diag: Diagnosis, path: Path) -> Path:
     axes[2].legend(fontsize=7)
     axes[0].legend(fontsize=7, markerscale=6)
     fig.suptitle("loops on the fit data", fontsize=9)
-    fig.tight_layout()
-    save_figure(fig, path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=110, tight=True)
 
 
 def _significance(h: Any) -> str:

@@ -60,9 +60,7 @@ def plot_residual_map(diag: Any, path: Path) -> Path:
     fig.colorbar(im, ax=ax, label="baseline residual RMS / noise level")
     ax.set_title("Where the baseline misses (fit data)")
     fig.subplots_adjust(left=0.35, right=0.95, bottom=0.12, top=0.92)
-    save_figure(fig, path, dpi=90)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=90)
 
 
 def _curves(fit: Any, rec: Any) -> dict[str, np.ndarray]:
@@ -99,9 +97,7 @@ def plot_loops(diag: Any, recs: list[Any], path: Path) -> Path:
     axes[0, 0].plot([], [], color="tab:blue", label="final model")
     axes[0, 0].legend(fontsize=7, title="left -, right --", title_fontsize=7)
     fig.subplots_adjust(left=0.08, right=0.98, bottom=0.07, top=0.95, wspace=0.35, hspace=0.3)
-    save_figure(fig, path, dpi=80)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=80)
 
 
 def _midline(rec: Any, values: np.ndarray) -> np.ndarray:
@@ -145,9 +141,7 @@ def plot_left_right(diag: Any, recs: list[Any], path: Path) -> Path:
             ax.set_xlabel(xlabel, fontsize=8)
     axes[0, 0].legend(fontsize=7)
     fig.subplots_adjust(left=0.07, right=0.98, bottom=0.1, top=0.92, wspace=0.3, hspace=0.5)
-    save_figure(fig, path, dpi=80)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=80)
 
 
 def _table(rows: list[list[str]], head: list[str]) -> str:

@@ -1,5 +1,6 @@
 """Report of a minibus ride diagnosis: Markdown + PNG (time-history overlays, PSD overlays,
-residual map) and JSON. Not the ride report of designs (:mod:`suspenv.reports.minibus_ride`).
+the residual map of :func:`~suspenv.reports.diagnosis.component.residual_map`) and JSON.
+Not the ride report of designs (:mod:`suspenv.reports.minibus_ride`).
 
 Units: accelerations m/s^2, time s, frequency Hz; PSDs one-sided ((m/s^2)^2/Hz).
 """
@@ -17,6 +18,7 @@ from suspenv.diagnosis.engine import Diagnosis
 from suspenv.diagnosis.ride.residual import NOISE_BAND_HZ
 from suspenv.metrics.ride import acceleration_psd
 from suspenv.reports._mpl import pyplot, save_figure
+from suspenv.reports.diagnosis.component import residual_map
 from suspenv.reports.markdown import text
 from suspenv.runs.run_dir import write_file
 
@@ -55,10 +57,7 @@ def time_overlays(diag: Diagnosis, path: Path) -> Path:
     for ax in axes[:, 0]:
         ax.set_ylabel("acceleration (m/s^2)")
     axes[0, 0].legend(fontsize=7)
-    fig.tight_layout()
-    save_figure(fig, path, dpi=100)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=100, tight=True)
 
 
 def psd_overlays(diag: Diagnosis, path: Path) -> Path | None:
@@ -93,29 +92,7 @@ def psd_overlays(diag: Diagnosis, path: Path) -> Path | None:
             ax.grid(True, alpha=0.3)
     axes[0, 0].set_ylabel("PSD ((m/s^2)^2/Hz)")
     axes[0, 0].legend(fontsize=7)
-    fig.tight_layout()
-    save_figure(fig, path, dpi=100)
-    plt.close(fig)
-    return path
-
-
-def residual_map(diag: Diagnosis, path: Path) -> Path:
-    """Bar charts of the residual energy share vs fair share, per dimension."""
-    plt = pyplot()
-    dims = diag.location.dimensions()
-    fig, axes = plt.subplots(1, len(dims), figsize=(3.6 * len(dims), 3.4), squeeze=False)
-    for ax, dim in zip(axes[0], dims, strict=True):
-        parts = diag.location.by_dimension(dim)
-        y = np.arange(len(parts))
-        ax.barh(y - 0.2, [p.share for p in parts], 0.4, label="residual share")
-        ax.barh(y + 0.2, [p.fraction for p in parts], 0.4, color="0.7", label="fair share")
-        ax.set_yticks(y, [p.part for p in parts], fontsize=7)
-        ax.set_title(dim, fontsize=9)
-    axes[0, 0].legend(fontsize=7)
-    fig.tight_layout()
-    save_figure(fig, path, dpi=100)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=100, tight=True)
 
 
 def write_ride_diagnosis_report(diag: Diagnosis, out_dir: str | Path) -> list[Path]:

@@ -52,10 +52,8 @@ def write_road_report(diag: RoadDiagnosis, out_dir: str | Path) -> list[Path]:
     )
     ax2.legend()
     ax2.grid(True, which="both", alpha=0.3)
-    fig.tight_layout()
     png = out / "road_psd.png"
-    save_figure(fig, png, dpi=110)
-    plt.close(fig)
+    save_figure(fig, png, dpi=110, tight=True)
 
     f, s, t, h = diag.free, diag.standard, diag.test, diag.heldout
     lines = [
