@@ -65,11 +65,16 @@ def loop_cells(res: Any) -> dict[str, Any]:
 
     s = summary(res)
     loop, held, sheet = s.get("loop"), s.get("held_out"), s.get("sheet", {})
+    before = [c["before"] for c in loop["curves"]] if loop else []
     after = [c["after"] for c in loop["curves"]] if loop else []
     if loop and held and held["source"].startswith("measured"):
+        before += list(held["rms_over_noise_before"].values())
         after += list(held["rms_over_noise_after"].values())
     return {
         "loop_changes": "; ".join(loop["changes"]) if loop else "none",
+        "loop_curves_within_1.5_before": (
+            f"{sum(v <= 1.5 for v in before)}/{len(before)}" if loop else ""
+        ),
         "loop_curves_within_1.5": f"{sum(v <= 1.5 for v in after)}/{len(after)}" if loop else "",
         "loop_worst_rms_over_noise": max(after) if loop else None,
         "held_out": held["test"] if held else "",
@@ -178,7 +183,7 @@ def main_job_summary(rows: list[dict[str, Any]]) -> dict[str, Any]:
     if main:
         r = main[0]
         out.update(
-            main_curves_before=r["curves_within_1.5"],
+            main_curves_before=r["loop_curves_within_1.5_before"] or r["curves_within_1.5"],
             main_curves_after=r["loop_curves_within_1.5"],
             main_held_out=r["held_out"],
             main_held_out_worst_before=r["held_out_worst_before"],
