@@ -939,7 +939,8 @@ def identify_reference_block(d: Json) -> str:
                 "fits best, all refitted): "
                 + "; ".join(
                     f"{r['case']} seed {r['seed']}: {count_text(r['loop_curves_within_1.5'])} "
-                    f"curves within 1.5 x noise (worst {r['loop_worst_rms_over_noise']:.2f}), "
+                    f"measured curves (fitted, and the held-out test's when measured) within "
+                    f"1.5 x noise (worst {r['loop_worst_rms_over_noise']:.2f}), "
                     f"held-out {r['held_out']} {r['held_out_worst_after']:.2f} x noise (first "
                     f"fit {r['held_out_worst_before']:.1f}), K&C sheet intervals holding the "
                     f"truth for {100 * r['sheet_coverage']:.0f} % of {r['sheet_values']} values"

@@ -760,13 +760,17 @@ def polish_stage(
     progress: bool = False,
     prior: np.ndarray | None = None,
     prior_weight: float = PRIOR_WEIGHT,
+    at_start: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> tuple[StageResult, np.ndarray, np.ndarray]:
     """Trust-region least squares from ``u0`` with the batched Jacobian.
 
     ``prior`` (dim,): a weak pull towards this unit point, the residual rows
-    ``prior_weight * (u - prior)`` (see :data:`PRIOR_WEIGHT`); None: none. Returns
-    (stage, residual at the answer (size,), Jacobian there (size, dim)), both without
-    the prior's rows; the stage's cost and history are the data's sum of squares."""
+    ``prior_weight * (u - prior)`` (see :data:`PRIOR_WEIGHT`); None: none;
+    ``at_start``: the residual and Jacobian at ``u0`` when known (not recomputed).
+    Returns (stage, residual at the answer (size,), Jacobian there (size, dim)), both
+    without the prior's rows; the stage's cost and history are the data's sum of
+    squares. The answer is a point the trust region accepted, whose Jacobian it
+    evaluated: that one is returned, not recomputed."""
     from scipy.optimize import least_squares
 
     t0 = time.perf_counter()
@@ -809,6 +813,8 @@ def polish_stage(
         return np.vstack([J, w * np.eye(model.dim)]) if w > 0 else J
 
     u0 = np.clip(np.asarray(u0, float), 0.0, 1.0)
+    if at_start is not None:
+        cache[u0.tobytes()] = at_start
     sol = least_squares(
         fun,
         u0,
@@ -821,7 +827,11 @@ def polish_stage(
         xtol=xtol,
         gtol=gtol,
     )
-    r, J = model.jacobian(sol.x)
+    r, J_hit = cache.get(np.asarray(sol.x, float).tobytes(), (None, None))
+    if r is None or J_hit is None:
+        r, J = model.jacobian(sol.x)
+    else:
+        J = J_hit
     reasons = {
         -1: "improper input",
         0: f"evaluation budget (max_nfev={max_nfev}) used up: not converged",
@@ -959,7 +969,9 @@ def polish(
     left = max_nfev - len(stage.history)
     stop = stage.stop
     while runs < restarts and left > 2 and stage.stop.startswith("converged"):
-        again, r2, J2 = polish_stage(model, stage.u, left, ftol, progress=progress, prior=prior)
+        again, r2, J2 = polish_stage(
+            model, stage.u, left, ftol, progress=progress, prior=prior, at_start=(r, J)
+        )
         runs += 1
         evals += again.evaluations
         history += again.history

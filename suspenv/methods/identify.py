@@ -509,20 +509,18 @@ def auto_held_out(
     free: Sequence[str] = (),
 ) -> tuple[str, dict[str, float]]:
     """:func:`choose_held_out` at the start design ``x0``, before any fit. Candidates:
-    on the built-in test car (``truth``), the rig tests it was not measured in (it can
-    be measured in them, so the fit keeps all its data); on a measurement, its own
-    tests. One batched Jacobian per set of tests."""
+    the measurement's own tests (the fit then uses the others) and, on the built-in test
+    car (``truth``), the rig tests it was not measured in (it can be measured in them,
+    the fit keeps all its data). One batched Jacobian per set of tests."""
     model = build_model(measurement, vehicle, x0, free)
     u0 = model.unit(x0)
     _, J = model.jacobian(u0)
     blocks: dict[str, dict[str, np.ndarray]] = {}
     for test, channel, sl in model.blocks:
         blocks.setdefault(test, {})[channel] = J[sl]
+    extra = {} if truth is None else candidate_jacobians(model, u0)
     measured = list(measurement.tests)
-    if truth is None:
-        return choose_held_out(blocks, measured, measured)
-    extra = candidate_jacobians(model, u0)
-    return choose_held_out({**blocks, **extra}, measured, list(extra))
+    return choose_held_out({**blocks, **extra}, measured, [*measured, *extra])
 
 
 def screen_residual(model: CurveModel, measurement: Any, x: np.ndarray) -> dict[str, Any]:
