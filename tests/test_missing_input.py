@@ -154,6 +154,37 @@ def test_switching_test_tells_a_switched_gain_from_coloured_noise():
     assert mi.switching(0.3 * level * y + 0.05 * coloured, y, [y])["p_switching"] < 1e-6
 
 
+def test_lag1_moments_are_exact_for_independent_gains():
+    # regressed on a constant only, the lag-1 autocorrelation of n independent normal
+    # values has mean -1/n exactly (Moran 1948); with more columns the mean and variance
+    # of lag1_z's standard score are 0 and 1: checked by simulation, tolerance 4 standard
+    # errors of 4000 draws
+    rng = np.random.default_rng(3)
+    n = 30
+    ones = np.ones((n, 1))
+    rhos = np.array([mi.lag1_z(rng.normal(size=n), ones)[0] for _ in range(4000)])
+    assert abs(rhos.mean() + 1.0 / n) < 4 * rhos.std() / np.sqrt(rhos.size)
+    a = np.column_stack([ones, rng.normal(size=(n, 6))])
+    z = np.array([mi.lag1_z(rng.normal(size=n), a)[1] for _ in range(4000)])
+    assert abs(z.mean()) < 4 / np.sqrt(z.size)
+    assert abs(z.var() - 1.0) < 4 * np.sqrt(2.0 / z.size)
+
+
+def test_switching_test_holds_its_level_on_coloured_noise():
+    # noise independent of the motion (AR(1), correlation time about 10 samples, as the
+    # coloured controls): the rejection rate at 0.05 stays within a binomial bound of it
+    # (one-sided, 3 standard deviations over 300 draws)
+    rng = np.random.default_rng(4)
+    t = np.arange(4000) * 0.01
+    hits = 0
+    for _ in range(300):
+        f = rng.uniform(0.5, 3.0, 3)
+        y = np.sum([np.sin(2 * np.pi * fk * t + rng.uniform(0, 6.3)) for fk in f], axis=0)
+        e = lfilter([1.0], [1.0, -0.9], rng.normal(size=t.size))
+        hits += mi.switching(e, y, [y])["p_switching"] < 0.05
+    assert hits <= 300 * 0.05 + 3 * np.sqrt(300 * 0.05 * 0.95)
+
+
 def test_a_ripple_along_a_recorded_input_is_a_relation_not_a_missing_input():
     # cogging: a force periodic in the position (pitch 1/10 of the travel), a function of
     # a recorded input that neither the coherence nor a coarse grid of cells sees

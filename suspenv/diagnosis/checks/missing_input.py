@@ -12,11 +12,15 @@ unrecorded input** when all of these hold:
    floor (:func:`white_floor`, from its second differences);
 1. **switching**: the gain of ``r`` on the model's prediction, fitted block by block
    (lengths :data:`BLOCK_SAMPLES`: the switching time is not known; at least
-   :data:`MIN_BLOCKS` blocks), persists from block to block: its lag-1 autocorrelation
-   ``rho`` gives ``rho sqrt(B)``, standard normal for gains that do not persist, whose
-   one-sided p-value (Bonferroni over the block lengths and the judged channels) is
-   below the rule's ``alpha``. Noise independent of the motion, white or coloured,
-   gives gains that do not persist once a block outlasts its correlation;
+   :data:`MIN_BLOCKS` blocks; the last :data:`GUARD_FRACTION` of each block left out,
+   so that noise correlated over a few samples does not couple neighbouring blocks),
+   less what the blocks' excitation explains, persists from block to block: the lag-1
+   autocorrelation of those regression residuals, standardised by its exact mean and
+   variance for independent normal gains (:func:`lag1_z`; regressing out ``p``
+   columns biases it by about ``-p/B``), is standard normal for gains that do not
+   persist; its one-sided p-value (Bonferroni over the block lengths and the judged
+   channels) is below the rule's ``alpha``. Noise independent of the motion, white or
+   coloured, gives gains that do not persist once a block outlasts its correlation;
 2. **no linear relation**: the coherence of ``r`` (:func:`scipy.signal.coherence`,
    averaged over frequency with the weight of the residual's own spectrum: the share of
    its power a linear filter of that signal explains) with every recorded input and
@@ -51,6 +55,8 @@ from suspenv.diagnosis.protocols import RecordingLike
 BLOCK_SAMPLES = (50, 100, 200, 400)
 #: fewest blocks of a length tried
 MIN_BLOCKS = 16
+#: share of each block, at its end, left out of its gain (a gap between blocks)
+GUARD_FRACTION = 0.2
 #: the residual's RMS over its white noise floor above which it is "far above the noise"
 SIZE_LIMIT = 3.0
 #: largest spectrum-weighted coherence with a recorded signal of an unrecorded cause
@@ -80,7 +86,8 @@ def block_gains(r: np.ndarray, y: np.ndarray, length: int) -> np.ndarray:
     """The part of ``r`` along ``y`` in consecutive blocks of ``length``: ``<r, y> /
     |y|`` (the gain times ``|y|``, so that white noise gives the same spread in every
     block however little ``y`` moves there), each block with its own straight line in
-    time removed first (a slowly drifting zero is not a gain)."""
+    time removed first (a slowly drifting zero is not a gain) and its last
+    :data:`GUARD_FRACTION` left out (a gap of that many samples between the blocks)."""
     blocks = r.size // length
     ramp = np.linspace(-1.0, 1.0, length)
 
@@ -90,8 +97,29 @@ def block_gains(r: np.ndarray, y: np.ndarray, length: int) -> np.ndarray:
         return b - np.outer(b @ ramp / (ramp @ ramp), ramp)
 
     rb, yb = detrended(r), detrended(y)
+    yb[:, length - int(GUARD_FRACTION * length) :] = 0.0
     norm = np.sqrt(np.sum(yb * yb, axis=1))
     return np.sum(rb * yb, axis=1) / np.where(norm > 0, norm, np.inf)
+
+
+def lag1_z(g: np.ndarray, a: np.ndarray) -> tuple[float, float]:
+    """The lag-1 autocorrelation ``rho = e'Ae / e'e`` of the residuals ``e = M g`` of
+    ``g`` regressed on the columns of ``a`` (``M = I - P_a``; ``A`` the symmetric lag-1
+    matrix with 1/2 beside its diagonal), and its standard score under independent
+    normal ``g``: the ratio is independent of ``e'e``, so its mean is ``tr(MA) / m`` and
+    its variance ``2 (tr(MAMA) - tr(MA)^2 / m) / (m (m + 2))`` exactly, ``m`` the
+    residual degrees of freedom (the moments of the Durbin-Watson statistic). Returns
+    (rho, z)."""
+    b = g.size
+    q, _ = np.linalg.qr(a)
+    m = b - q.shape[1]
+    e = g - q @ (q.T @ g)
+    lag = 0.5 * (np.eye(b, k=1) + np.eye(b, k=-1))
+    ma = lag - q @ (q.T @ lag)
+    tr = float(np.trace(ma))
+    var = 2.0 * (float(np.sum(ma * ma.T)) - tr**2 / m) / (m * (m + 2))
+    rho = float(e @ lag @ e / max(float(e @ e), 1e-300))
+    return rho, (rho - tr / m) / np.sqrt(max(var, 1e-300))
 
 
 def block_features(signals: Sequence[np.ndarray], length: int) -> np.ndarray:
@@ -109,19 +137,20 @@ def switching(r: np.ndarray, y: np.ndarray, signals: Sequence[np.ndarray]) -> di
     """The regime test: the gains of ``r`` on the prediction ``y`` block by block, less
     what the blocks' excitation explains (:func:`block_features` of ``signals``, by least
     squares: a test programme's steps are a recorded cause), keep their value from one
-    block to the next: lag-1 autocorrelation ``rho`` of that gain series, one-sided
-    p-value of ``rho sqrt(B)`` against the standard normal, Bonferroni over the block
-    lengths tried (a residual independent of the motion gives gains that do not persist
-    once a block outlasts its own correlation)."""
+    block to the next: one-sided p-value of the lag-1 autocorrelation's exact standard
+    score (:func:`lag1_z`), Bonferroni over the block lengths tried (a residual
+    independent of the motion gives gains that do not persist once a block outlasts its
+    own correlation)."""
     tried = []
     for length in BLOCK_SAMPLES:
         g = block_gains(r, y, length)
         if g.size < MIN_BLOCKS:
             continue
         a = np.column_stack([np.ones(g.size), block_features(signals, length)])
-        g = g - a @ np.linalg.lstsq(a, g, rcond=None)[0]
-        rho = lag1_autocorrelation(g)
-        tried.append((float(stats.norm.sf(rho * np.sqrt(g.size))), length, rho, g.size))
+        if g.size < a.shape[1] + 3:  # too few degrees of freedom left for the moments
+            continue
+        rho, z = lag1_z(g, a)
+        tried.append((float(stats.norm.sf(z)), length, rho, g.size))
     if not tried:
         return dict(NO_SWITCHING)
     p, length, rho, blocks = min(tried)
