@@ -78,7 +78,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from suspenv.core.errors import ValidationError
-from suspenv.models.effects import Effect, cubic_stiffness, dahl_path
+from suspenv.models.effects import Effect, cubic_stiffness
 from suspenv.models.mcpherson import residual_kernel, sweep_kernel
 from suspenv.models.mcpherson.effects import (
     BUSHING_NAMES,
@@ -133,6 +133,7 @@ _KERNEL_FIELDS = (
 #: smooth dead band of the Dahl elements at reversals (see dahl_step) [m], [rad]
 DAHL_EPS_TRANSLATION = 1e-6
 DAHL_EPS_ROTATION = 1e-5
+_DAHL_EPS = np.repeat([DAHL_EPS_TRANSLATION, DAHL_EPS_ROTATION], 3)  # per bushing column
 #: scale of constraint rows in the residual: metres -> micrometres
 CSCALE = 1e6
 #: row evaluations per batched residual call of the finite-difference Jacobian (its
@@ -655,16 +656,20 @@ class AxleSolver:
             k3 = ratio * self.K[name][..., :3] / x_ref**2
             f[..., :3] += cubic_stiffness(x[..., :3], k3)
         if name in hist:
-            f = f + self._dahl(name, x, hist[name])
+            f = f + self._dahl((name,), x[..., None, :], hist)[..., 0, :]
         return f
 
-    def _dahl(self, name: str, x: np.ndarray, hist: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
-        sigma_ratio, fc_force, fc_moment = self._placed.hysteresis[name]
-        x_prev, z_prev = hist
-        sigma = sigma_ratio * self.K[name]
-        fc = np.array([fc_force] * 3 + [fc_moment] * 3)
-        eps = np.array([DAHL_EPS_TRANSLATION] * 3 + [DAHL_EPS_ROTATION] * 3)
-        return dahl_step(x_prev, x, np.broadcast_to(sigma, x.shape), fc, z_prev, eps)
+    def _dahl(self, names: Sequence[str], x: np.ndarray, hist: dict) -> np.ndarray:
+        """Dahl forces (..., k, 6) of the bushings ``names`` (k) at their deflections
+        ``x`` (..., k, 6) (bushing frames), from their histories ``hist`` (bushing ->
+        (deflection, Dahl force) of the last committed step), in one :func:`dahl_step`."""
+        idx = [BUSH_ORDER.index(b) for b in names]
+        par = np.array([self._placed.hysteresis[b] for b in names])  # (k, 3)
+        sigma = par[:, 0:1] * self._K4[:, :, idx]  # (n, 2, k, 6)
+        fc = np.repeat(par[:, 1:], 3, axis=1)  # force on translation, moment on rotation
+        x_prev = np.stack([hist[b][0] for b in names], axis=-2)
+        z_prev = np.stack([hist[b][1] for b in names], axis=-2)
+        return dahl_step(x_prev, x, sigma, fc, z_prev, _DAHL_EPS)
 
     def deflections(self, r: np.ndarray, R: np.ndarray) -> dict[str, np.ndarray]:
         """Bushing deflections (..., 2, 6): translation [m] and rotation vector [rad], in
@@ -762,9 +767,12 @@ class AxleSolver:
             xb = self._to_bush(self._deflections(r, R, arm))
             f = np.zeros_like(xb)
             for j, name in enumerate(BUSH_ORDER):
-                if name in placed.cubic or name in state.hyst:
-                    x = xb[..., j, :]
-                    f[..., j, :] = self._bush_extra(name, x, state.hyst)
+                if name in placed.cubic:
+                    f[..., j, :] = self._bush_extra(name, xb[..., j, :], {})
+            names = [b for b in BUSH_ORDER if b in state.hyst]
+            if names:  # every Dahl bushing in one step
+                idx = [BUSH_ORDER.index(b) for b in names]
+                f[..., idx, :] += self._dahl(names, xb[..., idx, :], state.hyst)
             out[..., :24] = self._to_vehicle(f).reshape(out.shape[:-1] + (24,))
         if state.fric is not None:
             R1 = R[..., 1, :, :]
@@ -1262,9 +1270,11 @@ class AxleSolver:
             return st
         out = st.copy()
         defl = self.deflections(st.r, st.R)
-        for name in out.hyst:
-            z = self._dahl(name, defl[name], st.hyst[name])
-            out.hyst[name] = (defl[name].copy(), z)
+        names = list(out.hyst)
+        if names:
+            z = self._dahl(names, np.stack([defl[b] for b in names], axis=-2), st.hyst)
+            for k, name in enumerate(names):
+                out.hyst[name] = (defl[name].copy(), z[..., k, :].copy())
         if st.fric is not None:
             kn_S = st.r[..., 1, :] + rotate(st.R[..., 1, :, :], self.kn_pts[..., 4, :])
             ak = rotate(st.R[..., 1, :, :], self.a)
@@ -1402,7 +1412,10 @@ class _CentreDrive:
 
 
 def dahl_step(x_prev, x, sigma, f_c, z_prev, eps) -> np.ndarray:
-    """Dahl force after moving from ``x_prev`` to ``x`` (the library's exact path form).
+    """Dahl force after moving from ``x_prev`` to ``x``: the library's exact path form
+    (:func:`~suspenv.models.effects.dahl_path`) on the one segment, its closed form
+    ``z = s f_c (1 - d) + d z_prev``, ``d = exp(-sigma |dx| / f_c)`` (0 at ``f_c = 0``),
+    written out (the same arithmetic; parameters checked where the effect is placed).
 
     The increment is passed through a smooth dead band of width ``eps``,
     ``dx_eff = dx (1 - eps / sqrt(dx^2 + eps^2))``, so the force is a smooth function of
@@ -1411,11 +1424,13 @@ def dahl_step(x_prev, x, sigma, f_c, z_prev, eps) -> np.ndarray:
     measured.
     """
     x = np.asarray(x, dtype=float)
-    x_prev = np.broadcast_to(x_prev, x.shape)
     dx = x - x_prev
     dx_eff = dx * (1.0 - eps / np.sqrt(dx * dx + eps * eps))
-    path = np.stack([x_prev, x_prev + dx_eff], axis=-1)
-    return dahl_path(path, sigma, f_c, z0=np.broadcast_to(z_prev, x.shape))[..., -1]
+    dx_eff = (x_prev + dx_eff) - x_prev  # the path's own segment, as the path form takes it
+    fc = np.asarray(f_c, dtype=float)
+    with np.errstate(divide="ignore"):
+        decay = np.where(fc > 0, np.exp(-sigma * np.abs(dx_eff) / np.where(fc > 0, fc, 1.0)), 0.0)
+    return np.sign(dx_eff) * fc * (1.0 - decay) + decay * z_prev
 
 
 def _coloured_groups() -> tuple[np.ndarray, np.ndarray, int]:
