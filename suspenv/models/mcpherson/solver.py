@@ -699,8 +699,8 @@ class AxleSolver:
         """Stacked bushing deflections (..., 2, 4, 6) in BUSH_ORDER (``phi``: the rotation
         vectors ``log_so3(R[..., [0, 0, 2, 3], :, :])`` when already computed)."""
         pts = np.concatenate([r[..., 0:1, :] + arms_lca, r[..., 2:4, :]], axis=-2)
-        if phi is None:
-            phi = log_so3(R[..., [0, 0, 2, 3], :, :])
+        if phi is None:  # the lower arm's once, for both of its bushes
+            phi = log_so3(R[..., [0, 2, 3], :, :])[..., [0, 0, 1, 2], :]
         return np.concatenate([pts - self._ground4, phi], axis=-1)
 
     def _rotated(self, R: np.ndarray) -> np.ndarray:
@@ -1414,8 +1414,9 @@ class _CentreDrive:
 def dahl_step(x_prev, x, sigma, f_c, z_prev, eps) -> np.ndarray:
     """Dahl force after moving from ``x_prev`` to ``x``: the library's exact path form
     (:func:`~suspenv.models.effects.dahl_path`) on the one segment, its closed form
-    ``z = s f_c (1 - d) + d z_prev``, ``d = exp(-sigma |dx| / f_c)`` (0 at ``f_c = 0``),
-    written out (the same arithmetic; parameters checked where the effect is placed).
+    ``z = s f_c (1 - d) + d z_prev``, ``d = exp(-sigma |dx| / f_c)``, written out (the
+    same arithmetic). ``sigma`` [N/m] > 0 and ``f_c`` [N] > 0 (checked where the effect
+    is placed; a strut friction of level 0 is not placed).
 
     The increment is passed through a smooth dead band of width ``eps``,
     ``dx_eff = dx (1 - eps / sqrt(dx^2 + eps^2))``, so the force is a smooth function of
@@ -1427,10 +1428,8 @@ def dahl_step(x_prev, x, sigma, f_c, z_prev, eps) -> np.ndarray:
     dx = x - x_prev
     dx_eff = dx * (1.0 - eps / np.sqrt(dx * dx + eps * eps))
     dx_eff = (x_prev + dx_eff) - x_prev  # the path's own segment, as the path form takes it
-    fc = np.asarray(f_c, dtype=float)
-    with np.errstate(divide="ignore"):
-        decay = np.where(fc > 0, np.exp(-sigma * np.abs(dx_eff) / np.where(fc > 0, fc, 1.0)), 0.0)
-    return np.sign(dx_eff) * fc * (1.0 - decay) + decay * z_prev
+    decay = np.exp(-sigma * np.abs(dx_eff) / f_c)
+    return np.sign(dx_eff) * f_c * (1.0 - decay) + decay * z_prev
 
 
 def _coloured_groups() -> tuple[np.ndarray, np.ndarray, int]:
