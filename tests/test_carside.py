@@ -184,3 +184,18 @@ def test_bad_options_name_the_rule(options, fragment):
 def test_nan_design_is_rejected():
     with pytest.raises(ValidationError, match="must be finite"):
         CarSideImpact().evaluate(np.array([1.0, np.nan, 1, 1, 1, 1, 1]))
+
+
+def test_total_violation_is_the_same_dimensionless_number_in_both_scales():
+    # reference: g = r - limit divided by its declared scale (the limit) equals
+    # g = r / limit - 1 exactly, so the two modes' totals agree to float precision;
+    # the absolute mode's plain sum would add kN to mm and m/s
+    rng = np.random.default_rng(3)
+    p_abs = CarSideImpact(constraint_scale="absolute")
+    x = p_abs.space.lower + rng.random((64, 7)) * (p_abs.space.upper - p_abs.space.lower)
+    absolute = p_abs.evaluate(x)
+    relative = CarSideImpact().evaluate(x)
+    assert (relative.violation > 0).any() and (relative.violation == 0).any()
+    np.testing.assert_allclose(absolute.violation, relative.violation, rtol=1e-12, atol=1e-15)
+    plain = np.clip(absolute.constraints, 0.0, None).sum(axis=1)
+    assert not np.allclose(plain, relative.violation)

@@ -28,7 +28,9 @@ thicknesses in mm, mass in kg, forces in kN, viscous criteria and velocities in 
 Constraints are reported as ``g <= 0`` feasible (the RE suite states ``limit - r >= 0``;
 here the sign is flipped). ``constraint_scale="relative"`` (default, as pymoo) gives
 ``g = r / limit - 1`` (dimensionless, comparable across responses);
-``"absolute"`` gives ``g = r - limit`` in the response's unit.
+``"absolute"`` gives ``g = r - limit`` in the response's unit and declares the limits
+as :attr:`constraint_scales`, so the total violation is the same dimensionless number in
+both modes (``sum_i max(0, r_i / limit_i - 1)``).
 """
 
 from __future__ import annotations
@@ -173,6 +175,8 @@ class CarSideImpact(Problem):
         self.objective_names = tuple(names)
         self.objective_units = tuple(units)
         self._limits = np.array([limit for _, limit, _ in RESPONSE_LIMITS])
+        if self.variant != "RE41" and self.constraint_scale == "absolute":
+            self.constraint_scales = tuple(float(limit) for limit in self._limits)
 
     def _evaluate(self, X: np.ndarray) -> EvaluationBatch:
         r = side_impact_responses(X)
