@@ -31,6 +31,7 @@ Run the committed configuration with
 
 from __future__ import annotations
 
+import argparse
 import difflib
 import json
 import sys
@@ -604,8 +605,10 @@ def main(argv: list[str] | None = None) -> int:
     from suspenv.runs.config import load_config
     from suspenv.runs.runner import run_experiment
 
-    args = list(sys.argv[1:] if argv is None else argv)
-    config = load_config(args[0] if args else "experiments/diagnosis_benchmark.toml")
+    ap = argparse.ArgumentParser(description="Run the diagnosis benchmark; write its table.")
+    ap.add_argument("config", nargs="?", default="experiments/diagnosis_benchmark.toml",
+                    help="benchmark config (TOML)")
+    config = load_config(ap.parse_args(argv).config)
     t0 = time.perf_counter()
     # as `suspenv run` does: resume only the same experiment of the same code
     run_dir, summary = run_experiment(config)
