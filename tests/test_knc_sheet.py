@@ -158,3 +158,25 @@ def test_loop_half_width_matches_the_strut_friction_hand_calculation():
     hand = f * mr * k_t / (k_t + k_w)
     assert loop_half_width(res, "tyre_fz")[0, 0] == pytest.approx(hand, rel=0.03)
     assert np.abs(loop_half_width(plain["parallel"], "tyre_fz")).max() < 0.025
+
+
+def test_rows_solved_apart_keep_their_static_hard_points():
+    """Designs with other fitted constants are solved apart and stacked
+    (:func:`suspenv.methods.curve_fit._concat`); the geometric roll centre reads their
+    static hard points, which must survive the stacking (lost, the sheet's gradient of
+    it was NaN and its interval zero). Reference: the same designs solved together, to
+    the solver's tolerance (1 nm)."""
+    from suspenv.methods.curve_fit import _concat
+    from suspenv.metrics.knc_report import geometric_roll_centre
+
+    X = np.stack([reference_design(), reference_design()])
+    X[1, 2] += 0.004  # lower ball joint 4 mm higher
+    both = run_tests(build_axle(X), ("parallel",))["parallel"]
+    apart = [run_tests(build_axle(X[[i]]), ("parallel",))["parallel"] for i in (1, 0)]
+    got = _concat(apart, np.array([1, 0]))
+    assert set(got.static_points) == set(both.static_points)
+    for name, v in both.static_points.items():
+        np.testing.assert_allclose(got.static_points[name], v, rtol=0, atol=1e-9)
+    h = geometric_roll_centre(got)[1]
+    np.testing.assert_allclose(h, geometric_roll_centre(both)[1], rtol=0, atol=1e-6)
+    assert h[0] != h[1]

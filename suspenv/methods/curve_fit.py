@@ -601,18 +601,25 @@ def _call_groups(
 
 
 def _concat(parts: list[KCResult], order: np.ndarray) -> KCResult:
-    """The rows of ``parts`` stacked, then taken in ``order``."""
+    """The rows of ``parts`` stacked, then taken in ``order``: channels and the static
+    hard points (what the geometric roll centre reads) alike."""
     if len(parts) == 1 and np.array_equal(order, np.arange(order.size)):
         return parts[0]
     p0 = parts[0]
     msgs = [m for p in parts for m in p.messages]
+
+    def stack(name: str) -> dict[str, np.ndarray]:
+        first = getattr(p0, name)
+        return {k: np.concatenate([getattr(p, name)[k] for p in parts])[order] for k in first}
+
     return KCResult(
         p0.test,
         p0.grid,
         p0.path,
-        {k: np.concatenate([p.channels[k] for p in parts])[order] for k in p0.channels},
+        stack("channels"),
         np.concatenate([p.ok for p in parts])[order],
         [msgs[i] for i in order],
+        static_points=stack("static_points") if all(p.static_points for p in parts) else {},
     )
 
 
