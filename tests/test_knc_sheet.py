@@ -180,3 +180,17 @@ def test_rows_solved_apart_keep_their_static_hard_points():
     h = geometric_roll_centre(got)[1]
     np.testing.assert_allclose(h, geometric_roll_centre(both)[1], rtol=0, atol=1e-6)
     assert h[0] != h[1]
+
+
+def test_sandwich_interval_uses_students_t_of_its_loop_count():
+    """A cluster-robust variance from G loop scores has G - 1 degrees of freedom: its
+    95 % half-width is sqrt(G / (G - 1)) t_0.975(G - 1) standard errors. Reference:
+    Student's t table (t_0.975 = 2.365 for 7, 2.262 for 9 degrees of freedom, to the
+    table's 3 decimals); it tends to the normal 1.960 for many loops and is wider for
+    fewer loops (a test held out of the fit)."""
+    from suspenv.methods.knc_sheet import Z95, sandwich_quantile
+
+    assert sandwich_quantile(8) == pytest.approx(np.sqrt(8 / 7) * 2.365, abs=1e-3)
+    assert sandwich_quantile(10) == pytest.approx(np.sqrt(10 / 9) * 2.262, abs=1e-3)
+    assert sandwich_quantile(10**6) == pytest.approx(Z95, abs=1e-5)
+    assert sandwich_quantile(8) > sandwich_quantile(10) > Z95
