@@ -154,7 +154,7 @@ def bare_pymoo_loop(cfg: dict[str, Any]) -> dict[str, Any]:
         batch = problem.evaluate(designs[-1])
         ok = batch.ok
         F = np.where(ok[:, None], np.nan_to_num(batch.objectives, nan=FAILED_F), FAILED_F)
-        G = np.where(ok[:, None], np.nan_to_num(batch.constraints, nan=1.0), 1.0)
+        G = np.where(ok[:, None], np.nan_to_num(batch.scaled_constraints, nan=1.0), 1.0)
         feasible += int((ok & (G <= 0).all(axis=1)).sum())
         G = np.column_stack([G, (~ok).astype(float)])
         Evaluator().eval(StaticProblem(space, F=F, G=G), infill)
