@@ -246,127 +246,51 @@ def _run(
     n_steps = (road.shape[0] - 1) // 2
     keep_states = states.shape[2] > 0
     x, tmp = np.zeros(S), np.zeros(S)
-    k1, k2, k3, k4 = np.zeros(S), np.zeros(S), np.zeros(S), np.zeros(S)
+    K = np.zeros((4, S))  # the four RK4 stages' derivatives
     e, f = np.zeros(ne), np.zeros(ne)
-    h, h2, h6 = dt, dt / 2, dt / 6
+    h6 = dt / 6
+    # stage st starts from x + step[st] * K[st - 1] at road sample 2k + (st + 1) // 2
+    step = np.array([0.0, dt / 2, dt / 2, dt])
     for i in range(n):
         x[:] = 0.0
         for k in range(n_steps):
-            _rhs(
-                x,
-                road[2 * k],
-                i,
-                nq,
-                npos,
-                pv,
-                bt,
-                kel,
-                minv,
-                m12,
-                leaf,
-                damp,
-                knees,
-                f0,
-                linear,
-                stop_col,
-                stop_par,
-                fric_col,
-                fric_par,
-                hyst,
-                e,
-                f,
-                k1,
-            )
+            for st in range(4):
+                for s in range(S):
+                    tmp[s] = x[s] if st == 0 else x[s] + step[st] * K[st - 1, s]
+                _rhs(
+                    tmp,
+                    road[2 * k + (st + 1) // 2],
+                    i,
+                    nq,
+                    npos,
+                    pv,
+                    bt,
+                    kel,
+                    minv,
+                    m12,
+                    leaf,
+                    damp,
+                    knees,
+                    f0,
+                    linear,
+                    stop_col,
+                    stop_par,
+                    fric_col,
+                    fric_par,
+                    hyst,
+                    e,
+                    f,
+                    K[st],
+                )
             j = k - discard
             if j >= 0:
                 for m in range(rec_rows.shape[0]):
-                    rec[i, m, j] = k1[rec_rows[m]]
+                    rec[i, m, j] = K[0, rec_rows[m]]
                 if keep_states:
                     states[i, :, j] = x
-            for s in range(S):
-                tmp[s] = x[s] + h2 * k1[s]
-            _rhs(
-                tmp,
-                road[2 * k + 1],
-                i,
-                nq,
-                npos,
-                pv,
-                bt,
-                kel,
-                minv,
-                m12,
-                leaf,
-                damp,
-                knees,
-                f0,
-                linear,
-                stop_col,
-                stop_par,
-                fric_col,
-                fric_par,
-                hyst,
-                e,
-                f,
-                k2,
-            )
-            for s in range(S):
-                tmp[s] = x[s] + h2 * k2[s]
-            _rhs(
-                tmp,
-                road[2 * k + 1],
-                i,
-                nq,
-                npos,
-                pv,
-                bt,
-                kel,
-                minv,
-                m12,
-                leaf,
-                damp,
-                knees,
-                f0,
-                linear,
-                stop_col,
-                stop_par,
-                fric_col,
-                fric_par,
-                hyst,
-                e,
-                f,
-                k3,
-            )
-            for s in range(S):
-                tmp[s] = x[s] + h * k3[s]
-            _rhs(
-                tmp,
-                road[2 * k + 2],
-                i,
-                nq,
-                npos,
-                pv,
-                bt,
-                kel,
-                minv,
-                m12,
-                leaf,
-                damp,
-                knees,
-                f0,
-                linear,
-                stop_col,
-                stop_par,
-                fric_col,
-                fric_par,
-                hyst,
-                e,
-                f,
-                k4,
-            )
             finite = True
             for s in range(S):
-                x[s] += h6 * (k1[s] + 2.0 * (k2[s] + k3[s]) + k4[s])
+                x[s] += h6 * (K[0, s] + 2.0 * (K[1, s] + K[2, s]) + K[3, s])
                 finite = finite and math.isfinite(x[s])
             if not finite:
                 x[:] = np.nan
