@@ -194,3 +194,16 @@ def test_sandwich_interval_uses_students_t_of_its_loop_count():
     assert sandwich_quantile(10) == pytest.approx(np.sqrt(10 / 9) * 2.262, abs=1e-3)
     assert sandwich_quantile(10**6) == pytest.approx(Z95, abs=1e-5)
     assert sandwich_quantile(8) > sandwich_quantile(10) > Z95
+
+
+def test_a_gradient_a_design_cannot_give_leaves_the_interval_unknown():
+    # reference: a half-width is sqrt(g' C g); with a component of g unknown (NaN) the
+    # product is unknown, so the interval must say so rather than shrink to zero
+    from suspenv.methods.knc_sheet import _half_widths
+
+    cov = np.eye(2)
+    g = np.array([[1.0, np.nan], [0.0, 2.0]])
+    gd = g[:, 1] - g[:, 0]
+    for covs in (((cov, 1.96), (2 * cov, 2.5)), ((2 * cov, 2.5), (cov, 1.96))):
+        hw, hw_d = _half_widths(g, gd, covs)
+        assert np.isfinite(hw[0]) and np.isnan(hw[1]) and np.isnan(hw_d)

@@ -121,8 +121,8 @@ def _half_widths(
     """95 % half-widths of the two wheels' values (gradients ``g`` (dim, 2)) and of their
     difference (``gd`` (dim,)): the largest over the (covariance, quantile) pairs ``covs``."""
     var = np.max([q * q * np.einsum("ik,ij,jk->k", g, c, g) for c, q in covs], axis=0)
-    var_d = max(q * q * float(gd @ c @ gd) for c, q in covs)
-    return np.sqrt(np.maximum(var, 0.0)), float(np.sqrt(max(var_d, 0.0)))
+    var_d = np.max([q * q * float(gd @ c @ gd) for c, q in covs])  # NaN stays NaN
+    return np.sqrt(np.maximum(var, 0.0)), float(np.sqrt(np.maximum(var_d, 0.0)))
 
 
 def knc_sheet(
@@ -157,8 +157,9 @@ def knc_sheet(
         ),
     )
     for name, v in value.items():
-        g = (grads[name][1:] - grads[name][0]) / h[:, None]  # (dim, 2)
-        g = np.where(np.isfinite(g), g, 0.0)
+        # (dim, 2); a metric that a finite-difference design cannot give leaves its
+        # interval unknown (NaN), never narrowed by a zero gradient
+        g = (grads[name][1:] - grads[name][0]) / h[:, None]
         gd = g[:, 1] - g[:, 0]  # right - left: the sides' common errors cancel
         hw, hw_d = _half_widths(g, gd, covs)
         if name in loops:  # the gradient's model has no loop: no interval
