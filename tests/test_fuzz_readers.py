@@ -16,6 +16,7 @@ import json
 import math
 import os
 import zipfile
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -137,38 +138,65 @@ def recording_archives(draw: Any) -> dict[str, Any]:
         for name in names:
             arrays[f"{prefix}.{name}"] = draw(hnp.arrays(np.float64, n, elements=values))
     channels = sorted(arrays)
+    draft = _Draft(n, inputs, outputs, units, header, arrays)
     meta: Any = json.dumps(header)
     for fault in draw(st.lists(st.sampled_from(ARCHIVE_FAULTS), unique=True, max_size=3)):
         key = draw(st.sampled_from(sorted(header)))
         chan = draw(st.sampled_from(channels))
-        if fault == "unit":
-            units[draw(st.sampled_from(sorted(units)))] = draw(UNITS)
-        elif fault == "drop_key":
-            header.pop(key, None)
-        elif fault == "replace_key":
-            header[key] = draw(JSON)
-        elif fault == "array":
-            arrays[chan] = draw(channel_arrays(n))
-        elif fault == "drop_array":
-            arrays.pop(chan, None)
-        elif fault == "repeat":
-            header["inputs"] = [*inputs, *inputs, *outputs]
-        elif fault == "time":
-            arrays["time"] = draw(hnp.arrays(np.float64, n, elements=NUMBERS))
-        elif fault in ("non_finite", "huge") and chan in arrays and arrays[chan].dtype == float:
-            arrays[chan] = arrays[chan] * (np.nan if fault == "non_finite" else 1e300)
-        elif fault == "extra_member":
-            arrays["extra"] = draw(channel_arrays(n))
-        meta = json.dumps(header)
-        if fault == "meta_text":
-            meta = draw(st.text(max_size=20))  # not JSON
-        elif fault == "meta_array":
-            meta = np.zeros(3)  # not text
-        elif fault == "no_meta":
-            meta = None
+        _apply_fault(draw, fault, draft, key, chan)
+        meta = _meta_after(draw, fault, header)
     if meta is not None:
         arrays["__meta__"] = np.array(meta)
     return arrays
+
+
+@dataclass
+class _Draft:
+    """An archive being drawn: what its faults change (in place) and what they read."""
+
+    n: int
+    inputs: list[str]
+    outputs: list[str]
+    units: dict[str, str]
+    header: dict[str, Any]
+    arrays: dict[str, Any]
+
+
+def _apply_fault(draw: Any, fault: str, draft: _Draft, key: str, chan: str) -> None:
+    """Apply one fault of :data:`ARCHIVE_FAULTS` to the header, units or arrays of
+    ``draft`` (``key``: a header key, ``chan``: an array name; the meta faults act on
+    the header's text: :func:`_meta_after`)."""
+    header, arrays, n = draft.header, draft.arrays, draft.n
+    if fault == "unit":
+        draft.units[draw(st.sampled_from(sorted(draft.units)))] = draw(UNITS)
+    elif fault == "drop_key":
+        header.pop(key, None)
+    elif fault == "replace_key":
+        header[key] = draw(JSON)
+    elif fault == "array":
+        arrays[chan] = draw(channel_arrays(n))
+    elif fault == "drop_array":
+        arrays.pop(chan, None)
+    elif fault == "repeat":
+        header["inputs"] = [*draft.inputs, *draft.inputs, *draft.outputs]
+    elif fault == "time":
+        arrays["time"] = draw(hnp.arrays(np.float64, n, elements=NUMBERS))
+    elif fault in ("non_finite", "huge") and chan in arrays and arrays[chan].dtype == float:
+        arrays[chan] = arrays[chan] * (np.nan if fault == "non_finite" else 1e300)
+    elif fault == "extra_member":
+        arrays["extra"] = draw(channel_arrays(n))
+
+
+def _meta_after(draw: Any, fault: str, header: dict[str, Any]) -> Any:
+    """The archive's ``__meta__`` after ``fault``: the header as JSON, or text that is
+    not JSON, an array that is not text, or None (no meta member)."""
+    if fault == "meta_text":
+        return draw(st.text(max_size=20))
+    if fault == "meta_array":
+        return np.zeros(3)
+    if fault == "no_meta":
+        return None
+    return json.dumps(header)
 
 
 # ------------------------------------------------------------------ recording readers
