@@ -330,23 +330,9 @@ def integrate(
                         stateless, states, z, x0, v0, xk, vk, gx, gv, h, fe, slope, tol, max_iter
                     )
                 else:
-                    # G(F) = F - f(xk + gx F, vk + gv F) = 0: start from the linear
-                    # extrapolation of the force, a chord step with the last slope, then
-                    # secant steps
-                    fa = 2.0 * fe - f_prev
-                    ga = fa - stateless(xk + gx * fa, vk + gv * fa)
-                    fb = fa - ga / slope
-                    gb = fb - stateless(xk + gx * fb, vk + gv * fb)
-                    for _ in range(max_iter):
-                        if abs(gb) <= tol * (1.0 + abs(fb)) or gb == ga:
-                            break
-                        fa, ga, fb = fb, gb, fb - gb * (fb - fa) / (gb - ga)
-                        gb = fb - stateless(xk + gx * fb, vk + gv * fb)
-                    if fb != fa and gb != ga:
-                        slope = (gb - ga) / (fb - fa)
-                        if not slope > 0.05:  # G' >= 1 for passive elements; guard
-                            slope = 1.0
-                    f1 = fb
+                    f1, slope = _solve_stateless(
+                        stateless, xk, vk, gx, gv, fe, f_prev, slope, tol, max_iter
+                    )
             zs, vs = kz_s + b0[1] * f1, kv_s + b1[1] * f1
             zu, vu = kz_u + b2[1] * f1, kv_u + b3[1] * f1
             x0, v0, f_prev, fe = zu - zs, vu - vs, fe, f1
@@ -444,6 +430,45 @@ def _solve_with_states(
     ga, za = residual(fa)
     if abs(ga) <= tol * (1.0 + abs(fa)):
         return fa, za, slope
+    return _chord_secant(residual, fa, ga, slope, tol, max_iter)
+
+
+def _solve_stateless(
+    stateless: Callable[[float, float], float],
+    xk: float,
+    vk: float,
+    gx: float,
+    gv: float,
+    fe: float,
+    f_prev: float,
+    slope: float,
+    tol: float,
+    max_iter: int,
+) -> tuple[float, float]:
+    """Root ``F`` of ``G(F) = F - f(xk + gx F, vk + gv F)`` for stateless elements and the
+    last secant slope, from the linear extrapolation ``2 fe - f_prev`` of the force."""
+
+    def residual(f: float) -> tuple[float, None]:
+        return f - stateless(xk + gx * f, vk + gv * f), None
+
+    fa = 2.0 * fe - f_prev
+    ga = residual(fa)[0]
+    f1, _, slope = _chord_secant(residual, fa, ga, slope, tol, max_iter)
+    return f1, slope
+
+
+def _chord_secant(
+    residual: Callable[[float], tuple[float, Any]],
+    fa: float,
+    ga: float,
+    slope: float,
+    tol: float,
+    max_iter: int,
+) -> tuple[float, Any, float]:
+    """From ``fa`` with residual ``ga``: a chord step with the last ``slope``, then secant
+    steps to ``|G| <= tol (1 + |F|)``. Returns the force, what ``residual`` gave with it
+    (the element states) and the new slope (``G' >= 1`` for passive elements: a slope
+    not above 0.05 is taken as 1)."""
     fb = fa - ga / slope
     gb, zb = residual(fb)
     for _ in range(max_iter):

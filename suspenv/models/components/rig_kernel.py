@@ -129,16 +129,53 @@ def pack(effects: Sequence[Effect]) -> tuple[np.ndarray, np.ndarray, np.ndarray,
 
 def _law(code: int, p: np.ndarray, x: float, v: float) -> float:
     """Force [N] of one stateless element (the formulas of ``_element_law``)."""
+    if code in (0, 1, 2, 13):
+        return _friction_law(code, p, v)
+    if code in (3, 4, 14):
+        return _stop_law(code, p, x)
+    if code in (7, 8, 11):
+        return _damping_law(code, p, v)
+    return _stiffness_law(code, p, x, v)
+
+
+def _friction_law(code: int, p: np.ndarray, v: float) -> float:
+    """Force [N] of a friction element: Coulomb (0), Stribeck (1), directional (2),
+    low-speed deficit (13)."""
     if code == 0:
         return p[0] * math.tanh(v * p[1])
     if code == 1:
         return (p[0] + p[1] * math.exp(-((v * p[3]) ** 2))) * math.tanh(v * p[2])
     if code == 2:
         return p[0] * math.tanh(v * p[2]) + p[1] * abs(math.tanh(v * p[2]))
+    return -p[0] * math.tanh(v * p[1])
+
+
+def _stop_law(code: int, p: np.ndarray, x: float) -> float:
+    """Force [N] of an end stop: bump (3), rebound (4), both (14)."""
     if code == 3:
         return p[0] * (x - p[1]) ** p[2] if x > p[1] else 0.0
     if code == 4:
         return -p[0] * (-x - p[1]) ** p[2] if -x > p[1] else 0.0
+    if x > p[1]:
+        return p[0] * (x - p[1]) ** p[2]
+    return -p[3] * (-x - p[4]) ** p[2] if -x > p[4] else 0.0
+
+
+def _damping_law(code: int, p: np.ndarray, v: float) -> float:
+    """Force [N] of a damper element: rebound asymmetry (7), digressive (8), asymmetric
+    digressive (11)."""
+    if code == 7:
+        return p[0] * v if v < 0.0 else 0.0
+    if code == 8:
+        return p[0] * v / (1.0 + abs(v) * p[1])
+    if v >= 0.0:
+        return p[0] * v / (1.0 + v / p[1])
+    return p[2] * v / (1.0 - v / p[3])
+
+
+def _stiffness_law(code: int, p: np.ndarray, x: float, v: float) -> float:
+    """Force [N] of a spring-like element: cubic (5), progressive (6), gas spring (9),
+    offset (10), Kelvin-Voigt (12)."""
     if code == 5:
         d = x - p[1]
         return p[0] * d * d * d
@@ -146,24 +183,10 @@ def _law(code: int, p: np.ndarray, x: float, v: float) -> float:
         if abs(x) > p[1]:
             return (p[0] if x > 0.0 else -p[0]) * (abs(x) - p[1]) ** 2
         return 0.0
-    if code == 7:
-        return p[0] * v if v < 0.0 else 0.0
-    if code == 8:
-        return p[0] * v / (1.0 + abs(v) * p[1])
     if code == 9:
         return p[0] + p[1] * x
     if code == 10:
         return p[0]
-    if code == 11:
-        if v >= 0.0:
-            return p[0] * v / (1.0 + v / p[1])
-        return p[2] * v / (1.0 - v / p[3])
-    if code == 13:  # low_speed_deficit
-        return -p[0] * math.tanh(v * p[1])
-    if code == 14:  # bump_and_rebound_stops
-        if x > p[1]:
-            return p[0] * (x - p[1]) ** p[2]
-        return -p[3] * (-x - p[4]) ** p[2] if -x > p[4] else 0.0
     return p[0] * x + p[1] * v  # 12: kelvin_voigt
 
 
@@ -253,6 +276,111 @@ def _maxwell_coefficients(st_codes: np.ndarray, st_par: np.ndarray, h: float, mx
             mx[i, 2] = k_m * (tau - tau * tau * (1.0 - decay) / h)
 
 
+def _known_part(
+    p: np.ndarray,
+    a: np.ndarray,
+    b: np.ndarray,
+    i: int,
+    zs: float,
+    vs: float,
+    zu: float,
+    vu: float,
+    r_start: float,
+    fe: float,
+    r_end: float,
+) -> float:
+    """Row ``i`` of the end state without the unknown end force (``Phi s0 + G0 u0`` and
+    the road part of ``G1 u1``)."""
+    y = p[i, 0] * zs + p[i, 1] * vs + p[i, 2] * zu + p[i, 3] * vu
+    y += a[i, 0] * r_start + a[i, 1] * fe + b[i, 0] * r_end
+    return y
+
+
+def _secant_slope(fa: float, ga: float, fb: float, gb: float, slope: float) -> float:
+    """The slope of the last secant (the next step's chord start); 1 where it is not
+    above 0.05 (``G' >= 1`` for passive elements: a guard)."""
+    if fb != fa and gb != ga:
+        slope = (gb - ga) / (fb - fa)
+        if not slope > 0.05:
+            slope = 1.0
+    return slope
+
+
+def _solve_stateless(
+    law_codes: np.ndarray,
+    law_par: np.ndarray,
+    xk: float,
+    vk: float,
+    gx: float,
+    gv: float,
+    fa_end: float,
+    fe: float,
+    f_prev: float,
+    slope: float,
+    tol: float,
+    max_iter: int,
+) -> tuple[float, float]:
+    """End force [N] of stateless elements and the new secant slope: the root of
+    ``G(F) = F - f(xk + gx F, vk + gv F)`` from the linear extrapolation of the force, a
+    chord step with the last slope, then secant steps."""
+    fa = 2.0 * fe - f_prev
+    ga = fa - _stateless(law_codes, law_par, xk + gx * fa, vk + gv * fa, fa_end)
+    fb = fa - ga / slope
+    gb = fb - _stateless(law_codes, law_par, xk + gx * fb, vk + gv * fb, fa_end)
+    for _ in range(max_iter):
+        if abs(gb) <= tol * (1.0 + abs(fb)) or gb == ga:
+            break
+        fa, ga, fb = fb, gb, fb - gb * (fb - fa) / (gb - ga)
+        gb = fb - _stateless(law_codes, law_par, xk + gx * fb, vk + gv * fb, fa_end)
+    return fb, _secant_slope(fa, ga, fb, gb, slope)
+
+
+def _solve_states(
+    law_codes: np.ndarray,
+    law_par: np.ndarray,
+    st_codes: np.ndarray,
+    st_par: np.ndarray,
+    mx: np.ndarray,
+    z: np.ndarray,
+    z_a: np.ndarray,
+    z_b: np.ndarray,
+    x0: float,
+    v0: float,
+    xk: float,
+    vk: float,
+    gx: float,
+    gv: float,
+    fa_end: float,
+    fe: float,
+    slope: float,
+    tol: float,
+    max_iter: int,
+) -> tuple[float, float]:
+    """End force [N] with stateful elements and the new secant slope (the element states
+    at the root written to ``z``; ``z_a``, ``z_b``: work arrays): the last force if it
+    solves the step, else a chord step with the last slope, then secant steps."""
+    fa = fe
+    ga = _states_residual(
+        fa, law_codes, law_par, st_codes, st_par, mx, z, z_a, x0, v0, xk, vk, gx, gv, fa_end
+    )
+    if abs(ga) <= tol * (1.0 + abs(fa)):
+        z[:] = z_a
+        return fa, slope
+    fb = fa - ga / slope
+    gb = _states_residual(
+        fb, law_codes, law_par, st_codes, st_par, mx, z, z_b, x0, v0, xk, vk, gx, gv, fa_end
+    )
+    for _ in range(max_iter):
+        if abs(gb) <= tol * (1.0 + abs(fb)) or gb == ga:
+            break
+        fa, ga, fb = fb, gb, fb - gb * (fb - fa) / (gb - ga)
+        gb = _states_residual(
+            fb, law_codes, law_par, st_codes, st_par, mx, z, z_b, x0, v0, xk, vk, gx, gv, fa_end
+        )
+    z[:] = z_b
+    return fb, _secant_slope(fa, ga, fb, gb, slope)
+
+
 def _run(
     phis: np.ndarray,
     g0s: np.ndarray,
@@ -313,61 +441,21 @@ def _run(
             r_start, r_end = ra + dr * j, ra + dr * (j + 1)
             if has_act:
                 fa_end = act[k] + (act[k + 1] - act[k]) * (j + 1) / nsub
-            kz_s = p[0, 0] * zs + p[0, 1] * vs + p[0, 2] * zu + p[0, 3] * vu
-            kz_s += a[0, 0] * r_start + a[0, 1] * fe + b[0, 0] * r_end
-            kv_s = p[1, 0] * zs + p[1, 1] * vs + p[1, 2] * zu + p[1, 3] * vu
-            kv_s += a[1, 0] * r_start + a[1, 1] * fe + b[1, 0] * r_end
-            kz_u = p[2, 0] * zs + p[2, 1] * vs + p[2, 2] * zu + p[2, 3] * vu
-            kz_u += a[2, 0] * r_start + a[2, 1] * fe + b[2, 0] * r_end
-            kv_u = p[3, 0] * zs + p[3, 1] * vs + p[3, 2] * zu + p[3, 3] * vu
-            kv_u += a[3, 0] * r_start + a[3, 1] * fe + b[3, 0] * r_end
+            kz_s = _known_part(p, a, b, 0, zs, vs, zu, vu, r_start, fe, r_end)
+            kv_s = _known_part(p, a, b, 1, zs, vs, zu, vu, r_start, fe, r_end)
+            kz_u = _known_part(p, a, b, 2, zs, vs, zu, vu, r_start, fe, r_end)
+            kv_u = _known_part(p, a, b, 3, zs, vs, zu, vu, r_start, fe, r_end)
             f1 = 0.0
-            if has_effects:
-                xk, vk = kz_u - kz_s, kv_u - kv_s
-                if S:
-                    fa = fe
-                    ga = _states_residual(
-                        fa, law_codes, law_par, st_codes, st_par, mx, z, z_a,
-                        x0, v0, xk, vk, gx, gv, fa_end,
-                    )  # fmt: skip
-                    if abs(ga) <= tol * (1.0 + abs(fa)):
-                        f1 = fa
-                        z[:] = z_a
-                    else:
-                        fb = fa - ga / slope
-                        gb = _states_residual(
-                            fb, law_codes, law_par, st_codes, st_par, mx, z, z_b,
-                            x0, v0, xk, vk, gx, gv, fa_end,
-                        )  # fmt: skip
-                        for _ in range(max_iter):
-                            if abs(gb) <= tol * (1.0 + abs(fb)) or gb == ga:
-                                break
-                            fa, ga, fb = fb, gb, fb - gb * (fb - fa) / (gb - ga)
-                            gb = _states_residual(
-                                fb, law_codes, law_par, st_codes, st_par, mx, z, z_b,
-                                x0, v0, xk, vk, gx, gv, fa_end,
-                            )  # fmt: skip
-                        if fb != fa and gb != ga:
-                            slope = (gb - ga) / (fb - fa)
-                            if not slope > 0.05:
-                                slope = 1.0
-                        f1 = fb
-                        z[:] = z_b
-                else:
-                    fa = 2.0 * fe - f_prev
-                    ga = fa - _stateless(law_codes, law_par, xk + gx * fa, vk + gv * fa, fa_end)
-                    fb = fa - ga / slope
-                    gb = fb - _stateless(law_codes, law_par, xk + gx * fb, vk + gv * fb, fa_end)
-                    for _ in range(max_iter):
-                        if abs(gb) <= tol * (1.0 + abs(fb)) or gb == ga:
-                            break
-                        fa, ga, fb = fb, gb, fb - gb * (fb - fa) / (gb - ga)
-                        gb = fb - _stateless(law_codes, law_par, xk + gx * fb, vk + gv * fb, fa_end)
-                    if fb != fa and gb != ga:
-                        slope = (gb - ga) / (fb - fa)
-                        if not slope > 0.05:
-                            slope = 1.0
-                    f1 = fb
+            if has_effects and S:
+                f1, slope = _solve_states(
+                    law_codes, law_par, st_codes, st_par, mx, z, z_a, z_b, x0, v0,
+                    kz_u - kz_s, kv_u - kv_s, gx, gv, fa_end, fe, slope, tol, max_iter,
+                )  # fmt: skip
+            elif has_effects:
+                f1, slope = _solve_stateless(
+                    law_codes, law_par, kz_u - kz_s, kv_u - kv_s, gx, gv, fa_end, fe, f_prev,
+                    slope, tol, max_iter,
+                )  # fmt: skip
             zs, vs = kz_s + b[0, 1] * f1, kv_s + b[1, 1] * f1
             zu, vu = kz_u + b[2, 1] * f1, kv_u + b[3, 1] * f1
             x0, v0, f_prev, fe = zu - zs, vu - vs, fe, f1
@@ -384,11 +472,19 @@ run = compiled.Lazy(
     globals(),
     (
         "_law",
+        "_friction_law",
+        "_stop_law",
+        "_damping_law",
+        "_stiffness_law",
         "_stateless",
         "_lugre_level",
         "_state_step",
         "_states_residual",
         "_maxwell_coefficients",
+        "_known_part",
+        "_secant_slope",
+        "_solve_stateless",
+        "_solve_states",
     ),
     _run,
 )
