@@ -348,6 +348,8 @@ def _analyse_problem(
     n_targets: int,
     alpha: float,
 ) -> ProblemComparison:
+    """Everything measured on the runs of one problem configuration (``pc.result``:
+    that problem's part of ``compare.json``)."""
     r0 = runs[0]
     phash = r0.problem_hash
     groups = _group(runs, allow_unequal_budgets)
@@ -363,136 +365,25 @@ def _analyse_problem(
             multi_info = _multiobjective(
                 pc, runs, _lookup(reference_front, r0.problem, phash), kind != "quality"
             )
-    if kind == "quality":
-        pc.measure_name = r0.quality_name
-        given = _lookup(f_opt, r0.problem, phash)
-        # the objective itself (the default quality; its name before "objective")
-        plain = r0.quality_name in ("objective", "objective (sum if several)")
-        if given is None and plain and r0.normalisation is None:
-            given = KNOWN_OPTIMA.get(r0.problem) if len(r0.objective_names) == 1 else None
-        pc.f_opt = None if given is None else float(given)
-        for g in groups:
-            g.curves = [r.curve for r in g.runs]
-    else:
-        pc.measure_name = "hypervolume deficit (HV_ref - HV)"
-        assert pc.hv_reference is not None
-        for g in groups:
-            g.curves = [pc.hv_reference - c for c in g.hv_curves]
-        lowest = min(float(c[-1]) for g in groups for c in g.curves if c.size)
-        pc.f_opt = min(0.0, lowest)
-    # lengths: a run that stopped early keeps its best up to its budget
-    for g in groups:
-        g.curves = [curve_matrix([c], _length(r))[0] for c, r in zip(g.curves, g.runs, strict=True)]
-    lengths = [_length(r) for r in runs]
-    pc.common_budget = min(lengths)
-    per_group_budget = {g.label: g.budgets for g in groups}
-    unequal = len({b for bs in per_group_budget.values() for b in bs}) > 1
-    if unequal:
-        flags.append(
-            "unequal budgets: "
-            + ", ".join(f"{k} {v}" for k, v in per_group_budget.items())
-            + f"; fixed-budget results and rank tests are taken at the common budget "
-            f"{pc.common_budget}"
-        )
-    stopped = [r.name for r in runs if r.budget and r.evaluations_used < r.budget]
-    if stopped:
-        flags.append(f"stopped before their budget (best kept to the budget): {', '.join(stopped)}")
-    none = [r.name for r in runs if not np.isfinite(r.final)]
-    if none:
-        flags.append(f"no feasible evaluation: {', '.join(none)}")
-    for g in groups:
-        if len(g.runs) < 2:
-            flags.append(f"{g.label} has a single run: no spread, no rank test power")
-    # targets
+    _measure_curves(pc, r0, f_opt)
+    pc.common_budget = min(_length(r) for r in runs)
+    unequal = _flag_runs(pc, runs)
     finals = [float(c[-1]) for g in groups for c in g.curves if c.size]
     given_t = _lookup(targets, r0.problem, phash)
     if given_t is not None:
         pc.targets = np.sort(np.asarray(given_t, dtype=float).ravel())[::-1]
     else:
         pc.targets = make_targets(finals, pc.f_opt, n_targets)
-    # per group numbers
     budgets = _budgets(pc.common_budget)
     fb_rows, ft_rows, table_rows = [], [], []
     samples, seeds = {}, {}
     for g in groups:
         M = curve_matrix(g.curves, pc.common_budget)
-        for row in fixed_budget(M, budgets):
-            fb_rows.append({"group": g.label, **row})
-        rt = runtime_matrix(g.curves, pc.targets)
-        e = ert(rt, [r.evaluations_used for r in g.runs])
-        pc.runtimes[g.label] = rt
-        pc.ert[g.label] = e
-        for j, t in enumerate(pc.targets):
-            ft_rows.append(
-                {
-                    "group": g.label,
-                    "target": float(t),
-                    "ert": float(e[j]),
-                    "successes": int(np.isfinite(rt[:, j]).sum()),
-                    "runs": len(g.runs),
-                }
-            )
-        at_common = M[:, -1]
-        samples[g.label] = at_common.tolist()
+        fb_rows += [{"group": g.label, **row} for row in fixed_budget(M, budgets)]
+        ft_rows += _fixed_target_rows(pc, g)
+        samples[g.label] = M[:, -1].tolist()
         seeds[g.label] = [r.seed if r.seed is not None else -1 for r in g.runs]
-        best = np.array([r.best_quality for r in g.runs])
-        wall = [r.summary.get("wall_time_s") for r in g.runs]
-        wall_f = [float(w) for w in wall if isinstance(w, int | float)]
-        q = curve_quantiles(at_common.reshape(-1, 1))
-        table_rows.append(
-            {
-                # the fields of the first `suspenv compare` (kept for its callers)
-                "strategy": g.strategy,
-                "runs": len(g.runs),
-                "seeds": g.seeds,
-                "evaluations": int(np.median([r.evaluations_used for r in g.runs])),
-                "best_median": _finite_or_nan(np.median(best)) if len(best) else float("nan"),
-                "best_min": _finite_or_nan(best.min()),
-                "best_max": _finite_or_nan(best.max()),
-                "wall_time_median_s": float(np.median(wall_f)) if wall_f else None,
-                # what the comparison adds
-                "group": g.label,
-                "hash": g.strategy_hash,
-                "problem": r0.problem,
-                "problem_hash": phash,
-                "differs": g.differs,
-                "budgets": g.budgets,
-                "unequal_budget": unequal,
-                "measure": pc.measure_name,
-                "budget_compared": pc.common_budget,
-                "median": float(q[0.5][0]),
-                "q25": float(q[0.25][0]),
-                "q75": float(q[0.75][0]),
-                "min": float(q[0.0][0]),
-                "max": float(q[1.0][0]),
-                "ecdf_area": ecdf_area(rt, max(g.lengths())),
-            }
-        )
-    tests = rank_tests(samples, seeds, alpha)
-    groups_json = [
-        {
-            "group": g.label,
-            "strategy": g.strategy,
-            "hash": g.strategy_hash,
-            "options": g.options,
-            "resolved_options": g.runs[0].strategy_resolved,
-            "differs": g.differs,
-            "seeds": g.seeds,
-            "budgets": g.budgets,
-            "runs": [
-                {
-                    "run": str(r.path),
-                    "seed": r.seed,
-                    "budget": r.budget,
-                    "evaluations": r.evaluations_used,
-                    "final": float(c[-1]) if c.size else None,
-                    "summary_best_quality": _finite_or_nan(r.best_quality),
-                }
-                for r, c in zip(g.runs, g.curves, strict=True)
-            ],
-        }
-        for g in groups
-    ]
+        table_rows.append(_table_row(pc, g, r0, M[:, -1], unequal))
     pc.result = {
         "problem": r0.problem,
         "hash": phash,
@@ -503,15 +394,149 @@ def _analyse_problem(
         "f_opt": pc.f_opt,
         "common_budget": pc.common_budget,
         "flags": flags,
-        "groups": groups_json,
+        "groups": [_group_json(g) for g in groups],
         "table": table_rows,
         "fixed_budget": fb_rows,
         "targets": pc.targets.tolist(),
         "fixed_target": ft_rows,
         "multiobjective": multi_info,
-        "rank_tests": tests,
+        "rank_tests": rank_tests(samples, seeds, alpha),
     }
     return pc
+
+
+def _measure_curves(pc: ProblemComparison, r0: RunRecord, f_opt: Any) -> None:
+    """Each group's measure curves, one per run and as long as the run's
+    :func:`_length` (a run that stopped early keeps its best up to its budget), the
+    measure's name and its optimum ``pc.f_opt`` (given, known, or for the hypervolume
+    deficit ``min(0, lowest final deficit)``)."""
+    if pc.measure == "quality":
+        pc.measure_name = r0.quality_name
+        given = _lookup(f_opt, r0.problem, pc.problem_hash)
+        # the objective itself (the default quality; its name before "objective")
+        plain = r0.quality_name in ("objective", "objective (sum if several)")
+        if given is None and plain and r0.normalisation is None:
+            given = KNOWN_OPTIMA.get(r0.problem) if len(r0.objective_names) == 1 else None
+        pc.f_opt = None if given is None else float(given)
+        for g in pc.groups:
+            g.curves = [r.curve for r in g.runs]
+    else:
+        pc.measure_name = "hypervolume deficit (HV_ref - HV)"
+        assert pc.hv_reference is not None
+        for g in pc.groups:
+            g.curves = [pc.hv_reference - c for c in g.hv_curves]
+        lowest = min(float(c[-1]) for g in pc.groups for c in g.curves if c.size)
+        pc.f_opt = min(0.0, lowest)
+    for g in pc.groups:
+        g.curves = [curve_matrix([c], _length(r))[0] for c, r in zip(g.curves, g.runs, strict=True)]
+
+
+def _flag_runs(pc: ProblemComparison, runs: list[RunRecord]) -> bool:
+    """Add to ``pc.flags`` what limits the comparison (unequal budgets, runs stopped
+    early or without a feasible evaluation, single runs); True when budgets differ."""
+    per_group_budget = {g.label: g.budgets for g in pc.groups}
+    unequal = len({b for bs in per_group_budget.values() for b in bs}) > 1
+    if unequal:
+        pc.flags.append(
+            "unequal budgets: "
+            + ", ".join(f"{k} {v}" for k, v in per_group_budget.items())
+            + f"; fixed-budget results and rank tests are taken at the common budget "
+            f"{pc.common_budget}"
+        )
+    stopped = [r.name for r in runs if r.budget and r.evaluations_used < r.budget]
+    if stopped:
+        pc.flags.append(
+            f"stopped before their budget (best kept to the budget): {', '.join(stopped)}"
+        )
+    none = [r.name for r in runs if not np.isfinite(r.final)]
+    if none:
+        pc.flags.append(f"no feasible evaluation: {', '.join(none)}")
+    for g in pc.groups:
+        if len(g.runs) < 2:
+            pc.flags.append(f"{g.label} has a single run: no spread, no rank test power")
+    return unequal
+
+
+def _fixed_target_rows(pc: ProblemComparison, g: Group) -> list[dict[str, Any]]:
+    """Runtimes to each target of one group (stored in ``pc.runtimes`` and ``pc.ert``)
+    and the fixed-target rows: ERT and successes per target."""
+    rt = runtime_matrix(g.curves, pc.targets)
+    e = ert(rt, [r.evaluations_used for r in g.runs])
+    pc.runtimes[g.label] = rt
+    pc.ert[g.label] = e
+    return [
+        {
+            "group": g.label,
+            "target": float(t),
+            "ert": float(e[j]),
+            "successes": int(np.isfinite(rt[:, j]).sum()),
+            "runs": len(g.runs),
+        }
+        for j, t in enumerate(pc.targets)
+    ]
+
+
+def _table_row(
+    pc: ProblemComparison, g: Group, r0: RunRecord, at_common: np.ndarray, unequal: bool
+) -> dict[str, Any]:
+    """One group's row of the table: the runs' summaries, and the measure's quantiles at
+    the common budget (``at_common``: one value per run)."""
+    best = np.array([r.best_quality for r in g.runs])
+    wall = [r.summary.get("wall_time_s") for r in g.runs]
+    wall_f = [float(w) for w in wall if isinstance(w, int | float)]
+    q = curve_quantiles(at_common.reshape(-1, 1))
+    return {
+        # the fields of the first `suspenv compare` (kept for its callers)
+        "strategy": g.strategy,
+        "runs": len(g.runs),
+        "seeds": g.seeds,
+        "evaluations": int(np.median([r.evaluations_used for r in g.runs])),
+        "best_median": _finite_or_nan(np.median(best)) if len(best) else float("nan"),
+        "best_min": _finite_or_nan(best.min()),
+        "best_max": _finite_or_nan(best.max()),
+        "wall_time_median_s": float(np.median(wall_f)) if wall_f else None,
+        # what the comparison adds
+        "group": g.label,
+        "hash": g.strategy_hash,
+        "problem": r0.problem,
+        "problem_hash": pc.problem_hash,
+        "differs": g.differs,
+        "budgets": g.budgets,
+        "unequal_budget": unequal,
+        "measure": pc.measure_name,
+        "budget_compared": pc.common_budget,
+        "median": float(q[0.5][0]),
+        "q25": float(q[0.25][0]),
+        "q75": float(q[0.75][0]),
+        "min": float(q[0.0][0]),
+        "max": float(q[1.0][0]),
+        "ecdf_area": ecdf_area(pc.runtimes[g.label], max(g.lengths())),
+    }
+
+
+def _group_json(g: Group) -> dict[str, Any]:
+    """One group in ``compare.json``: its configuration and each run's final measure."""
+    return {
+        "group": g.label,
+        "strategy": g.strategy,
+        "hash": g.strategy_hash,
+        "options": g.options,
+        "resolved_options": g.runs[0].strategy_resolved,
+        "differs": g.differs,
+        "seeds": g.seeds,
+        "budgets": g.budgets,
+        "runs": [
+            {
+                "run": str(r.path),
+                "seed": r.seed,
+                "budget": r.budget,
+                "evaluations": r.evaluations_used,
+                "final": float(c[-1]) if c.size else None,
+                "summary_best_quality": _finite_or_nan(r.best_quality),
+            }
+            for r, c in zip(g.runs, g.curves, strict=True)
+        ],
+    }
 
 
 def _finite_or_nan(v: Any) -> float:
