@@ -204,6 +204,186 @@ def _close(archive: RunArchive, writer: ArchiveWriter | None, **meta: Any) -> No
         archive.close()
 
 
+@dataclass
+class _Tally:
+    """What a run has done so far: evaluations, batches, the best feasible design by the
+    problem's quality (none for several objectives without one:
+    :mod:`suspenv.runs.quality`) and one history row per batch."""
+
+    used: int = 0
+    resumed: int = 0
+    batches: int = 0
+    stop_reason: str = ""
+    best: float = math.inf
+    best_index: int | None = None
+    best_objectives: list[float] | None = None
+    best_x: np.ndarray | None = None
+    history: list[dict[str, Any]] = field(default_factory=list)
+
+    def record(self, problem: Problem, batch: EvaluationBatch, X: np.ndarray) -> None:
+        """Take the best of a batch just told (rows ``X``) and add its history row."""
+        F, ok = batch.objectives, batch.ok
+        feasible = run_quality.feasible(ok, batch.constraints)
+        q = run_quality.quality(problem, F)
+        i = None if q is None else run_quality.best_row(q, feasible)
+        if q is not None and i is not None and q[i] < self.best:
+            self.best, self.best_index = float(q[i]), self.used + i
+            self.best_objectives, self.best_x = F[i].tolist(), X[i].copy()
+        self.history.append(
+            {
+                "batch": self.batches,
+                "evaluations": self.used + len(X),
+                "best": self.best,
+                "n_ok": int(np.count_nonzero(ok)),
+                "n_feasible": int(np.count_nonzero(feasible)),
+            }
+        )
+
+
+@dataclass
+class _Evaluator:
+    """Evaluates the rows of a batch not in the archive, handing every chunk to the
+    archive's writer, the recorders and the progress bar as it completes."""
+
+    problem: Problem
+    executor: Executor | None
+    workers: int
+    chunk_size: int | None
+    policy: FaultPolicy
+    writer: ArchiveWriter | None
+    recorders: Sequence[Recorder]
+    bar: Any
+
+    def batch(
+        self,
+        b: int,
+        U: np.ndarray,
+        X: np.ndarray,
+        results: list[EvaluationBatch | None],
+        replayed: int,
+    ) -> EvaluationBatch:
+        """Batch ``b`` (unit rows ``U``, physical rows ``X``) with the ``replayed`` rows
+        of ``results`` (archived, the others None) evaluated no more."""
+        n = len(U)
+        todo = (
+            np.arange(n)
+            if not replayed
+            else np.array([r for r in range(n) if results[r] is None], dtype=int)
+        )
+        parts: list[tuple[list[int], EvaluationBatch]] = []
+        if todo.size:
+            chunk = self.chunk_size or default_chunk(todo.size, self.workers)
+            chunks = evaluate_chunks(
+                self.problem,
+                X[todo] if replayed else X,
+                todo,
+                self.executor,
+                chunk,
+                self.workers,
+                self.policy,
+            )
+            for rows, res, secs in chunks:
+                self._hand_over(b, rows, U, X, res, secs)
+                parts.append((rows, res))
+        if self.bar is not None and replayed:
+            self.bar.update(replayed)
+        if not replayed and len(parts) == 1:
+            return parts[0][1]  # one chunk, in order: nothing to assemble
+        for rows, res in parts:
+            for j, r in enumerate(rows):
+                results[r] = res.take([j])
+        return EvaluationBatch.concatenate(results)  # type: ignore[arg-type]
+
+    def _hand_over(
+        self,
+        b: int,
+        rows: list[int],
+        U: np.ndarray,
+        X: np.ndarray,
+        res: EvaluationBatch,
+        secs: float,
+    ) -> None:
+        """One evaluated chunk to the writer, the recorders and the progress bar."""
+        if len(rows) == len(U):  # the whole batch in order: no fancy-index copies
+            u_rows, x_rows = U, X
+        else:
+            u_rows, x_rows = U[rows], X[rows]
+        if self.writer is not None:
+            self.writer.append(b, rows, u_rows, x_rows, res, secs)
+        for rec in self.recorders:
+            rec.append(b, rows, u_rows, x_rows, res, secs)
+        if self.bar is not None:
+            self.bar.update(len(rows))
+
+
+def _open_archive(
+    run_dir: str | Path | None,
+    problem: Problem,
+    strategy: Any,
+    seed: int | None,
+    budget: int,
+    policy: FaultPolicy,
+    meta: dict[str, Any] | None,
+) -> tuple[RunArchive | None, ArchiveWriter | None]:
+    """The run directory's archive (count checked, the run's description recorded in
+    its meta) and its writer; (None, None) without a run directory."""
+    if run_dir is None:
+        return None, None
+    archive = RunArchive(run_dir)
+    archive.check_count(archive.meta().get("n_evaluations"), "its meta")
+    archive.set_meta(
+        problem=getattr(problem, "name", type(problem).__name__),
+        parameter_names=list(problem.space.names),
+        parameter_units=list(problem.space.units),
+        objective_names=list(problem.objective_names),
+        objective_units=list(getattr(problem, "objective_units", ()) or ()),
+        constraint_names=list(problem.constraint_names),
+        strategy=getattr(strategy, "name", type(strategy).__name__),
+        seed=seed,
+        budget=budget,
+        versions=package_versions(),
+        faults=policy.as_dict(),
+        **(meta or {}),
+    )
+    return archive, ArchiveWriter(archive)
+
+
+def _progress_bar(problem: Problem, budget: int) -> Any:
+    """A tqdm progress bar over the budget's evaluations."""
+    from tqdm.auto import tqdm
+
+    return tqdm(
+        total=budget,
+        unit="eval",
+        desc=getattr(problem, "name", "run"),
+        dynamic_ncols=True,
+        leave=True,
+    )
+
+
+def _replayed(
+    problem: Problem,
+    archive: RunArchive | None,
+    b: int,
+    U: np.ndarray,
+    done: dict[int, Any],
+) -> list[EvaluationBatch | None]:
+    """The results of batch ``b`` as far as the archive holds them (``done``: row ->
+    (archived unit row, result)); None for the rows still to evaluate. A ValidationError
+    when an archived design is not the one the strategy asks now."""
+    results: list[EvaluationBatch | None] = [None] * len(U)
+    for r, (u_arch, res) in done.items():
+        if r >= len(U) or not np.allclose(u_arch, U[r], rtol=0, atol=1e-12):
+            assert archive is not None  # invariant: `done` is empty without an archive
+            raise ValidationError(
+                f"resume: archived design (batch {b}, row {r}) differs from what the "
+                "strategy asks now; the seed, strategy options or problem changed. "
+                f"Use a new run directory (archive: {archive.path})"
+            )
+        results[r] = problem.with_scales(res)  # archived rows carry no scales
+    return results
+
+
 def _optimize(
     problem: Problem,
     strategy: Any,
@@ -219,155 +399,71 @@ def _optimize(
     meta: dict[str, Any] | None,
     policy: FaultPolicy,
 ) -> RunResult:
-    archive = RunArchive(run_dir) if run_dir is not None else None
-    writer = ArchiveWriter(archive) if archive is not None else None
-    if archive is not None:
-        archive.check_count(archive.meta().get("n_evaluations"), "its meta")
-        archive.set_meta(
-            problem=getattr(problem, "name", type(problem).__name__),
-            parameter_names=list(problem.space.names),
-            parameter_units=list(problem.space.units),
-            objective_names=list(problem.objective_names),
-            objective_units=list(getattr(problem, "objective_units", ()) or ()),
-            constraint_names=list(problem.constraint_names),
-            strategy=getattr(strategy, "name", type(strategy).__name__),
-            seed=seed,
-            budget=budget,
-            versions=package_versions(),
-            faults=policy.as_dict(),
-            **(meta or {}),
-        )
-    bar = None
-    if progress:
-        from tqdm.auto import tqdm
-
-        bar = tqdm(
-            total=budget,
-            unit="eval",
-            desc=getattr(problem, "name", "run"),
-            dynamic_ncols=True,
-            leave=True,
-        )
+    archive, writer = _open_archive(run_dir, problem, strategy, seed, budget, policy, meta)
+    bar = _progress_bar(problem, budget) if progress else None
+    evaluator = _Evaluator(problem, executor, workers, chunk_size, policy, writer, recorders, bar)
     t_start = time.perf_counter()
-    used = resumed = b = 0
-    best: tuple[float, int | None, list[float] | None, np.ndarray | None] = (
-        math.inf,
-        None,
-        None,
-        None,
-    )  # (scalar, evaluation index, objectives, x)
-    stop_reason = ""
-    history: list[dict[str, Any]] = []
+    run = _Tally()
     replaying = archive is not None
     try:
         while True:
-            reason = strategy.stop()
-            if reason:
-                stop_reason = reason
-                break
-            if used >= budget:
-                stop_reason = f"budget: {used} of {budget} evaluations used"
+            run.stop_reason = strategy.stop() or ""
+            if not run.stop_reason and run.used >= budget:
+                run.stop_reason = f"budget: {run.used} of {budget} evaluations used"
+            if run.stop_reason:
                 break
             U = np.atleast_2d(strategy.ask())
             n = U.shape[0]
-            stop_reason = _beyond_budget(n, used, budget)
-            if stop_reason:
+            run.stop_reason = _beyond_budget(n, run.used, budget)
+            if run.stop_reason:
                 break
             X = problem.space.to_physical(U)
-            results: list[EvaluationBatch | None] = [None] * n
             # replaying an archive: rows of batch b+1 exist only when batch b is complete,
             # so after the first batch without rows no later lookup can find any
-            done = archive.batch(b) if archive is not None and replaying else {}
+            done = archive.batch(run.batches) if archive is not None and replaying else {}
             replaying = replaying and len(done) == n
-            for r, (u_arch, res) in done.items():
-                if r >= n or not np.allclose(u_arch, U[r], rtol=0, atol=1e-12):
-                    assert archive is not None  # invariant: `done` is empty without an archive
-                    raise ValidationError(
-                        f"resume: archived design (batch {b}, row {r}) differs from what the "
-                        "strategy asks now; the seed, strategy options or problem changed. "
-                        f"Use a new run directory (archive: {archive.path})"
-                    )
-                results[r] = problem.with_scales(res)  # archived rows carry no scales
-            resumed += len(done)
-            todo = (
-                np.arange(n)
-                if not done
-                else np.array([r for r in range(n) if results[r] is None], dtype=int)
-            )
-            parts: list[tuple[list[int], EvaluationBatch]] = []
-            if todo.size:
-                chunk = chunk_size or default_chunk(todo.size, workers)
-                chunks = evaluate_chunks(
-                    problem, X[todo] if done else X, todo, executor, chunk, workers, policy
-                )
-                for rows, res, secs in chunks:
-                    if len(rows) == n:  # the whole batch in order: no fancy-index copies
-                        u_rows, x_rows = U, X
-                    else:
-                        u_rows, x_rows = U[rows], X[rows]
-                    if writer is not None:
-                        writer.append(b, rows, u_rows, x_rows, res, secs)
-                    for rec in recorders:
-                        rec.append(b, rows, u_rows, x_rows, res, secs)
-                    parts.append((rows, res))
-                    if bar is not None:
-                        bar.update(len(rows))
-            if bar is not None and done:
-                bar.update(len(done))
-            if not done and len(parts) == 1:
-                batch = parts[0][1]  # one chunk, in order: nothing to assemble
-            else:
-                for rows, res in parts:
-                    for j, r in enumerate(rows):
-                        results[r] = res.take([j])
-                batch = EvaluationBatch.concatenate(results)  # type: ignore[arg-type]
+            results = _replayed(problem, archive, run.batches, U, done)
+            run.resumed += len(done)
+            batch = evaluator.batch(run.batches, U, X, results, len(done))
             strategy.tell(U, batch)
-            # bookkeeping: the best feasible design by the problem's quality (none for
-            # several objectives without one: suspenv.runs.quality)
-            F, ok = batch.objectives, batch.ok
-            feasible = run_quality.feasible(ok, batch.constraints)
-            q = run_quality.quality(problem, F)
-            i = None if q is None else run_quality.best_row(q, feasible)
-            if q is not None and i is not None and q[i] < best[0]:
-                best = (float(q[i]), used + i, F[i].tolist(), X[i].copy())
-            history.append(
-                {
-                    "batch": b,
-                    "evaluations": used + n,
-                    "best": best[0],
-                    "n_ok": int(np.count_nonzero(ok)),
-                    "n_feasible": int(np.count_nonzero(feasible)),
-                }
-            )
-            if bar is not None and math.isfinite(best[0]):
-                bar.set_postfix(best=f"{best[0]:.4g}", refresh=False)
+            run.record(problem, batch, X)
+            if bar is not None and math.isfinite(run.best):
+                bar.set_postfix(best=f"{run.best:.4g}", refresh=False)
             for cb in callbacks:
-                cb(b, U, batch)
-            used += n
-            b += 1
+                cb(run.batches, U, batch)
+            run.used += n
+            run.batches += 1
     except KeyboardInterrupt:
-        stop_reason = f"interrupted after {used} evaluations (archive kept; resume with same dir)"
+        run.stop_reason = (
+            f"interrupted after {run.used} evaluations (archive kept; resume with same dir)"
+        )
         raise
     except InfrastructureError as exc:
-        stop_reason = f"fault of the machinery in batch {b}: {exc}"
+        run.stop_reason = f"fault of the machinery in batch {run.batches}: {exc}"
         raise InfrastructureError(
-            f"run stopped in batch {b} after {used} evaluations: {exc}. The archive keeps "
-            "every evaluation done; run the same command again to resume"
+            f"run stopped in batch {run.batches} after {run.used} evaluations: {exc}. The "
+            "archive keeps every evaluation done; run the same command again to resume"
         ) from None
     finally:
         if bar is not None:
             bar.close()
         wall = time.perf_counter() - t_start
         if archive is not None:
-            _close(archive, writer, stop_reason=stop_reason, n_evaluations=used, wall_time_s=wall)
+            _close(
+                archive,
+                writer,
+                stop_reason=run.stop_reason,
+                n_evaluations=run.used,
+                wall_time_s=wall,
+            )
     return RunResult(
-        n_evaluations=used,
-        n_batches=b,
-        stop_reason=stop_reason,
+        n_evaluations=run.used,
+        n_batches=run.batches,
+        stop_reason=run.stop_reason,
         wall_time=wall,
-        n_resumed=resumed,
-        best_index=best[1],
-        best_objectives=best[2],
-        best_x=None if best[3] is None else problem.space.as_dict(best[3]),
-        history=history,
+        n_resumed=run.resumed,
+        best_index=run.best_index,
+        best_objectives=run.best_objectives,
+        best_x=None if run.best_x is None else problem.space.as_dict(run.best_x),
+        history=run.history,
     )
