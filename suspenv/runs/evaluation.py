@@ -214,19 +214,28 @@ def evaluate_chunks(
             raise InfrastructureError(lost)
         attempt += 1
         n_rows = sum(len(rows[s]) for s in failed)
-        if attempt > policy.retries:
-            raise InfrastructureError(
-                f"{n_rows} design(s) could not be evaluated after {attempt} attempt(s) "
-                f"({'; '.join(dict.fromkeys(faults))}); none of them was archived"
-            )
-        _warn(
-            f"{n_rows} design(s) hit a fault of the machinery ({faults[0]}); retry "
-            f"{attempt} of {policy.retries} in {policy.pause(attempt):g} s"
+        _retry_or_raise(
+            policy, attempt, n_rows, faults, f"{n_rows} design(s) hit a fault of the machinery"
         )
         if isinstance(executor, Restartable):
             executor.restart()
         time.sleep(policy.pause(attempt))
         pending = failed
+
+
+def _retry_or_raise(
+    policy: FaultPolicy, attempt: int, n_rows: int, faults: list[str], what: str
+) -> None:
+    """After a faulty ``attempt`` at ``n_rows`` designs: :class:`InfrastructureError`
+    naming every distinct fault when ``policy``'s retries are spent, else a warning
+    (``what`` happened, the first fault, when the retry comes)."""
+    if attempt > policy.retries:
+        raise InfrastructureError(
+            f"{n_rows} design(s) could not be evaluated after {attempt} attempt(s) "
+            f"({'; '.join(dict.fromkeys(faults))}); none of them was archived"
+        ) from None
+    fault = f"{what} ({faults[0]})" if what else faults[0]
+    _warn(f"{fault}; retry {attempt} of {policy.retries} in {policy.pause(attempt):g} s")
 
 
 def _completed(
@@ -269,12 +278,7 @@ def _in_process(
                 else _describe(exc)
             )
             attempt += 1
-            if attempt > policy.retries:
-                raise InfrastructureError(
-                    f"{len(rows)} design(s) could not be evaluated after {attempt} attempt(s) "
-                    f"({fault}); none of them was archived"
-                ) from None
-            _warn(f"{fault}; retry {attempt} of {policy.retries} in {policy.pause(attempt):g} s")
+            _retry_or_raise(policy, attempt, len(rows), [fault], "")
             time.sleep(policy.pause(attempt))
             continue
         yield rows.tolist(), res, time.perf_counter() - t0
