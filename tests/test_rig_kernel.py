@@ -1,7 +1,7 @@
-"""The compiled rig loop (``rig_kernel``) against the Python loop of ``rig_integrator``.
+"""The compiled rig loop (``rig_kernel``) against the Python loop of ``rig_reference``.
 
-Reference: the Python loop, the same scheme written as closures over plain floats (its
-own accuracy is tested against closed forms and a fine RK4 in
+Reference: ``tests/rig_reference.py``, the same scheme written as closures over plain
+floats (the integrator's accuracy is tested against closed forms and a fine RK4 in
 ``test_components_rig_integrator.py``). The compiled loop must give the same outputs to
 rounding for every element kind, combinations of stateless and stateful elements, an
 actuator force, uneven sample steps and sub-steps, and must report divergence the same way.
@@ -9,10 +9,12 @@ actuator force, uneven sample steps and sub-steps, and must report divergence th
 
 import numpy as np
 import pytest
+from rig_reference import integrate_reference
 
 from suspenv.core.errors import EvaluationError
 from suspenv.models.components import rig_integrator, rig_kernel
 from suspenv.models.effects import make_effect
+from suspenv.models.effects.pointwise import STATELESS
 
 pytestmark = pytest.mark.skipif(not rig_kernel.AVAILABLE, reason="numba not installed")
 
@@ -60,8 +62,8 @@ def _road(n: int = 1500, dt: float = 0.002, seed: int = 0) -> tuple[np.ndarray, 
 
 
 def _both(effects, t, road, **kw):
-    py = rig_integrator.integrate(300.0, 40.0, BASE, effects, t, road, compiled=False, **kw)
-    co = rig_integrator.integrate(300.0, 40.0, BASE, effects, t, road, compiled=True, **kw)
+    py = integrate_reference(300.0, 40.0, BASE, effects, t, road, **kw)
+    co = rig_integrator.integrate(300.0, 40.0, BASE, effects, t, road, **kw)
     return py, co
 
 
@@ -72,11 +74,9 @@ def _assert_same(py, co):
 
 
 def test_every_element_kind_has_a_compiled_law():
-    kinds = {e.kind for e in ONE_OF_EACH}
-    supported = set(rig_integrator.EXACT_STATEFUL) | {
-        k for k in kinds if rig_integrator.supports([make_effect(k)])
-    }
-    assert supported <= set(rig_kernel.compiled_kinds())
+    # every stateless law of the effect library, and every stateful kind tested here
+    assert set(rig_kernel.LAW_CODES) == set(STATELESS)
+    assert {e.kind for e in ONE_OF_EACH} == set(rig_kernel.LAW_CODES) | set(rig_kernel.STATE_CODES)
 
 
 @pytest.mark.parametrize("effect", ONE_OF_EACH, ids=lambda e: e.kind)
@@ -120,8 +120,17 @@ def test_divergence_is_reported_as_by_the_python_loop():
     t, road = _road(400)
     unstable = [make_effect("cubic_stiffness", k3=-1e12)]  # a spring that pushes away
     messages = []
-    for compiled in (False, True):
+    for integrate in (integrate_reference, rig_integrator.integrate):
         with pytest.raises((EvaluationError, OverflowError)) as err:
-            rig_integrator.integrate(300.0, 40.0, BASE, unstable, t, road * 20, compiled=compiled)
+            integrate(300.0, 40.0, BASE, unstable, t, road * 20)
         messages.append(str(err.value))
     assert "diverged" in messages[1]
+
+
+def test_the_loop_runs_as_plain_python_without_numba(monkeypatch):
+    # without numba, rig_kernel.run is _run itself: the same outputs to rounding
+    t, road = _road(300, seed=4)
+    effects = [_of("stribeck_friction"), _of("lugre_friction")]
+    co = rig_integrator.integrate(300.0, 40.0, BASE, effects, t, road)
+    monkeypatch.setattr(rig_kernel, "run", rig_kernel._run)
+    _assert_same(rig_integrator.integrate(300.0, 40.0, BASE, effects, t, road), co)

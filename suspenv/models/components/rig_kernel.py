@@ -1,19 +1,16 @@
-"""Compiled loop of the quarter-car rig integrator (numba), the same scheme as the Python loop.
+"""Compiled loop of the quarter-car rig integrator (numba).
 
-:func:`suspenv.models.components.rig_integrator.integrate` advances the exact linear
-step and solves the implicit element force sample by sample in plain Python floats
-(about 10 us per sample). This module runs the same loop compiled: the same formulas in
-the same order of operations (the element laws of
-:func:`~suspenv.models.components.rig_integrator._element_law`, the state steppers
-``_Dahl``, ``_LuGre`` and ``_Maxwell``, the chord-then-secant root search), so its
-outputs agree with the Python loop to rounding (``tests/test_rig_kernel.py`` compares the
-two for every element kind). Frames, units and signs are those of
-:mod:`suspenv.models.components.rig_integrator`.
+:func:`suspenv.models.components.rig_integrator.integrate` computes the step matrices
+and calls :data:`run`: the loop that advances the exact linear step and solves the
+implicit element force sample by sample (the chord-then-secant root search), with the
+element laws and the exact state steps of Dahl, Maxwell and LuGre. Frames, units and
+signs are those of :mod:`suspenv.models.components.rig_integrator`. Its reference is the
+same scheme written as closures over plain floats, ``tests/rig_reference.py``
+(``tests/test_rig_kernel.py`` compares the two for every element kind).
 
 Elements are passed as codes with their parameters in rows of a float array
-(:func:`pack`); an element kind without a code here keeps the Python loop
-(:func:`compiled_kinds`). Without numba (an unusual platform), :data:`AVAILABLE` is
-False and the Python loop runs.
+(:func:`pack`). Without numba (an unusual platform), :data:`AVAILABLE` is False and
+:func:`_run` runs as plain Python.
 """
 
 from __future__ import annotations
@@ -47,19 +44,14 @@ LAW_CODES: dict[str, int] = {
     "low_speed_deficit": 13,
     "bump_and_rebound_stops": 14,
 }
-#: stateful element kind -> code (the exact state steps of the Python loop)
+#: stateful element kind -> code (their exact state steps: :func:`_state_step`)
 STATE_CODES: dict[str, int] = {"dahl_hysteresis": 0, "maxwell_viscoelastic": 1, "lugre_friction": 2}
 N_PAR = 5  # parameter slots per element
 
 
-def compiled_kinds() -> tuple[str, ...]:
-    """Element kinds the compiled loop runs (empty without numba)."""
-    return (*LAW_CODES, *STATE_CODES) if AVAILABLE else ()
-
-
 def _law_params(e: Effect) -> list[float]:
-    """The parameters of a stateless element as the Python loop binds them (reciprocals
-    of widths included, so the products are the same)."""
+    """The parameters of a stateless element as :func:`_law` reads them (reciprocals of
+    widths included: a product per sample instead of a division)."""
     p = {k: float(v) for k, v in e.params.items()}
     kind = e.kind
     if kind == "coulomb_friction":
@@ -94,7 +86,7 @@ def _law_params(e: Effect) -> list[float]:
 
 
 def _state_params(e: Effect) -> list[float]:
-    """The parameters of a stateful element as the Python steppers hold them."""
+    """The parameters of a stateful element as :func:`_state_step` reads them."""
     p = {k: float(v) for k, v in e.params.items()}
     if e.kind == "dahl_hysteresis":
         return [p["f_c"], p["sigma"] / p["f_c"] if p["f_c"] > 0.0 else 0.0]
@@ -107,8 +99,8 @@ def _state_params(e: Effect) -> list[float]:
 
 def pack(effects: Sequence[Effect]) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """(law codes (L,), law parameters (L, 5), state codes (S,), state parameters (S, 5))
-    of ``effects`` in their order (stateless and stateful kept apart, as the Python loop
-    sums them)."""
+    of ``effects`` in their order (stateless and stateful kept apart: the stateless laws
+    are summed first)."""
     laws = [e for e in effects if e.kind in LAW_CODES]
     states = [e for e in effects if e.kind in STATE_CODES]
     law_par = np.zeros((len(laws), N_PAR))
@@ -128,7 +120,8 @@ def pack(effects: Sequence[Effect]) -> tuple[np.ndarray, np.ndarray, np.ndarray,
 
 
 def _law(code: int, p: np.ndarray, x: float, v: float) -> float:
-    """Force [N] of one stateless element (the formulas of ``_element_law``)."""
+    """Force [N] of one stateless element (the formulas of
+    :data:`suspenv.models.effects.pointwise.STATELESS`)."""
     if code in (0, 1, 2, 13):
         return _friction_law(code, p, v)
     if code in (3, 4, 14):
