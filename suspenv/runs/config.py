@@ -181,13 +181,9 @@ def validate(config: dict[str, Any], allow_code: bool = False) -> dict[str, Any]
     for table in ("problem", "strategy"):
         _check_unknown(set(cfg[table]), KNOWN_PART, f"{table}.")
     _check_pipeline_keys(cfg)
-    seed = cfg["seed"]
-    if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
-        raise ValidationError(f"config: `seed` must be an integer >= 0, but got {seed!r}")
+    _check_count(cfg["seed"], "seed", 0)
     if "budget" in cfg:
-        b = cfg["budget"]
-        if not isinstance(b, int) or isinstance(b, bool) or b < 1:
-            raise ValidationError(f"config: `budget` must be an integer >= 1, but got {b!r}")
+        _check_count(cfg["budget"], "budget", 1)
     _check_run(cfg["run"])
     for table in ("problem", "strategy"):
         if not isinstance(cfg[table].get("options", {}), dict):
@@ -214,20 +210,17 @@ def _check_pipeline_keys(cfg: dict[str, Any]) -> None:
         raise ValidationError("config: `budget` (number of evaluations) is required")
 
 
-def _is_int(v: Any) -> bool:
-    return isinstance(v, int) and not isinstance(v, bool)
+def _check_count(value: Any, key: str, low: int) -> None:
+    """The config's ``key`` is an integer (not a boolean) of at least ``low``."""
+    if not isinstance(value, int) or isinstance(value, bool) or value < low:
+        raise ValidationError(f"config: `{key}` must be an integer >= {low}, but got {value!r}")
 
 
 def _check_run(run: dict[str, Any]) -> None:
     """Types and ranges of the ``[run]`` table (timeout and retries: FaultPolicy)."""
-    w = run["workers"]
-    if not _is_int(w) or w < 1:
-        raise ValidationError(f"config: `run.workers` must be an integer >= 1, but got {w!r}")
-    chunk = run.get("chunk_size")
-    if chunk is not None and (not _is_int(chunk) or chunk < 1):
-        raise ValidationError(
-            f"config: `run.chunk_size` must be an integer >= 1, but got {chunk!r}"
-        )
+    _check_count(run["workers"], "run.workers", 1)
+    if run.get("chunk_size") is not None:
+        _check_count(run["chunk_size"], "run.chunk_size", 1)
     for key in ("plots", "progress"):
         if not isinstance(run[key], bool):
             raise ValidationError(
