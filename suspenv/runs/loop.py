@@ -243,14 +243,13 @@ class _Tally:
 @dataclass
 class _Evaluator:
     """Evaluates the rows of a batch not in the archive, handing every chunk to the
-    archive's writer, the recorders and the progress bar as it completes."""
+    recorders (the archive's writer first) and the progress bar as it completes."""
 
     problem: Problem
     executor: Executor | None
     workers: int
     chunk_size: int | None
     policy: FaultPolicy
-    writer: ArchiveWriter | None
     recorders: Sequence[Recorder]
     bar: Any
 
@@ -303,13 +302,11 @@ class _Evaluator:
         res: EvaluationBatch,
         secs: float,
     ) -> None:
-        """One evaluated chunk to the writer, the recorders and the progress bar."""
+        """One evaluated chunk to the recorders and the progress bar."""
         if len(rows) == len(U):  # the whole batch in order: no fancy-index copies
             u_rows, x_rows = U, X
         else:
             u_rows, x_rows = U[rows], X[rows]
-        if self.writer is not None:
-            self.writer.append(b, rows, u_rows, x_rows, res, secs)
         for rec in self.recorders:
             rec.append(b, rows, u_rows, x_rows, res, secs)
         if self.bar is not None:
@@ -401,7 +398,8 @@ def _optimize(
 ) -> RunResult:
     archive, writer = _open_archive(run_dir, problem, strategy, seed, budget, policy, meta)
     bar = _progress_bar(problem, budget) if progress else None
-    evaluator = _Evaluator(problem, executor, workers, chunk_size, policy, writer, recorders, bar)
+    receivers = [*recorders] if writer is None else [writer, *recorders]
+    evaluator = _Evaluator(problem, executor, workers, chunk_size, policy, receivers, bar)
     t_start = time.perf_counter()
     run = _Tally()
     replaying = archive is not None
