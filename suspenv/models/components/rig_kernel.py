@@ -299,81 +299,6 @@ def _secant_slope(fa: float, ga: float, fb: float, gb: float, slope: float) -> f
     return slope
 
 
-def _solve_stateless(
-    law_codes: np.ndarray,
-    law_par: np.ndarray,
-    xk: float,
-    vk: float,
-    gx: float,
-    gv: float,
-    fa_end: float,
-    fe: float,
-    f_prev: float,
-    slope: float,
-    tol: float,
-    max_iter: int,
-) -> tuple[float, float]:
-    """End force [N] of stateless elements and the new secant slope: the root of
-    ``G(F) = F - f(xk + gx F, vk + gv F)`` from the linear extrapolation of the force, a
-    chord step with the last slope, then secant steps."""
-    fa = 2.0 * fe - f_prev
-    ga = fa - _stateless(law_codes, law_par, xk + gx * fa, vk + gv * fa, fa_end)
-    fb = fa - ga / slope
-    gb = fb - _stateless(law_codes, law_par, xk + gx * fb, vk + gv * fb, fa_end)
-    for _ in range(max_iter):
-        if abs(gb) <= tol * (1.0 + abs(fb)) or gb == ga:
-            break
-        fa, ga, fb = fb, gb, fb - gb * (fb - fa) / (gb - ga)
-        gb = fb - _stateless(law_codes, law_par, xk + gx * fb, vk + gv * fb, fa_end)
-    return fb, _secant_slope(fa, ga, fb, gb, slope)
-
-
-def _solve_states(
-    law_codes: np.ndarray,
-    law_par: np.ndarray,
-    st_codes: np.ndarray,
-    st_par: np.ndarray,
-    mx: np.ndarray,
-    z: np.ndarray,
-    z_a: np.ndarray,
-    z_b: np.ndarray,
-    x0: float,
-    v0: float,
-    xk: float,
-    vk: float,
-    gx: float,
-    gv: float,
-    fa_end: float,
-    fe: float,
-    slope: float,
-    tol: float,
-    max_iter: int,
-) -> tuple[float, float]:
-    """End force [N] with stateful elements and the new secant slope (the element states
-    at the root written to ``z``; ``z_a``, ``z_b``: work arrays): the last force if it
-    solves the step, else a chord step with the last slope, then secant steps."""
-    fa = fe
-    ga = _states_residual(
-        fa, law_codes, law_par, st_codes, st_par, mx, z, z_a, x0, v0, xk, vk, gx, gv, fa_end
-    )
-    if abs(ga) <= tol * (1.0 + abs(fa)):
-        z[:] = z_a
-        return fa, slope
-    fb = fa - ga / slope
-    gb = _states_residual(
-        fb, law_codes, law_par, st_codes, st_par, mx, z, z_b, x0, v0, xk, vk, gx, gv, fa_end
-    )
-    for _ in range(max_iter):
-        if abs(gb) <= tol * (1.0 + abs(fb)) or gb == ga:
-            break
-        fa, ga, fb = fb, gb, fb - gb * (fb - fa) / (gb - ga)
-        gb = _states_residual(
-            fb, law_codes, law_par, st_codes, st_par, mx, z, z_b, x0, v0, xk, vk, gx, gv, fa_end
-        )
-    z[:] = z_b
-    return fb, _secant_slope(fa, ga, fb, gb, slope)
-
-
 def _run(
     phis: np.ndarray,
     g0s: np.ndarray,
@@ -439,16 +364,46 @@ def _run(
             kz_u = _known_part(p, a, b, 2, zs, vs, zu, vu, r_start, fe, r_end)
             kv_u = _known_part(p, a, b, 3, zs, vs, zu, vu, r_start, fe, r_end)
             f1 = 0.0
-            if has_effects and S:
-                f1, slope = _solve_states(
-                    law_codes, law_par, st_codes, st_par, mx, z, z_a, z_b, x0, v0,
-                    kz_u - kz_s, kv_u - kv_s, gx, gv, fa_end, fe, slope, tol, max_iter,
-                )  # fmt: skip
-            elif has_effects:
-                f1, slope = _solve_stateless(
-                    law_codes, law_par, kz_u - kz_s, kv_u - kv_s, gx, gv, fa_end, fe, f_prev,
-                    slope, tol, max_iter,
-                )  # fmt: skip
+            if has_effects:
+                xk, vk = kz_u - kz_s, kv_u - kv_s
+                if S:  # start from the last force: it may solve the step already
+                    fa = fe
+                    ga = _states_residual(
+                        fa, law_codes, law_par, st_codes, st_par, mx, z, z_a,
+                        x0, v0, xk, vk, gx, gv, fa_end,
+                    )  # fmt: skip
+                    if abs(ga) <= tol * (1.0 + abs(fa)):
+                        f1 = fa
+                        z[:] = z_a
+                    else:
+                        fb = fa - ga / slope
+                        gb = _states_residual(
+                            fb, law_codes, law_par, st_codes, st_par, mx, z, z_b,
+                            x0, v0, xk, vk, gx, gv, fa_end,
+                        )  # fmt: skip
+                        for _ in range(max_iter):
+                            if abs(gb) <= tol * (1.0 + abs(fb)) or gb == ga:
+                                break
+                            fa, ga, fb = fb, gb, fb - gb * (fb - fa) / (gb - ga)
+                            gb = _states_residual(
+                                fb, law_codes, law_par, st_codes, st_par, mx, z, z_b,
+                                x0, v0, xk, vk, gx, gv, fa_end,
+                            )  # fmt: skip
+                        slope = _secant_slope(fa, ga, fb, gb, slope)
+                        f1 = fb
+                        z[:] = z_b
+                else:  # start from the linear extrapolation of the force
+                    fa = 2.0 * fe - f_prev
+                    ga = fa - _stateless(law_codes, law_par, xk + gx * fa, vk + gv * fa, fa_end)
+                    fb = fa - ga / slope
+                    gb = fb - _stateless(law_codes, law_par, xk + gx * fb, vk + gv * fb, fa_end)
+                    for _ in range(max_iter):
+                        if abs(gb) <= tol * (1.0 + abs(fb)) or gb == ga:
+                            break
+                        fa, ga, fb = fb, gb, fb - gb * (fb - fa) / (gb - ga)
+                        gb = fb - _stateless(law_codes, law_par, xk + gx * fb, vk + gv * fb, fa_end)
+                    slope = _secant_slope(fa, ga, fb, gb, slope)
+                    f1 = fb
             zs, vs = kz_s + b[0, 1] * f1, kv_s + b[1, 1] * f1
             zu, vu = kz_u + b[2, 1] * f1, kv_u + b[3, 1] * f1
             x0, v0, f_prev, fe = zu - zs, vu - vs, fe, f1
@@ -476,8 +431,6 @@ run = compiled.Lazy(
         "_maxwell_coefficients",
         "_known_part",
         "_secant_slope",
-        "_solve_stateless",
-        "_solve_states",
     ),
     _run,
 )
