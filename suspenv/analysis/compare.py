@@ -695,6 +695,12 @@ def _md_table(rows: Sequence[Mapping[str, Any]], cols: Sequence[str]) -> str:
     return "\n".join(out) + "\n"
 
 
+#: columns of compare.md's groups and fixed-budget tables (SPREAD: over the runs)
+SPREAD = ("median", "q25", "q75", "min", "max")
+GROUP_COLUMNS = ("group", "hash", "runs", "seeds", "budgets", *SPREAD, "ecdf_area", "differs")
+FIXED_BUDGET_COLUMNS = ("group", "budget", "n_with_value", *SPREAD)
+
+
 def markdown(comparison: Comparison) -> str:
     """``compare.md``: per problem the groups, fixed-budget, ERT, multi-objective and
     rank-test tables."""
@@ -717,32 +723,9 @@ def markdown(comparison: Comparison) -> str:
             }
             for row in r["table"]
         ]
-        md.append(
-            _md_table(
-                rows,
-                [
-                    "group",
-                    "hash",
-                    "runs",
-                    "seeds",
-                    "budgets",
-                    "median",
-                    "q25",
-                    "q75",
-                    "min",
-                    "max",
-                    "ecdf_area",
-                    "differs",
-                ],
-            )
-        )
+        md.append(_md_table(rows, GROUP_COLUMNS))
         md.append("\n### Fixed budget\n\n")
-        md.append(
-            _md_table(
-                r["fixed_budget"],
-                ["group", "budget", "n_with_value", "median", "q25", "q75", "min", "max"],
-            )
-        )
+        md.append(_md_table(r["fixed_budget"], FIXED_BUDGET_COLUMNS))
         md.append("\n### Fixed target: ERT (evaluations)\n\n")
         tg = p.targets
         pick = sorted(set(np.linspace(0, len(tg) - 1, min(6, len(tg))).round().astype(int)))
