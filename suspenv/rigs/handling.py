@@ -52,6 +52,7 @@ from typing import Protocol
 import numpy as np
 
 from suspenv.core.errors import ValidationError
+from suspenv.models.minibus import handling_kernel
 from suspenv.models.minibus.handling_model import (
     HandlingParams,
     HandlingState,
@@ -336,29 +337,16 @@ def _slip_for_force(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Slip angle on the rising branch at which an axle carries ``force``, and whether
     it can (``force`` <= its capacity). Illinois regula falsi on ``[0, peak slip]``,
-    where the axle force rises monotonically (:data:`SLIP_SOLVE_PASSES` passes)."""
+    where the axle force rises monotonically (:data:`SLIP_SOLVE_PASSES` passes; the
+    compiled loop :func:`suspenv.models.minibus.handling_kernel.slip_loop`)."""
     cap, a_peak = axle_capacity(P, fz_a, fz_b, config)
-    wheels = P.tyre.curve(np.stack([fz_a, fz_b]))
-
-    def residual(alpha: np.ndarray) -> np.ndarray:
-        f = wheels(alpha[None])
-        return f[0] + f[1] - force
-
-    lo, hi = np.zeros_like(force), np.broadcast_to(a_peak, force.shape).copy()
-    r_lo, r_hi = -force, residual(hi)
-    side = np.zeros(force.shape, dtype=np.int8)
-    for _ in range(SLIP_SOLVE_PASSES):
-        span = r_hi - r_lo
-        mid = np.where(span > 0, (lo * r_hi - hi * r_lo) / np.where(span > 0, span, 1.0), hi)
-        r_mid = residual(mid)
-        below = r_mid < 0
-        # Illinois: halve the residual of the end that stays twice in a row
-        r_hi = np.where(below & (side == -1), 0.5 * r_hi, r_hi)
-        r_lo = np.where(~below & (side == 1), 0.5 * r_lo, r_lo)
-        lo, r_lo = np.where(below, mid, lo), np.where(below, r_mid, r_lo)
-        hi, r_hi = np.where(below, hi, mid), np.where(below, r_hi, r_mid)
-        side = np.where(below, -1, 1).astype(np.int8)
-    return np.where(np.abs(r_lo) < np.abs(r_hi), lo, hi), cap >= force
+    force = np.ascontiguousarray(force, dtype=float)
+    hi = np.ascontiguousarray(np.broadcast_to(a_peak, force.shape)).ravel()
+    d, b, e = (f.reshape(2, -1) for f in P.tyre.factors(np.stack([fz_a, fz_b])))
+    alpha = np.empty(force.size)
+    c = float(P.tyre.pCy1)
+    handling_kernel.slip_loop(d, b, e, c, force.ravel(), hi, SLIP_SOLVE_PASSES, alpha)
+    return alpha.reshape(force.shape), cap >= force
 
 
 def steady_state_sweep(

@@ -1,0 +1,178 @@
+"""Compiled loops of the minibus handling measures (numba), element by element.
+
+Two iterative parts of the default handling measures run here instead of as numpy
+passes over the batch (one design at a time the numpy call overhead of their fixed
+pass counts dominated): the Illinois slip-angle solve of the quasi-steady axle force
+(:func:`suspenv.rigs.handling.steady_state_sweep`) and the step-time and bandwidth
+searches of the ISO 7401 yaw response (:func:`suspenv.metrics.handling.yaw_response`).
+Each loop is the scheme its caller documents, pass for pass, with the same fixed
+pass counts (no data-dependent stopping: an element's result never depends on the
+batch); the sums run in another order than numpy's, so results agree with the numpy
+form to rounding. Frames, units and signs are those of
+:mod:`suspenv.models.minibus.handling_model`; the tyre force is
+:class:`suspenv.models.minibus.tyre.LateralTyre`'s Magic Formula. Without numba, the
+plain Python functions run.
+"""
+
+from __future__ import annotations
+
+import cmath
+import math
+
+import numpy as np
+
+from suspenv.core import compiled
+
+
+def _wheel_force(alpha: float, d: float, b: float, e: float, c: float) -> float:
+    """Lateral force (N) of one tyre at slip angle ``alpha`` (rad) from its factors
+    (:meth:`LateralTyre.factors`: D N, B 1/rad, E; C = ``pCy1``)."""
+    ba = b * alpha
+    return d * math.sin(c * math.atan(ba - e * (ba - math.atan(ba))))
+
+
+def _slip_loop(
+    d: np.ndarray,
+    b: np.ndarray,
+    e: np.ndarray,
+    c: float,
+    force: np.ndarray,
+    hi0: np.ndarray,
+    passes: int,
+    out: np.ndarray,
+) -> None:
+    """Slip angle (rad) at which an axle's two tyres (factors ``d, b, e`` (2, m)) carry
+    ``force`` (m,) N: Illinois regula falsi on ``[0, hi0]`` (the rising branch),
+    ``passes`` passes; the end with the smaller residual goes to ``out`` (m,)."""
+    for j in range(force.shape[0]):
+        f = force[j]
+        lo, hi = 0.0, hi0[j]
+        r_lo = -f
+        r_hi = _wheel_force(hi, d[0, j], b[0, j], e[0, j], c)
+        r_hi = r_hi + _wheel_force(hi, d[1, j], b[1, j], e[1, j], c) - f
+        side = 0
+        for _ in range(passes):
+            span = r_hi - r_lo
+            mid = (lo * r_hi - hi * r_lo) / span if span > 0 else hi
+            r_mid = _wheel_force(mid, d[0, j], b[0, j], e[0, j], c)
+            r_mid = r_mid + _wheel_force(mid, d[1, j], b[1, j], e[1, j], c) - f
+            below = r_mid < 0
+            # Illinois: halve the residual of the end that stays twice in a row
+            if below:
+                if side == -1:
+                    r_hi = 0.5 * r_hi
+                lo, r_lo, side = mid, r_mid, -1
+            else:
+                if side == 1:
+                    r_lo = 0.5 * r_lo
+                hi, r_hi, side = mid, r_mid, 1
+        out[j] = lo if abs(r_lo) < abs(r_hi) else hi
+
+
+def _step(lam: np.ndarray, wn: np.ndarray, t: float, order: int) -> float:
+    """d^order y/dt^order at time t (s) of the normalised yaw step response ``y(t) =
+    sum_k wn_k (e^(lam_k t) - 1)`` (real part)."""
+    total = 0j
+    for k in range(lam.shape[0]):
+        term = cmath.exp(lam[k] * t)
+        for _ in range(order):
+            term = term * lam[k]
+        if order == 0:
+            term = term - 1.0
+        total += term * wn[k]
+    return total.real
+
+
+def _rel_gain(lam: np.ndarray, wn: np.ndarray, f: float) -> float:
+    """|H(f)| / |H(0)| of the yaw rate at frequency f (Hz): ``|sum_k wn_k lam_k /
+    (i 2 pi f - lam_k)|``."""
+    s = complex(0.0, 2.0 * math.pi * f)
+    total = 0j
+    for k in range(lam.shape[0]):
+        total += lam[k] / (s - lam[k]) * wn[k]
+    return abs(total)
+
+
+def _step_times(lam: np.ndarray, wn: np.ndarray, grid: np.ndarray, out: np.ndarray) -> None:
+    """``out[:4]`` = (90 % time, peak time, 1 where the peak lies inside the grid, the
+    peak value) of one row: the 90 % crossing (linear between grid points) and the
+    grid's maximum, each refined by 4 Newton steps on the closed form."""
+    n = grid.shape[0]
+    dt = grid[1] - grid[0]
+    k90, jmax = -1, 0
+    y_prev, y_max = 0.0, -np.inf
+    y_k, y_km1 = 0.0, 0.0
+    for j in range(n):
+        y = _step(lam, wn, grid[j], 0)
+        if k90 == -1 and y >= 0.9:
+            k90, y_k, y_km1 = j, y, y_prev
+        if y > y_max:
+            y_max, jmax = y, j
+        y_prev = y
+    if k90 <= 0:  # no crossing (or at t = 0): the first interval, as numpy's argmax
+        k90, y_km1, y_k = 1, _step(lam, wn, grid[0], 0), _step(lam, wn, grid[1], 0)
+    t90 = (k90 - 1 + (0.9 - y_km1) / (y_k - y_km1)) * dt
+    tp = grid[min(max(jmax, 1), n - 2)]
+    for _ in range(4):
+        t90 = t90 - (_step(lam, wn, t90, 0) - 0.9) / _step(lam, wn, t90, 1)
+        tp = tp - _step(lam, wn, tp, 1) / _step(lam, wn, tp, 2)
+    out[0], out[1] = t90, tp
+    out[2] = 1.0 if 0 < jmax < n - 1 else 0.0
+    out[3] = _step(lam, wn, tp, 0)
+
+
+def _bandwidth(lam: np.ndarray, wn: np.ndarray, f: np.ndarray, f_max: float) -> float:
+    """Lowest frequency (Hz) where the relative yaw-rate gain falls below 1/sqrt(2): the
+    first grid interval ``f`` (log-spaced) that brackets it, then 10 Illinois passes in
+    log f; ``f_max`` where it does not fall."""
+    half = math.sqrt(0.5)
+    k = -1
+    g_prev = 0.0
+    for j in range(f.shape[0]):
+        g = _rel_gain(lam, wn, f[j]) - half
+        if g < 0:
+            k = j
+            break
+        g_prev = g
+    if k == -1:
+        return f_max
+    if k == 0:  # below at the first point: the first interval, as numpy's argmax
+        k, g_prev, g = 1, _rel_gain(lam, wn, f[0]) - half, _rel_gain(lam, wn, f[1]) - half
+    lo, hi, g_lo, g_hi = math.log(f[k - 1]), math.log(f[k]), g_prev, g
+    side = 0
+    for _ in range(10):
+        span = g_lo - g_hi
+        mid = (lo * -g_hi + hi * g_lo) / span if span > 0 else hi
+        g_mid = _rel_gain(lam, wn, math.exp(mid)) - half
+        if g_mid < 0:
+            if side == -1:
+                g_lo = 0.5 * g_lo
+            hi, g_hi, side = mid, g_mid, -1
+        else:
+            if side == 1:
+                g_hi = 0.5 * g_hi
+            lo, g_lo, side = mid, g_mid, 1
+    return math.exp(lo if abs(g_lo) < abs(g_hi) else hi)
+
+
+def _yaw_loop(
+    lam: np.ndarray,
+    wn: np.ndarray,
+    grid: np.ndarray,
+    f: np.ndarray,
+    f_max: float,
+    out: np.ndarray,
+) -> None:
+    """Per row of the poles ``lam`` (n, 4) and normalised weights ``wn`` (n, 4):
+    ``out[i]`` = (:func:`_step_times`' four values, :func:`_bandwidth`) (n, 5)."""
+    for i in range(lam.shape[0]):
+        _step_times(lam[i], wn[i], grid, out[i])
+        out[i, 4] = _bandwidth(lam[i], wn[i], f, f_max)
+
+
+#: :func:`_slip_loop`, compiled at its first call (numba's cache keeps it)
+slip_loop = compiled.Lazy(globals(), ("_wheel_force",), _slip_loop)
+#: :func:`_yaw_loop`, compiled at its first call (numba's cache keeps it)
+yaw_loop = compiled.Lazy(
+    globals(), ("_step", "_rel_gain", "_step_times", "_bandwidth"), _yaw_loop
+)
