@@ -131,26 +131,25 @@ def axle_capacity(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Peak over slip angle of an axle's lateral force (N) and the slip angle (rad) at it.
 
-    Grid search over 0..alpha_max refined by a parabola through the best three points.
+    Grid search over 0..alpha_max refined by a parabola through the best three points
+    (the compiled loop :func:`suspenv.models.minibus.handling_kernel.capacity_loop`).
     ``fz_a``/``fz_b`` (the axle's two wheel loads) may have any shape whose last axis
     matches the rows of ``P``.
     """
-    fz_a = np.asarray(fz_a, dtype=float)
-    fz_b = np.asarray(fz_b, dtype=float)
+    fz = np.stack(np.broadcast_arrays(np.asarray(fz_a, float), np.asarray(fz_b, float)))
+    d, b, e = (f.reshape(2, -1) for f in P.tyre.factors(fz))
+    out = np.empty((2, d.shape[1]))
+    handling_kernel.capacity_loop(d, b, e, float(P.tyre.pCy1), _slip_grid(config), out)
+    return out[0].reshape(fz.shape[1:]), out[1].reshape(fz.shape[1:])
+
+
+@functools.lru_cache(maxsize=8)
+def _slip_grid(config: SteadyCircleConfig) -> np.ndarray:
+    """The slip angles (rad) of the axle-capacity search: ``alpha_points`` evenly from 0
+    to ``alpha_max_deg`` (read-only, cached)."""
     grid = np.linspace(0.0, np.radians(config.alpha_max_deg), config.alpha_points)
-    alpha = grid.reshape((-1,) + (1,) * fz_a.ndim)
-    f = P.tyre.lateral_force(alpha, fz_a) + P.tyre.lateral_force(alpha, fz_b)
-    i = np.clip(np.argmax(f, axis=0), 1, config.alpha_points - 2)[None]
-    f0 = np.take_along_axis(f, i - 1, axis=0)[0]
-    f1 = np.take_along_axis(f, i, axis=0)[0]
-    f2 = np.take_along_axis(f, i + 1, axis=0)[0]
-    denom = f0 - 2.0 * f1 + f2
-    shift = np.where(denom < 0, 0.5 * (f0 - f2) / np.where(denom < 0, denom, -1.0), 0.0)
-    shift = np.clip(shift, -1.0, 1.0)
-    h = grid[1] - grid[0]
-    a_peak = grid[i[0]] + shift * h
-    f_peak = P.tyre.lateral_force(a_peak, fz_a) + P.tyre.lateral_force(a_peak, fz_b)
-    return np.maximum(np.maximum(f_peak, f1), 0.0), a_peak
+    grid.flags.writeable = False
+    return grid
 
 
 @functools.lru_cache(maxsize=8)
@@ -339,14 +338,13 @@ def _slip_for_force(
     it can (``force`` <= its capacity). Illinois regula falsi on ``[0, peak slip]``,
     where the axle force rises monotonically (:data:`SLIP_SOLVE_PASSES` passes; the
     compiled loop :func:`suspenv.models.minibus.handling_kernel.slip_loop`)."""
-    cap, a_peak = axle_capacity(P, fz_a, fz_b, config)
     force = np.ascontiguousarray(force, dtype=float)
-    hi = np.ascontiguousarray(np.broadcast_to(a_peak, force.shape)).ravel()
     d, b, e = (f.reshape(2, -1) for f in P.tyre.factors(np.stack([fz_a, fz_b])))
-    alpha = np.empty(force.size)
+    out = np.empty((2, force.size))
     c = float(P.tyre.pCy1)
-    handling_kernel.slip_loop(d, b, e, c, force.ravel(), hi, SLIP_SOLVE_PASSES, alpha)
-    return alpha.reshape(force.shape), cap >= force
+    handling_kernel.slip_loop(d, b, e, c, _slip_grid(config), force.ravel(), SLIP_SOLVE_PASSES, out)
+    alpha, cap = out.reshape((2, *force.shape))
+    return alpha, cap >= force
 
 
 def steady_state_sweep(

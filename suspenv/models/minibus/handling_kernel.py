@@ -31,34 +31,73 @@ def _wheel_force(alpha: float, d: float, b: float, e: float, c: float) -> float:
     return d * math.sin(c * math.atan(ba - e * (ba - math.atan(ba))))
 
 
+def _axle_force(
+    alpha: float, d: np.ndarray, b: np.ndarray, e: np.ndarray, j: int, c: float
+) -> float:
+    """Lateral force (N) of axle ``j``'s two tyres (factors ``d, b, e`` (2, m)) at slip
+    angle ``alpha`` (rad)."""
+    fa = _wheel_force(alpha, d[0, j], b[0, j], e[0, j], c)
+    return fa + _wheel_force(alpha, d[1, j], b[1, j], e[1, j], c)
+
+
+def _capacity(
+    d: np.ndarray, b: np.ndarray, e: np.ndarray, j: int, c: float, grid: np.ndarray
+) -> tuple[float, float]:
+    """(peak force N, slip angle rad at it) of axle ``j``: the best point of the slip
+    grid ``grid`` (evenly spaced from 0), refined by the parabola through it and its
+    neighbours (shift within one step); the peak is the larger of the grid's and the
+    refined point's force, >= 0."""
+    n = grid.shape[0]
+    best, f_best = 0, -np.inf
+    for g in range(n):
+        f = _axle_force(grid[g], d, b, e, j, c)
+        if f > f_best:
+            best, f_best = g, f
+    i = min(max(best, 1), n - 2)
+    f0 = _axle_force(grid[i - 1], d, b, e, j, c)
+    f1 = _axle_force(grid[i], d, b, e, j, c)
+    f2 = _axle_force(grid[i + 1], d, b, e, j, c)
+    denom = f0 - 2.0 * f1 + f2
+    shift = 0.5 * (f0 - f2) / denom if denom < 0 else 0.0
+    shift = min(max(shift, -1.0), 1.0)
+    a_peak = grid[i] + shift * (grid[1] - grid[0])
+    return max(max(_axle_force(a_peak, d, b, e, j, c), f1), 0.0), a_peak
+
+
+def _capacity_loop(
+    d: np.ndarray, b: np.ndarray, e: np.ndarray, c: float, grid: np.ndarray, out: np.ndarray
+) -> None:
+    """:func:`_capacity` of every axle (factors ``d, b, e`` (2, m)): ``out`` (2, m) =
+    (peak force N, slip angle rad at it)."""
+    for j in range(d.shape[1]):
+        out[0, j], out[1, j] = _capacity(d, b, e, j, c, grid)
+
+
 def _slip_loop(
     d: np.ndarray,
     b: np.ndarray,
     e: np.ndarray,
     c: float,
+    grid: np.ndarray,
     force: np.ndarray,
-    hi0: np.ndarray,
     passes: int,
     out: np.ndarray,
 ) -> None:
     """Slip angle (rad) at which an axle's two tyres (factors ``d, b, e`` (2, m)) carry
-    ``force`` (m,) N: Illinois regula falsi on ``[0, hi0]`` (the rising branch),
-    ``passes`` passes; the end with the smaller residual goes to ``out`` (m,)."""
+    ``force`` (m,) N, and their capacity (N): Illinois regula falsi on ``[0, peak
+    slip]`` (:func:`_capacity` on ``grid``; the rising branch), ``passes`` passes; the
+    end with the smaller residual and the capacity go to ``out`` (2, m)."""
     for j in range(force.shape[0]):
         f = force[j]
-        lo, hi = 0.0, hi0[j]
-        r_lo = -f
-        r_hi = _wheel_force(hi, d[0, j], b[0, j], e[0, j], c)
-        r_hi = r_hi + _wheel_force(hi, d[1, j], b[1, j], e[1, j], c) - f
+        cap, hi = _capacity(d, b, e, j, c, grid)
+        lo, r_lo, r_hi = 0.0, -f, _axle_force(hi, d, b, e, j, c) - f
         side = 0
         for _ in range(passes):
             span = r_hi - r_lo
             mid = (lo * r_hi - hi * r_lo) / span if span > 0 else hi
-            r_mid = _wheel_force(mid, d[0, j], b[0, j], e[0, j], c)
-            r_mid = r_mid + _wheel_force(mid, d[1, j], b[1, j], e[1, j], c) - f
-            below = r_mid < 0
+            r_mid = _axle_force(mid, d, b, e, j, c) - f
             # Illinois: halve the residual of the end that stays twice in a row
-            if below:
+            if r_mid < 0:
                 if side == -1:
                     r_hi = 0.5 * r_hi
                 lo, r_lo, side = mid, r_mid, -1
@@ -66,7 +105,8 @@ def _slip_loop(
                 if side == 1:
                     r_lo = 0.5 * r_lo
                 hi, r_hi, side = mid, r_mid, 1
-        out[j] = lo if abs(r_lo) < abs(r_hi) else hi
+        out[0, j] = lo if abs(r_lo) < abs(r_hi) else hi
+        out[1, j] = cap
 
 
 def _step(lam: np.ndarray, wn: np.ndarray, t: float, order: int) -> float:
@@ -170,9 +210,10 @@ def _yaw_loop(
         out[i, 4] = _bandwidth(lam[i], wn[i], f, f_max)
 
 
+_AXLE = ("_wheel_force", "_axle_force", "_capacity")
+#: :func:`_capacity_loop`, compiled at its first call (numba's cache keeps it)
+capacity_loop = compiled.Lazy(globals(), _AXLE, _capacity_loop)
 #: :func:`_slip_loop`, compiled at its first call (numba's cache keeps it)
-slip_loop = compiled.Lazy(globals(), ("_wheel_force",), _slip_loop)
+slip_loop = compiled.Lazy(globals(), _AXLE, _slip_loop)
 #: :func:`_yaw_loop`, compiled at its first call (numba's cache keeps it)
-yaw_loop = compiled.Lazy(
-    globals(), ("_step", "_rel_gain", "_step_times", "_bandwidth"), _yaw_loop
-)
+yaw_loop = compiled.Lazy(globals(), ("_step", "_rel_gain", "_step_times", "_bandwidth"), _yaw_loop)
