@@ -206,8 +206,7 @@ def _limits(
     """(front ok, rear ok, not rolled over) at lateral accelerations ay (..., n)."""
     _, fl, fr, rl, rr = _steady_loads(P, ay)
     L = P.wheelbase
-    cap_f = axle_capacity_tabulated(P, fl, fr, config)
-    cap_r = axle_capacity_tabulated(P, rl, rr, config)
+    cap_f, cap_r = axle_capacity_tabulated(P, np.stack([fl, rl]), np.stack([fr, rr]), config)
     front_ok = cap_f >= P.m * ay * P.b / L
     rear_ok = cap_r >= P.m * ay * P.a / L
     upright = (fl > 0) | (rl > 0)
@@ -335,16 +334,18 @@ def _slip_for_force(
     config: SteadyCircleConfig,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Slip angle on the rising branch at which an axle carries ``force``, and whether
-    it can (``force`` <= its capacity). Illinois regula falsi on ``[0, peak slip]``,
-    where the axle force rises monotonically (:data:`SLIP_SOLVE_PASSES` passes; the
-    compiled loop :func:`suspenv.models.minibus.handling_kernel.slip_loop`)."""
+    it can (``force`` <= its capacity). Illinois regula falsi (:data:`SLIP_SOLVE_PASSES`
+    passes) between the first point of the capacity search's slip grid whose force
+    reaches ``force`` and the one before (the axle force is unimodal in the slip
+    angle), else on ``[0, peak slip]``; the compiled loop
+    :func:`suspenv.models.minibus.handling_kernel.slip_loop`."""
     force = np.ascontiguousarray(force, dtype=float)
     d, b, e = (f.reshape(2, -1) for f in P.tyre.factors(np.stack([fz_a, fz_b])))
     out = np.empty((2, force.size))
     c = float(P.tyre.pCy1)
     handling_kernel.slip_loop(d, b, e, c, _slip_grid(config), force.ravel(), SLIP_SOLVE_PASSES, out)
-    alpha, cap = out.reshape((2, *force.shape))
-    return alpha, cap >= force
+    alpha, can = out.reshape((2, *force.shape))
+    return alpha, can > 0
 
 
 def steady_state_sweep(

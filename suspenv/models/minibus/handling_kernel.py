@@ -73,6 +73,23 @@ def _capacity_loop(
         out[0, j], out[1, j] = _capacity(d, b, e, j, c, grid)
 
 
+def _slip_bracket(
+    d: np.ndarray, b: np.ndarray, e: np.ndarray, j: int, c: float, grid: np.ndarray, f: float
+) -> tuple[float, float, float, float, bool]:
+    """(lo, residual there, hi, residual there, whether axle ``j`` can carry ``f``) of
+    the slip solve: the first point of ``grid`` whose force reaches ``f`` and the one
+    before (the axle force is unimodal, so they bracket the root on the rising branch);
+    if none does, ``[0, peak slip]`` of :func:`_capacity`, and ``f`` <= its capacity."""
+    lo, r_lo = 0.0, -f
+    for g in range(1, grid.shape[0]):
+        r = _axle_force(grid[g], d, b, e, j, c) - f
+        if r >= 0:
+            return lo, r_lo, grid[g], r, True
+        lo, r_lo = grid[g], r
+    cap, hi = _capacity(d, b, e, j, c, grid)
+    return 0.0, -f, hi, _axle_force(hi, d, b, e, j, c) - f, cap >= f
+
+
 def _slip_loop(
     d: np.ndarray,
     b: np.ndarray,
@@ -84,13 +101,12 @@ def _slip_loop(
     out: np.ndarray,
 ) -> None:
     """Slip angle (rad) at which an axle's two tyres (factors ``d, b, e`` (2, m)) carry
-    ``force`` (m,) N, and their capacity (N): Illinois regula falsi on ``[0, peak
-    slip]`` (:func:`_capacity` on ``grid``; the rising branch), ``passes`` passes; the
-    end with the smaller residual and the capacity go to ``out`` (2, m)."""
+    ``force`` (m,) N on the rising branch, and whether they can: Illinois regula falsi
+    on :func:`_slip_bracket`'s bracket, ``passes`` passes; the end with the smaller
+    residual and 1.0 (can) or 0.0 go to ``out`` (2, m)."""
     for j in range(force.shape[0]):
         f = force[j]
-        cap, hi = _capacity(d, b, e, j, c, grid)
-        lo, r_lo, r_hi = 0.0, -f, _axle_force(hi, d, b, e, j, c) - f
+        lo, r_lo, hi, r_hi, can = _slip_bracket(d, b, e, j, c, grid, f)
         side = 0
         for _ in range(passes):
             span = r_hi - r_lo
@@ -106,7 +122,7 @@ def _slip_loop(
                     r_lo = 0.5 * r_lo
                 hi, r_hi, side = mid, r_mid, 1
         out[0, j] = lo if abs(r_lo) < abs(r_hi) else hi
-        out[1, j] = cap
+        out[1, j] = 1.0 if can else 0.0
 
 
 def _step(lam: np.ndarray, wn: np.ndarray, t: float, order: int) -> float:
@@ -135,15 +151,23 @@ def _rel_gain(lam: np.ndarray, wn: np.ndarray, f: float) -> float:
 
 def _step_times(lam: np.ndarray, wn: np.ndarray, grid: np.ndarray, out: np.ndarray) -> None:
     """``out[:4]`` = (90 % time, peak time, 1 where the peak lies inside the grid, the
-    peak value) of one row: the 90 % crossing (linear between grid points) and the
-    grid's maximum, each refined by 4 Newton steps on the closed form."""
-    n = grid.shape[0]
-    dt = grid[1] - grid[0]
+    peak value) of one row: the 90 % crossing (linear between the points of the evenly
+    spaced ``grid``) and the grid's maximum, each refined by 4 Newton steps on the
+    closed form (the grid's ``e^(lam t)`` by repeated products: start values only)."""
+    n, m = grid.shape[0], lam.shape[0]
+    z = np.empty(m, dtype=np.complex128)
+    e = np.ones(m, dtype=np.complex128)
+    for k in range(m):
+        z[k] = cmath.exp(lam[k] * (grid[1] - grid[0]))
     k90, jmax = -1, 0
     y_prev, y_max = 0.0, -np.inf
     y_k, y_km1 = 0.0, 0.0
     for j in range(n):
-        y = _step(lam, wn, grid[j], 0)
+        total = 0j
+        for k in range(m):
+            total += (e[k] - 1.0) * wn[k]
+            e[k] = e[k] * z[k]
+        y = total.real
         if k90 == -1 and y >= 0.9:
             k90, y_k, y_km1 = j, y, y_prev
         if y > y_max:
@@ -151,7 +175,7 @@ def _step_times(lam: np.ndarray, wn: np.ndarray, grid: np.ndarray, out: np.ndarr
         y_prev = y
     if k90 <= 0:  # no crossing (or at t = 0): the first interval, as numpy's argmax
         k90, y_km1, y_k = 1, _step(lam, wn, grid[0], 0), _step(lam, wn, grid[1], 0)
-    t90 = (k90 - 1 + (0.9 - y_km1) / (y_k - y_km1)) * dt
+    t90 = (k90 - 1 + (0.9 - y_km1) / (y_k - y_km1)) * (grid[1] - grid[0])
     tp = grid[min(max(jmax, 1), n - 2)]
     for _ in range(4):
         t90 = t90 - (_step(lam, wn, t90, 0) - 0.9) / _step(lam, wn, t90, 1)
@@ -210,7 +234,7 @@ def _yaw_loop(
         out[i, 4] = _bandwidth(lam[i], wn[i], f, f_max)
 
 
-_AXLE = ("_wheel_force", "_axle_force", "_capacity")
+_AXLE = ("_wheel_force", "_axle_force", "_capacity", "_slip_bracket")
 #: :func:`_capacity_loop`, compiled at its first call (numba's cache keeps it)
 capacity_loop = compiled.Lazy(globals(), _AXLE, _capacity_loop)
 #: :func:`_slip_loop`, compiled at its first call (numba's cache keeps it)
