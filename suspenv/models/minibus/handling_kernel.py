@@ -1,16 +1,20 @@
 """Compiled loops of the minibus handling measures (numba), element by element.
 
-Two iterative parts of the default handling measures run here instead of as numpy
+The iterative parts of the default handling measures run here instead of as numpy
 passes over the batch (one design at a time the numpy call overhead of their fixed
-pass counts dominated): the Illinois slip-angle solve of the quasi-steady axle force
-(:func:`suspenv.rigs.handling.steady_state_sweep`) and the step-time and bandwidth
+pass counts dominated): the axle-capacity grid search and the Illinois slip-angle
+solve of the quasi-steady axle force (:func:`suspenv.rigs.handling.axle_capacity`,
+:func:`suspenv.rigs.handling.steady_state_sweep`) and the step-time, peak and bandwidth
 searches of the ISO 7401 yaw response (:func:`suspenv.metrics.handling.yaw_response`).
-Each loop is the scheme its caller documents, pass for pass, with the same fixed
-pass counts (no data-dependent stopping: an element's result never depends on the
-batch); the sums run in another order than numpy's, so results agree with the numpy
-form to rounding. Frames, units and signs are those of
-:mod:`suspenv.models.minibus.handling_model`; the tyre force is
-:class:`suspenv.models.minibus.tyre.LateralTyre`'s Magic Formula. Without numba, the
+The pass counts are fixed (no data-dependent stopping: an element's result never
+depends on the batch). Against the numpy passes they replaced
+(``benchmarks.minibus_speed.numpy_loops``, compared in the tests), the slip solve
+starts from a narrower bracket (the slip grid's points around the root) and the step
+response's search grid takes ``e^(lam t)`` by repeated products (start values of the
+Newton steps only); both solve to round-off, so results agree to rounding. Frames,
+units and signs are those of :mod:`suspenv.models.minibus.handling_model`; the tyre
+force is :class:`suspenv.models.minibus.tyre.LateralTyre`'s Magic Formula. Built
+ahead of time with the package (:mod:`suspenv.core.compiled`); without numba, the
 plain Python functions run.
 """
 
