@@ -255,7 +255,12 @@ def identify_cells(s: Json) -> tuple[str, str]:
 
 def minibus_speed_cells(s: Json) -> tuple[str, str]:
     """(result, target) of the minibus evaluation row from ``minibus_speed.json``."""
-    return fill("minibus_speed.result", s=s), fill("minibus_speed.target", s=s)
+    flags = {
+        "batched": met(s["meets_batched_target"]),
+        "single": met(s["meets_single_target"]),
+        "compiled": met(s["meets_single_compiled_target"]),
+    }
+    return fill("minibus_speed.result", s=s), fill("minibus_speed.target", s=s, **flags)
 
 
 def ride_noise_cells(s: Json) -> tuple[str, str]:

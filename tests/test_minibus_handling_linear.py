@@ -317,3 +317,27 @@ def test_yaw_response_of_a_second_order_system_is_the_textbook_one():
     np.testing.assert_allclose(res.overshoot, np.exp(-np.pi * z / np.sqrt(1 - z**2)), rtol=1e-9)
     band = w * np.sqrt(1 - 2 * z**2 + np.sqrt(4 * z**4 - 4 * z**2 + 2)) / (2 * np.pi)
     np.testing.assert_allclose(res.bandwidth, band, rtol=1e-7)
+
+
+def test_compiled_handling_loops_equal_their_numpy_passes():
+    # the compiled slip solve, capacity search and yaw-response searches
+    # (suspenv.models.minibus.handling_kernel) against the numpy passes over the batch
+    # they replaced (benchmarks.minibus_speed.numpy_loops): both solve to round-off, so
+    # they agree to round-off times the conditioning: the ISO 4138 gradients, a central
+    # difference over 0.2 m/s^2, amplify it about 1e3-fold
+    from benchmarks.minibus_speed import numpy_loops
+    from suspenv.problems.minibus import MinibusRideHandling
+
+    problem = MinibusRideHandling()
+    X = _designs(12)
+    P = _params(X)
+    ay = np.linspace(0.5, 1.2 * G, 12)  # up to beyond the limit: infeasible states too
+    compiled = problem._standard_handling(P), steady_state_sweep(P, ay)
+    with numpy_loops():
+        numpy = problem._standard_handling(P), steady_state_sweep(P, ay)
+    for key, value in compiled[0].items():
+        np.testing.assert_allclose(value, numpy[0][key], rtol=1e-10, err_msg=key)
+    np.testing.assert_array_equal(compiled[1].feasible, numpy[1].feasible)
+    assert 0 < compiled[1].feasible.sum() < compiled[1].feasible.size
+    ok = compiled[1].feasible
+    np.testing.assert_allclose(compiled[1].steer[ok], numpy[1].steer[ok], rtol=1e-12)

@@ -1,18 +1,19 @@
 """Compiled loops (numba): built ahead of time at install, else compiled at their first call.
 
 A module with a compiled loop keeps it as plain Python functions (the same code runs
-without numba) and exposes it as a :class:`Lazy` loop. The loops a K&C evaluation runs
-(:data:`AHEAD`) are compiled when the package is built (``setup.py`` calls
-:func:`extension`: numba's ``pycc`` makes the extension module ``suspenv.core._kernels``), so
-a fresh install's first evaluation compiles nothing. Each compiled loop is exported
-under a name carrying the hash of its source files (:func:`export_name`): a loop whose
-source changed since the build (an editable install being edited) is not found there
-and is compiled at its first call instead with numba's JIT (``cache=True``: the machine
-code is written next to the module, or to numba's user cache folder when the package
-folder is read-only, and loaded by later processes). Without numba, ``main`` itself
-runs. ``SUSPENV_COMPILED=jit`` ignores the built loops (the benchmark's baseline).
-``python suspenv/core/compiled.py`` rebuilds the extension of a source tree in place
-(e.g. a worktree whose loops changed) without reinstalling the package.
+without numba) and exposes it as a :class:`Lazy` loop. The loops a K&C evaluation and the
+minibus problem's handling measures run (:data:`AHEAD`) are compiled when the package is
+built (``setup.py`` calls :func:`extension`: numba's ``pycc`` makes the extension module
+``suspenv.core._kernels``), so a fresh install's first evaluation compiles nothing. Each
+compiled loop is exported under a name carrying the hash of its source files
+(:func:`export_name`): a loop whose source changed since the build (an editable install
+being edited) is not found there and is compiled at its first call instead with numba's
+JIT (``cache=True``: the machine code is written next to the module, or to numba's user
+cache folder when the package folder is read-only, and loaded by later processes).
+Without numba, ``main`` itself runs. ``SUSPENV_COMPILED=jit`` ignores the built loops
+(the benchmark's baseline). ``python suspenv/core/compiled.py`` rebuilds the extension of
+a source tree in place (e.g. a worktree whose loops changed) without reinstalling the
+package.
 """
 
 from __future__ import annotations
@@ -58,6 +59,14 @@ def _signatures() -> None:
     AHEAD["suspenv.models.mcpherson.sweep_kernel"] = {"sweep": f"void({', '.join(sweep)})"}
     AHEAD["suspenv.models.effects.kernels"] = {
         "recurrence": f"void({f(2)}, {f(2)}, {f(1)}, {f(2)})",
+    }
+    # d, b, e, c, grid, [force, passes,] out; lam, wn, grid, f, f_max, out (handling_kernel)
+    axle = [f(2), f(2), f(2), "float64", f(1)]
+    c = _arr("complex128", 2)
+    AHEAD["suspenv.models.minibus.handling_kernel"] = {
+        "capacity_loop": f"void({', '.join([*axle, f(2)])})",
+        "slip_loop": f"void({', '.join([*axle, f(1), 'int64', f(2)])})",
+        "yaw_loop": f"void({c}, {c}, {f(1)}, {f(1)}, float64, {f(2)})",
     }
 
 
@@ -159,7 +168,7 @@ def _exports(root: Path) -> Any:
         return None
 
     for package in ("suspenv", "suspenv.core", "suspenv.models", "suspenv.models.mcpherson",
-                    "suspenv.models.effects"):  # fmt: skip
+                    "suspenv.models.effects", "suspenv.models.minibus"):  # fmt: skip
         stub = types.ModuleType(package)
         stub.__path__ = [str(root.joinpath(*package.split(".")))]
         sys.modules.setdefault(package, stub)

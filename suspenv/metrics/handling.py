@@ -24,12 +24,12 @@ one 4x4 complex solve per design.
 from __future__ import annotations
 
 import functools
-from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from suspenv.core.errors import ValidationError
+from suspenv.models.minibus import handling_kernel
 from suspenv.models.minibus.handling_model import (
     HandlingParams,
     linear_system,
@@ -290,39 +290,25 @@ def yaw_response(
     w = V[:, 1, :] * c / lam  # (n, 4)
     r_ss = -np.sum(w, axis=1).real  # x(inf) = -A^-1 B
     wn = w / r_ss[:, None]  # normalised: y(t) = r(t) / r_ss, |H(f)| / |H(0)|
-
-    def y(t: np.ndarray, *orders: int) -> list[np.ndarray]:
-        """d^order y / dt^order at times t (n, k), one array per order."""
-        e = np.exp(lam[:, None, :] * t[..., None])
-        lo = lam[:, None, :]
-        return [((e * lo**o - (o == 0)) @ wn[:, :, None])[..., 0].real for o in orders]
-
-    def rel_gain(f: np.ndarray) -> np.ndarray:
-        """|H(f)| / |H(0)| at frequencies f (n, k)."""
-        s = 2j * np.pi * f[..., None]
-        return np.abs(((lam[:, None, :] / (s - lam[:, None, :])) @ wn[:, :, None])[..., 0])
-
-    n = A.shape[0]
-    rows = np.arange(n)
-    grid = np.arange(0.0, t_end + 0.5 * dt, dt)
-    (yg,) = y(np.broadcast_to(grid, (n, grid.size)), 0)
-    k = np.maximum(np.argmax(yg >= 0.9, axis=1), 1)
-    t90 = (k - 1 + (0.9 - yg[rows, k - 1]) / (yg[rows, k] - yg[rows, k - 1])) * dt
-    j = np.argmax(yg, axis=1)
-    has_peak = (j > 0) & (j < grid.size - 1)
-    tp = grid[np.clip(j, 1, grid.size - 2)]
-    for _ in range(4):  # Newton on y(t) = 0.9 and y'(t) = 0, both times in one pass
-        y0, y1, y2 = y(np.column_stack([t90, tp]), 0, 1, 2)
-        t90 = t90 - (y0[:, 0] - 0.9) / y1[:, 0]
-        tp = tp - y1[:, 1] / y2[:, 1]
-    peak = y(tp[:, None], 0)[0][:, 0]
+    out = np.empty((A.shape[0], 5))
+    lam = np.ascontiguousarray(lam, dtype=complex)
+    handling_kernel.yaw_loop(lam, wn, _grid(t_end, dt), _log_grid(f_max), float(f_max), out)
+    has_peak = out[:, 2] > 0
     return YawResponse(
         gain=r_ss,
-        response_time=t90,
-        peak_time=np.where(has_peak, tp, t_end),
-        overshoot=np.where(has_peak, np.maximum(peak - 1.0, 0.0), 0.0),
-        bandwidth=_half_power(rel_gain, n, f_max),
+        response_time=out[:, 0],
+        peak_time=np.where(has_peak, out[:, 1], t_end),
+        overshoot=np.where(has_peak, np.maximum(out[:, 3] - 1.0, 0.0), 0.0),
+        bandwidth=out[:, 4],
     )
+
+
+@functools.lru_cache(maxsize=4)
+def _grid(t_end: float, dt: float) -> np.ndarray:
+    """Times 0, dt, .. t_end (s) of the step response's search grid (read-only, cached)."""
+    t = np.arange(0.0, t_end + 0.5 * dt, dt)
+    t.flags.writeable = False
+    return t
 
 
 @functools.lru_cache(maxsize=4)
@@ -331,31 +317,3 @@ def _log_grid(f_max: float) -> np.ndarray:
     f = np.geomspace(0.01, f_max, 48)
     f.flags.writeable = False
     return f
-
-
-def _half_power(rel_gain: Callable[[np.ndarray], np.ndarray], n: int, f_max: float) -> np.ndarray:
-    """Lowest frequency (Hz, (n,)) where ``rel_gain`` (f (n, k) -> (n, k)) falls below
-    ``1/sqrt(2)``: a 48-point log grid 0.01..``f_max`` Hz, then Illinois regula falsi in
-    log f on the bracketing interval (10 passes: round-off on these smooth curves, test);
-    ``f_max`` where it does not fall."""
-    half = np.sqrt(0.5)
-    f = _log_grid(f_max)
-    g = rel_gain(np.broadcast_to(f, (n, f.size))) - half
-    below = g < 0
-    k = np.maximum(np.argmax(below, axis=1), 1)
-    rows = np.arange(n)
-    lo, hi = np.log(f[k - 1]), np.log(f[k])
-    g_lo, g_hi = g[rows, k - 1], g[rows, k]
-    side = np.zeros(n, dtype=np.int8)
-    for _ in range(10):
-        span = g_lo - g_hi
-        mid = np.where(span > 0, (lo * -g_hi + hi * g_lo) / np.where(span > 0, span, 1.0), hi)
-        g_mid = rel_gain(np.exp(mid)[:, None])[:, 0] - half
-        under = g_mid < 0
-        g_lo = np.where(under & (side == -1), 0.5 * g_lo, g_lo)
-        g_hi = np.where(~under & (side == 1), 0.5 * g_hi, g_hi)
-        hi, g_hi = np.where(under, mid, hi), np.where(under, g_mid, g_hi)
-        lo, g_lo = np.where(under, lo, mid), np.where(under, g_lo, g_mid)
-        side = np.where(under, -1, 1).astype(np.int8)
-    best = np.where(np.abs(g_lo) < np.abs(g_hi), lo, hi)
-    return np.where(below.any(axis=1), np.exp(best), f_max)

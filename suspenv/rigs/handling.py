@@ -52,6 +52,7 @@ from typing import Protocol
 import numpy as np
 
 from suspenv.core.errors import ValidationError
+from suspenv.models.minibus import handling_kernel
 from suspenv.models.minibus.handling_model import (
     HandlingParams,
     HandlingState,
@@ -130,26 +131,25 @@ def axle_capacity(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Peak over slip angle of an axle's lateral force (N) and the slip angle (rad) at it.
 
-    Grid search over 0..alpha_max refined by a parabola through the best three points.
+    Grid search over 0..alpha_max refined by a parabola through the best three points
+    (the compiled loop :func:`suspenv.models.minibus.handling_kernel.capacity_loop`).
     ``fz_a``/``fz_b`` (the axle's two wheel loads) may have any shape whose last axis
     matches the rows of ``P``.
     """
-    fz_a = np.asarray(fz_a, dtype=float)
-    fz_b = np.asarray(fz_b, dtype=float)
+    fz = np.stack(np.broadcast_arrays(np.asarray(fz_a, float), np.asarray(fz_b, float)))
+    d, b, e = (f.reshape(2, -1) for f in P.tyre.factors(fz))
+    out = np.empty((2, d.shape[1]))
+    handling_kernel.capacity_loop(d, b, e, float(P.tyre.pCy1), _slip_grid(config), out)
+    return out[0].reshape(fz.shape[1:]), out[1].reshape(fz.shape[1:])
+
+
+@functools.lru_cache(maxsize=8)
+def _slip_grid(config: SteadyCircleConfig) -> np.ndarray:
+    """The slip angles (rad) of the axle-capacity search: ``alpha_points`` evenly from 0
+    to ``alpha_max_deg`` (read-only, cached)."""
     grid = np.linspace(0.0, np.radians(config.alpha_max_deg), config.alpha_points)
-    alpha = grid.reshape((-1,) + (1,) * fz_a.ndim)
-    f = P.tyre.lateral_force(alpha, fz_a) + P.tyre.lateral_force(alpha, fz_b)
-    i = np.clip(np.argmax(f, axis=0), 1, config.alpha_points - 2)[None]
-    f0 = np.take_along_axis(f, i - 1, axis=0)[0]
-    f1 = np.take_along_axis(f, i, axis=0)[0]
-    f2 = np.take_along_axis(f, i + 1, axis=0)[0]
-    denom = f0 - 2.0 * f1 + f2
-    shift = np.where(denom < 0, 0.5 * (f0 - f2) / np.where(denom < 0, denom, -1.0), 0.0)
-    shift = np.clip(shift, -1.0, 1.0)
-    h = grid[1] - grid[0]
-    a_peak = grid[i[0]] + shift * h
-    f_peak = P.tyre.lateral_force(a_peak, fz_a) + P.tyre.lateral_force(a_peak, fz_b)
-    return np.maximum(np.maximum(f_peak, f1), 0.0), a_peak
+    grid.flags.writeable = False
+    return grid
 
 
 @functools.lru_cache(maxsize=8)
@@ -206,8 +206,7 @@ def _limits(
     """(front ok, rear ok, not rolled over) at lateral accelerations ay (..., n)."""
     _, fl, fr, rl, rr = _steady_loads(P, ay)
     L = P.wheelbase
-    cap_f = axle_capacity_tabulated(P, fl, fr, config)
-    cap_r = axle_capacity_tabulated(P, rl, rr, config)
+    cap_f, cap_r = axle_capacity_tabulated(P, np.stack([fl, rl]), np.stack([fr, rr]), config)
     front_ok = cap_f >= P.m * ay * P.b / L
     rear_ok = cap_r >= P.m * ay * P.a / L
     upright = (fl > 0) | (rl > 0)
@@ -335,30 +334,18 @@ def _slip_for_force(
     config: SteadyCircleConfig,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Slip angle on the rising branch at which an axle carries ``force``, and whether
-    it can (``force`` <= its capacity). Illinois regula falsi on ``[0, peak slip]``,
-    where the axle force rises monotonically (:data:`SLIP_SOLVE_PASSES` passes)."""
-    cap, a_peak = axle_capacity(P, fz_a, fz_b, config)
-    wheels = P.tyre.curve(np.stack([fz_a, fz_b]))
-
-    def residual(alpha: np.ndarray) -> np.ndarray:
-        f = wheels(alpha[None])
-        return f[0] + f[1] - force
-
-    lo, hi = np.zeros_like(force), np.broadcast_to(a_peak, force.shape).copy()
-    r_lo, r_hi = -force, residual(hi)
-    side = np.zeros(force.shape, dtype=np.int8)
-    for _ in range(SLIP_SOLVE_PASSES):
-        span = r_hi - r_lo
-        mid = np.where(span > 0, (lo * r_hi - hi * r_lo) / np.where(span > 0, span, 1.0), hi)
-        r_mid = residual(mid)
-        below = r_mid < 0
-        # Illinois: halve the residual of the end that stays twice in a row
-        r_hi = np.where(below & (side == -1), 0.5 * r_hi, r_hi)
-        r_lo = np.where(~below & (side == 1), 0.5 * r_lo, r_lo)
-        lo, r_lo = np.where(below, mid, lo), np.where(below, r_mid, r_lo)
-        hi, r_hi = np.where(below, hi, mid), np.where(below, r_hi, r_mid)
-        side = np.where(below, -1, 1).astype(np.int8)
-    return np.where(np.abs(r_lo) < np.abs(r_hi), lo, hi), cap >= force
+    it can (``force`` <= its capacity). Illinois regula falsi (:data:`SLIP_SOLVE_PASSES`
+    passes) between the first point of the capacity search's slip grid whose force
+    reaches ``force`` and the one before (the axle force is unimodal in the slip
+    angle), else on ``[0, peak slip]``; the compiled loop
+    :func:`suspenv.models.minibus.handling_kernel.slip_loop`."""
+    force = np.ascontiguousarray(force, dtype=float)
+    d, b, e = (f.reshape(2, -1) for f in P.tyre.factors(np.stack([fz_a, fz_b])))
+    out = np.empty((2, force.size))
+    c = float(P.tyre.pCy1)
+    handling_kernel.slip_loop(d, b, e, c, _slip_grid(config), force.ravel(), SLIP_SOLVE_PASSES, out)
+    alpha, can = out.reshape((2, *force.shape))
+    return alpha, can > 0
 
 
 def steady_state_sweep(

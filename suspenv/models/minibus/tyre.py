@@ -104,16 +104,22 @@ class LateralTyre:
         """
         return self.curve(fz)(alpha)
 
-    def curve(self, fz: np.ndarray | float) -> Callable[[np.ndarray | float], np.ndarray]:
-        """The force curve ``alpha -> Fy`` [rad -> N] at fixed loads ``fz`` [N], its
-        load-dependent factors (D, B, E) computed once (for solves that evaluate many
-        slip angles at the same loads)."""
+    def factors(self, fz: np.ndarray | float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The load-dependent factors (D [N], B [1/rad], E [-]) of the force at loads
+        ``fz`` [N] (C is ``pCy1``)."""
         fz = np.maximum(np.asarray(fz, dtype=float), 0.0)
         dfz = (fz - self.fz0) / self.fz0
         d = np.maximum(self.pDy1 * (1.0 + self.pDy2 * dfz), 0.05) * fz
-        c = self.pCy1
-        b = self.cornering_stiffness(fz) / np.maximum(c * d, 1e-9)
+        b = self.cornering_stiffness(fz) / np.maximum(self.pCy1 * d, 1e-9)
         e = np.minimum(self.pEy1 + self.pEy2 * dfz, 1.0)
+        return d, b, e
+
+    def curve(self, fz: np.ndarray | float) -> Callable[[np.ndarray | float], np.ndarray]:
+        """The force curve ``alpha -> Fy`` [rad -> N] at fixed loads ``fz`` [N], its
+        load-dependent factors (:meth:`factors`) computed once (for solves that evaluate
+        many slip angles at the same loads)."""
+        d, b, e = self.factors(fz)
+        c = self.pCy1
 
         def force(alpha: np.ndarray | float) -> np.ndarray:
             ba = b * np.asarray(alpha, dtype=float)

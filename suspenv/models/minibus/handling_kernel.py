@@ -1,0 +1,247 @@
+"""Compiled loops of the minibus handling measures (numba), element by element.
+
+The iterative parts of the default handling measures run here instead of as numpy
+passes over the batch (one design at a time the numpy call overhead of their fixed
+pass counts dominated): the axle-capacity grid search and the Illinois slip-angle
+solve of the quasi-steady axle force (:func:`suspenv.rigs.handling.axle_capacity`,
+:func:`suspenv.rigs.handling.steady_state_sweep`) and the step-time, peak and bandwidth
+searches of the ISO 7401 yaw response (:func:`suspenv.metrics.handling.yaw_response`).
+The pass counts are fixed (no data-dependent stopping: an element's result never
+depends on the batch). Against the numpy passes they replaced
+(``benchmarks.minibus_speed.numpy_loops``, compared in the tests), the slip solve
+starts from a narrower bracket (the slip grid's points around the root) and the step
+response's search grid takes ``e^(lam t)`` by repeated products (start values of the
+Newton steps only); both solve to round-off, so results agree to rounding. Frames,
+units and signs are those of :mod:`suspenv.models.minibus.handling_model`; the tyre
+force is :class:`suspenv.models.minibus.tyre.LateralTyre`'s Magic Formula. Built
+ahead of time with the package (:mod:`suspenv.core.compiled`); without numba, the
+plain Python functions run.
+"""
+
+from __future__ import annotations
+
+import cmath
+import math
+
+import numpy as np
+
+from suspenv.core import compiled
+
+
+def _wheel_force(alpha: float, d: float, b: float, e: float, c: float) -> float:
+    """Lateral force (N) of one tyre at slip angle ``alpha`` (rad) from its factors
+    (:meth:`LateralTyre.factors`: D N, B 1/rad, E; C = ``pCy1``)."""
+    ba = b * alpha
+    return d * math.sin(c * math.atan(ba - e * (ba - math.atan(ba))))
+
+
+def _axle_force(
+    alpha: float, d: np.ndarray, b: np.ndarray, e: np.ndarray, j: int, c: float
+) -> float:
+    """Lateral force (N) of axle ``j``'s two tyres (factors ``d, b, e`` (2, m)) at slip
+    angle ``alpha`` (rad)."""
+    fa = _wheel_force(alpha, d[0, j], b[0, j], e[0, j], c)
+    return fa + _wheel_force(alpha, d[1, j], b[1, j], e[1, j], c)
+
+
+def _capacity(
+    d: np.ndarray, b: np.ndarray, e: np.ndarray, j: int, c: float, grid: np.ndarray
+) -> tuple[float, float]:
+    """(peak force N, slip angle rad at it) of axle ``j``: the best point of the slip
+    grid ``grid`` (evenly spaced from 0), refined by the parabola through it and its
+    neighbours (shift within one step); the peak is the larger of the grid's and the
+    refined point's force, >= 0."""
+    n = grid.shape[0]
+    best, f_best = 0, -np.inf
+    for g in range(n):
+        f = _axle_force(grid[g], d, b, e, j, c)
+        if f > f_best:
+            best, f_best = g, f
+    i = min(max(best, 1), n - 2)
+    f0 = _axle_force(grid[i - 1], d, b, e, j, c)
+    f1 = _axle_force(grid[i], d, b, e, j, c)
+    f2 = _axle_force(grid[i + 1], d, b, e, j, c)
+    denom = f0 - 2.0 * f1 + f2
+    shift = 0.5 * (f0 - f2) / denom if denom < 0 else 0.0
+    shift = min(max(shift, -1.0), 1.0)
+    a_peak = grid[i] + shift * (grid[1] - grid[0])
+    return max(max(_axle_force(a_peak, d, b, e, j, c), f1), 0.0), a_peak
+
+
+def _capacity_loop(
+    d: np.ndarray, b: np.ndarray, e: np.ndarray, c: float, grid: np.ndarray, out: np.ndarray
+) -> None:
+    """:func:`_capacity` of every axle (factors ``d, b, e`` (2, m)): ``out`` (2, m) =
+    (peak force N, slip angle rad at it)."""
+    for j in range(d.shape[1]):
+        out[0, j], out[1, j] = _capacity(d, b, e, j, c, grid)
+
+
+def _slip_bracket(
+    d: np.ndarray, b: np.ndarray, e: np.ndarray, j: int, c: float, grid: np.ndarray, f: float
+) -> tuple[float, float, float, float, bool]:
+    """(lo, residual there, hi, residual there, whether axle ``j`` can carry ``f``) of
+    the slip solve: the first point of ``grid`` whose force reaches ``f`` and the one
+    before (the axle force is unimodal, so they bracket the root on the rising branch);
+    if none does, ``[0, peak slip]`` of :func:`_capacity`, and ``f`` <= its capacity."""
+    lo, r_lo = 0.0, -f
+    for g in range(1, grid.shape[0]):
+        r = _axle_force(grid[g], d, b, e, j, c) - f
+        if r >= 0:
+            return lo, r_lo, grid[g], r, True
+        lo, r_lo = grid[g], r
+    cap, hi = _capacity(d, b, e, j, c, grid)
+    return 0.0, -f, hi, _axle_force(hi, d, b, e, j, c) - f, cap >= f
+
+
+def _slip_loop(
+    d: np.ndarray,
+    b: np.ndarray,
+    e: np.ndarray,
+    c: float,
+    grid: np.ndarray,
+    force: np.ndarray,
+    passes: int,
+    out: np.ndarray,
+) -> None:
+    """Slip angle (rad) at which an axle's two tyres (factors ``d, b, e`` (2, m)) carry
+    ``force`` (m,) N on the rising branch, and whether they can: Illinois regula falsi
+    on :func:`_slip_bracket`'s bracket, ``passes`` passes; the end with the smaller
+    residual and 1.0 (can) or 0.0 go to ``out`` (2, m)."""
+    for j in range(force.shape[0]):
+        f = force[j]
+        lo, r_lo, hi, r_hi, can = _slip_bracket(d, b, e, j, c, grid, f)
+        side = 0
+        for _ in range(passes):
+            span = r_hi - r_lo
+            mid = (lo * r_hi - hi * r_lo) / span if span > 0 else hi
+            r_mid = _axle_force(mid, d, b, e, j, c) - f
+            # Illinois: halve the residual of the end that stays twice in a row
+            if r_mid < 0:
+                if side == -1:
+                    r_hi = 0.5 * r_hi
+                lo, r_lo, side = mid, r_mid, -1
+            else:
+                if side == 1:
+                    r_lo = 0.5 * r_lo
+                hi, r_hi, side = mid, r_mid, 1
+        out[0, j] = lo if abs(r_lo) < abs(r_hi) else hi
+        out[1, j] = 1.0 if can else 0.0
+
+
+def _step(lam: np.ndarray, wn: np.ndarray, t: float, order: int) -> float:
+    """d^order y/dt^order at time t (s) of the normalised yaw step response ``y(t) =
+    sum_k wn_k (e^(lam_k t) - 1)`` (real part)."""
+    total = 0j
+    for k in range(lam.shape[0]):
+        term = cmath.exp(lam[k] * t)
+        for _ in range(order):
+            term = term * lam[k]
+        if order == 0:
+            term = term - 1.0
+        total += term * wn[k]
+    return total.real
+
+
+def _rel_gain(lam: np.ndarray, wn: np.ndarray, f: float) -> float:
+    """|H(f)| / |H(0)| of the yaw rate at frequency f (Hz): ``|sum_k wn_k lam_k /
+    (i 2 pi f - lam_k)|``."""
+    s = complex(0.0, 2.0 * math.pi * f)
+    total = 0j
+    for k in range(lam.shape[0]):
+        total += lam[k] / (s - lam[k]) * wn[k]
+    return abs(total)
+
+
+def _step_times(lam: np.ndarray, wn: np.ndarray, grid: np.ndarray, out: np.ndarray) -> None:
+    """``out[:4]`` = (90 % time, peak time, 1 where the peak lies inside the grid, the
+    peak value) of one row: the 90 % crossing (linear between the points of the evenly
+    spaced ``grid``) and the grid's maximum, each refined by 4 Newton steps on the
+    closed form (the grid's ``e^(lam t)`` by repeated products: start values only)."""
+    n, m = grid.shape[0], lam.shape[0]
+    z = np.empty(m, dtype=np.complex128)
+    e = np.ones(m, dtype=np.complex128)
+    for k in range(m):
+        z[k] = cmath.exp(lam[k] * (grid[1] - grid[0]))
+    k90, jmax = -1, 0
+    y_prev, y_max = 0.0, -np.inf
+    y_k, y_km1 = 0.0, 0.0
+    for j in range(n):
+        total = 0j
+        for k in range(m):
+            total += (e[k] - 1.0) * wn[k]
+            e[k] = e[k] * z[k]
+        y = total.real
+        if k90 == -1 and y >= 0.9:
+            k90, y_k, y_km1 = j, y, y_prev
+        if y > y_max:
+            y_max, jmax = y, j
+        y_prev = y
+    if k90 <= 0:  # no crossing (or at t = 0): the first interval, as numpy's argmax
+        k90, y_km1, y_k = 1, _step(lam, wn, grid[0], 0), _step(lam, wn, grid[1], 0)
+    t90 = (k90 - 1 + (0.9 - y_km1) / (y_k - y_km1)) * (grid[1] - grid[0])
+    tp = grid[min(max(jmax, 1), n - 2)]
+    for _ in range(4):
+        t90 = t90 - (_step(lam, wn, t90, 0) - 0.9) / _step(lam, wn, t90, 1)
+        tp = tp - _step(lam, wn, tp, 1) / _step(lam, wn, tp, 2)
+    out[0], out[1] = t90, tp
+    out[2] = 1.0 if 0 < jmax < n - 1 else 0.0
+    out[3] = _step(lam, wn, tp, 0)
+
+
+def _bandwidth(lam: np.ndarray, wn: np.ndarray, f: np.ndarray, f_max: float) -> float:
+    """Lowest frequency (Hz) where the relative yaw-rate gain falls below 1/sqrt(2): the
+    first grid interval ``f`` (log-spaced) that brackets it, then 10 Illinois passes in
+    log f; ``f_max`` where it does not fall."""
+    half = math.sqrt(0.5)
+    k = -1
+    g_prev = 0.0
+    for j in range(f.shape[0]):
+        g = _rel_gain(lam, wn, f[j]) - half
+        if g < 0:
+            k = j
+            break
+        g_prev = g
+    if k == -1:
+        return f_max
+    if k == 0:  # below at the first point: the first interval, as numpy's argmax
+        k, g_prev, g = 1, _rel_gain(lam, wn, f[0]) - half, _rel_gain(lam, wn, f[1]) - half
+    lo, hi, g_lo, g_hi = math.log(f[k - 1]), math.log(f[k]), g_prev, g
+    side = 0
+    for _ in range(10):
+        span = g_lo - g_hi
+        mid = (lo * -g_hi + hi * g_lo) / span if span > 0 else hi
+        g_mid = _rel_gain(lam, wn, math.exp(mid)) - half
+        if g_mid < 0:
+            if side == -1:
+                g_lo = 0.5 * g_lo
+            hi, g_hi, side = mid, g_mid, -1
+        else:
+            if side == 1:
+                g_hi = 0.5 * g_hi
+            lo, g_lo, side = mid, g_mid, 1
+    return math.exp(lo if abs(g_lo) < abs(g_hi) else hi)
+
+
+def _yaw_loop(
+    lam: np.ndarray,
+    wn: np.ndarray,
+    grid: np.ndarray,
+    f: np.ndarray,
+    f_max: float,
+    out: np.ndarray,
+) -> None:
+    """Per row of the poles ``lam`` (n, 4) and normalised weights ``wn`` (n, 4):
+    ``out[i]`` = (:func:`_step_times`' four values, :func:`_bandwidth`) (n, 5)."""
+    for i in range(lam.shape[0]):
+        _step_times(lam[i], wn[i], grid, out[i])
+        out[i, 4] = _bandwidth(lam[i], wn[i], f, f_max)
+
+
+_AXLE = ("_wheel_force", "_axle_force", "_capacity", "_slip_bracket")
+#: :func:`_capacity_loop`, compiled at its first call (numba's cache keeps it)
+capacity_loop = compiled.Lazy(globals(), _AXLE, _capacity_loop)
+#: :func:`_slip_loop`, compiled at its first call (numba's cache keeps it)
+slip_loop = compiled.Lazy(globals(), _AXLE, _slip_loop)
+#: :func:`_yaw_loop`, compiled at its first call (numba's cache keeps it)
+yaw_loop = compiled.Lazy(globals(), ("_step", "_rel_gain", "_step_times", "_bandwidth"), _yaw_loop)
