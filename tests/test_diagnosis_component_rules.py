@@ -28,6 +28,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from benchmarks.component_truth import make_case
 from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.component.delay import (
     DelayLeft,
@@ -49,7 +50,6 @@ from suspenv.diagnosis.component.family import (
 )
 from suspenv.diagnosis.component.motion import split
 from suspenv.diagnosis.component.refit import SIZE_Z, refit_with
-from suspenv.diagnosis.component.truth import make_case
 from suspenv.diagnosis.engine import diagnose, make_family
 from suspenv.diagnosis.evidence import compare
 from suspenv.diagnosis.fitting import FitResult, fit
