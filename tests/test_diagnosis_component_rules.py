@@ -912,9 +912,7 @@ def _judged_beside_delay(concealed: list, element: str) -> tuple[FitResult, list
     sp = split(_with_force(rec, f, "late"), 0.25)
     base = fit(model, sp.fit_recordings, sp.fit_masks)
     named = refit_with(base, element, sp.fit_recordings, sp.fit_masks, max_nfev=400)
-    comp = compare(
-        base, named, sp.fit_recordings, sp.fit_masks, sp.heldout_recordings, sp.heldout_masks
-    )
+    comp = compare(base, named, sp)
     h = Hypothesis.from_comparison(element, "", element, 1, base, named, comp)
     return judge_beside_delay(named, [h], "force", 0.01, sp, 400, COMPONENT_RULE)
 
