@@ -1,7 +1,7 @@
 """Blind benchmark of the diagnosis engine, plus the real-data rows.
 
 ``run_benchmark_pipeline(config, run_dir)`` (pipeline ``"diagnosis_benchmark"``)
-generates concealed cases (:mod:`suspenv.diagnosis.component.truth`) for every family, seed
+generates concealed cases (:mod:`benchmarks.component_truth`) for every family, seed
 and number of effects, runs :func:`suspenv.diagnosis.engine.diagnose` on each
 without the truth, then scores the findings against the truth:
 
@@ -36,22 +36,22 @@ import difflib
 import json
 import sys
 import time
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from benchmarks.common import machine_info
-from suspenv.core.errors import ValidationError
-from suspenv.core.jsonable import to_jsonable
-from suspenv.diagnosis.component.truth import (
+from benchmarks.component_truth import (
     CONDITIONS,
     Case,
     condition_families,
     make_case,
     write_case,
 )
-from suspenv.diagnosis.decision import derived_values, families_covered
+from suspenv.core.errors import ValidationError
+from suspenv.core.jsonable import to_jsonable
 from suspenv.diagnosis.engine import Diagnosis, diagnose, make_family
 from suspenv.diagnosis.hypothesis import family_of
 from suspenv.measurements.catalog import REAL_CASES, real_data_dir
@@ -61,6 +61,35 @@ DEFAULT_FAMILIES = ("damper", "mr_damper", "friction_guide", "quarter_car_rig")
 
 
 # ------------------------------------------------------------------ scoring
+#: an element whose parameters include another family's effect as a special part
+#: (a gas spring's preload is a constant force offset)
+CONTAINS: dict[str, tuple[str, ...]] = {
+    "directional_friction": ("friction", "sensor_offset"),
+    "gas_spring": ("spring", "sensor_offset"),
+    "asymmetric_digressive_damping": ("digressive", "damper_asymmetry"),
+}
+
+
+def families_covered(kinds: Sequence[str]) -> set[str]:
+    """Signature families the named kinds account for, structural equivalents included."""
+    out: set[str] = set()
+    for k in kinds:
+        out.add(family_of(k))
+        out.update(CONTAINS.get(k, ()))
+    return out
+
+
+def derived_values(kind: str, params: dict[str, dict[str, float]], name: str) -> dict[str, float]:
+    """Values of the equivalent combination (e.g. Coulomb level and offset of a
+    direction-dependent friction), for comparison with published figures."""
+    if kind == "directional_friction":
+        fp = params[f"{name}.f_pos"]["value"]
+        fn = params[f"{name}.f_neg"]["value"]
+        return {"coulomb_friction.f_c": 0.5 * (fp + fn), "force_offset.offset": 0.5 * (fp - fn)}
+    return {}
+
+
+
 def param_errors(diag: Diagnosis, case: Case) -> list[float]:
     """Relative errors |fit - truth| / |truth| of the parameters of truly present and
     correctly named (same kind) effects; fixed parameters are not fitted and skipped."""

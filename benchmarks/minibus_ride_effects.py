@@ -2,7 +2,7 @@
 long nonlinear time-domain runs, and its cost.
 
 Effect sets (``SCENARIOS``; magnitudes inside the ride diagnosis' ranges,
-:func:`suspenv.diagnosis.ride.truth.draw_truth_effect`): none; rear-leaf interleaf
+:func:`benchmarks.ride_truth.draw_truth_effect`): none; rear-leaf interleaf
 friction (Dahl, ``f_c`` 400 N over 5 mm and 900 N over 2.5 mm of pre-sliding travel);
 bump stops front and rear (15 mm from rest, 300 kN/m); leaf friction (600 N, 3.5 mm)
 with the stops. Designs spanning the box: its centre, the all-low and all-high corners,

@@ -4,11 +4,11 @@
 diagnose`` does):
 
 - MR dampers under random motion whose coil current switches between 0 and 1 A
-  (:func:`suspenv.diagnosis.component.truth.mr_field_case`, seeds :data:`FIELD_SEEDS`),
+  (:func:`benchmarks.component_truth.mr_field_case`, seeds :data:`FIELD_SEEDS`),
   once without the current channel (the check should flag an unrecorded input) and once
   with it (the field-dependent law should explain the force to its noise: residual RMS
   over the noise drawn, largest relative error of the field law's parameters);
-- the concealed-effect cases of :func:`suspenv.diagnosis.component.truth.make_case` of
+- the concealed-effect cases of :func:`benchmarks.component_truth.make_case` of
   every component family: effect-free controls (white, coloured and drifting noise),
   one library effect, and one effect outside the library (seeds fixed below), where
   the check should stay silent (their residual, if any, is a function of the motion).
@@ -41,7 +41,7 @@ def _flag(diag: Any) -> str | None:
 
 
 def field_rows() -> list[dict[str, Any]]:
-    from suspenv.diagnosis.component.truth import mr_field_case
+    from benchmarks.component_truth import mr_field_case
     from suspenv.diagnosis.engine import diagnose
     from suspenv.measurements import Recording
 
@@ -98,7 +98,7 @@ def field_rows() -> list[dict[str, Any]]:
 
 
 def case_rows() -> list[dict[str, Any]]:
-    from suspenv.diagnosis.component.truth import make_case
+    from benchmarks.component_truth import make_case
     from suspenv.diagnosis.engine import diagnose
 
     rows = []

@@ -11,7 +11,7 @@ whose held-out error is the "before" number.
 Out-of-library ride cases (scored on their own rows): truths whose extra physics is
 not a candidate (damper curve of another shape, other tyres, a seat accelerometer
 with a gain error, a lag or upside down, an undeclared payload, tyre run-out the
-recordings do not carry; :mod:`suspenv.diagnosis.ride.mismatch`). Scored on the
+recordings do not carry; :mod:`benchmarks.ride_mismatch`). Scored on the
 wrong-name rate (a candidate named with confidence although the truth is outside
 the library), held-out error before/after against the noise floor, and whether the
 verdict says a residual remains (:mod:`suspenv.diagnosis.ride.residual`).
@@ -43,6 +43,7 @@ import json
 import sys
 import tempfile
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -50,13 +51,14 @@ import numpy as np
 from tqdm import tqdm
 
 from benchmarks.common import DEFAULT_OUTPUT_DIR, write_result
+from benchmarks.ride_mismatch import OUT_OF_LIBRARY_KINDS, mismatch_words
+from benchmarks.ride_truth import make_ride_case
 from suspenv.diagnosis.engine import diagnose
 from suspenv.diagnosis.ride.family import RideFamily
-from suspenv.diagnosis.ride.mismatch import OUT_OF_LIBRARY_KINDS, mismatch_words
-from suspenv.diagnosis.ride.truth import make_ride_case
-from suspenv.diagnosis.road import diagnose_road, load_profile_txt, synthetic_profile
-from suspenv.measurements import data_dir
-from suspenv.rigs.road import ROAD_CLASS_GD0
+from suspenv.diagnosis.road import diagnose_road, load_profile_txt
+from suspenv.measurements import Recording, data_dir
+from suspenv.measurements.sources.road_profile import profile_recording
+from suspenv.rigs.road import N0, ROAD_CLASS_GD0
 
 KINDS: tuple[str | None, ...] = (
     "bump_stop",
@@ -183,6 +185,41 @@ def baseline_row(kind: str | None, seed: int, compiled: dict[str, Any]) -> dict[
 
 #: road truths outside the library (the spectrum leaves ISO 8608's form), each a
 #: function of the seed's generator -> a profile of 544 m at 0.25 m, class B
+def synthetic_profile(
+    length: float,
+    dx: float = 0.25,
+    gd0: float = ROAD_CLASS_GD0["B"],
+    waviness: float = 2.0,
+    seed: int = 0,
+    name: str | None = None,
+    shape: Callable[[np.ndarray], np.ndarray] | None = None,
+) -> Recording:
+    """A Gaussian random profile with Gd(n) = gd0 (n/n0)^-waviness (test/benchmark input),
+    times ``shape(n)`` where given (a spectrum outside ISO 8608's form).
+
+    Complex Gaussian line amplitudes (a true Gaussian process, so periodograms
+    scatter as Exp(1)) on a grid four times longer than ``length``; a window of
+    ``length`` is cut out, so the profile is not periodic (as a measured one).
+    """
+    n_long = int(round(4 * length / dx))
+    n = np.fft.rfftfreq(n_long, dx)
+    dn = 1.0 / (n_long * dx)
+    rng = np.random.default_rng(seed)
+    psd = np.zeros_like(n)
+    psd[1:] = gd0 * (n[1:] / N0) ** (-waviness) * (shape(n[1:]) if shape else 1.0)
+    coef = np.sqrt(psd * dn / 4.0) * (
+        rng.standard_normal(n.size) + 1j * rng.standard_normal(n.size)
+    )
+    coef[-1] = coef[-1].real if n_long % 2 == 0 else coef[-1]
+    z = np.fft.irfft(coef * n_long, n=n_long)
+    m = int(round(length / dx))
+    start = int(rng.integers(0, n_long - m))
+    x = dx * np.arange(m)
+    return profile_recording(
+        x, z[start : start + m], name or f"synthetic_w{waviness:g}_s{seed}", dx, source="synthetic"
+    )
+
+
 def _knee(n: np.ndarray) -> np.ndarray:
     """Two slopes: w = 2 below 0.2 cycle/m, w = 3 above."""
     return np.where(n > 0.2, (n / 0.2) ** -1.0, 1.0)

@@ -11,18 +11,19 @@ circumference, and the component cases against the same case without the conditi
 import numpy as np
 import pytest
 
-from suspenv.core.errors import ValidationError
-from suspenv.diagnosis.component.motion import motion
-from suspenv.diagnosis.component.truth import _apply_condition, draw_condition, make_case
-from suspenv.diagnosis.knc.truth import BLIND_TESTS, OUTSIDE_KINDS, conceal_outside, measure_truth
-from suspenv.diagnosis.ride.mismatch import (
+from benchmarks.component_truth import _apply_condition, draw_condition, make_case
+from benchmarks.ride_mismatch import (
     PAYLOAD_HEIGHT,
     apply_sensor,
     draw_mismatch,
     felt_inputs,
     with_payload,
 )
-from suspenv.diagnosis.ride.truth import make_ride_case, pulse_inputs_recording
+from benchmarks.ride_truth import make_ride_case
+from suspenv.core.errors import ValidationError
+from suspenv.diagnosis.component.motion import motion
+from suspenv.diagnosis.knc.truth import BLIND_TESTS, OUTSIDE_KINDS, conceal_outside, measure_truth
+from suspenv.diagnosis.ride.model import pulse_inputs_recording
 from suspenv.models.minibus import REFERENCE_MINIBUS
 
 SIDES = ("left", "right")

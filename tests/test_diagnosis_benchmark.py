@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from benchmarks.component_truth import make_case
 from benchmarks.diagnosis_benchmark import _seeds, summarise
 from suspenv.core.errors import ValidationError
-from suspenv.diagnosis.component.truth import make_case
 from suspenv.diagnosis.hypothesis import family_of
 
 
@@ -85,7 +85,7 @@ def test_summary_counts() -> None:
 
 
 def test_structural_equivalents_are_counted_only_where_they_hold() -> None:
-    from suspenv.diagnosis.decision import families_covered
+    from benchmarks.diagnosis_benchmark import families_covered
 
     # direction-dependent friction = symmetric friction + a constant offset
     assert families_covered(["directional_friction"]) >= {"friction", "sensor_offset"}

@@ -28,6 +28,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from benchmarks.component_truth import make_case
 from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.component.delay import (
     DelayLeft,
@@ -49,7 +50,6 @@ from suspenv.diagnosis.component.family import (
 )
 from suspenv.diagnosis.component.motion import split
 from suspenv.diagnosis.component.refit import SIZE_Z, refit_with
-from suspenv.diagnosis.component.truth import make_case
 from suspenv.diagnosis.engine import diagnose, make_family
 from suspenv.diagnosis.evidence import compare
 from suspenv.diagnosis.fitting import FitResult, fit
@@ -912,9 +912,7 @@ def _judged_beside_delay(concealed: list, element: str) -> tuple[FitResult, list
     sp = split(_with_force(rec, f, "late"), 0.25)
     base = fit(model, sp.fit_recordings, sp.fit_masks)
     named = refit_with(base, element, sp.fit_recordings, sp.fit_masks, max_nfev=400)
-    comp = compare(
-        base, named, sp.fit_recordings, sp.fit_masks, sp.heldout_recordings, sp.heldout_masks
-    )
+    comp = compare(base, named, sp)
     h = Hypothesis.from_comparison(element, "", element, 1, base, named, comp)
     return judge_beside_delay(named, [h], "force", 0.01, sp, 400, COMPONENT_RULE)
 

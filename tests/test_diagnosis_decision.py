@@ -94,7 +94,7 @@ def test_engine_divides_alpha_by_every_open_candidate_not_only_those_refitted(mo
     # the damper family refits only the candidates of its strongest signature families;
     # the Bonferroni denominator must still be every candidate open in the round
     import suspenv.diagnosis.engine as engine
-    from suspenv.diagnosis.component.truth import make_case
+    from benchmarks.component_truth import make_case
 
     seen: list[tuple[int, int]] = []
     real_decide = engine.decide

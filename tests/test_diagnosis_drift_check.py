@@ -87,9 +87,7 @@ def _judged(rec: Recording):
     assert drifting_channels(base_model) == ["force"]
     base = fit(base_model, sp.fit_recordings, sp.fit_masks)
     named = refit_with(base, "damper_asymmetry", sp.fit_recordings, sp.fit_masks, max_nfev=400)
-    comp = compare(
-        base, named, sp.fit_recordings, sp.fit_masks, sp.heldout_recordings, sp.heldout_masks
-    )
+    comp = compare(base, named, sp)
     h = Hypothesis.from_comparison("damper_asymmetry", "", "asymmetry", 1, base, named, comp)
     return h, judge_beside_drift(named, [h], sp, 400, COMPONENT_RULE)
 

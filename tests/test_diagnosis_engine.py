@@ -12,8 +12,8 @@ import json
 import numpy as np
 import pytest
 
+from benchmarks.component_truth import make_case, write_case
 from suspenv.diagnosis.component.motion import motion, split
-from suspenv.diagnosis.component.truth import make_case, write_case
 from suspenv.diagnosis.decision import ambiguities
 from suspenv.diagnosis.engine import diagnose, make_family
 from suspenv.diagnosis.hypothesis import Hypothesis, family_of

@@ -10,7 +10,7 @@ import json
 import subprocess
 import sys
 
-from suspenv.diagnosis.component.truth import make_case
+from benchmarks.component_truth import make_case
 from suspenv.measurements import save_recording
 
 FORBIDDEN = (

@@ -156,7 +156,7 @@ QC_MASSES = {"m_s": 240.0, "m_u": 52.0}
 
 
 def _qc(seed, n_effects):
-    from suspenv.diagnosis.component.truth import make_case
+    from benchmarks.component_truth import make_case
 
     case = make_case("quarter_car_rig", seed, n_effects, options=QC_MASSES)
     assert "rig" not in case.recording.meta  # the masses are not declared
@@ -181,7 +181,7 @@ def test_quarter_car_undeclared_masses_effect_named_first():
 
 # ---------------------------------------------------------------- signs
 def test_damper_force_sign_read_off_the_dissipated_power():
-    from suspenv.diagnosis.component.truth import make_case
+    from benchmarks.component_truth import make_case
     from suspenv.measurements import Recording
 
     case = make_case("damper", 1000, 1)
@@ -280,7 +280,7 @@ def test_power_through_the_body_equation_closed_form():
 
 
 def test_quarter_car_deflection_sign_read_off_the_body_equation_power():
-    from suspenv.diagnosis.component.truth import make_case
+    from benchmarks.component_truth import make_case
 
     plain = make_case("quarter_car_rig", 4, 1)
     turned = make_case("quarter_car_rig", 4, 1, condition="sign_reversed")

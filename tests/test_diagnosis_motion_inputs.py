@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 from scipy.signal import savgol_filter
 
+from benchmarks.component_truth import make_case
 from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.component.motion_inputs import (
     VELOCITY_MISMATCH,
@@ -22,7 +23,6 @@ from suspenv.diagnosis.component.motion_inputs import (
     motion_cutoff,
 )
 from suspenv.diagnosis.component.rig import describe_rig
-from suspenv.diagnosis.component.truth import make_case
 from suspenv.diagnosis.engine import diagnose, make_family
 from suspenv.measurements import Recording
 

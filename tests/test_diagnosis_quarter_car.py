@@ -9,12 +9,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from benchmarks.component_truth import make_case
 from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.component.family import _force_view_signal_set, _sensor_rank
 from suspenv.diagnosis.component.motion import split
 from suspenv.diagnosis.component.rig import baseline_model, describe_rig
 from suspenv.diagnosis.component.signatures import score_signatures
-from suspenv.diagnosis.component.truth import make_case
 from suspenv.diagnosis.engine import diagnose, make_family
 from suspenv.diagnosis.fitting import fit
 from suspenv.diagnosis.screening import Signature

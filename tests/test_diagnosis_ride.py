@@ -8,13 +8,15 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from benchmarks.ride_mismatch import OUT_OF_LIBRARY_KINDS, delay_signal
+from benchmarks.ride_truth import make_ride_case, write_ride_case
 from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.engine import diagnose
 from suspenv.diagnosis.ride.family import RideFamily
-from suspenv.diagnosis.ride.mismatch import OUT_OF_LIBRARY_KINDS, delay_signal
 from suspenv.diagnosis.ride.model import (
     SEAT_MASS,
     MinibusRideAdapter,
+    pulse_inputs_recording,
     ride_effect,
     seat_mount_response,
 )
@@ -22,11 +24,6 @@ from suspenv.diagnosis.ride.residual import (
     noise_floor,
     residual_check,
     white_noise_sd,
-)
-from suspenv.diagnosis.ride.truth import (
-    make_ride_case,
-    pulse_inputs_recording,
-    write_ride_case,
 )
 from suspenv.measurements import load_recording
 from suspenv.models.minibus import STUDY_PICK
@@ -278,7 +275,7 @@ def test_tyre_stiffness_moves_the_wheel_hop_resonance():
     # the random road) peaks at a frequency moved by about that ratio
     from scipy import signal as sig
 
-    from suspenv.diagnosis.ride.mismatch import mismatch_vehicle
+    from benchmarks.ride_mismatch import mismatch_vehicle
     from suspenv.diagnosis.ride.model import half_step_inputs
     from suspenv.models.minibus import REFERENCE_MINIBUS, vehicle_parameters
     from suspenv.models.minibus.ride_model import RideModel

@@ -7,6 +7,7 @@ import functools
 import numpy as np
 import pytest
 
+from benchmarks.ride_diagnosis import synthetic_profile
 from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.engine import diagnose
 from suspenv.diagnosis.road import (
@@ -17,7 +18,6 @@ from suspenv.diagnosis.road import (
     road_class,
     slope_periodogram,
     spectrum_recording,
-    synthetic_profile,
     whittle_deviance,
 )
 from suspenv.measurements.sources.road_profile import load_profile_txt, profile_recording

@@ -5,7 +5,7 @@ its u = 0 limit against the passive MR model with a Bouc-Wen element, its odd sy
 the check's definitions against closed forms (white noise's second difference has
 variance 6 sigma^2; a filtered copy of a signal is fully coherent with it), and the
 check on synthetic cases whose truth is known (a switching coil current recorded or
-not; the effect-free controls of :mod:`suspenv.diagnosis.component.truth`).
+not; the effect-free controls of :mod:`benchmarks.component_truth`).
 """
 
 from __future__ import annotations
@@ -15,9 +15,9 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.signal import lfilter
 
+from benchmarks.component_truth import MR_FIELD_TRUTH, make_case, mr_field_case
 from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.checks import missing_input as mi
-from suspenv.diagnosis.component.truth import MR_FIELD_TRUTH, make_case, mr_field_case
 from suspenv.diagnosis.engine import diagnose
 from suspenv.measurements import Recording
 from suspenv.measurements.units import to_si

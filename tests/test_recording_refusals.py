@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 import scipy.io
 
+from benchmarks.component_truth import make_case
 from suspenv.core.errors import ValidationError
-from suspenv.diagnosis.component.truth import make_case
 from suspenv.diagnosis.engine import diagnose
 from suspenv.diagnosis.sufficiency import (
     MIN_FIT_PASSES,

@@ -41,7 +41,7 @@ def test_a_table_cell_cannot_break_the_table():
 
 
 def test_a_newline_in_a_recording_name_adds_no_heading_to_the_diagnosis_report(tmp_path):
-    from suspenv.diagnosis.component.truth import make_case
+    from benchmarks.component_truth import make_case
     from suspenv.diagnosis.engine import diagnose, make_family
     from suspenv.reports.diagnosis import write_diagnosis_report
 

@@ -14,8 +14,13 @@ import numpy as np
 import pytest
 
 from suspenv.core.errors import ValidationError
-from suspenv.diagnosis.ride.model import _batch, half_step_inputs, ride_effect
-from suspenv.diagnosis.ride.truth import pulse_inputs_recording, random_road_inputs_recording
+from suspenv.diagnosis.ride.model import (
+    _batch,
+    half_step_inputs,
+    pulse_inputs_recording,
+    random_road_inputs_recording,
+    ride_effect,
+)
 from suspenv.models.minibus import STUDY_PICK, ride_kernel, vehicle_parameters
 from suspenv.models.minibus.ride_model import RideModel, SeatMount
 

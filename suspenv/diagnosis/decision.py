@@ -38,7 +38,7 @@ from dataclasses import asdict, dataclass
 from scipy import stats
 
 from suspenv.core.errors import ValidationError
-from suspenv.diagnosis.hypothesis import Ambiguity, Hypothesis, family_of
+from suspenv.diagnosis.hypothesis import Ambiguity, Hypothesis
 
 HELDOUT_RULES = ("fraction", "noise")
 
@@ -93,34 +93,6 @@ EQUIVALENT_COMBINATIONS: dict[str, tuple[tuple[str, str], str]] = {
         "symmetric Coulomb friction plus a constant force offset",
     ),
 }
-
-#: an element whose parameters include another family's effect as a special part
-#: (a gas spring's preload is a constant force offset)
-CONTAINS: dict[str, tuple[str, ...]] = {
-    "directional_friction": ("friction", "sensor_offset"),
-    "gas_spring": ("spring", "sensor_offset"),
-    "asymmetric_digressive_damping": ("digressive", "damper_asymmetry"),
-}
-
-
-def families_covered(kinds: Sequence[str]) -> set[str]:
-    """Signature families the named kinds account for, structural equivalents included."""
-    out: set[str] = set()
-    for k in kinds:
-        out.add(family_of(k))
-        out.update(CONTAINS.get(k, ()))
-    return out
-
-
-def derived_values(kind: str, params: dict[str, dict[str, float]], name: str) -> dict[str, float]:
-    """Values of the equivalent combination (e.g. Coulomb level and offset of a
-    direction-dependent friction), for comparison with published figures."""
-    if kind == "directional_friction":
-        fp = params[f"{name}.f_pos"]["value"]
-        fn = params[f"{name}.f_neg"]["value"]
-        return {"coulomb_friction.f_c": 0.5 * (fp + fn), "force_offset.offset": 0.5 * (fp - fn)}
-    return {}
-
 
 def separating_test(fam_a: str, fam_b: str) -> tuple[str, str]:
     """(test, reason) that would separate two signature families."""

@@ -282,10 +282,7 @@ def diagnose(
     sp = setup.split
 
     def versus(parent: FitResult, child: FitResult) -> Comparison:
-        return compare(
-            parent, child, sp.fit_recordings, sp.fit_masks, sp.heldout_recordings,
-            sp.heldout_masks, noise_levels(fam, parent),
-        )  # fmt: skip
+        return compare(parent, child, sp, noise_levels(fam, parent))
 
     base = fam.fit_baseline(setup)
     say(f"baseline fitted ({base.nfev} evaluations)")

@@ -24,7 +24,7 @@ import numpy as np
 from scipy import stats
 
 from suspenv.diagnosis.fitting import FitResult, lag1_autocorrelation, residuals
-from suspenv.diagnosis.split import Recordings, as_recordings
+from suspenv.diagnosis.split import Recordings, Split, as_recordings
 
 
 def ljung_box(r: np.ndarray, lags: int = 20) -> tuple[float, float]:
@@ -283,25 +283,20 @@ class Comparison:
 
 
 def compare(
-    base: FitResult,
-    ext: FitResult,
-    fit_recordings: Recordings,
-    fit_masks: Sequence[np.ndarray | None] | None,
-    heldout_recordings: Recordings,
-    heldout_masks: Sequence[np.ndarray | None] | None,
-    noise: Mapping[str, float] | None = None,
+    base: FitResult, ext: FitResult, sp: Split, noise: Mapping[str, float] | None = None
 ) -> Comparison:
-    """Everything that shows whether ``ext`` is better than ``base``.
+    """Everything that shows whether ``ext`` is better than ``base`` on the split ``sp``
+    (the fit samples for the likelihood ratio, the held-out ones for the error).
 
     ``noise``: each channel's noise level (channel unit), for the held-out gain and
     signal in noise units (:func:`heldout_noise_units`; ``Comparison.heldout_gain``,
     ``heldout_signal``, ``heldout_z``); None leaves them NaN: with fits weighted by
     anything else (a channel's spread) they would be in no unit their names state.
     """
-    r_base = fit_residual_series(base, fit_recordings, fit_masks)
-    r_ext = fit_residual_series(ext, fit_recordings, fit_masks)
-    res_before = heldout_residuals(base, heldout_recordings, heldout_masks)
-    res_after = heldout_residuals(ext, heldout_recordings, heldout_masks)
+    r_base = fit_residual_series(base, sp.fit_recordings, sp.fit_masks)
+    r_ext = fit_residual_series(ext, sp.fit_recordings, sp.fit_masks)
+    res_before = heldout_residuals(base, sp.heldout_recordings, sp.heldout_masks)
+    res_after = heldout_residuals(ext, sp.heldout_recordings, sp.heldout_masks)
     gain = signal = float("nan")
     if noise is not None:
         gain, signal = heldout_noise_units(res_before, res_after, dict(noise))

@@ -186,7 +186,8 @@ def residuals(
     channels: Sequence[str],
     masks: Masks | None = None,
 ) -> list[dict[str, np.ndarray]]:
-    """Measured minus predicted, per recording and channel (channel unit).
+    """Measured minus predicted, per recording and channel (channel unit); ``(n,)`` per
+    channel for ``theta`` ``(p,)``, ``(B, n)`` for a batch ``(B, p)``.
 
     Where ``masks`` is given, only the masked samples are returned.
     """
@@ -197,7 +198,7 @@ def residuals(
         r = {}
         for c in channels:
             d = np.asarray(rec.outputs[c], float) - np.asarray(pred[c], float)
-            r[c] = d if m is None else d[m]
+            r[c] = d if m is None else d[..., m]
         out.append(r)
     return out
 
@@ -222,15 +223,8 @@ def stacked_residual(
     """Scaled residuals of every channel of every recording, recording by recording:
     ``(N,)`` for ``theta`` ``(p,)``, ``(B, N)`` for a batch ``(B, p)``; non-finite
     values become :data:`PENALTY`."""
-    cols = []
-    for i, rec in enumerate(recs):
-        pred = model.simulate(theta, rec)
-        m = None if masks is None else masks[i]
-        for c in channels:
-            d = np.asarray(rec.outputs[c], float) - np.asarray(pred[c], float)
-            d = d if m is None else d[..., m]
-            cols.append(d / scales[c])
-    out = np.concatenate(cols, axis=-1)
+    parts = residuals(model, theta, recs, channels, masks)
+    out = np.concatenate([p[c] / scales[c] for p in parts for c in channels], axis=-1)
     return np.where(np.isfinite(out), out, PENALTY)
 
 

@@ -41,7 +41,7 @@ The Welch PSD (:func:`~suspenv.rigs.road.welch_psd`, 64 m segments) is for plots
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any, ClassVar
@@ -60,7 +60,7 @@ from suspenv.diagnosis.fitting import FitResult, evaluate, residuals
 from suspenv.diagnosis.protocols import DiagnosableModel, RecordingLike
 from suspenv.diagnosis.split import Holdout, Recordings, Split, as_recordings, heldout_recordings
 from suspenv.measurements import Recording
-from suspenv.measurements.sources.road_profile import load_profile_txt, profile_recording
+from suspenv.measurements.sources.road_profile import load_profile_txt
 from suspenv.rigs.road import N0, ROAD_CLASS_GD0, RoadProfile, generate_profile, welch_psd
 
 #: default fitted band (cycle/m): long waves of a ~500 m profile up to 1 cycle/m (below
@@ -68,41 +68,6 @@ from suspenv.rigs.road import N0, ROAD_CLASS_GD0, RoadProfile, generate_profile,
 #: filtering bend the spectrum)
 DEFAULT_BAND = (0.02, 1.0)
 STANDARD_WAVINESS = 2.0
-
-
-def synthetic_profile(
-    length: float,
-    dx: float = 0.25,
-    gd0: float = ROAD_CLASS_GD0["B"],
-    waviness: float = 2.0,
-    seed: int = 0,
-    name: str | None = None,
-    shape: Callable[[np.ndarray], np.ndarray] | None = None,
-) -> Recording:
-    """A Gaussian random profile with Gd(n) = gd0 (n/n0)^-waviness (test/benchmark input),
-    times ``shape(n)`` where given (a spectrum outside ISO 8608's form).
-
-    Complex Gaussian line amplitudes (a true Gaussian process, so periodograms
-    scatter as Exp(1)) on a grid four times longer than ``length``; a window of
-    ``length`` is cut out, so the profile is not periodic (as a measured one).
-    """
-    n_long = int(round(4 * length / dx))
-    n = np.fft.rfftfreq(n_long, dx)
-    dn = 1.0 / (n_long * dx)
-    rng = np.random.default_rng(seed)
-    psd = np.zeros_like(n)
-    psd[1:] = gd0 * (n[1:] / N0) ** (-waviness) * (shape(n[1:]) if shape else 1.0)
-    coef = np.sqrt(psd * dn / 4.0) * (
-        rng.standard_normal(n.size) + 1j * rng.standard_normal(n.size)
-    )
-    coef[-1] = coef[-1].real if n_long % 2 == 0 else coef[-1]
-    z = np.fft.irfft(coef * n_long, n=n_long)
-    m = int(round(length / dx))
-    start = int(rng.integers(0, n_long - m))
-    x = dx * np.arange(m)
-    return profile_recording(
-        x, z[start : start + m], name or f"synthetic_w{waviness:g}_s{seed}", dx, source="synthetic"
-    )
 
 
 def _profile(rec: Recording) -> tuple[np.ndarray, float]:

@@ -49,6 +49,12 @@ class Split:
                 out.append(r)
         return out
 
+    def fit_selections(self) -> list[np.ndarray]:
+        """Each fitted recording's fit samples as a boolean mask (all of an unmasked one)."""
+        if self.fit_masks is not None:
+            return list(self.fit_masks)
+        return [np.ones(len(r.time), bool) for r in self.fit_recordings]
+
     @classmethod
     def separate(
         cls, fit: Sequence[RecordingLike], heldout: Sequence[RecordingLike], words: str = ""

@@ -21,7 +21,7 @@ from suspenv.diagnosis.component.motion import cycle_index, motion
 from suspenv.diagnosis.component.refit import current_effects, refit_with
 from suspenv.diagnosis.evidence import compare, heldout_rms, scaled_rms
 from suspenv.diagnosis.fitting import FitResult, fit
-from suspenv.diagnosis.hypothesis import Hypothesis, corrected_delta_bic, family_of
+from suspenv.diagnosis.hypothesis import Hypothesis, corrected_delta_bic
 from suspenv.diagnosis.split import Split
 from suspenv.models.effects import make_effect
 
@@ -145,9 +145,7 @@ def asymmetry_check(
     theta0.update({f"{asym.name}.{k}": float(v) for k, v in asym.params.items()})
     alt = fit(alt_model, sp.fit_recordings, sp.fit_masks, theta0=theta0, max_nfev=max_nfev)
     alt.extra["effect"] = asym.to_dict()
-    comp = compare(
-        null, alt, sp.fit_recordings, sp.fit_masks, sp.heldout_recordings, sp.heldout_masks
-    )
+    comp = compare(null, alt, sp)
     v_all = np.concatenate([np.abs(motion(r)[1]) for r in sp.fit_recordings])
     v_ref = float(np.percentile(v_all, 99))
     ratio, se = _rebound_bump_ratio(alt, v_ref)
@@ -202,26 +200,11 @@ def asymmetry_check(
         )
     if matched is not None:
         sentence = f"{sentence}. Model-free check, {matched.sentence}"
-    own = {k: v for k, v in alt.params().items() if k.startswith(asym.name + ".")}
-    hyp = Hypothesis(
-        kind=asym.kind,
-        location="",
-        family=family_of(asym.kind),
-        words=make_effect(asym.kind, location=asym.location).words,
-        round=0,
-        signature_score=float("nan"),
-        signature_evidence=numbers,
-        lr_statistic=comp.lr.statistic,
-        lr_statistic_corrected=comp.lr.statistic_corrected,
-        lr_dof=comp.lr.dof,
-        p_value_corrected=comp.lr.p_value_corrected,
-        delta_bic_corrected=dbic,
-        heldout_reduction=comp.heldout_reduction,
-        params=own,
-        significant=supported,
-        fit=alt,
-        comparison=comp,
+    words = make_effect(asym.kind, location=asym.location).words
+    hyp = Hypothesis.from_comparison(
+        asym.kind, "", words, 0, null, alt, comp, signature_evidence=numbers
     )
+    hyp.significant = supported
     return AsymmetryCheck(
         v_ref=v_ref,
         ratio=float(ratio),
@@ -233,7 +216,7 @@ def asymmetry_check(
         delta_bic_corrected=float(dbic),
         supported=supported,
         sentence=sentence,
-        params=own,
+        params=hyp.params,
         fold_ratios=fold_r,
         fold_heldout_reductions=fold_h,
         ratio_stderr_folds=se_folds,

@@ -121,9 +121,7 @@ def dead_band_left(
     ext = refit_with(
         final, DEFICIT_KIND, sp.fit_recordings, sp.fit_masks, location=location, max_nfev=budget
     )
-    c = compare(
-        final, ext, sp.fit_recordings, sp.fit_masks, sp.heldout_recordings, sp.heldout_masks
-    )
+    c = compare(final, ext, sp)
     channel = final.main_channel()
     ratio = removed_over_left(final, ext, channel)
     level, sd = parameter_and_error(ext, DEFICIT_KIND, "f_d")

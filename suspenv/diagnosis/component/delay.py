@@ -463,9 +463,7 @@ def delay_left(
     ``rule.min_heldout_gain``) and by the residual check's size rule. ``phases``: the
     phase table of the test that refused the lag, carried as evidence."""
     delayed = fit_delay(final, sp, channel, start, budget)
-    c = compare(
-        final, delayed, sp.fit_recordings, sp.fit_masks, sp.heldout_recordings, sp.heldout_masks
-    )
+    c = compare(final, delayed, sp)
     ratio = removed_over_left(final, delayed, channel)
     p = c.lr.p_value_corrected
     return DelayLeft(
@@ -510,14 +508,7 @@ def judge_beside_delay(
         judged: list[tuple[Hypothesis, Hypothesis]] = []
         for h in left:
             reduced = without_element(delayed, str(element_name(h)), sp, budget)
-            c = compare(
-                reduced,
-                delayed,
-                sp.fit_recordings,
-                sp.fit_masks,
-                sp.heldout_recordings,
-                sp.heldout_masks,
-            )
+            c = compare(reduced, delayed, sp)
             again = Hypothesis.from_comparison(
                 h.kind, h.location, h.words, h.round, reduced, delayed, c
             )

@@ -93,8 +93,8 @@ def fit_beside_drift(
     for _ in range(BACKFIT_ROUNDS - 1):
         parts = residuals(res.model, res.theta, corrected, res.channels)
         new: list[Any] = []
-        for i, (rec, part, basis) in enumerate(zip(corrected, parts, bases, strict=True)):
-            m = np.ones(len(rec.time), bool) if masks is None or masks[i] is None else masks[i]
+        selections = sp.fit_selections()
+        for rec, part, basis, m in zip(corrected, parts, bases, selections, strict=True):
             outputs = {}
             for c in channels:
                 if c not in part:

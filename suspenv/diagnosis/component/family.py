@@ -157,10 +157,7 @@ def _force_view_signal_set(fit: FitResult, sp: Split) -> SignalSet | None:
     views = [v for v in seen if v is not None]
     if len(views) < len(seen):
         return None
-    sel = [
-        np.ones(len(r.time), bool) if sp.fit_masks is None else sp.fit_masks[i]
-        for i, r in enumerate(sp.fit_recordings)
-    ]
+    sel = sp.fit_selections()
     meas = np.concatenate([v["measured"][m] for v, m in zip(views, sel, strict=True)])
     scale = float(np.std(meas)) or 1.0
 
@@ -201,11 +198,9 @@ def _signal_set(fit: FitResult, sp: Split, channel: str, view: bool = True) -> S
         return viewed
     ts, xs, vs, rs, ps, seg, rows = [], [], [], [], [], [], []
     offset = 0
-    for i, rec in enumerate(sp.fit_recordings):
-        m = None if sp.fit_masks is None else sp.fit_masks[i]
+    for i, (rec, sel) in enumerate(zip(sp.fit_recordings, sp.fit_selections(), strict=True)):
         pred = fit.model.simulate(fit.theta, rec)
         x, v = motion(rec)
-        sel = np.ones(len(rec.time), bool) if m is None else m
         n = int(np.count_nonzero(sel))
         for c in fit.channels:
             if c == channel:
@@ -223,9 +218,7 @@ def _signal_set(fit: FitResult, sp: Split, channel: str, view: bool = True) -> S
     jac = None
     if J is not None and J.shape[0] == offset:
         jac = J[np.concatenate(rows)]
-    unit = ""
-    units = sp.fit_recordings[0].units
-    unit = str(units.get(channel, ""))
+    unit = str(sp.fit_recordings[0].units.get(channel, ""))
     return SignalSet(
         t=np.concatenate(ts),
         x=np.concatenate(xs),
@@ -243,9 +236,7 @@ def _signal_set(fit: FitResult, sp: Split, channel: str, view: bool = True) -> S
 def _segments(fit: FitResult, sp: Split) -> list[Segment]:
     out = []
     parts = residuals(fit.model, fit.theta, sp.fit_recordings, fit.channels, sp.fit_masks)
-    for i, rec in enumerate(sp.fit_recordings):
-        m = None if sp.fit_masks is None else sp.fit_masks[i]
-        sel = np.ones(len(rec.time), bool) if m is None else m
+    for i, (rec, sel) in enumerate(zip(sp.fit_recordings, sp.fit_selections(), strict=True)):
         x, v = motion(rec)
         out.append(
             Segment(

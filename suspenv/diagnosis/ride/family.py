@@ -68,7 +68,6 @@ from suspenv.diagnosis.split import (
 RIDE_RULE = DecisionRule(alpha=0.01, heldout_rule="fraction", min_heldout_gain=0.01)
 
 #: frequency bands of the residual (Hz): body modes, mid, wheel hop, high
-#: frequency bands of the residual (Hz): body modes, mid, wheel hop, high
 BANDS = (
     ("body 0.5-3 Hz", 0.5, 3.0),
     ("mid 3-8 Hz", 3.0, 8.0),

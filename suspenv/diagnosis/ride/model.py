@@ -4,7 +4,8 @@ Frame and units: ISO 8855 (x forward, y left, z up), SI inside; the design value
 keep the study's units at the edge (C1, C2 dimensionless, T1 N*mm/deg, K1 N/mm).
 Suspension deflection positive in compression (bump); accelerations m/s^2, + up.
 
-A ride recording (see :mod:`suspenv.diagnosis.ride.truth`) has the road
+A ride recording (:func:`pulse_inputs_recording`, :func:`random_road_inputs_recording`;
+sampled at :data:`SAMPLE_RATE`) has the road
 elevation under each wheel as inputs ``road_FL``, ``road_FR``, ``road_RL``,
 ``road_RR`` [m] on the recording's uniform time grid, and measures the vertical
 acceleration of the body above the front and rear suspension (``acc_front``,
@@ -43,10 +44,13 @@ from suspenv.models.effects import Effect, make_effect
 from suspenv.models.minibus import DESIGN_NAMES, REFERENCE_MINIBUS, STUDY_PICK, vehicle_parameters
 from suspenv.models.minibus.ride_model import SUPPORTED_EFFECTS, RideModel
 from suspenv.models.minibus.vehicle import Minibus
+from suspenv.rigs.ride import PulseBump, RandomRoad, pulse_inputs, random_road_inputs
 
 WHEELS = ("FL", "FR", "RL", "RR")
 ROAD_CHANNELS = tuple(f"road_{w}" for w in WHEELS)
 OUTPUT_CHANNELS = ("acc_front", "acc_rear", "acc_seat")
+SAMPLE_RATE = 200.0  # Hz
+UNITS = {**{c: "m" for c in ROAD_CHANNELS}, **{c: "m/s^2" for c in OUTPUT_CHANNELS}}
 #: seat + occupant share on the mount (kg) [CHOICE: a bus passenger seat, as SeatMount]
 SEAT_MASS = 90.0
 #: seat position: fraction of the wheelbase behind the front axle, lateral offset (m)
@@ -254,8 +258,6 @@ class MinibusRideAdapter(ComponentModel):
         return res
 
     def example_recording(self, seed: int = 0) -> Recording:
-        from suspenv.diagnosis.ride.truth import pulse_inputs_recording
-
         return pulse_inputs_recording(50.0, seed=seed)
 
 
@@ -282,3 +284,67 @@ def seat_mount_response(a_floor: np.ndarray, dt: float, k: float, c: float) -> n
     b = np.array([c * K + k, 2.0 * k, k - c * K])
     a = np.array([m * K**2 + c * K + k, 2.0 * (k - m * K**2), m * K**2 - c * K + k])
     return signal.lfilter(b / a[0], a / a[0], a_floor)
+
+
+def _from_half_grid(z: np.ndarray, name: str, test: str, meta: dict[str, Any]) -> Recording:
+    zs = z[0::2][:-1]  # the N full-step samples (the half grid has 2N + 1 points)
+    t = np.arange(zs.shape[0]) / SAMPLE_RATE
+    return Recording(
+        name=name,
+        test=test,
+        time=t,
+        inputs={c: zs[:, i] for i, c in enumerate(ROAD_CHANNELS)},
+        outputs={},
+        units=dict(UNITS),
+        meta=meta,
+    )
+
+
+def pulse_inputs_recording(
+    speed_kmh: float, duration_s: float | None = None, name: str | None = None, seed: int = 0
+) -> Recording:
+    """Inputs-only recording of a pulse run (bump under the front wheels at 0.3 s)."""
+    if not speed_kmh > 0:
+        raise ValidationError(f"`speed_kmh > 0` must hold, but got {speed_kmh}")
+    if duration_s is None:
+        # front and rear passes, then 1 s of decay
+        duration_s = 0.3 + REFERENCE_MINIBUS.wheelbase / (speed_kmh / 3.6) + 1.0
+    pulse = PulseBump(
+        speed_kmh=speed_kmh, lead_in=0.3, duration_s=duration_s, sample_rate=SAMPLE_RATE
+    )
+    z, _ = pulse_inputs(pulse, REFERENCE_MINIBUS)
+    meta = {
+        "speed_kmh": float(speed_kmh),
+        "bump_time_s": 0.3,
+        "load_case": "no_load",
+        "wheelbase_delay_s": REFERENCE_MINIBUS.wheelbase / pulse.speed,
+    }
+    return _from_half_grid(z, name or f"pulse_{speed_kmh:g}kmh", "pulse", meta)
+
+
+def random_road_inputs_recording(
+    speed_kmh: float = 60.0,
+    road_class: str = "C",
+    duration_s: float = 6.0,
+    seed: int = 0,
+    name: str | None = None,
+) -> Recording:
+    """Inputs-only recording of a random-road run (1 s settling included at the start)."""
+    road = RandomRoad(
+        road_class=road_class,
+        speed_kmh=speed_kmh,
+        duration_s=duration_s,
+        settle_s=1.0,
+        sample_rate=SAMPLE_RATE,
+        seed=seed,
+    )
+    z, _ = random_road_inputs(road, REFERENCE_MINIBUS)
+    z = z - z[0]  # start from rest on the local road level
+    meta = {
+        "speed_kmh": float(speed_kmh),
+        "road_class": road_class,
+        "load_case": "no_load",
+        "road_seed": int(seed),
+        "settle_s": 1.0,
+    }
+    return _from_half_grid(z, name or f"random_{road_class}_{speed_kmh:g}kmh", "random_road", meta)

@@ -1,10 +1,10 @@
-"""Ride recordings of the minibus, and a generator of "measured" ones with concealed effects.
+"""A generator of "measured" minibus ride recordings with concealed effects (benchmarks).
 
 Frame and units: ISO 8855 (z up), SI; speeds at the edge in km/h. Channels (see
 :mod:`suspenv.diagnosis.ride.model`): inputs ``road_FL .. road_RR`` [m] (road
 elevation under each wheel), outputs ``acc_front``, ``acc_rear``, ``acc_seat``
 [m/s^2] (vertical acceleration above the front and rear suspension and on a seat
-rail). Uniform sampling at :data:`SAMPLE_RATE`.
+rail). Uniform sampling at :data:`~suspenv.diagnosis.ride.model.SAMPLE_RATE`.
 
 Tests (GB/T 4970 style, see ``spec/ride_standards.md``):
 
@@ -22,11 +22,11 @@ fit (only the effect list differs) and adds white sensor noise of a seeded level
 The case's recordings do not say what was added; the :class:`RideTruth` is kept
 apart (:func:`write_ride_case` writes it to a separate folder).
 
-Out-of-library truths (:data:`~suspenv.diagnosis.ride.mismatch.OUT_OF_LIBRARY_KINDS`:
+Out-of-library truths (:data:`~benchmarks.ride_mismatch.OUT_OF_LIBRARY_KINDS`:
 a damper curve of another shape, other tyres, a seat accelerometer with a gain error,
 a lag or upside down, an undeclared payload, tyre run-out the recordings do not carry)
 put physics into the truth that no candidate element describes; see
-:mod:`suspenv.diagnosis.ride.mismatch`.
+:mod:`benchmarks.ride_mismatch`.
 """
 
 from __future__ import annotations
@@ -38,93 +38,26 @@ from typing import Any
 
 import numpy as np
 
-from suspenv.core.errors import ValidationError
-from suspenv.diagnosis.ride.mismatch import (
+from benchmarks.ride_mismatch import (
     OUT_OF_LIBRARY_KINDS,
     apply_sensor,
     draw_mismatch,
     felt_inputs,
     mismatch_vehicle,
 )
+from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.ride.model import (
     OUTPUT_CHANNELS,
-    ROAD_CHANNELS,
     MinibusRideAdapter,
+    pulse_inputs_recording,
+    random_road_inputs_recording,
     ride_effect,
 )
 from suspenv.measurements import Recording, save_recording
 from suspenv.models.effects import Effect
-from suspenv.models.minibus import REFERENCE_MINIBUS
-from suspenv.rigs.ride import PulseBump, RandomRoad, pulse_inputs, random_road_inputs
 
-SAMPLE_RATE = 200.0  # Hz
 #: concealed-effect kinds the generator draws from (None = no effect)
 TRUTH_KINDS = ("bump_stop", "leaf_friction", "damper_friction", "seat_mount")
-UNITS = {**{c: "m" for c in ROAD_CHANNELS}, **{c: "m/s^2" for c in OUTPUT_CHANNELS}}
-
-
-def _from_half_grid(z: np.ndarray, name: str, test: str, meta: dict[str, Any]) -> Recording:
-    zs = z[0::2][:-1]  # the N full-step samples (the half grid has 2N + 1 points)
-    t = np.arange(zs.shape[0]) / SAMPLE_RATE
-    return Recording(
-        name=name,
-        test=test,
-        time=t,
-        inputs={c: zs[:, i] for i, c in enumerate(ROAD_CHANNELS)},
-        outputs={},
-        units=dict(UNITS),
-        meta=meta,
-    )
-
-
-def pulse_inputs_recording(
-    speed_kmh: float, duration_s: float | None = None, name: str | None = None, seed: int = 0
-) -> Recording:
-    """Inputs-only recording of a pulse run (bump under the front wheels at 0.3 s)."""
-    if not speed_kmh > 0:
-        raise ValidationError(f"`speed_kmh > 0` must hold, but got {speed_kmh}")
-    if duration_s is None:
-        # front and rear passes, then 1 s of decay
-        duration_s = 0.3 + REFERENCE_MINIBUS.wheelbase / (speed_kmh / 3.6) + 1.0
-    pulse = PulseBump(
-        speed_kmh=speed_kmh, lead_in=0.3, duration_s=duration_s, sample_rate=SAMPLE_RATE
-    )
-    z, _ = pulse_inputs(pulse, REFERENCE_MINIBUS)
-    meta = {
-        "speed_kmh": float(speed_kmh),
-        "bump_time_s": 0.3,
-        "load_case": "no_load",
-        "wheelbase_delay_s": REFERENCE_MINIBUS.wheelbase / pulse.speed,
-    }
-    return _from_half_grid(z, name or f"pulse_{speed_kmh:g}kmh", "pulse", meta)
-
-
-def random_road_inputs_recording(
-    speed_kmh: float = 60.0,
-    road_class: str = "C",
-    duration_s: float = 6.0,
-    seed: int = 0,
-    name: str | None = None,
-) -> Recording:
-    """Inputs-only recording of a random-road run (1 s settling included at the start)."""
-    road = RandomRoad(
-        road_class=road_class,
-        speed_kmh=speed_kmh,
-        duration_s=duration_s,
-        settle_s=1.0,
-        sample_rate=SAMPLE_RATE,
-        seed=seed,
-    )
-    z, _ = random_road_inputs(road, REFERENCE_MINIBUS)
-    z = z - z[0]  # start from rest on the local road level
-    meta = {
-        "speed_kmh": float(speed_kmh),
-        "road_class": road_class,
-        "load_case": "no_load",
-        "road_seed": int(seed),
-        "settle_s": 1.0,
-    }
-    return _from_half_grid(z, name or f"random_{road_class}_{speed_kmh:g}kmh", "random_road", meta)
 
 
 # ------------------------------------------------------------------ truth and cases
@@ -136,7 +69,7 @@ class RideTruth:
     effects: list[Effect]
     noise_fraction: float
     seed: int
-    #: out-of-library physics (see :mod:`suspenv.diagnosis.ride.mismatch`), or None
+    #: out-of-library physics (see :mod:`benchmarks.ride_mismatch`), or None
     mismatch: dict[str, Any] | None = None
 
     @property
@@ -238,7 +171,7 @@ def make_ride_case(
     """A blind ride case: truth with ``kind`` (or none), pulse runs x2 and a random road.
 
     ``kind``: one of :data:`TRUTH_KINDS` (a candidate element), one of
-    :data:`~suspenv.diagnosis.ride.mismatch.OUT_OF_LIBRARY_KINDS` (physics outside the
+    :data:`~benchmarks.ride_mismatch.OUT_OF_LIBRARY_KINDS` (physics outside the
     candidate list), or None.
 
     Fit recordings: the first pulse run at each speed. Held-out recordings: the
