@@ -1,5 +1,7 @@
 """Effects in the spectral ride method (statistical linearisation): the Gaussian
-expectations against numerical integration, a single-DOF Coulomb oscillator against its
+expectations against closed forms (stops about a mean, Caughey's cubic spring, the
+Coulomb limit) and numerical integration, the springs' mean-deflection balance, a
+single-DOF Coulomb oscillator against its
 closed-form linearisation and a Monte-Carlo run, the Dahl element against its complex
 stiffness, the halves against the whole model, the fixed point, and the long-run check
 against the nonlinear time-domain model (slow)."""
@@ -14,7 +16,6 @@ import pytest
 from scipy import integrate
 from scipy.special import ndtr
 
-from suspenv.metrics.iso2631 import weighted_rms_fft
 from suspenv.metrics.ride import _output_matrix, modal_form, modal_response, ride_spectral
 from suspenv.models.effects.effect import make_effect
 from suspenv.models.minibus import STUDY_PICK, design_space
@@ -361,32 +362,21 @@ def test_default_passes_reach_the_fixed_point(effects, rel):
 
 @pytest.mark.slow
 def test_leaf_friction_against_long_time_domain_runs():
-    """The study's pick with rear interleaf friction: the spectral values lie within 3
-    standard errors + 3 % of the nonlinear time-domain model's mean square over three
-    120 s records (benchmarks/minibus_ride_effects.py measures the box); ignoring the
-    friction errs by more than 15 % at the rear, no load."""
+    """The study's pick with rear interleaf friction: the spectral values lie within 2 %
+    + 2 standard errors of the nonlinear time-domain model's mean square over 4
+    antithetic pairs of 120 s records (``benchmarks.minibus_ride_effects.long_runs``,
+    RK4 at 200 Hz; the benchmark measures the box). Measured: -0.4 to -1.6 %, standard
+    errors 0.02-0.13 %. Ignoring the friction errs by more than 15 % at the rear, no
+    load (measured: 0.52 of the mean square)."""
+    from benchmarks.minibus_ride_effects import long_runs
+
     X = STUDY_PICK[None, :]
-    ms = []
-    for seed in range(3):
-        rec = random_road_run(
-            X, LOAD_CASES, RandomRoad(duration_s=120.0, seed=200 + seed), effects=[LEAF_FRICTION]
-        )
-        ms.append(
-            [
-                weighted_rms_fft(rec.acc_front, 100.0) ** 2,
-                weighted_rms_fft(rec.acc_rear, 100.0) ** 2,
-            ]
-        )
-    a = np.array(ms)  # (seed, end, load case)
-    mean, se = a.mean(axis=0), a.std(axis=0, ddof=1) / np.sqrt(len(a))
+    td, se, _ = long_runs(X, [LEAF_FRICTION], 4)  # (end, load case): m/s^2, %
     sp = ride_spectral(X, effects=[LEAF_FRICTION])
-    plain = ride_spectral(X)
     for j, key in enumerate(("aw_front", "aw_rear")):
-        for lc in range(2):
-            el = float(sp[key][lc]) ** 2
-            tol = 3 * float(se[j, lc]) + 0.06 * float(mean[j, lc])
-            assert el == pytest.approx(float(mean[j, lc]), abs=tol)
-    assert plain["aw_rear"][0] ** 2 < 0.7 * mean[1][0]
+        err = 100 * (sp[key] / td[j] - 1)
+        assert np.all(np.abs(err) <= 2.0 + 2 * se[j]), (key, err, se[j])
+    assert ride_spectral(X)["aw_rear"][0] ** 2 < 0.7 * td[1, 0] ** 2
 
 
 def test_problem_option_passes_the_effects_to_the_ride():
