@@ -359,7 +359,7 @@ def minibus_paper_table(d: Json) -> str:
 def minibus_effects_block(d: Json) -> str:
     """docs/minibus.md's effects validation (``minibus_ride_effects.json``): per design
     and load case, per effect set, the spectral value's deviation from the long runs
-    (front / rear, %), then the speed paragraph."""
+    +- the runs' standard error (front / rear, %), then the speed paragraph."""
     s, rows = d["summary"], d["rows"]
     sets = list(dict.fromkeys(r["effects"] for r in rows))
     cell = {(r["effects"], r["design"], r["load_case"], r["end"]): r for r in rows}
@@ -371,13 +371,17 @@ def minibus_effects_block(d: Json) -> str:
         for name in dict.fromkeys(r["design"] for r in rows):
             vals = [
                 " / ".join(
-                    f"{cell[e, name, lc, end]['error_percent']:+.1f}" for end in ("front", "rear")
+                    f"{c['error_percent']:+.1f}±{c['time_se_percent']:.1f}"
+                    for end in ("front", "rear")
+                    for c in [cell[e, name, lc, end]]
                 )
                 for e in sets
             ]
             lines.append(f"| {name}, {lc.replace('_', ' ')} | " + " | ".join(vals) + " |")
     within = " | ".join(s[f"{e}_within_target"] for e in sets)
     lines.append(f"| within {s['target_percent']:g} % | {within} |")
+    resolved = " | ".join(s[f"{e}_outside_by_2se"] for e in sets)
+    lines.append(f"| outside by more than 2 standard errors | {resolved} |")
     ignored = " | ".join(f"{s[f'{e}_ignoring_max_abs_percent']:.0f}" for e in sets)
     lines.append(f"| largest deviation ignoring the effects (%) | {ignored} |")
     met_1 = met(s["meets_batch1_target_cpu"])

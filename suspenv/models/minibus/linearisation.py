@@ -5,7 +5,10 @@ Linearization*, ch. 5-6; Kazakov; Atalik & Utku 1976): an element force F(x) of 
 zero-mean Gaussian element deflection or velocity x of RMS s is replaced by the
 mean-square-optimal linear rate ``k_eq = E[F'(x)]`` (Stein's lemma: ``E[F x] / s^2``).
 The spectral ride method (:func:`suspenv.metrics.ride.ride_spectral`) takes the RMS
-values from the linear model built with these rates and iterates to consistency.
+values from the linear model built with these rates and iterates to consistency. The
+springs' rates (two-stage leaf, end stops) are taken about their mean deflection,
+which the asymmetric dampers' and the stops' mean forces move from rest
+(:meth:`ElementLinearisation.spring_mean`).
 
 Signs and units as :mod:`suspenv.models.minibus.ride_model`: deflections and
 velocities positive in compression (m, m/s), forces positive when they resist
@@ -14,11 +17,12 @@ compression (N); rates in N/m and N s/m. Laws (the ride model's):
 - asymmetric digressive damper: slopes ``c_bl``/``c_bh`` (bump, below/above the knee
   ``k_b``), ``c_rl``/``c_rh`` (rebound, knee ``k_r > 0``):
   ``c_eq = c_bl (Phi(k_b/s) - 1/2) + c_bh (1 - Phi(k_b/s)) + (same for rebound)``;
-- two-stage leaf, extra rate ``dk`` beyond the knee ``e_k`` from rest:
-  ``k_eq = K_1 + dk (1 - Phi(e_k/s))``;
-- end stop ``F = k_stop max(x - gap, 0)^p`` (bump; rebound mirrored):
-  ``k_eq = p k_stop E[max(x - gap, 0)^(p - 1)]``, the stop's stiffness times the
-  Gaussian probability of contact for p = 1 (:func:`stop_rate`);
+- two-stage leaf, extra rate ``dk`` beyond the knee ``e_k`` from rest, about its mean
+  compression m: ``k_eq = K_1 + dk (1 - Phi((e_k - m)/s))``;
+- end stop ``F = k_stop max(x - gap, 0)^p`` (bump; rebound mirrored) about the
+  spring's mean deflection m: ``k_eq = p k_stop E[max(m + x - gap, 0)^(p - 1)]``, the
+  stop's stiffness times the Gaussian probability of contact for p = 1, and its mean
+  force ``k_stop E[max(m + x - gap, 0)^p]`` (:func:`stop_moments`);
 - smoothed Coulomb friction ``F = f_c tanh(v / v_eps)``:
   ``c_eq = E[F'(v)]``, which tends to ``f_c sqrt(2/pi) / s`` for ``v_eps << s``
   (:func:`coulomb_rate`);
@@ -76,12 +80,21 @@ def _excess(a: np.ndarray) -> np.ndarray:
     return np.exp(-0.5 * a * a) / np.sqrt(2.0 * np.pi) - a * ndtr(-a)
 
 
-def stop_rate(gap: float, k_stop: float, p: float, sigma: np.ndarray) -> np.ndarray:
-    """Equivalent stiffness (N/m) of a bump or a rebound stop (the same: mirror images)
-    for a zero-mean Gaussian deflection of RMS ``sigma`` (m):
-    ``p k_stop sigma^(p-1) E[max(t - gap/sigma, 0)^(p-1)]``."""
+def stop_moments(
+    gap: float, k_stop: float, p: float, sigma: np.ndarray, shift: np.ndarray | float = 0.0
+) -> tuple[np.ndarray, np.ndarray]:
+    """Mean force magnitude (N) and equivalent stiffness (N/m) of a bump or a rebound
+    stop (mirror images) for a Gaussian deflection of RMS ``sigma`` (m) whose mean lies
+    ``shift`` (m) towards the stop: with ``a = (gap - shift)/sigma``,
+    ``k_stop sigma^p E[max(t - a, 0)^p]`` and ``p k_stop sigma^(p-1) E[max(t - a,
+    0)^(p-1)]`` (t standard normal; :func:`tail_moment`, for p = 1 ``sigma T(a)`` and
+    ``1 - Phi(a)``, the stiffness times the probability of contact)."""
     s = np.maximum(np.asarray(sigma, dtype=float), 1e-12)
-    return p * k_stop * s ** (p - 1.0) * tail_moment(gap / s, p - 1.0)
+    a = (gap - np.asarray(shift, dtype=float)) / s
+    if p == 1.0:
+        return k_stop * s * _excess(a), k_stop * ndtr(-a)
+    mean = k_stop * s**p * tail_moment(a, p)
+    return mean, p * k_stop * s ** (p - 1.0) * tail_moment(a, p - 1.0)
 
 
 def coulomb_rate(f_c: float, v_eps: float, sigma: np.ndarray) -> np.ndarray:
@@ -142,6 +155,13 @@ class ElementLinearisation:
         self.damper_mean = nl.damper_mean
         self.effects = nl.effects
         self.dahl = next((e.params for e in nl.effects if e.kind == "dahl_hysteresis"), None)
+        #: end stops per end (front, rear): (+1 bump / -1 rebound, gap, k_stop, p)
+        self.stops: tuple[list[tuple[float, float, float, float]], ...] = ([], [])
+        for e in nl.effects:
+            if e.kind in ("bump_stop", "rebound_stop"):
+                sign = 1.0 if e.kind == "bump_stop" else -1.0
+                end = self.stops[0 if e.location.startswith("front") else 1]
+                end.append((sign, e.params["gap"], e.params["k_stop"], e.params["p"]))
         self.n_rates = 12 if self.effects else 6
 
     def initial(self, init_damping: float) -> np.ndarray:
@@ -171,8 +191,10 @@ class ElementLinearisation:
             + self.d_rl * (pr - 0.5)
             + self.d_rh * (1 - pr)
         )
-        m = self.leaf_mean(sv[:, 2:4], sd)
+        m = self.spring_mean(1, sv[:, 2:4], sd)
         out[:, LEAF] = self.k1 + self.dk * (1.0 - ndtr((self.thr - m) / sd))
+        if self.stops[1]:
+            out[:, LEAF] += self._stop_terms(1, m, sd)[1]
         if self.effects:
             self._effect_rates(sig, r, out)
         return out
@@ -188,30 +210,55 @@ class ElementLinearisation:
         bump = self.d_bl[:, cols] * (s0 - tb) + self.d_bh[:, cols] * tb
         return bump - (self.d_rl[:, cols] * (s0 - tr) + self.d_rh[:, cols] * tr)
 
-    def leaf_mean(self, sv: np.ndarray, sd: np.ndarray) -> np.ndarray:
-        """Mean leaf compression from rest (m, (n, 2)) under zero-mean Gaussian rear
-        damper velocities of RMS ``sv`` (m/s) and leaf deflections of RMS ``sd`` (m).
+    def _stop_terms(self, end: int, m: np.ndarray, sd: np.ndarray) -> tuple[np.ndarray, ...]:
+        """Mean force (N, + resisting compression) and equivalent stiffness (N/m) of the
+        stops of ``end`` (0 front, 1 rear) for deflections of mean ``m`` and RMS ``sd``
+        (m), (n, 2) each."""
+        force, rate = np.zeros_like(m), np.zeros_like(m)
+        for sign, gap, k_stop, p in self.stops[end]:
+            f, k = stop_moments(gap, k_stop, p, sd, sign * m)
+            force += sign * f
+            rate += k
+        return force, rate
+
+    def spring_mean(self, end: int, sv: np.ndarray, sd: np.ndarray) -> np.ndarray:
+        """Mean spring deflection from rest (m, (n, 2); + compression) at ``end`` (0:
+        front springs, 1: rear leaves) under zero-mean Gaussian damper velocities of RMS
+        ``sv`` (m/s) and spring deflections of RMS ``sd`` (m).
 
         The body's weight and centre of mass fix each axle's mean suspension force
         (two axles: statically determinate; the tyres stay in contact), so per side
-        the leaf's mean force change from rest balances the damper's mean force:
-        ``E[dF_leaf(m + x)] = -E[F_damper]`` with ``dF_leaf(d) = K_1 d + dk (max(d -
-        e_k, 0) - max(-e_k, 0))``, i.e. ``K_1 m + dk (s T((e_k - m)/s) - max(-e_k, 0))
-        = -E[F_damper]``: Newton's method from the linear guess, a fixed 6 steps
-        (the left side rises monotonically in m, slope K_1 .. K_2)."""
-        rhs = -self.damper_mean_force(sv, slice(2, 4)) + self.dk * np.maximum(-self.thr, 0.0)
-        m = (rhs - self.dk * sd * _excess(self.thr / sd)) / self.k1
-        for _ in range(6):
-            a = (self.thr - m) / sd
-            f = self.k1 * m + self.dk * sd * _excess(a) - rhs
-            m = m - f / (self.k1 + self.dk * (1.0 - ndtr(a)))
+        the spring's mean force change from rest balances the damper's mean force,
+        ``E[dF_spring(m + x)] = -E[F_damper]``, with ``dF_spring(d) = K_1 d + dk
+        (max(d - e_k, 0) - max(-e_k, 0)) + F_stops(d)`` (the leaf's second stage, rate
+        ``dk`` beyond ``e_k``; front: ``K_1`` the wheel rate, no second stage), i.e.
+        ``K_1 m + dk (s T((e_k - m)/s) - max(-e_k, 0)) + E[F_stops] = -E[F_damper]``
+        (:func:`stop_moments`): Newton's method from the guess without stops, a fixed
+        6 steps, 10 with stops (the left side rises monotonically in m; bump stops
+        make it convex, from a guess above the root, rebound stops concave, from
+        below: monotone steps)."""
+        cols = slice(2 * end, 2 * end + 2)
+        k1, dk, thr = (self.k1, self.dk, self.thr) if end else (self.k_front, 0.0, 0.0)
+        rhs = -self.damper_mean_force(sv, cols) + dk * np.maximum(-thr, 0.0)
+        m = (rhs - dk * sd * _excess(thr / sd)) / k1
+        for _ in range(10 if self.stops[end] else 6):
+            a = (thr - m) / sd
+            f = k1 * m + dk * sd * _excess(a) - rhs
+            slope = k1 + dk * (1.0 - ndtr(a))
+            if self.stops[end]:
+                f_stop, k_stop = self._stop_terms(end, m, sd)
+                f, slope = f + f_stop, slope + k_stop
+            m = m - f / slope
         return m
 
     def _effect_rates(self, sig: np.ndarray, r: np.ndarray, out: np.ndarray) -> None:
         out[:, FRONT] = self.k_front
+        if self.stops[0]:
+            sd_front = np.maximum(sig[:, SIG_FRONT], 1e-12)
+            m_front = self.spring_mean(0, np.maximum(sig[:, 0:2], 1e-12), sd_front)
+            out[:, FRONT] += self._stop_terms(0, m_front, sd_front)[1]
         out[:, DAHL_C], out[:, DAHL_K] = r[:, DAHL_C], r[:, DAHL_K]
         for e in self.effects:
-            front = e.location.startswith("front")
             if e.kind == "dahl_hysteresis":
                 out[:, DAHL_C], out[:, DAHL_K] = dahl_rates(
                     e.params["sigma"],
@@ -222,9 +269,5 @@ class ElementLinearisation:
                     r[:, DAHL_K],
                 )
             elif e.kind == "coulomb_friction":
-                cols = slice(0, 2) if front else slice(2, 4)
+                cols = slice(0, 2) if e.location.startswith("front") else slice(2, 4)
                 out[:, cols] += coulomb_rate(e.params["f_c"], e.params["v_eps"], sig[:, cols])
-            else:  # bump_stop, rebound_stop
-                cols, scols = (FRONT, SIG_FRONT) if front else (LEAF, SIG_LEAF)
-                p = e.params
-                out[:, cols] += stop_rate(p["gap"], p["k_stop"], p["p"], sig[:, scols])
