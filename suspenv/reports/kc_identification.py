@@ -33,7 +33,7 @@ def write_kc_report(problem: KCIdentification, run_dir: Path, archive: Any) -> l
     run_dir = Path(run_dir)
     x_best = a["x"][best]
     F0, ok0, _ = problem.simulate(problem.initial_design()[None, :])
-    Fb, okb, _ = problem.simulate(x_best[None, :])
+    Fb, _, _ = problem.simulate(x_best[None, :])
     targets = problem.targets
     lines = [
         "# K&C identification: best design of the run",
