@@ -366,7 +366,6 @@ def _module_edges() -> dict[tuple[str, str], str]:
 CIRCLES_ALLOWED = frozenset(
     {
         ("suspenv.diagnosis.ride.model", "suspenv.diagnosis.ride.truth"),
-        ("suspenv.models.effects.catalogue", "suspenv.models.effects.effect"),
     }
 )
 
