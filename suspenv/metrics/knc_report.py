@@ -35,13 +35,17 @@ from __future__ import annotations
 import dataclasses
 import re
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from suspenv.core.errors import ValidationError
+from suspenv.measurements.knc import OPPOSED_TESTS
 from suspenv.metrics.knc import FIT_HALF_WIDTH, RAD2DEG, quadratic_fit
 from suspenv.models.mcpherson.params import SIDE_SIGN, AxleConstants
-from suspenv.rigs.knc import OPPOSED_TESTS, KCResult
+
+if TYPE_CHECKING:  # a type only: metrics are functions of rig results, not of the rig
+    from suspenv.rigs.knc import KCResult
 
 BRANCHES = ("down", "up")
 
