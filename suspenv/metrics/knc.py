@@ -27,14 +27,17 @@ wheel travel uses the moving (left) wheel.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from suspenv.core.errors import ValidationError
 from suspenv.models.effects import Effect
 from suspenv.models.mcpherson.params import SIDE_SIGN, Axle
-from suspenv.rigs.knc import KCResult
+
+if TYPE_CHECKING:  # a type only: metrics are functions of rig results, not of the rig
+    from suspenv.rigs.knc import KCResult
 
 RAD2DEG = 180.0 / np.pi
 FIT_HALF_WIDTH = 3  # grid points either side of the static position
@@ -268,10 +271,7 @@ def objectives(results: dict[str, KCResult]) -> np.ndarray:
         # its channels: the rows (channel x design) of one result, whose branches are
         # taken at once, then the curves of the rows (branch x design) (the same
         # numbers, element by element)
-        every = KCResult(
-            test, res.grid, res.path,
-            {"": np.concatenate([res.channels[c] for c in channels])}, res.ok, res.messages,
-        )  # fmt: skip
+        every = replace(res, channels={"": np.concatenate([res.channels[c] for c in channels])})
         both = np.stack([every.branch("", br)[:, window] for br in ("down", "up")])
         both = both.reshape(2, C, n, size, 2).swapaxes(0, 1).reshape(C, 2 * n, size, 2)
         curves = _curves(dict(zip(channels, both, strict=True)).__getitem__, FIT_HALF_WIDTH)
