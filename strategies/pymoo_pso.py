@@ -28,6 +28,7 @@ class PymooPSO(ScalarStrategy):
     """Particle swarm optimisation (pymoo's PSO); option ``swarm_size`` (default 25)."""
 
     name = "pymoo_pso"
+    option_names = ("swarm_size",)
 
     def __init__(
         self,
@@ -54,6 +55,3 @@ class PymooPSO(ScalarStrategy):
         scores = self.fitness(batch).reshape(-1, 1)  # finite; lower is better
         Evaluator().eval(StaticProblem(self._problem, F=scores), self._swarm)
         self._pso.tell(infills=self._swarm)
-
-    def options(self) -> dict[str, Any]:
-        return {**super().options(), "swarm_size": self.swarm_size}

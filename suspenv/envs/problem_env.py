@@ -35,7 +35,57 @@ def single_spaces(adapter: ProblemAdapter) -> tuple[spaces.Box, spaces.Box]:
     return action, observation
 
 
-class ProblemEnv(gym.Env[np.ndarray, np.ndarray]):
+class EnvBase:
+    """What both envs share: the problem, its adapter and budget, the reference
+    evaluation and the read-outs of the reward."""
+
+    problem: Problem
+    adapter: ProblemAdapter
+    budget: int
+    _reference: dict[str, Any] | None = None
+
+    def _bind(
+        self,
+        problem: str | Problem,
+        problem_options: dict[str, Any] | None,
+        budget: int,
+        **shaping: Any,
+    ) -> None:
+        """Build the problem and its adapter (``shaping``: the adapter's keywords) and
+        check the budget."""
+        self.problem = build_problem(problem, problem_options)
+        key = problem_key(problem, problem_options, self.problem)
+        self.adapter = ProblemAdapter(self.problem, scales_key=key, **shaping)
+        self.budget = check_budget(budget)
+
+    def _reference_outputs(self) -> dict[str, Any]:
+        """The adapter's outputs of the reference design, evaluated once per env."""
+        if self._reference is None:
+            x = self.problem.reference_design()[None, :]
+            self._reference = self.adapter.outputs(x, self.problem.evaluate(x))
+        return self._reference
+
+    @property
+    def reward_mode(self) -> str:
+        """The reward mode: "normalized", "sum" or "vector" (see the Rewards section)."""
+        return self.adapter.reward
+
+    @property
+    def objective_scales(self) -> np.ndarray:
+        """The scales ``s_j`` (m,) of the normalised reward, in the objectives' units
+        (the problem's declared ones, else computed on first use by 65 evaluations; see
+        :mod:`suspenv.envs.scales`)."""
+        return self.adapter.scales.scales.copy()
+
+    def spec_sheet(self, with_scales: bool = False) -> str:
+        """This env's spec sheet (Markdown): spaces with names, units and bounds, reward,
+        episode and arguments. ``with_scales`` adds the objective scales (computes them)."""
+        from suspenv.envs.spec import spec_sheet
+
+        return spec_sheet(self, with_scales=with_scales)
+
+
+class ProblemEnv(EnvBase, gym.Env[np.ndarray, np.ndarray]):
     """A suspenv problem as a black-box optimisation episode (``suspenv/<Name>-v0``).
 
     ## Description
@@ -160,17 +210,16 @@ class ProblemEnv(gym.Env[np.ndarray, np.ndarray]):
         render_mode: str | None = None,
         reward: str | None = None,
     ):
-        self.problem = build_problem(problem, problem_options)
-        self.adapter = ProblemAdapter(
-            self.problem,
+        self._bind(
+            problem,
+            problem_options,
+            budget,
             scalarizer=scalarizer,
             weights=weights,
             penalty=penalty,
             fail_value=fail_value,
             reward=reward,
-            scales_key=problem_key(problem, problem_options, self.problem),
         )
-        self.budget = check_budget(budget)
         can_render = callable(getattr(self.problem, "render_rgb", None))
         self.metadata = {"render_modes": ["rgb_array"] if can_render else [], "render_fps": 4}
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
@@ -184,7 +233,6 @@ class ProblemEnv(gym.Env[np.ndarray, np.ndarray]):
         if self.adapter.reward == "vector":  # MO-Gymnasium's attributes
             self.reward_space = spaces.Box(-np.inf, np.inf, shape=(self.adapter.m,))
             self.reward_dim = self.adapter.m
-        self._reference: tuple[np.ndarray, dict[str, Any]] | None = None
         self._steps = 0
         self._done = False
         self._last_x: np.ndarray | None = None
@@ -194,15 +242,11 @@ class ProblemEnv(gym.Env[np.ndarray, np.ndarray]):
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
         super().reset(seed=seed)
-        if self._reference is None:
-            x = self.problem.reference_design()[None, :]
-            out = self.adapter.outputs(x, self.problem.evaluate(x))
-            self._reference = (out["obs"][0], self.adapter.info_row(out, 0, 0))
-        obs, info = self._reference
+        out = self._reference_outputs()
         self._steps = 0
         self._done = False
         self._last_x = self.problem.reference_design()
-        return obs.copy(), _copy_info(info)
+        return out["obs"][0].copy(), self.adapter.info_row(out, 0, 0)
 
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         if self._done:
@@ -230,26 +274,3 @@ class ProblemEnv(gym.Env[np.ndarray, np.ndarray]):
     def design_to_action(self, x_physical: Sequence[float]) -> np.ndarray:
         """The action that evaluates the physical design ``x_physical``."""
         return self.adapter.designs_to_actions(np.asarray(x_physical, dtype=float)[None, :])[0]
-
-    @property
-    def reward_mode(self) -> str:
-        """The reward mode: "normalized" or "sum" (see the Rewards section)."""
-        return self.adapter.reward
-
-    @property
-    def objective_scales(self) -> np.ndarray:
-        """The scales ``s_j`` (m,) of the normalised reward, in the objectives' units
-        (the problem's declared ones, else computed on first use by 65 evaluations; see
-        :mod:`suspenv.envs.scales`)."""
-        return self.adapter.scales.scales.copy()
-
-    def spec_sheet(self, with_scales: bool = False) -> str:
-        """This env's spec sheet (Markdown): spaces with names, units and bounds, reward,
-        episode and arguments. ``with_scales`` adds the objective scales (computes them)."""
-        from suspenv.envs.spec import spec_sheet
-
-        return spec_sheet(self, with_scales=with_scales)
-
-
-def _copy_info(info: dict[str, Any]) -> dict[str, Any]:
-    return {k: (v.copy() if isinstance(v, np.ndarray | dict) else v) for k, v in info.items()}

@@ -13,15 +13,12 @@ from suspenv.core.errors import ValidationError
 from suspenv.core.problem import Problem
 from suspenv.envs.adapter import (
     FAIL_VALUE,
-    ProblemAdapter,
     Scalarizer,
-    build_problem,
-    problem_key,
 )
-from suspenv.envs.problem_env import check_budget, single_spaces
+from suspenv.envs.problem_env import EnvBase, single_spaces
 
 
-class ProblemVectorEnv(VectorEnv):
+class ProblemVectorEnv(EnvBase, VectorEnv):
     """``num_envs`` copies of :class:`~suspenv.envs.problem_env.ProblemEnv` stepped as one.
 
     ## Description
@@ -100,24 +97,22 @@ class ProblemVectorEnv(VectorEnv):
             raise ValidationError(
                 f"`render_mode` must be None for the vector env, but got {render_mode!r}"
             )
-        self.problem = build_problem(problem, problem_options)
-        self.adapter = ProblemAdapter(
-            self.problem,
+        self._bind(
+            problem,
+            problem_options,
+            budget,
             scalarizer=scalarizer,
             weights=weights,
             penalty=penalty,
             fail_value=fail_value,
             batch_scalarizer_ok=True,
             reward=reward,
-            scales_key=problem_key(problem, problem_options, self.problem),
         )
         self.num_envs = int(num_envs)
-        self.budget = check_budget(budget)
         self.render_mode = None
         self.single_action_space, self.single_observation_space = single_spaces(self.adapter)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
-        self._reference: dict[str, Any] | None = None
         self._steps = 0
         self._started = False
         self._autoreset = False
@@ -126,10 +121,8 @@ class ProblemVectorEnv(VectorEnv):
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
         super().reset(seed=seed)
-        if self._reference is None:
-            x = self.problem.reference_design()[None, :]
-            self._reference = self.adapter.outputs(x, self.problem.evaluate(x))
-        out = {k: np.repeat(v, self.num_envs, axis=0) for k, v in self._reference.items()}
+        ref = self._reference_outputs()
+        out = {k: np.repeat(v, self.num_envs, axis=0) for k, v in ref.items()}
         self._steps = 0
         self._started = True
         self._autoreset = False
@@ -155,19 +148,3 @@ class ProblemVectorEnv(VectorEnv):
 
     def render(self) -> None:
         return None
-
-    @property
-    def reward_mode(self) -> str:
-        """The reward mode: "normalized" or "sum" (as in ``ProblemEnv``)."""
-        return self.adapter.reward
-
-    @property
-    def objective_scales(self) -> np.ndarray:
-        """The scales (m,) of the normalised reward (see :mod:`suspenv.envs.scales`)."""
-        return self.adapter.scales.scales.copy()
-
-    def spec_sheet(self, with_scales: bool = False) -> str:
-        """This env's spec sheet (Markdown), as :meth:`ProblemEnv.spec_sheet`."""
-        from suspenv.envs.spec import spec_sheet
-
-        return spec_sheet(self, with_scales=with_scales)

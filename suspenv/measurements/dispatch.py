@@ -16,13 +16,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import scipy.io
-
 from suspenv.measurements.errors import RecordingError
 from suspenv.measurements.io import load_recording
-from suspenv.measurements.limits import check_mat, read_limit
 from suspenv.measurements.recording import Recording
 from suspenv.measurements.sources import load_damper_dyno, load_emps, load_emps_csv, load_mr_damper
+from suspenv.measurements.sources._common import load_mat, require_file
 
 #: test name -> component family suited to it
 SUGGESTED_MODEL = {
@@ -39,18 +37,12 @@ SUGGESTED_MODEL = {
 def read_recording(path: str | Path, *, max_bytes: int | None = None) -> Recording:
     """Load ``path`` with the reader its extension and content call for (``max_bytes``:
     the read limit, :mod:`suspenv.measurements.limits`)."""
-    path = Path(path)
-    if not path.is_file():
-        raise RecordingError(f"recording file {str(path)!r} does not exist")
+    path = require_file(path)
     suffix = path.suffix.lower()
     if suffix == ".npz":
         rec = load_recording(path, max_bytes=max_bytes)
     elif suffix == ".mat":
-        check_mat(path, read_limit(max_bytes))
-        try:
-            names = {name for name, _, _ in scipy.io.whosmat(path)}
-        except Exception as exc:  # noqa: BLE001 - any reader failure means "not a .mat file"
-            raise RecordingError(f"{path.name}: not a readable MATLAB file ({exc})") from None
+        names = load_mat(path, (), max_bytes)["__present__"]
         if "qm" in names:
             rec = load_emps(path, max_bytes=max_bytes)
         elif "x_F" in names:

@@ -658,16 +658,13 @@ def _check_manifest(data: dict[str, Any], where: str) -> None:
 
 def _check_identity(data: dict[str, Any], where: str) -> None:
     """Format, version, sign convention, the text keys and ``travel_drive``."""
-    if data.get("format") != FORMAT:
-        raise _refuse(where, f"format must be {FORMAT!r}, but got {data.get('format')!r}")
-    if data.get("version") != VERSION:
-        raise _refuse(where, f"version must be {VERSION}, but got {data.get('version')!r}")
-    if data.get("sign_convention") != SIGN_CONVENTION:
-        raise _refuse(
-            where,
-            f"sign_convention must be {SIGN_CONVENTION!r} (x forward, y left, z up), but got "
-            f"{data.get('sign_convention')!r}",
-        )
+    for key, value, note in (
+        ("format", FORMAT, ""),
+        ("version", VERSION, ""),
+        ("sign_convention", SIGN_CONVENTION, " (x forward, y left, z up)"),
+    ):
+        if data.get(key) != value:
+            raise _refuse(where, f"{key} must be {value!r}{note}, but got {data.get(key)!r}")
     for key in ("name", "source", "notes"):
         if key in data and not isinstance(data[key], str):
             raise _refuse(where, f"{key!r} must be text, but got {data[key]!r}")

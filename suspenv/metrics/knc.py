@@ -27,14 +27,17 @@ wheel travel uses the moving (left) wheel.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from suspenv.core.errors import ValidationError
 from suspenv.models.effects import Effect
 from suspenv.models.mcpherson.params import SIDE_SIGN, Axle
-from suspenv.rigs.knc import KCResult
+
+if TYPE_CHECKING:  # a type only: metrics are functions of rig results, not of the rig
+    from suspenv.rigs.knc import KCResult
 
 RAD2DEG = 180.0 / np.pi
 FIT_HALF_WIDTH = 3  # grid points either side of the static position
@@ -64,135 +67,66 @@ class KCObjective:
     label: str
 
 
-def _travel_objectives(prefix: str, test: str) -> list[KCObjective]:
-    O = KCObjective
-    return [
-        O(
-            f"{prefix}_susp_ride_rate",
-            test,
-            "tyre_fz",
-            "wheel",
-            "rate_gradient",
-            "N/mm^2",
-            "suspension ride rate",
-        ),
-        O(
-            f"{prefix}_susp_ride_rate_pos",
-            test,
-            "tyre_fz",
-            "wheel",
-            "rate",
-            "N/mm",
-            "suspension ride rate (pos)",
-        ),
-        O(f"{prefix}_toe", test, "toe", "wheel", "gradient", "deg/mm", "toe change"),
-        O(f"{prefix}_toe_pos", test, "toe", "wheel", "value", "deg", "toe change (pos)"),
-        O(f"{prefix}_camber", test, "camber", "wheel", "gradient", "deg/mm", "camber change"),
-        O(f"{prefix}_camber_pos", test, "camber", "wheel", "value", "deg", "camber change (pos)"),
-        O(
-            f"{prefix}_hub_lateral",
-            test,
-            "hub_lateral",
-            "wheel",
-            "gradient",
-            "mm/mm",
-            "lateral displacement of hub",
-        ),
-        O(
-            f"{prefix}_susp_contact_lateral",
-            test,
-            "contact_lateral",
-            "wheel",
-            "gradient",
-            "mm/mm",
-            "suspension lateral displacement of tyre contact patch",
-        ),
-        O(
-            f"{prefix}_hub_fore_aft",
-            test,
-            "hub_fore_aft",
-            "wheel",
-            "gradient",
-            "mm/mm",
-            "suspension fore-aft displacement of hub",
-        ),
-        O(f"{prefix}_caster", test, "caster", "wheel", "gradient", "deg/mm", "caster change"),
-        O(f"{prefix}_ride_rate", test, "tyre_fz", "pad", "rate_gradient", "N/mm^2", "ride rate"),
-        O(
-            f"{prefix}_contact_lateral",
-            test,
-            "contact_lateral",
-            "pad",
-            "gradient",
-            "mm/mm",
-            "lateral displacement of contact patch",
-        ),
-        O(
-            f"{prefix}_contact_fore_aft",
-            test,
-            "contact_fore_aft",
-            "pad",
-            "gradient",
-            "mm/mm",
-            "fore-aft displacement of contact patch",
-        ),
-    ]
+#: the objectives of a travel test, one a line: name (after the test's prefix), curve,
+#: abscissa, reduction, unit, the paper's wording (the rest of the line; a backslash at
+#: the end of a line joins the next)
+_TRAVEL = """
+susp_ride_rate         tyre_fz           wheel  rate_gradient  N/mm^2  suspension ride rate
+susp_ride_rate_pos     tyre_fz           wheel  rate           N/mm    suspension ride rate (pos)
+toe                    toe               wheel  gradient       deg/mm  toe change
+toe_pos                toe               wheel  value          deg     toe change (pos)
+camber                 camber            wheel  gradient       deg/mm  camber change
+camber_pos             camber            wheel  value          deg     camber change (pos)
+hub_lateral            hub_lateral       wheel  gradient       mm/mm   lateral displacement of hub
+susp_contact_lateral   contact_lateral   wheel  gradient       mm/mm   suspension lateral \
+displacement of tyre contact patch
+hub_fore_aft           hub_fore_aft      wheel  gradient       mm/mm   suspension fore-aft \
+displacement of hub
+caster                 caster            wheel  gradient       deg/mm  caster change
+ride_rate              tyre_fz           pad    rate_gradient  N/mm^2  ride rate
+contact_lateral        contact_lateral   pad    gradient       mm/mm   lateral displacement of \
+contact patch
+contact_fore_aft       contact_fore_aft  pad    gradient       mm/mm   fore-aft displacement of \
+contact patch
+"""
+#: the opposite-travel test's own objectives (as :data:`_TRAVEL`), then its roll
+#: stiffness (:data:`_ROLL`)
+_OPPOSITE = """
+toe              toe     wheel  gradient  deg/mm   toe change
+toe_pos          toe     wheel  value     deg      toe change (pos)
+camber           camber  wheel  gradient  deg/mm   camber change
+camber_pos       camber  wheel  value     deg      camber change (pos)
+roll_caster      caster  roll   gradient  deg/deg  roll caster
+roll_toe         toe     roll   gradient  deg/deg  roll toe change
+roll_toe_pos     toe     roll   value     deg      roll toe change (pos)
+roll_camber      camber  roll   gradient  deg/deg  roll camber
+roll_camber_pos  camber  roll   value     deg      roll camber (pos)
+"""
+_ROLL = """
+roll_force     half_force_difference half_travel_difference rate_gradient N/mm^2    roll force
+roll_force_pos half_force_difference half_travel_difference rate          N/mm      roll force (pos)
+roll_rate      roll_moment           roll_axle              rate_gradient N*m/deg^2 roll rate
+roll_rate_pos  roll_moment           roll_axle              rate          N*m/deg   roll rate (pos)
+"""
+#: single wheel travel: the travel test's objectives and this one
+_SINGLE = """
+ride_rate_pos          tyre_fz           pad    rate           N/mm    ride rate (pos)
+"""
+
+
+def _table(text: str, prefix: str, test: str) -> list[KCObjective]:
+    """The objectives of a table as :data:`_TRAVEL` of ``test``, names after ``prefix``."""
+    out = []
+    for row in filter(None, text.splitlines()):
+        name, curve, x, reduce, unit, label = row.split(maxsplit=5)
+        out.append(KCObjective(prefix + name, test, curve, x, reduce, unit, label))
+    return out
 
 
 def _objectives() -> tuple[KCObjective, ...]:
-    O = KCObjective
-    par = _travel_objectives("par", "parallel")
-    opp = [
-        O("opp_toe", "opposite", "toe", "wheel", "gradient", "deg/mm", "toe change"),
-        O("opp_toe_pos", "opposite", "toe", "wheel", "value", "deg", "toe change (pos)"),
-        O("opp_camber", "opposite", "camber", "wheel", "gradient", "deg/mm", "camber change"),
-        O("opp_camber_pos", "opposite", "camber", "wheel", "value", "deg", "camber change (pos)"),
-        O("opp_roll_caster", "opposite", "caster", "roll", "gradient", "deg/deg", "roll caster"),
-        O("opp_roll_toe", "opposite", "toe", "roll", "gradient", "deg/deg", "roll toe change"),
-        O("opp_roll_toe_pos", "opposite", "toe", "roll", "value", "deg", "roll toe change (pos)"),
-        O("opp_roll_camber", "opposite", "camber", "roll", "gradient", "deg/deg", "roll camber"),
-        O("opp_roll_camber_pos", "opposite", "camber", "roll", "value", "deg", "roll camber (pos)"),
-        O(
-            "opp_roll_force",
-            "opposite",
-            "half_force_difference",
-            "half_travel_difference",
-            "rate_gradient",
-            "N/mm^2",
-            "roll force",
-        ),
-        O(
-            "opp_roll_force_pos",
-            "opposite",
-            "half_force_difference",
-            "half_travel_difference",
-            "rate",
-            "N/mm",
-            "roll force (pos)",
-        ),
-        O(
-            "opp_roll_rate",
-            "opposite",
-            "roll_moment",
-            "roll_axle",
-            "rate_gradient",
-            "N*m/deg^2",
-            "roll rate",
-        ),
-        O(
-            "opp_roll_rate_pos",
-            "opposite",
-            "roll_moment",
-            "roll_axle",
-            "rate",
-            "N*m/deg",
-            "roll rate (pos)",
-        ),
-    ]
-    sgl = _travel_objectives("sgl", "single")
-    sgl.append(
-        O("sgl_ride_rate_pos", "single", "tyre_fz", "pad", "rate", "N/mm", "ride rate (pos)")
-    )
+    par = _table(_TRAVEL, "par_", "parallel")
+    opp = _table(_OPPOSITE + _ROLL, "opp_", "opposite")
+    sgl = _table(_TRAVEL + _SINGLE, "sgl_", "single")
     return tuple(par + opp + sgl)
 
 
@@ -337,10 +271,7 @@ def objectives(results: dict[str, KCResult]) -> np.ndarray:
         # its channels: the rows (channel x design) of one result, whose branches are
         # taken at once, then the curves of the rows (branch x design) (the same
         # numbers, element by element)
-        every = KCResult(
-            test, res.grid, res.path,
-            {"": np.concatenate([res.channels[c] for c in channels])}, res.ok, res.messages,
-        )  # fmt: skip
+        every = replace(res, channels={"": np.concatenate([res.channels[c] for c in channels])})
         both = np.stack([every.branch("", br)[:, window] for br in ("down", "up")])
         both = both.reshape(2, C, n, size, 2).swapaxes(0, 1).reshape(C, 2 * n, size, 2)
         curves = _curves(dict(zip(channels, both, strict=True)).__getitem__, FIT_HALF_WIDTH)

@@ -33,14 +33,19 @@ Points (see :func:`patch_point` and :func:`carrier_patch_velocity`):
 from __future__ import annotations
 
 import dataclasses
+import re
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from suspenv.core.errors import ValidationError
+from suspenv.measurements.knc import OPPOSED_TESTS
 from suspenv.metrics.knc import FIT_HALF_WIDTH, RAD2DEG, quadratic_fit
 from suspenv.models.mcpherson.params import SIDE_SIGN, AxleConstants
-from suspenv.rigs.knc import OPPOSED_TESTS, KCResult
+
+if TYPE_CHECKING:  # a type only: metrics are functions of rig results, not of the rig
+    from suspenv.rigs.knc import KCResult
 
 BRANCHES = ("down", "up")
 
@@ -66,235 +71,130 @@ class ReportItem:
     sign: str
 
 
-def _items() -> tuple[ReportItem, ...]:
-    R = ReportItem
-    return (
-        R("toe", "deg", "parallel", True, "toe angle at static", "+ toe-in"),
-        R("camber", "deg", "parallel", True, "camber angle at static", "- top of wheel inboard"),
-        R(
-            "caster",
-            "deg",
-            "parallel",
-            True,
-            "steering axis (lower ball joint -> top mount) angle to vertical, side view",
-            "+ axis top rearward",
-        ),
-        R(
-            "kpi",
-            "deg",
-            "parallel",
-            True,
-            "steering axis angle to vertical, front view",
-            "+ axis top inboard",
-        ),
-        R(
-            "scrub_radius",
-            "mm",
-            "parallel",
-            True,
-            "lateral (vehicle y) distance from the loaded contact point to the steering "
-            "axis's pad-plane point",
-            "+ (SAE) axis meets the ground inboard of the contact point",
-        ),
-        R(
-            "trail",
-            "mm",
-            "parallel",
-            True,
-            "longitudinal (vehicle x) distance from the loaded contact point to the "
-            "steering axis's pad-plane point",
-            "+ axis meets the ground ahead of the contact point",
-        ),
-        R("bump_steer", "deg/mm", "parallel", True, "d toe / d z_w", "+ toe-in in bump"),
-        R("camber_gain", "deg/mm", "parallel", True, "d camber / d z_w", "- top inboard in bump"),
-        R("caster_gain", "deg/mm", "parallel", True, "d caster / d z_w", "+ more caster in bump"),
-        R(
-            "track_change",
-            "mm/mm",
-            "parallel",
-            True,
-            "d y_out(loaded contact point) / d z_w",
-            "+ contact point outboard in bump",
-        ),
-        R(
-            "wheel_recession",
-            "mm/mm",
-            "parallel",
-            True,
-            "d x(wheel centre) / d z_w",
-            "+ wheel centre forward in bump",
-        ),
-        R("wheel_rate", "N/mm", "parallel", True, "d F_z / d z_w", "+ stiffening"),
-        R(
-            "ride_rate",
-            "N/mm",
-            "parallel",
-            True,
-            "d F_z / d z_pad (tyre in series)",
-            "+ stiffening",
-        ),
-        R(
-            "spring_motion_ratio",
-            "mm/mm",
-            "parallel",
-            True,
-            "-d(spring length)/d z_w",
-            "+ spring compresses in bump",
-        ),
-        R(
-            "damper_motion_ratio",
-            "mm/mm",
-            "parallel",
-            True,
-            "-d(strut length: top mount to strut axis point)/d z_w",
-            "+ strut compresses in bump",
-        ),
-        R(
-            "roll_centre_height",
-            "mm",
-            "parallel",
-            False,
-            "front-view roll centre above the mean pad plane (instant centres of the carrier "
-            "patch points)",
-            "+ above the ground",
-        ),
-        R(
-            "geometric_roll_centre_height",
-            "mm",
-            "parallel",
-            False,
-            "front-view construction at the static position from the hard points: each "
-            "wheel's instant centre where the lower arm's line (its pivot axis pierced by "
-            "the ball joint's transverse plane, to the ball joint) meets the normal to the "
-            "strut axis at the strut top; the lines from the loaded contact points through "
-            "them meet at the roll centre, its height above the mean pad plane",
-            "+ above the ground",
-        ),
-        R(
-            "roll_centre_migration",
-            "mm/mm",
-            "parallel",
-            False,
-            "d(roll_centre_height) / d(mean z_w)",
-            "+ roll centre rises in bump",
-        ),
-        R(
-            "anti_dive",
-            "%",
-            "parallel",
-            True,
-            "100 front_brake_share (wheelbase/cg_height) dx/dz of the carrier patch point",
-            "+ resists dive under braking",
-        ),
-        R(
-            "anti_lift",
-            "%",
-            "parallel",
-            True,
-            "100 front_drive_share (wheelbase/cg_height) dx/dz of the wheel centre",
-            "+ resists front lift under traction",
-        ),
-        R(
-            "roll_rate",
-            "N*m/deg",
-            "opposite",
-            False,
-            "d(0.5 (F_zL - F_zR) t_cp)/d phi",
-            "+ resists roll",
-        ),
-        R(
-            "roll_steer",
-            "deg/deg",
-            "opposite",
-            True,
-            "d toe / d phi_w (own roll sense)",
-            "+ toe-in as the wheel rises",
-        ),
-        R(
-            "roll_camber",
-            "deg/deg",
-            "opposite",
-            True,
-            "d camber / d phi_w (own roll sense)",
-            "- top inboard as the wheel rises",
-        ),
-        R(
-            "roll_centre_y_iso",
-            "mm",
-            "opposite",
-            False,
-            "front-view roll centre y at static (ISO y, + left)",
-            "+ left of the centreline",
-        ),
-        R(
-            "roll_centre_lateral_migration",
-            "mm/deg",
-            "opposite",
-            False,
-            "d(roll centre y, ISO) / d phi",
-            "+ moves left (ISO +y) as phi grows (left wheel up relative to the body)",
-        ),
-        R(
-            "tramp_rate",
-            "N*m/deg",
-            "opposite",
-            False,
-            "axle roll (tramp) rate at the contact patches, body held: d(0.5 (F_zL - F_zR) "
-            "t_cp)/d phi_pad, phi_pad = atan((z_pL - z_pR)/t_cp) from the pad heights: the "
-            "suspension with its anti-roll bar in series with the tyres (roll_rate: the "
-            "suspension alone, against the wheel centres)",
-            "+ resists axle roll",
-        ),
-        R(
-            "arb_motion_ratio",
-            "deg/mm",
-            "opposite",
-            False,
-            "d(anti-roll bar twist) / d(z_wL - z_wR)",
-            "+ as the arb_twist channel",
-        ),
-    )
+def _table(text: str) -> tuple[ReportItem, ...]:
+    """The items of a table: a line ``name unit test wheel|axle`` ("wheel": a wheel's own
+    number) and, indented below it, the definition, then ``sign:`` what a positive value
+    means (each over as many lines as it needs)."""
+    items = []
+    for block in re.split(r"\n(?=\S)", text.strip()):
+        head, _, body = block.partition("\n")
+        name, unit, test, which = head.split()
+        definition, _, sign = " ".join(body.split()).partition(" sign: ")
+        items.append(ReportItem(name, unit, test, which == "wheel", definition, sign))
+    return tuple(items)
 
 
-REPORT_ITEMS: tuple[ReportItem, ...] = _items()
-STEERING_ITEMS: tuple[ReportItem, ...] = (
-    ReportItem(
-        "steer_gradient",
-        "deg/mm",
-        "steering",
-        True,
-        "d(road-wheel steer angle)/d(rack travel)",
-        "+ wheel steers left as the rack moves +y",
-    ),
-    ReportItem(
-        "steer_ratio",
-        "-",
-        "steering",
-        False,
-        "|d(steering-wheel angle)/d(mean road-wheel angle)|, steering-wheel angle = "
-        "360 deg x rack travel / rack_travel_per_rev",
-        "always positive",
-    ),
-    ReportItem(
-        "ackermann_error",
-        "deg",
-        "steering",
-        False,
-        "inner wheel's angle minus the Ackermann angle for the outer wheel's angle "
-        "(wheelbase, kingpin-axis ground-point track), mean of both turn directions at "
-        "the largest rack travel",
-        "+ inner wheel steers more than Ackermann",
-    ),
-    ReportItem(
-        "ackermann_pct",
-        "%",
-        "steering",
-        False,
-        "100 (inner - outer) / (Ackermann inner - outer) of the road-wheel angles, mean of "
-        "both turn directions at the largest rack travel (0 % parallel steer, 100 % ideal)",
-        "+ towards Ackermann",
-    ),
-)
+REPORT_ITEMS: tuple[ReportItem, ...] = _table("""
+toe                            deg      parallel  wheel
+    toe angle at static
+    sign: + toe-in
+camber                         deg      parallel  wheel
+    camber angle at static
+    sign: - top of wheel inboard
+caster                         deg      parallel  wheel
+    steering axis (lower ball joint -> top mount) angle to vertical, side view
+    sign: + axis top rearward
+kpi                            deg      parallel  wheel
+    steering axis angle to vertical, front view
+    sign: + axis top inboard
+scrub_radius                   mm       parallel  wheel
+    lateral (vehicle y) distance from the loaded contact point to the steering axis's
+    pad-plane point
+    sign: + (SAE) axis meets the ground inboard of the contact point
+trail                          mm       parallel  wheel
+    longitudinal (vehicle x) distance from the loaded contact point to the steering axis's
+    pad-plane point
+    sign: + axis meets the ground ahead of the contact point
+bump_steer                     deg/mm   parallel  wheel
+    d toe / d z_w
+    sign: + toe-in in bump
+camber_gain                    deg/mm   parallel  wheel
+    d camber / d z_w
+    sign: - top inboard in bump
+caster_gain                    deg/mm   parallel  wheel
+    d caster / d z_w
+    sign: + more caster in bump
+track_change                   mm/mm    parallel  wheel
+    d y_out(loaded contact point) / d z_w
+    sign: + contact point outboard in bump
+wheel_recession                mm/mm    parallel  wheel
+    d x(wheel centre) / d z_w
+    sign: + wheel centre forward in bump
+wheel_rate                     N/mm     parallel  wheel
+    d F_z / d z_w
+    sign: + stiffening
+ride_rate                      N/mm     parallel  wheel
+    d F_z / d z_pad (tyre in series)
+    sign: + stiffening
+spring_motion_ratio            mm/mm    parallel  wheel
+    -d(spring length)/d z_w
+    sign: + spring compresses in bump
+damper_motion_ratio            mm/mm    parallel  wheel
+    -d(strut length: top mount to strut axis point)/d z_w
+    sign: + strut compresses in bump
+roll_centre_height             mm       parallel  axle
+    front-view roll centre above the mean pad plane (instant centres of the carrier patch
+    points)
+    sign: + above the ground
+geometric_roll_centre_height   mm       parallel  axle
+    front-view construction at the static position from the hard points: each wheel's
+    instant centre where the lower arm's line (its pivot axis pierced by the ball joint's
+    transverse plane, to the ball joint) meets the normal to the strut axis at the strut
+    top; the lines from the loaded contact points through them meet at the roll centre, its
+    height above the mean pad plane
+    sign: + above the ground
+roll_centre_migration          mm/mm    parallel  axle
+    d(roll_centre_height) / d(mean z_w)
+    sign: + roll centre rises in bump
+anti_dive                      %        parallel  wheel
+    100 front_brake_share (wheelbase/cg_height) dx/dz of the carrier patch point
+    sign: + resists dive under braking
+anti_lift                      %        parallel  wheel
+    100 front_drive_share (wheelbase/cg_height) dx/dz of the wheel centre
+    sign: + resists front lift under traction
+roll_rate                      N*m/deg  opposite  axle
+    d(0.5 (F_zL - F_zR) t_cp)/d phi
+    sign: + resists roll
+roll_steer                     deg/deg  opposite  wheel
+    d toe / d phi_w (own roll sense)
+    sign: + toe-in as the wheel rises
+roll_camber                    deg/deg  opposite  wheel
+    d camber / d phi_w (own roll sense)
+    sign: - top inboard as the wheel rises
+roll_centre_y_iso              mm       opposite  axle
+    front-view roll centre y at static (ISO y, + left)
+    sign: + left of the centreline
+roll_centre_lateral_migration  mm/deg   opposite  axle
+    d(roll centre y, ISO) / d phi
+    sign: + moves left (ISO +y) as phi grows (left wheel up relative to the body)
+tramp_rate                     N*m/deg  opposite  axle
+    axle roll (tramp) rate at the contact patches, body held: d(0.5 (F_zL - F_zR) t_cp)/d
+    phi_pad, phi_pad = atan((z_pL - z_pR)/t_cp) from the pad heights: the suspension with
+    its anti-roll bar in series with the tyres (roll_rate: the suspension alone, against the
+    wheel centres)
+    sign: + resists axle roll
+arb_motion_ratio               deg/mm   opposite  axle
+    d(anti-roll bar twist) / d(z_wL - z_wR)
+    sign: + as the arb_twist channel
+""")
+STEERING_ITEMS: tuple[ReportItem, ...] = _table("""
+steer_gradient                 deg/mm   steering  wheel
+    d(road-wheel steer angle)/d(rack travel)
+    sign: + wheel steers left as the rack moves +y
+steer_ratio                    -        steering  axle
+    |d(steering-wheel angle)/d(mean road-wheel angle)|, steering-wheel angle = 360 deg x
+    rack travel / rack_travel_per_rev
+    sign: always positive
+ackermann_error                deg      steering  axle
+    inner wheel's angle minus the Ackermann angle for the outer wheel's angle (wheelbase,
+    kingpin-axis ground-point track), mean of both turn directions at the largest rack
+    travel
+    sign: + inner wheel steers more than Ackermann
+ackermann_pct                  %        steering  axle
+    100 (inner - outer) / (Ackermann inner - outer) of the road-wheel angles, mean of both
+    turn directions at the largest rack travel (0 % parallel steer, 100 % ideal)
+    sign: + towards Ackermann
+""")
 
 
 #: compliance test -> (load in each wheel's own sense per unit of the rig's drive (left,
@@ -376,37 +276,22 @@ _STIFFNESS = {
     "lateral_stiffness_wc": ("lateral", "wc_y"),
     "longitudinal_stiffness_wc": ("traction", "wc_x"),
 }
-_FORCE_ITEMS = (
-    ReportItem(
-        "lateral_stiffness_wc",
-        "N/mm",
-        "lateral",
-        True,
-        "1 / lateral_compliance_wc_y: outward force at the contact patch per mm of outward "
-        "wheel-centre displacement at zero load, both wheels loaded in phase, pads static",
-        "+ the wheel centre moves with the force",
-    ),
-    ReportItem(
-        "longitudinal_stiffness_wc",
-        "N/mm",
-        "traction",
-        True,
-        "1 / traction_compliance_wc_x: forward force at the wheel centre per mm of forward "
-        "wheel-centre displacement at zero load, both wheels loaded in phase, pads static",
-        "+ the wheel centre moves with the force",
-    ),
-    ReportItem(
-        "force_roll_centre_height",
-        "mm",
-        "lateral",
-        False,
-        "front view, lateral test: through each wheel's loaded contact point P the line "
-        "of the ground's load change per unit outward force (outward 1, up dF_z/dF_y, "
-        "the jacking coefficient at zero load); the two lines meet at the force-based "
-        "roll centre, its height above the mean pad plane",
-        "+ above the ground (an outward force then unloads the pad)",
-    ),
-)
+_FORCE_ITEMS = _table("""
+lateral_stiffness_wc           N/mm     lateral   wheel
+    1 / lateral_compliance_wc_y: outward force at the contact patch per mm of outward
+    wheel-centre displacement at zero load, both wheels loaded in phase, pads static
+    sign: + the wheel centre moves with the force
+longitudinal_stiffness_wc      N/mm     traction  wheel
+    1 / traction_compliance_wc_x: forward force at the wheel centre per mm of forward
+    wheel-centre displacement at zero load, both wheels loaded in phase, pads static
+    sign: + the wheel centre moves with the force
+force_roll_centre_height       mm       lateral   axle
+    front view, lateral test: through each wheel's loaded contact point P the line of the
+    ground's load change per unit outward force (outward 1, up dF_z/dF_y, the jacking
+    coefficient at zero load); the two lines meet at the force-based roll centre, its height
+    above the mean pad plane
+    sign: + above the ground (an outward force then unloads the pad)
+""")
 
 
 #: compliance numbers, loop widths, wheel-centre stiffnesses and the force-based roll

@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from suspenv.reports._mpl import pyplot, save_figure
+from suspenv.runs import quality as run_quality
 from suspenv.runs.run_dir import write_file
 
 if TYPE_CHECKING:
@@ -27,13 +28,14 @@ def write_kc_report(problem: KCIdentification, run_dir: Path, archive: Any) -> l
     ``kc_curves.png`` (measured loops vs the best design's curves); returns the paths
     (none when the run has no valid design)."""
     a = archive.arrays()
-    best = problem.best_index(a["objectives"], a["ok"])
+    # the run's best (no constraints: every ok row is feasible)
+    best = run_quality.best_row(problem.quality(a["objectives"]), np.asarray(a["ok"], bool))
     if best is None:
         return []
     run_dir = Path(run_dir)
     x_best = a["x"][best]
     F0, ok0, _ = problem.simulate(problem.initial_design()[None, :])
-    Fb, okb, _ = problem.simulate(x_best[None, :])
+    Fb, _, _ = problem.simulate(x_best[None, :])
     targets = problem.targets
     lines = [
         "# K&C identification: best design of the run",

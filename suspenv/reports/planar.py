@@ -251,7 +251,7 @@ def write_planar_report(problem: PlanarLinkage, run_dir: Path, archive: Any) -> 
     geom = replace(geom, name=f"{problem.baseline.name} (optimised)")
     toml_path = run_dir / "planar_best.toml"
     write_file(toml_path, geometry_to_toml(geom))
-    _, base_sw, base_out = problem.single_sweep(problem.space.reference())
+    _, _, base_out = problem.single_sweep(problem.space.reference())
     curves = [("optimised", out), ("baseline", base_out)]
     if problem.target_outputs is not None:
         curves.append(("target", problem.target_outputs))

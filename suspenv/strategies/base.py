@@ -37,6 +37,8 @@ class Strategy(ABC):
     description: ClassVar[str] = ""
     #: True when the strategy handles several objectives natively (no scalariser)
     multi_objective: ClassVar[bool] = False
+    #: the options :meth:`options` records, in order: each an attribute of that name
+    option_names: ClassVar[tuple[str, ...]] = ()
 
     def __init__(self, dim: int, n_objectives: int = 1, n_constraints: int = 0, seed: int = 0):
         """Rules: ``dim >= 1``, ``n_objectives >= 1``, ``n_constraints >= 0`` and
@@ -83,8 +85,8 @@ class Strategy(ABC):
         return None
 
     def options(self) -> dict[str, Any]:
-        """Resolved options (recorded with the run)."""
-        return {}
+        """Resolved options (recorded with the run): the attributes :attr:`option_names`."""
+        return {k: getattr(self, k) for k in self.option_names}
 
     # ------------------------------------------------------------ subclasses
     @abstractmethod
@@ -138,4 +140,4 @@ class ScalarStrategy(Strategy):
         return penalized_fitness(f, batch.ok, batch.violation)
 
     def options(self) -> dict[str, Any]:
-        return {"scalarizer": self.scalarizer_name, "weights": self.weights}
+        return {"scalarizer": self.scalarizer_name, "weights": self.weights, **super().options()}

@@ -57,6 +57,10 @@ class CMAES(ScalarStrategy):
 
     name = "cmaes"
     description = "CMA-ES (pycma), bounds by BoundTransform, optional IPOP restarts"
+    option_names = (
+        "popsize", "sigma0", "x0", "restarts", "incpopsize", "tolfun", "tolx",
+        "max_failed_generations",
+    )
 
     def __init__(
         self,
@@ -182,16 +186,3 @@ class CMAES(ScalarStrategy):
         es = self._es
         x = es.gp.pheno(es.mean, into_bounds=es.boundary_handler.repair)
         return np.clip(np.asarray(x, dtype=float), 0.0, 1.0)
-
-    def options(self) -> dict[str, Any]:
-        return {
-            **super().options(),
-            "popsize": self.popsize,
-            "sigma0": self.sigma0,
-            "x0": self.x0,
-            "restarts": self.restarts,
-            "incpopsize": self.incpopsize,
-            "tolfun": self.tolfun,
-            "tolx": self.tolx,
-            "max_failed_generations": self.max_failed_generations,
-        }

@@ -73,6 +73,10 @@ class DifferentialEvolution(Strategy):
 
     name = "de"
     description = "differential evolution (Storn & Price), scipy's defaults, one generation/batch"
+    option_names = (
+        "popsize", "mutation", "recombination", "strategy", "init", "maxiter", "tol", "atol",
+        "weights",
+    )
 
     def __init__(
         self,
@@ -200,17 +204,8 @@ class DifferentialEvolution(Strategy):
         return float(self._value[i]) if self._rank[i] == 0 else float("nan")
 
     def options(self) -> dict[str, Any]:
-        return {
-            "popsize": self.popsize,
-            "mutation": list(self.mutation) if isinstance(self.mutation, tuple) else self.mutation,
-            "recombination": self.recombination,
-            "strategy": self.strategy,
-            "init": self.init,
-            "maxiter": self.maxiter,
-            "tol": self.tol,
-            "atol": self.atol,
-            "weights": self.weights,
-        }
+        mutation = list(self.mutation) if isinstance(self.mutation, tuple) else self.mutation
+        return {**super().options(), "mutation": mutation}  # a range as a list, as written
 
 
 def _mutation(owner: str, value: Any) -> float | tuple[float, float]:

@@ -6,8 +6,6 @@ One design of ``n_samples`` points is drawn at construction and handed out in ba
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 from scipy.stats import qmc
 
@@ -32,6 +30,7 @@ class LatinHypercube(Strategy):
 
     name = "lhs"
     description = "Latin hypercube design of experiments (scipy.stats.qmc)"
+    option_names = ("n_samples", "batch_size", "optimization")
     multi_objective = True
 
     def __init__(
@@ -71,10 +70,3 @@ class LatinHypercube(Strategy):
         if self._next >= self.n_samples and self._pending is None:
             return f"lhs: all {self.n_samples} samples evaluated"
         return None
-
-    def options(self) -> dict[str, Any]:
-        return {
-            "n_samples": self.n_samples,
-            "batch_size": self.batch_size,
-            "optimization": self.optimization,
-        }

@@ -72,6 +72,7 @@ class Nevergrad(Strategy):
 
     name = "nevergrad"
     description = "any nevergrad optimiser (default TwoPointsDE); needs suspenv[nevergrad]"
+    option_names = ("optimizer", "batch_size", "budget", "reference_point")
     multi_objective = True
 
     def __init__(
@@ -112,7 +113,7 @@ class Nevergrad(Strategy):
                 f"{owner}: `optimizer` must be a name of nevergrad.optimizers.registry "
                 f"({len(registry)} names), but got optimizer={optimizer!r}{hint}"
             )
-        self.optimizer_name = optimizer
+        self.optimizer = optimizer
         factory = registry[optimizer]
         wizard = getattr(ng.optimizers, _NEEDS_BUDGET, None)
         if (
@@ -168,7 +169,7 @@ class Nevergrad(Strategy):
                     "#1612; choose an optimizer without it, e.g. 'TwoPointsDE' or 'CMA')"
                 )
             raise RuntimeError(
-                f"{self.name}: nevergrad's {self.optimizer_name!r} failed in {what} after "
+                f"{self.name}: nevergrad's {self.optimizer!r} failed in {what} after "
                 f"{self.n_told} told designs: {type(exc).__name__}: {exc}{hint}"
             ) from exc
 
@@ -205,11 +206,3 @@ class Nevergrad(Strategy):
         """nevergrad's recommended design in the unit cube (one objective)."""
         rec = self._call("recommendation", self.ng_optimizer.provide_recommendation)
         return np.clip(np.asarray(rec.value, dtype=float), 0.0, 1.0)
-
-    def options(self) -> dict[str, Any]:
-        return {
-            "optimizer": self.optimizer_name,
-            "batch_size": self.batch_size,
-            "budget": self.budget,
-            "reference_point": self.reference_point,
-        }

@@ -144,6 +144,10 @@ class NSGA2(Strategy):
 
     name = "nsga2"
     description = "NSGA-II (optuna), one generation per batch, constraints supported"
+    option_names = (
+        "population_size", "crossover_prob", "mutation_prob", "swapping_prob", "storage",
+        "study_name", "resume",
+    )
     multi_objective = True
 
     def __init__(
@@ -332,14 +336,3 @@ class NSGA2(Strategy):
                 trial.set_user_attr(CONSTRAINTS_KEY, batch.scaled_constraints[i].tolist())
             self.study.tell(trial, batch.objectives[i].tolist())
         self._trials = []
-
-    def options(self) -> dict[str, Any]:
-        return {
-            "population_size": self.population_size,
-            "crossover_prob": self.crossover_prob,
-            "mutation_prob": self.mutation_prob,
-            "swapping_prob": self.swapping_prob,
-            "storage": self.storage,
-            "study_name": self.study_name,
-            "resume": self.resume,
-        }

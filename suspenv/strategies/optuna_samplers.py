@@ -142,9 +142,6 @@ class OptunaSampler(Strategy):
                 self.study.tell(trial, values[i].tolist())
         self._trials = []
 
-    def options(self) -> dict[str, Any]:
-        return {"batch_size": self.batch_size}
-
 
 class OptunaTPE(OptunaSampler):
     """Tree-structured Parzen estimator (Bergstra et al. 2011), optuna's ``TPESampler``.
@@ -165,6 +162,7 @@ class OptunaTPE(OptunaSampler):
 
     name = "optuna_tpe"
     description = "TPE (optuna), several objectives and constraints supported"
+    option_names = ("batch_size", "n_startup_trials", "n_ei_candidates", "multivariate")
 
     def __init__(
         self,
@@ -194,14 +192,6 @@ class OptunaTPE(OptunaSampler):
             )
         self._setup(sampler, self.n_objectives, batch)
 
-    def options(self) -> dict[str, Any]:
-        return {
-            **super().options(),
-            "n_startup_trials": self.n_startup_trials,
-            "n_ei_candidates": self.n_ei_candidates,
-            "multivariate": self.multivariate,
-        }
-
 
 class OptunaCMAES(OptunaSampler):
     """CMA-ES (Hansen), optuna's ``CmaEsSampler`` over the ``cmaes`` package; one
@@ -227,6 +217,7 @@ class OptunaCMAES(OptunaSampler):
 
     name = "optuna_cmaes"
     description = "CMA-ES (optuna + cmaes), one generation per batch; needs suspenv[optuna-cmaes]"
+    option_names = ("popsize", "n_startup_trials", "lr_adapt", "weights")
     multi_objective = False
     native_constraints = False
 
@@ -273,14 +264,6 @@ class OptunaCMAES(OptunaSampler):
         )
         return told_losses(scalar)
 
-    def options(self) -> dict[str, Any]:
-        return {
-            "popsize": self.popsize,
-            "n_startup_trials": self.n_startup_trials,
-            "lr_adapt": self.lr_adapt,
-            "weights": self.weights,
-        }
-
 
 class OptunaNSGA3(OptunaSampler):
     """NSGA-III (Deb and Jain 2014), optuna's ``NSGAIIISampler``; one generation per ask.
@@ -300,6 +283,10 @@ class OptunaNSGA3(OptunaSampler):
 
     name = "optuna_nsga3"
     description = "NSGA-III (optuna), one generation per batch, constraints supported"
+    option_names = (
+        "population_size", "crossover_prob", "mutation_prob", "swapping_prob",
+        "dividing_parameter",
+    )
 
     def __init__(
         self,
@@ -336,15 +323,6 @@ class OptunaNSGA3(OptunaSampler):
             )
         self._setup(sampler, self.n_objectives, self.population_size)
 
-    def options(self) -> dict[str, Any]:
-        return {
-            "population_size": self.population_size,
-            "crossover_prob": self.crossover_prob,
-            "mutation_prob": self.mutation_prob,
-            "swapping_prob": self.swapping_prob,
-            "dividing_parameter": self.dividing_parameter,
-        }
-
 
 class OptunaGP(OptunaSampler):
     """Gaussian-process Bayesian optimisation, optuna's ``GPSampler`` (needs torch).
@@ -365,6 +343,7 @@ class OptunaGP(OptunaSampler):
 
     name = "optuna_gp"
     description = "GP Bayesian optimisation (optuna + torch); needs suspenv[optuna-gp]"
+    option_names = ("batch_size", "n_startup_trials", "deterministic_objective")
 
     def __init__(
         self,
@@ -392,13 +371,6 @@ class OptunaGP(OptunaSampler):
                 constraints_func=self._constraints_func(),
             )
         self._setup(sampler, self.n_objectives, batch)
-
-    def options(self) -> dict[str, Any]:
-        return {
-            **super().options(),
-            "n_startup_trials": self.n_startup_trials,
-            "deterministic_objective": self.deterministic_objective,
-        }
 
 
 def _flag(owner: str, name: str, value: Any, allow_none: bool = True) -> bool | None:

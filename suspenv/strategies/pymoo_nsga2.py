@@ -20,7 +20,7 @@ seeded with ``seed``.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 from pymoo.algorithms.moo import nsga2 as _pymoo_nsga2
@@ -59,6 +59,7 @@ class PymooNSGA2(Strategy):
 
     name = "pymoo_nsga2"
     description = "NSGA-II (pymoo), vectorised per generation; fast for large populations"
+    option_names = ("population_size", "crossover_prob", "crossover_eta", "mutation_eta")
     multi_objective = True
 
     def __init__(
@@ -112,11 +113,3 @@ class PymooNSGA2(Strategy):
         Evaluator().eval(static, self._population)
         self._algorithm.tell(infills=self._population)
         self._population = None
-
-    def options(self) -> dict[str, Any]:
-        return {
-            "population_size": self.population_size,
-            "crossover_prob": self.crossover_prob,
-            "crossover_eta": self.crossover_eta,
-            "mutation_eta": self.mutation_eta,
-        }

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 
 from suspenv.core.options import integer
@@ -22,6 +20,7 @@ class RandomSearch(ScalarStrategy):
 
     name = "random"
     description = "uniform random search (baseline)"
+    option_names = ("batch_size",)
     multi_objective = True  # samples do not depend on objectives; any m is fine
 
     def __init__(
@@ -49,6 +48,3 @@ class RandomSearch(ScalarStrategy):
             i = int(np.argmin(f))
             if f[i] < self.best_f:
                 self.best_f, self.best_u = float(f[i]), U[i].copy()
-
-    def options(self) -> dict[str, Any]:
-        return {**super().options(), "batch_size": self.batch_size}

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import difflib
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from typing import Any
 
 import numpy as np
@@ -46,13 +46,7 @@ class Known:
     source: str = ""  # where it comes from, in words
 
     def as_dict(self) -> dict[str, Any]:
-        return {
-            "kind": self.kind,
-            "f": self.f,
-            "x": None if self.x is None else list(self.x),
-            "front": self.front,
-            "source": self.source,
-        }
+        return {**asdict(self), "x": None if self.x is None else list(self.x)}
 
 
 @dataclass(frozen=True)

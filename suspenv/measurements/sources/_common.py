@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -10,6 +11,15 @@ import numpy as np
 
 from suspenv.measurements.errors import RecordingError
 from suspenv.measurements.limits import check_mat, read_limit
+
+
+@contextmanager
+def named_errors(path: Path) -> Iterator[None]:
+    """A :class:`RecordingError` raised in the block, prefixed with the file's name."""
+    try:
+        yield
+    except RecordingError as exc:
+        raise RecordingError(f"{path.name}: {exc}") from None
 
 
 def require_file(path: str | Path) -> Path:

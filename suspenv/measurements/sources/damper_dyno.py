@@ -24,7 +24,7 @@ from suspenv.measurements.differentiate import smooth_derivative
 from suspenv.measurements.errors import RecordingError
 from suspenv.measurements.limits import check_text, read_limit
 from suspenv.measurements.recording import Recording
-from suspenv.measurements.sources._common import dissipative_sign, require_file
+from suspenv.measurements.sources._common import dissipative_sign, named_errors, require_file
 from suspenv.measurements.units import FACTORS, to_si
 
 EXPECTED_COLUMNS = ("Stroke", "Load", "Time")
@@ -114,10 +114,8 @@ def load_damper_dyno(
             f"{path.name}: time must be strictly increasing, but sample {i} has "
             f"t={float(t[i])!r} s and sample {i + 1} has t={float(t[i + 1])!r} s"
         )
-    try:
+    with named_errors(path):
         v = smooth_derivative(x, t, window_s, order=3)
-    except RecordingError as exc:
-        raise RecordingError(f"{path.name}: {exc}") from None
     sign = dissipative_sign(f, v)
     meta = {
         "source": SOURCE,

@@ -30,7 +30,13 @@ from suspenv.measurements.differentiate import smooth_derivative
 from suspenv.measurements.errors import RecordingError
 from suspenv.measurements.limits import check_text, read_limit
 from suspenv.measurements.recording import Recording
-from suspenv.measurements.sources._common import load_mat, mat_field, mat_scalar, require_file
+from suspenv.measurements.sources._common import (
+    load_mat,
+    mat_field,
+    mat_scalar,
+    named_errors,
+    require_file,
+)
 
 #: motor constant used when a file does not carry ``gtau`` [N/V]
 GTAU_DEFAULT = 35.15065188
@@ -42,14 +48,12 @@ CSV_POSITION_OFFSET = -1.0
 def _motion_channels(
     q: np.ndarray, t: np.ndarray, window_s: float, path: Path
 ) -> dict[str, np.ndarray]:
-    try:
+    with named_errors(path):
         return {
             "position": q,
             "velocity": smooth_derivative(q, t, window_s, order=3, deriv=1),
             "acceleration": smooth_derivative(q, t, window_s, order=3, deriv=2),
         }
-    except RecordingError as exc:
-        raise RecordingError(f"{path.name}: {exc}") from None
 
 
 UNITS = {
@@ -104,12 +108,10 @@ def load_emps(
         meta["notes"] += "; validation run with force pulses (pulses_N flags them)"
         meta["pulse_samples"] = int(np.count_nonzero(mat_field(data, "pulses_N", path)))
     test = "emps_pulses" if "PULSES" in path.name.upper() else "emps_trajectory"
-    try:
+    with named_errors(path):
         return Recording(
             name or path.stem, test, t, inputs, {"force": gtau * vir}, dict(UNITS), meta
         )
-    except RecordingError as exc:
-        raise RecordingError(f"{path.name}: {exc}") from None
 
 
 def load_emps_csv(
@@ -161,7 +163,7 @@ def load_emps_csv(
         "notes": "de-scaled from the CSV's scaled units (q = (q_meas + 1)/8)",
     }
     test = "emps_pulses" if "PULSES" in path.name.upper() else "emps_trajectory"
-    try:
+    with named_errors(path):
         return Recording(
             name or path.stem,
             test,
@@ -171,5 +173,3 @@ def load_emps_csv(
             dict(UNITS),
             meta,
         )
-    except RecordingError as exc:
-        raise RecordingError(f"{path.name}: {exc}") from None

@@ -25,6 +25,7 @@ from suspenv.measurements.sources._common import (
     load_mat,
     mat_field,
     mat_scalar,
+    named_errors,
     require_file,
 )
 from suspenv.measurements.units import to_si
@@ -62,7 +63,7 @@ def load_mr_damper(
     if "f" in data:
         meta["excitation_hz"] = mat_scalar(data, "f", path)
     test = "mr_validation" if ".vali" in path.name else "mr_sine"
-    try:
+    with named_errors(path):
         return Recording(
             name or path.stem,
             test,
@@ -72,5 +73,3 @@ def load_mr_damper(
             {"displacement": "m", "velocity": "m/s", "force": "N"},
             meta,
         )
-    except RecordingError as exc:
-        raise RecordingError(f"{path.name}: {exc}") from None

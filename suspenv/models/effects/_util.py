@@ -19,9 +19,11 @@ from suspenv.models.effects import kernels
 #: :func:`linear_recurrence` runs compiled (:func:`.kernels.recurrence`) where numba is
 #: installed; False: the float loop per row
 RECURRENCE_COMPILED = True
+#: a parameter or input: a number, or an array broadcast against the others
+Value = np.ndarray | float
 
 
-def series(x: np.ndarray | float, name: str = "x") -> np.ndarray:
+def series(x: Value, name: str = "x") -> np.ndarray:
     """Return ``x`` as a float array with at least one sample axis; reject NaN/inf."""
     arr = np.asarray(x, dtype=float)
     if arr.ndim == 0:
@@ -34,12 +36,12 @@ def series(x: np.ndarray | float, name: str = "x") -> np.ndarray:
     return arr
 
 
-def batch_param(p: np.ndarray | float) -> np.ndarray:
+def batch_param(p: Value) -> np.ndarray:
     """Turn a batch-shaped parameter (scalar or ``(...,)``) into ``(..., 1)`` for series maths."""
     return np.asarray(p, dtype=float)[..., None]
 
 
-def require_positive(name: str, value: np.ndarray | float, strict: bool = True) -> None:
+def require_positive(name: str, value: Value, strict: bool = True) -> None:
     """Raise :class:`ValidationError` unless all of ``value`` is > 0 (>= 0 if not ``strict``)."""
     arr = np.asarray(value, dtype=float)
     ok = arr > 0 if strict else arr >= 0
@@ -65,7 +67,7 @@ def time_steps(t: np.ndarray, n: int) -> np.ndarray:
     return dt
 
 
-def linear_recurrence(a: np.ndarray, b: np.ndarray, z0: np.ndarray | float) -> np.ndarray:
+def linear_recurrence(a: np.ndarray, b: np.ndarray, z0: Value) -> np.ndarray:
     """Solve ``z[k+1] = a[k] + b[k] z[k]`` along the last axis; ``out[..., 0] = z0``.
 
     ``a`` and ``b`` are ``(..., T-1)`` (broadcast together), ``z0`` batch-shaped

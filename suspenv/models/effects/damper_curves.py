@@ -32,37 +32,28 @@ from __future__ import annotations
 
 import numpy as np
 
-from suspenv.models.effects._util import require_positive
+from suspenv.models.effects._util import Value, require_positive
 
 
-def damper_asymmetric(
-    v: np.ndarray | float, c_bump: np.ndarray | float, c_rebound: np.ndarray | float
-) -> np.ndarray:
+def damper_asymmetric(v: Value, c_bump: Value, c_rebound: Value) -> np.ndarray:
     """Bilinear damper force [N]: ``c_bump`` [N s/m] in bump, ``c_rebound`` in rebound."""
     v = np.asarray(v, dtype=float)
     return np.where(v >= 0.0, c_bump * v, c_rebound * v)
 
 
-def extra_rebound_damping(v: np.ndarray | float, dc_rebound: np.ndarray | float) -> np.ndarray:
+def extra_rebound_damping(v: Value, dc_rebound: Value) -> np.ndarray:
     """Additional rebound-only damping force ``dc_rebound * min(v, 0)`` [N]."""
     return np.asarray(dc_rebound, dtype=float) * np.minimum(np.asarray(v, dtype=float), 0.0)
 
 
-def damper_digressive(
-    v: np.ndarray | float, c_low: np.ndarray | float, v_knee: np.ndarray | float
-) -> np.ndarray:
+def damper_digressive(v: Value, c_low: Value, v_knee: Value) -> np.ndarray:
     """Digressive damper force ``c_low v / (1 + |v|/v_knee)`` [N]."""
     require_positive("v_knee", v_knee)
     v = np.asarray(v, dtype=float)
     return c_low * v / (1.0 + np.abs(v) / v_knee)
 
 
-def damper_knee(
-    v: np.ndarray | float,
-    c_low: np.ndarray | float,
-    c_high: np.ndarray | float,
-    v_knee: np.ndarray | float,
-) -> np.ndarray:
+def damper_knee(v: Value, c_low: Value, c_high: Value, v_knee: Value) -> np.ndarray:
     """Piecewise-linear damper force [N] with a knee at ``|v| = v_knee`` [m/s]."""
     require_positive("v_knee", v_knee)
     v = np.asarray(v, dtype=float)
@@ -71,11 +62,7 @@ def damper_knee(
 
 
 def damper_digressive_asymmetric(
-    v: np.ndarray | float,
-    c_bump: np.ndarray | float,
-    v_knee_bump: np.ndarray | float,
-    c_rebound: np.ndarray | float,
-    v_knee_rebound: np.ndarray | float,
+    v: Value, c_bump: Value, v_knee_bump: Value, c_rebound: Value, v_knee_rebound: Value
 ) -> np.ndarray:
     """Digressive damper force [N] with bump (v >= 0) and rebound (v < 0) coefficients.
 

@@ -105,6 +105,8 @@ class EffectKind:
         return bool(prefix) and name.startswith(prefix) and len(name) > len(prefix)
 
 
+#: the registry: filled by :mod:`suspenv.models.effects.catalogue`, which the package
+#: imports first (so every import of this module finds the shipped kinds registered)
 _KINDS: dict[str, EffectKind] = {}
 
 
@@ -116,14 +118,8 @@ def register_kind(kind: EffectKind, replace: bool = False) -> EffectKind:
     return kind
 
 
-def _ensure_catalogue() -> None:
-    if not _KINDS:
-        from suspenv.models.effects import catalogue  # noqa: F401  (registers the kinds)
-
-
 def get_kind(kind: str) -> EffectKind:
     """Look up an effect kind by key; unknown keys raise with close matches."""
-    _ensure_catalogue()
     try:
         return _KINDS[kind]
     except KeyError:
@@ -136,7 +132,6 @@ def get_kind(kind: str) -> EffectKind:
 
 def effect_kinds() -> dict[str, EffectKind]:
     """All registered effect kinds, by key (a copy)."""
-    _ensure_catalogue()
     return dict(_KINDS)
 
 

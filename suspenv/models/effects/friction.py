@@ -29,6 +29,7 @@ from __future__ import annotations
 import numpy as np
 
 from suspenv.models.effects._util import (
+    Value,
     batch_param,
     linear_recurrence,
     require_positive,
@@ -37,20 +38,13 @@ from suspenv.models.effects._util import (
 )
 
 
-def coulomb_smooth(
-    v: np.ndarray | float, f_c: np.ndarray | float, v_eps: np.ndarray | float = 1e-3
-) -> np.ndarray:
+def coulomb_smooth(v: Value, f_c: Value, v_eps: Value = 1e-3) -> np.ndarray:
     """Regularised Coulomb friction force [N] at sliding velocity ``v`` [m/s]."""
     require_positive("v_eps", v_eps)
     return f_c * np.tanh(np.asarray(v, dtype=float) / v_eps)
 
 
-def coulomb_directional(
-    v: np.ndarray | float,
-    f_pos: np.ndarray | float,
-    f_neg: np.ndarray | float,
-    v_eps: np.ndarray | float = 1e-3,
-) -> np.ndarray:
+def coulomb_directional(v: Value, f_pos: Value, f_neg: Value, v_eps: Value = 1e-3) -> np.ndarray:
     """Coulomb friction [N] of level ``f_pos`` for ``v > 0`` and ``f_neg`` for ``v < 0``."""
     require_positive("v_eps", v_eps)
     th = np.tanh(np.asarray(v, dtype=float) / v_eps)
@@ -58,12 +52,7 @@ def coulomb_directional(
     return 0.5 * (f_pos + f_neg) * th + 0.5 * (f_pos - f_neg) * np.abs(th)
 
 
-def stribeck_level(
-    v: np.ndarray | float,
-    f_c: np.ndarray | float,
-    f_s: np.ndarray | float,
-    v_s: np.ndarray | float,
-) -> np.ndarray:
+def stribeck_level(v: Value, f_c: Value, f_s: Value, v_s: Value) -> np.ndarray:
     """Stribeck friction level g(v) [N] (positive, even in ``v``)."""
     require_positive("v_s", v_s)
     v = np.asarray(v, dtype=float)
@@ -71,11 +60,7 @@ def stribeck_level(
 
 
 def stribeck_friction(
-    v: np.ndarray | float,
-    f_c: np.ndarray | float,
-    f_s: np.ndarray | float,
-    v_s: np.ndarray | float,
-    v_eps: np.ndarray | float = 1e-3,
+    v: Value, f_c: Value, f_s: Value, v_s: Value, v_eps: Value = 1e-3
 ) -> np.ndarray:
     """Static friction force [N] with stiction and Stribeck decay: ``g(v) tanh(v/v_eps)``."""
     require_positive("v_eps", v_eps)
@@ -83,14 +68,7 @@ def stribeck_friction(
     return stribeck_level(v, f_c, f_s, v_s) * np.tanh(v / v_eps)
 
 
-def lugre_dzdt(
-    z: np.ndarray | float,
-    v: np.ndarray | float,
-    sigma0: np.ndarray | float,
-    f_c: np.ndarray | float,
-    f_s: np.ndarray | float,
-    v_s: np.ndarray | float,
-) -> np.ndarray:
+def lugre_dzdt(z: Value, v: Value, sigma0: Value, f_c: Value, f_s: Value, v_s: Value) -> np.ndarray:
     """LuGre bristle-deflection derivative dz/dt [m/s]."""
     v = np.asarray(v, dtype=float)
     g = np.maximum(stribeck_level(v, f_c, f_s, v_s), 1e-12)  # floor: zero-friction limit
@@ -98,13 +76,7 @@ def lugre_dzdt(
 
 
 def lugre_force(
-    z: np.ndarray | float,
-    v: np.ndarray | float,
-    sigma0: np.ndarray | float,
-    sigma1: np.ndarray | float,
-    f_c: np.ndarray | float,
-    f_s: np.ndarray | float,
-    v_s: np.ndarray | float,
+    z: Value, v: Value, sigma0: Value, sigma1: Value, f_c: Value, f_s: Value, v_s: Value
 ) -> np.ndarray:
     """LuGre friction force [N] from state ``z`` [m] and velocity ``v`` [m/s]."""
     return sigma0 * np.asarray(z, dtype=float) + sigma1 * lugre_dzdt(z, v, sigma0, f_c, f_s, v_s)
@@ -113,12 +85,12 @@ def lugre_force(
 def lugre_series(
     v: np.ndarray,
     t: np.ndarray,
-    sigma0: np.ndarray | float,
-    sigma1: np.ndarray | float,
-    f_c: np.ndarray | float,
-    f_s: np.ndarray | float,
-    v_s: np.ndarray | float,
-    z0: np.ndarray | float = 0.0,
+    sigma0: Value,
+    sigma1: Value,
+    f_c: Value,
+    f_s: Value,
+    v_s: Value,
+    z0: Value = 0.0,
 ) -> np.ndarray:
     """LuGre friction force [N] for a velocity history ``v[..., T]`` sampled at ``t[T]``.
 

@@ -52,6 +52,7 @@ import numpy as np
 from suspenv.core.errors import ValidationError
 from suspenv.models.effects import kernels
 from suspenv.models.effects._util import (
+    Value,
     batch_param,
     linear_recurrence,
     require_positive,
@@ -63,20 +64,13 @@ from suspenv.models.effects._util import (
 COMPILED = True
 
 
-def dahl_dzdt(
-    z: np.ndarray | float, v: np.ndarray | float, sigma: np.ndarray | float, f_c: np.ndarray | float
-) -> np.ndarray:
+def dahl_dzdt(z: Value, v: Value, sigma: Value, f_c: Value) -> np.ndarray:
     """Dahl state derivative dz/dt [N/s]; ``z`` hysteretic force [N], ``v`` [m/s]."""
     z, v = np.asarray(z, dtype=float), np.asarray(v, dtype=float)
     return sigma * v * (1.0 - z / f_c * np.sign(v))
 
 
-def dahl_path(
-    x: np.ndarray,
-    sigma: np.ndarray | float,
-    f_c: np.ndarray | float,
-    z0: np.ndarray | float = 0.0,
-) -> np.ndarray:
+def dahl_path(x: np.ndarray, sigma: Value, f_c: Value, z0: Value = 0.0) -> np.ndarray:
     """Dahl hysteretic force [N] along a displacement path ``x[..., T]`` [m].
 
     Exact for piecewise-linear paths (closed-form exponential on each segment).
@@ -96,26 +90,14 @@ def dahl_path(
     return linear_recurrence(s * fc * (1.0 - decay), decay, z0)
 
 
-def bouc_wen_dzdt(
-    z: np.ndarray | float,
-    v: np.ndarray | float,
-    A: np.ndarray | float,
-    beta: np.ndarray | float,
-    gamma: np.ndarray | float,
-    n: np.ndarray | float,
-) -> np.ndarray:
+def bouc_wen_dzdt(z: Value, v: Value, A: Value, beta: Value, gamma: Value, n: Value) -> np.ndarray:
     """Canonical Bouc-Wen state derivative dz/dt (units of ``A v``)."""
     z, v = np.asarray(z, dtype=float), np.asarray(v, dtype=float)
     az = np.abs(z)
     return A * v - beta * np.abs(v) * az ** (n - 1.0) * z - gamma * v * az**n
 
 
-def bouc_wen_ultimate(
-    A: np.ndarray | float,
-    beta: np.ndarray | float,
-    gamma: np.ndarray | float,
-    n: np.ndarray | float,
-) -> np.ndarray:
+def bouc_wen_ultimate(A: Value, beta: Value, gamma: Value, n: Value) -> np.ndarray:
     """Ultimate state ``z_u = (A / (beta + gamma))^(1/n)`` reached on long monotone loading."""
     bg = np.asarray(beta, dtype=float) + np.asarray(gamma, dtype=float)
     require_positive("beta + gamma", bg)
@@ -124,11 +106,11 @@ def bouc_wen_ultimate(
 
 def bouc_wen_path(
     x: np.ndarray,
-    A: np.ndarray | float,
-    beta: np.ndarray | float,
-    gamma: np.ndarray | float,
-    n: np.ndarray | float = 1.0,
-    z0: np.ndarray | float = 0.0,
+    A: Value,
+    beta: Value,
+    gamma: Value,
+    n: Value = 1.0,
+    z0: Value = 0.0,
     max_step_ratio: float = 0.25,
 ) -> np.ndarray:
     """Canonical Bouc-Wen state along a displacement path ``x[..., T]``.
@@ -239,12 +221,7 @@ def _bw1_row(dx: list[float], a: float, beta: float, gamma: float, z: float) -> 
 
 
 def bouc_wen_force_path(
-    x: np.ndarray,
-    f_y: np.ndarray | float,
-    x_y: np.ndarray | float,
-    shape: np.ndarray | float = 0.5,
-    n: np.ndarray | float = 1.0,
-    z0: np.ndarray | float = 0.0,
+    x: np.ndarray, f_y: Value, x_y: Value, shape: Value = 0.5, n: Value = 1.0, z0: Value = 0.0
 ) -> np.ndarray:
     """Bouc-Wen hysteretic force [N] in engineering form along ``x[..., T]`` [m].
 
@@ -260,7 +237,7 @@ def bouc_wen_force_path(
     return batch_param(f_y) * z
 
 
-def berg_path(x: np.ndarray, f_max: np.ndarray | float, x2: np.ndarray | float) -> np.ndarray:
+def berg_path(x: np.ndarray, f_max: Value, x2: Value) -> np.ndarray:
     """Berg friction force [N] along a displacement path ``x[..., T]`` [m], from rest at ``x[0]``.
 
     A reversal (change of the direction of travel) moves the reference point to the

@@ -20,6 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from suspenv.models.effects._util import (
+    Value,
     batch_param,
     linear_recurrence,
     require_positive,
@@ -28,20 +29,18 @@ from suspenv.models.effects._util import (
 )
 
 
-def sensor_offset_gain(
-    y: np.ndarray | float, offset: np.ndarray | float = 0.0, gain: np.ndarray | float = 1.0
-) -> np.ndarray:
+def sensor_offset_gain(y: Value, offset: Value = 0.0, gain: Value = 1.0) -> np.ndarray:
     """Recorded value ``gain * y + offset`` (pointwise)."""
     return np.asarray(gain, dtype=float) * np.asarray(y, dtype=float) + offset
 
 
 def sensor_drift(
-    y: np.ndarray | float,
+    y: Value,
     t: np.ndarray | None,
-    rate: np.ndarray | float = 0.0,
-    bow: np.ndarray | float = 0.0,
-    wave: np.ndarray | float = 0.0,
-    span: np.ndarray | float = 1.0,
+    rate: Value = 0.0,
+    bow: Value = 0.0,
+    wave: Value = 0.0,
+    span: Value = 1.0,
 ) -> np.ndarray:
     """Recorded value ``y + rate t + bow P2(u) + wave P3(u)``: a zero that drifts slowly
     and smoothly in time. ``t`` [s] from the recording's time origin, ``u = 2 t / span - 1``
@@ -62,14 +61,12 @@ def sensor_drift(
     )
 
 
-def sensor_lag_dydt(
-    y_rec: np.ndarray | float, y: np.ndarray | float, tau: np.ndarray | float
-) -> np.ndarray:
+def sensor_lag_dydt(y_rec: Value, y: Value, tau: Value) -> np.ndarray:
     """First-order sensor state derivative ``(y - y_rec) / tau``."""
     return (np.asarray(y, dtype=float) - y_rec) / tau
 
 
-def sensor_lag(y: np.ndarray, t: np.ndarray, tau: np.ndarray | float) -> np.ndarray:
+def sensor_lag(y: np.ndarray, t: np.ndarray, tau: Value) -> np.ndarray:
     """First-order lag of ``y[..., T]`` sampled at ``t[T]``; starts at rest on ``y[..., 0]``.
 
     Exact for ``y`` linear between samples (first-order-hold discretisation).
@@ -89,7 +86,7 @@ def sensor_lag(y: np.ndarray, t: np.ndarray, tau: np.ndarray | float) -> np.ndar
     return linear_recurrence(a, e, y[..., 0])
 
 
-def sensor_delay(y: np.ndarray, t: np.ndarray, delay: np.ndarray | float) -> np.ndarray:
+def sensor_delay(y: np.ndarray, t: np.ndarray, delay: Value) -> np.ndarray:
     """Pure delay of ``y[..., T]`` sampled at ``t[T]``: ``y_rec(t) = y(t - delay)``,
     linear interpolation, the first value held before the record starts.
 

@@ -30,18 +30,16 @@ from __future__ import annotations
 import numpy as np
 
 from suspenv.core.errors import ValidationError
-from suspenv.models.effects._util import require_positive
+from suspenv.models.effects._util import Value, require_positive
 
 
-def cubic_stiffness(x: np.ndarray | float, k3: np.ndarray | float) -> np.ndarray:
+def cubic_stiffness(x: Value, k3: Value) -> np.ndarray:
     """Cubic spring force ``k3 x^3`` [N]."""
     x = np.asarray(x, dtype=float)
     return np.asarray(k3, dtype=float) * (x * x * x)  # x**3 would take numpy's slow pow
 
 
-def progressive_spring(
-    x: np.ndarray | float, k_p: np.ndarray | float, x0: np.ndarray | float = 0.0
-) -> np.ndarray:
+def progressive_spring(x: Value, k_p: Value, x0: Value = 0.0) -> np.ndarray:
     """Symmetric progressive force ``k_p sign(x) max(|x| - x0, 0)^2`` [N]."""
     require_positive("x0", x0, strict=False)
     x = np.asarray(x, dtype=float)
@@ -49,10 +47,7 @@ def progressive_spring(
 
 
 def _check_stop(
-    gap: np.ndarray | float,
-    k_stop: np.ndarray | float,
-    p: np.ndarray | float,
-    names: tuple[str, str] = ("gap", "k_stop"),
+    gap: Value, k_stop: Value, p: Value, names: tuple[str, str] = ("gap", "k_stop")
 ) -> None:
     require_positive(names[0], gap, strict=False)
     require_positive(names[1], k_stop, strict=False)
@@ -60,24 +55,14 @@ def _check_stop(
         raise ValidationError(f"`p >= 1` must hold, but got p={p!r}")
 
 
-def bump_stop(
-    x: np.ndarray | float,
-    gap: np.ndarray | float,
-    k_stop: np.ndarray | float,
-    p: np.ndarray | float = 1.0,
-) -> np.ndarray:
+def bump_stop(x: Value, gap: Value, k_stop: Value, p: Value = 1.0) -> np.ndarray:
     """One-sided bump (compression) stop force [N]: zero until ``x > gap``."""
     _check_stop(gap, k_stop, p)
     x = np.asarray(x, dtype=float)
     return k_stop * np.maximum(x - gap, 0.0) ** p
 
 
-def rebound_stop(
-    x: np.ndarray | float,
-    gap: np.ndarray | float,
-    k_stop: np.ndarray | float,
-    p: np.ndarray | float = 1.0,
-) -> np.ndarray:
+def rebound_stop(x: Value, gap: Value, k_stop: Value, p: Value = 1.0) -> np.ndarray:
     """One-sided rebound (extension) stop force [N]: zero until ``x < -gap``; negative."""
     _check_stop(gap, k_stop, p)
     x = np.asarray(x, dtype=float)
@@ -85,12 +70,7 @@ def rebound_stop(
 
 
 def bump_and_rebound_stops(
-    x: np.ndarray | float,
-    gap_bump: np.ndarray | float,
-    k_bump: np.ndarray | float,
-    gap_rebound: np.ndarray | float,
-    k_rebound: np.ndarray | float,
-    p: np.ndarray | float = 1.0,
+    x: Value, gap_bump: Value, k_bump: Value, gap_rebound: Value, k_rebound: Value, p: Value = 1.0
 ) -> np.ndarray:
     """Bump stop plus rebound stop [N]: positive beyond ``x > gap_bump``, negative beyond
     ``x < -gap_rebound``, zero between."""

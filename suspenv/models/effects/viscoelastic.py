@@ -24,6 +24,7 @@ from __future__ import annotations
 import numpy as np
 
 from suspenv.models.effects._util import (
+    Value,
     batch_param,
     linear_recurrence,
     require_positive,
@@ -32,26 +33,18 @@ from suspenv.models.effects._util import (
 )
 
 
-def kelvin_voigt(
-    x: np.ndarray | float, v: np.ndarray | float, k: np.ndarray | float, c: np.ndarray | float
-) -> np.ndarray:
+def kelvin_voigt(x: Value, v: Value, k: Value, c: Value) -> np.ndarray:
     """Kelvin-Voigt force ``k x + c v`` [N]."""
     return np.asarray(k, dtype=float) * x + np.asarray(c, dtype=float) * v
 
 
-def maxwell_dfdt(
-    f: np.ndarray | float, v: np.ndarray | float, k_m: np.ndarray | float, c_m: np.ndarray | float
-) -> np.ndarray:
+def maxwell_dfdt(f: Value, v: Value, k_m: Value, c_m: Value) -> np.ndarray:
     """Maxwell element force derivative dF/dt [N/s]."""
     return k_m * (np.asarray(v, dtype=float) - np.asarray(f, dtype=float) / c_m)
 
 
 def maxwell_series(
-    x: np.ndarray,
-    t: np.ndarray,
-    k_m: np.ndarray | float,
-    c_m: np.ndarray | float,
-    f0: np.ndarray | float = 0.0,
+    x: np.ndarray, t: np.ndarray, k_m: Value, c_m: Value, f0: Value = 0.0
 ) -> np.ndarray:
     """Maxwell force [N] for a deflection history ``x[..., T]`` [m] sampled at ``t[T]`` [s]."""
     x = series(x)
@@ -65,6 +58,6 @@ def maxwell_series(
     return linear_recurrence(cm * v * (1.0 - decay), decay, f0)
 
 
-def maxwell_phase_lead(omega: np.ndarray | float, tau: np.ndarray | float) -> np.ndarray:
+def maxwell_phase_lead(omega: Value, tau: Value) -> np.ndarray:
     """Phase [rad] by which Maxwell force leads a sinusoidal displacement: ``atan(1/(w tau))``."""
     return np.arctan2(1.0, np.asarray(omega, dtype=float) * np.asarray(tau, dtype=float))

@@ -1,6 +1,6 @@
 """Sign pictures of the K&C report (``docs/knc/*.png``, used by ``docs/knc.md``).
 
-``python -m suspenv.reports.knc_signs [OUT_DIR]`` (default ``docs/knc``) draws three
+``python tools/knc_signs.py [OUT_DIR]`` (default ``docs/knc``) draws three
 schematic views of the LEFT front wheel in ISO 8855 (x forward, y left, z up), each
 quantity drawn with the sense in which it is positive:
 
