@@ -376,10 +376,9 @@ class KCIdentification(Problem):
         compiled call for the objectives (:func:`.knc_kernel.objectives`); the same
         numbers as :meth:`_simulate_rig` to rounding."""
         solver = AxleSolver(axle)
-        grid = knc.stroke_grid(self.amplitude, self.steps)
         i0 = self.steps // 2
         kept = slice(i0 - FIT_HALF_WIDTH, i0 + FIT_HALF_WIDTH + 1)
-        pad_off = np.stack([knc.pad_offsets(t, grid) for t in TESTS])  # (T, G, 2) [m]
+        pad_off = self._pad_offsets
         st, status = solver.two_leg_sweep(pad_off, None, None, kept)
         pads = solver.pad_static + pad_off[:, kept, None, :]  # (T, Q, m, 2) [m]
         F = np.empty((solver.n, len(OBJECTIVE_NAMES)))
@@ -388,6 +387,12 @@ class KCIdentification(Problem):
             np.ascontiguousarray(solver.kn_pts[:, :, 0]), _TABLE, F,
         )  # fmt: skip
         return F, status
+
+    @cached_property
+    def _pad_offsets(self) -> np.ndarray:
+        """The pad offsets (T, G, 2) [m] of the travel tests on the problem's grid."""
+        grid = knc.stroke_grid(self.amplitude, self.steps)
+        return np.stack([knc.pad_offsets(t, grid) for t in TESTS])
 
     def _simulate_rig(self, axle: Any) -> tuple[np.ndarray, np.ndarray, list[str]]:
         """Objectives (m, 40), ok (m,) and messages of the designs of ``axle`` from the

@@ -790,7 +790,7 @@ class AxleSolver:
         shared by rows that repeat the designs in order)."""
         if self._rl_pack is None:
             parts = [
-                (name, np.broadcast_to(a, (self.n, 2) + a.shape[a.ndim - tail :]))
+                (name, _broadcast(a, (self.n, 2) + a.shape[a.ndim - tail :]))
                 for name, a, tail in (
                     ("vec", self._vec, 2),
                     ("ground", self._ground4, 2),
@@ -1509,6 +1509,11 @@ def _skew(v: np.ndarray) -> np.ndarray:
     out[..., 1, 0], out[..., 1, 2] = v[..., 2], -v[..., 0]
     out[..., 2, 0], out[..., 2, 1] = -v[..., 1], v[..., 0]
     return out
+
+
+def _broadcast(a: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
+    """``a`` broadcast to ``shape`` (``a`` itself when it has that shape: fewer calls)."""
+    return a if a.shape == shape else np.broadcast_to(a, shape)
 
 
 def _length(v: np.ndarray) -> np.ndarray:
