@@ -272,6 +272,11 @@ class KCIdentification(Problem):
             )
             self.truth = truth
             self.measured: dict[str, KCResult] = results
+            if not truth.effects and not truth.noise and self._compiled_path():
+                # loops the model itself makes (no effects, no noise): their objectives
+                # by the candidates' own path, so that the truth reproduces them to the bit
+                F, status = self._simulate_compiled(truth.axle())
+                targets = targets if status[0] else F[0]
             self.measurement = from_results(
                 results,
                 f"test car (seed {self.truth_seed}, concealed: "
