@@ -8,14 +8,18 @@ of the 49-parameter space (the population of an optimiser) at batch sizes 1 (one
 candidate per call; the median over ``--singles`` candidates), 42 (the paper's CMA-ES
 population) and 1000.
 
-Three paths of the same evaluation, measured in the same run on the same candidates:
+Four paths of the same evaluation, measured in the same run on the same candidates:
 
 * ``optimised``: the problem's defaults: the rig's two-leg sweep of all the chunk's
   designs in one compiled call (``knc.COMPILED_SWEEP``:
   :mod:`suspenv.models.mcpherson.sweep_kernel`, the static equilibrium and every leg's
-  predictor and Newton steps design by design), then the channels and objectives;
+  predictor and Newton steps design by design), then the objectives of the kept states
+  in one more compiled call (:mod:`suspenv.metrics.knc_kernel`: channels, curves and
+  fits design by design);
+* ``compiled_sweep``: the same sweep, then the channels, rig results and objectives in
+  numpy (``KCIdentification._compiled_path`` off: the previous default);
 * ``python_sweep``: the same with the sweep driven from Python (``knc.COMPILED_SWEEP =
-  False``, the previous default): internal chunks of at most
+  False``): internal chunks of at most
   ``KCIdentification.eval_chunk`` candidates (memory) and, for the (path-independent)
   model, every grid point solved once: the bump and rebound legs side by side from the
   static state, the return legs taking the states of their grid points
@@ -120,6 +124,16 @@ RISE_ALLOWED = 1.1
 RISE_PASSES = 3
 
 
+def _paths(base: Any, fast: Any) -> tuple[tuple[str, Any], ...]:
+    """The measured paths (module docstring) with the problem each runs on."""
+    return (
+        ("baseline", base),
+        ("python_sweep", fast),
+        ("compiled_sweep", fast),
+        ("optimised", fast),
+    )
+
+
 @contextlib.contextmanager
 def reference_path() -> Iterator[None]:
     """The previous algorithm's one-call Jacobian/channels, per-objective fits and
@@ -162,7 +176,21 @@ def _path(name: str) -> contextlib.AbstractContextManager:
         return reference_path()
     if name == "python_sweep":
         return _python_sweep()
+    if name == "compiled_sweep":
+        return _numpy_objectives()
     return contextlib.nullcontext()
+
+
+@contextlib.contextmanager
+def _numpy_objectives() -> Iterator[None]:
+    """The compiled sweep's states through the rig's results and numpy objectives."""
+    cls = problem_module.KCIdentification
+    saved = cls._compiled_path
+    cls._compiled_path = lambda self: False  # type: ignore[method-assign]
+    try:
+        yield
+    finally:
+        cls._compiled_path = saved  # type: ignore[method-assign]
 
 
 @contextlib.contextmanager
@@ -251,13 +279,13 @@ def main(argv: list[str] | None = None) -> int:
     rows: list[dict[str, Any]] = []
     res: dict[tuple[str, int], dict] = {}
     for batch in BATCHES:
-        for path, problem in (("baseline", base), ("python_sweep", fast), ("optimised", fast)):
+        for path, problem in _paths(base, fast):
             with _path(path):
                 reps = min(repeat, 2) if batch >= 1000 else repeat
                 m = _measure(problem, X, batch, reps, singles)
             res[path, batch] = m
             rows.append({"path": path, "batch": batch, **m})
-            print(f"{path:9s} batch {batch:4d}: {m}", file=sys.stderr)
+            print(f"{path:14s} batch {batch:4d}: {m}", file=sys.stderr)
     for row in rows:
         b = res["baseline", row["batch"]]
         row["cpu_ratio_to_baseline"] = row["cpu_ms_per_candidate"] / b["cpu_ms_per_candidate"]
@@ -304,6 +332,10 @@ def main(argv: list[str] | None = None) -> int:
         "python_sweep_ms_per_candidate": {str(b): ms("python_sweep", b) for b in BATCHES},
         "speedup_vs_python_sweep": {
             str(b): ms("python_sweep", b) / ms("optimised", b) for b in BATCHES
+        },
+        "compiled_sweep_ms_per_candidate": {str(b): ms("compiled_sweep", b) for b in BATCHES},
+        "speedup_vs_compiled_sweep": {
+            str(b): ms("compiled_sweep", b) / ms("optimised", b) for b in BATCHES
         },
         "compiled_targets_ms": {"1": COMPILED_SINGLE_MS, "42": COMPILED_BATCH_MS},
         "meets_compiled_single_target": bool(fast1 <= COMPILED_SINGLE_MS),

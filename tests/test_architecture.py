@@ -17,7 +17,6 @@ report writers of :mod:`suspenv.reports`, by name, without importing them.
 from __future__ import annotations
 
 import ast
-import subprocess
 import tomllib
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -429,41 +428,16 @@ def test_the_package_imports_no_benchmark() -> None:
     assert not bad, "suspenv importing benchmarks/:\n" + "\n".join(bad)
 
 
-#: files where ruff's McCabe rule (C901) is still ignored: their functions above the
-#: limit are to be split; shrink this set, never grow it
-C901_ALLOWED = frozenset({"suspenv/models/mcpherson/residual_kernel.py"})
-
-
 def _ruff_lint() -> dict:
     return tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["ruff"]["lint"]
 
 
-def _c901_ignored() -> set[str]:
-    ignores = _ruff_lint().get("per-file-ignores", {})
-    return {path for path, rules in ignores.items() if "C901" in rules}
-
-
-def test_complexity_rule_is_on_and_its_ignores_only_shrink() -> None:
+def test_complexity_rule_is_on_everywhere() -> None:
+    # every function of the tree stays at or below McCabe 15: no global or per-file
+    # exemption of ruff's C901 rule
     lint = _ruff_lint()
     assert "C901" in lint["select"] and "C901" not in lint.get("ignore", [])
     assert lint["mccabe"]["max-complexity"] == 15
-    ignored = _c901_ignored()
-    assert ignored <= C901_ALLOWED, f"new C901 ignores: {sorted(ignored - C901_ALLOWED)}"
-    gone = sorted(C901_ALLOWED - ignored)
-    assert not gone, f"C901 ignores removed: delete them from C901_ALLOWED: {gone}"
-
-
-def test_every_complexity_ignore_is_still_needed() -> None:
-    # ruff without the project's configuration: the files a C901 ignore covers must
-    # still hold a function above the limit, else the ignore only hides new ones
-    ruff = pytest.importorskip("ruff")
-    limit = _ruff_lint()["mccabe"]["max-complexity"]
-    files = sorted(_c901_ignored())
-    out = subprocess.run(
-        [ruff.find_ruff_bin(), "check", "--isolated", "--select", "C901", "--config",
-         f"lint.mccabe.max-complexity={limit}", "--output-format", "concise", "--exit-zero",
-         *files],
-        cwd=ROOT, capture_output=True, text=True, check=True,
-    ).stdout  # fmt: skip
-    needless = [f for f in files if f"{f}:" not in out]
-    assert not needless, f"no function above McCabe {limit}: delete the C901 ignore of {needless}"
+    ignores = lint.get("per-file-ignores", {})
+    exempt = sorted(path for path, rules in ignores.items() if "C901" in rules)
+    assert not exempt, f"C901 exempted in {exempt}: split their functions instead"

@@ -57,6 +57,9 @@ def _signatures() -> None:
     sweep = [f(3), i(1), "float64", "float64", f(4), f(2), f(3), f(4), f(3), f(1), "int64"]
     sweep += ["float64", f(3), i(2), i(1), i(2), i(1), f(1), "int64", f(6), f(7), f(5), i(1)]
     AHEAD["suspenv.models.mcpherson.sweep_kernel"] = {"sweep": f"void({', '.join(sweep)})"}
+    # r, R, pads, s0, Rw, kt, kB, table, F (the objectives of the swept states)
+    knc = [f(6), f(7), f(4), f(3), f(2), f(2), f(3), i(2), f(2)]
+    AHEAD["suspenv.metrics.knc_kernel"] = {"objectives": f"void({', '.join(knc)})"}
     AHEAD["suspenv.models.effects.kernels"] = {
         "recurrence": f"void({f(2)}, {f(2)}, {f(1)}, {f(2)})",
     }
@@ -167,8 +170,11 @@ def _exports(root: Path) -> Any:
     except ImportError:  # a numba without pycc: the loops compile at their first call
         return None
 
-    for package in ("suspenv", "suspenv.core", "suspenv.models", "suspenv.models.mcpherson",
-                    "suspenv.models.effects", "suspenv.models.minibus"):  # fmt: skip
+    packages = (
+        "suspenv", "suspenv.core", "suspenv.metrics", "suspenv.models",
+        "suspenv.models.mcpherson", "suspenv.models.effects", "suspenv.models.minibus",
+    )  # fmt: skip
+    for package in packages:
         stub = types.ModuleType(package)
         stub.__path__ = [str(root.joinpath(*package.split(".")))]
         sys.modules.setdefault(package, stub)

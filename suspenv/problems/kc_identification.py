@@ -45,14 +45,16 @@ from typing import Any
 
 import numpy as np
 
-from suspenv.core import DesignSpace, EvaluationBatch, Problem
+from suspenv.core import DesignSpace, EvaluationBatch, Problem, compiled
 from suspenv.core.errors import ValidationError
 from suspenv.core.options import check_keywords, integer, number, text, texts
+from suspenv.metrics import knc_kernel
 from suspenv.metrics.knc import (
     FIT_HALF_WIDTH,
     OBJECTIVE_CHANNELS,
     OBJECTIVE_NAMES,
     OBJECTIVE_UNITS,
+    OBJECTIVES,
     objectives,
 )
 from suspenv.models.effects import Effect
@@ -62,8 +64,10 @@ from suspenv.models.mcpherson.params import (
     design_space,
     paper_initial_values,
 )
+from suspenv.models.mcpherson.solver import AxleSolver
 from suspenv.models.mcpherson.truth import CHANNEL_NOISE, TruthVehicle, truth_vehicle
 from suspenv.registry import report_function
+from suspenv.rigs import knc
 from suspenv.rigs.knc import TESTS, KCResult, run_tests
 
 #: channels shown by ``curves``: label with unit -> (rig channel, scale to that unit)
@@ -76,6 +80,8 @@ CURVE_CHANNELS = {
 }
 
 CONCEALED = ("hysteresis", "tolerance", "noise")
+#: the objectives as the compiled kernel reads them (:func:`.knc_kernel.objective_table`)
+_TABLE = knc_kernel.objective_table(OBJECTIVES, TESTS)
 
 
 def measure(truth: TruthVehicle, amplitude: float = 0.040, steps: int = 30) -> dict[str, KCResult]:
@@ -266,6 +272,11 @@ class KCIdentification(Problem):
             )
             self.truth = truth
             self.measured: dict[str, KCResult] = results
+            if not truth.effects and not truth.noise and self._compiled_path():
+                # loops the model itself makes (no effects, no noise): their objectives
+                # by the candidates' own path, so that the truth reproduces them to the bit
+                F, status = self._simulate_compiled(truth.axle())
+                targets = targets if status[0] else F[0]
             self.measurement = from_results(
                 results,
                 f"test car (seed {self.truth_seed}, concealed: "
@@ -328,9 +339,72 @@ class KCIdentification(Problem):
         return F, ok, msgs
 
     def _simulate_chunk(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[str]]:
-        """:meth:`simulate` of one chunk of designs X (m, 49)."""
+        """:meth:`simulate` of one chunk of designs X (m, 49): the compiled sweep and
+        objectives (:meth:`_simulate_compiled`) where they apply, the designs they flag
+        and every other case through the rig's results (:meth:`_simulate_rig`)."""
+        axle = self._axle(X)
+        m = X.shape[0]
+        F = np.full((m, len(OBJECTIVE_NAMES)), np.nan)
+        ok = np.ones(m, bool)
+        msgs = [""] * m
+        rows = np.arange(m)
+        if self._compiled_path():
+            F, status = self._simulate_compiled(axle)
+            rows = np.flatnonzero(status)
+        if rows.size:
+            part = axle if rows.size == m else axle.take(rows)
+            F[rows], ok[rows], again = self._simulate_rig(part)
+            for q, row in enumerate(rows.tolist()):
+                msgs[row] = again[q]
+        bad = ok & ~np.isfinite(F).all(axis=1)
+        for i in np.flatnonzero(bad):
+            msgs[i] = "EvaluationError: an objective is not finite"
+        ok &= ~bad
+        F[~ok] = np.nan
+        return F, ok, msgs
+
+    def _compiled_path(self) -> bool:
+        """The compiled sweep and objectives apply: the plain model on the two-leg loop
+        with the channels at the fit window (the defaults) and the compiled sweep on."""
+        return bool(
+            knc.COMPILED_SWEEP
+            and compiled.AVAILABLE
+            and not self.model_effects
+            and self.reuse_revisits
+            and self.window == FIT_HALF_WIDTH
+        )
+
+    def _simulate_compiled(self, axle: Any) -> tuple[np.ndarray, np.ndarray]:
+        """Objectives (m, 40) and the sweep's status (m,) (0: converged everywhere) of the
+        designs of ``axle``: one compiled sweep of the three travel tests
+        (:meth:`AxleSolver.two_leg_sweep`, the states kept at the fit window) and one
+        compiled call for the objectives (:func:`.knc_kernel.objectives`); the same
+        numbers as :meth:`_simulate_rig` to rounding."""
+        solver = AxleSolver(axle)
+        i0 = self.steps // 2
+        kept = slice(i0 - FIT_HALF_WIDTH, i0 + FIT_HALF_WIDTH + 1)
+        pad_off = self._pad_offsets
+        st, status = solver.two_leg_sweep(pad_off, None, None, kept)
+        pads = solver.pad_static + pad_off[:, kept, None, :]  # (T, Q, m, 2) [m]
+        F = np.empty((solver.n, len(OBJECTIVE_NAMES)))
+        knc_kernel.objectives(
+            st.r, st.R, pads, *(np.ascontiguousarray(solver.s0), solver.Rw, solver.kt),
+            np.ascontiguousarray(solver.kn_pts[:, :, 0]), _TABLE, F,
+        )  # fmt: skip
+        return F, status
+
+    @cached_property
+    def _pad_offsets(self) -> np.ndarray:
+        """The pad offsets (T, G, 2) [m] of the travel tests on the problem's grid."""
+        grid = knc.stroke_grid(self.amplitude, self.steps)
+        return np.stack([knc.pad_offsets(t, grid) for t in TESTS])
+
+    def _simulate_rig(self, axle: Any) -> tuple[np.ndarray, np.ndarray, list[str]]:
+        """Objectives (m, 40), ok (m,) and messages of the designs of ``axle`` from the
+        rig's results (:func:`~suspenv.rigs.knc.run_tests`, then
+        :func:`~suspenv.metrics.knc.objectives`)."""
         results = run_tests(
-            self._axle(X),
+            axle,
             TESTS,
             self.amplitude,
             self.steps,
@@ -339,22 +413,17 @@ class KCIdentification(Problem):
             channels=OBJECTIVE_CHANNELS,  # only those the objectives read (memory)
             window=self.window,  # only where the objectives read them (memory, time)
         )
-        ok = np.ones(X.shape[0], bool)
-        msgs = [""] * X.shape[0]
+        m = results[TESTS[0]].ok.shape[0]
+        ok = np.ones(m, bool)
+        msgs = [""] * m
         for t in TESTS:
             r = results[t]
             for i in np.flatnonzero(~r.ok & ok):
                 msgs[i] = f"{t} travel: {r.messages[i]}"
             ok &= r.ok
-        F = np.full((X.shape[0], len(OBJECTIVE_NAMES)), np.nan)
+        F = np.full((m, len(OBJECTIVE_NAMES)), np.nan)
         if ok.any():
-            F_all = objectives(results)
-            F[ok] = F_all[ok]
-        bad = ok & ~np.isfinite(F).all(axis=1)
-        for i in np.flatnonzero(bad):
-            msgs[i] = "EvaluationError: an objective is not finite"
-        ok &= ~bad
-        F[~ok] = np.nan
+            F[ok] = objectives(results)[ok]
         return F, ok, msgs
 
     def _evaluate(self, X: np.ndarray) -> EvaluationBatch:

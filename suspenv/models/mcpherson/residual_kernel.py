@@ -76,22 +76,42 @@ def _residual_row(
     then moment xyz [N*m]) that the four bushings exert against their deflection beyond
     the linear ones, vehicle axes; column 24 the strut friction force [N] along the tube
     axis, on the knuckle, opposite on the rod), design row ``d`` of ``pack``."""
-    o_vec, o_gr, o_K, o_Q, o_tri = off[0], off[1], off[2], off[3], off[4]
-    o_L, o_Lsq, o_L2, o_ks, o_Lf = off[5], off[6], off[7], off[8], off[9]
-    o_Rw, o_kt, o_W, o_kbr, o_C = off[10], off[11], off[12], off[13], off[14]
     V = np.empty((2, 16, 3))
     phi = np.empty((2, 3, 3))  # rotation vectors of bodies 0, 2, 3 per side
     rho = np.empty(3)  # rotation vector of the bar halves' relative rotation
-    Rbar = np.empty((3, 3))
-    x = np.empty((4, 2, 3))
-    f = np.empty((2, 4, 2, 3))  # bushing loads per side: (bushing, force/moment, xyz)
-    xb = np.empty(3)
-    F = np.empty((14, 3))
-    arm = np.empty((14, 3))
-    D = np.empty((3, 3))
-    k = np.empty(3)
     dC = np.empty(3)
-    lm = ls_all
+    _rotated(Rm, pack, d, off[0], V, phi, rho)
+    for a in range(3):  # the bar halves' middle points apart (side 0 minus side 1)
+        dC[a] = rm[0, 3, a] + V[0, 15, a] - rm[1, 3, a] - V[1, 15, a]
+    shift = _rack_shift(rm, V, ls_all, rack_m, has_rack, pack, d, off[4], off[5], off[14])
+    # scratch: deflections x (bushing, translation/rotation, xyz), bushing loads f
+    # (bushing, force/moment, xyz), a 3-vector, the loads F with an arm and their arms,
+    # the link vectors D and the links' force per unit length k
+    work = (np.empty((4, 2, 3)), np.empty((4, 2, 3)), np.empty(3), np.empty((14, 3)),
+            np.empty((14, 3)), np.empty((3, 3)), np.empty(3))  # fmt: skip
+    for s in range(2):
+        _bushing_loads(s, rm[s], V[s], phi[s], extra_m, has_extra, pack, d, off, work)
+        _links(s, rm[s], V[s], ls_all[s], shift, rack_m, has_rack, pack, d, off, work)
+        _constraints(s, rm[s], V[s], pack, d, off, cscale, work[5], out[s])
+        _load_sums(s, rm[s], V[s], ls_all[s], pad_m, extra_m, has_extra, pack, d, off,
+                   k_bar_shear, dC, rho, work, out[s])  # fmt: skip
+        if n_ext:
+            _rig_load(rm[s], pad_m[s], ext_m[s], n_ext, work[4][8], work[2], out[s])
+
+
+def _rotated(
+    Rm: np.ndarray,
+    pack: np.ndarray,
+    d: int,
+    o_vec: int,
+    V: np.ndarray,
+    phi: np.ndarray,
+    rho: np.ndarray,
+) -> None:
+    """The 16 body-fixed vectors rotated with their bodies into ``V`` (2, 16, 3) [m],
+    the rotation vectors of bodies 0, 2, 3 into ``phi`` (2, 3, 3) [rad] and that of the
+    bar halves' relative rotation into ``rho`` (3,) [rad]."""
+    Rbar = np.empty((3, 3))
     for s in range(2):
         for i in range(16):
             b = _VEC_BODY[i]
@@ -112,153 +132,177 @@ def _residual_row(
                 + Rm[0, 3, i, 2] * Rm[1, 3, j, 2]
             )
     _log(Rbar, rho)
-    for a in range(3):  # the bar halves' middle points apart (side 0 minus side 1)
-        dC[a] = rm[0, 3, a] + V[0, 15, a] - rm[1, 3, a] - V[1, 15, a]
-    shift = _rack_shift(rm, V, lm, rack_m, has_rack, pack, d, o_tri, o_L, o_C)
 
-    for s in range(2):
-        res = out[s]
-        rr = rm[s]
-        Vs = V[s]
-        ls = lm[s]
-        # bushings: deflection (translation of the bushing point, rotation vector)
-        for a in range(3):
-            x[0, 0, a] = rr[0, a] + Vs[0, a] - pack[o_gr + a, s, d]
-            x[1, 0, a] = rr[0, a] + Vs[1, a] - pack[o_gr + 3 + a, s, d]
-            x[2, 0, a] = rr[2, a] - pack[o_gr + 6 + a, s, d]
-            x[3, 0, a] = rr[3, a] - pack[o_gr + 9 + a, s, d]
-            x[0, 1, a] = phi[s, 0, a]
-            x[1, 1, a] = phi[s, 0, a]
-            x[2, 1, a] = phi[s, 1, a]
-            x[3, 1, a] = phi[s, 2, a]
-        fs = f[s]
-        for bb in range(4):
-            for t in range(2):
-                if o_Q < 0:
-                    for a in range(3):
-                        fs[bb, t, a] = pack[o_K + 6 * bb + 3 * t + a, s, d] * x[bb, t, a]
-                else:  # Q (K (Q^T x)) with the bushing frame Q
-                    q = o_Q + 9 * bb
-                    for a in range(3):
-                        xb[a] = (
-                            pack[q + a, s, d] * x[bb, t, 0]
-                            + pack[q + 3 + a, s, d] * x[bb, t, 1]
-                            + pack[q + 6 + a, s, d] * x[bb, t, 2]
-                        ) * pack[o_K + 6 * bb + 3 * t + a, s, d]
-                    for a in range(3):
-                        fs[bb, t, a] = (
-                            pack[q + 3 * a, s, d] * xb[0]
-                            + pack[q + 3 * a + 1, s, d] * xb[1]
-                            + pack[q + 3 * a + 2, s, d] * xb[2]
-                        )
-            if has_extra:
-                for t in range(2):
-                    for a in range(3):
-                        fs[bb, t, a] += extra_m[s, 6 * bb + 3 * t + a]
-        # tie rod (from the rack point), drop link, spring
-        for a in range(3):
-            D[0, a] = rr[1, a] + Vs[4, a] - pack[o_tri + a, s, d]
-            D[1, a] = rr[1, a] + Vs[5, a] - (rr[3, a] + Vs[14, a])
-            D[2, a] = rr[1, a] + Vs[6, a] - (rr[2, a] + Vs[12, a])
-        D[0, 1] -= shift
-        if has_rack:
-            D[0, 1] -= rack_m[s]
-        DD0 = D[0, 0] * D[0, 0] + D[0, 1] * D[0, 1] + D[0, 2] * D[0, 2]
-        DD1 = D[1, 0] * D[1, 0] + D[1, 1] * D[1, 1] + D[1, 2] * D[1, 2]
-        DD2 = D[2, 0] * D[2, 0] + D[2, 1] * D[2, 1] + D[2, 2] * D[2, 2]
-        k[0] = ls[7] / pack[o_L, s, d]
-        k[1] = ls[8] / pack[o_L + 1, s, d]
-        L = math.sqrt(DD2)
-        k[2] = pack[o_ks, s, d] * (pack[o_Lf, s, d] - L) / L
 
-        # constraints (times CSCALE): ball joint, cylindrical joint, link lengths
-        for a in range(3):
-            res[24 + a] = (rr[0, a] + Vs[2, a] - rr[1, a] - Vs[3, a]) * cscale
-        c3 = c4 = c5 = c6 = 0.0
-        for a in range(3):
-            off_a = rr[2, a] - rr[1, a] - Vs[7, a]
-            c3 += Vs[13, a] * Vs[8, a]
-            c4 += Vs[13, a] * Vs[9, a]
-            c5 += off_a * Vs[8, a]
-            c6 += off_a * Vs[9, a]
-        res[27], res[28], res[29], res[30] = c3 * cscale, c4 * cscale, c5 * cscale, c6 * cscale
-        res[31] = (DD0 - pack[o_Lsq, s, d]) / pack[o_L2, s, d] * cscale
-        res[32] = (DD1 - pack[o_Lsq + 1, s, d]) / pack[o_L2 + 1, s, d] * cscale
-
-        # tyre on the pad at the contact point (the wheel plane's downward radius)
-        sz = Vs[11, 2]
-        d0, d1, d2 = Vs[11, 0] * sz, Vs[11, 1] * sz, Vs[11, 2] * sz - 1.0
-        scale = pack[o_Rw, s, d] / math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
-        d0, d1, d2 = d0 * scale, d1 * scale, d2 * scale
-        fz = pack[o_kt, s, d] * (pad_m[s] - rr[1, 2] - d2)
-
-        # loads with an arm (LOAD_SUM order): bushings 0-1, ball joint on the arm and
-        # the knuckle, tie rod, drop link, spring on the knuckle, cylindrical joint
-        # force (with the strut friction) on the knuckle, tyre, the joint's moment pair,
-        # spring and drop link on the rod and bar, the bar's shear at its middle
-        zf = extra_m[s, 24] if has_extra else 0.0
-        for a in range(3):
-            u_a, v_a = Vs[8, a], Vs[9, a]
-            F[0, a] = -fs[0, 0, a]
-            F[1, a] = -fs[1, 0, a]
-            F[2, a] = ls[a]
-            F[3, a] = -ls[a]
-            F[4, a] = k[0] * D[0, a]
-            F[5, a] = k[1] * D[1, a]
-            F[6, a] = k[2] * D[2, a]
-            F[7, a] = zf * Vs[10, a] - (ls[5] * u_a + ls[6] * v_a)
-            F[8, a] = 0.0
-            F[10, a] = ls[3] * u_a + ls[4] * v_a
-            F[9, a] = -F[10, a]
-            F[11, a] = -F[6, a]
-            F[12, a] = -F[5, a]
-            F[13, a] = -k_bar_shear * dC[a] if s == 0 else k_bar_shear * dC[a]
-            for i in range(7):
-                arm[i, a] = Vs[i, a]
-            arm[7, a] = rr[2, a] - rr[1, a]
-            arm[9, a] = Vs[13, a]
-            arm[10, a] = Vs[13, a]
-            arm[11, a] = Vs[12, a]
-            arm[12, a] = Vs[14, a]
-            arm[13, a] = Vs[15, a]
-        arm[8, 0], arm[8, 1], arm[8, 2] = d0, d1, d2
-        F[8, 2] = fz
-        for i in range(24):
-            res[i] = 0.0
-        for j in range(14):
-            bj = 6 * _LOAD_BODY[j]
-            for a in range(3):
-                res[bj + a] += F[j, a]
-            mom = res[bj + 3 : bj + 6]
-            _cross_add(arm[j], F[j], mom)
-        # forces and moments at the reference points: the cylindrical joint's moment
-        # pair is no force, bushing moments, wheel weight, wheel-centre force, the
-        # joint force (and friction) on the rod, bar twist
-        for a in range(3):
-            res[6 + a] += F[10, a]
-            res[12 + a] -= F[10, a]
-            res[3 + a] -= fs[0, 1, a] + fs[1, 1, a]
-            res[12 + a] -= F[7, a]  # + f_cyl: the rod takes the joint force
-            res[12 + a] -= fs[2, 0, a]
-            res[15 + a] -= fs[2, 1, a]
-            res[18 + a] -= fs[3, 0, a]
-            res[21 + a] -= fs[3, 1, a]
-            mc = pack[o_kbr + a, s, d] * rho[a]
-            res[21 + a] += -mc if s == 0 else mc
-        res[8] -= pack[o_W, s, d]
-        if n_ext:
-            # the rig's load through the pad, at the loaded contact point (the wheel
-            # plane's downward radius stretched to the pad plane), its moment about it
-            e = ext_m[s]
-            g = (pad_m[s] - rr[1, 2]) / d2
-            xb[0], xb[1], xb[2] = d0 * g, d1 * g, d2 * g
-            for a in range(3):
-                res[6 + a] += e[a]
-                res[9 + a] += e[3 + a]
-            _cross_add(xb, e[0:3], res[9:12])
-            if n_ext == 9:
+def _bushing_loads(s, rr, Vs, phi_s, extra_m, has_extra, pack, d, off, work) -> None:
+    """Side ``s``'s bushing deflections (translation of the bushing point, rotation
+    vector) into ``work[0]`` and their loads (linear, through the bushing frames when
+    oriented, plus the placed effects' loads) into ``work[1]`` (4, 2, 3) [N, N*m]."""
+    o_gr, o_K, o_Q = off[1], off[2], off[3]
+    x, fs, xb = work[0], work[1], work[2]
+    for a in range(3):
+        x[0, 0, a] = rr[0, a] + Vs[0, a] - pack[o_gr + a, s, d]
+        x[1, 0, a] = rr[0, a] + Vs[1, a] - pack[o_gr + 3 + a, s, d]
+        x[2, 0, a] = rr[2, a] - pack[o_gr + 6 + a, s, d]
+        x[3, 0, a] = rr[3, a] - pack[o_gr + 9 + a, s, d]
+        x[0, 1, a] = phi_s[0, a]
+        x[1, 1, a] = phi_s[0, a]
+        x[2, 1, a] = phi_s[1, a]
+        x[3, 1, a] = phi_s[2, a]
+    for bb in range(4):
+        for t in range(2):
+            if o_Q < 0:
                 for a in range(3):
-                    res[6 + a] += e[6 + a]
+                    fs[bb, t, a] = pack[o_K + 6 * bb + 3 * t + a, s, d] * x[bb, t, a]
+            else:  # Q (K (Q^T x)) with the bushing frame Q
+                q = o_Q + 9 * bb
+                for a in range(3):
+                    xb[a] = (
+                        pack[q + a, s, d] * x[bb, t, 0]
+                        + pack[q + 3 + a, s, d] * x[bb, t, 1]
+                        + pack[q + 6 + a, s, d] * x[bb, t, 2]
+                    ) * pack[o_K + 6 * bb + 3 * t + a, s, d]
+                for a in range(3):
+                    fs[bb, t, a] = (
+                        pack[q + 3 * a, s, d] * xb[0]
+                        + pack[q + 3 * a + 1, s, d] * xb[1]
+                        + pack[q + 3 * a + 2, s, d] * xb[2]
+                    )
+        if has_extra:
+            for t in range(2):
+                for a in range(3):
+                    fs[bb, t, a] += extra_m[s, 6 * bb + 3 * t + a]
+
+
+def _links(s, rr, Vs, ls, shift, rack_m, has_rack, pack, d, off, work) -> None:
+    """Side ``s``'s tie rod (from the rack point), drop link and spring: their vectors
+    into ``work[5]`` (3, 3) [m] and forces per unit length into ``work[6]`` (3,) [N/m]."""
+    o_tri, o_L, o_ks, o_Lf = off[4], off[5], off[8], off[9]
+    D, k = work[5], work[6]
+    for a in range(3):
+        D[0, a] = rr[1, a] + Vs[4, a] - pack[o_tri + a, s, d]
+        D[1, a] = rr[1, a] + Vs[5, a] - (rr[3, a] + Vs[14, a])
+        D[2, a] = rr[1, a] + Vs[6, a] - (rr[2, a] + Vs[12, a])
+    D[0, 1] -= shift
+    if has_rack:
+        D[0, 1] -= rack_m[s]
+    DD2 = D[2, 0] * D[2, 0] + D[2, 1] * D[2, 1] + D[2, 2] * D[2, 2]
+    k[0] = ls[7] / pack[o_L, s, d]
+    k[1] = ls[8] / pack[o_L + 1, s, d]
+    L = math.sqrt(DD2)
+    k[2] = pack[o_ks, s, d] * (pack[o_Lf, s, d] - L) / L
+
+
+def _constraints(s, rr, Vs, pack, d, off, cscale, D, res) -> None:
+    """Side ``s``'s constraints times ``cscale`` into ``res[24:33]``: ball joint,
+    cylindrical joint, tie rod and drop link lengths (link vectors ``D``, :func:`_links`)."""
+    o_Lsq, o_L2 = off[6], off[7]
+    for a in range(3):
+        res[24 + a] = (rr[0, a] + Vs[2, a] - rr[1, a] - Vs[3, a]) * cscale
+    c3 = c4 = c5 = c6 = 0.0
+    for a in range(3):
+        off_a = rr[2, a] - rr[1, a] - Vs[7, a]
+        c3 += Vs[13, a] * Vs[8, a]
+        c4 += Vs[13, a] * Vs[9, a]
+        c5 += off_a * Vs[8, a]
+        c6 += off_a * Vs[9, a]
+    res[27], res[28], res[29], res[30] = c3 * cscale, c4 * cscale, c5 * cscale, c6 * cscale
+    DD0 = D[0, 0] * D[0, 0] + D[0, 1] * D[0, 1] + D[0, 2] * D[0, 2]
+    DD1 = D[1, 0] * D[1, 0] + D[1, 1] * D[1, 1] + D[1, 2] * D[1, 2]
+    res[31] = (DD0 - pack[o_Lsq, s, d]) / pack[o_L2, s, d] * cscale
+    res[32] = (DD1 - pack[o_Lsq + 1, s, d]) / pack[o_L2 + 1, s, d] * cscale
+
+
+def _loads_with_arms(s, rr, Vs, ls, pad_m, zf, pack, d, off, k_bar_shear, dC, work) -> None:
+    """Side ``s``'s 14 loads with an arm (LOAD_SUM order) into ``work[3]`` (14, 3) [N]
+    and their arms into ``work[4]`` (14, 3) [m]: bushings 0-1, ball joint on the arm and
+    the knuckle, tie rod, drop link, spring on the knuckle, cylindrical joint force
+    (with the strut friction ``zf`` [N]) on the knuckle, tyre on the pad at the contact
+    point (the wheel plane's downward radius), the joint's moment pair, spring and drop
+    link on the rod and bar, the bar's shear at its middle."""
+    o_Rw, o_kt = off[10], off[11]
+    fs, F, arm, D, k = work[1], work[3], work[4], work[5], work[6]
+    sz = Vs[11, 2]
+    d0, d1, d2 = Vs[11, 0] * sz, Vs[11, 1] * sz, Vs[11, 2] * sz - 1.0
+    scale = pack[o_Rw, s, d] / math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+    d0, d1, d2 = d0 * scale, d1 * scale, d2 * scale
+    fz = pack[o_kt, s, d] * (pad_m[s] - rr[1, 2] - d2)
+    for a in range(3):
+        u_a, v_a = Vs[8, a], Vs[9, a]
+        F[0, a] = -fs[0, 0, a]
+        F[1, a] = -fs[1, 0, a]
+        F[2, a] = ls[a]
+        F[3, a] = -ls[a]
+        F[4, a] = k[0] * D[0, a]
+        F[5, a] = k[1] * D[1, a]
+        F[6, a] = k[2] * D[2, a]
+        F[7, a] = zf * Vs[10, a] - (ls[5] * u_a + ls[6] * v_a)
+        F[8, a] = 0.0
+        F[10, a] = ls[3] * u_a + ls[4] * v_a
+        F[9, a] = -F[10, a]
+        F[11, a] = -F[6, a]
+        F[12, a] = -F[5, a]
+        F[13, a] = -k_bar_shear * dC[a] if s == 0 else k_bar_shear * dC[a]
+        for i in range(7):
+            arm[i, a] = Vs[i, a]
+        arm[7, a] = rr[2, a] - rr[1, a]
+        arm[9, a] = Vs[13, a]
+        arm[10, a] = Vs[13, a]
+        arm[11, a] = Vs[12, a]
+        arm[12, a] = Vs[14, a]
+        arm[13, a] = Vs[15, a]
+    arm[8, 0], arm[8, 1], arm[8, 2] = d0, d1, d2
+    F[8, 2] = fz
+
+
+def _load_sums(s, rr, Vs, ls, pad_m, extra_m, has_extra, pack, d, off, k_bar_shear, dC,
+               rho, work, res) -> None:  # fmt: skip
+    """Side ``s``'s force and moment balances of the four bodies into ``res[0:24]``: the
+    loads with their arms (:func:`_loads_with_arms`) summed body by body, then the
+    forces and moments at the reference points: the cylindrical joint's moment pair is
+    no force, bushing moments, wheel weight, the joint force (and friction) on the rod,
+    bar twist."""
+    o_W, o_kbr = off[12], off[13]
+    fs, F, arm = work[1], work[3], work[4]
+    zf = extra_m[s, 24] if has_extra else 0.0
+    _loads_with_arms(s, rr, Vs, ls, pad_m, zf, pack, d, off, k_bar_shear, dC, work)
+    for i in range(24):
+        res[i] = 0.0
+    for j in range(14):
+        bj = 6 * _LOAD_BODY[j]
+        for a in range(3):
+            res[bj + a] += F[j, a]
+        mom = res[bj + 3 : bj + 6]
+        _cross_add(arm[j], F[j], mom)
+    for a in range(3):
+        res[6 + a] += F[10, a]
+        res[12 + a] -= F[10, a]
+        res[3 + a] -= fs[0, 1, a] + fs[1, 1, a]
+        res[12 + a] -= F[7, a]  # + f_cyl: the rod takes the joint force
+        res[12 + a] -= fs[2, 0, a]
+        res[15 + a] -= fs[2, 1, a]
+        res[18 + a] -= fs[3, 0, a]
+        res[21 + a] -= fs[3, 1, a]
+        mc = pack[o_kbr + a, s, d] * rho[a]
+        res[21 + a] += -mc if s == 0 else mc
+    res[8] -= pack[o_W, s, d]
+
+
+def _rig_load(rr, pad_s, e, n_ext, down, xb, res) -> None:
+    """The rig's wheel load ``e`` (6|9,) of one side added to its knuckle's balance
+    ``res``: through the pad, at the loaded contact point (the wheel plane's downward
+    radius ``down`` (3,) [m] stretched to the pad plane at height ``pad_s`` [m]), its
+    moment about it, then (``n_ext == 9``) a force at the wheel centre; ``xb`` (3,)
+    scratch."""
+    g = (pad_s - rr[1, 2]) / down[2]
+    xb[0], xb[1], xb[2] = down[0] * g, down[1] * g, down[2] * g
+    for a in range(3):
+        res[6 + a] += e[a]
+        res[9 + a] += e[3 + a]
+    _cross_add(xb, e[0:3], res[9:12])
+    if n_ext == 9:
+        for a in range(3):
+            res[6 + a] += e[6 + a]
 
 
 def _rack_shift(
@@ -434,8 +478,13 @@ def _row_jacobian(
             Jm[scatter[2, q], scatter[3, q]] = (res[s, row] - base[s, row]) / h
 
 
-_HELPERS = ("_log", "_cross_add", "_rack_shift", "_residual_row", "_row_at", "_row_jacobian")
+#: the row's helpers, compiled with the loops that call them (here and in the sweep)
+_ROW_HELPERS = (
+    "_log", "_cross_add", "_rack_shift", "_residual_row", "_row_at", "_row_jacobian",
+    "_rotated", "_bushing_loads", "_links", "_constraints", "_loads_with_arms",
+    "_load_sums", "_rig_load",
+)  # fmt: skip
 #: :func:`_residual` and :func:`_jacobian`, compiled at their first call (then loaded
 #: from numba's cache)
-residual = compiled.Lazy(globals(), _HELPERS, _residual)
-jacobian = compiled.Lazy(globals(), _HELPERS, _jacobian)
+residual = compiled.Lazy(globals(), _ROW_HELPERS, _residual)
+jacobian = compiled.Lazy(globals(), _ROW_HELPERS, _jacobian)

@@ -584,23 +584,25 @@ class AxleSolver:
         """
         ax, p = self.axle, self.axle.points
         wc = p["wheel_centre"]
-
-        def along(e: np.ndarray, at: np.ndarray) -> np.ndarray:  # d(e . point at) / d(dt, dw)
-            return np.concatenate([e, cross(at - wc, e)], axis=-1)
-
-        def unit(v: np.ndarray) -> np.ndarray:
-            return v / _length(v)
-
-        strut = p["strut_axis_point"]
+        # d(e . point at) / d(dt, dw) = (e, (at - wc) x e): the cross products of a step
+        # in one call each (the same numbers as one call per row)
+        B, TRO, strut = p["lower_ball_joint"], p["tie_rod_outer"], p["strut_axis_point"]
+        links = np.stack(
+            [B - p["lca_front_bush"], B - p["lca_rear_bush"], TRO - p["tie_rod_inner"]]
+        )
+        e3 = links / _length(links)  # the two lower-arm links and the tie rod
         gap = p["strut_top"] - strut  # the strut top stays on the knuckle's strut line
+        arm_s = strut - wc
+        c = cross(
+            np.stack([B - wc, B - wc, TRO - wc, arm_s, arm_s, self.u, self.v]),
+            np.stack([e3[0], e3[1], e3[2], self.u, self.v, gap, gap]),
+        )
         zero3 = np.zeros_like(wc)
         rows = [
-            along(unit(p["lower_ball_joint"] - p["lca_front_bush"]), p["lower_ball_joint"]),
-            along(unit(p["lower_ball_joint"] - p["lca_rear_bush"]), p["lower_ball_joint"]),
-            along(unit(p["tie_rod_outer"] - p["tie_rod_inner"]), p["tie_rod_outer"]),
+            *(np.concatenate([e3[i], c[i]], axis=-1) for i in range(3)),
             *(
-                np.concatenate([zero3, cross(d, gap)], -1) - along(d, strut)
-                for d in (self.u, self.v)
+                np.concatenate([zero3, c[5 + i]], -1) - np.concatenate([d, c[3 + i]], axis=-1)
+                for i, d in enumerate((self.u, self.v))
             ),
             np.concatenate([zero3 + EZ, zero3], axis=-1),  # the wheel-centre height
         ]
@@ -609,9 +611,11 @@ class AxleSolver:
         dq = np.linalg.solve(np.stack(rows, axis=-2), rhs)[..., 0]  # per metre of dz_wc
         # the spring: from the lower seat (knuckle) to the upper seat on the strut rod
         seat = _length(p["spring_upper_seat"] - p["strut_top"])  # along the rod
-        e = unit(p["spring_lower_seat"] - p["strut_top"] - seat * self.a)
-        turn = dot(cross(self.a, e), dq[..., 3:])  # the rod turns with the knuckle
-        dL = dot(along(e, p["spring_lower_seat"]), dq) - seat[..., 0] * turn
+        e = p["spring_lower_seat"] - p["strut_top"] - seat * self.a
+        e = e / _length(e)
+        c = cross(np.stack([self.a, p["spring_lower_seat"] - wc]), np.stack([e, e]))
+        turn = dot(c[0], dq[..., 3:])  # the rod turns with the knuckle
+        dL = dot(np.concatenate([e, c[1]], axis=-1), dq) - seat[..., 0] * turn
         # the contact point: the wheel centre's height minus Rw sqrt(1 - s_z^2)
         s = self.s0
         ds_z = cross(dq[..., 3:], s)[..., 2]
@@ -790,7 +794,7 @@ class AxleSolver:
         shared by rows that repeat the designs in order)."""
         if self._rl_pack is None:
             parts = [
-                (name, np.broadcast_to(a, (self.n, 2) + a.shape[a.ndim - tail :]))
+                (name, _broadcast(a, (self.n, 2) + a.shape[a.ndim - tail :]))
                 for name, a, tail in (
                     ("vec", self._vec, 2),
                     ("ground", self._ground4, 2),
@@ -1509,6 +1513,11 @@ def _skew(v: np.ndarray) -> np.ndarray:
     out[..., 1, 0], out[..., 1, 2] = v[..., 2], -v[..., 0]
     out[..., 2, 0], out[..., 2, 1] = -v[..., 1], v[..., 0]
     return out
+
+
+def _broadcast(a: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
+    """``a`` broadcast to ``shape`` (``a`` itself when it has that shape: fewer calls)."""
+    return a if a.shape == shape else np.broadcast_to(a, shape)
 
 
 def _length(v: np.ndarray) -> np.ndarray:

@@ -39,9 +39,17 @@ import numpy as np
 from suspenv.core import compiled
 from suspenv.models.mcpherson.residual_kernel import (  # the row's helpers: compiled too
     _BUSH_BODY,
+    _ROW_HELPERS,
+    _bushing_loads,  # noqa: F401
+    _constraints,  # noqa: F401
     _cross_add,  # noqa: F401
+    _links,  # noqa: F401
+    _load_sums,  # noqa: F401
+    _loads_with_arms,  # noqa: F401
     _rack_shift,  # noqa: F401
     _residual_row,
+    _rig_load,  # noqa: F401
+    _rotated,  # noqa: F401
     _row_at,  # noqa: F401
     _row_jacobian,
 )
@@ -451,8 +459,7 @@ def _sweep(
 
 
 _HELPERS = (
-    "_log", "_expm", "_cross_add", "_rack_shift", "_residual_row", "_row_at",
-    "_row_jacobian", "_factor", "_res", "_invert", "_step", "_apply", "_times", "_newton",
+    *_ROW_HELPERS, "_expm", "_factor", "_res", "_invert", "_step", "_apply", "_times", "_newton",
     "_load_at", "_extrapolate", "_relative_at", "_relative", "_locked", "_first_step", "_leg",
     "_design",
 )  # fmt: skip
