@@ -884,6 +884,16 @@ class CurveFit:
     def converged(self) -> bool:
         return self.final.stop.startswith("converged")
 
+    @property
+    def valleys(self) -> list[np.ndarray]:
+        """Unit points the fit's polishes reached, the answer (``u``) first, the others
+        once each: the valleys a later stage can start from."""
+        out = [self.u]
+        for s in self.stages:
+            if s.name.startswith("polish") and not any(np.array_equal(s.u, v) for v in out):
+                out.append(s.u)
+        return out
+
 
 def fit_curves(
     model: CurveModel,
