@@ -277,6 +277,10 @@ def refine(
             + "; ".join(f"{_names(o)}: {v:.1f}" for o, v in zip(options, scores, strict=True))
         )
     out = refits[pick]
+    # the places are told apart within the short budget; the kept one goes on until a
+    # restart gains less than one squared noise unit
+    say("loop: the kept place's refit continued to convergence")
+    out = _refit(out.model, x0, polish_nfev, pool, progress, out)
     out.final.name = "refit with " + "; ".join(changes)
     return Refinement(changes, best.tried, out, time.perf_counter() - t0, skipped)
 
@@ -393,16 +397,29 @@ def _with_effects(model: CurveModel, x: np.ndarray, effects: Sequence[Effect]) -
     )
 
 
-def _refit(model: CurveModel, x0: np.ndarray, nfev: int, pool: Any, progress: bool) -> CurveFit:
-    """All of ``model``'s parameters polished together from its base, the weak pull
-    towards the first fit's start design ``x0`` (effects at their starts)."""
+def _refit(
+    model: CurveModel,
+    x0: np.ndarray,
+    nfev: int,
+    pool: Any,
+    progress: bool,
+    again: CurveFit | None = None,
+) -> CurveFit:
+    """All of ``model``'s parameters polished together from its base (``again``: from
+    that refit's answer, restarted until a restart gains less than
+    :data:`RESTART_GAIN`), the weak pull towards the first fit's start design ``x0``
+    (effects at their starts); ``nfev`` evaluations at most."""
     model.pool = pool  # half of each path-dependent batch in a second process
     prior = model.unit(_start(model, x0))
     # stop when a step gains less than one squared noise unit at a fit to the noise
     # (each path-dependent step costs a rig loop: no crawling along valleys)
     ftol = RESTART_GAIN / model.size
-    u0 = model.unit(model.base)
-    stage, r, J = polish(model, u0, nfev, progress=progress, prior=prior, ftol=ftol)
+    u0 = model.unit(model.base) if again is None else again.u
+    at = None if again is None else (again.residual, again.jacobian)
+    runs = 3 if again is None else nfev
+    stage, r, J = polish(
+        model, u0, nfev, runs, progress=progress, prior=prior, ftol=ftol, at_start=at
+    )
     return CurveFit(model, stage.u, model.designs(stage.u[None])[0], r, J, [stage], stage)
 
 
