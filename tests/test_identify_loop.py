@@ -352,3 +352,20 @@ def test_tie_options_swap_one_family_place_at_a_time():
     assert got[2] == ["loop_a", "prog_b"]
     assert len(got) == MAX_TIED == 3
     assert tie_options([["only"]]) == [["only"]]
+
+
+def test_the_fits_valleys_are_its_polished_answers_the_answer_first():
+    """Definition: every polish stage's answer once, the fit's own answer first, the
+    global stage's best point not among them (it is not a polished valley)."""
+    from suspenv.methods.curve_fit import CurveFit, StageResult
+
+    a, b, g = np.full(3, 0.2), np.full(3, 0.7), np.full(3, 0.5)
+    stages = [
+        StageResult("global (CMA-ES)", g, 9.0, 10, "", 0.0),
+        StageResult("polish from the CMA-ES best", b, 2.0, 10, "", 0.0),
+        StageResult("polish from the start design", a.copy(), 1.0, 10, "", 0.0),
+    ]
+    fit = CurveFit(None, a, a, np.zeros(1), np.zeros((1, 3)), stages)  # type: ignore[arg-type]
+    got = fit.valleys
+    assert got[0] is a
+    assert len(got) == 2 and np.array_equal(got[1], b)

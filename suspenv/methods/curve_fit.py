@@ -884,6 +884,16 @@ class CurveFit:
     def converged(self) -> bool:
         return self.final.stop.startswith("converged")
 
+    @property
+    def valleys(self) -> list[np.ndarray]:
+        """Unit points the fit's polishes reached, the answer (``u``) first, the others
+        once each: the valleys a later stage can start from."""
+        out = [self.u]
+        for s in self.stages:
+            if s.name.startswith("polish") and not any(np.array_equal(s.u, v) for v in out):
+                out.append(s.u)
+        return out
+
 
 def fit_curves(
     model: CurveModel,
@@ -964,14 +974,17 @@ def polish(
     progress: bool = False,
     prior: np.ndarray | None = None,
     ftol: float = 1e-5,
+    at_start: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> tuple[StageResult, np.ndarray, np.ndarray]:
     """:func:`polish_stage` restarted from its own answer (a fresh trust region) until a
     restart lowers the cost by less than ``min_gain`` (squared noise units: a change of
     the log-likelihood below ``min_gain / 2``), at most ``restarts`` runs in all, within
-    ``max_nfev`` evaluations in all. One stage in the result; ``stop`` says which
-    criterion ended it."""
+    ``max_nfev`` evaluations in all; ``at_start``: the residual and Jacobian at ``u0``
+    when known. One stage in the result; ``stop`` says which criterion ended it."""
     t0 = time.perf_counter()
-    stage, r, J = polish_stage(model, u0, max_nfev, ftol, progress=progress, prior=prior)
+    stage, r, J = polish_stage(
+        model, u0, max_nfev, ftol, progress=progress, prior=prior, at_start=at_start
+    )
     evals, history, runs = stage.evaluations, list(stage.history), 1
     left = max_nfev - len(stage.history)
     stop = stage.stop

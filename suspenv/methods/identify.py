@@ -91,7 +91,7 @@ DEFAULTS: dict[str, Any] = {
     "rerun_next": True,
     "diagnose": True,
     "loop": True,  # add what the residual screen names (sides apart, an effect) and refit
-    "loop_nfev": 15,  # least-squares evaluations of the loop's refit (path-dependent: slow)
+    "loop_nfev": 15,  # evaluations of each near-tied place's refit (path-dependent: slow)
     "sheet": True,  # the identified car's K&C sheet with 95 % intervals
     "held_out": "",  # a rig test kept out of the fit and predicted ("": none; "auto")
     "figures": True,
@@ -445,12 +445,13 @@ def _simulated_tests(
 
 def candidate_jacobians(model: CurveModel, u: np.ndarray) -> dict[str, dict[str, np.ndarray]]:
     """Jacobians (noise-scaled, in the fit's unit cube) at ``u`` of every rig test the
-    measurement lacks, per channel: {test: {channel: (N_tc, dim)}}, all tests in one
-    batched evaluation."""
-    from suspenv.measurements.knc import ALL_TESTS
+    measurement lacks, the opposed compliance tests included (a rig runs them; they load
+    the two sides in another combination than the in-phase tests), per
+    channel: {test: {channel: (N_tc, dim)}}, all tests in one batched evaluation."""
+    from suspenv.measurements.knc import RIG_TESTS
 
     have = {t.test for t in model.tests}
-    missing = [t for t in ALL_TESTS if t not in have]
+    missing = [t for t in RIG_TESTS if t not in have]
     x = model.designs(u[None])[0]
     sims = _simulated_tests(model, x, missing) if missing else []
     if not sims:

@@ -21,6 +21,9 @@ same :class:`~suspenv.methods.curve_fit.CurveModel` the first fit used:
 
 Once the sides are apart the residual is screened again and only the patterns still
 named are modelled (a left/right difference also leaves cubic-looking residuals).
+Every valley the first fit polished goes through the sides apart and the place screen,
+and the one whose best place costs least is refitted: without the named physics the
+valleys cost nearly the same, with it they differ by orders of magnitude.
 
 Then all parameters, the design's and the effects', are polished together from the
 first fit's answer (least squares with the batched Jacobian and the same weak pull
@@ -185,6 +188,22 @@ def _residual(model: CurveModel, value: float) -> np.ndarray:
     return R[0]
 
 
+@dataclass
+class Valley:
+    """A first-fit answer carried through the loop's screens: its model (sides apart
+    when named), the design polished there, the Jacobian, the families still named and
+    every family's near-tied places (:func:`near_ties`). ``cost``: the least screened
+    cost of the last family's places (a valley is judged with the named physics in
+    it), else the polished cost."""
+
+    model: CurveModel
+    x: np.ndarray
+    ties: list[list[tuple[Candidate, Effect]]]
+    tried: list[Candidate]
+    named: list[str]
+    cost: float
+
+
 def refine(
     fit: CurveFit,
     named: Sequence[str],
@@ -202,31 +221,111 @@ def refine(
     sides-apart polish (path-independent, cheap), ``refit_nfev``: of the final refit
     (each evaluation of a path-dependent model is a rig loop solved step by step);
     ``screen(model, x)``: the residual screen's named families at a design, asked again
-    once the sides are apart (None: the families ``named`` stand)."""
+    once the sides are apart (None: the families ``named`` stand).
+
+    Every valley the first fit polished (:attr:`CurveFit.valleys`) is carried through
+    the sides-apart polish and the place screen, and the one of the least screened cost
+    is refitted: the model without the named physics has near-equal valleys (a loop is
+    mimicked many ways), and which one a single polish reaches hinges on float-level
+    details, while the places' costs in them differ by orders of magnitude."""
     t0 = time.perf_counter()
     say = say or (lambda _m: None)
-    model, x, J = fit.model, fit.x, fit.jacobian
-    changes: list[str] = []
-    tried: list[Candidate] = []
     skipped = [f for f in named if f != SIDES_FAMILY and f not in EFFECT_FAMILIES]
-    if SIDES_FAMILY in named and not model.two_sided:
-        d = model.space.dim
-        model = model.variant(two_sided=True, base=np.r_[x[:d], x[model.sides :]])
-        x = model.base
+    changes: list[str] = []
+    if SIDES_FAMILY in named and not fit.model.two_sided:
         changes.append("sides apart: every free parameter but the anti-roll bar gets a right twin")
-        say("loop: sides apart (a right-side twin of every free parameter)")
-        stage, _, J = polish(
-            model, model.unit(x), polish_nfev, progress=progress, prior=model.unit(x0)
+    starts = fit.valleys
+    apart = SIDES_FAMILY in named and not fit.model.two_sided
+    # the second valley's sides-apart polish in the second process when there is one
+    there = (
+        pool.submit(_apart, fit, starts[1], x0, polish_nfev)
+        if apart and pool and starts[1:]
+        else None
+    )
+    valleys = []
+    for i, u in enumerate(starts):
+        placed = (
+            (there.result() if i == 1 and there else _apart(fit, u, x0, polish_nfev, progress))
+            if apart
+            else None
         )
-        x = model.designs(stage.u[None])[0]
+        valleys.append(_valley(fit, u, placed, named, pool, screen, say))
+    if len(valleys) > 1:
+        say(
+            "loop: the first fit's valleys, screened cost "
+            + ", ".join(f"{v.cost:.1f}" for v in valleys)
+        )
+    best = min(valleys, key=lambda v: v.cost)
+    skipped += [f for f in best.named if f in EFFECT_FAMILIES and not effect_candidates(f)]
+    if not best.ties:
+        return None
+    plain = best.model
+    options = tie_options(best.ties)
+    if len(options) > 1:
+        say(f"loop: near-tied places, each refitted in full: {' | '.join(map(_names, options))}")
+    say("loop: all parameters refitted together")
+    refits = [
+        _refit(_with_effects(plain, best.x, [e for _, e in o]), x0, refit_nfev, pool, progress)
+        for o in options
+    ]
+    scores = [bic(f.cost, f.model.dim, f.model.size) for f in refits]
+    pick = int(np.argmin(scores))
+    changes += [f"{c.words} ({c.candidate})" for c, _ in options[pick]]
+    if len(options) > 1:
+        changes.append(
+            "near-tied places refitted in full, the least BIC kept: "
+            + "; ".join(f"{_names(o)}: {v:.1f}" for o, v in zip(options, scores, strict=True))
+        )
+    out = refits[pick]
+    # the places are told apart within the short budget; the kept one goes on until a
+    # restart gains less than one squared noise unit
+    say("loop: the kept place's refit continued to convergence")
+    out = _refit(out.model, x0, polish_nfev, pool, progress, out)
+    out.final.name = "refit with " + "; ".join(changes)
+    return Refinement(changes, best.tried, out, time.perf_counter() - t0, skipped)
+
+
+def _apart(
+    fit: CurveFit, u: np.ndarray, x0: np.ndarray, polish_nfev: int, progress: bool = False
+) -> tuple[CurveModel, np.ndarray, np.ndarray, float]:
+    """The first fit's answer ``u`` (a unit point of ``fit.model``) with the sides apart:
+    (the two-sided model, the design polished there with the weak pull towards ``x0``,
+    the Jacobian there, the cost)."""
+    model = fit.model
+    x = model.designs(u[None])[0]
+    d = model.space.dim
+    model = model.variant(two_sided=True, base=np.r_[x[:d], x[model.sides :]])
+    stage, _, J = polish(
+        model, model.unit(model.base), polish_nfev, progress=progress, prior=model.unit(x0)
+    )
+    return model, model.designs(stage.u[None])[0], J, stage.cost
+
+
+def _valley(
+    fit: CurveFit,
+    u: np.ndarray,
+    apart: tuple[CurveModel, np.ndarray, np.ndarray, float] | None,
+    named: Sequence[str],
+    pool: Any,
+    screen: Callable[[CurveModel, np.ndarray], list[str]] | None,
+    say: Callable[[str], None],
+) -> Valley:
+    """The first fit's answer ``u`` (sides apart: :func:`_apart`'s answer from it, the
+    screen asked again there) and every named effect family's places screened there
+    (:func:`_candidate_fit`)."""
+    if apart is None:
+        model, x, cost = fit.model, fit.model.designs(u[None])[0], float(np.inf)
+        J = fit.jacobian if u is fit.u else model.jacobian(u)[1]
+    else:
+        model, x, J, cost = apart
+        say(f"loop: sides apart (a right-side twin of every free parameter): cost {cost:.1f}")
         if screen is not None:  # what the sides apart leave: a pattern may have gone
             named = [SIDES_FAMILY, *screen(model, x)]
             say(f"loop: the screen now names {named[1:] or 'nothing more'}")
-    plain, ties = model, []
+    plain, ties, tried = model, [], []
     for family in [f for f in named if f in EFFECT_FAMILIES]:
         names = effect_candidates(family)
         if not names:
-            skipped.append(family)
             continue
         say(f"loop: {family}: each place alone ({', '.join(names)})")
         r0 = _residual_at(model, x)
@@ -242,28 +341,9 @@ def refine(
             [c.cost for c in cands], [1] * len(fits), r0.size, [c.error for c in cands]
         )
         ties.append([fits[i] for i in keep])
+        cost = min(c.cost for c in cands)
         model = _with_effects(plain, x, [t[0][1] for t in ties])
-    if not ties:
-        return None
-    options = tie_options(ties)
-    if len(options) > 1:
-        say(f"loop: near-tied places, each refitted in full: {' | '.join(map(_names, options))}")
-    say("loop: all parameters refitted together")
-    refits = [
-        _refit(_with_effects(plain, x, [e for _, e in o]), x0, refit_nfev, pool, progress)
-        for o in options
-    ]
-    scores = [bic(f.cost, f.model.dim, f.model.size) for f in refits]
-    pick = int(np.argmin(scores))
-    changes += [f"{c.words} ({c.candidate})" for c, _ in options[pick]]
-    if len(options) > 1:
-        changes.append(
-            "near-tied places refitted in full, the least BIC kept: "
-            + "; ".join(f"{_names(o)}: {v:.1f}" for o, v in zip(options, scores, strict=True))
-        )
-    out = refits[pick]
-    out.final.name = "refit with " + "; ".join(changes)
-    return Refinement(changes, tried, out, time.perf_counter() - t0, skipped)
+    return Valley(plain, x, ties, tried, list(named), cost)
 
 
 def bic(cost: float, k: int, n: int) -> float:
@@ -317,16 +397,29 @@ def _with_effects(model: CurveModel, x: np.ndarray, effects: Sequence[Effect]) -
     )
 
 
-def _refit(model: CurveModel, x0: np.ndarray, nfev: int, pool: Any, progress: bool) -> CurveFit:
-    """All of ``model``'s parameters polished together from its base, the weak pull
-    towards the first fit's start design ``x0`` (effects at their starts)."""
+def _refit(
+    model: CurveModel,
+    x0: np.ndarray,
+    nfev: int,
+    pool: Any,
+    progress: bool,
+    again: CurveFit | None = None,
+) -> CurveFit:
+    """All of ``model``'s parameters polished together from its base (``again``: from
+    that refit's answer, restarted until a restart gains less than
+    :data:`RESTART_GAIN`), the weak pull towards the first fit's start design ``x0``
+    (effects at their starts); ``nfev`` evaluations at most."""
     model.pool = pool  # half of each path-dependent batch in a second process
     prior = model.unit(_start(model, x0))
     # stop when a step gains less than one squared noise unit at a fit to the noise
     # (each path-dependent step costs a rig loop: no crawling along valleys)
     ftol = RESTART_GAIN / model.size
-    u0 = model.unit(model.base)
-    stage, r, J = polish(model, u0, nfev, progress=progress, prior=prior, ftol=ftol)
+    u0 = model.unit(model.base) if again is None else again.u
+    at = None if again is None else (again.residual, again.jacobian)
+    runs = 3 if again is None else nfev
+    stage, r, J = polish(
+        model, u0, nfev, runs, progress=progress, prior=prior, ftol=ftol, at_start=at
+    )
     return CurveFit(model, stage.u, model.designs(stage.u[None])[0], r, J, [stage], stage)
 
 
