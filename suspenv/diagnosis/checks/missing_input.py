@@ -93,21 +93,29 @@ def block_gains(r: np.ndarray, y: np.ndarray, length: int) -> np.ndarray:
     return np.sum(rb * yb, axis=1) / np.where(norm > 0, norm, np.inf)
 
 
-def lag1_p(g: np.ndarray, a: np.ndarray) -> tuple[float, float]:
+def lag1_p(
+    g: np.ndarray, a: np.ndarray, cov: np.ndarray | None = None
+) -> tuple[float, float]:
     """The lag-1 autocorrelation ``rho = e'Ae / e'e`` of the residuals ``e = M g`` of
     ``g`` regressed on the columns of ``a`` (``M = I - P_a``; ``A`` the symmetric lag-1
-    matrix with 1/2 beside its diagonal), and its exact one-sided p-value for
-    independent normal ``g``: ``P(rho' >= rho) = P(g' M (A - rho I) M g >= 0)``, a
-    weighted sum of chi-squares with the eigenvalues of ``M (A - rho I) M`` as weights,
-    by Imhof's (1961) inversion integral (the Durbin-Watson test's exact distribution).
-    Returns (rho, p)."""
+    matrix with 1/2 beside its diagonal), and its exact one-sided p-value for normal
+    ``g`` of covariance ``cov`` (default: independent, of equal variance):
+    ``P(rho' >= rho) = P(g' M (A - rho I) M g >= 0)``, a weighted sum of chi-squares with
+    the eigenvalues of ``S M (A - rho I) M S`` (``S`` the square root of ``cov``) as
+    weights, by Imhof's (1961) inversion integral (the Durbin-Watson test's exact
+    distribution). Returns (rho, p)."""
     b = g.size
     q, _ = np.linalg.qr(a)
     e = g - q @ (q.T @ g)
     rho = float(e @ np.convolve(e, [0.5, 0.0, 0.5])[1:-1] / max(float(e @ e), 1e-300))
     mat = 0.5 * (np.eye(b, k=1) + np.eye(b, k=-1)) - rho * np.eye(b)
     mat = mat - q @ (q.T @ mat)
-    lam = np.linalg.eigvalsh(mat - (mat @ q) @ q.T)
+    mat = mat - (mat @ q) @ q.T
+    if cov is not None:
+        w, v = np.linalg.eigh(cov)
+        root = (v * np.sqrt(np.clip(w, 0.0, None))) @ v.T
+        mat = root @ mat @ root
+    lam = np.linalg.eigvalsh(mat)
     lam = lam[np.abs(lam) > 1e-12 * np.max(np.abs(lam))]
 
     def integrand(u: float) -> float:
@@ -141,11 +149,10 @@ def whitening(e: np.ndarray) -> np.ndarray:
     return np.r_[1.0, -linalg.solve_toeplitz(acf[:-1], acf[1:])]
 
 
-def drift(r: np.ndarray) -> np.ndarray:
-    """The least-squares polynomial of degree :data:`DRIFT_DEGREE` in time through ``r``
-    (a slowly drifting zero)."""
-    t = np.linspace(-1.0, 1.0, r.size)
-    return np.asarray(np.polynomial.legendre.Legendre.fit(t, r, DRIFT_DEGREE)(t))
+def drift_basis(n: int) -> np.ndarray:
+    """The Legendre polynomials of degree 0 to :data:`DRIFT_DEGREE` over ``n`` samples
+    (columns): a slowly drifting zero."""
+    return np.polynomial.legendre.legvander(np.linspace(-1.0, 1.0, n), DRIFT_DEGREE)
 
 
 def within_blocks(r: np.ndarray, signals: Sequence[np.ndarray], length: int) -> np.ndarray:
@@ -171,12 +178,16 @@ def switching(
     p-value of the lag-1 autocorrelation's exact distribution (:func:`lag1_p`),
     Bonferroni over the block lengths and signals tried. ``r`` and the signals are first
     filtered by the autoregression (:func:`whitening`) of what the gains of the shortest
-    blocks leave, so that noise correlated over many samples gives independent gains."""
+    blocks leave, so that noise correlated over many samples gives independent gains,
+    and a drifting zero (:func:`drift_basis`, whitened alike) is taken out of ``r``: the
+    gains' covariance that leaves, ``I - (G Q)(G Q)'`` (``G`` the gains' rows, ``Q`` an
+    orthonormal basis of the whitened drift), is part of the exact null."""
     if r.size < MIN_BLOCKS * BLOCK_SAMPLES[0] or not signals:
         return dict(NO_SWITCHING)
-    r = r - drift(r)
     poly = whitening(within_blocks(r, signals, BLOCK_SAMPLES[0]))
+    q, _ = np.linalg.qr(signal.lfilter(poly, [1.0], drift_basis(r.size), axis=0))
     rw = signal.lfilter(poly, [1.0], r)
+    rw = rw - q @ (q.T @ rw)
     tried = []
     for length in BLOCK_SAMPLES:
         blocks = r.size // length
@@ -187,7 +198,10 @@ def switching(
         if blocks < max(MIN_BLOCKS, a.shape[1] + 3):  # too few degrees of freedom left
             continue
         for s in signals:
-            rho, p = lag1_p(block_gains(rw, signal.lfilter(poly, [1.0], s), length), a)
+            sw = signal.lfilter(poly, [1.0], s)
+            gq = np.column_stack([block_gains(c, sw, length) for c in q.T])
+            cov = np.eye(blocks) - gq @ gq.T
+            rho, p = lag1_p(block_gains(rw, sw, length), a, cov)
             tried.append((p, length, rho, blocks))
     if not tried:
         return dict(NO_SWITCHING)
