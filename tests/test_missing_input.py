@@ -3,9 +3,11 @@
 References: the MR law against scipy's ``solve_ivp`` of the same ODE (a second solver),
 its u = 0 limit against the passive MR model with a Bouc-Wen element, its odd symmetry;
 the check's definitions against closed forms (white noise's second difference has
-variance 6 sigma^2; a filtered copy of a signal is fully coherent with it), and the
-check on synthetic cases whose truth is known (a switching coil current recorded or
-not; the effect-free controls of :mod:`suspenv.diagnosis.component.truth`).
+variance 6 sigma^2; a finite filter of a signal is a time-invariant function of it), its
+exact null p-value against a Monte Carlo simulation, its level under four noises
+independent of the motion, and the check on synthetic cases whose truth is known (a
+switching coil current recorded or not; the effect-free controls of
+:mod:`suspenv.diagnosis.component.truth`).
 """
 
 from __future__ import annotations

@@ -68,7 +68,7 @@ FINE_BINS = 64
 SAMPLES_PER_FINE_BIN = 20
 #: the name of the prediction among the signals
 PREDICTION = "the model's prediction"
-#: the switching test's numbers where it cannot be run (too few blocks, no prediction)
+#: the switching test's numbers where it cannot be run (too few blocks or no signal)
 NO_SWITCHING = {"p_switching": 1.0, "block_samples": 0, "gain_lag1": 0.0, "blocks": 0}
 
 
