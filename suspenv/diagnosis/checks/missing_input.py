@@ -120,7 +120,8 @@ def lag1_p(
 
     def integrand(u: float) -> float:
         theta = 0.5 * np.sum(np.arctan(lam * u))
-        return float(np.sin(theta) / (u * np.prod((1.0 + (lam * u) ** 2) ** 0.25)))
+        # 1 / prod (1 + (lam u)^2)^(1/4), in logarithms (the product overflows)
+        return float(np.sin(theta) / u * np.exp(-0.25 * np.sum(np.log1p((lam * u) ** 2))))
 
     tail, _ = integrate.quad(integrand, 0.0, np.inf, limit=200)
     return rho, float(np.clip(0.5 + tail / np.pi, 0.0, 1.0))
