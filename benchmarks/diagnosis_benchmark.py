@@ -235,6 +235,8 @@ def summarise(rows: list[dict[str, Any]]) -> dict[str, Any]:
         ),
         "control_false_alarm": mean("false_alarm", none),
         "outside_unexplained": mean("unexplained", outside),
+        # the missing-input check called a residual driven by an unrecorded input
+        "missing_input_said": mean("missing_input_said", rows),
         "single_unexplained": mean("unexplained", single),
         "median_heldout_reduction": float(np.median([r["heldout_reduction"] for r in with_eff]))
         if with_eff
@@ -265,7 +267,6 @@ def per_condition(rows: list[dict[str, Any]], seeds: list[int]) -> dict[str, Any
             "seeds_fixed": "in the committed config before the run",
             "all": summarise(rs),
             "per_family": per_family(rs),
-            "missing_input_said": float(np.mean([bool(r["missing_input_said"]) for r in rs])),
         }
     return out
 
@@ -514,15 +515,15 @@ def _condition_table(conds: dict[str, Any]) -> list[str]:
         "",
         "| condition (not declared by the recording) | family | cases | single effect: named "
         "first [>= 95 %] | controls: false alarm [<= 5 %] | residual called unexplained | "
-        "time median: wall (CPU) |",
-        "|---|---|---|---|---|---|---|",
+        "residual called driven by an unrecorded input | time median: wall (CPU) |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     for cond, c in conds.items():
         for fam, f in [("all", c["all"]), *c["per_family"].items()]:
             L.append(
                 f"| {cond} | {fam} | {f['n_cases']} | {_pct(f['single_top1_family'])} | "
                 f"{_pct(f['control_false_alarm'])} | {_pct(f['single_unexplained'])} (single) | "
-                f"{_secs(f, 'median')} |"
+                f"{_pct(f.get('missing_input_said', float('nan')))} (all) | {_secs(f, 'median')} |"
             )
     return L
 

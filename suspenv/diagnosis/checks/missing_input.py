@@ -5,36 +5,31 @@ residual that is large, not white, and yet no function of the recorded inputs: w
 stretch of constant current the force follows the motion, but the relation changes
 from stretch to stretch. Read as noise (it is not a function of the state), it would
 hide a missing input. The check reads the final model's residual ``r`` of every
-recording (as a whole, one series per output channel) and calls it **driven by an
-unrecorded input** when all of these hold:
+recording (as a whole, one series per output channel), takes out what a time-invariant
+function of the signals the model reads explains (:func:`time_invariant`: linear
+filters of each, cell means of a pair and of one: a stop, a dead band, a friction step,
+cogging) and calls the rest **driven by an unrecorded input** when both hold:
 
-0. **far above the noise**: ``rms(r)`` is at least :data:`SIZE_LIMIT` times its white
-   floor (:func:`white_floor`, from its second differences);
-1. **switching**: the gain of ``r`` on the model's prediction, fitted block by block
+0. **far above the noise**: its RMS is at least :data:`SIZE_LIMIT` times the residual's
+   white floor (:func:`white_floor`, from its second differences);
+1. **switching**: its gain on a recorded signal or the prediction, fitted block by block
    (lengths :data:`BLOCK_SAMPLES`: the switching time is not known; at least
-   :data:`MIN_BLOCKS` blocks; the last :data:`GUARD_FRACTION` of each block left out,
-   so that noise correlated over a few samples does not couple neighbouring blocks),
-   less what the blocks' excitation explains, persists from block to block: the lag-1
-   autocorrelation of those regression residuals, standardised by its exact mean and
-   variance for independent normal gains (:func:`lag1_z`; regressing out ``p``
-   columns biases it by about ``-p/B``), is standard normal for gains that do not
-   persist; its one-sided p-value (Bonferroni over the block lengths and the judged
-   channels) is below the rule's ``alpha``. Noise independent of the motion, white or
-   coloured, gives gains that do not persist once a block outlasts its correlation;
-2. **no linear relation**: the coherence of ``r`` (:func:`scipy.signal.coherence`,
-   averaged over frequency with the weight of the residual's own spectrum: the share of
-   its power a linear filter of that signal explains) with every recorded input and
-   with the prediction stays below :data:`COHERENCE_LIMIT`;
-3. **no static relation**: the residual's means over :data:`FINE_BINS` quantile bins
-   of each of those signals (a fine ripple along one input) and over a grid of
-   :data:`STATE_BINS` x :data:`STATE_BINS` quantile cells of every pair explain less than
-   :data:`STATE_SHARE_LIMIT` of its variance (a stop, a dead band or a friction step is
-   a function of the state and is left to the residual-left checks).
+   :data:`MIN_BLOCKS` blocks), less what the blocks' excitation explains, persists from
+   block to block (:func:`switching`): after a drifting zero is taken out and the
+   residual's noise whitened by its autoregression, the lag-1 autocorrelation of those
+   gains has an exact distribution for independent normal gains (:func:`lag1_p`);
+   its one-sided p-value (Bonferroni over the block lengths, the signals and the
+   judged channels) is below the rule's ``alpha``. A switched damping ``c v`` is such a
+   gain on the velocity: its mean over time is a function of the state and taken out,
+   the switching is not.
 
+When the model does not read a recorded input (an MR damper's coil current given to a
+passive model), the test is run again with that input's block levels as a recorded
+cause: when the gains then no longer persist, the finding names it ("unread").
 The verdict then says that an input the recording does not carry (or one it carries
 that the model does not read) may drive the residual, with its size (RMS in % of the
-output's, and in multiples of its white floor) and the evidence; it is
-not confident. Recordings too short for the blocks (K&C loops) are not judged.
+output's, and in multiples of its white floor) and the evidence; it is not confident.
+Recordings too short for the blocks (K&C loops) are not judged.
 """
 
 from __future__ import annotations
@@ -44,7 +39,7 @@ from itertools import combinations
 from typing import Any
 
 import numpy as np
-from scipy import signal, stats
+from scipy import integrate, linalg, signal
 
 from suspenv.diagnosis.checks.assumptions import unread_inputs
 from suspenv.diagnosis.checks.finding import Context, Finding
@@ -59,19 +54,21 @@ MIN_BLOCKS = 16
 GUARD_FRACTION = 0.2
 #: the residual's RMS over its white noise floor above which it is "far above the noise"
 SIZE_LIMIT = 3.0
-#: largest spectrum-weighted coherence with a recorded signal of an unrecorded cause
-COHERENCE_LIMIT = 0.5
-#: quantile bins per signal of the static-relation test on a pair of signals
+#: lags [samples] either side of the time-invariant linear filters removed first
+LAGS = 8
+#: degree of the polynomial in time removed as a drifting zero before the block gains
+DRIFT_DEGREE = 3
+#: order of the autoregression that whitens the residual before the block gains
+AR_ORDER = 2
+#: quantile bins per signal of the cell means on a pair of signals
 STATE_BINS = 6
 #: quantile bins of a single signal (a fine ripple along one input, e.g. cogging along
 #: the position), at most one per :data:`SAMPLES_PER_FINE_BIN` samples
 FINE_BINS = 64
 SAMPLES_PER_FINE_BIN = 20
-#: the largest share of the residual's variance the cell means may explain
-STATE_SHARE_LIMIT = 0.5
 #: the name of the prediction among the signals
 PREDICTION = "the model's prediction"
-#: the switching test's numbers where it cannot be run (too few blocks, no prediction)
+#: the switching test's numbers where it cannot be run (too few blocks or no signal)
 NO_SWITCHING = {"p_switching": 1.0, "block_samples": 0, "gain_lag1": 0.0, "blocks": 0}
 
 
@@ -85,72 +82,128 @@ def white_floor(r: np.ndarray) -> float:
 def block_gains(r: np.ndarray, y: np.ndarray, length: int) -> np.ndarray:
     """The part of ``r`` along ``y`` in consecutive blocks of ``length``: ``<r, y> /
     |y|`` (the gain times ``|y|``, so that white noise gives the same spread in every
-    block however little ``y`` moves there), each block with its own straight line in
-    time removed first (a slowly drifting zero is not a gain) and its last
-    :data:`GUARD_FRACTION` left out (a gap of that many samples between the blocks)."""
+    block however little ``y`` moves there), the last :data:`GUARD_FRACTION` of each
+    block left out (a gap of that many samples between the blocks). Nothing is removed
+    within a block: a slow motion's gain lives in its block means."""
     blocks = r.size // length
-    ramp = np.linspace(-1.0, 1.0, length)
-
-    def detrended(x: np.ndarray) -> np.ndarray:
-        b = x[: blocks * length].reshape(blocks, length)
-        b = b - b.mean(axis=1, keepdims=True)
-        return b - np.outer(b @ ramp / (ramp @ ramp), ramp)
-
-    rb, yb = detrended(r), detrended(y)
+    rb = r[: blocks * length].reshape(blocks, length)
+    yb = y[: blocks * length].reshape(blocks, length).copy()
     yb[:, length - int(GUARD_FRACTION * length) :] = 0.0
     norm = np.sqrt(np.sum(yb * yb, axis=1))
     return np.sum(rb * yb, axis=1) / np.where(norm > 0, norm, np.inf)
 
 
-def lag1_z(g: np.ndarray, a: np.ndarray) -> tuple[float, float]:
+def lag1_p(
+    g: np.ndarray, a: np.ndarray, cov: np.ndarray | None = None
+) -> tuple[float, float]:
     """The lag-1 autocorrelation ``rho = e'Ae / e'e`` of the residuals ``e = M g`` of
     ``g`` regressed on the columns of ``a`` (``M = I - P_a``; ``A`` the symmetric lag-1
-    matrix with 1/2 beside its diagonal), and its standard score under independent
-    normal ``g``: the ratio is independent of ``e'e``, so its mean is ``tr(MA) / m`` and
-    its variance ``2 (tr(MAMA) - tr(MA)^2 / m) / (m (m + 2))`` exactly, ``m`` the
-    residual degrees of freedom (the moments of the Durbin-Watson statistic). Returns
-    (rho, z)."""
+    matrix with 1/2 beside its diagonal), and its exact one-sided p-value for normal
+    ``g`` of covariance ``cov`` (default: independent, of equal variance):
+    ``P(rho' >= rho) = P(g' M (A - rho I) M g >= 0)``, a weighted sum of chi-squares with
+    the eigenvalues of ``S M (A - rho I) M S`` (``S`` the square root of ``cov``) as
+    weights, by Imhof's (1961) inversion integral (the Durbin-Watson test's exact
+    distribution). Returns (rho, p)."""
     b = g.size
     q, _ = np.linalg.qr(a)
-    m = b - q.shape[1]
     e = g - q @ (q.T @ g)
-    lag = 0.5 * (np.eye(b, k=1) + np.eye(b, k=-1))
-    ma = lag - q @ (q.T @ lag)
-    tr = float(np.trace(ma))
-    var = 2.0 * (float(np.sum(ma * ma.T)) - tr**2 / m) / (m * (m + 2))
-    rho = float(e @ lag @ e / max(float(e @ e), 1e-300))
-    return rho, (rho - tr / m) / np.sqrt(max(var, 1e-300))
+    rho = float(e @ np.convolve(e, [0.5, 0.0, 0.5])[1:-1] / max(float(e @ e), 1e-300))
+    mat = 0.5 * (np.eye(b, k=1) + np.eye(b, k=-1)) - rho * np.eye(b)
+    mat = mat - q @ (q.T @ mat)
+    mat = mat - (mat @ q) @ q.T
+    if cov is not None:
+        w, v = np.linalg.eigh(cov)
+        root = (v * np.sqrt(np.clip(w, 0.0, None))) @ v.T
+        mat = root @ mat @ root
+    lam = np.linalg.eigvalsh(mat)
+    lam = lam[np.abs(lam) > 1e-12 * np.max(np.abs(lam))]
+
+    def integrand(u: float) -> float:
+        theta = 0.5 * np.sum(np.arctan(lam * u))
+        # 1 / prod (1 + (lam u)^2)^(1/4), in logarithms (the product overflows)
+        return float(np.sin(theta) / u * np.exp(-0.25 * np.sum(np.log1p((lam * u) ** 2))))
+
+    tail, _ = integrate.quad(integrand, 0.0, np.inf, limit=200)
+    return rho, float(np.clip(0.5 + tail / np.pi, 0.0, 1.0))
 
 
-def block_features(signals: Sequence[np.ndarray], length: int) -> np.ndarray:
+def block_features(signals: Sequence[np.ndarray], length: int, means: bool = False) -> np.ndarray:
     """What each block of ``length`` excites, per signal: the log of its spread and of
-    the spread of its first difference (amplitude and frequency of the motion)."""
+    the spread of its first difference (amplitude and frequency of the motion), and with
+    ``means`` its mean (the level of a recorded current or voltage)."""
     cols = []
     for s in signals:
         b = s[: s.size // length * length].reshape(-1, length)
         tiny = 1e-9 * float(np.std(s)) + 1e-300  # a block at rest: a floor, not log(0)
         cols += [np.log(np.std(b, axis=1) + tiny), np.log(np.std(np.diff(b), axis=1) + tiny)]
+        cols += [b.mean(axis=1)] if means else []
     return np.column_stack(cols)
 
 
-def switching(r: np.ndarray, y: np.ndarray, signals: Sequence[np.ndarray]) -> dict[str, float]:
-    """The regime test: the gains of ``r`` on the prediction ``y`` block by block, less
-    what the blocks' excitation explains (:func:`block_features` of ``signals``, by least
-    squares: a test programme's steps are a recorded cause), keep their value from one
-    block to the next: one-sided p-value of the lag-1 autocorrelation's exact standard
-    score (:func:`lag1_z`), Bonferroni over the block lengths tried (a residual
-    independent of the motion gives gains that do not persist once a block outlasts its
-    own correlation)."""
+def whitening(e: np.ndarray) -> np.ndarray:
+    """The polynomial ``[1, -phi_1, ..., -phi_p]`` (``p`` = :data:`AR_ORDER`) of the
+    Yule-Walker autoregression of ``e``: filtering by it leaves ``e`` about white."""
+    e = e - e.mean()
+    acf = np.array([e[: e.size - k] @ e[k:] for k in range(AR_ORDER + 1)]) / e.size
+    if acf[0] <= 0.0:
+        return np.array([1.0])
+    return np.r_[1.0, -linalg.solve_toeplitz(acf[:-1], acf[1:])]
+
+
+def drift_basis(n: int) -> np.ndarray:
+    """The Legendre polynomials of degree 0 to :data:`DRIFT_DEGREE` over ``n`` samples
+    (columns): a slowly drifting zero."""
+    return np.polynomial.legendre.legvander(np.linspace(-1.0, 1.0, n), DRIFT_DEGREE)
+
+
+def within_blocks(r: np.ndarray, signals: Sequence[np.ndarray], length: int) -> np.ndarray:
+    """``r`` less its least-squares fit on a constant, a ramp and ``signals`` in each
+    block of ``length`` (what no gain of a block explains: the noise)."""
+    n = r.size // length * length
+    ramp = np.linspace(-1.0, 1.0, length)
+    out = np.empty(n)
+    for k in range(0, n, length):
+        a = np.column_stack([np.ones(length), ramp, *(s[k : k + length] for s in signals)])
+        coef, *_ = np.linalg.lstsq(a, r[k : k + length], rcond=None)
+        out[k : k + length] = r[k : k + length] - a @ coef
+    return out
+
+
+def switching(
+    r: np.ndarray, signals: Sequence[np.ndarray], causes: Sequence[np.ndarray] = ()
+) -> dict[str, float]:
+    """The regime test: the gains of ``r`` on each of ``signals`` block by block, less
+    what the blocks' excitation explains (:func:`block_features` of ``signals``, and of
+    the recorded ``causes`` with their block means, by least squares: a test programme's
+    steps are a recorded cause), keep their value from one block to the next: one-sided
+    p-value of the lag-1 autocorrelation's exact distribution (:func:`lag1_p`),
+    Bonferroni over the block lengths and signals tried. ``r`` and the signals are first
+    filtered by the autoregression (:func:`whitening`) of what the gains of the shortest
+    blocks leave, so that noise correlated over many samples gives independent gains,
+    and a drifting zero (:func:`drift_basis`, whitened alike) is taken out of ``r``: the
+    gains' covariance that leaves, ``I - (G Q)(G Q)'`` (``G`` the gains' rows, ``Q`` an
+    orthonormal basis of the whitened drift), is part of the exact null."""
+    if r.size < MIN_BLOCKS * BLOCK_SAMPLES[0] or not signals:
+        return dict(NO_SWITCHING)
+    poly = whitening(within_blocks(r, signals, BLOCK_SAMPLES[0]))
+    q, _ = np.linalg.qr(signal.lfilter(poly, [1.0], drift_basis(r.size), axis=0))
+    rw = signal.lfilter(poly, [1.0], r)
+    rw = rw - q @ (q.T @ rw)
     tried = []
     for length in BLOCK_SAMPLES:
-        g = block_gains(r, y, length)
-        if g.size < MIN_BLOCKS:
+        blocks = r.size // length
+        a = np.column_stack(
+            [np.ones(blocks), block_features(signals, length)]
+            + ([block_features(causes, length, means=True)] if causes else [])
+        )
+        if blocks < max(MIN_BLOCKS, a.shape[1] + 3):  # too few degrees of freedom left
             continue
-        a = np.column_stack([np.ones(g.size), block_features(signals, length)])
-        if g.size < a.shape[1] + 3:  # too few degrees of freedom left for the moments
-            continue
-        rho, z = lag1_z(g, a)
-        tried.append((float(stats.norm.sf(z)), length, rho, g.size))
+        for s in signals:
+            sw = signal.lfilter(poly, [1.0], s)
+            gq = np.column_stack([block_gains(c, sw, length) for c in q.T])
+            cov = np.eye(blocks) - gq @ gq.T
+            rho, p = lag1_p(block_gains(rw, sw, length), a, cov)
+            tried.append((p, length, rho, blocks))
     if not tried:
         return dict(NO_SWITCHING)
     p, length, rho, blocks = min(tried)
@@ -162,134 +215,130 @@ def switching(r: np.ndarray, y: np.ndarray, signals: Sequence[np.ndarray]) -> di
     }
 
 
-def weighted_coherence(r: np.ndarray, s: np.ndarray, fs: float) -> float:
-    """Coherence of ``r`` with ``s`` averaged over frequency, weighted by ``r``'s power
-    spectrum (0: no linear relation; 1: ``r`` is a linear filter of ``s``)."""
-    nper = int(min(256, max(16, r.size // 8)))
-    f, c = signal.coherence(r, s, fs=fs, nperseg=nper)
-    _, prr = signal.welch(r, fs=fs, nperseg=nper)
-    c = np.nan_to_num(c)
-    return float(np.sum(c * prr) / max(float(np.sum(prr)), 1e-300))
-
-
-def state_share(r: np.ndarray, signals: Sequence[np.ndarray], bins: int) -> float:
-    """Share of ``r``'s variance its means over the cells of ``bins`` quantile bins of
-    each of ``signals`` explain."""
+def cell_means(r: np.ndarray, signals: Sequence[np.ndarray], bins: int) -> np.ndarray:
+    """``r``'s means over the cells of ``bins`` quantile bins of each of ``signals``, at
+    every sample."""
     cells = np.zeros(r.size, dtype=int)
     for s in signals:
         edges = np.quantile(s, np.linspace(0.0, 1.0, bins + 1)[1:-1])
         cells = cells * bins + np.searchsorted(edges, s)
     counts = np.bincount(cells)
-    means = np.bincount(cells, weights=r) / np.maximum(counts, 1)
-    var = float(np.var(r))
-    return float(np.var(means[cells]) / var) if var > 0 else 0.0
+    return (np.bincount(cells, weights=r) / np.maximum(counts, 1))[cells]
+
+
+def time_invariant(r: np.ndarray, signals: Sequence[np.ndarray]) -> np.ndarray:
+    """The part of ``r`` a time-invariant function of ``signals`` explains: linear
+    filters (least squares on each signal shifted by up to :data:`LAGS` samples either
+    way), then the cell means of the pair of signals (:data:`STATE_BINS` quantile bins
+    each) and of the single signal (:data:`FINE_BINS`, a fine ripple along one input)
+    that explain most of what is left (a stop, a dead band, a friction step, cogging)."""
+    n = r.size
+    pad = [np.pad(s, LAGS, mode="edge") for s in signals]
+    cols = [np.ones(n)] + [p[k : k + n] for p in pad for k in range(2 * LAGS + 1)]
+    a = np.column_stack(cols)
+    fitted = a @ np.linalg.lstsq(a, r, rcond=None)[0]
+    fine = int(min(FINE_BINS, n // SAMPLES_PER_FINE_BIN))
+    pairs = list(combinations(signals, 2))
+    for group, bins in ((pairs, STATE_BINS), ([(s,) for s in signals], fine)):
+        if group:
+            parts = [cell_means(r - fitted, g, bins) for g in group]
+            fitted = fitted + max(parts, key=lambda m: float(m @ m))
+    return fitted
 
 
 def judge(
-    r: np.ndarray, y: np.ndarray, signals: dict[str, np.ndarray], fs: float
+    r: np.ndarray, y: np.ndarray, signals: dict[str, np.ndarray], unread: Sequence[str] = ()
 ) -> dict[str, Any]:
     """The tests on one residual ``r`` of the output ``y`` with the recorded
-    ``signals`` (name -> series: the inputs and the prediction)."""
+    ``signals`` (name -> series: the inputs and the prediction), of which the model does
+    not read ``unread``: what no time-invariant function of the signals the model reads
+    explains (:func:`time_invariant`) is tested for switching (:func:`switching`), once
+    with the unread signals' block levels as recorded causes (``p_switching_all``)."""
     named = {k: np.asarray(s, float) for k, s in signals.items() if np.ptp(s) > 0}
-    pred = named.get(PREDICTION)
-    out: dict[str, Any] = dict(
-        switching(r, pred, list(named.values())) if pred is not None else NO_SWITCHING
-    )
-    out["size"] = float(np.sqrt(np.mean(r**2)) / max(white_floor(r), 1e-300))
-    coh = {k: weighted_coherence(r, s, fs) for k, s in named.items()}
-    out["coherence"] = coh
-    fine = int(min(FINE_BINS, r.size // SAMPLES_PER_FINE_BIN))
-    shares = {k: state_share(r, [s], fine) for k, s in named.items()}
-    shares |= {
-        f"{a} & {b}": state_share(r, [named[a], named[b]], STATE_BINS)
-        for a, b in combinations(named, 2)
-    }
-    out["state_shares"] = shares
-    out["state_share"] = max(shares.values(), default=0.0)
+    read = [s for k, s in named.items() if k not in unread]
+    other = [s for k, s in named.items() if k in unread]
+    left = r - time_invariant(r, read) if read else r
+    out: dict[str, Any] = switching(left, read)
+    if other:
+        out["p_switching_all"] = switching(left, read, other)["p_switching"]
+    out["size"] = float(np.sqrt(np.mean(left**2)) / max(white_floor(r), 1e-300))
+    out["time_invariant_share"] = float(1.0 - np.var(left) / max(float(np.var(r)), 1e-300))
     out["share_of_output"] = float(np.std(r) / max(float(np.std(y)), 1e-300))
     out["lag1"] = lag1_autocorrelation(r)
     return out
 
 
-def judge_recording(fit: FitResult, rec: RecordingLike) -> dict[str, dict[str, Any]]:
+def judge_recording(
+    fit: FitResult, rec: RecordingLike, unread: Sequence[str] = ()
+) -> dict[str, dict[str, Any]]:
     """Per output channel of ``fit``, the numbers of the tests on its residual in ``rec``
-    (empty when ``rec`` is too short for the blocks or has no input)."""
+    (:func:`judge`; the model does not read the inputs ``unread``; empty when ``rec`` is
+    too short for the blocks or has no input)."""
     if len(rec.time) < MIN_BLOCKS * BLOCK_SAMPLES[0] or not rec.inputs:
         return {}
     (res,) = residuals(fit.model, fit.theta, [rec], fit.channels)
     pred = fit.model.simulate(fit.theta, rec)
-    fs = 1.0 / float(np.median(np.diff(np.asarray(rec.time, float))))
     return {
         ch: judge(
-            res[ch], np.asarray(rec.outputs[ch], float), {**rec.inputs, PREDICTION: pred[ch]}, fs
+            res[ch],
+            np.asarray(rec.outputs[ch], float),
+            {**rec.inputs, PREDICTION: pred[ch]},
+            unread,
         )
         for ch in fit.channels
     }
 
 
-def _cells(ctx: Context) -> list[tuple[str, str, dict[str, Any]]]:
+def _cells(ctx: Context, unread: Sequence[str]) -> list[tuple[str, str, dict[str, Any]]]:
     """(recording, channel, numbers) for every judged recording and output channel."""
     return [
         (str(rec.name), ch, n)
         for rec in ctx.setup.split.recordings()
-        for ch, n in judge_recording(ctx.outcome.current, rec).items()
+        for ch, n in judge_recording(ctx.outcome.current, rec, unread).items()
     ]
 
 
-def relations(n: dict[str, Any]) -> list[set[str]]:
-    """The signals (one, or a pair of the static test) the residual is a function of."""
-    out = [{k} for k, c in n["coherence"].items() if c >= COHERENCE_LIMIT]
-    return out + [
-        set(k.split(" & ")) for k, v in n["state_shares"].items() if v >= STATE_SHARE_LIMIT
-    ]
-
-
-def cause(n: dict[str, Any], alpha: float, unread: Sequence[str] = ()) -> str | None:
+def cause(n: dict[str, Any], alpha: float) -> str | None:
     """What the tests say at level ``alpha`` on the numbers ``n``: ``"unrecorded"`` (an
-    input the recording does not carry), ``"unread"`` (a recorded input in ``unread``
-    the model does not read: every relation found involves one) or None."""
+    input the recording does not carry), ``"unread"`` (a recorded input the model does
+    not read explains the switching: with its block levels as a cause, the gains no
+    longer persist) or None."""
     if not (n["p_switching"] < alpha and n["size"] >= SIZE_LIMIT):
         return None
-    found = relations(n)
-    if not found:
-        return "unrecorded"
-    return "unread" if all(s & set(unread) for s in found) else None
+    return "unread" if n.get("p_switching_all", 0.0) >= alpha else "unrecorded"
 
 
-def sentence(rec: str, ch: str, n: dict[str, Any], unread: Sequence[str]) -> str:
+def sentence(rec: str, ch: str, n: dict[str, Any], why: str, unread: Sequence[str]) -> str:
     """The finding in words."""
     head = (
         f"a residual of {100 * n['share_of_output']:.0f} % of the {ch} RMS is left in "
-        f"{rec}, {n['size']:.3g} times its white noise floor and not white (lag-1 "
-        f"correlation {n['lag1']:.2f}); its gain on the prediction switches and persists "
-        f"over blocks of {n['block_samples']} samples (lag-1 correlation of the gains "
-        f"{n['gain_lag1']:.2f} over {n['blocks']} blocks, p = {n['p_switching']:.2g})"
+        f"{rec}, not white (lag-1 correlation {n['lag1']:.2f}); what no time-invariant "
+        f"function of the recorded signals explains ({100 * (1 - n['time_invariant_share']):.0f}"
+        f" % of its variance) is {n['size']:.3g} times its white noise floor, and its gain "
+        f"on a recorded signal switches and persists over blocks of {n['block_samples']} "
+        f"samples (lag-1 correlation of the gains {n['gain_lag1']:.2f} over {n['blocks']} "
+        f"blocks, p = {n['p_switching']:.2g})"
     )
-    found = relations(n)
-    if found:
-        names = sorted(set.union(*found) & set(unread))
-        share = max(n["state_share"], *n["coherence"].values())
+    if why == "unread":
         return (
-            f"{head}, and it follows the recorded {', '.join(names)} (coherence or cell "
-            f"means of the state explain {100 * share:.0f} % of it), which the model does "
-            "not read: that input drives it; give it to a model that reads it"
+            f"{head}, and the levels of the recorded {', '.join(unread)} explain the "
+            "switching, which the model does not read: that input drives it; give it to a "
+            "model that reads it"
         )
-    best = max(n["coherence"], key=lambda k: n["coherence"][k])
     return (
-        f"{head}, yet it is no function of any recorded input (coherence at most "
-        f"{n['coherence'][best]:.2f}, with {best}; cell means of the state explain "
-        f"{100 * n['state_share']:.0f} % of it): an input the recording does not carry "
-        "may drive it; it is not noise"
+        f"{head}, with no recorded cause: an input the recording does not carry may drive "
+        "it; it is not noise"
     )
 
 
 def run(ctx: Context) -> Finding | None:
     """The missing-input finding (None when no recording is long enough to judge)."""
-    cells = _cells(ctx)
+    unread = unread_inputs(ctx.setup)
+    cells = _cells(ctx, unread)
     if not cells:
         return None
-    alpha, unread = ctx.rule.alpha / len(cells), unread_inputs(ctx.setup)
-    fired = [(c, cause(c[2], alpha, unread)) for c in cells]
+    alpha = ctx.rule.alpha / len(cells)
+    fired = [(c, cause(c[2], alpha)) for c in cells]
     fired = [f for f in fired if f[1] is not None]
     numbers: dict[str, Any] = {"judged": {f"{r} {ch}": n for r, ch, n in cells}}
     if not fired:
@@ -299,4 +348,5 @@ def run(ctx: Context) -> Finding | None:
     numbers["short"] = f"{100 * n['share_of_output']:.0f} % of the {ch} RMS, " + (
         "switching with no recorded cause" if why == "unrecorded" else "driven by an unread input"
     )
-    return Finding("missing_input", True, False, sentence(rec, ch, n, unread), True, numbers)
+    text = sentence(rec, ch, n, str(why), unread)
+    return Finding("missing_input", True, False, text, True, numbers)
