@@ -59,7 +59,7 @@ from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.component.motion import cycle_index, motion
 from suspenv.diagnosis.component.refit import SIZE_Z, parameter_and_error, refit_with
 from suspenv.diagnosis.component.residual_left import MATERIAL_RATIO, removed_over_left
-from suspenv.diagnosis.component.withdrawal import Withdrawal, element_name, without_element
+from suspenv.diagnosis.component.withdrawal import element_name, without_element
 from suspenv.diagnosis.decision import DecisionRule, decide
 from suspenv.diagnosis.evidence import (
     compare,
@@ -70,7 +70,7 @@ from suspenv.diagnosis.evidence import (
     relative_drop,
 )
 from suspenv.diagnosis.fitting import FitResult
-from suspenv.diagnosis.hypothesis import Hypothesis
+from suspenv.diagnosis.hypothesis import Hypothesis, Withdrawal
 from suspenv.diagnosis.split import Split
 
 #: corrected BIC difference above which one of two fits of equal size is decisively
@@ -526,6 +526,7 @@ def judge_beside_delay(
                 p_value_corrected=again.p_value_corrected,
                 delta_bic_corrected=again.delta_bic_corrected,
                 heldout_reduction=again.heldout_reduction,
+                beside_delay=True,
             )
         )
         final = without_element(final, str(element_name(h)), sp, budget)
