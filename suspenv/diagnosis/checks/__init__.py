@@ -30,8 +30,7 @@ __all__ = ["Check", "Context", "Finding", "fold", "revise", "run"]
 
 
 def _checks() -> tuple[Check, ...]:
-    # of the checks' leading sentences (after the family's own) the misfit's, folded last,
-    # goes first
+    # their leading sentences follow the family's in this order (the misfit's last)
     return (residual_left.run, missing_input.run, bounds.run, assumptions.run, misfit.run)
 
 
