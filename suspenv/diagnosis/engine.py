@@ -16,9 +16,9 @@ profile's spectrum (:class:`~suspenv.diagnosis.road.RoadFamily`). The loop:
    in the round) and rank them; the best significant one is named, **settled** (made
    ready to be the next round's null model) and becomes the current model; the search
    stops when nothing is significant or after ``family.max_effects`` rounds;
-4. the family's **conclude** probes (damper asymmetry, a delay or drift beside the named
-   elements, detection limits), then the checks every family gets
-   (:mod:`suspenv.diagnosis.checks`: the residual left in the family's noise units, the
+4. the family's **conclude**, then the **checks** (:mod:`suspenv.diagnosis.checks`):
+   the family's own (which may withdraw an element and replace the final model), then
+   those every family gets (the residual left in the family's noise units, the
    assumptions made); the final model is compared with the baseline on the held-out
    data and the verdict is worded from the findings (:func:`verdict_words`).
 
@@ -40,7 +40,7 @@ from suspenv.diagnosis import checks
 from suspenv.diagnosis.checks.finding import jsonable
 from suspenv.diagnosis.decision import DecisionRule, ambiguities, decide, rank
 from suspenv.diagnosis.evidence import Comparison, baseline_summary, compare
-from suspenv.diagnosis.family import DiagnosisFamily, Outcome, recording_names
+from suspenv.diagnosis.family import Conclusion, DiagnosisFamily, Outcome, recording_names
 from suspenv.diagnosis.fitting import FitResult
 from suspenv.diagnosis.hypothesis import Ambiguity, Hypothesis, family_of, split_candidate
 from suspenv.diagnosis.split import Holdout, Recordings, Split
@@ -341,14 +341,11 @@ def diagnose(
         current = win.fit
         say(f"round {rnd}: named {win.words}")
 
-    found = fam.conclude(Outcome(base, current, named, hypotheses, first_sigs, location), setup)
-    named += found.named
-    named = [h for h in named if all(h is not w for w in found.withdrawn)]
-    hypotheses += found.hypotheses
-    amb += found.ambiguities
-    current = found.final_fit or current
     outcome = Outcome(base, current, named, hypotheses, first_sigs, location)
-    checks.fold(found, checks.run(checks.Context(fam, setup, outcome, fam.rule)))
+    ctx = checks.Context(fam, setup, outcome, fam.rule, fam.conclude(outcome, setup))
+    checks.run(ctx)
+    found, named, hypotheses = ctx.found, ctx.outcome.named, ctx.outcome.hypotheses
+    current = ctx.outcome.current
     comparison = versus(base, current) if named else None
     baseline = baseline_summary(
         base, sp.fit_recordings, sp.heldout_recordings, sp.fit_masks, sp.heldout_masks
@@ -366,15 +363,7 @@ def diagnose(
         hypotheses=hypotheses,
         named=named,
         ambiguities=amb,
-        verdict=verdict_words(
-            named,
-            hypotheses,
-            amb,
-            first_sigs,
-            found.sentences,
-            found.confident,
-            found.overrides_verdict,
-        ),
+        verdict=verdict_words(named, hypotheses, amb, first_sigs, found),
         comparison=comparison,
         final_params=current.params(),
         seconds=time.perf_counter() - t0,
@@ -393,20 +382,20 @@ def verdict_words(
     hypotheses: Sequence[Hypothesis],
     amb: Sequence[Ambiguity],
     signatures: Sequence[Any] = (),
-    sentences: Sequence[str] = (),
-    confident: bool = True,
-    overrides: bool = False,
+    found: Conclusion | None = None,
 ) -> str:
     """The verdict: "missing physics: A; then B" (with "(not confident)" when the
-    residual left says more is missing) and what cannot be separated, or "no significant
-    missing physics" with the strongest candidate's numbers; then the family's
-    sentences."""
+    checks say more is missing) and what cannot be separated, or "no significant missing
+    physics" with the strongest candidate's numbers (a leading sentence of the checks
+    stands in for it); then the checks' sentences (``found``)."""
+    found = found or Conclusion()
+    sentences = found.sentences
     if named:
-        head = "missing physics" + ("" if confident else " (not confident)")
+        head = "missing physics" + ("" if found.confident else " (not confident)")
         text = f"{head}: " + "; then ".join(h.words for h in named)
         if amb:
             text += ". " + " ".join(a.sentence() for a in amb)
-    elif overrides and sentences:
+    elif found.leading and sentences:
         # nothing in the library explains what is left: the family's sentence says so
         text = ""
     else:

@@ -17,8 +17,8 @@ The family owns everything that depends on the model:
 * ``settle``: make a named winner ready to be the next round's null model (or None);
 * ``ambiguities``: what the data cannot tell apart from the winner beyond the
   loop's own family-pair rule;
-* ``conclude``: the family's probes after the search (damper asymmetry, a delay or
-  drift beside the named elements, the smallest effects these tests could have shown);
+* ``conclude``: the family's numbers after the search (detection limits);
+* ``checks`` (optional): its own checks after the search (:mod:`suspenv.diagnosis.checks`);
 * ``residual_left`` (optional): the family's noise model, which the shared rule judges
   (:mod:`suspenv.diagnosis.checks.residual_left`).
 """
@@ -31,7 +31,7 @@ from typing import Any, Protocol
 
 from suspenv.diagnosis.decision import DecisionRule
 from suspenv.diagnosis.fitting import FitResult
-from suspenv.diagnosis.hypothesis import Ambiguity, Hypothesis
+from suspenv.diagnosis.hypothesis import Ambiguity, Hypothesis, Withdrawal
 from suspenv.diagnosis.protocols import DiagnosableModel, RecordingLike
 from suspenv.diagnosis.split import Holdout, Recordings, Split
 
@@ -92,14 +92,14 @@ class Outcome:
 
 @dataclass
 class Conclusion:
-    """What a family's checks after the search add.
+    """What a family concludes after the search (:meth:`DiagnosisFamily.conclude`), or
+    one of its checks (``family.checks()``, :func:`suspenv.diagnosis.checks.revise`).
 
     Attributes:
-        named / hypotheses / ambiguities: added to the search's.
-        withdrawn: named hypotheses (the search's or these) the checks withdraw, each
-            with its reason in ``Hypothesis.withdrawn``; ``final_fit`` is then the model
-            without them.
-        final_fit: the model after the checks (None: the search's).
+        named: elements a check names (each a refitted hypothesis).
+        withdrawn: named elements a check withdraws (their reasons go to
+            ``Hypothesis.withdrawn``, the records to the findings' ``withdrawn``).
+        final_fit: the model after the check (None: unchanged).
         sentences: said after the verdict's main sentence.
         confident: False when a probe says something is still missing.
         findings: the checks' own records by name (``asymmetry``, ``beyond_library``,
@@ -108,17 +108,12 @@ class Conclusion:
     """
 
     named: list[Hypothesis] = field(default_factory=list)
-    hypotheses: list[Hypothesis] = field(default_factory=list)
-    ambiguities: list[Ambiguity] = field(default_factory=list)
-    withdrawn: list[Hypothesis] = field(default_factory=list)
+    withdrawn: list[Withdrawal] = field(default_factory=list)
     final_fit: FitResult | None = None
     sentences: list[str] = field(default_factory=list)
     confident: bool = True
     findings: dict[str, Any] = field(default_factory=dict)
     baseline: dict[str, Any] = field(default_factory=dict)
-    #: the first sentence says what is left outside the library (or that the model does
-    #: not describe the recording) and stands in for "no significant missing physics"
-    overrides_verdict: bool = False
     #: how many sentences at the front are leads (:meth:`lead`)
     leading: int = 0
 
@@ -128,7 +123,6 @@ class Conclusion:
         physics"."""
         self.sentences.insert(at, sentence)
         self.leading += 1
-        self.overrides_verdict = True
 
 
 class DiagnosisFamily(Protocol):

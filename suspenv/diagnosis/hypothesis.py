@@ -12,6 +12,7 @@ dyno), the bare ``kind``.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -221,3 +222,55 @@ def corrected_delta_bic(lr_corrected: float, dof: int, n: int) -> float:
     """BIC change of the extended model from the corrected LR statistic (negative = better):
     ``-LR_c + dof * ln(n)``."""
     return float(-lr_corrected + dof * np.log(max(n, 2)))
+
+
+@dataclass
+class Withdrawal:
+    """A named element withdrawn by a check after the search: judged again beside what
+    the check found (a delay of the recording, a zero drift of more shape), no longer
+    significant.
+
+    Attributes:
+        hypothesis: the element as it was named.
+        beside: what it was judged again beside, in words (e.g. "the delay of the force
+            found after it").
+        p_value_corrected, delta_bic_corrected: the element's likelihood-ratio test
+            (serial-correlation corrected) and corrected BIC change against the model
+            with that and without the element.
+        heldout_reduction: the relative drop of the held-out RMS error the element gives
+            there (NaN where the check does not judge held-out data).
+        beside_delay: judged beside a delay (its sentence follows the delay's).
+    """
+
+    hypothesis: Hypothesis
+    beside: str
+    p_value_corrected: float
+    delta_bic_corrected: float
+    heldout_reduction: float = float("nan")
+    beside_delay: bool = False
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "candidate": self.hypothesis.candidate,
+            "words": self.hypothesis.words,
+            "round": self.hypothesis.round,
+            "beside": self.beside,
+            "p_value_corrected": self.p_value_corrected,
+            "delta_bic_corrected": self.delta_bic_corrected,
+            "heldout_reduction": self.heldout_reduction,
+            "sentence": self.sentence(),
+        }
+
+    def sentence(self) -> str:
+        """One sentence for the verdict."""
+        held = (
+            ""
+            if math.isnan(self.heldout_reduction)  # not judged
+            else f", held-out error {-100 * self.heldout_reduction:+.1f} %"
+        )
+        return (
+            f"{self.hypothesis.words}, named in round {self.hypothesis.round}, is withdrawn: "
+            f"beside {self.beside} it is no longer significant (corrected p = "
+            f"{self.p_value_corrected:.2g}, corrected BIC change "
+            f"{self.delta_bic_corrected:+.3g}{held})"
+        )

@@ -14,8 +14,9 @@ The other checks read only the final fit and the recordings: a residual driven b
 input the recording does not carry (:mod:`.missing_input`), parameters on a bound
 (:mod:`.bounds`), the share of each output the model describes (:mod:`.misfit`).
 
-:func:`run` runs :data:`CHECKS` in order; the engine folds the findings into the verdict
-(:func:`fold`).
+:func:`run` runs a family's own checks (``family.checks()``), then these, each result
+folded (:func:`fold`) before the next reads the model it leaves: a family's check may
+return a :class:`~suspenv.diagnosis.family.Conclusion` that names or withdraws elements.
 """
 
 from __future__ import annotations
@@ -23,19 +24,19 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 from suspenv.diagnosis.checks import assumptions, bounds, misfit, missing_input, residual_left
-from suspenv.diagnosis.checks.finding import Check, Context, Finding, fold
+from suspenv.diagnosis.checks.finding import Check, Context, Finding, fold, revise
 
-__all__ = ["Check", "Context", "Finding", "fold", "run"]
+__all__ = ["Check", "Context", "Finding", "fold", "revise", "run"]
 
 
 def _checks() -> tuple[Check, ...]:
-    # of the checks' leading sentences (after the family's own) the misfit's, folded last,
-    # goes first
+    # their leading sentences follow the family's in this order (the misfit's last)
     return (residual_left.run, missing_input.run, bounds.run, assumptions.run, misfit.run)
 
 
-def run(ctx: Context, checks: Sequence[Check] | None = None) -> list[Finding]:
-    """The findings of ``checks`` (default: every check of this package) on ``ctx``; a
-    check with nothing to say returns None and is left out."""
-    found = [check(ctx) for check in (checks if checks is not None else _checks())]
-    return [f for f in found if f is not None]
+def run(ctx: Context, checks: Sequence[Check] | None = None) -> None:
+    """Run ``checks`` (default: the family's own, then this package's) on ``ctx`` in
+    order; a check with nothing to say returns None."""
+    own = getattr(ctx.family, "checks", tuple)
+    for check in checks if checks is not None else [*own(), *_checks()]:
+        fold(ctx, check(ctx))

@@ -1,11 +1,11 @@
-"""What a check reads (:class:`Context`) and says (:class:`Finding`), and how findings
-are folded into a family's conclusion (:func:`fold`); the checks are listed in
-:mod:`suspenv.diagnosis.checks`."""
+"""What a check reads (:class:`Context`) and says (a :class:`Finding` or a
+:class:`~suspenv.diagnosis.family.Conclusion`), and how it is folded in (:func:`fold`);
+the checks are listed in :mod:`suspenv.diagnosis.checks`."""
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 from suspenv.diagnosis.decision import DecisionRule
@@ -15,13 +15,14 @@ from suspenv.diagnosis.family import Conclusion, DiagnosisFamily, Outcome, Setup
 @dataclass
 class Context:
     """What a check reads: the family (to ask), the run's data and model, the search's
-    outcome (its ``current`` is the final model after the family's own probes) and the
-    decision rule."""
+    outcome as the checks before this one left it, the decision rule and what they
+    concluded (``found``)."""
 
     family: DiagnosisFamily
     setup: Setup
     outcome: Outcome
     rule: DecisionRule
+    found: Conclusion = field(default_factory=Conclusion)
 
 
 @dataclass
@@ -74,18 +75,47 @@ def jsonable(v: Any) -> Any:
     return v.to_dict() if hasattr(v, "to_dict") else v
 
 
-Check = Callable[[Context], Finding | None]
+Check = Callable[[Context], Finding | Conclusion | None]
 
 
-def fold(found: Conclusion, findings: Sequence[Finding]) -> None:
-    """Add ``findings`` to a family's conclusion: each is kept by name, its sentence said
-    (when it leads: after the family's leads, a later one before an earlier one), and the
-    verdict made not confident where one says so."""
-    for f in findings:
-        found.findings[f.name] = f
-        found.confident = found.confident and f.confident and not f.remains
-        if f.sentence and f.lead:
-            # after the family's own leads, which say more precisely what is left
-            found.lead(f.sentence, found.leading)
-        elif f.sentence:
-            found.sentences.append(f.sentence)
+def fold(ctx: Context, result: Finding | Conclusion | None) -> None:
+    """Add one check's result to ``ctx``: a :class:`Finding` is kept by name, its sentence
+    said (when it leads: after the leads before it) and the verdict made not confident
+    where it says so; a :class:`~suspenv.diagnosis.family.Conclusion`: :func:`revise`."""
+    if not isinstance(result, Finding):
+        return revise(ctx, result) if result is not None else None
+    found, f = ctx.found, result
+    found.findings[f.name] = f
+    found.confident = found.confident and f.confident and not f.remains
+    if f.sentence and f.lead:
+        # after the family's own leads, which say more precisely what is left
+        found.lead(f.sentence, found.leading)
+    elif f.sentence:
+        found.sentences.append(f.sentence)
+
+
+def revise(ctx: Context, part: Conclusion) -> None:
+    """Fold a family check's conclusion into ``ctx``: the elements it names join the named
+    and the hypotheses, those it withdraws leave the named, its ``final_fit`` becomes the
+    current model; its leads go before the leads so far, its other sentences last; its
+    records are kept by name (a list extends the list of that name)."""
+    o, found = ctx.outcome, ctx.found
+    for w in part.withdrawn:
+        w.hypothesis.withdrawn = w.sentence()
+    if part.withdrawn:
+        part.findings = {"withdrawn": part.withdrawn, **part.findings}
+    gone = {id(w.hypothesis) for w in part.withdrawn}
+    named = [h for h in [*o.named, *part.named] if id(h) not in gone]
+    current = part.final_fit or o.current
+    ctx.outcome = replace(o, current=current, named=named, hypotheses=[*o.hypotheses, *part.named])
+    found.sentences[:0] = part.sentences[: part.leading]
+    found.sentences += part.sentences[part.leading :]
+    found.leading += part.leading
+    found.confident = found.confident and part.confident
+    found.baseline.update(part.baseline)
+    for k, v in part.findings.items():
+        have = found.findings.get(k)
+        if isinstance(have, list) and isinstance(v, list):
+            have += v
+        else:
+            found.findings[k] = v

@@ -34,9 +34,8 @@ from typing import Any
 import numpy as np
 
 from suspenv.diagnosis.component.refit import SIZE_Z, parameter_and_error, refit_with
-from suspenv.diagnosis.component.residual_left import MATERIAL_RATIO, removed_over_left
+from suspenv.diagnosis.component.residual_left import beyond_library
 from suspenv.diagnosis.decision import DecisionRule
-from suspenv.diagnosis.evidence import compare
 from suspenv.diagnosis.fitting import FitResult
 from suspenv.diagnosis.split import Split
 
@@ -121,29 +120,21 @@ def dead_band_left(
     ext = refit_with(
         final, DEFICIT_KIND, sp.fit_recordings, sp.fit_masks, location=location, max_nfev=budget
     )
-    c = compare(final, ext, sp)
     channel = final.main_channel()
-    ratio = removed_over_left(final, ext, channel)
+    c, ratio, passes = beyond_library(final, ext, sp, channel, rule)
     level, sd = parameter_and_error(ext, DEFICIT_KIND, "f_d")
     band = parameter_and_error(ext, DEFICIT_KIND, "v_band")[0]
     z = float(level / sd) if np.isfinite(sd) and sd > 0 else 0.0
-    p = c.lr.p_value_corrected
     return DeadBandLeft(
         channel=channel,
         missing_force=float(level),
         band_speed=float(band),
         peak_speed=peak,
         level_z=z,
-        p_value_corrected=p,
+        p_value_corrected=c.lr.p_value_corrected,
         heldout_reduction=c.heldout_reduction,
         structured_ratio=ratio,
-        remains=bool(
-            p < rule.alpha
-            and c.heldout_reduction >= rule.min_heldout_gain
-            and z >= SIZE_Z
-            and float(band) <= BAND_MAX_FRACTION * peak
-            and ratio > MATERIAL_RATIO
-        ),
+        remains=bool(passes and z >= SIZE_Z and float(band) <= BAND_MAX_FRACTION * peak),
         # the element's level f_d is a force [N] whichever channel shows it
         where=f"force in the {location}" if location else "force",
     )

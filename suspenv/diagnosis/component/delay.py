@@ -58,8 +58,8 @@ from scipy import stats
 from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.component.motion import cycle_index, motion
 from suspenv.diagnosis.component.refit import SIZE_Z, parameter_and_error, refit_with
-from suspenv.diagnosis.component.residual_left import MATERIAL_RATIO, removed_over_left
-from suspenv.diagnosis.component.withdrawal import Withdrawal, element_name, without_element
+from suspenv.diagnosis.component.residual_left import beyond_library
+from suspenv.diagnosis.component.withdrawal import element_name, without_element
 from suspenv.diagnosis.decision import DecisionRule, decide
 from suspenv.diagnosis.evidence import (
     compare,
@@ -70,7 +70,7 @@ from suspenv.diagnosis.evidence import (
     relative_drop,
 )
 from suspenv.diagnosis.fitting import FitResult
-from suspenv.diagnosis.hypothesis import Hypothesis
+from suspenv.diagnosis.hypothesis import Hypothesis, Withdrawal
 from suspenv.diagnosis.split import Split
 
 #: corrected BIC difference above which one of two fits of equal size is decisively
@@ -463,21 +463,15 @@ def delay_left(
     ``rule.min_heldout_gain``) and by the residual check's size rule. ``phases``: the
     phase table of the test that refused the lag, carried as evidence."""
     delayed = fit_delay(final, sp, channel, start, budget)
-    c = compare(final, delayed, sp)
-    ratio = removed_over_left(final, delayed, channel)
-    p = c.lr.p_value_corrected
+    c, ratio, remains = beyond_library(final, delayed, sp, channel, rule)
     return DelayLeft(
         channel=channel,
         delay_s=parameter_and_error(delayed, "sensor_delay", "delay")[0],
-        p_value_corrected=p,
+        p_value_corrected=c.lr.p_value_corrected,
         heldout_reduction=c.heldout_reduction,
         structured_ratio=ratio,
         lag_bic=lag_bic,
-        remains=bool(
-            p < rule.alpha
-            and c.heldout_reduction >= rule.min_heldout_gain
-            and ratio > MATERIAL_RATIO
-        ),
+        remains=remains,
         phases=tuple(phases),
     )
 
@@ -526,6 +520,7 @@ def judge_beside_delay(
                 p_value_corrected=again.p_value_corrected,
                 delta_bic_corrected=again.delta_bic_corrected,
                 heldout_reduction=again.heldout_reduction,
+                beside_delay=True,
             )
         )
         final = without_element(final, str(element_name(h)), sp, budget)

@@ -44,11 +44,11 @@ from typing import Any
 import numpy as np
 from numpy.polynomial import legendre
 
-from suspenv.diagnosis.component.withdrawal import Withdrawal, element_name, without_element
+from suspenv.diagnosis.component.withdrawal import element_name, without_element
 from suspenv.diagnosis.decision import DecisionRule
 from suspenv.diagnosis.evidence import fit_residual_series, likelihood_ratio
 from suspenv.diagnosis.fitting import FitResult, fit, residuals
-from suspenv.diagnosis.hypothesis import Hypothesis, corrected_delta_bic
+from suspenv.diagnosis.hypothesis import Hypothesis, Withdrawal, corrected_delta_bic
 from suspenv.diagnosis.split import Split
 
 #: highest Legendre order of the drift judged beside (the baseline's is 3)

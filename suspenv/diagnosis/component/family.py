@@ -19,8 +19,8 @@ plus effects of :mod:`suspenv.models.effects`). Its pieces of the one loop
 * **ambiguities**: an element that equals a combination of two others on most data
   (direction-dependent friction = Coulomb friction + a constant force) is refitted as
   that combination; an equal fit is reported as an ambiguity;
-* **conclude**: the damper bump/rebound asymmetry check
-  (:mod:`suspenv.diagnosis.component.asymmetry`) where a digressive curve was named.
+* **checks** after the search (:meth:`ComponentFamily.checks`): the damper bump/rebound
+  asymmetry, elements withdrawn beside a delay or a drift, what the library lacks.
 
 Units: SI; residuals divided by each channel's measured spread.
 """
@@ -35,6 +35,7 @@ import numpy as np
 from scipy import stats
 
 from suspenv.core.errors import ValidationError
+from suspenv.diagnosis.checks.finding import Check, Context
 from suspenv.diagnosis.checks.residual_left import Left
 from suspenv.diagnosis.component.assumed import estimate_unsprung_mass, mass_words, power_sign
 from suspenv.diagnosis.component.asymmetry import asymmetry_check
@@ -85,7 +86,6 @@ from suspenv.diagnosis.component.rig import (
     read_model_file,
 )
 from suspenv.diagnosis.component.signatures import SIGNATURE_KINDS, SignalSet, score_signatures
-from suspenv.diagnosis.component.withdrawal import Withdrawal
 from suspenv.diagnosis.decision import (
     EQUIVALENT_COMBINATIONS,
     DecisionRule,
@@ -100,7 +100,7 @@ from suspenv.diagnosis.family import (
     SignatureLike,
 )
 from suspenv.diagnosis.fitting import FitResult, fit, residuals
-from suspenv.diagnosis.hypothesis import Ambiguity, Hypothesis, family_of
+from suspenv.diagnosis.hypothesis import Ambiguity, Hypothesis, Withdrawal, family_of
 from suspenv.diagnosis.protocols import DiagnosableModel, RecordingLike
 from suspenv.diagnosis.screening import Location, Signature
 from suspenv.diagnosis.split import Holdout, Recordings, Split, as_recordings
@@ -318,28 +318,6 @@ def _structural_ambiguity(
 
 
 @dataclass
-class _Probes:
-    """What the component family's probes after the search share: the conclusion so
-    far, the final model, the named elements kept, the delays left and the withdrawals."""
-
-    found: Conclusion
-    final: FitResult
-    kept: list[Hypothesis] = field(default_factory=list)
-    delays: list[DelayLeft] = field(default_factory=list)
-    delay_withdrawals: list[Withdrawal] = field(default_factory=list)
-    drift_withdrawals: list[Withdrawal] = field(default_factory=list)
-
-    def withdraw(self, withdrawals: list[Withdrawal]) -> None:
-        """Record ``withdrawals`` (the final model is already the one without them)."""
-        self.found.withdrawn += [w.hypothesis for w in withdrawals]
-        for w in withdrawals:
-            w.hypothesis.withdrawn = w.sentence()
-        self.found.findings.setdefault("withdrawn", []).extend(withdrawals)
-        self.found.final_fit = self.final
-        self.kept = [h for h in self.kept if all(h is not w.hypothesis for w in withdrawals)]
-
-
-@dataclass
 class ComponentFamily(OptionalSteps):
     """The component family's steps of the diagnosis loop (see the module docstring).
 
@@ -407,6 +385,10 @@ class ComponentFamily(OptionalSteps):
     sign_words: list[str] = field(default_factory=list, init=False)
     #: the last :meth:`prepare` fitted the quarter car's unsprung mass with the baseline
     mass_estimated: bool = field(default=False, init=False)
+    #: the model :meth:`_delays_left` last read and its delays left
+    _delays: tuple[FitResult | None, list[DelayLeft]] = field(
+        default=(None, []), init=False, repr=False
+    )
 
     def __post_init__(self) -> None:
         # an unknown model family or effect kind is an error before any work starts
@@ -721,76 +703,63 @@ class ComponentFamily(OptionalSteps):
             )
         return found
 
-    def conclude(self, outcome: Outcome, setup: Setup) -> Conclusion:
-        """The family's probes after the search, in order (each reads and updates one
-        :class:`_Probes`): the damper's bump/rebound asymmetry where a digressive curve
-        was named; the named elements judged again beside a delay left and beside a zero
-        drift of more shape, withdrawn where these take their support; the residual
-        a force missing at low speed; the delays left; a lag that stands for a delay; the
-        baseline's offsets. The checks every family gets (the residual left, bounds,
-        misfit, assumptions) follow in the loop
-        (:mod:`suspenv.diagnosis.checks`)."""
-        st = _Probes(Conclusion(baseline=_baseline_effects(outcome.base, self)), outcome.current)
-        st.kept = list(outcome.named)
-        for probe in (
+    def checks(self) -> list[Check]:
+        """The checks after the search, in order (:func:`suspenv.diagnosis.checks.run`):
+        the damper's asymmetry; the named elements judged again beside a delay and beside
+        a zero drift of more shape; a force missing at low speed; the delays left; a lag
+        that stands for a delay; the baseline's offsets."""
+        return [
             self._asymmetry,
             self._beside_delay,
             self._beside_drift,
             self._dead_band,
             self._delays_said,
             self._lag_and_offsets,
-        ):
-            probe(st, outcome, setup)
-        return st.found
+        ]
 
-    def _asymmetry(self, st: _Probes, outcome: Outcome, setup: Setup) -> None:
+    def _asymmetry(self, ctx: Context) -> Conclusion | None:
         """Where a digressive curve was named: the asymmetric curve against the symmetric
         one plus a constant force (:mod:`~suspenv.diagnosis.component.asymmetry`)."""
+        o, setup, rule = ctx.outcome, ctx.setup, self.rule
         if not (
             self.check_asymmetry
-            and "digressive_damping" in [h.kind for h in outcome.named]
+            and "digressive_damping" in [h.kind for h in o.named]
             and "damper_asymmetry" in setup.candidates
-            and "damper_asymmetry" not in {h.family for h in outcome.named}
+            and "damper_asymmetry" not in {h.family for h in o.named}
         ):
-            return
+            return None
         asym = asymmetry_check(
-            outcome.current, setup.split, self.rule.alpha, self.rule.min_heldout_gain, self.budget
+            o.current, setup.split, rule.alpha, rule.min_heldout_gain, self.budget
         )
-        st.found.findings["asymmetry"] = asym
+        found = Conclusion(findings={"asymmetry": asym})
         if asym is not None and asym.supported and asym.hypothesis is not None:
-            st.found.named.append(asym.hypothesis)
-            st.found.hypotheses.append(asym.hypothesis)
-            st.found.final_fit = asym.hypothesis.fit
-            st.final = asym.hypothesis.fit or st.final
-            st.kept.append(asym.hypothesis)
+            found.named, found.final_fit = [asym.hypothesis], asym.hypothesis.fit
         elif asym is not None:
-            st.found.sentences.append(asym.sentence)
+            found.sentences.append(asym.sentence)
+        return found
 
-    def _beside_delay(self, st: _Probes, outcome: Outcome, setup: Setup) -> None:
-        """A delay left after the search, and the elements named before it judged again
-        beside it (the residual probes then read the model without those withdrawn)."""
-        st.delays = self._delays_left(st.final, setup)
-        left = next((d for d in st.delays if d.remains), None)
-        if left is None or not st.kept:
-            return
-        st.final, st.delay_withdrawals = judge_beside_delay(
-            st.final, st.kept, left.channel, left.delay_s, setup.split, self.budget, self.rule
+    def _beside_delay(self, ctx: Context) -> Conclusion | None:
+        """The elements named before a delay left after the search, judged again beside
+        it (the checks after it read the model without those withdrawn)."""
+        o = ctx.outcome
+        left = next((d for d in self._delays_left(o.current, ctx.setup) if d.remains), None)
+        if left is None or not o.named:
+            return None
+        final, gone = judge_beside_delay(
+            o.current, o.named, left.channel, left.delay_s, ctx.setup.split, self.budget, self.rule
         )
-        if st.delay_withdrawals:
-            st.withdraw(st.delay_withdrawals)
-            st.delays = self._delays_left(st.final, setup)
+        return Conclusion(withdrawn=gone, final_fit=final)
 
-    def _beside_drift(self, st: _Probes, outcome: Outcome, setup: Setup) -> None:
+    def _beside_drift(self, ctx: Context) -> Conclusion | None:
         """The named elements judged again beside a zero drift of more shape
         (:mod:`~suspenv.diagnosis.component.drift_check`)."""
-        if not (self.check_drift and st.kept):
-            return
-        st.final, st.drift_withdrawals = judge_beside_drift(
-            st.final, st.kept, setup.split, self.budget, self.rule
+        o = ctx.outcome
+        if not (self.check_drift and o.named):
+            return None
+        final, gone = judge_beside_drift(
+            o.current, o.named, ctx.setup.split, self.budget, self.rule
         )
-        if st.drift_withdrawals:
-            st.withdraw(st.drift_withdrawals)
-            st.delays = self._delays_left(st.final, setup)
+        return Conclusion(withdrawn=gone, final_fit=final)
 
     def residual_left(
         self, outcome: Outcome, setup: Setup, alpha: float
@@ -811,13 +780,13 @@ class ComponentFamily(OptionalSteps):
         )
         return [v for r in left for v in r.views()], left
 
-    def _dead_band(self, st: _Probes, outcome: Outcome, setup: Setup) -> None:
+    def _dead_band(self, ctx: Context) -> Conclusion | None:
         """A force missing at low speed that no library element takes up
         (:mod:`~suspenv.diagnosis.component.dead_band`); where the motion was low-passed,
         how the residual rule reads the residual (:meth:`residual_left`)."""
         if not self.check_residual:
-            return
-        found, cut = st.found, self.motion_lowpass_hz
+            return None
+        found, cut = Conclusion(), self.motion_lowpass_hz
         if self.check_tails and cut is not None:
             found.findings["tail_rule"] = (
                 f"applied to the residual low-passed at {cut:.3g} Hz, where the motion "
@@ -825,43 +794,55 @@ class ComponentFamily(OptionalSteps):
                 f"above it), and where the part moves (above "
                 f"{100 * MOVING_FRACTION:.0f} % of the peak speed)"
             )
-        where = effect_location(setup.model, DEFICIT_KIND)
-        vmax = _stroke(setup.split)[1]
-        band = dead_band_left(st.final, setup.split, where, vmax, self.budget, self.rule)
-        found.findings.setdefault("beyond_library", []).append(band)
+        sp = ctx.setup.split
+        where = effect_location(ctx.setup.model, DEFICIT_KIND)
+        band = dead_band_left(
+            ctx.outcome.current, sp, where, _stroke(sp)[1], self.budget, self.rule
+        )
+        found.findings["beyond_library"] = [band]
         if band.remains:
             found.confident = False
             found.lead(band.sentence())
+        return found
 
-    def _delays_said(self, st: _Probes, outcome: Outcome, setup: Setup) -> None:
-        """The delays left (a lead sentence where one remains) and the withdrawals."""
-        found = st.found
-        for left_delay in st.delays:
+    def _delays_said(self, ctx: Context) -> Conclusion:
+        """The delays left (a lead sentence where one remains) and the withdrawals (one
+        beside a delay right after the delay's sentence)."""
+        found = Conclusion()
+        for left_delay in self._delays_left(ctx.outcome.current, ctx.setup):
             found.findings.setdefault("beyond_library", []).append(left_delay)
             if left_delay.remains:
                 found.confident = False
                 found.lead(left_delay.sentence())
             else:
                 found.sentences.append(left_delay.sentence())
-        for w in reversed(st.delay_withdrawals):  # right after the delay's sentence
+        gone: list[Withdrawal] = ctx.found.findings.get("withdrawn", [])
+        for w in reversed([w for w in gone if w.beside_delay]):
             found.sentences.insert(1, w.sentence())
             found.leading += int(found.leading > 0)  # one of the leads where it follows one
-        found.sentences.extend(w.sentence() for w in st.drift_withdrawals)
+        found.sentences.extend(w.sentence() for w in gone if not w.beside_delay)
+        return found
 
-    def _lag_and_offsets(self, st: _Probes, outcome: Outcome, setup: Setup) -> None:
-        """A named lag that stands for a delay (not confident), the baseline's offsets."""
-        lag = lag_or_delay(st.kept, setup.split)
+    def _lag_and_offsets(self, ctx: Context) -> Conclusion:
+        """A named lag that stands for a delay (not confident); the baseline's elements
+        and offsets."""
+        found = Conclusion(baseline=_baseline_effects(ctx.outcome.base, self))
+        lag = lag_or_delay(ctx.outcome.named, ctx.setup.split)
         if lag:
-            st.found.confident = False
-            st.found.sentences.append(lag)
-        offsets = baseline_offsets(st.final)
+            found.confident = False
+            found.sentences.append(lag)
+        offsets = baseline_offsets(ctx.outcome.current)
         if offsets:
-            st.found.findings["baseline_offsets"] = offsets
-            st.found.sentences.extend(o["sentence"] for o in offsets if o["significant"])
+            found.findings["baseline_offsets"] = offsets
+            found.sentences.extend(o["sentence"] for o in offsets if o["significant"])
+        return found
 
     def _delays_left(self, final: FitResult, setup: Setup) -> list[DelayLeft]:
-        """:func:`delay_left` of every channel whose lag the search refused for a delay."""
-        return [
+        """:func:`delay_left` of every channel whose lag the search refused for a delay
+        (of the last model asked for: kept for the checks that read the same model)."""
+        if self._delays[0] is final:
+            return self._delays[1]
+        delays = [
             delay_left(
                 final,
                 setup.split,
@@ -874,6 +855,8 @@ class ComponentFamily(OptionalSteps):
             )
             for channel, test in self.delay_tests.items()
         ]
+        self._delays = (final, delays)
+        return delays
 
 
 #: a friction step completes within a few percent of the speed range, a valve knee lies

@@ -92,7 +92,8 @@ from suspenv.diagnosis.component.motion_inputs import (
     robust_deviation,
     sampling_rate,
 )
-from suspenv.diagnosis.evidence import ljung_box
+from suspenv.diagnosis.decision import DecisionRule
+from suspenv.diagnosis.evidence import Comparison, compare, ljung_box
 from suspenv.diagnosis.fitting import FitResult
 from suspenv.diagnosis.split import Split
 
@@ -378,16 +379,22 @@ def residual_left(
     return out
 
 
-def removed_over_left(before: FitResult, after: FitResult, channel: str) -> float:
-    """RMS of the part of ``channel``'s fitted residual that the model ``after`` removes
-    from ``before`` over the RMS of the residual it leaves: the size rule's ratio for an
-    element added by a probe (its power ``ssr_before - ssr_after`` against ``ssr_after``);
-    0 where nothing is left."""
+def beyond_library(
+    before: FitResult, after: FitResult, sp: Split, channel: str, rule: DecisionRule
+) -> tuple[Comparison, float, bool]:
+    """An element outside the library that a probe adds to the final model ``before``
+    (``after``: with it), judged as a refit is (corrected p below ``rule.alpha``, held-out
+    error down by ``rule.min_heldout_gain``) and by the size rule: the RMS of the part of
+    ``channel``'s fitted residual it removes over the RMS of the residual it leaves (its
+    power ``ssr_before - ssr_after`` against ``ssr_after``; 0 where nothing is left) above
+    :data:`MATERIAL_RATIO`. Returns (the comparison, that ratio, all three hold)."""
+    c = compare(before, after, sp)
     ssr_before = before.ssr.get(channel, np.nan)
     ssr_after = after.ssr.get(channel, np.nan)
-    if not ssr_after > 0:
-        return 0.0
-    return float(np.sqrt(max(ssr_before / ssr_after - 1.0, 0.0)))
+    ratio = float(np.sqrt(max(ssr_before / ssr_after - 1.0, 0.0))) if ssr_after > 0 else 0.0
+    p, gain = c.lr.p_value_corrected, c.heldout_reduction
+    passes = p < rule.alpha and gain >= rule.min_heldout_gain and ratio > MATERIAL_RATIO
+    return c, ratio, bool(passes)
 
 
 def settled(t: np.ndarray, lowpass_hz: float | None) -> np.ndarray:

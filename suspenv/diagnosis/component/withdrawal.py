@@ -1,72 +1,14 @@
-"""A named element withdrawn after the search, and the refit that leaves one out.
-
-The search names an element when its refit is significant against the model of the
-round. A check after the search can find something that element stood in for (a delay of
-the recording found later, :func:`~suspenv.diagnosis.component.delay.judge_beside_delay`;
-a drift of the zero with more shape than the baseline's,
-:func:`~suspenv.diagnosis.component.drift_check.judge_beside_drift`). Each judges the
-element again beside it and withdraws one no longer significant; the record here states
-what it was judged beside and the numbers of that test.
-"""
+"""The refit that leaves a named element out, for the checks that withdraw one after the
+search (:func:`~suspenv.diagnosis.component.delay.judge_beside_delay`,
+:func:`~suspenv.diagnosis.component.drift_check.judge_beside_drift`; the record:
+:class:`~suspenv.diagnosis.hypothesis.Withdrawal`)."""
 
 from __future__ import annotations
-
-import math
-from dataclasses import dataclass
-from typing import Any
 
 from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.fitting import FitResult, fit
 from suspenv.diagnosis.hypothesis import Hypothesis
 from suspenv.diagnosis.split import Split
-
-
-@dataclass
-class Withdrawal:
-    """A named element withdrawn after the search.
-
-    Attributes:
-        hypothesis: the element as it was named.
-        beside: what it was judged again beside, in words (e.g. "the delay of the force
-            found after it").
-        p_value_corrected, delta_bic_corrected: the element's likelihood-ratio test
-            (serial-correlation corrected) and corrected BIC change against the model
-            with that and without the element.
-        heldout_reduction: the relative drop of the held-out RMS error the element gives
-            there (NaN where the check does not judge held-out data).
-    """
-
-    hypothesis: Hypothesis
-    beside: str
-    p_value_corrected: float
-    delta_bic_corrected: float
-    heldout_reduction: float = float("nan")
-
-    def to_dict(self) -> dict[str, Any]:
-        return {
-            "candidate": self.hypothesis.candidate,
-            "words": self.hypothesis.words,
-            "round": self.hypothesis.round,
-            "beside": self.beside,
-            "p_value_corrected": self.p_value_corrected,
-            "delta_bic_corrected": self.delta_bic_corrected,
-            "heldout_reduction": self.heldout_reduction,
-            "sentence": self.sentence(),
-        }
-
-    def sentence(self) -> str:
-        """One sentence for the verdict."""
-        held = (
-            ""
-            if math.isnan(self.heldout_reduction)  # not judged
-            else f", held-out error {-100 * self.heldout_reduction:+.1f} %"
-        )
-        return (
-            f"{self.hypothesis.words}, named in round {self.hypothesis.round}, is withdrawn: "
-            f"beside {self.beside} it is no longer significant (corrected p = "
-            f"{self.p_value_corrected:.2g}, corrected BIC change "
-            f"{self.delta_bic_corrected:+.3g}{held})"
-        )
 
 
 def element_name(h: Hypothesis) -> str | None:
