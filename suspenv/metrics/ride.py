@@ -27,6 +27,7 @@ from suspenv.metrics.iso2631 import (
     weighting_magnitude,
 )
 from suspenv.models.effects.effect import Effect
+from suspenv.models.minibus import spectral_kernel
 from suspenv.models.minibus.linearisation import (
     DAHL_C,
     DAHL_K,
@@ -49,9 +50,8 @@ from suspenv.rigs.road import CLASS_BAND, temporal_psd, track_coherence
 #: ride objective methods: exact spectral integral of the (equivalent-)linear model, or
 #: the study's time-domain run on one seeded road record
 RIDE_METHODS = ("spectral", "time")
-#: designs per block of the spectral method's full-model path (``split=False``; work
-#: arrays stay in cache) and of its default split path (whose frequency sums run in
-#: blocks of their own, ``_BLOCK_ROWS``)
+#: designs per block of the spectral method's full-model path (``split=False``) and of
+#: its default split path (the blocks' work arrays stay in cache)
 SPECTRAL_CHUNK = 32
 SPLIT_CHUNK = 128
 #: statistical-linearisation passes of the spectral method: without effects or with
@@ -506,11 +506,6 @@ class _Modes(NamedTuple):
     coef: np.ndarray  # (2n, 2, 5, 2d) numerators' constant and s terms
 
 
-#: designs x load cases per block of the split path's frequency sums (the blocks' work
-#: arrays stay in the level-2 cache)
-_BLOCK_ROWS = 16
-
-
 def _split_mean_square(
     m: _Modes, rows: slice, grid: tuple[np.ndarray, ...], wt: np.ndarray
 ) -> np.ndarray:
@@ -519,40 +514,18 @@ def _split_mean_square(
     unit per m of axle input) for the outputs ``rows`` of the ``_SPLIT_ROWS``, m's rows
     interleaved as in :class:`_Halves`, on the grid ``grid = (w, w^2, Re, Im of
     e^{-i w L/v})`` (w in rad/s, L/v the rear wheels' delay) with weights ``wt =
-    [wt_sym | wt_anti]`` (Nf, 2 j). In real arithmetic: ``H = E a + i w E b`` with
-    ``E = 1/(q0 - w^2 - i q1 w)``."""
-    w, w2, dr, di = grid
+    [wt_sym | wt_anti]`` (Nf, 2 j); the compiled sums of
+    :func:`suspenv.models.minibus.spectral_kernel.mean_square`."""
+    w, _, dr, di = grid
     rows_all, d = m.q0.shape
-    nf = w.size
     coef = m.coef[:, :, rows]
     p = coef.shape[2]
-    coef = coef.reshape(rows_all, 2 * p, 2 * d)  # rows (front outputs, rear outputs)
-    out = np.empty((rows_all, p, wt.shape[1]))
-    for i in range(0, rows_all, _BLOCK_ROWS):
-        blk = slice(i, i + _BLOCK_ROWS)
-        q0, q1 = m.q0[blk, :, None], m.q1[blk, :, None]
-        basis = np.empty((q0.shape[0], 2 * d, 2 * nf))  # rows (E, i w E), cols (Re, Im)
-        er, ei = basis[:, :d, :nf], basis[:, :d, nf:]
-        np.subtract(q0, w2, out=er)
-        np.multiply(q1, w, out=ei)
-        den = er * er
-        den += ei * ei
-        er /= den
-        ei /= den
-        np.multiply(ei, -w, out=basis[:, d:, :nf])
-        np.multiply(er, w, out=basis[:, d:, nf:])
-        G = coef[blk] @ basis  # (rows, 2p, 2 Nf)
-        g0r, g0i, g1r, g1i = G[:, :p, :nf], G[:, :p, nf:], G[:, p:, :nf], G[:, p:, nf:]
-        gr = g0r + dr * g1r
-        gr -= di * g1i
-        gi = g0i + dr * g1i
-        gi += di * g1r
-        gr *= gr
-        gi *= gi
-        gr += gi
-        out[blk] = gr @ wt
-    j = wt.shape[1] // 2
-    return out[0::2, :, :j] + out[1::2, :, j:]
+    coef = np.ascontiguousarray(coef.reshape(rows_all, 2 * p, 2 * d))  # front, rear outputs
+    out = np.empty((rows_all // 2, p, wt.shape[1] // 2))
+    spectral_kernel.mean_square(
+        np.ascontiguousarray(m.q0), np.ascontiguousarray(m.q1), coef, w, dr, di, wt, out
+    )
+    return out
 
 
 _SPLIT_GRIDS: dict[tuple[int, int, int, bool], tuple[Any, ...]] = {}
