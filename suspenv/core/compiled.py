@@ -72,6 +72,9 @@ def _signatures() -> None:
     AHEAD["suspenv.models.minibus.spectral_kernel"] = {
         "mean_square": f"void({f(2)}, {f(2)}, {f(3)}, {f(1)}, {f(1)}, {f(1)}, {f(2)}, {f(3)})",
         "damper_leaf_rates": f"void({f(2)}, {f(2)}, {f(3)}, {f(2)}, {f(3)}, int64, {f(2)})",
+        # lam, V, B, co, q0, q1, coef
+        "modal_terms": f"void({c}, {_arr('complex128', 3)}, {_arr('complex128', 3)}, {f(3)}, "
+        f"{f(2)}, {f(2)}, {f(4)})",
     }
 
 

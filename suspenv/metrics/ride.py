@@ -461,39 +461,22 @@ class _Halves:
         self.B = B
         self.A0 = np.tile(geo.A0, (n, 1, 1))
         self.co = np.tile(geo.co, (n, 1, 1))
-        self.ridx = np.arange(2 * n)[:, None]
 
     def modal(self, rates: np.ndarray) -> _Modes:
         """Modal form of the halves for element rates (n, n_el): poles and residues as
         :func:`modal_form` (residue of output p for axle input i at mode k: ``cv[p, k]
         rm[k, i]``), each conjugate pair (or pair of real poles) summed into one real
-        second-order term (:class:`_Modes`, 2 n rows)."""
+        second-order term (:class:`_Modes`, 2 n rows; the compiled
+        :func:`suspenv.models.minibus.spectral_kernel.modal_terms` after numpy's
+        eigen-decomposition)."""
         d = _SPLIT_D
         A = self.A0.copy()
         A[:, d:] += self.minv @ (rates[:, None, :] @ self.geo.D).reshape(-1, d, 2 * d)
         lam, V = np.linalg.eig(A)
-        real = lam.imag == 0
-        if real.any():
-            # LAPACK returns conjugate pairs next to each other; real poles (an even
-            # number per row) go last, paired among themselves
-            order = np.argsort(real, axis=1, kind="stable")
-            lam, V = lam[self.ridx, order], V[self.ridx, :, order].transpose(0, 2, 1)
-        R = np.linalg.solve(V, self.B)  # (2n, 2d, 4)
-        cv = self.co @ V[:, :d, :]  # (2n, 5, 2d)
-        rows = lam.shape[0]
-        pairs = lam.reshape(rows, d, 2)
-        other = pairs[:, :, ::-1].reshape(rows, 2 * d, 1)  # the other pole of each pair
-        # P1/(s - l1) + P2/(s - l2) = (b s + a)/(s^2 - (l1 + l2) s + l1 l2) with the
-        # residues P = rm cv (rm = R_0 + lam R_1): b = P1 + P2, a = -(P1 l2 + P2 l1)
-        ab = np.empty((rows, 2 * d, 2, 2), dtype=complex)  # (mode, [a, b], axle input)
-        np.add(R[:, :, :2], lam[:, :, None] * R[:, :, 2:], out=ab[:, :, 1])
-        np.multiply(ab[:, :, 1], -other, out=ab[:, :, 0])
-        Q = ab.reshape(rows, 2 * d, 4, 1) * cv.transpose(0, 2, 1)[:, :, None, :]
-        Q = Q.reshape(rows, d, 2, 2, 2, 5).sum(axis=2).real  # (2n, d, [a, b], input, 5)
-        coef = Q.transpose(0, 3, 4, 2, 1).reshape(rows, 2, 5, 2 * d)
-        return _Modes(
-            (pairs[:, :, 0] * pairs[:, :, 1]).real, (pairs[:, :, 0] + pairs[:, :, 1]).real, coef
-        )
+        lam, V, rows = np.ascontiguousarray(lam), np.ascontiguousarray(V), lam.shape[0]
+        q0, q1, coef = np.empty((rows, d)), np.empty((rows, d)), np.empty((rows, 2, 5, 2 * d))
+        spectral_kernel.modal_terms(lam, V, self.B, self.co, q0, q1, coef)
+        return _Modes(q0, q1, coef)
 
 
 class _Modes(NamedTuple):

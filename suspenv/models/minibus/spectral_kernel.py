@@ -10,6 +10,9 @@ these loops run the same arithmetic compiled:
   _split_grid_values`); the sums run in another order than numpy's matrix products,
   so the values agree to rounding (``tests/test_ride_spectral.py``: split path
   against the full model);
+- :func:`modal_terms`: the real second-order modal terms of :meth:`suspenv.metrics.
+  ride._Halves.modal` from numpy's eigen-decomposition (residues by Gaussian
+  elimination instead of LAPACK's solve: equal to rounding, same tests);
 - :func:`damper_leaf_rates`: the equivalent-linear damper and rear-leaf rates of
   :meth:`suspenv.models.minibus.linearisation.ElementLinearisation.rates` for a
   model without rear end stops (``tests/test_minibus_ride_elements.py``: against the
@@ -43,33 +46,120 @@ def _mean_square(
     ``s = i w`` (w (Nf,) rad/s)."""
     rows, d = q0.shape
     p = coef.shape[1] // 2
-    n_w = out.shape[2]
-    er, ei = np.empty(d), np.empty(d)
+    n_w, nf = out.shape[2], w.size
+    # loops over the frequencies innermost (vectorised): E (d, Nf), then per output
+    # the front and rear responses (Nf) accumulated mode by mode
+    er, ei = np.empty((d, nf)), np.empty((d, nf))
+    g0r, g0i, g1r, g1i = np.empty(nf), np.empty(nf), np.empty(nf), np.empty(nf)
     out[:] = 0.0
     for r in range(rows):
         i, off = r // 2, (r % 2) * n_w
-        for f in range(w.size):
-            wf = w[f]
-            for k in range(d):
+        for k in range(d):
+            for f in range(nf):
                 # E = 1/(q0 - w^2 - i q1 w) = (q0 - w^2 + i q1 w)/den
-                a, b = q0[r, k] - wf * wf, q1[r, k] * wf
-                den = a * a + b * b
-                er[k], ei[k] = a / den, b / den
-            for o in range(p):
-                g0r = g0i = g1r = g1i = 0.0
-                for k in range(d):
-                    # H = E a + i w E b
-                    a0, b0 = coef[r, o, k], coef[r, o, d + k] * wf
-                    a1, b1 = coef[r, p + o, k], coef[r, p + o, d + k] * wf
-                    g0r += a0 * er[k] - b0 * ei[k]
-                    g0i += a0 * ei[k] + b0 * er[k]
-                    g1r += a1 * er[k] - b1 * ei[k]
-                    g1i += a1 * ei[k] + b1 * er[k]
-                gr = g0r + dr[f] * g1r - di[f] * g1i
-                gi = g0i + dr[f] * g1i + di[f] * g1r
+                a, b = q0[r, k] - w[f] * w[f], q1[r, k] * w[f]
+                inv = 1.0 / (a * a + b * b)
+                er[k, f], ei[k, f] = a * inv, b * inv
+        for o in range(p):
+            g0r[:], g0i[:], g1r[:], g1i[:] = 0.0, 0.0, 0.0, 0.0
+            for k in range(d):
+                # H = E a + i w E b
+                a0, b0 = coef[r, o, k], coef[r, o, d + k]
+                a1, b1 = coef[r, p + o, k], coef[r, p + o, d + k]
+                for f in range(nf):
+                    e_r, e_i, wf = er[k, f], ei[k, f], w[f]
+                    g0r[f] += a0 * e_r - b0 * wf * e_i
+                    g0i[f] += a0 * e_i + b0 * wf * e_r
+                    g1r[f] += a1 * e_r - b1 * wf * e_i
+                    g1i[f] += a1 * e_i + b1 * wf * e_r
+            for f in range(nf):
+                gr = g0r[f] + dr[f] * g1r[f] - di[f] * g1i[f]
+                gi = g0i[f] + dr[f] * g1i[f] + di[f] * g1r[f]
                 g2 = gr * gr + gi * gi
                 for j in range(n_w):
                     out[i, o, j] += g2 * wt[f, off + j]
+
+
+def _solve(a: np.ndarray, x: np.ndarray) -> None:
+    """``x <- a^-1 x`` (a (m, m), x (m, c), complex) by Gaussian elimination with
+    partial pivoting; ``a`` is overwritten."""
+    m = a.shape[0]
+    for k in range(m):
+        piv = k
+        for i in range(k + 1, m):
+            if abs(a[i, k]) > abs(a[piv, k]):
+                piv = i
+        if piv != k:
+            for c in range(m):
+                a[k, c], a[piv, c] = a[piv, c], a[k, c]
+            for c in range(x.shape[1]):
+                x[k, c], x[piv, c] = x[piv, c], x[k, c]
+        for i in range(k + 1, m):
+            f = a[i, k] / a[k, k]
+            for c in range(k + 1, m):
+                a[i, c] -= f * a[k, c]
+            for c in range(x.shape[1]):
+                x[i, c] -= f * x[k, c]
+    for k in range(m - 1, -1, -1):
+        for c in range(x.shape[1]):
+            acc = x[k, c]
+            for i in range(k + 1, m):
+                acc -= a[k, i] * x[i, c]
+            x[k, c] = acc / a[k, k]
+
+
+def _modal_terms(
+    lam: np.ndarray,
+    V: np.ndarray,
+    B: np.ndarray,
+    co: np.ndarray,
+    q0: np.ndarray,
+    q1: np.ndarray,
+    coef: np.ndarray,
+) -> None:
+    """Real second-order modal terms (``q0``, ``q1`` (rows, d), ``coef`` (rows, 2, p,
+    2d)) of the first-order systems with poles ``lam`` (rows, 2d), eigenvectors ``V``
+    (rows, 2d, 2d), inputs ``B`` (rows, 2d, 4: the two inputs' displacement then rate
+    columns) and outputs ``co`` (rows, p, d) of the displacements, as
+    :meth:`suspenv.metrics.ride._Halves.modal` defines them: conjugate pairs kept
+    next to each other as LAPACK returns them, real poles last, paired among
+    themselves; residues ``R = V^-1 B`` by Gaussian elimination with partial pivoting.
+    """
+    rows, ns = lam.shape
+    d, p = ns // 2, co.shape[1]
+    order = np.empty(ns, dtype=np.int64)
+    a = np.empty((ns, ns), dtype=np.complex128)
+    x = np.empty((ns, 4), dtype=np.complex128)
+    ab = np.empty((ns, 2, 2), dtype=np.complex128)
+    for r in range(rows):
+        m = 0
+        for real in range(2):  # complex poles first, then real ones
+            for k in range(ns):
+                if (lam[r, k].imag == 0) == (real == 1):
+                    order[m] = k
+                    m += 1
+        for i in range(ns):
+            for k in range(ns):
+                a[i, k] = V[r, i, order[k]]
+            x[i] = B[r, i]
+        _solve(a, x)
+        for k in range(ns):
+            lk, other = lam[r, order[k]], lam[r, order[k ^ 1]]
+            for i in range(2):
+                ab[k, 1, i] = x[k, i] + lk * x[k, 2 + i]
+                ab[k, 0, i] = -other * ab[k, 1, i]
+        for kk in range(d):
+            l1, l2 = lam[r, order[2 * kk]], lam[r, order[2 * kk + 1]]
+            q0[r, kk], q1[r, kk] = (l1 * l2).real, (l1 + l2).real
+            for o in range(p):
+                cv0, cv1 = 0j, 0j
+                for j in range(d):
+                    cv0 += co[r, o, j] * V[r, j, order[2 * kk]]
+                    cv1 += co[r, o, j] * V[r, j, order[2 * kk + 1]]
+                for c in range(2):
+                    for i in range(2):
+                        t = ab[2 * kk, c, i] * cv0 + ab[2 * kk + 1, c, i] * cv1
+                        coef[r, i, o, c * d + kk] = t.real
 
 
 def _ndtr(a: float) -> float:
@@ -125,7 +215,8 @@ def _damper_leaf_rates(
             out[i, j + 2] = k1 + dk * (1.0 - _ndtr((thr - m) / d))
 
 
-#: :func:`_mean_square` and :func:`_damper_leaf_rates`, built ahead of time
-#: (:mod:`suspenv.core.compiled`)
+#: :func:`_mean_square`, :func:`_modal_terms` and :func:`_damper_leaf_rates`, built
+#: ahead of time (:mod:`suspenv.core.compiled`)
 mean_square = compiled.Lazy(globals(), (), _mean_square)
+modal_terms = compiled.Lazy(globals(), ("_solve",), _modal_terms)
 damper_leaf_rates = compiled.Lazy(globals(), ("_ndtr", "_excess"), _damper_leaf_rates)
