@@ -89,6 +89,27 @@ def test_damper_rate_is_the_gaussian_equivalent_of_the_curve(digressive):
             np.testing.assert_allclose(mean, scale * closed, rtol=1e-12)
 
 
+def test_compiled_damper_leaf_rates_equal_the_numpy_form():
+    """The compiled damper and leaf rates (no rear stops:
+    ``spectral_kernel.damper_leaf_rates``) against the numpy form
+    (``ElementLinearisation.damper_leaf_rates``) on RMS values across the damper knees
+    and the leaf's helper knee: the same laws and Newton steps in another operation
+    order, equal to rounding (a 1e-12 relative bound leaves the few-ulp differences of
+    erf/erfc and the order of the sums ample room)."""
+    space = design_space()
+    X = space.to_physical(np.random.default_rng(4).random((6, 8)))
+    lz = ElementLinearisation(RideModel(stacked_vehicle_parameters(X, LOAD_CASES)))
+    rng = np.random.default_rng(5)
+    n = X.shape[0] * len(LOAD_CASES)
+    for _ in range(5):
+        sv = np.exp(rng.uniform(np.log(0.01), np.log(1.0), (n, 4)))  # m/s
+        sd = np.exp(rng.uniform(np.log(1e-3), np.log(0.05), (n, 2)))  # m
+        sig = np.asfortranarray(np.hstack([sv, sd]))  # the spectral passes' layout
+        ref = np.empty((n, 6))
+        lz.damper_leaf_rates(sv, sd, ref)
+        np.testing.assert_allclose(lz.rates(sig, lz.initial(1.0)), ref, rtol=1e-12, atol=0)
+
+
 def test_spring_mean_equals_the_nonlinear_model_s_mean_compression():
     """The springs' mean compression from rest that the asymmetric dampers' mean force
     (jacking) and the two-stage leaf give (``ElementLinearisation.spring_mean``), fed

@@ -258,14 +258,12 @@ def test_symmetric_and_antisymmetric_halves_decouple():
         assert np.abs(T_ANTI.T @ inp @ J_SYM).max() <= 1e-12 * scale
 
 
-def test_split_values_do_not_depend_on_chunks_or_blocks(monkeypatch):
-    """Chunks of 7 designs and frequency-sum blocks of 3 rows: every design's numbers
-    are bitwise those it gets alone."""
+def test_split_values_do_not_depend_on_chunks(monkeypatch):
+    """Chunks of 7 designs: every design's numbers are bitwise those it gets alone."""
     import suspenv.metrics.ride as ride
 
     X = design_space().to_physical(np.random.default_rng(9).random((16, 8)))
     monkeypatch.setattr(ride, "SPLIT_CHUNK", 7)
-    monkeypatch.setattr(ride, "_BLOCK_ROWS", 3)
     both = ride_spectral(X)
     for i in (0, 6, 7, 15):
         alone = ride_spectral(X[i : i + 1])

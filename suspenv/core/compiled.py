@@ -71,6 +71,14 @@ def _signatures() -> None:
         "slip_loop": f"void({', '.join([*axle, f(1), 'int64', f(2)])})",
         "yaw_loop": f"void({c}, {c}, {f(1)}, {f(1)}, float64, {f(2)})",
     }
+    # q0, q1, coef, w, dr, di, wt, out; sv, sd, damp, knee, leaf, passes, out (spectral_kernel)
+    AHEAD["suspenv.models.minibus.spectral_kernel"] = {
+        "mean_square": f"void({f(2)}, {f(2)}, {f(3)}, {f(1)}, {f(1)}, {f(1)}, {f(2)}, {f(3)})",
+        "damper_leaf_rates": f"void({f(2)}, {f(2)}, {f(3)}, {f(2)}, {f(3)}, int64, {f(2)})",
+        # lam, V, B, co, q0, q1, coef
+        "modal_terms": f"void({c}, {_arr('complex128', 3)}, {_arr('complex128', 3)}, {f(3)}, "
+        f"{f(2)}, {f(2)}, {f(4)})",
+    }
 
 
 _signatures()

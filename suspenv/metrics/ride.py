@@ -27,6 +27,7 @@ from suspenv.metrics.iso2631 import (
     weighting_magnitude,
 )
 from suspenv.models.effects.effect import Effect
+from suspenv.models.minibus import spectral_kernel
 from suspenv.models.minibus.linearisation import (
     DAHL_C,
     DAHL_K,
@@ -49,9 +50,8 @@ from suspenv.rigs.road import CLASS_BAND, temporal_psd, track_coherence
 #: ride objective methods: exact spectral integral of the (equivalent-)linear model, or
 #: the study's time-domain run on one seeded road record
 RIDE_METHODS = ("spectral", "time")
-#: designs per block of the spectral method's full-model path (``split=False``; work
-#: arrays stay in cache) and of its default split path (whose frequency sums run in
-#: blocks of their own, ``_BLOCK_ROWS``)
+#: designs per block of the spectral method's full-model path (``split=False``) and of
+#: its default split path (the blocks' work arrays stay in cache)
 SPECTRAL_CHUNK = 32
 SPLIT_CHUNK = 128
 #: statistical-linearisation passes of the spectral method: without effects or with
@@ -461,39 +461,22 @@ class _Halves:
         self.B = B
         self.A0 = np.tile(geo.A0, (n, 1, 1))
         self.co = np.tile(geo.co, (n, 1, 1))
-        self.ridx = np.arange(2 * n)[:, None]
 
     def modal(self, rates: np.ndarray) -> _Modes:
         """Modal form of the halves for element rates (n, n_el): poles and residues as
         :func:`modal_form` (residue of output p for axle input i at mode k: ``cv[p, k]
         rm[k, i]``), each conjugate pair (or pair of real poles) summed into one real
-        second-order term (:class:`_Modes`, 2 n rows)."""
+        second-order term (:class:`_Modes`, 2 n rows; the compiled
+        :func:`suspenv.models.minibus.spectral_kernel.modal_terms` after numpy's
+        eigen-decomposition)."""
         d = _SPLIT_D
         A = self.A0.copy()
         A[:, d:] += self.minv @ (rates[:, None, :] @ self.geo.D).reshape(-1, d, 2 * d)
         lam, V = np.linalg.eig(A)
-        real = lam.imag == 0
-        if real.any():
-            # LAPACK returns conjugate pairs next to each other; real poles (an even
-            # number per row) go last, paired among themselves
-            order = np.argsort(real, axis=1, kind="stable")
-            lam, V = lam[self.ridx, order], V[self.ridx, :, order].transpose(0, 2, 1)
-        R = np.linalg.solve(V, self.B)  # (2n, 2d, 4)
-        cv = self.co @ V[:, :d, :]  # (2n, 5, 2d)
-        rows = lam.shape[0]
-        pairs = lam.reshape(rows, d, 2)
-        other = pairs[:, :, ::-1].reshape(rows, 2 * d, 1)  # the other pole of each pair
-        # P1/(s - l1) + P2/(s - l2) = (b s + a)/(s^2 - (l1 + l2) s + l1 l2) with the
-        # residues P = rm cv (rm = R_0 + lam R_1): b = P1 + P2, a = -(P1 l2 + P2 l1)
-        ab = np.empty((rows, 2 * d, 2, 2), dtype=complex)  # (mode, [a, b], axle input)
-        np.add(R[:, :, :2], lam[:, :, None] * R[:, :, 2:], out=ab[:, :, 1])
-        np.multiply(ab[:, :, 1], -other, out=ab[:, :, 0])
-        Q = ab.reshape(rows, 2 * d, 4, 1) * cv.transpose(0, 2, 1)[:, :, None, :]
-        Q = Q.reshape(rows, d, 2, 2, 2, 5).sum(axis=2).real  # (2n, d, [a, b], input, 5)
-        coef = Q.transpose(0, 3, 4, 2, 1).reshape(rows, 2, 5, 2 * d)
-        return _Modes(
-            (pairs[:, :, 0] * pairs[:, :, 1]).real, (pairs[:, :, 0] + pairs[:, :, 1]).real, coef
-        )
+        lam, V, rows = np.ascontiguousarray(lam), np.ascontiguousarray(V), lam.shape[0]
+        q0, q1, coef = np.empty((rows, d)), np.empty((rows, d)), np.empty((rows, 2, 5, 2 * d))
+        spectral_kernel.modal_terms(lam, V, self.B, self.co, q0, q1, coef)
+        return _Modes(q0, q1, coef)
 
 
 class _Modes(NamedTuple):
@@ -506,11 +489,6 @@ class _Modes(NamedTuple):
     coef: np.ndarray  # (2n, 2, 5, 2d) numerators' constant and s terms
 
 
-#: designs x load cases per block of the split path's frequency sums (the blocks' work
-#: arrays stay in the level-2 cache)
-_BLOCK_ROWS = 16
-
-
 def _split_mean_square(
     m: _Modes, rows: slice, grid: tuple[np.ndarray, ...], wt: np.ndarray
 ) -> np.ndarray:
@@ -519,40 +497,18 @@ def _split_mean_square(
     unit per m of axle input) for the outputs ``rows`` of the ``_SPLIT_ROWS``, m's rows
     interleaved as in :class:`_Halves`, on the grid ``grid = (w, w^2, Re, Im of
     e^{-i w L/v})`` (w in rad/s, L/v the rear wheels' delay) with weights ``wt =
-    [wt_sym | wt_anti]`` (Nf, 2 j). In real arithmetic: ``H = E a + i w E b`` with
-    ``E = 1/(q0 - w^2 - i q1 w)``."""
-    w, w2, dr, di = grid
+    [wt_sym | wt_anti]`` (Nf, 2 j); the compiled sums of
+    :func:`suspenv.models.minibus.spectral_kernel.mean_square`."""
+    w, _, dr, di = grid
     rows_all, d = m.q0.shape
-    nf = w.size
     coef = m.coef[:, :, rows]
     p = coef.shape[2]
-    coef = coef.reshape(rows_all, 2 * p, 2 * d)  # rows (front outputs, rear outputs)
-    out = np.empty((rows_all, p, wt.shape[1]))
-    for i in range(0, rows_all, _BLOCK_ROWS):
-        blk = slice(i, i + _BLOCK_ROWS)
-        q0, q1 = m.q0[blk, :, None], m.q1[blk, :, None]
-        basis = np.empty((q0.shape[0], 2 * d, 2 * nf))  # rows (E, i w E), cols (Re, Im)
-        er, ei = basis[:, :d, :nf], basis[:, :d, nf:]
-        np.subtract(q0, w2, out=er)
-        np.multiply(q1, w, out=ei)
-        den = er * er
-        den += ei * ei
-        er /= den
-        ei /= den
-        np.multiply(ei, -w, out=basis[:, d:, :nf])
-        np.multiply(er, w, out=basis[:, d:, nf:])
-        G = coef[blk] @ basis  # (rows, 2p, 2 Nf)
-        g0r, g0i, g1r, g1i = G[:, :p, :nf], G[:, :p, nf:], G[:, p:, :nf], G[:, p:, nf:]
-        gr = g0r + dr * g1r
-        gr -= di * g1i
-        gi = g0i + dr * g1i
-        gi += di * g1r
-        gr *= gr
-        gi *= gi
-        gr += gi
-        out[blk] = gr @ wt
-    j = wt.shape[1] // 2
-    return out[0::2, :, :j] + out[1::2, :, j:]
+    coef = np.ascontiguousarray(coef.reshape(rows_all, 2 * p, 2 * d))  # front, rear outputs
+    out = np.empty((rows_all // 2, p, wt.shape[1] // 2))
+    spectral_kernel.mean_square(
+        np.ascontiguousarray(m.q0), np.ascontiguousarray(m.q1), coef, w, dr, di, wt, out
+    )
+    return out
 
 
 _SPLIT_GRIDS: dict[tuple[int, int, int, bool], tuple[Any, ...]] = {}

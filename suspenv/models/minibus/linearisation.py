@@ -38,6 +38,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.special import gamma, ndtr, pbdv
 
+from suspenv.models.minibus import spectral_kernel
 from suspenv.models.minibus.ride_model import RideModel
 
 SQRT_2_PI = float(np.sqrt(2.0 / np.pi))
@@ -132,6 +133,9 @@ def dahl_rates(
     return np.maximum(c_new, 1e-3 * sigma), k_new
 
 
+#: Newton steps of a spring's mean deflection (:meth:`ElementLinearisation.spring_mean`)
+#: without and with end stops
+NEWTON_STEPS, NEWTON_STEPS_STOPS = 6, 10
 #: starting guess of the leaf deflection rate's RMS (m/s) for the first Dahl rates
 _DAHL_START_SV = 0.05
 
@@ -163,6 +167,15 @@ class ElementLinearisation:
                 end = self.stops[0 if e.location.startswith("front") else 1]
                 end.append((sign, e.params["gap"], e.params["k_stop"], e.params["p"]))
         self.n_rates = 12 if self.effects else 6
+        #: damper slopes (n, 4, 4), knees (4, 2), leaf K_1, dk, e_k (n, 2, 3) of the
+        #: compiled rates
+        self._packed = (
+            np.ascontiguousarray(np.stack([self.d_bl, self.d_bh, self.d_rl, self.d_rh], 2)),
+            np.ascontiguousarray(np.stack([self.kb[0], self.kr[0]], 1)),
+            np.ascontiguousarray(
+                np.stack([self.k1, *np.broadcast_arrays(self.dk, self.thr, self.k1)[:2]], 2)
+            ),
+        )
 
     def initial(self, init_damping: float) -> np.ndarray:
         """Starting rates (n, n_rates): ``init_damping`` x the mean low-speed damping, the
@@ -181,10 +194,26 @@ class ElementLinearisation:
 
     def rates(self, sig: np.ndarray, r: np.ndarray) -> np.ndarray:
         """New rates (n, n_rates) from the element RMS values ``sig`` (n, 6 or 12:
-        columns ``SIG_*``) of the linear model built with the rates ``r``."""
+        columns ``SIG_*``) of the linear model built with the rates ``r``; without rear
+        end stops the damper and leaf rates by the compiled loop
+        (:func:`suspenv.models.minibus.spectral_kernel.damper_leaf_rates`)."""
         sv, sd = np.maximum(sig[:, SIG_DAMPER], 1e-12), np.maximum(sig[:, SIG_LEAF], 1e-12)
+        out = np.empty(r.shape)
+        if self.stops[1]:
+            self.damper_leaf_rates(sv, sd, out)
+        else:
+            # C order: the loop built ahead of time reads its arrays as laid out so
+            sv, sd = np.ascontiguousarray(sv), np.ascontiguousarray(sd)
+            spectral_kernel.damper_leaf_rates(sv, sd, *self._packed, NEWTON_STEPS, out)
+        if self.effects:
+            self._effect_rates(sig, r, out)
+        return out
+
+    def damper_leaf_rates(self, sv: np.ndarray, sd: np.ndarray, out: np.ndarray) -> None:
+        """Damper coefficients (N s/m) and rear leaf rates (N/m, with the rear stops')
+        into ``out[:, DAMPER]``, ``out[:, LEAF]`` from the RMS damper velocities ``sv``
+        (n, 4; m/s) and leaf deflections ``sd`` (n, 2; m), both > 0: the numpy form."""
         pb, pr = ndtr(self.kb / sv), ndtr(self.kr / sv)
-        out = np.empty_like(r)
         out[:, DAMPER] = (
             self.d_bl * (pb - 0.5)
             + self.d_bh * (1 - pb)
@@ -195,9 +224,6 @@ class ElementLinearisation:
         out[:, LEAF] = self.k1 + self.dk * (1.0 - ndtr((self.thr - m) / sd))
         if self.stops[1]:
             out[:, LEAF] += self._stop_terms(1, m, sd)[1]
-        if self.effects:
-            self._effect_rates(sig, r, out)
-        return out
 
     def damper_mean_force(self, sv: np.ndarray, cols: slice = DAMPER) -> np.ndarray:
         """Mean damper force (N, + resisting compression) for a zero-mean Gaussian
@@ -241,7 +267,7 @@ class ElementLinearisation:
         k1, dk, thr = (self.k1, self.dk, self.thr) if end else (self.k_front, 0.0, 0.0)
         rhs = -self.damper_mean_force(sv, cols) + dk * np.maximum(-thr, 0.0)
         m = (rhs - dk * sd * _excess(thr / sd)) / k1
-        for _ in range(10 if self.stops[end] else 6):
+        for _ in range(NEWTON_STEPS_STOPS if self.stops[end] else NEWTON_STEPS):
             a = (thr - m) / sd
             f = k1 * m + dk * sd * _excess(a) - rhs
             slope = k1 + dk * (1.0 - ndtr(a))

@@ -1,0 +1,222 @@
+"""Compiled loops of the spectral ride method (numba), design by design.
+
+For one design the numpy forms of a spectral ride pass are many small array calls;
+these loops run the same arithmetic compiled:
+
+- :func:`mean_square`: the frequency sums of :func:`suspenv.metrics.ride.
+  _split_mean_square`, from the modal form of the ride model's two halves (real
+  second-order terms per row) to weighted mean squares (frequencies in rad/s,
+  responses per m of axle input, weights as :func:`suspenv.metrics.ride.
+  _split_grid_values`); the sums run in another order than numpy's matrix products,
+  so the values agree to rounding (``tests/test_ride_spectral.py``: split path
+  against the full model);
+- :func:`modal_terms`: the real second-order modal terms of :meth:`suspenv.metrics.
+  ride._Halves.modal` from numpy's eigen-decomposition (residues by Gaussian
+  elimination instead of LAPACK's solve: equal to rounding, same tests);
+- :func:`damper_leaf_rates`: the equivalent-linear damper and rear-leaf rates of
+  :meth:`suspenv.models.minibus.linearisation.ElementLinearisation.rates` for a
+  model without rear end stops (``tests/test_minibus_ride_elements.py``: against the
+  numpy form). The standard normal CDF as scipy's ``ndtr`` (cephes) forms it.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from suspenv.core import compiled
+
+
+def _mean_square(
+    q0: np.ndarray,
+    q1: np.ndarray,
+    coef: np.ndarray,
+    w: np.ndarray,
+    dr: np.ndarray,
+    di: np.ndarray,
+    wt: np.ndarray,
+    out: np.ndarray,
+) -> None:
+    """``out[i, o, j] = sum_h sum_f wt[f, h J + j] |g_o(f)|^2`` (n designs, p outputs,
+    J weight columns per half) over the halves h of design i (rows 2 i + h of ``q0``,
+    ``q1`` (2n, d) and ``coef`` (2n, 2p, 2d): rows front outputs then rear outputs,
+    columns the constant then the s terms), with ``g = H_front + (dr + i di) H_rear``
+    and ``H_o = sum_k (coef[o, k] + s coef[o, d + k]) / (s^2 - q1[k] s + q0[k])`` at
+    ``s = i w`` (w (Nf,) rad/s)."""
+    rows, d = q0.shape
+    p = coef.shape[1] // 2
+    n_w, nf = out.shape[2], w.size
+    # loops over the frequencies innermost (vectorised): E (d, Nf), then per output
+    # the front and rear responses (Nf) accumulated mode by mode
+    er, ei = np.empty((d, nf)), np.empty((d, nf))
+    g0r, g0i, g1r, g1i = np.empty(nf), np.empty(nf), np.empty(nf), np.empty(nf)
+    out[:] = 0.0
+    for r in range(rows):
+        i, off = r // 2, (r % 2) * n_w
+        for k in range(d):
+            for f in range(nf):
+                # E = 1/(q0 - w^2 - i q1 w) = (q0 - w^2 + i q1 w)/den
+                a, b = q0[r, k] - w[f] * w[f], q1[r, k] * w[f]
+                inv = 1.0 / (a * a + b * b)
+                er[k, f], ei[k, f] = a * inv, b * inv
+        for o in range(p):
+            g0r[:], g0i[:], g1r[:], g1i[:] = 0.0, 0.0, 0.0, 0.0
+            for k in range(d):
+                # H = E a + i w E b
+                a0, b0 = coef[r, o, k], coef[r, o, d + k]
+                a1, b1 = coef[r, p + o, k], coef[r, p + o, d + k]
+                for f in range(nf):
+                    e_r, e_i, wf = er[k, f], ei[k, f], w[f]
+                    g0r[f] += a0 * e_r - b0 * wf * e_i
+                    g0i[f] += a0 * e_i + b0 * wf * e_r
+                    g1r[f] += a1 * e_r - b1 * wf * e_i
+                    g1i[f] += a1 * e_i + b1 * wf * e_r
+            for f in range(nf):
+                gr = g0r[f] + dr[f] * g1r[f] - di[f] * g1i[f]
+                gi = g0i[f] + dr[f] * g1i[f] + di[f] * g1r[f]
+                g2 = gr * gr + gi * gi
+                for j in range(n_w):
+                    out[i, o, j] += g2 * wt[f, off + j]
+
+
+def _solve(a: np.ndarray, x: np.ndarray) -> None:
+    """``x <- a^-1 x`` (a (m, m), x (m, c), complex) by Gaussian elimination with
+    partial pivoting; ``a`` is overwritten."""
+    m = a.shape[0]
+    for k in range(m):
+        piv = k
+        for i in range(k + 1, m):
+            if abs(a[i, k]) > abs(a[piv, k]):
+                piv = i
+        if piv != k:
+            for c in range(m):
+                a[k, c], a[piv, c] = a[piv, c], a[k, c]
+            for c in range(x.shape[1]):
+                x[k, c], x[piv, c] = x[piv, c], x[k, c]
+        for i in range(k + 1, m):
+            f = a[i, k] / a[k, k]
+            for c in range(k + 1, m):
+                a[i, c] -= f * a[k, c]
+            for c in range(x.shape[1]):
+                x[i, c] -= f * x[k, c]
+    for k in range(m - 1, -1, -1):
+        for c in range(x.shape[1]):
+            acc = x[k, c]
+            for i in range(k + 1, m):
+                acc -= a[k, i] * x[i, c]
+            x[k, c] = acc / a[k, k]
+
+
+def _modal_terms(
+    lam: np.ndarray,
+    V: np.ndarray,
+    B: np.ndarray,
+    co: np.ndarray,
+    q0: np.ndarray,
+    q1: np.ndarray,
+    coef: np.ndarray,
+) -> None:
+    """Real second-order modal terms (``q0``, ``q1`` (rows, d), ``coef`` (rows, 2, p,
+    2d)) of the first-order systems with poles ``lam`` (rows, 2d), eigenvectors ``V``
+    (rows, 2d, 2d), inputs ``B`` (rows, 2d, 4: the two inputs' displacement then rate
+    columns) and outputs ``co`` (rows, p, d) of the displacements, as
+    :meth:`suspenv.metrics.ride._Halves.modal` defines them: conjugate pairs kept
+    next to each other as LAPACK returns them, real poles last, paired among
+    themselves; residues ``R = V^-1 B`` by Gaussian elimination with partial pivoting.
+    """
+    rows, ns = lam.shape
+    d, p = ns // 2, co.shape[1]
+    order = np.empty(ns, dtype=np.int64)
+    a = np.empty((ns, ns), dtype=np.complex128)
+    x = np.empty((ns, 4), dtype=np.complex128)
+    ab = np.empty((ns, 2, 2), dtype=np.complex128)
+    for r in range(rows):
+        m = 0
+        for real in range(2):  # complex poles first, then real ones
+            for k in range(ns):
+                if (lam[r, k].imag == 0) == (real == 1):
+                    order[m] = k
+                    m += 1
+        for i in range(ns):
+            for k in range(ns):
+                a[i, k] = V[r, i, order[k]]
+            x[i] = B[r, i]
+        _solve(a, x)
+        for k in range(ns):
+            lk, other = lam[r, order[k]], lam[r, order[k ^ 1]]
+            for i in range(2):
+                ab[k, 1, i] = x[k, i] + lk * x[k, 2 + i]
+                ab[k, 0, i] = -other * ab[k, 1, i]
+        for kk in range(d):
+            l1, l2 = lam[r, order[2 * kk]], lam[r, order[2 * kk + 1]]
+            q0[r, kk], q1[r, kk] = (l1 * l2).real, (l1 + l2).real
+            for o in range(p):
+                cv0, cv1 = 0j, 0j
+                for j in range(d):
+                    cv0 += co[r, o, j] * V[r, j, order[2 * kk]]
+                    cv1 += co[r, o, j] * V[r, j, order[2 * kk + 1]]
+                for c in range(2):
+                    for i in range(2):
+                        t = ab[2 * kk, c, i] * cv0 + ab[2 * kk + 1, c, i] * cv1
+                        coef[r, i, o, c * d + kk] = t.real
+
+
+def _ndtr(a: float) -> float:
+    """Standard normal CDF (-), as cephes' ``ndtr``: erf near 0, erfc in the tails."""
+    x = a * math.sqrt(0.5)
+    if abs(x) < math.sqrt(0.5):
+        return 0.5 + 0.5 * math.erf(x)
+    y = 0.5 * math.erfc(abs(x))
+    return 1.0 - y if x > 0 else y
+
+
+def _excess(a: float) -> float:
+    """``E[max(t - a, 0)]`` (-) for a standard normal t (as ``linearisation._excess``)."""
+    return math.exp(-0.5 * a * a) / math.sqrt(2.0 * math.pi) - a * _ndtr(-a)
+
+
+def _damper_leaf_rates(
+    sv: np.ndarray,
+    sd: np.ndarray,
+    damp: np.ndarray,
+    knee: np.ndarray,
+    leaf: np.ndarray,
+    passes: int,
+    out: np.ndarray,
+) -> None:
+    """Damper coefficients (N s/m) and rear leaf rates (N/m) into ``out`` (n, 6) from
+    the RMS damper velocities ``sv`` (n, 4; m/s) and leaf deflections ``sd`` (n, 2;
+    m), both > 0: ``damp`` (n, 4, 4) slopes (bump low, bump high, rebound low, rebound
+    high) per damper, ``knee`` (4, 2) knees (bump, rebound > 0; m/s), ``leaf`` (n, 2, 3)
+    per leaf (primary rate K_1 (N/m), extra rate dk (N/m), knee e_k (m) from rest);
+    the leaf's mean deflection by ``passes`` Newton steps (laws and steps of
+    :class:`suspenv.models.minibus.linearisation.ElementLinearisation`)."""
+    c0 = 1.0 / math.sqrt(2.0 * math.pi)
+    for i in range(sv.shape[0]):
+        for j in range(4):
+            s = sv[i, j]
+            pb, pr = _ndtr(knee[j, 0] / s), _ndtr(knee[j, 1] / s)
+            bl, bh, rl, rh = damp[i, j, 0], damp[i, j, 1], damp[i, j, 2], damp[i, j, 3]
+            out[i, j] = bl * (pb - 0.5) + bh * (1 - pb) + rl * (pr - 0.5) + rh * (1 - pr)
+        for side in range(2):
+            j = 2 + side
+            s, d = sv[i, j], sd[i, side]
+            k1, dk, thr = leaf[i, side, 0], leaf[i, side, 1], leaf[i, side, 2]
+            tb, tr = s * _excess(knee[j, 0] / s), s * _excess(knee[j, 1] / s)
+            bump = damp[i, j, 0] * (s * c0 - tb) + damp[i, j, 1] * tb
+            mean_force = bump - (damp[i, j, 2] * (s * c0 - tr) + damp[i, j, 3] * tr)
+            rhs = -mean_force + dk * max(-thr, 0.0)
+            m = (rhs - dk * d * _excess(thr / d)) / k1
+            for _ in range(passes):
+                a = (thr - m) / d
+                f = k1 * m + dk * d * _excess(a) - rhs
+                m = m - f / (k1 + dk * (1.0 - _ndtr(a)))
+            out[i, j + 2] = k1 + dk * (1.0 - _ndtr((thr - m) / d))
+
+
+#: :func:`_mean_square`, :func:`_modal_terms` and :func:`_damper_leaf_rates`, built
+#: ahead of time (:mod:`suspenv.core.compiled`)
+mean_square = compiled.Lazy(globals(), (), _mean_square)
+modal_terms = compiled.Lazy(globals(), ("_solve",), _modal_terms)
+damper_leaf_rates = compiled.Lazy(globals(), ("_ndtr", "_excess"), _damper_leaf_rates)
