@@ -497,8 +497,10 @@ class AxleSolver:
         self._ground4 = np.stack([self.ground[b] for b in BUSH_ORDER], axis=2)
         # bushing frames (n, 2, 4, 3, 3) when a bushing has an orientation, else None
         frames = axle.frames
-        eye = np.broadcast_to(np.eye(3), axle.camber0.shape + (3, 3))
-        self._Q = np.stack([frames.get(b, eye) for b in BUSH_ORDER], axis=2) if frames else None
+        self._Q: np.ndarray | None = None
+        if frames:
+            eye = np.broadcast_to(np.eye(3), axle.camber0.shape + (3, 3))
+            self._Q = np.stack([frames.get(b, eye) for b in BUSH_ORDER], axis=2)
         self.stats = {"solves": 0, "residuals": 0, "jacobians": 0}
         # the per-design arrays of the compiled residual (see _pack)
         self._rl_pack: np.ndarray | None = None
