@@ -34,6 +34,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, fields, replace
+from functools import cache
 from typing import Any
 
 import numpy as np
@@ -589,6 +590,36 @@ def _perpendicular(v: np.ndarray, a: np.ndarray) -> np.ndarray:
     return v - (v * a).sum(-1, keepdims=True) * a
 
 
+#: the mirror of the left-side ADAMS/Car frame into ISO 8855, per side (2, 3)
+_MIRROR = np.stack([np.array([-1.0, -SIDE_SIGN[s], 1.0]) for s in (0, 1)])
+
+
+def _to_iso(p_mm: np.ndarray) -> np.ndarray:
+    """Points [mm] in the left-side ADAMS/Car frame -> ISO 8855 [m], per side (..., 2, 3)."""
+    return np.asarray(p_mm, dtype=float) / 1000.0 * _MIRROR
+
+
+@cache
+def _columns() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The design vector's columns of the hard points (K, 3) (x, y, z) and bushings
+    (B, 6) (:data:`COMPONENTS`; the lower-arm bushes' kz is their ky: axisymmetric about
+    their x axis), and the bushing components' unit factors (6,) (kN/mm -> N/m,
+    N*mm/deg -> N*m/rad)."""
+    idx = {name: i for i, name in enumerate(PARAMETER_NAMES)}
+    hp = np.array([[idx[f"{p}_{a}"] for a in "xyz"] for p in HARD_POINTS])
+    cols = []
+    for b in BUSHINGS:
+        row = []
+        for comp in COMPONENTS:
+            name = f"{b}_{comp}" if f"{b}_{comp}" in idx or comp != "kz" else f"{b}_ky"
+            if name not in idx:  # pragma: no cover - every bushing lists its rotations
+                raise ValidationError(f"bushing {b} lacks component {comp}")
+            row.append(idx[name])
+        cols.append(row)
+    scale = np.array([1e3 if comp.startswith("k") else 1e-3 / DEG for comp in COMPONENTS])
+    return hp, np.array(cols), scale
+
+
 def build_axle(
     left: np.ndarray,
     right: np.ndarray | None = None,
@@ -613,44 +644,26 @@ def build_axle(
     n = XL.shape[0]
     X = np.stack([XL, XR], axis=1)  # (n, 2, 49)
     idx = {name: i for i, name in enumerate(PARAMETER_NAMES)}
-
-    mirror = np.stack([np.array([-1.0, -SIDE_SIGN[s], 1.0]) for s in (0, 1)])  # (2, 3)
-
-    def to_iso(p_mm: np.ndarray) -> np.ndarray:
-        return np.asarray(p_mm, dtype=float) / 1000.0 * mirror
-
-    pts: dict[str, np.ndarray] = {}
-    for hp in HARD_POINTS:
-        cols = [idx[f"{hp}_{a}"] for a in "xyz"]
-        pts[hp] = to_iso(X[..., cols])
+    hp_cols, bush_cols, bush_scale = _columns()
+    # every hard point in one product [mm -> m], mirrored per side: (n, 2, K, 3)
+    hp = X[..., hp_cols] / 1000.0 * _MIRROR[:, None, :]
+    pts: dict[str, np.ndarray] = {name: hp[..., i, :] for i, name in enumerate(HARD_POINTS)}
     for name in ("wheel_centre", "arb_bush"):
-        pts[name] = np.broadcast_to(to_iso(np.array(getattr(c, name))), (n, 2, 3)).copy()
+        pts[name] = np.broadcast_to(_to_iso(np.array(getattr(c, name))), (n, 2, 3)).copy()
 
     st, sp = pts["strut_top"], pts["strut_axis_point"]
     a = _unit(sp - st)
 
     def dependent(d_mm: float, offset_mm: tuple[float, float, float]) -> np.ndarray:
-        off = _perpendicular(to_iso(np.array(offset_mm)) + 0.0 * st, a)
+        off = _perpendicular(_to_iso(np.array(offset_mm)) + 0.0 * st, a)
         return st + a * (d_mm / 1000.0) + off
 
     pts["spring_upper_seat"] = dependent(c.spring_upper_seat_d, (0.0, 0.0, 0.0))
     pts["spring_lower_seat"] = dependent(c.spring_lower_seat_d, c.spring_lower_seat_offset)
     pts["drop_link_strut"] = dependent(c.drop_link_d, c.drop_link_offset)
 
-    bush: dict[str, np.ndarray] = {}
-    for b in BUSHINGS:
-        k = np.zeros((n, 2, 6))
-        for comp in COMPONENTS:
-            name = f"{b}_{comp}"
-            if name in idx:
-                val = X[..., idx[name]]
-            elif comp == "kz":  # lower-arm bushes: axisymmetric about their x axis
-                val = X[..., idx[f"{b}_ky"]]
-            else:  # pragma: no cover - every bushing lists its rotations
-                raise ValidationError(f"bushing {b} lacks component {comp}")
-            j = COMPONENTS.index(comp)
-            k[..., j] = val * (1e3 if comp.startswith("k") else 1e-3 / DEG)
-        bush[b] = k
+    k_all = X[..., bush_cols] * bush_scale  # (n, 2, B, 6) [N/m, N*m/rad]
+    bush = {b: k_all[..., i, :] for i, b in enumerate(BUSHINGS)}
 
     ones = np.ones((n, 2))
     return Axle(

@@ -443,12 +443,13 @@ class AxleSolver:
         }
         self.tri = p["tie_rod_inner"]
         a = p["strut_axis_point"] - p["strut_top"]
-        self.a = a / np.linalg.norm(a, axis=-1, keepdims=True)
+        self.a = a / _length(a)
         self.u, self.v = _perp_basis(self.a)
-        self.L_tie = np.linalg.norm(p["tie_rod_outer"] - p["tie_rod_inner"], axis=-1)
-        self.L_drop = np.linalg.norm(p["drop_link_strut"] - p["arb_drop_link"], axis=-1)
         # tie rod and drop link: lengths, squared and doubled (n, 2, 2)
-        self._L_links = np.stack([self.L_tie, self.L_drop], axis=-1)
+        tie = p["tie_rod_outer"] - p["tie_rod_inner"]
+        drop = p["drop_link_strut"] - p["arb_drop_link"]
+        self._L_links = _length(np.stack([tie, drop], axis=-2))[..., 0]
+        self.L_tie, self.L_drop = self._L_links[..., 0], self._L_links[..., 1]
         self._L_links_sq = self._L_links**2
         self._L_links_2 = 2 * self._L_links
         self.s0 = spin_axis(axle.camber0, axle.toe0)
@@ -463,7 +464,7 @@ class AxleSolver:
             np.full(self.n, c_rack) if axle.rack_compliance is None else axle.rack_compliance
         )
         self.rack_gain = axle.constants.rack_gain
-        self.L_spring0 = np.linalg.norm(p["spring_lower_seat"] - p["spring_upper_seat"], axis=-1)
+        self.L_spring0 = _length(p["spring_lower_seat"] - p["spring_upper_seat"])[..., 0]
         self._size_preload()
         # every body-fixed vector, rotated in one batched product by the residual
         vec = np.stack(
@@ -496,8 +497,10 @@ class AxleSolver:
         self._ground4 = np.stack([self.ground[b] for b in BUSH_ORDER], axis=2)
         # bushing frames (n, 2, 4, 3, 3) when a bushing has an orientation, else None
         frames = axle.frames
-        eye = np.broadcast_to(np.eye(3), axle.camber0.shape + (3, 3))
-        self._Q = np.stack([frames.get(b, eye) for b in BUSH_ORDER], axis=2) if frames else None
+        self._Q: np.ndarray | None = None
+        if frames:
+            eye = np.broadcast_to(np.eye(3), axle.camber0.shape + (3, 3))
+            self._Q = np.stack([frames.get(b, eye) for b in BUSH_ORDER], axis=2)
         self.stats = {"solves": 0, "residuals": 0, "jacobians": 0}
         # the per-design arrays of the compiled residual (see _pack)
         self._rl_pack: np.ndarray | None = None
@@ -597,18 +600,18 @@ class AxleSolver:
             np.stack([B - wc, B - wc, TRO - wc, arm_s, arm_s, self.u, self.v]),
             np.stack([e3[0], e3[1], e3[2], self.u, self.v, gap, gap]),
         )
-        zero3 = np.zeros_like(wc)
-        rows = [
-            *(np.concatenate([e3[i], c[i]], axis=-1) for i in range(3)),
-            *(
-                np.concatenate([zero3, c[5 + i]], -1) - np.concatenate([d, c[3 + i]], axis=-1)
-                for i, d in enumerate((self.u, self.v))
-            ),
-            np.concatenate([zero3 + EZ, zero3], axis=-1),  # the wheel-centre height
-        ]
+        # the six rows (translation, rotation): the three links, the strut line (u, v),
+        # the wheel-centre height
+        M = np.zeros(wc.shape[:-1] + (6, 6))
+        M[..., :3, :3] = np.moveaxis(e3, 0, -2)
+        M[..., :3, 3:] = np.moveaxis(c[:3], 0, -2)
+        M[..., 3, :3] = -self.u
+        M[..., 4, :3] = -self.v
+        M[..., 3:5, 3:] = np.moveaxis(c[5:] - c[3:5], 0, -2)
+        M[..., 5, 2] = 1.0
         rhs = np.zeros(wc.shape[:-1] + (6, 1))
         rhs[..., 5, 0] = 1.0
-        dq = np.linalg.solve(np.stack(rows, axis=-2), rhs)[..., 0]  # per metre of dz_wc
+        dq = np.linalg.solve(M, rhs)[..., 0]  # per metre of dz_wc
         # the spring: from the lower seat (knuckle) to the upper seat on the strut rod
         seat = _length(p["spring_upper_seat"] - p["strut_top"])  # along the rod
         e = p["spring_lower_seat"] - p["strut_top"] - seat * self.a
@@ -618,7 +621,7 @@ class AxleSolver:
         dL = dot(np.concatenate([e, c[1]], axis=-1), dq) - seat[..., 0] * turn
         # the contact point: the wheel centre's height minus Rw sqrt(1 - s_z^2)
         s = self.s0
-        ds_z = cross(dq[..., 3:], s)[..., 2]
+        ds_z = dq[..., 3] * s[..., 1] - dq[..., 4] * s[..., 0]  # (dw x s)_z
         dcp = dq[..., 2] + self.Rw * s[..., 2] * ds_z / np.sqrt(1.0 - s[..., 2] ** 2)
         Fz = ax.corner_load + ax.wheel_weight
         F_spring = (Fz * dcp - ax.wheel_weight) / (-dL)
