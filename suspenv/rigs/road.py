@@ -182,24 +182,6 @@ def welch_psd(
     return welch(z, fs=1.0 / dx, nperseg=nper, axis=-1)
 
 
-def octave_band_check(
-    n: np.ndarray,
-    psd: np.ndarray,
-    road_class: str | float = "B",
-    band: tuple[float, float] = (0.05, 2.0),
-) -> list[tuple[float, float, float]]:
-    """Per octave band in ``band``: (lower edge, mean measured PSD / mean Gd, n_lines)."""
-    rows = []
-    lo = band[0]
-    while lo * 2 <= band[1] * (1 + 1e-9):
-        sel = (n >= lo) & (n < 2 * lo)
-        if sel.any():
-            ratio = float(np.mean(psd[sel]) / np.mean(displacement_psd(n[sel], road_class)))
-            rows.append((lo, ratio, float(sel.sum())))
-        lo *= 2
-    return rows
-
-
 # ------------------------------------------------------------------ obstacles
 def triangular_bump(x: np.ndarray, start: float, base: float = 0.4, height: float = 0.06):
     """Elevation (m) of a symmetric triangular bump of ``base`` and ``height`` (m).
