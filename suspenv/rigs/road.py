@@ -25,6 +25,7 @@ import numpy as np
 from scipy.special import k1 as bessel_k1
 
 from suspenv.core.errors import ValidationError
+from suspenv.core.options import positive
 
 #: reference spatial frequency of ISO 8608 (cycle/m)
 N0 = 0.1
@@ -188,10 +189,8 @@ def triangular_bump(x: np.ndarray, start: float, base: float = 0.4, height: floa
 
     GB/T 4970 pulse input, commonly 400 mm base and 60 mm high.
     """
-    if not (base > 0 and height > 0):
-        raise ValidationError(
-            f"`base > 0` and `height > 0` must hold, but got (base={base}, height={height})"
-        )
+    positive("triangular_bump", "base", base)
+    positive("triangular_bump", "height", height)
     u = (np.asarray(x, dtype=float) - start) / (base / 2.0)
     return height * np.clip(1.0 - np.abs(u - 1.0), 0.0, None)
 
