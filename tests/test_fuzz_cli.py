@@ -25,8 +25,8 @@ from hypothesis import strategies as st  # noqa: E402
 
 import suspenv.suite.runner as suite_runner  # noqa: E402
 from suspenv.cli.main import main  # noqa: E402
+from suspenv.core.tomlfile import dump_toml  # noqa: E402
 from suspenv.runs.config import load_config  # noqa: E402
-from suspenv.runs.run_dir import dump_toml  # noqa: E402
 from suspenv.runs.runner import run_experiment  # noqa: E402
 
 #: CI replays a fixed set of examples; a per-example deadline catches a hang

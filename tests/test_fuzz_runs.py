@@ -23,11 +23,11 @@ from hypothesis import strategies as st  # noqa: E402
 
 from suspenv import make_problem  # noqa: E402
 from suspenv.core.errors import ValidationError  # noqa: E402
+from suspenv.core.tomlfile import dump_toml  # noqa: E402
 from suspenv.registry import make_strategy  # noqa: E402
 from suspenv.runs.archive import RunArchive  # noqa: E402
 from suspenv.runs.config import load_config  # noqa: E402
 from suspenv.runs.loop import optimize  # noqa: E402
-from suspenv.runs.run_dir import dump_toml  # noqa: E402
 from suspenv.runs.runner import check_config  # noqa: E402
 
 #: CI replays a fixed set of examples (a run either passes or fails for a reason in the

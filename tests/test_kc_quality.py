@@ -98,15 +98,6 @@ def test_a_change_of_unit_changes_the_sums_ranking_but_not_the_qualitys(problem)
     assert list(np.argsort((F * factor).sum(axis=1))) != list(np.argsort(F.sum(axis=1)))
 
 
-def test_best_index_is_the_least_quality(problem):
-    F = np.abs(np.random.default_rng(0).normal(size=(5, 40))) * problem.objective_scales
-    F[2] = np.nan
-    ok = np.array([True, True, True, False, True])
-    q = problem.quality(F)
-    assert problem.best_index(F, ok) == int(np.argmin(np.where(ok & np.isfinite(q), q, np.inf)))
-    assert problem.best_index(F, np.zeros(5, bool)) is None
-
-
 def test_a_measurement_without_noise_is_refused_by_name():
     p = KCIdentification(truth_seed=1, concealed=["tolerance"])
     p.measurement.noise = {c: 0.0 for c in p.measurement.noise}

@@ -10,7 +10,7 @@ import pytest
 
 from suspenv.core.errors import ValidationError
 from suspenv.models.minibus.vehicle import STUDY_PICK, design_space
-from suspenv.problems.minibus import MinibusRideHandling, pareto_mask, ride_focused_pick
+from suspenv.problems.minibus import MinibusRideHandling, ride_focused_pick
 from suspenv.registry import make_problem
 from suspenv.reports.minibus import write_minibus_report
 
@@ -133,17 +133,6 @@ def test_a_design_that_spins_is_a_failed_row_with_a_reason():
     assert not b.ok[0]
     assert "slalom" in b.messages[0]
     assert np.isnan(b.objectives[0]).all()
-
-
-def test_pareto_mask_matches_brute_force():
-    # reference: the definition of dominance, checked pair by pair
-    rng = np.random.default_rng(0)
-    F = rng.random((60, 3))
-    cand = rng.random(60) > 0.2
-    mask = pareto_mask(F, cand)
-    for i in range(60):
-        dominated = any(cand[j] and np.all(F[j] <= F[i]) and np.any(F[j] < F[i]) for j in range(60))
-        assert mask[i] == (cand[i] and not dominated)
 
 
 def test_ride_focused_pick_rule():

@@ -126,7 +126,7 @@ def test_field_law_is_odd_in_the_motion(case):
 
 
 def test_field_option_and_units_are_checked():
-    with pytest.raises(ValidationError, match="field in"):
+    with pytest.raises(ValidationError, match="`field` must be one of"):
         MRFieldDamperModel(field="coil_flux")
     model = make_component("mr_damper", field="coil_voltage")
     assert model.parameter_units[model.parameter_names.index("f_field")] == "N/V"

@@ -29,6 +29,7 @@ from suspenv.core.options import option_names
 from suspenv.core.problem import Problem
 from suspenv.core.result import EvaluationBatch
 from suspenv.core.space import DesignSpace, Parameter
+from suspenv.core.tomlfile import dump_toml
 from suspenv.registry import (
     list_problems,
     list_strategies,
@@ -41,7 +42,6 @@ from suspenv.runs.archive import RunArchive
 from suspenv.runs.config import load_config, validate
 from suspenv.runs.loop import optimize
 from suspenv.runs.optimize_pipeline import FigureProgress, check_optimize_config
-from suspenv.runs.run_dir import dump_toml
 from suspenv.runs.runner import run_experiment
 from suspenv.runs.versions import imported_distributions, package_versions, source_commit
 from suspenv.strategies.nsga2 import RUN_KEY

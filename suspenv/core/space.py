@@ -179,10 +179,6 @@ class DesignSpace:
             x[self.index(name)] = float(v)
         return x
 
-    def subspace(self, names: Sequence[str]) -> DesignSpace:
-        """A design space of the named parameters only, in the given order."""
-        return DesignSpace(self.parameters[self.index(n)] for n in names)
-
     def table(self) -> str:
         """A plain-text table of the parameters."""
         w = max(len(n) for n in self.names)

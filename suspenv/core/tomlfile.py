@@ -1,12 +1,15 @@
-"""Reading TOML files (configs, vehicle and geometry files) with named errors.
+"""Reading TOML files (configs, vehicle and geometry files) with named errors; writing them.
 
 Every failure is a :class:`~suspenv.core.errors.ValidationError` naming the file: too
 large (a TOML input file is small; the limit bounds memory), not UTF-8 text, not valid
 TOML (the parser's line and column), or nested too deeply for the parser.
+:func:`toml_value` and :func:`dump_toml` write the small subset the project stores
+(resolved configs, measured-K&C manifests).
 """
 
 from __future__ import annotations
 
+import json
 import tomllib
 from pathlib import Path
 from typing import Any
@@ -37,3 +40,38 @@ def read_toml(path: Path, label: str, max_bytes: int = MAX_TOML_BYTES) -> dict[s
             f"{label}: {size} bytes, more than the {max_bytes} bytes a TOML input file may hold"
         )
     return parse_toml(path.read_bytes(), label)
+
+
+def toml_value(v: Any) -> str:
+    """The inline TOML text of a bool, number, string, list/tuple or dict of those."""
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int | float):
+        return repr(float(v)) if isinstance(v, float) else str(v)
+    if isinstance(v, str):
+        return json.dumps(v)  # a JSON string is a TOML basic string
+    if isinstance(v, list | tuple):
+        return "[" + ", ".join(toml_value(x) for x in v) + "]"
+    if isinstance(v, dict):
+        return "{ " + ", ".join(f"{k} = {toml_value(x)}" for k, x in v.items()) + " }"
+    raise TypeError(f"cannot write {type(v).__name__} to TOML")
+
+
+def dump_toml(config: dict[str, Any]) -> str:
+    """A small TOML writer for resolved configs (scalars, arrays, nested tables; no None)."""
+    lines: list[str] = []
+
+    def table(prefix: str, d: dict[str, Any]) -> None:
+        scalars = {k: v for k, v in d.items() if not isinstance(v, dict) and v is not None}
+        subs = {k: v for k, v in d.items() if isinstance(v, dict)}
+        if prefix and (scalars or not subs):
+            lines.append(f"\n[{prefix}]")
+        for k, v in scalars.items():
+            lines.append(f"{k} = {toml_value(v)}")
+        for k, v in subs.items():
+            table(f"{prefix}.{k}" if prefix else k, v)
+
+    table("", config)
+    text = "\n".join(lines).lstrip() + "\n"
+    tomllib.loads(text)  # what we write must read back
+    return text

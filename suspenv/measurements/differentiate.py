@@ -16,6 +16,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.signal import savgol_filter
 
+from suspenv.core.sampling import increasing_steps
 from suspenv.measurements.errors import RecordingError
 
 
@@ -38,13 +39,7 @@ def smooth_derivative(
             f"smooth_derivative needs finite values, but value {i} is {x.reshape(-1)[i]} "
             f"({int(np.count_nonzero(~np.isfinite(x)))} non-finite)"
         )
-    dt = np.diff(t)
-    if np.any(dt <= 0):
-        i = int(np.argmax(dt <= 0))
-        raise RecordingError(
-            f"smooth_derivative needs strictly increasing times, but t[{i}] = {t[i]!r} s and "
-            f"t[{i + 1}] = {t[i + 1]!r} s"
-        )
+    dt = increasing_steps(t, "smooth_derivative: ", error=RecordingError)
     h = float(np.median(dt))
     if np.max(np.abs(dt - h)) > 0.01 * h:
         i = int(np.argmax(np.abs(dt - h)))

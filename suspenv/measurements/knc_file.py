@@ -50,7 +50,6 @@ from __future__ import annotations
 
 import csv
 import io
-import json
 import math
 import re
 from collections.abc import Iterable, Mapping
@@ -61,7 +60,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from suspenv.core.errors import ValidationError
-from suspenv.core.tomlfile import read_toml
+from suspenv.core.tomlfile import read_toml, toml_value
 from suspenv.measurements import knc as _knc
 from suspenv.measurements.errors import RecordingError
 from suspenv.measurements.knc_checks import check_manifest_keys, check_tests, check_wheel_travel
@@ -476,16 +475,6 @@ def _fmt(v: float) -> str:
     return "" if not math.isfinite(v) else f"{v:.{DIGITS}g}"
 
 
-def _toml_value(v: Any) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, int | float):
-        return repr(float(v)) if isinstance(v, float) else str(v)
-    if isinstance(v, list | tuple):
-        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
-    return json.dumps(str(v))  # a JSON string is a TOML basic string
-
-
 def test_columns(m: MeasuredTest, wheels: tuple[str, ...] = SIDES) -> tuple[list[str], np.ndarray]:
     """Column headers and rows (P, columns) of one test in edge units (mm, deg, N, N*m)."""
     col, quantity = DRIVE_COLUMN[m.test]
@@ -537,19 +526,19 @@ def manifest_text(m: KncMeasurement, files: Mapping[str, str]) -> str:
     """The ``knc.toml`` text of ``m`` with test -> CSV file name ``files``."""
     lines = [
         '# measured-K&C data, see docs/knc.md "Measured K&C format"',
-        f"format = {_toml_value(FORMAT)}",
+        f"format = {toml_value(FORMAT)}",
         f"version = {VERSION}",
-        f"name = {_toml_value(m.name)}",
-        f"source = {_toml_value(m.meta.get('source', ''))}",
-        f"sign_convention = {_toml_value(SIGN_CONVENTION)}  # x forward, y left, z up; "
+        f"name = {toml_value(m.name)}",
+        f"source = {toml_value(m.meta.get('source', ''))}",
+        f"sign_convention = {toml_value(SIGN_CONVENTION)}  # x forward, y left, z up; "
         "lateral values raw y (not outboard)",
-        f"travel_drive = {_toml_value(m.meta.get('travel_drive', 'pad'))}  # what a travel "
+        f"travel_drive = {toml_value(m.meta.get('travel_drive', 'pad'))}  # what a travel "
         "test's 'stroke' column is: the left pad or the left wheel centre",
-        f"wheels = {_toml_value(list(m.wheels))}",
-        f"channels = {_toml_value(m.channels)}",
+        f"wheels = {toml_value(list(m.wheels))}",
+        f"channels = {toml_value(m.channels)}",
     ]
     if m.meta.get("notes"):
-        lines.append(f"notes = {_toml_value(m.meta['notes'])}")
+        lines.append(f"notes = {toml_value(m.meta['notes'])}")
     declared = {c: s for c, s in m.noise.items() if m.noise_source.get(c) == "declared"}
     if declared:
         lines += ["", "[noise]  # one standard deviation of the measurement noise"]
@@ -557,7 +546,7 @@ def manifest_text(m: KncMeasurement, files: Mapping[str, str]) -> str:
             unit = EDGE_UNIT[CHANNELS[c]]
             lines.append(f'{c} = {{ sigma = {_fmt(s / _factor(unit))}, unit = "{unit}" }}')
     for test in m.tests:
-        lines += ["", f"[tests.{test}]", f"file = {_toml_value(files[test])}"]
+        lines += ["", f"[tests.{test}]", f"file = {toml_value(files[test])}"]
         amp = m.meta.get("amplitude", {}).get(test)
         if amp is not None:
             col, quantity = DRIVE_COLUMN[test]

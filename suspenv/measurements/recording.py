@@ -17,6 +17,7 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
+from suspenv.core.sampling import increasing_steps
 from suspenv.measurements.errors import RecordingError
 from suspenv.measurements.units import SI_UNITS, si_unit_of
 
@@ -152,13 +153,7 @@ class Recording:
                 f"{where}: channel 'time' has {run[1]} non-finite sample(s) starting at "
                 f"index {run[0]} (value {t[run[0]]})"
             )
-        dt = np.diff(t)
-        if np.any(dt <= 0):
-            i = int(np.argmax(dt <= 0))
-            raise RecordingError(
-                f"{where}: time must be strictly increasing, but time[{i}]={float(t[i])!r} s and "
-                f"time[{i + 1}]={float(t[i + 1])!r} s"
-            )
+        increasing_steps(t, f"{where}: ", "time", RecordingError)
         overlap = set(self.inputs) & set(self.outputs)
         if overlap:
             raise RecordingError(f"{where}: channels {sorted(overlap)} are both input and output")

@@ -498,14 +498,6 @@ class KCIdentification(Problem):
         (:func:`noise_scaled_rms`; dimensionless, lower is better)."""
         return noise_scaled_rms(F, self.objective_scales)
 
-    def best_index(self, F: np.ndarray, ok: np.ndarray) -> int | None:
-        """Row of the best valid design: the least :meth:`quality` (the run's best)."""
-        valid = np.asarray(ok, bool) & np.isfinite(F).all(axis=1)
-        if not valid.any():
-            return None
-        q = np.where(valid, self.quality(np.where(valid[:, None], F, 0.0)), np.inf)
-        return int(np.argmin(q))  # the first of equals, as the run's best row
-
     def write_report(self, run_dir: Path, archive: Any) -> list[Path]:
         """``kc_report.md`` (targets vs initial vs best model per objective) and
         ``kc_curves.png`` (measured loops vs the best design's curves), written by

@@ -554,11 +554,6 @@ class MinibusRideHandling(Problem):
 
 
 # ---------------------------------------------------------------------- report
-def pareto_mask(F: np.ndarray, candidates: np.ndarray) -> np.ndarray:
-    """Non-dominated rows (minimisation) among ``candidates`` (bool mask) of F (N, m)."""
-    return nondominated(F, candidates)
-
-
 def ride_focused_pick(F: np.ndarray, front: np.ndarray, F_base: np.ndarray) -> int:
     """Index of the ride-focused compromise on the Pareto front ``front`` (bool mask).
 
@@ -633,7 +628,7 @@ def study_outcome(problem: Problem, arrays: dict[str, np.ndarray]) -> StudyOutco
     pool = feasible if feasible.any() else ok
     if not pool.any():
         return None
-    front = pareto_mask(F, pool)
+    front = nondominated(F, pool)
     baseline = problem.evaluate(np.atleast_2d(BASELINE_DESIGN)).objectives[0]
     pick = ride_focused_pick(F, front, baseline)
     X = np.asarray(arrays["x"], dtype=float)

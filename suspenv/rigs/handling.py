@@ -52,6 +52,7 @@ from typing import Protocol
 import numpy as np
 
 from suspenv.core.errors import ValidationError
+from suspenv.core.options import integer, number, positive
 from suspenv.models.minibus import handling_kernel
 from suspenv.models.minibus.handling_model import (
     HandlingParams,
@@ -90,14 +91,8 @@ class SteadyCircleConfig:
 
     def __post_init__(self) -> None:
         for name in ("radius", "ay_upper", "tolerance", "alpha_max_deg"):
-            if not getattr(self, name) > 0:
-                raise ValidationError(
-                    f"SteadyCircleConfig: `{name} > 0` must hold, but got {getattr(self, name)}"
-                )
-        if self.alpha_points < 5:
-            raise ValidationError(
-                f"SteadyCircleConfig: `alpha_points >= 5` must hold, but got {self.alpha_points}"
-            )
+            positive("SteadyCircleConfig", name, getattr(self, name))
+        integer("SteadyCircleConfig", "alpha_points", self.alpha_points, lo=5)
 
 
 @dataclass
@@ -500,14 +495,8 @@ class SlalomConfig:
             "feedforward_preview",
             "max_path_error",
         ):
-            if not getattr(self, name) > 0:
-                raise ValidationError(
-                    f"SlalomConfig: `{name} > 0` must hold, but got {getattr(self, name)}"
-                )
-        if self.steer_lag < 0:
-            raise ValidationError(
-                f"SlalomConfig: `steer_lag >= 0` must hold, but got {self.steer_lag}"
-            )
+            positive("SlalomConfig", name, getattr(self, name))
+        number("SlalomConfig", "steer_lag", self.steer_lag, lo=0.0)
         if self.run_in < self.spacing:
             raise ValidationError(
                 f"SlalomConfig: `run_in >= spacing` must hold, but got (run_in={self.run_in}, "

@@ -25,6 +25,7 @@ import numpy as np
 from scipy.special import k1 as bessel_k1
 
 from suspenv.core.errors import ValidationError
+from suspenv.core.options import positive
 
 #: reference spatial frequency of ISO 8608 (cycle/m)
 N0 = 0.1
@@ -182,34 +183,14 @@ def welch_psd(
     return welch(z, fs=1.0 / dx, nperseg=nper, axis=-1)
 
 
-def octave_band_check(
-    n: np.ndarray,
-    psd: np.ndarray,
-    road_class: str | float = "B",
-    band: tuple[float, float] = (0.05, 2.0),
-) -> list[tuple[float, float, float]]:
-    """Per octave band in ``band``: (lower edge, mean measured PSD / mean Gd, n_lines)."""
-    rows = []
-    lo = band[0]
-    while lo * 2 <= band[1] * (1 + 1e-9):
-        sel = (n >= lo) & (n < 2 * lo)
-        if sel.any():
-            ratio = float(np.mean(psd[sel]) / np.mean(displacement_psd(n[sel], road_class)))
-            rows.append((lo, ratio, float(sel.sum())))
-        lo *= 2
-    return rows
-
-
 # ------------------------------------------------------------------ obstacles
 def triangular_bump(x: np.ndarray, start: float, base: float = 0.4, height: float = 0.06):
     """Elevation (m) of a symmetric triangular bump of ``base`` and ``height`` (m).
 
     GB/T 4970 pulse input, commonly 400 mm base and 60 mm high.
     """
-    if not (base > 0 and height > 0):
-        raise ValidationError(
-            f"`base > 0` and `height > 0` must hold, but got (base={base}, height={height})"
-        )
+    positive("triangular_bump", "base", base)
+    positive("triangular_bump", "height", height)
     u = (np.asarray(x, dtype=float) - start) / (base / 2.0)
     return height * np.clip(1.0 - np.abs(u - 1.0), 0.0, None)
 

@@ -40,6 +40,7 @@ import numpy as np
 
 from suspenv.core.errors import ValidationError
 from suspenv.core.options import option_names
+from suspenv.core.tomlfile import dump_toml
 from suspenv.registry import (
     make_problem,
     make_strategy,
@@ -52,7 +53,7 @@ from suspenv.runs.archive import RunArchive
 from suspenv.runs.evaluation import FaultPolicy
 from suspenv.runs.executors import executor_workers, make_executor
 from suspenv.runs.loop import optimize
-from suspenv.runs.run_dir import dump_toml, load_summary, run_directory, write_json
+from suspenv.runs.run_dir import load_summary, run_directory, write_json
 from suspenv.runs.versions import package_versions
 
 #: seconds of drawing after which the figure progress is printed to stderr

@@ -9,12 +9,12 @@ import json
 import os
 import sqlite3
 import time
-import tomllib
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 from suspenv.core.errors import InfrastructureError, ValidationError
+from suspenv.core.tomlfile import dump_toml
 from suspenv.runs.versions import package_versions
 
 #: what an operating system error of a write means for the user
@@ -108,40 +108,6 @@ def run_directory(config: dict[str, Any]) -> Path:
             "another `name`/`seed`"
         )
     return path
-
-
-def _toml_value(v: Any) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, (int, float)):
-        return repr(v)
-    if isinstance(v, str):
-        return json.dumps(v)
-    if isinstance(v, (list, tuple)):
-        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
-    if isinstance(v, dict):
-        return "{ " + ", ".join(f"{k} = {_toml_value(x)}" for k, x in v.items()) + " }"
-    raise TypeError(f"cannot write {type(v).__name__} to TOML")
-
-
-def dump_toml(config: dict[str, Any]) -> str:
-    """A small TOML writer for resolved configs (scalars, arrays, nested tables; no None)."""
-    lines: list[str] = []
-
-    def table(prefix: str, d: dict[str, Any]) -> None:
-        scalars = {k: v for k, v in d.items() if not isinstance(v, dict) and v is not None}
-        subs = {k: v for k, v in d.items() if isinstance(v, dict)}
-        if prefix and (scalars or not subs):
-            lines.append(f"\n[{prefix}]")
-        for k, v in scalars.items():
-            lines.append(f"{k} = {_toml_value(v)}")
-        for k, v in subs.items():
-            table(f"{prefix}.{k}" if prefix else k, v)
-
-    table("", config)
-    text = "\n".join(lines).lstrip() + "\n"
-    tomllib.loads(text)  # what we write must read back
-    return text
 
 
 def prepare_run_dir(config: dict[str, Any]) -> Path:

@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from suspenv.core.sampling import increasing_steps
 from suspenv.measurements.differentiate import smooth_derivative
 from suspenv.measurements.errors import RecordingError
 from suspenv.measurements.limits import check_text, read_limit
@@ -107,13 +108,7 @@ def load_damper_dyno(
                 f"{path.name}: column {col!r} must convert to {want!r}, but its unit "
                 f"{dict(zip(EXPECTED_COLUMNS, units, strict=True))[col]!r} converts to {got!r}"
             )
-    dt = np.diff(t)
-    if np.any(dt <= 0):
-        i = int(np.argmax(dt <= 0))
-        raise RecordingError(
-            f"{path.name}: time must be strictly increasing, but sample {i} has "
-            f"t={float(t[i])!r} s and sample {i + 1} has t={float(t[i + 1])!r} s"
-        )
+    dt = increasing_steps(t, f"{path.name}: ", error=RecordingError)
     with named_errors(path):
         v = smooth_derivative(x, t, window_s, order=3)
     sign = dissipative_sign(f, v)

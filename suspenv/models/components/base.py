@@ -22,6 +22,7 @@ import numpy as np
 from scipy.signal import butter, sosfiltfilt
 
 from suspenv.core.errors import ValidationError
+from suspenv.core.options import positive
 from suspenv.core.space import Parameter
 from suspenv.measurements import Recording
 from suspenv.models.effects import Effect
@@ -193,10 +194,7 @@ class ComponentModel:
                     f"{self.family}: known base parameter {name!r} is not one of its base "
                     f"parameters {all_base}"
                 )
-            if not (np.isfinite(value) and value > 0):
-                raise ValidationError(
-                    f"{self.family}: `known_base[{name!r}] > 0` must hold, but got {value!r}"
-                )
+            positive(self.family, f"known_base[{name!r}]", value)
         for e in self.effects:
             if not isinstance(e, Effect):
                 raise ValidationError(

@@ -14,7 +14,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from suspenv.core.errors import ValidationError
+from suspenv.core.options import choice
 from suspenv.core.space import Parameter
 from suspenv.measurements import Recording
 from suspenv.models.components.base import (
@@ -167,11 +167,7 @@ class MRFieldDamperModel(MRDamperModel):
 
     def __init__(self, effects=(), **options):
         super().__init__(effects, **options)
-        if self.field not in FIELD_INPUTS:
-            raise ValidationError(
-                f"{self.family}: option `field in {sorted(FIELD_INPUTS)}` must hold, but got "
-                f"{self.field!r}"
-            )
+        choice(self.family, "field", self.field, sorted(FIELD_INPUTS))
 
     @property
     def field(self) -> str:

@@ -49,6 +49,7 @@ import numpy as np
 from scipy.signal import lfilter
 
 from suspenv.core.errors import EvaluationError, ValidationError
+from suspenv.core.options import choice, integer, positive
 from suspenv.core.space import Parameter
 from suspenv.measurements import Recording, RecordingError, smooth_derivative
 from suspenv.models.components import rig_integrator
@@ -128,26 +129,15 @@ class QuarterCarRigModel(ComponentModel):
         deflection_ratio: float = 1.0,
         known_base: Mapping[str, float] | None = None,
     ):
-        if not (m_s > 0 and m_u > 0 and dt_max > 0 and max_substeps >= 1):
-            raise ValidationError(
-                f"`m_s > 0, m_u > 0, dt_max > 0, max_substeps >= 1` must hold, but got "
-                f"(m_s={m_s}, m_u={m_u}, dt_max={dt_max}, max_substeps={max_substeps})"
-            )
-        if not (np.isfinite(deflection_ratio) and deflection_ratio > 0):
-            raise ValidationError(
-                f"`deflection_ratio > 0` must hold, but got deflection_ratio={deflection_ratio}"
-            )
-        if integrator not in INTEGRATORS:
-            raise ValidationError(
-                f"`integrator in {INTEGRATORS}` must hold, but got integrator={integrator!r}"
-            )
+        owner = self.family
+        deflection_ratio = positive(owner, "deflection_ratio", deflection_ratio)
         super().__init__(
             effects,
-            m_s=float(m_s),
-            m_u=float(m_u),
-            dt_max=float(dt_max),
-            max_substeps=int(max_substeps),
-            integrator=str(integrator),
+            m_s=positive(owner, "m_s", m_s),
+            m_u=positive(owner, "m_u", m_u),
+            dt_max=positive(owner, "dt_max", dt_max),
+            max_substeps=integer(owner, "max_substeps", max_substeps, lo=1),
+            integrator=choice(owner, "integrator", integrator, INTEGRATORS),
             **({"scales": dict(scales)} if scales else {}),
             **({"deflection_ratio": float(deflection_ratio)} if deflection_ratio != 1.0 else {}),
             **({"known_base": {k: float(v) for k, v in known_base.items()}} if known_base else {}),

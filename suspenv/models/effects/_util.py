@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from suspenv.core.errors import ValidationError
+from suspenv.core.sampling import increasing_steps
 from suspenv.models.effects import kernels
 
 #: :func:`linear_recurrence` runs compiled (:func:`.kernels.recurrence`) where numba is
@@ -58,13 +59,7 @@ def time_steps(t: np.ndarray, n: int) -> np.ndarray:
             f"time vector must be 1-D with one entry per sample, but got shape {t.shape} "
             f"for {n} samples"
         )
-    dt = np.diff(t)
-    if np.any(dt <= 0):
-        i = int(np.argmax(dt <= 0))
-        raise ValidationError(
-            f"time must be strictly increasing, but got t[{i}]={t[i]} >= t[{i + 1}]={t[i + 1]}"
-        )
-    return dt
+    return increasing_steps(t)
 
 
 def linear_recurrence(a: np.ndarray, b: np.ndarray, z0: Value) -> np.ndarray:
