@@ -51,6 +51,18 @@ def test_every_ahead_loop_names_a_lazy_loop():
             assert isinstance(getattr(mod, attribute), compiled.Lazy), (module, attribute)
 
 
+def test_a_built_loop_refuses_a_column_order_array():
+    """pycc's wrapper does not check the layout its C-contiguous signature declares, so
+    a column-order array would be read as C-ordered: the loop refuses it by name."""
+    lazy, _ = _built_or_skip("suspenv.models.effects.kernels", "recurrence")
+    rng = np.random.default_rng(3)
+    a, b, z0 = rng.normal(size=(4, 50)), rng.uniform(-1, 1, (4, 50)), rng.normal(size=4)
+    out = np.empty((4, 51))
+    lazy(a, b, z0, out)  # C-ordered: runs
+    with pytest.raises(ValueError, match="recurrence: argument 0 must be a C-contiguous"):
+        lazy(np.asfortranarray(a), b, z0, out)
+
+
 def test_built_recurrence_matches_python():
     lazy, loop = _built_or_skip("suspenv.models.effects.kernels", "recurrence")
     rng = np.random.default_rng(3)

@@ -143,16 +143,33 @@ class Lazy:
     def __init__(self, space: dict[str, Any], helpers: Sequence[str], main: Callable) -> None:
         self._space, self._helpers, self._main = space, tuple(helpers), main
         self._loop: Callable | None = None
+        self._checked = False  # the loop is a built one: check its arrays' layout
         self.__doc__ = f":func:`{main.__name__}`, compiled at its first call."
 
     def __call__(self, *args: Any) -> Any:
         if self._loop is None:
             self._loop = _built(self._space, self._helpers, self._main)
+            self._checked = self._loop is not None
         if self._loop is None:
             self._loop = (
                 compile_in(self._space, self._helpers, self._main) if AVAILABLE else self._main
             )
+        if self._checked:
+            _refuse_strided(self._main.__name__, args)
         return self._loop(*args)
+
+
+def _refuse_strided(name: str, args: Sequence[Any]) -> None:
+    """A built loop declares C-contiguous arrays (:func:`_arr`) but ``pycc``'s wrapper does
+    not check the layout: a strided or column-order array would be read as if it were
+    C-ordered. Refuse it by name instead of returning wrong numbers."""
+    for i, a in enumerate(args):
+        flags = getattr(a, "flags", None)
+        if flags is not None and not flags.c_contiguous:
+            raise ValueError(
+                f"compiled loop {name}: argument {i} must be a C-contiguous array "
+                f"(np.ascontiguousarray), but got one with strides {a.strides}"
+            )
 
 
 def extension(root: Path) -> Any:
