@@ -313,3 +313,21 @@ def test_field_law_where_the_field_varies_within_or_between_recordings(case):
     assert check_extra_inputs(one, rig) == ["coil_current constant (0.5 A)"]
     two = [at(0.2), at(1.0)]
     assert baseline_model(describe_rig("mr_damper", two), two).options["field"] == "coil_current"
+
+
+def test_element_gain_switching_tells_a_switched_fit_from_a_steady_one() -> None:
+    """An element's improvement ``d`` whose gain on the residual follows a two-level
+    switching (blocks of 400 samples at gain 1 or 0: what a switched damping leaves for an
+    element fitted to its average) persists from block to block; the same ``d`` at a
+    steady gain 1 in white noise does not (the exact null of independent gains)."""
+    from suspenv.diagnosis.checks.switched_element import gain_lag1
+
+    rng = np.random.default_rng(7)
+    n, length = 8000, 50
+    d = np.sin(2 * np.pi * np.arange(n) / 37.0)
+    level = np.repeat(rng.integers(0, 2, n // 400), 400).astype(float)
+    noise = 0.3 * rng.standard_normal(n)
+    p_switched, rho_switched = gain_lag1(level * d + noise, d, length)
+    p_steady, _ = gain_lag1(d + noise, d, length)
+    assert p_switched < 1e-6 and rho_switched > 0.5
+    assert p_steady > 0.01

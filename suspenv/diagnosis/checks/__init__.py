@@ -11,7 +11,8 @@ defaults), so a new family gets honest verdicts the day it joins:
   (:mod:`.assumptions`).
 
 The other checks read only the final fit and the recordings: a residual driven by an
-input the recording does not carry (:mod:`.missing_input`), parameters on a bound
+input the recording does not carry (:mod:`.missing_input`) and the elements whose
+improvement rests on it (:mod:`.switched_element`), parameters on a bound
 (:mod:`.bounds`), the share of each output the model describes (:mod:`.misfit`).
 
 :func:`run` runs a family's own checks (``family.checks()``), then these, each result
@@ -23,7 +24,14 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from suspenv.diagnosis.checks import assumptions, bounds, misfit, missing_input, residual_left
+from suspenv.diagnosis.checks import (
+    assumptions,
+    bounds,
+    misfit,
+    missing_input,
+    residual_left,
+    switched_element,
+)
 from suspenv.diagnosis.checks.finding import Check, Context, Finding, fold, revise
 
 __all__ = ["Check", "Context", "Finding", "fold", "revise", "run"]
@@ -31,7 +39,14 @@ __all__ = ["Check", "Context", "Finding", "fold", "revise", "run"]
 
 def _checks() -> tuple[Check, ...]:
     # their leading sentences follow the family's in this order (the misfit's last)
-    return (residual_left.run, missing_input.run, bounds.run, assumptions.run, misfit.run)
+    return (
+        residual_left.run,
+        missing_input.run,
+        switched_element.run,
+        bounds.run,
+        assumptions.run,
+        misfit.run,
+    )
 
 
 def run(ctx: Context, checks: Sequence[Check] | None = None) -> None:
