@@ -53,7 +53,10 @@ EFFECT_FAMILIES = ("loop", "progressive")
 SIDES_FAMILY = "lr_asymmetry"
 #: the kept place's continuation takes secant steps (one rig evaluation each, where a
 #: differenced Jacobian costs ``dim + 1``): its budget is this many times ``polish_nfev``
-SECANT_BUDGET = 4
+SECANT_BUDGET = 3
+#: ... and each of its runs stops when a step changes the cost by less than this
+#: (relative, the first fit's: a secant step is cheap, the valley's floor is long)
+SECANT_FTOL = 1e-5
 
 
 @dataclass
@@ -418,8 +421,9 @@ def _refit(
     model.pool = pool  # half of each path-dependent batch in a second process
     prior = model.unit(_start(model, x0))
     # stop when a step gains less than one squared noise unit at a fit to the noise
-    # (each path-dependent step costs a rig loop: no crawling along valleys)
-    ftol = RESTART_GAIN / model.size
+    # (each differenced path-dependent step costs a rig loop per parameter: no crawling
+    # along valleys); a secant step costs one rig loop: the first fit's tolerance
+    ftol = RESTART_GAIN / model.size if again is None else SECANT_FTOL
     u0 = model.unit(model.base) if again is None else again.u
     at = None if again is None else (again.residual, again.jacobian)
     runs = 3 if again is None else nfev
