@@ -768,6 +768,7 @@ def polish_stage(
     prior: np.ndarray | None = None,
     prior_weight: float = PRIOR_WEIGHT,
     at_start: tuple[np.ndarray, np.ndarray] | None = None,
+    broyden: bool = False,
 ) -> tuple[StageResult, np.ndarray, np.ndarray]:
     """Trust-region least squares from ``u0`` with the batched Jacobian.
 
@@ -777,7 +778,13 @@ def polish_stage(
     Returns (stage, residual at the answer (size,), Jacobian there (size, dim)), both
     without the prior's rows; the stage's cost and history are the data's sum of
     squares. The answer is a point the trust region accepted, whose Jacobian it
-    evaluated: that one is returned, not recomputed."""
+    evaluated: that one is returned, not recomputed.
+
+    ``broyden``: the Jacobian is differenced at ``u0`` only (or taken from
+    ``at_start``); at each later accepted point it is the previous one with Broyden's
+    rank-one update (the secant through the step just taken), so a step costs one
+    evaluation instead of ``dim + 1``. The returned Jacobian is then that update, not a
+    differenced one (:func:`polish` differences it again)."""
     from scipy.optimize import least_squares
 
     t0 = time.perf_counter()
@@ -807,18 +814,26 @@ def polish_stage(
         hit = cache.get(key)
         if hit is not None and hit[1] is not None:
             J = hit[1]
+            last[:] = [(np.array(u, float), hit[0], J)]
             return np.vstack([J, w * np.eye(model.dim)]) if w > 0 else J
-        counter["jac"] += 1
-        r, J = model.jacobian(u)
+        secant = broyden and bool(last) and hit is not None
+        if secant and hit is not None:
+            r, J = hit[0], secant_update(*last[0], u, hit[0])
+        else:
+            counter["jac"] += 1
+            r, J = model.jacobian(u)
+        last[:] = [(u.copy(), r, J)]
         cache.clear()
         cache[key] = (r, J)
         _say(
             progress,
-            f"  polish  Jacobian {counter['jac']:3d}  cost {float(r @ r):.6g}  "
+            f"  polish  Jacobian {counter['jac']:3d}{' + secant' * secant}"
+            f"  cost {float(r @ r):.6g}  "
             f"({time.perf_counter() - t0:.0f} s)",
         )
         return np.vstack([J, w * np.eye(model.dim)]) if w > 0 else J
 
+    last: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []  # (u, r, J) last taken
     u0 = np.clip(np.asarray(u0, float), 0.0, 1.0)
     if at_start is not None:
         cache[u0.tobytes()] = at_start
@@ -857,6 +872,19 @@ def polish_stage(
         history,
     )
     return stage, r, J
+
+
+def secant_update(
+    u: np.ndarray, r: np.ndarray, J: np.ndarray, u2: np.ndarray, r2: np.ndarray
+) -> np.ndarray:
+    """Broyden's rank-one update of the Jacobian ``J`` (size, dim) at ``u`` (residual
+    ``r``) to the point ``u2`` (residual ``r2``): the least change of ``J`` for which
+    ``J2 (u2 - u) = r2 - r``."""
+    du = u2 - u
+    n2 = float(du @ du)
+    if n2 == 0.0:
+        return J
+    return J + np.outer(r2 - r - J @ du, du / n2)
 
 
 @dataclass
@@ -975,22 +1003,45 @@ def polish(
     prior: np.ndarray | None = None,
     ftol: float = 1e-5,
     at_start: tuple[np.ndarray, np.ndarray] | None = None,
+    broyden: bool = False,
 ) -> tuple[StageResult, np.ndarray, np.ndarray]:
     """:func:`polish_stage` restarted from its own answer (a fresh trust region) until a
     restart lowers the cost by less than ``min_gain`` (squared noise units: a change of
     the log-likelihood below ``min_gain / 2``), at most ``restarts`` runs in all, within
     ``max_nfev`` evaluations in all; ``at_start``: the residual and Jacobian at ``u0``
-    when known. One stage in the result; ``stop`` says which criterion ended it."""
+    when known. One stage in the result; ``stop`` says which criterion ended it.
+
+    ``broyden``: each run updates its start's Jacobian by secants (:func:`polish_stage`);
+    every restart, and the answer, get a differenced one, so the restart rule and the
+    returned Jacobian are the differenced model's."""
     t0 = time.perf_counter()
     stage, r, J = polish_stage(
-        model, u0, max_nfev, ftol, progress=progress, prior=prior, at_start=at_start
+        model,
+        u0,
+        max_nfev,
+        ftol,
+        progress=progress,
+        prior=prior,
+        at_start=at_start,
+        broyden=broyden,
     )
     evals, history, runs = stage.evaluations, list(stage.history), 1
     left = max_nfev - len(stage.history)
     stop = stage.stop
+    exact = not broyden
     while runs < restarts and left > 2 and stage.stop.startswith("converged"):
+        if not exact:
+            r, J = model.jacobian(stage.u)
+            evals, exact = evals + model.dim + 1, True
         again, r2, J2 = polish_stage(
-            model, stage.u, left, ftol, progress=progress, prior=prior, at_start=(r, J)
+            model,
+            stage.u,
+            left,
+            ftol,
+            progress=progress,
+            prior=prior,
+            at_start=(r, J),
+            broyden=broyden,
         )
         runs += 1
         evals += again.evaluations
@@ -998,7 +1049,7 @@ def polish(
         left -= len(again.history)
         gain = stage.cost - again.cost
         if gain > 0:
-            stage, r, J = again, r2, J2
+            stage, r, J, exact = again, r2, J2, not broyden
         stop = again.stop
         if gain < min_gain:
             stop = (
@@ -1006,6 +1057,9 @@ def polish(
                 f"< {min_gain:g} ({runs} runs; last: {again.stop.removeprefix('converged: ')})"
             )
             break
+    if not exact:
+        r, J = model.jacobian(stage.u)
+        evals += model.dim + 1
     return (
         StageResult(
             stage.name, stage.u, stage.cost, evals, stop, time.perf_counter() - t0, history

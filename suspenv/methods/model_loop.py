@@ -27,7 +27,10 @@ valleys cost nearly the same, with it they differ by orders of magnitude.
 
 Then all parameters, the design's and the effects', are polished together from the
 first fit's answer (least squares with the batched Jacobian and the same weak pull
-towards the start design as the first fit), and the residual is screened again.
+towards the start design as the first fit), and the residual is screened again. The
+kept place's refit then runs on by secant steps (Broyden's update of the differenced
+Jacobian: one rig loop per step instead of one per parameter), each restart from a
+differenced Jacobian, until a restart gains less than one squared noise unit.
 """
 
 from __future__ import annotations
@@ -48,6 +51,12 @@ from suspenv.models.effects import Effect
 EFFECT_FAMILIES = ("loop", "progressive")
 #: the family that puts the sides apart
 SIDES_FAMILY = "lr_asymmetry"
+#: the kept place's continuation takes secant steps (one rig evaluation each, where a
+#: differenced Jacobian costs ``dim + 1``): its budget is this many times ``polish_nfev``
+SECANT_BUDGET = 3
+#: ... and each of its runs stops when a step changes the cost by less than this
+#: (relative, the first fit's: a secant step is cheap, the valley's floor is long)
+SECANT_FTOL = 1e-5
 
 
 @dataclass
@@ -280,7 +289,7 @@ def refine(
     # the places are told apart within the short budget; the kept one goes on until a
     # restart gains less than one squared noise unit
     say("loop: the kept place's refit continued to convergence")
-    out = _refit(out.model, x0, polish_nfev, pool, progress, out)
+    out = _refit(out.model, x0, SECANT_BUDGET * polish_nfev, pool, progress, out)
     out.final.name = "refit with " + "; ".join(changes)
     return Refinement(changes, best.tried, out, time.perf_counter() - t0, skipped)
 
@@ -406,19 +415,28 @@ def _refit(
     again: CurveFit | None = None,
 ) -> CurveFit:
     """All of ``model``'s parameters polished together from its base (``again``: from
-    that refit's answer, restarted until a restart gains less than
-    :data:`RESTART_GAIN`), the weak pull towards the first fit's start design ``x0``
-    (effects at their starts); ``nfev`` evaluations at most."""
+    that refit's answer by secant steps, restarted with a differenced Jacobian until a
+    restart gains less than :data:`RESTART_GAIN`), the weak pull towards the first fit's
+    start design ``x0`` (effects at their starts); ``nfev`` evaluations at most."""
     model.pool = pool  # half of each path-dependent batch in a second process
     prior = model.unit(_start(model, x0))
     # stop when a step gains less than one squared noise unit at a fit to the noise
-    # (each path-dependent step costs a rig loop: no crawling along valleys)
-    ftol = RESTART_GAIN / model.size
+    # (each differenced path-dependent step costs a rig loop per parameter: no crawling
+    # along valleys); a secant step costs one rig loop: the first fit's tolerance
+    ftol = RESTART_GAIN / model.size if again is None else SECANT_FTOL
     u0 = model.unit(model.base) if again is None else again.u
     at = None if again is None else (again.residual, again.jacobian)
     runs = 3 if again is None else nfev
     stage, r, J = polish(
-        model, u0, nfev, runs, progress=progress, prior=prior, ftol=ftol, at_start=at
+        model,
+        u0,
+        nfev,
+        runs,
+        progress=progress,
+        prior=prior,
+        ftol=ftol,
+        at_start=at,
+        broyden=again is not None,
     )
     return CurveFit(model, stage.u, model.designs(stage.u[None])[0], r, J, [stage], stage)
 
