@@ -54,8 +54,8 @@ ALL_TESTS = TESTS + FORCE_TESTS + STEER_TESTS
 #: the right wheel (see :mod:`suspenv.rigs.knc`):
 #: ``lateral_opposed`` +F [N] outboard at both contact points (+y left, -y right),
 #: ``aligning_opposed`` +M [N*m] toe-out at both (+z left, -z right). Not in
-#: :data:`ALL_TESTS` (the test car's tests and the next-test advice); the rig runs them,
-#: the measured-K&C format loads them and the identification fits them
+#: :data:`ALL_TESTS` (the test car's tests); the rig runs them, the measured-K&C format
+#: loads them, the identification fits them and the next-test advice ranks them
 OPPOSED_TESTS: dict[str, str] = {"lateral_opposed": "lateral", "aligning_opposed": "aligning"}
 #: every test the rig runs and the measured-K&C format knows
 RIG_TESTS: tuple[str, ...] = (*ALL_TESTS, *OPPOSED_TESTS)
