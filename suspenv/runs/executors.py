@@ -136,10 +136,11 @@ class DaskExecutor(Executor):
         self.client, self.address, self.grace_s = client, address, grace_s
         self._executor = client.get_executor()
         self._away_since: float | None = None
-        # tornado logs a callback's exception (a connection to the scheduler closed) with
-        # a traceback the moment the scheduler goes, before :meth:`lost` can tell; the
-        # run's own lines say what happens
-        _quiet(("tornado",))
+        # tornado (a callback's exception) and distributed's batched sender ("Batched
+        # Comm Closed") log a closed connection to the scheduler with a traceback the
+        # moment the scheduler goes, before :meth:`lost` can tell; the run's own lines
+        # say what happens
+        _quiet(("tornado", "distributed.batched"))
 
     def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> Future[Any]:
         return self._executor.submit(fn, *args, **kwargs)
@@ -169,10 +170,10 @@ class DaskExecutor(Executor):
         self._executor.shutdown(wait=wait)
 
 
-def _quiet(packages: tuple[str, ...]) -> None:
-    """Log only critical records from the loggers of ``packages`` (and their children)."""
-    for name in [*packages, *logging.root.manager.loggerDict]:
-        if name.split(".")[0] in packages:
+def _quiet(loggers: tuple[str, ...]) -> None:
+    """Log only critical records from ``loggers`` (dotted names) and their children."""
+    for name in [*loggers, *logging.root.manager.loggerDict]:
+        if any(name == q or name.startswith(q + ".") for q in loggers):
             logging.getLogger(name).setLevel(logging.CRITICAL)
 
 
