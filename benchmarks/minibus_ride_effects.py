@@ -50,7 +50,7 @@ import os
 import sys
 import tempfile
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import numpy as np
@@ -61,7 +61,7 @@ from suspenv.metrics.iso2631 import weighted_rms_fft
 from suspenv.metrics.ride import ride_objectives_all, ride_spectral
 from suspenv.models.effects.effect import Effect, make_effect
 from suspenv.models.minibus import BASELINE_DESIGN, STUDY_PICK, design_space
-from suspenv.models.minibus.ride_model import RideModel
+from suspenv.models.minibus.ride_model import RideModel, RideRecord
 from suspenv.models.minibus.suspension import DamperCurve
 from suspenv.models.minibus.vehicle import (
     LOAD_CASES,
@@ -154,6 +154,24 @@ def mirrored_twin(prof: RoadProfile, track: float) -> RoadProfile:
     return RoadProfile(dx=prof.dx, left=z[0], right=z[1], spectra=spectra)
 
 
+def records(
+    model: RideModel, pairs: int, vehicle: Minibus, record_states: bool = False
+) -> Iterator[tuple[int, int, RideRecord]]:
+    """``(pair, 0 or 1, record)`` of ``model`` over ``pairs`` antithetic pairs
+    (:func:`mirrored_twin`) of ``RECORD_S`` records at ``SAMPLE_RATE`` after
+    ``SETTLE_S`` of settling (roads of seeds 500, 501, ...)."""
+    road = RandomRoad(duration_s=RECORD_S, settle_s=SETTLE_S, sample_rate=SAMPLE_RATE)
+    dx = road.speed * road.dt / 2.0
+    period = 2 * (road.n_steps - road.n_settle)
+    for k in range(pairs):
+        prof = generate_profile(period * dx, dx, road.road_class, 500 + k, vehicle.track_front)
+        for t, p in enumerate((prof, mirrored_twin(prof, vehicle.track_front))):
+            z, zd = profile_inputs(
+                p, road.speed, 2 * road.n_steps + 1, road.n_settle, vehicle.wheelbase
+            )
+            yield k, t, model.simulate(z, zd, road.dt, record_states, road.n_settle)
+
+
 def long_runs(
     X: np.ndarray,
     effects: list[Effect],
@@ -167,25 +185,15 @@ def long_runs(
     (%) from the scatter of the pair means (independent), and the standard error (%)
     the same number of independent records would give (from the first record of each
     pair)."""
-    road = RandomRoad(duration_s=RECORD_S, settle_s=SETTLE_S, sample_rate=SAMPLE_RATE)
     model = RideModel(
         stacked_vehicle_parameters(X, LOAD_CASES, vehicle), effects=effects, linear=linear
     )
-    dx = road.speed * road.dt / 2.0
-    period = 2 * (road.n_steps - road.n_settle)
     ms = np.empty((pairs, 2, 2, X.shape[0] * len(LOAD_CASES)))
-    for k in range(pairs):
-        prof = generate_profile(period * dx, dx, road.road_class, 500 + k, vehicle.track_front)
-        for t, p in enumerate((prof, mirrored_twin(prof, vehicle.track_front))):
-            z, zd = profile_inputs(
-                p, road.speed, 2 * road.n_steps + 1, road.n_settle, vehicle.wheelbase
-            )
-            rec = model.simulate(z, zd, road.dt, discard=road.n_settle)
-            fs = road.sample_rate
-            ms[k, t] = [
-                weighted_rms_fft(rec.acc_front, fs) ** 2,
-                weighted_rms_fft(rec.acc_rear, fs) ** 2,
-            ]
+    for k, t, rec in records(model, pairs, vehicle):
+        ms[k, t] = [
+            weighted_rms_fft(rec.acc_front, SAMPLE_RATE) ** 2,
+            weighted_rms_fft(rec.acc_rear, SAMPLE_RATE) ** 2,
+        ]
     pair_ms = ms.mean(axis=1)
     mean = pair_ms.mean(axis=0)
     # delta method: the RMS's relative standard error is half the mean square's
