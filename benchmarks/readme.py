@@ -62,7 +62,7 @@ SOURCES: dict[str, tuple[str, ...]] = {
         "planar_speed",
         "first_run",
     ),
-    "documents": ("minibus_objectives", "minibus_ride_effects"),
+    "documents": ("minibus_objectives", "minibus_ride_effects", "minibus_stop_criteria"),
     "diagnosis": (
         "diagnosis_benchmark",
         "independent_diagnosis",
@@ -76,7 +76,7 @@ SOURCES: dict[str, tuple[str, ...]] = {
 #: documents other than README.md with generated blocks (path relative to the repository)
 DOCUMENT_BLOCKS: dict[str, tuple[str, ...]] = {
     "docs/minibus_handling.md": ("minibus-study",),
-    "docs/minibus.md": ("minibus-paper", "minibus-effects"),
+    "docs/minibus.md": ("minibus-paper", "minibus-effects", "minibus-stops"),
     "docs/knc.md": ("knc-speed",),
     "docs/identify.md": ("identify-reference",),
     "docs/runs.md": ("overhead-loops", "overhead-workers"),
@@ -389,6 +389,25 @@ def minibus_effects_block(d: Json) -> str:
     inside = "within" if s["study_command_cpu_s"] <= s["target_study_s"] else "over"
     text = fill("minibus_effects.paragraph", s=s, met=met_1, study_met=inside)
     return "\n".join(lines) + "\n\n" + paragraph(text)
+
+
+def minibus_stops_table(d: Json) -> str:
+    """docs/minibus.md's criteria of the end stops' gain (``minibus_stop_criteria.json``):
+    per criterion the stop cells within target (front / rear), their range and the cells
+    the Gaussian gain misses (%)."""
+    lines = [
+        "| stop's gain | within 2 % (front / rear) | range (%) "
+        "| low corner loaded F / R, 1010 loaded R (%) |",
+        "|---|---|---|---|",
+    ]
+    for c in d["summary"]["criteria"].values():
+        f, r, r2 = c["missed_by_gaussian_percent"]
+        lines.append(
+            f"| {c['label']} | {c['within_target']} ({c['within_target_front'].split('/')[0]}"
+            f" / {c['within_target_rear'].split('/')[0]}) | {c['error_min_percent']:+.1f} to "
+            f"{c['error_max_percent']:+.1f} | {f:+.1f} / {r:+.1f}, {r2:+.1f} |"
+        )
+    return "\n".join(lines)
 
 
 def planar_speed_cells(s: Json) -> tuple[str, str]:
@@ -981,6 +1000,7 @@ DOCUMENT_RENDERERS = {
     "minibus-study": lambda data: minibus_study_paragraph(data["minibus_study"]),
     "minibus-paper": lambda data: minibus_paper_table(data["minibus_objectives"]),
     "minibus-effects": lambda data: minibus_effects_block(data["minibus_ride_effects"]),
+    "minibus-stops": lambda data: minibus_stops_table(data["minibus_stop_criteria"]),
     "knc-speed": lambda data: knc_speed_tables(data["knc_speed"]),
 }
 

@@ -47,13 +47,26 @@ def test_energy_criteria_equal_their_definitions(m, s):
 
 
 @pytest.mark.parametrize("m, s", CASES)
+def test_kazakov_variance_equals_its_definition(m, s):
+    """Kazakov's equal-variance gain ``sqrt(Var F)/s`` of a Gaussian deflection (tail
+    moments) against quadrature."""
+    mean = _expect(lambda y: KS * max(m + y - GAP, 0.0), m, s)
+    var = _expect(lambda y: (KS * max(m + y - GAP, 0.0) - mean) ** 2, m, s)
+    gain = sc._kazakov_variance(np.array(1e5), np.array(m), np.array(s))
+    np.testing.assert_allclose(gain, np.sqrt(var) / s, rtol=1e-8)
+
+
+@pytest.mark.parametrize("m, s", CASES)
 def test_potential_closure_limits(m, s):
     """The closure's density is Gaussian for a spring far stiffer than the stop, so its
     gain is then Stein's ``E[F']`` (the ``gaussian`` criterion; the grid's sum carries
-    the kink's O(h^2) error, h = s/100); a stop in contact over the whole density is a
-    linear spring, gain ``k_stop`` exactly."""
+    the kink's O(h^2) error, h = s/100: measured 5e-5) and its equal-variance gain the
+    Gaussian one; a stop in contact over the whole density is a linear spring, gain
+    ``k_stop`` exactly by both."""
     mm, ss = np.array(m), np.array(s)
     gauss = sc._gaussian(np.array(1e5), mm, ss)
     np.testing.assert_allclose(sc._potential_closure(np.array(1e14), mm, ss), gauss, rtol=1e-3)
-    always = sc._potential_closure(np.array(5e4), np.array(GAP + 9 * s), ss)
-    np.testing.assert_allclose(always, KS, rtol=1e-9)
+    var = sc._kazakov_variance(np.array(1e5), mm, ss)
+    np.testing.assert_allclose(sc._kazakov_variance_closure(np.array(1e14), mm, ss), var, rtol=1e-3)
+    for gain in (sc._potential_closure, sc._kazakov_variance_closure):
+        np.testing.assert_allclose(gain(np.array(5e4), np.array(GAP + 9 * s), ss), KS, rtol=1e-9)
