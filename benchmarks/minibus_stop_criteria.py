@@ -273,7 +273,9 @@ def element_statistics(pairs: int) -> list[dict[str, object]]:
 
 
 def _patched_stop_terms(gain: Gain) -> Callable[..., tuple[np.ndarray, np.ndarray]]:
-    """``ElementLinearisation._stop_terms`` with the method's mean force and ``gain``."""
+    """``ElementLinearisation._stop_terms`` with the method's mean force and ``gain`` in
+    place of its rate (for the benchmark's stops: one bump stop per end at ``GAP``,
+    ``K_STOP``)."""
     method = linearisation.ElementLinearisation._stop_terms
 
     def stop_terms(
