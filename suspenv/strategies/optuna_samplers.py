@@ -48,7 +48,6 @@ from typing import Any, ClassVar
 
 import numpy as np
 import optuna
-from optuna.trial import TrialState
 
 from suspenv.core.errors import ValidationError
 from suspenv.core.options import integer, number, numbers
@@ -57,10 +56,10 @@ from suspenv.core.scalarize import weighted_sum
 from suspenv.strategies.base import Strategy
 from suspenv.strategies.extras import require, told_losses
 from suspenv.strategies.nsga2 import (
-    CONSTRAINTS_KEY,
     PER_TRIAL_CONSTRAINTS,
     StudyDesign,
     constraints_of,
+    tell_trials,
 )
 
 
@@ -122,24 +121,11 @@ class OptunaSampler(Strategy):
         return np.asarray(batch.objectives, dtype=float)
 
     def _tell(self, U: np.ndarray, batch: EvaluationBatch) -> None:
-        failed = ~np.asarray(batch.ok, bool) | ~np.isfinite(batch.objectives).all(axis=1)
-        values = self._values(batch)
+        constrained = bool(self.n_constraints) and self.native_constraints
         with _quiet():
-            for i, trial in enumerate(self._trials):
-                if failed[i]:
-                    self.study.tell(trial, state=TrialState.FAIL)
-                    continue
-                if self.n_constraints and self.native_constraints:
-                    # an unknown constraint value is a large violation (optuna refuses NaN)
-                    g = np.nan_to_num(
-                        batch.scaled_constraints[i], nan=1e300, posinf=1e300, neginf=-1e300
-                    )
-                    if PER_TRIAL_CONSTRAINTS:
-                        for j, gj in enumerate(g):
-                            trial.set_constraint(f"g{j}", float(gj))
-                    else:
-                        trial.set_user_attr(CONSTRAINTS_KEY, g.tolist())
-                self.study.tell(trial, values[i].tolist())
+            tell_trials(
+                self.study, list(enumerate(self._trials)), self._values(batch), batch, constrained
+            )
         self._trials = []
 
 
