@@ -178,7 +178,6 @@ class NSGA2(Strategy):
         "population_size", "crossover_prob", "mutation_prob", "swapping_prob", "storage",
         "study_name", "resume",
     )
-    multi_objective = True
 
     def __init__(
         self,

@@ -81,7 +81,6 @@ class OptunaSampler(Strategy):
     """
 
     name = "optuna"
-    multi_objective = True
     #: the sampler handles constraints itself (through optuna's constraint mechanism)
     native_constraints: ClassVar[bool] = True
 
@@ -204,7 +203,6 @@ class OptunaCMAES(OptunaSampler):
     name = "optuna_cmaes"
     description = "CMA-ES (optuna + cmaes), one generation per batch; needs suspenv[optuna-cmaes]"
     option_names = ("popsize", "n_startup_trials", "lr_adapt", "weights")
-    multi_objective = False
     native_constraints = False
 
     def __init__(
