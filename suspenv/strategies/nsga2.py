@@ -48,6 +48,8 @@ from __future__ import annotations
 import logging
 import os
 import warnings
+from collections.abc import Iterator
+from contextlib import contextmanager
 from typing import Any
 
 import numpy as np
@@ -69,6 +71,22 @@ PER_TRIAL_CONSTRAINTS = hasattr(optuna.trial.Trial, "set_constraint")
 
 def constraints_of(trial: optuna.trial.FrozenTrial) -> list[float]:
     return list(trial.user_attrs.get(CONSTRAINTS_KEY, []))
+
+
+def constraints_func(n_constraints: int) -> Any:
+    """A sampler's ``constraints_func``: :func:`constraints_of` for optuna < 5 with
+    constraints, else None (optuna 5 takes them per trial)."""
+    return constraints_of if n_constraints and not PER_TRIAL_CONSTRAINTS else None
+
+
+@contextmanager
+def quiet() -> Iterator[None]:
+    """optuna's experimental and deprecation warnings silenced (the adapters pass only
+    supported arguments; the warnings would repeat on every trial)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
+        warnings.simplefilter("ignore", FutureWarning)
+        yield
 
 
 def tell_trials(
@@ -144,8 +162,7 @@ class StudyDesign:
         """The objectives' names as the study's metric names (when it has one value per
         objective; optuna's CMA-ES is told a single weighted sum)."""
         if self.metric_names and len(study.directions) == len(self.metric_names):
-            with warnings.catch_warnings():  # "experimental" in optuna 3.2-5
-                warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
+            with quiet():  # "experimental" in optuna 3.2-5
                 study.set_metric_names(self.metric_names)
 
 
@@ -215,17 +232,14 @@ class NSGA2(Strategy):
             )
         self.resume = resume
         optuna.logging.set_verbosity(logging.WARNING)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
+        with quiet():
             self._sampler = optuna.samplers.NSGAIISampler(
                 population_size=self.population_size,
                 crossover_prob=self.crossover_prob,
                 mutation_prob=self.mutation_prob,
                 swapping_prob=self.swapping_prob,
                 seed=self.seed,
-                constraints_func=(
-                    constraints_of if self.n_constraints and not PER_TRIAL_CONSTRAINTS else None
-                ),
+                constraints_func=constraints_func(self.n_constraints),
             )
         self._study: optuna.Study | None = None
         self._run_id: str | None = None

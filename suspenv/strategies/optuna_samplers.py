@@ -41,9 +41,6 @@ from __future__ import annotations
 
 import logging
 import math
-import warnings
-from collections.abc import Iterator
-from contextlib import contextmanager
 from typing import Any, ClassVar
 
 import numpy as np
@@ -55,22 +52,7 @@ from suspenv.core.result import EvaluationBatch
 from suspenv.core.scalarize import weighted_sum
 from suspenv.strategies.base import Strategy
 from suspenv.strategies.extras import require, told_losses
-from suspenv.strategies.nsga2 import (
-    PER_TRIAL_CONSTRAINTS,
-    StudyDesign,
-    constraints_of,
-    tell_trials,
-)
-
-
-@contextmanager
-def _quiet() -> Iterator[None]:
-    """optuna's experimental and deprecation warnings silenced (the adapters pass only
-    supported arguments; the warnings would repeat on every trial)."""
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
-        warnings.simplefilter("ignore", FutureWarning)
-        yield
+from suspenv.strategies.nsga2 import StudyDesign, constraints_func, quiet, tell_trials
 
 
 class OptunaSampler(Strategy):
@@ -96,14 +78,8 @@ class OptunaSampler(Strategy):
         self.design = StudyDesign(self.dim)
         self._trials: list[optuna.trial.Trial] = []
 
-    def _constraints_func(self) -> Any:
-        """``constraints_func`` for samplers of optuna < 5 (None from optuna 5 on)."""
-        if self.n_constraints and self.native_constraints and not PER_TRIAL_CONSTRAINTS:
-            return constraints_of
-        return None
-
     def _ask(self) -> np.ndarray:
-        with _quiet():
+        with quiet():
             self._trials = [self.study.ask(self.design.dists) for _ in range(self.batch_size)]
         return self.design.unit(self._trials)
 
@@ -121,7 +97,7 @@ class OptunaSampler(Strategy):
 
     def _tell(self, U: np.ndarray, batch: EvaluationBatch) -> None:
         constrained = bool(self.n_constraints) and self.native_constraints
-        with _quiet():
+        with quiet():
             tell_trials(
                 self.study, list(enumerate(self._trials)), self._values(batch), batch, constrained
             )
@@ -166,14 +142,14 @@ class OptunaTPE(OptunaSampler):
         self.n_startup_trials = integer(owner, "n_startup_trials", n_startup_trials, lo=0)
         self.n_ei_candidates = integer(owner, "n_ei_candidates", n_ei_candidates, lo=1)
         self.multivariate = _flag(owner, "multivariate", multivariate)
-        with _quiet():
+        with quiet():
             sampler = optuna.samplers.TPESampler(
                 n_startup_trials=self.n_startup_trials,
                 n_ei_candidates=self.n_ei_candidates,
                 multivariate=self.multivariate,
                 constant_liar=True,
                 seed=self.seed,
-                constraints_func=self._constraints_func(),
+                constraints_func=constraints_func(self.n_constraints),
             )
         self._setup(sampler, self.n_objectives, batch)
 
@@ -229,7 +205,7 @@ class OptunaCMAES(OptunaSampler):
             None if weights is None else numbers(owner, "weights", weights, self.n_objectives)
         )
         require(owner, "cmaes", "optuna-cmaes")
-        with _quiet():
+        with quiet():
             sampler = optuna.samplers.CmaEsSampler(
                 popsize=self.popsize,
                 n_startup_trials=self.n_startup_trials,
@@ -295,7 +271,7 @@ class OptunaNSGA3(OptunaSampler):
         )
         self.swapping_prob = number(owner, "swapping_prob", swapping_prob, lo=0.0, hi=1.0)
         self.dividing_parameter = integer(owner, "dividing_parameter", dividing_parameter, lo=1)
-        with _quiet():
+        with quiet():
             sampler = optuna.samplers.NSGAIIISampler(
                 population_size=self.population_size,
                 crossover_prob=self.crossover_prob,
@@ -303,7 +279,7 @@ class OptunaNSGA3(OptunaSampler):
                 swapping_prob=self.swapping_prob,
                 dividing_parameter=self.dividing_parameter,
                 seed=self.seed,
-                constraints_func=self._constraints_func(),
+                constraints_func=constraints_func(self.n_constraints),
             )
         self._setup(sampler, self.n_objectives, self.population_size)
 
@@ -347,12 +323,12 @@ class OptunaGP(OptunaSampler):
             _flag(owner, "deterministic_objective", deterministic_objective, allow_none=False)
         )
         require(owner, "torch", "optuna-gp")
-        with _quiet():
+        with quiet():
             sampler = optuna.samplers.GPSampler(
                 n_startup_trials=self.n_startup_trials,
                 deterministic_objective=self.deterministic_objective,
                 seed=self.seed,
-                constraints_func=self._constraints_func(),
+                constraints_func=constraints_func(self.n_constraints),
             )
         self._setup(sampler, self.n_objectives, batch)
 
