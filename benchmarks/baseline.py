@@ -1,7 +1,7 @@
 """The baseline table: the shipped strategies over the suite, several seeds each.
 
 Runs ``suspenv suite run`` (one run directory per instance x strategy x seed, resumable)
-into a work folder, compares them (:func:`suspenv.suite.compare.compare_suite`), and
+into a work folder, compares them (:func:`suspenv.analysis.compare.compare_suite`), and
 writes the leaderboard:
 
 - ``docs/baseline.md``: per instance, per strategy: the median final measure over the
@@ -30,8 +30,8 @@ from typing import Any
 import numpy as np
 
 from benchmarks.common import machine_info
+from suspenv.analysis.compare import compare_suite
 from suspenv.reports.analysis import write_comparison_figures
-from suspenv.suite.compare import compare_suite
 from suspenv.suite.instances import FUNCTIONS, SUITE_VERSION
 from suspenv.suite.runner import run_suite
 

@@ -16,9 +16,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from suspenv.analysis.compare import compare_suite
 from suspenv.analysis.ioh import write_ioh
 from suspenv.analysis.performance import ert, runtime_matrix
-from suspenv.suite.compare import compare_suite
 from suspenv.suite.runner import run_suite
 
 iohinspector = pytest.importorskip("iohinspector")

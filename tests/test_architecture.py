@@ -86,9 +86,9 @@ ALLOWED: dict[str, frozenset[str]] = {
     ),
     "diagnosis": frozenset({"core", "models", "rigs", "metrics", "measurements"}),
     # reads run directories: groups, fixed-budget and fixed-target views, indicators
-    "analysis": frozenset({"core", "registry", "runs", "problems"}),
+    "analysis": frozenset({"core", "registry", "runs", "problems", "suite"}),
     # named instances of registered problems, run through the runs layer
-    "suite": frozenset({"core", "registry", "runs", "analysis"}),
+    "suite": frozenset({"core", "registry", "runs"}),
     "reports": LIBRARY,
     "cli": LIBRARY | {"reports", "suspenv"},
     # ``import suspenv``: the BLAS thread limit, the public names, the env registration

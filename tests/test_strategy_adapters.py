@@ -218,6 +218,31 @@ def test_optuna_failed_designs_are_failed_trials():
     assert states.count("COMPLETE") == int(batch.ok.sum())
 
 
+@pytest.mark.parametrize(
+    ("name", "options"),
+    [("nsga2", {"population_size": 4}), ("optuna_tpe", {"batch_size": 4}),
+     ("optuna_nsga3", {"population_size": 4})],
+)
+def test_optuna_unknown_constraint_is_told_as_a_large_violation(name, options):
+    """A successful design whose constraint is NaN (optuna refuses NaN) completes with the
+    violation 1e300, so every sampler ranks it after the feasible designs."""
+    from suspenv.strategies.nsga2 import CONSTRAINTS_KEY, PER_TRIAL_CONSTRAINTS
+
+    problem = ShiftedSphere(dim=2, x0_min=0.5)
+    s = make_strategy(name, problem, seed=0, **options)
+    U = s.ask()
+    batch = problem.evaluate_unit(U)
+    batch.constraints[0] = np.nan
+    s.tell(U, batch)
+    trial = s.study.get_trials()[0]
+    told = (
+        trial.system_attrs["constraints:g0"]
+        if PER_TRIAL_CONSTRAINTS
+        else trial.user_attrs[CONSTRAINTS_KEY][0]
+    )
+    assert trial.state.name == "COMPLETE" and told == 1e300
+
+
 # ------------------------------------------------------------ multi-objective
 def hypervolume_2d(F: np.ndarray, ref: np.ndarray) -> float:
     """Hypervolume (minimisation) of the points F (n, 2) below the reference point."""

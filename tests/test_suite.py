@@ -161,8 +161,7 @@ def test_plugins_run_from_a_config_and_from_a_suite_run(tmp_path, monkeypatch, c
 
 
 def test_seed_plan_says_before_running_whether_the_seeds_can_separate():
-    from suspenv.analysis.stats import min_holm_p, rank_tests
-    from suspenv.suite.runner import seed_plan
+    from suspenv.analysis.stats import min_holm_p, rank_tests, seed_plan
 
     # the report: 6 strategies x 5 seeds; the floor by hand: 15 pairs x 2 / C(10, 5)
     assert min_holm_p(6, 5) == pytest.approx(15 * 2 / 252)

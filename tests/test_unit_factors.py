@@ -92,7 +92,7 @@ def test_reader_unit_factor(table: str, unit: str, factor: tuple[float, str]) ->
 NAMED = [
     ("metrics.knc.RAD2DEG", knc_metrics.RAD2DEG, 1.0 / sc.degree, RTOL),
     ("mcpherson.params.DEG", mcpherson_params.DEG, sc.degree, RTOL),
-    ("knc_file._KGF", knc_file._KGF, sc.g, RTOL),
+    ("units._KGF", units._KGF, sc.g, RTOL),
     ("planar.geometry._MM", planar_geometry._MM, sc.milli, RTOL),
     ("minibus.N_PER_MM_TO_N_PER_M", minibus_vehicle.N_PER_MM_TO_N_PER_M, 1.0 / sc.milli, RTOL),
     (

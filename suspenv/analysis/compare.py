@@ -45,6 +45,7 @@ from suspenv.analysis.indicators import (
 )
 from suspenv.analysis.load import (
     RunRecord,
+    load_run,
     load_runs,
     reference_front,
     sums_objectives,
@@ -590,6 +591,52 @@ def compare(
         "definitions": DEFINITIONS,
     }
     return Comparison(problems, result, profile)
+
+
+#: targets of a suite instance that knows the truth's quality, as multiples of it (last:
+#: the truth's level, the easier ones lead up to it)
+TARGET_FACTORS = (10.0, 5.0, 3.0, 2.0, 1.5, 1.2, 1.1, 1.05, 1.0)
+
+
+def compare_suite(folder: str | Path, **options: Any) -> Comparison:
+    """Compare every run of a suite run's output ``folder`` (its ``suite.json``, written by
+    :func:`suspenv.suite.runner.run_suite`) as :func:`compare` with ``suite=True``, passing
+    per instance (keyed by the problem hash of its runs) what it knows: ``optimum`` ->
+    ``f_opt``; ``target`` (the truth's quality) -> :data:`TARGET_FACTORS` times it;
+    ``front`` -> the reference front. Keywords go to :func:`compare`."""
+    from suspenv.suite.fronts import load_front
+    from suspenv.suite.runner import SUITE_FILE
+
+    path = Path(folder) / SUITE_FILE
+    if not path.is_file():
+        raise ValidationError(
+            f"{str(folder)!r} holds no {SUITE_FILE} (made by `suspenv suite run`)"
+        )
+    data = json.loads(path.read_text())
+    cards = {card["name"]: card for card in data["instances"]}
+    f_opt: dict[str, float] = {}
+    targets: dict[str, list[float]] = {}
+    fronts: dict[str, np.ndarray] = {}
+    runs = []
+    for run in data["runs"]:
+        record = load_run(run["run_dir"])
+        runs.append(record)
+        known = cards[f"{run['function']}/i{run['instance']}"]["known"]
+        key = record.problem_hash
+        if known["kind"] == "optimum":
+            f_opt[key] = float(known["f"])
+        elif known["kind"] == "target":
+            targets[key] = [float(known["f"]) * k for k in TARGET_FACTORS]
+        elif known["kind"] == "front":
+            fronts[key] = load_front(known["front"]).points
+    return compare(
+        runs,
+        suite=True,
+        f_opt=f_opt or None,
+        targets=targets or None,
+        reference_front=fronts or None,
+        **options,
+    )
 
 
 def check_options(f_opt: Any, n_targets: Any, alpha: Any, measure: str = "auto") -> None:

@@ -206,3 +206,29 @@ def rank_tests(
             }
         )
     return out
+
+
+def seed_plan(
+    n_strategies: int, seeds: Sequence[int] | None, alpha: float = 0.05
+) -> tuple[list[int], str]:
+    """The seeds of a suite run and what they can tell apart, said before running.
+
+    ``seeds`` None: seeds 1..n with n the larger of 5 and the fewest that let the rank
+    tests separate ``n_strategies`` strategies at ``alpha`` after Holm's correction
+    (:func:`seeds_needed`). Given seeds are kept; the message
+    then says whether they can."""
+    need = seeds_needed(n_strategies, alpha)
+    chosen = list(seeds) if seeds is not None else list(range(1, max(5, need) + 1))
+    n = len(chosen)
+    floor = min_holm_p(n_strategies, n)
+    if n_strategies < 2:
+        return chosen, f"{n} seed(s), one strategy: no rank test"
+    head = (
+        f"{n_strategies} strategies with {n} seeds each: the smallest attainable "
+        f"Holm-adjusted p of the pairwise rank tests is {floor:.3g}"
+    )
+    if floor < alpha:
+        return chosen, f"{head} < alpha {alpha:g}: they can be told apart"
+    return chosen, (
+        f"{head} >= alpha {alpha:g}: no pair can be told apart; {need} seeds are needed"
+    )

@@ -64,9 +64,8 @@ def _g(v: Any) -> str:
 
 
 def _compare(args: argparse.Namespace) -> int:
-    from suspenv.analysis.compare import check_options, compare
+    from suspenv.analysis.compare import check_options, compare, compare_suite
     from suspenv.reports.analysis import write_compared
-    from suspenv.suite.compare import compare_suite
     from suspenv.suite.runner import SUITE_FILE
 
     check_options(args.f_opt, args.n_targets, args.alpha, args.measure)

@@ -85,7 +85,8 @@ def _list(args: argparse.Namespace) -> int:
 
 
 def _run(args: argparse.Namespace) -> int:
-    from suspenv.suite.runner import run_suite, seed_plan
+    from suspenv.analysis.stats import seed_plan
+    from suspenv.suite.runner import run_suite
 
     seeds, note = seed_plan(len(args.strategies), args.seeds, args.alpha)
     print(note + (f" (seeds {seeds[0]}..{seeds[-1]} chosen)" if args.seeds is None else ""))

@@ -21,8 +21,8 @@ Frames, units and signs:
   :class:`suspenv.rigs.knc.KCResult`, same names, same signs);
 * every column but ``step`` and ``branch`` names its unit in brackets
   (``toe_left [deg]``); the loader converts to SI (m, rad, N, N*m) with
-  :data:`UNITS` (mm/cm/m/in, deg/rad/mrad, N/kN/lbf/kgf, N*m/kN*m/lbf*ft/lbf*in/kgf*m,
-  the linear units of :mod:`suspenv.measurements.units` plus the moments and kgf);
+  :data:`UNITS` (mm/cm/m/in, deg/rad/mrad, N/kN/lbf/kgf, N*m/kN*m/lbf*ft/lbf*in/kgf*m:
+  those of :data:`suspenv.measurements.units.FACTORS`);
 * the drive column of a test is :data:`DRIVE_COLUMN` [its unit]: the left pad's stroke
   from the static height (travel tests, bump positive; ``travel_drive = "wheel_centre"``
   when the rig drives the wheel centre instead), the force at both contact points
@@ -101,28 +101,9 @@ QUANTITY = {"m": "length", "rad": "angle", "N": "force", "N*m": "moment"}
 #: quantity -> the unit ``suspenv knc`` writes (the project's edge units)
 EDGE_UNIT = {"length": "mm", "angle": "deg", "force": "N", "moment": "N*m"}
 
-_LBF = FACTORS["lbf"][0]
-_KGF = 9.80665  # standard gravity [m/s^2], exact (CGPM 1901)
-#: units the loader converts: unit -> (factor to SI, SI unit). The lengths, angles and
-#: forces of :data:`suspenv.measurements.units.FACTORS` plus mrad, kgf and moments.
-UNITS: dict[str, tuple[float, str]] = {
-    **{u: f for u, f in FACTORS.items() if f[1] in QUANTITY},
-    "mrad": (1e-3, "rad"),
-    "kgf": (_KGF, "N"),
-    "N*m": (1.0, "N*m"),
-    "N m": (1.0, "N*m"),
-    "Nm": (1.0, "N*m"),
-    "N.m": (1.0, "N*m"),
-    "kN*m": (1e3, "N*m"),
-    "kNm": (1e3, "N*m"),
-    "N*mm": (1e-3, "N*m"),
-    "Nmm": (1e-3, "N*m"),
-    "lbf*ft": (_LBF * 0.3048, "N*m"),
-    "ft*lbf": (_LBF * 0.3048, "N*m"),
-    "lbf*in": (_LBF * 0.0254, "N*m"),
-    "in*lbf": (_LBF * 0.0254, "N*m"),
-    "kgf*m": (_KGF, "N*m"),
-}
+#: units the loader converts: unit -> (factor to SI, SI unit), the lengths, angles, forces
+#: and moments of :data:`suspenv.measurements.units.FACTORS`
+UNITS: dict[str, tuple[float, str]] = {u: f for u, f in FACTORS.items() if f[1] in QUANTITY}
 
 #: channels of the format (``KCResult.channels`` names) -> quantity
 CHANNELS: dict[str, str] = {

@@ -9,8 +9,9 @@ Rules:
   :data:`SI_UNITS` (checked on construction); anything else is converted by the reader
   with :func:`to_si` or refused;
 * :func:`to_si` knows the units of :data:`FACTORS` (exact definitions: 1 in = 0.0254 m,
-  1 lbf = 4.4482216152605 N, NIST SP 811); a unit it does not know raises
-  :class:`~suspenv.measurements.RecordingError` naming the unit, never passes as SI.
+  1 ft = 0.3048 m, 1 lbf = 4.4482216152605 N, NIST SP 811; 1 kgf = 9.80665 N); a unit it
+  does not know raises :class:`~suspenv.measurements.RecordingError` naming the unit, never
+  passes as SI.
 """
 
 from __future__ import annotations
@@ -35,6 +36,9 @@ SI_UNITS: dict[str, str] = {
     "-": "dimensionless",
 }
 
+_LBF = 4.4482216152605  # pound-force [N], exact (NIST SP 811)
+_KGF = 9.80665  # kilogram-force [N] = standard gravity, exact (CGPM 1901)
+
 #: unit -> (factor to SI, SI unit)
 FACTORS: dict[str, tuple[float, str]] = {
     "m": (1.0, "m"),
@@ -48,11 +52,21 @@ FACTORS: dict[str, tuple[float, str]] = {
     "m/s^2": (1.0, "m/s^2"),
     "N": (1.0, "N"),
     "kN": (1e3, "N"),
-    "lbf": (4.4482216152605, "N"),
+    "lbf": (_LBF, "N"),
+    "kgf": (_KGF, "N"),
     "N*m": (1.0, "N*m"),
+    "N m": (1.0, "N*m"),
     "Nm": (1.0, "N*m"),
+    "N.m": (1.0, "N*m"),
+    "kN*m": (1e3, "N*m"),
+    "kNm": (1e3, "N*m"),
     "N*mm": (1e-3, "N*m"),
     "Nmm": (1e-3, "N*m"),
+    "lbf*ft": (_LBF * 0.3048, "N*m"),
+    "ft*lbf": (_LBF * 0.3048, "N*m"),
+    "lbf*in": (_LBF * 0.0254, "N*m"),
+    "in*lbf": (_LBF * 0.0254, "N*m"),
+    "kgf*m": (_KGF, "N*m"),
     "s": (1.0, "s"),
     "sec": (1.0, "s"),
     "ms": (1e-3, "s"),
@@ -61,6 +75,7 @@ FACTORS: dict[str, tuple[float, str]] = {
     "A": (1.0, "A"),
     "mA": (1e-3, "A"),
     "rad": (1.0, "rad"),
+    "mrad": (1e-3, "rad"),
     "deg": (np.pi / 180.0, "rad"),
     "rad/s": (1.0, "rad/s"),
     "deg/s": (np.pi / 180.0, "rad/s"),

@@ -14,10 +14,9 @@ from typing import Any
 
 import numpy as np
 
-from suspenv.core.problem import Problem
 from suspenv.models.minibus.vehicle import BASELINE_DESIGN, STUDY_PICK
 from suspenv.problems.minibus import MinibusRideHandling, study_outcome
-from suspenv.reports._mpl import add_polylines, pyplot, save_figure
+from suspenv.reports.run import plot_parallel, plot_pareto_pairs
 from suspenv.reports.suspension import write_suspension_report
 from suspenv.runs.run_dir import write_file
 
@@ -27,70 +26,6 @@ def write_minibus_run_report(
 ) -> list[Path]:
     """:func:`write_minibus_report` from a run archive (the problem's ``write_report``)."""
     return write_minibus_report(problem, Path(run_dir), archive.arrays())
-
-
-def _plot_pairs(
-    F: np.ndarray,
-    ok: np.ndarray,
-    front: np.ndarray,
-    marks: dict[str, np.ndarray],
-    names: tuple[str, ...],
-    path: Path,
-) -> Path:
-    plt = pyplot()
-    m = F.shape[1]
-    fig = plt.figure(figsize=(2.4 * (m - 1), 2.4 * (m - 1)))
-    colours = ("k", "tab:red", "tab:green", "tab:purple")
-    for r in range(1, m):
-        for c in range(r):
-            ax = fig.add_subplot(m - 1, m - 1, (r - 1) * (m - 1) + c + 1)
-            ax.scatter(F[ok, c], F[ok, r], s=2, c="0.8", rasterized=True)
-            ax.scatter(F[front, c], F[front, r], s=4, c="tab:blue", rasterized=True)
-            for (label, f), col in zip(marks.items(), colours, strict=False):
-                ax.scatter(f[c], f[r], marker="*", s=90, c=col, label=label, zorder=5)
-            if r == m - 1:
-                ax.set_xlabel(names[c], fontsize=8)
-            if c == 0:
-                ax.set_ylabel(names[r], fontsize=8)
-            ax.tick_params(labelsize=7)
-    handles, labels = fig.axes[0].get_legend_handles_labels()
-    fig.legend(handles, labels, loc="upper right")
-    fig.suptitle("Pareto front (blue) among successful evaluations (grey)")
-    fig.subplots_adjust(left=0.08, right=0.98, bottom=0.07, top=0.94, wspace=0.35, hspace=0.3)
-    return save_figure(fig, path, dpi=100)
-
-
-def _plot_parallel(
-    F: np.ndarray,
-    X: np.ndarray,
-    front: np.ndarray,
-    marks: dict[str, tuple[np.ndarray, np.ndarray]],
-    problem: Problem,
-    path: Path,
-) -> Path:
-    plt = pyplot()
-    lo = np.nanmin(F[front], axis=0)
-    hi = np.nanmax(F[front], axis=0)
-    span = np.where(hi > lo, hi - lo, 1.0)
-    fig, axes = plt.subplots(1, 2, figsize=(14, 4.5), gridspec_kw={"width_ratios": [5, 8]})
-    Fn = (F[front] - lo) / span
-    Un = problem.space.to_unit(X[front])
-    add_polylines(axes[0], Fn, colors="tab:blue", alpha=0.08, lw=0.7)
-    add_polylines(axes[1], Un, colors="tab:blue", alpha=0.08, lw=0.7)
-    colours = ("k", "tab:red", "tab:green", "tab:purple")
-    for (label, (f, x)), col in zip(marks.items(), colours, strict=False):
-        axes[0].plot(np.arange(F.shape[1]), (f - lo) / span, c=col, lw=2.2, label=label)
-        axes[1].plot(np.arange(X.shape[1]), problem.space.to_unit(x)[0], c=col, lw=2.2, label=label)
-    axes[0].set_xticks(range(F.shape[1]), problem.objective_names, rotation=20, fontsize=8)
-    axes[0].set_ylabel("objective, 0 = best on front, 1 = worst")
-    axes[1].set_xticks(range(X.shape[1]), problem.space.names)
-    axes[1].set_ylabel("design variable, 0 = range min, 1 = max")
-    for ax in axes:
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=8, loc="upper right")
-    fig.suptitle("Parallel coordinates of the Pareto front")
-    fig.subplots_adjust(left=0.06, right=0.99, bottom=0.18, top=0.9, wspace=0.15)
-    return save_figure(fig, path, dpi=100)
 
 
 def write_minibus_report(
@@ -109,17 +44,27 @@ def write_minibus_report(
         found.front,
         found.pick,
     )
-    refs = {"baseline": BASELINE_DESIGN, "study pick": STUDY_PICK}
+    # the two reference designs as extra rows, marked but not drawn with the front
+    refs = np.vstack([BASELINE_DESIGN, STUDY_PICK])
     F_refs = {
         "baseline": found.baseline,
         "study pick": problem.evaluate(np.atleast_2d(STUDY_PICK)).objectives[0],
     }
     names = problem.objective_names
-    marks_f = {**F_refs, "ride-focused pick": F[pick]}
-    marks_fx = {k: (F_refs[k], refs[k]) for k in refs}
-    marks_fx["ride-focused pick"] = (F[pick], X[pick])
-    pairs = _plot_pairs(F, ok, front, marks_f, names, run_dir / "minibus_pareto_pairs.png")
-    par = _plot_parallel(F, X, front, marks_fx, problem, run_dir / "minibus_parallel.png")
+    pool = feasible if feasible.any() else ok  # the evaluations the front is taken from
+    n = len(F)
+    F_all = np.vstack([F, *F_refs.values()])
+    shown = np.concatenate([pool, [False, False]])
+    on_front = front[pool]
+    marks = {"baseline": n, "study pick": n + 1, "ride-focused pick": int(pick)}
+    pairs = plot_pareto_pairs(
+        F_all, shown, names, run_dir / "minibus_pareto_pairs.png", front=on_front, marks=marks
+    )
+    U_all = problem.space.to_unit(np.vstack([X, refs]))
+    par = plot_parallel(
+        F_all, shown, names, run_dir / "minibus_parallel.png", front=on_front, marks=marks,
+        designs=(U_all, problem.space.names),
+    )
     designs = {"baseline": BASELINE_DESIGN, "study pick": STUDY_PICK, "ride-focused pick": X[pick]}
     susp = write_suspension_report(designs, run_dir, problem.vehicle)
     units = problem.objective_units

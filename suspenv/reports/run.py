@@ -28,7 +28,7 @@ takes long and stores the second in ``summary.json``).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -48,6 +48,8 @@ SUBSAMPLE_SEED = 0
 MAX_PIXELS = 4000
 #: columns of the convergence grid above 5 objectives
 CONVERGENCE_COLUMNS = 8
+#: colours of the marked designs (``marks``), in order
+MARK_COLOURS = ("k", "tab:orange", "tab:green", "tab:purple")
 
 Progress = Callable[[str], None]
 
@@ -201,10 +203,12 @@ def plot_pareto_pairs(
     path: Path,
     columns: Sequence[int] | None = None,
     front: np.ndarray | None = None,
+    marks: Mapping[str, int] | None = None,
 ) -> Path:
     """Pairwise scatter of the feasible evaluations, non-dominated set (over all
     objectives) highlighted; ``columns``: the objectives shown (default all); ``front``:
-    the non-dominated mask over the feasible rows when already known. Above
+    the non-dominated mask over the feasible rows when already known; ``marks``: label ->
+    row of ``objectives`` drawn as a star (:data:`MARK_COLOURS`). Above
     :data:`MAX_POINTS` rows the scatter draws a seeded subsample (see :func:`subsample`)."""
     plt = pyplot()
     F = objectives[feasible]
@@ -225,11 +229,16 @@ def plot_pareto_pairs(
             else:
                 ax.scatter(F[grey, j], F[grey, i], s=3, c="0.75", lw=0)
                 ax.scatter(F[red, j], F[red, i], s=6, c="tab:red", lw=0)
+                for (label, row), colour in zip((marks or {}).items(), MARK_COLOURS, strict=False):
+                    f = objectives[row]
+                    ax.scatter(f[j], f[i], marker="*", s=90, c=colour, label=label, zorder=5)
             ax.tick_params(labelsize=6)
             if a == k - 1:
                 ax.set_xlabel(names[j], fontsize=8)
             if b == 0:
                 ax.set_ylabel(names[i], fontsize=8)
+    if marks and k > 1:
+        fig.legend(*axes[1, 0].get_legend_handles_labels(), loc="upper right", fontsize=8)
     title = "Feasible evaluations (grey) and non-dominated set (red)"
     if k < objectives.shape[1]:
         title += f": {k} of {objectives.shape[1]} objectives (largest relative spread)"
@@ -249,38 +258,51 @@ def plot_parallel(
     feasible: np.ndarray,
     names: Sequence[str],
     path: Path,
-    highlight: int | None = None,
     front: np.ndarray | None = None,
+    marks: Mapping[str, int] | None = None,
+    designs: tuple[np.ndarray, Sequence[str]] | None = None,
 ) -> Path:
-    """Parallel coordinates of the non-dominated set, each objective min-max scaled
+    """Parallel coordinates of the non-dominated set, each objective min-max scaled over it
     (at most :data:`MAX_POINTS` lines: a seeded subsample above); ``front``: the
-    non-dominated mask over the feasible rows when already known."""
+    non-dominated mask over the feasible rows when already known; ``marks``: label -> row
+    of ``objectives`` drawn as a thick line (:data:`MARK_COLOURS`); ``designs``: the
+    unit-cube designs of every row (n, d) and the variables' names, drawn in a second
+    panel (0 = range min, 1 = max)."""
     plt = pyplot()
-    F = objectives[feasible]
+    rows = np.flatnonzero(feasible)
     if front is None:
-        front = nondominated(F) if len(F) else np.zeros(len(F), bool)
-    front = F[front]
-    lo, hi = front.min(0), front.max(0)
-    S = (front - lo) / np.where(hi > lo, hi - lo, 1.0)
-    drawn = S[subsample(np.arange(len(S)))]
+        front = nondominated(objectives[rows]) if len(rows) else np.zeros(0, bool)
+    rows = rows[front]
+    lo, hi = objectives[rows].min(0), objectives[rows].max(0)
+    span = np.where(hi > lo, hi - lo, 1.0)
+    drawn = subsample(rows)
     m = len(names)
     many = m > MAX_PAIR_OBJECTIVES
     width = min(0.5 * m + 2, 24.0) if many else 1.6 * m + 2
-    fig, ax = plt.subplots(figsize=(width, 5.0 if many else 3.6))
-    add_polylines(ax, drawn, colors="tab:blue", alpha=0.25, lw=0.8)
-    ax.set_xlim(-0.2, m - 0.8)
-    ax.set_ylim(-0.05, 1.05)
-    if highlight is not None:
-        h = (objectives[highlight] - lo) / np.where(hi > lo, hi - lo, 1.0)
-        ax.plot(range(m), h, c="tab:red", lw=2.5, label="pick")
-        ax.legend()
-    if many:
-        ax.set_xticks(range(m), names, rotation=90, fontsize=7)
-    else:
-        ax.set_xticks(range(m), names)
-    ax.set_ylabel("scaled objective (0 = best on front)")
-    title = f"Non-dominated set ({len(front)} designs)"
-    if len(drawn) < len(front):
+    panels = [((objectives - lo) / span, names, "scaled objective (0 = best on front)")]
+    if designs is not None:
+        panels.append((designs[0], designs[1], "design variable, 0 = range min, 1 = max"))
+        width += 1.2 * len(designs[1])
+    fig, axes = plt.subplots(
+        1, len(panels), figsize=(width, 5.0 if many else 3.6), squeeze=False,
+        gridspec_kw={"width_ratios": [len(p[1]) for p in panels]},
+    )
+    for ax, (values, labels, ylabel) in zip(axes[0], panels, strict=True):
+        add_polylines(ax, values[drawn], colors="tab:blue", alpha=0.25, lw=0.8)
+        for (label, row), colour in zip((marks or {}).items(), MARK_COLOURS, strict=False):
+            ax.plot(range(len(labels)), values[row], c=colour, lw=2.2, label=label)
+        ax.set_xlim(-0.2, len(labels) - 0.8)
+        if not marks:  # marked designs may lie off the front's range
+            ax.set_ylim(-0.05, 1.05)
+        if len(labels) > MAX_PAIR_OBJECTIVES:
+            ax.set_xticks(range(len(labels)), labels, rotation=90, fontsize=7)
+        else:
+            ax.set_xticks(range(len(labels)), labels)
+        ax.set_ylabel(ylabel)
+        if marks:
+            ax.legend(fontsize=8, loc="upper right")
+    title = f"Non-dominated set ({len(rows)} designs)"
+    if len(drawn) < len(rows):
         title += f"; {len(drawn)} drawn (seeded subsample)"
-    ax.set_title(title)
+    fig.suptitle(title)
     return _save(fig, path, 110, tight=True)

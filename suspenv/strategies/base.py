@@ -35,8 +35,6 @@ class Strategy(ABC):
 
     name: ClassVar[str] = "strategy"
     description: ClassVar[str] = ""
-    #: True when the strategy handles several objectives natively (no scalariser)
-    multi_objective: ClassVar[bool] = False
     #: the options :meth:`options` records, in order: each an attribute of that name
     option_names: ClassVar[tuple[str, ...]] = ()
 

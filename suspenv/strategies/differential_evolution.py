@@ -115,7 +115,6 @@ class DifferentialEvolution(Strategy):
         self._rank = np.empty(0, dtype=int)
         self._value = np.empty(0)
         self.generation = 0  # generations told after the initial population
-        self._trial: np.ndarray | None = None
 
     # ------------------------------------------------------------------ the seam
     def _ask(self) -> np.ndarray:

@@ -73,7 +73,6 @@ class Nevergrad(Strategy):
     name = "nevergrad"
     description = "any nevergrad optimiser (default TwoPointsDE); needs suspenv[nevergrad]"
     option_names = ("optimizer", "batch_size", "budget", "reference_point")
-    multi_objective = True
 
     def __init__(
         self,
@@ -201,8 +200,3 @@ class Nevergrad(Strategy):
         if self.budget is not None and self.n_told >= self.budget and self._pending is None:
             return f"nevergrad: budget={self.budget} designs told"
         return None
-
-    def recommendation(self) -> np.ndarray:
-        """nevergrad's recommended design in the unit cube (one objective)."""
-        rec = self._call("recommendation", self.ng_optimizer.provide_recommendation)
-        return np.clip(np.asarray(rec.value, dtype=float), 0.0, 1.0)

@@ -48,6 +48,8 @@ from __future__ import annotations
 import logging
 import os
 import warnings
+from collections.abc import Iterator
+from contextlib import contextmanager
 from typing import Any
 
 import numpy as np
@@ -69,6 +71,52 @@ PER_TRIAL_CONSTRAINTS = hasattr(optuna.trial.Trial, "set_constraint")
 
 def constraints_of(trial: optuna.trial.FrozenTrial) -> list[float]:
     return list(trial.user_attrs.get(CONSTRAINTS_KEY, []))
+
+
+def constraints_func(n_constraints: int) -> Any:
+    """A sampler's ``constraints_func``: :func:`constraints_of` for optuna < 5 with
+    constraints, else None (optuna 5 takes them per trial)."""
+    return constraints_of if n_constraints and not PER_TRIAL_CONSTRAINTS else None
+
+
+@contextmanager
+def quiet() -> Iterator[None]:
+    """optuna's experimental and deprecation warnings silenced (the adapters pass only
+    supported arguments; the warnings would repeat on every trial)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
+        warnings.simplefilter("ignore", FutureWarning)
+        yield
+
+
+def tell_trials(
+    study: optuna.Study,
+    trials: list[tuple[int, optuna.trial.Trial]],
+    values: np.ndarray,
+    batch: EvaluationBatch,
+    constrained: bool,
+) -> None:
+    """Tell ``study`` each ``(row, trial)`` of ``trials`` its row of ``batch``.
+
+    A failed design (``ok`` False or a non-finite objective) is told as
+    ``TrialState.FAIL``; otherwise the trial is told ``values[row]`` and, when
+    ``constrained``, the row's scaled constraints (feasible when every value <= 0) through
+    optuna's constraint mechanism: ``Trial.set_constraint`` from optuna 5 on, else the
+    user attribute :data:`CONSTRAINTS_KEY` read by :func:`constraints_of`. An unknown
+    constraint value (NaN) is told as a violation of 1e300 (optuna refuses NaN)."""
+    failed = ~np.asarray(batch.ok, bool) | ~np.isfinite(batch.objectives).all(axis=1)
+    for i, trial in trials:
+        if failed[i]:
+            study.tell(trial, state=TrialState.FAIL)
+            continue
+        if constrained:
+            g = np.nan_to_num(batch.scaled_constraints[i], nan=1e300, posinf=1e300, neginf=-1e300)
+            if PER_TRIAL_CONSTRAINTS:
+                for j, gj in enumerate(g):
+                    trial.set_constraint(f"g{j}", float(gj))
+            else:
+                trial.set_user_attr(CONSTRAINTS_KEY, g.tolist())
+        study.tell(trial, values[i].tolist())
 
 
 class StudyDesign:
@@ -114,8 +162,7 @@ class StudyDesign:
         """The objectives' names as the study's metric names (when it has one value per
         objective; optuna's CMA-ES is told a single weighted sum)."""
         if self.metric_names and len(study.directions) == len(self.metric_names):
-            with warnings.catch_warnings():  # "experimental" in optuna 3.2-5
-                warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
+            with quiet():  # "experimental" in optuna 3.2-5
                 study.set_metric_names(self.metric_names)
 
 
@@ -148,7 +195,6 @@ class NSGA2(Strategy):
         "population_size", "crossover_prob", "mutation_prob", "swapping_prob", "storage",
         "study_name", "resume",
     )
-    multi_objective = True
 
     def __init__(
         self,
@@ -186,17 +232,14 @@ class NSGA2(Strategy):
             )
         self.resume = resume
         optuna.logging.set_verbosity(logging.WARNING)
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
+        with quiet():
             self._sampler = optuna.samplers.NSGAIISampler(
                 population_size=self.population_size,
                 crossover_prob=self.crossover_prob,
                 mutation_prob=self.mutation_prob,
                 swapping_prob=self.swapping_prob,
                 seed=self.seed,
-                constraints_func=(
-                    constraints_of if self.n_constraints and not PER_TRIAL_CONSTRAINTS else None
-                ),
+                constraints_func=constraints_func(self.n_constraints),
             )
         self._study: optuna.Study | None = None
         self._run_id: str | None = None
@@ -318,21 +361,14 @@ class NSGA2(Strategy):
         return self.design.unit(self._trials)
 
     def _tell(self, U: np.ndarray, batch: EvaluationBatch) -> None:
+        pending: list[tuple[int, optuna.trial.Trial]] = []
         for i, asked in enumerate(self._trials):
             if isinstance(asked, FrozenTrial):  # a stored trial, served again on a resume
                 if asked.state.is_finished():
                     continue  # told before the run stopped
                 # asked before the run stopped, never told: tell it now
-                trial = optuna.trial.Trial(self.study, asked._trial_id)
+                pending.append((i, optuna.trial.Trial(self.study, asked._trial_id)))
             else:
-                trial = asked
-            if not batch.ok[i] or not np.isfinite(batch.objectives[i]).all():
-                self.study.tell(trial, state=TrialState.FAIL)
-                continue
-            if self.n_constraints and PER_TRIAL_CONSTRAINTS:
-                for j, g in enumerate(batch.scaled_constraints[i]):
-                    trial.set_constraint(f"g{j}", float(g))
-            elif self.n_constraints:
-                trial.set_user_attr(CONSTRAINTS_KEY, batch.scaled_constraints[i].tolist())
-            self.study.tell(trial, batch.objectives[i].tolist())
+                pending.append((i, asked))
+        tell_trials(self.study, pending, batch.objectives, batch, bool(self.n_constraints))
         self._trials = []

@@ -41,14 +41,10 @@ from __future__ import annotations
 
 import logging
 import math
-import warnings
-from collections.abc import Iterator
-from contextlib import contextmanager
 from typing import Any, ClassVar
 
 import numpy as np
 import optuna
-from optuna.trial import TrialState
 
 from suspenv.core.errors import ValidationError
 from suspenv.core.options import integer, number, numbers
@@ -56,22 +52,7 @@ from suspenv.core.result import EvaluationBatch
 from suspenv.core.scalarize import weighted_sum
 from suspenv.strategies.base import Strategy
 from suspenv.strategies.extras import require, told_losses
-from suspenv.strategies.nsga2 import (
-    CONSTRAINTS_KEY,
-    PER_TRIAL_CONSTRAINTS,
-    StudyDesign,
-    constraints_of,
-)
-
-
-@contextmanager
-def _quiet() -> Iterator[None]:
-    """optuna's experimental and deprecation warnings silenced (the adapters pass only
-    supported arguments; the warnings would repeat on every trial)."""
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
-        warnings.simplefilter("ignore", FutureWarning)
-        yield
+from suspenv.strategies.nsga2 import StudyDesign, constraints_func, quiet, tell_trials
 
 
 class OptunaSampler(Strategy):
@@ -82,7 +63,6 @@ class OptunaSampler(Strategy):
     """
 
     name = "optuna"
-    multi_objective = True
     #: the sampler handles constraints itself (through optuna's constraint mechanism)
     native_constraints: ClassVar[bool] = True
 
@@ -98,14 +78,8 @@ class OptunaSampler(Strategy):
         self.design = StudyDesign(self.dim)
         self._trials: list[optuna.trial.Trial] = []
 
-    def _constraints_func(self) -> Any:
-        """``constraints_func`` for samplers of optuna < 5 (None from optuna 5 on)."""
-        if self.n_constraints and self.native_constraints and not PER_TRIAL_CONSTRAINTS:
-            return constraints_of
-        return None
-
     def _ask(self) -> np.ndarray:
-        with _quiet():
+        with quiet():
             self._trials = [self.study.ask(self.design.dists) for _ in range(self.batch_size)]
         return self.design.unit(self._trials)
 
@@ -122,24 +96,11 @@ class OptunaSampler(Strategy):
         return np.asarray(batch.objectives, dtype=float)
 
     def _tell(self, U: np.ndarray, batch: EvaluationBatch) -> None:
-        failed = ~np.asarray(batch.ok, bool) | ~np.isfinite(batch.objectives).all(axis=1)
-        values = self._values(batch)
-        with _quiet():
-            for i, trial in enumerate(self._trials):
-                if failed[i]:
-                    self.study.tell(trial, state=TrialState.FAIL)
-                    continue
-                if self.n_constraints and self.native_constraints:
-                    # an unknown constraint value is a large violation (optuna refuses NaN)
-                    g = np.nan_to_num(
-                        batch.scaled_constraints[i], nan=1e300, posinf=1e300, neginf=-1e300
-                    )
-                    if PER_TRIAL_CONSTRAINTS:
-                        for j, gj in enumerate(g):
-                            trial.set_constraint(f"g{j}", float(gj))
-                    else:
-                        trial.set_user_attr(CONSTRAINTS_KEY, g.tolist())
-                self.study.tell(trial, values[i].tolist())
+        constrained = bool(self.n_constraints) and self.native_constraints
+        with quiet():
+            tell_trials(
+                self.study, list(enumerate(self._trials)), self._values(batch), batch, constrained
+            )
         self._trials = []
 
 
@@ -181,14 +142,14 @@ class OptunaTPE(OptunaSampler):
         self.n_startup_trials = integer(owner, "n_startup_trials", n_startup_trials, lo=0)
         self.n_ei_candidates = integer(owner, "n_ei_candidates", n_ei_candidates, lo=1)
         self.multivariate = _flag(owner, "multivariate", multivariate)
-        with _quiet():
+        with quiet():
             sampler = optuna.samplers.TPESampler(
                 n_startup_trials=self.n_startup_trials,
                 n_ei_candidates=self.n_ei_candidates,
                 multivariate=self.multivariate,
                 constant_liar=True,
                 seed=self.seed,
-                constraints_func=self._constraints_func(),
+                constraints_func=constraints_func(self.n_constraints),
             )
         self._setup(sampler, self.n_objectives, batch)
 
@@ -218,7 +179,6 @@ class OptunaCMAES(OptunaSampler):
     name = "optuna_cmaes"
     description = "CMA-ES (optuna + cmaes), one generation per batch; needs suspenv[optuna-cmaes]"
     option_names = ("popsize", "n_startup_trials", "lr_adapt", "weights")
-    multi_objective = False
     native_constraints = False
 
     def __init__(
@@ -245,7 +205,7 @@ class OptunaCMAES(OptunaSampler):
             None if weights is None else numbers(owner, "weights", weights, self.n_objectives)
         )
         require(owner, "cmaes", "optuna-cmaes")
-        with _quiet():
+        with quiet():
             sampler = optuna.samplers.CmaEsSampler(
                 popsize=self.popsize,
                 n_startup_trials=self.n_startup_trials,
@@ -311,7 +271,7 @@ class OptunaNSGA3(OptunaSampler):
         )
         self.swapping_prob = number(owner, "swapping_prob", swapping_prob, lo=0.0, hi=1.0)
         self.dividing_parameter = integer(owner, "dividing_parameter", dividing_parameter, lo=1)
-        with _quiet():
+        with quiet():
             sampler = optuna.samplers.NSGAIIISampler(
                 population_size=self.population_size,
                 crossover_prob=self.crossover_prob,
@@ -319,7 +279,7 @@ class OptunaNSGA3(OptunaSampler):
                 swapping_prob=self.swapping_prob,
                 dividing_parameter=self.dividing_parameter,
                 seed=self.seed,
-                constraints_func=self._constraints_func(),
+                constraints_func=constraints_func(self.n_constraints),
             )
         self._setup(sampler, self.n_objectives, self.population_size)
 
@@ -363,12 +323,12 @@ class OptunaGP(OptunaSampler):
             _flag(owner, "deterministic_objective", deterministic_objective, allow_none=False)
         )
         require(owner, "torch", "optuna-gp")
-        with _quiet():
+        with quiet():
             sampler = optuna.samplers.GPSampler(
                 n_startup_trials=self.n_startup_trials,
                 deterministic_objective=self.deterministic_objective,
                 seed=self.seed,
-                constraints_func=self._constraints_func(),
+                constraints_func=constraints_func(self.n_constraints),
             )
         self._setup(sampler, self.n_objectives, batch)
 

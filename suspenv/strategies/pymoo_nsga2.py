@@ -60,7 +60,6 @@ class PymooNSGA2(Strategy):
     name = "pymoo_nsga2"
     description = "NSGA-II (pymoo), vectorised per generation; fast for large populations"
     option_names = ("population_size", "crossover_prob", "crossover_eta", "mutation_eta")
-    multi_objective = True
 
     def __init__(
         self,

@@ -21,7 +21,6 @@ class RandomSearch(ScalarStrategy):
     name = "random"
     description = "uniform random search (baseline)"
     option_names = ("batch_size",)
-    multi_objective = True  # samples do not depend on objectives; any m is fine
 
     def __init__(
         self,

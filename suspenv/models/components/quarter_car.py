@@ -43,7 +43,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 from scipy.signal import lfilter
@@ -66,6 +66,53 @@ INTEGRATORS = ("exact", "rk4")
 #: keeps them while cutting the differentiated sensor noise several times (a 5-sample
 #: window left about a third of the velocity as noise at 2 % deflection noise)
 RATE_WINDOW_S = 0.04
+
+
+#: the vector operations of :func:`_rk4` on a state of plain floats (one design) ...
+_FLOATS = (
+    lambda s, c, k: [a + c * b for a, b in zip(s, k, strict=True)],
+    lambda k1, k2, k3, k4: [
+        a + 2.0 * (b + c) + d for a, b, c, d in zip(k1, k2, k3, k4, strict=True)
+    ],
+)
+#: ... and on a (n_states, B) array (a batch of designs)
+_ARRAYS = (lambda s, c, k: s + c * k, lambda k1, k2, k3, k4: k1 + 2.0 * (k2 + k3) + k4)
+
+
+def _rk4(
+    deriv: Callable[[Any, float], Any],
+    ops: tuple[Callable[..., Any], Callable[..., Any]],
+    observe: Callable[[Any, int], tuple[Any, Any]],
+    state: Any,
+    t: np.ndarray,
+    road: np.ndarray,
+    nsub: int,
+) -> tuple[list[Any], list[Any]]:
+    """Classical fixed-step RK4 of ``deriv(state, road height)`` over the samples ``t``
+    [s], ``nsub`` equal sub-steps per sample, the road [m] linear between samples.
+
+    ``ops``: ``(axpy, mix)`` of the state's representation (:data:`_FLOATS`,
+    :data:`_ARRAYS`): ``axpy(s, c, k) = s + c k`` and ``mix(k1..k4) = k1 + 2 (k2 + k3) + k4``.
+    Returns the two lists of ``observe(state, k)`` after each sample ``k + 1``, led by 0
+    for the first sample (the system starts at rest)."""
+    axpy, mix = ops
+    first, second = [0.0 * state[0]], [0.0 * state[0]]  # zeros shaped as one state entry
+    road_l, dts_l = road.tolist(), np.diff(t).tolist()
+    for k in range(t.size - 1):
+        h = dts_l[k] / nsub
+        rk, slope = road_l[k], (road_l[k + 1] - road_l[k]) / dts_l[k]
+        for j in range(nsub):
+            s0 = j * h
+            mid = rk + slope * (s0 + 0.5 * h)
+            k1 = deriv(state, rk + slope * s0)
+            k2 = deriv(axpy(state, 0.5 * h, k1), mid)
+            k3 = deriv(axpy(state, 0.5 * h, k2), mid)
+            k4 = deriv(axpy(state, h, k3), rk + slope * (s0 + h))
+            state = axpy(state, h / 6.0, mix(k1, k2, k3, k4))
+        a, b = observe(state, k)
+        first.append(a)
+        second.append(b)
+    return first, second
 
 
 def _rate(x: np.ndarray, t: np.ndarray) -> np.ndarray:
@@ -351,51 +398,22 @@ class QuarterCarRigModel(ComponentModel):
         # relative velocity rarely exceeds 3x the road velocity (wheel hop included)
         v_max = 3.0 * float(np.max(np.abs(np.diff(road)) / dts)) + 1e-3
         nsub = self._substeps(base, effects, float(np.max(dts)), v_max)
-        try:
-            return self._rk4_scalar(deriv, susp_force, state, t, road, nsub)
-        except (OverflowError, ZeroDivisionError) as exc:
-            raise EvaluationError(
-                f"{self.family}: simulation diverged ({exc}; sub-steps {nsub})"
-            ) from None
 
-    def _rk4_scalar(
-        self,
-        deriv: Callable[[list[float], float], list[float]],
-        susp_force: Callable[..., float],
-        state: list[float],
-        t: np.ndarray,
-        road: np.ndarray,
-        nsub: int,
-    ) -> tuple[np.ndarray, np.ndarray]:
-        """The fixed-step RK4 loop of :meth:`_integrate` (plain floats)."""
-        m_s = self.options["m_s"]
-        acc, defl = [0.0], [0.0]
-        dts = np.diff(t)
-        road_l, dts_l = road.tolist(), dts.tolist()
-        for k in range(t.size - 1):
-            h = dts_l[k] / nsub
-            rk, slope = road_l[k], (road_l[k + 1] - road_l[k]) / dts_l[k]
-            for j in range(nsub):
-                s0 = j * h
-                mid = rk + slope * (s0 + 0.5 * h)
-                k1 = deriv(state, rk + slope * s0)
-                k2 = deriv([a + 0.5 * h * b for a, b in zip(state, k1, strict=True)], mid)
-                k3 = deriv([a + 0.5 * h * b for a, b in zip(state, k2, strict=True)], mid)
-                k4 = deriv(
-                    [a + h * b for a, b in zip(state, k3, strict=True)], rk + slope * (s0 + h)
-                )
-                state = [
-                    a + h / 6.0 * (b + 2 * c + 2 * d + e)
-                    for a, b, c, d, e in zip(state, k1, k2, k3, k4, strict=True)
-                ]
+        def observe(state: list[float], k: int) -> tuple[float, float]:
             if not all(math.isfinite(s) for s in state):
                 raise EvaluationError(
                     f"{self.family}: simulation diverged at t={t[k + 1]:.4g} s (sub-steps {nsub})"
                 )
             z_s, v_s, z_u, v_u, *zs = state
-            acc.append(susp_force(z_u - z_s, v_u - v_s, zs) / m_s)
-            defl.append(z_u - z_s)
-        return np.array(acc, dtype=float), np.array(defl, dtype=float)
+            return susp_force(z_u - z_s, v_u - v_s, zs) / m_s, z_u - z_s
+
+        try:
+            acc, defl = _rk4(deriv, _FLOATS, observe, state, t, road, nsub)
+            return np.array(acc, dtype=float), np.array(defl, dtype=float)
+        except (OverflowError, ZeroDivisionError) as exc:
+            raise EvaluationError(
+                f"{self.family}: simulation diverged ({exc}; sub-steps {nsub})"
+            ) from None
 
     def _integrate_batch(
         self,
@@ -453,9 +471,12 @@ class QuarterCarRigModel(ComponentModel):
         dts = np.diff(t)
         v_max = 3.0 * float(np.max(np.abs(np.diff(road)) / dts)) + 1e-3
         nsub = self._substeps(base, effects, float(np.max(dts)), v_max)
-        road_l, dts_l = road.tolist(), dts.tolist()
+
+        def observe(s: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+            return susp_force(s) / m_s, s[2] - s[0]
+
         with np.errstate(all="ignore"):  # a diverging row becomes NaN, checked below
-            acc, defl = self._rk4_batch(deriv, susp_force, state, t, road_l, dts_l, nsub)
+            acc, defl = (np.array(o) for o in _rk4(deriv, _ARRAYS, observe, state, t, road, nsub))
         bad = ~np.isfinite(acc[-1]) | ~np.isfinite(defl[-1])
         if np.all(bad):
             raise EvaluationError(
@@ -465,35 +486,6 @@ class QuarterCarRigModel(ComponentModel):
         acc[:, bad] = np.nan
         defl[:, bad] = np.nan
         return acc.T.copy(), defl.T.copy()
-
-    def _rk4_batch(
-        self,
-        deriv: Callable[[np.ndarray, float], np.ndarray],
-        susp_force: Callable[[np.ndarray], np.ndarray],
-        state: np.ndarray,
-        t: np.ndarray,
-        road_l: list[float],
-        dts_l: list[float],
-        nsub: int,
-    ) -> tuple[np.ndarray, np.ndarray]:
-        """The fixed-step RK4 loop of :meth:`_integrate_batch`; ``(T, B)`` outputs."""
-        m_s = self.options["m_s"]
-        acc = np.zeros((t.size, state.shape[1]))
-        defl = np.zeros((t.size, state.shape[1]))
-        for k in range(t.size - 1):
-            h = dts_l[k] / nsub
-            rk, slope = road_l[k], (road_l[k + 1] - road_l[k]) / dts_l[k]
-            for j in range(nsub):
-                s0 = j * h
-                mid = rk + slope * (s0 + 0.5 * h)
-                k1 = deriv(state, rk + slope * s0)
-                k2 = deriv(state + (0.5 * h) * k1, mid)
-                k3 = deriv(state + (0.5 * h) * k2, mid)
-                k4 = deriv(state + h * k3, rk + slope * (s0 + h))
-                state = state + (h / 6.0) * (k1 + 2.0 * (k2 + k3) + k4)
-            acc[k + 1] = susp_force(state) / m_s
-            defl[k + 1] = state[2] - state[0]
-        return acc, defl
 
     # ------------------------------------------------------------------ force view
     def force_view(self, theta: np.ndarray, rec: Recording) -> dict[str, np.ndarray] | None:
