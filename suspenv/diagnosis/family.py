@@ -13,10 +13,12 @@ The family owns everything that depends on the model:
 * ``screen``: score the open candidates against the current residual and choose which
   to refit (``Screening``);
 * ``refit``: the current model plus one element, refitted;
+* ``refit_checks`` (optional): the rules a refit must pass to stand as a hypothesis
+  (:func:`suspenv.diagnosis.checks.refuse`);
 * ``words``: the engineering words of a candidate;
 * ``settle``: make a named winner ready to be the next round's null model (or None);
-* ``ambiguities``: what the data cannot tell apart from the winner beyond the
-  loop's own family-pair rule;
+* ``ambiguities``: what the data cannot tell apart from a named element beyond the
+  loop's own family-pair rule (read by :mod:`suspenv.diagnosis.checks.separability`);
 * ``conclude``: the family's numbers after the search (detection limits);
 * ``checks`` (optional): its own checks after the search (:mod:`suspenv.diagnosis.checks`);
 * ``residual_left`` (optional): the family's noise model, which the shared rule judges
@@ -114,6 +116,8 @@ class Conclusion:
     confident: bool = True
     findings: dict[str, Any] = field(default_factory=dict)
     baseline: dict[str, Any] = field(default_factory=dict)
+    #: what the data cannot tell apart, and the test that would (said with the named)
+    ambiguities: list[Ambiguity] = field(default_factory=list)
     #: how many sentences at the front are leads (:meth:`lead`)
     leading: int = 0
 
