@@ -18,7 +18,7 @@ profile's spectrum (:class:`~suspenv.diagnosis.road.RoadFamily`). The loop:
    in the round) and rank them; the best significant one is named, **settled** (made
    ready to be the next round's null model) and becomes the current model; the search
    stops when nothing is significant or after ``family.max_effects`` rounds;
-4. the family's **conclude**, then the **checks** (:mod:`suspenv.diagnosis.checks`):
+4. the **checks** (:mod:`suspenv.diagnosis.checks`):
    the look-alikes of each named element, the family's own (which may withdraw an
    element and replace the final model), then those every family gets (the residual
    left in the family's noise units, the assumptions made); the final model is
@@ -345,7 +345,7 @@ def diagnose(
         say(f"round {rnd}: named {win.words}")
 
     outcome = Outcome(base, current, named, hypotheses, first_sigs, location)
-    ctx = checks.Context(fam, setup, outcome, fam.rule, fam.conclude(outcome, setup))
+    ctx = checks.Context(fam, setup, outcome, fam.rule)
     checks.run(ctx)
     found, named, hypotheses = ctx.found, ctx.outcome.named, ctx.outcome.hypotheses
     amb = found.ambiguities

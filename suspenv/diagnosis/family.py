@@ -19,8 +19,8 @@ The family owns everything that depends on the model:
 * ``settle``: make a named winner ready to be the next round's null model (or None);
 * ``ambiguities``: what the data cannot tell apart from a named element beyond the
   loop's own family-pair rule (read by :mod:`suspenv.diagnosis.checks.separability`);
-* ``conclude``: the family's numbers after the search (detection limits);
-* ``checks`` (optional): its own checks after the search (:mod:`suspenv.diagnosis.checks`);
+* ``checks`` (optional): its own checks after the search (:mod:`suspenv.diagnosis.checks`:
+  the K&C detection limits, the component family's probes);
 * ``residual_left`` (optional): the family's noise model, which the shared rule judges
   (:mod:`suspenv.diagnosis.checks.residual_left`).
 """
@@ -82,7 +82,7 @@ class Screening:
 
 @dataclass
 class Outcome:
-    """What the search found, handed to :meth:`DiagnosisFamily.conclude`."""
+    """What the search found, handed to the checks (:mod:`suspenv.diagnosis.checks`)."""
 
     base: FitResult
     current: FitResult
@@ -94,8 +94,8 @@ class Outcome:
 
 @dataclass
 class Conclusion:
-    """What a family concludes after the search (:meth:`DiagnosisFamily.conclude`), or
-    one of its checks (``family.checks()``, :func:`suspenv.diagnosis.checks.revise`).
+    """What a check concludes after the search (``family.checks()``, folded in by
+    :func:`suspenv.diagnosis.checks.revise`), and what the checks concluded together.
 
     Attributes:
         named: elements a check names (each a refitted hypothesis).
@@ -167,8 +167,6 @@ class DiagnosisFamily(Protocol):
         setup: Setup,
     ) -> list[Ambiguity]: ...
 
-    def conclude(self, outcome: Outcome, setup: Setup) -> Conclusion: ...
-
 
 class OptionalSteps:
     """Defaults of a family's optional steps (a family class may inherit them): no settle,
@@ -185,9 +183,6 @@ class OptionalSteps:
         setup: Setup,
     ) -> list[Ambiguity]:
         return []
-
-    def conclude(self, outcome: Outcome, setup: Setup) -> Conclusion:
-        return Conclusion()
 
 
 def recording_names(recordings: Sequence[RecordingLike]) -> str:

@@ -100,6 +100,7 @@ from suspenv.diagnosis.component.signatures import SIGNATURE_KINDS, SignalSet, s
 from suspenv.diagnosis.decision import (
     EQUIVALENT_COMBINATIONS,
     DecisionRule,
+    fit_alike,
     separating_test,
 )
 from suspenv.diagnosis.family import (
@@ -322,7 +323,7 @@ def _structural_ambiguity(
     for k in (k1, k2):
         combo = refit_with(combo, k, sp.fit_recordings, sp.fit_masks, max_nfev=max_nfev)
     lr_combo = 2.0 * (combo.log_likelihood() - parent.log_likelihood())
-    if abs(lr_combo - h.lr_statistic) > max(0.05 * h.lr_statistic, 10.0):
+    if not fit_alike(h.lr_statistic, lr_combo):
         return []
     test, reason = separating_test(family_of(k1), family_of(k2))
     return [Ambiguity(h.kind, f"{k1}+{k2}", h.words, words, test, reason)]
