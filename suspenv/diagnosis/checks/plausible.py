@@ -8,7 +8,7 @@ size not resolved from zero, stiction whose level rises with speed, a breakaway 
 every recorded force. A refused refit is recorded as a failed hypothesis with the
 rule's sentence (:class:`~suspenv.core.errors.ValidationError`), so a look-alike refitted
 in the same round can be named. The rules read element kinds and parameters only, so
-any family whose model holds these elements can list them among its refit checks
+any family whose model holds these elements can list :func:`run` among its refit checks
 (``family.refit_checks()``, run by :func:`suspenv.diagnosis.checks.refuse`).
 
 Units: SI (speeds [m/s], displacements [m], forces [N]).
@@ -23,6 +23,8 @@ import numpy as np
 from scipy import stats
 
 from suspenv.core.errors import ValidationError
+from suspenv.diagnosis.checks.finding import Context, Finding
+from suspenv.diagnosis.component.motion import stroke
 from suspenv.diagnosis.component.refit import (
     SIZE_Z,
     parameter_and_error,
@@ -470,3 +472,32 @@ def check_breakaway_recorded(candidate: str, ext: FitResult, sp: Split) -> None:
         "the transient it drives over a Stribeck velocity too small to see, a loop over "
         "the stroke, not stiction"
     )
+
+
+def run(ctx: Context) -> Finding | None:
+    """The refit of ``ctx`` against the rules of its element's kind, in order; the first
+    rule it breaks refuses it (a Finding with the rule's sentence). The half-stroke and
+    peak speed are the fitted motion's; the displacement's noise is the family's
+    ``displacement_noise_m`` [m] (0: not measured)."""
+    setup, ext, candidate = ctx.setup, ctx.refit, ctx.candidate
+    if ext is None:
+        return None
+    half, vmax = stroke(setup.split)
+    try:
+        check_step_or_knee(candidate, ext, vmax)
+        presliding = fits_presliding(setup.model, setup.candidates)
+        if presliding and getattr(setup.model, "dwells_between_moves", False):
+            noise = float(getattr(ctx.family, "displacement_noise_m", 0.0))
+            check_loop_resolved(candidate, ext, noise)
+        else:
+            check_loop_or_step(candidate, ext, half)
+        if presliding:
+            check_presliding_is_friction(candidate, ext, half)
+        check_parallel_branch(candidate, ext, ctx.rule.alpha)
+        check_resolved_size(candidate, ext)
+        rounded = rounds_own_step(setup.model, candidate.partition("@")[0])
+        check_stiction_decays(candidate, ext, vmax, rounded)
+        check_breakaway_recorded(candidate, ext, setup.split)
+    except ValidationError as exc:
+        return Finding("plausible", confident=False, sentence=str(exc))
+    return None

@@ -17,7 +17,7 @@ plus effects of :mod:`suspenv.models.effects`). Its pieces of the one loop
 * **refit**: the element added with start values read off its signature
   (:func:`suspenv.diagnosis.component.refit.refit_with`); the refit checks
   (:meth:`ComponentFamily.refit_checks`): the element's plausibility
-  (:mod:`suspenv.diagnosis.checks.plausible`), a sensor lag against a pure delay;
+  (:func:`suspenv.diagnosis.checks.plausible.run`), a sensor lag against a pure delay;
 * **ambiguities** (read by :mod:`suspenv.diagnosis.checks.separability`): an element
   that equals a combination of two others on most data (direction-dependent friction =
   Coulomb friction + a constant force) is refitted as that combination; an equal fit is
@@ -37,20 +37,9 @@ from typing import Any
 import numpy as np
 
 from suspenv.core.errors import ValidationError
+from suspenv.diagnosis.checks import plausible
 from suspenv.diagnosis.checks.finding import Check, Context, Finding
-from suspenv.diagnosis.checks.plausible import (
-    branch_share_unresolved,
-    check_breakaway_recorded,
-    check_loop_or_step,
-    check_loop_resolved,
-    check_parallel_branch,
-    check_presliding_is_friction,
-    check_resolved_size,
-    check_step_or_knee,
-    check_stiction_decays,
-    fits_presliding,
-    rounds_own_step,
-)
+from suspenv.diagnosis.checks.plausible import branch_share_unresolved
 from suspenv.diagnosis.checks.residual_left import Left
 from suspenv.diagnosis.component.assumed import estimate_unsprung_mass, mass_words, power_sign
 from suspenv.diagnosis.component.asymmetry import asymmetry_check
@@ -65,7 +54,7 @@ from suspenv.diagnosis.component.delay import (
 )
 from suspenv.diagnosis.component.drift_check import judge_beside_drift
 from suspenv.diagnosis.component.locate import Segment, locate
-from suspenv.diagnosis.component.motion import cycle_index, motion, split
+from suspenv.diagnosis.component.motion import cycle_index, motion, split, stroke
 from suspenv.diagnosis.component.motion_inputs import (
     OUTPUT_LOWPASS_HARMONICS,
     MotionCheck,
@@ -626,7 +615,7 @@ class ComponentFamily(OptionalSteps):
     def refit(
         self, current: FitResult, candidate: str, signature: SignatureLike | None, setup: Setup
     ) -> FitResult:
-        half, vmax = _stroke(setup.split)
+        half, vmax = stroke(setup.split)
         location = effect_location(setup.model, candidate)
         if not location and isinstance(signature, Signature) and signature.channel:
             # a sensor error sits on the recorded channel its signature was found in
@@ -650,38 +639,19 @@ class ComponentFamily(OptionalSteps):
 
     def refit_checks(self) -> list[Check]:
         """The rules a refit must pass to stand as a hypothesis, in order
-        (:func:`suspenv.diagnosis.checks.refuse`): the element's plausibility
-        (:mod:`~suspenv.diagnosis.checks.plausible`), then a sensor lag against a pure
+        (:func:`suspenv.diagnosis.checks.refuse`): the round of a Maxwell branch left
+        unresolved is kept for the look-alikes, the element's plausibility
+        (:func:`suspenv.diagnosis.checks.plausible.run`), a sensor lag against a pure
         delay of its channel."""
-        return [self._plausible, self._lag_against_delay]
+        return [self._unresolved_branch, plausible.run, self._lag_against_delay]
 
-    def _plausible(self, ctx: Context) -> Finding | None:
-        """The refit's element against the plausibility rules of its kind; on a Maxwell
-        refit, whether it leaves its base share of the damping unresolved
-        (:func:`~suspenv.diagnosis.checks.plausible.branch_share_unresolved`, the round
-        is kept for the look-alikes)."""
-        setup, ext, candidate = ctx.setup, ctx.refit, ctx.candidate
-        assert ext is not None  # a refit check reads a refit
-        half, vmax = _stroke(setup.split)
-        try:
-            check_step_or_knee(candidate, ext, vmax)
-            presliding = fits_presliding(setup.model, setup.candidates)
-            if presliding and getattr(setup.model, "dwells_between_moves", False):
-                check_loop_resolved(candidate, ext, self.displacement_noise_m)
-            else:
-                check_loop_or_step(candidate, ext, half)
-            if presliding:
-                check_presliding_is_friction(candidate, ext, half)
-            if branch_share_unresolved(candidate, ext, self.rule.alpha):
-                self.unresolved_branch_rounds.add(self._round)
-            check_parallel_branch(candidate, ext, self.rule.alpha)
-            check_resolved_size(candidate, ext)
-            rounded = rounds_own_step(setup.model, candidate.partition("@")[0])
-            check_stiction_decays(candidate, ext, vmax, rounded)
-            check_breakaway_recorded(candidate, ext, setup.split)
-        except ValidationError as exc:
-            return Finding("plausible", confident=False, sentence=str(exc))
-        return None
+    def _unresolved_branch(self, ctx: Context) -> None:
+        """Keep the round of a Maxwell refit that leaves its base share of the damping
+        unresolved (:func:`~suspenv.diagnosis.checks.plausible.branch_share_unresolved`)."""
+        if ctx.refit is not None and branch_share_unresolved(
+            ctx.candidate, ctx.refit, self.rule.alpha
+        ):
+            self.unresolved_branch_rounds.add(self._round)
 
     def _lag_against_delay(self, ctx: Context) -> Finding | None:
         """A refitted sensor lag against the same channel late by a pure delay (not a
@@ -840,9 +810,7 @@ class ComponentFamily(OptionalSteps):
             )
         sp = ctx.setup.split
         where = effect_location(ctx.setup.model, DEFICIT_KIND)
-        band = dead_band_left(
-            ctx.outcome.current, sp, where, _stroke(sp)[1], self.budget, self.rule
-        )
+        band = dead_band_left(ctx.outcome.current, sp, where, stroke(sp)[1], self.budget, self.rule)
         found.findings["beyond_library"] = [band]
         if band.remains:
             found.confident = False
@@ -924,7 +892,7 @@ def lag_or_delay(named: Sequence[Hypothesis], sp: Split) -> str:
     if lag is None:
         return ""
     tau = float(lag.params.get("sensor_lag.tau", {}).get("value", np.nan))
-    half, vmax = _stroke(sp)
+    half, vmax = stroke(sp)
     if not (np.isfinite(tau) and tau > 0 and half > 0):
         return ""
     wt = tau * vmax / half
@@ -982,13 +950,6 @@ def baseline_offsets(fit: FitResult) -> list[dict[str, Any]]:
             }
         )
     return out
-
-
-def _stroke(sp: Split) -> tuple[float, float]:
-    """Half the stroke [m] and the largest speed [m/s] of the fitted motion."""
-    x_all = np.concatenate([motion(r)[0] for r in sp.fit_recordings])
-    v_all = np.concatenate([motion(r)[1] for r in sp.fit_recordings])
-    return 0.5 * float(np.ptp(x_all)), float(np.max(np.abs(v_all)))
 
 
 def _baseline_effects(base: FitResult, family: ComponentFamily | None = None) -> dict[str, Any]:
