@@ -389,7 +389,7 @@ def _lugre_fit(f_c: float, sigma0: float, rel_c: float, rel_sigma0: float, corr:
 
 
 def test_the_error_of_a_ratio_of_two_fitted_parameters_holds_their_covariance():
-    from suspenv.diagnosis.component.refit import ratio_and_error
+    from suspenv.diagnosis.checks.plausible import ratio_and_error
 
     fit = _lugre_fit(40.0, 2e5, 0.05, 0.08, 0.9)
     ratio, sd = ratio_and_error(fit, "lugre_friction", "f_c", "sigma0")
@@ -562,7 +562,7 @@ def _ridge_fit(f_c, f_s, v_s, rel_c, sd_s, corr):
 
 
 def test_a_rise_is_judged_over_the_recorded_speeds_not_by_its_asymptote():
-    from suspenv.diagnosis.component.refit import stribeck_rise_and_error
+    from suspenv.diagnosis.checks.plausible import stribeck_rise_and_error
 
     # own development case friction_guide-out-7 (cubic damping c3 v^3): LuGre fitted
     # f_c = 4.6e4 +- 1.7e6 N, v_s = 8.2 m/s far above the peak speed 0.227 m/s, so only
@@ -580,7 +580,7 @@ def test_a_rise_is_judged_over_the_recorded_speeds_not_by_its_asymptote():
 
 
 def test_the_error_of_a_rise_holds_the_covariance_of_its_three_parameters():
-    from suspenv.diagnosis.component.refit import stribeck_rise_and_error
+    from suspenv.diagnosis.checks.plausible import stribeck_rise_and_error
 
     # a ridge small enough for first order to hold (relative errors 10 % and 5 %)
     fit = _ridge_fit(400.0, 20.0, 0.5, 0.1, 2.0, 0.95)
