@@ -10,7 +10,7 @@ held out: single-wheel travel).
 Scores against the truth kept apart:
 
 * detectability of every concealed effect from the truth:
-  :func:`~suspenv.diagnosis.knc.detectability.truth_snr` (the plain model fitted to
+  :func:`~benchmarks.knc_truth.truth_snr` (the plain model fitted to
   the noise-free loops; signal-to-noise of what it cannot absorb); cases whose
   effect stays below ``DETECTABLE_SNR`` are scored separately, not dropped;
 * top-1 naming on one-effect cases; all effects found on two-effect cases;
@@ -59,14 +59,14 @@ DEV_SEEDS = tuple(range(100, 136))
 REPORT_SEEDS = tuple(range(1000, 1036))
 #: cases with physics outside the library (``--outside``, the kind cycling with the seed:
 #: strut stop, progressive and preloaded bushings, subframe compliance, load-cell
-#: cross-talk, toe sign reversed; :func:`~suspenv.diagnosis.knc.truth.outside_case`),
+#: cross-talk, toe sign reversed; :func:`~benchmarks.knc_truth.outside_case`),
 #: fixed before their one run: 3 cases of each kind
 OUTSIDE_SEEDS = tuple(range(2000, 2018))
 STEPS = 6
 
 
 def _loop_gap_error(diag: Any, truth: dict) -> float:
-    from suspenv.diagnosis.knc.locate import loop_gap_at_static
+    from benchmarks.knc_truth import loop_gap_at_static
     from suspenv.diagnosis.knc.truth import measure_truth
 
     exact = measure_truth(
@@ -125,7 +125,7 @@ def hysteresis_location(diag: Any) -> str | None:
 def detectability(truth: dict) -> dict[str, dict]:
     """Signal-to-noise of each concealed effect alone (the four fitted tests, noise-free
     truth)."""
-    from suspenv.diagnosis.knc.detectability import truth_snr
+    from benchmarks.knc_truth import truth_snr
     from suspenv.diagnosis.knc.truth import TRUTH_KIND
 
     return {
@@ -139,8 +139,8 @@ def detectability(truth: dict) -> dict[str, dict]:
 def model_error(diag: Any, truth: dict) -> dict[str, float]:
     """Held-out RMS (scaled as the diagnosis' held-out score) of the baseline and the
     final model against the measured data, the noise-free truth, and the noise floor."""
+    from benchmarks.knc_truth import noise_levels
     from suspenv.diagnosis.evidence import heldout_rms
-    from suspenv.diagnosis.knc.detectability import noise_levels
     from suspenv.diagnosis.knc.truth import measure_truth
     from suspenv.measurements.knc import rig_test
 
@@ -223,8 +223,8 @@ def run_case(seed: int) -> dict[str, Any]:
 def run_outside_case(seed: int) -> dict[str, Any]:
     """One case outside the library: right when the verdict names nothing with
     confidence and reports the residual left."""
+    from benchmarks.knc_truth import outside_case
     from suspenv.diagnosis.engine import diagnose
-    from suspenv.diagnosis.knc.truth import outside_case
 
     case, truth = outside_case(seed, steps=STEPS)
     c0 = time.process_time()

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from benchmarks.component_truth import _apply_condition, draw_condition, make_case
+from benchmarks.knc_truth import OUTSIDE_KINDS, conceal_outside
 from benchmarks.ride_mismatch import (
     PAYLOAD_HEIGHT,
     apply_sensor,
@@ -22,7 +23,7 @@ from benchmarks.ride_mismatch import (
 from benchmarks.ride_truth import make_ride_case
 from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.component.motion import motion
-from suspenv.diagnosis.knc.truth import BLIND_TESTS, OUTSIDE_KINDS, conceal_outside, measure_truth
+from suspenv.diagnosis.knc.truth import BLIND_TESTS, measure_truth
 from suspenv.diagnosis.ride.model import pulse_inputs_recording
 from suspenv.models.minibus import REFERENCE_MINIBUS
 

@@ -101,6 +101,73 @@ def test_ambiguity_needs_equal_fit_and_no_extra_parameters() -> None:
     assert ambiguities([top, _hyp("dahl_hysteresis", 1000.0, 2)]) == []
 
 
+def test_look_alikes_are_read_round_by_round_off_the_search_record() -> None:
+    """The look-alike check (checks.separability) reads each round's hypotheses in rank
+    order and the model each winner was added to; the reference is the loop's record
+    built by hand: round 1 named A (fit f1) on the baseline, round 2 named B on f1, round
+    3 named nothing."""
+    from types import SimpleNamespace
+
+    from suspenv.diagnosis.checks import Context, separability
+    from suspenv.diagnosis.family import Outcome
+    from suspenv.diagnosis.hypothesis import Ambiguity
+
+    base, f1, f2 = SimpleNamespace(name="base"), SimpleNamespace(name="f1"), object()
+    a, tie = _hyp("coulomb_friction", 1000.0, 1), _hyp("force_offset", 995.0, 1)
+    b, c = _hyp("dahl_hysteresis", 300.0, 2), _hyp("cubic_stiffness", 1.0, 1)
+    failed = Hypothesis.failed("sensor_lag", "", "lag", 1, "refused")
+    a.fit, tie.fit, b.fit, c.fit = f1, object(), f2, object()
+    b.round = 2
+    c.round, c.significant = 3, False
+    asked = []
+
+    def own(winner, ranked, parent, setup):
+        asked.append((winner.kind, parent.name, [h.kind for h in ranked]))
+        return [Ambiguity(winner.kind, "x", winner.words, "x", "a test")]
+
+    family = SimpleNamespace(ambiguities=own)
+    outcome = Outcome(base, f2, [a, b], [failed, a, tie, b, c], [], None)
+    found = separability.run(Context(family, None, outcome, None))
+    assert asked == [
+        ("coulomb_friction", "base", ["coulomb_friction", "force_offset"]),
+        ("dahl_hysteresis", "f1", ["dahl_hysteresis"]),
+    ]
+    # the loop's family-pair rule first in each round, then the family's own pairs
+    assert [(x.a, x.b) for x in found.ambiguities] == [
+        ("coulomb_friction", "force_offset"),
+        ("coulomb_friction", "x"),
+        ("dahl_hysteresis", "x"),
+    ]
+
+
+def test_a_refit_check_that_finds_something_refuses_the_refit() -> None:
+    """checks.refuse runs the family's refit checks in order; the first Finding refuses
+    the refit with its sentence (the loop records it as the failed hypothesis' reason)."""
+    from types import SimpleNamespace
+
+    from suspenv.core.errors import ValidationError
+    from suspenv.diagnosis.checks import Context, Finding, refuse
+
+    seen = []
+
+    def passes(ctx):
+        seen.append("passes")
+
+    def refuses(ctx):
+        seen.append("refuses")
+        return Finding("plausible", confident=False, sentence=f"{ctx.candidate}: too wide")
+
+    def never(ctx):
+        seen.append("never")
+
+    family = SimpleNamespace(refit_checks=lambda: [passes, refuses, never])
+    ctx = Context(family, None, None, None, refit=object(), candidate="coulomb_friction")
+    with pytest.raises(ValidationError, match="^coulomb_friction: too wide$"):
+        refuse(ctx)
+    assert seen == ["passes", "refuses"]
+    refuse(Context(SimpleNamespace(), None, None, None))  # a family without refit checks
+
+
 def test_blind_case_through_the_cli(tmp_path) -> None:
     from suspenv.cli.main import main
 

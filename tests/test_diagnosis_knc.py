@@ -12,10 +12,10 @@ import json
 import numpy as np
 import pytest
 
+from benchmarks.knc_truth import loop_gap_at_static
 from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.engine import diagnose
 from suspenv.diagnosis.knc.family import KncFamily, split_tests
-from suspenv.diagnosis.knc.locate import loop_gap_at_static
 from suspenv.diagnosis.knc.model import KncAxleModel, make_candidate
 from suspenv.diagnosis.knc.truth import blind_case, measure_truth
 from suspenv.measurements import load_recording, save_recording
@@ -329,7 +329,7 @@ def test_blind_plan_covers_every_kind_and_location():
 
 
 def test_truth_snr_scales_inversely_with_the_noise():
-    from suspenv.diagnosis.knc.detectability import truth_snr
+    from benchmarks.knc_truth import truth_snr
 
     eff = {"hysteresis": {"f_c": 60.0, "bushings": ["top_mount"]}}
     a = truth_snr(eff, 0, 1.0, steps=STEPS)
@@ -345,7 +345,8 @@ def test_truth_snr_scales_inversely_with_the_noise():
 
 
 def test_noise_only_verdict_states_what_the_tests_cannot_see(noise_case, tmp_path):
-    from suspenv.diagnosis.knc.detectability import DETECTABLE_SNR, truth_snr
+    from benchmarks.knc_truth import truth_snr
+    from suspenv.diagnosis.knc.detectability import DETECTABLE_SNR
 
     _, diag = noise_case
     lim = diag.detection_limits
@@ -368,7 +369,8 @@ def test_noise_only_verdict_states_what_the_tests_cannot_see(noise_case, tmp_pat
 
 
 def test_top_mount_hysteresis_below_the_noise_is_not_claimed():
-    from suspenv.diagnosis.knc.detectability import DETECTABLE_SNR, truth_snr
+    from benchmarks.knc_truth import truth_snr
+    from suspenv.diagnosis.knc.detectability import DETECTABLE_SNR
 
     eff = {"hysteresis": {"f_c": 15.0, "bushings": ["top_mount"]}}
     # reference: the truth's own signal-to-noise (noise-free loops vs the plain model)
@@ -481,7 +483,8 @@ def test_model_replays_travel_and_compliance_recordings_like_the_rig():
 @pytest.mark.slow
 def test_top_mount_hysteresis_above_the_noise_is_named_at_the_top_mount():
     # planted: a top-mount Dahl element well above the detection limit (truth_snr >= 5)
-    from suspenv.diagnosis.knc.detectability import DETECTABLE_SNR, truth_snr
+    from benchmarks.knc_truth import truth_snr
+    from suspenv.diagnosis.knc.detectability import DETECTABLE_SNR
 
     eff = {"hysteresis": {"f_c": 150.0, "bushings": ["top_mount"]}}
     assert truth_snr(eff, 5, 0.7, steps=STEPS)["snr"] > DETECTABLE_SNR

@@ -94,6 +94,7 @@ EQUIVALENT_COMBINATIONS: dict[str, tuple[tuple[str, str], str]] = {
     ),
 }
 
+
 def separating_test(fam_a: str, fam_b: str) -> tuple[str, str]:
     """(test, reason) that would separate two signature families."""
     return SEPARATING_TESTS.get(
@@ -186,8 +187,20 @@ def rank(hyps: Sequence[Hypothesis], tie: float = 0.02) -> list[Hypothesis]:
     return lead + chase + rest
 
 
-def ambiguities(ranked: Sequence[Hypothesis], tie_tolerance: float = 0.05) -> list[Ambiguity]:
-    """Pairs (the best vs each other significant family) that fit equally well."""
+#: two refits of one parent fit alike when their likelihood-ratio statistics differ by at
+#: most TIE_SHARE of the first's or TIE_LR (:func:`fit_alike`)
+TIE_SHARE = 0.05
+TIE_LR = 10.0
+
+
+def fit_alike(lr: float, other: float) -> bool:
+    """Whether a refit of likelihood-ratio statistic ``other`` fits as well as one of
+    ``lr`` (both against one parent): ``|lr - other| <= max(TIE_SHARE lr, TIE_LR)``."""
+    return abs(lr - other) <= max(TIE_SHARE * lr, TIE_LR)
+
+
+def ambiguities(ranked: Sequence[Hypothesis]) -> list[Ambiguity]:
+    """Pairs (the best vs each other significant family) that fit alike (:func:`fit_alike`)."""
     sig = [h for h in ranked if h.significant]
     if len(sig) < 2:
         return []
@@ -198,9 +211,9 @@ def ambiguities(ranked: Sequence[Hypothesis], tie_tolerance: float = 0.05) -> li
         if h.family in seen:
             continue
         seen.add(h.family)
-        gap = abs(top.lr_statistic_corrected - h.lr_statistic_corrected)
+        alike = fit_alike(top.lr_statistic_corrected, h.lr_statistic_corrected)
         # a runner-up with more parameters and no better fit merely nests the winner
-        if h.lr_dof <= top.lr_dof and gap <= max(tie_tolerance * top.lr_statistic_corrected, 10.0):
+        if h.lr_dof <= top.lr_dof and alike:
             test, reason = separating_test(top.family, h.family)
             out.append(Ambiguity(top.candidate, h.candidate, top.words, h.words, test, reason))
     return out

@@ -11,16 +11,19 @@ profile's spectrum (:class:`~suspenv.diagnosis.road.RoadFamily`). The loop:
 2. **locate** where its residual lives;
 3. each round: **screen** the open candidates (those of a signature family not yet
    named) against the current residual; **refit** the chosen ones, each as a physical
-   element added to the current model; **decide** which are significant
+   element added to the current model, and run the family's refit checks on each
+   (:func:`suspenv.diagnosis.checks.refuse`: a refused refit is a failed hypothesis);
+   **decide** which are significant
    (:func:`suspenv.diagnosis.decision.decide`, Bonferroni over the candidates screened
    in the round) and rank them; the best significant one is named, **settled** (made
    ready to be the next round's null model) and becomes the current model; the search
    stops when nothing is significant or after ``family.max_effects`` rounds;
-4. the family's **conclude**, then the **checks** (:mod:`suspenv.diagnosis.checks`):
-   the family's own (which may withdraw an element and replace the final model), then
-   those every family gets (the residual left in the family's noise units, the
-   assumptions made); the final model is compared with the baseline on the held-out
-   data and the verdict is worded from the findings (:func:`verdict_words`).
+4. the **checks** (:mod:`suspenv.diagnosis.checks`):
+   the look-alikes of each named element, the family's own (which may withdraw an
+   element and replace the final model), then those every family gets (the residual
+   left in the family's noise units, the assumptions made); the final model is
+   compared with the baseline on the held-out data and the verdict is worded from the
+   findings (:func:`verdict_words`).
 
 The returned :class:`Diagnosis` holds everything and turns into JSON with
 :meth:`Diagnosis.to_dict`.
@@ -38,7 +41,7 @@ import numpy as np
 from suspenv.core.errors import EvaluationError, ValidationError
 from suspenv.diagnosis import checks
 from suspenv.diagnosis.checks.finding import jsonable
-from suspenv.diagnosis.decision import DecisionRule, ambiguities, decide, rank
+from suspenv.diagnosis.decision import DecisionRule, decide, rank
 from suspenv.diagnosis.evidence import Comparison, baseline_summary, compare
 from suspenv.diagnosis.family import Conclusion, DiagnosisFamily, Outcome, recording_names
 from suspenv.diagnosis.fitting import FitResult
@@ -291,7 +294,6 @@ def diagnose(
     current = base
     named: list[Hypothesis] = []
     hypotheses: list[Hypothesis] = []
-    amb: list[Ambiguity] = []
     first_sigs: Sequence[Any] = []
     for rnd in range(1, fam.max_effects + 1):
         done = {h.family for h in named}
@@ -310,6 +312,9 @@ def diagnose(
             score = float(sig.score) if sig is not None else float("nan")
             try:
                 ext = fam.refit(current, cand, sig, setup)
+                so_far = Outcome(base, current, named, hypotheses, first_sigs, location)
+                judged = checks.Context(fam, setup, so_far, fam.rule, refit=ext, candidate=cand)
+                checks.refuse(judged)
             except (ValidationError, EvaluationError, np.linalg.LinAlgError) as exc:
                 hypotheses.append(Hypothesis.failed(kind, loc, words, rnd, str(exc), score))
                 continue
@@ -327,11 +332,9 @@ def diagnose(
         decide(hyps, len(open_c), fam.rule)
         ranked = rank(hyps)
         hypotheses += ranked
-        amb += ambiguities(ranked)
         if not ranked or not ranked[0].significant:
             break
         win = ranked[0]
-        amb += fam.ambiguities(win, ranked, current, setup)
         assert win.fit is not None  # a significant hypothesis carries its refit
         settled = fam.settle(win.fit, setup)
         if settled is not None:
@@ -342,9 +345,10 @@ def diagnose(
         say(f"round {rnd}: named {win.words}")
 
     outcome = Outcome(base, current, named, hypotheses, first_sigs, location)
-    ctx = checks.Context(fam, setup, outcome, fam.rule, fam.conclude(outcome, setup))
+    ctx = checks.Context(fam, setup, outcome, fam.rule)
     checks.run(ctx)
     found, named, hypotheses = ctx.found, ctx.outcome.named, ctx.outcome.hypotheses
+    amb = found.ambiguities
     current = ctx.outcome.current
     comparison = versus(base, current) if named else None
     baseline = baseline_summary(

@@ -13,12 +13,14 @@ The family owns everything that depends on the model:
 * ``screen``: score the open candidates against the current residual and choose which
   to refit (``Screening``);
 * ``refit``: the current model plus one element, refitted;
+* ``refit_checks`` (optional): the rules a refit must pass to stand as a hypothesis
+  (:func:`suspenv.diagnosis.checks.refuse`);
 * ``words``: the engineering words of a candidate;
 * ``settle``: make a named winner ready to be the next round's null model (or None);
-* ``ambiguities``: what the data cannot tell apart from the winner beyond the
-  loop's own family-pair rule;
-* ``conclude``: the family's numbers after the search (detection limits);
-* ``checks`` (optional): its own checks after the search (:mod:`suspenv.diagnosis.checks`);
+* ``ambiguities``: what the data cannot tell apart from a named element beyond the
+  loop's own family-pair rule (read by :mod:`suspenv.diagnosis.checks.separability`);
+* ``checks`` (optional): its own checks after the search (:mod:`suspenv.diagnosis.checks`:
+  the K&C detection limits, the component family's probes);
 * ``residual_left`` (optional): the family's noise model, which the shared rule judges
   (:mod:`suspenv.diagnosis.checks.residual_left`).
 """
@@ -80,7 +82,7 @@ class Screening:
 
 @dataclass
 class Outcome:
-    """What the search found, handed to :meth:`DiagnosisFamily.conclude`."""
+    """What the search found, handed to the checks (:mod:`suspenv.diagnosis.checks`)."""
 
     base: FitResult
     current: FitResult
@@ -92,8 +94,8 @@ class Outcome:
 
 @dataclass
 class Conclusion:
-    """What a family concludes after the search (:meth:`DiagnosisFamily.conclude`), or
-    one of its checks (``family.checks()``, :func:`suspenv.diagnosis.checks.revise`).
+    """What a check concludes after the search (``family.checks()``, folded in by
+    :func:`suspenv.diagnosis.checks.revise`), and what the checks concluded together.
 
     Attributes:
         named: elements a check names (each a refitted hypothesis).
@@ -114,6 +116,8 @@ class Conclusion:
     confident: bool = True
     findings: dict[str, Any] = field(default_factory=dict)
     baseline: dict[str, Any] = field(default_factory=dict)
+    #: what the data cannot tell apart, and the test that would (said with the named)
+    ambiguities: list[Ambiguity] = field(default_factory=list)
     #: how many sentences at the front are leads (:meth:`lead`)
     leading: int = 0
 
@@ -163,8 +167,6 @@ class DiagnosisFamily(Protocol):
         setup: Setup,
     ) -> list[Ambiguity]: ...
 
-    def conclude(self, outcome: Outcome, setup: Setup) -> Conclusion: ...
-
 
 class OptionalSteps:
     """Defaults of a family's optional steps (a family class may inherit them): no settle,
@@ -181,9 +183,6 @@ class OptionalSteps:
         setup: Setup,
     ) -> list[Ambiguity]:
         return []
-
-    def conclude(self, outcome: Outcome, setup: Setup) -> Conclusion:
-        return Conclusion()
 
 
 def recording_names(recordings: Sequence[RecordingLike]) -> str:

@@ -10,31 +10,39 @@ defaults), so a new family gets honest verdicts the day it joins:
 * ``assumptions(setup)``: the defaults used for what the recordings do not say
   (:mod:`.assumptions`).
 
+* ``ambiguities(winner, ranked, parent, setup)``: the family's look-alike pairs of a
+  named element, said beside the loop's own rule (:mod:`.separability`, which runs
+  first: it reads the search's record as the search left it).
+
 The other checks read only the final fit and the recordings: a residual driven by an
 input the recording does not carry (:mod:`.missing_input`) and the elements whose
 improvement rests on it (:mod:`.switched_element`), parameters on a bound
 (:mod:`.bounds`), the share of each output the model describes (:mod:`.misfit`).
 
-:func:`run` runs a family's own checks (``family.checks()``), then these, each result
-folded (:func:`fold`) before the next reads the model it leaves: a family's check may
-return a :class:`~suspenv.diagnosis.family.Conclusion` that names or withdraws elements.
+:func:`run` runs the look-alikes, a family's own checks (``family.checks()``), then
+these, each result folded (:func:`fold`) before the next reads the model it leaves: a
+family's check may return a :class:`~suspenv.diagnosis.family.Conclusion` that names or
+withdraws elements. During the search, :func:`refuse` runs a family's refit checks
+(``family.refit_checks()``, e.g. :mod:`.plausible`) on each refit.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 
+from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.checks import (
     assumptions,
     bounds,
     misfit,
     missing_input,
     residual_left,
+    separability,
     switched_element,
 )
 from suspenv.diagnosis.checks.finding import Check, Context, Finding, fold, revise
 
-__all__ = ["Check", "Context", "Finding", "fold", "revise", "run"]
+__all__ = ["Check", "Context", "Finding", "fold", "refuse", "revise", "run"]
 
 
 def _checks() -> tuple[Check, ...]:
@@ -50,8 +58,19 @@ def _checks() -> tuple[Check, ...]:
 
 
 def run(ctx: Context, checks: Sequence[Check] | None = None) -> None:
-    """Run ``checks`` (default: the family's own, then this package's) on ``ctx`` in
-    order; a check with nothing to say returns None."""
+    """Run ``checks`` (default: the look-alikes, the family's own, then this package's
+    others) on ``ctx`` in order; a check with nothing to say returns None."""
     own = getattr(ctx.family, "checks", tuple)
-    for check in checks if checks is not None else [*own(), *_checks()]:
+    for check in checks if checks is not None else [separability.run, *own(), *_checks()]:
         fold(ctx, check(ctx))
+
+
+def refuse(ctx: Context) -> None:
+    """Run the family's refit checks (``family.refit_checks()``) on the refit of
+    ``ctx`` in order; the first that returns a :class:`Finding` refuses the refit:
+    :class:`~suspenv.core.errors.ValidationError` with its sentence (the loop records
+    the hypothesis as failed with it)."""
+    for check in getattr(ctx.family, "refit_checks", tuple)():
+        found = check(ctx)
+        if isinstance(found, Finding):
+            raise ValidationError(found.sentence)

@@ -10,19 +10,23 @@ from typing import Any
 
 from suspenv.diagnosis.decision import DecisionRule
 from suspenv.diagnosis.family import Conclusion, DiagnosisFamily, Outcome, Setup
+from suspenv.diagnosis.fitting import FitResult
 
 
 @dataclass
 class Context:
     """What a check reads: the family (to ask), the run's data and model, the search's
     outcome as the checks before this one left it, the decision rule and what they
-    concluded (``found``)."""
+    concluded (``found``). A refit check (during the search) also reads the refit under
+    judgement (``refit``: ``outcome.current`` plus the element of ``candidate``)."""
 
     family: DiagnosisFamily
     setup: Setup
     outcome: Outcome
     rule: DecisionRule
     found: Conclusion = field(default_factory=Conclusion)
+    refit: FitResult | None = None
+    candidate: str = ""
 
 
 @dataclass
@@ -97,8 +101,9 @@ def fold(ctx: Context, result: Finding | Conclusion | None) -> None:
 def revise(ctx: Context, part: Conclusion) -> None:
     """Fold a family check's conclusion into ``ctx``: the elements it names join the named
     and the hypotheses, those it withdraws leave the named, its ``final_fit`` becomes the
-    current model; its leads go before the leads so far, its other sentences last; its
-    records are kept by name (a list extends the list of that name)."""
+    current model; its leads go before the leads so far, its other sentences last, its
+    look-alikes after those so far; its records are kept by name (a list extends the
+    list of that name)."""
     o, found = ctx.outcome, ctx.found
     for w in part.withdrawn:
         w.hypothesis.withdrawn = w.sentence()
@@ -112,6 +117,7 @@ def revise(ctx: Context, part: Conclusion) -> None:
     found.sentences += part.sentences[part.leading :]
     found.leading += part.leading
     found.confident = found.confident and part.confident
+    found.ambiguities += part.ambiguities
     found.baseline.update(part.baseline)
     for k, v in part.findings.items():
         have = found.findings.get(k)

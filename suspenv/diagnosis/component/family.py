@@ -15,10 +15,13 @@ plus effects of :mod:`suspenv.models.effects`). Its pieces of the one loop
   ``screen_families`` strongest families are refitted (plus the strongest sensor
   family when a force view is used: the two scores are not on one scale);
 * **refit**: the element added with start values read off its signature
-  (:func:`suspenv.diagnosis.component.refit.refit_with`);
-* **ambiguities**: an element that equals a combination of two others on most data
-  (direction-dependent friction = Coulomb friction + a constant force) is refitted as
-  that combination; an equal fit is reported as an ambiguity;
+  (:func:`suspenv.diagnosis.component.refit.refit_with`); the refit checks
+  (:meth:`ComponentFamily.refit_checks`): the element's plausibility
+  (:func:`suspenv.diagnosis.checks.plausible.run`), a sensor lag against a pure delay;
+* **ambiguities** (read by :mod:`suspenv.diagnosis.checks.separability`): an element
+  that equals a combination of two others on most data (direction-dependent friction =
+  Coulomb friction + a constant force) is refitted as that combination; an equal fit is
+  reported as an ambiguity;
 * **checks** after the search (:meth:`ComponentFamily.checks`): the damper bump/rebound
   asymmetry, elements withdrawn beside a delay or a drift, what the library lacks.
 
@@ -32,10 +35,11 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
-from scipy import stats
 
 from suspenv.core.errors import ValidationError
-from suspenv.diagnosis.checks.finding import Check, Context
+from suspenv.diagnosis.checks import plausible
+from suspenv.diagnosis.checks.finding import Check, Context, Finding
+from suspenv.diagnosis.checks.plausible import branch_share_unresolved
 from suspenv.diagnosis.checks.residual_left import Left
 from suspenv.diagnosis.component.assumed import estimate_unsprung_mass, mass_words, power_sign
 from suspenv.diagnosis.component.asymmetry import asymmetry_check
@@ -50,7 +54,7 @@ from suspenv.diagnosis.component.delay import (
 )
 from suspenv.diagnosis.component.drift_check import judge_beside_drift
 from suspenv.diagnosis.component.locate import Segment, locate
-from suspenv.diagnosis.component.motion import cycle_index, motion, split
+from suspenv.diagnosis.component.motion import cycle_index, motion, split, stroke
 from suspenv.diagnosis.component.motion_inputs import (
     OUTPUT_LOWPASS_HARMONICS,
     MotionCheck,
@@ -62,13 +66,9 @@ from suspenv.diagnosis.component.motion_inputs import (
     preferred_version,
 )
 from suspenv.diagnosis.component.refit import (
-    SIZE_Z,
     current_effects,
     parameter_and_error,
-    ratio_and_error,
     refit_with,
-    refitted_element,
-    stribeck_rise_and_error,
 )
 from suspenv.diagnosis.component.residual_left import (
     MOVING_FRACTION,
@@ -89,6 +89,7 @@ from suspenv.diagnosis.component.signatures import SIGNATURE_KINDS, SignalSet, s
 from suspenv.diagnosis.decision import (
     EQUIVALENT_COMBINATIONS,
     DecisionRule,
+    fit_alike,
     separating_test,
 )
 from suspenv.diagnosis.family import (
@@ -311,7 +312,7 @@ def _structural_ambiguity(
     for k in (k1, k2):
         combo = refit_with(combo, k, sp.fit_recordings, sp.fit_masks, max_nfev=max_nfev)
     lr_combo = 2.0 * (combo.log_likelihood() - parent.log_likelihood())
-    if abs(lr_combo - h.lr_statistic) > max(0.05 * h.lr_statistic, 10.0):
+    if not fit_alike(h.lr_statistic, lr_combo):
         return []
     test, reason = separating_test(family_of(k1), family_of(k2))
     return [Ambiguity(h.kind, f"{k1}+{k2}", h.words, words, test, reason)]
@@ -377,10 +378,12 @@ class ComponentFamily(OptionalSteps):
     #: recorded channel -> the test where a pure time delay beat a refitted sensor lag
     #: decisively in the last diagnosis (:mod:`~suspenv.diagnosis.component.delay`)
     delay_tests: dict[str, dict[str, Any]] = field(default_factory=dict, init=False)
-    #: a Maxwell refit of the current round was refused with its base share of the
-    #: damping unresolved (:func:`branch_share_unresolved`): a sensor lag of the force
-    #: named in that round cannot be told from such a branch
-    branch_unresolved: bool = field(default=False, init=False)
+    #: the rounds whose Maxwell refit was refused with its base share of the damping
+    #: unresolved (:func:`~suspenv.diagnosis.checks.plausible.branch_share_unresolved`):
+    #: a sensor lag of the force named in such a round cannot be told from such a branch
+    unresolved_branch_rounds: set[int] = field(default_factory=set, init=False)
+    #: the round of the last :meth:`screen`
+    _round: int = field(default=0, init=False, repr=False)
     #: the signs found where none was declared (last :meth:`prepare`), in words
     sign_words: list[str] = field(default_factory=list, init=False)
     #: the last :meth:`prepare` fitted the quarter car's unsprung mass with the baseline
@@ -418,6 +421,7 @@ class ComponentFamily(OptionalSteps):
         recs = as_recordings(recordings)
         held = holdout
         self.delay_tests = {}
+        self.unresolved_branch_rounds = set()
         self.motion_lowpass_hz = None
         self.recorded_outputs = {}
         self.displacement_noise_m = 0.0
@@ -590,7 +594,7 @@ class ComponentFamily(OptionalSteps):
     def screen(
         self, current: FitResult, setup: Setup, open_candidates: Sequence[str], round_: int
     ) -> Screening:
-        self.branch_unresolved = False
+        self._round = round_
         channel = current.main_channel()
         sigs, viewed = _score_round(current, setup.split, channel, open_candidates)
         open_fams = {family_of(k) for k in open_candidates}
@@ -611,19 +615,17 @@ class ComponentFamily(OptionalSteps):
     def refit(
         self, current: FitResult, candidate: str, signature: SignatureLike | None, setup: Setup
     ) -> FitResult:
-        half, vmax = _stroke(setup.split)
+        half, vmax = stroke(setup.split)
         location = effect_location(setup.model, candidate)
         if not location and isinstance(signature, Signature) and signature.channel:
             # a sensor error sits on the recorded channel its signature was found in
             location = signature.channel
-        # a sensor lag's channel (the model's first output unless located)
-        lag_channel = ""
         if candidate.partition("@")[0] == "sensor_lag":
-            lag_channel = location or setup.model.output_channels[0]
-            refused = self.delay_tests.get(lag_channel)
+            # a sensor lag's channel (the model's first output unless located)
+            refused = self.delay_tests.get(location or setup.model.output_channels[0])
             if refused is not None:  # a delay beat the lag of this channel in an earlier round
                 check_lag_not_delay(refused)
-        ext = refit_with(
+        return refit_with(
             current,
             candidate,
             setup.split.fit_recordings,
@@ -634,31 +636,43 @@ class ComponentFamily(OptionalSteps):
             location=location,
             max_nfev=self.budget,
         )
-        check_step_or_knee(candidate, ext, vmax)
-        presliding = fits_presliding(setup.model, setup.candidates)
-        if presliding and getattr(setup.model, "dwells_between_moves", False):
-            check_loop_resolved(candidate, ext, self.displacement_noise_m)
-        else:
-            check_loop_or_step(candidate, ext, half)
-        if presliding:
-            check_presliding_is_friction(candidate, ext, half)
-        if branch_share_unresolved(candidate, ext, self.rule.alpha):
-            self.branch_unresolved = True
-        check_parallel_branch(candidate, ext, self.rule.alpha)
-        check_resolved_size(candidate, ext)
-        rounded = rounds_own_step(setup.model, candidate.partition("@")[0])
-        check_stiction_decays(candidate, ext, vmax, rounded)
-        check_breakaway_recorded(candidate, ext, setup.split)
-        if lag_channel:
-            # the same channel late by a pure delay instead (not a library element)
-            start = parameter_and_error(ext, "sensor_lag", "tau")[0]
-            delay = fit_delay(current, setup.split, lag_channel, start, self.budget)
-            test = delay_against_lag(ext, delay, setup.split, self.rule, lag_channel, self.budget)
-            ext.extra["delay_against_lag"] = test
-            if test["decisive"]:  # the first decisive test of a channel is kept
-                self.delay_tests.setdefault(lag_channel, test)
+
+    def refit_checks(self) -> list[Check]:
+        """The rules a refit must pass to stand as a hypothesis, in order
+        (:func:`suspenv.diagnosis.checks.refuse`): the round of a Maxwell branch left
+        unresolved is kept for the look-alikes, the element's plausibility
+        (:func:`suspenv.diagnosis.checks.plausible.run`), a sensor lag against a pure
+        delay of its channel."""
+        return [self._unresolved_branch, plausible.run, self._lag_against_delay]
+
+    def _unresolved_branch(self, ctx: Context) -> None:
+        """Keep the round of a Maxwell refit that leaves its base share of the damping
+        unresolved (:func:`~suspenv.diagnosis.checks.plausible.branch_share_unresolved`)."""
+        if ctx.refit is not None and branch_share_unresolved(
+            ctx.candidate, ctx.refit, self.rule.alpha
+        ):
+            self.unresolved_branch_rounds.add(self._round)
+
+    def _lag_against_delay(self, ctx: Context) -> Finding | None:
+        """A refitted sensor lag against the same channel late by a pure delay (not a
+        library element, :func:`~suspenv.diagnosis.component.delay.delay_against_lag`);
+        the first decisive test of a channel is kept for the checks after the search."""
+        ext = ctx.refit
+        if ext is None or ctx.candidate.partition("@")[0] != "sensor_lag":
+            return None
+        channel = str(ext.extra["effect"]["location"] or ctx.setup.model.output_channels[0])
+        sp = ctx.setup.split
+        start = parameter_and_error(ext, "sensor_lag", "tau")[0]
+        delay = fit_delay(ctx.outcome.current, sp, channel, start, self.budget)
+        test = delay_against_lag(ext, delay, sp, self.rule, channel, self.budget)
+        ext.extra["delay_against_lag"] = test
+        if test["decisive"]:
+            self.delay_tests.setdefault(channel, test)
+        try:
             check_lag_not_delay(test)
-        return ext
+        except ValidationError as exc:
+            return Finding("lag_against_delay", confident=False, sentence=str(exc))
+        return None
 
     def words(self, candidate: str, setup: Setup) -> str:
         """Engineering words in the device's terms, e.g. "Coulomb friction in the guide",
@@ -681,7 +695,7 @@ class ComponentFamily(OptionalSteps):
         """The structural ambiguity of the winner (:func:`_structural_ambiguity`); and,
         on a device whose one recorded output is its force, a sensor lag of the force
         named where the round's Maxwell refit left the base's share of the damping
-        unresolved (:attr:`branch_unresolved`): the two are inseparable on these
+        unresolved (:attr:`unresolved_branch_rounds`): the two are inseparable on these
         recordings, and the verdict says so with the test that would separate them."""
         found = _structural_ambiguity(winner, parent, setup.split, self.budget)
         # a lag of the recorded force only: the force is the branch's whole effect there
@@ -692,7 +706,7 @@ class ComponentFamily(OptionalSteps):
             winner.kind == "sensor_lag"
             and force
             and winner.location in ("", "force")
-            and self.branch_unresolved
+            and winner.round in self.unresolved_branch_rounds
         ):
             branch = "maxwell_viscoelastic"
             test, reason = separating_test(family_of(winner.kind), family_of(branch))
@@ -796,9 +810,7 @@ class ComponentFamily(OptionalSteps):
             )
         sp = ctx.setup.split
         where = effect_location(ctx.setup.model, DEFICIT_KIND)
-        band = dead_band_left(
-            ctx.outcome.current, sp, where, _stroke(sp)[1], self.budget, self.rule
-        )
+        band = dead_band_left(ctx.outcome.current, sp, where, stroke(sp)[1], self.budget, self.rule)
         found.findings["beyond_library"] = [band]
         if band.remains:
             found.confident = False
@@ -859,445 +871,6 @@ class ComponentFamily(OptionalSteps):
         return delays
 
 
-#: a friction step completes within a few percent of the speed range, a valve knee lies
-#: at a tenth of it or more: a friction element fitted wider than FRICTION_MAX_FRACTION of
-#: the peak speed is a knee, a digressive curve fitted narrower than KNEE_MIN_FRACTION is
-#: a step; between the two both are fitted, and an equal fit is reported as inseparable
-FRICTION_MAX_FRACTION = 0.10
-KNEE_MIN_FRACTION = 0.03
-#: the transition width [m/s] of each kind whose shape a step or a knee can take
-TRANSITION_WIDTH = {
-    "coulomb_friction": "v_eps",
-    "stribeck_friction": "v_eps",
-    "directional_friction": "v_eps",
-    "digressive_damping": "v_knee",
-}
-
-
-def check_step_or_knee(candidate: str, ext: FitResult, vmax: float) -> None:
-    """Refuse a refit whose fitted transition contradicts its kind.
-
-    A regularised Coulomb step ``f_c tanh(v / v_eps)`` beside the viscous base and a
-    digressive curve ``c_low v / (1 + |v| / v_knee)`` are nearly one function of velocity
-    (both rise steeply and saturate): on a dyno the two fit much the same data, so the
-    fitted width decides which physics it is. A friction element fitted wider than
-    ``FRICTION_MAX_FRACTION`` of the peak speed ``vmax`` [m/s] is a valve knee; a
-    digressive curve fitted narrower than ``KNEE_MIN_FRACTION`` is a force step at
-    reversal. Raises :class:`ValidationError` (the hypothesis is recorded as failed with
-    this reason) so the other kind, refitted
-    in the same round, is named.
-    """
-    kind = candidate.partition("@")[0]
-    width_name = TRANSITION_WIDTH.get(kind)
-    if width_name is None or vmax <= 0:
-        return
-    element = refitted_element(ext, kind)
-    if element is None:
-        return
-    width = float(np.ravel(element.params[width_name])[0])
-    frac = width / vmax
-    is_friction = kind != "digressive_damping"
-    if is_friction and frac > FRICTION_MAX_FRACTION:
-        raise ValidationError(
-            f"{kind}: the fitted step is {1e3 * width:.3g} mm/s wide, {100 * frac:.1f} % of the "
-            f"peak speed {vmax:.3g} m/s (> {100 * FRICTION_MAX_FRACTION:.0f} %): a gradual knee, "
-            "which is a digressive damper curve, not a friction step"
-        )
-    if not is_friction and frac < KNEE_MIN_FRACTION:
-        raise ValidationError(
-            f"{kind}: the fitted knee is at {1e3 * width:.3g} mm/s, {100 * frac:.1f} % of the "
-            f"peak speed {vmax:.3g} m/s (< {100 * KNEE_MIN_FRACTION:.0f} %): a force step at "
-            "every reversal, which is friction, not a valve knee"
-        )
-
-
-#: a hysteresis loop of a material (a bushing, the MR fluid before yield) builds up over
-#: millimetres, the pre-sliding of friction over micrometres to tens of micrometres: on a
-#: stroke of tens of millimetres a loop that completes within this fraction of the
-#: half-stroke is a force step at every reversal with a pre-sliding stiffness
-HYSTERESIS_MIN_FRACTION = 0.005
-
-
-def hysteresis_transition(kind: str, params: dict[str, Any]) -> float | None:
-    """The displacement [m] over which a hysteresis element's force builds up after a
-    reversal: ``f_c / sigma`` (Dahl), the yield displacement ``x_y`` (Bouc-Wen); None for
-    other kinds."""
-    if kind == "dahl_hysteresis":
-        return float(np.ravel(params["f_c"])[0]) / float(np.ravel(params["sigma"])[0])
-    if kind == "bouc_wen_hysteresis":
-        return float(np.ravel(params["x_y"])[0])
-    return None
-
-
-def fitted_loop_width(kind: str, ext: FitResult) -> float | None:
-    """The transition length [m] of the refitted hysteresis element of ``kind`` in
-    ``ext`` (:func:`hysteresis_transition`); None for another kind or no such element."""
-    element = refitted_element(ext, kind)
-    return None if element is None else hysteresis_transition(kind, element.params)
-
-
-def _loop_narrower_than(candidate: str, ext: FitResult, limit: float) -> tuple[str, float] | None:
-    """(kind, transition length [m]) of the hysteresis element refitted for ``candidate``
-    in ``ext`` when its loop completes within ``limit`` [m] (> 0); None otherwise (no
-    such element, a wider loop, or no limit)."""
-    kind = candidate.partition("@")[0]
-    width = fitted_loop_width(kind, ext) if limit > 0 else None
-    return None if width is None or width >= limit else (kind, width)
-
-
-def fits_presliding(model: Any, candidates: Sequence[str]) -> bool:
-    """True when ``candidates`` hold a friction law with a pre-sliding displacement of
-    its own that ``model`` fits: LuGre with its bristle stiffness ``sigma0`` among the
-    model's freed parameters (a guide's contact, a damper's seal: both creep before they
-    slide).
-
-    Then that law's pre-sliding is bounded like a loop's width
-    (:func:`check_presliding_is_friction`). Where the model's test also dwells between
-    moves (``dwells_between_moves``: a loop holds its force at rest, friction does not),
-    a small hysteresis loop and friction compete on the data (:func:`check_loop_or_step`
-    is not applied): friction's pre-sliding has its law, with the stiction and the
-    Stribeck fall that a rate-independent loop lacks, so a loop that fits better is a
-    loop. Elsewhere, or without such a law, a small loop is refused as hysteresis (the
-    width decides).
-    """
-    return rounds_own_step(model, "lugre_friction") and any(
-        c.partition("@")[0] == "lugre_friction" for c in candidates
-    )
-
-
-#: a loop is seen as a loop only when it builds up over more than this many standard
-#: deviations of the displacement's noise
-LOOP_NOISE_MULTIPLE = 2.0
-
-
-def check_loop_resolved(candidate: str, ext: FitResult, displacement_noise: float) -> None:
-    """Refuse a hysteresis refit whose loop completes within ``LOOP_NOISE_MULTIPLE``
-    standard deviations of the recorded displacement's white noise ``displacement_noise``
-    [m] (where :func:`check_loop_or_step` is not applied: :func:`fits_presliding` on a
-    test that dwells between moves).
-
-    A force that builds up over less displacement than the displacement's own noise is,
-    as far as the recording can tell, a force step at every reversal: the loop's shape is
-    below the resolution of the motion it is read against, and a step at every reversal
-    is friction's (the friction refitted in the same round competes for it). Raises
-    :class:`ValidationError` (the hypothesis is recorded as failed with this reason); not
-    applied when the displacement's noise was not measured (0).
-    """
-    narrow = _loop_narrower_than(candidate, ext, LOOP_NOISE_MULTIPLE * displacement_noise)
-    if narrow is None:
-        return
-    kind, width = narrow
-    raise ValidationError(
-        f"{kind}: the fitted loop completes within {1e6 * width:.3g} micrometres after each "
-        f"reversal, under {LOOP_NOISE_MULTIPLE:g} standard deviations of the displacement's "
-        f"noise ({1e6 * displacement_noise:.3g} micrometres): a force step at every "
-        "reversal as far as the recording can tell, not a loop it resolves"
-    )
-
-
-def check_loop_or_step(candidate: str, ext: FitResult, half_stroke: float) -> None:
-    """Refuse a hysteresis refit whose loop completes within ``HYSTERESIS_MIN_FRACTION``
-    of the half-stroke ``half_stroke`` [m] after each reversal.
-
-    Such a loop is a force step at every reversal whose rise is the pre-sliding of
-    friction (LuGre, Dahl's friction model: tens of micrometres), not the loop of a
-    material that yields over a fair part of the stroke. Raises :class:`ValidationError`
-    (the hypothesis is recorded as failed with this reason), so the friction element
-    refitted in the same round is named. Not applied where the candidates hold a
-    friction law whose pre-sliding the model fits (:func:`fits_presliding`) and the test
-    dwells between moves.
-    """
-    narrow = _loop_narrower_than(candidate, ext, HYSTERESIS_MIN_FRACTION * half_stroke)
-    if narrow is None:
-        return
-    kind, width = narrow
-    raise ValidationError(
-        f"{kind}: the fitted loop completes within {1e6 * width:.3g} micrometres after each "
-        f"reversal, {100 * width / half_stroke:.2g} % of the half-stroke "
-        f"{1e3 * half_stroke:.3g} mm (< {100 * HYSTERESIS_MIN_FRACTION:.1f} %): a force step "
-        "at every reversal with the pre-sliding of friction, not a hysteresis loop"
-    )
-
-
-def check_presliding_is_friction(candidate: str, ext: FitResult, half_stroke: float) -> None:
-    """Refuse a LuGre refit whose pre-sliding is resolved wider than
-    ``HYSTERESIS_MIN_FRACTION`` of the half-stroke ``half_stroke`` [m].
-
-    The mirror of :func:`check_loop_or_step`, for the families whose LuGre fits its
-    bristle stiffness (:func:`fits_presliding`): the bristles deflect ``f_c / sigma0``
-    while sliding, friction's pre-sliding of micrometres to tens of micrometres. A
-    deflection wider than the bound by more than ``SIZE_Z`` corrected standard errors of
-    its logarithm (:func:`ratio_and_error`) is a force that builds up over a fair part
-    of the stroke after each reversal: a material's loop (a bushing's, an MR fluid's
-    before yield), whose build-up the LuGre law can follow with its bristles while its
-    Stribeck levels take a velocity-dependent force beside it. Raises
-    :class:`ValidationError` (the hypothesis is recorded as failed with this reason), so
-    the hysteresis refitted in the same round is named. Not judged where the width or
-    its error is not known.
-    """
-    kind = candidate.partition("@")[0]
-    if kind != "lugre_friction" or half_stroke <= 0:
-        return
-    width, sd = ratio_and_error(ext, kind, "f_c", "sigma0")
-    if not np.isfinite(sd):
-        return
-    bound = HYSTERESIS_MIN_FRACTION * half_stroke
-    # a ratio of two positive parameters: its error read on the logarithm
-    least = width * float(np.exp(-SIZE_Z * sd / width))
-    if least <= bound:
-        return
-    raise ValidationError(
-        f"{kind}: the fitted bristles deflect f_c / sigma0 = {1e6 * width:.3g} +- "
-        f"{1e6 * sd:.2g} micrometres while sliding, {100 * width / half_stroke:.2g} % of the "
-        f"half-stroke {1e3 * half_stroke:.3g} mm, and at least {1e6 * least:.3g} micrometres "
-        f"({SIZE_Z:g} standard errors of its logarithm; > {100 * HYSTERESIS_MIN_FRACTION:.1f} "
-        "%): a force that builds up over a fair part of the stroke after each reversal, "
-        "which is a hysteresis loop, not the pre-sliding of friction"
-    )
-
-
-#: a Maxwell branch whose base keeps less than this share of the viscous coefficient
-#: ``c + c_m`` carries the whole viscous force, however well the share is resolved
-WHOLE_FORCE_BASE_SHARE = 0.05
-
-
-def check_parallel_branch(candidate: str, ext: FitResult, alpha: float = 0.01) -> None:
-    """Refuse a Maxwell refit whose base damping is not resolved from zero, or is a
-    negligible share of the damping.
-
-    The library's Maxwell element is a branch *beside* the base damping: ``F = c v + F_m``
-    with ``dF_m/dt = k_m (v - F_m / c_m)``. With the base coefficient ``c`` at zero it is
-    exactly a first-order lag of the whole force of a linear base (spring ``k``, damper):
-    ``(k + c s) / (1 + tau s)`` is the spring beside a branch of ``c_m = c - k tau``,
-    ``k_m = c_m / tau``. That is what a lagging force sensor (or a compliant mount in
-    series with the whole part) does, with one parameter instead of two. The branch is
-    therefore kept only where the data resolve its base damping from zero (``c`` at least
-    the two-sided ``alpha`` quantile of the normal in standard errors: 2.58 at the
-    component rule's 1 %, the test of the lag nested in the branch at ``c = 0``) and the
-    base keeps at least ``WHOLE_FORCE_BASE_SHARE`` of ``c + c_m``. Otherwise the lag
-    refitted in the same round is the simpler law. Raises :class:`ValidationError` (the
-    hypothesis is recorded as failed with this reason). A model without a viscous base
-    parameter (``viscous_parameter``) is not checked.
-    """
-    found = _branch_base(candidate, ext)
-    if found is None:
-        return
-    name, c, sd, c_m = found
-    z = float(stats.norm.isf(0.5 * alpha))
-    if c >= z * sd and c >= WHOLE_FORCE_BASE_SHARE * (c + c_m):
-        return
-    raise ValidationError(
-        f"{candidate.partition('@')[0]}: the fitted branch carries the whole viscous force "
-        f"(base {name} = {c:.3g} +- {sd:.2g} N s/m beside the branch's c_m = {c_m:.4g} N s/m: "
-        f"not {z:.3g} standard errors from zero, or under "
-        f"{100 * WHOLE_FORCE_BASE_SHARE:.0f} % of the two): a lag of the whole force, which "
-        "a lagging force sensor (or a compliant mount in series with the whole part) gives "
-        "with one parameter, not a viscoelastic branch beside the damping"
-    )
-
-
-def branch_share_unresolved(candidate: str, ext: FitResult, alpha: float = 0.01) -> bool:
-    """Whether a Maxwell refit leaves open a branch beside the damping: its base
-    coefficient ``c`` not resolved from zero (within the two-sided ``alpha`` quantile
-    ``z`` of the normal, in standard errors: :func:`check_parallel_branch`) while the
-    data do not exclude a base share of ``WHOLE_FORCE_BASE_SHARE`` either
-    (``c + z sd`` at least that share of ``c + c_m``). The data then fit a lag of the
-    whole force and a branch beside part of the damping alike (at ``w tau`` small the two
-    differ only at second order: Limits in ``docs/diagnosis.md``). A base bounded below
-    the share (``c = 4 +- 7`` beside ``c_m = 1100``) is a lag of the whole force, and a
-    share resolved and small is too: nothing to separate."""
-    found = _branch_base(candidate, ext)
-    if found is None:
-        return False
-    _, c, sd, c_m = found
-    z = float(stats.norm.isf(0.5 * alpha))
-    return bool(c < z * sd and c + z * sd >= WHOLE_FORCE_BASE_SHARE * (c + c_m))
-
-
-def _branch_base(candidate: str, ext: FitResult) -> tuple[str, float, float, float] | None:
-    """(name of the base viscous parameter, its value [N s/m], its standard error, the
-    branch's ``c_m`` [N s/m]) of a Maxwell refit; None for another candidate, a model
-    without a viscous base parameter (``viscous_parameter``) or an error not computed."""
-    kind = candidate.partition("@")[0]
-    name = getattr(ext.model, "viscous_parameter", "")
-    fitted = ext.params()
-    if kind != "maxwell_viscoelastic" or name not in fitted:
-        return None
-    c, sd = fitted[name]["value"], fitted[name]["stderr"]
-    element = refitted_element(ext, kind)
-    if element is None or not np.isfinite(sd):
-        return None
-    return name, float(c), float(sd), float(np.ravel(element.params["c_m"])[0])
-
-
-#: the parameters that give each element kind its size, all with zero for "no element"
-#: (linear parameters only: a log-scaled one's standard error is not in its unit): an
-#: element is a finding only when one of them is resolved from zero
-ELEMENT_SIZE: dict[str, tuple[str, ...]] = {
-    "coulomb_friction": ("f_c",),
-    "stribeck_friction": ("f_c", "f_s"),
-    "directional_friction": ("f_pos", "f_neg"),
-    "lugre_friction": ("f_c", "f_s"),
-    "dahl_hysteresis": ("f_c",),
-    "bouc_wen_hysteresis": ("f_y",),
-    "cubic_stiffness": ("k3",),
-    "progressive_stiffness": ("k_p",),
-    "bump_stop": ("k_stop",),
-    "rebound_stop": ("k_stop",),
-    "bump_and_rebound_stops": ("k_bump", "k_rebound"),
-    "digressive_damping": ("c_low",),
-    "asymmetric_digressive_damping": ("c_bump", "c_rebound"),
-    "damper_asymmetry": ("dc_rebound",),
-    "sensor_lag": ("tau",),
-    "sensor_offset": ("offset",),
-    "force_offset": ("offset",),
-}
-
-
-def check_resolved_size(candidate: str, ext: FitResult) -> None:
-    """Refuse a refit whose element's size parameters (``ELEMENT_SIZE``) are all zero
-    within ``SIZE_Z`` corrected standard errors.
-
-    Such a fit improves the residual through something else than the element: its shape
-    at a size the data cannot tell from zero (LuGre's bristle damping ``sigma1 dz/dt`` is
-    a viscous force at standstill whatever the friction level, and it absorbed a guide
-    control's drifting zero), or the base parameters moving to a better optimum from the
-    refit's new start. Raises :class:`ValidationError` (the hypothesis is recorded as
-    failed with this reason).
-    """
-    kind = candidate.partition("@")[0]
-    sizes = ELEMENT_SIZE.get(kind)
-    if sizes is None:
-        return
-    element = refitted_element(ext, kind)
-    if element is None:
-        return
-    fitted = ext.params()
-    seen = []
-    for q in sizes:
-        key = f"{element.name}.{q}"
-        if key not in fitted:  # a size held fixed is not judged here
-            return
-        value, sd = fitted[key]["value"], fitted[key]["stderr_corrected"]
-        if not np.isfinite(sd) or abs(value) > SIZE_Z * sd:
-            return
-        seen.append(f"{q} = {value:.3g} +- {sd:.2g}")
-    raise ValidationError(
-        f"{kind}: its fitted size is zero within {SIZE_Z:g} standard errors "
-        f"({', '.join(seen)}): the fit improves through something else than this element"
-    )
-
-
-#: the friction kinds with a breakaway (static) level ``f_s`` beside their sliding level
-#: ``f_c``: stiction, whose friction falls from ``f_s`` at reversal to ``f_c`` with speed
-STICTION_KINDS = ("stribeck_friction", "lugre_friction")
-
-
-#: the parameter that rounds each stiction law's step at reversal by itself: the width
-#: of the regularised step (Stribeck) or the bristle stiffness, whose pre-sliding
-#: displacement ``f / sigma0`` rounds the step over the travel after the reversal (LuGre)
-STEP_ROUNDING = {"stribeck_friction": "v_eps", "lugre_friction": "sigma0"}
-
-
-def rounds_own_step(model: Any, kind: str) -> bool:
-    """True when ``model`` fits the parameter that rounds the stiction law ``kind``'s step
-    (:data:`STEP_ROUNDING` among its ``freed_parameters``); that law then needs no rising
-    level to round its step (:func:`check_stiction_decays`)."""
-    freed = getattr(model, "freed_parameters", {})
-    return STEP_ROUNDING.get(kind, "") in freed.get(kind, ())
-
-
-def check_stiction_decays(
-    candidate: str, ext: FitResult, vmax: float, rounded: bool = False
-) -> None:
-    """Refuse a stiction refit whose level rises with speed over a fair part of the
-    speed range, or at all where the law's step is rounded by a parameter of its own.
-
-    Stiction means the force needed to break away from rest exceeds the force that keeps
-    sliding: ``f_s >= f_c``, the level falling from ``f_s`` at reversal to ``f_c`` over the
-    Stribeck velocity ``v_s``. Fitted the other way round (``f_c - f_s`` more than
-    ``SIZE_Z`` corrected standard errors of the difference), the level *rises* from the
-    reversal with speed. Where the law's step has a fixed rounding, a rise over a ``v_s``
-    within ``FRICTION_MAX_FRACTION`` of the peak speed ``vmax`` [m/s] is the rounding of
-    the step at reversal, which the data cannot tell from the step's own. Where the model
-    fits the parameter that rounds the step (``rounded``: :func:`rounds_own_step`, the
-    step's width or LuGre's bristle stiffness), the rise is not needed for that, and any
-    resolved rise is refused. A rise that is not the rounding is a force that grows
-    gradually with velocity (with ``f_s`` near zero about ``f_c (v / v_s)^2``), i.e. a
-    velocity-dependent damping (a digressive valve's knee, a progressive damper, or a
-    force missing around zero velocity), which the shape absorbs without being friction.
-    Raises :class:`ValidationError` (the hypothesis is recorded as failed with this
-    reason); a friction step of another kind refitted in the same round can still be
-    named.
-    """
-    kind = candidate.partition("@")[0]
-    if kind not in STICTION_KINDS or vmax <= 0:
-        return
-    element = refitted_element(ext, kind)
-    if element is None:
-        return
-    v_s = float(np.ravel(element.params["v_s"])[0])
-    if not rounded and v_s <= FRICTION_MAX_FRACTION * vmax:
-        return
-    # NaN for a level held fixed, which is not judged here
-    f_c, sd_c = parameter_and_error(ext, kind, "f_c")
-    f_s, sd_s = parameter_and_error(ext, kind, "f_s")
-    # the rise over the recorded speeds, not f_c - f_s: with v_s far above the peak
-    # speed only their ratio is resolved, and the difference alone can be any size
-    rise, sd = stribeck_rise_and_error(ext, kind, vmax)
-    if not np.isfinite(sd) or rise <= SIZE_Z * sd:
-        return
-    raise ValidationError(
-        f"{kind}: the fitted breakaway level f_s = {f_s:.3g} +- {sd_s:.2g} N is below the "
-        f"sliding level f_c = {f_c:.4g} +- {sd_c:.2g} N, reached over v_s = {v_s:.3g} m/s "
-        f"({100 * v_s / vmax:.0f} % of the peak speed {vmax:.3g} m/s, "
-        + (
-            f"the step rounded by its own {STEP_ROUNDING[kind]}"
-            if rounded
-            else f"> {100 * FRICTION_MAX_FRACTION:.0f} %"
-        )
-        + f"; it rises by {rise:.3g} +- {sd:.2g} N up to the peak speed): a force that "
-        "grows gradually with speed from the reversal, which is a "
-        "velocity-dependent damping force, not stiction (whose breakaway exceeds its "
-        "sliding level)"
-    )
-
-
-def check_breakaway_recorded(candidate: str, ext: FitResult, sp: Split) -> None:
-    """Refuse a stiction refit whose breakaway level exceeds every recorded force.
-
-    To move, a part must be pushed past its breakaway force ``f_s``, and at each reversal
-    the recorded force holds the friction at that level (``F = m a + c v +- f_s`` about
-    zero speed, of either sign on the two sides of the reversal): no recording of a part
-    that moves holds only forces below its breakaway level. A fitted ``f_s`` above the
-    largest recorded force (over every recording of the split) is that level only over a
-    Stribeck velocity too small for any sample to see it; what the shape fits is the
-    transient the level drives (LuGre's bristle deflection ``z = g(v) / sigma0``, a loop
-    over a fair part of the stroke: a material's hysteresis). Raises
-    :class:`ValidationError` (the hypothesis is recorded as failed with this reason).
-    Models without a recorded ``force`` channel are not judged.
-    """
-    kind = candidate.partition("@")[0]
-    if kind not in STICTION_KINDS:
-        return
-    element = refitted_element(ext, kind)
-    forces = [
-        np.asarray(r.outputs["force"], float) for r in sp.recordings() if "force" in r.outputs
-    ]
-    if element is None or not forces:
-        return
-    f_s = float(np.ravel(element.params["f_s"])[0])
-    largest = max(float(np.max(np.abs(f))) for f in forces if f.size)
-    if f_s <= largest:
-        return
-    raise ValidationError(
-        f"{kind}: the fitted breakaway level f_s = {f_s:.4g} N is above every recorded force "
-        f"(largest {largest:.4g} N), which a part that moves cannot hold; the shape fits "
-        "the transient it drives over a Stribeck velocity too small to see, a loop over "
-        "the stroke, not stiction"
-    )
-
-
 #: below this product of the lag and the motion's angular frequency a first-order lag
 #: and a pure time delay shift the phase alike and their gains differ by under 12 %
 LAG_DELAY_SEPARABLE = 0.5
@@ -1319,7 +892,7 @@ def lag_or_delay(named: Sequence[Hypothesis], sp: Split) -> str:
     if lag is None:
         return ""
     tau = float(lag.params.get("sensor_lag.tau", {}).get("value", np.nan))
-    half, vmax = _stroke(sp)
+    half, vmax = stroke(sp)
     if not (np.isfinite(tau) and tau > 0 and half > 0):
         return ""
     wt = tau * vmax / half
@@ -1377,13 +950,6 @@ def baseline_offsets(fit: FitResult) -> list[dict[str, Any]]:
             }
         )
     return out
-
-
-def _stroke(sp: Split) -> tuple[float, float]:
-    """Half the stroke [m] and the largest speed [m/s] of the fitted motion."""
-    x_all = np.concatenate([motion(r)[0] for r in sp.fit_recordings])
-    v_all = np.concatenate([motion(r)[1] for r in sp.fit_recordings])
-    return 0.5 * float(np.ptp(x_all)), float(np.max(np.abs(v_all)))
 
 
 def _baseline_effects(base: FitResult, family: ComponentFamily | None = None) -> dict[str, Any]:

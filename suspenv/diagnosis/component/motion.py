@@ -57,6 +57,13 @@ def motion(rec: RecordingLike) -> tuple[np.ndarray, np.ndarray]:
     return x, v
 
 
+def stroke(sp: Split) -> tuple[float, float]:
+    """Half the stroke [m] and the largest speed [m/s] of the fitted motion of ``sp``."""
+    x_all = np.concatenate([motion(r)[0] for r in sp.fit_recordings])
+    v_all = np.concatenate([motion(r)[1] for r in sp.fit_recordings])
+    return 0.5 * float(np.ptp(x_all)), float(np.max(np.abs(v_all)))
+
+
 def cycle_index(x: np.ndarray) -> np.ndarray:
     """Index of the motion cycle each sample belongs to (cycles start at the upward
     crossings of the deflection ``x`` [m] through its median; samples before the

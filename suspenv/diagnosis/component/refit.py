@@ -54,61 +54,6 @@ def parameter_and_error(fit: FitResult, kind: str, parameter: str) -> tuple[floa
     return float(row.get("value", np.nan)), float(row.get("stderr_corrected", np.nan))
 
 
-def _fitted_with_covariance(
-    ext: FitResult, kind: str, parameters: Sequence[str]
-) -> tuple[dict[str, float], np.ndarray, list[str]]:
-    """The fitted values of those of ``parameters`` of the element of ``kind`` in ``ext``
-    that the fit frees (a parameter held fixed is left out), their covariance block
-    (inflated like ``stderr_corrected``) and its order; empty without the element."""
-    element = refitted_element(ext, kind)
-    if element is None:
-        return {}, np.zeros((0, 0)), []
-    names = list(ext.names)
-    free = [q for q in parameters if f"{element.name}.{q}" in names]
-    cols = [names.index(f"{element.name}.{q}") for q in free]
-    values = {q: float(ext.theta[c]) for q, c in zip(free, cols, strict=True)}
-    return values, ext.covariance_corrected()[np.ix_(cols, cols)], free
-
-
-def ratio_and_error(ext: FitResult, kind: str, num: str, den: str) -> tuple[float, float]:
-    """The ratio ``num / den`` of two fitted parameters of the element of ``kind`` in
-    ``ext`` and its standard error (first order, with their covariance, inflated for
-    serially correlated residuals like ``stderr_corrected``); NaN, NaN when either is
-    not fitted or not positive."""
-    values, cov, free = _fitted_with_covariance(ext, kind, (num, den))
-    if free != [num, den]:  # no element, or one held fixed
-        return np.nan, np.nan
-    a, b = values[num], values[den]
-    if not (a > 0 and b > 0):
-        return np.nan, np.nan
-    rel = cov[0, 0] / a**2 + cov[1, 1] / b**2 - 2.0 * cov[0, 1] / (a * b)
-    return a / b, a / b * float(np.sqrt(max(rel, 0.0)))
-
-
-def stribeck_rise_and_error(ext: FitResult, kind: str, vmax: float) -> tuple[float, float]:
-    """How much a Stribeck level rises from reversal to the peak speed ``vmax`` [m/s]:
-    ``(f_c - f_s) (1 - exp(-(vmax / v_s)^2))`` [N] of the element of ``kind`` in ``ext``
-    (positive: a level rising with speed), and its standard error (first order, with the
-    covariance of ``f_c``, ``f_s`` and ``v_s``, inflated like ``stderr_corrected``; a
-    parameter held fixed adds none). This is what the recorded speeds resolve: with
-    ``v_s`` far above ``vmax`` only ``(f_c - f_s) / v_s^2`` is, and ``f_c - f_s`` alone
-    can be any size. NaN, NaN when the element or a level is not fitted."""
-    values, cov, free = _fitted_with_covariance(ext, kind, ("f_c", "f_s", "v_s"))
-    if "f_c" not in values or "f_s" not in values:
-        return np.nan, np.nan
-    element = refitted_element(ext, kind)
-    assert element is not None  # it holds fitted levels
-    v_s = float(np.ravel(element.params["v_s"])[0])
-    if not (vmax > 0 and v_s > 0):
-        return np.nan, np.nan
-    u = (vmax / v_s) ** 2
-    reach = -float(np.expm1(-u))  # 1 - exp(-u), exact for small u
-    drop = values["f_c"] - values["f_s"]
-    grad = {"f_c": reach, "f_s": -reach, "v_s": -drop * np.exp(-u) * 2.0 * u / v_s}
-    g = np.array([grad[q] for q in free])
-    return drop * reach, float(np.sqrt(max(float(g @ cov @ g), 0.0)))
-
-
 def _friction_guess(kind: str, n: dict[str, float], half_stroke: float) -> dict[str, float]:
     """Starting values of a friction or hysteresis element from its signature's numbers
     ``n`` (empty for another kind)."""

@@ -8,9 +8,9 @@ tests; ``sigma`` each channel's noise). A likelihood-ratio test of the added ele
 then has an expected statistic of about ``lambda``; this module calls
 ``snr = sqrt(lambda)`` and an effect *detectable* when ``snr >= DETECTABLE_SNR``.
 
-* :func:`truth_snr` (benchmark side, truth known): the plain model is fitted to the
-  *noise-free* loops of the truth vehicle, weighted by the case's noise levels; its
-  residual is ``d``.
+* the benchmark's ``truth_snr`` (``benchmarks/knc_truth.py``, truth known): the plain
+  model is fitted to the *noise-free* loops of the truth vehicle, weighted by the
+  case's noise levels; its residual is ``d``.
 * :func:`detection_limits` (diagnosis side, truth unknown): a candidate element at a
   reference magnitude is added to the fitted baseline; the change of the prediction,
   with the part the baseline's parameters can follow projected out (the fit's
@@ -29,11 +29,9 @@ from typing import Any
 
 import numpy as np
 
-from suspenv.core.errors import ValidationError
-from suspenv.diagnosis.fitting import fit, stacked_residual
+from suspenv.diagnosis.fitting import stacked_residual
 from suspenv.diagnosis.knc.model import KncAxleModel, effect_words, make_candidate
-from suspenv.diagnosis.knc.truth import BLIND_TESTS, measure_truth
-from suspenv.measurements.knc import CHANNELS, SIDES
+from suspenv.diagnosis.knc.truth import BLIND_TESTS
 
 #: the blind cases' fitted tests (single-wheel travel is held out)
 FITTED_TESTS = tuple(t for t in BLIND_TESTS if t != "single")
@@ -47,57 +45,6 @@ LIMIT_CANDIDATES: dict[str, tuple[str, float]] = {
     "dahl_hysteresis@lower_arm": ("f_c", 100.0),
     "coulomb_friction": ("f_c", 100.0),
 }
-
-
-def noise_levels(noise_scale: float) -> dict[str, float]:
-    """Noise (1 sigma, channel unit) of every recorded channel at ``noise_scale``."""
-    from suspenv.models.mcpherson.truth import CHANNEL_NOISE
-
-    if not noise_scale > 0:
-        raise ValidationError(f"`noise_scale > 0` must hold, but got {noise_scale}")
-    return {
-        f"{c}_{s}": noise_scale * CHANNEL_NOISE[rig]
-        for c, (rig, _, _) in CHANNELS.items()
-        for s in SIDES
-    }
-
-
-def truth_snr(
-    effects: Mapping[str, Mapping],
-    seed: int,
-    noise_scale: float,
-    steps: int = 8,
-    amplitude: float = 0.040,
-    tests: Sequence[str] = FITTED_TESTS,
-) -> dict[str, Any]:
-    """Signal-to-noise of the concealed ``effects`` of a truth vehicle in ``tests``.
-
-    Returns ``{"snr", "lambda", "lambda_by_channel", "detectable"}``; ``lambda`` of
-    the plain model's residual on the noise-free loops (see the module docstring).
-    """
-    sigma = noise_levels(noise_scale)
-    if not effects:
-        return {"snr": 0.0, "lambda": 0.0, "lambda_by_channel": {}, "detectable": False}
-    recs = measure_truth(effects, seed, amplitude, steps, noise_scale=0.0, tests=tuple(tests))
-    fr = [recs[t] for t in tests]
-    res = fit(KncAxleModel(tests=tuple(tests)), fr, scales=sigma, max_nfev=60, tol=1e-10)
-    r = stacked_residual(res.model, res.theta, fr, list(sigma), sigma)
-    n = sum(rec.n_samples for rec in fr)
-    per: dict[str, float] = {}
-    k = 0
-    for rec in fr:  # stacked order: recording, then channel
-        for c in sigma:
-            per[c] = per.get(c, 0.0) + float(np.sum(r[k : k + rec.n_samples] ** 2))
-            k += rec.n_samples
-    assert k == n * len(sigma)
-    lam = float(sum(per.values()))
-    snr = float(np.sqrt(lam))
-    return {
-        "snr": snr,
-        "lambda": lam,
-        "lambda_by_channel": per,
-        "detectable": bool(snr >= DETECTABLE_SNR),
-    }
 
 
 def _projected_lambda(d: np.ndarray, J: np.ndarray | None) -> float:

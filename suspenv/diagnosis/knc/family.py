@@ -47,8 +47,9 @@ from typing import Any
 import numpy as np
 
 from suspenv.core.errors import ValidationError
+from suspenv.diagnosis.checks.finding import Check, Context
 from suspenv.diagnosis.checks.residual_left import Left, from_cells
-from suspenv.diagnosis.decision import DecisionRule
+from suspenv.diagnosis.decision import DecisionRule, fit_alike
 from suspenv.diagnosis.family import Conclusion, Outcome, Screening, Setup, SignatureLike
 from suspenv.diagnosis.fitting import FitResult, evaluate, fit, noise_scales, residuals
 from suspenv.diagnosis.hypothesis import Ambiguity, Hypothesis, split_candidate
@@ -240,17 +241,14 @@ def settle(
     return best
 
 
-def location_ambiguities(
-    win: Hypothesis, ranked: Sequence[Hypothesis], tie_tolerance: float = 0.05
-) -> list[Ambiguity]:
+def location_ambiguities(win: Hypothesis, ranked: Sequence[Hypothesis]) -> list[Ambiguity]:
     """Other locations of the winner's kind that the data cannot tell apart from it
-    (significant, corrected LR statistics within ``tie_tolerance`` or 10)."""
+    (significant, corrected LR statistics alike: :func:`~suspenv.diagnosis.decision.fit_alike`)."""
     out = []
     for h in ranked:
         if h is win or h.kind != win.kind or not h.significant:
             continue
-        gap = abs(win.lr_statistic_corrected - h.lr_statistic_corrected)
-        if gap <= max(tie_tolerance * win.lr_statistic_corrected, 10.0):
+        if fit_alike(win.lr_statistic_corrected, h.lr_statistic_corrected):
             out.append(
                 Ambiguity(
                     win.candidate,
@@ -454,7 +452,13 @@ class KncFamily:
             "each channel's noise read from the roughness of the residual along the loops",
         ]
 
-    def conclude(self, outcome: Outcome, setup: Setup) -> Conclusion:
+    def checks(self) -> list[Check]:
+        return [self._detection_limits]
+
+    def _detection_limits(self, ctx: Context) -> Conclusion:
+        """The fit's numbers for the report; where nothing is named, the smallest
+        elements these tests would have shown (:func:`detection_limits`)."""
+        outcome, setup = ctx.outcome, ctx.setup
         model = axle_model(setup.model)
         found = Conclusion(
             baseline={"scales": dict(self._scales), "fit_parameters": list(model.fit_parameters)}

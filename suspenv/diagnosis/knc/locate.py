@@ -24,15 +24,6 @@ from suspenv.measurements.knc import CHANNELS, SIDES, half_loops, rig_test
 BRANCHES = ("rising", "falling")
 
 
-def loop_gap_at_static(rec: Any, values: np.ndarray) -> float:
-    """Gap between a loop's two branches at the static position (grid centre): rising
-    minus falling branch, in the channel's unit. Not :func:`suspenv.metrics.knc.loop_width`
-    (the largest gap of a rig result over the whole stroke)."""
-    down, up = half_loops(rec, values)
-    i0 = int(rec.meta["steps"]) // 2
-    return float(up[i0] - down[i0])
-
-
 @dataclass
 class ResidualMap:
     """RMS of the scaled residual per (test, channel, branch, side), plus loop and L-R cells."""

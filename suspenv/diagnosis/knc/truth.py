@@ -98,7 +98,6 @@ def measure_truth(
     tests: Sequence[str] = TESTS,
     design: np.ndarray | None = None,
     force_amplitude: float = FORCE_AMPLITUDE,
-    outside: Sequence[Mapping[str, Any]] | None = None,
 ) -> dict[str, Recording]:
     """ "Measured" K&C recordings of a truth vehicle with concealed ``effects`` (seeded).
 
@@ -106,9 +105,8 @@ def measure_truth(
     ``{"hysteresis": {"f_c": 100.0}}``; ``{}`` is the plain reference vehicle.
     ``noise_scale`` multiplies the rig's sensor noise (``0`` gives exact loops).
     ``amplitude`` [m] is the travel tests' stroke, ``force_amplitude`` [N] the
-    compliance tests' force. ``outside`` lists physics outside the K&C library to
-    conceal as well, each the keyword arguments of :func:`add_strut_stop` (the strut's
-    bump stop).
+    compliance tests' force. Physics outside the K&C library is concealed in these
+    recordings by the benchmark (``benchmarks/knc_truth.py``).
     """
     if noise_scale < 0:
         raise ValidationError(f"`noise_scale >= 0` must hold, but got {noise_scale}")
@@ -144,31 +142,7 @@ def measure_truth(
             ch = res.channels[name]
             res.channels[name] = ch + rng.normal(0.0, noise_scale * CHANNEL_NOISE[name], ch.shape)
     info = {"source": "suspenv truth vehicle (concealed effects)", "seed": int(seed)}
-    recs = to_recordings(results, meta=info)
-    for stop in outside or ():
-        add_strut_stop(recs, **stop)
-    return recs
-
-
-def add_strut_stop(
-    recs: Mapping[str, Recording],
-    gap: float = 0.02,
-    k_stop: float = 2.0e4,
-    sides: Sequence[str] = ("left", "right"),
-) -> None:
-    """Conceal a strut bump stop (a jounce bumper, outside the K&C model's library) in
-    ``recs``: past ``gap`` [m] of a side's pad travel (bump positive) the tyre load cell
-    of that side reads ``k_stop`` [N/m] times the travel beyond the gap more (wheel load
-    positive up). The stop acts on the load cell only (the kinematic channels are left
-    as the solver gave them), in every travel test; compliance tests hold the pads at
-    zero travel and are not touched."""
-    for rec in recs.values():
-        for side in sides:
-            pad = np.asarray(rec.inputs.get(f"pad_{side}", np.zeros(0)), float)
-            key = f"tyre_fz_{side}"
-            if pad.size and key in rec.outputs:
-                over = np.maximum(pad - gap, 0.0)
-                rec.outputs[key] = np.asarray(rec.outputs[key], float) + k_stop * over
+    return to_recordings(results, meta=info)
 
 
 # ------------------------------------------------------------------ blind cases
@@ -293,118 +267,3 @@ def blind_case(
         r.meta.pop("seed", None)
         r.name = f"knc-blind-{seed}:{rig_test(r)}"
     return case, truth
-
-
-# ------------------------------------------------------------------ outside the library
-#: physics outside the K&C library (and a convention the recordings do not declare) of
-#: the blind cases outside the library, each concealed by :func:`conceal_outside`
-OUTSIDE_KINDS = (
-    "strut_stop",
-    "progressive_bushing",
-    "preloaded_bushing",
-    "subframe_compliance",
-    "load_cell_crosstalk",
-    "toe_sign",
-)
-#: compliance tests and the contact-point channels their force moves
-COMPLIANCE_TESTS = {"lateral": "contact_lateral", "longitudinal": "contact_x"}
-#: outputs a bushing's deflection moves in a compliance test
-BUSHING_CHANNELS = ("toe", "camber", "contact_lateral", "contact_x")
-
-
-def _compliance_shape(recs: Mapping[str, Recording], shape: Any) -> None:
-    """Reshape every compliance output's response to the force: the part of channel ``y``
-    that follows the force ``F`` [N] (``y - y0``, ``y0`` its least-squares value at
-    ``F = 0``) becomes ``(y - y0) * shape(F)``: a bushing whose rate is not constant."""
-    for test in COMPLIANCE_TESTS:
-        rec = recs.get(test)
-        if rec is None:
-            continue
-        F = np.asarray(rec.inputs["force"], float)
-        A = np.stack([np.ones_like(F), F], axis=1)
-        g = shape(F)
-        for side in ("left", "right"):
-            for ch in BUSHING_CHANNELS:
-                y = np.asarray(rec.outputs[f"{ch}_{side}"], float)
-                y0 = np.linalg.lstsq(A, y, rcond=None)[0][0]
-                rec.outputs[f"{ch}_{side}"] = y0 + (y - y0) * g
-
-
-def conceal_outside(recs: Mapping[str, Recording], kind: str, p: Mapping[str, Any]) -> None:
-    """Conceal outside-library ``kind`` (:data:`OUTSIDE_KINDS`) with parameters ``p`` in
-    ``recs`` (after the sensor noise, on the channels the physics reaches):
-
-    * ``strut_stop``: :func:`add_strut_stop` (``gap`` [m], ``k_stop`` [N/m], ``sides``);
-    * ``progressive_bushing``: the compliance response stiffens with the force,
-      ``(y - y0) / (1 + b (F / F_ref)^2)`` (``b``, ``f_ref`` [N]);
-    * ``preloaded_bushing``: nothing moves until the force passes the preload,
-      ``(y - y0) max(|F| - F_p, 0) / |F|`` (``f_p`` [N]);
-    * ``subframe_compliance``: the subframe moves on its mounts under the sum of both
-      wheels' forces: both contact points move ``2 F / k`` more (``k`` [N/m]);
-    * ``load_cell_crosstalk``: each tyre load cell reads ``c F`` of the horizontal
-      contact force ``F`` (``c`` [-]);
-    * ``toe_sign``: both toe channels recorded toe-out positive (sign reversed).
-    """
-    if kind == "strut_stop":
-        add_strut_stop(recs, p["gap"], p["k_stop"], p["sides"])
-    elif kind == "progressive_bushing":
-        _compliance_shape(recs, lambda F: 1.0 / (1.0 + p["b"] * (F / p["f_ref"]) ** 2))
-    elif kind == "preloaded_bushing":
-        _compliance_shape(
-            recs,
-            lambda F: np.maximum(np.abs(F) - p["f_p"], 0.0) / np.maximum(np.abs(F), 1e-9),
-        )
-    elif kind in ("subframe_compliance", "load_cell_crosstalk"):
-        for test, contact in COMPLIANCE_TESTS.items():
-            rec = recs.get(test)
-            if rec is None:
-                continue
-            F = np.asarray(rec.inputs["force"], float)
-            for side in ("left", "right"):
-                key = f"{contact}_{side}" if kind == "subframe_compliance" else f"tyre_fz_{side}"
-                add = 2.0 * F / p["k"] if kind == "subframe_compliance" else p["c"] * F
-                rec.outputs[key] = np.asarray(rec.outputs[key], float) + add
-    elif kind == "toe_sign":
-        for rec in recs.values():
-            for side in ("left", "right"):
-                rec.outputs[f"toe_{side}"] = -np.asarray(rec.outputs[f"toe_{side}"], float)
-    else:
-        raise ValidationError(f"outside kind must be one of {OUTSIDE_KINDS}, but got {kind!r}")
-
-
-def draw_outside(kind: str, rng: np.random.Generator) -> dict[str, Any]:
-    """Seeded parameters of one outside-library ``kind`` (SI, see :func:`conceal_outside`)."""
-    if kind == "strut_stop":  # 15-30 mm of bump, 10-40 kN/m, both sides, the left or right
-        sides = [["left", "right"], ["left"], ["right"]][int(rng.integers(3))]
-        return {"gap": rng.uniform(0.015, 0.030), "k_stop": rng.uniform(1e4, 4e4), "sides": sides}
-    if kind == "progressive_bushing":  # 25-50 % stiffer at the test force
-        return {"b": rng.uniform(0.25, 0.5), "f_ref": FORCE_AMPLITUDE}
-    if kind == "preloaded_bushing":  # preload 10-25 % of the test force
-        return {"f_p": rng.uniform(0.10, 0.25) * FORCE_AMPLITUDE}
-    if kind == "subframe_compliance":  # lateral mount rate 2-6 kN/mm for the subframe
-        return {"k": rng.uniform(2e6, 6e6)}
-    if kind == "load_cell_crosstalk":  # 1-3 % of the horizontal force, either sign
-        return {"c": float(rng.choice([-1.0, 1.0])) * rng.uniform(0.01, 0.03)}
-    if kind == "toe_sign":
-        return {}
-    raise ValidationError(f"outside kind must be one of {OUTSIDE_KINDS}, but got {kind!r}")
-
-
-def outside_case(
-    seed: int, steps: int = 8, amplitude: float = 0.040, tests: Sequence[str] = BLIND_TESTS
-) -> tuple[dict[str, Any], dict[str, Any]]:
-    """``(case, truth)`` of a blind case outside the K&C library: kind
-    ``OUTSIDE_KINDS[seed % 6]`` (:func:`conceal_outside`), its size and the noise level
-    drawn from the seed, on the plain test car. A correct verdict names nothing with
-    confidence and reports the residual left."""
-    kind = OUTSIDE_KINDS[int(seed) % len(OUTSIDE_KINDS)]
-    rng = np.random.default_rng([seed, 77])
-    params = {k: (float(v) if np.ndim(v) == 0 else v) for k, v in draw_outside(kind, rng).items()}
-    noise = float(rng.uniform(0.5, 2.0))
-    recs = measure_truth({}, seed, amplitude, steps, noise, tests)
-    conceal_outside(recs, kind, params)
-    for r in recs.values():
-        r.meta.pop("seed", None)
-        r.name = f"knc-outside-{seed}:{rig_test(r)}"
-    truth = {"seed": int(seed), "case_type": kind, "outside": params, "noise_scale": noise}
-    return {"id": f"knc-outside-{seed}", "recordings": recs}, truth

@@ -35,6 +35,7 @@ import numpy as np
 from scipy import stats
 
 from suspenv.core.errors import EvaluationError, ValidationError
+from suspenv.diagnosis.checks.finding import Check
 from suspenv.diagnosis.checks.residual_left import Left
 from suspenv.diagnosis.decision import DecisionRule
 from suspenv.diagnosis.evidence import fit_residual_series
@@ -281,5 +282,6 @@ class RideFamily(OptionalSteps):
         )
         return [left.view()], left
 
-    def conclude(self, outcome: Outcome, setup: Setup) -> Conclusion:
-        return Conclusion(baseline={"effects": []})
+    def checks(self) -> list[Check]:
+        """The report's baseline holds no element (the ride model has none)."""
+        return [lambda ctx: Conclusion(baseline={"effects": []})]
