@@ -22,67 +22,52 @@ import numpy as np
 from suspenv.core.errors import EvaluationError
 from suspenv.models.components.rig_integrator import EXACT_STATEFUL, step_matrices
 from suspenv.models.effects import Effect
-from suspenv.models.effects.pointwise import FLOAT_STATELESS, STATELESS
+from suspenv.models.effects.pointwise import STATELESS
+
+#: stateless kind -> float force law ``F(x, v, p)`` [N] of the effect's parameters ``p``
+#: (floats): the formulas of :data:`suspenv.models.effects.pointwise.STATELESS`, a width
+#: entering as its reciprocal (the compiled loop's arithmetic)
+_LAWS: dict[str, Callable[[float, float, dict[str, float]], float]] = {
+    "coulomb_friction": lambda x, v, p: p["f_c"] * math.tanh(v * (1.0 / p["v_eps"])),
+    "stribeck_friction": lambda x, v, p: (
+        (p["f_c"] + (p["f_s"] - p["f_c"]) * math.exp(-((v * (1.0 / p["v_s"])) ** 2)))
+        * math.tanh(v * (1.0 / p["v_eps"]))
+    ),
+    "directional_friction": lambda x, v, p: (
+        0.5 * (p["f_pos"] + p["f_neg"]) * math.tanh(v * (1.0 / p["v_eps"]))
+        + 0.5 * (p["f_pos"] - p["f_neg"]) * abs(math.tanh(v * (1.0 / p["v_eps"])))
+    ),
+    "bump_stop": lambda x, v, p: p["k_stop"] * (x - p["gap"]) ** p["p"] if x > p["gap"] else 0.0,
+    "rebound_stop": lambda x, v, p: (
+        -p["k_stop"] * (-x - p["gap"]) ** p["p"] if -x > p["gap"] else 0.0
+    ),
+    "bump_and_rebound_stops": lambda x, v, p: (
+        p["k_bump"] * (x - p["gap_bump"]) ** p["p"]
+        if x > p["gap_bump"]
+        else (-p["k_rebound"] * (-x - p["gap_rebound"]) ** p["p"] if -x > p["gap_rebound"] else 0.0)
+    ),
+    "cubic_stiffness": lambda x, v, p: p["k3"] * (x - p["x_0"]) * (x - p["x_0"]) * (x - p["x_0"]),
+    "progressive_stiffness": lambda x, v, p: (
+        (p["k_p"] if x > 0.0 else -p["k_p"]) * (abs(x) - p["x0"]) ** 2 if abs(x) > p["x0"] else 0.0
+    ),
+    "damper_asymmetry": lambda x, v, p: p["dc_rebound"] * v if v < 0.0 else 0.0,
+    "digressive_damping": lambda x, v, p: p["c_low"] * v / (1.0 + abs(v) * (1.0 / p["v_knee"])),
+    "asymmetric_digressive_damping": lambda x, v, p: (
+        p["c_bump"] * v / (1.0 + v / p["v_knee_bump"])
+        if v >= 0.0
+        else p["c_rebound"] * v / (1.0 - v / p["v_knee_rebound"])
+    ),
+    "gas_spring": lambda x, v, p: p["f_0"] + p["k_gas"] * x,
+    "force_offset": lambda x, v, p: p["offset"],
+    "kelvin_voigt": lambda x, v, p: p["k"] * x + p["c"] * v,
+    "low_speed_deficit": lambda x, v, p: -p["f_d"] * math.tanh(v * (1.0 / p["v_band"])),
+}
 
 
 def _element_law(e: Effect) -> Callable[[float, float], float]:
-    """Float force law ``F(x, v)`` [N] of a stateless element (the formulas of
-    :data:`suspenv.models.effects.pointwise.STATELESS`, with the parameters bound as
-    local floats: the integrator calls them a few million times per diagnosis)."""
-    p = {k: float(v) for k, v in e.params.items()}
-    kind = e.kind
-    tanh = math.tanh
-    if kind == "coulomb_friction":
-        f_c, w = p["f_c"], 1.0 / p["v_eps"]
-        return lambda x, v: f_c * tanh(v * w)
-    if kind == "stribeck_friction":
-        f_c, df, w, ws = p["f_c"], p["f_s"] - p["f_c"], 1.0 / p["v_eps"], 1.0 / p["v_s"]
-        exp = math.exp
-        return lambda x, v: (f_c + df * exp(-((v * ws) ** 2))) * tanh(v * w)
-    if kind == "directional_friction":
-        mean, half, w = (
-            0.5 * (p["f_pos"] + p["f_neg"]),
-            0.5 * (p["f_pos"] - p["f_neg"]),
-            1.0 / p["v_eps"],
-        )
-        return lambda x, v: mean * tanh(v * w) + half * abs(tanh(v * w))
-    if kind == "bump_stop":
-        k, gap, n = p["k_stop"], p["gap"], p["p"]
-        return lambda x, v: k * (x - gap) ** n if x > gap else 0.0
-    if kind == "rebound_stop":
-        k, gap, n = p["k_stop"], p["gap"], p["p"]
-        return lambda x, v: -k * (-x - gap) ** n if -x > gap else 0.0
-    if kind == "bump_and_rebound_stops":
-        k_b, g_b, k_r, g_r, n = p["k_bump"], p["gap_bump"], p["k_rebound"], p["gap_rebound"], p["p"]
-        return lambda x, v: (
-            k_b * (x - g_b) ** n if x > g_b else (-k_r * (-x - g_r) ** n if -x > g_r else 0.0)
-        )
-    if kind == "cubic_stiffness":
-        k3, x_0 = p["k3"], p["x_0"]
-        return lambda x, v: k3 * (x - x_0) * (x - x_0) * (x - x_0)
-    if kind == "progressive_stiffness":
-        k_p, x0 = p["k_p"], p["x0"]
-        return lambda x, v: (k_p if x > 0.0 else -k_p) * (abs(x) - x0) ** 2 if abs(x) > x0 else 0.0
-    if kind == "damper_asymmetry":
-        dc = p["dc_rebound"]
-        return lambda x, v: dc * v if v < 0.0 else 0.0
-    if kind == "digressive_damping":
-        c, wk = p["c_low"], 1.0 / p["v_knee"]
-        return lambda x, v: c * v / (1.0 + abs(v) * wk)
-    if kind == "gas_spring":
-        f_0, k_gas = p["f_0"], p["k_gas"]
-        return lambda x, v: f_0 + k_gas * x
-    if kind == "force_offset":
-        off = p["offset"]
-        return lambda x, v: off
-    if kind == "low_speed_deficit":
-        f_d, w = p["f_d"], 1.0 / p["v_band"]
-        return lambda x, v: -f_d * tanh(v * w)
-    fast = FLOAT_STATELESS.get(kind)
-    if fast is not None:
-        return lambda x, v: fast(x, v, p)
-    law = STATELESS[kind]
-    return lambda x, v: float(law(x, v, p))
+    """Float force law ``F(x, v)`` [N] of a stateless element (:data:`_LAWS`)."""
+    law, p = _LAWS[e.kind], {k: float(v) for k, v in e.params.items()}
+    return lambda x, v: law(x, v, p)
 
 
 def _sum_of(laws: list[Callable[[float, float], float]]) -> Callable[[float, float], float]:

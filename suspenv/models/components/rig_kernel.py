@@ -16,7 +16,7 @@ Elements are passed as codes with their parameters in rows of a float array
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -26,63 +26,52 @@ from suspenv.models.effects import Effect
 #: numba is there: the compiled loop can run (compiled at the first call)
 AVAILABLE = compiled.AVAILABLE
 
-#: stateless element kind -> (code, parameters packed from the effect's parameters)
-LAW_CODES: dict[str, int] = {
-    "coulomb_friction": 0,
-    "stribeck_friction": 1,
-    "directional_friction": 2,
-    "bump_stop": 3,
-    "rebound_stop": 4,
-    "cubic_stiffness": 5,
-    "progressive_stiffness": 6,
-    "damper_asymmetry": 7,
-    "digressive_damping": 8,
-    "gas_spring": 9,
-    "force_offset": 10,
-    "asymmetric_digressive_damping": 11,
-    "kelvin_voigt": 12,
-    "low_speed_deficit": 13,
-    "bump_and_rebound_stops": 14,
+#: stateless element kind -> (code, its parameters as :func:`_law` reads them, packed from
+#: the effect's parameters ``p``: reciprocals of widths included, a product per sample
+#: instead of a division)
+_LAWS: dict[str, tuple[int, Callable[[dict[str, float]], list[float]]]] = {
+    "coulomb_friction": (0, lambda p: [p["f_c"], 1.0 / p["v_eps"]]),
+    "stribeck_friction": (
+        1,
+        lambda p: [p["f_c"], p["f_s"] - p["f_c"], 1.0 / p["v_eps"], 1.0 / p["v_s"]],
+    ),
+    "directional_friction": (
+        2,
+        lambda p: [
+            0.5 * (p["f_pos"] + p["f_neg"]),
+            0.5 * (p["f_pos"] - p["f_neg"]),
+            1.0 / p["v_eps"],
+        ],
+    ),
+    "bump_stop": (3, lambda p: [p["k_stop"], p["gap"], p["p"]]),
+    "rebound_stop": (4, lambda p: [p["k_stop"], p["gap"], p["p"]]),
+    "cubic_stiffness": (5, lambda p: [p["k3"], p["x_0"]]),
+    "progressive_stiffness": (6, lambda p: [p["k_p"], p["x0"]]),
+    "damper_asymmetry": (7, lambda p: [p["dc_rebound"]]),
+    "digressive_damping": (8, lambda p: [p["c_low"], 1.0 / p["v_knee"]]),
+    "gas_spring": (9, lambda p: [p["f_0"], p["k_gas"]]),
+    "force_offset": (10, lambda p: [p["offset"]]),
+    "asymmetric_digressive_damping": (
+        11,
+        lambda p: [p["c_bump"], p["v_knee_bump"], p["c_rebound"], p["v_knee_rebound"]],
+    ),
+    "kelvin_voigt": (12, lambda p: [p["k"], p["c"]]),
+    "low_speed_deficit": (13, lambda p: [p["f_d"], 1.0 / p["v_band"]]),
+    "bump_and_rebound_stops": (
+        14,
+        lambda p: [p["k_bump"], p["gap_bump"], p["p"], p["k_rebound"], p["gap_rebound"]],
+    ),
 }
+#: stateless element kind -> code
+LAW_CODES: dict[str, int] = {kind: code for kind, (code, _) in _LAWS.items()}
 #: stateful element kind -> code (their exact state steps: :func:`_state_step`)
 STATE_CODES: dict[str, int] = {"dahl_hysteresis": 0, "maxwell_viscoelastic": 1, "lugre_friction": 2}
 N_PAR = 5  # parameter slots per element
 
 
 def _law_params(e: Effect) -> list[float]:
-    """The parameters of a stateless element as :func:`_law` reads them (reciprocals of
-    widths included: a product per sample instead of a division)."""
-    p = {k: float(v) for k, v in e.params.items()}
-    kind = e.kind
-    if kind == "coulomb_friction":
-        return [p["f_c"], 1.0 / p["v_eps"]]
-    if kind == "stribeck_friction":
-        return [p["f_c"], p["f_s"] - p["f_c"], 1.0 / p["v_eps"], 1.0 / p["v_s"]]
-    if kind == "directional_friction":
-        return [0.5 * (p["f_pos"] + p["f_neg"]), 0.5 * (p["f_pos"] - p["f_neg"]), 1.0 / p["v_eps"]]
-    if kind in ("bump_stop", "rebound_stop"):
-        return [p["k_stop"], p["gap"], p["p"]]
-    if kind == "bump_and_rebound_stops":
-        return [p["k_bump"], p["gap_bump"], p["p"], p["k_rebound"], p["gap_rebound"]]
-    if kind == "cubic_stiffness":
-        return [p["k3"], p["x_0"]]
-    if kind == "progressive_stiffness":
-        return [p["k_p"], p["x0"]]
-    if kind == "damper_asymmetry":
-        return [p["dc_rebound"]]
-    if kind == "digressive_damping":
-        return [p["c_low"], 1.0 / p["v_knee"]]
-    if kind == "gas_spring":
-        return [p["f_0"], p["k_gas"]]
-    if kind == "force_offset":
-        return [p["offset"]]
-    if kind == "asymmetric_digressive_damping":
-        return [p["c_bump"], p["v_knee_bump"], p["c_rebound"], p["v_knee_rebound"]]
-    if kind == "kelvin_voigt":
-        return [p["k"], p["c"]]
-    if kind == "low_speed_deficit":
-        return [p["f_d"], 1.0 / p["v_band"]]
-    raise KeyError(kind)
+    """The parameters of a stateless element as :func:`_law` reads them (:data:`_LAWS`)."""
+    return _LAWS[e.kind][1]({k: float(v) for k, v in e.params.items()})
 
 
 def _state_params(e: Effect) -> list[float]:

@@ -17,9 +17,6 @@ from suspenv.core.errors import ValidationError
 from suspenv.core.sampling import increasing_steps
 from suspenv.models.effects import kernels
 
-#: :func:`linear_recurrence` runs compiled (:func:`.kernels.recurrence`) where numba is
-#: installed; False: the float loop per row
-RECURRENCE_COMPILED = True
 #: a parameter or input: a number, or an array broadcast against the others
 Value = np.ndarray | float
 
@@ -68,9 +65,7 @@ def linear_recurrence(a: np.ndarray, b: np.ndarray, z0: Value) -> np.ndarray:
     ``a`` and ``b`` are ``(..., T-1)`` (broadcast together), ``z0`` batch-shaped
     (a scalar applies to every batch row).
     The coefficients are computed vectorised by the callers; the recurrence itself
-    runs compiled (:func:`.kernels.recurrence`, the same arithmetic) where numba is
-    installed and :data:`RECURRENCE_COMPILED`, else as a plain float loop per batch row
-    (the reference), which is far faster than numpy operations on tiny arrays.
+    runs compiled (:func:`.kernels.recurrence`).
     """
     a, b = np.broadcast_arrays(np.asarray(a, dtype=float), np.asarray(b, dtype=float))
     batch = np.broadcast_shapes(a.shape[:-1], np.shape(z0))
@@ -78,16 +73,6 @@ def linear_recurrence(a: np.ndarray, b: np.ndarray, z0: Value) -> np.ndarray:
     b = np.broadcast_to(b, batch + b.shape[-1:]).reshape(-1, b.shape[-1])
     z0f = np.broadcast_to(np.asarray(z0, dtype=float), batch).reshape(-1)
     out = np.empty((a.shape[0], a.shape[1] + 1))
-    if RECURRENCE_COMPILED and kernels.AVAILABLE:
-        args = (np.ascontiguousarray(v, dtype=float) for v in (a, b, z0f))
-        kernels.recurrence(*args, out)
-        return out.reshape(batch + (a.shape[1] + 1,))
-    for r in range(a.shape[0]):
-        z = float(z0f[r])
-        row = [z]
-        append = row.append
-        for ak, bk in zip(a[r].tolist(), b[r].tolist(), strict=True):
-            z = ak + bk * z
-            append(z)
-        out[r] = row
+    args = (np.ascontiguousarray(v, dtype=float) for v in (a, b, z0f))
+    kernels.recurrence(*args, out)
     return out.reshape(batch + (a.shape[1] + 1,))

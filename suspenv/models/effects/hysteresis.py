@@ -45,8 +45,6 @@ unloaded state to half of it (``F(x2) = f_max / 2`` on the virgin curve).
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from suspenv.core.errors import ValidationError
@@ -58,10 +56,6 @@ from suspenv.models.effects._util import (
     require_positive,
     series,
 )
-
-#: the exact n = 1 Bouc-Wen path runs compiled (:mod:`.kernels`, the same
-#: arithmetic) where numba is installed; False: the float loop per row
-COMPILED = True
 
 
 def dahl_dzdt(z: Value, v: Value, sigma: Value, f_c: Value) -> np.ndarray:
@@ -162,8 +156,7 @@ def _bouc_wen_path_linear(x, a, b, g, z0, batch) -> np.ndarray:
     With ``w = sign(Δx) z`` and travel ``u = |Δx|``: ``dw/du = A - (beta + gamma) w``
     for ``w >= 0`` and ``dw/du = A - (beta - gamma) w`` for ``w < 0``; ``w`` only
     crosses zero upwards (``dw/du = A > 0`` there), so each segment is at most
-    two exponential relaxations. Runs compiled (:mod:`.kernels`) where numba is
-    installed and :data:`COMPILED`, else as a float loop per batch row (the reference).
+    two exponential relaxations. Runs compiled (:func:`.kernels.bouc_wen_rows`).
     """
     dx = np.broadcast_to(np.diff(x, axis=-1), batch + (x.shape[-1] - 1,)).reshape(
         -1, x.shape[-1] - 1
@@ -172,52 +165,9 @@ def _bouc_wen_path_linear(x, a, b, g, z0, batch) -> np.ndarray:
         np.broadcast_to(np.asarray(p, dtype=float), batch).reshape(-1) for p in (a, b, g, z0)
     )
     out = np.empty((dx.shape[0], dx.shape[1] + 1))
-    if COMPILED and kernels.AVAILABLE:
-        args = (np.ascontiguousarray(v, dtype=float) for v in (dx, a_, b_, g_, z0_))
-        kernels.bouc_wen_rows(*args, out)
-        return out.reshape(batch + (x.shape[-1],))
-    for r in range(dx.shape[0]):
-        out[r] = _bw1_row(dx[r].tolist(), float(a_[r]), float(b_[r]), float(g_[r]), float(z0_[r]))
+    args = (np.ascontiguousarray(v, dtype=float) for v in (dx, a_, b_, g_, z0_))
+    kernels.bouc_wen_rows(*args, out)
     return out.reshape(batch + (x.shape[-1],))
-
-
-def _relax_scalar(w0: float, a: float, lam: float, u: float) -> float:
-    """Exact solution of ``dw/du = a - lam w`` after travel ``u`` (``lam`` may be 0)."""
-    if abs(lam * u) < 1e-12:
-        return w0 + (a - lam * w0) * u
-    return a / lam + (w0 - a / lam) * math.exp(-lam * u)
-
-
-def _bw1_row(dx: list[float], a: float, beta: float, gamma: float, z: float) -> list[float]:
-    lam_pos, lam_neg = beta + gamma, beta - gamma
-    row = [z]
-    for d in dx:
-        if d == 0.0:
-            row.append(z)
-            continue
-        s = 1.0 if d > 0 else -1.0
-        u = abs(d)
-        w = s * z
-        if w < 0.0:
-            # travel needed to bring w up to zero in the lower regime
-            if abs(lam_neg) < 1e-12:
-                u0 = -w / a
-            else:
-                # w_inf: the lower regime's fixed point; a w at or below it (lam_neg
-                # < 0) never reaches zero
-                w_inf = a / lam_neg
-                gap = w_inf - w
-                ratio = w_inf / gap if gap != 0.0 else -1.0
-                u0 = -math.log(ratio) / lam_neg if ratio > 0.0 else math.inf
-            if u0 >= u:
-                w = _relax_scalar(w, a, lam_neg, u)
-            else:
-                w = _relax_scalar(0.0, a, lam_pos, u - u0)
-        else:
-            w = _relax_scalar(w, a, lam_pos, u)
-        z = s * w
-        row.append(z)
-    return row
 
 
 def bouc_wen_force_path(

@@ -4,14 +4,14 @@
   Maxwell, LuGre and sensor-lag elements (``_util.linear_recurrence``);
 * :func:`bouc_wen_rows`: the exact n = 1 Bouc-Wen path.
 
-Each is the same arithmetic, in the same order, as the float loop it replaces, which
-stays the reference (``tests/test_effect_kernels.py`` compares them).
+The product runs only these loops (as plain Python where numba is missing). Their
+reference is the same arithmetic written as float loops over lists,
+``tests/effects_reference.py`` (``tests/test_effect_kernels.py`` compares them).
 
-Bouc-Wen (``hysteresis._bw1_row``): with
-``w = sign(dx) z`` and the travel ``u = |dx|`` of each segment, ``dw/du = A - (beta +
-gamma) w`` above zero and ``A - (beta - gamma) w`` below, each segment at most two
-exact exponential relaxations. ``z`` is the dimensionless hysteretic state; ``dx`` [m]
-the displacement increments, ``A`` [1/m]-scaled as in the Bouc-Wen module.
+Bouc-Wen: with ``w = sign(dx) z`` and the travel ``u = |dx|`` of each segment,
+``dw/du = A - (beta + gamma) w`` above zero and ``A - (beta - gamma) w`` below, each
+segment at most two exact exponential relaxations. ``z`` is the dimensionless hysteretic
+state; ``dx`` [m] the displacement increments, ``A`` [1/m]-scaled as in the Bouc-Wen module.
 """
 
 from __future__ import annotations
@@ -21,9 +21,6 @@ import math
 import numpy as np
 
 from suspenv.core import compiled
-
-#: numba is there: the compiled loop can run (compiled at the first call)
-AVAILABLE = compiled.AVAILABLE
 
 
 def _relax(w0: float, a: float, lam: float, u: float) -> float:
