@@ -17,9 +17,9 @@ Steady-state circular test (:func:`steady_circle`)
     capacity, the peak over slip angle of the sum of its two tyres' forces at their
     transferred loads (front short: limit understeer, the vehicle drifts off the circle;
     rear short: it spins), and (2) not both inner wheels have lifted (rollover). The
-    three conditions are monotonic in a_y, so a search on a grid of a_y finds the limit
-    (bisection for large batches, many candidates per pass one design at a time, on
-    the axle capacity tabulated over both wheel loads); ``limit`` names the condition
+    three conditions are monotonic in a_y, so a bisection on a grid of a_y finds the
+    limit (compiled, row by row, on the axle capacity tabulated over both wheel loads);
+    ``limit`` names the condition
     that bounds it. The limit counts equilibria, stable or not
     (near a rear-axle limit the steady state can be unstable, a spin mode that the
     driver has to hold).
@@ -154,7 +154,11 @@ def _capacity_table(
     """Axle capacity (:func:`axle_capacity`) tabulated over both wheel loads.
 
     Returns the load step (N) and the (N, N) table on ``0 .. CAPACITY_TABLE_MAX x
-    fz0`` in both loads; built once per tyre and search setting (about 50 ms).
+    fz0`` in both loads; built once per tyre and search setting (about 50 ms). The
+    capacity is smooth in the loads (the peak of a sum of two smooth curves), so the
+    bilinear interpolation on the table's 163 N step
+    (:func:`suspenv.models.minibus.handling_kernel.tabulated`) stays within about 1e-5
+    of the grid search (tests).
     """
     fz = np.linspace(0.0, CAPACITY_TABLE_MAX * tyre.fz0, CAPACITY_TABLE_POINTS)
     config = SteadyCircleConfig(alpha_max_deg=alpha_max_deg, alpha_points=alpha_points)
@@ -171,46 +175,30 @@ class _TyreOnly:
         self.tyre = tyre
 
 
-def axle_capacity_tabulated(
-    P: HandlingParams, fz_a: np.ndarray, fz_b: np.ndarray, config: SteadyCircleConfig
-) -> np.ndarray:
-    """:func:`axle_capacity` (N) by bilinear interpolation in its table over both loads.
-
-    The capacity is smooth in the loads (the peak of a sum of two smooth curves), so on
-    the table's 163 N step the interpolation stays within about 1e-5 of the grid search
-    (tests); loads beyond the table (``CAPACITY_TABLE_MAX x fz0``) are clipped to it.
-    """
-    h, table = _capacity_table(P.tyre, config.alpha_max_deg, config.alpha_points)
-    last = table.shape[0] - 2
-    ta = np.clip(fz_a, 0.0, None) / h
-    tb = np.clip(fz_b, 0.0, None) / h
-    ia = np.minimum(ta.astype(np.intp), last)
-    ib = np.minimum(tb.astype(np.intp), last)
-    wa = np.minimum(ta - ia, 1.0)
-    wb = np.minimum(tb - ib, 1.0)
-    c00 = table[ia, ib]
-    c10 = table[ia + 1, ib]
-    c01 = table[ia, ib + 1]
-    c11 = table[ia + 1, ib + 1]
-    return c00 + wa * (c10 - c00) + wb * (c01 - c00 + wa * (c11 - c10 - c01 + c00))
-
-
-def _limits(
-    P: HandlingParams, ay: np.ndarray, config: SteadyCircleConfig
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(front ok, rear ok, not rolled over) at lateral accelerations ay (..., n)."""
-    _, fl, fr, rl, rr = _steady_loads(P, ay)
-    L = P.wheelbase
-    cap_f, cap_r = axle_capacity_tabulated(P, np.stack([fl, rl]), np.stack([fr, rr]), config)
-    front_ok = cap_f >= P.m * ay * P.b / L
-    rear_ok = cap_r >= P.m * ay * P.a / L
-    upright = (fl > 0) | (rl > 0)
-    return front_ok, rear_ok, upright
-
-
-#: candidate accelerations tested together per pass of the limit search, times rows
-#: (small batches test many candidates per pass, large ones bisect; same result)
-CIRCLE_POINTS_PER_PASS = 256
+def _circle_rows(P: HandlingParams) -> np.ndarray:
+    """The per-row coefficients (n, 13) of the steady
+    circle's limit search: roll gradient (rad per m/s^2), axle roll stiffnesses (N m/rad),
+    the lateral-acceleration moments of the roll centres and unsprung masses (kg m),
+    tracks (m), static wheel loads (N), mass (kg), CoM distances and wheelbase (m); as
+    :func:`wheel_loads` forms them at zero roll rate."""
+    return np.stack(
+        [
+            P.roll_gradient(),
+            P.kphi_front,
+            P.kphi_rear,
+            P.ms_front * P.h_rc_front + P.mu_front * P.wheel_radius,
+            P.ms_rear * P.h_rc_rear + P.mu_rear * P.wheel_radius,
+            P.track_front,
+            P.track_rear,
+            P.fz_front,
+            P.fz_rear,
+            P.m,
+            P.a,
+            P.b,
+            np.broadcast_to(P.wheelbase, (P.n,)),
+        ],
+        axis=1,
+    )
 
 
 def steady_circle(
@@ -219,45 +207,20 @@ def steady_circle(
     """Maximum quasi-steady lateral acceleration on the circle, for every row of ``P``.
 
     The limit is searched on the grid ``ay_upper j / 2^B`` (``B = ceil(log2(ay_upper /
-    tolerance))``): the largest grid point with an equilibrium (the conditions are
-    monotonic in a_y). Each pass tests ``2^b - 1`` evenly spaced candidates inside the
-    current bracket and keeps the sub-bracket of the last one that passes; ``b = 1``
-    is bisection. Small batches use more candidates per pass (fewer passes: the cost
-    of one design at a time is the per-pass overhead); every ``b`` finds the same grid
-    point, so a row's result does not depend on its batch.
+    tolerance))``): the largest grid point below ``ay_upper`` with an equilibrium (the
+    conditions are monotonic in a_y), by bisection per row on the tabulated axle
+    capacity (:func:`_capacity_table`; the compiled loop
+    :func:`suspenv.models.minibus.handling_kernel.circle_loop`), so a row's result does
+    not depend on its batch; the conditions one grid step above the limit name it.
     """
     config = config or SteadyCircleConfig()
-    n = P.n
-    total_bits = int(np.ceil(np.log2(config.ay_upper / config.tolerance)))
-    per_pass = max(1, int(np.floor(np.log2(CIRCLE_POINTS_PER_PASS / max(n, 1) + 1.0))))
-    j_lo = np.zeros(n, dtype=np.int64)  # the bracket's lower grid index (ay = 0 passes)
-    bits = total_bits
-    scale = config.ay_upper / float(2**total_bits)
-    cols = np.arange(n)
-    # the conditions at the bracket's upper end (the first failing candidate), which is
-    # the grid point just above the limit once the search ends: they name the limit
-    top = np.zeros((3, n), dtype=bool)
-    tested = np.zeros(n, dtype=bool)
-    while bits > 0:
-        b = min(per_pass, bits)
-        bits -= b
-        step = 2**bits
-        k = np.arange(1, 2**b, dtype=np.int64)[:, None]  # (2^b - 1, 1)
-        ay = (j_lo[None, :] + k * step) * scale
-        flags = np.stack(_limits(P, ay, config))  # (3, 2^b - 1, n)
-        ok = flags.all(axis=0)
-        # passes below the first failure (the conditions are monotonic in a_y)
-        passed = np.cumprod(ok, axis=0).sum(axis=0)
-        failed = passed < k.shape[0]
-        first = flags[:, np.minimum(passed, k.shape[0] - 1), cols]
-        top = np.where(failed[None, :], first, top)
-        tested |= failed
-        j_lo = j_lo + passed * step
-    ay_max = j_lo * scale
-    if not tested.all():  # every candidate passed: the search's upper end, untested
-        top = np.where(tested[None, :], top, np.stack(_limits(P, (j_lo + 1) * scale, config)))
-    f_ok, up = top[0], top[2]
-    limit = np.where(~up, "rollover", np.where(~f_ok, "front", "rear"))
+    bits = int(np.ceil(np.log2(config.ay_upper / config.tolerance)))
+    scale = config.ay_upper / float(2**bits)
+    h, table = _capacity_table(P.tyre, config.alpha_max_deg, config.alpha_points)
+    out = np.empty((P.n, 3))
+    handling_kernel.circle_loop(_circle_rows(P), table, h, bits, scale, out)
+    ay_max = out[:, 0] * scale
+    limit = np.where(out[:, 2] == 0, "rollover", np.where(out[:, 1] == 0, "front", "rear"))
     return SteadyCircleResult(
         ay_max=ay_max,
         speed_max=np.sqrt(ay_max * config.radius),

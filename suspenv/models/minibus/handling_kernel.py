@@ -5,7 +5,9 @@ passes over the batch (one design at a time the numpy call overhead of their fix
 pass counts dominated): the axle-capacity grid search and the Illinois slip-angle
 solve of the quasi-steady axle force (:func:`suspenv.rigs.handling.axle_capacity`,
 :func:`suspenv.rigs.handling.steady_state_sweep`) and the step-time, peak and bandwidth
-searches of the ISO 7401 yaw response (:func:`suspenv.metrics.handling.yaw_response`).
+searches of the ISO 7401 yaw response (:func:`suspenv.metrics.handling.yaw_response`),
+and the steady circle's limit search on the tabulated axle capacity
+(:func:`suspenv.rigs.handling.steady_circle`).
 The pass counts are fixed (no data-dependent stopping: an element's result never
 depends on the batch). Against the numpy passes they replaced
 (``benchmarks.minibus_speed.numpy_loops``, compared in the tests), the slip solve
@@ -22,6 +24,7 @@ from __future__ import annotations
 
 import cmath
 import math
+from typing import Any
 
 import numpy as np
 
@@ -127,6 +130,83 @@ def _slip_loop(
                 hi, r_hi, side = mid, r_mid, 1
         out[0, j] = lo if abs(r_lo) < abs(r_hi) else hi
         out[1, j] = 1.0 if can else 0.0
+
+
+def axle_transfer(
+    dfz_f: Any, dfz_r: Any, fz_f: Any, fz_r: Any, tf: Any, tr: Any
+) -> tuple[Any, Any, Any, Any]:
+    """Wheel loads (FL, FR, RL, RR; N, >= 0) from the axles' load transfers ``dfz_f``,
+    ``dfz_r`` (N, + to the right wheel) and static wheel loads ``fz_f``, ``fz_r`` (N)
+    on tracks ``tf``, ``tr`` (m): an axle cannot transfer more than its static wheel
+    load (its inner wheel lifts), the rigid body passes the excess roll moment to the
+    other axle, and both lifted is a rollover. Elementwise: numpy arrays
+    (:func:`suspenv.models.minibus.handling_model.wheel_loads`) or scalars (the
+    compiled loops)."""
+    excess_f = np.sign(dfz_f) * np.maximum(np.abs(dfz_f) - fz_f, 0.0)
+    excess_r = np.sign(dfz_r) * np.maximum(np.abs(dfz_r) - fz_r, 0.0)
+    dfz_f = dfz_f - excess_f + excess_r * tr / tf
+    dfz_r = dfz_r - excess_r + excess_f * tf / tr
+    dfz_f = np.minimum(np.maximum(dfz_f, -fz_f), fz_f)
+    dfz_r = np.minimum(np.maximum(dfz_r, -fz_r), fz_r)
+    return fz_f - dfz_f, fz_f + dfz_f, fz_r - dfz_r, fz_r + dfz_r
+
+
+def tabulated(table: np.ndarray, h: float, fz_a: float, fz_b: float) -> float:
+    """Axle capacity (N) at wheel loads ``fz_a``, ``fz_b`` (N) by bilinear
+    interpolation in ``table`` (N, N) of load step ``h`` (N) from 0 in both loads;
+    loads beyond the table are clipped to it."""
+    last = table.shape[0] - 2
+    ta = max(fz_a, 0.0) / h
+    tb = max(fz_b, 0.0) / h
+    ia = min(int(ta), last)
+    ib = min(int(tb), last)
+    wa = min(ta - ia, 1.0)
+    wb = min(tb - ib, 1.0)
+    c00 = table[ia, ib]
+    c10 = table[ia + 1, ib]
+    c01 = table[ia, ib + 1]
+    c11 = table[ia + 1, ib + 1]
+    return c00 + wa * (c10 - c00) + wb * (c01 - c00 + wa * (c11 - c10 - c01 + c00))
+
+
+def _circle_flags(
+    row: np.ndarray, table: np.ndarray, h: float, ay: float
+) -> tuple[bool, bool, bool]:
+    """(front axle carries its share, not rolled over, rear axle carries its share) of
+    the steady state at lateral acceleration ``ay`` (m/s^2) of one row of coefficients
+    (:func:`suspenv.rigs.handling._circle_rows`): the roll ``ay dphi/da_y``, the axles'
+    load transfer (roll moment plus the roll-centre and unsprung moments, over the
+    track), the axle capacities at the wheel loads against ``m a_y b/L`` (front) and
+    ``m a_y a/L`` (rear)."""
+    phi = row[0] * ay
+    fl, fr, rl, rr = axle_transfer(
+        (row[1] * phi + row[3] * ay) / row[5],
+        (row[2] * phi + row[4] * ay) / row[6],
+        row[7], row[8], row[5], row[6],
+    )  # fmt: skip
+    front_ok = tabulated(table, h, fl, fr) >= row[9] * ay * row[11] / row[12]
+    rear_ok = tabulated(table, h, rl, rr) >= row[9] * ay * row[10] / row[12]
+    return front_ok, (fl > 0) or (rl > 0), rear_ok
+
+
+def _circle_loop(
+    rows: np.ndarray, table: np.ndarray, h: float, bits: int, scale: float, out: np.ndarray
+) -> None:
+    """Per row of coefficients ``rows`` (n, 13): the largest ``j`` in ``0 .. 2^bits -
+    1`` whose steady state at ``a_y = j scale`` passes every condition of
+    :func:`_circle_flags` (bisection: they are monotonic in a_y), and the front and
+    rollover flags one step above it (which name the limit): ``out`` (n, 3)."""
+    for i in range(rows.shape[0]):
+        lo, hi = 0, 2**bits  # j = lo passes (a_y = 0); hi is the first failing or the end
+        while hi - lo > 1:
+            mid = (lo + hi) // 2
+            f_ok, up, r_ok = _circle_flags(rows[i], table, h, mid * scale)
+            if f_ok and up and r_ok:
+                lo = mid
+            else:
+                hi = mid
+        f_ok, up, r_ok = _circle_flags(rows[i], table, h, (lo + 1) * scale)
+        out[i, 0], out[i, 1], out[i, 2] = lo, 1.0 if f_ok else 0.0, 1.0 if up else 0.0
 
 
 def _step(lam: np.ndarray, wn: np.ndarray, t: float, order: int) -> float:
@@ -245,3 +325,7 @@ capacity_loop = compiled.Lazy(globals(), _AXLE, _capacity_loop)
 slip_loop = compiled.Lazy(globals(), _AXLE, _slip_loop)
 #: :func:`_yaw_loop`, compiled at its first call (numba's cache keeps it)
 yaw_loop = compiled.Lazy(globals(), ("_step", "_rel_gain", "_step_times", "_bandwidth"), _yaw_loop)
+#: :func:`_circle_loop`, compiled at its first call (numba's cache keeps it)
+circle_loop = compiled.Lazy(
+    globals(), ("axle_transfer", "tabulated", "_circle_flags"), _circle_loop
+)

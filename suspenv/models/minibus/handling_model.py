@@ -60,6 +60,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from suspenv.core.errors import ValidationError
+from suspenv.models.minibus.handling_kernel import axle_transfer
 from suspenv.models.minibus.suspension import damper_force, spring_pair_roll_stiffness
 from suspenv.models.minibus.tyre import LIGHT_TRUCK_TYRE, LateralTyre
 from suspenv.models.minibus.vehicle import (
@@ -385,18 +386,7 @@ def wheel_loads(
     dfz_r = (
         P.kphi_rear * phi + md_r + (P.ms_rear * P.h_rc_rear + P.mu_rear * P.wheel_radius) * ay
     ) / P.track_rear
-    # an axle cannot transfer more than its static wheel load (its inner wheel lifts);
-    # the rigid body passes the excess roll moment to the other axle
-    excess_f = np.sign(dfz_f) * np.maximum(np.abs(dfz_f) - P.fz_front, 0.0)
-    excess_r = np.sign(dfz_r) * np.maximum(np.abs(dfz_r) - P.fz_rear, 0.0)
-    dfz_f = dfz_f - excess_f + excess_r * P.track_rear / P.track_front
-    dfz_r = dfz_r - excess_r + excess_f * P.track_front / P.track_rear
-    dfz_f = np.clip(dfz_f, -P.fz_front, P.fz_front)  # both lifted: rollover
-    dfz_r = np.clip(dfz_r, -P.fz_rear, P.fz_rear)
-    fl = P.fz_front - dfz_f
-    fr = P.fz_front + dfz_f
-    rl = P.fz_rear - dfz_r
-    rr = P.fz_rear + dfz_r
+    fl, fr, rl, rr = axle_transfer(dfz_f, dfz_r, P.fz_front, P.fz_rear, P.track_front, P.track_rear)
     return fl, fr, rl, rr, md_f, md_r
 
 
