@@ -229,7 +229,7 @@ def baseline_measures(problem: MinibusRideHandling, X: np.ndarray) -> np.ndarray
     X = np.atleast_2d(X)
     n = X.shape[0]
     ride = full_model_ride(X, problem)
-    P = HandlingParams.stack([handling_parameters(X, lc, problem.vehicle) for lc in LOAD_CASES])
+    P = handling_parameters(X, LOAD_CASES, problem.vehicle)
     ay = steady_circle_bisection(P, problem.circle)
     sl = slalom(P, problem.slalom_config)
     w = problem.load_weight
@@ -339,7 +339,7 @@ def main(argv: list[str] | None = None) -> int:
 
     # parts of the default evaluation (CPU ms per design, batched and one at a time)
     def params(Z: np.ndarray) -> HandlingParams:
-        return HandlingParams.stack([handling_parameters(Z, lc) for lc in LOAD_CASES])
+        return handling_parameters(Z, LOAD_CASES)
 
     parts: dict[str, Callable[[np.ndarray], Any]] = {
         "ride, spectral (both loads)": lambda Z: ride_objectives_all(

@@ -42,7 +42,7 @@ def _designs(n: int, seed: int = 3) -> np.ndarray:
 
 
 def _params(X: np.ndarray) -> HandlingParams:
-    return HandlingParams.stack([handling_parameters(X, lc) for lc in LOAD_CASES])
+    return handling_parameters(X, LOAD_CASES)
 
 
 @pytest.mark.parametrize("freq", [0.2778, 1.0])

@@ -375,7 +375,7 @@ class MinibusRideHandling(Problem):
         X = np.atleast_2d(np.asarray(X, dtype=float))
         n = X.shape[0]
         ride = self._ride(X)
-        P = HandlingParams.stack([handling_parameters(X, lc, self.vehicle) for lc in LOAD_CASES])
+        P = handling_parameters(X, LOAD_CASES, self.vehicle)
         circle = steady_circle(P, self.circle)
         both = {
             "ay_max": circle.ay_max,

@@ -371,11 +371,12 @@ class VehicleParams:
 
 
 def stacked_vehicle_parameters(
-    X: np.ndarray, load_cases: Sequence[str], vehicle: Minibus = REFERENCE_MINIBUS
+    X: np.ndarray, load_cases: Sequence[str | LoadCase], vehicle: Minibus = REFERENCE_MINIBUS
 ) -> list[VehicleParams]:
     """:func:`vehicle_parameters` of designs X for each load case, in order (the ride
-    model stacks them row-wise)."""
-    return [vehicle_parameters(X, lc, vehicle) for lc in load_cases]
+    model stacks them row-wise); the designs converted once."""
+    design = design_to_si(X, vehicle)
+    return [_apply(design, lc, vehicle) for lc in load_cases]
 
 
 def vehicle_parameters(
@@ -387,8 +388,12 @@ def vehicle_parameters(
     the static leaf deflection uses the two-stage law (K1 up to the helper-engagement
     deflection, K2 beyond).
     """
+    return _apply(design_to_si(X, vehicle), load_case, vehicle)
+
+
+def _apply(design: DesignSI, load_case: str | LoadCase, vehicle: Minibus) -> VehicleParams:
+    """:func:`vehicle_parameters` of designs already in SI."""
     load = vehicle.load_case(load_case)
-    design = design_to_si(X, vehicle)
     if not 0.0 < load.cg_x < vehicle.wheelbase:
         raise ValidationError(
             f"`0 < cg_x < wheelbase` must hold, but got (cg_x={load.cg_x}, "
