@@ -212,7 +212,7 @@ def slalom_linear(
     config: SlalomConfig | None = None,
     circle: SteadyCircleConfig | None = None,
     working_point: bool = True,
-    stiffness: tuple[np.ndarray, np.ndarray] | None = None,
+    system: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> SlalomLinearResult:
     """The slalom course followed exactly by the linearised vehicle (module docstring).
 
@@ -223,17 +223,17 @@ def slalom_linear(
     stabiliser bars' balance), the tyres' load sensitivity and the compliances enter
     as they do where the course runs; ``False``: the small-amplitude linearisation
     about straight running (the bars' split then only moves the roll steer).
-    ``stiffness``: the secant stiffnesses (front, rear; N/rad, (n,)) if already at hand.
+    ``system``: (A, B) of :func:`linear_system` at the course's speed and working point,
+    if already at hand.
     """
     config = config or SlalomConfig()
     u = config.speed
     f = u / (2.0 * config.spacing)  # one cycle per two cones
     ay = course_lateral_acceleration(config)
-    if working_point and stiffness is None:
-        stiffness = secant_axle_stiffness(P, ay, circle)
-    elif not working_point:
-        stiffness = None
-    A, B = linear_system(P, u, stiffness)
+    if system is None:
+        stiffness = secant_axle_stiffness(P, ay, circle) if working_point else None
+        system = linear_system(P, u, stiffness)
+    A, B = system
     H = steer_response(P, u, f, (A, B))
     gain = np.abs(H.ay[:, 0])
     steer = ay / gain

@@ -423,14 +423,15 @@ class MinibusRideHandling(Problem):
         )
         cf, cr = secant_axle_stiffness(P, ay_secant, sweep=sw.take(slice(0, 2)))
         grad = np.degrees(understeer_gradients(P, ay_iso, sweep=sw.take(slice(2, None)))) * G_STD
-        lin = slalom_linear(P, self.slalom_config, stiffness=(cf[0], cr[0]))
-        u = STEP_SPEED_KMH / 3.6
-        system = linear_system(P, u, (cf[1], cr[1]))
-        stable = np.isfinite(system[0]).all(axis=(1, 2))
+        # both linear systems at once: the slalom's and the step steer's speed and secants
+        u = np.array([[self.slalom_config.speed], [STEP_SPEED_KMH / 3.6]])
+        A, B = linear_system(P, u, (cf, cr))
+        lin = slalom_linear(P, self.slalom_config, system=(A[0], B[0]))
+        stable = np.isfinite(A[1]).all(axis=(1, 2))
         with np.errstate(invalid="ignore"):
-            eig = np.linalg.eigvals(np.where(stable[:, None, None], system[0], -np.eye(4)))
+            eig = np.linalg.eigvals(np.where(stable[:, None, None], A[1], -np.eye(4)))
         stable &= np.all(eig.real < 0, axis=-1)
-        st = yaw_response(np.where(stable[:, None, None], system[0], -np.eye(4)), system[1])
+        st = yaw_response(np.where(stable[:, None, None], A[1], -np.eye(4)), B[1])
         out = {
             "steering_wheel": np.degrees(lin.steering_wheel_amplitude),
             "yaw_rate": np.degrees(lin.yaw_rate_amplitude),

@@ -473,7 +473,9 @@ def roll_damping(P: HandlingParams) -> np.ndarray:
 
 
 def linear_system(
-    P: HandlingParams, u: float, axle_stiffness: tuple[np.ndarray, np.ndarray] | None = None
+    P: HandlingParams,
+    u: float | np.ndarray,
+    axle_stiffness: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """State matrix A (n, 4, 4) and steer input B (n, 4) of the linearised handling model.
 
@@ -487,28 +489,35 @@ def linear_system(
     ``axle_stiffness``: the axles' tyre cornering stiffnesses (front, rear; N/rad, (n,)
     each) to use instead, e.g. the quasi-steady secants at a manoeuvre's lateral
     acceleration (:func:`suspenv.rigs.handling.secant_axle_stiffness`), which carry the
-    load transfer's effect on the axles.
+    load transfer's effect on the axles. ``u`` and the stiffnesses may carry leading
+    axes (several speeds and working points at once, e.g. u (k, 1) and stiffnesses
+    (k, n)); A and B then carry them too.
     """
     cf, cr = axle_stiffness if axle_stiffness is not None else P.axle_cornering_stiffness()
     cf = cf / (1.0 - cf * P.force_steer_front)
     cr = cr / (1.0 - cr * P.force_steer_rear)
-    a, b, m, iz = P.a, P.b, P.m, P.iz
+    a, b, m, iz, ixs = P.a, P.b, P.m, P.iz, P.ixs
     msh = P.ms * P.h_prime
-    det = m * P.ixs - msh**2
-    cphi = roll_damping(P)
+    det = m * ixs - msh**2
     # axle forces: Fyf = cf (delta + eps_f phi - (v + a r)/u), Fyr = cr (eps_r phi - (v - b r)/u)
-    # rows of d(Fy)/d(v, r, phi, p) and d(Fy)/d(delta)
-    z = np.zeros_like(m)
-    fyf = np.stack([-cf / u, -cf * a / u, cf * P.roll_steer_front, z], axis=-1)
-    fyr = np.stack([-cr / u, cr * b / u, cr * P.roll_steer_rear, z], axis=-1)
-    r1 = fyf + fyr + np.stack([z, -m * u, z, z], axis=-1)  # lateral: sum Fy - m u r
-    r2 = np.stack([z, msh * u, msh * G - P.kphi, -cphi], axis=-1)  # roll
-    A = np.zeros((P.n, 4, 4))
-    A[:, 0] = (P.ixs[:, None] * r1 + msh[:, None] * r2) / det[:, None]
-    A[:, 1] = (a[:, None] * fyf - b[:, None] * fyr) / iz[:, None]
-    A[:, 2, 3] = 1.0
-    A[:, 3] = (msh[:, None] * r1 + m[:, None] * r2) / det[:, None]
-    B = np.stack([P.ixs * cf / det, a * cf / iz, z, msh * cf / det], axis=-1)
+    # d(Fy)/d(v, r, phi) (nil on p); rows: lateral r1 = sum Fy - m u r, roll r2
+    fyf = (-cf / u, -cf * a / u, cf * P.roll_steer_front)
+    fyr = (-cr / u, cr * b / u, cr * P.roll_steer_rear)
+    r1 = (fyf[0] + fyr[0], fyf[1] + fyr[1] + -m * u, fyf[2] + fyr[2])
+    r2 = (msh * u, msh * G - P.kphi, -roll_damping(P))  # on r, phi, p
+    A = np.zeros((*fyf[0].shape, 4, 4))
+    A[..., 0, 0] = ixs * r1[0] / det
+    A[..., 3, 0] = msh * r1[0] / det
+    for j in (1, 2):
+        A[..., 0, j] = (ixs * r1[j] + msh * r2[j - 1]) / det
+        A[..., 3, j] = (msh * r1[j] + m * r2[j - 1]) / det
+    A[..., 0, 3] = msh * r2[2] / det
+    A[..., 3, 3] = m * r2[2] / det
+    for j in range(3):
+        A[..., 1, j] = (a * fyf[j] - b * fyr[j]) / iz
+    A[..., 2, 3] = 1.0
+    B = np.zeros(A.shape[:-1])
+    B[..., 0], B[..., 1], B[..., 3] = ixs * cf / det, a * cf / iz, msh * cf / det
     return A, B
 
 
