@@ -427,11 +427,16 @@ class MinibusRideHandling(Problem):
         u = np.array([[self.slalom_config.speed], [STEP_SPEED_KMH / 3.6]])
         A, B = linear_system(P, u, (cf, cr))
         lin = slalom_linear(P, self.slalom_config, system=(A[0], B[0]))
+        # the step's stability and modes from one eigen-decomposition (an unstable or
+        # non-finite row: those of -I, the row fails)
         stable = np.isfinite(A[1]).all(axis=(1, 2))
-        with np.errstate(invalid="ignore"):
-            eig = np.linalg.eigvals(np.where(stable[:, None, None], A[1], -np.eye(4)))
-        stable &= np.all(eig.real < 0, axis=-1)
-        st = yaw_response(np.where(stable[:, None, None], A[1], -np.eye(4)), B[1])
+        A1 = np.where(stable[:, None, None], A[1], -np.eye(4))
+        modes = np.linalg.eig(A1)
+        stable &= np.all(modes[0].real < 0, axis=-1)
+        if not stable.all():
+            A1 = np.where(stable[:, None, None], A1, -np.eye(4))
+            modes = np.linalg.eig(A1)
+        st = yaw_response(A1, B[1], modes=modes)
         out = {
             "steering_wheel": np.degrees(lin.steering_wheel_amplitude),
             "yaw_rate": np.degrees(lin.yaw_rate_amplitude),
@@ -517,8 +522,8 @@ class MinibusRideHandling(Problem):
         G = np.column_stack(limits)
         flags = [m[f"{kind}_{lc}"] for kind in ("completed", "ride_ok") for lc in LOAD_CASES]
         ok = np.logical_and.reduce(flags) & np.isfinite(F).all(axis=1)
-        messages = []
-        for i in range(X.shape[0]):
+        messages = [""] * X.shape[0]
+        for i in np.flatnonzero(~ok):  # a reason for each failed row
             reasons = []
             lost = [lc for lc in LOAD_CASES if not m[f"completed_{lc}"][i]]
             if lost:
@@ -531,9 +536,7 @@ class MinibusRideHandling(Problem):
             diverged = [lc for lc in LOAD_CASES if not m[f"ride_ok_{lc}"][i]]
             if diverged:
                 reasons.append(f"ride: the road run diverged ({', '.join(diverged)})")
-            if not ok[i] and not reasons:
-                reasons.append("non-finite objective")
-            messages.append("; ".join(reasons) if not ok[i] else "")
+            messages[i] = "; ".join(reasons) or "non-finite objective"
         F = np.where(ok[:, None], F, np.nan)
         G = np.where(ok[:, None], G, np.nan)
         extras = {
