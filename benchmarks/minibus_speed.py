@@ -109,8 +109,9 @@ def numpy_slip_loop(
     passes: int,
     out: np.ndarray,
 ) -> None:
-    """:func:`handling_kernel.slip_loop` as numpy passes: Illinois regula falsi on
-    ``[0, peak slip]`` of the capacity search (the bracket before the compiled loop)."""
+    """The slip solve of :func:`handling_kernel.sweep_loop` as numpy passes: Illinois
+    regula falsi on ``[0, peak slip]`` of the capacity search (the bracket before the
+    compiled loop); ``out`` (2, m) = (slip angle rad, 1.0 where the axle can)."""
     cap = np.empty((2, force.size))
     numpy_capacity_loop(d, b, e, c, grid, cap)
     lo, hi = np.zeros_like(force), cap[1].copy()
@@ -128,6 +129,36 @@ def numpy_slip_loop(
         side = np.where(below, -1, 1).astype(np.int8)
     out[0] = np.where(np.abs(r_lo) < np.abs(r_hi), lo, hi)
     out[1] = cap[0] >= force
+
+
+def numpy_sweep_loop(
+    rows: np.ndarray,
+    ay: np.ndarray,
+    k: np.ndarray,
+    grid: np.ndarray,
+    radius: float,
+    passes: int,
+    out: np.ndarray,
+) -> None:
+    """:func:`handling_kernel.sweep_loop` as numpy passes over all states at once (the
+    slip solve by :func:`numpy_slip_loop`)."""
+    # the plain helpers (a loop compiled at its first call swaps in numba's)
+    transfer: Any = getattr(handling_kernel.axle_transfer, "py_func", handling_kernel.axle_transfer)
+    factors: Any = getattr(handling_kernel.tyre_factors, "py_func", handling_kernel.tyre_factors)
+    r = rows.T[:, None, :]  # (17, 1, n) against the accelerations (N, 1)
+    acc = ay[:, None]
+    phi = r[0] * acc
+    fl, fr, rl, rr = transfer(
+        (r[1] * phi + r[3] * acc) / r[5], (r[2] * phi + r[4] * acc) / r[6], r[7], r[8], r[5], r[6]
+    )
+    fyf, fyr = r[9] * acc * r[11] / r[12], r[9] * acc * r[10] / r[12]
+    d, b, e = (f.reshape(2, -1) for f in factors(np.stack([[fl, rl], [fr, rr]]), k))
+    slip = np.empty((2, d.shape[1]))
+    numpy_slip_loop(d, b, e, float(k[1]), grid, np.stack([fyf, fyr]).ravel(), passes, slip)
+    (af, ar), (can_f, can_r) = slip.reshape(2, 2, *fyf.shape)
+    steer = r[12] / radius + af - ar - r[13] * phi - r[14] * fyf + r[15] * phi + r[16] * fyr
+    feasible = (can_f > 0) & (can_r > 0) & ((fl > 0) | (rl > 0))
+    out[:] = steer, phi, af, ar, fyf, fyr, feasible
 
 
 def numpy_yaw_loop(
@@ -181,9 +212,9 @@ def numpy_yaw_loop(
 @contextlib.contextmanager
 def numpy_loops() -> Iterator[None]:
     """The handling kernel's loops replaced by their numpy passes while inside."""
-    names = ("capacity_loop", "slip_loop", "yaw_loop")
+    names = ("capacity_loop", "sweep_loop", "yaw_loop")
     saved = [getattr(handling_kernel, k) for k in names]
-    for k, fn in zip(names, (numpy_capacity_loop, numpy_slip_loop, numpy_yaw_loop), strict=True):
+    for k, fn in zip(names, (numpy_capacity_loop, numpy_sweep_loop, numpy_yaw_loop), strict=True):
         setattr(handling_kernel, k, fn)
     try:
         yield

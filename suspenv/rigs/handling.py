@@ -175,12 +175,13 @@ class _TyreOnly:
         self.tyre = tyre
 
 
-def _circle_rows(P: HandlingParams) -> np.ndarray:
-    """The per-row coefficients (n, 13) of the steady
-    circle's limit search: roll gradient (rad per m/s^2), axle roll stiffnesses (N m/rad),
-    the lateral-acceleration moments of the roll centres and unsprung masses (kg m),
-    tracks (m), static wheel loads (N), mass (kg), CoM distances and wheelbase (m); as
-    :func:`wheel_loads` forms them at zero roll rate."""
+def _steady_rows(P: HandlingParams) -> np.ndarray:
+    """The per-row coefficients (n, 17) of the compiled steady states (circle limit,
+    sweep): roll gradient (rad per m/s^2), axle roll stiffnesses (N m/rad), the
+    lateral-acceleration moments of the roll centres and unsprung masses (kg m), tracks
+    (m), static wheel loads (N), mass (kg), CoM distances and wheelbase (m), as
+    :func:`wheel_loads` forms them at zero roll rate, then the roll (rad/rad) and force
+    (rad/N) steers front and rear."""
     return np.stack(
         [
             P.roll_gradient(),
@@ -195,7 +196,11 @@ def _circle_rows(P: HandlingParams) -> np.ndarray:
             P.m,
             P.a,
             P.b,
-            np.broadcast_to(P.wheelbase, (P.n,)),
+            P.wheelbase,
+            P.roll_steer_front,
+            P.force_steer_front,
+            P.roll_steer_rear,
+            P.force_steer_rear,
         ],
         axis=1,
     )
@@ -218,7 +223,7 @@ def steady_circle(
     scale = config.ay_upper / float(2**bits)
     h, table = _capacity_table(P.tyre, config.alpha_max_deg, config.alpha_points)
     out = np.empty((P.n, 3))
-    handling_kernel.circle_loop(_circle_rows(P), table, h, bits, scale, out)
+    handling_kernel.circle_loop(_steady_rows(P), table, h, bits, scale, out)
     ay_max = out[:, 0] * scale
     limit = np.where(out[:, 2] == 0, "rollover", np.where(out[:, 1] == 0, "front", "rear"))
     return SteadyCircleResult(
@@ -284,70 +289,35 @@ class SteadyStateSweep:
 SLIP_SOLVE_PASSES = 14
 
 
-def _slip_for_force(
-    P: HandlingParams,
-    fz_a: np.ndarray,
-    fz_b: np.ndarray,
-    force: np.ndarray,
-    config: SteadyCircleConfig,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Slip angle on the rising branch at which an axle carries ``force``, and whether
-    it can (``force`` <= its capacity). Illinois regula falsi (:data:`SLIP_SOLVE_PASSES`
-    passes) between the first point of the capacity search's slip grid whose force
-    reaches ``force`` and the one before (the axle force is unimodal in the slip
-    angle), else on ``[0, peak slip]``; the compiled loop
-    :func:`suspenv.models.minibus.handling_kernel.slip_loop`."""
-    force = np.ascontiguousarray(force, dtype=float)
-    d, b, e = (f.reshape(2, -1) for f in P.tyre.factors(np.stack([fz_a, fz_b])))
-    out = np.empty((2, force.size))
-    c = float(P.tyre.pCy1)
-    handling_kernel.slip_loop(d, b, e, c, _slip_grid(config), force.ravel(), SLIP_SOLVE_PASSES, out)
-    alpha, can = out.reshape((2, *force.shape))
-    return alpha, can > 0
-
-
 def steady_state_sweep(
     P: HandlingParams, ay: np.ndarray, config: SteadyCircleConfig | None = None
 ) -> SteadyStateSweep:
     """Quasi-steady states on the circle for lateral accelerations ``ay`` (N,) >= 0.
 
     Steer from the kinematics of the single-track model:
-    delta = L/R + alpha_f - alpha_r - eps_f phi - c_Ff Fyf + eps_r phi + c_F Fyr.
-    All accelerations in one vectorised pass (arrays (N, n)).
+    delta = L/R + alpha_f - alpha_r - eps_f phi - c_Ff Fyf + eps_r phi + c_F Fyr, the
+    axles' slip angles on the rising branch by Illinois regula falsi
+    (:data:`SLIP_SOLVE_PASSES` passes) between the first point of the capacity search's
+    slip grid whose force reaches the axle's share and the one before (the axle force
+    is unimodal in the slip angle), else on ``[0, peak slip]``. The compiled loop
+    :func:`suspenv.models.minibus.handling_kernel.sweep_loop`, row by row.
     """
     config = config or SteadyCircleConfig()
     ay = np.asarray(ay, dtype=float)
     if ay.ndim != 1 or np.any(ay < 0):
         raise ValidationError(f"`ay` must be a 1-D array of values >= 0, but got {ay!r}")
-    L = P.wheelbase
-    acc = np.broadcast_to(ay[:, None], (ay.size, P.n))
-    phi, fl, fr, rl, rr = _steady_loads(P, acc)
-    fyf = P.m * acc * P.b / L
-    fyr = P.m * acc * P.a / L
-    # both axles in one solve (axis 0: front, rear)
-    alpha, ok = _slip_for_force(
-        P, np.stack([fl, rl]), np.stack([fr, rr]), np.stack([fyf, fyr]), config
+    out = np.empty((7, ay.size, P.n))
+    handling_kernel.sweep_loop(
+        _steady_rows(P),
+        np.ascontiguousarray(ay),
+        np.array(P.tyre.coefficients),
+        _slip_grid(config),
+        float(config.radius),
+        SLIP_SOLVE_PASSES,
+        out,
     )
-    af, ar = alpha
-    steer = (
-        L / config.radius
-        + af
-        - ar
-        - P.roll_steer_front * phi
-        - P.force_steer_front * fyf
-        + P.roll_steer_rear * phi
-        + P.force_steer_rear * fyr
-    )
-    return SteadyStateSweep(
-        ay=ay,
-        steer=steer,
-        roll=phi,
-        alpha_front=af,
-        alpha_rear=ar,
-        force_front=fyf,
-        force_rear=fyr,
-        feasible=ok[0] & ok[1] & ((fl > 0) | (rl > 0)),
-    )
+    steer, phi, af, ar, fyf, fyr, ok = out
+    return SteadyStateSweep(ay, steer, phi, af, ar, fyf, fyr, ok > 0)
 
 
 def secant_axle_stiffness(
