@@ -241,7 +241,7 @@ def handling_parameters(
 
     def tile(values: np.ndarray) -> np.ndarray:
         """Per-design values, on the rows of every load case."""
-        return np.tile(values, len(cases))
+        return np.concatenate([values] * len(cases))
 
     L = vehicle.wheelbase
     ms = case([vp.load.sprung_mass for vp in vps])

@@ -158,7 +158,7 @@ class RideModel:
         if not plist:
             raise ValidationError("RideModel needs at least one VehicleParams batch, got 0")
         veh = plist[0].vehicle
-        if any(p.vehicle != veh for p in plist):
+        if any(p.vehicle is not veh and p.vehicle != veh for p in plist):
             raise ValidationError("stacked VehicleParams must share one vehicle definition")
         self.params = plist
         self.vehicle = veh
