@@ -8,7 +8,7 @@ constraints. Measured in the same run, on the same random designs of the study's
 - the default problem (``handling="standard"``: the step steer's yaw response time and
   the slalom's steering-wheel angle and roll amplitudes from the vehicle linearised at
   the manoeuvres' lateral acceleration, one quasi-steady sweep; the steady circle's
-  limit searched on a tabulated axle capacity, many candidates per pass), batched (500,
+  limit searched on a tabulated axle capacity, compiled row by row), batched (500,
   the study's NSGA-II population) and one design at a time;
 - the study's handling objectives (``handling="study"``: the closed-loop nonlinear
   time-domain slalom), batched and one at a time;
@@ -21,9 +21,9 @@ constraints. Measured in the same run, on the same random designs of the study's
   steady circle's bisection on the grid-search axle capacity, with the previous
   default's ride (:func:`baseline_measures`, kept here for the timing), batched and one
   at a time;
-- the default problem with the handling measures' iterative searches as numpy passes
-  over the batch (the slip-angle solve and axle capacity of the quasi-steady sweep, the
-  yaw step-time and bandwidth searches; :func:`numpy_loops`, the form before the
+- the default problem with the handling measures' iterative parts as numpy passes
+  over the batch (the quasi-steady sweep with its slip-angle solve, the axle capacity,
+  the yaw step-time and bandwidth searches; :func:`numpy_loops`, the form before the
   compiled loops of :mod:`suspenv.models.minibus.handling_kernel`), batched and one at
   a time;
 - the parts of the default evaluation (ride, handling parameters, steady circle, linear
@@ -49,6 +49,7 @@ import functools
 import os
 import statistics
 import sys
+import time
 from collections.abc import Callable, Iterator
 from typing import Any
 
@@ -56,6 +57,7 @@ import numpy as np
 from tqdm import tqdm
 
 from benchmarks.common import BatchTiming, wall_and_cpu, write_result
+from suspenv.core import compiled
 from suspenv.metrics.handling import slalom, slalom_linear
 from suspenv.metrics.ride import ride_objectives_all, ride_spectral
 from suspenv.models.minibus import handling_kernel
@@ -349,6 +351,52 @@ class _Part:
         return _Batch()
 
 
+def compiled_floor(problem: MinibusRideHandling, x: np.ndarray) -> dict[str, float]:
+    """CPU ms of one evaluation of design ``x`` (1, 8) spent inside LAPACK
+    (``numpy.linalg`` eig, eigvals, solve) and the compiled loops, by kind: each call
+    recorded with its arguments during one evaluation, then timed alone (best of 5
+    blocks of 50). What a compiled pipeline around the same LAPACK calls would still
+    pay; the rest of the single call is Python and numpy call overhead."""
+    calls: list[tuple[str, Callable[..., Any], list[Any]]] = []
+    lazy_call = compiled.Lazy.__call__
+
+    def record(self: compiled.Lazy, *args: Any) -> Any:
+        calls.append(
+            (self._main.__name__.lstrip("_"), functools.partial(lazy_call, self), list(args))
+        )
+        return lazy_call(self, *args)
+
+    saved = {k: getattr(np.linalg, k) for k in ("eig", "eigvals", "solve")}
+
+    def lapack(name: str) -> Callable[..., Any]:
+        def run(*args: Any) -> Any:
+            calls.append((f"numpy.linalg.{name}", saved[name], list(args)))
+            return saved[name](*args)
+
+        return run
+
+    compiled.Lazy.__call__ = record  # type: ignore[method-assign]
+    for k in saved:
+        setattr(np.linalg, k, lapack(k))
+    try:
+        problem.evaluate(x)
+    finally:
+        compiled.Lazy.__call__ = lazy_call  # type: ignore[method-assign]
+        for k, fn in saved.items():
+            setattr(np.linalg, k, fn)
+    out: dict[str, float] = {}
+    for name, fn, args in calls:
+        copies = [[a.copy() if isinstance(a, np.ndarray) else a for a in args] for _ in range(250)]
+        best = np.inf
+        for block in range(5):
+            c0 = time.process_time()
+            for a in copies[50 * block : 50 * (block + 1)]:
+                fn(*a)
+            best = min(best, (time.process_time() - c0) / 50)
+        out[name] = out.get(name, 0.0) + 1e3 * best
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="fewer repeats (smoke run)")
@@ -398,6 +446,8 @@ def main(argv: list[str] | None = None) -> int:
         [n_single, n_single, n_single, n_single_slow, n_single_slow, *([n_single] * len(parts))],
     )
     t_new, t_numpy, t_prev, t_study, t_base = timings[:5]
+    floor = compiled_floor(problem, X[:1])
+    print("compiled floor of one design (ms):", {k: round(v, 4) for k, v in floor.items()})
     part_rows: list[dict[str, Any]] = []
     single_ms: list[float] = []
     for name, t in zip(parts, timings[5:], strict=True):
@@ -463,6 +513,9 @@ def main(argv: list[str] | None = None) -> int:
         "speedup_single_vs_baseline": t_base.single_cpu_ms / t_new.single_cpu_ms,
         "speedup_batched_vs_baseline": t_base.batched_cpu_ms / t_new.batched_cpu_ms,
         "ride_share_of_single_call": single_ms[0] / t_new.single_cpu_ms,
+        "floor_ms_per_call_single": sum(floor.values()),
+        "floor_share_of_single_call": sum(floor.values()) / t_new.single_cpu_ms,
+        "floor_ms_by_kind": floor,
         "target_single_ms": TARGET_SINGLE_MS,
         "target_single_compiled_ms": TARGET_SINGLE_COMPILED_MS,
         "target_batched_ms": TARGET_BATCHED_MS,
