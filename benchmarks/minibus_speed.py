@@ -61,13 +61,10 @@ from suspenv.core import compiled
 from suspenv.metrics.handling import slalom, slalom_linear
 from suspenv.metrics.ride import ride_objectives_all, ride_spectral
 from suspenv.models.minibus import handling_kernel
-from suspenv.models.minibus.handling_model import HandlingParams, handling_parameters
+from suspenv.models.minibus.handling_model import HandlingParams, handling_parameters, wheel_loads
 from suspenv.models.minibus.vehicle import LOAD_CASES
 from suspenv.problems.minibus import MinibusRideHandling
-from suspenv.rigs.handling import (
-    steady_circle,
-    steady_circle_bisection,
-)
+from suspenv.rigs.handling import SteadyCircleConfig, axle_capacity, steady_circle
 
 TARGET_SINGLE_MS = 5.0
 TARGET_SINGLE_COMPILED_MS = 1.0
@@ -253,6 +250,37 @@ class PreviousDefault(MinibusRideHandling):
 
     def _ride(self, X: np.ndarray) -> dict[str, dict[str, np.ndarray]]:
         return full_model_ride(X, self)
+
+
+def steady_loads(P: HandlingParams, ay: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Roll and wheel loads (FL, FR, RL, RR) of the steady state at lateral acceleration
+    ``ay`` in numpy: :func:`wheel_loads` at zero roll rate (no damper moments)."""
+    phi = P.roll_gradient() * ay
+    fl, fr, rl, rr, _, _ = wheel_loads(P, phi, None, ay)
+    return phi, fl, fr, rl, rr
+
+
+def steady_circle_bisection(
+    P: HandlingParams, config: SteadyCircleConfig | None = None
+) -> np.ndarray:
+    """Maximum quasi-steady lateral acceleration (n,) [m/s^2] by the previous search:
+    plain bisection with the grid-search axle capacity (:func:`axle_capacity`) at every
+    step; the reference of :func:`steady_circle` (tests) and part of the baseline."""
+    cfg = config or SteadyCircleConfig()
+    lo = np.zeros(P.n)
+    hi = np.full(P.n, cfg.ay_upper)
+    L = P.wheelbase
+    for _ in range(int(np.ceil(np.log2(cfg.ay_upper / cfg.tolerance)))):
+        mid = 0.5 * (lo + hi)
+        _, fl, fr, rl, rr = steady_loads(P, mid)
+        ok = (
+            (axle_capacity(P.tyre, fl, fr, cfg)[0] >= P.m * mid * P.b / L)
+            & (axle_capacity(P.tyre, rl, rr, cfg)[0] >= P.m * mid * P.a / L)
+            & ((fl > 0) | (rl > 0))
+        )
+        lo = np.where(ok, mid, lo)
+        hi = np.where(ok, hi, mid)
+    return lo
 
 
 def baseline_measures(problem: MinibusRideHandling, X: np.ndarray) -> np.ndarray:

@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from benchmarks.minibus_speed import steady_circle_bisection, steady_loads
 from suspenv.metrics.handling import slalom_linear, yaw_response
 from suspenv.models.minibus.handling_kernel import tabulated
 from suspenv.models.minibus.handling_model import (
@@ -23,11 +24,9 @@ from suspenv.rigs.handling import (
     SlalomConfig,
     SteadyCircleConfig,
     _capacity_table,
-    _steady_loads,
     axle_capacity,
     secant_axle_stiffness,
     steady_circle,
-    steady_circle_bisection,
     steady_state_sweep,
     understeer_gradients,
 )
@@ -121,7 +120,7 @@ def _limits_numpy(
     """Reference of the compiled circle search's conditions in plain numpy: (front axle
     carries its share, not rolled over) at lateral accelerations ay (n,), the capacity
     interpolated bilinearly in its table by fancy indexing."""
-    _, fl, fr, rl, rr = _steady_loads(P, ay)
+    _, fl, fr, rl, rr = steady_loads(P, ay)
     h, table = _capacity_table(P.tyre, cfg.alpha_max_deg, cfg.alpha_points)
     ta, tb = np.clip(fl, 0.0, None) / h, np.clip(fr, 0.0, None) / h
     ia = np.minimum(ta.astype(np.intp), table.shape[0] - 2)
@@ -141,17 +140,18 @@ def test_tabulated_capacity_matches_the_grid_search():
     cfg = SteadyCircleConfig()
     h, table = _capacity_table(P.tyre, cfg.alpha_max_deg, cfg.alpha_points)
     ay = np.linspace(0.0, 1.2 * G, 25)[:, None] * np.ones(P.n)
-    _, fl, fr, rl, rr = _steady_loads(P, ay)
+    _, fl, fr, rl, rr = steady_loads(P, ay)
     for a, b in ((fl, fr), (rl, rr)):
-        exact, _ = axle_capacity(P, a, b, cfg)
+        exact, _ = axle_capacity(P.tyre, a, b, cfg)
         interp = [tabulated(table, h, x, y) for x, y in zip(a.ravel(), b.ravel(), strict=True)]
         np.testing.assert_allclose(np.reshape(interp, a.shape), exact, rtol=2e-5, atol=1.0)
 
 
 def test_steady_circle_matches_the_bisection_on_the_grid_search():
-    # independent check of the fast search (tabulated capacity, many candidates per
-    # pass): the limit within one search step (1e-3 m/s^2 tolerance) of the original
-    P = _params(_designs(60))
+    # independent check of the fast search (tabulated capacity, compiled bisection):
+    # the limit within one search step (1e-3 m/s^2 tolerance) of the original
+    X = _designs(60)
+    P = _params(X)
     cfg = SteadyCircleConfig()
     res = steady_circle(P, cfg)
     fast = res.ay_max
@@ -159,7 +159,7 @@ def test_steady_circle_matches_the_bisection_on_the_grid_search():
     step_size = cfg.ay_upper / 2 ** int(np.ceil(np.log2(cfg.ay_upper / cfg.tolerance)))
     assert np.max(np.abs(fast - slow)) <= step_size * 1.0001
     # a row's result does not depend on its batch
-    single = [steady_circle(P.take(slice(i, i + 1)), cfg) for i in range(6)]
+    single = [steady_circle(handling_parameters(X[i : i + 1]), cfg) for i in range(6)]
     np.testing.assert_array_equal([r.ay_max[0] for r in single], fast[:6])
     assert [r.limit[0] for r in single] == list(res.limit[:6])
     # the limit's name: the condition that fails one search step above the limit

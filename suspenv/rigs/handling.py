@@ -19,10 +19,9 @@ Steady-state circular test (:func:`steady_circle`)
     rear short: it spins), and (2) not both inner wheels have lifted (rollover). The
     three conditions are monotonic in a_y, so a bisection on a grid of a_y finds the
     limit (compiled, row by row, on the axle capacity tabulated over both wheel loads);
-    ``limit`` names the condition
-    that bounds it. The limit counts equilibria, stable or not
-    (near a rear-axle limit the steady state can be unstable, a spin mode that the
-    driver has to hold).
+    ``limit`` names the condition that bounds it. The limit counts equilibria, stable
+    or not (near a rear-axle limit the steady state can be unstable, a spin mode that
+    the driver has to hold).
 
 Pylon-course slalom (:func:`slalom_run`)
     n cones (default 10) on a straight line, spacing s (30 m), constant speed (60 km/h).
@@ -58,7 +57,6 @@ from suspenv.models.minibus.handling_model import (
     HandlingParams,
     HandlingState,
     step,
-    wheel_loads,
 )
 from suspenv.models.minibus.tyre import LateralTyre
 from suspenv.models.minibus.vehicle import G
@@ -101,40 +99,27 @@ class SteadyCircleResult:
 
     Attributes:
         ay_max: m/s^2, the limit defined in the module docstring.
-        speed_max: m/s, sqrt(ay_max R).
         limit: "front", "rear" or "rollover", the condition that bounds ay_max.
-        roll_at_limit: rad, steady body roll at ay_max.
     """
 
     ay_max: np.ndarray
-    speed_max: np.ndarray
     limit: np.ndarray
-    roll_at_limit: np.ndarray
     config: SteadyCircleConfig
 
 
-def _steady_loads(P: HandlingParams, ay: np.ndarray) -> tuple[np.ndarray, ...]:
-    """Roll and wheel loads (FL, FR, RL, RR) of the steady state at lateral acceleration
-    ``ay``: :func:`wheel_loads` at zero roll rate (no damper moments)."""
-    phi = P.roll_gradient() * ay
-    fl, fr, rl, rr, _, _ = wheel_loads(P, phi, None, ay)
-    return phi, fl, fr, rl, rr
-
-
 def axle_capacity(
-    P: HandlingParams, fz_a: np.ndarray, fz_b: np.ndarray, config: SteadyCircleConfig
+    tyre: LateralTyre, fz_a: np.ndarray, fz_b: np.ndarray, config: SteadyCircleConfig
 ) -> tuple[np.ndarray, np.ndarray]:
     """Peak over slip angle of an axle's lateral force (N) and the slip angle (rad) at it.
 
     Grid search over 0..alpha_max refined by a parabola through the best three points
     (the compiled loop :func:`suspenv.models.minibus.handling_kernel.capacity_loop`).
-    ``fz_a``/``fz_b`` (the axle's two wheel loads) may have any shape whose last axis
-    matches the rows of ``P``.
+    ``fz_a``/``fz_b``: the axle's two wheel loads (N; arrays of one shape, or broadcast).
     """
     fz = np.stack(np.broadcast_arrays(np.asarray(fz_a, float), np.asarray(fz_b, float)))
-    d, b, e = (f.reshape(2, -1) for f in P.tyre.factors(fz))
+    d, b, e = (f.reshape(2, -1) for f in tyre.factors(fz))
     out = np.empty((2, d.shape[1]))
-    handling_kernel.capacity_loop(d, b, e, float(P.tyre.pCy1), _slip_grid(config), out)
+    handling_kernel.capacity_loop(d, b, e, float(tyre.pCy1), _slip_grid(config), out)
     return out[0].reshape(fz.shape[1:]), out[1].reshape(fz.shape[1:])
 
 
@@ -162,17 +147,9 @@ def _capacity_table(
     """
     fz = np.linspace(0.0, CAPACITY_TABLE_MAX * tyre.fz0, CAPACITY_TABLE_POINTS)
     config = SteadyCircleConfig(alpha_max_deg=alpha_max_deg, alpha_points=alpha_points)
-    holder = _TyreOnly(tyre)
-    cap, _ = axle_capacity(holder, fz[:, None], fz[None, :], config)  # type: ignore[arg-type]
+    cap, _ = axle_capacity(tyre, fz[:, None], fz[None, :], config)
     cap.flags.writeable = False  # shared by every call (cached)
     return float(fz[1] - fz[0]), cap
-
-
-class _TyreOnly:
-    """The one attribute of :class:`HandlingParams` that :func:`axle_capacity` reads."""
-
-    def __init__(self, tyre: LateralTyre):
-        self.tyre = tyre
 
 
 def _steady_rows(P: HandlingParams) -> np.ndarray:
@@ -224,39 +201,8 @@ def steady_circle(
     h, table = _capacity_table(P.tyre, config.alpha_max_deg, config.alpha_points)
     out = np.empty((P.n, 3))
     handling_kernel.circle_loop(_steady_rows(P), table, h, bits, scale, out)
-    ay_max = out[:, 0] * scale
     limit = np.where(out[:, 2] == 0, "rollover", np.where(out[:, 1] == 0, "front", "rear"))
-    return SteadyCircleResult(
-        ay_max=ay_max,
-        speed_max=np.sqrt(ay_max * config.radius),
-        limit=limit,
-        roll_at_limit=P.roll_gradient() * ay_max,
-        config=config,
-    )
-
-
-def steady_circle_bisection(
-    P: HandlingParams, config: SteadyCircleConfig | None = None
-) -> np.ndarray:
-    """Maximum quasi-steady lateral acceleration (n,) [m/s^2] by the previous search:
-    plain bisection with the grid-search axle capacity (:func:`axle_capacity`) at every
-    step. Kept as the reference of :func:`steady_circle` (tests) and the baseline of
-    ``python -m benchmarks.minibus_speed``."""
-    cfg = config or SteadyCircleConfig()
-    lo = np.zeros(P.n)
-    hi = np.full(P.n, cfg.ay_upper)
-    L = P.wheelbase
-    for _ in range(int(np.ceil(np.log2(cfg.ay_upper / cfg.tolerance)))):
-        mid = 0.5 * (lo + hi)
-        _, fl, fr, rl, rr = _steady_loads(P, mid)
-        ok = (
-            (axle_capacity(P, fl, fr, cfg)[0] >= P.m * mid * P.b / L)
-            & (axle_capacity(P, rl, rr, cfg)[0] >= P.m * mid * P.a / L)
-            & ((fl > 0) | (rl > 0))
-        )
-        lo = np.where(ok, mid, lo)
-        hi = np.where(ok, hi, mid)
-    return lo
+    return SteadyCircleResult(ay_max=out[:, 0] * scale, limit=limit, config=config)
 
 
 @dataclass

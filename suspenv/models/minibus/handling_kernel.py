@@ -1,25 +1,20 @@
 """Compiled loops of the minibus handling measures (numba), element by element.
 
-The iterative parts of the handling measures run here instead of as numpy passes over
-the batch (one design at a time the numpy call overhead dominated): the axle-capacity
-grid search (:func:`suspenv.rigs.handling.axle_capacity`), the quasi-steady states on
-the circle with their Illinois slip-angle solves
-(:func:`suspenv.rigs.handling.steady_state_sweep`), the steady circle's limit search
-on the tabulated axle capacity (:func:`suspenv.rigs.handling.steady_circle`) and the
-step-time, peak and bandwidth searches of the ISO 7401 yaw response
-(:func:`suspenv.metrics.handling.yaw_response`). The pass counts are fixed (no
-data-dependent stopping: an element's result never depends on the batch). Against
-the numpy passes they replaced (``benchmarks.minibus_speed.numpy_loops``, compared in
-the tests), the slip solve starts from a narrower bracket (the slip grid's points
-around the root) and the step response's search grid takes ``e^(lam t)`` by repeated
-products (start values of the Newton steps only); both solve to round-off, so results
-agree to rounding. The load transfer (:func:`axle_transfer`) and the tyre's factors
-(:func:`tyre_factors`) are elementwise helpers that the numpy forms
-(:func:`suspenv.models.minibus.handling_model.wheel_loads`,
-:class:`suspenv.models.minibus.tyre.LateralTyre`) call as well. Frames, units and
-signs are those of :mod:`suspenv.models.minibus.handling_model`. Built ahead of time
-with the package (:mod:`suspenv.core.compiled`); without numba, the plain Python
-functions run.
+The iterative parts of the handling measures (one design at a time, numpy's call
+overhead dominated them): the axle-capacity grid search
+(:func:`suspenv.rigs.handling.axle_capacity`), the quasi-steady states on the circle
+with their Illinois slip solves (:func:`suspenv.rigs.handling.steady_state_sweep`),
+the steady circle's limit search (:func:`suspenv.rigs.handling.steady_circle`) and
+the ISO 7401 yaw response's step-time, peak and bandwidth searches
+(:func:`suspenv.metrics.handling.yaw_response`). Fixed pass counts: an element's
+result never depends on the batch. Against the numpy passes they replaced
+(``benchmarks.minibus_speed.numpy_loops``, compared in the tests) the slip solve
+starts from a narrower bracket and the step response's search grid takes ``e^(lam
+t)`` by repeated products (Newton start values only); both solve to round-off. The
+load transfer (:func:`axle_transfer`) and the tyre's factors (:func:`tyre_factors`)
+are elementwise helpers that the numpy model calls too. Frames, units and signs of
+:mod:`suspenv.models.minibus.handling_model`. Built ahead of time with the package
+(:mod:`suspenv.core.compiled`); without numba, the plain Python functions run.
 """
 
 from __future__ import annotations
@@ -190,7 +185,8 @@ def tabulated(table: np.ndarray, h: float, fz_a: float, fz_b: float) -> float:
 
 def _steady_loads(row: np.ndarray, ay: float) -> tuple[float, float, float, float, float]:
     """(roll rad, wheel loads FL, FR, RL, RR N) of the steady state at lateral
-    acceleration ``ay`` (m/s^2) of one row of :func:`_circle_flags`' coefficients."""
+    acceleration ``ay`` (m/s^2) of one row of coefficients
+    (:func:`suspenv.rigs.handling._steady_rows`)."""
     phi = row[0] * ay
     fl, fr, rl, rr = axle_transfer(
         (row[1] * phi + row[3] * ay) / row[5],
@@ -203,12 +199,9 @@ def _steady_loads(row: np.ndarray, ay: float) -> tuple[float, float, float, floa
 def _circle_flags(
     row: np.ndarray, table: np.ndarray, h: float, ay: float
 ) -> tuple[bool, bool, bool]:
-    """(front axle carries its share, not rolled over, rear axle carries its share) of
-    the steady state at lateral acceleration ``ay`` (m/s^2) of one row of coefficients
-    (:func:`suspenv.rigs.handling._circle_rows`): the roll ``ay dphi/da_y``, the axles'
-    load transfer (roll moment plus the roll-centre and unsprung moments, over the
-    track), the axle capacities at the wheel loads against ``m a_y b/L`` (front) and
-    ``m a_y a/L`` (rear)."""
+    """(front axle carries ``m a_y b/L``, not rolled over, rear axle carries ``m a_y
+    a/L``) at lateral acceleration ``ay`` (m/s^2) of one row (:func:`_steady_loads`),
+    the axle capacities by :func:`tabulated`."""
     _, fl, fr, rl, rr = _steady_loads(row, ay)
     front_ok = tabulated(table, h, fl, fr) >= row[9] * ay * row[11] / row[12]
     rear_ok = tabulated(table, h, rl, rr) >= row[9] * ay * row[10] / row[12]
@@ -218,7 +211,7 @@ def _circle_flags(
 def _circle_loop(
     rows: np.ndarray, table: np.ndarray, h: float, bits: int, scale: float, out: np.ndarray
 ) -> None:
-    """Per row of coefficients ``rows`` (n, 13): the largest ``j`` in ``0 .. 2^bits -
+    """Per row of coefficients ``rows`` (n, 17): the largest ``j`` in ``0 .. 2^bits -
     1`` whose steady state at ``a_y = j scale`` passes every condition of
     :func:`_circle_flags` (bisection: they are monotonic in a_y), and the front and
     rollover flags one step above it (which name the limit): ``out`` (n, 3)."""
@@ -245,12 +238,10 @@ def _sweep_loop(
     out: np.ndarray,
 ) -> None:
     """Steady states on the circle of radius ``radius`` (m) at the lateral
-    accelerations ``ay`` (N,) m/s^2 of every row of coefficients ``rows`` (n, 17:
-    :func:`_circle_flags`' then the roll and force steers front, rear): ``out`` (7, N,
-    n) = (steer rad, roll rad, slip angles front, rear rad, axle forces front, rear N,
-    1.0 where both axles carry their forces and a wheel of the left side is loaded);
-    the slip angles by :func:`_slip_solve` on the tyres of coefficients ``k``
-    (:func:`tyre_factors`) and the slip grid ``grid``."""
+    accelerations ``ay`` (N,) m/s^2 of every row of coefficients ``rows`` (n, 17):
+    ``out`` (7, N, n) = (steer rad, roll rad, slip angles front, rear rad, axle forces
+    front, rear N, 1.0 where both axles carry them and it has not rolled over); the
+    slips by :func:`_slip_solve` on the tyres ``k`` (:func:`tyre_factors`)."""
     d, b, e = np.empty((2, 2)), np.empty((2, 2)), np.empty((2, 2))
     for a in range(ay.shape[0]):
         for i in range(rows.shape[0]):

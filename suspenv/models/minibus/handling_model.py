@@ -56,7 +56,7 @@ cos(delta) of the steered tyre forces (small-angle single-track kinematics).
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -195,19 +195,6 @@ class HandlingParams:
         k = self.m / L * (self.b / cf - self.a / cr)
         k = k + (self.roll_steer_rear - self.roll_steer_front) * self.roll_gradient()
         return k + (self.force_steer_rear * self.a - self.force_steer_front * self.b) * (self.m / L)
-
-    def take(self, rows: np.ndarray | slice) -> HandlingParams:
-        """The parameters of a subset of rows."""
-        return HandlingParams(
-            **{
-                f.name: (
-                    getattr(self, f.name)[rows]
-                    if f.name not in ("vehicle", "tyre")
-                    else getattr(self, f.name)
-                )
-                for f in fields(self)
-            }
-        )
 
 
 def roll_centre_heights(vehicle: Minibus = REFERENCE_MINIBUS) -> tuple[float, float]:

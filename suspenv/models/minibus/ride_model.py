@@ -573,15 +573,6 @@ class RideModel:
         return RideRecord(dt, body, a_f, a_r, states if record_states else None, ok)
 
     # -------------------------------------------------------------- linear algebra
-    def linear_matrices(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Mass, damping and stiffness matrices (n, nq, nq) of the linearised model.
-
-        Valid for ``linear=True`` models (raises otherwise). Only for reports/tests; the
-        time integration never forms them.
-        """
-        M, C, K, _, _ = self.linear_system()
-        return M, C, K
-
     def linear_system(
         self,
         damper_c: np.ndarray | None = None,

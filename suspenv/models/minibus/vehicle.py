@@ -27,7 +27,11 @@ import numpy as np
 
 from suspenv.core.errors import ValidationError
 from suspenv.core.space import DesignSpace, Parameter
-from suspenv.models.minibus.suspension import DamperCurve, leaf_static_deflection
+from suspenv.models.minibus.suspension import (
+    DamperCurve,
+    leaf_static_deflection,
+    torsion_bar_wheel_rate,
+)
 
 G = 9.81  # m/s^2, standard gravity (rounded)
 NMM_PER_DEG_TO_NM_PER_RAD = 1e-3 * 180.0 / np.pi  # N*mm/deg -> N*m/rad
@@ -336,7 +340,7 @@ def design_to_si(X: np.ndarray, vehicle: Minibus = REFERENCE_MINIBUS) -> DesignS
         rear_composite_rate=K2 * N_PER_MM_TO_N_PER_M,
         leaf_bush_radial=K3 * N_PER_MM_TO_N_PER_M,
         front_torsion_bar=t1,
-        front_wheel_rate=t1 / vehicle.torsion_bar_lever**2,
+        front_wheel_rate=torsion_bar_wheel_rate(t1, vehicle.torsion_bar_lever),
         front_roll_arb=T2 * NMM_PER_DEG_TO_NM_PER_RAD,
         rear_roll_arb=T3 * NMM_PER_DEG_TO_NM_PER_RAD,
         front_damper_scale=C1.copy(),
