@@ -8,7 +8,7 @@ constraints. Measured in the same run, on the same random designs of the study's
 - the default problem (``handling="standard"``: the step steer's yaw response time and
   the slalom's steering-wheel angle and roll amplitudes from the vehicle linearised at
   the manoeuvres' lateral acceleration, one quasi-steady sweep; the steady circle's
-  limit searched on a tabulated axle capacity, many candidates per pass), batched (500,
+  limit searched on a tabulated axle capacity, compiled row by row), batched (500,
   the study's NSGA-II population) and one design at a time;
 - the study's handling objectives (``handling="study"``: the closed-loop nonlinear
   time-domain slalom), batched and one at a time;
@@ -21,9 +21,9 @@ constraints. Measured in the same run, on the same random designs of the study's
   steady circle's bisection on the grid-search axle capacity, with the previous
   default's ride (:func:`baseline_measures`, kept here for the timing), batched and one
   at a time;
-- the default problem with the handling measures' iterative searches as numpy passes
-  over the batch (the slip-angle solve and axle capacity of the quasi-steady sweep, the
-  yaw step-time and bandwidth searches; :func:`numpy_loops`, the form before the
+- the default problem with the handling measures' iterative parts as numpy passes
+  over the batch (the quasi-steady sweep with its slip-angle solve, the axle capacity,
+  the yaw step-time and bandwidth searches; :func:`numpy_loops`, the form before the
   compiled loops of :mod:`suspenv.models.minibus.handling_kernel`), batched and one at
   a time;
 - the parts of the default evaluation (ride, handling parameters, steady circle, linear
@@ -49,6 +49,7 @@ import functools
 import os
 import statistics
 import sys
+import time
 from collections.abc import Callable, Iterator
 from typing import Any
 
@@ -56,16 +57,14 @@ import numpy as np
 from tqdm import tqdm
 
 from benchmarks.common import BatchTiming, wall_and_cpu, write_result
+from suspenv.core import compiled
 from suspenv.metrics.handling import slalom, slalom_linear
 from suspenv.metrics.ride import ride_objectives_all, ride_spectral
 from suspenv.models.minibus import handling_kernel
-from suspenv.models.minibus.handling_model import HandlingParams, handling_parameters
+from suspenv.models.minibus.handling_model import HandlingParams, handling_parameters, wheel_loads
 from suspenv.models.minibus.vehicle import LOAD_CASES
 from suspenv.problems.minibus import MinibusRideHandling
-from suspenv.rigs.handling import (
-    steady_circle,
-    steady_circle_bisection,
-)
+from suspenv.rigs.handling import SteadyCircleConfig, axle_capacity, steady_circle
 
 TARGET_SINGLE_MS = 5.0
 TARGET_SINGLE_COMPILED_MS = 1.0
@@ -109,8 +108,9 @@ def numpy_slip_loop(
     passes: int,
     out: np.ndarray,
 ) -> None:
-    """:func:`handling_kernel.slip_loop` as numpy passes: Illinois regula falsi on
-    ``[0, peak slip]`` of the capacity search (the bracket before the compiled loop)."""
+    """The slip solve of :func:`handling_kernel.sweep_loop` as numpy passes: Illinois
+    regula falsi on ``[0, peak slip]`` of the capacity search (the bracket before the
+    compiled loop); ``out`` (2, m) = (slip angle rad, 1.0 where the axle can)."""
     cap = np.empty((2, force.size))
     numpy_capacity_loop(d, b, e, c, grid, cap)
     lo, hi = np.zeros_like(force), cap[1].copy()
@@ -128,6 +128,36 @@ def numpy_slip_loop(
         side = np.where(below, -1, 1).astype(np.int8)
     out[0] = np.where(np.abs(r_lo) < np.abs(r_hi), lo, hi)
     out[1] = cap[0] >= force
+
+
+def numpy_sweep_loop(
+    rows: np.ndarray,
+    ay: np.ndarray,
+    k: np.ndarray,
+    grid: np.ndarray,
+    radius: float,
+    passes: int,
+    out: np.ndarray,
+) -> None:
+    """:func:`handling_kernel.sweep_loop` as numpy passes over all states at once (the
+    slip solve by :func:`numpy_slip_loop`)."""
+    # the plain helpers (a loop compiled at its first call swaps in numba's)
+    transfer: Any = getattr(handling_kernel.axle_transfer, "py_func", handling_kernel.axle_transfer)
+    factors: Any = getattr(handling_kernel.tyre_factors, "py_func", handling_kernel.tyre_factors)
+    r = rows.T[:, None, :]  # (17, 1, n) against the accelerations (N, 1)
+    acc = ay[:, None]
+    phi = r[0] * acc
+    fl, fr, rl, rr = transfer(
+        (r[1] * phi + r[3] * acc) / r[5], (r[2] * phi + r[4] * acc) / r[6], r[7], r[8], r[5], r[6]
+    )
+    fyf, fyr = r[9] * acc * r[11] / r[12], r[9] * acc * r[10] / r[12]
+    d, b, e = (f.reshape(2, -1) for f in factors(np.stack([[fl, rl], [fr, rr]]), k))
+    slip = np.empty((2, d.shape[1]))
+    numpy_slip_loop(d, b, e, float(k[1]), grid, np.stack([fyf, fyr]).ravel(), passes, slip)
+    (af, ar), (can_f, can_r) = slip.reshape(2, 2, *fyf.shape)
+    steer = r[12] / radius + af - ar - r[13] * phi - r[14] * fyf + r[15] * phi + r[16] * fyr
+    feasible = (can_f > 0) & (can_r > 0) & ((fl > 0) | (rl > 0))
+    out[:] = steer, phi, af, ar, fyf, fyr, feasible
 
 
 def numpy_yaw_loop(
@@ -181,9 +211,9 @@ def numpy_yaw_loop(
 @contextlib.contextmanager
 def numpy_loops() -> Iterator[None]:
     """The handling kernel's loops replaced by their numpy passes while inside."""
-    names = ("capacity_loop", "slip_loop", "yaw_loop")
+    names = ("capacity_loop", "sweep_loop", "yaw_loop")
     saved = [getattr(handling_kernel, k) for k in names]
-    for k, fn in zip(names, (numpy_capacity_loop, numpy_slip_loop, numpy_yaw_loop), strict=True):
+    for k, fn in zip(names, (numpy_capacity_loop, numpy_sweep_loop, numpy_yaw_loop), strict=True):
         setattr(handling_kernel, k, fn)
     try:
         yield
@@ -222,6 +252,37 @@ class PreviousDefault(MinibusRideHandling):
         return full_model_ride(X, self)
 
 
+def steady_loads(P: HandlingParams, ay: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Roll and wheel loads (FL, FR, RL, RR) of the steady state at lateral acceleration
+    ``ay`` in numpy: :func:`wheel_loads` at zero roll rate (no damper moments)."""
+    phi = P.roll_gradient() * ay
+    fl, fr, rl, rr, _, _ = wheel_loads(P, phi, None, ay)
+    return phi, fl, fr, rl, rr
+
+
+def steady_circle_bisection(
+    P: HandlingParams, config: SteadyCircleConfig | None = None
+) -> np.ndarray:
+    """Maximum quasi-steady lateral acceleration (n,) [m/s^2] by the previous search:
+    plain bisection with the grid-search axle capacity (:func:`axle_capacity`) at every
+    step; the reference of :func:`steady_circle` (tests) and part of the baseline."""
+    cfg = config or SteadyCircleConfig()
+    lo = np.zeros(P.n)
+    hi = np.full(P.n, cfg.ay_upper)
+    L = P.wheelbase
+    for _ in range(int(np.ceil(np.log2(cfg.ay_upper / cfg.tolerance)))):
+        mid = 0.5 * (lo + hi)
+        _, fl, fr, rl, rr = steady_loads(P, mid)
+        ok = (
+            (axle_capacity(P.tyre, fl, fr, cfg)[0] >= P.m * mid * P.b / L)
+            & (axle_capacity(P.tyre, rl, rr, cfg)[0] >= P.m * mid * P.a / L)
+            & ((fl > 0) | (rl > 0))
+        )
+        lo = np.where(ok, mid, lo)
+        hi = np.where(ok, hi, mid)
+    return lo
+
+
 def baseline_measures(problem: MinibusRideHandling, X: np.ndarray) -> np.ndarray:
     """The evaluation before the handling changes, for timing: spectral ride (the previous
     algorithm, :func:`full_model_ride`), bisection steady circle, time-domain slalom;
@@ -229,7 +290,7 @@ def baseline_measures(problem: MinibusRideHandling, X: np.ndarray) -> np.ndarray
     X = np.atleast_2d(X)
     n = X.shape[0]
     ride = full_model_ride(X, problem)
-    P = HandlingParams.stack([handling_parameters(X, lc, problem.vehicle) for lc in LOAD_CASES])
+    P = handling_parameters(X, LOAD_CASES, problem.vehicle)
     ay = steady_circle_bisection(P, problem.circle)
     sl = slalom(P, problem.slalom_config)
     w = problem.load_weight
@@ -318,6 +379,52 @@ class _Part:
         return _Batch()
 
 
+def compiled_floor(problem: MinibusRideHandling, x: np.ndarray) -> dict[str, float]:
+    """CPU ms of one evaluation of design ``x`` (1, 8) spent inside LAPACK
+    (``numpy.linalg`` eig, eigvals, solve) and the compiled loops, by kind: each call
+    recorded with its arguments during one evaluation, then timed alone (best of 5
+    blocks of 50). What a compiled pipeline around the same LAPACK calls would still
+    pay; the rest of the single call is Python and numpy call overhead."""
+    calls: list[tuple[str, Callable[..., Any], list[Any]]] = []
+    lazy_call = compiled.Lazy.__call__
+
+    def record(self: compiled.Lazy, *args: Any) -> Any:
+        calls.append(
+            (self._main.__name__.lstrip("_"), functools.partial(lazy_call, self), list(args))
+        )
+        return lazy_call(self, *args)
+
+    saved = {k: getattr(np.linalg, k) for k in ("eig", "eigvals", "solve")}
+
+    def lapack(name: str) -> Callable[..., Any]:
+        def run(*args: Any) -> Any:
+            calls.append((f"numpy.linalg.{name}", saved[name], list(args)))
+            return saved[name](*args)
+
+        return run
+
+    compiled.Lazy.__call__ = record  # type: ignore[method-assign]
+    for k in saved:
+        setattr(np.linalg, k, lapack(k))
+    try:
+        problem.evaluate(x)
+    finally:
+        compiled.Lazy.__call__ = lazy_call  # type: ignore[method-assign]
+        for k, fn in saved.items():
+            setattr(np.linalg, k, fn)
+    out: dict[str, float] = {}
+    for name, fn, args in calls:
+        copies = [[a.copy() if isinstance(a, np.ndarray) else a for a in args] for _ in range(250)]
+        best = np.inf
+        for block in range(5):
+            c0 = time.process_time()
+            for a in copies[50 * block : 50 * (block + 1)]:
+                fn(*a)
+            best = min(best, (time.process_time() - c0) / 50)
+        out[name] = out.get(name, 0.0) + 1e3 * best
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="fewer repeats (smoke run)")
@@ -339,7 +446,7 @@ def main(argv: list[str] | None = None) -> int:
 
     # parts of the default evaluation (CPU ms per design, batched and one at a time)
     def params(Z: np.ndarray) -> HandlingParams:
-        return HandlingParams.stack([handling_parameters(Z, lc) for lc in LOAD_CASES])
+        return handling_parameters(Z, LOAD_CASES)
 
     parts: dict[str, Callable[[np.ndarray], Any]] = {
         "ride, spectral (both loads)": lambda Z: ride_objectives_all(
@@ -367,6 +474,8 @@ def main(argv: list[str] | None = None) -> int:
         [n_single, n_single, n_single, n_single_slow, n_single_slow, *([n_single] * len(parts))],
     )
     t_new, t_numpy, t_prev, t_study, t_base = timings[:5]
+    floor = compiled_floor(problem, X[:1])
+    print("compiled floor of one design (ms):", {k: round(v, 4) for k, v in floor.items()})
     part_rows: list[dict[str, Any]] = []
     single_ms: list[float] = []
     for name, t in zip(parts, timings[5:], strict=True):
@@ -432,6 +541,9 @@ def main(argv: list[str] | None = None) -> int:
         "speedup_single_vs_baseline": t_base.single_cpu_ms / t_new.single_cpu_ms,
         "speedup_batched_vs_baseline": t_base.batched_cpu_ms / t_new.batched_cpu_ms,
         "ride_share_of_single_call": single_ms[0] / t_new.single_cpu_ms,
+        "floor_ms_per_call_single": sum(floor.values()),
+        "floor_share_of_single_call": sum(floor.values()) / t_new.single_cpu_ms,
+        "floor_ms_by_kind": floor,
         "target_single_ms": TARGET_SINGLE_MS,
         "target_single_compiled_ms": TARGET_SINGLE_COMPILED_MS,
         "target_batched_ms": TARGET_BATCHED_MS,

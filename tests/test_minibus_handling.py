@@ -17,7 +17,6 @@ from suspenv.metrics.handling import (
     slalom,
 )
 from suspenv.models.minibus.handling_model import (
-    HandlingParams,
     HandlingState,
     LeafAxleGeometry,
     handling_parameters,
@@ -328,7 +327,7 @@ def test_time_domain_speed_ramp_never_holds_the_circle_beyond_the_quasi_steady_l
     # 0.25 m/s^2 per second with a path-holding driver) on the same vehicle model
     space = design_space()
     X = np.vstack([STUDY_PICK, space.lower, space.upper])
-    P = HandlingParams.stack([handling_parameters(X, lc) for lc in ("no_load", "full_load")])
+    P = handling_parameters(X, ("no_load", "full_load"))
     held, lim = _circle_speed_ramp(P)
     # no run holds the circle above the defined maximum (small ramp/smoothing overshoot)
     assert np.all(held <= 1.02 * lim)
@@ -365,7 +364,7 @@ def test_slalom_driver_completes_the_course_for_random_designs_of_the_box():
     # the driver's gains were chosen on this claim (docs/minibus_handling.md)
     rng = np.random.default_rng(11)
     X = design_space().to_physical(rng.random((300, 8)))
-    P = HandlingParams.stack([handling_parameters(X, lc) for lc in ("no_load", "full_load")])
+    P = handling_parameters(X, ("no_load", "full_load"))
     res = slalom(P)
     assert res.completed.all()
     assert np.all(res.path_error_rms < 0.2 * SlalomConfig().amplitude)
@@ -374,7 +373,7 @@ def test_slalom_driver_completes_the_course_for_random_designs_of_the_box():
 def test_slalom_default_step_is_converged():
     # reference: the same run with a four times smaller step
     X = np.vstack([STUDY_PICK, design_space().lower])
-    P = HandlingParams.stack([handling_parameters(X, lc) for lc in ("no_load", "full_load")])
+    P = handling_parameters(X, ("no_load", "full_load"))
     coarse = slalom(P, SlalomConfig())
     fine = slalom(P, SlalomConfig(dt=0.005))
     np.testing.assert_allclose(coarse.yaw_rate_amplitude, fine.yaw_rate_amplitude, rtol=0.01)

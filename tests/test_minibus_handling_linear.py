@@ -7,7 +7,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from benchmarks.minibus_speed import steady_circle_bisection, steady_loads
 from suspenv.metrics.handling import slalom_linear, yaw_response
+from suspenv.models.minibus.handling_kernel import tabulated
 from suspenv.models.minibus.handling_model import (
     HandlingParams,
     HandlingState,
@@ -21,13 +23,10 @@ from suspenv.models.minibus.vehicle import design_space as minibus_space
 from suspenv.rigs.handling import (
     SlalomConfig,
     SteadyCircleConfig,
-    _limits,
-    _steady_loads,
+    _capacity_table,
     axle_capacity,
-    axle_capacity_tabulated,
     secant_axle_stiffness,
     steady_circle,
-    steady_circle_bisection,
     steady_state_sweep,
     understeer_gradients,
 )
@@ -42,7 +41,7 @@ def _designs(n: int, seed: int = 3) -> np.ndarray:
 
 
 def _params(X: np.ndarray) -> HandlingParams:
-    return HandlingParams.stack([handling_parameters(X, lc) for lc in LOAD_CASES])
+    return handling_parameters(X, LOAD_CASES)
 
 
 @pytest.mark.parametrize("freq", [0.2778, 1.0])
@@ -115,35 +114,56 @@ def test_slalom_linear_follows_the_course():
     assert np.corrcoef(K, lin.steering_wheel_amplitude)[0, 1] > 0.7
 
 
+def _limits_numpy(
+    P: HandlingParams, ay: np.ndarray, cfg: SteadyCircleConfig
+) -> tuple[np.ndarray, np.ndarray]:
+    """Reference of the compiled circle search's conditions in plain numpy: (front axle
+    carries its share, not rolled over) at lateral accelerations ay (n,), the capacity
+    interpolated bilinearly in its table by fancy indexing."""
+    _, fl, fr, rl, rr = steady_loads(P, ay)
+    h, table = _capacity_table(P.tyre, cfg.alpha_max_deg, cfg.alpha_points)
+    ta, tb = np.clip(fl, 0.0, None) / h, np.clip(fr, 0.0, None) / h
+    ia = np.minimum(ta.astype(np.intp), table.shape[0] - 2)
+    ib = np.minimum(tb.astype(np.intp), table.shape[0] - 2)
+    wa, wb = np.minimum(ta - ia, 1.0), np.minimum(tb - ib, 1.0)
+    c00, c10 = table[ia, ib], table[ia + 1, ib]
+    c01, c11 = table[ia, ib + 1], table[ia + 1, ib + 1]
+    cap_f = c00 + wa * (c10 - c00) + wb * (c01 - c00 + wa * (c11 - c10 - c01 + c00))
+    return cap_f >= P.m * ay * P.b / P.wheelbase, (fl > 0) | (rl > 0)
+
+
 def test_tabulated_capacity_matches_the_grid_search():
-    # the steady circle's axle capacity table against the grid search it tabulates, at
-    # the loads the circle visits (0 .. 1.2 g, both loads, random designs)
+    # the steady circle's axle capacity table (interpolated by the compiled loop's
+    # helper) against the grid search it tabulates, at the loads the circle visits
+    # (0 .. 1.2 g, both loads, random designs)
     P = _params(_designs(30))
     cfg = SteadyCircleConfig()
+    h, table = _capacity_table(P.tyre, cfg.alpha_max_deg, cfg.alpha_points)
     ay = np.linspace(0.0, 1.2 * G, 25)[:, None] * np.ones(P.n)
-    _, fl, fr, rl, rr = _steady_loads(P, ay)
+    _, fl, fr, rl, rr = steady_loads(P, ay)
     for a, b in ((fl, fr), (rl, rr)):
-        exact, _ = axle_capacity(P, a, b, cfg)
-        table = axle_capacity_tabulated(P, a, b, cfg)
-        np.testing.assert_allclose(table, exact, rtol=2e-5, atol=1.0)
+        exact, _ = axle_capacity(P.tyre, a, b, cfg)
+        interp = [tabulated(table, h, x, y) for x, y in zip(a.ravel(), b.ravel(), strict=True)]
+        np.testing.assert_allclose(np.reshape(interp, a.shape), exact, rtol=2e-5, atol=1.0)
 
 
 def test_steady_circle_matches_the_bisection_on_the_grid_search():
-    # independent check of the fast search (tabulated capacity, many candidates per
-    # pass): the limit within one search step (1e-3 m/s^2 tolerance) of the original
-    P = _params(_designs(60))
+    # independent check of the fast search (tabulated capacity, compiled bisection):
+    # the limit within one search step (1e-3 m/s^2 tolerance) of the original
+    X = _designs(60)
+    P = _params(X)
     cfg = SteadyCircleConfig()
     res = steady_circle(P, cfg)
     fast = res.ay_max
     slow = steady_circle_bisection(P, cfg)
     step_size = cfg.ay_upper / 2 ** int(np.ceil(np.log2(cfg.ay_upper / cfg.tolerance)))
     assert np.max(np.abs(fast - slow)) <= step_size * 1.0001
-    # a row's result does not depend on its batch (one design at a time: other passes)
-    single = [steady_circle(P.take(slice(i, i + 1)), cfg) for i in range(6)]
+    # a row's result does not depend on its batch
+    single = [steady_circle(handling_parameters(X[i : i + 1]), cfg) for i in range(6)]
     np.testing.assert_array_equal([r.ay_max[0] for r in single], fast[:6])
     assert [r.limit[0] for r in single] == list(res.limit[:6])
     # the limit's name: the condition that fails one search step above the limit
-    f_ok, _, up = _limits(P, res.ay_max + step_size, cfg)
+    f_ok, up = _limits_numpy(P, res.ay_max + step_size, cfg)
     np.testing.assert_array_equal(
         res.limit, np.where(~up, "rollover", np.where(~f_ok, "front", "rear"))
     )

@@ -130,7 +130,7 @@ def test_quarter_car_natural_frequencies_closed_form():
     veh, lc, X = _quarter_car_vehicle()
     p = vehicle_parameters(X, lc, veh)
     model = RideModel(p, linear=True)
-    M, _, K = model.linear_matrices()
+    M, _, K, _, _ = model.linear_system()
     w2 = np.sort(np.linalg.eigvals(np.linalg.solve(M[0], K[0])).real)
     ms = lc.sprung_mass / 4  # corner share of the body
     for ks, mu in ((p.design.front_wheel_rate[0], veh.unsprung_front),

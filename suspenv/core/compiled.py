@@ -63,13 +63,15 @@ def _signatures() -> None:
     AHEAD["suspenv.models.effects.kernels"] = {
         "recurrence": f"void({f(2)}, {f(2)}, {f(1)}, {f(2)})",
     }
-    # d, b, e, c, grid, [force, passes,] out; lam, wn, grid, f, f_max, out (handling_kernel)
+    # d, b, e, c, grid, out; lam, wn, grid, f, f_max, out; rows, table, h, bits, scale,
+    # out; rows, ay, tyre, grid, radius, passes, out (handling_kernel)
     axle = [f(2), f(2), f(2), "float64", f(1)]
     c = _arr("complex128", 2)
     AHEAD["suspenv.models.minibus.handling_kernel"] = {
         "capacity_loop": f"void({', '.join([*axle, f(2)])})",
-        "slip_loop": f"void({', '.join([*axle, f(1), 'int64', f(2)])})",
         "yaw_loop": f"void({c}, {c}, {f(1)}, {f(1)}, float64, {f(2)})",
+        "circle_loop": f"void({f(2)}, {f(2)}, float64, int64, float64, {f(2)})",
+        "sweep_loop": f"void({f(2)}, {f(1)}, {f(1)}, {f(1)}, float64, int64, {f(3)})",
     }
     # q0, q1, coef, w, dr, di, wt, out; sv, sd, damp, knee, leaf, passes, out (spectral_kernel)
     AHEAD["suspenv.models.minibus.spectral_kernel"] = {

@@ -212,7 +212,7 @@ def slalom_linear(
     config: SlalomConfig | None = None,
     circle: SteadyCircleConfig | None = None,
     working_point: bool = True,
-    stiffness: tuple[np.ndarray, np.ndarray] | None = None,
+    system: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> SlalomLinearResult:
     """The slalom course followed exactly by the linearised vehicle (module docstring).
 
@@ -223,17 +223,17 @@ def slalom_linear(
     stabiliser bars' balance), the tyres' load sensitivity and the compliances enter
     as they do where the course runs; ``False``: the small-amplitude linearisation
     about straight running (the bars' split then only moves the roll steer).
-    ``stiffness``: the secant stiffnesses (front, rear; N/rad, (n,)) if already at hand.
+    ``system``: (A, B) of :func:`linear_system` at the course's speed and working point,
+    if already at hand.
     """
     config = config or SlalomConfig()
     u = config.speed
     f = u / (2.0 * config.spacing)  # one cycle per two cones
     ay = course_lateral_acceleration(config)
-    if working_point and stiffness is None:
-        stiffness = secant_axle_stiffness(P, ay, circle)
-    elif not working_point:
-        stiffness = None
-    A, B = linear_system(P, u, stiffness)
+    if system is None:
+        stiffness = secant_axle_stiffness(P, ay, circle) if working_point else None
+        system = linear_system(P, u, stiffness)
+    A, B = system
     H = steer_response(P, u, f, (A, B))
     gain = np.abs(H.ay[:, 0])
     steer = ay / gain
@@ -275,7 +275,12 @@ class YawResponse:
 
 
 def yaw_response(
-    A: np.ndarray, B: np.ndarray, t_end: float = 3.0, dt: float = 0.01, f_max: float = 5.0
+    A: np.ndarray,
+    B: np.ndarray,
+    t_end: float = 3.0,
+    dt: float = 0.01,
+    f_max: float = 5.0,
+    modes: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> YawResponse:
     """Step and frequency response of the yaw rate of the linear system ``(A, B)``
     (:func:`linear_system`, state (v, r, phi, p), unit road-wheel steer), in closed form
@@ -284,8 +289,9 @@ def yaw_response(
     the frequency response ``H(f) = sum_k w_k lam_k / (i 2 pi f - lam_k)``. The 90 %
     crossing and the first peak are found on a grid of ``dt`` (s) up to ``t_end`` and
     refined by Newton steps on the closed form, the bandwidth on a log grid to ``f_max``
-    (Hz) refined by regula falsi in log f (both to round-off). Rows must be stable."""
-    lam, V = np.linalg.eig(A)
+    (Hz) refined by regula falsi in log f (both to round-off). Rows must be stable.
+    ``modes``: ``np.linalg.eig(A)`` if already at hand."""
+    lam, V = modes if modes is not None else np.linalg.eig(A)
     c = np.linalg.solve(V, B[..., None].astype(complex))[..., 0]  # (n, 4)
     w = V[:, 1, :] * c / lam  # (n, 4)
     r_ss = -np.sum(w, axis=1).real  # x(inf) = -A^-1 B

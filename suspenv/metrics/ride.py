@@ -459,8 +459,8 @@ class _Halves:
         B = np.zeros((2 * n, 2 * d, 4), dtype=complex)
         B[:, d:] = self.minv @ (rates[:, None, :] @ geo.Gin).reshape(2 * n, d, 4)
         self.B = B
-        self.A0 = np.tile(geo.A0, (n, 1, 1))
-        self.co = np.tile(geo.co, (n, 1, 1))
+        self.A0 = np.concatenate([geo.A0] * n)
+        self.co = np.concatenate([geo.co] * n)
 
     def modal(self, rates: np.ndarray) -> _Modes:
         """Modal form of the halves for element rates (n, n_el): poles and residues as

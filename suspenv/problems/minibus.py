@@ -375,7 +375,7 @@ class MinibusRideHandling(Problem):
         X = np.atleast_2d(np.asarray(X, dtype=float))
         n = X.shape[0]
         ride = self._ride(X)
-        P = HandlingParams.stack([handling_parameters(X, lc, self.vehicle) for lc in LOAD_CASES])
+        P = handling_parameters(X, LOAD_CASES, self.vehicle)
         circle = steady_circle(P, self.circle)
         both = {
             "ay_max": circle.ay_max,
@@ -423,14 +423,20 @@ class MinibusRideHandling(Problem):
         )
         cf, cr = secant_axle_stiffness(P, ay_secant, sweep=sw.take(slice(0, 2)))
         grad = np.degrees(understeer_gradients(P, ay_iso, sweep=sw.take(slice(2, None)))) * G_STD
-        lin = slalom_linear(P, self.slalom_config, stiffness=(cf[0], cr[0]))
-        u = STEP_SPEED_KMH / 3.6
-        system = linear_system(P, u, (cf[1], cr[1]))
-        stable = np.isfinite(system[0]).all(axis=(1, 2))
-        with np.errstate(invalid="ignore"):
-            eig = np.linalg.eigvals(np.where(stable[:, None, None], system[0], -np.eye(4)))
-        stable &= np.all(eig.real < 0, axis=-1)
-        st = yaw_response(np.where(stable[:, None, None], system[0], -np.eye(4)), system[1])
+        # both linear systems at once: the slalom's and the step steer's speed and secants
+        u = np.array([[self.slalom_config.speed], [STEP_SPEED_KMH / 3.6]])
+        A, B = linear_system(P, u, (cf, cr))
+        lin = slalom_linear(P, self.slalom_config, system=(A[0], B[0]))
+        # the step's stability and modes from one eigen-decomposition (an unstable or
+        # non-finite row: those of -I, the row fails)
+        stable = np.isfinite(A[1]).all(axis=(1, 2))
+        A1 = np.where(stable[:, None, None], A[1], -np.eye(4))
+        modes = np.linalg.eig(A1)
+        stable &= np.all(modes[0].real < 0, axis=-1)
+        if not stable.all():
+            A1 = np.where(stable[:, None, None], A1, -np.eye(4))
+            modes = np.linalg.eig(A1)
+        st = yaw_response(A1, B[1], modes=modes)
         out = {
             "steering_wheel": np.degrees(lin.steering_wheel_amplitude),
             "yaw_rate": np.degrees(lin.yaw_rate_amplitude),
@@ -516,8 +522,8 @@ class MinibusRideHandling(Problem):
         G = np.column_stack(limits)
         flags = [m[f"{kind}_{lc}"] for kind in ("completed", "ride_ok") for lc in LOAD_CASES]
         ok = np.logical_and.reduce(flags) & np.isfinite(F).all(axis=1)
-        messages = []
-        for i in range(X.shape[0]):
+        messages = [""] * X.shape[0]
+        for i in np.flatnonzero(~ok):  # a reason for each failed row
             reasons = []
             lost = [lc for lc in LOAD_CASES if not m[f"completed_{lc}"][i]]
             if lost:
@@ -530,9 +536,7 @@ class MinibusRideHandling(Problem):
             diverged = [lc for lc in LOAD_CASES if not m[f"ride_ok_{lc}"][i]]
             if diverged:
                 reasons.append(f"ride: the road run diverged ({', '.join(diverged)})")
-            if not ok[i] and not reasons:
-                reasons.append("non-finite objective")
-            messages.append("; ".join(reasons) if not ok[i] else "")
+            messages[i] = "; ".join(reasons) or "non-finite objective"
         F = np.where(ok[:, None], F, np.nan)
         G = np.where(ok[:, None], G, np.nan)
         extras = {

@@ -17,12 +17,11 @@ Steady-state circular test (:func:`steady_circle`)
     capacity, the peak over slip angle of the sum of its two tyres' forces at their
     transferred loads (front short: limit understeer, the vehicle drifts off the circle;
     rear short: it spins), and (2) not both inner wheels have lifted (rollover). The
-    three conditions are monotonic in a_y, so a search on a grid of a_y finds the limit
-    (bisection for large batches, many candidates per pass one design at a time, on
-    the axle capacity tabulated over both wheel loads); ``limit`` names the condition
-    that bounds it. The limit counts equilibria, stable or not
-    (near a rear-axle limit the steady state can be unstable, a spin mode that the
-    driver has to hold).
+    three conditions are monotonic in a_y, so a bisection on a grid of a_y finds the
+    limit (compiled, row by row, on the axle capacity tabulated over both wheel loads);
+    ``limit`` names the condition that bounds it. The limit counts equilibria, stable
+    or not (near a rear-axle limit the steady state can be unstable, a spin mode that
+    the driver has to hold).
 
 Pylon-course slalom (:func:`slalom_run`)
     n cones (default 10) on a straight line, spacing s (30 m), constant speed (60 km/h).
@@ -58,7 +57,6 @@ from suspenv.models.minibus.handling_model import (
     HandlingParams,
     HandlingState,
     step,
-    wheel_loads,
 )
 from suspenv.models.minibus.tyre import LateralTyre
 from suspenv.models.minibus.vehicle import G
@@ -101,40 +99,27 @@ class SteadyCircleResult:
 
     Attributes:
         ay_max: m/s^2, the limit defined in the module docstring.
-        speed_max: m/s, sqrt(ay_max R).
         limit: "front", "rear" or "rollover", the condition that bounds ay_max.
-        roll_at_limit: rad, steady body roll at ay_max.
     """
 
     ay_max: np.ndarray
-    speed_max: np.ndarray
     limit: np.ndarray
-    roll_at_limit: np.ndarray
     config: SteadyCircleConfig
 
 
-def _steady_loads(P: HandlingParams, ay: np.ndarray) -> tuple[np.ndarray, ...]:
-    """Roll and wheel loads (FL, FR, RL, RR) of the steady state at lateral acceleration
-    ``ay``: :func:`wheel_loads` at zero roll rate (no damper moments)."""
-    phi = P.roll_gradient() * ay
-    fl, fr, rl, rr, _, _ = wheel_loads(P, phi, None, ay)
-    return phi, fl, fr, rl, rr
-
-
 def axle_capacity(
-    P: HandlingParams, fz_a: np.ndarray, fz_b: np.ndarray, config: SteadyCircleConfig
+    tyre: LateralTyre, fz_a: np.ndarray, fz_b: np.ndarray, config: SteadyCircleConfig
 ) -> tuple[np.ndarray, np.ndarray]:
     """Peak over slip angle of an axle's lateral force (N) and the slip angle (rad) at it.
 
     Grid search over 0..alpha_max refined by a parabola through the best three points
     (the compiled loop :func:`suspenv.models.minibus.handling_kernel.capacity_loop`).
-    ``fz_a``/``fz_b`` (the axle's two wheel loads) may have any shape whose last axis
-    matches the rows of ``P``.
+    ``fz_a``/``fz_b``: the axle's two wheel loads (N; arrays of one shape, or broadcast).
     """
     fz = np.stack(np.broadcast_arrays(np.asarray(fz_a, float), np.asarray(fz_b, float)))
-    d, b, e = (f.reshape(2, -1) for f in P.tyre.factors(fz))
+    d, b, e = (f.reshape(2, -1) for f in tyre.factors(fz))
     out = np.empty((2, d.shape[1]))
-    handling_kernel.capacity_loop(d, b, e, float(P.tyre.pCy1), _slip_grid(config), out)
+    handling_kernel.capacity_loop(d, b, e, float(tyre.pCy1), _slip_grid(config), out)
     return out[0].reshape(fz.shape[1:]), out[1].reshape(fz.shape[1:])
 
 
@@ -154,63 +139,48 @@ def _capacity_table(
     """Axle capacity (:func:`axle_capacity`) tabulated over both wheel loads.
 
     Returns the load step (N) and the (N, N) table on ``0 .. CAPACITY_TABLE_MAX x
-    fz0`` in both loads; built once per tyre and search setting (about 50 ms).
+    fz0`` in both loads; built once per tyre and search setting (about 50 ms). The
+    capacity is smooth in the loads (the peak of a sum of two smooth curves), so the
+    bilinear interpolation on the table's 163 N step
+    (:func:`suspenv.models.minibus.handling_kernel.tabulated`) stays within about 1e-5
+    of the grid search (tests).
     """
     fz = np.linspace(0.0, CAPACITY_TABLE_MAX * tyre.fz0, CAPACITY_TABLE_POINTS)
     config = SteadyCircleConfig(alpha_max_deg=alpha_max_deg, alpha_points=alpha_points)
-    holder = _TyreOnly(tyre)
-    cap, _ = axle_capacity(holder, fz[:, None], fz[None, :], config)  # type: ignore[arg-type]
+    cap, _ = axle_capacity(tyre, fz[:, None], fz[None, :], config)
     cap.flags.writeable = False  # shared by every call (cached)
     return float(fz[1] - fz[0]), cap
 
 
-class _TyreOnly:
-    """The one attribute of :class:`HandlingParams` that :func:`axle_capacity` reads."""
-
-    def __init__(self, tyre: LateralTyre):
-        self.tyre = tyre
-
-
-def axle_capacity_tabulated(
-    P: HandlingParams, fz_a: np.ndarray, fz_b: np.ndarray, config: SteadyCircleConfig
-) -> np.ndarray:
-    """:func:`axle_capacity` (N) by bilinear interpolation in its table over both loads.
-
-    The capacity is smooth in the loads (the peak of a sum of two smooth curves), so on
-    the table's 163 N step the interpolation stays within about 1e-5 of the grid search
-    (tests); loads beyond the table (``CAPACITY_TABLE_MAX x fz0``) are clipped to it.
-    """
-    h, table = _capacity_table(P.tyre, config.alpha_max_deg, config.alpha_points)
-    last = table.shape[0] - 2
-    ta = np.clip(fz_a, 0.0, None) / h
-    tb = np.clip(fz_b, 0.0, None) / h
-    ia = np.minimum(ta.astype(np.intp), last)
-    ib = np.minimum(tb.astype(np.intp), last)
-    wa = np.minimum(ta - ia, 1.0)
-    wb = np.minimum(tb - ib, 1.0)
-    c00 = table[ia, ib]
-    c10 = table[ia + 1, ib]
-    c01 = table[ia, ib + 1]
-    c11 = table[ia + 1, ib + 1]
-    return c00 + wa * (c10 - c00) + wb * (c01 - c00 + wa * (c11 - c10 - c01 + c00))
-
-
-def _limits(
-    P: HandlingParams, ay: np.ndarray, config: SteadyCircleConfig
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(front ok, rear ok, not rolled over) at lateral accelerations ay (..., n)."""
-    _, fl, fr, rl, rr = _steady_loads(P, ay)
-    L = P.wheelbase
-    cap_f, cap_r = axle_capacity_tabulated(P, np.stack([fl, rl]), np.stack([fr, rr]), config)
-    front_ok = cap_f >= P.m * ay * P.b / L
-    rear_ok = cap_r >= P.m * ay * P.a / L
-    upright = (fl > 0) | (rl > 0)
-    return front_ok, rear_ok, upright
-
-
-#: candidate accelerations tested together per pass of the limit search, times rows
-#: (small batches test many candidates per pass, large ones bisect; same result)
-CIRCLE_POINTS_PER_PASS = 256
+def _steady_rows(P: HandlingParams) -> np.ndarray:
+    """The per-row coefficients (n, 17) of the compiled steady states (circle limit,
+    sweep): roll gradient (rad per m/s^2), axle roll stiffnesses (N m/rad), the
+    lateral-acceleration moments of the roll centres and unsprung masses (kg m), tracks
+    (m), static wheel loads (N), mass (kg), CoM distances and wheelbase (m), as
+    :func:`wheel_loads` forms them at zero roll rate, then the roll (rad/rad) and force
+    (rad/N) steers front and rear."""
+    return np.stack(
+        [
+            P.roll_gradient(),
+            P.kphi_front,
+            P.kphi_rear,
+            P.ms_front * P.h_rc_front + P.mu_front * P.wheel_radius,
+            P.ms_rear * P.h_rc_rear + P.mu_rear * P.wheel_radius,
+            P.track_front,
+            P.track_rear,
+            P.fz_front,
+            P.fz_rear,
+            P.m,
+            P.a,
+            P.b,
+            P.wheelbase,
+            P.roll_steer_front,
+            P.force_steer_front,
+            P.roll_steer_rear,
+            P.force_steer_rear,
+        ],
+        axis=1,
+    )
 
 
 def steady_circle(
@@ -219,76 +189,20 @@ def steady_circle(
     """Maximum quasi-steady lateral acceleration on the circle, for every row of ``P``.
 
     The limit is searched on the grid ``ay_upper j / 2^B`` (``B = ceil(log2(ay_upper /
-    tolerance))``): the largest grid point with an equilibrium (the conditions are
-    monotonic in a_y). Each pass tests ``2^b - 1`` evenly spaced candidates inside the
-    current bracket and keeps the sub-bracket of the last one that passes; ``b = 1``
-    is bisection. Small batches use more candidates per pass (fewer passes: the cost
-    of one design at a time is the per-pass overhead); every ``b`` finds the same grid
-    point, so a row's result does not depend on its batch.
+    tolerance))``): the largest grid point below ``ay_upper`` with an equilibrium (the
+    conditions are monotonic in a_y), by bisection per row on the tabulated axle
+    capacity (:func:`_capacity_table`; the compiled loop
+    :func:`suspenv.models.minibus.handling_kernel.circle_loop`), so a row's result does
+    not depend on its batch; the conditions one grid step above the limit name it.
     """
     config = config or SteadyCircleConfig()
-    n = P.n
-    total_bits = int(np.ceil(np.log2(config.ay_upper / config.tolerance)))
-    per_pass = max(1, int(np.floor(np.log2(CIRCLE_POINTS_PER_PASS / max(n, 1) + 1.0))))
-    j_lo = np.zeros(n, dtype=np.int64)  # the bracket's lower grid index (ay = 0 passes)
-    bits = total_bits
-    scale = config.ay_upper / float(2**total_bits)
-    cols = np.arange(n)
-    # the conditions at the bracket's upper end (the first failing candidate), which is
-    # the grid point just above the limit once the search ends: they name the limit
-    top = np.zeros((3, n), dtype=bool)
-    tested = np.zeros(n, dtype=bool)
-    while bits > 0:
-        b = min(per_pass, bits)
-        bits -= b
-        step = 2**bits
-        k = np.arange(1, 2**b, dtype=np.int64)[:, None]  # (2^b - 1, 1)
-        ay = (j_lo[None, :] + k * step) * scale
-        flags = np.stack(_limits(P, ay, config))  # (3, 2^b - 1, n)
-        ok = flags.all(axis=0)
-        # passes below the first failure (the conditions are monotonic in a_y)
-        passed = np.cumprod(ok, axis=0).sum(axis=0)
-        failed = passed < k.shape[0]
-        first = flags[:, np.minimum(passed, k.shape[0] - 1), cols]
-        top = np.where(failed[None, :], first, top)
-        tested |= failed
-        j_lo = j_lo + passed * step
-    ay_max = j_lo * scale
-    if not tested.all():  # every candidate passed: the search's upper end, untested
-        top = np.where(tested[None, :], top, np.stack(_limits(P, (j_lo + 1) * scale, config)))
-    f_ok, up = top[0], top[2]
-    limit = np.where(~up, "rollover", np.where(~f_ok, "front", "rear"))
-    return SteadyCircleResult(
-        ay_max=ay_max,
-        speed_max=np.sqrt(ay_max * config.radius),
-        limit=limit,
-        roll_at_limit=P.roll_gradient() * ay_max,
-        config=config,
-    )
-
-
-def steady_circle_bisection(
-    P: HandlingParams, config: SteadyCircleConfig | None = None
-) -> np.ndarray:
-    """Maximum quasi-steady lateral acceleration (n,) [m/s^2] by the previous search:
-    plain bisection with the grid-search axle capacity (:func:`axle_capacity`) at every
-    step. Kept as the reference of :func:`steady_circle` (tests) and the baseline of
-    ``python -m benchmarks.minibus_speed``."""
-    cfg = config or SteadyCircleConfig()
-    lo = np.zeros(P.n)
-    hi = np.full(P.n, cfg.ay_upper)
-    L = P.wheelbase
-    for _ in range(int(np.ceil(np.log2(cfg.ay_upper / cfg.tolerance)))):
-        mid = 0.5 * (lo + hi)
-        _, fl, fr, rl, rr = _steady_loads(P, mid)
-        ok = (
-            (axle_capacity(P, fl, fr, cfg)[0] >= P.m * mid * P.b / L)
-            & (axle_capacity(P, rl, rr, cfg)[0] >= P.m * mid * P.a / L)
-            & ((fl > 0) | (rl > 0))
-        )
-        lo = np.where(ok, mid, lo)
-        hi = np.where(ok, hi, mid)
-    return lo
+    bits = int(np.ceil(np.log2(config.ay_upper / config.tolerance)))
+    scale = config.ay_upper / float(2**bits)
+    h, table = _capacity_table(P.tyre, config.alpha_max_deg, config.alpha_points)
+    out = np.empty((P.n, 3))
+    handling_kernel.circle_loop(_steady_rows(P), table, h, bits, scale, out)
+    limit = np.where(out[:, 2] == 0, "rollover", np.where(out[:, 1] == 0, "front", "rear"))
+    return SteadyCircleResult(ay_max=out[:, 0] * scale, limit=limit, config=config)
 
 
 @dataclass
@@ -321,70 +235,35 @@ class SteadyStateSweep:
 SLIP_SOLVE_PASSES = 14
 
 
-def _slip_for_force(
-    P: HandlingParams,
-    fz_a: np.ndarray,
-    fz_b: np.ndarray,
-    force: np.ndarray,
-    config: SteadyCircleConfig,
-) -> tuple[np.ndarray, np.ndarray]:
-    """Slip angle on the rising branch at which an axle carries ``force``, and whether
-    it can (``force`` <= its capacity). Illinois regula falsi (:data:`SLIP_SOLVE_PASSES`
-    passes) between the first point of the capacity search's slip grid whose force
-    reaches ``force`` and the one before (the axle force is unimodal in the slip
-    angle), else on ``[0, peak slip]``; the compiled loop
-    :func:`suspenv.models.minibus.handling_kernel.slip_loop`."""
-    force = np.ascontiguousarray(force, dtype=float)
-    d, b, e = (f.reshape(2, -1) for f in P.tyre.factors(np.stack([fz_a, fz_b])))
-    out = np.empty((2, force.size))
-    c = float(P.tyre.pCy1)
-    handling_kernel.slip_loop(d, b, e, c, _slip_grid(config), force.ravel(), SLIP_SOLVE_PASSES, out)
-    alpha, can = out.reshape((2, *force.shape))
-    return alpha, can > 0
-
-
 def steady_state_sweep(
     P: HandlingParams, ay: np.ndarray, config: SteadyCircleConfig | None = None
 ) -> SteadyStateSweep:
     """Quasi-steady states on the circle for lateral accelerations ``ay`` (N,) >= 0.
 
     Steer from the kinematics of the single-track model:
-    delta = L/R + alpha_f - alpha_r - eps_f phi - c_Ff Fyf + eps_r phi + c_F Fyr.
-    All accelerations in one vectorised pass (arrays (N, n)).
+    delta = L/R + alpha_f - alpha_r - eps_f phi - c_Ff Fyf + eps_r phi + c_F Fyr, the
+    axles' slip angles on the rising branch by Illinois regula falsi
+    (:data:`SLIP_SOLVE_PASSES` passes) between the first point of the capacity search's
+    slip grid whose force reaches the axle's share and the one before (the axle force
+    is unimodal in the slip angle), else on ``[0, peak slip]``. The compiled loop
+    :func:`suspenv.models.minibus.handling_kernel.sweep_loop`, row by row.
     """
     config = config or SteadyCircleConfig()
     ay = np.asarray(ay, dtype=float)
     if ay.ndim != 1 or np.any(ay < 0):
         raise ValidationError(f"`ay` must be a 1-D array of values >= 0, but got {ay!r}")
-    L = P.wheelbase
-    acc = np.broadcast_to(ay[:, None], (ay.size, P.n))
-    phi, fl, fr, rl, rr = _steady_loads(P, acc)
-    fyf = P.m * acc * P.b / L
-    fyr = P.m * acc * P.a / L
-    # both axles in one solve (axis 0: front, rear)
-    alpha, ok = _slip_for_force(
-        P, np.stack([fl, rl]), np.stack([fr, rr]), np.stack([fyf, fyr]), config
+    out = np.empty((7, ay.size, P.n))
+    handling_kernel.sweep_loop(
+        _steady_rows(P),
+        np.ascontiguousarray(ay),
+        np.array(P.tyre.coefficients),
+        _slip_grid(config),
+        float(config.radius),
+        SLIP_SOLVE_PASSES,
+        out,
     )
-    af, ar = alpha
-    steer = (
-        L / config.radius
-        + af
-        - ar
-        - P.roll_steer_front * phi
-        - P.force_steer_front * fyf
-        + P.roll_steer_rear * phi
-        + P.force_steer_rear * fyr
-    )
-    return SteadyStateSweep(
-        ay=ay,
-        steer=steer,
-        roll=phi,
-        alpha_front=af,
-        alpha_rear=ar,
-        force_front=fyf,
-        force_rear=fyr,
-        feasible=ok[0] & ok[1] & ((fl > 0) | (rl > 0)),
-    )
+    steer, phi, af, ar, fyf, fyr, ok = out
+    return SteadyStateSweep(ay, steer, phi, af, ar, fyf, fyr, ok > 0)
 
 
 def secant_axle_stiffness(

@@ -1,27 +1,27 @@
 """Compiled loops of the minibus handling measures (numba), element by element.
 
-The iterative parts of the default handling measures run here instead of as numpy
-passes over the batch (one design at a time the numpy call overhead of their fixed
-pass counts dominated): the axle-capacity grid search and the Illinois slip-angle
-solve of the quasi-steady axle force (:func:`suspenv.rigs.handling.axle_capacity`,
-:func:`suspenv.rigs.handling.steady_state_sweep`) and the step-time, peak and bandwidth
-searches of the ISO 7401 yaw response (:func:`suspenv.metrics.handling.yaw_response`).
-The pass counts are fixed (no data-dependent stopping: an element's result never
-depends on the batch). Against the numpy passes they replaced
-(``benchmarks.minibus_speed.numpy_loops``, compared in the tests), the slip solve
-starts from a narrower bracket (the slip grid's points around the root) and the step
-response's search grid takes ``e^(lam t)`` by repeated products (start values of the
-Newton steps only); both solve to round-off, so results agree to rounding. Frames,
-units and signs are those of :mod:`suspenv.models.minibus.handling_model`; the tyre
-force is :class:`suspenv.models.minibus.tyre.LateralTyre`'s Magic Formula. Built
-ahead of time with the package (:mod:`suspenv.core.compiled`); without numba, the
-plain Python functions run.
+The iterative parts of the handling measures (one design at a time, numpy's call
+overhead dominated them): the axle-capacity grid search
+(:func:`suspenv.rigs.handling.axle_capacity`), the quasi-steady states on the circle
+with their Illinois slip solves (:func:`suspenv.rigs.handling.steady_state_sweep`),
+the steady circle's limit search (:func:`suspenv.rigs.handling.steady_circle`) and
+the ISO 7401 yaw response's step-time, peak and bandwidth searches
+(:func:`suspenv.metrics.handling.yaw_response`). Fixed pass counts: an element's
+result never depends on the batch. Against the numpy passes they replaced
+(``benchmarks.minibus_speed.numpy_loops``, compared in the tests) the slip solve
+starts from a narrower bracket and the step response's search grid takes ``e^(lam
+t)`` by repeated products (Newton start values only); both solve to round-off. The
+load transfer (:func:`axle_transfer`) and the tyre's factors (:func:`tyre_factors`)
+are elementwise helpers that the numpy model calls too. Frames, units and signs of
+:mod:`suspenv.models.minibus.handling_model`. Built ahead of time with the package
+(:mod:`suspenv.core.compiled`); without numba, the plain Python functions run.
 """
 
 from __future__ import annotations
 
 import cmath
 import math
+from typing import Any
 
 import numpy as np
 
@@ -33,6 +33,27 @@ def _wheel_force(alpha: float, d: float, b: float, e: float, c: float) -> float:
     (:meth:`LateralTyre.factors`: D N, B 1/rad, E; C = ``pCy1``)."""
     ba = b * alpha
     return d * math.sin(c * math.atan(ba - e * (ba - math.atan(ba))))
+
+
+def tyre_cornering(fz: Any, k: Any) -> Any:
+    """Cornering stiffness Ky [N/rad] at wheel loads ``fz`` [N] of the tyre with
+    coefficients ``k`` (:attr:`suspenv.models.minibus.tyre.LateralTyre.coefficients`):
+    ``pKy1 fz0 sin(2 atan q) = pKy1 fz0 2 q / (1 + q^2)``, ``q = Fz / (pKy2 fz0)``;
+    zero for a lifted wheel. Elementwise: numpy arrays or scalars."""
+    q = np.maximum(fz, 0.0) / (k[7] * k[0])
+    return k[6] * k[0] * 2.0 * q / (1.0 + q * q)
+
+
+def tyre_factors(fz: Any, k: Any) -> tuple[Any, Any, Any]:
+    """The Magic Formula's load-dependent factors (D [N], B [1/rad], E [-]) at wheel
+    loads ``fz`` [N] of the tyre with coefficients ``k`` (as :func:`tyre_cornering`; C
+    is pCy1): a lifted wheel (``fz <= 0``) carries nothing. Elementwise: numpy arrays
+    or scalars."""
+    fz = np.maximum(fz, 0.0)
+    dfz = (fz - k[0]) / k[0]
+    d = np.maximum(k[2] * (1.0 + k[3] * dfz), 0.05) * fz
+    b = tyre_cornering(fz, k) / np.maximum(k[1] * d, 1e-9)
+    return d, b, np.minimum(k[4] + k[5] * dfz, 1.0)
 
 
 def _axle_force(
@@ -94,39 +115,151 @@ def _slip_bracket(
     return 0.0, -f, hi, _axle_force(hi, d, b, e, j, c) - f, cap >= f
 
 
-def _slip_loop(
+def _slip_solve(
     d: np.ndarray,
     b: np.ndarray,
     e: np.ndarray,
+    j: int,
     c: float,
     grid: np.ndarray,
-    force: np.ndarray,
+    f: float,
+    passes: int,
+) -> tuple[float, bool]:
+    """(slip angle rad, whether it can) at which axle ``j``'s two tyres carry ``f`` N
+    on the rising branch: Illinois regula falsi on :func:`_slip_bracket`'s bracket,
+    ``passes`` passes; the end with the smaller residual."""
+    lo, r_lo, hi, r_hi, can = _slip_bracket(d, b, e, j, c, grid, f)
+    side = 0
+    for _ in range(passes):
+        span = r_hi - r_lo
+        mid = (lo * r_hi - hi * r_lo) / span if span > 0 else hi
+        r_mid = _axle_force(mid, d, b, e, j, c) - f
+        # Illinois: halve the residual of the end that stays twice in a row
+        if r_mid < 0:
+            if side == -1:
+                r_hi = 0.5 * r_hi
+            lo, r_lo, side = mid, r_mid, -1
+        else:
+            if side == 1:
+                r_lo = 0.5 * r_lo
+            hi, r_hi, side = mid, r_mid, 1
+    return (lo if abs(r_lo) < abs(r_hi) else hi), can
+
+
+def axle_transfer(
+    dfz_f: Any, dfz_r: Any, fz_f: Any, fz_r: Any, tf: Any, tr: Any
+) -> tuple[Any, Any, Any, Any]:
+    """Wheel loads (FL, FR, RL, RR; N, >= 0) from the axles' load transfers ``dfz_f``,
+    ``dfz_r`` (N, + to the right wheel) and static wheel loads ``fz_f``, ``fz_r`` (N)
+    on tracks ``tf``, ``tr`` (m): an axle cannot transfer more than its static wheel
+    load (its inner wheel lifts), the rigid body passes the excess roll moment to the
+    other axle, and both lifted is a rollover. Elementwise: numpy arrays
+    (:func:`suspenv.models.minibus.handling_model.wheel_loads`) or scalars (the
+    compiled loops)."""
+    excess_f = np.sign(dfz_f) * np.maximum(np.abs(dfz_f) - fz_f, 0.0)
+    excess_r = np.sign(dfz_r) * np.maximum(np.abs(dfz_r) - fz_r, 0.0)
+    dfz_f = dfz_f - excess_f + excess_r * tr / tf
+    dfz_r = dfz_r - excess_r + excess_f * tf / tr
+    dfz_f = np.minimum(np.maximum(dfz_f, -fz_f), fz_f)
+    dfz_r = np.minimum(np.maximum(dfz_r, -fz_r), fz_r)
+    return fz_f - dfz_f, fz_f + dfz_f, fz_r - dfz_r, fz_r + dfz_r
+
+
+def tabulated(table: np.ndarray, h: float, fz_a: float, fz_b: float) -> float:
+    """Axle capacity (N) at wheel loads ``fz_a``, ``fz_b`` (N) by bilinear
+    interpolation in ``table`` (N, N) of load step ``h`` (N) from 0 in both loads;
+    loads beyond the table are clipped to it."""
+    last = table.shape[0] - 2
+    ta = max(fz_a, 0.0) / h
+    tb = max(fz_b, 0.0) / h
+    ia = min(int(ta), last)
+    ib = min(int(tb), last)
+    wa = min(ta - ia, 1.0)
+    wb = min(tb - ib, 1.0)
+    c00 = table[ia, ib]
+    c10 = table[ia + 1, ib]
+    c01 = table[ia, ib + 1]
+    c11 = table[ia + 1, ib + 1]
+    return c00 + wa * (c10 - c00) + wb * (c01 - c00 + wa * (c11 - c10 - c01 + c00))
+
+
+def _steady_loads(row: np.ndarray, ay: float) -> tuple[float, float, float, float, float]:
+    """(roll rad, wheel loads FL, FR, RL, RR N) of the steady state at lateral
+    acceleration ``ay`` (m/s^2) of one row of coefficients
+    (:func:`suspenv.rigs.handling._steady_rows`)."""
+    phi = row[0] * ay
+    fl, fr, rl, rr = axle_transfer(
+        (row[1] * phi + row[3] * ay) / row[5],
+        (row[2] * phi + row[4] * ay) / row[6],
+        row[7], row[8], row[5], row[6],
+    )  # fmt: skip
+    return phi, fl, fr, rl, rr
+
+
+def _circle_flags(
+    row: np.ndarray, table: np.ndarray, h: float, ay: float
+) -> tuple[bool, bool, bool]:
+    """(front axle carries ``m a_y b/L``, not rolled over, rear axle carries ``m a_y
+    a/L``) at lateral acceleration ``ay`` (m/s^2) of one row (:func:`_steady_loads`),
+    the axle capacities by :func:`tabulated`."""
+    _, fl, fr, rl, rr = _steady_loads(row, ay)
+    front_ok = tabulated(table, h, fl, fr) >= row[9] * ay * row[11] / row[12]
+    rear_ok = tabulated(table, h, rl, rr) >= row[9] * ay * row[10] / row[12]
+    return front_ok, (fl > 0) or (rl > 0), rear_ok
+
+
+def _circle_loop(
+    rows: np.ndarray, table: np.ndarray, h: float, bits: int, scale: float, out: np.ndarray
+) -> None:
+    """Per row of coefficients ``rows`` (n, 17): the largest ``j`` in ``0 .. 2^bits -
+    1`` whose steady state at ``a_y = j scale`` passes every condition of
+    :func:`_circle_flags` (bisection: they are monotonic in a_y), and the front and
+    rollover flags one step above it (which name the limit): ``out`` (n, 3)."""
+    for i in range(rows.shape[0]):
+        lo, hi = 0, 2**bits  # j = lo passes (a_y = 0); hi is the first failing or the end
+        while hi - lo > 1:
+            mid = (lo + hi) // 2
+            f_ok, up, r_ok = _circle_flags(rows[i], table, h, mid * scale)
+            if f_ok and up and r_ok:
+                lo = mid
+            else:
+                hi = mid
+        f_ok, up, r_ok = _circle_flags(rows[i], table, h, (lo + 1) * scale)
+        out[i, 0], out[i, 1], out[i, 2] = lo, 1.0 if f_ok else 0.0, 1.0 if up else 0.0
+
+
+def _sweep_loop(
+    rows: np.ndarray,
+    ay: np.ndarray,
+    k: np.ndarray,
+    grid: np.ndarray,
+    radius: float,
     passes: int,
     out: np.ndarray,
 ) -> None:
-    """Slip angle (rad) at which an axle's two tyres (factors ``d, b, e`` (2, m)) carry
-    ``force`` (m,) N on the rising branch, and whether they can: Illinois regula falsi
-    on :func:`_slip_bracket`'s bracket, ``passes`` passes; the end with the smaller
-    residual and 1.0 (can) or 0.0 go to ``out`` (2, m)."""
-    for j in range(force.shape[0]):
-        f = force[j]
-        lo, r_lo, hi, r_hi, can = _slip_bracket(d, b, e, j, c, grid, f)
-        side = 0
-        for _ in range(passes):
-            span = r_hi - r_lo
-            mid = (lo * r_hi - hi * r_lo) / span if span > 0 else hi
-            r_mid = _axle_force(mid, d, b, e, j, c) - f
-            # Illinois: halve the residual of the end that stays twice in a row
-            if r_mid < 0:
-                if side == -1:
-                    r_hi = 0.5 * r_hi
-                lo, r_lo, side = mid, r_mid, -1
-            else:
-                if side == 1:
-                    r_lo = 0.5 * r_lo
-                hi, r_hi, side = mid, r_mid, 1
-        out[0, j] = lo if abs(r_lo) < abs(r_hi) else hi
-        out[1, j] = 1.0 if can else 0.0
+    """Steady states on the circle of radius ``radius`` (m) at the lateral
+    accelerations ``ay`` (N,) m/s^2 of every row of coefficients ``rows`` (n, 17):
+    ``out`` (7, N, n) = (steer rad, roll rad, slip angles front, rear rad, axle forces
+    front, rear N, 1.0 where both axles carry them and it has not rolled over); the
+    slips by :func:`_slip_solve` on the tyres ``k`` (:func:`tyre_factors`)."""
+    d, b, e = np.empty((2, 2)), np.empty((2, 2)), np.empty((2, 2))
+    for a in range(ay.shape[0]):
+        for i in range(rows.shape[0]):
+            row, acc = rows[i], ay[a]
+            phi, fl, fr, rl, rr = _steady_loads(row, acc)
+            fyf = row[9] * acc * row[11] / row[12]
+            fyr = row[9] * acc * row[10] / row[12]
+            d[0, 0], b[0, 0], e[0, 0] = tyre_factors(fl, k)
+            d[1, 0], b[1, 0], e[1, 0] = tyre_factors(fr, k)
+            d[0, 1], b[0, 1], e[0, 1] = tyre_factors(rl, k)
+            d[1, 1], b[1, 1], e[1, 1] = tyre_factors(rr, k)
+            af, ok_f = _slip_solve(d, b, e, 0, k[1], grid, fyf, passes)
+            ar, ok_r = _slip_solve(d, b, e, 1, k[1], grid, fyr, passes)
+            steer = row[12] / radius + af - ar - row[13] * phi - row[14] * fyf
+            out[0, a, i] = steer + row[15] * phi + row[16] * fyr
+            out[1, a, i], out[2, a, i], out[3, a, i] = phi, af, ar
+            out[4, a, i], out[5, a, i] = fyf, fyr
+            out[6, a, i] = 1.0 if ok_f and ok_r and (fl > 0 or rl > 0) else 0.0
 
 
 def _step(lam: np.ndarray, wn: np.ndarray, t: float, order: int) -> float:
@@ -238,10 +371,15 @@ def _yaw_loop(
         out[i, 4] = _bandwidth(lam[i], wn[i], f, f_max)
 
 
-_AXLE = ("_wheel_force", "_axle_force", "_capacity", "_slip_bracket")
+_AXLE = ("_wheel_force", "_axle_force", "_capacity", "_slip_bracket", "_slip_solve")
 #: :func:`_capacity_loop`, compiled at its first call (numba's cache keeps it)
 capacity_loop = compiled.Lazy(globals(), _AXLE, _capacity_loop)
-#: :func:`_slip_loop`, compiled at its first call (numba's cache keeps it)
-slip_loop = compiled.Lazy(globals(), _AXLE, _slip_loop)
 #: :func:`_yaw_loop`, compiled at its first call (numba's cache keeps it)
 yaw_loop = compiled.Lazy(globals(), ("_step", "_rel_gain", "_step_times", "_bandwidth"), _yaw_loop)
+#: :func:`_circle_loop`, compiled at its first call (numba's cache keeps it)
+_LOADS = ("axle_transfer", "_steady_loads")
+circle_loop = compiled.Lazy(globals(), (*_LOADS, "tabulated", "_circle_flags"), _circle_loop)
+#: :func:`_sweep_loop`, compiled at its first call (numba's cache keeps it)
+sweep_loop = compiled.Lazy(
+    globals(), (*_LOADS, *_AXLE, "tyre_cornering", "tyre_factors"), _sweep_loop
+)

@@ -55,11 +55,13 @@ cos(delta) of the steered tyre forces (small-angle single-track kinematics).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from collections.abc import Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
 from suspenv.core.errors import ValidationError
+from suspenv.models.minibus.handling_kernel import axle_transfer
 from suspenv.models.minibus.suspension import damper_force, spring_pair_roll_stiffness
 from suspenv.models.minibus.tyre import LIGHT_TRUCK_TYRE, LateralTyre
 from suspenv.models.minibus.vehicle import (
@@ -67,7 +69,7 @@ from suspenv.models.minibus.vehicle import (
     G,
     LoadCase,
     Minibus,
-    vehicle_parameters,
+    stacked_vehicle_parameters,
 )
 
 
@@ -194,32 +196,6 @@ class HandlingParams:
         k = k + (self.roll_steer_rear - self.roll_steer_front) * self.roll_gradient()
         return k + (self.force_steer_rear * self.a - self.force_steer_front * self.b) * (self.m / L)
 
-    def take(self, rows: np.ndarray | slice) -> HandlingParams:
-        """The parameters of a subset of rows."""
-        return HandlingParams(
-            **{
-                f.name: (
-                    getattr(self, f.name)[rows]
-                    if f.name not in ("vehicle", "tyre")
-                    else getattr(self, f.name)
-                )
-                for f in fields(self)
-            }
-        )
-
-    @staticmethod
-    def stack(parts: list[HandlingParams]) -> HandlingParams:
-        """Concatenate batches (same vehicle and tyre) row-wise."""
-        if not parts:
-            raise ValidationError("cannot stack an empty list of handling parameters")
-        values = {}
-        for f in fields(HandlingParams):
-            if f.name in ("vehicle", "tyre"):
-                values[f.name] = getattr(parts[0], f.name)
-            else:
-                values[f.name] = np.concatenate([getattr(p, f.name) for p in parts])
-        return HandlingParams(**values)
-
 
 def roll_centre_heights(vehicle: Minibus = REFERENCE_MINIBUS) -> tuple[float, float]:
     """Front and rear roll-centre heights above ground, m.
@@ -234,38 +210,53 @@ def roll_centre_heights(vehicle: Minibus = REFERENCE_MINIBUS) -> tuple[float, fl
 
 def handling_parameters(
     X: np.ndarray,
-    load_case: str | LoadCase = "no_load",
+    load_case: str | LoadCase | Sequence[str | LoadCase] = "no_load",
     vehicle: Minibus = REFERENCE_MINIBUS,
     tyre: LateralTyre = LIGHT_TRUCK_TYRE,
     leaf: LeafAxleGeometry = DEFAULT_LEAF_GEOMETRY,
 ) -> HandlingParams:
-    """Handling parameters for designs X (n, 8; the study's units) in one load case."""
-    vp = vehicle_parameters(X, load_case, vehicle)
-    d = vp.design
-    n = vp.n
-    load = vp.load
+    """Handling parameters for designs X (n, 8; the study's units) in one load case, or
+    in each of a sequence of them (rows stacked in its order: k n rows)."""
+    cases = [load_case] if isinstance(load_case, str | LoadCase) else list(load_case)
+    vps = stacked_vehicle_parameters(X, cases, vehicle)
+    d = vps[0].design
+    n = len(cases) * d.n
+
+    def case(values: list[float]) -> np.ndarray:
+        """Per-load-case scalars, one per row."""
+        return np.repeat(np.array(values, dtype=float), d.n)
+
+    def tile(values: np.ndarray) -> np.ndarray:
+        """Per-design values, on the rows of every load case."""
+        return np.concatenate([values] * len(cases))
+
     L = vehicle.wheelbase
-    ms = load.sprung_mass
+    ms = case([vp.load.sprung_mass for vp in vps])
+    vp_a, vp_b = case([vp.a for vp in vps]), case([vp.b for vp in vps])
     muf, mur = 2.0 * vehicle.unsprung_front, 2.0 * vehicle.unsprung_rear
     m = ms + muf + mur
-    a = (ms * vp.a + mur * L) / m  # total CoM behind the front axle
+    a = (ms * vp_a + mur * L) / m  # total CoM behind the front axle
     b = L - a
-    iz = load.yaw_inertia + ms * (vp.a - a) ** 2 + muf * a**2 + mur * b**2
+    iz = case([vp.load.yaw_inertia for vp in vps]) + ms * (vp_a - a) ** 2 + muf * a**2 + mur * b**2
     h_rf, h_rr = roll_centre_heights(vehicle)
-    h_axis = h_rf + (h_rr - h_rf) * vp.a / L  # roll-axis height under the sprung CoM
-    h_prime = load.cg_z - h_axis
-    if h_prime <= 0:
+    h_axis = h_rf + (h_rr - h_rf) * vp_a / L  # roll-axis height under the sprung CoM
+    cg_z = case([vp.load.cg_z for vp in vps])
+    h_prime = cg_z - h_axis
+    if np.any(h_prime <= 0):
+        i = int(np.argmax(h_prime <= 0))
         raise ValidationError(
-            f"the sprung CoM must lie above the roll axis, but got (cg_z={load.cg_z}, "
-            f"roll-axis height={h_axis:.3f})"
+            f"the sprung CoM must lie above the roll axis, but got (cg_z={cg_z[i]}, "
+            f"roll-axis height={h_axis[i]:.3f})"
         )
-    ixs = load.roll_inertia + ms * h_prime**2
+    ixs = case([vp.load.roll_inertia for vp in vps]) + ms * h_prime**2
 
     # roll stiffness: springs + stabiliser, in series with the two tyres
     kt_f = spring_pair_roll_stiffness(vehicle.tyre_vertical_stiffness, vehicle.track_front)
     kt_r = spring_pair_roll_stiffness(vehicle.tyre_vertical_stiffness, vehicle.track_rear)
-    ks_f = spring_pair_roll_stiffness(d.front_wheel_rate, vehicle.track_front) + d.front_roll_arb
-    ks_r = spring_pair_roll_stiffness(vp.rear_static_rate, vehicle.leaf_spacing) + d.rear_roll_arb
+    rear_rate = np.concatenate([vp.rear_static_rate for vp in vps])
+    ks_f = tile(spring_pair_roll_stiffness(d.front_wheel_rate, vehicle.track_front))
+    ks_f = ks_f + tile(d.front_roll_arb)
+    ks_r = spring_pair_roll_stiffness(rear_rate, vehicle.leaf_spacing) + tile(d.rear_roll_arb)
     kphi_f = ks_f * kt_f / (ks_f + kt_f)
     kphi_r = ks_r * kt_r / (ks_r + kt_r)
 
@@ -278,47 +269,43 @@ def handling_parameters(
             f"`0 < axle_from_front_eye < leaf_length` must hold, but got "
             f"(axle_from_front_eye={l1}, leaf_length={Ls})"
         )
-    k3 = d.leaf_bush_radial
-    eps_bush = vp.rear_static_rate * (l1 / Ls) * np.tan(np.radians(leaf.shackle_angle_deg)) / k3
+    k3 = tile(d.leaf_bush_radial)
+    eps_bush = rear_rate * (l1 / Ls) * np.tan(np.radians(leaf.shackle_angle_deg)) / k3
     c_force = (l2 / (2.0 * k3) - l1 / (2.0 * leaf.shackle_lateral_ratio * k3)) / Ls**2
 
-    w_front = (ms * G * vp.b / L) / 2.0 + vehicle.unsprung_front * G
-    w_rear = (ms * G * vp.a / L) / 2.0 + vehicle.unsprung_rear * G
+    w_front = (ms * G * vp_b / L) / 2.0 + vehicle.unsprung_front * G
+    w_rear = (ms * G * vp_a / L) / 2.0 + vehicle.unsprung_rear * G
 
-    def full(value: float | np.ndarray) -> np.ndarray:
-        if isinstance(value, np.ndarray) and value.ndim:
-            return np.array(value, dtype=float).reshape(n)
-        out = np.empty(n)
-        out.fill(float(value))
-        return out
+    def full(value: float) -> np.ndarray:
+        return np.full(n, float(value))
 
     return HandlingParams(
-        m=full(m),
-        ms=full(ms),
-        a=full(a),
-        b=full(b),
-        iz=full(iz),
-        ixs=full(ixs),
-        h_prime=full(h_prime),
+        m=m,
+        ms=ms,
+        a=a,
+        b=b,
+        iz=iz,
+        ixs=ixs,
+        h_prime=h_prime,
         h_rc_front=full(h_rf),
         h_rc_rear=full(h_rr),
-        ms_front=full(ms * vp.b / L),
-        ms_rear=full(ms * vp.a / L),
+        ms_front=ms * vp_b / L,
+        ms_rear=ms * vp_a / L,
         mu_front=full(muf),
         mu_rear=full(mur),
         wheel_radius=full(vehicle.tyre_loaded_radius),
         track_front=full(vehicle.track_front),
         track_rear=full(vehicle.track_rear),
-        kphi_front=full(kphi_f),
-        kphi_rear=full(kphi_r),
-        damper_scale_front=full(d.front_damper_scale),
-        damper_scale_rear=full(d.rear_damper_scale),
-        fz_front=full(w_front),
-        fz_rear=full(w_rear),
+        kphi_front=kphi_f,
+        kphi_rear=kphi_r,
+        damper_scale_front=tile(d.front_damper_scale),
+        damper_scale_rear=tile(d.rear_damper_scale),
+        fz_front=w_front,
+        fz_rear=w_rear,
         roll_steer_front=full(leaf.front_roll_steer),
         force_steer_front=full(-leaf.steering_trail / leaf.steering_stiffness),
-        roll_steer_rear=full(vehicle.rear_roll_steer + eps_bush),
-        force_steer_rear=full(c_force),
+        roll_steer_rear=vehicle.rear_roll_steer + eps_bush,
+        force_steer_rear=c_force,
         vehicle=vehicle,
         tyre=tyre,
     )
@@ -385,18 +372,7 @@ def wheel_loads(
     dfz_r = (
         P.kphi_rear * phi + md_r + (P.ms_rear * P.h_rc_rear + P.mu_rear * P.wheel_radius) * ay
     ) / P.track_rear
-    # an axle cannot transfer more than its static wheel load (its inner wheel lifts);
-    # the rigid body passes the excess roll moment to the other axle
-    excess_f = np.sign(dfz_f) * np.maximum(np.abs(dfz_f) - P.fz_front, 0.0)
-    excess_r = np.sign(dfz_r) * np.maximum(np.abs(dfz_r) - P.fz_rear, 0.0)
-    dfz_f = dfz_f - excess_f + excess_r * P.track_rear / P.track_front
-    dfz_r = dfz_r - excess_r + excess_f * P.track_front / P.track_rear
-    dfz_f = np.clip(dfz_f, -P.fz_front, P.fz_front)  # both lifted: rollover
-    dfz_r = np.clip(dfz_r, -P.fz_rear, P.fz_rear)
-    fl = P.fz_front - dfz_f
-    fr = P.fz_front + dfz_f
-    rl = P.fz_rear - dfz_r
-    rr = P.fz_rear + dfz_r
+    fl, fr, rl, rr = axle_transfer(dfz_f, dfz_r, P.fz_front, P.fz_rear, P.track_front, P.track_rear)
     return fl, fr, rl, rr, md_f, md_r
 
 
@@ -484,7 +460,9 @@ def roll_damping(P: HandlingParams) -> np.ndarray:
 
 
 def linear_system(
-    P: HandlingParams, u: float, axle_stiffness: tuple[np.ndarray, np.ndarray] | None = None
+    P: HandlingParams,
+    u: float | np.ndarray,
+    axle_stiffness: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """State matrix A (n, 4, 4) and steer input B (n, 4) of the linearised handling model.
 
@@ -498,28 +476,35 @@ def linear_system(
     ``axle_stiffness``: the axles' tyre cornering stiffnesses (front, rear; N/rad, (n,)
     each) to use instead, e.g. the quasi-steady secants at a manoeuvre's lateral
     acceleration (:func:`suspenv.rigs.handling.secant_axle_stiffness`), which carry the
-    load transfer's effect on the axles.
+    load transfer's effect on the axles. ``u`` and the stiffnesses may carry leading
+    axes (several speeds and working points at once, e.g. u (k, 1) and stiffnesses
+    (k, n)); A and B then carry them too.
     """
     cf, cr = axle_stiffness if axle_stiffness is not None else P.axle_cornering_stiffness()
     cf = cf / (1.0 - cf * P.force_steer_front)
     cr = cr / (1.0 - cr * P.force_steer_rear)
-    a, b, m, iz = P.a, P.b, P.m, P.iz
+    a, b, m, iz, ixs = P.a, P.b, P.m, P.iz, P.ixs
     msh = P.ms * P.h_prime
-    det = m * P.ixs - msh**2
-    cphi = roll_damping(P)
+    det = m * ixs - msh**2
     # axle forces: Fyf = cf (delta + eps_f phi - (v + a r)/u), Fyr = cr (eps_r phi - (v - b r)/u)
-    # rows of d(Fy)/d(v, r, phi, p) and d(Fy)/d(delta)
-    z = np.zeros_like(m)
-    fyf = np.stack([-cf / u, -cf * a / u, cf * P.roll_steer_front, z], axis=-1)
-    fyr = np.stack([-cr / u, cr * b / u, cr * P.roll_steer_rear, z], axis=-1)
-    r1 = fyf + fyr + np.stack([z, -m * u, z, z], axis=-1)  # lateral: sum Fy - m u r
-    r2 = np.stack([z, msh * u, msh * G - P.kphi, -cphi], axis=-1)  # roll
-    A = np.zeros((P.n, 4, 4))
-    A[:, 0] = (P.ixs[:, None] * r1 + msh[:, None] * r2) / det[:, None]
-    A[:, 1] = (a[:, None] * fyf - b[:, None] * fyr) / iz[:, None]
-    A[:, 2, 3] = 1.0
-    A[:, 3] = (msh[:, None] * r1 + m[:, None] * r2) / det[:, None]
-    B = np.stack([P.ixs * cf / det, a * cf / iz, z, msh * cf / det], axis=-1)
+    # d(Fy)/d(v, r, phi) (nil on p); rows: lateral r1 = sum Fy - m u r, roll r2
+    fyf = (-cf / u, -cf * a / u, cf * P.roll_steer_front)
+    fyr = (-cr / u, cr * b / u, cr * P.roll_steer_rear)
+    r1 = (fyf[0] + fyr[0], fyf[1] + fyr[1] + -m * u, fyf[2] + fyr[2])
+    r2 = (msh * u, msh * G - P.kphi, -roll_damping(P))  # on r, phi, p
+    A = np.zeros((*fyf[0].shape, 4, 4))
+    A[..., 0, 0] = ixs * r1[0] / det
+    A[..., 3, 0] = msh * r1[0] / det
+    for j in (1, 2):
+        A[..., 0, j] = (ixs * r1[j] + msh * r2[j - 1]) / det
+        A[..., 3, j] = (msh * r1[j] + m * r2[j - 1]) / det
+    A[..., 0, 3] = msh * r2[2] / det
+    A[..., 3, 3] = m * r2[2] / det
+    for j in range(3):
+        A[..., 1, j] = (a * fyf[j] - b * fyr[j]) / iz
+    A[..., 2, 3] = 1.0
+    B = np.zeros(A.shape[:-1])
+    B[..., 0], B[..., 1], B[..., 3] = ixs * cf / det, a * cf / iz, msh * cf / det
     return A, B
 
 

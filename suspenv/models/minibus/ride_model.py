@@ -42,6 +42,7 @@ averaged over the contact length, see :mod:`suspenv.rigs.ride`).
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -157,7 +158,7 @@ class RideModel:
         if not plist:
             raise ValidationError("RideModel needs at least one VehicleParams batch, got 0")
         veh = plist[0].vehicle
-        if any(p.vehicle != veh for p in plist):
+        if any(p.vehicle is not veh and p.vehicle != veh for p in plist):
             raise ValidationError("stacked VehicleParams must share one vehicle definition")
         self.params = plist
         self.vehicle = veh
@@ -359,12 +360,17 @@ class RideModel:
                 self._stops.append((cols, e))
         self.n_hyst = 2 if self._hyst is not None else 0
         self.n_states = 2 * self.nq + self.n_hyst
-        compiled = COMPILED and ride_kernel.AVAILABLE and self.dtype == np.float64
-        self._packed = self._pack() if compiled else None
+        self._compiled = COMPILED and ride_kernel.AVAILABLE and self.dtype == np.float64
+        # effect parameters checked once here (packed for the compiled loop)
+        self._effect_pack = ride_kernel.pack_effects(self.effects, self.n)
 
-    def _pack(self) -> tuple:
-        """The coefficients and effects as the compiled loop takes them (float64; effect
-        parameters checked once here)."""
+    @functools.cached_property
+    def _packed(self) -> tuple | None:
+        """The coefficients and effects as the compiled loop takes them (float64), at
+        the first simulation (the spectral methods never need them); None: the numpy
+        loop runs."""
+        if not self._compiled:
+            return None
         n = self.n
         pv = np.ascontiguousarray(np.vstack([self.Pt, self.Vt]), dtype=float)
         minv = np.ascontiguousarray(self.minv_diag.T, dtype=float)
@@ -378,7 +384,7 @@ class RideModel:
         f0 = np.ascontiguousarray(self.f0_tyre.T, dtype=float)
         coeffs = (pv, self.Bt, np.ascontiguousarray(self.K, dtype=float), minv, self.m12)
         shapes = (np.ascontiguousarray(leaf, dtype=float), damp, knees, f0, self.linear)
-        return (*coeffs, *shapes, *ride_kernel.pack_effects(self.effects, n))
+        return (*coeffs, *shapes, *self._effect_pack)
 
     # -------------------------------------------------------------- dynamics
     def road_vector(self, z: np.ndarray, zd: np.ndarray) -> np.ndarray:
@@ -567,15 +573,6 @@ class RideModel:
         return RideRecord(dt, body, a_f, a_r, states if record_states else None, ok)
 
     # -------------------------------------------------------------- linear algebra
-    def linear_matrices(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Mass, damping and stiffness matrices (n, nq, nq) of the linearised model.
-
-        Valid for ``linear=True`` models (raises otherwise). Only for reports/tests; the
-        time integration never forms them.
-        """
-        M, C, K, _, _ = self.linear_system()
-        return M, C, K
-
     def linear_system(
         self,
         damper_c: np.ndarray | None = None,

@@ -34,6 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from suspenv.core.errors import ValidationError
+from suspenv.models.minibus.handling_kernel import tyre_cornering, tyre_factors
 
 
 @dataclass(frozen=True)
@@ -84,11 +85,16 @@ class LateralTyre:
         fz = np.maximum(np.asarray(fz, dtype=float), 0.0)
         return self.friction(fz) * fz
 
+    @property
+    def coefficients(self) -> tuple[float, ...]:
+        """(fz0, pCy1, pDy1, pDy2, pEy1, pEy2, pKy1, pKy2), as the compiled handling
+        loops take them (:mod:`suspenv.models.minibus.handling_kernel`)."""
+        return (self.fz0, self.pCy1, self.pDy1, self.pDy2, self.pEy1, self.pEy2, self.pKy1,
+                self.pKy2)  # fmt: skip
+
     def cornering_stiffness(self, fz: np.ndarray | float) -> np.ndarray:
         """Cornering stiffness Ky = dFy/dalpha at alpha = 0 [N/rad]; zero for fz <= 0."""
-        q = np.maximum(np.asarray(fz, dtype=float), 0.0) / (self.pKy2 * self.fz0)
-        # sin(2 atan q) = 2 q / (1 + q^2)
-        return self.pKy1 * self.fz0 * 2.0 * q / (1.0 + q * q)
+        return tyre_cornering(np.asarray(fz, dtype=float), self.coefficients)
 
     def curvature(self, fz: np.ndarray | float) -> np.ndarray:
         """Curvature factor E (clipped to <= 1)."""
@@ -107,12 +113,7 @@ class LateralTyre:
     def factors(self, fz: np.ndarray | float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The load-dependent factors (D [N], B [1/rad], E [-]) of the force at loads
         ``fz`` [N] (C is ``pCy1``)."""
-        fz = np.maximum(np.asarray(fz, dtype=float), 0.0)
-        dfz = (fz - self.fz0) / self.fz0
-        d = np.maximum(self.pDy1 * (1.0 + self.pDy2 * dfz), 0.05) * fz
-        b = self.cornering_stiffness(fz) / np.maximum(self.pCy1 * d, 1e-9)
-        e = np.minimum(self.pEy1 + self.pEy2 * dfz, 1.0)
-        return d, b, e
+        return tyre_factors(np.asarray(fz, dtype=float), self.coefficients)
 
     def curve(self, fz: np.ndarray | float) -> Callable[[np.ndarray | float], np.ndarray]:
         """The force curve ``alpha -> Fy`` [rad -> N] at fixed loads ``fz`` [N], its

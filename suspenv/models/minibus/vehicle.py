@@ -27,7 +27,11 @@ import numpy as np
 
 from suspenv.core.errors import ValidationError
 from suspenv.core.space import DesignSpace, Parameter
-from suspenv.models.minibus.suspension import DamperCurve, leaf_static_deflection
+from suspenv.models.minibus.suspension import (
+    DamperCurve,
+    leaf_static_deflection,
+    torsion_bar_wheel_rate,
+)
 
 G = 9.81  # m/s^2, standard gravity (rounded)
 NMM_PER_DEG_TO_NM_PER_RAD = 1e-3 * 180.0 / np.pi  # N*mm/deg -> N*m/rad
@@ -336,7 +340,7 @@ def design_to_si(X: np.ndarray, vehicle: Minibus = REFERENCE_MINIBUS) -> DesignS
         rear_composite_rate=K2 * N_PER_MM_TO_N_PER_M,
         leaf_bush_radial=K3 * N_PER_MM_TO_N_PER_M,
         front_torsion_bar=t1,
-        front_wheel_rate=t1 / vehicle.torsion_bar_lever**2,
+        front_wheel_rate=torsion_bar_wheel_rate(t1, vehicle.torsion_bar_lever),
         front_roll_arb=T2 * NMM_PER_DEG_TO_NM_PER_RAD,
         rear_roll_arb=T3 * NMM_PER_DEG_TO_NM_PER_RAD,
         front_damper_scale=C1.copy(),
@@ -371,11 +375,12 @@ class VehicleParams:
 
 
 def stacked_vehicle_parameters(
-    X: np.ndarray, load_cases: Sequence[str], vehicle: Minibus = REFERENCE_MINIBUS
+    X: np.ndarray, load_cases: Sequence[str | LoadCase], vehicle: Minibus = REFERENCE_MINIBUS
 ) -> list[VehicleParams]:
     """:func:`vehicle_parameters` of designs X for each load case, in order (the ride
-    model stacks them row-wise)."""
-    return [vehicle_parameters(X, lc, vehicle) for lc in load_cases]
+    model stacks them row-wise); the designs converted once."""
+    design = design_to_si(X, vehicle)
+    return [_apply(design, lc, vehicle) for lc in load_cases]
 
 
 def vehicle_parameters(
@@ -387,8 +392,12 @@ def vehicle_parameters(
     the static leaf deflection uses the two-stage law (K1 up to the helper-engagement
     deflection, K2 beyond).
     """
+    return _apply(design_to_si(X, vehicle), load_case, vehicle)
+
+
+def _apply(design: DesignSI, load_case: str | LoadCase, vehicle: Minibus) -> VehicleParams:
+    """:func:`vehicle_parameters` of designs already in SI."""
     load = vehicle.load_case(load_case)
-    design = design_to_si(X, vehicle)
     if not 0.0 < load.cg_x < vehicle.wheelbase:
         raise ValidationError(
             f"`0 < cg_x < wheelbase` must hold, but got (cg_x={load.cg_x}, "
