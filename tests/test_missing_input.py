@@ -316,16 +316,26 @@ def test_field_law_where_the_field_varies_within_or_between_recordings(case):
 
 
 def test_two_means_is_the_least_within_cluster_split() -> None:
-    """Golden: the two-means cut of a 1-D sample is the one of all n - 1 cuts between
-    sorted values with the least within-cluster sum of squares (brute force here)."""
+    """Golden: the weighted two-means cut of a 1-D sample is the one of all n - 1 cuts
+    between sorted values with the least weighted within-cluster sum of squares (brute
+    force here), and the share it explains is 1 - within / total."""
     from suspenv.diagnosis.checks.switched_element import two_means
 
-    g = np.random.default_rng(3).standard_normal(41) + np.r_[np.zeros(25), 3.0 * np.ones(16)]
-    s = np.sort(g)
-    within = [np.var(s[:k]) * k + np.var(s[k:]) * (s.size - k) for k in range(1, s.size)]
-    cut = s[int(np.argmin(within))]
-    assert np.array_equal(two_means(g), g > cut)
-    assert np.array_equal(two_means(np.r_[0.0, 0.1, 5.0, 5.2]), [False, False, True, True])
+    rng = np.random.default_rng(3)
+    g = rng.standard_normal(41) + np.r_[np.zeros(25), 3.0 * np.ones(16)]
+    w = rng.uniform(0.5, 2.0, g.size)
+    o = np.argsort(g)
+    s, ws = g[o], w[o]
+
+    def ss(x: np.ndarray, v: np.ndarray) -> float:
+        return float(np.sum(v * (x - np.average(x, weights=v)) ** 2))
+
+    within = [ss(s[:k], ws[:k]) + ss(s[k:], ws[k:]) for k in range(1, s.size)]
+    k = int(np.argmin(within))
+    upper, share = two_means(g, w)
+    assert np.array_equal(upper, g > s[k])
+    assert share == pytest.approx(1.0 - within[k] / ss(s, ws), rel=1e-9)
+    assert np.array_equal(two_means(np.r_[0.0, 0.1, 5.0, 5.2], np.ones(4))[0], [0, 0, 1, 1])
 
 
 @pytest.mark.parametrize("sign", [1.0, -1.0])
@@ -345,7 +355,7 @@ def test_block_levels_find_the_blocks_where_the_input_adds_least(sign) -> None:
     x = np.cumsum(v) / 37.0  # a second signal, on which the gains do not switch
     base = block_levels(r, sign * v, [x, v], length)
     off = np.r_[True, on[::length] == 0.0, True]
-    assert np.array_equal(base, np.repeat(off[1:-1] & off[:-2] & off[2:], length))
+    assert np.array_equal(base, off[1:-1] & off[:-2] & off[2:])
 
 
 @pytest.mark.parametrize(

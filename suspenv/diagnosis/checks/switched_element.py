@@ -11,21 +11,21 @@ are sorted by the level the input sets, read off the final model's residual ``r`
 gains ``<r, s> / <s, s>`` on a recorded input or the prediction ``s`` split into two
 clusters at the cut that leaves the least weighted variance within them
 (:func:`two_means`, exact in one dimension; each gain weighted by its precision
-``<s, s>``), on the signal where that split explains most of the gains' variance
-(:func:`split_levels`). The **base level** is the cluster where ``r``'s gain on the
-model's own prediction is lower: the input adds least force there, whatever the sign
-convention; a block beside one of the other level holds a switch and is left out
-(:func:`block_levels`). Each named element is then judged again on the fit
-samples of the base blocks alone: the final model with and without the element, both refitted
-there (same channel scales, started from the final values), and the element's
-likelihood-ratio test (serial-correlation corrected,
-:func:`~suspenv.diagnosis.evidence.likelihood_ratio`) must stay below the rule's
-``alpha``. An element that does not is **withdrawn**, with the numbers, and the final
-model refitted without it; the finding already says that an unrecorded input may drive
-the residual. With fewer base blocks than :data:`~.missing_input.MIN_BLOCKS` (the
-fewest the switching test judges on) nothing is judged. A wrong level
-split errs towards keeping a name: blocks where the input is on leave the switching
-for a spurious element to fit. The rule reads no element names.
+``<s, s>``), on the signal where that split explains most of the gains' variance. The
+**base level** is the cluster where ``r``'s gain on the model's own prediction is
+lower: the input adds least force there, whatever the sign convention; a block beside
+one of the other level holds a switch and is left out (:func:`block_levels`).
+
+Each named element is then judged again on the fit samples of the base blocks alone:
+the final model with and without the element, both refitted there (same channel
+scales, started from the final values); the element's likelihood-ratio test
+(serial-correlation corrected, :func:`~suspenv.diagnosis.evidence.likelihood_ratio`)
+must stay below the rule's ``alpha``. An element that does not is **withdrawn**, with
+the numbers, and the final model refitted without it; the finding already says that an
+unrecorded input may drive the residual. With fewer base blocks than
+:data:`~.missing_input.MIN_BLOCKS` (the fewest the switching test judges on) nothing
+is judged. A wrong level split errs towards keeping a name: blocks where the input is
+on leave the switching for a spurious element to fit. The rule reads no element names.
 """
 
 from __future__ import annotations
@@ -48,79 +48,67 @@ from suspenv.diagnosis.split import Split
 MAX_NFEV = 200
 
 
-def two_means(g: np.ndarray, w: np.ndarray | None = None) -> np.ndarray:
-    """The labels (True: the upper cluster) of the split of ``g`` into two clusters at
-    the cut between sorted values that leaves the least sum of squares within them,
-    each value weighted by ``w`` (default 1): the cut of largest between-cluster sum
-    ``W1 W2 / W (m1 - m2)^2`` (weighted sizes ``W1``, ``W2`` and means ``m1``, ``m2``)."""
+def two_means(g: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, float]:
+    """The split of ``g`` (weights ``w``) into two clusters at the cut between sorted
+    values that leaves the least weighted sum of squares within them, i.e. of largest
+    between-cluster sum ``W1 W2 / W (m1 - m2)^2`` (weighted sizes ``W1``, ``W2``, means
+    ``m1``, ``m2``): (True for the upper cluster, the share of the weighted sum of
+    squares about the mean that the split explains)."""
     order = np.argsort(g)
-    s = g[order]
-    ws = np.ones(g.size) if w is None else np.asarray(w, float)[order]
+    s, ws = g[order], np.asarray(w, float)[order]
     cw, cs = np.cumsum(ws)[:-1], np.cumsum(ws * s)[:-1]
     total, tsum = float(np.sum(ws)), float(np.sum(ws * s))
     w2 = np.maximum(total - cw, 1e-300)
-    between = cw * w2 / total * (cs / cw - (tsum - cs) / w2) ** 2
-    return g > s[int(np.argmax(between))]
+    between = cw * w2 / total * (cs / np.maximum(cw, 1e-300) - (tsum - cs) / w2) ** 2
+    k = int(np.argmax(between))
+    spread = float(np.sum(ws * (s - tsum / total) ** 2))
+    return g > s[k], float(between[k]) / max(spread, 1e-300)
 
 
-def split_levels(r: np.ndarray, s: np.ndarray, length: int) -> tuple[np.ndarray, float]:
-    """The two clusters of the least-squares gains ``<r, s> / <s, s>`` of ``r`` on ``s``
-    in whole blocks of ``length`` (:func:`two_means`, each gain weighted by its
-    precision ``<s, s>`` under white noise: a block where ``s`` hardly moves tells
-    little): (True for the blocks of the upper cluster, the share of the gains' weighted
-    variance the split explains)."""
+def block_gains(r: np.ndarray, s: np.ndarray, length: int) -> tuple[np.ndarray, np.ndarray]:
+    """The least-squares gains ``<r, s> / <s, s>`` of ``r`` on ``s`` in whole blocks of
+    ``length`` and their precisions under white noise, ``<s, s>`` (a block where ``s``
+    hardly moves tells little)."""
     blocks = r.size // length
     rb, sb = (a[: blocks * length].reshape(blocks, length) for a in (r, s))
     w = np.sum(sb * sb, axis=1)
-    g = np.sum(rb * sb, axis=1) / np.maximum(w, 1e-300)
-    upper = two_means(g, w)
-    total = float(np.sum(w * (g - np.average(g, weights=w)) ** 2))
-    within = sum(
-        float(np.sum(w[c] * (g[c] - np.average(g[c], weights=w[c])) ** 2)) for c in (upper, ~upper)
-    )
-    return upper, 1.0 - within / max(total, 1e-300)
+    return np.sum(rb * sb, axis=1) / np.maximum(w, 1e-300), w
 
 
 def block_levels(
     r: np.ndarray, pred: np.ndarray, signals: Sequence[np.ndarray], length: int
 ) -> np.ndarray:
-    """Per sample, True where the block of ``length`` it lies in is at the base level
-    (module docstring): the residual ``r``'s gains split into two levels on the signal
-    of ``signals`` where the split explains most (:func:`split_levels`); the base the
-    level where ``r``'s mean gain on the model's prediction ``pred`` is lower (the output
-    falls short of the model along its own force: the input adds least there, whatever
-    the sign convention), less the blocks beside one of the other level (a block beside
-    a switch holds both levels). Zeros in ``r`` (samples not judged) weigh nothing; the samples
-    after the last whole block are left out."""
-    blocks = r.size // length
-    if blocks < 2 or not signals:
-        return np.zeros(r.size, bool)
-    upper = max((split_levels(r, s, length) for s in signals), key=lambda u: u[1])[0]
-    rb, pb = (a[: blocks * length].reshape(blocks, length) for a in (r, pred))
-    w = np.maximum(np.sum(pb * pb, axis=1), 1e-300)
-    along = np.sum(rb * pb, axis=1) / w
+    """Per block of ``length``, True at the base level (module docstring): the residual
+    ``r``'s gains (:func:`block_gains`) split into two levels (:func:`two_means`) on the
+    signal of ``signals`` where the split explains most; the base the level where
+    ``r``'s mean gain on the model's prediction ``pred`` is lower (the output falls
+    short of the model along its own force: the input adds least there, whatever the
+    sign convention), less the blocks beside one of the other level (a block beside a
+    switch holds both levels). Samples set to zero weigh nothing."""
+    upper = max((two_means(*block_gains(r, s, length)) for s in signals), key=lambda u: u[1])[0]
+    along, w = block_gains(r, pred, length)
+    w = w + 1e-300
     lower = np.average(along[upper], weights=w[upper]) < np.average(
         along[~upper], weights=w[~upper]
     )
     base = upper if lower else ~upper
-    # a block beside a switch holds both levels: the base is where the neighbours are too
     beside = np.r_[True, base, True]
-    base &= beside[:-2] & beside[2:]
-    return np.r_[np.repeat(base, length), np.zeros(r.size - blocks * length, bool)]
+    return base & beside[:-2] & beside[2:]
 
 
 def base_split(ctx: Context, final: FitResult, channel: str, length: int) -> tuple[Split, int]:
-    """The split of the run restricted to the base blocks (:func:`block_levels`, from
-    the fit samples) of every fitted recording, and how many base blocks there are."""
+    """The split of the run with its fit samples restricted to the base blocks
+    (:func:`block_levels`, from the fit samples) of every fitted recording, and how
+    many base blocks there are."""
     sp = ctx.setup.split
     masks, blocks = [], 0
     for rec, use in zip(sp.fit_recordings, sp.fit_selections(), strict=True):
         pred = np.asarray(final.model.simulate(final.theta, rec)[channel], float)
+        signals = [np.asarray(x, float) * use for x in [*rec.inputs.values(), pred]]
         r = (np.asarray(rec.outputs[channel], float) - pred) * use
-        signals = [np.asarray(v, float) for v in rec.inputs.values()] + [pred]
-        base = block_levels(r, pred, [x for x in signals if np.ptp(x) > 0], length)
-        masks.append(use & base)
-        blocks += int(base.sum()) // length
+        levels = block_levels(r, pred * use, [x for x in signals if np.ptp(x) > 0], length)
+        masks.append(use & np.r_[np.repeat(levels, length), np.zeros(r.size % length, bool)])
+        blocks += int(levels.sum())
     return replace(sp, fit_masks=masks, description=f"{sp.description}, base blocks"), blocks
 
 
