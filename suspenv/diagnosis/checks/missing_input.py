@@ -344,7 +344,8 @@ def run(ctx: Context) -> Finding | None:
     if not fired:
         return Finding("missing_input", numbers=numbers)
     (rec, ch, n), why = max(fired, key=lambda f: f[0][2]["share_of_output"])
-    numbers.update(cause=why, judged_blocks=n["block_samples"], channel=ch)
+    numbers["cause"] = why
+    numbers["judged_blocks"] = n["block_samples"]
     numbers["short"] = f"{100 * n['share_of_output']:.0f} % of the {ch} RMS, " + (
         "switching with no recorded cause" if why == "unrecorded" else "driven by an unread input"
     )
