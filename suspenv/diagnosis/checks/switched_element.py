@@ -13,7 +13,12 @@ channels, below the rule's ``alpha``) fits a residual whose level an unrecorded 
 sets. Such an element may not be named with confidence: the verdict says, per element,
 "an unrecorded input may drive what it fits", with the test's numbers. Whether the
 element is there beside the switching cannot be told from these recordings (a lag or a
-stop the switched force projects on switches too), so it is not withdrawn.
+stop the switched force projects on switches too), so it is not withdrawn. Nor does a
+refit on the blocks where the input sits at its base level tell it: with the true
+off-blocks it withdraws a spurious element (corrected p = 0.79), but the levels read
+off the residual (two-means of the block gains) leave a few switched blocks in the
+base, enough to keep a spurious element significant (p = 2e-17), while a true stop
+the base blocks hardly reach loses its significance there.
 """
 
 from __future__ import annotations
