@@ -106,9 +106,12 @@ def _built(space: dict[str, Any], helpers: Sequence[str], main: Callable) -> Cal
     return getattr(kernels, export_name(space, helpers, main), None)
 
 
-def compile_in(space: dict[str, Any], helpers: Sequence[str], main: Callable) -> Callable:
+def compile_in(
+    space: dict[str, Any], helpers: Sequence[str], main: Callable, inline: Sequence[str] = ()
+) -> Callable:
     """``main`` compiled, with the functions ``helpers`` of the module namespace ``space``
-    replaced by their compiled versions there (where the compiled ``main`` finds them).
+    replaced by their compiled versions there (where the compiled ``main`` finds them),
+    those named in ``inline`` inlined into their callers (:func:`jit_helpers`).
 
     ``error_model="numpy"``: a division by zero gives inf or nan (which the callers
     report as a failed evaluation) instead of raising inside the loop.
@@ -116,19 +119,28 @@ def compile_in(space: dict[str, Any], helpers: Sequence[str], main: Callable) ->
     import numba
 
     jit = numba.njit(cache=True, error_model="numpy")
-    jit_helpers(space, helpers, jit)
+    jit_helpers(space, helpers, jit, inline)
     return jit(main)
 
 
-def jit_helpers(space: dict[str, Any], helpers: Sequence[str], jit: Callable) -> None:
+def jit_helpers(
+    space: dict[str, Any], helpers: Sequence[str], jit: Callable, inline: Sequence[str] = ()
+) -> None:
     """Replace the functions ``helpers`` of the namespace ``space`` by ``jit`` of them,
     there and in the modules that define the helpers (where the helpers calling each
-    other find them); a helper compiled already stays as it is."""
+    other find them); a helper compiled already stays as it is. The helpers named in
+    ``inline`` are inlined into their callers by numba (``inline="always"``: no call,
+    and no reference counting of the arrays they are passed; small helpers of hot
+    loops)."""
+    import numba
+
     plain = [getattr(space[name], "py_func", space[name]) for name in helpers]
     spaces = [space] + [vars(sys.modules[f.__module__]) for f in plain]
     done = {id(v.py_func): v for ns in spaces for v in ns.values() if hasattr(v, "py_func")}
-    for f in plain:
-        done.setdefault(id(f), jit(f))
+    for name, f in zip(helpers, plain, strict=True):
+        if id(f) not in done:
+            own = numba.njit(inline="always", error_model="numpy") if name in inline else jit
+            done[id(f)] = own(f)
     for ns in spaces:
         for key, value in list(ns.items()):
             if id(value) in done and not hasattr(value, "py_func"):
@@ -137,11 +149,18 @@ def jit_helpers(space: dict[str, Any], helpers: Sequence[str], jit: Callable) ->
 
 class Lazy:
     """The loop ``main`` of the module namespace ``space``: the built one where there is
-    one, else compiled (with its ``helpers``) at the first call; without numba,
-    ``main`` itself runs."""
+    one, else compiled (with its ``helpers``, those named in ``inline`` inlined) at the
+    first call; without numba, ``main`` itself runs."""
 
-    def __init__(self, space: dict[str, Any], helpers: Sequence[str], main: Callable) -> None:
+    def __init__(
+        self,
+        space: dict[str, Any],
+        helpers: Sequence[str],
+        main: Callable,
+        inline: Sequence[str] = (),
+    ) -> None:
         self._space, self._helpers, self._main = space, tuple(helpers), main
+        self._inline = tuple(inline)
         self._loop: Callable | None = None
         self._checked = False  # the loop is a built one: check its arrays' layout
         self.__doc__ = f":func:`{main.__name__}`, compiled at its first call."
@@ -152,7 +171,9 @@ class Lazy:
             self._checked = self._loop is not None
         if self._loop is None:
             self._loop = (
-                compile_in(self._space, self._helpers, self._main) if AVAILABLE else self._main
+                compile_in(self._space, self._helpers, self._main, self._inline)
+                if AVAILABLE
+                else self._main
             )
         if self._checked:
             _refuse_strided(self._main.__name__, args)
@@ -211,7 +232,7 @@ def _exports(root: Path) -> Any:
         for attribute, signature in loops.items():
             lazy = getattr(module, attribute)
             name = export_name(lazy._space, lazy._helpers, lazy._main)
-            jit_helpers(lazy._space, lazy._helpers, jit)
+            jit_helpers(lazy._space, lazy._helpers, jit, lazy._inline)
             cc.export(name, signature)(lazy._main)
     return cc
 
