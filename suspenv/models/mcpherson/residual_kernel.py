@@ -85,13 +85,14 @@ def _residual_row(
         dC[a] = rm[0, 3, a] + V[0, 15, a] - rm[1, 3, a] - V[1, 15, a]
     shift = _rack_shift(rm, V, ls_all, rack_m, has_rack, pack, d, off[4], off[5], off[14])
     for s in range(2):
-        _bushing_loads(s, rm[s], V[s], phi[s], extra_m, has_extra, pack, d, off, side)
-        _links(s, rm[s], V[s], ls_all[s], shift, rack_m, has_rack, pack, d, off, side)
-        _constraints(s, rm[s], V[s], pack, d, off, cscale, side[5], out[s])
-        _load_sums(s, rm[s], V[s], ls_all[s], pad_m, extra_m, has_extra, pack, d, off,
-                   k_bar_shear, dC, rho, side, out[s])  # fmt: skip
+        rr, Vs, ls, res = rm[s], V[s], ls_all[s], out[s]  # (each view made once)
+        _bushing_loads(s, rr, Vs, phi[s], extra_m, has_extra, pack, d, off, side)
+        _links(s, rr, Vs, ls, shift, rack_m, has_rack, pack, d, off, side)
+        _constraints(s, rr, Vs, pack, d, off, cscale, side[5], res)
+        _load_sums(s, rr, Vs, ls, pad_m, extra_m, has_extra, pack, d, off, k_bar_shear, dC,
+                   rho, side, res)  # fmt: skip
         if n_ext:
-            _rig_load(rm[s], pad_m[s], ext_m[s], n_ext, side[4][8], side[2], out[s])
+            _rig_load(rr, pad_m[s], ext_m[s], n_ext, side[4], side[2], res)
 
 
 def _row_work() -> tuple:
@@ -277,12 +278,13 @@ def _load_sums(s, rr, Vs, ls, pad_m, extra_m, has_extra, pack, d, off, k_bar_she
     _loads_with_arms(s, rr, Vs, ls, pad_m, zf, pack, d, off, k_bar_shear, dC, work)
     for i in range(24):
         res[i] = 0.0
-    for j in range(14):
+    for j in range(14):  # force, then moment arm x force (indexed: no views in the loop)
         bj = 6 * _LOAD_BODY[j]
         for a in range(3):
             res[bj + a] += F[j, a]
-        mom = res[bj + 3 : bj + 6]
-        _cross_add(arm[j], F[j], mom)
+        res[bj + 3] += arm[j, 1] * F[j, 2] - arm[j, 2] * F[j, 1]
+        res[bj + 4] += arm[j, 2] * F[j, 0] - arm[j, 0] * F[j, 2]
+        res[bj + 5] += arm[j, 0] * F[j, 1] - arm[j, 1] * F[j, 0]
     for a in range(3):
         res[6 + a] += F[10, a]
         res[12 + a] -= F[10, a]
@@ -297,14 +299,14 @@ def _load_sums(s, rr, Vs, ls, pad_m, extra_m, has_extra, pack, d, off, k_bar_she
     res[8] -= pack[o_W, s, d]
 
 
-def _rig_load(rr, pad_s, e, n_ext, down, xb, res) -> None:
+def _rig_load(rr, pad_s, e, n_ext, arm, xb, res) -> None:
     """The rig's wheel load ``e`` (6|9,) of one side added to its knuckle's balance
     ``res``: through the pad, at the loaded contact point (the wheel plane's downward
-    radius ``down`` (3,) [m] stretched to the pad plane at height ``pad_s`` [m]), its
+    radius ``arm[8]`` (3,) [m] stretched to the pad plane at height ``pad_s`` [m]), its
     moment about it, then (``n_ext == 9``) a force at the wheel centre; ``xb`` (3,)
     scratch."""
-    g = (pad_s - rr[1, 2]) / down[2]
-    xb[0], xb[1], xb[2] = down[0] * g, down[1] * g, down[2] * g
+    g = (pad_s - rr[1, 2]) / arm[8, 2]
+    xb[0], xb[1], xb[2] = arm[8, 0] * g, arm[8, 1] * g, arm[8, 2] * g
     for a in range(3):
         res[6 + a] += e[a]
         res[9 + a] += e[3 + a]

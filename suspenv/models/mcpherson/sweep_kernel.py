@@ -251,9 +251,9 @@ def _step(JiT: np.ndarray, res: np.ndarray, tol: np.ndarray, dx: np.ndarray, acc
     for s in range(2):
         for k in range(NS):
             c = np.float32(-res[s, k])
-            row = JiT[s * NS + k]
+            j = s * NS + k
             for i in range(NP):
-                acc[i] += c * row[i]
+                acc[i] += c * JiT[j, i]
     size, finite = 0.0, True
     for i in range(NX):
         dx[i] = acc[i]
@@ -266,15 +266,14 @@ def _step(JiT: np.ndarray, res: np.ndarray, tol: np.ndarray, dx: np.ndarray, acc
 def _apply(r, R, lam1, dx, f, ws) -> None:
     """Move the state by ``f dx`` in place (translations, left rotation increments,
     multipliers; :meth:`AxleSolver._apply`; ``ws``: :func:`_scratch`)."""
-    E, M = ws[3], ws[4]
+    E = ws[3]
     for s in range(2):
         for b in range(4):
             q = s * NS + 6 * b
             for k in range(3):
                 r[s, b, k] += f * dx[q + k]
             _expm(f * dx[q + 3], f * dx[q + 4], f * dx[q + 5], E)
-            _times(E, R[s, b], M)
-            R[s, b] = M
+            _turn(E, R, R, s, b, s, b)
         for c in range(NS - NQ):
             lam1[0, s, c] += f * dx[s * NS + NQ + c]
 
@@ -351,13 +350,23 @@ def _extrapolate(Gr, GR, Gl, rel, g, dirn, cubic, r, R, lam1, ws) -> None:
                     r[s, k, x] = 3.0 * (Gr[a, s, k, x] - Gr[b, s, k, x]) + Gr[c, s, k, x]
                     w[x] = 2.0 * w1[s, k, x] - w0[s, k, x]
             _expm(w[0], w[1], w[2], E)
-            _times(E, GR[a, s, k], R[s, k])
+            _turn(E, GR[a], R, s, k, s, k)
         for x in range(NS - NQ):
             if cubic:
                 v = 4.0 * (Gl[a, s, x] + Gl[c, s, x]) - 6.0 * Gl[b, s, x] - Gl[e, s, x]
             else:
                 v = 3.0 * (Gl[a, s, x] - Gl[b, s, x]) + Gl[c, s, x]
             lam1[0, s, x] = v
+
+
+def _turn(E, A, out, s, b, s_out, b_out) -> None:
+    """``out[s_out, b_out] = E @ A[s, b]`` for rotations ``E`` (3, 3) and ``A``, ``out``
+    (2, 4, 3, 3) (indexed in place: no views; ``A`` may be ``out``)."""
+    for j in range(3):
+        m0 = E[0, 0] * A[s, b, 0, j] + E[0, 1] * A[s, b, 1, j] + E[0, 2] * A[s, b, 2, j]
+        m1 = E[1, 0] * A[s, b, 0, j] + E[1, 1] * A[s, b, 1, j] + E[1, 2] * A[s, b, 2, j]
+        m2 = E[2, 0] * A[s, b, 0, j] + E[2, 1] * A[s, b, 1, j] + E[2, 2] * A[s, b, 2, j]
+        out[s_out, b_out, 0, j], out[s_out, b_out, 1, j], out[s_out, b_out, 2, j] = m0, m1, m2
 
 
 def _relative_at(GR: np.ndarray, rel, x: int, dirn: int, M: np.ndarray) -> np.ndarray:
@@ -451,7 +460,8 @@ def _leg(d, t, dirn, i0, st, inputs, model, jac, chord, own, settings, ws) -> in
 
 
 def _design(d, inputs, model, jac, settings, lo, out) -> int:
-    """The sweep of design ``d`` (:func:`_sweep`); returns its status."""
+    """The sweep of design ``d`` (:func:`_sweep`; ``model``'s pack its own column, (K, 2,
+    1): read contiguously); returns its status."""
     ref0, pad0, pad_off, ext, rack = inputs
     r_out, R_out, l_out = out
     i0 = (pad_off.shape[1] - 1) // 2
@@ -471,9 +481,9 @@ def _design(d, inputs, model, jac, settings, lo, out) -> int:
     for s in range(2):
         load[0][0, s] = pad0[d, s]
     chord = np.zeros((1, NX, NP), np.float32)
-    if not _factor(d, r, R, lam1, load, model, jac, chord[0], ws):
+    if not _factor(0, r, R, lam1, load, model, jac, chord[0], ws):
         return NO_STATIC
-    conv, chord = _newton(d, r, R, lam1, load, model, jac, chord, chord, settings, True, ws)
+    conv, chord = _newton(0, r, R, lam1, load, model, jac, chord, chord, settings, True, ws)
     if not conv:
         return NO_STATIC
     G = pad_off.shape[1]  # every grid point's state (made after the static Jacobian: memory)
@@ -486,15 +496,15 @@ def _design(d, inputs, model, jac, settings, lo, out) -> int:
     for t in range(pad_off.shape[0]):
         Gr[i0], GR[i0], Gl[i0] = r, R, lam1[0]
         _load_at(t, i0, pad0[d], pad_off, ext, rack, load)
-        _res(d, r, R, lam1, load, model, res0, ws[6])
+        _res(0, r, R, lam1, load, model, res0, ws[6])
         # the first steps of both legs (the second steps read both), then each leg on
         legs = (leg_inputs, model, jac, chord)
-        up, own_up = _first_step(d, t, i0 + 1, st, res0, *legs, settings, ws)
-        down, own_down = _first_step(d, t, i0 - 1, st, res0, *legs, settings, ws)
+        up, own_up = _first_step(0, t, i0 + 1, st, res0, *legs, settings, ws)
+        down, own_down = _first_step(0, t, i0 - 1, st, res0, *legs, settings, ws)
         if up != OK or down != OK:
             return NO_STEP
         for dirn, own in ((1, own_up), (-1, own_down)):
-            status = _leg(d, t, dirn, i0, walk, *legs, own, settings, ws)
+            status = _leg(0, t, dirn, i0, walk, *legs, own, settings, ws)
             if status != OK:
                 return status
         for q in range(r_out.shape[1]):
@@ -542,20 +552,22 @@ def _sweep(
     n, 2, 4, 3), ``R_out`` (T, Q, n, 2, 4, 3, 3), ``l_out`` (T, Q, n, 2, 9) and every
     design's status (:data:`OK`, :data:`NO_STATIC`, :data:`NO_STEP`, :data:`LOCKED`)
     into ``status`` (n,)."""
-    model = (pack, off, k_bar_shear, cscale, np.empty((0, 2, 1)), np.zeros(2), np.zeros((2, 1)))
     jac = (h, exp_h, moves, move_start, scatter, scatter_start)
     settings = (tol, maxit, limits)
     inputs = (ref0, pad0, pad_off, ext, rack)
     for d in range(ref0.shape[0]):
+        own = np.ascontiguousarray(pack[:, :, d : d + 1])  # the design's column, contiguous
+        model = (own, off, k_bar_shear, cscale, np.empty((0, 2, 1)), np.zeros(2), np.zeros((2, 1)))
         status[d] = _design(d, inputs, model, jac, settings, lo, (r_out, R_out, l_out))
 
 
 _HELPERS = (
     *_ROW_HELPERS, "_expm", "_scratch", "_factor", "_multiplier_columns", "_res",
-    "_block_inverse", "_coupled", "_invert", "_step", "_apply", "_times", "_newton", "_load_at",
-    "_extrapolate", "_relative_at", "_relative", "_locked", "_first_step", "_leg", "_design",
+    "_block_inverse", "_coupled", "_invert", "_step", "_apply", "_turn", "_times", "_newton",
+    "_load_at", "_extrapolate", "_relative_at", "_relative", "_locked", "_first_step", "_leg",
+    "_design",
 )  # fmt: skip
 #: the helpers inlined into their callers: those of every step and every grid point
-_INLINE = (*_ROW_INLINE, "_scratch", "_res", "_step", "_apply", "_load_at", "_relative_at")
+_INLINE = (*_ROW_INLINE, "_scratch", "_res", "_step", "_apply", "_load_at", "_turn", "_relative_at")
 #: :func:`_sweep`, built ahead of time or compiled at its first call
 sweep = compiled.Lazy(globals(), _HELPERS, _sweep, _INLINE)
