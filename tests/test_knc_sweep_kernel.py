@@ -4,7 +4,7 @@ an axle without placed effects) against the rig's numpy path.
 Reference: the same rig run with ``knc.COMPILED_SWEEP = False`` (the sweep driven from
 Python, vectorised over the rows, kept as the reference path). Both converge every step
 to the solver's tolerance (1e-6 m, 1e-5 rad, 0.1 N) from slightly different Jacobians
-(the compiled one inverted by Gauss-Jordan, multiplier columns by differences), so their
+(the compiled one inverted by its sides' blocks, multiplier columns by differences), so their
 channels agree to the channel's tolerance (``knc_checks.channel_tolerance``), not to
 the bit. Failures: a design the compiled sweep flags is run through the numpy path,
 so its messages are the numpy path's, word for word.
@@ -93,3 +93,34 @@ def test_the_sweep_refuses_placed_effects(axle):
     eff = [axle_effect("cubic_stiffness", "lower_arm", ratio=0.5)]
     with pytest.raises(ValidationError, match="placed effects"):
         AxleSolver(axle, eff).two_leg_sweep(np.zeros((1, 3, 2)), None, None, slice(None))
+
+
+def _coupled_sides(rng):
+    """A (66, 66) matrix shaped like the sweep's Jacobian: two well-conditioned 33 x 33
+    side blocks coupled in a 6 x 6 corner each way (the anti-roll bar's body)."""
+    A = np.zeros((66, 66))
+    for s in (slice(0, 33), slice(33, 66)):
+        A[s, s] = rng.normal(size=(33, 33)) + 12.0 * np.eye(33)
+    A[18:24, 51:57] = rng.normal(size=(6, 6))
+    A[51:57, 18:24] = rng.normal(size=(6, 6))
+    return A
+
+
+@pytest.mark.parametrize("side_singular", [False, True])
+def test_the_block_inverse_is_the_inverse(side_singular):
+    # reference: the product with the matrix is the identity to the round-off of an
+    # elimination of order n (n^2 eps times the condition number: a generous bound on
+    # partial pivoting's backward error at these sizes); a singular side block (the
+    # whole regular) takes the whole-matrix elimination
+    from suspenv.models.mcpherson import sweep_kernel
+
+    A = _coupled_sides(np.random.default_rng(11))
+    if side_singular:
+        A[:33, 0] = 0.0  # the side block's first column gone, the coupling keeps A regular
+        A[40, 0] = 1.0
+    got = A.copy()
+    assert sweep_kernel._block_inverse(got)
+    bound = 66**2 * np.finfo(float).eps * np.linalg.cond(A)
+    assert np.abs(got @ A - np.eye(66)).max() <= bound
+    A[5] = 0.0  # a zero row: singular
+    assert not sweep_kernel._block_inverse(A.copy())

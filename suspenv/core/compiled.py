@@ -22,6 +22,7 @@ import hashlib
 import importlib
 import importlib.util
 import os
+import platform
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -32,6 +33,13 @@ AVAILABLE = importlib.util.find_spec("numba") is not None
 
 #: the loops built ahead of time: module -> {Lazy attribute: numba signature}
 AHEAD: dict[str, dict[str, str]] = {}
+
+#: the instruction set the built loops target on x86-64 (AVX2 and FMA: the vectorised
+#: Newton steps and Jacobian inverses of the K&C sweep; generic x86-64 is about a fifth
+#: slower there), and the CPU features it needs: on a machine without them the built
+#: loops are not used (:func:`_built`) and the loops compile at their first call
+AOT_CPU = "x86-64-v3"
+AOT_FEATURES = ("avx", "avx2", "bmi", "bmi2", "f16c", "fma", "lzcnt", "movbe")
 
 
 def _arr(dtype: str, ndim: int) -> str:
@@ -99,7 +107,7 @@ def export_name(space: dict[str, Any], helpers: Sequence[str], main: Callable) -
 def _built(space: dict[str, Any], helpers: Sequence[str], main: Callable) -> Callable | None:
     """``main``'s loop from ``suspenv.core._kernels`` (None: not built, or built from other
     source)."""
-    if os.environ.get("SUSPENV_COMPILED") == "jit":
+    if os.environ.get("SUSPENV_COMPILED") == "jit" or not _runs_built_loops():
         return None
     try:
         kernels = importlib.import_module("suspenv.core._kernels")
@@ -108,9 +116,31 @@ def _built(space: dict[str, Any], helpers: Sequence[str], main: Callable) -> Cal
     return getattr(kernels, export_name(space, helpers, main), None)
 
 
-def compile_in(space: dict[str, Any], helpers: Sequence[str], main: Callable) -> Callable:
+def _target_cpu() -> str:
+    """The CPU model the built loops target: :data:`AOT_CPU` on x86-64, else the
+    architecture's generic model."""
+    return AOT_CPU if platform.machine().lower() in ("x86_64", "amd64") else ""
+
+
+def _runs_built_loops() -> bool:
+    """This machine runs the built loops: it has the features of :func:`_target_cpu`
+    (llvmlite's view of the CPU; False without llvmlite)."""
+    if not _target_cpu():
+        return True
+    try:
+        from llvmlite import binding  # type: ignore[import-untyped]
+    except ImportError:
+        return False
+    features = binding.get_host_cpu_features()
+    return all(features.get(f, False) for f in AOT_FEATURES)
+
+
+def compile_in(
+    space: dict[str, Any], helpers: Sequence[str], main: Callable, inline: Sequence[str] = ()
+) -> Callable:
     """``main`` compiled, with the functions ``helpers`` of the module namespace ``space``
-    replaced by their compiled versions there (where the compiled ``main`` finds them).
+    replaced by their compiled versions there (where the compiled ``main`` finds them),
+    those named in ``inline`` inlined into their callers (:func:`jit_helpers`).
 
     ``error_model="numpy"``: a division by zero gives inf or nan (which the callers
     report as a failed evaluation) instead of raising inside the loop.
@@ -118,19 +148,28 @@ def compile_in(space: dict[str, Any], helpers: Sequence[str], main: Callable) ->
     import numba
 
     jit = numba.njit(cache=True, error_model="numpy")
-    jit_helpers(space, helpers, jit)
+    jit_helpers(space, helpers, jit, inline)
     return jit(main)
 
 
-def jit_helpers(space: dict[str, Any], helpers: Sequence[str], jit: Callable) -> None:
+def jit_helpers(
+    space: dict[str, Any], helpers: Sequence[str], jit: Callable, inline: Sequence[str] = ()
+) -> None:
     """Replace the functions ``helpers`` of the namespace ``space`` by ``jit`` of them,
     there and in the modules that define the helpers (where the helpers calling each
-    other find them); a helper compiled already stays as it is."""
+    other find them); a helper compiled already stays as it is. The helpers named in
+    ``inline`` are inlined into their callers by numba (``inline="always"``: no call,
+    and no reference counting of the arrays they are passed; small helpers of hot
+    loops)."""
+    import numba
+
     plain = [getattr(space[name], "py_func", space[name]) for name in helpers]
     spaces = [space] + [vars(sys.modules[f.__module__]) for f in plain]
     done = {id(v.py_func): v for ns in spaces for v in ns.values() if hasattr(v, "py_func")}
-    for f in plain:
-        done.setdefault(id(f), jit(f))
+    for name, f in zip(helpers, plain, strict=True):
+        if id(f) not in done:
+            own = numba.njit(inline="always", error_model="numpy") if name in inline else jit
+            done[id(f)] = own(f)
     for ns in spaces:
         for key, value in list(ns.items()):
             if id(value) in done and not hasattr(value, "py_func"):
@@ -139,11 +178,18 @@ def jit_helpers(space: dict[str, Any], helpers: Sequence[str], jit: Callable) ->
 
 class Lazy:
     """The loop ``main`` of the module namespace ``space``: the built one where there is
-    one, else compiled (with its ``helpers``) at the first call; without numba,
-    ``main`` itself runs."""
+    one, else compiled (with its ``helpers``, those named in ``inline`` inlined) at the
+    first call; without numba, ``main`` itself runs."""
 
-    def __init__(self, space: dict[str, Any], helpers: Sequence[str], main: Callable) -> None:
+    def __init__(
+        self,
+        space: dict[str, Any],
+        helpers: Sequence[str],
+        main: Callable,
+        inline: Sequence[str] = (),
+    ) -> None:
         self._space, self._helpers, self._main = space, tuple(helpers), main
+        self._inline = tuple(inline)
         self._loop: Callable | None = None
         self._checked = False  # the loop is a built one: check its arrays' layout
         self.__doc__ = f":func:`{main.__name__}`, compiled at its first call."
@@ -154,7 +200,9 @@ class Lazy:
             self._checked = self._loop is not None
         if self._loop is None:
             self._loop = (
-                compile_in(self._space, self._helpers, self._main) if AVAILABLE else self._main
+                compile_in(self._space, self._helpers, self._main, self._inline)
+                if AVAILABLE
+                else self._main
             )
         if self._checked:
             _refuse_strided(self._main.__name__, args)
@@ -207,13 +255,14 @@ def _exports(root: Path) -> Any:
         sys.modules.setdefault(package, stub)
     warnings.simplefilter("ignore", numba.NumbaPendingDeprecationWarning)
     cc = CC("_kernels")
+    cc.target_cpu = _target_cpu()
     jit = numba.njit(error_model="numpy")
     for module_name, loops in AHEAD.items():
         module = importlib.import_module(module_name)
         for attribute, signature in loops.items():
             lazy = getattr(module, attribute)
             name = export_name(lazy._space, lazy._helpers, lazy._main)
-            jit_helpers(lazy._space, lazy._helpers, jit)
+            jit_helpers(lazy._space, lazy._helpers, jit, lazy._inline)
             cc.export(name, signature)(lazy._main)
     return cc
 

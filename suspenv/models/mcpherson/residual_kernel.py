@@ -27,6 +27,7 @@ import math
 import numpy as np
 
 from suspenv.core import compiled
+from suspenv.models.mcpherson import rotation_kernel
 from suspenv.models.mcpherson.rotation_kernel import _log
 
 #: numba is there: the compiled residual can run (compiled at the first call)
@@ -65,8 +66,10 @@ def _residual_row(
     k_bar_shear: float,
     cscale: float,
     out: np.ndarray,
+    work: tuple,
 ) -> None:
-    """The residual (2, 33) of one row into ``out``: positions ``rm`` (2, 4, 3) [m] and
+    """The residual (2, 33) of one row into ``out`` (``work``: scratch,
+    :func:`_row_work`): positions ``rm`` (2, 4, 3) [m] and
     rotations ``Rm`` (2, 4, 3, 3) of both sides, multipliers ``ls_all`` (2, 9), pad
     heights ``pad_m`` (2,) [m], wheel loads ``ext_m`` (2, 6|9) (``n_ext`` columns, 0:
     none: force [N] and moment [N*m] at the loaded contact point, where the wheel
@@ -76,27 +79,34 @@ def _residual_row(
     then moment xyz [N*m]) that the four bushings exert against their deflection beyond
     the linear ones, vehicle axes; column 24 the strut friction force [N] along the tube
     axis, on the knuckle, opposite on the rod), design row ``d`` of ``pack``."""
-    V = np.empty((2, 16, 3))
-    phi = np.empty((2, 3, 3))  # rotation vectors of bodies 0, 2, 3 per side
-    rho = np.empty(3)  # rotation vector of the bar halves' relative rotation
-    dC = np.empty(3)
-    _rotated(Rm, pack, d, off[0], V, phi, rho)
+    V, phi, rho, dC, Rbar, side = work
+    _rotated(Rm, pack, d, off[0], V, phi, rho, Rbar)
     for a in range(3):  # the bar halves' middle points apart (side 0 minus side 1)
         dC[a] = rm[0, 3, a] + V[0, 15, a] - rm[1, 3, a] - V[1, 15, a]
     shift = _rack_shift(rm, V, ls_all, rack_m, has_rack, pack, d, off[4], off[5], off[14])
-    # scratch: deflections x (bushing, translation/rotation, xyz), bushing loads f
-    # (bushing, force/moment, xyz), a 3-vector, the loads F with an arm and their arms,
-    # the link vectors D and the links' force per unit length k
-    work = (np.empty((4, 2, 3)), np.empty((4, 2, 3)), np.empty(3), np.empty((14, 3)),
-            np.empty((14, 3)), np.empty((3, 3)), np.empty(3))  # fmt: skip
     for s in range(2):
-        _bushing_loads(s, rm[s], V[s], phi[s], extra_m, has_extra, pack, d, off, work)
-        _links(s, rm[s], V[s], ls_all[s], shift, rack_m, has_rack, pack, d, off, work)
-        _constraints(s, rm[s], V[s], pack, d, off, cscale, work[5], out[s])
-        _load_sums(s, rm[s], V[s], ls_all[s], pad_m, extra_m, has_extra, pack, d, off,
-                   k_bar_shear, dC, rho, work, out[s])  # fmt: skip
+        rr, Vs, ls, res = rm[s], V[s], ls_all[s], out[s]  # (each view made once)
+        _bushing_loads(s, rr, Vs, phi[s], extra_m, has_extra, pack, d, off, side)
+        _links(s, rr, Vs, ls, shift, rack_m, has_rack, pack, d, off, side)
+        _constraints(s, rr, Vs, pack, d, off, cscale, side[5], res)
+        _load_sums(s, rr, Vs, ls, pad_m, extra_m, has_extra, pack, d, off, k_bar_shear, dC,
+                   rho, side, res)  # fmt: skip
         if n_ext:
-            _rig_load(rm[s], pad_m[s], ext_m[s], n_ext, work[4][8], work[2], out[s])
+            _rig_load(rr, pad_m[s], ext_m[s], n_ext, side[4], side[2], res)
+
+
+def _row_work() -> tuple:
+    """Scratch of :func:`_residual_row` (made once per loop, not per row): the rotated
+    body-fixed vectors V (2, 16, 3), the rotation vectors of bodies 0, 2, 3 per side
+    (2, 3, 3), that of the bar halves' relative rotation (3,), the bar halves' middle
+    points apart (3,), a rotation (3, 3), and per side the deflections x (bushing,
+    translation/rotation, xyz), bushing loads f (bushing, force/moment, xyz), a
+    3-vector, the loads F with an arm and their arms (14, 3), the link vectors D (3, 3)
+    and the links' force per unit length k (3,)."""
+    side = (np.empty((4, 2, 3)), np.empty((4, 2, 3)), np.empty(3), np.empty((14, 3)),
+            np.empty((14, 3)), np.empty((3, 3)), np.empty(3))  # fmt: skip
+    return (np.empty((2, 16, 3)), np.empty((2, 3, 3)), np.empty(3), np.empty(3),
+            np.empty((3, 3)), side)  # fmt: skip
 
 
 def _rotated(
@@ -107,11 +117,11 @@ def _rotated(
     V: np.ndarray,
     phi: np.ndarray,
     rho: np.ndarray,
+    Rbar: np.ndarray,
 ) -> None:
     """The 16 body-fixed vectors rotated with their bodies into ``V`` (2, 16, 3) [m],
     the rotation vectors of bodies 0, 2, 3 into ``phi`` (2, 3, 3) [rad] and that of the
-    bar halves' relative rotation into ``rho`` (3,) [rad]."""
-    Rbar = np.empty((3, 3))
+    bar halves' relative rotation into ``rho`` (3,) [rad] (``Rbar`` (3, 3) scratch)."""
     for s in range(2):
         for i in range(16):
             b = _VEC_BODY[i]
@@ -268,12 +278,13 @@ def _load_sums(s, rr, Vs, ls, pad_m, extra_m, has_extra, pack, d, off, k_bar_she
     _loads_with_arms(s, rr, Vs, ls, pad_m, zf, pack, d, off, k_bar_shear, dC, work)
     for i in range(24):
         res[i] = 0.0
-    for j in range(14):
+    for j in range(14):  # force, then moment arm x force (indexed: no views in the loop)
         bj = 6 * _LOAD_BODY[j]
         for a in range(3):
             res[bj + a] += F[j, a]
-        mom = res[bj + 3 : bj + 6]
-        _cross_add(arm[j], F[j], mom)
+        res[bj + 3] += arm[j, 1] * F[j, 2] - arm[j, 2] * F[j, 1]
+        res[bj + 4] += arm[j, 2] * F[j, 0] - arm[j, 0] * F[j, 2]
+        res[bj + 5] += arm[j, 0] * F[j, 1] - arm[j, 1] * F[j, 0]
     for a in range(3):
         res[6 + a] += F[10, a]
         res[12 + a] -= F[10, a]
@@ -288,14 +299,14 @@ def _load_sums(s, rr, Vs, ls, pad_m, extra_m, has_extra, pack, d, off, k_bar_she
     res[8] -= pack[o_W, s, d]
 
 
-def _rig_load(rr, pad_s, e, n_ext, down, xb, res) -> None:
+def _rig_load(rr, pad_s, e, n_ext, arm, xb, res) -> None:
     """The rig's wheel load ``e`` (6|9,) of one side added to its knuckle's balance
     ``res``: through the pad, at the loaded contact point (the wheel plane's downward
-    radius ``down`` (3,) [m] stretched to the pad plane at height ``pad_s`` [m]), its
+    radius ``arm[8]`` (3,) [m] stretched to the pad plane at height ``pad_s`` [m]), its
     moment about it, then (``n_ext == 9``) a force at the wheel centre; ``xb`` (3,)
     scratch."""
-    g = (pad_s - rr[1, 2]) / down[2]
-    xb[0], xb[1], xb[2] = down[0] * g, down[1] * g, down[2] * g
+    g = (pad_s - rr[1, 2]) / arm[8, 2]
+    xb[0], xb[1], xb[2] = arm[8, 0] * g, arm[8, 1] * g, arm[8, 2] * g
     for a in range(3):
         res[6 + a] += e[a]
         res[9 + a] += e[3 + a]
@@ -365,8 +376,10 @@ def _residual(
     offsets of vec, ground, K, Q (-1: isotropic bushings), tri, L_links, L_links_sq,
     L_links_2, ks, L_free, Rw, kt, W, k_bar_rot in it.
     """
+    work = _row_work()
     for m in range(r.shape[0]):
-        _row_at(m, r[m], R[m], lam, pad, ext, rack, extra, pack, off, k_bar_shear, cscale, out[m])
+        _row_at(m, r[m], R[m], lam, pad, ext, rack, extra, pack, off, k_bar_shear, cscale, out[m],
+                work)  # fmt: skip
 
 
 def _row_at(
@@ -383,9 +396,11 @@ def _row_at(
     k_bar_shear: float,
     cscale: float,
     out: np.ndarray,
+    work: tuple,
 ) -> None:
     """:func:`_residual_row` of row ``m`` at the states ``rm``, ``Rm`` (its own, or
-    perturbed), its inputs read from the arrays of :func:`_residual`."""
+    perturbed), its inputs read from the arrays of :func:`_residual` (``work``:
+    :func:`_row_work`)."""
     n_ext = ext.shape[2] if ext.shape[0] else 0
     has_rack = rack.shape[0] > 0
     ext_m = ext[m % ext.shape[0]] if n_ext else np.zeros((2, 1))
@@ -395,6 +410,7 @@ def _row_at(
     _residual_row(
         rm, Rm, lam[m % lam.shape[0]], pad[m % pad.shape[0]], ext_m, n_ext, rack_m,
         has_rack, extra_m, has_extra, pack, m % pack.shape[2], off, k_bar_shear, cscale, out,
+        work,
     )  # fmt: skip
 
 
@@ -430,10 +446,11 @@ def _jacobian(
     fill the entries ``scatter[:, scatter_start[p]:scatter_start[p + 1]]`` (side,
     residual row, Jacobian row, Jacobian column) (``solver._coloured_groups``). Other
     entries are left as they are (the caller's zeros and exact multiplier columns)."""
+    work = _row_work()
     for m in range(r.shape[0]):
         _row_jacobian(
             m, r[m], R[m], turned[m], lam, pad, ext, rack, extra, pack, off, k_bar_shear,
-            cscale, h, moves, move_start, scatter, scatter_start, J[m],
+            cscale, h, moves, move_start, scatter, scatter_start, J[m], work,
         )  # fmt: skip
 
 
@@ -457,22 +474,26 @@ def _row_jacobian(
     scatter: np.ndarray,
     scatter_start: np.ndarray,
     Jm: np.ndarray,
+    work: tuple,
 ) -> None:
     """The body-coordinate columns of row ``m``'s Jacobian into ``Jm`` (66, 66) (see
-    :func:`_jacobian`; ``turned_m`` (2, 4, 3, 3, 3) its bodies turned by ``h``)."""
+    :func:`_jacobian`; ``turned_m`` (2, 4, 3, 3, 3) its bodies turned by ``h``;
+    ``work``: :func:`_row_work`)."""
     base = np.empty((2, 33))
     res = np.empty((2, 33))
-    _row_at(m, rm, Rm, lam, pad, ext, rack, extra, pack, off, k_bar_shear, cscale, base)
+    rp = np.empty_like(rm)
+    Rp = np.empty_like(Rm)
+    _row_at(m, rm, Rm, lam, pad, ext, rack, extra, pack, off, k_bar_shear, cscale, base, work)
     for p in range(move_start.size - 1):
-        rp = rm.copy()
-        Rp = Rm.copy()
+        rp[...] = rm
+        Rp[...] = Rm
         for q in range(move_start[p], move_start[p + 1]):
             s, b, k = moves[0, q], moves[1, q], moves[2, q]
             if k < 3:
                 rp[s, b, k] += h
             else:
                 Rp[s, b] = turned_m[s, b, k - 3]
-        _row_at(m, rp, Rp, lam, pad, ext, rack, extra, pack, off, k_bar_shear, cscale, res)
+        _row_at(m, rp, Rp, lam, pad, ext, rack, extra, pack, off, k_bar_shear, cscale, res, work)
         for q in range(scatter_start[p], scatter_start[p + 1]):
             s, row = scatter[0, q], scatter[1, q]
             Jm[scatter[2, q], scatter[3, q]] = (res[s, row] - base[s, row]) / h
@@ -482,9 +503,15 @@ def _row_jacobian(
 _ROW_HELPERS = (
     "_log", "_cross_add", "_rack_shift", "_residual_row", "_row_at", "_row_jacobian",
     "_rotated", "_bushing_loads", "_links", "_constraints", "_loads_with_arms",
-    "_load_sums", "_rig_load",
+    "_load_sums", "_rig_load", "_row_work",
+)  # fmt: skip
+#: the helpers inlined into :func:`_residual_row` (no calls within a row: a row is
+#: about a microsecond, of which the calls' reference counting was a fifth)
+_ROW_INLINE = (
+    *rotation_kernel.INLINE, "_cross_add", "_rack_shift", "_rotated", "_bushing_loads", "_links",
+    "_constraints", "_loads_with_arms", "_load_sums", "_rig_load", "_row_work",
 )  # fmt: skip
 #: :func:`_residual` and :func:`_jacobian`, compiled at their first call (then loaded
 #: from numba's cache)
-residual = compiled.Lazy(globals(), _ROW_HELPERS, _residual)
-jacobian = compiled.Lazy(globals(), _ROW_HELPERS, _jacobian)
+residual = compiled.Lazy(globals(), _ROW_HELPERS, _residual, _ROW_INLINE)
+jacobian = compiled.Lazy(globals(), _ROW_HELPERS, _jacobian, _ROW_INLINE)

@@ -83,8 +83,11 @@ def _relative(A: np.ndarray, B: np.ndarray, M: np.ndarray, out: np.ndarray) -> N
     _log(M, out)
 
 
-_turned_loop = compiled.Lazy(globals(), ("_expm", "_times"), _turned)
-_relative_log_loop = compiled.Lazy(globals(), ("_log", "_relative"), _relative_log)
+#: the rotation helpers, inlined into every loop that calls them (here, the residual
+#: and the sweep): a call costs as much as their arithmetic
+INLINE = ("_log", "_expm", "_times", "_relative")
+_turned_loop = compiled.Lazy(globals(), ("_expm", "_times"), _turned, INLINE)
+_relative_log_loop = compiled.Lazy(globals(), ("_log", "_relative"), _relative_log, INLINE)
 
 
 def turned(w: np.ndarray, R: np.ndarray) -> np.ndarray:

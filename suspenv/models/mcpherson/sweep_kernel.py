@@ -17,8 +17,10 @@ equations, tolerances and rules are those of :meth:`AxleSolver.solve
 :func:`.residual_kernel._residual_row`; body columns of the Jacobian:
 :func:`.residual_kernel._row_jacobian`); the differences from the numpy path: the
 multiplier columns by forward differences of 1 N (the residual is linear in them but
-for a compliant rack's tie rods, which the numpy path differences too), the Jacobian
-inverted by Gauss-Jordan elimination (not LAPACK) and held in single precision as the
+for a compliant rack's tie rods, which the numpy path differences too; both sides'
+together where no compliant rack couples them), the Jacobian inverted by its two
+sides' blocks and their Schur complement, each by Gauss-Jordan elimination (not
+LAPACK), and held in single precision as the
 numpy path's shared inverses (also the static one, which the numpy path holds in
 double precision for the static solve), and the secant of the residual as the
 tangent predictor's load change. The converged states agree with the numpy path's
@@ -40,6 +42,7 @@ from suspenv.core import compiled
 from suspenv.models.mcpherson.residual_kernel import (  # the row's helpers: compiled too
     _BUSH_BODY,
     _ROW_HELPERS,
+    _ROW_INLINE,
     _bushing_loads,  # noqa: F401
     _constraints,  # noqa: F401
     _cross_add,  # noqa: F401
@@ -52,23 +55,35 @@ from suspenv.models.mcpherson.residual_kernel import (  # the row's helpers: com
     _rotated,  # noqa: F401
     _row_at,  # noqa: F401
     _row_jacobian,
+    _row_work,
 )
 from suspenv.models.mcpherson.rotation_kernel import _expm, _log, _relative, _times
 
 NS, NQ, NX = 33, 24, 66
+#: the inverse Jacobian's rows padded to a whole number of vector registers (the step's
+#: product vectorises without a remainder loop); the padding stays zero
+NP = 80
 #: status of a design: converged everywhere, or where it failed
 OK, NO_STATIC, NO_STEP, LOCKED = 0, 1, 2, 3
 
 
-def _factor(d, r, R, lam1, load, model, jac, out) -> bool:
+def _scratch() -> tuple:
+    """A design's scratch (made once per design, not per step): a residual (2, 33), a
+    step (66,), the step's single-precision sum (80,), two (3, 3) and a (3,), and the
+    residual row's (:func:`.residual_kernel._row_work`)."""
+    return (np.empty((2, NS)), np.empty(NX), np.empty(NP, np.float32), np.empty((3, 3)),
+            np.empty((3, 3)), np.empty(3), _row_work())  # fmt: skip
+
+
+def _factor(d, r, R, lam1, load, model, jac, out, ws) -> bool:
     """The inverse of the Jacobian (66, 66) of design ``d`` at ``r``, ``R``, ``lam1``
-    under ``load``, transposed, into ``out`` (66, 66) (single precision, as the numpy
-    path's shared inverses). False: the Jacobian is not finite or singular."""
+    under ``load``, transposed, into ``out[:, :66]`` (66, 80) (single precision, as the
+    numpy path's shared inverses; ``ws``: :func:`_scratch`). False: the Jacobian is not
+    finite or singular."""
     pad1, ext1, rack1 = load
     pack, off, k_bar_shear, cscale, extra0 = model[:5]
     h, exp_h, moves, move_start, scatter, scatter_start = jac
-    ws = (np.zeros((NX, NX)), np.empty(NX), np.empty(NX, np.int64))  # (freed on return)
-    JT = ws[0]
+    JT = np.zeros((NX, NX))
     turned = np.empty((2, 4, 3, 3, 3))
     for s in range(2):
         for b in range(4):
@@ -76,21 +91,10 @@ def _factor(d, r, R, lam1, load, model, jac, out) -> bool:
                 _times(exp_h[k], R[s, b], turned[s, b, k])
     _row_jacobian(
         d, r, R, turned, lam1, pad1, ext1, rack1, extra0, pack, off, k_bar_shear, cscale, h,
-        moves, move_start, scatter, scatter_start, JT.T,
+        moves, move_start, scatter, scatter_start, JT.T, ws[6],
     )  # fmt: skip
-    base = np.empty((2, NS))
-    res = np.empty((2, NS))
-    _res(d, r, R, lam1, load, model, base)
-    for s in range(2):  # the multiplier columns: forward differences of 1 N
-        for c in range(NS - NQ):
-            kept = lam1[0, s, c]
-            lam1[0, s, c] = kept + 1.0
-            _res(d, r, R, lam1, load, model, res)
-            lam1[0, s, c] = kept
-            for t in range(2):
-                for row in range(NS):
-                    JT[s * NS + NQ + c, t * NS + row] = res[t, row] - base[t, row]
-    if not _invert(ws):
+    _multiplier_columns(d, r, R, lam1, load, model, JT, ws)
+    if not _block_inverse(JT):
         return False
     for i in range(NX):
         for j in range(NX):
@@ -98,10 +102,35 @@ def _factor(d, r, R, lam1, load, model, jac, out) -> bool:
     return True
 
 
-def _res(d, r, R, lam1, load, model, out) -> None:
+def _multiplier_columns(d, r, R, lam1, load, model, JT, ws) -> None:
+    """The multiplier columns of the Jacobian (transposed, into the rows 24-32 and
+    57-65 of ``JT``) by forward differences of 1 N; both sides' multiplier ``c`` moved
+    together where the sides share none (a rigid rack: a side's residual reads its own
+    multipliers only), each alone where a compliant rack couples the tie rods."""
+    pack, off = model[0], model[1]
+    base, res = np.empty((2, NS)), np.empty((2, NS))
+    _res(d, r, R, lam1, load, model, base, ws[6])
+    together = off[14] < 0 or pack[off[14], 0, d] == 0.0
+    for s in range(1 if together else 2):
+        for c in range(NS - NQ):
+            kept = lam1[0, s, c], lam1[0, 1, c]
+            lam1[0, s, c] += 1.0
+            if together:
+                lam1[0, 1, c] += 1.0
+            _res(d, r, R, lam1, load, model, res, ws[6])
+            lam1[0, s, c], lam1[0, 1, c] = kept
+            for moved in range(2):
+                for t in range(2):
+                    if (t == moved) if together else (moved == s):
+                        for row in range(NS):
+                            JT[moved * NS + NQ + c, t * NS + row] = res[t, row] - base[t, row]
+
+
+def _res(d, r, R, lam1, load, model, out, work) -> None:
     """The residual (2, 33) of design ``d`` at ``r``, ``R``, ``lam1`` under ``load``
     into ``out`` (:func:`.residual_kernel._residual_row`; ``model``: the pack, its
-    offsets, the constants, then empty and zero stand-ins for absent inputs)."""
+    offsets, the constants, then empty and zero stand-ins for absent inputs; ``work``:
+    its scratch)."""
     pad1, ext1, rack1 = load
     pack, off, k_bar_shear, cscale, _, zeros2, zeros21 = model
     n_ext = ext1.shape[2] if ext1.shape[0] else 0
@@ -109,15 +138,78 @@ def _res(d, r, R, lam1, load, model, out) -> None:
     _residual_row(
         r, R, lam1[0], pad1[0], ext1[0] if n_ext else zeros21, n_ext,
         rack1[0] if has_rack else zeros2, has_rack, zeros21, False, pack, d, off, k_bar_shear,
-        cscale, out,
+        cscale, out, work,
     )  # fmt: skip
 
 
-def _invert(ws) -> bool:
-    """The matrix ``ws[0]`` (n, n) replaced by its inverse in place (Gauss-Jordan with
-    partial pivoting; ``ws[1]`` (n,) and ``ws[2]`` (n,) int scratch); False when a
-    pivot is zero or not finite."""
-    A, row, perm = ws
+def _block_inverse(A: np.ndarray) -> bool:
+    """The matrix ``A`` (66, 66) replaced by its inverse in place, by its 33 x 33 blocks
+    (a side's equations in a side's unknowns): ``P = A11^-1``, the Schur complement
+    ``S = A22 - A21 P A12`` inverted, then ``[[P + X S^-1 Y, -X S^-1], [-S^-1 Y,
+    S^-1]]`` with ``X = P A12``, ``Y = A21 P``. The sides are coupled by the anti-roll
+    bar (and a compliant rack) only, so ``A12`` and ``A21`` are mostly zero and their
+    zero rows and columns are skipped: about a third of the work of inverting ``A``
+    whole. Where ``A11`` is singular (the whole may not be), ``A`` is inverted whole
+    (:func:`_invert`). False: ``A`` is singular or not finite."""
+    n = NS
+    P, S = A[:n, :n].copy(), A[n:, n:].copy()
+    ws = (np.empty(n), np.empty(n, np.int64))
+    if not _invert(P, ws):
+        return _invert(A, (np.empty(NX), np.empty(NX, np.int64)))
+    X, Y = np.zeros((n, n)), np.zeros((n, n))
+    cols, rows = np.zeros(n, np.bool_), np.zeros(n, np.bool_)
+    _coupled(P, A[:n, n:], A[n:, :n], X, Y, S, cols, rows)
+    if not _invert(S, ws):
+        return False
+    A[n:, n:] = S
+    A[:n, n:] = 0.0
+    A[n:, :n] = 0.0
+    A[:n, :n] = P
+    for c in range(n):
+        if cols[c]:  # -X S^-1
+            for i in range(n):
+                for j in range(n):
+                    A[i, n + j] -= X[i, c] * S[c, j]
+        if rows[c]:  # -S^-1 Y
+            for i in range(n):
+                for j in range(n):
+                    A[n + i, j] -= S[i, c] * Y[c, j]
+    for c in range(n):  # P + X S^-1 Y = P - (-X S^-1) Y
+        if rows[c]:
+            for i in range(n):
+                for j in range(n):
+                    A[i, j] -= A[i, n + c] * Y[c, j]
+    return True
+
+
+def _coupled(P, B, C, X, Y, S, cols, rows) -> None:
+    """``X = P B``, ``Y = C P`` and ``S -= C X`` (each (33, 33)) over the non-zero
+    entries of the coupling blocks ``B`` and ``C`` only (:func:`_block_inverse`),
+    flagging ``X``'s non-zero columns in ``cols`` and ``Y``'s non-zero rows in
+    ``rows``."""
+    n = P.shape[0]
+    for k in range(n):
+        for c in range(n):
+            if B[k, c] != 0.0:
+                cols[c] = True
+                for i in range(n):
+                    X[i, c] += P[i, k] * B[k, c]
+            if C[c, k] != 0.0:
+                rows[c] = True
+                for j in range(n):
+                    Y[c, j] += C[c, k] * P[k, j]
+    for i in range(n):
+        for k in range(n):
+            if C[i, k] != 0.0:
+                for j in range(n):
+                    S[i, j] -= C[i, k] * X[k, j]
+
+
+def _invert(A: np.ndarray, ws: tuple) -> bool:
+    """The matrix ``A`` (n, n) replaced by its inverse in place (Gauss-Jordan with
+    partial pivoting; ``ws``: (n,) and (n,) int scratch); False when a pivot is zero
+    or not finite."""
+    row, perm = ws
     n = A.shape[0]
     for c in range(n):
         p, big = c, abs(A[c, c])
@@ -139,9 +231,8 @@ def _invert(ws) -> bool:
             f = A[i, c]
             if i != c and f != 0.0:
                 A[i, c] = 0.0
-                Ai = A[i]
                 for j in range(n):
-                    Ai[j] -= f * row[j]
+                    A[i, j] -= f * row[j]
     for c in range(n - 1, -1, -1):  # the row swaps undone on the columns
         p = perm[c]
         if p != c:
@@ -150,75 +241,74 @@ def _invert(ws) -> bool:
     return True
 
 
-def _step(JiT: np.ndarray, res: np.ndarray, tol: np.ndarray, dx: np.ndarray) -> float:
+def _step(JiT: np.ndarray, res: np.ndarray, tol: np.ndarray, dx: np.ndarray, acc) -> float:
     """The Newton step ``dx = -J^-1 res`` (66,) from the transposed inverse Jacobian
-    ``JiT`` (66, 66) (its rows added up in its single precision, which vectorises, as
-    the numpy path's products with its shared single-precision inverses), and its size:
-    the largest ``|dx| / tol`` (NaN when not finite)."""
-    acc = np.zeros(NX, np.float32)  # in the inverse's precision (vectorised)
-    for j in range(NX):
-        c = np.float32(-res[j // NS, j % NS])
-        if c != 0.0:
-            row = JiT[j]
-            for i in range(NX):
-                acc[i] += c * row[i]
-    dx[:] = acc
-    size = 0.0
+    ``JiT`` (66, 80) (its rows added up in its single precision, which vectorises, as
+    the numpy path's products with its shared single-precision inverses; ``acc`` (80,)
+    single-precision scratch), and its size: the largest ``|dx| / tol`` (NaN when not
+    finite)."""
+    acc[:] = 0.0
+    for s in range(2):
+        for k in range(NS):
+            c = np.float32(-res[s, k])
+            j = s * NS + k
+            for i in range(NP):
+                acc[i] += c * JiT[j, i]
+    size, finite = 0.0, True
     for i in range(NX):
+        dx[i] = acc[i]
         q = abs(dx[i]) / tol[i]
-        if not q < math.inf:
-            return math.nan
+        finite = finite and q < math.inf
         size = max(size, q)
-    return size
+    return size if finite else math.nan
 
 
-def _apply(r: np.ndarray, R: np.ndarray, lam1: np.ndarray, dx: np.ndarray, f: float) -> None:
+def _apply(r, R, lam1, dx, f, ws) -> None:
     """Move the state by ``f dx`` in place (translations, left rotation increments,
-    multipliers; :meth:`AxleSolver._apply`)."""
-    E = np.empty((3, 3))
-    M = np.empty((3, 3))
+    multipliers; :meth:`AxleSolver._apply`; ``ws``: :func:`_scratch`)."""
+    E = ws[3]
     for s in range(2):
         for b in range(4):
             q = s * NS + 6 * b
             for k in range(3):
                 r[s, b, k] += f * dx[q + k]
             _expm(f * dx[q + 3], f * dx[q + 4], f * dx[q + 5], E)
-            _times(E, R[s, b], M)
-            R[s, b] = M
+            _turn(E, R, R, s, b, s, b)
         for c in range(NS - NQ):
             lam1[0, s, c] += f * dx[s * NS + NQ + c]
 
 
-def _newton(d, r, R, lam1, load, model, jac, chord, own, tol, maxit, fresh):
+def _newton(d, r, R, lam1, load, model, jac, chord, own, settings, fresh, ws):
     """Newton's method of :meth:`AxleSolver.solve` on one design's row, in place:
-    chord steps with ``chord`` (1, 66, 66) (a transposed inverse Jacobian,
+    chord steps with ``chord`` (1, 66, 80) (a transposed inverse Jacobian,
     :func:`_factor`) until a step shrinks by less than half, from then on with the
-    row's own ``own`` ((1, 66, 66), made then; (0, 66, 66): none yet), refreshed
+    row's own ``own`` ((1, 66, 80), made then; (0, 66, 80): none yet), refreshed
     whenever a step shrinks by less than half; damped when fresh steps stop
-    shrinking. ``fresh``: ``chord`` is the Jacobian at the starting state. Returns
-    (True when a step smaller than the tolerances was taken, ``own``)."""
-    res = np.empty((2, NS))
-    dx = np.empty(NX)
+    shrinking. ``fresh``: ``chord`` is the Jacobian at the starting state; ``ws``:
+    :func:`_scratch`. Returns (True when a step smaller than the tolerances was taken,
+    ``own``)."""
+    tol, maxit = settings[0], settings[1]
+    res, dx, acc = ws[0], ws[1], ws[2]
     prev, alpha = math.inf, 1.0
     for _ in range(maxit):
-        _res(d, r, R, lam1, load, model, res)
-        size = _step(own[0] if own.shape[0] else chord[0], res, tol, dx)
+        _res(d, r, R, lam1, load, model, res, ws[6])
+        size = _step(own[0] if own.shape[0] else chord[0], res, tol, dx, acc)
         if math.isnan(size):
             return False, own
         refresh = size > 0.5 * prev and not fresh
         if refresh:
             if not own.shape[0]:
-                own = np.empty((1, NX, NX), np.float32)
-            if not _factor(d, r, R, lam1, load, model, jac, own[0]):
+                own = np.zeros((1, NX, NP), np.float32)
+            if not _factor(d, r, R, lam1, load, model, jac, own[0], ws):
                 return False, own
-            size = _step(own[0], res, tol, dx)
+            size = _step(own[0], res, tol, dx, acc)
             if math.isnan(size):
                 return False, own
         if fresh and size > 0.9 * prev:  # exact Newton cycles: damp
             alpha = max(0.5 * alpha, 1.0 / 64)
         fresh = refresh
         prev = size
-        _apply(r, R, lam1, dx, 1.0 if size < 1.0 else alpha)
+        _apply(r, R, lam1, dx, 1.0 if size < 1.0 else alpha, ws)
         if size < 1.0:
             return True, own
     return False, own
@@ -237,17 +327,17 @@ def _load_at(t, g, pad0_d, pad_off, ext, rack, load) -> None:
                 ext1[0, s, c] = ext[t, g, s, c]
 
 
-def _extrapolate(Gr, GR, Gl, rel, g, dirn, cubic, r, R, lam1) -> None:
+def _extrapolate(Gr, GR, Gl, rel, g, dirn, cubic, r, R, lam1, ws) -> None:
     """The state at grid point ``g`` extrapolated from those at ``g - dirn``,
     ``g - 2 dirn``, ``g - 3 dirn`` (quadratic) and ``g - 4 dirn`` (``cubic``), the
     rotations through the relative rotation vectors of consecutive states
     (extrapolated one order lower; kept in ``rel`` for the next steps,
-    :func:`_relative_at`), as the rig's predictor (``knc._extrapolate``)."""
+    :func:`_relative_at`), as the rig's predictor (``knc._extrapolate``; ``ws``:
+    :func:`_scratch`)."""
     a, b, c, e = g - dirn, g - 2 * dirn, g - 3 * dirn, g - 4 * dirn
-    E = np.empty((3, 3))
-    w = np.empty(3)
-    w1, w0 = _relative_at(GR, rel, a, dirn), _relative_at(GR, rel, b, dirn)
-    wm = _relative_at(GR, rel, c, dirn) if cubic else w0
+    E, M, w = ws[3], ws[4], ws[5]
+    w1, w0 = _relative_at(GR, rel, a, dirn, M), _relative_at(GR, rel, b, dirn, M)
+    wm = _relative_at(GR, rel, c, dirn, M) if cubic else w0
     for s in range(2):
         for k in range(4):
             if cubic:
@@ -260,7 +350,7 @@ def _extrapolate(Gr, GR, Gl, rel, g, dirn, cubic, r, R, lam1) -> None:
                     r[s, k, x] = 3.0 * (Gr[a, s, k, x] - Gr[b, s, k, x]) + Gr[c, s, k, x]
                     w[x] = 2.0 * w1[s, k, x] - w0[s, k, x]
             _expm(w[0], w[1], w[2], E)
-            _times(E, GR[a, s, k], R[s, k])
+            _turn(E, GR[a], R, s, k, s, k)
         for x in range(NS - NQ):
             if cubic:
                 v = 4.0 * (Gl[a, s, x] + Gl[c, s, x]) - 6.0 * Gl[b, s, x] - Gl[e, s, x]
@@ -269,12 +359,22 @@ def _extrapolate(Gr, GR, Gl, rel, g, dirn, cubic, r, R, lam1) -> None:
             lam1[0, s, x] = v
 
 
-def _relative_at(GR: np.ndarray, rel, x: int, dirn: int) -> np.ndarray:
+def _turn(E, A, out, s, b, s_out, b_out) -> None:
+    """``out[s_out, b_out] = E @ A[s, b]`` for rotations ``E`` (3, 3) and ``A``, ``out``
+    (2, 4, 3, 3) (indexed in place: no views; ``A`` may be ``out``)."""
+    for j in range(3):
+        m0 = E[0, 0] * A[s, b, 0, j] + E[0, 1] * A[s, b, 1, j] + E[0, 2] * A[s, b, 2, j]
+        m1 = E[1, 0] * A[s, b, 0, j] + E[1, 1] * A[s, b, 1, j] + E[1, 2] * A[s, b, 2, j]
+        m2 = E[2, 0] * A[s, b, 0, j] + E[2, 1] * A[s, b, 1, j] + E[2, 2] * A[s, b, 2, j]
+        out[s_out, b_out, 0, j], out[s_out, b_out, 1, j], out[s_out, b_out, 2, j] = m0, m1, m2
+
+
+def _relative_at(GR: np.ndarray, rel, x: int, dirn: int, M: np.ndarray) -> np.ndarray:
     """The rotation vectors (2, 4, 3) of ``GR[x] GR[x - dirn]^T`` body by body, from
-    ``rel`` (vectors (G, 2, 4, 3), made (G,)) or computed and kept there."""
+    ``rel`` (vectors (G, 2, 4, 3), made (G,)) or computed and kept there (``M`` (3, 3)
+    scratch)."""
     W, made = rel
     if not made[x]:
-        M = np.empty((3, 3))
         for s in range(2):
             for k in range(4):
                 _relative(GR[x, s, k], GR[x - dirn, s, k], M, W[x, s, k])
@@ -314,55 +414,58 @@ def _locked(d, r, R, pack, off, limits) -> bool:
     return False
 
 
-def _first_step(d, t, g, st, res0, inputs, model, jac, chord, settings):
+def _first_step(d, t, g, st, res0, inputs, model, jac, chord, settings, ws):
     """The first step of a leg, to grid point ``g``, from the static state ``st``
     (``res0`` its residual under the static input) by the tangent predictor; stored in
-    the grid arrays of ``st``. Returns (status, the row's own Jacobian)."""
+    the grid arrays of ``st`` (``ws``: :func:`_scratch`). Returns (status, the row's
+    own Jacobian)."""
     r, R, lam1, Gr, GR, Gl, load = st
     pad0_d, pad_off, ext, rack = inputs
-    tol, maxit, limits = settings
-    res1, dx = np.empty((2, NS)), np.empty(NX)
+    res1, dx = ws[0], ws[1]
     _load_at(t, g, pad0_d, pad_off, ext, rack, load)
-    _res(d, r, R, lam1, load, model, res1)
-    _step(chord[0], res1 - res0, tol, dx)
+    _res(d, r, R, lam1, load, model, res1, ws[6])
+    for s in range(2):
+        for k in range(NS):
+            res1[s, k] -= res0[s, k]
+    _step(chord[0], res1, settings[0], dx, ws[2])
     for i in range(NX):
         if not abs(dx[i]) < math.inf:
             dx[i] = 0.0
     rs, Rs, ls = r.copy(), R.copy(), lam1.copy()
-    _apply(rs, Rs, ls, dx, 1.0)
-    own = np.empty((0, NX, NX), np.float32)
-    conv, own = _newton(d, rs, Rs, ls, load, model, jac, chord, own, tol, maxit, False)
+    _apply(rs, Rs, ls, dx, 1.0, ws)
+    own = np.zeros((0, NX, NP), np.float32)
+    conv, own = _newton(d, rs, Rs, ls, load, model, jac, chord, own, settings, False, ws)
     Gr[g], GR[g], Gl[g] = rs, Rs, ls[0]
     return OK if conv else NO_STEP, own
 
 
-def _leg(d, t, dirn, i0, st, inputs, model, jac, chord, own, settings) -> int:
+def _leg(d, t, dirn, i0, st, inputs, model, jac, chord, own, settings, ws) -> int:
     """Steps 2 .. i0 of the leg of test ``t`` in direction ``dirn`` (its first step
-    and the static state in the grid arrays of ``st`` already), each stored there;
-    returns the design's status."""
+    and the static state in the grid arrays of ``st`` already), each stored there
+    (``ws``: :func:`_scratch`); returns the design's status."""
     r, R, lam1, Gr, GR, Gl, load = st
     pad0_d, pad_off, ext, rack = inputs
-    tol, maxit, limits = settings
     rel = (np.empty((Gr.shape[0], 2, 4, 3)), np.zeros(Gr.shape[0], np.int64))
     for j in range(2, i0 + 1):
         g = i0 + dirn * j
-        _extrapolate(Gr, GR, Gl, rel, g, dirn, j >= 3, r, R, lam1)
+        _extrapolate(Gr, GR, Gl, rel, g, dirn, j >= 3, r, R, lam1, ws)
         _load_at(t, g, pad0_d, pad_off, ext, rack, load)
-        conv, own = _newton(d, r, R, lam1, load, model, jac, chord, own, tol, maxit, False)
+        conv, own = _newton(d, r, R, lam1, load, model, jac, chord, own, settings, False, ws)
         if not conv:
             return NO_STEP
         Gr[g], GR[g], Gl[g] = r, R, lam1[0]
-    if _locked(d, r, R, model[0], model[1], limits):  # loads and deflections peak at the ends
+    if _locked(d, r, R, model[0], model[1], settings[2]):  # loads, deflections peak at the ends
         return LOCKED
     return OK
 
 
 def _design(d, inputs, model, jac, settings, lo, out) -> int:
-    """The sweep of design ``d`` (:func:`_sweep`); returns its status."""
+    """The sweep of design ``d`` (:func:`_sweep`; ``model``'s pack its own column, (K, 2,
+    1): read contiguously); returns its status."""
     ref0, pad0, pad_off, ext, rack = inputs
     r_out, R_out, l_out = out
-    tol, maxit, limits = settings
     i0 = (pad_off.shape[1] - 1) // 2
+    ws = _scratch()
     r = ref0[d].copy()
     R = np.zeros((2, 4, 3, 3))
     for s in range(2):
@@ -377,10 +480,10 @@ def _design(d, inputs, model, jac, settings, lo, out) -> int:
     )
     for s in range(2):
         load[0][0, s] = pad0[d, s]
-    chord = np.empty((1, NX, NX), np.float32)
-    if not _factor(d, r, R, lam1, load, model, jac, chord[0]):
+    chord = np.zeros((1, NX, NP), np.float32)
+    if not _factor(0, r, R, lam1, load, model, jac, chord[0], ws):
         return NO_STATIC
-    conv, chord = _newton(d, r, R, lam1, load, model, jac, chord, chord, tol, maxit, True)
+    conv, chord = _newton(0, r, R, lam1, load, model, jac, chord, chord, settings, True, ws)
     if not conv:
         return NO_STATIC
     G = pad_off.shape[1]  # every grid point's state (made after the static Jacobian: memory)
@@ -393,16 +496,15 @@ def _design(d, inputs, model, jac, settings, lo, out) -> int:
     for t in range(pad_off.shape[0]):
         Gr[i0], GR[i0], Gl[i0] = r, R, lam1[0]
         _load_at(t, i0, pad0[d], pad_off, ext, rack, load)
-        _res(d, r, R, lam1, load, model, res0)
+        _res(0, r, R, lam1, load, model, res0, ws[6])
         # the first steps of both legs (the second steps read both), then each leg on
-        up, own_up = _first_step(d, t, i0 + 1, st, res0, leg_inputs, model, jac, chord, settings)
-        down, own_down = _first_step(
-            d, t, i0 - 1, st, res0, leg_inputs, model, jac, chord, settings
-        )
+        legs = (leg_inputs, model, jac, chord)
+        up, own_up = _first_step(0, t, i0 + 1, st, res0, *legs, settings, ws)
+        down, own_down = _first_step(0, t, i0 - 1, st, res0, *legs, settings, ws)
         if up != OK or down != OK:
             return NO_STEP
         for dirn, own in ((1, own_up), (-1, own_down)):
-            status = _leg(d, t, dirn, i0, walk, leg_inputs, model, jac, chord, own, settings)
+            status = _leg(0, t, dirn, i0, walk, *legs, own, settings, ws)
             if status != OK:
                 return status
         for q in range(r_out.shape[1]):
@@ -450,18 +552,22 @@ def _sweep(
     n, 2, 4, 3), ``R_out`` (T, Q, n, 2, 4, 3, 3), ``l_out`` (T, Q, n, 2, 9) and every
     design's status (:data:`OK`, :data:`NO_STATIC`, :data:`NO_STEP`, :data:`LOCKED`)
     into ``status`` (n,)."""
-    model = (pack, off, k_bar_shear, cscale, np.empty((0, 2, 1)), np.zeros(2), np.zeros((2, 1)))
     jac = (h, exp_h, moves, move_start, scatter, scatter_start)
     settings = (tol, maxit, limits)
     inputs = (ref0, pad0, pad_off, ext, rack)
     for d in range(ref0.shape[0]):
+        own = np.ascontiguousarray(pack[:, :, d : d + 1])  # the design's column, contiguous
+        model = (own, off, k_bar_shear, cscale, np.empty((0, 2, 1)), np.zeros(2), np.zeros((2, 1)))
         status[d] = _design(d, inputs, model, jac, settings, lo, (r_out, R_out, l_out))
 
 
 _HELPERS = (
-    *_ROW_HELPERS, "_expm", "_factor", "_res", "_invert", "_step", "_apply", "_times", "_newton",
+    *_ROW_HELPERS, "_expm", "_scratch", "_factor", "_multiplier_columns", "_res",
+    "_block_inverse", "_coupled", "_invert", "_step", "_apply", "_turn", "_times", "_newton",
     "_load_at", "_extrapolate", "_relative_at", "_relative", "_locked", "_first_step", "_leg",
     "_design",
 )  # fmt: skip
+#: the helpers inlined into their callers: those of every step and every grid point
+_INLINE = (*_ROW_INLINE, "_scratch", "_res", "_step", "_apply", "_load_at", "_turn", "_relative_at")
 #: :func:`_sweep`, built ahead of time or compiled at its first call
-sweep = compiled.Lazy(globals(), _HELPERS, _sweep)
+sweep = compiled.Lazy(globals(), _HELPERS, _sweep, _INLINE)
