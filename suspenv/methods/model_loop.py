@@ -218,7 +218,7 @@ def refine(
     named: Sequence[str],
     x0: np.ndarray,
     polish_nfev: int = 150,
-    refit_nfev: int = 300,
+    refit_nfev: int = 250,
     say: Callable[[str], None] | None = None,
     pool: Any = None,
     progress: bool = False,
