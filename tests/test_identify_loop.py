@@ -423,3 +423,29 @@ def test_the_secant_polish_reaches_the_minimum_with_fewer_differenced_jacobians(
         np.testing.assert_array_equal(J, model.jacobian(stage.u)[1])
         got[broyden] = model.jacobians - 1
     assert got[True] < got[False], got
+
+
+def test_places_refitted_side_by_side_give_the_numbers_of_one_after_the_other():
+    """The near-tied places' refits (secant steps) share the two processes: the answers
+    are those of the refits one after the other, bit for bit, and each reaches the
+    minimum the differenced least squares reaches from the same start (reference: that
+    second solver; the stopping rule's own tolerance, one squared noise unit)."""
+    from suspenv.methods.curve_fit import RESTART_GAIN, polish
+    from suspenv.methods.model_loop import _refits, _start
+    from suspenv.runs.executors import ProcessPool
+
+    m, truth = measure_test_car(0, ("noise",))
+    x0 = truth.mean_design.copy()
+    v = resolve_vehicle(None)
+    x0[v.space().index("static_toe")] += 0.05
+    x0[v.space().index("tie_rod_inner_z")] += 2.0
+    frees = (["static_toe", "tie_rod_inner_z"], ["static_toe", "static_camber"])
+    models = [build_model(m, v, x0, free, False) for free in frees]
+    alone = _refits(models, x0, 60, None, False)
+    with ProcessPool(1) as pool:
+        shared = _refits(models, x0, 60, pool, False)
+    for a, b, model in zip(alone, shared, models, strict=True):
+        np.testing.assert_array_equal(a.u, b.u)
+        assert a.cost == b.cost and a.final.stop.startswith("converged")
+        ref, _, _ = polish(model, model.unit(x0), 60, prior=model.unit(_start(model, x0)))
+        assert abs(a.cost - ref.cost) < RESTART_GAIN, (a.cost, ref.cost)

@@ -91,7 +91,7 @@ DEFAULTS: dict[str, Any] = {
     "rerun_next": True,
     "diagnose": True,
     "loop": True,  # add what the residual screen names (sides apart, an effect) and refit
-    "loop_nfev": 15,  # evaluations of each near-tied place's refit (path-dependent: slow)
+    "loop_nfev": 250,  # secant steps of each near-tied place's refit (path-dependent: slow)
     "sheet": True,  # the identified car's K&C sheet with 95 % intervals
     "held_out": "",  # a rig test kept out of the fit and predicted ("": none; "auto")
     "figures": True,

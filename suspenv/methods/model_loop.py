@@ -25,12 +25,13 @@ Every valley the first fit polished goes through the sides apart and the place s
 and the one whose best place costs least is refitted: without the named physics the
 valleys cost nearly the same, with it they differ by orders of magnitude.
 
-Then all parameters, the design's and the effects', are polished together from the
-first fit's answer (least squares with the batched Jacobian and the same weak pull
-towards the start design as the first fit), and the residual is screened again. The
-kept place's refit then runs on by secant steps (Broyden's update of the differenced
-Jacobian: one rig loop per step instead of one per parameter), each restart from a
-differenced Jacobian, until a restart gains less than one squared noise unit.
+Then, for each near-tied place, all parameters, the design's and the effects', are
+polished together from the first fit's answer (least squares with the same weak pull
+towards the start design as the first fit) by secant steps: Broyden's update of a
+differenced Jacobian, one rig loop per step instead of one per parameter, each restart
+from a differenced Jacobian, until a restart gains less than one squared noise unit.
+The places' refits run side by side (one per process), each is judged after its own
+refit, and the residual is screened again.
 """
 
 from __future__ import annotations
@@ -43,7 +44,7 @@ from typing import Any
 import numpy as np
 
 from suspenv.core.space import Parameter
-from suspenv.methods.curve_fit import PRIOR_WEIGHT, RESTART_GAIN, CurveFit, CurveModel, polish
+from suspenv.methods.curve_fit import PRIOR_WEIGHT, CurveFit, CurveModel, polish
 from suspenv.models.effects import Effect
 
 #: residual families the loop models by adding an effect to the axle (the others: see
@@ -51,11 +52,10 @@ from suspenv.models.effects import Effect
 EFFECT_FAMILIES = ("loop", "progressive")
 #: the family that puts the sides apart
 SIDES_FAMILY = "lr_asymmetry"
-#: the kept place's continuation takes secant steps (one rig evaluation each, where a
-#: differenced Jacobian costs ``dim + 1``): its budget is this many times ``polish_nfev``
-SECANT_BUDGET = 3
-#: ... and each of its runs stops when a step changes the cost by less than this
-#: (relative, the first fit's: a secant step is cheap, the valley's floor is long)
+#: a place's refit takes secant steps (one rig evaluation each, where a differenced
+#: Jacobian costs ``dim + 1``); each of its runs stops when a step changes the cost by
+#: less than this (relative, the first fit's: a secant step is cheap, the valley's floor
+#: is long)
 SECANT_FTOL = 1e-5
 
 
@@ -218,7 +218,7 @@ def refine(
     named: Sequence[str],
     x0: np.ndarray,
     polish_nfev: int = 150,
-    refit_nfev: int = 15,
+    refit_nfev: int = 250,
     say: Callable[[str], None] | None = None,
     pool: Any = None,
     progress: bool = False,
@@ -227,8 +227,9 @@ def refine(
     """Add to ``fit.model`` what the screen named (families ``named``, strongest first)
     and refit; None when nothing named is modelled. ``x0``: the start design of the
     first fit (the polish's weak pull stays towards it); ``polish_nfev``: budget of the
-    sides-apart polish (path-independent, cheap), ``refit_nfev``: of the final refit
-    (each evaluation of a path-dependent model is a rig loop solved step by step);
+    sides-apart polish (path-independent, cheap), ``refit_nfev``: secant steps of each
+    near-tied place's refit (each evaluation of a path-dependent model is a rig loop
+    solved step by step);
     ``screen(model, x)``: the residual screen's named families at a design, asked again
     once the sides are apart (None: the families ``named`` stand).
 
@@ -272,11 +273,9 @@ def refine(
     options = tie_options(best.ties)
     if len(options) > 1:
         say(f"loop: near-tied places, each refitted in full: {' | '.join(map(_names, options))}")
-    say("loop: all parameters refitted together")
-    refits = [
-        _refit(_with_effects(plain, best.x, [e for _, e in o]), x0, refit_nfev, pool, progress)
-        for o in options
-    ]
+    say("loop: all parameters refitted together, by secant steps until converged")
+    models = [_with_effects(plain, best.x, [e for _, e in o]) for o in options]
+    refits = _refits(models, x0, refit_nfev, pool, progress)
     scores = [bic(f.cost, f.model.dim, f.model.size) for f in refits]
     pick = int(np.argmin(scores))
     changes += [f"{c.words} ({c.candidate})" for c, _ in options[pick]]
@@ -286,10 +285,6 @@ def refine(
             + "; ".join(f"{_names(o)}: {v:.1f}" for o, v in zip(options, scores, strict=True))
         )
     out = refits[pick]
-    # the places are told apart within the short budget; the kept one goes on until a
-    # restart gains less than one squared noise unit
-    say("loop: the kept place's refit continued to convergence")
-    out = _refit(out.model, x0, SECANT_BUDGET * polish_nfev, pool, progress, out)
     out.final.name = "refit with " + "; ".join(changes)
     return Refinement(changes, best.tried, out, time.perf_counter() - t0, skipped)
 
@@ -406,37 +401,35 @@ def _with_effects(model: CurveModel, x: np.ndarray, effects: Sequence[Effect]) -
     )
 
 
-def _refit(
-    model: CurveModel,
-    x0: np.ndarray,
-    nfev: int,
-    pool: Any,
-    progress: bool,
-    again: CurveFit | None = None,
-) -> CurveFit:
-    """All of ``model``'s parameters polished together from its base (``again``: from
-    that refit's answer by secant steps, restarted with a differenced Jacobian until a
-    restart gains less than :data:`RESTART_GAIN`), the weak pull towards the first fit's
-    start design ``x0`` (effects at their starts); ``nfev`` evaluations at most."""
-    model.pool = pool  # half of each path-dependent batch in a second process
+def _refits(
+    models: Sequence[CurveModel], x0: np.ndarray, nfev: int, pool: Any, progress: bool
+) -> list[CurveFit]:
+    """:func:`_refit` of each of ``models``, every second one in the second process when
+    there is one (a refit's secant steps are single rig loops: the places' refits, not a
+    batch's halves, share the two processes; the same numbers either way)."""
+    there = {i: pool.submit(_refit, m, x0, nfev) for i, m in enumerate(models) if pool and i % 2}
+    here = {i: _refit(m, x0, nfev, progress) for i, m in enumerate(models) if i not in there}
+    return [here[i] if i in here else there[i].result() for i in range(len(models))]
+
+
+def _refit(model: CurveModel, x0: np.ndarray, nfev: int, progress: bool = False) -> CurveFit:
+    """All of ``model``'s parameters polished together from its base by secant steps
+    (:func:`~suspenv.methods.curve_fit.polish` with Broyden's update), restarted with a
+    differenced Jacobian until a restart gains less than
+    :data:`~suspenv.methods.curve_fit.RESTART_GAIN`, the weak pull towards the first
+    fit's start design ``x0`` (effects at their starts); ``nfev`` evaluations at most.
+    The answer's Jacobian is a differenced one."""
     prior = model.unit(_start(model, x0))
-    # stop when a step gains less than one squared noise unit at a fit to the noise
-    # (each differenced path-dependent step costs a rig loop per parameter: no crawling
-    # along valleys); a secant step costs one rig loop: the first fit's tolerance
-    ftol = RESTART_GAIN / model.size if again is None else SECANT_FTOL
-    u0 = model.unit(model.base) if again is None else again.u
-    at = None if again is None else (again.residual, again.jacobian)
-    runs = 3 if again is None else nfev
+    u0 = model.unit(model.base)
     stage, r, J = polish(
         model,
         u0,
         nfev,
-        runs,
+        nfev,
         progress=progress,
         prior=prior,
-        ftol=ftol,
-        at_start=at,
-        broyden=again is not None,
+        ftol=SECANT_FTOL,
+        broyden=True,
     )
     return CurveFit(model, stage.u, model.designs(stage.u[None])[0], r, J, [stage], stage)
 
