@@ -113,10 +113,13 @@ def test_a_smooth_residual_above_the_limit_is_left_and_located():
 
 # ---------------------------------------------------------------- K&C: a strut stop
 def _knc(sides):
+    from benchmarks.knc_truth import add_strut_stop
     from suspenv.diagnosis.knc.truth import measure_truth
 
-    outside = [{"gap": 0.02, "k_stop": 2.0e4, "sides": sides}] if sides else None
-    return diagnose(measure_truth({}, seed=3, outside=outside), "knc")
+    recs = measure_truth({}, seed=3)
+    if sides:
+        add_strut_stop(recs, gap=0.02, k_stop=2.0e4, sides=sides)
+    return diagnose(recs, "knc")
 
 
 @pytest.mark.slow
