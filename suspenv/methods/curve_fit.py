@@ -41,7 +41,6 @@ import numpy as np
 
 from suspenv.core.errors import ValidationError
 from suspenv.core.space import DesignSpace, Parameter
-from suspenv.diagnosis.knc.family import PATH_DEPENDENT
 from suspenv.models.effects import Effect
 from suspenv.models.mcpherson.params import AxleConstants, build_axle
 from suspenv.rigs.knc import KCResult, run_tests
@@ -76,8 +75,6 @@ CHANNEL_UNITS = {
 }
 #: stiffness units: these parameters are mapped to the unit cube logarithmically
 STIFFNESS_UNITS = ("N/mm", "N*mm/deg", "N*m/rad")
-#: a batch of a path-dependent model is split between two processes from this many rows
-SPLIT_ROWS = 2
 #: forward-difference step in the unit cube (0.01 % of a parameter's range)
 FD_STEP = 1e-4
 #: residual of a design the rig cannot solve (noise units), so the polish steps back
@@ -294,8 +291,6 @@ class CurveModel:
             raise ValidationError(f"free parameters must be unique and not empty, got {names}")
         self.free = names
         self.free_index, self.sub = self._fitted(names)
-        #: an executor that solves half of a large path-dependent batch (None: none)
-        self.pool: Any = None
         self.orientation = dict(orientation or {})
         self.chunk = int(chunk)
         self.sigma: dict[str, float] = {}
@@ -508,29 +503,10 @@ class CurveModel:
             parts.append(v.reshape(v.shape[0], -1) / self.sigma[c])
         return np.concatenate(parts, axis=1)
 
-    def __getstate__(self) -> dict[str, Any]:
-        return {**self.__dict__, "pool": None}  # a process pool stays in its process
-
     def residuals_x(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[str]]:
         """Residuals (n, size) of designs X (see :meth:`full`; NaN rows where the rig
-        fails). With a process pool (:attr:`pool`) and a path-dependent model, the
-        second half of a batch of at least :data:`SPLIT_ROWS` rows is solved there."""
-        X = self.full(X)
-        if self.pool is not None and X.shape[0] >= SPLIT_ROWS and self._path_dependent:
-            half = X.shape[0] // 2
-            other = self.pool.submit(_residuals_of, self, X[half:])
-            R1, ok1, m1 = self._residuals_here(X[:half])
-            R2, ok2, m2 = other.result()
-            self.stats["designs"] += X.shape[0] - half
-            return np.vstack([R1, R2]), np.r_[ok1, ok2], m1 + m2
-        return self._residuals_here(X)
-
-    @property
-    def _path_dependent(self) -> bool:
-        return any(e.kind in PATH_DEPENDENT for e in self.effects)
-
-    def _residuals_here(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[str]]:
-        res, ok, msgs = self.simulate(X)
+        fails)."""
+        res, ok, msgs = self.simulate(self.full(X))
         R = self.predict(res) - self.measured
         R[~ok] = np.nan
         bad = ok & ~np.isfinite(R).all(axis=1)
@@ -575,11 +551,6 @@ class CurveModel:
     def block_rms(self, r: np.ndarray) -> dict[tuple[str, str], float]:
         """RMS of the scaled residual ``r`` (size,) per (test, channel): 1 = noise level."""
         return {(t, c): float(np.sqrt(np.mean(r[s] ** 2))) for t, c, s in self.blocks}
-
-
-def _residuals_of(model: CurveModel, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[str]]:
-    """:meth:`CurveModel.residuals_x` in a worker process."""
-    return model.residuals_x(X)
 
 
 def _call_groups(
