@@ -392,15 +392,16 @@ def minibus_effects_block(d: Json) -> str:
 
 
 def minibus_stops_table(d: Json) -> str:
-    """docs/minibus.md's criteria of the end stops' gain (``minibus_stop_criteria.json``):
-    per criterion the stop cells within target (front / rear), their range and the cells
-    the Gaussian gain misses (%)."""
+    """docs/minibus.md's criteria of the end stops' gain and the variants with their
+    remainder (``minibus_stop_criteria.json``): per row the stop cells within target
+    (front / rear), their range and the cells the Gaussian gain misses (%)."""
     lines = [
-        "| stop's gain | within 2 % (front / rear) | range (%) "
+        "| stop's gain (and remainder) | within 2 % (front / rear) | range (%) "
         "| low corner loaded F / R, 1010 loaded R (%) |",
         "|---|---|---|---|",
     ]
-    for c in d["summary"]["criteria"].values():
+    s = d["summary"]
+    for c in [*s["criteria"].values(), *s["remainder"].values()]:
         f, r, r2 = c["missed_by_gaussian_percent"]
         lines.append(
             f"| {c['label']} | {c['within_target']} ({c['within_target_front'].split('/')[0]}"

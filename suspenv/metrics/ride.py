@@ -217,18 +217,27 @@ def frequency_grid(
     return f, w, iso
 
 
+def road_terms(
+    f: np.ndarray, road: RandomRoad, vehicle: Minibus
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Road terms at frequencies f (Hz) inside the road band: the temporal PSD Gq
+    (m^2/Hz, one-sided, with the tyre enveloping), the rear wheels' delay factor
+    ``e^(-i 2 pi f L/v)`` and the left/right coherency rho (-)."""
+    v = road.speed
+    gq = temporal_psd(f, v, road.road_class)
+    if road.enveloping:
+        gq = gq * np.sinc(f / v * road.enveloping) ** 2
+    delay = np.exp(-2j * np.pi * f * vehicle.wheelbase / v)
+    return gq, delay, track_coherence(f / v, vehicle.track_front)
+
+
 @functools.lru_cache(maxsize=32)
 def _road_grid(road: RandomRoad, n_freq: int, vehicle: Minibus) -> tuple[np.ndarray, ...]:
     """Grid (f, weights, ISO mask) with the road terms on it: temporal PSD Gq (with the
     tyre enveloping), rear delay factor, left/right coherency, and Wk^2 in the ISO band.
     Cached per (road, grid size, vehicle); the arrays are read-only."""
     f, w, iso = frequency_grid(road, n_freq, vehicle)
-    v = road.speed
-    gq = temporal_psd(f, v, road.road_class)
-    if road.enveloping:
-        gq = gq * np.sinc(f / v * road.enveloping) ** 2
-    delay = np.exp(-2j * np.pi * f * vehicle.wheelbase / v)
-    rho = track_coherence(f / v, vehicle.track_front)
+    gq, delay, rho = road_terms(f, road, vehicle)
     wk2 = np.where(iso, weighting_magnitude(f, "Wk") ** 2, 0.0)
     out = (f, w, iso, gq, delay, rho, wk2)
     for a in out:
