@@ -411,7 +411,11 @@ ORDERS = 40
 #: uniform grid of the remainder's spectra (Hz): step (the covariances' period, 64 s,
 #: covers the slowest mode's decay) and top (above the stops' contact frequencies)
 F_STEP, F_TOP = 1.0 / 64.0, 128.0
-#: the remainder's variants: name -> (gain criterion, path, label)
+#: the remainder's variants: name -> (statistics of the stop: ``gaussian``, ``closure``
+#: (the closure's gain and remainder variance, the Gaussian mean force) or
+#: ``closure_consistent`` (:func:`closure_moments`: also the mean force); path of the
+#: remainder: ``filtered`` through the linear model, ``direct`` through the mass matrix
+#: only; label)
 REMAINDERS: dict[str, tuple[str, str, str]] = {
     "gaussian_filtered": (
         "gaussian",
@@ -425,13 +429,20 @@ REMAINDERS: dict[str, tuple[str, str, str]] = {
         "the same, the remainder orthogonal to every state (through the mass matrix only)",
     ),
     "closure_filtered": (
-        "potential_closure",
+        "closure",
         "filtered",
         "the closure's gain with a remainder of the closure's variance (Hermite "
         "spectrum) as a second excitation",
     ),
-    "closure_direct": (
-        "potential_closure",
+    "closure_direct": ("closure", "direct", "the same, the remainder orthogonal to every state"),
+    "closure_consistent_filtered": (
+        "closure_consistent",
+        "filtered",
+        "the closure for the mean force too (its density centred on the balance's mean), "
+        "gain and remainder as a second excitation",
+    ),
+    "closure_consistent_direct": (
+        "closure_consistent",
         "direct",
         "the same, the remainder orthogonal to every state",
     ),
@@ -464,12 +475,65 @@ def gaussian_remainder_variance(a: np.ndarray) -> np.ndarray:
     return linearisation.tail_moment(a, 2.0) - t1 * t1 - ndtr(-a) ** 2
 
 
+def _moments(w: np.ndarray, y: np.ndarray, force: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Mean force (N), gain ``E[F y]/E[y^2]`` (N/m) and remainder variance ``Var F -
+    E[F y]^2/E[y^2]`` (N^2) under the weights ``w`` (last axis) of :func:`_closure_density`."""
+    mean = (w * force).sum(-1)
+    fy, yy = (w * force * y).sum(-1), (w * y * y).sum(-1)
+    return mean, fy / yy, (w * (force - mean[..., None]) ** 2).sum(-1) - fy * fy / yy
+
+
 def closure_remainder_variance(k: np.ndarray, m: np.ndarray, s: np.ndarray) -> np.ndarray:
     """``Var F - E[F y]^2/E[y^2]`` (N^2) under the closure's density."""
-    w, y, force = _closure_density(k, m, s)
-    mean = (w * force).sum(-1, keepdims=True)
-    fy, yy = (w * force * y).sum(-1), (w * y * y).sum(-1)
-    return (w * (force - mean) ** 2).sum(-1) - fy * fy / yy
+    return _moments(*_closure_density(k, m, s))[2]
+
+
+#: secant steps that centre the closure's density on the spring's mean
+CENTRE_STEPS = 6
+
+
+def _closure_mean(k: np.ndarray, c: np.ndarray, s: np.ndarray) -> np.ndarray:
+    """Mean deflection (m) under the closure's density with its spring potential
+    centred at c."""
+    return c + (_closure_density(k, c, s)[0] * s[..., None] * _U).sum(-1)
+
+
+def closure_moments(k: np.ndarray, m: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, ...]:
+    """:func:`_moments` under the closure's density whose mean deflection is ``m``: its
+    spring potential centred at the root c of ``mean(c) = m`` (:func:`_closure_mean`,
+    rising in c), by the secant method from c = m and ``c = 2 m - mean(m)``
+    (:data:`CENTRE_STEPS` steps): the closure used for the mean force in the balance as
+    well as for the gain and the remainder."""
+    k, m, s = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (k, m, s)))
+    c0, e0 = m, _closure_mean(k, m, s) - m
+    c1 = m - e0
+    for _ in range(CENTRE_STEPS):
+        e1 = _closure_mean(k, c1, s) - m
+        slope = np.where(np.abs(e1 - e0) > 1e-15, (e1 - e0) / (c1 - c0 + 1e-300), 1.0)
+        c0, e0, c1 = c1, e1, c1 - e1 / np.where(slope > 1e-6, slope, 1.0)
+    return _moments(*_closure_density(k, c1, s))
+
+
+def _closure_stop_terms(
+    self: linearisation.ElementLinearisation, end: int, m: np.ndarray, sd: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """``ElementLinearisation._stop_terms`` by :func:`closure_moments` (the benchmark's
+    one bump stop per end)."""
+    mean, gain, _ = closure_moments(np.broadcast_to(rate_at_gap(self, end), m.shape), m, sd)
+    return mean, gain
+
+
+def _statistics(name: str) -> tuple[Any, Callable[..., np.ndarray] | None]:
+    """(context that sets the stops' mean force and gain, remainder variance (N^2) of
+    (k, m, s) or None for the Gaussian one) of a :data:`REMAINDERS` statistics name."""
+    if name == "gaussian":
+        return _patched(_gaussian), None
+    if name == "closure":
+        return _patched(_potential_closure), closure_remainder_variance
+    stop_terms = mock.patch.object(
+        linearisation.ElementLinearisation, "_stop_terms", _closure_stop_terms
+    )
+    return stop_terms, lambda k, m, s: closure_moments(k, m, s)[2]
 
 
 def stop_responses(
@@ -554,36 +618,31 @@ def remainder_mean_squares(
 def remainder_cells(reference: dict) -> dict[str, dict[str, object]]:
     """Part 3: the stop cells with the stops' remainder added (:data:`REMAINDERS`)."""
     X = designs()[1]
-    ref = _stop_reference(reference)
     f = np.arange(0.0, F_TOP + F_STEP / 2, F_STEP)
     values: dict[str, dict[str, np.ndarray]] = {name: {} for name in REMAINDERS}
-    for crit in ("gaussian", "potential_closure"):
+    for stats in dict.fromkeys(v[0] for v in REMAINDERS.values()):
+        context, variance = _statistics(stats)
         for s in STOP_SETS:
-            with _patched(CRITERIA[crit][0]):
+            with context:
                 sp, r, sig, lz = converged(X, SCENARIOS[s])
-            means = spring_means(lz, sig)
+                means = spring_means(lz, sig)
             H, direct = stop_responses(X, r, lz, f)
             S = deflection_spectra(H, f)
             sd = np.sqrt(np.einsum("nfii->ni", S[:, 1:-1]).real * F_STEP)
             scale = np.ones_like(sd)
-            if crit == "potential_closure":
-                k = np.hstack(
-                    [np.broadcast_to(rate_at_gap(lz, e), means[:, :2].shape) for e in (0, 1)]
+            if variance is not None:
+                k = [np.broadcast_to(rate_at_gap(lz, e), means[:, :2].shape) for e in (0, 1)]
+                scale = variance(np.hstack(k), means, sd) / (
+                    (K_STOP * sd) ** 2 * gaussian_remainder_variance((GAP - means) / sd)
                 )
-                a = (GAP - means) / sd
-                scale = closure_remainder_variance(k, means, sd) / (
-                    (K_STOP * sd) ** 2 * gaussian_remainder_variance(a)
-                )
+            Sr = remainder_spectra(S, means, scale)
             paths = dict(
-                zip(
-                    ("filtered", "direct"),
-                    remainder_mean_squares(H, direct, remainder_spectra(S, means, scale), f),
-                    strict=True,
-                )
+                zip(("filtered", "direct"), remainder_mean_squares(H, direct, Sr, f), strict=True)
             )
-            for name, (c, path, _) in REMAINDERS.items():
-                if c == crit:
+            for name, (st, path, _) in REMAINDERS.items():
+                if st == stats:
                     values[name][s] = np.sqrt(_aw(sp) ** 2 + paths[path])
+    ref = _stop_reference(reference)
     return {
         name: _cells_summary(label, _deviations(ref, values[name]))
         for name, (_, _, label) in REMAINDERS.items()

@@ -190,3 +190,30 @@ def test_stop_responses_against_the_method_and_the_mass_matrix():
     high = sc.stop_responses(X, r, lz, np.array([5000.0]))[0][:, 0, :2, 4:]
     acc = -((2 * np.pi * 5000.0) ** 2) * high
     np.testing.assert_allclose(acc.real, direct, rtol=1e-3, atol=1e-3 * abs(direct).max())
+
+
+@pytest.mark.parametrize("m, s", CASES)
+def test_closure_moments_centred_and_gaussian_limit(m, s):
+    """:func:`closure_moments`: its density's mean deflection is the given m (its
+    moments equal those at the centre an independent bisection finds, to 1e-6), a force
+    that only pushes back lowers the mean (so the potential's centre lies above m); for
+    a spring far stiffer than the stop its mean force, gain and remainder variance are
+    the Gaussian closed forms (stop_moments, the tail moments; the grid's kink error
+    1e-3, as above)."""
+    k, mm, ss = np.array(KS / 8), np.array(m), np.array(s)
+    mean, gain, var = sc.closure_moments(k, mm, ss)
+    w, y, force = sc._closure_density(k, mm, ss)  # uncentred: its mean lies below m
+    assert sc._closure_mean(k, mm, ss) < m
+    # the centred density reproduces the mean force the benchmark puts in the balance:
+    # find its centre independently, by bisection on the mean
+    lo, hi = m, m + 10 * s
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if sc._closure_mean(k, np.array(mid), ss) < m else (lo, mid)
+    ref = sc._moments(*sc._closure_density(k, np.array(0.5 * (lo + hi)), ss))
+    np.testing.assert_allclose([mean, gain, var], ref, rtol=1e-6)
+    assert mean > 0 and 0 < gain < KS and var > 0
+    f_g, k_g = sc.linearisation.stop_moments(GAP, KS, 1.0, ss, mm)
+    var_g = (KS * s) ** 2 * sc.gaussian_remainder_variance(np.array((GAP - m) / s))
+    limit = sc.closure_moments(np.array(1e14), mm, ss)
+    np.testing.assert_allclose(limit, [f_g, k_g, var_g], rtol=1e-3)
