@@ -1,53 +1,17 @@
-"""Design of experiments: a Latin hypercube over a design space, evaluated in batches.
-
-Designs are drawn in the unit cube [0, 1]^d (one stratum per sample in every
-dimension) and mapped to physical values by the problem's :class:`DesignSpace`.
+"""Designs of the unit cube [0, 1]^d evaluated in batches (the profile scans'
+evaluations; the pipeline's Latin hypercube is the ``lhs`` strategy, run and archived
+by :func:`suspenv.runs.loop.optimize`).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass
 
 import numpy as np
-from scipy.stats import qmc
 
 from suspenv.core.errors import ValidationError
 from suspenv.core.problem import Problem
 from suspenv.core.result import EvaluationBatch
-
-
-def latin_hypercube(n_samples: int, dim: int, seed: int | None = 0) -> np.ndarray:
-    """``n_samples`` Latin hypercube points in [0, 1]^dim, shape (n_samples, dim).
-
-    Each column holds exactly one point in each of the ``n_samples`` equal strata.
-    """
-    if int(n_samples) < 2:
-        raise ValidationError(f"`n_samples >= 2` must hold, but got n_samples={n_samples}")
-    if int(dim) < 1:
-        raise ValidationError(f"`dim >= 1` must hold, but got dim={dim}")
-    sampler = qmc.LatinHypercube(d=int(dim), rng=np.random.default_rng(seed))
-    return sampler.random(int(n_samples))
-
-
-@dataclass
-class DoEResult:
-    """A design of experiments and its evaluations.
-
-    Attributes:
-        unit: (n, d) designs in the unit cube.
-        x: (n, d) physical designs.
-        batch: the evaluations of all n designs (row-aligned with ``x``).
-    """
-
-    unit: np.ndarray
-    x: np.ndarray
-    batch: EvaluationBatch
-
-    @property
-    def valid(self) -> np.ndarray:
-        """(n,) rows that evaluated and are feasible."""
-        return self.batch.feasible & np.isfinite(self.batch.objectives).all(axis=1)
 
 
 def evaluate_in_batches(
@@ -84,17 +48,3 @@ def evaluate_in_batches(
         if bar is not None:
             bar.close()
     return EvaluationBatch.concatenate(parts)
-
-
-def run_doe(
-    problem: Problem,
-    n_samples: int = 500,
-    seed: int | None = 0,
-    batch_size: int = 100,
-    progress: bool = False,
-    on_batch: Callable[[int, EvaluationBatch], None] | None = None,
-) -> DoEResult:
-    """Latin hypercube of ``n_samples`` designs over ``problem.space``, evaluated in batches."""
-    unit = latin_hypercube(n_samples, problem.space.dim, seed)
-    batch = evaluate_in_batches(problem, unit, batch_size, progress, on_batch)
-    return DoEResult(unit=unit, x=problem.space.to_physical(unit), batch=batch)
