@@ -59,20 +59,6 @@ FIT_CHANNELS = (
     "contact_y",
     "contact_z",
 )
-#: units of the fitted channels (SI)
-CHANNEL_UNITS = {
-    "toe": "rad",
-    "camber": "rad",
-    "caster": "rad",
-    "kpi": "rad",
-    "tyre_fz": "N",
-    "wheel_centre_x": "m",
-    "wheel_centre_y": "m",
-    "wheel_centre_z": "m",
-    "contact_x": "m",
-    "contact_y": "m",
-    "contact_z": "m",
-}
 #: stiffness units: these parameters are mapped to the unit cube logarithmically
 STIFFNESS_UNITS = ("N/mm", "N*mm/deg", "N*m/rad")
 #: forward-difference step in the unit cube (0.01 % of a parameter's range)

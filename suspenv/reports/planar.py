@@ -197,16 +197,12 @@ def save_linkage_figure(
     outputs: Sequence[tuple[str, SweepOutputs]],
 ) -> Path:
     """Write :func:`linkage_figure` as PNG; returns the path."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     return save_figure(linkage_figure(geom, sweep, outputs), path, dpi=90)
 
 
 def save_curves_figure(path: str | Path, outputs: Sequence[tuple[str, SweepOutputs]]) -> Path:
     """All five curves on one PNG; returns the path."""
     plt = pyplot()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     fig, axes = plt.subplots(1, 5, figsize=(20, 4))
     plot_curves(list(axes), outputs)
     return save_figure(fig, path, dpi=100, tight=True)
