@@ -11,6 +11,7 @@ from suspenv.core import DesignSpace, Parameter
 from suspenv.methods.identification import (
     FixedRankSum,
     best_so_far,
+    evaluate_in_batches,
     identify,
     improvement_table,
     local_sensitivity,
@@ -20,7 +21,6 @@ from suspenv.methods.identification import (
     recovery_table,
     rerank_archive,
 )
-from suspenv.methods.tey2014.doe import evaluate_in_batches
 
 
 def test_rerank_uses_only_valid_rows():

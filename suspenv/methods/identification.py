@@ -27,6 +27,7 @@ import numpy as np
 
 from suspenv.core.errors import ValidationError
 from suspenv.core.problem import Problem
+from suspenv.core.result import EvaluationBatch
 from suspenv.core.space import DesignSpace
 
 
@@ -201,6 +202,28 @@ def recovery_table(
     ]
 
 
+def evaluate_in_batches(
+    problem: Problem,
+    unit: np.ndarray,
+    batch_size: int = 100,
+    progress: bool = False,
+    desc: str = "profiles",
+) -> EvaluationBatch:
+    """Evaluate unit-cube designs ``unit`` (n, d) ``batch_size`` rows at a time (each batch
+    vectorised), with a progress bar named ``desc`` when ``progress``."""
+    from tqdm.auto import tqdm
+
+    unit = problem.space.check_batch(unit, what="unit design batch")
+    if int(batch_size) < 1:
+        raise ValidationError(f"`batch_size >= 1` must hold, but got batch_size={batch_size}")
+    parts = []
+    with tqdm(total=unit.shape[0], desc=desc, unit="design", disable=not progress) as bar:
+        for start in range(0, unit.shape[0], int(batch_size)):
+            parts.append(problem.evaluate_unit(unit[start : start + int(batch_size)]))
+            bar.update(len(parts[-1]))
+    return EvaluationBatch.concatenate(parts)
+
+
 @dataclass
 class ProfileScan:
     """Total scaled mismatch along each parameter's whole range, others held fixed.
@@ -242,8 +265,6 @@ def profile_scan(
 
     ``scale`` holds one spread per entry of ``objectives``.
     """
-    from suspenv.methods.tey2014.doe import evaluate_in_batches
-
     space = problem.space
     x_center = space.check_batch(x_center)[0]
     if int(n_points) < 2:
