@@ -25,7 +25,7 @@ def test_batched_evaluation_equals_one_batch():
     np.testing.assert_array_equal(batch.objectives, whole.objectives)
 
 
-def test_run_doe_keeps_failed_and_infeasible_rows_aligned():
+def test_batches_keep_failed_and_infeasible_rows_aligned():
     problem = SyntheticIdentification()
     unit = latin_hypercube(200, 8, seed=0)
     batch = evaluate_in_batches(problem, unit, batch_size=64)
