@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from suspenv.analysis import compare, load_run, runs_table, tidy
-from suspenv.analysis.ioh import read_ioh
+from suspenv.analysis.ioh import HEADER
 from suspenv.cli.main import main
 from suspenv.core.errors import ValidationError
 from suspenv.core.result import EvaluationBatch
@@ -25,6 +25,42 @@ from suspenv.reports.analysis import write_comparison
 from suspenv.runs.archive import RunArchive
 from suspenv.runs.config import validate
 from suspenv.runs.runner import run_experiment
+
+
+def read_ioh(folder: Path) -> list[dict]:
+    """Parse the IOHprofiler export back: one dict per JSON meta file, with ``meta`` (the
+    JSON) and ``scenarios``: per scenario a list of (evaluations, raw_y) array pairs, in
+    order. Raises ValidationError when a ``.dat`` file disagrees with its JSON."""
+    out = []
+    for meta_path in sorted(Path(folder).rglob("IOHprofiler_f*.json")):
+        meta = json.loads(meta_path.read_text())
+        scenarios = []
+        for sc in meta["scenarios"]:
+            lines = (meta_path.parent / sc["path"]).read_text().splitlines()
+            runs: list[list[tuple[int, float]]] = []
+            for line in lines:
+                if line.strip() == HEADER:
+                    runs.append([])
+                elif line.strip():
+                    if not runs:
+                        raise ValidationError(f"{sc['path']}: data before the first header")
+                    e, y = line.split()
+                    runs[-1].append((int(e), float(y)))
+            if len(runs) != len(sc["runs"]):
+                raise ValidationError(
+                    f"{sc['path']}: {len(runs)} runs in the data, {len(sc['runs'])} in the JSON"
+                )
+            scenarios.append(
+                {
+                    "dimension": sc["dimension"],
+                    "runs": [
+                        (np.array([e for e, _ in r], int), np.array([y for _, y in r]))
+                        for r in runs
+                    ],
+                }
+            )
+        out.append({"path": meta_path, "meta": meta, "scenarios": scenarios})
+    return out
 
 
 def _run(out: Path, name: str, problem: dict, strategy: dict, seed: int, budget: int) -> Path:

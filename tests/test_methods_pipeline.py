@@ -6,13 +6,13 @@ import json
 
 import numpy as np
 import pytest
+from synthetic_problem import TRUTH, SyntheticIdentification
 
 from suspenv.core.errors import ValidationError
 from suspenv.methods.tey2014.pipeline import run_study, study_options
-from suspenv.problems.synthetic import TRUTH, SyntheticIdentification
 from suspenv.registry import pipeline_function
 
-SYNTHETIC = "suspenv.problems.synthetic:SyntheticIdentification"
+SYNTHETIC = "synthetic_problem:SyntheticIdentification"
 
 
 def _config(**study):

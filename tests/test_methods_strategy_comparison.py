@@ -5,10 +5,10 @@ from __future__ import annotations
 import json
 
 import numpy as np
+from synthetic_problem import SyntheticIdentification
 
 from suspenv.methods.identification import FixedRankSum
 from suspenv.methods.tey2014.strategy_comparison import compare_strategies
-from suspenv.problems.synthetic import SyntheticIdentification
 from suspenv.problems.views import ObjectiveSubset
 from suspenv.runs.archive import RunArchive
 

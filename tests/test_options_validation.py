@@ -8,13 +8,13 @@ import math
 
 import numpy as np
 import pytest
+from synthetic_problem import SyntheticIdentification
 
 from suspenv import list_problems, make_problem
 from suspenv.core.errors import ValidationError
 from suspenv.core.options import check_keywords, choice, integer, number, numbers, texts
 from suspenv.models.planar import geometry_from_dict, load_geometry
 from suspenv.problems.minibus import MinibusRideHandling
-from suspenv.problems.synthetic import SyntheticIdentification
 from suspenv.problems.views import ObjectiveSubset
 from suspenv.registry import list_strategies, make_strategy, problem_class, strategy_class
 

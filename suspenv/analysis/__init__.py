@@ -10,7 +10,7 @@
   runtime ECDF, performance profiles.
 - :mod:`~suspenv.analysis.indicators`: hypervolume, IGD, reference fronts.
 - :mod:`~suspenv.analysis.stats`: Friedman and Mann-Whitney with Holm correction.
-- :mod:`~suspenv.analysis.ioh`: IOHprofiler export (IOHanalyzer) and its reader.
+- :mod:`~suspenv.analysis.ioh`: IOHprofiler export (IOHanalyzer).
 
 Figures are drawn by :mod:`suspenv.reports.analysis`; definitions in ``docs/analysis.md``.
 """

@@ -1,4 +1,4 @@
-"""Export to the IOHprofiler data format that IOHanalyzer reads, and a reader for it.
+"""Export to the IOHprofiler data format that IOHanalyzer reads.
 
 Layout (the JSON format of IOHexperimenter 0.3.x, checked against the files its
 ``ioh.logger.Analyzer`` writes)::
@@ -32,8 +32,6 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-
-from suspenv.core.errors import ValidationError
 
 if TYPE_CHECKING:
     from suspenv.analysis.compare import Comparison
@@ -135,38 +133,3 @@ def _best_x(run: Any, index: int, measure: str) -> list[float]:
         return []
     return [float(v) for v in a["x"][index]]
 
-
-def read_ioh(folder: str | Path) -> list[dict[str, Any]]:
-    """Parse an IOHprofiler folder back: one dict per JSON meta file, with ``meta`` (the
-    JSON) and ``runs``: per scenario a list of (evaluations, raw_y) array pairs, in order.
-    Raises ValidationError when a ``.dat`` file disagrees with its JSON."""
-    out = []
-    for meta_path in sorted(Path(folder).rglob("IOHprofiler_f*.json")):
-        meta = json.loads(meta_path.read_text())
-        scenarios = []
-        for sc in meta["scenarios"]:
-            lines = (meta_path.parent / sc["path"]).read_text().splitlines()
-            runs: list[list[tuple[int, float]]] = []
-            for line in lines:
-                if line.strip() == HEADER:
-                    runs.append([])
-                elif line.strip():
-                    if not runs:
-                        raise ValidationError(f"{sc['path']}: data before the first header")
-                    e, y = line.split()
-                    runs[-1].append((int(e), float(y)))
-            if len(runs) != len(sc["runs"]):
-                raise ValidationError(
-                    f"{sc['path']}: {len(runs)} runs in the data, {len(sc['runs'])} in the JSON"
-                )
-            scenarios.append(
-                {
-                    "dimension": sc["dimension"],
-                    "runs": [
-                        (np.array([e for e, _ in r], int), np.array([y for _, y in r]))
-                        for r in runs
-                    ],
-                }
-            )
-        out.append({"path": meta_path, "meta": meta, "scenarios": scenarios})
-    return out

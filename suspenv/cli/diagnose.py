@@ -74,7 +74,7 @@ def _diagnose(args: argparse.Namespace) -> int:
     check_output_dir(out, args.overwrite)
     if target.family == "road":
         from suspenv.diagnosis.road import diagnose_road
-        from suspenv.reports.diagnosis import write_road_report
+        from suspenv.reports.diagnosis.road import write_road_report
 
         road = diagnose_road(target.recordings, heldout=target.holdout)
         paths = write_road_report(road, out)

@@ -77,10 +77,8 @@ MANIFEST = "knc.toml"
 SIGN_CONVENTION = "ISO 8855"
 SIDES = _knc.SIDES
 
-#: travel, compliance (force or moment) and steering tests of the format
+#: travel tests of the format
 TRAVEL_TESTS = _knc.TESTS
-FORCE_TESTS = _knc.FORCE_TESTS
-STEER_TESTS = _knc.STEER_TESTS
 #: every test the format knows: the rig's in-phase tests and the opposed ones
 KNOWN_TESTS: tuple[str, ...] = (*_knc.ALL_TESTS, *_knc.OPPOSED_TESTS)
 

@@ -4,6 +4,5 @@
 al. (2014) step by step. Curve identification fits the axle to whole K&C curves
 (:mod:`~suspenv.methods.identify`, :mod:`~suspenv.methods.curve_fit`,
 :mod:`~suspenv.methods.identifiability`); :mod:`~suspenv.methods.identification` holds
-the rank-sum identification steps both use. :mod:`~suspenv.problems.synthetic` is a small
-identification problem with a known answer for testing the methods.
+the rank-sum identification steps both use.
 """

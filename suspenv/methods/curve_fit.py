@@ -59,20 +59,6 @@ FIT_CHANNELS = (
     "contact_y",
     "contact_z",
 )
-#: units of the fitted channels (SI)
-CHANNEL_UNITS = {
-    "toe": "rad",
-    "camber": "rad",
-    "caster": "rad",
-    "kpi": "rad",
-    "tyre_fz": "N",
-    "wheel_centre_x": "m",
-    "wheel_centre_y": "m",
-    "wheel_centre_z": "m",
-    "contact_x": "m",
-    "contact_y": "m",
-    "contact_z": "m",
-}
 #: stiffness units: these parameters are mapped to the unit cube logarithmically
 STIFFNESS_UNITS = ("N/mm", "N*mm/deg", "N*m/rad")
 #: forward-difference step in the unit cube (0.01 % of a parameter's range)
@@ -662,7 +648,8 @@ class StageResult:
         }
 
 
-def _say(progress: bool, msg: str) -> None:
+def say(progress: bool, msg: str) -> None:
+    """Print a progress line ``msg`` to stderr when ``progress``."""
     if progress:
         print(msg, file=sys.stderr, flush=True)
 
@@ -717,7 +704,7 @@ def global_stage(
             best_f, best_u = float(f[i]), U[i].copy()
         history.append(best_f)
         if gen % 10 == 0:
-            _say(
+            say(
                 progress,
                 f"  global  gen {gen:4d}  evaluations {evals:5d}  best cost {best_f:.4g}  "
                 f"({time.perf_counter() - t0:.0f} s)",
@@ -796,7 +783,7 @@ def polish_stage(
         last[:] = [(u.copy(), r, J)]
         cache.clear()
         cache[key] = (r, J)
-        _say(
+        say(
             progress,
             f"  polish  Jacobian {counter['jac']:3d}{' + secant' * secant}"
             f"  cost {float(r @ r):.6g}  "
@@ -933,8 +920,8 @@ def fit_curves(
                     u,
                     pool.submit(polish, model, u, polish_nfev, prior=prior),
                 )
-                _say(progress, "polish from the start design: in a second process")
-            _say(
+                say(progress, "polish from the start design: in a second process")
+            say(
                 progress,
                 f"global stage: CMA-ES, {model.dim} parameters, budget {global_evaluations}",
             )
@@ -942,12 +929,12 @@ def fit_curves(
             stages.append(g)
             if on_stage:
                 on_stage(g)
-            _say(progress, f"  stopped: {g.stop} (cost {g.cost:.6g})")
+            say(progress, f"  stopped: {g.stop} (cost {g.cost:.6g})")
             polished.insert(0, ("CMA-ES best", g.u, None))
         best: tuple[StageResult, np.ndarray, np.ndarray] | None = None
         for label, u_start, done in polished:
             if done is None:
-                _say(progress, f"polish from the {label}: least squares with the batched Jacobian")
+                say(progress, f"polish from the {label}: least squares with the batched Jacobian")
                 done = polish(model, u_start, polish_nfev, progress=progress, prior=prior)
             else:
                 done = done.result()  # the polish from the start, run beside the global stage
@@ -956,7 +943,7 @@ def fit_curves(
             stages.append(p)
             if on_stage:
                 on_stage(p)
-            _say(progress, f"  {p.name} stopped: {p.stop} (cost {p.cost:.6g})")
+            say(progress, f"  {p.name} stopped: {p.stop} (cost {p.cost:.6g})")
             if best is None or p.cost < best[0].cost:
                 best = (p, r, J)
     assert best is not None  # at least the start was polished

@@ -22,11 +22,13 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from suspenv.core.errors import ValidationError
 from suspenv.core.problem import Problem
+from suspenv.core.result import EvaluationBatch
 from suspenv.core.space import DesignSpace
 
 
@@ -89,6 +91,15 @@ def best_so_far(values: np.ndarray) -> np.ndarray:
     v = np.where(np.isfinite(values), values, np.inf)
     out = np.minimum.accumulate(v)
     return np.where(np.isfinite(out), out, np.nan)
+
+
+def quality_items(quality: np.ndarray, valid: np.ndarray) -> dict[str, Any]:
+    """The run-summary items of a quality (n,) over the evaluations, ``valid`` rows only:
+    ``best_quality`` (None without one) and ``quality_curve`` (best so far, None before
+    the first valid row)."""
+    best = best_so_far(np.where(valid, quality, np.nan))
+    curve = [float(v) if np.isfinite(v) else None for v in best]
+    return {"best_quality": curve[-1] if curve else None, "quality_curve": curve}
 
 
 def rerank_archive(F: np.ndarray, valid: np.ndarray) -> np.ndarray:
@@ -201,6 +212,28 @@ def recovery_table(
     ]
 
 
+def evaluate_in_batches(
+    problem: Problem,
+    unit: np.ndarray,
+    batch_size: int = 100,
+    progress: bool = False,
+    desc: str = "profiles",
+) -> EvaluationBatch:
+    """Evaluate unit-cube designs ``unit`` (n, d) ``batch_size`` rows at a time (each batch
+    vectorised), with a progress bar named ``desc`` when ``progress``."""
+    from tqdm.auto import tqdm
+
+    unit = problem.space.check_batch(unit, what="unit design batch")
+    if int(batch_size) < 1:
+        raise ValidationError(f"`batch_size >= 1` must hold, but got batch_size={batch_size}")
+    parts = []
+    with tqdm(total=unit.shape[0], desc=desc, unit="design", disable=not progress) as bar:
+        for start in range(0, unit.shape[0], int(batch_size)):
+            parts.append(problem.evaluate_unit(unit[start : start + int(batch_size)]))
+            bar.update(len(parts[-1]))
+    return EvaluationBatch.concatenate(parts)
+
+
 @dataclass
 class ProfileScan:
     """Total scaled mismatch along each parameter's whole range, others held fixed.
@@ -242,8 +275,6 @@ def profile_scan(
 
     ``scale`` holds one spread per entry of ``objectives``.
     """
-    from suspenv.methods.tey2014.doe import evaluate_in_batches
-
     space = problem.space
     x_center = space.check_batch(x_center)[0]
     if int(n_points) < 2:

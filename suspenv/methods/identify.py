@@ -52,6 +52,7 @@ from suspenv.methods.curve_fit import (
     measured_curves,
     polish,
     rig_run,
+    say,
 )
 from suspenv.methods.identifiability import CandidateGain, Identifiability, assess, rank_tests
 from suspenv.methods.knc_sheet import SheetRow
@@ -350,13 +351,6 @@ class IdentifyResult:
     def curve_rms(self, r: np.ndarray | None = None) -> dict[tuple[str, str], float]:
         """RMS residual / noise per (test, channel), both wheels."""
         return self.model.block_rms(self.fit.residual if r is None else r)
-
-
-def _say(progress: bool, msg: str) -> None:
-    if progress:
-        import sys
-
-        print(msg, file=sys.stderr, flush=True)
 
 
 def build_model(
@@ -728,12 +722,12 @@ def run_identify(
     held_out: str = opts["held_out"]
     choice: dict[str, float] = {}
     if held_out == "auto":
-        _say(progress, "held-out test: the one the others determine best (at the start)")
+        say(progress, "held-out test: the one the others determine best (at the start)")
         held_out, choice = auto_held_out(measurement, vehicle, x0, truth, opts["free"])
         lap("held_out_choice")
     measurement, held, held_source = split_held_out(measurement, held_out, truth)
     model = build_model(measurement, vehicle, x0, opts["free"], two)
-    _say(
+    say(
         progress,
         f"identify: {len(model.tests)} tests, {len(model.sigma)} channels, {model.size} "
         f"residuals, {model.dim} parameters",
@@ -779,11 +773,11 @@ def run_identify(
         truth_vehicle=truth,
     )
     if opts["next_test"] and ident.not_identified():
-        _say(progress, "next test: Jacobians of the rig tests not measured")
+        say(progress, "next test: Jacobians of the rig tests not measured")
         _next_test(result, candidate_jacobians(model, fit.u), truth_map, progress)
         lap("next_test")
     if opts["diagnose"]:
-        _say(progress, "residual screen (K&C diagnosis signatures)")
+        say(progress, "residual screen (K&C diagnosis signatures)")
         result.diagnosis = screen_residual(model, measurement, fit.x)
         lap("diagnosis")
     if opts["loop"] and result.diagnosis and result.diagnosis.get("named"):
@@ -793,7 +787,7 @@ def run_identify(
         result.held_out = predict_held_out(result, held, held_source, choice)
         lap("held_out")
     if opts["sheet"]:
-        _say(progress, "K&C sheet: the identified car's metrics with 95 % intervals")
+        say(progress, "K&C sheet: the identified car's metrics with 95 % intervals")
         _sheet(result)
         lap("sheet")
     timings["total"] = time.perf_counter() - t_start
@@ -816,7 +810,7 @@ def _next_test(
     truth = result.truth_vehicle
     if truth is None or not opts["rerun_next"] or best is None:
         return
-    _say(progress, f"re-run with the {best.test} test added (test car, noisy)")
+    say(progress, f"re-run with the {best.test} test added (test car, noisy)")
     t0 = time.perf_counter()
     more = measure_truth(truth, [best.test], _travel_amplitude(model), model.tests[0].steps)
     from suspenv.measurements.knc_file import from_results
@@ -868,7 +862,7 @@ def _model_loop(result: IdentifyResult, progress: bool) -> None:
             result.x0,
             result.options["polish_nfev"],
             result.options["loop_nfev"],
-            say=lambda m: _say(progress, m),
+            say=lambda m: say(progress, m),
             pool=pool,
             progress=progress,
             screen=lambda model, x: [

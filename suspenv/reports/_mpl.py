@@ -26,10 +26,11 @@ def pyplot() -> ModuleType:
 
 def save_figure(fig: Any, path: Path | str, tight: bool = False, **savefig: Any) -> Path:
     """``fig.savefig`` to ``path`` atomically (:func:`suspenv.runs.run_dir.atomic_path`:
-    the old figure or the new one whole, never a part), after ``fig.tight_layout()`` when
-    ``tight``; then pyplot closes the figure, also when the write fails (it can still be
-    saved again). ``savefig``: its keywords."""
+    the old figure or the new one whole, never a part), its folder made first, after
+    ``fig.tight_layout()`` when ``tight``; then pyplot closes the figure, also when the
+    write fails (it can still be saved again). ``savefig``: its keywords."""
     try:
+        Path(path).parent.mkdir(parents=True, exist_ok=True)
         if tight:
             fig.tight_layout()
         with atomic_path(path) as tmp:

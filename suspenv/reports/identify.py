@@ -46,28 +46,13 @@ DRIVE_LABELS = {
     "N": ("load per wheel [N]", 1.0),
     "N*m": ("moment per wheel [N m]", 1.0),
 }
-CHANNEL_WORDS = {
-    "toe": "toe",
-    "camber": "camber",
-    "caster": "caster",
-    "kpi": "KPI",
-    "tyre_fz": "wheel load",
-    "wheel_centre_x": "wheel centre x",
-    "wheel_centre_y": "wheel centre y",
-    "wheel_centre_z": "wheel centre z",
-    "contact_x": "contact x",
-    "contact_y": "contact y",
-    "contact_z": "contact z",
-}
+#: a channel in words: its axis label without unit and sign
+CHANNEL_WORDS = {c: label.split(" [")[0] for c, (label, _) in AXIS_LABELS.items()}
 
 
 # ------------------------------------------------------------------ figures
 def _save(fig: Any, path: Path) -> Path:
-    plt = pyplot()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    save_figure(fig, path, dpi=100, bbox_inches="tight")
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=100, bbox_inches="tight")
 
 
 def _worst_first(result: IdentifyResult) -> list[str]:

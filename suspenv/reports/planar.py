@@ -73,8 +73,7 @@ def draw_linkage(
         web = name in labelled  # second and third sides of the lower-arm triangle
         width = (1.0 if web else 3.0) if alpha == 1 else (0.6 if web else 1.5)
         ax.plot(
-            [mm[a][0], mm[b][0]],
-            [mm[a][1], mm[b][1]],
+            *zip(mm[a], mm[b], strict=True),
             style,
             lw=width,
             color=colours[name],
@@ -82,23 +81,10 @@ def draw_linkage(
             label=name if label and not web else None,
         )
         labelled.add(name)
-    if not isinstance(geom, DoubleWishbone):  # the strut tube is part of the upright
-        ax.plot(
-            [mm["strut_lower"][0], mm["wheel_centre"][0]],
-            [mm["strut_lower"][1], mm["wheel_centre"][1]],
-            "-",
-            lw=2,
-            color="tab:green",
-            alpha=alpha,
-        )
-    ax.plot(
-        [mm["lower_outer"][0], mm["wheel_centre"][0]],
-        [mm["lower_outer"][1], mm["wheel_centre"][1]],
-        "-",
-        lw=2,
-        color="tab:green",
-        alpha=alpha,
-    )
+    # the upright (and, on a strut, its tube) to the wheel centre
+    tube = [] if isinstance(geom, DoubleWishbone) else ["strut_lower"]
+    for a in [*tube, "lower_outer"]:
+        ax.plot(*zip(mm[a], mm["wheel_centre"], strict=True), "-", lw=2, c="tab:green", alpha=alpha)
     # the wheel: edge-on disc from the contact point through the wheel centre
     camber = float(geom.static_camber) - theta
     r = 1e3 * float(geom.tyre_radius)
@@ -106,8 +92,7 @@ def draw_linkage(
     c = mm["contact"]
     top = c + 2 * r * up
     ax.plot(
-        [c[0], top[0]],
-        [c[1], top[1]],
+        *zip(c, top, strict=True),
         "-",
         lw=8,
         color="0.25",
@@ -197,16 +182,12 @@ def save_linkage_figure(
     outputs: Sequence[tuple[str, SweepOutputs]],
 ) -> Path:
     """Write :func:`linkage_figure` as PNG; returns the path."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     return save_figure(linkage_figure(geom, sweep, outputs), path, dpi=90)
 
 
 def save_curves_figure(path: str | Path, outputs: Sequence[tuple[str, SweepOutputs]]) -> Path:
     """All five curves on one PNG; returns the path."""
     plt = pyplot()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     fig, axes = plt.subplots(1, 5, figsize=(20, 4))
     plot_curves(list(axes), outputs)
     return save_figure(fig, path, dpi=100, tight=True)

@@ -192,8 +192,6 @@ def plot_elements(
     for ax in axes:
         ax.grid(True, alpha=0.3)
         ax.legend()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     return save_figure(fig, path, dpi=110, tight=True)
 
 

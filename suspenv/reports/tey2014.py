@@ -28,7 +28,6 @@ if TYPE_CHECKING:
 
 
 def _save(fig: Figure, path: Path) -> Path:
-    path.parent.mkdir(parents=True, exist_ok=True)
     return save_figure(fig, path, dpi=100, bbox_inches="tight")
 
 

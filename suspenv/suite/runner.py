@@ -124,29 +124,24 @@ def run_suite(
         configs.append(
             suite_config(f, i, s, seed, output, budget, (strategy_options or {}).get(s), workers)
         )
-    bar = None
-    if progress:
-        from tqdm.auto import tqdm
+    from tqdm.auto import tqdm
 
-        bar = tqdm(total=len(jobs), unit="run", desc="suite")
     runs = []
-    for (f, i, s, seed), config in zip(jobs, configs, strict=True):
-        run_dir, summary = run_experiment(config)
-        runs.append(
-            {
-                "function": f,
-                "instance": i,
-                "strategy": s,
-                "seed": seed,
-                "run_dir": str(run_dir),
-                "budget": config["budget"],
-                "n_evaluations": summary.get("n_evaluations"),
-            }
-        )
-        if bar is not None:
+    with tqdm(total=len(jobs), unit="run", desc="suite", disable=not progress) as bar:
+        for (f, i, s, seed), config in zip(jobs, configs, strict=True):
+            run_dir, summary = run_experiment(config)
+            runs.append(
+                {
+                    "function": f,
+                    "instance": i,
+                    "strategy": s,
+                    "seed": seed,
+                    "run_dir": str(run_dir),
+                    "budget": config["budget"],
+                    "n_evaluations": summary.get("n_evaluations"),
+                }
+            )
             bar.update(1)
-    if bar is not None:
-        bar.close()
     result = {
         "suite_version": SUITE_VERSION,
         "budget_scale": budget_scale,

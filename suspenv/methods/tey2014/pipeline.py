@@ -53,12 +53,12 @@ from suspenv.methods.identification import (
     IdentificationResult,
     LocalSensitivity,
     ProfileScan,
-    best_so_far,
     identify,
     improvement_table,
     local_sensitivity,
     objective_scale,
     profile_scan,
+    quality_items,
     recovery_table,
 )
 from suspenv.methods.tey2014.cluster_count import (
@@ -73,6 +73,7 @@ from suspenv.methods.tey2014.sensitivity import SensitivityResult, spearman_matr
 from suspenv.methods.tey2014.strategy_comparison import QUALITY_NAME
 from suspenv.problems.views import ObjectiveSubset, WithSignedResponses
 from suspenv.registry import report_function
+from suspenv.runs.quality import feasible
 from suspenv.runs.run_dir import write_file
 
 #: the ``[study]`` table of a config, with its defaults (the paper's settings)
@@ -161,10 +162,7 @@ class RunArrays:
 
     @property
     def valid(self) -> np.ndarray:
-        feas = self.ok & np.isfinite(self.objectives).all(axis=1)
-        if self.constraints.size:
-            feas &= np.nan_to_num(self.constraints, nan=1.0).max(axis=1) <= 0
-        return feas
+        return feasible(self.ok, self.constraints) & np.isfinite(self.objectives).all(axis=1)
 
 
 @dataclass
@@ -650,7 +648,6 @@ def run_tey2014_pipeline(config: dict[str, Any], run_dir: Path) -> dict[str, Any
     wall = time.perf_counter() - t0
     kept = study.kept
     tot = study.quality.subset(kept)(study.cmaes.objectives)  # kept columns only
-    curve = best_so_far(np.where(study.cmaes.valid, tot, np.nan))
     strategy = (config.get("strategy", {}) or {}).get("name") or "cmaes"
     # the keys every run summary has (``suspenv show`` / ``suspenv compare``)
     summary.update(
@@ -664,8 +661,7 @@ def run_tey2014_pipeline(config: dict[str, Any], run_dir: Path) -> dict[str, Any
         wall_time_s=wall,
         pipeline_wall_time_s=wall,
         quality_name=QUALITY_NAME,
-        best_quality=float(curve[-1]) if curve.size and np.isfinite(curve[-1]) else None,
-        quality_curve=[float(v) if np.isfinite(v) else None for v in curve],
+        **quality_items(tot, study.cmaes.valid),
         report=files[0] if files else None,
     )
     text = json.dumps(summary, indent=2, default=_json) + "\n"

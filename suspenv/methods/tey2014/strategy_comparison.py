@@ -21,8 +21,9 @@ from typing import Any
 import numpy as np
 
 from suspenv.core.problem import Problem
-from suspenv.methods.identification import FixedRankSum, best_so_far
+from suspenv.methods.identification import FixedRankSum, quality_items
 from suspenv.registry import report_function
+from suspenv.runs.quality import feasible
 from suspenv.runs.run_dir import write_json
 
 #: options per strategy unless the caller overrides them
@@ -71,10 +72,7 @@ def run_one(
         )
     with RunArchive(run_dir) as archive:
         a = archive.arrays()
-    valid = a["ok"] & np.isfinite(a["objectives"]).all(axis=1)
-    if a["constraints"].size:
-        valid &= np.nan_to_num(a["constraints"], nan=1.0).max(axis=1) <= 0
-    curve = best_so_far(np.where(valid, quality(a["objectives"]), np.nan))
+    valid = feasible(a["ok"], a["constraints"]) & np.isfinite(a["objectives"]).all(axis=1)
     summary = {
         "name": run_dir.name,
         "seed": int(seed),
@@ -87,8 +85,7 @@ def run_one(
         "n_feasible": int(valid.sum()),
         "objective_names": list(problem.objective_names),
         "quality_name": QUALITY_NAME,
-        "best_quality": float(curve[-1]) if curve.size and np.isfinite(curve[-1]) else None,
-        "quality_curve": [float(v) if np.isfinite(v) else None for v in curve],
+        **quality_items(quality(a["objectives"]), valid),
     }
     write_json(run_dir / "summary.json", summary)
     return summary

@@ -3,8 +3,8 @@
 One module per family: :mod:`.component` (damper, MR damper, friction guide, quarter car
 on a rig), :mod:`.knc` (the McPherson axle on a K&C rig), :mod:`.ride` (the minibus on
 ride tests) and :mod:`.road` (a measured road profile against ISO 8608).
-:func:`write_diagnosis_report` picks the writer by the diagnosis's ``family``; only that
-family's module is imported.
+:func:`write_diagnosis_report` picks the writer of the first three by the diagnosis's
+``family``; only that family's module is imported.
 """
 
 from __future__ import annotations
@@ -28,10 +28,3 @@ def write_diagnosis_report(diag: Any, out_dir: str | Path) -> list[Path]:
 
     return write_component_report(diag, Path(out_dir))
 
-
-def write_road_report(diag: Any, out_dir: str | Path) -> list[Path]:
-    """The report of a road-profile diagnosis (:func:`suspenv.reports.diagnosis.road.
-    write_road_report`)."""
-    from suspenv.reports.diagnosis.road import write_road_report as write
-
-    return write(diag, out_dir)

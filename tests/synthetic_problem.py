@@ -1,4 +1,5 @@
-"""A small identification problem with a known answer, for testing the study pipeline.
+"""A small identification problem with a known answer, for testing the study pipeline
+(the tests name it ``synthetic_problem:SyntheticIdentification``).
 
 Eight parameters, ten simulated metrics in four planted groups, each metric's objective
 the mismatch |simulated - measured| to targets made by a known truth design:
