@@ -48,13 +48,16 @@ from benchmarks.ride_mismatch import (
 from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.ride.model import (
     OUTPUT_CHANNELS,
+    SAMPLE_RATE,
     MinibusRideAdapter,
+    half_grid_recording,
     pulse_inputs_recording,
-    random_road_inputs_recording,
     ride_effect,
 )
 from suspenv.measurements import Recording, save_recording
 from suspenv.models.effects import Effect
+from suspenv.models.minibus import REFERENCE_MINIBUS
+from suspenv.rigs.ride import RandomRoad, random_road_inputs
 
 #: concealed-effect kinds the generator draws from (None = no effect)
 TRUTH_KINDS = ("bump_stop", "leaf_friction", "damper_friction", "seat_mount")
@@ -234,3 +237,33 @@ def write_ride_case(case: RideCase, case_dir: str | Path, truth_dir: str | Path)
     tp = truth_dir / f"{case.name}.truth.json"
     tp.write_text(json.dumps(case.truth.to_dict(), indent=2))
     return [*paths, tp]
+
+
+def random_road_inputs_recording(
+    speed_kmh: float = 60.0,
+    road_class: str = "C",
+    duration_s: float = 6.0,
+    seed: int = 0,
+    name: str | None = None,
+) -> Recording:
+    """Inputs-only recording of a random-road run (1 s settling included at the start)."""
+    road = RandomRoad(
+        road_class=road_class,
+        speed_kmh=speed_kmh,
+        duration_s=duration_s,
+        settle_s=1.0,
+        sample_rate=SAMPLE_RATE,
+        seed=seed,
+    )
+    z, _ = random_road_inputs(road, REFERENCE_MINIBUS)
+    z = z - z[0]  # start from rest on the local road level
+    meta = {
+        "speed_kmh": float(speed_kmh),
+        "road_class": road_class,
+        "load_case": "no_load",
+        "road_seed": int(seed),
+        "settle_s": 1.0,
+    }
+    return half_grid_recording(
+        z, name or f"random_{road_class}_{speed_kmh:g}kmh", "random_road", meta
+    )

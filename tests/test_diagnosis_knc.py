@@ -234,7 +234,7 @@ def test_held_out_other_amplitude_for_friction():
 
 
 def test_cli_targets(tmp_path):
-    from suspenv.diagnosis.targets import resolve_target
+    from suspenv.cli.targets import resolve_target
 
     target = resolve_target("knc-blind:12")
     recs = target.recordings

@@ -190,7 +190,7 @@ def test_cli_routes_road_profiles_and_declines_others(shared_data, tmp_path, mon
 
     import suspenv.diagnosis.road as road_mod
     from suspenv.cli.main import main
-    from suspenv.diagnosis.targets import resolve_target
+    from suspenv.cli.targets import resolve_target
 
     # routing only: skip the ride-model runs (covered by the test above)
     monkeypatch.setattr(road_mod, "diagnose_road", functools.partial(diagnose_road, ride=False))

@@ -13,12 +13,12 @@ must be refused at construction.
 import numpy as np
 import pytest
 
+from benchmarks.ride_truth import random_road_inputs_recording
 from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.ride.model import (
     _batch,
     half_step_inputs,
     pulse_inputs_recording,
-    random_road_inputs_recording,
     ride_effect,
 )
 from suspenv.models.minibus import STUDY_PICK, ride_kernel, vehicle_parameters

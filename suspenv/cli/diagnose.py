@@ -6,7 +6,7 @@ TARGET is a recording file (``.npz``, see ``docs/recordings.md``, or a real-data
 ``mr_damper``, ``damper_dyno``, ``road_profile``; read from ``$SUSPENV_DATA`` or
 ``../shared/data``), K&C rig recordings of the McPherson axle (a ``.npz`` file or folder
 of them, or ``knc-blind:SEED`` for a generated blind case), minibus ride recordings, or a
-road profile (``.txt``); see :mod:`suspenv.diagnosis.targets`. Writes ``report.md`` (with
+road profile (``.txt``); see :mod:`suspenv.cli.targets`. Writes ``report.md`` (with
 PNG figures) and ``diagnosis.json`` into ``--out`` (default ``diagnosis_<name>``, the name
 made a plain file name).
 
@@ -66,7 +66,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _diagnose(args: argparse.Namespace) -> int:
-    from suspenv.diagnosis.targets import resolve_target
+    from suspenv.cli.targets import resolve_target
     from suspenv.measurements.paths import check_output_dir, plain_file_name
 
     target = resolve_target(args.recording, args.holdout, args.model, args.data_dir)

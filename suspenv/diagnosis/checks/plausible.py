@@ -16,7 +16,7 @@ Units: SI (speeds [m/s], displacements [m], forces [N]).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Container, Sequence
 from typing import Any
 
 import numpy as np
@@ -28,6 +28,17 @@ from suspenv.diagnosis.component.motion import stroke
 from suspenv.diagnosis.component.refit import SIZE_Z, parameter_and_error, refitted_element
 from suspenv.diagnosis.fitting import FitResult
 from suspenv.diagnosis.split import Split
+
+
+def _judged_element(
+    candidate: str, ext: FitResult, kinds: Container[str]
+) -> tuple[str, Any] | None:
+    """(kind, the refitted element at its fitted values) of ``candidate`` in ``ext`` when
+    its kind is among ``kinds`` (those a rule judges) and the refit holds it; None
+    otherwise (the rule does not apply)."""
+    kind = candidate.partition("@")[0]
+    element = refitted_element(ext, kind) if kind in kinds else None
+    return None if element is None else (kind, element)
 
 
 def _fitted_with_covariance(
@@ -113,14 +124,11 @@ def check_step_or_knee(candidate: str, ext: FitResult, vmax: float) -> None:
     this reason) so the other kind, refitted
     in the same round, is named.
     """
-    kind = candidate.partition("@")[0]
-    width_name = TRANSITION_WIDTH.get(kind)
-    if width_name is None or vmax <= 0:
+    found = _judged_element(candidate, ext, TRANSITION_WIDTH) if vmax > 0 else None
+    if found is None:
         return
-    element = refitted_element(ext, kind)
-    if element is None:
-        return
-    width = float(np.ravel(element.params[width_name])[0])
+    kind, element = found
+    width = float(np.ravel(element.params[TRANSITION_WIDTH[kind]])[0])
     frac = width / vmax
     is_friction = kind != "digressive_damping"
     if is_friction and frac > FRICTION_MAX_FRACTION:
@@ -155,20 +163,15 @@ def hysteresis_transition(kind: str, params: dict[str, Any]) -> float | None:
     return None
 
 
-def fitted_loop_width(kind: str, ext: FitResult) -> float | None:
-    """The transition length [m] of the refitted hysteresis element of ``kind`` in
-    ``ext`` (:func:`hysteresis_transition`); None for another kind or no such element."""
-    element = refitted_element(ext, kind)
-    return None if element is None else hysteresis_transition(kind, element.params)
-
-
 def _loop_narrower_than(candidate: str, ext: FitResult, limit: float) -> tuple[str, float] | None:
     """(kind, transition length [m]) of the hysteresis element refitted for ``candidate``
     in ``ext`` when its loop completes within ``limit`` [m] (> 0); None otherwise (no
-    such element, a wider loop, or no limit)."""
-    kind = candidate.partition("@")[0]
-    width = fitted_loop_width(kind, ext) if limit > 0 else None
-    return None if width is None or width >= limit else (kind, width)
+    such element, a wider loop, or no limit; :func:`hysteresis_transition`)."""
+    found = _judged_element(candidate, ext, ("dahl_hysteresis", "bouc_wen_hysteresis"))
+    if found is None or not limit > 0:
+        return None
+    width = hysteresis_transition(found[0], found[1].params)
+    return None if width is None or width >= limit else (found[0], width)
 
 
 def fits_presliding(model: Any, candidates: Sequence[str]) -> bool:
@@ -344,16 +347,13 @@ def _branch_base(candidate: str, ext: FitResult) -> tuple[str, float, float, flo
     """(name of the base viscous parameter, its value [N s/m], its standard error, the
     branch's ``c_m`` [N s/m]) of a Maxwell refit; None for another candidate, a model
     without a viscous base parameter (``viscous_parameter``) or an error not computed."""
-    kind = candidate.partition("@")[0]
+    found = _judged_element(candidate, ext, ("maxwell_viscoelastic",))
     name = getattr(ext.model, "viscous_parameter", "")
     fitted = ext.params()
-    if kind != "maxwell_viscoelastic" or name not in fitted:
+    if found is None or name not in fitted or not np.isfinite(fitted[name]["stderr"]):
         return None
     c, sd = fitted[name]["value"], fitted[name]["stderr"]
-    element = refitted_element(ext, kind)
-    if element is None or not np.isfinite(sd):
-        return None
-    return name, float(c), float(sd), float(np.ravel(element.params["c_m"])[0])
+    return name, float(c), float(sd), float(np.ravel(found[1].params["c_m"])[0])
 
 
 #: the parameters that give each element kind its size, all with zero for "no element"
@@ -391,16 +391,13 @@ def check_resolved_size(candidate: str, ext: FitResult) -> None:
     refit's new start. Raises :class:`ValidationError` (the hypothesis is recorded as
     failed with this reason).
     """
-    kind = candidate.partition("@")[0]
-    sizes = ELEMENT_SIZE.get(kind)
-    if sizes is None:
+    found = _judged_element(candidate, ext, ELEMENT_SIZE)
+    if found is None:
         return
-    element = refitted_element(ext, kind)
-    if element is None:
-        return
+    kind, element = found
     fitted = ext.params()
     seen = []
-    for q in sizes:
+    for q in ELEMENT_SIZE[kind]:
         key = f"{element.name}.{q}"
         if key not in fitted:  # a size held fixed is not judged here
             return
@@ -456,12 +453,10 @@ def check_stiction_decays(
     reason); a friction step of another kind refitted in the same round can still be
     named.
     """
-    kind = candidate.partition("@")[0]
-    if kind not in STICTION_KINDS or vmax <= 0:
+    found = _judged_element(candidate, ext, STICTION_KINDS) if vmax > 0 else None
+    if found is None:
         return
-    element = refitted_element(ext, kind)
-    if element is None:
-        return
+    kind, element = found
     v_s = float(np.ravel(element.params["v_s"])[0])
     if not rounded and v_s <= FRICTION_MAX_FRACTION * vmax:
         return
@@ -503,15 +498,13 @@ def check_breakaway_recorded(candidate: str, ext: FitResult, sp: Split) -> None:
     :class:`ValidationError` (the hypothesis is recorded as failed with this reason).
     Models without a recorded ``force`` channel are not judged.
     """
-    kind = candidate.partition("@")[0]
-    if kind not in STICTION_KINDS:
-        return
-    element = refitted_element(ext, kind)
+    found = _judged_element(candidate, ext, STICTION_KINDS)
     forces = [
         np.asarray(r.outputs["force"], float) for r in sp.recordings() if "force" in r.outputs
     ]
-    if element is None or not forces:
+    if found is None or not forces:
         return
+    kind, element = found
     f_s = float(np.ravel(element.params["f_s"])[0])
     largest = max(float(np.max(np.abs(f))) for f in forces if f.size)
     if f_s <= largest:

@@ -328,24 +328,6 @@ class ComponentFamily(OptionalSteps):
         screen_families: refit the candidates of this many signature families with the
             strongest signatures per round (the rest are reported by signature only).
         max_nfev: budget of each fit.
-        check_asymmetry: where a digressive damper curve is named and bump/rebound
-            asymmetry is a candidate not yet named, test the asymmetric curve against
-            the symmetric one plus a constant force; when supported it is named too.
-        check_residual: after the search, test whether the residual left is at the noise
-            floor (:func:`~suspenv.diagnosis.component.residual_left.residual_left`);
-            if not, the verdict says "unexplained residual above noise" and names no
-            element with confidence.
-        check_tails: apply the residual check's tail rule. Where the motion channels
-            were low-passed (:attr:`motion_lowpass_hz`) the prediction lacks the
-            motion's content above the cut-off, which leaves large residual samples at
-            the motion's sharpest features even where the model is right (on the
-            retired independent sets, servo-guide controls with motion low-passed at
-            16 Hz had up to 14 samples beyond ten robust scales): the rule then reads
-            the residual low-passed at that cut-off, where the part moves
-            (:func:`~suspenv.diagnosis.component.residual_left.residual_left`).
-        check_drift: after the search, judge every named element again beside a zero
-            drift of more shape than the baseline's and withdraw one no longer
-            significant (:mod:`~suspenv.diagnosis.component.drift_check`).
         rule: the decision rule (default :data:`COMPONENT_RULE`).
     """
 
@@ -353,10 +335,6 @@ class ComponentFamily(OptionalSteps):
     max_effects: int = 2
     screen_families: int | None = None
     max_nfev: int | None = None
-    check_asymmetry: bool = True
-    check_residual: bool = True
-    check_tails: bool = True
-    check_drift: bool = True
     rule: DecisionRule = COMPONENT_RULE
     name: str = field(default="component", init=False)
     #: what the last :meth:`prepare` read about the rig (None for a model instance)
@@ -736,8 +714,7 @@ class ComponentFamily(OptionalSteps):
         one plus a constant force (:mod:`~suspenv.diagnosis.component.asymmetry`)."""
         o, setup, rule = ctx.outcome, ctx.setup, self.rule
         if not (
-            self.check_asymmetry
-            and "digressive_damping" in [h.kind for h in o.named]
+            "digressive_damping" in [h.kind for h in o.named]
             and "damper_asymmetry" in setup.candidates
             and "damper_asymmetry" not in {h.family for h in o.named}
         ):
@@ -768,7 +745,7 @@ class ComponentFamily(OptionalSteps):
         """The named elements judged again beside a zero drift of more shape
         (:mod:`~suspenv.diagnosis.component.drift_check`)."""
         o = ctx.outcome
-        if not (self.check_drift and o.named):
+        if not o.named:
             return None
         final, gone = judge_beside_drift(
             o.current, o.named, ctx.setup.split, self.budget, self.rule
@@ -780,15 +757,17 @@ class ComponentFamily(OptionalSteps):
     ) -> tuple[list[Left], list[ResidualLeft]]:
         """The component's noise model for the shared residual rule: per output channel
         the cycle-to-cycle state test and the tail rule of the final model
-        (:func:`~suspenv.diagnosis.component.residual_left.residual_left`); none where
-        :attr:`check_residual` is off."""
-        if not self.check_residual:
-            return [], []
+        (:func:`~suspenv.diagnosis.component.residual_left.residual_left`). Where the
+        motion channels were low-passed (:attr:`motion_lowpass_hz`) the prediction lacks
+        the motion's content above the cut-off, which leaves large residual samples at the
+        motion's sharpest features even where the model is right (servo-guide controls
+        with motion low-passed at 16 Hz had up to 14 samples beyond ten robust scales):
+        the tail rule then reads the residual low-passed at that cut-off, where the part
+        moves."""
         left = residual_left(
             outcome.current,
             setup.split,
             alpha,
-            tails=self.check_tails,
             lowpass_hz=self.motion_lowpass_hz,
             recorded=self.recorded_outputs or None,
         )
@@ -798,10 +777,8 @@ class ComponentFamily(OptionalSteps):
         """A force missing at low speed that no library element takes up
         (:mod:`~suspenv.diagnosis.component.dead_band`); where the motion was low-passed,
         how the residual rule reads the residual (:meth:`residual_left`)."""
-        if not self.check_residual:
-            return None
         found, cut = Conclusion(), self.motion_lowpass_hz
-        if self.check_tails and cut is not None:
+        if cut is not None:
             found.findings["tail_rule"] = (
                 f"applied to the residual low-passed at {cut:.3g} Hz, where the motion "
                 "channels were low-passed (the prediction lacks the motion's content "

@@ -5,8 +5,8 @@ refit starts from the baseline's fitted values for the parameters the two models
 share, and from values read off the residual signature for the new element's own
 parameters where the signature gives them (the model's own scaled guess otherwise).
 Shape parameters make the problem non-convex (transition displacement, knee
-velocity, stop gap, relaxation time); ``both_starts`` also tries the model's guess
-and keeps the better fit.
+velocity, stop gap, relaxation time): the signature's values start them near the
+feature the residual shows.
 
 Units: SI throughout (see :mod:`suspenv.models.effects`).
 """
@@ -120,41 +120,33 @@ def refit_with(
     v_max: float = 0.0,
     location: str = "",
     max_nfev: int = 200,
-    both_starts: bool = False,
     guess_given: dict[str, float] | None = None,
 ) -> FitResult:
     """Refit ``base.model`` with one more effect of ``kind``.
 
     The new element starts from the values read off its signature where there are
-    some (else the model's own guess); ``both_starts`` also tries the model's guess
-    and keeps the better fit. ``guess_given``: starting values of the new element's own
+    some (else the model's own guess). ``guess_given``: starting values of the new element's own
     parameters that replace those read off the signature (non-finite ones are dropped).
     """
     names_taken = {e.name for e in current_effects(base.model)}
     name = kind if kind not in names_taken else f"{kind}_{len(names_taken)}"
     guess = signature_guess(kind, signature, half_stroke, v_max)
     guess.update({k: v for k, v in (guess_given or {}).items() if np.isfinite(v)})
-    starts = [guess] if (guess and not both_starts) else [{}, guess] if guess else [{}]
-    best: FitResult | None = None
     # a model may fix shape constants of its elements (e.g. the quarter car's friction
     # regularisation width, which its time integrator needs wider)
     fixed = dict(base.model.effect_defaults.get(kind, {}))
-    for start in starts:
-        effect = make_effect(kind, name=name, location=location, **fixed)
-        lo, hi = effect.bounds()
-        clipped = {
-            k: float(np.clip(v, lo[i], hi[i]))
-            for i, k in enumerate(effect.spec.parameter_names)
-            if (v := start.get(k)) is not None
-        }
-        effect = effect.with_params(clipped)
-        model = base.model.with_effects((*current_effects(base.model), effect))
-        theta0 = dict(zip(base.names, base.theta, strict=True))
-        # the rest of the new element's parameters come from the model's own guess
-        theta0.update({f"{name}.{k}": v for k, v in clipped.items()})
-        res = fit(model, recordings, masks, theta0=theta0, max_nfev=max_nfev)
-        res.extra["effect"] = effect.to_dict() | {"name": name}
-        if best is None or sum(res.ssr.values()) < sum(best.ssr.values()):
-            best = res
-    assert best is not None
-    return best
+    effect = make_effect(kind, name=name, location=location, **fixed)
+    lo, hi = effect.bounds()
+    clipped = {
+        k: float(np.clip(v, lo[i], hi[i]))
+        for i, k in enumerate(effect.spec.parameter_names)
+        if (v := guess.get(k)) is not None
+    }
+    effect = effect.with_params(clipped)
+    model = base.model.with_effects((*current_effects(base.model), effect))
+    theta0 = dict(zip(base.names, base.theta, strict=True))
+    # the rest of the new element's parameters come from the model's own guess
+    theta0.update({f"{name}.{k}": v for k, v in clipped.items()})
+    res = fit(model, recordings, masks, theta0=theta0, max_nfev=max_nfev)
+    res.extra["effect"] = effect.to_dict() | {"name": name}
+    return res

@@ -44,7 +44,7 @@ residual with its cycle-to-cycle scatter:
    test rejects at ``alpha`` *and* ``S > MATERIAL_RATIO * N``: what is left repeats with
    the motion and lifts the residual at least 17 % above the noise (:data:`LIMIT`).
 
-6. **tails** (where the family's recordings allow it: ``tails=True``): Gaussian noise,
+6. **tails**: Gaussian noise,
    white or coloured, puts about 2e-9 of its samples beyond :data:`TAIL_Z` times its
    scale, so a residual with :data:`TAIL_MIN_SAMPLES` or more samples beyond
    :data:`TAIL_Z` times its robust scale (1.4826 x the median absolute deviation, which
@@ -275,9 +275,9 @@ class _Run:
     """One recording as the check reads it: its index among the split's recordings, the
     recording, the model's prediction {channel: array}, times ``t`` [s], motion ``x`` [m]
     and ``v`` [m/s], each sample's motion cycle and replicate (unique over the split),
-    the samples the tail rule reads (None: the rule is not applied), the samples the
-    check reads (past the filter's settling, :func:`settled`) and the cut-off [Hz] of the
-    residual it reads (None: the residual as it is)."""
+    the samples the tail rule reads, the samples the check reads (past the filter's
+    settling, :func:`settled`) and the cut-off [Hz] of the residual it reads (None: the
+    residual as it is)."""
 
     index: int
     rec: Any
@@ -287,7 +287,7 @@ class _Run:
     v: np.ndarray
     cycles: np.ndarray
     replicate: np.ndarray
-    read: np.ndarray | None
+    read: np.ndarray
     settled: np.ndarray
     lowpass_hz: float | None = None
 
@@ -313,7 +313,6 @@ class _Run:
 def _runs(
     fit: FitResult,
     sp: Split,
-    tails: bool,
     lowpass_hz: float | None,
     recorded: Mapping[str, Mapping[str, np.ndarray]] | None = None,
 ) -> list[_Run]:
@@ -329,7 +328,7 @@ def _runs(
         cycles = cycle_index(x)
         c = replicates(t, cycles)
         keep = settled(t, lowpass_hz)
-        read = tail_read(t, x, v, lowpass_hz) & keep if tails else None
+        read = tail_read(t, x, v, lowpass_hz) & keep
         pred = fit.model.simulate(fit.theta, rec)
         runs.append(_Run(k, rec, pred, t, x, v, cycles, c + offset, read, keep, lowpass_hz))
         offset += int(c.max()) + 1
@@ -341,18 +340,17 @@ def residual_left(
     sp: Split,
     alpha: float = ALPHA,
     channels: Sequence[str] | None = None,
-    tails: bool = True,
     lowpass_hz: float | None = None,
     recorded: Mapping[str, Mapping[str, np.ndarray]] | None = None,
 ) -> list[ResidualLeft]:
     """The check on every output channel of ``fit`` over all samples of the split's
     recordings (fit and held-out; the handful of fitted parameters barely shape a
-    residual of thousands of samples); ``tails``: apply the tail rule (step 6);
-    ``lowpass_hz``: the cut-off [Hz] at which the motion channels were low-passed (None:
-    not low-passed), which the tail rule then applies to the residual, reading it where
-    the part moves (step 6); ``recorded``: by recording name, the output channels as
+    residual of thousands of samples), with the tail rule (step 6); ``lowpass_hz``: the
+    cut-off [Hz] at which the motion channels were low-passed (None: not low-passed),
+    which the tail rule then applies to the residual, reading it where the part moves
+    (step 6); ``recorded``: by recording name, the output channels as
     recorded where the fit compared them low-passed (step 0 of the module docstring)."""
-    runs = _runs(fit, sp, tails, lowpass_hz, recorded)
+    runs = _runs(fit, sp, lowpass_hz, recorded)
     words = MOTION_WORDS.get(str(getattr(fit.model, "family", "")), MOTION_WORDS[""])
     names = np.asarray([str(run.rec.name) for run in runs])
     out = []
@@ -368,13 +366,12 @@ def residual_left(
         unit = str(runs[0].rec.units.get(ch, ""))
         ok = np.concatenate([run.settled for run in have])
         left = _cell_test(words, r[ok], x[ok], v[ok], replicate[ok], ch, unit, alpha)
-        if tails:
-            keep = np.concatenate([run.read for run in have if run.read is not None])
-            t = np.concatenate([run.t for run in have])
-            which = np.concatenate([np.full(run.t.size, run.index) for run in have])
-            recording = names[which[keep]] if len(have) > 1 else None
-            rt = np.concatenate([run.low_passed(q) for run, q in zip(have, parts, strict=True)])
-            _tail_test(left, words, rt[keep], x[keep], v[keep], t[keep], recording)
+        keep = np.concatenate([run.read for run in have])
+        t = np.concatenate([run.t for run in have])
+        which = np.concatenate([np.full(run.t.size, run.index) for run in have])
+        recording = names[which[keep]] if len(have) > 1 else None
+        rt = np.concatenate([run.low_passed(q) for run, q in zip(have, parts, strict=True)])
+        _tail_test(left, words, rt[keep], x[keep], v[keep], t[keep], recording)
         out.append(left)
     return out
 

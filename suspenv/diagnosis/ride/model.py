@@ -4,9 +4,8 @@ Frame and units: ISO 8855 (x forward, y left, z up), SI inside; the design value
 keep the study's units at the edge (C1, C2 dimensionless, T1 N*mm/deg, K1 N/mm).
 Suspension deflection positive in compression (bump); accelerations m/s^2, + up.
 
-A ride recording (:func:`pulse_inputs_recording`, :func:`random_road_inputs_recording`;
-sampled at :data:`SAMPLE_RATE`) has the road
-elevation under each wheel as inputs ``road_FL``, ``road_FR``, ``road_RL``,
+A ride recording (:func:`pulse_inputs_recording`; sampled at :data:`SAMPLE_RATE`) has
+the road elevation under each wheel as inputs ``road_FL``, ``road_FR``, ``road_RL``,
 ``road_RR`` [m] on the recording's uniform time grid, and measures the vertical
 acceleration of the body above the front and rear suspension (``acc_front``,
 ``acc_rear``, at the measuring points of :class:`RideModel`) and on the seat rail of
@@ -44,7 +43,7 @@ from suspenv.models.effects import Effect, make_effect
 from suspenv.models.minibus import DESIGN_NAMES, REFERENCE_MINIBUS, STUDY_PICK, vehicle_parameters
 from suspenv.models.minibus.ride_model import SUPPORTED_EFFECTS, RideModel
 from suspenv.models.minibus.vehicle import Minibus
-from suspenv.rigs.ride import PulseBump, RandomRoad, pulse_inputs, random_road_inputs
+from suspenv.rigs.ride import PulseBump, pulse_inputs
 
 WHEELS = ("FL", "FR", "RL", "RR")
 ROAD_CHANNELS = tuple(f"road_{w}" for w in WHEELS)
@@ -286,7 +285,9 @@ def seat_mount_response(a_floor: np.ndarray, dt: float, k: float, c: float) -> n
     return signal.lfilter(b / a[0], a / a[0], a_floor)
 
 
-def _from_half_grid(z: np.ndarray, name: str, test: str, meta: dict[str, Any]) -> Recording:
+def half_grid_recording(z: np.ndarray, name: str, test: str, meta: dict[str, Any]) -> Recording:
+    """Inputs-only recording of wheel inputs ``z`` [m], (2N + 1, 4) on the ride model's
+    half-step grid: its N full-step samples at :data:`SAMPLE_RATE`."""
     zs = z[0::2][:-1]  # the N full-step samples (the half grid has 2N + 1 points)
     t = np.arange(zs.shape[0]) / SAMPLE_RATE
     return Recording(
@@ -319,32 +320,4 @@ def pulse_inputs_recording(
         "load_case": "no_load",
         "wheelbase_delay_s": REFERENCE_MINIBUS.wheelbase / pulse.speed,
     }
-    return _from_half_grid(z, name or f"pulse_{speed_kmh:g}kmh", "pulse", meta)
-
-
-def random_road_inputs_recording(
-    speed_kmh: float = 60.0,
-    road_class: str = "C",
-    duration_s: float = 6.0,
-    seed: int = 0,
-    name: str | None = None,
-) -> Recording:
-    """Inputs-only recording of a random-road run (1 s settling included at the start)."""
-    road = RandomRoad(
-        road_class=road_class,
-        speed_kmh=speed_kmh,
-        duration_s=duration_s,
-        settle_s=1.0,
-        sample_rate=SAMPLE_RATE,
-        seed=seed,
-    )
-    z, _ = random_road_inputs(road, REFERENCE_MINIBUS)
-    z = z - z[0]  # start from rest on the local road level
-    meta = {
-        "speed_kmh": float(speed_kmh),
-        "road_class": road_class,
-        "load_case": "no_load",
-        "road_seed": int(seed),
-        "settle_s": 1.0,
-    }
-    return _from_half_grid(z, name or f"random_{road_class}_{speed_kmh:g}kmh", "random_road", meta)
+    return half_grid_recording(z, name or f"pulse_{speed_kmh:g}kmh", "pulse", meta)
