@@ -351,6 +351,7 @@ def main(argv: list[str] | None = None) -> None:
     cases[("optuna", "study.optimize")] = functools.partial(_optuna_optimize, gens["optuna"])
     for fn in cases.values():  # warm-up: imports, caches
         fn()
+    load = [os.getloadavg()[0]]  # other processes' demand on the shared cores
     cpu: dict[tuple[str, str], list[float]] = {k: [] for k in cases}
     wall: dict[tuple[str, str], list[float]] = {k: [] for k in cases}
     ratios: dict[tuple[str, str], list[float]] = {k: [] for k in cases}
@@ -362,6 +363,7 @@ def main(argv: list[str] | None = None) -> None:
             wall[k].append(w)
         for k in cases:  # ratio within this repetition, against this repetition's bare
             ratios[k].append(cpu[k][-1] / cpu[(k[0], "bare")][-1])
+        load.append(os.getloadavg()[0])
     rows = []
     for (lib, case), cs in cpu.items():
         n = gens[lib] * pops[lib]
@@ -388,6 +390,9 @@ def main(argv: list[str] | None = None) -> None:
     summary = {
         "repeat": args.repeat,
         "timing": "process CPU time, median of interleaved repetitions",
+        # 1-minute load average before the repetitions and after each one (2 cores)
+        "load_1min_median": statistics.median(load),
+        "load_1min_max": max(load),
         "dimension": CMA_DIM,
         "population": CMA_POP,
         "generations": gens["pycma"],
