@@ -731,7 +731,7 @@ def knc_speed_tables(d: Json) -> str:
 BARE_LOOPS = {
     "pycma": "pycma `ask`/`tell`, 49-D sphere, population 42",
     "pymoo": "pymoo NSGA-II `ask`/`tell`, 30-D ZDT1, population 100",
-    "optuna": "optuna NSGA-II `study.optimize`, 10-D ZDT1, population 50",
+    "optuna": "optuna NSGA-II batched `ask`/`tell`, 10-D ZDT1, population 50",
 }
 #: docs/runs.md's words for the workers study's problems (by case name in the JSON)
 WORKER_PROBLEMS = {

@@ -416,7 +416,7 @@ def test_overhead_tables_format_a_hand_made_json() -> None:
     }
     assert readme.overhead_cells(summary) == (
         "0.005 ms over bare pycma; with the archive 1.15x bare pycma, 1.20x bare pymoo, "
-        "1.20x optuna's own loop (medians of 21)",
+        "1.20x optuna's batched loop (medians of 21)",
         "<= 0.2 ms, <= 1.2x each (met)",
     )
 

@@ -154,7 +154,8 @@ class StudyDesign:
 
     def unit(self, trials: list[Any]) -> np.ndarray:
         """(n, d) unit-cube designs of asked ``trials``, clipped to [0, 1]."""
-        X = np.array([[t.params[n] for n in self.dists] for t in trials], dtype=float)
+        params = [t.params for t in trials]  # a deep copy per call on an asked Trial
+        X = np.array([[p[n] for n in self.dists] for p in params], dtype=float)
         U = X if self.space is None else self.space.to_unit(X)
         return np.clip(U, 0.0, 1.0)
 
