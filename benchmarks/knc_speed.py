@@ -32,8 +32,7 @@ Four paths of the same evaluation, measured in the same run on the same candidat
   most ``solver.JACOBIAN_PERTURBATIONS``, the rows of a single design sharing its arrays
   (``solver.SHARE_ONE_DESIGN``), the coloured finite-difference Jacobian and the
   rotation updates run as compiled loops, row by row (numba:
-  ``solver.JACOBIAN_COMPILED``, ``rotation.COMPILED``; without numba, the rotations with
-  the rows last: ``rotation.ROWS_LAST``), the shared inverse Jacobians held in single
+  ``solver.JACOBIAN_COMPILED``, ``rotation.ROWS_LAST``), the shared inverse Jacobians held in single
   precision (``solver.SHARED_INVERSE_DTYPE``), the rows repeating the designs reading
   their packed arrays in place, and only the channels that the objectives read, kept at
   their fit window only (``KCIdentification.window``; one state per output call there)

@@ -11,6 +11,7 @@ from __future__ import annotations
 import mcpherson_reference as reference
 import numpy as np
 import pytest
+from mcpherson_kinematics import CornerKinematics
 
 from suspenv.core.errors import ValidationError
 from suspenv.measurements.knc import (
@@ -25,7 +26,6 @@ from suspenv.measurements.knc import (
     mirrored,
 )
 from suspenv.models.mcpherson import AxleSolver, build_axle, reference_design
-from suspenv.models.mcpherson.kinematics import CornerKinematics
 from suspenv.models.mcpherson.params import BUSHINGS, PARAMETER_NAMES
 from suspenv.models.mcpherson.rotation import log_so3
 from suspenv.rigs.knc import (

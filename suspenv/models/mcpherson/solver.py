@@ -86,7 +86,6 @@ from suspenv.models.mcpherson.effects import (
     bushings_at,
     check_placement,
 )
-from suspenv.models.mcpherson.kinematics import _perp_basis
 from suspenv.models.mcpherson.params import SIDE_SIGN, Axle
 from suspenv.models.mcpherson.rotation import (
     cross,
@@ -580,10 +579,10 @@ class AxleSolver:
         equilibrium under the static tyre load (corner load + wheel weight) when the
         spring force is ``F = (Fz dz_cp - W dz_wc) / (-dL)`` along the kinematic
         motion (dz_wc = 1). The static pad height loads the tyre by ``Fz / kt``. The
-        motion is that of :class:`~suspenv.models.mcpherson.kinematics.CornerKinematics`
-        (its six ideal-joint equations), in closed form at the design position: a
-        knuckle move (translation ``dt``, rotation ``dw``) moves its point ``p`` by
-        ``dt + dw x (p - wheel centre)``.
+        motion is that of the six ideal-joint equations (the tests' reference
+        ``CornerKinematics``, ``tests/mcpherson_kinematics.py``), in closed form at the
+        design position: a knuckle move (translation ``dt``, rotation ``dw``) moves its
+        point ``p`` by ``dt + dw x (p - wheel centre)``.
         """
         ax, p = self.axle, self.axle.points
         wc = p["wheel_centre"]
@@ -1516,6 +1515,16 @@ def _skew(v: np.ndarray) -> np.ndarray:
     out[..., 1, 0], out[..., 1, 2] = v[..., 2], -v[..., 0]
     out[..., 2, 0], out[..., 2, 1] = -v[..., 1], v[..., 0]
     return out
+
+
+def _perp_basis(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit vectors perpendicular to unit ``a`` (..., 3)."""
+    helper = np.zeros_like(a)
+    helper[..., 0] = 1.0
+    u = cross(a, helper)  # np.cross's products and differences, in fewer calls
+    u /= np.linalg.norm(u, axis=-1, keepdims=True)
+    v = cross(a, u)
+    return u, v
 
 
 def _broadcast(a: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
