@@ -145,10 +145,6 @@ JACOBIAN_BLOCK = 256
 #: perturbation, stay below about 80 kB per row at small batches too (the 24
 #: perturbations of a single row in one call: 157 kB)
 JACOBIAN_PERTURBATIONS = 12
-#: the finite-difference Jacobian perturbs the columns with disjoint residual rows
-#: together and takes the multiplier columns exactly (False: one perturbation per
-#: column, the reference path of the tests and the speed benchmark's baseline)
-JACOBIAN_COLOURED = True
 #: residual rows (of one side) that the lower arm's coordinates enter: its force and
 #: moment and the ball joint's constraint; the strut rod's enter none of them
 ARM_ROWS = np.r_[0:6, NQ : NQ + 3]
@@ -890,12 +886,9 @@ class AxleSolver:
         lower-arm and a strut-rod coordinate: the lower arm's rows are its own force and
         moment and the ball joint's constraint, which no strut-rod coordinate enters),
         which gives the very numbers of perturbing them apart. The multiplier columns
-        are exact (:meth:`multiplier_columns`: the residual is linear in them).
-        ``JACOBIAN_COLOURED = False``: one perturbation per column, the multipliers
-        included (step 1 N), the reference path.
+        are exact (:meth:`multiplier_columns`: the residual is linear in them). The
+        reference path, one perturbation per column: ``benchmarks/knc_reference.py``.
         """
-        if not JACOBIAN_COLOURED:
-            return self._jacobian_by_columns(st, pad, ext, h, rack)
         n = self.n
         J = np.zeros((n, 2 * NS, 2 * NS))
         if JACOBIAN_COMPILED and self._effect_loads(st.r, st.R, st) is None:
@@ -1012,56 +1005,6 @@ class AxleSolver:
         L[..., 18:21, 8] = -f
         L[..., 21:24, 8] = -cross(V[..., 14, :], f)
         return L
-
-    def _jacobian_by_columns(
-        self,
-        st: AxleState,
-        pad: np.ndarray,
-        ext: np.ndarray | None = None,
-        h: float = 1e-7,
-        rack: np.ndarray | None = None,
-    ) -> np.ndarray:
-        """:meth:`jacobian` with one forward difference per column (multipliers by a
-        1 N step), the reference path."""
-        n = self.n
-        # the bar halves and the tie-rod multiplier (a compliant rack moves with both
-        # tie rods) couple the sides: their columns one side at a time
-        apart = [18 + k for k in range(6)] + [NQ + 7]
-        shared = [j for j in range(NS) if j not in apart]  # 26 columns
-        # perturbations: (column j, side) with side None for both sides at once
-        cols: list[tuple[int, int | None]] = [(j, None) for j in shared]
-        cols += [(j, s) for s in (0, 1) for j in apart]
-        hl = 1.0
-        exp_h = expm_so3(h * np.eye(3))  # rotations by h about x, y, z
-        base = self.residual(st.r, st.R, st.lam, pad, st, ext, rack=rack)  # (n, 2, 33)
-        J = np.zeros((n, 2 * NS, 2 * NS))
-        # perturbed residuals in blocks of about JACOBIAN_BLOCK row evaluations (memory)
-        per = max(1, JACOBIAN_BLOCK // max(n, 1))
-        for a in range(0, len(cols), per):
-            block = cols[a : a + per]
-            P = len(block)
-            r = np.broadcast_to(st.r, (P,) + st.r.shape).copy()
-            R = np.broadcast_to(st.R, (P,) + st.R.shape).copy()
-            lam = np.broadcast_to(st.lam, (P,) + st.lam.shape).copy()
-            for p, (j, side) in enumerate(block):
-                sd = slice(None) if side is None else side
-                if j >= NQ:
-                    lam[p, :, sd, j - NQ] += hl
-                    continue
-                b, k = divmod(j, 6)
-                if k < 3:
-                    r[p, :, sd, b, k] += h
-                else:
-                    R[p, :, sd, b] = np.matmul(exp_h[k - 3], st.R[:, sd, b])
-            d = self.residual(r, R, lam, pad, st, ext, rack=rack) - base  # (P, n, 2, 33)
-            for p, (j, side) in enumerate(block):
-                step = hl if j >= NQ else h
-                if side is None:
-                    for s in (0, 1):
-                        J[:, s * NS : (s + 1) * NS, s * NS + j] = d[p, :, s] / step
-                else:
-                    J[:, :, side * NS + j] = d[p].reshape(n, 2 * NS) / step
-        return J
 
     # ------------------------------------------------------------------ update
     @staticmethod
