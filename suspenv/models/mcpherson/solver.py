@@ -72,7 +72,7 @@ from __future__ import annotations
 import copy
 import functools
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -279,26 +279,23 @@ class AxleState:
     def copy(self) -> AxleState:
         return self.moved(self.r.copy(), self.R.copy(), self.lam.copy())
 
+    def _histories(self, f: Callable[[np.ndarray], np.ndarray]) -> tuple:
+        """(hyst, fric): the path-dependent histories with ``f`` applied to each array."""
+        hyst = {k: (f(a), f(b)) for k, (a, b) in self.hyst.items()}
+        return hyst, None if self.fric is None else (f(self.fric[0]), f(self.fric[1]))
+
     def moved(self, r: np.ndarray, R: np.ndarray, lam: np.ndarray) -> AxleState:
         """A state at ``r``, ``R``, ``lam`` with a copy of this one's path-dependent
         histories."""
-        return AxleState(
-            r,
-            R,
-            lam,
-            {k: (a.copy(), b.copy()) for k, (a, b) in self.hyst.items()},
-            None if self.fric is None else (self.fric[0].copy(), self.fric[1].copy()),
-        )
+        return AxleState(r, R, lam, *self._histories(np.copy))
 
     def take(self, rows: np.ndarray) -> AxleState:
         """The state of the given rows (index array or boolean mask)."""
-        return AxleState(
-            self.r[rows].copy(),
-            self.R[rows].copy(),
-            self.lam[rows].copy(),
-            {k: (a[rows].copy(), b[rows].copy()) for k, (a, b) in self.hyst.items()},
-            None if self.fric is None else (self.fric[0][rows].copy(), self.fric[1][rows].copy()),
-        )
+
+        def pick(a: np.ndarray) -> np.ndarray:
+            return a[rows].copy()
+
+        return AxleState(pick(self.r), pick(self.R), pick(self.lam), *self._histories(pick))
 
     def assign(self, other: AxleState, rows: np.ndarray) -> None:
         """Copy ``other``'s values into this state for the boolean/int ``rows``."""
