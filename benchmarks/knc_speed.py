@@ -26,14 +26,13 @@ Four paths of the same evaluation, measured in the same run on the same candidat
   (``reuse_revisits``; see :mod:`suspenv.rigs.knc`; a cubic predictor along the legs,
   ``knc.LEG_ORDER``), the rows sharing their design's static inverse Jacobian
   (``solver.SharedInverse``), a Jacobian with the lower-arm and strut-rod columns
-  perturbed together and exact multiplier columns (``solver.JACOBIAN_COLOURED``), Newton
+  perturbed together and exact multiplier columns (:meth:`AxleSolver.jacobian`), Newton
   iterations on the rows still iterating only (``solver.SUBSET_RESIDUALS``), the
   Jacobians inverted in blocks of rows, the Jacobian's perturbations in blocks of at
   most ``solver.JACOBIAN_PERTURBATIONS``, the rows of a single design sharing its arrays
   (``solver.SHARE_ONE_DESIGN``), the coloured finite-difference Jacobian and the
   rotation updates run as compiled loops, row by row (numba:
-  ``solver.JACOBIAN_COMPILED``, ``rotation.COMPILED``; without numba, the rotations with
-  the rows last: ``rotation.ROWS_LAST``), the shared inverse Jacobians held in single
+  ``solver.JACOBIAN_COMPILED``, ``rotation.ROWS_LAST``), the shared inverse Jacobians held in single
   precision (``solver.SHARED_INVERSE_DTYPE``), the rows repeating the designs reading
   their packed arrays in place, and only the channels that the objectives read, kept at
   their fit window only (``KCIdentification.window``; one state per output call there)
@@ -42,17 +41,17 @@ Four paths of the same evaluation, measured in the same run on the same candidat
   options ``eval_chunk=None`` (the whole batch at once) and ``reuse_revisits=False``
   (every step of the loop solved one after the other, one inverse Jacobian per row),
   and, inside :func:`reference_path`, the finite-difference Jacobian with one
-  perturbation per column (multipliers included) and the channels in one residual/output
-  call each (``JACOBIAN_BLOCK`` unbounded), every row's residual at every Newton
-  iteration, one quadratic fit per objective (``_objectives_one_by_one``) and
-  both relative rotations of the quadratic predictor computed at every step
-  (``knc.PREDICTOR_CACHE = False``) and a copy of a design's arrays for each of its rows
-  (``solver.SHARE_ONE_DESIGN = False``) and the rotation updates as stacked matrix
-  products (``rotation.ROWS_LAST = False``), the shared inverse Jacobians in double
-  precision (``solver.SHARED_INVERSE_DTYPE = np.float64``) and the channels of every
-  grid point (``window=None``), in calls of at most ``knc.OUTPUT_STATES`` states. Both
-  paths give the same objectives to solver tolerance; both use the same residual (the
-  compiled one), outputs and fit arithmetic.
+  perturbation per column (multipliers included; ``knc_reference.jacobian_by_columns``)
+  and the channels in one residual/output call each (``JACOBIAN_BLOCK`` unbounded),
+  every row's residual at every Newton iteration, one quadratic fit per objective
+  (``_objectives_one_by_one``) and both relative rotations of the quadratic predictor
+  computed at every step (``knc.PREDICTOR_CACHE = False``) and a copy of a design's
+  arrays for each of its rows (``solver.SHARE_ONE_DESIGN = False``) and the rotation
+  updates as stacked matrix products (``rotation.ROWS_LAST = False``), the shared
+  inverse Jacobians in double precision (``solver.SHARED_INVERSE_DTYPE = np.float64``)
+  and the channels of every grid point (``window=None``), in calls of at most
+  ``knc.OUTPUT_STATES`` states. Both paths give the same objectives to solver tolerance;
+  both use the same residual (the compiled one), outputs and fit arithmetic.
 
 Time: process CPU time (BLAS is limited to one thread by suspenv, so it is one core's
 time), best of the repeats (3 at batch 42, 2 at batch 1000: a best of several against a
@@ -101,7 +100,9 @@ import suspenv.models.mcpherson.solver as solver_module
 import suspenv.problems.kc_identification as problem_module
 import suspenv.rigs.knc as rig_module
 from benchmarks.common import write_result
+from benchmarks.knc_reference import jacobian_by_columns
 from suspenv.metrics.knc import _objectives_one_by_one
+from suspenv.models.mcpherson.solver import AxleSolver
 from suspenv.registry import make_problem
 
 TARGET_MS = 10.0
@@ -143,7 +144,7 @@ def reference_path() -> Iterator[None]:
         rig_module.JACOBIAN_BLOCK,
         problem_module.objectives,
         rig_module.PREDICTOR_CACHE,
-        solver_module.JACOBIAN_COLOURED,
+        AxleSolver.jacobian,
         solver_module.SUBSET_RESIDUALS,
         solver_module.SHARE_ONE_DESIGN,
         rotation_module.ROWS_LAST,
@@ -152,7 +153,7 @@ def reference_path() -> Iterator[None]:
     solver_module.JACOBIAN_BLOCK = rig_module.JACOBIAN_BLOCK = 1 << 62
     problem_module.objectives = lambda results: _objectives_one_by_one(results, {})
     rig_module.PREDICTOR_CACHE = False
-    solver_module.JACOBIAN_COLOURED = False
+    AxleSolver.jacobian = jacobian_by_columns  # type: ignore[method-assign,assignment]
     solver_module.SUBSET_RESIDUALS = False
     solver_module.SHARE_ONE_DESIGN = False
     rotation_module.ROWS_LAST = False
@@ -163,7 +164,7 @@ def reference_path() -> Iterator[None]:
         solver_module.JACOBIAN_BLOCK, rig_module.JACOBIAN_BLOCK = saved[:2]
         problem_module.objectives = saved[2]
         rig_module.PREDICTOR_CACHE = saved[3]
-        solver_module.JACOBIAN_COLOURED = saved[4]
+        AxleSolver.jacobian = saved[4]  # type: ignore[method-assign]
         solver_module.SUBSET_RESIDUALS = saved[5]
         solver_module.SHARE_ONE_DESIGN = saved[6]
         rotation_module.ROWS_LAST = saved[7]

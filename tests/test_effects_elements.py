@@ -256,13 +256,10 @@ def test_damper_curves_limits_and_energy():
     d = fx.damper_digressive(np.array([1e-6, 100.0]), 3000.0, 0.1)
     assert d[0] / 1e-6 == pytest.approx(3000.0, rel=1e-4)
     assert d[1] == pytest.approx(3000.0 * 0.1, rel=2e-3)
-    knee = fx.damper_knee(v, c_low=4000.0, c_high=1000.0, v_knee=0.1)
-    assert knee == pytest.approx([-(400 + 1900.0), -40.0, 0.0, 40.0, 400 + 1900.0])
-    asym = fx.damper_asymmetric(v, c_bump=1000.0, c_rebound=3000.0)
-    assert asym == pytest.approx([-6000.0, -30.0, 0.0, 10.0, 2000.0])
-    # energy per cycle of the bilinear damper: pi w A^2 (c_bump + c_rebound)/2
+    # energy per cycle of a bilinear damper (1000 N s/m plus 2000 extra in rebound):
+    # pi w A^2 (c_bump + c_rebound)/2
     x, vv, t, w = sine(0.02, 2.0)
-    work = last_cycle_work(x, fx.damper_asymmetric(vv, 1000.0, 3000.0))
+    work = last_cycle_work(x, 1000.0 * vv + fx.extra_rebound_damping(vv, 2000.0))
     assert work == pytest.approx(np.pi * w * 0.02**2 * 2000.0, rel=1e-4)
     assert fx.extra_rebound_damping(v, 500.0) == pytest.approx([-1000.0, -5.0, 0, 0, 0])
 
@@ -280,7 +277,7 @@ def test_maxwell_phase_and_energy_closed_form():
         lead = np.angle(h_f / h_x)
         # complex stiffness K* = k_m i w tau / (1 + i w tau)
         kstar = k_m * 1j * w * tau / (1 + 1j * w * tau)
-        assert lead == pytest.approx(fx.maxwell_phase_lead(w, tau), abs=2e-3)
+        assert lead == pytest.approx(np.arctan2(1.0, w * tau), abs=2e-3)
         assert lead == pytest.approx(np.angle(kstar), abs=2e-3)
         assert last_cycle_work(x, f) == pytest.approx(np.pi * 0.01**2 * kstar.imag, rel=2e-3)
 
@@ -321,8 +318,6 @@ def test_lr_perturbation_reproducible_and_within_tolerance():
     a = fx.perturb_pair(1000.0, 0.05, seed=3)
     assert a == fx.perturb_pair(1000.0, 0.05, seed=3)
     assert all(950.0 <= v <= 1050.0 for v in a)
-    p = fx.perturb_lr_params({"k_left": 1.0, "k_right": 1.0, "m": 5.0}, 0.1, seed=1)
-    assert p["m"] == 5.0 and p["k_left"] != p["k_right"]
     assert fx.split_pair(100.0, 0.1) == pytest.approx((95.0, 105.0))
     with pytest.raises(ValidationError, match="tolerance >= 0"):
         fx.perturb_pair(1.0, -0.1)

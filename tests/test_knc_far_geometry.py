@@ -2,7 +2,7 @@
 Chrono's generic MacPherson strut): it loads, assembles, runs every rig test, matches an
 independent ideal-joint solver in the rigid limit and is mirror-symmetric.
 
-The rigid-limit reference is :class:`~suspenv.models.mcpherson.kinematics.CornerKinematics`:
+The rigid-limit reference is :class:`mcpherson_kinematics.CornerKinematics`:
 six closure equations in the knuckle pose alone (lower-arm radius to both bushes, tie-rod
 length, strut top on the strut line, wheel-centre height), solved by Newton's method with
 scipy's rotations. It shares no code with the compliant solver (``solver.py``, 4 bodies x
@@ -18,10 +18,10 @@ import dataclasses
 import numpy as np
 import pytest
 from knc_checks import XTOL, channel_tolerance
+from mcpherson_kinematics import CornerKinematics
 from scipy.spatial.transform import Rotation
 
 from suspenv.models.mcpherson import design_space
-from suspenv.models.mcpherson.kinematics import CornerKinematics
 from suspenv.models.mcpherson.params import BUSHINGS, PARAMETER_NAMES
 from suspenv.models.mcpherson.vehicle_file import FAR_GEOMETRY_FILE, check_assembles, load_vehicle
 from suspenv.rigs.knc import ALL_TESTS, run_tests

@@ -13,10 +13,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from mcpherson_kinematics import CornerKinematics
 
 import suspenv.rigs.knc as rig_module
 from suspenv.models.mcpherson import AxleSolver, axle_effect, build_axle, reference_design
-from suspenv.models.mcpherson.kinematics import CornerKinematics
 from suspenv.problems.kc_identification import KCIdentification
 from suspenv.rigs.knc import TESTS, run_tests
 

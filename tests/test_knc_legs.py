@@ -2,7 +2,7 @@
 
 * the Jacobian perturbs the lower-arm and strut-rod columns together (disjoint residual
   rows) and takes the constraint-multiplier columns exactly
-  (``solver.JACOBIAN_COLOURED``; reference: one forward difference per column);
+  (reference: one forward difference per column, ``benchmarks/knc_reference.py``);
 * the rig's rows share their design's static inverse Jacobian (``SharedInverse``;
   reference: one copy per row), Newton iterations evaluate only the rows still
   iterating (``solver.SUBSET_RESIDUALS``), the Jacobians are inverted in blocks of rows
@@ -21,6 +21,7 @@ import pytest
 
 import suspenv.models.mcpherson.solver as solver_module
 import suspenv.rigs.knc as rig_module
+from benchmarks.knc_reference import jacobian_by_columns
 from suspenv.core.errors import ValidationError
 from suspenv.metrics.knc import quadratic_fit
 from suspenv.models.mcpherson import AxleSolver, build_axle, reference_design
@@ -66,7 +67,7 @@ def test_coloured_jacobian_equals_one_difference_per_column(off_equilibrium, mon
     # reference: the forward-difference Jacobian with one perturbation per column
     solver, st, pad, ext, rack = off_equilibrium
     fast = solver.jacobian(st, pad, ext, rack=rack)
-    monkeypatch.setattr(solver_module, "JACOBIAN_COLOURED", False)
+    monkeypatch.setattr(AxleSolver, "jacobian", jacobian_by_columns)
     ref = solver.jacobian(st, pad, ext, rack=rack)
     # shared perturbations of columns with disjoint rows: the very same differences
     assert np.array_equal(fast[:, :, BODY], ref[:, :, BODY])

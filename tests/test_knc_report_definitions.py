@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from mcpherson_kinematics import CornerKinematics
 
 from suspenv.metrics.knc import (
     FULL_COMPLIANCE_LOADS,
@@ -35,7 +36,6 @@ from suspenv.metrics.knc_report import (
     wheel_travel,
 )
 from suspenv.models.mcpherson import AxleSolver, build_axle, reference_design
-from suspenv.models.mcpherson.kinematics import CornerKinematics
 from suspenv.models.mcpherson.params import BUSHINGS, PARAMETER_NAMES, SIDE_SIGN, AxleConstants
 from suspenv.models.mcpherson.rotation import cross, rotate
 from suspenv.rigs.knc import KCResult, loop_path, run_tests

@@ -11,6 +11,7 @@ from __future__ import annotations
 import mcpherson_reference as reference
 import numpy as np
 import pytest
+from mcpherson_kinematics import CornerKinematics
 
 from suspenv.core.errors import ValidationError
 from suspenv.measurements.knc import (
@@ -25,13 +26,11 @@ from suspenv.measurements.knc import (
     mirrored,
 )
 from suspenv.models.mcpherson import AxleSolver, build_axle, reference_design
-from suspenv.models.mcpherson.kinematics import CornerKinematics
 from suspenv.models.mcpherson.params import BUSHINGS, PARAMETER_NAMES
 from suspenv.models.mcpherson.rotation import log_so3
 from suspenv.rigs.knc import (
     MOMENT_AMPLITUDE,
     RACK_AMPLITUDE,
-    contact_forces,
     rack_travel,
     run_tests,
     wheel_loads,
@@ -94,8 +93,6 @@ def test_amplitudes_are_validated(axle):
         run_tests(axle, ("aligning",), moment_amplitude=0.0)
     with pytest.raises(ValidationError, match="rack_amplitude > 0"):
         run_tests(axle, ("steering",), rack_amplitude=-0.01)
-    with pytest.raises(ValidationError, match="wheel centres"):
-        contact_forces("traction", 1.0)
 
 
 def test_load_and_rack_vectors_of_each_test():
@@ -117,7 +114,7 @@ def test_zero_rack_and_zero_centre_force_leave_the_residual_bitwise_unchanged(ax
     solver = AxleSolver(axle)
     st, conv, _ = solver.solve(solver.initial_state(), solver.pad_static)
     assert conv.all()
-    ext6 = contact_forces("lateral", 300.0)[None]
+    ext6 = wheel_loads("lateral", 300.0)[None, :, :6]
     base = solver.residual(st.r, st.R, st.lam, solver.pad_static, st, ext6)
     ext9 = np.concatenate([ext6, np.zeros((1, 2, 3))], axis=-1)
     zero = np.zeros((1, 2))
@@ -198,7 +195,9 @@ def test_aligning_moment_turns_the_left_wheel_out_and_the_right_wheel_in(axle):
     res = run_tests(axle, ("aligning",), steps=2, moment_amplitude=100.0)["aligning"]
     solver = AxleSolver(axle)
     st, conv, _ = solver.solve(solver.initial_state(), solver.pad_static)
-    loaded, conv2, _ = solver.solve(st, solver.pad_static, contact_forces("aligning", 100.0)[None])
+    loaded, conv2, _ = solver.solve(
+        st, solver.pad_static, wheel_loads("aligning", 100.0)[None, :, :6]
+    )
     assert conv.all() and conv2.all()
     toe0 = solver.outputs(st, solver.pad_static)["toe"][0]
     toe = solver.outputs(loaded, solver.pad_static)["toe"][0]

@@ -1,8 +1,7 @@
-"""The rows-last rotation arithmetic of the K&C evaluation against its reference paths.
+"""The matrix-by-matrix rotation arithmetic of the K&C evaluation against its reference paths.
 
 * the rotation updates of the Newton steps and the predictor (``rotation.ROWS_LAST``;
-  reference: stacked matrix products of ``expm_so3`` and ``log_so3``), and the rows-last
-  forms of ``expm_so3`` and ``log_so3`` themselves (bitwise, element by element);
+  reference: stacked matrix products of ``expm_so3`` and ``log_so3``);
 * a whole rig run and the problem's objectives with the switch off: the same
   channels and objectives to the solver tolerance (``test_knc_speed_paths``' bounds).
 """
@@ -16,14 +15,7 @@ from knc_checks import channel_tolerance
 import suspenv.models.mcpherson.rotation as rotation_module
 import suspenv.models.mcpherson.solver as solver_module
 from suspenv.models.mcpherson import build_axle, reference_design
-from suspenv.models.mcpherson.rotation import (
-    expm_rows_last,
-    expm_so3,
-    log_rows_last,
-    log_so3,
-    relative_log,
-    turned,
-)
+from suspenv.models.mcpherson.rotation import expm_so3, log_so3, relative_log, turned
 from suspenv.problems.kc_identification import KCIdentification
 from suspenv.rigs.knc import TESTS, run_tests
 
@@ -41,12 +33,6 @@ def test_rows_last_rotations_are_the_stacked_products():
     w[0, 0, 0] = 0.0  # the series branch of expm and log
     A = expm_so3(rng.normal(scale=0.4, size=(7, 2, 4, 3)))
     B = expm_so3(rng.normal(scale=0.4, size=(7, 2, 4, 3)))
-    # the rows-last forms of expm_so3 and log_so3: element by element the same numbers
-    E = expm_rows_last(np.moveaxis(w, -1, 0))
-    assert np.array_equal(np.moveaxis(E, (0, 1), (-2, -1)), expm_so3(w))
-    for M in (A, expm_so3(w)):
-        lg = log_rows_last(np.moveaxis(M, (-2, -1), (0, 1)))
-        assert np.array_equal(np.moveaxis(lg, 0, -1), log_so3(M))
     # relative rotation vector and turned matrices: the stacked products to round-off
     ref = log_so3(np.matmul(A, np.swapaxes(B, -1, -2)))
     assert np.allclose(relative_log(A, B), ref, rtol=0, atol=1e-15)

@@ -15,6 +15,7 @@ import dataclasses
 
 import numpy as np
 import pytest
+from mcpherson_kinematics import CornerKinematics
 
 from suspenv.methods.knc_sheet import SHEET_TESTS, sheet_values
 from suspenv.metrics.knc_report import (
@@ -27,7 +28,6 @@ from suspenv.metrics.knc_report import (
     report_needs,
 )
 from suspenv.models.mcpherson import AxleSolver, build_axle, reference_design
-from suspenv.models.mcpherson.kinematics import CornerKinematics
 from suspenv.models.mcpherson.params import BUSHINGS, PARAMETER_NAMES, SIDE_SIGN, AxleConstants
 from suspenv.models.mcpherson.rotation import rotate
 from suspenv.rigs.knc import OPPOSED_TESTS, RIG_TESTS, run_tests, wheel_loads

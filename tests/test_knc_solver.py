@@ -8,6 +8,7 @@ import mcpherson_reference as reference
 import numpy as np
 import pytest
 from knc_checks import XTOL, channel_tolerance
+from mcpherson_kinematics import CornerKinematics
 from scipy.spatial.transform import Rotation
 
 from suspenv.core.errors import ValidationError
@@ -18,7 +19,6 @@ from suspenv.models.mcpherson import (
     design_space,
     reference_design,
 )
-from suspenv.models.mcpherson.kinematics import CornerKinematics
 from suspenv.models.mcpherson.params import BUSHINGS, PARAMETER_NAMES, SIDE_SIGN
 from suspenv.models.mcpherson.rotation import expm_so3, log_so3
 from suspenv.rigs.knc import run_tests

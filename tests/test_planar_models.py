@@ -134,7 +134,9 @@ def test_wheel_load_does_the_spring_work(name):
 def test_analytic_pose_keeps_links_rigid_and_the_pad_height(name):
     g = load_geometry(name)
     sweep = solve_single(g, TRAVEL)
-    p, d = sweep.points, g.design_points()
+    # every named point at the design position, plus the contact point (..., 2) m
+    d = {n: getattr(g, n) for n in g.point_names} | {"contact": g.contact_point}
+    p = sweep.points
 
     def dist(a, b, pts):
         return np.linalg.norm(np.asarray(pts[a]) - np.asarray(pts[b]), axis=-1)

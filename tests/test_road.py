@@ -8,17 +8,25 @@ from scipy.signal import csd
 
 from suspenv.core.errors import ValidationError
 from suspenv.rigs.road import (
+    CLASS_BAND,
+    N0,
     ROAD_CLASS_GD0,
     class_gd0,
     contact_length_filter,
     displacement_psd,
     generate_profile,
-    rms_height,
     temporal_psd,
     track_coherence,
     triangular_bump,
     welch_psd,
 )
+
+
+def rms_height(road_class: str = "B", band: tuple[float, float] = CLASS_BAND) -> float:
+    """RMS elevation (m) of a w = 2 road over a spatial band, the integral of the class
+    formula: Gd(n0) n0^2 (1/n1 - 1/n2) (the reference of the generated profiles)."""
+    n1, n2 = band
+    return float(np.sqrt(class_gd0(road_class) * N0**2 * (1.0 / n1 - 1.0 / n2)))
 
 
 def octave_band_check(

@@ -281,19 +281,6 @@ def pad_offsets(test: str, s: np.ndarray) -> np.ndarray:
     return np.asarray(s, dtype=float)[..., None] * sign
 
 
-def contact_forces(test: str, f: np.ndarray | float) -> np.ndarray:
-    """Extra load (..., 2, 6) [N, N*m] at both contact points of ``test`` for force
-    ``f`` [N] or moment ``f`` [N*m] (``aligning``); zero for a travel or steering test;
-    force then moment, ISO 8855. ``traction`` loads the wheel centres: see
-    :func:`wheel_loads`."""
-    if test == "traction":
-        raise ValidationError(
-            "contact_forces: the traction test's force acts at the wheel centres, not the "
-            "contact points; use wheel_loads('traction', f) (9 columns)"
-        )
-    return wheel_loads(test, f)[..., :6]
-
-
 def wheel_loads(test: str, f: np.ndarray | float) -> np.ndarray:
     """Extra load (..., 2, 9) on both wheels of ``test`` for its drive ``f`` ([N] or
     [N*m], :data:`DRIVE_UNIT`), as the solver takes it (``AxleSolver.residual``'s

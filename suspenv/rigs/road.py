@@ -66,14 +66,6 @@ def temporal_psd(
     return displacement_psd(np.asarray(f, dtype=float) / speed, road_class, waviness) / speed
 
 
-def rms_height(road_class: str | float = "B", band: tuple[float, float] = CLASS_BAND) -> float:
-    """RMS elevation (m) of a w = 2 road over a spatial band: Gd(n0) n0^2 (1/n1 - 1/n2)."""
-    n1, n2 = band
-    if not 0 < n1 < n2:
-        raise ValidationError(f"`0 < n1 < n2` must hold, but got (n1={n1}, n2={n2})")
-    return float(np.sqrt(class_gd0(road_class) * N0**2 * (1.0 / n1 - 1.0 / n2)))
-
-
 def track_coherence(n: np.ndarray, track: float) -> np.ndarray:
     """Left/right coherency rho(n) = 2 pi n B K1(2 pi n B) of an isotropic w = 2 road."""
     x = 2.0 * np.pi * np.asarray(n, dtype=float) * track

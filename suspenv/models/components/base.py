@@ -494,11 +494,6 @@ class ComponentModel:
         raise NotImplementedError
 
 
-def bp(value: np.ndarray | float) -> np.ndarray:
-    """Batch-shaped value -> ``(..., 1)`` to broadcast against a series ``(N,)``."""
-    return np.asarray(value, dtype=float)[..., None]
-
-
 def linear_lstsq(columns: Sequence[np.ndarray], y: np.ndarray) -> np.ndarray:
     """Least-squares coefficients of ``y ~ sum_i a_i columns[i]``."""
     A = np.column_stack(columns)

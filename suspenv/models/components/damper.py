@@ -23,10 +23,10 @@ from suspenv.models.components.base import (
     FRICTION_WIDTHS,
     LUGRE_BRISTLES,
     ComponentModel,
-    bp,
     linear_lstsq,
     robust_amplitude,
 )
+from suspenv.models.effects._util import batch_param as bp
 
 
 def sine_blocks(

@@ -33,10 +33,10 @@ from suspenv.models.components.base import (
     FRICTION_WIDTHS,
     LUGRE_BRISTLES,
     ComponentModel,
-    bp,
     linear_lstsq,
     robust_amplitude,
 )
+from suspenv.models.effects._util import batch_param as bp
 
 
 class FrictionGuideModel(ComponentModel):

@@ -20,11 +20,11 @@ from suspenv.measurements import Recording
 from suspenv.models.components.base import (
     FRICTION_WIDTHS,
     ComponentModel,
-    bp,
     linear_lstsq,
     robust_amplitude,
 )
 from suspenv.models.components.damper import sine_blocks
+from suspenv.models.effects._util import batch_param as bp
 from suspenv.models.effects.hysteresis import bouc_wen_force_path
 
 

@@ -9,16 +9,12 @@ path/series form (quasi-static sweeps). See ``docs/effects.md``.
 
 from suspenv.models.effects import catalogue as _catalogue  # noqa: F401  (registers kinds)
 from suspenv.models.effects.asymmetry import (
-    left_right_difference,
-    perturb_lr_params,
     perturb_pair,
     split_pair,
 )
 from suspenv.models.effects.damper_curves import (
-    damper_asymmetric,
     damper_digressive,
     damper_digressive_asymmetric,
-    damper_knee,
     extra_rebound_damping,
 )
 from suspenv.models.effects.effect import (
@@ -51,7 +47,6 @@ from suspenv.models.effects.pointwise import PointwiseElement, pointwise
 from suspenv.models.effects.sensor import (
     sensor_delay,
     sensor_lag,
-    sensor_lag_dydt,
     sensor_offset_gain,
 )
 from suspenv.models.effects.stiffness import (
@@ -64,7 +59,6 @@ from suspenv.models.effects.stiffness import (
 from suspenv.models.effects.viscoelastic import (
     kelvin_voigt,
     maxwell_dfdt,
-    maxwell_phase_lead,
     maxwell_series,
 )
 
@@ -84,23 +78,18 @@ __all__ = [
     "cubic_stiffness",
     "dahl_dzdt",
     "dahl_path",
-    "damper_asymmetric",
     "damper_digressive",
     "damper_digressive_asymmetric",
-    "damper_knee",
     "effect_kinds",
     "extra_rebound_damping",
     "get_kind",
     "kelvin_voigt",
-    "left_right_difference",
     "lugre_dzdt",
     "lugre_force",
     "lugre_series",
     "make_effect",
     "maxwell_dfdt",
-    "maxwell_phase_lead",
     "maxwell_series",
-    "perturb_lr_params",
     "perturb_pair",
     "pointwise",
     "progressive_spring",
@@ -108,7 +97,6 @@ __all__ = [
     "register_kind",
     "sensor_delay",
     "sensor_lag",
-    "sensor_lag_dydt",
     "sensor_offset_gain",
     "split_pair",
     "stribeck_friction",

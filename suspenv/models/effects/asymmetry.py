@@ -11,8 +11,6 @@ Convention: left = side with y > 0 (ISO 8855), keys ending ``_left``/``_right``
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-
 import numpy as np
 
 from suspenv.core.errors import ValidationError
@@ -50,30 +48,3 @@ def split_pair(nominal: float, delta: float, relative: bool = True) -> tuple[flo
     if relative:
         return float(nominal * (1.0 - 0.5 * delta)), float(nominal * (1.0 + 0.5 * delta))
     return float(nominal - 0.5 * delta), float(nominal + 0.5 * delta)
-
-
-def perturb_lr_params(
-    params: Mapping[str, float],
-    tolerance: float,
-    seed: int | np.random.Generator | None = None,
-    relative: bool = True,
-) -> dict[str, float]:
-    """Perturb every ``*_left``/``*_right`` (or ``.left``/``.right``) entry independently.
-
-    Other entries are returned unchanged. Reproducible for a given ``seed``.
-    """
-    if not tolerance >= 0:
-        raise ValidationError(f"`tolerance >= 0` must hold, but got tolerance={tolerance!r}")
-    rng = _rng(seed)
-    out = dict(params)
-    for key in sorted(params):
-        if key.endswith(("_left", "_right", ".left", ".right")):
-            e = rng.uniform(-tolerance, tolerance)
-            value = float(params[key])
-            out[key] = value * (1.0 + e) if relative else value + e
-    return out
-
-
-def left_right_difference(left: np.ndarray, right: np.ndarray) -> np.ndarray:
-    """Left minus right (same units as the inputs); zero for a symmetric vehicle."""
-    return np.asarray(left, dtype=float) - np.asarray(right, dtype=float)

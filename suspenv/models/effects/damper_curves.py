@@ -1,10 +1,9 @@
-"""Damper force-velocity curves: asymmetric bump/rebound, digressive, knee.
+"""Damper force-velocity curves: digressive, asymmetric digressive, extra rebound.
 
 Units SI: velocity v [m/s] (positive = compression / bump, negative = extension /
 rebound), force [N], positive when it resists positive velocity (power absorbed
 ``F v >= 0`` for positive coefficients). Pointwise functions (numpy broadcasting).
 
-* Asymmetric linear: ``F = c_bump v`` for ``v >= 0``, ``c_rebound v`` for ``v < 0``.
 * Digressive (rational knee)::
 
       F = c_low v / (1 + |v| / v_knee)
@@ -12,11 +11,6 @@ rebound), force [N], positive when it resists positive velocity (power absorbed
   slope ``c_low`` at rest, force saturating towards ``c_low v_knee`` at high speed.
   With a linear base ``c_high v`` in parallel, the total curve has slope
   ``c_low + c_high`` at low speed and ``c_high`` above the knee (a blow-off damper).
-* Piecewise-linear knee: slope ``c_low`` up to ``|v| = v_knee``, then ``c_high``
-  (continuous at the knee)::
-
-      F = sign(v) (c_low min(|v|, v_knee) + c_high max(|v| - v_knee, 0))
-
 * Asymmetric digressive (separate bump and rebound valve stacks)::
 
       F = c_bump v / (1 + v / v_knee_bump)              for v >= 0
@@ -35,12 +29,6 @@ import numpy as np
 from suspenv.models.effects._util import Value, require_positive
 
 
-def damper_asymmetric(v: Value, c_bump: Value, c_rebound: Value) -> np.ndarray:
-    """Bilinear damper force [N]: ``c_bump`` [N s/m] in bump, ``c_rebound`` in rebound."""
-    v = np.asarray(v, dtype=float)
-    return np.where(v >= 0.0, c_bump * v, c_rebound * v)
-
-
 def extra_rebound_damping(v: Value, dc_rebound: Value) -> np.ndarray:
     """Additional rebound-only damping force ``dc_rebound * min(v, 0)`` [N]."""
     return np.asarray(dc_rebound, dtype=float) * np.minimum(np.asarray(v, dtype=float), 0.0)
@@ -51,14 +39,6 @@ def damper_digressive(v: Value, c_low: Value, v_knee: Value) -> np.ndarray:
     require_positive("v_knee", v_knee)
     v = np.asarray(v, dtype=float)
     return c_low * v / (1.0 + np.abs(v) / v_knee)
-
-
-def damper_knee(v: Value, c_low: Value, c_high: Value, v_knee: Value) -> np.ndarray:
-    """Piecewise-linear damper force [N] with a knee at ``|v| = v_knee`` [m/s]."""
-    require_positive("v_knee", v_knee)
-    v = np.asarray(v, dtype=float)
-    av = np.abs(v)
-    return np.sign(v) * (c_low * np.minimum(av, v_knee) + c_high * np.maximum(av - v_knee, 0.0))
 
 
 def damper_digressive_asymmetric(

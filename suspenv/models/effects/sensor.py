@@ -61,11 +61,6 @@ def sensor_drift(
     )
 
 
-def sensor_lag_dydt(y_rec: Value, y: Value, tau: Value) -> np.ndarray:
-    """First-order sensor state derivative ``(y - y_rec) / tau``."""
-    return (np.asarray(y, dtype=float) - y_rec) / tau
-
-
 def sensor_lag(y: np.ndarray, t: np.ndarray, tau: Value) -> np.ndarray:
     """First-order lag of ``y[..., T]`` sampled at ``t[T]``; starts at rest on ``y[..., 0]``.
 

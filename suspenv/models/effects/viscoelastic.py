@@ -56,8 +56,3 @@ def maxwell_series(
     decay = np.exp(-dt / (cm / km))
     # F[k+1] = c v + (F[k] - c v) decay over each interval (v constant)
     return linear_recurrence(cm * v * (1.0 - decay), decay, f0)
-
-
-def maxwell_phase_lead(omega: Value, tau: Value) -> np.ndarray:
-    """Phase [rad] by which Maxwell force leads a sinusoidal displacement: ``atan(1/(w tau))``."""
-    return np.arctan2(1.0, np.asarray(omega, dtype=float) * np.asarray(tau, dtype=float))

@@ -1,5 +1,5 @@
-"""Batched 3-D rotation helpers (rotation vectors in radians, any leading shape), and
-forms of them with the rows last (many rows at once: see ``ROWS_LAST``)."""
+"""Batched 3-D rotation helpers (rotation vectors in radians, any leading shape); the
+rotation updates of the Newton steps run matrix by matrix (see ``ROWS_LAST``)."""
 
 from __future__ import annotations
 
@@ -88,80 +88,24 @@ def log_so3(R: np.ndarray) -> np.ndarray:
     return _log_factor(s, c)[..., None] * vee
 
 
-# ------------------------------------------------------- rows last (components first)
-# The same formulas with the matrix entries first and the rows last, (3, 3, N) and
-# (3, N): each operation then runs over all N rows at once (stacked 3 x 3 products and
-# operations over a last axis of 3 are slow for many rows).
-
-#: :func:`relative_log` and :func:`turned` compute with the rows last (the same numbers
-#: to rounding; False: stacked matrix products, the reference path of the speed
-#: benchmark's baseline)
+#: :func:`relative_log` and :func:`turned` run the compiled loops of
+#: :mod:`.rotation_kernel` (the same formulas matrix by matrix; plain Python without
+#: numba); False: stacked matrix products, the reference path of the speed benchmark's
+#: baseline
 ROWS_LAST = True
-#: :func:`relative_log` and :func:`turned` run compiled loops (:mod:`.rotation_kernel`,
-#: the same formulas matrix by matrix) where numba is installed; False: the numpy forms
-COMPILED = True
-
-
-def expm_rows_last(w: np.ndarray) -> np.ndarray:
-    """:func:`expm_so3` of rotation vectors ``w`` (3, ...): matrices (3, 3, ...)."""
-    th2 = w[0] * w[0] + w[1] * w[1] + w[2] * w[2]
-    A, B, C = _rodrigues_coefficients(th2)
-    Aw = A * w
-    Bw = B * w
-    R = Bw[:, None] * w[None, :]  # B w w^T
-    R[1, 0], R[2, 0], R[2, 1] = R[0, 1], R[0, 2], R[1, 2]  # symmetric to the bit
-    for i in range(3):
-        R[i, i] += C
-    R[0, 1] -= Aw[2]
-    R[1, 0] += Aw[2]
-    R[0, 2] += Aw[1]
-    R[2, 0] -= Aw[1]
-    R[1, 2] -= Aw[0]
-    R[2, 1] += Aw[0]
-    return R
-
-
-def log_rows_last(R: np.ndarray) -> np.ndarray:
-    """:func:`log_so3` of rotation matrices ``R`` (3, 3, ...): vectors (3, ...)."""
-    vee = np.empty((3,) + R.shape[2:])
-    np.subtract(R[2, 1], R[1, 2], out=vee[0])
-    np.subtract(R[0, 2], R[2, 0], out=vee[1])
-    np.subtract(R[1, 0], R[0, 1], out=vee[2])
-    s = 0.5 * np.sqrt((vee * vee).sum(axis=0))
-    c = 0.5 * (R[0, 0] + R[1, 1] + R[2, 2] - 1.0)
-    vee *= _log_factor(s, c)
-    return vee
-
-
-def _rows_last(R: np.ndarray) -> np.ndarray:
-    """Matrices (..., 3, 3) as (3, 3, N), N the number of matrices (a copy)."""
-    return np.ascontiguousarray(R.reshape(-1, 3, 3).transpose(1, 2, 0))
 
 
 def relative_log(A: np.ndarray, B: np.ndarray) -> np.ndarray:
     """Rotation vectors (..., 3) of ``A B^T`` for rotation matrices A, B (..., 3, 3) of
-    the same shape (``log_so3(A @ swapaxes(B))``, computed with the rows last)."""
+    the same shape (``log_so3(A @ swapaxes(B))``, matrix by matrix)."""
     if not ROWS_LAST:
         return log_so3(np.matmul(A, np.swapaxes(B, -1, -2)))
-    if COMPILED and rotation_kernel.AVAILABLE:
-        return rotation_kernel.relative_log(A, B)
-    a, b = _rows_last(A), _rows_last(B)
-    ab = a[:, None, 0] * b[None, :, 0]  # (A B^T)_ij = sum_k A_ik B_jk
-    ab += a[:, None, 1] * b[None, :, 1]
-    ab += a[:, None, 2] * b[None, :, 2]
-    return np.ascontiguousarray(log_rows_last(ab).T).reshape(A.shape[:-1])
+    return rotation_kernel.relative_log(A, B)
 
 
 def turned(w: np.ndarray, R: np.ndarray) -> np.ndarray:
     """``expm_so3(w) @ R`` (..., 3, 3) for rotation vectors ``w`` (..., 3) and matrices
-    ``R`` (..., 3, 3) of the same leading shape (computed with the rows last)."""
+    ``R`` (..., 3, 3) of the same leading shape (matrix by matrix)."""
     if not ROWS_LAST:
         return np.matmul(expm_so3(w), R)
-    if COMPILED and rotation_kernel.AVAILABLE:
-        return rotation_kernel.turned(w, R)
-    E = expm_rows_last(np.ascontiguousarray(w.reshape(-1, 3).T))
-    Rl = _rows_last(R)
-    out = E[:, 0, None] * Rl[0]  # sum_k E_ik R_kj
-    out += E[:, 1, None] * Rl[1]
-    out += E[:, 2, None] * Rl[2]
-    return np.ascontiguousarray(out.transpose(2, 0, 1)).reshape(R.shape)
+    return rotation_kernel.turned(w, R)

@@ -72,7 +72,7 @@ from __future__ import annotations
 import copy
 import functools
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -86,7 +86,6 @@ from suspenv.models.mcpherson.effects import (
     bushings_at,
     check_placement,
 )
-from suspenv.models.mcpherson.kinematics import _perp_basis
 from suspenv.models.mcpherson.params import SIDE_SIGN, Axle
 from suspenv.models.mcpherson.rotation import (
     cross,
@@ -146,10 +145,6 @@ JACOBIAN_BLOCK = 256
 #: perturbation, stay below about 80 kB per row at small batches too (the 24
 #: perturbations of a single row in one call: 157 kB)
 JACOBIAN_PERTURBATIONS = 12
-#: the finite-difference Jacobian perturbs the columns with disjoint residual rows
-#: together and takes the multiplier columns exactly (False: one perturbation per
-#: column, the reference path of the tests and the speed benchmark's baseline)
-JACOBIAN_COLOURED = True
 #: residual rows (of one side) that the lower arm's coordinates enter: its force and
 #: moment and the ball joint's constraint; the strut rod's enter none of them
 ARM_ROWS = np.r_[0:6, NQ : NQ + 3]
@@ -284,26 +279,23 @@ class AxleState:
     def copy(self) -> AxleState:
         return self.moved(self.r.copy(), self.R.copy(), self.lam.copy())
 
+    def _histories(self, f: Callable[[np.ndarray], np.ndarray]) -> tuple:
+        """(hyst, fric): the path-dependent histories with ``f`` applied to each array."""
+        hyst = {k: (f(a), f(b)) for k, (a, b) in self.hyst.items()}
+        return hyst, None if self.fric is None else (f(self.fric[0]), f(self.fric[1]))
+
     def moved(self, r: np.ndarray, R: np.ndarray, lam: np.ndarray) -> AxleState:
         """A state at ``r``, ``R``, ``lam`` with a copy of this one's path-dependent
         histories."""
-        return AxleState(
-            r,
-            R,
-            lam,
-            {k: (a.copy(), b.copy()) for k, (a, b) in self.hyst.items()},
-            None if self.fric is None else (self.fric[0].copy(), self.fric[1].copy()),
-        )
+        return AxleState(r, R, lam, *self._histories(np.copy))
 
     def take(self, rows: np.ndarray) -> AxleState:
         """The state of the given rows (index array or boolean mask)."""
-        return AxleState(
-            self.r[rows].copy(),
-            self.R[rows].copy(),
-            self.lam[rows].copy(),
-            {k: (a[rows].copy(), b[rows].copy()) for k, (a, b) in self.hyst.items()},
-            None if self.fric is None else (self.fric[0][rows].copy(), self.fric[1][rows].copy()),
-        )
+
+        def pick(a: np.ndarray) -> np.ndarray:
+            return a[rows].copy()
+
+        return AxleState(pick(self.r), pick(self.R), pick(self.lam), *self._histories(pick))
 
     def assign(self, other: AxleState, rows: np.ndarray) -> None:
         """Copy ``other``'s values into this state for the boolean/int ``rows``."""
@@ -580,10 +572,10 @@ class AxleSolver:
         equilibrium under the static tyre load (corner load + wheel weight) when the
         spring force is ``F = (Fz dz_cp - W dz_wc) / (-dL)`` along the kinematic
         motion (dz_wc = 1). The static pad height loads the tyre by ``Fz / kt``. The
-        motion is that of :class:`~suspenv.models.mcpherson.kinematics.CornerKinematics`
-        (its six ideal-joint equations), in closed form at the design position: a
-        knuckle move (translation ``dt``, rotation ``dw``) moves its point ``p`` by
-        ``dt + dw x (p - wheel centre)``.
+        motion is that of the six ideal-joint equations (the tests' reference
+        ``CornerKinematics``, ``tests/mcpherson_kinematics.py``), in closed form at the
+        design position: a knuckle move (translation ``dt``, rotation ``dw``) moves its
+        point ``p`` by ``dt + dw x (p - wheel centre)``.
         """
         ax, p = self.axle, self.axle.points
         wc = p["wheel_centre"]
@@ -891,12 +883,9 @@ class AxleSolver:
         lower-arm and a strut-rod coordinate: the lower arm's rows are its own force and
         moment and the ball joint's constraint, which no strut-rod coordinate enters),
         which gives the very numbers of perturbing them apart. The multiplier columns
-        are exact (:meth:`multiplier_columns`: the residual is linear in them).
-        ``JACOBIAN_COLOURED = False``: one perturbation per column, the multipliers
-        included (step 1 N), the reference path.
+        are exact (:meth:`multiplier_columns`: the residual is linear in them). The
+        reference path, one perturbation per column: ``benchmarks/knc_reference.py``.
         """
-        if not JACOBIAN_COLOURED:
-            return self._jacobian_by_columns(st, pad, ext, h, rack)
         n = self.n
         J = np.zeros((n, 2 * NS, 2 * NS))
         if JACOBIAN_COMPILED and self._effect_loads(st.r, st.R, st) is None:
@@ -1013,56 +1002,6 @@ class AxleSolver:
         L[..., 18:21, 8] = -f
         L[..., 21:24, 8] = -cross(V[..., 14, :], f)
         return L
-
-    def _jacobian_by_columns(
-        self,
-        st: AxleState,
-        pad: np.ndarray,
-        ext: np.ndarray | None = None,
-        h: float = 1e-7,
-        rack: np.ndarray | None = None,
-    ) -> np.ndarray:
-        """:meth:`jacobian` with one forward difference per column (multipliers by a
-        1 N step), the reference path."""
-        n = self.n
-        # the bar halves and the tie-rod multiplier (a compliant rack moves with both
-        # tie rods) couple the sides: their columns one side at a time
-        apart = [18 + k for k in range(6)] + [NQ + 7]
-        shared = [j for j in range(NS) if j not in apart]  # 26 columns
-        # perturbations: (column j, side) with side None for both sides at once
-        cols: list[tuple[int, int | None]] = [(j, None) for j in shared]
-        cols += [(j, s) for s in (0, 1) for j in apart]
-        hl = 1.0
-        exp_h = expm_so3(h * np.eye(3))  # rotations by h about x, y, z
-        base = self.residual(st.r, st.R, st.lam, pad, st, ext, rack=rack)  # (n, 2, 33)
-        J = np.zeros((n, 2 * NS, 2 * NS))
-        # perturbed residuals in blocks of about JACOBIAN_BLOCK row evaluations (memory)
-        per = max(1, JACOBIAN_BLOCK // max(n, 1))
-        for a in range(0, len(cols), per):
-            block = cols[a : a + per]
-            P = len(block)
-            r = np.broadcast_to(st.r, (P,) + st.r.shape).copy()
-            R = np.broadcast_to(st.R, (P,) + st.R.shape).copy()
-            lam = np.broadcast_to(st.lam, (P,) + st.lam.shape).copy()
-            for p, (j, side) in enumerate(block):
-                sd = slice(None) if side is None else side
-                if j >= NQ:
-                    lam[p, :, sd, j - NQ] += hl
-                    continue
-                b, k = divmod(j, 6)
-                if k < 3:
-                    r[p, :, sd, b, k] += h
-                else:
-                    R[p, :, sd, b] = np.matmul(exp_h[k - 3], st.R[:, sd, b])
-            d = self.residual(r, R, lam, pad, st, ext, rack=rack) - base  # (P, n, 2, 33)
-            for p, (j, side) in enumerate(block):
-                step = hl if j >= NQ else h
-                if side is None:
-                    for s in (0, 1):
-                        J[:, s * NS : (s + 1) * NS, s * NS + j] = d[p, :, s] / step
-                else:
-                    J[:, :, side * NS + j] = d[p].reshape(n, 2 * NS) / step
-        return J
 
     # ------------------------------------------------------------------ update
     @staticmethod
@@ -1516,6 +1455,16 @@ def _skew(v: np.ndarray) -> np.ndarray:
     out[..., 1, 0], out[..., 1, 2] = v[..., 2], -v[..., 0]
     out[..., 2, 0], out[..., 2, 1] = -v[..., 1], v[..., 0]
     return out
+
+
+def _perp_basis(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit vectors perpendicular to unit ``a`` (..., 3)."""
+    helper = np.zeros_like(a)
+    helper[..., 0] = 1.0
+    u = cross(a, helper)  # np.cross's products and differences, in fewer calls
+    u /= np.linalg.norm(u, axis=-1, keepdims=True)
+    v = cross(a, u)
+    return u, v
 
 
 def _broadcast(a: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:

@@ -62,8 +62,23 @@ def _file_mm(p: np.ndarray, side: int) -> str:
 
 def check_geometry(axle: Axle, effects: Sequence = (), where: str = "vehicle") -> None:
     """Rules 1 to 4 of the module docstring on the first design of ``axle``."""
+    check_links(axle, where)
+    _check_ride_rate(axle, effects, where)
+
+
+def check_links(axle: Axle, where: str = "vehicle") -> None:
+    """Rules 1 to 3 of the module docstring (no solve) on the first design of ``axle``,
+    the links first (a strut of zero length leaves the points built on its axis NaN)."""
     pts = {k: np.asarray(v[0], float) for k, v in axle.points.items()}  # (2, 3) [m]
     for side, sign in ((0, 1.0), (1, -1.0)):
+        for a, b in LINKS:
+            d = float(np.linalg.norm(pts[a][side] - pts[b][side]))
+            if not d >= MIN_LENGTH:
+                raise ValidationError(
+                    f"{where} ({SIDES[side]}): `|{a} - {b}| >= {MIN_LENGTH * 1e3:g} mm` must "
+                    f"hold (a link of non-zero length), but the points are {d * 1e3:.3g} mm "
+                    f"apart ({_file_mm(pts[a][side], side)} and {_file_mm(pts[b][side], side)})"
+                )
         for name, p in pts.items():
             if not sign * p[side, 1] > 0:
                 raise ValidationError(
@@ -79,15 +94,6 @@ def check_geometry(axle: Axle, effects: Sequence = (), where: str = "vehicle") -
                 f"above), but got strut_top_z={top[2] * 1e3:.1f} mm and "
                 f"lower_ball_joint_z={ball[2] * 1e3:.1f} mm"
             )
-        for a, b in LINKS:
-            d = float(np.linalg.norm(pts[a][side] - pts[b][side]))
-            if not d >= MIN_LENGTH:
-                raise ValidationError(
-                    f"{where} ({SIDES[side]}): `|{a} - {b}| >= {MIN_LENGTH * 1e3:g} mm` must "
-                    f"hold (a link of non-zero length), but the points are {d * 1e3:.3g} mm "
-                    f"apart ({_file_mm(pts[a][side], side)} and {_file_mm(pts[b][side], side)})"
-                )
-    _check_ride_rate(axle, effects, where)
 
 
 def ride_rate(axle: Axle, effects: Sequence = ()) -> np.ndarray | None:

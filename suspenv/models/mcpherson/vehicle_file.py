@@ -72,7 +72,7 @@ from suspenv.models.mcpherson.params import (
     design_physics_errors,
     design_space,
 )
-from suspenv.models.mcpherson.vehicle_checks import check_geometry
+from suspenv.models.mcpherson.vehicle_checks import check_geometry, check_links
 
 #: the reference vehicle shipped with suspenv (the paper's car with the paper's bounds)
 VEHICLE_DIR = Path(__file__).resolve().parents[2] / "data" / "vehicles"
@@ -275,31 +275,22 @@ def vehicle_from_dict(data: dict[str, Any], where: str, default_name: str) -> Ve
 def check_assembles(vehicle: VehicleFile) -> None:
     """Refuse a vehicle whose linkage has no static equilibrium, with the reason.
 
-    Checks, in order: the linkage is not degenerate (distinct strut top and strut axis
-    point, lower-arm bushes and ball joint not in one line, tie rod and drop link of
-    non-zero length); the ideal-joint linkage has a unique kinematic motion at the design
-    position (the spring preload is sized on it); the compliant axle (with its effects)
-    finds a static equilibrium on the rig pads (:class:`AxleSolver`, the rig's own
-    first solve) with bushing deflections within the rig's plausibility limits.
+    Checks, in order: the linkage is not degenerate (the geometry rules of
+    :func:`~suspenv.models.mcpherson.vehicle_checks.check_links`: every link at least
+    1 mm long; lower-arm bushes and ball joint not in one line); the ideal-joint linkage
+    has a unique kinematic motion at the design position (the spring preload is sized on
+    it); the compliant axle (with its effects) finds a static equilibrium on the rig pads
+    (:class:`AxleSolver`, the rig's own first solve) with bushing deflections within the
+    rig's plausibility limits.
     """
     from suspenv.models.mcpherson.solver import MAX_ROTATION, MAX_TRANSLATION, AxleSolver
 
     what = f"vehicle {vehicle.name!r} does not assemble"
     with np.errstate(all="ignore"):  # a degenerate strut line is reported below
         axle = vehicle.axle()
+    check_links(axle, what)
     p = {k: v[0, 0] for k, v in axle.points.items()}  # left side [m]
     tiny = 1e-6  # m
-    for a, b in (
-        ("strut_top", "strut_axis_point"),
-        ("tie_rod_inner", "tie_rod_outer"),
-        ("drop_link_strut", "arb_drop_link"),
-        ("lca_front_bush", "lca_rear_bush"),
-    ):
-        d = float(np.linalg.norm(p[a] - p[b]))
-        if not d > tiny:
-            raise ValidationError(
-                f"{what}: `|{a} - {b}| > 0` must hold, but the points are {d * 1e3:.3g} mm apart"
-            )
     axis = p["lca_rear_bush"] - p["lca_front_bush"]
     arm = p["lower_ball_joint"] - p["lca_front_bush"]
     off = float(np.linalg.norm(np.cross(axis, arm)) / np.linalg.norm(axis))

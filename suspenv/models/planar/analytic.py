@@ -188,13 +188,6 @@ class _Kernel:
         return pts, np.broadcast_to(theta, shape), np.broadcast_to(spring, shape)
 
 
-def _pose(
-    geom: PlanarGeometry, phi: np.ndarray
-) -> tuple[dict[str, np.ndarray], np.ndarray, np.ndarray]:
-    """Points, upright rotation and spring length for lower-arm rotation ``phi`` (B..., t)."""
-    return _Kernel(geom).pose(phi)
-
-
 # ---------------------------------------------------------------- the solver
 def solve_sweep(
     geom: PlanarGeometry, travel: np.ndarray, *, derivatives: bool = True

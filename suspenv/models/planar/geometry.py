@@ -127,12 +127,6 @@ class PlanarGeometry:
         down = np.stack([np.sin(g), np.cos(g)], axis=-1)
         return self.wheel_centre - self.tyre_radius[..., None] * down
 
-    def design_points(self) -> dict[str, np.ndarray]:
-        """Every named point at the design position, plus ``contact``, (..., 2) m."""
-        pts = {n: getattr(self, n) for n in self.point_names}
-        pts["contact"] = self.contact_point
-        return pts
-
     def points_mm(self) -> dict[str, list[float]]:
         """Hard points in mm of a single (unbatched) geometry, for files and tables."""
         if self.batch_shape:

@@ -1,4 +1,4 @@
-"""Pure kinematics of one McPherson corner with ideal joints (no compliance).
+"""Pure kinematics of one McPherson corner with ideal joints (no compliance; tests only).
 
 Frame ISO 8855 (x forward, y left, z up), SI units; points of an :class:`Axle`.
 
@@ -12,8 +12,8 @@ from six scalar equations with the bushings replaced by ideal joints:
 4-5. the strut top (a spherical top mount) stays on the knuckle's strut line;
 6.   the wheel-centre height equals the prescribed value.
 
-Used as the reference of the "stiff bushings equal pure kinematics" tests and to
-size the spring preload (virtual work at the design position). It shares no code with
+Used as the reference of the "stiff bushings equal pure kinematics" tests and of the
+spring preload's motion (virtual work at the design position). It shares no code with
 the compliant solver (``solver.py``) beyond the input geometry (:class:`Axle`): its
 rotations come from scipy's ``Rotation.from_rotvec``, not from ``rotation.py``.
 """
@@ -25,23 +25,13 @@ from scipy.spatial.transform import Rotation
 
 from suspenv.core.errors import ConvergenceError
 from suspenv.models.mcpherson.params import Axle
-from suspenv.models.mcpherson.rotation import cross
+from suspenv.models.mcpherson.solver import _perp_basis
 
 
 def _rotation_matrices(w: np.ndarray) -> np.ndarray:
     """Rotation matrices (..., 3, 3) of rotation vectors ``w`` (..., 3) [rad] (scipy)."""
     w = np.asarray(w, dtype=float)
     return Rotation.from_rotvec(w.reshape(-1, 3)).as_matrix().reshape(w.shape[:-1] + (3, 3))
-
-
-def _perp_basis(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Two unit vectors perpendicular to unit ``a`` (..., 3)."""
-    helper = np.zeros_like(a)
-    helper[..., 0] = 1.0
-    u = cross(a, helper)  # np.cross's products and differences, in fewer calls
-    u /= np.linalg.norm(u, axis=-1, keepdims=True)
-    v = cross(a, u)
-    return u, v
 
 
 class CornerKinematics:
