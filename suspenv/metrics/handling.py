@@ -213,6 +213,7 @@ def slalom_linear(
     circle: SteadyCircleConfig | None = None,
     working_point: bool = True,
     system: tuple[np.ndarray, np.ndarray] | None = None,
+    stable: np.ndarray | None = None,
 ) -> SlalomLinearResult:
     """The slalom course followed exactly by the linearised vehicle (module docstring).
 
@@ -224,7 +225,8 @@ def slalom_linear(
     as they do where the course runs; ``False``: the small-amplitude linearisation
     about straight running (the bars' split then only moves the roll steer).
     ``system``: (A, B) of :func:`linear_system` at the course's speed and working point,
-    if already at hand.
+    if already at hand; ``stable``: whether each row of that A is finite with every pole
+    in the left half-plane, if already known (else from A's eigenvalues).
     """
     config = config or SlalomConfig()
     u = config.speed
@@ -238,8 +240,10 @@ def slalom_linear(
     gain = np.abs(H.ay[:, 0])
     steer = ay / gain
     ratio = P.vehicle.steering_ratio
-    with np.errstate(invalid="ignore"):
-        stable = np.all(np.linalg.eigvals(np.nan_to_num(A, nan=1.0)).real < 0, axis=-1)
+    if stable is None:
+        with np.errstate(invalid="ignore"):
+            poles = np.linalg.eigvals(np.nan_to_num(A, nan=1.0))
+        stable = np.all(poles.real < 0, axis=-1) & np.isfinite(A).all(axis=(1, 2))
     return SlalomLinearResult(
         steering_wheel_amplitude=ratio * steer,
         steer_amplitude=steer,
@@ -248,7 +252,7 @@ def slalom_linear(
         ay_amplitude=np.full(P.n, ay),
         yaw_rate_gain=np.abs(H.yaw_rate[:, 0]) / ratio,
         frequency=f,
-        stable=stable & np.isfinite(A).all(axis=(1, 2)),
+        stable=stable,
     )
 
 

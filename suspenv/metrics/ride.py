@@ -500,14 +500,8 @@ def _split_mean_square(
     [wt_sym | wt_anti]`` (Nf, 2 j); the compiled sums of
     :func:`suspenv.models.minibus.spectral_kernel.mean_square`."""
     w, _, dr, di = grid
-    rows_all, d = m.q0.shape
-    coef = m.coef[:, :, rows]
-    p = coef.shape[2]
-    coef = np.ascontiguousarray(coef.reshape(rows_all, 2 * p, 2 * d))  # front, rear outputs
-    out = np.empty((rows_all // 2, p, wt.shape[1] // 2))
-    spectral_kernel.mean_square(
-        np.ascontiguousarray(m.q0), np.ascontiguousarray(m.q1), coef, w, dr, di, wt, out
-    )
+    out = np.empty((m.q0.shape[0] // 2, rows.stop - rows.start, wt.shape[1] // 2))
+    spectral_kernel.mean_square(m.q0, m.q1, m.coef, rows.start, w, dr, di, wt, out)
     return out
 
 
@@ -607,6 +601,13 @@ def _spectral_result(
     }
 
 
+#: the element RMS values of :func:`_spectral_split`'s passes (columns ``SIG_*`` of
+#: :mod:`suspenv.models.minibus.linearisation`: damper velocities FL, FR, RL, RR, leaf
+#: deflections L, R) from its mean squares (FL damper, RL damper, left leaf) x
+#: (displacement, velocity), flattened
+_SIGMA_COLUMNS = np.array([1, 1, 3, 3, 4, 4])
+
+
 def _spectral_split(
     X: np.ndarray,
     cases: list[str],
@@ -640,8 +641,8 @@ def _spectral_split(
 
     def sigma(m: _Modes) -> np.ndarray:
         # (n, 3 outputs: FL damper, RL damper, left leaf, 2: displacement, velocity)
-        sig = np.sqrt(_split_mean_square(m, slice(2, 5), grid_i, wt_i))
-        return np.concatenate([sig[:, [0, 0, 1, 1], 1], sig[:, [2, 2], 0]], axis=1)
+        ms = _split_mean_square(m, slice(2, 5), grid_i, wt_i).reshape(-1, 6)
+        return np.sqrt(ms[:, _SIGMA_COLUMNS])
 
     lz = ElementLinearisation(model) if equivalent_linear else None
     r0 = np.hstack([model.damper_mean, model.leaf_static_rate])

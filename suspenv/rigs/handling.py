@@ -152,37 +152,6 @@ def _capacity_table(
     return float(fz[1] - fz[0]), cap
 
 
-def _steady_rows(P: HandlingParams) -> np.ndarray:
-    """The per-row coefficients (n, 17) of the compiled steady states (circle limit,
-    sweep): roll gradient (rad per m/s^2), axle roll stiffnesses (N m/rad), the
-    lateral-acceleration moments of the roll centres and unsprung masses (kg m), tracks
-    (m), static wheel loads (N), mass (kg), CoM distances and wheelbase (m), as
-    :func:`wheel_loads` forms them at zero roll rate, then the roll (rad/rad) and force
-    (rad/N) steers front and rear."""
-    return np.stack(
-        [
-            P.roll_gradient(),
-            P.kphi_front,
-            P.kphi_rear,
-            P.ms_front * P.h_rc_front + P.mu_front * P.wheel_radius,
-            P.ms_rear * P.h_rc_rear + P.mu_rear * P.wheel_radius,
-            P.track_front,
-            P.track_rear,
-            P.fz_front,
-            P.fz_rear,
-            P.m,
-            P.a,
-            P.b,
-            P.wheelbase,
-            P.roll_steer_front,
-            P.force_steer_front,
-            P.roll_steer_rear,
-            P.force_steer_rear,
-        ],
-        axis=1,
-    )
-
-
 def steady_circle(
     P: HandlingParams, config: SteadyCircleConfig | None = None
 ) -> SteadyCircleResult:
@@ -200,7 +169,7 @@ def steady_circle(
     scale = config.ay_upper / float(2**bits)
     h, table = _capacity_table(P.tyre, config.alpha_max_deg, config.alpha_points)
     out = np.empty((P.n, 3))
-    handling_kernel.circle_loop(_steady_rows(P), table, h, bits, scale, out)
+    handling_kernel.circle_loop(P.rows, table, h, bits, scale, out)
     limit = np.where(out[:, 2] == 0, "rollover", np.where(out[:, 1] == 0, "front", "rear"))
     return SteadyCircleResult(ay_max=out[:, 0] * scale, limit=limit, config=config)
 
@@ -254,7 +223,7 @@ def steady_state_sweep(
         raise ValidationError(f"`ay` must be a 1-D array of values >= 0, but got {ay!r}")
     out = np.empty((7, ay.size, P.n))
     handling_kernel.sweep_loop(
-        _steady_rows(P),
+        P.rows,
         np.ascontiguousarray(ay),
         np.array(P.tyre.coefficients),
         _slip_grid(config),

@@ -186,7 +186,7 @@ def tabulated(table: np.ndarray, h: float, fz_a: float, fz_b: float) -> float:
 def _steady_loads(row: np.ndarray, ay: float) -> tuple[float, float, float, float, float]:
     """(roll rad, wheel loads FL, FR, RL, RR N) of the steady state at lateral
     acceleration ``ay`` (m/s^2) of one row of coefficients
-    (:func:`suspenv.rigs.handling._steady_rows`)."""
+    (:attr:`~suspenv.models.minibus.handling_model.HandlingParams.rows`)."""
     phi = row[0] * ay
     fl, fr, rl, rr = axle_transfer(
         (row[1] * phi + row[3] * ay) / row[5],
@@ -371,6 +371,44 @@ def _yaw_loop(
         out[i, 4] = _bandwidth(lam[i], wn[i], f, f_max)
 
 
+def _linear_loop(
+    rows: np.ndarray,
+    u: np.ndarray,
+    cf: np.ndarray,
+    cr: np.ndarray,
+    A: np.ndarray,
+    B: np.ndarray,
+) -> None:
+    """State matrices ``A`` (k, n, 4, 4) and steer inputs ``B`` (k, n, 4) of the
+    linearised handling model (:func:`suspenv.models.minibus.handling_model.
+    linear_system`: state (v, r, phi, p), input the front road-wheel steer) per row of
+    coefficients ``rows`` (n, 22; :attr:`~suspenv.models.minibus.handling_model.
+    HandlingParams.rows`) at speeds ``u`` (k, n) m/s and axle tyre stiffnesses ``cf``,
+    ``cr`` (k, n) N/rad; ``A``, ``B`` zero on entry. The compliance steers solved into
+    effective axle stiffnesses ``C' = C / (1 - C c_F)``; the axle forces ``Fyf = cf
+    (delta + eps_f phi - (v + a r)/u)``, ``Fyr = cr (eps_r phi - (v - b r)/u)`` enter
+    the lateral (``r1 = sum Fy - m u r``) and roll (``r2``) balances."""
+    for q in range(u.shape[0]):
+        for i in range(rows.shape[0]):
+            row, uu = rows[i], u[q, i]
+            m, a, b, iz, ixs, msh = row[9], row[10], row[11], row[17], row[18], row[19]
+            cff = cf[q, i] / (1.0 - cf[q, i] * row[14])
+            crr = cr[q, i] / (1.0 - cr[q, i] * row[16])
+            det = m * ixs - msh**2
+            f0, f1, f2 = -cff / uu, -cff * a / uu, cff * row[13]
+            g0, g1, g2 = -crr / uu, crr * b / uu, crr * row[15]
+            r10, r11, r12 = f0 + g0, f1 + g1 + -m * uu, f2 + g2
+            r20, r21, r22 = msh * uu, row[20], -row[21]
+            out = A[q, i]
+            out[0, 0], out[3, 0] = ixs * r10 / det, msh * r10 / det
+            out[0, 1], out[3, 1] = (ixs * r11 + msh * r20) / det, (msh * r11 + m * r20) / det
+            out[0, 2], out[3, 2] = (ixs * r12 + msh * r21) / det, (msh * r12 + m * r21) / det
+            out[0, 3], out[3, 3] = msh * r22 / det, m * r22 / det
+            out[1, 0], out[1, 1] = (a * f0 - b * g0) / iz, (a * f1 - b * g1) / iz
+            out[1, 2], out[2, 3] = (a * f2 - b * g2) / iz, 1.0
+            B[q, i, 0], B[q, i, 1], B[q, i, 3] = ixs * cff / det, a * cff / iz, msh * cff / det
+
+
 _AXLE = ("_wheel_force", "_axle_force", "_capacity", "_slip_bracket", "_slip_solve")
 #: :func:`_capacity_loop`, compiled at its first call (numba's cache keeps it)
 capacity_loop = compiled.Lazy(globals(), _AXLE, _capacity_loop)
@@ -383,3 +421,5 @@ circle_loop = compiled.Lazy(globals(), (*_LOADS, "tabulated", "_circle_flags"), 
 sweep_loop = compiled.Lazy(
     globals(), (*_LOADS, *_AXLE, "tyre_cornering", "tyre_factors"), _sweep_loop
 )
+#: :func:`_linear_loop`, compiled at its first call (numba's cache keeps it)
+linear_loop = compiled.Lazy(globals(), (), _linear_loop)

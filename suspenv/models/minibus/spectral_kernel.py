@@ -32,6 +32,7 @@ def _mean_square(
     q0: np.ndarray,
     q1: np.ndarray,
     coef: np.ndarray,
+    lo: int,
     w: np.ndarray,
     dr: np.ndarray,
     di: np.ndarray,
@@ -40,12 +41,12 @@ def _mean_square(
 ) -> None:
     """``out[i, o, j] = sum_h sum_f wt[f, h J + j] |g_o(f)|^2`` (n designs, p outputs,
     J weight columns per half) over the halves h of design i (rows 2 i + h of ``q0``,
-    ``q1`` (2n, d) and ``coef`` (2n, 2p, 2d): rows front outputs then rear outputs,
-    columns the constant then the s terms), with ``g = H_front + (dr + i di) H_rear``
-    and ``H_o = sum_k (coef[o, k] + s coef[o, d + k]) / (s^2 - q1[k] s + q0[k])`` at
-    ``s = i w`` (w (Nf,) rad/s)."""
+    ``q1`` (2n, d) and ``coef`` (2n, 2, P, 2d) of :func:`modal_terms`: inputs front and
+    rear, outputs, the constant then the s terms; outputs ``lo .. lo + p - 1`` taken),
+    with ``g = H_front + (dr + i di) H_rear`` and ``H_o = sum_k (coef[o, k] + s coef[o,
+    d + k]) / (s^2 - q1[k] s + q0[k])`` at ``s = i w`` (w (Nf,) rad/s)."""
     rows, d = q0.shape
-    p = coef.shape[1] // 2
+    p = out.shape[1]
     n_w, nf = out.shape[2], w.size
     # loops over the frequencies innermost (vectorised): E (d, Nf), then per output
     # the front and rear responses (Nf) accumulated mode by mode
@@ -64,8 +65,8 @@ def _mean_square(
             g0r[:], g0i[:], g1r[:], g1i[:] = 0.0, 0.0, 0.0, 0.0
             for k in range(d):
                 # H = E a + i w E b
-                a0, b0 = coef[r, o, k], coef[r, o, d + k]
-                a1, b1 = coef[r, p + o, k], coef[r, p + o, d + k]
+                a0, b0 = coef[r, 0, lo + o, k], coef[r, 0, lo + o, d + k]
+                a1, b1 = coef[r, 1, lo + o, k], coef[r, 1, lo + o, d + k]
                 for f in range(nf):
                     e_r, e_i, wf = er[k, f], ei[k, f], w[f]
                     g0r[f] += a0 * e_r - b0 * wf * e_i
