@@ -45,7 +45,7 @@ Pylon-course slalom (:func:`slalom_run`)
 from __future__ import annotations
 
 import functools
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 from typing import Protocol
 
 import numpy as np
@@ -195,7 +195,7 @@ class SteadyStateSweep:
 
     def take(self, rows: slice | np.ndarray) -> SteadyStateSweep:
         """The states of some of the accelerations (rows of the first axis)."""
-        return SteadyStateSweep(*(getattr(self, f.name)[rows] for f in fields(self)))
+        return SteadyStateSweep(*(value[rows] for value in vars(self).values()))
 
 
 #: regula-falsi (Illinois) passes of the steady state's slip-angle solve: a fixed count

@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 
 from suspenv.core import compiled
+from suspenv.models.minibus.spectral_kernel import _solve
 
 
 def _wheel_force(alpha: float, d: float, b: float, e: float, c: float) -> float:
@@ -409,6 +410,26 @@ def _linear_loop(
             B[q, i, 0], B[q, i, 1], B[q, i, 3] = ixs * cff / det, a * cff / iz, msh * cff / det
 
 
+def _response_loop(A: np.ndarray, B: np.ndarray, s: np.ndarray, X: np.ndarray) -> None:
+    """Frequency response ``X[i, k] = (s_k I - A[i])^-1 B[i]`` (n, Nf, m, complex) of
+    the linear systems ``A`` (n, m, m), ``B`` (n, m) at the complex frequencies ``s``
+    (Nf,) (:func:`suspenv.models.minibus.handling_model.steer_response`), by Gaussian
+    elimination with partial pivoting."""
+    m = A.shape[1]
+    a = np.empty((m, m), dtype=np.complex128)
+    x = np.empty((m, 1), dtype=np.complex128)
+    for i in range(A.shape[0]):
+        for k in range(s.shape[0]):
+            for p in range(m):
+                for q in range(m):
+                    a[p, q] = -A[i, p, q]
+                a[p, p] += s[k]
+                x[p, 0] = B[i, p]
+            _solve(a, x)
+            for p in range(m):
+                X[i, k, p] = x[p, 0]
+
+
 _AXLE = ("_wheel_force", "_axle_force", "_capacity", "_slip_bracket", "_slip_solve")
 #: :func:`_capacity_loop`, compiled at its first call (numba's cache keeps it)
 capacity_loop = compiled.Lazy(globals(), _AXLE, _capacity_loop)
@@ -423,3 +444,5 @@ sweep_loop = compiled.Lazy(
 )
 #: :func:`_linear_loop`, compiled at its first call (numba's cache keeps it)
 linear_loop = compiled.Lazy(globals(), (), _linear_loop)
+#: :func:`_response_loop`, compiled at its first call (numba's cache keeps it)
+response_loop = compiled.Lazy(globals(), ("_solve",), _response_loop)

@@ -564,14 +564,14 @@ def steer_response(
     """Frequency response of the linearised model (:func:`linear_system`) to front steer.
 
     ``H(f) = (i 2 pi f I - A)^-1 B`` at the frequencies ``f`` (Hz, >= 0; 0 gives the
-    steady state), batched over the rows of ``P``; ``system``: (A, B) of
-    :func:`linear_system` if already at hand.
+    steady state), batched over the rows of ``P`` (the compiled
+    :func:`suspenv.models.minibus.handling_kernel.response_loop`); ``system``: (A, B)
+    of :func:`linear_system` if already at hand.
     """
     f = np.atleast_1d(np.asarray(f, dtype=float))
     A, B = system if system is not None else linear_system(P, u)
     s = 2j * np.pi * f
-    M = s[None, :, None, None] * np.eye(4)[None, None] - A[:, None]
-    rhs = np.broadcast_to(B[:, None, :, None], (P.n, f.size, 4, 1)).astype(complex)
-    X = np.linalg.solve(M, rhs)[..., 0]  # (n, Nf, 4)
+    X = np.empty((P.n, f.size, 4), dtype=complex)
+    handling_kernel.response_loop(np.ascontiguousarray(A), np.ascontiguousarray(B), s, X)
     v, r, phi = X[..., 0], X[..., 1], X[..., 2]
     return SteerResponse(f=f, ay=s[None, :] * v + u * r, yaw_rate=r, roll=phi, sideslip=v / u)

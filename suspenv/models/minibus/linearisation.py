@@ -199,14 +199,14 @@ class ElementLinearisation:
         columns ``SIG_*``) of the linear model built with the rates ``r``; without rear
         end stops the damper and leaf rates by the compiled loop
         (:func:`suspenv.models.minibus.spectral_kernel.damper_leaf_rates`)."""
-        sv, sd = np.maximum(sig[:, SIG_DAMPER], 1e-12), np.maximum(sig[:, SIG_LEAF], 1e-12)
         out = np.empty(r.shape)
         if self.stops[1]:
+            sv, sd = np.maximum(sig[:, SIG_DAMPER], 1e-12), np.maximum(sig[:, SIG_LEAF], 1e-12)
             self.damper_leaf_rates(sv, sd, out)
         else:
             # C order: the loop built ahead of time reads its arrays as laid out so
-            sv, sd = np.ascontiguousarray(sv), np.ascontiguousarray(sd)
-            spectral_kernel.damper_leaf_rates(sv, sd, *self._packed, NEWTON_STEPS, out)
+            sig = np.ascontiguousarray(sig)
+            spectral_kernel.damper_leaf_rates(sig, *self._packed, NEWTON_STEPS, out)
         if self.effects:
             self._effect_rates(sig, r, out)
         return out
