@@ -71,14 +71,14 @@ def _signatures() -> None:
     AHEAD["suspenv.models.effects.kernels"] = {
         "recurrence": f"void({f(2)}, {f(2)}, {f(1)}, {f(2)})",
     }
-    # d, b, e, c, grid, out; lam, wn, grid, f, f_max, out; rows, table, h, bits, scale,
+    # d, b, e, c, grid, out; lam, V, B, grid, f, f_max, out; rows, table, h, bits, scale,
     # out; rows, ay, tyre, grid, radius, passes, out; rows, u, cf, cr, A, B; A, B, s, X
     # (handling_kernel)
     axle = [f(2), f(2), f(2), "float64", f(1)]
     c = _arr("complex128", 2)
     AHEAD["suspenv.models.minibus.handling_kernel"] = {
         "capacity_loop": f"void({', '.join([*axle, f(2)])})",
-        "yaw_loop": f"void({c}, {c}, {f(1)}, {f(1)}, float64, {f(2)})",
+        "yaw_loop": f"void({c}, {_arr('complex128', 3)}, {f(2)}, {f(1)}, {f(1)}, float64, {f(2)})",
         "circle_loop": f"void({f(2)}, {f(2)}, float64, int64, float64, {f(2)})",
         "sweep_loop": f"void({f(2)}, {f(1)}, {f(1)}, {f(1)}, float64, int64, {f(3)})",
         "linear_loop": f"void({f(2)}, {f(2)}, {f(2)}, {f(2)}, {f(4)}, {f(3)})",

@@ -431,7 +431,7 @@ class MinibusRideHandling(Problem):
         finite = np.isfinite(A).all(axis=(2, 3))
         A_ok = np.where(finite[..., None, None], A, -np.eye(4))
         lam, V = np.linalg.eig(A_ok)
-        stable = finite & np.all(lam.real < 0, axis=-1)
+        stable = finite & (lam.real < 0).all(axis=-1)
         lin = slalom_linear(P, self.slalom_config, system=(A[0], B[0]), stable=stable[0])
         A1, modes, stable = A_ok[1], (lam[1], V[1]), stable[1]
         if not stable.all():

@@ -219,7 +219,7 @@ def steady_state_sweep(
     """
     config = config or SteadyCircleConfig()
     ay = np.asarray(ay, dtype=float)
-    if ay.ndim != 1 or np.any(ay < 0):
+    if ay.ndim != 1 or (ay < 0).any():
         raise ValidationError(f"`ay` must be a 1-D array of values >= 0, but got {ay!r}")
     out = np.empty((7, ay.size, P.n))
     handling_kernel.sweep_loop(
@@ -254,7 +254,7 @@ def secant_axle_stiffness(
     steady state at ``ay`` exactly. NaN where no steady state exists.
     """
     acc = np.asarray(ay, dtype=float)
-    if not np.all(acc > 0):
+    if not (acc > 0).all():
         raise ValidationError(f"`ay > 0` must hold, but got ay={ay!r}")
     sw = sweep if sweep is not None else steady_state_sweep(P, acc.reshape(-1), config)
     cf = np.where(sw.feasible, sw.force_front / sw.alpha_front, np.nan)
@@ -268,7 +268,7 @@ def gradient_accelerations(ay: np.ndarray, step: float = 0.2) -> np.ndarray:
     ``ay - step/2`` then ``ay + step/2``."""
     ay = np.asarray(ay, dtype=float)
     h = 0.5 * step
-    if ay.ndim != 1 or np.any(ay - h < 0):
+    if ay.ndim != 1 or (ay - h < 0).any():
         raise ValidationError(f"`ay - step/2 >= 0` must hold for every ay, but got {ay!r}")
     return np.concatenate([ay - h, ay + h])
 

@@ -359,17 +359,39 @@ def _bandwidth(lam: np.ndarray, wn: np.ndarray, f: np.ndarray, f_max: float) -> 
 
 def _yaw_loop(
     lam: np.ndarray,
-    wn: np.ndarray,
+    V: np.ndarray,
+    B: np.ndarray,
     grid: np.ndarray,
     f: np.ndarray,
     f_max: float,
     out: np.ndarray,
 ) -> None:
-    """Per row of the poles ``lam`` (n, 4) and normalised weights ``wn`` (n, 4):
-    ``out[i]`` = (:func:`_step_times`' four values, :func:`_bandwidth`) (n, 5)."""
+    """Per row of the poles ``lam`` (n, m), eigenvectors ``V`` (n, m, m) and steer
+    inputs ``B`` (n, m) of the linear handling systems (state (v, r, phi, p)): the
+    yaw-rate weights ``w_k = (V^-1 B)_k V[1, k] / lam_k`` (:func:`_solve`), the
+    steady gain ``r_ss = -sum_k w_k`` and the normalised weights ``wn = w / r_ss``;
+    ``out[i]`` = (:func:`_step_times`' four values, :func:`_bandwidth`, ``r_ss``)
+    (n, 6)."""
+    m = lam.shape[1]
+    a = np.empty((m, m), dtype=np.complex128)
+    x = np.empty((m, 1), dtype=np.complex128)
+    wn = np.empty(m, dtype=np.complex128)
     for i in range(lam.shape[0]):
-        _step_times(lam[i], wn[i], grid, out[i])
-        out[i, 4] = _bandwidth(lam[i], wn[i], f, f_max)
+        for p in range(m):
+            for q in range(m):
+                a[p, q] = V[i, p, q]
+            x[p, 0] = B[i, p]
+        _solve(a, x)
+        total = 0j
+        for k in range(m):
+            wn[k] = V[i, 1, k] * x[k, 0] / lam[i, k]
+            total += wn[k]
+        r_ss = -total.real
+        for k in range(m):
+            wn[k] = wn[k] / r_ss
+        _step_times(lam[i], wn, grid, out[i])
+        out[i, 4] = _bandwidth(lam[i], wn, f, f_max)
+        out[i, 5] = r_ss
 
 
 def _linear_loop(
@@ -434,7 +456,9 @@ _AXLE = ("_wheel_force", "_axle_force", "_capacity", "_slip_bracket", "_slip_sol
 #: :func:`_capacity_loop`, compiled at its first call (numba's cache keeps it)
 capacity_loop = compiled.Lazy(globals(), _AXLE, _capacity_loop)
 #: :func:`_yaw_loop`, compiled at its first call (numba's cache keeps it)
-yaw_loop = compiled.Lazy(globals(), ("_step", "_rel_gain", "_step_times", "_bandwidth"), _yaw_loop)
+yaw_loop = compiled.Lazy(
+    globals(), ("_solve", "_step", "_rel_gain", "_step_times", "_bandwidth"), _yaw_loop
+)
 #: :func:`_circle_loop`, compiled at its first call (numba's cache keeps it)
 _LOADS = ("axle_transfer", "_steady_loads")
 circle_loop = compiled.Lazy(globals(), (*_LOADS, "tabulated", "_circle_flags"), _circle_loop)

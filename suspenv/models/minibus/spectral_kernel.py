@@ -277,6 +277,4 @@ halves_matrix = compiled.Lazy(globals(), (), _halves_matrix)
 modal_mean_square = compiled.Lazy(
     globals(), ("_solve", "_modal_terms", "_mean_square"), _modal_mean_square
 )
-damper_leaf_rates = compiled.Lazy(
-    globals(), ("_ndtr", "_excess", "_floor"), _damper_leaf_rates
-)
+damper_leaf_rates = compiled.Lazy(globals(), ("_ndtr", "_excess", "_floor"), _damper_leaf_rates)

@@ -328,7 +328,7 @@ def design_to_si(X: np.ndarray, vehicle: Minibus = REFERENCE_MINIBUS) -> DesignS
     """
     X = check_designs(X)
     K1, K2, K3, T1, T2, T3, C1, C2 = X.T
-    if np.any(K2 < K1):
+    if (K2 < K1).any():
         r = int(np.argmax(K2 < K1))
         raise ValidationError(
             f"`K2 >= K1` must hold (the helper leaf adds stiffness), but got "
