@@ -389,9 +389,11 @@ def stacked_vehicle_parameters(
         design = design_to_si(arr, vehicle)
         params = [_apply(design, lc, vehicle) for lc in load_cases]
         for vp in params:
-            for a in (*vars(vp.design).values(), *vars(vp).values()):
-                if isinstance(a, np.ndarray):
-                    a.flags.writeable = False
+            for a in (
+                vp.front_static_deflection, vp.rear_static_deflection, vp.rear_on_helper,
+                vp.rear_static_rate, *vars(design).values(),
+            ):  # fmt: skip
+                a.flags.writeable = False
         _LAST_PARAMS.clear()
         hit = _LAST_PARAMS[key] = (vehicle, params)
     return list(hit[1])
