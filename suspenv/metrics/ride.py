@@ -633,10 +633,11 @@ def _spectral_split(
         return np.sqrt(ms[:, _SIGMA_COLUMNS])
 
     lz = ElementLinearisation(model) if equivalent_linear else None
-    r0 = np.hstack([model.damper_mean, model.leaf_static_rate])
-    r, n_iter, m = _fixed_point(
-        r0 if lz is None else lz.initial(init_damping), lz, modal, sigma, iterations, tol
-    )
+    if lz is None:
+        r0 = np.hstack([model.damper_mean, model.leaf_static_rate])
+    else:
+        r0 = lz.initial(init_damping)
+    r, n_iter, m = _fixed_point(r0, lz, modal, sigma, iterations, tol)
     grid, wt = _split_grid(road, n_freq, vehicle, True)
     ms = halves.mean_square(m, slice(0, 2), grid, wt)
     return _spectral_result(np.sqrt(ms[:, :, 0]), np.sqrt(ms[:, :, 1]), r, n_iter)
