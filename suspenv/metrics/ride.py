@@ -474,9 +474,12 @@ class _Halves:
         return np.ascontiguousarray(lam, dtype=complex), np.ascontiguousarray(V, dtype=complex)
 
     def mean_square(
-        self, modes: tuple[np.ndarray, np.ndarray], rows: slice, grid: tuple[np.ndarray, ...],
+        self,
+        modes: tuple[np.ndarray, np.ndarray],
+        rows: slice,
+        grid: tuple[np.ndarray, ...],
         wt: np.ndarray,
-    ) -> np.ndarray:  # fmt: skip
+    ) -> np.ndarray:
         """``sum_f wt_h[f, j] |g_p(f)|^2`` summed over the halves h (n designs, p, j),
         with ``g_p = H_p,front + e^{-i w L/v} H_p,rear`` a half's displacement response
         (output unit per m of axle input) for the outputs ``rows`` of the
