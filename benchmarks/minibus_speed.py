@@ -161,10 +161,21 @@ def numpy_sweep_loop(
 
 
 def numpy_yaw_loop(
-    lam: np.ndarray, wn: np.ndarray, grid: np.ndarray, f: np.ndarray, f_max: float, out: np.ndarray
+    lam: np.ndarray,
+    V: np.ndarray,
+    B: np.ndarray,
+    grid: np.ndarray,
+    f: np.ndarray,
+    f_max: float,
+    out: np.ndarray,
 ) -> None:
-    """:func:`handling_kernel.yaw_loop` as numpy passes over the rows (``e^(lam t)`` by
-    ``exp`` at every grid point)."""
+    """:func:`handling_kernel.yaw_loop` as numpy passes over the rows (the weights by
+    numpy's solve, ``e^(lam t)`` by ``exp`` at every grid point)."""
+    c = np.linalg.solve(V, B[..., None].astype(complex))[..., 0]  # (n, 4)
+    w = V[:, 1, :] * c / lam
+    r_ss = -np.sum(w, axis=1).real
+    wn = w / r_ss[:, None]
+    out[:, 5] = r_ss
 
     def y(t: np.ndarray, *orders: int) -> list[np.ndarray]:
         ex = np.exp(lam[:, None, :] * t[..., None])

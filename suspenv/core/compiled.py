@@ -71,23 +71,27 @@ def _signatures() -> None:
     AHEAD["suspenv.models.effects.kernels"] = {
         "recurrence": f"void({f(2)}, {f(2)}, {f(1)}, {f(2)})",
     }
-    # d, b, e, c, grid, out; lam, wn, grid, f, f_max, out; rows, table, h, bits, scale,
-    # out; rows, ay, tyre, grid, radius, passes, out (handling_kernel)
+    # d, b, e, c, grid, out; lam, V, B, grid, f, f_max, out; rows, table, h, bits, scale,
+    # out; rows, ay, tyre, grid, radius, passes, out; rows, u, cf, cr, A, B; A, B, s, X
+    # (handling_kernel)
     axle = [f(2), f(2), f(2), "float64", f(1)]
     c = _arr("complex128", 2)
     AHEAD["suspenv.models.minibus.handling_kernel"] = {
         "capacity_loop": f"void({', '.join([*axle, f(2)])})",
-        "yaw_loop": f"void({c}, {c}, {f(1)}, {f(1)}, float64, {f(2)})",
+        "yaw_loop": f"void({c}, {_arr('complex128', 3)}, {f(2)}, {f(1)}, {f(1)}, float64, {f(2)})",
         "circle_loop": f"void({f(2)}, {f(2)}, float64, int64, float64, {f(2)})",
         "sweep_loop": f"void({f(2)}, {f(1)}, {f(1)}, {f(1)}, float64, int64, {f(3)})",
+        "linear_loop": f"void({f(2)}, {f(2)}, {f(2)}, {f(2)}, {f(4)}, {f(3)})",
+        "response_loop": f"void({f(3)}, {f(2)}, {_arr('complex128', 1)}, {_arr('complex128', 3)})",
     }
-    # q0, q1, coef, w, dr, di, wt, out; sv, sd, damp, knee, leaf, passes, out (spectral_kernel)
+    # A0, minv, D, rates, A; lam, V, B, co, lo, w, dr, di, wt, out; sig, damp, knee,
+    # leaf, passes, out (spectral_kernel)
+    c3 = _arr("complex128", 3)
     AHEAD["suspenv.models.minibus.spectral_kernel"] = {
-        "mean_square": f"void({f(2)}, {f(2)}, {f(3)}, {f(1)}, {f(1)}, {f(1)}, {f(2)}, {f(3)})",
-        "damper_leaf_rates": f"void({f(2)}, {f(2)}, {f(3)}, {f(2)}, {f(3)}, int64, {f(2)})",
-        # lam, V, B, co, q0, q1, coef
-        "modal_terms": f"void({c}, {_arr('complex128', 3)}, {_arr('complex128', 3)}, {f(3)}, "
-        f"{f(2)}, {f(2)}, {f(4)})",
+        "halves_matrix": f"void({f(3)}, {f(3)}, {f(4)}, {f(2)}, {f(3)})",
+        "modal_mean_square": f"void({c}, {c3}, {c3}, {f(3)}, int64, {f(1)}, {f(1)}, {f(1)}, "
+        f"{f(2)}, {f(3)})",
+        "damper_leaf_rates": f"void({f(2)}, {f(3)}, {f(2)}, {f(3)}, int64, {f(2)})",
     }
 
 

@@ -213,6 +213,7 @@ def slalom_linear(
     circle: SteadyCircleConfig | None = None,
     working_point: bool = True,
     system: tuple[np.ndarray, np.ndarray] | None = None,
+    stable: np.ndarray | None = None,
 ) -> SlalomLinearResult:
     """The slalom course followed exactly by the linearised vehicle (module docstring).
 
@@ -224,7 +225,8 @@ def slalom_linear(
     as they do where the course runs; ``False``: the small-amplitude linearisation
     about straight running (the bars' split then only moves the roll steer).
     ``system``: (A, B) of :func:`linear_system` at the course's speed and working point,
-    if already at hand.
+    if already at hand; ``stable``: whether each row of that A is finite with every pole
+    in the left half-plane, if already known (else from A's eigenvalues).
     """
     config = config or SlalomConfig()
     u = config.speed
@@ -238,8 +240,10 @@ def slalom_linear(
     gain = np.abs(H.ay[:, 0])
     steer = ay / gain
     ratio = P.vehicle.steering_ratio
-    with np.errstate(invalid="ignore"):
-        stable = np.all(np.linalg.eigvals(np.nan_to_num(A, nan=1.0)).real < 0, axis=-1)
+    if stable is None:
+        with np.errstate(invalid="ignore"):
+            poles = np.linalg.eigvals(np.nan_to_num(A, nan=1.0))
+        stable = np.all(poles.real < 0, axis=-1) & np.isfinite(A).all(axis=(1, 2))
     return SlalomLinearResult(
         steering_wheel_amplitude=ratio * steer,
         steer_amplitude=steer,
@@ -248,7 +252,7 @@ def slalom_linear(
         ay_amplitude=np.full(P.n, ay),
         yaw_rate_gain=np.abs(H.yaw_rate[:, 0]) / ratio,
         frequency=f,
-        stable=stable & np.isfinite(A).all(axis=(1, 2)),
+        stable=stable,
     )
 
 
@@ -289,19 +293,18 @@ def yaw_response(
     the frequency response ``H(f) = sum_k w_k lam_k / (i 2 pi f - lam_k)``. The 90 %
     crossing and the first peak are found on a grid of ``dt`` (s) up to ``t_end`` and
     refined by Newton steps on the closed form, the bandwidth on a log grid to ``f_max``
-    (Hz) refined by regula falsi in log f (both to round-off). Rows must be stable.
-    ``modes``: ``np.linalg.eig(A)`` if already at hand."""
+    (Hz) refined by regula falsi in log f (both to round-off; the compiled
+    :func:`suspenv.models.minibus.handling_kernel.yaw_loop`, ``x(inf) = -A^-1 B`` the
+    steady state). Rows must be stable. ``modes``: ``np.linalg.eig(A)`` if already at
+    hand."""
     lam, V = modes if modes is not None else np.linalg.eig(A)
-    c = np.linalg.solve(V, B[..., None].astype(complex))[..., 0]  # (n, 4)
-    w = V[:, 1, :] * c / lam  # (n, 4)
-    r_ss = -np.sum(w, axis=1).real  # x(inf) = -A^-1 B
-    wn = w / r_ss[:, None]  # normalised: y(t) = r(t) / r_ss, |H(f)| / |H(0)|
-    out = np.empty((A.shape[0], 5))
-    lam = np.ascontiguousarray(lam, dtype=complex)
-    handling_kernel.yaw_loop(lam, wn, _grid(t_end, dt), _log_grid(f_max), float(f_max), out)
+    out = np.empty((A.shape[0], 6))
+    lam, V = np.ascontiguousarray(lam, dtype=complex), np.ascontiguousarray(V, dtype=complex)
+    B = np.ascontiguousarray(B, dtype=float)
+    handling_kernel.yaw_loop(lam, V, B, _grid(t_end, dt), _log_grid(f_max), float(f_max), out)
     has_peak = out[:, 2] > 0
     return YawResponse(
-        gain=r_ss,
+        gain=out[:, 5],
         response_time=out[:, 0],
         peak_time=np.where(has_peak, out[:, 1], t_end),
         overshoot=np.where(has_peak, np.maximum(out[:, 3] - 1.0, 0.0), 0.0),

@@ -463,61 +463,46 @@ class _Halves:
         ``rates`` (n, n_el): element rates (N/m, N m/rad, N s/m; left and right equal),
         whose tyre columns give the road input matrices."""
         n, d = rates.shape[0], _SPLIT_D
-        self.geo = geo
         self.minv = (geo.T.transpose(0, 2, 1) @ minv[:, None] @ geo.T).reshape(2 * n, d, d)
         B = np.zeros((2 * n, 2 * d, 4), dtype=complex)
         B[:, d:] = self.minv @ (rates[:, None, :] @ geo.Gin).reshape(2 * n, d, 4)
         self.B = B
-        self.A0 = np.concatenate([geo.A0] * n)
+        self.A0 = geo.A0
+        self.D = geo.D.reshape(-1, 2, d, 2 * d)
         self.co = np.concatenate([geo.co] * n)
 
-    def modal(self, rates: np.ndarray) -> _Modes:
-        """Modal form of the halves for element rates (n, n_el): poles and residues as
-        :func:`modal_form` (residue of output p for axle input i at mode k: ``cv[p, k]
-        rm[k, i]``), each conjugate pair (or pair of real poles) summed into one real
-        second-order term (:class:`_Modes`, 2 n rows; the compiled
-        :func:`suspenv.models.minibus.spectral_kernel.modal_terms` after numpy's
-        eigen-decomposition)."""
+    def modal(self, rates: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Poles (2n, 2d) and eigenvectors (2n, 2d, 2d) of the halves' first-order
+        matrices at element rates (n, n_el) (the compiled
+        :func:`suspenv.models.minibus.spectral_kernel.halves_matrix`, then numpy's
+        eigen-decomposition), 2 n rows."""
         d = _SPLIT_D
-        A = self.A0.copy()
-        A[:, d:] += self.minv @ (rates[:, None, :] @ self.geo.D).reshape(-1, d, 2 * d)
+        A = np.empty((self.B.shape[0], 2 * d, 2 * d))
+        spectral_kernel.halves_matrix(self.A0, self.minv, self.D, rates, A)
         lam, V = np.linalg.eig(A)
-        lam, V, rows = np.ascontiguousarray(lam), np.ascontiguousarray(V), lam.shape[0]
-        q0, q1, coef = np.empty((rows, d)), np.empty((rows, d)), np.empty((rows, 2, 5, 2 * d))
-        spectral_kernel.modal_terms(lam, V, self.B, self.co, q0, q1, coef)
-        return _Modes(q0, q1, coef)
+        return np.ascontiguousarray(lam, dtype=complex), np.ascontiguousarray(V, dtype=complex)
 
-
-class _Modes(NamedTuple):
-    """Modal form of :class:`_Halves` as d real second-order terms per row: the
-    displacement of output p (a row of ``_SPLIT_ROWS``) per axle input i (front, rear)
-    is ``sum_k (coef[i, p, k] + s coef[i, p, d + k]) / (s^2 - q1[k] s + q0[k])``."""
-
-    q0: np.ndarray  # (2n, d) product of the pair's poles (1/s^2), rows as _Halves
-    q1: np.ndarray  # (2n, d) sum of the pair's poles (1/s)
-    coef: np.ndarray  # (2n, 2, 5, 2d) numerators' constant and s terms
-
-
-def _split_mean_square(
-    m: _Modes, rows: slice, grid: tuple[np.ndarray, ...], wt: np.ndarray
-) -> np.ndarray:
-    """``sum_f wt_h[f, j] |g_p(f)|^2`` summed over the halves h (n designs, p, j), with
-    ``g_p = H_p,front + e^{-i w L/v} H_p,rear`` a half's displacement response (output
-    unit per m of axle input) for the outputs ``rows`` of the ``_SPLIT_ROWS``, m's rows
-    interleaved as in :class:`_Halves`, on the grid ``grid = (w, w^2, Re, Im of
-    e^{-i w L/v})`` (w in rad/s, L/v the rear wheels' delay) with weights ``wt =
-    [wt_sym | wt_anti]`` (Nf, 2 j); the compiled sums of
-    :func:`suspenv.models.minibus.spectral_kernel.mean_square`."""
-    w, _, dr, di = grid
-    rows_all, d = m.q0.shape
-    coef = m.coef[:, :, rows]
-    p = coef.shape[2]
-    coef = np.ascontiguousarray(coef.reshape(rows_all, 2 * p, 2 * d))  # front, rear outputs
-    out = np.empty((rows_all // 2, p, wt.shape[1] // 2))
-    spectral_kernel.mean_square(
-        np.ascontiguousarray(m.q0), np.ascontiguousarray(m.q1), coef, w, dr, di, wt, out
-    )
-    return out
+    def mean_square(
+        self,
+        modes: tuple[np.ndarray, np.ndarray],
+        rows: slice,
+        grid: tuple[np.ndarray, ...],
+        wt: np.ndarray,
+    ) -> np.ndarray:
+        """``sum_f wt_h[f, j] |g_p(f)|^2`` summed over the halves h (n designs, p, j),
+        with ``g_p = H_p,front + e^{-i w L/v} H_p,rear`` a half's displacement response
+        (output unit per m of axle input) for the outputs ``rows`` of the
+        ``_SPLIT_ROWS``, from the halves' eigen-decomposition ``modes`` (:meth:`modal`:
+        residues of output p for axle input i at mode k ``cv[p, k] rm[k, i]`` as
+        :func:`modal_form`, each conjugate pair (or pair of real poles) summed into one
+        real second-order term), on the grid ``grid = (w, w^2, Re, Im of e^{-i w
+        L/v})`` (w in rad/s, L/v the rear wheels' delay) with weights ``wt = [wt_sym |
+        wt_anti]`` (Nf, 2 j); the compiled
+        :func:`suspenv.models.minibus.spectral_kernel.modal_mean_square`."""
+        w, _, dr, di = grid
+        out = np.empty((self.B.shape[0] // 2, rows.stop - rows.start, wt.shape[1] // 2))
+        spectral_kernel.modal_mean_square(*modes, self.B, self.co, rows.start, w, dr, di, wt, out)
+        return out
 
 
 _SPLIT_GRIDS: dict[tuple[int, int, int, bool], tuple[Any, ...]] = {}
@@ -616,6 +601,13 @@ def _spectral_result(
     }
 
 
+#: the element RMS values of :func:`_spectral_split`'s passes (columns ``SIG_*`` of
+#: :mod:`suspenv.models.minibus.linearisation`: damper velocities FL, FR, RL, RR, leaf
+#: deflections L, R) from its mean squares (FL damper, RL damper, left leaf) x
+#: (displacement, velocity), flattened
+_SIGMA_COLUMNS = np.array([1, 1, 3, 3, 4, 4])
+
+
 def _spectral_split(
     X: np.ndarray,
     cases: list[str],
@@ -640,25 +632,26 @@ def _spectral_split(
     rates = model.K.astype(float)  # element rates, dampers and leaves set per pass
     halves = _Halves(_split_geometry(model), minv, rates)
 
-    def modal(r: np.ndarray) -> _Modes:
+    def modal(r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         rates[:, 2:4] = r[:, LEAF]
         rates[:, npos : npos + 4] = r[:, DAMPER]
         return halves.modal(rates)
 
     grid_i, wt_i = _split_grid(road, n_freq_iter, vehicle, False)
 
-    def sigma(m: _Modes) -> np.ndarray:
+    def sigma(m: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
         # (n, 3 outputs: FL damper, RL damper, left leaf, 2: displacement, velocity)
-        sig = np.sqrt(_split_mean_square(m, slice(2, 5), grid_i, wt_i))
-        return np.concatenate([sig[:, [0, 0, 1, 1], 1], sig[:, [2, 2], 0]], axis=1)
+        ms = halves.mean_square(m, slice(2, 5), grid_i, wt_i).reshape(-1, 6)
+        return np.sqrt(ms[:, _SIGMA_COLUMNS])
 
     lz = ElementLinearisation(model) if equivalent_linear else None
-    r0 = np.hstack([model.damper_mean, model.leaf_static_rate])
-    r, n_iter, m = _fixed_point(
-        r0 if lz is None else lz.initial(init_damping), lz, modal, sigma, iterations, tol
-    )
+    if lz is None:
+        r0 = np.hstack([model.damper_mean, model.leaf_static_rate])
+    else:
+        r0 = lz.initial(init_damping)
+    r, n_iter, m = _fixed_point(r0, lz, modal, sigma, iterations, tol)
     grid, wt = _split_grid(road, n_freq, vehicle, True)
-    ms = _split_mean_square(m, slice(0, 2), grid, wt)
+    ms = halves.mean_square(m, slice(0, 2), grid, wt)
     return _spectral_result(np.sqrt(ms[:, :, 0]), np.sqrt(ms[:, :, 1]), r, n_iter)
 
 

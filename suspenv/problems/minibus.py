@@ -426,13 +426,14 @@ class MinibusRideHandling(Problem):
         # both linear systems at once: the slalom's and the step steer's speed and secants
         u = np.array([[self.slalom_config.speed], [STEP_SPEED_KMH / 3.6]])
         A, B = linear_system(P, u, (cf, cr))
-        lin = slalom_linear(P, self.slalom_config, system=(A[0], B[0]))
-        # the step's stability and modes from one eigen-decomposition (an unstable or
-        # non-finite row: those of -I, the row fails)
-        stable = np.isfinite(A[1]).all(axis=(1, 2))
-        A1 = np.where(stable[:, None, None], A[1], -np.eye(4))
-        modes = np.linalg.eig(A1)
-        stable &= np.all(modes[0].real < 0, axis=-1)
+        # both systems' stability and the step's modes from one eigen-decomposition (an
+        # unstable or non-finite row: those of -I, the row fails)
+        finite = np.isfinite(A).all(axis=(2, 3))
+        A_ok = np.where(finite[..., None, None], A, -np.eye(4))
+        lam, V = np.linalg.eig(A_ok)
+        stable = finite & (lam.real < 0).all(axis=-1)
+        lin = slalom_linear(P, self.slalom_config, system=(A[0], B[0]), stable=stable[0])
+        A1, modes, stable = A_ok[1], (lam[1], V[1]), stable[1]
         if not stable.all():
             A1 = np.where(stable[:, None, None], A1, -np.eye(4))
             modes = np.linalg.eig(A1)

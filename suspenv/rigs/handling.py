@@ -45,7 +45,7 @@ Pylon-course slalom (:func:`slalom_run`)
 from __future__ import annotations
 
 import functools
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 from typing import Protocol
 
 import numpy as np
@@ -152,37 +152,6 @@ def _capacity_table(
     return float(fz[1] - fz[0]), cap
 
 
-def _steady_rows(P: HandlingParams) -> np.ndarray:
-    """The per-row coefficients (n, 17) of the compiled steady states (circle limit,
-    sweep): roll gradient (rad per m/s^2), axle roll stiffnesses (N m/rad), the
-    lateral-acceleration moments of the roll centres and unsprung masses (kg m), tracks
-    (m), static wheel loads (N), mass (kg), CoM distances and wheelbase (m), as
-    :func:`wheel_loads` forms them at zero roll rate, then the roll (rad/rad) and force
-    (rad/N) steers front and rear."""
-    return np.stack(
-        [
-            P.roll_gradient(),
-            P.kphi_front,
-            P.kphi_rear,
-            P.ms_front * P.h_rc_front + P.mu_front * P.wheel_radius,
-            P.ms_rear * P.h_rc_rear + P.mu_rear * P.wheel_radius,
-            P.track_front,
-            P.track_rear,
-            P.fz_front,
-            P.fz_rear,
-            P.m,
-            P.a,
-            P.b,
-            P.wheelbase,
-            P.roll_steer_front,
-            P.force_steer_front,
-            P.roll_steer_rear,
-            P.force_steer_rear,
-        ],
-        axis=1,
-    )
-
-
 def steady_circle(
     P: HandlingParams, config: SteadyCircleConfig | None = None
 ) -> SteadyCircleResult:
@@ -200,7 +169,7 @@ def steady_circle(
     scale = config.ay_upper / float(2**bits)
     h, table = _capacity_table(P.tyre, config.alpha_max_deg, config.alpha_points)
     out = np.empty((P.n, 3))
-    handling_kernel.circle_loop(_steady_rows(P), table, h, bits, scale, out)
+    handling_kernel.circle_loop(P.rows, table, h, bits, scale, out)
     limit = np.where(out[:, 2] == 0, "rollover", np.where(out[:, 1] == 0, "front", "rear"))
     return SteadyCircleResult(ay_max=out[:, 0] * scale, limit=limit, config=config)
 
@@ -226,7 +195,7 @@ class SteadyStateSweep:
 
     def take(self, rows: slice | np.ndarray) -> SteadyStateSweep:
         """The states of some of the accelerations (rows of the first axis)."""
-        return SteadyStateSweep(*(getattr(self, f.name)[rows] for f in fields(self)))
+        return SteadyStateSweep(*(value[rows] for value in vars(self).values()))
 
 
 #: regula-falsi (Illinois) passes of the steady state's slip-angle solve: a fixed count
@@ -250,11 +219,11 @@ def steady_state_sweep(
     """
     config = config or SteadyCircleConfig()
     ay = np.asarray(ay, dtype=float)
-    if ay.ndim != 1 or np.any(ay < 0):
+    if ay.ndim != 1 or (ay < 0).any():
         raise ValidationError(f"`ay` must be a 1-D array of values >= 0, but got {ay!r}")
     out = np.empty((7, ay.size, P.n))
     handling_kernel.sweep_loop(
-        _steady_rows(P),
+        P.rows,
         np.ascontiguousarray(ay),
         np.array(P.tyre.coefficients),
         _slip_grid(config),
@@ -285,7 +254,7 @@ def secant_axle_stiffness(
     steady state at ``ay`` exactly. NaN where no steady state exists.
     """
     acc = np.asarray(ay, dtype=float)
-    if not np.all(acc > 0):
+    if not (acc > 0).all():
         raise ValidationError(f"`ay > 0` must hold, but got ay={ay!r}")
     sw = sweep if sweep is not None else steady_state_sweep(P, acc.reshape(-1), config)
     cf = np.where(sw.feasible, sw.force_front / sw.alpha_front, np.nan)
@@ -299,7 +268,7 @@ def gradient_accelerations(ay: np.ndarray, step: float = 0.2) -> np.ndarray:
     ``ay - step/2`` then ``ay + step/2``."""
     ay = np.asarray(ay, dtype=float)
     h = 0.5 * step
-    if ay.ndim != 1 or np.any(ay - h < 0):
+    if ay.ndim != 1 or (ay - h < 0).any():
         raise ValidationError(f"`ay - step/2 >= 0` must hold for every ay, but got {ay!r}")
     return np.concatenate([ay - h, ay + h])
 

@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 
 from suspenv.core import compiled
+from suspenv.models.minibus.spectral_kernel import _solve
 
 
 def _wheel_force(alpha: float, d: float, b: float, e: float, c: float) -> float:
@@ -186,7 +187,7 @@ def tabulated(table: np.ndarray, h: float, fz_a: float, fz_b: float) -> float:
 def _steady_loads(row: np.ndarray, ay: float) -> tuple[float, float, float, float, float]:
     """(roll rad, wheel loads FL, FR, RL, RR N) of the steady state at lateral
     acceleration ``ay`` (m/s^2) of one row of coefficients
-    (:func:`suspenv.rigs.handling._steady_rows`)."""
+    (:attr:`~suspenv.models.minibus.handling_model.HandlingParams.rows`)."""
     phi = row[0] * ay
     fl, fr, rl, rr = axle_transfer(
         (row[1] * phi + row[3] * ay) / row[5],
@@ -358,24 +359,106 @@ def _bandwidth(lam: np.ndarray, wn: np.ndarray, f: np.ndarray, f_max: float) -> 
 
 def _yaw_loop(
     lam: np.ndarray,
-    wn: np.ndarray,
+    V: np.ndarray,
+    B: np.ndarray,
     grid: np.ndarray,
     f: np.ndarray,
     f_max: float,
     out: np.ndarray,
 ) -> None:
-    """Per row of the poles ``lam`` (n, 4) and normalised weights ``wn`` (n, 4):
-    ``out[i]`` = (:func:`_step_times`' four values, :func:`_bandwidth`) (n, 5)."""
+    """Per row of the poles ``lam`` (n, m), eigenvectors ``V`` (n, m, m) and steer
+    inputs ``B`` (n, m) of the linear handling systems (state (v, r, phi, p)): the
+    yaw-rate weights ``w_k = (V^-1 B)_k V[1, k] / lam_k`` (:func:`_solve`), the
+    steady gain ``r_ss = -sum_k w_k`` and the normalised weights ``wn = w / r_ss``;
+    ``out[i]`` = (:func:`_step_times`' four values, :func:`_bandwidth`, ``r_ss``)
+    (n, 6)."""
+    m = lam.shape[1]
+    a = np.empty((m, m), dtype=np.complex128)
+    x = np.empty((m, 1), dtype=np.complex128)
+    wn = np.empty(m, dtype=np.complex128)
     for i in range(lam.shape[0]):
-        _step_times(lam[i], wn[i], grid, out[i])
-        out[i, 4] = _bandwidth(lam[i], wn[i], f, f_max)
+        for p in range(m):
+            for q in range(m):
+                a[p, q] = V[i, p, q]
+            x[p, 0] = B[i, p]
+        _solve(a, x)
+        total = 0j
+        for k in range(m):
+            wn[k] = V[i, 1, k] * x[k, 0] / lam[i, k]
+            total += wn[k]
+        r_ss = -total.real
+        for k in range(m):
+            wn[k] = wn[k] / r_ss
+        _step_times(lam[i], wn, grid, out[i])
+        out[i, 4] = _bandwidth(lam[i], wn, f, f_max)
+        out[i, 5] = r_ss
+
+
+def _linear_loop(
+    rows: np.ndarray,
+    u: np.ndarray,
+    cf: np.ndarray,
+    cr: np.ndarray,
+    A: np.ndarray,
+    B: np.ndarray,
+) -> None:
+    """State matrices ``A`` (k, n, 4, 4) and steer inputs ``B`` (k, n, 4) of the
+    linearised handling model (:func:`suspenv.models.minibus.handling_model.
+    linear_system`: state (v, r, phi, p), input the front road-wheel steer) per row of
+    coefficients ``rows`` (n, 22; :attr:`~suspenv.models.minibus.handling_model.
+    HandlingParams.rows`) at speeds ``u`` (k, n) m/s and axle tyre stiffnesses ``cf``,
+    ``cr`` (k, n) N/rad; ``A``, ``B`` zero on entry. The compliance steers solved into
+    effective axle stiffnesses ``C' = C / (1 - C c_F)``; the axle forces ``Fyf = cf
+    (delta + eps_f phi - (v + a r)/u)``, ``Fyr = cr (eps_r phi - (v - b r)/u)`` enter
+    the lateral (``r1 = sum Fy - m u r``) and roll (``r2``) balances."""
+    for q in range(u.shape[0]):
+        for i in range(rows.shape[0]):
+            row, uu = rows[i], u[q, i]
+            m, a, b, iz, ixs, msh = row[9], row[10], row[11], row[17], row[18], row[19]
+            cff = cf[q, i] / (1.0 - cf[q, i] * row[14])
+            crr = cr[q, i] / (1.0 - cr[q, i] * row[16])
+            det = m * ixs - msh**2
+            f0, f1, f2 = -cff / uu, -cff * a / uu, cff * row[13]
+            g0, g1, g2 = -crr / uu, crr * b / uu, crr * row[15]
+            r10, r11, r12 = f0 + g0, f1 + g1 + -m * uu, f2 + g2
+            r20, r21, r22 = msh * uu, row[20], -row[21]
+            out = A[q, i]
+            out[0, 0], out[3, 0] = ixs * r10 / det, msh * r10 / det
+            out[0, 1], out[3, 1] = (ixs * r11 + msh * r20) / det, (msh * r11 + m * r20) / det
+            out[0, 2], out[3, 2] = (ixs * r12 + msh * r21) / det, (msh * r12 + m * r21) / det
+            out[0, 3], out[3, 3] = msh * r22 / det, m * r22 / det
+            out[1, 0], out[1, 1] = (a * f0 - b * g0) / iz, (a * f1 - b * g1) / iz
+            out[1, 2], out[2, 3] = (a * f2 - b * g2) / iz, 1.0
+            B[q, i, 0], B[q, i, 1], B[q, i, 3] = ixs * cff / det, a * cff / iz, msh * cff / det
+
+
+def _response_loop(A: np.ndarray, B: np.ndarray, s: np.ndarray, X: np.ndarray) -> None:
+    """Frequency response ``X[i, k] = (s_k I - A[i])^-1 B[i]`` (n, Nf, m, complex) of
+    the linear systems ``A`` (n, m, m), ``B`` (n, m) at the complex frequencies ``s``
+    (Nf,) (:func:`suspenv.models.minibus.handling_model.steer_response`), by Gaussian
+    elimination with partial pivoting."""
+    m = A.shape[1]
+    a = np.empty((m, m), dtype=np.complex128)
+    x = np.empty((m, 1), dtype=np.complex128)
+    for i in range(A.shape[0]):
+        for k in range(s.shape[0]):
+            for p in range(m):
+                for q in range(m):
+                    a[p, q] = -A[i, p, q]
+                a[p, p] += s[k]
+                x[p, 0] = B[i, p]
+            _solve(a, x)
+            for p in range(m):
+                X[i, k, p] = x[p, 0]
 
 
 _AXLE = ("_wheel_force", "_axle_force", "_capacity", "_slip_bracket", "_slip_solve")
 #: :func:`_capacity_loop`, compiled at its first call (numba's cache keeps it)
 capacity_loop = compiled.Lazy(globals(), _AXLE, _capacity_loop)
 #: :func:`_yaw_loop`, compiled at its first call (numba's cache keeps it)
-yaw_loop = compiled.Lazy(globals(), ("_step", "_rel_gain", "_step_times", "_bandwidth"), _yaw_loop)
+yaw_loop = compiled.Lazy(
+    globals(), ("_solve", "_step", "_rel_gain", "_step_times", "_bandwidth"), _yaw_loop
+)
 #: :func:`_circle_loop`, compiled at its first call (numba's cache keeps it)
 _LOADS = ("axle_transfer", "_steady_loads")
 circle_loop = compiled.Lazy(globals(), (*_LOADS, "tabulated", "_circle_flags"), _circle_loop)
@@ -383,3 +466,7 @@ circle_loop = compiled.Lazy(globals(), (*_LOADS, "tabulated", "_circle_flags"), 
 sweep_loop = compiled.Lazy(
     globals(), (*_LOADS, *_AXLE, "tyre_cornering", "tyre_factors"), _sweep_loop
 )
+#: :func:`_linear_loop`, compiled at its first call (numba's cache keeps it)
+linear_loop = compiled.Lazy(globals(), (), _linear_loop)
+#: :func:`_response_loop`, compiled at its first call (numba's cache keeps it)
+response_loop = compiled.Lazy(globals(), ("_solve",), _response_loop)

@@ -55,12 +55,14 @@ cos(delta) of the steered tyre forces (small-angle single-track kinematics).
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from suspenv.core.errors import ValidationError
+from suspenv.models.minibus import handling_kernel
 from suspenv.models.minibus.handling_kernel import axle_transfer
 from suspenv.models.minibus.suspension import damper_force, spring_pair_roll_stiffness
 from suspenv.models.minibus.tyre import LIGHT_TRUCK_TYRE, LateralTyre
@@ -69,6 +71,7 @@ from suspenv.models.minibus.vehicle import (
     G,
     LoadCase,
     Minibus,
+    VehicleParams,
     stacked_vehicle_parameters,
 )
 
@@ -172,6 +175,47 @@ class HandlingParams:
     def kphi(self) -> np.ndarray:
         return self.kphi_front + self.kphi_rear
 
+    @functools.cached_property
+    def rows(self) -> np.ndarray:
+        """Per-row coefficients (n, 22) of the compiled handling loops
+        (:mod:`suspenv.models.minibus.handling_kernel`): roll gradient (rad per m/s^2),
+        axle roll stiffnesses (N m/rad), the lateral-acceleration moments of the roll
+        centres and unsprung masses (kg m), tracks (m), static wheel loads (N), mass
+        (kg), CoM distances and wheelbase (m), as :func:`wheel_loads` forms them at zero
+        roll rate, the roll (rad/rad) and force (rad/N) steers front and rear, then yaw
+        and roll inertias (kg m^2), ``ms h'`` (kg m), ``ms h' g - Kphi`` (N m/rad) and
+        the roll damping (N m s/rad, :func:`roll_damping`). Computed once (read-only)."""
+        msh = self.ms * self.h_prime
+        rows = np.stack(
+            [
+                self.roll_gradient(),
+                self.kphi_front,
+                self.kphi_rear,
+                self.ms_front * self.h_rc_front + self.mu_front * self.wheel_radius,
+                self.ms_rear * self.h_rc_rear + self.mu_rear * self.wheel_radius,
+                self.track_front,
+                self.track_rear,
+                self.fz_front,
+                self.fz_rear,
+                self.m,
+                self.a,
+                self.b,
+                self.wheelbase,
+                self.roll_steer_front,
+                self.force_steer_front,
+                self.roll_steer_rear,
+                self.force_steer_rear,
+                self.iz,
+                self.ixs,
+                msh,
+                msh * G - self.kphi,
+                roll_damping(self),
+            ],
+            axis=1,
+        )
+        rows.flags.writeable = False
+        return rows
+
     def roll_gradient(self) -> np.ndarray:
         """Steady-state body roll per lateral acceleration, rad/(m/s^2) (closed form)."""
         msh = self.ms * self.h_prime
@@ -220,35 +264,15 @@ def handling_parameters(
     cases = [load_case] if isinstance(load_case, str | LoadCase) else list(load_case)
     vps = stacked_vehicle_parameters(X, cases, vehicle)
     d = vps[0].design
-    n = len(cases) * d.n
-
-    def case(values: list[float]) -> np.ndarray:
-        """Per-load-case scalars, one per row."""
-        return np.repeat(np.array(values, dtype=float), d.n)
+    # the design-independent parameters of each load case (floats), on their rows
+    (
+        m, ms, a, b, iz, ixs, h_prime, ms_front, ms_rear, w_front, w_rear,
+        h_rf, h_rr, muf, mur, radius, tf, tr, eps_f, c_ff,
+    ) = np.repeat(np.array([_case_terms(vp, leaf) for vp in vps]).T, d.n, axis=1)  # fmt: skip
 
     def tile(values: np.ndarray) -> np.ndarray:
         """Per-design values, on the rows of every load case."""
         return np.concatenate([values] * len(cases))
-
-    L = vehicle.wheelbase
-    ms = case([vp.load.sprung_mass for vp in vps])
-    vp_a, vp_b = case([vp.a for vp in vps]), case([vp.b for vp in vps])
-    muf, mur = 2.0 * vehicle.unsprung_front, 2.0 * vehicle.unsprung_rear
-    m = ms + muf + mur
-    a = (ms * vp_a + mur * L) / m  # total CoM behind the front axle
-    b = L - a
-    iz = case([vp.load.yaw_inertia for vp in vps]) + ms * (vp_a - a) ** 2 + muf * a**2 + mur * b**2
-    h_rf, h_rr = roll_centre_heights(vehicle)
-    h_axis = h_rf + (h_rr - h_rf) * vp_a / L  # roll-axis height under the sprung CoM
-    cg_z = case([vp.load.cg_z for vp in vps])
-    h_prime = cg_z - h_axis
-    if np.any(h_prime <= 0):
-        i = int(np.argmax(h_prime <= 0))
-        raise ValidationError(
-            f"the sprung CoM must lie above the roll axis, but got (cg_z={cg_z[i]}, "
-            f"roll-axis height={h_axis[i]:.3f})"
-        )
-    ixs = case([vp.load.roll_inertia for vp in vps]) + ms * h_prime**2
 
     # roll stiffness: springs + stabiliser, in series with the two tyres
     kt_f = spring_pair_roll_stiffness(vehicle.tyre_vertical_stiffness, vehicle.track_front)
@@ -264,21 +288,9 @@ def handling_parameters(
     Ls = vehicle.leaf_length
     l1 = leaf.axle_from_front_eye
     l2 = Ls - l1
-    if not 0.0 < l1 < Ls:
-        raise ValidationError(
-            f"`0 < axle_from_front_eye < leaf_length` must hold, but got "
-            f"(axle_from_front_eye={l1}, leaf_length={Ls})"
-        )
     k3 = tile(d.leaf_bush_radial)
     eps_bush = rear_rate * (l1 / Ls) * np.tan(np.radians(leaf.shackle_angle_deg)) / k3
     c_force = (l2 / (2.0 * k3) - l1 / (2.0 * leaf.shackle_lateral_ratio * k3)) / Ls**2
-
-    w_front = (ms * G * vp_b / L) / 2.0 + vehicle.unsprung_front * G
-    w_rear = (ms * G * vp_a / L) / 2.0 + vehicle.unsprung_rear * G
-
-    def full(value: float) -> np.ndarray:
-        return np.full(n, float(value))
-
     return HandlingParams(
         m=m,
         ms=ms,
@@ -287,28 +299,67 @@ def handling_parameters(
         iz=iz,
         ixs=ixs,
         h_prime=h_prime,
-        h_rc_front=full(h_rf),
-        h_rc_rear=full(h_rr),
-        ms_front=ms * vp_b / L,
-        ms_rear=ms * vp_a / L,
-        mu_front=full(muf),
-        mu_rear=full(mur),
-        wheel_radius=full(vehicle.tyre_loaded_radius),
-        track_front=full(vehicle.track_front),
-        track_rear=full(vehicle.track_rear),
+        h_rc_front=h_rf,
+        h_rc_rear=h_rr,
+        ms_front=ms_front,
+        ms_rear=ms_rear,
+        mu_front=muf,
+        mu_rear=mur,
+        wheel_radius=radius,
+        track_front=tf,
+        track_rear=tr,
         kphi_front=kphi_f,
         kphi_rear=kphi_r,
         damper_scale_front=tile(d.front_damper_scale),
         damper_scale_rear=tile(d.rear_damper_scale),
         fz_front=w_front,
         fz_rear=w_rear,
-        roll_steer_front=full(leaf.front_roll_steer),
-        force_steer_front=full(-leaf.steering_trail / leaf.steering_stiffness),
+        roll_steer_front=eps_f,
+        force_steer_front=c_ff,
         roll_steer_rear=vehicle.rear_roll_steer + eps_bush,
         force_steer_rear=c_force,
         vehicle=vehicle,
         tyre=tyre,
     )
+
+
+def _case_terms(vp: VehicleParams, leaf: LeafAxleGeometry) -> list[float]:
+    """The handling parameters of load case ``vp`` that no design variable changes, in
+    the order :func:`handling_parameters` unpacks them: total mass (kg), sprung mass,
+    total CoM to the axles (m), yaw and sprung roll inertias (kg m^2), sprung CoM above
+    the roll axis (m), the axles' sprung mass shares (kg), static wheel loads (N),
+    roll-centre heights (m), unsprung masses (kg), wheel radius and tracks (m), front
+    roll (rad/rad) and force steer (rad/N). Plain floats: one design at a time pays no
+    array calls for them."""
+    v = vp.vehicle
+    L = v.wheelbase
+    ms, va, vb = vp.load.sprung_mass, vp.a, vp.b
+    muf, mur = 2.0 * v.unsprung_front, 2.0 * v.unsprung_rear
+    m = ms + muf + mur
+    a = (ms * va + mur * L) / m  # total CoM behind the front axle
+    b = L - a
+    iz = vp.load.yaw_inertia + ms * ((va - a) * (va - a)) + muf * (a * a) + mur * (b * b)
+    h_rf, h_rr = roll_centre_heights(v)
+    h_axis = h_rf + (h_rr - h_rf) * va / L  # roll-axis height under the sprung CoM
+    h_prime = vp.load.cg_z - h_axis
+    if h_prime <= 0:
+        raise ValidationError(
+            f"the sprung CoM must lie above the roll axis, but got (cg_z={vp.load.cg_z}, "
+            f"roll-axis height={h_axis:.3f})"
+        )
+    if not 0.0 < leaf.axle_from_front_eye < v.leaf_length:
+        raise ValidationError(
+            f"`0 < axle_from_front_eye < leaf_length` must hold, but got "
+            f"(axle_from_front_eye={leaf.axle_from_front_eye}, leaf_length={v.leaf_length})"
+        )
+    ixs = vp.load.roll_inertia + ms * (h_prime * h_prime)
+    w_front = (ms * G * vb / L) / 2.0 + v.unsprung_front * G
+    w_rear = (ms * G * va / L) / 2.0 + v.unsprung_rear * G
+    return [
+        m, ms, a, b, iz, ixs, h_prime, ms * vb / L, ms * va / L, w_front, w_rear,
+        h_rf, h_rr, muf, mur, v.tyre_loaded_radius, v.track_front, v.track_rear,
+        leaf.front_roll_steer, -leaf.steering_trail / leaf.steering_stiffness,
+    ]  # fmt: skip
 
 
 # ------------------------------------------------------------------ equations of motion
@@ -481,31 +532,12 @@ def linear_system(
     (k, n)); A and B then carry them too.
     """
     cf, cr = axle_stiffness if axle_stiffness is not None else P.axle_cornering_stiffness()
-    cf = cf / (1.0 - cf * P.force_steer_front)
-    cr = cr / (1.0 - cr * P.force_steer_rear)
-    a, b, m, iz, ixs = P.a, P.b, P.m, P.iz, P.ixs
-    msh = P.ms * P.h_prime
-    det = m * ixs - msh**2
-    # axle forces: Fyf = cf (delta + eps_f phi - (v + a r)/u), Fyr = cr (eps_r phi - (v - b r)/u)
-    # d(Fy)/d(v, r, phi) (nil on p); rows: lateral r1 = sum Fy - m u r, roll r2
-    fyf = (-cf / u, -cf * a / u, cf * P.roll_steer_front)
-    fyr = (-cr / u, cr * b / u, cr * P.roll_steer_rear)
-    r1 = (fyf[0] + fyr[0], fyf[1] + fyr[1] + -m * u, fyf[2] + fyr[2])
-    r2 = (msh * u, msh * G - P.kphi, -roll_damping(P))  # on r, phi, p
-    A = np.zeros((*fyf[0].shape, 4, 4))
-    A[..., 0, 0] = ixs * r1[0] / det
-    A[..., 3, 0] = msh * r1[0] / det
-    for j in (1, 2):
-        A[..., 0, j] = (ixs * r1[j] + msh * r2[j - 1]) / det
-        A[..., 3, j] = (msh * r1[j] + m * r2[j - 1]) / det
-    A[..., 0, 3] = msh * r2[2] / det
-    A[..., 3, 3] = m * r2[2] / det
-    for j in range(3):
-        A[..., 1, j] = (a * fyf[j] - b * fyr[j]) / iz
-    A[..., 2, 3] = 1.0
-    B = np.zeros(A.shape[:-1])
-    B[..., 0], B[..., 1], B[..., 3] = ixs * cf / det, a * cf / iz, msh * cf / det
-    return A, B
+    u, cf, cr = np.broadcast_arrays(np.asarray(u, dtype=float), cf, cr)
+    shape = u.shape
+    u, cf, cr = (np.ascontiguousarray(x, dtype=float).reshape(-1, P.n) for x in (u, cf, cr))
+    A, B = np.zeros((u.shape[0], P.n, 4, 4)), np.zeros((u.shape[0], P.n, 4))
+    handling_kernel.linear_loop(P.rows, u, cf, cr, A, B)
+    return A.reshape(*shape, 4, 4), B.reshape(*shape, 4)
 
 
 @dataclass
@@ -532,14 +564,14 @@ def steer_response(
     """Frequency response of the linearised model (:func:`linear_system`) to front steer.
 
     ``H(f) = (i 2 pi f I - A)^-1 B`` at the frequencies ``f`` (Hz, >= 0; 0 gives the
-    steady state), batched over the rows of ``P``; ``system``: (A, B) of
-    :func:`linear_system` if already at hand.
+    steady state), batched over the rows of ``P`` (the compiled
+    :func:`suspenv.models.minibus.handling_kernel.response_loop`); ``system``: (A, B)
+    of :func:`linear_system` if already at hand.
     """
     f = np.atleast_1d(np.asarray(f, dtype=float))
     A, B = system if system is not None else linear_system(P, u)
     s = 2j * np.pi * f
-    M = s[None, :, None, None] * np.eye(4)[None, None] - A[:, None]
-    rhs = np.broadcast_to(B[:, None, :, None], (P.n, f.size, 4, 1)).astype(complex)
-    X = np.linalg.solve(M, rhs)[..., 0]  # (n, Nf, 4)
+    X = np.empty((P.n, f.size, 4), dtype=complex)
+    handling_kernel.response_loop(np.ascontiguousarray(A), np.ascontiguousarray(B), s, X)
     v, r, phi = X[..., 0], X[..., 1], X[..., 2]
     return SteerResponse(f=f, ay=s[None, :] * v + u * r, yaw_rate=r, roll=phi, sideslip=v / u)

@@ -170,14 +170,14 @@ class ElementLinearisation:
                 end.append((sign, e.params["gap"], e.params["k_stop"], e.params["p"]))
         self.n_rates = 12 if self.effects else 6
         #: damper slopes (n, 4, 4), knees (4, 2), leaf K_1, dk, e_k (n, 2, 3) of the
-        #: compiled rates
-        self._packed = (
-            np.ascontiguousarray(np.stack([self.d_bl, self.d_bh, self.d_rl, self.d_rh], 2)),
-            np.ascontiguousarray(np.stack([self.kb[0], self.kr[0]], 1)),
-            np.ascontiguousarray(
-                np.stack([self.k1, *np.broadcast_arrays(self.dk, self.thr, self.k1)[:2]], 2)
-            ),
-        )
+        #: compiled rates, filled in place (fewer calls than stacking them)
+        n = self.k1.shape[0]
+        damp, knee, leaf = np.empty((n, 4, 4)), np.empty((4, 2)), np.empty((n, 2, 3))
+        for j, c in enumerate((self.d_bl, self.d_bh, self.d_rl, self.d_rh)):
+            damp[:, :, j] = c
+        knee[:, 0], knee[:, 1] = self.kb[0], self.kr[0]
+        leaf[:, :, 0], leaf[:, :, 1], leaf[:, :, 2] = self.k1, self.dk, self.thr
+        self._packed = (damp, knee, leaf)
 
     def initial(self, init_damping: float) -> np.ndarray:
         """Starting rates (n, n_rates): ``init_damping`` x the mean low-speed damping, the
@@ -199,14 +199,14 @@ class ElementLinearisation:
         columns ``SIG_*``) of the linear model built with the rates ``r``; without rear
         end stops the damper and leaf rates by the compiled loop
         (:func:`suspenv.models.minibus.spectral_kernel.damper_leaf_rates`)."""
-        sv, sd = np.maximum(sig[:, SIG_DAMPER], 1e-12), np.maximum(sig[:, SIG_LEAF], 1e-12)
         out = np.empty(r.shape)
         if self.stops[1]:
+            sv, sd = np.maximum(sig[:, SIG_DAMPER], 1e-12), np.maximum(sig[:, SIG_LEAF], 1e-12)
             self.damper_leaf_rates(sv, sd, out)
         else:
             # C order: the loop built ahead of time reads its arrays as laid out so
-            sv, sd = np.ascontiguousarray(sv), np.ascontiguousarray(sd)
-            spectral_kernel.damper_leaf_rates(sv, sd, *self._packed, NEWTON_STEPS, out)
+            sig = np.ascontiguousarray(sig)
+            spectral_kernel.damper_leaf_rates(sig, *self._packed, NEWTON_STEPS, out)
         if self.effects:
             self._effect_rates(sig, r, out)
         return out

@@ -128,6 +128,30 @@ class RideRecord:
         return self.dt * np.arange(self.acc_front.shape[-1])
 
 
+#: the arrays of :meth:`RideModel.rhs` cast to a float32 model's type
+_TYPED = (
+    "Et",
+    "Pt",
+    "Vt",
+    "Bt",
+    "Kt",
+    "minv_diag",
+    "m12",
+    "leaf_dk",
+    "leaf_thr",
+    "leaf_base",
+    "d_bl",
+    "d_bh",
+    "d_rl",
+    "d_rh",
+    "knee_b",
+    "knee_r",
+    "f0_tyre",
+)
+#: :meth:`RideModel._build_geometry`'s cache: key -> (vehicle, geometry)
+_GEOMETRY: dict[tuple[int, bool, float], tuple[object, tuple]] = {}
+
+
 class RideModel:
     """The full-vehicle ride model for one or more :class:`VehicleParams` batches.
 
@@ -184,6 +208,21 @@ class RideModel:
 
     # -------------------------------------------------------------- assembly
     def _build_geometry(self) -> None:
+        """The element geometry (:meth:`_geometry`), shared by the models of one vehicle
+        object, seat or not and measuring point (read-only; the cache holds the
+        vehicle, so its id stays its own)."""
+        key = (id(self.vehicle), self.seat is not None, self.measure_y)
+        hit = _GEOMETRY.get(key)
+        if hit is None or hit[0] is not self.vehicle:
+            if len(_GEOMETRY) >= 16:
+                _GEOMETRY.clear()
+            hit = _GEOMETRY[key] = (self.vehicle, self._geometry())
+        self.n_pos, self.n_vel, self.E, self.Et, self.Pt, self.Vt, self.B, self.Bt = hit[1]
+
+    def _geometry(self) -> tuple:
+        """``(n_pos, n_vel, E, E^T, P^T, V^T, B, B^T)``: element deflections of position
+        and velocity type from the state, ``X @ E``, and generalised forces from the
+        element forces, ``Q = -F @ B`` (see :meth:`rhs`)."""
         v = self.vehicle
         tf, tr, s, sd = v.track_front, v.track_rear, v.leaf_spacing, v.rear_damper_spacing
         nq = self.nq
@@ -227,19 +266,17 @@ class RideModel:
                 r[7 + j] -= 1.0
                 pos[:, 10 + j] = r
                 vel[:, 8 + j] = r
-        self.n_pos, self.n_vel = pos.shape[1], vel.shape[1]
-        ne = self.n_pos + self.n_vel
+        n_pos, n_vel = pos.shape[1], vel.shape[1]
         # deflections of all elements from the state [q, qd]: X @ E
-        E = np.zeros((2 * nq, ne))
-        E[:nq, : self.n_pos] = pos
-        E[nq:, self.n_pos :] = vel
-        self.E = E
-        self.Et = np.ascontiguousarray(E.T)
-        self.Pt = np.ascontiguousarray(pos.T)
-        self.Vt = np.ascontiguousarray(vel.T)
+        E = np.zeros((2 * nq, n_pos + n_vel))
+        E[:nq, :n_pos] = pos
+        E[nq:, n_pos:] = vel
         # generalised forces from element forces: Q = -F @ B
-        self.B = -np.vstack([pos.T, vel.T])
-        self.Bt = np.ascontiguousarray(self.B.T)
+        B = -np.vstack([pos.T, vel.T])
+        out = tuple(np.ascontiguousarray(a) for a in (E, E.T, pos.T, vel.T, B, B.T))
+        for a in out:
+            a.flags.writeable = False
+        return (n_pos, n_vel, *out)
 
     def _build_coefficients(self) -> None:
         v = self.vehicle
@@ -326,25 +363,9 @@ class RideModel:
             [fk.rebound_knee, fk.rebound_knee, rk.rebound_knee, rk.rebound_knee]
         )[:, None]
         self.f0_tyre = np.ascontiguousarray(f0_tyre.T)
-        for name in (
-            "Et",
-            "Pt",
-            "Vt",
-            "Bt",
-            "Kt",
-            "minv_diag",
-            "m12",
-            "leaf_dk",
-            "leaf_thr",
-            "leaf_base",
-            "d_bl",
-            "d_bh",
-            "d_rl",
-            "d_rh",
-            "knee_b",
-            "knee_r",
-            "f0_tyre",
-        ):
+        # float32 models: the integration's arrays in their type (float64: so already)
+        typed = () if self.dtype == np.float64 else _TYPED
+        for name in typed:
             setattr(self, name, np.ascontiguousarray(getattr(self, name), dtype=self.dtype))
         # effects
         self._hyst = None

@@ -3,19 +3,18 @@
 For one design the numpy forms of a spectral ride pass are many small array calls;
 these loops run the same arithmetic compiled:
 
-- :func:`mean_square`: the frequency sums of :func:`suspenv.metrics.ride.
-  _split_mean_square`, from the modal form of the ride model's two halves (real
-  second-order terms per row) to weighted mean squares (frequencies in rad/s,
-  responses per m of axle input, weights as :func:`suspenv.metrics.ride.
-  _split_grid_values`); the sums run in another order than numpy's matrix products,
-  so the values agree to rounding (``tests/test_ride_spectral.py``: split path
-  against the full model);
-- :func:`modal_terms`: the real second-order modal terms of :meth:`suspenv.metrics.
-  ride._Halves.modal` from numpy's eigen-decomposition (residues by Gaussian
-  elimination instead of LAPACK's solve: equal to rounding, same tests);
+- :func:`halves_matrix`: the first-order matrices of the ride model's two halves
+  (:class:`suspenv.metrics.ride._Halves`) at given element rates;
+- :func:`modal_mean_square`: from numpy's eigen-decomposition of those matrices, the
+  real second-order modal terms (:func:`_modal_terms`; residues by Gaussian
+  elimination instead of LAPACK's solve) and their frequency sums (:func:`_mean_square`)
+  to weighted mean squares (frequencies in rad/s, responses per m of axle input,
+  weights as :func:`suspenv.metrics.ride._split_grid_values`); the sums run in another
+  order than numpy's matrix products, so the values agree to rounding
+  (``tests/test_ride_spectral.py``: split path against the full model);
 - :func:`damper_leaf_rates`: the equivalent-linear damper and rear-leaf rates of
   :meth:`suspenv.models.minibus.linearisation.ElementLinearisation.rates` for a
-  model without rear end stops (``tests/test_minibus_ride_elements.py``: against the
+  model without rear end stops (``tests/test_ride_effects_spectral.py``: against the
   numpy form). The standard normal CDF as scipy's ``ndtr`` (cephes) forms it.
 """
 
@@ -32,6 +31,7 @@ def _mean_square(
     q0: np.ndarray,
     q1: np.ndarray,
     coef: np.ndarray,
+    lo: int,
     w: np.ndarray,
     dr: np.ndarray,
     di: np.ndarray,
@@ -40,12 +40,12 @@ def _mean_square(
 ) -> None:
     """``out[i, o, j] = sum_h sum_f wt[f, h J + j] |g_o(f)|^2`` (n designs, p outputs,
     J weight columns per half) over the halves h of design i (rows 2 i + h of ``q0``,
-    ``q1`` (2n, d) and ``coef`` (2n, 2p, 2d): rows front outputs then rear outputs,
-    columns the constant then the s terms), with ``g = H_front + (dr + i di) H_rear``
-    and ``H_o = sum_k (coef[o, k] + s coef[o, d + k]) / (s^2 - q1[k] s + q0[k])`` at
-    ``s = i w`` (w (Nf,) rad/s)."""
+    ``q1`` (2n, d) and ``coef`` (2n, 2, P, 2d) of :func:`_modal_terms`: inputs front and
+    rear, outputs, the constant then the s terms; outputs ``lo .. lo + p - 1`` taken),
+    with ``g = H_front + (dr + i di) H_rear`` and ``H_o = sum_k (coef[o, k] + s coef[o,
+    d + k]) / (s^2 - q1[k] s + q0[k])`` at ``s = i w`` (w (Nf,) rad/s)."""
     rows, d = q0.shape
-    p = coef.shape[1] // 2
+    p = out.shape[1]
     n_w, nf = out.shape[2], w.size
     # loops over the frequencies innermost (vectorised): E (d, Nf), then per output
     # the front and rear responses (Nf) accumulated mode by mode
@@ -64,8 +64,8 @@ def _mean_square(
             g0r[:], g0i[:], g1r[:], g1i[:] = 0.0, 0.0, 0.0, 0.0
             for k in range(d):
                 # H = E a + i w E b
-                a0, b0 = coef[r, o, k], coef[r, o, d + k]
-                a1, b1 = coef[r, p + o, k], coef[r, p + o, d + k]
+                a0, b0 = coef[r, 0, lo + o, k], coef[r, 0, lo + o, d + k]
+                a1, b1 = coef[r, 1, lo + o, k], coef[r, 1, lo + o, d + k]
                 for f in range(nf):
                     e_r, e_i, wf = er[k, f], ei[k, f], w[f]
                     g0r[f] += a0 * e_r - b0 * wf * e_i
@@ -78,6 +78,56 @@ def _mean_square(
                 g2 = gr * gr + gi * gi
                 for j in range(n_w):
                     out[i, o, j] += g2 * wt[f, off + j]
+
+
+def _halves_matrix(
+    A0: np.ndarray, minv: np.ndarray, D: np.ndarray, rates: np.ndarray, A: np.ndarray
+) -> None:
+    """First-order matrices ``A`` (2n, 2d, 2d) of the two halves of n designs (row 2 i +
+    h: design i, half h): the constant part ``A0[h]`` (2, 2d, 2d) plus, in the rate
+    rows (d .. 2d - 1), ``minv[2 i + h] @ sum_e rates[i, e] D[e, h]`` with ``minv``
+    (2n, d, d) the halves' inverse mass matrices, ``D`` (n_el, 2, d, 2d) the element
+    geometry (``rates @ D = -[K | C]``) and ``rates`` (n, n_el) the element rates."""
+    d = minv.shape[1]
+    kc = np.empty((d, 2 * d))
+    for i in range(rates.shape[0]):
+        for h in range(2):
+            r = 2 * i + h
+            kc[:] = 0.0
+            for e in range(rates.shape[1]):
+                for a in range(d):
+                    for b in range(2 * d):
+                        kc[a, b] += rates[i, e] * D[e, h, a, b]
+            A[r] = A0[h]
+            for a in range(d):
+                for b in range(2 * d):
+                    acc = 0.0
+                    for c in range(d):
+                        acc += minv[r, a, c] * kc[c, b]
+                    A[r, d + a, b] += acc
+
+
+def _modal_mean_square(
+    lam: np.ndarray,
+    V: np.ndarray,
+    B: np.ndarray,
+    co: np.ndarray,
+    lo: int,
+    w: np.ndarray,
+    dr: np.ndarray,
+    di: np.ndarray,
+    wt: np.ndarray,
+    out: np.ndarray,
+) -> None:
+    """:func:`_mean_square` of the outputs ``lo ..`` (``out`` (n, p, J)) of the modal
+    terms (:func:`_modal_terms`) of the halves' poles ``lam`` (2n, 2d) and eigenvectors
+    ``V`` (2n, 2d, 2d) with inputs ``B`` and outputs ``co``."""
+    rows, ns = lam.shape
+    d = ns // 2
+    q0, q1 = np.empty((rows, d)), np.empty((rows, d))
+    coef = np.empty((rows, 2, co.shape[1], ns))
+    _modal_terms(lam, V, B, co, q0, q1, coef)
+    _mean_square(q0, q1, coef, lo, w, dr, di, wt, out)
 
 
 def _solve(a: np.ndarray, x: np.ndarray) -> None:
@@ -176,32 +226,38 @@ def _excess(a: float) -> float:
     return math.exp(-0.5 * a * a) / math.sqrt(2.0 * math.pi) - a * _ndtr(-a)
 
 
+def _floor(x: float) -> float:
+    """``x``, at least 1e-12 (NaN stays NaN, as numpy's ``maximum``)."""
+    return 1e-12 if x < 1e-12 else x
+
+
 def _damper_leaf_rates(
-    sv: np.ndarray,
-    sd: np.ndarray,
+    sig: np.ndarray,
     damp: np.ndarray,
     knee: np.ndarray,
     leaf: np.ndarray,
     passes: int,
     out: np.ndarray,
 ) -> None:
-    """Damper coefficients (N s/m) and rear leaf rates (N/m) into ``out`` (n, 6) from
-    the RMS damper velocities ``sv`` (n, 4; m/s) and leaf deflections ``sd`` (n, 2;
-    m), both > 0: ``damp`` (n, 4, 4) slopes (bump low, bump high, rebound low, rebound
-    high) per damper, ``knee`` (4, 2) knees (bump, rebound > 0; m/s), ``leaf`` (n, 2, 3)
-    per leaf (primary rate K_1 (N/m), extra rate dk (N/m), knee e_k (m) from rest);
+    """Damper coefficients (N s/m) and rear leaf rates (N/m) into ``out`` (n, >= 6)
+    from the RMS damper velocities (m/s) and leaf deflections (m) ``sig`` (n, >= 6;
+    columns ``SIG_DAMPER``, ``SIG_LEAF`` of :mod:`suspenv.models.minibus.
+    linearisation`, each taken at least 1e-12 by :func:`_floor`): ``damp`` (n, 4, 4)
+    slopes (bump low, bump high, rebound low, rebound high) per damper, ``knee`` (4, 2)
+    knees (bump, rebound > 0; m/s), ``leaf`` (n, 2, 3) per leaf (primary rate K_1
+    (N/m), extra rate dk (N/m), knee e_k (m) from rest);
     the leaf's mean deflection by ``passes`` Newton steps (laws and steps of
     :class:`suspenv.models.minibus.linearisation.ElementLinearisation`)."""
     c0 = 1.0 / math.sqrt(2.0 * math.pi)
-    for i in range(sv.shape[0]):
+    for i in range(sig.shape[0]):
         for j in range(4):
-            s = sv[i, j]
+            s = _floor(sig[i, j])
             pb, pr = _ndtr(knee[j, 0] / s), _ndtr(knee[j, 1] / s)
             bl, bh, rl, rh = damp[i, j, 0], damp[i, j, 1], damp[i, j, 2], damp[i, j, 3]
             out[i, j] = bl * (pb - 0.5) + bh * (1 - pb) + rl * (pr - 0.5) + rh * (1 - pr)
         for side in range(2):
             j = 2 + side
-            s, d = sv[i, j], sd[i, side]
+            s, d = _floor(sig[i, j]), _floor(sig[i, 4 + side])
             k1, dk, thr = leaf[i, side, 0], leaf[i, side, 1], leaf[i, side, 2]
             tb, tr = s * _excess(knee[j, 0] / s), s * _excess(knee[j, 1] / s)
             bump = damp[i, j, 0] * (s * c0 - tb) + damp[i, j, 1] * tb
@@ -215,8 +271,10 @@ def _damper_leaf_rates(
             out[i, j + 2] = k1 + dk * (1.0 - _ndtr((thr - m) / d))
 
 
-#: :func:`_mean_square`, :func:`_modal_terms` and :func:`_damper_leaf_rates`, built
-#: ahead of time (:mod:`suspenv.core.compiled`)
-mean_square = compiled.Lazy(globals(), (), _mean_square)
-modal_terms = compiled.Lazy(globals(), ("_solve",), _modal_terms)
-damper_leaf_rates = compiled.Lazy(globals(), ("_ndtr", "_excess"), _damper_leaf_rates)
+#: :func:`_halves_matrix`, :func:`_modal_mean_square` and :func:`_damper_leaf_rates`,
+#: built ahead of time (:mod:`suspenv.core.compiled`)
+halves_matrix = compiled.Lazy(globals(), (), _halves_matrix)
+modal_mean_square = compiled.Lazy(
+    globals(), ("_solve", "_modal_terms", "_mean_square"), _modal_mean_square
+)
+damper_leaf_rates = compiled.Lazy(globals(), ("_ndtr", "_excess", "_floor"), _damper_leaf_rates)

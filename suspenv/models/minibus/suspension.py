@@ -43,9 +43,9 @@ def leaf_static_deflection(
     """Inverse of :func:`leaf_force` for a load >= 0: deflection (m) and helper-engaged flag."""
     load = np.asarray(load, dtype=float)
     k1, k2 = np.asarray(k1, dtype=float), np.asarray(k2, dtype=float)
-    if np.any(load < 0):
+    if (load < 0).any():
         raise ValidationError(f"leaf static load must be >= 0 N, but got {np.min(load)}")
-    if np.any(k1 <= 0) or np.any(k2 <= 0):
+    if (k1 <= 0).any() or (k2 <= 0).any():
         raise ValidationError("leaf rates must be > 0, but got k1 or k2 <= 0")
     knee = k1 * d_helper
     on_helper = load > knee

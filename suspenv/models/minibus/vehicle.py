@@ -328,7 +328,7 @@ def design_to_si(X: np.ndarray, vehicle: Minibus = REFERENCE_MINIBUS) -> DesignS
     """
     X = check_designs(X)
     K1, K2, K3, T1, T2, T3, C1, C2 = X.T
-    if np.any(K2 < K1):
+    if (K2 < K1).any():
         r = int(np.argmax(K2 < K1))
         raise ValidationError(
             f"`K2 >= K1` must hold (the helper leaf adds stiffness), but got "
@@ -378,9 +378,29 @@ def stacked_vehicle_parameters(
     X: np.ndarray, load_cases: Sequence[str | LoadCase], vehicle: Minibus = REFERENCE_MINIBUS
 ) -> list[VehicleParams]:
     """:func:`vehicle_parameters` of designs X for each load case, in order (the ride
-    model stacks them row-wise); the designs converted once."""
-    design = design_to_si(X, vehicle)
-    return [_apply(design, lc, vehicle) for lc in load_cases]
+    model stacks them row-wise); the designs converted once.
+
+    The last call's result is kept (arrays read-only): an evaluation asks for the same
+    designs' parameters for its ride and its handling models, and pays once."""
+    arr = np.asarray(X, dtype=float)
+    key = (arr.shape, arr.tobytes(), tuple(load_cases))
+    hit = _LAST_PARAMS.get(key)
+    if hit is None or hit[0] is not vehicle:
+        design = design_to_si(arr, vehicle)
+        params = [_apply(design, lc, vehicle) for lc in load_cases]
+        for vp in params:
+            for a in (
+                vp.front_static_deflection, vp.rear_static_deflection, vp.rear_on_helper,
+                vp.rear_static_rate, *vars(design).values(),
+            ):  # fmt: skip
+                a.flags.writeable = False
+        _LAST_PARAMS.clear()
+        hit = _LAST_PARAMS[key] = (vehicle, params)
+    return list(hit[1])
+
+
+#: :func:`stacked_vehicle_parameters`' last call: key -> (vehicle, parameters)
+_LAST_PARAMS: dict[tuple[Any, ...], tuple[Minibus, list[VehicleParams]]] = {}
 
 
 def vehicle_parameters(
