@@ -58,7 +58,6 @@ from suspenv.methods.identification import (
     local_sensitivity,
     objective_scale,
     profile_scan,
-    quality_items,
     recovery_table,
 )
 from suspenv.methods.tey2014.cluster_count import (
@@ -73,7 +72,7 @@ from suspenv.methods.tey2014.sensitivity import SensitivityResult, spearman_matr
 from suspenv.methods.tey2014.strategy_comparison import QUALITY_NAME
 from suspenv.problems.views import ObjectiveSubset, WithSignedResponses
 from suspenv.registry import report_function
-from suspenv.runs.quality import feasible
+from suspenv.runs.quality import best_so_far, curve_items, feasible
 from suspenv.runs.run_dir import write_file
 
 #: the ``[study]`` table of a config, with its defaults (the paper's settings)
@@ -661,7 +660,7 @@ def run_tey2014_pipeline(config: dict[str, Any], run_dir: Path) -> dict[str, Any
         wall_time_s=wall,
         pipeline_wall_time_s=wall,
         quality_name=QUALITY_NAME,
-        **quality_items(tot, study.cmaes.valid),
+        **curve_items(best_so_far(tot, study.cmaes.valid)),
         report=files[0] if files else None,
     )
     text = json.dumps(summary, indent=2, default=_json) + "\n"
