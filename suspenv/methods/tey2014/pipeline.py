@@ -45,6 +45,7 @@ from typing import Any
 import numpy as np
 
 from suspenv.core.errors import ValidationError
+from suspenv.core.jsonable import to_jsonable
 from suspenv.core.laps import Laps
 from suspenv.core.problem import Problem
 from suspenv.core.result import EvaluationBatch
@@ -663,15 +664,10 @@ def run_tey2014_pipeline(config: dict[str, Any], run_dir: Path) -> dict[str, Any
         **curve_items(best_so_far(tot, study.cmaes.valid)),
         report=files[0] if files else None,
     )
-    text = json.dumps(summary, indent=2, default=_json) + "\n"
+    # strict JSON, as every run writer: an undefined number (NaN, inf) is null
+    text = json.dumps(to_jsonable(summary), indent=2, allow_nan=False) + "\n"
     write_file(run_dir / "study.json", text)
     write_file(run_dir / "summary.json", text)
     return summary
 
 
-def _json(o: Any) -> Any:
-    if isinstance(o, np.generic):
-        return o.item()
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    raise TypeError(type(o).__name__)
