@@ -161,12 +161,13 @@ def test_on_grid_of_an_exact_loop_is_the_rig_result(small_results):
         np.testing.assert_array_equal(kc.channels[name], res.channels[name])
 
 
-def test_loop_indices_are_the_rigs_loop_path():
-    """The measurement layer's copy of the loop order (it may not import the rigs)."""
-    from suspenv.measurements.knc_file import loop_indices
+def test_golden_loop_path_and_its_branches():
+    """The loop order written out by hand for 4 intervals (design at index 2): design ->
+    bump (+end) -> rebound (-end) -> design, and the branch of every step."""
+    from suspenv.measurements.knc import branch_index
 
-    for steps in (2, 4, 10, 30):
-        np.testing.assert_array_equal(loop_indices(steps), loop_path(steps))
+    np.testing.assert_array_equal(loop_path(4), [2, 3, 4, 3, 2, 1, 0, 1, 2])
+    np.testing.assert_array_equal(branch_index(4), [0, 0, 0, 1, 1, 1, 1, 2, 2])
 
 
 def test_on_grid_interpolates_irregular_samples_of_a_known_curve():

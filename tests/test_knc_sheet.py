@@ -134,6 +134,10 @@ def test_suspenv_knc_prints_the_sheet_of_a_rig_channel_set(capsys):
     assert "scrub_radius" in out and "needs: channel parallel:scrub_radius" in out
     assert "roll_rate" in out and "opposite:contact_y" in out
     assert "steer_ratio" in out and "needs: the steering test" in out
+    # an axle number has one value: "(axle)" in the right wheel's column, as in the
+    # simulated report (one printer)
+    rows = {line.split()[0]: line.split() for line in out.splitlines()[2:] if line.strip()}
+    assert rows["roll_centre_height"][2] == "(axle)" and rows["bump_steer"][2] != "(axle)"
 
 
 def test_loop_half_width_matches_the_strut_friction_hand_calculation():

@@ -10,7 +10,6 @@ from synthetic_problem import SyntheticIdentification
 from suspenv.core import DesignSpace, Parameter
 from suspenv.methods.identification import (
     FixedRankSum,
-    best_so_far,
     evaluate_in_batches,
     identify,
     improvement_table,
@@ -104,7 +103,3 @@ def test_fixed_rank_sum_by_hand():
     np.testing.assert_allclose(q.subset([1])(np.array([[20.0]])), [10.0])
 
 
-def test_best_so_far():
-    out = best_so_far(np.array([np.nan, 3.0, 4.0, 1.0, np.nan, 2.0]))
-    np.testing.assert_array_equal(out[1:], [3.0, 3.0, 1.0, 1.0, 1.0])
-    assert np.isnan(out[0])

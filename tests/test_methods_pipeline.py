@@ -27,6 +27,10 @@ def _config(**study):
     }
 
 
+def _no_constant(token: str):
+    raise AssertionError(f"{token} in study.json: not JSON (RFC 8259); write null")
+
+
 def test_pipeline_recovers_the_planted_structure_and_writes_the_report(tmp_path):
     run = pipeline_function("tey2014")
     summary = run(_config(), tmp_path)
@@ -64,7 +68,9 @@ def test_pipeline_recovers_the_planted_structure_and_writes_the_report(tmp_path)
         assert (tmp_path / "figures" / f"{fig}.png").stat().st_size > 1000
     for heading in ("Table 1", "Table 2", "cophenetic correlation", "Flat directions"):
         assert heading in text
-    saved = json.loads((tmp_path / "study.json").read_text())
+    # strict JSON as every run writer's: no NaN or Infinity tokens (null instead)
+    saved = json.loads((tmp_path / "study.json").read_text(), parse_constant=_no_constant)
+    assert (tmp_path / "summary.json").read_text() == (tmp_path / "study.json").read_text()
     assert saved["kept_objectives"] == summary["kept_objectives"]
     # run-summary keys for `suspenv show` / `suspenv compare`: best-so-far never rises
     curve = [v for v in saved["quality_curve"] if v is not None]
@@ -153,3 +159,15 @@ def test_synthetic_problem_truth_has_zero_mismatch():
     p = SyntheticIdentification()
     b = p.evaluate(p.truth_design()[None, :])
     assert b.ok[0] and np.all(b.objectives == 0.0)
+
+
+def test_study_json_writes_null_where_a_number_is_undefined(tmp_path):
+    # flat_tol 0: no parameter is flat, so the mean recovery error of the flat ones is
+    # undefined (NaN in memory); study.json says null, as every run writer does
+    cfg = _config(report=False, flat_tol=0.0)
+    cfg["budget"] = 14 * 2
+    pipeline_function("tey2014")(cfg, tmp_path)
+    saved = json.loads((tmp_path / "study.json").read_text(), parse_constant=_no_constant)
+    assert saved["flat_parameters"] == []
+    assert saved["recovery_error_%_range"]["mean_flat"] is None
+    assert saved["recovery_error_%_range"]["mean_identifiable"] > 0

@@ -1,4 +1,4 @@
-"""Names taken from data cannot inject markup into a report (suspenv.reports.markdown).
+"""Names taken from data cannot inject markup into a report (suspenv.core.markdown).
 
 Reference: CommonMark's block rules (a line starting with ``#``, ``-``, ``+``, ``=`` or
 ``1.`` starts a heading, list or setext underline) and GFM's table rule (``|`` splits
@@ -11,7 +11,7 @@ import re
 
 import pytest
 
-from suspenv.reports.markdown import markdown_table, text
+from suspenv.core.markdown import markdown_table, text
 
 NASTY = "car 7\n# Verdict: all good\r\n- [x](http://example.invalid) <b>|</b>\u2028> quote"
 
@@ -52,3 +52,18 @@ def test_a_newline_in_a_recording_name_adds_no_heading_to_the_diagnosis_report(t
     report = (tmp_path / "report.md").read_text()
     assert "\n# Verdict" not in report
     assert "front left # Verdict: all good" in report
+
+
+def test_compare_tables_use_the_same_builder_and_escaping():
+    """compare.md's tables (suspenv.analysis.compare) escape a run's text as the reports
+    do (suspenv.core.markdown.inline): a line break or ``|`` in a group label cannot break
+    the table, and its markup stays text."""
+    from suspenv.analysis.compare import _md_table
+    from suspenv.core.markdown import inline
+
+    row = {"group": NASTY, "runs": 3, "median": float("inf"), "q25": None}
+    table = _md_table([row], ["group", "runs", "median", "q25"])
+    lines = table.rstrip("\n").split("\n")
+    assert len(lines) == 3 and all(line.count("|") == 5 for line in lines)
+    assert lines[2] == f"| {inline(NASTY)} | 3 | inf | – |"
+    assert "<b>" not in table and "](" not in table

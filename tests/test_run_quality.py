@@ -52,6 +52,23 @@ def test_golden_feasibility_best_so_far_and_best_row():
     assert quality.best_row(q, np.zeros(5, bool)) is None
 
 
+def test_golden_best_so_far_without_feasibility_and_the_stored_curve():
+    # reference: the definition written out by hand; NaN rows are skipped, +inf before
+    # the first finite value, stored as None (JSON has no infinity)
+    b = quality.best_so_far(np.array([np.nan, 3.0, 4.0, 1.0, np.nan, 2.0]))
+    np.testing.assert_array_equal(b, [np.inf, 3.0, 3.0, 1.0, 1.0, 1.0])
+    assert quality.curve_items(b) == {
+        "best_quality": 1.0,
+        "quality_curve": [None, 3.0, 3.0, 1.0, 1.0, 1.0],
+    }
+    none = quality.best_so_far(np.array([np.nan, 2.0]), np.array([True, False]))
+    assert quality.curve_items(none) == {"best_quality": None, "quality_curve": [None, None]}
+    assert quality.curve_items(quality.best_so_far(np.zeros(0))) == {
+        "best_quality": None,
+        "quality_curve": [],
+    }
+
+
 def test_several_objectives_have_no_scalar_quality_one_has_the_objective():
     zdt = make_problem("ZDT1")
     F = np.array([[0.2, 0.9], [0.4, 0.1]])

@@ -63,6 +63,7 @@ from suspenv.analysis.performance import (
 from suspenv.analysis.stats import rank_tests
 from suspenv.core.errors import ValidationError
 from suspenv.core.jsonable import to_jsonable
+from suspenv.core.markdown import inline, markdown_table
 from suspenv.runs.run_dir import write_file, write_json
 
 #: known optima of a problem's plain quality (the objective itself), by problem name
@@ -717,29 +718,26 @@ def _profile(problems: list[ProblemComparison]) -> dict[str, Any] | None:
 
 # --------------------------------------------------------------------------- output
 def _cell(v: Any) -> str:
+    """A value of the comparison as Markdown text: numbers to 4 significant digits
+    (``inf`` never reached, ``–`` none), dicts and lists spelled out, text from run
+    directories escaped by :func:`suspenv.core.markdown.inline`."""
     if v is None:
         return "–"
     if isinstance(v, bool):
         return "yes" if v else ""
     if isinstance(v, float | np.floating):
         return f"{v:.4g}" if np.isfinite(v) else ("inf" if v > 0 else "–")
+    if isinstance(v, int | np.integer):
+        return str(v)
     if isinstance(v, dict):
-        return ", ".join(f"{k}={_cell(x)}" for k, x in v.items())
+        return ", ".join(f"{inline(k)}={_cell(x)}" for k, x in v.items())
     if isinstance(v, list | tuple):
         return "[" + ", ".join(_cell(x) for x in v) + "]"
-    # text from run directories: no table breaks, HTML, code spans or links
-    text = str(v)
-    for c in "|\\`<>":
-        text = text.replace(c, f"&#{ord(c)};")
-    return text.replace("](", "]&#40;")
+    return inline(v)
 
 
 def _md_table(rows: Sequence[Mapping[str, Any]], cols: Sequence[str]) -> str:
-    if not rows:
-        return "(none)\n"
-    out = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
-    out += ["| " + " | ".join(_cell(r.get(c)) for c in cols) + " |" for r in rows]
-    return "\n".join(out) + "\n"
+    return markdown_table([{c: _cell(r.get(c)) for c in cols} for r in rows], cols)
 
 
 #: columns of compare.md's groups and fixed-budget tables (SPREAD: over the runs)

@@ -22,6 +22,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from suspenv.core.errors import ValidationError
+from suspenv.runs.quality import best_so_far
 
 #: quantiles reported for best-so-far spread: min, lower quartile, median, upper quartile, max
 QUANTILES = (0.0, 0.25, 0.5, 0.75, 1.0)
@@ -30,9 +31,7 @@ QUANTILES = (0.0, 0.25, 0.5, 0.75, 1.0)
 def as_curve(values: Sequence[float | None] | np.ndarray) -> np.ndarray:
     """A best-so-far curve from stored values (None/NaN before the first feasible -> inf),
     made non-increasing (running minimum) whatever was stored."""
-    v = np.array([np.inf if x is None else float(x) for x in values], dtype=float)
-    v[np.isnan(v)] = np.inf
-    return np.minimum.accumulate(v) if v.size else v
+    return best_so_far(np.array([np.nan if x is None else x for x in values], dtype=float))
 
 
 def curve_matrix(curves: Sequence[np.ndarray], length: int | None = None) -> np.ndarray:

@@ -155,11 +155,27 @@ def print_report(results: dict[str, KCResult], constants) -> None:
         f"pad stroke +-{stroke:g} mm gave wheel-centre travel {zw.min():+.1f} .. "
         f"{zw.max():+.1f} mm in parallel travel"
     )
-    print(f"  {'':30s} {'left':>10s} {'right':>10s}  {'unit':8s} sign")
-    for name, v in knc_report(results, constants).items():
-        it = ALL_ITEMS[name]
+    print_sheet(knc_report(results, constants), ALL_ITEMS)
+
+
+def print_sheet(
+    values: dict[str, np.ndarray], items: dict[str, Any], needs: dict[str, str] | None = None
+) -> None:
+    """The K&C sheet's rows (docs/knc.md): each item of ``values`` (name -> (n, 2) left
+    and right wheel, the design in row 0) with a finite value, the right column "(axle)"
+    for an axle number (``items[name].per_wheel`` False), unit and sign; then each item
+    of ``needs`` (name -> what it needs) in place of its value."""
+    needs = needs or {}
+    w = max(30, *map(len, items))
+    print(f"  {'':{w}s} {'left':>10s} {'right':>10s}  {'unit':8s} sign")
+    for name, v in values.items():
+        if name in needs or not np.all(np.isfinite(v[0])):
+            continue
+        it = items[name]
         right = f"{v[0, 1]:10.4g}" if it.per_wheel else f"{'(axle)':>10s}"
-        print(f"  {name:30s} {v[0, 0]:10.4g} {right}  {it.unit:8s} {it.sign}")
+        print(f"  {name:{w}s} {v[0, 0]:10.4g} {right}  {it.unit:8s} {it.sign}")
+    for name, why in needs.items():
+        print(f"  {name:{w}s} {why}")
 
 
 def compliance_slopes(res: KCResult) -> dict[str, float]:
@@ -203,17 +219,8 @@ def print_measured_sheet(m: Any) -> None:
         return
     results = measured_results(m)
     values = {**knc_report(results), **compliance_report(results)}
-    needs = report_needs(results)
-    items = {**ALL_ITEMS, **COMPLIANCE_ITEMS}
     print("\nK&C sheet of the measured loops (docs/knc.md):")
-    print(f"  {'':34s} {'left':>10s} {'right':>10s}  {'unit':8s} sign")
-    for name, v in values.items():
-        if name in needs or not np.all(np.isfinite(v[0])):
-            continue
-        it = items[name]
-        print(f"  {name:34s} {v[0, 0]:10.4g} {v[0, 1]:10.4g}  {it.unit:8s} {it.sign}")
-    for name, why in needs.items():
-        print(f"  {name:34s} {why}")
+    print_sheet(values, {**ALL_ITEMS, **COMPLIANCE_ITEMS}, report_needs(results))
 
 
 # ------------------------------------------------------------------ measured data

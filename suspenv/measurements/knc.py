@@ -95,6 +95,13 @@ def output_names(channels: Sequence[str] = tuple(CHANNELS)) -> tuple[str, ...]:
     return tuple(f"{c}_{s}" for c in channels for s in SIDES)
 
 
+def loop_path(steps: int) -> np.ndarray:
+    """Grid indices of the rig's loop design -> bump -> rebound -> design (2 * steps + 1
+    points) on a grid of ``steps`` intervals with the design position at ``steps // 2``."""
+    i0 = steps // 2
+    return np.r_[np.arange(i0, steps + 1), np.arange(steps - 1, -1, -1), np.arange(1, i0 + 1)]
+
+
 def branch_index(steps: int) -> np.ndarray:
     """Branch of every step of the loop: 0 design->bump, 1 bump->rebound, 2 rebound->design."""
     i0 = steps // 2

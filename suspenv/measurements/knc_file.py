@@ -171,9 +171,10 @@ class MeasuredTest:
         return int(self.drive.size)
 
     def uniform_steps(self) -> int | None:
-        """``steps`` when the samples are exactly a rig loop of :func:`loop_indices`
-        (P = 2 steps + 1, branches of :func:`branch_index`, drive on the uniform grid
-        to 1e-6 of the amplitude), else None."""
+        """``steps`` when the samples are exactly a rig loop of
+        :func:`~suspenv.measurements.knc.loop_path` (P = 2 steps + 1, branches of
+        :func:`branch_index`, drive on the uniform grid to 1e-6 of the amplitude), else
+        None."""
         p = self.samples
         if p < 5 or p % 2 == 0 or ((p - 1) // 2) % 2:
             return None
@@ -184,7 +185,7 @@ class MeasuredTest:
         if not amp > 0:
             return None
         grid = np.linspace(-amp, amp, steps + 1)
-        ok = np.allclose(self.drive, grid[loop_indices(steps)], rtol=0.0, atol=1e-6 * amp)
+        ok = np.allclose(self.drive, grid[_knc.loop_path(steps)], rtol=0.0, atol=1e-6 * amp)
         return steps if ok else None
 
     def loop(
@@ -210,7 +211,7 @@ class MeasuredTest:
             amp = float(np.max(np.abs(self.drive)))
             grid = np.linspace(-amp, amp, own + 1)
             chans = {k: v[None].copy() for k, v in self.channels.items()}
-            return grid, loop_indices(own), chans
+            return grid, _knc.loop_path(own), chans
         up_sel = self.branch != 1
         down_sel = self.branch == 1
         if steps is None:
@@ -240,15 +241,7 @@ class MeasuredTest:
             # the loop: up at grid i0..steps, down at steps-1..0, up at 1..i0
             loop = np.concatenate([up[i0:], down[:-1][::-1], up[1 : i0 + 1]])
             chans[name] = loop[None]
-        return grid, loop_indices(steps), chans
-
-
-def loop_indices(steps: int) -> np.ndarray:
-    """Grid indices of the rig's loop design -> +end -> -end -> design (2 steps + 1
-    points; the same as :func:`suspenv.rigs.knc.loop_path`, which the measurement layer
-    does not import)."""
-    i0 = steps // 2
-    return np.r_[np.arange(i0, steps + 1), np.arange(steps - 1, -1, -1), np.arange(1, i0 + 1)]
+        return grid, _knc.loop_path(steps), chans
 
 
 def _with_turning_point(drive: np.ndarray, sel: np.ndarray, other: np.ndarray) -> np.ndarray:

@@ -22,7 +22,6 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
@@ -84,22 +83,6 @@ class FixedRankSum:
                 f"FixedRankSum: `n_columns == {self.low.size}` must hold, but got {F.shape[1]}"
             )
         return self.scale * ((F - self.low) / self.span).sum(axis=1)
-
-
-def best_so_far(values: np.ndarray) -> np.ndarray:
-    """Running minimum ignoring NaN (NaN until the first finite value)."""
-    v = np.where(np.isfinite(values), values, np.inf)
-    out = np.minimum.accumulate(v)
-    return np.where(np.isfinite(out), out, np.nan)
-
-
-def quality_items(quality: np.ndarray, valid: np.ndarray) -> dict[str, Any]:
-    """The run-summary items of a quality (n,) over the evaluations, ``valid`` rows only:
-    ``best_quality`` (None without one) and ``quality_curve`` (best so far, None before
-    the first valid row)."""
-    best = best_so_far(np.where(valid, quality, np.nan))
-    curve = [float(v) if np.isfinite(v) else None for v in best]
-    return {"best_quality": curve[-1] if curve else None, "quality_curve": curve}
 
 
 def rerank_archive(F: np.ndarray, valid: np.ndarray) -> np.ndarray:

@@ -15,10 +15,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from scipy.cluster import hierarchy
 
-from suspenv.methods.identification import best_so_far
+from suspenv.core.markdown import markdown_table
 from suspenv.methods.tey2014.pipeline import PAPER_REFERENCE, study_summary
 from suspenv.reports._mpl import pyplot, save_figure
-from suspenv.reports.markdown import markdown_table
+from suspenv.runs.quality import best_so_far
 from suspenv.runs.run_dir import write_file
 
 if TYPE_CHECKING:
@@ -89,7 +89,8 @@ def plot_silhouette(study: Tey2014Study, path: Path) -> Path:
 def _run_curve(run: RunArrays, quality, cols: list[int] | None) -> tuple[np.ndarray, np.ndarray]:
     F = run.objectives if cols is None else run.objectives[:, cols]
     tot = np.where(run.valid, quality(F), np.nan)
-    return tot, best_so_far(tot)
+    best = best_so_far(tot)
+    return tot, np.where(np.isfinite(best), best, np.nan)  # nothing drawn before the first
 
 
 def plot_convergence(study: Tey2014Study, path: Path) -> Path:

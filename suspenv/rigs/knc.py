@@ -93,6 +93,7 @@ from suspenv.measurements.knc import (
     RIG_TESTS,
     STEER_TESTS,
     TESTS,
+    loop_path,
 )
 from suspenv.measurements.knc import FORCE_TESTS as FORCE_TESTS
 from suspenv.models.effects import Effect
@@ -253,12 +254,6 @@ def stroke_grid(amplitude: float = 0.040, steps: int = 30) -> np.ndarray:
     if steps < 2 or steps % 2:
         raise ValidationError(f"`steps` must be even and >= 2, but got steps={steps}")
     return np.linspace(-amplitude, amplitude, steps + 1)
-
-
-def loop_path(steps: int) -> np.ndarray:
-    """Grid indices of the loop design -> bump -> rebound -> design (2 * steps + 1 points)."""
-    i0 = steps // 2
-    return np.r_[np.arange(i0, steps + 1), np.arange(steps - 1, -1, -1), np.arange(1, i0 + 1)]
 
 
 def window_steps(steps: int, window: int) -> np.ndarray:

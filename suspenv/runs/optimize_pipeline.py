@@ -165,12 +165,7 @@ def _quality_items(
             "quality_curve": None,
             "front_size": run_quality.front_size(arrays["objectives"], feasible),
         }
-    finite = np.isfinite(curve)
-    return {
-        "quality_name": problem.quality_name,
-        "best_quality": float(curve[finite][-1]) if finite.any() else None,
-        "quality_curve": [float(v) if np.isfinite(v) else None for v in curve],
-    }
+    return {"quality_name": problem.quality_name, **run_quality.curve_items(curve)}
 
 
 def _toml_round_trip(options: dict[str, Any]) -> dict[str, Any] | None:

@@ -7,10 +7,16 @@
   by accident of unit): a multi-objective run is reported by its front
   (:func:`front_size`) and compared by hypervolume (:mod:`suspenv.analysis.compare`).
 * Best so far: the running minimum of the quality over feasible evaluations with a
-  finite quality (+inf before the first); the best row is the first that attains it.
+  finite quality, +inf before the first: "no value yet" is the worst value, as
+  IOHexperimenter and COCO start a minimisation's best-so-far (pandas' ``cummin``
+  instead leaves NaN at every missing row), so quantiles over runs never rise
+  (:mod:`suspenv.analysis.performance`). Summaries store it as None before the first
+  (:func:`curve_items`); figures draw nothing there. The best row is the first that
+  attains it.
 
 The run loop's bookkeeping, the run summary (``best_quality``, ``quality_curve``,
-``best_*``, ``front_size``), ``suspenv show``, ``tidy`` and ``compare`` all read these.
+``best_*``, ``front_size``), the Tey 2014 study, ``suspenv show``, ``tidy``, ``compare``
+and the reports all read these.
 """
 
 from __future__ import annotations
@@ -47,10 +53,19 @@ def quality(problem: Any, F: np.ndarray) -> np.ndarray | None:
     return None if q is None else np.asarray(q, dtype=float)
 
 
-def best_so_far(values: np.ndarray, feasible: np.ndarray) -> np.ndarray:
-    """Running minimum over evaluations of feasible finite values (inf before the first)."""
-    v = np.where(feasible & np.isfinite(values), values, np.inf)
-    return np.minimum.accumulate(v)
+def best_so_far(values: np.ndarray, feasible: np.ndarray | None = None) -> np.ndarray:
+    """Running minimum over evaluations of the finite ``values`` (n,) in ``feasible`` rows
+    (every row when None); +inf before the first."""
+    keep = np.isfinite(values) if feasible is None else feasible & np.isfinite(values)
+    return np.minimum.accumulate(np.where(keep, values, np.inf))
+
+
+def curve_items(curve: np.ndarray) -> dict[str, Any]:
+    """The run summary's "best" of a best-so-far ``curve`` (n,): ``quality_curve`` (None
+    before the first finite value, as JSON has no infinity) and ``best_quality`` (its
+    last value; None without one)."""
+    stored = [float(v) if np.isfinite(v) else None for v in curve]
+    return {"best_quality": stored[-1] if stored else None, "quality_curve": stored}
 
 
 def quality_curve(problem: Any, arrays: dict[str, np.ndarray]) -> np.ndarray | None:

@@ -45,6 +45,7 @@ from typing import Any
 import numpy as np
 
 from suspenv.core.errors import ValidationError
+from suspenv.core.jsonable import to_jsonable
 from suspenv.core.laps import Laps
 from suspenv.core.problem import Problem
 from suspenv.core.result import EvaluationBatch
@@ -58,7 +59,6 @@ from suspenv.methods.identification import (
     local_sensitivity,
     objective_scale,
     profile_scan,
-    quality_items,
     recovery_table,
 )
 from suspenv.methods.tey2014.cluster_count import (
@@ -73,7 +73,7 @@ from suspenv.methods.tey2014.sensitivity import SensitivityResult, spearman_matr
 from suspenv.methods.tey2014.strategy_comparison import QUALITY_NAME
 from suspenv.problems.views import ObjectiveSubset, WithSignedResponses
 from suspenv.registry import report_function
-from suspenv.runs.quality import feasible
+from suspenv.runs.quality import best_so_far, curve_items, feasible
 from suspenv.runs.run_dir import write_file
 
 #: the ``[study]`` table of a config, with its defaults (the paper's settings)
@@ -661,18 +661,13 @@ def run_tey2014_pipeline(config: dict[str, Any], run_dir: Path) -> dict[str, Any
         wall_time_s=wall,
         pipeline_wall_time_s=wall,
         quality_name=QUALITY_NAME,
-        **quality_items(tot, study.cmaes.valid),
+        **curve_items(best_so_far(tot, study.cmaes.valid)),
         report=files[0] if files else None,
     )
-    text = json.dumps(summary, indent=2, default=_json) + "\n"
+    # strict JSON, as every run writer: an undefined number (NaN, inf) is null
+    text = json.dumps(to_jsonable(summary), indent=2, allow_nan=False) + "\n"
     write_file(run_dir / "study.json", text)
     write_file(run_dir / "summary.json", text)
     return summary
 
 
-def _json(o: Any) -> Any:
-    if isinstance(o, np.generic):
-        return o.item()
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    raise TypeError(type(o).__name__)

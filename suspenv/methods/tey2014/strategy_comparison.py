@@ -21,9 +21,9 @@ from typing import Any
 import numpy as np
 
 from suspenv.core.problem import Problem
-from suspenv.methods.identification import FixedRankSum, quality_items
+from suspenv.methods.identification import FixedRankSum
 from suspenv.registry import report_function
-from suspenv.runs.quality import feasible
+from suspenv.runs.quality import best_so_far, curve_items, feasible
 from suspenv.runs.run_dir import write_json
 
 #: options per strategy unless the caller overrides them
@@ -85,7 +85,7 @@ def run_one(
         "n_feasible": int(valid.sum()),
         "objective_names": list(problem.objective_names),
         "quality_name": QUALITY_NAME,
-        **quality_items(quality(a["objectives"]), valid),
+        **curve_items(best_so_far(quality(a["objectives"]), valid)),
     }
     write_json(run_dir / "summary.json", summary)
     return summary

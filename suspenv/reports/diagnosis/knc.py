@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from suspenv.core.markdown import markdown_table, text
 from suspenv.diagnosis.knc.locate import BRANCHES
 from suspenv.measurements.knc import (
     CHANNELS,
@@ -26,7 +27,6 @@ from suspenv.measurements.knc import (
     rig_test,
 )
 from suspenv.reports._mpl import pyplot, save_figure
-from suspenv.reports.markdown import markdown_table, text
 from suspenv.runs.run_dir import write_file
 
 #: plot scale and unit per channel

@@ -13,9 +13,9 @@ from pathlib import Path
 
 import numpy as np
 
+from suspenv.core.markdown import text
 from suspenv.diagnosis.road import RoadDiagnosis
 from suspenv.reports._mpl import pyplot, save_figure
-from suspenv.reports.markdown import text
 from suspenv.rigs.road import N0, ROAD_CLASS_GD0
 from suspenv.runs.run_dir import write_file
 

@@ -1,5 +1,6 @@
-"""Markdown helpers shared by every report: one cell formatter, one table builder, one
-escaping rule for text taken from data (:func:`text`)."""
+"""Markdown helpers shared by every report and ``compare.md``: one cell formatter, one
+table builder, one escaping rule for text taken from data (:func:`inline` within a line,
+:func:`text` anywhere)."""
 
 from __future__ import annotations
 
@@ -35,13 +36,19 @@ def one_line(value: object) -> str:
     )
 
 
+def inline(value: object) -> str:
+    """Text from data as literal Markdown inside a line (a table cell, a heading's text):
+    on one line (:func:`one_line`), HTML and Markdown markup characters as character
+    references, so it cannot inject tags, images, links or code spans."""
+    return "".join(_MARKUP.get(c, c) for c in one_line(value))
+
+
 def text(value: object) -> str:
-    """Text from a data file (a recording name, a file name, a path) as literal Markdown,
-    on one line (:func:`one_line`): HTML and Markdown markup characters become character
-    references, and so does a block marker at its start (``#``, ``-``, ``+``, ``=``,
-    ``1.``), so a name cannot inject tags, images, links, headings or lists into a
-    report."""
-    out = "".join(_MARKUP.get(c, c) for c in one_line(value))
+    """Text from a data file (a recording name, a file name, a path) as literal Markdown
+    anywhere, also at a line's start: :func:`inline`, and a block marker at its start
+    (``#``, ``-``, ``+``, ``=``, ``1.``) as a character reference, so a name cannot
+    start a heading or a list either."""
+    out = inline(value)
     start = _BLOCK_START.match(out)
     if start:
         i = start.end() - 1
