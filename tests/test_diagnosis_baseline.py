@@ -29,7 +29,7 @@ from suspenv.diagnosis.component.rig import (
     oriented,
     parse_model_text,
 )
-from suspenv.diagnosis.engine import diagnose
+from suspenv.diagnosis.engine import diagnose, make_family
 from suspenv.measurements import Recording
 from suspenv.models.components import make_component
 from suspenv.models.effects import make_effect
@@ -463,10 +463,25 @@ def test_tail_rule_is_applied_low_passed_where_the_motion_was_low_passed():
     assert all(left.robust_scale > 0 for left in clean.residual)
 
 
-def test_zero_drift_is_rate_times_time():
-    e = make_effect("zero_drift", location="force").with_params({"rate": 0.5})
+def test_zero_drift_is_rate_times_time_held_past_its_span():
+    # definition: y + rate t within the span, held at its value at t = span beyond it
+    e = make_effect("zero_drift", location="force").with_params({"rate": 0.5, "span": 2.0})
     t = np.linspace(0.0, 4.0, 9)
-    assert np.allclose(e.sensor(np.ones_like(t), t), 1.0 + 0.5 * t)
+    assert np.allclose(e.sensor(np.ones_like(t), t), 1.0 + 0.5 * np.minimum(t, 2.0))
+
+
+def test_zero_drift_is_not_extrapolated_into_a_held_out_tail():
+    # the last 30 % held out: the drift's span is the fitted time, so its cubic is not
+    # extrapolated past the fitted samples (the held-out prediction holds its last value)
+    t = np.arange(0.0, 10.0, 0.01)
+    rec = Recording("d", "dyno", t, {"displacement": np.sin(t), "velocity": np.cos(t)},
+                    {"force": 100.0 * np.cos(t)}, {"displacement": "m", "velocity": "m/s",
+                    "force": "N"}, {})  # fmt: skip
+    family = make_family("damper")
+    setup = family.prepare(rec, None, None)
+    (mask,) = setup.split.fit_selections()
+    (drift,) = [e for e in setup.model.effects if e.kind == "zero_drift"]
+    assert float(np.ravel(drift.params["span"])[0]) == pytest.approx(t[mask][-1])
 
 
 def test_garbage_forces_get_no_verdict_on_missing_physics(dyno):

@@ -331,3 +331,26 @@ def test_element_gain_switching_tells_a_switched_fit_from_a_steady_one() -> None
     p_steady, _ = gain_lag1(d + noise, d, length)
     assert p_switched < 1e-6 and rho_switched > 0.5
     assert p_steady > 0.01
+
+
+def test_shape_beyond_a_switched_gain_tells_a_real_element_from_a_spurious_one() -> None:
+    """A residual ``r = level(t) c s + e + noise``: a gain on ``s`` switched block-wise
+    (the unrecorded input) plus, or not, a real element's shape ``e`` (a step in the
+    sign of ``s``, as friction). Taking a level, a ramp and a gain on ``s`` out of each
+    block removes the switched part exactly (it is such a gain within each block of 400,
+    a multiple of the 50-sample blocks), so the coefficient of ``r`` on what is left of
+    ``d = e`` is 1 where the element is there and 0 where it is not (within 4 standard
+    errors, themselves small against the 1/2 between the two)."""
+    from suspenv.diagnosis.checks.switched_element import beyond_switching
+
+    rng = np.random.default_rng(8)
+    n, length = 8000, 50
+    t = np.arange(n) * 0.002
+    s = np.sin(2 * np.pi * 1.1 * t) + 0.4 * np.sin(2 * np.pi * 2.9 * t)
+    level = np.repeat(rng.integers(0, 2, n // 400), 400).astype(float)
+    e = 0.3 * np.tanh(s / 0.02)
+    noise = 0.05 * rng.standard_normal(n)
+    beta, se = beyond_switching(level * s + e + noise, e, s, length)
+    assert abs(beta - 1.0) < 4 * se and se < 0.05
+    beta, se = beyond_switching(level * s + noise, e, s, length)
+    assert abs(beta) < 4 * se and se < 0.05

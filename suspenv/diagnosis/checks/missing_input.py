@@ -69,7 +69,7 @@ SAMPLES_PER_FINE_BIN = 20
 #: the name of the prediction among the signals
 PREDICTION = "the model's prediction"
 #: the switching test's numbers where it cannot be run (too few blocks or no signal)
-NO_SWITCHING = {"p_switching": 1.0, "block_samples": 0, "gain_lag1": 0.0, "blocks": 0}
+NO_SWITCHING = {"p_switching": 1.0, "block_samples": 0, "gain_lag1": 0.0, "blocks": 0, "signal": -1}
 
 
 def white_floor(r: np.ndarray) -> float:
@@ -93,9 +93,7 @@ def block_gains(r: np.ndarray, y: np.ndarray, length: int) -> np.ndarray:
     return np.sum(rb * yb, axis=1) / np.where(norm > 0, norm, np.inf)
 
 
-def lag1_p(
-    g: np.ndarray, a: np.ndarray, cov: np.ndarray | None = None
-) -> tuple[float, float]:
+def lag1_p(g: np.ndarray, a: np.ndarray, cov: np.ndarray | None = None) -> tuple[float, float]:
     """The lag-1 autocorrelation ``rho = e'Ae / e'e`` of the residuals ``e = M g`` of
     ``g`` regressed on the columns of ``a`` (``M = I - P_a``; ``A`` the symmetric lag-1
     matrix with 1/2 beside its diagonal), and its exact one-sided p-value for normal
@@ -177,7 +175,8 @@ def switching(
     the recorded ``causes`` with their block means, by least squares: a test programme's
     steps are a recorded cause), keep their value from one block to the next: one-sided
     p-value of the lag-1 autocorrelation's exact distribution (:func:`lag1_p`),
-    Bonferroni over the block lengths and signals tried. ``r`` and the signals are first
+    Bonferroni over the block lengths and signals tried; ``signal``: the index in
+    ``signals`` of the one whose gain switches most clearly. ``r`` and the signals are first
     filtered by the autoregression (:func:`whitening`) of what the gains of the shortest
     blocks leave, so that noise correlated over many samples gives independent gains,
     and a drifting zero (:func:`drift_basis`, whitened alike) is taken out of ``r``: the
@@ -198,20 +197,21 @@ def switching(
         )
         if blocks < max(MIN_BLOCKS, a.shape[1] + 3):  # too few degrees of freedom left
             continue
-        for s in signals:
+        for i, s in enumerate(signals):
             sw = signal.lfilter(poly, [1.0], s)
             gq = np.column_stack([block_gains(c, sw, length) for c in q.T])
             cov = np.eye(blocks) - gq @ gq.T
             rho, p = lag1_p(block_gains(rw, sw, length), a, cov)
-            tried.append((p, length, rho, blocks))
+            tried.append((p, length, rho, blocks, i))
     if not tried:
         return dict(NO_SWITCHING)
-    p, length, rho, blocks = min(tried)
+    p, length, rho, blocks, i = min(tried)
     return {
         "p_switching": min(1.0, p * len(tried)),
         "block_samples": length,
         "gain_lag1": rho,
         "blocks": blocks,
+        "signal": i,
     }
 
 
@@ -252,13 +252,16 @@ def judge(
     """The tests on one residual ``r`` of the output ``y`` with the recorded
     ``signals`` (name -> series: the inputs and the prediction), of which the model does
     not read ``unread``: what no time-invariant function of the signals the model reads
-    explains (:func:`time_invariant`) is tested for switching (:func:`switching`), once
-    with the unread signals' block levels as recorded causes (``p_switching_all``)."""
+    explains (:func:`time_invariant`) is tested for switching (:func:`switching`; the
+    name of the signal whose gain switches as ``signal``), once with the unread signals'
+    block levels as recorded causes (``p_switching_all``)."""
     named = {k: np.asarray(s, float) for k, s in signals.items() if np.ptp(s) > 0}
-    read = [s for k, s in named.items() if k not in unread]
+    names = [k for k in named if k not in unread]
+    read = [named[k] for k in names]
     other = [s for k, s in named.items() if k in unread]
     left = r - time_invariant(r, read) if read else r
     out: dict[str, Any] = switching(left, read)
+    out["signal"] = names[out["signal"]] if out["signal"] >= 0 else ""
     if other:
         out["p_switching_all"] = switching(left, read, other)["p_switching"]
     out["size"] = float(np.sqrt(np.mean(left**2)) / max(white_floor(r), 1e-300))
@@ -346,6 +349,7 @@ def run(ctx: Context) -> Finding | None:
     (rec, ch, n), why = max(fired, key=lambda f: f[0][2]["share_of_output"])
     numbers["cause"] = why
     numbers["judged_blocks"] = n["block_samples"]
+    numbers["judged_signal"] = n["signal"]
     numbers["short"] = f"{100 * n['share_of_output']:.0f} % of the {ch} RMS, " + (
         "switching with no recorded cause" if why == "unrecorded" else "driven by an unread input"
     )

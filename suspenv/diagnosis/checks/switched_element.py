@@ -11,26 +11,54 @@ element keeps no memory from block to block beyond the noise; one that **switche
 one-sided p-value, :func:`~.missing_input.lag1_p`, Bonferroni over the recordings and
 channels, below the rule's ``alpha``) fits a residual whose level an unrecorded input
 sets. Such an element may not be named with confidence: the verdict says, per element,
-"an unrecorded input may drive what it fits", with the test's numbers. Whether the
-element is there beside the switching cannot be told from these recordings (a lag or a
-stop the switched force projects on switches too), so it is not withdrawn. Nor does a
-refit on the blocks where the input sits at its base level tell it: with the true
-off-blocks it withdraws a spurious element (corrected p = 0.79), but the levels read
-off the residual (two-means of the block gains) leave a few switched blocks in the
-base, enough to keep a spurious element significant (p = 2e-17), while a true stop
-the base blocks hardly reach loses its significance there.
+"an unrecorded input may drive what it fits", with the test's numbers.
+
+A switching gain alone does not tell a spurious element from a real one (a lag or a
+stop the switched force projects on switches too). What does is the element's own
+shape **beyond a gain the input sets block by block** (:func:`beyond_switching`): from
+``r`` and ``d`` alike, what a level, a ramp and a gain on the signal whose gain the
+finding saw switch explain in each block is taken out (the unrecorded input's reach,
+whatever its level in each block), and ``r`` is regressed on what is left of ``d``. A
+real element's shape is in the residual at its fitted size (coefficient 1); an element
+that only fitted the switched force's average leaves nothing there (coefficient 0).
+The coefficient's standard error comes from the regression's residual whitened by its
+autoregression (:func:`~.missing_input.whitening`). Between the two (0 and 1, equally
+precise) the likelihood decides at the midpoint: when the coefficient is below 1/2 by
+a one-sided normal test at ``alpha`` over the elements judged, less than half of the
+element's fitted size is its own and it is **withdrawn**: what it fits, the switching
+explains. Where the test has no power (a smooth element, e.g. a cubic spring, is
+locally a gain on the signal and leaves too little beyond it) the data cannot tell,
+and it stays, not confident.
+Elements are judged from the last named back and withdrawn while each one is (the
+model before a withdrawn last element is its parent: no refit); an element named
+before one that stays is not withdrawn.
+
+Tried and not kept: a refit on the blocks where the input sits at its base level, read
+off the residual (two-means of the block gains); with the true off-blocks it withdraws a
+spurious element (corrected p = 0.79), but the levels read off the residual leave a few
+switched blocks in the base, enough to keep a spurious element significant (p = 2e-17),
+while a true stop the base blocks hardly reach loses its significance there.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from scipy import signal, stats
 
 from suspenv.diagnosis.checks.finding import Context
-from suspenv.diagnosis.checks.missing_input import block_gains, lag1_p
+from suspenv.diagnosis.checks.missing_input import (
+    PREDICTION,
+    block_gains,
+    lag1_p,
+    whitening,
+    within_blocks,
+)
 from suspenv.diagnosis.family import Conclusion
 from suspenv.diagnosis.fitting import FitResult, residuals
+from suspenv.diagnosis.hypothesis import Hypothesis, Withdrawal
 
 
 def gain_lag1(r: np.ndarray, d: np.ndarray, length: int) -> tuple[float, float]:
@@ -59,19 +87,106 @@ def gain_switching(
     return {"p_switching": min(1.0, p * max(len(tried), 1)), "gain_lag1": rho}
 
 
+def beyond_switching(
+    r: np.ndarray, d: np.ndarray, s: np.ndarray, length: int
+) -> tuple[float, float]:
+    """(beta, se): the coefficient of ``r`` on ``d`` with a level, a ramp and a gain on
+    ``s`` taken out of both in each block of ``length``
+    (:func:`~.missing_input.within_blocks`), and its standard error (the regression's
+    residual and ``d`` filtered by the residual's autoregression; inf where nothing of
+    ``d`` is left)."""
+    rp, dp = within_blocks(r, [s], length), within_blocks(d, [s], length)
+    dd = float(dp @ dp)
+    if not dd > 1e-24 * max(float(d @ d), 1e-300):
+        return 0.0, float("inf")
+    beta = float(rp @ dp) / dd
+    poly = whitening(rp - beta * dp)
+    ew = signal.lfilter(poly, [1.0], rp - beta * dp)
+    dw = signal.lfilter(poly, [1.0], dp)
+    return beta, float(np.std(ew) / np.sqrt(max(float(dw @ dw), 1e-300)))
+
+
+def element_beyond(
+    ctx: Context, parent: FitResult, refit: FitResult, length: int, name: str
+) -> dict[str, float]:
+    """:func:`beyond_switching` of the element's improvement on its parent's residual
+    over the recordings and channels (inverse-variance pooled), on the recorded input
+    ``name`` whose gain switches (for the model's prediction: the parent's, which does
+    not hold the element's shape)."""
+    num = den = 0.0
+    for rec in ctx.setup.split.recordings():
+        (res,) = residuals(parent.model, parent.theta, [rec], refit.channels)
+        new, old = refit.model.simulate(refit.theta, rec), parent.model.simulate(parent.theta, rec)
+        for ch in refit.channels:
+            s = old[ch] if name == PREDICTION else rec.inputs.get(name)
+            if s is None or res[ch].size < 2 * length:
+                continue
+            beta, se = beyond_switching(res[ch], new[ch] - old[ch], np.asarray(s, float), length)
+            if np.isfinite(se) and se > 0:
+                num, den = num + beta / se**2, den + 1.0 / se**2
+    if den == 0.0:
+        return {"beta": 0.0, "se": float("inf")}
+    return {"beta": num / den, "se": 1.0 / np.sqrt(den)}
+
+
+@dataclass
+class SwitchedWithdrawal(Withdrawal):
+    """An element withdrawn because it fits nothing beyond a gain the unrecorded input
+    sets block by block (``p_value_corrected``: the one-sided p-value of its coefficient
+    there, :func:`beyond_switching`; no BIC is computed, NaN)."""
+
+    beta: float = 0.0
+    se: float = float("inf")
+
+    def sentence(self) -> str:
+        return (
+            f"{self.hypothesis.words}, named in round {self.hypothesis.round}, is withdrawn: "
+            f"beside {self.beside} it fits nothing of its own (coefficient of its shape "
+            f"there {self.beta:.2f} +- {self.se:.2g}, 1 for a real element; p = "
+            f"{self.p_value_corrected:.2g} against 0)"
+        )
+
+
+def _withdrawn(
+    ctx: Context, named: list[Hypothesis], parents: list[FitResult | None], f: Any
+) -> tuple[list[SwitchedWithdrawal], FitResult | None, list[dict[str, Any]]]:
+    """The elements withdrawn from the last named back (module docstring), the model
+    left and the numbers of every element judged."""
+    z = float(stats.norm.isf(ctx.rule.alpha / max(len(named), 1)))
+    length, name = int(f.numbers["judged_blocks"]), str(f.numbers.get("judged_signal", ""))
+    out: list[SwitchedWithdrawal] = []
+    final: FitResult | None = None
+    judged = []
+    for h, parent in reversed(list(zip(named, parents, strict=True))):
+        if h.fit is None or parent is None:
+            break
+        n = element_beyond(ctx, parent, h.fit, length, name)
+        judged.append({"candidate": h.candidate, "signal": name, **n})
+        if not (0.5 - n["beta"]) / n["se"] > z:
+            break
+        p = float(stats.norm.sf(n["beta"] / n["se"]))
+        beside = f"a gain on {name} set anew in each block of {length} samples"
+        out.append(SwitchedWithdrawal(h, beside, p, float("nan"), beta=n["beta"], se=n["se"]))
+        final = parent
+    return out, final, judged
+
+
 def run(ctx: Context) -> Conclusion | None:
     """The named elements whose gain switches beside the missing-input finding, not
-    confident (None without the finding or such an element)."""
+    confident, and those withdrawn that fit nothing beyond the switching (None without
+    the finding or such an element)."""
     f = ctx.found.findings.get("missing_input")
     if f is None or not f.remains or f.numbers.get("cause") != "unrecorded":
         return None
     length = int(f.numbers["judged_blocks"])
     named = list(ctx.outcome.named)
     parents = [ctx.outcome.base, *(h.fit for h in named)][: len(named)]
+    withdrawn, final, judged = _withdrawn(ctx, named, parents, f)
+    gone = {id(w.hypothesis) for w in withdrawn}
     out: list[dict[str, Any]] = []
-    sentences = []
+    sentences = [w.sentence() for w in reversed(withdrawn)]
     for h, parent in zip(named, parents, strict=True):
-        if h.fit is None or parent is None:
+        if h.fit is None or parent is None or id(h) in gone:
             continue
         n = gain_switching(ctx, parent, h.fit, length)
         if n["p_switching"] >= ctx.rule.alpha:
@@ -82,6 +197,12 @@ def run(ctx: Context) -> Conclusion | None:
             f"fits (its gain on the residual switches and persists over blocks of {length} "
             f"samples: lag-1 correlation {n['gain_lag1']:.2f}, p = {n['p_switching']:.2g})"
         )
-    if not out:
+    if not out and not withdrawn:
         return None
-    return Conclusion(sentences=sentences, confident=False, findings={"switched_elements": out})
+    return Conclusion(
+        withdrawn=list[Withdrawal](withdrawn),
+        final_fit=final,
+        sentences=sentences,
+        confident=False,
+        findings={"switched_elements": out, "beyond_switching": judged},
+    )

@@ -82,6 +82,7 @@ from suspenv.diagnosis.component.rig import (
     baseline_words,
     check_extra_inputs,
     describe_rig,
+    drift_over_fit,
     oriented,
     read_model_file,
 )
@@ -428,6 +429,7 @@ class ComponentFamily(OptionalSteps):
         if held is None:
             held = default_holdout(recs)
         sp = split(recs, held)
+        model = drift_over_fit(model, sp)
         self.mass_estimated = False
         if self.rig is not None and "m_u" in model.options and "m_u" not in self.rig.known:
             model = estimate_unsprung_mass(model, sp, self.budget)

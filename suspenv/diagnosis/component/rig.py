@@ -417,6 +417,24 @@ def baseline_model(rig: RigDescription, recordings: Sequence[RecordingLike] = ()
     return make_component(rig.family, effects, **known)
 
 
+def drift_over_fit(model: ComponentModel, sp: Any) -> ComponentModel:
+    """``model`` with its zero drift's shape defined over the time the split ``sp``
+    fits (the latest fitted sample's time from the recording's origin [s]): past it the
+    drift holds its last value (:func:`~suspenv.models.effects.sensor.sensor_drift`), so
+    a held-out stretch after the fitted one is predicted without extrapolating a cubic
+    in time. Unchanged without a drift."""
+    if not any(e.kind == DRIFT for e in model.effects):
+        return model
+    ends = [
+        float(np.asarray(r.time, float)[m][-1] - r.time[0])
+        for r, m in zip(sp.fit_recordings, sp.fit_selections(), strict=True)
+        if np.any(m)
+    ]
+    span = max(ends, default=0.0) or 1.0
+    effects = [e.with_params({"span": span}) if e.kind == DRIFT else e for e in model.effects]
+    return model.with_effects(effects)
+
+
 def baseline_families(model: ComponentModel) -> set[str]:
     """Signature families the baseline already holds (not searched for again)."""
     return {family_of(e.kind) for e in model.effects}

@@ -546,7 +546,7 @@ class QuarterCarRigModel(ComponentModel):
             if e.kind == "sensor_offset":
                 y = y - p["offset"]
             elif e.kind == "zero_drift":
-                y = y - p["rate"] * t
+                y = y - p["rate"] * np.minimum(t, p["span"])  # held past its span
             elif e.kind == "sensor_gain":
                 y = y / p["gain"]
         return y

@@ -11,8 +11,9 @@ makes the recorded signal late.
   ``1 / sqrt(1 + (w tau)^2)``.
 * pure delay: ``y_rec(t) = y(t - delay)`` (linear interpolation, first value held).
 * zero drift: ``y_rec = y + rate t + bow P2(u) + wave P3(u)`` (t in seconds from the
-  recording's time origin, ``u = 2 t / span - 1``; the zero at t = 0 is an offset of its
-  own): a load cell or displacement transducer whose zero wanders slowly.
+  recording's time origin, ``u = 2 t / span - 1``, held at its value at ``t = span``
+  beyond it; the zero at t = 0 is an offset of its own): a load cell or displacement
+  transducer whose zero wanders slowly.
 """
 
 from __future__ import annotations
@@ -44,12 +45,15 @@ def sensor_drift(
 ) -> np.ndarray:
     """Recorded value ``y + rate t + bow P2(u) + wave P3(u)``: a zero that drifts slowly
     and smoothly in time. ``t`` [s] from the recording's time origin, ``u = 2 t / span - 1``
-    (``span`` [s], the recording's duration, fixed), P2 and P3 the Legendre polynomials
-    (zero mean over the span, so the zero at the start stays with the offset); ``rate``
-    in the channel's unit per second, ``bow`` and ``wave`` in the channel's unit."""
+    (``span`` [s], the time the drift was fitted over, fixed), P2 and P3 the Legendre
+    polynomials (zero mean over the span, so the zero at the start stays with the
+    offset); ``rate`` in the channel's unit per second, ``bow`` and ``wave`` in the
+    channel's unit. Past the span the drift holds its last value: a cubic fitted over
+    one stretch of time says nothing of the next, and extrapolated it grows as the cube
+    of the time past the span."""
     if t is None:
         raise ValueError("zero_drift needs the sample times t [s]")
-    tt = np.asarray(t, float)
+    tt = np.minimum(np.asarray(t, float), np.asarray(span, dtype=float))
     u = 2.0 * tt / np.asarray(span, dtype=float) - 1.0
     p2 = 0.5 * (3.0 * u * u - 1.0)
     p3 = 0.5 * (5.0 * u * u * u - 3.0 * u)  # u * u * u: numpy takes u**3 by a slow pow
