@@ -292,6 +292,17 @@ def short(x: float) -> str:
     return significant(x, 3)
 
 
+def _kernel_path(s: Json) -> str:
+    """How the study's path went under the other BLAS kernel (``minibus_study.json``)."""
+    k = s["other_blas_kernel"]
+    if k["first_different_generation"] is None:
+        return "no selection tie flips and the run ends with the same counts"
+    return (
+        f"a selection tie flips in generation {k['first_different_generation']} and the run "
+        f"ends with {k['feasible']:,} feasible, {k['pareto_front']:,} on the front"
+    )
+
+
 def minibus_study_paragraph(d: Json) -> str:
     """docs/minibus_handling.md's "The study's run, measured" from ``minibus_study.json``."""
     s = d["summary"]
@@ -319,7 +330,7 @@ def minibus_study_paragraph(d: Json) -> str:
         one_over_bare=s["one_worker_loop_wall_s"] / s["bare_loop_wall_s"],
         pool_gain=percent(1.0 - s["two_workers_loop_wall_vs_one"]),
         variables=", ".join(f"{k} {short(v)}" for k, v in st["ride_focused_pick_x"].items()),
-        k=s["other_blas_kernel"], no_worse=no_worse,
+        k=s["other_blas_kernel"], no_worse=no_worse, kernel_path=_kernel_path(s),
     )  # fmt: skip
     return paragraph(text)
 
