@@ -511,7 +511,10 @@ _ROW_INLINE = (
     *rotation_kernel.INLINE, "_cross_add", "_rack_shift", "_rotated", "_bushing_loads", "_links",
     "_constraints", "_loads_with_arms", "_load_sums", "_rig_load", "_row_work",
 )  # fmt: skip
+#: the row compiled without reference counting (its views and scratch tuples cost no
+#: atomic increments; it allocates nothing: :func:`_row_work` is made by its callers)
+_ROW_BARE = ("_residual_row",)
 #: :func:`_residual` and :func:`_jacobian`, compiled at their first call (then loaded
 #: from numba's cache)
-residual = compiled.Lazy(globals(), _ROW_HELPERS, _residual, _ROW_INLINE)
-jacobian = compiled.Lazy(globals(), _ROW_HELPERS, _jacobian, _ROW_INLINE)
+residual = compiled.Lazy(globals(), _ROW_HELPERS, _residual, _ROW_INLINE, _ROW_BARE)
+jacobian = compiled.Lazy(globals(), _ROW_HELPERS, _jacobian, _ROW_INLINE, _ROW_BARE)
