@@ -10,7 +10,7 @@ population) and 1000.
 
 Four paths of the same evaluation, measured in the same run on the same candidates:
 
-* ``optimised``: the problem's defaults: the rig's two-leg sweep of all the chunk's
+* ``optimised``: the problem's defaults: the rig's two-leg sweep of all the batch's
   designs in one compiled call (``knc.COMPILED_SWEEP``:
   :mod:`suspenv.models.mcpherson.sweep_kernel`, the static equilibrium and every leg's
   predictor and Newton steps design by design), then the objectives of the kept states
