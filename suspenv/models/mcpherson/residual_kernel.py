@@ -28,7 +28,7 @@ import numpy as np
 
 from suspenv.core import compiled
 from suspenv.models.mcpherson import rotation_kernel
-from suspenv.models.mcpherson.rotation_kernel import _log
+from suspenv.models.mcpherson.rotation_kernel import _log, _series  # noqa: F401
 
 #: numba is there: the compiled residual can run (compiled at the first call)
 AVAILABLE = compiled.AVAILABLE
@@ -501,7 +501,7 @@ def _row_jacobian(
 
 #: the row's helpers, compiled with the loops that call them (here and in the sweep)
 _ROW_HELPERS = (
-    "_log", "_cross_add", "_rack_shift", "_residual_row", "_row_at", "_row_jacobian",
+    "_log", "_series", "_cross_add", "_rack_shift", "_residual_row", "_row_at", "_row_jacobian",
     "_rotated", "_bushing_loads", "_links", "_constraints", "_loads_with_arms",
     "_load_sums", "_rig_load", "_row_work",
 )  # fmt: skip

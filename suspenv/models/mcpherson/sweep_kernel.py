@@ -58,7 +58,7 @@ from suspenv.models.mcpherson.residual_kernel import (  # the row's helpers: com
     _row_jacobian,
     _row_work,
 )
-from suspenv.models.mcpherson.rotation_kernel import _expm, _log, _relative, _times
+from suspenv.models.mcpherson.rotation_kernel import _expm, _log, _relative, _series, _times  # noqa: F401
 
 NS, NQ, NX = 33, 24, 66
 #: the inverse Jacobian's rows padded to a whole number of vector registers (the step's
