@@ -86,7 +86,7 @@ def _factor(d, r, R, lam1, load, model, jac, out, ws) -> bool:
     numpy path's shared inverses; ``ws``: :func:`_scratch`). False: the Jacobian is not
     finite or singular."""
     pad1, ext1, rack1 = load
-    pack, off, k_bar_shear, cscale, extra0 = model[:5]
+    pack, off, k_bar_shear, cscale, extra0 = model
     h, exp_h, moves, move_start, scatter, scatter_start = jac
     JT = np.zeros((NX, NX))
     turned = np.empty((2, 4, 3, 3, 3))
@@ -134,15 +134,15 @@ def _multiplier_columns(d, r, R, lam1, load, model, JT, ws) -> None:
 def _res(d, r, R, lam1, load, model, out, work) -> None:
     """The residual (2, 33) of design ``d`` at ``r``, ``R``, ``lam1`` under ``load``
     into ``out`` (:func:`.residual_kernel._residual_row`; ``model``: the pack, its
-    offsets, the constants, then empty and zero stand-ins for absent inputs; ``work``:
-    its scratch)."""
+    offsets, the constants, then an empty stand-in for the placed effects' loads;
+    ``work``: its scratch, with zero stand-ins for absent inputs)."""
     pad1, ext1, rack1 = load
-    pack, off, k_bar_shear, cscale, _, zeros2, zeros21 = model
+    pack, off, k_bar_shear, cscale, _ = model
     n_ext = ext1.shape[2] if ext1.shape[0] else 0
     has_rack = rack1.shape[0] > 0
     _residual_row(
-        r, R, lam1[0], pad1[0], ext1[0] if n_ext else zeros21, n_ext,
-        rack1[0] if has_rack else zeros2, has_rack, zeros21, False, pack, d, off, k_bar_shear,
+        r, R, lam1[0], pad1[0], ext1[0] if n_ext else work[6], n_ext,
+        rack1[0] if has_rack else work[7], has_rack, work[6], False, pack, d, off, k_bar_shear,
         cscale, out, work,
     )  # fmt: skip
 
@@ -577,7 +577,7 @@ def _sweep(
     ws = _scratch(pad_off.shape[1])
     for d in range(ref0.shape[0]):
         own = np.ascontiguousarray(pack[:, :, d : d + 1])  # the design's column, contiguous
-        model = (own, off, k_bar_shear, cscale, np.empty((0, 2, 1)), np.zeros(2), np.zeros((2, 1)))
+        model = (own, off, k_bar_shear, cscale, np.empty((0, 2, 1)))
         status[d] = _design(d, inputs, model, jac, settings, lo, (r_out, R_out, l_out), ws)
 
 
