@@ -588,12 +588,14 @@ _HELPERS = (
     "_leg", "_design",
 )  # fmt: skip
 #: the helpers inlined into their callers: those of every step and every grid point
+#: (Newton's method and the predictor too: a call passes every array of their scratch
+#: tuples as a few hundred words on the stack)
 _INLINE = (
     *_ROW_INLINE, "_scratch", "_res", "_step", "_apply", "_load_at", "_turn", "_relative_at",
-    "_store",
+    "_store", "_newton", "_extrapolate",
 )  # fmt: skip
 #: the helpers of every step and grid point compiled without reference counting (they
 #: allocate no array: the scratch is made by :func:`_sweep` and :func:`_design`)
-_BARE = (*_ROW_BARE, "_newton", "_extrapolate", "_leg", "_invert", "_coupled")
+_BARE = (*_ROW_BARE, "_leg", "_invert", "_coupled")
 #: :func:`_sweep`, built ahead of time or compiled at its first call
 sweep = compiled.Lazy(globals(), _HELPERS, _sweep, _INLINE, _BARE)
