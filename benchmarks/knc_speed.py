@@ -10,7 +10,7 @@ population) and 1000.
 
 Four paths of the same evaluation, measured in the same run on the same candidates:
 
-* ``optimised``: the problem's defaults: the rig's two-leg sweep of all the chunk's
+* ``optimised``: the problem's defaults: the rig's two-leg sweep of all the batch's
   designs in one compiled call (``knc.COMPILED_SWEEP``:
   :mod:`suspenv.models.mcpherson.sweep_kernel`, the static equilibrium and every leg's
   predictor and Newton steps design by design), then the objectives of the kept states
@@ -70,10 +70,10 @@ the same candidates: the 1000 candidates evaluated in batches of 42 against one 
 1000 is at most :data:`RISE_ALLOWED` times that at batch 42, the allowance absorbing
 load noise; the first 42 candidates alone are a sample of their own, whose ratio is
 reported beside it); each is reported as met or not, the memory target also per batch
-size, over a sweep of batch sizes (:data:`MEMORY_BATCHES`, the optimised path only): a
-batch up to an internal chunk is evaluated whole, so its peak per candidate is the
-footprint of one candidate's rows, while larger batches divide a chunk's peak among more
-candidates. One at a time the peak is also measured candidate by candidate over
+size, over a sweep of batch sizes (:data:`MEMORY_BATCHES`, the optimised path only: the
+whole batch in one compiled sweep, design by design, so its peak per candidate is what
+each design's inputs and kept states hold, with the scratch of one design shared by the
+batch). One at a time the peak is also measured candidate by candidate over
 :data:`MEMORY_SINGLES` candidates; the memory target is met when every batch size of the
 sweep and every one of those candidates is within it.
 

@@ -140,31 +140,43 @@ def _runs_built_loops() -> bool:
 
 
 def compile_in(
-    space: dict[str, Any], helpers: Sequence[str], main: Callable, inline: Sequence[str] = ()
+    space: dict[str, Any],
+    helpers: Sequence[str],
+    main: Callable,
+    inline: Sequence[str] = (),
+    bare: Sequence[str] = (),
 ) -> Callable:
     """``main`` compiled, with the functions ``helpers`` of the module namespace ``space``
     replaced by their compiled versions there (where the compiled ``main`` finds them),
-    those named in ``inline`` inlined into their callers (:func:`jit_helpers`).
+    those named in ``inline`` inlined into their callers and those named in ``bare``
+    compiled without reference counting (:func:`jit_helpers`).
 
     ``error_model="numpy"``: a division by zero gives inf or nan (which the callers
     report as a failed evaluation) instead of raising inside the loop.
     """
     import numba
 
-    jit = numba.njit(cache=True, error_model="numpy")
-    jit_helpers(space, helpers, jit, inline)
-    return jit(main)
+    jit_helpers(space, helpers, True, inline, bare)
+    return numba.njit(cache=True, error_model="numpy")(main)
 
 
 def jit_helpers(
-    space: dict[str, Any], helpers: Sequence[str], jit: Callable, inline: Sequence[str] = ()
+    space: dict[str, Any],
+    helpers: Sequence[str],
+    cache: bool,
+    inline: Sequence[str] = (),
+    bare: Sequence[str] = (),
 ) -> None:
-    """Replace the functions ``helpers`` of the namespace ``space`` by ``jit`` of them,
-    there and in the modules that define the helpers (where the helpers calling each
-    other find them); a helper compiled already stays as it is. The helpers named in
-    ``inline`` are inlined into their callers by numba (``inline="always"``: no call,
-    and no reference counting of the arrays they are passed; small helpers of hot
-    loops)."""
+    """Replace the functions ``helpers`` of the namespace ``space`` by their compiled
+    versions (numba, written to its on-disk cache when ``cache``), there and in the
+    modules that define the helpers (where the helpers calling each other find them); a
+    helper compiled already stays as it is. The helpers named in ``inline`` are inlined
+    into their callers by numba (``inline="always"``: no call, and no reference counting
+    of the arrays they are passed; small helpers of hot loops). Those named in ``bare``
+    are compiled without numba's reference counting (``_nrt=False``: no atomic
+    increment and decrement for every array, view and tuple of arrays they handle;
+    helpers of the hot loops that allocate no array and return none, their callers
+    owning every array they are passed)."""
     import numba
 
     plain = [getattr(space[name], "py_func", space[name]) for name in helpers]
@@ -172,7 +184,11 @@ def jit_helpers(
     done = {id(v.py_func): v for ns in spaces for v in ns.values() if hasattr(v, "py_func")}
     for name, f in zip(helpers, plain, strict=True):
         if id(f) not in done:
-            own = numba.njit(inline="always", error_model="numpy") if name in inline else jit
+            if name in inline:
+                own = numba.njit(inline="always", error_model="numpy")
+            else:
+                counted: dict[str, Any] = {"_nrt": name not in bare}  # (numba's private flag)
+                own = numba.njit(cache=cache, error_model="numpy", **counted)
             done[id(f)] = own(f)
     for ns in spaces:
         for key, value in list(ns.items()):
@@ -182,8 +198,9 @@ def jit_helpers(
 
 class Lazy:
     """The loop ``main`` of the module namespace ``space``: the built one where there is
-    one, else compiled (with its ``helpers``, those named in ``inline`` inlined) at the
-    first call; without numba, ``main`` itself runs."""
+    one, else compiled (with its ``helpers``, those named in ``inline`` inlined, those
+    named in ``bare`` without reference counting: :func:`jit_helpers`) at the first
+    call; without numba, ``main`` itself runs."""
 
     def __init__(
         self,
@@ -191,9 +208,10 @@ class Lazy:
         helpers: Sequence[str],
         main: Callable,
         inline: Sequence[str] = (),
+        bare: Sequence[str] = (),
     ) -> None:
         self._space, self._helpers, self._main = space, tuple(helpers), main
-        self._inline = tuple(inline)
+        self._inline, self._bare = tuple(inline), tuple(bare)
         self._loop: Callable | None = None
         self._checked = False  # the loop is a built one: check its arrays' layout
         self.__doc__ = f":func:`{main.__name__}`, compiled at its first call."
@@ -204,7 +222,7 @@ class Lazy:
             self._checked = self._loop is not None
         if self._loop is None:
             self._loop = (
-                compile_in(self._space, self._helpers, self._main, self._inline)
+                compile_in(self._space, self._helpers, self._main, self._inline, self._bare)
                 if AVAILABLE
                 else self._main
             )
@@ -260,13 +278,12 @@ def _exports(root: Path) -> Any:
     warnings.simplefilter("ignore", numba.NumbaPendingDeprecationWarning)
     cc = CC("_kernels")
     cc.target_cpu = _target_cpu()
-    jit = numba.njit(error_model="numpy")
     for module_name, loops in AHEAD.items():
         module = importlib.import_module(module_name)
         for attribute, signature in loops.items():
             lazy = getattr(module, attribute)
             name = export_name(lazy._space, lazy._helpers, lazy._main)
-            jit_helpers(lazy._space, lazy._helpers, jit, lazy._inline)
+            jit_helpers(lazy._space, lazy._helpers, False, lazy._inline, lazy._bare)
             cc.export(name, signature)(lazy._main)
     return cc
 

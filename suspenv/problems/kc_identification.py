@@ -304,12 +304,13 @@ class KCIdentification(Problem):
         self.targets: np.ndarray = targets.copy()
 
     # ----------------------------------------------------------------- physics
-    #: candidates per internal chunk of :meth:`simulate` (None: the whole batch at once).
-    #: A batch is split into equal chunks of at most this size. Every row of the rig
-    #: batch is solved independently (per-row convergence and Jacobians), so chunking
-    #: does not change the results; it bounds the peak memory (below 0.1 MB per candidate
-    #: inside a chunk, about 0.04 MB per candidate for a population of 42 in two chunks
-    #: of 21; docs/knc.md "Speed") while keeping most of the batching gain.
+    #: candidates per internal chunk of the rig's numpy path in :meth:`simulate` (None:
+    #: the whole batch at once). Its designs are split into equal chunks of at most this
+    #: size. Every row of the rig batch is solved independently (per-row convergence and
+    #: Jacobians), so chunking does not change the results; it bounds the peak memory
+    #: (below 0.1 MB per candidate inside a chunk; docs/knc.md "Speed") while keeping
+    #: most of the batching gain. The compiled path sweeps design by design in scratch
+    #: of one design, so it takes the whole batch in one call.
     eval_chunk: int | None = 32
     #: a path-independent model solves every grid point once, both legs of the loop
     #: side by side, the return legs taking the states of their grid points
@@ -324,38 +325,29 @@ class KCIdentification(Problem):
     window: int | None = FIT_HALF_WIDTH
 
     def simulate(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[str]]:
-        """Simulated objectives (n, 40), ok (n,), messages for physical designs X (n, 49).
-
-        Evaluated in chunks of :attr:`eval_chunk` candidates (bounded memory)."""
+        """Simulated objectives (n, 40), ok (n,), messages for physical designs X (n, 49):
+        the compiled sweep and objectives (:meth:`_simulate_compiled`) of the whole batch
+        where they apply, the designs they flag and every other case through the rig's
+        results (:meth:`_simulate_rig`) in chunks of :attr:`eval_chunk` designs (bounded
+        memory)."""
         X = np.atleast_2d(np.asarray(X, dtype=float))
         n = X.shape[0]
-        parts = 1 if self.eval_chunk is None else -(-n // max(1, int(self.eval_chunk)))
-        edges = np.linspace(0, n, parts + 1).round().astype(int)  # equal chunks
         F = np.full((n, len(OBJECTIVE_NAMES)), np.nan)
         ok = np.ones(n, bool)
         msgs = [""] * n
-        for a, b in zip(edges[:-1], edges[1:], strict=True):
-            F[a:b], ok[a:b], msgs[a:b] = self._simulate_chunk(X[a:b])
-        return F, ok, msgs
-
-    def _simulate_chunk(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[str]]:
-        """:meth:`simulate` of one chunk of designs X (m, 49): the compiled sweep and
-        objectives (:meth:`_simulate_compiled`) where they apply, the designs they flag
-        and every other case through the rig's results (:meth:`_simulate_rig`)."""
-        axle = self._axle(X)
-        m = X.shape[0]
-        F = np.full((m, len(OBJECTIVE_NAMES)), np.nan)
-        ok = np.ones(m, bool)
-        msgs = [""] * m
-        rows = np.arange(m)
+        rows = np.arange(n)
         if self._compiled_path():
-            F, status = self._simulate_compiled(axle)
+            F, status = self._simulate_compiled(self._axle(X))
             rows = np.flatnonzero(status)
-        if rows.size:
-            part = axle if rows.size == m else axle.take(rows)
-            F[rows], ok[rows], again = self._simulate_rig(part)
-            for q, row in enumerate(rows.tolist()):
-                msgs[row] = again[q]
+        m = rows.size
+        parts = 1 if self.eval_chunk is None else -(-m // max(1, int(self.eval_chunk)))
+        edges = np.linspace(0, m, parts + 1).round().astype(int)  # equal chunks
+        for a, b in zip(edges[:-1], edges[1:], strict=True):
+            if b > a:
+                part = rows[a:b]
+                F[part], ok[part], again = self._simulate_rig(self._axle(X[part]))
+                for q, row in enumerate(part.tolist()):
+                    msgs[row] = again[q]
         bad = ok & ~np.isfinite(F).all(axis=1)
         for i in np.flatnonzero(bad):
             msgs[i] = "EvaluationError: an objective is not finite"

@@ -28,7 +28,7 @@ import numpy as np
 
 from suspenv.core import compiled
 from suspenv.models.mcpherson import rotation_kernel
-from suspenv.models.mcpherson.rotation_kernel import _log
+from suspenv.models.mcpherson.rotation_kernel import _log, _series  # noqa: F401
 
 #: numba is there: the compiled residual can run (compiled at the first call)
 AVAILABLE = compiled.AVAILABLE
@@ -79,7 +79,7 @@ def _residual_row(
     then moment xyz [N*m]) that the four bushings exert against their deflection beyond
     the linear ones, vehicle axes; column 24 the strut friction force [N] along the tube
     axis, on the knuckle, opposite on the rod), design row ``d`` of ``pack``."""
-    V, phi, rho, dC, Rbar, side = work
+    V, phi, rho, dC, Rbar, side = work[:6]
     _rotated(Rm, pack, d, off[0], V, phi, rho, Rbar)
     for a in range(3):  # the bar halves' middle points apart (side 0 minus side 1)
         dC[a] = rm[0, 3, a] + V[0, 15, a] - rm[1, 3, a] - V[1, 15, a]
@@ -99,14 +99,15 @@ def _row_work() -> tuple:
     """Scratch of :func:`_residual_row` (made once per loop, not per row): the rotated
     body-fixed vectors V (2, 16, 3), the rotation vectors of bodies 0, 2, 3 per side
     (2, 3, 3), that of the bar halves' relative rotation (3,), the bar halves' middle
-    points apart (3,), a rotation (3, 3), and per side the deflections x (bushing,
+    points apart (3,), a rotation (3, 3), per side the deflections x (bushing,
     translation/rotation, xyz), bushing loads f (bushing, force/moment, xyz), a
     3-vector, the loads F with an arm and their arms (14, 3), the link vectors D (3, 3)
-    and the links' force per unit length k (3,)."""
+    and the links' force per unit length k (3,); then zero stand-ins (2, 1) and (2,) for
+    a row's absent inputs (:func:`_row_at`)."""
     side = (np.empty((4, 2, 3)), np.empty((4, 2, 3)), np.empty(3), np.empty((14, 3)),
             np.empty((14, 3)), np.empty((3, 3)), np.empty(3))  # fmt: skip
     return (np.empty((2, 16, 3)), np.empty((2, 3, 3)), np.empty(3), np.empty(3),
-            np.empty((3, 3)), side)  # fmt: skip
+            np.empty((3, 3)), side, np.zeros((2, 1)), np.zeros(2))  # fmt: skip
 
 
 def _rotated(
@@ -400,13 +401,13 @@ def _row_at(
 ) -> None:
     """:func:`_residual_row` of row ``m`` at the states ``rm``, ``Rm`` (its own, or
     perturbed), its inputs read from the arrays of :func:`_residual` (``work``:
-    :func:`_row_work`)."""
+    :func:`_row_work`, whose stand-ins take the place of absent inputs)."""
     n_ext = ext.shape[2] if ext.shape[0] else 0
     has_rack = rack.shape[0] > 0
-    ext_m = ext[m % ext.shape[0]] if n_ext else np.zeros((2, 1))
-    rack_m = rack[m % rack.shape[0]] if has_rack else np.zeros(2)
+    ext_m = ext[m % ext.shape[0]] if n_ext else work[6]
+    rack_m = rack[m % rack.shape[0]] if has_rack else work[7]
     has_extra = extra.shape[0] > 0
-    extra_m = extra[m % extra.shape[0]] if has_extra else np.zeros((2, 1))
+    extra_m = extra[m % extra.shape[0]] if has_extra else work[6]
     _residual_row(
         rm, Rm, lam[m % lam.shape[0]], pad[m % pad.shape[0]], ext_m, n_ext, rack_m,
         has_rack, extra_m, has_extra, pack, m % pack.shape[2], off, k_bar_shear, cscale, out,
@@ -501,7 +502,7 @@ def _row_jacobian(
 
 #: the row's helpers, compiled with the loops that call them (here and in the sweep)
 _ROW_HELPERS = (
-    "_log", "_cross_add", "_rack_shift", "_residual_row", "_row_at", "_row_jacobian",
+    "_log", "_series", "_cross_add", "_rack_shift", "_residual_row", "_row_at", "_row_jacobian",
     "_rotated", "_bushing_loads", "_links", "_constraints", "_loads_with_arms",
     "_load_sums", "_rig_load", "_row_work",
 )  # fmt: skip
@@ -511,7 +512,11 @@ _ROW_INLINE = (
     *rotation_kernel.INLINE, "_cross_add", "_rack_shift", "_rotated", "_bushing_loads", "_links",
     "_constraints", "_loads_with_arms", "_load_sums", "_rig_load", "_row_work",
 )  # fmt: skip
+#: the row and its reader compiled without reference counting (their views and scratch
+#: tuples cost no atomic increments; they allocate nothing: :func:`_row_work` is made by
+#: their callers)
+_ROW_BARE = ("_residual_row", "_row_at")
 #: :func:`_residual` and :func:`_jacobian`, compiled at their first call (then loaded
 #: from numba's cache)
-residual = compiled.Lazy(globals(), _ROW_HELPERS, _residual, _ROW_INLINE)
-jacobian = compiled.Lazy(globals(), _ROW_HELPERS, _jacobian, _ROW_INLINE)
+residual = compiled.Lazy(globals(), _ROW_HELPERS, _residual, _ROW_INLINE, _ROW_BARE)
+jacobian = compiled.Lazy(globals(), _ROW_HELPERS, _jacobian, _ROW_INLINE, _ROW_BARE)

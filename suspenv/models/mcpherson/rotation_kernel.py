@@ -1,9 +1,9 @@
 """Compiled loops of the rotation updates (numba): ``expm(w) R`` and ``log(A B^T)`` row by row.
 
-The same formulas as :func:`~suspenv.models.mcpherson.rotation.expm_so3` (Rodrigues,
-series in ``t^2`` below ``t = 1e-6`` rad) and
-:func:`~suspenv.models.mcpherson.rotation.log_so3` (skew part times ``t / (2 sin t)``,
-series below ``sin t = 1e-8``), one 3 x 3 matrix at a time: the Newton updates and
+The same formulas as :func:`~suspenv.models.mcpherson.rotation.expm_so3` (Rodrigues) and
+:func:`~suspenv.models.mcpherson.rotation.log_so3` (skew part times ``t / (2 sin t)``),
+one 3 x 3 matrix at a time, their trigonometric factors summed as power series below
+about 7 degrees (:data:`SERIES_BELOW`; the same numbers to rounding): the Newton updates and
 predictors of the K&C sweep turn a few rows per call, where numpy's per-call overhead
 dominates. Rotation vectors in radians; matrices map body axes to vehicle axes.
 ``tests/test_knc_rows_last.py`` compares them with the stacked products.
@@ -21,24 +21,60 @@ from suspenv.core import compiled
 AVAILABLE = compiled.AVAILABLE
 
 
+#: below this squared angle [rad^2] (about 7 degrees) :func:`_log` and :func:`_expm` sum
+#: power series in it instead of calling ``atan2``, ``sin`` and ``cos`` (the rotations of
+#: a rig step and of the bushings, a tenth of the time; their last terms below 1e-20
+#: relative there)
+SERIES_BELOW = 1.0 / 64.0
+#: ``t / (2 sin t) = asin(s) / (2 s)`` in powers of ``s^2`` (``s = sin t``, ``t`` below
+#: 90 degrees): ``(2k)! / (4^k k!^2 (2k + 1)) / 2``
+_LOG_SERIES = (
+    0.5, 0.08333333333333333, 0.0375, 0.022321428571428572, 0.015190972222222222,
+    0.011186079545454546, 0.008676382211538462, 0.006982421875, 0.0057759004480698525,
+    0.004880804764597039,
+)  # fmt: skip
+#: ``sin(t) / t`` and ``(1 - cos t) / t^2`` in powers of ``t^2``: ``(-1)^k / (2k + 1)!``
+#: and ``(-1)^k / (2k + 2)!``
+_SIN_SERIES = (
+    1.0, -0.16666666666666666, 0.008333333333333333, -0.0001984126984126984,
+    2.7557319223985893e-06, -2.505210838544172e-08,
+)  # fmt: skip
+_COS_SERIES = (
+    0.5, -0.041666666666666664, 0.001388888888888889, -2.48015873015873e-05,
+    2.755731922398589e-07, -2.08767569878681e-09,
+)  # fmt: skip
+
+
+def _series(x: float, coefficients: tuple) -> float:
+    """The power series ``sum_k coefficients[k] x^k`` (Horner)."""
+    acc = coefficients[-1]
+    for k in range(len(coefficients) - 2, -1, -1):
+        acc = acc * x + coefficients[k]
+    return acc
+
+
 def _log(R: np.ndarray, out: np.ndarray) -> None:
     """Rotation vector [rad] of the rotation matrix ``R`` (3, 3) into ``out`` (3,)."""
     v0 = R[2, 1] - R[1, 2]
     v1 = R[0, 2] - R[2, 0]
     v2 = R[1, 0] - R[0, 1]
-    s = 0.5 * math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
+    s2 = 0.25 * (v0 * v0 + v1 * v1 + v2 * v2)
     c = 0.5 * (R[0, 0] + R[1, 1] + R[2, 2] - 1.0)
-    th = math.atan2(s, c)
-    f = 0.5 + th * th / 12.0 if s < 1e-8 else th / (2.0 * s)
+    if s2 < SERIES_BELOW and c > 0.0:
+        f = _series(s2, _LOG_SERIES)
+    else:
+        s = math.sqrt(s2)
+        th = math.atan2(s, c)
+        f = 0.5 + th * th / 12.0 if s < 1e-8 else th / (2.0 * s)
     out[0], out[1], out[2] = v0 * f, v1 * f, v2 * f
 
 
 def _expm(x: float, y: float, z: float, E: np.ndarray) -> None:
     """The rotation matrix ``expm([x, y, z])`` (rotation vector [rad]) into ``E`` (3, 3)."""
     th2 = x * x + y * y + z * z
-    if th2 < 1e-12:
-        A = 1.0 - th2 / 6.0
-        B = 0.5 - th2 / 24.0
+    if th2 < SERIES_BELOW:
+        A = _series(th2, _SIN_SERIES)
+        B = _series(th2, _COS_SERIES)
     else:
         th = math.sqrt(th2)
         A = math.sin(th) / th
@@ -85,9 +121,11 @@ def _relative(A: np.ndarray, B: np.ndarray, M: np.ndarray, out: np.ndarray) -> N
 
 #: the rotation helpers, inlined into every loop that calls them (here, the residual
 #: and the sweep): a call costs as much as their arithmetic
-INLINE = ("_log", "_expm", "_times", "_relative")
-_turned_loop = compiled.Lazy(globals(), ("_expm", "_times"), _turned, INLINE)
-_relative_log_loop = compiled.Lazy(globals(), ("_log", "_relative"), _relative_log, INLINE)
+INLINE = ("_log", "_expm", "_times", "_relative", "_series")
+_turned_loop = compiled.Lazy(globals(), ("_expm", "_series", "_times"), _turned, INLINE)
+_relative_log_loop = compiled.Lazy(
+    globals(), ("_log", "_series", "_relative"), _relative_log, INLINE
+)
 
 
 def turned(w: np.ndarray, R: np.ndarray) -> np.ndarray:

@@ -41,6 +41,7 @@ import numpy as np
 from suspenv.core import compiled
 from suspenv.models.mcpherson.residual_kernel import (  # the row's helpers: compiled too
     _BUSH_BODY,
+    _ROW_BARE,
     _ROW_HELPERS,
     _ROW_INLINE,
     _bushing_loads,  # noqa: F401
@@ -57,7 +58,7 @@ from suspenv.models.mcpherson.residual_kernel import (  # the row's helpers: com
     _row_jacobian,
     _row_work,
 )
-from suspenv.models.mcpherson.rotation_kernel import _expm, _log, _relative, _times
+from suspenv.models.mcpherson.rotation_kernel import _expm, _log, _relative, _series, _times  # noqa: F401
 
 NS, NQ, NX = 33, 24, 66
 #: the inverse Jacobian's rows padded to a whole number of vector registers (the step's
@@ -67,12 +68,16 @@ NP = 80
 OK, NO_STATIC, NO_STEP, LOCKED = 0, 1, 2, 3
 
 
-def _scratch() -> tuple:
-    """A design's scratch (made once per design, not per step): a residual (2, 33), a
-    step (66,), the step's single-precision sum (80,), two (3, 3) and a (3,), and the
-    residual row's (:func:`.residual_kernel._row_work`)."""
+def _scratch(G: int) -> tuple:
+    """The sweep's scratch (made once per call, not per design or step): a residual (2,
+    33), a step (66,), the step's single-precision sum (80,), two (3, 3) and a (3,), the
+    residual row's (:func:`.residual_kernel._row_work`), the transposed inverse
+    Jacobians (66, 80) of the static state and of the bump and rebound legs' rows
+    (single precision, the padding zero), and a leg's relative rotation vectors (G, 2,
+    4, 3) with the grid points they are made at (G,) (:func:`_relative_at`)."""
     return (np.empty((2, NS)), np.empty(NX), np.empty(NP, np.float32), np.empty((3, 3)),
-            np.empty((3, 3)), np.empty(3), _row_work())  # fmt: skip
+            np.empty((3, 3)), np.empty(3), _row_work(), np.zeros((3, NX, NP), np.float32),
+            (np.empty((G, 2, 4, 3)), np.zeros(G, np.int64)))  # fmt: skip
 
 
 def _factor(d, r, R, lam1, load, model, jac, out, ws) -> bool:
@@ -81,7 +86,7 @@ def _factor(d, r, R, lam1, load, model, jac, out, ws) -> bool:
     numpy path's shared inverses; ``ws``: :func:`_scratch`). False: the Jacobian is not
     finite or singular."""
     pad1, ext1, rack1 = load
-    pack, off, k_bar_shear, cscale, extra0 = model[:5]
+    pack, off, k_bar_shear, cscale, extra0 = model
     h, exp_h, moves, move_start, scatter, scatter_start = jac
     JT = np.zeros((NX, NX))
     turned = np.empty((2, 4, 3, 3, 3))
@@ -129,15 +134,15 @@ def _multiplier_columns(d, r, R, lam1, load, model, JT, ws) -> None:
 def _res(d, r, R, lam1, load, model, out, work) -> None:
     """The residual (2, 33) of design ``d`` at ``r``, ``R``, ``lam1`` under ``load``
     into ``out`` (:func:`.residual_kernel._residual_row`; ``model``: the pack, its
-    offsets, the constants, then empty and zero stand-ins for absent inputs; ``work``:
-    its scratch)."""
+    offsets, the constants, then an empty stand-in for the placed effects' loads;
+    ``work``: its scratch, with zero stand-ins for absent inputs)."""
     pad1, ext1, rack1 = load
-    pack, off, k_bar_shear, cscale, _, zeros2, zeros21 = model
+    pack, off, k_bar_shear, cscale, _ = model
     n_ext = ext1.shape[2] if ext1.shape[0] else 0
     has_rack = rack1.shape[0] > 0
     _residual_row(
-        r, R, lam1[0], pad1[0], ext1[0] if n_ext else zeros21, n_ext,
-        rack1[0] if has_rack else zeros2, has_rack, zeros21, False, pack, d, off, k_bar_shear,
+        r, R, lam1[0], pad1[0], ext1[0] if n_ext else work[6], n_ext,
+        rack1[0] if has_rack else work[7], has_rack, work[6], False, pack, d, off, k_bar_shear,
         cscale, out, work,
     )  # fmt: skip
 
@@ -278,40 +283,39 @@ def _apply(r, R, lam1, dx, f, ws) -> None:
             lam1[0, s, c] += f * dx[s * NS + NQ + c]
 
 
-def _newton(d, r, R, lam1, load, model, jac, chord, own, settings, fresh, ws):
+def _newton(d, r, R, lam1, load, model, jac, chord, own, made, settings, fresh, ws):
     """Newton's method of :meth:`AxleSolver.solve` on one design's row, in place:
-    chord steps with ``chord`` (1, 66, 80) (a transposed inverse Jacobian,
+    chord steps with ``chord`` (66, 80) (a transposed inverse Jacobian,
     :func:`_factor`) until a step shrinks by less than half, from then on with the
-    row's own ``own`` ((1, 66, 80), made then; (0, 66, 80): none yet), refreshed
-    whenever a step shrinks by less than half; damped when fresh steps stop
-    shrinking. ``fresh``: ``chord`` is the Jacobian at the starting state; ``ws``:
+    row's own ``own`` (66, 80; ``made``: it holds one already), refreshed whenever a
+    step shrinks by less than half; damped when fresh steps stop shrinking.
+    ``fresh``: ``chord`` is the Jacobian at the starting state; ``ws``:
     :func:`_scratch`. Returns (True when a step smaller than the tolerances was taken,
-    ``own``)."""
+    ``own`` holds the row's own inverse)."""
     tol, maxit = settings[0], settings[1]
     res, dx, acc = ws[0], ws[1], ws[2]
     prev, alpha = math.inf, 1.0
     for _ in range(maxit):
         _res(d, r, R, lam1, load, model, res, ws[6])
-        size = _step(own[0] if own.shape[0] else chord[0], res, tol, dx, acc)
+        size = _step(own if made else chord, res, tol, dx, acc)
         if math.isnan(size):
-            return False, own
+            return False, made
         refresh = size > 0.5 * prev and not fresh
         if refresh:
-            if not own.shape[0]:
-                own = np.zeros((1, NX, NP), np.float32)
-            if not _factor(d, r, R, lam1, load, model, jac, own[0], ws):
-                return False, own
-            size = _step(own[0], res, tol, dx, acc)
+            made = True
+            if not _factor(d, r, R, lam1, load, model, jac, own, ws):
+                return False, made
+            size = _step(own, res, tol, dx, acc)
             if math.isnan(size):
-                return False, own
+                return False, made
         if fresh and size > 0.9 * prev:  # exact Newton cycles: damp
             alpha = max(0.5 * alpha, 1.0 / 64)
         fresh = refresh
         prev = size
         _apply(r, R, lam1, dx, 1.0 if size < 1.0 else alpha, ws)
         if size < 1.0:
-            return True, own
-    return False, own
+            return True, made
+    return False, made
 
 
 def _load_at(t, g, pad0_d, pad_off, ext, rack, load) -> None:
@@ -371,8 +375,8 @@ def _turn(E, A, out, s, b, s_out, b_out) -> None:
 
 def _relative_at(GR: np.ndarray, rel, x: int, dirn: int, M: np.ndarray) -> np.ndarray:
     """The rotation vectors (2, 4, 3) of ``GR[x] GR[x - dirn]^T`` body by body, from
-    ``rel`` (vectors (G, 2, 4, 3), made (G,)) or computed and kept there (``M`` (3, 3)
-    scratch)."""
+    ``rel`` (vectors (G, 2, 4, 3), made (G,): :func:`_scratch`) or computed and kept
+    there (``M`` (3, 3) scratch)."""
     W, made = rel
     if not made[x]:
         for s in range(2):
@@ -380,6 +384,19 @@ def _relative_at(GR: np.ndarray, rel, x: int, dirn: int, M: np.ndarray) -> np.nd
                 _relative(GR[x, s, k], GR[x - dirn, s, k], M, W[x, s, k])
         made[x] = 1
     return W[x]
+
+
+def _store(Gr, GR, Gl, g, r, R, lam1) -> None:
+    """The state ``r``, ``R``, ``lam1`` into the grid arrays ``Gr``, ``GR``, ``Gl`` at
+    grid point ``g`` (element by element: no temporary arrays)."""
+    for s in range(2):
+        for b in range(4):
+            for a in range(3):
+                Gr[g, s, b, a] = r[s, b, a]
+                for c in range(3):
+                    GR[g, s, b, a, c] = R[s, b, a, c]
+        for x in range(NS - NQ):
+            Gl[g, s, x] = lam1[0, s, x]
 
 
 def _locked(d, r, R, pack, off, limits) -> bool:
@@ -414,11 +431,11 @@ def _locked(d, r, R, pack, off, limits) -> bool:
     return False
 
 
-def _first_step(d, t, g, st, res0, inputs, model, jac, chord, settings, ws):
+def _first_step(d, t, g, st, res0, inputs, model, jac, chord, own, settings, ws):
     """The first step of a leg, to grid point ``g``, from the static state ``st``
     (``res0`` its residual under the static input) by the tangent predictor; stored in
-    the grid arrays of ``st`` (``ws``: :func:`_scratch`). Returns (status, the row's
-    own Jacobian)."""
+    the grid arrays of ``st`` (``ws``: :func:`_scratch`). Returns (status, ``own`` holds
+    the row's own inverse Jacobian)."""
     r, R, lam1, Gr, GR, Gl, load = st
     pad0_d, pad_off, ext, rack = inputs
     res1, dx = ws[0], ws[1]
@@ -427,45 +444,47 @@ def _first_step(d, t, g, st, res0, inputs, model, jac, chord, settings, ws):
     for s in range(2):
         for k in range(NS):
             res1[s, k] -= res0[s, k]
-    _step(chord[0], res1, settings[0], dx, ws[2])
+    _step(chord, res1, settings[0], dx, ws[2])
     for i in range(NX):
         if not abs(dx[i]) < math.inf:
             dx[i] = 0.0
     rs, Rs, ls = r.copy(), R.copy(), lam1.copy()
     _apply(rs, Rs, ls, dx, 1.0, ws)
-    own = np.zeros((0, NX, NP), np.float32)
-    conv, own = _newton(d, rs, Rs, ls, load, model, jac, chord, own, settings, False, ws)
+    conv, made = _newton(d, rs, Rs, ls, load, model, jac, chord, own, False, settings, False, ws)
     Gr[g], GR[g], Gl[g] = rs, Rs, ls[0]
-    return OK if conv else NO_STEP, own
+    return OK if conv else NO_STEP, made
 
 
-def _leg(d, t, dirn, i0, st, inputs, model, jac, chord, own, settings, ws) -> int:
+def _leg(d, t, dirn, i0, st, inputs, model, jac, chord, own, made, settings, ws) -> int:
     """Steps 2 .. i0 of the leg of test ``t`` in direction ``dirn`` (its first step
     and the static state in the grid arrays of ``st`` already), each stored there
-    (``ws``: :func:`_scratch`); returns the design's status."""
+    (``own``, ``made``: the row's own inverse Jacobian, :func:`_newton`; ``ws``:
+    :func:`_scratch`); returns the design's status."""
     r, R, lam1, Gr, GR, Gl, load = st
     pad0_d, pad_off, ext, rack = inputs
-    rel = (np.empty((Gr.shape[0], 2, 4, 3)), np.zeros(Gr.shape[0], np.int64))
+    rel = ws[8]
+    for g in range(rel[1].size):
+        rel[1][g] = 0
     for j in range(2, i0 + 1):
         g = i0 + dirn * j
         _extrapolate(Gr, GR, Gl, rel, g, dirn, j >= 3, r, R, lam1, ws)
         _load_at(t, g, pad0_d, pad_off, ext, rack, load)
-        conv, own = _newton(d, r, R, lam1, load, model, jac, chord, own, settings, False, ws)
+        conv, made = _newton(d, r, R, lam1, load, model, jac, chord, own, made, settings, False,
+                             ws)  # fmt: skip
         if not conv:
             return NO_STEP
-        Gr[g], GR[g], Gl[g] = r, R, lam1[0]
+        _store(Gr, GR, Gl, g, r, R, lam1)
     if _locked(d, r, R, model[0], model[1], settings[2]):  # loads, deflections peak at the ends
         return LOCKED
     return OK
 
 
-def _design(d, inputs, model, jac, settings, lo, out) -> int:
+def _design(d, inputs, model, jac, settings, lo, out, ws) -> int:
     """The sweep of design ``d`` (:func:`_sweep`; ``model``'s pack its own column, (K, 2,
-    1): read contiguously); returns its status."""
+    1): read contiguously; ``ws``: :func:`_scratch`); returns its status."""
     ref0, pad0, pad_off, ext, rack = inputs
     r_out, R_out, l_out = out
     i0 = (pad_off.shape[1] - 1) // 2
-    ws = _scratch()
     r = ref0[d].copy()
     R = np.zeros((2, 4, 3, 3))
     for s in range(2):
@@ -480,10 +499,10 @@ def _design(d, inputs, model, jac, settings, lo, out) -> int:
     )
     for s in range(2):
         load[0][0, s] = pad0[d, s]
-    chord = np.zeros((1, NX, NP), np.float32)
-    if not _factor(0, r, R, lam1, load, model, jac, chord[0], ws):
+    chord = ws[7][0]
+    if not _factor(0, r, R, lam1, load, model, jac, chord, ws):
         return NO_STATIC
-    conv, chord = _newton(0, r, R, lam1, load, model, jac, chord, chord, settings, True, ws)
+    conv, _ = _newton(0, r, R, lam1, load, model, jac, chord, chord, True, settings, True, ws)
     if not conv:
         return NO_STATIC
     G = pad_off.shape[1]  # every grid point's state (made after the static Jacobian: memory)
@@ -499,12 +518,12 @@ def _design(d, inputs, model, jac, settings, lo, out) -> int:
         _res(0, r, R, lam1, load, model, res0, ws[6])
         # the first steps of both legs (the second steps read both), then each leg on
         legs = (leg_inputs, model, jac, chord)
-        up, own_up = _first_step(0, t, i0 + 1, st, res0, *legs, settings, ws)
-        down, own_down = _first_step(0, t, i0 - 1, st, res0, *legs, settings, ws)
+        up, made_up = _first_step(0, t, i0 + 1, st, res0, *legs, ws[7][1], settings, ws)
+        down, made_down = _first_step(0, t, i0 - 1, st, res0, *legs, ws[7][2], settings, ws)
         if up != OK or down != OK:
             return NO_STEP
-        for dirn, own in ((1, own_up), (-1, own_down)):
-            status = _leg(0, t, dirn, i0, walk, *legs, own, settings, ws)
+        for k, dirn, made in ((1, 1, made_up), (2, -1, made_down)):
+            status = _leg(0, t, dirn, i0, walk, *legs, ws[7][k], made, settings, ws)
             if status != OK:
                 return status
         for q in range(r_out.shape[1]):
@@ -555,19 +574,28 @@ def _sweep(
     jac = (h, exp_h, moves, move_start, scatter, scatter_start)
     settings = (tol, maxit, limits)
     inputs = (ref0, pad0, pad_off, ext, rack)
+    ws = _scratch(pad_off.shape[1])
     for d in range(ref0.shape[0]):
         own = np.ascontiguousarray(pack[:, :, d : d + 1])  # the design's column, contiguous
-        model = (own, off, k_bar_shear, cscale, np.empty((0, 2, 1)), np.zeros(2), np.zeros((2, 1)))
-        status[d] = _design(d, inputs, model, jac, settings, lo, (r_out, R_out, l_out))
+        model = (own, off, k_bar_shear, cscale, np.empty((0, 2, 1)))
+        status[d] = _design(d, inputs, model, jac, settings, lo, (r_out, R_out, l_out), ws)
 
 
 _HELPERS = (
     *_ROW_HELPERS, "_expm", "_scratch", "_factor", "_multiplier_columns", "_res",
     "_block_inverse", "_coupled", "_invert", "_step", "_apply", "_turn", "_times", "_newton",
-    "_load_at", "_extrapolate", "_relative_at", "_relative", "_locked", "_first_step", "_leg",
-    "_design",
+    "_load_at", "_extrapolate", "_relative_at", "_relative", "_store", "_locked", "_first_step",
+    "_leg", "_design",
 )  # fmt: skip
 #: the helpers inlined into their callers: those of every step and every grid point
-_INLINE = (*_ROW_INLINE, "_scratch", "_res", "_step", "_apply", "_load_at", "_turn", "_relative_at")
+#: (Newton's method and the predictor too: a call passes every array of their scratch
+#: tuples as a few hundred words on the stack)
+_INLINE = (
+    *_ROW_INLINE, "_scratch", "_res", "_step", "_apply", "_load_at", "_turn", "_relative_at",
+    "_store", "_newton", "_extrapolate",
+)  # fmt: skip
+#: the helpers of every step and grid point compiled without reference counting (they
+#: allocate no array: the scratch is made by :func:`_sweep` and :func:`_design`)
+_BARE = (*_ROW_BARE, "_leg", "_invert", "_coupled")
 #: :func:`_sweep`, built ahead of time or compiled at its first call
-sweep = compiled.Lazy(globals(), _HELPERS, _sweep, _INLINE)
+sweep = compiled.Lazy(globals(), _HELPERS, _sweep, _INLINE, _BARE)
