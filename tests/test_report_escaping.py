@@ -67,3 +67,17 @@ def test_compare_tables_use_the_same_builder_and_escaping():
     assert len(lines) == 3 and all(line.count("|") == 5 for line in lines)
     assert lines[2] == f"| {inline(NASTY)} | 3 | inf | – |"
     assert "<b>" not in table and "](" not in table
+
+
+def test_one_cell_formatter():
+    """Reports and compare.md format numbers with the one ``fmt``: 4 significant digits,
+    a non-finite number as ``missing``, +inf as ``inf`` only when asked (an ERT that
+    never reached its target), booleans as yes/blank."""
+    from suspenv.core.markdown import fmt
+
+    assert [fmt(1 / 3), fmt(2.0e-5), fmt(True), fmt(False), fmt(7)] == [
+        "0.3333", "2e-05", "yes", "", "7",
+    ]
+    nonfinite = [float("inf"), float("-inf"), float("nan")]
+    assert [fmt(v, missing="–") for v in nonfinite] == ["–", "–", "–"]
+    assert [fmt(v, missing="–", inf="inf") for v in nonfinite] == ["inf", "–", "–"]

@@ -120,3 +120,16 @@ def test_to_si_applies_the_table() -> None:
     values, si = units.to_si(np.array([180.0]), "deg/s")
     assert si == "rad/s"
     assert values[0] == pytest.approx(180.0 * sc.degree, rel=RTOL)
+
+
+@pytest.mark.parametrize(
+    ("text", "key"),
+    [(" mm ", "mm"), ("N·m", "N*m"), ("kN . m", "kN*m"), ("KN·M", "kN*m"), ("DEG", "deg"),
+     ("Nm", "Nm"), ("grad", None), ("", None), (3, None)],
+)
+def test_one_unit_name_reader(text: object, key: str | None) -> None:
+    """Recordings and the K&C format read unit names alike: stripped, any product sign
+    (``*``, ``.``, ``·``) as ``*``, then case-folded; anything else is unknown."""
+    assert units.unit_key(text) == key
+    if key in knc_file.UNITS:
+        assert knc_file._unit(str(text), "here") == units.FACTORS[str(key)]

@@ -63,7 +63,7 @@ from suspenv.analysis.performance import (
 from suspenv.analysis.stats import rank_tests
 from suspenv.core.errors import ValidationError
 from suspenv.core.jsonable import to_jsonable
-from suspenv.core.markdown import inline, markdown_table
+from suspenv.core.markdown import fmt, inline, markdown_table
 from suspenv.runs.run_dir import write_file, write_json
 
 #: known optima of a problem's plain quality (the objective itself), by problem name
@@ -718,21 +718,18 @@ def _profile(problems: list[ProblemComparison]) -> dict[str, Any] | None:
 
 # --------------------------------------------------------------------------- output
 def _cell(v: Any) -> str:
-    """A value of the comparison as Markdown text: numbers to 4 significant digits
-    (``inf`` never reached, ``–`` none), dicts and lists spelled out, text from run
-    directories escaped by :func:`suspenv.core.markdown.inline`."""
+    """A value of the comparison as Markdown text: numbers by
+    :func:`suspenv.core.markdown.fmt` (``inf`` never reached, ``–`` none), dicts and
+    lists spelled out, text from run directories escaped by
+    :func:`suspenv.core.markdown.inline`."""
     if v is None:
         return "–"
-    if isinstance(v, bool):
-        return "yes" if v else ""
-    if isinstance(v, float | np.floating):
-        return f"{v:.4g}" if np.isfinite(v) else ("inf" if v > 0 else "–")
-    if isinstance(v, int | np.integer):
-        return str(v)
     if isinstance(v, dict):
         return ", ".join(f"{inline(k)}={_cell(x)}" for k, x in v.items())
     if isinstance(v, list | tuple):
         return "[" + ", ".join(_cell(x) for x in v) + "]"
+    if isinstance(v, bool | int | float | np.number):
+        return fmt(v, missing="–", inf="inf")
     return inline(v)
 
 

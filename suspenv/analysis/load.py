@@ -35,6 +35,7 @@ from suspenv.analysis.indicators import (
 )
 from suspenv.analysis.performance import as_curve
 from suspenv.core.errors import ValidationError
+from suspenv.core.jsonable import json_default
 from suspenv.registry import problem_class, strategy_class
 from suspenv.runs.archive import RunArchive, value_columns
 from suspenv.runs.quality import feasible, scalar_recorded
@@ -52,18 +53,8 @@ _STRATEGY_CONTEXT = frozenset({"self", "dim", "n_objectives", "n_constraints", "
 def config_hash(obj: Any) -> str:
     """First 8 hex digits of the SHA-256 of the canonical JSON of ``obj`` (sorted keys, no
     whitespace, tuples as lists): stable across processes and platforms."""
-    text = json.dumps(obj, sort_keys=True, separators=(",", ":"), default=_json_default)
+    text = json.dumps(obj, sort_keys=True, separators=(",", ":"), default=json_default)
     return hashlib.sha256(text.encode()).hexdigest()[:8]
-
-
-def _json_default(o: Any) -> Any:
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    if isinstance(o, np.generic):
-        return o.item()
-    if isinstance(o, tuple | set | frozenset):
-        return sorted(o) if isinstance(o, set | frozenset) else list(o)
-    return str(o)
 
 
 def _defaults(cls: Any, skip: frozenset[str]) -> dict[str, Any] | None:
@@ -95,7 +86,7 @@ def _defaults_json(kind: str, name: str) -> str | None:
             d = _defaults(strategy_class(name), _STRATEGY_CONTEXT)
     except ValidationError:
         return None
-    return None if d is None else json.dumps(d, default=_json_default, sort_keys=True)
+    return None if d is None else json.dumps(d, default=json_default, sort_keys=True)
 
 
 @cache
@@ -108,7 +99,7 @@ def _problem_resolved(name: str, dim: int, m: int, k: int) -> str | None:
     try:
         cls = strategy_class(name)
         options = getattr(cls(dim=dim, n_objectives=m, n_constraints=k, seed=0), "options", None)
-        return None if options is None else json.dumps(options(), default=_json_default)
+        return None if options is None else json.dumps(options(), default=json_default)
     except (ValidationError, TypeError, ValueError, ImportError):
         return None
 
@@ -143,7 +134,7 @@ def resolved_problem_options(name: str, options: dict[str, Any]) -> dict[str, An
     ``{"dim": 10}`` are the same Sphere); as given when the problem is not registered."""
     d = _defaults_json("problem", name)
     base = json.loads(d) if d is not None else {}
-    return {**base, **json.loads(json.dumps(options, default=_json_default))}
+    return {**base, **json.loads(json.dumps(options, default=json_default))}
 
 
 def resolved_strategy_options(
@@ -154,7 +145,7 @@ def resolved_strategy_options(
     with the constructor's current defaults filled in."""
     d = None if recorded else _defaults_json("strategy", name)
     base = json.loads(d) if d is not None else {}
-    merged = {**base, **json.loads(json.dumps(options, default=_json_default))}
+    merged = {**base, **json.loads(json.dumps(options, default=json_default))}
     return {k: v for k, v in merged.items() if k not in STATE_OPTIONS}
 
 

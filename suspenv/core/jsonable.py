@@ -1,4 +1,5 @@
-"""Plain JSON values from numpy results (every ``*.json`` suspenv writes)."""
+"""Plain JSON values from numpy results (every ``*.json`` suspenv writes, every
+configuration hashed)."""
 
 from __future__ import annotations
 
@@ -24,3 +25,13 @@ def to_jsonable(obj: Any) -> Any:
     if isinstance(obj, Path):
         return str(obj)
     return obj
+
+
+def json_default(obj: Any) -> Any:
+    """``json.dumps``'s ``default``: numpy arrays and scalars as Python values, sets as
+    sorted lists, anything else (a path, an enum, a class) as its ``str``."""
+    if isinstance(obj, np.ndarray | np.generic):
+        return obj.tolist()
+    if isinstance(obj, set | frozenset):
+        return sorted(obj)
+    return str(obj)

@@ -12,13 +12,16 @@ from typing import Any
 import numpy as np
 
 
-def fmt(v: Any, digits: int = 4, missing: str = "n/a") -> str:
+def fmt(v: Any, digits: int = 4, missing: str = "n/a", *, inf: str | None = None) -> str:
     """A table cell: ``digits`` significant digits for floats (``missing`` when not
-    finite), ``yes`` / blank for booleans, anything else as ``str``."""
+    finite, but ``inf`` for +inf when given: a target never reached), ``yes`` / blank
+    for booleans, anything else as ``str``."""
     if isinstance(v, bool):
         return "yes" if v else ""
     if isinstance(v, float | np.floating):
-        return f"{v:.{digits}g}" if np.isfinite(v) else missing
+        if np.isfinite(v):
+            return f"{v:.{digits}g}"
+        return inf if inf is not None and v > 0 else missing
     return str(v)
 
 

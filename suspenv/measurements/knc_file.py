@@ -65,7 +65,7 @@ from suspenv.measurements import knc as _knc
 from suspenv.measurements.errors import RecordingError
 from suspenv.measurements.knc_checks import check_manifest_keys, check_tests, check_wheel_travel
 from suspenv.measurements.limits import check_text, read_limit
-from suspenv.measurements.units import FACTORS
+from suspenv.measurements.units import FACTORS, unit_key
 
 if TYPE_CHECKING:  # a type only: measurements sit below rigs (tests/test_architecture.py)
     from suspenv.rigs.knc import KCResult
@@ -562,16 +562,10 @@ def write_measurement(
 
 # ------------------------------------------------------------------ loading
 def _unit(unit: str, where: str) -> tuple[float, str]:
-    """(factor to SI, SI unit) of ``unit``; unknown -> refused naming ``where``."""
-    key = unit.strip()
-    if key not in UNITS:
-        key = re.sub(r"\s*([*.·])\s*", "*", key).replace("·", "*")
-    if key not in UNITS:
-        for k in UNITS:
-            if k.lower() == unit.strip().lower():
-                key = k
-                break
-    if key not in UNITS:
+    """(factor to SI, SI unit) of ``unit`` (read by :func:`~suspenv.measurements.units.unit_key`);
+    unknown -> refused naming ``where``."""
+    key = unit_key(unit)
+    if key is None or key not in UNITS:
         raise RecordingError(
             f"{where}: unknown unit {unit!r}; the format's units are {sorted(UNITS)}"
         )

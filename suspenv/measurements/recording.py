@@ -50,7 +50,7 @@ def _check_si(where: str, what: str, unit: object) -> None:
     lists the SI units (a recording never takes a unit it cannot vouch for as SI)."""
     if isinstance(unit, str) and unit in SI_UNITS:
         return
-    si = si_unit_of(unit) if isinstance(unit, str) else None
+    si = si_unit_of(unit)
     if si is not None:
         raise RecordingError(
             f"{where}: {what} is in {unit!r}, which is not SI; a recording holds SI units "

@@ -16,6 +16,8 @@ Rules:
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 
 from suspenv.measurements.errors import RecordingError
@@ -84,23 +86,31 @@ FACTORS: dict[str, tuple[float, str]] = {
 }
 
 
-def _key(unit: str) -> str | None:
-    """The :data:`FACTORS` key of ``unit`` (exact after stripping, else case-folded), or None."""
+_PRODUCT = re.compile(r"\s*[*.·]\s*")
+_FOLDED = {u.lower(): u for u in FACTORS}  # no two units differ only in case
+
+
+def unit_key(unit: object) -> str | None:
+    """The :data:`FACTORS` key that ``unit`` names, or None: exact after stripping, else
+    with each product sign (``*``, ``.``, ``·`` and the spaces around it) read as ``*``,
+    else case-folded (``"KN·M"`` -> ``"kN*m"``)."""
+    if not isinstance(unit, str):
+        return None
     key = unit.strip()
-    if key not in FACTORS and key.lower() in FACTORS:
-        key = key.lower()
-    return key if key in FACTORS else None
+    if key not in FACTORS:
+        key = _PRODUCT.sub("*", key)
+    return key if key in FACTORS else _FOLDED.get(key.lower())
 
 
-def si_unit_of(unit: str) -> str | None:
+def si_unit_of(unit: object) -> str | None:
     """The SI unit ``unit`` converts to (``"lbf"`` -> ``"N"``), or None when unknown."""
-    key = _key(unit) if isinstance(unit, str) else None
+    key = unit_key(unit)
     return None if key is None else FACTORS[key][1]
 
 
-def to_si(values: np.ndarray, unit: str) -> tuple[np.ndarray, str]:
+def to_si(values: np.ndarray, unit: object) -> tuple[np.ndarray, str]:
     """Convert ``values`` from ``unit`` to SI; returns ``(values_si, si_unit)``."""
-    key = _key(unit) if isinstance(unit, str) else None
+    key = unit_key(unit)
     if key is None:
         raise RecordingError(f"unknown unit {unit!r}; known units are {sorted(FACTORS)}")
     factor, si = FACTORS[key]
