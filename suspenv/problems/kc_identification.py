@@ -327,17 +327,18 @@ class KCIdentification(Problem):
     def simulate(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[str]]:
         """Simulated objectives (n, 40), ok (n,), messages for physical designs X (n, 49):
         the compiled sweep and objectives (:meth:`_simulate_compiled`) of the whole batch
-        where they apply, the designs they flag and every other case through the rig's
-        results (:meth:`_simulate_rig`) in chunks of :attr:`eval_chunk` designs (bounded
-        memory)."""
+        where they apply, the designs they flag (their rows of the axle already built) and
+        every other case through the rig's results (:meth:`_simulate_rig`) in chunks of
+        :attr:`eval_chunk` designs (bounded memory)."""
         X = np.atleast_2d(np.asarray(X, dtype=float))
         n = X.shape[0]
         F = np.full((n, len(OBJECTIVE_NAMES)), np.nan)
         ok = np.ones(n, bool)
         msgs = [""] * n
         rows = np.arange(n)
+        axle = self._axle(X)
         if self._compiled_path():
-            F, status = self._simulate_compiled(self._axle(X))
+            F, status = self._simulate_compiled(axle)
             rows = np.flatnonzero(status)
         m = rows.size
         parts = 1 if self.eval_chunk is None else -(-m // max(1, int(self.eval_chunk)))
@@ -345,9 +346,9 @@ class KCIdentification(Problem):
         for a, b in zip(edges[:-1], edges[1:], strict=True):
             if b > a:
                 part = rows[a:b]
-                F[part], ok[part], again = self._simulate_rig(self._axle(X[part]))
-                for q, row in enumerate(part.tolist()):
-                    msgs[row] = again[q]
+                F[part], ok[part], again = self._simulate_rig(axle.take(part))
+                for row, msg in zip(part.tolist(), again, strict=True):
+                    msgs[row] = msg
         bad = ok & ~np.isfinite(F).all(axis=1)
         for i in np.flatnonzero(bad):
             msgs[i] = "EvaluationError: an objective is not finite"
