@@ -49,7 +49,8 @@ def toml_value(v: Any) -> str:
     if isinstance(v, int | float):
         return repr(float(v)) if isinstance(v, float) else str(v)
     if isinstance(v, str):
-        return json.dumps(v)  # a JSON string is a TOML basic string
+        # a JSON string is a TOML basic string once DEL, which TOML forbids raw, is escaped
+        return json.dumps(v).replace("\x7f", "\\u007f")
     if isinstance(v, list | tuple):
         return "[" + ", ".join(toml_value(x) for x in v) + "]"
     if isinstance(v, dict):

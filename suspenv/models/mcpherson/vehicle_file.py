@@ -45,7 +45,6 @@ from __future__ import annotations
 
 import dataclasses
 import difflib
-import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -55,7 +54,7 @@ import numpy as np
 
 from suspenv.core.errors import EvaluationError, ValidationError
 from suspenv.core.space import DesignSpace, Parameter
-from suspenv.core.tomlfile import read_toml
+from suspenv.core.tomlfile import read_toml, toml_value
 from suspenv.models.effects import Effect, get_kind
 from suspenv.models.mcpherson.effects import LOCATIONS, PLACEMENTS, axle_effect
 from suspenv.models.mcpherson.params import (
@@ -449,11 +448,6 @@ def _orientation(table: dict[str, Any], where: str) -> dict[str, tuple[float, fl
     return out
 
 
-def _text(s: str) -> str:
-    """``s`` as a TOML basic string (JSON escapes are TOML escapes; DEL is escaped too)."""
-    return json.dumps(s).replace("\x7f", "\\u007f")
-
-
 def _fmt(v: float) -> str:
     """A float as TOML text that reads back to the same float."""
     return repr(float(v))
@@ -465,9 +459,9 @@ def dump_vehicle(vehicle: VehicleFile) -> str:
     of :meth:`VehicleFile.space`, bushing orientations, every constant and the effects
     (scalar parameters only). Numbers are written exactly (``repr``)."""
     space = vehicle.space()
-    lines = [f"name = {_text(vehicle.name)}"]
+    lines = [f"name = {toml_value(vehicle.name)}"]
     if vehicle.description:
-        lines.append(f"description = {_text(vehicle.description)}")
+        lines.append(f"description = {toml_value(vehicle.description)}")
     lines += ["", "[design]  # ADAMS/Car convention: mm, x rearward, y right, z up; left side"]
     for p, v in zip(space.parameters, vehicle.left, strict=True):
         lines.append(f"{p.name} = {_fmt(v)}  # {p.unit}")
@@ -492,8 +486,8 @@ def dump_vehicle(vehicle: VehicleFile) -> str:
         text = f"[{', '.join(_fmt(x) for x in v)}]" if isinstance(v, tuple) else _fmt(v)
         lines.append(f"{k} = {text}")
     for e in vehicle.effects:
-        lines += ["", "[[effects]]", f"kind = {_text(e.kind)}"]
-        lines += [f"location = {_text(e.location)}", f"name = {_text(e.name)}"]
+        lines += ["", "[[effects]]", f"kind = {toml_value(e.kind)}"]
+        lines += [f"location = {toml_value(e.location)}", f"name = {toml_value(e.name)}"]
         for k, v in e.params.items():
             if np.ndim(v) != 0:
                 raise ValidationError(
