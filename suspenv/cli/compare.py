@@ -8,9 +8,10 @@ writes ``compare.json``, ``compare.md`` and the figures into ``--out`` (see
 from __future__ import annotations
 
 import argparse
-import math
 from pathlib import Path
 from typing import Any
+
+from suspenv.core.markdown import fmt
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -58,9 +59,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def _g(v: Any) -> str:
-    if v is None or (isinstance(v, float) and not math.isfinite(v)):
-        return "-"
-    return f"{v:.4g}" if isinstance(v, float) else str(v)
+    return "-" if v is None else fmt(v, missing="-")
 
 
 def _compare(args: argparse.Namespace) -> int:
