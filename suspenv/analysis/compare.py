@@ -775,12 +775,8 @@ def markdown(comparison: Comparison) -> str:
         for g in p.groups:
             row: dict[str, Any] = {"group": g.label}
             for j in pick:
-                k = int(np.isfinite(p.runtimes[g.label][:, j]).sum())
-                row[f"{tg[j]:.3g}"] = (
-                    f"{p.ert[g.label][j]:.4g} ({k}/{len(g.runs)})"
-                    if np.isfinite(p.ert[g.label][j])
-                    else f"inf (0/{len(g.runs)})"
-                )
+                k = int(np.isfinite(p.runtimes[g.label][:, j]).sum())  # ERT inf iff k = 0
+                row[f"{tg[j]:.3g}"] = f"{fmt(p.ert[g.label][j], inf='inf')} ({k}/{len(g.runs)})"
             ert_rows.append(row)
         md.append(_md_table(ert_rows, ["group"] + [f"{tg[j]:.3g}" for j in pick]))
         mo = r["multiobjective"]
