@@ -54,7 +54,7 @@ def test_truth_and_fitted_model_are_the_same_code():
     # objects through the same solver and sensor elements, so a model holding a truth
     # case's effects at the reference design reproduces its noise-free loops bit for bit
     from suspenv.diagnosis.knc.model import KncAxleModel
-    from suspenv.diagnosis.knc.truth import measure_truth, truth_effects
+    from suspenv.rigs.knc_truth import measure_truth, truth_effects
 
     truth = {
         "hysteresis": {"f_c": 95.0, "bushings": ["lca_front", "lca_rear"]},
