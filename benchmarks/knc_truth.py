@@ -23,10 +23,10 @@ import numpy as np
 from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.fitting import fit, stacked_residual
 from suspenv.diagnosis.knc.detectability import DETECTABLE_SNR, FITTED_TESTS
-from suspenv.diagnosis.knc.model import KncAxleModel
 from suspenv.measurements import Recording
 from suspenv.measurements.knc import CHANNELS, SIDES, half_loops, rig_test
 from suspenv.rigs.knc import FORCE_AMPLITUDE
+from suspenv.rigs.knc_axle import KncAxleModel
 from suspenv.rigs.knc_truth import BLIND_TESTS, measure_truth
 
 

@@ -3,10 +3,10 @@
 A truth vehicle is the test car (:func:`suspenv.models.mcpherson.truth.truth_vehicle`:
 the reference axle, optionally with left/right manufacturing tolerances) with
 concealed effects. The concealed force and sensor effects are the very
-effects-library objects the fitted model takes (named like its candidates,
-:func:`suspenv.diagnosis.knc.model.make_candidate`), run through the same solver and
-rig (:func:`suspenv.rigs.knc.run_tests`) and the same sensor elements, so a
-:class:`~suspenv.diagnosis.knc.model.KncAxleModel` holding the same effects
+effects-library objects the fitted model takes
+(:func:`~suspenv.rigs.knc_axle.make_candidate`, ``kind@location``), run through the
+same solver and rig (:func:`suspenv.rigs.knc.run_tests`) and the same sensor
+elements, so a :class:`~suspenv.rigs.knc_axle.KncAxleModel` holding the same effects
 reproduces a truth's noise-free loops (tolerances aside). Sensor noise is Gaussian
 (:data:`suspenv.models.mcpherson.truth.CHANNEL_NOISE`, scaled, seeded).
 
@@ -29,22 +29,23 @@ import numpy as np
 from suspenv.core.errors import ValidationError
 from suspenv.measurements import Recording
 from suspenv.measurements.knc import rig_test
-from suspenv.models.effects import Effect, make_effect
+from suspenv.models.effects import Effect
 from suspenv.models.mcpherson import bushings_at
-from suspenv.models.mcpherson.effects import check_placement, location_of
+from suspenv.models.mcpherson.effects import location_of
 from suspenv.models.mcpherson.truth import CHANNEL_NOISE, TOLERANCE, truth_vehicle
 from suspenv.rigs.knc import FORCE_AMPLITUDE, TESTS, run_tests
+from suspenv.rigs.knc_axle import make_candidate
 from suspenv.rigs.knc_recording import to_recordings
 
 #: the concealed effect each truth name stands for, at its default magnitude: the same
 #: effects the fitted model takes (``hysteresis`` and ``progressive`` may name other
 #: ``bushings``; ``asymmetry`` is the test car's tolerance, :data:`TOLERANCE`)
 TRUTH_DEFAULTS: dict[str, Effect] = {
-    "hysteresis": make_effect("dahl_hysteresis", location="lower_arm_and_top_mount", f_c=80.0),
-    "friction": make_effect("coulomb_friction", location="strut", f_c=120.0),
-    "progressive": make_effect("cubic_stiffness", location="bushings", ratio=0.2),
-    "sensor_gain": make_effect("sensor_gain", location="tyre_fz", gain=1.04),
-    "sensor_offset": make_effect("sensor_offset", location="tyre_fz", offset=10.0),
+    "hysteresis": make_candidate("dahl_hysteresis", f_c=80.0),
+    "friction": make_candidate("coulomb_friction", f_c=120.0),
+    "progressive": make_candidate("cubic_stiffness", ratio=0.2),
+    "sensor_gain": make_candidate("sensor_gain", gain=1.04),
+    "sensor_offset": make_candidate("sensor_offset", offset=10.0),
 }
 #: the diagnosis' effect kind that names each concealed effect
 TRUTH_KIND: dict[str, str] = {
@@ -75,9 +76,7 @@ def truth_effects(
         effect = default
         if "bushings" in values:
             where = location_of(tuple(values.pop("bushings")))
-            name = default.kind if where == default.location else f"{default.kind}@{where}"
-            effect = make_effect(default.kind, name, where, **default.params)
-            check_placement(effect)
+            effect = make_candidate(f"{default.kind}@{where}", **default.params)
         out.append(effect.with_params({k: float(v) for k, v in values.items()}))
     tolerance = None
     if "asymmetry" in effects:

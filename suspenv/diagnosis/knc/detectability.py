@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 
 from suspenv.diagnosis.fitting import stacked_residual
-from suspenv.diagnosis.knc.model import KncAxleModel, effect_words, make_candidate
+from suspenv.rigs.knc_axle import KncAxleModel, effect_words, make_candidate
 from suspenv.rigs.knc_truth import BLIND_TESTS
 
 #: the blind cases' fitted tests (single-wheel travel is held out)
