@@ -15,14 +15,13 @@ from suspenv.diagnosis.road import (
     LOG_LINE_VARIANCE,
     RoadFamily,
     diagnose_road,
-    road_class,
     slope_periodogram,
     spectrum_recording,
     whittle_deviance,
 )
 from suspenv.measurements.sources.road_profile import load_profile_txt, profile_recording
 from suspenv.reports.diagnosis.road import write_road_report
-from suspenv.rigs.road import ROAD_CLASS_GD0
+from suspenv.rigs.road import ROAD_CLASS_GD0, gd0_class
 
 GD_B = ROAD_CLASS_GD0["B"]
 
@@ -155,10 +154,10 @@ def test_periodogram_satisfies_parseval():
 
 def test_class_boundaries():
     # ISO 8608: each class spans half to double its mean
-    assert road_class(GD_B) == "B"
-    assert road_class(GD_B * 1.9) == "B"
-    assert road_class(GD_B * 2.1) == "C"
-    assert road_class(GD_B / 2.1) == "A"
+    assert gd0_class(GD_B) == "B"
+    assert gd0_class(GD_B * 1.9) == "B"
+    assert gd0_class(GD_B * 2.1) == "C"
+    assert gd0_class(GD_B / 2.1) == "A"
 
 
 def test_profile_recording_resamples_and_checks_input():

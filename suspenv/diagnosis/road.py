@@ -62,7 +62,7 @@ from suspenv.diagnosis.split import Holdout, Recordings, Split, as_recordings, h
 from suspenv.measurements import Recording
 from suspenv.measurements.sources.road_profile import load_profile_txt
 from suspenv.metrics.ride import road_ride_consequence
-from suspenv.rigs.road import N0, ROAD_CLASS_GD0
+from suspenv.rigs.road import N0, gd0_class
 
 #: default fitted band (cycle/m): long waves of a ~500 m profile up to 1 cycle/m (below
 #: the 2 cycle/m Nyquist line of a 0.25 m grid, where interpolation and profiler
@@ -98,17 +98,6 @@ def difference_gain(n: np.ndarray, dx: float) -> np.ndarray:
 
 
 # ------------------------------------------------------------------ the spectral model
-def road_class(gd0: float) -> str:
-    """ISO 8608 class whose range (half to double its mean) holds Gd(n0) (m^3)."""
-    letters = "ABCDEFGH"
-    i = int(np.round(np.log(gd0 / ROAD_CLASS_GD0["A"]) / np.log(4.0)))
-    if i < 0:
-        return "A (smoother than class A's range)"
-    if i >= len(letters):
-        return "H (rougher than class H's range)"
-    return letters[i]
-
-
 def spectrum_recording(rec: Recording, band: tuple[float, float] = DEFAULT_BAND) -> Recording:
     """The lines of ``rec``'s pre-whitened periodogram inside ``band`` as a recording the
     loop reads: input ``log_frequency`` = ln(n / n0), output ``log_periodogram`` =
@@ -295,10 +284,7 @@ class PsdFit:
 
     @property
     def road_class(self) -> str:
-        return road_class(self.gd0)
-
-    def psd(self, n: np.ndarray) -> np.ndarray:
-        return self.gd0 * (np.asarray(n, float) / N0) ** (-self.waviness)
+        return gd0_class(self.gd0)
 
     def to_dict(self) -> dict[str, Any]:
         d = asdict(self)

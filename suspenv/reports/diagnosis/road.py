@@ -18,7 +18,7 @@ from suspenv.diagnosis.engine import Diagnosis
 from suspenv.diagnosis.road import profile_grid
 from suspenv.measurements import Recording
 from suspenv.reports._mpl import pyplot, save_figure
-from suspenv.rigs.road import N0, ROAD_CLASS_GD0, welch_psd
+from suspenv.rigs.road import displacement_psd, welch_psd
 from suspenv.runs.run_dir import write_file
 
 
@@ -36,13 +36,12 @@ def write_road_report(diag: Diagnosis, profile: Recording, out_dir: str | Path) 
     sel = n_w > 0
     ax.loglog(n_w[sel], p_w[sel], color="0.3", label=f"{profile.name} (Welch)")
     nn = np.geomspace(f["band"][0], f["band"][1], 100)
-    ax.loglog(
-        nn, f["gd0"] * (nn / N0) ** -f["waviness"], "C3", label=f"free fit, w = {f['waviness']:.2f}"
-    )
-    ax.loglog(nn, s["gd0"] * (nn / N0) ** -2.0, "C0--", label="ISO 8608 form, w = 2")
+    free = displacement_psd(nn, f["gd0"], f["waviness"])
+    ax.loglog(nn, free, "C3", label=f"free fit, w = {f['waviness']:.2f}")
+    ax.loglog(nn, displacement_psd(nn, s["gd0"]), "C0--", label="ISO 8608 form, w = 2")
     for c in "ABCDE":
-        ax.loglog(nn, ROAD_CLASS_GD0[c] * (nn / N0) ** -2.0, color="0.8", lw=0.8)
-        ax.text(nn[0], ROAD_CLASS_GD0[c] * (nn[0] / N0) ** -2.0, c, color="0.5", fontsize=8)
+        ax.loglog(nn, displacement_psd(nn, c), color="0.8", lw=0.8)
+        ax.text(nn[0], displacement_psd(nn[:1], c)[0], c, color="0.5", fontsize=8)
     ax.axvspan(*f["band"], color="C2", alpha=0.05)
     ax.set(xlabel="spatial frequency n (cycle/m)", ylabel="Gd (m^3)", title="displacement PSD")
     ax.legend(fontsize=8)
