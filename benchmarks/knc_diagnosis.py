@@ -1,8 +1,8 @@
 """Blind benchmark of the K&C diagnosis (``python -m benchmarks.knc_diagnosis``).
 
 Each case is a truth vehicle with none, one or two concealed effects
-(:func:`suspenv.diagnosis.knc.truth.blind_case`): the case type comes from a fixed
-cycle of 36 (:data:`~suspenv.diagnosis.knc.truth.BLIND_PLAN`: every single effect
+(:func:`suspenv.rigs.knc_truth.blind_case`): the case type comes from a fixed
+cycle of 36 (:data:`~suspenv.rigs.knc_truth.BLIND_PLAN`: every single effect
 kind and hysteresis location 3 times, 6 two-effect pairs, 6 no-effect controls),
 magnitude, location and noise level are drawn from the seed. The diagnosis sees only
 the recordings (fit: parallel and opposite travel, lateral and longitudinal compliance;
@@ -67,7 +67,7 @@ STEPS = 6
 
 def _loop_gap_error(diag: Any, truth: dict) -> float:
     from benchmarks.knc_truth import loop_gap_at_static
-    from suspenv.diagnosis.knc.truth import measure_truth
+    from suspenv.rigs.knc_truth import measure_truth
 
     exact = measure_truth(
         truth["effects"], truth["seed"], steps=STEPS, noise_scale=0.0, tests=("parallel",)
@@ -126,7 +126,7 @@ def detectability(truth: dict) -> dict[str, dict]:
     """Signal-to-noise of each concealed effect alone (the four fitted tests, noise-free
     truth)."""
     from benchmarks.knc_truth import truth_snr
-    from suspenv.diagnosis.knc.truth import TRUTH_KIND
+    from suspenv.rigs.knc_truth import TRUTH_KIND
 
     return {
         TRUTH_KIND[name]: truth_snr(
@@ -141,8 +141,8 @@ def model_error(diag: Any, truth: dict) -> dict[str, float]:
     final model against the measured data, the noise-free truth, and the noise floor."""
     from benchmarks.knc_truth import noise_levels
     from suspenv.diagnosis.evidence import heldout_rms
-    from suspenv.diagnosis.knc.truth import measure_truth
     from suspenv.measurements.knc import rig_test
+    from suspenv.rigs.knc_truth import measure_truth
 
     scales = diag.base_fit.scales
     held = diag.heldout_recordings
@@ -170,7 +170,7 @@ def _ratio(a: float, b: float) -> float:
 def run_case(seed: int) -> dict[str, Any]:
     from suspenv.diagnosis.engine import diagnose
     from suspenv.diagnosis.knc.detectability import DETECTABLE_SNR
-    from suspenv.diagnosis.knc.truth import blind_case, truth_effects
+    from suspenv.rigs.knc_truth import blind_case, truth_effects
 
     case, truth = blind_case(seed, steps=STEPS)
     t0, c0 = time.perf_counter(), time.process_time()

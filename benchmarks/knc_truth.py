@@ -1,6 +1,6 @@
 """Blind K&C cases outside the library, and the truth's signal-to-noise: benchmark tools.
 
-The test car's recordings come from the package (:func:`suspenv.diagnosis.knc.truth.measure_truth`);
+The test car's recordings come from the package (:func:`suspenv.rigs.knc_truth.measure_truth`);
 this module conceals physics outside the K&C library in them (:func:`conceal_outside`:
 a strut bump stop, progressive or preloaded bushings, subframe compliance, load-cell
 cross-talk, a toe sign the recordings do not declare), draws the blind cases outside
@@ -23,11 +23,11 @@ import numpy as np
 from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.fitting import fit, stacked_residual
 from suspenv.diagnosis.knc.detectability import DETECTABLE_SNR, FITTED_TESTS
-from suspenv.diagnosis.knc.model import KncAxleModel
-from suspenv.diagnosis.knc.truth import BLIND_TESTS, measure_truth
 from suspenv.measurements import Recording
 from suspenv.measurements.knc import CHANNELS, SIDES, half_loops, rig_test
 from suspenv.rigs.knc import FORCE_AMPLITUDE
+from suspenv.rigs.knc_axle import KncAxleModel
+from suspenv.rigs.knc_truth import BLIND_TESTS, measure_truth
 
 
 def add_strut_stop(

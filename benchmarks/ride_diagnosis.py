@@ -53,7 +53,7 @@ from tqdm import tqdm
 from benchmarks.common import DEFAULT_OUTPUT_DIR, write_result
 from benchmarks.ride_mismatch import OUT_OF_LIBRARY_KINDS, mismatch_words
 from benchmarks.ride_truth import make_ride_case
-from suspenv.diagnosis.engine import diagnose
+from suspenv.diagnosis.engine import Diagnosis, diagnose
 from suspenv.diagnosis.ride.family import RideFamily
 from suspenv.diagnosis.road import diagnose_road, load_profile_txt
 from suspenv.measurements import Recording, data_dir
@@ -259,6 +259,15 @@ ROAD_TRUTH = {
 }
 
 
+def road_named(d: Diagnosis) -> str:
+    """A road verdict's name in the rows: ``waviness_steeper`` / ``waviness_shallower``
+    (the way of the named free waviness) or ``none``."""
+    if not d.named:
+        return "none"
+    free = d.findings["spectrum"].numbers["free_fit"]
+    return f"waviness_{'steeper' if free['waviness'] > 2.0 else 'shallower'}"
+
+
 def road_rows(seeds: tuple[int, ...]) -> list[dict[str, Any]]:
     rows = []
     for kind, truth in ROAD_TRUTH.items():
@@ -266,15 +275,16 @@ def road_rows(seeds: tuple[int, ...]) -> list[dict[str, Any]]:
             cpu = time.process_time()
             d = diagnose_road(road_case(kind, s), ride=False)
             cpu = time.process_time() - cpu
-            named = ";".join(d.named_kinds) or "none"
+            named = road_named(d)
+            free, std = (d.findings["spectrum"].numbers[k] for k in ("free_fit", "standard_fit"))
             common = {
                 "case": f"road {kind}/{s}",
                 "truth": truth,
                 "named": named,
                 "confident": d.confident,
                 "unexplained": d.unexplained,
-                "w_fit": d.free.waviness,
-                "w_se": d.free.waviness_se,
+                "w_fit": free["waviness"],
+                "w_se": free["waviness_se"],
                 "cpu_seconds": cpu,
             }
             if kind in ("knee", "hump", "joints"):
@@ -293,7 +303,7 @@ def road_rows(seeds: tuple[int, ...]) -> list[dict[str, Any]]:
                     **common,
                     "correct_top1": named == expected[kind],
                     "false_alarm": bool(kind == "w2" and d.named),
-                    "class": d.free.road_class if d.named else d.standard.road_class,
+                    "class": (free if d.named else std)["road_class"],
                 }
             )
     return rows
@@ -308,20 +318,22 @@ def real_road_rows() -> list[dict[str, Any]]:
     rows = []
     for a, b in ((p1, p2), (p2, p1)):
         d = diagnose_road(load_profile_txt(a), heldout=load_profile_txt(b))
+        free, h = (d.findings["spectrum"].numbers[k] for k in ("free_fit", "heldout"))
+        ride = d.findings["ride"].numbers
         rows.append(
             {
                 "part": "road (real)",
                 "case": f"{a.stem} -> held out {b.stem}",
                 "truth": "published: class B, steeper than w = 2",
-                "named": ";".join(d.named_kinds) or "none",
-                "correct_top1": bool(d.named_kinds == ["waviness_steeper"]),
-                "w_fit": d.free.waviness,
-                "w_se": d.free.waviness_se,
-                "class": d.free.road_class,
-                "heldout_w": d.heldout["heldout_waviness"],
-                "heldout_loglik_gain_per_line": d.heldout["heldout_loglik_gain_per_line"],
-                "aw_front_ratio": d.ride.get("ratio_front", float("nan")),
-                "aw_rear_ratio": d.ride.get("ratio_rear", float("nan")),
+                "named": road_named(d),
+                "correct_top1": road_named(d) == "waviness_steeper",
+                "w_fit": free["waviness"],
+                "w_se": free["waviness_se"],
+                "class": free["road_class"],
+                "heldout_w": h["heldout_waviness"],
+                "heldout_loglik_gain_per_line": h["heldout_loglik_gain_per_line"],
+                "aw_front_ratio": ride.get("ratio_front", float("nan")),
+                "aw_rear_ratio": ride.get("ratio_rear", float("nan")),
             }
         )
     return rows

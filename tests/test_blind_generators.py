@@ -23,9 +23,9 @@ from benchmarks.ride_mismatch import (
 from benchmarks.ride_truth import make_ride_case
 from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.component.motion import motion
-from suspenv.diagnosis.knc.truth import BLIND_TESTS, measure_truth
 from suspenv.diagnosis.ride.model import pulse_inputs_recording
 from suspenv.models.minibus import REFERENCE_MINIBUS
+from suspenv.rigs.knc_truth import BLIND_TESTS, measure_truth
 
 SIDES = ("left", "right")
 

@@ -114,7 +114,7 @@ def test_a_smooth_residual_above_the_limit_is_left_and_located():
 # ---------------------------------------------------------------- K&C: a strut stop
 def _knc(sides):
     from benchmarks.knc_truth import add_strut_stop
-    from suspenv.diagnosis.knc.truth import measure_truth
+    from suspenv.rigs.knc_truth import measure_truth
 
     recs = measure_truth({}, seed=3)
     if sides:

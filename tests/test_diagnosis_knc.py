@@ -16,15 +16,15 @@ from benchmarks.knc_truth import loop_gap_at_static
 from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.engine import diagnose
 from suspenv.diagnosis.knc.family import KncFamily, split_tests
-from suspenv.diagnosis.knc.model import KncAxleModel, make_candidate
-from suspenv.diagnosis.knc.truth import blind_case, measure_truth
 from suspenv.measurements import load_recording, save_recording
 from suspenv.measurements.knc import half_loops
 from suspenv.models.effects import make_effect
 from suspenv.models.mcpherson import build_axle, reference_design
 from suspenv.reports.diagnosis.knc import write_knc_report
 from suspenv.rigs.knc import run_tests
+from suspenv.rigs.knc_axle import KncAxleModel, make_candidate
 from suspenv.rigs.knc_recording import from_recording, to_recording
+from suspenv.rigs.knc_truth import blind_case, measure_truth
 
 STEPS = 6
 
@@ -300,7 +300,7 @@ def test_blind_plan_covers_every_kind_and_location():
     from collections import Counter
 
     from benchmarks.knc_diagnosis import DEV_SEEDS, REPORT_SEEDS
-    from suspenv.diagnosis.knc.truth import (
+    from suspenv.rigs.knc_truth import (
         BLIND_PLAN,
         HYSTERESIS_LOCATIONS,
         TRUTH_KIND,

@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 
 from suspenv.diagnosis.fitting import fit
-from suspenv.diagnosis.knc.model import KncAxleModel, make_candidate
 from suspenv.diagnosis.protocols import DiagnosableModel, RecordingLike
 from suspenv.diagnosis.ride.model import MinibusRideAdapter
 from suspenv.measurements import Recording
 from suspenv.models.components import make_component
 from suspenv.models.effects import make_effect
+from suspenv.rigs.knc_axle import KncAxleModel, make_candidate
 
 #: every member the diagnosis reads (the protocol's own list, checked against it below)
 MEMBERS = (

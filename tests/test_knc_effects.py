@@ -53,8 +53,8 @@ def test_truth_and_fitted_model_are_the_same_code():
     # reference: the truth generator and the fitted model place the same effects-library
     # objects through the same solver and sensor elements, so a model holding a truth
     # case's effects at the reference design reproduces its noise-free loops bit for bit
-    from suspenv.diagnosis.knc.model import KncAxleModel
-    from suspenv.diagnosis.knc.truth import measure_truth, truth_effects
+    from suspenv.rigs.knc_axle import KncAxleModel
+    from suspenv.rigs.knc_truth import measure_truth, truth_effects
 
     truth = {
         "hysteresis": {"f_c": 95.0, "bushings": ["lca_front", "lca_rear"]},
@@ -116,13 +116,13 @@ def test_effects_are_rejected_where_the_solver_cannot_place_them(axle):
 
 
 def test_candidates_are_kind_at_location_effects_of_the_library():
-    from suspenv.diagnosis.knc.model import (
+    from suspenv.models.mcpherson import MOMENT_ARM, bushings_at
+    from suspenv.rigs.knc_axle import (
         KncAxleModel,
         base_kind,
         effect_words,
         make_candidate,
     )
-    from suspenv.models.mcpherson import MOMENT_ARM, bushings_at
 
     top = make_candidate("dahl_hysteresis@top_mount", f_c=90.0)
     assert (top.kind, top.name, top.location, top.params["f_c"]) == (

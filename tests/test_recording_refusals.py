@@ -263,7 +263,7 @@ def test_text_and_mat_files_are_bounded(tmp_path):
 
 # ------------------------------------------------------------------ K&C loops
 def test_part_of_a_knc_loop_is_refused():
-    from suspenv.diagnosis.knc.truth import measure_truth
+    from suspenv.rigs.knc_truth import measure_truth
 
     recs = measure_truth({}, seed=0, steps=6, tests=("parallel", "opposite", "single"))
     part = recs["opposite"].select(slice(0, 9))

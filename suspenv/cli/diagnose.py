@@ -77,7 +77,7 @@ def _diagnose(args: argparse.Namespace) -> int:
         from suspenv.reports.diagnosis.road import write_road_report
 
         road = diagnose_road(target.recordings, heldout=target.holdout)
-        paths = write_road_report(road, out)
+        paths = write_road_report(road, target.recordings, out)
         print(road.verdict)
     else:
         from suspenv.diagnosis.engine import diagnose

@@ -104,7 +104,7 @@ def _knc_target(target: str, holdout: str | None, read: _Reader) -> Target | Non
         text = target[len(BLIND_PREFIX) :]
         if not text.isdigit():
             raise ValidationError(f"`knc-blind:SEED` needs an integer seed, but got {text!r}")
-        from suspenv.diagnosis.knc.truth import blind_case
+        from suspenv.rigs.knc_truth import blind_case
 
         case, _ = blind_case(int(text))
         return Target("knc", case["recordings"], _knc_holdout(holdout, read), f"knc_blind_{text}")

@@ -2,7 +2,7 @@
 
 The diagnosis (fit, evidence, refits, the loop) reads a model and a recording only
 through the members listed here; nothing probes for optional attributes. Models live
-below the diagnosis (``suspenv.models``, ``suspenv.diagnosis.knc.model``) and satisfy
+below the diagnosis (``suspenv.models``, ``suspenv.rigs.knc_axle``) and satisfy
 these protocols structurally: they import nothing from this module.
 
 :class:`DiagnosableModel` is generic in the recording type a model reads (``R``, a

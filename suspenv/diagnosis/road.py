@@ -30,17 +30,15 @@ share explained) judge its verdict.
 * What is left: the final model's log lines over every profile in noise units, with
   the known noise variance (:meth:`RoadFamily.residual_left`).
 * Class: the ISO 8608 class whose range (half to double its mean) holds Gd(n0).
-* Ride consequence: Wk-weighted RMS vertical acceleration of the reference minibus
-  (:mod:`suspenv.models.minibus.ride_model`) on synthetic two-track roads with the
-  fitted spectrum vs the standard-waviness fit, averaged over road seeds, and on the
-  measured profile itself (both wheel tracks in phase).
-
-The Welch PSD (:func:`~suspenv.rigs.road.welch_psd`, 64 m segments) is for plots only.
+* The fits' numbers, the class, the held-out likelihoods and the octaves are the
+  family's finding ``spectrum`` (:meth:`RoadFamily.spectrum_check`).
+* Ride consequence (finding ``ride``, after the loop):
+  :func:`suspenv.metrics.ride.road_ride_consequence` of the fitted spectrum vs the
+  standard-waviness fit.
 """
 
 from __future__ import annotations
 
-import time
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
@@ -51,17 +49,20 @@ from scipy import optimize, stats
 
 from suspenv.core.errors import ValidationError
 from suspenv.diagnosis import engine
+from suspenv.diagnosis.checks.finding import Check, Context, Finding
 from suspenv.diagnosis.checks.residual_left import Left, size_limit
 from suspenv.diagnosis.decision import DecisionRule
 from suspenv.diagnosis.engine import Diagnosis
 from suspenv.diagnosis.evidence import ljung_box
 from suspenv.diagnosis.family import OptionalSteps, Outcome, Screening, Setup
 from suspenv.diagnosis.fitting import FitResult, evaluate, residuals
+from suspenv.diagnosis.hypothesis import Hypothesis
 from suspenv.diagnosis.protocols import DiagnosableModel, RecordingLike
 from suspenv.diagnosis.split import Holdout, Recordings, Split, as_recordings, heldout_recordings
 from suspenv.measurements import Recording
 from suspenv.measurements.sources.road_profile import load_profile_txt
-from suspenv.rigs.road import N0, ROAD_CLASS_GD0, RoadProfile, generate_profile, welch_psd
+from suspenv.metrics.ride import road_ride_consequence
+from suspenv.rigs.road import N0, gd0_class
 
 #: default fitted band (cycle/m): long waves of a ~500 m profile up to 1 cycle/m (below
 #: the 2 cycle/m Nyquist line of a 0.25 m grid, where interpolation and profiler
@@ -70,7 +71,8 @@ DEFAULT_BAND = (0.02, 1.0)
 STANDARD_WAVINESS = 2.0
 
 
-def _profile(rec: Recording) -> tuple[np.ndarray, float]:
+def profile_grid(rec: Recording) -> tuple[np.ndarray, float]:
+    """(elevation (m), grid spacing (m)) of a profile recording."""
     rec.require(outputs=("elevation",), units={"elevation": "m"})
     z = rec.outputs["elevation"]
     dx = float(rec.meta.get("dx") or np.median(np.diff(rec.inputs.get("distance", rec.time))))
@@ -96,23 +98,12 @@ def difference_gain(n: np.ndarray, dx: float) -> np.ndarray:
 
 
 # ------------------------------------------------------------------ the spectral model
-def road_class(gd0: float) -> str:
-    """ISO 8608 class whose range (half to double its mean) holds Gd(n0) (m^3)."""
-    letters = "ABCDEFGH"
-    i = int(np.round(np.log(gd0 / ROAD_CLASS_GD0["A"]) / np.log(4.0)))
-    if i < 0:
-        return "A (smoother than class A's range)"
-    if i >= len(letters):
-        return "H (rougher than class H's range)"
-    return letters[i]
-
-
 def spectrum_recording(rec: Recording, band: tuple[float, float] = DEFAULT_BAND) -> Recording:
     """The lines of ``rec``'s pre-whitened periodogram inside ``band`` as a recording the
     loop reads: input ``log_frequency`` = ln(n / n0), output ``log_periodogram`` =
     ln(I / (4 sin^2(pi n dx) x 1 m^3)) (both dimensionless), one sample per line (the
     sample axis ``time`` counts the lines)."""
-    z, dx = _profile(rec)
+    z, dx = profile_grid(rec)
     n, i_ = slope_periodogram(z, dx)
     lo, hi = band
     if not 0 < lo < hi:
@@ -293,10 +284,7 @@ class PsdFit:
 
     @property
     def road_class(self) -> str:
-        return road_class(self.gd0)
-
-    def psd(self, n: np.ndarray) -> np.ndarray:
-        return self.gd0 * (np.asarray(n, float) / N0) ** (-self.waviness)
+        return gd0_class(self.gd0)
 
     def to_dict(self) -> dict[str, Any]:
         d = asdict(self)
@@ -411,7 +399,51 @@ class RoadFamily(OptionalSteps):
         return out
 
     def words(self, candidate: str, setup: Setup) -> str:
-        return "a waviness other than ISO 8608's 2"
+        """The free waviness's way and value (the fit :meth:`refit` makes)."""
+        free = PsdFit.of(
+            whittle_fit(RoadSpectrum((Waviness(),)), setup.split.fit_recordings), self.band
+        )
+        way = "steeper" if free.waviness > STANDARD_WAVINESS else "shallower"
+        return (
+            f"waviness {way} than ISO 8608's 2 (w = {free.waviness:.2f} +- {free.waviness_se:.2f})"
+        )
+
+    def checks(self) -> tuple[Check, ...]:
+        return (self.spectrum_check,)
+
+    def spectrum_check(self, ctx: Context) -> Finding | None:
+        """The road family's check after the search (finding ``spectrum``): both fits'
+        numbers (``free_fit``, ``standard_fit``: :class:`PsdFit`), the held-out likelihoods
+        (``heldout``), measured over model per octave for both (``octave_bands``), and the
+        sentence of the ISO 8608 class with the waviness test's numbers."""
+        hyp, base = ctx.outcome.hypotheses[0], ctx.outcome.base  # the one candidate's refit
+        if hyp.fit is None:
+            return None
+        free, std = PsdFit.of(hyp.fit, self.band), PsdFit.of(base, self.band)
+        recs = ctx.setup.split.fit_recordings
+        bands = [
+            {
+                **{k: a[k] for k in ("n_low", "n_high", "lines")},
+                "measured_over_free": a["ratio"],
+                "measured_over_standard": b["ratio"],
+            }
+            for a, b in zip(octaves(hyp.fit, recs).rows, octaves(base, recs).rows, strict=True)
+        ]
+        fit = free if ctx.outcome.named else std
+        test = (
+            f"LR = {hyp.lr_statistic_corrected:.1f}, p = {hyp.p_value_corrected:.2g}, "
+            f"dBIC = {hyp.delta_bic_corrected:.1f}"
+        )
+        return Finding(
+            "spectrum",
+            sentence=f"class {fit.road_class} by Gd(n0) = {fit.gd0 * 1e6:.1f}e-6 m^3 ({test})",
+            numbers={
+                "free_fit": free.to_dict(),
+                "standard_fit": std.to_dict(),
+                "heldout": _heldout_numbers(ctx.setup.split, base, hyp),
+                "octave_bands": bands,
+            },
+        )
 
     def assumptions(self, setup: Setup) -> list[str]:
         """What the spectral test takes for granted."""
@@ -516,79 +548,11 @@ def _halves(rec: Recording) -> tuple[Recording, Recording]:
 
 
 # ------------------------------------------------------------------ diagnosis
-@dataclass
-class WavinessTest:
-    """The loop's test of the free waviness against the standard's w = 2: the corrected
-    likelihood-ratio statistic, its p-value (before the Bonferroni split), the corrected
-    BIC change, the decision and its direction."""
-
-    lr_statistic: float
-    p_value: float
-    delta_bic: float
-    significant: bool
-    direction: str  # "steeper", "shallower" or ""
-
-    def to_dict(self) -> dict[str, Any]:
-        return asdict(self)
-
-
-@dataclass
-class RoadDiagnosis:
-    """Outcome of :func:`diagnose_road`; ``to_dict()`` is the machine-readable report.
-    ``diagnosis`` is the loop's (its findings: the residual left, the assumptions)."""
-
-    recording: str
-    family: str
-    verdict: str
-    named: list[dict[str, Any]]
-    free: PsdFit
-    standard: PsdFit
-    test: WavinessTest
-    heldout: dict[str, Any]
-    ride: dict[str, Any]
-    octave_bands: list[dict[str, float]]
-    seconds: float
-    diagnosis: Diagnosis = field(repr=False)
-    welch: tuple[np.ndarray, np.ndarray] = field(repr=False, default=None)  # type: ignore[assignment]
-    recordings: list[Recording] = field(repr=False, default_factory=list)
-
-    @property
-    def named_kinds(self) -> list[str]:
-        return [h["kind"] for h in self.named]
-
-    @property
-    def unexplained(self) -> bool:
-        return self.diagnosis.unexplained
-
-    @property
-    def confident(self) -> bool:
-        return self.diagnosis.confident
-
-    def to_dict(self) -> dict[str, Any]:
-        d = self.diagnosis.to_dict()
-        return {
-            "recording": self.recording,
-            "family": self.family,
-            "verdict": self.verdict,
-            "confident": self.confident,
-            "unexplained": self.unexplained,
-            "assumptions": d["assumptions"],
-            "named": self.named,
-            "free_fit": self.free.to_dict(),
-            "standard_fit": self.standard.to_dict(),
-            "test": self.test.to_dict(),
-            "heldout": self.heldout,
-            "ride": self.ride,
-            "octave_bands": self.octave_bands,
-            "findings": d["findings"],
-            "seconds": self.seconds,
-        }
-
-
-def _heldout_numbers(diag: Diagnosis, free: FitResult) -> dict[str, Any]:
+def _heldout_numbers(split: Split, base: FitResult, hyp: Hypothesis) -> dict[str, Any]:
     """The held-out check in numbers: both models' Whittle log-likelihood per held-out
     line, and the waviness fitted to the held-out profile(s) on their own."""
-    held = diag.split.heldout_recordings
+    held, free = split.heldout_recordings, hyp.fit
+    assert free is not None  # the candidate's refit (checked by the caller)
     own = whittle_fit(RoadSpectrum((Waviness(),)), held)
 
     def per_line(fit: FitResult) -> float:
@@ -596,17 +560,17 @@ def _heldout_numbers(diag: Diagnosis, free: FitResult) -> dict[str, Any]:
 
     w, se = float(free.theta[1]), float(free.stderr[1])
     return {
-        "description": diag.holdout,
+        "description": split.description,
         "fit_waviness": w,
         "fit_waviness_se": se,
         "heldout_waviness": float(own.theta[1]),
         "heldout_waviness_se": float(own.stderr[1]),
         "waviness_agreement_z": float((own.theta[1] - w) / np.hypot(own.stderr[1], se)),
         "heldout_loglik_per_line_free": per_line(free),
-        "heldout_loglik_per_line_standard": per_line(diag.base_fit),
-        "heldout_loglik_gain_per_line": per_line(free) - per_line(diag.base_fit),
+        "heldout_loglik_per_line_standard": per_line(base),
+        "heldout_loglik_gain_per_line": per_line(free) - per_line(base),
         "heldout_lines": own.n_samples,
-        "heldout_reduction": float(diag.hypotheses[0].heldout_reduction),
+        "heldout_reduction": float(hyp.heldout_reduction),
     }
 
 
@@ -618,9 +582,10 @@ def diagnose_road(
     ride: bool = True,
     ride_speed_kmh: float = 80.0,
     ride_seeds: tuple[int, ...] = (0, 1, 2),
-) -> RoadDiagnosis:
+) -> Diagnosis:
     """Diagnose a measured road profile against ISO 8608 in the one loop (see the
-    module docstring).
+    module docstring); the road's numbers are the finding ``spectrum``
+    (:meth:`RoadFamily.spectrum_check`), the ride consequence the finding ``ride``, said last.
 
     Args:
         recording: a profile Recording (or a ``profile_*.txt`` path).
@@ -628,196 +593,31 @@ def diagnose_road(
             the fit then uses the first half).
         band: fitted spatial-frequency band (cycle/m).
         alpha: the decision rule's level.
-        ride: also compute the ride consequence (a few short ride-model runs).
+        ride: also compute the ride consequence (a few short ride-model runs,
+            :func:`suspenv.metrics.ride.road_ride_consequence`).
     """
-    t0 = time.perf_counter()
     rec = recording if isinstance(recording, Recording) else load_profile_txt(recording)
     held = (
         heldout if heldout is None or isinstance(heldout, Recording) else load_profile_txt(heldout)
     )
     family = RoadFamily(band=band, rule=replace(ROAD_RULE, alpha=alpha))
     diag = engine.diagnose(rec, family, holdout=held)
-    hyp = diag.hypotheses[0]
-    assert hyp.fit is not None and hyp.comparison is not None  # the one candidate's refit
-    free, std = PsdFit.of(hyp.fit, band), PsdFit.of(diag.base_fit, band)
-    direction = ""
-    named = []
-    if diag.named:
-        direction = "steeper" if free.waviness > STANDARD_WAVINESS else "shallower"
-        named.append(
-            {
-                "kind": f"waviness_{direction}",
-                "family": "road_spectrum",
-                "words": f"waviness {direction} than ISO 8608's 2 (w = {free.waviness:.2f} "
-                f"+- {free.waviness_se:.2f})",
-                "params": {
-                    "waviness": {"value": free.waviness, "stderr": free.waviness_se},
-                    "gd0": {"value": free.gd0, "ci95": list(free.gd0_ci95)},
-                },
-            }
+    spectrum = diag.findings.get("spectrum")
+    if ride and spectrum is not None:
+        free, std = spectrum.numbers["free_fit"], spectrum.numbers["standard_fit"]
+        numbers = road_ride_consequence(
+            (free["gd0"], free["waviness"]),
+            std["gd0"],
+            profile_grid(rec),
+            ride_speed_kmh,
+            ride_seeds,
         )
-    test = WavinessTest(
-        hyp.lr_statistic_corrected,
-        hyp.p_value_corrected,
-        hyp.delta_bic_corrected,
-        bool(diag.named),
-        direction,
-    )
-    verdict = _road_verdict(diag, named, free, std, test)
-    ride_info: dict[str, Any] = {}
-    if ride:
-        ride_info = ride_consequence(free, std, rec, ride_speed_kmh, ride_seeds)
-        if ride_info:
-            verdict += (
-                f". Ride: Wk-weighted RMS at {ride_speed_kmh:g} km/h front "
-                f"{ride_info['aw_front_measured_spectrum']:.3f} vs "
-                f"{ride_info['aw_front_standard']:.3f} m/s^2 on the w = 2 fit "
-                f"({100 * (ride_info['ratio_front'] - 1):+.0f} %)"
-            )
-    table = octaves(hyp.fit, diag.split.fit_recordings).rows
-    base_table = octaves(diag.base_fit, diag.split.fit_recordings).rows
-    bands = [
-        {
-            **{k: a[k] for k in ("n_low", "n_high", "lines")},
-            "measured_over_free": a["ratio"],
-            "measured_over_standard": b["ratio"],
-        }
-        for a, b in zip(table, base_table, strict=True)
-    ]
-    return RoadDiagnosis(
-        recording=rec.name,
-        family="road_profile",
-        verdict=verdict,
-        named=named,
-        free=free,
-        standard=std,
-        test=test,
-        heldout=_heldout_numbers(diag, hyp.fit),
-        ride=ride_info,
-        octave_bands=bands,
-        seconds=time.perf_counter() - t0,
-        diagnosis=diag,
-        welch=welch_psd(*_profile(rec), segment_length=64.0),
-        recordings=[rec] + ([held] if held is not None else []),
-    )
-
-
-def _road_verdict(
-    diag: Diagnosis, named: list[dict[str, Any]], free: PsdFit, std: PsdFit, test: WavinessTest
-) -> str:
-    """The verdict: the waviness found (or not), the class, the test's numbers, then the
-    loop's sentences (what is left, what was assumed)."""
-    numbers = f"LR = {test.lr_statistic:.1f}, p = {test.p_value:.2g}, dBIC = {test.delta_bic:.1f}"
-    if named:
-        head = (
-            f"{named[0]['words']}; class {free.road_class} by Gd(n0) = {free.gd0 * 1e6:.1f}e-6 "
-            f"m^3 ({numbers})"
+        said = (
+            f"ride: Wk-weighted RMS at {ride_speed_kmh:g} km/h front "
+            f"{numbers['aw_front_measured_spectrum']:.3f} vs {numbers['aw_front_standard']:.3f} "
+            f"m/s^2 on the w = 2 fit ({100 * (numbers['ratio_front'] - 1):+.0f} %)"
         )
-        if not diag.confident:
-            head = "not confident: " + head
-    else:
-        head = (
-            f"no significant waviness deviation from ISO 8608's 2 (w = {free.waviness:.2f} +- "
-            f"{free.waviness_se:.2f}, {numbers}); class {std.road_class} by "
-            f"Gd(n0) = {std.gd0 * 1e6:.1f}e-6 m^3"
-        )
-    return ". ".join([head, *diag.evidence])
-
-
-# ------------------------------------------------------------------ ride consequence
-def _in_phase_inputs(
-    track: np.ndarray, dx: float, speed: float, n_steps: int, wheelbase: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """Wheel inputs (2N+1, 4) with one track under both sides; the rear axle starts
-    ``wheelbase`` further along the track (its first metres are driven on by the rear
-    wheels only after the front ones). Grid step ``dx`` = speed * dt / 2."""
-    m = 2 * n_steps + 1
-    lag = wheelbase / dx
-    x = np.arange(m, dtype=float) + np.ceil(lag)
-    front = np.interp(x, np.arange(track.size), track)
-    rear = np.interp(x - lag, np.arange(track.size), track)
-    slope = np.gradient(track, dx)
-    sf = np.interp(x, np.arange(track.size), slope)
-    sr = np.interp(x - lag, np.arange(track.size), slope)
-    z = np.stack([front, front, rear, rear], axis=1)
-    zd = speed * np.stack([sf, sf, sr, sr], axis=1)
-    return z - z[0], zd
-
-
-def ride_consequence(
-    free: PsdFit,
-    standard: PsdFit,
-    measured: Recording | None = None,
-    speed_kmh: float = 80.0,
-    seeds: tuple[int, ...] = (0, 1, 2),
-    duration_s: float = 10.0,
-    sample_rate: float = 100.0,
-) -> dict[str, Any]:
-    """Weighted RMS (m/s^2) of the reference minibus (study pick, no load) on roads with
-    the fitted spectrum vs the standard-waviness fit (mean over ``seeds``), and on the
-    measured profile itself with both tracks in phase vs a w = 2 road in phase."""
-    from suspenv.metrics.iso2631 import weighted_rms_fft
-    from suspenv.models.minibus import REFERENCE_MINIBUS, STUDY_PICK, vehicle_parameters
-    from suspenv.models.minibus.ride_model import RideModel
-    from suspenv.rigs.ride import profile_inputs
-
-    veh = REFERENCE_MINIBUS
-    model = RideModel(vehicle_parameters(STUDY_PICK[None, :], "no_load", veh))
-    v = speed_kmh / 3.6
-    dt = 1.0 / sample_rate
-    n_settle = int(sample_rate)
-    n_rec = int(round(duration_s * sample_rate))
-    n_steps = n_settle + n_rec
-    dx = v * dt / 2.0
-    length = 2 * n_rec * dx
-
-    def aw(prof: RoadProfile) -> tuple[float, float]:
-        z, zd = profile_inputs(prof, v, 2 * n_steps + 1, n_settle, veh.wheelbase)
-        rec = model.simulate(z, zd, dt, discard=n_settle)
-        return (
-            float(weighted_rms_fft(rec.acc_front, sample_rate, "Wk")[0]),
-            float(weighted_rms_fft(rec.acc_rear, sample_rate, "Wk")[0]),
-        )
-
-    out: dict[str, Any] = {"speed_kmh": speed_kmh, "seeds": list(seeds), "design": "study pick"}
-    res: dict[str, list[tuple[float, float]]] = {"measured_spectrum": [], "standard": []}
-    for s in seeds:
-        for key, fit in (("measured_spectrum", free), ("standard", standard)):
-            prof = generate_profile(length, dx, fit.gd0, s, veh.track_front, waviness=fit.waviness)
-            res[key].append(aw(prof))
-    for key, vals in res.items():
-        arr = np.array(vals)
-        out[f"aw_front_{key}"] = float(arr[:, 0].mean())
-        out[f"aw_rear_{key}"] = float(arr[:, 1].mean())
-        out[f"aw_front_{key}_seed_std"] = float(arr[:, 0].std(ddof=1)) if len(arr) > 1 else 0.0
-        out[f"aw_rear_{key}_seed_std"] = float(arr[:, 1].std(ddof=1)) if len(arr) > 1 else 0.0
-    out["ratio_front"] = out["aw_front_measured_spectrum"] / out["aw_front_standard"]
-    out["ratio_rear"] = out["aw_rear_measured_spectrum"] / out["aw_rear_standard"]
-    if measured is not None:
-        z_m, dx_m = _profile(measured)
-        span = (len(z_m) - 1) * dx_m
-        n_fit = int(np.floor(span / dx))
-        if n_fit > 2 * (n_settle + 8):
-            # the measured track resampled to the simulation's half-step grid, in phase on
-            # both sides; periodic continuation is not needed (runs cover the profile)
-            xs = dx * np.arange(n_fit)
-            zm = np.interp(xs, dx_m * np.arange(len(z_m)), z_m)
-            zm = zm - np.linspace(zm[0], zm[-1], zm.size)
-            std_prof = generate_profile(
-                n_fit * dx, dx, standard.gd0, seeds[0] if seeds else 0, None, waviness=2.0
-            )
-            n_run = min((n_fit - 1) // 2 - int(np.ceil(veh.wheelbase / dx)) - 2, 3 * n_steps)
-            a_m: list[float] = []
-            a_s: list[float] = []
-            for track, acc in ((zm, a_m), (std_prof.left, a_s)):
-                z, zd = _in_phase_inputs(track, dx, v, n_run, veh.wheelbase)
-                r = model.simulate(z, zd, dt, discard=n_settle)
-                acc += [
-                    float(weighted_rms_fft(r.acc_front, sample_rate, "Wk")[0]),
-                    float(weighted_rms_fft(r.acc_rear, sample_rate, "Wk")[0]),
-                ]
-            out["aw_front_measured_profile_in_phase"] = a_m[0]
-            out["aw_rear_measured_profile_in_phase"] = a_m[1]
-            out["aw_front_standard_in_phase"] = a_s[0]
-            out["aw_rear_standard_in_phase"] = a_s[1]
-    return out
+        diag.findings["ride"] = Finding("ride", sentence=said, numbers=numbers)
+        diag.evidence.append(said)
+        diag.verdict += ". R" + said[1:]
+    return diag

@@ -29,7 +29,7 @@ Frame ISO 8855 (x forward, y left, z up), SI units:
 model needs to replay the same loop. ``recording.test`` is ``"knc_<test>"``.
 
 This is the recording format only; the "measured" truth vehicles of the diagnosis
-benchmark are made by :mod:`suspenv.diagnosis.knc.truth`.
+benchmark are made by :mod:`suspenv.rigs.knc_truth`.
 """
 
 from __future__ import annotations

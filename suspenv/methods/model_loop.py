@@ -9,7 +9,7 @@ same :class:`~suspenv.methods.curve_fit.CurveModel` the first fit used:
   parameter but the one anti-roll bar gets a right-side twin (``sides = "both"``);
 * a path-dependent or elastic pattern (``loop``: hysteresis or friction;
   ``progressive``: cubic stiffness): every candidate place the K&C diagnosis knows for
-  that family (:attr:`suspenv.diagnosis.knc.model.KncAxleModel.candidate_effects`,
+  that family (:attr:`suspenv.rigs.knc_axle.KncAxleModel.candidate_effects`,
   e.g. Dahl hysteresis in the lower-arm bushes, in the top mount, in both, Coulomb
   friction in the strut) is fitted alone (its parameters only, the diagnosis' start
   values and bounds) with the design free to first order (its Jacobian); the
@@ -101,9 +101,9 @@ class Refinement:
 def effect_candidates(family: str) -> list[str]:
     """Candidate effects (``kind@location``) of a residual family that the axle's solver
     simulates: the K&C diagnosis' own list."""
-    from suspenv.diagnosis.knc.model import KncAxleModel, base_kind
     from suspenv.diagnosis.knc.signatures import FAMILY_KINDS
     from suspenv.models.mcpherson.effects import PLACEMENTS
+    from suspenv.rigs.knc_axle import KncAxleModel, base_kind
 
     kinds = [k for k in FAMILY_KINDS.get(family, ()) if k in PLACEMENTS]
     return [c for c in KncAxleModel.candidate_effects if base_kind(c) in kinds]
@@ -112,7 +112,7 @@ def effect_candidates(family: str) -> list[str]:
 def effect_parameters(effect: Effect) -> list[Parameter]:
     """The fitted parameters of ``effect`` named ``<effect>.<parameter>`` (the K&C
     diagnosis' bounds and start values)."""
-    from suspenv.diagnosis.knc.model import fitted_parameters
+    from suspenv.rigs.knc_axle import fitted_parameters
 
     return [replace(p, name=f"{effect.name}.{p.name}") for p in fitted_parameters(effect)]
 
@@ -141,7 +141,7 @@ def _candidate_fit(
     cost solved is the place's. A cost is the sum of squares once the design takes its
     best first-order step (:func:`_free_cost` with the design's Jacobian ``J`` at
     ``x``; None: the design held)."""
-    from suspenv.diagnosis.knc.model import effect_words, make_candidate
+    from suspenv.rigs.knc_axle import effect_words, make_candidate
 
     effect = make_candidate(name)
     (param,) = effect_parameters(effect)  # the K&C candidates fit one value each
@@ -443,7 +443,7 @@ def _residual_at(model: CurveModel, x: np.ndarray) -> np.ndarray:
 
 def _start(model: CurveModel, x0: np.ndarray) -> np.ndarray:
     """The first fit's start design as a design of ``model`` (effects at their starts)."""
-    from suspenv.diagnosis.knc.model import fitted_parameters
+    from suspenv.rigs.knc_axle import fitted_parameters
 
     starts: Mapping[str, float] = {
         f"{e.name}.{p.name}": float(p.default if p.default is not None else p.low)

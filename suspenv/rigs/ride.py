@@ -132,6 +132,27 @@ def profile_inputs(
     return z, zd
 
 
+def in_phase_inputs(
+    track: np.ndarray, dx: float, speed: float, n_steps: int, wheelbase: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Wheel inputs (2N+1, 4) on the half-step grid from one measured (not periodic)
+    ``track`` (m) under both sides: elevation (m, relative to the first sample) and rate
+    (m/s) at ``speed`` (m/s), columns FL, FR, RL, RR; the rear axle starts ``wheelbase``
+    (m) further along the track (its first metres are driven on by the rear wheels only
+    after the front ones). Grid step ``dx`` (m) = speed * dt / 2."""
+    m = 2 * n_steps + 1
+    lag = wheelbase / dx
+    x = np.arange(m, dtype=float) + np.ceil(lag)
+    front = np.interp(x, np.arange(track.size), track)
+    rear = np.interp(x - lag, np.arange(track.size), track)
+    slope = np.gradient(track, dx)
+    sf = np.interp(x, np.arange(track.size), slope)
+    sr = np.interp(x - lag, np.arange(track.size), slope)
+    z = np.stack([front, front, rear, rear], axis=1)
+    zd = speed * np.stack([sf, sf, sr, sr], axis=1)
+    return z - z[0], zd
+
+
 def random_road_run(
     X: np.ndarray,
     load_cases: str | Sequence[str] = LOAD_CASES,

@@ -50,6 +50,17 @@ def class_gd0(road_class: str | float) -> float:
     return value
 
 
+def gd0_class(gd0: float) -> str:
+    """ISO 8608 class whose range (half to double its mean) holds Gd(n0) (m^3)."""
+    letters = "ABCDEFGH"
+    i = int(np.round(np.log(gd0 / ROAD_CLASS_GD0["A"]) / np.log(4.0)))
+    if i < 0:
+        return "A (smoother than class A's range)"
+    if i >= len(letters):
+        return "H (rougher than class H's range)"
+    return letters[i]
+
+
 def displacement_psd(
     n: np.ndarray, road_class: str | float = "B", waviness: float = 2.0
 ) -> np.ndarray:

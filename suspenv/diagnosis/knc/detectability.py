@@ -30,8 +30,8 @@ from typing import Any
 import numpy as np
 
 from suspenv.diagnosis.fitting import stacked_residual
-from suspenv.diagnosis.knc.model import KncAxleModel, effect_words, make_candidate
-from suspenv.diagnosis.knc.truth import BLIND_TESTS
+from suspenv.rigs.knc_axle import KncAxleModel, effect_words, make_candidate
+from suspenv.rigs.knc_truth import BLIND_TESTS
 
 #: the blind cases' fitted tests (single-wheel travel is held out)
 FITTED_TESTS = tuple(t for t in BLIND_TESTS if t != "single")

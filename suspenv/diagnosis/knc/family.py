@@ -7,7 +7,7 @@ Its pieces of the one loop (:mod:`suspenv.diagnosis.engine`):
    the others (default single-wheel travel) or separate recordings (e.g. another
    amplitude).
 2. **Baseline**: fit the plain model's small parameter subset
-   (:data:`~suspenv.diagnosis.knc.model.FIT_PARAMETERS`) weighted by the measured
+   (:data:`~suspenv.rigs.knc_axle.FIT_PARAMETERS`) weighted by the measured
    spread, then again weighted by each channel's residual (its noise scale); these
    scales stay fixed for every model compared.
 3. **Locate**: residual map test x channel x branch x side
@@ -55,7 +55,6 @@ from suspenv.diagnosis.fitting import FitResult, evaluate, fit, noise_scales, re
 from suspenv.diagnosis.hypothesis import Ambiguity, Hypothesis, split_candidate
 from suspenv.diagnosis.knc.detectability import detection_limits, limits_sentence
 from suspenv.diagnosis.knc.locate import ResidualMap, residual_map
-from suspenv.diagnosis.knc.model import KncAxleModel, effect_words, make_candidate
 from suspenv.diagnosis.knc.score_test import SCORE_TESTED, score_signatures_by_model
 from suspenv.diagnosis.knc.signatures import FAMILY_KINDS, KncSignature, score_signatures
 from suspenv.diagnosis.protocols import DiagnosableModel
@@ -67,6 +66,7 @@ from suspenv.diagnosis.split import (
     heldout_recordings,
 )
 from suspenv.measurements.knc import rig_test
+from suspenv.rigs.knc_axle import KncAxleModel, effect_words, make_candidate
 
 #: the reported K&C benchmark's decision rule: the held-out rig test is judged in noise
 #: units (it sees a refit's change only where it moves the bushings the change is about)

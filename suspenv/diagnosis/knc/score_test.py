@@ -28,8 +28,8 @@ from typing import Any
 import numpy as np
 
 from suspenv.diagnosis.fitting import stacked_residual
-from suspenv.diagnosis.knc.model import KncAxleModel, fitted_parameters, make_candidate
 from suspenv.diagnosis.knc.signatures import KncSignature
+from suspenv.rigs.knc_axle import KncAxleModel, fitted_parameters, make_candidate
 
 #: candidates tested by the score test -> their signature family
 SCORE_TESTED = {

@@ -14,33 +14,39 @@ from pathlib import Path
 import numpy as np
 
 from suspenv.core.markdown import text
-from suspenv.diagnosis.road import RoadDiagnosis
+from suspenv.diagnosis.engine import Diagnosis
+from suspenv.diagnosis.road import profile_grid
+from suspenv.measurements import Recording
 from suspenv.reports._mpl import pyplot, save_figure
-from suspenv.rigs.road import N0, ROAD_CLASS_GD0
+from suspenv.rigs.road import displacement_psd, welch_psd
 from suspenv.runs.run_dir import write_file
 
 
-def write_road_report(diag: RoadDiagnosis, out_dir: str | Path) -> list[Path]:
-    """``road_diagnosis.md`` + ``road_psd.png`` (Welch PSD with both fits, residual by band)
-    + ``road_diagnosis.json``."""
+def write_road_report(diag: Diagnosis, profile: Recording, out_dir: str | Path) -> list[Path]:
+    """``road_diagnosis.md`` + ``road_psd.png`` (Welch PSD of ``profile``, 64 m segments,
+    with both fits; residual by band) + ``road_diagnosis.json`` of a
+    :func:`~suspenv.diagnosis.road.diagnose_road` diagnosis."""
     plt = pyplot()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    n_w, p_w = diag.welch
+    n_w, p_w = welch_psd(*profile_grid(profile), segment_length=64.0)
+    spectrum = diag.findings["spectrum"].numbers
+    f, s, h = spectrum["free_fit"], spectrum["standard_fit"], spectrum["heldout"]
     fig, (ax, ax2) = plt.subplots(1, 2, figsize=(12, 4.5))
     sel = n_w > 0
-    ax.loglog(n_w[sel], p_w[sel], color="0.3", label=f"{diag.recording} (Welch)")
-    nn = np.geomspace(*diag.free.band, 100)
-    ax.loglog(nn, diag.free.psd(nn), "C3", label=f"free fit, w = {diag.free.waviness:.2f}")
-    ax.loglog(nn, diag.standard.psd(nn), "C0--", label="ISO 8608 form, w = 2")
+    ax.loglog(n_w[sel], p_w[sel], color="0.3", label=f"{profile.name} (Welch)")
+    nn = np.geomspace(f["band"][0], f["band"][1], 100)
+    free = displacement_psd(nn, f["gd0"], f["waviness"])
+    ax.loglog(nn, free, "C3", label=f"free fit, w = {f['waviness']:.2f}")
+    ax.loglog(nn, displacement_psd(nn, s["gd0"]), "C0--", label="ISO 8608 form, w = 2")
     for c in "ABCDE":
-        ax.loglog(nn, ROAD_CLASS_GD0[c] * (nn / N0) ** -2.0, color="0.8", lw=0.8)
-        ax.text(nn[0], ROAD_CLASS_GD0[c] * (nn[0] / N0) ** -2.0, c, color="0.5", fontsize=8)
-    ax.axvspan(*diag.free.band, color="C2", alpha=0.05)
+        ax.loglog(nn, displacement_psd(nn, c), color="0.8", lw=0.8)
+        ax.text(nn[0], displacement_psd(nn[:1], c)[0], c, color="0.5", fontsize=8)
+    ax.axvspan(*f["band"], color="C2", alpha=0.05)
     ax.set(xlabel="spatial frequency n (cycle/m)", ylabel="Gd (m^3)", title="displacement PSD")
     ax.legend(fontsize=8)
     ax.grid(True, which="both", alpha=0.3)
-    rows = diag.octave_bands
+    rows = spectrum["octave_bands"]
     centres = [np.sqrt(r["n_low"] * r["n_high"]) for r in rows]
     ax2.semilogx(centres, [r["measured_over_free"] for r in rows], "C3o-", label="free fit")
     ax2.semilogx(centres, [r["measured_over_standard"] for r in rows], "C0s--", label="w = 2")
@@ -55,22 +61,24 @@ def write_road_report(diag: RoadDiagnosis, out_dir: str | Path) -> list[Path]:
     png = out / "road_psd.png"
     save_figure(fig, png, dpi=110, tight=True)
 
-    f, s, t, h = diag.free, diag.standard, diag.test, diag.heldout
+    t = diag.hypotheses[0]
     lines = [
-        f"# Road profile diagnosis: {text(diag.recording)}",
+        f"# Road profile diagnosis: {text(profile.name)}",
         "",
         f"**Verdict:** {diag.verdict}",
         "",
         "| model | Gd(n0) (1e-6 m^3) | 95 % interval | w | class | log-likelihood |",
         "|---|---|---|---|---|---|",
-        f"| free | {f.gd0 * 1e6:.1f} | {f.gd0_ci95[0] * 1e6:.1f}-{f.gd0_ci95[1] * 1e6:.1f} | "
-        f"{f.waviness:.3f} +- {f.waviness_se:.3f} | {f.road_class} | {f.loglik:.1f} |",
-        f"| ISO 8608 (w = 2) | {s.gd0 * 1e6:.1f} | {s.gd0_ci95[0] * 1e6:.1f}-"
-        f"{s.gd0_ci95[1] * 1e6:.1f} | 2 | {s.road_class} | {s.loglik:.1f} |",
+        f"| free | {f['gd0'] * 1e6:.1f} | {f['gd0_ci95'][0] * 1e6:.1f}-"
+        f"{f['gd0_ci95'][1] * 1e6:.1f} | {f['waviness']:.3f} +- {f['waviness_se']:.3f} | "
+        f"{f['road_class']} | {f['loglik']:.1f} |",
+        f"| ISO 8608 (w = 2) | {s['gd0'] * 1e6:.1f} | {s['gd0_ci95'][0] * 1e6:.1f}-"
+        f"{s['gd0_ci95'][1] * 1e6:.1f} | 2 | {s['road_class']} | {s['loglik']:.1f} |",
         "",
-        f"Band {f.band[0]:g}-{f.band[1]:g} cycle/m, {f.n_lines} Fourier lines (Whittle "
-        f"likelihood of the pre-whitened profile). Likelihood ratio {t.lr_statistic:.2f} "
-        f"(chi^2, 1 dof): p = {t.p_value:.3g}; BIC change {t.delta_bic:+.1f}.",
+        f"Band {f['band'][0]:g}-{f['band'][1]:g} cycle/m, {f['n_lines']} Fourier lines "
+        f"(Whittle likelihood of the pre-whitened profile). Likelihood ratio "
+        f"{t.lr_statistic_corrected:.2f} (chi^2, 1 dof): p = {t.p_value_corrected:.3g}; "
+        f"BIC change {t.delta_bic_corrected:+.1f}.",
         "",
         f"Held-out check ({h['description']}): fitted w {h['fit_waviness']:.2f} +- "
         f"{h['fit_waviness_se']:.2f}, held-out w {h['heldout_waviness']:.2f} +- "
@@ -80,8 +88,8 @@ def write_road_report(diag: RoadDiagnosis, out_dir: str | Path) -> list[Path]:
         f"{h['heldout_loglik_gain_per_line']:+.4f}).",
         "",
     ]
-    if diag.ride:
-        r = diag.ride
+    if "ride" in diag.findings:
+        r = diag.findings["ride"].numbers
         lines += [
             f"Ride consequence (reference minibus, study pick, no load, {r['speed_kmh']:g} km/h,"
             f" mean of {len(r['seeds'])} road seeds): Wk-weighted RMS front "

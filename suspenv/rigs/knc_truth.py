@@ -1,14 +1,14 @@
-"""Truth vehicles and blind cases of the K&C diagnosis: "measured" rig recordings.
+"""Truth vehicles and blind cases on the K&C rig: "measured" rig recordings.
 
 A truth vehicle is the test car (:func:`suspenv.models.mcpherson.truth.truth_vehicle`:
 the reference axle, optionally with left/right manufacturing tolerances) with
 concealed effects. The concealed force and sensor effects are the very
 effects-library objects the fitted model takes
-(:func:`~suspenv.diagnosis.knc.model.make_candidate`, ``kind@location``), run through
-the same solver and rig (:func:`suspenv.rigs.knc.run_tests`) and the same sensor
-elements, so a :class:`~suspenv.diagnosis.knc.model.KncAxleModel` holding the same
-effects reproduces a truth's noise-free loops (tolerances aside). Sensor noise is
-Gaussian (:data:`suspenv.models.mcpherson.truth.CHANNEL_NOISE`, scaled, seeded).
+(:func:`~suspenv.rigs.knc_axle.make_candidate`, ``kind@location``), run through the
+same solver and rig (:func:`suspenv.rigs.knc.run_tests`) and the same sensor
+elements, so a :class:`~suspenv.rigs.knc_axle.KncAxleModel` holding the same effects
+reproduces a truth's noise-free loops (tolerances aside). Sensor noise is Gaussian
+(:data:`suspenv.models.mcpherson.truth.CHANNEL_NOISE`, scaled, seeded).
 
 A truth is described by a mapping of its names (:data:`TRUTH_KIND`: ``hysteresis``,
 ``friction``, ``progressive``, ``asymmetry``, ``sensor_gain``, ``sensor_offset``) to
@@ -27,7 +27,6 @@ from typing import Any
 import numpy as np
 
 from suspenv.core.errors import ValidationError
-from suspenv.diagnosis.knc.model import make_candidate
 from suspenv.measurements import Recording
 from suspenv.measurements.knc import rig_test
 from suspenv.models.effects import Effect
@@ -35,6 +34,7 @@ from suspenv.models.mcpherson import bushings_at
 from suspenv.models.mcpherson.effects import location_of
 from suspenv.models.mcpherson.truth import CHANNEL_NOISE, TOLERANCE, truth_vehicle
 from suspenv.rigs.knc import FORCE_AMPLITUDE, TESTS, run_tests
+from suspenv.rigs.knc_axle import make_candidate
 from suspenv.rigs.knc_recording import to_recordings
 
 #: the concealed effect each truth name stands for, at its default magnitude: the same

@@ -20,7 +20,7 @@ conditioned (the others stay at the start design, by default the reference vehic
 * ``arb_torsion``: the bar: roll (opposite travel) and single-wheel rate.
 
 Effects: effects-library :class:`~suspenv.models.effects.Effect` objects, the same the
-truth generator (:mod:`suspenv.diagnosis.knc.truth`) and the solver take; candidates
+truth generator (:mod:`suspenv.rigs.knc_truth`) and the solver take; candidates
 are written ``kind@location`` (:func:`make_candidate`; a kind alone sits at its
 default location, :data:`KNC_EFFECTS`, which also holds the fitted parameters with
 the K&C bounds). Parameters in the spec's units; the engine names them with the
