@@ -70,8 +70,13 @@ REMAINDER_STEP, REMAINDER_TOP = 1.0 / 16.0, 24.0
 #: lags (s) of the remainders' covariances the weighted mean square sums over (beyond,
 #: the Wk kernel and the covariances have decayed: 5e-5 of the weighted values)
 REMAINDER_LAG = 2.0
-#: pairs (i <= j) of the four spring deflections FL, FR, RL, RR
+#: pairs (i <= j) of the four spring deflections FL, FR, RL, RR, and of each the
+#: mirror-image pair whose correlation function it shares (road and model mirror-
+#: symmetric: FR-FR as FL-FL, FR-RL as FL-RR, FR-RR as FL-RL, RR-RR as RL-RL): the six
+#: distinct ones, :data:`_DISTINCT`, and each pair's index among them
 _PAIRS = np.triu_indices(4)
+_DISTINCT = (np.array([0, 0, 0, 0, 2, 2]), np.array([0, 1, 2, 3, 2, 3]))
+_SHARED = np.array([0, 1, 2, 3, 0, 3, 2, 4, 5, 4])
 
 
 def _record(a: np.ndarray, fs: float) -> np.ndarray:
@@ -820,11 +825,11 @@ def _remainder_lags() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 def _deflection_correlations(
     lin: RideModel, r: np.ndarray, dahl: bool, road: RandomRoad, vehicle: Minibus
 ) -> np.ndarray:
-    """Correlation functions ``rho_ij(tau)`` (n, pairs, lags) of the spring deflections
-    FL, FR, RL, RR (pairs i <= j of ``_PAIRS``; ``E[d_i(t) d_j(t + tau)]`` over their
-    RMS values, at the lags of :func:`_remainder_lags`) of the linear model with the
-    rates ``r`` under the road (its class band): their cross-spectra on the uniform
-    grid, back by the inverse FFT."""
+    """Correlation functions ``rho_ij(tau)`` (n, 6, lags) of the spring deflections FL,
+    FR, RL, RR (the pairs of ``_DISTINCT``; ``E[d_i(t) d_j(t + tau)]`` over their RMS
+    values, at the lags of :func:`_remainder_lags`) of the linear model with the rates
+    ``r`` under the road (its class band): their cross-spectra on the uniform grid,
+    back by the inverse FFT."""
     f, idx, _ = _remainder_lags()
     nq = lin.nq
     M, C, K, Kin, Cin = lin.linear_system(r[:, DAMPER], r[:, LEAF], r[:, FRONT])
@@ -837,14 +842,13 @@ def _deflection_correlations(
     left = G[..., 0] + delay[None, :, None] * G[..., 2]
     right = G[..., 1] + delay[None, :, None] * G[..., 3]
     rr = rho[None, :, None]
-    i, j = _PAIRS
-    S = sum(
-        c[..., i] * c[..., j].conj()
-        for c in (left + rr * right, np.sqrt(np.maximum(1.0 - rr * rr, 0.0)) * right)
-    )
-    R = np.fft.irfft(np.conj(S * gq[None, :, None]).transpose(0, 2, 1), axis=2)[:, :, idx]
-    sd = np.sqrt(R[:, i == j, 0])  # a constant times the RMS values
-    return R / (sd[:, i, None] * sd[:, j, None])
+    i, j = _DISTINCT
+    lines = (left + rr * right, np.sqrt(np.maximum(1.0 - rr * rr, 0.0)) * right)
+    cols = [c.transpose(0, 2, 1) for c in lines]
+    S = sum(c[:, j].conj() * c[:, i] for c in cols) * gq
+    R = np.fft.irfft(S, axis=2)[:, :, idx]
+    sd = np.sqrt(R[:, [0, 0, 0, 0, 4, 4], 0] * R[:, [0, 0, 4, 4, 4, 4], 0])  # times a constant
+    return R / sd[:, :, None]
 
 
 def _stop_remainder(
@@ -874,15 +878,15 @@ def _stop_remainder(
     i, j = _PAIRS
     twice = np.where(i == j, 1.0, 2.0)  # pairs i < j stand for (i, j) and (j, i)
     coef = lz.remainder_coefficients(means, sd)  # (orders, n, 4): orders 2, 3, ...
-    # per order and pair: the Wk-weighted sum over the lags and the lag-0 value of rho^n
-    sums = np.empty((coef.shape[0], rho.shape[0], 2, i.size))
+    # per order and distinct pair: the Wk-weighted sum over the lags and the lag-0
+    # value of rho^n
+    sums = np.empty((coef.shape[0], rho.shape[0], 2, rho.shape[1]))
     power = rho
     for k in range(coef.shape[0]):
         power = power * rho
         sums[k, :, 0], sums[k, :, 1] = power @ kern, power[:, :, 0]
     dc = direct[None] * coef[:, :, None, :]  # (orders, n, 2, 4): m/s^2 per unit term
-    out = np.einsum("onpk,onwk->npw", dc[..., i] * dc[..., j] * twice, sums)
-    return out
+    return np.einsum("onpk,onwk->npw", dc[..., i] * dc[..., j] * twice, sums[..., _SHARED])
 
 
 def ride_spectral(
