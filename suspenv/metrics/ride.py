@@ -931,7 +931,9 @@ def ride_spectral(
     static leaf rate). Tyre lift-off is not modelled.
 
     ``effects`` (the ride model's, :data:`suspenv.models.minibus.ride_model.
-    SUPPORTED_EFFECTS`): end stops and damper Coulomb friction enter through their
+    SUPPORTED_EFFECTS`): linear end stops (p = 1) through the non-Gaussian closure's
+    gain and mean force, their impacts' remainder added through the mass matrix
+    (:func:`_stop_remainder`), other stops and damper Coulomb friction through their
     Gaussian equivalent rates, the rear leaves' Dahl interleaf friction through Wen's
     equivalent-linear first-order element (one state per leaf; :mod:`suspenv.models.
     minibus.linearisation`), all in the same fixed-point passes (by default 4 with leaf

@@ -20,11 +20,13 @@ compression (N); rates in N/m and N s/m. Laws (the ride model's):
 - two-stage leaf, extra rate ``dk`` beyond the knee ``e_k`` from rest, about its mean
   compression m: ``k_eq = K_1 + dk (1 - Phi((e_k - m)/s))``;
 - end stop ``F = k_stop max(x - gap, 0)^p`` (bump; rebound mirrored) about the
-  spring's mean deflection m: ``k_eq = p k_stop E[max(m + x - gap, 0)^(p - 1)]``, the
-  stop's stiffness times the Gaussian probability of contact for p = 1, and its mean
-  force ``k_stop E[max(m + x - gap, 0)^p]`` (:func:`stop_moments`); where a stop
-  touches often this gain is about twice the stop's own linear gain and stands in for
-  its impacts (docs/minibus.md, "Why the stops' cells miss");
+  spring's mean deflection m: for p = 1 the non-Gaussian closure's gain ``E[F y]/
+  E[y^2]`` and mean force (:mod:`suspenv.models.minibus.stop_closure`: the density of
+  a spring with the stop under white noise; its remainder is
+  :meth:`ElementLinearisation.remainder_coefficients`, added by the spectral method as
+  a second excitation), else the Gaussian ``k_eq = p k_stop E[max(m + x - gap, 0)^(p -
+  1)]``, the stop's stiffness times the Gaussian probability of contact for p = 1, and
+  mean force ``k_stop E[max(m + x - gap, 0)^p]`` (:func:`stop_moments`);
 - smoothed Coulomb friction ``F = f_c tanh(v / v_eps)``:
   ``c_eq = E[F'(v)]``, which tends to ``f_c sqrt(2/pi) / s`` for ``v_eps << s``
   (:func:`coulomb_rate`);
