@@ -55,7 +55,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import json
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 from unittest import mock
@@ -359,20 +359,20 @@ def _without_remainder() -> Any:
     )
 
 
-def _patched_rate(rate: Callable[..., np.ndarray]) -> Any:
+@contextlib.contextmanager
+def _patched_rate(rate: Callable[..., np.ndarray]) -> Iterator[None]:
     """A context in which the stops' mean force is the Gaussian one, their rate
     ``rate(lz, end, m, sd)`` (N/m) and the method adds no remainder."""
-    stack = contextlib.ExitStack()
-    stack.enter_context(
+    with (
         mock.patch.multiple(
             linearisation.ElementLinearisation, _stop_terms=_gaussian_stop_terms, _stop_rate=rate
-        )
-    )
-    stack.enter_context(_without_remainder())
-    return stack
+        ),
+        _without_remainder(),
+    ):
+        yield
 
 
-def _patched(gain: Gain) -> Any:
+def _patched(gain: Gain) -> contextlib.AbstractContextManager[None]:
     """:func:`_patched_rate` with the rate ``gain`` of (K, m, s) (the benchmark's stops:
     one bump stop per end at ``GAP``, ``K_STOP``)."""
     return _patched_rate(
@@ -500,14 +500,17 @@ def closure_moments(k: np.ndarray, m: np.ndarray, s: np.ndarray) -> tuple[np.nda
     return K_STOP * s * mu, K_STOP * g, (K_STOP * s) ** 2 * v
 
 
-def _statistics(name: str) -> tuple[Any, Callable[..., np.ndarray] | None]:
-    """(context that sets the stops' mean force and gain, remainder variance (N^2) of
-    (k, m, s) or None for the Gaussian one) of a :data:`REMAINDERS` statistics name."""
+def _statistics(
+    name: str,
+) -> tuple[Callable[[], contextlib.AbstractContextManager[Any]], Callable[..., np.ndarray] | None]:
+    """(factory of a context that sets the stops' mean force and gain, remainder
+    variance (N^2) of (k, m, s) or None for the Gaussian one) of a :data:`REMAINDERS`
+    statistics name; ``closure_consistent`` is the method's own."""
     if name == "gaussian":
-        return _patched(_gaussian), None
+        return lambda: _patched(_gaussian), None
     if name == "closure":
-        return _patched(_potential_closure), closure_remainder_variance
-    return contextlib.nullcontext(), lambda k, m, s: closure_moments(k, m, s)[2]
+        return lambda: _patched(_potential_closure), closure_remainder_variance
+    return contextlib.nullcontext, lambda k, m, s: closure_moments(k, m, s)[2]
 
 
 def stop_responses(
@@ -597,7 +600,7 @@ def remainder_cells(reference: dict) -> dict[str, dict[str, object]]:
     for stats in dict.fromkeys(v[0] for v in REMAINDERS.values()):
         context, variance = _statistics(stats)
         for s in STOP_SETS:
-            with context:
+            with context():
                 sp, r, sig, lz = converged(X, SCENARIOS[s])
                 means = spring_means(lz, sig)
             H, direct = stop_responses(X, r, lz, f)
