@@ -31,6 +31,11 @@ leaf friction, the plain spectral method (the baseline without effects) and the 
 time-domain run with the friction (the method the effects needed before), at batch 1
 and 500.
 
+``--reuse-references``: the long runs' values (and the damper attribution, which only
+long runs change) are taken from the stored ``minibus_ride_effects.json`` (its pairs)
+instead of being run again (about 1 % of the time): for re-measuring the spectral
+side after a change to the method; the summary names the file and its commit.
+
 The study with leaf friction (unless ``--quick``): ``suspenv run
 experiments/minibus_nsga2.toml`` (30,000 evaluations, 2 workers) with ``ride_effects``
 = 600 N leaf friction and ``rms_limit`` = ``STUDY_RMS_LIMIT`` (with the friction the
@@ -38,14 +43,15 @@ empty rear lies above the default 0.9 m/s^2 everywhere in the box): the command'
 time with its workers, its loop's wall time, evaluations that succeeded and feasible
 ones (:func:`benchmarks.minibus_study.run_command`).
 
-Run: ``python -m benchmarks.minibus_ride_effects [--quick]``; writes
-``docs/benchmarks/minibus_ride_effects.json``.
+Run: ``python -m benchmarks.minibus_ride_effects [--quick] [--reuse-references]``;
+writes ``docs/benchmarks/minibus_ride_effects.json``.
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
+import json
 import os
 import sys
 import tempfile
@@ -56,7 +62,7 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from benchmarks.common import write_result
+from benchmarks.common import DEFAULT_OUTPUT_DIR, write_result
 from suspenv.metrics.iso2631 import weighted_rms_fft
 from suspenv.metrics.ride import ride_objectives_all, ride_spectral
 from suspenv.models.effects.effect import Effect, make_effect
@@ -202,6 +208,30 @@ def long_runs(
     return np.sqrt(mean), se, se_single
 
 
+def stored_runs(
+    stored: dict, names: list[str]
+) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """Per effect set, :func:`long_runs`' three arrays (2 ends, designs x load cases) from
+    a stored result of this benchmark (``stored``: its JSON)."""
+    by_key = {(r["effects"], r["design"], r["load_case"], r["end"]): r for r in stored["rows"]}
+    out = {}
+    for scen in SCENARIOS:
+        arrays = np.empty((3, 2, len(names) * len(LOAD_CASES)))
+        for j, end in enumerate(("front", "rear")):
+            for i in range(arrays.shape[2]):
+                key = (scen, names[i % len(names)], LOAD_CASES[i // len(names)], end)
+                if key not in by_key:
+                    raise ValueError(f"stored references must hold every cell, but lack {key}")
+                r = by_key[key]
+                arrays[:, j, i] = (
+                    r["time_120s"],
+                    r["time_se_percent"],
+                    r["time_se_independent_records_percent"],
+                )
+        out[scen] = (arrays[0], arrays[1], arrays[2])
+    return out
+
+
 def damper_attribution(X: np.ndarray, pairs: int) -> dict[str, dict[str, object]]:
     """Per ``DAMPER_VARIANTS`` entry (no effects), and for the linearised model
     (``linear_model``: every element linear, both methods): the spectral values'
@@ -289,13 +319,23 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--quick", action="store_true", help="4 pairs, fewer repeats, no study")
     parser.add_argument("--pairs", type=int, default=PAIRS, help="antithetic record pairs")
     parser.add_argument("--output-dir", default=None, help="default docs/benchmarks")
+    parser.add_argument(
+        "--reuse-references",
+        action="store_true",
+        help="long-run values and damper attribution from the stored JSON, not run again",
+    )
     args = parser.parse_args(argv)
     pairs = 4 if args.quick else args.pairs
     names, X = designs()
     n = len(names)
+    stored_path = Path(DEFAULT_OUTPUT_DIR) / "minibus_ride_effects.json"
+    stored = json.loads(stored_path.read_text()) if args.reuse_references else None
+    runs = {}
+    if stored is not None:  # the stored runs' pairs, whatever --quick or --pairs say
+        pairs, runs = stored["summary"]["pairs_per_value"], stored_runs(stored, names)
     rows = []
     for scen, effects in tqdm(SCENARIOS.items(), desc="effect sets", file=sys.stderr):
-        td, se, se_single = long_runs(X, effects, pairs)
+        td, se, se_single = runs[scen] if scen in runs else long_runs(X, effects, pairs)
         sp, plain = ride_spectral(X, effects=effects), ride_spectral(X)
         for j, end in enumerate(("front", "rear")):
             el, ign = sp[f"aw_{end}"], plain[f"aw_{end}"]
@@ -340,7 +380,12 @@ def main(argv: list[str] | None = None) -> int:
     indep = [r["time_se_independent_records_percent"] for r in rows]
     summary["time_se_independent_records_median_percent"] = float(np.median(indep))
     summary["time_se_independent_records_max_percent"] = max(indep)
-    summary["damper_attribution"] = damper_attribution(X, pairs)
+    if stored is None:
+        summary["damper_attribution"] = damper_attribution(X, pairs)
+    else:
+        summary["damper_attribution"] = stored["summary"]["damper_attribution"]
+        summary["references_stored"] = str(stored_path)
+        summary["references_commit"] = stored["machine"]["packages"].get("suspenv_commit")
     summary.update(speed(args.quick))
     if not args.quick:
         summary.update(study())
@@ -349,6 +394,7 @@ def main(argv: list[str] | None = None) -> int:
         summary["spectral_leaf_friction_batch1_ms_cpu"] <= TARGET_MS_BATCH1  # type: ignore[operator]
     )
     command = "python -m benchmarks.minibus_ride_effects" + (" --quick" if args.quick else "")
+    command += " --reuse-references" if args.reuse_references else ""
     write_result("minibus_ride_effects", rows, summary, command, args.output_dir)
     return 0
 

@@ -31,8 +31,9 @@ gain ``E[(F - E F) y]/E[y^2]`` (y = x - m) and its cross-spectral gain
 ``Re S_yF / S_yy`` over three bands, and every criterion's gain at the measured m, s.
 
 Part 2 (no new runs): the spectral values of the effect sets with stops
-(``bump_stops``, ``leaf_friction_and_stops``) with each criterion in place of the
-method's, against the 120 s reference stored in ``minibus_ride_effects.json``.
+(``bump_stops``, ``leaf_friction_and_stops``) with each criterion as the stop's gain
+(the Gaussian mean force in the balance, no remainder), against the 120 s reference
+stored in ``minibus_ride_effects.json``.
 
 Part 3 (no new runs but part 1's): the stop's remainder ``r = F - E[F] - k y`` added
 as a second excitation (:data:`REMAINDERS`), for a Gaussian deflection by its Hermite
@@ -40,8 +41,10 @@ terms of order 2..``ORDERS`` (:func:`hermite_remainder`; cross-spectra by Mehler
 formula and the FFT, :func:`remainder_spectra`), with the Gaussian gain or the
 closure's (its remainder then scaled to the closure's variance), through the whole
 linear model or through the mass matrix only (the remainder orthogonal to every
-state), against the stored reference; and with part 1's measured gains and remainder
-cross-spectra in place of both (``remainder_measured``).
+state), against the stored reference; the method's own values (``method``:
+:func:`suspenv.metrics.ride.ride_spectral` carries ``closure_consistent_direct`` on its
+own grids, :mod:`suspenv.models.minibus.stop_closure`); and with part 1's measured
+gains and remainder cross-spectra in place of both (``remainder_measured``).
 
 Run: ``python -m benchmarks.minibus_stop_criteria``; writes
 ``docs/benchmarks/minibus_stop_criteria.json``.
@@ -50,8 +53,9 @@ Run: ``python -m benchmarks.minibus_stop_criteria``; writes
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 from unittest import mock
@@ -75,6 +79,12 @@ from suspenv.metrics.iso2631 import weighting_magnitude
 from suspenv.models.effects.effect import Effect
 from suspenv.models.minibus import linearisation
 from suspenv.models.minibus.ride_model import RideModel
+from suspenv.models.minibus.stop_closure import (
+    ORDERS,
+    gaussian_remainder_variance,
+    hermite_remainder,
+)
+from suspenv.models.minibus.stop_closure import closure_moments as _closure_table_moments
 from suspenv.models.minibus.vehicle import (
     LOAD_CASES,
     REFERENCE_MINIBUS,
@@ -125,7 +135,8 @@ def _closure_density(
         mu = (w * y).sum(-1, keepdims=True)
         return w, mu, (w * (y - mu) ** 2).sum(-1, keepdims=True)
 
-    lo, hi = np.ones_like(s), 3.0 * np.ones_like(s)
+    # s0/s lies between 1 (no contact) and sqrt(1 + k_stop/K) (contact throughout)
+    lo, hi = np.ones_like(s), np.broadcast_to(1.0 + np.sqrt(1.0 + ratio), s.shape)
     for _ in range(40):
         mid = 0.5 * (lo + hi)
         small = moments(mid)[2] < s * s
@@ -157,7 +168,7 @@ def _kazakov_variance_closure(k: np.ndarray, m: np.ndarray, s: np.ndarray) -> np
 
 #: criteria: name -> (gain, label in docs/minibus.md's table)
 CRITERIA: dict[str, tuple[Gain, str]] = {
-    "gaussian": (_gaussian, "Gaussian `E[F']` (Booton, Kazakov; the method's)"),
+    "gaussian": (_gaussian, "Gaussian `E[F']` (Booton, Kazakov; the method's before the closure)"),
     "energy_mean_square": (
         _energy_mean_square,
         "least mean-square deviation of the potential energies (Zhang, Elishakoff & "
@@ -268,6 +279,7 @@ def converged(
     with (
         mock.patch.object(linearisation.ElementLinearisation, "rates", rates),
         mock.patch.object(ride, "_fixed_point", fixed_point),
+        _without_remainder(),
     ):
         sp = ride.ride_spectral(X, effects=effects)
     return sp, seen["r"], seen["sig"], seen["lz"]
@@ -327,25 +339,44 @@ def element_statistics(x: np.ndarray) -> list[dict[str, object]]:
     return rows
 
 
-def _patched_stop_terms(gain: Gain) -> Callable[..., tuple[np.ndarray, np.ndarray]]:
-    """``ElementLinearisation._stop_terms`` with the method's mean force and ``gain`` in
-    place of its rate (for the benchmark's stops: one bump stop per end at ``GAP``,
-    ``K_STOP``)."""
-    method = linearisation.ElementLinearisation._stop_terms
-
-    def stop_terms(
-        self: linearisation.ElementLinearisation, end: int, m: np.ndarray, sd: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray]:
-        force = method(self, end, m, sd)[0]
-        return force, gain(np.broadcast_to(rate_at_gap(self, end), m.shape), m, sd)
-
-    return stop_terms
+def _gaussian_stop_terms(
+    self: linearisation.ElementLinearisation, end: int, m: np.ndarray, sd: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """``ElementLinearisation._stop_terms`` for a Gaussian deflection (the method's
+    before the closure): the stops' mean force (N) and its derivative ``E[F']`` (N/m)."""
+    force, slope = np.zeros_like(m), np.zeros_like(m)
+    for sign, gap, k_stop, p in self.stops[end]:
+        f, k = linearisation.stop_moments(gap, k_stop, p, sd, sign * m)
+        force, slope = force + sign * f, slope + k
+    return force, slope
 
 
-def _patched(gain: Gain) -> Any:
-    """A context replacing the stop's rate by ``gain`` (:func:`_patched_stop_terms`)."""
+def _without_remainder() -> Any:
+    """A context in which the spectral method adds no stop remainder (part 3 adds its
+    own)."""
     return mock.patch.object(
-        linearisation.ElementLinearisation, "_stop_terms", _patched_stop_terms(gain)
+        ride, "_stop_remainder", lambda lin, lz, r, *_: np.zeros((r.shape[0], 2, 2))
+    )
+
+
+@contextlib.contextmanager
+def _patched_rate(rate: Callable[..., np.ndarray]) -> Iterator[None]:
+    """A context in which the stops' mean force is the Gaussian one, their rate
+    ``rate(lz, end, m, sd)`` (N/m) and the method adds no remainder."""
+    with (
+        mock.patch.multiple(
+            linearisation.ElementLinearisation, _stop_terms=_gaussian_stop_terms, _stop_rate=rate
+        ),
+        _without_remainder(),
+    ):
+        yield
+
+
+def _patched(gain: Gain) -> contextlib.AbstractContextManager[None]:
+    """:func:`_patched_rate` with the rate ``gain`` of (K, m, s) (the benchmark's stops:
+    one bump stop per end at ``GAP``, ``K_STOP``)."""
+    return _patched_rate(
+        lambda lz, end, m, sd: gain(np.broadcast_to(rate_at_gap(lz, end), m.shape), m, sd)
     )
 
 
@@ -405,9 +436,6 @@ def spectral_cells(reference: dict) -> dict[str, dict[str, object]]:
 
 
 # ------------------------------------------------------- part 3: the impacts' remainder
-#: Hermite orders of the stop's remainder (2..ORDERS; at 40 the series carries over
-#: 99 % of its variance for a = (gap - m)/s <= 3, 94 % at a = 6)
-ORDERS = 40
 #: uniform grid of the remainder's spectra (Hz): step (the covariances' period, 64 s,
 #: covers the slowest mode's decay) and top (above the stops' contact frequencies)
 F_STEP, F_TOP = 1.0 / 64.0, 128.0
@@ -449,32 +477,6 @@ REMAINDERS: dict[str, tuple[str, str, str]] = {
 }
 
 
-def hermite_remainder(a: np.ndarray, orders: int = ORDERS) -> np.ndarray:
-    """``sqrt(n!) c_n`` (n = 2..orders, first axis; per unit ``k_stop s``) of a p = 1
-    stop's force in Hermite polynomials of the standardised deflection u (mean m, RMS
-    s, ``a = (gap - m)/s``): ``F(m + s u) = sum c_n He_n(u)`` with ``c_n = k_stop s
-    He_(n-2)(a) phi(a)/n!`` (Stein's lemma n times, ``E[F He_n(u)] = E[F^(n)(u)]``,
-    and ``E[delta^(k)(u - a)] = He_k(a) phi(a)``); c_1 is the Gaussian gain's term, so
-    the orders from 2 are the remainder ``F - E[F] - E[F'] s u``. For deflections of
-    correlation rho the remainders' covariance is ``sum_n (sqrt(n!) c_n)(sqrt(n!)
-    c_n') rho^n`` (Mehler's formula). Recursion on ``He_k/sqrt(k!)``."""
-    a = np.asarray(a, dtype=float)
-    phi = np.exp(-0.5 * a * a) / np.sqrt(2.0 * np.pi)
-    prev, he = np.zeros_like(a), np.ones_like(a)
-    out = []
-    for n in range(2, orders + 1):
-        out.append(he * phi / np.sqrt(n * (n - 1.0)))
-        prev, he = he, (a * he - np.sqrt(n - 2.0) * prev) / np.sqrt(n - 1.0)
-    return np.array(out)
-
-
-def gaussian_remainder_variance(a: np.ndarray) -> np.ndarray:
-    """The remainder's variance per unit ``(k_stop s)^2`` for a Gaussian deflection:
-    ``Var F - (E[F'] s)^2 = E[max(t - a, 0)^2] - T(a)^2 - (1 - Phi(a))^2``."""
-    t1 = linearisation.tail_moment(a, 1.0)
-    return linearisation.tail_moment(a, 2.0) - t1 * t1 - ndtr(-a) ** 2
-
-
 def _moments(w: np.ndarray, y: np.ndarray, force: np.ndarray) -> tuple[np.ndarray, ...]:
     """Mean force (N), gain ``E[F y]/E[y^2]`` (N/m) and remainder variance ``Var F -
     E[F y]^2/E[y^2]`` (N^2) under the weights ``w`` (last axis) of :func:`_closure_density`."""
@@ -488,52 +490,27 @@ def closure_remainder_variance(k: np.ndarray, m: np.ndarray, s: np.ndarray) -> n
     return _moments(*_closure_density(k, m, s))[2]
 
 
-#: secant steps that centre the closure's density on the spring's mean
-CENTRE_STEPS = 6
-
-
-def _closure_mean(k: np.ndarray, c: np.ndarray, s: np.ndarray) -> np.ndarray:
-    """Mean deflection (m) under the closure's density with its spring potential
-    centred at c."""
-    return c + (_closure_density(k, c, s)[0] * s[..., None] * _U).sum(-1)
-
-
 def closure_moments(k: np.ndarray, m: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, ...]:
-    """:func:`_moments` under the closure's density whose mean deflection is ``m``: its
-    spring potential centred at the root c of ``mean(c) = m`` (:func:`_closure_mean`,
-    rising in c), by the secant method from c = m and ``c = 2 m - mean(m)``
-    (:data:`CENTRE_STEPS` steps): the closure used for the mean force in the balance as
-    well as for the gain and the remainder."""
-    k, m, s = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (k, m, s)))
-    c0, e0 = m, _closure_mean(k, m, s) - m
-    c1 = m - e0
-    for _ in range(CENTRE_STEPS):
-        e1 = _closure_mean(k, c1, s) - m
-        slope = np.where(np.abs(e1 - e0) > 1e-15, (e1 - e0) / (c1 - c0 + 1e-300), 1.0)
-        c0, e0, c1 = c1, e1, c1 - e1 / np.where(slope > 1e-6, slope, 1.0)
-    return _moments(*_closure_density(k, c1, s))
+    """Mean force (N), gain (N/m) and remainder variance (N^2) of the benchmark's stop
+    under the closure's density of mean ``m`` and RMS ``s`` (m) on a spring of rate
+    ``k`` (N/m): the method's table (:func:`suspenv.models.minibus.stop_closure.
+    closure_moments`), the closure used for the mean force in the balance as well as
+    for the gain and the remainder."""
+    mu, g, v = _closure_table_moments(K_STOP / k, (GAP - m) / s, "mu g v")
+    return K_STOP * s * mu, K_STOP * g, (K_STOP * s) ** 2 * v
 
 
-def _closure_stop_terms(
-    self: linearisation.ElementLinearisation, end: int, m: np.ndarray, sd: np.ndarray
-) -> tuple[np.ndarray, np.ndarray]:
-    """``ElementLinearisation._stop_terms`` by :func:`closure_moments` (the benchmark's
-    one bump stop per end)."""
-    mean, gain, _ = closure_moments(np.broadcast_to(rate_at_gap(self, end), m.shape), m, sd)
-    return mean, gain
-
-
-def _statistics(name: str) -> tuple[Any, Callable[..., np.ndarray] | None]:
-    """(context that sets the stops' mean force and gain, remainder variance (N^2) of
-    (k, m, s) or None for the Gaussian one) of a :data:`REMAINDERS` statistics name."""
+def _statistics(
+    name: str,
+) -> tuple[Callable[[], contextlib.AbstractContextManager[Any]], Callable[..., np.ndarray] | None]:
+    """(factory of a context that sets the stops' mean force and gain, remainder
+    variance (N^2) of (k, m, s) or None for the Gaussian one) of a :data:`REMAINDERS`
+    statistics name; ``closure_consistent`` is the method's own."""
     if name == "gaussian":
-        return _patched(_gaussian), None
+        return lambda: _patched(_gaussian), None
     if name == "closure":
-        return _patched(_potential_closure), closure_remainder_variance
-    stop_terms = mock.patch.object(
-        linearisation.ElementLinearisation, "_stop_terms", _closure_stop_terms
-    )
-    return stop_terms, lambda k, m, s: closure_moments(k, m, s)[2]
+        return lambda: _patched(_potential_closure), closure_remainder_variance
+    return contextlib.nullcontext, lambda k, m, s: closure_moments(k, m, s)[2]
 
 
 def stop_responses(
@@ -623,7 +600,7 @@ def remainder_cells(reference: dict) -> dict[str, dict[str, object]]:
     for stats in dict.fromkeys(v[0] for v in REMAINDERS.values()):
         context, variance = _statistics(stats)
         for s in STOP_SETS:
-            with context:
+            with context():
                 sp, r, sig, lz = converged(X, SCENARIOS[s])
                 means = spring_means(lz, sig)
             H, direct = stop_responses(X, r, lz, f)
@@ -643,10 +620,14 @@ def remainder_cells(reference: dict) -> dict[str, dict[str, object]]:
                 if st == stats:
                     values[name][s] = np.sqrt(_aw(sp) ** 2 + paths[path])
     ref = _stop_reference(reference)
-    return {
+    out = {
         name: _cells_summary(label, _deviations(ref, values[name]))
         for name, (_, _, label) in REMAINDERS.items()
     }
+    method = {s: _aw(ride.ride_spectral(X, effects=SCENARIOS[s])) for s in STOP_SETS}
+    label = "the spectral method itself (closure_consistent_direct on its own grids)"
+    out["method"] = _cells_summary(label, _deviations(ref, method))
+    return out
 
 
 def measured_remainder(x: np.ndarray, reference: dict) -> dict[str, dict[str, float]]:
@@ -665,14 +646,13 @@ def measured_remainder(x: np.ndarray, reference: dict) -> dict[str, dict[str, fl
     ]
     f = spectra[0][0][0]
     Sr = np.conj(np.stack([np.stack([q[1] for q in row], -1) for row in spectra], -2))
-    method = linearisation.ElementLinearisation._stop_terms
 
-    def stop_terms(
-        self: linearisation.ElementLinearisation, end: int, m: np.ndarray, sd: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray]:
-        return method(self, end, m, sd)[0], gain[:, 2 * end : 2 * end + 2]
+    def stop_rate(
+        lz: linearisation.ElementLinearisation, end: int, m: np.ndarray, sd: np.ndarray
+    ) -> np.ndarray:
+        return gain[:, 2 * end : 2 * end + 2]
 
-    with mock.patch.object(linearisation.ElementLinearisation, "_stop_terms", stop_terms):
+    with _patched_rate(stop_rate):
         sp, r, _, lz = converged(X, STOPS)
     H, direct = stop_responses(X, r, lz, f)
     filtered, through_mass = remainder_mean_squares(H, direct, Sr, f)

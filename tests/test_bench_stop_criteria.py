@@ -192,31 +192,38 @@ def test_stop_responses_against_the_method_and_the_mass_matrix():
     np.testing.assert_allclose(acc.real, direct, rtol=1e-3, atol=1e-3 * abs(direct).max())
 
 
-@pytest.mark.parametrize("m, s", CASES)
+@pytest.mark.parametrize("m, s", CASES[:2])
 def test_closure_moments_centred_and_gaussian_limit(m, s):
-    """:func:`closure_moments`: its density's mean deflection is the given m (its
-    moments equal those at the centre an independent bisection finds, to 1e-6), a force
-    that only pushes back lowers the mean (so the potential's centre lies above m); for
-    a spring far stiffer than the stop its mean force, gain and remainder variance are
-    the Gaussian closed forms (stop_moments, the tail moments; the grid's kink error
-    1e-3, as above)."""
+    """:func:`closure_moments` (the method's table, :mod:`suspenv.models.minibus.
+    stop_closure`) against the benchmark's own grid sum of the closure's density
+    (:func:`_closure_density`, variance matched by bisection) centred so that its mean
+    deflection is m, the centre found independently by bisection on that mean: mean
+    force, gain and remainder variance within the grid sum's kink error (1e-3, as
+    above); a force that only pushes back lowers the mean (the potential's centre lies
+    above m); for a spring far stiffer than the stop the Gaussian closed forms
+    (stop_moments, the tail moments; the table's interpolation error, 1e-5). Means
+    below the gap only: beyond it the centred density sits about ``s0 beta kappa/(1 +
+    kappa)`` from its centre, outside the grid's +-8 s (the table's own quadrature,
+    tests/test_stop_closure.py, has no such limit)."""
     k, mm, ss = np.array(KS / 8), np.array(m), np.array(s)
     mean, gain, var = sc.closure_moments(k, mm, ss)
-    w, y, force = sc._closure_density(k, mm, ss)  # uncentred: its mean lies below m
-    assert sc._closure_mean(k, mm, ss) < m
-    # the centred density reproduces the mean force the benchmark puts in the balance:
-    # find its centre independently, by bisection on the mean
+
+    def centred_mean(c: float) -> float:
+        w, _, _ = sc._closure_density(k, np.array(c), ss)
+        return c + float((w * s * sc._U).sum())
+
+    assert centred_mean(m) < m
     lo, hi = m, m + 10 * s
     for _ in range(60):
         mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if sc._closure_mean(k, np.array(mid), ss) < m else (lo, mid)
+        lo, hi = (mid, hi) if centred_mean(mid) < m else (lo, mid)
     ref = sc._moments(*sc._closure_density(k, np.array(0.5 * (lo + hi)), ss))
-    np.testing.assert_allclose([mean, gain, var], ref, rtol=1e-6)
+    np.testing.assert_allclose([mean, gain, var], ref, rtol=1e-3)
     assert mean > 0 and 0 < gain < KS and var > 0
     f_g, k_g = sc.linearisation.stop_moments(GAP, KS, 1.0, ss, mm)
     var_g = (KS * s) ** 2 * sc.gaussian_remainder_variance(np.array((GAP - m) / s))
     limit = sc.closure_moments(np.array(1e14), mm, ss)
-    np.testing.assert_allclose(limit, [f_g, k_g, var_g], rtol=1e-3)
+    np.testing.assert_allclose(limit, [f_g, k_g, var_g], rtol=1e-5)
 
 
 def test_closure_moments_equal_a_simulated_oscillator_with_a_stop():
@@ -256,3 +263,39 @@ def test_closure_moments_equal_a_simulated_oscillator_with_a_stop():
     assert np.all(np.abs(np.array(closure) - pooled[:3]) <= 4 * se)
     gauss = sc.linearisation.stop_moments(GAP, KS, 1.0, pooled[4], pooled[3])[1]
     assert abs(gauss - pooled[1]) > 4 * se[1]
+
+
+@pytest.mark.parametrize("effects", ["bump_stops", "leaf_friction_and_stops"])
+def test_method_remainder_equals_the_benchmark_s_construction(effects):
+    """The spectral method's stop remainder (``ride._stop_remainder``: lags within 2 s
+    against the Wk kernel, the ten pairs i <= j, its 1/16 Hz grid up to 24 Hz) against
+    part 3's own construction (:func:`remainder_spectra` on the 1/64 Hz grid up to 128
+    Hz, all sixteen pairs, back by the FFT, :func:`remainder_mean_squares` through the
+    mass) at the method's rates and means, the closure's variance scale, on the
+    diagnostic designs. The deflection RMS values of the two grids differ by up to 0.5
+    % (measured; the method's from its 150-point log grid), which the steep remainder
+    turns into up to 2.3 % of it (measured): 5 % allowed; the weighted values, of
+    which the remainder is up to 15 %, within 1e-3 (measured 6e-4)."""
+    X = sc.diag_designs()
+    seen = {}
+    method = sc.ride._stop_remainder
+
+    def spy(*args):
+        seen["args"], seen["out"] = args, method(*args)
+        return seen["out"]
+
+    with sc.mock.patch.object(sc.ride, "_stop_remainder", spy):
+        sp = sc.ride.ride_spectral(X, effects=sc.SCENARIOS[effects])
+    _, lz, r, sig, _, _ = seen["args"]
+    means = sc.spring_means(lz, sig)
+    f = np.arange(0.0, sc.F_TOP + sc.F_STEP / 2, sc.F_STEP)
+    H, direct = sc.stop_responses(X, r, lz, f)
+    S = sc.deflection_spectra(H, f)
+    sd = np.sqrt(np.einsum("nfii->ni", S[:, 1:-1]).real * sc.F_STEP)
+    k = np.hstack([np.broadcast_to(sc.rate_at_gap(lz, e), means[:, :2].shape) for e in (0, 1)])
+    gauss = (KS * sd) ** 2 * sc.gaussian_remainder_variance((GAP - means) / sd)
+    Sr = sc.remainder_spectra(S, means, sc.closure_moments(k, means, sd)[2] / gauss)
+    ref = sc.remainder_mean_squares(H, direct, Sr, f)[1]
+    np.testing.assert_allclose(seen["out"][:, :, 0], ref, rtol=0.05)
+    aw2 = np.stack([sp["aw_front"], sp["aw_rear"]], 1) ** 2
+    np.testing.assert_allclose(aw2 - seen["out"][:, :, 0] + ref, aw2, rtol=2e-3)

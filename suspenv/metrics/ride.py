@@ -35,6 +35,8 @@ from suspenv.models.minibus.linearisation import (
     DAMPER,
     FRONT,
     LEAF,
+    SIG_FRONT,
+    SIG_LEAF,
     ElementLinearisation,
 )
 from suspenv.models.minibus.ride_model import RideModel, SeatMount
@@ -63,6 +65,21 @@ SPLIT_CHUNK = 128
 PASSES, PASSES_EFFECTS = 4, 8
 #: ISO 2631-1 evaluation band (Hz) of the weighted values (as :func:`weighted_rms_fft`)
 ISO_BAND = (0.5, 80.0)
+#: uniform grid of the end stops' remainder (Hz): step (its covariances' period, 16 s,
+#: covers the slowest mode's decay) and top (its spectrum folds back above): against
+#: the 1/32 Hz, 32 Hz grid the weighted values move by under 2e-4, against part 3 of
+#: benchmarks/minibus_stop_criteria.py (1/64 Hz to 128 Hz) by under 1e-3 (tests)
+REMAINDER_STEP, REMAINDER_TOP = 1.0 / 16.0, 24.0
+#: lags (s) of the remainders' covariances the weighted mean square sums over (beyond,
+#: the Wk kernel and the covariances have decayed: 5e-5 of the weighted values)
+REMAINDER_LAG = 2.0
+#: pairs (i <= j) of the four spring deflections FL, FR, RL, RR, and of each the
+#: mirror-image pair whose correlation function it shares (road and model mirror-
+#: symmetric: FR-FR as FL-FL, FR-RL as FL-RR, FR-RR as FL-RL, RR-RR as RL-RL): the six
+#: distinct ones, :data:`_DISTINCT`, and each pair's index among them
+_PAIRS = np.triu_indices(4)
+_DISTINCT = (np.array([0, 0, 0, 0, 2, 2]), np.array([0, 1, 2, 3, 2, 3]))
+_SHARED = np.array([0, 1, 2, 3, 0, 3, 2, 4, 5, 4])
 
 
 def _record(a: np.ndarray, fs: float) -> np.ndarray:
@@ -783,7 +800,96 @@ def _spectral_modal(
         r0 = lz.initial(init_damping)
     r, n_iter, m = _fixed_point(r0, lz, modal, sigma, iterations, tol)
     ms = mean_square(m, [0, 1], road, n_freq, vehicle, True)
+    if lz is not None and any(k is not None for end in lz.kappa for k in end):
+        ms = ms + _stop_remainder(lin, lz, r, sigma(m), road, vehicle)
     return _spectral_result(np.sqrt(ms[:, :, 0]), np.sqrt(ms[:, :, 1]), r, n_iter)
+
+
+@functools.cache
+def _remainder_lags() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The stops' remainder grids: the uniform frequencies (Hz) ``REMAINDER_STEP``
+    apart up to ``REMAINDER_TOP``, the indices of the lags within ``REMAINDER_LAG``
+    (of the periodic lag grid ``k/(2 REMAINDER_TOP)`` their inverse FFT gives, lag 0
+    first) and there the Wk kernel ``(2/N) sum_f Wk(f)^2 cos(2 pi f tau)`` (ISO band,
+    N the lag grid's points): a covariance function's Wk-weighted mean square is its
+    sum against it (Parseval). Read-only, cached."""
+    f = np.arange(0.0, REMAINDER_TOP + REMAINDER_STEP / 2, REMAINDER_STEP)
+    nfft = 2 * (f.size - 1)
+    k = np.arange(nfft)
+    idx = np.flatnonzero(np.minimum(k, nfft - k) <= REMAINDER_LAG * 2 * REMAINDER_TOP)
+    band = (f >= ISO_BAND[0]) & (f <= ISO_BAND[1])
+    wk2 = np.where(band, weighting_magnitude(np.maximum(f, REMAINDER_STEP), "Wk") ** 2, 0.0)
+    kern = (2.0 / nfft) * np.cos(2 * np.pi * np.outer(idx, np.arange(f.size)) / nfft) @ wk2
+    for a in (f, idx, kern):
+        a.flags.writeable = False
+    return f, idx, kern
+
+
+def _deflection_correlations(
+    lin: RideModel, r: np.ndarray, dahl: bool, road: RandomRoad, vehicle: Minibus
+) -> np.ndarray:
+    """Correlation functions ``rho_ij(tau)`` (n, 6, lags) of the spring deflections FL,
+    FR, RL, RR (the pairs of ``_DISTINCT``; ``E[d_i(t) d_j(t + tau)]`` over their RMS
+    values, at the lags of :func:`_remainder_lags`) of the linear model with the rates
+    ``r`` under the road (its class band): their cross-spectra on the uniform grid,
+    back by the inverse FFT."""
+    f, idx, _ = _remainder_lags()
+    nq = lin.nq
+    M, C, K, Kin, Cin = lin.linear_system(r[:, DAMPER], r[:, LEAF], r[:, FRONT])
+    springs = lin.E[:nq, 0:4].T
+    hyst = (springs[2:4], r[:, DAHL_C], r[:, DAHL_K]) if dahl else None
+    G = modal_response(*modal_form(M, C, K, Kin, Cin, springs, hyst), f)[:, :, :4]
+    lo, hi = road.speed * CLASS_BAND[0], min(road.speed * CLASS_BAND[1], road.sample_rate)
+    gq, delay, rho = road_terms(np.maximum(f, lo), road, vehicle)
+    gq = np.where((f >= lo) & (f <= hi), gq, 0.0)
+    left = G[..., 0] + delay[None, :, None] * G[..., 2]
+    right = G[..., 1] + delay[None, :, None] * G[..., 3]
+    rr = rho[None, :, None]
+    i, j = _DISTINCT
+    lines = (left + rr * right, np.sqrt(np.maximum(1.0 - rr * rr, 0.0)) * right)
+    cols = [c.transpose(0, 2, 1) for c in lines]
+    S = sum(c[:, j].conj() * c[:, i] for c in cols) * gq
+    R = np.fft.irfft(S, axis=2)[:, :, idx]
+    sd = np.sqrt(R[:, [0, 0, 0, 0, 4, 4], 0] * R[:, [0, 0, 4, 4, 4, 4], 0])  # times a constant
+    return R / sd[:, :, None]
+
+
+def _stop_remainder(
+    lin: RideModel,
+    lz: ElementLinearisation,
+    r: np.ndarray,
+    sig: np.ndarray,
+    road: RandomRoad,
+    vehicle: Minibus,
+) -> np.ndarray:
+    """Mean squares ((m/s^2)^2; (n, front/rear, weighted/unweighted)) that the p = 1
+    end stops' remainders ``F - E[F] - gain y`` add at the measuring points, the
+    remainders acting through the mass matrix only (orthogonal to every state: their
+    direct feedthrough ``M^-1``; with a seat they reach the body, not the seats).
+    Their cross-covariances by Mehler's formula from the deflections' correlations
+    (:func:`_deflection_correlations`) and the stops' Hermite coefficients at the
+    deflections' means and RMS values of the element RMS values ``sig``
+    (:meth:`ElementLinearisation.remainder_coefficients`); weighted: Wk in the ISO band
+    (:func:`_remainder_lags`); unweighted: the whole variance."""
+    rho = _deflection_correlations(lin, r, lz.dahl is not None, road, vehicle)
+    kern = _remainder_lags()[2]
+    sd = np.hstack([sig[:, SIG_FRONT], sig[:, SIG_LEAF]])
+    ends = (slice(0, 2), slice(2, 4))
+    means = np.hstack([lz.spring_mean(e, sig[:, c], sd[:, c]) for e, c in enumerate(ends)])
+    M = lin.linear_system()[0]
+    direct = _output_matrix(lin)[0:2] @ np.linalg.solve(M, -lin.E[: lin.nq, 0:4])  # (n, 2, 4)
+    i, j = _PAIRS
+    twice = np.where(i == j, 1.0, 2.0)  # pairs i < j stand for (i, j) and (j, i)
+    coef = lz.remainder_coefficients(means, sd)  # (orders, n, 4): orders 2, 3, ...
+    # per order and distinct pair: the Wk-weighted sum over the lags and the lag-0
+    # value of rho^n
+    sums = np.empty((coef.shape[0], rho.shape[0], 2, rho.shape[1]))
+    power = rho
+    for k in range(coef.shape[0]):
+        power = power * rho
+        sums[k, :, 0], sums[k, :, 1] = power @ kern, power[:, :, 0]
+    dc = direct[None] * coef[:, :, None, :]  # (orders, n, 2, 4): m/s^2 per unit term
+    return np.einsum("onpk,onwk->npw", dc[..., i] * dc[..., j] * twice, sums[..., _SHARED])
 
 
 def ride_spectral(
@@ -828,7 +934,9 @@ def ride_spectral(
     static leaf rate). Tyre lift-off is not modelled.
 
     ``effects`` (the ride model's, :data:`suspenv.models.minibus.ride_model.
-    SUPPORTED_EFFECTS`): end stops and damper Coulomb friction enter through their
+    SUPPORTED_EFFECTS`): linear end stops (p = 1) through the non-Gaussian closure's
+    gain and mean force, their impacts' remainder added through the mass matrix
+    (:func:`_stop_remainder`), other stops and damper Coulomb friction through their
     Gaussian equivalent rates, the rear leaves' Dahl interleaf friction through Wen's
     equivalent-linear first-order element (one state per leaf; :mod:`suspenv.models.
     minibus.linearisation`), all in the same fixed-point passes (by default 4 with leaf
