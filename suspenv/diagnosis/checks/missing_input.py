@@ -151,13 +151,6 @@ def whitening(e: np.ndarray) -> np.ndarray:
     return np.r_[1.0, -linalg.solve_toeplitz(acf[:-1], acf[1:])]
 
 
-def drift(n: int) -> np.ndarray:
-    """A drifting zero over ``n`` samples (columns, time on [-1, 1]): powers 0-3 and the
-    drift check's Legendre P4 ... P\\ :data:`DRIFT_ORDER` (its ``drift_basis``)."""
-    t = np.linspace(-1.0, 1.0, n)
-    return np.column_stack([np.vander(t, 4), drift_basis(t, DRIFT_ORDER)])
-
-
 def pass_band_step(fs: float, fc: float | None) -> int:
     """Every how many samples (at ``fs`` [Hz]) a residual low-passed at ``fc`` [Hz] is
     taken, at its pass-band rate ``2 fc`` (its neighbouring samples are not independent):
@@ -188,16 +181,17 @@ def switching(
     p-value of the lag-1 autocorrelation's exact distribution (:func:`lag1_p`),
     Bonferroni over the block lengths and signals tried; ``signal``: the index in
     ``signals`` of the one whose gain switches most clearly. The noise: a drifting zero
-    (:func:`drift`) and the autoregression (:func:`whitening`) of all of ``r`` it leaves
-    (so that slow noise keeps its slow part), by which ``r``, the signals and the drift
-    are filtered; the whitened drift is taken out of ``r``: the gains' covariance that
+    (powers 0-3 of time and the drift check's Legendre P4 ... P\\ :data:`DRIFT_ORDER`,
+    its ``drift_basis``) and the autoregression (:func:`whitening`) of all of ``r`` the
+    drift leaves (slow noise keeps its slow part), by which ``r``, the signals and the
+    drift are filtered; the whitened drift is taken out of ``r``: the gains' covariance that
     leaves, ``I - (G Q)(G Q)'`` (``G`` the gains' rows, ``Q`` an orthonormal basis of the
     whitened drift), is part of the exact null."""
     if r.size < MIN_BLOCKS * BLOCK_SAMPLES[0] or not signals:
         return dict(NO_SWITCHING)
-    base = drift(r.size)
-    q0, _ = np.linalg.qr(base)
-    poly = whitening(r - q0 @ (q0.T @ r))
+    t = np.linspace(-1.0, 1.0, r.size)
+    base = np.column_stack([np.vander(t, 4), drift_basis(t, DRIFT_ORDER)])
+    poly = whitening(r - base @ np.linalg.lstsq(base, r, rcond=None)[0])
     q, _ = np.linalg.qr(signal.lfilter(poly, [1.0], base, axis=0))
     rw = signal.lfilter(poly, [1.0], r)
     rw = rw - q @ (q.T @ rw)
