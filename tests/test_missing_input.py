@@ -4,7 +4,7 @@ References: the MR law against scipy's ``solve_ivp`` of the same ODE (a second s
 its u = 0 limit against the passive MR model with a Bouc-Wen element, its odd symmetry;
 the check's definitions against closed forms (white noise's second difference has
 variance 6 sigma^2; a finite filter of a signal is a time-invariant function of it), its
-exact null p-value against a Monte Carlo simulation, its level under four noises
+exact null p-value against a Monte Carlo simulation, its level under six noises
 independent of the motion, and the check on synthetic cases whose truth is known (a
 switching coil current recorded or not; the effect-free controls of
 :mod:`benchmarks.component_truth`).
@@ -20,10 +20,12 @@ from scipy.signal import lfilter
 from benchmarks.component_truth import MR_FIELD_TRUTH, make_case, mr_field_case
 from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.checks import missing_input as mi
+from suspenv.diagnosis.decision import DecisionRule
 from suspenv.diagnosis.engine import diagnose
 from suspenv.measurements import Recording
 from suspenv.measurements.units import to_si
 from suspenv.models.components import MRFieldDamperModel, make_component
+from suspenv.models.components.base import lowpass
 from suspenv.models.effects import make_effect
 
 TRUTH = dict(MR_FIELD_TRUTH)
@@ -182,29 +184,62 @@ def test_lag1_p_value_is_exact_for_independent_gains(n, k):
         assert abs(p - mc) < 4 * np.sqrt(mc * (1 - mc) / rhos.size)
 
 
+def _smoothed_walk(rng: np.random.Generator, n: int) -> np.ndarray:
+    """A random walk averaged over a quarter of the record, peak 1 (the independent
+    generator's drift, :func:`benchmarks.independent.noise.drift`)."""
+    walk, win = np.cumsum(rng.normal(size=n)), n // 4
+    smooth = np.convolve(np.pad(walk, win, mode="edge"), np.ones(win) / win, "same")[win:-win]
+    return (smooth - smooth[0]) / np.max(np.abs(smooth - smooth[0]))
+
+
 def _null_noise(kind: str, rng: np.random.Generator, t: np.ndarray) -> np.ndarray:
     """Noise independent of the motion: white, AR(1) with coefficient 0.9 (correlation
-    time about 10 samples, as the coloured controls) or 0.99, or white plus a drift of
-    twice its RMS over a third of a period (as the drifting controls)."""
+    time about 10 samples), exp(-1/28) (28 samples, the independent generator's longest)
+    or 0.99; white plus a drift of twice its RMS over a third of a period (as the
+    drifting controls); ``lowpass``: white noise low-passed at 50 Hz (``t`` sampled at
+    1 kHz) as the outputs compared low-passed, plus a smoothed random walk of three
+    times its RMS."""
     w = rng.normal(size=t.size)
     if kind == "drift":
         return w + 2.0 * np.sin(2 * np.pi * t / (3.0 * t[-1]) + rng.uniform(0, 2 * np.pi))
+    if kind == "lowpass":
+        e = lowpass(w, 1000.0, 50.0)
+        return e + 3.0 * np.std(e) * _smoothed_walk(rng, t.size)
     return w if kind == "white" else lfilter([1.0], [1.0, -float(kind)], w)
 
 
+def test_a_low_passed_residual_is_judged_at_its_pass_band_rate():
+    # sampled at 1 kHz and low-passed at 50 Hz: every 10th sample (2 fc = 100 Hz); its
+    # second differences there see the noise, at the recorded rate almost none (the
+    # filter leaves next to nothing above fc, where the second difference's gain lies);
+    # the floor within 20 % of the RMS (what the filter's roll-off keeps correlated)
+    t = np.arange(40000) * 1e-3
+    assert mi.pass_band_step(1000.0, 50.0) == 10 and mi.pass_band_step(1000.0, None) == 1
+    e = lowpass(np.random.default_rng(5).normal(size=t.size), 1000.0, 50.0)
+    assert mi.white_floor(e) < 0.05 * np.std(e)
+    assert mi.white_floor(e[::10]) == pytest.approx(np.std(e), rel=0.2)
+
+
 @pytest.mark.slow
-@pytest.mark.parametrize("kind", ["white", "0.9", "0.99", "drift"])
+@pytest.mark.parametrize("kind", ["white", "0.9", "0.965", "0.99", "drift", "lowpass"])
 def test_switching_test_holds_its_level_under_the_null(kind):
-    # noise independent of the motion, 600 seeded draws: the rejection rate at 0.05 stays
-    # within a one-sided binomial bound of it (3 standard deviations: 46 of 600)
+    # noise independent of the motion, 600 seeded draws (the low-passed ones judged at
+    # their pass-band rate): the rejection rate at 0.05 and at the decision rule's alpha
+    # (0.01) stays within a one-sided binomial bound of it (3 standard deviations: 46
+    # and 13 of 600)
     rng = np.random.default_rng(4)
-    t = np.arange(4000) * 0.01
-    draws, alpha, hits = 600, 0.05, 0
+    dt = 1e-3 if kind == "lowpass" else 1e-2
+    t = np.arange(12000 if kind == "lowpass" else 4000) * dt
+    step = mi.pass_band_step(1.0 / dt, 50.0 if kind == "lowpass" else None)
+    draws, p = 600, []
     for _ in range(draws):
         f = rng.uniform(0.5, 3.0, 3)
         y = np.sum([np.sin(2 * np.pi * fk * t + rng.uniform(0, 6.3)) for fk in f], axis=0)
-        hits += mi.switching(_null_noise(kind, rng, t), [y])["p_switching"] < alpha
-    assert hits <= draws * alpha + 3 * np.sqrt(draws * alpha * (1 - alpha))
+        e = _null_noise(kind, rng, t)
+        p.append(mi.switching(e[::step], [y[::step]])["p_switching"])
+    for alpha in (0.05, DecisionRule().alpha):
+        hits = int(np.sum(np.array(p) < alpha))
+        assert hits <= draws * alpha + 3 * np.sqrt(draws * alpha * (1 - alpha)), (alpha, hits)
 
 
 def test_a_ripple_along_a_recorded_input_is_a_relation_not_a_missing_input():

@@ -16,8 +16,9 @@ cogging) and calls the rest **driven by an unrecorded input** when both hold:
    (lengths :data:`BLOCK_SAMPLES`: the switching time is not known; at least
    :data:`MIN_BLOCKS` blocks), less what the blocks' excitation explains, persists from
    block to block (:func:`switching`): after a drifting zero is taken out and the
-   residual's noise whitened by its autoregression, the lag-1 autocorrelation of those
-   gains has an exact distribution for independent normal gains (:func:`lag1_p`);
+   residual whitened by the autoregression of all the drift leaves of it, the lag-1
+   autocorrelation of those gains has an exact distribution for independent normal
+   gains (:func:`lag1_p`);
    its one-sided p-value (Bonferroni over the block lengths, the signals and the
    judged channels) is below the rule's ``alpha``. A switched damping ``c v`` is such a
    gain on the velocity: its mean over time is a function of the state and taken out,
@@ -29,7 +30,9 @@ cause: when the gains then no longer persist, the finding names it ("unread").
 The verdict then says that an input the recording does not carry (or one it carries
 that the model does not read) may drive the residual, with its size (RMS in % of the
 output's, and in multiples of its white floor) and the evidence; it is not confident.
-Recordings too short for the blocks (K&C loops) are not judged.
+A residual compared low-passed is judged at its pass-band rate (:func:`pass_band_step`:
+block lengths, counts and the floor in those samples). Recordings too short for the
+blocks (K&C loops, short guide runs compared low-passed) are not judged.
 """
 
 from __future__ import annotations
@@ -43,8 +46,10 @@ from scipy import integrate, linalg, signal
 
 from suspenv.diagnosis.checks.assumptions import unread_inputs
 from suspenv.diagnosis.checks.finding import Context, Finding
+from suspenv.diagnosis.component.drift_check import DRIFT_ORDER, drift_basis
 from suspenv.diagnosis.fitting import FitResult, lag1_autocorrelation, residuals
 from suspenv.diagnosis.protocols import RecordingLike
+from suspenv.models.components.base import OUTPUT_LOWPASS_KEY
 
 #: block lengths [samples] of the switching test (the switching time is not known)
 BLOCK_SAMPLES = (50, 100, 200, 400)
@@ -56,8 +61,6 @@ GUARD_FRACTION = 0.2
 SIZE_LIMIT = 3.0
 #: lags [samples] either side of the time-invariant linear filters removed first
 LAGS = 8
-#: degree of the polynomial in time removed as a drifting zero before the block gains
-DRIFT_DEGREE = 3
 #: order of the autoregression that whitens the residual before the block gains
 AR_ORDER = 2
 #: quantile bins per signal of the cell means on a pair of signals
@@ -148,15 +151,16 @@ def whitening(e: np.ndarray) -> np.ndarray:
     return np.r_[1.0, -linalg.solve_toeplitz(acf[:-1], acf[1:])]
 
 
-def drift_basis(n: int) -> np.ndarray:
-    """The Legendre polynomials of degree 0 to :data:`DRIFT_DEGREE` over ``n`` samples
-    (columns): a slowly drifting zero."""
-    return np.polynomial.legendre.legvander(np.linspace(-1.0, 1.0, n), DRIFT_DEGREE)
+def pass_band_step(fs: float, fc: float | None) -> int:
+    """Every how many samples (at ``fs`` [Hz]) a residual low-passed at ``fc`` [Hz] is
+    taken, at its pass-band rate ``2 fc`` (its neighbouring samples are not independent):
+    ``floor(fs / (2 fc))``; 1 when not low-passed (``fc`` None)."""
+    return max(1, int(fs / (2.0 * fc) * (1.0 + 1e-9))) if fc else 1  # 1e-9: rounding
 
 
 def within_blocks(r: np.ndarray, signals: Sequence[np.ndarray], length: int) -> np.ndarray:
     """``r`` less its least-squares fit on a constant, a ramp and ``signals`` in each
-    block of ``length`` (what no gain of a block explains: the noise)."""
+    block of ``length`` (what no gain of a block explains)."""
     n = r.size // length * length
     ramp = np.linspace(-1.0, 1.0, length)
     out = np.empty(n)
@@ -176,16 +180,19 @@ def switching(
     steps are a recorded cause), keep their value from one block to the next: one-sided
     p-value of the lag-1 autocorrelation's exact distribution (:func:`lag1_p`),
     Bonferroni over the block lengths and signals tried; ``signal``: the index in
-    ``signals`` of the one whose gain switches most clearly. ``r`` and the signals are first
-    filtered by the autoregression (:func:`whitening`) of what the gains of the shortest
-    blocks leave, so that noise correlated over many samples gives independent gains,
-    and a drifting zero (:func:`drift_basis`, whitened alike) is taken out of ``r``: the
-    gains' covariance that leaves, ``I - (G Q)(G Q)'`` (``G`` the gains' rows, ``Q`` an
-    orthonormal basis of the whitened drift), is part of the exact null."""
+    ``signals`` of the one whose gain switches most clearly. The noise: a drifting zero
+    (powers 0-3 of time and the drift check's Legendre P4 ... P\\ :data:`DRIFT_ORDER`,
+    its ``drift_basis``) and the autoregression (:func:`whitening`) of all of ``r`` the
+    drift leaves (slow noise keeps its slow part), by which ``r``, the signals and the
+    drift are filtered; the whitened drift is taken out of ``r``: the gains' covariance that
+    leaves, ``I - (G Q)(G Q)'`` (``G`` the gains' rows, ``Q`` an orthonormal basis of the
+    whitened drift), is part of the exact null."""
     if r.size < MIN_BLOCKS * BLOCK_SAMPLES[0] or not signals:
         return dict(NO_SWITCHING)
-    poly = whitening(within_blocks(r, signals, BLOCK_SAMPLES[0]))
-    q, _ = np.linalg.qr(signal.lfilter(poly, [1.0], drift_basis(r.size), axis=0))
+    t = np.linspace(-1.0, 1.0, r.size)
+    base = np.column_stack([np.vander(t, 4), drift_basis(t, DRIFT_ORDER)])
+    poly = whitening(r - base @ np.linalg.lstsq(base, r, rcond=None)[0])
+    q, _ = np.linalg.qr(signal.lfilter(poly, [1.0], base, axis=0))
     rw = signal.lfilter(poly, [1.0], r)
     rw = rw - q @ (q.T @ rw)
     tried = []
@@ -275,17 +282,21 @@ def judge_recording(
     fit: FitResult, rec: RecordingLike, unread: Sequence[str] = ()
 ) -> dict[str, dict[str, Any]]:
     """Per output channel of ``fit``, the numbers of the tests on its residual in ``rec``
-    (:func:`judge`; the model does not read the inputs ``unread``; empty when ``rec`` is
-    too short for the blocks or has no input)."""
-    if len(rec.time) < MIN_BLOCKS * BLOCK_SAMPLES[0] or not rec.inputs:
+    (:func:`judge`; the model does not read the inputs ``unread``), every sample or, for
+    outputs compared low-passed (the cut-off ``OUTPUT_LOWPASS_KEY`` in its meta), at their
+    pass-band rate (:func:`pass_band_step`); empty when ``rec`` is too short for the
+    blocks at that rate or has no input."""
+    step = pass_band_step(1.0 / rec.sample_interval, rec.meta.get(OUTPUT_LOWPASS_KEY))
+    if len(rec.time) // step < MIN_BLOCKS * BLOCK_SAMPLES[0] or not rec.inputs:
         return {}
     (res,) = residuals(fit.model, fit.theta, [rec], fit.channels)
     pred = fit.model.simulate(fit.theta, rec)
+    cut = {k: np.asarray(s, float)[::step] for k, s in rec.inputs.items()}
     return {
         ch: judge(
-            res[ch],
-            np.asarray(rec.outputs[ch], float),
-            {**rec.inputs, PREDICTION: pred[ch]},
+            res[ch][::step],
+            np.asarray(rec.outputs[ch], float)[::step],
+            {**cut, PREDICTION: np.asarray(pred[ch], float)[::step]},
             unread,
         )
         for ch in fit.channels
