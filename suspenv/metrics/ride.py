@@ -41,6 +41,7 @@ from suspenv.models.minibus.vehicle import (
     LOAD_CASES,
     REFERENCE_MINIBUS,
     Minibus,
+    VehicleParams,
     stacked_vehicle_parameters,
 )
 from suspenv.models.minibus.vehicle import G as G_STD
@@ -109,6 +110,7 @@ def ride_objectives_all(
     seat: SeatMount | None = None,
     dtype: type = np.float32,
     method: str = "time",
+    params: Sequence[VehicleParams] | None = None,
 ) -> dict[str, dict[str, np.ndarray]]:
     """Ride objectives of every load case from one stacked integration (or spectral pass).
 
@@ -129,7 +131,9 @@ def ride_objectives_all(
     seed, no record length, no noise; ``road.seed``, ``duration_s``, ``settle_s`` and
     ``dtype`` are unused; effects by their equivalent-linear rates) and adds its
     equivalent-linear rates ``damper_c`` (n, 4) and ``leaf_k`` (n, 2) (for
-    :func:`working_space`).
+    :func:`working_space`). ``params``: :func:`stacked_vehicle_parameters` of X in
+    ``load_cases``, if already at hand (the spectral method's; the time method's rig
+    makes its own).
     """
     road = road or RandomRoad()
     X = np.atleast_2d(np.asarray(X, dtype=float))
@@ -137,7 +141,7 @@ def ride_objectives_all(
     if method not in RIDE_METHODS:
         raise ValidationError(f"ride method must be one of {RIDE_METHODS}, but got {method!r}")
     if method == "spectral":
-        sp = ride_spectral(X, load_cases, road, vehicle, seat, effects=effects)
+        sp = ride_spectral(X, load_cases, road, vehicle, seat, effects=effects, params=params)
         keys = ("aw_front", "aw_rear", "rms_front", "rms_rear", "ok", "damper_c", "leaf_k")
         return {
             lc: {k: sp[k][i * n : (i + 1) * n] for k in keys} for i, lc in enumerate(load_cases)
@@ -609,8 +613,7 @@ _SIGMA_COLUMNS = np.array([1, 1, 3, 3, 4, 4])
 
 
 def _spectral_split(
-    X: np.ndarray,
-    cases: list[str],
+    params: list[VehicleParams],
     road: RandomRoad,
     vehicle: Minibus,
     seat: SeatMount | None,
@@ -622,8 +625,8 @@ def _spectral_split(
     init_damping: float,
 ) -> dict[str, np.ndarray]:
     """:func:`ride_spectral` of one chunk through the model's two decoupled halves
-    (:class:`_Halves`; no seat)."""
-    model = RideModel(stacked_vehicle_parameters(X, cases, vehicle), linear=not equivalent_linear)
+    (:class:`_Halves`; no seat); ``params`` the chunk's stacked vehicle parameters."""
+    model = RideModel(params, linear=not equivalent_linear)
     n, nq, npos = model.n, model.nq, model.n_pos
     minv = np.zeros((n, nq, nq))
     idx = np.arange(nq)
@@ -705,8 +708,7 @@ def _halves_mean_square(
 
 
 def _spectral_modal(
-    X: np.ndarray,
-    cases: list[str],
+    params: list[VehicleParams],
     road: RandomRoad,
     vehicle: Minibus,
     seat: SeatMount | None,
@@ -726,7 +728,6 @@ def _spectral_modal(
     only, the right-hand ones have the same RMS values). With ``effects`` also the front
     springs' and the Dahl elements' equivalent-linear rates (a Dahl element adds one
     first-order state per leaf)."""
-    params = stacked_vehicle_parameters(X, cases, vehicle)
     lin = RideModel(params, seat=seat, linear=True)
     lz = ElementLinearisation(RideModel(params, effects, seat)) if equivalent_linear else None
     dahl = lz is not None and lz.dahl is not None
@@ -797,6 +798,7 @@ def ride_spectral(
     init_damping: float = 0.85,
     split: bool = True,
     effects: Sequence[Effect] = (),
+    params: Sequence[VehicleParams] | None = None,
 ) -> dict[str, np.ndarray]:
     """Ride RMS values by the exact spectral integral of the (equivalent-)linear model.
 
@@ -845,7 +847,8 @@ def ride_spectral(
     Returns a dict with (n_rows,) arrays ``aw_front``, ``aw_rear``, ``rms_front``,
     ``rms_rear`` (m/s^2), ``ok`` for the load cases stacked in order, plus ``damper_c``
     (n_rows, 4; N s/m, FL, FR, RL, RR) and ``leaf_k`` (n_rows, 2; N/m, left, right), the
-    rates used, and ``iterations`` (passes run, the most of any design).
+    rates used, and ``iterations`` (passes run, the most of any design). ``params``:
+    :func:`stacked_vehicle_parameters` of X in ``load_cases``, if already at hand.
     """
     road = road or RandomRoad()
     X = np.atleast_2d(np.asarray(X, dtype=float))
@@ -861,13 +864,18 @@ def ride_spectral(
         halves = bool(effects) and split and seat is None
         chunk = functools.partial(_spectral_modal, effects=tuple(effects), halves=halves)
     size = SPLIT_CHUNK if use_split else SPECTRAL_CHUNK
-    args = (cases, road, vehicle, seat, n_freq, equivalent_linear, iterations, tol)
+    if params is None:
+        params = stacked_vehicle_parameters(X, cases, vehicle)
+    args = (road, vehicle, seat, n_freq, equivalent_linear, iterations, tol)
     n = X.shape[0]
     if n <= size:
-        return chunk(X, *args, n_freq_iter, init_damping)
+        return chunk(list(params), *args, n_freq_iter, init_damping)
     # chunks keep the (rows x frequencies x modes) work arrays in cache; a design's
     # numbers do not depend on its chunk (every operation is per design)
-    parts = [chunk(X[i : i + size], *args, n_freq_iter, init_damping) for i in range(0, n, size)]
+    parts = [
+        chunk([p.take(slice(i, i + size)) for p in params], *args, n_freq_iter, init_damping)
+        for i in range(0, n, size)
+    ]
     nc = len(cases)
     out: dict[str, np.ndarray] = {}
     for key in parts[0]:

@@ -108,7 +108,9 @@ from suspenv.models.minibus.vehicle import (
     BASELINE_DESIGN,
     LOAD_CASES,
     REFERENCE_MINIBUS,
+    VehicleParams,
     design_space,
+    stacked_vehicle_parameters,
 )
 from suspenv.models.minibus.vehicle import G as G_STD
 from suspenv.registry import report_function
@@ -374,8 +376,9 @@ class MinibusRideHandling(Problem):
         """
         X = np.atleast_2d(np.asarray(X, dtype=float))
         n = X.shape[0]
-        ride = self._ride(X)
-        P = handling_parameters(X, LOAD_CASES, self.vehicle)
+        params = stacked_vehicle_parameters(X, LOAD_CASES, self.vehicle)
+        ride = self._ride(X, params)
+        P = handling_parameters(X, LOAD_CASES, self.vehicle, params=params)
         circle = steady_circle(P, self.circle)
         both = {
             "ay_max": circle.ay_max,
@@ -454,9 +457,12 @@ class MinibusRideHandling(Problem):
             out[f"understeer_{round(10 * g):02d}g"] = row
         return out
 
-    def _ride(self, X: np.ndarray) -> dict[str, dict[str, np.ndarray]]:
+    def _ride(
+        self, X: np.ndarray, params: Sequence[VehicleParams]
+    ) -> dict[str, dict[str, np.ndarray]]:
         """Ride objectives of designs X (n, 8) for both load cases, as
-        :func:`ride_objectives_all` returns them (m/s^2)."""
+        :func:`ride_objectives_all` returns them (m/s^2); ``params`` their stacked
+        vehicle parameters."""
         # float64: a design's numbers must not depend on the batch it is evaluated in
         # (float32 matrix products round differently for other batch sizes, which would
         # make runs with other worker counts drift apart); costs ~0.4 ms per candidate
@@ -469,6 +475,7 @@ class MinibusRideHandling(Problem):
             self.ride_effects,
             dtype=np.float64,
             method=self.ride_method,
+            params=params,
         )
 
     def _working_space(

@@ -258,11 +258,13 @@ def handling_parameters(
     vehicle: Minibus = REFERENCE_MINIBUS,
     tyre: LateralTyre = LIGHT_TRUCK_TYRE,
     leaf: LeafAxleGeometry = DEFAULT_LEAF_GEOMETRY,
+    params: Sequence[VehicleParams] | None = None,
 ) -> HandlingParams:
     """Handling parameters for designs X (n, 8; the study's units) in one load case, or
-    in each of a sequence of them (rows stacked in its order: k n rows)."""
+    in each of a sequence of them (rows stacked in its order: k n rows); ``params``:
+    :func:`stacked_vehicle_parameters` of X in those load cases, if already at hand."""
     cases = [load_case] if isinstance(load_case, str | LoadCase) else list(load_case)
-    vps = stacked_vehicle_parameters(X, cases, vehicle)
+    vps = stacked_vehicle_parameters(X, cases, vehicle) if params is None else params
     d = vps[0].design
     # the design-independent parameters of each load case (floats), on their rows
     (
