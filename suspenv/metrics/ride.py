@@ -34,6 +34,7 @@ from suspenv.models.minibus.linearisation import (
     DAMPER,
     FRONT,
     LEAF,
+    NEWTON_STEPS,
     ElementLinearisation,
 )
 from suspenv.models.minibus.ride_model import RideModel, SeatMount
@@ -553,17 +554,18 @@ def _split_grid_values(
 # ------------------------------------------------------------------ equivalent linear
 def _fixed_point(
     r: np.ndarray,
-    lz: ElementLinearisation | None,
+    update: Callable[[Any, np.ndarray], int] | None,
     modal: Callable[[np.ndarray], Any],
-    sigma: Callable[[Any], np.ndarray],
     iterations: int,
     tol: float | None,
 ) -> tuple[np.ndarray, int, Any]:
     """Equivalent-linear rates of :func:`ride_spectral` from the starting rates ``r``
-    (n, n_rates; columns of :mod:`suspenv.models.minibus.linearisation`): ``(rates,
-    passes, modal form of the rates)``; ``modal(r)`` builds a modal form, ``sigma`` gives
-    its element RMS values; ``lz=None``: the plain linearised model (``r`` as given)."""
-    if lz is None:
+    (n, n_rates; columns of :mod:`suspenv.models.minibus.linearisation`; updated in
+    place): ``(rates, passes, modal form of the rates)``; ``modal(r)`` builds a modal
+    form, ``update(m, r)`` takes the new rates of modal form ``m`` into ``r`` by the rule
+    of :func:`_rates_update` and returns how many designs took them; ``update=None``:
+    the plain linearised model (``r`` as given)."""
+    if update is None:
         return r, 0, modal(r)
     n_iter = 0
     m = None
@@ -572,19 +574,35 @@ def _fixed_point(
         n_iter += 1
         if tol is None and it == iterations - 1:
             break  # fixed number of passes: the last pass's rates serve
-        r_new = lz.rates(sigma(m), r)
-        change = np.max(np.abs(r_new - r) / np.maximum(np.abs(r), 1e-300), axis=1)
-        # per design: a converged design keeps its rates (so its numbers never depend
-        # on the other designs of the batch); when all have converged, the rates of
-        # this pass are the fixed point within ``tol`` and its modal form serves
-        upd = change >= (0.0 if tol is None else tol)
-        if not upd.any():
+        # when every design has converged, the rates of this pass are the fixed point
+        # within ``tol`` and its modal form serves
+        if not update(m, r):
             break
-        r = np.where(upd[:, None], r_new, r)
         m = None
     if m is None:
         m = modal(r)
     return r, n_iter, m
+
+
+def _rates_update(
+    lz: ElementLinearisation, sigma: Callable[[Any], np.ndarray], tol: float | None
+) -> Callable[[Any, np.ndarray], int]:
+    """``update(m, r)`` of :func:`_fixed_point`: the rates ``lz.rates`` gives at the
+    element RMS values ``sigma(m)`` of modal form ``m``, taken into ``r`` (in place) by
+    each design whose largest relative change ``|r_new - r| / max(|r|, 1e-300)`` is >=
+    ``tol`` (None: 0; NaN: the design keeps its rates); returns how many took them."""
+    tol_ = 0.0 if tol is None else tol
+
+    def update(m: Any, r: np.ndarray) -> int:
+        r_new = lz.rates(sigma(m), r)
+        change = np.max(np.abs(r_new - r) / np.maximum(np.abs(r), 1e-300), axis=1)
+        # per design: a converged design keeps its rates (so its numbers never depend
+        # on the other designs of the batch)
+        upd = change >= tol_
+        r[upd] = r_new[upd]
+        return int(np.count_nonzero(upd))
+
+    return update
 
 
 def _spectral_result(
@@ -603,13 +621,6 @@ def _spectral_result(
         "leaf_k": r[:, LEAF],
         "iterations": np.array(n_iter),
     }
-
-
-#: the element RMS values of :func:`_spectral_split`'s passes (columns ``SIG_*`` of
-#: :mod:`suspenv.models.minibus.linearisation`: damper velocities FL, FR, RL, RR, leaf
-#: deflections L, R) from its mean squares (FL damper, RL damper, left leaf) x
-#: (displacement, velocity), flattened
-_SIGMA_COLUMNS = np.array([1, 1, 3, 3, 4, 4])
 
 
 def _spectral_split(
@@ -640,19 +651,24 @@ def _spectral_split(
         rates[:, npos : npos + 4] = r[:, DAMPER]
         return halves.modal(rates)
 
-    grid_i, wt_i = _split_grid(road, n_freq_iter, vehicle, False)
+    (w, _, dr, di), wt_i = _split_grid(road, n_freq_iter, vehicle, False)
+    update: Callable[[Any, np.ndarray], int] | None = None
+    if equivalent_linear:
+        lz = ElementLinearisation(model)
+        r0, tol_ = lz.initial(init_damping), 0.0 if tol is None else tol
 
-    def sigma(m: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
-        # (n, 3 outputs: FL damper, RL damper, left leaf, 2: displacement, velocity)
-        ms = halves.mean_square(m, slice(2, 5), grid_i, wt_i).reshape(-1, 6)
-        return np.sqrt(ms[:, _SIGMA_COLUMNS])
+        def update(m: tuple[np.ndarray, np.ndarray], r: np.ndarray) -> int:
+            # _rates_update's rule, compiled: the RMS values of the FL and RL dampers
+            # and the left leaf (their right-hand twins equal), the rates at them
+            return int(
+                spectral_kernel.split_update(
+                    *m, halves.B, halves.co, w, dr, di, wt_i, *lz.packed, NEWTON_STEPS, tol_, r
+                )
+            )
 
-    lz = ElementLinearisation(model) if equivalent_linear else None
-    if lz is None:
-        r0 = np.hstack([model.damper_mean, model.leaf_static_rate])
     else:
-        r0 = lz.initial(init_damping)
-    r, n_iter, m = _fixed_point(r0, lz, modal, sigma, iterations, tol)
+        r0 = np.hstack([model.damper_mean, model.leaf_static_rate])
+    r, n_iter, m = _fixed_point(r0, update, modal, iterations, tol)
     grid, wt = _split_grid(road, n_freq, vehicle, True)
     ms = halves.mean_square(m, slice(0, 2), grid, wt)
     return _spectral_result(np.sqrt(ms[:, :, 0]), np.sqrt(ms[:, :, 1]), r, n_iter)
@@ -776,10 +792,10 @@ def _spectral_modal(
         return np.sqrt(np.concatenate(sq, axis=1))
 
     if lz is None:
-        r0 = np.hstack([lin.damper_mean, lin.leaf_static_rate])
+        r0, update = np.hstack([lin.damper_mean, lin.leaf_static_rate]), None
     else:
-        r0 = lz.initial(init_damping)
-    r, n_iter, m = _fixed_point(r0, lz, modal, sigma, iterations, tol)
+        r0, update = lz.initial(init_damping), _rates_update(lz, sigma, tol)
+    r, n_iter, m = _fixed_point(r0, update, modal, iterations, tol)
     ms = mean_square(m, [0, 1], road, n_freq, vehicle, True)
     return _spectral_result(np.sqrt(ms[:, :, 0]), np.sqrt(ms[:, :, 1]), r, n_iter)
 
