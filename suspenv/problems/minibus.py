@@ -157,6 +157,9 @@ OBJECTIVE_UNITS = ("m/s^2", "m/s^2", "s", "deg", "deg")
 #: lateral accelerations (in g) of the ISO 4138 understeer gradients (measures; the
 #: default set's understeer constraint holds at each)
 ISO4138_AY_G = (0.1, 0.2, 0.3)
+#: their measures' keys (``understeer_<10 x a_y in g>g``) and accelerations (m/s^2)
+UNDERSTEER_KEYS = tuple(f"understeer_{round(10 * g):02d}g" for g in ISO4138_AY_G)
+ISO4138_AY = np.asarray(ISO4138_AY_G) * G_STD
 #: ISO 7401 step steer: test speed (km/h) and steady-state lateral acceleration (m/s^2)
 STEP_SPEED_KMH = 80.0
 STEP_AY = 4.0
@@ -418,14 +421,14 @@ class MinibusRideHandling(Problem):
         angle) and yaw_bandwidth (Hz); ISO 4138 understeer gradients (deg/g)
         ``understeer_<10 x a_y in g>g`` at :data:`ISO4138_AY_G` and their minimum
         ``understeer_min``; ``completed`` (both linear systems stable)."""
-        ay_iso = np.asarray(ISO4138_AY_G) * G_STD
         ay_secant = np.array([course_lateral_acceleration(self.slalom_config), STEP_AY])
         # one quasi-steady sweep for the secants and the ISO 4138 gradients
         sw = steady_state_sweep(
-            P, np.concatenate([ay_secant, gradient_accelerations(ay_iso)]), self.circle
+            P, np.concatenate([ay_secant, gradient_accelerations(ISO4138_AY)]), self.circle
         )
         cf, cr = secant_axle_stiffness(P, ay_secant, sweep=sw.take(slice(0, 2)))
-        grad = np.degrees(understeer_gradients(P, ay_iso, sweep=sw.take(slice(2, None)))) * G_STD
+        grad = understeer_gradients(P, ISO4138_AY, sweep=sw.take(slice(2, None)))
+        grad = np.degrees(grad) * G_STD
         # both linear systems at once: the slalom's and the step steer's speed and secants
         u = np.array([[self.slalom_config.speed], [STEP_SPEED_KMH / 3.6]])
         A, B = linear_system(P, u, (cf, cr))
@@ -453,8 +456,7 @@ class MinibusRideHandling(Problem):
             "understeer_min": np.min(grad, axis=0),
             "completed": lin.stable & stable & np.isfinite(lin.steering_wheel_amplitude),
         }
-        for g, row in zip(ISO4138_AY_G, grad, strict=True):
-            out[f"understeer_{round(10 * g):02d}g"] = row
+        out.update(zip(UNDERSTEER_KEYS, grad, strict=True))
         return out
 
     def _ride(

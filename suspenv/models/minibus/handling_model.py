@@ -534,9 +534,10 @@ def linear_system(
     (k, n)); A and B then carry them too.
     """
     cf, cr = axle_stiffness if axle_stiffness is not None else P.axle_cornering_stiffness()
-    u, cf, cr = np.broadcast_arrays(np.asarray(u, dtype=float), cf, cr)
-    shape = u.shape
-    u, cf, cr = (np.ascontiguousarray(x, dtype=float).reshape(-1, P.n) for x in (u, cf, cr))
+    shape = np.broadcast(u, cf, cr).shape
+    ucc = np.empty((3, *shape))  # u, cf, cr broadcast, each C-contiguous (k, n)
+    ucc[0], ucc[1], ucc[2] = u, cf, cr
+    u, cf, cr = ucc.reshape(3, -1, P.n)
     A, B = np.zeros((u.shape[0], P.n, 4, 4)), np.zeros((u.shape[0], P.n, 4))
     handling_kernel.linear_loop(P.rows, u, cf, cr, A, B)
     return A.reshape(*shape, 4, 4), B.reshape(*shape, 4)
