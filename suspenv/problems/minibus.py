@@ -510,8 +510,12 @@ class MinibusRideHandling(Problem):
         def combine(key: str) -> np.ndarray:
             return m[f"{key}_no_load"] + w * m[f"{key}_full_load"]
 
+        def columns(values: list[np.ndarray]) -> np.ndarray:
+            """(n, k) of k arrays (n,): one copy (np.column_stack pays a call each)."""
+            return np.ascontiguousarray(np.array(values).T)
+
         study = self.handling == "study"
-        F = np.column_stack(
+        F = columns(
             [
                 combine("aw_front"),
                 combine("aw_rear"),
@@ -529,7 +533,7 @@ class MinibusRideHandling(Problem):
         if self.working_space:
             limits += [m[f"bump_stop_{lc}"] - self.bump_stop_limit for lc in LOAD_CASES]
             limits += [m[f"tyre_load_{lc}"] - self.tyre_load_limit for lc in LOAD_CASES]
-        G = np.column_stack(limits)
+        G = columns(limits)
         flags = [m[f"{kind}_{lc}"] for kind in ("completed", "ride_ok") for lc in LOAD_CASES]
         ok = np.logical_and.reduce(flags) & np.isfinite(F).all(axis=1)
         messages = [""] * X.shape[0]

@@ -186,7 +186,8 @@ class HandlingParams:
         and roll inertias (kg m^2), ``ms h'`` (kg m), ``ms h' g - Kphi`` (N m/rad) and
         the roll damping (N m s/rad, :func:`roll_damping`). Computed once (read-only)."""
         msh = self.ms * self.h_prime
-        rows = np.stack(
+        # (22, n) then C-contiguous (n, 22): one copy (np.stack pays a call per column)
+        rows = np.array(
             [
                 self.roll_gradient(),
                 self.kphi_front,
@@ -210,9 +211,9 @@ class HandlingParams:
                 msh,
                 msh * G - self.kphi,
                 roll_damping(self),
-            ],
-            axis=1,
+            ]
         )
+        rows = np.ascontiguousarray(rows.T)
         rows.flags.writeable = False
         return rows
 
