@@ -160,6 +160,7 @@ ISO4138_AY_G = (0.1, 0.2, 0.3)
 #: their measures' keys (``understeer_<10 x a_y in g>g``) and accelerations (m/s^2)
 UNDERSTEER_KEYS = tuple(f"understeer_{round(10 * g):02d}g" for g in ISO4138_AY_G)
 ISO4138_AY = np.asarray(ISO4138_AY_G) * G_STD
+ISO4138_AY.flags.writeable = False
 #: ISO 7401 step steer: test speed (km/h) and steady-state lateral acceleration (m/s^2)
 STEP_SPEED_KMH = 80.0
 STEP_AY = 4.0

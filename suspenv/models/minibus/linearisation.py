@@ -137,7 +137,8 @@ def dahl_rates(
 
 #: Newton steps of a spring's mean deflection (:meth:`ElementLinearisation.spring_mean`)
 #: without and with end stops
-NEWTON_STEPS, NEWTON_STEPS_STOPS = 6, 10
+NEWTON_STEPS = 6
+NEWTON_STEPS_STOPS = 10
 #: starting guess of the leaf deflection rate's RMS (m/s) for the first Dahl rates
 _DAHL_START_SV = 0.05
 
