@@ -259,7 +259,7 @@ class PreviousDefault(MinibusRideHandling):
     """The default problem with the previous spectral ride algorithm (:func:`full_model_ride`);
     the same numbers to round-off (tests/test_ride_spectral.py)."""
 
-    def _ride(self, X: np.ndarray) -> dict[str, dict[str, np.ndarray]]:
+    def _ride(self, X: np.ndarray, params: Any) -> dict[str, dict[str, np.ndarray]]:
         return full_model_ride(X, self)
 
 

@@ -24,7 +24,7 @@ one 4x4 complex solve per design.
 from __future__ import annotations
 
 import functools
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -38,6 +38,7 @@ from suspenv.models.minibus.handling_model import (
 from suspenv.rigs.handling import (
     SLALOM_SIGNALS,
     SlalomConfig,
+    SlalomRun,
     SteadyCircleConfig,
     secant_axle_stiffness,
     slalom_run,
@@ -119,35 +120,25 @@ def linear_range_gradient(x: np.ndarray, y: np.ndarray, x_max: float) -> np.ndar
 
 
 # ------------------------------------------------------------------ slalom
-@dataclass
-class SlalomResult:
-    """Slalom results of a batch.
+@dataclass(kw_only=True)
+class SlalomResult(SlalomRun):
+    """Slalom results of a batch: the run's (:class:`suspenv.rigs.handling.SlalomRun`:
+    path error, completion, settings, channels) and its measures.
 
     Attributes:
         yaw_rate_amplitude: rad/s (n,), mean of the per-cone peaks |r|.
         roll_amplitude: rad (n,), mean of the per-cone peaks |phi|.
         steer_amplitude: rad (n,), road-wheel steer, same windows.
         ay_amplitude: m/s^2 (n,), same windows.
-        path_error_rms: m (n,), RMS lateral distance to the path over the windows.
         yaw_rate_peaks, roll_peaks: (n_measured_cones, n) the per-cone peaks.
-        completed: bool (n,), False where the vehicle spun or left the course (heading
-            beyond 90 deg, non-finite states, or a path error above ``max_path_error``);
-            its other results are meaningless.
-        config: the settings of the run.
-        channels: recorded time histories (T, n) when ``record_every > 0``: t, x, y,
-            psi, r, phi, delta, ay.
     """
 
     yaw_rate_amplitude: np.ndarray
     roll_amplitude: np.ndarray
     steer_amplitude: np.ndarray
     ay_amplitude: np.ndarray
-    path_error_rms: np.ndarray
     yaw_rate_peaks: np.ndarray
     roll_peaks: np.ndarray
-    completed: np.ndarray
-    config: SlalomConfig
-    channels: dict[str, np.ndarray] = field(default_factory=dict)
 
 
 def slalom(
@@ -163,16 +154,13 @@ def slalom(
     r_peaks = peaks.result(SLALOM_SIGNALS.index("yaw_rate"))
     phi_peaks = peaks.result(SLALOM_SIGNALS.index("roll"))
     return SlalomResult(
+        **vars(run),
         yaw_rate_amplitude=mean_peak_amplitude(r_peaks),
         roll_amplitude=mean_peak_amplitude(phi_peaks),
         steer_amplitude=mean_peak_amplitude(peaks.result(SLALOM_SIGNALS.index("steer"))),
         ay_amplitude=mean_peak_amplitude(peaks.result(SLALOM_SIGNALS.index("ay"))),
-        path_error_rms=run.path_error_rms,
-        completed=run.completed,
         yaw_rate_peaks=r_peaks,
         roll_peaks=phi_peaks,
-        config=config,
-        channels=run.channels,
     )
 
 

@@ -35,6 +35,7 @@ from suspenv.models.minibus.linearisation import (
     DAMPER,
     FRONT,
     LEAF,
+    NEWTON_STEPS,
     SIG_FRONT,
     SIG_LEAF,
     ElementLinearisation,
@@ -45,6 +46,7 @@ from suspenv.models.minibus.vehicle import (
     REFERENCE_MINIBUS,
     STUDY_PICK,
     Minibus,
+    VehicleParams,
     stacked_vehicle_parameters,
     vehicle_parameters,
 )
@@ -129,6 +131,7 @@ def ride_objectives_all(
     seat: SeatMount | None = None,
     dtype: type = np.float32,
     method: str = "time",
+    params: Sequence[VehicleParams] | None = None,
 ) -> dict[str, dict[str, np.ndarray]]:
     """Ride objectives of every load case from one stacked integration (or spectral pass).
 
@@ -149,7 +152,9 @@ def ride_objectives_all(
     seed, no record length, no noise; ``road.seed``, ``duration_s``, ``settle_s`` and
     ``dtype`` are unused; effects by their equivalent-linear rates) and adds its
     equivalent-linear rates ``damper_c`` (n, 4) and ``leaf_k`` (n, 2) (for
-    :func:`working_space`).
+    :func:`working_space`). ``params``: :func:`stacked_vehicle_parameters` of X in
+    ``load_cases``, if already at hand (the spectral method's; the time method's rig
+    makes its own).
     """
     road = road or RandomRoad()
     X = np.atleast_2d(np.asarray(X, dtype=float))
@@ -157,7 +162,7 @@ def ride_objectives_all(
     if method not in RIDE_METHODS:
         raise ValidationError(f"ride method must be one of {RIDE_METHODS}, but got {method!r}")
     if method == "spectral":
-        sp = ride_spectral(X, load_cases, road, vehicle, seat, effects=effects)
+        sp = ride_spectral(X, load_cases, road, vehicle, seat, effects=effects, params=params)
         keys = ("aw_front", "aw_rear", "rms_front", "rms_rear", "ok", "damper_c", "leaf_k")
         return {
             lc: {k: sp[k][i * n : (i + 1) * n] for k in keys} for i, lc in enumerate(load_cases)
@@ -569,17 +574,18 @@ def _split_grid_values(
 # ------------------------------------------------------------------ equivalent linear
 def _fixed_point(
     r: np.ndarray,
-    lz: ElementLinearisation | None,
+    update: Callable[[Any, np.ndarray], int] | None,
     modal: Callable[[np.ndarray], Any],
-    sigma: Callable[[Any], np.ndarray],
     iterations: int,
     tol: float | None,
 ) -> tuple[np.ndarray, int, Any]:
     """Equivalent-linear rates of :func:`ride_spectral` from the starting rates ``r``
-    (n, n_rates; columns of :mod:`suspenv.models.minibus.linearisation`): ``(rates,
-    passes, modal form of the rates)``; ``modal(r)`` builds a modal form, ``sigma`` gives
-    its element RMS values; ``lz=None``: the plain linearised model (``r`` as given)."""
-    if lz is None:
+    (n, n_rates; columns of :mod:`suspenv.models.minibus.linearisation`; updated in
+    place): ``(rates, passes, modal form of the rates)``; ``modal(r)`` builds a modal
+    form, ``update(m, r)`` takes the new rates of modal form ``m`` into ``r`` by the rule
+    of :func:`_rates_update` and returns how many designs took them; ``update=None``:
+    the plain linearised model (``r`` as given)."""
+    if update is None:
         return r, 0, modal(r)
     n_iter = 0
     m = None
@@ -588,19 +594,35 @@ def _fixed_point(
         n_iter += 1
         if tol is None and it == iterations - 1:
             break  # fixed number of passes: the last pass's rates serve
-        r_new = lz.rates(sigma(m), r)
-        change = np.max(np.abs(r_new - r) / np.maximum(np.abs(r), 1e-300), axis=1)
-        # per design: a converged design keeps its rates (so its numbers never depend
-        # on the other designs of the batch); when all have converged, the rates of
-        # this pass are the fixed point within ``tol`` and its modal form serves
-        upd = change >= (0.0 if tol is None else tol)
-        if not upd.any():
+        # when every design has converged, the rates of this pass are the fixed point
+        # within ``tol`` and its modal form serves
+        if not update(m, r):
             break
-        r = np.where(upd[:, None], r_new, r)
         m = None
     if m is None:
         m = modal(r)
     return r, n_iter, m
+
+
+def _rates_update(
+    lz: ElementLinearisation, sigma: Callable[[Any], np.ndarray], tol: float | None
+) -> Callable[[Any, np.ndarray], int]:
+    """``update(m, r)`` of :func:`_fixed_point`: the rates ``lz.rates`` gives at the
+    element RMS values ``sigma(m)`` of modal form ``m``, taken into ``r`` (in place) by
+    each design whose largest relative change ``|r_new - r| / max(|r|, 1e-300)`` is >=
+    ``tol`` (None: 0; NaN: the design keeps its rates); returns how many took them."""
+    tol_ = 0.0 if tol is None else tol
+
+    def update(m: Any, r: np.ndarray) -> int:
+        r_new = lz.rates(sigma(m), r)
+        change = np.max(np.abs(r_new - r) / np.maximum(np.abs(r), 1e-300), axis=1)
+        # per design: a converged design keeps its rates (so its numbers never depend
+        # on the other designs of the batch)
+        upd = change >= tol_
+        r[upd] = r_new[upd]
+        return int(np.count_nonzero(upd))
+
+    return update
 
 
 def _spectral_result(
@@ -621,16 +643,8 @@ def _spectral_result(
     }
 
 
-#: the element RMS values of :func:`_spectral_split`'s passes (columns ``SIG_*`` of
-#: :mod:`suspenv.models.minibus.linearisation`: damper velocities FL, FR, RL, RR, leaf
-#: deflections L, R) from its mean squares (FL damper, RL damper, left leaf) x
-#: (displacement, velocity), flattened
-_SIGMA_COLUMNS = np.array([1, 1, 3, 3, 4, 4])
-
-
 def _spectral_split(
-    X: np.ndarray,
-    cases: list[str],
+    params: list[VehicleParams],
     road: RandomRoad,
     vehicle: Minibus,
     seat: SeatMount | None,
@@ -642,8 +656,8 @@ def _spectral_split(
     init_damping: float,
 ) -> dict[str, np.ndarray]:
     """:func:`ride_spectral` of one chunk through the model's two decoupled halves
-    (:class:`_Halves`; no seat)."""
-    model = RideModel(stacked_vehicle_parameters(X, cases, vehicle), linear=not equivalent_linear)
+    (:class:`_Halves`; no seat); ``params`` the chunk's stacked vehicle parameters."""
+    model = RideModel(params, linear=not equivalent_linear)
     n, nq, npos = model.n, model.nq, model.n_pos
     minv = np.zeros((n, nq, nq))
     idx = np.arange(nq)
@@ -657,19 +671,24 @@ def _spectral_split(
         rates[:, npos : npos + 4] = r[:, DAMPER]
         return halves.modal(rates)
 
-    grid_i, wt_i = _split_grid(road, n_freq_iter, vehicle, False)
+    (w, _, dr, di), wt_i = _split_grid(road, n_freq_iter, vehicle, False)
+    update: Callable[[Any, np.ndarray], int] | None = None
+    if equivalent_linear:
+        lz = ElementLinearisation(model)
+        r0, tol_ = lz.initial(init_damping), 0.0 if tol is None else tol
 
-    def sigma(m: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
-        # (n, 3 outputs: FL damper, RL damper, left leaf, 2: displacement, velocity)
-        ms = halves.mean_square(m, slice(2, 5), grid_i, wt_i).reshape(-1, 6)
-        return np.sqrt(ms[:, _SIGMA_COLUMNS])
+        def update(m: tuple[np.ndarray, np.ndarray], r: np.ndarray) -> int:
+            # _rates_update's rule, compiled: the RMS values of the FL and RL dampers
+            # and the left leaf (their right-hand twins equal), the rates at them
+            return int(
+                spectral_kernel.split_update(
+                    *m, halves.B, halves.co, w, dr, di, wt_i, *lz.packed, NEWTON_STEPS, tol_, r
+                )
+            )
 
-    lz = ElementLinearisation(model) if equivalent_linear else None
-    if lz is None:
-        r0 = np.hstack([model.damper_mean, model.leaf_static_rate])
     else:
-        r0 = lz.initial(init_damping)
-    r, n_iter, m = _fixed_point(r0, lz, modal, sigma, iterations, tol)
+        r0 = np.hstack([model.damper_mean, model.leaf_static_rate])
+    r, n_iter, m = _fixed_point(r0, update, modal, iterations, tol)
     grid, wt = _split_grid(road, n_freq, vehicle, True)
     ms = halves.mean_square(m, slice(0, 2), grid, wt)
     return _spectral_result(np.sqrt(ms[:, :, 0]), np.sqrt(ms[:, :, 1]), r, n_iter)
@@ -725,8 +744,7 @@ def _halves_mean_square(
 
 
 def _spectral_modal(
-    X: np.ndarray,
-    cases: list[str],
+    params: list[VehicleParams],
     road: RandomRoad,
     vehicle: Minibus,
     seat: SeatMount | None,
@@ -746,7 +764,6 @@ def _spectral_modal(
     only, the right-hand ones have the same RMS values). With ``effects`` also the front
     springs' and the Dahl elements' equivalent-linear rates (a Dahl element adds one
     first-order state per leaf)."""
-    params = stacked_vehicle_parameters(X, cases, vehicle)
     lin = RideModel(params, seat=seat, linear=True)
     lz = ElementLinearisation(RideModel(params, effects, seat)) if equivalent_linear else None
     dahl = lz is not None and lz.dahl is not None
@@ -795,10 +812,10 @@ def _spectral_modal(
         return np.sqrt(np.concatenate(sq, axis=1))
 
     if lz is None:
-        r0 = np.hstack([lin.damper_mean, lin.leaf_static_rate])
+        r0, update = np.hstack([lin.damper_mean, lin.leaf_static_rate]), None
     else:
-        r0 = lz.initial(init_damping)
-    r, n_iter, m = _fixed_point(r0, lz, modal, sigma, iterations, tol)
+        r0, update = lz.initial(init_damping), _rates_update(lz, sigma, tol)
+    r, n_iter, m = _fixed_point(r0, update, modal, iterations, tol)
     ms = mean_square(m, [0, 1], road, n_freq, vehicle, True)
     if lz is not None and any(k is not None for end in lz.kappa for k in end):
         ms = ms + _stop_remainder(lin, lz, r, sigma(m), road, vehicle)
@@ -906,6 +923,7 @@ def ride_spectral(
     init_damping: float = 0.85,
     split: bool = True,
     effects: Sequence[Effect] = (),
+    params: Sequence[VehicleParams] | None = None,
 ) -> dict[str, np.ndarray]:
     """Ride RMS values by the exact spectral integral of the (equivalent-)linear model.
 
@@ -956,7 +974,8 @@ def ride_spectral(
     Returns a dict with (n_rows,) arrays ``aw_front``, ``aw_rear``, ``rms_front``,
     ``rms_rear`` (m/s^2), ``ok`` for the load cases stacked in order, plus ``damper_c``
     (n_rows, 4; N s/m, FL, FR, RL, RR) and ``leaf_k`` (n_rows, 2; N/m, left, right), the
-    rates used, and ``iterations`` (passes run, the most of any design).
+    rates used, and ``iterations`` (passes run, the most of any design). ``params``:
+    :func:`stacked_vehicle_parameters` of X in ``load_cases``, if already at hand.
     """
     road = road or RandomRoad()
     X = np.atleast_2d(np.asarray(X, dtype=float))
@@ -972,13 +991,18 @@ def ride_spectral(
         halves = bool(effects) and split and seat is None
         chunk = functools.partial(_spectral_modal, effects=tuple(effects), halves=halves)
     size = SPLIT_CHUNK if use_split else SPECTRAL_CHUNK
-    args = (cases, road, vehicle, seat, n_freq, equivalent_linear, iterations, tol)
+    if params is None:
+        params = stacked_vehicle_parameters(X, cases, vehicle)
+    args = (road, vehicle, seat, n_freq, equivalent_linear, iterations, tol)
     n = X.shape[0]
     if n <= size:
-        return chunk(X, *args, n_freq_iter, init_damping)
+        return chunk(list(params), *args, n_freq_iter, init_damping)
     # chunks keep the (rows x frequencies x modes) work arrays in cache; a design's
     # numbers do not depend on its chunk (every operation is per design)
-    parts = [chunk(X[i : i + size], *args, n_freq_iter, init_damping) for i in range(0, n, size)]
+    parts = [
+        chunk([p.take(slice(i, i + size)) for p in params], *args, n_freq_iter, init_damping)
+        for i in range(0, n, size)
+    ]
     nc = len(cases)
     out: dict[str, np.ndarray] = {}
     for key in parts[0]:

@@ -108,7 +108,9 @@ from suspenv.models.minibus.vehicle import (
     BASELINE_DESIGN,
     LOAD_CASES,
     REFERENCE_MINIBUS,
+    VehicleParams,
     design_space,
+    stacked_vehicle_parameters,
 )
 from suspenv.models.minibus.vehicle import G as G_STD
 from suspenv.registry import report_function
@@ -155,6 +157,10 @@ OBJECTIVE_UNITS = ("m/s^2", "m/s^2", "s", "deg", "deg")
 #: lateral accelerations (in g) of the ISO 4138 understeer gradients (measures; the
 #: default set's understeer constraint holds at each)
 ISO4138_AY_G = (0.1, 0.2, 0.3)
+#: their measures' keys (``understeer_<10 x a_y in g>g``) and accelerations (m/s^2)
+UNDERSTEER_KEYS = tuple(f"understeer_{round(10 * g):02d}g" for g in ISO4138_AY_G)
+ISO4138_AY = np.asarray(ISO4138_AY_G) * G_STD
+ISO4138_AY.flags.writeable = False
 #: ISO 7401 step steer: test speed (km/h) and steady-state lateral acceleration (m/s^2)
 STEP_SPEED_KMH = 80.0
 STEP_AY = 4.0
@@ -374,8 +380,9 @@ class MinibusRideHandling(Problem):
         """
         X = np.atleast_2d(np.asarray(X, dtype=float))
         n = X.shape[0]
-        ride = self._ride(X)
-        P = handling_parameters(X, LOAD_CASES, self.vehicle)
+        params = stacked_vehicle_parameters(X, LOAD_CASES, self.vehicle)
+        ride = self._ride(X, params)
+        P = handling_parameters(X, LOAD_CASES, self.vehicle, params=params)
         circle = steady_circle(P, self.circle)
         both = {
             "ay_max": circle.ay_max,
@@ -415,14 +422,14 @@ class MinibusRideHandling(Problem):
         angle) and yaw_bandwidth (Hz); ISO 4138 understeer gradients (deg/g)
         ``understeer_<10 x a_y in g>g`` at :data:`ISO4138_AY_G` and their minimum
         ``understeer_min``; ``completed`` (both linear systems stable)."""
-        ay_iso = np.asarray(ISO4138_AY_G) * G_STD
         ay_secant = np.array([course_lateral_acceleration(self.slalom_config), STEP_AY])
         # one quasi-steady sweep for the secants and the ISO 4138 gradients
         sw = steady_state_sweep(
-            P, np.concatenate([ay_secant, gradient_accelerations(ay_iso)]), self.circle
+            P, np.concatenate([ay_secant, gradient_accelerations(ISO4138_AY)]), self.circle
         )
         cf, cr = secant_axle_stiffness(P, ay_secant, sweep=sw.take(slice(0, 2)))
-        grad = np.degrees(understeer_gradients(P, ay_iso, sweep=sw.take(slice(2, None)))) * G_STD
+        grad = understeer_gradients(P, ISO4138_AY, sweep=sw.take(slice(2, None)))
+        grad = np.degrees(grad) * G_STD
         # both linear systems at once: the slalom's and the step steer's speed and secants
         u = np.array([[self.slalom_config.speed], [STEP_SPEED_KMH / 3.6]])
         A, B = linear_system(P, u, (cf, cr))
@@ -450,13 +457,15 @@ class MinibusRideHandling(Problem):
             "understeer_min": np.min(grad, axis=0),
             "completed": lin.stable & stable & np.isfinite(lin.steering_wheel_amplitude),
         }
-        for g, row in zip(ISO4138_AY_G, grad, strict=True):
-            out[f"understeer_{round(10 * g):02d}g"] = row
+        out.update(zip(UNDERSTEER_KEYS, grad, strict=True))
         return out
 
-    def _ride(self, X: np.ndarray) -> dict[str, dict[str, np.ndarray]]:
+    def _ride(
+        self, X: np.ndarray, params: Sequence[VehicleParams]
+    ) -> dict[str, dict[str, np.ndarray]]:
         """Ride objectives of designs X (n, 8) for both load cases, as
-        :func:`ride_objectives_all` returns them (m/s^2)."""
+        :func:`ride_objectives_all` returns them (m/s^2); ``params`` their stacked
+        vehicle parameters."""
         # float64: a design's numbers must not depend on the batch it is evaluated in
         # (float32 matrix products round differently for other batch sizes, which would
         # make runs with other worker counts drift apart); costs ~0.4 ms per candidate
@@ -469,6 +478,7 @@ class MinibusRideHandling(Problem):
             self.ride_effects,
             dtype=np.float64,
             method=self.ride_method,
+            params=params,
         )
 
     def _working_space(
@@ -501,8 +511,12 @@ class MinibusRideHandling(Problem):
         def combine(key: str) -> np.ndarray:
             return m[f"{key}_no_load"] + w * m[f"{key}_full_load"]
 
+        def columns(values: list[np.ndarray]) -> np.ndarray:
+            """(n, k) of k arrays (n,): one copy (np.column_stack pays a call each)."""
+            return np.ascontiguousarray(np.array(values).T)
+
         study = self.handling == "study"
-        F = np.column_stack(
+        F = columns(
             [
                 combine("aw_front"),
                 combine("aw_rear"),
@@ -520,7 +534,7 @@ class MinibusRideHandling(Problem):
         if self.working_space:
             limits += [m[f"bump_stop_{lc}"] - self.bump_stop_limit for lc in LOAD_CASES]
             limits += [m[f"tyre_load_{lc}"] - self.tyre_load_limit for lc in LOAD_CASES]
-        G = np.column_stack(limits)
+        G = columns(limits)
         flags = [m[f"{kind}_{lc}"] for kind in ("completed", "ride_ok") for lc in LOAD_CASES]
         ok = np.logical_and.reduce(flags) & np.isfinite(F).all(axis=1)
         messages = [""] * X.shape[0]

@@ -99,12 +99,20 @@ class SteadyCircleResult:
 
     Attributes:
         ay_max: m/s^2, the limit defined in the module docstring.
-        limit: "front", "rear" or "rollover", the condition that bounds ay_max.
+        holds: (n, 2), one grid step above ay_max: 1 where the front axle carries its
+            share (column 0) and where an inner wheel still carries load (column 1),
+            else 0.
+        limit (property): "front", "rear" or "rollover", the condition that bounds ay_max.
     """
 
     ay_max: np.ndarray
-    limit: np.ndarray
+    holds: np.ndarray
     config: SteadyCircleConfig
+
+    @property
+    def limit(self) -> np.ndarray:
+        front, rollover = self.holds.T
+        return np.where(rollover == 0, "rollover", np.where(front == 0, "front", "rear"))
 
 
 def axle_capacity(
@@ -170,8 +178,7 @@ def steady_circle(
     h, table = _capacity_table(P.tyre, config.alpha_max_deg, config.alpha_points)
     out = np.empty((P.n, 3))
     handling_kernel.circle_loop(P.rows, table, h, bits, scale, out)
-    limit = np.where(out[:, 2] == 0, "rollover", np.where(out[:, 1] == 0, "front", "rear"))
-    return SteadyCircleResult(ay_max=out[:, 0] * scale, limit=limit, config=config)
+    return SteadyCircleResult(ay_max=out[:, 0] * scale, holds=out[:, 1:], config=config)
 
 
 @dataclass

@@ -186,7 +186,8 @@ class HandlingParams:
         and roll inertias (kg m^2), ``ms h'`` (kg m), ``ms h' g - Kphi`` (N m/rad) and
         the roll damping (N m s/rad, :func:`roll_damping`). Computed once (read-only)."""
         msh = self.ms * self.h_prime
-        rows = np.stack(
+        # (22, n) then C-contiguous (n, 22): one copy (np.stack pays a call per column)
+        rows = np.array(
             [
                 self.roll_gradient(),
                 self.kphi_front,
@@ -210,9 +211,9 @@ class HandlingParams:
                 msh,
                 msh * G - self.kphi,
                 roll_damping(self),
-            ],
-            axis=1,
+            ]
         )
+        rows = np.ascontiguousarray(rows.T)
         rows.flags.writeable = False
         return rows
 
@@ -258,11 +259,13 @@ def handling_parameters(
     vehicle: Minibus = REFERENCE_MINIBUS,
     tyre: LateralTyre = LIGHT_TRUCK_TYRE,
     leaf: LeafAxleGeometry = DEFAULT_LEAF_GEOMETRY,
+    params: Sequence[VehicleParams] | None = None,
 ) -> HandlingParams:
     """Handling parameters for designs X (n, 8; the study's units) in one load case, or
-    in each of a sequence of them (rows stacked in its order: k n rows)."""
+    in each of a sequence of them (rows stacked in its order: k n rows); ``params``:
+    :func:`stacked_vehicle_parameters` of X in those load cases, if already at hand."""
     cases = [load_case] if isinstance(load_case, str | LoadCase) else list(load_case)
-    vps = stacked_vehicle_parameters(X, cases, vehicle)
+    vps = stacked_vehicle_parameters(X, cases, vehicle) if params is None else params
     d = vps[0].design
     # the design-independent parameters of each load case (floats), on their rows
     (
@@ -532,9 +535,10 @@ def linear_system(
     (k, n)); A and B then carry them too.
     """
     cf, cr = axle_stiffness if axle_stiffness is not None else P.axle_cornering_stiffness()
-    u, cf, cr = np.broadcast_arrays(np.asarray(u, dtype=float), cf, cr)
-    shape = u.shape
-    u, cf, cr = (np.ascontiguousarray(x, dtype=float).reshape(-1, P.n) for x in (u, cf, cr))
+    shape = np.broadcast(u, cf, cr).shape
+    ucc = np.empty((3, *shape))  # u, cf, cr broadcast, each C-contiguous (k, n)
+    ucc[0], ucc[1], ucc[2] = u, cf, cr
+    u, cf, cr = ucc.reshape(3, -1, P.n)
     A, B = np.zeros((u.shape[0], P.n, 4, 4)), np.zeros((u.shape[0], P.n, 4))
     handling_kernel.linear_loop(P.rows, u, cf, cr, A, B)
     return A.reshape(*shape, 4, 4), B.reshape(*shape, 4)

@@ -174,14 +174,15 @@ class ElementLinearisation:
         self.kappa = tuple([self._kappa(end, *stop) for stop in self.stops[end]] for end in (0, 1))
         self.n_rates = 12 if self.effects else 6
         #: damper slopes (n, 4, 4), knees (4, 2), leaf K_1, dk, e_k (n, 2, 3) of the
-        #: compiled rates, filled in place (fewer calls than stacking them)
+        #: compiled rates (:mod:`suspenv.models.minibus.spectral_kernel`), filled in
+        #: place (fewer calls than stacking them)
         n = self.k1.shape[0]
         damp, knee, leaf = np.empty((n, 4, 4)), np.empty((4, 2)), np.empty((n, 2, 3))
         for j, c in enumerate((self.d_bl, self.d_bh, self.d_rl, self.d_rh)):
             damp[:, :, j] = c
         knee[:, 0], knee[:, 1] = self.kb[0], self.kr[0]
         leaf[:, :, 0], leaf[:, :, 1], leaf[:, :, 2] = self.k1, self.dk, self.thr
-        self._packed = (damp, knee, leaf)
+        self.packed = (damp, knee, leaf)
 
     def initial(self, init_damping: float) -> np.ndarray:
         """Starting rates (n, n_rates): ``init_damping`` x the mean low-speed damping, the
@@ -210,7 +211,7 @@ class ElementLinearisation:
         else:
             # C order: the loop built ahead of time reads its arrays as laid out so
             sig = np.ascontiguousarray(sig)
-            spectral_kernel.damper_leaf_rates(sig, *self._packed, NEWTON_STEPS, out)
+            spectral_kernel.damper_leaf_rates(sig, *self.packed, NEWTON_STEPS, out)
         if self.effects:
             self._effect_rates(sig, r, out)
         return out

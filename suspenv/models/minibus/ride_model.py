@@ -43,7 +43,7 @@ averaged over the contact length, see :mod:`suspenv.rigs.ride`).
 from __future__ import annotations
 
 import functools
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -279,68 +279,72 @@ class RideModel:
         return (n_pos, n_vel, *out)
 
     def _build_coefficients(self) -> None:
-        v = self.vehicle
-        n, nq = self.n, self.nq
-        K = np.zeros((n, self.n_pos + self.n_vel))
-        minv_diag = np.zeros((n, nq))
-        m12 = np.zeros(n)
-        leaf_k1, leaf_dk, leaf_thr = np.zeros(n), np.zeros(n), np.zeros(n)
-        leaf_static, damper_mean = np.zeros((n, 2)), np.zeros((n, 4))
-        d_bl, d_bh, d_rl, d_rh = (np.zeros((n, 4)) for _ in range(4))
-        f0_tyre = np.zeros((n, 4))
-        row = 0
-        for p in self.params:
-            sl = slice(row, row + p.n)
-            d = p.design
-            L = v.wheelbase
+        v, ps, nq = self.vehicle, self.params, self.nq
+        L = v.wheelbase
+        counts = [p.n for p in ps]
+
+        def rows(get: Callable[[VehicleParams], np.ndarray]) -> np.ndarray:
+            """The per-design arrays ``get(p)`` of every block, stacked."""
+            return np.concatenate([get(p) for p in ps]) if len(ps) > 1 else get(ps[0])
+
+        # per block: inverse body mass matrix in (z_f, z_r) (KE of heave (b zf + a zr)/L
+        # and pitch (zf - zr)/L) and roll, and the static tyre loads, on the block's rows
+        terms = []
+        for p in ps:
             m, I_pitch, I_roll = p.load.sprung_mass, p.load.pitch_inertia, p.load.roll_inertia
-            # body mass matrix in (z_f, z_r): KE of heave (b zf + a zr)/L and pitch (zf - zr)/L
             M11 = (m * p.b**2 + I_pitch) / L**2
             M22 = (m * p.a**2 + I_pitch) / L**2
             M12 = (m * p.a * p.b - I_pitch) / L**2
             det = M11 * M22 - M12**2
-            minv_diag[sl, 0] = M22 / det
-            minv_diag[sl, 1] = M11 / det
-            m12[sl] = -M12 / det
-            minv_diag[sl, 2] = 1.0 / I_roll
-            minv_diag[sl, 3:5] = 1.0 / v.unsprung_front
-            minv_diag[sl, 5:7] = 1.0 / v.unsprung_rear
-            if self.seat:
-                minv_diag[sl, 7:9] = 1.0 / self.seat.mass
-            # position-type stiffnesses (N/m, N*m/rad)
-            K[sl, 0] = K[sl, 1] = d.front_wheel_rate
-            rear_k = p.rear_static_rate if self.linear else d.rear_primary_rate
-            K[sl, 2] = K[sl, 3] = rear_k
-            K[sl, 4], K[sl, 5] = d.front_roll_arb, d.rear_roll_arb
-            K[sl, 6:10] = v.tyre_vertical_stiffness
-            nv0 = self.n_pos
-            K[sl, nv0 + 4 : nv0 + 8] = v.tyre_vertical_damping
-            if self.seat:
-                K[sl, 10:12] = self.seat.stiffness
-                K[sl, nv0 + 8 : nv0 + 10] = self.seat.damping
-            # leaf knee relative to the static position
-            leaf_k1[sl] = d.rear_primary_rate
-            leaf_static[sl] = p.rear_static_rate[:, None]
-            leaf_dk[sl] = d.rear_composite_rate - d.rear_primary_rate
-            leaf_thr[sl] = v.helper_engagement - p.rear_static_deflection
-            # damper curves scaled per design (front cols 0,1; rear cols 2,3)
-            for cols, curve, scale in (
-                (slice(0, 2), v.damper_front, d.front_damper_scale),
-                (slice(2, 4), v.damper_rear, d.rear_damper_scale),
-            ):
-                sc = scale[:, None]
-                damper_mean[sl, cols] = damper_mean_coefficient(curve) * sc
-                if self.linear:
-                    c = damper_mean[sl, cols]
-                    d_bl[sl, cols] = d_rl[sl, cols] = d_bh[sl, cols] = d_rh[sl, cols] = c
-                else:
-                    d_bl[sl, cols] = curve.bump_low * sc
-                    d_bh[sl, cols] = curve.bump_high * sc
-                    d_rl[sl, cols] = curve.rebound_low * sc
-                    d_rh[sl, cols] = curve.rebound_high * sc
-            f0_tyre[sl, 0:2] = p.front_static_load + v.unsprung_front * G
-            f0_tyre[sl, 2:4] = p.rear_static_load + v.unsprung_rear * G
-            row += p.n
+            terms.append(
+                (M22 / det, M11 / det, -M12 / det, 1.0 / I_roll,
+                 p.front_static_load + v.unsprung_front * G,
+                 p.rear_static_load + v.unsprung_rear * G)
+            )  # fmt: skip
+        m22, m11, m12, roll, f0_front, f0_rear = np.repeat(np.array(terms).T, counts, axis=1)
+        n = self.n
+        minv_diag = np.empty((nq, n))  # batch along the last axis (see rhs)
+        minv_diag[0], minv_diag[1], minv_diag[2] = m22, m11, roll
+        minv_diag[3:5] = 1.0 / v.unsprung_front
+        minv_diag[5:7] = 1.0 / v.unsprung_rear
+        if self.seat:
+            minv_diag[7:9] = 1.0 / self.seat.mass
+        # position-type stiffnesses (N/m, N*m/rad), then velocity-type (N s/m)
+        K = np.zeros((n, self.n_pos + self.n_vel))
+        K[:, 0] = K[:, 1] = rows(lambda p: p.design.front_wheel_rate)
+        primary = rows(lambda p: p.design.rear_primary_rate)
+        static_rate = rows(lambda p: p.rear_static_rate)
+        K[:, 2] = K[:, 3] = static_rate if self.linear else primary
+        K[:, 4] = rows(lambda p: p.design.front_roll_arb)
+        K[:, 5] = rows(lambda p: p.design.rear_roll_arb)
+        K[:, 6:10] = v.tyre_vertical_stiffness
+        nv0 = self.n_pos
+        K[:, nv0 + 4 : nv0 + 8] = v.tyre_vertical_damping
+        if self.seat:
+            K[:, 10:12] = self.seat.stiffness
+            K[:, nv0 + 8 : nv0 + 10] = self.seat.damping
+        # leaf knee relative to the static position
+        leaf_static = np.empty((n, 2))
+        leaf_static[:] = static_rate[:, None]
+        leaf_dk = rows(lambda p: p.design.rear_composite_rate) - primary
+        leaf_thr = v.helper_engagement - rows(lambda p: p.rear_static_deflection)
+        # damper curves scaled per design (front cols 0,1; rear cols 2,3), (4, n)
+        damper_mean = np.empty((n, 4))
+        d_bl, d_bh, d_rl, d_rh = (np.empty((4, n)) for _ in range(4))
+        for cols, curve, scale in (
+            (slice(0, 2), v.damper_front, rows(lambda p: p.design.front_damper_scale)),
+            (slice(2, 4), v.damper_rear, rows(lambda p: p.design.rear_damper_scale)),
+        ):
+            damper_mean[:, cols] = damper_mean_coefficient(curve) * scale[:, None]
+            if self.linear:
+                d_bl[cols] = d_rl[cols] = d_bh[cols] = d_rh[cols] = damper_mean[:, cols].T
+            else:
+                d_bl[cols] = curve.bump_low * scale
+                d_bh[cols] = curve.bump_high * scale
+                d_rl[cols] = curve.rebound_low * scale
+                d_rh[cols] = curve.rebound_high * scale
+        f0_tyre = np.empty((4, n))
+        f0_tyre[0:2], f0_tyre[2:4] = f0_front, f0_rear
         # the linearised model's rates, kept for either model (float64, batch first):
         # rear leaf rate at rest (N/m, left, right) and mean low-speed damper
         # coefficient (N s/m, FL, FR, RL, RR)
@@ -349,20 +353,18 @@ class RideModel:
         # batch along the last axis (see rhs)
         self.K = K
         self.Kt = np.ascontiguousarray(K.T)
-        self.minv_diag = np.ascontiguousarray(minv_diag.T)
+        self.minv_diag = minv_diag
         self.m12 = m12
         self.leaf_dk = leaf_dk[None, :]
         self.leaf_thr = leaf_thr[None, :]
         self.leaf_base = self.leaf_dk * np.maximum(-self.leaf_thr, 0.0)
-        self.d_bl, self.d_bh, self.d_rl, self.d_rh = (
-            np.ascontiguousarray(c.T) for c in (d_bl, d_bh, d_rl, d_rh)
-        )
+        self.d_bl, self.d_bh, self.d_rl, self.d_rh = d_bl, d_bh, d_rl, d_rh
         fk, rk = v.damper_front, v.damper_rear
         self.knee_b = np.array([fk.bump_knee, fk.bump_knee, rk.bump_knee, rk.bump_knee])[:, None]
         self.knee_r = -np.array(
             [fk.rebound_knee, fk.rebound_knee, rk.rebound_knee, rk.rebound_knee]
         )[:, None]
-        self.f0_tyre = np.ascontiguousarray(f0_tyre.T)
+        self.f0_tyre = f0_tyre
         # float32 models: the integration's arrays in their type (float64: so already)
         typed = () if self.dtype == np.float64 else _TYPED
         for name in typed:

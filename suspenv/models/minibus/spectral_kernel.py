@@ -15,7 +15,9 @@ these loops run the same arithmetic compiled:
 - :func:`damper_leaf_rates`: the equivalent-linear damper and rear-leaf rates of
   :meth:`suspenv.models.minibus.linearisation.ElementLinearisation.rates` for a
   model without rear end stops (``tests/test_ride_effects_spectral.py``: against the
-  numpy form). The standard normal CDF as scipy's ``ndtr`` (cephes) forms it.
+  numpy form). The standard normal CDF as scipy's ``ndtr`` (cephes) forms it;
+- :func:`split_update`: one fixed-point update of the split path's rates, the two above
+  and the update rule fused.
 """
 
 from __future__ import annotations
@@ -271,10 +273,74 @@ def _damper_leaf_rates(
             out[i, j + 2] = k1 + dk * (1.0 - _ndtr((thr - m) / d))
 
 
-#: :func:`_halves_matrix`, :func:`_modal_mean_square` and :func:`_damper_leaf_rates`,
-#: built ahead of time (:mod:`suspenv.core.compiled`)
+#: the flattened (output, displacement/velocity) mean square of :func:`_split_update`
+#: behind each RMS value of :func:`_damper_leaf_rates` (dampers FL, FR: the FL damper's
+#: velocity; RL, RR: the RL damper's; leaves L, R: the left leaf's deflection)
+_SPLIT_SIGMA = (1, 1, 3, 3, 4, 4)
+
+
+def _split_update(
+    lam: np.ndarray,
+    V: np.ndarray,
+    B: np.ndarray,
+    co: np.ndarray,
+    w: np.ndarray,
+    dr: np.ndarray,
+    di: np.ndarray,
+    wt: np.ndarray,
+    damp: np.ndarray,
+    knee: np.ndarray,
+    leaf: np.ndarray,
+    passes: int,
+    tol: float,
+    r: np.ndarray,
+) -> int:
+    """One update of the split path's equivalent-linear rates ``r`` (n, 6: dampers FL,
+    FR, RL, RR (N s/m), leaves L, R (N/m)) in place; returns how many designs took new
+    rates. From the halves' modes: the mean squares of the FL damper, the RL damper and
+    the left leaf (outputs 2-4 of :func:`_modal_mean_square`, displacement and velocity
+    weights ``wt``; the right-hand twins equal them), their RMS values (``_SPLIT_SIGMA``)
+    and the rates at them (:func:`_damper_leaf_rates`); a design takes its new rates
+    where their largest relative change ``|r_new - r| / max(|r|, 1e-300)`` is >= ``tol``
+    (NaN: it keeps its rates), the rule of :func:`suspenv.metrics.ride._rates_update`."""
+    n = r.shape[0]
+    ms = np.empty((n, 3, 2))
+    _modal_mean_square(lam, V, B, co, 2, w, dr, di, wt, ms)
+    sig, new = np.empty((n, 6)), np.empty((n, 6))
+    for i in range(n):
+        for j in range(6):
+            k = _SPLIT_SIGMA[j]
+            sig[i, j] = math.sqrt(ms[i, k // 2, k % 2])
+    _damper_leaf_rates(sig, damp, knee, leaf, passes, new)
+    taken = 0
+    for i in range(n):
+        change, finite = 0.0, True
+        for j in range(6):
+            den = abs(r[i, j])
+            c = abs(new[i, j] - r[i, j]) / (1e-300 if den < 1e-300 else den)
+            if c != c:
+                finite = False
+            elif c > change:
+                change = c
+        if finite and change >= tol:
+            taken += 1
+            for j in range(6):
+                r[i, j] = new[i, j]
+    return taken
+
+
+#: :func:`_halves_matrix`, :func:`_modal_mean_square`, :func:`_damper_leaf_rates` and
+#: :func:`_split_update`, built ahead of time (:mod:`suspenv.core.compiled`)
 halves_matrix = compiled.Lazy(globals(), (), _halves_matrix)
 modal_mean_square = compiled.Lazy(
     globals(), ("_solve", "_modal_terms", "_mean_square"), _modal_mean_square
 )
 damper_leaf_rates = compiled.Lazy(globals(), ("_ndtr", "_excess", "_floor"), _damper_leaf_rates)
+split_update = compiled.Lazy(
+    globals(),
+    (
+        "_solve", "_modal_terms", "_mean_square", "_modal_mean_square", "_ndtr", "_excess",
+        "_floor", "_damper_leaf_rates",
+    ),
+    _split_update,
+)  # fmt: skip

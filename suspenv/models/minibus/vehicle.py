@@ -373,34 +373,29 @@ class VehicleParams:
     def n(self) -> int:
         return self.design.n
 
+    def take(self, rows: slice) -> VehicleParams:
+        """The parameters of the designs ``rows`` of the batch."""
+        design = DesignSI(*(a[rows] for a in vars(self.design).values()))
+        changes = {
+            k: getattr(self, k)[rows]
+            for k in (
+                "front_static_deflection", "rear_static_deflection", "rear_on_helper",
+                "rear_static_rate",
+            )
+        }  # fmt: skip
+        return replace(self, design=design, **changes)
+
 
 def stacked_vehicle_parameters(
     X: np.ndarray, load_cases: Sequence[str | LoadCase], vehicle: Minibus = REFERENCE_MINIBUS
 ) -> list[VehicleParams]:
     """:func:`vehicle_parameters` of designs X for each load case, in order (the ride
-    model stacks them row-wise); the designs converted once.
-
-    The last call's result is kept (arrays read-only): an evaluation asks for the same
-    designs' parameters for its ride and its handling models, and pays once."""
-    arr = np.asarray(X, dtype=float)
-    key = (arr.shape, arr.tobytes(), tuple(load_cases))
-    hit = _LAST_PARAMS.get(key)
-    if hit is None or hit[0] is not vehicle:
-        design = design_to_si(arr, vehicle)
-        params = [_apply(design, lc, vehicle) for lc in load_cases]
-        for vp in params:
-            for a in (
-                vp.front_static_deflection, vp.rear_static_deflection, vp.rear_on_helper,
-                vp.rear_static_rate, *vars(design).values(),
-            ):  # fmt: skip
-                a.flags.writeable = False
-        _LAST_PARAMS.clear()
-        hit = _LAST_PARAMS[key] = (vehicle, params)
-    return list(hit[1])
-
-
-#: :func:`stacked_vehicle_parameters`' last call: key -> (vehicle, parameters)
-_LAST_PARAMS: dict[tuple[Any, ...], tuple[Minibus, list[VehicleParams]]] = {}
+    model stacks them row-wise); the designs converted once. An evaluation that needs
+    them for several models (ride and handling) computes them once and passes them on
+    (``params`` of :func:`suspenv.metrics.ride.ride_objectives_all` and
+    :func:`suspenv.models.minibus.handling_model.handling_parameters`)."""
+    design = design_to_si(X, vehicle)
+    return [_apply(design, lc, vehicle) for lc in load_cases]
 
 
 def vehicle_parameters(
