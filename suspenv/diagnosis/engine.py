@@ -48,6 +48,7 @@ from suspenv.diagnosis.fitting import FitResult
 from suspenv.diagnosis.hypothesis import Ambiguity, Hypothesis, family_of, split_candidate
 from suspenv.diagnosis.split import Holdout, Recordings, Split
 from suspenv.diagnosis.sufficiency import check_setup
+from suspenv.diagnosis.unrecorded import profile
 
 
 @dataclass
@@ -289,6 +290,10 @@ def diagnose(
 
     base = fam.fit_baseline(setup)
     say(f"baseline fitted ({base.nfev} evaluations)")
+    unrecorded = profile(fam, setup, base)
+    if unrecorded is not None:
+        base = unrecorded[0]
+        say(f"baseline refitted beside an unrecorded input ({unrecorded[1].numbers['signal']})")
     location, channel = fam.locate(base, setup)
 
     current = base
@@ -347,6 +352,9 @@ def diagnose(
     outcome = Outcome(base, current, named, hypotheses, first_sigs, location)
     ctx = checks.Context(fam, setup, outcome, fam.rule)
     checks.run(ctx)
+    if unrecorded is not None:
+        # the baseline's missing-input finding stands: the fits profiled its input out
+        checks.fold(ctx, unrecorded[1])
     found, named, hypotheses = ctx.found, ctx.outcome.named, ctx.outcome.hypotheses
     amb = found.ambiguities
     current = ctx.outcome.current
