@@ -43,6 +43,10 @@ from suspenv.diagnosis.protocols import DiagnosableModel, RecordingLike
 
 #: most stretches of constant gain per recording
 MAX_STRETCHES = 24
+#: the stretches' boundaries lie on a grid this many times finer than the check's blocks
+GRID_PER_BLOCK = 5
+#: at most this many grid steps per recording (the dynamic programme's cost is square)
+MAX_GRID_BLOCKS = 1000
 
 
 def _segment_costs(sxy: np.ndarray, sxx: np.ndarray, syy: np.ndarray) -> np.ndarray:
@@ -231,8 +235,9 @@ def _tried(
     left = res[ch] - missing_input.time_invariant(res[ch], list(signals.values()))
     rho = max(lag1_autocorrelation(left), 0.0)
     n_eff = left.size * (1.0 - rho) / (1.0 + rho)
+    grid = max(length // GRID_PER_BLOCK, -(-left.size // MAX_GRID_BLOCKS), 1)
     return {
-        name: (find_stretches(left, s, length, n_eff)[1], s, find_stretches(left, s, length)[0])
+        name: (find_stretches(left, s, grid, n_eff)[1], s, find_stretches(left, s, grid)[0])
         for name, s in signals.items()
     }
 
@@ -270,3 +275,13 @@ def profile(
     said = f"{found.sentence}; the fits assume it: {stretches.words()}"
     numbers = {**found.numbers, "signal": stretches.signal, "stretches": stretches.words()}
     return profiled, Finding("missing_input", True, False, said, False, numbers)
+
+
+def still_switching(ctx: Context) -> bool:
+    """Whether the final model of ``ctx``, without the profiled gains, still leaves a
+    residual the missing-input check calls driven by an input the recording does not
+    carry (False: the named elements explain what looked switched on the baseline)."""
+    current = ctx.outcome.current
+    bare = replace(ctx.outcome, current=replace(current, model=unprofiled(current.model)))
+    found = missing_input.run(replace(ctx, outcome=bare))
+    return found is not None and found.numbers.get("cause") == "unrecorded"
