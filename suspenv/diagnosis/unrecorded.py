@@ -9,22 +9,32 @@ out** (linear least squares, :class:`Profiled`): in every fit, the baseline's an
 candidate's alike, and in the held-out scoring, so that each candidate element is judged
 on what is left beside the switched part.
 
-* **The stretches** (:func:`find_stretches`): the baseline's residual ``r`` over a whole
-  recording is cut into blocks of the check's block length; the partition of the blocks
-  into ``K`` stretches of constant gain on the signal ``s`` that leaves the least
+* **The stretches** (:func:`find_stretches`, :func:`stretches_of`): of the baseline's
+  residual in its first channel, what no time-invariant function of the signals
+  explains (an element's own shape does not switch) is cut on a grid
+  :data:`GRID_PER_BLOCK` times finer than the check's blocks; the partition into ``K``
+  stretches of constant gain on the signal ``s`` that leaves the least
   ``sum (r - g_k s)^2`` is found by dynamic programming for every ``K`` up to
-  :data:`MAX_STRETCHES`, and ``K`` is chosen by the BIC (a gain and a boundary per
-  stretch). The signal is the one (a recorded input the model reads, or the baseline's
-  prediction) whose stretches leave the lowest BIC. The stretches are fixed before the
+  :data:`MAX_STRETCHES`, ``K`` chosen by the BIC (a gain and a boundary per stretch).
+  The signal is the one (a recorded input the model reads, or the baseline's
+  prediction) whose stretches leave the lowest BIC counted in the samples the
+  residual's lag-1 correlation leaves independent. The stretches are fixed before the
   search: the same for every model compared.
 * **No leak** (:class:`Profiled`): in each stretch a gain is fitted on the fit samples
   alone and another on the held-out samples alone (their masks in the split): a fit
-  sample's residual depends on no held-out sample and the other way round. The gains
-  cost every model compared the same degrees of freedom (one per stretch and part), so
-  the likelihood-ratio test's and the BIC's differences are those without them.
+  sample's residual depends on no held-out sample and the other way round. On the fit
+  samples the gains are taken less their common gain, which stays the model's (its
+  damping rate; else that rate would not be identified); on the held-out samples the
+  input's level is not known from the fit and each stretch's gain is their own. The
+  gains cost every model compared the same degrees of freedom, so the
+  likelihood-ratio test's and the BIC's differences are those without them.
+* **Kept where it holds** (:func:`still_switching`): the engine keeps the profile only
+  where the final model, without it, still leaves the switching; where a named element
+  explains what looked switched on the baseline (a hysteresis has memory, which no
+  time-invariant function takes up) the diagnosis runs again without it.
 
-The verdict states the assumption ("an unrecorded input switches the gain of X, fitted
-anew in each of K stretches of about N s").
+The verdict states the assumption ("an unrecorded input switches the gain of X: a gain
+on it is fitted anew in each of K stretches of about N s").
 """
 
 from __future__ import annotations
@@ -104,12 +114,14 @@ class Stretches:
     Attributes:
         signal: the signal's name (:data:`~.checks.missing_input.PREDICTION` for the
             prediction).
+        channel: the output channel whose residual the gains are profiled out of.
         series: recording name -> the signal over the recording.
         starts: recording name -> stretch starts.
         dt: sample interval [s] of the first recording (for the words).
     """
 
     signal: str
+    channel: str
     series: Mapping[str, np.ndarray]
     starts: Mapping[str, np.ndarray]
     dt: float
@@ -167,6 +179,8 @@ class Profiled:
         }
 
     def __getattr__(self, name: str) -> Any:
+        if "model" not in self.__dict__:  # not yet built (a copy)
+            raise AttributeError(name)
         return getattr(self.__dict__["model"], name)
 
     def with_effects(self, effects: Sequence[Any]) -> Profiled:
@@ -181,16 +195,15 @@ class Profiled:
         starts = self.stretches.starts.get(str(rec.name))
         if starts is None or int(starts[-1]) != len(rec.time):
             return pred
-        out = dict(pred)
-        for ch, p in pred.items():
-            if ch not in rec.outputs:
-                continue
-            d = np.asarray(rec.outputs[ch], float) - np.asarray(p, float)
-            fitted = np.zeros_like(d)
-            for idx, s, sign in self._parts[str(rec.name)]:
-                fitted[..., idx] += sign * (d[..., idx] @ s)[..., None] * s
-            out[ch] = p + fitted
-        return out
+        ch = self.stretches.channel
+        if ch not in pred or ch not in rec.outputs:
+            return pred
+        p = np.asarray(pred[ch], float)
+        d = np.asarray(rec.outputs[ch], float) - p
+        fitted = np.zeros_like(d)
+        for idx, s, sign in self._parts[str(rec.name)]:
+            fitted[..., idx] += sign * (d[..., idx] @ s)[..., None] * s
+        return {**pred, ch: p + fitted}
 
 
 def unprofiled(model: Any) -> Any:
@@ -254,7 +267,8 @@ def stretches_of(base: FitResult, setup: Setup, length: int) -> Stretches | None
     name = min(sorted(common), key=lambda k: sum(t[k][0] for t in tried.values()))
     dt = float(np.median(np.diff(np.asarray(recs[0].time, float))))
     series = {r: t[name][1] for r, t in tried.items()}
-    return Stretches(name, series, {r: t[name][2] for r, t in tried.items()}, dt)
+    starts = {r: t[name][2] for r, t in tried.items()}
+    return Stretches(name, base.channels[0], series, starts, dt)
 
 
 def profile(
