@@ -48,6 +48,7 @@ from suspenv.diagnosis.fitting import FitResult
 from suspenv.diagnosis.hypothesis import Ambiguity, Hypothesis, family_of, split_candidate
 from suspenv.diagnosis.split import Holdout, Recordings, Split
 from suspenv.diagnosis.sufficiency import check_setup
+from suspenv.diagnosis.unrecorded import profile, still_switching
 
 
 @dataclass
@@ -254,6 +255,7 @@ def diagnose(
     holdout: Holdout = None,
     candidates: Sequence[str] | None = None,
     progress: bool = False,
+    profiling: bool = True,
 ) -> Diagnosis:
     """Diagnose what ``family``'s model leaves out of ``recordings``.
 
@@ -266,6 +268,11 @@ def diagnose(
         holdout: the held-out data, in the family's terms (default: the family's).
         candidates: candidate names to consider (default: the model's own list).
         progress: print one line per step.
+        profiling: where the missing-input check calls the baseline's residual driven
+            by an input the recording does not carry, model it as a switched gain
+            profiled out of every fit (:mod:`suspenv.diagnosis.unrecorded`); kept only
+            where the final model, without it, still leaves that switching (else the
+            diagnosis runs again without it).
 
     Raises:
         ValidationError: for data the diagnosis cannot judge, before any fitting (too
@@ -289,6 +296,10 @@ def diagnose(
 
     base = fam.fit_baseline(setup)
     say(f"baseline fitted ({base.nfev} evaluations)")
+    unrecorded = profile(fam, setup, base) if profiling else None
+    if unrecorded is not None:
+        base = unrecorded[0]
+        say(f"baseline refitted beside an unrecorded input ({unrecorded[1].numbers['signal']})")
     location, channel = fam.locate(base, setup)
 
     current = base
@@ -347,6 +358,11 @@ def diagnose(
     outcome = Outcome(base, current, named, hypotheses, first_sigs, location)
     ctx = checks.Context(fam, setup, outcome, fam.rule)
     checks.run(ctx)
+    if unrecorded is not None:
+        if not still_switching(ctx):  # what looked switched, an element explains
+            return diagnose(recordings, fam, holdout, candidates, progress, profiling=False)
+        # the baseline's missing-input finding stands: the fits profiled its input out
+        checks.fold(ctx, unrecorded[1])
     found, named, hypotheses = ctx.found, ctx.outcome.named, ctx.outcome.hypotheses
     amb = found.ambiguities
     current = ctx.outcome.current

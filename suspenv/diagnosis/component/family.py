@@ -106,6 +106,7 @@ from suspenv.diagnosis.hypothesis import Ambiguity, Hypothesis, Withdrawal, fami
 from suspenv.diagnosis.protocols import DiagnosableModel, RecordingLike
 from suspenv.diagnosis.screening import Location, Signature
 from suspenv.diagnosis.split import Holdout, Recordings, Split, as_recordings
+from suspenv.diagnosis.unrecorded import unprofiled
 from suspenv.models.components.base import ComponentModel
 from suspenv.models.effects import make_effect
 
@@ -932,9 +933,10 @@ def baseline_offsets(fit: FitResult) -> list[dict[str, Any]]:
 
 
 def _baseline_effects(base: FitResult, family: ComponentFamily | None = None) -> dict[str, Any]:
+    model = unprofiled(base.model)
     out: dict[str, Any] = {
-        "effects": [e.to_dict() for e in current_effects(base.model)],
-        "words": baseline_words(base.model) if isinstance(base.model, ComponentModel) else "",
+        "effects": [e.to_dict() for e in current_effects(model)],
+        "words": baseline_words(model) if isinstance(model, ComponentModel) else "",
     }
     if family is not None and family.rig is not None:
         out["rig"] = family.rig.to_dict()

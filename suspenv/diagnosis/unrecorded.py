@@ -1,0 +1,301 @@
+"""An input the recording does not carry, modelled as a switched gain and profiled out.
+
+When the missing-input check (:mod:`suspenv.diagnosis.checks.missing_input`) calls the
+baseline's residual driven by an input the recording does not carry (an MR damper's
+coil current switched between levels, its channel withheld), that input is modelled as
+a gain on one recorded signal that is constant over stretches of time and changes from
+stretch to stretch (:class:`Stretches`). Its gains are **nuisance parameters, profiled
+out** (linear least squares, :class:`Profiled`): in every fit, the baseline's and each
+candidate's alike, and in the held-out scoring, so that each candidate element is judged
+on what is left beside the switched part.
+
+* **The stretches** (:func:`find_stretches`, :func:`stretches_of`): of the baseline's
+  residual in its first channel, what no time-invariant function of the signals
+  explains (an element's own shape does not switch) is cut on a grid
+  :data:`GRID_PER_BLOCK` times finer than the check's blocks; the partition into ``K``
+  stretches of constant gain on the signal ``s`` that leaves the least
+  ``sum (r - g_k s)^2`` is found by dynamic programming for every ``K`` up to
+  :data:`MAX_STRETCHES`, ``K`` chosen by the BIC (a gain and a boundary per stretch).
+  The signal is the one (a recorded input the model reads, or the baseline's
+  prediction) whose stretches leave the lowest BIC counted in the samples the
+  residual's lag-1 correlation leaves independent. The stretches are fixed before the
+  search: the same for every model compared.
+* **No leak** (:class:`Profiled`): in each stretch a gain is fitted on the fit samples
+  alone and another on the held-out samples alone (their masks in the split): a fit
+  sample's residual depends on no held-out sample and the other way round. On the fit
+  samples the gains are taken less their common gain, which stays the model's (its
+  damping rate; else that rate would not be identified); on the held-out samples the
+  input's level is not known from the fit and each stretch's gain is their own. The
+  gains cost every model compared the same degrees of freedom, so the
+  likelihood-ratio test's and the BIC's differences are those without them.
+* **Kept where it holds** (:func:`still_switching`): the engine keeps the profile only
+  where the final model, without it, still leaves the switching; where a named element
+  explains what looked switched on the baseline (a hysteresis has memory, which no
+  time-invariant function takes up) the diagnosis runs again without it.
+
+The verdict states the assumption ("an unrecorded input switches the gain of X: a gain
+on it is fitted anew in each of K stretches of about N s").
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
+from typing import Any, cast
+
+import numpy as np
+
+from suspenv.diagnosis.checks import missing_input
+from suspenv.diagnosis.checks.finding import Context, Finding
+from suspenv.diagnosis.family import DiagnosisFamily, Outcome, Setup
+from suspenv.diagnosis.fitting import FitResult, lag1_autocorrelation, residuals
+from suspenv.diagnosis.protocols import DiagnosableModel, RecordingLike
+
+#: most stretches of constant gain per recording
+MAX_STRETCHES = 24
+#: the stretches' boundaries lie on a grid this many times finer than the check's blocks
+GRID_PER_BLOCK = 5
+#: at most this many grid steps per recording (the dynamic programme's cost is square)
+MAX_GRID_BLOCKS = 1000
+
+
+def _segment_costs(sxy: np.ndarray, sxx: np.ndarray, syy: np.ndarray) -> np.ndarray:
+    """``cost[i, j]``: what one gain leaves of blocks ``i`` to ``j - 1`` (inf for
+    ``j <= i``), from the blocks' sums ``<r, s>``, ``<s, s>``, ``<r, r>``."""
+    cxy, cxx, cyy = (np.r_[0.0, np.cumsum(a)] for a in (sxy, sxx, syy))
+    dxy, dxx, dyy = (c[None, :] - c[:, None] for c in (cxy, cxx, cyy))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        cost = dyy - np.where(dxx > 0, dxy**2 / dxx, 0.0)
+    b = sxy.size + 1
+    return np.where(np.triu(np.ones((b, b), bool), 1), cost, np.inf)
+
+
+def find_stretches(
+    r: np.ndarray, s: np.ndarray, length: int, n_eff: float | None = None
+) -> tuple[np.ndarray, float]:
+    """(starts, bic): the sample indices where the stretches of constant gain of ``r``
+    on ``s`` begin (the first 0, then the ends, the last ``r.size``), chosen by dynamic
+    programming over blocks of ``length`` samples and the BIC over their number, and
+    that BIC (``n log(SSR / n) + 2 K log n``: a gain and a boundary per stretch)."""
+    n = r.size
+    blocks = max(n // length, 1)
+    edges = np.r_[np.arange(blocks) * length, n]
+    sums = [np.add.reduceat(v, edges[:-1]) for v in (r * s, s * s, r * r)]
+    cost = _segment_costs(*sums)
+    kmax = min(MAX_STRETCHES, blocks)
+    best = cost[0].copy()  # best[j]: blocks 0..j-1 in k stretches
+    back = [np.zeros(blocks + 1, int)]
+    m = float(n_eff or n)
+
+    def bic(ssr: float, k: int) -> float:
+        return float(m * np.log(max(ssr, 1e-300) / n) + 2.0 * k * np.log(m))
+
+    bics = [bic(best[-1], 1)]
+    for k in range(2, kmax + 1):
+        total = best[:, None] + cost
+        back.append(np.argmin(total, axis=0))
+        best = np.min(total, axis=0)
+        bics.append(bic(best[-1], k))
+    k = int(np.argmin(bics)) + 1
+    cuts, j = [blocks], blocks
+    for level in range(k - 1, 0, -1):
+        j = int(back[level][j])
+        cuts.append(j)
+    return edges[np.array([0, *reversed(cuts)])], float(bics[k - 1])
+
+
+@dataclass(frozen=True)
+class Stretches:
+    """The unrecorded input's stretches: per recording name, the signal ``s`` whose gain
+    it switches (the recorded input or the baseline's prediction, unit of the signal)
+    and the sample indices where the stretches begin (the last: the recording's
+    length).
+
+    Attributes:
+        signal: the signal's name (:data:`~.checks.missing_input.PREDICTION` for the
+            prediction).
+        channel: the output channel whose residual the gains are profiled out of.
+        series: recording name -> the signal over the recording.
+        starts: recording name -> stretch starts.
+        dt: sample interval [s] of the first recording (for the words).
+    """
+
+    signal: str
+    channel: str
+    series: Mapping[str, np.ndarray]
+    starts: Mapping[str, np.ndarray]
+    dt: float
+
+    def words(self) -> str:
+        k = sum(len(v) - 1 for v in self.starts.values())
+        n = sum(int(v[-1]) for v in self.starts.values())
+        return (
+            f"an unrecorded input switches the gain of {self.signal}: a gain on it is fitted "
+            f"anew in each of {k} stretches of about {n * self.dt / max(k, 1):.3g} s (found on "
+            "the baseline's residual), on the fit and the held-out samples apart, for every "
+            "model compared"
+        )
+
+
+def _projection(
+    series: np.ndarray, starts: np.ndarray, groups: Sequence[tuple[np.ndarray, bool]]
+) -> list[tuple[np.ndarray, np.ndarray, float]]:
+    """(indices, unit signal, sign) of the gains' supports: per sample group, each
+    stretch (+1), and for a fitted group the group as a whole (-1): there the stretches'
+    gains are taken less their one common gain, which stays the model's (a damping rate
+    the switched gain multiplies); on held-out samples every stretch's gain is their
+    own (the input's level there is not known from the fit)."""
+    parts = []
+    for g, fitted in groups:
+        whole = np.flatnonzero(g)
+        bounds = zip(starts[:-1], starts[1:], strict=True)
+        pieces = [(a + np.flatnonzero(g[a:b]), 1.0) for a, b in bounds]
+        for idx, sign in [*pieces, *([(whole, -1.0)] if fitted else [])]:
+            norm = float(np.linalg.norm(series[idx]))
+            if idx.size > 1 and norm > 0:
+                parts.append((idx, series[idx] / norm, sign))
+    return parts
+
+
+class Profiled:
+    """``model`` with the unrecorded input's gains profiled out: its prediction of a
+    recording of the split plus, in each stretch and sample group (fit, held-out), the
+    least-squares gain on the signal of what the model leaves (so the residual is the
+    model's less its projection on the signal there). Every other member is the
+    model's; :meth:`with_effects` and :meth:`jacobian_model` stay profiled."""
+
+    def __init__(
+        self,
+        model: DiagnosableModel[Any, Any],
+        stretches: Stretches,
+        groups: Mapping[str, Sequence[tuple[np.ndarray, bool]]],
+    ) -> None:
+        self.model = model
+        self.stretches = stretches
+        self.groups = groups
+        self._parts = {
+            name: _projection(stretches.series[name], starts, groups[name])
+            for name, starts in stretches.starts.items()
+        }
+
+    def __getattr__(self, name: str) -> Any:
+        if "model" not in self.__dict__:  # not yet built (a copy)
+            raise AttributeError(name)
+        return getattr(self.__dict__["model"], name)
+
+    def with_effects(self, effects: Sequence[Any]) -> Profiled:
+        return Profiled(self.model.with_effects(effects), self.stretches, self.groups)
+
+    def jacobian_model(self) -> Any:
+        twin = self.model.jacobian_model()
+        return self if twin is self.model else Profiled(twin, self.stretches, self.groups)
+
+    def simulate(self, theta: np.ndarray, rec: RecordingLike) -> dict[str, np.ndarray]:
+        pred = self.model.simulate(theta, rec)
+        starts = self.stretches.starts.get(str(rec.name))
+        if starts is None or int(starts[-1]) != len(rec.time):
+            return pred
+        ch = self.stretches.channel
+        if ch not in pred or ch not in rec.outputs:
+            return pred
+        p = np.asarray(pred[ch], float)
+        d = np.asarray(rec.outputs[ch], float) - p
+        fitted = np.zeros_like(d)
+        for idx, s, sign in self._parts[str(rec.name)]:
+            fitted[..., idx] += sign * (d[..., idx] @ s)[..., None] * s
+        return {**pred, ch: p + fitted}
+
+
+def unprofiled(model: Any) -> Any:
+    """The model without the profiled gains (itself where it has none)."""
+    return model.model if isinstance(model, Profiled) else model
+
+
+def _groups(setup: Setup) -> dict[str, list[tuple[np.ndarray, bool]]]:
+    """Per recording name, the sample groups whose gains are fitted apart: its fit
+    samples (True) and its held-out samples (False)."""
+    sp = setup.split
+    out: dict[str, list[tuple[np.ndarray, bool]]] = {}
+    fit, held = (sp.fit_recordings, sp.fit_masks), (sp.heldout_recordings, sp.heldout_masks)
+    for (recs, masks), fitted in ((fit, True), (held, False)):
+        for i, rec in enumerate(recs):
+            m = np.ones(len(rec.time), bool) if masks is None else np.asarray(masks[i], bool)
+            out.setdefault(str(rec.name), []).append((m, fitted))
+    return out
+
+
+def _signals(setup: Setup, base: FitResult, rec: RecordingLike, ch: str) -> dict[str, np.ndarray]:
+    """The signals a gain may be switched on: the recorded inputs the model reads and
+    the baseline's prediction."""
+    unread = set(missing_input.unread_inputs(setup))
+    out = {k: np.asarray(v, float) for k, v in rec.inputs.items() if k not in unread}
+    out[missing_input.PREDICTION] = np.asarray(base.model.simulate(base.theta, rec)[ch], float)
+    return {k: v for k, v in out.items() if np.ptp(v) > 0}
+
+
+def _tried(
+    base: FitResult, setup: Setup, rec: RecordingLike, length: int
+) -> dict[str, tuple[float, np.ndarray, np.ndarray]]:
+    """Per signal of ``rec`` (:func:`_signals`): the BIC of its stretches, the signal and
+    the stretch starts. They are found on what no time-invariant function of the signals
+    explains of the baseline's residual in its first channel
+    (:func:`~suspenv.diagnosis.checks.missing_input.time_invariant`: an element's own
+    shape is not switching); the BIC that compares the signals counts the samples that
+    residual's lag-1 correlation leaves independent, the stretches' own count all."""
+    ch = base.channels[0]
+    (res,) = residuals(base.model, base.theta, [rec], [ch])
+    signals = _signals(setup, base, rec, ch)
+    left = res[ch] - missing_input.time_invariant(res[ch], list(signals.values()))
+    rho = max(lag1_autocorrelation(left), 0.0)
+    n_eff = left.size * (1.0 - rho) / (1.0 + rho)
+    grid = max(length // GRID_PER_BLOCK, -(-left.size // MAX_GRID_BLOCKS), 1)
+    return {
+        name: (find_stretches(left, s, grid, n_eff)[1], s, find_stretches(left, s, grid)[0])
+        for name, s in signals.items()
+    }
+
+
+def stretches_of(base: FitResult, setup: Setup, length: int) -> Stretches | None:
+    """The stretches of an unrecorded input (:func:`find_stretches` in blocks of
+    ``length`` samples on every recording, :func:`_tried`), on the signal whose stretches
+    leave the lowest BIC summed over the recordings (None: no signal in every one)."""
+    recs = setup.split.recordings()
+    tried = {str(rec.name): _tried(base, setup, rec, length) for rec in recs}
+    common = set.intersection(*(set(t) for t in tried.values()))
+    if not common:
+        return None
+    name = min(sorted(common), key=lambda k: sum(t[k][0] for t in tried.values()))
+    dt = float(np.median(np.diff(np.asarray(recs[0].time, float))))
+    series = {r: t[name][1] for r, t in tried.items()}
+    starts = {r: t[name][2] for r, t in tried.items()}
+    return Stretches(name, base.channels[0], series, starts, dt)
+
+
+def profile(
+    fam: DiagnosisFamily, setup: Setup, base: FitResult
+) -> tuple[FitResult, Finding] | None:
+    """Where the missing-input check calls the baseline's residual driven by an input the
+    recording does not carry: the baseline refitted with that input's gains profiled
+    out (:class:`Profiled`) and the finding that says the assumption; None otherwise."""
+    empty = Outcome(base, base, [], [], [], cast(Any, None))  # the check reads no location
+    found = missing_input.run(Context(fam, setup, empty, fam.rule))
+    if found is None or found.numbers.get("cause") != "unrecorded":
+        return None
+    stretches = stretches_of(base, setup, int(found.numbers["judged_blocks"]))
+    if stretches is None:
+        return None
+    model = Profiled(setup.model, stretches, _groups(setup))
+    profiled = fam.fit_baseline(replace(setup, model=model))
+    said = f"{found.sentence}; the fits assume it: {stretches.words()}"
+    numbers = {**found.numbers, "signal": stretches.signal, "stretches": stretches.words()}
+    return profiled, Finding("missing_input", True, False, said, False, numbers)
+
+
+def still_switching(ctx: Context) -> bool:
+    """Whether the final model of ``ctx``, without the profiled gains, still leaves a
+    residual the missing-input check calls driven by an input the recording does not
+    carry (False: the named elements explain what looked switched on the baseline)."""
+    current = ctx.outcome.current
+    bare = replace(ctx.outcome, current=replace(current, model=unprofiled(current.model)))
+    found = missing_input.run(replace(ctx, outcome=bare))
+    return found is not None and found.numbers.get("cause") == "unrecorded"

@@ -1,0 +1,115 @@
+"""An unrecorded input modelled as a switched gain and profiled out (suspenv.diagnosis.unrecorded).
+
+References: the stretches against the switching a synthetic residual was built with
+(block-aligned boundaries, so the exact partition is the least-squares optimum); the
+profiled residual against its closed form (a gain per stretch on the held-out samples
+leaves nothing of a switched gain; on the fit samples the one common gain, the
+inverse-weighted mean of the stretches' gains, stays the model's); the absence of leaks
+by changing the held-out samples; the batch against single rows; and the loop on a
+blind case whose truth is known (:mod:`benchmarks.component_truth`).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from benchmarks.component_truth import make_case
+from suspenv.diagnosis.engine import diagnose
+from suspenv.diagnosis.unrecorded import Profiled, Stretches, find_stretches, unprofiled
+from suspenv.measurements import Recording
+
+N, LENGTH = 2000, 50
+#: stretch starts of the synthetic switching (multiples of the block length)
+STARTS = np.array([0, 300, 850, 1000, 1600, N])
+GAINS = np.array([1.0, 0.2, 1.4, 0.5, 1.0])
+
+
+def _signal() -> np.ndarray:
+    t = np.arange(N) * 0.002
+    return np.sin(2 * np.pi * 1.3 * t) + 0.3 * np.sin(2 * np.pi * 4.1 * t)
+
+
+def _switched(s: np.ndarray) -> np.ndarray:
+    return np.concatenate(
+        [g * s[a:b] for g, a, b in zip(GAINS, STARTS[:-1], STARTS[1:], strict=True)]
+    )
+
+
+def test_stretches_are_the_switching_of_the_gain() -> None:
+    s = _signal()
+    noise = 0.01 * np.random.default_rng(3).standard_normal(N)
+    starts, _ = find_stretches(_switched(s) + noise, s, LENGTH)
+    assert starts.tolist() == STARTS.tolist()
+    # one gain throughout: one stretch
+    starts, _ = find_stretches(0.7 * s + noise, s, LENGTH)
+    assert starts.tolist() == [0, N]
+
+
+class _Zero:
+    """A model that predicts zero force (batch: one row per parameter row)."""
+
+    parameter_names = ("a",)
+
+    def simulate(self, theta: np.ndarray, rec: Any) -> dict[str, np.ndarray]:
+        rows = np.atleast_2d(theta).shape[0]
+        zeros = np.zeros((rows, len(rec.time)))
+        return {"force": zeros if np.ndim(theta) == 2 else zeros[0]}
+
+    def with_effects(self, effects: Any) -> _Zero:
+        return self
+
+    def jacobian_model(self) -> _Zero:
+        return self
+
+
+def _profiled(y: np.ndarray, fit_mask: np.ndarray) -> tuple[Profiled, Recording]:
+    s = _signal()
+    rec = Recording(
+        "r",
+        "t",
+        np.arange(N) * 0.002,
+        {"velocity": s},
+        {"force": y},
+        {"velocity": "m/s", "force": "N"},
+    )
+    stretches = Stretches("velocity", "force", {"r": s}, {"r": STARTS}, 0.002)
+    groups = {"r": [(fit_mask, True), (~fit_mask, False)]}
+    return Profiled(_Zero(), stretches, groups), rec  # type: ignore[arg-type]
+
+
+def test_profiled_residual_closed_form_and_no_leak() -> None:
+    s = _signal()
+    fit_mask = (np.arange(N) // 170) % 4 != 3  # one stretch of 170 samples in four held out
+    y = _switched(s)
+    model, rec = _profiled(y, fit_mask)
+    r = y - model.simulate(np.zeros(1), rec)["force"]
+    # held-out samples: every stretch's gain is theirs, nothing of the switching is left
+    np.testing.assert_allclose(r[~fit_mask], 0.0, atol=1e-12)
+    # fit samples: the common gain stays the model's: r = g_mean s
+    sf = s[fit_mask]
+    g_mean = float(y[fit_mask] @ sf / (sf @ sf))
+    np.testing.assert_allclose(r[fit_mask], g_mean * sf, atol=1e-12)
+    # no leak: other held-out samples leave the fit samples' residual as it was
+    y2 = y.copy()
+    y2[~fit_mask] += np.random.default_rng(4).standard_normal(int((~fit_mask).sum()))
+    model2, rec2 = _profiled(y2, fit_mask)
+    r2 = y2 - model2.simulate(np.zeros(1), rec2)["force"]
+    np.testing.assert_array_equal(r2[fit_mask], r[fit_mask])
+    # a batch of parameter rows gives each row's own
+    batch = model.simulate(np.zeros((3, 1)), rec)["force"]
+    np.testing.assert_allclose(batch, np.tile(y - r, (3, 1)), atol=1e-12)
+    assert unprofiled(model) is model.model and model.with_effects(()).stretches is model.stretches
+
+
+def test_switched_damping_not_recorded_is_profiled_and_the_element_named() -> None:
+    # a guide whose damping switches by 41 % of the force scale with an input the
+    # recording lacks, and a Coulomb friction: without the profile nothing was named
+    case = make_case("friction_guide", 7, 1, condition="input_missing")
+    diag = diagnose(case.recording, "friction_guide")
+    assert diag.named_families[:1] == ["friction"]
+    found = diag.findings["missing_input"]
+    assert found.remains and found.numbers["signal"] == "velocity"
+    assert "an unrecorded input switches the gain of velocity" in diag.verdict
+    assert not diag.confident
