@@ -225,8 +225,8 @@ def slalom_linear(
         system = linear_system(P, u, stiffness)
     A, B = system
     H = steer_response(P, u, f, (A, B))
-    gain = np.abs(H.ay[:, 0])
-    steer = ay / gain
+    steer = ay / np.abs(H.ay[:, 0])
+    yaw_gain = np.abs(H.yaw_rate[:, 0])
     ratio = P.vehicle.steering_ratio
     if stable is None:
         with np.errstate(invalid="ignore"):
@@ -235,10 +235,10 @@ def slalom_linear(
     return SlalomLinearResult(
         steering_wheel_amplitude=ratio * steer,
         steer_amplitude=steer,
-        yaw_rate_amplitude=steer * np.abs(H.yaw_rate[:, 0]),
+        yaw_rate_amplitude=steer * yaw_gain,
         roll_amplitude=steer * np.abs(H.roll[:, 0]),
         ay_amplitude=np.full(P.n, ay),
-        yaw_rate_gain=np.abs(H.yaw_rate[:, 0]) / ratio,
+        yaw_rate_gain=yaw_gain / ratio,
         frequency=f,
         stable=stable,
     )

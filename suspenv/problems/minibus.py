@@ -338,6 +338,17 @@ class MinibusRideHandling(Problem):
         }
         self.vehicle = REFERENCE_MINIBUS
         self.space = design_space()
+        ay_secant = np.array([course_lateral_acceleration(self.slalom_config), STEP_AY])
+        #: the default set's working points: the secants' lateral accelerations (m/s^2),
+        #: the quasi-steady sweep's (secants, then ISO 4138 gradients' pairs) and the
+        #: linear systems' speeds (slalom, step steer; m/s, (2, 1))
+        self._working_points = (
+            ay_secant,
+            np.concatenate([ay_secant, gradient_accelerations(ISO4138_AY)]),
+            np.array([[self.slalom_config.speed], [STEP_SPEED_KMH / 3.6]]),
+        )
+        for points in self._working_points:  # shared by every evaluation
+            points.flags.writeable = False
         study = self.handling == "study"
         self.objective_names = STUDY_OBJECTIVE_NAMES if study else OBJECTIVE_NAMES
         self.objective_units = STUDY_OBJECTIVE_UNITS if study else OBJECTIVE_UNITS
@@ -387,7 +398,7 @@ class MinibusRideHandling(Problem):
         both = {
             "ay_max": circle.ay_max,
             "understeer": np.degrees(P.understeer_gradient()) * G_STD,
-            "roll_gradient": np.degrees(P.roll_gradient()) * G_STD,
+            "roll_gradient": np.degrees(P.rows[:, 0]) * G_STD,  # P.roll_gradient()
         }
         if self.handling == "study":
             sl = slalom(P, self.slalom_config)
@@ -422,21 +433,18 @@ class MinibusRideHandling(Problem):
         angle) and yaw_bandwidth (Hz); ISO 4138 understeer gradients (deg/g)
         ``understeer_<10 x a_y in g>g`` at :data:`ISO4138_AY_G` and their minimum
         ``understeer_min``; ``completed`` (both linear systems stable)."""
-        ay_secant = np.array([course_lateral_acceleration(self.slalom_config), STEP_AY])
+        ay_secant, ay_sweep, u = self._working_points
         # one quasi-steady sweep for the secants and the ISO 4138 gradients
-        sw = steady_state_sweep(
-            P, np.concatenate([ay_secant, gradient_accelerations(ISO4138_AY)]), self.circle
-        )
+        sw = steady_state_sweep(P, ay_sweep, self.circle)
         cf, cr = secant_axle_stiffness(P, ay_secant, sweep=sw.take(slice(0, 2)))
         grad = understeer_gradients(P, ISO4138_AY, sweep=sw.take(slice(2, None)))
         grad = np.degrees(grad) * G_STD
         # both linear systems at once: the slalom's and the step steer's speed and secants
-        u = np.array([[self.slalom_config.speed], [STEP_SPEED_KMH / 3.6]])
         A, B = linear_system(P, u, (cf, cr))
         # both systems' stability and the step's modes from one eigen-decomposition (an
         # unstable or non-finite row: those of -I, the row fails)
         finite = np.isfinite(A).all(axis=(2, 3))
-        A_ok = np.where(finite[..., None, None], A, -np.eye(4))
+        A_ok = A if finite.all() else np.where(finite[..., None, None], A, -np.eye(4))
         lam, V = np.linalg.eig(A_ok)
         stable = finite & (lam.real < 0).all(axis=-1)
         lin = slalom_linear(P, self.slalom_config, system=(A[0], B[0]), stable=stable[0])

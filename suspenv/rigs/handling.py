@@ -295,10 +295,10 @@ def understeer_gradients(
     difference's error is the curvature term, ``step^2/24`` times the third derivative.
     NaN where a state does not exist.
     """
-    points = gradient_accelerations(ay, step)
-    sw = sweep if sweep is not None else steady_state_sweep(P, points, config)
-    steer = np.where(sw.feasible, sw.steer, np.nan)
-    n = points.size // 2
+    if sweep is None:
+        sweep = steady_state_sweep(P, gradient_accelerations(ay, step), config)
+    steer = np.where(sweep.feasible, sweep.steer, np.nan)
+    n = steer.shape[0] // 2
     return (steer[n:] - steer[:n]) / step
 
 

@@ -224,10 +224,8 @@ class HandlingParams:
 
     def axle_cornering_stiffness(self) -> tuple[np.ndarray, np.ndarray]:
         """Front and rear axle cornering stiffness at static load, N/rad (two tyres each)."""
-        return (
-            2.0 * self.tyre.cornering_stiffness(self.fz_front),
-            2.0 * self.tyre.cornering_stiffness(self.fz_rear),
-        )
+        cf, cr = 2.0 * self.tyre.cornering_stiffness(np.array([self.fz_front, self.fz_rear]))
+        return cf, cr
 
     def understeer_gradient(self) -> np.ndarray:
         """Linear-range understeer gradient K, rad/(m/s^2): delta = L/R + K a_y (closed form).
@@ -236,9 +234,9 @@ class HandlingParams:
         bicycle model's term plus the roll steer and lateral-force steer of the axles.
         """
         cf, cr = self.axle_cornering_stiffness()
-        L = self.wheelbase
+        L, roll_gradient = self.rows[:, 12], self.rows[:, 0]
         k = self.m / L * (self.b / cf - self.a / cr)
-        k = k + (self.roll_steer_rear - self.roll_steer_front) * self.roll_gradient()
+        k = k + (self.roll_steer_rear - self.roll_steer_front) * roll_gradient
         return k + (self.force_steer_rear * self.a - self.force_steer_front * self.b) * (self.m / L)
 
 
