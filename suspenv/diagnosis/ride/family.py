@@ -57,13 +57,7 @@ from suspenv.diagnosis.ride.model import (
 )
 from suspenv.diagnosis.ride.residual import ResidualCheck, residual_check
 from suspenv.diagnosis.screening import Location, Share, Signature, effective_n
-from suspenv.diagnosis.split import (
-    Holdout,
-    Recordings,
-    Split,
-    as_recordings,
-    heldout_recordings,
-)
+from suspenv.diagnosis.split import Holdout, Recordings, Split, as_recordings, heldout_recordings
 
 #: the reported ride benchmark's decision rule
 RIDE_RULE = DecisionRule(alpha=0.01, heldout_rule="fraction", min_heldout_gain=0.01)
