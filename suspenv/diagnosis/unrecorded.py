@@ -13,7 +13,8 @@ on what is left beside the switched part.
   into stretches of constant gain on one signal, by dynamic programming and the BIC
   (:func:`find_stretches`); fixed before the search, the same for every model compared.
 * **No leak** (:class:`Profiled`): the gains are fitted on the fit samples and on the
-  held-out samples apart (:func:`_projection`). They cost every model compared the same
+  held-out samples apart (:func:`_projection`): a fit sample's residual depends on no
+  held-out sample and the other way round. They cost every model compared the same
   degrees of freedom, so the likelihood-ratio test's and the BIC's differences are
   those without them.
 * **Kept where it holds** (:func:`still_switching`): the engine keeps the profile only

@@ -18,15 +18,12 @@ cogging) and calls the rest **driven by an unrecorded input** when both hold:
    velocity: its mean over time is a function of the state and taken out, the switching
    is not.
 
-When the model does not read a recorded input (an MR damper's coil current given to a
-passive model), the test is run again with that input's block levels as a recorded
-cause: when the gains then no longer persist, the finding names it ("unread").
-The verdict then says that an input the recording does not carry (or one it carries
-that the model does not read) may drive the residual, with its size (RMS in % of the
-output's, and in multiples of its white floor) and the evidence; it is not confident.
-A residual compared low-passed is judged at its pass-band rate (:func:`pass_band_step`:
-block lengths, counts and the floor in those samples). Recordings too short for the
-blocks (K&C loops, short guide runs compared low-passed) are not judged.
+A recorded input the model does not read (an MR damper's coil current given to a
+passive model) is named instead where it explains the switching (:func:`cause`). The
+verdict says what may drive the residual, with its size (RMS in % of the output's, and
+in multiples of its white floor) and the evidence; it is not confident. Recordings too
+short for the blocks at the residual's pass-band rate (:func:`judge_recording`: K&C
+loops, short guide runs compared low-passed) are not judged.
 """
 
 from __future__ import annotations
