@@ -204,7 +204,7 @@ class RideFamily(OptionalSteps):
 
     Args:
         model: the base model (default: :class:`MinibusRideAdapter` without effects).
-        screen: refit this many best-screened candidates per round.
+        screen_count: refit this many best-screened candidates per round.
         max_effects: most elements added in turn.
         max_nfev: budget of each fit.
         rule: the decision rule (default :data:`RIDE_RULE`).
