@@ -122,10 +122,7 @@ def heldout_noise_units(
 
 
 def heldout_confirmation_z(
-    before: dict[str, np.ndarray],
-    after: dict[str, np.ndarray],
-    noise: dict[str, float],
-    rho: float,
+    before: dict[str, np.ndarray], after: dict[str, np.ndarray], noise: dict[str, float], rho: float
 ) -> float:
     """How many standard deviations a model change's held-out chi-square drop lies above
     what a change that fitted only noise gives (0 when the change does not move the

@@ -160,11 +160,7 @@ class DiagnosisFamily(Protocol):
     def settle(self, winner: FitResult, setup: Setup) -> FitResult | None: ...
 
     def ambiguities(
-        self,
-        winner: Hypothesis,
-        ranked: Sequence[Hypothesis],
-        parent: FitResult,
-        setup: Setup,
+        self, winner: Hypothesis, ranked: Sequence[Hypothesis], parent: FitResult, setup: Setup
     ) -> list[Ambiguity]: ...
 
 
@@ -176,11 +172,7 @@ class OptionalSteps:
         return None
 
     def ambiguities(
-        self,
-        winner: Hypothesis,
-        ranked: Sequence[Hypothesis],
-        parent: FitResult,
-        setup: Setup,
+        self, winner: Hypothesis, ranked: Sequence[Hypothesis], parent: FitResult, setup: Setup
     ) -> list[Ambiguity]:
         return []
 

@@ -163,11 +163,7 @@ class FitResult:
     def params(self) -> dict[str, dict[str, float]]:
         """``{name: {"value", "stderr", "stderr_corrected"}}`` (JSON-friendly)."""
         return {
-            name: {
-                "value": float(v),
-                "stderr": float(s),
-                "stderr_corrected": float(sc),
-            }
+            name: {"value": float(v), "stderr": float(s), "stderr_corrected": float(sc)}
             for name, v, s, sc in zip(
                 self.names, self.theta, self.stderr, self.stderr_corrected, strict=True
             )

@@ -9,25 +9,14 @@ out** (linear least squares, :class:`Profiled`): in every fit, the baseline's an
 candidate's alike, and in the held-out scoring, so that each candidate element is judged
 on what is left beside the switched part.
 
-* **The stretches** (:func:`find_stretches`, :func:`stretches_of`): of the baseline's
-  residual in its first channel, what no time-invariant function of the signals
-  explains (an element's own shape does not switch) is cut on a grid
-  :data:`GRID_PER_BLOCK` times finer than the check's blocks; the partition into ``K``
-  stretches of constant gain on the signal ``s`` that leaves the least
-  ``sum (r - g_k s)^2`` is found by dynamic programming for every ``K`` up to
-  :data:`MAX_STRETCHES`, ``K`` chosen by the BIC (a gain and a boundary per stretch).
-  The signal is the one (a recorded input the model reads, or the baseline's
-  prediction) whose stretches leave the lowest BIC counted in the samples the
-  residual's lag-1 correlation leaves independent. The stretches are fixed before the
-  search: the same for every model compared.
-* **No leak** (:class:`Profiled`): in each stretch a gain is fitted on the fit samples
-  alone and another on the held-out samples alone (their masks in the split): a fit
-  sample's residual depends on no held-out sample and the other way round. On the fit
-  samples the gains are taken less their common gain, which stays the model's (its
-  damping rate; else that rate would not be identified); on the held-out samples the
-  input's level is not known from the fit and each stretch's gain is their own. The
-  gains cost every model compared the same degrees of freedom, so the
-  likelihood-ratio test's and the BIC's differences are those without them.
+* **The stretches** (:func:`stretches_of`): the partition of the baseline's residual
+  into stretches of constant gain on one signal, by dynamic programming and the BIC
+  (:func:`find_stretches`); fixed before the search, the same for every model compared.
+* **No leak** (:class:`Profiled`): the gains are fitted on the fit samples and on the
+  held-out samples apart (:func:`_projection`): a fit sample's residual depends on no
+  held-out sample and the other way round. They cost every model compared the same
+  degrees of freedom, so the likelihood-ratio test's and the BIC's differences are
+  those without them.
 * **Kept where it holds** (:func:`still_switching`): the engine keeps the profile only
   where the final model, without it, still leaves the switching; where a named element
   explains what looked switched on the baseline (a hysteresis has memory, which no
@@ -74,9 +63,11 @@ def find_stretches(
     r: np.ndarray, s: np.ndarray, length: int, n_eff: float | None = None
 ) -> tuple[np.ndarray, float]:
     """(starts, bic): the sample indices where the stretches of constant gain of ``r``
-    on ``s`` begin (the first 0, then the ends, the last ``r.size``), chosen by dynamic
-    programming over blocks of ``length`` samples and the BIC over their number, and
-    that BIC (``n log(SSR / n) + 2 K log n``: a gain and a boundary per stretch)."""
+    on ``s`` begin (the first 0, then the ends, the last ``r.size``): for every ``K`` up
+    to :data:`MAX_STRETCHES`, the partition over blocks of ``length`` samples that
+    leaves the least ``sum (r - g_k s)^2``, by dynamic programming, ``K`` chosen by the
+    BIC, ``n log(SSR / n) + 2 K log n`` (a gain and a boundary per stretch; ``n`` is
+    ``n_eff`` where given), and that BIC."""
     n = r.size
     blocks = max(n // length, 1)
     edges = np.r_[np.arange(blocks) * length, n]
@@ -240,8 +231,9 @@ def _tried(
     the stretch starts. They are found on what no time-invariant function of the signals
     explains of the baseline's residual in its first channel
     (:func:`~suspenv.diagnosis.checks.missing_input.time_invariant`: an element's own
-    shape is not switching); the BIC that compares the signals counts the samples that
-    residual's lag-1 correlation leaves independent, the stretches' own count all."""
+    shape is not switching), on a grid :data:`GRID_PER_BLOCK` times finer than the
+    check's blocks of ``length``; the BIC that compares the signals counts the samples
+    that residual's lag-1 correlation leaves independent, the stretches' own count all."""
     ch = base.channels[0]
     (res,) = residuals(base.model, base.theta, [rec], [ch])
     signals = _signals(setup, base, rec, ch)

@@ -12,27 +12,18 @@ cogging) and calls the rest **driven by an unrecorded input** when both hold:
 
 0. **far above the noise**: its RMS is at least :data:`SIZE_LIMIT` times the residual's
    white floor (:func:`white_floor`, from its second differences);
-1. **switching**: its gain on a recorded signal or the prediction, fitted block by block
-   (lengths :data:`BLOCK_SAMPLES`: the switching time is not known; at least
-   :data:`MIN_BLOCKS` blocks), less what the blocks' excitation explains, persists from
-   block to block (:func:`switching`): after a drifting zero is taken out and the
-   residual whitened by the autoregression of all the drift leaves of it, the lag-1
-   autocorrelation of those gains has an exact distribution for independent normal
-   gains (:func:`lag1_p`);
-   its one-sided p-value (Bonferroni over the block lengths, the signals and the
-   judged channels) is below the rule's ``alpha``. A switched damping ``c v`` is such a
-   gain on the velocity: its mean over time is a function of the state and taken out,
-   the switching is not.
+1. **switching**: its gain on a recorded signal or the prediction, fitted block by block,
+   persists from block to block (:func:`switching`; Bonferroni also over the judged
+   channels) at the rule's ``alpha``. A switched damping ``c v`` is such a gain on the
+   velocity: its mean over time is a function of the state and taken out, the switching
+   is not.
 
-When the model does not read a recorded input (an MR damper's coil current given to a
-passive model), the test is run again with that input's block levels as a recorded
-cause: when the gains then no longer persist, the finding names it ("unread").
-The verdict then says that an input the recording does not carry (or one it carries
-that the model does not read) may drive the residual, with its size (RMS in % of the
-output's, and in multiples of its white floor) and the evidence; it is not confident.
-A residual compared low-passed is judged at its pass-band rate (:func:`pass_band_step`:
-block lengths, counts and the floor in those samples). Recordings too short for the
-blocks (K&C loops, short guide runs compared low-passed) are not judged.
+A recorded input the model does not read (an MR damper's coil current given to a
+passive model) is named instead where it explains the switching (:func:`cause`). The
+verdict says what may drive the residual, with its size (RMS in % of the output's, and
+in multiples of its white floor) and the evidence; it is not confident. Recordings too
+short for the blocks at the residual's pass-band rate (:func:`judge_recording`: K&C
+loops, short guide runs compared low-passed) are not judged.
 """
 
 from __future__ import annotations
@@ -156,19 +147,6 @@ def pass_band_step(fs: float, fc: float | None) -> int:
     taken, at its pass-band rate ``2 fc`` (its neighbouring samples are not independent):
     ``floor(fs / (2 fc))``; 1 when not low-passed (``fc`` None)."""
     return max(1, int(fs / (2.0 * fc) * (1.0 + 1e-9))) if fc else 1  # 1e-9: rounding
-
-
-def within_blocks(r: np.ndarray, signals: Sequence[np.ndarray], length: int) -> np.ndarray:
-    """``r`` less its least-squares fit on a constant, a ramp and ``signals`` in each
-    block of ``length`` (what no gain of a block explains)."""
-    n = r.size // length * length
-    ramp = np.linspace(-1.0, 1.0, length)
-    out = np.empty(n)
-    for k in range(0, n, length):
-        a = np.column_stack([np.ones(length), ramp, *(s[k : k + length] for s in signals)])
-        coef, *_ = np.linalg.lstsq(a, r[k : k + length], rcond=None)
-        out[k : k + length] = r[k : k + length] - a @ coef
-    return out
 
 
 def switching(

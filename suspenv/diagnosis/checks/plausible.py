@@ -120,9 +120,8 @@ def check_step_or_knee(candidate: str, ext: FitResult, vmax: float) -> None:
     fitted width decides which physics it is. A friction element fitted wider than
     ``FRICTION_MAX_FRACTION`` of the peak speed ``vmax`` [m/s] is a valve knee; a
     digressive curve fitted narrower than ``KNEE_MIN_FRACTION`` is a force step at
-    reversal. Raises :class:`ValidationError` (the hypothesis is recorded as failed with
-    this reason) so the other kind, refitted
-    in the same round, is named.
+    reversal. Raises :class:`ValidationError` so the other kind, refitted in the same
+    round, is named.
     """
     found = _judged_element(candidate, ext, TRANSITION_WIDTH) if vmax > 0 else None
     if found is None:
@@ -209,8 +208,7 @@ def check_loop_resolved(candidate: str, ext: FitResult, displacement_noise: floa
     as far as the recording can tell, a force step at every reversal: the loop's shape is
     below the resolution of the motion it is read against, and a step at every reversal
     is friction's (the friction refitted in the same round competes for it). Raises
-    :class:`ValidationError` (the hypothesis is recorded as failed with this reason); not
-    applied when the displacement's noise was not measured (0).
+    :class:`ValidationError`; not applied when the displacement's noise is 0 (not measured).
     """
     narrow = _loop_narrower_than(candidate, ext, LOOP_NOISE_MULTIPLE * displacement_noise)
     if narrow is None:
@@ -230,11 +228,10 @@ def check_loop_or_step(candidate: str, ext: FitResult, half_stroke: float) -> No
 
     Such a loop is a force step at every reversal whose rise is the pre-sliding of
     friction (LuGre, Dahl's friction model: tens of micrometres), not the loop of a
-    material that yields over a fair part of the stroke. Raises :class:`ValidationError`
-    (the hypothesis is recorded as failed with this reason), so the friction element
-    refitted in the same round is named. Not applied where the candidates hold a
-    friction law whose pre-sliding the model fits (:func:`fits_presliding`) and the test
-    dwells between moves.
+    material that yields over a fair part of the stroke. Raises :class:`ValidationError`,
+    so the friction element refitted in the same round is named. Not applied where the
+    candidates hold a friction law whose pre-sliding the model fits
+    (:func:`fits_presliding`) and the test dwells between moves.
     """
     narrow = _loop_narrower_than(candidate, ext, HYSTERESIS_MIN_FRACTION * half_stroke)
     if narrow is None:
@@ -260,9 +257,8 @@ def check_presliding_is_friction(candidate: str, ext: FitResult, half_stroke: fl
     of the stroke after each reversal: a material's loop (a bushing's, an MR fluid's
     before yield), whose build-up the LuGre law can follow with its bristles while its
     Stribeck levels take a velocity-dependent force beside it. Raises
-    :class:`ValidationError` (the hypothesis is recorded as failed with this reason), so
-    the hysteresis refitted in the same round is named. Not judged where the width or
-    its error is not known.
+    :class:`ValidationError`, so the hysteresis refitted in the same round is named. Not
+    judged where the width or its error is not known.
     """
     kind = candidate.partition("@")[0]
     if kind != "lugre_friction" or half_stroke <= 0:
@@ -304,9 +300,8 @@ def check_parallel_branch(candidate: str, ext: FitResult, alpha: float = 0.01) -
     the two-sided ``alpha`` quantile of the normal in standard errors: 2.58 at the
     component rule's 1 %, the test of the lag nested in the branch at ``c = 0``) and the
     base keeps at least ``WHOLE_FORCE_BASE_SHARE`` of ``c + c_m``. Otherwise the lag
-    refitted in the same round is the simpler law. Raises :class:`ValidationError` (the
-    hypothesis is recorded as failed with this reason). A model without a viscous base
-    parameter (``viscous_parameter``) is not checked.
+    refitted in the same round is the simpler law. Raises :class:`ValidationError`. A
+    model without a viscous base parameter (``viscous_parameter``) is not checked.
     """
     found = _branch_base(candidate, ext)
     if found is None:
@@ -388,8 +383,7 @@ def check_resolved_size(candidate: str, ext: FitResult) -> None:
     at a size the data cannot tell from zero (LuGre's bristle damping ``sigma1 dz/dt`` is
     a viscous force at standstill whatever the friction level, and it absorbed a guide
     control's drifting zero), or the base parameters moving to a better optimum from the
-    refit's new start. Raises :class:`ValidationError` (the hypothesis is recorded as
-    failed with this reason).
+    refit's new start. Raises :class:`ValidationError`.
     """
     found = _judged_element(candidate, ext, ELEMENT_SIZE)
     if found is None:
@@ -449,9 +443,8 @@ def check_stiction_decays(
     gradually with velocity (with ``f_s`` near zero about ``f_c (v / v_s)^2``), i.e. a
     velocity-dependent damping (a digressive valve's knee, a progressive damper, or a
     force missing around zero velocity), which the shape absorbs without being friction.
-    Raises :class:`ValidationError` (the hypothesis is recorded as failed with this
-    reason); a friction step of another kind refitted in the same round can still be
-    named.
+    Raises :class:`ValidationError`; a friction step of another kind refitted in the
+    same round can still be named.
     """
     found = _judged_element(candidate, ext, STICTION_KINDS) if vmax > 0 else None
     if found is None:
@@ -495,8 +488,7 @@ def check_breakaway_recorded(candidate: str, ext: FitResult, sp: Split) -> None:
     Stribeck velocity too small for any sample to see it; what the shape fits is the
     transient the level drives (LuGre's bristle deflection ``z = g(v) / sigma0``, a loop
     over a fair part of the stroke: a material's hysteresis). Raises
-    :class:`ValidationError` (the hypothesis is recorded as failed with this reason).
-    Models without a recorded ``force`` channel are not judged.
+    :class:`ValidationError`. Models without a recorded ``force`` channel are not judged.
     """
     found = _judged_element(candidate, ext, STICTION_KINDS)
     forces = [

@@ -15,33 +15,25 @@ sets. Such an element may not be named with confidence: the verdict says, per el
 
 A switching gain alone does not tell a spurious element from a real one (a lag or a
 stop the switched force projects on switches too). What does is the element's own
-shape **beyond a gain the input sets block by block** (:func:`beyond_switching`): from
-``r`` and ``d`` alike, what a level, a ramp and a gain on the signal whose gain the
-finding saw switch explain in each block is taken out (the unrecorded input's reach,
-whatever its level in each block), and ``r`` is regressed on what is left of ``d``. A
-real element's shape is in the residual at its fitted size (coefficient 1); an element
-that only fitted the switched force's average leaves nothing there (coefficient 0).
-The coefficient's standard error comes from the regression's residual whitened by its
-autoregression (:func:`~.missing_input.whitening`). Between the two (0 and 1, equally
-precise) the likelihood decides at the midpoint: when the coefficient is below 1/2 by
-a one-sided normal test at ``alpha`` over the elements judged, less than half of the
-element's fitted size is its own and it is **withdrawn**: what it fits, the switching
-explains. Where the test has no power (a smooth element, e.g. a cubic spring, is
-locally a gain on the signal and leaves too little beyond it) the data cannot tell,
-and it stays, not confident.
-Elements are judged from the last named back and withdrawn while each one is (the
-model before a withdrawn last element is its parent: no refit); an element named
-before one that stays is not withdrawn.
+shape **beyond a gain the input sets block by block** (:func:`beyond_switching`): a
+real element's shape is in the residual at its fitted size (coefficient 1), one that
+only fitted the switched force's average leaves nothing there (coefficient 0). When
+the coefficient is below 1/2 by a one-sided normal test at ``alpha`` over the elements
+judged, what the element fits the switching explains and it is **withdrawn**. Where
+the test has no power (a smooth element, e.g. a cubic spring, is locally a gain on the
+signal) the data cannot tell, and it stays, not confident. Elements are judged from
+the last named back and withdrawn while each one is (the model before a withdrawn
+last element is its parent: no refit).
 
 Tried and not kept: a refit on the blocks where the input sits at its base level, read
-off the residual (two-means of the block gains); with the true off-blocks it withdraws a
-spurious element (corrected p = 0.79), but the levels read off the residual leave a few
-switched blocks in the base, enough to keep a spurious element significant (p = 2e-17),
-while a true stop the base blocks hardly reach loses its significance there.
+off the residual: the levels read off it leave a few switched blocks in the base,
+enough to keep a spurious element significant (p = 2e-17; with the true off-blocks,
+p = 0.79).
 """
 
 from __future__ import annotations
 
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -49,16 +41,37 @@ import numpy as np
 from scipy import signal, stats
 
 from suspenv.diagnosis.checks.finding import Context
-from suspenv.diagnosis.checks.missing_input import (
-    PREDICTION,
-    block_gains,
-    lag1_p,
-    whitening,
-    within_blocks,
-)
+from suspenv.diagnosis.checks.missing_input import PREDICTION, block_gains, lag1_p, whitening
 from suspenv.diagnosis.family import Conclusion
 from suspenv.diagnosis.fitting import FitResult, residuals
 from suspenv.diagnosis.hypothesis import Hypothesis, Withdrawal
+from suspenv.diagnosis.protocols import RecordingLike
+
+
+def _improvements(
+    ctx: Context, parent: FitResult, refit: FitResult
+) -> Iterator[tuple[RecordingLike, np.ndarray, np.ndarray, np.ndarray]]:
+    """(recording, r, d, parent's prediction) per recording and channel of ``refit``:
+    the parent's residual ``r`` and the element's improvement ``d`` (the refit's
+    prediction less the parent's), in the channel's unit."""
+    for rec in ctx.setup.split.recordings():
+        (res,) = residuals(parent.model, parent.theta, [rec], refit.channels)
+        new, old = refit.model.simulate(refit.theta, rec), parent.model.simulate(parent.theta, rec)
+        for ch in refit.channels:
+            yield rec, res[ch], new[ch] - old[ch], old[ch]
+
+
+def within_blocks(r: np.ndarray, signals: Sequence[np.ndarray], length: int) -> np.ndarray:
+    """``r`` less its least-squares fit on a constant, a ramp and ``signals`` in each
+    block of ``length`` (what no gain of a block explains)."""
+    n = r.size // length * length
+    ramp = np.linspace(-1.0, 1.0, length)
+    out = np.empty(n)
+    for k in range(0, n, length):
+        a = np.column_stack([np.ones(length), ramp, *(s[k : k + length] for s in signals)])
+        coef, *_ = np.linalg.lstsq(a, r[k : k + length], rcond=None)
+        out[k : k + length] = r[k : k + length] - a @ coef
+    return out
 
 
 def gain_lag1(r: np.ndarray, d: np.ndarray, length: int) -> tuple[float, float]:
@@ -78,11 +91,7 @@ def gain_switching(
     """The switching test of the element's improvement (``refit`` less ``parent``) on
     the parent's residual (:func:`gain_lag1`) over the recordings and channels: the
     smallest p-value, Bonferroni-corrected, and its lag-1 correlation."""
-    tried = []
-    for rec in ctx.setup.split.recordings():
-        (res,) = residuals(parent.model, parent.theta, [rec], refit.channels)
-        new, old = refit.model.simulate(refit.theta, rec), parent.model.simulate(parent.theta, rec)
-        tried += [gain_lag1(res[ch], new[ch] - old[ch], length) for ch in refit.channels]
+    tried = [gain_lag1(r, d, length) for _, r, d, _ in _improvements(ctx, parent, refit)]
     p, rho = min(tried, default=(1.0, 0.0))
     return {"p_switching": min(1.0, p * max(len(tried), 1)), "gain_lag1": rho}
 
@@ -91,10 +100,11 @@ def beyond_switching(
     r: np.ndarray, d: np.ndarray, s: np.ndarray, length: int
 ) -> tuple[float, float]:
     """(beta, se): the coefficient of ``r`` on ``d`` with a level, a ramp and a gain on
-    ``s`` taken out of both in each block of ``length``
-    (:func:`~.missing_input.within_blocks`), and its standard error (the regression's
-    residual and ``d`` filtered by the residual's autoregression; inf where nothing of
-    ``d`` is left)."""
+    ``s`` taken out of both in each block of ``length`` (:func:`within_blocks`: the
+    unrecorded input's reach, whatever its level in each block), and its standard error
+    (the regression's residual and ``d`` whitened by the residual's autoregression,
+    :func:`~.missing_input.whitening`; inf where nothing of ``d`` is left). Between 0
+    and 1, equally precise, the likelihood decides at the midpoint 1/2."""
     rp, dp = within_blocks(r, [s], length), within_blocks(d, [s], length)
     dd = float(dp @ dp)
     if not dd > 1e-24 * max(float(d @ d), 1e-300):
@@ -114,16 +124,13 @@ def element_beyond(
     ``name`` whose gain switches (for the model's prediction: the parent's, which does
     not hold the element's shape)."""
     num = den = 0.0
-    for rec in ctx.setup.split.recordings():
-        (res,) = residuals(parent.model, parent.theta, [rec], refit.channels)
-        new, old = refit.model.simulate(refit.theta, rec), parent.model.simulate(parent.theta, rec)
-        for ch in refit.channels:
-            s = old[ch] if name == PREDICTION else rec.inputs.get(name)
-            if s is None or res[ch].size < 2 * length:
-                continue
-            beta, se = beyond_switching(res[ch], new[ch] - old[ch], np.asarray(s, float), length)
-            if np.isfinite(se) and se > 0:
-                num, den = num + beta / se**2, den + 1.0 / se**2
+    for rec, r, d, old in _improvements(ctx, parent, refit):
+        s = old if name == PREDICTION else rec.inputs.get(name)
+        if s is None or r.size < 2 * length:
+            continue
+        beta, se = beyond_switching(r, d, np.asarray(s, float), length)
+        if np.isfinite(se) and se > 0:
+            num, den = num + beta / se**2, den + 1.0 / se**2
     if den == 0.0:
         return {"beta": 0.0, "se": float("inf")}
     return {"beta": num / den, "se": 1.0 / np.sqrt(den)}

@@ -118,11 +118,7 @@ def fit_beside_drift(
 
 
 def judge_beside_drift(
-    final: FitResult,
-    named: Sequence[Hypothesis],
-    sp: Split,
-    budget: int,
-    rule: DecisionRule,
+    final: FitResult, named: Sequence[Hypothesis], sp: Split, budget: int, rule: DecisionRule
 ) -> tuple[FitResult, list[Withdrawal]]:
     """The elements ``named`` (each in ``final``'s model) judged again beside a zero
     drift of more shape (module docstring), in the order the search named them, each in

@@ -65,16 +65,8 @@ from suspenv.diagnosis.component.motion_inputs import (
     motion_versions,
     preferred_version,
 )
-from suspenv.diagnosis.component.refit import (
-    current_effects,
-    parameter_and_error,
-    refit_with,
-)
-from suspenv.diagnosis.component.residual_left import (
-    MOVING_FRACTION,
-    ResidualLeft,
-    residual_left,
-)
+from suspenv.diagnosis.component.refit import current_effects, parameter_and_error, refit_with
+from suspenv.diagnosis.component.residual_left import MOVING_FRACTION, ResidualLeft, residual_left
 from suspenv.diagnosis.component.rig import (
     RigDescription,
     baseline_families,
@@ -667,11 +659,7 @@ class ComponentFamily(OptionalSteps):
         return effect.words
 
     def ambiguities(
-        self,
-        winner: Hypothesis,
-        ranked: Sequence[Hypothesis],
-        parent: FitResult,
-        setup: Setup,
+        self, winner: Hypothesis, ranked: Sequence[Hypothesis], parent: FitResult, setup: Setup
     ) -> list[Ambiguity]:
         """The structural ambiguity of the winner (:func:`_structural_ambiguity`); and,
         on a device whose one recorded output is its force, a sensor lag of the force

@@ -329,9 +329,7 @@ def motion_versions(
 
 
 def conditioned(
-    recordings: Sequence[RecordingLike],
-    channels: Sequence[str],
-    version: str = "band",
+    recordings: Sequence[RecordingLike], channels: Sequence[str], version: str = "band"
 ) -> tuple[list[RecordingLike], list[MotionCheck]]:
     """The recordings with their motion channels in one ``version`` (module docstring).
 

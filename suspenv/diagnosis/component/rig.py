@@ -458,10 +458,7 @@ def oriented(recordings: Sequence[RecordingLike], rig: RigDescription) -> list[R
             return res
 
         meta = dict(getattr(rec, "meta", {}) or {})
-        meta["oriented"] = {
-            "stroke_negated": flip_stroke,
-            "force_negated": flip_force,
-        }
+        meta["oriented"] = {"stroke_negated": flip_stroke, "force_negated": flip_force}
         out.append(
             replace(  # type: ignore[type-var]
                 rec, inputs=turn(rec.inputs), outputs=turn(rec.outputs), meta=meta

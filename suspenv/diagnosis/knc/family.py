@@ -58,13 +58,7 @@ from suspenv.diagnosis.knc.locate import ResidualMap, residual_map
 from suspenv.diagnosis.knc.score_test import SCORE_TESTED, score_signatures_by_model
 from suspenv.diagnosis.knc.signatures import FAMILY_KINDS, KncSignature, score_signatures
 from suspenv.diagnosis.protocols import DiagnosableModel
-from suspenv.diagnosis.split import (
-    Holdout,
-    Recordings,
-    Split,
-    as_recordings,
-    heldout_recordings,
-)
+from suspenv.diagnosis.split import Holdout, Recordings, Split, as_recordings, heldout_recordings
 from suspenv.measurements.knc import rig_test
 from suspenv.rigs.knc_axle import KncAxleModel, effect_words, make_candidate
 
@@ -426,11 +420,7 @@ class KncFamily:
         return polished
 
     def ambiguities(
-        self,
-        winner: Hypothesis,
-        ranked: Sequence[Hypothesis],
-        parent: FitResult,
-        setup: Setup,
+        self, winner: Hypothesis, ranked: Sequence[Hypothesis], parent: FitResult, setup: Setup
     ) -> list[Ambiguity]:
         return location_ambiguities(winner, ranked)
 

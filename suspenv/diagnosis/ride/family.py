@@ -57,13 +57,7 @@ from suspenv.diagnosis.ride.model import (
 )
 from suspenv.diagnosis.ride.residual import ResidualCheck, residual_check
 from suspenv.diagnosis.screening import Location, Share, Signature, effective_n
-from suspenv.diagnosis.split import (
-    Holdout,
-    Recordings,
-    Split,
-    as_recordings,
-    heldout_recordings,
-)
+from suspenv.diagnosis.split import Holdout, Recordings, Split, as_recordings, heldout_recordings
 
 #: the reported ride benchmark's decision rule
 RIDE_RULE = DecisionRule(alpha=0.01, heldout_rule="fraction", min_heldout_gain=0.01)
@@ -210,7 +204,7 @@ class RideFamily(OptionalSteps):
 
     Args:
         model: the base model (default: :class:`MinibusRideAdapter` without effects).
-        screen: refit this many best-screened candidates per round.
+        screen_count: refit this many best-screened candidates per round.
         max_effects: most elements added in turn.
         max_nfev: budget of each fit.
         rule: the decision rule (default :data:`RIDE_RULE`).
