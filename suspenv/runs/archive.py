@@ -142,21 +142,27 @@ def _multipliers(width: int) -> np.ndarray:
 def _hashes(
     batch: Any, row: Any, ok: Any, message: Sequence[str], columns: Sequence[np.ndarray]
 ) -> np.ndarray:
-    """The (n,) uint64 checksums of :func:`checksums`."""
+    """The (n,) uint64 checksums of :func:`checksums`: each word times its multiplier,
+    summed, one matrix-vector product per column (no (n, words) temporary)."""
     n = len(message)
-    crc = [zlib.crc32(m.encode("utf-8", "surrogatepass")) if m else 0 for m in message]
-    head = np.empty((n, 4), dtype=np.int64)
-    head[:, 0], head[:, 1], head[:, 2], head[:, 3] = batch, row, ok, crc
-    widths = np.repeat(np.array([[c.shape[1] for c in columns]], dtype=np.uint64), n, axis=0)
-    words = np.hstack(
-        [
-            head.view(np.uint64),
-            widths,
-            *(np.ascontiguousarray(c, dtype="<f8").view("<u8") for c in columns),
-        ]
+    words = 8 + sum(c.shape[1] for c in columns)
+    m = _multipliers(words)
+    head = np.empty((n, 8), dtype=np.int64)
+    head[:, 0], head[:, 1], head[:, 2] = batch, row, ok
+    head[:, 3] = (
+        [zlib.crc32(t.encode("utf-8", "surrogatepass")) if t else 0 for t in message]
+        if any(message)
+        else 0
     )
-    # integer arrays wrap modulo 2**64 without a warning (numpy's rule for arrays)
-    return (words * _multipliers(words.shape[1])).sum(axis=1, dtype=np.uint64)
+    head[:, 4:] = [c.shape[1] for c in columns]
+    # integer arithmetic wraps modulo 2**64 without a warning (numpy's rule for arrays)
+    sums = head.view(np.uint64) @ m[:8]
+    j = 8
+    for c in columns:
+        w = c.shape[1]
+        sums += np.ascontiguousarray(c, dtype="<f8").view("<u8") @ m[j : j + w]
+        j += w
+    return sums
 
 
 def checksums(
@@ -230,12 +236,14 @@ def _copy(
             f"archive append needs equal lengths, but got rows={len(rows)}, "
             f"U={len(U)}, X={len(X)}, results={n}"
         )
-    f8 = [np.array(a, dtype="<f8", order="C") for a in (U, X, result.objectives)]
+    f8 = [
+        np.array(a, dtype="<f8", order="C").reshape(n, -1)
+        for a in (U, X, result.objectives, result.constraints)
+    ]
     return (
         int(batch_index),
         np.array(rows, dtype=np.int64),
         *f8,
-        np.array(result.constraints, dtype="<f8", order="C"),
         np.array(result.ok, dtype=np.uint8),
         [str(m) for m in result.messages],
         float(wall_time),
@@ -257,24 +265,25 @@ def _records(
 ) -> list[tuple[Any, ...]]:
     """The evaluations table's rows (:data:`_COLUMNS`) of one chunk as :func:`_copy`
     gives it: one per run of consecutive rows ``r`` (one, unless a resume evaluates a
-    batch's gaps)."""
+    batch's gaps). The blobs are views of the chunk's arrays (``sqlite3`` binds any
+    contiguous buffer; no copy until SQLite's own)."""
     n = len(r)
     if n == 0:
         return []
-    cols = [np.reshape(a, (n, -1)) for a in (U, X, F, G)]
+    cols = (U, X, F, G)
     sums = _hashes(batch_index, r, ok, msg, cols).astype("<u8")
     cuts = [0, *(np.flatnonzero(np.diff(r) != 1) + 1).tolist(), n]
     return [
         (
-            int(batch_index),
+            batch_index,
             int(r[a]),
             e - a,
-            *(c[a:e].tobytes() for c in cols),
-            ok[a:e].tobytes(),
+            *(c[a:e].data for c in cols),
+            ok[a:e].data,
             json.dumps(msg[a:e]),
             wall_time * (e - a) / n,
             now,
-            sums[a:e].tobytes(),
+            sums[a:e].data,
         )
         for a, e in zip(cuts[:-1], cuts[1:], strict=True)
     ]
@@ -636,14 +645,18 @@ class ArchiveWriter:
     chunk's own evaluation took that long or longer, and by :meth:`flush` (the loop calls
     it when it ends, however it ends: a clean stop, an exception, a fault of the
     machinery or Ctrl-C lose nothing). A cheap batch thus costs copies of its arrays, not
-    a transaction: its rows (blobs, checksums) are made when it is committed, all pending
-    chunks in one pass. Made at each hand-over, between the strategy's own steps, their
-    few dozen numpy calls took about four times as long as in one pass (caches and
-    branch predictors cold). A kill (SIGKILL, power loss) loses only the chunks handed over since
-    the last commit: at most about :attr:`COMMIT_AFTER_S` seconds of cheap evaluations,
-    never an evaluation that took longer. What is committed is whole chunks in the order
-    evaluated (a transaction is all or nothing), so a resumed run replays the archive and
-    evaluates exactly what is missing, with the same results.
+    a transaction: its rows (checksums, views of its arrays) are made when it is
+    committed, all pending chunks in one pass. Made at each hand-over, between the
+    strategy's own steps, the same few dozen numpy calls took about four times as long
+    (caches and branch predictors cold).
+
+    The unit of durability is the group commit: a kill of the process (SIGKILL, an
+    out-of-memory kill) loses only the chunks handed over since the last commit, at most
+    about :attr:`COMMIT_AFTER_S` seconds of cheap evaluations, never an evaluation that
+    took longer; a power loss can also undo the commits since SQLite last synced its log
+    (see the module docstring). What is committed is whole chunks in the order evaluated
+    (a transaction is all or nothing), so a resumed run replays the archive and evaluates
+    exactly what is missing, with the same results.
     """
 
     #: seconds between group commits; a chunk whose evaluation took longer is committed
