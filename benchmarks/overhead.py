@@ -16,11 +16,11 @@ strategy driven by suspenv's :func:`~suspenv.runs.loop.optimize` with its SQLite
   ``trial.suggest_float`` per parameter, one design a call), row ``study.optimize``.
 
 Each suspenv case is also run without an archive (``run_dir=None``), which splits the
-overhead into the loop's and the archive's share. Timing: process CPU time (the archive's
-background thread included; the machine may be shared, and CPU time is what the loop
-costs), and wall time for information; the cases are repeated interleaved (drift hits
-every case alike) and the median of the repetitions is reported, ratios against the bare
-loop of the same library measured in the same run.
+overhead into the loop's and the archive's share. Timing: process CPU time (the machine
+may be shared, and CPU time is what the loop costs), and wall time for information; the
+cases are repeated interleaved (drift hits every case alike) and the median of the
+repetitions is reported, ratios against the bare loop of the same library measured in
+the same run.
 
 The workers study (rows ``library = "workers"``): CMA-ES, population 42, in-process
 (``workers=1``) against a process pool of 2 with the default chunking (one chunk per

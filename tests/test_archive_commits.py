@@ -44,6 +44,24 @@ def test_cheap_chunks_are_committed_together_and_an_expensive_one_at_once(tmp_pa
     np.testing.assert_array_equal(arr["unit"][::4, 0], 0.25 + 0.01 * np.arange(7))
 
 
+def test_a_chunk_with_a_gap_in_its_rows_reads_back_row_by_row(tmp_path):
+    # a resume evaluates a batch's gaps: rows 0, 2, 3 of batch 0 in one chunk (two SQLite
+    # rows); reference: the values handed over, the wall time shared equally
+    b, _, U, X, res = _chunk(0, n=3)
+    U[:, 0] = [0.1, 0.2, 0.3]
+    with RunArchive(tmp_path) as archive:
+        w = ArchiveWriter(archive, commit_after_s=3600.0)
+        w.append(b, [0, 2, 3], U, X, res, 0.3)
+        U[:] = -1.0  # the caller reuses its array: the archive keeps what was handed over
+        w.flush()
+        got = archive.batch(0)
+        arr = archive.arrays()
+    assert sorted(got) == [0, 2, 3]
+    np.testing.assert_array_equal([got[r][0][0] for r in (0, 2, 3)], [0.1, 0.2, 0.3])
+    assert arr["row"].tolist() == [0, 2, 3]
+    np.testing.assert_allclose(arr["wall_time"], [0.1, 0.1, 0.1], rtol=1e-15)
+
+
 def test_a_group_commit_is_all_or_nothing(tmp_path):
     # reference: the rows committed before; a transaction that fails half-way (a duplicate
     # (batch, row) in its third chunk) leaves none of its chunks behind

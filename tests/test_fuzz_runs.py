@@ -180,8 +180,8 @@ def test_rows_written_by_another_program_read_or_name_the_damage(tmp_path, blob,
     optimize(p, make_strategy("random", p, seed=1, batch_size=2), 2, run_dir=folder)
     with sqlite3.connect(folder / "archive.sqlite") as con:
         con.execute(
-            "INSERT INTO evaluations(batch, row, unit, x, objectives, constraints, ok, message,"
-            " wall_time, created) VALUES (?, 9, ?, ?, ?, ?, ?, 'm', 0.0, 0.0)",
+            "INSERT INTO evaluations(batch, row, n, unit, x, objectives, constraints, ok, "
+            "message, wall_time, created) VALUES (?, 9, 1, ?, ?, ?, ?, ?, '[\"m\"]', 0.0, 0.0)",
             (batch, blob, blob, blob, np.zeros(0).tobytes(), ok),
         )
     try:

@@ -159,8 +159,8 @@ def test_a_link_inside_a_run_directory_is_refused_and_overwrite_removes_only_it(
 
 
 # -------------------------------------------------------------- archive integrity
-def flip_x_byte(db: Path, row_id: int = 3) -> None:
-    """Change one byte of one stored design's physical ``x`` value."""
+def flip_x_byte(db: Path, row_id: int = 2) -> None:
+    """Change one byte of the physical ``x`` values of one stored chunk."""
     with sqlite3.connect(db) as con:
         (x,) = con.execute("SELECT x FROM evaluations WHERE id = ?", (row_id,)).fetchone()
         bad = bytearray(x)
@@ -195,21 +195,51 @@ def test_the_row_checksum_definition_is_fixed():
 
 @pytest.mark.parametrize(
     ("column", "byte"),
-    [("unit", 0), ("x", 7), ("objectives", 3), ("ok", None), ("message", None), ("row", None)],
+    [("unit", 0), ("x", 15), ("objectives", 27), ("ok", 2), ("message", None), ("row", None)],
 )
 def test_a_change_in_any_checked_column_is_caught(tmp_path, column, byte):
+    # a change of one design's value in a chunk of 4 (batch 1): bytes of its blobs, its
+    # status, its message (the chunk's JSON list still well-formed), the chunk's rows
     p = make_problem("Sphere", dim=3)
     optimize(p, make_strategy("random", p, seed=1, batch_size=4), 8, run_dir=tmp_path)
     with sqlite3.connect(tmp_path / "archive.sqlite") as con:
-        (value,) = con.execute(f"SELECT {column} FROM evaluations WHERE id = 6").fetchone()
+        (value,) = con.execute(f"SELECT {column} FROM evaluations WHERE id = 2").fetchone()
         if byte is not None:
             changed: object = bytes(b ^ (1 if i == byte else 0) for i, b in enumerate(value))
         elif column == "message":
-            changed = value + " "
+            changed = value.replace('""', '"x"', 1)
         else:
-            changed = value + 10 if column == "row" else 1 - value
-        con.execute(f"UPDATE evaluations SET {column} = ? WHERE id = 6", (changed,))
+            changed = value + 10
+        assert changed != value
+        con.execute(f"UPDATE evaluations SET {column} = ? WHERE id = 2", (changed,))
     with RunArchive(tmp_path) as archive, pytest.raises(ValidationError, match="checksum"):
+        archive.arrays()
+
+
+@pytest.mark.parametrize(
+    ("column", "value"),
+    [("n", 3), ("ok", b"\x01"), ("message", '["", ""]'), ("unit", b"\x00" * 20), ("n", "four")],
+)
+def test_a_chunk_whose_sizes_do_not_fit_is_named_damage(tmp_path, column, value):
+    p = make_problem("Sphere", dim=3)
+    optimize(p, make_strategy("random", p, seed=1, batch_size=4), 8, run_dir=tmp_path)
+    with sqlite3.connect(tmp_path / "archive.sqlite") as con:
+        con.execute(f"UPDATE evaluations SET {column} = ? WHERE id = 2", (value,))
+    with RunArchive(tmp_path) as archive, pytest.raises(ValidationError, match="not in the layout"):
+        archive.arrays()
+
+
+def test_overlapping_chunks_are_named_damage(tmp_path):
+    p = make_problem("Sphere", dim=3)
+    optimize(p, make_strategy("random", p, seed=1, batch_size=4), 8, run_dir=tmp_path)
+    with sqlite3.connect(tmp_path / "archive.sqlite") as con:  # batch 1's rows 2, 3 again
+        con.execute(
+            "INSERT INTO evaluations(batch, row, n, unit, x, objectives, constraints, ok, "
+            "message, wall_time, created, checksum) SELECT batch, 2, 2, substr(unit, 49), "
+            "substr(x, 49), substr(objectives, 17), constraints, substr(ok, 3), '[\"\", \"\"]', "
+            "wall_time, created, substr(checksum, 17) FROM evaluations WHERE id = 2"
+        )
+    with RunArchive(tmp_path) as archive, pytest.raises(ValidationError, match="row 2 twice"):
         archive.arrays()
 
 
@@ -229,21 +259,57 @@ def test_deleted_rows_are_refused_by_the_archive_meta(tmp_path):
         optimize(p, make_strategy("random", p, seed=1, batch_size=4), 12, run_dir=tmp_path)
 
 
-def test_an_archive_without_checksums_is_migrated_and_then_checked(tmp_path):
+def _one_row_per_design(db: Path, arrays: dict, checksums: bool) -> None:
+    """An archive as written before chunks (one row per design), with or without the
+    checksum column (before checksums), holding ``arrays``; the meta of ``db`` kept."""
+    from suspenv.runs.archive import checksums as row_checksums
+
+    with sqlite3.connect(db) as con:
+        con.execute("DROP TABLE evaluations")
+        con.execute(
+            "CREATE TABLE evaluations (id INTEGER PRIMARY KEY, batch INTEGER NOT NULL, "
+            "row INTEGER NOT NULL, unit BLOB NOT NULL, x BLOB NOT NULL, objectives BLOB "
+            "NOT NULL, constraints BLOB NOT NULL, ok INTEGER NOT NULL, message TEXT NOT "
+            "NULL, wall_time REAL NOT NULL, created REAL NOT NULL, "
+            + ("checksum BLOB, " if checksums else "")
+            + "UNIQUE (batch, row))"
+        )
+        a = arrays
+        cols = [a["unit"], a["x"], a["objectives"], a["constraints"]]
+        ok = a["ok"].astype(int).tolist()
+        sums = row_checksums(a["batch"].tolist(), a["row"].tolist(), ok, list(a["message"]), cols)
+        for i in range(len(ok)):
+            values = [int(a["batch"][i]), int(a["row"][i]), *(c[i].tobytes() for c in cols)]
+            values += [ok[i], a["message"][i], 0.1, 0.0] + ([sums[i]] if checksums else [])
+            con.execute(
+                f"INSERT INTO evaluations VALUES (NULL, {', '.join('?' * len(values))})", values
+            )
+
+
+@pytest.mark.parametrize("checksums", [True, False])
+def test_an_archive_of_one_row_per_design_is_converted_and_then_checked(tmp_path, checksums):
+    # reference: the arrays the run archived, written back in the layout of one row per
+    # design (with and without the checksums of the last layout but one)
     p = make_problem("Sphere", dim=2)
     optimize(p, make_strategy("random", p, seed=1, batch_size=4), 8, run_dir=tmp_path)
     db = tmp_path / "archive.sqlite"
     with RunArchive(db) as archive:
         before = archive.arrays()
-    with sqlite3.connect(db) as con:  # the layout of an archive written before checksums
-        con.execute("ALTER TABLE evaluations DROP COLUMN checksum")
+    before["message"][5] = "failed: ü"  # a message survives the conversion
+    before["ok"][5] = False
+    _one_row_per_design(db, before, checksums)
     with RunArchive(db) as archive:
         after = archive.arrays()
-        assert "checksums_added" in archive.meta()
-    for key in ("unit", "x", "objectives", "ok"):
+        assert len(archive) == 8
+        assert ("checksums_added" in archive.meta()) is not checksums
+        assert "chunks_added" in archive.meta()
+    for key in ("unit", "x", "objectives", "constraints", "ok", "message", "batch", "row"):
         np.testing.assert_array_equal(before[key], after[key])
-    flip_x_byte(db, 1)
-    with RunArchive(db) as archive, pytest.raises(ValidationError, match="checksum"):
+    # the converted archive resumes: its 8 designs replayed, the run goes on after them
+    r = optimize(p, make_strategy("random", p, seed=1, batch_size=4), 12, run_dir=tmp_path)
+    assert r.n_resumed == 8 and r.n_evaluations == 12
+    flip_x_byte(db, 6)  # one design per chunk: id 6 is batch 1, row 1
+    with RunArchive(db) as archive, pytest.raises(ValidationError, match="batch 1, row 1 does"):
         archive.arrays()
 
 

@@ -10,10 +10,28 @@ table with named columns.
 
 Tables:
     meta(key TEXT PRIMARY KEY, value TEXT)        JSON values: names, config, versions...
-    evaluations(id, batch, row, unit, x, objectives, constraints, ok, message,
-                wall_time, created, checksum)     one row per evaluated design
+    evaluations(id, batch, row, n, unit, x, objectives, constraints, ok, message,
+                wall_time, created, checksum)     one row per evaluated chunk
 
-Integrity: SQLite has no checksum of its pages, so each row carries its own
+A row of ``evaluations`` holds ``n`` designs of one batch, the batch's rows ``row`` to
+``row + n - 1`` (a chunk as the loop evaluated it; rows of a chunk that are not
+consecutive, after a resume, make one row per consecutive run): ``unit``, ``x``,
+``objectives`` and ``constraints`` are (n, width) arrays, ``ok`` n bytes (1: the
+evaluation succeeded), ``message`` a JSON list of n strings, ``wall_time`` the chunk's
+evaluation time [s] and ``checksum`` n checksums of 8 bytes. One SQLite row per chunk,
+not per design: SQLite's cost is per row (binding, B-tree insert, index), about 3 us,
+which per design was a tenth of a cheap CMA-ES generation's time. An archive written
+with one row per design (before chunks) is converted when it is first opened, values
+unchanged (meta ``chunks_added``: the time).
+
+Durability: SQLite's write-ahead log with ``synchronous=NORMAL``. A commit is durable
+against the process being killed (SIGKILL, an out-of-memory kill) as soon as it returns:
+the log is in the operating system's file cache. A power loss or an operating-system
+crash can undo the commits since the log was last synced (at a checkpoint: every 1000
+pages, and when the archive is closed), never leaving a half-written commit; resume
+then evaluates those designs again, with the same results.
+
+Integrity: SQLite has no checksum of its pages, so each design carries its own
 (:func:`checksums`: a 64-bit multilinear hash of batch, row, status, the message's
 CRC-32, the columns' widths and every 8-byte word of the unit, x, objectives and
 constraints; a change confined to one word is always caught, since every word's
@@ -43,24 +61,28 @@ from suspenv.core.errors import ValidationError
 from suspenv.core.result import EvaluationBatch
 from suspenv.runs.run_dir import atomic_path, write_fault
 
-_SCHEMA = """
-CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL);
-CREATE TABLE IF NOT EXISTS evaluations (
+_META = "CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL)"
+#: the evaluations table (see the module docstring), named by {table}
+_EVALUATIONS = """CREATE TABLE IF NOT EXISTS {table} (
     id INTEGER PRIMARY KEY,
     batch INTEGER NOT NULL,
     row INTEGER NOT NULL,
+    n INTEGER NOT NULL,
     unit BLOB NOT NULL,
     x BLOB NOT NULL,
     objectives BLOB NOT NULL,
     constraints BLOB NOT NULL,
-    ok INTEGER NOT NULL,
+    ok BLOB NOT NULL,
     message TEXT NOT NULL,
     wall_time REAL NOT NULL,
     created REAL NOT NULL,
     checksum BLOB,
     UNIQUE (batch, row)
-);
-"""
+)"""
+#: the columns written, in :func:`_records`'s order
+_COLUMNS = (
+    "batch, row, n, unit, x, objectives, constraints, ok, message, wall_time, created, checksum"
+)
 
 #: value columns of an evaluation: (kind, array of RunArchive.arrays, meta prefix, fallback)
 _VALUES = (
@@ -106,7 +128,7 @@ def _machine_fault(exc: sqlite3.Error) -> bool:
     return str(getattr(exc, "sqlite_errorname", "")).startswith(_MACHINE_FAULTS)
 
 
-#: the columns a row's checksum covers, in :func:`table_checksums`'s order
+#: the per-design columns a checksum covers, as :func:`table_checksums` takes them
 CHECKED = "batch, row, unit, x, objectives, constraints, ok, message"
 
 
@@ -117,25 +139,43 @@ def _multipliers(width: int) -> np.ndarray:
     return rng.integers(0, 2**64, size=width, dtype=np.uint64, endpoint=False) | np.uint64(1)
 
 
+def _hashes(
+    batch: Any, row: Any, ok: Any, message: Sequence[str], columns: Sequence[np.ndarray]
+) -> np.ndarray:
+    """The (n,) uint64 checksums of :func:`checksums`: each word times its multiplier,
+    summed, one matrix-vector product per column (no (n, words) temporary)."""
+    n = len(message)
+    words = 8 + sum(c.shape[1] for c in columns)
+    m = _multipliers(words)
+    head = np.empty((n, 8), dtype=np.int64)
+    head[:, 0], head[:, 1], head[:, 2] = batch, row, ok
+    head[:, 3] = (
+        [zlib.crc32(t.encode("utf-8", "surrogatepass")) if t else 0 for t in message]
+        if any(message)
+        else 0
+    )
+    head[:, 4:] = [c.shape[1] for c in columns]
+    # integer arithmetic wraps modulo 2**64 without a warning (numpy's rule for arrays)
+    sums = head.view(np.uint64) @ m[:8]
+    j = 8
+    for c in columns:
+        w = c.shape[1]
+        sums += np.ascontiguousarray(c, dtype="<f8").view("<u8") @ m[j : j + w]
+        j += w
+    return sums
+
+
 def checksums(
     batch: Sequence[int],
     row: Sequence[int],
     ok: Sequence[int],
     message: Sequence[str],
     columns: Sequence[np.ndarray],
-) -> list[bytearray]:
-    """The 8-byte checksum of each of n rows (see the module docstring): ``columns`` are
-    the unit, x, objectives and constraints as (n, width) float64 arrays."""
-    n = len(batch)
-    crc = [zlib.crc32(m.encode("utf-8", "surrogatepass")) if m else 0 for m in message]
-    head = np.array([batch, row, ok, crc], dtype=np.int64).T.reshape(n, 4).view(np.uint64)
-    widths = np.repeat(np.array([[c.shape[1] for c in columns]], dtype=np.uint64), n, axis=0)
-    words = np.hstack(
-        [head, widths, *(np.ascontiguousarray(c, dtype="<f8").view("<u8") for c in columns)]
-    )
-    # integer arrays wrap modulo 2**64 without a warning (numpy's rule for arrays)
-    sums = (words * _multipliers(words.shape[1])).sum(axis=1, dtype=np.uint64)
-    return _row_blobs(sums.astype("<u8").reshape(n, 1))
+) -> list[bytes]:
+    """The 8-byte checksum of each of n designs (see the module docstring): ``columns``
+    are the unit, x, objectives and constraints as (n, width) float64 arrays."""
+    raw = _hashes(batch, row, ok, message, columns).astype("<u8").tobytes()
+    return [raw[i : i + 8] for i in range(0, len(raw), 8)]
 
 
 def _plausible(row: Sequence[Any]) -> bool:
@@ -148,11 +188,11 @@ def _plausible(row: Sequence[Any]) -> bool:
     )
 
 
-def table_checksums(rows: Sequence[Sequence[Any]]) -> list[bytearray | None]:
-    """The checksum of each row of :data:`CHECKED` columns as read from the table, rows
-    of equal widths in one :func:`checksums` call; None for a row whose types or sizes
-    no suspenv archive writes (never equal to a checksum)."""
-    out: list[bytearray | None] = [None] * len(rows)
+def table_checksums(rows: Sequence[Sequence[Any]]) -> list[bytes | None]:
+    """The checksum of each design's :data:`CHECKED` columns as read from the archive,
+    designs of equal widths in one :func:`checksums` call; None for a design whose types
+    or sizes no suspenv archive writes (never equal to a checksum)."""
+    out: list[bytes | None] = [None] * len(rows)
     groups: dict[tuple[int, ...], list[int]] = {}
     for i, row in enumerate(rows):
         if _plausible(row):
@@ -180,56 +220,73 @@ def table_checksums(rows: Sequence[Sequence[Any]]) -> list[bytearray | None]:
 Chunk = tuple[int, Sequence[int], np.ndarray, np.ndarray, EvaluationBatch, float]
 
 
-def _row_blobs(data: np.ndarray) -> list[bytearray]:
-    """Each row of the C-contiguous 2-D array ``data`` as its bytes: one copy of the whole
-    array, then slices (no numpy call per row). The slices are ``bytearray``: :mod:`sqlite3`
-    binds one directly, while a ``bytes`` value first goes through its adapter lookup
-    (about 0.4 us per value, five values per row)."""
-    n, width = data.shape[0], data.shape[1] * data.itemsize
-    raw = bytearray(data)
-    return [raw[i : i + width] for i in range(0, n * width, width)] if width else [bytearray()] * n
-
-
-def _records(
+def _copy(
     batch_index: int,
     rows: Sequence[int],
     U: np.ndarray,
     X: np.ndarray,
     result: EvaluationBatch,
     wall_time: float,
-    now: float,
-) -> list[tuple[Any, ...]]:
-    """The evaluations table's rows of one chunk (its columns after ``id``)."""
+) -> tuple[Any, ...]:
+    """A chunk's values checked and copied (the caller may reuse its arrays), with the
+    time it was handed over: the arguments of :func:`_records`."""
     n = len(result)
     if not (len(rows) == n == len(U) == len(X)):
         raise ValidationError(
             f"archive append needs equal lengths, but got rows={len(rows)}, "
             f"U={len(U)}, X={len(X)}, results={n}"
         )
-    if n == 0:
-        return []
-    b = [int(batch_index)] * n
-    per = float(wall_time) / n
-    r = np.asarray(rows, dtype=np.int64).tolist()
-    ok = np.asarray(result.ok, dtype=bool).astype(int).tolist()
-    msg = [str(m) for m in result.messages]
-    cols = [
-        np.ascontiguousarray(np.reshape(a, (n, -1)), dtype="<f8")
+    f8 = [
+        np.array(a, dtype="<f8", order="C").reshape(n, -1)
         for a in (U, X, result.objectives, result.constraints)
     ]
-    return list(
-        zip(
-            b,
-            r,
-            *(_row_blobs(c) for c in cols),
-            ok,
-            msg,
-            [per] * n,
-            [now] * n,
-            checksums(b, r, ok, msg, cols),
-            strict=True,
-        )
+    return (
+        int(batch_index),
+        np.array(rows, dtype=np.int64),
+        *f8,
+        np.array(result.ok, dtype=np.uint8),
+        [str(m) for m in result.messages],
+        float(wall_time),
+        time.time(),
     )
+
+
+def _records(
+    batch_index: int,
+    r: np.ndarray,
+    U: np.ndarray,
+    X: np.ndarray,
+    F: np.ndarray,
+    G: np.ndarray,
+    ok: np.ndarray,
+    msg: list[str],
+    wall_time: float,
+    now: float,
+) -> list[tuple[Any, ...]]:
+    """The evaluations table's rows (:data:`_COLUMNS`) of one chunk as :func:`_copy`
+    gives it: one per run of consecutive rows ``r`` (one, unless a resume evaluates a
+    batch's gaps). The blobs are views of the chunk's arrays (``sqlite3`` binds any
+    contiguous buffer; no copy until SQLite's own)."""
+    n = len(r)
+    if n == 0:
+        return []
+    cols = (U, X, F, G)
+    sums = _hashes(batch_index, r, ok, msg, cols).astype("<u8")
+    cuts = [0, *(np.flatnonzero(np.diff(r) != 1) + 1).tolist(), n]
+    return [
+        (
+            batch_index,
+            int(r[a]),
+            e - a,
+            *(c[a:e].data for c in cols),
+            ok[a:e].data,
+            json.dumps(msg[a:e]),
+            wall_time * (e - a) / n,
+            now,
+            sums[a:e].data,
+        )
+        for a, e in zip(cuts[:-1], cuts[1:], strict=True)
+    ]
 
 
 def _unblob(b: bytes) -> np.ndarray:
@@ -249,7 +306,6 @@ class RunArchive:
             path = path / self.FILENAME
         path.parent.mkdir(parents=True, exist_ok=True)
         self.path = path
-        # one connection; ArchiveWriter may append from its thread, never concurrently
         self._con = sqlite3.connect(str(path), timeout=30.0, check_same_thread=False)
         try:
             # a new file only (SQLite ignores it once the file has pages): 16 KiB pages take
@@ -257,7 +313,8 @@ class RunArchive:
             self._con.execute(f"PRAGMA page_size={self.PAGE_SIZE}")
             self._con.execute("PRAGMA journal_mode=WAL")
             self._con.execute("PRAGMA synchronous=NORMAL")
-            self._con.executescript(_SCHEMA)
+            self._con.execute(_META)
+            self._con.execute(_EVALUATIONS.format(table="evaluations"))
             self._con.commit()
             self._check_columns()
         except (sqlite3.DatabaseError, UnicodeDecodeError) as exc:
@@ -278,25 +335,37 @@ class RunArchive:
                 f"{str(self.path)!r} is not a suspenv run archive: its evaluations table "
                 f"lacks {sorted(want - have)}"
             )
-        if "checksum" not in have:
-            self._add_checksums()
+        if "n" not in have:
+            self._to_chunks("checksum" in have)
 
-    def _add_checksums(self) -> None:
-        """Migrate an archive written before rows had checksums: add the column and the
-        checksum of every row as it is now (meta ``checksums_added`` records when)."""
-        rows = self._con.execute(f"SELECT id, {CHECKED} FROM evaluations").fetchall()
+    def _to_chunks(self, with_checksums: bool) -> None:
+        """Convert an archive written with one row per design (before chunks) to one
+        design per chunk, values unchanged, in one transaction (meta ``chunks_added``);
+        an archive written before rows had checksums gets the checksum of every row as it
+        is now (meta ``checksums_added``)."""
+        rows = self._con.execute(
+            f"SELECT {CHECKED}, wall_time, created, "
+            f"{'checksum' if with_checksums else 'NULL'} FROM evaluations ORDER BY id"
+        ).fetchall()
+        sums = (
+            [r[10] for r in rows] if with_checksums else table_checksums([r[:8] for r in rows])
+        )
+        now = json.dumps(time.strftime("%Y-%m-%d %H:%M:%S"))
         with self._con:
-            self._con.execute("ALTER TABLE evaluations ADD COLUMN checksum BLOB")
+            self._con.execute("BEGIN")
+            self._con.execute(_EVALUATIONS.format(table="evaluations_chunks"))
             self._con.executemany(
-                "UPDATE evaluations SET checksum = ? WHERE id = ?",
+                f"INSERT INTO evaluations_chunks({_COLUMNS}) VALUES ({', '.join('?' * 12)})",
                 [
-                    (c, r[0])
-                    for c, r in zip(table_checksums([r[1:] for r in rows]), rows, strict=True)
+                    (b, r, 1, u, x, f, g, _one_byte(ok), _one_message(m), t, c, cs)
+                    for (b, r, u, x, f, g, ok, m, t, c, _), cs in zip(rows, sums, strict=True)
                 ],
             )
-            self._con.execute(
-                "INSERT OR REPLACE INTO meta(key, value) VALUES ('checksums_added', ?)",
-                (json.dumps(time.strftime("%Y-%m-%d %H:%M:%S")),),
+            self._con.execute("DROP TABLE evaluations")
+            self._con.execute("ALTER TABLE evaluations_chunks RENAME TO evaluations")
+            added = ["chunks_added"] + ([] if with_checksums else ["checksums_added"])
+            self._con.executemany(
+                "INSERT OR REPLACE INTO meta(key, value) VALUES (?, ?)", [(k, now) for k in added]
             )
 
     def _write(self, sql: str, data: list[tuple[Any, ...]]) -> None:
@@ -308,8 +377,56 @@ class RunArchive:
         except sqlite3.OperationalError as exc:
             raise write_fault(self.path, f"SQLite: {exc}") from None
 
+    def _designs(self, where: str, args: tuple[Any, ...] = ()) -> list[tuple[Any, ...]]:
+        """The archived designs of the chunks ``where`` selects, in order of batch and row,
+        each checked against its checksum: ``(checksum, *CHECKED columns, wall_time)``."""
+        chunks = self._read(
+            "SELECT checksum, batch, row, n, unit, x, objectives, constraints, ok, message, "
+            f"wall_time FROM evaluations {where} ORDER BY batch, row",
+            args,
+        )
+        rows = [design for chunk in chunks for design in self._split(chunk)]
+        self._verify(rows)
+        return rows
+
+    def _split(self, chunk: tuple[Any, ...]) -> list[tuple[Any, ...]]:
+        """The designs of one chunk row (see :meth:`_designs`); a chunk whose sizes do not
+        fit its ``n`` is named damage."""
+        checksum, batch, row, n, *blobs, ok, message, wall_time = chunk
+        messages = _json_list(message)
+        if not (
+            type(n) is int
+            and 0 < n < 2**32
+            and type(row) is int
+            and type(ok) is bytes
+            and len(ok) == n
+            and len(messages) == n
+            and all(type(b) is bytes and len(b) % (8 * n) == 0 for b in blobs)
+            and (checksum is None or (type(checksum) is bytes and len(checksum) == 8 * n))
+        ):
+            raise ValidationError(
+                f"archive {str(self.path)!r} is damaged: the evaluations of batch {batch!r} "
+                f"from row {row!r} are not in the layout suspenv writes; restore the archive "
+                "from a copy, or start the run anew with --overwrite"
+            )
+        w = [len(b) // n for b in blobs]
+        each = wall_time / n if isinstance(wall_time, int | float) else None
+        return [
+            (
+                None if checksum is None else checksum[8 * i : 8 * i + 8],
+                batch,
+                row + i,
+                *(b[i * wb : (i + 1) * wb] for b, wb in zip(blobs, w, strict=True)),
+                ok[i],
+                messages[i],
+                each,
+            )
+            for i in range(n)
+        ]
+
     def _verify(self, rows: list[tuple[Any, ...]]) -> None:
-        """Each row ``(checksum, *CHECKED columns, ...)`` against its checksum."""
+        """Each design ``(checksum, *CHECKED columns, ...)`` against its checksum, and no
+        design twice (rows in order of batch and row)."""
         sums = table_checksums([r[1:9] for r in rows])
         for (stored, batch, row, *_), c in zip(rows, sums, strict=True):
             if stored is None or stored != c:
@@ -317,6 +434,14 @@ class RunArchive:
                     f"archive {str(self.path)!r} is damaged: the evaluation of batch "
                     f"{batch!r}, row {row!r} does not match its checksum (a value changed "
                     "after it was written); restore the archive from a copy, or start the "
+                    "run anew with --overwrite"
+                )
+        keys = [(r[1], r[2]) for r in rows]
+        for before, (b, r) in zip(keys, keys[1:], strict=False):
+            if (b, r) <= before:
+                raise ValidationError(
+                    f"archive {str(self.path)!r} is damaged: it holds the evaluation of "
+                    f"batch {b}, row {r} twice; restore the archive from a copy, or start the "
                     "run anew with --overwrite"
                 )
 
@@ -377,35 +502,25 @@ class RunArchive:
     def append_chunks(self, chunks: Sequence[Chunk]) -> None:
         """Append several chunks ``(batch_index, rows, U, X, result, wall_time)`` in one
         transaction: after a crash the archive holds all of them or none."""
-        data: list[tuple[Any, ...]] = []
-        now = time.time()
-        for chunk in chunks:
-            data += _records(*chunk, now)
-        self.insert(data)
+        self.insert([r for chunk in chunks for r in _records(*_copy(*chunk))])
 
     def insert(self, records: list[tuple[Any, ...]]) -> None:
-        """Append rows made by :func:`_records`, in one transaction."""
+        """Append chunk rows made by :func:`_records`, in one transaction."""
         if records:
             self._write(
-                f"INSERT INTO evaluations({CHECKED}, wall_time, created, checksum) "
-                "VALUES (?,?,?,?,?,?,?,?,?,?,?)",
-                records,
+                f"INSERT INTO evaluations({_COLUMNS}) VALUES ({', '.join('?' * 12)})", records
             )
 
     # ----------------------------------------------------------------- reads
     def __len__(self) -> int:
-        return int(self._read("SELECT COUNT(*) FROM evaluations")[0][0])
+        return int(self._read("SELECT TOTAL(n) FROM evaluations")[0][0])
 
     def batch(self, batch_index: int) -> dict[int, tuple[np.ndarray, EvaluationBatch]]:
         """``{row: (unit design, one-row EvaluationBatch)}`` archived for one batch."""
         out: dict[int, tuple[np.ndarray, EvaluationBatch]] = {}
-        checked = self._read(
-            f"SELECT checksum, {CHECKED} FROM evaluations WHERE batch = ? ORDER BY row",
-            (int(batch_index),),
-        )
+        checked = self._designs("WHERE batch = ?", (int(batch_index),))
         if not checked:  # the usual case while a run goes on: no meta to read
             return out
-        self._verify(checked)
         rows = [(r[2], r[3], r[5], r[6], r[7], r[8]) for r in checked]
         names = {
             str(key): json.loads(value)
@@ -446,10 +561,7 @@ class RunArchive:
     def arrays(self) -> dict[str, np.ndarray]:
         """Every evaluation in evaluation order (batch, row): unit, x, objectives, constraints,
         ok, message, batch, row, wall_time."""
-        rows = self._read(
-            f"SELECT checksum, {CHECKED}, wall_time FROM evaluations ORDER BY batch, row"
-        )
-        self._verify(rows)
+        rows = self._designs("")
         meta = self.meta()
         self.check_count(meta.get("n_evaluations"), "its meta")
         # column positions in `rows`: 0 checksum, 1 batch, 2 row, 3 unit, 4 x,
@@ -532,12 +644,19 @@ class ArchiveWriter:
     :attr:`COMMIT_AFTER_S` seconds have passed since the last commit, at once when a
     chunk's own evaluation took that long or longer, and by :meth:`flush` (the loop calls
     it when it ends, however it ends: a clean stop, an exception, a fault of the
-    machinery or Ctrl-C lose nothing). A cheap batch thus costs an append to a list, not
-    a transaction. A kill (SIGKILL, power loss) loses only the chunks handed over since
-    the last commit: at most about :attr:`COMMIT_AFTER_S` seconds of cheap evaluations,
-    never an evaluation that took longer. What is committed is whole chunks in the order
-    evaluated (a transaction is all or nothing), so a resumed run replays the archive and
-    evaluates exactly what is missing, with the same results.
+    machinery or Ctrl-C lose nothing). A cheap batch thus costs copies of its arrays, not
+    a transaction: its rows (checksums, views of its arrays) are made when it is
+    committed, all pending chunks in one pass. Made at each hand-over, between the
+    strategy's own steps, the same few dozen numpy calls took about four times as long
+    (caches and branch predictors cold).
+
+    The unit of durability is the group commit: a kill of the process (SIGKILL, an
+    out-of-memory kill) loses only the chunks handed over since the last commit, at most
+    about :attr:`COMMIT_AFTER_S` seconds of cheap evaluations, never an evaluation that
+    took longer; a power loss can also undo the commits since SQLite last synced its log
+    (see the module docstring). What is committed is whole chunks in the order evaluated
+    (a transaction is all or nothing), so a resumed run replays the archive and evaluates
+    exactly what is missing, with the same results.
     """
 
     #: seconds between group commits; a chunk whose evaluation took longer is committed
@@ -547,13 +666,13 @@ class ArchiveWriter:
     def __init__(self, archive: RunArchive, commit_after_s: float | None = None):
         self.archive = archive
         self.commit_after_s = self.COMMIT_AFTER_S if commit_after_s is None else commit_after_s
-        self._pending: list[tuple[Any, ...]] = []  # the archive's rows, made at hand-over
+        self._pending: list[tuple[Any, ...]] = []  # chunks as _copy gives them
         self._last_commit = time.perf_counter()
 
     @property
     def pending(self) -> int:
         """Evaluations handed over and not committed yet."""
-        return len(self._pending)
+        return sum(len(c[1]) for c in self._pending)
 
     def append(
         self,
@@ -564,10 +683,10 @@ class ArchiveWriter:
         result: EvaluationBatch,
         wall_time: float,
     ) -> None:
-        """Archive one chunk (see the class docstring for when it is committed). Its rows
-        are made now (their values are copies: the caller may reuse its arrays)."""
+        """Archive one chunk (see the class docstring for when it is committed). Its
+        values are copied now: the caller may reuse its arrays."""
         now = time.perf_counter()
-        self._pending += _records(batch_index, rows, U, X, result, wall_time, time.time())
+        self._pending.append(_copy(batch_index, rows, U, X, result, wall_time))
         if wall_time >= self.commit_after_s or now - self._last_commit >= self.commit_after_s:
             self.flush()
 
@@ -576,8 +695,28 @@ class ArchiveWriter:
         disk) keeps them pending and raises: nothing is counted as archived that is not."""
         self._last_commit = time.perf_counter()
         if self._pending:
-            self.archive.insert(self._pending)
+            self.archive.insert([r for c in self._pending for r in _records(*c)])
             self._pending = []
+
+
+def _one_byte(ok: Any) -> Any:
+    """A status of an archive with one row per design as the ``ok`` of a chunk (a value
+    suspenv never wrote stays as it is, for the reader to name)."""
+    return bytes([ok]) if type(ok) is int and 0 <= ok < 256 else ok
+
+
+def _one_message(message: Any) -> Any:
+    """A message of an archive with one row per design as the ``message`` of a chunk."""
+    return json.dumps([message]) if type(message) is str else message
+
+
+def _json_list(text: Any) -> list[Any]:
+    """The list of strings a chunk's ``message`` holds ([] when it holds none)."""
+    try:
+        value = json.loads(text) if type(text) is str else None
+    except ValueError:
+        return []
+    return value if isinstance(value, list) and all(type(m) is str for m in value) else []
 
 
 def _json_default(o: Any) -> Any:
