@@ -257,10 +257,9 @@ def stretches_of(base: FitResult, setup: Setup, length: int) -> Stretches | None
     if not common:
         return None
     name = min(sorted(common), key=lambda k: sum(t[k][0] for t in tried.values()))
-    dt = float(np.median(np.diff(np.asarray(recs[0].time, float))))
     series = {r: t[name][1] for r, t in tried.items()}
     starts = {r: t[name][2] for r, t in tried.items()}
-    return Stretches(name, base.channels[0], series, starts, dt)
+    return Stretches(name, base.channels[0], series, starts, recs[0].sample_interval)
 
 
 def profile(
