@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 
+from suspenv.core.atomic import atomic_path
 from suspenv.measurements.errors import RecordingError
 from suspenv.measurements.limits import check_npz, read_limit
 from suspenv.measurements.recording import Recording
@@ -69,10 +70,8 @@ def save_recording(rec: Recording, path: str | Path) -> Path:
     arrays.update({f"in.{k}": v for k, v in rec.inputs.items()})
     arrays.update({f"out.{k}": v for k, v in rec.outputs.items()})
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".part")
-    with open(tmp, "wb") as fh:
+    with atomic_path(path) as tmp, open(tmp, "wb") as fh:
         np.savez_compressed(fh, __meta__=np.array(json.dumps(header)), **arrays)
-    tmp.replace(path)
     return path
 
 

@@ -59,6 +59,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from suspenv.core.atomic import write_file
 from suspenv.core.errors import ValidationError
 from suspenv.core.tomlfile import read_toml, toml_value
 from suspenv.measurements import knc as _knc
@@ -487,11 +488,7 @@ def write_test_csv(m: MeasuredTest, path: Path, wheels: tuple[str, ...] = SIDES)
     w.writerow(cols)
     for r in rows:
         w.writerow([str(int(r[0])), str(int(r[1])), *(_fmt(v) for v in r[2:])])
-    path = Path(path)
-    tmp = path.with_name(path.name + ".part")
-    tmp.write_text(buf.getvalue())
-    tmp.replace(path)
-    return path
+    return write_file(path, buf.getvalue())
 
 
 def manifest_text(m: KncMeasurement, files: Mapping[str, str]) -> str:
@@ -548,16 +545,8 @@ def write_measurement(
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     files = {t: output_file(folder, (file_names or {}).get(t, f"{t}.csv")).name for t in m.tests}
-    wheels = m.wheels
-    paths = []
-    manifest = folder / MANIFEST
-    tmp = manifest.with_name(MANIFEST + ".part")
-    tmp.write_text(manifest_text(m, files))
-    tmp.replace(manifest)
-    paths.append(manifest)
-    for test, mt in m.tests.items():
-        paths.append(write_test_csv(mt, folder / files[test], wheels))
-    return paths
+    paths = [write_file(folder / MANIFEST, manifest_text(m, files))]
+    return paths + [write_test_csv(mt, folder / files[t], m.wheels) for t, mt in m.tests.items()]
 
 
 # ------------------------------------------------------------------ loading

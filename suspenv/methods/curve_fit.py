@@ -435,48 +435,53 @@ class CurveModel:
         amplitudes: Mapping[str, float],
     ) -> dict[str, KCResult]:
         """:func:`rig_run` of designs X (see :meth:`full`) with ``effects`` held and the
-        rig's own travel drive (the pads), rows with other fitted constants solved apart
-        (an axle takes one set)."""
-        X = self.full(X)
-        parts: dict[str, list[KCResult]] = {t: [] for t in tests}
-        order: list[int] = []
-        for rows in _same_rows(X[:, self.sides :]):
-            order += rows
-            res = rig_run(self.axle(X[rows]), tests, steps, effects, amplitudes)
-            for t, r in res.items():
-                parts[t].append(r)
-        back = np.argsort(order)
-        return {t: _concat(p, back) for t, p in parts.items()}
+        rig's own travel drive (the pads), all rows of a set of fitted constants in one
+        call."""
+        return self._solve(X, [(steps, amplitudes, tuple(tests), "pad")], effects, None)[0]
 
     def simulate(self, X: np.ndarray) -> tuple[dict[str, KCResult], np.ndarray, list[str]]:
         """Rig results {test: KCResult} of designs X (see :meth:`full`), ok (n,), messages.
 
-        Rows sharing the fitted effect values are solved together (the solver takes one
-        value per effect parameter); tests are run in groups sharing an amplitude and
-        grid (one batched call each), in chunks of :attr:`chunk` designs."""
-        X = self.full(X)
-        n = X.shape[0]
+        Tests are run in groups sharing an amplitude and grid (one batched call each),
+        in chunks of :attr:`chunk` designs."""
         t0 = time.perf_counter()
-        out: dict[str, list[KCResult]] = {t.test: [] for t in self.tests}
-        ok = np.ones(n, bool)
-        msgs = [""] * n
+        calls = [(s, kw, names, self.travel_drive) for s, kw, names in self._groups]
+        out = self._solve(X, calls, None, self.chunk)
+        self.stats["designs"] += out[1].size
+        self.stats["calls"] += 1
+        self.stats["seconds"] += time.perf_counter() - t0
+        return out
+
+    def _solve(
+        self,
+        X: np.ndarray,
+        calls: Sequence[tuple[int, Mapping[str, float], tuple[str, ...], str]],
+        effects: Sequence[Effect] | None,
+        chunk: int | None,
+    ) -> tuple[dict[str, KCResult], np.ndarray, list[str]]:
+        """The rig ``calls`` (steps, amplitude keywords, tests, travel drive) of designs X:
+        rows sharing the fitted effect values and constants are solved together (the
+        solver takes one value per effect parameter, an axle one set of constants),
+        ``chunk`` rows per call (None: all); ``effects`` held (None: each group's
+        :meth:`effects_at`). Returns the results, ok (n,) and each row's first failure."""
+        X = self.full(X)
+        out: dict[str, list[KCResult]] = {t: [] for call in calls for t in call[2]}
+        ok = np.ones(X.shape[0], bool)
+        msgs = [""] * X.shape[0]
         order: list[int] = []
         for rows in _same_rows(X[:, self.sides :]):
-            effects = self.effects_at(X[rows[0]])
-            for a in range(0, len(rows), self.chunk):
-                part = rows[a : a + self.chunk]
+            held = self.effects_at(X[rows[0]]) if effects is None else effects
+            for a in range(0, len(rows), chunk or len(rows)):
+                part = rows[a : a + (chunk or len(rows))]
                 order += part
                 axle = self.axle(X[part])
-                for steps, kw, names in self._groups:
-                    for t, r in rig_run(axle, names, steps, effects, kw, self.travel_drive).items():
+                for steps, kw, names, drive in calls:
+                    for t, r in rig_run(axle, names, steps, held, kw, drive).items():
                         out[t].append(r)
                         for i in np.flatnonzero(~r.ok):
                             if ok[part[i]]:
                                 msgs[part[i]] = f"{t}: {r.messages[i]}"
                             ok[part[i]] = False
-        self.stats["designs"] += n
-        self.stats["calls"] += 1
-        self.stats["seconds"] += time.perf_counter() - t0
         back = np.argsort(order)
         return {t: _concat(parts, back) for t, parts in out.items()}, ok, msgs
 
@@ -857,6 +862,18 @@ class CurveFit:
     stages: list[StageResult]
     answer: StageResult | None = None  # the polish whose answer this is (default: last)
 
+    @classmethod
+    def of(
+        cls,
+        model: CurveModel,
+        polished: tuple[StageResult, np.ndarray, np.ndarray],
+        stages: list[StageResult] | None = None,
+    ) -> CurveFit:
+        """The fit whose answer is a polish's ``(stage, residual, Jacobian)`` (:func:`polish`);
+        ``stages``: every stage of the fit (default: that one)."""
+        stage, r, J = polished
+        return cls(model, stage.u, model.designs(stage.u[None])[0], r, J, stages or [stage], stage)
+
     @property
     def cost(self) -> float:
         return float(self.residual @ self.residual)
@@ -947,8 +964,7 @@ def fit_curves(
             if best is None or p.cost < best[0].cost:
                 best = (p, r, J)
     assert best is not None  # at least the start was polished
-    p, r, J = best
-    return CurveFit(model, p.u, model.designs(p.u[None])[0], r, J, stages, p)
+    return CurveFit.of(model, best, stages)
 
 
 def polish(

@@ -117,44 +117,30 @@ def cpu_seconds() -> float:
 
 def check_options(options: Mapping[str, Any]) -> dict[str, Any]:
     """Options merged over :data:`DEFAULTS`; every key and value checked."""
+    from suspenv.core import options as check
+    from suspenv.measurements.knc import RIG_TESTS
+
+    who = "identify"
     unknown = sorted(set(options) - set(DEFAULTS))
     if unknown:
         raise ValidationError(
             f"identify: unknown option {unknown[0]!r} (known: {', '.join(sorted(DEFAULTS))})"
         )
     o = {**DEFAULTS, **dict(options)}
-    if o["method"] not in METHODS:
-        raise ValidationError(
-            f"identify: `method` must be one of {METHODS}, but got {o['method']!r}"
-        )
-    if o["initial"] not in (*INITIALS, "auto"):
-        raise ValidationError(
-            f"identify: `initial` must be one of {(*INITIALS, 'auto')}, but got {o['initial']!r}"
-        )
-    ints = (("global_evaluations", 0), ("popsize", 4), ("polish_nfev", 1), ("workers", 1))
-    for key, lo in (*ints, ("loop_nfev", 1)):
-        v = o[key]
-        if not isinstance(v, int) or isinstance(v, bool) or v < lo:
-            raise ValidationError(f"identify: `{key}` must be an integer >= {lo}, but got {v!r}")
-    s = o["sigma0"]
-    if not isinstance(s, int | float) or isinstance(s, bool) or not 0 < s <= 1:
-        raise ValidationError(f"identify: `0 < sigma0 <= 1` must hold, but got sigma0={s!r}")
-    free = o["free"]
-    if not isinstance(free, list | tuple) or not all(isinstance(n, str) for n in free):
-        raise ValidationError(f"identify: `free` must be a list of parameter names, got {free!r}")
-    o["free"] = list(free)
-    if o["sides"] not in SIDES_OPTIONS:
-        raise ValidationError(
-            f"identify: `sides` must be one of {SIDES_OPTIONS}, but got {o['sides']!r}"
-        )
-    from suspenv.measurements.knc import RIG_TESTS
-
-    if o["held_out"] not in ("", "auto", *RIG_TESTS):
-        raise ValidationError(
-            f"identify: `held_out` must be a rig test {RIG_TESTS}, 'auto' (the test the fit "
-            f"determines best) or '' (none), but got "
-            f"{o['held_out']!r}"
-        )
+    choices = {
+        "method": METHODS,
+        "initial": (*INITIALS, "auto"),
+        "sides": SIDES_OPTIONS,
+        # "auto": the test the fit determines best; "": none
+        "held_out": ("", "auto", *RIG_TESTS),
+    }
+    for key, allowed in choices.items():
+        o[key] = check.choice(who, key, o[key], allowed)
+    least = {"global_evaluations": 0, "popsize": 4, "polish_nfev": 1, "workers": 1, "loop_nfev": 1}
+    for key, lo in least.items():
+        o[key] = check.integer(who, key, o[key], lo)
+    o["sigma0"] = check.number(who, "sigma0", o["sigma0"], 0.0, 1.0, lo_open=True)
+    o["free"] = list(check.texts(who, "free", o["free"]))
     for key in ("next_test", "rerun_next", "diagnose", "loop", "sheet", "figures"):
         if not isinstance(o[key], bool):
             raise ValidationError(f"identify: `{key}` must be true or false, but got {o[key]!r}")
@@ -412,14 +398,8 @@ def _simulated_tests(
 ) -> list[MeasuredCurves]:
     """Candidate tests simulated at design ``x`` as if measured (channels of the model)."""
     from suspenv.measurements.knc import branch_index
-    from suspenv.rigs import knc as rig
 
-    kw = {
-        "amplitude": max([t.amplitude for t in model.tests if t.test in rig.TESTS] or [0.04]),
-        "force_amplitude": rig.FORCE_AMPLITUDE,
-        "moment_amplitude": rig.MOMENT_AMPLITUDE,
-        "rack_amplitude": rig.RACK_AMPLITUDE,
-    }
+    kw = {"amplitude": _travel_amplitude(model)}  # the other tests at the rig's own loads
     steps = model.tests[0].steps
     res = rig_run(model.axle(x[None]), tests, steps, model.effects, kw, model.travel_drive)
     out = []
@@ -825,7 +805,7 @@ def _next_test(
         progress=progress,
         prior=model2.unit(result.x0),
     )
-    fit2 = CurveFit(model2, stage.u, model2.designs(stage.u[None])[0], r2, J2, [stage])
+    fit2 = CurveFit.of(model2, (stage, r2, J2))
     ident2 = assess(J2, r2, stage.u, model2.sub, dict(truth_map) if truth_map else None)
     result.rerun = Rerun(best.test, fit2, ident2, time.perf_counter() - t0)
 

@@ -421,17 +421,10 @@ def _refit(model: CurveModel, x0: np.ndarray, nfev: int, progress: bool = False)
     The answer's Jacobian is a differenced one."""
     prior = model.unit(_start(model, x0))
     u0 = model.unit(model.base)
-    stage, r, J = polish(
-        model,
-        u0,
-        nfev,
-        nfev,
-        progress=progress,
-        prior=prior,
-        ftol=SECANT_FTOL,
-        broyden=True,
+    polished = polish(
+        model, u0, nfev, nfev, progress=progress, prior=prior, ftol=SECANT_FTOL, broyden=True
     )
-    return CurveFit(model, stage.u, model.designs(stage.u[None])[0], r, J, [stage], stage)
+    return CurveFit.of(model, polished)
 
 
 def _residual_at(model: CurveModel, x: np.ndarray) -> np.ndarray:

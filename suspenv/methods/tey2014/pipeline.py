@@ -44,6 +44,7 @@ from typing import Any
 
 import numpy as np
 
+from suspenv.core import options as check
 from suspenv.core.errors import ValidationError
 from suspenv.core.jsonable import to_jsonable
 from suspenv.core.laps import Laps
@@ -209,59 +210,30 @@ def study_options(config: dict[str, Any]) -> dict[str, Any]:
             f"config: unknown key study.{unknown[0]} (known: {', '.join(sorted(STUDY_DEFAULTS))})"
         )
     opts = {**STUDY_DEFAULTS, **given}
-    minimum = {
-        "doe_samples": 2,
-        "doe_batch": 1,
-        "top": 1,
-        "compare_designs": 2,
-        "profile_points": 0,
+    least = {"doe_samples": 2, "doe_batch": 1, "top": 1, "compare_designs": 2, "profile_points": 0}
+    for key, lo in least.items():
+        opts[key] = check.integer("config", f"study.{key}", opts[key], lo)
+    choices = {
+        "k_criterion": CRITERIA,
+        "representative": REPRESENTATIVE_RULES,
+        "sensitivity_on": ("responses", "mismatches"),
+        "identifiability_on": ("all", "kept"),
+        "start": ("initial", "centre"),
     }
-    for key, least in minimum.items():
-        v = opts[key]
-        if not isinstance(v, int) or isinstance(v, bool) or v < least:
-            raise ValidationError(
-                f"config: `study.{key}` must be an integer >= {least}, but got {v!r}"
-            )
-    if opts["k_criterion"] not in CRITERIA:
-        raise ValidationError(
-            f"config: `study.k_criterion` must be one of {CRITERIA}, "
-            f"but got {opts['k_criterion']!r}"
-        )
-    if opts["representative"] not in REPRESENTATIVE_RULES:
-        raise ValidationError(
-            f"config: `study.representative` must be one of {REPRESENTATIVE_RULES}, but got "
-            f"{opts['representative']!r}"
-        )
-    strategies = opts["compare_strategies"]
-    if not isinstance(strategies, list) or not all(isinstance(v, str) for v in strategies):
-        raise ValidationError(
-            f"config: `study.compare_strategies` must be a list of strategy names, but got "
-            f"{strategies!r}"
-        )
+    for key, allowed in choices.items():
+        opts[key] = check.choice("config", f"study.{key}", opts[key], allowed)
+    opts["compare_strategies"] = list(
+        check.texts("config", "study.compare_strategies", opts["compare_strategies"])
+    )
     seeds = opts["compare_seeds"]
-    if (
-        not isinstance(seeds, list)
-        or not seeds
-        or not all(isinstance(v, int) and not isinstance(v, bool) and v >= 0 for v in seeds)
-    ):
+    if not isinstance(seeds, list) or not seeds:
         raise ValidationError(
             f"config: `study.compare_seeds` must be a non-empty list of integers >= 0, but got "
             f"{seeds!r}"
         )
-    if opts["sensitivity_on"] not in ("responses", "mismatches"):
-        raise ValidationError(
-            "config: `study.sensitivity_on` must be 'responses' or 'mismatches', but got "
-            f"{opts['sensitivity_on']!r}"
-        )
-    if opts["identifiability_on"] not in ("all", "kept"):
-        raise ValidationError(
-            "config: `study.identifiability_on` must be 'all' or 'kept', but got "
-            f"{opts['identifiability_on']!r}"
-        )
-    if opts["start"] not in ("initial", "centre"):
-        raise ValidationError(
-            f"config: `study.start` must be 'initial' or 'centre', but got {opts['start']!r}"
-        )
+    opts["compare_seeds"] = [
+        check.integer("config", f"study.compare_seeds[{i}]", v, 0) for i, v in enumerate(seeds)
+    ]
     return opts
 
 
