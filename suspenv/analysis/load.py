@@ -471,9 +471,11 @@ def tidy(runs: Sequence[str | Path | RunRecord], objectives: bool = True) -> dic
     ``objective:<name> [<unit>]``, ``constraint:<name>``); NaN where a run has none.
     """
     recs = load_runs(runs)
-    keys = ("run", "problem", "problem_hash", "strategy", "strategy_hash", "group")
-    cols: dict[str, list[np.ndarray]] = {k: [] for k in (*keys, "seed", "evaluation")}
-    cols["best_so_far"], cols["hypervolume"] = [], []
+    per_run = runs_table(recs)
+    sizes = [r.curve.size for r in recs]
+    keys = ("run", "problem", "problem_hash", "strategy", "strategy_hash", "group", "seed")
+    out = {k: np.repeat(per_run[k], sizes) for k in keys}
+    cols: dict[str, list[np.ndarray]] = {"evaluation": [], "best_so_far": [], "hypervolume": []}
     hv = _hypervolume_progress(recs)
     names: dict[str, None] = {}
     if objectives:
@@ -482,11 +484,6 @@ def tidy(runs: Sequence[str | Path | RunRecord], objectives: bool = True) -> dic
         cols.update({"ok": [], "feasible": [], **{k: [] for k in names}})
     for r in recs:
         n = r.curve.size
-        values = (r.name, r.problem, r.problem_hash, r.strategy, r.strategy_hash,
-                  f"{r.strategy}[{r.strategy_hash}]")
-        for key, value in zip(keys, values, strict=True):
-            cols[key].append(np.full(n, value, dtype=object))
-        cols["seed"].append(np.full(n, -1 if r.seed is None else r.seed, dtype=int))
         cols["evaluation"].append(np.arange(1, n + 1))
         best = np.where(np.isfinite(r.curve), r.curve, np.nan)
         cols["best_so_far"].append(np.full(n, np.nan) if sums_objectives(r) else best)
@@ -502,7 +499,7 @@ def tidy(runs: Sequence[str | Path | RunRecord], objectives: bool = True) -> dic
                     part, j = own[name]
                     col = a[part][:, j]
                 cols[name].append(col)
-    return {k: np.concatenate(v) if v else np.zeros(0) for k, v in cols.items()}
+    return {**out, **{k: np.concatenate(v) if v else np.zeros(0) for k, v in cols.items()}}
 
 
 def _columns(r: RunRecord) -> dict[str, tuple[str, int]]:

@@ -507,6 +507,14 @@ class CurveModel:
         R[~ok] = np.nan
         return R, ok, msgs
 
+    def residual_at(self, x: np.ndarray, what: str = "the design") -> np.ndarray:
+        """Residual (size,) of one design ``x`` (see :meth:`full`); a design the rig
+        cannot solve is refused, naming ``what`` it is."""
+        R, ok, msgs = self.residuals_x(self.full(x))
+        if not ok[0]:
+            raise ValidationError(f"the rig cannot solve {what}: {msgs[0]}")
+        return R[0]
+
     def residuals(self, U: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[str]]:
         """Residuals (n, size) of unit-cube points U (n, dim)."""
         return self.residuals_x(self.designs(U))

@@ -41,11 +41,6 @@ def objective_scale(F: np.ndarray) -> np.ndarray:
     return np.where(s > 0, s, 1.0)
 
 
-def scaled_total(F: np.ndarray, scale: np.ndarray) -> np.ndarray:
-    """(n,) sum_j |F_ij| / scale_j; NaN for rows with a non-finite entry."""
-    return (np.abs(np.asarray(F, dtype=float)) / np.asarray(scale, dtype=float)).sum(axis=1)
-
-
 @dataclass(frozen=True)
 class FixedRankSum:
     """The rank-sum with its normalisation frozen on a reference set (the DoE).
@@ -270,7 +265,7 @@ def profile_scan(
         U[i * p : (i + 1) * p, i] = levels
     batch = evaluate_in_batches(problem, U, batch_size, progress, desc="profiles")
     idx = list(objectives)
-    tot = scaled_total(batch.objectives[:, idx], np.asarray(scale, dtype=float))
+    tot = (np.abs(batch.objectives[:, idx]) / np.asarray(scale, dtype=float)).sum(axis=1)
     tot = np.where(batch.ok, tot, np.nan)
     score = tot[:-1].reshape(d, p)
     center = float(tot[-1])

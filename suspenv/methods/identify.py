@@ -712,9 +712,7 @@ def run_identify(
         f"identify: {len(model.tests)} tests, {len(model.sigma)} channels, {model.size} "
         f"residuals, {model.dim} parameters",
     )
-    R0, ok0, msg0 = model.residuals_x(x0[None])
-    if not ok0[0]:
-        raise ValidationError(f"identify: the rig cannot solve the initial design: {msg0[0]}")
+    r0 = model.residual_at(x0, "the initial design")
     lap("setup")
 
     def staged(s: StageResult) -> None:  # seconds per kind of stage (global, race, polish)
@@ -746,7 +744,7 @@ def run_identify(
         x0,
         fit,
         ident,
-        R0[0],
+        r0,
         truth=truth_x,
         timings=timings,
         start=start,
@@ -916,10 +914,8 @@ def predict_held_out(
     out = []
     for fit in (result.fit, result.final_fit):
         m = fit.model.variant(tests=curves)
-        R, ok, msg = m.residuals_x(fit.x[None])
-        if not ok[0]:
-            raise ValidationError(f"identify: the held-out test cannot be simulated: {msg[0]}")
-        out.append({c: v for (_, c), v in m.block_rms(R[0]).items()})
+        rms = m.block_rms(m.residual_at(fit.x, "the held-out test at the fitted design"))
+        out.append({c: v for (_, c), v in rms.items()})
     return HeldOut(next(iter(held.tests)), source, out[0], out[1], dict(choice or {}))
 
 

@@ -332,7 +332,7 @@ def _valley(
         if not names:
             continue
         say(f"loop: {family}: each place alone ({', '.join(names)})")
-        r0 = _residual_at(model, x)
+        r0 = model.residual_at(x, "the design being refined")
         # half of the places in the second process when there is one
         there = [] if pool is None else names[1::2]
         futures = [pool.submit(_candidate_fit, model, x, r0, family, n, J) for n in there]
@@ -425,13 +425,6 @@ def _refit(model: CurveModel, x0: np.ndarray, nfev: int, progress: bool = False)
         model, u0, nfev, nfev, progress=progress, prior=prior, ftol=SECANT_FTOL, broyden=True
     )
     return CurveFit.of(model, polished)
-
-
-def _residual_at(model: CurveModel, x: np.ndarray) -> np.ndarray:
-    R, ok, msg = model.residuals_x(model.full(x))
-    if not ok[0]:
-        raise ValueError(f"the rig cannot solve the design being refined: {msg[0]}")
-    return R[0]
 
 
 def _start(model: CurveModel, x0: np.ndarray) -> np.ndarray:

@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from suspenv.runs.run_dir import atomic_path
+from suspenv.core.atomic import atomic_path
 
 
 @cache
@@ -25,7 +25,7 @@ def pyplot() -> ModuleType:
 
 
 def save_figure(fig: Any, path: Path | str, tight: bool = False, **savefig: Any) -> Path:
-    """``fig.savefig`` to ``path`` atomically (:func:`suspenv.runs.run_dir.atomic_path`:
+    """``fig.savefig`` to ``path`` atomically (:func:`suspenv.core.atomic.atomic_path`:
     the old figure or the new one whole, never a part), its folder made first, after
     ``fig.tight_layout()`` when ``tight``; then pyplot closes the figure, also when the
     write fails (it can still be saved again). ``savefig``: its keywords."""

@@ -178,20 +178,21 @@ def _curve_table(result: IdentifyResult) -> str:
         row: dict[str, Any] = {"test": t}
         for c in chans:
             v = rms.get((t, c))
-            row[CHANNEL_WORDS.get(c, c)] = (
-                "" if v is None else f"{v:.2f}" + ("" if v <= FIT_RATIO else " !")
-            )
+            row[CHANNEL_WORDS.get(c, c)] = "" if v is None else _rms_text(v)
         rows.append(row)
     return markdown_table(rows)
+
+
+def _rms_text(v: float) -> str:
+    """An RMS / noise, marked `!` above :data:`FIT_RATIO`."""
+    return f"{v:.2f}" + ("" if v <= FIT_RATIO else " !")
 
 
 def _sigma_text(result: IdentifyResult) -> str:
     parts = []
     for c, s in sorted(result.model.sigma.items()):
-        unit = (
-            "N" if c == "tyre_fz" else ("deg" if c in ("toe", "camber", "caster", "kpi") else "mm")
-        )
-        v = s if unit == "N" else (np.rad2deg(s) if unit == "deg" else s * 1e3)
+        label, scale = AXIS_LABELS[c]
+        unit, v = label.split("[")[1].split("]")[0], s * scale
         src = result.measurement.noise_source.get(c, "")
         parts.append(f"{CHANNEL_WORDS.get(c, c)} {v:.3g} {unit}" + (f" ({src})" if src else ""))
     return "; ".join(parts)
@@ -274,7 +275,7 @@ def _before_after(result: IdentifyResult, s: dict[str, Any]) -> list[str]:
                 "channel": CHANNEL_WORDS.get(r["channel"], r["channel"]),
                 "initial": init[(r["test"], r["channel"])],
                 "first fit": r["before"],
-                "after the loop": f"{r['after']:.2f}" + ("" if r["after"] <= FIT_RATIO else " !"),
+                "after the loop": _rms_text(r["after"]),
             }
             for r in sorted(loop["curves"], key=lambda r: -r["after"])
         ]

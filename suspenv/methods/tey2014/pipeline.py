@@ -71,7 +71,7 @@ from suspenv.methods.tey2014.cluster_count import (
 from suspenv.methods.tey2014.clustering import LINKAGE_METHODS, ClusteringResult, cluster_objectives
 from suspenv.methods.tey2014.rank_sum import ScalarisationComparison, compare_rank_sum_euclidean
 from suspenv.methods.tey2014.sensitivity import SensitivityResult, spearman_matrix
-from suspenv.methods.tey2014.strategy_comparison import QUALITY_NAME
+from suspenv.methods.tey2014.strategy_comparison import QUALITY_NAME, optimize_arrays
 from suspenv.problems.views import ObjectiveSubset, WithSignedResponses
 from suspenv.registry import report_function
 from suspenv.runs.quality import best_so_far, curve_items, feasible
@@ -294,9 +294,6 @@ def _run(
 ) -> RunArrays:
     """``optimize`` into ``run_dir`` (resumes an archive there); the archive as arrays."""
     from suspenv.runs.archive import RunArchive
-    from suspenv.runs.evaluation import FaultPolicy
-    from suspenv.runs.executors import executor_workers, make_executor
-    from suspenv.runs.loop import optimize
 
     path = Path(run_dir) / RunArchive.FILENAME
     if path.is_file():
@@ -309,22 +306,16 @@ def _run(
                 "changed since it was written. Use a new run directory"
             )
 
-    with make_executor(run_cfg) as executor:
-        result = optimize(
-            problem,
-            strategy,
-            budget,
-            run_dir=run_dir,
-            seed=seed,
-            executor=executor,
-            workers=executor_workers(run_cfg),
-            chunk_size=run_cfg.get("chunk_size"),
-            progress=bool(run_cfg.get("progress", False)),
-            meta={"study_step": label},
-            faults=FaultPolicy.for_run(run_cfg, problem),
-        )
-    with RunArchive(run_dir) as archive:
-        a = archive.arrays()
+    result, a = optimize_arrays(
+        problem,
+        strategy,
+        budget,
+        run_dir,
+        seed,
+        run_cfg,
+        chunk_size=run_cfg.get("chunk_size"),
+        meta={"study_step": label},
+    )
     return RunArrays(
         a["unit"],
         a["x"],
@@ -568,23 +559,17 @@ def study_summary(study: Tey2014Study) -> dict[str, Any]:
     }
     if study.strategy_comparison is not None:
         out["strategy_comparison"] = study.strategy_comparison["table"]
+    flat = None if study.profiles is None else study.profiles.flat(study.options["flat_tol"])
     if study.recovery is not None:
         err = np.array([r["error_%_range"] for r in study.recovery])
         out["recovery_error_%_range"] = {"mean": float(err.mean()), "max": float(err.max())}
-        if study.profiles is not None:
-            flat = study.profiles.flat(study.options["flat_tol"])
+        if flat is not None:
             for key, mask in (("identifiable", ~flat), ("flat", flat)):
                 out["recovery_error_%_range"][f"mean_{key}"] = (
                     float(err[mask].mean()) if mask.any() else float("nan")
                 )
-    if study.profiles is not None:
-        out["flat_parameters"] = [
-            n
-            for n, f in zip(
-                p.space.names, study.profiles.flat(study.options["flat_tol"]), strict=True
-            )
-            if f
-        ]
+    if flat is not None:
+        out["flat_parameters"] = [n for n, f in zip(p.space.names, flat, strict=True) if f]
     if study.all_identification is not None:
         x = study.all_identification.mean
         b = p.evaluate(x[None, :])

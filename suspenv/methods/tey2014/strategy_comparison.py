@@ -37,6 +37,40 @@ STRATEGY_OPTIONS: dict[str, dict[str, Any]] = {
 QUALITY_NAME = "DoE-normalised rank-sum"
 
 
+def optimize_arrays(
+    problem: Problem,
+    strategy: Any,
+    budget: int,
+    run_dir: Path,
+    seed: int,
+    run_cfg: dict[str, Any],
+    **options: Any,
+) -> tuple[Any, dict[str, np.ndarray]]:
+    """:func:`suspenv.runs.loop.optimize` into ``run_dir`` with the executor, workers,
+    progress and fault policy of ``run_cfg`` (``options``: further keywords of
+    ``optimize``); returns its result and the archive's arrays."""
+    from suspenv.runs.archive import RunArchive
+    from suspenv.runs.evaluation import FaultPolicy
+    from suspenv.runs.executors import executor_workers, make_executor
+    from suspenv.runs.loop import optimize
+
+    with make_executor(run_cfg) as executor:
+        result = optimize(
+            problem,
+            strategy,
+            budget,
+            run_dir=run_dir,
+            seed=seed,
+            executor=executor,
+            workers=executor_workers(run_cfg),
+            progress=bool(run_cfg.get("progress", False)),
+            faults=FaultPolicy.for_run(run_cfg, problem),
+            **options,
+        )
+    with RunArchive(run_dir) as archive:
+        return result, archive.arrays()
+
+
 def run_one(
     problem: Problem,
     strategy_name: str,
@@ -49,29 +83,12 @@ def run_one(
 ) -> dict[str, Any]:
     """One run into ``run_dir``; writes and returns its ``summary.json`` content."""
     from suspenv.registry import make_strategy
-    from suspenv.runs.archive import RunArchive
-    from suspenv.runs.evaluation import FaultPolicy
-    from suspenv.runs.executors import executor_workers, make_executor
-    from suspenv.runs.loop import optimize
 
     opts = {**STRATEGY_OPTIONS.get(strategy_name, {}), **(options or {})}
     if strategy_name == "lhs":
         opts.setdefault("n_samples", int(budget))
     strategy = make_strategy(strategy_name, problem, seed=int(seed), **opts)
-    with make_executor(run_cfg) as executor:
-        result = optimize(
-            problem,
-            strategy,
-            int(budget),
-            run_dir=run_dir,
-            seed=int(seed),
-            executor=executor,
-            workers=executor_workers(run_cfg),
-            progress=bool(run_cfg.get("progress", False)),
-            faults=FaultPolicy.for_run(run_cfg, problem),
-        )
-    with RunArchive(run_dir) as archive:
-        a = archive.arrays()
+    result, a = optimize_arrays(problem, strategy, int(budget), run_dir, int(seed), run_cfg)
     valid = feasible(a["ok"], a["constraints"]) & np.isfinite(a["objectives"]).all(axis=1)
     summary = {
         "name": run_dir.name,
