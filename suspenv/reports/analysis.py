@@ -46,15 +46,6 @@ def _axes(n: int, width: float = 5.2, height: float = 3.8) -> tuple[Any, list[An
     return fig, flat[:n]
 
 
-def _label(ax: Any, xlabel: str, ylabel: str, title: str) -> None:
-    """The axes' labels, a small title, a light grid and the legend."""
-    ax.set_xlabel(xlabel)
-    ax.set_ylabel(ylabel)
-    ax.set_title(title, fontsize=9)
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7)
-
-
 def _log_ok(values: np.ndarray) -> bool:
     v = values[np.isfinite(values)]
     return bool(v.size) and bool((v > 0).all())
@@ -83,12 +74,11 @@ def plot_convergence(comparison: Comparison, path: Path) -> Path:
         allv = np.concatenate([m.ravel() for m in shown]) if shown else np.zeros(0)
         if _log_ok(allv):
             ax.set_yscale("log")
-        _label(
-            ax,
-            "evaluations",
-            f"best {p.measure_name}",
-            f"{p.name}: median, 25-75 % (band), min-max (dotted)",
-        )
+        ax.set_xlabel("evaluations")
+        ax.set_ylabel(f"best {p.measure_name}")
+        ax.set_title(f"{p.name}: median, 25-75 % (band), min-max (dotted)", fontsize=9)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
     return save_figure(fig, path, tight=True, dpi=110)
 
 
@@ -104,12 +94,11 @@ def plot_ecdf(comparison: Comparison, path: Path) -> Path:
             ax.step(x, y, where="post", label=g.label)
         ax.set_xscale("log")
         ax.set_ylim(-0.02, 1.02)
-        _label(
-            ax,
-            "evaluations",
-            "fraction of (run, target) pairs",
-            f"{p.name}: runtime ECDF, {len(p.targets)} targets",
-        )
+        ax.set_xlabel("evaluations")
+        ax.set_ylabel("fraction of (run, target) pairs")
+        ax.set_title(f"{p.name}: runtime ECDF, {len(p.targets)} targets", fontsize=9)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
     return save_figure(fig, path, tight=True, dpi=110)
 
 
@@ -131,12 +120,11 @@ def plot_fixed_target(comparison: Comparison, path: Path) -> Path:
             ax.set_yscale("log")
         else:
             ax.text(0.5, 0.5, "no target reached", transform=ax.transAxes, ha="center")
-        _label(
-            ax,
-            "target - f_opt" if p.f_opt is not None else "target",
-            "ERT (evaluations)",
-            f"{p.name}: expected running time",
-        )
+        ax.set_xlabel("target - f_opt" if p.f_opt is not None else "target")
+        ax.set_ylabel("ERT (evaluations)")
+        ax.set_title(f"{p.name}: expected running time", fontsize=9)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
     return save_figure(fig, path, tight=True, dpi=110)
 
 
@@ -153,12 +141,13 @@ def plot_profile(comparison: Comparison, path: Path) -> Path | None:
         ax.step(np.r_[taus, right], np.r_[rho, rho[-1]], where="post", label=name)
     ax.set_xscale("log", base=2)
     ax.set_ylim(-0.02, 1.02)
-    _label(
-        ax,
-        "tau (ERT / best ERT)",
-        "fraction of instances",
-        f"Performance profile: {len(prof['instances'])} (problem, target) instances",
+    ax.set_xlabel("tau (ERT / best ERT)")
+    ax.set_ylabel("fraction of instances")
+    ax.set_title(
+        f"Performance profile: {len(prof['instances'])} (problem, target) instances", fontsize=9
     )
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
     return save_figure(fig, path, tight=True, dpi=110)
 
 
@@ -183,12 +172,11 @@ def plot_hypervolume(comparison: Comparison, path: Path) -> Path | None:
                 ax.fill_between(x, lo, hi, color=line.get_color(), alpha=0.25)
         if p.hv_reference is not None:
             ax.axhline(p.hv_reference, color="k", lw=0.8, ls="--", label="reference front")
-        _label(
-            ax,
-            "evaluations",
-            "hypervolume (normalised)",
-            f"{p.name}: hypervolume, median and 25-75 %",
-        )
+        ax.set_xlabel("evaluations")
+        ax.set_ylabel("hypervolume (normalised)")
+        ax.set_title(f"{p.name}: hypervolume, median and 25-75 %", fontsize=9)
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=7)
     return save_figure(fig, path, tight=True, dpi=110)
 
 
