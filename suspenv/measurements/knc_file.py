@@ -83,20 +83,13 @@ TRAVEL_TESTS = _knc.TESTS
 #: every test the format knows: the rig's in-phase tests and the opposed ones
 KNOWN_TESTS: tuple[str, ...] = (*_knc.ALL_TESTS, *_knc.OPPOSED_TESTS)
 
-#: test -> (drive column name, quantity of its unit); an opposed test has its in-phase
-#: test's column
-DRIVE_COLUMN: dict[str, tuple[str, str]] = {
-    **{t: ("stroke", "length") for t in TRAVEL_TESTS},
-    "lateral": ("force", "force"),
-    "longitudinal": ("force", "force"),
-    "traction": ("force", "force"),
-    "aligning": ("moment", "moment"),
-    "steering": ("rack_travel", "length"),
-}
-DRIVE_COLUMN.update({o: DRIVE_COLUMN[p] for o, p in _knc.OPPOSED_TESTS.items()})
-
 #: SI unit -> quantity
 QUANTITY = {"m": "length", "rad": "angle", "N": "force", "N*m": "moment"}
+#: test -> (drive column name, quantity of its unit), by the test's drive unit
+#: (:data:`suspenv.measurements.knc.DRIVE_UNIT`; an opposed test as its in-phase one)
+_COLUMN = {"m": "stroke", "N": "force", "N*m": "moment"}
+DRIVE_COLUMN = {t: (_COLUMN[u], QUANTITY[u]) for t, u in _knc.DRIVE_UNIT.items()}
+DRIVE_COLUMN["steering"] = ("rack_travel", "length")
 #: quantity -> the unit ``suspenv knc`` writes (the project's edge units)
 EDGE_UNIT = {"length": "mm", "angle": "deg", "force": "N", "moment": "N*m"}
 

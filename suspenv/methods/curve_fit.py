@@ -89,18 +89,12 @@ def fit_space(space: DesignSpace) -> DesignSpace:
 def amplitude_kwargs(test: str, amplitude: float) -> dict[str, float]:
     """Keyword of :func:`suspenv.rigs.knc.run_tests` that carries ``test``'s amplitude
     (``amplitude`` in the drive's SI unit)."""
-    from suspenv.measurements import knc as kncm
+    from suspenv.measurements.knc import DRIVE_UNIT, STEER_TESTS
 
-    steer = tuple(getattr(kncm, "STEER_TESTS", ("steering",)))
-    units = dict(getattr(kncm, "DRIVE_UNIT", {}))
-    if test in steer:
+    if test in STEER_TESTS:
         return {"rack_amplitude": amplitude}
-    unit = units.get(test, "N" if test in kncm.FORCE_TESTS else "m")
-    if unit == "N*m" or test == "aligning":
-        return {"moment_amplitude": amplitude}
-    if unit == "N":
-        return {"force_amplitude": amplitude}
-    return {"amplitude": amplitude}
+    unit = DRIVE_UNIT.get(test, "m")
+    return {{"N": "force_amplitude", "N*m": "moment_amplitude"}.get(unit, "amplitude"): amplitude}
 
 
 def rig_run(
