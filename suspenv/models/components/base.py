@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Mapping, Sequence
-from typing import Any, ClassVar
+from typing import Any, ClassVar, Self
 
 import numpy as np
 from scipy.signal import butter, sosfiltfilt
@@ -124,7 +124,43 @@ def _end_quadratic(w: int) -> np.ndarray:
     return out
 
 
-class ComponentModel:
+class FitDefaults:
+    """The defaults of the members a diagnosis reads
+    (``suspenv.diagnosis.protocols.DiagnosableModel``) that a model may lack: no
+    shape constants of its own, no cheap start, the model itself as its Jacobian's
+    twin, no force view; subclasses override what they have."""
+
+    effect_defaults: ClassVar[Mapping[str, Mapping[str, float]]] = {}
+
+    @property
+    def parameter_names(self) -> tuple[str, ...]:
+        """Names of the entries of ``theta``."""
+        raise NotImplementedError
+
+    def values(self, theta: np.ndarray) -> dict[str, float]:
+        """Name -> value for a single ``theta`` vector."""
+        th = np.asarray(theta, dtype=float)
+        return {n: float(v) for n, v in zip(self.parameter_names, th, strict=True)}
+
+    def refine_start(
+        self,
+        theta0: np.ndarray,
+        recordings: Sequence[Recording],
+        masks: Sequence[np.ndarray | None] | None = None,
+    ) -> np.ndarray | None:
+        """A cheap improvement of the fit's start point; None: this model has none."""
+        return None
+
+    def jacobian_model(self) -> Self:
+        """A cheaper twin for finite-difference Jacobians; the model itself here."""
+        return self
+
+    def force_view(self, theta: np.ndarray, rec: Recording) -> dict[str, np.ndarray] | None:
+        """The internal force seen through a measured equation; None: no such view."""
+        return None
+
+
+class ComponentModel(FitDefaults):
     """Base class: subclasses set the class attributes and implement ``_predict``.
 
     Class attributes:
@@ -163,9 +199,8 @@ class ComponentModel:
             car rig's ``actuator_force``); :attr:`reads_inputs` lists every channel read.
 
     The members the diagnosis reads (``suspenv.diagnosis.protocols.DiagnosableModel``)
-    are all defined here with their defaults: ``difference_step`` (finite-difference
-    step), ``refine_start`` (no cheap start), ``jacobian_model`` (the model itself) and
-    ``force_view`` (none); subclasses override what they have.
+    are all defined here or in :class:`FitDefaults` with their defaults:
+    ``difference_step`` (finite-difference step) and the others there.
     """
 
     family: ClassVar[str] = ""
@@ -176,7 +211,6 @@ class ComponentModel:
     channel_units: ClassVar[dict[str, str]] = {}
     candidate_effects: ClassVar[tuple[str, ...]] = ()
     location: ClassVar[str] = ""
-    effect_defaults: ClassVar[Mapping[str, Mapping[str, float]]] = {}
     freed_parameters: ClassVar[Mapping[str, tuple[str, ...]]] = {}
     device_words: ClassVar[Mapping[str, str]] = {}
     viscous_parameter: ClassVar[str] = ""
@@ -336,11 +370,6 @@ class ComponentModel:
             k += len(free)
         return base, effects
 
-    def values(self, theta: np.ndarray) -> dict[str, float]:
-        """Name -> value for a single ``theta`` vector."""
-        th = np.asarray(theta, dtype=float)
-        return {n: float(v) for n, v in zip(self.parameter_names, th, strict=True)}
-
     # ------------------------------------------------------------------ guesses
     def initial_guess(self, rec: Recording) -> np.ndarray:
         """A start for fitting ``rec``: base values from a linear fit, effects from scales."""
@@ -439,23 +468,6 @@ class ComponentModel:
         """Forward-difference step per parameter: ``1e-6 * max(|theta|, 1)`` (the
         simulations are smooth in ``theta`` to round-off; ``lo``/``hi`` unused)."""
         return 1e-6 * np.maximum(np.abs(np.asarray(theta, dtype=float)), 1.0)
-
-    def refine_start(
-        self,
-        theta0: np.ndarray,
-        recordings: Sequence[Recording],
-        masks: Sequence[np.ndarray | None] | None = None,
-    ) -> np.ndarray | None:
-        """A cheap improvement of the fit's start point; None: this model has none."""
-        return None
-
-    def jacobian_model(self) -> ComponentModel:
-        """A cheaper twin for finite-difference Jacobians; the model itself here."""
-        return self
-
-    def force_view(self, theta: np.ndarray, rec: Recording) -> dict[str, np.ndarray] | None:
-        """The internal force seen through a measured equation; None: no such view."""
-        return None
 
     def config(self) -> dict[str, Any]:
         return {
