@@ -764,13 +764,22 @@ class AxleSolver:
                 f[..., idx, :] += self._dahl(names, xb[..., idx, :], state.hyst)
             out[..., :24] = self._to_vehicle(f).reshape(out.shape[:-1] + (24,))
         if state.fric is not None:
-            R1 = R[..., 1, :, :]
-            ak = rotate(R1, self.a)
-            slide = dot(r[..., 2, :] - r[..., 1, :] - rotate(R1, self.kn_pts[..., 4, :]), ak)
-            s_prev, z_prev = (np.broadcast_to(q, slide.shape) for q in state.fric)
-            f_c, sigma = self._friction()
-            out[..., 24] = dahl_step(s_prev, slide, sigma, f_c, z_prev, DAHL_EPS_TRANSLATION)
+            out[..., 24] = self._strut_friction(r, R, state.fric)[1]
         return out
+
+    def _strut_friction(
+        self, r: np.ndarray, R: np.ndarray, fric: tuple[np.ndarray, np.ndarray]
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The slide (..., n, 2) [m] of the rod in the tube (along the tube axis, from
+        the knuckle's strut axis point) at the coordinates ``r``, ``R`` and the strut
+        friction's Dahl force [N] there, from ``fric`` (slide, force) of the last
+        committed step."""
+        R1 = R[..., 1, :, :]
+        ak = rotate(R1, self.a)
+        slide = dot(r[..., 2, :] - r[..., 1, :] - rotate(R1, self.kn_pts[..., 4, :]), ak)
+        s_prev, z_prev = (np.broadcast_to(q, slide.shape) for q in fric)
+        f_c, sigma = self._friction()
+        return slide, dahl_step(s_prev, slide, sigma, f_c, z_prev, DAHL_EPS_TRANSLATION)
 
     def _pack(self) -> np.ndarray:
         """The solver's per-design arrays that the compiled residual reads (K, 2, c),
@@ -1030,19 +1039,10 @@ class AxleSolver:
                 # the others' steps are NaN (not taken, not converged)
                 idx = np.flatnonzero(need)
                 res = np.full((n, 2 * NS), np.nan)
-                res[idx] = (
-                    self.take(idx, axle=False)
-                    .residual(
-                        st.r[idx],
-                        st.R[idx],
-                        st.lam[idx],
-                        pad[idx],
-                        st.take(idx),
-                        None if ext is None else ext[idx],
-                        rack=None if rack is None else rack[idx],
-                    )
-                    .reshape(idx.size, 2 * NS)
-                )
+                sub, st_i, pad_i, ext_i, rack_i = self._rows(idx, st, pad, ext, rack)
+                res[idx] = sub.residual(
+                    st_i.r, st_i.R, st_i.lam, pad_i, st_i, ext_i, rack=rack_i
+                ).reshape(idx.size, 2 * NS)
             else:
                 res = self.residual(st.r, st.R, st.lam, pad, st, ext, rack=rack).reshape(n, 2 * NS)
             dx = _inv_mul(Jinv, res)  # a new array: negated in place (memory)
@@ -1057,12 +1057,8 @@ class AxleSolver:
             slow = todo & (size > 0.5 * prev)
             refresh = slow & ~fresh
             if refresh.any():  # refresh these rows' Jacobians (in place), recompute steps
-                fresh_inv = self.take(refresh, axle=False).inverse_jacobian(
-                    st.take(refresh),
-                    pad[refresh],
-                    None if ext is None else ext[refresh],
-                    rack=None if rack is None else rack[refresh],
-                )
+                sub, st_i, pad_i, ext_i, rack_i = self._rows(refresh, st, pad, ext, rack)
+                fresh_inv = sub.inverse_jacobian(st_i, pad_i, ext_i, rack=rack_i)
                 if isinstance(Jinv, SharedInverse):
                     Jinv.set(refresh, fresh_inv)
                 else:
@@ -1093,6 +1089,23 @@ class AxleSolver:
                 break
         self.stats["solves"] += 1
         return st, conv & active, Jinv
+
+    def _rows(
+        self,
+        rows: np.ndarray,
+        st: AxleState,
+        pad: np.ndarray,
+        ext: np.ndarray | None,
+        rack: np.ndarray | None,
+    ) -> tuple[AxleSolver, AxleState, np.ndarray, np.ndarray | None, np.ndarray | None]:
+        """The solver, state and inputs of the given rows (index array or mask)."""
+        return (
+            self.take(rows, axle=False),
+            st.take(rows),
+            pad[rows],
+            None if ext is None else ext[rows],
+            None if rack is None else rack[rows],
+        )
 
     def inverse_jacobian(self, st, pad, ext=None, active=None, rack=None) -> np.ndarray:
         """Inverse (n, 66, 66) of :meth:`jacobian`; singular rows (lock-up) become NaN."""
@@ -1179,12 +1192,7 @@ class AxleSolver:
             for k, name in enumerate(names):
                 out.hyst[name] = (defl[name].copy(), z[..., k, :].copy())
         if st.fric is not None:
-            kn_S = st.r[..., 1, :] + rotate(st.R[..., 1, :, :], self.kn_pts[..., 4, :])
-            ak = rotate(st.R[..., 1, :, :], self.a)
-            slide = dot(st.r[..., 2, :] - kn_S, ak)
-            f_c, sigma = self._friction()
-            zf = dahl_step(st.fric[0], slide, sigma, f_c, st.fric[1], DAHL_EPS_TRANSLATION)
-            out.fric = (slide, zf)
+            out.fric = self._strut_friction(st.r, st.R, st.fric)
         return out
 
     # ----------------------------------------------------------------- outputs
