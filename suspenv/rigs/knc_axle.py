@@ -368,15 +368,7 @@ class KncAxleModel(FitDefaults):
 
     def unpack(self, theta: np.ndarray) -> tuple[dict[str, np.ndarray], list[Effect]]:
         """Base values (B,) per fitted parameter and effects with (B,) parameter arrays."""
-        th = np.atleast_2d(np.asarray(theta, float))
-        p = len(self.parameter_names)
-        if th.shape[1] != p or np.ndim(theta) > 2:
-            raise ValidationError(
-                f"knc_axle: theta must have shape ({p},) or (B, {p}) for parameters "
-                f"{self.parameter_names}, but got {np.shape(theta)}"
-            )
-        if not np.all(np.isfinite(th)):
-            raise ValidationError(f"knc_axle: theta must be finite, but got {theta}")
+        th = np.atleast_2d(self._checked_theta(theta))
         cols = th.T
         if self.frozen is not None:
             base = {n: np.full(th.shape[0], v) for n, v in self.frozen.items()}

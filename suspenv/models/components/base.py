@@ -26,6 +26,7 @@ from suspenv.core.options import positive
 from suspenv.core.space import Parameter
 from suspenv.measurements import Recording
 from suspenv.models.effects import Effect
+from suspenv.models.effects._util import batch_param as bp
 
 #: the friction kinds whose velocity width ``v_eps`` a component model fits
 #: (:attr:`ComponentModel.freed_parameters`)
@@ -130,12 +131,26 @@ class FitDefaults:
     shape constants of its own, no cheap start, the model itself as its Jacobian's
     twin, no force view; subclasses override what they have."""
 
+    family: ClassVar[str] = ""
     effect_defaults: ClassVar[Mapping[str, Mapping[str, float]]] = {}
 
     @property
     def parameter_names(self) -> tuple[str, ...]:
         """Names of the entries of ``theta``."""
         raise NotImplementedError
+
+    def _checked_theta(self, theta: np.ndarray) -> np.ndarray:
+        """``theta`` as floats, refused unless it is ``(p,)`` or ``(B, p)`` and finite."""
+        th = np.asarray(theta, dtype=float)
+        p = len(self.parameter_names)
+        if th.shape[-1:] != (p,) or th.ndim > 2:
+            raise ValidationError(
+                f"{self.family}: theta must have shape ({p},) or (B, {p}) for parameters "
+                f"{self.parameter_names}, but got {th.shape}"
+            )
+        if not np.all(np.isfinite(th)):
+            raise ValidationError(f"{self.family}: theta must be finite, but got {th}")
+        return th
 
     def values(self, theta: np.ndarray) -> dict[str, float]:
         """Name -> value for a single ``theta`` vector."""
@@ -203,7 +218,6 @@ class ComponentModel(FitDefaults):
     ``difference_step`` (finite-difference step) and the others there.
     """
 
-    family: ClassVar[str] = ""
     description: ClassVar[str] = ""
     base_parameters: ClassVar[tuple[Parameter, ...]] = ()
     input_channels: ClassVar[tuple[str, ...]] = ()
@@ -350,16 +364,7 @@ class ComponentModel(FitDefaults):
 
     def unpack(self, theta: np.ndarray) -> tuple[dict[str, np.ndarray], list[Effect]]:
         """Split ``theta`` ``(p,)`` or ``(B, p)`` into base values and effects with values set."""
-        th = np.asarray(theta, dtype=float)
-        p = len(self.parameter_names)
-        if th.shape[-1:] != (p,) or th.ndim > 2:
-            raise ValidationError(
-                f"{self.family}: theta must have shape ({p},) or (B, {p}) for parameters "
-                f"{self.parameter_names}, but got {th.shape}"
-            )
-        if not np.all(np.isfinite(th)):
-            raise ValidationError(f"{self.family}: theta must be finite, but got {th}")
-        cols = np.moveaxis(th, -1, 0)
+        cols = np.moveaxis(self._checked_theta(theta), -1, 0)
         nb = len(self.base_names)
         base = {n: cols[i] for i, n in enumerate(self.base_names)}
         base.update({n: np.full(cols.shape[1:], v) for n, v in self.known_base.items()})
@@ -504,6 +509,51 @@ class ComponentModel(FitDefaults):
     def example_recording(self, seed: int = 0) -> Recording:
         """A synthetic recording with this family's typical inputs (no outputs)."""
         raise NotImplementedError
+
+
+class LinearForceModel(ComponentModel):
+    """A component whose output ``force`` [N] is linear in its base parameters,
+    ``F = sum_i p_i u_i`` over :attr:`regressors`, plus the effects' forces along the
+    first input channel (deflection or position [m]) and ``velocity`` [m/s]."""
+
+    #: (base parameter, input channel it multiplies ("": a constant 1), lower limit
+    #: of its least-squares start value or None), in the order of the sum
+    regressors: ClassVar[tuple[tuple[str, str, float | None], ...]] = ()
+
+    def _linear_force(self, base: Mapping[str, Any], rec: Recording) -> np.ndarray:
+        """The base force ``sum_i p_i u_i`` [N], summed in :attr:`regressors` order."""
+        terms = [bp(base[p]) * (rec.inputs[ch] if ch else 1.0) for p, ch, _ in self.regressors]
+        return functools.reduce(np.add, terms)
+
+    def _predict(self, base, effects, rec):
+        x, v = rec.inputs[self.input_channels[0]], rec.inputs["velocity"]
+        f = self._linear_force(base, rec) + self.effect_force(effects, x, v, rec.time)
+        return {"force": np.broadcast_to(f, np.broadcast_shapes(np.shape(f), v.shape)).copy()}
+
+    def _base_guess(self, rec):
+        """Least squares of the recorded force on the regressors (each start value at
+        least its lower limit); the references without a recorded force."""
+        if "force" not in rec.outputs:
+            return {p.name: p.reference for p in self.base_parameters}
+        ones = np.ones_like(rec.inputs["velocity"])
+        cols = [rec.inputs[ch] if ch else ones for _, ch, _ in self.regressors]
+        coef = linear_lstsq(cols, rec.outputs["force"])
+        return {
+            p: float(c if low is None else max(c, low))
+            for (p, _, low), c in zip(self.regressors, coef, strict=True)
+        }
+
+    def _scales(self, rec):
+        """Amplitudes of the first input, the velocity and the force (without a recorded
+        force: the viscous parameter's default times the velocity's)."""
+        x = robust_amplitude(rec.inputs[self.input_channels[0]])
+        v = robust_amplitude(rec.inputs["velocity"])
+        if "force" in rec.outputs:
+            f = robust_amplitude(rec.outputs["force"])
+        else:
+            c = next(p for p in self.base_parameters if p.name == self.viscous_parameter)
+            f = c.reference * v
+        return {"force": f, "deflection": x, "velocity": v}
 
 
 def linear_lstsq(columns: Sequence[np.ndarray], y: np.ndarray) -> np.ndarray:
