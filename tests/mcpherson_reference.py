@@ -23,6 +23,7 @@ from suspenv.models.mcpherson.solver import (
     DAHL_EPS_TRANSLATION,
     EY,
     NQ,
+    VEC_BODY,
     AxleSolver,
     AxleState,
     _down,
@@ -81,7 +82,8 @@ def residual(
     here from the deflections), in numpy; ``record`` (a list) receives every element
     load as ``(body, point, force, moment)`` for balance checks."""
     lead = r.shape[:-2]
-    V = solver._rotated(R)  # (..., 16, 3) rotated body-fixed vectors
+    # every body-fixed vector rotated by its own body's matrix, one product per vector
+    V = np.matmul(R[..., VEC_BODY, :, :], solver._vec[..., None])[..., 0]  # (..., 16, 3)
     r0, r1, r2, r3 = r[..., 0, :], r[..., 1, :], r[..., 2, :], r[..., 3, :]
     arms = np.zeros(lead + (N_SLOTS, 3))
     forces = np.zeros(lead + (N_SLOTS, 3))

@@ -63,6 +63,7 @@ from suspenv.measurements.knc import (
     output_names,
     rig_test,
 )
+from suspenv.models.components.base import FitDefaults
 from suspenv.models.effects import Effect, get_kind, make_effect
 from suspenv.models.mcpherson import (
     build_axle,
@@ -238,7 +239,7 @@ def _row_value(v: object, row: int, n: int) -> float:
     return float(np.broadcast_to(np.asarray(v, float), (n,))[row])
 
 
-class KncAxleModel:
+class KncAxleModel(FitDefaults):
     """McPherson axle + K&C rig with the component-model interface (family ``knc_axle``).
 
     Args:
@@ -365,20 +366,9 @@ class KncAxleModel:
             vals += [float(e.params[p.name]) for p in fitted_parameters(e)]
         return np.array(vals, float)
 
-    def values(self, theta: np.ndarray) -> dict[str, float]:
-        return {n: float(v) for n, v in zip(self.parameter_names, theta, strict=True)}
-
     def unpack(self, theta: np.ndarray) -> tuple[dict[str, np.ndarray], list[Effect]]:
         """Base values (B,) per fitted parameter and effects with (B,) parameter arrays."""
-        th = np.atleast_2d(np.asarray(theta, float))
-        p = len(self.parameter_names)
-        if th.shape[1] != p or np.ndim(theta) > 2:
-            raise ValidationError(
-                f"knc_axle: theta must have shape ({p},) or (B, {p}) for parameters "
-                f"{self.parameter_names}, but got {np.shape(theta)}"
-            )
-        if not np.all(np.isfinite(th)):
-            raise ValidationError(f"knc_axle: theta must be finite, but got {theta}")
+        th = np.atleast_2d(self._checked_theta(theta))
         cols = th.T
         if self.frozen is not None:
             base = {n: np.full(th.shape[0], v) for n, v in self.frozen.items()}
@@ -532,11 +522,6 @@ class KncAxleModel:
         return f"KncAxleModel(effects=[{effs}], fit={list(self.base_names)})"
 
     # ------------------------------------------------------------------ fit interface
-    @property
-    def effect_defaults(self) -> Mapping[str, Mapping[str, float]]:
-        """Shape constants fixed per effect kind: none (the K&C effects have no free shape)."""
-        return {}
-
     def difference_step(self, theta: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
         """Forward-difference step ``max(3e-3 |theta|, 1e-3 (hi - lo))`` per parameter.
 
@@ -545,20 +530,3 @@ class KncAxleModel:
         it (a 1e-6 relative step would difference solver noise)."""
         theta = np.asarray(theta, float)
         return np.maximum(3e-3 * np.abs(theta), 1e-3 * (np.asarray(hi, float) - lo))
-
-    def refine_start(
-        self,
-        theta0: np.ndarray,
-        recordings: Sequence[Recording],
-        masks: Sequence[np.ndarray | None] | None = None,
-    ) -> np.ndarray | None:
-        """No cheap start for the axle (None)."""
-        return None
-
-    def jacobian_model(self) -> KncAxleModel:
-        """No cheaper twin: the model itself."""
-        return self
-
-    def force_view(self, theta: np.ndarray, rec: Recording) -> dict[str, np.ndarray] | None:
-        """No force view of the axle (None)."""
-        return None

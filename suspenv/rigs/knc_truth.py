@@ -161,16 +161,7 @@ HYSTERESIS_LOCATIONS = {
     "top_mount": "top_mount",
 }
 #: single-effect case types: every truth kind, the hysteresis at each location
-SINGLE_TYPES = (
-    "hysteresis@all",
-    "hysteresis@lower_arm",
-    "hysteresis@top_mount",
-    "friction",
-    "progressive",
-    "asymmetry",
-    "sensor_gain",
-    "sensor_offset",
-)
+SINGLE_TYPES = (*(f"hysteresis@{w}" for w in HYSTERESIS_LOCATIONS), *BLIND_KINDS[1:])
 #: two-effect case types (fixed pairs covering every kind)
 PAIR_TYPES = (
     "hysteresis@lower_arm+sensor_gain",

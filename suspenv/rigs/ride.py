@@ -29,6 +29,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -153,6 +154,15 @@ def in_phase_inputs(
     return z - z[0], zd
 
 
+def _model(
+    X: np.ndarray, load_cases: str | Sequence[str], vehicle: Minibus, **options: Any
+) -> RideModel:
+    """The ride model of designs X (n, 8; study units) in the load cases, stacked in
+    order (rows: load case 0 designs 0..n-1, then load case 1, ...)."""
+    cases = [load_cases] if isinstance(load_cases, str) else list(load_cases)
+    return RideModel(stacked_vehicle_parameters(X, cases, vehicle), **options)
+
+
 def random_road_run(
     X: np.ndarray,
     load_cases: str | Sequence[str] = LOAD_CASES,
@@ -169,14 +179,7 @@ def random_road_run(
     Rows of the record: load case 0 designs 0..n-1, then load case 1, ...
     """
     road = road or RandomRoad()
-    cases = [load_cases] if isinstance(load_cases, str) else list(load_cases)
-    model = RideModel(
-        stacked_vehicle_parameters(X, cases, vehicle),
-        effects=effects,
-        seat=seat,
-        linear=linear,
-        dtype=dtype,
-    )
+    model = _model(X, load_cases, vehicle, effects=effects, seat=seat, linear=linear, dtype=dtype)
     z, zd = random_road_inputs(road, vehicle)
     return model.simulate(z, zd, road.dt, record_states=record_states, discard=road.n_settle)
 
@@ -244,8 +247,7 @@ def pulse_run(
 ) -> PulseResult:
     """Pulse test: peak |vertical acceleration| (m/s^2) above front and rear suspension."""
     pulse = pulse or PulseBump()
-    cases = [load_cases] if isinstance(load_cases, str) else list(load_cases)
-    model = RideModel(stacked_vehicle_parameters(X, cases, vehicle), effects=effects, seat=seat)
+    model = _model(X, load_cases, vehicle, effects=effects, seat=seat)
     z, zd = pulse_inputs(pulse, vehicle)
     rec = model.simulate(z, zd, 1.0 / pulse.sample_rate)
     return PulseResult(

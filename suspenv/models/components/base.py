@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Mapping, Sequence
-from typing import Any, ClassVar
+from typing import Any, ClassVar, Self
 
 import numpy as np
 from scipy.signal import butter, sosfiltfilt
@@ -26,6 +26,7 @@ from suspenv.core.options import positive
 from suspenv.core.space import Parameter
 from suspenv.measurements import Recording
 from suspenv.models.effects import Effect
+from suspenv.models.effects._util import batch_param as bp
 
 #: the friction kinds whose velocity width ``v_eps`` a component model fits
 #: (:attr:`ComponentModel.freed_parameters`)
@@ -124,7 +125,57 @@ def _end_quadratic(w: int) -> np.ndarray:
     return out
 
 
-class ComponentModel:
+class FitDefaults:
+    """The defaults of the members a diagnosis reads
+    (``suspenv.diagnosis.protocols.DiagnosableModel``) that a model may lack: no
+    shape constants of its own, no cheap start, the model itself as its Jacobian's
+    twin, no force view; subclasses override what they have."""
+
+    family: ClassVar[str] = ""
+    effect_defaults: ClassVar[Mapping[str, Mapping[str, float]]] = {}
+
+    @property
+    def parameter_names(self) -> tuple[str, ...]:
+        """Names of the entries of ``theta``."""
+        raise NotImplementedError
+
+    def _checked_theta(self, theta: np.ndarray) -> np.ndarray:
+        """``theta`` as floats, refused unless it is ``(p,)`` or ``(B, p)`` and finite."""
+        th = np.asarray(theta, dtype=float)
+        p = len(self.parameter_names)
+        if th.shape[-1:] != (p,) or th.ndim > 2:
+            raise ValidationError(
+                f"{self.family}: theta must have shape ({p},) or (B, {p}) for parameters "
+                f"{self.parameter_names}, but got {th.shape}"
+            )
+        if not np.all(np.isfinite(th)):
+            raise ValidationError(f"{self.family}: theta must be finite, but got {th}")
+        return th
+
+    def values(self, theta: np.ndarray) -> dict[str, float]:
+        """Name -> value for a single ``theta`` vector."""
+        th = np.asarray(theta, dtype=float)
+        return {n: float(v) for n, v in zip(self.parameter_names, th, strict=True)}
+
+    def refine_start(
+        self,
+        theta0: np.ndarray,
+        recordings: Sequence[Recording],
+        masks: Sequence[np.ndarray | None] | None = None,
+    ) -> np.ndarray | None:
+        """A cheap improvement of the fit's start point; None: this model has none."""
+        return None
+
+    def jacobian_model(self) -> Self:
+        """A cheaper twin for finite-difference Jacobians; the model itself here."""
+        return self
+
+    def force_view(self, theta: np.ndarray, rec: Recording) -> dict[str, np.ndarray] | None:
+        """The internal force seen through a measured equation; None: no such view."""
+        return None
+
+
+class ComponentModel(FitDefaults):
     """Base class: subclasses set the class attributes and implement ``_predict``.
 
     Class attributes:
@@ -163,12 +214,10 @@ class ComponentModel:
             car rig's ``actuator_force``); :attr:`reads_inputs` lists every channel read.
 
     The members the diagnosis reads (``suspenv.diagnosis.protocols.DiagnosableModel``)
-    are all defined here with their defaults: ``difference_step`` (finite-difference
-    step), ``refine_start`` (no cheap start), ``jacobian_model`` (the model itself) and
-    ``force_view`` (none); subclasses override what they have.
+    are all defined here or in :class:`FitDefaults` with their defaults:
+    ``difference_step`` (finite-difference step) and the others there.
     """
 
-    family: ClassVar[str] = ""
     description: ClassVar[str] = ""
     base_parameters: ClassVar[tuple[Parameter, ...]] = ()
     input_channels: ClassVar[tuple[str, ...]] = ()
@@ -176,7 +225,6 @@ class ComponentModel:
     channel_units: ClassVar[dict[str, str]] = {}
     candidate_effects: ClassVar[tuple[str, ...]] = ()
     location: ClassVar[str] = ""
-    effect_defaults: ClassVar[Mapping[str, Mapping[str, float]]] = {}
     freed_parameters: ClassVar[Mapping[str, tuple[str, ...]]] = {}
     device_words: ClassVar[Mapping[str, str]] = {}
     viscous_parameter: ClassVar[str] = ""
@@ -316,16 +364,7 @@ class ComponentModel:
 
     def unpack(self, theta: np.ndarray) -> tuple[dict[str, np.ndarray], list[Effect]]:
         """Split ``theta`` ``(p,)`` or ``(B, p)`` into base values and effects with values set."""
-        th = np.asarray(theta, dtype=float)
-        p = len(self.parameter_names)
-        if th.shape[-1:] != (p,) or th.ndim > 2:
-            raise ValidationError(
-                f"{self.family}: theta must have shape ({p},) or (B, {p}) for parameters "
-                f"{self.parameter_names}, but got {th.shape}"
-            )
-        if not np.all(np.isfinite(th)):
-            raise ValidationError(f"{self.family}: theta must be finite, but got {th}")
-        cols = np.moveaxis(th, -1, 0)
+        cols = np.moveaxis(self._checked_theta(theta), -1, 0)
         nb = len(self.base_names)
         base = {n: cols[i] for i, n in enumerate(self.base_names)}
         base.update({n: np.full(cols.shape[1:], v) for n, v in self.known_base.items()})
@@ -335,11 +374,6 @@ class ComponentModel:
             effects.append(e.with_params({q: cols[k + j] for j, q in enumerate(free)}))
             k += len(free)
         return base, effects
-
-    def values(self, theta: np.ndarray) -> dict[str, float]:
-        """Name -> value for a single ``theta`` vector."""
-        th = np.asarray(theta, dtype=float)
-        return {n: float(v) for n, v in zip(self.parameter_names, th, strict=True)}
 
     # ------------------------------------------------------------------ guesses
     def initial_guess(self, rec: Recording) -> np.ndarray:
@@ -440,23 +474,6 @@ class ComponentModel:
         simulations are smooth in ``theta`` to round-off; ``lo``/``hi`` unused)."""
         return 1e-6 * np.maximum(np.abs(np.asarray(theta, dtype=float)), 1.0)
 
-    def refine_start(
-        self,
-        theta0: np.ndarray,
-        recordings: Sequence[Recording],
-        masks: Sequence[np.ndarray | None] | None = None,
-    ) -> np.ndarray | None:
-        """A cheap improvement of the fit's start point; None: this model has none."""
-        return None
-
-    def jacobian_model(self) -> ComponentModel:
-        """A cheaper twin for finite-difference Jacobians; the model itself here."""
-        return self
-
-    def force_view(self, theta: np.ndarray, rec: Recording) -> dict[str, np.ndarray] | None:
-        """The internal force seen through a measured equation; None: no such view."""
-        return None
-
     def config(self) -> dict[str, Any]:
         return {
             "family": self.family,
@@ -492,6 +509,51 @@ class ComponentModel:
     def example_recording(self, seed: int = 0) -> Recording:
         """A synthetic recording with this family's typical inputs (no outputs)."""
         raise NotImplementedError
+
+
+class LinearForceModel(ComponentModel):
+    """A component whose output ``force`` [N] is linear in its base parameters,
+    ``F = sum_i p_i u_i`` over :attr:`regressors`, plus the effects' forces along the
+    first input channel (deflection or position [m]) and ``velocity`` [m/s]."""
+
+    #: (base parameter, input channel it multiplies ("": a constant 1), lower limit
+    #: of its least-squares start value or None), in the order of the sum
+    regressors: ClassVar[tuple[tuple[str, str, float | None], ...]] = ()
+
+    def _linear_force(self, base: Mapping[str, Any], rec: Recording) -> np.ndarray:
+        """The base force ``sum_i p_i u_i`` [N], summed in :attr:`regressors` order."""
+        terms = [bp(base[p]) * (rec.inputs[ch] if ch else 1.0) for p, ch, _ in self.regressors]
+        return functools.reduce(np.add, terms)
+
+    def _predict(self, base, effects, rec):
+        x, v = rec.inputs[self.input_channels[0]], rec.inputs["velocity"]
+        f = self._linear_force(base, rec) + self.effect_force(effects, x, v, rec.time)
+        return {"force": np.broadcast_to(f, np.broadcast_shapes(np.shape(f), v.shape)).copy()}
+
+    def _base_guess(self, rec):
+        """Least squares of the recorded force on the regressors (each start value at
+        least its lower limit); the references without a recorded force."""
+        if "force" not in rec.outputs:
+            return {p.name: p.reference for p in self.base_parameters}
+        ones = np.ones_like(rec.inputs["velocity"])
+        cols = [rec.inputs[ch] if ch else ones for _, ch, _ in self.regressors]
+        coef = linear_lstsq(cols, rec.outputs["force"])
+        return {
+            p: float(c if low is None else max(c, low))
+            for (p, _, low), c in zip(self.regressors, coef, strict=True)
+        }
+
+    def _scales(self, rec):
+        """Amplitudes of the first input, the velocity and the force (without a recorded
+        force: the viscous parameter's default times the velocity's)."""
+        x = robust_amplitude(rec.inputs[self.input_channels[0]])
+        v = robust_amplitude(rec.inputs["velocity"])
+        if "force" in rec.outputs:
+            f = robust_amplitude(rec.outputs["force"])
+        else:
+            c = next(p for p in self.base_parameters if p.name == self.viscous_parameter)
+            f = c.reference * v
+        return {"force": f, "deflection": x, "velocity": v}
 
 
 def linear_lstsq(columns: Sequence[np.ndarray], y: np.ndarray) -> np.ndarray:

@@ -19,14 +19,7 @@ import numpy as np
 
 from suspenv.core.space import Parameter
 from suspenv.measurements import Recording
-from suspenv.models.components.base import (
-    FRICTION_WIDTHS,
-    LUGRE_BRISTLES,
-    ComponentModel,
-    linear_lstsq,
-    robust_amplitude,
-)
-from suspenv.models.effects._util import batch_param as bp
+from suspenv.models.components.base import FRICTION_WIDTHS, LUGRE_BRISTLES, LinearForceModel
 
 
 def sine_blocks(
@@ -57,7 +50,7 @@ def sine_blocks(
     )
 
 
-class DamperDynoModel(ComponentModel):
+class DamperDynoModel(LinearForceModel):
     """Damper on a dyno; base ``F = c v``."""
 
     family = "damper"
@@ -92,24 +85,7 @@ class DamperDynoModel(ComponentModel):
     )
     location = "damper"
     viscous_parameter = "c"
-
-    def _predict(self, base, effects, rec):
-        x, v = rec.inputs["displacement"], rec.inputs["velocity"]
-        f = bp(base["c"]) * v + self.effect_force(effects, x, v, rec.time)
-        return {"force": np.broadcast_to(f, np.broadcast_shapes(np.shape(f), v.shape)).copy()}
-
-    def _base_guess(self, rec):
-        v = rec.inputs["velocity"]
-        if "force" in rec.outputs:
-            (c,) = linear_lstsq([v], rec.outputs["force"])
-            return {"c": float(max(c, 1.0))}
-        return {"c": self.base_parameters[0].reference}
-
-    def _scales(self, rec):
-        x = robust_amplitude(rec.inputs["displacement"])
-        v = robust_amplitude(rec.inputs["velocity"])
-        f = robust_amplitude(rec.outputs["force"]) if "force" in rec.outputs else 1500.0 * v
-        return {"force": f, "deflection": x, "velocity": v}
+    regressors = (("c", "velocity", 1.0),)
 
     def example_recording(self, seed: int = 0) -> Recording:
         """Sine tests at several amplitudes and frequencies (velocity up to ~0.4 m/s), 2 ms."""

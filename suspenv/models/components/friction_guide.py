@@ -29,17 +29,10 @@ import numpy as np
 from suspenv.core.errors import ValidationError
 from suspenv.core.space import Parameter
 from suspenv.measurements import Recording
-from suspenv.models.components.base import (
-    FRICTION_WIDTHS,
-    LUGRE_BRISTLES,
-    ComponentModel,
-    linear_lstsq,
-    robust_amplitude,
-)
-from suspenv.models.effects._util import batch_param as bp
+from suspenv.models.components.base import FRICTION_WIDTHS, LUGRE_BRISTLES, LinearForceModel
 
 
-class FrictionGuideModel(ComponentModel):
+class FrictionGuideModel(LinearForceModel):
     """Mass on a guide driven by a measured force; base ``F = m a + c v``."""
 
     family = "friction_guide"
@@ -83,36 +76,20 @@ class FrictionGuideModel(ComponentModel):
     }
     location = "guide"
     viscous_parameter = "c"
+    regressors = (("m", "acceleration", 1e-3), ("c", "velocity", 1e-3))
 
     def _check_effect(self, effect):
         if effect.kind in ("bump_stop", "rebound_stop", "bump_and_rebound_stops"):
             raise ValidationError(f"{self.family}: end stops are not part of a guide model")
 
-    def _predict(self, base, effects, rec):
-        x, v, a = (rec.inputs[c] for c in self.input_channels)
-        f = bp(base["m"]) * a + bp(base["c"]) * v + self.effect_force(effects, x, v, rec.time)
-        return {"force": np.broadcast_to(f, np.broadcast_shapes(np.shape(f), v.shape)).copy()}
-
     def linear_part(self, base, rec):
         """The inertia and viscous force ``m a + c v`` [N]."""
-        _, v, a = (rec.inputs[c] for c in self.input_channels)
-        return {"force": bp(base["m"]) * a + bp(base["c"]) * v}
-
-    def _base_guess(self, rec):
-        if "force" in rec.outputs:
-            m, c = linear_lstsq(
-                [rec.inputs["acceleration"], rec.inputs["velocity"]], rec.outputs["force"]
-            )
-            return {"m": float(max(m, 1e-3)), "c": float(max(c, 1e-3))}
-        return {p.name: p.reference for p in self.base_parameters}
+        return {"force": self._linear_force(base, rec)}
 
     def _scales(self, rec):
-        x = robust_amplitude(rec.inputs["position"])
-        v = robust_amplitude(rec.inputs["velocity"])
-        f = robust_amplitude(rec.outputs["force"]) if "force" in rec.outputs else 200.0 * v
         pos = np.asarray(rec.inputs["position"], float)
         centre = 0.5 * float(np.max(pos) + np.min(pos))  # the middle of the travel
-        return {"force": f, "deflection": x, "velocity": v, "centre": centre}
+        return {**super()._scales(rec), "centre": centre}
 
     def example_recording(self, seed: int = 0) -> Recording:
         """EMPS-like back-and-forth trajectory (0.2 m stroke, rests between moves), 2 ms."""

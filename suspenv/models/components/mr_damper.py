@@ -19,7 +19,7 @@ from suspenv.core.space import Parameter
 from suspenv.measurements import Recording
 from suspenv.models.components.base import (
     FRICTION_WIDTHS,
-    ComponentModel,
+    LinearForceModel,
     linear_lstsq,
     robust_amplitude,
 )
@@ -28,7 +28,7 @@ from suspenv.models.effects._util import batch_param as bp
 from suspenv.models.effects.hysteresis import bouc_wen_force_path
 
 
-class MRDamperModel(ComponentModel):
+class MRDamperModel(LinearForceModel):
     """MR damper; base ``F = c v + k x + f_0``."""
 
     family = "mr_damper"
@@ -64,29 +64,7 @@ class MRDamperModel(ComponentModel):
     )
     location = "MR damper"
     viscous_parameter = "c"
-
-    def _predict(self, base, effects, rec):
-        x, v = rec.inputs["displacement"], rec.inputs["velocity"]
-        f = (
-            bp(base["c"]) * v
-            + bp(base["k"]) * x
-            + bp(base["f_0"])
-            + self.effect_force(effects, x, v, rec.time)
-        )
-        return {"force": np.broadcast_to(f, np.broadcast_shapes(np.shape(f), v.shape)).copy()}
-
-    def _base_guess(self, rec):
-        x, v = rec.inputs["displacement"], rec.inputs["velocity"]
-        if "force" in rec.outputs:
-            c, k, f0 = linear_lstsq([v, x, np.ones_like(v)], rec.outputs["force"])
-            return {"c": float(max(c, 1.0)), "k": float(k), "f_0": float(f0)}
-        return {p.name: p.reference for p in self.base_parameters}
-
-    def _scales(self, rec):
-        x = robust_amplitude(rec.inputs["displacement"])
-        v = robust_amplitude(rec.inputs["velocity"])
-        f = robust_amplitude(rec.outputs["force"]) if "force" in rec.outputs else 2000.0 * v
-        return {"force": f, "deflection": x, "velocity": v}
+    regressors = (("c", "velocity", 1.0), ("k", "displacement", None), ("f_0", "", None))
 
     def example_recording(self, seed: int = 0) -> Recording:
         """Shaking-table-like sines: 5-20 mm at 0.8-1.7 Hz, 10 ms sampling."""

@@ -54,7 +54,7 @@ from suspenv.core.space import Parameter
 from suspenv.measurements import Recording, RecordingError, smooth_derivative
 from suspenv.models.components import rig_integrator
 from suspenv.models.components.base import ComponentModel, linear_lstsq, robust_amplitude
-from suspenv.models.effects import Effect, pointwise
+from suspenv.models.effects import Effect, PointwiseElement, pointwise
 
 #: "exact": exact linear step with the element force implicit (:mod:`.rig_integrator`);
 #: "rk4": classical RK4 with sub-steps (reference; also used for Bouc-Wen hysteresis)
@@ -113,6 +113,12 @@ def _rk4(
         first.append(a)
         second.append(b)
     return first, second
+
+
+def _elements(effects: Sequence[Effect]) -> tuple[list[PointwiseElement], list[PointwiseElement]]:
+    """The pointwise forms of the force effects: (stateless, with one state)."""
+    elements = [pointwise(e) for e in effects]
+    return [el for el in elements if el.n_states == 0], [el for el in elements if el.n_states == 1]
 
 
 def _rate(x: np.ndarray, t: np.ndarray) -> np.ndarray:
@@ -211,12 +217,16 @@ class QuarterCarRigModel(ComponentModel):
             )
 
     # ------------------------------------------------------------------ physics
-    def _substeps(self, base, effects, dt: float, v_max: float) -> int:
+    def _substeps(self, base, effects, t: np.ndarray, road: np.ndarray) -> int:
         """Sub-steps per sample so that ``h * rate <= 1.5`` for the stiffest element.
 
         ``v_max`` [m/s] bounds the deflection rate (hysteresis state equations are
-        as fast as ``v_max`` over their transition displacement).
+        as fast as ``v_max`` over their transition displacement): the relative velocity
+        rarely exceeds 3x the road velocity (wheel hop included).
         """
+        dts = np.diff(t)
+        dt = float(np.max(dts))
+        v_max = 3.0 * float(np.max(np.abs(np.diff(road)) / dts)) + 1e-3
         m_u = self.options["m_u"]
         rate = np.sqrt(np.max((np.asarray(base["k_s"]) + np.asarray(base["k_t"])) / m_u))
         rate = max(rate, float(np.max(np.asarray(base["c_s"]) / m_u)))
@@ -372,9 +382,7 @@ class QuarterCarRigModel(ComponentModel):
         """RK4 for one parameter set, in plain floats (fast for a single design)."""
         m_s, m_u = self.options["m_s"], self.options["m_u"]
         k_s, c_s, k_t = base["k_s"], base["c_s"], base["k_t"]
-        elements = [pointwise(e) for e in effects]
-        stateless = [el for el in elements if el.n_states == 0]
-        stateful = [el for el in elements if el.n_states == 1]
+        stateless, stateful = _elements(effects)
 
         def susp_force(x, v, zs):
             f = k_s * x + c_s * v
@@ -394,10 +402,7 @@ class QuarterCarRigModel(ComponentModel):
         # start at rest on the initial road height (static equilibrium)
         r0 = float(road[0])
         state = [r0, 0.0, r0, 0.0] + [0.0] * len(stateful)
-        dts = np.diff(t)
-        # relative velocity rarely exceeds 3x the road velocity (wheel hop included)
-        v_max = 3.0 * float(np.max(np.abs(np.diff(road)) / dts)) + 1e-3
-        nsub = self._substeps(base, effects, float(np.max(dts)), v_max)
+        nsub = self._substeps(base, effects, t, road)
 
         def observe(state: list[float], k: int) -> tuple[float, float]:
             if not all(math.isfinite(s) for s in state):
@@ -432,9 +437,7 @@ class QuarterCarRigModel(ComponentModel):
         m_s, m_u = self.options["m_s"], self.options["m_u"]
         k_s, c_s, k_t = (np.asarray(base[n], float) for n in ("k_s", "c_s", "k_t"))
         n_rows = k_s.size
-        elements = [pointwise(e) for e in effects]
-        stateless = [el for el in elements if el.n_states == 0]
-        stateful = [el for el in elements if el.n_states == 1]
+        stateless, stateful = _elements(effects)
         # rows whose hysteresis level is zero carry no Dahl element (its law divides by f_c)
         for el in stateful:
             if el.effect.kind == "dahl_hysteresis":
@@ -468,9 +471,7 @@ class QuarterCarRigModel(ComponentModel):
         r0 = float(road[0])
         state = np.zeros((n_states, n_rows))
         state[0] = state[2] = r0
-        dts = np.diff(t)
-        v_max = 3.0 * float(np.max(np.abs(np.diff(road)) / dts)) + 1e-3
-        nsub = self._substeps(base, effects, float(np.max(dts)), v_max)
+        nsub = self._substeps(base, effects, t, road)
 
         def observe(s: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
             return susp_force(s) / m_s, s[2] - s[0]

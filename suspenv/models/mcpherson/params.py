@@ -164,36 +164,14 @@ def design_parameters() -> tuple[Parameter, ...]:
                     description=f"{bush.replace('_', ' ')} bushing stiffness {comp}",
                 )
             )
-    out.append(
-        Parameter(
-            "arb_torsion",
-            30.0,
-            3000.0,
-            "N*m/rad",
-            default=930.6,
-            description="anti-roll bar torsional stiffness (twist of one half against the other)",
-        )
-    )
-    out.append(
-        Parameter(
-            "static_camber",
-            -1.0,
-            1.0,
-            "deg",
-            default=-0.52,
-            description="static camber, negative = top of wheel inboard",
-        )
-    )
-    out.append(
-        Parameter(
-            "static_toe",
-            -1.0,
-            1.0,
-            "deg",
-            default=0.0032,
-            description="static toe, positive = toe-in",
-        )
-    )
+    for name, low, high, unit, default, description in (
+        ("arb_torsion", 30.0, 3000.0, "N*m/rad", 930.6,
+         "anti-roll bar torsional stiffness (twist of one half against the other)"),
+        ("static_camber", -1.0, 1.0, "deg", -0.52,
+         "static camber, negative = top of wheel inboard"),
+        ("static_toe", -1.0, 1.0, "deg", 0.0032, "static toe, positive = toe-in"),
+    ):  # fmt: skip
+        out.append(Parameter(name, low, high, unit, default=default, description=description))
     return tuple(out)
 
 
@@ -561,24 +539,16 @@ class Axle:
         return self.arb_torsion.shape[0]
 
     def take(self, rows: np.ndarray) -> Axle:
-        """The sub-batch of the given design rows."""
+        """The sub-batch of the given design rows (every array and dict of arrays;
+        ``constants`` shared)."""
         idx = np.asarray(rows)
-        return Axle(
-            {k: v[idx] for k, v in self.points.items()},
-            {k: v[idx] for k, v in self.bush.items()},
-            self.arb_torsion[idx],
-            self.camber0[idx],
-            self.toe0[idx],
-            self.spring_rate[idx],
-            self.tyre_rate[idx],
-            self.wheel_radius[idx],
-            self.wheel_weight[idx],
-            self.corner_load[idx],
-            None if self.spring_free_length is None else self.spring_free_length[idx],
-            self.constants,
-            {k: v[idx] for k, v in self.frames.items()},
-            None if self.rack_compliance is None else self.rack_compliance[idx],
-        )
+
+        def pick(v: Any) -> Any:
+            if isinstance(v, dict):
+                return {k: a[idx] for k, a in v.items()}
+            return v[idx] if isinstance(v, np.ndarray) else v
+
+        return Axle(**{f.name: pick(getattr(self, f.name)) for f in fields(self)})
 
 
 def _unit(v: np.ndarray) -> np.ndarray:

@@ -42,7 +42,7 @@ compiled once per solver into per-bushing element parameters.
 Newton's method, vectorised over the batch: the Jacobian is a forward-difference
 Jacobian of the exact residual in the body coordinates (columns with disjoint residual
 rows perturbed together, batched residual calls, see :meth:`AxleSolver.jacobian`) and
-exact in the constraint multipliers (in which the residual is linear), inverted with
+in the constraint multipliers (1 N steps: the residual is linear in them), inverted with
 ``np.linalg.inv`` in blocks of rows and reused along the sweep (chord steps; rows that
 start from the same Jacobian may share it, :class:`SharedInverse`); a row whose step
 shrinks by less than half per
@@ -702,16 +702,6 @@ class AxleSolver:
             phi = log_so3(R[..., [0, 2, 3], :, :])[..., [0, 0, 1, 2], :]
         return np.concatenate([pts - self._ground4, phi], axis=-1)
 
-    def _rotated(self, R: np.ndarray) -> np.ndarray:
-        """Every body-fixed vector (``_vec``) rotated by its body's rotation ``R``
-        (..., 2, 4, 3, 3): (..., 2, 16, 3), one product per body (``W R^T`` for the rows
-        ``W`` of its vectors)."""
-        V = np.empty(R.shape[:-3] + (len(VEC_BODY), 3))
-        Rt = np.swapaxes(R, -1, -2)
-        for b, (a, z) in enumerate(VEC_GROUPS):
-            V[..., a:z, :] = np.matmul(self._vec_body[b], Rt[..., b, :, :])
-        return V
-
     # ---------------------------------------------------------------- residual
     def residual(
         self,
@@ -774,13 +764,22 @@ class AxleSolver:
                 f[..., idx, :] += self._dahl(names, xb[..., idx, :], state.hyst)
             out[..., :24] = self._to_vehicle(f).reshape(out.shape[:-1] + (24,))
         if state.fric is not None:
-            R1 = R[..., 1, :, :]
-            ak = rotate(R1, self.a)
-            slide = dot(r[..., 2, :] - r[..., 1, :] - rotate(R1, self.kn_pts[..., 4, :]), ak)
-            s_prev, z_prev = (np.broadcast_to(q, slide.shape) for q in state.fric)
-            f_c, sigma = self._friction()
-            out[..., 24] = dahl_step(s_prev, slide, sigma, f_c, z_prev, DAHL_EPS_TRANSLATION)
+            out[..., 24] = self._strut_friction(r, R, state.fric)[1]
         return out
+
+    def _strut_friction(
+        self, r: np.ndarray, R: np.ndarray, fric: tuple[np.ndarray, np.ndarray]
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The slide (..., n, 2) [m] of the rod in the tube (along the tube axis, from
+        the knuckle's strut axis point) at the coordinates ``r``, ``R`` and the strut
+        friction's Dahl force [N] there, from ``fric`` (slide, force) of the last
+        committed step."""
+        R1 = R[..., 1, :, :]
+        ak = rotate(R1, self.a)
+        slide = dot(r[..., 2, :] - r[..., 1, :] - rotate(R1, self.kn_pts[..., 4, :]), ak)
+        s_prev, z_prev = (np.broadcast_to(q, slide.shape) for q in fric)
+        f_c, sigma = self._friction()
+        return slide, dahl_step(s_prev, slide, sigma, f_c, z_prev, DAHL_EPS_TRANSLATION)
 
     def _pack(self) -> np.ndarray:
         """The solver's per-design arrays that the compiled residual reads (K, 2, c),
@@ -882,8 +881,8 @@ class AxleSolver:
         at a time. Columns whose residual rows are disjoint share a perturbation (a
         lower-arm and a strut-rod coordinate: the lower arm's rows are its own force and
         moment and the ball joint's constraint, which no strut-rod coordinate enters),
-        which gives the very numbers of perturbing them apart. The multiplier columns
-        are exact (:meth:`multiplier_columns`: the residual is linear in them). The
+        which gives the very numbers of perturbing them apart. The multiplier columns:
+        differences of the residual too (:meth:`_multiplier_columns`). The
         reference path, one perturbation per column: ``benchmarks/knc_reference.py``.
         """
         n = self.n
@@ -897,33 +896,8 @@ class AxleSolver:
             residual_kernel.jacobian(*args, h, turned, *_KERNEL_COLOURING, J)
         else:
             self._body_columns_in_blocks(st, pad, ext, h, rack, J)
-        L = self.multiplier_columns(st, rack)  # (n, 2, 33, 9)
-        for s in (0, 1):
-            J[:, s * NS : (s + 1) * NS, s * NS + NQ : (s + 1) * NS] = L[:, s]
-        if np.any(self.C_rack > 0):
-            self._tie_rod_columns(st, pad, ext, rack, J)
+        self._multiplier_columns(st, pad, ext, rack, J)
         return J
-
-    def _tie_rod_columns(
-        self,
-        st: AxleState,
-        pad: np.ndarray,
-        ext: np.ndarray | None,
-        rack: np.ndarray | None,
-        J: np.ndarray,
-    ) -> None:
-        """The tie-rod multiplier columns of ``J`` (n, 66, 66) of a compliant steering
-        system by forward differences (step 1 N): the rack then moves with both tie-rod
-        forces, so each enters both sides' rows, not linearly (the exact columns of
-        :meth:`multiplier_columns` hold for a rigid rack)."""
-        # the state, then each side's tie-rod multiplier moved, in one residual call
-        lam = np.repeat(st.lam[None], 3, axis=0)
-        lam[1, :, 0, 7] += 1.0
-        lam[2, :, 1, 7] += 1.0
-        r, R = (np.broadcast_to(a, (3,) + a.shape) for a in (st.r, st.R))
-        res = self.residual(r, R, lam, pad, st, ext, rack=rack)
-        for s in (0, 1):
-            J[:, :, s * NS + NQ + 7] = (res[1 + s] - res[0]).reshape(self.n, 2 * NS)
 
     def _body_columns_in_blocks(
         self,
@@ -961,47 +935,39 @@ class AxleSolver:
             p, sd, row, jr, jc = (x[i0:i1] for x in scatter)
             J[:, jr, jc] = d[p - a, :, sd, row].T
 
-    def multiplier_columns(self, st: AxleState, rack: np.ndarray | None = None) -> np.ndarray:
-        """Exact derivative (n, 2, 33, 9) of each side's residual with respect to its
-        nine constraint multipliers (the residual is linear in them; see
-        :meth:`residual`): ball joint ``lam[0:3]`` (force on the arm, its opposite on the
-        knuckle), cylindrical joint moments ``lam[3:5]`` (rod axis x tube normals u, v,
-        on the rod, opposite on the knuckle) and forces ``lam[5:7]`` (along u, v on the
-        rod, opposite on the knuckle at the rod point), tie rod ``lam[7]`` and drop link
-        ``lam[8]`` (along the link per unit length, knuckle end; the bar end opposite).
-        Rows: force [N] and moment about the body reference point [N*m] of the four
-        bodies (6 each, vehicle axes), then the constraints (zero), per unit multiplier
-        (N; N*m for ``lam[3:5]``).
-        """
-        V = self._rotated(st.R)
-        r = st.r
-        r1, r2, r3 = r[..., 1, :], r[..., 2, :], r[..., 3, :]
-        L = np.zeros(r.shape[:-2] + (NS, NL))
-        eye = np.eye(3)
-        # ball joint: +e_k at the arm point (body 0), -e_k at the knuckle point (body 1)
-        L[..., 0:3, 0:3] = eye
-        L[..., 3:6, 0:3] = _skew(V[..., 2, :])
-        L[..., 6:9, 0:3] = -eye
-        L[..., 9:12, 0:3] = -_skew(V[..., 3, :])
-        ar, uu, vv = V[..., 13, :], V[..., 8, :], V[..., 9, :]
-        for c, e in ((3, uu), (4, vv)):  # moments ar x u, ar x v on the rod
-            m = cross(ar, e)
-            L[..., 15:18, c] = m
-            L[..., 9:12, c] = -m
-        for c, e in ((5, uu), (6, vv)):  # forces u, v on the rod; opposite at r2 - r1
-            L[..., 12:15, c] = e
-            L[..., 6:9, c] = -e
-            L[..., 9:12, c] = -cross(r2 - r1, e)
-        tri = self.tri if rack is None else self.tri + rack[..., None] * EY
-        f = (r1 + V[..., 4, :] - tri) / self.L_tie[..., None]
-        L[..., 6:9, 7] = f
-        L[..., 9:12, 7] = cross(V[..., 4, :], f)
-        f = (r1 + V[..., 5, :] - r3 - V[..., 14, :]) / self.L_drop[..., None]
-        L[..., 6:9, 8] = f
-        L[..., 9:12, 8] = cross(V[..., 5, :], f)
-        L[..., 18:21, 8] = -f
-        L[..., 21:24, 8] = -cross(V[..., 14, :], f)
-        return L
+    def _multiplier_columns(
+        self,
+        st: AxleState,
+        pad: np.ndarray,
+        ext: np.ndarray | None,
+        rack: np.ndarray | None,
+        J: np.ndarray,
+    ) -> None:
+        """The multiplier columns of ``J`` (n, 66, 66) by forward differences of 1 N
+        (N*m for the joint's moments ``lam[3:5]``), all in one residual call, as the
+        compiled sweep takes them. The residual is linear in the multipliers, so the
+        differences are exact up to the round-off of the kN-sized load sums (about
+        1e-11); a multiplier enters its own side's rows only, so both sides' are moved
+        at once, but for the tie rods of a compliant steering system, which move the
+        rack and so enter both sides' rows: those one side at a time."""
+        coupled = bool(np.any(self.C_rack > 0))
+        cols: list[tuple[int, int | None]] = [(k, None) for k in range(NL) if k != 7 or not coupled]
+        cols += [(7, s) for s in (0, 1)] if coupled else []
+        base = self.residual(st.r, st.R, st.lam, pad, st, ext, rack=rack)
+        per = max(1, min(JACOBIAN_BLOCK // max(self.n, 1), JACOBIAN_PERTURBATIONS))
+        for a in range(0, len(cols), per):  # in blocks, as the body columns (memory)
+            block = cols[a : a + per]
+            lam = np.repeat(st.lam[None], len(block), axis=0)
+            for p, (k, side) in enumerate(block):
+                lam[p, :, slice(None) if side is None else side, k] += 1.0
+            r, R = (np.broadcast_to(q, lam.shape[:1] + q.shape) for q in (st.r, st.R))
+            d = self.residual(r, R, lam, pad, st, ext, rack=rack) - base
+            for p, (k, side) in enumerate(block):
+                if side is None:
+                    for s in (0, 1):
+                        J[:, s * NS : (s + 1) * NS, s * NS + NQ + k] = d[p, :, s]
+                else:
+                    J[:, :, side * NS + NQ + k] = d[p].reshape(self.n, 2 * NS)
 
     # ------------------------------------------------------------------ update
     @staticmethod
@@ -1073,19 +1039,10 @@ class AxleSolver:
                 # the others' steps are NaN (not taken, not converged)
                 idx = np.flatnonzero(need)
                 res = np.full((n, 2 * NS), np.nan)
-                res[idx] = (
-                    self.take(idx, axle=False)
-                    .residual(
-                        st.r[idx],
-                        st.R[idx],
-                        st.lam[idx],
-                        pad[idx],
-                        st.take(idx),
-                        None if ext is None else ext[idx],
-                        rack=None if rack is None else rack[idx],
-                    )
-                    .reshape(idx.size, 2 * NS)
-                )
+                sub, st_i, pad_i, ext_i, rack_i = self._rows(idx, st, pad, ext, rack)
+                res[idx] = sub.residual(
+                    st_i.r, st_i.R, st_i.lam, pad_i, st_i, ext_i, rack=rack_i
+                ).reshape(idx.size, 2 * NS)
             else:
                 res = self.residual(st.r, st.R, st.lam, pad, st, ext, rack=rack).reshape(n, 2 * NS)
             dx = _inv_mul(Jinv, res)  # a new array: negated in place (memory)
@@ -1100,12 +1057,8 @@ class AxleSolver:
             slow = todo & (size > 0.5 * prev)
             refresh = slow & ~fresh
             if refresh.any():  # refresh these rows' Jacobians (in place), recompute steps
-                fresh_inv = self.take(refresh, axle=False).inverse_jacobian(
-                    st.take(refresh),
-                    pad[refresh],
-                    None if ext is None else ext[refresh],
-                    rack=None if rack is None else rack[refresh],
-                )
+                sub, st_i, pad_i, ext_i, rack_i = self._rows(refresh, st, pad, ext, rack)
+                fresh_inv = sub.inverse_jacobian(st_i, pad_i, ext_i, rack=rack_i)
                 if isinstance(Jinv, SharedInverse):
                     Jinv.set(refresh, fresh_inv)
                 else:
@@ -1136,6 +1089,23 @@ class AxleSolver:
                 break
         self.stats["solves"] += 1
         return st, conv & active, Jinv
+
+    def _rows(
+        self,
+        rows: np.ndarray,
+        st: AxleState,
+        pad: np.ndarray,
+        ext: np.ndarray | None,
+        rack: np.ndarray | None,
+    ) -> tuple[AxleSolver, AxleState, np.ndarray, np.ndarray | None, np.ndarray | None]:
+        """The solver, state and inputs of the given rows (index array or mask)."""
+        return (
+            self.take(rows, axle=False),
+            st.take(rows),
+            pad[rows],
+            None if ext is None else ext[rows],
+            None if rack is None else rack[rows],
+        )
 
     def inverse_jacobian(self, st, pad, ext=None, active=None, rack=None) -> np.ndarray:
         """Inverse (n, 66, 66) of :meth:`jacobian`; singular rows (lock-up) become NaN."""
@@ -1222,12 +1192,7 @@ class AxleSolver:
             for k, name in enumerate(names):
                 out.hyst[name] = (defl[name].copy(), z[..., k, :].copy())
         if st.fric is not None:
-            kn_S = st.r[..., 1, :] + rotate(st.R[..., 1, :, :], self.kn_pts[..., 4, :])
-            ak = rotate(st.R[..., 1, :, :], self.a)
-            slide = dot(st.r[..., 2, :] - kn_S, ak)
-            f_c, sigma = self._friction()
-            zf = dahl_step(st.fric[0], slide, sigma, f_c, st.fric[1], DAHL_EPS_TRANSLATION)
-            out.fric = (slide, zf)
+            out.fric = self._strut_friction(st.r, st.R, st.fric)
         return out
 
     # ----------------------------------------------------------------- outputs
@@ -1445,15 +1410,6 @@ def _repeated(v: np.ndarray, k: int) -> np.ndarray:
         return np.broadcast_to(v, (k,) + v.shape)
     out = np.ndarray((k,) + v.shape, v.dtype, v, 0, (0,) + v.strides)  # quicker to make
     out.flags.writeable = False
-    return out
-
-
-def _skew(v: np.ndarray) -> np.ndarray:
-    """Cross-product matrices (..., 3, 3) of ``v`` (..., 3): ``_skew(v) @ w = v x w``."""
-    out = np.zeros(v.shape + (3,))
-    out[..., 0, 1], out[..., 0, 2] = -v[..., 2], v[..., 1]
-    out[..., 1, 0], out[..., 1, 2] = v[..., 2], -v[..., 0]
-    out[..., 2, 0], out[..., 2, 1] = -v[..., 1], v[..., 0]
     return out
 
 

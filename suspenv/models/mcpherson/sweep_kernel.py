@@ -15,10 +15,10 @@ of its own; steps damped when even fresh-Jacobian steps stop shrinking. The
 equations, tolerances and rules are those of :meth:`AxleSolver.solve
 <suspenv.models.mcpherson.solver.AxleSolver.solve>` (residual rows:
 :func:`.residual_kernel._residual_row`; body columns of the Jacobian:
-:func:`.residual_kernel._row_jacobian`); the differences from the numpy path: the
-multiplier columns by forward differences of 1 N (the residual is linear in them but
-for a compliant rack's tie rods, which the numpy path differences too; both sides'
-together where no compliant rack couples them), the Jacobian inverted by its two
+:func:`.residual_kernel._row_jacobian`; the multiplier columns by forward
+differences of 1 N, both sides' together where no compliant rack couples them, as
+:meth:`AxleSolver.jacobian`); the differences from the numpy path: the Jacobian
+inverted by its two
 sides' blocks and their Schur complement, each by Gauss-Jordan elimination (not
 LAPACK), and held in single precision as the
 numpy path's shared inverses (also the static one, which the numpy path holds in
