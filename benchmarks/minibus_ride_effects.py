@@ -5,9 +5,10 @@ Effect sets (``SCENARIOS``; magnitudes inside the ride diagnosis' ranges,
 :func:`benchmarks.ride_truth.draw_truth_effect`): none; rear-leaf interleaf
 friction (Dahl, ``f_c`` 400 N over 5 mm and 900 N over 2.5 mm of pre-sliding travel);
 bump stops front and rear (15 mm from rest, 300 kN/m); leaf friction (600 N, 3.5 mm)
-with the stops. Designs spanning the box: its centre, the all-low and all-high corners,
-the two alternating corners, the study's pick and two random designs; both load cases,
-both measuring points.
+alone and with the stops (the friction alone tells the two closures' shares of the
+combined set's deviations apart). Designs spanning the box: its centre, the all-low and
+all-high corners, the two alternating corners, the study's pick and two random designs;
+both load cases, both measuring points.
 
 For each: the spectral value (:func:`suspenv.metrics.ride.ride_spectral` with the
 effects, no seed) against the nonlinear model's mean square over ``--pairs`` antithetic
@@ -33,8 +34,9 @@ and 500.
 
 ``--reuse-references``: the long runs' values (and the damper attribution, which only
 long runs change) are taken from the stored ``minibus_ride_effects.json`` (its pairs)
-instead of being run again (about 1 % of the time): for re-measuring the spectral
-side after a change to the method; the summary names the file and its commit.
+instead of being run again (about 1 % of the time; an effect set the file lacks is run):
+for re-measuring the spectral side after a change to the method; the summary names the
+file and its commit.
 
 The study with leaf friction (unless ``--quick``): ``suspenv run
 experiments/minibus_nsga2.toml`` (30,000 evaluations, 2 workers) with ``ride_effects``
@@ -107,6 +109,8 @@ def _dahl(f_c: float, travel: float) -> Effect:
     return make_effect("dahl_hysteresis", location="rear_leaf", f_c=f_c, sigma=f_c / travel)
 
 
+#: the leaf friction of the combined set, also on its own
+FRICTION_600N = _dahl(600.0, 3.5e-3)
 STOPS = [
     make_effect("bump_stop", location="front_suspension", gap=0.015, k_stop=3e5),
     make_effect("bump_stop", location="rear_suspension", gap=0.015, k_stop=3e5),
@@ -115,8 +119,9 @@ SCENARIOS: dict[str, list[Effect]] = {
     "none": [],
     "leaf_friction_400N": [_dahl(400.0, 5e-3)],
     "leaf_friction_900N": [_dahl(900.0, 2.5e-3)],
+    "leaf_friction_600N": [FRICTION_600N],
     "bump_stops": STOPS,
-    "leaf_friction_and_stops": [_dahl(600.0, 3.5e-3), *STOPS],
+    "leaf_friction_and_stops": [FRICTION_600N, *STOPS],
 }
 
 
@@ -211,11 +216,12 @@ def long_runs(
 def stored_runs(
     stored: dict, names: list[str]
 ) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
-    """Per effect set, :func:`long_runs`' three arrays (2 ends, designs x load cases) from
-    a stored result of this benchmark (``stored``: its JSON)."""
+    """Per effect set the stored result holds, :func:`long_runs`' three arrays (2 ends,
+    designs x load cases) from a stored result of this benchmark (``stored``: its JSON);
+    a set it holds must have every cell."""
     by_key = {(r["effects"], r["design"], r["load_case"], r["end"]): r for r in stored["rows"]}
     out = {}
-    for scen in SCENARIOS:
+    for scen in dict.fromkeys(r["effects"] for r in stored["rows"] if r["effects"] in SCENARIOS):
         arrays = np.empty((3, 2, len(names) * len(LOAD_CASES)))
         for j, end in enumerate(("front", "rear")):
             for i in range(arrays.shape[2]):

@@ -54,3 +54,12 @@ def test_stored_runs_refuse_a_missing_cell():
     stored["rows"] = stored["rows"][1:]
     with pytest.raises(ValueError, match="every cell"):
         bench.stored_runs(stored, ["a", "b"])
+
+
+def test_stored_runs_leave_out_a_set_the_file_lacks():
+    """A set without stored rows (added after the file was written) is left to be run."""
+    names = ["a", "b"]
+    stored = _stored(names)
+    stored["rows"] = [r for r in stored["rows"] if r["effects"] != "leaf_friction_600N"]
+    kept = [s for s in bench.SCENARIOS if s != "leaf_friction_600N"]
+    assert list(bench.stored_runs(stored, names)) == kept
