@@ -27,16 +27,20 @@ slopes equal to the low-speed ones; symmetric and linear), spectral values again
 the same long runs, per end and load case; and the linearised model (every element
 linear: static leaf rate, mean low-speed damping, no lift-off) by both methods.
 
+How far the leaf friction's Dahl force is from Wen's Gaussian closure
+(``friction_moments``, one pair of long runs with the 600 N friction alone): its
+kurtosis and its mean-square-optimal linear coefficients against Wen's.
+
 Speed, CPU ms per candidate (both load cases), in the same run: the spectral method with
 leaf friction, the plain spectral method (the baseline without effects) and the 10 s
 time-domain run with the friction (the method the effects needed before), at batch 1
 and 500.
 
-``--reuse-references``: the long runs' values (and the damper attribution, which only
-long runs change) are taken from the stored ``minibus_ride_effects.json`` (its pairs)
-instead of being run again (about 1 % of the time; an effect set the file lacks is run):
-for re-measuring the spectral side after a change to the method; the summary names the
-file and its commit.
+``--reuse-references``: the long runs' values (and the damper attribution and the
+friction's moments, which only long runs change) are taken from the stored
+``minibus_ride_effects.json`` (its pairs) instead of being run again (about 1 % of the
+time; an effect set or the moments the file lacks are run): for re-measuring the
+spectral side after a change to the method; the summary names the file and its commit.
 
 The study with leaf friction (unless ``--quick``): ``suspenv run
 experiments/minibus_nsga2.toml`` (30,000 evaluations, 2 workers) with ``ride_effects``
@@ -266,6 +270,32 @@ def damper_attribution(X: np.ndarray, pairs: int) -> dict[str, dict[str, object]
     return out
 
 
+def dahl_moments(v: np.ndarray, z: np.ndarray) -> tuple[float, float, float]:
+    """z's kurtosis (3 if Gaussian) and the mean-square-optimal coefficients ``(a, b)`` of
+    ``|v| z`` on ``(v, z)`` over Wen's Gaussian ones at the same moments, ``sqrt(2/pi)
+    E[v z]/s_v`` and ``sqrt(2/pi) s_v`` (:func:`suspenv.models.minibus.linearisation.
+    dahl_rates`; both ratios 1 for zero-mean jointly Gaussian v, z by Stein's lemma), from
+    samples of a leaf's deflection rate v (m/s) and Dahl force z (N)."""
+    g, c, s_v = np.abs(v) * z, np.sqrt(2.0 / np.pi), np.sqrt(np.mean(v * v))
+    a, b = np.linalg.solve([[v @ v, v @ z], [v @ z, z @ z]], [g @ v, g @ z])
+    kurtosis = np.mean(z**4) / np.mean(z**2) ** 2
+    return float(kurtosis), float(a / (c * np.mean(v * z) / s_v)), float(b / (c * s_v))
+
+
+def friction_moments(X: np.ndarray, pairs: int = 1) -> dict[str, list[float]]:
+    """Ranges of :func:`dahl_moments` of the left leaf over the designs, load cases and
+    records of ``pairs`` antithetic pairs of long runs with ``FRICTION_600N`` alone."""
+    model = RideModel(stacked_vehicle_parameters(X, LOAD_CASES), effects=[FRICTION_600N])
+    nq, values = model.nq, []
+    for _, _, rec in records(model, pairs, REFERENCE_MINIBUS, record_states=True):
+        assert rec.states is not None  # record_states=True
+        v = np.einsum("q,nqt->nt", model.Pt[2], rec.states[:, nq : 2 * nq])
+        values += [dahl_moments(vi, zi) for vi, zi in zip(v, rec.states[:, 2 * nq], strict=True)]
+    lo, hi = np.min(values, axis=0), np.max(values, axis=0)
+    names = ("z_kurtosis", "a_over_wen", "b_over_wen")
+    return {k: [float(lo[i]), float(hi[i])] for i, k in enumerate(names)}
+
+
 def _cpu_ms(fn: Callable[[np.ndarray], object], X: np.ndarray, repeat: int) -> float:
     """Best CPU time (ms) per row of ``X`` of ``fn(X)`` over ``repeat`` calls."""
     best = float("inf")
@@ -388,8 +418,11 @@ def main(argv: list[str] | None = None) -> int:
     summary["time_se_independent_records_max_percent"] = max(indep)
     if stored is None:
         summary["damper_attribution"] = damper_attribution(X, pairs)
+        summary["friction_moments"] = friction_moments(X)
     else:
         summary["damper_attribution"] = stored["summary"]["damper_attribution"]
+        moments = stored["summary"].get("friction_moments")
+        summary["friction_moments"] = moments or friction_moments(X)
         summary["references_stored"] = str(stored_path)
         summary["references_commit"] = stored["machine"]["packages"].get("suspenv_commit")
     summary.update(speed(args.quick))
