@@ -5,9 +5,10 @@ Effect sets (``SCENARIOS``; magnitudes inside the ride diagnosis' ranges,
 :func:`benchmarks.ride_truth.draw_truth_effect`): none; rear-leaf interleaf
 friction (Dahl, ``f_c`` 400 N over 5 mm and 900 N over 2.5 mm of pre-sliding travel);
 bump stops front and rear (15 mm from rest, 300 kN/m); leaf friction (600 N, 3.5 mm)
-with the stops. Designs spanning the box: its centre, the all-low and all-high corners,
-the two alternating corners, the study's pick and two random designs; both load cases,
-both measuring points.
+alone and with the stops (the friction alone tells the two closures' shares of the
+combined set's deviations apart). Designs spanning the box: its centre, the all-low and
+all-high corners, the two alternating corners, the study's pick and two random designs;
+both load cases, both measuring points.
 
 For each: the spectral value (:func:`suspenv.metrics.ride.ride_spectral` with the
 effects, no seed) against the nonlinear model's mean square over ``--pairs`` antithetic
@@ -26,15 +27,20 @@ slopes equal to the low-speed ones; symmetric and linear), spectral values again
 the same long runs, per end and load case; and the linearised model (every element
 linear: static leaf rate, mean low-speed damping, no lift-off) by both methods.
 
+How far the leaf friction's Dahl force is from Wen's Gaussian closure
+(``friction_moments``, one pair of long runs with the 600 N friction alone): its
+kurtosis and its mean-square-optimal linear coefficients against Wen's.
+
 Speed, CPU ms per candidate (both load cases), in the same run: the spectral method with
 leaf friction, the plain spectral method (the baseline without effects) and the 10 s
 time-domain run with the friction (the method the effects needed before), at batch 1
 and 500.
 
-``--reuse-references``: the long runs' values (and the damper attribution, which only
-long runs change) are taken from the stored ``minibus_ride_effects.json`` (its pairs)
-instead of being run again (about 1 % of the time): for re-measuring the spectral
-side after a change to the method; the summary names the file and its commit.
+``--reuse-references``: the long runs' values (and the damper attribution and the
+friction's moments, which only long runs change) are taken from the stored
+``minibus_ride_effects.json`` (its pairs) instead of being run again (about 1 % of the
+time; an effect set or the moments the file lacks are run): for re-measuring the
+spectral side after a change to the method; the summary names the file and its commit.
 
 The study with leaf friction (unless ``--quick``): ``suspenv run
 experiments/minibus_nsga2.toml`` (30,000 evaluations, 2 workers) with ``ride_effects``
@@ -107,6 +113,8 @@ def _dahl(f_c: float, travel: float) -> Effect:
     return make_effect("dahl_hysteresis", location="rear_leaf", f_c=f_c, sigma=f_c / travel)
 
 
+#: the leaf friction of the combined set, also on its own
+FRICTION_600N = _dahl(600.0, 3.5e-3)
 STOPS = [
     make_effect("bump_stop", location="front_suspension", gap=0.015, k_stop=3e5),
     make_effect("bump_stop", location="rear_suspension", gap=0.015, k_stop=3e5),
@@ -115,8 +123,9 @@ SCENARIOS: dict[str, list[Effect]] = {
     "none": [],
     "leaf_friction_400N": [_dahl(400.0, 5e-3)],
     "leaf_friction_900N": [_dahl(900.0, 2.5e-3)],
+    "leaf_friction_600N": [FRICTION_600N],
     "bump_stops": STOPS,
-    "leaf_friction_and_stops": [_dahl(600.0, 3.5e-3), *STOPS],
+    "leaf_friction_and_stops": [FRICTION_600N, *STOPS],
 }
 
 
@@ -211,11 +220,12 @@ def long_runs(
 def stored_runs(
     stored: dict, names: list[str]
 ) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
-    """Per effect set, :func:`long_runs`' three arrays (2 ends, designs x load cases) from
-    a stored result of this benchmark (``stored``: its JSON)."""
+    """Per effect set the stored result holds, :func:`long_runs`' three arrays (2 ends,
+    designs x load cases) from a stored result of this benchmark (``stored``: its JSON);
+    a set it holds must have every cell."""
     by_key = {(r["effects"], r["design"], r["load_case"], r["end"]): r for r in stored["rows"]}
     out = {}
-    for scen in SCENARIOS:
+    for scen in dict.fromkeys(r["effects"] for r in stored["rows"] if r["effects"] in SCENARIOS):
         arrays = np.empty((3, 2, len(names) * len(LOAD_CASES)))
         for j, end in enumerate(("front", "rear")):
             for i in range(arrays.shape[2]):
@@ -258,6 +268,32 @@ def damper_attribution(X: np.ndarray, pairs: int) -> dict[str, dict[str, object]
         within = int((np.abs(err) <= TARGET_PERCENT).sum())
         out[name] = {"error_range_percent": ranges, "within_target": f"{within}/{err.size}"}
     return out
+
+
+def dahl_moments(v: np.ndarray, z: np.ndarray) -> tuple[float, float, float]:
+    """z's kurtosis (3 if Gaussian) and the mean-square-optimal coefficients ``(a, b)`` of
+    ``|v| z`` on ``(v, z)`` over Wen's Gaussian ones at the same moments, ``sqrt(2/pi)
+    E[v z]/s_v`` and ``sqrt(2/pi) s_v`` (:func:`suspenv.models.minibus.linearisation.
+    dahl_rates`; both ratios 1 for zero-mean jointly Gaussian v, z by Stein's lemma), from
+    samples of a leaf's deflection rate v (m/s) and Dahl force z (N)."""
+    g, c, s_v = np.abs(v) * z, np.sqrt(2.0 / np.pi), np.sqrt(np.mean(v * v))
+    a, b = np.linalg.solve([[v @ v, v @ z], [v @ z, z @ z]], [g @ v, g @ z])
+    kurtosis = np.mean(z**4) / np.mean(z**2) ** 2
+    return float(kurtosis), float(a / (c * np.mean(v * z) / s_v)), float(b / (c * s_v))
+
+
+def friction_moments(X: np.ndarray, pairs: int = 1) -> dict[str, list[float]]:
+    """Ranges of :func:`dahl_moments` of the left leaf over the designs, load cases and
+    records of ``pairs`` antithetic pairs of long runs with ``FRICTION_600N`` alone."""
+    model = RideModel(stacked_vehicle_parameters(X, LOAD_CASES), effects=[FRICTION_600N])
+    nq, values = model.nq, []
+    for _, _, rec in records(model, pairs, REFERENCE_MINIBUS, record_states=True):
+        assert rec.states is not None  # record_states=True
+        v = np.einsum("q,nqt->nt", model.Pt[2], rec.states[:, nq : 2 * nq])
+        values += [dahl_moments(vi, zi) for vi, zi in zip(v, rec.states[:, 2 * nq], strict=True)]
+    lo, hi = np.min(values, axis=0), np.max(values, axis=0)
+    names = ("z_kurtosis", "a_over_wen", "b_over_wen")
+    return {k: [float(lo[i]), float(hi[i])] for i, k in enumerate(names)}
 
 
 def _cpu_ms(fn: Callable[[np.ndarray], object], X: np.ndarray, repeat: int) -> float:
@@ -382,8 +418,11 @@ def main(argv: list[str] | None = None) -> int:
     summary["time_se_independent_records_max_percent"] = max(indep)
     if stored is None:
         summary["damper_attribution"] = damper_attribution(X, pairs)
+        summary["friction_moments"] = friction_moments(X)
     else:
         summary["damper_attribution"] = stored["summary"]["damper_attribution"]
+        moments = stored["summary"].get("friction_moments")
+        summary["friction_moments"] = moments or friction_moments(X)
         summary["references_stored"] = str(stored_path)
         summary["references_commit"] = stored["machine"]["packages"].get("suspenv_commit")
     summary.update(speed(args.quick))
