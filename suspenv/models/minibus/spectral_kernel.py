@@ -32,9 +32,10 @@ from suspenv.core import compiled
 
 
 def eig(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Eigenvalues (..., m) and eigenvectors (..., m, m), complex, of the finite real
-    matrices ``A`` (..., m, m): the gufunc :func:`numpy.linalg.eig` calls (the same
-    numbers) without its checks and casts, ~10 us a call (a non-converged row: NaN)."""
+    """Eigenvalues (..., m) and eigenvectors (..., m, m), complex, of the real matrices
+    ``A`` (..., m, m): the gufunc :func:`numpy.linalg.eig` calls (the same numbers)
+    without its checks and casts, ~10 us a call. A non-finite or non-converged matrix
+    gives NaN (numpy raises for the whole stack): its design fails as non-finite."""
     return _umath_linalg.eig(A, signature="d->DD")
 
 
