@@ -60,7 +60,7 @@ from benchmarks.common import BatchTiming, wall_and_cpu, write_result
 from suspenv.core import compiled
 from suspenv.metrics.handling import slalom, slalom_linear
 from suspenv.metrics.ride import ride_objectives_all, ride_spectral
-from suspenv.models.minibus import handling_kernel
+from suspenv.models.minibus import handling_kernel, spectral_kernel
 from suspenv.models.minibus.handling_model import HandlingParams, handling_parameters, wheel_loads
 from suspenv.models.minibus.vehicle import LOAD_CASES
 from suspenv.problems.minibus import MinibusRideHandling
@@ -392,10 +392,10 @@ class _Part:
 
 def compiled_floor(problem: MinibusRideHandling, x: np.ndarray) -> dict[str, float]:
     """CPU ms of one evaluation of design ``x`` (1, 8) spent inside LAPACK
-    (``numpy.linalg`` eig, eigvals, solve) and the compiled loops, by kind: each call
-    recorded with its arguments during one evaluation, then timed alone (best of 5
-    blocks of 50). What a compiled pipeline around the same LAPACK calls would still
-    pay; the rest of the single call is Python and numpy call overhead."""
+    (``numpy.linalg`` eig, eigvals, solve; ``spectral_kernel.eig``) and the compiled
+    loops, by kind: each call recorded with its arguments during one evaluation, then
+    timed alone (best of 5 blocks of 50). What a compiled pipeline around the same
+    LAPACK calls would still pay; the rest of the single call is Python and numpy call overhead."""
     calls: list[tuple[str, Callable[..., Any], list[Any]]] = []
     lazy_call = compiled.Lazy.__call__
 
@@ -405,24 +405,26 @@ def compiled_floor(problem: MinibusRideHandling, x: np.ndarray) -> dict[str, flo
         )
         return lazy_call(self, *args)
 
-    saved = {k: getattr(np.linalg, k) for k in ("eig", "eigvals", "solve")}
+    saved = {(np.linalg, k): getattr(np.linalg, k) for k in ("eig", "eigvals", "solve")}
+    saved[(spectral_kernel, "eig")] = spectral_kernel.eig  # the same LAPACK gufunc
 
-    def lapack(name: str) -> Callable[..., Any]:
+    def lapack(owner: Any, name: str) -> Callable[..., Any]:
         def run(*args: Any) -> Any:
-            calls.append((f"numpy.linalg.{name}", saved[name], list(args)))
-            return saved[name](*args)
+            fn = saved[(owner, name)]
+            calls.append((f"{owner.__name__}.{name}", fn, list(args)))
+            return fn(*args)
 
         return run
 
     compiled.Lazy.__call__ = record  # type: ignore[method-assign]
-    for k in saved:
-        setattr(np.linalg, k, lapack(k))
+    for owner, k in saved:
+        setattr(owner, k, lapack(owner, k))
     try:
         problem.evaluate(x)
     finally:
         compiled.Lazy.__call__ = lazy_call  # type: ignore[method-assign]
-        for k, fn in saved.items():
-            setattr(np.linalg, k, fn)
+        for (owner, k), fn in saved.items():
+            setattr(owner, k, fn)
     out: dict[str, float] = {}
     for name, fn, args in calls:
         copies = [[a.copy() if isinstance(a, np.ndarray) else a for a in args] for _ in range(250)]

@@ -282,3 +282,21 @@ def test_seat_model_uses_the_full_model():
     for key in _KEYS:
         np.testing.assert_array_equal(a[key], b[key])
     assert np.all(a["aw_front"] != ride_spectral(X)["aw_front"])
+
+
+def test_take_rates_rule():
+    """The fixed point's update rule (``spectral_kernel.take_rates``, both paths): a
+    design takes its new rates where their largest relative change is >= tol, keeps
+    them where a change is NaN. Reference: the rule written in numpy here."""
+    from suspenv.models.minibus import spectral_kernel
+
+    rng = np.random.default_rng(5)
+    r = rng.uniform(1.0, 2.0, (6, 4))
+    new = r * (1.0 + rng.uniform(-1e-3, 1e-3, r.shape))
+    new[1], new[2, 3], r[3, 0] = r[1], np.nan, 0.0  # unchanged; NaN; relative to 1e-300
+    for tol in (0.0, 5e-4):
+        change = np.max(np.abs(new - r) / np.maximum(np.abs(r), 1e-300), axis=1)
+        expect = np.where((change >= tol)[:, None], new, r)
+        got = r.copy()
+        assert spectral_kernel.take_rates(new, got, tol) == np.sum(change >= tol)
+        np.testing.assert_array_equal(got, expect)

@@ -499,13 +499,12 @@ class _Halves:
     def modal(self, rates: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Poles (2n, 2d) and eigenvectors (2n, 2d, 2d) of the halves' first-order
         matrices at element rates (n, n_el) (the compiled
-        :func:`suspenv.models.minibus.spectral_kernel.halves_matrix`, then numpy's
-        eigen-decomposition), 2 n rows."""
+        :func:`suspenv.models.minibus.spectral_kernel.halves_matrix`, then
+        :func:`~suspenv.models.minibus.spectral_kernel.eig`), 2 n rows."""
         d = _SPLIT_D
         A = np.empty((self.B.shape[0], 2 * d, 2 * d))
         spectral_kernel.halves_matrix(self.A0, self.minv, self.D, rates, A)
-        lam, V = np.linalg.eig(A)
-        return np.ascontiguousarray(lam, dtype=complex), np.ascontiguousarray(V, dtype=complex)
+        return spectral_kernel.eig(A)
 
     def mean_square(
         self,
@@ -583,8 +582,8 @@ def _fixed_point(
     (n, n_rates; columns of :mod:`suspenv.models.minibus.linearisation`; updated in
     place): ``(rates, passes, modal form of the rates)``; ``modal(r)`` builds a modal
     form, ``update(m, r)`` takes the new rates of modal form ``m`` into ``r`` by the rule
-    of :func:`_rates_update` and returns how many designs took them; ``update=None``:
-    the plain linearised model (``r`` as given)."""
+    of :func:`suspenv.models.minibus.spectral_kernel.take_rates` and returns how many
+    designs took them; ``update=None``: the plain linearised model (``r`` as given)."""
     if update is None:
         return r, 0, modal(r)
     n_iter = 0
@@ -602,27 +601,6 @@ def _fixed_point(
     if m is None:
         m = modal(r)
     return r, n_iter, m
-
-
-def _rates_update(
-    lz: ElementLinearisation, sigma: Callable[[Any], np.ndarray], tol: float | None
-) -> Callable[[Any, np.ndarray], int]:
-    """``update(m, r)`` of :func:`_fixed_point`: the rates ``lz.rates`` gives at the
-    element RMS values ``sigma(m)`` of modal form ``m``, taken into ``r`` (in place) by
-    each design whose largest relative change ``|r_new - r| / max(|r|, 1e-300)`` is >=
-    ``tol`` (None: 0; NaN: the design keeps its rates); returns how many took them."""
-    tol_ = 0.0 if tol is None else tol
-
-    def update(m: Any, r: np.ndarray) -> int:
-        r_new = lz.rates(sigma(m), r)
-        change = np.max(np.abs(r_new - r) / np.maximum(np.abs(r), 1e-300), axis=1)
-        # per design: a converged design keeps its rates (so its numbers never depend
-        # on the other designs of the batch)
-        upd = change >= tol_
-        r[upd] = r_new[upd]
-        return int(np.count_nonzero(upd))
-
-    return update
 
 
 def _spectral_result(
@@ -678,8 +656,8 @@ def _spectral_split(
         r0, tol_ = lz.initial(init_damping), 0.0 if tol is None else tol
 
         def update(m: tuple[np.ndarray, np.ndarray], r: np.ndarray) -> int:
-            # _rates_update's rule, compiled: the RMS values of the FL and RL dampers
-            # and the left leaf (their right-hand twins equal), the rates at them
+            # the RMS values of the FL and RL dampers and the left leaf (their
+            # right-hand twins equal), the rates at them, taken by take_rates's rule
             return int(
                 spectral_kernel.split_update(
                     *m, halves.B, halves.co, w, dr, di, wt_i, *lz.packed, NEWTON_STEPS, tol_, r
@@ -811,10 +789,15 @@ def _spectral_modal(
             sq += [e[:, 6:8, 0], e[:, 4:6, 1], z]  # front springs, leaf rates, Dahl
         return np.sqrt(np.concatenate(sq, axis=1))
 
+    update: Callable[[Any, np.ndarray], int] | None = None
     if lz is None:
-        r0, update = np.hstack([lin.damper_mean, lin.leaf_static_rate]), None
+        r0 = np.hstack([lin.damper_mean, lin.leaf_static_rate])
     else:
-        r0, update = lz.initial(init_damping), _rates_update(lz, sigma, tol)
+        r0, tol_ = lz.initial(init_damping), 0.0 if tol is None else float(tol)
+
+        def update(m: list[tuple[np.ndarray, np.ndarray]], r: np.ndarray) -> int:
+            return int(spectral_kernel.take_rates(lz.rates(sigma(m), r), r, tol_))
+
     r, n_iter, m = _fixed_point(r0, update, modal, iterations, tol)
     ms = mean_square(m, [0, 1], road, n_freq, vehicle, True)
     if lz is not None and any(k is not None for end in lz.kappa for k in end):

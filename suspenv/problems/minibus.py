@@ -98,6 +98,7 @@ from suspenv.metrics.ride import (
     working_space,
 )
 from suspenv.models.effects.effect import Effect
+from suspenv.models.minibus import spectral_kernel
 from suspenv.models.minibus.handling_model import (
     HandlingParams,
     handling_parameters,
@@ -445,13 +446,13 @@ class MinibusRideHandling(Problem):
         # unstable or non-finite row: those of -I, the row fails)
         finite = np.isfinite(A).all(axis=(2, 3))
         A_ok = A if finite.all() else np.where(finite[..., None, None], A, -np.eye(4))
-        lam, V = np.linalg.eig(A_ok)
+        lam, V = spectral_kernel.eig(A_ok)
         stable = finite & (lam.real < 0).all(axis=-1)
         lin = slalom_linear(P, self.slalom_config, system=(A[0], B[0]), stable=stable[0])
         A1, modes, stable = A_ok[1], (lam[1], V[1]), stable[1]
         if not stable.all():
             A1 = np.where(stable[:, None, None], A1, -np.eye(4))
-            modes = np.linalg.eig(A1)
+            modes = spectral_kernel.eig(A1)
         st = yaw_response(A1, B[1], modes=modes)
         out = {
             "steering_wheel": np.degrees(lin.steering_wheel_amplitude),
@@ -543,8 +544,8 @@ class MinibusRideHandling(Problem):
             limits += [m[f"bump_stop_{lc}"] - self.bump_stop_limit for lc in LOAD_CASES]
             limits += [m[f"tyre_load_{lc}"] - self.tyre_load_limit for lc in LOAD_CASES]
         G = columns(limits)
-        flags = [m[f"{kind}_{lc}"] for kind in ("completed", "ride_ok") for lc in LOAD_CASES]
-        ok = np.logical_and.reduce(flags) & np.isfinite(F).all(axis=1)
+        flag_keys = [f"{kind}_{lc}" for kind in ("completed", "ride_ok") for lc in LOAD_CASES]
+        ok = np.logical_and.reduce([m[k] for k in flag_keys]) & np.isfinite(F).all(axis=1)
         messages = [""] * X.shape[0]
         for i in np.flatnonzero(~ok):  # a reason for each failed row
             reasons = []
@@ -562,11 +563,7 @@ class MinibusRideHandling(Problem):
             messages[i] = "; ".join(reasons) or "non-finite objective"
         F = np.where(ok[:, None], F, np.nan)
         G = np.where(ok[:, None], G, np.nan)
-        extras = {
-            k: np.asarray(v, dtype=float)
-            for k, v in m.items()
-            if not k.startswith(("completed", "ride_ok"))
-        }
+        extras = {k: v for k, v in m.items() if k not in flag_keys}  # float arrays
         return EvaluationBatch(F, G, ok, messages, extras)
 
     # -------------------------------------------------------------- report

@@ -271,17 +271,17 @@ def handling_parameters(
         h_rf, h_rr, muf, mur, radius, tf, tr, eps_f, c_ff,
     ) = np.repeat(np.array([_case_terms(vp, leaf) for vp in vps]).T, d.n, axis=1)  # fmt: skip
 
-    def tile(values: np.ndarray) -> np.ndarray:
-        """Per-design values, on the rows of every load case."""
-        return np.concatenate([values] * len(cases))
-
+    # the per-design values, on the rows of every load case
+    rates = [d.front_wheel_rate, d.front_roll_arb, d.rear_roll_arb, d.leaf_bush_radial]
+    wheel_rate, arb_f, arb_r, k3, c_front, c_rear = np.tile(
+        [*rates, d.front_damper_scale, d.rear_damper_scale], len(cases)
+    )
     # roll stiffness: springs + stabiliser, in series with the two tyres
     kt_f = spring_pair_roll_stiffness(vehicle.tyre_vertical_stiffness, vehicle.track_front)
     kt_r = spring_pair_roll_stiffness(vehicle.tyre_vertical_stiffness, vehicle.track_rear)
     rear_rate = np.concatenate([vp.rear_static_rate for vp in vps])
-    ks_f = tile(spring_pair_roll_stiffness(d.front_wheel_rate, vehicle.track_front))
-    ks_f = ks_f + tile(d.front_roll_arb)
-    ks_r = spring_pair_roll_stiffness(rear_rate, vehicle.leaf_spacing) + tile(d.rear_roll_arb)
+    ks_f = spring_pair_roll_stiffness(wheel_rate, vehicle.track_front) + arb_f
+    ks_r = spring_pair_roll_stiffness(rear_rate, vehicle.leaf_spacing) + arb_r
     kphi_f = ks_f * kt_f / (ks_f + kt_f)
     kphi_r = ks_r * kt_r / (ks_r + kt_r)
 
@@ -289,7 +289,6 @@ def handling_parameters(
     Ls = vehicle.leaf_length
     l1 = leaf.axle_from_front_eye
     l2 = Ls - l1
-    k3 = tile(d.leaf_bush_radial)
     eps_bush = rear_rate * (l1 / Ls) * np.tan(np.radians(leaf.shackle_angle_deg)) / k3
     c_force = (l2 / (2.0 * k3) - l1 / (2.0 * leaf.shackle_lateral_ratio * k3)) / Ls**2
     return HandlingParams(
@@ -311,8 +310,8 @@ def handling_parameters(
         track_rear=tr,
         kphi_front=kphi_f,
         kphi_rear=kphi_r,
-        damper_scale_front=tile(d.front_damper_scale),
-        damper_scale_rear=tile(d.rear_damper_scale),
+        damper_scale_front=c_front,
+        damper_scale_rear=c_rear,
         fz_front=w_front,
         fz_rear=w_rear,
         roll_steer_front=eps_f,

@@ -43,7 +43,7 @@ averaged over the contact length, see :mod:`suspenv.rigs.ride`).
 from __future__ import annotations
 
 import functools
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -282,10 +282,11 @@ class RideModel:
         v, ps, nq = self.vehicle, self.params, self.nq
         L = v.wheelbase
         counts = [p.n for p in ps]
-
-        def rows(get: Callable[[VehicleParams], np.ndarray]) -> np.ndarray:
-            """The per-design arrays ``get(p)`` of every block, stacked."""
-            return np.concatenate([get(p) for p in ps]) if len(ps) > 1 else get(ps[0])
+        # the per-design arrays of every block (DesignSI's fields in order), stacked
+        per = [[*vars(p.design).values(), p.rear_static_rate, p.rear_static_deflection] for p in ps]
+        primary, composite, _, _, front_rate, arb_f, arb_r, c_front, c_rear, static_rate, defl = (
+            np.concatenate(per, axis=1)
+        )
 
         # per block: inverse body mass matrix in (z_f, z_r) (KE of heave (b zf + a zr)/L
         # and pitch (zf - zr)/L) and roll, and the static tyre loads, on the block's rows
@@ -311,12 +312,10 @@ class RideModel:
             minv_diag[7:9] = 1.0 / self.seat.mass
         # position-type stiffnesses (N/m, N*m/rad), then velocity-type (N s/m)
         K = np.zeros((n, self.n_pos + self.n_vel))
-        K[:, 0] = K[:, 1] = rows(lambda p: p.design.front_wheel_rate)
-        primary = rows(lambda p: p.design.rear_primary_rate)
-        static_rate = rows(lambda p: p.rear_static_rate)
+        K[:, 0] = K[:, 1] = front_rate
         K[:, 2] = K[:, 3] = static_rate if self.linear else primary
-        K[:, 4] = rows(lambda p: p.design.front_roll_arb)
-        K[:, 5] = rows(lambda p: p.design.rear_roll_arb)
+        K[:, 4] = arb_f
+        K[:, 5] = arb_r
         K[:, 6:10] = v.tyre_vertical_stiffness
         nv0 = self.n_pos
         K[:, nv0 + 4 : nv0 + 8] = v.tyre_vertical_damping
@@ -326,14 +325,14 @@ class RideModel:
         # leaf knee relative to the static position
         leaf_static = np.empty((n, 2))
         leaf_static[:] = static_rate[:, None]
-        leaf_dk = rows(lambda p: p.design.rear_composite_rate) - primary
-        leaf_thr = v.helper_engagement - rows(lambda p: p.rear_static_deflection)
+        leaf_dk = composite - primary
+        leaf_thr = v.helper_engagement - defl
         # damper curves scaled per design (front cols 0,1; rear cols 2,3), (4, n)
         damper_mean = np.empty((n, 4))
         d_bl, d_bh, d_rl, d_rh = (np.empty((4, n)) for _ in range(4))
         for cols, curve, scale in (
-            (slice(0, 2), v.damper_front, rows(lambda p: p.design.front_damper_scale)),
-            (slice(2, 4), v.damper_rear, rows(lambda p: p.design.rear_damper_scale)),
+            (slice(0, 2), v.damper_front, c_front),
+            (slice(2, 4), v.damper_rear, c_rear),
         ):
             damper_mean[:, cols] = damper_mean_coefficient(curve) * scale[:, None]
             if self.linear:

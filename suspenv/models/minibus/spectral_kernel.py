@@ -16,8 +16,9 @@ these loops run the same arithmetic compiled:
   :meth:`suspenv.models.minibus.linearisation.ElementLinearisation.rates` for a
   model without rear end stops (``tests/test_ride_effects_spectral.py``: against the
   numpy form). The standard normal CDF as scipy's ``ndtr`` (cephes) forms it;
-- :func:`split_update`: one fixed-point update of the split path's rates, the two above
-  and the update rule fused.
+- :func:`take_rates`: the fixed point's update rule (which designs take new rates);
+- :func:`split_update`: one fixed-point update of the split path's rates, the three
+  above fused.
 """
 
 from __future__ import annotations
@@ -25,8 +26,17 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numpy.linalg import _umath_linalg
 
 from suspenv.core import compiled
+
+
+def eig(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Eigenvalues (..., m) and eigenvectors (..., m, m), complex, of the real matrices
+    ``A`` (..., m, m): the gufunc :func:`numpy.linalg.eig` calls (the same numbers)
+    without its checks and casts, ~10 us a call. A non-finite or non-converged matrix
+    gives NaN (numpy raises for the whole stack): its design fails as non-finite."""
+    return _umath_linalg.eig(A, signature="d->DD")
 
 
 def _mean_square(
@@ -300,9 +310,7 @@ def _split_update(
     rates. From the halves' modes: the mean squares of the FL damper, the RL damper and
     the left leaf (outputs 2-4 of :func:`_modal_mean_square`, displacement and velocity
     weights ``wt``; the right-hand twins equal them), their RMS values (``_SPLIT_SIGMA``)
-    and the rates at them (:func:`_damper_leaf_rates`); a design takes its new rates
-    where their largest relative change ``|r_new - r| / max(|r|, 1e-300)`` is >= ``tol``
-    (NaN: it keeps its rates), the rule of :func:`suspenv.metrics.ride._rates_update`."""
+    and the rates at them (:func:`_damper_leaf_rates`), taken by :func:`_take_rates`."""
     n = r.shape[0]
     ms = np.empty((n, 3, 2))
     _modal_mean_square(lam, V, B, co, 2, w, dr, di, wt, ms)
@@ -312,10 +320,18 @@ def _split_update(
             k = _SPLIT_SIGMA[j]
             sig[i, j] = math.sqrt(ms[i, k // 2, k % 2])
     _damper_leaf_rates(sig, damp, knee, leaf, passes, new)
+    return _take_rates(new, r, tol)
+
+
+def _take_rates(new: np.ndarray, r: np.ndarray, tol: float) -> int:
+    """The fixed point's update rule: each design (row) of the rates ``r`` (n, k) takes
+    its new rates ``new`` (n, k) where their largest relative change ``|new - r| /
+    max(|r|, 1e-300)`` is >= ``tol`` (NaN: it keeps its rates; so a design's numbers
+    never depend on the other designs of the batch); returns how many took them."""
     taken = 0
-    for i in range(n):
+    for i in range(r.shape[0]):
         change, finite = 0.0, True
-        for j in range(6):
+        for j in range(r.shape[1]):
             den = abs(r[i, j])
             c = abs(new[i, j] - r[i, j]) / (1e-300 if den < 1e-300 else den)
             if c != c:
@@ -324,23 +340,25 @@ def _split_update(
                 change = c
         if finite and change >= tol:
             taken += 1
-            for j in range(6):
+            for j in range(r.shape[1]):
                 r[i, j] = new[i, j]
     return taken
 
 
-#: :func:`_halves_matrix`, :func:`_modal_mean_square`, :func:`_damper_leaf_rates` and
-#: :func:`_split_update`, built ahead of time (:mod:`suspenv.core.compiled`)
+#: :func:`_halves_matrix`, :func:`_modal_mean_square`, :func:`_damper_leaf_rates`,
+#: :func:`_take_rates` and :func:`_split_update`, built ahead of time
+#: (:mod:`suspenv.core.compiled`)
 halves_matrix = compiled.Lazy(globals(), (), _halves_matrix)
 modal_mean_square = compiled.Lazy(
     globals(), ("_solve", "_modal_terms", "_mean_square"), _modal_mean_square
 )
 damper_leaf_rates = compiled.Lazy(globals(), ("_ndtr", "_excess", "_floor"), _damper_leaf_rates)
+take_rates = compiled.Lazy(globals(), (), _take_rates)
 split_update = compiled.Lazy(
     globals(),
     (
         "_solve", "_modal_terms", "_mean_square", "_modal_mean_square", "_ndtr", "_excess",
-        "_floor", "_damper_leaf_rates",
+        "_floor", "_damper_leaf_rates", "_take_rates",
     ),
     _split_update,
 )  # fmt: skip
