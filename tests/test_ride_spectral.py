@@ -300,3 +300,19 @@ def test_take_rates_rule():
         got = r.copy()
         assert spectral_kernel.take_rates(new, got, tol) == np.sum(change >= tol)
         np.testing.assert_array_equal(got, expect)
+
+
+def test_eig_equals_numpy_and_fails_only_the_non_finite_matrix():
+    """The ride's eig against :func:`numpy.linalg.eig` (the reference): equal numbers
+    for finite matrices; a matrix with a NaN entry gives NaN in its own rows only."""
+    from suspenv.models.minibus.spectral_kernel import eig
+
+    A = np.random.default_rng(3).normal(size=(3, 6, 6))
+    w, v = eig(A)
+    w_ref, v_ref = np.linalg.eig(A)
+    np.testing.assert_array_equal(w, w_ref)
+    np.testing.assert_array_equal(v, v_ref)
+    A[1, 2, 3] = np.nan
+    w, v = eig(A)
+    assert np.isnan(w[1]).all() and np.isnan(v[1]).all()
+    np.testing.assert_array_equal(w[[0, 2]], w_ref[[0, 2]])

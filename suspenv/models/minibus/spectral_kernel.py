@@ -26,17 +26,26 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numpy.linalg import _umath_linalg
 
 from suspenv.core import compiled
+
+try:  # the gufunc numpy.linalg.eig calls, reached without its per-call checks
+    from numpy.linalg import _umath_linalg
+except ImportError:  # pragma: no cover - a numpy that moved it: the public route
+    _umath_linalg = None
 
 
 def eig(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Eigenvalues (..., m) and eigenvectors (..., m, m), complex, of the real matrices
-    ``A`` (..., m, m): the gufunc :func:`numpy.linalg.eig` calls (the same numbers)
-    without its checks and casts, ~10 us a call. A non-finite or non-converged matrix
-    gives NaN (numpy raises for the whole stack): its design fails as non-finite."""
-    return _umath_linalg.eig(A, signature="d->DD")
+    ``A`` (..., m, m), the numbers of :func:`numpy.linalg.eig` without its checks and
+    casts (~10 us a call). A matrix with a non-finite entry gives NaN (numpy raises for
+    the whole stack), so that its design fails as non-finite."""
+    if _umath_linalg is not None and np.isfinite(A.sum()):
+        return _umath_linalg.eig(A, signature="d->DD")
+    bad = ~np.isfinite(A).all(axis=(-2, -1))
+    w, v = np.linalg.eig(np.where(bad[..., None, None], 0.0, A))
+    w[bad], v[bad] = np.nan, np.nan
+    return w, v
 
 
 def _mean_square(
