@@ -109,11 +109,14 @@ def _p_value(r2: float, remainder: np.ndarray, q: int = 1) -> float:
     return float(stats.chi2.sf(effective_n(remainder) * r2, max(q, 1)))
 
 
-def _per_segment(s: SignalSet, fn: Callable[[np.ndarray], np.ndarray]) -> np.ndarray:
-    """Apply a feature builder segment by segment (states restart) and stack."""
+def _per_segment(
+    s: SignalSet, fn: Callable[[np.ndarray, float], np.ndarray], par: float
+) -> np.ndarray:
+    """Apply a feature builder ``fn(segment indices, par)`` segment by segment (states
+    restart) and stack."""
     out = np.zeros(s.t.size)
     for idx in s.segments():
-        out[idx] = fn(idx)
+        out[idx] = fn(idx, par)
     return out
 
 
@@ -171,7 +174,7 @@ def detect_hysteresis(s: SignalSet, basis: np.ndarray | None) -> Signature:
     half = 0.5 * float(np.ptp(s.x)) or 1.0
     cands = []
     for frac in (0.03, 0.1, 0.3):
-        feat = _per_segment(s, lambda idx, d=frac * half: unit_dahl(s.x[idx], d))
+        feat = _per_segment(s, lambda idx, d: unit_dahl(s.x[idx], d), frac * half)
         cands.append((frac, feat))
     frac, r2, coef, fitted = _best_of(s, basis, cands)
     width = 2.0 * abs(coef[0]) * s.scale
@@ -346,7 +349,7 @@ def detect_viscoelastic(s: SignalSet, basis: np.ndarray | None) -> Signature:
     for wt in np.geomspace(0.01, 3.0, 8):
         tau = wt / w0
         feat = _per_segment(
-            s, lambda idx, tau=tau: first_order_lowpass(s.v[idx], s.t[idx], tau) / vmax
+            s, lambda idx, tau: first_order_lowpass(s.v[idx], s.t[idx], tau) / vmax, tau
         )
         cands.append((tau, feat))
     tau, r2, _, fitted = _best_of(s, basis, cands)
