@@ -99,6 +99,7 @@ from suspenv.diagnosis.protocols import DiagnosableModel, RecordingLike
 from suspenv.diagnosis.screening import Location, Signature
 from suspenv.diagnosis.split import Holdout, Recordings, Split, as_recordings
 from suspenv.diagnosis.unrecorded import unprofiled
+from suspenv.models.components import make_component
 from suspenv.models.components.base import ComponentModel
 from suspenv.models.effects import make_effect
 
@@ -238,15 +239,6 @@ def _segments(fit: FitResult, sp: Split) -> list[Segment]:
             )
         )
     return out
-
-
-def resolve_model(model: ComponentModel | str) -> ComponentModel:
-    """A component model instance, or a family name (``suspenv.models.components``)."""
-    if not isinstance(model, str):
-        return model
-    from suspenv.models.components import make_component
-
-    return make_component(model)
 
 
 def effect_location(model: DiagnosableModel, kind: str) -> str:
@@ -433,7 +425,7 @@ class ComponentFamily(OptionalSteps):
         reversed (the deflection's where the force is read through the body equation),
         and the convention found is said (:attr:`sign_words`)."""
         out = oriented(recs, rig)
-        m_s = float(rig.known.get("m_s", resolve_model(rig.family).options.get("m_s", 1.0)))
+        m_s = float(rig.known.get("m_s", make_component(rig.family).options.get("m_s", 1.0)))
         power = power_sign(out, m_s)
         self.sign_words = []
         if not np.isfinite(power) or {"positive_stroke", "positive_force"} & set(rig.declared):
