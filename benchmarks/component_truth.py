@@ -24,7 +24,6 @@ from typing import Any
 import numpy as np
 
 from suspenv.core.errors import ValidationError
-from suspenv.diagnosis.component.family import resolve_model
 from suspenv.diagnosis.component.rig import DRIFT, baseline_families, baseline_model, describe_rig
 from suspenv.diagnosis.hypothesis import family_of
 from suspenv.measurements import Recording, save_recording
@@ -197,7 +196,7 @@ def _draw_other(
 def truth_pool(family: str) -> list[str]:
     """Effect kinds concealed in ``family``'s cases: its candidates, less those its
     standard baseline already holds (a gas force is not missing physics)."""
-    model = resolve_model(family)
+    model = make_component(family)
     held = baseline_families(baseline_model(describe_rig(family, [])))
     return [
         k
@@ -212,7 +211,7 @@ def _baseline_truth(
     """The standard baseline's elements with random values: every case carries them (a
     gas damper's gas force, a zero offset, a slowly drifting zero) as real rigs do.
     Sensor elements are sized by the amplitude of the channel they sit on."""
-    model = resolve_model(family)
+    model = make_component(family)
     sim = model.simulate(model.theta_from(base), rec)
     t_end = float(rec.time[-1])
     out = []
@@ -408,7 +407,7 @@ def make_case(
         options = {**(options or {}), "m_s": cond["m_s"], "m_u": cond["m_u"]}
     salt = 7 if outside else n_effects
     rng = np.random.default_rng([seed, salt, sum(map(ord, family))])
-    model = make_component(family, **options) if options else resolve_model(family)
+    model = make_component(family, **(options or {}))
     rec = model.example_recording(
         seed=int(rng.integers(1 << 30)), **CASE_RECORDING_OPTIONS.get(family, {})
     )

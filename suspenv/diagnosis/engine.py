@@ -149,7 +149,8 @@ class Diagnosis:
         named = "; then ".join(h.words for h in self.named)
         if self.unexplained:
             # what a probe outside the library found (a pure time delay), in short
-            shapes = "; ".join(r.short() for r in self._records() if _remains_short(r))
+            left = [r for r in self._records() if getattr(r, "remains", False)]
+            shapes = "; ".join(r.short() for r in left if hasattr(r, "short"))
             if named:
                 return (
                     f"Missing physics (not confident): {named}; a residual above the noise "
@@ -232,11 +233,6 @@ class Diagnosis:
             "findings": {k: jsonable(v) for k, v in self.findings.items()},
             "seconds": self.seconds,
         }
-
-
-def _remains_short(record: Any) -> bool:
-    """True for a record of a residual left that says itself in short (``short()``)."""
-    return bool(getattr(record, "remains", False)) and hasattr(record, "short")
 
 
 def noise_levels(fam: DiagnosisFamily, fit: FitResult) -> dict[str, float] | None:

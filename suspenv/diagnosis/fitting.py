@@ -282,22 +282,24 @@ def parameter_covariance(jacobian: np.ndarray, s2: float) -> np.ndarray:
     return (inverse @ inverse.T) / np.outer(norms, norms) * s2
 
 
-def _result(
+def evaluate(
     model: DiagnosableModel[R, E],
     theta: np.ndarray,
     recs: Sequence[R],
     scales: Mapping[str, float],
-    masks: Masks | None,
-    jacobian: np.ndarray | None,
-    scaled_residual: np.ndarray | None,
+    masks: Masks | None = None,
+    jacobian: np.ndarray | None = None,
+    scaled_residual: np.ndarray | None = None,
     *,
-    success: bool,
-    message: str,
-    nfev: int,
-    seconds: float,
+    success: bool = True,
+    message: str = "evaluated",
+    nfev: int = 0,
+    seconds: float = 0.0,
 ) -> FitResult:
-    """The :class:`FitResult` of ``model`` at ``theta``; standard errors from
+    """A :class:`FitResult` of ``model`` at ``theta`` (no optimisation; :func:`fit`
+    gives its optimum here) on the channels of ``scales``; standard errors from
     ``jacobian`` (NaN without one) and the scaled residual (computed when not given)."""
+    theta, recs = np.asarray(theta, float), list(recs)
     channels = list(scales)
     parts = _unstacked(scaled_residual, recs, channels, scales, masks)
     if parts is None:
@@ -335,34 +337,6 @@ def _result(
         nfev=nfev,
         seconds=seconds,
         extra={"lag1_autocorrelation": rho, "jacobian": jacobian},
-    )
-
-
-def evaluate(
-    model: DiagnosableModel[R, E],
-    theta: np.ndarray,
-    recs: Sequence[R],
-    scales: Mapping[str, float],
-    masks: Masks | None = None,
-    jacobian: np.ndarray | None = None,
-    seconds: float = 0.0,
-    nfev: int = 0,
-    message: str = "evaluated",
-) -> FitResult:
-    """A :class:`FitResult` of ``model`` at ``theta`` (no optimisation) on the channels
-    of ``scales``; standard errors from ``jacobian`` where given (NaN otherwise)."""
-    return _result(
-        model,
-        np.asarray(theta, float),
-        list(recs),
-        scales,
-        masks,
-        jacobian,
-        None,
-        success=True,
-        message=message,
-        nfev=nfev,
-        seconds=seconds,
     )
 
 
@@ -541,7 +515,7 @@ def fit(
     ) * len(weights)
     pb = _Problem(model, recs, list(weights), weights, masks, n_res, lo, hi)
     if not model.parameter_names:
-        return _result(
+        return evaluate(
             model,
             x0,
             recs,
@@ -572,7 +546,7 @@ def fit(
         # the twin's sensitivities are close enough to steer the fit, not to report:
         # standard errors (and the residual basis of the signatures) use the model's own
         J = pb.jac(theta, model)
-    return _result(
+    return evaluate(
         model,
         theta,
         recs,

@@ -68,6 +68,13 @@ def split_candidate(candidate: str) -> tuple[str, str]:
     return kind, location
 
 
+def element_params(refit: FitResult) -> dict[str, dict[str, float]]:
+    """The fitted parameters of the element ``refit`` added (named
+    ``refit.extra["effect"]["name"]``)."""
+    prefix = str(refit.extra["effect"]["name"]) + "."
+    return {k: v for k, v in refit.params().items() if k.startswith(prefix)}
+
+
 @dataclass
 class Hypothesis:
     """One candidate missing effect with its evidence (JSON-friendly via ``to_dict``).
@@ -85,6 +92,7 @@ class Hypothesis:
             raw and corrected for serial correlation.
         delta_bic_corrected: BIC change from the corrected statistic (negative: better).
         heldout_reduction: relative drop of the held-out RMS error (0.1 = 10 % lower).
+            The evidence fields default to a refit that gained nothing.
         params: the element's own fitted parameters ``{name: {value, stderr, ...}}``.
         significant: set by :func:`suspenv.diagnosis.decision.decide`.
         withdrawn: why a named hypothesis was withdrawn after the search, by a family's
@@ -99,12 +107,12 @@ class Hypothesis:
     round: int
     signature_score: float
     signature_evidence: str
-    lr_statistic: float
-    lr_statistic_corrected: float
-    lr_dof: int
-    p_value_corrected: float
-    delta_bic_corrected: float
-    heldout_reduction: float
+    lr_statistic: float = 0.0
+    lr_statistic_corrected: float = 0.0
+    lr_dof: int = 0
+    p_value_corrected: float = 1.0
+    delta_bic_corrected: float = float("inf")
+    heldout_reduction: float = 0.0
     params: dict[str, dict[str, float]] = field(default_factory=dict)
     significant: bool = False
     withdrawn: str = ""
@@ -131,7 +139,6 @@ class Hypothesis:
     ) -> Hypothesis:
         """The hypothesis of a refit ``refit`` (``parent`` plus the element), whose
         element is named ``refit.extra["effect"]["name"]``."""
-        prefix = str(refit.extra["effect"]["name"]) + "."
         lr = comparison.lr
         return cls(
             kind=kind,
@@ -149,7 +156,7 @@ class Hypothesis:
                 lr.statistic_corrected, lr.dof, parent.n_samples
             ),
             heldout_reduction=comparison.heldout_reduction,
-            params={k: v for k, v in refit.params().items() if k.startswith(prefix)},
+            params=element_params(refit),
             fit=refit,
             comparison=comparison,
         )
@@ -164,7 +171,8 @@ class Hypothesis:
         reason: str,
         signature_score: float = float("nan"),
     ) -> Hypothesis:
-        """A candidate whose refit could not be computed (never significant)."""
+        """A candidate whose refit could not be computed (never significant: the
+        evidence fields keep their defaults, no likelihood gained)."""
         return cls(
             kind=kind,
             location=location,
@@ -173,20 +181,11 @@ class Hypothesis:
             round=round_,
             signature_score=float(signature_score),
             signature_evidence=f"refit failed: {reason}",
-            lr_statistic=0.0,
-            lr_statistic_corrected=0.0,
-            lr_dof=0,
-            p_value_corrected=1.0,
-            delta_bic_corrected=float("inf"),
-            heldout_reduction=0.0,
         )
 
     def own_params(self) -> dict[str, dict[str, float]]:
         """The element's own parameters of the current ``fit`` (after a settle)."""
-        if self.fit is None:
-            return dict(self.params)
-        prefix = str(self.fit.extra["effect"]["name"]) + "."
-        return {k: v for k, v in self.fit.params().items() if k.startswith(prefix)}
+        return dict(self.params) if self.fit is None else element_params(self.fit)
 
     def to_dict(self) -> dict[str, Any]:
         out = {k: v for k, v in self.__dict__.items() if k not in ("fit", "comparison")}

@@ -369,9 +369,10 @@ class RoadFamily(OptionalSteps):
     def prepare(self, recordings: Recordings, holdout: Holdout, candidates: Any) -> Setup:
         profiles = [_as_profile(r) for r in as_recordings(recordings)]
         if holdout is None and len(profiles) == 1:
-            first, second = _halves(profiles[0])
-            fit, held = [first], [second]
-            words = f"fit on the first half of {profiles[0].name}, held out its second half"
+            one, k = profiles[0], profiles[0].n_samples // 2
+            fit = [one.select(slice(0, k), f"{one.name}:first_half")]
+            held = [one.select(slice(k, None), f"{one.name}:second_half")]
+            words = f"fit on the first half of {one.name}, held out its second half"
         else:
             fit, held = profiles, [_as_profile(r) for r in heldout_recordings(holdout)]
             words = ""
@@ -537,14 +538,6 @@ def _as_profile(rec: RecordingLike) -> Recording:
     if not isinstance(rec, Recording):
         raise ValidationError(f"a road profile must be a Recording, but got {type(rec).__name__}")
     return rec
-
-
-def _halves(rec: Recording) -> tuple[Recording, Recording]:
-    k = rec.n_samples // 2
-    return (
-        rec.select(slice(0, k), f"{rec.name}:first_half"),
-        rec.select(slice(k, None), f"{rec.name}:second_half"),
-    )
 
 
 # ------------------------------------------------------------------ diagnosis

@@ -7,7 +7,8 @@
   share).
 * :class:`Signature`: a screening score of a signature family or a candidate, with its
   p-value, evidence in words and numbers in the channel's units.
-* :func:`effective_n`: the effective sample size of a serially correlated residual.
+* :func:`effective_n`: the effective sample size of a serially correlated residual;
+  :func:`orthonormal_basis`: the span of a baseline Jacobian a screen projects off.
 """
 
 from __future__ import annotations
@@ -100,3 +101,13 @@ def effective_n(r: np.ndarray) -> float:
     rho = float(np.dot(r[1:], r[:-1]) / den) if den > 0 and r.size > 2 else 0.0
     rho = float(np.clip(rho, 0.0, 0.999))
     return max(r.size * (1.0 - rho) / (1.0 + rho), 2.0)
+
+
+def orthonormal_basis(J: np.ndarray | None) -> np.ndarray | None:
+    """Orthonormal columns spanning the columns of the Jacobian ``J`` (n, p) (singular
+    values above 1e-8 of the largest), or None for no Jacobian."""
+    if J is None or J.size == 0:
+        return None
+    U, s, _ = np.linalg.svd(J, full_matrices=False)
+    keep = s > s[0] * 1e-8 if s.size else np.zeros(0, bool)
+    return U[:, keep]

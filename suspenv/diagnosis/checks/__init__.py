@@ -28,8 +28,6 @@ withdraws elements. During the search, :func:`refuse` runs a family's refit chec
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-
 from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.checks import (
     assumptions,
@@ -57,11 +55,11 @@ def _checks() -> tuple[Check, ...]:
     )
 
 
-def run(ctx: Context, checks: Sequence[Check] | None = None) -> None:
-    """Run ``checks`` (default: the look-alikes, the family's own, then this package's
-    others) on ``ctx`` in order; a check with nothing to say returns None."""
+def run(ctx: Context) -> None:
+    """Run the look-alikes, the family's own checks, then this package's others on
+    ``ctx`` in order; a check with nothing to say returns None."""
     own = getattr(ctx.family, "checks", tuple)
-    for check in checks if checks is not None else [separability.run, *own(), *_checks()]:
+    for check in [separability.run, *own(), *_checks()]:
         fold(ctx, check(ctx))
 
 

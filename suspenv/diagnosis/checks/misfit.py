@@ -30,17 +30,12 @@ def explained_share(
     the fit samples (1: perfect; 0: no better than the mean), both less the channel's
     known noise variance ``noise`` (channel unit squared) where given."""
     parts = residuals(fit.model, fit.theta, sp.fit_recordings, fit.channels, sp.fit_masks)
+    sel = sp.fit_selections()
     out = {}
     for ch in fit.channels:
         r = np.concatenate([p[ch] for p in parts])
-        meas = np.concatenate(
-            [
-                np.asarray(rec.outputs[ch], float)[
-                    slice(None) if sp.fit_masks is None else sp.fit_masks[i]
-                ]
-                for i, rec in enumerate(sp.fit_recordings)
-            ]
-        )
+        recorded = zip(sp.fit_recordings, sel, strict=True)
+        meas = np.concatenate([np.asarray(rec.outputs[ch], float)[m] for rec, m in recorded])
         known = float((noise or {}).get(ch, 0.0))
         var = float(np.var(meas)) - known
         out[ch] = 1.0 - (float(np.var(r)) - known) / var if var > 0 else 1.0

@@ -99,6 +99,7 @@ from suspenv.diagnosis.protocols import DiagnosableModel, RecordingLike
 from suspenv.diagnosis.screening import Location, Signature
 from suspenv.diagnosis.split import Holdout, Recordings, Split, as_recordings
 from suspenv.diagnosis.unrecorded import unprofiled
+from suspenv.models.components import make_component
 from suspenv.models.components.base import ComponentModel
 from suspenv.models.effects import make_effect
 
@@ -159,19 +160,28 @@ def _force_view_signal_set(fit: FitResult, sp: Split) -> SignalSet | None:
     def cat(key: str) -> np.ndarray:
         return np.concatenate([v[key][m] for v, m in zip(views, sel, strict=True)])
 
-    return SignalSet(
-        t=np.concatenate(
-            [np.asarray(r.time, float)[m] for r, m in zip(sp.fit_recordings, sel, strict=True)]
-        ),
+    return _stacked(
+        sp,
+        sel,
         x=cat("x"),
         v=cat("v"),
         residual=(meas - cat("predicted")) / scale,
         prediction=cat("predicted") / scale,
         jacobian=cat("jacobian") / scale,
-        segment=np.concatenate([np.full(int(m.sum()), i) for i, m in enumerate(sel)]),
         scale=scale,
         unit="N",
         channel="force",
+    )
+
+
+def _stacked(sp: Split, sel: Sequence[np.ndarray], **signals: Any) -> SignalSet:
+    """The :class:`SignalSet` of ``signals`` (stacked over the fitted recordings' samples
+    ``sel``) with those samples' times and recording index as segment."""
+    recs = zip(sp.fit_recordings, sel, strict=True)
+    return SignalSet(
+        t=np.concatenate([np.asarray(r.time, float)[m] for r, m in recs]),
+        segment=np.concatenate([np.full(int(m.sum()), i) for i, m in enumerate(sel)]),
+        **signals,
     )
 
 
@@ -181,49 +191,35 @@ def _force_view_signal_set(fit: FitResult, sp: Split) -> SignalSet | None:
 SENSOR_FAMILIES = ("sensor_offset", "sensor_gain", "sensor_lag")
 
 
-def _signal_set(fit: FitResult, sp: Split, channel: str, view: bool = True) -> SignalSet:
-    """Residual, prediction, motion and Jacobian rows of one channel over the fit samples.
-
-    A model with a force view (see :func:`_force_view_signal_set`) is screened in it
-    instead (unless ``view`` is False): its signatures are those of the missing force
-    itself.
-    """
-    viewed = _force_view_signal_set(fit, sp) if view else None
-    if viewed is not None:
-        return viewed
-    ts, xs, vs, rs, ps, seg, rows = [], [], [], [], [], [], []
+def _signal_set(fit: FitResult, sp: Split, channel: str) -> SignalSet:
+    """Residual, prediction, motion and Jacobian rows of one recorded channel over the
+    fit samples (a model's force view: :func:`_force_view_signal_set`)."""
+    sel, scale = sp.fit_selections(), fit.scales[channel]
+    xs, vs, meas, pred, rows = [], [], [], [], []
     offset = 0
-    for i, (rec, sel) in enumerate(zip(sp.fit_recordings, sp.fit_selections(), strict=True)):
-        pred = fit.model.simulate(fit.theta, rec)
+    for rec, m in zip(sp.fit_recordings, sel, strict=True):
         x, v = motion(rec)
-        n = int(np.count_nonzero(sel))
+        xs.append(x[m])
+        vs.append(v[m])
+        meas.append(np.asarray(rec.outputs[channel], float)[m])
+        pred.append(np.asarray(fit.model.simulate(fit.theta, rec)[channel], float)[m])
+        n = int(np.count_nonzero(m))
         for c in fit.channels:
             if c == channel:
                 rows.append(np.arange(offset, offset + n))
             offset += n
-        ts.append(np.asarray(rec.time, float)[sel])
-        xs.append(x[sel])
-        vs.append(v[sel])
-        meas = np.asarray(rec.outputs[channel], float)[sel]
-        p = np.asarray(pred[channel], float)[sel]
-        rs.append((meas - p) / fit.scales[channel])
-        ps.append(p / fit.scales[channel])
-        seg.append(np.full(n, i))
     J = fit.extra.get("jacobian")
-    jac = None
-    if J is not None and J.shape[0] == offset:
-        jac = J[np.concatenate(rows)]
-    unit = str(sp.fit_recordings[0].units.get(channel, ""))
-    return SignalSet(
-        t=np.concatenate(ts),
+    p = np.concatenate(pred)
+    return _stacked(
+        sp,
+        sel,
         x=np.concatenate(xs),
         v=np.concatenate(vs),
-        residual=np.concatenate(rs),
-        prediction=np.concatenate(ps),
-        jacobian=jac,
-        segment=np.concatenate(seg),
-        scale=fit.scales[channel],
-        unit=unit,
+        residual=(np.concatenate(meas) - p) / scale,
+        prediction=p / scale,
+        jacobian=J[np.concatenate(rows)] if J is not None and J.shape[0] == offset else None,
+        scale=scale,
+        unit=str(sp.fit_recordings[0].units.get(channel, "")),
         channel=channel,
     )
 
@@ -245,15 +241,6 @@ def _segments(fit: FitResult, sp: Split) -> list[Segment]:
     return out
 
 
-def resolve_model(model: ComponentModel | str) -> ComponentModel:
-    """A component model instance, or a family name (``suspenv.models.components``)."""
-    if not isinstance(model, str):
-        return model
-    from suspenv.models.components import make_component
-
-    return make_component(model)
-
-
 def effect_location(model: DiagnosableModel, kind: str) -> str:
     """Where a force effect of ``kind`` lives in ``model`` (sensor effects: "")."""
     if make_effect(kind).spec.role != "force":
@@ -271,7 +258,7 @@ def _score_round(
     fams_needed = fams_needed or list(SIGNATURE_KINDS)
     sset = _force_view_signal_set(current, sp)
     if sset is None:
-        return score_signatures(_signal_set(current, sp, channel, view=False), fams_needed), False
+        return score_signatures(_signal_set(current, sp, channel), fams_needed), False
     force_fams = [f for f in fams_needed if f not in SENSOR_FAMILIES]
     sensor_fams = [f for f in fams_needed if f in SENSOR_FAMILIES]
     sigs = score_signatures(sset, force_fams) if force_fams else []
@@ -279,7 +266,7 @@ def _score_round(
     for ch in current.channels if sensor_fams else []:
         # each recorded channel may carry its own sensor error: keep the strongest of
         # those a sensor can make (a lag, not a lead)
-        for sig in score_signatures(_signal_set(current, sp, ch, view=False), sensor_fams):
+        for sig in score_signatures(_signal_set(current, sp, ch), sensor_fams):
             sig.evidence = f"{sig.evidence} in {ch}"
             sig.channel = ch
             if sig.kind not in best or _sensor_rank(sig) > _sensor_rank(best[sig.kind]):
@@ -438,7 +425,7 @@ class ComponentFamily(OptionalSteps):
         reversed (the deflection's where the force is read through the body equation),
         and the convention found is said (:attr:`sign_words`)."""
         out = oriented(recs, rig)
-        m_s = float(rig.known.get("m_s", resolve_model(rig.family).options.get("m_s", 1.0)))
+        m_s = float(rig.known.get("m_s", make_component(rig.family).options.get("m_s", 1.0)))
         power = power_sign(out, m_s)
         self.sign_words = []
         if not np.isfinite(power) or {"positive_stroke", "positive_force"} & set(rig.declared):
@@ -588,7 +575,6 @@ class ComponentFamily(OptionalSteps):
     def refit(
         self, current: FitResult, candidate: str, signature: SignatureLike | None, setup: Setup
     ) -> FitResult:
-        half, vmax = stroke(setup.split)
         location = effect_location(setup.model, candidate)
         if not location and isinstance(signature, Signature) and signature.channel:
             # a sensor error sits on the recorded channel its signature was found in
@@ -604,8 +590,7 @@ class ComponentFamily(OptionalSteps):
             setup.split.fit_recordings,
             setup.split.fit_masks,
             signature if isinstance(signature, Signature) else None,
-            half,
-            vmax,
+            stroke(setup.split)[0],
             location=location,
             max_nfev=self.budget,
         )

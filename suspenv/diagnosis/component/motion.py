@@ -129,6 +129,4 @@ def split(recordings: Recordings, holdout: Holdout) -> Split:
             fit_m.append(m)
             hold_m.append(~m)
         return Split(recs, fit_m, recs, hold_m, f"last {100 * f:.0f} % of each recording")
-    hold = heldout_recordings(holdout)
-    names = ", ".join(str(h.name) for h in hold)
-    return Split(recs, None, hold, None, f"separate recording(s): {names}")
+    return Split.separate(recs, heldout_recordings(holdout))

@@ -73,10 +73,9 @@ def _friction_guess(kind: str, n: dict[str, float], half_stroke: float) -> dict[
     return {}
 
 
-def signature_guess(
-    kind: str, sig: Signature | None, half_stroke: float, v_max: float
-) -> dict[str, float]:
-    """Starting values for an effect's parameters read off its residual signature."""
+def signature_guess(kind: str, sig: Signature | None, half_stroke: float) -> dict[str, float]:
+    """Starting values for an effect's parameters read off its residual signature
+    (``half_stroke`` [m]: the motion's half stroke)."""
     if sig is None:
         return {}
     n = sig.numbers
@@ -117,7 +116,6 @@ def refit_with(
     masks: Sequence[np.ndarray | None] | None,
     signature: Signature | None = None,
     half_stroke: float = 0.0,
-    v_max: float = 0.0,
     location: str = "",
     max_nfev: int = 200,
     guess_given: dict[str, float] | None = None,
@@ -130,7 +128,7 @@ def refit_with(
     """
     names_taken = {e.name for e in current_effects(base.model)}
     name = kind if kind not in names_taken else f"{kind}_{len(names_taken)}"
-    guess = signature_guess(kind, signature, half_stroke, v_max)
+    guess = signature_guess(kind, signature, half_stroke)
     guess.update({k: v for k, v in (guess_given or {}).items() if np.isfinite(v)})
     # a model may fix shape constants of its elements (e.g. the quarter car's friction
     # regularisation width, which its time integrator needs wider)

@@ -307,12 +307,11 @@ def _meta_entries(recordings: Sequence[RecordingLike]) -> dict[str, Any]:
 def describe_rig(
     model: str | Path | ComponentModel | None,
     recordings: Sequence[RecordingLike],
-    family_hint: str | None = None,
 ) -> RigDescription:
     """Merge recording metadata, a model file and the model text (see module docstring).
 
     ``model``: the model text, a model file path (``.toml``), or None (family from the
-    metadata or ``family_hint``).
+    metadata).
     """
     entries = _meta_entries(recordings)
     sources = ["recording metadata"] if entries else []
@@ -330,7 +329,7 @@ def describe_rig(
             )
         entries["family"] = family
         _check_kinds(added + removed, f"model {model!r}")
-    chosen = entries.get("family") or family_hint
+    chosen = entries.get("family")
     if chosen is None:
         raise ValidationError(
             "the model family is unknown: give one (--model damper | mr_damper | "

@@ -37,30 +37,13 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from functools import partial
 
 import numpy as np
 from scipy import stats
 from scipy.signal import lfilter
 
 from suspenv.diagnosis.component.locate import dominant_frequency, reversal_indices
-from suspenv.diagnosis.screening import Signature, effective_n
-
-#: detector names, in the order they are reported
-SIGNATURE_KINDS = (
-    "friction",
-    "hysteresis",
-    "progressive",
-    "spring",
-    "end_stop",
-    "damper_asymmetry",
-    "digressive",
-    "viscoelastic",
-    "sensor_offset",
-    "sensor_gain",
-    "sensor_lag",
-    "lr_asymmetry",
-)
+from suspenv.diagnosis.screening import Signature, effective_n, orthonormal_basis
 
 
 @dataclass
@@ -97,14 +80,6 @@ class SignalSet:
 
 
 # ------------------------------------------------------------------ helpers
-def _orthonormal_basis(J: np.ndarray | None) -> np.ndarray | None:
-    if J is None or J.size == 0:
-        return None
-    U, s, _ = np.linalg.svd(J, full_matrices=False)
-    keep = s > s[0] * 1e-8 if s.size else np.zeros(0, bool)
-    return U[:, keep]
-
-
 def explain(
     residual: np.ndarray, features: np.ndarray, basis: np.ndarray | None
 ) -> tuple[float, np.ndarray, np.ndarray]:
@@ -134,19 +109,14 @@ def _p_value(r2: float, remainder: np.ndarray, q: int = 1) -> float:
     return float(stats.chi2.sf(effective_n(remainder) * r2, max(q, 1)))
 
 
-def _dahl_feature(s: SignalSet, delta: float, idx: np.ndarray) -> np.ndarray:
-    return unit_dahl(s.x[idx], delta)
-
-
-def _lowpass_feature(s: SignalSet, tau: float, vmax: float, idx: np.ndarray) -> np.ndarray:
-    return first_order_lowpass(s.v[idx], s.t[idx], tau) / vmax
-
-
-def _per_segment(s: SignalSet, fn: Callable[[np.ndarray], np.ndarray]) -> np.ndarray:
-    """Apply a feature builder segment by segment (states restart) and stack."""
+def _per_segment(
+    s: SignalSet, fn: Callable[[np.ndarray, float], np.ndarray], par: float
+) -> np.ndarray:
+    """Apply a feature builder ``fn(segment indices, par)`` segment by segment (states
+    restart) and stack."""
     out = np.zeros(s.t.size)
     for idx in s.segments():
-        out[idx] = fn(idx)
+        out[idx] = fn(idx, par)
     return out
 
 
@@ -204,7 +174,7 @@ def detect_hysteresis(s: SignalSet, basis: np.ndarray | None) -> Signature:
     half = 0.5 * float(np.ptp(s.x)) or 1.0
     cands = []
     for frac in (0.03, 0.1, 0.3):
-        feat = _per_segment(s, partial(_dahl_feature, s, frac * half))
+        feat = _per_segment(s, lambda idx, d: unit_dahl(s.x[idx], d), frac * half)
         cands.append((frac, feat))
     frac, r2, coef, fitted = _best_of(s, basis, cands)
     width = 2.0 * abs(coef[0]) * s.scale
@@ -378,7 +348,9 @@ def detect_viscoelastic(s: SignalSet, basis: np.ndarray | None) -> Signature:
     cands = []
     for wt in np.geomspace(0.01, 3.0, 8):
         tau = wt / w0
-        feat = _per_segment(s, partial(_lowpass_feature, s, tau, vmax))
+        feat = _per_segment(
+            s, lambda idx, tau: first_order_lowpass(s.v[idx], s.t[idx], tau) / vmax, tau
+        )
         cands.append((tau, feat))
     tau, r2, _, fitted = _best_of(s, basis, cands)
     return Signature(
@@ -463,10 +435,12 @@ DETECTORS: dict[str, Callable[[SignalSet, np.ndarray | None], Signature]] = {
     "sensor_lag": detect_sensor_lag,
     "lr_asymmetry": detect_lr_asymmetry,
 }
+#: detector names, in the order they are reported
+SIGNATURE_KINDS = tuple(DETECTORS)
 
 
 def score_signatures(s: SignalSet, kinds: Sequence[str] = SIGNATURE_KINDS) -> list[Signature]:
     """Run the detectors named in ``kinds``; strongest score first."""
-    basis = _orthonormal_basis(s.jacobian)
+    basis = orthonormal_basis(s.jacobian)
     out = [DETECTORS[k](s, basis) for k in kinds]
     return sorted(out, key=lambda g: -g.score)

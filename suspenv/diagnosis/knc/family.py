@@ -121,10 +121,25 @@ def _start_values(kind: str, sig: KncSignature | None) -> dict[str, float]:
     return {}
 
 
-def _compose(current: FitResult, ext_model: KncAxleModel, effect_theta: np.ndarray) -> np.ndarray:
-    """Full ``theta`` of ``ext_model`` from the current base values and fitted effects."""
-    n_base = len(ext_model.base_names)
-    return np.concatenate([current.theta[:n_base], effect_theta])
+def best_of_starts(
+    model: DiagnosableModel,
+    recs: Sequence[Any],
+    scales: Mapping[str, float],
+    starts: Sequence[np.ndarray],
+    max_nfev: int,
+    tol: float,
+) -> tuple[FitResult, int]:
+    """The fit of ``model`` under ``scales`` from each of ``starts`` with the largest
+    log-likelihood (the first of equals), and the evaluations of all of them."""
+    fits = [
+        fit(model, recs, scales=scales, theta0=theta0, max_nfev=max_nfev, tol=tol)
+        for theta0 in starts
+    ]
+    best = fits[0]
+    for res in fits[1:]:
+        if res.log_likelihood() > best.log_likelihood():
+            best = res
+    return best, sum(f.nfev for f in fits)
 
 
 def refit_frozen(
@@ -154,24 +169,13 @@ def refit_frozen(
         slow = current_slow(full)
         if not slow:
             starts.append(guess)
-        best: FitResult | None = None
-        for theta0 in starts:
-            res = fit(
-                full,
-                recs,
-                scales=current.scales,
-                theta0=theta0,
-                max_nfev=max_nfev,
-                tol=COARSE_TOL if slow else FINE_TOL,
-            )
-            if best is None or res.log_likelihood() > best.log_likelihood():
-                best = res
-        assert best is not None  # at least one start was fitted
+        tol = COARSE_TOL if slow else FINE_TOL
+        best = best_of_starts(full, recs, current.scales, starts, max_nfev, tol)[0]
         best.extra["effect"] = new.to_dict()
         return best
     frozen = full.frozen_at(base)
     part = fit(frozen, recs, scales=current.scales, max_nfev=max_nfev, tol=COARSE_TOL)
-    theta = _compose(current, full, part.theta)
+    theta = np.concatenate([current.theta[: len(full.base_names)], part.theta])
     res = evaluate(full, theta, recs, current.scales, seconds=time.perf_counter() - t0)
     # uncertainties: base from the current fit, effects from the frozen refit
     n_new = part.theta.size
@@ -258,14 +262,6 @@ def location_ambiguities(win: Hypothesis, ranked: Sequence[Hypothesis]) -> list[
     return out
 
 
-def _signals(
-    fit_: FitResult, recs: Sequence[Any]
-) -> tuple[list[dict[str, np.ndarray]], list[dict[str, np.ndarray]]]:
-    res = residuals(fit_.model, fit_.theta, recs, fit_.channels)
-    pred = [fit_.model.simulate(fit_.theta, r) for r in recs]
-    return res, pred
-
-
 def curves_in_noise_units(
     fit_: FitResult, recs: Sequence[Any]
 ) -> dict[tuple[str, str], np.ndarray]:
@@ -344,17 +340,9 @@ class KncFamily:
             model, recs, scales=scales, theta0=first.theta, max_nfev=self.max_nfev, tol=FINE_TOL
         )
         scales = noise_scales(base)
-        nfev = first.nfev + base.nfev
-        best: FitResult | None = None
-        for theta0 in (base.theta, model.initial_guess(recs[0])):
-            trial = fit(
-                model, recs, scales=scales, theta0=theta0, max_nfev=self.max_nfev, tol=FINE_TOL
-            )
-            nfev += trial.nfev
-            if best is None or trial.log_likelihood() > best.log_likelihood():
-                best = trial
-        assert best is not None
-        best.nfev = nfev
+        starts = (base.theta, model.initial_guess(recs[0]))
+        best, nfev = best_of_starts(model, recs, scales, starts, self.max_nfev, FINE_TOL)
+        best.nfev = first.nfev + base.nfev + nfev
         self._scales = dict(scales)
         return best
 
@@ -370,7 +358,8 @@ class KncFamily:
         self, current: FitResult, setup: Setup, open_candidates: Sequence[str], round_: int
     ) -> Screening:
         recs = setup.split.fit_recordings
-        res, pred = _signals(current, recs)
+        res = residuals(current.model, current.theta, recs, current.channels)
+        pred = [current.model.simulate(current.theta, r) for r in recs]
         fams = {SCREEN_FAMILY[split_candidate(k)[0]] for k in open_candidates}
         noise = residual_map(recs, res, self._scales).noise  # independent of the fit's scale
         sigs = [s for s in score_signatures(recs, res, pred, noise) if s.kind in fams]

@@ -56,7 +56,13 @@ from suspenv.diagnosis.ride.model import (
     ride_effect,
 )
 from suspenv.diagnosis.ride.residual import ResidualCheck, residual_check
-from suspenv.diagnosis.screening import Location, Share, Signature, effective_n
+from suspenv.diagnosis.screening import (
+    Location,
+    Share,
+    Signature,
+    effective_n,
+    orthonormal_basis,
+)
 from suspenv.diagnosis.split import Holdout, Recordings, Split, as_recordings, heldout_recordings
 
 #: the reported ride benchmark's decision rule
@@ -146,10 +152,7 @@ def screen_candidates(
     Jacobian's span. Sorted best first."""
     r = fit_residual_series(fit, recordings)
     J = fit.extra.get("jacobian")
-    basis = None
-    if J is not None and J.shape[0] == r.size:
-        U, s, _ = np.linalg.svd(J, full_matrices=False)
-        basis = U[:, s > s[0] * 1e-8] if s.size else None
+    basis = orthonormal_basis(J) if J is not None and J.shape[0] == r.size else None
     base_pred = _stacked_prediction(fit.model, fit.theta, recordings, fit)
     out = []
     for cand in candidates:

@@ -257,7 +257,7 @@ class MinibusRideAdapter(ComponentModel):
         return res
 
     def example_recording(self, seed: int = 0) -> Recording:
-        return pulse_inputs_recording(50.0, seed=seed)
+        return pulse_inputs_recording(50.0)
 
 
 def _batch(e: Effect, B: int) -> Effect:
@@ -302,7 +302,7 @@ def half_grid_recording(z: np.ndarray, name: str, test: str, meta: dict[str, Any
 
 
 def pulse_inputs_recording(
-    speed_kmh: float, duration_s: float | None = None, name: str | None = None, seed: int = 0
+    speed_kmh: float, duration_s: float | None = None, name: str | None = None
 ) -> Recording:
     """Inputs-only recording of a pulse run (bump under the front wheels at 0.3 s)."""
     if not speed_kmh > 0:
