@@ -12,7 +12,6 @@ name (:func:`report_function`). ``tests/test_architecture.py`` checks every targ
 
 from __future__ import annotations
 
-import difflib
 import hashlib
 import importlib
 import importlib.metadata
@@ -23,7 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from suspenv.core.errors import ValidationError
-from suspenv.core.options import check_keywords, option_names
+from suspenv.core.options import check_keywords, did_you_mean, option_names
 
 _PROBLEMS: dict[str, str | Callable[..., Any]] = {
     "Sphere": "suspenv.problems.toy:Sphere",
@@ -83,11 +82,7 @@ def _resolve(kind: str, table: dict[str, Any], name: str) -> Any:
     try:
         target = table[name]
     except KeyError:
-        near = difflib.get_close_matches(name, list(table), n=3, cutoff=0.4)
-        lowered = {k.lower(): k for k in table}
-        if name.lower() in lowered:
-            near = [lowered[name.lower()]]
-        hint = f"; did you mean {', '.join(repr(n) for n in near)}?" if near else ""
+        hint = did_you_mean(name, table, cutoff=0.4)
         raise ValidationError(
             f"unknown {kind} {name!r}{hint} (known: {', '.join(sorted(table))})"
         ) from None

@@ -19,15 +19,23 @@ three methods) and calling :func:`suspenv.registry.register_strategy`.
 
 from __future__ import annotations
 
+import math
 from abc import ABC, abstractmethod
 from typing import Any, ClassVar
 
 import numpy as np
 
 from suspenv.core.errors import ValidationError
-from suspenv.core.options import choice, integer, numbers
+from suspenv.core.options import choice, integer, numbers, optional
 from suspenv.core.result import EvaluationBatch
 from suspenv.core.scalarize import SCALARIZERS, get_scalarizer, penalized_fitness
+
+
+def popsize_option(owner: str, popsize: Any, dim: int) -> int:
+    """``popsize``, an integer >= 2, or for None pycma's default 4 + floor(3 ln d)."""
+    if popsize is None:
+        return 4 + int(3 * math.log(dim))
+    return integer(owner, "popsize", popsize, lo=2)
 
 
 class Strategy(ABC):
@@ -121,9 +129,7 @@ class ScalarStrategy(Strategy):
                 f"{self.name}: `weights` apply only with scalarizer='weighted_sum', but got "
                 f"scalarizer={self.scalarizer_name!r} and weights={weights!r}"
             )
-        self.weights = (
-            None if weights is None else numbers(self.name, "weights", weights, self.n_objectives)
-        )
+        self.weights = optional(numbers, self.name, "weights", weights, self.n_objectives)
 
     def fitness(self, batch: EvaluationBatch) -> np.ndarray:
         """Finite fitness per row: scalarised objectives, infeasible and failed rows last."""

@@ -42,7 +42,7 @@ import numpy as np
 from scipy.stats import qmc
 
 from suspenv.core.errors import ValidationError
-from suspenv.core.options import choice, integer, number, numbers
+from suspenv.core.options import choice, integer, number, numbers, optional
 from suspenv.core.result import EvaluationBatch
 from suspenv.core.scalarize import weighted_sum
 from suspenv.strategies.base import Strategy
@@ -104,9 +104,7 @@ class DifferentialEvolution(Strategy):
         self.maxiter = integer(owner, "maxiter", maxiter, lo=0)
         self.tol = number(owner, "tol", tol, lo=0.0)
         self.atol = number(owner, "atol", atol, lo=0.0)
-        self.weights = (
-            None if weights is None else numbers(owner, "weights", weights, self.n_objectives)
-        )
+        self.weights = optional(numbers, owner, "weights", weights, self.n_objectives)
         self.population_size = max(MIN_POPULATION, self.popsize * self.dim)
         self._rng = np.random.default_rng(self.seed)
         #: the population (S, d) and, per member, its class (0 feasible, 1 infeasible,

@@ -58,7 +58,7 @@ from optuna.distributions import BaseDistribution, FloatDistribution
 from optuna.trial import FrozenTrial, TrialState
 
 from suspenv.core.errors import ValidationError
-from suspenv.core.options import integer, number, text
+from suspenv.core.options import integer, number, optional, text
 from suspenv.core.result import EvaluationBatch
 from suspenv.strategies.base import Strategy
 
@@ -215,13 +215,9 @@ class NSGA2(Strategy):
         owner = self.name
         self.population_size = integer(owner, "population_size", population_size, lo=2)
         self.crossover_prob = number(owner, "crossover_prob", crossover_prob, lo=0.0, hi=1.0)
-        self.mutation_prob = (
-            None
-            if mutation_prob is None
-            else number(owner, "mutation_prob", mutation_prob, lo=0.0, hi=1.0)
-        )
+        self.mutation_prob = optional(number, owner, "mutation_prob", mutation_prob, lo=0.0, hi=1.0)
         self.swapping_prob = number(owner, "swapping_prob", swapping_prob, lo=0.0, hi=1.0)
-        self.storage = None if storage is None else text(owner, "storage", storage)
+        self.storage = optional(text, owner, "storage", storage)
         self.study_name = (
             f"suspenv-nsga2-{self.seed}"
             if study_name is None
