@@ -200,21 +200,6 @@ def list_strategies() -> list[str]:
 
 
 # ---------------------------------------------------------------- pipelines
-def register_pipeline(
-    name: str,
-    target: str | Callable[..., Any],
-    overwrite: bool = False,
-    check: str | Callable[..., Any] | None = None,
-) -> None:
-    """Register an experiment pipeline ``run(config, run_dir) -> summary dict``, and
-    optionally its config check ``check(config) -> config`` (see :func:`pipeline_check`)."""
-    _register(_PIPELINES, "pipeline", name, target, overwrite)
-    if check is not None:
-        _PIPELINE_CHECKS[name] = check
-    else:
-        _PIPELINE_CHECKS.pop(name, None)
-
-
 def pipeline_function(name: str) -> Any:
     return _resolve("pipeline", _PIPELINES, name)
 
@@ -237,18 +222,9 @@ def list_pipelines() -> list[str]:
 
 
 # ------------------------------------------------------------------ reports
-def register_report(name: str, target: str | Callable[..., Any], overwrite: bool = False) -> None:
-    """Register a report writer (or ``"module:function"``) under ``name``."""
-    _register(_REPORTS, "report", name, target, overwrite)
-
-
 def report_function(name: str) -> Any:
     """The report writer or drawing registered as ``name`` (imported on first use)."""
     return _resolve("report", _REPORTS, name)
-
-
-def list_reports() -> list[str]:
-    return sorted(_REPORTS)
 
 
 def make_strategy(name: str, problem: Any, seed: int = 0, **options: Any) -> Any:
