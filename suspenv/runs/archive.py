@@ -486,18 +486,10 @@ class RunArchive:
             ) from None
 
     # --------------------------------------------------------------- appends
-    def append(
-        self,
-        batch_index: int,
-        rows: Sequence[int],
-        U: np.ndarray,
-        X: np.ndarray,
-        result: EvaluationBatch,
-        wall_time: float,
-    ) -> None:
-        """Append evaluated designs of one batch (rows = positions inside the batch), in one
-        transaction."""
-        self.append_chunks([(batch_index, rows, U, X, result, wall_time)])
+    def append(self, *chunk: *Chunk) -> None:
+        """Append one :data:`Chunk` (evaluated designs of one batch; rows = positions
+        inside the batch), in one transaction."""
+        self.append_chunks([chunk])
 
     def append_chunks(self, chunks: Sequence[Chunk]) -> None:
         """Append several chunks ``(batch_index, rows, U, X, result, wall_time)`` in one
@@ -674,20 +666,12 @@ class ArchiveWriter:
         """Evaluations handed over and not committed yet."""
         return sum(len(c[1]) for c in self._pending)
 
-    def append(
-        self,
-        batch_index: int,
-        rows: Sequence[int],
-        U: np.ndarray,
-        X: np.ndarray,
-        result: EvaluationBatch,
-        wall_time: float,
-    ) -> None:
-        """Archive one chunk (see the class docstring for when it is committed). Its
-        values are copied now: the caller may reuse its arrays."""
+    def append(self, *chunk: *Chunk) -> None:
+        """Archive one :data:`Chunk` (see the class docstring for when it is committed).
+        Its values are copied now: the caller may reuse its arrays."""
         now = time.perf_counter()
-        self._pending.append(_copy(batch_index, rows, U, X, result, wall_time))
-        if wall_time >= self.commit_after_s or now - self._last_commit >= self.commit_after_s:
+        self._pending.append(_copy(*chunk))
+        if chunk[-1] >= self.commit_after_s or now - self._last_commit >= self.commit_after_s:
             self.flush()
 
     def flush(self) -> None:
