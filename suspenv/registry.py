@@ -140,6 +140,8 @@ ENTRY_POINT_GROUP = "suspenv.strategies"
 
 #: the methods of the strategy seam (:mod:`suspenv.strategies.base`)
 SEAM = ("ask", "tell", "stop")
+#: strategy constructor arguments that come from the problem and the run, not the options
+STRATEGY_RESERVED = ("dim", "n_objectives", "n_constraints", "seed")
 
 
 def _installed_strategies() -> None:
@@ -235,7 +237,7 @@ def make_strategy(name: str, problem: Any, seed: int = 0, **options: Any) -> Any
     problem and the run, never from the options); the strategy checks the values.
     """
     cls = strategy_class(name)
-    valid = option_names(cls, ("dim", "n_objectives", "n_constraints", "seed"))
+    valid = option_names(cls, STRATEGY_RESERVED)
     if valid is not None:
         check_keywords(f"strategy {name!r}", options, valid)
     return cls(

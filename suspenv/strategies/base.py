@@ -26,7 +26,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from suspenv.core.errors import ValidationError
-from suspenv.core.options import choice, integer, numbers, optional
+from suspenv.core.options import choice, integer, numbers, option_names, optional
 from suspenv.core.result import EvaluationBatch
 from suspenv.core.scalarize import SCALARIZERS, get_scalarizer, penalized_fitness
 
@@ -43,8 +43,11 @@ class Strategy(ABC):
 
     name: ClassVar[str] = "strategy"
     description: ClassVar[str] = ""
-    #: the options :meth:`options` records, in order: each an attribute of that name
+    #: the options :meth:`options` records, in order: each an attribute of that name;
+    #: empty: the constructor's keyword options after those of this base class (and
+    #: :attr:`base_options`, which a base class records itself)
     option_names: ClassVar[tuple[str, ...]] = ()
+    base_options: ClassVar[tuple[str, ...]] = ()
 
     def __init__(self, dim: int, n_objectives: int = 1, n_constraints: int = 0, seed: int = 0):
         """Rules: ``dim >= 1``, ``n_objectives >= 1``, ``n_constraints >= 0`` and
@@ -92,7 +95,10 @@ class Strategy(ABC):
 
     def options(self) -> dict[str, Any]:
         """Resolved options (recorded with the run): the attributes :attr:`option_names`."""
-        return {k: getattr(self, k) for k in self.option_names}
+        names = self.option_names or option_names(
+            type(self), (*(option_names(Strategy) or ()), *self.base_options)
+        )
+        return {k: getattr(self, k) for k in names or ()}
 
     # ------------------------------------------------------------ subclasses
     @abstractmethod
@@ -111,6 +117,8 @@ class ScalarStrategy(Strategy):
         weights: weights for "weighted_sum": one finite number per objective (default all
             1); refused with "rank_sum", which takes none.
     """
+
+    base_options = ("scalarizer", "weights")
 
     def __init__(
         self,

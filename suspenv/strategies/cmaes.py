@@ -56,10 +56,6 @@ class CMAES(ScalarStrategy):
 
     name = "cmaes"
     description = "CMA-ES (pycma), bounds by BoundTransform, optional IPOP restarts"
-    option_names = (
-        "popsize", "sigma0", "x0", "restarts", "incpopsize", "tolfun", "tolx",
-        "max_failed_generations",
-    )
 
     def __init__(
         self,
@@ -118,7 +114,7 @@ class CMAES(ScalarStrategy):
         return np.clip(np.asarray(self._es.ask(), dtype=float), 0.0, 1.0)
 
     def _tell(self, U: np.ndarray, batch: EvaluationBatch) -> None:
-        ok = np.asarray(batch.ok, bool) & np.isfinite(batch.objectives).all(axis=1)
+        ok = batch.rankable
         if not ok.any():
             self._tell_all_failed(batch)
             return

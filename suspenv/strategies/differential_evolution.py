@@ -73,10 +73,6 @@ class DifferentialEvolution(Strategy):
 
     name = "de"
     description = "differential evolution (Storn & Price), scipy's defaults, one generation/batch"
-    option_names = (
-        "popsize", "mutation", "recombination", "strategy", "init", "maxiter", "tol", "atol",
-        "weights",
-    )
 
     def __init__(
         self,
@@ -156,7 +152,7 @@ class DifferentialEvolution(Strategy):
     def _classify(self, batch: EvaluationBatch) -> tuple[np.ndarray, np.ndarray]:
         """(class, value) per row: 0 feasible (value: weighted objectives), 1 infeasible
         (value: total violation), 2 failed (value 0)."""
-        ok = np.asarray(batch.ok, bool) & np.isfinite(batch.objectives).all(axis=1)
+        ok = batch.rankable
         f = weighted_sum(np.nan_to_num(batch.objectives), self.weights)
         v = np.where(ok, np.nan_to_num(batch.violation, nan=np.inf), 0.0)
         rank = np.where(~ok, 2, np.where(v > 0, 1, 0))

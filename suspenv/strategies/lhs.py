@@ -30,7 +30,6 @@ class LatinHypercube(Strategy):
 
     name = "lhs"
     description = "Latin hypercube design of experiments (scipy.stats.qmc)"
-    option_names = ("n_samples", "batch_size", "optimization")
 
     def __init__(
         self,

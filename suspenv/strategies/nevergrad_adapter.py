@@ -71,7 +71,6 @@ class Nevergrad(Strategy):
 
     name = "nevergrad"
     description = "any nevergrad optimiser (default TwoPointsDE); needs suspenv[nevergrad]"
-    option_names = ("optimizer", "batch_size", "budget", "reference_point")
 
     def __init__(
         self,

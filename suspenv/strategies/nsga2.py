@@ -104,7 +104,7 @@ def tell_trials(
     optuna's constraint mechanism: ``Trial.set_constraint`` from optuna 5 on, else the
     user attribute :data:`CONSTRAINTS_KEY` read by :func:`constraints_of`. An unknown
     constraint value (NaN) is told as a violation of 1e300 (optuna refuses NaN)."""
-    failed = ~np.asarray(batch.ok, bool) | ~np.isfinite(batch.objectives).all(axis=1)
+    failed = ~batch.rankable
     for i, trial in trials:
         if failed[i]:
             study.tell(trial, state=TrialState.FAIL)
@@ -192,10 +192,6 @@ class NSGA2(Strategy):
 
     name = "nsga2"
     description = "NSGA-II (optuna), one generation per batch, constraints supported"
-    option_names = (
-        "population_size", "crossover_prob", "mutation_prob", "swapping_prob", "storage",
-        "study_name", "resume",
-    )
 
     def __init__(
         self,

@@ -122,7 +122,6 @@ class OptunaTPE(OptunaSampler):
 
     name = "optuna_tpe"
     description = "TPE (optuna), several objectives and constraints supported"
-    option_names = ("batch_size", "n_startup_trials", "n_ei_candidates", "multivariate")
 
     def __init__(
         self,
@@ -177,7 +176,6 @@ class OptunaCMAES(OptunaSampler):
 
     name = "optuna_cmaes"
     description = "CMA-ES (optuna + cmaes), one generation per batch; needs suspenv[optuna-cmaes]"
-    option_names = ("popsize", "n_startup_trials", "lr_adapt", "weights")
     native_constraints = False
 
     def __init__(
@@ -209,7 +207,7 @@ class OptunaCMAES(OptunaSampler):
         self._setup(sampler, 1, self.popsize)
 
     def _values(self, batch: EvaluationBatch) -> np.ndarray:
-        ok = np.asarray(batch.ok, bool) & np.isfinite(batch.objectives).all(axis=1)
+        ok = batch.rankable
         f = weighted_sum(np.nan_to_num(batch.objectives), self.weights, valid=ok)
         scalar = EvaluationBatch(
             f[:, None], batch.constraints, ok, batch.messages,
@@ -236,10 +234,6 @@ class OptunaNSGA3(OptunaSampler):
 
     name = "optuna_nsga3"
     description = "NSGA-III (optuna), one generation per batch, constraints supported"
-    option_names = (
-        "population_size", "crossover_prob", "mutation_prob", "swapping_prob",
-        "dividing_parameter",
-    )
 
     def __init__(
         self,
@@ -292,7 +286,6 @@ class OptunaGP(OptunaSampler):
 
     name = "optuna_gp"
     description = "GP Bayesian optimisation (optuna + torch); needs suspenv[optuna-gp]"
-    option_names = ("batch_size", "n_startup_trials", "deterministic_objective")
 
     def __init__(
         self,
