@@ -12,7 +12,6 @@ name (:func:`report_function`). ``tests/test_architecture.py`` checks every targ
 
 from __future__ import annotations
 
-import difflib
 import hashlib
 import importlib
 import importlib.metadata
@@ -23,7 +22,7 @@ from pathlib import Path
 from typing import Any
 
 from suspenv.core.errors import ValidationError
-from suspenv.core.options import check_keywords, option_names
+from suspenv.core.options import check_keywords, did_you_mean, option_names
 
 _PROBLEMS: dict[str, str | Callable[..., Any]] = {
     "Sphere": "suspenv.problems.toy:Sphere",
@@ -83,11 +82,7 @@ def _resolve(kind: str, table: dict[str, Any], name: str) -> Any:
     try:
         target = table[name]
     except KeyError:
-        near = difflib.get_close_matches(name, list(table), n=3, cutoff=0.4)
-        lowered = {k.lower(): k for k in table}
-        if name.lower() in lowered:
-            near = [lowered[name.lower()]]
-        hint = f"; did you mean {', '.join(repr(n) for n in near)}?" if near else ""
+        hint = did_you_mean(name, table, cutoff=0.4)
         raise ValidationError(
             f"unknown {kind} {name!r}{hint} (known: {', '.join(sorted(table))})"
         ) from None
@@ -145,6 +140,8 @@ ENTRY_POINT_GROUP = "suspenv.strategies"
 
 #: the methods of the strategy seam (:mod:`suspenv.strategies.base`)
 SEAM = ("ask", "tell", "stop")
+#: strategy constructor arguments that come from the problem and the run, not the options
+STRATEGY_RESERVED = ("dim", "n_objectives", "n_constraints", "seed")
 
 
 def _installed_strategies() -> None:
@@ -205,21 +202,6 @@ def list_strategies() -> list[str]:
 
 
 # ---------------------------------------------------------------- pipelines
-def register_pipeline(
-    name: str,
-    target: str | Callable[..., Any],
-    overwrite: bool = False,
-    check: str | Callable[..., Any] | None = None,
-) -> None:
-    """Register an experiment pipeline ``run(config, run_dir) -> summary dict``, and
-    optionally its config check ``check(config) -> config`` (see :func:`pipeline_check`)."""
-    _register(_PIPELINES, "pipeline", name, target, overwrite)
-    if check is not None:
-        _PIPELINE_CHECKS[name] = check
-    else:
-        _PIPELINE_CHECKS.pop(name, None)
-
-
 def pipeline_function(name: str) -> Any:
     return _resolve("pipeline", _PIPELINES, name)
 
@@ -242,18 +224,9 @@ def list_pipelines() -> list[str]:
 
 
 # ------------------------------------------------------------------ reports
-def register_report(name: str, target: str | Callable[..., Any], overwrite: bool = False) -> None:
-    """Register a report writer (or ``"module:function"``) under ``name``."""
-    _register(_REPORTS, "report", name, target, overwrite)
-
-
 def report_function(name: str) -> Any:
     """The report writer or drawing registered as ``name`` (imported on first use)."""
     return _resolve("report", _REPORTS, name)
-
-
-def list_reports() -> list[str]:
-    return sorted(_REPORTS)
 
 
 def make_strategy(name: str, problem: Any, seed: int = 0, **options: Any) -> Any:
@@ -264,7 +237,7 @@ def make_strategy(name: str, problem: Any, seed: int = 0, **options: Any) -> Any
     problem and the run, never from the options); the strategy checks the values.
     """
     cls = strategy_class(name)
-    valid = option_names(cls, ("dim", "n_objectives", "n_constraints", "seed"))
+    valid = option_names(cls, STRATEGY_RESERVED)
     if valid is not None:
         check_keywords(f"strategy {name!r}", options, valid)
     return cls(

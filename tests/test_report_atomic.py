@@ -2,7 +2,7 @@
 (``os.replace`` raising, as a full disk or a kill would leave it) keeps its previous
 content whole and leaves no temporary file; and no writer of the report, diagnosis or
 tey2014 pipelines writes directly (``Path.write_text`` / ``Figure.savefig``), so every
-one of them goes through :func:`suspenv.runs.run_dir.atomic_path`."""
+one of them goes through :func:`suspenv.core.atomic.atomic_path`."""
 
 from __future__ import annotations
 
@@ -13,11 +13,11 @@ from pathlib import Path
 
 import pytest
 
+from suspenv.core.atomic import write_file
 from suspenv.core.errors import InfrastructureError
 from suspenv.models.planar.geometry import geometry_to_toml
 from suspenv.problems.planar import PlanarLinkage
 from suspenv.reports._mpl import pyplot, save_figure
-from suspenv.runs.run_dir import write_file
 
 ROOT = Path(__file__).resolve().parents[1] / "suspenv"
 #: the writers that must not write directly (the figure helper itself is the exception)
@@ -85,6 +85,6 @@ def test_no_writer_writes_directly(path):
             bad.append(f"{path.name}:{node.lineno} .{f.attr}(")
         if isinstance(f, ast.Name) and f.id == "open" and len(node.args) > 1:
             bad.append(f"{path.name}:{node.lineno} open(")
-    assert not bad, "direct writes (use suspenv.runs.run_dir.write_file / save_figure):\n" + (
+    assert not bad, "direct writes (use suspenv.core.atomic.write_file / save_figure):\n" + (
         "\n".join(bad)
     )

@@ -24,13 +24,13 @@ import numpy as np
 import pytest
 
 from suspenv import make_problem
+from suspenv.core.atomic import write_file
 from suspenv.core.errors import InfrastructureError, ValidationError
 from suspenv.registry import make_strategy
 from suspenv.runs import run_dir as run_dir_module
 from suspenv.runs.archive import RunArchive
 from suspenv.runs.config import load_config
 from suspenv.runs.loop import optimize
-from suspenv.runs.run_dir import write_file
 from suspenv.runs.runner import run_experiment
 
 CONFIG = """
@@ -236,7 +236,7 @@ def test_overlapping_chunks_are_named_damage(tmp_path):
         con.execute(
             "INSERT INTO evaluations(batch, row, n, unit, x, objectives, constraints, ok, "
             "message, wall_time, created, checksum) SELECT batch, 2, 2, substr(unit, 49), "
-            "substr(x, 49), substr(objectives, 17), constraints, substr(ok, 3), '[\"\", \"\"]', "
+            'substr(x, 49), substr(objectives, 17), constraints, substr(ok, 3), \'["", ""]\', '
             "wall_time, created, substr(checksum, 17) FROM evaluations WHERE id = 2"
         )
     with RunArchive(tmp_path) as archive, pytest.raises(ValidationError, match="row 2 twice"):
@@ -311,7 +311,6 @@ def test_an_archive_of_one_row_per_design_is_converted_and_then_checked(tmp_path
     flip_x_byte(db, 6)  # one design per chunk: id 6 is batch 1, row 1
     with RunArchive(db) as archive, pytest.raises(ValidationError, match="batch 1, row 1 does"):
         archive.arrays()
-
 
 
 # ------------------------------------------------------------- checked at load

@@ -61,10 +61,11 @@ from suspenv.analysis.performance import (
     runtime_matrix,
 )
 from suspenv.analysis.stats import rank_tests
+from suspenv.core.atomic import write_file
 from suspenv.core.errors import ValidationError
 from suspenv.core.jsonable import to_jsonable
 from suspenv.core.markdown import fmt, inline, markdown_table
-from suspenv.runs.run_dir import write_file, write_json
+from suspenv.runs.run_dir import write_json
 
 #: known optima of a problem's plain quality (the objective itself), by problem name
 KNOWN_OPTIMA: dict[str, float] = {"Sphere": 0.0}
@@ -649,9 +650,7 @@ def check_options(f_opt: Any, n_targets: Any, alpha: Any, measure: str = "auto")
         if v is not None and not (isinstance(v, int | float) and np.isfinite(v)):
             raise ValidationError(f"f_opt must be a finite number, but got f_opt={v!r}")
     if isinstance(n_targets, bool) or not isinstance(n_targets, int) or n_targets < 1:
-        raise ValidationError(
-            f"n_targets must be an integer >= 1, but got n_targets={n_targets!r}"
-        )
+        raise ValidationError(f"n_targets must be an integer >= 1, but got n_targets={n_targets!r}")
     if not (isinstance(alpha, int | float) and 0 < alpha < 1):
         raise ValidationError(f"`0 < alpha < 1` must hold, but got alpha={alpha!r}")
     if measure not in MEASURES:

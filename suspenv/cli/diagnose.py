@@ -22,6 +22,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from suspenv.cli.main import add_output_options
+
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
@@ -45,12 +47,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         "(.toml: family, baseline, known rig parameters, signs). Default: from the "
         "data (meta['rig'])",
     )
-    p.add_argument("--out", default=None, help="output folder (default: diagnosis_<name>)")
-    p.add_argument(
-        "--overwrite",
-        action="store_true",
-        help="write into an existing non-empty output folder: replace the files of the same "
-        "names (report, JSON, figures); other files are kept, nothing is deleted",
+    add_output_options(
+        p, None, "files (report, JSON, figures)", "output folder (default: diagnosis_<name>)"
     )
     p.add_argument(
         "--holdout",

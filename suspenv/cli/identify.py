@@ -16,6 +16,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from suspenv.cli.main import add_output_options
+
 #: the test car's effects (suspenv.methods.identify.CONCEALED, pinned by a test)
 CONCEALED = ("hysteresis", "tolerance", "noise")
 
@@ -33,13 +35,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         default="reference",
         help="vehicle TOML file: start design, [bounds], constants (default: the reference)",
     )
-    p.add_argument("--out", default=None, help="output folder (default: identify_<name>)")
-    p.add_argument(
-        "--overwrite",
-        action="store_true",
-        help="write into an existing non-empty output folder (replace the files of the same "
-        "names; nothing else is deleted)",
-    )
+    add_output_options(p, None, "files", "output folder (default: identify_<name>)")
     p.add_argument("--method", choices=("curves", "tey2014"), default="curves")
     p.add_argument(
         "--concealed",

@@ -25,6 +25,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from suspenv.cli.main import add_output_options
+
 if TYPE_CHECKING:
     from suspenv.rigs.knc import KCResult
 
@@ -62,13 +64,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--test", choices=[*TEST_CHOICES, "all"], default="parallel", help="rig test")
     p.add_argument("--plot", action="store_true", help="also write a PNG of the curves")
-    p.add_argument("--out", default="knc_out", help="output folder (default: knc_out)")
-    p.add_argument(
-        "--overwrite",
-        action="store_true",
-        help="write into an existing non-empty output folder: replace the files of the same "
-        "names (knc.toml, <vehicle>_<test>.csv/.png); other files are kept, nothing is deleted",
-    )
+    add_output_options(p, "knc_out", "files (knc.toml, <vehicle>_<test>.csv/.png)")
     p.add_argument(
         "--amplitude",
         type=float,

@@ -24,6 +24,21 @@ COMMAND_MODULES = (
 )
 
 
+def add_output_options(
+    p: argparse.ArgumentParser, default: str | None, files: str, out_help: str = ""
+) -> None:
+    """``--out`` (``default``; None: named by the command from its input) and
+    ``--overwrite``: the rule of :func:`suspenv.measurements.paths.check_output_dir`, whose
+    message the help repeats with the command's ``files``."""
+    p.add_argument("--out", default=default, help=out_help or f"output folder (default: {default})")
+    p.add_argument(
+        "--overwrite",
+        action="store_true",
+        help=f"write into an existing non-empty output folder: replace the {files} of the "
+        "same names; other files are kept, nothing is deleted",
+    )
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="suspenv",

@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from suspenv.cli.main import add_output_options
 from suspenv.core.errors import LockupError, ValidationError
 
 
@@ -28,13 +29,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("geometry", nargs="?", help="geometry TOML file or bundled example name")
     p.add_argument("--plot", action="store_true", help="write PNG figures")
-    p.add_argument("--out", default="planar_plots", help="folder for the figures")
-    p.add_argument(
-        "--overwrite",
-        action="store_true",
-        help="with --plot, write into an existing non-empty output folder: replace the "
-        "figures of the same names; other files are kept, nothing is deleted",
-    )
+    add_output_options(p, "planar_plots", "figures (with --plot)", "folder for the figures")
     p.add_argument("--travel", type=float, default=60.0, help="sweep +-TRAVEL mm (default 60)")
     p.add_argument("--points", type=int, default=61, help="travel points (default 61)")
     p.add_argument(

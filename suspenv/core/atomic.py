@@ -48,13 +48,10 @@ def atomic_path(path: Path | str) -> Iterator[Path]:
     tmp = path.with_name(f".{path.stem}.tmp-{os.getpid()}{path.suffix}")
     try:
         yield tmp
-        fd = os.open(tmp, os.O_RDONLY)
-        try:
-            os.fsync(fd)
-        finally:
-            os.close(fd)
+        _fsync(tmp)
         os.replace(tmp, path)
-        _fsync_folder(path.parent)
+        with contextlib.suppress(OSError):  # folders cannot be opened where not POSIX
+            _fsync(path.parent)  # the rename
     except OSError as exc:
         raise write_fault(path, exc) from None
     finally:
@@ -62,15 +59,13 @@ def atomic_path(path: Path | str) -> Iterator[Path]:
             tmp.unlink(missing_ok=True)
 
 
-def _fsync_folder(folder: Path) -> None:
-    """Flush a folder's entries (the rename) to disk; a no-op where folders cannot be
-    opened (not POSIX)."""
-    with contextlib.suppress(OSError):
-        fd = os.open(folder, os.O_RDONLY)
-        try:
-            os.fsync(fd)
-        finally:
-            os.close(fd)
+def _fsync(path: Path) -> None:
+    """Flush a file's content, or a folder's entries, to disk."""
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
 
 
 def write_file(path: Path | str, data: str | bytes) -> Path:

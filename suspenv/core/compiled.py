@@ -143,27 +143,6 @@ def _runs_built_loops() -> bool:
     return all(features.get(f, False) for f in AOT_FEATURES)
 
 
-def compile_in(
-    space: dict[str, Any],
-    helpers: Sequence[str],
-    main: Callable,
-    inline: Sequence[str] = (),
-    bare: Sequence[str] = (),
-) -> Callable:
-    """``main`` compiled, with the functions ``helpers`` of the module namespace ``space``
-    replaced by their compiled versions there (where the compiled ``main`` finds them),
-    those named in ``inline`` inlined into their callers and those named in ``bare``
-    compiled without reference counting (:func:`jit_helpers`).
-
-    ``error_model="numpy"``: a division by zero gives inf or nan (which the callers
-    report as a failed evaluation) instead of raising inside the loop.
-    """
-    import numba
-
-    jit_helpers(space, helpers, True, inline, bare)
-    return numba.njit(cache=True, error_model="numpy")(main)
-
-
 def jit_helpers(
     space: dict[str, Any],
     helpers: Sequence[str],
@@ -225,14 +204,20 @@ class Lazy:
             self._loop = _built(self._space, self._helpers, self._main)
             self._checked = self._loop is not None
         if self._loop is None:
-            self._loop = (
-                compile_in(self._space, self._helpers, self._main, self._inline, self._bare)
-                if AVAILABLE
-                else self._main
-            )
+            self._loop = self._compiled() if AVAILABLE else self._main
         if self._checked:
             _refuse_strided(self._main.__name__, args)
         return self._loop(*args)
+
+    def _compiled(self) -> Callable:
+        """``main`` compiled by numba's JIT, its helpers replaced by their compiled
+        versions first (:func:`jit_helpers`). ``error_model="numpy"``: a division by zero
+        gives inf or nan (which the callers report as a failed evaluation) instead of
+        raising inside the loop."""
+        import numba
+
+        jit_helpers(self._space, self._helpers, True, self._inline, self._bare)
+        return numba.njit(cache=True, error_model="numpy")(self._main)
 
 
 def _refuse_strided(name: str, args: Sequence[Any]) -> None:

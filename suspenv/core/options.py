@@ -43,11 +43,14 @@ from suspenv.core.errors import ValidationError
 __all__ = [
     "check_keywords",
     "choice",
+    "did_you_mean",
     "integer",
+    "near_names",
     "nearest",
     "number",
     "numbers",
     "option_names",
+    "optional",
     "positive",
     "text",
     "texts",
@@ -67,15 +70,35 @@ def _bound(x: float) -> str:
     return f"{x:g}"
 
 
-def nearest(name: Any, known: Iterable[str]) -> str | None:
-    """The known name nearest to ``name`` (one that differs only in case first), or None
-    when nothing is near (difflib ratio below 0.6)."""
+def near_names(name: Any, known: Iterable[str], n: int = 1, cutoff: float = 0.6) -> list[str]:
+    """Up to ``n`` known names nearest to ``name``: the one that differs only in case
+    alone, else difflib's closest with a ratio >= ``cutoff`` ([] when nothing is near)."""
     known = list(known)
     lowered = {k.lower(): k for k in known}
     if str(name).lower() in lowered:
-        return lowered[str(name).lower()]
-    near = difflib.get_close_matches(str(name), known, n=1, cutoff=0.6)
+        return [lowered[str(name).lower()]]
+    return difflib.get_close_matches(str(name), known, n=n, cutoff=cutoff)
+
+
+def nearest(name: Any, known: Iterable[str]) -> str | None:
+    """The known name nearest to ``name`` (:func:`near_names`), or None."""
+    near = near_names(name, known)
     return near[0] if near else None
+
+
+def did_you_mean(name: Any, known: Iterable[str], n: int = 3, cutoff: float = 0.6) -> str:
+    """``"; did you mean 'a', 'b'?"`` naming :func:`near_names`, or "" when none is near:
+    the hint every "unknown name" error ends with."""
+    near = near_names(name, known, n, cutoff)
+    return f"; did you mean {', '.join(map(repr, near))}?" if near else ""
+
+
+def optional(
+    check: Callable[..., Any], owner: str, name: str, value: Any, *args: Any, **rules: Any
+) -> Any:
+    """None for a value of None, else ``check(owner, name, value, *args, **rules)``: an
+    option whose None means "the default"."""
+    return None if value is None else check(owner, name, value, *args, **rules)
 
 
 def check_keywords(

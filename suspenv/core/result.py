@@ -120,6 +120,11 @@ class EvaluationBatch:
         """(n,) True where ok and every constraint <= 0."""
         return self.ok & (np.nan_to_num(self.violation, nan=1.0) <= 0.0)
 
+    @property
+    def rankable(self) -> np.ndarray:
+        """(n,) True where ok and every objective finite: the rows a strategy ranks."""
+        return np.asarray(self.ok, bool) & np.isfinite(self.objectives).all(axis=1)
+
     def take(self, rows: np.ndarray | Sequence[int]) -> EvaluationBatch:
         """A sub-batch of the given rows."""
         idx = np.asarray(rows)

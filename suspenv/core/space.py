@@ -8,7 +8,6 @@ Linear parameters map ``x = low + u (high - low)``; log-scale parameters map
 
 from __future__ import annotations
 
-import difflib
 import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
@@ -16,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from suspenv.core.errors import ValidationError
+from suspenv.core.options import did_you_mean
 
 
 @dataclass(frozen=True)
@@ -108,8 +108,7 @@ class DesignSpace:
         try:
             return self._index[name]
         except KeyError:
-            near = difflib.get_close_matches(name, self.names, n=3)
-            hint = f"; did you mean {near}?" if near else ""
+            hint = did_you_mean(name, self.names)
             raise ValidationError(f"unknown parameter {name!r}{hint}") from None
 
     # -------------------------------------------------------------- validation

@@ -21,11 +21,11 @@ from suspenv.envs.adapter import (
 )
 
 
-def check_budget(budget: Any) -> int:
-    """``budget`` as an int >= 1, or a ValidationError naming the rule."""
-    if isinstance(budget, bool) or not isinstance(budget, int | np.integer) or budget < 1:
-        raise ValidationError(f"`budget` must be an integer >= 1, but got budget={budget!r}")
-    return int(budget)
+def check_count(name: str, value: Any) -> int:
+    """``value`` of argument ``name`` as an int >= 1, or a ValidationError naming the rule."""
+    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
+        raise ValidationError(f"`{name}` must be an integer >= 1, but got {name}={value!r}")
+    return int(value)
 
 
 def single_spaces(adapter: ProblemAdapter) -> tuple[spaces.Box, spaces.Box]:
@@ -56,7 +56,7 @@ class EnvBase:
         self.problem = build_problem(problem, problem_options)
         key = problem_key(problem, problem_options, self.problem)
         self.adapter = ProblemAdapter(self.problem, scales_key=key, **shaping)
-        self.budget = check_budget(budget)
+        self.budget = check_count("budget", budget)
 
     def _reference_outputs(self) -> dict[str, Any]:
         """The adapter's outputs of the reference design, evaluated once per env."""

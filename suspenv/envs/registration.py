@@ -10,12 +10,12 @@ the module: ``gymnasium.make("suspenv.envs:suspenv/Sphere-v0")``.
 
 from __future__ import annotations
 
-import difflib
 from typing import Any
 
 import gymnasium as gym
 
 from suspenv.core.errors import ValidationError
+from suspenv.core.options import did_you_mean
 from suspenv.registry import list_problems
 
 NAMESPACE = "suspenv"
@@ -60,8 +60,7 @@ def resolve_env_id(name: str) -> str:
     if eid in ids:
         return eid
     names = list_problems()
-    near = difflib.get_close_matches(name.removeprefix(f"{NAMESPACE}/"), names, n=3, cutoff=0.4)
-    hint = f"; did you mean {', '.join(repr(n) for n in near)}?" if near else ""
+    hint = did_you_mean(name.removeprefix(f"{NAMESPACE}/"), names, cutoff=0.4)
     raise ValidationError(f"unknown env {name!r}{hint} (known problems: {', '.join(names)})")
 
 

@@ -54,69 +54,95 @@ def spec_sheet(env: Any, with_scales: bool = False, **env_kwargs: Any) -> str:
     scales = adapter.scales if with_scales else None
     lines = [f"# {NAMESPACE}/{problem.name}-v{VERSION}", ""]
 
-    lines += ["## Description", ""]
+    def section(title: str, *rows: str) -> None:
+        lines.extend([f"## {title}", "", *rows, ""])
+
     options = problem.config()
-    lines.append(
+    section(
+        "Description",
         f"{problem.description or problem.name} "
         f"(`{type(problem).__module__}:{type(problem).__name__}`"
         + (f", options `{options}`" if options else "")
-        + ")."
-    )
-    lines.append(
+        + ").",
         ("A population of designs" if vector else "One design")
         + f" per step; an episode is one optimisation run of {env.budget} evaluations"
-        + (f" per sub-env ({env.num_envs} sub-envs)." if vector else ".")
+        + (f" per sub-env ({env.num_envs} sub-envs)." if vector else "."),
     )
-    lines.append("")
-
-    lines += ["## Action Space", ""]
-    lines.append(
+    section(
+        "Action Space",
         f"`Box(-1.0, 1.0, ({n}{space.dim},), float64)`. Action `a` -> unit cube "
         "`u = (a + 1) / 2` -> physical value (linear: `low + u (high - low)`; log: "
-        "`low (high / low)^u`); finite actions outside [-1, 1] are clipped."
-    )
-    lines += [
+        "`low (high / low)^u`); finite actions outside [-1, 1] are clipped.",
         "",
         "| # | parameter | unit | low | high | map | reference |",
         "|---|---|---|---|---|---|---|",
-    ]
-    for i, p in enumerate(space.parameters):
-        lines.append(
+        *(
             f"| {i} | `{p.name}` | {p.unit or '-'} | {_g(p.low)} | {_g(p.high)} | "
             f"{'log' if p.log else 'linear'} | {_g(p.reference)} |"
-        )
-    lines.append("")
-
-    lines += ["## Observation Space", ""]
-    lines.append(
+            for i, p in enumerate(space.parameters)
+        ),
+    )
+    section(
+        "Observation Space",
         f"`Box({-OBS_LIMIT:g}, {OBS_LIMIT:g}, ({n}{problem.n_objectives},), float64)`: the "
         f"objectives (minimised) of the design just evaluated, in their units; every "
-        f"component is `fail_value` ({adapter.fail_value:g}) when the evaluation failed."
+        f"component is `fail_value` ({adapter.fail_value:g}) when the evaluation failed.",
+        "",
+        "| # | objective | unit |" + (" scale s_j |" if scales else ""),
+        "|---|---|---|" + ("---|" if scales else ""),
+        *(
+            f"| {j} | `{name}` | {units[j] or '-'} |"
+            + (f" {_g(scales.scales[j])} |" if scales else "")
+            for j, name in enumerate(problem.objective_names)
+        ),
     )
-    head = "| # | objective | unit |" + (" scale s_j |" if scales else "")
-    lines += ["", head, "|---|---|---|" + ("---|" if scales else "")]
-    for j, name in enumerate(problem.objective_names):
-        row = f"| {j} | `{name}` | {units[j] or '-'} |"
-        if scales:
-            row += f" {_g(scales.scales[j])} |"
-        lines.append(row)
-    lines.append("")
+    section("Rewards", *_reward_rows(adapter, problem))
+    section(
+        "Starting State",
+        "`reset()` evaluates the reference design (column *reference* above) and "
+        "returns its objectives; not counted in the budget. The dynamics are "
+        "deterministic; `seed` seeds `np_random` only.",
+    )
+    section(
+        "Episode End",
+        f"`terminated` is always False; `truncated` is True on step {env.budget} (`budget`)."
+        + (" Autoreset NEXT_STEP." if vector else " Step again only after `reset()`."),
+    )
+    section(
+        "Arguments",
+        f"`problem={problem.name!r}`, `problem_options` (the problem's constructor options, "
+        f"now {options}), `budget={env.budget}`, "
+        f"`reward` ({adapter.reward!r}; default {default_reward(problem)!r}), "
+        f"`scalarizer={adapter.scalarizer_name!r}`, `weights`, `penalty={adapter.penalty:g}`, "
+        f"`fail_value={adapter.fail_value:g}` (default {FAIL_VALUE:g}), `render_mode`"
+        + (f", `num_envs={env.num_envs}`" if vector else "")
+        + ".",
+    )
+    section(
+        "Version History",
+        "v0: initial version; later in v0 the `reward` argument (KCIdentification's "
+        "default became \"normalized\").",
+    )
+    return "\n".join(lines)
 
-    lines += ["## Rewards", ""]
-    lines.append(
+
+def _reward_rows(adapter: Any, problem: Any) -> list[str]:
+    """The Rewards section's paragraphs: the reward, the scales of its mode, the
+    constraints."""
+    rows = [
         f"`-(s + penalty * v)`, reward mode **{adapter.reward}**, scalarizer "
         f"`{adapter.scalarizer_name}`, penalty {adapter.penalty:g}; a failed evaluation "
         "earns the lowest reward of a working design seen so far minus `0.1 * |lowest| "
         f"+ 1` (`-fail_value` = {-adapter.fail_value:g} only while none has worked)."
-    )
+    ]
     if adapter.reward == "normalized" and problem.objective_scales is not None:
-        lines.append(
+        rows.append(
             "`s` scalarises `f_j / s_j` with `s_j` the scales the problem declares "
             "(`problem.objective_scales`, in the objectives' units). "
             "`reward=\"sum\"` gives the objectives in their own units."
         )
     elif adapter.reward == "normalized":
-        lines.append(
+        rows.append(
             "`s` scalarises `f_j / s_j` with `s_j = max(|f_j(x_ref)|, "
             f"{SPREAD_FRACTION:g} * IQR_j)`: the objective at the reference design, at "
             "least a tenth of its interquartile range over a fixed sample of "
@@ -125,52 +151,18 @@ def spec_sheet(env: Any, with_scales: bool = False, **env_kwargs: Any) -> str:
             "design. `reward=\"sum\"` gives the objectives in their own units."
         )
     else:
-        lines.append(
+        rows.append(
             "`s` scalarises the objectives in their own units; `reward=\"normalized\"` "
             "divides each by its scale first (see `suspenv.envs.scales`)."
         )
     if problem.n_constraints:
-        lines.append(
+        rows.append(
             f"`v = sum_j max(g_j, 0)` over the {problem.n_constraints} constraints "
             f"(feasible when g <= 0): {', '.join(f'`{c}`' for c in problem.constraint_names)}."
         )
     else:
-        lines.append("No constraints: `v = 0`.")
-    lines.append("")
-
-    lines += ["## Starting State", ""]
-    lines.append(
-        "`reset()` evaluates the reference design (column *reference* above) and "
-        "returns its objectives; not counted in the budget. The dynamics are "
-        "deterministic; `seed` seeds `np_random` only."
-    )
-    lines.append("")
-
-    lines += ["## Episode End", ""]
-    lines.append(
-        f"`terminated` is always False; `truncated` is True on step {env.budget} (`budget`)."
-        + (" Autoreset NEXT_STEP." if vector else " Step again only after `reset()`.")
-    )
-    lines.append("")
-
-    lines += ["## Arguments", ""]
-    lines.append(
-        f"`problem={problem.name!r}`, `problem_options` (the problem's constructor options, "
-        f"now {options}), `budget={env.budget}`, "
-        f"`reward` ({adapter.reward!r}; default {default_reward(problem)!r}), "
-        f"`scalarizer={adapter.scalarizer_name!r}`, `weights`, `penalty={adapter.penalty:g}`, "
-        f"`fail_value={adapter.fail_value:g}` (default {FAIL_VALUE:g}), `render_mode`"
-        + (f", `num_envs={env.num_envs}`" if vector else "")
-        + "."
-    )
-    lines.append("")
-
-    lines += ["## Version History", ""]
-    lines.append(
-        "v0: initial version; later in v0 the `reward` argument (KCIdentification's "
-        "default became \"normalized\")."
-    )
-    return "\n".join(lines) + "\n"
+        rows.append("No constraints: `v = 0`.")
+    return rows
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -15,7 +15,7 @@ from suspenv.envs.adapter import (
     FAIL_VALUE,
     Scalarizer,
 )
-from suspenv.envs.problem_env import EnvBase, single_spaces
+from suspenv.envs.problem_env import EnvBase, check_count, single_spaces
 
 
 class ProblemVectorEnv(EnvBase, VectorEnv):
@@ -91,8 +91,7 @@ class ProblemVectorEnv(EnvBase, VectorEnv):
         render_mode: str | None = None,
         reward: str | None = None,
     ):
-        if isinstance(num_envs, bool) or not isinstance(num_envs, int | np.integer) or num_envs < 1:
-            raise ValidationError(f"`num_envs` must be an integer >= 1, but got {num_envs!r}")
+        self.num_envs = check_count("num_envs", num_envs)
         if render_mode is not None:
             raise ValidationError(
                 f"`render_mode` must be None for the vector env, but got {render_mode!r}"
@@ -108,7 +107,6 @@ class ProblemVectorEnv(EnvBase, VectorEnv):
             batch_scalarizer_ok=True,
             reward=reward,
         )
-        self.num_envs = int(num_envs)
         self.render_mode = None
         self.single_action_space, self.single_observation_space = single_spaces(self.adapter)
         self.action_space = batch_space(self.single_action_space, self.num_envs)

@@ -561,7 +561,7 @@ def _need(results: dict[str, KCResult], test: str) -> KCResult:
 
 
 def _both(v: np.ndarray) -> np.ndarray:
-    """An axle curve (n, G) repeated on both wheels (n, G, 2)."""
+    """An axle number (n,) or curve (n, G) repeated on both wheels (..., 2)."""
     return np.repeat(v[..., None], 2, axis=-1)
 
 
@@ -787,16 +787,16 @@ def steering_report(
     # steering-wheel angle [deg] per mm of rack: 360 / c-factor
     sw_per_mm = 360.0 / c.rack_travel_per_rev
     ratio = sw_per_mm / np.abs(grad.mean(axis=-1))
-    out["steer_ratio"] = np.repeat(ratio[:, None], 2, axis=-1)
+    out["steer_ratio"] = _both(ratio)
     track = kingpin_ground_track(results.get("parallel", res))
     ends = []
     for br in BRANCHES:
         e = ackermann_error_curve(res, br, c.wheelbase, track)
         ends.append(0.5 * (e[:, 0] + e[:, -1]))
     err = 0.5 * (ends[0] + ends[1])
-    out["ackermann_error"] = np.repeat(err[:, None], 2, axis=-1)
+    out["ackermann_error"] = _both(err)
     pct = np.mean([ackermann_pct(res, br, c.wheelbase, track) for br in BRANCHES], axis=0)
-    out["ackermann_pct"] = np.repeat(pct[:, None], 2, axis=-1)
+    out["ackermann_pct"] = _both(pct)
     return out
 
 

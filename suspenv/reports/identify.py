@@ -15,12 +15,13 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from suspenv.core.atomic import write_file
 from suspenv.core.jsonable import to_jsonable
 from suspenv.core.markdown import fmt, markdown_table, text
 from suspenv.methods.identifiability import K_SIGMA, TOLERANCE_PCT, summary_counts
 from suspenv.methods.identify import FIT_RATIO, summary
 from suspenv.reports._mpl import pyplot, save_figure
-from suspenv.runs.run_dir import write_file, write_json
+from suspenv.runs.run_dir import write_json
 
 if TYPE_CHECKING:
     from suspenv.methods.identify import IdentifyResult

@@ -12,9 +12,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from suspenv.core.atomic import write_file
 from suspenv.reports._mpl import pyplot, save_figure
 from suspenv.runs import quality as run_quality
-from suspenv.runs.run_dir import write_file
 
 if TYPE_CHECKING:
     from suspenv.problems.kc_identification import KCIdentification

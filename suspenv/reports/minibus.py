@@ -14,11 +14,11 @@ from typing import Any
 
 import numpy as np
 
+from suspenv.core.atomic import write_file
 from suspenv.models.minibus.vehicle import BASELINE_DESIGN, STUDY_PICK
 from suspenv.problems.minibus import MinibusRideHandling, study_outcome
 from suspenv.reports.run import plot_parallel, plot_pareto_pairs
 from suspenv.reports.suspension import write_suspension_report
-from suspenv.runs.run_dir import write_file
 
 
 def write_minibus_run_report(
@@ -62,7 +62,12 @@ def write_minibus_report(
     )
     U_all = problem.space.to_unit(np.vstack([X, refs]))
     par = plot_parallel(
-        F_all, shown, names, run_dir / "minibus_parallel.png", front=on_front, marks=marks,
+        F_all,
+        shown,
+        names,
+        run_dir / "minibus_parallel.png",
+        front=on_front,
+        marks=marks,
         designs=(U_all, problem.space.names),
     )
     designs = {"baseline": BASELINE_DESIGN, "study pick": STUDY_PICK, "ride-focused pick": X[pick]}

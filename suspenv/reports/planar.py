@@ -14,12 +14,12 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from suspenv.core.atomic import write_file
 from suspenv.models.planar.analytic import PlanarSweep
 from suspenv.models.planar.geometry import DoubleWishbone, PlanarGeometry, geometry_to_toml
 from suspenv.models.planar.outputs import SweepOutputs
 from suspenv.reports._mpl import pyplot, save_figure
 from suspenv.runs import quality as run_quality
-from suspenv.runs.run_dir import write_file
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes

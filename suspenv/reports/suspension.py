@@ -30,6 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
+from suspenv.core.atomic import write_file
 from suspenv.models.minibus.handling_model import roll_centre_heights
 from suspenv.models.minibus.suspension import (
     damper_force,
@@ -47,7 +48,6 @@ from suspenv.models.minibus.vehicle import (
     vehicle_parameters,
 )
 from suspenv.reports._mpl import pyplot, save_figure
-from suspenv.runs.run_dir import write_file
 
 
 def _axle_figures(p: VehicleParams) -> dict[str, np.ndarray]:

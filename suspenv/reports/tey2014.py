@@ -15,11 +15,11 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from scipy.cluster import hierarchy
 
+from suspenv.core.atomic import write_file
 from suspenv.core.markdown import markdown_table
 from suspenv.methods.tey2014.pipeline import PAPER_REFERENCE, study_summary
 from suspenv.reports._mpl import pyplot, save_figure
 from suspenv.runs.quality import best_so_far
-from suspenv.runs.run_dir import write_file
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure

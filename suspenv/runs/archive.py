@@ -57,9 +57,9 @@ from typing import Any
 
 import numpy as np
 
+from suspenv.core.atomic import atomic_path, write_fault
 from suspenv.core.errors import ValidationError
 from suspenv.core.result import EvaluationBatch
-from suspenv.runs.run_dir import atomic_path, write_fault
 
 _META = "CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL)"
 #: the evaluations table (see the module docstring), named by {table}
@@ -116,8 +116,15 @@ def value_columns(
 #: SQLite result codes (prefixes of ``sqlite_errorname``) of a fault of the machine, such
 #: as a read-only folder or a full disk; any other error opening an archive is its content's
 _MACHINE_FAULTS = (
-    "SQLITE_READONLY", "SQLITE_FULL", "SQLITE_CANTOPEN", "SQLITE_IOERR", "SQLITE_BUSY",
-    "SQLITE_LOCKED", "SQLITE_PERM", "SQLITE_NOMEM", "SQLITE_AUTH",
+    "SQLITE_READONLY",
+    "SQLITE_FULL",
+    "SQLITE_CANTOPEN",
+    "SQLITE_IOERR",
+    "SQLITE_BUSY",
+    "SQLITE_LOCKED",
+    "SQLITE_PERM",
+    "SQLITE_NOMEM",
+    "SQLITE_AUTH",
 )
 
 
@@ -347,9 +354,7 @@ class RunArchive:
             f"SELECT {CHECKED}, wall_time, created, "
             f"{'checksum' if with_checksums else 'NULL'} FROM evaluations ORDER BY id"
         ).fetchall()
-        sums = (
-            [r[10] for r in rows] if with_checksums else table_checksums([r[:8] for r in rows])
-        )
+        sums = [r[10] for r in rows] if with_checksums else table_checksums([r[:8] for r in rows])
         now = json.dumps(time.strftime("%Y-%m-%d %H:%M:%S"))
         with self._con:
             self._con.execute("BEGIN")
@@ -486,18 +491,10 @@ class RunArchive:
             ) from None
 
     # --------------------------------------------------------------- appends
-    def append(
-        self,
-        batch_index: int,
-        rows: Sequence[int],
-        U: np.ndarray,
-        X: np.ndarray,
-        result: EvaluationBatch,
-        wall_time: float,
-    ) -> None:
-        """Append evaluated designs of one batch (rows = positions inside the batch), in one
-        transaction."""
-        self.append_chunks([(batch_index, rows, U, X, result, wall_time)])
+    def append(self, *chunk: *Chunk) -> None:
+        """Append one :data:`Chunk` (evaluated designs of one batch; rows = positions
+        inside the batch), in one transaction."""
+        self.append_chunks([chunk])
 
     def append_chunks(self, chunks: Sequence[Chunk]) -> None:
         """Append several chunks ``(batch_index, rows, U, X, result, wall_time)`` in one
@@ -674,20 +671,12 @@ class ArchiveWriter:
         """Evaluations handed over and not committed yet."""
         return sum(len(c[1]) for c in self._pending)
 
-    def append(
-        self,
-        batch_index: int,
-        rows: Sequence[int],
-        U: np.ndarray,
-        X: np.ndarray,
-        result: EvaluationBatch,
-        wall_time: float,
-    ) -> None:
-        """Archive one chunk (see the class docstring for when it is committed). Its
-        values are copied now: the caller may reuse its arrays."""
+    def append(self, *chunk: *Chunk) -> None:
+        """Archive one :data:`Chunk` (see the class docstring for when it is committed).
+        Its values are copied now: the caller may reuse its arrays."""
         now = time.perf_counter()
-        self._pending.append(_copy(batch_index, rows, U, X, result, wall_time))
-        if wall_time >= self.commit_after_s or now - self._last_commit >= self.commit_after_s:
+        self._pending.append(_copy(*chunk))
+        if chunk[-1] >= self.commit_after_s or now - self._last_commit >= self.commit_after_s:
             self.flush()
 
     def flush(self) -> None:

@@ -36,13 +36,13 @@ user, whose tables are not known here, has its top level checked by its own chec
 from __future__ import annotations
 
 import copy
-import difflib
 import re
 import tomllib
 from pathlib import Path
 from typing import Any
 
 from suspenv.core.errors import ValidationError
+from suspenv.core.options import did_you_mean
 from suspenv.core.tomlfile import read_toml
 from suspenv.runs.evaluation import FaultPolicy
 
@@ -131,8 +131,7 @@ def apply_overrides(config: dict[str, Any], overrides: list[str]) -> dict[str, A
 
 def _check_unknown(keys: set[str], known: set[str], where: str) -> None:
     for k in sorted(keys - known):
-        near = difflib.get_close_matches(k, sorted(known), n=1)
-        hint = f"; did you mean {near[0]!r}?" if near else ""
+        hint = did_you_mean(k, sorted(known), n=1)
         raise ValidationError(f"config: unknown key {where}{k!r}{hint}")
 
 

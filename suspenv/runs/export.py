@@ -42,7 +42,6 @@ command shows a progress bar.
 from __future__ import annotations
 
 import logging
-import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -200,6 +199,8 @@ def export_optuna(
     from optuna.distributions import BaseDistribution, FloatDistribution
     from optuna.trial import TrialState
 
+    from suspenv.strategies.nsga2 import quiet
+
     run_dir = Path(run_dir)
     if not (run_dir / RunArchive.FILENAME).is_file():
         raise ValidationError(f"{str(run_dir)!r} is not a run directory (no {RunArchive.FILENAME})")
@@ -235,8 +236,7 @@ def export_optuna(
     if exists:
         optuna.delete_study(study_name=name, storage=url)
     study = optuna.create_study(storage=url, study_name=name, directions=["minimize"] * len(onames))
-    with warnings.catch_warnings():  # set_metric_names is "experimental" in optuna 3.2-5
-        warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
+    with quiet():  # set_metric_names is "experimental" in optuna 3.2-5
         study.set_metric_names(onames)
     versions = meta.get("versions") or {}
     attrs: dict[str, Any] = {

@@ -42,7 +42,7 @@ from suspenv.core.errors import InfrastructureError, ValidationError
 from suspenv.core.problem import Problem
 from suspenv.core.result import EvaluationBatch
 from suspenv.runs import quality as run_quality
-from suspenv.runs.archive import ArchiveWriter, RunArchive
+from suspenv.runs.archive import ArchiveWriter, Chunk, RunArchive
 from suspenv.runs.evaluation import (
     FaultPolicy,
     alarm_handler,
@@ -65,15 +65,9 @@ class Recorder(Protocol):
     :class:`~suspenv.runs.archive.RunArchive` is the standard recorder.
     """
 
-    def append(
-        self,
-        batch_index: int,
-        rows: Sequence[int],
-        U: np.ndarray,
-        X: np.ndarray,
-        result: EvaluationBatch,
-        wall_time: float,
-    ) -> None: ...
+    def append(self, *chunk: *Chunk) -> None:
+        """One :data:`~suspenv.runs.archive.Chunk`: (batch index, rows in the batch, U,
+        X, results, seconds its evaluation took)."""
 
 
 @dataclass

@@ -42,6 +42,7 @@ from suspenv.core.errors import ValidationError
 from suspenv.core.options import option_names
 from suspenv.core.tomlfile import dump_toml
 from suspenv.registry import (
+    STRATEGY_RESERVED,
     make_problem,
     make_strategy,
     problem_class,
@@ -58,8 +59,6 @@ from suspenv.runs.versions import package_versions
 
 #: seconds of drawing after which the figure progress is printed to stderr
 PROGRESS_AFTER_S = 2.0
-#: strategy constructor arguments that come from the problem and the run, not the options
-STRATEGY_RESERVED = ("dim", "n_objectives", "n_constraints", "seed")
 
 
 class FigureProgress:

@@ -12,9 +12,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-from suspenv.core.atomic import atomic_path as atomic_path
-from suspenv.core.atomic import write_fault as write_fault
-from suspenv.core.atomic import write_file as write_file
+from suspenv.core.atomic import write_file
 from suspenv.core.errors import ValidationError
 from suspenv.core.tomlfile import dump_toml
 from suspenv.runs.versions import package_versions

@@ -9,7 +9,7 @@ Order, so that a bad config leaves nothing behind and two runs never share a dir
    ``overwrite``; a damaged ``config.resolved.toml`` or ``versions.json`` is named, and
    ``overwrite`` starts such a folder anew;
 4. the resolved config and versions are written (atomically, as every file of a run
-   directory: :func:`suspenv.runs.run_dir.write_file`), then the pipeline runs.
+   directory: :func:`suspenv.core.atomic.write_file`), then the pipeline runs.
 """
 
 from __future__ import annotations

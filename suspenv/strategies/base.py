@@ -19,15 +19,23 @@ three methods) and calling :func:`suspenv.registry.register_strategy`.
 
 from __future__ import annotations
 
+import math
 from abc import ABC, abstractmethod
 from typing import Any, ClassVar
 
 import numpy as np
 
 from suspenv.core.errors import ValidationError
-from suspenv.core.options import choice, integer, numbers
+from suspenv.core.options import choice, integer, numbers, option_names, optional
 from suspenv.core.result import EvaluationBatch
 from suspenv.core.scalarize import SCALARIZERS, get_scalarizer, penalized_fitness
+
+
+def popsize_option(owner: str, popsize: Any, dim: int) -> int:
+    """``popsize``, an integer >= 2, or for None pycma's default 4 + floor(3 ln d)."""
+    if popsize is None:
+        return 4 + int(3 * math.log(dim))
+    return integer(owner, "popsize", popsize, lo=2)
 
 
 class Strategy(ABC):
@@ -35,8 +43,11 @@ class Strategy(ABC):
 
     name: ClassVar[str] = "strategy"
     description: ClassVar[str] = ""
-    #: the options :meth:`options` records, in order: each an attribute of that name
+    #: the options :meth:`options` records, in order: each an attribute of that name;
+    #: empty: the constructor's keyword options after those of this base class (and
+    #: :attr:`base_options`, which a base class records itself)
     option_names: ClassVar[tuple[str, ...]] = ()
+    base_options: ClassVar[tuple[str, ...]] = ()
 
     def __init__(self, dim: int, n_objectives: int = 1, n_constraints: int = 0, seed: int = 0):
         """Rules: ``dim >= 1``, ``n_objectives >= 1``, ``n_constraints >= 0`` and
@@ -84,7 +95,10 @@ class Strategy(ABC):
 
     def options(self) -> dict[str, Any]:
         """Resolved options (recorded with the run): the attributes :attr:`option_names`."""
-        return {k: getattr(self, k) for k in self.option_names}
+        names = self.option_names or option_names(
+            type(self), (*(option_names(Strategy) or ()), *self.base_options)
+        )
+        return {k: getattr(self, k) for k in names or ()}
 
     # ------------------------------------------------------------ subclasses
     @abstractmethod
@@ -104,6 +118,8 @@ class ScalarStrategy(Strategy):
             1); refused with "rank_sum", which takes none.
     """
 
+    base_options = ("scalarizer", "weights")
+
     def __init__(
         self,
         dim: int,
@@ -121,9 +137,7 @@ class ScalarStrategy(Strategy):
                 f"{self.name}: `weights` apply only with scalarizer='weighted_sum', but got "
                 f"scalarizer={self.scalarizer_name!r} and weights={weights!r}"
             )
-        self.weights = (
-            None if weights is None else numbers(self.name, "weights", weights, self.n_objectives)
-        )
+        self.weights = optional(numbers, self.name, "weights", weights, self.n_objectives)
 
     def fitness(self, batch: EvaluationBatch) -> np.ndarray:
         """Finite fitness per row: scalarised objectives, infeasible and failed rows last."""

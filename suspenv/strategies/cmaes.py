@@ -24,15 +24,14 @@ everywhere; ``scalarizer`` and ``weights`` as in
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import cma
 import numpy as np
 
-from suspenv.core.options import integer, number, numbers
+from suspenv.core.options import integer, number, numbers, optional
 from suspenv.core.result import EvaluationBatch
-from suspenv.strategies.base import ScalarStrategy
+from suspenv.strategies.base import ScalarStrategy, popsize_option
 
 #: step-size factor after a generation in which every design failed, and the step size
 #: (unit-cube coordinates) it never widens beyond: 1 spans the whole box
@@ -57,10 +56,6 @@ class CMAES(ScalarStrategy):
 
     name = "cmaes"
     description = "CMA-ES (pycma), bounds by BoundTransform, optional IPOP restarts"
-    option_names = (
-        "popsize", "sigma0", "x0", "restarts", "incpopsize", "tolfun", "tolx",
-        "max_failed_generations",
-    )
 
     def __init__(
         self,
@@ -81,13 +76,9 @@ class CMAES(ScalarStrategy):
     ):
         super().__init__(dim, n_objectives, n_constraints, seed, scalarizer, weights)
         owner = self.name
-        self.popsize = (
-            4 + int(3 * math.log(self.dim))
-            if popsize is None
-            else integer(owner, "popsize", popsize, lo=2)
-        )
+        self.popsize = popsize_option(owner, popsize, self.dim)
         self.sigma0 = number(owner, "sigma0", sigma0, lo=0.0, hi=1.0, lo_open=True)
-        self.x0 = None if x0 is None else numbers(owner, "x0", x0, self.dim, lo=0.0, hi=1.0)
+        self.x0 = optional(numbers, owner, "x0", x0, self.dim, lo=0.0, hi=1.0)
         self.restarts = integer(owner, "restarts", restarts, lo=0)
         self.incpopsize = number(owner, "incpopsize", incpopsize, lo=1.0)
         self.tolfun = number(owner, "tolfun", tolfun, lo=0.0)
@@ -123,7 +114,7 @@ class CMAES(ScalarStrategy):
         return np.clip(np.asarray(self._es.ask(), dtype=float), 0.0, 1.0)
 
     def _tell(self, U: np.ndarray, batch: EvaluationBatch) -> None:
-        ok = np.asarray(batch.ok, bool) & np.isfinite(batch.objectives).all(axis=1)
+        ok = batch.rankable
         if not ok.any():
             self._tell_all_failed(batch)
             return

@@ -42,7 +42,7 @@ import numpy as np
 from scipy.stats import qmc
 
 from suspenv.core.errors import ValidationError
-from suspenv.core.options import choice, integer, number, numbers
+from suspenv.core.options import choice, integer, number, numbers, optional
 from suspenv.core.result import EvaluationBatch
 from suspenv.core.scalarize import weighted_sum
 from suspenv.strategies.base import Strategy
@@ -73,10 +73,6 @@ class DifferentialEvolution(Strategy):
 
     name = "de"
     description = "differential evolution (Storn & Price), scipy's defaults, one generation/batch"
-    option_names = (
-        "popsize", "mutation", "recombination", "strategy", "init", "maxiter", "tol", "atol",
-        "weights",
-    )
 
     def __init__(
         self,
@@ -104,9 +100,7 @@ class DifferentialEvolution(Strategy):
         self.maxiter = integer(owner, "maxiter", maxiter, lo=0)
         self.tol = number(owner, "tol", tol, lo=0.0)
         self.atol = number(owner, "atol", atol, lo=0.0)
-        self.weights = (
-            None if weights is None else numbers(owner, "weights", weights, self.n_objectives)
-        )
+        self.weights = optional(numbers, owner, "weights", weights, self.n_objectives)
         self.population_size = max(MIN_POPULATION, self.popsize * self.dim)
         self._rng = np.random.default_rng(self.seed)
         #: the population (S, d) and, per member, its class (0 feasible, 1 infeasible,
@@ -158,7 +152,7 @@ class DifferentialEvolution(Strategy):
     def _classify(self, batch: EvaluationBatch) -> tuple[np.ndarray, np.ndarray]:
         """(class, value) per row: 0 feasible (value: weighted objectives), 1 infeasible
         (value: total violation), 2 failed (value 0)."""
-        ok = np.asarray(batch.ok, bool) & np.isfinite(batch.objectives).all(axis=1)
+        ok = batch.rankable
         f = weighted_sum(np.nan_to_num(batch.objectives), self.weights)
         v = np.where(ok, np.nan_to_num(batch.violation, nan=np.inf), 0.0)
         rank = np.where(~ok, 2, np.where(v > 0, 1, 0))

@@ -61,7 +61,7 @@ def told_losses(batch: EvaluationBatch) -> np.ndarray:
     the rest of the batch, so a value told in one batch compares with one told in another.
     """
     F = np.asarray(batch.objectives, dtype=float)
-    ok = np.asarray(batch.ok, bool) & np.isfinite(F).all(axis=1)
+    ok = batch.rankable
     # an unknown (NaN) constraint value counts as infeasible, as in EvaluationBatch.feasible
     v = np.where(ok, np.nan_to_num(np.asarray(batch.violation, dtype=float), nan=np.inf), 0.0)
     infeasible = ok & (v > 0)

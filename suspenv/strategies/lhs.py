@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.stats import qmc
 
-from suspenv.core.options import choice, integer
+from suspenv.core.options import choice, integer, optional
 from suspenv.core.result import EvaluationBatch
 from suspenv.strategies.base import Strategy
 
@@ -30,7 +30,6 @@ class LatinHypercube(Strategy):
 
     name = "lhs"
     description = "Latin hypercube design of experiments (scipy.stats.qmc)"
-    option_names = ("n_samples", "batch_size", "optimization")
 
     def __init__(
         self,
@@ -45,11 +44,7 @@ class LatinHypercube(Strategy):
         super().__init__(dim, n_objectives, n_constraints, seed)
         self.n_samples = integer(self.name, "n_samples", n_samples, lo=1)
         self.batch_size = integer(self.name, "batch_size", batch_size, lo=1)
-        self.optimization = (
-            None
-            if optimization is None
-            else choice(self.name, "optimization", optimization, OPTIMIZATIONS)
-        )
+        self.optimization = optional(choice, self.name, "optimization", optimization, OPTIMIZATIONS)
         sampler = qmc.LatinHypercube(d=self.dim, optimization=self.optimization, rng=self.seed)
         self.design = sampler.random(self.n_samples)
         self._next = 0

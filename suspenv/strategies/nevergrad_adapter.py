@@ -36,13 +36,12 @@ happens. The default optimiser, ``TwoPointsDE``, does not use it.
 
 from __future__ import annotations
 
-import difflib
 from typing import Any
 
 import numpy as np
 
 from suspenv.core.errors import ValidationError
-from suspenv.core.options import integer, numbers, text
+from suspenv.core.options import did_you_mean, integer, numbers, optional, text
 from suspenv.core.result import EvaluationBatch
 from suspenv.strategies.base import Strategy
 from suspenv.strategies.extras import require, told_losses
@@ -72,7 +71,6 @@ class Nevergrad(Strategy):
 
     name = "nevergrad"
     description = "any nevergrad optimiser (default TwoPointsDE); needs suspenv[nevergrad]"
-    option_names = ("optimizer", "batch_size", "budget", "reference_point")
 
     def __init__(
         self,
@@ -88,29 +86,23 @@ class Nevergrad(Strategy):
         super().__init__(dim, n_objectives, n_constraints, seed)
         owner = self.name
         self.batch_size = integer(owner, "batch_size", batch_size, lo=1)
-        self.budget = None if budget is None else integer(owner, "budget", budget, lo=1)
+        self.budget = optional(integer, owner, "budget", budget, lo=1)
         if reference_point is not None and self.n_objectives == 1:
             raise ValidationError(
                 f"{owner}: `reference_point` applies only with several objectives, but the "
                 f"problem has one (reference_point={reference_point!r})"
             )
-        self.reference_point = (
-            None
-            if reference_point is None
-            else numbers(owner, "reference_point", reference_point, self.n_objectives)
+        self.reference_point = optional(
+            numbers, owner, "reference_point", reference_point, self.n_objectives
         )
         text(owner, "optimizer", optimizer)
         ng = require(owner, "nevergrad", "nevergrad")
         registry = ng.optimizers.registry
         if optimizer not in registry:
-            near = difflib.get_close_matches(optimizer, list(registry), n=3, cutoff=0.6)
-            lowered = {k.lower(): k for k in registry}
-            if optimizer.lower() in lowered:
-                near = [lowered[optimizer.lower()]]
-            hint = f"; did you mean {', '.join(repr(n) for n in near)}?" if near else ""
             raise ValidationError(
                 f"{owner}: `optimizer` must be a name of nevergrad.optimizers.registry "
-                f"({len(registry)} names), but got optimizer={optimizer!r}{hint}"
+                f"({len(registry)} names), but got optimizer={optimizer!r}"
+                + did_you_mean(optimizer, registry)
             )
         self.optimizer = optimizer
         factory = registry[optimizer]

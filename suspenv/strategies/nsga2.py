@@ -58,7 +58,7 @@ from optuna.distributions import BaseDistribution, FloatDistribution
 from optuna.trial import FrozenTrial, TrialState
 
 from suspenv.core.errors import ValidationError
-from suspenv.core.options import integer, number, text
+from suspenv.core.options import integer, number, optional, text
 from suspenv.core.result import EvaluationBatch
 from suspenv.strategies.base import Strategy
 
@@ -104,7 +104,7 @@ def tell_trials(
     optuna's constraint mechanism: ``Trial.set_constraint`` from optuna 5 on, else the
     user attribute :data:`CONSTRAINTS_KEY` read by :func:`constraints_of`. An unknown
     constraint value (NaN) is told as a violation of 1e300 (optuna refuses NaN)."""
-    failed = ~np.asarray(batch.ok, bool) | ~np.isfinite(batch.objectives).all(axis=1)
+    failed = ~batch.rankable
     for i, trial in trials:
         if failed[i]:
             study.tell(trial, state=TrialState.FAIL)
@@ -192,10 +192,6 @@ class NSGA2(Strategy):
 
     name = "nsga2"
     description = "NSGA-II (optuna), one generation per batch, constraints supported"
-    option_names = (
-        "population_size", "crossover_prob", "mutation_prob", "swapping_prob", "storage",
-        "study_name", "resume",
-    )
 
     def __init__(
         self,
@@ -215,13 +211,9 @@ class NSGA2(Strategy):
         owner = self.name
         self.population_size = integer(owner, "population_size", population_size, lo=2)
         self.crossover_prob = number(owner, "crossover_prob", crossover_prob, lo=0.0, hi=1.0)
-        self.mutation_prob = (
-            None
-            if mutation_prob is None
-            else number(owner, "mutation_prob", mutation_prob, lo=0.0, hi=1.0)
-        )
+        self.mutation_prob = optional(number, owner, "mutation_prob", mutation_prob, lo=0.0, hi=1.0)
         self.swapping_prob = number(owner, "swapping_prob", swapping_prob, lo=0.0, hi=1.0)
-        self.storage = None if storage is None else text(owner, "storage", storage)
+        self.storage = optional(text, owner, "storage", storage)
         self.study_name = (
             f"suspenv-nsga2-{self.seed}"
             if study_name is None

@@ -40,17 +40,16 @@ dependency). TPE and NSGA-III need nothing beyond optuna.
 from __future__ import annotations
 
 import logging
-import math
 from typing import Any, ClassVar
 
 import numpy as np
 import optuna
 
 from suspenv.core.errors import ValidationError
-from suspenv.core.options import integer, number, numbers
+from suspenv.core.options import integer, number, numbers, optional
 from suspenv.core.result import EvaluationBatch
 from suspenv.core.scalarize import weighted_sum
-from suspenv.strategies.base import Strategy
+from suspenv.strategies.base import Strategy, popsize_option
 from suspenv.strategies.extras import require, told_losses
 from suspenv.strategies.nsga2 import StudyDesign, constraints_func, quiet, tell_trials
 
@@ -123,7 +122,6 @@ class OptunaTPE(OptunaSampler):
 
     name = "optuna_tpe"
     description = "TPE (optuna), several objectives and constraints supported"
-    option_names = ("batch_size", "n_startup_trials", "n_ei_candidates", "multivariate")
 
     def __init__(
         self,
@@ -178,7 +176,6 @@ class OptunaCMAES(OptunaSampler):
 
     name = "optuna_cmaes"
     description = "CMA-ES (optuna + cmaes), one generation per batch; needs suspenv[optuna-cmaes]"
-    option_names = ("popsize", "n_startup_trials", "lr_adapt", "weights")
     native_constraints = False
 
     def __init__(
@@ -194,16 +191,10 @@ class OptunaCMAES(OptunaSampler):
     ):
         super().__init__(dim, n_objectives, n_constraints, seed)
         owner = self.name
-        self.popsize = (
-            4 + int(3 * math.log(self.dim))
-            if popsize is None
-            else integer(owner, "popsize", popsize, lo=2)
-        )
+        self.popsize = popsize_option(owner, popsize, self.dim)
         self.n_startup_trials = integer(owner, "n_startup_trials", n_startup_trials, lo=0)
         self.lr_adapt = bool(_flag(owner, "lr_adapt", lr_adapt, allow_none=False))
-        self.weights = (
-            None if weights is None else numbers(owner, "weights", weights, self.n_objectives)
-        )
+        self.weights = optional(numbers, owner, "weights", weights, self.n_objectives)
         require(owner, "cmaes", "optuna-cmaes")
         with quiet():
             sampler = optuna.samplers.CmaEsSampler(
@@ -216,7 +207,7 @@ class OptunaCMAES(OptunaSampler):
         self._setup(sampler, 1, self.popsize)
 
     def _values(self, batch: EvaluationBatch) -> np.ndarray:
-        ok = np.asarray(batch.ok, bool) & np.isfinite(batch.objectives).all(axis=1)
+        ok = batch.rankable
         f = weighted_sum(np.nan_to_num(batch.objectives), self.weights, valid=ok)
         scalar = EvaluationBatch(
             f[:, None], batch.constraints, ok, batch.messages,
@@ -243,10 +234,6 @@ class OptunaNSGA3(OptunaSampler):
 
     name = "optuna_nsga3"
     description = "NSGA-III (optuna), one generation per batch, constraints supported"
-    option_names = (
-        "population_size", "crossover_prob", "mutation_prob", "swapping_prob",
-        "dividing_parameter",
-    )
 
     def __init__(
         self,
@@ -264,11 +251,7 @@ class OptunaNSGA3(OptunaSampler):
         owner = self.name
         self.population_size = integer(owner, "population_size", population_size, lo=2)
         self.crossover_prob = number(owner, "crossover_prob", crossover_prob, lo=0.0, hi=1.0)
-        self.mutation_prob = (
-            None
-            if mutation_prob is None
-            else number(owner, "mutation_prob", mutation_prob, lo=0.0, hi=1.0)
-        )
+        self.mutation_prob = optional(number, owner, "mutation_prob", mutation_prob, lo=0.0, hi=1.0)
         self.swapping_prob = number(owner, "swapping_prob", swapping_prob, lo=0.0, hi=1.0)
         self.dividing_parameter = integer(owner, "dividing_parameter", dividing_parameter, lo=1)
         with quiet():
@@ -303,7 +286,6 @@ class OptunaGP(OptunaSampler):
 
     name = "optuna_gp"
     description = "GP Bayesian optimisation (optuna + torch); needs suspenv[optuna-gp]"
-    option_names = ("batch_size", "n_startup_trials", "deterministic_objective")
 
     def __init__(
         self,

@@ -59,7 +59,6 @@ class PymooNSGA2(Strategy):
 
     name = "pymoo_nsga2"
     description = "NSGA-II (pymoo), vectorised per generation; fast for large populations"
-    option_names = ("population_size", "crossover_prob", "crossover_eta", "mutation_eta")
 
     def __init__(
         self,
@@ -101,7 +100,7 @@ class PymooNSGA2(Strategy):
         return np.clip(np.asarray(population.get("X"), dtype=float), 0.0, 1.0)
 
     def _tell(self, U: np.ndarray, batch: EvaluationBatch) -> None:
-        ok = batch.ok & np.isfinite(batch.objectives).all(axis=1)
+        ok = batch.rankable
         F = np.where(ok[:, None], batch.objectives, FAILED_OBJECTIVE)
         if self.n_constraints:
             G = np.where(ok[:, None], np.nan_to_num(batch.scaled_constraints, nan=1.0), 1.0)

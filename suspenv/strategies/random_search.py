@@ -20,7 +20,6 @@ class RandomSearch(ScalarStrategy):
 
     name = "random"
     description = "uniform random search (baseline)"
-    option_names = ("batch_size",)
 
     def __init__(
         self,

@@ -26,7 +26,7 @@ from suspenv.core.pareto import nondominated
 from suspenv.registry import make_strategy
 from suspenv.runs.loop import optimize
 from suspenv.runs.versions import package_versions
-from suspenv.suite.instances import FUNCTIONS, build
+from suspenv.suite.instances import build
 
 #: where shipped fronts live (package data)
 FRONT_DIR = Path(__file__).resolve().parents[1] / "data" / "suite"
@@ -95,14 +95,13 @@ def compute_front(
     """Run NSGA-II (pymoo) ``budget`` evaluations per seed on the function's instance 1;
     write the non-dominated union of feasible evaluations to ``out`` (default: the
     shipped file) with its provenance, and return it."""
-    f = FUNCTIONS.get(function_name)
-    if f is None or f.known(build(function_name).problem).kind != "front":
+    inst = build(function_name)  # an unknown name: an error with the nearest names
+    if inst.known.kind != "front":
         raise ValidationError(
             f"`suspenv suite front` needs a multi-objective suite function with a computed "
             f"front, but got {function_name!r}"
         )
-    inst = build(function_name)
-    p = inst.problem
+    f, p = inst.function, inst.problem
     name = inst.known.front or function_name
     objectives: list[np.ndarray] = []
     designs: list[np.ndarray] = []

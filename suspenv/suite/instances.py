@@ -20,7 +20,6 @@ compared only within one version.
 
 from __future__ import annotations
 
-import difflib
 from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass, field
 from typing import Any
@@ -28,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from suspenv.core.errors import ValidationError
+from suspenv.core.options import did_you_mean
 from suspenv.core.problem import Problem
 from suspenv.registry import make_problem
 
@@ -246,8 +246,7 @@ def function(name: str) -> Function:
     try:
         return FUNCTIONS[name]
     except KeyError:
-        near = difflib.get_close_matches(name, list(FUNCTIONS), n=2)
-        hint = f"; did you mean {', '.join(map(repr, near))}?" if near else ""
+        hint = did_you_mean(name, FUNCTIONS, n=2)
         raise ValidationError(
             f"unknown suite function {name!r}{hint} (known: {', '.join(FUNCTIONS)})"
         ) from None

@@ -45,6 +45,7 @@ from typing import Any
 import numpy as np
 
 from suspenv.core import options as check
+from suspenv.core.atomic import write_file
 from suspenv.core.errors import ValidationError
 from suspenv.core.jsonable import to_jsonable
 from suspenv.core.laps import Laps
@@ -75,7 +76,6 @@ from suspenv.methods.tey2014.strategy_comparison import QUALITY_NAME, optimize_a
 from suspenv.problems.views import ObjectiveSubset, WithSignedResponses
 from suspenv.registry import report_function
 from suspenv.runs.quality import best_so_far, curve_items, feasible
-from suspenv.runs.run_dir import write_file
 
 #: the ``[study]`` table of a config, with its defaults (the paper's settings)
 STUDY_DEFAULTS: dict[str, Any] = {
@@ -626,5 +626,3 @@ def run_tey2014_pipeline(config: dict[str, Any], run_dir: Path) -> dict[str, Any
     write_file(run_dir / "study.json", text)
     write_file(run_dir / "summary.json", text)
     return summary
-
-

@@ -15,13 +15,13 @@ from typing import Any
 
 import numpy as np
 
+from suspenv.core.atomic import write_file
 from suspenv.core.jsonable import to_jsonable
 from suspenv.core.markdown import fmt as _fmt
 from suspenv.core.markdown import text
 from suspenv.diagnosis.component.motion import motion
 from suspenv.diagnosis.engine import Diagnosis
 from suspenv.reports._mpl import pyplot, save_figure
-from suspenv.runs.run_dir import write_file
 
 
 def residual_map(diag: Diagnosis, path: Path) -> Path:

@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from suspenv.core.atomic import write_file
 from suspenv.core.markdown import markdown_table, text
 from suspenv.diagnosis.knc.locate import BRANCHES
 from suspenv.measurements.knc import (
@@ -27,7 +28,6 @@ from suspenv.measurements.knc import (
     rig_test,
 )
 from suspenv.reports._mpl import pyplot, save_figure
-from suspenv.runs.run_dir import write_file
 
 #: plot scale and unit per channel
 PLOT_UNITS = {

@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from suspenv.core.atomic import write_file
 from suspenv.core.jsonable import to_jsonable
 from suspenv.core.markdown import text
 from suspenv.diagnosis.engine import Diagnosis
@@ -20,7 +21,6 @@ from suspenv.diagnosis.ride.residual import NOISE_BAND_HZ
 from suspenv.metrics.ride import acceleration_psd
 from suspenv.reports._mpl import pyplot, save_figure
 from suspenv.reports.diagnosis.component import residual_map
-from suspenv.runs.run_dir import write_file
 
 
 def _pred(fit: Any, rec: Any) -> dict[str, np.ndarray]:

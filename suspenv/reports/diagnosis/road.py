@@ -13,13 +13,13 @@ from pathlib import Path
 
 import numpy as np
 
+from suspenv.core.atomic import write_file
 from suspenv.core.markdown import text
 from suspenv.diagnosis.engine import Diagnosis
 from suspenv.diagnosis.road import profile_grid
 from suspenv.measurements import Recording
 from suspenv.reports._mpl import pyplot, save_figure
 from suspenv.rigs.road import displacement_psd, welch_psd
-from suspenv.runs.run_dir import write_file
 
 
 def write_road_report(diag: Diagnosis, profile: Recording, out_dir: str | Path) -> list[Path]:
