@@ -85,9 +85,7 @@ def _planar(args: argparse.Namespace) -> int:
         out_dir = Path(args.out)
         stem = plain_file_name(Path(args.geometry).stem, fallback="geometry")
         curves = [(label, out) for label, _, out in results]
-        fig = save_linkage_figure(
-            output_file(out_dir, f"{stem}.png"), geom, results[0][1], curves
-        )
+        fig = save_linkage_figure(output_file(out_dir, f"{stem}.png"), geom, results[0][1], curves)
         curves_fig = save_curves_figure(output_file(out_dir, f"{stem}_curves.png"), curves)
         print(f"\nwrote {fig} and {curves_fig}")
     return 0

@@ -58,9 +58,7 @@ class EvaluationBatch:
                 f"ok={self.ok.shape}, messages={len(self.messages)}"
             )
         if self.constraint_scales is not None:
-            self.constraint_scales = check_scales(
-                self.constraint_scales, self.constraints.shape[1]
-            )
+            self.constraint_scales = check_scales(self.constraint_scales, self.constraints.shape[1])
 
     # ----------------------------------------------------------- constructors
     @classmethod

@@ -121,7 +121,7 @@ def spec_sheet(env: Any, with_scales: bool = False, **env_kwargs: Any) -> str:
     section(
         "Version History",
         "v0: initial version; later in v0 the `reward` argument (KCIdentification's "
-        "default became \"normalized\").",
+        'default became "normalized").',
     )
     return "\n".join(lines)
 
@@ -139,7 +139,7 @@ def _reward_rows(adapter: Any, problem: Any) -> list[str]:
         rows.append(
             "`s` scalarises `f_j / s_j` with `s_j` the scales the problem declares "
             "(`problem.objective_scales`, in the objectives' units). "
-            "`reward=\"sum\"` gives the objectives in their own units."
+            '`reward="sum"` gives the objectives in their own units.'
         )
     elif adapter.reward == "normalized":
         rows.append(
@@ -148,11 +148,11 @@ def _reward_rows(adapter: Any, problem: Any) -> list[str]:
             "least a tenth of its interquartile range over a fixed sample of "
             f"{SAMPLE_SIZE} uniform designs (`numpy.random.default_rng({SAMPLE_SEED})`); "
             "1 where that is 0. Each objective contributes at most 1 at the reference "
-            "design. `reward=\"sum\"` gives the objectives in their own units."
+            'design. `reward="sum"` gives the objectives in their own units.'
         )
     else:
         rows.append(
-            "`s` scalarises the objectives in their own units; `reward=\"normalized\"` "
+            '`s` scalarises the objectives in their own units; `reward="normalized"` '
             "divides each by its scale first (see `suspenv.envs.scales`)."
         )
     if problem.n_constraints:

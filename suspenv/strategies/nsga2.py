@@ -348,8 +348,7 @@ class NSGA2(Strategy):
         b, self._batch = self._batch, self._batch + 1
         stored = self._stored.pop(b, {})
         self._trials = [
-            stored[r] if r in stored else self._new_trial(b, r)
-            for r in range(self.population_size)
+            stored[r] if r in stored else self._new_trial(b, r) for r in range(self.population_size)
         ]
         return self.design.unit(self._trials)
 

@@ -210,7 +210,10 @@ class OptunaCMAES(OptunaSampler):
         ok = batch.rankable
         f = weighted_sum(np.nan_to_num(batch.objectives), self.weights, valid=ok)
         scalar = EvaluationBatch(
-            f[:, None], batch.constraints, ok, batch.messages,
+            f[:, None],
+            batch.constraints,
+            ok,
+            batch.messages,
             constraint_scales=batch.constraint_scales,
         )
         return told_losses(scalar)

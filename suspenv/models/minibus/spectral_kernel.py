@@ -24,15 +24,15 @@ these loops run the same arithmetic compiled:
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
 from suspenv.core import compiled
 
-try:  # the gufunc numpy.linalg.eig calls, reached without its per-call checks
-    from numpy.linalg import _umath_linalg
-except ImportError:  # pragma: no cover - a numpy that moved it: the public route
-    _umath_linalg = None
+#: the gufunc numpy.linalg.eig calls, reached without its per-call checks (None in a
+#: numpy that moved it: the public route is taken)
+_LAPACK_EIG: Any = getattr(getattr(np.linalg, "_umath_linalg", None), "eig", None)
 
 
 def eig(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -40,8 +40,8 @@ def eig(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     ``A`` (..., m, m), the numbers of :func:`numpy.linalg.eig` without its checks and
     casts (~10 us a call). A matrix with a non-finite entry gives NaN (numpy raises for
     the whole stack), so that its design fails as non-finite."""
-    if _umath_linalg is not None and np.isfinite(A.sum()):
-        return _umath_linalg.eig(A, signature="d->DD")
+    if _LAPACK_EIG is not None and np.isfinite(A.sum()):
+        return _LAPACK_EIG(A, signature="d->DD")
     bad = ~np.isfinite(A).all(axis=(-2, -1))
     w, v = np.linalg.eig(np.where(bad[..., None, None], 0.0, A))
     w[bad], v[bad] = np.nan, np.nan
