@@ -29,7 +29,7 @@ loops, short guide runs compared low-passed) are not judged.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from itertools import combinations
+from itertools import combinations, pairwise
 from typing import Any
 
 import numpy as np
@@ -43,9 +43,14 @@ from suspenv.diagnosis.protocols import RecordingLike
 from suspenv.models.components.base import OUTPUT_LOWPASS_KEY
 
 #: block lengths [samples] of the switching test (the switching time is not known)
-BLOCK_SAMPLES = (50, 100, 200, 400)
-#: fewest blocks of a length tried
+BLOCK_SAMPLES = (25, 50, 100, 200, 400)
+#: fewest and most blocks of a length tried: over more, the little that the time-invariant
+#: fit leaves of a function of the state (a ripple finer than its cells) keeps its gain
+#: between short neighbouring blocks, which hundreds of blocks would call switching
 MIN_BLOCKS = 16
+MAX_BLOCKS = 128
+#: fewest samples (at the pass-band rate) of a residual judged
+MIN_SAMPLES = 800
 #: share of each block, at its end, left out of its gain (a gap between blocks)
 GUARD_FRACTION = 0.2
 #: the residual's RMS over its white noise floor above which it is "far above the noise"
@@ -142,6 +147,19 @@ def whitening(e: np.ndarray) -> np.ndarray:
     return np.r_[1.0, -linalg.solve_toeplitz(acf[:-1], acf[1:])]
 
 
+def within_blocks(r: np.ndarray, signals: Sequence[np.ndarray]) -> np.ndarray:
+    """``r`` less its least-squares gains on ``signals`` in each block of the shortest
+    length tried (the last block takes the remainder): what no switched gain explains,
+    whose autoregression is the noise's (one of ``r`` as a whole would take a switched
+    gain's own smooth shape for coloured noise and whiten it away)."""
+    out = r.copy()
+    length = BLOCK_SAMPLES[0]
+    for a, b in pairwise([*range(0, length * max(r.size // length, 1), length), r.size]):
+        x = np.column_stack([s[a:b] for s in signals])
+        out[a:b] -= x @ np.linalg.lstsq(x, r[a:b], rcond=None)[0]
+    return out
+
+
 def pass_band_step(fs: float, fc: float | None) -> int:
     """Every how many samples (at ``fs`` [Hz]) a residual low-passed at ``fc`` [Hz] is
     taken, at its pass-band rate ``2 fc`` (its neighbouring samples are not independent):
@@ -160,16 +178,17 @@ def switching(
     Bonferroni over the block lengths and signals tried; ``signal``: the index in
     ``signals`` of the one whose gain switches most clearly. The noise: a drifting zero
     (powers 0-3 of time and the drift check's Legendre P4 ... P\\ :data:`DRIFT_ORDER`,
-    its ``drift_basis``) and the autoregression (:func:`whitening`) of all of ``r`` the
-    drift leaves (slow noise keeps its slow part), by which ``r``, the signals and the
-    drift are filtered; the whitened drift is taken out of ``r``: the gains' covariance that
+    its ``drift_basis``) and the autoregression (:func:`whitening`) of what the drift
+    and gains set anew in each block leave of ``r`` (:func:`within_blocks`), by which
+    ``r``, the signals and the drift are filtered; the whitened drift is taken out of
+    ``r``: the gains' covariance that
     leaves, ``I - (G Q)(G Q)'`` (``G`` the gains' rows, ``Q`` an orthonormal basis of the
     whitened drift), is part of the exact null."""
-    if r.size < MIN_BLOCKS * BLOCK_SAMPLES[0] or not signals:
+    if r.size < MIN_SAMPLES or not signals:
         return dict(NO_SWITCHING)
     t = np.linspace(-1.0, 1.0, r.size)
     base = np.column_stack([np.vander(t, 4), drift_basis(t, DRIFT_ORDER)])
-    poly = whitening(r - base @ np.linalg.lstsq(base, r, rcond=None)[0])
+    poly = whitening(within_blocks(r - base @ np.linalg.lstsq(base, r, rcond=None)[0], signals))
     q, _ = np.linalg.qr(signal.lfilter(poly, [1.0], base, axis=0))
     rw = signal.lfilter(poly, [1.0], r)
     rw = rw - q @ (q.T @ rw)
@@ -180,8 +199,8 @@ def switching(
             [np.ones(blocks), block_features(signals, length)]
             + ([block_features(causes, length, means=True)] if causes else [])
         )
-        if blocks < max(MIN_BLOCKS, a.shape[1] + 3):  # too few degrees of freedom left
-            continue
+        if not max(MIN_BLOCKS, a.shape[1] + 3) <= blocks <= MAX_BLOCKS:
+            continue  # too few degrees of freedom left, or too many blocks (MAX_BLOCKS)
         for i, s in enumerate(signals):
             sw = signal.lfilter(poly, [1.0], s)
             gq = np.column_stack([block_gains(c, sw, length) for c in q.T])
@@ -265,7 +284,7 @@ def judge_recording(
     pass-band rate (:func:`pass_band_step`); empty when ``rec`` is too short for the
     blocks at that rate or has no input."""
     step = pass_band_step(1.0 / rec.sample_interval, rec.meta.get(OUTPUT_LOWPASS_KEY))
-    if len(rec.time) // step < MIN_BLOCKS * BLOCK_SAMPLES[0] or not rec.inputs:
+    if len(rec.time) // step < MIN_SAMPLES or not rec.inputs:
         return {}
     (res,) = residuals(fit.model, fit.theta, [rec], fit.channels)
     pred = fit.model.simulate(fit.theta, rec)
