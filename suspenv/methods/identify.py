@@ -504,9 +504,15 @@ def screen_residual(model: CurveModel, measurement: Any, x: np.ndarray) -> dict[
     signature scores (about N(0, 1) under pure noise). Named stepwise: the strongest
     score above :data:`SIGNATURE_THRESHOLD` whose pattern holds at least
     :data:`NAMED_SHARE` of the residual's sum of squares is named, its pattern projected
-    out of the residual (:func:`_without_pattern`) and the others scored again."""
+    out of the residual (:func:`~suspenv.diagnosis.knc.signatures.without_pattern`) and
+    the others scored again."""
     from suspenv.diagnosis.knc.locate import residual_map
-    from suspenv.diagnosis.knc.signatures import FAMILY_KINDS, FAMILY_WORDS, score_signatures
+    from suspenv.diagnosis.knc.signatures import (
+        FAMILY_KINDS,
+        FAMILY_WORDS,
+        score_signatures,
+        without_pattern,
+    )
     from suspenv.measurements.knc import CHANNELS as REC_CHANNELS
     from suspenv.rigs.knc_measured import on_grid
     from suspenv.rigs.knc_recording import channels_of, to_recording
@@ -551,7 +557,7 @@ def screen_residual(model: CurveModel, measurement: Any, x: np.ndarray) -> dict[
         again = [g for g in score_signatures(recs, left, pred, where.noise) if g.kind not in done]
         if not again or again[0].score <= SIGNATURE_THRESHOLD:
             break
-        rest = _without_pattern(recs, left, pred, where.noise, again[0].kind)
+        rest = without_pattern(recs, left, pred, where.noise, again[0].kind)
         share = (sumsq(left) - sumsq(rest)) / total if total > 0 else 0.0
         if share < NAMED_SHARE:
             break
@@ -580,62 +586,6 @@ def screen_residual(model: CurveModel, measurement: Any, x: np.ndarray) -> dict[
         f"pattern holds at least {NAMED_SHARE:.0%} of the residual's sum of squares; it is "
         "projected out and the rest scored again",
     }
-
-
-def _without_pattern(
-    recs: Sequence[Any],
-    res: Sequence[Mapping[str, np.ndarray]],
-    pred: Sequence[Mapping[str, np.ndarray]],
-    noise: Mapping[str, float],
-    family: str,
-) -> list[dict[str, np.ndarray]]:
-    """The residuals with signature ``family``'s pattern projected out (least squares per
-    block, the bases of :func:`suspenv.diagnosis.knc.signatures.score_signatures`: loop
-    ``b, b p`` and progressive ``p^3`` per channel and side; left/right ``+-1, +-p,
-    +-p^2`` per channel on both sides stacked; load-cell gain and offset on the wheel
-    load per side)."""
-    from suspenv.measurements.knc import CHANNELS as REC_CHANNELS
-    from suspenv.measurements.knc import drive, reading_drive
-
-    out = []
-    for rec, r0, p0 in zip(recs, res, pred, strict=True):
-        r = {k: np.asarray(v, float).copy() for k, v in r0.items()}
-        b = np.where(rec.inputs["branch"] == 1, -1.0, 1.0)
-        p = {s: drive(rec, s) for s in ("left", "right")}
-        for c in REC_CHANNELS:
-            keys = [f"{c}_{s}" for s in ("left", "right")]
-            if not all(k in r for k in keys):
-                continue
-            if family == "lr_asymmetry":
-                pr = reading_drive(rec, "right")
-                one = np.ones_like(p["left"])
-                A = np.column_stack(
-                    [
-                        np.r_[one, -np.ones_like(pr)],
-                        np.r_[p["left"], -pr],
-                        np.r_[p["left"] ** 2, -(pr**2)],
-                    ]
-                )
-                y = np.r_[r[keys[0]], r[keys[1]]]
-                y = y - A @ np.linalg.lstsq(A, y, rcond=None)[0]
-                n = r[keys[0]].size
-                r[keys[0]], r[keys[1]] = y[:n], y[n:]
-                continue
-            for s, k in zip(("left", "right"), keys, strict=True):
-                if family == "loop":
-                    cols = [b, b * p[s]]
-                elif family == "progressive":
-                    cols = [p[s] ** 3]
-                elif c == "tyre_fz" and family == "sensor_gain":
-                    cols = [np.asarray(p0[k], float) / noise[k]]
-                elif c == "tyre_fz" and family == "sensor_offset":
-                    cols = [np.ones_like(b)]
-                else:
-                    continue
-                A = np.column_stack(cols)
-                r[k] = r[k] - A @ np.linalg.lstsq(A, r[k], rcond=None)[0]
-        out.append(r)
-    return out
 
 
 #: an estimated noise below this fraction of the rig's typical sensor noise

@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 
 from suspenv.diagnosis.fitting import stacked_residual
+from suspenv.diagnosis.screening import orthonormal_basis
 from suspenv.rigs.knc_axle import KncAxleModel, effect_words, make_candidate
 from suspenv.rigs.knc_truth import BLIND_TESTS
 
@@ -45,14 +46,6 @@ LIMIT_CANDIDATES: dict[str, tuple[str, float]] = {
     "dahl_hysteresis@lower_arm": ("f_c", 100.0),
     "coulomb_friction": ("f_c", 100.0),
 }
-
-
-def _projected_lambda(d: np.ndarray, J: np.ndarray | None) -> float:
-    """``|d - J J^+ d|^2``: what the base parameters (Jacobian ``J``) cannot follow."""
-    if J is not None and J.size and J.shape[0] == d.size:
-        coef, *_ = np.linalg.lstsq(J, d, rcond=None)
-        d = d - J @ coef
-    return float(np.sum(d**2))
 
 
 def detection_limits(
@@ -83,8 +76,9 @@ def detection_limits(
         [np.full(r.n_samples, base.scales[c] / noise[c]) for r in recs for c in channels]
     )
     r0 = stacked_residual(model, base.theta, recs, channels, base.scales)
+    # the span of the base parameters' Jacobian (rows in noise units): what they can follow
     J = base.extra.get("jacobian")
-    J = None if J is None or J.shape[0] != w.size else J * w[:, None]
+    Q = orthonormal_basis(None if J is None or J.shape[0] != w.size else J * w[:, None])
     values = dict(zip(model.base_names, base.theta[: len(model.base_names)], strict=True))
     _, current = model.unpack(base.theta)
     current = [
@@ -96,7 +90,9 @@ def detection_limits(
         ext = model.released().with_effects([*current, eff])
         theta = ext.theta_from(values, [*current, eff])
         d = (r0 - stacked_residual(ext, theta, recs, channels, base.scales)) * w
-        return float(np.sqrt(_projected_lambda(d, J)))
+        if Q is not None:
+            d = d - Q @ (Q.T @ d)
+        return float(np.sqrt(np.sum(d**2)))
 
     def power_law(p1: tuple[float, float], p2: tuple[float, float]) -> tuple[float, float]:
         """(exponent, magnitude at ``snr``) of ``s ~ value^a`` through two points."""

@@ -26,7 +26,7 @@ Its pieces of the one loop (:mod:`suspenv.diagnosis.engine`):
    the model refitted (path-dependent elements, slow to simulate: their own parameters
    with the base parameters held; the others: all parameters jointly); evidence and
    decision are the engine's (:func:`suspenv.diagnosis.evidence.compare`,
-   :func:`suspenv.diagnosis.name.decide`, :func:`~suspenv.diagnosis.name.rank`):
+   :func:`suspenv.diagnosis.decision.decide`, :func:`~suspenv.diagnosis.decision.rank`):
    corrected likelihood-ratio test with a Bonferroni level, BIC, and held-out error
    reduction.
 6. The winner is polished (all parameters jointly, restarted until converged, under

@@ -29,6 +29,7 @@ import numpy as np
 
 from suspenv.diagnosis.fitting import stacked_residual
 from suspenv.diagnosis.knc.signatures import KncSignature
+from suspenv.diagnosis.screening import orthonormal_basis
 from suspenv.rigs.knc_axle import KncAxleModel, fitted_parameters, make_candidate
 
 #: candidates tested by the score test -> their signature family
@@ -65,9 +66,9 @@ def score_test(fit_: Any, recs: Sequence[Any], candidate: str) -> tuple[float, i
     R = stacked_residual(ext, thetas, recs, channels, fit_.scales)
     G = ((R[1:] - R[0]) / steps[:, None]).T  # (N, k)
     J = fit_.extra.get("jacobian")
-    if J is not None and J.shape[0] == r.size and J.size:
-        coef, *_ = np.linalg.lstsq(J, G, rcond=None)
-        G = G - J @ coef
+    Q = orthonormal_basis(J if J is not None and J.shape[0] == r.size else None)
+    if Q is not None:
+        G = G - Q @ (Q.T @ G)
     k = int(np.linalg.matrix_rank(G, tol=1e-9 * max(np.abs(G).max(), 1e-300)))
     if k == 0:
         return 0.0, 1

@@ -26,7 +26,7 @@ Units: dimensionless (residuals are in noise units).
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -66,13 +66,73 @@ class KncSignature:
         return dict(self.__dict__)
 
 
-def _score(r: np.ndarray, cols: list[np.ndarray]) -> tuple[float, int]:
-    """Chi-square of the projection of ``r`` on the span of ``cols`` and its rank."""
+def _fitted(cols: Sequence[np.ndarray], r: np.ndarray) -> tuple[np.ndarray, int]:
+    """Least-squares projection of ``r`` on the span of ``cols`` and that span's rank."""
     A = np.column_stack(cols)
     coef, *_ = np.linalg.lstsq(A, r, rcond=None)
-    fitted = A @ coef
-    k = int(np.linalg.matrix_rank(A))
-    return float(fitted @ fitted), max(k, 1)
+    return A @ coef, int(np.linalg.matrix_rank(A))
+
+
+@dataclass(frozen=True)
+class PatternBlock:
+    """One block of a family's pattern: the residual series ``keys`` (stacked in that
+    order) and the basis columns ``cols`` the effect would leave in them."""
+
+    family: str
+    channel: str
+    keys: tuple[str, ...]
+    cols: list[np.ndarray]
+
+
+def pattern_blocks(
+    rec: Any, keys: Collection[str], pred: Mapping[str, np.ndarray], scales: Mapping[str, float]
+) -> Iterator[PatternBlock]:
+    """The pattern blocks (module docstring) of K&C recording ``rec`` over the channels
+    whose residual ``keys`` (``"channel_side"``) hold both sides; ``pred`` holds the
+    model's channels (channel unit), divided by ``scales`` for the gain pattern."""
+    b = np.where(rec.inputs["branch"] == 1, -1.0, 1.0)
+    p = {s: drive(rec, s) for s in SIDES}
+    for c in [c for c in CHANNELS if all(f"{c}_{s}" in keys for s in SIDES)]:
+        for s in SIDES:
+            yield PatternBlock("loop", c, (f"{c}_{s}",), [b, b * p[s]])
+            yield PatternBlock("progressive", c, (f"{c}_{s}",), [p[s] ** 3])
+        # left/right: one stacked series, +pattern on the left, -pattern on the right,
+        # in each side's own drive (opposite travel and the lateral force mirror the
+        # right side); single-wheel travel: the left pad's travel
+        pr = reading_drive(rec, "right")
+        cols = [
+            np.concatenate([np.ones_like(p["left"]), -np.ones_like(pr)]),
+            np.concatenate([p["left"], -pr]),
+            np.concatenate([p["left"] ** 2, -(pr**2)]),
+        ]
+        yield PatternBlock("lr_asymmetry", c, (f"{c}_left", f"{c}_right"), cols)
+        if c == "tyre_fz":
+            for s in SIDES:
+                y = np.asarray(pred[f"tyre_fz_{s}"], float) / scales[f"tyre_fz_{s}"]
+                yield PatternBlock("sensor_gain", c, (f"tyre_fz_{s}",), [y])
+                yield PatternBlock("sensor_offset", c, (f"tyre_fz_{s}",), [np.ones_like(y)])
+
+
+def without_pattern(
+    recs: Sequence[Any],
+    residual: Sequence[Mapping[str, np.ndarray]],
+    prediction: Sequence[Mapping[str, np.ndarray]],
+    scales: Mapping[str, float],
+    family: str,
+) -> list[dict[str, np.ndarray]]:
+    """The residuals (channel unit) with ``family``'s pattern blocks projected out (least
+    squares per block, :func:`pattern_blocks`); the other series are copied as they are."""
+    out = []
+    for rec, res, pred in zip(recs, residual, prediction, strict=True):
+        r = {k: np.asarray(v, float).copy() for k, v in res.items()}
+        for blk in pattern_blocks(rec, r, pred, scales):
+            if blk.family != family:
+                continue
+            y = np.concatenate([r[k] for k in blk.keys])
+            rest = np.split(y - _fitted(blk.cols, y)[0], len(blk.keys))
+            r.update(zip(blk.keys, rest, strict=True))
+        out.append(r)
+    return out
 
 
 def score_signatures(
@@ -83,52 +143,28 @@ def score_signatures(
 ) -> list[KncSignature]:
     """Signatures of the residual ``residual[i][channel]`` (channel unit) of each K&C
     recording ``recs[i]``, strongest first; ``prediction`` holds the model's channels."""
-    blocks: dict[str, list[tuple[str, np.ndarray, list[np.ndarray]]]] = {
-        f: [] for f in FAMILY_KINDS
-    }
+    # chi2 and rank per family and channel: the blocks are disjoint series, so they add
+    per: dict[str, dict[str, list[float]]] = {f: {} for f in FAMILY_KINDS}
     loop_width = []
     for rec, res, pred in zip(recs, residual, prediction, strict=True):
-        b = np.where(rec.inputs["branch"] == 1, -1.0, 1.0)
-        chans = [c for c in CHANNELS if all(f"{c}_{s}" in res for s in SIDES)]
-        for c in chans:
-            r = {s: np.asarray(res[f"{c}_{s}"], float) / scales[f"{c}_{s}"] for s in SIDES}
-            p = {s: drive(rec, s) for s in SIDES}
+        for blk in pattern_blocks(rec, res, pred, scales):
+            r = np.concatenate([np.asarray(res[k], float) / scales[k] for k in blk.keys])
+            fitted, rank = _fitted(blk.cols, r)
+            acc = per[blk.family].setdefault(blk.channel, [0.0, 0])
+            acc[0] += float(fitted @ fitted)
+            acc[1] += max(rank, 1)
+        if all(f"tyre_fz_{s}" in res for s in SIDES):
+            up = rec.inputs["branch"] != 1
             for s in SIDES:
-                blocks["loop"].append((c, r[s], [b, b * p[s]]))
-                blocks["progressive"].append((c, r[s], [p[s] ** 3]))
-            # left/right: one stacked series, +pattern on the left, -pattern on the right
-            rr = np.concatenate([r["left"], r["right"]])
-            # pattern in each side's own drive (opposite travel and the lateral force
-            # mirror the right side); single-wheel travel: the left pad's travel
-            pr = reading_drive(rec, "right")
-            cols = [
-                np.concatenate([np.ones_like(p["left"]), -np.ones_like(pr)]),
-                np.concatenate([p["left"], -pr]),
-                np.concatenate([p["left"] ** 2, -(pr**2)]),
-            ]
-            blocks["lr_asymmetry"].append((c, rr, cols))
-            if c == "tyre_fz":
-                for s in SIDES:
-                    y = np.asarray(pred[f"tyre_fz_{s}"], float) / scales[f"tyre_fz_{s}"]
-                    blocks["sensor_gain"].append((c, r[s], [y]))
-                    blocks["sensor_offset"].append((c, r[s], [np.ones_like(y)]))
-                    up = b > 0
-                    raw = np.asarray(res[f"tyre_fz_{s}"], float)
-                    loop_width.append(float(np.mean(raw[up]) - np.mean(raw[~up])))
-    # one joint projection per family: the blocks are disjoint series, so chi2 and k add
+                raw = np.asarray(res[f"tyre_fz_{s}"], float)
+                loop_width.append(float(np.mean(raw[up]) - np.mean(raw[~up])))
     out = []
-    for fam, items in blocks.items():
-        if not items:
+    for fam, chans in per.items():
+        if not chans:
             continue
-        per: dict[str, list[float]] = {}
-        for c, resid, cols in items:
-            qi, ki = _score(resid, cols)
-            acc = per.setdefault(c, [0.0, 0])
-            acc[0] += qi
-            acc[1] += ki
-        scores = {c: float((q - k) / np.sqrt(2.0 * k)) for c, (q, k) in per.items()}
+        scores = {c: float((q - k) / np.sqrt(2.0 * k)) for c, (q, k) in chans.items()}
         where = max(scores, key=lambda c: scores[c])
-        q, k = per[where]
+        q, k = chans[where]
         score = scores[where]
         numbers = {f"score_{c}": float(v) for c, v in scores.items()}
         if fam == "loop" and loop_width:
