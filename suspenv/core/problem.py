@@ -110,10 +110,20 @@ class Problem(ABC):
         return batch
 
     def _checked_constraint_scales(self) -> np.ndarray | None:
-        """:attr:`constraint_scales` checked (:func:`check_scales`), or None when empty."""
-        if not self.constraint_scales:
+        """:attr:`constraint_scales` checked (:func:`check_scales`), or None when empty;
+        checked again only when the tuple or the number of constraints changes (read-only
+        array shared by the batches)."""
+        scales, k = self.constraint_scales, self.n_constraints
+        if not scales:
             return None
-        return check_scales(self.constraint_scales, self.n_constraints)
+        hit = self.__dict__.get("_scales_checked")
+        if hit is not None and hit[0] is scales and hit[1] == k:
+            return hit[2]
+        checked = check_scales(scales, k)
+        if type(scales) is tuple:  # immutable: checked once
+            checked.flags.writeable = False
+            self._scales_checked = (scales, k, checked)
+        return checked
 
     def evaluate_unit(self, U: np.ndarray) -> EvaluationBatch:
         """Evaluate unit-cube designs (n, d)."""
