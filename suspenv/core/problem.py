@@ -111,19 +111,16 @@ class Problem(ABC):
 
     def _checked_constraint_scales(self) -> np.ndarray | None:
         """:attr:`constraint_scales` checked (:func:`check_scales`), or None when empty;
-        checked again only when the tuple or the number of constraints changes (read-only
-        array shared by the batches)."""
+        checked again only when they or the number of constraints are replaced."""
         scales, k = self.constraint_scales, self.n_constraints
         if not scales:
             return None
         hit = self.__dict__.get("_scales_checked")
-        if hit is not None and hit[0] is scales and hit[1] == k:
-            return hit[2]
-        checked = check_scales(scales, k)
-        if type(scales) is tuple:  # immutable: checked once
-            checked.flags.writeable = False
-            self._scales_checked = (scales, k, checked)
-        return checked
+        if hit is None or hit[0] is not scales or hit[1] != k:
+            checked = check_scales(scales, k)
+            checked.flags.writeable = False  # one array shared by the batches
+            hit = self._scales_checked = (scales, k, checked)
+        return hit[2]
 
     def evaluate_unit(self, U: np.ndarray) -> EvaluationBatch:
         """Evaluate unit-cube designs (n, d)."""

@@ -225,8 +225,8 @@ class RideModel:
         element deflections of position and velocity type from the state, ``X @ E``,
         generalised forces from the element forces, ``Q = -F @ B`` (see :meth:`rhs`),
         the dampers' (FL, FR, RL, RR) slopes at scale 1 (N s/m; bump low, bump high,
-        rebound low, rebound high rows) with their mean low-speed coefficient and
-        their bump and (negative) rebound knees (m/s, (4, 1))."""
+        rebound low, rebound high rows) and their mean low-speed coefficient in every row
+        (the linear model's slopes), their bump and (negative) rebound knees (m/s, (4, 1))."""
         v = self.vehicle
         tf, tr, s, sd = v.track_front, v.track_rear, v.leaf_spacing, v.rear_damper_spacing
         nq = self.nq
@@ -282,7 +282,7 @@ class RideModel:
         mean = [damper_mean_coefficient(c) for c in curves]
         knees = np.array([[c.bump_knee, -c.rebound_knee] for c in curves]).T[:, :, None]
         out = tuple(np.ascontiguousarray(a) for a in (E, E.T, pos.T, vel.T, B, B.T, *knees))
-        damper = (np.array(slopes).T, np.array(mean))
+        damper = (np.array(slopes).T, np.array([mean] * 4))
         for a in out + damper:
             a.flags.writeable = False
         return (n_pos, n_vel, *out[:6], damper, *out[6:])
@@ -331,18 +331,15 @@ class RideModel:
             K[:, 10:12] = self.seat.stiffness
             K[:, nv0 + 8 : nv0 + 10] = self.seat.damping
         # leaf knee relative to the static position
-        leaf_static = np.empty((n, 2))
-        leaf_static[:] = static_rate[:, None]
+        leaf_static = np.repeat(static_rate[:, None], 2, axis=1)
         leaf_dk = composite - primary
         leaf_thr = v.helper_engagement - defl
         # damper curves scaled per design: (4 slopes, 4 dampers, n); the linear model's
         # slopes all the mean low-speed coefficient
         scale = np.repeat(stacked[7:9], 2, axis=0)  # (4, n): C1 front twice, C2 rear twice
-        damper_mean = np.multiply(scale.T, self._damper_unit[1], order="C")
-        if self.linear:
-            slopes = np.broadcast_to(damper_mean.T, (4, 4, n)).copy()
-        else:
-            slopes = self._damper_unit[0][:, :, None] * scale
+        curves, mean = self._damper_unit
+        damper_mean = np.multiply(scale.T, mean[0], order="C")
+        slopes = (mean if self.linear else curves)[:, :, None] * scale
         f0_tyre = np.empty((4, n))
         f0_tyre[0:2], f0_tyre[2:4] = f0_front, f0_rear
         # the linearised model's rates, kept for either model (float64, batch first):
