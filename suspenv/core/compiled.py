@@ -28,6 +28,8 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 #: numba is installed: compiled loops can run
 AVAILABLE = importlib.util.find_spec("numba") is not None
 
@@ -225,8 +227,7 @@ def _refuse_strided(name: str, args: Sequence[Any]) -> None:
     not check the layout: a strided or column-order array would be read as if it were
     C-ordered. Refuse it by name instead of returning wrong numbers."""
     for i, a in enumerate(args):
-        flags = getattr(a, "flags", None)
-        if flags is not None and not flags.c_contiguous:
+        if isinstance(a, np.ndarray) and not a.flags.c_contiguous:
             raise ValueError(
                 f"compiled loop {name}: argument {i} must be a C-contiguous array "
                 f"(np.ascontiguousarray), but got one with strides {a.strides}"

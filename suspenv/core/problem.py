@@ -110,10 +110,17 @@ class Problem(ABC):
         return batch
 
     def _checked_constraint_scales(self) -> np.ndarray | None:
-        """:attr:`constraint_scales` checked (:func:`check_scales`), or None when empty."""
-        if not self.constraint_scales:
+        """:attr:`constraint_scales` checked (:func:`check_scales`), or None when empty;
+        checked again only when they or the number of constraints are replaced."""
+        scales, k = self.constraint_scales, self.n_constraints
+        if not scales:
             return None
-        return check_scales(self.constraint_scales, self.n_constraints)
+        hit = self.__dict__.get("_scales_checked")
+        if hit is None or hit[0] is not scales or hit[1] != k:
+            checked = check_scales(scales, k)
+            checked.flags.writeable = False  # one array shared by the batches
+            hit = self._scales_checked = (scales, k, checked)
+        return hit[2]
 
     def evaluate_unit(self, U: np.ndarray) -> EvaluationBatch:
         """Evaluate unit-cube designs (n, d)."""

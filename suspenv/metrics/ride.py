@@ -638,8 +638,7 @@ def _spectral_split(
     model = RideModel(params, linear=not equivalent_linear)
     n, nq, npos = model.n, model.nq, model.n_pos
     minv = np.zeros((n, nq, nq))
-    idx = np.arange(nq)
-    minv[:, idx, idx] = model.minv_diag.T
+    minv.reshape(n, -1)[:, :: nq + 1] = model.minv_diag.T  # the diagonals
     minv[:, 0, 1] = minv[:, 1, 0] = model.m12
     rates = model.K.astype(float)  # element rates, dampers and leaves set per pass
     halves = _Halves(_split_geometry(model), minv, rates)

@@ -149,9 +149,8 @@ class ElementLinearisation:
     ``LEAF`` and, when the model has effects, ``FRONT``, ``DAHL_C``, ``DAHL_K``)."""
 
     def __init__(self, nl: RideModel):
-        self.d_bl, self.d_bh, self.d_rl, self.d_rh = (
-            np.asarray(c, float).T for c in (nl.d_bl, nl.d_bh, nl.d_rl, nl.d_rh)
-        )
+        slopes = np.asarray(nl.damper_slopes, float)  # (4 slopes, 4 dampers, n)
+        self.d_bl, self.d_bh, self.d_rl, self.d_rh = slopes.transpose(0, 2, 1)
         self.kb = np.asarray(nl.knee_b, float).T  # (1, 4) bump knee (m/s)
         self.kr = -np.asarray(nl.knee_r, float).T  # (1, 4) rebound knee (> 0, m/s)
         self.k1 = np.asarray(nl.K[:, 2:4], float)  # primary leaf rate (N/m)
@@ -177,9 +176,8 @@ class ElementLinearisation:
         #: compiled rates (:mod:`suspenv.models.minibus.spectral_kernel`), filled in
         #: place (fewer calls than stacking them)
         n = self.k1.shape[0]
-        damp, knee, leaf = np.empty((n, 4, 4)), np.empty((4, 2)), np.empty((n, 2, 3))
-        for j, c in enumerate((self.d_bl, self.d_bh, self.d_rl, self.d_rh)):
-            damp[:, :, j] = c
+        damp = np.ascontiguousarray(slopes.transpose(2, 1, 0))
+        knee, leaf = np.empty((4, 2)), np.empty((n, 2, 3))
         knee[:, 0], knee[:, 1] = self.kb[0], self.kr[0]
         leaf[:, :, 0], leaf[:, :, 1], leaf[:, :, 2] = self.k1, self.dk, self.thr
         self.packed = (damp, knee, leaf)

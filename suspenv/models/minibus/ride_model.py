@@ -217,12 +217,16 @@ class RideModel:
             if len(_GEOMETRY) >= 16:
                 _GEOMETRY.clear()
             hit = _GEOMETRY[key] = (self.vehicle, self._geometry())
-        self.n_pos, self.n_vel, self.E, self.Et, self.Pt, self.Vt, self.B, self.Bt = hit[1]
+        self.n_pos, self.n_vel, self.E, self.Et, self.Pt, self.Vt, self.B, self.Bt = hit[1][:8]
+        self._damper_unit, self.knee_b, self.knee_r = hit[1][8:]
 
     def _geometry(self) -> tuple:
-        """``(n_pos, n_vel, E, E^T, P^T, V^T, B, B^T)``: element deflections of position
-        and velocity type from the state, ``X @ E``, and generalised forces from the
-        element forces, ``Q = -F @ B`` (see :meth:`rhs`)."""
+        """``(n_pos, n_vel, E, E^T, P^T, V^T, B, B^T, damper curves, knee_b, knee_r)``:
+        element deflections of position and velocity type from the state, ``X @ E``,
+        generalised forces from the element forces, ``Q = -F @ B`` (see :meth:`rhs`),
+        the dampers' (FL, FR, RL, RR) slopes at scale 1 (N s/m; bump low, bump high,
+        rebound low, rebound high rows) and their mean low-speed coefficient in every row
+        (the linear model's slopes), their bump and (negative) rebound knees (m/s, (4, 1))."""
         v = self.vehicle
         tf, tr, s, sd = v.track_front, v.track_rear, v.leaf_spacing, v.rear_damper_spacing
         nq = self.nq
@@ -273,10 +277,15 @@ class RideModel:
         E[nq:, n_pos:] = vel
         # generalised forces from element forces: Q = -F @ B
         B = -np.vstack([pos.T, vel.T])
-        out = tuple(np.ascontiguousarray(a) for a in (E, E.T, pos.T, vel.T, B, B.T))
-        for a in out:
+        curves = (v.damper_front,) * 2 + (v.damper_rear,) * 2
+        slopes = [[c.bump_low, c.bump_high, c.rebound_low, c.rebound_high] for c in curves]
+        mean = [damper_mean_coefficient(c) for c in curves]
+        knees = np.array([[c.bump_knee, -c.rebound_knee] for c in curves]).T[:, :, None]
+        out = tuple(np.ascontiguousarray(a) for a in (E, E.T, pos.T, vel.T, B, B.T, *knees))
+        damper = (np.array(slopes).T, np.array([mean] * 4))
+        for a in out + damper:
             a.flags.writeable = False
-        return (n_pos, n_vel, *out)
+        return (n_pos, n_vel, *out[:6], damper, *out[6:])
 
     def _build_coefficients(self) -> None:
         v, ps, nq = self.vehicle, self.params, self.nq
@@ -284,9 +293,8 @@ class RideModel:
         counts = [p.n for p in ps]
         # the per-design arrays of every block (DesignSI's fields in order), stacked
         per = [[*vars(p.design).values(), p.rear_static_rate, p.rear_static_deflection] for p in ps]
-        primary, composite, _, _, front_rate, arb_f, arb_r, c_front, c_rear, static_rate, defl = (
-            np.concatenate(per, axis=1)
-        )
+        stacked = np.concatenate(per, axis=1)
+        primary, composite, _, _, front_rate, arb_f, arb_r, _, _, static_rate, defl = stacked
 
         # per block: inverse body mass matrix in (z_f, z_r) (KE of heave (b zf + a zr)/L
         # and pitch (zf - zr)/L) and roll, and the static tyre loads, on the block's rows
@@ -323,25 +331,15 @@ class RideModel:
             K[:, 10:12] = self.seat.stiffness
             K[:, nv0 + 8 : nv0 + 10] = self.seat.damping
         # leaf knee relative to the static position
-        leaf_static = np.empty((n, 2))
-        leaf_static[:] = static_rate[:, None]
+        leaf_static = np.repeat(static_rate[:, None], 2, axis=1)
         leaf_dk = composite - primary
         leaf_thr = v.helper_engagement - defl
-        # damper curves scaled per design (front cols 0,1; rear cols 2,3), (4, n)
-        damper_mean = np.empty((n, 4))
-        d_bl, d_bh, d_rl, d_rh = (np.empty((4, n)) for _ in range(4))
-        for cols, curve, scale in (
-            (slice(0, 2), v.damper_front, c_front),
-            (slice(2, 4), v.damper_rear, c_rear),
-        ):
-            damper_mean[:, cols] = damper_mean_coefficient(curve) * scale[:, None]
-            if self.linear:
-                d_bl[cols] = d_rl[cols] = d_bh[cols] = d_rh[cols] = damper_mean[:, cols].T
-            else:
-                d_bl[cols] = curve.bump_low * scale
-                d_bh[cols] = curve.bump_high * scale
-                d_rl[cols] = curve.rebound_low * scale
-                d_rh[cols] = curve.rebound_high * scale
+        # damper curves scaled per design: (4 slopes, 4 dampers, n); the linear model's
+        # slopes all the mean low-speed coefficient
+        scale = np.repeat(stacked[7:9], 2, axis=0)  # (4, n): C1 front twice, C2 rear twice
+        curves, mean = self._damper_unit
+        damper_mean = np.multiply(scale.T, mean[0], order="C")
+        slopes = (mean if self.linear else curves)[:, :, None] * scale
         f0_tyre = np.empty((4, n))
         f0_tyre[0:2], f0_tyre[2:4] = f0_front, f0_rear
         # the linearised model's rates, kept for either model (float64, batch first):
@@ -357,12 +355,9 @@ class RideModel:
         self.leaf_dk = leaf_dk[None, :]
         self.leaf_thr = leaf_thr[None, :]
         self.leaf_base = self.leaf_dk * np.maximum(-self.leaf_thr, 0.0)
-        self.d_bl, self.d_bh, self.d_rl, self.d_rh = d_bl, d_bh, d_rl, d_rh
-        fk, rk = v.damper_front, v.damper_rear
-        self.knee_b = np.array([fk.bump_knee, fk.bump_knee, rk.bump_knee, rk.bump_knee])[:, None]
-        self.knee_r = -np.array(
-            [fk.rebound_knee, fk.rebound_knee, rk.rebound_knee, rk.rebound_knee]
-        )[:, None]
+        #: damper slopes (N s/m; curve, damper FL FR RL RR, design), float64; d_* views
+        self.damper_slopes = slopes
+        self.d_bl, self.d_bh, self.d_rl, self.d_rh = slopes
         self.f0_tyre = f0_tyre
         # float32 models: the integration's arrays in their type (float64: so already)
         typed = () if self.dtype == np.float64 else _TYPED
@@ -399,9 +394,7 @@ class RideModel:
         leaf = np.stack(
             [np.broadcast_to(a[0], (n,)) for a in (self.leaf_dk, self.leaf_thr, self.leaf_base)], 1
         )
-        damp = np.ascontiguousarray(
-            np.stack([c.T for c in (self.d_bl, self.d_bh, self.d_rl, self.d_rh)], 1)
-        )
+        damp = np.ascontiguousarray(self.damper_slopes.transpose(2, 0, 1))
         knees = np.ascontiguousarray(np.vstack([self.knee_b[:, 0], self.knee_r[:, 0]]), dtype=float)
         f0 = np.ascontiguousarray(self.f0_tyre.T, dtype=float)
         coeffs = (pv, self.Bt, np.ascontiguousarray(self.K, dtype=float), minv, self.m12)
