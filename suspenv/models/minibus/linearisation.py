@@ -44,6 +44,7 @@ from scipy.special import gamma, ndtr, pbdv
 
 from suspenv.models.minibus import spectral_kernel, stop_closure
 from suspenv.models.minibus.ride_model import RideModel
+from suspenv.models.minibus.stop_closure import gaussian_excess as _excess
 
 SQRT_2_PI = float(np.sqrt(2.0 / np.pi))
 #: Gauss-Legendre nodes for the Coulomb law's Gaussian expectation
@@ -77,12 +78,6 @@ def tail_moment(a: np.ndarray, m: np.ndarray | float) -> np.ndarray:
     m = np.asarray(m, dtype=float)
     d = pbdv(-m - 1.0, a)[0]
     return gamma(m + 1.0) * np.exp(-0.25 * a * a) * d / np.sqrt(2.0 * np.pi)
-
-
-def _excess(a: np.ndarray) -> np.ndarray:
-    """``E[max(t - a, 0)] = phi(a) - a (1 - Phi(a))`` (-), standard normal t: the
-    :func:`tail_moment` of order 1 in a form that stays finite for any a."""
-    return np.exp(-0.5 * a * a) / np.sqrt(2.0 * np.pi) - a * ndtr(-a)
 
 
 def stop_moments(
