@@ -43,6 +43,7 @@ from suspenv.core.jsonable import to_jsonable
 from suspenv.core.laps import Laps
 from suspenv.core.space import DesignSpace, Parameter
 from suspenv.methods.curve_fit import (
+    PRIOR_WEIGHT,
     CurveFit,
     CurveModel,
     MeasuredCurves,
@@ -55,7 +56,7 @@ from suspenv.methods.curve_fit import (
     say,
 )
 from suspenv.methods.identifiability import CandidateGain, Identifiability, assess, rank_tests
-from suspenv.methods.knc_sheet import SheetRow
+from suspenv.methods.knc_sheet import SHEET_TESTS, SheetRow, knc_sheet, sheet_values
 from suspenv.methods.model_loop import Refinement, refine
 from suspenv.models.mcpherson.params import AxleConstants, paper_initial_values
 from suspenv.models.mcpherson.truth import CHANNEL_NOISE, TruthVehicle, truth_vehicle
@@ -455,8 +456,6 @@ def choose_held_out(
     its worst channel's (the held-out test is judged by its worst channel). Returns the
     candidate of the least score and every candidate's score. A test the fitted ones
     leave undetermined says little when it misses or when it hits."""
-    from suspenv.methods.curve_fit import PRIOR_WEIGHT
-
     scores = {}
     for test in candidates:
         rest = [J for t in measured if t != test for J in blocks[t].values()]
@@ -809,7 +808,6 @@ def _model_loop(result: IdentifyResult, progress: bool) -> None:
 
 def _sheet(result: IdentifyResult) -> None:
     """The K&C sheet of the answer (and, on the test car, the truth's metrics)."""
-    from suspenv.methods.knc_sheet import SHEET_TESTS, knc_sheet, sheet_values
     from suspenv.rigs.knc_measured import measured_results
 
     fit = result.final_fit
@@ -877,12 +875,10 @@ def _travel_amplitude(model: CurveModel) -> float:
 
 def _merged(a: Any, b: Any) -> Any:
     """Measurement ``a`` with the tests of ``b`` added (``a``'s noise levels)."""
-    from dataclasses import replace
-
     meta = dict(a.meta)
     meta["steps"] = {**a.meta.get("steps", {}), **b.meta.get("steps", {})}
     meta["amplitude"] = {**a.meta.get("amplitude", {}), **b.meta.get("amplitude", {})}
-    return replace(a, tests={**a.tests, **b.tests}, meta=meta)
+    return dataclasses.replace(a, tests={**a.tests, **b.tests}, meta=meta)
 
 
 def summary(result: IdentifyResult) -> dict[str, Any]:

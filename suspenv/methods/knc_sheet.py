@@ -37,7 +37,7 @@ from typing import Any
 import numpy as np
 
 from suspenv.diagnosis.knc.family import PATH_DEPENDENT
-from suspenv.methods.curve_fit import FD_STEP, CurveFit
+from suspenv.methods.curve_fit import FD_STEP, CurveFit, amplitude_kwargs
 from suspenv.methods.identifiability import sandwich_covariance
 
 #: rig tests the sheet runs on the identified model
@@ -94,8 +94,6 @@ def sheet_values(results: dict[str, Any], constants: Any = None) -> dict[str, np
 
 
 def _run(fit: CurveFit, X: np.ndarray, effects: Any, steps: int) -> dict[str, Any]:
-    from suspenv.methods.curve_fit import amplitude_kwargs
-
     model = fit.model
     amps: dict[str, float] = {}
     for t in model.tests:

@@ -73,14 +73,7 @@ class Candidate:
     error: float = 0.0
 
     def to_dict(self) -> dict[str, Any]:
-        return {
-            "family": self.family,
-            "candidate": self.candidate,
-            "words": self.words,
-            "cost": self.cost,
-            "values": self.values,
-            "error": self.error,
-        }
+        return dict(self.__dict__)
 
 
 @dataclass

@@ -72,9 +72,13 @@ from suspenv.methods.tey2014.cluster_count import (
 from suspenv.methods.tey2014.clustering import LINKAGE_METHODS, ClusteringResult, cluster_objectives
 from suspenv.methods.tey2014.rank_sum import ScalarisationComparison, compare_rank_sum_euclidean
 from suspenv.methods.tey2014.sensitivity import SensitivityResult, spearman_matrix
-from suspenv.methods.tey2014.strategy_comparison import QUALITY_NAME, optimize_arrays
+from suspenv.methods.tey2014.strategy_comparison import (
+    QUALITY_NAME,
+    compare_strategies,
+    optimize_arrays,
+)
 from suspenv.problems.views import ObjectiveSubset, WithSignedResponses
-from suspenv.registry import report_function
+from suspenv.registry import make_problem, make_strategy, report_function
 from suspenv.runs.quality import best_so_far, curve_items, feasible
 
 #: the ``[study]`` table of a config, with its defaults (the paper's settings)
@@ -248,8 +252,6 @@ def build_problem(config: dict[str, Any]) -> Problem:
     if ":" in name:  # allowed by the user when the config was loaded (runs.config)
         module, _, attr = name.partition(":")
         return getattr(importlib.import_module(module), attr)(**options)
-    from suspenv.registry import make_problem
-
     return make_problem(name, **options)
 
 
@@ -329,8 +331,6 @@ def _run(
 
 def _main_strategy(problem: Problem, config: dict, opts: dict, x0: np.ndarray) -> Any:
     """The config's strategy (CMA-ES on the rank-sum by default), started at ``x0``."""
-    from suspenv.registry import make_strategy
-
     strat = config.get("strategy", {}) or {}
     name = strat.get("name") or "cmaes"
     options = {**(STRATEGY_DEFAULTS if name == "cmaes" else {}), **(strat.get("options") or {})}
@@ -377,8 +377,6 @@ def _compare_options(config: dict[str, Any]) -> dict[str, dict[str, Any]]:
 
 def run_study(config: dict[str, Any], run_dir: Path) -> Tey2014Study:
     """Run every step of the method; archives go to ``run_dir/doe`` and ``run_dir/cmaes``."""
-    from suspenv.registry import make_strategy
-
     run_dir = Path(run_dir)
     opts = study_options(config)
     seed = int(config.get("seed", 0))
@@ -508,8 +506,6 @@ def run_study(config: dict[str, Any], run_dir: Path) -> Tey2014Study:
         lap("all_objectives_run")
 
     if opts["compare_strategies"]:
-        from suspenv.methods.tey2014.strategy_comparison import compare_strategies
-
         study.strategy_comparison = compare_strategies(
             sub,
             opts["compare_strategies"],

@@ -22,7 +22,7 @@ import numpy as np
 
 from suspenv.core.problem import Problem
 from suspenv.methods.identification import FixedRankSum
-from suspenv.registry import report_function
+from suspenv.registry import make_strategy, report_function
 from suspenv.runs.quality import best_so_far, curve_items, feasible
 from suspenv.runs.run_dir import write_json
 
@@ -82,8 +82,6 @@ def run_one(
     options: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
     """One run into ``run_dir``; writes and returns its ``summary.json`` content."""
-    from suspenv.registry import make_strategy
-
     opts = {**STRATEGY_OPTIONS.get(strategy_name, {}), **(options or {})}
     if strategy_name == "lhs":
         opts.setdefault("n_samples", int(budget))
