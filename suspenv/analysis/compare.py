@@ -337,10 +337,6 @@ def _nanmedian(v: Sequence[float]) -> float | None:
     return float(np.median(a)) if a.size else None
 
 
-def _budgets(n: int) -> list[int]:
-    return sorted({max(1, int(round(n * f))) for f in (0.1, 0.25, 0.5, 1.0)})
-
-
 def _analyse_problem(
     runs: list[RunRecord],
     allow_unequal_budgets: bool,
@@ -377,7 +373,7 @@ def _analyse_problem(
         pc.targets = np.sort(np.asarray(given_t, dtype=float).ravel())[::-1]
     else:
         pc.targets = make_targets(finals, pc.f_opt, n_targets)
-    budgets = _budgets(pc.common_budget)
+    budgets = sorted({max(1, int(round(pc.common_budget * f))) for f in (0.1, 0.25, 0.5, 1.0)})
     fb_rows, ft_rows, table_rows = [], [], []
     samples, seeds = {}, {}
     for g in groups:

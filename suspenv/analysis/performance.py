@@ -26,6 +26,8 @@ from suspenv.runs.quality import best_so_far
 
 #: quantiles reported for best-so-far spread: min, lower quartile, median, upper quartile, max
 QUANTILES = (0.0, 0.25, 0.5, 0.75, 1.0)
+#: the column name of each of :data:`QUANTILES`
+QUANTILE_NAMES = {0.0: "min", 0.25: "q25", 0.5: "median", 0.75: "q75", 1.0: "max"}
 
 
 def as_curve(values: Sequence[float | None] | np.ndarray) -> np.ndarray:
@@ -90,13 +92,9 @@ def fixed_budget(M: np.ndarray, budgets: Sequence[int]) -> list[dict[str, float 
         col = M[:, b - 1]
         row: dict[str, float | int] = {"budget": b, "n_with_value": int(np.isfinite(col).sum())}
         for q in QUANTILES:
-            row[_qname(q)] = float(quantile_inf(col, q))
+            row[QUANTILE_NAMES[q]] = float(quantile_inf(col, q))
         rows.append(row)
     return rows
-
-
-def _qname(q: float) -> str:
-    return {0.0: "min", 0.25: "q25", 0.5: "median", 0.75: "q75", 1.0: "max"}.get(q, f"q{q:g}")
 
 
 def make_targets(

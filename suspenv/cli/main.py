@@ -59,10 +59,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     try:
         return int(args.func(args) or 0)
-    except SuspenvError as exc:
-        print(f"suspenv {args.command}: error: {exc}", file=sys.stderr)
-        return 2
-    except OSError as exc:  # a file that is missing, unreadable or unwritable
+    except (SuspenvError, OSError) as exc:  # OSError: a missing, unreadable or unwritable file
         print(f"suspenv {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

@@ -105,14 +105,9 @@ def _print_table(out) -> None:
 
 
 def _print_agreement(a, b) -> None:
+    from suspenv.problems.planar import CURVE_UNITS
+
     print("\nanalytic vs pymunk, largest difference over the sweep:")
-    for field, unit in (
-        ("camber_deg", "deg"),
-        ("half_track_mm", "mm"),
-        ("roll_centre_mm", "mm"),
-        ("motion_ratio", "-"),
-        ("wheel_load_N", "N"),
-        ("wheel_rate_N_per_mm", "N/mm"),
-    ):
+    for field, unit in CURVE_UNITS.items():
         diff = np.max(np.abs(getattr(a, field) - getattr(b, field)))
         print(f"  {field:<22} {diff:.3g} {unit}")

@@ -123,9 +123,9 @@ def _road_target(target: str, holdout: str | None, data_dir: str | Path | None) 
     from suspenv.measurements.sources.road_profile import load_profile_txt
 
     if target in ROAD_NAMES:
-        from suspenv.measurements import data_dir as shared_data_dir
+        from suspenv.measurements.catalog import real_data_dir
 
-        root = Path(data_dir) if data_dir else shared_data_dir() / "real"
+        root = Path(data_dir) if data_dir else real_data_dir()
         root = root / "road_profiles" if (root / "road_profiles").is_dir() else root
         first = "profile_2.txt" if target.endswith("_2") else "profile_1.txt"
         second = "profile_1.txt" if first == "profile_2.txt" else "profile_2.txt"
@@ -163,14 +163,12 @@ def _component_target(
     data_dir: str | Path | None,
     read: _Reader,
 ) -> Target:
-    from suspenv.measurements.catalog import REAL_CASES
+    from suspenv.measurements.catalog import REAL_CASES, real_data_dir
 
     held: Any
     family: str | None
     if target in REAL_CASES:
-        from suspenv.measurements import data_dir as shared_data_dir
-
-        root = Path(data_dir) if data_dir else shared_data_dir() / "real"
+        root = Path(data_dir) if data_dir else real_data_dir()
         if not root.is_dir():
             raise ValidationError(f"real recordings folder {str(root)!r} does not exist")
         rec, held, family, _ = REAL_CASES[target](root)

@@ -450,7 +450,7 @@ def test_columns(m: MeasuredTest, wheels: tuple[str, ...] = SIDES) -> tuple[list
     wi = [SIDES.index(s) for s in wheels]
     if "wheel_centre_z" in m.channels:
         z = m.channels["wheel_centre_z"]
-        static = _static_row(m)
+        static = int(np.argmin(np.abs(m.drive)))  # the first with the smallest |drive|
         for w in wi:
             cols.append(f"{TRAVEL_COLUMN}_{SIDES[w]} [mm]")
             data.append((z[:, w] - z[static, w]) / 1e-3)
@@ -462,11 +462,6 @@ def test_columns(m: MeasuredTest, wheels: tuple[str, ...] = SIDES) -> tuple[list
             cols.append(f"{name}_{SIDES[w]} [{unit}]")
             data.append(m.channels[name][:, w] / _factor(unit))
     return cols, np.column_stack(data)
-
-
-def _static_row(m: MeasuredTest) -> int:
-    """The sample at the static position: the first with zero drive, else the smallest |drive|."""
-    return int(np.argmin(np.abs(m.drive)))
 
 
 def _factor(unit: str) -> float:

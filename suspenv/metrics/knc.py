@@ -290,11 +290,14 @@ def objectives(results: dict[str, KCResult]) -> np.ndarray:
 
 
 def _objectives_one_by_one(
-    results: dict[str, KCResult], cache: dict[tuple[str, str], dict[str, np.ndarray]]
+    results: dict[str, KCResult],
+    cache: dict[tuple[str, str], dict[str, np.ndarray]],
+    chosen: Sequence[KCObjective] = OBJECTIVES,
 ) -> np.ndarray:
-    """:func:`objectives` with one fit per objective and branch (the reference path)."""
+    """:func:`objectives` (the ``chosen`` ones, in their order) with one fit per objective
+    and branch (the reference path)."""
     cols = []
-    for obj in OBJECTIVES:
+    for obj in chosen:
         res = results[obj.test]
         vals = []
         for br in ("down", "up"):
@@ -314,14 +317,8 @@ def loop_width(results: dict[str, KCResult], name: str = "tyre_fz", test: str = 
 
 def objectives_subset(results: dict[str, KCResult], names: tuple[str, ...]) -> np.ndarray:
     """Only the named objectives (n, len(names))."""
-    idx = [OBJECTIVE_NAMES.index(n) for n in names]
-    subset = tuple(OBJECTIVES[i] for i in idx)
-    cols = []
-    for obj in subset:
-        res = results[obj.test]
-        vals = [_reduce(obj, _wheel_curves(res, br), res.static_index) for br in ("down", "up")]
-        cols.append(0.5 * (vals[0] + vals[1]))
-    return np.stack(cols, axis=1)
+    chosen = [OBJECTIVES[OBJECTIVE_NAMES.index(n)] for n in names]
+    return _objectives_one_by_one(results, {}, chosen)
 
 
 # ---------------------------------------------------------- compliance matrix

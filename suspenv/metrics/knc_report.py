@@ -43,6 +43,7 @@ from suspenv.core.errors import ValidationError
 from suspenv.measurements.knc import OPPOSED_TESTS
 from suspenv.metrics.knc import FIT_HALF_WIDTH, RAD2DEG, quadratic_fit
 from suspenv.models.mcpherson.params import SIDE_SIGN, AxleConstants
+from suspenv.models.mcpherson.solver import spin_axis  # the channels give back its axis
 
 if TYPE_CHECKING:  # a type only: metrics are functions of rig results, not of the rig
     from suspenv.rigs.knc import KCResult
@@ -403,16 +404,6 @@ def wheel_travel(res: KCResult, branch: str) -> np.ndarray:
     return (z - z[:, res.static_index : res.static_index + 1]) * 1e3
 
 
-def spin_axis_from(camber: np.ndarray, toe: np.ndarray) -> np.ndarray:
-    """Outboard unit spin axis (..., 2, 3) from camber and toe [rad] of both wheels
-    (the solver's own construction, so the channels give back its axis exactly)."""
-    sg = SIDE_SIGN
-    return np.stack(
-        [np.sin(toe) * np.cos(camber), sg * np.cos(toe) * np.cos(camber), -np.sin(camber)],
-        axis=-1,
-    )
-
-
 def _down(s: np.ndarray) -> np.ndarray:
     d = s[..., 2:3] * s - np.array([0.0, 0.0, 1.0])
     return d / np.linalg.norm(d, axis=-1, keepdims=True)
@@ -423,7 +414,7 @@ def patch_point(res: KCResult, branch: str) -> np.ndarray:
     from the wheel centre meets the pad plane ``z = pad_z``."""
     b = lambda name: res.branch(name, branch)  # noqa: E731
     wc = np.stack([b("wheel_centre_x"), b("wheel_centre_y"), b("wheel_centre_z")], axis=-1)
-    d = _down(spin_axis_from(b("camber"), b("toe")))
+    d = _down(spin_axis(b("camber"), b("toe")))
     t = (b("pad_z") - wc[..., 2]) / d[..., 2]
     return wc + t[..., None] * d
 
@@ -453,7 +444,7 @@ def carrier_patch_velocity(
     b = lambda name: res.branch(name, branch)  # noqa: E731
     z = b("wheel_centre_z")
     wc = np.stack([b("wheel_centre_x"), b("wheel_centre_y"), z], axis=-1)
-    s = spin_axis_from(b("camber"), b("toe"))
+    s = spin_axis(b("camber"), b("toe"))
     P = patch_point(res, branch)
 
     def ddz(y: np.ndarray) -> np.ndarray:  # y (n, G, 2[, 3]) against z (n, G, 2)

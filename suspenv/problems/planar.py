@@ -51,6 +51,15 @@ DEFAULT_VARIABLES = {
     "mcpherson": ("lower_inner.y", "lower_inner.z", "strut_top.y", "strut_top.z"),
 }
 SOLVERS = ("analytic", "pymunk")
+#: the curves of :class:`SweepOutputs` over travel, each with its unit
+CURVE_UNITS = {
+    "camber_deg": "deg",
+    "half_track_mm": "mm",
+    "roll_centre_mm": "mm",
+    "motion_ratio": "-",
+    "wheel_load_N": "N",
+    "wheel_rate_N_per_mm": "N/mm",
+}
 
 
 class PlanarLinkage(Problem):
@@ -228,16 +237,7 @@ class PlanarLinkage(Problem):
     ) -> tuple[SweepOutputs, np.ndarray, list]:
         from suspenv.models.planar.pymunk_model import simulate_sweep
 
-        t = self.travel.size
-        fields = (
-            "camber_deg",
-            "half_track_mm",
-            "roll_centre_mm",
-            "motion_ratio",
-            "wheel_load_N",
-            "wheel_rate_N_per_mm",
-        )
-        arrays = {f: np.full((n, t), np.nan) for f in fields}
+        arrays = {f: np.full((n, self.travel.size), np.nan) for f in CURVE_UNITS}
         gain = np.full(n, np.nan)
         ok = np.zeros(n, bool)
         messages = [""] * n
@@ -248,7 +248,7 @@ class PlanarLinkage(Problem):
             except Exception as exc:  # noqa: BLE001 - a failed row is a value
                 messages[i] = f"{type(exc).__name__}: {exc}"
                 continue
-            for f in fields:
+            for f in CURVE_UNITS:
                 arrays[f][i] = getattr(o, f)
             gain[i] = o.camber_gain_deg_per_m
             ok[i] = True

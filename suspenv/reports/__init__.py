@@ -9,6 +9,6 @@ in :mod:`suspenv.registry` (``report_function``), resolved when first called.
 Modules: :mod:`.run` (convergence, Pareto), :mod:`.analysis` (runs compared),
 :mod:`.kc_identification`, :mod:`.knc_rig` (K&C rig curves), :mod:`.minibus`,
 :mod:`.minibus_ride`, :mod:`.suspension`, :mod:`.planar`, :mod:`.tey2014`,
-:mod:`.diagnosis` (component, K&C, ride, road), and the shared :mod:`.markdown` helpers
-(cells and tables); plain JSON values come from :mod:`suspenv.core.jsonable`.
+:mod:`.diagnosis` (component, K&C, ride, road); cells and tables come from
+:mod:`suspenv.core.markdown`, plain JSON values from :mod:`suspenv.core.jsonable`.
 """

@@ -11,12 +11,11 @@ from pathlib import Path
 
 import numpy as np
 
-from suspenv.measurements.knc import LOADED_TESTS, TESTS
+from suspenv.measurements.knc import LOADED_TESTS, SIDES, TESTS
 from suspenv.models.mcpherson.params import SIDE_SIGN
 from suspenv.reports._mpl import pyplot, save_figure
 from suspenv.rigs.knc import KCResult
 
-SIDES = ("left", "right")
 #: panels: label -> (rig channel, scale to edge units, outboard-mirrored)
 PANELS = {
     "toe [deg]": ("toe", np.rad2deg(1.0), False),

@@ -36,14 +36,8 @@ def write_minibus_report(
     found = study_outcome(problem, arrays)
     if found is None:
         return []
-    F, X, ok, feasible, front, pick = (
-        found.F,
-        found.X,
-        found.ok,
-        found.feasible,
-        found.front,
-        found.pick,
-    )
+    F, X, ok, feasible = found.F, found.X, found.ok, found.feasible
+    front, pick = found.front, found.pick
     # the two reference designs as extra rows, marked but not drawn with the front
     refs = np.vstack([BASELINE_DESIGN, STUDY_PICK])
     F_refs = {

@@ -23,7 +23,6 @@ from suspenv.runs import quality as run_quality
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
-    from matplotlib.figure import Figure
 
     from suspenv.problems.planar import PlanarLinkage
 
@@ -159,30 +158,20 @@ def plot_curves(
         axes[0].legend(fontsize=7)
 
 
-def linkage_figure(
-    geom: PlanarGeometry,
-    sweep: PlanarSweep,
-    outputs: Sequence[tuple[str, SweepOutputs]],
-) -> Figure:
-    """A figure with the linkage on the left and its curves on the right."""
-    plt = pyplot()
-    fig = plt.figure(figsize=(14, 10))
-    grid = fig.add_gridspec(5, 3)
-    plot_linkage(fig.add_subplot(grid[:, :2]), geom, sweep)
-    axes = [fig.add_subplot(grid[i, 2]) for i in range(5)]
-    plot_curves(axes, outputs)
-    fig.tight_layout()
-    return fig
-
-
 def save_linkage_figure(
     path: str | Path,
     geom: PlanarGeometry,
     sweep: PlanarSweep,
     outputs: Sequence[tuple[str, SweepOutputs]],
 ) -> Path:
-    """Write :func:`linkage_figure` as PNG; returns the path."""
-    return save_figure(linkage_figure(geom, sweep, outputs), path, dpi=90)
+    """The linkage on the left and its curves on the right, as PNG; returns the path."""
+    plt = pyplot()
+    fig = plt.figure(figsize=(14, 10))
+    grid = fig.add_gridspec(5, 3)
+    plot_linkage(fig.add_subplot(grid[:, :2]), geom, sweep)
+    axes = [fig.add_subplot(grid[i, 2]) for i in range(5)]
+    plot_curves(axes, outputs)
+    return save_figure(fig, path, tight=True, dpi=90)
 
 
 def save_curves_figure(path: str | Path, outputs: Sequence[tuple[str, SweepOutputs]]) -> Path:

@@ -92,10 +92,8 @@ def suspension_figures(
     the CoM shift (m, x rearward and z up).
     """
     X = check_designs(X)
-    no, full = (
-        vehicle_parameters(X, "no_load", vehicle),
-        vehicle_parameters(X, "full_load", vehicle),
-    )
+    no = vehicle_parameters(X, "no_load", vehicle)
+    full = vehicle_parameters(X, "full_load", vehicle)
     out = {"no_load": _axle_figures(no), "full_load": _axle_figures(full)}
     out["loading"] = {
         "travel_front": full.front_static_deflection - no.front_static_deflection,

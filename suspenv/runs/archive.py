@@ -296,10 +296,6 @@ def _records(
     ]
 
 
-def _unblob(b: bytes) -> np.ndarray:
-    return np.frombuffer(b, dtype="<f8")
-
-
 class RunArchive:
     """Append-only SQLite archive of evaluations (``archive.sqlite`` in a run directory)."""
 
@@ -547,7 +543,7 @@ class RunArchive:
             raise ValidationError(
                 f"archive {str(self.path)!r} is damaged: a {column} value is not float64 data"
             )
-        v = _unblob(blob)
+        v = np.frombuffer(blob, dtype="<f8")
         if width is not None and v.size != width:
             raise ValidationError(
                 f"archive {str(self.path)!r} is damaged: a {column} value has {v.size} "

@@ -235,7 +235,8 @@ def _retry_or_raise(
             f"({'; '.join(dict.fromkeys(faults))}); none of them was archived"
         ) from None
     fault = f"{what} ({faults[0]})" if what else faults[0]
-    _warn(f"{fault}; retry {attempt} of {policy.retries} in {policy.pause(attempt):g} s")
+    retry = f"retry {attempt} of {policy.retries} in {policy.pause(attempt):g} s"
+    print(f"suspenv: {fault}; {retry}", file=sys.stderr, flush=True)
 
 
 def _completed(
@@ -348,7 +349,3 @@ def _outcome(fut: Future[Any]) -> tuple[EvaluationBatch | None, str]:
 def _describe(exc: BaseException) -> str:
     text = str(exc).strip().splitlines()
     return f"{type(exc).__name__}: {text[0]}" if text else type(exc).__name__
-
-
-def _warn(text: str) -> None:
-    print(f"suspenv: {text}", file=sys.stderr, flush=True)

@@ -181,11 +181,6 @@ class DifferentialEvolution(Strategy):
         return int(np.lexsort((self._value, self._rank))[0])
 
     @property
-    def x_best(self) -> np.ndarray:
-        """The best member of the population, in the unit cube."""
-        return self.population[self.best_index].copy()
-
-    @property
     def population_energies(self) -> np.ndarray:
         """The weighted objective of each member (NaN for infeasible and failed ones)."""
         return np.where(self._rank == 0, self._value, np.nan)
