@@ -272,10 +272,11 @@ def handling_parameters(
     ) = np.repeat(np.array([_case_terms(vp, leaf) for vp in vps]).T, d.n, axis=1)  # fmt: skip
 
     # the per-design values, on the rows of every load case
-    rates = [d.front_wheel_rate, d.front_roll_arb, d.rear_roll_arb, d.leaf_bush_radial]
-    wheel_rate, arb_f, arb_r, k3, c_front, c_rear = np.tile(
-        [*rates, d.front_damper_scale, d.rear_damper_scale], len(cases)
-    )
+    rates = np.array(
+        [d.front_wheel_rate, d.front_roll_arb, d.rear_roll_arb, d.leaf_bush_radial,
+         d.front_damper_scale, d.rear_damper_scale]
+    )  # fmt: skip
+    wheel_rate, arb_f, arb_r, k3, c_front, c_rear = np.concatenate(len(cases) * [rates], axis=1)
     # roll stiffness: springs + stabiliser, in series with the two tyres
     kt_f = spring_pair_roll_stiffness(vehicle.tyre_vertical_stiffness, vehicle.track_front)
     kt_r = spring_pair_roll_stiffness(vehicle.tyre_vertical_stiffness, vehicle.track_rear)
