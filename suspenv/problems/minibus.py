@@ -174,6 +174,8 @@ STUDY_OBJECTIVE_NAMES = (
     "f5_roll",
 )
 STUDY_OBJECTIVE_UNITS = ("m/s^2", "m/s^2", "m/s^2", "deg/s", "deg")
+#: the measures ``ride_method="time"`` adds from the weighted record
+RECORD_KEYS = ("crest_front", "crest_rear", "vdv_front", "vdv_rear")
 
 
 def _road_class(owner: str, value: Any) -> str | float:
@@ -371,6 +373,32 @@ class MinibusRideHandling(Problem):
             self.constraint_scales += n_lc * (self.bump_stop_limit,) + n_lc * (
                 self.tyre_load_limit,
             )
+        self._evaluation_terms(study)
+
+    def _evaluation_terms(self, study: bool) -> None:
+        """What :meth:`_evaluate` reads from the measures, fixed per problem: the
+        objectives' measures, each constraint's measure key, limit and direction (the
+        understeer margin is ``limit - measure``; (k, 1) each), and the row flags."""
+        self._objective_keys = (
+            "aw_front",
+            "aw_rear",
+            "ay_max" if study else "yaw_response_time",
+            "yaw_rate" if study else "steering_wheel",
+            "roll",
+        )
+        terms = [(f"aw_{end}", self.rms_limit, False) for end in ("front", "rear")]
+        terms.append(("roll", self.roll_limit_deg, False))
+        if not study:
+            terms.append(("understeer_min", self.min_understeer, True))
+        if self.working_space:
+            terms += [("bump_stop", self.bump_stop_limit, False)]
+            terms += [("tyre_load", self.tyre_load_limit, False)]
+        rows = [(f"{k}_{lc}", lim, flip) for k, lim, flip in terms for lc in LOAD_CASES]
+        keys, limits, flipped = zip(*rows, strict=True)
+        self._limit_terms = (keys, np.array(limits)[:, None], np.array(flipped)[:, None])
+        self._flag_keys = tuple(
+            f"{kind}_{lc}" for kind in ("completed", "ride_ok") for lc in LOAD_CASES
+        )
 
     def config(self) -> dict[str, Any]:
         return dict(self._options)
@@ -411,18 +439,13 @@ class MinibusRideHandling(Problem):
         ws = self._working_space(X, ride)
         out: dict[str, np.ndarray] = {}
         for i, lc in enumerate(LOAD_CASES):
-            rows = slice(i * n, (i + 1) * n)
-            out[f"aw_front_{lc}"] = ride[lc]["aw_front"]
-            out[f"aw_rear_{lc}"] = ride[lc]["aw_rear"]
-            for key, value in both.items():
-                out[f"{key}_{lc}"] = value[rows]
-            for key in ("crest_front", "crest_rear", "vdv_front", "vdv_rear"):
-                if key in ride[lc]:  # ride_method="time": from the weighted record
-                    out[f"{key}_{lc}"] = ride[lc][key]
-            for key, value in ws.items():
-                out[f"{key}_{lc}"] = value[i * n : (i + 1) * n]
-            ride_ok = ride[lc].get("ok", np.ones(n, bool))
-            out[f"ride_ok_{lc}"] = np.asarray(ride_ok, dtype=bool)
+            rows, r = slice(i * n, (i + 1) * n), ride[lc]
+            out[f"aw_front_{lc}"], out[f"aw_rear_{lc}"] = r["aw_front"], r["aw_rear"]
+            out.update({f"{key}_{lc}": value[rows] for key, value in both.items()})
+            # ride_method="time": the weighted record's crest factors and VDVs
+            out.update({f"{key}_{lc}": r[key] for key in RECORD_KEYS if key in r})
+            out.update({f"{key}_{lc}": value[rows] for key, value in ws.items()})
+            out[f"ride_ok_{lc}"] = r["ok"]
         return out
 
     def _standard_handling(self, P: HandlingParams) -> dict[str, np.ndarray]:
@@ -515,56 +538,44 @@ class MinibusRideHandling(Problem):
 
     def _evaluate(self, X: np.ndarray) -> EvaluationBatch:
         m = self.measures(X)
-        w = self.load_weight
-
-        def combine(key: str) -> np.ndarray:
-            return m[f"{key}_no_load"] + w * m[f"{key}_full_load"]
-
-        def columns(values: list[np.ndarray]) -> np.ndarray:
-            """(n, k) of k arrays (n,): one copy (np.column_stack pays a call each)."""
-            return np.ascontiguousarray(np.array(values).T)
-
-        study = self.handling == "study"
-        F = columns(
-            [
-                combine("aw_front"),
-                combine("aw_rear"),
-                -combine("ay_max") if study else combine("yaw_response_time"),
-                combine("yaw_rate" if study else "steering_wheel"),
-                combine("roll"),
-            ]
-        )
-        limits = [
-            m[f"aw_{end}_{lc}"] - self.rms_limit for end in ("front", "rear") for lc in LOAD_CASES
-        ]
-        limits += [m[f"roll_{lc}"] - self.roll_limit_deg for lc in LOAD_CASES]
-        if not study:
-            limits += [self.min_understeer - m[f"understeer_min_{lc}"] for lc in LOAD_CASES]
-        if self.working_space:
-            limits += [m[f"bump_stop_{lc}"] - self.bump_stop_limit for lc in LOAD_CASES]
-            limits += [m[f"tyre_load_{lc}"] - self.tyre_load_limit for lc in LOAD_CASES]
-        G = columns(limits)
-        flag_keys = [f"{kind}_{lc}" for kind in ("completed", "ride_ok") for lc in LOAD_CASES]
-        ok = np.logical_and.reduce([m[k] for k in flag_keys]) & np.isfinite(F).all(axis=1)
+        no_load, full_load = (f"_{lc}" for lc in LOAD_CASES)
+        # objectives: no load + w x full load, one (5, n) pass (f3 negated in "study")
+        f_keys = self._objective_keys
+        F = np.array([m[k + no_load] for k in f_keys])
+        F += self.load_weight * np.array([m[k + full_load] for k in f_keys])
+        if self.handling == "study":
+            F[2] = -F[2]
+        # constraints: measure - limit, or limit - measure where flipped, one (k, n) pass
+        keys, limits, flipped = self._limit_terms
+        values = np.array([m[k] for k in keys])
+        G = np.where(flipped, limits - values, values - limits)
+        flag_keys = self._flag_keys
+        ok = np.logical_and.reduce([m[k] for k in flag_keys]) & np.isfinite(F).all(axis=0)
         messages = [""] * X.shape[0]
-        for i in np.flatnonzero(~ok):  # a reason for each failed row
-            reasons = []
-            lost = [lc for lc in LOAD_CASES if not m[f"completed_{lc}"][i]]
-            if lost:
-                what = (
-                    "the vehicle spun or left the course"
-                    if self.handling == "study"
-                    else "the linearised vehicle is unstable at the slalom or step-steer speed"
-                )
-                reasons.append(f"slalom: {what} ({', '.join(lost)})")
-            diverged = [lc for lc in LOAD_CASES if not m[f"ride_ok_{lc}"][i]]
-            if diverged:
-                reasons.append(f"ride: the road run diverged ({', '.join(diverged)})")
-            messages[i] = "; ".join(reasons) or "non-finite objective"
-        F = np.where(ok[:, None], F, np.nan)
-        G = np.where(ok[:, None], G, np.nan)
+        F, G = F.T.copy(), G.T.copy()  # (n, 5), (n, k)
+        if not ok.all():
+            for i in np.flatnonzero(~ok).tolist():  # a reason for each failed row
+                messages[i] = self._failure_reason(m, i)
+            F[~ok], G[~ok] = np.nan, np.nan
         extras = {k: v for k, v in m.items() if k not in flag_keys}  # float arrays
         return EvaluationBatch(F, G, ok, messages, extras)
+
+    def _failure_reason(self, m: dict[str, np.ndarray], i: int) -> str:
+        """Why row ``i`` of the measures ``m`` failed (slalom, ride, or a non-finite
+        objective)."""
+        reasons = []
+        lost = [lc for lc in LOAD_CASES if not m[f"completed_{lc}"][i]]
+        if lost:
+            what = (
+                "the vehicle spun or left the course"
+                if self.handling == "study"
+                else "the linearised vehicle is unstable at the slalom or step-steer speed"
+            )
+            reasons.append(f"slalom: {what} ({', '.join(lost)})")
+        diverged = [lc for lc in LOAD_CASES if not m[f"ride_ok_{lc}"][i]]
+        if diverged:
+            reasons.append(f"ride: the road run diverged ({', '.join(diverged)})")
+        return "; ".join(reasons) or "non-finite objective"
 
     # -------------------------------------------------------------- report
     def write_report(self, run_dir: Path, archive: Any) -> list[Path]:

@@ -55,7 +55,6 @@ cos(delta) of the steered tyre forces (small-angle single-track kinematics).
 
 from __future__ import annotations
 
-import functools
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -160,6 +159,16 @@ class HandlingParams:
     force_steer_front: np.ndarray  # rad/N (steering compliance, < 0)
     roll_steer_rear: np.ndarray  # rad/rad, geometric + bush
     force_steer_rear: np.ndarray  # rad/N
+    #: per-row coefficients (n, 22) of the compiled handling loops
+    #: (:mod:`suspenv.models.minibus.handling_kernel`), read-only: roll gradient (rad
+    #: per m/s^2), axle roll stiffnesses (N m/rad), the lateral-acceleration moments of
+    #: the roll centres and unsprung masses (kg m), tracks (m), static wheel loads (N),
+    #: mass (kg), CoM distances and wheelbase (m), as :func:`wheel_loads` forms them at
+    #: zero roll rate, the roll (rad/rad) and force (rad/N) steers front and rear, then
+    #: yaw and roll inertias (kg m^2), ``ms h'`` (kg m), ``ms h' g - Kphi`` (N m/rad)
+    #: and the roll damping (N m s/rad, :func:`roll_damping`); :func:`handling_parameters`
+    #: forms them
+    rows: np.ndarray
     vehicle: Minibus = REFERENCE_MINIBUS
     tyre: LateralTyre = LIGHT_TRUCK_TYRE
 
@@ -175,52 +184,10 @@ class HandlingParams:
     def kphi(self) -> np.ndarray:
         return self.kphi_front + self.kphi_rear
 
-    @functools.cached_property
-    def rows(self) -> np.ndarray:
-        """Per-row coefficients (n, 22) of the compiled handling loops
-        (:mod:`suspenv.models.minibus.handling_kernel`): roll gradient (rad per m/s^2),
-        axle roll stiffnesses (N m/rad), the lateral-acceleration moments of the roll
-        centres and unsprung masses (kg m), tracks (m), static wheel loads (N), mass
-        (kg), CoM distances and wheelbase (m), as :func:`wheel_loads` forms them at zero
-        roll rate, the roll (rad/rad) and force (rad/N) steers front and rear, then yaw
-        and roll inertias (kg m^2), ``ms h'`` (kg m), ``ms h' g - Kphi`` (N m/rad) and
-        the roll damping (N m s/rad, :func:`roll_damping`). Computed once (read-only)."""
-        msh = self.ms * self.h_prime
-        # (22, n) then C-contiguous (n, 22): one copy (np.stack pays a call per column)
-        rows = np.array(
-            [
-                self.roll_gradient(),
-                self.kphi_front,
-                self.kphi_rear,
-                self.ms_front * self.h_rc_front + self.mu_front * self.wheel_radius,
-                self.ms_rear * self.h_rc_rear + self.mu_rear * self.wheel_radius,
-                self.track_front,
-                self.track_rear,
-                self.fz_front,
-                self.fz_rear,
-                self.m,
-                self.a,
-                self.b,
-                self.wheelbase,
-                self.roll_steer_front,
-                self.force_steer_front,
-                self.roll_steer_rear,
-                self.force_steer_rear,
-                self.iz,
-                self.ixs,
-                msh,
-                msh * G - self.kphi,
-                roll_damping(self),
-            ]
-        )
-        rows = np.ascontiguousarray(rows.T)
-        rows.flags.writeable = False
-        return rows
-
     def roll_gradient(self) -> np.ndarray:
-        """Steady-state body roll per lateral acceleration, rad/(m/s^2) (closed form)."""
-        msh = self.ms * self.h_prime
-        return msh / (self.kphi - msh * G)
+        """Steady-state body roll per lateral acceleration, rad/(m/s^2) (closed form:
+        ``ms h' / (Kphi - ms h' g)``, :attr:`rows`' first column)."""
+        return np.ascontiguousarray(self.rows[:, 0])
 
     def axle_cornering_stiffness(self) -> tuple[np.ndarray, np.ndarray]:
         """Front and rear axle cornering stiffness at static load, N/rad (two tyres each)."""
@@ -268,14 +235,15 @@ def handling_parameters(
     # the design-independent parameters of each load case (floats), on their rows
     (
         m, ms, a, b, iz, ixs, h_prime, ms_front, ms_rear, w_front, w_rear,
-        h_rf, h_rr, muf, mur, radius, tf, tr, eps_f, c_ff,
+        h_rf, h_rr, muf, mur, radius, tf, tr, eps_f, c_ff, moment_f, moment_r, L, msh, msh_g,
     ) = np.repeat(np.array([_case_terms(vp, leaf) for vp in vps]).T, d.n, axis=1)  # fmt: skip
 
     # the per-design values, on the rows of every load case
-    rates = [d.front_wheel_rate, d.front_roll_arb, d.rear_roll_arb, d.leaf_bush_radial]
-    wheel_rate, arb_f, arb_r, k3, c_front, c_rear = np.tile(
-        [*rates, d.front_damper_scale, d.rear_damper_scale], len(cases)
-    )
+    rates = np.array(
+        [d.front_wheel_rate, d.front_roll_arb, d.rear_roll_arb, d.leaf_bush_radial,
+         d.front_damper_scale, d.rear_damper_scale]
+    )  # fmt: skip
+    wheel_rate, arb_f, arb_r, k3, c_front, c_rear = np.concatenate(len(cases) * [rates], axis=1)
     # roll stiffness: springs + stabiliser, in series with the two tyres
     kt_f = spring_pair_roll_stiffness(vehicle.tyre_vertical_stiffness, vehicle.track_front)
     kt_r = spring_pair_roll_stiffness(vehicle.tyre_vertical_stiffness, vehicle.track_rear)
@@ -291,6 +259,15 @@ def handling_parameters(
     l2 = Ls - l1
     eps_bush = rear_rate * (l1 / Ls) * np.tan(np.radians(leaf.shackle_angle_deg)) / k3
     c_force = (l2 / (2.0 * k3) - l1 / (2.0 * leaf.shackle_lateral_ratio * k3)) / Ls**2
+    eps_r = vehicle.rear_roll_steer + eps_bush
+    kphi = kphi_f + kphi_r
+    # (22, n), then C-contiguous (n, 22): one copy (np.stack pays a call per column)
+    rows = np.array([
+        msh / (kphi - msh_g), kphi_f, kphi_r, moment_f, moment_r, tf, tr, w_front, w_rear,
+        m, a, b, L, eps_f, c_ff, eps_r, c_force, iz, ixs, msh, msh_g - kphi,
+        roll_damping(vehicle, c_front, c_rear),
+    ]).T.copy()  # fmt: skip
+    rows.flags.writeable = False
     return HandlingParams(
         m=m,
         ms=ms,
@@ -316,8 +293,9 @@ def handling_parameters(
         fz_rear=w_rear,
         roll_steer_front=eps_f,
         force_steer_front=c_ff,
-        roll_steer_rear=vehicle.rear_roll_steer + eps_bush,
+        roll_steer_rear=eps_r,
         force_steer_rear=c_force,
+        rows=rows,
         vehicle=vehicle,
         tyre=tyre,
     )
@@ -329,8 +307,10 @@ def _case_terms(vp: VehicleParams, leaf: LeafAxleGeometry) -> list[float]:
     total CoM to the axles (m), yaw and sprung roll inertias (kg m^2), sprung CoM above
     the roll axis (m), the axles' sprung mass shares (kg), static wheel loads (N),
     roll-centre heights (m), unsprung masses (kg), wheel radius and tracks (m), front
-    roll (rad/rad) and force steer (rad/N). Plain floats: one design at a time pays no
-    array calls for them."""
+    roll (rad/rad) and force steer (rad/N), then for :attr:`HandlingParams.rows` the
+    roll centres' and unsprung masses' moments per lateral acceleration (kg m), the
+    wheelbase (m), ``ms h'`` (kg m) and ``ms h' g`` (N m). Plain floats: one design at
+    a time pays no array calls for them."""
     v = vp.vehicle
     L = v.wheelbase
     ms, va, vb = vp.load.sprung_mass, vp.a, vp.b
@@ -355,10 +335,13 @@ def _case_terms(vp: VehicleParams, leaf: LeafAxleGeometry) -> list[float]:
     ixs = vp.load.roll_inertia + ms * (h_prime * h_prime)
     w_front = (ms * G * vb / L) / 2.0 + v.unsprung_front * G
     w_rear = (ms * G * va / L) / 2.0 + v.unsprung_rear * G
+    ms_front, ms_rear, radius = ms * vb / L, ms * va / L, v.tyre_loaded_radius
+    msh = ms * h_prime
     return [
-        m, ms, a, b, iz, ixs, h_prime, ms * vb / L, ms * va / L, w_front, w_rear,
-        h_rf, h_rr, muf, mur, v.tyre_loaded_radius, v.track_front, v.track_rear,
+        m, ms, a, b, iz, ixs, h_prime, ms_front, ms_rear, w_front, w_rear,
+        h_rf, h_rr, muf, mur, radius, v.track_front, v.track_rear,
         leaf.front_roll_steer, -leaf.steering_trail / leaf.steering_stiffness,
+        ms_front * h_rf + muf * radius, ms_rear * h_rr + mur * radius, a + b, msh, msh * G,
     ]  # fmt: skip
 
 
@@ -495,19 +478,20 @@ def step(
 
 
 # ------------------------------------------------------------------ linear range
-def roll_damping(P: HandlingParams) -> np.ndarray:
-    """Roll damping (N*m*s/rad, (n,)) of the dampers' low-speed slopes (linear range).
+def roll_damping(vehicle: Minibus, scale_front: np.ndarray, scale_rear: np.ndarray) -> np.ndarray:
+    """Roll damping (N*m*s/rad, (n,)) of the dampers' low-speed slopes (linear range),
+    the damper curves scaled by ``scale_front``/``scale_rear`` (the designs' C1, C2).
 
     A roll rate p compresses one side at ``p s/2`` and extends the other, so an axle's
     damper roll moment is ``(s^2/4) (c_bump + c_rebound) C p`` (s the damper spacing, C
     the design's curve scale), the small-rate slope of :func:`wheel_loads`' damper moments.
     """
-    v = P.vehicle
+    v = vehicle
     front = (
         0.25 * v.front_damper_spacing**2 * (v.damper_front.bump_low + v.damper_front.rebound_low)
     )
     rear = 0.25 * v.rear_damper_spacing**2 * (v.damper_rear.bump_low + v.damper_rear.rebound_low)
-    return front * P.damper_scale_front + rear * P.damper_scale_rear
+    return front * scale_front + rear * scale_rear
 
 
 def linear_system(

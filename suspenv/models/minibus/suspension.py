@@ -16,10 +16,14 @@ designs (arrays of shape (n,)) and a batch of states (n, ...) work alike.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TypeVar
 
 import numpy as np
 
 from suspenv.core.errors import ValidationError
+
+#: a rate: one float, or a float array
+RateT = TypeVar("RateT", float, np.ndarray)
 
 
 # ------------------------------------------------------------------ two-stage leaf
@@ -47,6 +51,14 @@ def leaf_static_deflection(
         raise ValidationError(f"leaf static load must be >= 0 N, but got {np.min(load)}")
     if (k1 <= 0).any() or (k2 <= 0).any():
         raise ValidationError("leaf rates must be > 0, but got k1 or k2 <= 0")
+    return leaf_deflection_unchecked(load, k1, k2, d_helper)
+
+
+def leaf_deflection_unchecked(
+    load: np.ndarray | float, k1: np.ndarray, k2: np.ndarray, d_helper: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`leaf_static_deflection` of arrays whose rules hold already (load >= 0,
+    rates > 0; e.g. checked designs): m and the helper-engaged flag."""
     knee = k1 * d_helper
     on_helper = load > knee
     d = np.where(on_helper, d_helper + (load - knee) / k2, load / k1)
@@ -65,9 +77,10 @@ def torsion_bar_wheel_rate(bar_stiffness: np.ndarray | float, lever: float) -> n
     return np.asarray(bar_stiffness, dtype=float) / lever**2
 
 
-def spring_pair_roll_stiffness(rate: np.ndarray | float, spacing: float) -> np.ndarray:
-    """Roll stiffness (N*m/rad) of two vertical springs (N/m each) ``spacing`` (m) apart."""
-    return np.asarray(rate, dtype=float) * spacing**2 / 2.0
+def spring_pair_roll_stiffness(rate: RateT, spacing: float) -> RateT:
+    """Roll stiffness (N*m/rad) of two vertical springs (N/m each, float or float
+    array) ``spacing`` (m) apart."""
+    return rate * spacing**2 / 2.0
 
 
 # ------------------------------------------------------------------ dampers

@@ -29,7 +29,7 @@ from suspenv.core.errors import ValidationError
 from suspenv.core.space import DesignSpace, Parameter
 from suspenv.models.minibus.suspension import (
     DamperCurve,
-    leaf_static_deflection,
+    leaf_deflection_unchecked,
     torsion_bar_wheel_rate,
 )
 
@@ -310,14 +310,20 @@ def check_designs(X: np.ndarray) -> np.ndarray:
             f"minibus designs must have shape (n, {len(DESIGN_NAMES)}) with columns "
             f"{list(DESIGN_NAMES)}, but got {np.shape(X)}"
         )
-    bad = ~(np.isfinite(arr) & (arr > 0))
-    if bad.any():
-        r, c = np.argwhere(bad)[0]
+    # smallest > 0 and largest < inf (NaN fails both): two reductions instead of a mask
+    if arr.size and not (arr.min() > 0 and arr.max() < np.inf):
+        r, c = np.argwhere(~(np.isfinite(arr) & (arr > 0)))[0]
         raise ValidationError(
             f"every design variable must be finite and > 0, but row {r} has "
             f"{DESIGN_NAMES[c]}={arr[r, c]}"
         )
     return arr
+
+
+#: the factors of the design columns (study units) to SI: N/mm -> N/m, N*mm/deg ->
+#: N*m/rad, - (read-only)
+DESIGN_TO_SI = np.array(3 * [N_PER_MM_TO_N_PER_M] + 3 * [NMM_PER_DEG_TO_NM_PER_RAD] + [1.0, 1.0])
+DESIGN_TO_SI.flags.writeable = False
 
 
 def design_to_si(X: np.ndarray, vehicle: Minibus = REFERENCE_MINIBUS) -> DesignSI:
@@ -327,24 +333,25 @@ def design_to_si(X: np.ndarray, vehicle: Minibus = REFERENCE_MINIBUS) -> DesignS
     with other ranges) is rejected because the helper leaf can only add stiffness.
     """
     X = check_designs(X)
-    K1, K2, K3, T1, T2, T3, C1, C2 = X.T
+    K1, K2 = X[:, 0], X[:, 1]
     if (K2 < K1).any():
         r = int(np.argmax(K2 < K1))
         raise ValidationError(
             f"`K2 >= K1` must hold (the helper leaf adds stiffness), but got "
             f"(K1={K1[r]}, K2={K2[r]}) in row {r}"
         )
-    t1 = T1 * NMM_PER_DEG_TO_NM_PER_RAD
+    # one product, then each variable's row C-contiguous (8, n)
+    k1, k2, k3, t1, t2, t3, c1, c2 = (X * DESIGN_TO_SI).T.copy()
     return DesignSI(
-        rear_primary_rate=K1 * N_PER_MM_TO_N_PER_M,
-        rear_composite_rate=K2 * N_PER_MM_TO_N_PER_M,
-        leaf_bush_radial=K3 * N_PER_MM_TO_N_PER_M,
+        rear_primary_rate=k1,
+        rear_composite_rate=k2,
+        leaf_bush_radial=k3,
         front_torsion_bar=t1,
         front_wheel_rate=torsion_bar_wheel_rate(t1, vehicle.torsion_bar_lever),
-        front_roll_arb=T2 * NMM_PER_DEG_TO_NM_PER_RAD,
-        rear_roll_arb=T3 * NMM_PER_DEG_TO_NM_PER_RAD,
-        front_damper_scale=C1.copy(),
-        rear_damper_scale=C2.copy(),
+        front_roll_arb=t2,
+        rear_roll_arb=t3,
+        front_damper_scale=c1,
+        rear_damper_scale=c2,
     )
 
 
@@ -423,7 +430,10 @@ def _apply(design: DesignSI, load_case: str | LoadCase, vehicle: Minibus) -> Veh
     w = load.sprung_mass * G
     front = w * b / vehicle.wheelbase / 2.0
     rear = w * a / vehicle.wheelbase / 2.0
-    rear_defl, on_helper = leaf_static_deflection(
+    if rear < 0:
+        raise ValidationError(f"`sprung_mass >= 0` must hold, but got {load.sprung_mass}")
+    # the design's rates are > 0 (design_to_si)
+    rear_defl, on_helper = leaf_deflection_unchecked(
         rear, design.rear_primary_rate, design.rear_composite_rate, vehicle.helper_engagement
     )
     return VehicleParams(
