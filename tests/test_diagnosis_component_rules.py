@@ -211,6 +211,32 @@ def test_a_force_lag_beside_an_unresolved_branch_is_stated_inseparable(flag, loc
         assert "a second, independent sensor on the same channel" in found[0].sentence()
 
 
+@pytest.mark.parametrize(
+    ("profiled", "lag_significant", "said"),
+    [(True, True, True), (False, True, False), (True, False, False)],
+)
+def test_a_branch_beside_a_force_lag_under_an_unrecorded_input_is_inseparable(
+    profiled, lag_significant, said
+):
+    # the fits assume an unrecorded input (its gains profiled out): a lag of the force
+    # sensor with that input's force beside it unlagged is a branch beside a damping
+    from suspenv.diagnosis.hypothesis import Hypothesis
+    from suspenv.diagnosis.unrecorded import Profiled, Stretches
+
+    fam = make_family("damper")
+    setup = fam.prepare(DamperDynoModel().example_recording(seed=1), None, None)
+    winner = Hypothesis.failed("maxwell_viscoelastic", "", "viscoelastic lag", 1, "")
+    lag = Hypothesis.failed("sensor_lag", "", "sensor lag", 1, "")
+    winner.significant, lag.significant = True, lag_significant
+    model = setup.model
+    if profiled:
+        model = Profiled(model, Stretches("velocity", "force", {}, {}, 0.01), {})
+    found = fam.ambiguities(winner, [winner, lag], SimpleNamespace(model=model), setup)
+    assert [(a.a, a.b) for a in found] == ([("maxwell_viscoelastic", "sensor_lag")] if said else [])
+    if said:
+        assert "cannot separate viscoelastic lag from sensor lag" in found[0].sentence()
+
+
 def _lagged_damper_case(kind: str) -> Recording:
     """A damper (viscous + gas force) with a sensor lag of the whole force, or with a
     Maxwell branch beside its damping; 0.5 % white noise."""

@@ -258,25 +258,11 @@ class Comparison:
         return self.bic_after - self.bic_before
 
     def to_dict(self) -> dict[str, Any]:
-        return {
-            "heldout_rms_before": self.heldout_rms_before,
-            "heldout_rms_after": self.heldout_rms_after,
-            "fit_rms_before": self.fit_rms_before,
-            "fit_rms_after": self.fit_rms_after,
-            "heldout_reduction": self.heldout_reduction,
-            "aic_before": self.aic_before,
-            "aic_after": self.aic_after,
-            "bic_before": self.bic_before,
-            "bic_after": self.bic_after,
-            "delta_bic": self.delta_bic,
-            "likelihood_ratio": vars(self.lr),
-            "ljung_box_before": {"Q": self.ljung_box_before[0], "p": self.ljung_box_before[1]},
-            "ljung_box_after": {"Q": self.ljung_box_after[0], "p": self.ljung_box_after[1]},
-            "params_after": self.params_after,
-            "heldout_gain": self.heldout_gain,
-            "heldout_signal": self.heldout_signal,
-            "heldout_z": self.heldout_z,
-        }
+        out = dict(vars(self), delta_bic=self.delta_bic, heldout_z=self.heldout_z)
+        out["likelihood_ratio"] = vars(out.pop("lr"))
+        for k in ("ljung_box_before", "ljung_box_after"):
+            out[k] = dict(zip(("Q", "p"), out[k], strict=True))
+        return out
 
 
 def compare(

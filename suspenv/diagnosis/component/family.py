@@ -647,28 +647,35 @@ class ComponentFamily(OptionalSteps):
         self, winner: Hypothesis, ranked: Sequence[Hypothesis], parent: FitResult, setup: Setup
     ) -> list[Ambiguity]:
         """The structural ambiguity of the winner (:func:`_structural_ambiguity`); and,
-        on a device whose one recorded output is its force, a sensor lag of the force
-        named where the round's Maxwell refit left the base's share of the damping
-        unresolved (:attr:`unresolved_branch_rounds`): the two are inseparable on these
-        recordings, and the verdict says so with the test that would separate them."""
+        on a device whose one recorded output is its force, a sensor lag of the force and
+        a Maxwell branch where these recordings cannot tell them apart, with the test that
+        would: the lag named where the round's Maxwell refit left the base's share of the
+        damping unresolved (:attr:`unresolved_branch_rounds`), or the branch named beside
+        a significant lag where the fits assume an unrecorded input (its gains profiled
+        out, :mod:`~suspenv.diagnosis.unrecorded`): whether that input's force passes the
+        sensor's lag is not known, and a lag of the rest of the force beside it unlagged
+        is a branch beside a damping."""
         found = _structural_ambiguity(winner, parent, setup.split, self.budget)
         # a lag of the recorded force only: the force is the branch's whole effect there
         # (a quarter car's branch also moves its deflection, which a lag of the
         # accelerometer does not)
-        force = setup.model.output_channels == ("force",)
-        if (
-            winner.kind == "sensor_lag"
-            and force
-            and winner.location in ("", "force")
-            and winner.round in self.unresolved_branch_rounds
+        if setup.model.output_channels != ("force",):
+            return found
+        lags = [h for h in ranked if h.kind == "sensor_lag" and h.location in ("", "force")]
+        branch = "maxwell_viscoelastic"
+        if any(h is winner for h in lags) and winner.round in self.unresolved_branch_rounds:
+            other = branch
+        elif (
+            winner.kind == branch
+            and any(h.significant for h in lags)
+            and unprofiled(parent.model) is not parent.model
         ):
-            branch = "maxwell_viscoelastic"
-            test, reason = separating_test(family_of(winner.kind), family_of(branch))
-            found.append(
-                Ambiguity(
-                    winner.kind, branch, winner.words, self.words(branch, setup), test, reason
-                )
-            )
+            other = "sensor_lag"
+        else:
+            return found
+        test, reason = separating_test(family_of(winner.kind), family_of(other))
+        words = self.words(other, setup)
+        found.append(Ambiguity(winner.kind, other, winner.words, words, test, reason))
         return found
 
     def checks(self) -> list[Check]:
