@@ -52,20 +52,21 @@ def pack(effects: Sequence[Effect]) -> tuple[np.ndarray, np.ndarray, np.ndarray,
     are summed first)."""
     laws = [e for e in effects if e.kind in LAW_CODES]
     states = [e for e in effects if e.kind in STATE_CODES]
-    law_par = np.zeros((len(laws), N_PAR))
-    for i, e in enumerate(laws):
-        vals = [float(e.params[name]) for name in STATELESS[e.kind][2]]
-        law_par[i, : len(vals)] = vals
-    st_par = np.zeros((len(states), N_PAR))
-    for i, e in enumerate(states):
-        vals = _state_params(e)
-        st_par[i, : len(vals)] = vals
+    law_par = [[float(e.params[name]) for name in STATELESS[e.kind][2]] for e in laws]
     return (
         np.array([LAW_CODES[e.kind] for e in laws], np.int64),
-        law_par,
+        _rows(law_par),
         np.array([STATE_CODES[e.kind] for e in states], np.int64),
-        st_par,
+        _rows([_state_params(e) for e in states]),
     )
+
+
+def _rows(values: list[list[float]]) -> np.ndarray:
+    """The parameter lists as rows of :data:`N_PAR` slots (unused slots zero)."""
+    out = np.zeros((len(values), N_PAR))
+    for i, vals in enumerate(values):
+        out[i, : len(vals)] = vals
+    return out
 
 
 def _law(code: int, p: np.ndarray, x: float, v: float) -> float:
