@@ -5,7 +5,7 @@ The same scheme as the product (exact first-order-hold step of the linear part, 
 element force solved implicitly by a chord step and secant steps, element states advanced
 by their exact solution along the step), written a second way: closures over plain
 floats, one per element, with the laws bound from the effect's parameters (the formulas
-of :data:`suspenv.models.effects.pointwise.STATELESS`) instead of codes and parameter
+of :data:`suspenv.models.effects.laws.STATELESS`) instead of codes and parameter
 rows. It shares only the step matrices
 (:func:`~suspenv.models.components.rig_integrator.step_matrices`). Frames, units and
 signs: those of :mod:`suspenv.models.components.rig_integrator`.
@@ -22,20 +22,19 @@ import numpy as np
 from suspenv.core.errors import EvaluationError
 from suspenv.models.components.rig_integrator import EXACT_STATEFUL, step_matrices
 from suspenv.models.effects import Effect
-from suspenv.models.effects.pointwise import STATELESS
+from suspenv.models.effects.laws import STATELESS
 
 #: stateless kind -> float force law ``F(x, v, p)`` [N] of the effect's parameters ``p``
-#: (floats): the formulas of :data:`suspenv.models.effects.pointwise.STATELESS`, a width
-#: entering as its reciprocal (the compiled loop's arithmetic)
+#: (floats): the formulas of :data:`suspenv.models.effects.laws.STATELESS`
 _LAWS: dict[str, Callable[[float, float, dict[str, float]], float]] = {
-    "coulomb_friction": lambda x, v, p: p["f_c"] * math.tanh(v * (1.0 / p["v_eps"])),
+    "coulomb_friction": lambda x, v, p: p["f_c"] * math.tanh(v / p["v_eps"]),
     "stribeck_friction": lambda x, v, p: (
-        (p["f_c"] + (p["f_s"] - p["f_c"]) * math.exp(-((v * (1.0 / p["v_s"])) ** 2)))
-        * math.tanh(v * (1.0 / p["v_eps"]))
+        (p["f_c"] + (p["f_s"] - p["f_c"]) * math.exp(-((v / p["v_s"]) ** 2)))
+        * math.tanh(v / p["v_eps"])
     ),
     "directional_friction": lambda x, v, p: (
-        0.5 * (p["f_pos"] + p["f_neg"]) * math.tanh(v * (1.0 / p["v_eps"]))
-        + 0.5 * (p["f_pos"] - p["f_neg"]) * abs(math.tanh(v * (1.0 / p["v_eps"])))
+        0.5 * (p["f_pos"] + p["f_neg"]) * math.tanh(v / p["v_eps"])
+        + 0.5 * (p["f_pos"] - p["f_neg"]) * abs(math.tanh(v / p["v_eps"]))
     ),
     "bump_stop": lambda x, v, p: p["k_stop"] * (x - p["gap"]) ** p["p"] if x > p["gap"] else 0.0,
     "rebound_stop": lambda x, v, p: (
@@ -51,7 +50,7 @@ _LAWS: dict[str, Callable[[float, float, dict[str, float]], float]] = {
         (p["k_p"] if x > 0.0 else -p["k_p"]) * (abs(x) - p["x0"]) ** 2 if abs(x) > p["x0"] else 0.0
     ),
     "damper_asymmetry": lambda x, v, p: p["dc_rebound"] * v if v < 0.0 else 0.0,
-    "digressive_damping": lambda x, v, p: p["c_low"] * v / (1.0 + abs(v) * (1.0 / p["v_knee"])),
+    "digressive_damping": lambda x, v, p: p["c_low"] * v / (1.0 + abs(v) / p["v_knee"]),
     "asymmetric_digressive_damping": lambda x, v, p: (
         p["c_bump"] * v / (1.0 + v / p["v_knee_bump"])
         if v >= 0.0
@@ -60,7 +59,7 @@ _LAWS: dict[str, Callable[[float, float, dict[str, float]], float]] = {
     "gas_spring": lambda x, v, p: p["f_0"] + p["k_gas"] * x,
     "force_offset": lambda x, v, p: p["offset"],
     "kelvin_voigt": lambda x, v, p: p["k"] * x + p["c"] * v,
-    "low_speed_deficit": lambda x, v, p: -p["f_d"] * math.tanh(v * (1.0 / p["v_band"])),
+    "low_speed_deficit": lambda x, v, p: -p["f_d"] * math.tanh(v / p["v_band"]),
 }
 
 

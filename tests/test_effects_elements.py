@@ -227,8 +227,9 @@ def test_end_stops_are_one_sided_with_threshold():
     assert fb[-1] == pytest.approx(2e5 * 0.06**2)
     assert np.all(fr[x >= -0.06] == 0.0) and np.all(fr[x < -0.06] < 0)
     assert fr[0] == pytest.approx(-1e5 * 0.04)
+    # the laws check nothing; an effect checks its parameters' domain before its force
     with pytest.raises(ValidationError, match="gap >= 0"):
-        fx.bump_stop(x, gap=-0.01, k_stop=1.0)
+        fx.make_effect("bump_stop", gap=-0.01, k_stop=1.0).force(x, x)
 
 
 def test_bump_and_rebound_stops_act_on_their_own_side_with_their_own_onset():
@@ -246,7 +247,9 @@ def test_bump_and_rebound_stops_act_on_their_own_side_with_their_own_onset():
     sym = fx.bump_and_rebound_stops(x, 0.02, 1e6, 0.02, 1e6, p=2.0)
     assert sym == pytest.approx(1e6 * np.sign(x) * np.maximum(np.abs(x) - 0.02, 0.0) ** 2)
     with pytest.raises(ValidationError, match="gap_rebound >= 0"):
-        fx.bump_and_rebound_stops(x, 0.01, 1.0, -0.01, 1.0)
+        fx.make_effect("bump_and_rebound_stops", gap_rebound=-0.01).force(x, x)
+    with pytest.raises(ValidationError, match="`p >= 1` must hold, but got p=0.5"):
+        fx.make_effect("bump_and_rebound_stops", p=0.5).force(x, x)
 
 
 # ------------------------------------------------------------------ damper curves
@@ -345,8 +348,8 @@ def test_asymmetric_digressive_curve_branches_and_symmetric_limit():
     vv = np.linspace(-0.5, 0.5, 41)
     same = fx.damper_digressive_asymmetric(vv, 3000.0, 0.08, 3000.0, 0.08)
     assert same == pytest.approx(fx.damper_digressive(vv, 3000.0, 0.08), rel=1e-12)
-    with pytest.raises(ValidationError, match="v_knee_rebound"):
-        fx.damper_digressive_asymmetric(vv, 1.0, 0.1, 1.0, 0.0)
+    with pytest.raises(ValidationError, match="`v_knee_rebound > 0` must hold, but got"):
+        fx.make_effect("asymmetric_digressive_damping", v_knee_rebound=0.0).force(vv, vv)
 
 
 def test_bouc_wen_state_at_the_lower_regime_fixed_point_stays_there():

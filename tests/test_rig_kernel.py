@@ -14,7 +14,7 @@ from rig_reference import integrate_reference
 from suspenv.core.errors import EvaluationError
 from suspenv.models.components import rig_integrator, rig_kernel
 from suspenv.models.effects import make_effect
-from suspenv.models.effects.pointwise import STATELESS
+from suspenv.models.effects.laws import STATELESS
 
 pytestmark = pytest.mark.skipif(not rig_kernel.AVAILABLE, reason="numba not installed")
 

@@ -104,17 +104,21 @@ def _signatures() -> None:
 _signatures()
 
 
-def export_name(space: dict[str, Any], helpers: Sequence[str], main: Callable) -> str:
+def export_name(
+    space: dict[str, Any], helpers: Sequence[str], main: Callable, jitable: Sequence[Callable] = ()
+) -> str:
     """The name of ``main``'s built loop: module, function and the hash of the source
-    files of ``main`` and its ``helpers`` (any edit of them gives another name)."""
+    files of ``main``, its ``helpers`` and ``jitable`` (any edit of them gives another name)."""
     digest = hashlib.sha256()
-    for f in (main, *(space[h] for h in helpers)):
+    for f in (main, *(space[h] for h in helpers), *jitable):
         f = getattr(f, "py_func", f)
         digest.update(Path(sys.modules[f.__module__].__file__ or "").read_bytes())
     return f"{main.__module__.rsplit('.', 1)[-1]}_{main.__name__}_{digest.hexdigest()[:12]}"
 
 
-def _built(space: dict[str, Any], helpers: Sequence[str], main: Callable) -> Callable | None:
+def _built(
+    space: dict[str, Any], helpers: Sequence[str], main: Callable, jitable: Sequence[Callable] = ()
+) -> Callable | None:
     """``main``'s loop from ``suspenv.core._kernels`` (None: not built, or built from other
     source)."""
     if os.environ.get("SUSPENV_COMPILED") == "jit" or not _runs_built_loops():
@@ -123,7 +127,7 @@ def _built(space: dict[str, Any], helpers: Sequence[str], main: Callable) -> Cal
         kernels = importlib.import_module("suspenv.core._kernels")
     except ImportError:
         return None
-    return getattr(kernels, export_name(space, helpers, main), None)
+    return getattr(kernels, export_name(space, helpers, main, jitable), None)
 
 
 def _target_cpu() -> str:
@@ -181,11 +185,22 @@ def jit_helpers(
                 ns[key] = done[id(value)]
 
 
+def jitable(functions: Sequence[Callable]) -> None:
+    """Declare ``functions`` to numba as callable from compiled code (numba's
+    ``register_jitable``) while they stay plain Python functions for their other callers
+    (e.g. the force laws of :mod:`suspenv.models.effects.laws`)."""
+    from numba.extending import register_jitable
+
+    for f in functions:
+        register_jitable(error_model="numpy")(f)
+
+
 class Lazy:
     """The loop ``main`` of the module namespace ``space``: the built one where there is
     one, else compiled (with its ``helpers``, those named in ``inline`` inlined, those
-    named in ``bare`` without reference counting: :func:`jit_helpers`) at the first
-    call; without numba, ``main`` itself runs."""
+    named in ``bare`` without reference counting: :func:`jit_helpers`; the functions of
+    other modules it calls in ``jitable``: :func:`jitable`) at the first call; without
+    numba, ``main`` itself runs."""
 
     def __init__(
         self,
@@ -194,16 +209,17 @@ class Lazy:
         main: Callable,
         inline: Sequence[str] = (),
         bare: Sequence[str] = (),
+        jitable: Sequence[Callable] = (),
     ) -> None:
         self._space, self._helpers, self._main = space, tuple(helpers), main
-        self._inline, self._bare = tuple(inline), tuple(bare)
+        self._inline, self._bare, self._jitable = tuple(inline), tuple(bare), tuple(jitable)
         self._loop: Callable | None = None
         self._checked = False  # the loop is a built one: check its arrays' layout
         self.__doc__ = f":func:`{main.__name__}`, compiled at its first call."
 
     def __call__(self, *args: Any) -> Any:
         if self._loop is None:
-            self._loop = _built(self._space, self._helpers, self._main)
+            self._loop = _built(self._space, self._helpers, self._main, self._jitable)
             self._checked = self._loop is not None
         if self._loop is None:
             self._loop = self._compiled() if AVAILABLE else self._main
@@ -218,8 +234,19 @@ class Lazy:
         raising inside the loop."""
         import numba
 
+        jitable(self._jitable)
         jit_helpers(self._space, self._helpers, True, self._inline, self._bare)
-        return numba.njit(cache=True, error_model="numpy")(self._main)
+        loop = numba.njit(cache=True, error_model="numpy")(self._main)
+        if self._jitable:
+            # numba's cache checks only the file of the function it compiled: keep the
+            # hash of every file the loop is built from with it, so that an edit of a
+            # jitable function's module compiles the loop again instead of loading it
+            stamp = export_name(self._space, self._helpers, self._main, self._jitable)
+            for f in (loop, *(self._space[h] for h in self._helpers)):
+                index = getattr(getattr(f, "_cache", None), "_cache_file", None)
+                if index is not None:
+                    index._source_stamp = (index._source_stamp, stamp)
+        return loop
 
 
 def _refuse_strided(name: str, args: Sequence[Any]) -> None:
@@ -272,7 +299,8 @@ def _exports(root: Path) -> Any:
         module = importlib.import_module(module_name)
         for attribute, signature in loops.items():
             lazy = getattr(module, attribute)
-            name = export_name(lazy._space, lazy._helpers, lazy._main)
+            name = export_name(lazy._space, lazy._helpers, lazy._main, lazy._jitable)
+            jitable(lazy._jitable)
             jit_helpers(lazy._space, lazy._helpers, False, lazy._inline, lazy._bare)
             cc.export(name, signature)(lazy._main)
     return cc

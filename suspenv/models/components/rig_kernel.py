@@ -16,62 +16,22 @@ Elements are passed as codes with their parameters in rows of a float array
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
 from suspenv.core import compiled
 from suspenv.models.effects import Effect
+from suspenv.models.effects.laws import FLOATS, JITABLE, STATELESS
 
 #: numba is there: the compiled loop can run (compiled at the first call)
 AVAILABLE = compiled.AVAILABLE
 
-#: stateless element kind -> (code, its parameters as :func:`_law` reads them, packed from
-#: the effect's parameters ``p``: reciprocals of widths included, a product per sample
-#: instead of a division)
-_LAWS: dict[str, tuple[int, Callable[[dict[str, float]], list[float]]]] = {
-    "coulomb_friction": (0, lambda p: [p["f_c"], 1.0 / p["v_eps"]]),
-    "stribeck_friction": (
-        1,
-        lambda p: [p["f_c"], p["f_s"] - p["f_c"], 1.0 / p["v_eps"], 1.0 / p["v_s"]],
-    ),
-    "directional_friction": (
-        2,
-        lambda p: [
-            0.5 * (p["f_pos"] + p["f_neg"]),
-            0.5 * (p["f_pos"] - p["f_neg"]),
-            1.0 / p["v_eps"],
-        ],
-    ),
-    "bump_stop": (3, lambda p: [p["k_stop"], p["gap"], p["p"]]),
-    "rebound_stop": (4, lambda p: [p["k_stop"], p["gap"], p["p"]]),
-    "cubic_stiffness": (5, lambda p: [p["k3"], p["x_0"]]),
-    "progressive_stiffness": (6, lambda p: [p["k_p"], p["x0"]]),
-    "damper_asymmetry": (7, lambda p: [p["dc_rebound"]]),
-    "digressive_damping": (8, lambda p: [p["c_low"], 1.0 / p["v_knee"]]),
-    "gas_spring": (9, lambda p: [p["f_0"], p["k_gas"]]),
-    "force_offset": (10, lambda p: [p["offset"]]),
-    "asymmetric_digressive_damping": (
-        11,
-        lambda p: [p["c_bump"], p["v_knee_bump"], p["c_rebound"], p["v_knee_rebound"]],
-    ),
-    "kelvin_voigt": (12, lambda p: [p["k"], p["c"]]),
-    "low_speed_deficit": (13, lambda p: [p["f_d"], 1.0 / p["v_band"]]),
-    "bump_and_rebound_stops": (
-        14,
-        lambda p: [p["k_bump"], p["gap_bump"], p["p"], p["k_rebound"], p["gap_rebound"]],
-    ),
-}
-#: stateless element kind -> code
-LAW_CODES: dict[str, int] = {kind: code for kind, (code, _) in _LAWS.items()}
+#: stateless element kind -> code: its place in :data:`.laws.STATELESS` (:func:`_law`)
+LAW_CODES: dict[str, int] = {kind: code for code, kind in enumerate(STATELESS)}
 #: stateful element kind -> code (their exact state steps: :func:`_state_step`)
 STATE_CODES: dict[str, int] = {"dahl_hysteresis": 0, "maxwell_viscoelastic": 1, "lugre_friction": 2}
 N_PAR = 5  # parameter slots per element
-
-
-def _law_params(e: Effect) -> list[float]:
-    """The parameters of a stateless element as :func:`_law` reads them (:data:`_LAWS`)."""
-    return _LAWS[e.kind][1]({k: float(v) for k, v in e.params.items()})
 
 
 def _state_params(e: Effect) -> list[float]:
@@ -82,7 +42,7 @@ def _state_params(e: Effect) -> list[float]:
     if e.kind == "maxwell_viscoelastic":
         return [p["k_m"], p["c_m"] / p["k_m"]]
     if e.kind == "lugre_friction":
-        return [p["sigma0"], p["sigma1"], p["f_c"], p["f_s"] - p["f_c"], 1 / p["v_s"]]
+        return [p["sigma0"], p["sigma1"], p["f_c"], p["f_s"], p["v_s"]]
     raise KeyError(e.kind)
 
 
@@ -92,84 +52,64 @@ def pack(effects: Sequence[Effect]) -> tuple[np.ndarray, np.ndarray, np.ndarray,
     are summed first)."""
     laws = [e for e in effects if e.kind in LAW_CODES]
     states = [e for e in effects if e.kind in STATE_CODES]
-    law_par = np.zeros((len(laws), N_PAR))
-    for i, e in enumerate(laws):
-        vals = _law_params(e)
-        law_par[i, : len(vals)] = vals
-    st_par = np.zeros((len(states), N_PAR))
-    for i, e in enumerate(states):
-        vals = _state_params(e)
-        st_par[i, : len(vals)] = vals
+    law_par = [[float(e.params[name]) for name in STATELESS[e.kind][2]] for e in laws]
     return (
         np.array([LAW_CODES[e.kind] for e in laws], np.int64),
-        law_par,
+        _rows(law_par),
         np.array([STATE_CODES[e.kind] for e in states], np.int64),
-        st_par,
+        _rows([_state_params(e) for e in states]),
     )
 
 
+def _rows(values: list[list[float]]) -> np.ndarray:
+    """The parameter lists as rows of :data:`N_PAR` slots (unused slots zero)."""
+    out = np.zeros((len(values), N_PAR))
+    for i, vals in enumerate(values):
+        out[i, : len(vals)] = vals
+    return out
+
+
 def _law(code: int, p: np.ndarray, x: float, v: float) -> float:
-    """Force [N] of one stateless element (the formulas of
-    :data:`suspenv.models.effects.pointwise.STATELESS`)."""
-    if code in (0, 1, 2, 13):
-        return _friction_law(code, p, v)
-    if code in (3, 4, 14):
-        return _stop_law(code, p, x)
-    if code in (7, 8, 11):
-        return _damping_law(code, p, v)
-    return _stiffness_law(code, p, x, v)
+    """Force [N] of one stateless element (:data:`LAW_CODES`)."""
+    if code < 7:
+        return _friction_or_stop(code, p, x, v)
+    return _spring_or_damper(code, p, x, v)
 
 
-def _friction_law(code: int, p: np.ndarray, v: float) -> float:
-    """Force [N] of a friction element: Coulomb (0), Stribeck (1), directional (2),
-    low-speed deficit (13)."""
+def _friction_or_stop(code: int, p: np.ndarray, x: float, v: float) -> float:
+    """Force [N] of a friction element or an end stop (codes 0 to 6)."""
     if code == 0:
-        return p[0] * math.tanh(v * p[1])
+        return FLOATS.coulomb_smooth(v, p[0], p[1])
     if code == 1:
-        return (p[0] + p[1] * math.exp(-((v * p[3]) ** 2))) * math.tanh(v * p[2])
+        return FLOATS.stribeck_friction(v, p[0], p[1], p[2], p[3])
     if code == 2:
-        return p[0] * math.tanh(v * p[2]) + p[1] * abs(math.tanh(v * p[2]))
-    return -p[0] * math.tanh(v * p[1])
-
-
-def _stop_law(code: int, p: np.ndarray, x: float) -> float:
-    """Force [N] of an end stop: bump (3), rebound (4), both (14)."""
+        return FLOATS.coulomb_directional(v, p[0], p[1], p[2])
     if code == 3:
-        return p[0] * (x - p[1]) ** p[2] if x > p[1] else 0.0
+        return FLOATS.low_speed_deficit(v, p[0], p[1])
     if code == 4:
-        return -p[0] * (-x - p[1]) ** p[2] if -x > p[1] else 0.0
-    if x > p[1]:
-        return p[0] * (x - p[1]) ** p[2]
-    return -p[3] * (-x - p[4]) ** p[2] if -x > p[4] else 0.0
-
-
-def _damping_law(code: int, p: np.ndarray, v: float) -> float:
-    """Force [N] of a damper element: rebound asymmetry (7), digressive (8), asymmetric
-    digressive (11)."""
-    if code == 7:
-        return p[0] * v if v < 0.0 else 0.0
-    if code == 8:
-        return p[0] * v / (1.0 + abs(v) * p[1])
-    if v >= 0.0:
-        return p[0] * v / (1.0 + v / p[1])
-    return p[2] * v / (1.0 - v / p[3])
-
-
-def _stiffness_law(code: int, p: np.ndarray, x: float, v: float) -> float:
-    """Force [N] of a spring-like element: cubic (5), progressive (6), gas spring (9),
-    offset (10), Kelvin-Voigt (12)."""
+        return FLOATS.bump_stop(x, p[0], p[1], p[2])
     if code == 5:
-        d = x - p[1]
-        return p[0] * d * d * d
-    if code == 6:
-        if abs(x) > p[1]:
-            return (p[0] if x > 0.0 else -p[0]) * (abs(x) - p[1]) ** 2
-        return 0.0
+        return FLOATS.rebound_stop(x, p[0], p[1], p[2])
+    return FLOATS.bump_and_rebound_stops(x, p[0], p[1], p[2], p[3], p[4])
+
+
+def _spring_or_damper(code: int, p: np.ndarray, x: float, v: float) -> float:
+    """Force [N] of a spring-like or damper element (codes 7 to 14)."""
+    if code == 7:
+        return FLOATS.cubic_stiffness(x, p[0], p[1])
+    if code == 8:
+        return FLOATS.progressive_spring(x, p[0], p[1])
     if code == 9:
-        return p[0] + p[1] * x
+        return FLOATS.gas_spring(x, p[0], p[1])
     if code == 10:
-        return p[0]
-    return p[0] * x + p[1] * v  # 12: kelvin_voigt
+        return FLOATS.force_offset(x, p[0])
+    if code == 11:
+        return FLOATS.kelvin_voigt(x, v, p[0], p[1])
+    if code == 12:
+        return FLOATS.extra_rebound_damping(v, p[0])
+    if code == 13:
+        return FLOATS.damper_digressive(v, p[0], p[1])
+    return FLOATS.damper_digressive_asymmetric(v, p[0], p[1], p[2], p[3])
 
 
 def _stateless(codes: np.ndarray, par: np.ndarray, x: float, v: float, fa: float) -> float:
@@ -183,8 +123,8 @@ def _stateless(codes: np.ndarray, par: np.ndarray, x: float, v: float, fa: float
 
 
 def _lugre_level(p: np.ndarray, v: float) -> float:
-    g = p[2] + p[3] * math.exp(-((v * p[4]) ** 2))
-    return g if g > 1e-12 else 1e-12
+    """The LuGre element's friction level [N], floored at 1e-12 N (as in its law)."""
+    return max(FLOATS.stribeck_level(v, p[2], p[3], p[4]), 1e-12)
 
 
 def _state_step(
@@ -242,7 +182,7 @@ def _states_residual(
     for i in range(S):
         if st_codes[i] == 2:
             p = st_par[i]
-            total += p[0] * z_out[i] + p[1] * (v - p[0] * abs(v) * z_out[i] / _lugre_level(p, v))
+            total += FLOATS.lugre_force(z_out[i], v, p[0], p[1], p[2], p[3], p[4])
         else:
             total += z_out[i]
     return f - total
@@ -409,10 +349,8 @@ run = compiled.Lazy(
     globals(),
     (
         "_law",
-        "_friction_law",
-        "_stop_law",
-        "_damping_law",
-        "_stiffness_law",
+        "_friction_or_stop",
+        "_spring_or_damper",
         "_stateless",
         "_lugre_level",
         "_state_step",
@@ -422,4 +360,5 @@ run = compiled.Lazy(
         "_secant_slope",
     ),
     _run,
+    jitable=JITABLE,
 )

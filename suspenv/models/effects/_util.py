@@ -39,12 +39,13 @@ def batch_param(p: Value) -> np.ndarray:
     return np.asarray(p, dtype=float)[..., None]
 
 
-def require_positive(name: str, value: Value, strict: bool = True) -> None:
-    """Raise :class:`ValidationError` unless all of ``value`` is > 0 (>= 0 if not ``strict``)."""
+def require_positive(name: str, value: Value, strict: bool = True, bound: float = 0.0) -> None:
+    """Raise :class:`ValidationError` unless all of ``value`` is > ``bound`` (>= if not
+    ``strict``)."""
     arr = np.asarray(value, dtype=float)
-    ok = arr > 0 if strict else arr >= 0
+    ok = arr > bound if strict else arr >= bound
     if not np.all(ok):
-        rule = f"`{name} > 0`" if strict else f"`{name} >= 0`"
+        rule = f"`{name} {'>' if strict else '>='} {bound:g}`"
         raise ValidationError(f"{rule} must hold, but got {name}={float(arr[~ok].ravel()[0])}")
 
 

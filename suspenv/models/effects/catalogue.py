@@ -13,16 +13,16 @@ quasi-static sweep, where there is no velocity.
 
 from __future__ import annotations
 
-import numpy as np
+from collections.abc import Callable
+from typing import Any
 
 from suspenv.core.space import Parameter
 from suspenv.models.effects import (
     asymmetry,
-    damper_curves,
     friction,
     hysteresis,
+    laws,
     sensor,
-    stiffness,
     viscoelastic,
 )
 from suspenv.models.effects._util import batch_param as bp
@@ -31,6 +31,18 @@ from suspenv.models.effects.effect import EffectKind, register_kind
 
 def _p(name: str, low: float, high: float, unit: str, default: float, desc: str, log: bool = False):
     return Parameter(name, low, high, unit=unit, log=log, default=default, description=desc)
+
+
+#: the domains of the laws' parameters (``EffectKind.domain``): above 0, at least 0, at least 1
+_POSITIVE, _NONNEGATIVE, _AT_LEAST_ONE = (0.0, True), (0.0, False), (1.0, False)
+
+
+def _law(kind: str) -> Callable[..., Any]:
+    """The force of a stateless kind: its law (:data:`.laws.STATELESS`), batch-shaped."""
+    law, inputs, names = laws.STATELESS[kind]
+    return lambda x, v, t, **p: law(
+        *{"x": (x,), "v": (v,), "xv": (x, v)}[inputs], *(bp(p[n]) for n in names)
+    )
 
 
 V_EPS = _p("v_eps", 1e-5, 0.1, "m/s", 1e-3, "velocity width of the regularised step", log=True)
@@ -54,7 +66,8 @@ KINDS = (
             ),
         ),
         "step at every velocity reversal; loop width independent of amplitude and rate",
-        lambda x, v, t, f_c, v_eps, sigma: friction.coulomb_smooth(v, bp(f_c), bp(v_eps)),
+        _law("coulomb_friction"),
+        domain={"v_eps": _POSITIVE},
         fit_fixed=("v_eps", "sigma"),
     ),
     EffectKind(
@@ -68,9 +81,8 @@ KINDS = (
         ),
         "reversal steps of different size in each direction; indistinguishable from a "
         "constant offset plus symmetric friction unless the test holds each direction",
-        lambda x, v, t, f_pos, f_neg, v_eps: friction.coulomb_directional(
-            v, bp(f_pos), bp(f_neg), bp(v_eps)
-        ),
+        _law("directional_friction"),
+        domain={"v_eps": _POSITIVE},
         fit_fixed=("v_eps",),
     ),
     EffectKind(
@@ -84,9 +96,8 @@ KINDS = (
             V_EPS,
         ),
         "reversal step with an overshoot at low speed that decays with velocity",
-        lambda x, v, t, f_c, f_s, v_s, v_eps: friction.stribeck_friction(
-            v, bp(f_c), bp(f_s), bp(v_s), bp(v_eps)
-        ),
+        _law("stribeck_friction"),
+        domain={"v_s": _POSITIVE, "v_eps": _POSITIVE},
         fit_fixed=("v_eps",),
     ),
     EffectKind(
@@ -184,7 +195,7 @@ KINDS = (
             ),
         ),
         "odd-symmetric residual growing with the cube of amplitude; 3rd harmonic",
-        lambda x, v, t, k3, ratio, x_ref, x_0: stiffness.cubic_stiffness(x - bp(x_0), bp(k3)),
+        _law("cubic_stiffness"),
         fit_fixed=("ratio", "x_ref", "x_0"),
     ),
     EffectKind(
@@ -196,7 +207,8 @@ KINDS = (
             _p("x0", 0.0, 0.2, "m", 0.0, "free range before stiffening"),
         ),
         "odd-symmetric residual beyond |x| > x0 growing with amplitude",
-        lambda x, v, t, k_p, x0: stiffness.progressive_spring(x, bp(k_p), bp(x0)),
+        _law("progressive_stiffness"),
+        domain={"x0": _NONNEGATIVE},
     ),
     EffectKind(
         "bump_stop",
@@ -208,7 +220,8 @@ KINDS = (
             _p("p", 1.0, 3.0, "", 1.0, "stop force exponent"),
         ),
         "residual only beyond a compression travel threshold; one-sided",
-        lambda x, v, t, gap, k_stop, p: stiffness.bump_stop(x, bp(gap), bp(k_stop), bp(p)),
+        _law("bump_stop"),
+        domain={"gap": _NONNEGATIVE, "k_stop": _NONNEGATIVE, "p": _AT_LEAST_ONE},
         fit_fixed=("p",),
     ),
     EffectKind(
@@ -221,7 +234,8 @@ KINDS = (
             _p("p", 1.0, 3.0, "", 1.0, "stop force exponent"),
         ),
         "residual only beyond an extension travel threshold; one-sided",
-        lambda x, v, t, gap, k_stop, p: stiffness.rebound_stop(x, bp(gap), bp(k_stop), bp(p)),
+        _law("rebound_stop"),
+        domain={"gap": _NONNEGATIVE, "k_stop": _NONNEGATIVE, "p": _AT_LEAST_ONE},
         fit_fixed=("p",),
     ),
     EffectKind(
@@ -237,11 +251,14 @@ KINDS = (
         ),
         "residual only beyond a compression threshold and beyond an extension threshold, "
         "each side with its own onset and slope",
-        lambda x, v, t, gap_bump, k_bump, gap_rebound, k_rebound, p: (
-            stiffness.bump_and_rebound_stops(
-                x, bp(gap_bump), bp(k_bump), bp(gap_rebound), bp(k_rebound), bp(p)
-            )
-        ),
+        _law("bump_and_rebound_stops"),
+        domain={
+            "gap_bump": _NONNEGATIVE,
+            "k_bump": _NONNEGATIVE,
+            "gap_rebound": _NONNEGATIVE,
+            "k_rebound": _NONNEGATIVE,
+            "p": _AT_LEAST_ONE,
+        },
         fit_fixed=("p",),
     ),
     EffectKind(
@@ -253,7 +270,8 @@ KINDS = (
             _p("v_knee", 1e-3, 5.0, "m/s", 0.1, "knee velocity", log=True),
         ),
         "residual odd in velocity, large at low speed, saturating above the knee",
-        lambda x, v, t, c_low, v_knee: damper_curves.damper_digressive(v, bp(c_low), bp(v_knee)),
+        _law("digressive_damping"),
+        domain={"v_knee": _POSITIVE},
     ),
     EffectKind(
         "asymmetric_digressive_damping",
@@ -267,11 +285,8 @@ KINDS = (
         ),
         "residual depending on the sign and size of velocity: a digressive curve with a "
         "different slope or knee in bump and in rebound",
-        lambda x, v, t, c_bump, v_knee_bump, c_rebound, v_knee_rebound: (
-            damper_curves.damper_digressive_asymmetric(
-                v, bp(c_bump), bp(v_knee_bump), bp(c_rebound), bp(v_knee_rebound)
-            )
-        ),
+        _law("asymmetric_digressive_damping"),
+        domain={"v_knee_bump": _POSITIVE, "v_knee_rebound": _POSITIVE},
     ),
     EffectKind(
         "damper_asymmetry",
@@ -279,7 +294,7 @@ KINDS = (
         "force",
         (_p("dc_rebound", -1e6, 1e6, "N s/m", 1000.0, "extra damping in rebound (v < 0)"),),
         "residual correlated with the sign of velocity: present in rebound only",
-        lambda x, v, t, dc_rebound: damper_curves.extra_rebound_damping(v, bp(dc_rebound)),
+        _law("damper_asymmetry"),
     ),
     EffectKind(
         "maxwell_viscoelastic",
@@ -304,7 +319,8 @@ KINDS = (
         "a step against the motion at every reversal, spread over a band of speed: the "
         "force a friction step would add, missing (a probe of the component diagnosis, "
         "fitted after its last named element; not a candidate: friction cannot be negative)",
-        lambda x, v, t, f_d, v_band: -friction.coulomb_smooth(v, bp(f_d), bp(v_band)),
+        _law("low_speed_deficit"),
+        domain={"v_band": _POSITIVE},
     ),
     EffectKind(
         "kelvin_voigt",
@@ -315,7 +331,7 @@ KINDS = (
             _p("c", -1e6, 1e6, "N s/m", 0.0, "parallel damping"),
         ),
         "residual in phase with displacement and/or velocity",
-        lambda x, v, t, k, c: viscoelastic.kelvin_voigt(x, v, bp(k), bp(c)),
+        _law("kelvin_voigt"),
     ),
     EffectKind(
         "gas_spring",
@@ -326,7 +342,7 @@ KINDS = (
             _p("k_gas", -1e7, 1e7, "N/m", 1000.0, "gas stiffness"),
         ),
         "residual constant plus proportional to displacement, no loop",
-        lambda x, v, t, f_0, k_gas: bp(f_0) + bp(k_gas) * x,
+        _law("gas_spring"),
     ),
     EffectKind(
         "force_offset",
@@ -334,9 +350,7 @@ KINDS = (
         "force",
         (_p("offset", -1e5, 1e5, "N", 0.0, "constant force"),),
         "constant residual independent of motion",
-        lambda x, v, t, offset: (
-            np.broadcast_to(bp(offset), np.broadcast_shapes(x.shape, np.shape(bp(offset)))) * 1.0
-        ),
+        _law("force_offset"),
     ),
     EffectKind(
         "sensor_offset",

@@ -26,18 +26,16 @@ from __future__ import annotations
 
 import numpy as np
 
-from suspenv.models.effects._util import Value, require_positive
+from suspenv.models.effects._util import Value
 
 
 def extra_rebound_damping(v: Value, dc_rebound: Value) -> np.ndarray:
     """Additional rebound-only damping force ``dc_rebound * min(v, 0)`` [N]."""
-    return np.asarray(dc_rebound, dtype=float) * np.minimum(np.asarray(v, dtype=float), 0.0)
+    return dc_rebound * np.minimum(v, 0.0)
 
 
 def damper_digressive(v: Value, c_low: Value, v_knee: Value) -> np.ndarray:
     """Digressive damper force ``c_low v / (1 + |v|/v_knee)`` [N]."""
-    require_positive("v_knee", v_knee)
-    v = np.asarray(v, dtype=float)
     return c_low * v / (1.0 + np.abs(v) / v_knee)
 
 
@@ -47,14 +45,9 @@ def damper_digressive_asymmetric(
     """Digressive damper force [N] with bump (v >= 0) and rebound (v < 0) coefficients.
 
     ``c_*`` [N s/m] is the low-speed slope and ``v_knee_*`` [m/s] the knee velocity of
-    each branch (see the module docstring); continuous at ``v = 0``.
+    each branch (see the module docstring); continuous at ``v = 0``. The sum of the two
+    one-sided curves (one of them zero): a form numba compiles for scalars too.
     """
-    require_positive("v_knee_bump", v_knee_bump)
-    require_positive("v_knee_rebound", v_knee_rebound)
-    v = np.asarray(v, dtype=float)
-    av = np.abs(v)
-    return np.where(
-        v >= 0.0,
-        c_bump * v / (1.0 + av / v_knee_bump),
-        c_rebound * v / (1.0 + av / v_knee_rebound),
-    )
+    bump, rebound = np.maximum(v, 0.0), np.minimum(v, 0.0)
+    f_bump = c_bump * bump / (1.0 + bump / v_knee_bump)
+    return f_bump + c_rebound * rebound / (1.0 - rebound / v_knee_rebound)

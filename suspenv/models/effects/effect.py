@@ -34,6 +34,7 @@ import numpy as np
 
 from suspenv.core.errors import ValidationError
 from suspenv.core.space import Parameter
+from suspenv.models.effects._util import require_positive
 
 ROLES = ("force", "sensor", "pair")
 
@@ -58,6 +59,8 @@ class EffectKind:
         host_parameters: name prefix of further parameters the host model declares
             (unit, bounds, default), e.g. ``"d_"`` for the per-pair differences of
             ``lr_asymmetry``; empty when the kind's parameters are all it takes.
+        domain: parameters whose laws need a domain: name -> (bound, strict), each value
+            ``> bound`` (strict) or ``>= bound`` (:meth:`Effect.check`).
     """
 
     kind: str
@@ -69,6 +72,7 @@ class EffectKind:
     needs_time: bool = False
     fit_fixed: tuple[str, ...] = ()
     host_parameters: str = ""
+    domain: Mapping[str, tuple[float, bool]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if self.role not in ROLES:
@@ -248,6 +252,13 @@ class Effect:
         return f"{self.words} ({', '.join(parts)})"
 
     # ----------------------------------------------------------------- evaluation
+    def check(self) -> Effect:
+        """The effect itself, once its parameters are in their laws' domain (else a
+        :class:`ValidationError` naming the rule and the value)."""
+        for name, (bound, strict) in self.spec.domain.items():
+            require_positive(name, self.params[name], strict, bound)
+        return self
+
     def force(
         self, x: np.ndarray, v: np.ndarray | None = None, t: np.ndarray | None = None
     ) -> np.ndarray:
@@ -269,7 +280,7 @@ class Effect:
             )
         if v is None:
             v = np.gradient(x, np.asarray(t, dtype=float), axis=-1)
-        return spec.apply(x, np.asarray(v, dtype=float), t, **self.params)
+        return spec.apply(x, np.asarray(v, dtype=float), t, **self.check().params)
 
     def sensor(self, y: np.ndarray, t: np.ndarray | None = None) -> np.ndarray:
         """Recorded version of a true channel ``y[..., T]`` for a sensor-role effect."""

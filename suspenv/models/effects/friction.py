@@ -11,6 +11,7 @@ positive sliding velocity (power absorbed ``F v >= 0``).
 
       g(v) = f_c + (f_s - f_c) exp(-(v / v_s)^2),   F = g(v) tanh(v / v_eps)
 
+* Force missing around zero speed (a velocity dead band): ``F = -f_d tanh(v / v_band)``.
 * Direction-dependent Coulomb: ``f_pos`` when sliding positive, ``f_neg`` when
   negative: ``F = (f_pos + f_neg)/2 tanh(v/v_eps) + (f_pos - f_neg)/2 * |tanh(v/v_eps)|``.
   Note that over a test in which the sliding direction is rarely held, the
@@ -40,46 +41,43 @@ from suspenv.models.effects._util import (
 
 def coulomb_smooth(v: Value, f_c: Value, v_eps: Value = 1e-3) -> np.ndarray:
     """Regularised Coulomb friction force [N] at sliding velocity ``v`` [m/s]."""
-    require_positive("v_eps", v_eps)
-    return f_c * np.tanh(np.asarray(v, dtype=float) / v_eps)
+    return f_c * np.tanh(v / v_eps)
+
+
+def low_speed_deficit(v: Value, f_d: Value, v_band: Value) -> np.ndarray:
+    """Force [N] missing around zero speed: ``-f_d tanh(v / v_band)``."""
+    return -coulomb_smooth(v, f_d, v_band)
 
 
 def coulomb_directional(v: Value, f_pos: Value, f_neg: Value, v_eps: Value = 1e-3) -> np.ndarray:
     """Coulomb friction [N] of level ``f_pos`` for ``v > 0`` and ``f_neg`` for ``v < 0``."""
-    require_positive("v_eps", v_eps)
-    th = np.tanh(np.asarray(v, dtype=float) / v_eps)
-    f_pos, f_neg = np.asarray(f_pos, dtype=float), np.asarray(f_neg, dtype=float)
+    th = np.tanh(v / v_eps)
     return 0.5 * (f_pos + f_neg) * th + 0.5 * (f_pos - f_neg) * np.abs(th)
 
 
 def stribeck_level(v: Value, f_c: Value, f_s: Value, v_s: Value) -> np.ndarray:
     """Stribeck friction level g(v) [N] (positive, even in ``v``)."""
-    require_positive("v_s", v_s)
-    v = np.asarray(v, dtype=float)
-    return f_c + (np.asarray(f_s, dtype=float) - f_c) * np.exp(-((v / v_s) ** 2))
+    return f_c + (f_s - f_c) * np.exp(-((v / v_s) ** 2))
 
 
 def stribeck_friction(
     v: Value, f_c: Value, f_s: Value, v_s: Value, v_eps: Value = 1e-3
 ) -> np.ndarray:
     """Static friction force [N] with stiction and Stribeck decay: ``g(v) tanh(v/v_eps)``."""
-    require_positive("v_eps", v_eps)
-    v = np.asarray(v, dtype=float)
     return stribeck_level(v, f_c, f_s, v_s) * np.tanh(v / v_eps)
 
 
 def lugre_dzdt(z: Value, v: Value, sigma0: Value, f_c: Value, f_s: Value, v_s: Value) -> np.ndarray:
-    """LuGre bristle-deflection derivative dz/dt [m/s]."""
-    v = np.asarray(v, dtype=float)
-    g = np.maximum(stribeck_level(v, f_c, f_s, v_s), 1e-12)  # floor: zero-friction limit
-    return v - sigma0 * np.abs(v) * np.asarray(z, dtype=float) / g
+    """LuGre bristle-deflection derivative dz/dt [m/s] (the level floored at 1e-12 N: the
+    zero-friction limit)."""
+    return v - sigma0 * np.abs(v) * z / np.maximum(stribeck_level(v, f_c, f_s, v_s), 1e-12)
 
 
 def lugre_force(
     z: Value, v: Value, sigma0: Value, sigma1: Value, f_c: Value, f_s: Value, v_s: Value
 ) -> np.ndarray:
     """LuGre friction force [N] from state ``z`` [m] and velocity ``v`` [m/s]."""
-    return sigma0 * np.asarray(z, dtype=float) + sigma1 * lugre_dzdt(z, v, sigma0, f_c, f_s, v_s)
+    return sigma0 * z + sigma1 * lugre_dzdt(z, v, sigma0, f_c, f_s, v_s)
 
 
 def lugre_series(
@@ -101,6 +99,7 @@ def lugre_series(
     v = series(v, "v")
     dt = time_steps(t, v.shape[-1])
     require_positive("sigma0", sigma0)
+    require_positive("v_s", v_s)
     s0, s1, fc, fs, vs = (batch_param(p) for p in (sigma0, sigma1, f_c, f_s, v_s))
     vk = v[..., :-1]
     # a zero friction level (the "no effect" limit) is floored to keep the step finite

@@ -60,7 +60,6 @@ from suspenv.models.effects._util import (
 
 def dahl_dzdt(z: Value, v: Value, sigma: Value, f_c: Value) -> np.ndarray:
     """Dahl state derivative dz/dt [N/s]; ``z`` hysteretic force [N], ``v`` [m/s]."""
-    z, v = np.asarray(z, dtype=float), np.asarray(v, dtype=float)
     return sigma * v * (1.0 - z / f_c * np.sign(v))
 
 
@@ -86,7 +85,6 @@ def dahl_path(x: np.ndarray, sigma: Value, f_c: Value, z0: Value = 0.0) -> np.nd
 
 def bouc_wen_dzdt(z: Value, v: Value, A: Value, beta: Value, gamma: Value, n: Value) -> np.ndarray:
     """Canonical Bouc-Wen state derivative dz/dt (units of ``A v``)."""
-    z, v = np.asarray(z, dtype=float), np.asarray(v, dtype=float)
     az = np.abs(z)
     return A * v - beta * np.abs(v) * az ** (n - 1.0) * z - gamma * v * az**n
 

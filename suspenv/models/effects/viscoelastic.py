@@ -33,14 +33,14 @@ from suspenv.models.effects._util import (
 )
 
 
-def kelvin_voigt(x: Value, v: Value, k: Value, c: Value) -> np.ndarray:
+def kelvin_voigt(x: Value, v: Value, k: Value, c: Value) -> Value:
     """Kelvin-Voigt force ``k x + c v`` [N]."""
-    return np.asarray(k, dtype=float) * x + np.asarray(c, dtype=float) * v
+    return k * x + c * v
 
 
-def maxwell_dfdt(f: Value, v: Value, k_m: Value, c_m: Value) -> np.ndarray:
+def maxwell_dfdt(f: Value, v: Value, k_m: Value, c_m: Value) -> Value:
     """Maxwell element force derivative dF/dt [N/s]."""
-    return k_m * (np.asarray(v, dtype=float) - np.asarray(f, dtype=float) / c_m)
+    return k_m * (v - f / c_m)
 
 
 def maxwell_series(
