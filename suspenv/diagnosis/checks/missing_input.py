@@ -147,15 +147,16 @@ def whitening(e: np.ndarray) -> np.ndarray:
     return np.r_[1.0, -linalg.solve_toeplitz(acf[:-1], acf[1:])]
 
 
-def within_blocks(r: np.ndarray, signals: Sequence[np.ndarray]) -> np.ndarray:
-    """``r`` less its least-squares gains on ``signals`` in each block of the shortest
-    length tried (the last block takes the remainder): what no switched gain explains,
-    whose autoregression is the noise's (one of ``r`` as a whole would take a switched
-    gain's own smooth shape for coloured noise and whiten it away)."""
+def within_blocks(
+    r: np.ndarray, signals: Sequence[np.ndarray], length: int, trend: bool = False
+) -> np.ndarray:
+    """``r`` less its least-squares fit on ``signals`` (and with ``trend`` a level and a
+    ramp) in each block of ``length`` samples (the last takes the remainder): what no
+    gain set anew in each block explains."""
     out = r.copy()
-    length = BLOCK_SAMPLES[0]
     for a, b in pairwise([*range(0, length * max(r.size // length, 1), length), r.size]):
-        x = np.column_stack([s[a:b] for s in signals])
+        level_ramp = np.vander(np.linspace(-1.0, 1.0, b - a), 2 * trend)  # or no column
+        x = np.column_stack([*(s[a:b] for s in signals), level_ramp])
         out[a:b] -= x @ np.linalg.lstsq(x, r[a:b], rcond=None)[0]
     return out
 
@@ -188,7 +189,8 @@ def switching(
         return dict(NO_SWITCHING)
     t = np.linspace(-1.0, 1.0, r.size)
     base = np.column_stack([np.vander(t, 4), drift_basis(t, DRIFT_ORDER)])
-    poly = whitening(within_blocks(r - base @ np.linalg.lstsq(base, r, rcond=None)[0], signals))
+    drift = base @ np.linalg.lstsq(base, r, rcond=None)[0]
+    poly = whitening(within_blocks(r - drift, signals, BLOCK_SAMPLES[0]))
     q, _ = np.linalg.qr(signal.lfilter(poly, [1.0], base, axis=0))
     rw = signal.lfilter(poly, [1.0], r)
     rw = rw - q @ (q.T @ rw)

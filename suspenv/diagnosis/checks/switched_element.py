@@ -33,15 +33,15 @@ p = 0.79).
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from scipy import signal, stats
 
+from suspenv.diagnosis.checks import missing_input as mi
 from suspenv.diagnosis.checks.finding import Context
-from suspenv.diagnosis.checks.missing_input import PREDICTION, block_gains, lag1_p, whitening
 from suspenv.diagnosis.family import Conclusion
 from suspenv.diagnosis.fitting import FitResult, residuals
 from suspenv.diagnosis.hypothesis import Hypothesis, Withdrawal
@@ -61,27 +61,14 @@ def _improvements(
             yield rec, res[ch], new[ch] - old[ch], old[ch]
 
 
-def within_blocks(r: np.ndarray, signals: Sequence[np.ndarray], length: int) -> np.ndarray:
-    """``r`` less its least-squares fit on a constant, a ramp and ``signals`` in each
-    block of ``length`` (what no gain of a block explains)."""
-    n = r.size // length * length
-    ramp = np.linspace(-1.0, 1.0, length)
-    out = np.empty(n)
-    for k in range(0, n, length):
-        a = np.column_stack([np.ones(length), ramp, *(s[k : k + length] for s in signals)])
-        coef, *_ = np.linalg.lstsq(a, r[k : k + length], rcond=None)
-        out[k : k + length] = r[k : k + length] - a @ coef
-    return out
-
-
 def gain_lag1(r: np.ndarray, d: np.ndarray, length: int) -> tuple[float, float]:
     """(p, rho): the lag-1 autocorrelation ``rho`` of the gains ``<r, d> / |d|`` of
     ``r`` on ``d`` in blocks of ``length`` (:func:`~.missing_input.block_gains`) and its
     exact one-sided p-value for independent gains (:func:`~.missing_input.lag1_p`)."""
-    g = block_gains(r, d, length)
+    g = mi.block_gains(r, d, length)
     if g.size < 3 or not np.ptp(g) > 0:
         return 1.0, 0.0
-    rho, p = lag1_p(g, np.ones((g.size, 1)))
+    rho, p = mi.lag1_p(g, np.ones((g.size, 1)))
     return p, rho
 
 
@@ -100,17 +87,17 @@ def beyond_switching(
     r: np.ndarray, d: np.ndarray, s: np.ndarray, length: int
 ) -> tuple[float, float]:
     """(beta, se): the coefficient of ``r`` on ``d`` with a level, a ramp and a gain on
-    ``s`` taken out of both in each block of ``length`` (:func:`within_blocks`: the
+    ``s`` taken out of both in each block of ``length`` (:func:`~.missing_input.within_blocks`: the
     unrecorded input's reach, whatever its level in each block), and its standard error
     (the regression's residual and ``d`` whitened by the residual's autoregression,
     :func:`~.missing_input.whitening`; inf where nothing of ``d`` is left). Between 0
     and 1, equally precise, the likelihood decides at the midpoint 1/2."""
-    rp, dp = within_blocks(r, [s], length), within_blocks(d, [s], length)
+    rp, dp = (mi.within_blocks(x, [s], length, trend=True) for x in (r, d))
     dd = float(dp @ dp)
     if not dd > 1e-24 * max(float(d @ d), 1e-300):
         return 0.0, float("inf")
     beta = float(rp @ dp) / dd
-    poly = whitening(rp - beta * dp)
+    poly = mi.whitening(rp - beta * dp)
     ew = signal.lfilter(poly, [1.0], rp - beta * dp)
     dw = signal.lfilter(poly, [1.0], dp)
     return beta, float(np.std(ew) / np.sqrt(max(float(dw @ dw), 1e-300)))
@@ -125,7 +112,7 @@ def element_beyond(
     not hold the element's shape)."""
     num = den = 0.0
     for rec, r, d, old in _improvements(ctx, parent, refit):
-        s = old if name == PREDICTION else rec.inputs.get(name)
+        s = old if name == mi.PREDICTION else rec.inputs.get(name)
         if s is None or r.size < 2 * length:
             continue
         beta, se = beyond_switching(r, d, np.asarray(s, float), length)
