@@ -211,14 +211,8 @@ def switching(
             tried.append((p, length, rho, blocks, i))
     if not tried:
         return dict(NO_SWITCHING)
-    p, length, rho, blocks, i = min(tried)
-    return {
-        "p_switching": min(1.0, p * len(tried)),
-        "block_samples": length,
-        "gain_lag1": rho,
-        "blocks": blocks,
-        "signal": i,
-    }
+    p, length, rho, blocks, i = min(tried)  # NO_SWITCHING's keys, in its order:
+    return dict(zip(NO_SWITCHING, (min(1.0, p * len(tried)), length, rho, blocks, i), strict=True))
 
 
 def cell_means(r: np.ndarray, signals: Sequence[np.ndarray], bins: int) -> np.ndarray:
@@ -302,15 +296,6 @@ def judge_recording(
     }
 
 
-def _cells(ctx: Context, unread: Sequence[str]) -> list[tuple[str, str, dict[str, Any]]]:
-    """(recording, channel, numbers) for every judged recording and output channel."""
-    return [
-        (str(rec.name), ch, n)
-        for rec in ctx.setup.split.recordings()
-        for ch, n in judge_recording(ctx.outcome.current, rec, unread).items()
-    ]
-
-
 def cause(n: dict[str, Any], alpha: float) -> str | None:
     """What the tests say at level ``alpha`` on the numbers ``n``: ``"unrecorded"`` (an
     input the recording does not carry), ``"unread"`` (a recorded input the model does
@@ -333,26 +318,27 @@ def sentence(rec: str, ch: str, n: dict[str, Any], why: str, unread: Sequence[st
         f"blocks, p = {n['p_switching']:.2g})"
     )
     if why == "unread":
-        return (
-            f"{head}, and the levels of the recorded {', '.join(unread)} explain the "
+        return f"{head}, and the levels of the recorded {', '.join(unread)} explain the " + (
             "switching, which the model does not read: that input drives it; give it to a "
             "model that reads it"
         )
-    return (
-        f"{head}, with no recorded cause: an input the recording does not carry may drive "
-        "it; it is not noise"
+    return f"{head}, with no recorded cause: an input the recording does not carry may " + (
+        "drive it; it is not noise"
     )
 
 
 def run(ctx: Context) -> Finding | None:
     """The missing-input finding (None when no recording is long enough to judge)."""
-    unread = unread_inputs(ctx.setup)
-    cells = _cells(ctx, unread)
+    unread, recs = unread_inputs(ctx.setup), ctx.setup.split.recordings()
+    cells = [  # (recording, channel, numbers) for every judged recording and channel
+        (str(rec.name), ch, n)
+        for rec in recs
+        for ch, n in judge_recording(ctx.outcome.current, rec, unread).items()
+    ]
     if not cells:
         return None
     alpha = ctx.rule.alpha / len(cells)
-    fired = [(c, cause(c[2], alpha)) for c in cells]
-    fired = [f for f in fired if f[1] is not None]
+    fired = [(c, why) for c in cells if (why := cause(c[2], alpha)) is not None]
     numbers: dict[str, Any] = {"judged": {f"{r} {ch}": n for r, ch, n in cells}}
     if not fired:
         return Finding("missing_input", numbers=numbers)
