@@ -109,9 +109,9 @@ def element_beyond(
     ctx: Context, parent: FitResult, refit: FitResult, length: int, name: str, trend: bool
 ) -> dict[str, float]:
     """:func:`beyond_switching` of the element's improvement on its parent's residual
-    over the recordings and channels (inverse-variance pooled), on the recorded input
-    ``name`` whose gain switches (for the model's prediction: the parent's, which does
-    not hold the element's shape)."""
+    (with ``trend`` of the fits as they are, else without a profile) over the recordings
+    and channels, inverse-variance pooled, on the recorded input ``name`` whose gain
+    switches (the model's prediction: the parent's, not holding the element's shape)."""
     num = den = 0.0
     for rec, r, d, old in _improvements(ctx, parent, refit, bare=not trend):
         s = old if name == mi.PREDICTION else rec.inputs.get(name)
