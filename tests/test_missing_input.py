@@ -375,7 +375,10 @@ def test_shape_beyond_a_switched_gain_tells_a_real_element_from_a_spurious_one()
     block removes the switched part exactly (it is such a gain within each block of 400,
     a multiple of the 50-sample blocks), so the coefficient of ``r`` on what is left of
     ``d = e`` is 1 where the element is there and 0 where it is not (within 4 standard
-    errors, themselves small against the 1/2 between the two)."""
+    errors, themselves small against the 1/2 between the two). With the gain alone taken
+    out (``trend=False``, as beside a profiled input) the switched part still goes
+    exactly, and the coefficient is the size of the shape in ``r`` over the element's: 1
+    at its fitted size, 5 for an element fitted at a fifth of it."""
     from suspenv.diagnosis.checks.switched_element import beyond_switching
 
     rng = np.random.default_rng(8)
@@ -389,3 +392,7 @@ def test_shape_beyond_a_switched_gain_tells_a_real_element_from_a_spurious_one()
     assert abs(beta - 1.0) < 4 * se and se < 0.05
     beta, se = beyond_switching(level * s + noise, e, s, length)
     assert abs(beta) < 4 * se and se < 0.05
+    beta, se = beyond_switching(level * s + e + noise, e, s, length, trend=False)
+    assert abs(beta - 1.0) < 4 * se and se < 0.05
+    beta, se = beyond_switching(level * s + e + noise, 0.2 * e, s, length, trend=False)
+    assert abs(beta - 5.0) < 4 * se and abs(beta - 1.0) > 20 * se

@@ -74,7 +74,7 @@ def _profiled(y: np.ndarray, fit_mask: np.ndarray) -> tuple[Profiled, Recording]
         {"force": y},
         {"velocity": "m/s", "force": "N"},
     )
-    stretches = Stretches("velocity", "force", {"r": s}, {"r": STARTS}, 0.002)
+    stretches = Stretches("velocity", "force", {"r": s}, {"r": STARTS}, 0.002, 25)
     groups = {"r": [(fit_mask, True), (~fit_mask, False)]}
     return Profiled(_Zero(), stretches, groups), rec  # type: ignore[arg-type]
 

@@ -9,21 +9,16 @@ out** (linear least squares, :class:`Profiled`): in every fit, the baseline's an
 candidate's alike, and in the held-out scoring, so that each candidate element is judged
 on what is left beside the switched part.
 
-* **The stretches** (:func:`stretches_of`): the partition of the baseline's residual
-  into stretches of constant gain on one signal, by dynamic programming and the BIC
-  (:func:`find_stretches`); fixed before the search, the same for every model compared.
-* **No leak** (:class:`Profiled`): the gains are fitted on the fit samples and on the
-  held-out samples apart (:func:`_projection`): a fit sample's residual depends on no
-  held-out sample and the other way round. They cost every model compared the same
-  degrees of freedom, so the likelihood-ratio test's and the BIC's differences are
-  those without them.
-* **Kept where it holds** (:func:`still_switching`): the engine keeps the profile only
-  where the final model, without it, still leaves the switching; where a named element
-  explains what looked switched on the baseline (a hysteresis has memory, which no
-  time-invariant function takes up) the diagnosis runs again without it.
-
-The verdict states the assumption ("an unrecorded input switches the gain of X: a gain
-on it is fitted anew in each of K stretches of about N s").
+The stretches (:func:`stretches_of`: dynamic programming and the BIC on the baseline's
+residual) are fixed before the search, the same for every model compared. The gains are
+fitted on the fit and the held-out samples apart (no leak: :class:`Profiled`) and cost
+every model the same degrees of freedom, so the likelihood-ratio test's and the BIC's
+differences are those without them. The engine keeps the profile only where the final
+model, without it, still leaves the switching (:func:`still_switching`); where a named
+element explains what looked switched (a hysteresis has memory, which no time-invariant
+function takes up) the diagnosis runs again without it. The verdict states the
+assumption ("an unrecorded input switches the gain of X: a gain on it is fitted anew in
+each of K stretches of about N s").
 """
 
 from __future__ import annotations
@@ -46,6 +41,8 @@ MAX_STRETCHES = 24
 GRID_PER_BLOCK = 5
 #: at most this many grid steps per recording (the dynamic programme's cost is square)
 MAX_GRID_BLOCKS = 1000
+#: per recording name, its sample groups (mask, fitted: the fit or the held-out samples)
+Groups = Mapping[str, Sequence[tuple[np.ndarray, bool]]]
 
 
 def _segment_costs(sxy: np.ndarray, sxx: np.ndarray, syy: np.ndarray) -> np.ndarray:
@@ -109,6 +106,7 @@ class Stretches:
         series: recording name -> the signal over the recording.
         starts: recording name -> stretch starts.
         dt: sample interval [s] of the first recording (for the words).
+        blocks: the missing-input check's block length [samples] on the baseline.
     """
 
     signal: str
@@ -116,6 +114,7 @@ class Stretches:
     series: Mapping[str, np.ndarray]
     starts: Mapping[str, np.ndarray]
     dt: float
+    blocks: int
 
     def words(self) -> str:
         k = sum(len(v) - 1 for v in self.starts.values())
@@ -155,12 +154,7 @@ class Profiled:
     model's less its projection on the signal there). Every other member is the
     model's; :meth:`with_effects` and :meth:`jacobian_model` stay profiled."""
 
-    def __init__(
-        self,
-        model: DiagnosableModel[Any, Any],
-        stretches: Stretches,
-        groups: Mapping[str, Sequence[tuple[np.ndarray, bool]]],
-    ) -> None:
+    def __init__(self, model: DiagnosableModel[Any, Any], stretches: Stretches, groups: Groups):
         self.model = model
         self.stretches = stretches
         self.groups = groups
@@ -183,11 +177,8 @@ class Profiled:
 
     def simulate(self, theta: np.ndarray, rec: RecordingLike) -> dict[str, np.ndarray]:
         pred = self.model.simulate(theta, rec)
-        starts = self.stretches.starts.get(str(rec.name))
-        if starts is None or int(starts[-1]) != len(rec.time):
-            return pred
-        ch = self.stretches.channel
-        if ch not in pred or ch not in rec.outputs:
+        starts, ch = self.stretches.starts.get(str(rec.name)), self.stretches.channel
+        if starts is None or int(starts[-1]) != len(rec.time) or ch not in {*pred} & {*rec.outputs}:
             return pred
         p = np.asarray(pred[ch], float)
         d = np.asarray(rec.outputs[ch], float) - p
@@ -259,7 +250,7 @@ def stretches_of(base: FitResult, setup: Setup, length: int) -> Stretches | None
     name = min(sorted(common), key=lambda k: sum(t[k][0] for t in tried.values()))
     series = {r: t[name][1] for r, t in tried.items()}
     starts = {r: t[name][2] for r, t in tried.items()}
-    return Stretches(name, base.channels[0], series, starts, recs[0].sample_interval)
+    return Stretches(name, base.channels[0], series, starts, recs[0].sample_interval, length)
 
 
 def profile(
@@ -272,8 +263,7 @@ def profile(
     found = missing_input.run(Context(fam, setup, empty, fam.rule))
     if found is None or found.numbers.get("cause") != "unrecorded":
         return None
-    stretches = stretches_of(base, setup, int(found.numbers["judged_blocks"]))
-    if stretches is None:
+    if (stretches := stretches_of(base, setup, int(found.numbers["judged_blocks"]))) is None:
         return None
     model = Profiled(setup.model, stretches, _groups(setup))
     profiled = fam.fit_baseline(replace(setup, model=model))

@@ -147,15 +147,16 @@ def whitening(e: np.ndarray) -> np.ndarray:
     return np.r_[1.0, -linalg.solve_toeplitz(acf[:-1], acf[1:])]
 
 
-def within_blocks(r: np.ndarray, signals: Sequence[np.ndarray]) -> np.ndarray:
-    """``r`` less its least-squares gains on ``signals`` in each block of the shortest
-    length tried (the last block takes the remainder): what no switched gain explains,
-    whose autoregression is the noise's (one of ``r`` as a whole would take a switched
-    gain's own smooth shape for coloured noise and whiten it away)."""
+def within_blocks(
+    r: np.ndarray, signals: Sequence[np.ndarray], length: int, trend: bool = False
+) -> np.ndarray:
+    """``r`` less its least-squares fit on ``signals`` (and with ``trend`` a level and a
+    ramp) in each block of ``length`` samples (the last takes the remainder): what no
+    gain set anew in each block explains."""
     out = r.copy()
-    length = BLOCK_SAMPLES[0]
     for a, b in pairwise([*range(0, length * max(r.size // length, 1), length), r.size]):
-        x = np.column_stack([s[a:b] for s in signals])
+        level_ramp = np.vander(np.linspace(-1.0, 1.0, b - a), 2 * trend)  # or no column
+        x = np.column_stack([*(s[a:b] for s in signals), level_ramp])
         out[a:b] -= x @ np.linalg.lstsq(x, r[a:b], rcond=None)[0]
     return out
 
@@ -188,7 +189,8 @@ def switching(
         return dict(NO_SWITCHING)
     t = np.linspace(-1.0, 1.0, r.size)
     base = np.column_stack([np.vander(t, 4), drift_basis(t, DRIFT_ORDER)])
-    poly = whitening(within_blocks(r - base @ np.linalg.lstsq(base, r, rcond=None)[0], signals))
+    drift = base @ np.linalg.lstsq(base, r, rcond=None)[0]
+    poly = whitening(within_blocks(r - drift, signals, BLOCK_SAMPLES[0]))
     q, _ = np.linalg.qr(signal.lfilter(poly, [1.0], base, axis=0))
     rw = signal.lfilter(poly, [1.0], r)
     rw = rw - q @ (q.T @ rw)
@@ -209,14 +211,8 @@ def switching(
             tried.append((p, length, rho, blocks, i))
     if not tried:
         return dict(NO_SWITCHING)
-    p, length, rho, blocks, i = min(tried)
-    return {
-        "p_switching": min(1.0, p * len(tried)),
-        "block_samples": length,
-        "gain_lag1": rho,
-        "blocks": blocks,
-        "signal": i,
-    }
+    p, length, rho, blocks, i = min(tried)  # NO_SWITCHING's keys, in its order:
+    return dict(zip(NO_SWITCHING, (min(1.0, p * len(tried)), length, rho, blocks, i), strict=True))
 
 
 def cell_means(r: np.ndarray, signals: Sequence[np.ndarray], bins: int) -> np.ndarray:
@@ -300,15 +296,6 @@ def judge_recording(
     }
 
 
-def _cells(ctx: Context, unread: Sequence[str]) -> list[tuple[str, str, dict[str, Any]]]:
-    """(recording, channel, numbers) for every judged recording and output channel."""
-    return [
-        (str(rec.name), ch, n)
-        for rec in ctx.setup.split.recordings()
-        for ch, n in judge_recording(ctx.outcome.current, rec, unread).items()
-    ]
-
-
 def cause(n: dict[str, Any], alpha: float) -> str | None:
     """What the tests say at level ``alpha`` on the numbers ``n``: ``"unrecorded"`` (an
     input the recording does not carry), ``"unread"`` (a recorded input the model does
@@ -331,26 +318,27 @@ def sentence(rec: str, ch: str, n: dict[str, Any], why: str, unread: Sequence[st
         f"blocks, p = {n['p_switching']:.2g})"
     )
     if why == "unread":
-        return (
-            f"{head}, and the levels of the recorded {', '.join(unread)} explain the "
+        return f"{head}, and the levels of the recorded {', '.join(unread)} explain the " + (
             "switching, which the model does not read: that input drives it; give it to a "
             "model that reads it"
         )
-    return (
-        f"{head}, with no recorded cause: an input the recording does not carry may drive "
-        "it; it is not noise"
+    return f"{head}, with no recorded cause: an input the recording does not carry may " + (
+        "drive it; it is not noise"
     )
 
 
 def run(ctx: Context) -> Finding | None:
     """The missing-input finding (None when no recording is long enough to judge)."""
-    unread = unread_inputs(ctx.setup)
-    cells = _cells(ctx, unread)
+    unread, recs = unread_inputs(ctx.setup), ctx.setup.split.recordings()
+    cells = [  # (recording, channel, numbers) for every judged recording and channel
+        (str(rec.name), ch, n)
+        for rec in recs
+        for ch, n in judge_recording(ctx.outcome.current, rec, unread).items()
+    ]
     if not cells:
         return None
     alpha = ctx.rule.alpha / len(cells)
-    fired = [(c, cause(c[2], alpha)) for c in cells]
-    fired = [f for f in fired if f[1] is not None]
+    fired = [(c, why) for c in cells if (why := cause(c[2], alpha)) is not None]
     numbers: dict[str, Any] = {"judged": {f"{r} {ch}": n for r, ch, n in cells}}
     if not fired:
         return Finding("missing_input", numbers=numbers)

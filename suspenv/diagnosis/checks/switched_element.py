@@ -17,71 +17,59 @@ A switching gain alone does not tell a spurious element from a real one (a lag o
 stop the switched force projects on switches too). What does is the element's own
 shape **beyond a gain the input sets block by block** (:func:`beyond_switching`): a
 real element's shape is in the residual at its fitted size (coefficient 1), one that
-only fitted the switched force's average leaves nothing there (coefficient 0). When
-the coefficient is below 1/2 by a one-sided normal test at ``alpha`` over the elements
-judged, what the element fits the switching explains and it is **withdrawn**. Where
-the test has no power (a smooth element, e.g. a cubic spring, is locally a gain on the
-signal) the data cannot tell, and it stays, not confident. Elements are judged from
-the last named back and withdrawn while each one is (the model before a withdrawn
-last element is its parent: no refit).
-
-Tried and not kept: a refit on the blocks where the input sits at its base level, read
-off the residual: the levels read off it leave a few switched blocks in the base,
-enough to keep a spurious element significant (p = 2e-17; with the true off-blocks,
-p = 0.79).
+only fitted the switched force's average leaves nothing there (coefficient 0); a
+one-sided normal test at ``alpha`` over the elements judged places it beside 1/2: one
+shown below is **withdrawn**, one it cannot place (a smooth element, e.g. a cubic
+spring, is locally a level and a ramp) stays, not confident. Where the fits profile the
+input out (:mod:`~suspenv.diagnosis.unrecorded`; its signal and blocks), one this keeps
+is judged again on the fits without the profile, the gain alone taken out: one whose
+gain switches and whose coefficient is off 1 by more than 1/2 either way (at the same
+level) is withdrawn too: its shape is not in the residual at its fitted size, and the
+switched input explains what it fits as well. Elements are judged from the last named
+back and withdrawn while each one is (the model before a withdrawn last element is its
+parent: no refit).
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 from scipy import signal, stats
 
+from suspenv.diagnosis.checks import missing_input as mi
 from suspenv.diagnosis.checks.finding import Context
-from suspenv.diagnosis.checks.missing_input import PREDICTION, block_gains, lag1_p, whitening
 from suspenv.diagnosis.family import Conclusion
 from suspenv.diagnosis.fitting import FitResult, residuals
 from suspenv.diagnosis.hypothesis import Hypothesis, Withdrawal
 from suspenv.diagnosis.protocols import RecordingLike
+from suspenv.diagnosis.unrecorded import unprofiled
 
 
 def _improvements(
-    ctx: Context, parent: FitResult, refit: FitResult
+    ctx: Context, parent: FitResult, refit: FitResult, bare: bool = True
 ) -> Iterator[tuple[RecordingLike, np.ndarray, np.ndarray, np.ndarray]]:
-    """(recording, r, d, parent's prediction) per recording and channel of ``refit``:
-    the parent's residual ``r`` and the element's improvement ``d`` (the refit's
-    prediction less the parent's), in the channel's unit."""
+    """(recording, r, d, parent's prediction) per recording and channel of ``refit``: the
+    parent's residual ``r``, the element's improvement ``d`` (the refit's prediction less
+    the parent's), in the channel's unit (with ``bare``, of the models without a profile)."""
+    p_model, r_model = (unprofiled(f.model) if bare else f.model for f in (parent, refit))
     for rec in ctx.setup.split.recordings():
-        (res,) = residuals(parent.model, parent.theta, [rec], refit.channels)
-        new, old = refit.model.simulate(refit.theta, rec), parent.model.simulate(parent.theta, rec)
+        (res,) = residuals(p_model, parent.theta, [rec], refit.channels)
+        new, old = r_model.simulate(refit.theta, rec), p_model.simulate(parent.theta, rec)
         for ch in refit.channels:
             yield rec, res[ch], new[ch] - old[ch], old[ch]
-
-
-def within_blocks(r: np.ndarray, signals: Sequence[np.ndarray], length: int) -> np.ndarray:
-    """``r`` less its least-squares fit on a constant, a ramp and ``signals`` in each
-    block of ``length`` (what no gain of a block explains)."""
-    n = r.size // length * length
-    ramp = np.linspace(-1.0, 1.0, length)
-    out = np.empty(n)
-    for k in range(0, n, length):
-        a = np.column_stack([np.ones(length), ramp, *(s[k : k + length] for s in signals)])
-        coef, *_ = np.linalg.lstsq(a, r[k : k + length], rcond=None)
-        out[k : k + length] = r[k : k + length] - a @ coef
-    return out
 
 
 def gain_lag1(r: np.ndarray, d: np.ndarray, length: int) -> tuple[float, float]:
     """(p, rho): the lag-1 autocorrelation ``rho`` of the gains ``<r, d> / |d|`` of
     ``r`` on ``d`` in blocks of ``length`` (:func:`~.missing_input.block_gains`) and its
     exact one-sided p-value for independent gains (:func:`~.missing_input.lag1_p`)."""
-    g = block_gains(r, d, length)
+    g = mi.block_gains(r, d, length)
     if g.size < 3 or not np.ptp(g) > 0:
         return 1.0, 0.0
-    rho, p = lag1_p(g, np.ones((g.size, 1)))
+    rho, p = mi.lag1_p(g, np.ones((g.size, 1)))
     return p, rho
 
 
@@ -97,50 +85,48 @@ def gain_switching(
 
 
 def beyond_switching(
-    r: np.ndarray, d: np.ndarray, s: np.ndarray, length: int
+    r: np.ndarray, d: np.ndarray, s: np.ndarray, length: int, trend: bool = True
 ) -> tuple[float, float]:
-    """(beta, se): the coefficient of ``r`` on ``d`` with a level, a ramp and a gain on
-    ``s`` taken out of both in each block of ``length`` (:func:`within_blocks`: the
-    unrecorded input's reach, whatever its level in each block), and its standard error
+    """(beta, se): the coefficient of ``r`` on ``d`` with a gain on ``s`` (with ``trend``
+    a level and a ramp too) taken out of both in each block of ``length``
+    (:func:`~.missing_input.within_blocks`: the unrecorded input's reach, whatever its
+    level in each block), and its standard error
     (the regression's residual and ``d`` whitened by the residual's autoregression,
     :func:`~.missing_input.whitening`; inf where nothing of ``d`` is left). Between 0
     and 1, equally precise, the likelihood decides at the midpoint 1/2."""
-    rp, dp = within_blocks(r, [s], length), within_blocks(d, [s], length)
+    rp, dp = (mi.within_blocks(x, [s], length, trend) for x in (r, d))
     dd = float(dp @ dp)
     if not dd > 1e-24 * max(float(d @ d), 1e-300):
         return 0.0, float("inf")
     beta = float(rp @ dp) / dd
-    poly = whitening(rp - beta * dp)
+    poly = mi.whitening(rp - beta * dp)
     ew = signal.lfilter(poly, [1.0], rp - beta * dp)
     dw = signal.lfilter(poly, [1.0], dp)
     return beta, float(np.std(ew) / np.sqrt(max(float(dw @ dw), 1e-300)))
 
 
 def element_beyond(
-    ctx: Context, parent: FitResult, refit: FitResult, length: int, name: str
+    ctx: Context, parent: FitResult, refit: FitResult, length: int, name: str, trend: bool
 ) -> dict[str, float]:
     """:func:`beyond_switching` of the element's improvement on its parent's residual
-    over the recordings and channels (inverse-variance pooled), on the recorded input
-    ``name`` whose gain switches (for the model's prediction: the parent's, which does
-    not hold the element's shape)."""
+    (with ``trend`` of the fits as they are, else without a profile) over the recordings
+    and channels, inverse-variance pooled, on the recorded input ``name`` whose gain
+    switches (the model's prediction: the parent's, not holding the element's shape)."""
     num = den = 0.0
-    for rec, r, d, old in _improvements(ctx, parent, refit):
-        s = old if name == PREDICTION else rec.inputs.get(name)
+    for rec, r, d, old in _improvements(ctx, parent, refit, bare=not trend):
+        s = old if name == mi.PREDICTION else rec.inputs.get(name)
         if s is None or r.size < 2 * length:
             continue
-        beta, se = beyond_switching(r, d, np.asarray(s, float), length)
+        beta, se = beyond_switching(r, d, np.asarray(s, float), length, trend)
         if np.isfinite(se) and se > 0:
             num, den = num + beta / se**2, den + 1.0 / se**2
-    if den == 0.0:
-        return {"beta": 0.0, "se": float("inf")}
-    return {"beta": num / den, "se": 1.0 / np.sqrt(den)}
+    return {"beta": num / den, "se": 1.0 / np.sqrt(den)} if den else {"beta": 0.0, "se": np.inf}
 
 
 @dataclass
 class SwitchedWithdrawal(Withdrawal):
-    """An element withdrawn because it fits nothing beyond a gain the unrecorded input
-    sets block by block (``p_value_corrected``: the one-sided p-value of its coefficient
-    there, :func:`beyond_switching`; no BIC is computed, NaN)."""
+    """An element withdrawn beside a gain an unrecorded input sets block by block
+    (``p_value_corrected``: its coefficient there against 0, :func:`beyond_switching`)."""
 
     beta: float = 0.0
     se: float = float("inf")
@@ -148,28 +134,41 @@ class SwitchedWithdrawal(Withdrawal):
     def sentence(self) -> str:
         return (
             f"{self.hypothesis.words}, named in round {self.hypothesis.round}, is withdrawn: "
-            f"beside {self.beside} it fits nothing of its own (coefficient of its shape "
-            f"there {self.beta:.2f} +- {self.se:.2g}, 1 for a real element; p = "
+            f"beside {self.beside} its shape is not in the residual at its fitted size "
+            f"(coefficient there {self.beta:.2f} +- {self.se:.2g}, 1 for a real element; p = "
             f"{self.p_value_corrected:.2g} against 0)"
         )
 
 
+def _setting(ctx: Context) -> tuple[int, str, bool] | None:
+    """(block length, signal, profiled): the profile's where the fits profile an input
+    out, else the missing-input finding's where it calls the residual unrecorded."""
+    if (stretches := getattr(ctx.outcome.current.model, "stretches", None)) is not None:
+        return int(stretches.blocks), str(stretches.signal), True
+    f = ctx.found.findings.get("missing_input")
+    if f is None or not f.remains or f.numbers.get("cause") != "unrecorded":
+        return None
+    return int(f.numbers["judged_blocks"]), str(f.numbers.get("judged_signal", "")), False
+
+
 def _withdrawn(
-    ctx: Context, named: list[Hypothesis], parents: list[FitResult | None], f: Any
+    ctx: Context, named: list[Hypothesis], parents: list[FitResult | None], setting: Any
 ) -> tuple[list[SwitchedWithdrawal], FitResult | None, list[dict[str, Any]]]:
     """The elements withdrawn from the last named back (module docstring), the model
     left and the numbers of every element judged."""
     z = float(stats.norm.isf(ctx.rule.alpha / max(len(named), 1)))
-    length, name = int(f.numbers["judged_blocks"]), str(f.numbers.get("judged_signal", ""))
-    out: list[SwitchedWithdrawal] = []
-    final: FitResult | None = None
-    judged = []
+    length, name, profiled = setting
+    out, judged, final = list[SwitchedWithdrawal](), list[dict[str, Any]](), None
     for h, parent in reversed(list(zip(named, parents, strict=True))):
         if h.fit is None or parent is None:
             break
-        n = element_beyond(ctx, parent, h.fit, length, name)
+        n = element_beyond(ctx, parent, h.fit, length, name, trend=True)
+        if not (gone := (0.5 - n["beta"]) / n["se"] > z) and profiled:  # module docstring
+            n = element_beyond(ctx, parent, h.fit, length, name, trend=False)
+            flagged = gain_switching(ctx, parent, h.fit, length)["p_switching"] < ctx.rule.alpha
+            gone = flagged and (abs(n["beta"] - 1.0) - 0.5) / n["se"] > z
         judged.append({"candidate": h.candidate, "signal": name, **n})
-        if not (0.5 - n["beta"]) / n["se"] > z:
+        if not gone:
             break
         p = float(stats.norm.sf(n["beta"] / n["se"]))
         beside = f"a gain on {name} set anew in each block of {length} samples"
@@ -179,29 +178,27 @@ def _withdrawn(
 
 
 def run(ctx: Context) -> Conclusion | None:
-    """The named elements whose gain switches beside the missing-input finding, not
-    confident, and those withdrawn that fit nothing beyond the switching (None without
+    """The named elements whose gain switches beside the missing-input finding or the
+    profiled input, not confident, and those withdrawn (module docstring; None without
     the finding or such an element)."""
-    f = ctx.found.findings.get("missing_input")
-    if f is None or not f.remains or f.numbers.get("cause") != "unrecorded":
+    if (setting := _setting(ctx)) is None:
         return None
-    length = int(f.numbers["judged_blocks"])
     named = list(ctx.outcome.named)
     parents = [ctx.outcome.base, *(h.fit for h in named)][: len(named)]
-    withdrawn, final, judged = _withdrawn(ctx, named, parents, f)
+    withdrawn, final, judged = _withdrawn(ctx, named, parents, setting)
     gone = {id(w.hypothesis) for w in withdrawn}
     out: list[dict[str, Any]] = []
     sentences = [w.sentence() for w in reversed(withdrawn)]
     for h, parent in zip(named, parents, strict=True):
         if h.fit is None or parent is None or id(h) in gone:
             continue
-        n = gain_switching(ctx, parent, h.fit, length)
+        n = gain_switching(ctx, parent, h.fit, setting[0])
         if n["p_switching"] >= ctx.rule.alpha:
             continue
         out.append({"candidate": h.candidate, **n})
         sentences.append(
             f"{h.words} is not named with confidence: an unrecorded input may drive what it "
-            f"fits (its gain on the residual switches and persists over blocks of {length} "
+            f"fits (its gain on the residual switches and persists over blocks of {setting[0]} "
             f"samples: lag-1 correlation {n['gain_lag1']:.2f}, p = {n['p_switching']:.2g})"
         )
     if not out and not withdrawn:
