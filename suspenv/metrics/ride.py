@@ -801,6 +801,8 @@ def _spectral_modal(
     ms = mean_square(m, [0, 1], road, n_freq, vehicle, True)
     if lz is not None and any(k is not None for end in lz.kappa for k in end):
         ms = ms + _stop_remainder(lin, lz, r, sigma(m), road, vehicle)
+    if lz is not None and dahl:
+        ms = ms + _dahl_remainder(lin, lz, r, sigma(m), road, vehicle)
     return _spectral_result(np.sqrt(ms[:, :, 0]), np.sqrt(ms[:, :, 1]), r, n_iter)
 
 
@@ -825,13 +827,19 @@ def _remainder_lags() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def _deflection_correlations(
-    lin: RideModel, r: np.ndarray, dahl: bool, road: RandomRoad, vehicle: Minibus
+    lin: RideModel,
+    r: np.ndarray,
+    dahl: bool,
+    road: RandomRoad,
+    vehicle: Minibus,
+    rate: bool = False,
 ) -> np.ndarray:
     """Correlation functions ``rho_ij(tau)`` (n, 6, lags) of the spring deflections FL,
     FR, RL, RR (the pairs of ``_DISTINCT``; ``E[d_i(t) d_j(t + tau)]`` over their RMS
-    values, at the lags of :func:`_remainder_lags`) of the linear model with the rates
-    ``r`` under the road (its class band): their cross-spectra on the uniform grid,
-    back by the inverse FFT."""
+    values, at the lags of :func:`_remainder_lags`), with ``rate`` of their rates, of
+    the linear model with the rates ``r`` under the road (its class band): their
+    cross-spectra on the uniform grid (with ``rate`` times ``(2 pi f)^2``), back by the
+    inverse FFT."""
     f, idx, _ = _remainder_lags()
     nq = lin.nq
     M, C, K, Kin, Cin = lin.linear_system(r[:, DAMPER], r[:, LEAF], r[:, FRONT])
@@ -840,7 +848,7 @@ def _deflection_correlations(
     G = modal_response(*modal_form(M, C, K, Kin, Cin, springs, hyst), f)[:, :, :4]
     lo, hi = road.speed * CLASS_BAND[0], min(road.speed * CLASS_BAND[1], road.sample_rate)
     gq, delay, rho = road_terms(np.maximum(f, lo), road, vehicle)
-    gq = np.where((f >= lo) & (f <= hi), gq, 0.0)
+    gq = np.where((f >= lo) & (f <= hi), gq, 0.0) * (2 * np.pi * f) ** (2 * rate)
     left = G[..., 0] + delay[None, :, None] * G[..., 2]
     right = G[..., 1] + delay[None, :, None] * G[..., 3]
     rr = rho[None, :, None]
@@ -851,6 +859,36 @@ def _deflection_correlations(
     R = np.fft.irfft(S, axis=2)[:, :, idx]
     sd = np.sqrt(R[:, [0, 0, 0, 0, 4, 4], 0] * R[:, [0, 0, 4, 4, 4, 4], 0])  # times a constant
     return R / sd[:, :, None]
+
+
+def _mehler_mean_square(direct: np.ndarray, coef: np.ndarray, rho: np.ndarray) -> np.ndarray:
+    """Mean squares ((m/s^2)^2; (n, front/rear, weighted/unweighted)) of forces on the
+    four springs acting through the mass matrix only, ``direct`` (n, 2, 4; m/s^2 per N
+    at the measuring points), each force a Hermite series ``sum_n c_n He_n(u)`` of its
+    spring's standardised process u with coefficients ``coef`` (``sqrt(n!) c_n``, N;
+    (orders - 1, n, 4), n = 2, 3, ...) and the processes' correlation functions
+    ``rho`` (:func:`_deflection_correlations`): the cross-covariances by Mehler's
+    formula ``sum_n (sqrt(n!) c_n)(sqrt(n!) c_n') rho^n``, weighted: Wk in the ISO band
+    (:func:`_remainder_lags`); unweighted: the whole variance."""
+    kern = _remainder_lags()[2]
+    i, j = _PAIRS
+    twice = np.where(i == j, 1.0, 2.0)  # pairs i < j stand for (i, j) and (j, i)
+    # per order and distinct pair: the Wk-weighted sum over the lags and the lag-0
+    # value of rho^n
+    sums = np.empty((coef.shape[0], rho.shape[0], 2, rho.shape[1]))
+    power = rho
+    for k in range(coef.shape[0]):
+        power = power * rho
+        sums[k, :, 0], sums[k, :, 1] = power @ kern, power[:, :, 0]
+    dc = direct[None] * coef[:, :, None, :]  # (orders, n, 2, 4): m/s^2 per unit term
+    return np.einsum("onpk,onwk->npw", dc[..., i] * dc[..., j] * twice, sums[..., _SHARED])
+
+
+def _direct(lin: RideModel) -> np.ndarray:
+    """Accelerations at the measuring points front, rear (n, 2, 4; m/s^2 per N) of a
+    force compressing each spring FL, FR, RL, RR, through the mass matrix alone."""
+    M = lin.linear_system()[0]
+    return _output_matrix(lin)[0:2] @ np.linalg.solve(M, -lin.E[: lin.nq, 0:4])
 
 
 def _stop_remainder(
@@ -871,24 +909,30 @@ def _stop_remainder(
     (:meth:`ElementLinearisation.remainder_coefficients`); weighted: Wk in the ISO band
     (:func:`_remainder_lags`); unweighted: the whole variance."""
     rho = _deflection_correlations(lin, r, lz.dahl is not None, road, vehicle)
-    kern = _remainder_lags()[2]
     sd = np.hstack([sig[:, SIG_FRONT], sig[:, SIG_LEAF]])
     ends = (slice(0, 2), slice(2, 4))
     means = np.hstack([lz.spring_mean(e, sig[:, c], sd[:, c]) for e, c in enumerate(ends)])
-    M = lin.linear_system()[0]
-    direct = _output_matrix(lin)[0:2] @ np.linalg.solve(M, -lin.E[: lin.nq, 0:4])  # (n, 2, 4)
-    i, j = _PAIRS
-    twice = np.where(i == j, 1.0, 2.0)  # pairs i < j stand for (i, j) and (j, i)
-    coef = lz.remainder_coefficients(means, sd)  # (orders, n, 4): orders 2, 3, ...
-    # per order and distinct pair: the Wk-weighted sum over the lags and the lag-0
-    # value of rho^n
-    sums = np.empty((coef.shape[0], rho.shape[0], 2, rho.shape[1]))
-    power = rho
-    for k in range(coef.shape[0]):
-        power = power * rho
-        sums[k, :, 0], sums[k, :, 1] = power @ kern, power[:, :, 0]
-    dc = direct[None] * coef[:, :, None, :]  # (orders, n, 2, 4): m/s^2 per unit term
-    return np.einsum("onpk,onwk->npw", dc[..., i] * dc[..., j] * twice, sums[..., _SHARED])
+    return _mehler_mean_square(_direct(lin), lz.remainder_coefficients(means, sd), rho)
+
+
+def _dahl_remainder(
+    lin: RideModel,
+    lz: ElementLinearisation,
+    r: np.ndarray,
+    sig: np.ndarray,
+    road: RandomRoad,
+    vehicle: Minibus,
+) -> np.ndarray:
+    """Mean squares ((m/s^2)^2; (n, front/rear, weighted/unweighted)) that the Dahl
+    forces' parts incoherent with the leaf motion add at the measuring points
+    (:meth:`ElementLinearisation.dahl_remainder_coefficients`: the sign law's Hermite
+    series in the leaf deflection rate, of the variance the law leaves beside the
+    equivalent element), through the mass matrix only as the stops' remainders
+    (:func:`_stop_remainder`), cross-covariances by Mehler's formula from the leaf
+    deflection rates' correlations (:func:`_deflection_correlations`); none with the
+    stops' remainders (at equal times the rate is uncorrelated with the deflection)."""
+    rho = _deflection_correlations(lin, r, True, road, vehicle, rate=True)
+    return _mehler_mean_square(_direct(lin), lz.dahl_remainder_coefficients(sig), rho)
 
 
 def ride_spectral(
@@ -939,9 +983,10 @@ def ride_spectral(
     (:func:`_stop_remainder`), other stops and damper Coulomb friction through their
     Gaussian equivalent rates, the rear leaves' Dahl interleaf friction through Wen's
     equivalent-linear first-order element (one state per leaf; :mod:`suspenv.models.
-    minibus.linearisation`), all in the same fixed-point passes (by default 4 with leaf
-    friction only, within 1e-3 of the fixed point, 8 with stops or damper friction,
-    within 0.5 %; tests); the model's halves then carry complex modal sums
+    minibus.linearisation`) and its force's part incoherent with the leaf added as the
+    stops' remainder is (:func:`_dahl_remainder`), all in the same fixed-point passes
+    (by default 4 with leaf friction only, within 1e-3 of the fixed point, 8 with stops
+    or damper friction, within 0.5 %; tests); the model's halves then carry complex modal sums
     (:func:`_spectral_modal`; with a seat or ``split=False`` the whole model).
 
     ``split`` (default True; only without a seat): the mirror-symmetric model is
