@@ -171,10 +171,10 @@ def dahl_incoherent_variance(f_c: float, sigma: float, s_x: np.ndarray) -> np.nd
     amplitudes the linear map (one rate in phase, one in quadrature, as the equivalent
     element) carries ``f_c^2 (E[A a1]^2 + E[A b1]^2)/(2 E[A^2])``; the rest of ``E[z^2]``
     (the harmonics, and the fundamental's part not proportional to A) is returned
-    (:func:`dahl_loop`).
-    Exact in both limits: nothing in the stick (``a -> 0``: ``z = sigma x``); ``f_c^2
-    (1 - 2/pi)`` in the Coulomb limit (``a -> inf``: ``z = f_c sgn v``, whose part
-    beyond its Gaussian gain ``f_c sqrt(2/pi)/s_v``). Rayleigh averages by
+    (:func:`dahl_loop`). Exact in both limits: nothing in the stick (``a -> 0``: ``z =
+    sigma x``); ``f_c^2 (1 - 2/pi)`` in the Coulomb limit (``a -> inf``: ``z = f_c sgn
+    v``, whose variance f_c^2 its Gaussian gain ``f_c sqrt(2/pi)/s_v`` carries ``2/pi``
+    of). Rayleigh averages by
     ``_DAHL_GL``-point Gauss-Legendre over ``A <= 8 s_x`` (beyond, the density is below
     e^-32 of its peak); exponentially scaled Bessel functions (no overflow)."""
     delta = f_c / sigma
