@@ -801,6 +801,9 @@ def _spectral_modal(
     ms = mean_square(m, [0, 1], road, n_freq, vehicle, True)
     if lz is not None and any(k is not None for end in lz.kappa for k in end):
         ms = ms + _stop_remainder(lin, lz, r, sigma(m), road, vehicle)
+    if lz is not None and dahl:
+        leaf_rows = [keep.index(6)] if halves else [6, 7]
+        ms = ms + _dahl_remainder(lin, lz, m, leaf_rows, sigma(m), road, vehicle)
     return _spectral_result(np.sqrt(ms[:, :, 0]), np.sqrt(ms[:, :, 1]), r, n_iter)
 
 
@@ -824,6 +827,16 @@ def _remainder_lags() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return f, idx, kern
 
 
+def _uniform_road(road: RandomRoad, vehicle: Minibus) -> tuple[np.ndarray, ...]:
+    """The remainders' uniform grid (Hz) and lag indices (:func:`_remainder_lags`) and
+    there the road's PSD Gq (its class band, zero outside), the rear wheels' delay
+    factor and the tracks' coherency (:func:`road_terms`)."""
+    f, idx, _ = _remainder_lags()
+    lo, hi = road.speed * CLASS_BAND[0], min(road.speed * CLASS_BAND[1], road.sample_rate)
+    gq, delay, rho = road_terms(np.maximum(f, lo), road, vehicle)
+    return f, idx, np.where((f >= lo) & (f <= hi), gq, 0.0), delay, rho
+
+
 def _deflection_correlations(
     lin: RideModel, r: np.ndarray, dahl: bool, road: RandomRoad, vehicle: Minibus
 ) -> np.ndarray:
@@ -832,25 +845,93 @@ def _deflection_correlations(
     values, at the lags of :func:`_remainder_lags`) of the linear model with the rates
     ``r`` under the road (its class band): their cross-spectra on the uniform grid,
     back by the inverse FFT."""
-    f, idx, _ = _remainder_lags()
+    f, idx, gq, delay, rho = _uniform_road(road, vehicle)
     nq = lin.nq
     M, C, K, Kin, Cin = lin.linear_system(r[:, DAMPER], r[:, LEAF], r[:, FRONT])
     springs = lin.E[:nq, 0:4].T
     hyst = (springs[2:4], r[:, DAHL_C], r[:, DAHL_K]) if dahl else None
     G = modal_response(*modal_form(M, C, K, Kin, Cin, springs, hyst), f)[:, :, :4]
-    lo, hi = road.speed * CLASS_BAND[0], min(road.speed * CLASS_BAND[1], road.sample_rate)
-    gq, delay, rho = road_terms(np.maximum(f, lo), road, vehicle)
-    gq = np.where((f >= lo) & (f <= hi), gq, 0.0)
-    left = G[..., 0] + delay[None, :, None] * G[..., 2]
-    right = G[..., 1] + delay[None, :, None] * G[..., 3]
-    rr = rho[None, :, None]
-    i, j = _DISTINCT
-    lines = (left + rr * right, np.sqrt(np.maximum(1.0 - rr * rr, 0.0)) * right)
-    cols = [c.transpose(0, 2, 1) for c in lines]
-    S = sum(c[:, j].conj() * c[:, i] for c in cols) * gq
+    S = _track_cross_spectra(G, delay, rho, _DISTINCT) * gq
     R = np.fft.irfft(S, axis=2)[:, :, idx]
     sd = np.sqrt(R[:, [0, 0, 0, 0, 4, 4], 0] * R[:, [0, 0, 4, 4, 4, 4], 0])  # times a constant
     return R / sd[:, :, None]
+
+
+def _track_cross_spectra(
+    G: np.ndarray, delay: np.ndarray, rho: np.ndarray, pairs: tuple[np.ndarray, np.ndarray]
+) -> np.ndarray:
+    """Cross-spectra (n, pairs, Nf) per unit road PSD of outputs with responses G (n,
+    Nf, p, 4) per wheel input, for the output ``pairs`` (i, j): ``E[y_i conj(y_j)]``
+    from the two tracks (the rear wheels ``delay``ed, coherency ``rho``)."""
+    left = G[..., 0] + delay[None, :, None] * G[..., 2]
+    right = G[..., 1] + delay[None, :, None] * G[..., 3]
+    rr = rho[None, :, None]
+    i, j = pairs
+    lines = (left + rr * right, np.sqrt(np.maximum(1.0 - rr * rr, 0.0)) * right)
+    cols = [c.transpose(0, 2, 1) for c in lines]
+    return sum(c[:, j].conj() * c[:, i] for c in cols)
+
+
+def _leaf_rate_correlations(
+    modes: list[tuple[np.ndarray, np.ndarray]],
+    leaf_rows: list[int],
+    road: RandomRoad,
+    vehicle: Minibus,
+) -> np.ndarray:
+    """Correlation functions (n, 6, lags; as :func:`_deflection_correlations`, only the
+    rear pairs RL-RL and RL-RR set, the rest zero) of the rear leaf deflection rates of
+    the linear model with the modal forms ``modes`` of :func:`_spectral_modal`: of its
+    halves (two forms, output ``leaf_rows[0]`` the left leaf, axle inputs; the right
+    leaf is the symmetric half's part less the antisymmetric one's, whose inputs are
+    uncorrelated with PSDs ``Gq (1 +- rho)/2``) or of the whole model (one form,
+    outputs ``leaf_rows`` the left and right leaves, wheel inputs); their spectra times
+    ``(2 pi f)^2`` on the uniform grid, back by the inverse FFT."""
+    f, idx, gq, delay, rho = _uniform_road(road, vehicle)
+    if len(modes) == 2:
+        parts = []
+        for sign, (lam, P) in zip((1.0, -1.0), modes, strict=True):
+            G = modal_response(lam, P[:, :, leaf_rows[:1]], f)[:, :, 0]  # (n, Nf, 2)
+            g = G[..., 0] + delay[None] * G[..., 1]
+            parts.append(0.5 * (1.0 + sign * rho) * (g.real**2 + g.imag**2))
+        S = np.stack([parts[0] + parts[1], parts[0] - parts[1]], axis=1)
+    else:
+        lam, P = modes[0]
+        G = modal_response(lam, P[:, :, leaf_rows], f)
+        S = _track_cross_spectra(G, delay, rho, (np.array([0, 0]), np.array([0, 1])))
+    R = np.fft.irfft(S * (gq * (2 * np.pi * f) ** 2), axis=2)[:, :, idx]
+    out = np.zeros((R.shape[0], 6, idx.size))
+    out[:, 4:6] = R / R[:, :1, :1]
+    return out
+
+
+def _mehler_mean_square(direct: np.ndarray, coef: np.ndarray, rho: np.ndarray) -> np.ndarray:
+    """Mean squares ((m/s^2)^2; (n, front/rear, weighted/unweighted)) of forces on the
+    four springs acting through the mass matrix only, ``direct`` (n, 2, 4; m/s^2 per N
+    at the measuring points), each force a Hermite series ``sum_n c_n He_n(u)`` of its
+    spring's standardised process u with coefficients ``coef`` (``sqrt(n!) c_n``, N;
+    (orders - 1, n, 4), n = 2, 3, ...) and the processes' correlation functions
+    ``rho`` (:func:`_deflection_correlations`): the cross-covariances by Mehler's
+    formula ``sum_n (sqrt(n!) c_n)(sqrt(n!) c_n') rho^n``, weighted: Wk in the ISO band
+    (:func:`_remainder_lags`); unweighted: the whole variance."""
+    kern = _remainder_lags()[2]
+    i, j = _PAIRS
+    twice = np.where(i == j, 1.0, 2.0)  # pairs i < j stand for (i, j) and (j, i)
+    # per order and distinct pair: the Wk-weighted sum over the lags and the lag-0
+    # value of rho^n
+    sums = np.empty((coef.shape[0], rho.shape[0], 2, rho.shape[1]))
+    power = rho
+    for k in range(coef.shape[0]):
+        power = power * rho
+        sums[k, :, 0], sums[k, :, 1] = power @ kern, power[:, :, 0]
+    dc = direct[None] * coef[:, :, None, :]  # (orders, n, 2, 4): m/s^2 per unit term
+    return np.einsum("onpk,onwk->npw", dc[..., i] * dc[..., j] * twice, sums[..., _SHARED])
+
+
+def _direct(lin: RideModel) -> np.ndarray:
+    """Accelerations at the measuring points front, rear (n, 2, 4; m/s^2 per N) of a
+    force compressing each spring FL, FR, RL, RR, through the mass matrix alone."""
+    M = lin.linear_system()[0]
+    return _output_matrix(lin)[0:2] @ np.linalg.solve(M, -lin.E[: lin.nq, 0:4])
 
 
 def _stop_remainder(
@@ -871,24 +952,32 @@ def _stop_remainder(
     (:meth:`ElementLinearisation.remainder_coefficients`); weighted: Wk in the ISO band
     (:func:`_remainder_lags`); unweighted: the whole variance."""
     rho = _deflection_correlations(lin, r, lz.dahl is not None, road, vehicle)
-    kern = _remainder_lags()[2]
     sd = np.hstack([sig[:, SIG_FRONT], sig[:, SIG_LEAF]])
     ends = (slice(0, 2), slice(2, 4))
     means = np.hstack([lz.spring_mean(e, sig[:, c], sd[:, c]) for e, c in enumerate(ends)])
-    M = lin.linear_system()[0]
-    direct = _output_matrix(lin)[0:2] @ np.linalg.solve(M, -lin.E[: lin.nq, 0:4])  # (n, 2, 4)
-    i, j = _PAIRS
-    twice = np.where(i == j, 1.0, 2.0)  # pairs i < j stand for (i, j) and (j, i)
-    coef = lz.remainder_coefficients(means, sd)  # (orders, n, 4): orders 2, 3, ...
-    # per order and distinct pair: the Wk-weighted sum over the lags and the lag-0
-    # value of rho^n
-    sums = np.empty((coef.shape[0], rho.shape[0], 2, rho.shape[1]))
-    power = rho
-    for k in range(coef.shape[0]):
-        power = power * rho
-        sums[k, :, 0], sums[k, :, 1] = power @ kern, power[:, :, 0]
-    dc = direct[None] * coef[:, :, None, :]  # (orders, n, 2, 4): m/s^2 per unit term
-    return np.einsum("onpk,onwk->npw", dc[..., i] * dc[..., j] * twice, sums[..., _SHARED])
+    return _mehler_mean_square(_direct(lin), lz.remainder_coefficients(means, sd), rho)
+
+
+def _dahl_remainder(
+    lin: RideModel,
+    lz: ElementLinearisation,
+    modes: list[tuple[np.ndarray, np.ndarray]],
+    leaf_rows: list[int],
+    sig: np.ndarray,
+    road: RandomRoad,
+    vehicle: Minibus,
+) -> np.ndarray:
+    """Mean squares ((m/s^2)^2; (n, front/rear, weighted/unweighted)) that the Dahl
+    forces' parts incoherent with the leaf motion add at the measuring points
+    (:meth:`ElementLinearisation.dahl_remainder_coefficients`: the sign law's Hermite
+    series in the leaf deflection rate, of the variance the law leaves beside the
+    equivalent element), through the mass matrix only as the stops' remainders
+    (:func:`_stop_remainder`), cross-covariances by Mehler's formula from the leaf
+    deflection rates' correlations (:func:`_leaf_rate_correlations` of the modal forms
+    ``modes`` with the leaves at outputs ``leaf_rows``); none with the stops'
+    remainders (at equal times the rate is uncorrelated with the deflection)."""
+    rho = _leaf_rate_correlations(modes, leaf_rows, road, vehicle)
+    return _mehler_mean_square(_direct(lin), lz.dahl_remainder_coefficients(sig), rho)
 
 
 def ride_spectral(
@@ -939,9 +1028,10 @@ def ride_spectral(
     (:func:`_stop_remainder`), other stops and damper Coulomb friction through their
     Gaussian equivalent rates, the rear leaves' Dahl interleaf friction through Wen's
     equivalent-linear first-order element (one state per leaf; :mod:`suspenv.models.
-    minibus.linearisation`), all in the same fixed-point passes (by default 4 with leaf
-    friction only, within 1e-3 of the fixed point, 8 with stops or damper friction,
-    within 0.5 %; tests); the model's halves then carry complex modal sums
+    minibus.linearisation`) and its force's part incoherent with the leaf added as the
+    stops' remainder is (:func:`_dahl_remainder`), all in the same fixed-point passes
+    (by default 4 with leaf friction only, within 1e-3 of the fixed point, 8 with stops
+    or damper friction, within 0.5 %; tests); the model's halves then carry complex modal sums
     (:func:`_spectral_modal`; with a seat or ``split=False`` the whole model).
 
     ``split`` (default True; only without a seat): the mirror-symmetric model is
