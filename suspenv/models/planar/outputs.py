@@ -116,11 +116,14 @@ def sweep_outputs(geom: PlanarGeometry, sweep: PlanarSweep) -> SweepOutputs:
     )
 
 
+def _homogeneous(p: np.ndarray) -> np.ndarray:
+    """Homogeneous coordinates (..., 3) of (..., 2) points."""
+    return np.concatenate([p, np.ones(p.shape[:-1] + (1,))], axis=-1)
+
+
 def _line(p: np.ndarray, q: np.ndarray) -> np.ndarray:
     """Homogeneous line through two (..., 2) points."""
-    ph = np.concatenate([p, np.ones(p.shape[:-1] + (1,))], axis=-1)
-    qh = np.concatenate([q, np.ones(q.shape[:-1] + (1,))], axis=-1)
-    return np.cross(ph, qh)
+    return np.cross(_homogeneous(p), _homogeneous(q))
 
 
 def instant_centre_roll_centre(geom: PlanarGeometry, sweep: PlanarSweep) -> np.ndarray:
@@ -144,9 +147,7 @@ def instant_centre_roll_centre(geom: PlanarGeometry, sweep: PlanarSweep) -> np.n
     else:
         raise ValidationError(f"unknown planar geometry type {type(geom).__name__}")
     ic = np.cross(guide_1, guide_2)
-    contact = p["contact"]
-    ch = np.concatenate([contact, np.ones(contact.shape[:-1] + (1,))], axis=-1)
-    to_ic = np.cross(ch, ic)
+    to_ic = np.cross(_homogeneous(p["contact"]), ic)
     centreline = np.broadcast_to(np.array([1.0, 0.0, 0.0]), to_ic.shape)
     rc = np.cross(to_ic, centreline)
     z0 = geom.contact_point[..., 1][..., None]

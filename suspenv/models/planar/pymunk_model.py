@@ -159,7 +159,12 @@ class PymunkLinkage:
             pymunk.GrooveJoint(self.pad, upright, (-0.5, 0.0), (0.5, 0.0), self._contact_local)
         )
         self.design_contact = contact
-        self._record_moving_points()
+        # body-local anchors of every point that moves (taken at the design pose)
+        self._moving: dict[str, tuple[pymunk.Body, tuple[float, float]]] = {}
+        for n in (*g.upright_points, "contact"):
+            self._moving[n] = (upright, self._local(upright, self._p(n)))
+        if isinstance(g, DoubleWishbone):
+            self._moving["spring_arm"] = (lower, self._local(lower, self._p("spring_arm")))
 
     # ------------------------------------------------------------- simulation
     def _gaps(self) -> float:
@@ -222,16 +227,6 @@ class PymunkLinkage:
             body, local = self._moving[name]
             return np.array(body.local_to_world(local))
         return np.array(self._p(name))  # a point fixed to the vehicle body
-
-    def _record_moving_points(self) -> None:
-        """Body-local anchors of every point that moves (taken at the design pose)."""
-        g = self.geom
-        self._moving: dict[str, tuple[pymunk.Body, tuple[float, float]]] = {}
-        for n in (*g.upright_points, "contact"):
-            self._moving[n] = (self.upright, self._local(self.upright, self._p(n)))
-        if isinstance(g, DoubleWishbone):
-            arm = self.bodies["lower_arm"]
-            self._moving["spring_arm"] = (arm, self._local(arm, self._p("spring_arm")))
 
 
 def simulate_sweep(
