@@ -36,9 +36,10 @@ import numpy as np
 
 from suspenv.core.errors import ValidationError
 from suspenv.models.effects import Effect, get_kind, make_effect
+from suspenv.models.mcpherson.params import BUSHINGS
 
 #: the axle's bushings (each a 6-D linear spring between a body and the vehicle body)
-BUSHING_NAMES = ("lca_front", "lca_rear", "arb_bush", "top_mount")
+BUSHING_NAMES = tuple(BUSHINGS)
 #: moment saturation of bushing hysteresis per newton of its force saturation [m]
 MOMENT_ARM = 0.05
 #: where an effect can sit: location -> (bushings there, engineering words); the strut
@@ -81,10 +82,7 @@ def bushings_at(location: str) -> tuple[str, ...]:
 
 def location_words(location: str) -> str:
     """Engineering words of an axle location (``"lower_arm"`` -> ``"lower-arm bushes"``)."""
-    if location not in LOCATIONS:
-        raise ValidationError(
-            f"axle effect location must be one of {sorted(LOCATIONS)}, but got {location!r}"
-        )
+    bushings_at(location)  # refuses an unknown location
     return LOCATIONS[location][1]
 
 

@@ -121,11 +121,6 @@ DEFAULT_STIFFNESS_FACTOR = 10.0
 DEFAULT_ALIGNMENT_HALF_RANGE_DEG = 1.0
 
 
-def _widened(lo: float, hi: float, value: float) -> tuple[float, float]:
-    """The paper's range, widened just enough to hold ``value`` with a margin."""
-    return min(lo, value - RANGE_MARGIN_MM), max(hi, value + RANGE_MARGIN_MM)
-
-
 def design_parameters() -> tuple[Parameter, ...]:
     """The 49 design parameters (ADAMS/Car units, left side) with the published ranges.
 
@@ -139,7 +134,8 @@ def design_parameters() -> tuple[Parameter, ...]:
         for axis, (lo, hi), v in zip(
             "xyz", PAPER_RANGES[hp], PAPER_IDENTIFIED_POINTS[hp], strict=True
         ):
-            wlo, whi = _widened(lo, hi, v)
+            # the paper's range, widened just enough to hold ``v`` with a margin
+            wlo, whi = min(lo, v - RANGE_MARGIN_MM), max(hi, v + RANGE_MARGIN_MM)
             note = "" if (wlo, whi) == (lo, hi) else f" (paper range [{lo}, {hi}] widened)"
             out.append(
                 Parameter(
@@ -336,13 +332,18 @@ def bushing_frames(orientation: Mapping[str, Sequence[float]]) -> dict[str, np.n
                 f"but got {list(np.atleast_1d(a))}"
             )
         R = euler_313(a)
-        out[name] = np.stack(
-            [
-                np.diag([-1.0, -SIDE_SIGN[s], 1.0]) @ R @ np.diag([-1.0, -SIDE_SIGN[s], 1.0])
-                for s in (0, 1)
-            ]
-        )
+        out[name] = np.stack([np.diag(_MIRROR[s]) @ R @ np.diag(_MIRROR[s]) for s in (0, 1)])
     return out
+
+
+#: the scalar constants of :class:`AxleConstants` not required to be > 0 (other rules)
+_NOT_POSITIVE = (
+    "spring_upper_seat_d",
+    "spring_lower_seat_d",
+    "front_share",
+    "front_brake_share",
+    "front_drive_share",
+)
 
 
 @dataclass(frozen=True)
@@ -410,32 +411,21 @@ class AxleConstants:
         spring_lower_seat_d``; ``0 < front_share < 1``; ``front_brake_share`` and
         ``front_drive_share`` lie in [0, 1].
         """
-        for name in ("wheel_centre", "arb_bush", "spring_lower_seat_offset", "drop_link_offset"):
-            v = getattr(self, name)
-            try:
-                arr = np.asarray(v, dtype=float)
-            except (TypeError, ValueError):
-                arr = np.array([np.nan])
-            if arr.shape != (3,) or not np.isfinite(arr).all():
-                raise ValidationError(
-                    f"AxleConstants: `{name}` must be a point of three finite numbers [mm], "
-                    f"but got {name}={v!r}"
-                )
-        for name in (
-            "spring_rate",
-            "tyre_rate",
-            "wheel_radius",
-            "sprung_mass",
-            "wheel_mass",
-            "wheelbase",
-            "cg_height",
-            "rack_travel_per_rev",
-            "drop_link_d",
-            "rack_mount_rate",
-            "column_torsion_rate",
-        ):
-            v = getattr(self, name)
-            if not (isinstance(v, int | float) and math.isfinite(v) and v > 0):
+        for f in fields(self):
+            name, v = f.name, getattr(self, f.name)
+            if isinstance(f.default, tuple):  # a point
+                try:
+                    arr = np.asarray(v, dtype=float)
+                except (TypeError, ValueError):
+                    arr = np.array([np.nan])
+                if arr.shape != (3,) or not np.isfinite(arr).all():
+                    raise ValidationError(
+                        f"AxleConstants: `{name}` must be a point of three finite numbers "
+                        f"[mm], but got {name}={v!r}"
+                    )
+            elif name not in _NOT_POSITIVE and not (
+                isinstance(v, int | float) and math.isfinite(v) and v > 0
+            ):
                 raise ValidationError(
                     f"AxleConstants: `{name} > 0` must hold (finite), but got {name}={v!r}"
                 )
@@ -555,11 +545,6 @@ def _unit(v: np.ndarray) -> np.ndarray:
     return v / np.linalg.norm(v, axis=-1, keepdims=True)
 
 
-def _perpendicular(v: np.ndarray, a: np.ndarray) -> np.ndarray:
-    """Component of ``v`` perpendicular to unit vector ``a``."""
-    return v - (v * a).sum(-1, keepdims=True) * a
-
-
 #: the mirror of the left-side ADAMS/Car frame into ISO 8855, per side (2, 3)
 _MIRROR = np.stack([np.array([-1.0, -SIDE_SIGN[s], 1.0]) for s in (0, 1)])
 
@@ -625,7 +610,8 @@ def build_axle(
     a = _unit(sp - st)
 
     def dependent(d_mm: float, offset_mm: tuple[float, float, float]) -> np.ndarray:
-        off = _perpendicular(_to_iso(np.array(offset_mm)) + 0.0 * st, a)
+        v = _to_iso(np.array(offset_mm)) + 0.0 * st
+        off = v - (v * a).sum(-1, keepdims=True) * a  # the offset perpendicular to ``a``
         return st + a * (d_mm / 1000.0) + off
 
     pts["spring_upper_seat"] = dependent(c.spring_upper_seat_d, (0.0, 0.0, 0.0))

@@ -208,11 +208,6 @@ class _Placed:
     cubic: dict[str, tuple[float, float]] = field(default_factory=dict)
     friction: tuple[float, float] | None = None
 
-    @property
-    def path_dependent(self) -> bool:
-        """True when the response depends on the travel history (hysteresis, friction)."""
-        return bool(self.hysteresis) or self.friction is not None
-
 
 def _scalar(effect: Effect, name: str) -> float:
     v = effect.params[name]
@@ -381,12 +376,16 @@ class AxleSolver:
         self.axle = axle
         self.effects: tuple[Effect, ...] = tuple(effects)
         self._placed = _compile(self.effects)
+        #: True when an element's force depends on the loading branch (Dahl hysteresis at
+        #: a bushing, strut friction), so that the equilibrium at a given rig input depends
+        #: on the travel history; False for linear and cubic (elastic) bushings only
+        self.path_dependent = bool(self._placed.hysteresis) or self._placed.friction is not None
         # path-dependent elements are stiff over their micrometre-scale reversals: converge
         # ten times tighter so that their force residual stays small
-        tight = 0.1 if self._placed.path_dependent else 1.0
+        tight = 0.1 if self.path_dependent else 1.0
         self.xtol, self.rtol, self.ltol = xtol * tight, rtol * tight, ltol * tight
         # reversals of path-dependent elements may need damped (slower) iterations
-        self.maxit = 2 * maxit if self._placed.path_dependent else maxit
+        self.maxit = 2 * maxit if self.path_dependent else maxit
         self.n = axle.n
         p = axle.points
         ref = np.stack(
@@ -503,13 +502,6 @@ class AxleSolver:
         """Every body-fixed vector (n, 2, 16, 3) [m or unit], in the order of
         :data:`VEC_BODY` (made from the per-body groups :attr:`_vec_body`)."""
         return np.concatenate([self._vec_body[b] for b in range(len(VEC_GROUPS))], axis=2)
-
-    @property
-    def path_dependent(self) -> bool:
-        """True when an element's force depends on the loading branch (Dahl hysteresis at
-        a bushing, strut friction), so that the equilibrium at a given rig input depends
-        on the travel history; False for linear and cubic (elastic) bushings only."""
-        return self._placed.path_dependent
 
     def take(self, rows: np.ndarray, axle: bool = True) -> AxleSolver:
         """A solver for the given design rows (index array or mask), sharing the set-up.
@@ -815,6 +807,8 @@ class AxleSolver:
                 where[name] = at
                 at += f.shape[-1]
             self._rl_off = np.array([where.get(k, -1) for k in _KERNEL_FIELDS], np.int64)
+        if not (self._rl_pack.flags.c_contiguous and self._rl_pack.flags.writeable):
+            return np.array(self._rl_pack, order="C")  # one compiled type
         return self._rl_pack
 
     def _kernel_inputs(
@@ -847,8 +841,6 @@ class AxleSolver:
                 a, k = np.broadcast_to(a, lead + a.shape[a.ndim - tail :]), M
             return np.ascontiguousarray(a, dtype=float).reshape((k,) + a.shape[a.ndim - 1 - tail :])
 
-        if not (pack.flags.c_contiguous and pack.flags.writeable):  # one compiled type
-            pack = np.array(pack, order="C")
         return (
             np.ascontiguousarray(r.reshape(M, 2, 4, 3)),
             np.ascontiguousarray(R.reshape(M, 2, 4, 3, 3)),
@@ -1083,7 +1075,7 @@ class AxleSolver:
             small = todo & (size < 1.0)
             # path-dependent elements: the kink of a reversal can leave the first small step
             # inaccurate, so they need two small steps in a row
-            conv |= small & (small_before if self._placed.path_dependent else True)
+            conv |= small & (small_before if self.path_dependent else True)
             small_before = small
             if (conv | ~active | ~ok).all():
                 break
@@ -1156,8 +1148,6 @@ class AxleSolver:
         lam = np.empty((T, Q, n, 2, NL))
         status = np.zeros(n, np.int64)
         pack = self._pack()
-        if not (pack.flags.c_contiguous and pack.flags.writeable):  # one compiled type
-            pack = np.array(pack, order="C")
         sweep_kernel.sweep(
             pack, self._rl_off, float(self.k_bar_shear), CSCALE,
             np.ascontiguousarray(self.ref0, dtype=float),

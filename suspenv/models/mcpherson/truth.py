@@ -29,11 +29,11 @@ from suspenv.core.errors import ValidationError
 from suspenv.models.effects import Effect, perturb_pair
 from suspenv.models.mcpherson.effects import axle_effect
 from suspenv.models.mcpherson.params import (
-    HARD_POINTS,
     PARAMETER_NAMES,
     Axle,
     AxleConstants,
     build_axle,
+    parameter_kind,
     reference_design,
 )
 
@@ -103,15 +103,15 @@ def truth_vehicle(
     left, right = x.copy(), x.copy()
     if tolerance:
         rng = np.random.default_rng(seed)
-        hp_names = {f"{hp}_{a}" for hp in HARD_POINTS for a in "xyz"}
+        # parameter kind -> (tolerance, relative)
+        tol = {
+            "point": (hard_point_tol_mm, False),
+            "alignment": (alignment_tol_deg, False),
+            "stiffness": (stiffness_tol, True),
+        }
         for i, name in enumerate(PARAMETER_NAMES):
-            if name == "arb_torsion":
-                continue  # one bar
-            if name in hp_names:
-                left[i], right[i] = perturb_pair(x[i], hard_point_tol_mm, rng, relative=False)
-            elif name.startswith("static_"):
-                left[i], right[i] = perturb_pair(x[i], alignment_tol_deg, rng, relative=False)
-            else:
-                left[i], right[i] = perturb_pair(x[i], stiffness_tol, rng, relative=True)
+            if name != "arb_torsion":  # one bar
+                t, relative = tol[parameter_kind(name)]
+                left[i], right[i] = perturb_pair(x[i], t, rng, relative=relative)
     eff = tuple(effects) if effects is not None else (DEFAULT_HYSTERESIS if hysteresis else ())
     return TruthVehicle(left, right, eff, dict(CHANNEL_NOISE) if noise else {}, seed)

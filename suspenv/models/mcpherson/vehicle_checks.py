@@ -63,7 +63,14 @@ def _file_mm(p: np.ndarray, side: int) -> str:
 def check_geometry(axle: Axle, effects: Sequence = (), where: str = "vehicle") -> None:
     """Rules 1 to 4 of the module docstring on the first design of ``axle``."""
     check_links(axle, where)
-    _check_ride_rate(axle, effects, where)
+    rate = ride_rate(axle, effects)
+    for side in (0, 1):
+        if rate is not None and not rate[side] > 0:
+            raise ValidationError(
+                f"{where} ({SIDES[side]}): the ride rate at design must be > 0 (the tyre "
+                f"load rises with the pad), but is {rate[side] / 1e3:.4g} N/mm: the spring "
+                "cannot carry the corner at this geometry"
+            )
 
 
 def check_links(axle: Axle, where: str = "vehicle") -> None:
@@ -117,16 +124,3 @@ def ride_rate(axle: Axle, effects: Sequence = ()) -> np.ndarray | None:
     if not conv.all():
         return None
     return (loads[0] - loads[1]) / (2 * RIDE_STEP)
-
-
-def _check_ride_rate(axle: Axle, effects: Sequence, where: str) -> None:
-    rate = ride_rate(axle, effects)
-    if rate is None:
-        return
-    for side in (0, 1):
-        if not rate[side] > 0:
-            raise ValidationError(
-                f"{where} ({SIDES[side]}): the ride rate at design must be > 0 (the tyre "
-                f"load rises with the pad), but is {rate[side] / 1e3:.4g} N/mm: the spring "
-                "cannot carry the corner at this geometry"
-            )

@@ -74,6 +74,8 @@ class PlanarGeometry:
     point_names: ClassVar[tuple[str, ...]] = ()
     #: points that move with the upright (the rest are on the body or on an arm)
     upright_points: ClassVar[tuple[str, ...]] = ()
+    #: the coil-over's two mounts: (on the body, on the moving part)
+    spring_points: ClassVar[tuple[str, str]] = ("", "")
 
     lower_inner: np.ndarray
     lower_outer: np.ndarray
@@ -212,6 +214,7 @@ class DoubleWishbone(PlanarGeometry):
         "spring_arm",
     )
     upright_points: ClassVar[tuple[str, ...]] = ("lower_outer", "upper_outer", "wheel_centre")
+    spring_points: ClassVar[tuple[str, str]] = ("spring_body", "spring_arm")
 
     upper_inner: np.ndarray = None  # type: ignore[assignment]
     upper_outer: np.ndarray = None  # type: ignore[assignment]
@@ -241,6 +244,7 @@ class McPherson(PlanarGeometry):
         "wheel_centre",
     )
     upright_points: ClassVar[tuple[str, ...]] = ("lower_outer", "strut_lower", "wheel_centre")
+    spring_points: ClassVar[tuple[str, str]] = ("strut_top", "strut_lower")
 
     strut_top: np.ndarray = None  # type: ignore[assignment]
     strut_lower: np.ndarray = None  # type: ignore[assignment]

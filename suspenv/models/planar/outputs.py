@@ -22,7 +22,7 @@ Definitions:
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
@@ -51,26 +51,8 @@ class SweepOutputs:
             raise ValidationError(
                 f"as_rows needs a single sweep, but got shape {self.camber_deg.shape}"
             )
-        return [
-            {
-                "travel_mm": float(self.travel_mm[i]),
-                "camber_deg": float(self.camber_deg[i]),
-                "half_track_mm": float(self.half_track_mm[i]),
-                "roll_centre_mm": float(self.roll_centre_mm[i]),
-                "motion_ratio": float(self.motion_ratio[i]),
-                "wheel_load_N": float(self.wheel_load_N[i]),
-                "wheel_rate_N_per_mm": float(self.wheel_rate_N_per_mm[i]),
-            }
-            for i in range(self.travel_mm.size)
-        ]
-
-
-def _design_spring_length(geom: PlanarGeometry) -> np.ndarray:
-    if isinstance(geom, DoubleWishbone):
-        return np.linalg.norm(geom.spring_body - geom.spring_arm, axis=-1)
-    if isinstance(geom, McPherson):
-        return np.linalg.norm(geom.strut_top - geom.strut_lower, axis=-1)
-    raise ValidationError(f"unknown planar geometry type {type(geom).__name__}")
+        curves = [f.name for f in fields(self)][:7]  # travel_mm ... wheel_rate_N_per_mm
+        return [{k: float(getattr(self, k)[i]) for k in curves} for i in range(self.travel_mm.size)]
 
 
 def _at_zero(travel: np.ndarray, values: np.ndarray) -> np.ndarray:
@@ -103,8 +85,10 @@ def sweep_outputs(geom: PlanarGeometry, sweep: PlanarSweep) -> SweepOutputs:
         if sweep.motion_ratio is not None
         else -np.gradient(length, s, axis=-1, edge_order=2)
     )
+    body, moving = geom.spring_points  # the spring's mounts; its length at design:
+    length0 = np.linalg.norm(getattr(geom, body) - getattr(geom, moving), axis=-1)
     spring_force = geom.spring_preload[..., None] + geom.spring_rate[..., None] * (
-        _design_spring_length(geom)[..., None] - length
+        length0[..., None] - length
     )
     if sweep.wheel_load is not None:
         load = sweep.wheel_load
@@ -132,11 +116,14 @@ def sweep_outputs(geom: PlanarGeometry, sweep: PlanarSweep) -> SweepOutputs:
     )
 
 
+def _homogeneous(p: np.ndarray) -> np.ndarray:
+    """Homogeneous coordinates (..., 3) of (..., 2) points."""
+    return np.concatenate([p, np.ones(p.shape[:-1] + (1,))], axis=-1)
+
+
 def _line(p: np.ndarray, q: np.ndarray) -> np.ndarray:
     """Homogeneous line through two (..., 2) points."""
-    ph = np.concatenate([p, np.ones(p.shape[:-1] + (1,))], axis=-1)
-    qh = np.concatenate([q, np.ones(q.shape[:-1] + (1,))], axis=-1)
-    return np.cross(ph, qh)
+    return np.cross(_homogeneous(p), _homogeneous(q))
 
 
 def instant_centre_roll_centre(geom: PlanarGeometry, sweep: PlanarSweep) -> np.ndarray:
@@ -160,9 +147,7 @@ def instant_centre_roll_centre(geom: PlanarGeometry, sweep: PlanarSweep) -> np.n
     else:
         raise ValidationError(f"unknown planar geometry type {type(geom).__name__}")
     ic = np.cross(guide_1, guide_2)
-    contact = p["contact"]
-    ch = np.concatenate([contact, np.ones(contact.shape[:-1] + (1,))], axis=-1)
-    to_ic = np.cross(ch, ic)
+    to_ic = np.cross(_homogeneous(p["contact"]), ic)
     centreline = np.broadcast_to(np.array([1.0, 0.0, 0.0]), to_ic.shape)
     rc = np.cross(to_ic, centreline)
     z0 = geom.contact_point[..., 1][..., None]

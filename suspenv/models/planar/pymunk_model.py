@@ -111,7 +111,7 @@ class PymunkLinkage:
             self._pivot(lower, upright, "lower_outer")
             self._pivot(static, upper, "upper_inner")
             self._pivot(upper, upright, "upper_outer")
-            mount_a, body_b, mount_b = "spring_body", lower, "spring_arm"
+            spring_on = lower
             self.bodies = {"lower_arm": lower, "upper_arm": upper, "upright": upright}
         elif isinstance(g, McPherson):
             lower = self._body(["lower_inner", "lower_outer"], 4.0)
@@ -130,25 +130,25 @@ class PymunkLinkage:
                     tuple(top),
                 )
             )
-            mount_a, body_b, mount_b = "strut_top", upright, "strut_lower"
+            spring_on = upright
             self.bodies = {"lower_arm": lower, "upright": upright}
         else:
             raise ValidationError(f"unknown planar geometry type {type(g).__name__}")
         self.upright = upright
-        a, b = self._p(mount_a), self._p(mount_b)
+        a, b = (self._p(n) for n in g.spring_points)  # on the body, on ``spring_on``
         length0 = float(np.hypot(a[0] - b[0], a[1] - b[1]))
         k = float(g.spring_rate)
         self.spring = pymunk.DampedSpring(
             static,
-            body_b,
+            spring_on,
             a,
-            self._local(body_b, b),
+            self._local(spring_on, b),
             length0 + float(g.spring_preload) / k,  # free length: preload at design
             k,
             float(g.damping),
         )
         self.space.add(self.spring)
-        self._spring_ends = (static, a, body_b, self._local(body_b, b))
+        self._spring_ends = (static, a, spring_on, self._local(spring_on, b))
         # the pad: a kinematic body with a horizontal groove the contact point rides in
         contact = self._p("contact")
         self.pad = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
@@ -159,7 +159,12 @@ class PymunkLinkage:
             pymunk.GrooveJoint(self.pad, upright, (-0.5, 0.0), (0.5, 0.0), self._contact_local)
         )
         self.design_contact = contact
-        self._record_moving_points()
+        # body-local anchors of every point that moves (taken at the design pose)
+        self._moving: dict[str, tuple[pymunk.Body, tuple[float, float]]] = {}
+        for n in (*g.upright_points, "contact"):
+            self._moving[n] = (upright, self._local(upright, self._p(n)))
+        if isinstance(g, DoubleWishbone):
+            self._moving["spring_arm"] = (lower, self._local(lower, self._p("spring_arm")))
 
     # ------------------------------------------------------------- simulation
     def _gaps(self) -> float:
@@ -222,16 +227,6 @@ class PymunkLinkage:
             body, local = self._moving[name]
             return np.array(body.local_to_world(local))
         return np.array(self._p(name))  # a point fixed to the vehicle body
-
-    def _record_moving_points(self) -> None:
-        """Body-local anchors of every point that moves (taken at the design pose)."""
-        g = self.geom
-        self._moving: dict[str, tuple[pymunk.Body, tuple[float, float]]] = {}
-        for n in (*g.upright_points, "contact"):
-            self._moving[n] = (self.upright, self._local(self.upright, self._p(n)))
-        if isinstance(g, DoubleWishbone):
-            arm = self.bodies["lower_arm"]
-            self._moving["spring_arm"] = (arm, self._local(arm, self._p("spring_arm")))
 
 
 def simulate_sweep(
