@@ -213,14 +213,8 @@ class Diagnosis:
             "evidence": self.evidence,
             "rule": self.rule.to_dict(),
             "named": [
-                {
-                    "kind": h.kind,
-                    "location": h.location,
-                    "candidate": h.candidate,
-                    "family": h.family,
-                    "words": h.words,
-                    "params": h.params,
-                }
+                {k: getattr(h, k) for k in ("kind", "location", "candidate", "family", "words")}
+                | {"params": h.params}
                 for h in self.named
             ],
             "ambiguities": [a.to_dict() for a in self.ambiguities],
