@@ -54,7 +54,7 @@ from __future__ import annotations
 import re
 import tomllib
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -148,23 +148,14 @@ class RigDescription:
     positive_stroke: str = "compression"
     positive_force: str = "compression"
     extra_inputs: Mapping[str, str] = field(default_factory=dict)
-    sources: tuple[str, ...] = ()
     velocity_source: str = "auto"
+    sources: tuple[str, ...] = ()
     #: the entries the user declared (metadata or model file); the others are defaults
     declared: tuple[str, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
-        return {
-            "family": self.family,
-            "baseline": list(self.baseline),
-            "known": dict(self.known),
-            "positive_stroke": self.positive_stroke,
-            "positive_force": self.positive_force,
-            "extra_inputs": dict(self.extra_inputs),
-            "velocity_source": self.velocity_source,
-            "sources": list(self.sources),
-            "declared": list(self.declared),
-        }
+        out = asdict(self)
+        return out | {k: list(v) for k, v in out.items() if isinstance(v, tuple)}
 
 
 def parse_model_text(text: str) -> tuple[str, list[str], list[str]]:
