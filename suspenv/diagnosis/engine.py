@@ -213,14 +213,8 @@ class Diagnosis:
             "evidence": self.evidence,
             "rule": self.rule.to_dict(),
             "named": [
-                {
-                    "kind": h.kind,
-                    "location": h.location,
-                    "candidate": h.candidate,
-                    "family": h.family,
-                    "words": h.words,
-                    "params": h.params,
-                }
+                {k: getattr(h, k) for k in ("kind", "location", "candidate", "family", "words")}
+                | {"params": h.params}
                 for h in self.named
             ],
             "ambiguities": [a.to_dict() for a in self.ambiguities],
@@ -233,16 +227,6 @@ class Diagnosis:
             "findings": {k: jsonable(v) for k, v in self.findings.items()},
             "seconds": self.seconds,
         }
-
-
-def noise_levels(fam: DiagnosisFamily, fit: FitResult) -> dict[str, float] | None:
-    """Each channel's noise level (channel unit) for the held-out gain in noise units
-    (:func:`~suspenv.diagnosis.evidence.compare`): the fit's scales where the family's
-    rule judges the held-out data in noise units (``heldout_rule = "noise"``, whose
-    families weight their fits by noise levels: the K&C family's
-    :func:`~suspenv.diagnosis.fitting.noise_scales`); None elsewhere, where the scales
-    are a channel's spread and the gain would be in no stated unit."""
-    return dict(fit.scales) if fam.rule.heldout_rule == "noise" else None
 
 
 def diagnose(
@@ -288,7 +272,11 @@ def diagnose(
     sp = setup.split
 
     def versus(parent: FitResult, child: FitResult) -> Comparison:
-        return compare(parent, child, sp, noise_levels(fam, parent))
+        """``child`` against ``parent``, the held-out gain in noise units (the parent's
+        scales) where the rule says so (``heldout_rule = "noise"``: fits weighted by
+        noise levels, :func:`~suspenv.diagnosis.fitting.noise_scales`)."""
+        noise = dict(parent.scales) if fam.rule.heldout_rule == "noise" else None
+        return compare(parent, child, sp, noise)
 
     base = fam.fit_baseline(setup)
     say(f"baseline fitted ({base.nfev} evaluations)")

@@ -249,16 +249,10 @@ class Withdrawal:
     beside_delay: bool = False
 
     def to_dict(self) -> dict[str, Any]:
-        return {
-            "candidate": self.hypothesis.candidate,
-            "words": self.hypothesis.words,
-            "round": self.hypothesis.round,
-            "beside": self.beside,
-            "p_value_corrected": self.p_value_corrected,
-            "delta_bic_corrected": self.delta_bic_corrected,
-            "heldout_reduction": self.heldout_reduction,
-            "sentence": self.sentence(),
-        }
+        h = self.hypothesis
+        own = {k: v for k, v in self.__dict__.items() if k not in ("hypothesis", "beside_delay")}
+        head = {"candidate": h.candidate, "words": h.words, "round": h.round}
+        return head | own | {"sentence": self.sentence()}
 
     def sentence(self) -> str:
         """One sentence for the verdict."""

@@ -44,6 +44,7 @@ import numpy as np
 from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.family import Setup
 from suspenv.diagnosis.protocols import RecordingLike
+from suspenv.diagnosis.split import Split
 from suspenv.measurements.knc import FORCE_INPUTS, INPUTS, is_force_test
 
 #: SI unit -> (largest plausible magnitude, quantity, why). Limits of a road vehicle's
@@ -118,16 +119,13 @@ def check_setup(setup: Setup, family: str, max_effects: int) -> None:
     sp = setup.split
     model_units = getattr(setup.model, "channel_units", None)
     units = dict(model_units) if isinstance(model_units, Mapping) else {}
-    seen: set[int] = set()
-    for rec in [*sp.fit_recordings, *sp.heldout_recordings]:
-        if id(rec) not in seen:
-            seen.add(id(rec))
-            check_values(rec, units, str(setup.model.family))
+    for rec in sp.recordings():
+        check_values(rec, units, str(setup.model.family))
     _check_samples(setup, max_effects)
     if family == "component":
         _check_cycles(setup)
     elif family == "knc":
-        for rec in [*sp.fit_recordings, *sp.heldout_recordings]:
+        for rec in sp.recordings():
             _check_loop(rec)
 
 
@@ -224,8 +222,8 @@ def largest_model(setup: Setup, max_effects: int) -> tuple[int, int, int]:
     return base, added, base + added
 
 
-def _names(recs: Sequence[RecordingLike]) -> str:
-    names = list(dict.fromkeys(str(r.name) for r in recs))
+def _names(sp: Split) -> str:
+    names = list(dict.fromkeys(str(r.name) for r in sp.recordings()))
     head = "recording" if len(names) == 1 else "recordings"
     return f"{head} " + ", ".join(repr(n) for n in names)
 
@@ -245,8 +243,7 @@ def _check_samples(setup: Setup, max_effects: int) -> None:
     need_fit = OBS_PER_PARAMETER * p_max
     if obs_fit >= need_fit and obs_held >= MIN_HELDOUT_OBS:
         return
-    recs = list(dict.fromkeys([*sp.fit_recordings, *sp.heldout_recordings]))
-    total = sum(len(r.time) for r in recs)
+    total = sum(len(r.time) for r in sp.recordings())
     per_fit = max(c_fit, 1)
     per_held = max(c_held, 1)
     fit_samples = math.ceil(need_fit / per_fit)
@@ -259,7 +256,7 @@ def _check_samples(setup: Setup, max_effects: int) -> None:
     else:
         need = f"{fit_samples} fitted and {held_samples} held-out samples"
     raise ValidationError(
-        f"{_names(recs)}: {_plural(total, 'sample')}; a diagnosis of the {model.family} model "
+        f"{_names(sp)}: {_plural(total, 'sample')}; a diagnosis of the {model.family} model "
         f"needs at least {need} ({n_fit} fitted and {n_held} held out here: "
         f"{sp.description}). The fit needs {OBS_PER_PARAMETER} observations (samples x "
         f"predicted channels) per parameter of the largest model the search may reach "
@@ -306,9 +303,8 @@ def _check_cycles(setup: Setup) -> None:
     held = _part_passes(sp.heldout_recordings, sp.heldout_masks)
     if fit >= MIN_FIT_PASSES and held >= MIN_HELDOUT_PASSES:
         return
-    recs = list(dict.fromkeys([*sp.fit_recordings, *sp.heldout_recordings]))
     raise ValidationError(
-        f"{_names(recs)}: the excitation passes its centre {_plural(fit, 'time')} in the "
+        f"{_names(sp)}: the excitation passes its centre {_plural(fit, 'time')} in the "
         f"fitted part and {_plural(held, 'time')} in the held-out part ({sp.description}); "
         f"a diagnosis of the {setup.model.family} model needs at least {MIN_FIT_PASSES} "
         f"(two full cycles: k periods of a sine pass their centre 2k - 1 times) and "

@@ -43,8 +43,7 @@ def reversal_indices(v: np.ndarray) -> np.ndarray:
     """Indices where the velocity changes sign (first sample of the new direction)."""
     s = np.sign(v)
     # carry the last non-zero sign over exact zeros
-    nz = np.flatnonzero(s)
-    if nz.size == 0:
+    if not s.any():
         return np.zeros(0, int)
     idx = np.maximum.accumulate(np.where(s != 0, np.arange(s.size), 0))
     s = s[idx]
@@ -53,13 +52,10 @@ def reversal_indices(v: np.ndarray) -> np.ndarray:
 
 def travel_since_reversal(x: np.ndarray, v: np.ndarray) -> np.ndarray:
     """|x - x at the last velocity reversal| per sample [m] (from the start before any)."""
-    start = np.zeros(x.size, int)
+    marks = np.zeros(x.size, int)
     rev = reversal_indices(v)
-    if rev.size:
-        marks = np.zeros(x.size, int)
-        marks[rev] = rev
-        start = np.maximum.accumulate(marks)
-    return np.abs(x - x[start])
+    marks[rev] = rev
+    return np.abs(x - x[np.maximum.accumulate(marks)])
 
 
 def dominant_frequency(t: np.ndarray, x: np.ndarray) -> float:

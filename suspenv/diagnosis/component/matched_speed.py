@@ -34,6 +34,7 @@ from typing import Any
 
 import numpy as np
 from scipy import stats
+from scipy.integrate import cumulative_trapezoid
 
 from suspenv.core.errors import ValidationError
 
@@ -210,7 +211,7 @@ def half_cycles(
     if not 0.0 < peak_band < 0.5:
         raise ValidationError(f"`0 < peak_band < 0.5` must hold, but got peak_band={peak_band}")
     if x is None:
-        x = np.concatenate([[0.0], np.cumsum(0.5 * (v[1:] + v[:-1]) * np.diff(t))])
+        x = cumulative_trapezoid(v, t, initial=0.0)
     x = np.asarray(x, float)
     if x.shape != t.shape:
         raise ValidationError(f"position must have the shape of time {t.shape}, but got {x.shape}")

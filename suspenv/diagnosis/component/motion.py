@@ -12,6 +12,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 
 import numpy as np
+from scipy.integrate import cumulative_trapezoid
 
 from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.protocols import RecordingLike
@@ -51,7 +52,7 @@ def motion(rec: RecordingLike) -> tuple[np.ndarray, np.ndarray]:
         x = np.asarray(next(iter(rec.inputs.values())), float)
     if x is None:
         assert v is not None  # one of the two was found above
-        x = np.concatenate([[0.0], np.cumsum(0.5 * (v[1:] + v[:-1]) * np.diff(t))])
+        x = cumulative_trapezoid(v, t, initial=0.0)
     if v is None:
         v = np.gradient(x, t)
     return x, v

@@ -51,9 +51,10 @@ read is refused.
 
 from __future__ import annotations
 
+import re
 import tomllib
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -147,42 +148,23 @@ class RigDescription:
     positive_stroke: str = "compression"
     positive_force: str = "compression"
     extra_inputs: Mapping[str, str] = field(default_factory=dict)
-    sources: tuple[str, ...] = ()
     velocity_source: str = "auto"
+    sources: tuple[str, ...] = ()
     #: the entries the user declared (metadata or model file); the others are defaults
     declared: tuple[str, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
-        return {
-            "family": self.family,
-            "baseline": list(self.baseline),
-            "known": dict(self.known),
-            "positive_stroke": self.positive_stroke,
-            "positive_force": self.positive_force,
-            "extra_inputs": dict(self.extra_inputs),
-            "velocity_source": self.velocity_source,
-            "sources": list(self.sources),
-            "declared": list(self.declared),
-        }
+        out = asdict(self)
+        return out | {k: list(v) for k, v in out.items() if isinstance(v, tuple)}
 
 
 def parse_model_text(text: str) -> tuple[str, list[str], list[str]]:
     """``FAMILY[+KIND...][-KIND...]`` -> (family, kinds added, kinds removed)."""
-    parts: list[tuple[str, str]] = []
-    sign, word = "", ""
-    for ch in text.strip():
-        if ch in "+-":
-            parts.append((sign, word))
-            sign, word = ch, ""
-        else:
-            word += ch
-    parts.append((sign, word))
-    family = parts[0][1]
-    if parts[0][0] or not family:
+    family, *rest = re.split(r"([+-])", text.strip())
+    if not family:
         raise ValidationError(f"a model must read FAMILY[+KIND...][-KIND...], but got {text!r}")
-    added = [w for s, w in parts[1:] if s == "+"]
-    removed = [w for s, w in parts[1:] if s == "-"]
-    return family, added, removed
+    signed = list(zip(rest[0::2], rest[1::2], strict=True))
+    return family, [w for s, w in signed if s == "+"], [w for s, w in signed if s == "-"]
 
 
 def _check_family(family: str, where: str) -> None:
@@ -338,8 +320,7 @@ def describe_rig(
     family = str(chosen)
     _check_family(family, "model")
     base = list(entries.get("baseline", (*STANDARD_BASELINE.get(family, ()), DRIFT)))
-    base = [k for k in base + added if k not in removed]
-    base = list(dict.fromkeys(base))
+    base = list(dict.fromkeys(k for k in base + added if k not in removed))
     known = dict(entries.get("known", {}))
     allowed = KNOWN_PARAMETERS.get(family, {})
     bad = sorted(set(known) - set(allowed))
@@ -521,12 +502,9 @@ def baseline_words(model: ComponentModel) -> str:
     """The baseline in words, e.g. "linear viscous F = c v; gas spring force ..."."""
     desc = model.description
     parts = [desc.split("(base: ")[-1][:-1] if "(base: " in desc else desc]
-    seen: set[str] = set()
-    for e in model.effects:
-        if e.kind in seen:
-            continue
-        seen.add(e.kind)
-        chans = [x.location for x in model.effects if x.kind == e.kind and x.location]
-        where = f" on {', '.join(chans)}" if e.spec.role == "sensor" and chans else ""
-        parts.append(f"{e.spec.words}{where}")
+    for kind in dict.fromkeys(e.kind for e in model.effects):
+        spec = next(e.spec for e in model.effects if e.kind == kind)
+        chans = [x.location for x in model.effects if x.kind == kind and x.location]
+        where = f" on {', '.join(chans)}" if spec.role == "sensor" and chans else ""
+        parts.append(f"{spec.words}{where}")
     return "; ".join(parts)

@@ -149,10 +149,7 @@ class MinibusRideAdapter(ComponentModel):
     )
     input_channels: ClassVar[tuple[str, ...]] = ROAD_CHANNELS
     output_channels: ClassVar[tuple[str, ...]] = OUTPUT_CHANNELS
-    channel_units: ClassVar[dict[str, str]] = {
-        **{c: "m" for c in ROAD_CHANNELS},
-        **{c: "m/s^2" for c in OUTPUT_CHANNELS},
-    }
+    channel_units: ClassVar[dict[str, str]] = dict(UNITS)
     candidate_effects: ClassVar[tuple[str, ...]] = tuple(
         dict.fromkeys(k for k, _ in RIDE_CANDIDATES)
     )
