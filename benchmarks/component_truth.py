@@ -317,22 +317,53 @@ def draw_condition(condition: str, family: str, seed: int) -> dict[str, Any]:
     }
 
 
-def _apply_condition(
-    cond: dict[str, Any], clean: dict[str, Any], sc: dict[str, float], rec: Recording
-) -> None:
-    """Apply a drawn condition to the noise-free outputs ``clean`` in place (masses act
-    through the truth model's options instead)."""
+def _apply_condition(cond: dict[str, Any] | None, clean: dict[str, Any]) -> None:
+    """Apply a drawn condition that acts on the recorded output to the noise-free
+    outputs ``clean`` in place (masses act through the truth model's options, an
+    unrecorded input through :func:`_noise_free`)."""
+    out = "suspension_deflection" if "suspension_deflection" in clean else "force"
+    if cond is not None and cond["kind"] == "sign_reversed":
+        clean[out] = -np.asarray(clean[out], float)
+
+
+def _switched_force(cond: dict[str, Any], sc: dict[str, float], rec: Recording) -> np.ndarray:
+    """The force [N] of an ``input_missing`` condition: damping ``c v`` with
+    ``c = share * force scale / speed scale``, on between odd and even switch times
+    (fractions of the recording's span), off elsewhere; v [m/s] the exact velocity."""
     from suspenv.diagnosis.component.motion import motion
 
-    out = "suspension_deflection" if "suspension_deflection" in clean else "force"
-    if cond["kind"] == "sign_reversed":
-        clean[out] = -np.asarray(clean[out], float)
-    elif cond["kind"] == "input_missing":
-        _, v = motion(rec)
-        t = (rec.time - rec.time[0]) / max(float(rec.time[-1] - rec.time[0]), 1e-12)
-        on = np.searchsorted(np.asarray(cond["switches"]), t) % 2 == 1
-        c = cond["share"] * sc["force"] / max(sc["speed"], 1e-12)
-        clean[out] = np.asarray(clean[out], float) + c * v * on
+    _, v = motion(rec)
+    t = (rec.time - rec.time[0]) / max(float(rec.time[-1] - rec.time[0]), 1e-12)
+    on = np.searchsorted(np.asarray(cond["switches"]), t) % 2 == 1
+    c = cond["share"] * sc["force"] / max(sc["speed"], 1e-12)
+    return np.asarray(c * v * on)
+
+
+def _noise_free(
+    truth_model: Any,
+    base: dict[str, float],
+    rec: Recording,
+    drawn: list[Effect],
+    cond: dict[str, Any] | None,
+    sc: dict[str, float],
+) -> dict[str, np.ndarray]:
+    """Noise-free outputs of ``truth_model`` (base values ``base``). Under
+    ``input_missing`` the unrecorded switched force (:func:`_switched_force`) is a force
+    the load cell measures: it adds to the modelled force before the ``drawn`` sensor
+    effects (the last of the truth model's effects, applied here in its order by their
+    own laws). The baseline's sensor elements (zero offset and drift) only shift the
+    channel, so the force adds after them as well as before."""
+    if cond is None or cond["kind"] != "input_missing":
+        return truth_model.simulate(truth_model.theta_from(base), rec)
+    sensors = [e for e in drawn if e.spec.role == "sensor"]
+    keep = [e for e in truth_model.effects if all(e is not s for s in sensors)]
+    pre = truth_model.with_effects(keep)
+    clean = pre.simulate(pre.theta_from(base), rec)
+    y = np.asarray(clean["force"], float) + _switched_force(cond, sc, rec)
+    for e in sensors:
+        y = e.sensor(y, rec.time)
+    clean["force"] = y
+    return clean
 
 
 #: dyno and guide families whose motion channels are, in half of the cases, recorded as
@@ -433,7 +464,7 @@ def make_case(
     effects = [e.with_params(defaults.get(e.kind, {})) for e in effects]
     standard = _baseline_truth(family, rng, sc, base, rec)
     truth_model = model.with_effects(standard + effects)
-    clean = truth_model.simulate(truth_model.theta_from(base), rec)
+    clean = _noise_free(truth_model, base, rec, effects, cond, sc)
     effect_dicts = [e.to_dict() for e in effects]
     if outside:
         kind = str(rng.choice(OUTSIDE_KINDS[family]))
@@ -449,8 +480,7 @@ def make_case(
         else:
             clean["force"] = np.asarray(clean["force"], float) + added
         effect_dicts = [{"kind": kind, "outside": True, "params": params}]
-    if cond is not None:
-        _apply_condition(cond, clean, sc, rec)
+    _apply_condition(cond, clean)
     frac = float(rng.uniform(0.01, 0.04))
     noise_kind = CONTROL_NOISE[seed % 3] if (n_drawn == 0 and not outside) else "white"
     measured = {}

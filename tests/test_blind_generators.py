@@ -11,7 +11,7 @@ circumference, and the component cases against the same case without the conditi
 import numpy as np
 import pytest
 
-from benchmarks.component_truth import _apply_condition, draw_condition, make_case
+from benchmarks.component_truth import _noise_free, _switched_force, draw_condition, make_case
 from benchmarks.knc_truth import OUTSIDE_KINDS, conceal_outside
 from benchmarks.ride_mismatch import (
     PAYLOAD_HEIGHT,
@@ -24,6 +24,8 @@ from benchmarks.ride_truth import make_ride_case
 from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.component.motion import motion
 from suspenv.diagnosis.ride.model import pulse_inputs_recording
+from suspenv.models.components import make_component
+from suspenv.models.effects import make_effect
 from suspenv.models.minibus import REFERENCE_MINIBUS
 from suspenv.rigs.knc_truth import BLIND_TESTS, measure_truth
 
@@ -162,15 +164,36 @@ def test_component_input_missing_is_extra_damping_switched_by_an_unrecorded_sign
     rec = make_case("damper", 5, 1).recording
     cond = draw_condition("input_missing", "damper", 5)
     sc = {"force": 1000.0, "speed": 0.5}
-    clean = {"force": np.zeros(rec.time.size)}
-    _apply_condition(cond, clean, sc, rec)
+    f = _switched_force(cond, sc, rec)
     _, v = motion(rec)
-    f = clean["force"]
     on = f != 0
     # closed form: c v where the switch is on (share x force scale / speed scale), 0 off
     np.testing.assert_allclose(f[on], cond["share"] * 2000.0 * v[on], rtol=1e-12)
     n_on = np.count_nonzero(np.diff(on.astype(int)) == 1) + int(on[0])
     assert n_on == len(cond["switches"]) // 2 or n_on == (len(cond["switches"]) + 1) // 2
+
+
+def test_component_input_missing_force_passes_through_the_force_sensor():
+    # the load cell measures the switched force too: with a zero offset (a baseline
+    # element) and a drawn gain error, recorded = gain (F + offset + switched), the
+    # sensor laws' closed form (suspenv.models.effects.sensor); a switched force added
+    # after the sensor would be off by (gain - 1) x switched, 10 % of it here
+    rec = make_case("damper", 5, 1).recording
+    cond = draw_condition("input_missing", "damper", 5)
+    sc = {"force": 1000.0, "speed": 0.5}
+    base = {"c": 1500.0}
+    offset = make_effect("sensor_offset").with_params({"offset": 40.0})
+    gain = make_effect("sensor_gain").with_params({"gain": 1.1})
+    model = make_component("damper")
+    force = model.simulate(model.theta_from(base), rec)["force"]
+    clean = _noise_free(model.with_effects([offset, gain]), base, rec, [gain], cond, sc)
+    switched = _switched_force(cond, sc, rec)
+    assert np.ptp(switched) > 100.0  # the switch is on somewhere in the recording
+    expected = 1.1 * (force + 40.0 + switched)
+    np.testing.assert_allclose(clean["force"], expected, rtol=1e-12, atol=1e-9)
+    # without the condition the same call is the truth model's own simulation
+    plain = _noise_free(model.with_effects([offset, gain]), base, rec, [gain], None, sc)
+    np.testing.assert_allclose(plain["force"], 1.1 * (force + 40.0), rtol=1e-12, atol=1e-9)
 
 
 def test_component_masses_undeclared_changes_the_truth_not_the_recording_meta():
