@@ -230,7 +230,7 @@ def test_a_branch_beside_a_force_lag_under_an_unrecorded_input_is_inseparable(
     winner.significant, lag.significant = True, lag_significant
     model = setup.model
     if profiled:
-        model = Profiled(model, Stretches("velocity", "force", {}, {}, 0.01), {})
+        model = Profiled(model, Stretches("velocity", "force", {}, {}, 0.01, 25), {})
     found = fam.ambiguities(winner, [winner, lag], SimpleNamespace(model=model), setup)
     assert [(a.a, a.b) for a in found] == ([("maxwell_viscoelastic", "sensor_lag")] if said else [])
     if said:
