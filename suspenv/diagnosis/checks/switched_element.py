@@ -140,7 +140,11 @@ class SwitchedWithdrawal(Withdrawal):
         )
 
 
-def _setting(ctx: Context) -> tuple[int, str, bool] | None:
+#: (block length [samples], the signal whose gain switches, whether the fits profile it)
+Setting = tuple[int, str, bool]
+
+
+def _setting(ctx: Context) -> Setting | None:
     """(block length, signal, profiled): the profile's where the fits profile an input
     out, else the missing-input finding's where it calls the residual unrecorded."""
     if (stretches := getattr(ctx.outcome.current.model, "stretches", None)) is not None:
@@ -152,7 +156,7 @@ def _setting(ctx: Context) -> tuple[int, str, bool] | None:
 
 
 def _withdrawn(
-    ctx: Context, named: list[Hypothesis], parents: list[FitResult | None], setting: Any
+    ctx: Context, named: list[Hypothesis], parents: list[FitResult | None], setting: Setting
 ) -> tuple[list[SwitchedWithdrawal], FitResult | None, list[dict[str, Any]]]:
     """The elements withdrawn from the last named back (module docstring), the model
     left and the numbers of every element judged."""
