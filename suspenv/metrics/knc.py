@@ -33,6 +33,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from suspenv.core.errors import ValidationError
+from suspenv.metrics.knc_kernel import PICK
 from suspenv.models.effects import Effect
 from suspenv.models.mcpherson.params import SIDE_SIGN, Axle
 
@@ -178,23 +179,40 @@ def _curves(b: Callable[[str], np.ndarray], st: int) -> dict[str, np.ndarray]:
         "wheel": (zw - zw[:, st : st + 1]) * 1e3,
         "pad": (zp - zp[:, st : st + 1]) * 1e3,
     }
-    wy = b("wheel_centre_y")
-    track = (wy[..., 0] - wy[..., 1])[:, st : st + 1]
-    phi = np.arctan((zw[..., 0] - zw[..., 1]) / track) * RAD2DEG
-    phi = phi - phi[:, st : st + 1]
+    phi = roll_angle(zw, b("wheel_centre_y"), st)
     out["roll"] = phi[..., None] * sg
     fz = out["tyre_fz"]
-    cy = b("contact_y")
-    t_cp = (cy[..., 0] - cy[..., 1])[:, st : st + 1]
     axle = {
         "half_force_difference": 0.5 * (fz[..., 0] - fz[..., 1]),
         "half_travel_difference": 0.5 * (out["wheel"][..., 0] - out["wheel"][..., 1]),
-        "roll_moment": 0.5 * (fz[..., 0] - fz[..., 1]) * t_cp,
+        "roll_moment": roll_moment(fz, b("contact_y"), st),
         "roll_axle": phi,
     }
     for k, v in axle.items():  # axle curves: same on both "wheels"
         out[k] = np.stack([v, v], axis=-1)
     return out
+
+
+def static_track(y: np.ndarray, st: int) -> np.ndarray:
+    """Track (rows, 1) at the static grid index ``st`` of the lateral positions ``y``
+    (rows, G, 2) (ISO y, left then right wheel): ``y_L - y_R``, in ``y``'s unit."""
+    return (y[..., 0] - y[..., 1])[:, st : st + 1]
+
+
+def roll_angle(z: np.ndarray, y: np.ndarray, st: int) -> np.ndarray:
+    """Roll angle phi (rows, G) [deg], zero at the static grid index ``st``:
+    ``atan((z_L - z_R) / t)`` of the heights ``z`` (rows, G, 2) with ``t`` the
+    :func:`static_track` of the lateral positions ``y`` (same length unit); positive
+    when the left point rises."""
+    phi = np.arctan((z[..., 0] - z[..., 1]) / static_track(y, st)) * RAD2DEG
+    return phi - phi[:, st : st + 1]
+
+
+def roll_moment(fz: np.ndarray, y: np.ndarray, st: int) -> np.ndarray:
+    """Axle roll moment (rows, G) of the tyre forces ``fz`` (rows, G, 2) [N]:
+    ``0.5 (F_zL - F_zR) t_cp``, ``t_cp`` the :func:`static_track` of the contact points'
+    lateral positions ``y`` (rows, G, 2) (N*m for ``y`` in m)."""
+    return 0.5 * (fz[..., 0] - fz[..., 1]) * static_track(y, st)
 
 
 def quadratic_fit(x: np.ndarray, y: np.ndarray, centre: int, half: int = FIT_HALF_WIDTH):
@@ -236,13 +254,7 @@ def _reduce(obj: KCObjective, curves: dict[str, np.ndarray], centre: int) -> np.
     wheels = [0] if obj.test == "single" else [0, 1]  # single: the moving wheel only
     y = np.moveaxis(curves[obj.curve][..., wheels], -1, 1)  # (n, wheels, G)
     x = np.moveaxis(curves[obj.x][..., wheels], -1, 1)
-    value, slope, curv = quadratic_fit(x, y, centre)
-    pick = {"value": value, "gradient": slope, "rate": slope, "rate_gradient": curv}[obj.reduce]
-    return pick.mean(axis=1)
-
-
-#: reduction -> row of (value, slope, curvature) that it picks (see _reduce)
-_PICK = {"value": 0, "gradient": 1, "rate": 1, "rate_gradient": 2}
+    return quadratic_fit(x, y, centre)[PICK[obj.reduce]].mean(axis=1)
 
 
 def objectives(results: dict[str, KCResult]) -> np.ndarray:
@@ -283,7 +295,7 @@ def objectives(results: dict[str, KCResult]) -> np.ndarray:
         del curves
         fit = quadratic_fit(np.moveaxis(x, -1, 2), np.moveaxis(y, -1, 2), FIT_HALF_WIDTH)
         del x, y
-        pick = np.stack(fit)[[_PICK[OBJECTIVES[i].reduce] for i in idx], range(len(idx))]
+        pick = np.stack(fit)[[PICK[OBJECTIVES[i].reduce] for i in idx], range(len(idx))]
         branch = pick.mean(axis=-1)  # (objectives, 2 n): mean over the wheels
         F[:, idx] = (0.5 * (branch[:, :n] + branch[:, n:])).T
     return F

@@ -41,7 +41,13 @@ import numpy as np
 
 from suspenv.core.errors import ValidationError
 from suspenv.measurements.knc import OPPOSED_TESTS
-from suspenv.metrics.knc import FIT_HALF_WIDTH, RAD2DEG, quadratic_fit
+from suspenv.metrics.knc import (
+    FIT_HALF_WIDTH,
+    RAD2DEG,
+    quadratic_fit,
+    roll_angle,
+    roll_moment,
+)
 from suspenv.models.mcpherson.params import SIDE_SIGN, AxleConstants
 from suspenv.models.mcpherson.solver import spin_axis  # the channels give back its axis
 
@@ -344,13 +350,10 @@ def force_roll_centre(res: KCResult) -> tuple[np.ndarray, np.ndarray]:
         nan = np.full(res.ok.size, np.nan)
         return nan, nan
     j = _own_slope(res, res.test, "tyre_fz", np.ones(2)) * 1e-3  # N per N
-    st = res.static_index
-    P = 0.5 * (patch_point(res, "down") + patch_point(res, "up"))[:, st]  # (n, 2, 3)
+    P = static_patch_point(res)
     v = np.zeros_like(P)  # the line's normal (_lines_meet): direction (s_w, j) in y-z
     v[..., 1], v[..., 2] = -j, SIDE_SIGN
-    y, z = _lines_meet(P, v)
-    ground = 0.5 * (P[..., 0, 2] + P[..., 1, 2])
-    return y * 1e3, (z - ground) * 1e3
+    return _above_pads(*_lines_meet(P, v), P)
 
 
 def loop_half_width(res: KCResult, chan: str) -> np.ndarray:
@@ -398,10 +401,15 @@ def _loop(res: KCResult, fn) -> np.ndarray:
     return 0.5 * (fn("down") + fn("up"))
 
 
+def _from_static(res: KCResult, branch: str, chan: str) -> np.ndarray:
+    """Channel ``chan`` (n, G, 2) [m] from its static value on ``branch``, in mm."""
+    z = res.branch(chan, branch)
+    return (z - z[:, res.static_index : res.static_index + 1]) * 1e3
+
+
 def wheel_travel(res: KCResult, branch: str) -> np.ndarray:
     """Wheel-centre travel z_w (n, G, 2) [mm] from its static value on ``branch``."""
-    z = res.branch("wheel_centre_z", branch)
-    return (z - z[:, res.static_index : res.static_index + 1]) * 1e3
+    return _from_static(res, branch, "wheel_centre_z")
 
 
 def _down(s: np.ndarray) -> np.ndarray:
@@ -417,6 +425,19 @@ def patch_point(res: KCResult, branch: str) -> np.ndarray:
     d = _down(spin_axis(b("camber"), b("toe")))
     t = (b("pad_z") - wc[..., 2]) / d[..., 2]
     return wc + t[..., None] * d
+
+
+def static_patch_point(res: KCResult) -> np.ndarray:
+    """Loaded contact point P (n, 2, 3) [m] at the static position (:func:`patch_point`,
+    mean of the two branches)."""
+    return 0.5 * (patch_point(res, "down") + patch_point(res, "up"))[:, res.static_index]
+
+
+def _above_pads(y: np.ndarray, z: np.ndarray, P: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A front-view point (y ISO, z) [m] as (y [mm], height above the mean pad plane [mm]),
+    the pad plane that of the two wheels' contact points ``P`` (..., 2, 3) [m]."""
+    ground = 0.5 * (P[..., 0, 2] + P[..., 1, 2])
+    return y * 1e3, (z - ground) * 1e3
 
 
 def carrier_patch_velocity(
@@ -480,9 +501,7 @@ def roll_centre_curve(res: KCResult, branch: str) -> tuple[np.ndarray, np.ndarra
     perpendicular to that point's velocity relative to the body (the line to the
     wheel's front-view instant centre); the roll centre is where the two lines meet."""
     P, v = carrier_patch_velocity(res, branch, need_pitch=False)
-    y, z = _lines_meet(P, v)
-    ground = 0.5 * (P[..., 0, 2] + P[..., 1, 2])
-    return y * 1e3, (z - ground) * 1e3
+    return _above_pads(*_lines_meet(P, v), P)
 
 
 def _meet(p: np.ndarray, d: np.ndarray, q: np.ndarray, e: np.ndarray) -> np.ndarray:
@@ -518,24 +537,11 @@ def geometric_roll_centre(res: KCResult) -> tuple[np.ndarray, np.ndarray]:
     :func:`front_view_instant_centre` meet at it. It equals the kinematic roll centre
     (:func:`roll_centre_curve`) where the construction is exact; off design and for a
     skewed arm axis or strut they differ."""
-    st = res.static_index
-    P = 0.5 * (patch_point(res, "down") + patch_point(res, "up"))[:, st]  # (n, 2, 3)
+    P = static_patch_point(res)
     ic = front_view_instant_centre(res.static_points)
     p = P[..., 1:]
     y, z = np.moveaxis(_meet(p[:, 0], ic[:, 0] - p[:, 0], p[:, 1], ic[:, 1] - p[:, 1]), -1, 0)
-    ground = 0.5 * (P[..., 0, 2] + P[..., 1, 2])
-    return y * 1e3, (z - ground) * 1e3
-
-
-def roll_angle(res: KCResult, branch: str) -> np.ndarray:
-    """Roll angle phi (n, G) [deg] = atan((z_wL - z_wR)/t), t the static wheel-centre
-    track, zero at static (as the 40 objectives)."""
-    zw = res.branch("wheel_centre_z", branch)
-    wy = res.branch("wheel_centre_y", branch)
-    st = res.static_index
-    t = (wy[..., 0] - wy[..., 1])[:, st : st + 1]
-    phi = np.arctan((zw[..., 0] - zw[..., 1]) / t) * RAD2DEG
-    return phi - phi[:, st : st + 1]
+    return _above_pads(y, z, P)
 
 
 # ------------------------------------------------------------------ the report
@@ -569,8 +575,7 @@ def _value(res: KCResult, y_of, x_of=wheel_travel) -> np.ndarray:
 
 def pad_travel(res: KCResult, branch: str) -> np.ndarray:
     """Pad travel z_p (n, G, 2) [mm] from its static value on ``branch``."""
-    z = res.branch("pad_z", branch)
-    return (z - z[:, res.static_index : res.static_index + 1]) * 1e3
+    return _from_static(res, branch, "pad_z")
 
 
 def mean_wheel_travel(res: KCResult, branch: str) -> np.ndarray:
@@ -585,8 +590,11 @@ def travel_difference(res: KCResult, branch: str) -> np.ndarray:
 
 
 def roll_axis(res: KCResult, branch: str) -> np.ndarray:
-    """Roll angle phi (n, G, 2) [deg] (repeated; :func:`roll_angle`)."""
-    return _both(roll_angle(res, branch))
+    """Roll angle phi (n, G, 2) [deg] = atan((z_wL - z_wR)/t), t the static wheel-centre
+    track, zero at static (as the 40 objectives; :func:`~suspenv.metrics.knc.roll_angle`),
+    repeated on both wheels."""
+    b = lambda name: res.branch(name, branch)  # noqa: E731
+    return _both(roll_angle(b("wheel_centre_z"), b("wheel_centre_y"), res.static_index))
 
 
 def own_roll(res: KCResult, branch: str) -> np.ndarray:
@@ -659,20 +667,14 @@ def travel_report(
     # opposite travel: roll rate, roll steer and camber, roll centre's lateral position
     oi = opp.static_index
 
-    def roll_moment(br: str) -> np.ndarray:
-        fz = opp.branch("tyre_fz", br)
-        cy = opp.branch("contact_y", br)
-        t_cp = (cy[..., 0] - cy[..., 1])[:, oi : oi + 1]
-        return _both(0.5 * (fz[..., 0] - fz[..., 1]) * t_cp)
+    def moment(br: str) -> np.ndarray:
+        return _both(roll_moment(opp.branch("tyre_fz", br), opp.branch("contact_y", br), oi))
 
     def pad_roll(res: KCResult, br: str) -> np.ndarray:  # phi_pad [deg], zero at static
-        zp, cy = res.branch("pad_z", br), res.branch("contact_y", br)
-        t_cp = (cy[..., 0] - cy[..., 1])[:, oi : oi + 1]
-        phi = np.arctan((zp[..., 0] - zp[..., 1]) / t_cp) * RAD2DEG
-        return _both(phi - phi[:, oi : oi + 1])
+        return _both(roll_angle(res.branch("pad_z", br), res.branch("contact_y", br), oi))
 
-    out["roll_rate"] = _grad(opp, roll_moment, roll_axis)
-    out["tramp_rate"] = _grad(opp, roll_moment, pad_roll)
+    out["roll_rate"] = _grad(opp, moment, roll_axis)
+    out["tramp_rate"] = _grad(opp, moment, pad_roll)
     out["roll_steer"] = _grad(opp, chan(opp, "toe", RAD2DEG), own_roll)
     out["roll_camber"] = _grad(opp, chan(opp, "camber", RAD2DEG), own_roll)
     out["roll_centre_y_iso"] = _value(opp, rc_y(opp), roll_axis)
@@ -725,13 +727,20 @@ def ackermann_error_curve(
     ``atan(L tan d_o / (L - t tan d_o))`` (L wheelbase, t the static kingpin-axis
     ground-point track ``track_mm`` (n,)); the inner wheel is the one on the side the
     axle turns to (left for a mean steer angle > 0). Zero where the wheels are straight."""
-    d = steer_angle(res, branch)
-    turn = np.sign(d.mean(axis=-1))  # + left turn
-    inner = np.where(turn > 0, d[..., 0], d[..., 1]) * turn  # magnitudes in the turn's sense
-    outer = np.where(turn > 0, d[..., 1], d[..., 0]) * turn
+    turn, inner, outer = _inner_outer(steer_angle(res, branch))
     to = np.tan(np.deg2rad(outer))
     ideal = np.rad2deg(np.arctan2(wheelbase_mm * to, wheelbase_mm - track_mm[:, None] * to))
     return np.where(turn != 0, inner - ideal, 0.0)
+
+
+def _inner_outer(d: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The turn's sense (+1 left, -1 right, 0 straight) and the inner and outer wheels'
+    steer angles as magnitudes in that sense [deg], each (...,), of the steer angles
+    ``d`` (..., 2) (left, right; the inner wheel on the side the mean angle turns to)."""
+    turn = np.sign(d.mean(axis=-1))
+    inner = np.where(turn > 0, d[..., 0], d[..., 1]) * turn
+    outer = np.where(turn > 0, d[..., 1], d[..., 0]) * turn
+    return turn, inner, outer
 
 
 def steering_curves(
@@ -755,9 +764,8 @@ def steering_curves(
 def kingpin_ground_track(res: KCResult) -> np.ndarray:
     """Static track (n,) [mm] of the steering axes' pad-plane points: from the loaded
     contact point, the trail (x) and the SAE scrub radius (y, inboard positive)."""
-    st = res.static_index
-    P = 0.5 * (patch_point(res, "down") + patch_point(res, "up"))[:, st]
-    scrub = res.mean_branch("scrub_radius")[:, st]
+    P = static_patch_point(res)
+    scrub = res.mean_branch("scrub_radius")[:, res.static_index]
     gy = P[..., 1] - SIDE_SIGN * scrub
     return (gy[:, 0] - gy[:, 1]) * 1e3
 
@@ -797,16 +805,12 @@ def ackermann_pct(
     """Ackermann percentage (n,) on ``branch``: ``100 (d_i - d_o) / (d_A - d_o)`` at both
     ends of the rack travel, averaged (``d_i``, ``d_o`` the inner and outer wheels' steer
     angles, ``d_A`` the Ackermann angle for ``d_o``: :func:`ackermann_error_curve`)."""
-    d = steer_angle(res, branch)
+    _, inner, outer = _inner_outer(steer_angle(res, branch))
     err = ackermann_error_curve(res, branch, wheelbase_mm, track_mm)
-    out = []
-    for end in (0, -1):
-        turn = np.sign(d[:, end].mean(axis=-1))
-        inner = np.where(turn > 0, d[:, end, 0], d[:, end, 1]) * turn
-        outer = np.where(turn > 0, d[:, end, 1], d[:, end, 0]) * turn
-        ideal = inner - err[:, end]
-        out.append(100.0 * (inner - outer) / (ideal - outer))
-    return 0.5 * (out[0] + out[1])
+    ends = [0, -1]
+    inner, outer, ideal = inner[:, ends], outer[:, ends], inner[:, ends] - err[:, ends]
+    pct = 100.0 * (inner - outer) / (ideal - outer)
+    return 0.5 * (pct[:, 0] + pct[:, 1])
 
 
 def knc_report(
