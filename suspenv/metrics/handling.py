@@ -95,30 +95,6 @@ def mean_peak_amplitude(peaks: np.ndarray) -> np.ndarray:
     return peaks.mean(axis=0)
 
 
-def linear_range_gradient(x: np.ndarray, y: np.ndarray, x_max: float) -> np.ndarray:
-    """Slope of y against x through the origin, least squares over 0 < |x| <= x_max.
-
-    For the understeer gradient pass x = a_y and y = steer - L/R; for the roll
-    gradient y = roll angle. ``x`` (N,), ``y`` (N,) or (N, n); returns () or (n,).
-    """
-    x = np.asarray(x, dtype=float)
-    y = np.asarray(y, dtype=float)
-    if x.ndim != 1 or y.shape[0] != x.shape[0]:
-        raise ValidationError(
-            f"`x` must be 1-D and `y` must have the same first axis, but got {x.shape}, {y.shape}"
-        )
-    use = (np.abs(x) > 0) & (np.abs(x) <= x_max)
-    if use.sum() < 2:
-        raise ValidationError(
-            f"need >= 2 samples with 0 < |x| <= x_max={x_max}, but got {int(use.sum())}"
-        )
-    xs = x[use]
-    ys = y[use]
-    if ys.ndim == 1:
-        return np.asarray(np.dot(xs, ys) / np.dot(xs, xs))
-    return xs @ ys / np.dot(xs, xs)
-
-
 # ------------------------------------------------------------------ slalom
 @dataclass(kw_only=True)
 class SlalomResult(SlalomRun):
