@@ -74,6 +74,7 @@ from suspenv.methods.tey2014.rank_sum import ScalarisationComparison, compare_ra
 from suspenv.methods.tey2014.sensitivity import SensitivityResult, spearman_matrix
 from suspenv.methods.tey2014.strategy_comparison import (
     QUALITY_NAME,
+    STRATEGY_OPTIONS,
     compare_strategies,
     optimize_arrays,
 )
@@ -107,8 +108,9 @@ STUDY_DEFAULTS: dict[str, Any] = {
     "report": True,
 }
 
-#: CMA-ES options unless the config's ``[strategy.options]`` says otherwise
-STRATEGY_DEFAULTS: dict[str, Any] = {"popsize": 42, "sigma0": 0.25, "scalarizer": "rank_sum"}
+#: CMA-ES options unless the config's ``[strategy.options]`` says otherwise (those of
+#: the strategy comparison's CMA-ES)
+STRATEGY_DEFAULTS: dict[str, Any] = STRATEGY_OPTIONS["cmaes"]
 
 DEFAULT_BUDGET = 2250
 
@@ -318,22 +320,20 @@ def _run(
         chunk_size=run_cfg.get("chunk_size"),
         meta={"study_step": label},
     )
-    return RunArrays(
-        a["unit"],
-        a["x"],
-        a["objectives"],
-        a["constraints"],
-        a["ok"],
-        a["batch"],
-        result.wall_time,
-    )
+    columns = ("unit", "x", "objectives", "constraints", "ok", "batch")
+    return RunArrays(*(a[c] for c in columns), result.wall_time)
+
+
+def _strategy_section(config: dict[str, Any]) -> tuple[str, dict[str, Any]]:
+    """The config's strategy name (default "cmaes") and its own options (a copy)."""
+    strat = config.get("strategy", {}) or {}
+    return strat.get("name") or "cmaes", dict(strat.get("options") or {})
 
 
 def _main_strategy(problem: Problem, config: dict, opts: dict, x0: np.ndarray) -> Any:
     """The config's strategy (CMA-ES on the rank-sum by default), started at ``x0``."""
-    strat = config.get("strategy", {}) or {}
-    name = strat.get("name") or "cmaes"
-    options = {**(STRATEGY_DEFAULTS if name == "cmaes" else {}), **(strat.get("options") or {})}
+    name, own = _strategy_section(config)
+    options = {**(STRATEGY_DEFAULTS if name == "cmaes" else {}), **own}
     if name == "cmaes" and opts["start"] == "initial" and "x0" not in options:
         options["x0"] = [float(v) for v in np.clip(problem.space.to_unit(x0[None, :])[0], 0, 1)]
     return make_strategy(name, problem, seed=int(config.get("seed", 0)), **options)
@@ -368,9 +368,7 @@ def _sensitivity_targets(
 
 def _compare_options(config: dict[str, Any]) -> dict[str, dict[str, Any]]:
     """The config's own strategy options also apply to that strategy in the comparison."""
-    strat = config.get("strategy", {}) or {}
-    name = strat.get("name") or "cmaes"
-    options = dict(strat.get("options") or {})
+    name, options = _strategy_section(config)
     options.pop("x0", None)  # every compared strategy starts from its own default
     return {name: options} if options else {}
 
@@ -575,9 +573,9 @@ def study_summary(study: Tey2014Study) -> dict[str, Any]:
         }
         t = truth_design(p)
         if t is not None:
-            rng = p.space.upper - p.space.lower
+            rows = recovery_table(study.all_identification, t, p.space)
             out["all_objectives_run"]["recovery_error_%_range_mean"] = float(
-                np.mean(100 * np.abs(x - t) / rng)
+                np.mean([r["error_%_range"] for r in rows])
             )
     return out
 
@@ -601,7 +599,7 @@ def run_tey2014_pipeline(config: dict[str, Any], run_dir: Path) -> dict[str, Any
     wall = time.perf_counter() - t0
     kept = study.kept
     tot = study.quality.subset(kept)(study.cmaes.objectives)  # kept columns only
-    strategy = (config.get("strategy", {}) or {}).get("name") or "cmaes"
+    strategy, _ = _strategy_section(config)
     # the keys every run summary has (``suspenv show`` / ``suspenv compare``)
     summary.update(
         name=config.get("name"),
