@@ -75,12 +75,13 @@ from suspenv.methods.tey2014.sensitivity import SensitivityResult, spearman_matr
 from suspenv.methods.tey2014.strategy_comparison import (
     QUALITY_NAME,
     STRATEGY_OPTIONS,
+    RunArrays,
     compare_strategies,
     optimize_arrays,
 )
 from suspenv.problems.views import ObjectiveSubset, WithSignedResponses
 from suspenv.registry import make_problem, make_strategy, report_function
-from suspenv.runs.quality import best_so_far, curve_items, feasible
+from suspenv.runs.quality import best_so_far, curve_items
 
 #: the ``[study]`` table of a config, with its defaults (the paper's settings)
 STUDY_DEFAULTS: dict[str, Any] = {
@@ -153,23 +154,6 @@ PAPER_REFERENCE: dict[str, Any] = {
     "n_objectives": 40,
     "table1": _paper_table1(),
 }
-
-
-@dataclass
-class RunArrays:
-    """Evaluations of one optimisation run (archive order)."""
-
-    unit: np.ndarray
-    x: np.ndarray
-    objectives: np.ndarray
-    constraints: np.ndarray
-    ok: np.ndarray
-    batch: np.ndarray
-    wall_time_s: float = 0.0
-
-    @property
-    def valid(self) -> np.ndarray:
-        return feasible(self.ok, self.constraints) & np.isfinite(self.objectives).all(axis=1)
 
 
 @dataclass
@@ -310,7 +294,7 @@ def _run(
                 "changed since it was written. Use a new run directory"
             )
 
-    result, a = optimize_arrays(
+    _, runs = optimize_arrays(
         problem,
         strategy,
         budget,
@@ -320,8 +304,7 @@ def _run(
         chunk_size=run_cfg.get("chunk_size"),
         meta={"study_step": label},
     )
-    columns = ("unit", "x", "objectives", "constraints", "ok", "batch")
-    return RunArrays(*(a[c] for c in columns), result.wall_time)
+    return runs
 
 
 def _strategy_section(config: dict[str, Any]) -> tuple[str, dict[str, Any]]:

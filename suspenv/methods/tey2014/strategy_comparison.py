@@ -15,6 +15,7 @@ population 42 on the kept objectives; random search and Latin hypercube in batch
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -37,6 +38,24 @@ STRATEGY_OPTIONS: dict[str, dict[str, Any]] = {
 QUALITY_NAME = "DoE-normalised rank-sum"
 
 
+@dataclass
+class RunArrays:
+    """Evaluations of one optimisation run (archive order)."""
+
+    unit: np.ndarray
+    x: np.ndarray
+    objectives: np.ndarray
+    constraints: np.ndarray
+    ok: np.ndarray
+    batch: np.ndarray
+    wall_time_s: float = 0.0
+
+    @property
+    def valid(self) -> np.ndarray:
+        """Feasible designs whose every objective is finite (n,)."""
+        return feasible(self.ok, self.constraints) & np.isfinite(self.objectives).all(axis=1)
+
+
 def optimize_arrays(
     problem: Problem,
     strategy: Any,
@@ -45,10 +64,10 @@ def optimize_arrays(
     seed: int,
     run_cfg: dict[str, Any],
     **options: Any,
-) -> tuple[Any, dict[str, np.ndarray]]:
+) -> tuple[Any, RunArrays]:
     """:func:`suspenv.runs.loop.optimize` into ``run_dir`` with the executor, workers,
     progress and fault policy of ``run_cfg`` (``options``: further keywords of
-    ``optimize``); returns its result and the archive's arrays."""
+    ``optimize``); returns its result and the archive's evaluations."""
     from suspenv.runs.archive import RunArchive
     from suspenv.runs.evaluation import FaultPolicy
     from suspenv.runs.executors import executor_workers, make_executor
@@ -68,7 +87,9 @@ def optimize_arrays(
             **options,
         )
     with RunArchive(run_dir) as archive:
-        return result, archive.arrays()
+        a = archive.arrays()
+    columns = a["unit"], a["x"], a["objectives"], a["constraints"], a["ok"], a["batch"]
+    return result, RunArrays(*columns, result.wall_time)
 
 
 def run_one(
@@ -86,8 +107,7 @@ def run_one(
     if strategy_name == "lhs":
         opts.setdefault("n_samples", int(budget))
     strategy = make_strategy(strategy_name, problem, seed=int(seed), **opts)
-    result, a = optimize_arrays(problem, strategy, int(budget), run_dir, int(seed), run_cfg)
-    valid = feasible(a["ok"], a["constraints"]) & np.isfinite(a["objectives"]).all(axis=1)
+    result, runs = optimize_arrays(problem, strategy, int(budget), run_dir, int(seed), run_cfg)
     summary = {
         "name": run_dir.name,
         "seed": int(seed),
@@ -96,11 +116,11 @@ def run_one(
         "strategy_options": strategy.options() if hasattr(strategy, "options") else opts,
         "budget": int(budget),
         **result.as_dict(),
-        "n_ok": int(a["ok"].sum()),
-        "n_feasible": int(valid.sum()),
+        "n_ok": int(runs.ok.sum()),
+        "n_feasible": int(runs.valid.sum()),
         "objective_names": list(problem.objective_names),
         "quality_name": QUALITY_NAME,
-        **curve_items(best_so_far(quality(a["objectives"]), valid)),
+        **curve_items(best_so_far(quality(runs.objectives), runs.valid)),
     }
     write_json(run_dir / "summary.json", summary)
     return summary
