@@ -229,8 +229,8 @@ _OWN_LOAD.update(
 )
 #: compliance outputs: suffix -> (channel, scale per wheel from SI, unit, sense)
 _OWN_OUTPUT = {
-    "steer": ("toe", np.array([1.0, 1.0]) * 180 / np.pi, "deg", "toe-in"),
-    "camber": ("camber", np.array([1.0, 1.0]) * 180 / np.pi, "deg", "top outward"),
+    "steer": ("toe", np.array([RAD2DEG, RAD2DEG]), "deg", "toe-in"),
+    "camber": ("camber", np.array([RAD2DEG, RAD2DEG]), "deg", "top outward"),
     "wc_x": ("wheel_centre_x", np.array([1e3, 1e3]), "mm", "wheel centre forward"),
     "wc_y": ("wheel_centre_y", SIDE_SIGN * 1e3, "mm", "wheel centre outboard"),
 }
@@ -256,7 +256,7 @@ def _compliance_items() -> tuple[ReportItem, ...]:
 
 
 #: channels whose hysteresis loop width is reported: channel -> (scale from SI, unit)
-LOOP_CHANNELS = {"toe": (180 / np.pi, "deg"), "camber": (180 / np.pi, "deg"), "tyre_fz": (1.0, "N")}
+LOOP_CHANNELS = {"toe": (RAD2DEG, "deg"), "camber": (RAD2DEG, "deg"), "tyre_fz": (1.0, "N")}
 #: tests whose loop widths are reported
 LOOP_TESTS = ("parallel", "opposite", "single", "lateral", "longitudinal", "traction", "aligning")
 
@@ -316,8 +316,8 @@ def compliance_report(results: dict[str, KCResult]) -> dict[str, np.ndarray]:
     out: dict[str, np.ndarray] = {}
     for test in _OWN_LOAD:
         if test in results:
-            for suffix in _OWN_OUTPUT:
-                out[f"{test}_compliance_{suffix}"] = _compliance(results[test], test, suffix)
+            for suffix, (chan, scale, _, _) in _OWN_OUTPUT.items():
+                out[f"{test}_compliance_{suffix}"] = _own_slope(results[test], test, chan, scale)
     for test in LOOP_TESTS:
         if test in results:
             for chan in LOOP_CHANNELS:
@@ -365,12 +365,6 @@ def loop_half_width(res: KCResult, chan: str) -> np.ndarray:
     i = res.static_index
     gap = res.branch(chan, "up")[:, i] - res.branch(chan, "down")[:, i]
     return 0.5 * gap * LOOP_CHANNELS[chan][0]
-
-
-def _compliance(res: KCResult, test: str, suffix: str) -> np.ndarray:
-    """Loop mean of one compliance slope (n, 2) (:func:`compliance_report`)."""
-    chan, scale, _, _ = _OWN_OUTPUT[suffix]
-    return _own_slope(res, test, chan, scale)
 
 
 def _own_slope(res: KCResult, test: str, chan: str, scale: np.ndarray) -> np.ndarray:

@@ -55,6 +55,7 @@ from suspenv.metrics.knc import (
     OBJECTIVE_NAMES,
     OBJECTIVE_UNITS,
     OBJECTIVES,
+    RAD2DEG,
     objectives,
 )
 from suspenv.models.effects import Effect
@@ -72,9 +73,9 @@ from suspenv.rigs.knc import TESTS, KCResult, run_tests
 
 #: channels shown by ``curves``: label with unit -> (rig channel, scale to that unit)
 CURVE_CHANNELS = {
-    "toe [deg]": ("toe", np.rad2deg(1.0)),
-    "camber [deg]": ("camber", np.rad2deg(1.0)),
-    "caster [deg]": ("caster", np.rad2deg(1.0)),
+    "toe [deg]": ("toe", RAD2DEG),
+    "camber [deg]": ("camber", RAD2DEG),
+    "caster [deg]": ("caster", RAD2DEG),
     "tyre force [N]": ("tyre_fz", 1.0),
     "wheel centre lateral [mm]": ("wheel_centre_y", 1e3),
 }
