@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from suspenv.core.errors import ValidationError
-from suspenv.methods.tey2014.rank_sum import compare_rank_sum_euclidean, normalised_mismatch
+from suspenv.core.scalarize import min_max_normalised
+from suspenv.methods.tey2014.rank_sum import compare_rank_sum_euclidean
 
 
 def test_euclidean_is_dominated_by_the_objective_in_large_units():
@@ -32,7 +33,7 @@ def test_euclidean_is_dominated_by_the_objective_in_large_units():
 
 def test_normalised_mismatch_is_min_max_to_ten():
     F = np.array([[1.0, 5.0], [3.0, 5.0], [2.0, 5.0]])
-    np.testing.assert_allclose(normalised_mismatch(F), [[0, 0], [10, 0], [5, 0]])
+    np.testing.assert_allclose(min_max_normalised(F), [[0, 0], [10, 0], [5, 0]])
 
 
 def test_failed_rows_are_dropped_and_signs_ignored():

@@ -49,20 +49,25 @@ def weighted_sum(
     return out
 
 
+def min_max_normalised(F: np.ndarray, scale: float = 10.0) -> np.ndarray:
+    """Each column of F (n, m) min-max normalised to [0, scale] over the rows (a constant
+    column gives 0)."""
+    lo, hi = F.min(axis=0), F.max(axis=0)
+    span = hi - lo
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(span > 0, (F - lo) / np.where(span > 0, span, 1.0), 0.0) * scale
+
+
 def rank_sum(F: np.ndarray, valid: np.ndarray | None = None, scale: float = 10.0) -> np.ndarray:
-    """Tey et al.'s dynamic rank-sum over one batch; NaN for rows not ``valid``."""
+    """Tey et al.'s dynamic rank-sum over one batch (:func:`min_max_normalised` over the
+    valid rows, summed); NaN for rows not ``valid``."""
     F = _as_2d(F)
     ok = np.isfinite(F).all(axis=1) if valid is None else np.asarray(valid, bool)
     ok = ok & np.isfinite(F).all(axis=1)
     out = np.full(F.shape[0], np.nan)
     if not ok.any():
         return out
-    G = F[ok]
-    lo, hi = G.min(axis=0), G.max(axis=0)
-    span = hi - lo
-    with np.errstate(invalid="ignore", divide="ignore"):
-        R = np.where(span > 0, (G - lo) / np.where(span > 0, span, 1.0), 0.0) * scale
-    out[ok] = R.sum(axis=1)
+    out[ok] = min_max_normalised(F[ok], scale).sum(axis=1)
     return out
 
 

@@ -16,14 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from suspenv.core.errors import ValidationError
-
-
-def normalised_mismatch(F: np.ndarray, scale: float = 10.0) -> np.ndarray:
-    """Each column min-max normalised to [0, scale] over the rows (constant column -> 0)."""
-    F = np.asarray(F, dtype=float)
-    lo, hi = F.min(axis=0), F.max(axis=0)
-    span = hi - lo
-    return np.where(span > 0, (F - lo) / np.where(span > 0, span, 1.0), 0.0) * scale
+from suspenv.core.scalarize import min_max_normalised, rank_sum
 
 
 @dataclass
@@ -95,8 +88,6 @@ def compare_rank_sum_euclidean(
     Rows that are not finite (failed designs) are dropped first; returned row indices
     refer to the finite rows only. Mismatches are taken as magnitudes (|F|).
     """
-    from suspenv.core.scalarize import rank_sum
-
     F = np.asarray(F, dtype=float)
     if F.ndim != 2 or F.shape[1] < 1:
         raise ValidationError(f"F must have shape (n, m), but got {F.shape}")
@@ -113,5 +104,5 @@ def compare_rank_sum_euclidean(
     rs = rank_sum(F)
     eu = np.sqrt((F**2).sum(axis=1))
     return ScalarisationComparison(
-        rs, eu, int(np.argmin(rs)), int(np.argmin(eu)), normalised_mismatch(F), nm
+        rs, eu, int(np.argmin(rs)), int(np.argmin(eu)), min_max_normalised(F), nm
     )
