@@ -79,6 +79,7 @@ from suspenv.methods.tey2014.strategy_comparison import (
     compare_strategies,
     optimize_arrays,
 )
+from suspenv.models.mcpherson.params import PARAMETER_NAMES, reference_design
 from suspenv.problems.views import ObjectiveSubset, WithSignedResponses
 from suspenv.registry import make_problem, make_strategy, report_function
 from suspenv.runs.quality import best_so_far, curve_items
@@ -116,33 +117,32 @@ STRATEGY_DEFAULTS: dict[str, Any] = STRATEGY_OPTIONS["cmaes"]
 DEFAULT_BUDGET = 2250
 
 
+#: the paper's Table 1 standard deviations [mm] of the hard points' x, y, z (the other
+#: parameters': :func:`_paper_table1`)
+_PAPER_POINT_STD = {
+    "lower_ball_joint": (0.04, 0.04, 0.17),
+    "lca_front_bush": (0.31, 0.03, 0.16),
+    "lca_rear_bush": (0.20, 0.12, 0.15),
+    "strut_axis_point": (0.25, 0.01, 0.07),
+    "strut_top": (0.07, 0.02, 0.08),
+    "tie_rod_inner": (1.02, 0.17, 0.33),
+    "tie_rod_outer": (0.42, 0.14, 0.37),
+    "arb_drop_link": (0.11, 0.11, 1.66),
+}
+
+
 def _paper_table1() -> dict[str, tuple[float, float | None]]:
-    """The paper's Table 1: parameter -> (mean of the best 20, std or None if not given)."""
-    points = {
-        "lower_ball_joint": ((-15.4, -688.6, -39.1), (0.04, 0.04, 0.17)),
-        "lca_front_bush": ((-2.1, -383.2, -47.1), (0.31, 0.03, 0.16)),
-        "lca_rear_bush": ((309.3, -346.7, -29.1), (0.20, 0.12, 0.15)),
-        "strut_axis_point": ((1.6, -581.8, 217.2), (0.25, 0.01, 0.07)),
-        "strut_top": ((39.5, -536.9, 558.9), (0.07, 0.02, 0.08)),
-        "tie_rod_inner": ((163.0, -317.6, 85.9), (1.02, 0.17, 0.33)),
-        "tie_rod_outer": ((136.7, -642.7, 105.3), (0.42, 0.14, 0.37)),
-        "arb_drop_link": ((65.1, -533.7, 70.6), (0.11, 0.11, 1.66)),
+    """The paper's Table 1: parameter -> (mean of the best 20, std or None if not given).
+    The means are the reference vehicle's design (suspenv's reference is the paper's
+    identified axle); the paper gives the std of the hard points and the anti-roll bar."""
+    std = {
+        f"{point}_{axis}": sd
+        for point, sds in _PAPER_POINT_STD.items()
+        for axis, sd in zip("xyz", sds, strict=True)
     }
-    bushes = {
-        "lca_front": dict(kx=9483.4, ky=8811.48, rx=32268.7, ry=760.3, rz=6019.3),
-        "lca_rear": dict(kx=3721.1, ky=21425.1, rx=5496.9, ry=18353, rz=4399.7),
-        "arb_bush": dict(kx=36581.3, ky=2625.1, kz=39097.8, rx=24386, ry=10380, rz=1160.5),
-        "top_mount": dict(kx=5401.2, ky=33553.1, kz=2463.9, rx=16494, ry=23121, rz=3396.7),
-    }
-    out: dict[str, tuple[float, float | None]] = {}
-    for name, (mean, std) in points.items():
-        for axis, m, sd in zip("xyz", mean, std, strict=True):
-            out[f"{name}_{axis}"] = (m, sd)
-    for name, comps in bushes.items():
-        for comp, m in comps.items():
-            out[f"{name}_{comp}"] = (float(m), None)
-    out.update(arb_torsion=(930.6, 0.03), static_camber=(-0.52, None), static_toe=(0.0032, None))
-    return out
+    std["arb_torsion"] = 0.03
+    means = zip(PARAMETER_NAMES, reference_design(), strict=True)
+    return {name: (float(mean), std.get(name)) for name, mean in means}
 
 
 #: what the paper reported for its McPherson axle (spec: kc_identification.md)
