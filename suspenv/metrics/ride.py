@@ -799,11 +799,15 @@ def _spectral_modal(
 
     r, n_iter, m = _fixed_point(r0, update, modal, iterations, tol)
     ms = mean_square(m, [0, 1], road, n_freq, vehicle, True)
-    if lz is not None and any(k is not None for end in lz.kappa for k in end):
-        ms = ms + _stop_remainder(lin, lz, r, sigma(m), road, vehicle)
-    if lz is not None and dahl:
-        leaf_rows = [keep.index(6)] if halves else [6, 7]
-        ms = ms + _dahl_remainder(lin, lz, m, leaf_rows, sigma(m), road, vehicle)
+    stops = lz is not None and any(k is not None for end in lz.kappa for k in end)
+    if lz is not None and (stops or dahl):
+        # the remainders' common terms, once: element RMS values, uniform road, direct
+        sig, uniform, direct = sigma(m), _uniform_road(road, vehicle), _direct(lin)
+        if stops:
+            ms = ms + _stop_remainder(lin, lz, r, sig, uniform, direct)
+        if dahl:
+            leaf_rows = [keep.index(6)] if halves else [6, 7]
+            ms = ms + _dahl_remainder(lz, m, leaf_rows, sig, uniform, direct)
     return _spectral_result(np.sqrt(ms[:, :, 0]), np.sqrt(ms[:, :, 1]), r, n_iter)
 
 
@@ -838,14 +842,14 @@ def _uniform_road(road: RandomRoad, vehicle: Minibus) -> tuple[np.ndarray, ...]:
 
 
 def _deflection_correlations(
-    lin: RideModel, r: np.ndarray, dahl: bool, road: RandomRoad, vehicle: Minibus
+    lin: RideModel, r: np.ndarray, dahl: bool, uniform: tuple[np.ndarray, ...]
 ) -> np.ndarray:
     """Correlation functions ``rho_ij(tau)`` (n, 6, lags) of the spring deflections FL,
     FR, RL, RR (the pairs of ``_DISTINCT``; ``E[d_i(t) d_j(t + tau)]`` over their RMS
     values, at the lags of :func:`_remainder_lags`) of the linear model with the rates
-    ``r`` under the road (its class band): their cross-spectra on the uniform grid,
-    back by the inverse FFT."""
-    f, idx, gq, delay, rho = _uniform_road(road, vehicle)
+    ``r`` under the road (its class band; ``uniform``: :func:`_uniform_road`): their
+    cross-spectra on the uniform grid, back by the inverse FFT."""
+    f, idx, gq, delay, rho = uniform
     nq = lin.nq
     M, C, K, Kin, Cin = lin.linear_system(r[:, DAMPER], r[:, LEAF], r[:, FRONT])
     springs = lin.E[:nq, 0:4].T
@@ -875,8 +879,7 @@ def _track_cross_spectra(
 def _leaf_rate_correlations(
     modes: list[tuple[np.ndarray, np.ndarray]],
     leaf_rows: list[int],
-    road: RandomRoad,
-    vehicle: Minibus,
+    uniform: tuple[np.ndarray, ...],
 ) -> np.ndarray:
     """Correlation functions (n, 6, lags; as :func:`_deflection_correlations`, only the
     rear pairs RL-RL and RL-RR set, the rest zero) of the rear leaf deflection rates of
@@ -885,8 +888,9 @@ def _leaf_rate_correlations(
     leaf is the symmetric half's part less the antisymmetric one's, whose inputs are
     uncorrelated with PSDs ``Gq (1 +- rho)/2``) or of the whole model (one form,
     outputs ``leaf_rows`` the left and right leaves, wheel inputs); their spectra times
-    ``(2 pi f)^2`` on the uniform grid, back by the inverse FFT."""
-    f, idx, gq, delay, rho = _uniform_road(road, vehicle)
+    ``(2 pi f)^2`` on the uniform grid (``uniform``: :func:`_uniform_road`), back by the
+    inverse FFT."""
+    f, idx, gq, delay, rho = uniform
     if len(modes) == 2:
         parts = []
         for sign, (lam, P) in zip((1.0, -1.0), modes, strict=True):
@@ -939,8 +943,8 @@ def _stop_remainder(
     lz: ElementLinearisation,
     r: np.ndarray,
     sig: np.ndarray,
-    road: RandomRoad,
-    vehicle: Minibus,
+    uniform: tuple[np.ndarray, ...],
+    direct: np.ndarray,
 ) -> np.ndarray:
     """Mean squares ((m/s^2)^2; (n, front/rear, weighted/unweighted)) that the p = 1
     end stops' remainders ``F - E[F] - gain y`` add at the measuring points, the
@@ -950,22 +954,22 @@ def _stop_remainder(
     (:func:`_deflection_correlations`) and the stops' Hermite coefficients at the
     deflections' means and RMS values of the element RMS values ``sig``
     (:meth:`ElementLinearisation.remainder_coefficients`); weighted: Wk in the ISO band
-    (:func:`_remainder_lags`); unweighted: the whole variance."""
-    rho = _deflection_correlations(lin, r, lz.dahl is not None, road, vehicle)
+    (:func:`_remainder_lags`); unweighted: the whole variance. ``uniform``: the road on
+    the uniform grid (:func:`_uniform_road`); ``direct``: :func:`_direct` of ``lin``."""
+    rho = _deflection_correlations(lin, r, lz.dahl is not None, uniform)
     sd = np.hstack([sig[:, SIG_FRONT], sig[:, SIG_LEAF]])
     ends = (slice(0, 2), slice(2, 4))
     means = np.hstack([lz.spring_mean(e, sig[:, c], sd[:, c]) for e, c in enumerate(ends)])
-    return _mehler_mean_square(_direct(lin), lz.remainder_coefficients(means, sd), rho)
+    return _mehler_mean_square(direct, lz.remainder_coefficients(means, sd), rho)
 
 
 def _dahl_remainder(
-    lin: RideModel,
     lz: ElementLinearisation,
     modes: list[tuple[np.ndarray, np.ndarray]],
     leaf_rows: list[int],
     sig: np.ndarray,
-    road: RandomRoad,
-    vehicle: Minibus,
+    uniform: tuple[np.ndarray, ...],
+    direct: np.ndarray,
 ) -> np.ndarray:
     """Mean squares ((m/s^2)^2; (n, front/rear, weighted/unweighted)) that the Dahl
     forces' parts incoherent with the leaf motion add at the measuring points
@@ -975,9 +979,10 @@ def _dahl_remainder(
     (:func:`_stop_remainder`), cross-covariances by Mehler's formula from the leaf
     deflection rates' correlations (:func:`_leaf_rate_correlations` of the modal forms
     ``modes`` with the leaves at outputs ``leaf_rows``); none with the stops'
-    remainders (at equal times the rate is uncorrelated with the deflection)."""
-    rho = _leaf_rate_correlations(modes, leaf_rows, road, vehicle)
-    return _mehler_mean_square(_direct(lin), lz.dahl_remainder_coefficients(sig), rho)
+    remainders (at equal times the rate is uncorrelated with the deflection); ``uniform``
+    and ``direct`` as there."""
+    rho = _leaf_rate_correlations(modes, leaf_rows, uniform)
+    return _mehler_mean_square(direct, lz.dahl_remainder_coefficients(sig), rho)
 
 
 def ride_spectral(

@@ -7,8 +7,10 @@ dominates. This module runs the same scheme compiled: for each design in turn, t
 fixed-step RK4 over the half-step road grid with the same element laws (linear
 springs and tyre dampers, the two-stage rear leaf, the asymmetric digressive dampers,
 tyre lift-off, and the effects: bump/rebound stops, smooth Coulomb damper friction,
-Dahl leaf friction). The sums run in another order than numpy's matrix products, so
-the outputs agree with the numpy loop to rounding (``tests/test_ride_kernel.py``).
+Dahl leaf friction; the effects' laws are :mod:`suspenv.models.effects.laws`' float
+forms, the numpy loop's own). The sums run in another order than numpy's matrix
+products, so the outputs agree with the numpy loop to rounding
+(``tests/test_ride_kernel.py``).
 Frames, units and signs are those of :mod:`suspenv.models.minibus.ride_model`.
 
 Effects are passed as rows of float arrays (:func:`pack_effects`); their parameters
@@ -26,6 +28,7 @@ import numpy as np
 from suspenv.core import compiled
 from suspenv.core.errors import ValidationError
 from suspenv.models.effects.effect import Effect
+from suspenv.models.effects.laws import FLOATS, JITABLE
 
 #: numba is there: the compiled loop can run (compiled at the first call)
 AVAILABLE = compiled.AVAILABLE
@@ -137,10 +140,14 @@ def _forces(
             stop_par[s_, i, 3],
         )
         for w in range(stop_col[s_], stop_col[s_] + 2):
-            f[w] += sign * k * max(sign * e[w] - gap, 0.0) ** ex
+            if sign > 0.0:
+                f[w] += FLOATS.bump_stop(e[w], gap, k, ex)
+            else:
+                f[w] += FLOATS.rebound_stop(e[w], gap, k, ex)
     for s_ in range(fric_col.shape[0]):
         for w in range(fric_col[s_], fric_col[s_] + 2):
-            f[npos + w] += fric_par[s_, i, 0] * math.tanh(e[npos + w] / fric_par[s_, i, 1])
+            v = e[npos + w]
+            f[npos + w] += FLOATS.coulomb_smooth(v, fric_par[s_, i, 0], fric_par[s_, i, 1])
 
 
 def _rhs(
@@ -196,8 +203,7 @@ def _rhs(
             v = 0.0
             for q in range(nq):
                 v += pv[2 + w, q] * x[nq + q]
-            sg = 1.0 if v > 0 else (-1.0 if v < 0 else 0.0)
-            out[2 * nq + w] = hyst[i, 0] * v * (1.0 - z / hyst[i, 1] * sg)
+            out[2 * nq + w] = FLOATS.dahl_dzdt(z, v, hyst[i, 0], hyst[i, 1])
     for q in range(nq):
         s = 0.0
         for j in range(bt.shape[1]):
@@ -304,4 +310,4 @@ def _run(
 
 #: :func:`_run`, compiled at its first call (numba's cache keeps it for later
 #: processes); without numba, :func:`_run` itself
-run = compiled.Lazy(globals(), ("_forces", "_rhs"), _run)
+run = compiled.Lazy(globals(), ("_forces", "_rhs"), _run, jitable=JITABLE)
