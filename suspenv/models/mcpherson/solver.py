@@ -79,6 +79,7 @@ import numpy as np
 
 from suspenv.core.errors import ValidationError
 from suspenv.models.effects import Effect, cubic_stiffness
+from suspenv.models.effects.hysteresis import dahl_segment
 from suspenv.models.mcpherson import residual_kernel, sweep_kernel
 from suspenv.models.mcpherson.effects import (
     BUSHING_NAMES,
@@ -1313,24 +1314,21 @@ class _CentreDrive:
 
 
 def dahl_step(x_prev, x, sigma, f_c, z_prev, eps) -> np.ndarray:
-    """Dahl force after moving from ``x_prev`` to ``x``: the library's exact path form
-    (:func:`~suspenv.models.effects.dahl_path`) on the one segment, its closed form
-    ``z = s f_c (1 - d) + d z_prev``, ``d = exp(-sigma |dx| / f_c)``, written out (the
-    same arithmetic). ``sigma`` [N/m] > 0 and ``f_c`` [N] > 0 (checked where the effect
-    is placed; a strut friction of level 0 is not placed).
-
-    The increment is passed through a smooth dead band of width ``eps``,
+    """Dahl force after moving from ``x_prev`` to ``x``: the library's exact step
+    (:func:`~suspenv.models.effects.hysteresis.dahl_segment`, as its path form takes it)
+    on an increment passed through a smooth dead band of width ``eps``,
     ``dx_eff = dx (1 - eps / sqrt(dx^2 + eps^2))``, so the force is a smooth function of
     ``x`` at a reversal (the exact element has a kink there, on which Newton's method
     can cycle). The lag it introduces is ``eps`` (1e-6 m, 1e-5 rad), far below anything
-    measured.
+    measured. ``sigma`` [N/m] > 0 and ``f_c`` [N] > 0 (checked where the effect is
+    placed; a strut friction of level 0 is not placed).
     """
     x = np.asarray(x, dtype=float)
     dx = x - x_prev
     dx_eff = dx * (1.0 - eps / np.sqrt(dx * dx + eps * eps))
     dx_eff = (x_prev + dx_eff) - x_prev  # the path's own segment, as the path form takes it
-    decay = np.exp(-sigma * np.abs(dx_eff) / f_c)
-    return np.sign(dx_eff) * f_c * (1.0 - decay) + decay * z_prev
+    a, decay = dahl_segment(dx_eff, sigma, f_c)
+    return a + decay * z_prev
 
 
 def _coloured_groups() -> tuple[np.ndarray, np.ndarray, int]:
