@@ -48,7 +48,10 @@ def bushing_loads(solver: AxleSolver, x: np.ndarray, hist: dict) -> np.ndarray:
     xb = solver._to_bush(x)
     f = solver._K4 * xb
     for j, name in enumerate(BUSH_ORDER):
-        f[..., j, :] += solver._bush_extra(name, xb[..., j, :], hist)
+        extra = solver._cubic(name, xb[..., j, :])
+        if name in hist:
+            extra = extra + solver._dahl((name,), xb[..., j, None, :], hist)[..., 0, :]
+        f[..., j, :] += extra
     return solver._to_vehicle(f)
 
 

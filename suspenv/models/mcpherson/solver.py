@@ -637,18 +637,14 @@ class AxleSolver:
             raise ValidationError("the axle has no strut friction")
         return self._placed.friction
 
-    def _bush_extra(self, name: str, x: np.ndarray, hist: dict) -> np.ndarray:
-        """The load (..., 6) that bushing ``name`` exerts *against* its deflection ``x``
-        (..., 6) (bushing frame) beyond its linear stiffness: the placed cubic stiffness
-        and Dahl element (``hist``: bushing -> (deflection, Dahl force) of the last
-        committed step); zero for a linear bushing."""
+    def _cubic(self, name: str, x: np.ndarray) -> np.ndarray:
+        """The load (..., 6) that the placed cubic stiffness of bushing ``name`` exerts
+        *against* its deflection ``x`` (..., 6) (bushing frame); zero without one."""
         f = np.zeros(np.broadcast_shapes(x.shape, self.K[name].shape))
         if name in self._placed.cubic:
             ratio, x_ref = self._placed.cubic[name]
             k3 = ratio * self.K[name][..., :3] / x_ref**2
             f[..., :3] += cubic_stiffness(x[..., :3], k3)
-        if name in hist:
-            f = f + self._dahl((name,), x[..., None, :], hist)[..., 0, :]
         return f
 
     def _dahl(self, names: Sequence[str], x: np.ndarray, hist: dict) -> np.ndarray:
@@ -666,10 +662,13 @@ class AxleSolver:
     def deflections(self, r: np.ndarray, R: np.ndarray) -> dict[str, np.ndarray]:
         """Bushing deflections (..., 2, 6): translation [m] and rotation vector [rad], in
         each bushing's frame (vehicle axes for a bushing without an orientation)."""
-        arm = self._vec_body[0][..., 0:2, :]  # the lower arm's two bushes
-        x = self._deflections(r, R, rotate(R[..., [0, 0], :, :], arm))
-        x = self._to_bush(x)
+        x = self._bush_deflections(r, R)
         return {name: x[..., j, :] for j, name in enumerate(BUSH_ORDER)}
+
+    def _bush_deflections(self, r: np.ndarray, R: np.ndarray) -> np.ndarray:
+        """:meth:`deflections` stacked (..., 2, 4, 6) in BUSH_ORDER."""
+        arm = self._vec_body[0][..., 0:2, :]  # the lower arm's two bushes
+        return self._to_bush(self._deflections(r, R, rotate(R[..., [0, 0], :, :], arm)))
 
     def _to_bush(self, x: np.ndarray) -> np.ndarray:
         """Stacked deflections (..., 2, 4, 6) from vehicle axes into the bushing frames
@@ -745,12 +744,11 @@ class AxleSolver:
             return None
         out = np.zeros(r.shape[:-2] + (N_EXTRA,))
         if placed.cubic or placed.hysteresis:
-            arm = rotate(R[..., [0, 0], :, :], self._vec_body[0][..., 0:2, :])
-            xb = self._to_bush(self._deflections(r, R, arm))
+            xb = self._bush_deflections(r, R)
             f = np.zeros_like(xb)
             for j, name in enumerate(BUSH_ORDER):
                 if name in placed.cubic:
-                    f[..., j, :] = self._bush_extra(name, xb[..., j, :], {})
+                    f[..., j, :] = self._cubic(name, xb[..., j, :])
             names = [b for b in BUSH_ORDER if b in state.hyst]
             if names:  # every Dahl bushing in one step
                 idx = [BUSH_ORDER.index(b) for b in names]
