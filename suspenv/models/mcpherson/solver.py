@@ -72,7 +72,7 @@ from __future__ import annotations
 import copy
 import functools
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -285,11 +285,12 @@ class AxleState:
         histories."""
         return AxleState(r, R, lam, *self._histories(np.copy))
 
-    def take(self, rows: np.ndarray) -> AxleState:
-        """The state of the given rows (index array or boolean mask)."""
+    def take(self, rows: np.ndarray | slice, copy: bool = True) -> AxleState:
+        """The state of the given rows (index array, boolean mask, or a slice: ``copy``
+        False gives views)."""
 
         def pick(a: np.ndarray) -> np.ndarray:
-            return a[rows].copy()
+            return a[rows].copy() if copy else a[rows]
 
         return AxleState(pick(self.r), pick(self.R), pick(self.lam), *self._histories(pick))
 
@@ -352,6 +353,15 @@ def _inv_mul(Jinv: np.ndarray | SharedInverse, res: np.ndarray) -> np.ndarray:
     if isinstance(Jinv, SharedInverse):
         return Jinv.mul(res)
     return np.matmul(Jinv, res[..., None])[..., 0]
+
+
+def lockup_text(name: str, translation: float, rotation: float) -> str:
+    """The words of a lock-up of bushing ``name`` (:meth:`AxleSolver.lockups`): its
+    deflection [m], [rad] and the limits."""
+    return (
+        f"the {name} bushing deflects {translation * 1e3:.1f} mm / {rotation:.2f} rad (limits "
+        f"{MAX_TRANSLATION * 1e3:g} mm, {MAX_ROTATION:g} rad)"
+    )
 
 
 def spin_axis(camber: np.ndarray, toe: np.ndarray) -> np.ndarray:
@@ -664,6 +674,15 @@ class AxleSolver:
         each bushing's frame (vehicle axes for a bushing without an orientation)."""
         x = self._bush_deflections(r, R)
         return {name: x[..., j, :] for j, name in enumerate(BUSH_ORDER)}
+
+    def lockups(self, st: AxleState) -> Iterator[tuple[str, np.ndarray, np.ndarray, np.ndarray]]:
+        """Per bushing at the state ``st``: (name, its largest translation [m] and rotation
+        [rad] over both sides (n,), locked (n,) bool: beyond :data:`MAX_TRANSLATION` or
+        :data:`MAX_ROTATION`, or not finite)."""
+        for name, d in self.deflections(st.r, st.R).items():
+            tr = np.abs(d[..., :3]).max(axis=(-1, -2))
+            rot = np.abs(d[..., 3:]).max(axis=(-1, -2))
+            yield name, tr, rot, ~((tr <= MAX_TRANSLATION) & (rot <= MAX_ROTATION))
 
     def _bush_deflections(self, r: np.ndarray, R: np.ndarray) -> np.ndarray:
         """:meth:`deflections` stacked (..., 2, 4, 6) in BUSH_ORDER."""

@@ -279,7 +279,7 @@ def check_assembles(vehicle: VehicleFile) -> None:
     (:class:`AxleSolver`, the rig's own first solve) with bushing deflections within the
     rig's plausibility limits.
     """
-    from suspenv.models.mcpherson.solver import MAX_ROTATION, MAX_TRANSLATION, AxleSolver
+    from suspenv.models.mcpherson.solver import AxleSolver, lockup_text
 
     what = f"vehicle {vehicle.name!r} does not assemble"
     with np.errstate(all="ignore"):  # a degenerate strut line is reported below
@@ -315,13 +315,12 @@ def check_assembles(vehicle: VehicleFile) -> None:
             f"{what}: ConvergenceError: no static equilibrium at the design position (Newton "
             f"did not converge in {solver.maxit} iterations)"
         )
-    for name, defl in solver.deflections(st.r, st.R).items():
-        tr, rot = float(np.abs(defl[..., :3]).max()), float(np.abs(defl[..., 3:]).max())
-        if not (tr <= MAX_TRANSLATION and rot <= MAX_ROTATION):
+    for name, tr, rot, locked in solver.lockups(st):
+        if locked.any():
             raise ValidationError(
-                f"{what}: LockupError: at the static position the {name} bushing deflects "
-                f"{tr * 1e3:.1f} mm / {rot:.2f} rad (limits {MAX_TRANSLATION * 1e3:g} mm, "
-                f"{MAX_ROTATION:g} rad): the design cannot carry its static load"
+                f"{what}: LockupError: at the static position "
+                f"{lockup_text(name, float(tr.max()), float(rot.max()))}: the design cannot "
+                "carry its static load"
             )
 
 
