@@ -101,7 +101,6 @@ BODIES = ("lower_arm", "knuckle", "strut_rod", "arb_half")
 NQ, NL = 24, 9
 NS = NQ + NL  # unknowns per side
 EZ = np.array([0.0, 0.0, 1.0])
-EY = np.array([0.0, 1.0, 0.0])
 #: the bar's stiffness at its middle against shear [N/m] and bending [N*m/rad]
 ARB_SHEAR_STIFFNESS = 1e8
 ARB_BENDING_STIFFNESS = 1e6
