@@ -553,7 +553,7 @@ def _run_numpy(
             {name: v[sl] for name, v in out.items()},
             ok[sl].copy(),
             msgs[sl],
-            [x.take(sl, copy=False) for x in trail] if keep_states else [],
+            [x.take(sl, views=True) for x in trail] if keep_states else [],
             hard_points,
         )
     return results

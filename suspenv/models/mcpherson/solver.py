@@ -284,12 +284,12 @@ class AxleState:
         histories."""
         return AxleState(r, R, lam, *self._histories(np.copy))
 
-    def take(self, rows: np.ndarray | slice, copy: bool = True) -> AxleState:
-        """The state of the given rows (index array, boolean mask, or a slice: ``copy``
-        False gives views)."""
+    def take(self, rows: np.ndarray | slice, views: bool = False) -> AxleState:
+        """The state of the given rows (index array, boolean mask, or a slice), copied
+        (``views``: views of a slice's rows)."""
 
         def pick(a: np.ndarray) -> np.ndarray:
-            return a[rows].copy() if copy else a[rows]
+            return a[rows] if views else a[rows].copy()
 
         return AxleState(pick(self.r), pick(self.R), pick(self.lam), *self._histories(pick))
 
