@@ -21,7 +21,6 @@ from suspenv.models.mcpherson.solver import (
     BUSH_ORDER,
     CSCALE,
     DAHL_EPS_TRANSLATION,
-    EY,
     NQ,
     VEC_BODY,
     AxleSolver,
@@ -30,6 +29,7 @@ from suspenv.models.mcpherson.solver import (
     dahl_step,
 )
 
+EY = np.array([0.0, 1.0, 0.0])  # the rack's direction of travel
 #: body of each load slot (bushings, ball joint x2, tie rod, drop link x2, spring x2,
 #: cylindrical joint x2, strut friction x2, tyre, wheel weight, external, bar)
 SLOT_BODY = (0, 0, 2, 3, 0, 1, 1, 1, 3, 1, 2, 2, 1, 2, 1, 1, 1, 1, 3)
@@ -48,7 +48,10 @@ def bushing_loads(solver: AxleSolver, x: np.ndarray, hist: dict) -> np.ndarray:
     xb = solver._to_bush(x)
     f = solver._K4 * xb
     for j, name in enumerate(BUSH_ORDER):
-        f[..., j, :] += solver._bush_extra(name, xb[..., j, :], hist)
+        extra = solver._cubic(name, xb[..., j, :])
+        if name in hist:
+            extra = extra + solver._dahl((name,), xb[..., j, None, :], hist)[..., 0, :]
+        f[..., j, :] += extra
     return solver._to_vehicle(f)
 
 

@@ -65,7 +65,6 @@ def test_flagged_designs_are_evaluated_and_worded_by_the_rig(problem, designs, m
     # lock-up limits every design exceeds at the bump end: the compiled sweep flags
     # each, which the rig's path then evaluates and words
     monkeypatch.setattr(solver_module, "MAX_TRANSLATION", 1e-5)
-    monkeypatch.setattr(rig_module, "MAX_TRANSLATION", 1e-5)
     (F, ok, msgs), (F_ref, ok_ref, msgs_ref) = _both(problem, designs[:3], monkeypatch)
     assert not ok_ref.any() and "LockupError" in msgs_ref[0]
     assert np.array_equal(ok, ok_ref) and msgs == msgs_ref

@@ -82,7 +82,6 @@ def test_flagged_designs_are_run_and_worded_by_the_numpy_path(axle, monkeypatch)
     # limits every design exceeds at the bump end: each is flagged by the compiled
     # sweep and reported with the numpy path's message
     monkeypatch.setattr(solver_module, "MAX_TRANSLATION", 1e-5)
-    monkeypatch.setattr(rig_module, "MAX_TRANSLATION", 1e-5)
     compiled, reference = _both(monkeypatch, axle, TESTS, steps=10)
     assert not reference["parallel"].ok.any()
     assert "LockupError" in reference["parallel"].messages[0]

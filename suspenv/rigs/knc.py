@@ -101,13 +101,12 @@ from suspenv.models.mcpherson.params import Axle
 from suspenv.models.mcpherson.rotation import relative_log, rotate, turned
 from suspenv.models.mcpherson.solver import (
     JACOBIAN_BLOCK,
-    MAX_ROTATION,
-    MAX_TRANSLATION,
     OUTPUT_NAMES,
     AxleSolver,
     AxleState,
     SharedInverse,
     _inv_mul,
+    lockup_text,
 )
 
 # the tests (TESTS: travel, FORCE_TESTS: compliance, STEER_TESTS: steering, ALL_TESTS,
@@ -554,7 +553,7 @@ def _run_numpy(
             {name: v[sl] for name, v in out.items()},
             ok[sl].copy(),
             msgs[sl],
-            [_take_state(x, sl) for x in trail] if keep_states else [],
+            [x.take(sl, views=True) for x in trail] if keep_states else [],
             hard_points,
         )
     return results
@@ -895,16 +894,6 @@ def _release_rotations(st: AxleState) -> None:
     st.R = _RELEASED_ROTATIONS
 
 
-def _take_state(st: AxleState, sl: slice) -> AxleState:
-    return AxleState(
-        st.r[sl],
-        st.R[sl],
-        st.lam[sl],
-        {k: (a[sl], b[sl]) for k, (a, b) in st.hyst.items()},
-        None if st.fric is None else (st.fric[0][sl], st.fric[1][sl]),
-    )
-
-
 def _fail(ok: np.ndarray, msgs: list[str], rows: np.ndarray, msg: str | Callable[[int], str]):
     """Mark ``rows`` (bool mask) failed with message ``msg`` (text, or row -> text),
     keeping the first message of rows that had already failed."""
@@ -1092,15 +1081,11 @@ def _check_state(solver, st, ok, msgs, at) -> None:
     loads (e.g. a top mount of a few N/mm under the spring preload) or a body has
     found a mechanism; the row fails with the bushing and the value named.
     """
-    for name, d in solver.deflections(st.r, st.R).items():
-        tr = np.abs(d[..., :3]).max(axis=(-1, -2))
-        rot = np.abs(d[..., 3:]).max(axis=(-1, -2))
-        bad = ok & (~np.isfinite(tr) | (tr > MAX_TRANSLATION) | (rot > MAX_ROTATION))
+    for name, tr, rot, locked in solver.lockups(st):
+        bad = ok & locked
         for i in np.flatnonzero(bad):
             msgs[i] = (
-                f"LockupError: the {name} bushing deflects {tr[i] * 1e3:.1f} mm / "
-                f"{rot[i]:.2f} rad (limits {MAX_TRANSLATION * 1e3:g} mm, {MAX_ROTATION:g} rad) "
-                f"at {at if isinstance(at, str) else at(int(i))}: the design cannot carry "
-                "its loads"
+                f"LockupError: {lockup_text(name, tr[i], rot[i])} at "
+                f"{at if isinstance(at, str) else at(int(i))}: the design cannot carry its loads"
             )
         ok &= ~bad

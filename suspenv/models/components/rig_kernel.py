@@ -132,25 +132,22 @@ def _state_step(
 ) -> float:
     """The state of one stateful element at the end of the step (``mx``: the Maxwell
     coefficients of the step's length: decay, a, b)."""
-    dx = x1 - x0
-    if code == 0:  # Dahl
-        f_c, rate = p[0], p[1]
-        if rate == 0.0:
-            return 0.0
-        if dx > 0.0:
-            return f_c + (z0 - f_c) * math.exp(-rate * dx)
-        if dx < 0.0:
-            return -f_c + (z0 + f_c) * math.exp(rate * dx)
-        return z0
+    if code == 0:  # Dahl: saturation force f_c, rate sigma / f_c
+        return _saturating(z0, p[0], p[1], 1.0, x1 - x0) if p[1] != 0.0 else 0.0
     if code == 1:  # Maxwell
         return mx[0] * z0 + mx[1] * v0 + mx[2] * (v1 - v0)
-    s0 = p[0]  # LuGre
-    g = _lugre_level(p, v1)
-    zss = g / s0
+    g = _lugre_level(p, v1)  # LuGre: bristle deflection saturates at g / sigma0
+    return _saturating(z0, g / p[0], p[0], g, x1 - x0)
+
+
+def _saturating(z0: float, level: float, rate: float, scale: float, dx: float) -> float:
+    """The exact state after a monotone increment ``dx`` of ``dz/dx = rate / scale
+    (sign(dx) level - z)``: the Dahl and LuGre elements' relaxation towards their
+    saturated state, with the velocity held over the step."""
     if dx > 0.0:
-        return zss + (z0 - zss) * math.exp(-s0 * dx / g)
+        return level + (z0 - level) * math.exp(-rate * dx / scale)
     if dx < 0.0:
-        return -zss + (z0 + zss) * math.exp(s0 * dx / g)
+        return -level + (z0 + level) * math.exp(rate * dx / scale)
     return z0
 
 
@@ -354,6 +351,7 @@ run = compiled.Lazy(
         "_stateless",
         "_lugre_level",
         "_state_step",
+        "_saturating",
         "_states_residual",
         "_maxwell_coefficients",
         "_known_part",

@@ -25,7 +25,6 @@ the host knows. An effect then carries those values too; the host checks their n
 
 from __future__ import annotations
 
-import difflib
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -33,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from suspenv.core.errors import ValidationError
+from suspenv.core.options import did_you_mean
 from suspenv.core.space import Parameter
 from suspenv.models.effects._util import require_positive
 
@@ -127,10 +127,9 @@ def get_kind(kind: str) -> EffectKind:
     try:
         return _KINDS[kind]
     except KeyError:
-        close = difflib.get_close_matches(kind, list(_KINDS), n=3)
-        hint = f"; did you mean {close}?" if close else ""
         raise ValidationError(
-            f"unknown effect kind {kind!r}{hint} (known kinds: {sorted(_KINDS)})"
+            f"unknown effect kind {kind!r}{did_you_mean(kind, _KINDS)} (known kinds: "
+            f"{sorted(_KINDS)})"
         ) from None
 
 

@@ -63,24 +63,28 @@ def dahl_dzdt(z: Value, v: Value, sigma: Value, f_c: Value) -> np.ndarray:
     return sigma * v * (1.0 - z / f_c * np.sign(v))
 
 
+def dahl_segment(dx: Value, sigma: Value, f_c: Value) -> tuple[np.ndarray, np.ndarray]:
+    """The exact Dahl step over a monotone increment ``dx`` [m] as the coefficients
+    ``(a [N], decay)`` of ``z_new = a + decay z_old``: ``decay = exp(-sigma |dx| / f_c)``,
+    ``a = sign(dx) f_c (1 - decay)``. ``sigma`` [N/m], ``f_c`` [N] ``>= 0`` (not checked);
+    ``f_c = 0`` is the "no effect" limit: the force relaxes to zero at once."""
+    with np.errstate(divide="ignore"):
+        decay = np.where(f_c > 0, np.exp(-sigma * np.abs(dx) / np.where(f_c > 0, f_c, 1.0)), 0.0)
+    return np.sign(dx) * f_c * (1.0 - decay), decay
+
+
 def dahl_path(x: np.ndarray, sigma: Value, f_c: Value, z0: Value = 0.0) -> np.ndarray:
     """Dahl hysteretic force [N] along a displacement path ``x[..., T]`` [m].
 
-    Exact for piecewise-linear paths (closed-form exponential on each segment).
-    ``sigma`` [N/m], ``f_c`` [N] (``>= 0``; zero gives zero force) and ``z0`` [N]
-    are batch-shaped.
+    Exact for piecewise-linear paths (:func:`dahl_segment` on each segment, a linear
+    recurrence in z). ``sigma`` [N/m], ``f_c`` [N] (``>= 0``; zero gives zero force)
+    and ``z0`` [N] are batch-shaped.
     """
     x = series(x)
     require_positive("sigma", sigma)
     require_positive("f_c", f_c, strict=False)
-    sig, fc = batch_param(sigma), batch_param(f_c)
-    dx = np.diff(x, axis=-1)
-    s = np.sign(dx)
-    # f_c = 0 is the "no effect" limit: the force relaxes to zero at once
-    with np.errstate(divide="ignore"):
-        decay = np.where(fc > 0, np.exp(-sig * np.abs(dx) / np.where(fc > 0, fc, 1.0)), 0.0)
-    # z[k+1] = s fc + (z[k] - s fc) decay, a linear recurrence in z
-    return linear_recurrence(s * fc * (1.0 - decay), decay, z0)
+    a, decay = dahl_segment(np.diff(x, axis=-1), batch_param(sigma), batch_param(f_c))
+    return linear_recurrence(a, decay, z0)
 
 
 def bouc_wen_dzdt(z: Value, v: Value, A: Value, beta: Value, gamma: Value, n: Value) -> np.ndarray:

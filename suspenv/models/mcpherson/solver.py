@@ -72,13 +72,14 @@ from __future__ import annotations
 import copy
 import functools
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from suspenv.core.errors import ValidationError
 from suspenv.models.effects import Effect, cubic_stiffness
+from suspenv.models.effects.hysteresis import dahl_segment
 from suspenv.models.mcpherson import residual_kernel, sweep_kernel
 from suspenv.models.mcpherson.effects import (
     BUSHING_NAMES,
@@ -100,7 +101,6 @@ BODIES = ("lower_arm", "knuckle", "strut_rod", "arb_half")
 NQ, NL = 24, 9
 NS = NQ + NL  # unknowns per side
 EZ = np.array([0.0, 0.0, 1.0])
-EY = np.array([0.0, 1.0, 0.0])
 #: the bar's stiffness at its middle against shear [N/m] and bending [N*m/rad]
 ARB_SHEAR_STIFFNESS = 1e8
 ARB_BENDING_STIFFNESS = 1e6
@@ -284,11 +284,12 @@ class AxleState:
         histories."""
         return AxleState(r, R, lam, *self._histories(np.copy))
 
-    def take(self, rows: np.ndarray) -> AxleState:
-        """The state of the given rows (index array or boolean mask)."""
+    def take(self, rows: np.ndarray | slice, views: bool = False) -> AxleState:
+        """The state of the given rows (index array, boolean mask, or a slice), copied
+        (``views``: views of a slice's rows)."""
 
         def pick(a: np.ndarray) -> np.ndarray:
-            return a[rows].copy()
+            return a[rows] if views else a[rows].copy()
 
         return AxleState(pick(self.r), pick(self.R), pick(self.lam), *self._histories(pick))
 
@@ -351,6 +352,15 @@ def _inv_mul(Jinv: np.ndarray | SharedInverse, res: np.ndarray) -> np.ndarray:
     if isinstance(Jinv, SharedInverse):
         return Jinv.mul(res)
     return np.matmul(Jinv, res[..., None])[..., 0]
+
+
+def lockup_text(name: str, translation: float, rotation: float) -> str:
+    """The words of a lock-up of bushing ``name`` (:meth:`AxleSolver.lockups`): its
+    deflection [m], [rad] and the limits."""
+    return (
+        f"the {name} bushing deflects {translation * 1e3:.1f} mm / {rotation:.2f} rad (limits "
+        f"{MAX_TRANSLATION * 1e3:g} mm, {MAX_ROTATION:g} rad)"
+    )
 
 
 def spin_axis(camber: np.ndarray, toe: np.ndarray) -> np.ndarray:
@@ -636,18 +646,14 @@ class AxleSolver:
             raise ValidationError("the axle has no strut friction")
         return self._placed.friction
 
-    def _bush_extra(self, name: str, x: np.ndarray, hist: dict) -> np.ndarray:
-        """The load (..., 6) that bushing ``name`` exerts *against* its deflection ``x``
-        (..., 6) (bushing frame) beyond its linear stiffness: the placed cubic stiffness
-        and Dahl element (``hist``: bushing -> (deflection, Dahl force) of the last
-        committed step); zero for a linear bushing."""
+    def _cubic(self, name: str, x: np.ndarray) -> np.ndarray:
+        """The load (..., 6) that the placed cubic stiffness of bushing ``name`` exerts
+        *against* its deflection ``x`` (..., 6) (bushing frame); zero without one."""
         f = np.zeros(np.broadcast_shapes(x.shape, self.K[name].shape))
         if name in self._placed.cubic:
             ratio, x_ref = self._placed.cubic[name]
             k3 = ratio * self.K[name][..., :3] / x_ref**2
             f[..., :3] += cubic_stiffness(x[..., :3], k3)
-        if name in hist:
-            f = f + self._dahl((name,), x[..., None, :], hist)[..., 0, :]
         return f
 
     def _dahl(self, names: Sequence[str], x: np.ndarray, hist: dict) -> np.ndarray:
@@ -665,10 +671,22 @@ class AxleSolver:
     def deflections(self, r: np.ndarray, R: np.ndarray) -> dict[str, np.ndarray]:
         """Bushing deflections (..., 2, 6): translation [m] and rotation vector [rad], in
         each bushing's frame (vehicle axes for a bushing without an orientation)."""
-        arm = self._vec_body[0][..., 0:2, :]  # the lower arm's two bushes
-        x = self._deflections(r, R, rotate(R[..., [0, 0], :, :], arm))
-        x = self._to_bush(x)
+        x = self._bush_deflections(r, R)
         return {name: x[..., j, :] for j, name in enumerate(BUSH_ORDER)}
+
+    def lockups(self, st: AxleState) -> Iterator[tuple[str, np.ndarray, np.ndarray, np.ndarray]]:
+        """Per bushing at the state ``st``: (name, its largest translation [m] and rotation
+        [rad] over both sides (n,), locked (n,) bool: beyond :data:`MAX_TRANSLATION` or
+        :data:`MAX_ROTATION`, or not finite)."""
+        for name, d in self.deflections(st.r, st.R).items():
+            tr = np.abs(d[..., :3]).max(axis=(-1, -2))
+            rot = np.abs(d[..., 3:]).max(axis=(-1, -2))
+            yield name, tr, rot, ~((tr <= MAX_TRANSLATION) & (rot <= MAX_ROTATION))
+
+    def _bush_deflections(self, r: np.ndarray, R: np.ndarray) -> np.ndarray:
+        """:meth:`deflections` stacked (..., 2, 4, 6) in BUSH_ORDER."""
+        arm = self._vec_body[0][..., 0:2, :]  # the lower arm's two bushes
+        return self._to_bush(self._deflections(r, R, rotate(R[..., [0, 0], :, :], arm)))
 
     def _to_bush(self, x: np.ndarray) -> np.ndarray:
         """Stacked deflections (..., 2, 4, 6) from vehicle axes into the bushing frames
@@ -744,12 +762,11 @@ class AxleSolver:
             return None
         out = np.zeros(r.shape[:-2] + (N_EXTRA,))
         if placed.cubic or placed.hysteresis:
-            arm = rotate(R[..., [0, 0], :, :], self._vec_body[0][..., 0:2, :])
-            xb = self._to_bush(self._deflections(r, R, arm))
+            xb = self._bush_deflections(r, R)
             f = np.zeros_like(xb)
             for j, name in enumerate(BUSH_ORDER):
                 if name in placed.cubic:
-                    f[..., j, :] = self._bush_extra(name, xb[..., j, :], {})
+                    f[..., j, :] = self._cubic(name, xb[..., j, :])
             names = [b for b in BUSH_ORDER if b in state.hyst]
             if names:  # every Dahl bushing in one step
                 idx = [BUSH_ORDER.index(b) for b in names]
@@ -1313,24 +1330,21 @@ class _CentreDrive:
 
 
 def dahl_step(x_prev, x, sigma, f_c, z_prev, eps) -> np.ndarray:
-    """Dahl force after moving from ``x_prev`` to ``x``: the library's exact path form
-    (:func:`~suspenv.models.effects.dahl_path`) on the one segment, its closed form
-    ``z = s f_c (1 - d) + d z_prev``, ``d = exp(-sigma |dx| / f_c)``, written out (the
-    same arithmetic). ``sigma`` [N/m] > 0 and ``f_c`` [N] > 0 (checked where the effect
-    is placed; a strut friction of level 0 is not placed).
-
-    The increment is passed through a smooth dead band of width ``eps``,
+    """Dahl force after moving from ``x_prev`` to ``x``: the library's exact step
+    (:func:`~suspenv.models.effects.hysteresis.dahl_segment`, as its path form takes it)
+    on an increment passed through a smooth dead band of width ``eps``,
     ``dx_eff = dx (1 - eps / sqrt(dx^2 + eps^2))``, so the force is a smooth function of
     ``x`` at a reversal (the exact element has a kink there, on which Newton's method
     can cycle). The lag it introduces is ``eps`` (1e-6 m, 1e-5 rad), far below anything
-    measured.
+    measured. ``sigma`` [N/m] > 0 and ``f_c`` [N] > 0 (checked where the effect is
+    placed; a strut friction of level 0 is not placed).
     """
     x = np.asarray(x, dtype=float)
     dx = x - x_prev
     dx_eff = dx * (1.0 - eps / np.sqrt(dx * dx + eps * eps))
     dx_eff = (x_prev + dx_eff) - x_prev  # the path's own segment, as the path form takes it
-    decay = np.exp(-sigma * np.abs(dx_eff) / f_c)
-    return np.sign(dx_eff) * f_c * (1.0 - decay) + decay * z_prev
+    a, decay = dahl_segment(dx_eff, sigma, f_c)
+    return a + decay * z_prev
 
 
 def _coloured_groups() -> tuple[np.ndarray, np.ndarray, int]:

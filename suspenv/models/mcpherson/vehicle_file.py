@@ -44,8 +44,6 @@ Effects and their places: :mod:`suspenv.models.mcpherson.effects`.
 from __future__ import annotations
 
 import dataclasses
-import difflib
-import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, cast
@@ -53,6 +51,7 @@ from typing import Any, cast
 import numpy as np
 
 from suspenv.core.errors import EvaluationError, ValidationError
+from suspenv.core.options import check_keywords, choice, number, optional, text
 from suspenv.core.space import DesignSpace, Parameter
 from suspenv.core.tomlfile import read_toml, toml_value
 from suspenv.models.effects import Effect, get_kind
@@ -113,8 +112,8 @@ def check_vehicle_values(
         errs = design_physics_errors(x)
         if errs:
             raise ValidationError(f"{where} [{side}]: {'; '.join(errs)}")
+    check_keywords(f"{where} [bounds]", bounds, PARAMETER_NAMES, "parameter")
     for name, (lo, hi, log) in bounds.items():
-        _known({name}, PARAMETER_NAMES, f"{where} [bounds]: unknown parameter")
         errs = bounds_errors(name, lo, hi, log)
         if errs:
             raise ValidationError(f"{where} [bounds]: {'; '.join(errs)}")
@@ -236,17 +235,14 @@ def load_vehicle(path: str | Path, assemble: bool = False) -> VehicleFile:
 
 def vehicle_from_dict(data: dict[str, Any], where: str, default_name: str) -> VehicleFile:
     """A :class:`VehicleFile` from a parsed vehicle file (rules: :func:`load_vehicle`)."""
-    _known(set(data), KNOWN_KEYS, f"vehicle file {where}: unknown key")
+    check_keywords(f"vehicle file {where}", data, KNOWN_KEYS, "key")
     for key in ("name", "description"):
-        if key in data and not isinstance(data[key], str):
-            raise ValidationError(
-                f"vehicle file {where}: `{key}` must be text, but got {data[key]!r}"
-            )
+        optional(text, f"vehicle file {where}", key, data.get(key), empty=True)
     space = design_space()
     tables = {}
     for key in ("design", "design_right"):
         table = _table(data, key, where)
-        _known(set(table), space.names, f"vehicle file {where} [{key}]: unknown parameter")
+        check_keywords(f"vehicle file {where} [{key}]", table, space.names, "parameter")
         tables[key] = _floats(table, f"vehicle file {where} [{key}]")
     left = space.from_dict(tables["design"])
     right = left.copy()
@@ -255,8 +251,9 @@ def vehicle_from_dict(data: dict[str, Any], where: str, default_name: str) -> Ve
     bounds = _bounds(_table(data, "bounds", where), where)
     orientation = _orientation(_table(data, "orientation", where), where)
     check_vehicle_values(left, right, bounds, orientation, f"vehicle file {where}")
+    values = _constants(_table(data, "constants", where), where)  # refused with their place
     try:
-        constants = AxleConstants.from_dict(_constants(_table(data, "constants", where), where))
+        constants = AxleConstants.from_dict(values)
     except ValidationError as exc:
         raise ValidationError(f"vehicle file {where} [constants]: {exc}") from None
     return VehicleFile(
@@ -282,7 +279,7 @@ def check_assembles(vehicle: VehicleFile) -> None:
     (:class:`AxleSolver`, the rig's own first solve) with bushing deflections within the
     rig's plausibility limits.
     """
-    from suspenv.models.mcpherson.solver import MAX_ROTATION, MAX_TRANSLATION, AxleSolver
+    from suspenv.models.mcpherson.solver import AxleSolver, lockup_text
 
     what = f"vehicle {vehicle.name!r} does not assemble"
     with np.errstate(all="ignore"):  # a degenerate strut line is reported below
@@ -318,22 +315,13 @@ def check_assembles(vehicle: VehicleFile) -> None:
             f"{what}: ConvergenceError: no static equilibrium at the design position (Newton "
             f"did not converge in {solver.maxit} iterations)"
         )
-    for name, defl in solver.deflections(st.r, st.R).items():
-        tr, rot = float(np.abs(defl[..., :3]).max()), float(np.abs(defl[..., 3:]).max())
-        if not (tr <= MAX_TRANSLATION and rot <= MAX_ROTATION):
+    for name, tr, rot, locked in solver.lockups(st):
+        if locked.any():
             raise ValidationError(
-                f"{what}: LockupError: at the static position the {name} bushing deflects "
-                f"{tr * 1e3:.1f} mm / {rot:.2f} rad (limits {MAX_TRANSLATION * 1e3:g} mm, "
-                f"{MAX_ROTATION:g} rad): the design cannot carry its static load"
+                f"{what}: LockupError: at the static position "
+                f"{lockup_text(name, float(tr.max()), float(rot.max()))}: the design cannot "
+                "carry its static load"
             )
-
-
-def _known(keys: set[str], known: set[str] | tuple[str, ...], what: str) -> None:
-    """Refuse the first unknown key with the nearest known names."""
-    for k in sorted(keys - set(known)):
-        near = difflib.get_close_matches(k, sorted(known), n=3)
-        hint = f"; did you mean {near}?" if near else ""
-        raise ValidationError(f"{what} {k!r}{hint} (allowed: {sorted(known)})")
 
 
 def _table(data: dict[str, Any], key: str, where: str) -> dict[str, Any]:
@@ -349,18 +337,16 @@ def _constants(table: dict[str, Any], where: str) -> dict[str, Any]:
     """The ``[constants]`` values checked against :class:`AxleConstants`: a point is a
     list of three finite numbers [mm], any other constant one finite number."""
     defaults = AxleConstants().as_dict()
-    _known(set(table), set(defaults), f"vehicle file {where} [constants]: unknown constant")
+    at = f"vehicle file {where} [constants]"
+    check_keywords(at, table, defaults, "constant")
     out: dict[str, Any] = {}
     for k, v in table.items():
         if isinstance(defaults[k], tuple):
             if not isinstance(v, list) or len(v) != 3:
-                raise ValidationError(
-                    f"vehicle file {where} [constants] {k} must be a point [x, y, z] (mm), "
-                    f"but got {v!r}"
-                )
-            out[k] = [_number(x, f"vehicle file {where} [constants] {k}") for x in v]
+                raise ValidationError(f"{at} {k} must be a point [x, y, z] (mm), but got {v!r}")
+            out[k] = [number(at, k, x) for x in v]
         else:
-            out[k] = _number(v, f"vehicle file {where} [constants] {k}")
+            out[k] = number(at, k, v)
     return out
 
 
@@ -380,43 +366,28 @@ def _effects(tables: Any, where: str) -> tuple[Effect, ...]:
         missing = [k for k in ("kind", "location") if k not in table]
         if missing:
             raise ValidationError(f"vehicle file {where}: effect {i} has no {missing}")
-        for key in ("kind", "location", "name"):
-            if key in table and not isinstance(table[key], str):
-                raise ValidationError(
-                    f"vehicle file {where}: effect {i} `{key}` must be text, but got {table[key]!r}"
-                )
-        kind, location = table["kind"], table["location"]
         at = f"vehicle file {where}: effect {i}"
-        _known({kind}, tuple(PLACEMENTS), f"{at}: unknown axle effect kind")
-        _known({location}, tuple(LOCATIONS), f"{at}: unknown location")
+        kind = choice(at, "kind", table["kind"], tuple(PLACEMENTS))
+        location = choice(at, "location", table["location"], tuple(LOCATIONS))
+        name = optional(text, at, "name", table.get("name"), empty=True)
         params = {k: v for k, v in table.items() if k not in ("kind", "location", "name")}
         spec = get_kind(kind)
-        unknown = {k for k in params if not spec.accepts(k)}
-        _known(unknown, spec.parameter_names, f"{at} ({kind}): unknown parameter")
+        unknown = [k for k in params if not spec.accepts(k)]
+        check_keywords(f"{at} ({kind})", unknown, spec.parameter_names, "parameter")
         values = _floats(params, f"{at} ({kind})")
-        out.append(axle_effect(kind, location, table.get("name"), **values))
+        out.append(axle_effect(kind, location, name, **values))
     return tuple(out)
 
 
-def _number(v: Any, where: str) -> float:
-    """``v`` as a finite float; text, booleans, tables, inf and nan are refused."""
-    if not isinstance(v, int | float) or isinstance(v, bool):
-        raise ValidationError(f"{where} must be a number, but got {v!r}")
-    x = float(v)
-    if not math.isfinite(x):
-        raise ValidationError(f"{where} must be finite, but got {v!r}")
-    return x
-
-
 def _floats(table: dict, where: str) -> dict[str, float]:
-    """Every value of ``table`` as a finite float (:func:`_number`), named ``where key``."""
-    return {k: _number(v, f"{where} {k}") for k, v in table.items()}
+    """Every value of ``table`` as a finite float, refused as ``where``'s ``key``."""
+    return {k: number(where, k, v) for k, v in table.items()}
 
 
 def _bounds(table: dict[str, Any], where: str) -> dict[str, tuple[float, float, bool]]:
     """The ``[bounds]`` table: ``name = [low, high]`` or ``[low, high, "log"]`` (file units)."""
     at = f"vehicle file {where} [bounds]"
-    _known(set(table), PARAMETER_NAMES, f"{at}: unknown parameter")
+    check_keywords(at, table, PARAMETER_NAMES, "parameter")
     out = {}
     for k, v in table.items():
         scale = "linear"
@@ -428,14 +399,14 @@ def _bounds(table: dict[str, Any], where: str) -> dict[str, tuple[float, float, 
                 f'{at} {k} must be [low, high] or [low, high, "log"] (file units), but got '
                 f"{table[k]!r}"
             )
-        out[k] = (_number(v[0], f"{at} {k} low"), _number(v[1], f"{at} {k} high"), scale == "log")
+        out[k] = (number(at, f"{k} low", v[0]), number(at, f"{k} high", v[1]), scale == "log")
     return out
 
 
 def _orientation(table: dict[str, Any], where: str) -> dict[str, tuple[float, float, float]]:
     """The ``[orientation]`` table: ``bushing = [a, b, c]`` ADAMS 3-1-3 Euler angles [deg]."""
     at = f"vehicle file {where} [orientation]"
-    _known(set(table), tuple(BUSHINGS), f"{at}: unknown bushing")
+    check_keywords(at, table, BUSHINGS, "bushing")
     out = {}
     for k, v in table.items():
         if not isinstance(v, list) or len(v) != 3:
@@ -443,7 +414,7 @@ def _orientation(table: dict[str, Any], where: str) -> dict[str, tuple[float, fl
                 f"{at} {k} must be three Euler angles [a, b, c] (deg, body-fixed 3-1-3), but "
                 f"got {v!r}"
             )
-        a, b, c = (_number(x, f"{at} {k}") for x in v)
+        a, b, c = (number(at, k, x) for x in v)
         out[k] = (a, b, c)
     return out
 

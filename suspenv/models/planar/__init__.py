@@ -18,7 +18,7 @@ from suspenv.models.planar.geometry import (
     load_geometry,
     stack_geometries,
 )
-from suspenv.models.planar.outputs import SweepOutputs, instant_centre_roll_centre, sweep_outputs
+from suspenv.models.planar.outputs import SweepOutputs, sweep_outputs
 
 __all__ = [
     "DoubleWishbone",
@@ -29,7 +29,6 @@ __all__ = [
     "bundled_geometries",
     "geometry_from_dict",
     "geometry_to_toml",
-    "instant_centre_roll_centre",
     "load_geometry",
     "solve_single",
     "stack_geometries",

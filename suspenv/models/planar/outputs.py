@@ -28,7 +28,7 @@ import numpy as np
 
 from suspenv.core.errors import ValidationError
 from suspenv.models.planar.analytic import PlanarSweep
-from suspenv.models.planar.geometry import DoubleWishbone, McPherson, PlanarGeometry
+from suspenv.models.planar.geometry import PlanarGeometry
 
 
 @dataclass
@@ -116,42 +116,4 @@ def sweep_outputs(geom: PlanarGeometry, sweep: PlanarSweep) -> SweepOutputs:
     )
 
 
-def _homogeneous(p: np.ndarray) -> np.ndarray:
-    """Homogeneous coordinates (..., 3) of (..., 2) points."""
-    return np.concatenate([p, np.ones(p.shape[:-1] + (1,))], axis=-1)
-
-
-def _line(p: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """Homogeneous line through two (..., 2) points."""
-    return np.cross(_homogeneous(p), _homogeneous(q))
-
-
-def instant_centre_roll_centre(geom: PlanarGeometry, sweep: PlanarSweep) -> np.ndarray:
-    """Roll-centre height (mm above the design ground) by the instant-centre construction.
-
-    The upright's instant centre relative to the body is where the lines of its two
-    guides meet: the two wishbones (double wishbone), or the lower arm and the normal to
-    the strut axis through the top mount (McPherson). The roll centre is where the line
-    from the contact point through that instant centre crosses the centreline ``y = 0``.
-    Homogeneous coordinates handle parallel guides (instant centre at infinity).
-    Independent of :func:`sweep_outputs`, which uses the contact-point motion instead.
-    """
-    p = sweep.points
-    guide_1 = _line(p["lower_inner"], p["lower_outer"])
-    if isinstance(geom, DoubleWishbone):
-        guide_2 = _line(p["upper_inner"], p["upper_outer"])
-    elif isinstance(geom, McPherson):
-        axis = p["strut_top"] - p["strut_lower"]
-        normal = np.stack([-axis[..., 1], axis[..., 0]], axis=-1)
-        guide_2 = _line(p["strut_top"], p["strut_top"] + normal)
-    else:
-        raise ValidationError(f"unknown planar geometry type {type(geom).__name__}")
-    ic = np.cross(guide_1, guide_2)
-    to_ic = np.cross(_homogeneous(p["contact"]), ic)
-    centreline = np.broadcast_to(np.array([1.0, 0.0, 0.0]), to_ic.shape)
-    rc = np.cross(to_ic, centreline)
-    z0 = geom.contact_point[..., 1][..., None]
-    return 1e3 * (rc[..., 1] / rc[..., 2] - z0)
-
-
-__all__ = ["SweepOutputs", "instant_centre_roll_centre", "sweep_outputs"]
+__all__ = ["SweepOutputs", "sweep_outputs"]
