@@ -48,13 +48,8 @@ from suspenv.diagnosis.family import (
     SignatureLike,
 )
 from suspenv.diagnosis.fitting import FitResult, fit, residuals
-from suspenv.diagnosis.hypothesis import candidate_name, split_candidate
-from suspenv.diagnosis.ride.model import (
-    RIDE_CANDIDATES,
-    MinibusRideAdapter,
-    effect_words,
-    ride_effect,
-)
+from suspenv.diagnosis.hypothesis import split_candidate
+from suspenv.diagnosis.ride.model import MinibusRideAdapter, effect_words, ride_effect
 from suspenv.diagnosis.ride.residual import ResidualCheck, residual_check
 from suspenv.diagnosis.screening import (
     Location,
@@ -196,10 +191,6 @@ def _stacked_prediction(
     return np.where(np.isfinite(v), v, 0.0)
 
 
-#: the default candidates, ``kind@location``
-RIDE_CANDIDATE_NAMES = tuple(candidate_name(kind, loc) for kind, loc in RIDE_CANDIDATES)
-
-
 @dataclass
 class RideFamily(OptionalSteps):
     """The ride family's steps of the diagnosis loop (see the module docstring).
@@ -234,8 +225,9 @@ class RideFamily(OptionalSteps):
                 "a ride diagnosis needs held-out recordings (repeat runs or another test), "
                 f"but got only {[r.name for r in fit_recs]}"
             )
-        cands = list(candidates if candidates is not None else RIDE_CANDIDATE_NAMES)
-        return Setup(Split.separate(fit_recs, held), self.model or MinibusRideAdapter(), cands)
+        model = self.model or MinibusRideAdapter()
+        cands = list(candidates if candidates is not None else model.candidate_effects)
+        return Setup(Split.separate(fit_recs, held), model, cands)
 
     def fit_baseline(self, setup: Setup) -> FitResult:
         return fit(setup.model, setup.split.fit_recordings, max_nfev=self.max_nfev)

@@ -37,6 +37,7 @@ from scipy import signal
 
 from suspenv.core.errors import ValidationError
 from suspenv.core.space import Parameter
+from suspenv.diagnosis.hypothesis import candidate_name
 from suspenv.measurements import Recording
 from suspenv.models.components.base import ComponentModel
 from suspenv.models.effects import Effect, make_effect
@@ -151,7 +152,7 @@ class MinibusRideAdapter(ComponentModel):
     output_channels: ClassVar[tuple[str, ...]] = OUTPUT_CHANNELS
     channel_units: ClassVar[dict[str, str]] = dict(UNITS)
     candidate_effects: ClassVar[tuple[str, ...]] = tuple(
-        dict.fromkeys(k for k, _ in RIDE_CANDIDATES)
+        candidate_name(kind, loc) for kind, loc in RIDE_CANDIDATES
     )
     location: ClassVar[str] = ""
 
