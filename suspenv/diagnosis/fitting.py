@@ -523,7 +523,6 @@ def fit(
             masks,
             np.zeros((n_res, 0)),
             pb.fun(x0),
-            success=True,
             message="no free parameters",
             nfev=1,
             seconds=time.perf_counter() - t_start,

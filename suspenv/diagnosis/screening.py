@@ -17,6 +17,8 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
+from suspenv.diagnosis.fitting import lag1_autocorrelation
+
 #: a part is a hotspot when it holds this much more than its fair share ...
 HOTSPOT_ENRICHMENT = 1.5
 #: ... and at least this share of the residual energy
@@ -96,10 +98,7 @@ class Signature:
 
 def effective_n(r: np.ndarray) -> float:
     """Effective number of independent samples of a serially correlated series (AR(1))."""
-    r = r - np.mean(r)
-    den = float(np.dot(r, r))
-    rho = float(np.dot(r[1:], r[:-1]) / den) if den > 0 and r.size > 2 else 0.0
-    rho = float(np.clip(rho, 0.0, 0.999))
+    rho = float(np.clip(lag1_autocorrelation(r), 0.0, 0.999))
     return max(r.size * (1.0 - rho) / (1.0 + rho), 2.0)
 
 

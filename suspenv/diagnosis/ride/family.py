@@ -48,13 +48,8 @@ from suspenv.diagnosis.family import (
     SignatureLike,
 )
 from suspenv.diagnosis.fitting import FitResult, fit, residuals
-from suspenv.diagnosis.hypothesis import candidate_name, split_candidate
-from suspenv.diagnosis.ride.model import (
-    RIDE_CANDIDATES,
-    MinibusRideAdapter,
-    effect_words,
-    ride_effect,
-)
+from suspenv.diagnosis.hypothesis import split_candidate
+from suspenv.diagnosis.ride.model import MinibusRideAdapter, effect_words, ride_effect
 from suspenv.diagnosis.ride.residual import ResidualCheck, residual_check
 from suspenv.diagnosis.screening import (
     Location,
@@ -91,15 +86,23 @@ def _windows(rec: Any) -> dict[str, np.ndarray]:
     }
 
 
+def _add(sums: dict[Any, list[float]], key: Any, a: float, b: float) -> None:
+    """Add ``a`` and ``b`` to the running sums of ``key``."""
+    pair = sums.setdefault(key, [0.0, 0.0])
+    pair[0] += a
+    pair[1] += b
+
+
 def locate_ride(fit: FitResult, recordings: Sequence[Any]) -> Location:
     """Shares of the scaled residual energy by channel, test, time window, band."""
     parts = residuals(fit.model, fit.theta, recordings, fit.channels)
     loc = Location()
+    # per key: (residual energy, samples); per speed: (residual, response energy); per
+    # band: (residual energy, fraction of the lines)
     acc: dict[tuple[str, str], list[float]] = {}
-    total, n_total = 0.0, 0
-    band_e: dict[str, float] = {}
-    band_n: dict[str, float] = {}
     acc_signal: dict[str, list[float]] = {}
+    bands: dict[str, list[float]] = {}
+    total, n_total = 0.0, 0
     for rec, part in zip(recordings, parts, strict=True):
         n = rec.n_samples
         n_total += n * len(fit.channels)
@@ -109,24 +112,17 @@ def locate_ride(fit: FitResult, recordings: Sequence[Any]) -> Location:
             r = part[c] / fit.scales[c]
             e = float(np.sum(r**2))
             total += e
-            for key in (("channel", c), ("test", speed)):
-                a = acc.setdefault(key, [0.0, 0.0])
-                a[0] += e
-                a[1] += n
+            _add(acc, ("channel", c), e, n)
+            _add(acc, ("test", speed), e, n)
             # amplitude dependence: residual share against the share of response energy
             y = np.asarray(rec.outputs[c], float) / fit.scales[c]
-            a = acc_signal.setdefault(speed, [0.0, 0.0])
-            a[0] += e
-            a[1] += float(np.sum(y**2))
+            _add(acc_signal, speed, e, float(np.sum(y**2)))
             for w, m in _windows(rec).items():
-                a = acc.setdefault(("time window", w), [0.0, 0.0])
-                a[0] += float(np.sum(r[m] ** 2))
-                a[1] += int(m.sum())
+                _add(acc, ("time window", w), float(np.sum(r[m] ** 2)), int(m.sum()))
             p = np.abs(np.fft.rfft(r)) ** 2
             for name, lo, hi in BANDS:
                 sel = (f >= lo) & (f < hi)
-                band_e[name] = band_e.get(name, 0.0) + float(p[sel].sum())
-                band_n[name] = band_n.get(name, 0.0) + float(sel.sum()) / f.size
+                _add(bands, name, float(p[sel].sum()), float(sel.sum()) / f.size)
     for (dim, part_name), (e, n) in acc.items():
         loc.shares.append(Share(dim, part_name, e / total if total else 0.0, n / n_total))
     sig_total = sum(v[1] for v in acc_signal.values()) or 1.0
@@ -135,12 +131,10 @@ def locate_ride(fit: FitResult, recordings: Sequence[Any]) -> Location:
             loc.shares.append(
                 Share("test vs response energy", speed, e / total if total else 0.0, y2 / sig_total)
             )
-    spec_total = sum(band_e.values()) or 1.0
+    spec_total = sum(v[0] for v in bands.values()) or 1.0
     n_sets = len(recordings) * len(fit.channels)
-    for name, _, _ in BANDS:
-        loc.shares.append(
-            Share("frequency band", name, band_e[name] / spec_total, band_n[name] / n_sets)
-        )
+    for name, (e, lines) in bands.items():
+        loc.shares.append(Share("frequency band", name, e / spec_total, lines / n_sets))
     return loc
 
 
@@ -197,10 +191,6 @@ def _stacked_prediction(
     return np.where(np.isfinite(v), v, 0.0)
 
 
-#: the default candidates, ``kind@location``
-RIDE_CANDIDATE_NAMES = tuple(candidate_name(kind, loc) for kind, loc in RIDE_CANDIDATES)
-
-
 @dataclass
 class RideFamily(OptionalSteps):
     """The ride family's steps of the diagnosis loop (see the module docstring).
@@ -235,8 +225,9 @@ class RideFamily(OptionalSteps):
                 "a ride diagnosis needs held-out recordings (repeat runs or another test), "
                 f"but got only {[r.name for r in fit_recs]}"
             )
-        cands = list(candidates if candidates is not None else RIDE_CANDIDATE_NAMES)
-        return Setup(Split.separate(fit_recs, held), self.model or MinibusRideAdapter(), cands)
+        model = self.model or MinibusRideAdapter()
+        cands = list(candidates if candidates is not None else model.candidate_effects)
+        return Setup(Split.separate(fit_recs, held), model, cands)
 
     def fit_baseline(self, setup: Setup) -> FitResult:
         return fit(setup.model, setup.split.fit_recordings, max_nfev=self.max_nfev)

@@ -37,6 +37,7 @@ from scipy import signal
 
 from suspenv.core.errors import ValidationError
 from suspenv.core.space import Parameter
+from suspenv.diagnosis.hypothesis import candidate_name
 from suspenv.measurements import Recording
 from suspenv.models.components.base import ComponentModel
 from suspenv.models.effects import Effect, make_effect
@@ -151,7 +152,7 @@ class MinibusRideAdapter(ComponentModel):
     output_channels: ClassVar[tuple[str, ...]] = OUTPUT_CHANNELS
     channel_units: ClassVar[dict[str, str]] = dict(UNITS)
     candidate_effects: ClassVar[tuple[str, ...]] = tuple(
-        dict.fromkeys(k for k, _ in RIDE_CANDIDATES)
+        candidate_name(kind, loc) for kind, loc in RIDE_CANDIDATES
     )
     location: ClassVar[str] = ""
 
@@ -193,10 +194,9 @@ class MinibusRideAdapter(ComponentModel):
                 k += 1
         return lo, hi
 
-    def _base_guess(self, rec: Recording) -> dict[str, float]:
-        return {p.name: p.reference for p in self.base_parameters}
-
     def _scales(self, rec: Recording) -> dict[str, float]:
+        """Unit scales: the ride elements' starting values (:meth:`_effect_guess`) are
+        physical sizes that read none."""
         return {"force": 1.0, "deflection": 1.0, "velocity": 1.0}
 
     def _effect_guess(self, e: Effect, sc: Mapping[str, float]) -> dict[str, float]:
@@ -210,13 +210,6 @@ class MinibusRideAdapter(ComponentModel):
             "kelvin_voigt": {"k": k_seat, "c": 2 * 0.2 * np.sqrt(k_seat * SEAT_MASS)},
         }[e.kind]
         return {p: v for p, v in g.items() if p in self._free(e)}
-
-    def initial_guess(self, rec: Recording) -> np.ndarray:
-        rec.require(self.input_channels, units=self._input_units())
-        guessed = [e.with_params(self._effect_guess(e, {})) for e in self.effects]
-        th = self.theta_from(self._base_guess(rec), guessed)
-        lo, hi = self.bounds()
-        return np.clip(th, lo, hi)
 
     # ------------------------------------------------------------------ simulation
     def _predict(
