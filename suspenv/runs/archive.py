@@ -59,6 +59,7 @@ import numpy as np
 
 from suspenv.core.atomic import atomic_path, write_fault
 from suspenv.core.errors import ValidationError
+from suspenv.core.jsonable import json_default
 from suspenv.core.result import EvaluationBatch
 
 _META = "CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL)"
@@ -463,7 +464,7 @@ class RunArchive:
     def set_meta(self, **items: Any) -> None:
         self._write(
             "INSERT OR REPLACE INTO meta(key, value) VALUES (?, ?)",
-            [(k, json.dumps(v, default=_json_default)) for k, v in items.items()],
+            [(k, json.dumps(v, default=json_default)) for k, v in items.items()],
         )
 
     def meta(self) -> dict[str, Any]:
@@ -702,16 +703,6 @@ def _json_list(text: Any) -> list[Any]:
     except ValueError:
         return []
     return value if isinstance(value, list) and all(type(m) is str for m in value) else []
-
-
-def _json_default(o: Any) -> Any:
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    if isinstance(o, np.generic):
-        return o.item()
-    if isinstance(o, Path):
-        return str(o)
-    raise TypeError(f"not JSON serialisable: {type(o).__name__}")
 
 
 def _number(v: float) -> str:
