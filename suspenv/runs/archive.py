@@ -1,10 +1,8 @@
 """The append-only evaluation archive: one SQLite file per run directory.
 
-The run loop hands every evaluated chunk to an :class:`ArchiveWriter`, which commits them
-in group transactions (at most :attr:`ArchiveWriter.COMMIT_AFTER_S` apart, an expensive
-chunk at once, everything when the loop ends however it ends), so a run that is killed
-loses at most that much cheap work and nothing of an expensive evaluation;
-:func:`suspenv.runs.loop.optimize` replays the archive to resume without re-evaluating.
+The run loop hands every evaluated chunk to an :class:`ArchiveWriter` (group commits:
+what a kill loses); :func:`suspenv.runs.loop.optimize` replays the archive to resume
+without re-evaluating.
 Arrays are stored as little-endian float64 blobs; :meth:`RunArchive.to_csv` writes a flat
 table with named columns.
 
