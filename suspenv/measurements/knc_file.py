@@ -66,6 +66,7 @@ from suspenv.measurements import knc as _knc
 from suspenv.measurements.errors import RecordingError
 from suspenv.measurements.knc_checks import check_manifest_keys, check_tests, check_wheel_travel
 from suspenv.measurements.limits import check_text, read_limit
+from suspenv.measurements.recording import nonfinite_run
 from suspenv.measurements.units import FACTORS, unit_key
 
 if TYPE_CHECKING:  # a type only: measurements sit below rigs (tests/test_architecture.py)
@@ -829,13 +830,13 @@ def _to_numbers(
                     where, f"row {r + 2} column {header[c]!r} must be a number, but got {s!r}"
                 ) from None
     for i, _, _ in cols.values():
-        bad = ~np.isfinite(values[:, i])
-        if bad.any():
-            first = int(np.argmax(bad))
-            run = int(np.argmax(~bad[first:])) if (~bad[first:]).any() else len(bad) - first
+        found = nonfinite_run(values[:, i])
+        if found is not None:
+            first, run = found
+            bad = int(np.count_nonzero(~np.isfinite(values[:, i])))
             raise _refuse(
                 where,
-                f"column {header[i]!r} must be finite, but holds {int(bad.sum())} missing/NaN/inf "
+                f"column {header[i]!r} must be finite, but holds {bad} missing/NaN/inf "
                 f"value(s), the first run of {run} from data row {first + 1} (file line "
                 f"{first + 2}); drop or fill those rows",
             )
