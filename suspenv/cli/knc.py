@@ -7,14 +7,12 @@ the column names: mm, deg, N, N*m; raw ISO 8855 signs), which
 :func:`suspenv.measurements.knc_file.load_measurement` reads back, and, with ``--plot``,
 a PNG of the usual curves against wheel travel (travel tests), the load (compliance
 tests, in phase or opposed: :data:`TEST_CHOICES`, docs/knc.md) or the rack travel
-(steering). Prints the travel
-test's objectives, the compliance test's slopes, and the classic K&C numbers.
+(steering). Prints the travel test's objectives, the compliance test's slopes, and the
+classic K&C numbers.
 
 Files are ``knc.toml`` and ``<vehicle name>_<test>.csv`` / ``.png`` with the vehicle's
 ``name`` made a plain file name (``../x`` -> ``_x``), so nothing is written outside
-``--out``. An existing non-empty output folder is refused unless ``--overwrite`` is
-given; then the files of the same names are replaced and every other file is kept
-(nothing is deleted).
+``--out`` (``--overwrite``: :func:`suspenv.cli.main.add_output_options`).
 """
 
 from __future__ import annotations

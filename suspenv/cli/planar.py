@@ -3,9 +3,7 @@
 Prints camber, half-track change, roll-centre height, motion ratio and wheel rate over
 the travel sweep; ``--plot`` draws the linkage and its curves to PNG files
 (``<geometry>.png``, ``<geometry>_curves.png``, the name made a plain file name) in
-``--out``. An existing non-empty output folder is refused unless ``--overwrite`` is given;
-then the files of the same names are replaced and every other file is kept (nothing is
-deleted).
+``--out`` (``--overwrite``: :func:`suspenv.cli.main.add_output_options`).
 """
 
 from __future__ import annotations

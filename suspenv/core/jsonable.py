@@ -9,19 +9,21 @@ from typing import Any
 import numpy as np
 
 
-def to_jsonable(obj: Any) -> Any:
-    """``obj`` with numpy scalars and arrays as Python values, paths as text and
-    non-finite floats (NaN, inf) as None; dict keys become text."""
+def to_jsonable(obj: Any, finite: bool = True) -> Any:
+    """``obj`` with numpy scalars and arrays as Python values, paths as text and, when
+    ``finite``, non-finite floats (NaN, inf) as None (else kept: ``json.dumps`` writes
+    them as ``NaN`` / ``Infinity``, which ``json.loads`` reads back); dict keys become
+    text."""
     if isinstance(obj, dict):
-        return {str(k): to_jsonable(v) for k, v in obj.items()}
+        return {str(k): to_jsonable(v, finite) for k, v in obj.items()}
     if isinstance(obj, list | tuple):
-        return [to_jsonable(v) for v in obj]
+        return [to_jsonable(v, finite) for v in obj]
     if isinstance(obj, np.ndarray):
-        return to_jsonable(obj.tolist())
+        return to_jsonable(obj.tolist(), finite)
     if isinstance(obj, np.generic):
-        return to_jsonable(obj.item())
+        return to_jsonable(obj.item(), finite)
     if isinstance(obj, float):
-        return obj if np.isfinite(obj) else None
+        return obj if np.isfinite(obj) or not finite else None
     if isinstance(obj, Path):
         return str(obj)
     return obj

@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from suspenv.core.atomic import atomic_path
+from suspenv.core.jsonable import to_jsonable
 from suspenv.measurements.errors import RecordingError
 from suspenv.measurements.limits import check_npz, read_limit
 from suspenv.measurements.recording import Recording
@@ -35,18 +36,6 @@ from suspenv.measurements.units import FACTORS, SI_UNITS, to_si
 
 FORMAT = "suspenv-recording"
 VERSION = 1
-
-
-def _jsonable(obj: Any) -> Any:
-    if isinstance(obj, dict):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, list | tuple):
-        return [_jsonable(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return obj.tolist()
-    if isinstance(obj, np.generic):
-        return obj.item()
-    return obj
 
 
 def save_recording(rec: Recording, path: str | Path) -> Path:
@@ -62,7 +51,8 @@ def save_recording(rec: Recording, path: str | Path) -> Path:
         "inputs": list(rec.inputs),
         "outputs": list(rec.outputs),
         "units": dict(rec.units),
-        "meta": _jsonable(rec.meta),
+        # NaN stays NaN in the header: the meta reads back as it was saved
+        "meta": to_jsonable(rec.meta, finite=False),
     }
     # name -> array. Any, not np.ndarray: mypy matches **arrays against every keyword of
     # savez_compressed, including ``allow_pickle: bool``, which is never a key here

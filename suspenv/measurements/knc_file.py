@@ -66,6 +66,7 @@ from suspenv.measurements import knc as _knc
 from suspenv.measurements.errors import RecordingError
 from suspenv.measurements.knc_checks import check_manifest_keys, check_tests, check_wheel_travel
 from suspenv.measurements.limits import check_text, read_limit
+from suspenv.measurements.recording import nonfinite_run
 from suspenv.measurements.units import FACTORS, unit_key
 
 if TYPE_CHECKING:  # a type only: measurements sit below rigs (tests/test_architecture.py)
@@ -77,11 +78,6 @@ VERSION = 1
 MANIFEST = "knc.toml"
 SIGN_CONVENTION = "ISO 8855"
 SIDES = _knc.SIDES
-
-#: travel tests of the format
-TRAVEL_TESTS = _knc.TESTS
-#: every test the format knows: the rig's in-phase tests and the opposed ones
-KNOWN_TESTS: tuple[str, ...] = (*_knc.ALL_TESTS, *_knc.OPPOSED_TESTS)
 
 #: SI unit -> quantity
 QUANTITY = {"m": "length", "rad": "angle", "N": "force", "N*m": "moment"}
@@ -142,7 +138,7 @@ class MeasuredTest:
     """One rig test's samples (SI, raw ISO 8855).
 
     Attributes:
-        test: the test name (:data:`KNOWN_TESTS`).
+        test: the test name (:data:`suspenv.measurements.knc.RIG_TESTS`).
         drive: (P,) the test's input: left pad stroke [m] (travel tests), force [N]
             (lateral, longitudinal, traction), moment about +z [N*m] (aligning), rack
             travel along +y [m] (steering).
@@ -381,8 +377,8 @@ def from_results(
     amplitude: dict[str, float] = {}
     steps_of: dict[str, int] = {}
     for test, res in results.items():
-        if test not in KNOWN_TESTS:
-            raise ValidationError(f"unknown K&C test {test!r}; known tests are {KNOWN_TESTS}")
+        if test not in _knc.RIG_TESTS:
+            raise ValidationError(f"unknown K&C test {test!r}; known tests are {_knc.RIG_TESTS}")
         if not 0 <= row < res.ok.size:
             raise ValidationError(
                 f"`0 <= row < {res.ok.size}` must hold (designs in the result), but got row={row}"
@@ -642,8 +638,8 @@ def _check_test_table(tests: Any, where: str) -> None:
             where, "[tests] must name at least one test, e.g. [tests.parallel] file = ..."
         )
     for t, spec in tests.items():
-        if t not in KNOWN_TESTS:
-            raise _refuse(where, f"unknown test {t!r}; the format's tests are {KNOWN_TESTS}")
+        if t not in _knc.RIG_TESTS:
+            raise _refuse(where, f"unknown test {t!r}; the format's tests are {_knc.RIG_TESTS}")
         if not isinstance(spec, dict) or not isinstance(spec.get("file"), str):
             raise _refuse(where, f'[tests.{t}] must give file = "<name>.csv", but got {spec!r}')
         f = Path(spec["file"])
@@ -791,7 +787,7 @@ def _quantity(lay: _Layout, h: str, name: str) -> str:
 def _check_complete(lay: _Layout, cols: Mapping[str, _Column], rows: int) -> None:
     """Every column the test needs is present and there are :data:`MIN_SAMPLES` rows."""
     need = ["step", "branch", lay.drive] + [f"{c}_{s}" for c in lay.chans for s in lay.wheels]
-    if lay.test in TRAVEL_TESTS:
+    if lay.test in _knc.TESTS:
         need += [f"{TRAVEL_COLUMN}_{s}" for s in lay.wheels]
     missing = [n for n in need if n not in cols]
     if missing:
@@ -829,13 +825,13 @@ def _to_numbers(
                     where, f"row {r + 2} column {header[c]!r} must be a number, but got {s!r}"
                 ) from None
     for i, _, _ in cols.values():
-        bad = ~np.isfinite(values[:, i])
-        if bad.any():
-            first = int(np.argmax(bad))
-            run = int(np.argmax(~bad[first:])) if (~bad[first:]).any() else len(bad) - first
+        found = nonfinite_run(values[:, i])
+        if found is not None:
+            first, run = found
+            bad = int(np.count_nonzero(~np.isfinite(values[:, i])))
             raise _refuse(
                 where,
-                f"column {header[i]!r} must be finite, but holds {int(bad.sum())} missing/NaN/inf "
+                f"column {header[i]!r} must be finite, but holds {bad} missing/NaN/inf "
                 f"value(s), the first run of {run} from data row {first + 1} (file line "
                 f"{first + 2}); drop or fill those rows",
             )

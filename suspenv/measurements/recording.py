@@ -22,7 +22,7 @@ from suspenv.measurements.errors import RecordingError
 from suspenv.measurements.units import SI_UNITS, si_unit_of
 
 
-def _nan_run(values: np.ndarray) -> tuple[int, int] | None:
+def nonfinite_run(values: np.ndarray) -> tuple[int, int] | None:
     """First run of non-finite samples as ``(start, length)``, or None."""
     bad = ~np.isfinite(values)
     if not bad.any():
@@ -147,7 +147,7 @@ class Recording:
             raise RecordingError(
                 f"{where}: `time` must be 1-D with >= 2 samples, got shape {t.shape}"
             )
-        run = _nan_run(t)
+        run = nonfinite_run(t)
         if run:
             raise RecordingError(
                 f"{where}: channel 'time' has {run[1]} non-finite sample(s) starting at "
@@ -166,7 +166,7 @@ class Recording:
                     )
                 if name not in self.units:
                     raise RecordingError(f"{where}: {kind} channel {name!r} has no unit in `units`")
-                run = _nan_run(arr)
+                run = nonfinite_run(arr)
                 if run:
                     raise RecordingError(
                         f"{where}: {kind} channel {name!r} has a run of {run[1]} non-finite "

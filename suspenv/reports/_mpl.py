@@ -40,6 +40,11 @@ def save_figure(fig: Any, path: Path | str, tight: bool = False, **savefig: Any)
     return Path(path)
 
 
+def save_cropped(fig: Any, path: Path | str) -> Path:
+    """:func:`save_figure` at 100 dpi, cropped to what is drawn (``bbox_inches="tight"``)."""
+    return save_figure(fig, path, dpi=100, bbox_inches="tight")
+
+
 def add_polylines(ax: Any, values: np.ndarray, **style: Any) -> Any:
     """Draw each row of ``values`` (k, m) as a line through ``(j, values[:, j])``,
     ``j = 0 .. m-1``, as one ``LineCollection`` (one artist, not k: thousands of lines

@@ -20,7 +20,7 @@ from suspenv.core.jsonable import to_jsonable
 from suspenv.core.markdown import fmt, markdown_table, text
 from suspenv.methods.identifiability import K_SIGMA, TOLERANCE_PCT, summary_counts
 from suspenv.methods.identify import FIT_RATIO, summary
-from suspenv.reports._mpl import pyplot, save_figure
+from suspenv.reports._mpl import pyplot, save_cropped
 from suspenv.runs.run_dir import write_json
 
 if TYPE_CHECKING:
@@ -52,10 +52,6 @@ CHANNEL_WORDS = {c: label.split(" [")[0] for c, (label, _) in AXIS_LABELS.items(
 
 
 # ------------------------------------------------------------------ figures
-def _save(fig: Any, path: Path) -> Path:
-    return save_figure(fig, path, dpi=100, bbox_inches="tight")
-
-
 def _worst_first(result: IdentifyResult) -> list[str]:
     """Fitted channels, the one with the worst curve (the answer's RMS / noise) first."""
     fit = result.final_fit
@@ -118,7 +114,7 @@ def plot_curves(result: IdentifyResult, path: Path) -> Path | None:
         fontsize=9,
     )
     fig.tight_layout(rect=(0, 0, 1, 0.985))  # room for the title
-    return _save(fig, path)
+    return save_cropped(fig, path)
 
 
 def plot_residual(result: IdentifyResult, path: Path) -> Path:
@@ -148,7 +144,7 @@ def plot_residual(result: IdentifyResult, path: Path) -> Path:
     ax.set_ylabel("RMS residual / noise RMS (both wheels)")
     ax.legend(fontsize=7)
     ax.grid(alpha=0.3, axis="y")
-    return _save(fig, path)
+    return save_cropped(fig, path)
 
 
 def plot_convergence(result: IdentifyResult, path: Path) -> Path:
@@ -166,7 +162,7 @@ def plot_convergence(result: IdentifyResult, path: Path) -> Path:
     ax.set_ylabel("cost = sum of (residual / noise)^2")
     ax.legend(fontsize=7)
     ax.grid(alpha=0.3)
-    return _save(fig, path)
+    return save_cropped(fig, path)
 
 
 # ------------------------------------------------------------------ markdown

@@ -18,17 +18,11 @@ from scipy.cluster import hierarchy
 from suspenv.core.atomic import write_file
 from suspenv.core.markdown import markdown_table
 from suspenv.methods.tey2014.pipeline import PAPER_REFERENCE, study_summary
-from suspenv.reports._mpl import pyplot, save_figure
+from suspenv.reports._mpl import pyplot, save_cropped
 from suspenv.runs.quality import best_so_far
 
 if TYPE_CHECKING:
-    from matplotlib.figure import Figure
-
     from suspenv.methods.tey2014.pipeline import RunArrays, Tey2014Study
-
-
-def _save(fig: Figure, path: Path) -> Path:
-    return save_figure(fig, path, dpi=100, bbox_inches="tight")
 
 
 # ---------------------------------------------------------------- figures
@@ -47,7 +41,7 @@ def plot_sensitivity(study: Tey2014Study, path: Path) -> Path:
         ax.get_xticklabels()[j].set_fontweight("bold")
     ax.set_title(f"Spearman rank correlation (p > {s.alpha:g} shown as 0; n = {s.n_samples})")
     fig.colorbar(im, ax=ax, shrink=0.8, label="rho")
-    return _save(fig, path)
+    return save_cropped(fig, path)
 
 
 def plot_dendrogram(study: Tey2014Study, path: Path) -> Path:
@@ -67,7 +61,7 @@ def plot_dendrogram(study: Tey2014Study, path: Path) -> Path:
     ax.set_title(
         f"{c.method} linkage (cophenetic {c.cophenetic[c.method]:.3f}); {k} clusters, * = kept"
     )
-    return _save(fig, path)
+    return save_cropped(fig, path)
 
 
 def plot_silhouette(study: Tey2014Study, path: Path) -> Path:
@@ -83,7 +77,7 @@ def plot_silhouette(study: Tey2014Study, path: Path) -> Path:
     ax.axvline(sel.k_silhouette, color="tab:blue", ls=":", lw=1)
     ax.axvline(sel.k_rank, color="tab:red", ls=":", lw=1)
     ax.set_title(f"best silhouette at k = {sel.k_silhouette}; rank method k = {sel.k_rank}")
-    return _save(fig, path)
+    return save_cropped(fig, path)
 
 
 def _run_curve(run: RunArrays, quality, cols: list[int] | None) -> tuple[np.ndarray, np.ndarray]:
@@ -124,7 +118,7 @@ def plot_convergence(study: Tey2014Study, path: Path) -> Path:
     ax.set_xlabel("evaluations")
     ax.set_ylabel("rank-sum of kept objectives, normalised on the DoE")
     ax.legend(fontsize=7)
-    return _save(fig, path)
+    return save_cropped(fig, path)
 
 
 def plot_rank_vs_euclidean(study: Tey2014Study, path: Path) -> Path:
@@ -153,7 +147,7 @@ def plot_rank_vs_euclidean(study: Tey2014Study, path: Path) -> Path:
     ax2.set_ylabel("rank-sum")
     ax2.set_title(f"{c.rank_sum.size} random designs")
     ax2.legend(fontsize=7)
-    return _save(fig, path)
+    return save_cropped(fig, path)
 
 
 def plot_curves(study: Tey2014Study, folder: Path) -> list[Path]:
@@ -189,7 +183,7 @@ def plot_curves(study: Tey2014Study, folder: Path) -> list[Path]:
         fig.suptitle(test)
         fig.subplots_adjust(hspace=0.45, wspace=0.3)
         safe = "".join(ch if ch.isalnum() else "_" for ch in test).strip("_")
-        paths.append(_save(fig, folder / f"curves_{safe}.png"))
+        paths.append(save_cropped(fig, folder / f"curves_{safe}.png"))
     return paths
 
 
@@ -228,7 +222,7 @@ def plot_profiles(study: Tey2014Study, path: Path) -> Path | None:
     ax.set_title(f"profiles: rise of scaled mismatch ({p} points per parameter)", fontsize=9)
     ax.legend(fontsize=6, loc="upper right")
     fig.colorbar(im, ax=ax, label="log10(rise + 0.001)")
-    return _save(fig, path)
+    return save_cropped(fig, path)
 
 
 def plot_recovery(study: Tey2014Study, path: Path) -> Path | None:
@@ -246,7 +240,7 @@ def plot_recovery(study: Tey2014Study, path: Path) -> Path | None:
     ax.set_xticks(range(d), sp.names, rotation=90, fontsize=6)
     ax.set_ylabel("identified - truth [% of range]")
     ax.set_title(f"recovery error (bars) and std of the best {study.options['top']} (whiskers)")
-    return _save(fig, path)
+    return save_cropped(fig, path)
 
 
 # ----------------------------------------------------------------- tables

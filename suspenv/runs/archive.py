@@ -1,10 +1,8 @@
 """The append-only evaluation archive: one SQLite file per run directory.
 
-The run loop hands every evaluated chunk to an :class:`ArchiveWriter`, which commits them
-in group transactions (at most :attr:`ArchiveWriter.COMMIT_AFTER_S` apart, an expensive
-chunk at once, everything when the loop ends however it ends), so a run that is killed
-loses at most that much cheap work and nothing of an expensive evaluation;
-:func:`suspenv.runs.loop.optimize` replays the archive to resume without re-evaluating.
+The run loop hands every evaluated chunk to an :class:`ArchiveWriter` (group commits:
+what a kill loses); :func:`suspenv.runs.loop.optimize` replays the archive to resume
+without re-evaluating.
 Arrays are stored as little-endian float64 blobs; :meth:`RunArchive.to_csv` writes a flat
 table with named columns.
 
@@ -59,6 +57,7 @@ import numpy as np
 
 from suspenv.core.atomic import atomic_path, write_fault
 from suspenv.core.errors import ValidationError
+from suspenv.core.jsonable import json_default
 from suspenv.core.result import EvaluationBatch
 
 _META = "CREATE TABLE IF NOT EXISTS meta (key TEXT PRIMARY KEY, value TEXT NOT NULL)"
@@ -83,6 +82,9 @@ _EVALUATIONS = """CREATE TABLE IF NOT EXISTS {table} (
 _COLUMNS = (
     "batch, row, n, unit, x, objectives, constraints, ok, message, wall_time, created, checksum"
 )
+
+#: what to do with a damaged archive or one that lost evaluations
+_REMEDY = "restore the archive from a copy, or start the run anew with --overwrite"
 
 #: value columns of an evaluation: (kind, array of RunArchive.arrays, meta prefix, fallback)
 _VALUES = (
@@ -405,10 +407,9 @@ class RunArchive:
             and all(type(b) is bytes and len(b) % (8 * n) == 0 for b in blobs)
             and (checksum is None or (type(checksum) is bytes and len(checksum) == 8 * n))
         ):
-            raise ValidationError(
-                f"archive {str(self.path)!r} is damaged: the evaluations of batch {batch!r} "
-                f"from row {row!r} are not in the layout suspenv writes; restore the archive "
-                "from a copy, or start the run anew with --overwrite"
+            raise self._damaged(
+                f"the evaluations of batch {batch!r} from row {row!r} are not in the layout "
+                "suspenv writes"
             )
         w = [len(b) // n for b in blobs]
         each = wall_time / n if isinstance(wall_time, int | float) else None
@@ -425,26 +426,26 @@ class RunArchive:
             for i in range(n)
         ]
 
+    def _damaged(self, what: str, remedy: bool = True) -> ValidationError:
+        """The error of a damaged archive, saying ``what`` is wrong (and, with
+        ``remedy``, what to do)."""
+        tail = f"; {_REMEDY}" if remedy else ""
+        return ValidationError(f"archive {str(self.path)!r} is damaged: {what}{tail}")
+
     def _verify(self, rows: list[tuple[Any, ...]]) -> None:
         """Each design ``(checksum, *CHECKED columns, ...)`` against its checksum, and no
         design twice (rows in order of batch and row)."""
         sums = table_checksums([r[1:9] for r in rows])
         for (stored, batch, row, *_), c in zip(rows, sums, strict=True):
             if stored is None or stored != c:
-                raise ValidationError(
-                    f"archive {str(self.path)!r} is damaged: the evaluation of batch "
-                    f"{batch!r}, row {row!r} does not match its checksum (a value changed "
-                    "after it was written); restore the archive from a copy, or start the "
-                    "run anew with --overwrite"
+                raise self._damaged(
+                    f"the evaluation of batch {batch!r}, row {row!r} does not match its "
+                    "checksum (a value changed after it was written)"
                 )
         keys = [(r[1], r[2]) for r in rows]
         for before, (b, r) in zip(keys, keys[1:], strict=False):
             if (b, r) <= before:
-                raise ValidationError(
-                    f"archive {str(self.path)!r} is damaged: it holds the evaluation of "
-                    f"batch {b}, row {r} twice; restore the archive from a copy, or start the "
-                    "run anew with --overwrite"
-                )
+                raise self._damaged(f"it holds the evaluation of batch {b}, row {r} twice")
 
     def check_count(self, expected: Any, source: str) -> None:
         """Refuse an archive holding fewer evaluations than ``expected`` (what ``source``
@@ -455,15 +456,14 @@ class RunArchive:
         if have < expected:
             raise ValidationError(
                 f"archive {str(self.path)!r} holds {have} evaluation(s), but {source} says "
-                f"{expected} were done: evaluations were lost; restore the archive from a "
-                "copy, or start the run anew with --overwrite"
+                f"{expected} were done: evaluations were lost; {_REMEDY}"
             )
 
     # ------------------------------------------------------------------ meta
     def set_meta(self, **items: Any) -> None:
         self._write(
             "INSERT OR REPLACE INTO meta(key, value) VALUES (?, ?)",
-            [(k, json.dumps(v, default=_json_default)) for k, v in items.items()],
+            [(k, json.dumps(v, default=json_default)) for k, v in items.items()],
         )
 
     def meta(self) -> dict[str, Any]:
@@ -540,14 +540,12 @@ class RunArchive:
     def _values(self, blob: Any, width: int | None, column: str) -> np.ndarray:
         """One row's float64 values from a blob, checked against the expected width."""
         if not isinstance(blob, bytes) or len(blob) % 8:
-            raise ValidationError(
-                f"archive {str(self.path)!r} is damaged: a {column} value is not float64 data"
-            )
+            raise self._damaged(f"a {column} value is not float64 data", remedy=False)
         v = np.frombuffer(blob, dtype="<f8")
         if width is not None and v.size != width:
-            raise ValidationError(
-                f"archive {str(self.path)!r} is damaged: a {column} value has {v.size} "
-                f"numbers, the archive's names say {width}"
+            raise self._damaged(
+                f"a {column} value has {v.size} numbers, the archive's names say {width}",
+                remedy=False,
             )
         return v
 
@@ -588,9 +586,7 @@ class RunArchive:
 
     def _integers(self, values: list[Any], column: str) -> np.ndarray:
         if not all(isinstance(v, int) for v in values):
-            raise ValidationError(
-                f"archive {str(self.path)!r} is damaged: a {column} value is not an integer"
-            )
+            raise self._damaged(f"a {column} value is not an integer", remedy=False)
         return np.array(values, dtype=int)
 
     def to_csv(self, path: str | Path) -> Path:
@@ -702,16 +698,6 @@ def _json_list(text: Any) -> list[Any]:
     except ValueError:
         return []
     return value if isinstance(value, list) and all(type(m) is str for m in value) else []
-
-
-def _json_default(o: Any) -> Any:
-    if isinstance(o, np.ndarray):
-        return o.tolist()
-    if isinstance(o, np.generic):
-        return o.item()
-    if isinstance(o, Path):
-        return str(o)
-    raise TypeError(f"not JSON serialisable: {type(o).__name__}")
 
 
 def _number(v: float) -> str:

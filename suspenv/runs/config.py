@@ -63,17 +63,9 @@ DEFAULTS: dict[str, Any] = {
 }
 
 KNOWN_TOP = {"name", "seed", "budget", "pipeline", "problem", "strategy", "run", "description"}
-KNOWN_RUN = {
-    "workers",
-    "output",
-    "plots",
-    "progress",
-    "dask_scheduler",
-    "chunk_size",
-    "timeout_s",
-    "retries",
-    "retry_backoff_s",
-}
+#: keys of the [run] table: those with a default, and two without (chunk_size: one chunk
+#: per worker; timeout_s: the problem's own)
+KNOWN_RUN = {*DEFAULTS["run"], "chunk_size", "timeout_s"}
 #: keys of the [problem] and [strategy] tables
 KNOWN_PART = {"name", "options"}
 #: the tables each shipped pipeline reads besides :data:`KNOWN_TOP`

@@ -16,10 +16,8 @@ Rules:
   smaller than the first batch is a ValidationError (the run would evaluate nothing).
 - Evaluation goes through any :class:`concurrent.futures.Executor` (in-process when
   None): each batch is split into chunks (default: one per worker), and every chunk is
-  handed to the archive as it completes; the archive commits them in groups, at most
-  :attr:`~suspenv.runs.archive.ArchiveWriter.COMMIT_AFTER_S` apart, an expensive chunk
-  at once and everything when the loop ends, however it ends (a kill loses at most that
-  much cheap work, which resume evaluates again).
+  handed to the archive's :class:`~suspenv.runs.archive.ArchiveWriter` as it completes
+  (its group commits say what a kill loses; resume evaluates that again).
 - Resuming: pass the run directory of a run that died. The strategy, rebuilt with the
   same seed and options, is replayed against the archive: archived designs are told
   again, not re-evaluated; only the missing rows of a partly evaluated batch are run.
