@@ -13,7 +13,7 @@ load`` with ``w = 1.5`` (minimised):
   3-10 % from seed to seed: ``ride_method="time"``; see docs/minibus.md);
 - f2 [m/s^2]: the same above the rear suspension;
 - f3 [s]: ISO 7401 step-steer yaw-rate response time (steer step to 90 % of the
-  steady yaw rate) at 80 km/h and 4 m/s^2 (:func:`suspenv.metrics.handling.step_steer`);
+  steady yaw rate) at 80 km/h and 4 m/s^2 (:func:`suspenv.metrics.handling.yaw_response`);
 - f4 [deg]: steering-wheel angle amplitude the pylon-course slalom needs (60 km/h, 10
   cones 30 m apart, 1.25 m offset: 3.8 m/s^2 = 0.39 g of lateral acceleration),
   GB/T 6323.1's "average steering-wheel angle peak";
@@ -24,7 +24,7 @@ where the manoeuvre runs: each axle's tyres at their quasi-steady secant corneri
 stiffness at the manoeuvre's lateral acceleration
 (:func:`suspenv.rigs.handling.secant_axle_stiffness`), so the stabiliser bars' balance,
 the tyres' load sensitivity and the compliances enter with the signs they have there
-(:func:`suspenv.metrics.handling.slalom_linear`); one frequency-response solve and one
+(:func:`suspenv.rigs.handling.slalom_linear`); one frequency-response solve and one
 closed-form step response per design, no time loop. Every objective of this set varies
 over the design box by more than 3 % (``python -m benchmarks.minibus_objectives``);
 the steady-circle limit (a measure, ``ay_max``) varies by under 1 % and is not one of
@@ -34,7 +34,7 @@ them (docs/minibus_handling.md).
 quasi-steady lateral acceleration of the steady-state circular test, R = 15 m
 (:func:`suspenv.rigs.handling.steady_circle`), f4 [deg/s] the mean yaw-rate amplitude
 and f5 [deg] the mean roll amplitude of the closed-loop, nonlinear time-domain slalom
-over the middle cones (:func:`suspenv.metrics.handling.slalom`; 150-300 ms per call
+over the middle cones (:func:`suspenv.rigs.handling.slalom`; 150-300 ms per call
 one design at a time). The study's yaw rate is fixed by the course (its spread over
 the design box follows the driver's path error) and its roll is the roll gradient
 times the lateral acceleration (Spearman 0.997); see docs/minibus_handling.md.
@@ -85,12 +85,7 @@ from suspenv.core import EvaluationBatch, Problem
 from suspenv.core.errors import ValidationError
 from suspenv.core.options import choice, integer, number, positive
 from suspenv.core.pareto import nondominated
-from suspenv.metrics.handling import (
-    course_lateral_acceleration,
-    slalom,
-    slalom_linear,
-    yaw_response,
-)
+from suspenv.metrics.handling import yaw_response
 from suspenv.metrics.ride import (
     RIDE_METHODS,
     exceedance_probability,
@@ -118,8 +113,11 @@ from suspenv.registry import report_function
 from suspenv.rigs.handling import (
     SlalomConfig,
     SteadyCircleConfig,
+    course_lateral_acceleration,
     gradient_accelerations,
     secant_axle_stiffness,
+    slalom,
+    slalom_linear,
     steady_circle,
     steady_state_sweep,
     understeer_gradients,
