@@ -58,11 +58,12 @@ from tqdm import tqdm
 
 from benchmarks.common import BatchTiming, wall_and_cpu, write_result
 from suspenv.core import compiled
-from suspenv.metrics.ride import ride_objectives_all, ride_spectral
+from suspenv.metrics.ride import ride_spectral
 from suspenv.models.minibus import handling_kernel, spectral_kernel
 from suspenv.models.minibus.handling_model import HandlingParams, handling_parameters, wheel_loads
 from suspenv.models.minibus.vehicle import LOAD_CASES
 from suspenv.problems.minibus import MinibusRideHandling
+from suspenv.problems.minibus_ride import ride_objectives_all
 from suspenv.rigs.handling import (
     SteadyCircleConfig,
     axle_capacity,

@@ -7,7 +7,7 @@ load`` with ``w = 1.5`` (minimised):
 
 - f1 [m/s^2]: ISO 2631-1 Wk-weighted RMS vertical acceleration above the front
   suspension, ISO 8608 class-B road at 80 km/h
-  (:func:`suspenv.metrics.ride.ride_objectives_all`); by default (``ride_method =
+  (:func:`suspenv.problems.minibus_ride.ride_objectives_all`); by default (``ride_method =
   "spectral"``) the exact spectral integral of the equivalent-linear ride model over
   the road PSD, free of road-seed noise (the study's 10 s time-domain record scatters
   3-10 % from seed to seed: ``ride_method="time"``; see docs/minibus.md);
@@ -86,12 +86,7 @@ from suspenv.core.errors import ValidationError
 from suspenv.core.options import choice, integer, number, positive
 from suspenv.core.pareto import nondominated
 from suspenv.metrics.handling import yaw_response
-from suspenv.metrics.ride import (
-    RIDE_METHODS,
-    exceedance_probability,
-    ride_objectives_all,
-    working_space,
-)
+from suspenv.metrics.ride import exceedance_probability, working_space
 from suspenv.models.effects.effect import Effect
 from suspenv.models.minibus import spectral_kernel
 from suspenv.models.minibus.handling_model import (
@@ -109,6 +104,8 @@ from suspenv.models.minibus.vehicle import (
     stacked_vehicle_parameters,
 )
 from suspenv.models.minibus.vehicle import G as G_STD
+from suspenv.models.road import ROAD_CLASS_GD0, RandomRoad
+from suspenv.problems.minibus_ride import RIDE_METHODS, ride_objectives_all
 from suspenv.registry import report_function
 from suspenv.rigs.handling import (
     SlalomConfig,
@@ -122,8 +119,6 @@ from suspenv.rigs.handling import (
     steady_state_sweep,
     understeer_gradients,
 )
-from suspenv.rigs.ride import RandomRoad
-from suspenv.rigs.road import ROAD_CLASS_GD0
 
 #: shortest random-road record (s): one period of 0.5 Hz, the lower edge of ISO 2631-1's
 #: Wk weighting band (shorter records do not resolve it; below 0.02 s no road is made)
