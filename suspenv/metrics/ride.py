@@ -165,7 +165,7 @@ def record_objectives(
 
 # ------------------------------------------------------------------ spectral method
 def frequency_grid(
-    road: RandomRoad, n_freq: int = 400, vehicle: Minibus = REFERENCE_MINIBUS
+    road: RandomRoad, n_freq: int = 400
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Integration grid of the spectral method: (f (Hz), quadrature weights, ISO-band mask).
 
@@ -215,7 +215,7 @@ def _road_grid(road: RandomRoad, n_freq: int, vehicle: Minibus) -> tuple[np.ndar
     """Grid (f, weights, ISO mask) with the road terms on it: temporal PSD Gq (with the
     tyre enveloping), rear delay factor, left/right coherency, and Wk^2 in the ISO band.
     Cached per (road, grid size, vehicle); the arrays are read-only."""
-    f, w, iso = frequency_grid(road, n_freq, vehicle)
+    f, w, iso = frequency_grid(road, n_freq)
     gq, delay, rho = road_terms(f, road, vehicle)
     wk2 = np.where(iso, weighting_magnitude(f, "Wk") ** 2, 0.0)
     out = (f, w, iso, gq, delay, rho, wk2)

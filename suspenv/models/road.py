@@ -90,7 +90,7 @@ def track_coherence(n: np.ndarray, track: float) -> np.ndarray:
 
 @dataclass(frozen=True)
 class RoadProfile:
-    """Two wheel tracks sampled on a uniform grid; periodic over ``length``.
+    """Two wheel tracks sampled on a uniform grid; periodic over their sampled length.
 
     Attributes:
         dx: sample spacing (m).
@@ -103,14 +103,6 @@ class RoadProfile:
     left: np.ndarray
     right: np.ndarray
     spectra: np.ndarray
-
-    @property
-    def length(self) -> float:
-        return self.dx * self.left.shape[0]
-
-    @property
-    def x(self) -> np.ndarray:
-        return self.dx * np.arange(self.left.shape[0])
 
     def shifted(self, distance: float) -> tuple[np.ndarray, np.ndarray]:
         """Tracks delayed by ``distance`` (m): z(x - distance), exact on the periodic profile."""
