@@ -1,7 +1,5 @@
-"""Handling metrics: ISO 7401 yaw-rate response of a linear handling system.
-
-Units SI (s, rad, Hz). The slalom and its linear-range counterpart run the vehicle
-over the course and live with the other handling rigs (:mod:`suspenv.rigs.handling`).
+"""Handling metrics: ISO 7401 yaw-rate response of a linear handling system (SI units:
+s, rad, Hz). The slalom runs live with the handling rigs (:mod:`suspenv.rigs.handling`).
 """
 
 from __future__ import annotations

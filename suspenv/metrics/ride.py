@@ -129,18 +129,14 @@ def vibration_dose_value(a: np.ndarray, fs: float) -> np.ndarray:
 def record_objectives(
     rec: RideRecord, fs: float, load_cases: Sequence[str]
 ) -> dict[str, dict[str, np.ndarray]]:
-    """Ride objectives of every load case measured on a random-road record sampled at
-    ``fs`` (Hz) (:func:`suspenv.rigs.ride.random_road_run`; rows: the load cases stacked
-    in order, n designs each).
+    """Ride objectives per load case of a random-road record sampled at ``fs`` (Hz)
+    (:func:`suspenv.rigs.ride.random_road_run`; rows: the load cases stacked in order).
 
-    Returns ``{load_case: {"aw_front": (n,), "aw_rear": (n,), "rms_front": (n,),
-    "rms_rear": (n,), "crest_front": (n,), "crest_rear": (n,), "vdv_front": (n,),
-    "vdv_rear": (n,), "ok": (n,)}}``: ISO 2631-1 Wk-weighted (aw_*) and unweighted
-    (rms_*) RMS vertical acceleration (m/s^2) above the front and rear suspension, and
-    from the weighted record (:func:`weighted_signal_fft`) its crest factor ``crest_*``
-    (-) and vibration dose value ``vdv_*`` (m/s^1.75, over the record): ISO 2631-1 asks
-    for the VDV beside the RMS where the crest factor exceeds 9. Rows whose integration
-    diverged have ``ok`` False and NaN values.
+    ``{load_case: {key: (n,)}}``: ISO 2631-1 Wk-weighted ``aw_*`` and unweighted
+    ``rms_*`` RMS vertical acceleration (m/s^2) above the front and rear suspension, the
+    weighted record's (:func:`weighted_signal_fft`) crest factor ``crest_*`` (-) and
+    vibration dose value ``vdv_*`` (m/s^1.75; ISO 2631-1 asks for it beside the RMS where
+    the crest factor exceeds 9), and ``ok``: False (values NaN) where it diverged.
     """
     n = rec.acc_front.shape[0] // len(load_cases)
     ok = rec.ok if rec.ok is not None else np.isfinite(rec.acc_front).all(axis=-1)

@@ -184,8 +184,7 @@ def welch_psd(
 # ------------------------------------------------------------------ random road run
 @dataclass(frozen=True)
 class RandomRoad:
-    """Settings of a random-road ride run (:mod:`suspenv.rigs.ride` gives the defaults'
-    reasons): the road, its seeded realisation and the record's length and rate."""
+    """Settings of a random-road ride run (:mod:`suspenv.rigs.ride` gives the defaults)."""
 
     road_class: str | float = "B"
     speed_kmh: float = 80.0

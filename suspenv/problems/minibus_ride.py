@@ -34,11 +34,8 @@ def ride_objectives_all(
     """Ride objectives of every load case from one stacked integration (or spectral pass).
 
     Returns ``{load_case: {"aw_front": (n,), "aw_rear": (n,), "rms_front": (n,),
-    "rms_rear": (n,), "ok": (n,)}}``: ISO 2631-1 Wk-weighted (aw_*) and unweighted
-    (rms_*) RMS vertical acceleration (m/s^2) above the front and rear suspension; rows
-    whose integration diverged have ``ok`` False and NaN values (the batch goes on).
-    ``method="time"`` adds the weighted record's crest factors ``crest_*`` (-) and
-    vibration dose values ``vdv_*`` (m/s^1.75) (:func:`record_objectives`).
+    "rms_rear": (n,), "ok": (n,)}}`` (:func:`record_objectives`: units, failed rows);
+    ``method="time"`` adds the weighted record's ``crest_*`` and ``vdv_*``.
 
     The integration runs in float32 by default (about 1.4x faster; the weighted RMS
     agrees with float64 to ~1e-6, see tests); pass ``dtype=np.float64`` to change that.
@@ -49,10 +46,9 @@ def ride_objectives_all(
     seed, no record length, no noise; ``road.seed``, ``duration_s``, ``settle_s`` and
     ``dtype`` are unused; effects by their equivalent-linear rates) and adds its
     equivalent-linear rates ``damper_c`` (n, 4) and ``leaf_k`` (n, 2) (for
-    :func:`suspenv.metrics.ride.working_space`). ``params``:
-    :func:`suspenv.models.minibus.vehicle.stacked_vehicle_parameters` of X in
-    ``load_cases``, if already at hand (the spectral method's; the time method's rig
-    makes its own).
+    :func:`suspenv.metrics.ride.working_space`). ``params``: the stacked vehicle
+    parameters of X in ``load_cases``, if already at hand (the spectral method's; the
+    time method's rig makes its own).
     """
     road = road or RandomRoad()
     X = np.atleast_2d(np.asarray(X, dtype=float))

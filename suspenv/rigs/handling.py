@@ -637,9 +637,8 @@ def slalom(
     """Run the pylon-course slalom for every row of ``P`` and measure it over the middle
     cones (``config.measure_cones``, default the 3rd to the 8th): for each cone the peak
     |yaw rate| and peak |roll angle| while the vehicle is within half a spacing of the
-    cone; the results are the means of these peaks (mean yaw-rate amplitude, mean
-    roll-angle amplitude). The peaks are folded in step by step (:class:`WindowedPeaks`,
-    handed to :func:`slalom_run` as its accumulator), so no time history is stored."""
+    cone, and their means over the cones. The peaks are folded in step by step
+    (:class:`WindowedPeaks`, :func:`slalom_run`'s accumulator): no time history is kept."""
     config = config or SlalomConfig()
     first, stop = config.measure_cones
     peaks = WindowedPeaks(
@@ -710,10 +709,10 @@ def slalom_linear(
     ``working_point=True`` (default): the axles' tyres at their quasi-steady secant
     stiffness at the course's lateral acceleration amplitude
     (:func:`course_lateral_acceleration`, 3.8 m/s^2 = 0.39 g at 60 km/h and 30 m; by
-    :func:`secant_axle_stiffness`), so the load transfer (the
-    stabiliser bars' balance), the tyres' load sensitivity and the compliances enter
-    as they do where the course runs; ``False``: the small-amplitude linearisation
-    about straight running (the bars' split then only moves the roll steer).
+    :func:`secant_axle_stiffness`), so the load transfer (the stabiliser bars' balance),
+    the tyres' load sensitivity and the compliances enter as they do where the course
+    runs; ``False``: the small-amplitude linearisation about straight running (the
+    bars' split then only moves the roll steer).
     ``system``: (A, B) of :func:`linear_system` at the course's speed and working point,
     if already at hand; ``stable``: whether each row of that A is finite with every pole
     in the left half-plane, if already known (else from A's eigenvalues).
