@@ -70,7 +70,7 @@ from tqdm import tqdm
 
 from benchmarks.common import DEFAULT_OUTPUT_DIR, write_result
 from suspenv.metrics.iso2631 import weighted_rms_fft
-from suspenv.metrics.ride import ride_objectives_all, ride_spectral
+from suspenv.metrics.ride import ride_spectral
 from suspenv.models.effects.effect import Effect, make_effect
 from suspenv.models.minibus import BASELINE_DESIGN, STUDY_PICK, design_space
 from suspenv.models.minibus.ride_model import RideModel, RideRecord
@@ -81,8 +81,14 @@ from suspenv.models.minibus.vehicle import (
     Minibus,
     stacked_vehicle_parameters,
 )
-from suspenv.rigs.ride import RandomRoad, profile_inputs
-from suspenv.rigs.road import RoadProfile, generate_profile, track_coherence
+from suspenv.models.road import (
+    RandomRoad,
+    RoadProfile,
+    generate_profile,
+    profile_inputs,
+    track_coherence,
+)
+from suspenv.problems.minibus_ride import ride_objectives_all
 from suspenv.runs.run_dir import load_summary
 
 #: agreement asked of the spectral values with the long runs (%)

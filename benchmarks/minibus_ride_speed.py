@@ -36,9 +36,10 @@ import numpy as np
 from tqdm import tqdm
 
 from benchmarks.common import write_result
-from suspenv.metrics.ride import ride_objectives_all, ride_spectral
+from suspenv.metrics.ride import ride_spectral
 from suspenv.models.minibus import design_space
-from suspenv.rigs.ride import RandomRoad
+from suspenv.models.road import RandomRoad
+from suspenv.problems.minibus_ride import ride_objectives_all
 
 #: ride budget per candidate (ms, CPU) at batch 500 and at batch 1: a small fraction of
 #: the whole problem's targets (1 ms batched, 5 ms one design at a time)

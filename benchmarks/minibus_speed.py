@@ -58,13 +58,19 @@ from tqdm import tqdm
 
 from benchmarks.common import BatchTiming, wall_and_cpu, write_result
 from suspenv.core import compiled
-from suspenv.metrics.handling import slalom, slalom_linear
-from suspenv.metrics.ride import ride_objectives_all, ride_spectral
+from suspenv.metrics.ride import ride_spectral
 from suspenv.models.minibus import handling_kernel, spectral_kernel
 from suspenv.models.minibus.handling_model import HandlingParams, handling_parameters, wheel_loads
 from suspenv.models.minibus.vehicle import LOAD_CASES
 from suspenv.problems.minibus import MinibusRideHandling
-from suspenv.rigs.handling import SteadyCircleConfig, axle_capacity, steady_circle
+from suspenv.problems.minibus_ride import ride_objectives_all
+from suspenv.rigs.handling import (
+    SteadyCircleConfig,
+    axle_capacity,
+    slalom,
+    slalom_linear,
+    steady_circle,
+)
 
 TARGET_SINGLE_MS = 5.0
 TARGET_SINGLE_COMPILED_MS = 1.0

@@ -90,8 +90,7 @@ from suspenv.models.minibus.vehicle import (
     REFERENCE_MINIBUS,
     stacked_vehicle_parameters,
 )
-from suspenv.rigs.ride import RandomRoad
-from suspenv.rigs.road import CLASS_BAND
+from suspenv.models.road import CLASS_BAND, RandomRoad
 
 GAP, K_STOP = STOPS[0].params["gap"], STOPS[0].params["k_stop"]
 #: designs of part 1: the stops' frequent contact (all-low, 1010) and the centre

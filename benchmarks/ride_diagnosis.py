@@ -58,7 +58,7 @@ from suspenv.diagnosis.ride.family import RideFamily
 from suspenv.diagnosis.road import diagnose_road, load_profile_txt
 from suspenv.measurements import Recording, data_dir
 from suspenv.measurements.sources.road_profile import profile_recording
-from suspenv.rigs.road import N0, ROAD_CLASS_GD0
+from suspenv.models.road import N0, ROAD_CLASS_GD0
 
 KINDS: tuple[str | None, ...] = (
     "bump_stop",

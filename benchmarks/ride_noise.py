@@ -35,8 +35,9 @@ from benchmarks.common import write_result
 from suspenv.metrics.iso2631 import weighted_rms_fft
 from suspenv.models.minibus import BASELINE_DESIGN, STUDY_PICK, design_space
 from suspenv.models.minibus.vehicle import LOAD_CASES
+from suspenv.models.road import RandomRoad
 from suspenv.problems.minibus import MinibusRideHandling
-from suspenv.rigs.ride import RandomRoad, random_road_run
+from suspenv.rigs.ride import random_road_run
 
 MEASURES = (
     "aw_front_no_load",
@@ -54,7 +55,7 @@ def _designs() -> np.ndarray:
 
 
 def _ride_values(problem: MinibusRideHandling, X: np.ndarray) -> dict[str, np.ndarray]:
-    from suspenv.metrics.ride import ride_objectives_all
+    from suspenv.problems.minibus_ride import ride_objectives_all
 
     ride = ride_objectives_all(
         X, LOAD_CASES, problem.road, problem.vehicle, dtype=np.float64, method=problem.ride_method

@@ -57,7 +57,8 @@ from suspenv.diagnosis.ride.model import (
 from suspenv.measurements import Recording, save_recording
 from suspenv.models.effects import Effect
 from suspenv.models.minibus import REFERENCE_MINIBUS
-from suspenv.rigs.ride import RandomRoad, random_road_inputs
+from suspenv.models.road import RandomRoad
+from suspenv.rigs.ride import random_road_inputs
 
 #: concealed-effect kinds the generator draws from (None = no effect)
 TRUTH_KINDS = ("bump_stop", "leaf_friction", "damper_friction", "seat_mount")

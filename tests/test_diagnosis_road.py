@@ -20,8 +20,8 @@ from suspenv.diagnosis.road import (
     whittle_deviance,
 )
 from suspenv.measurements.sources.road_profile import load_profile_txt, profile_recording
+from suspenv.models.road import ROAD_CLASS_GD0, gd0_class
 from suspenv.reports.diagnosis.road import write_road_report
-from suspenv.rigs.road import ROAD_CLASS_GD0, gd0_class
 
 GD_B = ROAD_CLASS_GD0["B"]
 

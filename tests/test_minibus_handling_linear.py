@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from benchmarks.minibus_speed import steady_circle_bisection, steady_loads
-from suspenv.metrics.handling import slalom_linear, yaw_response
+from suspenv.metrics.handling import yaw_response
 from suspenv.models.minibus.handling_kernel import tabulated
 from suspenv.models.minibus.handling_model import (
     HandlingParams,
@@ -26,6 +26,7 @@ from suspenv.rigs.handling import (
     _capacity_table,
     axle_capacity,
     secant_axle_stiffness,
+    slalom_linear,
     steady_circle,
     steady_state_sweep,
     understeer_gradients,

@@ -18,8 +18,8 @@ from suspenv.models.minibus import (
 )
 from suspenv.models.minibus.ride_model import RideModel, SeatMount
 from suspenv.models.minibus.suspension import damper_mean_coefficient
-from suspenv.rigs.ride import RandomRoad, random_road_run
-from suspenv.rigs.road import displacement_psd, track_coherence
+from suspenv.models.road import RandomRoad, displacement_psd, track_coherence
+from suspenv.rigs.ride import random_road_run
 
 
 # ---------------------------------------------------------------- independent FD model

@@ -6,17 +6,13 @@ import numpy as np
 import pytest
 
 from suspenv.core.errors import ValidationError
-from suspenv.metrics.ride import ride_objectives, ride_objectives_all
 from suspenv.models.minibus import BASELINE_DESIGN, STUDY_PICK, design_space, vehicle_parameters
 from suspenv.models.minibus.ride_model import RideModel
 from suspenv.models.minibus.vehicle import G
+from suspenv.models.road import RandomRoad
+from suspenv.problems.minibus_ride import ride_objectives, ride_objectives_all
 from suspenv.reports.suspension import suspension_figures, write_suspension_report
-from suspenv.rigs.ride import (
-    PulseBump,
-    RandomRoad,
-    pulse_run,
-    random_road_inputs,
-)
+from suspenv.rigs.ride import PulseBump, pulse_run, random_road_inputs
 
 SHORT = RandomRoad(duration_s=2.0, settle_s=0.5)
 

@@ -39,7 +39,8 @@ from suspenv.models.minibus.vehicle import (
     REFERENCE_MINIBUS,
     stacked_vehicle_parameters,
 )
-from suspenv.rigs.ride import RandomRoad, random_road_run
+from suspenv.models.road import RandomRoad
+from suspenv.rigs.ride import random_road_run
 
 LEAF_FRICTION = make_effect("dahl_hysteresis", location="rear_leaf", f_c=600.0, sigma=600 / 3.5e-3)
 STOPS = [

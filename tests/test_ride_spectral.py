@@ -8,18 +8,14 @@ import pytest
 
 from suspenv.core.errors import ValidationError
 from suspenv.metrics.iso2631 import weighted_rms_fft
-from suspenv.metrics.ride import (
-    _output_matrix,
-    modal_form,
-    modal_response,
-    ride_objectives_all,
-    ride_spectral,
-)
+from suspenv.metrics.ride import _output_matrix, modal_form, modal_response, ride_spectral
 from suspenv.models.minibus import BASELINE_DESIGN, STUDY_PICK, design_space
 from suspenv.models.minibus.ride_model import RideModel
 from suspenv.models.minibus.vehicle import LOAD_CASES, vehicle_parameters
+from suspenv.models.road import RandomRoad
 from suspenv.problems.minibus import MinibusRideHandling
-from suspenv.rigs.ride import RandomRoad, random_road_run
+from suspenv.problems.minibus_ride import ride_objectives_all
+from suspenv.rigs.ride import random_road_run
 
 
 def _one_dof(m: float, c: float, k: float, kin: float, cin: float):

@@ -24,8 +24,9 @@ from suspenv.models.minibus.vehicle import (
     REFERENCE_MINIBUS,
     stacked_vehicle_parameters,
 )
+from suspenv.models.road import RandomRoad
 from suspenv.problems.minibus import MinibusRideHandling
-from suspenv.rigs.ride import RandomRoad, random_road_inputs, random_road_run
+from suspenv.rigs.ride import random_road_inputs, random_road_run
 
 # 2-DOF quarter cars (sprung, unsprung mass kg; spring N/m, damper N s/m, tyre N/m)
 QUARTER_CARS = [(400.0, 45.0, 3.0e4, 2500.0, 2.23e5), (900.0, 75.0, 8.0e4, 6000.0, 2.23e5)]

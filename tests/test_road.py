@@ -7,7 +7,7 @@ import pytest
 from scipy.signal import csd
 
 from suspenv.core.errors import ValidationError
-from suspenv.rigs.road import (
+from suspenv.models.road import (
     CLASS_BAND,
     N0,
     ROAD_CLASS_GD0,

@@ -23,8 +23,9 @@ from suspenv.metrics import knc as knc_metrics
 from suspenv.models.mcpherson import params as mcpherson_params
 from suspenv.models.minibus import vehicle as minibus_vehicle
 from suspenv.models.planar import geometry as planar_geometry
+from suspenv.models.road import RandomRoad
 from suspenv.rigs.handling import SlalomConfig
-from suspenv.rigs.ride import PulseBump, RandomRoad
+from suspenv.rigs.ride import PulseBump
 
 #: a few ulps of double precision (see the module docstring)
 RTOL = 8 * np.finfo(float).eps

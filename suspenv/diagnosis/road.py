@@ -62,7 +62,7 @@ from suspenv.diagnosis.split import Holdout, Recordings, Split, as_recordings, h
 from suspenv.measurements import Recording
 from suspenv.measurements.sources.road_profile import load_profile_txt
 from suspenv.metrics.ride import road_ride_consequence
-from suspenv.rigs.road import N0, gd0_class
+from suspenv.models.road import N0, gd0_class
 
 #: default fitted band (cycle/m): long waves of a ~500 m profile up to 1 cycle/m (below
 #: the 2 cycle/m Nyquist line of a 0.25 m grid, where interpolation and profiler

@@ -1,14 +1,14 @@
 """Ride metrics of acceleration records: PSD, peak, crest factor, vibration dose value,
-the minibus ride objectives of a random-road run, and the ride consequence of a road
+the minibus ride objectives of a random-road record, and the ride consequence of a road
 spectrum (:func:`road_ride_consequence`).
 
 Units: acceleration in m/s^2, time in s, frequency in Hz; PSDs are one-sided
 ((m/s^2)^2/Hz). Records carry time on the last axis; leading axes are a batch.
 Weighted values use the ISO 2631-1 weightings of :mod:`suspenv.metrics.iso2631`.
-:func:`ride_objectives_all` runs the random-road rig (:mod:`suspenv.rigs.ride`, which
-returns time histories) and turns its records into these numbers, or (``method=
-"spectral"``) computes them without a record by :func:`ride_spectral`: the exact
-spectral integral of the equivalent-linear ride model over the ISO 8608 road PSD.
+:func:`record_objectives` turns the records of the random-road rig
+(:mod:`suspenv.rigs.ride`) into these numbers; :func:`ride_spectral` computes them
+without a record: the exact spectral integral of the equivalent-linear ride model over
+the ISO 8608 road PSD (:mod:`suspenv.models.road`).
 """
 
 from __future__ import annotations
@@ -40,7 +40,7 @@ from suspenv.models.minibus.linearisation import (
     SIG_LEAF,
     ElementLinearisation,
 )
-from suspenv.models.minibus.ride_model import RideModel, SeatMount
+from suspenv.models.minibus.ride_model import RideModel, RideRecord, SeatMount
 from suspenv.models.minibus.vehicle import (
     LOAD_CASES,
     REFERENCE_MINIBUS,
@@ -51,12 +51,16 @@ from suspenv.models.minibus.vehicle import (
     vehicle_parameters,
 )
 from suspenv.models.minibus.vehicle import G as G_STD
-from suspenv.rigs.ride import RandomRoad, in_phase_inputs, profile_inputs, random_road_run
-from suspenv.rigs.road import CLASS_BAND, generate_profile, temporal_psd, track_coherence
+from suspenv.models.road import (
+    CLASS_BAND,
+    RandomRoad,
+    generate_profile,
+    in_phase_inputs,
+    profile_inputs,
+    temporal_psd,
+    track_coherence,
+)
 
-#: ride objective methods: exact spectral integral of the (equivalent-)linear model, or
-#: the study's time-domain run on one seeded road record
-RIDE_METHODS = ("spectral", "time")
 #: designs per block of the spectral method's full-model path (``split=False``) and of
 #: its default split path (the blocks' work arrays stay in cache)
 SPECTRAL_CHUNK = 32
@@ -121,54 +125,20 @@ def vibration_dose_value(a: np.ndarray, fs: float) -> np.ndarray:
     return (np.sum(a**4, axis=-1) / fs) ** 0.25
 
 
-# ------------------------------------------------------------------ minibus objectives
-def ride_objectives_all(
-    X: np.ndarray,
-    load_cases: Sequence[str] = LOAD_CASES,
-    road: RandomRoad | None = None,
-    vehicle: Minibus = REFERENCE_MINIBUS,
-    effects: Sequence[Effect] = (),
-    seat: SeatMount | None = None,
-    dtype: type = np.float32,
-    method: str = "time",
-    params: Sequence[VehicleParams] | None = None,
+# ------------------------------------------------------------------ random-road record
+def record_objectives(
+    rec: RideRecord, fs: float, load_cases: Sequence[str]
 ) -> dict[str, dict[str, np.ndarray]]:
-    """Ride objectives of every load case from one stacked integration (or spectral pass).
+    """Ride objectives per load case of a random-road record sampled at ``fs`` (Hz)
+    (:func:`suspenv.rigs.ride.random_road_run`; rows: the load cases stacked in order).
 
-    Returns ``{load_case: {"aw_front": (n,), "aw_rear": (n,), "rms_front": (n,),
-    "rms_rear": (n,), "ok": (n,)}}``: ISO 2631-1 Wk-weighted (aw_*) and unweighted
-    (rms_*) RMS vertical acceleration (m/s^2) above the front and rear suspension; rows
-    whose integration diverged have ``ok`` False and NaN values (the batch goes on).
-    ``method="time"`` adds, from the weighted record (:func:`weighted_signal_fft`), its
-    crest factor ``crest_*`` (-) and vibration dose value ``vdv_*`` (m/s^1.75, over the
-    record): ISO 2631-1 asks for the VDV beside the RMS where the crest factor exceeds 9.
-
-    The integration runs in float32 by default (about 1.4x faster; the weighted RMS
-    agrees with float64 to ~1e-6, see tests); pass ``dtype=np.float64`` to change that.
-
-    ``method``: ``"time"`` (default here) integrates the nonlinear model over the seeded
-    road record of ``road`` and weights its FFT; ``"spectral"`` integrates the output
-    PSD of the equivalent-linear model over the road PSD (:func:`ride_spectral`: no road
-    seed, no record length, no noise; ``road.seed``, ``duration_s``, ``settle_s`` and
-    ``dtype`` are unused; effects by their equivalent-linear rates) and adds its
-    equivalent-linear rates ``damper_c`` (n, 4) and ``leaf_k`` (n, 2) (for
-    :func:`working_space`). ``params``: :func:`stacked_vehicle_parameters` of X in
-    ``load_cases``, if already at hand (the spectral method's; the time method's rig
-    makes its own).
+    ``{load_case: {key: (n,)}}``: ISO 2631-1 Wk-weighted ``aw_*`` and unweighted
+    ``rms_*`` RMS vertical acceleration (m/s^2) above the front and rear suspension, the
+    weighted record's (:func:`weighted_signal_fft`) crest factor ``crest_*`` (-) and
+    vibration dose value ``vdv_*`` (m/s^1.75; ISO 2631-1 asks for it beside the RMS where
+    the crest factor exceeds 9), and ``ok``: False (values NaN) where it diverged.
     """
-    road = road or RandomRoad()
-    X = np.atleast_2d(np.asarray(X, dtype=float))
-    n = X.shape[0]
-    if method not in RIDE_METHODS:
-        raise ValidationError(f"ride method must be one of {RIDE_METHODS}, but got {method!r}")
-    if method == "spectral":
-        sp = ride_spectral(X, load_cases, road, vehicle, seat, effects=effects, params=params)
-        keys = ("aw_front", "aw_rear", "rms_front", "rms_rear", "ok", "damper_c", "leaf_k")
-        return {
-            lc: {k: sp[k][i * n : (i + 1) * n] for k in keys} for i, lc in enumerate(load_cases)
-        }
-    rec = random_road_run(X, load_cases, road, vehicle, effects, seat, dtype=dtype)
-    fs = road.sample_rate
+    n = rec.acc_front.shape[0] // len(load_cases)
     ok = rec.ok if rec.ok is not None else np.isfinite(rec.acc_front).all(axis=-1)
     bad = ~ok
     a_f, a_r = rec.acc_front.astype(float), rec.acc_rear.astype(float)
@@ -189,29 +159,9 @@ def ride_objectives_all(
     return out
 
 
-def ride_objectives(
-    X: np.ndarray,
-    load_case: str = "no_load",
-    road_class: str | float = "B",
-    speed_kmh: float = 80.0,
-    duration_s: float = 10.0,
-    seed: int = 0,
-    vehicle: Minibus = REFERENCE_MINIBUS,
-    effects: Sequence[Effect] = (),
-) -> dict[str, np.ndarray]:
-    """Weighted RMS vertical acceleration above front and rear suspension (m/s^2), (n,) each.
-
-    Keys ``aw_front``, ``aw_rear`` (Wk weighted) and ``rms_front``, ``rms_rear``
-    (unweighted). For both load cases at once use :func:`ride_objectives_all` (one
-    integration, half the overhead).
-    """
-    road = RandomRoad(road_class=road_class, speed_kmh=speed_kmh, duration_s=duration_s, seed=seed)
-    return ride_objectives_all(X, (load_case,), road, vehicle, effects)[load_case]
-
-
 # ------------------------------------------------------------------ spectral method
 def frequency_grid(
-    road: RandomRoad, n_freq: int = 400, vehicle: Minibus = REFERENCE_MINIBUS
+    road: RandomRoad, n_freq: int = 400
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Integration grid of the spectral method: (f (Hz), quadrature weights, ISO-band mask).
 
@@ -261,7 +211,7 @@ def _road_grid(road: RandomRoad, n_freq: int, vehicle: Minibus) -> tuple[np.ndar
     """Grid (f, weights, ISO mask) with the road terms on it: temporal PSD Gq (with the
     tyre enveloping), rear delay factor, left/right coherency, and Wk^2 in the ISO band.
     Cached per (road, grid size, vehicle); the arrays are read-only."""
-    f, w, iso = frequency_grid(road, n_freq, vehicle)
+    f, w, iso = frequency_grid(road, n_freq)
     gq, delay, rho = road_terms(f, road, vehicle)
     wk2 = np.where(iso, weighting_magnitude(f, "Wk") ** 2, 0.0)
     out = (f, w, iso, gq, delay, rho, wk2)
@@ -1010,7 +960,7 @@ def ride_spectral(
     wheel's road input to the output, ``H = C (i 2 pi f I - A)^-1 (B0 + i 2 pi f B1)``,
     evaluated by the batched modal expansion of A. Weighted values (``aw_*``) integrate
     over ISO 2631-1's 0.5-80 Hz with the analogue Wk (:func:`weighting_magnitude`), the
-    unweighted (``rms_*``) over the whole road band, as :func:`ride_objectives_all` does
+    unweighted (``rms_*``) over the whole road band, as :func:`record_objectives` does
     on a record.
 
     ``equivalent_linear``: the nonlinear elements (asymmetric digressive dampers, two-stage

@@ -1,1 +1,2 @@
-"""Models: what the hardware is. Physics as plain functions and frozen dataclasses."""
+"""Models: what the hardware is, and the road it drives on. Physics as plain functions and
+frozen dataclasses."""

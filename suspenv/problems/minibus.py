@@ -7,13 +7,13 @@ load`` with ``w = 1.5`` (minimised):
 
 - f1 [m/s^2]: ISO 2631-1 Wk-weighted RMS vertical acceleration above the front
   suspension, ISO 8608 class-B road at 80 km/h
-  (:func:`suspenv.metrics.ride.ride_objectives_all`); by default (``ride_method =
+  (:func:`suspenv.problems.minibus_ride.ride_objectives_all`); by default (``ride_method =
   "spectral"``) the exact spectral integral of the equivalent-linear ride model over
   the road PSD, free of road-seed noise (the study's 10 s time-domain record scatters
   3-10 % from seed to seed: ``ride_method="time"``; see docs/minibus.md);
 - f2 [m/s^2]: the same above the rear suspension;
 - f3 [s]: ISO 7401 step-steer yaw-rate response time (steer step to 90 % of the
-  steady yaw rate) at 80 km/h and 4 m/s^2 (:func:`suspenv.metrics.handling.step_steer`);
+  steady yaw rate) at 80 km/h and 4 m/s^2 (:func:`suspenv.metrics.handling.yaw_response`);
 - f4 [deg]: steering-wheel angle amplitude the pylon-course slalom needs (60 km/h, 10
   cones 30 m apart, 1.25 m offset: 3.8 m/s^2 = 0.39 g of lateral acceleration),
   GB/T 6323.1's "average steering-wheel angle peak";
@@ -24,7 +24,7 @@ where the manoeuvre runs: each axle's tyres at their quasi-steady secant corneri
 stiffness at the manoeuvre's lateral acceleration
 (:func:`suspenv.rigs.handling.secant_axle_stiffness`), so the stabiliser bars' balance,
 the tyres' load sensitivity and the compliances enter with the signs they have there
-(:func:`suspenv.metrics.handling.slalom_linear`); one frequency-response solve and one
+(:func:`suspenv.rigs.handling.slalom_linear`); one frequency-response solve and one
 closed-form step response per design, no time loop. Every objective of this set varies
 over the design box by more than 3 % (``python -m benchmarks.minibus_objectives``);
 the steady-circle limit (a measure, ``ay_max``) varies by under 1 % and is not one of
@@ -34,7 +34,7 @@ them (docs/minibus_handling.md).
 quasi-steady lateral acceleration of the steady-state circular test, R = 15 m
 (:func:`suspenv.rigs.handling.steady_circle`), f4 [deg/s] the mean yaw-rate amplitude
 and f5 [deg] the mean roll amplitude of the closed-loop, nonlinear time-domain slalom
-over the middle cones (:func:`suspenv.metrics.handling.slalom`; 150-300 ms per call
+over the middle cones (:func:`suspenv.rigs.handling.slalom`; 150-300 ms per call
 one design at a time). The study's yaw rate is fixed by the course (its spread over
 the design box follows the driver's path error) and its roll is the roll gradient
 times the lateral acceleration (Spearman 0.997); see docs/minibus_handling.md.
@@ -85,18 +85,8 @@ from suspenv.core import EvaluationBatch, Problem
 from suspenv.core.errors import ValidationError
 from suspenv.core.options import choice, integer, number, positive
 from suspenv.core.pareto import nondominated
-from suspenv.metrics.handling import (
-    course_lateral_acceleration,
-    slalom,
-    slalom_linear,
-    yaw_response,
-)
-from suspenv.metrics.ride import (
-    RIDE_METHODS,
-    exceedance_probability,
-    ride_objectives_all,
-    working_space,
-)
+from suspenv.metrics.handling import yaw_response
+from suspenv.metrics.ride import exceedance_probability, working_space
 from suspenv.models.effects.effect import Effect
 from suspenv.models.minibus import spectral_kernel
 from suspenv.models.minibus.handling_model import (
@@ -114,18 +104,21 @@ from suspenv.models.minibus.vehicle import (
     stacked_vehicle_parameters,
 )
 from suspenv.models.minibus.vehicle import G as G_STD
+from suspenv.models.road import ROAD_CLASS_GD0, RandomRoad
+from suspenv.problems.minibus_ride import RIDE_METHODS, ride_objectives_all
 from suspenv.registry import report_function
 from suspenv.rigs.handling import (
     SlalomConfig,
     SteadyCircleConfig,
+    course_lateral_acceleration,
     gradient_accelerations,
     secant_axle_stiffness,
+    slalom,
+    slalom_linear,
     steady_circle,
     steady_state_sweep,
     understeer_gradients,
 )
-from suspenv.rigs.ride import RandomRoad
-from suspenv.rigs.road import ROAD_CLASS_GD0
 
 #: shortest random-road record (s): one period of 0.5 Hz, the lower edge of ISO 2631-1's
 #: Wk weighting band (shorter records do not resolve it; below 0.02 s no road is made)

@@ -20,8 +20,9 @@ from suspenv.core.atomic import write_file
 from suspenv.metrics.iso2631 import comfort_reaction
 from suspenv.metrics.ride import acceleration_psd, ride_spectral
 from suspenv.models.minibus.vehicle import LOAD_CASES, REFERENCE_MINIBUS, Minibus
+from suspenv.models.road import RandomRoad
 from suspenv.reports._mpl import pyplot, save_figure
-from suspenv.rigs.ride import PulseBump, RandomRoad, pulse_run, random_road_run
+from suspenv.rigs.ride import PulseBump, pulse_run, random_road_run
 
 
 def write_minibus_ride_report(

@@ -42,54 +42,13 @@ from suspenv.models.minibus.vehicle import (
     Minibus,
     stacked_vehicle_parameters,
 )
-from suspenv.rigs.road import (
-    RoadProfile,
+from suspenv.models.road import (
+    RandomRoad,
     contact_length_filter,
     generate_profile,
+    profile_inputs,
     triangular_bump,
 )
-
-
-@dataclass(frozen=True)
-class RandomRoad:
-    """Settings of a random-road ride run (see module docstring for the defaults' reasons)."""
-
-    road_class: str | float = "B"
-    speed_kmh: float = 80.0
-    duration_s: float = 10.0
-    settle_s: float = 1.0
-    sample_rate: float = 100.0
-    seed: int = 0
-    #: tyre contact length (m) for enveloping, or None for a point contact
-    enveloping: float | None = None
-
-    def __post_init__(self) -> None:
-        if not (self.speed_kmh > 0 and self.duration_s > 0 and self.settle_s >= 0):
-            raise ValidationError(
-                "random road needs `speed_kmh > 0`, `duration_s > 0`, `settle_s >= 0`, but "
-                f"got ({self.speed_kmh}, {self.duration_s}, {self.settle_s})"
-            )
-        if not self.sample_rate >= 50:
-            raise ValidationError(
-                f"`sample_rate >= 50` Hz must hold (wheel hop ~12 Hz), but got {self.sample_rate}"
-            )
-
-    @property
-    def speed(self) -> float:
-        """m/s"""
-        return self.speed_kmh / 3.6
-
-    @property
-    def dt(self) -> float:
-        return 1.0 / self.sample_rate
-
-    @property
-    def n_settle(self) -> int:
-        return int(round(self.settle_s * self.sample_rate))
-
-    @property
-    def n_steps(self) -> int:
-        return self.n_settle + int(round(self.duration_s * self.sample_rate))
 
 
 def random_road_inputs(
@@ -115,43 +74,6 @@ def random_road_inputs(
     if road.enveloping:
         prof = prof.enveloped(road.enveloping)
     return profile_inputs(prof, v, m, road.n_settle, vehicle.wheelbase)
-
-
-def profile_inputs(
-    prof: RoadProfile, speed: float, m: int, n_settle: int, wheelbase: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """Wheel inputs (m, 4) on the half-step grid (``prof.dx`` apart) from a periodic
-    two-track profile: elevation (m) and rate (m/s) at ``speed`` (m/s), columns FL, FR,
-    RL, RR (the rear tracks ``wheelbase`` behind), the profile's start reached after
-    ``n_settle`` steps."""
-    rl, rr = prof.shifted(wheelbase)
-    sfl, sfr = prof.slopes()
-    srl, srr = prof.slopes(wheelbase)
-    idx = (np.arange(m) - 2 * n_settle) % prof.left.size
-    z = np.stack([prof.left, prof.right, rl, rr], axis=1)[idx]
-    zd = speed * np.stack([sfl, sfr, srl, srr], axis=1)[idx]
-    return z, zd
-
-
-def in_phase_inputs(
-    track: np.ndarray, dx: float, speed: float, n_steps: int, wheelbase: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """Wheel inputs (2N+1, 4) on the half-step grid from one measured (not periodic)
-    ``track`` (m) under both sides: elevation (m, relative to the first sample) and rate
-    (m/s) at ``speed`` (m/s), columns FL, FR, RL, RR; the rear axle starts ``wheelbase``
-    (m) further along the track (its first metres are driven on by the rear wheels only
-    after the front ones). Grid step ``dx`` (m) = speed * dt / 2."""
-    m = 2 * n_steps + 1
-    lag = wheelbase / dx
-    x = np.arange(m, dtype=float) + np.ceil(lag)
-    front = np.interp(x, np.arange(track.size), track)
-    rear = np.interp(x - lag, np.arange(track.size), track)
-    slope = np.gradient(track, dx)
-    sf = np.interp(x, np.arange(track.size), slope)
-    sr = np.interp(x - lag, np.arange(track.size), slope)
-    z = np.stack([front, front, rear, rear], axis=1)
-    zd = speed * np.stack([sf, sf, sr, sr], axis=1)
-    return z - z[0], zd
 
 
 def _model(

@@ -399,7 +399,7 @@ def stacked_vehicle_parameters(
     """:func:`vehicle_parameters` of designs X for each load case, in order (the ride
     model stacks them row-wise); the designs converted once. An evaluation that needs
     them for several models (ride and handling) computes them once and passes them on
-    (``params`` of :func:`suspenv.metrics.ride.ride_objectives_all` and
+    (``params`` of :func:`suspenv.problems.minibus_ride.ride_objectives_all` and
     :func:`suspenv.models.minibus.handling_model.handling_parameters`)."""
     design = design_to_si(X, vehicle)
     return [_apply(design, lc, vehicle) for lc in load_cases]

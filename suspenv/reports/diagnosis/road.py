@@ -18,8 +18,8 @@ from suspenv.core.markdown import text
 from suspenv.diagnosis.engine import Diagnosis
 from suspenv.diagnosis.road import profile_grid
 from suspenv.measurements import Recording
+from suspenv.models.road import displacement_psd, welch_psd
 from suspenv.reports._mpl import pyplot, save_figure
-from suspenv.rigs.road import displacement_psd, welch_psd
 
 
 def write_road_report(diag: Diagnosis, profile: Recording, out_dir: str | Path) -> list[Path]:

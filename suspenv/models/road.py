@@ -15,6 +15,9 @@ exact phase shifts. Left/right tracks of an isotropic w = 2 road have coherency
 ``rho(n) = 2 pi n B K1(2 pi n B)`` (B track width, K1 the modified Bessel function of
 the second kind); per line ``Z_R = A (rho e^{j phi} + sqrt(1 - rho^2) e^{j psi})``
 gives that coherency exactly.
+
+Also the road of a random-road ride run (:class:`RandomRoad`) and the wheel inputs a
+two-axle vehicle reads from a profile (:func:`profile_inputs`, :func:`in_phase_inputs`).
 """
 
 from __future__ import annotations
@@ -87,7 +90,7 @@ def track_coherence(n: np.ndarray, track: float) -> np.ndarray:
 
 @dataclass(frozen=True)
 class RoadProfile:
-    """Two wheel tracks sampled on a uniform grid; periodic over ``length``.
+    """Two wheel tracks sampled on a uniform grid; periodic over their sampled length.
 
     Attributes:
         dx: sample spacing (m).
@@ -100,14 +103,6 @@ class RoadProfile:
     left: np.ndarray
     right: np.ndarray
     spectra: np.ndarray
-
-    @property
-    def length(self) -> float:
-        return self.dx * self.left.shape[0]
-
-    @property
-    def x(self) -> np.ndarray:
-        return self.dx * np.arange(self.left.shape[0])
 
     def shifted(self, distance: float) -> tuple[np.ndarray, np.ndarray]:
         """Tracks delayed by ``distance`` (m): z(x - distance), exact on the periodic profile."""
@@ -184,6 +179,86 @@ def welch_psd(
 
     nper = min(int(round(segment_length / dx)), np.shape(z)[-1])
     return welch(z, fs=1.0 / dx, nperseg=nper, axis=-1)
+
+
+# ------------------------------------------------------------------ random road run
+@dataclass(frozen=True)
+class RandomRoad:
+    """Settings of a random-road ride run (:mod:`suspenv.rigs.ride` gives the defaults)."""
+
+    road_class: str | float = "B"
+    speed_kmh: float = 80.0
+    duration_s: float = 10.0
+    settle_s: float = 1.0
+    sample_rate: float = 100.0
+    seed: int = 0
+    #: tyre contact length (m) for enveloping, or None for a point contact
+    enveloping: float | None = None
+
+    def __post_init__(self) -> None:
+        if not (self.speed_kmh > 0 and self.duration_s > 0 and self.settle_s >= 0):
+            raise ValidationError(
+                "random road needs `speed_kmh > 0`, `duration_s > 0`, `settle_s >= 0`, but "
+                f"got ({self.speed_kmh}, {self.duration_s}, {self.settle_s})"
+            )
+        if not self.sample_rate >= 50:
+            raise ValidationError(
+                f"`sample_rate >= 50` Hz must hold (wheel hop ~12 Hz), but got {self.sample_rate}"
+            )
+
+    @property
+    def speed(self) -> float:
+        """m/s"""
+        return self.speed_kmh / 3.6
+
+    @property
+    def dt(self) -> float:
+        return 1.0 / self.sample_rate
+
+    @property
+    def n_settle(self) -> int:
+        return int(round(self.settle_s * self.sample_rate))
+
+    @property
+    def n_steps(self) -> int:
+        return self.n_settle + int(round(self.duration_s * self.sample_rate))
+
+
+def profile_inputs(
+    prof: RoadProfile, speed: float, m: int, n_settle: int, wheelbase: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Wheel inputs (m, 4) on the half-step grid (``prof.dx`` apart) from a periodic
+    two-track profile: elevation (m) and rate (m/s) at ``speed`` (m/s), columns FL, FR,
+    RL, RR (the rear tracks ``wheelbase`` behind), the profile's start reached after
+    ``n_settle`` steps."""
+    rl, rr = prof.shifted(wheelbase)
+    sfl, sfr = prof.slopes()
+    srl, srr = prof.slopes(wheelbase)
+    idx = (np.arange(m) - 2 * n_settle) % prof.left.size
+    z = np.stack([prof.left, prof.right, rl, rr], axis=1)[idx]
+    zd = speed * np.stack([sfl, sfr, srl, srr], axis=1)[idx]
+    return z, zd
+
+
+def in_phase_inputs(
+    track: np.ndarray, dx: float, speed: float, n_steps: int, wheelbase: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Wheel inputs (2N+1, 4) on the half-step grid from one measured (not periodic)
+    ``track`` (m) under both sides: elevation (m, relative to the first sample) and rate
+    (m/s) at ``speed`` (m/s), columns FL, FR, RL, RR; the rear axle starts ``wheelbase``
+    (m) further along the track (its first metres are driven on by the rear wheels only
+    after the front ones). Grid step ``dx`` (m) = speed * dt / 2."""
+    m = 2 * n_steps + 1
+    lag = wheelbase / dx
+    x = np.arange(m, dtype=float) + np.ceil(lag)
+    front = np.interp(x, np.arange(track.size), track)
+    rear = np.interp(x - lag, np.arange(track.size), track)
+    slope = np.gradient(track, dx)
+    sf = np.interp(x, np.arange(track.size), slope)
+    sr = np.interp(x - lag, np.arange(track.size), slope)
+    z = np.stack([front, front, rear, rear], axis=1)
+    zd = speed * np.stack([sf, sf, sr, sr], axis=1)
+    return z - z[0], zd
 
 
 # ------------------------------------------------------------------ obstacles
