@@ -44,8 +44,9 @@ from typing import Any
 import numpy as np
 
 from suspenv.core.space import Parameter
-from suspenv.methods.curve_fit import PRIOR_WEIGHT, CurveFit, CurveModel, polish
+from suspenv.methods.curve_fit import CurveFit, CurveModel
 from suspenv.models.effects import Effect
+from suspenv.rigs.knc_fit import PRIOR_WEIGHT, polish
 
 #: residual families the loop models by adding an effect to the axle (the others: see
 #: :data:`SIDES_FAMILY` and the sensor families, which are reported only)
@@ -409,7 +410,7 @@ def _refit(model: CurveModel, x0: np.ndarray, nfev: int, progress: bool = False)
     """All of ``model``'s parameters polished together from its base by secant steps
     (:func:`~suspenv.methods.curve_fit.polish` with Broyden's update), restarted with a
     differenced Jacobian until a restart gains less than
-    :data:`~suspenv.methods.curve_fit.RESTART_GAIN`, the weak pull towards the first
+    :data:`~suspenv.methods.rigs.knc_fit.RESTART_GAIN`, the weak pull towards the first
     fit's start design ``x0`` (effects at their starts); ``nfev`` evaluations at most.
     The answer's Jacobian is a differenced one."""
     prior = model.unit(_start(model, x0))
