@@ -16,7 +16,8 @@ from suspenv.methods.identify import (
     resolve_vehicle,
     split_held_out,
 )
-from suspenv.methods.model_loop import _candidate_fit, effect_parameters
+from suspenv.methods.model_loop import _candidate_fit
+from suspenv.rigs.knc_axle import effect_parameters
 
 
 @pytest.fixture(scope="module")

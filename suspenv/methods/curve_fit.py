@@ -324,12 +324,6 @@ class CurveModel(UnitFit):
         return np.array(index, int), DesignSpace(params)
 
     @property
-    def dim(self) -> int:
-        """Number of fitted values (free parameters, their right twins if two-sided, and
-        the fitted effect parameters)."""
-        return int(self.free_index.size)
-
-    @property
     def sides(self) -> int:
         """Design values of a model design: 49, or 98 two-sided (left then right)."""
         return self.space.dim * (2 if self.two_sided else 1)
@@ -358,18 +352,6 @@ class CurveModel(UnitFit):
             own = [_own_value(self.effects, self.constants, p.name) for p in self.effect_free[k:]]
             X = np.concatenate([X, np.tile(own, (X.shape[0], 1))], axis=1)
         return X
-
-    def designs(self, U: np.ndarray) -> np.ndarray:
-        """Model designs (n, width) of unit-cube points U (n, dim)."""
-        U = np.atleast_2d(np.asarray(U, float))
-        X = np.tile(self.base, (U.shape[0], 1))
-        X[:, self.free_index] = self.sub.to_physical(U)
-        return X
-
-    def unit(self, x: np.ndarray) -> np.ndarray:
-        """Unit-cube point (dim,) of the fitted values of a design (see :meth:`full`)."""
-        x = self.full(x)[0]
-        return np.clip(self.sub.to_unit(x[self.free_index][None])[0], 0, 1)
 
     def effects_at(self, x: np.ndarray) -> tuple[Effect, ...]:
         """The model's effects with the fitted effect parameters of design ``x``."""

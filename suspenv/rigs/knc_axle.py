@@ -151,6 +151,14 @@ def fitted_parameters(effect: Effect) -> tuple[Parameter, ...]:
     return KNC_EFFECTS[effect.kind][1]
 
 
+def effect_parameters(effect: Effect) -> list[Parameter]:
+    """The fitted parameters of ``effect`` named ``<effect>.<parameter>``, positive ranges
+    on a log scale (as the shared K&C fit maps them, :mod:`suspenv.rigs.knc_fit`)."""
+    return [
+        effect_scale(replace(p, name=f"{effect.name}.{p.name}")) for p in fitted_parameters(effect)
+    ]
+
+
 def check_effect(effect: Effect) -> None:
     """Raise :class:`ValidationError` unless the K&C model can carry ``effect`` where it is."""
     if not isinstance(effect, Effect):
@@ -306,7 +314,14 @@ class KncAxleModel(FitDefaults):
             raise ValidationError(f"each effect kind may appear once, but got repeats {dup}")
         self.fit_parameters = tuple(fit_parameters)
         self.tests = tuple(tests)
-        self._params = {p.name: p for p in fit_space(space).parameters}
+        params = {p.name: p for p in fit_space(space).parameters}
+        #: the space of ``theta`` (names, units, bounds) as the shared K&C fit maps it to
+        #: the unit cube (:mod:`suspenv.rigs.knc_fit`: stiffnesses and positive effect
+        #: parameters on a log scale)
+        self.space = DesignSpace(
+            [params[n] for n in self.fit_parameters]
+            + [p for e in self.effects for p in effect_parameters(e)]
+        )
         self._cache: OrderedDict[tuple, dict] = OrderedDict()
         self._rows: OrderedDict[tuple, tuple] = OrderedDict()
         self.options = {
@@ -323,36 +338,21 @@ class KncAxleModel(FitDefaults):
 
     @property
     def parameter_names(self) -> tuple[str, ...]:
-        names = list(self.base_names)
-        for e in self.effects:
-            names += [f"{e.name}.{p.name}" for p in fitted_parameters(e)]
-        return tuple(names)
+        return tuple(self.space.names)
 
     @property
     def parameter_units(self) -> tuple[str, ...]:
-        units = [self._params[n].unit for n in self.base_names]
-        for e in self.effects:
-            units += [p.unit for p in fitted_parameters(e)]
-        return tuple(units)
+        return tuple(p.unit for p in self.space.parameters)
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        lo = [self._params[n].low for n in self.base_names]
-        hi = [self._params[n].high for n in self.base_names]
-        for e in self.effects:
-            lo += [p.low for p in fitted_parameters(e)]
-            hi += [p.high for p in fitted_parameters(e)]
-        return np.array(lo, float), np.array(hi, float)
+        return self.space.lower.copy(), self.space.upper.copy()
 
     def base_values(self) -> dict[str, float]:
         """Values of the fitted base parameters at the start design."""
         return {n: float(self.design[PARAMETER_NAMES.index(n)]) for n in self.fit_parameters}
 
     def initial_guess(self, rec: Recording | None = None) -> np.ndarray:
-        vals = [self.base_values()[n] for n in self.base_names]
-        for e in self.effects:
-            vals += [float(e.params[p.name]) for p in fitted_parameters(e)]
-        lo, hi = self.bounds()
-        return np.clip(np.array(vals, float), lo, hi)
+        return np.clip(self.theta_from(self.base_values(), self.effects), *self.bounds())
 
     def start_theta(self) -> np.ndarray:
         """``theta`` of the start design and each effect's K&C start value
@@ -361,17 +361,6 @@ class KncAxleModel(FitDefaults):
         vals = [self.base_values()[n] for n in self.base_names]
         vals += [float(p.default or 0.0) for e in self.effects for p in fitted_parameters(e)]
         return np.array(vals, float)
-
-    def unit_space(self) -> DesignSpace:
-        """The space of ``theta`` as the shared K&C fit maps it to the unit cube
-        (:mod:`suspenv.rigs.knc_fit`: stiffnesses and positive effect parameters on a
-        log scale)."""
-        mine = [
-            effect_scale(replace(p, name=f"{e.name}.{p.name}"))
-            for e in self.effects
-            for p in fitted_parameters(e)
-        ]
-        return DesignSpace([*(self._params[n] for n in self.base_names), *mine])
 
     def theta_from(self, base: Mapping[str, float], effects: Sequence[Effect]) -> np.ndarray:
         vals = [float(base[n]) for n in self.base_names]

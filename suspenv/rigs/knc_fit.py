@@ -61,23 +61,41 @@ def effect_scale(p: Parameter) -> Parameter:
 
 
 class UnitFit:
-    """A least-squares problem in the unit cube: subclasses give :attr:`dim` (fitted
-    values), :attr:`size` (residuals), :meth:`designs` (unit points to designs) and
-    :meth:`residuals_x` (residuals of designs, rows ok, failure messages)."""
+    """A least-squares problem in the unit cube: the fitted values ``free_index`` of a
+    design, in the space ``sub``, the others held at ``base``'s; subclasses give
+    :attr:`size` (residuals) and :meth:`residuals_x` (residuals of designs, rows ok,
+    failure messages)."""
 
     #: forward-difference step of :meth:`jacobian` in the unit cube
     fd_step: ClassVar[float] = FD_STEP
     size: int
-
-    @property
-    def dim(self) -> int:
-        raise NotImplementedError
-
-    def designs(self, U: np.ndarray) -> np.ndarray:
-        raise NotImplementedError
+    base: np.ndarray
+    free_index: np.ndarray
+    sub: DesignSpace
 
     def residuals_x(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[str]]:
         raise NotImplementedError
+
+    def full(self, X: np.ndarray) -> np.ndarray:
+        """Designs as the problem's (n, width)."""
+        return np.atleast_2d(np.asarray(X, float))
+
+    @property
+    def dim(self) -> int:
+        """Number of fitted values."""
+        return int(self.free_index.size)
+
+    def designs(self, U: np.ndarray) -> np.ndarray:
+        """Designs (n, width) of unit-cube points U (n, dim)."""
+        U = np.atleast_2d(np.asarray(U, float))
+        X = np.tile(self.base, (U.shape[0], 1))
+        X[:, self.free_index] = self.sub.to_physical(U)
+        return X
+
+    def unit(self, x: np.ndarray) -> np.ndarray:
+        """Unit-cube point (dim,) of the fitted values of a design (see :meth:`full`)."""
+        x = self.full(x)[0]
+        return np.clip(self.sub.to_unit(x[self.free_index][None])[0], 0, 1)
 
     def residuals(self, U: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[str]]:
         """Residuals (n, size) of unit-cube points U (n, dim)."""

@@ -134,9 +134,9 @@ def _start_values(kind: str, sig: KncSignature | None) -> dict[str, float]:
 
 class AxleCurves(UnitFit):
     """The scaled residual (:func:`~suspenv.diagnosis.fitting.stacked_residual`) of a
-    K&C axle model on recordings as a problem of the shared K&C fit: the values of
-    ``theta`` after the first ``held`` (which stay at ``theta0``'s) in the unit cube of
-    :meth:`~suspenv.rigs.knc_axle.KncAxleModel.unit_space`."""
+    K&C axle model on recordings as a problem of the shared K&C fit: ``theta``'s values
+    after the first ``held`` (which stay at ``theta0``'s) in the unit cube of
+    :attr:`~suspenv.rigs.knc_axle.KncAxleModel.space`."""
 
     #: the rig's solver converges to a tolerance: differences must move the outputs well
     #: above it (0.1 % of a range, as :meth:`KncAxleModel.difference_step`'s floor)
@@ -151,30 +151,20 @@ class AxleCurves(UnitFit):
         held: int = 0,
     ):
         self.model, self.recs, self.scales = model, list(recs), dict(scales)
-        self.theta0, self.held = np.asarray(theta0, float), held
-        self.space = DesignSpace(model.unit_space().parameters[held:])
+        self.base = np.asarray(theta0, float)
+        self.free_index = np.arange(held, self.base.size)
+        self.sub = DesignSpace(model.space.parameters[held:])
         self.size = sum(len(r.time) for r in self.recs) * len(self.scales)
-
-    @property
-    def dim(self) -> int:
-        return self.space.dim
-
-    def designs(self, U: np.ndarray) -> np.ndarray:
-        U = np.atleast_2d(np.asarray(U, float))
-        X = np.tile(self.theta0, (U.shape[0], 1))
-        X[:, self.held :] = self.space.to_physical(U)
-        return X
-
-    def unit(self, theta: np.ndarray) -> np.ndarray:
-        return np.clip(self.space.to_unit(np.atleast_2d(theta)[:, self.held :])[0], 0.0, 1.0)
 
     def jacobian_theta(self, J: np.ndarray, theta: np.ndarray) -> np.ndarray:
         """A Jacobian ``J`` (size, dim) in the unit cube as one in ``theta`` (size, p) at
         ``theta``: divided by d theta / d u, zero for the held values."""
-        lo, hi, x = self.space.lower, self.space.upper, theta[self.held :]
-        log = np.array([p.log for p in self.space.parameters], bool)
+        lo, hi, x = self.sub.lower, self.sub.upper, theta[self.free_index]
+        log = np.array([p.log for p in self.sub.parameters], bool)
         per_unit = np.where(log, x * np.log(np.where(log, hi / lo, 1.0)), hi - lo)
-        return np.hstack([np.zeros((J.shape[0], self.held)), J / per_unit])
+        out = np.zeros((J.shape[0], theta.size))
+        out[:, self.free_index] = J / per_unit
+        return out
 
     def residuals_x(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[str]]:
         R = stacked_residual(self.model, X, self.recs, list(self.scales), self.scales)
