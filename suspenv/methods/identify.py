@@ -447,7 +447,7 @@ def choose_held_out(
     design) of the measured tests and the candidates; ``measured``: the tests the fit
     can use. A candidate's covariance is that of a fit to the measured tests other than
     itself with the polish's weak pull towards the start, ``(J'J + w^2 I)^-1`` (``w``
-    :data:`~suspenv.methods.rigs.knc_fit.PRIOR_WEIGHT`: a direction no curve sees is known
+    :data:`~suspenv.rigs.knc_fit.PRIOR_WEIGHT`: a direction no curve sees is known
     to the whole range); a channel's predicted-curve standard deviation in noise units
     is the delta method's ``sqrt(mean_i J_i C J_i')`` over its samples, a test's score
     its worst channel's (the held-out test is judged by its worst channel). Returns the

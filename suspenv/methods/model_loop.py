@@ -400,9 +400,9 @@ def _refits(
 
 def _refit(model: CurveModel, x0: np.ndarray, nfev: int, progress: bool = False) -> CurveFit:
     """All of ``model``'s parameters polished together from its base by secant steps
-    (:func:`~suspenv.methods.curve_fit.polish` with Broyden's update), restarted with a
+    (:func:`~suspenv.rigs.knc_fit.polish` with Broyden's update), restarted with a
     differenced Jacobian until a restart gains less than
-    :data:`~suspenv.methods.rigs.knc_fit.RESTART_GAIN`, the weak pull towards the first
+    :data:`~suspenv.rigs.knc_fit.RESTART_GAIN`, the weak pull towards the first
     fit's start design ``x0`` (effects at their starts); ``nfev`` evaluations at most.
     The answer's Jacobian is a differenced one."""
     prior = model.unit(_start(model, x0))

@@ -153,18 +153,16 @@ def polish_stage(
     u0: np.ndarray,
     max_nfev: int = 150,
     ftol: float = 1e-5,
-    xtol: float = 1e-8,
-    gtol: float = 1e-8,
     progress: bool = False,
     prior: np.ndarray | None = None,
-    prior_weight: float = PRIOR_WEIGHT,
     at_start: tuple[np.ndarray, np.ndarray] | None = None,
     broyden: bool = False,
 ) -> tuple[StageResult, np.ndarray, np.ndarray]:
     """Trust-region least squares from ``u0`` with the batched Jacobian.
 
     ``prior`` (dim,): a weak pull towards this unit point, the residual rows
-    ``prior_weight * (u - prior)`` (see :data:`PRIOR_WEIGHT`); None: none;
+    ``PRIOR_WEIGHT * (u - prior)``; None: none; the trust region's step and gradient
+    tolerances are ``1e-8``;
     ``at_start``: the residual and Jacobian at ``u0`` when known (not recomputed).
     Returns (stage, residual at the answer (size,), Jacobian there (size, dim)), both
     without the prior's rows; the stage's cost and history are the data's sum of
@@ -183,7 +181,7 @@ def polish_stage(
     history: list[float] = []
     counter = {"fun": 0, "jac": 0}
 
-    w = float(prior_weight) if prior is not None else 0.0
+    w = PRIOR_WEIGHT if prior is not None else 0.0
     centre = np.zeros(model.dim) if prior is None else np.asarray(prior, float)
 
     def with_prior(r: np.ndarray, u: np.ndarray) -> np.ndarray:
@@ -237,8 +235,8 @@ def polish_stage(
         x_scale=1.0,
         max_nfev=max_nfev,
         ftol=ftol,
-        xtol=xtol,
-        gtol=gtol,
+        xtol=1e-8,
+        gtol=1e-8,
     )
     r, J_hit = cache.get(np.asarray(sol.x, float).tobytes(), (None, None))
     if r is None or J_hit is None:
@@ -248,9 +246,9 @@ def polish_stage(
     reasons = {
         -1: "improper input",
         0: f"evaluation budget (max_nfev={max_nfev}) used up: not converged",
-        1: f"converged: gradient below gtol={gtol:g}",
+        1: "converged: gradient below gtol=1e-08",
         2: f"converged: relative cost change below ftol={ftol:g}",
-        3: f"converged: relative step below xtol={xtol:g}",
+        3: "converged: relative step below xtol=1e-08",
         4: "converged: ftol and xtol both met",
     }
     stage = StageResult(
