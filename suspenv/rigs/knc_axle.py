@@ -462,14 +462,14 @@ class KncAxleModel(FitDefaults):
                     msg = next((r.messages[j] for r in res.values() if not r.ok[j]), "")
                     chans = {t: channels_of(r, j) for t, r in res.items()} if not msg else {}
                     self._rows[keys[rows.index(i)]] = (chans, msg)
-                    if len(self._rows) > 64:
-                        self._rows.popitem(last=False)
             for i, k in zip(rows, keys, strict=True):
                 chans, msg = self._rows[k]
                 messages[i] = msg
                 for t, ch in chans.items():
                     for name, v in ch.items():
                         out[t][name][i] = v
+            while len(self._rows) > 64:  # once the group is read: its rows may be the oldest
+                self._rows.popitem(last=False)
         for e in effects:  # the sensor effects read the recorded channel (both sides)
             if e.spec.role == "sensor":
                 for t in out:
