@@ -115,6 +115,18 @@ def test_model_with_concealed_effect_reproduces_the_truth_exactly():
     assert batch["toe_left"].shape == (2, rec.n_samples)
 
 
+def test_a_batch_reads_its_cached_rows_before_the_cache_forgets_them():
+    # reference: the same rows simulated one at a time (a batch's rows are independent)
+    rec = measure_truth({}, seed=0, steps=4, noise_scale=0.0, tests=("parallel",))["parallel"]
+    model = KncAxleModel(tests=("parallel",))
+    thetas = model.initial_guess(rec) + np.outer(np.arange(66) * 1e-4, np.eye(8)[0])
+    alone = [model.simulate(th, rec)["toe_left"] for th in thetas[:64]]  # 64 rows cached
+    batch = model.simulate(thetas[[0, 64, 65]], rec)["toe_left"]  # row 0 the oldest
+    last = KncAxleModel(tests=("parallel",)).simulate(thetas[65], rec)["toe_left"]
+    np.testing.assert_array_equal(batch[0], alone[0])
+    np.testing.assert_allclose(batch[2], last, atol=1e-12)
+
+
 # ------------------------------------------------------------------ planted cases
 def test_hysteresis_is_named_and_its_loop_width_recovered(hysteresis_case):
     recs, diag = hysteresis_case

@@ -17,7 +17,7 @@ from suspenv.cli.main import main
 from suspenv.core.errors import ValidationError
 from suspenv.core.space import DesignSpace, Parameter
 from suspenv.measurements.knc import branch_index
-from suspenv.methods.curve_fit import CurveModel, MeasuredCurves, fit_space, measured_curves
+from suspenv.methods.curve_fit import CurveModel, MeasuredCurves, measured_curves
 from suspenv.methods.identifiability import (
     K_SIGMA,
     TOLERANCE_PCT,
@@ -35,6 +35,7 @@ from suspenv.methods.identify import (
 )
 from suspenv.models.mcpherson.params import design_space
 from suspenv.rigs.knc import KCResult, loop_path
+from suspenv.rigs.knc_fit import fit_space
 
 FEW = ["static_toe", "static_camber", "tie_rod_inner_z", "top_mount_kz"]
 

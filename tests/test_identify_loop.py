@@ -16,7 +16,8 @@ from suspenv.methods.identify import (
     resolve_vehicle,
     split_held_out,
 )
-from suspenv.methods.model_loop import _candidate_fit, effect_parameters
+from suspenv.methods.model_loop import _candidate_fit
+from suspenv.rigs.knc_axle import effect_parameters
 
 
 @pytest.fixture(scope="module")
@@ -103,9 +104,9 @@ def test_the_delta_method_interval_matches_a_parametric_bootstrap(test_car):
     sheet's delta-method standard error of bump steer and camber gain against the
     spread of the same metrics over 24 refits to the fitted model's curves with fresh
     noise (the spread's own sampling error with 24 draws is about 15 %: 35 %)."""
-    from suspenv.methods.curve_fit import polish
     from suspenv.methods.identifiability import unit_covariance
     from suspenv.methods.knc_sheet import Z95, knc_sheet
+    from suspenv.rigs.knc_fit import polish
 
     m, truth = measure_test_car(0, ("noise",))
     free = ["static_toe", "static_camber", "tie_rod_inner_z", "top_mount_kz"]
@@ -238,8 +239,8 @@ def test_the_held_out_test_is_the_one_the_others_determine_best():
 def test_the_place_cost_with_the_design_free_is_the_least_squares_minimum():
     """Reference: the regularised least-squares problem solved directly (numpy lstsq
     on ``[J; w I] d = [-r; 0]``)."""
-    from suspenv.methods.curve_fit import PRIOR_WEIGHT
     from suspenv.methods.model_loop import _free_cost
+    from suspenv.rigs.knc_fit import PRIOR_WEIGHT
 
     rng = np.random.default_rng(5)
     J = rng.normal(size=(60, 4))
@@ -357,7 +358,8 @@ def test_tie_options_swap_one_family_place_at_a_time():
 def test_the_fits_valleys_are_its_polished_answers_the_answer_first():
     """Definition: every polish stage's answer once, the fit's own answer first, the
     global stage's best point not among them (it is not a polished valley)."""
-    from suspenv.methods.curve_fit import CurveFit, StageResult
+    from suspenv.methods.curve_fit import CurveFit
+    from suspenv.rigs.knc_fit import StageResult
 
     a, b, g = np.full(3, 0.2), np.full(3, 0.7), np.full(3, 0.5)
     stages = [
@@ -374,7 +376,7 @@ def test_the_fits_valleys_are_its_polished_answers_the_answer_first():
 def test_the_secant_update_reproduces_the_step_and_keeps_a_linear_jacobian():
     """Definition (Broyden's update): the updated Jacobian maps the step to the residual
     change; for a linear residual the exact Jacobian is left as it is (to rounding)."""
-    from suspenv.methods.curve_fit import secant_update
+    from suspenv.rigs.knc_fit import secant_update
 
     rng = np.random.default_rng(3)
     A = rng.normal(size=(7, 3))
@@ -411,7 +413,7 @@ def test_the_secant_polish_reaches_the_minimum_with_fewer_differenced_jacobians(
     """Reference: the valley's closed-form minimum u = (1, 1) (cost 0). The secant runs
     reach it as the differenced ones do, with fewer differenced Jacobians, and the
     Jacobian returned is the differenced one at the answer."""
-    from suspenv.methods.curve_fit import polish
+    from suspenv.rigs.knc_fit import polish
 
     got = {}
     for broyden in (False, True):
@@ -430,8 +432,8 @@ def test_places_refitted_side_by_side_give_the_numbers_of_one_after_the_other():
     are those of the refits one after the other, bit for bit, and each reaches the
     minimum the differenced least squares reaches from the same start (reference: that
     second solver; the stopping rule's own tolerance, one squared noise unit)."""
-    from suspenv.methods.curve_fit import RESTART_GAIN, polish
     from suspenv.methods.model_loop import _refits, _start
+    from suspenv.rigs.knc_fit import RESTART_GAIN, polish
     from suspenv.runs.executors import ProcessPool
 
     m, truth = measure_test_car(0, ("noise",))

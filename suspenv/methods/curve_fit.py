@@ -15,15 +15,15 @@ up), left and right wheels in their raw (not outboard) signs.
 
 Parameters: the vehicle's design space (ADAMS/Car units at this edge: mm, N/mm,
 N*mm/deg, N*m/rad, deg) mapped to the unit cube, stiffnesses logarithmically
-(:func:`fit_space`). By default the model is symmetric (one design for both sides).
+(:func:`~suspenv.rigs.knc_fit.fit_space`). By default the model is symmetric (one
+design for both sides).
 
 Two stages (:func:`fit_curves`):
 
 1. **global**: CMA-ES (pycma) on the sum of squared residuals in the unit cube,
    every generation evaluated as one batch of rig simulations;
-2. **polish**: trust-region least squares (:func:`scipy.optimize.least_squares`,
-   ``trf``, bounds ``[0, 1]``) whose Jacobian is a forward difference taken in one
-   batched rig call of the ``d + 1`` designs (:meth:`CurveModel.jacobian`).
+2. **polish**: the K&C fit's one least-squares driver and restart rule
+   (:func:`suspenv.rigs.knc_fit.polish`), which the K&C diagnosis also uses.
 
 Both report why they stopped.
 """
@@ -31,7 +31,6 @@ Both report why they stopped.
 from __future__ import annotations
 
 import contextlib
-import sys
 import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
@@ -44,6 +43,15 @@ from suspenv.core.space import DesignSpace, Parameter
 from suspenv.models.effects import Effect
 from suspenv.models.mcpherson.params import AxleConstants, build_axle
 from suspenv.rigs.knc import KCResult, run_tests
+from suspenv.rigs.knc_fit import FD_STEP as FD_STEP
+from suspenv.rigs.knc_fit import (
+    StageResult,
+    UnitFit,
+    effect_scale,
+    fit_space,
+    polish,
+    say,
+)
 
 #: channels fitted when measured (SI, ISO 8855; raw signs, left and right wheels)
 FIT_CHANNELS = (
@@ -59,31 +67,6 @@ FIT_CHANNELS = (
     "contact_y",
     "contact_z",
 )
-#: stiffness units: these parameters are mapped to the unit cube logarithmically
-STIFFNESS_UNITS = ("N/mm", "N*mm/deg", "N*m/rad")
-#: forward-difference step in the unit cube (0.01 % of a parameter's range)
-FD_STEP = 1e-4
-#: residual of a design the rig cannot solve (noise units), so the polish steps back
-FAILED_RESIDUAL = 1e4
-#: the polish restarts until a restart lowers the cost by less than this (squared noise
-#: units; half of it is the change of the log-likelihood)
-RESTART_GAIN = 1.0
-#: weight of the polish's pull towards the start design: residual rows
-#: ``PRIOR_WEIGHT * (u - u_start)``, so moving a parameter across its whole range costs
-#: one squared noise unit. Directions the curves do not see stop wandering (the trust
-#: region converges in tens of steps instead of crawling along them); an identified
-#: parameter (standard error below 0.67 % of its range: information above 2e4 per unit
-#: squared) is moved by less than 1e-4 of its range
-PRIOR_WEIGHT = 1.0
-
-
-def fit_space(space: DesignSpace) -> DesignSpace:
-    """``space`` with every stiffness (units :data:`STIFFNESS_UNITS`, lower bound > 0)
-    on a log scale: equal steps of the unit cube are equal ratios of stiffness."""
-    return DesignSpace(
-        replace(p, log=True) if p.unit in STIFFNESS_UNITS and p.low > 0 else p
-        for p in space.parameters
-    )
 
 
 def amplitude_kwargs(test: str, amplitude: float) -> dict[str, float]:
@@ -200,7 +183,7 @@ def measured_curves(measured: Any, steps: int | None = None) -> MeasuredCurves:
     return MeasuredCurves(measured.test, drive, branch, values, amp, int(steps))
 
 
-class CurveModel:
+class CurveModel(UnitFit):
     """Residuals ``(simulated - measured) / sigma`` of designs against measured loops.
 
     Args:
@@ -341,12 +324,6 @@ class CurveModel:
         return np.array(index, int), DesignSpace(params)
 
     @property
-    def dim(self) -> int:
-        """Number of fitted values (free parameters, their right twins if two-sided, and
-        the fitted effect parameters)."""
-        return int(self.free_index.size)
-
-    @property
     def sides(self) -> int:
         """Design values of a model design: 49, or 98 two-sided (left then right)."""
         return self.space.dim * (2 if self.two_sided else 1)
@@ -375,18 +352,6 @@ class CurveModel:
             own = [_own_value(self.effects, self.constants, p.name) for p in self.effect_free[k:]]
             X = np.concatenate([X, np.tile(own, (X.shape[0], 1))], axis=1)
         return X
-
-    def designs(self, U: np.ndarray) -> np.ndarray:
-        """Model designs (n, width) of unit-cube points U (n, dim)."""
-        U = np.atleast_2d(np.asarray(U, float))
-        X = np.tile(self.base, (U.shape[0], 1))
-        X[:, self.free_index] = self.sub.to_physical(U)
-        return X
-
-    def unit(self, x: np.ndarray) -> np.ndarray:
-        """Unit-cube point (dim,) of the fitted values of a design (see :meth:`full`)."""
-        x = self.full(x)[0]
-        return np.clip(self.sub.to_unit(x[self.free_index][None])[0], 0, 1)
 
     def effects_at(self, x: np.ndarray) -> tuple[Effect, ...]:
         """The model's effects with the fitted effect parameters of design ``x``."""
@@ -509,27 +474,6 @@ class CurveModel:
             raise ValidationError(f"the rig cannot solve {what}: {msgs[0]}")
         return R[0]
 
-    def residuals(self, U: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[str]]:
-        """Residuals (n, size) of unit-cube points U (n, dim)."""
-        return self.residuals_x(self.designs(U))
-
-    def jacobian(self, u: np.ndarray, step: float = FD_STEP) -> tuple[np.ndarray, np.ndarray]:
-        """(r (size,), J (size, dim)) at ``u`` by forward differences of ``step`` in the
-        unit cube (backward at the upper bound), the ``dim + 1`` designs in one batch.
-
-        A perturbed design the rig cannot solve gives a zero column (that parameter is
-        then held for this step)."""
-        u = np.asarray(u, float)
-        h = np.where(u + step <= 1.0, step, -step)
-        U = np.tile(u, (self.dim + 1, 1))
-        U[1:] += np.diag(h)
-        R, ok, msgs = self.residuals(U)
-        if not ok[0]:
-            raise ValidationError(f"the rig cannot solve the design being fitted: {msgs[0]}")
-        J = (R[1:] - R[0]).T / h
-        J[:, ~ok[1:]] = 0.0
-        return R[0], J
-
     # ----------------------------------------------------------------- reading
     def loops(self) -> list[np.ndarray]:
         """Residual rows (indices) of each measured loop: one test and wheel, every
@@ -625,40 +569,10 @@ def _effect_parameters(
     out = []
     for p in params:
         _own_value(effects, constants, p.name)
-        out.append(replace(p, log=True) if p.low > 0 else p)
+        out.append(effect_scale(p))
     if len({p.name for p in out}) != len(out):
         raise ValidationError(f"fitted effect parameters must be unique, but got {params}")
     return out
-
-
-# ====================================================================== stages
-@dataclass
-class StageResult:
-    """Outcome of one stage: best unit point, its cost (sum of squared residuals),
-    evaluations, the stopping reason, seconds, and the cost after each step."""
-
-    name: str
-    u: np.ndarray
-    cost: float
-    evaluations: int
-    stop: str
-    seconds: float
-    history: list[float] = field(default_factory=list)
-
-    def to_dict(self) -> dict[str, Any]:
-        return {
-            "stage": self.name,
-            "cost": self.cost,
-            "evaluations": self.evaluations,
-            "stop": self.stop,
-            "seconds": self.seconds,
-        }
-
-
-def say(progress: bool, msg: str) -> None:
-    """Print a progress line ``msg`` to stderr when ``progress``."""
-    if progress:
-        print(msg, file=sys.stderr, flush=True)
 
 
 def global_stage(
@@ -720,136 +634,6 @@ def global_stage(
     return StageResult(
         "global (CMA-ES)", best_u, best_f, evals, stop, time.perf_counter() - t0, history
     )
-
-
-def polish_stage(
-    model: CurveModel,
-    u0: np.ndarray,
-    max_nfev: int = 150,
-    ftol: float = 1e-5,
-    xtol: float = 1e-8,
-    gtol: float = 1e-8,
-    progress: bool = False,
-    prior: np.ndarray | None = None,
-    prior_weight: float = PRIOR_WEIGHT,
-    at_start: tuple[np.ndarray, np.ndarray] | None = None,
-    broyden: bool = False,
-) -> tuple[StageResult, np.ndarray, np.ndarray]:
-    """Trust-region least squares from ``u0`` with the batched Jacobian.
-
-    ``prior`` (dim,): a weak pull towards this unit point, the residual rows
-    ``prior_weight * (u - prior)`` (see :data:`PRIOR_WEIGHT`); None: none;
-    ``at_start``: the residual and Jacobian at ``u0`` when known (not recomputed).
-    Returns (stage, residual at the answer (size,), Jacobian there (size, dim)), both
-    without the prior's rows; the stage's cost and history are the data's sum of
-    squares. The answer is a point the trust region accepted, whose Jacobian it
-    evaluated: that one is returned, not recomputed.
-
-    ``broyden``: the Jacobian is differenced at ``u0`` only (or taken from
-    ``at_start``); at each later accepted point it is the previous one with Broyden's
-    rank-one update (the secant through the step just taken), so a step costs one
-    evaluation instead of ``dim + 1``. The returned Jacobian is then that update, not a
-    differenced one (:func:`polish` differences it again)."""
-    from scipy.optimize import least_squares
-
-    t0 = time.perf_counter()
-    cache: dict[bytes, tuple[np.ndarray, np.ndarray | None]] = {}
-    history: list[float] = []
-    counter = {"fun": 0, "jac": 0}
-
-    w = float(prior_weight) if prior is not None else 0.0
-    centre = np.zeros(model.dim) if prior is None else np.asarray(prior, float)
-
-    def with_prior(r: np.ndarray, u: np.ndarray) -> np.ndarray:
-        return np.concatenate([r, w * (u - centre)]) if w > 0 else r
-
-    def fun(u: np.ndarray) -> np.ndarray:
-        key = np.asarray(u, float).tobytes()
-        if key in cache:
-            return with_prior(cache[key][0], u)
-        counter["fun"] += 1
-        R, ok, _ = model.residuals(u[None])
-        r = R[0] if ok[0] else np.full(model.size, FAILED_RESIDUAL)
-        cache[key] = (r, None)
-        history.append(float(r @ r))
-        return with_prior(r, u)
-
-    def jac(u: np.ndarray) -> np.ndarray:
-        key = np.asarray(u, float).tobytes()
-        hit = cache.get(key)
-        if hit is not None and hit[1] is not None:
-            J = hit[1]
-            last[:] = [(np.array(u, float), hit[0], J)]
-            return np.vstack([J, w * np.eye(model.dim)]) if w > 0 else J
-        secant = broyden and bool(last) and hit is not None
-        if secant and hit is not None:
-            r, J = hit[0], secant_update(*last[0], u, hit[0])
-        else:
-            counter["jac"] += 1
-            r, J = model.jacobian(u)
-        last[:] = [(u.copy(), r, J)]
-        cache.clear()
-        cache[key] = (r, J)
-        say(
-            progress,
-            f"  polish  Jacobian {counter['jac']:3d}{' + secant' * secant}"
-            f"  cost {float(r @ r):.6g}  "
-            f"({time.perf_counter() - t0:.0f} s)",
-        )
-        return np.vstack([J, w * np.eye(model.dim)]) if w > 0 else J
-
-    last: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []  # (u, r, J) last taken
-    u0 = np.clip(np.asarray(u0, float), 0.0, 1.0)
-    if at_start is not None:
-        cache[u0.tobytes()] = at_start
-    sol = least_squares(
-        fun,
-        u0,
-        jac=jac,
-        bounds=(0.0, 1.0),
-        method="trf",
-        x_scale=1.0,
-        max_nfev=max_nfev,
-        ftol=ftol,
-        xtol=xtol,
-        gtol=gtol,
-    )
-    r, J_hit = cache.get(np.asarray(sol.x, float).tobytes(), (None, None))
-    if r is None or J_hit is None:
-        r, J = model.jacobian(sol.x)
-    else:
-        J = J_hit
-    reasons = {
-        -1: "improper input",
-        0: f"evaluation budget (max_nfev={max_nfev}) used up: not converged",
-        1: f"converged: gradient below gtol={gtol:g}",
-        2: f"converged: relative cost change below ftol={ftol:g}",
-        3: f"converged: relative step below xtol={xtol:g}",
-        4: "converged: ftol and xtol both met",
-    }
-    stage = StageResult(
-        "polish (least squares)",
-        sol.x.copy(),
-        float(r @ r),
-        int(counter["fun"] + counter["jac"] * (model.dim + 1)),
-        reasons.get(int(sol.status), str(sol.message)),
-        time.perf_counter() - t0,
-        history,
-    )
-    return stage, r, J
-
-
-def secant_update(
-    u: np.ndarray, r: np.ndarray, J: np.ndarray, u2: np.ndarray, r2: np.ndarray
-) -> np.ndarray:
-    """Broyden's rank-one update of the Jacobian ``J`` (size, dim) at ``u`` (residual
-    ``r``) to the point ``u2`` (residual ``r2``): the least change of ``J`` for which
-    ``J2 (u2 - u) = r2 - r``."""
-    du = u2 - u
-    n2 = float(du @ du)
-    if n2 == 0.0:
-        return J
-    return J + np.outer(r2 - r - J @ du, du / n2)
 
 
 @dataclass
@@ -967,79 +751,3 @@ def fit_curves(
                 best = (p, r, J)
     assert best is not None  # at least the start was polished
     return CurveFit.of(model, best, stages)
-
-
-def polish(
-    model: CurveModel,
-    u0: np.ndarray,
-    max_nfev: int = 150,
-    restarts: int = 3,
-    min_gain: float = RESTART_GAIN,
-    progress: bool = False,
-    prior: np.ndarray | None = None,
-    ftol: float = 1e-5,
-    at_start: tuple[np.ndarray, np.ndarray] | None = None,
-    broyden: bool = False,
-) -> tuple[StageResult, np.ndarray, np.ndarray]:
-    """:func:`polish_stage` restarted from its own answer (a fresh trust region) until a
-    restart lowers the cost by less than ``min_gain`` (squared noise units: a change of
-    the log-likelihood below ``min_gain / 2``), at most ``restarts`` runs in all, within
-    ``max_nfev`` evaluations in all; ``at_start``: the residual and Jacobian at ``u0``
-    when known. One stage in the result; ``stop`` says which criterion ended it.
-
-    ``broyden``: each run updates its start's Jacobian by secants (:func:`polish_stage`);
-    every restart, and the answer, get a differenced one, so the restart rule and the
-    returned Jacobian are the differenced model's."""
-    t0 = time.perf_counter()
-    stage, r, J = polish_stage(
-        model,
-        u0,
-        max_nfev,
-        ftol,
-        progress=progress,
-        prior=prior,
-        at_start=at_start,
-        broyden=broyden,
-    )
-    evals, history, runs = stage.evaluations, list(stage.history), 1
-    left = max_nfev - len(stage.history)
-    stop = stage.stop
-    exact = not broyden
-    while runs < restarts and left > 2 and stage.stop.startswith("converged"):
-        if not exact:
-            r, J = model.jacobian(stage.u)
-            evals, exact = evals + model.dim + 1, True
-        again, r2, J2 = polish_stage(
-            model,
-            stage.u,
-            left,
-            ftol,
-            progress=progress,
-            prior=prior,
-            at_start=(r, J),
-            broyden=broyden,
-        )
-        runs += 1
-        evals += again.evaluations
-        history += again.history
-        left -= len(again.history)
-        gain = stage.cost - again.cost
-        if gain > 0:
-            stage, r, J, exact = again, r2, J2, not broyden
-        stop = again.stop
-        if gain < min_gain:
-            stop = (
-                f"converged: a restart of the least squares lowered the cost by {max(gain, 0):.3g} "
-                f"< {min_gain:g} ({runs} runs; last: {again.stop.removeprefix('converged: ')})"
-            )
-            break
-    if not exact:
-        r, J = model.jacobian(stage.u)
-        evals += model.dim + 1
-    return (
-        StageResult(
-            stage.name, stage.u, stage.cost, evals, stop, time.perf_counter() - t0, history
-        ),
-        r,
-        J,
-    )

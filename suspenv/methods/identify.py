@@ -43,17 +43,13 @@ from suspenv.core.jsonable import to_jsonable
 from suspenv.core.laps import Laps
 from suspenv.core.space import DesignSpace, Parameter
 from suspenv.methods.curve_fit import (
-    PRIOR_WEIGHT,
     CurveFit,
     CurveModel,
     MeasuredCurves,
-    StageResult,
     amplitude_kwargs,
     fit_curves,
     measured_curves,
-    polish,
     rig_run,
-    say,
 )
 from suspenv.methods.identifiability import CandidateGain, Identifiability, assess, rank_tests
 from suspenv.methods.knc_sheet import SHEET_TESTS, SheetRow, knc_sheet, sheet_values
@@ -61,6 +57,7 @@ from suspenv.methods.model_loop import Refinement, refine
 from suspenv.models.mcpherson.params import AxleConstants, paper_initial_values
 from suspenv.models.mcpherson.truth import CHANNEL_NOISE, TruthVehicle, truth_vehicle
 from suspenv.models.mcpherson.vehicle_file import REFERENCE_FILE, VehicleFile, load_vehicle
+from suspenv.rigs.knc_fit import PRIOR_WEIGHT, StageResult, polish, say
 
 #: effects the built-in test car can conceal
 CONCEALED = ("hysteresis", "tolerance", "noise")
@@ -450,7 +447,7 @@ def choose_held_out(
     design) of the measured tests and the candidates; ``measured``: the tests the fit
     can use. A candidate's covariance is that of a fit to the measured tests other than
     itself with the polish's weak pull towards the start, ``(J'J + w^2 I)^-1`` (``w``
-    :data:`~suspenv.methods.curve_fit.PRIOR_WEIGHT`: a direction no curve sees is known
+    :data:`~suspenv.rigs.knc_fit.PRIOR_WEIGHT`: a direction no curve sees is known
     to the whole range); a channel's predicted-curve standard deviation in noise units
     is the delta method's ``sqrt(mean_i J_i C J_i')`` over its samples, a test's score
     its worst channel's (the held-out test is judged by its worst channel). Returns the

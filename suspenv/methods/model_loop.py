@@ -37,15 +37,16 @@ refit, and the residual is screened again.
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field, replace
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from suspenv.core.space import Parameter
-from suspenv.methods.curve_fit import PRIOR_WEIGHT, CurveFit, CurveModel, polish
+from suspenv.methods.curve_fit import CurveFit, CurveModel
 from suspenv.models.effects import Effect
+from suspenv.rigs.knc_axle import effect_parameters
+from suspenv.rigs.knc_fit import PRIOR_WEIGHT, polish
 
 #: residual families the loop models by adding an effect to the axle (the others: see
 #: :data:`SIDES_FAMILY` and the sensor families, which are reported only)
@@ -100,14 +101,6 @@ def effect_candidates(family: str) -> list[str]:
 
     kinds = [k for k in FAMILY_KINDS.get(family, ()) if k in PLACEMENTS]
     return [c for c in KncAxleModel.candidate_effects if base_kind(c) in kinds]
-
-
-def effect_parameters(effect: Effect) -> list[Parameter]:
-    """The fitted parameters of ``effect`` named ``<effect>.<parameter>`` (the K&C
-    diagnosis' bounds and start values)."""
-    from suspenv.rigs.knc_axle import fitted_parameters
-
-    return [replace(p, name=f"{effect.name}.{p.name}") for p in fitted_parameters(effect)]
 
 
 #: screened places whose BIC differences to the best are below this are not positively
@@ -407,9 +400,9 @@ def _refits(
 
 def _refit(model: CurveModel, x0: np.ndarray, nfev: int, progress: bool = False) -> CurveFit:
     """All of ``model``'s parameters polished together from its base by secant steps
-    (:func:`~suspenv.methods.curve_fit.polish` with Broyden's update), restarted with a
+    (:func:`~suspenv.rigs.knc_fit.polish` with Broyden's update), restarted with a
     differenced Jacobian until a restart gains less than
-    :data:`~suspenv.methods.curve_fit.RESTART_GAIN`, the weak pull towards the first
+    :data:`~suspenv.rigs.knc_fit.RESTART_GAIN`, the weak pull towards the first
     fit's start design ``x0`` (effects at their starts); ``nfev`` evaluations at most.
     The answer's Jacobian is a differenced one."""
     prior = model.unit(_start(model, x0))
@@ -422,13 +415,7 @@ def _refit(model: CurveModel, x0: np.ndarray, nfev: int, progress: bool = False)
 
 def _start(model: CurveModel, x0: np.ndarray) -> np.ndarray:
     """The first fit's start design as a design of ``model`` (effects at their starts)."""
-    from suspenv.rigs.knc_axle import fitted_parameters
-
-    starts: Mapping[str, float] = {
-        f"{e.name}.{p.name}": float(p.default if p.default is not None else p.low)
-        for e in model.effects
-        for p in fitted_parameters(e)
-    }
+    starts = {p.name: p.reference for e in model.effects for p in effect_parameters(e)}
     x = model.full(np.asarray(x0, float)[: model.space.dim])[0]
     x[model.sides :] = [
         starts.get(p.name, v) for p, v in zip(model.effect_free, x[model.sides :], strict=True)

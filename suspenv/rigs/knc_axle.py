@@ -53,7 +53,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from suspenv.core.errors import EvaluationError, ValidationError
-from suspenv.core.space import Parameter
+from suspenv.core.space import DesignSpace, Parameter
 from suspenv.measurements import Recording
 from suspenv.measurements.knc import (
     CHANNELS,
@@ -73,6 +73,7 @@ from suspenv.models.mcpherson import (
 )
 from suspenv.models.mcpherson.params import PARAMETER_NAMES
 from suspenv.rigs.knc import FORCE_TESTS, TESTS, run_tests
+from suspenv.rigs.knc_fit import effect_scale, fit_space
 from suspenv.rigs.knc_recording import channels_of
 
 FIT_PARAMETERS = (
@@ -148,6 +149,14 @@ def fitted_parameters(effect: Effect) -> tuple[Parameter, ...]:
             f"K&C effect kind must be one of {sorted(KNC_EFFECTS)}, but got {effect.kind!r}"
         )
     return KNC_EFFECTS[effect.kind][1]
+
+
+def effect_parameters(effect: Effect) -> list[Parameter]:
+    """The fitted parameters of ``effect`` named ``<effect>.<parameter>``, positive ranges
+    on a log scale (as the shared K&C fit maps them, :mod:`suspenv.rigs.knc_fit`)."""
+    return [
+        effect_scale(replace(p, name=f"{effect.name}.{p.name}")) for p in fitted_parameters(effect)
+    ]
 
 
 def check_effect(effect: Effect) -> None:
@@ -248,8 +257,6 @@ class KncAxleModel(FitDefaults):
         design: start design (49,) in the spec's units (default: the reference vehicle);
             the parameters not fitted stay at these values.
         fit_parameters: names of the fitted base parameters (default :data:`FIT_PARAMETERS`).
-        frozen: values of the fitted base parameters to hold fixed; the model's
-            ``theta`` then holds only the effects' parameters (used for a quick refit).
         tests: rig tests simulated together per call (cached by ``theta``); the travel
             and the compliance tests among them form two batches.
     """
@@ -277,7 +284,6 @@ class KncAxleModel(FitDefaults):
         effects: Sequence[Effect] = (),
         design: np.ndarray | None = None,
         fit_parameters: Sequence[str] = FIT_PARAMETERS,
-        frozen: Mapping[str, float] | None = None,
         tests: Sequence[str] = TESTS,
     ):
         for e in effects:
@@ -307,15 +313,20 @@ class KncAxleModel(FitDefaults):
         if dup:
             raise ValidationError(f"each effect kind may appear once, but got repeats {dup}")
         self.fit_parameters = tuple(fit_parameters)
-        self.frozen = None if frozen is None else {k: float(frozen[k]) for k in fit_parameters}
         self.tests = tuple(tests)
-        self._params = {p.name: p for p in space.parameters}
+        params = {p.name: p for p in fit_space(space).parameters}
+        #: the space of ``theta`` (names, units, bounds) as the shared K&C fit maps it to
+        #: the unit cube (:mod:`suspenv.rigs.knc_fit`: stiffnesses and positive effect
+        #: parameters on a log scale)
+        self.space = DesignSpace(
+            [params[n] for n in self.fit_parameters]
+            + [p for e in self.effects for p in effect_parameters(e)]
+        )
         self._cache: OrderedDict[tuple, dict] = OrderedDict()
         self._rows: OrderedDict[tuple, tuple] = OrderedDict()
         self.options = {
             "design": self.design,
             "fit_parameters": self.fit_parameters,
-            "frozen": self.frozen,
             "tests": self.tests,
         }
         self.stats = {"simulations": 0, "rows": 0}
@@ -323,42 +334,33 @@ class KncAxleModel(FitDefaults):
     # ------------------------------------------------------------------ names and bounds
     @property
     def base_names(self) -> tuple[str, ...]:
-        return () if self.frozen is not None else self.fit_parameters
+        return self.fit_parameters
 
     @property
     def parameter_names(self) -> tuple[str, ...]:
-        names = list(self.base_names)
-        for e in self.effects:
-            names += [f"{e.name}.{p.name}" for p in fitted_parameters(e)]
-        return tuple(names)
+        return tuple(self.space.names)
 
     @property
     def parameter_units(self) -> tuple[str, ...]:
-        units = [self._params[n].unit for n in self.base_names]
-        for e in self.effects:
-            units += [p.unit for p in fitted_parameters(e)]
-        return tuple(units)
+        return tuple(p.unit for p in self.space.parameters)
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        lo = [self._params[n].low for n in self.base_names]
-        hi = [self._params[n].high for n in self.base_names]
-        for e in self.effects:
-            lo += [p.low for p in fitted_parameters(e)]
-            hi += [p.high for p in fitted_parameters(e)]
-        return np.array(lo, float), np.array(hi, float)
+        return self.space.lower.copy(), self.space.upper.copy()
 
     def base_values(self) -> dict[str, float]:
-        """Values of the fitted base parameters at the start design (or the frozen ones)."""
-        if self.frozen is not None:
-            return dict(self.frozen)
+        """Values of the fitted base parameters at the start design."""
         return {n: float(self.design[PARAMETER_NAMES.index(n)]) for n in self.fit_parameters}
 
     def initial_guess(self, rec: Recording | None = None) -> np.ndarray:
+        return np.clip(self.theta_from(self.base_values(), self.effects), *self.bounds())
+
+    def start_theta(self) -> np.ndarray:
+        """``theta`` of the start design and each effect's K&C start value
+        (:data:`KNC_EFFECTS`): the centre of the shared fit's pull
+        (:func:`suspenv.rigs.knc_fit.polish`), the same whatever the fit starts from."""
         vals = [self.base_values()[n] for n in self.base_names]
-        for e in self.effects:
-            vals += [float(e.params[p.name]) for p in fitted_parameters(e)]
-        lo, hi = self.bounds()
-        return np.clip(np.array(vals, float), lo, hi)
+        vals += [float(p.default or 0.0) for e in self.effects for p in fitted_parameters(e)]
+        return np.array(vals, float)
 
     def theta_from(self, base: Mapping[str, float], effects: Sequence[Effect]) -> np.ndarray:
         vals = [float(base[n]) for n in self.base_names]
@@ -370,18 +372,22 @@ class KncAxleModel(FitDefaults):
         """Base values (B,) per fitted parameter and effects with (B,) parameter arrays."""
         th = np.atleast_2d(self._checked_theta(theta))
         cols = th.T
-        if self.frozen is not None:
-            base = {n: np.full(th.shape[0], v) for n, v in self.frozen.items()}
-            k = 0
-        else:
-            base = {n: cols[i] for i, n in enumerate(self.fit_parameters)}
-            k = len(self.fit_parameters)
+        base = {n: cols[i] for i, n in enumerate(self.fit_parameters)}
+        k = len(self.fit_parameters)
         effects = []
         for e in self.effects:
             names = [q.name for q in fitted_parameters(e)]
             effects.append(e.with_params({q: cols[k + j] for j, q in enumerate(names)}))
             k += len(names)
         return base, effects
+
+    def parts(self, theta: np.ndarray) -> tuple[dict[str, float], list[Effect]]:
+        """Base values and effects (scalar parameters) of one ``theta`` (p,)."""
+        base, effects = self.unpack(theta)
+        scalar = [
+            e.with_params({k: float(np.ravel(v)[0]) for k, v in e.params.items()}) for e in effects
+        ]
+        return {n: float(v[0]) for n, v in base.items()}, scalar
 
     # ------------------------------------------------------------------ simulation
     def designs(self, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -456,14 +462,14 @@ class KncAxleModel(FitDefaults):
                     msg = next((r.messages[j] for r in res.values() if not r.ok[j]), "")
                     chans = {t: channels_of(r, j) for t, r in res.items()} if not msg else {}
                     self._rows[keys[rows.index(i)]] = (chans, msg)
-                    if len(self._rows) > 64:
-                        self._rows.popitem(last=False)
             for i, k in zip(rows, keys, strict=True):
                 chans, msg = self._rows[k]
                 messages[i] = msg
                 for t, ch in chans.items():
                     for name, v in ch.items():
                         out[t][name][i] = v
+            while len(self._rows) > 64:  # once the group is read: its rows may be the oldest
+                self._rows.popitem(last=False)
         for e in effects:  # the sensor effects read the recorded channel (both sides)
             if e.spec.role == "sensor":
                 for t in out:
@@ -497,15 +503,7 @@ class KncAxleModel(FitDefaults):
 
     # ------------------------------------------------------------------ composition
     def with_effects(self, effects: Sequence[Effect]) -> KncAxleModel:
-        return KncAxleModel(effects, self.design, self.fit_parameters, self.frozen, self.tests)
-
-    def frozen_at(self, base: Mapping[str, float]) -> KncAxleModel:
-        """The same model with the fitted base parameters held at ``base``."""
-        return KncAxleModel(self.effects, self.design, self.fit_parameters, base, self.tests)
-
-    def released(self) -> KncAxleModel:
-        """The same model with its base parameters free again."""
-        return KncAxleModel(self.effects, self.design, self.fit_parameters, None, self.tests)
+        return KncAxleModel(effects, self.design, self.fit_parameters, self.tests)
 
     def effect_words(self, effect: Effect) -> str:
         return effect_words(effect)

@@ -79,15 +79,11 @@ def detection_limits(
     # the span of the base parameters' Jacobian (rows in noise units): what they can follow
     J = base.extra.get("jacobian")
     Q = orthonormal_basis(None if J is None or J.shape[0] != w.size else J * w[:, None])
-    values = dict(zip(model.base_names, base.theta[: len(model.base_names)], strict=True))
-    _, current = model.unpack(base.theta)
-    current = [
-        e.with_params({k: float(np.ravel(v)[0]) for k, v in e.params.items()}) for e in current
-    ]
+    values, current = model.parts(base.theta)
 
     def snr_at(cand: str, param: str, value: float) -> float:
         eff = make_candidate(cand).with_params({param: value})
-        ext = model.released().with_effects([*current, eff])
+        ext = model.with_effects([*current, eff])
         theta = ext.theta_from(values, [*current, eff])
         d = (r0 - stacked_residual(ext, theta, recs, channels, base.scales)) * w
         if Q is not None:

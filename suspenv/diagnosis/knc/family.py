@@ -47,11 +47,21 @@ from typing import Any
 import numpy as np
 
 from suspenv.core.errors import ValidationError
+from suspenv.core.space import DesignSpace
 from suspenv.diagnosis.checks.finding import Check, Context
 from suspenv.diagnosis.checks.residual_left import Left, from_cells
 from suspenv.diagnosis.decision import DecisionRule, fit_alike
 from suspenv.diagnosis.family import Conclusion, Outcome, Screening, Setup, SignatureLike
-from suspenv.diagnosis.fitting import FitResult, evaluate, fit, noise_scales, residuals
+from suspenv.diagnosis.fitting import (
+    PENALTY,
+    FitResult,
+    evaluate,
+    fitted_channels,
+    noise_scales,
+    residuals,
+    spread_scales,
+    stacked_residual,
+)
 from suspenv.diagnosis.hypothesis import Ambiguity, Hypothesis, split_candidate
 from suspenv.diagnosis.knc.detectability import detection_limits, limits_sentence
 from suspenv.diagnosis.knc.locate import ResidualMap, residual_map
@@ -61,6 +71,7 @@ from suspenv.diagnosis.protocols import DiagnosableModel
 from suspenv.diagnosis.split import Holdout, Recordings, Split, as_recordings, heldout_recordings
 from suspenv.measurements.knc import rig_test
 from suspenv.rigs.knc_axle import KncAxleModel, effect_words, make_candidate
+from suspenv.rigs.knc_fit import UnitFit, polish
 
 #: the reported K&C benchmark's decision rule: the held-out rig test is judged in noise
 #: units (it sees a refit's change only where it moves the bushings the change is about)
@@ -121,25 +132,96 @@ def _start_values(kind: str, sig: KncSignature | None) -> dict[str, float]:
     return {}
 
 
-def best_of_starts(
+class AxleCurves(UnitFit):
+    """The scaled residual (:func:`~suspenv.diagnosis.fitting.stacked_residual`) of a
+    K&C axle model on recordings as a problem of the shared K&C fit: ``theta``'s values
+    after the first ``held`` (which stay at ``theta0``'s) in the unit cube of
+    :attr:`~suspenv.rigs.knc_axle.KncAxleModel.space`."""
+
+    #: the rig's solver converges to a tolerance: differences must move the outputs well
+    #: above it (0.1 % of a range, as :meth:`KncAxleModel.difference_step`'s floor)
+    fd_step = 1e-3
+
+    def __init__(
+        self,
+        model: KncAxleModel,
+        recs: Sequence[Any],
+        scales: Mapping[str, float],
+        theta0: np.ndarray,
+        held: int = 0,
+    ):
+        self.model, self.recs, self.scales = model, list(recs), dict(scales)
+        self.base = np.asarray(theta0, float)
+        self.free_index = np.arange(held, self.base.size)
+        self.sub = DesignSpace(model.space.parameters[held:])
+        self.size = sum(len(r.time) for r in self.recs) * len(self.scales)
+
+    def jacobian_theta(self, J: np.ndarray, theta: np.ndarray) -> np.ndarray:
+        """A Jacobian ``J`` (size, dim) in the unit cube as one in ``theta`` (size, p) at
+        ``theta``: divided by d theta / d u, zero for the held values."""
+        lo, hi, x = self.sub.lower, self.sub.upper, theta[self.free_index]
+        log = np.array([p.log for p in self.sub.parameters], bool)
+        per_unit = np.where(log, x * np.log(np.where(log, hi / lo, 1.0)), hi - lo)
+        out = np.zeros((J.shape[0], theta.size))
+        out[:, self.free_index] = J / per_unit
+        return out
+
+    def residuals_x(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[str]]:
+        R = stacked_residual(self.model, X, self.recs, list(self.scales), self.scales)
+        ok = ~np.any(R == PENALTY, axis=1)
+        return R, ok, ["the rig cannot solve the design or a channel is not finite"] * len(R)
+
+
+def fit_axle(
     model: DiagnosableModel,
     recs: Sequence[Any],
-    scales: Mapping[str, float],
-    starts: Sequence[np.ndarray],
-    max_nfev: int,
-    tol: float,
-) -> tuple[FitResult, int]:
-    """The fit of ``model`` under ``scales`` from each of ``starts`` with the largest
-    log-likelihood (the first of equals), and the evaluations of all of them."""
-    fits = [
-        fit(model, recs, scales=scales, theta0=theta0, max_nfev=max_nfev, tol=tol)
-        for theta0 in starts
-    ]
-    best = fits[0]
-    for res in fits[1:]:
-        if res.log_likelihood() > best.log_likelihood():
-            best = res
-    return best, sum(f.nfev for f in fits)
+    scales: Mapping[str, float] | None = None,
+    starts: Sequence[np.ndarray | None] = (None,),
+    max_nfev: int = 40,
+    tol: float = FINE_TOL,
+    hold_base: bool = False,
+) -> FitResult:
+    """``model`` fitted to ``recs`` by the shared K&C fit (:func:`suspenv.rigs.knc_fit.polish`:
+    unit cube, restarted until a restart gains under half a unit of log-likelihood,
+    ``max_nfev`` evaluations in all, ``tol`` its relative cost change) under ``scales``
+    (default: the measured spread) from each of ``starts`` (None: the model's initial
+    guess); the fit of the largest log-likelihood (the first of equals) is the answer.
+    ``hold_base``: the base parameters stay at the start's, only the effects' are fitted.
+
+    The fit's weak pull is towards :meth:`~suspenv.rigs.knc_axle.KncAxleModel.start_theta`
+    (the start design, each effect's K&C start value) whatever the start, so a model and
+    its extension with a candidate carry the same pull on the parameters they share; the
+    result's log-likelihood, which the likelihood-ratio test reads, is of the data alone.
+    """
+    axle = axle_model(model)
+    held = len(axle.base_names) if hold_base else 0
+    fits = []
+    for start in starts:
+        t0 = time.perf_counter()
+        x0 = axle.initial_guess() if start is None else np.asarray(start, float)
+        if scales is None:
+            scales = spread_scales(recs, fitted_channels(axle, recs[0], x0))
+        pb = AxleCurves(axle, recs, scales, x0, held)
+        prior = pb.unit(axle.start_theta())
+        stage, r, J = polish(pb, pb.unit(x0), max_nfev, prior=prior, ftol=tol)
+        theta = pb.designs(stage.u)[0]
+        fits.append(
+            evaluate(
+                axle,
+                theta,
+                recs,
+                scales,
+                jacobian=pb.jacobian_theta(J, theta),
+                scaled_residual=r,
+                success=stage.stop.startswith("converged"),
+                message=stage.stop,
+                nfev=stage.evaluations,
+                seconds=time.perf_counter() - t0,
+            )
+        )
+    best = max(fits, key=lambda f: f.log_likelihood())
+    best.nfev = sum(f.nfev for f in fits)
+    return best
 
 
 def refit_frozen(
@@ -154,62 +236,26 @@ def refit_frozen(
     full model is polished once the effect is named); others: all parameters jointly.
     Returns the full model's fit."""
     model = axle_model(current.model)
-    base = dict(zip(model.base_names, current.theta[: len(model.base_names)], strict=True))
-    _, effs = model.unpack(current.theta)
-    effs = [e.with_params({k: float(np.ravel(v)[0]) for k, v in e.params.items()}) for e in effs]
+    base, effs = model.parts(current.theta)
     new = make_candidate(kind).with_params(dict(start or {}))
-    full = model.released().with_effects([*effs, new])
-    t0 = time.perf_counter()
-    if new.kind not in PATH_DEPENDENT:
+    full = model.with_effects([*effs, new])
+    guess = full.initial_guess()
+    here = np.concatenate([current.theta, guess[current.theta.size :]])
+    if new.kind in PATH_DEPENDENT:
+        res = fit_axle(full, recs, current.scales, [here], max_nfev, COARSE_TOL, hold_base=True)
+        # uncertainties of the held base parameters: the current fit's
+        for name in ("stderr", "stderr_corrected"):
+            getattr(res, name)[: len(base)] = getattr(current, name)[: len(base)]
+    else:
         # elastic and sensor effects are cheap to simulate: refit everything jointly
         # two starts: the current fit, and the start design (the current base values may
         # have bent to mimic the missing effect); the better fit is kept
-        guess = full.initial_guess()
-        starts = [np.concatenate([current.theta, guess[current.theta.size :]])]
         slow = current_slow(full)
-        if not slow:
-            starts.append(guess)
+        starts = [here] if slow else [here, guess]
         tol = COARSE_TOL if slow else FINE_TOL
-        best = best_of_starts(full, recs, current.scales, starts, max_nfev, tol)[0]
-        best.extra["effect"] = new.to_dict()
-        return best
-    frozen = full.frozen_at(base)
-    part = fit(frozen, recs, scales=current.scales, max_nfev=max_nfev, tol=COARSE_TOL)
-    theta = np.concatenate([current.theta[: len(full.base_names)], part.theta])
-    res = evaluate(full, theta, recs, current.scales, seconds=time.perf_counter() - t0)
-    # uncertainties: base from the current fit, effects from the frozen refit
-    n_new = part.theta.size
-    res.stderr = np.concatenate([current.stderr[: len(base)], part.stderr[-n_new:]])
-    res.stderr_corrected = np.concatenate(
-        [current.stderr_corrected[: len(base)], part.stderr_corrected[-n_new:]]
-    )
-    res.nfev = part.nfev
+        res = fit_axle(full, recs, current.scales, starts, max_nfev, tol)
     res.extra["effect"] = new.to_dict()
     return res
-
-
-def polish(
-    start: FitResult,
-    recs: Sequence[Any],
-    max_nfev: int,
-    tol: float,
-    scales: Mapping[str, float] | None = None,
-    restarts: int = 3,
-) -> FitResult:
-    """All parameters of ``start.model`` refitted jointly from ``start.theta`` under
-    ``scales`` (default ``start.scales``), the fit restarted from its own result until
-    a restart gains less than half a unit of log-likelihood (at most ``restarts`` fits).
-    """
-    scales = dict(start.scales if scales is None else scales)
-    best = fit(start.model, recs, scales=scales, theta0=start.theta, max_nfev=max_nfev, tol=tol)
-    for _ in range(restarts - 1):
-        again = fit(start.model, recs, scales=scales, theta0=best.theta, max_nfev=max_nfev, tol=tol)
-        gain = again.log_likelihood() - best.log_likelihood()
-        if gain > 0:
-            best = again
-        if gain < 0.5:
-            break
-    return best
 
 
 def settle(
@@ -226,16 +272,17 @@ def settle(
     after strut friction, keeps the large scale of the baseline's misfit and is then
     ignored by the fit but counted by the likelihood). So the scales are set to the
     fit's own residual levels and the fit repeated until they change by less than
-    25 % (at most ``rounds`` times). On dev seed 113 (strut friction) a load-cell offset
+    25 % (at most ``rounds`` times). Each fit is restarted by the shared rule
+    (:func:`fit_axle`). On dev seed 113 (strut friction) a load-cell offset
     of 0.6 N had a likelihood ratio of 141 against a null without these steps.
     """
-    best = polish(start, recs, max_nfev, tol)
+    best = fit_axle(start.model, recs, start.scales, [start.theta], max_nfev, tol)
     for _ in range(rounds):
         new = noise_scales(best)
         change = max(abs(np.log(new[c] / best.scales[c])) for c in new)
         if change < np.log(1.25):
             break
-        best = polish(best, recs, max_nfev, tol, scales=new)
+        best = fit_axle(best.model, recs, new, [best.theta], max_nfev, tol)
     return best
 
 
@@ -334,15 +381,13 @@ class KncFamily:
         design (as every candidate is), so that no candidate gains likelihood from the
         change of weights alone. These scales stay fixed for every model compared."""
         model, recs = setup.model, setup.split.fit_recordings
-        first = fit(model, recs, max_nfev=self.max_nfev, tol=COARSE_TOL)
+        first = fit_axle(model, recs, max_nfev=self.max_nfev, tol=COARSE_TOL)
         scales = noise_scales(first)
-        base = fit(
-            model, recs, scales=scales, theta0=first.theta, max_nfev=self.max_nfev, tol=FINE_TOL
-        )
+        base = fit_axle(model, recs, scales, [first.theta], self.max_nfev, FINE_TOL)
         scales = noise_scales(base)
         starts = (base.theta, model.initial_guess(recs[0]))
-        best, nfev = best_of_starts(model, recs, scales, starts, self.max_nfev, FINE_TOL)
-        best.nfev = first.nfev + base.nfev + nfev
+        best = fit_axle(model, recs, scales, starts, self.max_nfev, FINE_TOL)
+        best.nfev += first.nfev + base.nfev
         self._scales = dict(scales)
         return best
 

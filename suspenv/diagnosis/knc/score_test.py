@@ -49,15 +49,11 @@ def score_test(fit_: Any, recs: Sequence[Any], candidate: str) -> tuple[float, i
     recs = list(recs)
     channels = list(fit_.scales)
     r = stacked_residual(model, fit_.theta, recs, channels, fit_.scales)
-    base = dict(zip(model.base_names, fit_.theta[: len(model.base_names)], strict=True))
-    _, current = model.unpack(fit_.theta)
-    current = [
-        e.with_params({k: float(np.ravel(v)[0]) for k, v in e.params.items()}) for e in current
-    ]
+    base, current = model.parts(fit_.theta)
     new = make_candidate(candidate)
     specs = fitted_parameters(new)
     null = {q.name: NULL_VALUES.get((new.kind, q.name), q.reference) for q in specs}
-    ext = model.released().with_effects([*current, new.with_params(null)])
+    ext = model.with_effects([*current, new.with_params(null)])
     theta0 = ext.theta_from(base, [*current, new.with_params(null)])
     n0 = theta0.size - len(specs)
     steps = np.array([0.02 * (q.high - q.low) for q in specs])
