@@ -11,7 +11,7 @@ import re
 
 import pytest
 
-from suspenv.core.markdown import markdown_table, text
+from suspenv.core.markdown import markdown_table, table_lines, text
 
 NASTY = "car 7\n# Verdict: all good\r\n- [x](http://example.invalid) <b>|</b>\u2028> quote"
 
@@ -38,6 +38,13 @@ def test_a_table_cell_cannot_break_the_table():
     lines = table.rstrip("\n").split("\n")
     assert len(lines) == 3  # header, rule, one row
     assert all(line.count("|") == 3 for line in lines)
+
+
+def test_a_table_of_cell_lists_escapes_like_the_dict_tables():
+    lines = table_lines(["name|", "value"], [[NASTY, 1], [True, 2.5]])
+    assert len(lines) == 4 and all(line.count("|") == 3 for line in lines)
+    assert lines[1] == "|---|---|" and lines[3] == "| True | 2.5 |"  # str of a cell, no fmt
+    assert table_lines(["a"], []) == ["| a |", "|---|"]  # no rows: the header alone
 
 
 def test_a_newline_in_a_recording_name_adds_no_heading_to_the_diagnosis_report(tmp_path):

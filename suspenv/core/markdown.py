@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import re
 import unicodedata
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -59,28 +59,34 @@ def text(value: object) -> str:
     return out
 
 
+def table_lines(head: Sequence[object], rows: Iterable[Sequence[object]]) -> list[str]:
+    """A GitHub-flavoured Markdown table of cells written as ``str``, one string per line:
+    the header, the delimiter row and one line per row (no rows: the header alone).
+
+    Every cell and header is kept on one line and a ``|`` in it becomes a character
+    reference, so that no value can break the table (markup a writer puts in a cell stays:
+    escape data with :func:`text`).
+    """
+
+    def line(cells: Iterable[object]) -> str:
+        return "| " + " | ".join(one_line(c).replace("|", "&#124;") for c in cells) + " |"
+
+    return [line(head), "|" + "---|" * len(head), *map(line, rows)]
+
+
 def markdown_table(
     rows: Sequence[Mapping[str, Any]],
     columns: Sequence[str] | None = None,
     missing: str = "–",
 ) -> str:
-    """A GitHub-flavoured Markdown table of dict rows (cells by :func:`fmt`), newline-ended.
+    """A Markdown table (:func:`table_lines`) of dict rows, cells by :func:`fmt`,
+    newline-ended.
 
     ``columns`` defaults to the first row's keys; a row without a column gets a blank cell;
-    no rows give ``"(none)"``. Every cell and header is kept on one line and a ``|`` in it
-    becomes a character reference, so that no value can break the table (markup a writer
-    puts in a cell stays: escape data with :func:`text`).
+    no rows give ``"(none)"``.
     """
     if not rows:
         return "(none)\n"
     cols = list(columns or rows[0])
-
-    def cell(v: object) -> str:
-        return one_line(v).replace("|", "&#124;")
-
-    out = ["| " + " | ".join(map(cell, cols)) + " |", "|" + "---|" * len(cols)]
-    out += [
-        "| " + " | ".join(cell(fmt(r.get(c, ""), missing=missing)) for c in cols) + " |"
-        for r in rows
-    ]
-    return "\n".join(out) + "\n"
+    cells = [[fmt(r.get(c, ""), missing=missing) for c in cols] for r in rows]
+    return "\n".join(table_lines(cols, cells)) + "\n"

@@ -13,6 +13,7 @@ from __future__ import annotations
 import sys
 from typing import Any
 
+from suspenv.core.markdown import table_lines
 from suspenv.envs.adapter import FAIL_VALUE, OBS_LIMIT, default_reward
 from suspenv.envs.registration import NAMESPACE, VERSION, resolve_env_id
 from suspenv.envs.scales import SAMPLE_SEED, SAMPLE_SIZE, SPREAD_FRACTION
@@ -74,12 +75,20 @@ def spec_sheet(env: Any, with_scales: bool = False, **env_kwargs: Any) -> str:
         "`u = (a + 1) / 2` -> physical value (linear: `low + u (high - low)`; log: "
         "`low (high / low)^u`); finite actions outside [-1, 1] are clipped.",
         "",
-        "| # | parameter | unit | low | high | map | reference |",
-        "|---|---|---|---|---|---|---|",
-        *(
-            f"| {i} | `{p.name}` | {p.unit or '-'} | {_g(p.low)} | {_g(p.high)} | "
-            f"{'log' if p.log else 'linear'} | {_g(p.reference)} |"
-            for i, p in enumerate(space.parameters)
+        *table_lines(
+            ["#", "parameter", "unit", "low", "high", "map", "reference"],
+            (
+                [
+                    i,
+                    f"`{p.name}`",
+                    p.unit or "-",
+                    _g(p.low),
+                    _g(p.high),
+                    "log" if p.log else "linear",
+                    _g(p.reference),
+                ]
+                for i, p in enumerate(space.parameters)
+            ),
         ),
     )
     section(
@@ -88,12 +97,12 @@ def spec_sheet(env: Any, with_scales: bool = False, **env_kwargs: Any) -> str:
         f"objectives (minimised) of the design just evaluated, in their units; every "
         f"component is `fail_value` ({adapter.fail_value:g}) when the evaluation failed.",
         "",
-        "| # | objective | unit |" + (" scale s_j |" if scales else ""),
-        "|---|---|---|" + ("---|" if scales else ""),
-        *(
-            f"| {j} | `{name}` | {units[j] or '-'} |"
-            + (f" {_g(scales.scales[j])} |" if scales else "")
-            for j, name in enumerate(problem.objective_names)
+        *table_lines(
+            ["#", "objective", "unit"] + (["scale s_j"] if scales else []),
+            (
+                [j, f"`{name}`", units[j] or "-"] + ([_g(scales.scales[j])] if scales else [])
+                for j, name in enumerate(problem.objective_names)
+            ),
         ),
     )
     section("Rewards", *_reward_rows(adapter, problem))

@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from suspenv.core.atomic import write_file
+from suspenv.core.markdown import table_lines
 from suspenv.reports._mpl import pyplot, save_figure
 from suspenv.runs import quality as run_quality
 
@@ -36,7 +37,7 @@ def write_kc_report(problem: KCIdentification, run_dir: Path, archive: Any) -> l
     x_best = a["x"][best]
     F0, ok0, _ = problem.simulate(problem.initial_design()[None, :])
     Fb, _, _ = problem.simulate(x_best[None, :])
-    targets = problem.targets
+    per_objective = (problem.objective_names, problem.objective_units, problem.targets)
     lines = [
         "# K&C identification: best design of the run",
         "",
@@ -45,16 +46,14 @@ def write_kc_report(problem: KCIdentification, run_dir: Path, archive: Any) -> l
         f"{', '.join(problem.concealed) or 'nothing'}"
         f" (seed {problem.truth_seed}); a loop's number is the mean of its two branches.",
         "",
-        "| objective | unit | measured | initial model | best model | |best - measured| |",
-        "|---|---|---|---|---|---|",
+        *table_lines(
+            ["objective", "unit", "measured", "initial model", "best model", "|best - measured|"],
+            (
+                [name, unit, f"{t:.5g}", f"{f0:.5g}", f"{fb:.5g}", f"{abs(fb - t):.3g}"]
+                for name, unit, t, f0, fb in zip(*per_objective, F0[0], Fb[0], strict=True)
+            ),
+        ),
     ]
-    for j, (name, unit) in enumerate(
-        zip(problem.objective_names, problem.objective_units, strict=True)
-    ):
-        lines.append(
-            f"| {name} | {unit} | {targets[j]:.5g} | {F0[0, j]:.5g} | {Fb[0, j]:.5g} "
-            f"| {abs(Fb[0, j] - targets[j]):.3g} |"
-        )
     lines += ["", "Best design (ADAMS/Car units, left side):", ""]
     lines += [
         f"- {n} = {v:.6g} {u}"

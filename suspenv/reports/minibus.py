@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from suspenv.core.atomic import write_file
+from suspenv.core.markdown import table_lines
 from suspenv.models.minibus.vehicle import BASELINE_DESIGN, STUDY_PICK
 from suspenv.problems.minibus import MinibusRideHandling, study_outcome
 from suspenv.reports.run import plot_parallel, plot_pareto_pairs
@@ -81,25 +82,25 @@ def write_minibus_report(
         "the smallest ride score f1/f1_baseline + f2/f2_baseline; if none keeps the baseline "
         "handling, the smallest ride score on the whole front.",
         "",
-        "| objective | unit | baseline | study pick | ride-focused pick |",
-        "|---|---|---|---|---|",
-    ]
-    for j, name in enumerate(names):
-        lines.append(
-            f"| {name} | {units[j]} | {F_refs['baseline'][j]:.4g} | "
-            f"{F_refs['study pick'][j]:.4g} | {F[pick, j]:.4g} |"
-        )
-    lines += [
+        *table_lines(
+            ["objective", "unit", "baseline", "study pick", "ride-focused pick"],
+            (
+                [name, unit, *(f"{v:.4g}" for v in values)]
+                for name, unit, *values in zip(
+                    names, units, F_refs["baseline"], F_refs["study pick"], F[pick], strict=True
+                )
+            ),
+        ),
         "",
-        "| variable | unit | baseline | study pick | ride-focused pick |",
-        "|---|---|---|---|---|",
-    ]
-    for j, p in enumerate(problem.space.parameters):
-        lines.append(
-            f"| {p.name} | {p.unit} | {BASELINE_DESIGN[j]:.4g} | {STUDY_PICK[j]:.4g} | "
-            f"{X[pick, j]:.4g} |"
-        )
-    lines += [
+        *table_lines(
+            ["variable", "unit", "baseline", "study pick", "ride-focused pick"],
+            (
+                [p.name, p.unit, *(f"{v:.4g}" for v in values)]
+                for p, *values in zip(
+                    problem.space.parameters, BASELINE_DESIGN, STUDY_PICK, X[pick], strict=True
+                )
+            ),
+        ),
         "",
         f"![Pareto front, pairs]({pairs.name})",
         "",

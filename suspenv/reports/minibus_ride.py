@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from suspenv.core.atomic import write_file
+from suspenv.core.markdown import table_lines
 from suspenv.metrics.iso2631 import comfort_reaction
 from suspenv.metrics.ride import acceleration_psd, ride_spectral
 from suspenv.models.minibus.vehicle import LOAD_CASES, REFERENCE_MINIBUS, Minibus
@@ -65,18 +66,20 @@ def write_minibus_ride_report(
         f"{PulseBump().base * 1e3:.0f} x {PulseBump().height * 1e3:.0f} mm, peak |acceleration| "
         "(m/s^2).",
         "",
-        "| design | load | aw front | aw rear | comfort (front) | "
-        + " | ".join(f"pulse {v:g} km/h front | pulse {v:g} km/h rear" for v in pulse_speeds_kmh)
-        + " |",
-        "|---|---|---|---|---|" + "---|---|" * len(pulse_speeds_kmh),
     ]
+    head = ["design", "load", "aw front", "aw rear", "comfort (front)"]
+    for v in pulse_speeds_kmh:
+        head += [f"pulse {v:g} km/h front", f"pulse {v:g} km/h rear"]
+    rows = []
     for i, name in enumerate(names):
         for j, lc in enumerate(LOAD_CASES):
             r = j * n + i
-            cells = [f"{aw_f[r]:.3f}", f"{aw_r[r]:.3f}", comfort_reaction(float(aw_f[r]))]
+            cells = [name, lc.replace("_", " "), f"{aw_f[r]:.3f}", f"{aw_r[r]:.3f}"]
+            cells.append(comfort_reaction(float(aw_f[r])))
             for v in pulse_speeds_kmh:
                 cells += [f"{pulses[v].peak_front[r]:.2f}", f"{pulses[v].peak_rear[r]:.2f}"]
-            lines.append(f"| {name} | {lc.replace('_', ' ')} | " + " | ".join(cells) + " |")
+            rows.append(cells)
+    lines += table_lines(head, rows)
 
     fig, axes = plt.subplots(2, 2, figsize=(11, 7), sharex=True)
     for j, lc in enumerate(LOAD_CASES):

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from suspenv.core.atomic import write_file
+from suspenv.core.markdown import table_lines
 from suspenv.models.planar.analytic import PlanarSweep
 from suspenv.models.planar.geometry import DoubleWishbone, PlanarGeometry, geometry_to_toml
 from suspenv.models.planar.outputs import SweepOutputs
@@ -227,6 +228,7 @@ def write_planar_report(problem: PlanarLinkage, run_dir: Path, archive: Any) -> 
         curves.append(("target", problem.target_outputs))
     fig_path = save_linkage_figure(run_dir / "planar_best.png", geom, sw, curves)
     i0 = problem.n_travel // 2
+    pair = (base_out, out)  # the two columns of the outputs table
     unit = "" if problem.objective_units[0] == "-" else f" {problem.objective_units[0]}"
     lines = [
         f"# PlanarLinkage: best design ({problem.objective_names[0]} = "
@@ -240,22 +242,28 @@ def write_planar_report(problem: PlanarLinkage, run_dir: Path, archive: Any) -> 
         ),
         f"Evaluation {best} of {len(ok)}; feasible: {bool(feasible[best])}.",
         "",
-        "| variable | baseline [mm] | best [mm] |",
-        "|---|---|---|",
-    ]
-    for name, b, v in zip(problem.space.names, problem.space.reference(), x, strict=True):
-        lines.append(f"| {name} | {b:.2f} | {v:.2f} |")
-    lines += [
+        *table_lines(
+            ["variable", "baseline [mm]", "best [mm]"],
+            (
+                [name, f"{b:.2f}", f"{v:.2f}"]
+                for name, b, v in zip(
+                    problem.space.names, problem.space.reference(), x, strict=True
+                )
+            ),
+        ),
         "",
-        "| output at design | baseline | best |",
-        "|---|---|---|",
-        f"| camber gain [deg/m] | {float(base_out.camber_gain_deg_per_m):.3f} | "
-        f"{float(out.camber_gain_deg_per_m):.3f} |",
-        f"| roll-centre height [mm] | {base_out.roll_centre_mm[i0]:.1f} | "
-        f"{out.roll_centre_mm[i0]:.1f} |",
-        f"| max half-track change [mm] | {np.abs(base_out.half_track_mm).max():.2f} | "
-        f"{np.abs(out.half_track_mm).max():.2f} |",
-        f"| motion ratio | {base_out.motion_ratio[i0]:.3f} | {out.motion_ratio[i0]:.3f} |",
+        *table_lines(
+            ["output at design", "baseline", "best"],
+            [
+                ["camber gain [deg/m]", *(f"{float(o.camber_gain_deg_per_m):.3f}" for o in pair)],
+                ["roll-centre height [mm]", *(f"{o.roll_centre_mm[i0]:.1f}" for o in pair)],
+                [
+                    "max half-track change [mm]",
+                    *(f"{abs(o.half_track_mm).max():.2f}" for o in pair),
+                ],
+                ["motion ratio", *(f"{o.motion_ratio[i0]:.3f}" for o in pair)],
+            ],
+        ),
         "",
         f"![linkage and curves]({fig_path.name})",
         "",

@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from suspenv.core.atomic import write_file
+from suspenv.core.markdown import table_lines
 from suspenv.models.minibus.handling_model import roll_centre_heights
 from suspenv.models.minibus.suspension import (
     damper_force,
@@ -127,25 +128,32 @@ def report_markdown(designs: Mapping[str, np.ndarray], vehicle: Minibus = REFERE
     X = np.vstack([np.asarray(designs[k], dtype=float).reshape(1, -1) for k in names])
     figs = suspension_figures(X, vehicle)
     h_rf, h_rr = roll_centre_heights(vehicle)
-    lines = ["# Suspension report", ""]
-    lines += ["## Designs", "", "| variable | " + " | ".join(names) + " |"]
-    lines.append("|---|" + "---|" * len(names))
-    for j, var in enumerate(DESIGN_NAMES):
-        lines.append(f"| {var} | " + " | ".join(f"{X[i, j]:.4g}" for i in range(len(names))) + " |")
+    lines = ["# Suspension report", "", "## Designs", ""]
+    lines += table_lines(
+        ["variable", *names],
+        ([var, *(f"{v:.4g}" for v in X[:, j])] for j, var in enumerate(DESIGN_NAMES)),
+    )
     for lc in ("no_load", "full_load"):
-        lines += ["", f"## {lc.replace('_', ' ')}", "", "| figure | " + " | ".join(names) + " |"]
-        lines.append("|---|" + "---|" * len(names))
-        for key, label, factor, fmt in _ROWS:
-            vals = figs[lc][key] * factor
-            lines.append(f"| {label} | " + " | ".join(fmt.format(v) for v in vals) + " |")
+        lines += ["", f"## {lc.replace('_', ' ')}", ""]
+        lines += table_lines(
+            ["figure", *names],
+            (
+                [label, *(fmt.format(v) for v in figs[lc][key] * factor)]
+                for key, label, factor, fmt in _ROWS
+            ),
+        )
     ld = figs["loading"]
-    lines += ["", "## Loading (no load -> full load)", "", "| figure | " + " | ".join(names) + " |"]
-    lines.append("|---|" + "---|" * len(names))
-    for key, label in (
-        ("travel_front", "front wheel travel (mm)"),
-        ("travel_rear", "rear wheel travel (mm)"),
-    ):
-        lines.append(f"| {label} | " + " | ".join(f"{v * 1e3:.1f}" for v in ld[key]) + " |")
+    lines += ["", "## Loading (no load -> full load)", ""]
+    lines += table_lines(
+        ["figure", *names],
+        (
+            [label, *(f"{v * 1e3:.1f}" for v in ld[key])]
+            for key, label in (
+                ("travel_front", "front wheel travel (mm)"),
+                ("travel_rear", "rear wheel travel (mm)"),
+            )
+        ),
+    )
     lines += [
         "",
         f"CoM shift under load: {ld['cg_shift_x'][0] * 1e3:.0f} mm rearward, "

@@ -18,7 +18,7 @@ import numpy as np
 from suspenv.core.atomic import write_file
 from suspenv.core.jsonable import to_jsonable
 from suspenv.core.markdown import fmt as _fmt
-from suspenv.core.markdown import text
+from suspenv.core.markdown import table_lines, text
 from suspenv.diagnosis.component.motion import motion
 from suspenv.diagnosis.engine import Diagnosis
 from suspenv.reports._mpl import pyplot, save_figure
@@ -122,10 +122,10 @@ def _significance(h: Any) -> str:
 
 
 def _param_table(params: dict[str, dict[str, float]]) -> list[str]:
-    lines = ["| parameter | value | std. error (corrected for correlation) |", "|---|---|---|"]
-    for k, p in params.items():
-        lines.append(f"| {k} | {_fmt(p['value'])} | ± {_fmt(p['stderr_corrected'])} |")
-    return lines
+    return table_lines(
+        ["parameter", "value", "std. error (corrected for correlation)"],
+        ([k, _fmt(p["value"]), f"± {_fmt(p['stderr_corrected'])}"] for k, p in params.items()),
+    )
 
 
 def markdown(diag: Diagnosis, figures: dict[str, str]) -> str:
@@ -204,43 +204,55 @@ def markdown(diag: Diagnosis, figures: dict[str, str]) -> str:
                 "even part, a gas force or offset adds a constant, a drifting zero follows "
                 "the drift measured inside each speed):",
                 "",
-                "| speed [m/s] | bump [N] | rebound [N] | even part [N] | rebound/bump - 1 "
-                "(raw) | drift inside [N/s] | time [s] |",
-                "|---|---|---|---|---|---|---|",
+                *table_lines(
+                    ["speed [m/s]", "bump [N]", "rebound [N]", "even part [N]"]
+                    + ["rebound/bump - 1 (raw)", "drift inside [N/s]", "time [s]"],
+                    (
+                        [
+                            f"{g.speed:.4g}",
+                            f"{g.force_bump:.1f} ± {g.stderr_bump:.1f}",
+                            f"{g.force_rebound:.1f} ± {g.stderr_rebound:.1f}",
+                            f"{g.even:+.1f} ± {g.even_stderr:.1f}",
+                            f"{100 * g.rebound_over_bump:+.1f} %",
+                            f"{g.drift:+.2f} ± {g.drift_stderr:.2f}",
+                            f"{g.time:.1f}",
+                        ]
+                        for g in m.groups
+                    ),
+                ),
+                "",
             ]
-            for g in m.groups:
-                L.append(
-                    f"| {g.speed:.4g} | {g.force_bump:.1f} ± {g.stderr_bump:.1f} | "
-                    f"{g.force_rebound:.1f} ± {g.stderr_rebound:.1f} | {g.even:+.1f} ± "
-                    f"{g.even_stderr:.1f} | {100 * g.rebound_over_bump:+.1f} % | "
-                    f"{g.drift:+.2f} ± {g.drift_stderr:.2f} | {g.time:.1f} |"
-                )
-            L.append("")
     L += ["## Where the residual lives (baseline)", ""]
     hot = diag.location.hotspots()
     if hot:
-        L += ["| where | share of residual energy | share of samples | enrichment |"]
-        L += ["|---|---|---|---|"]
-        for s in hot[:6]:
-            L.append(
-                f"| {s.dimension}: {s.part} | {100 * s.share:.0f} % | {100 * s.fraction:.0f} % | "
-                f"x{s.enrichment:.2g} |"
-            )
+        L += table_lines(
+            ["where", "share of residual energy", "share of samples", "enrichment"],
+            (
+                [f"{s.dimension}: {s.part}", f"{100 * s.share:.0f} %"]
+                + [f"{100 * s.fraction:.0f} %", f"x{s.enrichment:.2g}"]
+                for s in hot[:6]
+            ),
+        )
     else:
         L.append("The residual is spread like the samples: no part holds an unfair share.")
     L += ["", f"![residual map]({figures['residual_map']})", ""]
     L += ["## Hypotheses (ranked)", ""]
-    L += [
-        "| # | effect | significant | ΔBIC (corr.) | LR p (corr.) | held-out change | "
-        "signature score |",
-        "|---|---|---|---|---|---|---|",
-    ]
-    for i, h in enumerate(diag.hypotheses, 1):
-        L.append(
-            f"| {i} (round {h.round}) | {h.words} | {_significance(h)} | "
-            f"{_fmt(h.delta_bic_corrected)} | {h.p_value_corrected:.2g} | "
-            f"{-100 * h.heldout_reduction:+.1f} % | {h.signature_score:.2f} |"
-        )
+    L += table_lines(
+        ["#", "effect", "significant", "ΔBIC (corr.)", "LR p (corr.)", "held-out change"]
+        + ["signature score"],
+        (
+            [
+                f"{i} (round {h.round})",
+                h.words,
+                _significance(h),
+                _fmt(h.delta_bic_corrected),
+                f"{h.p_value_corrected:.2g}",
+                f"{-100 * h.heldout_reduction:+.1f} %",
+                f"{h.signature_score:.2f}",
+            ]
+            for i, h in enumerate(diag.hypotheses, 1)
+        ),
+    )
     L += ["", "## Signatures of the baseline residual", ""]
     for s in diag.signatures:
         L.append(f"- **{s.kind}** (score {s.score:.2f}): {s.evidence}")

@@ -15,7 +15,7 @@ import numpy as np
 
 from suspenv.core.atomic import write_file
 from suspenv.core.jsonable import to_jsonable
-from suspenv.core.markdown import text
+from suspenv.core.markdown import table_lines, text
 from suspenv.diagnosis.engine import Diagnosis
 from suspenv.diagnosis.ride.residual import NOISE_BAND_HZ
 from suspenv.metrics.ride import acceleration_psd
@@ -115,49 +115,50 @@ def write_ride_diagnosis_report(diag: Diagnosis, out_dir: str | Path) -> list[Pa
         "",
         "## Where the baseline residual lives",
         "",
-        "| dimension | part | share of residual energy | fair share | enrichment |",
-        "|---|---|---|---|---|",
-    ]
-    for dim in diag.location.dimensions():
-        for s in diag.location.by_dimension(dim):
-            lines.append(
-                f"| {s.dimension} | {s.part} | {s.share:.3f} | {s.fraction:.3f} | "
-                f"{s.enrichment:.2f} |"
-            )
-    lines += [
+        *table_lines(
+            ["dimension", "part", "share of residual energy", "fair share", "enrichment"],
+            (
+                [s.dimension, s.part, f"{s.share:.3f}", f"{s.fraction:.3f}", f"{s.enrichment:.2f}"]
+                for dim in diag.location.dimensions()
+                for s in diag.location.by_dimension(dim)
+            ),
+        ),
         "",
         "## Candidates (screen score = partial R^2 beyond the base parameters)",
         "",
-        "| candidate | score | p |",
-        "|---|---|---|",
-    ]
-    for s in diag.signatures:
-        lines.append(f"| {s.kind} | {s.score:.3f} | {s.p_value:.2g} |")
-    lines += [
+        *table_lines(
+            ["candidate", "score", "p"],
+            ([s.kind, f"{s.score:.3f}", f"{s.p_value:.2g}"] for s in diag.signatures),
+        ),
         "",
-        "| refitted | significant | corrected p | dBIC | held-out RMS reduction |",
-        "|---|---|---|---|---|",
+        *table_lines(
+            ["refitted", "significant", "corrected p", "dBIC", "held-out RMS reduction"],
+            (
+                [h.words, h.significant, f"{h.p_value_corrected:.2g}"]
+                + [f"{h.delta_bic_corrected:.1f}", f"{100 * h.heldout_reduction:.1f} %"]
+                for h in diag.hypotheses
+            ),
+        ),
     ]
-    for h in diag.hypotheses:
-        lines.append(
-            f"| {h.words} | {h.significant} | {h.p_value_corrected:.2g} | "
-            f"{h.delta_bic_corrected:.1f} | {100 * h.heldout_reduction:.1f} % |"
-        )
     res = diag.residual
     if res is not None:
+        summary = {
+            "held-out scaled RMS before": f"{res.heldout_before:.4f}",
+            "after": f"{res.heldout_after:.4f}",
+            "noise floor": f"{res.noise_floor:.4f}",
+            "after / floor": f"{res.excess_ratio:.2f}",
+            "explained share of the model error": f"{100 * res.explained_share:.0f} %",
+            "Ljung-Box p": f"{res.ljung_box_p:.2g}",
+            "residual remains": res.residual_remains,
+            "confident": res.confident,
+        }
         lines += [
             "",
             "## What is left (held-out recordings)",
             "",
             res.sentence(),
             "",
-            "| held-out scaled RMS before | after | noise floor | after / floor | "
-            "explained share of the model error | Ljung-Box p | residual remains | "
-            "confident |",
-            "|---|---|---|---|---|---|---|---|",
-            f"| {res.heldout_before:.4f} | {res.heldout_after:.4f} | {res.noise_floor:.4f} | "
-            f"{res.excess_ratio:.2f} | {100 * res.explained_share:.0f} % | "
-            f"{res.ljung_box_p:.2g} | {res.residual_remains} | {res.confident} |",
+            *table_lines(list(summary), [list(summary.values())]),
             "",
             f"Noise floor: white sensor noise measured above {NOISE_BAND_HZ:g} Hz in the "
             "residual, where the ride response is negligible. A residual remains when the "
@@ -168,12 +169,15 @@ def write_ride_diagnosis_report(diag: Diagnosis, out_dir: str | Path) -> list[Pa
         "",
         "## Parameters (final model)",
         "",
-        "| parameter | value | std. error (corrected) |",
-        "|---|---|---|",
+        *table_lines(
+            ["parameter", "value", "std. error (corrected)"],
+            (
+                [k, f"{v['value']:.5g}", f"{v['stderr_corrected']:.2g}"]
+                for k, v in diag.final_params.items()
+            ),
+        ),
+        "",
     ]
-    for k, v in diag.final_params.items():
-        lines.append(f"| {k} | {v['value']:.5g} | {v['stderr_corrected']:.2g} |")
-    lines.append("")
     lines += [f"![{p.stem}]({p.name})" for p in figs]
     md = out / "ride_diagnosis.md"
     write_file(md, "\n".join(lines) + "\n")

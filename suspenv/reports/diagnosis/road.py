@@ -10,16 +10,24 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from suspenv.core.atomic import write_file
-from suspenv.core.markdown import text
+from suspenv.core.markdown import table_lines, text
 from suspenv.diagnosis.engine import Diagnosis
 from suspenv.diagnosis.road import profile_grid
 from suspenv.measurements import Recording
 from suspenv.models.road import displacement_psd, welch_psd
 from suspenv.reports._mpl import pyplot, save_figure
+
+
+def _fit_row(model: str, fit: dict[str, Any], waviness: str) -> list[str]:
+    """One row of the table of fits: Gd(n0) and its interval in 1e-6 m^3."""
+    lo, hi = fit["gd0_ci95"]
+    gd0, interval = f"{fit['gd0'] * 1e6:.1f}", f"{lo * 1e6:.1f}-{hi * 1e6:.1f}"
+    return [model, gd0, interval, waviness, fit["road_class"], f"{fit['loglik']:.1f}"]
 
 
 def write_road_report(diag: Diagnosis, profile: Recording, out_dir: str | Path) -> list[Path]:
@@ -67,13 +75,13 @@ def write_road_report(diag: Diagnosis, profile: Recording, out_dir: str | Path) 
         "",
         f"**Verdict:** {diag.verdict}",
         "",
-        "| model | Gd(n0) (1e-6 m^3) | 95 % interval | w | class | log-likelihood |",
-        "|---|---|---|---|---|---|",
-        f"| free | {f['gd0'] * 1e6:.1f} | {f['gd0_ci95'][0] * 1e6:.1f}-"
-        f"{f['gd0_ci95'][1] * 1e6:.1f} | {f['waviness']:.3f} +- {f['waviness_se']:.3f} | "
-        f"{f['road_class']} | {f['loglik']:.1f} |",
-        f"| ISO 8608 (w = 2) | {s['gd0'] * 1e6:.1f} | {s['gd0_ci95'][0] * 1e6:.1f}-"
-        f"{s['gd0_ci95'][1] * 1e6:.1f} | 2 | {s['road_class']} | {s['loglik']:.1f} |",
+        *table_lines(
+            ["model", "Gd(n0) (1e-6 m^3)", "95 % interval", "w", "class", "log-likelihood"],
+            [
+                _fit_row("free", f, f"{f['waviness']:.3f} +- {f['waviness_se']:.3f}"),
+                _fit_row("ISO 8608 (w = 2)", s, "2"),
+            ],
+        ),
         "",
         f"Band {f['band'][0]:g}-{f['band'][1]:g} cycle/m, {f['n_lines']} Fourier lines "
         f"(Whittle likelihood of the pre-whitened profile). Likelihood ratio "
@@ -109,15 +117,18 @@ def write_road_report(diag: Diagnosis, profile: Recording, out_dir: str | Path) 
             )
         lines.append("")
     lines += [
-        "| octave (cycle/m) | lines | measured / free | measured / w = 2 |",
-        "|---|---|---|---|",
+        *table_lines(
+            ["octave (cycle/m)", "lines", "measured / free", "measured / w = 2"],
+            (
+                [f"{row['n_low']:.3g}-{row['n_high']:.3g}", row["lines"]]
+                + [f"{row['measured_over_free']:.2f}", f"{row['measured_over_standard']:.2f}"]
+                for row in rows
+            ),
+        ),
+        "",
+        f"![PSD and residual by band]({png.name})",
+        "",
     ]
-    for row in rows:
-        lines.append(
-            f"| {row['n_low']:.3g}-{row['n_high']:.3g} | {row['lines']} | "
-            f"{row['measured_over_free']:.2f} | {row['measured_over_standard']:.2f} |"
-        )
-    lines += ["", f"![PSD and residual by band]({png.name})", ""]
     md = out / "road_diagnosis.md"
     write_file(md, "\n".join(lines))
     js = out / "road_diagnosis.json"
