@@ -104,7 +104,7 @@ def test_engine_divides_alpha_by_every_open_candidate_not_only_those_refitted(mo
         real_decide(hyps, n_screened, rule)
 
     monkeypatch.setattr(engine, "decide", spy)
-    case = make_case("damper", 1000, 0)
+    case = make_case("damper", 7, 0)
     family = engine.make_family("damper", max_effects=1, screen_families=1)
     engine.diagnose(case.recording, family, holdout=0.3)
     n_candidates = len(family.prepare(case.recording, 0.3, None).candidates)

@@ -308,7 +308,7 @@ def test_family_errors_name_the_rule_and_value_before_any_work():
 def test_report_prints_recording_names_as_text_not_markup(tmp_path):
     from suspenv.reports.diagnosis import write_diagnosis_report
 
-    case = make_case("damper", 1000, 0)
+    case = make_case("damper", 7, 0)
     case.recording.name = "<script>alert(1)</script> ![x](http://example.invalid/i.png)"
     diag = diagnose(case.recording, make_family("damper", max_effects=1, screen_families=1))
     write_diagnosis_report(diag, tmp_path)

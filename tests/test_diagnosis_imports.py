@@ -25,7 +25,7 @@ FORBIDDEN = (
 
 
 def test_damper_diagnosis_imports_no_knc_or_ride_module(tmp_path):
-    case = make_case("damper", 1000, 0)
+    case = make_case("damper", 7, 0)
     rec_path = tmp_path / "damper.npz"
     save_recording(case.recording, rec_path)
     out = tmp_path / "out"

@@ -222,7 +222,7 @@ def test_damper_force_sign_read_off_the_dissipated_power():
     from benchmarks.component_truth import make_case
     from suspenv.measurements import Recording
 
-    case = make_case("damper", 1000, 1)
+    case = make_case("damper", 7, 1)
     rec = case.recording
     flipped = Recording(
         rec.name,

@@ -52,7 +52,7 @@ def test_a_newline_in_a_recording_name_adds_no_heading_to_the_diagnosis_report(t
     from suspenv.diagnosis.engine import diagnose, make_family
     from suspenv.reports.diagnosis import write_diagnosis_report
 
-    case = make_case("damper", 1000, 0)
+    case = make_case("damper", 7, 0)
     case.recording.name = "front left\n# Verdict: all good"
     diag = diagnose(case.recording, make_family("damper", max_effects=1, screen_families=1))
     write_diagnosis_report(diag, tmp_path)
