@@ -212,27 +212,31 @@ def test_a_force_lag_beside_an_unresolved_branch_is_stated_inseparable(flag, loc
 
 
 @pytest.mark.parametrize(
-    ("profiled", "lag_significant", "said"),
-    [(True, True, True), (False, True, False), (True, False, False)],
+    ("profiled", "lag_significant", "lag_location", "said"),
+    [
+        ("force", True, "", True),
+        ("force", True, "force", True),
+        (None, True, "", False),
+        ("force", False, "", False),
+        ("force", True, "displacement", False),
+    ],
 )
 def test_a_branch_beside_a_force_lag_under_an_unrecorded_input_is_inseparable(
-    profiled, lag_significant, said
+    profiled, lag_significant, lag_location, said
 ):
-    # the fits assume an unrecorded input (its gains profiled out): a lag of the force
-    # sensor with that input's force beside it unlagged is a branch beside a damping
+    # the fits assume an unrecorded input whose gains are profiled out of the force: a
+    # lag of the force sensor with that input's force beside it unlagged is a branch
+    # beside a damping (decision.UNRECORDED_ALIKE), however much better the branch fits
+    from suspenv.diagnosis.decision import ambiguities
     from suspenv.diagnosis.hypothesis import Hypothesis
-    from suspenv.diagnosis.unrecorded import Profiled, Stretches
 
-    fam = make_family("damper")
-    setup = fam.prepare(DamperDynoModel().example_recording(seed=1), None, None)
     winner = Hypothesis.failed("maxwell_viscoelastic", "", "viscoelastic lag", 1, "")
-    lag = Hypothesis.failed("sensor_lag", "", "sensor lag", 1, "")
-    winner.significant, lag.significant = True, lag_significant
-    model = setup.model
-    if profiled:
-        model = Profiled(model, Stretches("velocity", "force", {}, {}, 0.01, 25), {})
-    found = fam.ambiguities(winner, [winner, lag], SimpleNamespace(model=model), setup)
-    assert [(a.a, a.b) for a in found] == ([("maxwell_viscoelastic", "sensor_lag")] if said else [])
+    lag = Hypothesis.failed("sensor_lag", lag_location, "sensor lag", 1, "")
+    winner.lr_statistic_corrected, winner.lr_dof, lag.lr_statistic_corrected = 900.0, 2, 100.0
+    winner.significant, lag.significant, lag.lr_dof = True, lag_significant, 1
+    found = ambiguities([winner, lag], profiled)
+    expected = [("maxwell_viscoelastic", lag.candidate)] if said else []
+    assert [(a.a, a.b) for a in found] == expected
     if said:
         assert "cannot separate viscoelastic lag from sensor lag" in found[0].sentence()
 

@@ -112,7 +112,7 @@ def test_look_alikes_are_read_round_by_round_off_the_search_record() -> None:
     from suspenv.diagnosis.family import Outcome
     from suspenv.diagnosis.hypothesis import Ambiguity
 
-    base, f1, f2 = SimpleNamespace(name="base"), SimpleNamespace(name="f1"), object()
+    base, f1, f2 = SimpleNamespace(name="base", model=None), SimpleNamespace(name="f1"), object()
     a, tie = _hyp("coulomb_friction", 1000.0, 1), _hyp("force_offset", 995.0, 1)
     b, c = _hyp("dahl_hysteresis", 300.0, 2), _hyp("cubic_stiffness", 1.0, 1)
     failed = Hypothesis.failed("sensor_lag", "", "lag", 1, "refused")

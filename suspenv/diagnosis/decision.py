@@ -84,6 +84,12 @@ SEPARATING_TESTS: dict[frozenset[str], tuple[str, str]] = {
     ),
 }
 
+#: pairs that a force switched by an input the recording does not carry makes
+#: inseparable on the channel its gains are profiled out of (:func:`ambiguities`): whether
+#: that force passes a sensor's lag is not known, and a lag of the rest of the force
+#: beside it unlagged is a viscoelastic branch beside a damping
+UNRECORDED_ALIKE: frozenset[frozenset[str]] = frozenset({frozenset({"viscoelastic", "sensor_lag"})})
+
 #: an effect that, on most data, equals a combination of two others (structural ambiguity)
 EQUIVALENT_COMBINATIONS: dict[str, tuple[tuple[str, str], str]] = {
     # (f_pos + f_neg)/2 tanh(v/v_eps) + (f_pos - f_neg)/2 |tanh(v/v_eps)|: the second
@@ -199,8 +205,10 @@ def fit_alike(lr: float, other: float) -> bool:
     return abs(lr - other) <= max(TIE_SHARE * lr, TIE_LR)
 
 
-def ambiguities(ranked: Sequence[Hypothesis]) -> list[Ambiguity]:
-    """Pairs (the best vs each other significant family) that fit alike (:func:`fit_alike`)."""
+def ambiguities(ranked: Sequence[Hypothesis], profiled: str | None = None) -> list[Ambiguity]:
+    """Pairs (the best vs each other significant family) that fit alike (:func:`fit_alike`)
+    or, where the fits profile an unrecorded input out of the channel ``profiled``, that
+    it makes inseparable there (:data:`UNRECORDED_ALIKE`, both on that channel)."""
     sig = [h for h in ranked if h.significant]
     if len(sig) < 2:
         return []
@@ -211,7 +219,11 @@ def ambiguities(ranked: Sequence[Hypothesis]) -> list[Ambiguity]:
         if h.family in seen:
             continue
         seen.add(h.family)
-        alike = fit_alike(top.lr_statistic_corrected, h.lr_statistic_corrected)
+        alike = fit_alike(top.lr_statistic_corrected, h.lr_statistic_corrected) or (
+            frozenset({top.family, h.family}) in UNRECORDED_ALIKE
+            and profiled is not None
+            and {top.location, h.location} <= {"", profiled}
+        )
         # a runner-up with more parameters and no better fit merely nests the winner
         if h.lr_dof <= top.lr_dof and alike:
             test, reason = separating_test(top.family, h.family)

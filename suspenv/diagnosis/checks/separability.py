@@ -1,7 +1,8 @@
 """Look-alikes: what the data cannot tell apart from each element the search named.
 
 For every round of the search, in order: the significant runners-up of another
-signature family that fit as well as the round's best
+signature family that fit as well as the round's best, or that an input the recording
+does not carry makes inseparable from it where the fits profile that input out
 (:func:`~suspenv.diagnosis.decision.ambiguities`); then, where the best was named, the
 family's own look-alike pairs (``family.ambiguities(winner, ranked, parent, setup)``,
 e.g. a component element and the combination of two others it equals on most data, a
@@ -23,10 +24,12 @@ def run(ctx: Context) -> Conclusion | None:
     o, found = ctx.outcome, Conclusion()
     own = getattr(ctx.family, "ambiguities", None)
     parent = o.base
+    stretches = getattr(o.base.model, "stretches", None)  # the profile, on every model
+    profiled = None if stretches is None else str(stretches.channel)
     for round_ in sorted({h.round for h in o.hypotheses}):
         # refits that failed carry no fit; the others are in rank order
         ranked = [h for h in o.hypotheses if h.round == round_ and h.fit is not None]
-        found.ambiguities += ambiguities(ranked)
+        found.ambiguities += ambiguities(ranked, profiled)
         if not ranked or not ranked[0].significant:
             break
         winner = ranked[0]

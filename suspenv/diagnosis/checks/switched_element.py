@@ -156,10 +156,15 @@ def _setting(ctx: Context) -> Setting | None:
 
 
 def _withdrawn(
-    ctx: Context, named: list[Hypothesis], parents: list[FitResult | None], setting: Setting
+    ctx: Context,
+    named: list[Hypothesis],
+    parents: list[FitResult | None],
+    setting: Setting,
+    switched: dict[int, dict[str, float]],
 ) -> tuple[list[SwitchedWithdrawal], FitResult | None, list[dict[str, Any]]]:
     """The elements withdrawn from the last named back (module docstring), the model
-    left and the numbers of every element judged."""
+    left and the numbers of every element judged; the switching tests run are kept in
+    ``switched`` (by the hypothesis' id)."""
     z = float(stats.norm.isf(ctx.rule.alpha / max(len(named), 1)))
     length, name, profiled = setting
     out, judged, final = list[SwitchedWithdrawal](), list[dict[str, Any]](), None
@@ -169,7 +174,8 @@ def _withdrawn(
         n = element_beyond(ctx, parent, h.fit, length, name, trend=True)
         if not (gone := (0.5 - n["beta"]) / n["se"] > z) and profiled:  # module docstring
             n = element_beyond(ctx, parent, h.fit, length, name, trend=False)
-            flagged = gain_switching(ctx, parent, h.fit, length)["p_switching"] < ctx.rule.alpha
+            switched[id(h)] = gain_switching(ctx, parent, h.fit, length)
+            flagged = switched[id(h)]["p_switching"] < ctx.rule.alpha
             gone = flagged and (abs(n["beta"] - 1.0) - 0.5) / n["se"] > z
         judged.append({"candidate": h.candidate, "signal": name, **n})
         if not gone:
@@ -189,14 +195,15 @@ def run(ctx: Context) -> Conclusion | None:
         return None
     named = list(ctx.outcome.named)
     parents = [ctx.outcome.base, *(h.fit for h in named)][: len(named)]
-    withdrawn, final, judged = _withdrawn(ctx, named, parents, setting)
+    switched: dict[int, dict[str, float]] = {}
+    withdrawn, final, judged = _withdrawn(ctx, named, parents, setting, switched)
     gone = {id(w.hypothesis) for w in withdrawn}
     out: list[dict[str, Any]] = []
     sentences = [w.sentence() for w in reversed(withdrawn)]
     for h, parent in zip(named, parents, strict=True):
         if h.fit is None or parent is None or id(h) in gone:
             continue
-        n = gain_switching(ctx, parent, h.fit, setting[0])
+        n = switched.get(id(h)) or gain_switching(ctx, parent, h.fit, setting[0])
         if n["p_switching"] >= ctx.rule.alpha:
             continue
         out.append({"candidate": h.candidate, **n})

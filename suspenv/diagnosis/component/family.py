@@ -647,32 +647,22 @@ class ComponentFamily(OptionalSteps):
         self, winner: Hypothesis, ranked: Sequence[Hypothesis], parent: FitResult, setup: Setup
     ) -> list[Ambiguity]:
         """The structural ambiguity of the winner (:func:`_structural_ambiguity`); and,
-        on a device whose one recorded output is its force, a sensor lag of the force and
-        a Maxwell branch where these recordings cannot tell them apart, with the test that
-        would: the lag named where the round's Maxwell refit left the base's share of the
-        damping unresolved (:attr:`unresolved_branch_rounds`), or the branch named beside
-        a significant lag where the fits assume an unrecorded input (its gains profiled
-        out, :mod:`~suspenv.diagnosis.unrecorded`): whether that input's force passes the
-        sensor's lag is not known, and a lag of the rest of the force beside it unlagged
-        is a branch beside a damping."""
+        on a device whose one recorded output is its force, a sensor lag of the force
+        named where the round's Maxwell refit left the base's share of the damping
+        unresolved (:attr:`unresolved_branch_rounds`): these recordings cannot tell the
+        two apart (the test that would, ``separating_test``)."""
         found = _structural_ambiguity(winner, parent, setup.split, self.budget)
         # a lag of the recorded force only: the force is the branch's whole effect there
         # (a quarter car's branch also moves its deflection, which a lag of the
         # accelerometer does not)
-        if setup.model.output_channels != ("force",):
-            return found
-        lags = [h for h in ranked if h.kind == "sensor_lag" and h.location in ("", "force")]
-        branch = "maxwell_viscoelastic"
-        if any(h is winner for h in lags) and winner.round in self.unresolved_branch_rounds:
-            other = branch
-        elif (
-            winner.kind == branch
-            and any(h.significant for h in lags)
-            and unprofiled(parent.model) is not parent.model
+        if (
+            setup.model.output_channels != ("force",)
+            or winner.kind != "sensor_lag"
+            or winner.location not in ("", "force")
+            or winner.round not in self.unresolved_branch_rounds
         ):
-            other = "sensor_lag"
-        else:
             return found
+        other = "maxwell_viscoelastic"
         test, reason = separating_test(family_of(winner.kind), family_of(other))
         words = self.words(other, setup)
         found.append(Ambiguity(winner.kind, other, winner.words, words, test, reason))
