@@ -377,15 +377,17 @@ class MinibusRideHandling(Problem):
 
     def _evaluation_terms(self, study: bool) -> None:
         """What :meth:`_evaluate` reads from the measures, fixed per problem: the
-        objectives' measures, each constraint's measure key, limit and direction (the
-        understeer margin is ``limit - measure``; (k, 1) each), and the row flags."""
-        self._objective_keys = (
+        objectives' measures of each load case, each constraint's measure key, limit and
+        direction (the understeer margin is ``limit - measure``; (k, 1) each), and the
+        row flags."""
+        objectives = (
             "aw_front",
             "aw_rear",
             "ay_max" if study else "yaw_response_time",
             "yaw_rate" if study else "steering_wheel",
             "roll",
         )
+        self._objective_keys = tuple(tuple(f"{k}_{lc}" for k in objectives) for lc in LOAD_CASES)
         terms = [(f"aw_{end}", self.rms_limit, False) for end in ("front", "rear")]
         terms.append(("roll", self.roll_limit_deg, False))
         if not study:
@@ -465,14 +467,13 @@ class MinibusRideHandling(Problem):
         grad = np.degrees(grad) * G_STD
         # both linear systems at once: the slalom's and the step steer's speed and secants
         A, B = linear_system(P, u, (cf, cr))
-        # both systems' stability and the step's modes from one eigen-decomposition (an
-        # unstable or non-finite row: those of -I, the row fails)
-        finite = np.isfinite(A).all(axis=(2, 3))
-        A_ok = A if finite.all() else np.where(finite[..., None, None], A, -np.eye(4))
-        lam, V = spectral_kernel.eig(A_ok)
-        stable = finite & (lam.real < 0).all(axis=-1)
+        # both systems' stability and the step's modes from one eigen-decomposition (a
+        # non-finite row has NaN poles, so it is unstable; an unstable row takes the
+        # modes of -I in the step, the row fails)
+        lam, V = spectral_kernel.eig(A)
+        stable = (lam.real < 0).all(axis=-1)
         lin = slalom_linear(P, self.slalom_config, system=(A[0], B[0]), stable=stable[0])
-        A1, modes, stable = A_ok[1], (lam[1], V[1]), stable[1]
+        A1, modes, stable = A[1], (lam[1], V[1]), stable[1]
         if not stable.all():
             A1 = np.where(stable[:, None, None], A1, -np.eye(4))
             modes = spectral_kernel.eig(A1)
@@ -486,7 +487,7 @@ class MinibusRideHandling(Problem):
             "yaw_overshoot": st.overshoot,
             "yaw_gain": st.gain / P.vehicle.steering_ratio,
             "yaw_bandwidth": st.bandwidth,
-            "understeer_min": np.min(grad, axis=0),
+            "understeer_min": grad.min(axis=0),
             "completed": lin.stable & stable & np.isfinite(lin.steering_wheel_amplitude),
         }
         out.update(zip(UNDERSTEER_KEYS, grad, strict=True))
@@ -538,17 +539,17 @@ class MinibusRideHandling(Problem):
 
     def _evaluate(self, X: np.ndarray) -> EvaluationBatch:
         m = self.measures(X)
-        no_load, full_load = (f"_{lc}" for lc in LOAD_CASES)
         # objectives: no load + w x full load, one (5, n) pass (f3 negated in "study")
-        f_keys = self._objective_keys
-        F = np.array([m[k + no_load] for k in f_keys])
-        F += self.load_weight * np.array([m[k + full_load] for k in f_keys])
+        no_load, full_load = self._objective_keys
+        F = np.array([m[k] for k in no_load])
+        F += self.load_weight * np.array([m[k] for k in full_load])
         if self.handling == "study":
             F[2] = -F[2]
         # constraints: measure - limit, or limit - measure where flipped, one (k, n) pass
         keys, limits, flipped = self._limit_terms
         values = np.array([m[k] for k in keys])
-        G = np.where(flipped, limits - values, values - limits)
+        G = values - limits
+        np.subtract(limits, values, out=G, where=flipped)
         flag_keys = self._flag_keys
         ok = np.logical_and.reduce([m[k] for k in flag_keys]) & np.isfinite(F).all(axis=0)
         messages = [""] * X.shape[0]

@@ -236,7 +236,7 @@ def handling_parameters(
     (
         m, ms, a, b, iz, ixs, h_prime, ms_front, ms_rear, w_front, w_rear,
         h_rf, h_rr, muf, mur, radius, tf, tr, eps_f, c_ff, moment_f, moment_r, L, msh, msh_g,
-    ) = np.repeat(np.array([_case_terms(vp, leaf) for vp in vps]).T, d.n, axis=1)  # fmt: skip
+    ) = np.repeat(_case_table(vps, leaf), d.n, axis=1)  # fmt: skip
 
     # the per-design values, on the rows of every load case
     rates = np.array(
@@ -299,6 +299,27 @@ def handling_parameters(
         vehicle=vehicle,
         tyre=tyre,
     )
+
+
+#: :func:`_case_table`'s cache: its key -> (the objects the key names by id, table)
+_CASE_TABLES: dict[tuple, tuple[tuple, np.ndarray]] = {}
+
+
+def _case_table(vps: Sequence[VehicleParams], leaf: LeafAxleGeometry) -> np.ndarray:
+    """:func:`_case_terms` of each load case of ``vps`` as the columns of a read-only
+    (25, k) array, kept per vehicle, load case and leaf geometry (frozen; the cache holds
+    them, so their ids stay theirs) and CoM distances ``a``, ``b``: what the terms
+    depend on. An evaluation repeats the same load cases, so it pays the lookup only."""
+    held = (leaf, *(o for vp in vps for o in (vp.vehicle, vp.load)))
+    key = (*map(id, held), *(x for vp in vps for x in (vp.a, vp.b)))
+    hit = _CASE_TABLES.get(key)
+    if hit is None or any(a is not b for a, b in zip(hit[0], held, strict=True)):
+        if len(_CASE_TABLES) >= 16:
+            _CASE_TABLES.clear()
+        table = np.array([_case_terms(vp, leaf) for vp in vps]).T
+        table.flags.writeable = False
+        hit = _CASE_TABLES[key] = (held, table)
+    return hit[1]
 
 
 def _case_terms(vp: VehicleParams, leaf: LeafAxleGeometry) -> list[float]:
