@@ -376,10 +376,10 @@ class MinibusRideHandling(Problem):
         self._evaluation_terms(study)
 
     def _evaluation_terms(self, study: bool) -> None:
-        """What :meth:`_evaluate` reads from the measures, fixed per problem: the
-        objectives' measures of each load case, each constraint's measure key, limit and
-        direction (the understeer margin is ``limit - measure``; (k, 1) each), and the
-        row flags."""
+        """What :meth:`_evaluate` reads from the measures, fixed per problem: the keys of
+        the objectives' measures (no load, then full load) and the constraints' measures,
+        each constraint's limit and direction (the understeer margin is ``limit -
+        measure``; (k, 1) each), and the row flags."""
         objectives = (
             "aw_front",
             "aw_rear",
@@ -387,7 +387,6 @@ class MinibusRideHandling(Problem):
             "yaw_rate" if study else "steering_wheel",
             "roll",
         )
-        self._objective_keys = tuple(tuple(f"{k}_{lc}" for k in objectives) for lc in LOAD_CASES)
         terms = [(f"aw_{end}", self.rms_limit, False) for end in ("front", "rear")]
         terms.append(("roll", self.roll_limit_deg, False))
         if not study:
@@ -397,7 +396,8 @@ class MinibusRideHandling(Problem):
             terms += [("tyre_load", self.tyre_load_limit, False)]
         rows = [(f"{k}_{lc}", lim, flip) for k, lim, flip in terms for lc in LOAD_CASES]
         keys, limits, flipped = zip(*rows, strict=True)
-        self._limit_terms = (keys, np.array(limits)[:, None], np.array(flipped)[:, None])
+        self._measure_keys = tuple(f"{k}_{lc}" for lc in LOAD_CASES for k in objectives) + keys
+        self._limit_terms = (np.array(limits)[:, None], np.array(flipped)[:, None])
         self._flag_keys = tuple(
             f"{kind}_{lc}" for kind in ("completed", "ride_ok") for lc in LOAD_CASES
         )
@@ -539,17 +539,15 @@ class MinibusRideHandling(Problem):
 
     def _evaluate(self, X: np.ndarray) -> EvaluationBatch:
         m = self.measures(X)
+        values = np.array([m[k] for k in self._measure_keys])  # (10 + k, n)
         # objectives: no load + w x full load, one (5, n) pass (f3 negated in "study")
-        no_load, full_load = self._objective_keys
-        F = np.array([m[k] for k in no_load])
-        F += self.load_weight * np.array([m[k] for k in full_load])
+        F = values[:5] + self.load_weight * values[5:10]
         if self.handling == "study":
             F[2] = -F[2]
         # constraints: measure - limit, or limit - measure where flipped, one (k, n) pass
-        keys, limits, flipped = self._limit_terms
-        values = np.array([m[k] for k in keys])
-        G = values - limits
-        np.subtract(limits, values, out=G, where=flipped)
+        limits, flipped = self._limit_terms
+        G = values[10:] - limits
+        np.subtract(limits, values[10:], out=G, where=flipped)
         flag_keys = self._flag_keys
         ok = np.logical_and.reduce([m[k] for k in flag_keys]) & np.isfinite(F).all(axis=0)
         messages = [""] * X.shape[0]

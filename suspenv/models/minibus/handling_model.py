@@ -236,7 +236,7 @@ def handling_parameters(
     (
         m, ms, a, b, iz, ixs, h_prime, ms_front, ms_rear, w_front, w_rear,
         h_rf, h_rr, muf, mur, radius, tf, tr, eps_f, c_ff, moment_f, moment_r, L, msh, msh_g,
-    ) = np.repeat(_case_table(vps, leaf), d.n, axis=1)  # fmt: skip
+    ) = _case_table(vps, leaf).repeat(d.n, axis=1)  # fmt: skip
 
     # the per-design values, on the rows of every load case
     rates = np.array(

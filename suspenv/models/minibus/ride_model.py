@@ -321,7 +321,7 @@ class RideModel:
             M12 = (m * p.a * p.b - I_pitch) / L**2
             det = M11 * M22 - M12**2
             terms.append((M22 / det, M11 / det, 1.0 / I_roll, *wheels, -M12 / det))
-        inverse = np.repeat(np.array(terms).T, counts, axis=1)  # (nq + 1, n), C order
+        inverse = np.array(terms).T.repeat(counts, axis=1)  # (nq + 1, n), C order
         # position-type stiffnesses (N/m, N*m/rad), then velocity-type (N s/m): the
         # vehicle's tyre columns, the seat's, then the design's
         K = np.empty((self.n, self.n_pos + self.n_vel))
@@ -332,13 +332,13 @@ class RideModel:
         K[:, :6] = stacked[[0, 0, 7, 7, 3, 4] if self.linear else [0, 0, 1, 1, 3, 4]].T
         # damper curves scaled per design: (4 slopes, 4 dampers, n); the linear model's
         # slopes all the mean low-speed coefficient
-        scale = np.repeat(stacked[5:7], 2, axis=0)  # (4, n): C1 front twice, C2 rear twice
+        scale = stacked[5:7].repeat(2, axis=0)  # (4, n): C1 front twice, C2 rear twice
         curves, mean = self._damper_unit
         slopes = (mean if self.linear else curves)[:, :, None] * scale
         # the linearised model's rates, kept for either model (float64, batch first):
         # rear leaf rate at rest (N/m, left, right) and mean low-speed damper
         # coefficient (N s/m, FL, FR, RL, RR)
-        self.leaf_static_rate = np.repeat(stacked[7][:, None], 2, axis=1)
+        self.leaf_static_rate = stacked[7][:, None].repeat(2, axis=1)
         self.damper_mean = np.multiply(scale.T, mean[0], order="C")
         # batch along the last axis (see rhs)
         self.K = K
