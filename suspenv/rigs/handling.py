@@ -173,12 +173,19 @@ def steady_circle(
     not depend on its batch; the conditions one grid step above the limit name it.
     """
     config = config or SteadyCircleConfig()
-    bits = int(np.ceil(np.log2(config.ay_upper / config.tolerance)))
-    scale = config.ay_upper / float(2**bits)
+    bits, scale = _circle_grid(config)
     h, table = _capacity_table(P.tyre, config.alpha_max_deg, config.alpha_points)
     out = np.empty((P.n, 3))
     handling_kernel.circle_loop(P.rows, table, h, bits, scale, out)
     return SteadyCircleResult(ay_max=out[:, 0] * scale, holds=out[:, 1:], config=config)
+
+
+@functools.lru_cache(maxsize=8)
+def _circle_grid(config: SteadyCircleConfig) -> tuple[int, float]:
+    """``(B, ay_upper / 2^B)`` of :func:`steady_circle`'s search grid, ``B =
+    ceil(log2(ay_upper / tolerance))`` (cached)."""
+    bits = int(np.ceil(np.log2(config.ay_upper / config.tolerance)))
+    return bits, config.ay_upper / float(2**bits)
 
 
 @dataclass
