@@ -40,7 +40,7 @@ def eig(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     ``A`` (..., m, m), the numbers of :func:`numpy.linalg.eig` without its checks and
     casts (~10 us a call). A matrix with a non-finite entry gives NaN (numpy raises for
     the whole stack), so that its design fails as non-finite."""
-    if _LAPACK_EIG is not None and math.isfinite(np.add.reduce(A, axis=None)):
+    if _LAPACK_EIG is not None and np.isfinite(A.sum()):
         return _LAPACK_EIG(A, signature="d->DD")
     bad = ~np.isfinite(A).all(axis=(-2, -1))
     w, v = np.linalg.eig(np.where(bad[..., None, None], 0.0, A))
