@@ -311,8 +311,8 @@ class RideModel:
         # per block: inverse body mass matrix in (z_f, z_r) (KE of heave (b zf + a zr)/L
         # and pitch (zf - zr)/L) and roll, on the block's rows: the diagonal of q, then
         # the (z_f, z_r) coupling
-        wheels = 2 * (1.0 / v.unsprung_front,) + 2 * (1.0 / v.unsprung_rear,)
-        wheels += 2 * (1.0 / self.seat.mass,) if self.seat else ()
+        seat = 2 * (1.0 / self.seat.mass,) if self.seat else ()
+        wheels = (*(2 * (1.0 / v.unsprung_front,)), *(2 * (1.0 / v.unsprung_rear,)), *seat)
         terms = []
         for p in ps:
             m, I_pitch, I_roll = p.load.sprung_mass, p.load.pitch_inertia, p.load.roll_inertia
