@@ -471,7 +471,7 @@ class MinibusRideHandling(Problem):
         # non-finite row has NaN poles, so it is unstable; an unstable row takes the
         # modes of -I in the step, the row fails)
         lam, V = spectral_kernel.eig(A)
-        stable = (lam.real < 0).all(axis=-1)
+        stable = np.logical_and.reduce(lam.real < 0, axis=-1)
         lin = slalom_linear(P, self.slalom_config, system=(A[0], B[0]), stable=stable[0])
         A1, modes, stable = A[1], (lam[1], V[1]), stable[1]
         if not stable.all():
