@@ -443,10 +443,12 @@ class MinibusRideHandling(Problem):
         for i, lc in enumerate(LOAD_CASES):
             rows, r = slice(i * n, (i + 1) * n), ride[lc]
             out[f"aw_front_{lc}"], out[f"aw_rear_{lc}"] = r["aw_front"], r["aw_rear"]
-            out.update({f"{key}_{lc}": value[rows] for key, value in both.items()})
+            for key, value in both.items():
+                out[f"{key}_{lc}"] = value[rows]
             # ride_method="time": the weighted record's crest factors and VDVs
             out.update({f"{key}_{lc}": r[key] for key in RECORD_KEYS if key in r})
-            out.update({f"{key}_{lc}": value[rows] for key, value in ws.items()})
+            for key, value in ws.items():
+                out[f"{key}_{lc}"] = value[rows]
             out[f"ride_ok_{lc}"] = r["ok"]
         return out
 
@@ -556,7 +558,9 @@ class MinibusRideHandling(Problem):
             for i in np.flatnonzero(~ok).tolist():  # a reason for each failed row
                 messages[i] = self._failure_reason(m, i)
             F[~ok], G[~ok] = np.nan, np.nan
-        extras = {k: v for k, v in m.items() if k not in flag_keys}  # float arrays
+        extras = dict(m)  # the float arrays: every measure but the flags
+        for k in flag_keys:
+            del extras[k]
         return EvaluationBatch(F, G, ok, messages, extras)
 
     def _failure_reason(self, m: dict[str, np.ndarray], i: int) -> str:
