@@ -148,6 +148,8 @@ _TYPED = (
     "knee_r",
     "f0_tyre",
 )
+#: the float types a model integrates in
+_DTYPES = (np.dtype(np.float64), np.dtype(np.float32))
 #: :meth:`RideModel._build_geometry`'s cache: key -> (vehicle, geometry)
 _GEOMETRY: dict[tuple[int, bool, float], tuple[object, tuple]] = {}
 
@@ -190,7 +192,7 @@ class RideModel:
         self.seat = seat
         self.measure_y = float(measure_y)
         self.dtype = np.dtype(dtype)
-        if self.dtype not in (np.dtype(np.float64), np.dtype(np.float32)):
+        if self.dtype not in _DTYPES:
             raise ValidationError(f"dtype must be float64 or float32, but got {self.dtype}")
         self.effects = tuple(effects)
         if self.linear and self.effects:
@@ -201,7 +203,8 @@ class RideModel:
                     f"ride model effect ({e.kind!r}, location={e.location!r}) is not "
                     f"supported; supported are {sorted(SUPPORTED_EFFECTS)}"
                 )
-        self.n = sum(p.n for p in plist)
+        self._counts = [p.n for p in plist]
+        self.n = sum(self._counts)
         self.nq = N_BASE_DOF + (2 if seat else 0)
         self._build_geometry()
         self._build_coefficients()
@@ -296,7 +299,7 @@ class RideModel:
     def _build_coefficients(self) -> None:
         v, ps, nq = self.vehicle, self.params, self.nq
         L = v.wheelbase
-        counts = [p.n for p in ps]
+        counts = self._counts
         # the per-design arrays of every block, stacked: front wheel rate, leaf primary
         # and composite rates, stabilisers, damper scales (C1, C2), leaf rate and
         # deflection at rest
@@ -396,7 +399,7 @@ class RideModel:
             (p.front_static_load + v.unsprung_front * G, p.rear_static_load + v.unsprung_rear * G)
             for p in self.params
         ]
-        front, rear = np.repeat(np.array(loads).T, [p.n for p in self.params], axis=1)
+        front, rear = np.array(loads).T.repeat(self._counts, axis=1)
         f0 = np.empty((4, self.n))
         f0[0:2], f0[2:4] = front, rear
         return f0
