@@ -369,10 +369,11 @@ class MinibusRideHandling(Problem):
         self._evaluation_terms(study)
 
     def _evaluation_terms(self, study: bool) -> None:
-        """What :meth:`_evaluate` reads from the measures, fixed per problem: the
-        objectives' measures, each constraint's measure key, limit and direction (the
-        understeer margin is ``limit - measure``; (k, 1) each), and the row flags."""
-        self._objective_keys = (
+        """What :meth:`_evaluate` reads from the measures, fixed per problem: the keys of
+        the objectives' measures (no load, then full load) and the constraints' measures,
+        each constraint's limit and direction (the understeer margin is ``limit -
+        measure``; (k, 1) each), and the row flags."""
+        objectives = (
             "aw_front",
             "aw_rear",
             "ay_max" if study else "yaw_response_time",
@@ -388,7 +389,8 @@ class MinibusRideHandling(Problem):
             terms += [("tyre_load", self.tyre_load_limit, False)]
         rows = [(f"{k}_{lc}", lim, flip) for k, lim, flip in terms for lc in LOAD_CASES]
         keys, limits, flipped = zip(*rows, strict=True)
-        self._limit_terms = (keys, np.array(limits)[:, None], np.array(flipped)[:, None])
+        self._measure_keys = tuple(f"{k}_{lc}" for lc in LOAD_CASES for k in objectives) + keys
+        self._limit_terms = (np.array(limits)[:, None], np.array(flipped)[:, None])
         self._flag_keys = tuple(
             f"{kind}_{lc}" for kind in ("completed", "ride_ok") for lc in LOAD_CASES
         )
@@ -434,10 +436,12 @@ class MinibusRideHandling(Problem):
         for i, lc in enumerate(LOAD_CASES):
             rows, r = slice(i * n, (i + 1) * n), ride[lc]
             out[f"aw_front_{lc}"], out[f"aw_rear_{lc}"] = r["aw_front"], r["aw_rear"]
-            out.update({f"{key}_{lc}": value[rows] for key, value in both.items()})
+            for key, value in both.items():
+                out[f"{key}_{lc}"] = value[rows]
             # ride_method="time": the weighted record's crest factors and VDVs
             out.update({f"{key}_{lc}": r[key] for key in RECORD_KEYS if key in r})
-            out.update({f"{key}_{lc}": value[rows] for key, value in ws.items()})
+            for key, value in ws.items():
+                out[f"{key}_{lc}"] = value[rows]
             out[f"ride_ok_{lc}"] = r["ok"]
         return out
 
@@ -458,14 +462,13 @@ class MinibusRideHandling(Problem):
         grad = np.degrees(grad) * G_STD
         # both linear systems at once: the slalom's and the step steer's speed and secants
         A, B = linear_system(P, u, (cf, cr))
-        # both systems' stability and the step's modes from one eigen-decomposition (an
-        # unstable or non-finite row: those of -I, the row fails)
-        finite = np.isfinite(A).all(axis=(2, 3))
-        A_ok = A if finite.all() else np.where(finite[..., None, None], A, -np.eye(4))
-        lam, V = spectral_kernel.eig(A_ok)
-        stable = finite & (lam.real < 0).all(axis=-1)
+        # both systems' stability and the step's modes from one eigen-decomposition (a
+        # non-finite row has NaN poles, so it is unstable; an unstable row takes the
+        # modes of -I in the step, the row fails)
+        lam, V = spectral_kernel.eig(A)
+        stable = np.logical_and.reduce(lam.real < 0, axis=-1)
         lin = slalom_linear(P, self.slalom_config, system=(A[0], B[0]), stable=stable[0])
-        A1, modes, stable = A_ok[1], (lam[1], V[1]), stable[1]
+        A1, modes, stable = A[1], (lam[1], V[1]), stable[1]
         if not stable.all():
             A1 = np.where(stable[:, None, None], A1, -np.eye(4))
             modes = spectral_kernel.eig(A1)
@@ -479,7 +482,7 @@ class MinibusRideHandling(Problem):
             "yaw_overshoot": st.overshoot,
             "yaw_gain": st.gain / P.vehicle.steering_ratio,
             "yaw_bandwidth": st.bandwidth,
-            "understeer_min": np.min(grad, axis=0),
+            "understeer_min": grad.min(axis=0),
             "completed": lin.stable & stable & np.isfinite(lin.steering_wheel_amplitude),
         }
         out.update(zip(UNDERSTEER_KEYS, grad, strict=True))
@@ -531,17 +534,15 @@ class MinibusRideHandling(Problem):
 
     def _evaluate(self, X: np.ndarray) -> EvaluationBatch:
         m = self.measures(X)
-        no_load, full_load = (f"_{lc}" for lc in LOAD_CASES)
+        values = np.array([m[k] for k in self._measure_keys])  # (10 + k, n)
         # objectives: no load + w x full load, one (5, n) pass (f3 negated in "study")
-        f_keys = self._objective_keys
-        F = np.array([m[k + no_load] for k in f_keys])
-        F += self.load_weight * np.array([m[k + full_load] for k in f_keys])
+        F = values[:5] + self.load_weight * values[5:10]
         if self.handling == "study":
             F[2] = -F[2]
         # constraints: measure - limit, or limit - measure where flipped, one (k, n) pass
-        keys, limits, flipped = self._limit_terms
-        values = np.array([m[k] for k in keys])
-        G = np.where(flipped, limits - values, values - limits)
+        limits, flipped = self._limit_terms
+        G = values[10:] - limits
+        np.subtract(limits, values[10:], out=G, where=flipped)
         flag_keys = self._flag_keys
         ok = np.logical_and.reduce([m[k] for k in flag_keys]) & np.isfinite(F).all(axis=0)
         messages = [""] * X.shape[0]
@@ -550,7 +551,9 @@ class MinibusRideHandling(Problem):
             for i in np.flatnonzero(~ok).tolist():  # a reason for each failed row
                 messages[i] = self._failure_reason(m, i)
             F[~ok], G[~ok] = np.nan, np.nan
-        extras = {k: v for k, v in m.items() if k not in flag_keys}  # float arrays
+        extras = dict(m)  # the float arrays: every measure but the flags
+        for k in flag_keys:
+            del extras[k]
         return EvaluationBatch(F, G, ok, messages, extras)
 
     def _failure_reason(self, m: dict[str, np.ndarray], i: int) -> str:

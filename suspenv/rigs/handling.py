@@ -176,12 +176,19 @@ def steady_circle(
     not depend on its batch; the conditions one grid step above the limit name it.
     """
     config = config or SteadyCircleConfig()
-    bits = int(np.ceil(np.log2(config.ay_upper / config.tolerance)))
-    scale = config.ay_upper / float(2**bits)
+    bits, scale = _circle_grid(config)
     h, table = _capacity_table(P.tyre, config.alpha_max_deg, config.alpha_points)
     out = np.empty((P.n, 3))
     handling_kernel.circle_loop(P.rows, table, h, bits, scale, out)
     return SteadyCircleResult(ay_max=out[:, 0] * scale, holds=out[:, 1:], config=config)
+
+
+@functools.lru_cache(maxsize=8)
+def _circle_grid(config: SteadyCircleConfig) -> tuple[int, float]:
+    """``(B, ay_upper / 2^B)`` of :func:`steady_circle`'s search grid, ``B =
+    ceil(log2(ay_upper / tolerance))`` (cached)."""
+    bits = int(np.ceil(np.log2(config.ay_upper / config.tolerance)))
+    return bits, config.ay_upper / float(2**bits)
 
 
 @dataclass
@@ -205,7 +212,11 @@ class SteadyStateSweep:
 
     def take(self, rows: slice | np.ndarray) -> SteadyStateSweep:
         """The states of some of the accelerations (rows of the first axis)."""
-        return SteadyStateSweep(*(value[rows] for value in vars(self).values()))
+        return SteadyStateSweep(
+            self.ay[rows], self.steer[rows], self.roll[rows], self.alpha_front[rows],
+            self.alpha_rear[rows], self.force_front[rows], self.force_rear[rows],
+            self.feasible[rows],
+        )  # fmt: skip
 
 
 #: regula-falsi (Illinois) passes of the steady state's slip-angle solve: a fixed count

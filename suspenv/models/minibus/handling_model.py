@@ -191,7 +191,8 @@ class HandlingParams:
 
     def axle_cornering_stiffness(self) -> tuple[np.ndarray, np.ndarray]:
         """Front and rear axle cornering stiffness at static load, N/rad (two tyres each)."""
-        cf, cr = 2.0 * self.tyre.cornering_stiffness(np.array([self.fz_front, self.fz_rear]))
+        # the static wheel loads: rows' columns 7, 8 (fz_front, fz_rear), (2, n)
+        cf, cr = 2.0 * self.tyre.cornering_stiffness(self.rows[:, 7:9].T)
         return cf, cr
 
     def understeer_gradient(self) -> np.ndarray:
@@ -202,9 +203,10 @@ class HandlingParams:
         """
         cf, cr = self.axle_cornering_stiffness()
         L, roll_gradient = self.rows[:, 12], self.rows[:, 0]
-        k = self.m / L * (self.b / cf - self.a / cr)
+        m_L = self.m / L
+        k = m_L * (self.b / cf - self.a / cr)
         k = k + (self.roll_steer_rear - self.roll_steer_front) * roll_gradient
-        return k + (self.force_steer_rear * self.a - self.force_steer_front * self.b) * (self.m / L)
+        return k + (self.force_steer_rear * self.a - self.force_steer_front * self.b) * m_L
 
 
 def roll_centre_heights(vehicle: Minibus = REFERENCE_MINIBUS) -> tuple[float, float]:
@@ -232,11 +234,12 @@ def handling_parameters(
     cases = [load_case] if isinstance(load_case, str | LoadCase) else list(load_case)
     vps = stacked_vehicle_parameters(X, cases, vehicle) if params is None else params
     d = vps[0].design
-    # the design-independent parameters of each load case (floats), on their rows
+    # the design-independent parameters of each load case, on their rows
+    table, constant_rows = _case_table(vps, leaf)
     (
         m, ms, a, b, iz, ixs, h_prime, ms_front, ms_rear, w_front, w_rear,
         h_rf, h_rr, muf, mur, radius, tf, tr, eps_f, c_ff, moment_f, moment_r, L, msh, msh_g,
-    ) = np.repeat(np.array([_case_terms(vp, leaf) for vp in vps]).T, d.n, axis=1)  # fmt: skip
+    ) = table.repeat(d.n, axis=1)  # fmt: skip
 
     # the per-design values, on the rows of every load case
     rates = np.array(
@@ -261,12 +264,11 @@ def handling_parameters(
     c_force = (l2 / (2.0 * k3) - l1 / (2.0 * leaf.shackle_lateral_ratio * k3)) / Ls**2
     eps_r = vehicle.rear_roll_steer + eps_bush
     kphi = kphi_f + kphi_r
-    # (22, n), then C-contiguous (n, 22): one copy (np.stack pays a call per column)
-    rows = np.array([
-        msh / (kphi - msh_g), kphi_f, kphi_r, moment_f, moment_r, tf, tr, w_front, w_rear,
-        m, a, b, L, eps_f, c_ff, eps_r, c_force, iz, ixs, msh, msh_g - kphi,
-        roll_damping(vehicle, c_front, c_rear),
-    ]).T.copy()  # fmt: skip
+    # (n, 22): the load cases' rows of constant columns, then the design's columns
+    rows = constant_rows.repeat(d.n, axis=0)
+    rows[:, 0], rows[:, 1], rows[:, 2] = msh / (kphi - msh_g), kphi_f, kphi_r
+    rows[:, 15], rows[:, 16], rows[:, 20] = eps_r, c_force, msh_g - kphi
+    rows[:, 21] = roll_damping(vehicle, c_front, c_rear)
     rows.flags.writeable = False
     return HandlingParams(
         m=m,
@@ -299,6 +301,38 @@ def handling_parameters(
         vehicle=vehicle,
         tyre=tyre,
     )
+
+
+#: :func:`_case_table`'s cache: its key -> (the objects the key names by id, tables)
+_CASE_TABLES: dict[tuple, tuple[tuple, tuple[np.ndarray, np.ndarray]]] = {}
+#: the columns of :attr:`HandlingParams.rows` that no design variable changes, and the
+#: rows of :func:`_case_terms` they take
+_CONSTANT_COLUMNS = [3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 17, 18, 19]
+_CONSTANT_TERMS = [20, 21, 16, 17, 9, 10, 0, 2, 3, 22, 18, 19, 4, 5, 23]
+
+
+def _case_table(
+    vps: Sequence[VehicleParams], leaf: LeafAxleGeometry
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_case_terms` of each load case of ``vps`` as the columns of a (25, k)
+    array, and each load case's row of :attr:`HandlingParams.rows` with its constant
+    columns set (the others 0), (k, 22); read-only, kept per vehicle, load case and leaf
+    geometry (frozen; the cache holds them, so their ids stay theirs) and CoM distances
+    ``a``, ``b``: what the terms depend on. An evaluation repeats the same load cases,
+    so it pays the lookup only."""
+    held = (leaf, *(o for vp in vps for o in (vp.vehicle, vp.load)))
+    key = (*map(id, held), *(x for vp in vps for x in (vp.a, vp.b)))
+    hit = _CASE_TABLES.get(key)
+    if hit is None or any(a is not b for a, b in zip(hit[0], held, strict=True)):
+        if len(_CASE_TABLES) >= 16:
+            _CASE_TABLES.clear()
+        table = np.array([_case_terms(vp, leaf) for vp in vps]).T
+        rows = np.zeros((len(vps), 22))
+        rows[:, _CONSTANT_COLUMNS] = table[_CONSTANT_TERMS].T
+        for a in (table, rows):
+            a.flags.writeable = False
+        hit = _CASE_TABLES[key] = (held, (table, rows))
+    return hit[1]
 
 
 def _case_terms(vp: VehicleParams, leaf: LeafAxleGeometry) -> list[float]:

@@ -148,6 +148,8 @@ _TYPED = (
     "knee_r",
     "f0_tyre",
 )
+#: the float types a model integrates in
+_DTYPES = (np.dtype(np.float64), np.dtype(np.float32))
 #: :meth:`RideModel._build_geometry`'s cache: key -> (vehicle, geometry)
 _GEOMETRY: dict[tuple[int, bool, float], tuple[object, tuple]] = {}
 
@@ -190,7 +192,7 @@ class RideModel:
         self.seat = seat
         self.measure_y = float(measure_y)
         self.dtype = np.dtype(dtype)
-        if self.dtype not in (np.dtype(np.float64), np.dtype(np.float32)):
+        if self.dtype not in _DTYPES:
             raise ValidationError(f"dtype must be float64 or float32, but got {self.dtype}")
         self.effects = tuple(effects)
         if self.linear and self.effects:
@@ -201,7 +203,8 @@ class RideModel:
                     f"ride model effect ({e.kind!r}, location={e.location!r}) is not "
                     f"supported; supported are {sorted(SUPPORTED_EFFECTS)}"
                 )
-        self.n = sum(p.n for p in plist)
+        self._counts = [p.n for p in plist]
+        self.n = sum(self._counts)
         self.nq = N_BASE_DOF + (2 if seat else 0)
         self._build_geometry()
         self._build_coefficients()
@@ -218,15 +221,17 @@ class RideModel:
                 _GEOMETRY.clear()
             hit = _GEOMETRY[key] = (self.vehicle, self._geometry())
         self.n_pos, self.n_vel, self.E, self.Et, self.Pt, self.Vt, self.B, self.Bt = hit[1][:8]
-        self._damper_unit, self.knee_b, self.knee_r = hit[1][8:]
+        self._damper_unit, self.knee_b, self.knee_r, self._tyre_rates = hit[1][8:]
 
     def _geometry(self) -> tuple:
-        """``(n_pos, n_vel, E, E^T, P^T, V^T, B, B^T, damper curves, knee_b, knee_r)``:
+        """``(n_pos, n_vel, E, E^T, P^T, V^T, B, B^T, damper curves, knee_b, knee_r,
+        tyre rates)``:
         element deflections of position and velocity type from the state, ``X @ E``,
         generalised forces from the element forces, ``Q = -F @ B`` (see :meth:`rhs`),
         the dampers' (FL, FR, RL, RR) slopes at scale 1 (N s/m; bump low, bump high,
         rebound low, rebound high rows) and their mean low-speed coefficient in every row
-        (the linear model's slopes), their bump and (negative) rebound knees (m/s, (4, 1))."""
+        (the linear model's slopes), their bump and (negative) rebound knees (m/s, (4, 1)),
+        and the element rates of the tyres (N/m, N s/m; 0 in the other columns)."""
         v = self.vehicle
         tf, tr, s, sd = v.track_front, v.track_rear, v.leaf_spacing, v.rear_damper_spacing
         nq = self.nq
@@ -283,21 +288,34 @@ class RideModel:
         knees = np.array([[c.bump_knee, -c.rebound_knee] for c in curves]).T[:, :, None]
         out = tuple(np.ascontiguousarray(a) for a in (E, E.T, pos.T, vel.T, B, B.T, *knees))
         damper = (np.array(slopes).T, np.array([mean] * 4))
-        for a in out + damper:
+        # the element rates the vehicle fixes: the tyres' (the rest 0, set per design)
+        tyres = np.zeros(n_pos + n_vel)
+        tyres[6:10] = v.tyre_vertical_stiffness
+        tyres[n_pos + 4 : n_pos + 8] = v.tyre_vertical_damping
+        for a in (*out, *damper, tyres):
             a.flags.writeable = False
-        return (n_pos, n_vel, *out[:6], damper, *out[6:])
+        return (n_pos, n_vel, *out[:6], damper, *out[6:], tyres)
 
     def _build_coefficients(self) -> None:
         v, ps, nq = self.vehicle, self.params, self.nq
         L = v.wheelbase
-        counts = [p.n for p in ps]
-        # the per-design arrays of every block (DesignSI's fields in order), stacked
-        per = [[*vars(p.design).values(), p.rear_static_rate, p.rear_static_deflection] for p in ps]
+        counts = self._counts
+        # the per-design arrays of every block, stacked: front wheel rate, leaf primary
+        # and composite rates, stabilisers, damper scales (C1, C2), leaf rate and
+        # deflection at rest
+        per = [
+            [(d := p.design).front_wheel_rate, d.rear_primary_rate, d.rear_composite_rate,
+             d.front_roll_arb, d.rear_roll_arb, d.front_damper_scale, d.rear_damper_scale,
+             p.rear_static_rate, p.rear_static_deflection]
+            for p in ps
+        ]  # fmt: skip
         stacked = np.concatenate(per, axis=1)
-        primary, composite, _, _, front_rate, arb_f, arb_r, _, _, static_rate, defl = stacked
 
         # per block: inverse body mass matrix in (z_f, z_r) (KE of heave (b zf + a zr)/L
-        # and pitch (zf - zr)/L) and roll, and the static tyre loads, on the block's rows
+        # and pitch (zf - zr)/L) and roll, on the block's rows: the diagonal of q, then
+        # the (z_f, z_r) coupling
+        seat = 2 * (1.0 / self.seat.mass,) if self.seat else ()
+        wheels = (*(2 * (1.0 / v.unsprung_front,)), *(2 * (1.0 / v.unsprung_rear,)), *seat)
         terms = []
         for p in ps:
             m, I_pitch, I_roll = p.load.sprung_mass, p.load.pitch_inertia, p.load.roll_inertia
@@ -305,64 +323,42 @@ class RideModel:
             M22 = (m * p.a**2 + I_pitch) / L**2
             M12 = (m * p.a * p.b - I_pitch) / L**2
             det = M11 * M22 - M12**2
-            terms.append(
-                (M22 / det, M11 / det, -M12 / det, 1.0 / I_roll,
-                 p.front_static_load + v.unsprung_front * G,
-                 p.rear_static_load + v.unsprung_rear * G)
-            )  # fmt: skip
-        m22, m11, m12, roll, f0_front, f0_rear = np.repeat(np.array(terms).T, counts, axis=1)
-        n = self.n
-        minv_diag = np.empty((nq, n))  # batch along the last axis (see rhs)
-        minv_diag[0], minv_diag[1], minv_diag[2] = m22, m11, roll
-        minv_diag[3:5] = 1.0 / v.unsprung_front
-        minv_diag[5:7] = 1.0 / v.unsprung_rear
-        if self.seat:
-            minv_diag[7:9] = 1.0 / self.seat.mass
-        # position-type stiffnesses (N/m, N*m/rad), then velocity-type (N s/m)
-        K = np.zeros((n, self.n_pos + self.n_vel))
-        K[:, 0] = K[:, 1] = front_rate
-        K[:, 2] = K[:, 3] = static_rate if self.linear else primary
-        K[:, 4] = arb_f
-        K[:, 5] = arb_r
-        K[:, 6:10] = v.tyre_vertical_stiffness
-        nv0 = self.n_pos
-        K[:, nv0 + 4 : nv0 + 8] = v.tyre_vertical_damping
+            terms.append((M22 / det, M11 / det, 1.0 / I_roll, *wheels, -M12 / det))
+        inverse = np.array(terms).T.repeat(counts, axis=1)  # (nq + 1, n), C order
+        # position-type stiffnesses (N/m, N*m/rad), then velocity-type (N s/m): the
+        # vehicle's tyre columns, the seat's, then the design's
+        K = np.empty((self.n, self.n_pos + self.n_vel))
+        K[:] = self._tyre_rates
         if self.seat:
             K[:, 10:12] = self.seat.stiffness
-            K[:, nv0 + 8 : nv0 + 10] = self.seat.damping
-        # leaf knee relative to the static position
-        leaf_static = np.repeat(static_rate[:, None], 2, axis=1)
-        leaf_dk = composite - primary
-        leaf_thr = v.helper_engagement - defl
+            K[:, self.n_pos + 8 : self.n_pos + 10] = self.seat.damping
+        K[:, :6] = stacked[[0, 0, 7, 7, 3, 4] if self.linear else [0, 0, 1, 1, 3, 4]].T
         # damper curves scaled per design: (4 slopes, 4 dampers, n); the linear model's
         # slopes all the mean low-speed coefficient
-        scale = np.repeat(stacked[7:9], 2, axis=0)  # (4, n): C1 front twice, C2 rear twice
+        scale = stacked[5:7].repeat(2, axis=0)  # (4, n): C1 front twice, C2 rear twice
         curves, mean = self._damper_unit
-        damper_mean = np.multiply(scale.T, mean[0], order="C")
         slopes = (mean if self.linear else curves)[:, :, None] * scale
-        f0_tyre = np.empty((4, n))
-        f0_tyre[0:2], f0_tyre[2:4] = f0_front, f0_rear
         # the linearised model's rates, kept for either model (float64, batch first):
         # rear leaf rate at rest (N/m, left, right) and mean low-speed damper
         # coefficient (N s/m, FL, FR, RL, RR)
-        self.leaf_static_rate = leaf_static
-        self.damper_mean = damper_mean
+        self.leaf_static_rate = stacked[7][:, None].repeat(2, axis=1)
+        self.damper_mean = np.multiply(scale.T, mean[0], order="C")
         # batch along the last axis (see rhs)
         self.K = K
-        self.Kt = np.ascontiguousarray(K.T)
-        self.minv_diag = minv_diag
-        self.m12 = m12
-        self.leaf_dk = leaf_dk[None, :]
-        self.leaf_thr = leaf_thr[None, :]
-        self.leaf_base = self.leaf_dk * np.maximum(-self.leaf_thr, 0.0)
+        self.minv_diag, self.m12 = inverse[:nq], inverse[nq]
+        # leaf knee relative to the static position: composite - primary rate (N/m) and
+        # the helper's engagement from the static deflection (m), (1, n)
+        self.leaf_dk = stacked[2:3] - stacked[1:2]
+        self.leaf_thr = v.helper_engagement - stacked[8:9]
         #: damper slopes (N s/m; curve, damper FL FR RL RR, design), float64; d_* views
         self.damper_slopes = slopes
         self.d_bl, self.d_bh, self.d_rl, self.d_rh = slopes
-        self.f0_tyre = f0_tyre
-        # float32 models: the integration's arrays in their type (float64: so already)
+        # float32 models: the integration's arrays in their type (float64: so already),
+        # each formed in float64 first
         typed = () if self.dtype == np.float64 else _TYPED
-        for name in typed:
-            setattr(self, name, np.ascontiguousarray(getattr(self, name), dtype=self.dtype))
+        values = [np.ascontiguousarray(getattr(self, name), dtype=self.dtype) for name in typed]
+        for name, value in zip(typed, values, strict=True):
+            setattr(self, name, value)
         # effects
         self._hyst = None
         self._damper_friction: list[tuple[slice, Effect]] = []
@@ -378,8 +374,35 @@ class RideModel:
         self.n_hyst = 2 if self._hyst is not None else 0
         self.n_states = 2 * self.nq + self.n_hyst
         self._compiled = COMPILED and ride_kernel.AVAILABLE and self.dtype == np.float64
-        # effect parameters checked once here (packed for the compiled loop)
-        self._effect_pack = ride_kernel.pack_effects(self.effects, self.n)
+        # effect parameters checked once here (packed for the compiled loop; without
+        # effects there is nothing to check and the empty pack waits for a simulation)
+        self._effect_pack = ride_kernel.pack_effects(self.effects, self.n) if self.effects else None
+
+    # the arrays only a simulation reads (:meth:`rhs`, :attr:`_packed`), formed at its
+    # first use: the spectral methods never need them
+    @functools.cached_property
+    def Kt(self) -> np.ndarray:
+        """Element rates (n_elements, n), batch along the last axis (see :meth:`rhs`)."""
+        return np.ascontiguousarray(self.K.T)
+
+    @functools.cached_property
+    def leaf_base(self) -> np.ndarray:
+        """(1, n) composite-rate force of the leaf at rest (N; 0 below the helper knee)."""
+        return self.leaf_dk * np.maximum(-self.leaf_thr, 0.0)
+
+    @functools.cached_property
+    def f0_tyre(self) -> np.ndarray:
+        """(4, n) static tyre loads FL, FR, RL, RR (N): sprung share plus the unsprung
+        weight."""
+        v = self.vehicle
+        loads = [
+            (p.front_static_load + v.unsprung_front * G, p.rear_static_load + v.unsprung_rear * G)
+            for p in self.params
+        ]
+        front, rear = np.array(loads).T.repeat(self._counts, axis=1)
+        f0 = np.empty((4, self.n))
+        f0[0:2], f0[2:4] = front, rear
+        return f0
 
     @functools.cached_property
     def _packed(self) -> tuple | None:
@@ -399,7 +422,8 @@ class RideModel:
         f0 = np.ascontiguousarray(self.f0_tyre.T, dtype=float)
         coeffs = (pv, self.Bt, np.ascontiguousarray(self.K, dtype=float), minv, self.m12)
         shapes = (np.ascontiguousarray(leaf, dtype=float), damp, knees, f0, self.linear)
-        return (*coeffs, *shapes, *self._effect_pack)
+        pack = self._effect_pack or ride_kernel.pack_effects((), n)
+        return (*coeffs, *shapes, *pack)
 
     # -------------------------------------------------------------- dynamics
     def road_vector(self, z: np.ndarray, zd: np.ndarray) -> np.ndarray:
