@@ -63,6 +63,26 @@ def test_a_built_loop_refuses_a_column_order_array():
         lazy(np.asfortranarray(a), b, z0, out)
 
 
+def test_array_arguments_of_a_signature():
+    """The positions checked for their layout: those of the array types (read off the
+    signatures by hand), not the scalars between them."""
+    assert compiled._array_arguments(
+        compiled.AHEAD["suspenv.models.effects.kernels"]["recurrence"]
+    ) == (0, 1, 2, 3)
+    circle = compiled.AHEAD["suspenv.models.minibus.handling_kernel"]["circle_loop"]
+    assert compiled._array_arguments(circle) == (0, 1, 5)
+    assert compiled._array_arguments("int64(float64[:, ::1], int64[::1], float64)") == (0, 1)
+
+
+def test_a_built_loop_refuses_a_column_order_array_after_its_scalars():
+    """The last argument of the steady circle's loop (its output, after three scalars)
+    is checked too: refused before the loop runs."""
+    lazy, _ = _built_or_skip("suspenv.models.minibus.handling_kernel", "circle_loop")
+    rows, table = np.zeros((3, 17)), np.zeros((4, 8))
+    with pytest.raises(ValueError, match="_circle_loop: argument 5 must be a C-contiguous"):
+        lazy(rows, table, 0.1, 2, 1.0, np.asfortranarray(np.zeros((3, 2))))
+
+
 def test_built_recurrence_matches_python():
     lazy, loop = _built_or_skip("suspenv.models.effects.kernels", "recurrence")
     rng = np.random.default_rng(3)

@@ -23,6 +23,7 @@ import importlib
 import importlib.util
 import os
 import platform
+import re
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -214,18 +215,28 @@ class Lazy:
         self._space, self._helpers, self._main = space, tuple(helpers), main
         self._inline, self._bare, self._jitable = tuple(inline), tuple(bare), tuple(jitable)
         self._loop: Callable | None = None
-        self._checked = False  # the loop is a built one: check its arrays' layout
+        # a built loop's array arguments (positions): their layout is checked at each call
+        self._arrays: tuple[int, ...] = ()
         self.__doc__ = f":func:`{main.__name__}`, compiled at its first call."
 
     def __call__(self, *args: Any) -> Any:
         if self._loop is None:
-            self._loop = _built(self._space, self._helpers, self._main, self._jitable)
-            self._checked = self._loop is not None
-        if self._loop is None:
-            self._loop = self._compiled() if AVAILABLE else self._main
-        if self._checked:
-            _refuse_strided(self._main.__name__, args)
+            self._loop = self._load()
+        for i in self._arrays:
+            if not args[i].flags.c_contiguous:
+                raise _strided(self._main.__name__, i, args[i])
         return self._loop(*args)
+
+    def _load(self) -> Callable:
+        """The built loop (its array arguments, those of its signature in :data:`AHEAD`,
+        kept to be checked at each call), else ``main`` compiled, else ``main`` itself."""
+        built = _built(self._space, self._helpers, self._main, self._jitable)
+        if built is None:
+            return self._compiled() if AVAILABLE else self._main
+        module = sys.modules[self._main.__module__]
+        loops = AHEAD[module.__name__].items()
+        self._arrays = next(_array_arguments(s) for a, s in loops if getattr(module, a) is self)
+        return built
 
     def _compiled(self) -> Callable:
         """``main`` compiled by numba's JIT, its helpers replaced by their compiled
@@ -249,16 +260,20 @@ class Lazy:
         return loop
 
 
-def _refuse_strided(name: str, args: Sequence[Any]) -> None:
+def _array_arguments(signature: str) -> tuple[int, ...]:
+    """The positions of the array arguments of a numba signature ``"ret(arg, ...)"``."""
+    inner = signature[signature.index("(") + 1 : signature.rindex(")")]
+    return tuple(i for i, a in enumerate(re.split(r",(?![^\[]*\])", inner)) if "[" in a)
+
+
+def _strided(name: str, i: int, a: np.ndarray) -> ValueError:
     """A built loop declares C-contiguous arrays (:func:`_arr`) but ``pycc``'s wrapper does
     not check the layout: a strided or column-order array would be read as if it were
-    C-ordered. Refuse it by name instead of returning wrong numbers."""
-    for i, a in enumerate(args):
-        if isinstance(a, np.ndarray) and not a.flags.c_contiguous:
-            raise ValueError(
-                f"compiled loop {name}: argument {i} must be a C-contiguous array "
-                f"(np.ascontiguousarray), but got one with strides {a.strides}"
-            )
+    C-ordered. The error refusing argument ``i`` by name instead of returning wrong numbers."""
+    return ValueError(
+        f"compiled loop {name}: argument {i} must be a C-contiguous array "
+        f"(np.ascontiguousarray), but got one with strides {a.strides}"
+    )
 
 
 def extension(root: Path) -> Any:
