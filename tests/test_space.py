@@ -32,6 +32,21 @@ def test_log_scale_midpoint_is_geometric_mean():
     assert x[0] == pytest.approx(3e3)
 
 
+def test_slope_is_the_maps_derivative():
+    # reference: central differences of to_physical (step 1e-6; the map is smooth, so the
+    # difference's error is O(h^2) relative, ~1e-12, plus round-off ~1e-10 relative)
+    s, h = _space(), 1e-6
+    for u in np.random.default_rng(1).uniform(0.1, 0.9, size=(5, 3)):
+        fd = [
+            (s.to_physical((u + h * e)[None])[0, i] - s.to_physical((u - h * e)[None])[0, i])
+            / (2 * h)
+            for i, e in enumerate(np.eye(3))
+        ]
+        np.testing.assert_allclose(s.slope(u), fd, rtol=1e-7)
+    # linear parameters: the range, wherever u is
+    np.testing.assert_allclose(s.slope(np.zeros(3))[:2], [4e3, 1.2], rtol=1e-15)
+
+
 @pytest.mark.parametrize(
     ("kwargs", "needle"),
     [

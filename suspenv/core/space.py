@@ -150,6 +150,16 @@ class DesignSpace:
             U = np.where(self._log, ulog, U)
         return U
 
+    def slope(self, u: np.ndarray) -> np.ndarray:
+        """``dx/du`` (d,) of the unit-cube map at the unit point ``u`` (d,), clipped to
+        [0, 1]: ``high - low`` on a linear scale, ``x ln(high / low)`` on a log scale
+        (physical units per unit)."""
+        x = self.to_physical(np.clip(u, 0, 1)[None])[0]
+        log, lo, hi = self._log, self.lower, self.upper
+        with np.errstate(divide="ignore", invalid="ignore"):
+            lg = x * np.log(np.where(log, hi / np.where(log, lo, 1.0), 1.0))
+        return np.where(log, lg, hi - lo)
+
     def reference(self) -> np.ndarray:
         """Physical reference design (1-D, length d)."""
         return np.array([p.reference for p in self.parameters], dtype=float)

@@ -43,7 +43,6 @@ from suspenv.core.space import DesignSpace, Parameter
 from suspenv.models.effects import Effect
 from suspenv.models.mcpherson.params import AxleConstants, build_axle
 from suspenv.rigs.knc import KCResult, run_tests
-from suspenv.rigs.knc_fit import FD_STEP as FD_STEP
 from suspenv.rigs.knc_fit import (
     StageResult,
     UnitFit,

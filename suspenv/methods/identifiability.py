@@ -112,16 +112,6 @@ def determined_directions(
     return count, out
 
 
-def physical_slope(space: DesignSpace, u: np.ndarray) -> np.ndarray:
-    """``dx/du`` (dim,) of the unit-cube map of ``space`` at ``u`` (file units per unit)."""
-    lo, hi = space.lower, space.upper
-    x = space.to_physical(np.clip(u, 0, 1)[None])[0]
-    log = np.array([p.log for p in space.parameters])
-    with np.errstate(divide="ignore", invalid="ignore"):
-        lg = x * np.log(np.where(log, hi / np.where(log, lo, 1.0), 1.0))
-    return np.where(log, lg, hi - lo)
-
-
 @dataclass
 class Verdict:
     """One parameter's identification verdict (file units)."""
@@ -226,7 +216,7 @@ def assess(
     if scale2 is None:
         scale2 = max(1.0, float(r @ r) / max(n - d, 1))
     cov = unit_covariance(J, scale2, rcond)
-    slope = np.abs(physical_slope(space, u))
+    slope = np.abs(space.slope(u))
     rng = space.upper - space.lower
     se_u = np.sqrt(np.maximum(np.diag(cov), 0.0))
     se_pct = 100.0 * se_u * slope / rng
@@ -316,7 +306,7 @@ def rank_tests(
     the parameters they would newly identify, then by the parameter combinations they
     would newly determine (:func:`determined_directions`), then by the mean log
     reduction of the standard errors of the parameters not identified (best first)."""
-    slope = np.abs(physical_slope(space, u))
+    slope = np.abs(space.slope(u))
     rng = space.upper - space.lower
     before = np.array([max(v.stderr_pct, v.stderr_unit_pct) for v in ident.verdicts])
     was = ident.identified

@@ -7,7 +7,7 @@ travel and steering numbers of ``docs/knc.md``) and the compliance numbers of
 lists what a sheet holds.
 
 Interval (delta method): the metric's gradient ``g`` with respect to the fitted values
-(the fit's unit cube, forward differences of :data:`~suspenv.methods.curve_fit.FD_STEP`,
+(the fit's unit cube, forward differences of :data:`~suspenv.rigs.knc_fit.FD_STEP`,
 all ``dim + 1`` designs in one batched rig call per test group) and the fit's covariance
 ``C`` (:func:`suspenv.methods.identifiability.unit_covariance`: ``s^2 (J'J)^-1``): the
 standard error is ``sqrt(g' C g)``, the 95 % interval +-1.96 of it. ``C`` is the larger
@@ -37,8 +37,9 @@ from typing import Any
 import numpy as np
 
 from suspenv.diagnosis.knc.family import PATH_DEPENDENT
-from suspenv.methods.curve_fit import FD_STEP, CurveFit, amplitude_kwargs
+from suspenv.methods.curve_fit import CurveFit, amplitude_kwargs
 from suspenv.methods.identifiability import sandwich_covariance
+from suspenv.rigs.knc_fit import FD_STEP
 
 #: rig tests the sheet runs on the identified model
 SHEET_TESTS = (

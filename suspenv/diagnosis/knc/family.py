@@ -156,14 +156,11 @@ class AxleCurves(UnitFit):
         self.sub = DesignSpace(model.space.parameters[held:])
         self.size = sum(len(r.time) for r in self.recs) * len(self.scales)
 
-    def jacobian_theta(self, J: np.ndarray, theta: np.ndarray) -> np.ndarray:
+    def jacobian_theta(self, J: np.ndarray, u: np.ndarray) -> np.ndarray:
         """A Jacobian ``J`` (size, dim) in the unit cube as one in ``theta`` (size, p) at
-        ``theta``: divided by d theta / d u, zero for the held values."""
-        lo, hi, x = self.sub.lower, self.sub.upper, theta[self.free_index]
-        log = np.array([p.log for p in self.sub.parameters], bool)
-        per_unit = np.where(log, x * np.log(np.where(log, hi / lo, 1.0)), hi - lo)
-        out = np.zeros((J.shape[0], theta.size))
-        out[:, self.free_index] = J / per_unit
+        the unit point ``u``: divided by d theta / d u, zero for the held values."""
+        out = np.zeros((J.shape[0], self.base.size))
+        out[:, self.free_index] = J / self.sub.slope(u)
         return out
 
     def residuals_x(self, X: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[str]]:
@@ -211,7 +208,7 @@ def fit_axle(
                 theta,
                 recs,
                 scales,
-                jacobian=pb.jacobian_theta(J, theta),
+                jacobian=pb.jacobian_theta(J, stage.u),
                 scaled_residual=r,
                 success=stage.stop.startswith("converged"),
                 message=stage.stop,
