@@ -13,7 +13,7 @@ quasi-static sweep, where there is no velocity.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import Any
 
 from suspenv.core.space import Parameter
@@ -29,7 +29,9 @@ from suspenv.models.effects._util import batch_param as bp
 from suspenv.models.effects.effect import EffectKind, register_kind
 
 
-def _p(name: str, low: float, high: float, unit: str, default: float, desc: str, log: bool = False):
+def _p(
+    name: str, low: float, high: float, unit: str, default: float, desc: str, log: bool = False
+) -> Parameter:
     return Parameter(name, low, high, unit=unit, log=log, default=default, description=desc)
 
 
@@ -45,13 +47,38 @@ def _law(kind: str) -> Callable[..., Any]:
     )
 
 
+def _force(
+    kind: str,
+    words: str,
+    parameters: tuple[Parameter, ...],
+    signature: str,
+    apply: Callable[..., Any] | None = None,
+    *,
+    needs_time: bool = False,
+    fit_fixed: tuple[str, ...] = (),
+    domain: Mapping[str, tuple[float, bool]] | None = None,
+) -> EffectKind:
+    """A force-role kind; its force is the stateless law of the same key (:func:`_law`)
+    unless ``apply`` is given."""
+    return EffectKind(
+        kind,
+        words,
+        "force",
+        parameters,
+        signature,
+        apply or _law(kind),
+        needs_time=needs_time,
+        fit_fixed=fit_fixed,
+        domain=domain or {},
+    )
+
+
 V_EPS = _p("v_eps", 1e-5, 0.1, "m/s", 1e-3, "velocity width of the regularised step", log=True)
 
 KINDS = (
-    EffectKind(
+    _force(
         "coulomb_friction",
         "Coulomb friction",
-        "force",
         (
             _p("f_c", 0.0, 5000.0, "N", 20.0, "Coulomb friction force level"),
             V_EPS,
@@ -66,14 +93,12 @@ KINDS = (
             ),
         ),
         "step at every velocity reversal; loop width independent of amplitude and rate",
-        _law("coulomb_friction"),
         domain={"v_eps": _POSITIVE},
         fit_fixed=("v_eps", "sigma"),
     ),
-    EffectKind(
+    _force(
         "directional_friction",
         "direction-dependent Coulomb friction",
-        "force",
         (
             _p("f_pos", 0.0, 5000.0, "N", 20.0, "friction level sliding in +x"),
             _p("f_neg", 0.0, 5000.0, "N", 20.0, "friction level sliding in -x"),
@@ -81,14 +106,12 @@ KINDS = (
         ),
         "reversal steps of different size in each direction; indistinguishable from a "
         "constant offset plus symmetric friction unless the test holds each direction",
-        _law("directional_friction"),
         domain={"v_eps": _POSITIVE},
         fit_fixed=("v_eps",),
     ),
-    EffectKind(
+    _force(
         "stribeck_friction",
         "stiction with Stribeck decay",
-        "force",
         (
             _p("f_c", 0.0, 5000.0, "N", 20.0, "Coulomb (sliding) friction level"),
             _p("f_s", 0.0, 10000.0, "N", 30.0, "static (breakaway) friction level"),
@@ -96,14 +119,12 @@ KINDS = (
             V_EPS,
         ),
         "reversal step with an overshoot at low speed that decays with velocity",
-        _law("stribeck_friction"),
         domain={"v_s": _POSITIVE, "v_eps": _POSITIVE},
         fit_fixed=("v_eps",),
     ),
-    EffectKind(
+    _force(
         "lugre_friction",
         "LuGre dynamic friction (pre-sliding and stiction)",
-        "force",
         (
             _p("sigma0", 1e2, 1e9, "N/m", 1e5, "bristle stiffness", log=True),
             _p("sigma1", 0.0, 1e5, "N s/m", 300.0, "bristle damping"),
@@ -118,10 +139,9 @@ KINDS = (
         needs_time=True,
         fit_fixed=("sigma0", "sigma1"),
     ),
-    EffectKind(
+    _force(
         "dahl_hysteresis",
         "rubber bushing hysteresis (Dahl)",
-        "force",
         (
             _p("f_c", 0.0, 5000.0, "N", 50.0, "saturation hysteretic force"),
             _p("sigma", 1e2, 1e9, "N/m", 1e5, "initial stiffness after a reversal", log=True),
@@ -141,10 +161,9 @@ KINDS = (
         lambda x, v, t, f_c, sigma, sigma_ratio: hysteresis.dahl_path(x, sigma, f_c),
         fit_fixed=("sigma_ratio",),
     ),
-    EffectKind(
+    _force(
         "bouc_wen_hysteresis",
         "hysteresis (Bouc-Wen)",
-        "force",
         (
             _p("f_y", 0.0, 5000.0, "N", 50.0, "asymptotic hysteretic force"),
             _p("x_y", 1e-6, 0.05, "m", 1e-3, "yield displacement", log=True),
@@ -155,10 +174,9 @@ KINDS = (
         lambda x, v, t, f_y, x_y, shape, n: hysteresis.bouc_wen_force_path(x, f_y, x_y, shape, n),
         fit_fixed=("n",),
     ),
-    EffectKind(
+    _force(
         "berg_hysteresis",
         "rubber bushing hysteresis (Berg friction)",
-        "force",
         (
             _p("f_max", 0.0, 5000.0, "N", 50.0, "limit friction force"),
             _p("x2", 1e-6, 0.05, "m", 1e-3, "travel to half the limit force", log=True),
@@ -167,10 +185,9 @@ KINDS = (
         "hyperbolic (not exponential) approach after a reversal",
         lambda x, v, t, f_max, x2: hysteresis.berg_path(x, f_max, x2),
     ),
-    EffectKind(
+    _force(
         "cubic_stiffness",
         "progressive (cubic) stiffness",
-        "force",
         (
             _p("k3", -1e12, 1e12, "N/m^3", 1e6, "cubic stiffness coefficient"),
             _p(
@@ -195,53 +212,45 @@ KINDS = (
             ),
         ),
         "odd-symmetric residual growing with the cube of amplitude; 3rd harmonic",
-        _law("cubic_stiffness"),
         fit_fixed=("ratio", "x_ref", "x_0"),
     ),
-    EffectKind(
+    _force(
         "progressive_stiffness",
         "progressive stiffness beyond a free range",
-        "force",
         (
             _p("k_p", 0.0, 1e10, "N/m^2", 1e6, "quadratic stiffening coefficient"),
             _p("x0", 0.0, 0.2, "m", 0.0, "free range before stiffening"),
         ),
         "odd-symmetric residual beyond |x| > x0 growing with amplitude",
-        _law("progressive_stiffness"),
         domain={"x0": _NONNEGATIVE},
     ),
-    EffectKind(
+    _force(
         "bump_stop",
         "bump stop contact",
-        "force",
         (
             _p("gap", 0.0, 0.3, "m", 0.03, "free travel before contact (compression)"),
             _p("k_stop", 0.0, 1e8, "N/m^p", 1e5, "stop stiffness"),
             _p("p", 1.0, 3.0, "", 1.0, "stop force exponent"),
         ),
         "residual only beyond a compression travel threshold; one-sided",
-        _law("bump_stop"),
         domain={"gap": _NONNEGATIVE, "k_stop": _NONNEGATIVE, "p": _AT_LEAST_ONE},
         fit_fixed=("p",),
     ),
-    EffectKind(
+    _force(
         "rebound_stop",
         "rebound stop contact",
-        "force",
         (
             _p("gap", 0.0, 0.3, "m", 0.05, "free travel before contact (extension)"),
             _p("k_stop", 0.0, 1e8, "N/m^p", 1e5, "stop stiffness"),
             _p("p", 1.0, 3.0, "", 1.0, "stop force exponent"),
         ),
         "residual only beyond an extension travel threshold; one-sided",
-        _law("rebound_stop"),
         domain={"gap": _NONNEGATIVE, "k_stop": _NONNEGATIVE, "p": _AT_LEAST_ONE},
         fit_fixed=("p",),
     ),
-    EffectKind(
+    _force(
         "bump_and_rebound_stops",
         "bump and rebound stop contact",
-        "force",
         (
             _p("gap_bump", 0.0, 0.3, "m", 0.03, "free travel before bump contact"),
             _p("k_bump", 0.0, 1e8, "N/m^p", 1e5, "bump stop stiffness"),
@@ -251,7 +260,6 @@ KINDS = (
         ),
         "residual only beyond a compression threshold and beyond an extension threshold, "
         "each side with its own onset and slope",
-        _law("bump_and_rebound_stops"),
         domain={
             "gap_bump": _NONNEGATIVE,
             "k_bump": _NONNEGATIVE,
@@ -261,22 +269,19 @@ KINDS = (
         },
         fit_fixed=("p",),
     ),
-    EffectKind(
+    _force(
         "digressive_damping",
         "digressive damper curve (blow-off)",
-        "force",
         (
             _p("c_low", 0.0, 1e6, "N s/m", 2000.0, "extra low-speed damping below the knee"),
             _p("v_knee", 1e-3, 5.0, "m/s", 0.1, "knee velocity", log=True),
         ),
         "residual odd in velocity, large at low speed, saturating above the knee",
-        _law("digressive_damping"),
         domain={"v_knee": _POSITIVE},
     ),
-    EffectKind(
+    _force(
         "asymmetric_digressive_damping",
         "asymmetric digressive damper curve (separate bump and rebound valve stacks)",
-        "force",
         (
             _p("c_bump", 0.0, 1e6, "N s/m", 2000.0, "extra low-speed damping in bump (v > 0)"),
             _p("v_knee_bump", 1e-3, 5.0, "m/s", 0.1, "knee velocity in bump", log=True),
@@ -285,21 +290,17 @@ KINDS = (
         ),
         "residual depending on the sign and size of velocity: a digressive curve with a "
         "different slope or knee in bump and in rebound",
-        _law("asymmetric_digressive_damping"),
         domain={"v_knee_bump": _POSITIVE, "v_knee_rebound": _POSITIVE},
     ),
-    EffectKind(
+    _force(
         "damper_asymmetry",
         "damper bump/rebound asymmetry",
-        "force",
         (_p("dc_rebound", -1e6, 1e6, "N s/m", 1000.0, "extra damping in rebound (v < 0)"),),
         "residual correlated with the sign of velocity: present in rebound only",
-        _law("damper_asymmetry"),
     ),
-    EffectKind(
+    _force(
         "maxwell_viscoelastic",
         "viscoelastic lag (Maxwell element)",
-        "force",
         (
             _p("k_m", 1.0, 1e9, "N/m", 1e5, "series spring stiffness", log=True),
             _p("c_m", 1e-2, 1e8, "N s/m", 1e3, "series dashpot coefficient", log=True),
@@ -308,10 +309,9 @@ KINDS = (
         lambda x, v, t, k_m, c_m: viscoelastic.maxwell_series(x, t, k_m, c_m),
         needs_time=True,
     ),
-    EffectKind(
+    _force(
         "low_speed_deficit",
         "force missing around zero speed (a velocity dead band)",
-        "force",
         (
             _p("f_d", 0.0, 5000.0, "N", 20.0, "force missing beyond the band"),
             _p("v_band", 1e-4, 10.0, "m/s", 0.05, "speed over which it goes missing", log=True),
@@ -319,38 +319,31 @@ KINDS = (
         "a step against the motion at every reversal, spread over a band of speed: the "
         "force a friction step would add, missing (a probe of the component diagnosis, "
         "fitted after its last named element; not a candidate: friction cannot be negative)",
-        _law("low_speed_deficit"),
         domain={"v_band": _POSITIVE},
     ),
-    EffectKind(
+    _force(
         "kelvin_voigt",
         "parallel spring and dashpot (Kelvin-Voigt)",
-        "force",
         (
             _p("k", -1e9, 1e9, "N/m", 0.0, "parallel stiffness"),
             _p("c", -1e6, 1e6, "N s/m", 0.0, "parallel damping"),
         ),
         "residual in phase with displacement and/or velocity",
-        _law("kelvin_voigt"),
     ),
-    EffectKind(
+    _force(
         "gas_spring",
         "gas spring force (preload plus stiffness)",
-        "force",
         (
             _p("f_0", -1e5, 1e5, "N", 100.0, "force at zero deflection (preload)"),
             _p("k_gas", -1e7, 1e7, "N/m", 1000.0, "gas stiffness"),
         ),
         "residual constant plus proportional to displacement, no loop",
-        _law("gas_spring"),
     ),
-    EffectKind(
+    _force(
         "force_offset",
         "constant force offset",
-        "force",
         (_p("offset", -1e5, 1e5, "N", 0.0, "constant force"),),
         "constant residual independent of motion",
-        _law("force_offset"),
     ),
     EffectKind(
         "sensor_offset",
