@@ -15,7 +15,7 @@ fault of the machine, not of the design: it propagates (the run loop retries it)
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -97,9 +97,7 @@ class Problem(ABC):
                 return self.with_scales(self._failed_row(X[0]))
             return EvaluationBatch.concatenate([self.evaluate(x[None, :]) for x in X])
         self._check_shapes(batch, X.shape[0])
-        batch = _non_finite_failed(
-            batch, self.objective_names, self.constraint_names, self.informational_objectives
-        )
+        batch = self._non_finite_failed(batch)
         batch.constraint_scales = scales
         return batch
 
@@ -164,14 +162,47 @@ class Problem(ABC):
         try:
             batch = self._evaluate(x[None, :])
             self._check_shapes(batch, 1)
-            return _non_finite_failed(
-            batch, self.objective_names, self.constraint_names, self.informational_objectives
-        )
+            return self._non_finite_failed(batch)
         except MemoryError:
             raise
         except Exception as exc:  # noqa: BLE001 - a failed evaluation is a value
             msg = f"{type(exc).__name__}: {exc}"
             return EvaluationBatch.failed(1, self.n_objectives, self.n_constraints, msg)
+
+    def _non_finite_failed(self, batch: EvaluationBatch) -> EvaluationBatch:
+        """``batch`` with every ok row whose objectives (but the
+        :attr:`informational_objectives`) or constraints are not all finite turned into a
+        failed row (NaN values, a message naming what was not finite)."""
+        if np.isfinite(batch.objectives).all() and np.isfinite(batch.constraints).all():
+            return batch  # nothing to check (the common case)
+        objective_names, constraint_names = self.objective_names, self.constraint_names
+        informational = self.informational_objectives
+        checked = np.array([name not in informational for name in objective_names], dtype=bool)
+        bad = batch.ok & ~(
+            np.isfinite(batch.objectives[:, checked]).all(axis=1)
+            & np.isfinite(batch.constraints).all(axis=1)
+        )
+        if not bad.any():
+            return batch
+        messages = list(batch.messages)
+        for i in np.flatnonzero(bad):
+            f, g = batch.objectives[i], batch.constraints[i]
+            parts = [
+                f"{objective_names[j]}={f[j]}"
+                for j in np.flatnonzero(checked & ~np.isfinite(f)).tolist()
+            ]
+            parts += [
+                f"{constraint_names[j]}={g[j]}" for j in np.flatnonzero(~np.isfinite(g)).tolist()
+            ]
+            messages[i] = "non-finite result: " + ", ".join(parts)
+        ok = batch.ok & ~bad
+        return EvaluationBatch(
+            np.where(bad[:, None], np.nan, batch.objectives),
+            np.where(bad[:, None], np.nan, batch.constraints),
+            ok,
+            messages,
+            batch.extras,
+        )
 
     def _check_shapes(self, batch: EvaluationBatch, n: int) -> None:
         want = (n, self.n_objectives), (n, self.n_constraints)
@@ -187,42 +218,3 @@ class Problem(ABC):
             f"{type(self).__name__}(d={self.space.dim}, m={self.n_objectives}, "
             f"k={self.n_constraints})"
         )
-
-
-def _non_finite_failed(
-    batch: EvaluationBatch,
-    objective_names: Sequence[str],
-    constraint_names: Sequence[str],
-    informational: Sequence[str] = (),
-) -> EvaluationBatch:
-    """``batch`` with every ok row whose objectives (but the ``informational`` ones) or
-    constraints are not all finite turned into a failed row (NaN values, a message naming
-    what was not finite)."""
-    if np.isfinite(batch.objectives).all() and np.isfinite(batch.constraints).all():
-        return batch  # nothing to check (the common case)
-    checked = np.array([name not in informational for name in objective_names], dtype=bool)
-    bad = batch.ok & ~(
-        np.isfinite(batch.objectives[:, checked]).all(axis=1)
-        & np.isfinite(batch.constraints).all(axis=1)
-    )
-    if not bad.any():
-        return batch
-    messages = list(batch.messages)
-    for i in np.flatnonzero(bad):
-        f, g = batch.objectives[i], batch.constraints[i]
-        parts = [
-            f"{objective_names[j]}={f[j]}"
-            for j in np.flatnonzero(checked & ~np.isfinite(f)).tolist()
-        ]
-        parts += [
-            f"{constraint_names[j]}={g[j]}" for j in np.flatnonzero(~np.isfinite(g)).tolist()
-        ]
-        messages[i] = "non-finite result: " + ", ".join(parts)
-    ok = batch.ok & ~bad
-    return EvaluationBatch(
-        np.where(bad[:, None], np.nan, batch.objectives),
-        np.where(bad[:, None], np.nan, batch.constraints),
-        ok,
-        messages,
-        batch.extras,
-    )
