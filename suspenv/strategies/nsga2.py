@@ -60,7 +60,7 @@ from optuna.trial import FrozenTrial, TrialState
 from suspenv.core.errors import ValidationError
 from suspenv.core.options import integer, number, optional, text
 from suspenv.core.result import EvaluationBatch
-from suspenv.strategies.base import Strategy
+from suspenv.strategies.base import Strategy, flag_option
 
 CONSTRAINTS_KEY = "suspenv_constraints"
 #: user attribute of every trial the strategy creates: [run id, batch, row]
@@ -219,11 +219,7 @@ class NSGA2(Strategy):
             if study_name is None
             else text(owner, "study_name", study_name)
         )
-        if not isinstance(resume, bool):
-            raise ValidationError(
-                f"{owner}: `resume` must be true or false, but got resume={resume!r}"
-            )
-        self.resume = resume
+        self.resume = bool(flag_option(owner, "resume", resume))
         optuna.logging.set_verbosity(logging.WARNING)
         with quiet():
             self._sampler = optuna.samplers.NSGAIISampler(

@@ -45,11 +45,10 @@ from typing import Any, ClassVar
 import numpy as np
 import optuna
 
-from suspenv.core.errors import ValidationError
 from suspenv.core.options import integer, number, numbers, optional
 from suspenv.core.result import EvaluationBatch
 from suspenv.core.scalarize import weighted_sum
-from suspenv.strategies.base import Strategy, popsize_option
+from suspenv.strategies.base import Strategy, flag_option, popsize_option
 from suspenv.strategies.extras import require, told_losses
 from suspenv.strategies.nsga2 import StudyDesign, constraints_func, quiet, tell_trials
 
@@ -139,7 +138,7 @@ class OptunaTPE(OptunaSampler):
         batch = integer(owner, "batch_size", batch_size, lo=1)
         self.n_startup_trials = integer(owner, "n_startup_trials", n_startup_trials, lo=0)
         self.n_ei_candidates = integer(owner, "n_ei_candidates", n_ei_candidates, lo=1)
-        self.multivariate = _flag(owner, "multivariate", multivariate)
+        self.multivariate = flag_option(owner, "multivariate", multivariate, allow_none=True)
         with quiet():
             sampler = optuna.samplers.TPESampler(
                 n_startup_trials=self.n_startup_trials,
@@ -193,7 +192,7 @@ class OptunaCMAES(OptunaSampler):
         owner = self.name
         self.popsize = popsize_option(owner, popsize, self.dim)
         self.n_startup_trials = integer(owner, "n_startup_trials", n_startup_trials, lo=0)
-        self.lr_adapt = bool(_flag(owner, "lr_adapt", lr_adapt, allow_none=False))
+        self.lr_adapt = bool(flag_option(owner, "lr_adapt", lr_adapt))
         self.weights = optional(numbers, owner, "weights", weights, self.n_objectives)
         require(owner, "cmaes", "optuna-cmaes")
         with quiet():
@@ -305,7 +304,7 @@ class OptunaGP(OptunaSampler):
         batch = integer(owner, "batch_size", batch_size, lo=1)
         self.n_startup_trials = integer(owner, "n_startup_trials", n_startup_trials, lo=0)
         self.deterministic_objective = bool(
-            _flag(owner, "deterministic_objective", deterministic_objective, allow_none=False)
+            flag_option(owner, "deterministic_objective", deterministic_objective)
         )
         require(owner, "torch", "optuna-gp")
         with quiet():
@@ -316,13 +315,3 @@ class OptunaGP(OptunaSampler):
                 constraints_func=constraints_func(self.n_constraints),
             )
         self._setup(sampler, self.n_objectives, batch)
-
-
-def _flag(owner: str, name: str, value: Any, allow_none: bool = True) -> bool | None:
-    """A bool option (None too when ``allow_none``); 0/1 and strings are refused."""
-    if isinstance(value, bool | np.bool_) or (allow_none and value is None):
-        return None if value is None else bool(value)
-    kinds = "True, False or None" if allow_none else "True or False"
-    raise ValidationError(
-        f"{owner}: `{name}` must be {kinds}, but got {name}={value!r} ({type(value).__name__})"
-    )
