@@ -36,9 +36,6 @@ from suspenv.core.errors import ValidationError
 from suspenv.core.options import check_keywords, choice, number, numbers, positive, text
 from suspenv.core.tomlfile import parse_toml, read_toml
 
-#: kinds of linkage understood by the planar solvers
-KINDS = ("double_wishbone", "mcpherson")
-
 _MM = 1e-3
 
 
@@ -250,10 +247,8 @@ class McPherson(PlanarGeometry):
     strut_lower: np.ndarray = None  # type: ignore[assignment]
 
 
-GEOMETRY_CLASSES: dict[str, type[PlanarGeometry]] = {
-    "double_wishbone": DoubleWishbone,
-    "mcpherson": McPherson,
-}
+#: the kinds of linkage the planar solvers understand, by their key
+GEOMETRY_CLASSES: dict[str, type[PlanarGeometry]] = {c.kind: c for c in (DoubleWishbone, McPherson)}
 
 
 # ---------------------------------------------------------------- file format
@@ -293,7 +288,7 @@ def geometry_from_dict(data: Mapping[str, Any], source: str = "planar geometry")
     if not isinstance(data, Mapping):
         raise ValidationError(f"{owner}: a geometry must be a table, but got {data!r}")
     check_keywords(owner, data, FILE_KEYS, what="key")
-    kind = choice(owner, "kind", data.get("kind"), KINDS)
+    kind = choice(owner, "kind", data.get("kind"), tuple(GEOMETRY_CLASSES))
     cls = GEOMETRY_CLASSES[kind]
     points = _table(owner, data, "points", ())
     unknown = [p for p in points if p not in cls.point_names]
