@@ -319,7 +319,7 @@ def _in_processes(processes: int, repeat: int, singles: int) -> dict[tuple[str, 
     cmd += ["--repeat", str(repeat)]
     samples = []
     for k in range(processes):
-        done = subprocess.run(cmd, cwd=ROOT, check=True, capture_output=True, text=True)
+        done = subprocess.run(cmd, cwd=ROOT, check=True, stdout=subprocess.PIPE, text=True)
         samples.append(json.loads(done.stdout))
         one = samples[-1]["optimised"]
         print(f"process {k + 1}/{processes}: optimised "
