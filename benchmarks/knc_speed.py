@@ -61,12 +61,13 @@ the four paths interleaved (a slow spell of the machine hits every path once), w
 wall time beside it (which a loaded machine inflates). Batch 1 and 42 are measured in
 :data:`PROCESSES` fresh processes, one after the other, and the median over them is
 reported, every process's figure beside it (summary ``per_process``: CPU ms, their
-max/min, the speed-up over the baseline measured in the same process): the machine's
-speed changes in spells of a fraction of a second to many seconds (measured: the same
-factor, up to about 1.7, on the compiled sweep, the Python around it and an unrelated
-Python loop of the same process at the same moment, whatever the ``PYTHONHASHSEED``, the
-address-space layout or the CPU the process runs on), and one process's tens of
-milliseconds of one-design timing fall within one spell. Batch 1000, the rise and the
+max/min, the speed-up over the baseline measured in the same process): the speed of
+each CPU of the machine changes in spells of a fraction of a second to many seconds
+(measured: the same factor, up to about 1.7, on the compiled sweep, the Python around it
+and an unrelated Python loop of the same process at the same moment, while a loop on the
+other CPU kept its speed; either CPU, whatever the ``PYTHONHASHSEED`` or address-space
+layout), and one process's tens of milliseconds of one-design timing fall within one
+spell. Batch 1000, the rise and the
 memory are measured in the main process. The compiled loops are compiled (or loaded from
 numba's cache) by each process's warm-up call, before any timing.
 
