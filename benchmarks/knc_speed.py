@@ -54,15 +54,27 @@ Four paths of the same evaluation, measured in the same run on the same candidat
   both use the same residual (the compiled one), outputs and fit arithmetic.
 
 Time: process CPU time (BLAS is limited to one thread by suspenv, so it is one core's
-time), best of the repeats (3 at batch 42, 2 at batch 1000: a best of several against a
-single run would read load noise as a rise with the batch size; at batch 1 each of
-``--singles`` candidates the best of 3 interleaved passes, then their median), with the
-wall time beside it (which a loaded machine inflates). Memory: the tracemalloc peak of one
-evaluation (a separate, untimed call) divided by the batch size (the compiled loops' own
-scratch arrays, under 5 kB at any time and freed within each call, are made by numba's
-allocator, which tracemalloc does not see; every array they read or write is made by
-numpy and counted). The compiled loops
-are compiled (or loaded from numba's cache) by the warm-up call, before any timing.
+time), best of the repeats (3 at batch 1 and 42, 2 at batch 1000: a best of several
+against a single run would read load noise as a rise with the batch size; at batch 1
+each of ``--singles`` candidates the best of 3 passes, then their median), the passes of
+the four paths interleaved (a slow spell of the machine hits every path once), with the
+wall time beside it (which a loaded machine inflates). Batch 1 and 42 are measured in
+:data:`PROCESSES` fresh processes, one after the other, and the median over them is
+reported, every process's figure beside it (summary ``per_process``: CPU ms, their
+max/min, the speed-up over the baseline measured in the same process): the speed of
+each CPU of the machine changes in spells of a fraction of a second to many seconds
+(measured: the same factor, up to about 1.7, on the compiled sweep, the Python around it
+and an unrelated Python loop of the same process at the same moment, while a loop on the
+other CPU kept its speed; either CPU, whatever the ``PYTHONHASHSEED`` or address-space
+layout), and one process's tens of milliseconds of one-design timing fall within one
+spell. Batch 1000, the rise and the
+memory are measured in the main process. The compiled loops are compiled (or loaded from
+numba's cache) by each process's warm-up call, before any timing.
+
+Memory: the tracemalloc peak of one evaluation (a separate, untimed call) divided by the
+batch size (the compiled loops' own scratch arrays, under 5 kB at any time and freed
+within each call, are made by numba's allocator, which tracemalloc does not see; every
+array they read or write is made by numpy and counted).
 Targets: <= 2 ms per candidate at batch 42, <= 10 ms at batch 1, <= 0.1 MB per
 candidate at every batch size, no rise of the per-candidate time up to batch 1000 (on
 the same candidates: the 1000 candidates evaluated in batches of 42 against one call of
@@ -85,12 +97,15 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import json
 import os
 import statistics
+import subprocess
 import sys
 import time
 import tracemalloc
 from collections.abc import Iterator
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -113,6 +128,11 @@ COMPILED_BATCH_MS = 0.3
 TARGET_MB = 0.1
 PAPER_S = 20.0
 BATCHES = (1, 42, 1000)
+#: the batch sizes measured in :data:`PROCESSES` fresh processes, the median over them
+#: reported (module docstring: one process's timing falls within one spell of the machine)
+PROCESS_BATCHES = (1, 42)
+PROCESSES = 5
+ROOT = Path(__file__).resolve().parents[1]
 #: batch sizes of the memory sweep (the optimised path; memory only, no timing): the
 #: target holds at every batch size, and one at 1, 42 and 1000 would hide the sizes up to
 #: an internal chunk, where a chunk is the whole batch
@@ -230,44 +250,47 @@ def _one_at_a_time_memory(problem: Any, X: np.ndarray) -> dict:
     }
 
 
-def _measure(problem: Any, X: np.ndarray, batch: int, repeat: int, singles: int) -> dict:
-    """CPU/wall ms per candidate and peak MB per candidate of ``problem.evaluate``."""
-    if batch == 1:
-        # every candidate the best of ``repeat`` passes (the passes interleaved, so that a
-        # slow spell of the machine hits every candidate once), then the median over them
-        cpu = [np.inf] * singles
-        wall = [np.inf] * singles
-        for _ in range(repeat):
-            for i in range(singles):
-                c, w = _cpu_wall(lambda i=i: problem.evaluate(X[i : i + 1]))
-                cpu[i], wall[i] = min(cpu[i], c), min(wall[i], w)
-        cpu_ms, wall_ms = 1e3 * statistics.median(cpu), 1e3 * statistics.median(wall)
-        valid = int(problem.evaluate(X[:1]).ok.sum())
-    else:
-        Xb = X[:batch]
-        best = [_cpu_wall(lambda: problem.evaluate(Xb)) for _ in range(repeat)]
-        cpu_ms = 1e3 * min(c for c, _ in best) / batch
-        wall_ms = 1e3 * min(w for _, w in best) / batch
-        valid = int(problem.evaluate(Xb).ok.sum())
-    peak = _peak_mb(lambda: problem.evaluate(X[:batch]))
-    return {
-        "cpu_ms_per_candidate": cpu_ms,
-        "wall_ms_per_candidate": wall_ms,
-        "peak_mb_per_candidate": peak / batch,
-        "peak_mb": peak,
-        "valid_candidates": valid,
-    }
+def _times(
+    paths: tuple[tuple[str, Any], ...], X: np.ndarray, batch: int, repeat: int, singles: int
+) -> dict[str, tuple[float, float]]:
+    """(CPU, wall) ms per candidate of each path's ``problem.evaluate`` at ``batch``: the
+    best of ``repeat`` passes, the passes of all paths interleaved (a slow spell of the
+    machine then hits every path once). At batch 1 each of the first ``singles``
+    candidates is timed alone and the median over them is taken."""
+    blocks = [X[i : i + 1] for i in range(singles)] if batch == 1 else [X[:batch]]
+    best = {name: np.full((len(blocks), 2), np.inf) for name, _ in paths}
+    for _ in range(repeat):
+        for name, problem in paths:
+            with _path(name):
+                for k, Xb in enumerate(blocks):
+                    t = _cpu_wall(lambda Xb=Xb, p=problem: p.evaluate(Xb))
+                    best[name][k] = np.minimum(best[name][k], t)
+    return {n: (1e3 * np.median(b[:, 0]) / batch, 1e3 * np.median(b[:, 1]) / batch)
+            for n, b in best.items()}  # fmt: skip
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="fewer repeats (smoke run)")
-    parser.add_argument("--singles", type=int, default=None, help="candidates at batch 1")
-    parser.add_argument("--output-dir", default=None, help="default docs/benchmarks")
-    args = parser.parse_args(argv)
-    repeat = 1 if args.quick else 3
-    singles = args.singles or (3 if args.quick else 8)
+def _measure(
+    paths: tuple[tuple[str, Any], ...], X: np.ndarray, batch: int, repeat: int, singles: int
+) -> dict[str, dict]:
+    """CPU/wall ms per candidate (:func:`_times`) and peak MB per candidate of each path."""
+    times = _times(paths, X, batch, repeat, singles)
+    out = {}
+    for name, problem in paths:
+        with _path(name):
+            peak = _peak_mb(lambda p=problem: p.evaluate(X[:batch]))
+            valid = int(problem.evaluate(X[:batch]).ok.sum())
+        out[name] = {
+            "cpu_ms_per_candidate": times[name][0],
+            "wall_ms_per_candidate": times[name][1],
+            "peak_mb_per_candidate": peak / batch,
+            "peak_mb": peak,
+            "valid_candidates": valid,
+        }
+    return out
 
+
+def _problems() -> tuple[tuple[tuple[str, Any], ...], np.ndarray]:
+    """The measured paths with their problems (warmed up) and the candidates."""
     fast = make_problem("KCIdentification")
     base = make_problem("KCIdentification")
     base.eval_chunk = None  # the reference path: the whole batch at once ...
@@ -276,29 +299,51 @@ def main(argv: list[str] | None = None) -> int:
     rng = np.random.default_rng(0)
     X = fast.space.to_physical(rng.random((max(BATCHES), fast.space.dim)))
     fast.evaluate(X[:2])  # warm-up (imports, caches)
+    return _paths(base, fast), X
 
-    rows: list[dict[str, Any]] = []
-    res: dict[tuple[str, int], dict] = {}
-    for batch in BATCHES:
-        for path, problem in _paths(base, fast):
-            with _path(path):
-                reps = min(repeat, 2) if batch >= 1000 else repeat
-                m = _measure(problem, X, batch, reps, singles)
-            res[path, batch] = m
-            rows.append({"path": path, "batch": batch, **m})
-            print(f"{path:14s} batch {batch:4d}: {m}", file=sys.stderr)
-    for row in rows:
-        b = res["baseline", row["batch"]]
-        row["cpu_ratio_to_baseline"] = row["cpu_ms_per_candidate"] / b["cpu_ms_per_candidate"]
-        row["memory_ratio_to_baseline"] = row["peak_mb_per_candidate"] / b["peak_mb_per_candidate"]
 
-    def ms(path: str, batch: int) -> float:
-        return float(res[path, batch]["cpu_ms_per_candidate"])
+def _sample(repeat: int, singles: int) -> dict[str, dict[str, dict]]:
+    """This process's measures of every path at :data:`PROCESS_BATCHES` (path -> batch)."""
+    paths, X = _problems()
+    out: dict[str, dict[str, dict]] = {name: {} for name, _ in paths}
+    for batch in PROCESS_BATCHES:
+        for name, m in _measure(paths, X, batch, repeat, singles).items():
+            out[name][str(batch)] = m
+    return out
 
-    fast42, fast1, fast1000 = ms("optimised", 42), ms("optimised", 1), ms("optimised", 1000)
-    # no rise, on the same candidates: all of them in batches of 42 against one call
+
+def _in_processes(processes: int, repeat: int, singles: int) -> dict[tuple[str, int], dict]:
+    """The measures at :data:`PROCESS_BATCHES` in ``processes`` fresh processes, one after
+    the other: each time the median over the processes, with every process's own
+    (``cpu_ms_per_process``, ``wall_ms_per_process``)."""
+    cmd = [sys.executable, "-m", "benchmarks.knc_speed", "--sample", "--singles", str(singles)]
+    cmd += ["--repeat", str(repeat)]
+    samples = []
+    for k in range(processes):
+        done = subprocess.run(cmd, cwd=ROOT, check=True, stdout=subprocess.PIPE, text=True)
+        samples.append(json.loads(done.stdout))
+        one = samples[-1]["optimised"]
+        print(f"process {k + 1}/{processes}: optimised "
+              + ", ".join(f"batch {b}: {one[b]['cpu_ms_per_candidate']:.3f} ms" for b in one),
+              file=sys.stderr)  # fmt: skip
+    res = {}
+    for name, by_batch in samples[0].items():
+        for b, m in by_batch.items():
+            cpu = [s[name][b]["cpu_ms_per_candidate"] for s in samples]
+            wall = [s[name][b]["wall_ms_per_candidate"] for s in samples]
+            res[name, int(b)] = m | {
+                "cpu_ms_per_candidate": statistics.median(cpu),
+                "wall_ms_per_candidate": statistics.median(wall),
+                "cpu_ms_per_process": cpu,
+                "wall_ms_per_process": wall,
+            }
+    return res
+
+
+def _rise(fast: Any, X: np.ndarray) -> tuple[float, float]:
+    """CPU s of the first 1000 candidates of ``X`` in batches of 42 and in one call, best
+    of :data:`RISE_PASSES` interleaved passes each (a slow spell then hits both ways)."""
     N = max(BATCHES)
-    # the passes of both ways interleaved (a slow spell of the machine then hits both)
     in_42 = in_all = np.inf
     for _ in range(RISE_PASSES):
         in_42 = min(
@@ -306,6 +351,73 @@ def main(argv: list[str] | None = None) -> int:
             sum(_cpu_wall(lambda a=a: fast.evaluate(X[a : a + 42]))[0] for a in range(0, N, 42)),
         )
         in_all = min(in_all, _cpu_wall(lambda: fast.evaluate(X[:N]))[0])
+    return in_42, in_all
+
+
+def _spread(res: dict[tuple[str, int], dict]) -> dict[str, Any]:
+    """The optimised path over the processes at each batch of :data:`PROCESS_BATCHES`: its
+    CPU ms and speed-up over the baseline (the baseline measured in the same process), each
+    process's figure and the median, and max/min of the CPU ms."""
+    out = {}
+    for b in PROCESS_BATCHES:
+        cpu = res["optimised", b]["cpu_ms_per_process"]
+        base = res["baseline", b]["cpu_ms_per_process"]
+        ratio = [x / y for x, y in zip(base, cpu, strict=True)]
+        out[str(b)] = {
+            "cpu_ms_per_process": cpu,
+            "median_cpu_ms": statistics.median(cpu),
+            "max_over_min": max(cpu) / min(cpu),
+            "speedup_vs_baseline_per_process": ratio,
+            "median_speedup_vs_baseline": statistics.median(ratio),
+        }
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="fewer repeats (smoke run)")
+    parser.add_argument("--singles", type=int, default=None, help="candidates at batch 1")
+    parser.add_argument("--processes", type=int, default=None, help="default PROCESSES")
+    parser.add_argument("--output-dir", default=None, help="default docs/benchmarks")
+    # one process's measures at PROCESS_BATCHES as JSON on stdout (run by the main process)
+    parser.add_argument("--sample", action="store_true", help=argparse.SUPPRESS)
+    parser.add_argument("--repeat", type=int, default=None, help=argparse.SUPPRESS)
+    args = parser.parse_args(argv)
+    repeat = args.repeat or (1 if args.quick else 3)
+    singles = args.singles or (3 if args.quick else 8)
+    if args.sample:
+        print(json.dumps(_sample(repeat, singles)))
+        return 0
+    processes = args.processes or (2 if args.quick else PROCESSES)
+    res = _in_processes(processes, repeat, singles)
+    paths, X = _problems()
+    fast = dict(paths)["optimised"]
+    for batch in (b for b in BATCHES if b not in PROCESS_BATCHES):
+        for name, m in _measure(paths, X, batch, min(repeat, 2), singles).items():
+            res[name, batch] = m | {"processes": 1}
+            print(f"{name:14s} batch {batch:4d}: {m}", file=sys.stderr)
+    rows = [{"path": name, "batch": b, **res[name, b]} for b in BATCHES for name, _ in paths]
+    for row in rows:
+        b = res["baseline", row["batch"]]
+        row["cpu_ratio_to_baseline"] = row["cpu_ms_per_candidate"] / b["cpu_ms_per_candidate"]
+        row["memory_ratio_to_baseline"] = row["peak_mb_per_candidate"] / b["peak_mb_per_candidate"]
+    in_42, in_all = _rise(fast, X)
+    summary = _summary(res, fast, X, in_42, in_all) | {"processes": processes}
+    cmd = "python -m benchmarks.knc_speed" + (" --quick" if args.quick else "")
+    write_result("knc_speed", rows, summary, cmd, args.output_dir)
+    return 0
+
+
+def _summary(
+    res: dict[tuple[str, int], dict], fast: Any, X: np.ndarray, in_42: float, in_all: float
+) -> dict[str, Any]:
+    """The summary of the measures ``res`` (path, batch), the memory sweep and the rise."""
+
+    def ms(path: str, batch: int) -> float:
+        return float(res[path, batch]["cpu_ms_per_candidate"])
+
+    fast42, fast1, fast1000 = ms("optimised", 42), ms("optimised", 1), ms("optimised", 1000)
+    N = max(BATCHES)
     rise = in_all / in_42
     # the memory sweep: the optimised path's peak per candidate at every batch size
     sweep_mb = {
@@ -321,7 +433,7 @@ def main(argv: list[str] | None = None) -> int:
     # one at a time, candidate by candidate: the target holds for every candidate
     alone = _one_at_a_time_memory(fast, X[:MEMORY_SINGLES])
     print(f"memory one at a time: {alone}", file=sys.stderr)
-    summary = {
+    return {
         "batch": 42,
         "valid_candidates": res["optimised", 42]["valid_candidates"],
         "ms_per_candidate_batched": fast42,
@@ -329,6 +441,7 @@ def main(argv: list[str] | None = None) -> int:
         "ms_per_candidate_batch_1000": fast1000,
         "wall_ms_per_candidate_batched": res["optimised", 42]["wall_ms_per_candidate"],
         "batching_gain": fast1 / fast42,
+        "per_process": _spread(res),
         "baseline_ms_per_candidate": {str(b): ms("baseline", b) for b in BATCHES},
         "python_sweep_ms_per_candidate": {str(b): ms("python_sweep", b) for b in BATCHES},
         "speedup_vs_python_sweep": {
@@ -378,9 +491,6 @@ def main(argv: list[str] | None = None) -> int:
         "tests": 3,
         "load_average_1min": os.getloadavg()[0],
     }
-    cmd = "python -m benchmarks.knc_speed" + (" --quick" if args.quick else "")
-    write_result("knc_speed", rows, summary, cmd, args.output_dir)
-    return 0
 
 
 if __name__ == "__main__":  # pragma: no cover
