@@ -113,12 +113,7 @@ def measure_car(
     (SI) from one stream seeded by ``noise_seed`` (tests, channels sorted). A test the car
     fails is refused."""
     results = run_tests(
-        car.axle(),
-        tuple(tests),
-        amplitude=amplitude,
-        steps=steps,
-        effects=car.effects,
-        force_amplitude=force_amplitude,
+        car.axle(), tuple(tests), amplitude, steps, car.effects, force_amplitude=force_amplitude
     )
     rng = np.random.default_rng(noise_seed)
     for test in sorted(results):
@@ -166,15 +161,9 @@ def measure_truth(
         alignment_tol_deg=tol["alignment_tol_deg"],
         effects=[e for e in concealed if e.spec.role == "force"],
     )
+    sensors = [e for e in concealed if e.spec.role == "sensor"]
     results = measure_car(
-        car,
-        tests,
-        20_000 + seed,
-        amplitude,
-        steps,
-        force_amplitude,
-        sensors=[e for e in concealed if e.spec.role == "sensor"],
-        noise_scale=noise_scale,
+        car, tests, 20_000 + seed, amplitude, steps, force_amplitude, sensors, noise_scale
     )
     info = {"source": "suspenv truth vehicle (concealed effects)", "seed": int(seed)}
     return to_recordings(results, meta=info)
