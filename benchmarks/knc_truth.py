@@ -21,8 +21,9 @@ from typing import Any
 import numpy as np
 
 from suspenv.core.errors import ValidationError
-from suspenv.diagnosis.fitting import fit, stacked_residual
+from suspenv.diagnosis.fitting import stacked_residual
 from suspenv.diagnosis.knc.detectability import DETECTABLE_SNR, FITTED_TESTS
+from suspenv.diagnosis.knc.family import fit_axle
 from suspenv.measurements import Recording
 from suspenv.measurements.knc import CHANNELS, SIDES, half_loops, rig_test
 from suspenv.rigs.knc import FORCE_AMPLITUDE
@@ -190,14 +191,15 @@ def truth_snr(
     """Signal-to-noise of the concealed ``effects`` of a truth vehicle in ``tests``.
 
     Returns ``{"snr", "lambda", "lambda_by_channel", "detectable"}``; ``lambda`` of
-    the plain model's residual on the noise-free loops (see the module docstring).
+    the plain model's residual on the noise-free loops, fitted by the diagnosis' own
+    K&C fit (:func:`suspenv.diagnosis.knc.family.fit_axle`; see the module docstring).
     """
     sigma = noise_levels(noise_scale)
     if not effects:
         return {"snr": 0.0, "lambda": 0.0, "lambda_by_channel": {}, "detectable": False}
     recs = measure_truth(effects, seed, amplitude, steps, noise_scale=0.0, tests=tuple(tests))
     fr = [recs[t] for t in tests]
-    res = fit(KncAxleModel(tests=tuple(tests)), fr, scales=sigma, max_nfev=60, tol=1e-10)
+    res = fit_axle(KncAxleModel(tests=tuple(tests)), fr, sigma, max_nfev=60, tol=1e-10)
     r = stacked_residual(res.model, res.theta, fr, list(sigma), sigma)
     n = sum(rec.n_samples for rec in fr)
     per: dict[str, float] = {}

@@ -12,9 +12,10 @@ from suspenv.metrics.knc import OBJECTIVE_NAMES, OBJECTIVES, loop_width, quadrat
 from suspenv.models.mcpherson import build_axle, design_space, reference_design
 from suspenv.models.mcpherson.params import PAPER_IDENTIFIED_POINTS, PAPER_RANGES
 from suspenv.models.mcpherson.truth import truth_vehicle
-from suspenv.problems.kc_identification import KCIdentification, measure
+from suspenv.problems.kc_identification import KCIdentification
 from suspenv.registry import make_problem
-from suspenv.rigs.knc import loop_path, run_tests, stroke_grid
+from suspenv.rigs.knc import TESTS, loop_path, run_tests, stroke_grid
+from suspenv.rigs.knc_truth import measure_tests
 
 
 @pytest.fixture(scope="module")
@@ -95,7 +96,7 @@ def test_test_vehicle_is_reproducible_and_shows_hysteresis():
     a, b, c = truth_vehicle(1), truth_vehicle(1), truth_vehicle(2)
     assert np.array_equal(a.right, b.right) and not np.array_equal(a.right, c.right)
     assert not np.array_equal(a.left, a.right)  # left/right tolerance
-    res = measure(truth_vehicle(1, noise=False), steps=10)
+    res = measure_tests(truth_vehicle(1, noise=False), TESTS, steps=10)
     width = loop_width(res)  # N, loading vs unloading branch of the tyre force
     assert (width > 5.0).all()
     plain = run_tests(build_axle(reference_design()[None, :]), ("parallel",), steps=10)

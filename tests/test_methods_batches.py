@@ -8,7 +8,7 @@ from scipy.stats import qmc
 from synthetic_problem import SyntheticIdentification
 
 from suspenv.core.errors import ValidationError
-from suspenv.methods.identification import evaluate_in_batches
+from suspenv.methods.tey2014.identification import evaluate_in_batches
 from suspenv.problems.toy import Sphere
 
 

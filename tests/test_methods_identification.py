@@ -8,7 +8,7 @@ from scipy.stats import qmc
 from synthetic_problem import SyntheticIdentification
 
 from suspenv.core import DesignSpace, Parameter
-from suspenv.methods.identification import (
+from suspenv.methods.tey2014.identification import (
     FixedRankSum,
     evaluate_in_batches,
     identify,

@@ -7,7 +7,7 @@ import json
 import numpy as np
 from synthetic_problem import SyntheticIdentification
 
-from suspenv.methods.identification import FixedRankSum
+from suspenv.methods.tey2014.identification import FixedRankSum
 from suspenv.methods.tey2014.strategy_comparison import compare_strategies
 from suspenv.problems.views import ObjectiveSubset
 from suspenv.runs.archive import RunArchive

@@ -3,6 +3,5 @@
 :mod:`suspenv.methods.tey2014` reproduces the parameter-identification method of Tey et
 al. (2014) step by step. Curve identification fits the axle to whole K&C curves
 (:mod:`~suspenv.methods.identify`, :mod:`~suspenv.methods.curve_fit`,
-:mod:`~suspenv.methods.identifiability`); :mod:`~suspenv.methods.identification` holds
-the rank-sum identification steps both use.
+:mod:`~suspenv.methods.identifiability`).
 """

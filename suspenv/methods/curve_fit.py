@@ -49,6 +49,7 @@ from suspenv.rigs.knc_fit import (
     effect_scale,
     fit_space,
     polish,
+    same_rows,
     say,
 )
 
@@ -427,7 +428,7 @@ class CurveModel(UnitFit):
         ok = np.ones(X.shape[0], bool)
         msgs = [""] * X.shape[0]
         order: list[int] = []
-        for rows in _same_rows(X[:, self.sides :]):
+        for rows in same_rows(X[:, self.sides :]):
             held = self.effects_at(X[rows[0]]) if effects is None else effects
             for a in range(0, len(rows), chunk or len(rows)):
                 part = rows[a : a + (chunk or len(rows))]
@@ -528,14 +529,6 @@ def _concat(parts: list[KCResult], order: np.ndarray) -> KCResult:
         [msgs[i] for i in order],
         static_points=stack("static_points") if all(p.static_points for p in parts) else {},
     )
-
-
-def _same_rows(V: np.ndarray) -> list[list[int]]:
-    """Row indices of ``V`` (n, k) grouped by equal rows, in order of first appearance."""
-    groups: dict[bytes, list[int]] = {}
-    for i, row in enumerate(np.ascontiguousarray(V)):
-        groups.setdefault(row.tobytes(), []).append(i)
-    return list(groups.values())
 
 
 #: owner of a fitted value that is a vehicle constant (``constants.<name>``)

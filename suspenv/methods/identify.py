@@ -21,7 +21,7 @@ The job (:func:`run_identify`):
 (:mod:`suspenv.methods.tey2014.pipeline`).
 
 The built-in test car (:func:`measure_test_car`): the reference vehicle plus concealed
-effects (:func:`suspenv.models.mcpherson.truth.truth_vehicle`), measured through the
+effects (:func:`suspenv.rigs.knc_truth.concealed_car`), measured through the
 same :class:`~suspenv.measurements.knc_file.KncMeasurement` path as a file.
 """
 
@@ -55,12 +55,11 @@ from suspenv.methods.identifiability import CandidateGain, Identifiability, asse
 from suspenv.methods.knc_sheet import SHEET_TESTS, SheetRow, knc_sheet, sheet_values
 from suspenv.methods.model_loop import Refinement, refine
 from suspenv.models.mcpherson.params import AxleConstants, paper_initial_values
-from suspenv.models.mcpherson.truth import CHANNEL_NOISE, TruthVehicle, truth_vehicle
+from suspenv.models.mcpherson.truth import CHANNEL_NOISE, TruthVehicle
 from suspenv.models.mcpherson.vehicle_file import REFERENCE_FILE, VehicleFile, load_vehicle
 from suspenv.rigs.knc_fit import PRIOR_WEIGHT, StageResult, polish, say
+from suspenv.rigs.knc_truth import CONCEALED, car_measurement, concealed_car, measure_tests
 
-#: effects the built-in test car can conceal
-CONCEALED = ("hysteresis", "tolerance", "noise")
 METHODS = ("curves", "tey2014")
 SIDES_OPTIONS = ("symmetric", "both")
 #: a curve is fitted when its RMS residual is within this many noise RMS
@@ -146,43 +145,6 @@ def check_options(options: Mapping[str, Any]) -> dict[str, Any]:
 
 
 # ------------------------------------------------------------------ the test car
-def measure_truth(
-    truth: TruthVehicle,
-    tests: Sequence[str],
-    amplitude: float = 0.040,
-    steps: int = 30,
-) -> dict[str, Any]:
-    """Rig results {test: KCResult} of the truth vehicle with its sensor noise.
-
-    The travel tests are :func:`suspenv.problems.kc_identification.measure` (the data
-    of ``KCIdentification``); every other test is run at the rig's default amplitude
-    and gets the same noise model from its own seeded stream."""
-    from suspenv.measurements.knc import RIG_TESTS, TESTS
-    from suspenv.problems.kc_identification import measure
-    from suspenv.rigs.knc import run_tests
-
-    bad = [t for t in tests if t not in RIG_TESTS]
-    if bad:
-        raise ValidationError(f"unknown K&C test(s) {bad}; known tests are {RIG_TESTS}")
-    out: dict[str, Any] = {}
-    if any(t in TESTS for t in tests):
-        travel = measure(truth, amplitude, steps)
-        out.update({t: travel[t] for t in tests if t in TESTS})
-    for t in tests:
-        if t in TESTS:
-            continue
-        res = run_tests(truth.axle(), (t,), amplitude, steps, truth.effects)[t]
-        if not res.ok.all():
-            raise ValidationError(f"the truth vehicle fails the {t} test: {res.messages[0]}")
-        rng = np.random.default_rng(20_000 + 100 * truth.seed + RIG_TESTS.index(t))
-        for name in sorted(truth.noise):
-            res.channels[name] = res.channels[name] + rng.normal(
-                0.0, truth.noise[name], res.channels[name].shape
-            )
-        out[t] = res
-    return out
-
-
 def measure_test_car(
     seed: int = 0,
     concealed: Sequence[str] = CONCEALED,
@@ -192,33 +154,14 @@ def measure_test_car(
     constants: AxleConstants | None = None,
 ) -> tuple[Any, TruthVehicle]:
     """The built-in test car measured through the measured-K&C path: (KncMeasurement,
-    truth). Its noise is declared (the rig's :data:`~suspenv.models.mcpherson.truth.
-    CHANNEL_NOISE`, also when ``"noise"`` is not concealed: the fit's weights);
-    ``constants``: the car's (default: the reference car's)."""
-    from suspenv.measurements.knc_file import from_results
-
-    bad = sorted(set(concealed) - set(CONCEALED))
-    if bad:
-        raise ValidationError(f"concealed effects must be among {CONCEALED}, but got {bad}")
-    truth = truth_vehicle(
-        seed,
-        hysteresis="hysteresis" in concealed,
-        tolerance="tolerance" in concealed,
-        noise="noise" in concealed,
-    )
+    truth) (:func:`suspenv.rigs.knc_truth.measure_tests`,
+    :func:`~suspenv.rigs.knc_truth.car_measurement`); ``constants``: the car's
+    (default: the reference car's)."""
+    truth = concealed_car(seed, concealed)
     if constants is not None:
         truth = dataclasses.replace(truth, constants=constants)
-    results = measure_truth(truth, tests, amplitude, steps)
-    conc = "+".join(sorted(concealed)) or "none"
-    m = from_results(
-        results,
-        f"test car (seed {seed}, concealed: {conc})",
-        noise=dict(CHANNEL_NOISE),
-        source="suspenv built-in test car (reference vehicle + concealed effects)",
-    )
-    m.meta["concealed"] = sorted(concealed)
-    m.meta["truth_seed"] = seed
-    return m, truth
+    results = measure_tests(truth, tests, amplitude, steps)
+    return car_measurement(results, seed, concealed), truth
 
 
 def paper_initial(space: DesignSpace) -> np.ndarray:
@@ -736,7 +679,7 @@ def _next_test(
         return
     say(progress, f"re-run with the {best.test} test added (test car, noisy)")
     t0 = time.perf_counter()
-    more = measure_truth(truth, [best.test], _travel_amplitude(model), model.tests[0].steps)
+    more = measure_tests(truth, [best.test], _travel_amplitude(model), model.tests[0].steps)
     from suspenv.measurements.knc_file import from_results
 
     added = from_results(more, "added", noise=dict(result.measurement.noise))
@@ -844,7 +787,7 @@ def split_held_out(measurement: Any, test: str, truth: TruthVehicle | None) -> t
         )
     steps = next(iter(measurement.meta.get("steps", {}).values()), 30)
     amplitude = next(iter(measurement.meta.get("amplitude", {}).values()), 0.040)
-    more = measure_truth(truth, [test], float(amplitude), int(steps))
+    more = measure_tests(truth, [test], float(amplitude), int(steps))
     held = from_results(more, f"held out: {test}", noise=dict(measurement.noise))
     return measurement, held, "the test car measured with the same noise model, not fitted"
 

@@ -46,7 +46,7 @@ import numpy as np
 from suspenv.methods.curve_fit import CurveFit, CurveModel
 from suspenv.models.effects import Effect
 from suspenv.rigs.knc_axle import effect_parameters
-from suspenv.rigs.knc_fit import PRIOR_WEIGHT, polish
+from suspenv.rigs.knc_fit import FAILED_RESIDUAL, PRIOR_WEIGHT, polish
 
 #: residual families the loop models by adding an effect to the axle (the others: see
 #: :data:`SIDES_FAMILY` and the sensor families, which are reported only)
@@ -179,7 +179,7 @@ def _residual(model: CurveModel, value: float) -> np.ndarray:
     X[:, model.free_index] = value
     R, ok, msg = model.residuals_x(X)
     if not ok[0]:
-        return np.full(model.size, 1e4)
+        return np.full(model.size, FAILED_RESIDUAL)
     return R[0]
 
 

@@ -66,10 +66,11 @@ from suspenv.models.mcpherson.params import (
     paper_initial_values,
 )
 from suspenv.models.mcpherson.solver import AxleSolver
-from suspenv.models.mcpherson.truth import CHANNEL_NOISE, TruthVehicle, truth_vehicle
+from suspenv.models.mcpherson.truth import TruthVehicle
 from suspenv.registry import report_function
 from suspenv.rigs import knc
 from suspenv.rigs.knc import TESTS, KCResult, run_tests
+from suspenv.rigs.knc_truth import CONCEALED, car_measurement, concealed_car, measure_tests
 
 #: channels shown by ``curves``: label with unit -> (rig channel, scale to that unit)
 CURVE_CHANNELS = {
@@ -80,23 +81,8 @@ CURVE_CHANNELS = {
     "wheel centre lateral [mm]": ("wheel_centre_y", 1e3),
 }
 
-CONCEALED = ("hysteresis", "tolerance", "noise")
 #: the objectives as the compiled kernel reads them (:func:`.knc_kernel.objective_table`)
 _TABLE = knc_kernel.objective_table(OBJECTIVES, TESTS)
-
-
-def measure(truth: TruthVehicle, amplitude: float = 0.040, steps: int = 30) -> dict[str, KCResult]:
-    """Run the three rig tests on the truth vehicle and add its sensor noise (seeded)."""
-    results = run_tests(truth.axle(), amplitude=amplitude, steps=steps, effects=truth.effects)
-    rng = np.random.default_rng(10_000 + truth.seed)
-    for test in sorted(results):
-        res = results[test]
-        if not res.ok.all():
-            raise ValidationError(f"the truth vehicle fails the {test} test: {res.messages[0]}")
-        for name in sorted(truth.noise):
-            ch = res.channels[name]
-            res.channels[name] = ch + rng.normal(0.0, truth.noise[name], ch.shape)
-    return results
 
 
 def objective_noise(results: Mapping[str, KCResult], noise: Mapping[str, float]) -> np.ndarray:
@@ -105,8 +91,9 @@ def objective_noise(results: Mapping[str, KCResult], noise: Mapping[str, float])
 
     The rig's noise: every recorded sample of channel ``c`` (each wheel, each step of
     the loop) carries independent Gaussian noise of standard deviation ``noise[c]`` [SI,
-    the channel's unit], as the test car's sensors (:func:`measure`) and a measured
-    folder's ``[noise]`` (or its estimate) declare. Propagated to first order through
+    the channel's unit], as the test car's sensors
+    (:func:`~suspenv.rigs.knc_truth.measure_car`) and a measured folder's ``[noise]``
+    (or its estimate) declare. Propagated to first order through
     :func:`~suspenv.metrics.knc.objectives` itself (fits, branch and wheel means,
     abscissas that are channels too): ``se_j^2 = sum_k (noise_k * dF_j/dy_k)^2`` over
     the samples ``y_k`` of the fit window, each derivative a central difference with
@@ -180,13 +167,8 @@ def effect_from_dict(d: Mapping[str, Any], owner: str = "axle effect") -> Effect
 
 @lru_cache(maxsize=8)
 def _measured(seed: int, concealed: tuple[str, ...], amplitude: float, steps: int):
-    truth = truth_vehicle(
-        seed,
-        hysteresis="hysteresis" in concealed,
-        tolerance="tolerance" in concealed,
-        noise="noise" in concealed,
-    )
-    results = measure(truth, amplitude, steps)
+    truth = concealed_car(seed, concealed)
+    results = measure_tests(truth, TESTS, amplitude, steps)
     return truth, results, objectives(results)[0]
 
 
@@ -248,7 +230,7 @@ class KCIdentification(Problem):
             effect_from_dict(d, f"{owner}: model_effects[{i}]")
             for i, d in enumerate(model_effects or ())
         )
-        from suspenv.measurements.knc_file import from_results, load_measurement
+        from suspenv.measurements.knc_file import load_measurement
         from suspenv.models.mcpherson.vehicle_file import REFERENCE_FILE, load_vehicle
         from suspenv.rigs.knc_measured import measured_results
 
@@ -278,13 +260,7 @@ class KCIdentification(Problem):
                 # by the candidates' own path, so that the truth reproduces them to the bit
                 F, status = self._simulate_compiled(truth.axle())
                 targets = targets if status[0] else F[0]
-            self.measurement = from_results(
-                results,
-                f"test car (seed {self.truth_seed}, concealed: "
-                f"{'+'.join(self.concealed) or 'none'})",
-                noise=dict(CHANNEL_NOISE),
-                source="suspenv built-in test car (reference vehicle + concealed effects)",
-            )
+            self.measurement = car_measurement(results, self.truth_seed, self.concealed)
         else:
             self.measurement = load_measurement(Path(self.measurements_path), tests=TESTS)
             self.measured = {

@@ -73,7 +73,7 @@ from suspenv.models.mcpherson import (
 )
 from suspenv.models.mcpherson.params import PARAMETER_NAMES
 from suspenv.rigs.knc import FORCE_TESTS, TESTS, run_tests
-from suspenv.rigs.knc_fit import effect_scale, fit_space
+from suspenv.rigs.knc_fit import effect_scale, fit_space, same_rows
 from suspenv.rigs.knc_recording import channels_of
 
 FIT_PARAMETERS = (
@@ -428,13 +428,10 @@ class KncAxleModel(FitDefaults):
             if force
             else np.zeros((B, 0))
         )
-        groups: dict[bytes, list[int]] = {}
-        for i in range(B):
-            groups.setdefault(sig[i].tobytes(), []).append(i)
         nan = {name: np.full((B, 2 * steps + 1), np.nan) for name in output_names()}
         out = {t: {k: v.copy() for k, v in nan.items()} for t in tests}
         messages = [""] * B
-        for rows in groups.values():
+        for rows in same_rows(sig):
             eff = [
                 e.with_params({k: _row_value(v, rows[0], B) for k, v in e.params.items()})
                 for e in force

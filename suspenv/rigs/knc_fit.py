@@ -14,6 +14,13 @@ bounds ``[0, 1]``) with a weak pull towards the start design (:data:`PRIOR_WEIGH
 restarted from its own answer until a restart lowers the cost by less than
 :data:`RESTART_GAIN` (:func:`polish`). Costs are sums of squared residuals (squared
 noise units; half a cost unit is one unit of log-likelihood).
+
+The two axle models it fits share the batching of designs by effect values
+(:func:`same_rows`), not their simulation: :class:`~suspenv.rigs.knc_axle.KncAxleModel`
+(diagnosis) replays recordings' own samples with left/right and load-cell effects,
+keeping solved rows for refits; :class:`~suspenv.methods.curve_fit.CurveModel`
+(identify) reads loops at measured drives, with both sides, fitted constants and
+orientations, in bounded chunks.
 """
 
 from __future__ import annotations
@@ -58,6 +65,16 @@ def fit_space(space: DesignSpace) -> DesignSpace:
 def effect_scale(p: Parameter) -> Parameter:
     """A fitted effect parameter with a positive range on a log scale."""
     return replace(p, log=True) if p.low > 0 else p
+
+
+def same_rows(V: np.ndarray) -> list[list[int]]:
+    """Row indices of ``V`` (n, k) grouped by equal rows, in order of first appearance:
+    the designs that share their effect values (the solver takes one value per effect
+    parameter), each group one batch of the rig."""
+    groups: dict[bytes, list[int]] = {}
+    for i, row in enumerate(np.ascontiguousarray(V)):
+        groups.setdefault(row.tobytes(), []).append(i)
+    return list(groups.values())
 
 
 class UnitFit:

@@ -28,12 +28,18 @@ import numpy as np
 
 from suspenv.core.errors import ValidationError
 from suspenv.measurements import Recording
-from suspenv.measurements.knc import rig_test
+from suspenv.measurements.knc import RIG_TESTS, rig_test
+from suspenv.measurements.knc_file import KncMeasurement, from_results
 from suspenv.models.effects import Effect
 from suspenv.models.mcpherson import bushings_at
 from suspenv.models.mcpherson.effects import location_of
-from suspenv.models.mcpherson.truth import CHANNEL_NOISE, TOLERANCE, truth_vehicle
-from suspenv.rigs.knc import FORCE_AMPLITUDE, TESTS, run_tests
+from suspenv.models.mcpherson.truth import (
+    CHANNEL_NOISE,
+    TOLERANCE,
+    TruthVehicle,
+    truth_vehicle,
+)
+from suspenv.rigs.knc import FORCE_AMPLITUDE, TESTS, KCResult, run_tests
 from suspenv.rigs.knc_axle import make_candidate
 from suspenv.rigs.knc_recording import to_recordings
 
@@ -89,6 +95,39 @@ def truth_effects(
     return out, tolerance
 
 
+def measure_car(
+    car: TruthVehicle,
+    tests: Sequence[str],
+    noise_seed: int,
+    amplitude: float = 0.040,
+    steps: int = 30,
+    force_amplitude: float = FORCE_AMPLITUDE,
+    sensors: Sequence[Effect] = (),
+    noise_scale: float = 1.0,
+) -> dict[str, KCResult]:
+    """Rig results {test: KCResult} of a truth vehicle: the one way to measure one.
+
+    ``car`` runs ``tests`` (``amplitude`` [m] travel stroke, ``force_amplitude`` [N]
+    compliance force); ``sensors`` act on the channel each reads (both wheels), then each
+    channel ``c`` of ``car.noise`` gets Gaussian noise of sigma ``noise_scale * car.noise[c]``
+    (SI) from one stream seeded by ``noise_seed`` (tests, channels sorted). A test the car
+    fails is refused."""
+    results = run_tests(
+        car.axle(), tuple(tests), amplitude, steps, car.effects, force_amplitude=force_amplitude
+    )
+    rng = np.random.default_rng(noise_seed)
+    for test in sorted(results):
+        res = results[test]
+        if not res.ok.all():
+            raise ValidationError(f"the truth vehicle fails the {test} test: {res.messages[0]}")
+        for e in sensors:
+            res.channels[e.location] = e.sensor(res.channels[e.location])
+        for name in sorted(car.noise):
+            ch = res.channels[name]
+            res.channels[name] = ch + rng.normal(0.0, noise_scale * car.noise[name], ch.shape)
+    return results
+
+
 def measure_truth(
     effects: Mapping[str, Mapping[str, Any]] | None = None,
     seed: int = 0,
@@ -103,7 +142,8 @@ def measure_truth(
 
     ``effects`` maps names of :data:`TRUTH_KIND` to (partial) magnitudes, e.g.
     ``{"hysteresis": {"f_c": 100.0}}``; ``{}`` is the plain reference vehicle.
-    ``noise_scale`` multiplies the rig's sensor noise (``0`` gives exact loops).
+    ``noise_scale`` multiplies the rig's sensor noise (``0`` gives exact loops; one
+    noise stream, seed ``20_000 + seed``, :func:`measure_car`).
     ``amplitude`` [m] is the travel tests' stroke, ``force_amplitude`` [N] the
     compliance tests' force. Physics outside the K&C library is concealed in these
     recordings by the benchmark (``benchmarks/knc_truth.py``).
@@ -116,33 +156,73 @@ def measure_truth(
         seed,
         base=design,
         tolerance=tolerance is not None,
-        noise=False,
         hard_point_tol_mm=tol["hard_point_tol_mm"],
         stiffness_tol=tol["stiffness_tol"],
         alignment_tol_deg=tol["alignment_tol_deg"],
         effects=[e for e in concealed if e.spec.role == "force"],
     )
-    results = run_tests(
-        car.axle(),
-        tuple(tests),
-        amplitude=amplitude,
-        steps=steps,
-        effects=car.effects,
-        force_amplitude=force_amplitude,
-    )
     sensors = [e for e in concealed if e.spec.role == "sensor"]
-    rng = np.random.default_rng(20_000 + seed)
-    for test in sorted(results):
-        res = results[test]
-        if not res.ok.all():
-            raise ValidationError(f"the truth vehicle fails the {test} test: {res.messages[0]}")
-        for e in sensors:  # on the rig channel the sensor reads (both wheels)
-            res.channels[e.location] = e.sensor(res.channels[e.location])
-        for name in sorted(CHANNEL_NOISE):
-            ch = res.channels[name]
-            res.channels[name] = ch + rng.normal(0.0, noise_scale * CHANNEL_NOISE[name], ch.shape)
+    results = measure_car(
+        car, tests, 20_000 + seed, amplitude, steps, force_amplitude, sensors, noise_scale
+    )
     info = {"source": "suspenv truth vehicle (concealed effects)", "seed": int(seed)}
     return to_recordings(results, meta=info)
+
+
+# ------------------------------------------------------------------ the built-in test car
+#: effects the built-in test car can conceal (:func:`concealed_car`)
+CONCEALED = ("hysteresis", "tolerance", "noise")
+
+
+def concealed_car(seed: int = 0, concealed: Sequence[str] = CONCEALED) -> TruthVehicle:
+    """The test car of ``KCIdentification`` and ``suspenv identify``: the reference
+    vehicle with ``concealed`` among :data:`CONCEALED` (the default hysteresis, left/right
+    tolerances drawn from ``seed``, the rig's sensor noise)."""
+    bad = sorted(set(concealed) - set(CONCEALED))
+    if bad:
+        raise ValidationError(f"concealed effects must be among {CONCEALED}, but got {bad}")
+    return truth_vehicle(
+        seed,
+        hysteresis="hysteresis" in concealed,
+        tolerance="tolerance" in concealed,
+        noise="noise" in concealed,
+    )
+
+
+def measure_tests(
+    car: TruthVehicle, tests: Sequence[str], amplitude: float = 0.040, steps: int = 30
+) -> dict[str, KCResult]:
+    """Rig results {test: KCResult} of the test car in any rig ``tests`` (travel tests
+    first, each in the order asked) with its noise (:func:`measure_car`): the three travel
+    tests together from seed ``10_000 + car.seed`` (the data of ``KCIdentification``,
+    whichever of them are asked), any other test at the rig's default load from seed
+    ``20_000 + 100 * car.seed + RIG_TESTS.index(test)``."""
+    bad = [t for t in tests if t not in RIG_TESTS]
+    if bad:
+        raise ValidationError(f"unknown K&C test(s) {bad}; known tests are {RIG_TESTS}")
+    out: dict[str, KCResult] = {}
+    if any(t in TESTS for t in tests):
+        travel = measure_car(car, TESTS, 10_000 + car.seed, amplitude, steps)
+        out.update({t: travel[t] for t in tests if t in TESTS})
+    for t in tests:
+        if t not in TESTS:
+            noise_seed = 20_000 + 100 * car.seed + RIG_TESTS.index(t)
+            out[t] = measure_car(car, (t,), noise_seed, amplitude, steps)[t]
+    return out
+
+
+def car_measurement(
+    results: Mapping[str, KCResult], seed: int, concealed: Sequence[str]
+) -> KncMeasurement:
+    """The test car's results (:func:`measure_tests`) as a measurement declaring the rig's
+    noise (:data:`~suspenv.models.mcpherson.truth.CHANNEL_NOISE`, the fit's weights, also
+    when ``"noise"`` is not concealed)."""
+    return from_results(
+        results,
+        f"test car (seed {seed}, concealed: {'+'.join(sorted(concealed)) or 'none'})",
+        noise=dict(CHANNEL_NOISE),
+        source="suspenv built-in test car (reference vehicle + concealed effects)",
+    )
 
 
 # ------------------------------------------------------------------ blind cases

@@ -51,7 +51,14 @@ from suspenv.core.jsonable import to_jsonable
 from suspenv.core.laps import Laps
 from suspenv.core.problem import Problem
 from suspenv.core.result import EvaluationBatch
-from suspenv.methods.identification import (
+from suspenv.methods.tey2014.cluster_count import (
+    CRITERIA,
+    REPRESENTATIVE_RULES,
+    ClusterSelection,
+    select_objectives,
+)
+from suspenv.methods.tey2014.clustering import LINKAGE_METHODS, ClusteringResult, cluster_objectives
+from suspenv.methods.tey2014.identification import (
     FixedRankSum,
     IdentificationResult,
     LocalSensitivity,
@@ -63,13 +70,6 @@ from suspenv.methods.identification import (
     profile_scan,
     recovery_table,
 )
-from suspenv.methods.tey2014.cluster_count import (
-    CRITERIA,
-    REPRESENTATIVE_RULES,
-    ClusterSelection,
-    select_objectives,
-)
-from suspenv.methods.tey2014.clustering import LINKAGE_METHODS, ClusteringResult, cluster_objectives
 from suspenv.methods.tey2014.rank_sum import ScalarisationComparison, compare_rank_sum_euclidean
 from suspenv.methods.tey2014.sensitivity import SensitivityResult, spearman_matrix
 from suspenv.methods.tey2014.strategy_comparison import (

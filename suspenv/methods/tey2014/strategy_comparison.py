@@ -7,7 +7,7 @@ them; :func:`compare_strategies` calls the same comparison (the registered repor
 
 Quality (lower is better): the rank-sum of the kept objectives with its min-max
 normalisation frozen on the design of experiments
-(:class:`~suspenv.methods.identification.FixedRankSum`), over feasible designs; the same
+(:class:`~suspenv.methods.tey2014.identification.FixedRankSum`), over feasible designs; the same
 measure for every strategy. Defaults: CMA-ES with population 42 on the rank-sum; NSGA-II with
 population 42 on the kept objectives; random search and Latin hypercube in batches of 42.
 """
@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from suspenv.core.problem import Problem
-from suspenv.methods.identification import FixedRankSum
+from suspenv.methods.tey2014.identification import FixedRankSum
 from suspenv.registry import make_strategy, report_function
 from suspenv.runs.quality import best_so_far, curve_items, feasible
 from suspenv.runs.run_dir import write_json
