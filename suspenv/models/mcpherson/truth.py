@@ -14,7 +14,7 @@ suspenv makes such a car reproducibly from a seed:
   deviations in :data:`CHANNEL_NOISE`, SI units).
 
 This module describes the car (its axle and effects); the caller runs the rig on it
-(e.g. :func:`suspenv.problems.kc_identification.measure`). Channels and units as in
+(e.g. :func:`suspenv.rigs.knc_truth.measure_car`). Channels and units as in
 :mod:`suspenv.rigs.knc` (ISO 8855, SI).
 """
 
