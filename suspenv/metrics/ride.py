@@ -433,15 +433,13 @@ class _Halves:
     ``g_s = g_L + g_R`` and ``g_a = g_L - g_R`` the halves' responses per axle input.
     """
 
-    def __init__(self, geo: _SplitGeometry, minv: np.ndarray, rates: np.ndarray):
-        """``minv`` (n, nq, nq): inverse mass matrices of q (1/kg, 1/(kg m^2));
-        ``rates`` (n, n_el): element rates (N/m, N m/rad, N s/m; left and right equal),
-        whose tyre columns give the road input matrices."""
-        n, d = rates.shape[0], _SPLIT_D
-        self.minv = (geo.T.transpose(0, 2, 1) @ minv[:, None] @ geo.T).reshape(2 * n, d, d)
-        B = np.zeros((2 * n, 2 * d, 4), dtype=complex)
-        B[:, d:] = self.minv @ (rates[:, None, :] @ geo.Gin).reshape(2 * n, d, 4)
-        self.B = B
+    def __init__(self, geo: _SplitGeometry, model: RideModel):
+        """The halves of the designs of ``model`` (seatless), geometry ``geo``: their
+        inverse mass and road input matrices (:func:`_halves_blocks`) on their rows."""
+        n, d = model.n, _SPLIT_D
+        minv, B = _halves_blocks(geo, model)
+        self.minv = minv.repeat(model.counts, axis=0).reshape(2 * n, d, d)
+        self.B = B.repeat(model.counts, axis=0).reshape(2 * n, 2 * d, 4)
         self.A0 = geo.A0
         self.D = geo.D.reshape(-1, 2, d, 2 * d)
         self.co = np.concatenate([geo.co] * n)
@@ -477,6 +475,36 @@ class _Halves:
         out = np.empty((self.B.shape[0] // 2, rows.stop - rows.start, wt.shape[1] // 2))
         spectral_kernel.modal_mean_square(*modes, self.B, self.co, rows.start, w, dr, di, wt, out)
         return out
+
+
+#: :func:`_halves_blocks`' cache: (geometry, inverse mass terms) -> (geometry, matrices)
+_HALVES_BLOCKS: dict[tuple[int, bytes], tuple[_SplitGeometry, np.ndarray, np.ndarray]] = {}
+
+
+def _halves_blocks(geo: _SplitGeometry, model: RideModel) -> tuple[np.ndarray, np.ndarray]:
+    """Per parameter block (load case) of ``model`` (k blocks): the halves' inverse mass
+    matrices ``T^T M^-1 T`` (k, 2, d, d) (1/kg, 1/(kg m^2)) and road input matrices
+    ``[0 | M_h^-1 [K_in | C_in]]`` (k, 2, 2d, 4) (complex; the road acts through the
+    tyres, whose rates the vehicle fixes). No design variable changes them: read-only,
+    kept per geometry and inverse mass terms (:attr:`RideModel.inverse_blocks`; the
+    cache holds the geometry, so its id stays its own)."""
+    terms = model.inverse_blocks
+    key = (id(geo), terms.tobytes())
+    hit = _HALVES_BLOCKS.get(key)
+    if hit is None or hit[0] is not geo:
+        if len(_HALVES_BLOCKS) >= 16:
+            _HALVES_BLOCKS.clear()
+        k, nq, d = terms.shape[0], model.nq, _SPLIT_D
+        minv = np.zeros((k, nq, nq))
+        minv.reshape(k, -1)[:, :: nq + 1] = terms[:, :nq]  # the diagonals
+        minv[:, 0, 1] = minv[:, 1, 0] = terms[:, nq]
+        minv_h = geo.T.transpose(0, 2, 1) @ minv[:, None] @ geo.T
+        B = np.zeros((k, 2, 2 * d, 4), dtype=complex)
+        B[:, :, d:] = minv_h @ (model.tyre_rates[None, None] @ geo.Gin).reshape(1, 2, d, 4)
+        for a in (minv_h, B):
+            a.flags.writeable = False
+        hit = _HALVES_BLOCKS[key] = (geo, minv_h, B)
+    return hit[1], hit[2]
 
 
 _SPLIT_GRIDS: dict[tuple[int, int, int, bool], tuple[Any, ...]] = {}
@@ -586,12 +614,9 @@ def _spectral_split(
     """:func:`ride_spectral` of one chunk through the model's two decoupled halves
     (:class:`_Halves`; no seat); ``params`` the chunk's stacked vehicle parameters."""
     model = RideModel(params, linear=not equivalent_linear)
-    n, nq, npos = model.n, model.nq, model.n_pos
-    minv = np.zeros((n, nq, nq))
-    minv.reshape(n, -1)[:, :: nq + 1] = model.minv_diag.T  # the diagonals
-    minv[:, 0, 1] = minv[:, 1, 0] = model.m12
+    npos = model.n_pos
     rates = model.K.astype(float)  # element rates, dampers and leaves set per pass
-    halves = _Halves(_split_geometry(model), minv, rates)
+    halves = _Halves(_split_geometry(model), model)
 
     def modal(r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         rates[:, 2:4] = r[:, LEAF]

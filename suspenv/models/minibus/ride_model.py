@@ -203,8 +203,9 @@ class RideModel:
                     f"ride model effect ({e.kind!r}, location={e.location!r}) is not "
                     f"supported; supported are {sorted(SUPPORTED_EFFECTS)}"
                 )
-        self._counts = [p.n for p in plist]
-        self.n = sum(self._counts)
+        #: designs per parameter block (rows of each in order)
+        self.counts = [p.n for p in plist]
+        self.n = sum(self.counts)
         self.nq = N_BASE_DOF + (2 if seat else 0)
         self._build_geometry()
         self._build_coefficients()
@@ -221,7 +222,8 @@ class RideModel:
                 _GEOMETRY.clear()
             hit = _GEOMETRY[key] = (self.vehicle, self._geometry())
         self.n_pos, self.n_vel, self.E, self.Et, self.Pt, self.Vt, self.B, self.Bt = hit[1][:8]
-        self._damper_unit, self.knee_b, self.knee_r, self._tyre_rates = hit[1][8:]
+        # tyre_rates: the element rates the vehicle fixes (the tyres'; 0 in the others)
+        self._damper_unit, self.knee_b, self.knee_r, self.tyre_rates = hit[1][8:]
 
     def _geometry(self) -> tuple:
         """``(n_pos, n_vel, E, E^T, P^T, V^T, B, B^T, damper curves, knee_b, knee_r,
@@ -299,7 +301,7 @@ class RideModel:
     def _build_coefficients(self) -> None:
         v, ps, nq = self.vehicle, self.params, self.nq
         L = v.wheelbase
-        counts = self._counts
+        counts = self.counts
         # the per-design arrays of every block, stacked: front wheel rate, leaf primary
         # and composite rates, stabilisers, damper scales (C1, C2), leaf rate and
         # deflection at rest
@@ -324,11 +326,14 @@ class RideModel:
             M12 = (m * p.a * p.b - I_pitch) / L**2
             det = M11 * M22 - M12**2
             terms.append((M22 / det, M11 / det, 1.0 / I_roll, *wheels, -M12 / det))
-        inverse = np.array(terms).T.repeat(counts, axis=1)  # (nq + 1, n), C order
+        #: per parameter block (k, nq + 1): the inverse mass matrix's diagonal, then the
+        #: (z_f, z_r) coupling (1/kg, 1/(kg m^2)); no design variable changes them
+        self.inverse_blocks = np.array(terms)
+        inverse = self.inverse_blocks.T.repeat(counts, axis=1)  # (nq + 1, n), C order
         # position-type stiffnesses (N/m, N*m/rad), then velocity-type (N s/m): the
         # vehicle's tyre columns, the seat's, then the design's
         K = np.empty((self.n, self.n_pos + self.n_vel))
-        K[:] = self._tyre_rates
+        K[:] = self.tyre_rates
         if self.seat:
             K[:, 10:12] = self.seat.stiffness
             K[:, self.n_pos + 8 : self.n_pos + 10] = self.seat.damping
@@ -399,7 +404,7 @@ class RideModel:
             (p.front_static_load + v.unsprung_front * G, p.rear_static_load + v.unsprung_rear * G)
             for p in self.params
         ]
-        front, rear = np.array(loads).T.repeat(self._counts, axis=1)
+        front, rear = np.array(loads).T.repeat(self.counts, axis=1)
         f0 = np.empty((4, self.n))
         f0[0:2], f0[2:4] = front, rear
         return f0
