@@ -581,18 +581,16 @@ def _fixed_point(
     return r, n_iter, m
 
 
-def _spectral_result(
-    aw: np.ndarray, rms_all: np.ndarray, r: np.ndarray, n_iter: int
-) -> dict[str, np.ndarray]:
-    """:func:`ride_spectral`'s dict from the weighted and unweighted RMS values (n, 2:
-    front, rear; m/s^2) and the rates used (n, n_rates)."""
-    ok = np.isfinite(aw).all(axis=1) & np.isfinite(rms_all).all(axis=1)
+def _spectral_result(ms: np.ndarray, r: np.ndarray, n_iter: int) -> dict[str, np.ndarray]:
+    """:func:`ride_spectral`'s dict from the mean squares ``ms`` (n, front/rear,
+    weighted/unweighted; (m/s^2)^2) and the rates used (n, n_rates)."""
+    rms = np.sqrt(ms)
     return {
-        "aw_front": aw[:, 0],
-        "aw_rear": aw[:, 1],
-        "rms_front": rms_all[:, 0],
-        "rms_rear": rms_all[:, 1],
-        "ok": ok,
+        "aw_front": rms[:, 0, 0],
+        "aw_rear": rms[:, 1, 0],
+        "rms_front": rms[:, 0, 1],
+        "rms_rear": rms[:, 1, 1],
+        "ok": np.isfinite(rms).all(axis=(1, 2)),
         "damper_c": r[:, DAMPER],
         "leaf_k": r[:, LEAF],
         "iterations": np.array(n_iter),
@@ -643,7 +641,7 @@ def _spectral_split(
     r, n_iter, m = _fixed_point(r0, update, modal, iterations, tol)
     grid, wt = _split_grid(road, n_freq, vehicle, True)
     ms = halves.mean_square(m, slice(0, 2), grid, wt)
-    return _spectral_result(np.sqrt(ms[:, :, 0]), np.sqrt(ms[:, :, 1]), r, n_iter)
+    return _spectral_result(ms, r, n_iter)
 
 
 #: the halves of the mirror-symmetric model for :func:`_spectral_modal`: (T, J, S) with
@@ -783,7 +781,7 @@ def _spectral_modal(
         if dahl:
             leaf_rows = [keep.index(6)] if halves else [6, 7]
             ms = ms + _dahl_remainder(lz, m, leaf_rows, sig, uniform, direct)
-    return _spectral_result(np.sqrt(ms[:, :, 0]), np.sqrt(ms[:, :, 1]), r, n_iter)
+    return _spectral_result(ms, r, n_iter)
 
 
 @functools.cache

@@ -176,7 +176,7 @@ class HandlingParams:
 
     @property
     def n(self) -> int:
-        return int(self.m.shape[0])
+        return len(self.rows)
 
     @property
     def wheelbase(self) -> np.ndarray:
@@ -307,7 +307,7 @@ def handling_parameters(
 
 
 #: :func:`_case_table`'s cache: its key -> (the objects the key names by id, tables)
-_CASE_TABLES: dict[tuple, tuple[tuple, tuple[np.ndarray, np.ndarray]]] = {}
+_CASE_TABLES: dict[tuple, tuple[list, tuple[np.ndarray, np.ndarray]]] = {}
 #: the columns of :attr:`HandlingParams.rows` that no design variable changes, and the
 #: rows of :func:`_case_terms` they take
 _CONSTANT_COLUMNS = [3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 17, 18, 19]
@@ -324,10 +324,10 @@ def _case_table(
     load case, leaf geometry and tyre (frozen; the cache holds them, so their ids stay
     theirs) and CoM distances ``a``, ``b``: what the terms depend on. An evaluation
     repeats the same load cases, so it pays the lookup only."""
-    held = (leaf, tyre, *(o for vp in vps for o in (vp.vehicle, vp.load)))
-    key = (*map(id, held), *(x for vp in vps for x in (vp.a, vp.b)))
+    held = [leaf, tyre] + [o for vp in vps for o in (vp.vehicle, vp.load)]
+    key = (*[id(o) for o in held], *[x for vp in vps for x in (vp.a, vp.b)])
     hit = _CASE_TABLES.get(key)
-    if hit is None or any(a is not b for a, b in zip(hit[0], held, strict=True)):
+    if hit is None or not all([a is b for a, b in zip(hit[0], held, strict=True)]):
         if len(_CASE_TABLES) >= 16:
             _CASE_TABLES.clear()
         terms = np.array([_case_terms(vp, leaf) for vp in vps]).T

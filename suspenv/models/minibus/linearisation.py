@@ -215,12 +215,13 @@ class ElementLinearisation:
     ``LEAF`` and, when the model has effects, ``FRONT``, ``DAHL_C``, ``DAHL_K``)."""
 
     def __init__(self, nl: RideModel):
-        slopes = np.asarray(nl.damper_slopes, float)  # (4 slopes, 4 dampers, n)
+        # float64 (a float32 model's typed arrays cast back)
+        slopes = nl.damper_slopes  # (4 slopes, 4 dampers, n)
         self.d_bl, self.d_bh, self.d_rl, self.d_rh = slopes.transpose(0, 2, 1)
         self.kb = np.asarray(nl.knee_b, float).T  # (1, 4) bump knee (m/s)
         self.kr = -np.asarray(nl.knee_r, float).T  # (1, 4) rebound knee (> 0, m/s)
-        self.k1 = np.asarray(nl.K[:, 2:4], float)  # primary leaf rate (N/m)
-        self.k_front = np.asarray(nl.K[:, 0:2], float)  # front wheel rate (N/m)
+        self.k1 = nl.K[:, 2:4]  # primary leaf rate (N/m)
+        self.k_front = nl.K[:, 0:2]  # front wheel rate (N/m)
         self.dk = np.asarray(nl.leaf_dk, float).T  # composite - primary rate (N/m)
         self.thr = np.asarray(nl.leaf_thr, float).T  # helper knee from static (m)
         self.leaf_static = nl.leaf_static_rate

@@ -360,10 +360,10 @@ class RideModel:
         self.d_bl, self.d_bh, self.d_rl, self.d_rh = slopes
         # float32 models: the integration's arrays in their type (float64: so already),
         # each formed in float64 first
-        typed = () if self.dtype == np.float64 else _TYPED
-        values = [np.ascontiguousarray(getattr(self, name), dtype=self.dtype) for name in typed]
-        for name, value in zip(typed, values, strict=True):
-            setattr(self, name, value)
+        if self.dtype != np.float64:
+            values = [np.ascontiguousarray(getattr(self, k), dtype=self.dtype) for k in _TYPED]
+            for name, value in zip(_TYPED, values, strict=True):
+                setattr(self, name, value)
         # effects
         self._hyst = None
         self._damper_friction: list[tuple[slice, Effect]] = []
