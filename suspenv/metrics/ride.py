@@ -443,16 +443,16 @@ class _Halves:
         self.A0 = geo.A0
         self.D = geo.D.reshape(-1, 2, d, 2 * d)
         self.co = np.concatenate([geo.co] * n)
+        # the first-order matrices of a pass, refilled by every pass (eig copies them)
+        self._A = np.empty((2 * n, 2 * d, 2 * d))
 
     def modal(self, rates: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Poles (2n, 2d) and eigenvectors (2n, 2d, 2d) of the halves' first-order
         matrices at element rates (n, n_el) (the compiled
         :func:`suspenv.models.minibus.spectral_kernel.halves_matrix`, then
         :func:`~suspenv.models.minibus.spectral_kernel.eig`), 2 n rows."""
-        d = _SPLIT_D
-        A = np.empty((self.B.shape[0], 2 * d, 2 * d))
-        spectral_kernel.halves_matrix(self.A0, self.minv, self.D, rates, A)
-        return spectral_kernel.eig(A)
+        spectral_kernel.halves_matrix(self.A0, self.minv, self.D, rates, self._A)
+        return spectral_kernel.eig(self._A)
 
     def mean_square(
         self,

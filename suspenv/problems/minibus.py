@@ -438,12 +438,10 @@ class MinibusRideHandling(Problem):
         for i, lc in enumerate(LOAD_CASES):
             rows, r = slice(i * n, (i + 1) * n), ride[lc]
             out[f"aw_front_{lc}"], out[f"aw_rear_{lc}"] = r["aw_front"], r["aw_rear"]
-            for key, value in both.items():
-                out[f"{key}_{lc}"] = value[rows]
+            out.update({f"{key}_{lc}": value[rows] for key, value in both.items()})
             # ride_method="time": the weighted record's crest factors and VDVs
             out.update({f"{key}_{lc}": r[key] for key in RECORD_KEYS if key in r})
-            for key, value in ws.items():
-                out[f"{key}_{lc}"] = value[rows]
+            out.update({f"{key}_{lc}": value[rows] for key, value in ws.items()})
             out[f"ride_ok_{lc}"] = r["ok"]
         return out
 
