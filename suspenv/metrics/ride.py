@@ -477,8 +477,8 @@ class _Halves:
         return out
 
 
-#: :func:`_halves_blocks`' cache: (geometry, inverse mass terms) -> (geometry, matrices)
-_HALVES_BLOCKS: dict[tuple[int, bytes], tuple[_SplitGeometry, np.ndarray, np.ndarray]] = {}
+#: :func:`_halves_blocks`' cache: ids of (geometry, inverse mass terms) -> (those, matrices)
+_HALVES_BLOCKS: dict[tuple[int, int], tuple[tuple, np.ndarray, np.ndarray]] = {}
 
 
 def _halves_blocks(geo: _SplitGeometry, model: RideModel) -> tuple[np.ndarray, np.ndarray]:
@@ -486,12 +486,12 @@ def _halves_blocks(geo: _SplitGeometry, model: RideModel) -> tuple[np.ndarray, n
     matrices ``T^T M^-1 T`` (k, 2, d, d) (1/kg, 1/(kg m^2)) and road input matrices
     ``[0 | M_h^-1 [K_in | C_in]]`` (k, 2, 2d, 4) (complex; the road acts through the
     tyres, whose rates the vehicle fixes). No design variable changes them: read-only,
-    kept per geometry and inverse mass terms (:attr:`RideModel.inverse_blocks`; the
-    cache holds the geometry, so its id stays its own)."""
+    kept per geometry and inverse mass terms (:attr:`RideModel.inverse_blocks`, kept
+    per load case themselves; the cache holds both, so their ids stay theirs)."""
     terms = model.inverse_blocks
-    key = (id(geo), terms.tobytes())
+    key = (id(geo), id(terms))
     hit = _HALVES_BLOCKS.get(key)
-    if hit is None or hit[0] is not geo:
+    if hit is None or hit[0][0] is not geo or hit[0][1] is not terms:
         if len(_HALVES_BLOCKS) >= 16:
             _HALVES_BLOCKS.clear()
         k, nq, d = terms.shape[0], model.nq, _SPLIT_D
@@ -503,7 +503,7 @@ def _halves_blocks(geo: _SplitGeometry, model: RideModel) -> tuple[np.ndarray, n
         B[:, :, d:] = minv_h @ (model.tyre_rates[None, None] @ geo.Gin).reshape(1, 2, d, 4)
         for a in (minv_h, B):
             a.flags.writeable = False
-        hit = _HALVES_BLOCKS[key] = (geo, minv_h, B)
+        hit = _HALVES_BLOCKS[key] = ((geo, terms), minv_h, B)
     return hit[1], hit[2]
 
 
