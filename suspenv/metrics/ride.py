@@ -435,14 +435,11 @@ class _Halves:
 
     def __init__(self, geo: _SplitGeometry, model: RideModel):
         """The halves of the designs of ``model`` (seatless), geometry ``geo``: their
-        inverse mass and road input matrices (:func:`_halves_blocks`) on their rows."""
+        inverse mass, road input and output matrices (:func:`_halves_blocks`)."""
         n, d = model.n, _SPLIT_D
-        minv, B = _halves_blocks(geo, model)
-        self.minv = minv.repeat(model.counts, axis=0).reshape(2 * n, d, d)
-        self.B = B.repeat(model.counts, axis=0).reshape(2 * n, 2 * d, 4)
+        self.minv, self.B, self.co = _halves_blocks(geo, model)
         self.A0 = geo.A0
         self.D = geo.D.reshape(-1, 2, d, 2 * d)
-        self.co = np.concatenate([geo.co] * n)
         # the first-order matrices of a pass, refilled by every pass (eig copies them)
         self._A = np.empty((2 * n, 2 * d, 2 * d))
 
@@ -477,34 +474,43 @@ class _Halves:
         return out
 
 
-#: :func:`_halves_blocks`' cache: ids of (geometry, inverse mass terms) -> (those, matrices)
-_HALVES_BLOCKS: dict[tuple[int, int], tuple[tuple, np.ndarray, np.ndarray]] = {}
+#: :func:`_halves_blocks`' cache: (ids of geometry and inverse mass terms, rows per
+#: block) -> ((geometry, terms), matrices)
+_HALVES_BLOCKS: dict[tuple, tuple[tuple, np.ndarray, np.ndarray, np.ndarray]] = {}
 
 
-def _halves_blocks(geo: _SplitGeometry, model: RideModel) -> tuple[np.ndarray, np.ndarray]:
-    """Per parameter block (load case) of ``model`` (k blocks): the halves' inverse mass
-    matrices ``T^T M^-1 T`` (k, 2, d, d) (1/kg, 1/(kg m^2)) and road input matrices
-    ``[0 | M_h^-1 [K_in | C_in]]`` (k, 2, 2d, 4) (complex; the road acts through the
-    tyres, whose rates the vehicle fixes). No design variable changes them: read-only,
-    kept per geometry and inverse mass terms (:attr:`RideModel.inverse_blocks`, kept
-    per load case themselves; the cache holds both, so their ids stay theirs)."""
+def _halves_blocks(
+    geo: _SplitGeometry, model: RideModel
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The halves' inverse mass matrices ``T^T M^-1 T`` (2n, d, d) (1/kg, 1/(kg m^2)),
+    road input matrices ``[0 | M_h^-1 [K_in | C_in]]`` (2n, 2d, 4) (complex; the road
+    acts through the tyres, whose rates the vehicle fixes) and output matrices (2n, 5,
+    d) on the rows of ``model``'s designs. No design variable changes them, only the
+    parameter blocks (load cases) and their rows: read-only, kept per geometry,
+    inverse mass terms (:attr:`RideModel.inverse_blocks`, kept per load case
+    themselves; the cache holds both, so their ids stay theirs) and rows per block."""
     terms = model.inverse_blocks
-    key = (id(geo), id(terms))
+    key = (id(geo), id(terms), *model.counts)
     hit = _HALVES_BLOCKS.get(key)
     if hit is None or hit[0][0] is not geo or hit[0][1] is not terms:
         if len(_HALVES_BLOCKS) >= 16:
             _HALVES_BLOCKS.clear()
-        k, nq, d = terms.shape[0], model.nq, _SPLIT_D
+        k, nq, d, n = terms.shape[0], model.nq, _SPLIT_D, model.n
         minv = np.zeros((k, nq, nq))
         minv.reshape(k, -1)[:, :: nq + 1] = terms[:, :nq]  # the diagonals
         minv[:, 0, 1] = minv[:, 1, 0] = terms[:, nq]
         minv_h = geo.T.transpose(0, 2, 1) @ minv[:, None] @ geo.T
         B = np.zeros((k, 2, 2 * d, 4), dtype=complex)
         B[:, :, d:] = minv_h @ (model.tyre_rates[None, None] @ geo.Gin).reshape(1, 2, d, 4)
-        for a in (minv_h, B):
+        rows = (
+            minv_h.repeat(model.counts, axis=0).reshape(2 * n, d, d),
+            B.repeat(model.counts, axis=0).reshape(2 * n, 2 * d, 4),
+            np.concatenate([geo.co] * n),
+        )
+        for a in rows:
             a.flags.writeable = False
-        hit = _HALVES_BLOCKS[key] = ((geo, terms), minv_h, B)
-    return hit[1], hit[2]
+        hit = _HALVES_BLOCKS[key] = ((geo, terms), *rows)
+    return hit[1], hit[2], hit[3]
 
 
 _SPLIT_GRIDS: dict[tuple[int, int, int, bool], tuple[Any, ...]] = {}
