@@ -229,6 +229,19 @@ def test_steady_lateral_load_transfer_balances_the_overturning_moment():
         np.testing.assert_allclose(fl + fr + rl + rr, P.m * G, rtol=1e-10)
 
 
+def test_static_axle_cornering_stiffness_is_the_given_tyres():
+    # reference: the tyre's closed-form Ky at the static wheel loads, two tyres per axle;
+    # a softer tyre on the same designs and load cases must give its own (the load-case
+    # table is kept per tyre)
+    soft = LateralTyre(pKy1=TYRE.pKy1 / 2)
+    X = np.stack([STUDY_PICK, 1.1 * STUDY_PICK])
+    for tyre in (TYRE, soft, TYRE):
+        P = handling_parameters(X, ("no_load", "full_load"), tyre=tyre)
+        cf, cr = P.axle_cornering_stiffness()
+        np.testing.assert_array_equal(cf, 2 * tyre.cornering_stiffness(P.fz_front))
+        np.testing.assert_array_equal(cr, 2 * tyre.cornering_stiffness(P.fz_rear))
+
+
 def test_handling_parameters_reject_a_cg_below_the_roll_axis():
     low = REFERENCE_MINIBUS.with_(rear_roll_centre_height=2.0)
     with pytest.raises(ValidationError, match="above the roll axis"):

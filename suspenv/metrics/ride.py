@@ -433,28 +433,23 @@ class _Halves:
     ``g_s = g_L + g_R`` and ``g_a = g_L - g_R`` the halves' responses per axle input.
     """
 
-    def __init__(self, geo: _SplitGeometry, minv: np.ndarray, rates: np.ndarray):
-        """``minv`` (n, nq, nq): inverse mass matrices of q (1/kg, 1/(kg m^2));
-        ``rates`` (n, n_el): element rates (N/m, N m/rad, N s/m; left and right equal),
-        whose tyre columns give the road input matrices."""
-        n, d = rates.shape[0], _SPLIT_D
-        self.minv = (geo.T.transpose(0, 2, 1) @ minv[:, None] @ geo.T).reshape(2 * n, d, d)
-        B = np.zeros((2 * n, 2 * d, 4), dtype=complex)
-        B[:, d:] = self.minv @ (rates[:, None, :] @ geo.Gin).reshape(2 * n, d, 4)
-        self.B = B
+    def __init__(self, geo: _SplitGeometry, model: RideModel):
+        """The halves of the designs of ``model`` (seatless), geometry ``geo``: their
+        inverse mass, road input and output matrices (:func:`_halves_blocks`)."""
+        n, d = model.n, _SPLIT_D
+        self.minv, self.B, self.co = _halves_blocks(geo, model)
         self.A0 = geo.A0
         self.D = geo.D.reshape(-1, 2, d, 2 * d)
-        self.co = np.concatenate([geo.co] * n)
+        # the first-order matrices of a pass, refilled by every pass (eig copies them)
+        self._A = np.empty((2 * n, 2 * d, 2 * d))
 
     def modal(self, rates: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Poles (2n, 2d) and eigenvectors (2n, 2d, 2d) of the halves' first-order
         matrices at element rates (n, n_el) (the compiled
         :func:`suspenv.models.minibus.spectral_kernel.halves_matrix`, then
         :func:`~suspenv.models.minibus.spectral_kernel.eig`), 2 n rows."""
-        d = _SPLIT_D
-        A = np.empty((self.B.shape[0], 2 * d, 2 * d))
-        spectral_kernel.halves_matrix(self.A0, self.minv, self.D, rates, A)
-        return spectral_kernel.eig(A)
+        spectral_kernel.halves_matrix(self.A0, self.minv, self.D, rates, self._A)
+        return spectral_kernel.eig(self._A)
 
     def mean_square(
         self,
@@ -477,6 +472,45 @@ class _Halves:
         out = np.empty((self.B.shape[0] // 2, rows.stop - rows.start, wt.shape[1] // 2))
         spectral_kernel.modal_mean_square(*modes, self.B, self.co, rows.start, w, dr, di, wt, out)
         return out
+
+
+#: :func:`_halves_blocks`' cache: (ids of geometry and inverse mass terms, rows per
+#: block) -> ((geometry, terms), matrices)
+_HALVES_BLOCKS: dict[tuple, tuple[tuple, np.ndarray, np.ndarray, np.ndarray]] = {}
+
+
+def _halves_blocks(
+    geo: _SplitGeometry, model: RideModel
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The halves' inverse mass matrices ``T^T M^-1 T`` (2n, d, d) (1/kg, 1/(kg m^2)),
+    road input matrices ``[0 | M_h^-1 [K_in | C_in]]`` (2n, 2d, 4) (complex; the road
+    acts through the tyres, whose rates the vehicle fixes) and output matrices (2n, 5,
+    d) on the rows of ``model``'s designs. No design variable changes them, only the
+    parameter blocks (load cases) and their rows: read-only, kept per geometry,
+    inverse mass terms (:attr:`RideModel.inverse_blocks`, kept per load case
+    themselves; the cache holds both, so their ids stay theirs) and rows per block."""
+    terms = model.inverse_blocks
+    key = (id(geo), id(terms), *model.counts)
+    hit = _HALVES_BLOCKS.get(key)
+    if hit is None or hit[0][0] is not geo or hit[0][1] is not terms:
+        if len(_HALVES_BLOCKS) >= 16:
+            _HALVES_BLOCKS.clear()
+        k, nq, d, n = terms.shape[0], model.nq, _SPLIT_D, model.n
+        minv = np.zeros((k, nq, nq))
+        minv.reshape(k, -1)[:, :: nq + 1] = terms[:, :nq]  # the diagonals
+        minv[:, 0, 1] = minv[:, 1, 0] = terms[:, nq]
+        minv_h = geo.T.transpose(0, 2, 1) @ minv[:, None] @ geo.T
+        B = np.zeros((k, 2, 2 * d, 4), dtype=complex)
+        B[:, :, d:] = minv_h @ (model.tyre_rates[None, None] @ geo.Gin).reshape(1, 2, d, 4)
+        rows = (
+            minv_h.repeat(model.counts, axis=0).reshape(2 * n, d, d),
+            B.repeat(model.counts, axis=0).reshape(2 * n, 2 * d, 4),
+            np.concatenate([geo.co] * n),
+        )
+        for a in rows:
+            a.flags.writeable = False
+        hit = _HALVES_BLOCKS[key] = ((geo, terms), *rows)
+    return hit[1], hit[2], hit[3]
 
 
 _SPLIT_GRIDS: dict[tuple[int, int, int, bool], tuple[Any, ...]] = {}
@@ -553,18 +587,16 @@ def _fixed_point(
     return r, n_iter, m
 
 
-def _spectral_result(
-    aw: np.ndarray, rms_all: np.ndarray, r: np.ndarray, n_iter: int
-) -> dict[str, np.ndarray]:
-    """:func:`ride_spectral`'s dict from the weighted and unweighted RMS values (n, 2:
-    front, rear; m/s^2) and the rates used (n, n_rates)."""
-    ok = np.isfinite(aw).all(axis=1) & np.isfinite(rms_all).all(axis=1)
+def _spectral_result(ms: np.ndarray, r: np.ndarray, n_iter: int) -> dict[str, np.ndarray]:
+    """:func:`ride_spectral`'s dict from the mean squares ``ms`` (n, front/rear,
+    weighted/unweighted; (m/s^2)^2) and the rates used (n, n_rates)."""
+    rms = np.sqrt(ms)
     return {
-        "aw_front": aw[:, 0],
-        "aw_rear": aw[:, 1],
-        "rms_front": rms_all[:, 0],
-        "rms_rear": rms_all[:, 1],
-        "ok": ok,
+        "aw_front": rms[:, 0, 0],
+        "aw_rear": rms[:, 1, 0],
+        "rms_front": rms[:, 0, 1],
+        "rms_rear": rms[:, 1, 1],
+        "ok": np.isfinite(rms).all(axis=(1, 2)),
         "damper_c": r[:, DAMPER],
         "leaf_k": r[:, LEAF],
         "iterations": np.array(n_iter),
@@ -586,12 +618,9 @@ def _spectral_split(
     """:func:`ride_spectral` of one chunk through the model's two decoupled halves
     (:class:`_Halves`; no seat); ``params`` the chunk's stacked vehicle parameters."""
     model = RideModel(params, linear=not equivalent_linear)
-    n, nq, npos = model.n, model.nq, model.n_pos
-    minv = np.zeros((n, nq, nq))
-    minv.reshape(n, -1)[:, :: nq + 1] = model.minv_diag.T  # the diagonals
-    minv[:, 0, 1] = minv[:, 1, 0] = model.m12
+    npos = model.n_pos
     rates = model.K.astype(float)  # element rates, dampers and leaves set per pass
-    halves = _Halves(_split_geometry(model), minv, rates)
+    halves = _Halves(_split_geometry(model), model)
 
     def modal(r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         rates[:, 2:4] = r[:, LEAF]
@@ -618,7 +647,7 @@ def _spectral_split(
     r, n_iter, m = _fixed_point(r0, update, modal, iterations, tol)
     grid, wt = _split_grid(road, n_freq, vehicle, True)
     ms = halves.mean_square(m, slice(0, 2), grid, wt)
-    return _spectral_result(np.sqrt(ms[:, :, 0]), np.sqrt(ms[:, :, 1]), r, n_iter)
+    return _spectral_result(ms, r, n_iter)
 
 
 #: the halves of the mirror-symmetric model for :func:`_spectral_modal`: (T, J, S) with
@@ -758,7 +787,7 @@ def _spectral_modal(
         if dahl:
             leaf_rows = [keep.index(6)] if halves else [6, 7]
             ms = ms + _dahl_remainder(lz, m, leaf_rows, sig, uniform, direct)
-    return _spectral_result(np.sqrt(ms[:, :, 0]), np.sqrt(ms[:, :, 1]), r, n_iter)
+    return _spectral_result(ms, r, n_iter)
 
 
 @functools.cache

@@ -74,6 +74,7 @@ the load case; the other rows of the batch are unaffected.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -390,7 +391,8 @@ class MinibusRideHandling(Problem):
         rows = [(f"{k}_{lc}", lim, flip) for k, lim, flip in terms for lc in LOAD_CASES]
         keys, limits, flipped = zip(*rows, strict=True)
         self._measure_keys = tuple(f"{k}_{lc}" for lc in LOAD_CASES for k in objectives) + keys
-        self._limit_terms = (np.array(limits)[:, None], np.array(flipped)[:, None])
+        # the constraints' limits and signs (+1: measure - limit, -1: limit - measure)
+        self._limit_terms = (np.array(limits)[:, None], np.where(flipped, -1.0, 1.0)[:, None])
         self._flag_keys = tuple(
             f"{kind}_{lc}" for kind in ("completed", "ride_ok") for lc in LOAD_CASES
         )
@@ -436,12 +438,10 @@ class MinibusRideHandling(Problem):
         for i, lc in enumerate(LOAD_CASES):
             rows, r = slice(i * n, (i + 1) * n), ride[lc]
             out[f"aw_front_{lc}"], out[f"aw_rear_{lc}"] = r["aw_front"], r["aw_rear"]
-            for key, value in both.items():
-                out[f"{key}_{lc}"] = value[rows]
+            out.update({f"{key}_{lc}": value[rows] for key, value in both.items()})
             # ride_method="time": the weighted record's crest factors and VDVs
             out.update({f"{key}_{lc}": r[key] for key in RECORD_KEYS if key in r})
-            for key, value in ws.items():
-                out[f"{key}_{lc}"] = value[rows]
+            out.update({f"{key}_{lc}": value[rows] for key, value in ws.items()})
             out[f"ride_ok_{lc}"] = r["ok"]
         return out
 
@@ -534,17 +534,19 @@ class MinibusRideHandling(Problem):
 
     def _evaluate(self, X: np.ndarray) -> EvaluationBatch:
         m = self.measures(X)
-        values = np.array([m[k] for k in self._measure_keys])  # (10 + k, n)
+        keys = self._measure_keys
+        values = np.concatenate([m[k] for k in keys]).reshape(len(keys), X.shape[0])
         # objectives: no load + w x full load, one (5, n) pass (f3 negated in "study")
         F = values[:5] + self.load_weight * values[5:10]
         if self.handling == "study":
             F[2] = -F[2]
-        # constraints: measure - limit, or limit - measure where flipped, one (k, n) pass
-        limits, flipped = self._limit_terms
-        G = values[10:] - limits
-        np.subtract(limits, values[10:], out=G, where=flipped)
+        # constraints: (measure - limit) x sign, one (k, n) pass; the flipped rows are
+        # limit - measure exactly (a rounded difference is odd in its arguments)
+        limits, signs = self._limit_terms
+        G = (values[10:] - limits) * signs
         flag_keys = self._flag_keys
-        ok = np.logical_and.reduce([m[k] for k in flag_keys]) & np.isfinite(F).all(axis=0)
+        flags = functools.reduce(np.logical_and, [m[k] for k in flag_keys])
+        ok = flags & np.isfinite(F).all(axis=0)
         messages = [""] * X.shape[0]
         F, G = F.T.copy(), G.T.copy()  # (n, 5), (n, k)
         if not ok.all():

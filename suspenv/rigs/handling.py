@@ -246,7 +246,7 @@ def steady_state_sweep(
     handling_kernel.sweep_loop(
         P.rows,
         np.ascontiguousarray(ay),
-        np.array(P.tyre.coefficients),
+        P.tyre.coefficients,
         _slip_grid(config),
         float(config.radius),
         SLIP_SOLVE_PASSES,

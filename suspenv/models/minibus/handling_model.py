@@ -159,6 +159,8 @@ class HandlingParams:
     force_steer_front: np.ndarray  # rad/N (steering compliance, < 0)
     roll_steer_rear: np.ndarray  # rad/rad, geometric + bush
     force_steer_rear: np.ndarray  # rad/N
+    cornering_front: np.ndarray  # N/rad, axle's two tyres at the static wheel loads
+    cornering_rear: np.ndarray  # N/rad
     #: per-row coefficients (n, 22) of the compiled handling loops
     #: (:mod:`suspenv.models.minibus.handling_kernel`), read-only: roll gradient (rad
     #: per m/s^2), axle roll stiffnesses (N m/rad), the lateral-acceleration moments of
@@ -174,7 +176,7 @@ class HandlingParams:
 
     @property
     def n(self) -> int:
-        return int(self.m.shape[0])
+        return len(self.rows)
 
     @property
     def wheelbase(self) -> np.ndarray:
@@ -191,9 +193,7 @@ class HandlingParams:
 
     def axle_cornering_stiffness(self) -> tuple[np.ndarray, np.ndarray]:
         """Front and rear axle cornering stiffness at static load, N/rad (two tyres each)."""
-        # the static wheel loads: rows' columns 7, 8 (fz_front, fz_rear), (2, n)
-        cf, cr = 2.0 * self.tyre.cornering_stiffness(self.rows[:, 7:9].T)
-        return cf, cr
+        return self.cornering_front, self.cornering_rear
 
     def understeer_gradient(self) -> np.ndarray:
         """Linear-range understeer gradient K, rad/(m/s^2): delta = L/R + K a_y (closed form).
@@ -235,10 +235,11 @@ def handling_parameters(
     vps = stacked_vehicle_parameters(X, cases, vehicle) if params is None else params
     d = vps[0].design
     # the design-independent parameters of each load case, on their rows
-    table, constant_rows = _case_table(vps, leaf)
+    table, constant_rows = _case_table(vps, leaf, tyre)
     (
         m, ms, a, b, iz, ixs, h_prime, ms_front, ms_rear, w_front, w_rear,
         h_rf, h_rr, muf, mur, radius, tf, tr, eps_f, c_ff, moment_f, moment_r, L, msh, msh_g,
+        cf, cr,
     ) = table.repeat(d.n, axis=1)  # fmt: skip
 
     # the per-design values, on the rows of every load case
@@ -297,6 +298,8 @@ def handling_parameters(
         force_steer_front=c_ff,
         roll_steer_rear=eps_r,
         force_steer_rear=c_force,
+        cornering_front=cf,
+        cornering_rear=cr,
         rows=rows,
         vehicle=vehicle,
         tyre=tyre,
@@ -304,7 +307,7 @@ def handling_parameters(
 
 
 #: :func:`_case_table`'s cache: its key -> (the objects the key names by id, tables)
-_CASE_TABLES: dict[tuple, tuple[tuple, tuple[np.ndarray, np.ndarray]]] = {}
+_CASE_TABLES: dict[tuple, tuple[list, tuple[np.ndarray, np.ndarray]]] = {}
 #: the columns of :attr:`HandlingParams.rows` that no design variable changes, and the
 #: rows of :func:`_case_terms` they take
 _CONSTANT_COLUMNS = [3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 17, 18, 19]
@@ -312,21 +315,24 @@ _CONSTANT_TERMS = [20, 21, 16, 17, 9, 10, 0, 2, 3, 22, 18, 19, 4, 5, 23]
 
 
 def _case_table(
-    vps: Sequence[VehicleParams], leaf: LeafAxleGeometry
+    vps: Sequence[VehicleParams], leaf: LeafAxleGeometry, tyre: LateralTyre
 ) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`_case_terms` of each load case of ``vps`` as the columns of a (25, k)
-    array, and each load case's row of :attr:`HandlingParams.rows` with its constant
-    columns set (the others 0), (k, 22); read-only, kept per vehicle, load case and leaf
-    geometry (frozen; the cache holds them, so their ids stay theirs) and CoM distances
-    ``a``, ``b``: what the terms depend on. An evaluation repeats the same load cases,
-    so it pays the lookup only."""
-    held = (leaf, *(o for vp in vps for o in (vp.vehicle, vp.load)))
-    key = (*map(id, held), *(x for vp in vps for x in (vp.a, vp.b)))
+    """:func:`_case_terms` of each load case of ``vps``, then the axles' cornering
+    stiffness at its static wheel loads (N/rad, front and rear, two tyres each), as the
+    columns of a (27, k) array, and each load case's row of :attr:`HandlingParams.rows`
+    with its constant columns set (the others 0), (k, 22); read-only, kept per vehicle,
+    load case, leaf geometry and tyre (frozen; the cache holds them, so their ids stay
+    theirs) and CoM distances ``a``, ``b``: what the terms depend on. An evaluation
+    repeats the same load cases, so it pays the lookup only."""
+    held = [leaf, tyre] + [o for vp in vps for o in (vp.vehicle, vp.load)]
+    key = (*[id(o) for o in held], *[x for vp in vps for x in (vp.a, vp.b)])
     hit = _CASE_TABLES.get(key)
-    if hit is None or any(a is not b for a, b in zip(hit[0], held, strict=True)):
+    if hit is None or not all([a is b for a, b in zip(hit[0], held, strict=True)]):
         if len(_CASE_TABLES) >= 16:
             _CASE_TABLES.clear()
-        table = np.array([_case_terms(vp, leaf) for vp in vps]).T
+        terms = np.array([_case_terms(vp, leaf) for vp in vps]).T
+        # the static wheel loads: terms 9, 10 (fz_front, fz_rear)
+        table = np.vstack([terms, 2.0 * tyre.cornering_stiffness(terms[9:11])])
         rows = np.zeros((len(vps), 22))
         rows[:, _CONSTANT_COLUMNS] = table[_CONSTANT_TERMS].T
         for a in (table, rows):

@@ -44,6 +44,7 @@ compression (N); rates in N/m and N s/m. Laws (the ride model's):
 from __future__ import annotations
 
 import functools
+from typing import Any
 
 import numpy as np
 from scipy.special import gamma, ive, ndtr, pbdv
@@ -215,28 +216,31 @@ class ElementLinearisation:
     ``LEAF`` and, when the model has effects, ``FRONT``, ``DAHL_C``, ``DAHL_K``)."""
 
     def __init__(self, nl: RideModel):
-        slopes = np.asarray(nl.damper_slopes, float)  # (4 slopes, 4 dampers, n)
+        # float64 (a float32 model's typed arrays cast back)
+        slopes = nl.damper_slopes  # (4 slopes, 4 dampers, n)
         self.d_bl, self.d_bh, self.d_rl, self.d_rh = slopes.transpose(0, 2, 1)
         self.kb = np.asarray(nl.knee_b, float).T  # (1, 4) bump knee (m/s)
         self.kr = -np.asarray(nl.knee_r, float).T  # (1, 4) rebound knee (> 0, m/s)
-        self.k1 = np.asarray(nl.K[:, 2:4], float)  # primary leaf rate (N/m)
-        self.k_front = np.asarray(nl.K[:, 0:2], float)  # front wheel rate (N/m)
+        self.k1 = nl.K[:, 2:4]  # primary leaf rate (N/m)
+        self.k_front = nl.K[:, 0:2]  # front wheel rate (N/m)
         self.dk = np.asarray(nl.leaf_dk, float).T  # composite - primary rate (N/m)
         self.thr = np.asarray(nl.leaf_thr, float).T  # helper knee from static (m)
         self.leaf_static = nl.leaf_static_rate
         self.damper_mean = nl.damper_mean
         self.effects = nl.effects
-        self.dahl = next((e.params for e in nl.effects if e.kind == "dahl_hysteresis"), None)
+        self.dahl: dict[str, Any] | None = None
         #: end stops per end (front, rear): (+1 bump / -1 rebound, gap, k_stop, p)
         self.stops: tuple[list[tuple[float, float, float, float]], ...] = ([], [])
         for e in nl.effects:
-            if e.kind in ("bump_stop", "rebound_stop"):
+            if e.kind == "dahl_hysteresis" and self.dahl is None:
+                self.dahl = e.params
+            elif e.kind in ("bump_stop", "rebound_stop"):
                 sign = 1.0 if e.kind == "bump_stop" else -1.0
                 end = self.stops[0 if e.location.startswith("front") else 1]
                 end.append((sign, e.params["gap"], e.params["k_stop"], e.params["p"]))
         #: per stop of ``stops`` with p = 1: its stiffness ratio k_stop/K (n, 2) to the
         #: spring's own rate K at its contact point (the closure's kappa), else None
-        self.kappa = tuple([self._kappa(end, *stop) for stop in self.stops[end]] for end in (0, 1))
+        self.kappa = tuple([[self._kappa(end, *s) for s in self.stops[end]] for end in (0, 1)])
         self.n_rates = 12 if self.effects else 6
         #: damper slopes (n, 4, 4), knees (4, 2), leaf K_1, dk, e_k (n, 2, 3) of the
         #: compiled rates (:mod:`suspenv.models.minibus.spectral_kernel`), filled in

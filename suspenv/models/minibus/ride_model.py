@@ -152,6 +152,8 @@ _TYPED = (
 _DTYPES = (np.dtype(np.float64), np.dtype(np.float32))
 #: :meth:`RideModel._build_geometry`'s cache: key -> (vehicle, geometry)
 _GEOMETRY: dict[tuple[int, bool, float], tuple[object, tuple]] = {}
+#: :meth:`RideModel._inverse_blocks`' cache: key -> (the objects it names by id, terms)
+_INVERSE: dict[tuple, tuple[list, np.ndarray]] = {}
 
 
 class RideModel:
@@ -203,8 +205,9 @@ class RideModel:
                     f"ride model effect ({e.kind!r}, location={e.location!r}) is not "
                     f"supported; supported are {sorted(SUPPORTED_EFFECTS)}"
                 )
-        self._counts = [p.n for p in plist]
-        self.n = sum(self._counts)
+        #: designs per parameter block (rows of each in order)
+        self.counts = [p.n for p in plist]
+        self.n = sum(self.counts)
         self.nq = N_BASE_DOF + (2 if seat else 0)
         self._build_geometry()
         self._build_coefficients()
@@ -221,7 +224,8 @@ class RideModel:
                 _GEOMETRY.clear()
             hit = _GEOMETRY[key] = (self.vehicle, self._geometry())
         self.n_pos, self.n_vel, self.E, self.Et, self.Pt, self.Vt, self.B, self.Bt = hit[1][:8]
-        self._damper_unit, self.knee_b, self.knee_r, self._tyre_rates = hit[1][8:]
+        # tyre_rates: the element rates the vehicle fixes (the tyres'; 0 in the others)
+        self._damper_unit, self.knee_b, self.knee_r, self.tyre_rates = hit[1][8:]
 
     def _geometry(self) -> tuple:
         """``(n_pos, n_vel, E, E^T, P^T, V^T, B, B^T, damper curves, knee_b, knee_r,
@@ -298,8 +302,7 @@ class RideModel:
 
     def _build_coefficients(self) -> None:
         v, ps, nq = self.vehicle, self.params, self.nq
-        L = v.wheelbase
-        counts = self._counts
+        counts = self.counts
         # the per-design arrays of every block, stacked: front wheel rate, leaf primary
         # and composite rates, stabilisers, damper scales (C1, C2), leaf rate and
         # deflection at rest
@@ -310,25 +313,12 @@ class RideModel:
             for p in ps
         ]  # fmt: skip
         stacked = np.concatenate(per, axis=1)
-
-        # per block: inverse body mass matrix in (z_f, z_r) (KE of heave (b zf + a zr)/L
-        # and pitch (zf - zr)/L) and roll, on the block's rows: the diagonal of q, then
-        # the (z_f, z_r) coupling
-        seat = 2 * (1.0 / self.seat.mass,) if self.seat else ()
-        wheels = (*(2 * (1.0 / v.unsprung_front,)), *(2 * (1.0 / v.unsprung_rear,)), *seat)
-        terms = []
-        for p in ps:
-            m, I_pitch, I_roll = p.load.sprung_mass, p.load.pitch_inertia, p.load.roll_inertia
-            M11 = (m * p.b**2 + I_pitch) / L**2
-            M22 = (m * p.a**2 + I_pitch) / L**2
-            M12 = (m * p.a * p.b - I_pitch) / L**2
-            det = M11 * M22 - M12**2
-            terms.append((M22 / det, M11 / det, 1.0 / I_roll, *wheels, -M12 / det))
-        inverse = np.array(terms).T.repeat(counts, axis=1)  # (nq + 1, n), C order
+        self.inverse_blocks = self._inverse_blocks()
+        inverse = self.inverse_blocks.T.repeat(counts, axis=1)  # (nq + 1, n), C order
         # position-type stiffnesses (N/m, N*m/rad), then velocity-type (N s/m): the
         # vehicle's tyre columns, the seat's, then the design's
         K = np.empty((self.n, self.n_pos + self.n_vel))
-        K[:] = self._tyre_rates
+        K[:] = self.tyre_rates
         if self.seat:
             K[:, 10:12] = self.seat.stiffness
             K[:, self.n_pos + 8 : self.n_pos + 10] = self.seat.damping
@@ -355,10 +345,10 @@ class RideModel:
         self.d_bl, self.d_bh, self.d_rl, self.d_rh = slopes
         # float32 models: the integration's arrays in their type (float64: so already),
         # each formed in float64 first
-        typed = () if self.dtype == np.float64 else _TYPED
-        values = [np.ascontiguousarray(getattr(self, name), dtype=self.dtype) for name in typed]
-        for name, value in zip(typed, values, strict=True):
-            setattr(self, name, value)
+        if self.dtype != np.float64:
+            values = [np.ascontiguousarray(getattr(self, k), dtype=self.dtype) for k in _TYPED]
+            for name, value in zip(_TYPED, values, strict=True):
+                setattr(self, name, value)
         # effects
         self._hyst = None
         self._damper_friction: list[tuple[slice, Effect]] = []
@@ -377,6 +367,34 @@ class RideModel:
         # effect parameters checked once here (packed for the compiled loop; without
         # effects there is nothing to check and the empty pack waits for a simulation)
         self._effect_pack = ride_kernel.pack_effects(self.effects, self.n) if self.effects else None
+
+    def _inverse_blocks(self) -> np.ndarray:
+        """Per parameter block (k, nq + 1): the inverse mass matrix of q's diagonal, then
+        its (z_f, z_r) coupling (1/kg, 1/(kg m^2)); the body's in (z_f, z_r) from the KE
+        of heave (b zf + a zr)/L and pitch (zf - zr)/L. No design variable changes them:
+        read-only, kept per vehicle, seat, load case and CoM distances (the cache holds
+        the objects, so their ids stay theirs)."""
+        v, ps, L = self.vehicle, self.params, self.vehicle.wheelbase
+        held = [v, self.seat, *[p.load for p in ps]]
+        key = (*[id(o) for o in held], *[x for p in ps for x in (p.a, p.b)])
+        hit = _INVERSE.get(key)
+        if hit is None or not all([a is b for a, b in zip(hit[0], held, strict=True)]):
+            if len(_INVERSE) >= 16:
+                _INVERSE.clear()
+            seat = 2 * (1.0 / self.seat.mass,) if self.seat else ()
+            wheels = (*(2 * (1.0 / v.unsprung_front,)), *(2 * (1.0 / v.unsprung_rear,)), *seat)
+            terms = []
+            for p in ps:
+                m, I_pitch, I_roll = p.load.sprung_mass, p.load.pitch_inertia, p.load.roll_inertia
+                M11 = (m * p.b**2 + I_pitch) / L**2
+                M22 = (m * p.a**2 + I_pitch) / L**2
+                M12 = (m * p.a * p.b - I_pitch) / L**2
+                det = M11 * M22 - M12**2
+                terms.append((M22 / det, M11 / det, 1.0 / I_roll, *wheels, -M12 / det))
+            inverse = np.array(terms)
+            inverse.flags.writeable = False
+            hit = _INVERSE[key] = (held, inverse)
+        return hit[1]
 
     # the arrays only a simulation reads (:meth:`rhs`, :attr:`_packed`), formed at its
     # first use: the spectral methods never need them
@@ -399,7 +417,7 @@ class RideModel:
             (p.front_static_load + v.unsprung_front * G, p.rear_static_load + v.unsprung_rear * G)
             for p in self.params
         ]
-        front, rear = np.array(loads).T.repeat(self._counts, axis=1)
+        front, rear = np.array(loads).T.repeat(self.counts, axis=1)
         f0 = np.empty((4, self.n))
         f0[0:2], f0[2:4] = front, rear
         return f0

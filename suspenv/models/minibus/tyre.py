@@ -28,6 +28,7 @@ documented choice for a 195/70 R15C light-truck tyre, see its docstring.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -85,12 +86,14 @@ class LateralTyre:
         fz = np.maximum(np.asarray(fz, dtype=float), 0.0)
         return self.friction(fz) * fz
 
-    @property
-    def coefficients(self) -> tuple[float, ...]:
+    @functools.cached_property
+    def coefficients(self) -> np.ndarray:
         """(fz0, pCy1, pDy1, pDy2, pEy1, pEy2, pKy1, pKy2), as the compiled handling
-        loops take them (:mod:`suspenv.models.minibus.handling_kernel`)."""
-        return (self.fz0, self.pCy1, self.pDy1, self.pDy2, self.pEy1, self.pEy2, self.pKy1,
-                self.pKy2)  # fmt: skip
+        loops take them (:mod:`suspenv.models.minibus.handling_kernel`); read-only."""
+        k = np.array([self.fz0, self.pCy1, self.pDy1, self.pDy2, self.pEy1, self.pEy2,
+                      self.pKy1, self.pKy2])  # fmt: skip
+        k.flags.writeable = False
+        return k
 
     def cornering_stiffness(self, fz: np.ndarray | float) -> np.ndarray:
         """Cornering stiffness Ky = dFy/dalpha at alpha = 0 [N/rad]; zero for fz <= 0."""

@@ -297,7 +297,7 @@ class DesignSI:
 
     @property
     def n(self) -> int:
-        return int(self.rear_primary_rate.shape[0])
+        return len(self.rear_primary_rate)
 
 
 def check_designs(X: np.ndarray) -> np.ndarray:
