@@ -14,12 +14,11 @@ import pytest
 
 from suspenv.diagnosis.component.signatures import (
     SignalSet,
-    explain,
     first_order_lowpass,
     score_signatures,
     unit_dahl,
 )
-from suspenv.diagnosis.screening import effective_n
+from suspenv.diagnosis.screening import effective_n, partial_r2
 from suspenv.models.effects import damper_curves, friction, hysteresis, sensor, stiffness
 from suspenv.models.effects.viscoelastic import maxwell_series
 
@@ -134,14 +133,14 @@ def test_lr_asymmetry_needs_two_sides() -> None:
     assert score_signatures(s, ["lr_asymmetry"])[0].score > 0.1
 
 
-def test_explain_closed_forms() -> None:
+def test_partial_r2_closed_forms() -> None:
     rng = np.random.default_rng(0)
     f = rng.normal(size=500)
     # a residual equal to a feature is fully explained
-    assert explain(3.0 * f, f[:, None], None)[0] == pytest.approx(1.0)
+    assert partial_r2(3.0 * f, f[:, None], None)[0] == pytest.approx(1.0)
     # a feature inside the baseline span explains nothing once projected out
     basis = (f / np.linalg.norm(f))[:, None]
-    assert explain(rng.normal(size=500), f[:, None], basis)[0] == pytest.approx(0.0, abs=1e-12)
+    assert partial_r2(rng.normal(size=500), f[:, None], basis)[0] == pytest.approx(0.0, abs=1e-12)
 
 
 def test_effective_n_of_ar1_series() -> None:

@@ -8,7 +8,8 @@
 * :class:`Signature`: a screening score of a signature family or a candidate, with its
   p-value, evidence in words and numbers in the channel's units.
 * :func:`effective_n`: the effective sample size of a serially correlated residual;
-  :func:`orthonormal_basis`: the span of a baseline Jacobian a screen projects off.
+  :func:`orthonormal_basis`: the span of a baseline Jacobian a screen projects off;
+  :func:`partial_r2` / :func:`score_p_value`: what features explain outside it, p-value.
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
+from scipy import stats
 
 from suspenv.diagnosis.fitting import lag1_autocorrelation
 
@@ -110,3 +112,35 @@ def orthonormal_basis(J: np.ndarray | None) -> np.ndarray | None:
     U, s, _ = np.linalg.svd(J, full_matrices=False)
     keep = s > s[0] * 1e-8 if s.size else np.zeros(0, bool)
     return U[:, keep]
+
+
+def partial_r2(
+    residual: np.ndarray, features: np.ndarray, basis: np.ndarray | None
+) -> tuple[float, np.ndarray, np.ndarray]:
+    """Partial R² of ``residual`` on ``features`` (n, q) outside span(basis) (orthonormal
+    columns, :func:`orthonormal_basis`; None: no projection); a feature left with less than
+    1e-6 of its norm explains nothing.
+
+    Returns (r2, coefficients on the projected features, fitted part).
+    """
+    F = np.atleast_2d(features.T).T.astype(float)
+    if basis is not None:
+        F = F - basis @ (basis.T @ F)
+    norms = np.linalg.norm(F, axis=0)
+    raw = np.linalg.norm(np.atleast_2d(features.T).T, axis=0)
+    ok = norms > 1e-6 * np.maximum(raw, 1e-300)
+    coef = np.zeros(F.shape[1])
+    den = float(np.dot(residual, residual))
+    if not np.any(ok) or den <= 0:
+        return 0.0, coef, np.zeros_like(residual)
+    c, *_ = np.linalg.lstsq(F[:, ok], residual, rcond=None)
+    coef[ok] = c
+    fitted = F[:, ok] @ c
+    r2 = float(np.clip(1.0 - np.sum((residual - fitted) ** 2) / den, 0.0, 1.0))
+    return r2, coef, fitted
+
+
+def score_p_value(r2: float, remainder: np.ndarray, q: int = 1) -> float:
+    """Score-test p-value of a partial R² ``r2`` of ``q`` features: ``n_eff R²`` ~ chi2(q),
+    ``n_eff`` (:func:`effective_n`) from what the features leave, ``remainder``."""
+    return float(stats.chi2.sf(effective_n(remainder) * r2, max(q, 1)))

@@ -160,14 +160,16 @@ def _withdrawn(
     named: list[Hypothesis],
     parents: list[FitResult | None],
     setting: Setting,
-    switched: dict[int, dict[str, float]],
-) -> tuple[list[SwitchedWithdrawal], FitResult | None, list[dict[str, Any]]]:
+) -> tuple[
+    list[SwitchedWithdrawal], FitResult | None, list[dict[str, Any]], dict[int, dict[str, float]]
+]:
     """The elements withdrawn from the last named back (module docstring), the model
-    left and the numbers of every element judged; the switching tests run are kept in
-    ``switched`` (by the hypothesis' id)."""
+    left, the numbers of every element judged and the switching tests run on the way
+    (:func:`gain_switching`, by the hypothesis' id)."""
     z = float(stats.norm.isf(ctx.rule.alpha / max(len(named), 1)))
     length, name, profiled = setting
     out, judged, final = list[SwitchedWithdrawal](), list[dict[str, Any]](), None
+    switched: dict[int, dict[str, float]] = {}
     for h, parent in reversed(list(zip(named, parents, strict=True))):
         if h.fit is None or parent is None:
             break
@@ -184,7 +186,7 @@ def _withdrawn(
         beside = f"a gain on {name} set anew in each block of {length} samples"
         out.append(SwitchedWithdrawal(h, beside, p, float("nan"), beta=n["beta"], se=n["se"]))
         final = parent
-    return out, final, judged
+    return out, final, judged, switched
 
 
 def run(ctx: Context) -> Conclusion | None:
@@ -195,8 +197,7 @@ def run(ctx: Context) -> Conclusion | None:
         return None
     named = list(ctx.outcome.named)
     parents = [ctx.outcome.base, *(h.fit for h in named)][: len(named)]
-    switched: dict[int, dict[str, float]] = {}
-    withdrawn, final, judged = _withdrawn(ctx, named, parents, setting, switched)
+    withdrawn, final, judged, switched = _withdrawn(ctx, named, parents, setting)
     gone = {id(w.hypothesis) for w in withdrawn}
     out: list[dict[str, Any]] = []
     sentences = [w.sentence() for w in reversed(withdrawn)]

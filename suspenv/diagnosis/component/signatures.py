@@ -4,10 +4,10 @@ Each detector builds a small set of *signature features* from the measured motio
 (and the baseline prediction) and asks how much of the baseline residual they
 explain **beyond what the baseline parameters could already absorb**: features are
 first projected onto the orthogonal complement of the baseline Jacobian columns,
-then the residual is regressed on them. The score is that partial R² in [0, 1]
-(the share of residual energy the signature explains); ``n R²`` is the Lagrange-
-multiplier (score) statistic of adding the effect, turned into a p-value with the
-effective sample size of the serially correlated residual.
+then the residual is regressed on them. The score is that partial R² in [0, 1] (the
+share of residual energy the signature explains); ``n R²`` is the Lagrange-multiplier
+(score) statistic of adding the effect, turned into a p-value with the effective sample
+size of the serially correlated residual (:mod:`~suspenv.diagnosis.screening`).
 
 Signatures (residual = measured - baseline prediction):
 
@@ -39,11 +39,10 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import stats
 from scipy.signal import lfilter
 
 from suspenv.diagnosis.component.locate import dominant_frequency, reversal_indices
-from suspenv.diagnosis.screening import Signature, effective_n, orthonormal_basis
+from suspenv.diagnosis.screening import Signature, orthonormal_basis, partial_r2, score_p_value
 
 
 @dataclass
@@ -80,35 +79,6 @@ class SignalSet:
 
 
 # ------------------------------------------------------------------ helpers
-def explain(
-    residual: np.ndarray, features: np.ndarray, basis: np.ndarray | None
-) -> tuple[float, np.ndarray, np.ndarray]:
-    """Partial R² of ``residual`` on ``features`` (n, q) outside span(basis).
-
-    Returns (r2, coefficients on the projected features, fitted part).
-    """
-    F = np.atleast_2d(features.T).T.astype(float)
-    if basis is not None:
-        F = F - basis @ (basis.T @ F)
-    norms = np.linalg.norm(F, axis=0)
-    raw = np.linalg.norm(np.atleast_2d(features.T).T, axis=0)
-    ok = norms > 1e-6 * np.maximum(raw, 1e-300)
-    coef = np.zeros(F.shape[1])
-    den = float(np.dot(residual, residual))
-    if not np.any(ok) or den <= 0:
-        return 0.0, coef, np.zeros_like(residual)
-    c, *_ = np.linalg.lstsq(F[:, ok], residual, rcond=None)
-    coef[ok] = c
-    fitted = F[:, ok] @ c
-    r2 = float(np.clip(1.0 - np.sum((residual - fitted) ** 2) / den, 0.0, 1.0))
-    return r2, coef, fitted
-
-
-def _p_value(r2: float, remainder: np.ndarray, q: int = 1) -> float:
-    """Score-test p-value: ``n_eff R²`` ~ chi2(q), ``n_eff`` from what the signature leaves."""
-    return float(stats.chi2.sf(effective_n(remainder) * r2, max(q, 1)))
-
-
 def _per_segment(
     s: SignalSet, fn: Callable[[np.ndarray, float], np.ndarray], par: float
 ) -> np.ndarray:
@@ -147,7 +117,7 @@ def _best_of(
     """Best single feature of a scan: (parameter, r2, coefficients, fitted part)."""
     best = (float("nan"), 0.0, np.zeros(1), np.zeros_like(s.residual))
     for par, feat in candidates:
-        r2, coef, fitted = explain(s.residual, feat[:, None], basis)
+        r2, coef, fitted = partial_r2(s.residual, feat[:, None], basis)
         if r2 > best[1]:
             best = (par, r2, coef, fitted)
     return best
@@ -157,13 +127,13 @@ def _best_of(
 def detect_friction(s: SignalSet, basis: np.ndarray | None) -> Signature:
     vmax = float(np.max(np.abs(s.v))) or 1.0
     feat = np.tanh(s.v / (0.01 * vmax))
-    r2, coef, fitted = explain(s.residual, feat[:, None], basis)
+    r2, coef, fitted = partial_r2(s.residual, feat[:, None], basis)
     n_rev = int(sum(reversal_indices(s.v[idx]).size for idx in s.segments()))
     step = 2.0 * abs(coef[0]) * s.scale
     return Signature(
         "friction",
         r2,
-        _p_value(r2, s.residual - fitted),
+        score_p_value(r2, s.residual - fitted),
         f"residual steps by {step:.3g} {s.unit} at each of the {n_rev} velocity reversals "
         f"(a sign(v) term explains {100 * r2:.0f} % of the residual energy)",
         {"step": step, "n_reversals": float(n_rev), "r2": r2},
@@ -181,7 +151,7 @@ def detect_hysteresis(s: SignalSet, basis: np.ndarray | None) -> Signature:
     return Signature(
         "hysteresis",
         r2,
-        _p_value(r2, s.residual - fitted),
+        score_p_value(r2, s.residual - fitted),
         f"a loop {width:.3g} {s.unit} wide that settles within {100 * frac:.0f} % of the "
         f"half-stroke after each reversal, set by displacement not rate "
         f"(explains {100 * r2:.0f} %)",
@@ -212,7 +182,7 @@ def detect_progressive(s: SignalSet, basis: np.ndarray | None) -> Signature:
     return Signature(
         "progressive",
         r2,
-        _p_value(r2, s.residual - fitted),
+        score_p_value(r2, s.residual - fitted),
         f"odd residual growing with amplitude, {extra:.3g} {s.unit} extra at full stroke; "
         f"{100 * h3:.0f} % of the residual energy at 3x the excitation frequency "
         f"(x³ explains {100 * r2:.0f} %)",
@@ -222,12 +192,12 @@ def detect_progressive(s: SignalSet, basis: np.ndarray | None) -> Signature:
 
 def detect_spring(s: SignalSet, basis: np.ndarray | None) -> Signature:
     half = 0.5 * float(np.ptp(s.x)) or 1.0
-    r2, coef, fitted = explain(s.residual, (s.x / half)[:, None], basis)
+    r2, coef, fitted = partial_r2(s.residual, (s.x / half)[:, None], basis)
     k = coef[0] * s.scale / half
     return Signature(
         "spring",
         r2,
-        _p_value(r2, s.residual - fitted),
+        score_p_value(r2, s.residual - fitted),
         f"residual in phase with displacement: a parallel (gas) spring of about {k:.3g} "
         f"{s.unit}/m (explains {100 * r2:.0f} %)",
         {"stiffness": k, "r2": r2},
@@ -257,7 +227,7 @@ def detect_end_stop(s: SignalSet, basis: np.ndarray | None) -> Signature:
     for hi in highs:
         for lo in lows:
             feats = np.column_stack([np.maximum(s.x - hi, 0.0), np.minimum(s.x - lo, 0.0)])
-            r2_pair, _, fitted_pair = explain(s.residual, feats, basis)
+            r2_pair, _, fitted_pair = partial_r2(s.residual, feats, basis)
             if r2_pair > pair[2]:
                 pair = (hi, lo, r2_pair, fitted_pair)
     gain = (pair[2] - r2) / max(1.0 - r2, 1e-12)
@@ -265,7 +235,7 @@ def detect_end_stop(s: SignalSet, basis: np.ndarray | None) -> Signature:
         np.isfinite(thr)
         and np.isfinite(pair[0])
         and gain > 0.0
-        and _p_value(gain, s.residual - pair[3]) < END_STOP_SECOND_SIDE_P
+        and score_p_value(gain, s.residual - pair[3]) < END_STOP_SECOND_SIDE_P
     )
     e_all = float(np.sum(s.residual**2)) or 1.0
     if both:
@@ -276,7 +246,7 @@ def detect_end_stop(s: SignalSet, basis: np.ndarray | None) -> Signature:
         return Signature(
             "end_stop",
             r2,
-            _p_value(r2, s.residual - fitted, q=2),
+            score_p_value(r2, s.residual - fitted, q=2),
             f"{100 * share:.0f} % of the residual energy lies beyond {1e3 * hi:.3g} mm in "
             f"compression and beyond {1e3 * lo:.3g} mm in extension, which hold "
             f"{100 * frac:.0f} % of the samples (a ramp on each side explains "
@@ -301,7 +271,7 @@ def detect_end_stop(s: SignalSet, basis: np.ndarray | None) -> Signature:
     return Signature(
         "end_stop",
         r2,
-        _p_value(r2, s.residual - fitted),
+        score_p_value(r2, s.residual - fitted),
         f"{100 * share:.0f} % of the residual energy lies beyond {1e3 * thr:.3g} mm on the "
         f"{side} side, which holds {100 * frac:.0f} % of the samples "
         f"(a one-sided ramp explains {100 * r2:.0f} %)",
@@ -311,12 +281,12 @@ def detect_end_stop(s: SignalSet, basis: np.ndarray | None) -> Signature:
 
 def detect_damper_asymmetry(s: SignalSet, basis: np.ndarray | None) -> Signature:
     vmax = float(np.max(np.abs(s.v))) or 1.0
-    r2, coef, fitted = explain(s.residual, (np.abs(s.v) / vmax)[:, None], basis)
+    r2, coef, fitted = partial_r2(s.residual, (np.abs(s.v) / vmax)[:, None], basis)
     d = coef[0] * s.scale
     return Signature(
         "damper_asymmetry",
         r2,
-        _p_value(r2, s.residual - fitted),
+        score_p_value(r2, s.residual - fitted),
         f"residual has the same sign in bump and rebound and grows with speed: "
         f"{d:+.3g} {s.unit} at max |v| = {vmax:.3g} m/s, i.e. bump and rebound slopes differ "
         f"(|v| explains {100 * r2:.0f} %)",
@@ -334,7 +304,7 @@ def detect_digressive(s: SignalSet, basis: np.ndarray | None) -> Signature:
     return Signature(
         "digressive",
         r2,
-        _p_value(r2, s.residual - fitted),
+        score_p_value(r2, s.residual - fitted),
         f"odd residual in velocity whose slope falls above about {frac * vmax:.3g} m/s "
         f"(a knee in the force-velocity curve; explains {100 * r2:.0f} %)",
         {"knee_velocity": frac * vmax, "r2": r2},
@@ -356,7 +326,7 @@ def detect_viscoelastic(s: SignalSet, basis: np.ndarray | None) -> Signature:
     return Signature(
         "viscoelastic",
         r2,
-        _p_value(r2, s.residual - fitted),
+        score_p_value(r2, s.residual - fitted),
         f"a lagged, rate-dependent force (relaxation time about {tau:.3g} s; the loop width "
         f"changes with frequency; explains {100 * r2:.0f} %)",
         {"relaxation_time_s": tau, "r2": r2},
@@ -364,23 +334,23 @@ def detect_viscoelastic(s: SignalSet, basis: np.ndarray | None) -> Signature:
 
 
 def detect_sensor_offset(s: SignalSet, basis: np.ndarray | None) -> Signature:
-    r2, coef, fitted = explain(s.residual, np.ones((s.t.size, 1)), basis)
+    r2, coef, fitted = partial_r2(s.residual, np.ones((s.t.size, 1)), basis)
     off = coef[0] * s.scale
     return Signature(
         "sensor_offset",
         r2,
-        _p_value(r2, s.residual - fitted),
+        score_p_value(r2, s.residual - fitted),
         f"constant residual of {off:+.3g} {s.unit} (explains {100 * r2:.0f} %)",
         {"offset": off, "r2": r2},
     )
 
 
 def detect_sensor_gain(s: SignalSet, basis: np.ndarray | None) -> Signature:
-    r2, coef, fitted = explain(s.residual, s.prediction[:, None], basis)
+    r2, coef, fitted = partial_r2(s.residual, s.prediction[:, None], basis)
     return Signature(
         "sensor_gain",
         r2,
-        _p_value(r2, s.residual - fitted),
+        score_p_value(r2, s.residual - fitted),
         f"residual proportional to the signal: gain error {100 * coef[0]:+.2g} % "
         f"(explains {100 * r2:.0f} %)",
         {"gain_error": float(coef[0]), "r2": r2},
@@ -392,12 +362,12 @@ def detect_sensor_lag(s: SignalSet, basis: np.ndarray | None) -> Signature:
     for idx in s.segments():
         if idx.size > 2:
             dydt[idx] = np.gradient(s.prediction[idx], s.t[idx])
-    r2, coef, fitted = explain(s.residual, dydt[:, None], basis)
+    r2, coef, fitted = partial_r2(s.residual, dydt[:, None], basis)
     lag = -float(coef[0])
     return Signature(
         "sensor_lag",
         r2,
-        _p_value(r2, s.residual - fitted),
+        score_p_value(r2, s.residual - fitted),
         f"residual follows the signal's rate of change: a phase shift of about "
         f"{1e3 * lag:.3g} ms (explains {100 * r2:.0f} %)",
         {"lag_s": lag, "r2": r2},
@@ -415,7 +385,7 @@ def detect_lr_asymmetry(s: SignalSet, basis: np.ndarray | None) -> Signature:
     return Signature(
         "lr_asymmetry",
         r2,
-        _p_value(r2, d),
+        score_p_value(r2, d),
         f"left minus right residual holds {100 * r2:.0f} % of the residual energy",
         {"r2": r2},
     )

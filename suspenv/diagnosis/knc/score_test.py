@@ -29,7 +29,7 @@ import numpy as np
 
 from suspenv.diagnosis.fitting import stacked_residual
 from suspenv.diagnosis.knc.signatures import KncSignature
-from suspenv.diagnosis.screening import orthonormal_basis
+from suspenv.diagnosis.screening import orthonormal_basis, partial_r2
 from suspenv.rigs.knc_axle import KncAxleModel, fitted_parameters, make_candidate
 
 #: candidates tested by the score test -> their signature family
@@ -68,8 +68,7 @@ def score_test(fit_: Any, recs: Sequence[Any], candidate: str) -> tuple[float, i
     k = int(np.linalg.matrix_rank(G, tol=1e-9 * max(np.abs(G).max(), 1e-300)))
     if k == 0:
         return 0.0, 1
-    coef, *_ = np.linalg.lstsq(G, r, rcond=None)
-    fitted = G @ coef
+    fitted = partial_r2(r, G, None)[2]
     s2 = float(r @ r) / max(r.size - fit_.theta.size, 1)
     return float(fitted @ fitted) / s2, k
 

@@ -32,7 +32,6 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from scipy import stats
 
 from suspenv.core.errors import EvaluationError, ValidationError
 from suspenv.diagnosis.checks.finding import Check
@@ -55,8 +54,8 @@ from suspenv.diagnosis.screening import (
     Location,
     Share,
     Signature,
-    effective_n,
     orthonormal_basis,
+    score_p_value,
 )
 from suspenv.diagnosis.split import Holdout, Recordings, Split, as_recordings, heldout_recordings
 
@@ -162,10 +161,10 @@ def screen_candidates(
         feat = pred - base_pred
         if basis is not None:
             feat = feat - basis @ (basis.T @ feat)
+        # the partial R² of one feature in closed form (screening.partial_r2 agrees to rounding)
         den = float(feat @ feat)
         r2 = float((feat @ r) ** 2 / (den * float(r @ r))) if den > 0 and r @ r > 0 else 0.0
-        n_eff = effective_n(r - (feat * (feat @ r) / den if den > 0 else 0.0))
-        p = float(stats.chi2.sf(n_eff * r2, 1))
+        p = score_p_value(r2, r - (feat * (feat @ r) / den if den > 0 else 0.0))
         out.append(
             Signature(
                 f"{kind}@{loc}",

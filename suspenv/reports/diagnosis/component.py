@@ -147,18 +147,24 @@ def markdown(diag: Diagnosis, figures: dict[str, str]) -> str:
     c = diag.comparison
     ch = diag.channel
     if c is not None:
+        held = f"{_fmt(c.heldout_rms_after[ch])} ({-100 * c.heldout_reduction:+.0f} %)"
+        box = [f"{_fmt(q)} ({p:.2g})" for q, p in (c.ljung_box_before, c.ljung_box_after)]
         L += [
             "## Before / after",
             "",
-            "| | baseline | with added physics |",
-            "|---|---|---|",
-            f"| held-out RMS error ({ch}) | {_fmt(c.heldout_rms_before[ch])} | "
-            f"{_fmt(c.heldout_rms_after[ch])} ({-100 * c.heldout_reduction:+.0f} %) |",
-            f"| fit RMS error ({ch}) | {_fmt(c.fit_rms_before[ch])} | "
-            f"{_fmt(c.fit_rms_after[ch])} |",
-            f"| BIC | {_fmt(c.bic_before)} | {_fmt(c.bic_after)} |",
-            f"| Ljung-Box Q (p) | {_fmt(c.ljung_box_before[0])} ({c.ljung_box_before[1]:.2g}) | "
-            f"{_fmt(c.ljung_box_after[0])} ({c.ljung_box_after[1]:.2g}) |",
+            *table_lines(
+                ["", "baseline", "with added physics"],
+                [
+                    [f"held-out RMS error ({ch})", _fmt(c.heldout_rms_before[ch]), held],
+                    [
+                        f"fit RMS error ({ch})",
+                        _fmt(c.fit_rms_before[ch]),
+                        _fmt(c.fit_rms_after[ch]),
+                    ],
+                    ["BIC", _fmt(c.bic_before), _fmt(c.bic_after)],
+                    ["Ljung-Box Q (p)", *box],
+                ],
+            ),
             "",
             f"Likelihood-ratio test: statistic {_fmt(c.lr.statistic)} on {c.lr.dof} dof "
             f"(corrected for serial correlation {_fmt(c.lr.statistic_corrected)}, "
