@@ -166,7 +166,7 @@ def test_different_problem_options_refused_naming_the_key(sphere_runs, tmp_path)
     dirs = sphere_runs["random"] + sphere_runs["dim5"]
     with pytest.raises(ValidationError) as e:
         write_comparison(dirs, tmp_path, figures=False)
-    assert "options.dim: 4 vs 5" in str(e.value)
+    assert "options.dim: 4 -> 5" in str(e.value)
     assert "one problem configuration" in str(e.value) and "--suite" in str(e.value)
     # --suite: each problem reported on its own, a performance profile across them
     res = compare(dirs, suite=True)
@@ -440,4 +440,4 @@ def test_cli_prints_the_hash_column_and_refusals_as_one_line(sphere_runs, tmp_pa
     bad = [str(d) for d in sphere_runs["random"] + sphere_runs["dim5"]]
     assert main(["compare", *bad, "--out", str(tmp_path / "d"), "--no-plots"]) == 2
     err = capsys.readouterr().err.strip()
-    assert len(err.splitlines()) == 1 and "options.dim: 4 vs 5" in err
+    assert len(err.splitlines()) == 1 and "options.dim: 4 -> 5" in err

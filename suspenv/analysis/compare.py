@@ -65,6 +65,7 @@ from suspenv.core.atomic import write_file
 from suspenv.core.errors import ValidationError
 from suspenv.core.jsonable import to_jsonable
 from suspenv.core.markdown import fmt, inline, markdown_table
+from suspenv.runs.config import config_differences, flatten_config
 from suspenv.runs.run_dir import write_json
 
 #: known optima of a problem's plain quality (the objective itself), by problem name
@@ -142,31 +143,13 @@ def _length(r: RunRecord) -> int:
     return max(r.evaluations_used, r.budget or 0)
 
 
-def _flatten(d: Any, prefix: str = "") -> dict[str, Any]:
-    if isinstance(d, dict):
-        out: dict[str, Any] = {}
-        for k, v in d.items():
-            out.update(_flatten(v, f"{prefix}{k}."))
-        return out or {prefix.rstrip("."): {}}
-    return {prefix.rstrip("."): d}
-
-
-def _differences(a: dict[str, Any], b: dict[str, Any]) -> list[str]:
-    fa, fb = _flatten(a), _flatten(b)
-    return [
-        f"{k}: {fa.get(k, '(unset)')!r} vs {fb.get(k, '(unset)')!r}"
-        for k in sorted(set(fa) | set(fb))
-        if fa.get(k, "(unset)") != fb.get(k, "(unset)")
-    ]
-
-
 def _refuse_mixed_problems(by_problem: dict[str, list[RunRecord]]) -> None:
     keys = list(by_problem)
     first = by_problem[keys[0]][0]
     lines = []
     for k in keys[1:]:
         other = by_problem[k][0]
-        diff = _differences(first.problem_config, other.problem_config)
+        diff = config_differences(first.problem_config, other.problem_config)
         lines.append(
             f"{first.problem}[{keys[0]}] ({len(by_problem[keys[0]])} runs, e.g. "
             f"{first.name}) vs {other.problem}[{k}] ({len(by_problem[k])} runs, e.g. "
@@ -205,7 +188,7 @@ def _group(runs: list[RunRecord], allow_unequal_budgets: bool) -> list[Group]:
     for gs in by_name.values():
         if len(gs) < 2:
             continue
-        flat = [_flatten(g.options) for g in gs]
+        flat = [flatten_config(g.options) for g in gs]
         keys = sorted({k for f in flat for k in f})
         varying = [k for k in keys if len({json.dumps(f.get(k), default=str) for f in flat}) > 1]
         for g, f in zip(gs, flat, strict=True):
