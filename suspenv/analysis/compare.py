@@ -721,85 +721,113 @@ GROUP_COLUMNS = ("group", "hash", "runs", "seeds", "budgets", *SPREAD, "ecdf_are
 FIXED_BUDGET_COLUMNS = ("group", "budget", "n_with_value", *SPREAD)
 
 
+def _ert_table(p: ProblemComparison) -> str:
+    """ERT and successes of each group at up to six targets, spread over them."""
+    tg = p.targets
+    pick = sorted(set(np.linspace(0, len(tg) - 1, min(6, len(tg))).round().astype(int)))
+    rows = []
+    for g in p.groups:
+        row: dict[str, Any] = {"group": g.label}
+        for j in pick:
+            k = int(np.isfinite(p.runtimes[g.label][:, j]).sum())  # ERT inf iff k = 0
+            row[f"{tg[j]:.3g}"] = f"{fmt(p.ert[g.label][j], inf='inf')} ({k}/{len(g.runs)})"
+        rows.append(row)
+    return _md_table(rows, ["group"] + [f"{tg[j]:.3g}" for j in pick])
+
+
+def _multiobjective_md(mo: dict[str, Any] | None) -> list[str]:
+    """The hypervolume and IGD section (none for a single-objective problem)."""
+    if not mo:
+        return []
+    if "skipped" in mo:
+        return [f"\n### Hypervolume and IGD\n\nNot computed: {_cell(mo['skipped'])}.\n"]
+    return [
+        f"\n### Hypervolume and IGD\n\nReference front: {_cell(mo['reference_front'])}; "
+        f"reference point {_cell(mo['reference_point'])}; HV_ref "
+        + (
+            f"{_cell(mo['hv_reference'])} ({mo['hv_reference_rule']}).\n\n"
+            if mo["hv_reference"] is not None
+            else f"– (hypervolume {mo['hypervolume']}).\n\n"
+        ),
+        _md_table(mo["groups"], ["group", "hypervolume_median", "igd_median"]),
+    ]
+
+
+def _rank_tests_md(rt: dict[str, Any]) -> list[str]:
+    """The rank-test section: the Friedman test (or why it was skipped) and the pairs."""
+    md = [f"\n### Rank tests ({rt['correction']}, alpha {rt['alpha']})\n\n"]
+    fr = rt["friedman"]
+    if fr and "p" in fr:
+        md.append(
+            f"Friedman: chi2 = {fr['statistic']:.4g}, p = {fr['p']:.4g} over seeds "
+            f"{fr['seeds']}.\n\n"
+        )
+    elif fr:
+        md.append(f"Friedman test skipped: {_cell(fr['skipped'])}.\n\n")
+    md.append(_md_table(rt["pairs"], ["a", "b", "n_a", "n_b", "p", "p_holm", "a12", "verdict"]))
+    return md
+
+
+def _problem_md(p: ProblemComparison) -> list[str]:
+    """One problem's part of ``compare.md``."""
+    r = p.result
+    config = json.dumps(p.config, default=str).replace("`", "'")
+    md = [
+        f"\n## {_cell(p.name)}: {_cell(r['measure'])}\n",
+        f"Problem configuration: `{config}`\n",
+    ]
+    if r["normalisation_source"]:
+        md.append(f"\nQuality normalised on: {_cell(r['normalisation_source'])}\n")
+    md += [f"\n**Flag:** {_cell(f)}\n" for f in r["flags"]]
+    rows = [
+        {
+            **row,
+            "budgets": ", ".join(map(str, row["budgets"]))
+            + (" (unequal)" if row["unequal_budget"] else ""),
+        }
+        for row in r["table"]
+    ]
+    return [
+        *md,
+        "\n### Groups (at the common budget)\n\n",
+        _md_table(rows, GROUP_COLUMNS),
+        "\n### Fixed budget\n\n",
+        _md_table(r["fixed_budget"], FIXED_BUDGET_COLUMNS),
+        "\n### Fixed target: ERT (evaluations)\n\n",
+        _ert_table(p),
+        *_multiobjective_md(r["multiobjective"]),
+        *_rank_tests_md(r["rank_tests"]),
+    ]
+
+
+def _profile_md(prof: dict[str, Any]) -> list[str]:
+    """The performance profile's fraction of instances within a few factors tau."""
+    taus = [1.0, 2.0, 4.0, 10.0]
+    rows = []
+    for s, rho_s in zip(prof["solvers"], prof["rho"], strict=True):
+        t = np.asarray(prof["taus"])
+        rho = np.asarray(rho_s)
+        row = {"strategy": s}
+        for tau in taus:
+            i = int(np.searchsorted(t, tau, side="right")) - 1
+            row[f"tau={tau:g}"] = float(rho[i]) if i >= 0 else 0.0
+        rows.append(row)
+    return [
+        f"\n## Performance profile\n\nCost: {prof['cost']}, {len(prof['instances'])} "
+        f"(problem, target) instances over {prof['n_problems']} problem(s); fraction "
+        "of instances solved within a factor tau of the best:\n\n",
+        _md_table(rows, ["strategy"] + [f"tau={t:g}" for t in taus]),
+    ]
+
+
 def markdown(comparison: Comparison) -> str:
     """``compare.md``: per problem the groups, fixed-budget, ERT, multi-objective and
-    rank-test tables."""
+    rank-test tables; the performance profile."""
     md = ["# Runs compared\n", "Lower is better everywhere. Definitions: docs/analysis.md.\n"]
     for p in comparison.problems:
-        r = p.result
-        md.append(f"\n## {_cell(p.name)}: {_cell(r['measure'])}\n")
-        config = json.dumps(p.config, default=str).replace("`", "'")
-        md.append(f"Problem configuration: `{config}`\n")
-        if r["normalisation_source"]:
-            md.append(f"\nQuality normalised on: {_cell(r['normalisation_source'])}\n")
-        for f in r["flags"]:
-            md.append(f"\n**Flag:** {_cell(f)}\n")
-        md.append("\n### Groups (at the common budget)\n\n")
-        rows = [
-            {
-                **row,
-                "budgets": ", ".join(map(str, row["budgets"]))
-                + (" (unequal)" if row["unequal_budget"] else ""),
-            }
-            for row in r["table"]
-        ]
-        md.append(_md_table(rows, GROUP_COLUMNS))
-        md.append("\n### Fixed budget\n\n")
-        md.append(_md_table(r["fixed_budget"], FIXED_BUDGET_COLUMNS))
-        md.append("\n### Fixed target: ERT (evaluations)\n\n")
-        tg = p.targets
-        pick = sorted(set(np.linspace(0, len(tg) - 1, min(6, len(tg))).round().astype(int)))
-        ert_rows = []
-        for g in p.groups:
-            row: dict[str, Any] = {"group": g.label}
-            for j in pick:
-                k = int(np.isfinite(p.runtimes[g.label][:, j]).sum())  # ERT inf iff k = 0
-                row[f"{tg[j]:.3g}"] = f"{fmt(p.ert[g.label][j], inf='inf')} ({k}/{len(g.runs)})"
-            ert_rows.append(row)
-        md.append(_md_table(ert_rows, ["group"] + [f"{tg[j]:.3g}" for j in pick]))
-        mo = r["multiobjective"]
-        if mo and "skipped" in mo:
-            md.append(f"\n### Hypervolume and IGD\n\nNot computed: {_cell(mo['skipped'])}.\n")
-        elif mo:
-            md.append(
-                f"\n### Hypervolume and IGD\n\nReference front: {_cell(mo['reference_front'])}; "
-                f"reference point {_cell(mo['reference_point'])}; HV_ref "
-                + (
-                    f"{_cell(mo['hv_reference'])} ({mo['hv_reference_rule']}).\n\n"
-                    if mo["hv_reference"] is not None
-                    else f"– (hypervolume {mo['hypervolume']}).\n\n"
-                )
-            )
-            md.append(_md_table(mo["groups"], ["group", "hypervolume_median", "igd_median"]))
-        rt = r["rank_tests"]
-        md.append(f"\n### Rank tests ({rt['correction']}, alpha {rt['alpha']})\n\n")
-        fr = rt["friedman"]
-        if fr and "p" in fr:
-            md.append(
-                f"Friedman: chi2 = {fr['statistic']:.4g}, p = {fr['p']:.4g} over seeds "
-                f"{fr['seeds']}.\n\n"
-            )
-        elif fr:
-            md.append(f"Friedman test skipped: {_cell(fr['skipped'])}.\n\n")
-        md.append(_md_table(rt["pairs"], ["a", "b", "n_a", "n_b", "p", "p_holm", "a12", "verdict"]))
-    prof = comparison.profile
-    if prof:
-        md.append(
-            f"\n## Performance profile\n\nCost: {prof['cost']}, {len(prof['instances'])} "
-            f"(problem, target) instances over {prof['n_problems']} problem(s); fraction "
-            "of instances solved within a factor tau of the best:\n\n"
-        )
-        taus = [1.0, 2.0, 4.0, 10.0]
-        rows = []
-        for s, rho_s in zip(prof["solvers"], prof["rho"], strict=True):
-            t = np.asarray(prof["taus"])
-            rho = np.asarray(rho_s)
-            row = {"strategy": s}
-            for tau in taus:
-                i = int(np.searchsorted(t, tau, side="right")) - 1
-                row[f"tau={tau:g}"] = float(rho[i]) if i >= 0 else 0.0
-            rows.append(row)
-        md.append(_md_table(rows, ["strategy"] + [f"tau={t:g}" for t in taus]))
+        md += _problem_md(p)
+    if comparison.profile:
+        md += _profile_md(comparison.profile)
     return "\n".join(md) + "\n"
 
 
