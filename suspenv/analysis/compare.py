@@ -181,7 +181,17 @@ def _group(runs: list[RunRecord], allow_unequal_budgets: bool) -> list[Group]:
     for r in runs:
         by[r.strategy_hash].append(r)
     groups = [Group(rs[0].strategy, h, rs[0].strategy_options, rs) for h, rs in by.items()]
-    # same strategy name, several configurations: list the options that tell them apart
+    _mark_differences(groups)
+    if not allow_unequal_budgets:
+        for g in groups:
+            _refuse_unequal_budgets(g)
+    groups.sort(key=lambda g: (g.strategy, g.strategy_hash))
+    return groups
+
+
+def _mark_differences(groups: list[Group]) -> None:
+    """Several configurations of one strategy: set each group's ``differs`` to the
+    options that tell them apart."""
     by_name: dict[str, list[Group]] = defaultdict(list)
     for g in groups:
         by_name[g.strategy].append(g)
@@ -193,22 +203,23 @@ def _group(runs: list[RunRecord], allow_unequal_budgets: bool) -> list[Group]:
         varying = [k for k in keys if len({json.dumps(f.get(k), default=str) for f in flat}) > 1]
         for g, f in zip(gs, flat, strict=True):
             g.differs = {k: f.get(k) for k in varying}
-    for g in groups:
-        budgets = defaultdict(list)
-        for r in g.runs:
-            budgets[_length(r)].append(r.seed)
-        if len(budgets) > 1 and not allow_unequal_budgets:
-            detail = ", ".join(
-                f"{b} evaluations (seeds {sorted(s for s in seeds if s is not None)})"
-                for b, seeds in sorted(budgets.items())
-            )
-            raise ValidationError(
-                f"group {g.label} pools runs with different budgets: {detail}; runs of one "
-                "group must have equal budgets (pass allow_unequal_budgets=True / "
-                "`--allow-unequal-budgets` to pool them, compared at the smallest)"
-            )
-    groups.sort(key=lambda g: (g.strategy, g.strategy_hash))
-    return groups
+
+
+def _refuse_unequal_budgets(g: Group) -> None:
+    """Runs of one group stand for equal budgets (:func:`_length`), else refused."""
+    budgets = defaultdict(list)
+    for r in g.runs:
+        budgets[_length(r)].append(r.seed)
+    if len(budgets) > 1:
+        detail = ", ".join(
+            f"{b} evaluations (seeds {sorted(s for s in seeds if s is not None)})"
+            for b, seeds in sorted(budgets.items())
+        )
+        raise ValidationError(
+            f"group {g.label} pools runs with different budgets: {detail}; runs of one "
+            "group must have equal budgets (pass allow_unequal_budgets=True / "
+            "`--allow-unequal-budgets` to pool them, compared at the smallest)"
+        )
 
 
 def _lookup(table: Any, problem: str, problem_hash: str) -> Any:
