@@ -293,6 +293,8 @@ def test_zdt1_nsga2_beats_weighted_sum_cmaes_by_hypervolume(zdt1_runs, tmp_path)
         assert row["best_median"] is None and row["best_min"] is None
     prob = result["problems"][0]
     assert prob["measure_kind"] == "hypervolume deficit"
+    # every run has feasible rows, though no quality curve: no such flag
+    assert not any("no feasible evaluation" in f for f in prob["flags"])
     mo = prob["multiobjective"]
     assert mo["reference_point"] == [pytest.approx(1.1), pytest.approx(1.1)]
     assert mo["hv_reference"] == pytest.approx(1.21 - 1 / 3)

@@ -424,6 +424,15 @@ def _measure_curves(pc: ProblemComparison, r0: RunRecord, f_opt: Any) -> None:
         g.curves = [curve_matrix([c], _length(r))[0] for c, r in zip(g.curves, g.runs, strict=True)]
 
 
+def _any_feasible(r: RunRecord, measure: str) -> bool:
+    """Whether a run has a feasible evaluation: a finite best quality, or, compared by
+    hypervolume (no scalar quality, so no quality curve), a feasible archived row."""
+    if measure == "quality":
+        return bool(np.isfinite(r.final))
+    feas = r.feasible()
+    return feas is not None and bool(feas.any())
+
+
 def _flag_runs(pc: ProblemComparison, runs: list[RunRecord]) -> bool:
     """Add to ``pc.flags`` what limits the comparison (unequal budgets, runs stopped
     early or without a feasible evaluation, single runs); True when budgets differ."""
@@ -441,7 +450,7 @@ def _flag_runs(pc: ProblemComparison, runs: list[RunRecord]) -> bool:
         pc.flags.append(
             f"stopped before their budget (best kept to the budget): {', '.join(stopped)}"
         )
-    none = [r.name for r in runs if not np.isfinite(r.final)]
+    none = [r.name for r in runs if not _any_feasible(r, pc.measure)]
     if none:
         pc.flags.append(f"no feasible evaluation: {', '.join(none)}")
     for g in pc.groups:
