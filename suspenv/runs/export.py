@@ -226,8 +226,9 @@ def _new_study(url: str, name: str, replace: bool, objective_names: list[str]) -
         )
     if exists:
         optuna.delete_study(study_name=name, storage=url)
-    directions = ["minimize"] * len(objective_names)
-    study = optuna.create_study(storage=url, study_name=name, directions=directions)
+    study = optuna.create_study(
+        storage=url, study_name=name, directions=["minimize"] * len(objective_names)
+    )
     with quiet():  # set_metric_names is "experimental" in optuna 3.2-5
         study.set_metric_names(objective_names)
     return study
