@@ -166,7 +166,7 @@ def test_different_problem_options_refused_naming_the_key(sphere_runs, tmp_path)
     dirs = sphere_runs["random"] + sphere_runs["dim5"]
     with pytest.raises(ValidationError) as e:
         write_comparison(dirs, tmp_path, figures=False)
-    assert "options.dim: 4 vs 5" in str(e.value)
+    assert "options.dim: 4 -> 5" in str(e.value)
     assert "one problem configuration" in str(e.value) and "--suite" in str(e.value)
     # --suite: each problem reported on its own, a performance profile across them
     res = compare(dirs, suite=True)
@@ -293,6 +293,8 @@ def test_zdt1_nsga2_beats_weighted_sum_cmaes_by_hypervolume(zdt1_runs, tmp_path)
         assert row["best_median"] is None and row["best_min"] is None
     prob = result["problems"][0]
     assert prob["measure_kind"] == "hypervolume deficit"
+    # every run has feasible rows, though no quality curve: no such flag
+    assert not any("no feasible evaluation" in f for f in prob["flags"])
     mo = prob["multiobjective"]
     assert mo["reference_point"] == [pytest.approx(1.1), pytest.approx(1.1)]
     assert mo["hv_reference"] == pytest.approx(1.21 - 1 / 3)
@@ -440,4 +442,4 @@ def test_cli_prints_the_hash_column_and_refusals_as_one_line(sphere_runs, tmp_pa
     bad = [str(d) for d in sphere_runs["random"] + sphere_runs["dim5"]]
     assert main(["compare", *bad, "--out", str(tmp_path / "d"), "--no-plots"]) == 2
     err = capsys.readouterr().err.strip()
-    assert len(err.splitlines()) == 1 and "options.dim: 4 vs 5" in err
+    assert len(err.splitlines()) == 1 and "options.dim: 4 -> 5" in err

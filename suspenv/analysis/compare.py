@@ -65,6 +65,7 @@ from suspenv.core.atomic import write_file
 from suspenv.core.errors import ValidationError
 from suspenv.core.jsonable import to_jsonable
 from suspenv.core.markdown import fmt, inline, markdown_table
+from suspenv.runs.config import config_differences, flatten_config
 from suspenv.runs.run_dir import write_json
 
 #: known optima of a problem's plain quality (the objective itself), by problem name
@@ -142,31 +143,13 @@ def _length(r: RunRecord) -> int:
     return max(r.evaluations_used, r.budget or 0)
 
 
-def _flatten(d: Any, prefix: str = "") -> dict[str, Any]:
-    if isinstance(d, dict):
-        out: dict[str, Any] = {}
-        for k, v in d.items():
-            out.update(_flatten(v, f"{prefix}{k}."))
-        return out or {prefix.rstrip("."): {}}
-    return {prefix.rstrip("."): d}
-
-
-def _differences(a: dict[str, Any], b: dict[str, Any]) -> list[str]:
-    fa, fb = _flatten(a), _flatten(b)
-    return [
-        f"{k}: {fa.get(k, '(unset)')!r} vs {fb.get(k, '(unset)')!r}"
-        for k in sorted(set(fa) | set(fb))
-        if fa.get(k, "(unset)") != fb.get(k, "(unset)")
-    ]
-
-
 def _refuse_mixed_problems(by_problem: dict[str, list[RunRecord]]) -> None:
     keys = list(by_problem)
     first = by_problem[keys[0]][0]
     lines = []
     for k in keys[1:]:
         other = by_problem[k][0]
-        diff = _differences(first.problem_config, other.problem_config)
+        diff = config_differences(first.problem_config, other.problem_config)
         lines.append(
             f"{first.problem}[{keys[0]}] ({len(by_problem[keys[0]])} runs, e.g. "
             f"{first.name}) vs {other.problem}[{k}] ({len(by_problem[k])} runs, e.g. "
@@ -198,34 +181,45 @@ def _group(runs: list[RunRecord], allow_unequal_budgets: bool) -> list[Group]:
     for r in runs:
         by[r.strategy_hash].append(r)
     groups = [Group(rs[0].strategy, h, rs[0].strategy_options, rs) for h, rs in by.items()]
-    # same strategy name, several configurations: list the options that tell them apart
+    _mark_differences(groups)
+    if not allow_unequal_budgets:
+        for g in groups:
+            _refuse_unequal_budgets(g)
+    groups.sort(key=lambda g: (g.strategy, g.strategy_hash))
+    return groups
+
+
+def _mark_differences(groups: list[Group]) -> None:
+    """Several configurations of one strategy: set each group's ``differs`` to the
+    options that tell them apart."""
     by_name: dict[str, list[Group]] = defaultdict(list)
     for g in groups:
         by_name[g.strategy].append(g)
     for gs in by_name.values():
         if len(gs) < 2:
             continue
-        flat = [_flatten(g.options) for g in gs]
+        flat = [flatten_config(g.options) for g in gs]
         keys = sorted({k for f in flat for k in f})
         varying = [k for k in keys if len({json.dumps(f.get(k), default=str) for f in flat}) > 1]
         for g, f in zip(gs, flat, strict=True):
             g.differs = {k: f.get(k) for k in varying}
-    for g in groups:
-        budgets = defaultdict(list)
-        for r in g.runs:
-            budgets[_length(r)].append(r.seed)
-        if len(budgets) > 1 and not allow_unequal_budgets:
-            detail = ", ".join(
-                f"{b} evaluations (seeds {sorted(s for s in seeds if s is not None)})"
-                for b, seeds in sorted(budgets.items())
-            )
-            raise ValidationError(
-                f"group {g.label} pools runs with different budgets: {detail}; runs of one "
-                "group must have equal budgets (pass allow_unequal_budgets=True / "
-                "`--allow-unequal-budgets` to pool them, compared at the smallest)"
-            )
-    groups.sort(key=lambda g: (g.strategy, g.strategy_hash))
-    return groups
+
+
+def _refuse_unequal_budgets(g: Group) -> None:
+    """Runs of one group stand for equal budgets (:func:`_length`), else refused."""
+    budgets = defaultdict(list)
+    for r in g.runs:
+        budgets[_length(r)].append(r.seed)
+    if len(budgets) > 1:
+        detail = ", ".join(
+            f"{b} evaluations (seeds {sorted(s for s in seeds if s is not None)})"
+            for b, seeds in sorted(budgets.items())
+        )
+        raise ValidationError(
+            f"group {g.label} pools runs with different budgets: {detail}; runs of one "
+            "group must have equal budgets (pass allow_unequal_budgets=True / "
+            "`--allow-unequal-budgets` to pool them, compared at the smallest)"
+        )
 
 
 def _lookup(table: Any, problem: str, problem_hash: str) -> Any:
@@ -430,6 +424,15 @@ def _measure_curves(pc: ProblemComparison, r0: RunRecord, f_opt: Any) -> None:
         g.curves = [curve_matrix([c], _length(r))[0] for c, r in zip(g.curves, g.runs, strict=True)]
 
 
+def _any_feasible(r: RunRecord, measure: str) -> bool:
+    """Whether a run has a feasible evaluation: a finite best quality, or, compared by
+    hypervolume (no scalar quality, so no quality curve), a feasible archived row."""
+    if measure == "quality":
+        return bool(np.isfinite(r.final))
+    feas = r.feasible()
+    return feas is not None and bool(feas.any())
+
+
 def _flag_runs(pc: ProblemComparison, runs: list[RunRecord]) -> bool:
     """Add to ``pc.flags`` what limits the comparison (unequal budgets, runs stopped
     early or without a feasible evaluation, single runs); True when budgets differ."""
@@ -447,7 +450,7 @@ def _flag_runs(pc: ProblemComparison, runs: list[RunRecord]) -> bool:
         pc.flags.append(
             f"stopped before their budget (best kept to the budget): {', '.join(stopped)}"
         )
-    none = [r.name for r in runs if not np.isfinite(r.final)]
+    none = [r.name for r in runs if not _any_feasible(r, pc.measure)]
     if none:
         pc.flags.append(f"no feasible evaluation: {', '.join(none)}")
     for g in pc.groups:
@@ -738,85 +741,113 @@ GROUP_COLUMNS = ("group", "hash", "runs", "seeds", "budgets", *SPREAD, "ecdf_are
 FIXED_BUDGET_COLUMNS = ("group", "budget", "n_with_value", *SPREAD)
 
 
+def _ert_table(p: ProblemComparison) -> str:
+    """ERT and successes of each group at up to six targets, spread over them."""
+    tg = p.targets
+    pick = sorted(set(np.linspace(0, len(tg) - 1, min(6, len(tg))).round().astype(int)))
+    rows = []
+    for g in p.groups:
+        row: dict[str, Any] = {"group": g.label}
+        for j in pick:
+            k = int(np.isfinite(p.runtimes[g.label][:, j]).sum())  # ERT inf iff k = 0
+            row[f"{tg[j]:.3g}"] = f"{fmt(p.ert[g.label][j], inf='inf')} ({k}/{len(g.runs)})"
+        rows.append(row)
+    return _md_table(rows, ["group"] + [f"{tg[j]:.3g}" for j in pick])
+
+
+def _multiobjective_md(mo: dict[str, Any] | None) -> list[str]:
+    """The hypervolume and IGD section (none for a single-objective problem)."""
+    if not mo:
+        return []
+    if "skipped" in mo:
+        return [f"\n### Hypervolume and IGD\n\nNot computed: {_cell(mo['skipped'])}.\n"]
+    return [
+        f"\n### Hypervolume and IGD\n\nReference front: {_cell(mo['reference_front'])}; "
+        f"reference point {_cell(mo['reference_point'])}; HV_ref "
+        + (
+            f"{_cell(mo['hv_reference'])} ({mo['hv_reference_rule']}).\n\n"
+            if mo["hv_reference"] is not None
+            else f"– (hypervolume {mo['hypervolume']}).\n\n"
+        ),
+        _md_table(mo["groups"], ["group", "hypervolume_median", "igd_median"]),
+    ]
+
+
+def _rank_tests_md(rt: dict[str, Any]) -> list[str]:
+    """The rank-test section: the Friedman test (or why it was skipped) and the pairs."""
+    md = [f"\n### Rank tests ({rt['correction']}, alpha {rt['alpha']})\n\n"]
+    fr = rt["friedman"]
+    if fr and "p" in fr:
+        md.append(
+            f"Friedman: chi2 = {fr['statistic']:.4g}, p = {fr['p']:.4g} over seeds "
+            f"{fr['seeds']}.\n\n"
+        )
+    elif fr:
+        md.append(f"Friedman test skipped: {_cell(fr['skipped'])}.\n\n")
+    md.append(_md_table(rt["pairs"], ["a", "b", "n_a", "n_b", "p", "p_holm", "a12", "verdict"]))
+    return md
+
+
+def _problem_md(p: ProblemComparison) -> list[str]:
+    """One problem's part of ``compare.md``."""
+    r = p.result
+    config = json.dumps(p.config, default=str).replace("`", "'")
+    md = [
+        f"\n## {_cell(p.name)}: {_cell(r['measure'])}\n",
+        f"Problem configuration: `{config}`\n",
+    ]
+    if r["normalisation_source"]:
+        md.append(f"\nQuality normalised on: {_cell(r['normalisation_source'])}\n")
+    md += [f"\n**Flag:** {_cell(f)}\n" for f in r["flags"]]
+    rows = [
+        {
+            **row,
+            "budgets": ", ".join(map(str, row["budgets"]))
+            + (" (unequal)" if row["unequal_budget"] else ""),
+        }
+        for row in r["table"]
+    ]
+    return [
+        *md,
+        "\n### Groups (at the common budget)\n\n",
+        _md_table(rows, GROUP_COLUMNS),
+        "\n### Fixed budget\n\n",
+        _md_table(r["fixed_budget"], FIXED_BUDGET_COLUMNS),
+        "\n### Fixed target: ERT (evaluations)\n\n",
+        _ert_table(p),
+        *_multiobjective_md(r["multiobjective"]),
+        *_rank_tests_md(r["rank_tests"]),
+    ]
+
+
+def _profile_md(prof: dict[str, Any]) -> list[str]:
+    """The performance profile's fraction of instances within a few factors tau."""
+    taus = [1.0, 2.0, 4.0, 10.0]
+    rows = []
+    for s, rho_s in zip(prof["solvers"], prof["rho"], strict=True):
+        t = np.asarray(prof["taus"])
+        rho = np.asarray(rho_s)
+        row = {"strategy": s}
+        for tau in taus:
+            i = int(np.searchsorted(t, tau, side="right")) - 1
+            row[f"tau={tau:g}"] = float(rho[i]) if i >= 0 else 0.0
+        rows.append(row)
+    return [
+        f"\n## Performance profile\n\nCost: {prof['cost']}, {len(prof['instances'])} "
+        f"(problem, target) instances over {prof['n_problems']} problem(s); fraction "
+        "of instances solved within a factor tau of the best:\n\n",
+        _md_table(rows, ["strategy"] + [f"tau={t:g}" for t in taus]),
+    ]
+
+
 def markdown(comparison: Comparison) -> str:
     """``compare.md``: per problem the groups, fixed-budget, ERT, multi-objective and
-    rank-test tables."""
+    rank-test tables; the performance profile."""
     md = ["# Runs compared\n", "Lower is better everywhere. Definitions: docs/analysis.md.\n"]
     for p in comparison.problems:
-        r = p.result
-        md.append(f"\n## {_cell(p.name)}: {_cell(r['measure'])}\n")
-        config = json.dumps(p.config, default=str).replace("`", "'")
-        md.append(f"Problem configuration: `{config}`\n")
-        if r["normalisation_source"]:
-            md.append(f"\nQuality normalised on: {_cell(r['normalisation_source'])}\n")
-        for f in r["flags"]:
-            md.append(f"\n**Flag:** {_cell(f)}\n")
-        md.append("\n### Groups (at the common budget)\n\n")
-        rows = [
-            {
-                **row,
-                "budgets": ", ".join(map(str, row["budgets"]))
-                + (" (unequal)" if row["unequal_budget"] else ""),
-            }
-            for row in r["table"]
-        ]
-        md.append(_md_table(rows, GROUP_COLUMNS))
-        md.append("\n### Fixed budget\n\n")
-        md.append(_md_table(r["fixed_budget"], FIXED_BUDGET_COLUMNS))
-        md.append("\n### Fixed target: ERT (evaluations)\n\n")
-        tg = p.targets
-        pick = sorted(set(np.linspace(0, len(tg) - 1, min(6, len(tg))).round().astype(int)))
-        ert_rows = []
-        for g in p.groups:
-            row: dict[str, Any] = {"group": g.label}
-            for j in pick:
-                k = int(np.isfinite(p.runtimes[g.label][:, j]).sum())  # ERT inf iff k = 0
-                row[f"{tg[j]:.3g}"] = f"{fmt(p.ert[g.label][j], inf='inf')} ({k}/{len(g.runs)})"
-            ert_rows.append(row)
-        md.append(_md_table(ert_rows, ["group"] + [f"{tg[j]:.3g}" for j in pick]))
-        mo = r["multiobjective"]
-        if mo and "skipped" in mo:
-            md.append(f"\n### Hypervolume and IGD\n\nNot computed: {_cell(mo['skipped'])}.\n")
-        elif mo:
-            md.append(
-                f"\n### Hypervolume and IGD\n\nReference front: {_cell(mo['reference_front'])}; "
-                f"reference point {_cell(mo['reference_point'])}; HV_ref "
-                + (
-                    f"{_cell(mo['hv_reference'])} ({mo['hv_reference_rule']}).\n\n"
-                    if mo["hv_reference"] is not None
-                    else f"– (hypervolume {mo['hypervolume']}).\n\n"
-                )
-            )
-            md.append(_md_table(mo["groups"], ["group", "hypervolume_median", "igd_median"]))
-        rt = r["rank_tests"]
-        md.append(f"\n### Rank tests ({rt['correction']}, alpha {rt['alpha']})\n\n")
-        fr = rt["friedman"]
-        if fr and "p" in fr:
-            md.append(
-                f"Friedman: chi2 = {fr['statistic']:.4g}, p = {fr['p']:.4g} over seeds "
-                f"{fr['seeds']}.\n\n"
-            )
-        elif fr:
-            md.append(f"Friedman test skipped: {_cell(fr['skipped'])}.\n\n")
-        md.append(_md_table(rt["pairs"], ["a", "b", "n_a", "n_b", "p", "p_holm", "a12", "verdict"]))
-    prof = comparison.profile
-    if prof:
-        md.append(
-            f"\n## Performance profile\n\nCost: {prof['cost']}, {len(prof['instances'])} "
-            f"(problem, target) instances over {prof['n_problems']} problem(s); fraction "
-            "of instances solved within a factor tau of the best:\n\n"
-        )
-        taus = [1.0, 2.0, 4.0, 10.0]
-        rows = []
-        for s, rho_s in zip(prof["solvers"], prof["rho"], strict=True):
-            t = np.asarray(prof["taus"])
-            rho = np.asarray(rho_s)
-            row = {"strategy": s}
-            for tau in taus:
-                i = int(np.searchsorted(t, tau, side="right")) - 1
-                row[f"tau={tau:g}"] = float(rho[i]) if i >= 0 else 0.0
-            rows.append(row)
-        md.append(_md_table(rows, ["strategy"] + [f"tau={t:g}" for t in taus]))
+        md += _problem_md(p)
+    if comparison.profile:
+        md += _profile_md(comparison.profile)
     return "\n".join(md) + "\n"
 
 

@@ -286,6 +286,40 @@ def _normalisation(path: Path, pipeline: str, quality_name: str) -> tuple[str | 
     return f"folder:{config_hash(folder)}", f"the runs of folder {folder} (no DoE archive found)"
 
 
+def _archive(path: Path, pipeline: str) -> tuple[Path | None, dict[str, Any]]:
+    """(folder, meta) of the archive of the evaluations behind the quality curve (a
+    tey2014 run: its CMA-ES stage); (None, {}) without one."""
+    folder = path / "cmaes" if pipeline == "tey2014" else path
+    if not (folder / RunArchive.FILENAME).is_file():
+        return None, {}
+    with RunArchive(folder) as archive:
+        return folder, archive.meta()
+
+
+def _dimension(s: dict[str, Any], meta: dict[str, Any]) -> int | None:
+    """The run's number of design variables: from its summary's ``best_x`` or
+    ``n_parameters``, else its archive's parameter names (None: unknown)."""
+    if isinstance(s.get("best_x"), dict):
+        return len(s["best_x"])
+    if isinstance(s.get("n_parameters"), int):
+        return int(s["n_parameters"])
+    return len(meta["parameter_names"]) if meta.get("parameter_names") else None
+
+
+def _quality_curve(path: Path, s: dict[str, Any], quality_name: str) -> list[Any]:
+    """The summary's stored best-so-far quality per evaluation; a run without a scalar
+    quality stands for its length alone (all None)."""
+    curve = s.get("quality_curve")
+    if curve is None and not quality_name and isinstance(s.get("n_evaluations"), int):
+        curve = [None] * s["n_evaluations"]  # no scalar quality: the run's length only
+    if not isinstance(curve, list):
+        raise ValidationError(
+            f"run {str(path)!r}: summary.json has no `quality_curve` list (best-so-far per "
+            "evaluation), so it cannot be compared"
+        )
+    return curve
+
+
 def load_run(run_dir: str | Path) -> RunRecord:
     """Read one finished run directory (``summary.json`` required)."""
     path = Path(run_dir)
@@ -296,36 +330,18 @@ def load_run(run_dir: str | Path) -> RunRecord:
     raw_p = s.get("problem_options")
     if raw_p is None:
         raw_p = (config.get("problem") or {}).get("options") or {}
-    # the evaluations behind the quality curve (a tey2014 run: its CMA-ES stage)
-    cand = path / "cmaes" if pipeline == "tey2014" else path
-    archive_dir = cand if (cand / RunArchive.FILENAME).is_file() else None
-    meta: dict[str, Any] = {}
-    if archive_dir is not None:
-        with RunArchive(archive_dir) as archive:
-            meta = archive.meta()
+    archive_dir, meta = _archive(path, pipeline)
     names = s.get("objective_names") or s.get("kept_objectives") or meta.get("objective_names")
     strategy = str(s.get("strategy") or (config.get("strategy") or {}).get("name") or "?")
     # None: several objectives without a quality (suspenv.runs.quality); absent: "quality"
     quality_name = str(s.get("quality_name", "quality") or "")
     norm, source = _normalisation(path, pipeline, quality_name)
-    if isinstance(s.get("best_x"), dict):
-        dimension: int | None = len(s["best_x"])
-    elif isinstance(s.get("n_parameters"), int):
-        dimension = int(s["n_parameters"])
-    else:
-        dimension = len(meta["parameter_names"]) if meta.get("parameter_names") else None
+    dimension = _dimension(s, meta)
     shape = None
     if dimension is not None:
         shape = (dimension, len(names or []) or 1, len(meta.get("constraint_names") or []))
     s_opts, s_used = _strategy_options(strategy, s, config, pipeline, shape)
-    curve = s.get("quality_curve")
-    if curve is None and not quality_name and isinstance(s.get("n_evaluations"), int):
-        curve = [None] * s["n_evaluations"]  # no scalar quality: the run's length only
-    if not isinstance(curve, list):
-        raise ValidationError(
-            f"run {str(path)!r}: summary.json has no `quality_curve` list (best-so-far per "
-            "evaluation), so it cannot be compared"
-        )
+    curve = _quality_curve(path, s, quality_name)
     budget = s.get("budget", config.get("budget"))
     seed = s.get("seed", config.get("seed"))
     return RunRecord(

@@ -87,6 +87,81 @@ def a12(x: np.ndarray, y: np.ndarray) -> float:
     return float(((x < y) + 0.5 * (x == y)).mean())
 
 
+def _friedman(
+    data: dict[str, np.ndarray], seeds: Mapping[str, Sequence[int]], big: float, alpha: float
+) -> dict[str, Any]:
+    """The Friedman test over three or more groups paired by seed (``rank_tests``'s
+    ``friedman``), or why it was skipped."""
+    from scipy import stats
+
+    labels = list(data)
+    seed_sets = [tuple(sorted(seeds[k])) for k in labels]
+    common = seed_sets[0]
+    if not (
+        all(s == common for s in seed_sets) and len(common) >= 2 and len(set(common)) == len(common)
+    ):
+        return {
+            "skipped": "groups do not share one set of distinct seeds (>= 2), so runs "
+            "cannot be paired by seed"
+        }
+    columns = []
+    for k in labels:
+        by_seed = dict(zip(seeds[k], data[k], strict=True))
+        columns.append(_finite_for_ranks(np.array([by_seed[s] for s in common]), big))
+    if all(np.ptp(np.vstack(columns), axis=0) == 0):
+        stat, p = 0.0, 1.0  # every seed ties every group
+    else:
+        res = stats.friedmanchisquare(*columns)
+        stat, p = float(res.statistic), float(res.pvalue)
+    return {
+        "statistic": stat,
+        "p": p,
+        "groups": labels,
+        "seeds": list(common),
+        "rejects": p < alpha,
+    }
+
+
+def _mann_whitney(x: np.ndarray, y: np.ndarray, big: float) -> tuple[float, float]:
+    """(U, two-sided p) of two groups' finals; (n_x n_y / 2, 1) when either is empty or
+    both hold one and the same value."""
+    from scipy import stats
+
+    if (
+        len(x)
+        and len(y)
+        and not (np.array_equal(np.unique(x), np.unique(y)) and np.unique(x).size == 1)
+    ):
+        res = stats.mannwhitneyu(
+            _finite_for_ranks(x, big), _finite_for_ranks(y, big), alternative="two-sided"
+        )
+        return float(res.statistic), float(res.pvalue)
+    return float(len(x) * len(y)) / 2.0, 1.0
+
+
+def _verdict(
+    a: str,
+    b: str,
+    n: tuple[int, int],
+    eff: float,
+    p_holm: float,
+    floor: float,
+    alpha: float,
+    friedman_rejects: bool,
+) -> str:
+    """What a pair's test says, in words (``floor``: the smallest attainable adjusted p)."""
+    if floor >= alpha:
+        return (
+            f"not separable with {n[0]} and {n[1]} seeds: the smallest attainable "
+            f"adjusted p is {floor:.3g} >= alpha {alpha:g}"
+        )
+    if p_holm < alpha and friedman_rejects:
+        return f"{a if eff > 0.5 else b} better (p_holm = {p_holm:.3g})"
+    if p_holm < alpha:
+        return "pairwise p_holm < alpha, but the Friedman test did not reject"
+    return f"no difference detected (p_holm = {p_holm:.3g})"
+
+
 def rank_tests(
     samples: Mapping[str, Sequence[float]],
     seeds: Mapping[str, Sequence[int]] | None = None,
@@ -100,8 +175,6 @@ def rank_tests(
     or statistic, p, seeds), ``pairs`` (a, b, n_a, n_b, median_a, median_b, U, p,
     p_holm, a12, min_attainable_p, verdict), ``alpha``, ``correction``, ``protocol``.
     """
-    from scipy import stats
-
     if not 0 < alpha < 1:
         raise ValidationError(f"`0 < alpha < 1` must hold, but got alpha={alpha!r}")
     data = {
@@ -122,52 +195,11 @@ def rank_tests(
         "friedman": None,
         "pairs": [],
     }
-    friedman_rejects = True
     if seeds is not None and len(labels) >= 3:
-        seed_sets = [tuple(sorted(seeds[k])) for k in labels]
-        common = seed_sets[0]
-        if (
-            all(s == common for s in seed_sets)
-            and len(common) >= 2
-            and len(set(common)) == len(common)
-        ):
-            columns = []
-            for k in labels:
-                by_seed = dict(zip(seeds[k], data[k], strict=True))
-                columns.append(_finite_for_ranks(np.array([by_seed[s] for s in common]), big))
-            if all(np.ptp(np.vstack(columns), axis=0) == 0):
-                stat, p = 0.0, 1.0  # every seed ties every group
-            else:
-                res = stats.friedmanchisquare(*columns)
-                stat, p = float(res.statistic), float(res.pvalue)
-            friedman_rejects = p < alpha
-            out["friedman"] = {
-                "statistic": stat,
-                "p": p,
-                "groups": labels,
-                "seeds": list(common),
-                "rejects": friedman_rejects,
-            }
-        else:
-            out["friedman"] = {
-                "skipped": "groups do not share one set of distinct seeds (>= 2), so runs "
-                "cannot be paired by seed"
-            }
+        out["friedman"] = _friedman(data, seeds, big, alpha)
+    friedman_rejects = (out["friedman"] or {}).get("rejects", True)
     pairs = list(combinations(labels, 2))
-    raw = []
-    for a, b in pairs:
-        x, y = data[a], data[b]
-        if (
-            len(x)
-            and len(y)
-            and not (np.array_equal(np.unique(x), np.unique(y)) and np.unique(x).size == 1)
-        ):
-            res = stats.mannwhitneyu(
-                _finite_for_ranks(x, big), _finite_for_ranks(y, big), alternative="two-sided"
-            )
-            raw.append((float(res.statistic), float(res.pvalue)))
-        else:
-            raw.append((float(len(x) * len(y)) / 2.0, 1.0))
+    raw = [_mann_whitney(data[a], data[b], big) for a, b in pairs]
     adjusted = holm([p for _, p in raw])
     # Holm multiplies the smallest p by the number of pairs and never lets a later one
     # fall below it: no adjusted p goes below max(own floor, pairs * smallest floor)
@@ -177,18 +209,6 @@ def rank_tests(
         x, y = data[a], data[b]
         floor = min(1.0, max(own, overall))
         eff = a12(x, y) if len(x) and len(y) else float("nan")
-        if floor >= alpha:
-            verdict = (
-                f"not separable with {len(x)} and {len(y)} seeds: the smallest attainable "
-                f"adjusted p is {floor:.3g} >= alpha {alpha:g}"
-            )
-        elif ph < alpha and friedman_rejects:
-            better = a if eff > 0.5 else b
-            verdict = f"{better} better (p_holm = {ph:.3g})"
-        elif ph < alpha:
-            verdict = "pairwise p_holm < alpha, but the Friedman test did not reject"
-        else:
-            verdict = f"no difference detected (p_holm = {ph:.3g})"
         out["pairs"].append(
             {
                 "a": a,
@@ -202,7 +222,9 @@ def rank_tests(
                 "p_holm": float(ph),
                 "a12": eff,
                 "min_attainable_p_holm": floor,
-                "verdict": verdict,
+                "verdict": _verdict(
+                    a, b, (len(x), len(y)), eff, ph, floor, alpha, friedman_rejects
+                ),
             }
         )
     return out

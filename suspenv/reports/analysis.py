@@ -51,6 +51,13 @@ def _log_ok(values: np.ndarray) -> bool:
     return bool(v.size) and bool((v > 0).all())
 
 
+def _finish(ax: Any, title: str) -> None:
+    """The small title, light grid and legend of every comparison panel."""
+    ax.set_title(title, fontsize=9)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+
+
 def plot_convergence(comparison: Comparison, path: Path) -> Path:
     """Median best-so-far with 25-75 % band and min-max range per group, per problem.
     Quantiles count runs without a feasible value yet as +inf (the median never rises)."""
@@ -74,11 +81,8 @@ def plot_convergence(comparison: Comparison, path: Path) -> Path:
         allv = np.concatenate([m.ravel() for m in shown]) if shown else np.zeros(0)
         if _log_ok(allv):
             ax.set_yscale("log")
-        ax.set_xlabel("evaluations")
-        ax.set_ylabel(f"best {p.measure_name}")
-        ax.set_title(f"{p.name}: median, 25-75 % (band), min-max (dotted)", fontsize=9)
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=7)
+        ax.set(xlabel="evaluations", ylabel=f"best {p.measure_name}")
+        _finish(ax, f"{p.name}: median, 25-75 % (band), min-max (dotted)")
     return save_figure(fig, path, tight=True, dpi=110)
 
 
@@ -94,11 +98,8 @@ def plot_ecdf(comparison: Comparison, path: Path) -> Path:
             ax.step(x, y, where="post", label=g.label)
         ax.set_xscale("log")
         ax.set_ylim(-0.02, 1.02)
-        ax.set_xlabel("evaluations")
-        ax.set_ylabel("fraction of (run, target) pairs")
-        ax.set_title(f"{p.name}: runtime ECDF, {len(p.targets)} targets", fontsize=9)
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=7)
+        ax.set(xlabel="evaluations", ylabel="fraction of (run, target) pairs")
+        _finish(ax, f"{p.name}: runtime ECDF, {len(p.targets)} targets")
     return save_figure(fig, path, tight=True, dpi=110)
 
 
@@ -120,11 +121,10 @@ def plot_fixed_target(comparison: Comparison, path: Path) -> Path:
             ax.set_yscale("log")
         else:
             ax.text(0.5, 0.5, "no target reached", transform=ax.transAxes, ha="center")
-        ax.set_xlabel("target - f_opt" if p.f_opt is not None else "target")
-        ax.set_ylabel("ERT (evaluations)")
-        ax.set_title(f"{p.name}: expected running time", fontsize=9)
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=7)
+        ax.set(
+            xlabel="target - f_opt" if p.f_opt is not None else "target", ylabel="ERT (evaluations)"
+        )
+        _finish(ax, f"{p.name}: expected running time")
     return save_figure(fig, path, tight=True, dpi=110)
 
 
@@ -141,13 +141,8 @@ def plot_profile(comparison: Comparison, path: Path) -> Path | None:
         ax.step(np.r_[taus, right], np.r_[rho, rho[-1]], where="post", label=name)
     ax.set_xscale("log", base=2)
     ax.set_ylim(-0.02, 1.02)
-    ax.set_xlabel("tau (ERT / best ERT)")
-    ax.set_ylabel("fraction of instances")
-    ax.set_title(
-        f"Performance profile: {len(prof['instances'])} (problem, target) instances", fontsize=9
-    )
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7)
+    ax.set(xlabel="tau (ERT / best ERT)", ylabel="fraction of instances")
+    _finish(ax, f"Performance profile: {len(prof['instances'])} (problem, target) instances")
     return save_figure(fig, path, tight=True, dpi=110)
 
 
@@ -172,11 +167,8 @@ def plot_hypervolume(comparison: Comparison, path: Path) -> Path | None:
                 ax.fill_between(x, lo, hi, color=line.get_color(), alpha=0.25)
         if p.hv_reference is not None:
             ax.axhline(p.hv_reference, color="k", lw=0.8, ls="--", label="reference front")
-        ax.set_xlabel("evaluations")
-        ax.set_ylabel("hypervolume (normalised)")
-        ax.set_title(f"{p.name}: hypervolume, median and 25-75 %", fontsize=9)
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=7)
+        ax.set(xlabel="evaluations", ylabel="hypervolume (normalised)")
+        _finish(ax, f"{p.name}: hypervolume, median and 25-75 %")
     return save_figure(fig, path, tight=True, dpi=110)
 
 

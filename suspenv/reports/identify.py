@@ -362,6 +362,82 @@ def _sheet_section(s: dict[str, Any]) -> list[str]:
     return lines + [markdown_table(rows), ""]
 
 
+def _next_test_lines(result: IdentifyResult) -> list[str]:
+    """The next rig test to measure: the first candidate (none without candidates)."""
+    lines: list[str] = []
+    if result.candidates:
+        first_n = result.identifiability.n_determined  # the next test is the first fit's
+        best = result.candidates[0]
+        new = best.newly_identified
+        if new:
+            more = ", ..." if len(new) > 6 else ""
+            lines.append(
+                f"- **Next test**: `{best.test}`: predicted to identify {len(new)} more "
+                f"parameter{'s' if len(new) != 1 else ''} ({', '.join(new[:6])}{more}) and to "
+                f"determine {best.n_determined_after} combinations (now {first_n})."
+            )
+        else:
+            lines.append(
+                f"- **Next test**: `{best.test}`: no single rig test identifies another "
+                f"parameter under the rule; this one determines {best.n_determined_after} "
+                f"combinations (now {first_n}) and shrinks the standard errors of "
+                f"those not identified by a factor {10**best.mean_log_gain:.2g} on geometric "
+                "mean."
+            )
+    return lines
+
+
+def _rerun_lines(result: IdentifyResult, s: dict[str, Any]) -> list[str]:
+    """The test car measured again with the next test (none without a rerun)."""
+    lines: list[str] = []
+    if result.rerun is not None:
+        r = s["rerun"]
+        worst_err = r["identified_max_error_pct_range"]
+        tail = (
+            f", the worst within {worst_err:.2f} % of its range of the truth"
+            if worst_err is not None
+            else ""
+        )
+        lines.append(
+            f"- **Shown on the test car**: with `{r['test']}` measured too, "
+            f"{r['n_identified_after']} "
+            f"{'parameter is' if r['n_identified_after'] == 1 else 'parameters are'} "
+            "identified (was "
+            f"{r['n_identified_before']}){tail}, and {r['n_determined_after']} combinations are "
+            f"determined (was {r['n_determined_before']})."
+        )
+    return lines
+
+
+def _residual_lines(result: IdentifyResult) -> list[str]:
+    """What the K&C diagnosis names in the remaining residual, before and after the loop."""
+    lines: list[str] = []
+    diag = result.diagnosis
+    if diag is not None:
+        if "skipped" in diag:
+            lines.append(f"- **Remaining residual**: not screened ({text(diag['skipped'])}).")
+        elif diag["named"]:
+            named = "; ".join(
+                f"{n['words']} ({100 * n['share_of_residual']:.0f} % of it; candidates: "
+                f"{', '.join(n['kinds'])})"
+                for n in diag["named"]
+            )
+            lines.append(f"- **Remaining residual**: the K&C diagnosis names: {named}.")
+            lines.append(f"  {text(diag['residual_map']['summary'])}.")
+            if result.loop is None:  # the loop carries these changes out itself
+                lines += _model_next(result, diag["named"])
+        else:
+            lines.append(
+                "- **Remaining residual**: the K&C diagnosis names nothing (no signature above "
+                f"{diag['threshold']:g} holding {100 * diag['named_share']:.0f} % of the residual)."
+            )
+    after = result.loop_diagnosis
+    if after is not None and "skipped" not in after:
+        names = "; ".join(n["words"] for n in after["named"]) or "nothing"
+        lines.append(f"- **Residual after the loop**: the K&C diagnosis names {names}.")
+    return lines
+
+
 def _first_screen(result: IdentifyResult, s: dict[str, Any]) -> list[str]:
     ident = result.final_identifiability
     counts = summary_counts(ident.verdicts)
@@ -391,64 +467,9 @@ def _first_screen(result: IdentifyResult, s: dict[str, Any]) -> list[str]:
         + (f", e.g. {_combination(ident.directions[0][1])}" if ident.directions else "")
         + ".",
     ]
-    if result.candidates:
-        first_n = result.identifiability.n_determined  # the next test is the first fit's
-        best = result.candidates[0]
-        new = best.newly_identified
-        if new:
-            more = ", ..." if len(new) > 6 else ""
-            lines.append(
-                f"- **Next test**: `{best.test}`: predicted to identify {len(new)} more "
-                f"parameter{'s' if len(new) != 1 else ''} ({', '.join(new[:6])}{more}) and to "
-                f"determine {best.n_determined_after} combinations (now {first_n})."
-            )
-        else:
-            lines.append(
-                f"- **Next test**: `{best.test}`: no single rig test identifies another "
-                f"parameter under the rule; this one determines {best.n_determined_after} "
-                f"combinations (now {first_n}) and shrinks the standard errors of "
-                f"those not identified by a factor {10**best.mean_log_gain:.2g} on geometric "
-                "mean."
-            )
-    if result.rerun is not None:
-        r = s["rerun"]
-        worst_err = r["identified_max_error_pct_range"]
-        tail = (
-            f", the worst within {worst_err:.2f} % of its range of the truth"
-            if worst_err is not None
-            else ""
-        )
-        lines.append(
-            f"- **Shown on the test car**: with `{r['test']}` measured too, "
-            f"{r['n_identified_after']} "
-            f"{'parameter is' if r['n_identified_after'] == 1 else 'parameters are'} "
-            "identified (was "
-            f"{r['n_identified_before']}){tail}, and {r['n_determined_after']} combinations are "
-            f"determined (was {r['n_determined_before']})."
-        )
-    diag = result.diagnosis
-    if diag is not None:
-        if "skipped" in diag:
-            lines.append(f"- **Remaining residual**: not screened ({text(diag['skipped'])}).")
-        elif diag["named"]:
-            named = "; ".join(
-                f"{n['words']} ({100 * n['share_of_residual']:.0f} % of it; candidates: "
-                f"{', '.join(n['kinds'])})"
-                for n in diag["named"]
-            )
-            lines.append(f"- **Remaining residual**: the K&C diagnosis names: {named}.")
-            lines.append(f"  {text(diag['residual_map']['summary'])}.")
-            if result.loop is None:  # the loop carries these changes out itself
-                lines += _model_next(result, diag["named"])
-        else:
-            lines.append(
-                "- **Remaining residual**: the K&C diagnosis names nothing (no signature above "
-                f"{diag['threshold']:g} holding {100 * diag['named_share']:.0f} % of the residual)."
-            )
-    after = result.loop_diagnosis
-    if after is not None and "skipped" not in after:
-        names = "; ".join(n["words"] for n in after["named"]) or "nothing"
-        lines.append(f"- **Residual after the loop**: the K&C diagnosis names {names}.")
+    lines += _next_test_lines(result)
+    lines += _rerun_lines(result, s)
+    lines += _residual_lines(result)
     if result.truth is not None and "recovery_error_pct_range" in s:
         e = s["recovery_error_pct_range"]
         if e["identified_max"] is not None:

@@ -20,6 +20,7 @@ from suspenv.models.minibus.vehicle import BASELINE_DESIGN, STUDY_PICK
 from suspenv.problems.minibus import MinibusRideHandling, study_outcome
 from suspenv.reports.run import plot_parallel, plot_pareto_pairs
 from suspenv.reports.suspension import write_suspension_report
+from suspenv.runs.quality import shown_rows
 
 
 def write_minibus_run_report(
@@ -46,7 +47,7 @@ def write_minibus_report(
         "study pick": problem.evaluate(np.atleast_2d(STUDY_PICK)).objectives[0],
     }
     names = problem.objective_names
-    pool = feasible if feasible.any() else ok  # the evaluations the front is taken from
+    pool = shown_rows(ok, feasible)  # the evaluations the front is taken from
     n = len(F)
     F_all = np.vstack([F, *F_refs.values()])
     shown = np.concatenate([pool, [False, False]])

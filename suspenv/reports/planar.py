@@ -211,9 +211,8 @@ def write_planar_report(problem: PlanarLinkage, run_dir: Path, archive: Any) -> 
     objectives = np.asarray(arrays["objectives"], float)
     ok = np.asarray(arrays["ok"], bool)
     feasible = run_quality.feasible(ok, arrays["constraints"])
-    # the run's best (suspenv.runs.quality); the best ok design when none is feasible
     q = run_quality.quality(problem, objectives)
-    best = None if q is None else run_quality.best_row(q, feasible if feasible.any() else ok)
+    best = None if q is None else run_quality.best_row(q, run_quality.shown_rows(ok, feasible))
     if best is None:
         return []
     x = np.asarray(arrays["x"], float)[best]

@@ -9,6 +9,7 @@ and the tables (cophenetic correlations, clusters, Table 1, Table 2, identifiabi
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -320,6 +321,154 @@ def _cophenetic_rows(cophenetic: dict[str, float], is_paper: bool) -> list[dict[
     return rows
 
 
+def _clustering_md(
+    study: Tey2014Study, img: Callable[[str, str], str], is_paper: bool
+) -> list[str]:
+    """Section 2: cophenetic correlations, dendrogram, silhouette, the clusters kept."""
+    sel, c, paper = study.selection, study.clustering, PAPER_REFERENCE
+    md = ["## 2. Clustering of objectives\n"]
+    md.append(markdown_table(_cophenetic_rows(c.cophenetic, is_paper)))
+    md.append(f"\nChosen linkage: **{c.method}**.\n\n")
+    md.append(img("dendrogram", "dendrogram"))
+    md.append(img("silhouette", "silhouette against number of clusters"))
+    md.append(
+        f"Best mean silhouette at k = {sel.k_silhouette} "
+        f"({sel.silhouette_at(sel.k_silhouette):.3f}); rank method (min RS + RC) k = "
+        f"{sel.k_rank} ({sel.silhouette_at(sel.k_rank):.3f}). Used: **k = {sel.k}** "
+        f"({sel.criterion}). Singleton silhouette = {sel.singleton_value:g}. Representative "
+        f"rule: {sel.rule}."
+        + (
+            f" The paper: {paper['k']} clusters of {paper['n_objectives']} objectives, mean "
+            f"silhouette {paper['mean_silhouette']}."
+            if is_paper
+            else ""
+        )
+        + "\n\n"
+    )
+    md.append(
+        markdown_table(
+            [
+                {"cluster": i + 1, "kept": sel.names[sel.kept[i]], "members": ", ".join(members)}
+                for i, members in enumerate(sel.clusters())
+            ]
+        )
+    )
+    return md
+
+
+def _table1_rows(study: Tey2014Study, is_paper: bool) -> list[dict[str, Any]]:
+    """Table 1: each parameter's identified mean and std, its start, the paper's values on
+    the paper's problem and the recovery error against a known truth."""
+    p, paper = study.problem, PAPER_REFERENCE
+    rec = {r["parameter"]: r for r in (study.recovery or [])}
+    t1 = []
+    for r in study.identification.rows():
+        row = {
+            "parameter": r["parameter"],
+            "unit": r["unit"],
+            "mean": r["mean"],
+            "std": r["std"],
+            "initial": float(study.designs["initial"][p.space.index(str(r["parameter"]))]),
+        }
+        if is_paper and r["parameter"] in paper["table1"]:
+            row["paper mean"], row["paper std"] = paper["table1"][r["parameter"]]
+            row["paper std"] = float("nan") if row["paper std"] is None else row["paper std"]
+        if rec:
+            q = rec[r["parameter"]]
+            row.update(
+                {"truth": q["truth"], "error": q["error"], "error % range": q["error_%_range"]}
+            )
+        t1.append(row)
+    return t1
+
+
+def _flat_directions_md(study: Tey2014Study) -> list[str]:
+    """The signed local sensitivity's flat directions (or why they are not resolved)."""
+    p, local = study.problem, study.local
+    md: list[str] = []
+    if local is not None and local.signed:
+        tol = study.options["flat_tol"]
+        m_used = local.jacobian.shape[0]
+        nullity = local.nullity(tol)
+        sv = local.singular_values
+        md.append(
+            f"\nSigned sensitivity of {m_used} objectives to {p.space.dim} parameters at the "
+            f"identified design: {nullity} flat directions (gain at most {tol:g} per full range; "
+            f"at least {max(p.space.dim - m_used, 0)} because there are fewer objectives than "
+            "parameters). Largest and smallest gains (singular values): "
+            + f"{sv[0]:.3g}; "
+            + ", ".join(f"{v:.2g}" for v in sv[-6:])
+            + ". `null_share` is the part of each parameter inside that flat subspace "
+            "(1: it can change, alone or compensated by others, with no first-order effect).\n"
+        )
+        lines = flat_direction_lines(study)
+        if lines:
+            md.append("\nFlat directions (combinations the data cannot see):\n\n")
+            md.append("\n".join(lines) + "\n")
+    elif local is not None:
+        md.append(
+            "\nThe problem gives mismatch magnitudes only (no `residuals` hook), so flat "
+            "combinations of parameters are not resolved; per-parameter evidence above.\n"
+        )
+    return md
+
+
+def _beyond_md(study: Tey2014Study, s: dict[str, Any], run_dir: Path) -> list[str]:
+    """Sections 9 and 10 when the study ran them: CMA-ES on all objectives, and the
+    strategies compared on the kept objectives."""
+    md: list[str] = []
+    if "all_objectives_run" in s:
+        a = s["all_objectives_run"]
+        md.append("\n## 9. What clustering buys: CMA-ES on all objectives\n")
+        md.append(
+            markdown_table(
+                [
+                    {
+                        "run": "kept objectives",
+                        "rank-sum (kept)": s["fixed_rank_sum_kept"]["identified"],
+                        "rank-sum (all)": s["fixed_rank_sum_all"]["identified"],
+                        "recovery error mean % range": s.get("recovery_error_%_range", {}).get(
+                            "mean", float("nan")
+                        ),
+                    },
+                    {
+                        "run": "all objectives",
+                        "rank-sum (kept)": a["fixed_rank_sum_kept"],
+                        "rank-sum (all)": a["fixed_rank_sum_all"],
+                        "recovery error mean % range": a.get(
+                            "recovery_error_%_range_mean", float("nan")
+                        ),
+                    },
+                ]
+            )
+        )
+    if study.strategy_comparison is not None:
+        cmp_png = run_dir / "compare" / "compare.png"
+        md.append("\n## 10. Strategies compared on the kept objectives\n")
+        md.append(
+            f"Quality: {study.strategy_comparison['quality_name']} (lower is better); best "
+            "over each run, median and range over seeds. Run directories under `compare/` "
+            "(`suspenv compare compare/*-seed*` redraws this).\n\n"
+        )
+        if cmp_png.is_file():
+            md.append(f"![strategy comparison]({cmp_png.relative_to(run_dir).as_posix()})\n\n")
+        md.append(
+            markdown_table(
+                study.strategy_comparison["table"],
+                [
+                    "strategy",
+                    "runs",
+                    "evaluations",
+                    "best_median",
+                    "best_min",
+                    "best_max",
+                    "wall_time_median_s",
+                ],
+            )
+        )
+    return md
+
+
 def write_tey2014_report(study: Tey2014Study, run_dir: Path, figures: bool = True) -> Path:
     """Write ``report.md`` (and its figures unless ``figures`` is False) into ``run_dir``."""
     run_dir = Path(run_dir)
@@ -327,7 +476,7 @@ def write_tey2014_report(study: Tey2014Study, run_dir: Path, figures: bool = Tru
     figs = _figures(study, fig_dir) if figures else {}
     curve_figs = plot_curves(study, fig_dir) if figures else []
     s = study_summary(study)
-    p, sel, c = study.problem, study.selection, study.clustering
+    p = study.problem
 
     def img(key: str, caption: str) -> str:
         f = figs.get(key)
@@ -359,61 +508,15 @@ def write_tey2014_report(study: Tey2014Study, run_dir: Path, figures: bool = Tru
         f"Parameters with no significant correlation to any objective: "
         f"{', '.join(ins) if ins else 'none'}.\n"
     )
-    md.append("## 2. Clustering of objectives\n")
-    paper = PAPER_REFERENCE
-    is_paper = p.name == paper["problem"]
-    md.append(markdown_table(_cophenetic_rows(c.cophenetic, is_paper)))
-    md.append(f"\nChosen linkage: **{c.method}**.\n\n")
-    md.append(img("dendrogram", "dendrogram"))
-    md.append(img("silhouette", "silhouette against number of clusters"))
-    md.append(
-        f"Best mean silhouette at k = {sel.k_silhouette} "
-        f"({sel.silhouette_at(sel.k_silhouette):.3f}); rank method (min RS + RC) k = "
-        f"{sel.k_rank} ({sel.silhouette_at(sel.k_rank):.3f}). Used: **k = {sel.k}** "
-        f"({sel.criterion}). Singleton silhouette = {sel.singleton_value:g}. Representative "
-        f"rule: {sel.rule}."
-        + (
-            f" The paper: {paper['k']} clusters of {paper['n_objectives']} objectives, mean "
-            f"silhouette {paper['mean_silhouette']}."
-            if is_paper
-            else ""
-        )
-        + "\n\n"
-    )
-    md.append(
-        markdown_table(
-            [
-                {"cluster": i + 1, "kept": sel.names[sel.kept[i]], "members": ", ".join(members)}
-                for i, members in enumerate(sel.clusters())
-            ]
-        )
-    )
+    is_paper = p.name == PAPER_REFERENCE["problem"]
+    md += _clustering_md(study, img, is_paper)
     md.append("\n## 3. Optimisation\n")
     md.append(img("convergence", "convergence"))
     md.append(
         "## 4. Identified parameters (Table 1: mean and std of the best "
         f"{len(study.identification.top_rows)} re-ranked designs)\n"
     )
-    rec = {r["parameter"]: r for r in (study.recovery or [])}
-    t1 = []
-    for r in study.identification.rows():
-        row = {
-            "parameter": r["parameter"],
-            "unit": r["unit"],
-            "mean": r["mean"],
-            "std": r["std"],
-            "initial": float(study.designs["initial"][p.space.index(str(r["parameter"]))]),
-        }
-        if is_paper and r["parameter"] in paper["table1"]:
-            row["paper mean"], row["paper std"] = paper["table1"][r["parameter"]]
-            row["paper std"] = float("nan") if row["paper std"] is None else row["paper std"]
-        if rec:
-            q = rec[r["parameter"]]
-            row.update(
-                {"truth": q["truth"], "error": q["error"], "error % range": q["error_%_range"]}
-            )
-        t1.append(row)
-    md.append(markdown_table(t1))
+    md.append(markdown_table(_table1_rows(study, is_paper)))
     md.append("\n## 5. Improvement per objective (Table 2)\n")
     md.append(
         markdown_table(
@@ -467,80 +570,8 @@ def write_tey2014_report(study: Tey2014Study, run_dir: Path, figures: bool = Tru
         "sensitive parameter; `std_best_%_range` the spread of the best designs.\n\n"
     )
     md.append(markdown_table(identifiability_rows(study)))
-    local = study.local
-    if local is not None and local.signed:
-        tol = study.options["flat_tol"]
-        m_used = local.jacobian.shape[0]
-        nullity = local.nullity(tol)
-        sv = local.singular_values
-        md.append(
-            f"\nSigned sensitivity of {m_used} objectives to {p.space.dim} parameters at the "
-            f"identified design: {nullity} flat directions (gain at most {tol:g} per full range; "
-            f"at least {max(p.space.dim - m_used, 0)} because there are fewer objectives than "
-            "parameters). Largest and smallest gains (singular values): "
-            + f"{sv[0]:.3g}; "
-            + ", ".join(f"{v:.2g}" for v in sv[-6:])
-            + ". `null_share` is the part of each parameter inside that flat subspace "
-            "(1: it can change, alone or compensated by others, with no first-order effect).\n"
-        )
-        lines = flat_direction_lines(study)
-        if lines:
-            md.append("\nFlat directions (combinations the data cannot see):\n\n")
-            md.append("\n".join(lines) + "\n")
-    elif local is not None:
-        md.append(
-            "\nThe problem gives mismatch magnitudes only (no `residuals` hook), so flat "
-            "combinations of parameters are not resolved; per-parameter evidence above.\n"
-        )
-    if "all_objectives_run" in s:
-        a = s["all_objectives_run"]
-        md.append("\n## 9. What clustering buys: CMA-ES on all objectives\n")
-        md.append(
-            markdown_table(
-                [
-                    {
-                        "run": "kept objectives",
-                        "rank-sum (kept)": s["fixed_rank_sum_kept"]["identified"],
-                        "rank-sum (all)": s["fixed_rank_sum_all"]["identified"],
-                        "recovery error mean % range": s.get("recovery_error_%_range", {}).get(
-                            "mean", float("nan")
-                        ),
-                    },
-                    {
-                        "run": "all objectives",
-                        "rank-sum (kept)": a["fixed_rank_sum_kept"],
-                        "rank-sum (all)": a["fixed_rank_sum_all"],
-                        "recovery error mean % range": a.get(
-                            "recovery_error_%_range_mean", float("nan")
-                        ),
-                    },
-                ]
-            )
-        )
-    if study.strategy_comparison is not None:
-        cmp_png = run_dir / "compare" / "compare.png"
-        md.append("\n## 10. Strategies compared on the kept objectives\n")
-        md.append(
-            f"Quality: {study.strategy_comparison['quality_name']} (lower is better); best "
-            "over each run, median and range over seeds. Run directories under `compare/` "
-            "(`suspenv compare compare/*-seed*` redraws this).\n\n"
-        )
-        if cmp_png.is_file():
-            md.append(f"![strategy comparison]({cmp_png.relative_to(run_dir).as_posix()})\n\n")
-        md.append(
-            markdown_table(
-                study.strategy_comparison["table"],
-                [
-                    "strategy",
-                    "runs",
-                    "evaluations",
-                    "best_median",
-                    "best_min",
-                    "best_max",
-                    "wall_time_median_s",
-                ],
-            )
-        )
+    md += _flat_directions_md(study)
+    md += _beyond_md(study, s, run_dir)
     md.append("\n## Timings (s)\n")
     md.append(markdown_table([{"step": k, "seconds": v} for k, v in study.timings.items()]))
     path = run_dir / "report.md"

@@ -89,6 +89,33 @@ def _merge(base: dict[str, Any], extra: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
+def flatten_config(d: dict[str, Any], prefix: str = "") -> dict[str, Any]:
+    """Nested tables as dotted keys: ``{"a": {"b": 1}}`` -> ``{"a.b": 1}`` (an empty
+    table is a value of its own)."""
+    out: dict[str, Any] = {}
+    for k, v in d.items():
+        if isinstance(v, dict) and v:
+            out.update(flatten_config(v, f"{prefix}{k}."))
+        else:
+            out[f"{prefix}{k}"] = v
+    return out
+
+
+def config_differences(
+    a: dict[str, Any], b: dict[str, Any], ignore: frozenset[str] = frozenset()
+) -> list[str]:
+    """How config ``b`` differs from ``a``, one ``"dotted.key: old -> new"`` line per
+    differing value in key order (``(unset)`` where one lacks the key); top-level keys in
+    ``ignore`` are left out. The words of a resumed run's refusal and of ``compare``'s."""
+    fa = flatten_config({k: v for k, v in a.items() if k not in ignore})
+    fb = flatten_config({k: v for k, v in b.items() if k not in ignore})
+    return [
+        f"{k}: {fa.get(k, '(unset)')!r} -> {fb.get(k, '(unset)')!r}"
+        for k in sorted(set(fa) | set(fb))
+        if fa.get(k, "(unset)") != fb.get(k, "(unset)")
+    ]
+
+
 def parse_override(text: str) -> tuple[list[str], Any]:
     """``"strategy.options.popsize=42"`` -> (["strategy", "options", "popsize"], 42).
 

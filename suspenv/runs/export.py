@@ -13,7 +13,8 @@ study, in evaluation order (trial number = evaluation index):
   ``bounds`` says ``"observed"`` (else ``"design space"``). Values are clipped into the
   bounds only for float rounding (at most 1e-9 of the range; farther is an error).
 * Objectives: the values of each evaluation, every direction "minimize"; their names by
-  ``study.set_metric_names`` (``name [unit]`` where the problem has units).
+  ``study.set_metric_names``, their units (where the problem has them) in the study's
+  user attribute ``objective_units``.
 * States: an evaluation that succeeded with finite objectives is ``COMPLETE``; any other
   is ``FAIL`` (no values; the message in the trial's user attribute ``message``).
 * Constraints (feasible when <= 0): the system attribute ``"constraints"``, a list of the
@@ -183,6 +184,88 @@ def _inside(x: float, low: float, high: float, name: str) -> float:
     return min(max(x, low), high)
 
 
+def _study_attrs(
+    meta: dict[str, Any], run_dir: Path, objectives: list[str], units: list[str], bounds: str
+) -> dict[str, Any]:
+    """The study's user attributes (see the module docstring); None values left out."""
+    config: dict[str, Any] = meta["config"] if isinstance(meta.get("config"), dict) else {}
+    versions = meta.get("versions") or {}
+    attrs: dict[str, Any] = {
+        "run": config.get("name", run_dir.name),
+        "run_dir": str(run_dir.resolve()),
+        "seed": meta.get("seed", config.get("seed")),
+        "problem": meta.get("problem"),
+        "problem_options": config.get("problem", {}).get("options", {}),
+        "strategy": meta.get("strategy"),
+        "strategy_options": config.get("strategy", {}).get("options", {}),
+        "budget": meta.get("budget"),
+        "suspenv_version": versions.get("suspenv"),
+        "suspenv_commit": versions.get("suspenv_commit"),
+        "parameter_units": list(meta.get("parameter_units") or []),
+        "objective_names": objectives,
+        "objective_units": units,
+        "constraint_names": list(meta.get("constraint_names") or []),
+        "bounds": bounds,
+    }
+    return {k: v for k, v in attrs.items() if v is not None}
+
+
+def _new_study(url: str, name: str, replace: bool, objective_names: list[str]) -> Any:
+    """An empty optuna study ``name`` in ``url`` minimising the named objectives; a study
+    of that name already there is refused unless ``replace``."""
+    import optuna
+
+    from suspenv.strategies.nsga2 import quiet
+
+    optuna.logging.set_verbosity(logging.WARNING)
+    exists = any(s.study_name == name for s in optuna.get_all_study_summaries(url))
+    if exists and not replace:
+        raise ValidationError(
+            f"optuna export: the storage {url!r} already holds a study {name!r}; give "
+            "another name (--study NAME) or replace it (--replace)"
+        )
+    if exists:
+        optuna.delete_study(study_name=name, storage=url)
+    study = optuna.create_study(
+        storage=url, study_name=name, directions=["minimize"] * len(objective_names)
+    )
+    with quiet():  # set_metric_names is "experimental" in optuna 3.2-5
+        study.set_metric_names(objective_names)
+    return study
+
+
+def _trial(a: dict[str, np.ndarray], i: int, dists: dict[str, Any], constrained: bool) -> Any:
+    """Evaluation ``i`` of the archive ``a`` as an optuna trial: COMPLETE with its values
+    (and constraints when ``constrained``) when it succeeded with finite objectives, else
+    FAIL with its message."""
+    import optuna
+    from optuna.trial import TrialState
+
+    params = {
+        p: _inside(float(a["x"][i, j]), d.low, d.high, p) for j, (p, d) in enumerate(dists.items())
+    }
+    f = a["objectives"][i]
+    ok = bool(a["ok"][i]) and bool(np.isfinite(f).all())
+    user: dict[str, Any] = {
+        "batch": int(a["batch"][i]),
+        "row": int(a["row"][i]),
+        "wall_time_s": float(a["wall_time"][i]) if np.isfinite(a["wall_time"][i]) else None,
+    }
+    system: dict[str, Any] = {}
+    if ok and constrained:
+        system["constraints"] = [float(g) for g in a["constraints"][i]]
+    if not ok:
+        user["message"] = str(a["message"][i]) or "non-finite objective"
+    return optuna.trial.create_trial(
+        state=TrialState.COMPLETE if ok else TrialState.FAIL,
+        values=[float(v) for v in f] if ok else None,
+        params=params,
+        distributions=dists,
+        user_attrs={k: v for k, v in user.items() if v is not None},
+        system_attrs=system,
+    )
+
+
 def export_optuna(
     run_dir: str | Path,
     storage: str,
@@ -195,11 +278,8 @@ def export_optuna(
 
     ``progress(done, total)`` is called after each block of :data:`BLOCK` trials (optuna
     writes a trial in about 20 ms to SQLite: 30,000 evaluations take minutes)."""
-    import optuna
-    from optuna.distributions import BaseDistribution, FloatDistribution
+    from optuna.distributions import FloatDistribution
     from optuna.trial import TrialState
-
-    from suspenv.strategies.nsga2 import quiet
 
     run_dir = Path(run_dir)
     if not (run_dir / RunArchive.FILENAME).is_file():
@@ -214,82 +294,25 @@ def export_optuna(
         raise ValidationError(f"`study_name` must be a non-empty string, but got {name!r}")
     pnames = list(meta.get("parameter_names") or [f"x{j}" for j in range(a["x"].shape[1])])
     onames = list(meta.get("objective_names") or [f"f{j}" for j in range(a["objectives"].shape[1])])
-    cnames = list(meta.get("constraint_names") or [])
-    config: dict[str, Any] = meta["config"] if isinstance(meta.get("config"), dict) else {}
     problem = _problem_of(meta)
     bounds = _bounds(problem, a["x"])
     source = "design space" if problem is not None else "observed"
     units = list(getattr(problem, "objective_units", ()) or ())
     units = units if len(units) == len(onames) else []
-    dists: dict[str, BaseDistribution] = {
+
+    dists = {
         p: FloatDistribution(lo, hi, log=log)
         for p, (lo, hi, log) in zip(pnames, bounds, strict=True)
     }
 
-    optuna.logging.set_verbosity(logging.WARNING)
-    exists = any(s.study_name == name for s in optuna.get_all_study_summaries(url))
-    if exists and not replace:
-        raise ValidationError(
-            f"optuna export: the storage {url!r} already holds a study {name!r}; give "
-            "another name (--study NAME) or replace it (--replace)"
-        )
-    if exists:
-        optuna.delete_study(study_name=name, storage=url)
-    study = optuna.create_study(storage=url, study_name=name, directions=["minimize"] * len(onames))
-    with quiet():  # set_metric_names is "experimental" in optuna 3.2-5
-        study.set_metric_names(onames)
-    versions = meta.get("versions") or {}
-    attrs: dict[str, Any] = {
-        "run": config.get("name", run_dir.name),
-        "run_dir": str(run_dir.resolve()),
-        "seed": meta.get("seed", config.get("seed")),
-        "problem": meta.get("problem"),
-        "problem_options": config.get("problem", {}).get("options", {}),
-        "strategy": meta.get("strategy"),
-        "strategy_options": config.get("strategy", {}).get("options", {}),
-        "budget": meta.get("budget"),
-        "suspenv_version": versions.get("suspenv"),
-        "suspenv_commit": versions.get("suspenv_commit"),
-        "parameter_units": list(meta.get("parameter_units") or []),
-        "objective_names": onames,
-        "objective_units": units,
-        "constraint_names": cnames,
-        "bounds": source,
-    }
-    for key, value in attrs.items():
-        if value is not None:
-            study.set_user_attr(key, value)
-
-    trials = []
-    complete = 0
-    for i in range(len(a["ok"])):
-        params = {p: _inside(float(a["x"][i, j]), *bounds[j][:2], p) for j, p in enumerate(pnames)}
-        f = a["objectives"][i]
-        ok = bool(a["ok"][i]) and bool(np.isfinite(f).all())
-        user: dict[str, Any] = {
-            "batch": int(a["batch"][i]),
-            "row": int(a["row"][i]),
-            "wall_time_s": float(a["wall_time"][i]) if np.isfinite(a["wall_time"][i]) else None,
-        }
-        system: dict[str, Any] = {}
-        if ok:
-            complete += 1
-            if cnames:
-                system["constraints"] = [float(g) for g in a["constraints"][i]]
-        else:
-            user["message"] = str(a["message"][i]) or "non-finite objective"
-        trials.append(
-            optuna.trial.create_trial(
-                state=TrialState.COMPLETE if ok else TrialState.FAIL,
-                values=[float(v) for v in f] if ok else None,
-                params=params,
-                distributions=dists,
-                user_attrs={k: v for k, v in user.items() if v is not None},
-                system_attrs=system,
-            )
-        )
+    study = _new_study(url, name, replace, onames)
+    for key, value in _study_attrs(meta, run_dir, onames, units, source).items():
+        study.set_user_attr(key, value)
+    constrained = bool(meta.get("constraint_names"))
+    trials = [_trial(a, i, dists, constrained) for i in range(len(a["ok"]))]
     for start in range(0, len(trials), BLOCK):
         study.add_trials(trials[start : start + BLOCK])
         if progress is not None:
             progress(min(start + BLOCK, len(trials)), len(trials))
+    complete = sum(t.state == TrialState.COMPLETE for t in trials)
     return ExportResult(url, name, len(trials), complete, len(trials) - complete, source)

@@ -6,6 +6,8 @@
   own. Several objectives in their own units have no scalar best (a sum would weigh them
   by accident of unit): a multi-objective run is reported by its front
   (:func:`front_size`) and compared by hypervolume (:mod:`suspenv.analysis.compare`).
+* Shown in a report: the best (or the front) of the feasible evaluations, of the
+  successful ones when none is feasible (:func:`shown_rows`).
 * Best so far: the running minimum of the quality over feasible evaluations with a
   finite quality, +inf before the first: "no value yet" is the worst value, as
   IOHexperimenter and COCO start a minimisation's best-so-far (pandas' ``cummin``
@@ -82,6 +84,12 @@ def best_row(q: np.ndarray, feasible: np.ndarray) -> int | None:
     if not v.size or not np.isfinite(v.min()):
         return None
     return int(v.argmin())
+
+
+def shown_rows(ok: np.ndarray, feasible: np.ndarray) -> np.ndarray:
+    """The evaluations a report draws its best design or front from: the feasible ones,
+    or the successful ones (``ok``) when none is feasible (the report then says so)."""
+    return feasible if feasible.any() else ok
 
 
 def front_size(F: np.ndarray, feasible: np.ndarray) -> int:

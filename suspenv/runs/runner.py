@@ -24,7 +24,7 @@ from typing import Any
 
 from suspenv.core.errors import SuspenvError, ValidationError
 from suspenv.registry import pipeline_check, pipeline_function
-from suspenv.runs.config import validate
+from suspenv.runs.config import config_differences, validate
 from suspenv.runs.run_dir import (
     LOCK_FILE,
     holds_results,
@@ -35,20 +35,7 @@ from suspenv.runs.run_dir import (
 from suspenv.runs.versions import package_versions
 
 #: keys that may differ between a run and its resumption (they do not change numbers)
-RESUMABLE_DIFFERENCES = {"run", "config_path"}
-
-
-def _differences(a: dict[str, Any], b: dict[str, Any], prefix: str = "") -> list[str]:
-    out = []
-    for k in sorted(set(a) | set(b)):
-        if not prefix and k in RESUMABLE_DIFFERENCES:
-            continue
-        va, vb = a.get(k), b.get(k)
-        if isinstance(va, dict) and isinstance(vb, dict):
-            out += _differences(va, vb, f"{prefix}{k}.")
-        elif va != vb:
-            out.append(f"{prefix}{k}: {va!r} -> {vb!r}")
-    return out
+RESUMABLE_DIFFERENCES = frozenset({"run", "config_path"})
 
 
 def check_config(config: dict[str, Any]) -> dict[str, Any]:
@@ -105,7 +92,7 @@ def _differences_from(resolved: Path, config: dict[str, Any]) -> list[str]:
         if holds_results(resolved.parent):
             raise
         return ["config.resolved.toml: damaged"]
-    return _differences(_resolved(old), config)
+    return config_differences(_resolved(old), config, RESUMABLE_DIFFERENCES)
 
 
 def _refuse_links(path: Path) -> None:
