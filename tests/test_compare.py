@@ -433,6 +433,17 @@ def test_tidy_of_multiobjective_runs_has_designs_and_hypervolume(zdt1_runs):
         assert np.all(np.diff(mine) >= 0)  # never falls
 
 
+def test_tidy_leaves_hypervolume_out_above_the_objective_limit(zdt1_runs, monkeypatch):
+    # the exact volume's cost grows fast with the objectives (a 40-objective run never
+    # finished): above the limit tidy's column is NaN, as compare's curves are absent
+    import suspenv.analysis.load as load_module
+
+    dirs = zdt1_runs["nsga2"][:1]
+    assert np.isfinite(tidy(dirs)["hypervolume"]).all()
+    monkeypatch.setattr(load_module, "HV_MAX_OBJECTIVES", 1)
+    assert np.isnan(tidy(dirs)["hypervolume"]).all()
+
+
 def test_cli_prints_the_hash_column_and_refusals_as_one_line(sphere_runs, tmp_path, capsys):
     dirs = [str(d) for d in sphere_runs["cmaes6"] + sphere_runs["cmaes12"]]
     assert main(["compare", *dirs, "--out", str(tmp_path / "c"), "--no-plots"]) == 0

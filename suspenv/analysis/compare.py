@@ -35,6 +35,7 @@ from typing import Any
 import numpy as np
 
 from suspenv.analysis.indicators import (
+    HV_MAX_OBJECTIVES,
     feasible_front,
     hypervolume,
     hypervolume_curve,
@@ -70,9 +71,6 @@ from suspenv.runs.run_dir import write_json
 
 #: known optima of a problem's plain quality (the objective itself), by problem name
 KNOWN_OPTIMA: dict[str, float] = {"Sphere": 0.0}
-
-#: hypervolumes are computed for at most this many objectives (exact cost grows fast)
-HV_MAX_OBJECTIVES = 6
 
 MEASURES = ("auto", "quality", "hypervolume")
 

@@ -32,6 +32,9 @@ from suspenv.core.pareto import nondominated
 #: the reference point is ``1 + REFERENCE_POINT_OFFSET`` in every normalised objective
 REFERENCE_POINT_OFFSET = 0.1
 
+#: hypervolumes are computed for at most this many objectives (exact cost grows fast)
+HV_MAX_OBJECTIVES = 6
+
 
 @dataclass(frozen=True)
 class KnownFront:

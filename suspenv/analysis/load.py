@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 
 from suspenv.analysis.indicators import (
+    HV_MAX_OBJECTIVES,
     KNOWN_FRONTS,
     feasible_front,
     hypervolume_curve,
@@ -481,7 +482,9 @@ def tidy(runs: Sequence[str | Path | RunRecord], objectives: bool = True) -> dic
     :func:`sums_objectives`) and, for multi-objective
     runs, ``hypervolume`` (of the feasible evaluations so far, objectives normalised by
     the ideal and nadir of the reference front, :func:`reference_front`, reference point
-    1.1 in each; NaN for other runs). With ``objectives`` and an archive matching the
+    1.1 in each; NaN for other runs and for more than
+    :data:`~suspenv.analysis.indicators.HV_MAX_OBJECTIVES` objectives, where the exact
+    volume costs too much). With ``objectives`` and an archive matching the
     curve also ok, feasible and the value columns of ``evaluations.csv``
     (:func:`suspenv.runs.archive.value_columns`: ``design:<name> [<unit>]``,
     ``objective:<name> [<unit>]``, ``constraint:<name>``); NaN where a run has none.
@@ -526,11 +529,12 @@ def _columns(r: RunRecord) -> dict[str, tuple[str, int]]:
 
 
 def _hypervolume_progress(recs: Sequence[RunRecord]) -> dict[Path, np.ndarray]:
-    """Hypervolume after each evaluation of every multi-objective run with an archive,
-    per problem against its :func:`reference_front` (normalised, reference point 1.1)."""
+    """Hypervolume after each evaluation of every run with an archive and 2 to
+    :data:`HV_MAX_OBJECTIVES` objectives, per problem against its :func:`reference_front`
+    (normalised, reference point 1.1)."""
     by: dict[str, list[RunRecord]] = {}
     for r in recs:
-        if len(r.objective_names) >= 2 and r.arrays() is not None:
+        if 2 <= len(r.objective_names) <= HV_MAX_OBJECTIVES and r.arrays() is not None:
             by.setdefault(r.problem_hash, []).append(r)
     out: dict[Path, np.ndarray] = {}
     for group in by.values():
