@@ -158,10 +158,13 @@ def test_knc_speed_cells_format_a_hand_made_summary() -> None:
         "compiled_targets_ms": {"1": 1.0, "42": 0.3},
         "meets_compiled_single_target": False,
         "meets_compiled_batch_target": True,
+        "processes": 5,
+        "load_average_1min": 0.44,
     }
     assert readme.knc_speed_cells(summary) == (
         "6.65 ms CPU per candidate at batch 42 (about 3000x the paper's 20 s), 23.4 ms one "
-        "at a time, 7.10 ms at batch 1000 (in the same run, the objectives in numpy after "
+        "at a time (both medians of 5 fresh processes, load average 0.4), 7.10 ms at "
+        "batch 1000 (in the same run, the objectives in numpy after "
         "the compiled sweep: 7.00, 25.0 and 7.50 ms; the sweep driven from Python: "
         "8.00, 30.0 and 9.00 ms); peak 0.084 MB per candidate at batch 42, 0.17 MB "
         "one at a time, 0.171 MB at most over the batch sizes (batch 1, of 4 batch sizes "
