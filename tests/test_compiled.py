@@ -64,14 +64,39 @@ def test_a_built_loop_refuses_a_column_order_array():
 
 
 def test_array_arguments_of_a_signature():
-    """The positions checked for their layout: those of the array types (read off the
-    signatures by hand), not the scalars between them."""
+    """The arguments checked: those of the array types with their dtype and number of
+    dimensions (read off the signatures by hand), not the scalars between them."""
+    f8, i8 = np.dtype(np.float64), np.dtype(np.int64)
     assert compiled._array_arguments(
         compiled.AHEAD["suspenv.models.effects.kernels"]["recurrence"]
-    ) == (0, 1, 2, 3)
+    ) == ((0, f8, 2), (1, f8, 2), (2, f8, 1), (3, f8, 2))
     circle = compiled.AHEAD["suspenv.models.minibus.handling_kernel"]["circle_loop"]
-    assert compiled._array_arguments(circle) == (0, 1, 5)
-    assert compiled._array_arguments("int64(float64[:, ::1], int64[::1], float64)") == (0, 1)
+    assert compiled._array_arguments(circle) == ((0, f8, 2), (1, f8, 2), (5, f8, 2))
+    assert compiled._array_arguments("int64(float64[:, ::1], int64[::1], float64)") == (
+        (0, f8, 2),
+        (1, i8, 1),
+    )
+    response = compiled.AHEAD["suspenv.models.minibus.handling_kernel"]["response_loop"]
+    assert compiled._array_arguments(response)[2:] == (
+        (2, np.dtype(np.complex128), 1),
+        (3, np.dtype(np.complex128), 3),
+    )
+
+
+@pytest.mark.parametrize(
+    ("wrong", "match"),
+    [
+        (lambda a: a.astype(np.float32), "2-D float64 array .* got a 2-D float32"),
+        (lambda a: a[:, :, None], "2-D float64 array .* got a 3-D float64"),
+    ],
+)
+def test_a_built_loop_refuses_another_dtype_or_dimension(wrong, match):
+    """pycc's wrapper does not check the dtype or the number of dimensions either (a
+    float32 array is read as float64, past its end): the loop refuses both by name."""
+    lazy, _ = _built_or_skip("suspenv.models.effects.kernels", "recurrence")
+    a, b, z0 = np.zeros((4, 50)), np.zeros((4, 50)), np.zeros(4)
+    with pytest.raises(ValueError, match="recurrence: argument 0 must be a C-contiguous " + match):
+        lazy(wrong(a), b, z0, np.empty((4, 51)))
 
 
 def test_a_built_loop_refuses_a_column_order_array_after_its_scalars():

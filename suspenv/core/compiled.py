@@ -215,16 +215,21 @@ class Lazy:
         self._space, self._helpers, self._main = space, tuple(helpers), main
         self._inline, self._bare, self._jitable = tuple(inline), tuple(bare), tuple(jitable)
         self._loop: Callable | None = None
-        # a built loop's array arguments (positions): their layout is checked at each call
-        self._arrays: tuple[int, ...] = ()
+        # a built loop's array arguments (position, dtype, number of dimensions): checked
+        # at each call
+        self._arrays: tuple[tuple[int, np.dtype, int], ...] = ()
         self.__doc__ = f":func:`{main.__name__}`, compiled at its first call."
 
     def __call__(self, *args: Any) -> Any:
         if self._loop is None:
             self._loop = self._load()
-        for i in self._arrays:
-            if not args[i].flags.c_contiguous:
-                raise _strided(self._main.__name__, i, args[i])
+        for i, dtype, ndim in self._arrays:
+            a = args[i]
+            # (a builtin dtype is one object: ``is`` answers first, ``==`` the others)
+            if not (
+                a.flags.c_contiguous and a.ndim == ndim and (a.dtype is dtype or a.dtype == dtype)
+            ):
+                raise _refused(self._main.__name__, i, a, dtype, ndim)
         return self._loop(*args)
 
     def _load(self) -> Callable:
@@ -260,19 +265,27 @@ class Lazy:
         return loop
 
 
-def _array_arguments(signature: str) -> tuple[int, ...]:
-    """The positions of the array arguments of a numba signature ``"ret(arg, ...)"``."""
+def _array_arguments(signature: str) -> tuple[tuple[int, np.dtype, int], ...]:
+    """The array arguments of a numba signature ``"ret(arg, ...)"``: position, dtype
+    and number of dimensions of each."""
     inner = signature[signature.index("(") + 1 : signature.rindex(")")]
-    return tuple(i for i, a in enumerate(re.split(r",(?![^\[]*\])", inner)) if "[" in a)
+    arguments = [a.strip() for a in re.split(r",(?![^\[]*\])", inner)]
+    return tuple(
+        (i, np.dtype(a[: a.index("[")]), a.count(",") + 1)
+        for i, a in enumerate(arguments)
+        if "[" in a
+    )
 
 
-def _strided(name: str, i: int, a: np.ndarray) -> ValueError:
-    """A built loop declares C-contiguous arrays (:func:`_arr`) but ``pycc``'s wrapper does
-    not check the layout: a strided or column-order array would be read as if it were
-    C-ordered. The error refusing argument ``i`` by name instead of returning wrong numbers."""
+def _refused(name: str, i: int, a: np.ndarray, dtype: np.dtype, ndim: int) -> ValueError:
+    """A built loop declares C-contiguous arrays of one dtype and number of dimensions
+    (:func:`_arr`) but ``pycc``'s wrapper checks none of them: a strided or column-order
+    array would be read as if it were C-ordered, another dtype or number of dimensions
+    read as the declared one (wrong numbers, or memory outside the array). The error
+    refusing argument ``i`` by name instead."""
     return ValueError(
-        f"compiled loop {name}: argument {i} must be a C-contiguous array "
-        f"(np.ascontiguousarray), but got one with strides {a.strides}"
+        f"compiled loop {name}: argument {i} must be a C-contiguous {ndim}-D {dtype} array "
+        f"(np.ascontiguousarray), but got a {a.ndim}-D {a.dtype} one with strides {a.strides}"
     )
 
 
