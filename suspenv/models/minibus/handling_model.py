@@ -55,10 +55,8 @@ cos(delta) of the steered tyre forces (small-angle single-track kinematics).
 
 from __future__ import annotations
 
-import functools
 from collections.abc import Sequence
-from dataclasses import dataclass, fields
-from typing import Any
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -176,18 +174,6 @@ class HandlingParams:
     vehicle: Minibus = REFERENCE_MINIBUS
     tyre: LateralTyre = LIGHT_TRUCK_TYRE
 
-    @classmethod
-    def _of(cls, values: dict[str, Any], **more: Any) -> HandlingParams:
-        """The parameters with the fields ``values`` and ``more`` (every field), set
-        without the generated ``__init__`` (one ``object.__setattr__`` per field: a few
-        microseconds of a one-design evaluation); the instance is frozen as any other."""
-        params = object.__new__(cls)
-        vars(params).update(values, **more)
-        if len(vars(params)) != len(_FIELD_NAMES):
-            missing = sorted(set(_FIELD_NAMES) - set(vars(params)))
-            raise TypeError(f"HandlingParams needs every field, but got none for {missing}")
-        return params
-
     @property
     def n(self) -> int:
         return len(self.rows)
@@ -223,10 +209,6 @@ class HandlingParams:
         return k + (self.force_steer_rear * self.a - self.force_steer_front * self.b) * m_L
 
 
-#: the fields of :class:`HandlingParams`
-_FIELD_NAMES = tuple(f.name for f in fields(HandlingParams))
-
-
 def roll_centre_heights(vehicle: Minibus = REFERENCE_MINIBUS) -> tuple[float, float]:
     """Front and rear roll-centre heights above ground, m.
 
@@ -252,88 +234,96 @@ def handling_parameters(
     cases = [load_case] if isinstance(load_case, str | LoadCase) else list(load_case)
     vps = stacked_vehicle_parameters(X, cases, vehicle) if params is None else params
     d = vps[0].design
-    k, n = len(vps), d.n
-    # the design-independent parameters of each load case, on their rows (read-only)
-    columns, constant_rows = _case_table(vps, leaf, tyre, n)
-    msh, msh_g = columns[23].reshape(k, n), columns[24].reshape(k, n)
+    # the design-independent parameters of each load case, on their rows
+    table, constant_rows = _case_table(vps, leaf, tyre)
+    (
+        m, ms, a, b, iz, ixs, h_prime, ms_front, ms_rear, w_front, w_rear,
+        h_rf, h_rr, muf, mur, radius, tf, tr, eps_f, c_ff, moment_f, moment_r, L, msh, msh_g,
+        cf, cr,
+    ) = table.repeat(d.n, axis=1)  # fmt: skip
 
-    # the per-design values as (n,) (the same in every load case) or (k, n) (the rear
-    # leaf's static rate differs between load cases), broadcast: one pass each
+    # the per-design values, on the rows of every load case
+    rates = np.array(
+        [d.front_wheel_rate, d.front_roll_arb, d.rear_roll_arb, d.leaf_bush_radial,
+         d.front_damper_scale, d.rear_damper_scale]
+    )  # fmt: skip
+    wheel_rate, arb_f, arb_r, k3, c_front, c_rear = np.concatenate(len(cases) * [rates], axis=1)
+    # roll stiffness: springs + stabiliser, in series with the two tyres
     kt_f = spring_pair_roll_stiffness(vehicle.tyre_vertical_stiffness, vehicle.track_front)
     kt_r = spring_pair_roll_stiffness(vehicle.tyre_vertical_stiffness, vehicle.track_rear)
-    rear_rate = np.concatenate([vp.rear_static_rate for vp in vps]).reshape(k, n)
-    # roll stiffness: springs + stabiliser, in series with the two tyres
-    ks_f = spring_pair_roll_stiffness(d.front_wheel_rate, vehicle.track_front) + d.front_roll_arb
-    ks_r = spring_pair_roll_stiffness(rear_rate, vehicle.leaf_spacing) + d.rear_roll_arb
+    rear_rate = np.concatenate([vp.rear_static_rate for vp in vps])
+    ks_f = spring_pair_roll_stiffness(wheel_rate, vehicle.track_front) + arb_f
+    ks_r = spring_pair_roll_stiffness(rear_rate, vehicle.leaf_spacing) + arb_r
     kphi_f = ks_f * kt_f / (ks_f + kt_f)
     kphi_r = ks_r * kt_r / (ks_r + kt_r)
 
     # rear axle steer from the leaf and its bushes
-    Ls, k3 = vehicle.leaf_length, d.leaf_bush_radial
+    Ls = vehicle.leaf_length
     l1 = leaf.axle_from_front_eye
     l2 = Ls - l1
-    eps_bush = rear_rate * (l1 / Ls) * _tan_deg(leaf.shackle_angle_deg) / k3
+    eps_bush = rear_rate * (l1 / Ls) * np.tan(np.radians(leaf.shackle_angle_deg)) / k3
     c_force = (l2 / (2.0 * k3) - l1 / (2.0 * leaf.shackle_lateral_ratio * k3)) / Ls**2
     eps_r = vehicle.rear_roll_steer + eps_bush
     kphi = kphi_f + kphi_r
-    # (k, n, 22): the load cases' rows of constant columns, then the design's columns
-    rows = constant_rows.repeat(n, axis=0)
-    case_rows = rows.reshape(k, n, 22)
-    case_rows[..., 0], case_rows[..., 1], case_rows[..., 2] = msh / (kphi - msh_g), kphi_f, kphi_r
-    case_rows[..., 15], case_rows[..., 16], case_rows[..., 20] = eps_r, c_force, msh_g - kphi
-    c_front, c_rear = d.front_damper_scale, d.rear_damper_scale
-    case_rows[..., 21] = roll_damping(vehicle, c_front, c_rear)
+    # (n, 22): the load cases' rows of constant columns, then the design's columns
+    rows = constant_rows.repeat(d.n, axis=0)
+    rows[:, 0], rows[:, 1], rows[:, 2] = msh / (kphi - msh_g), kphi_f, kphi_r
+    rows[:, 15], rows[:, 16], rows[:, 20] = eps_r, c_force, msh_g - kphi
+    rows[:, 21] = roll_damping(vehicle, c_front, c_rear)
     rows.flags.writeable = False
-    kphi_front, c_force, c_front, c_rear = [
-        np.concatenate(k * [a]) for a in (kphi_f, c_force, c_front, c_rear)
-    ]
-    return HandlingParams._of(
-        dict(zip(_TABLE_FIELDS, (*columns[:20], *columns[25:]), strict=True)),
-        kphi_front=kphi_front,
-        kphi_rear=kphi_r.reshape(-1),
+    return HandlingParams(
+        m=m,
+        ms=ms,
+        a=a,
+        b=b,
+        iz=iz,
+        ixs=ixs,
+        h_prime=h_prime,
+        h_rc_front=h_rf,
+        h_rc_rear=h_rr,
+        ms_front=ms_front,
+        ms_rear=ms_rear,
+        mu_front=muf,
+        mu_rear=mur,
+        wheel_radius=radius,
+        track_front=tf,
+        track_rear=tr,
+        kphi_front=kphi_f,
+        kphi_rear=kphi_r,
         damper_scale_front=c_front,
         damper_scale_rear=c_rear,
-        roll_steer_rear=eps_r.reshape(-1),
+        fz_front=w_front,
+        fz_rear=w_rear,
+        roll_steer_front=eps_f,
+        force_steer_front=c_ff,
+        roll_steer_rear=eps_r,
         force_steer_rear=c_force,
+        cornering_front=cf,
+        cornering_rear=cr,
         rows=rows,
         vehicle=vehicle,
         tyre=tyre,
     )
 
 
-#: :func:`_case_table`'s cache: its key -> (the objects the key names by id, tables, the
-#: columns of the latest batch size)
-_CASE_TABLES: dict[tuple, tuple[list, np.ndarray, np.ndarray, dict[int, tuple]]] = {}
+#: :func:`_case_table`'s cache: its key -> (the objects the key names by id, tables)
+_CASE_TABLES: dict[tuple, tuple[list, tuple[np.ndarray, np.ndarray]]] = {}
 #: the columns of :attr:`HandlingParams.rows` that no design variable changes, and the
 #: rows of :func:`_case_terms` they take
 _CONSTANT_COLUMNS = [3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 17, 18, 19]
 _CONSTANT_TERMS = [20, 21, 16, 17, 9, 10, 0, 2, 3, 22, 18, 19, 4, 5, 23]
-#: the :class:`HandlingParams` fields of the rows 0-19 and 25-26 of :func:`_case_table`
-_TABLE_FIELDS = (
-    "m", "ms", "a", "b", "iz", "ixs", "h_prime", "ms_front", "ms_rear", "fz_front",
-    "fz_rear", "h_rc_front", "h_rc_rear", "mu_front", "mu_rear", "wheel_radius",
-    "track_front", "track_rear", "roll_steer_front", "force_steer_front",
-    "cornering_front", "cornering_rear",
-)  # fmt: skip
-
-
-@functools.lru_cache(maxsize=8)
-def _tan_deg(angle: float) -> float:
-    """``tan`` of an angle in deg (numpy's, kept per angle)."""
-    return float(np.tan(np.radians(angle)))
 
 
 def _case_table(
-    vps: Sequence[VehicleParams], leaf: LeafAxleGeometry, tyre: LateralTyre, n: int
-) -> tuple[tuple[np.ndarray, ...], np.ndarray]:
+    vps: Sequence[VehicleParams], leaf: LeafAxleGeometry, tyre: LateralTyre
+) -> tuple[np.ndarray, np.ndarray]:
     """:func:`_case_terms` of each load case of ``vps``, then the axles' cornering
-    stiffness at its static wheel loads (N/rad, front and rear, two tyres each), each
-    repeated on the ``n`` rows of its load case: 27 columns (k n,); and each load case's
-    row of :attr:`HandlingParams.rows` with its constant columns set (the others 0),
-    (k, 22). Read-only, kept per vehicle, load case, leaf geometry and tyre (frozen; the
-    cache holds them, so their ids stay theirs) and CoM distances ``a``, ``b``: what the
-    terms depend on; the columns for the latest ``n``. An evaluation repeats the same
-    load cases and batch size, so it pays the lookup only."""
+    stiffness at its static wheel loads (N/rad, front and rear, two tyres each), as the
+    columns of a (27, k) array, and each load case's row of :attr:`HandlingParams.rows`
+    with its constant columns set (the others 0), (k, 22); read-only, kept per vehicle,
+    load case, leaf geometry and tyre (frozen; the cache holds them, so their ids stay
+    theirs) and CoM distances ``a``, ``b``: what the terms depend on. An evaluation
+    repeats the same load cases, so it pays the lookup only."""
     held = [leaf, tyre] + [o for vp in vps for o in (vp.vehicle, vp.load)]
     key = (*[id(o) for o in held], *[x for vp in vps for x in (vp.a, vp.b)])
     hit = _CASE_TABLES.get(key)
@@ -345,16 +335,10 @@ def _case_table(
         table = np.vstack([terms, 2.0 * tyre.cornering_stiffness(terms[9:11])])
         rows = np.zeros((len(vps), 22))
         rows[:, _CONSTANT_COLUMNS] = table[_CONSTANT_TERMS].T
-        rows.flags.writeable = False
-        hit = _CASE_TABLES[key] = (held, table, rows, {})
-    columns = hit[3].get(n)
-    if columns is None:
-        repeated = hit[1].repeat(n, axis=1)
-        repeated.flags.writeable = False
-        columns = tuple(repeated)
-        hit[3].clear()  # one batch size kept: its arrays are as large as the batch
-        hit[3][n] = columns
-    return columns, hit[2]
+        for a in (table, rows):
+            a.flags.writeable = False
+        hit = _CASE_TABLES[key] = (held, (table, rows))
+    return hit[1]
 
 
 def _case_terms(vp: VehicleParams, leaf: LeafAxleGeometry) -> list[float]:
