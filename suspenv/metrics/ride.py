@@ -22,6 +22,7 @@ from scipy import signal
 from scipy.special import ndtr
 
 from suspenv.core.errors import ValidationError
+from suspenv.core.identity_cache import IdentityCache
 from suspenv.metrics.iso2631 import (
     weighted_rms_fft,
     weighted_signal_fft,
@@ -378,44 +379,45 @@ class _SplitGeometry(NamedTuple):
 
 
 _SPLIT_D = 4
-_SPLIT_GEOMETRY: dict[tuple[int, float], tuple[Minibus, _SplitGeometry]] = {}
+_SPLIT_GEOMETRY: IdentityCache[_SplitGeometry] = IdentityCache()
 
 
 def _split_geometry(model: RideModel) -> _SplitGeometry:
     """The :class:`_SplitGeometry` of a seatless model (cached per vehicle object and
-    measuring point; the cache holds the vehicle, so its id stays its own)."""
-    key = (id(model.vehicle), model.measure_y)
-    hit = _SPLIT_GEOMETRY.get(key)
-    if hit is None or hit[0] is not model.vehicle:
-        if len(_SPLIT_GEOMETRY) >= 16:
-            _SPLIT_GEOMETRY.clear()
-        nq, npos, d = model.nq, model.n_pos, _SPLIT_D
-        n_el = model.E.shape[1]
-        co_all = _output_matrix(model)[list(_SPLIT_ROWS)]
-        T = np.zeros((2, nq, d))
-        T[0] = T_SYM
-        T[1, :, :3] = T_ANTI
-        D = np.zeros((n_el, 2, d, 2 * d))
-        Gin = np.zeros((n_el, 2, d, 4))
-        A0 = np.zeros((2, 2 * d, 2 * d))
-        for h, J in enumerate((J_SYM, J_ANTI)):
-            pos = (T[h].T @ model.E[:nq, :npos]).T  # (n_pos, d) element deflection per x
-            vel = (T[h].T @ model.E[nq:, npos:]).T  # (n_vel, d)
-            D[:npos, h, :, :d] = -pos[:, :, None] * pos[:, None, :]
-            D[npos:, h, :, d:] = -vel[:, :, None] * vel[:, None, :]
-            # road through the tyres (compression = road - wheel), per axle input
-            Gin[6:10, h, :, :2] = -pos[6:10, :, None] * J[:, None, :]
-            Gin[npos + 4 : npos + 8, h, :, 2:] = -vel[4:8, :, None] * J[:, None, :]
-            A0[h, :d, d:] = np.eye(d)
-        # the padding coordinate: x' = -x + v, v' = -x - v (decoupled; poles -1 +- i)
-        A0[1, d - 1, d - 1] = A0[1, 2 * d - 1, d - 1] = A0[1, 2 * d - 1, 2 * d - 1] = -1.0
-        geo = _SplitGeometry(
-            T, D.reshape(n_el, -1), Gin.reshape(n_el, -1), np.stack([co_all @ t for t in T]), A0
-        )
-        for a in geo:
-            a.flags.writeable = False
-        hit = _SPLIT_GEOMETRY[key] = (model.vehicle, geo)
-    return hit[1]
+    measuring point)."""
+    return _SPLIT_GEOMETRY.get(
+        [model.vehicle], (model.measure_y,), lambda: _new_split_geometry(model)
+    )
+
+
+def _new_split_geometry(model: RideModel) -> _SplitGeometry:
+    """:func:`_split_geometry`, built (read-only)."""
+    nq, npos, d = model.nq, model.n_pos, _SPLIT_D
+    n_el = model.E.shape[1]
+    co_all = _output_matrix(model)[list(_SPLIT_ROWS)]
+    T = np.zeros((2, nq, d))
+    T[0] = T_SYM
+    T[1, :, :3] = T_ANTI
+    D = np.zeros((n_el, 2, d, 2 * d))
+    Gin = np.zeros((n_el, 2, d, 4))
+    A0 = np.zeros((2, 2 * d, 2 * d))
+    for h, J in enumerate((J_SYM, J_ANTI)):
+        pos = (T[h].T @ model.E[:nq, :npos]).T  # (n_pos, d) element deflection per x
+        vel = (T[h].T @ model.E[nq:, npos:]).T  # (n_vel, d)
+        D[:npos, h, :, :d] = -pos[:, :, None] * pos[:, None, :]
+        D[npos:, h, :, d:] = -vel[:, :, None] * vel[:, None, :]
+        # road through the tyres (compression = road - wheel), per axle input
+        Gin[6:10, h, :, :2] = -pos[6:10, :, None] * J[:, None, :]
+        Gin[npos + 4 : npos + 8, h, :, 2:] = -vel[4:8, :, None] * J[:, None, :]
+        A0[h, :d, d:] = np.eye(d)
+    # the padding coordinate: x' = -x + v, v' = -x - v (decoupled; poles -1 +- i)
+    A0[1, d - 1, d - 1] = A0[1, 2 * d - 1, d - 1] = A0[1, 2 * d - 1, 2 * d - 1] = -1.0
+    geo = _SplitGeometry(
+        T, D.reshape(n_el, -1), Gin.reshape(n_el, -1), np.stack([co_all @ t for t in T]), A0
+    )
+    for a in geo:
+        a.flags.writeable = False
+    return geo
 
 
 class _Halves:
@@ -474,46 +476,46 @@ class _Halves:
         return out
 
 
-#: :func:`_halves_blocks`' cache: (ids of geometry and inverse mass terms, rows per
-#: block) -> ((geometry, terms), matrices)
-_HALVES_BLOCKS: dict[tuple, tuple[tuple, np.ndarray, np.ndarray, np.ndarray]] = {}
+#: :func:`_halves_blocks`' cache
+_HALVES_BLOCKS: IdentityCache[tuple[np.ndarray, ...]] = IdentityCache()
 
 
-def _halves_blocks(
-    geo: _SplitGeometry, model: RideModel
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _halves_blocks(geo: _SplitGeometry, model: RideModel) -> tuple[np.ndarray, ...]:
     """The halves' inverse mass matrices ``T^T M^-1 T`` (2n, d, d) (1/kg, 1/(kg m^2)),
     road input matrices ``[0 | M_h^-1 [K_in | C_in]]`` (2n, 2d, 4) (complex; the road
     acts through the tyres, whose rates the vehicle fixes) and output matrices (2n, 5,
     d) on the rows of ``model``'s designs. No design variable changes them, only the
     parameter blocks (load cases) and their rows: read-only, kept per geometry,
     inverse mass terms (:attr:`RideModel.inverse_blocks`, kept per load case
-    themselves; the cache holds both, so their ids stay theirs) and rows per block."""
+    themselves) and rows per block."""
     terms = model.inverse_blocks
-    key = (id(geo), id(terms), *model.counts)
-    hit = _HALVES_BLOCKS.get(key)
-    if hit is None or hit[0][0] is not geo or hit[0][1] is not terms:
-        if len(_HALVES_BLOCKS) >= 16:
-            _HALVES_BLOCKS.clear()
-        k, nq, d, n = terms.shape[0], model.nq, _SPLIT_D, model.n
-        minv = np.zeros((k, nq, nq))
-        minv.reshape(k, -1)[:, :: nq + 1] = terms[:, :nq]  # the diagonals
-        minv[:, 0, 1] = minv[:, 1, 0] = terms[:, nq]
-        minv_h = geo.T.transpose(0, 2, 1) @ minv[:, None] @ geo.T
-        B = np.zeros((k, 2, 2 * d, 4), dtype=complex)
-        B[:, :, d:] = minv_h @ (model.tyre_rates[None, None] @ geo.Gin).reshape(1, 2, d, 4)
-        rows = (
-            minv_h.repeat(model.counts, axis=0).reshape(2 * n, d, d),
-            B.repeat(model.counts, axis=0).reshape(2 * n, 2 * d, 4),
-            np.concatenate([geo.co] * n),
-        )
-        for a in rows:
-            a.flags.writeable = False
-        hit = _HALVES_BLOCKS[key] = ((geo, terms), *rows)
-    return hit[1], hit[2], hit[3]
+    return _HALVES_BLOCKS.get(
+        [geo, terms], tuple(model.counts), lambda: _new_halves_blocks(geo, model, terms)
+    )
 
 
-_SPLIT_GRIDS: dict[tuple[int, int, int, bool], tuple[Any, ...]] = {}
+def _new_halves_blocks(
+    geo: _SplitGeometry, model: RideModel, terms: np.ndarray
+) -> tuple[np.ndarray, ...]:
+    """:func:`_halves_blocks`, built (read-only)."""
+    k, nq, d, n = terms.shape[0], model.nq, _SPLIT_D, model.n
+    minv = np.zeros((k, nq, nq))
+    minv.reshape(k, -1)[:, :: nq + 1] = terms[:, :nq]  # the diagonals
+    minv[:, 0, 1] = minv[:, 1, 0] = terms[:, nq]
+    minv_h = geo.T.transpose(0, 2, 1) @ minv[:, None] @ geo.T
+    B = np.zeros((k, 2, 2 * d, 4), dtype=complex)
+    B[:, :, d:] = minv_h @ (model.tyre_rates[None, None] @ geo.Gin).reshape(1, 2, d, 4)
+    rows = (
+        minv_h.repeat(model.counts, axis=0).reshape(2 * n, d, d),
+        B.repeat(model.counts, axis=0).reshape(2 * n, 2 * d, 4),
+        np.concatenate([geo.co] * n),
+    )
+    for a in rows:
+        a.flags.writeable = False
+    return rows
+
+
+_SPLIT_GRIDS: IdentityCache[tuple[tuple[np.ndarray, ...], np.ndarray]] = IdentityCache(64)
 
 
 def _split_grid(
@@ -521,14 +523,9 @@ def _split_grid(
 ) -> tuple[tuple[np.ndarray, ...], np.ndarray]:
     """:func:`_split_grid_values`, looked up by the identity of ``road`` and ``vehicle``
     first (hashing a vehicle costs more than the lookup)."""
-    key = (id(road), id(vehicle), n_freq, final)
-    hit = _SPLIT_GRIDS.get(key)
-    if hit is None or hit[0] is not road or hit[1] is not vehicle:
-        if len(_SPLIT_GRIDS) >= 64:
-            _SPLIT_GRIDS.clear()
-        hit = (road, vehicle, _split_grid_values(road, n_freq, vehicle, final))
-        _SPLIT_GRIDS[key] = hit  # holds road and vehicle: their ids stay theirs
-    return hit[2]
+    return _SPLIT_GRIDS.get(
+        [road, vehicle], (n_freq, final), lambda: _split_grid_values(road, n_freq, vehicle, final)
+    )
 
 
 @functools.lru_cache(maxsize=32)

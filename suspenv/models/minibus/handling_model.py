@@ -61,6 +61,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from suspenv.core.errors import ValidationError
+from suspenv.core.identity_cache import IdentityCache
 from suspenv.models.minibus import handling_kernel
 from suspenv.models.minibus.handling_kernel import axle_transfer
 from suspenv.models.minibus.suspension import damper_force, spring_pair_roll_stiffness
@@ -306,8 +307,8 @@ def handling_parameters(
     )
 
 
-#: :func:`_case_table`'s cache: its key -> (the objects the key names by id, tables)
-_CASE_TABLES: dict[tuple, tuple[list, tuple[np.ndarray, np.ndarray]]] = {}
+#: :func:`_case_table`'s cache
+_CASE_TABLES: IdentityCache[tuple[np.ndarray, np.ndarray]] = IdentityCache()
 #: the columns of :attr:`HandlingParams.rows` that no design variable changes, and the
 #: rows of :func:`_case_terms` they take
 _CONSTANT_COLUMNS = [3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 17, 18, 19]
@@ -321,24 +322,26 @@ def _case_table(
     stiffness at its static wheel loads (N/rad, front and rear, two tyres each), as the
     columns of a (27, k) array, and each load case's row of :attr:`HandlingParams.rows`
     with its constant columns set (the others 0), (k, 22); read-only, kept per vehicle,
-    load case, leaf geometry and tyre (frozen; the cache holds them, so their ids stay
-    theirs) and CoM distances ``a``, ``b``: what the terms depend on. An evaluation
-    repeats the same load cases, so it pays the lookup only."""
+    load case, leaf geometry and tyre (frozen) and CoM distances ``a``, ``b``: what the
+    terms depend on. An evaluation repeats the same load cases, so it pays the lookup
+    only."""
     held = [leaf, tyre] + [o for vp in vps for o in (vp.vehicle, vp.load)]
-    key = (*[id(o) for o in held], *[x for vp in vps for x in (vp.a, vp.b)])
-    hit = _CASE_TABLES.get(key)
-    if hit is None or not all([a is b for a, b in zip(hit[0], held, strict=True)]):
-        if len(_CASE_TABLES) >= 16:
-            _CASE_TABLES.clear()
-        terms = np.array([_case_terms(vp, leaf) for vp in vps]).T
-        # the static wheel loads: terms 9, 10 (fz_front, fz_rear)
-        table = np.vstack([terms, 2.0 * tyre.cornering_stiffness(terms[9:11])])
-        rows = np.zeros((len(vps), 22))
-        rows[:, _CONSTANT_COLUMNS] = table[_CONSTANT_TERMS].T
-        for a in (table, rows):
-            a.flags.writeable = False
-        hit = _CASE_TABLES[key] = (held, (table, rows))
-    return hit[1]
+    values = tuple([x for vp in vps for x in (vp.a, vp.b)])
+    return _CASE_TABLES.get(held, values, lambda: _new_case_table(vps, leaf, tyre))
+
+
+def _new_case_table(
+    vps: Sequence[VehicleParams], leaf: LeafAxleGeometry, tyre: LateralTyre
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_case_table`, built (read-only)."""
+    terms = np.array([_case_terms(vp, leaf) for vp in vps]).T
+    # the static wheel loads: terms 9, 10 (fz_front, fz_rear)
+    table = np.vstack([terms, 2.0 * tyre.cornering_stiffness(terms[9:11])])
+    rows = np.zeros((len(vps), 22))
+    rows[:, _CONSTANT_COLUMNS] = table[_CONSTANT_TERMS].T
+    for a in (table, rows):
+        a.flags.writeable = False
+    return table, rows
 
 
 def _case_terms(vp: VehicleParams, leaf: LeafAxleGeometry) -> list[float]:

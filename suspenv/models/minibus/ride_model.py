@@ -49,6 +49,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from suspenv.core.errors import EvaluationError, ValidationError
+from suspenv.core.identity_cache import IdentityCache
 from suspenv.models.effects import friction, hysteresis, stiffness
 from suspenv.models.effects.effect import Effect
 from suspenv.models.minibus import ride_kernel
@@ -150,10 +151,10 @@ _TYPED = (
 )
 #: the float types a model integrates in
 _DTYPES = (np.dtype(np.float64), np.dtype(np.float32))
-#: :meth:`RideModel._build_geometry`'s cache: key -> (vehicle, geometry)
-_GEOMETRY: dict[tuple[int, bool, float], tuple[object, tuple]] = {}
-#: :meth:`RideModel._inverse_blocks`' cache: key -> (the objects it names by id, terms)
-_INVERSE: dict[tuple, tuple[list, np.ndarray]] = {}
+#: :meth:`RideModel._build_geometry`'s cache
+_GEOMETRY: IdentityCache[tuple] = IdentityCache()
+#: :meth:`RideModel._inverse_blocks`' cache
+_INVERSE: IdentityCache[np.ndarray] = IdentityCache()
 
 
 class RideModel:
@@ -215,17 +216,12 @@ class RideModel:
     # -------------------------------------------------------------- assembly
     def _build_geometry(self) -> None:
         """The element geometry (:meth:`_geometry`), shared by the models of one vehicle
-        object, seat or not and measuring point (read-only; the cache holds the
-        vehicle, so its id stays its own)."""
-        key = (id(self.vehicle), self.seat is not None, self.measure_y)
-        hit = _GEOMETRY.get(key)
-        if hit is None or hit[0] is not self.vehicle:
-            if len(_GEOMETRY) >= 16:
-                _GEOMETRY.clear()
-            hit = _GEOMETRY[key] = (self.vehicle, self._geometry())
-        self.n_pos, self.n_vel, self.E, self.Et, self.Pt, self.Vt, self.B, self.Bt = hit[1][:8]
+        object, seat or not and measuring point (read-only)."""
+        key = (self.seat is not None, self.measure_y)
+        geometry = _GEOMETRY.get([self.vehicle], key, self._geometry)
+        self.n_pos, self.n_vel, self.E, self.Et, self.Pt, self.Vt, self.B, self.Bt = geometry[:8]
         # tyre_rates: the element rates the vehicle fixes (the tyres'; 0 in the others)
-        self._damper_unit, self.knee_b, self.knee_r, self.tyre_rates = hit[1][8:]
+        self._damper_unit, self.knee_b, self.knee_r, self.tyre_rates = geometry[8:]
 
     def _geometry(self) -> tuple:
         """``(n_pos, n_vel, E, E^T, P^T, V^T, B, B^T, damper curves, knee_b, knee_r,
@@ -372,29 +368,27 @@ class RideModel:
         """Per parameter block (k, nq + 1): the inverse mass matrix of q's diagonal, then
         its (z_f, z_r) coupling (1/kg, 1/(kg m^2)); the body's in (z_f, z_r) from the KE
         of heave (b zf + a zr)/L and pitch (zf - zr)/L. No design variable changes them:
-        read-only, kept per vehicle, seat, load case and CoM distances (the cache holds
-        the objects, so their ids stay theirs)."""
+        read-only, kept per vehicle, seat, load case and CoM distances."""
+        held = [self.vehicle, self.seat, *[p.load for p in self.params]]
+        values = tuple([x for p in self.params for x in (p.a, p.b)])
+        return _INVERSE.get(held, values, self._new_inverse_blocks)
+
+    def _new_inverse_blocks(self) -> np.ndarray:
+        """:meth:`_inverse_blocks`, built (read-only)."""
         v, ps, L = self.vehicle, self.params, self.vehicle.wheelbase
-        held = [v, self.seat, *[p.load for p in ps]]
-        key = (*[id(o) for o in held], *[x for p in ps for x in (p.a, p.b)])
-        hit = _INVERSE.get(key)
-        if hit is None or not all([a is b for a, b in zip(hit[0], held, strict=True)]):
-            if len(_INVERSE) >= 16:
-                _INVERSE.clear()
-            seat = 2 * (1.0 / self.seat.mass,) if self.seat else ()
-            wheels = (*(2 * (1.0 / v.unsprung_front,)), *(2 * (1.0 / v.unsprung_rear,)), *seat)
-            terms = []
-            for p in ps:
-                m, I_pitch, I_roll = p.load.sprung_mass, p.load.pitch_inertia, p.load.roll_inertia
-                M11 = (m * p.b**2 + I_pitch) / L**2
-                M22 = (m * p.a**2 + I_pitch) / L**2
-                M12 = (m * p.a * p.b - I_pitch) / L**2
-                det = M11 * M22 - M12**2
-                terms.append((M22 / det, M11 / det, 1.0 / I_roll, *wheels, -M12 / det))
-            inverse = np.array(terms)
-            inverse.flags.writeable = False
-            hit = _INVERSE[key] = (held, inverse)
-        return hit[1]
+        seat = 2 * (1.0 / self.seat.mass,) if self.seat else ()
+        wheels = (*(2 * (1.0 / v.unsprung_front,)), *(2 * (1.0 / v.unsprung_rear,)), *seat)
+        terms = []
+        for p in ps:
+            m, I_pitch, I_roll = p.load.sprung_mass, p.load.pitch_inertia, p.load.roll_inertia
+            M11 = (m * p.b**2 + I_pitch) / L**2
+            M22 = (m * p.a**2 + I_pitch) / L**2
+            M12 = (m * p.a * p.b - I_pitch) / L**2
+            det = M11 * M22 - M12**2
+            terms.append((M22 / det, M11 / det, 1.0 / I_roll, *wheels, -M12 / det))
+        inverse = np.array(terms)
+        inverse.flags.writeable = False
+        return inverse
 
     # the arrays only a simulation reads (:meth:`rhs`, :attr:`_packed`), formed at its
     # first use: the spectral methods never need them
