@@ -12,7 +12,7 @@ from synthetic_problem import SyntheticIdentification
 
 from suspenv import list_problems, make_problem
 from suspenv.core.errors import ValidationError
-from suspenv.core.options import check_keywords, choice, integer, number, numbers, texts
+from suspenv.core.options import check_keywords, choice, flag, integer, number, numbers, texts
 from suspenv.models.planar import geometry_from_dict, load_geometry
 from suspenv.problems.minibus import MinibusRideHandling
 from suspenv.problems.views import ObjectiveSubset
@@ -343,3 +343,16 @@ def test_planar_dict_points_must_be_finite_pairs():
     raises(lambda: geometry_from_dict(d), "`len(points.strut_top) == 2` must hold")
     d["points"]["strut_top"] = [600.0, math.inf]
     raises(lambda: geometry_from_dict(d), "`points.strut_top[1]` must be a finite number")
+
+
+def test_a_flag_is_a_bool_and_nothing_that_merely_casts_to_one():
+    assert flag("o", "x", True) is True and flag("o", "x", np.bool_(False)) is False
+    assert flag("o", "x", None, allow_none=True) is None
+    for value in (1, 0, "true", None, np.array([True])):
+        with pytest.raises(ValidationError, match=r"o: `x` must be True or False, but got x="):
+            flag("o", "x", value)
+    with pytest.raises(ValidationError, match=r"must be True, False or None, but got x=1 \(int"):
+        flag("o", "x", 1, allow_none=True)
+    # the config's and the problems' own flags go through it
+    with pytest.raises(ValidationError, match="`working_space` must be True or False"):
+        MinibusRideHandling(working_space=1)

@@ -44,6 +44,7 @@ __all__ = [
     "check_keywords",
     "choice",
     "did_you_mean",
+    "flag",
     "integer",
     "near_names",
     "nearest",
@@ -255,6 +256,18 @@ def _as_list(value: Any) -> list[Any] | None:
     if getattr(value, "ndim", None) == 1 and hasattr(value, "tolist"):
         return list(value)
     return None
+
+
+def flag(owner: str, name: str, value: Any, allow_none: bool = False) -> bool | None:
+    """A bool or a numpy bool scalar (None too when ``allow_none``); 0/1 and strings are
+    refused."""
+    numpy_bool = getattr(value, "shape", None) == () and getattr(value, "dtype", None) == "bool"
+    if isinstance(value, bool) or numpy_bool or (allow_none and value is None):
+        return None if value is None else bool(value)
+    kinds = "True, False or None" if allow_none else "True or False"
+    raise ValidationError(
+        f"{owner}: `{name}` must be {kinds}, but got {name}={_show(value)} ({type(value).__name__})"
+    )
 
 
 def text(owner: str, name: str, value: Any, empty: bool = False) -> str:

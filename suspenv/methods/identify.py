@@ -139,8 +139,7 @@ def check_options(options: Mapping[str, Any]) -> dict[str, Any]:
     o["sigma0"] = check.number(who, "sigma0", o["sigma0"], 0.0, 1.0, lo_open=True)
     o["free"] = list(check.texts(who, "free", o["free"]))
     for key in ("next_test", "rerun_next", "diagnose", "loop", "sheet", "figures"):
-        if not isinstance(o[key], bool):
-            raise ValidationError(f"identify: `{key}` must be true or false, but got {o[key]!r}")
+        o[key] = check.flag(who, key, o[key])
     return o
 
 

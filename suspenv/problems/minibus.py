@@ -84,7 +84,7 @@ import numpy as np
 
 from suspenv.core import EvaluationBatch, Problem
 from suspenv.core.errors import ValidationError
-from suspenv.core.options import choice, integer, number, positive
+from suspenv.core.options import choice, flag, integer, number, positive
 from suspenv.core.pareto import nondominated
 from suspenv.metrics.handling import yaw_response
 from suspenv.metrics.ride import exceedance_probability, working_space
@@ -282,11 +282,7 @@ class MinibusRideHandling(Problem):
         self.ride_method = choice(owner, "ride_method", ride_method, list(RIDE_METHODS))
         self.handling = choice(owner, "handling", handling, list(HANDLING_METHODS))
         self.min_understeer = number(owner, "min_understeer", min_understeer)
-        if not isinstance(working_space, bool):
-            raise ValidationError(
-                f"{owner}: `working_space` must be true or false, but got {working_space!r}"
-            )
-        self.working_space = working_space
+        self.working_space = bool(flag(owner, "working_space", working_space))
         self.bump_stop_limit = number(
             owner, "bump_stop_limit", bump_stop_limit, lo=0.0, hi=1.0, lo_open=True, hi_open=True
         )

@@ -42,7 +42,7 @@ from pathlib import Path
 from typing import Any
 
 from suspenv.core.errors import ValidationError
-from suspenv.core.options import did_you_mean
+from suspenv.core.options import did_you_mean, flag
 from suspenv.core.tomlfile import read_toml
 from suspenv.runs.evaluation import FaultPolicy
 
@@ -240,10 +240,7 @@ def _check_run(run: dict[str, Any]) -> None:
     if run.get("chunk_size") is not None:
         _check_count(run["chunk_size"], "run.chunk_size", 1)
     for key in ("plots", "progress"):
-        if not isinstance(run[key], bool):
-            raise ValidationError(
-                f"config: `run.{key}` must be true or false, but got {run[key]!r}"
-            )
+        flag("config", f"run.{key}", run[key])
     if not isinstance(run["output"], str) or not run["output"]:
         raise ValidationError(
             f"config: `run.output` must be a folder name, but got {run['output']!r}"

@@ -38,16 +38,6 @@ def popsize_option(owner: str, popsize: Any, dim: int) -> int:
     return integer(owner, "popsize", popsize, lo=2)
 
 
-def flag_option(owner: str, name: str, value: Any, allow_none: bool = False) -> bool | None:
-    """A bool option (None too when ``allow_none``); 0/1 and strings are refused."""
-    if isinstance(value, bool | np.bool_) or (allow_none and value is None):
-        return None if value is None else bool(value)
-    kinds = "True, False or None" if allow_none else "True or False"
-    raise ValidationError(
-        f"{owner}: `{name}` must be {kinds}, but got {name}={value!r} ({type(value).__name__})"
-    )
-
-
 class Strategy(ABC):
     """Base class: stores the problem's shape and the seed; checks ask/tell pairing."""
 

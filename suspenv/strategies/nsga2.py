@@ -58,9 +58,9 @@ from optuna.distributions import BaseDistribution, FloatDistribution
 from optuna.trial import FrozenTrial, TrialState
 
 from suspenv.core.errors import ValidationError
-from suspenv.core.options import integer, number, optional, text
+from suspenv.core.options import flag, integer, number, optional, text
 from suspenv.core.result import EvaluationBatch
-from suspenv.strategies.base import Strategy, flag_option
+from suspenv.strategies.base import Strategy
 
 CONSTRAINTS_KEY = "suspenv_constraints"
 #: user attribute of every trial the strategy creates: [run id, batch, row]
@@ -219,7 +219,7 @@ class NSGA2(Strategy):
             if study_name is None
             else text(owner, "study_name", study_name)
         )
-        self.resume = bool(flag_option(owner, "resume", resume))
+        self.resume = bool(flag(owner, "resume", resume))
         optuna.logging.set_verbosity(logging.WARNING)
         with quiet():
             self._sampler = optuna.samplers.NSGAIISampler(

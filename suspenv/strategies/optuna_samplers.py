@@ -45,10 +45,10 @@ from typing import Any, ClassVar
 import numpy as np
 import optuna
 
-from suspenv.core.options import integer, number, numbers, optional
+from suspenv.core.options import flag, integer, number, numbers, optional
 from suspenv.core.result import EvaluationBatch
 from suspenv.core.scalarize import weighted_sum
-from suspenv.strategies.base import Strategy, flag_option, popsize_option
+from suspenv.strategies.base import Strategy, popsize_option
 from suspenv.strategies.extras import require, told_losses
 from suspenv.strategies.nsga2 import StudyDesign, constraints_func, quiet, tell_trials
 
@@ -138,7 +138,7 @@ class OptunaTPE(OptunaSampler):
         batch = integer(owner, "batch_size", batch_size, lo=1)
         self.n_startup_trials = integer(owner, "n_startup_trials", n_startup_trials, lo=0)
         self.n_ei_candidates = integer(owner, "n_ei_candidates", n_ei_candidates, lo=1)
-        self.multivariate = flag_option(owner, "multivariate", multivariate, allow_none=True)
+        self.multivariate = flag(owner, "multivariate", multivariate, allow_none=True)
         with quiet():
             sampler = optuna.samplers.TPESampler(
                 n_startup_trials=self.n_startup_trials,
@@ -192,7 +192,7 @@ class OptunaCMAES(OptunaSampler):
         owner = self.name
         self.popsize = popsize_option(owner, popsize, self.dim)
         self.n_startup_trials = integer(owner, "n_startup_trials", n_startup_trials, lo=0)
-        self.lr_adapt = bool(flag_option(owner, "lr_adapt", lr_adapt))
+        self.lr_adapt = bool(flag(owner, "lr_adapt", lr_adapt))
         self.weights = optional(numbers, owner, "weights", weights, self.n_objectives)
         require(owner, "cmaes", "optuna-cmaes")
         with quiet():
@@ -304,7 +304,7 @@ class OptunaGP(OptunaSampler):
         batch = integer(owner, "batch_size", batch_size, lo=1)
         self.n_startup_trials = integer(owner, "n_startup_trials", n_startup_trials, lo=0)
         self.deterministic_objective = bool(
-            flag_option(owner, "deterministic_objective", deterministic_objective)
+            flag(owner, "deterministic_objective", deterministic_objective)
         )
         require(owner, "torch", "optuna-gp")
         with quiet():
