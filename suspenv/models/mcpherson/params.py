@@ -500,7 +500,6 @@ class Axle:
         arb_torsion: (n,) [N*m/rad].
         camber0, toe0: (n, 2) static alignment [rad] (camber <0 top in, toe >0 toe-in).
         spring_rate, tyre_rate, wheel_radius, wheel_weight, corner_load: (n, 2) SI.
-        spring_free_length: (n, 2) [m]; set by :func:`suspenv.models.mcpherson.preload`.
         frames: bushing -> (n, 2, 3, 3) ISO 8855 rotation of the bushing frame (columns:
             the bushing axes) for the bushings with an orientation; a bushing not listed
             has its frame parallel to the vehicle axes (``bush`` is then in vehicle axes,
@@ -519,7 +518,6 @@ class Axle:
     wheel_radius: np.ndarray
     wheel_weight: np.ndarray
     corner_load: np.ndarray
-    spring_free_length: np.ndarray | None = None
     constants: AxleConstants = field(default_factory=AxleConstants)
     frames: dict[str, np.ndarray] = field(default_factory=dict)
     rack_compliance: np.ndarray | None = None

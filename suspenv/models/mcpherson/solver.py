@@ -620,11 +620,9 @@ class AxleSolver:
         Fz = ax.corner_load + ax.wheel_weight
         F_spring = (Fz * dcp - ax.wheel_weight) / (-dL)
         self.motion_ratio_kinematic = -dL
-        self.spring_preload = F_spring
         self.L_free = self.L_spring0 + F_spring / self.ks
-        ax.spring_free_length = self.L_free
-        self.cp0 = (wc + self.Rw[..., None] * _down(s))[..., 2]
-        self.pad_static = self.cp0 + Fz / self.kt
+        cp0 = (wc + self.Rw[..., None] * _down(s))[..., 2]
+        self.pad_static = cp0 + Fz / self.kt
 
     def initial_state(self) -> AxleState:
         n = self.n
