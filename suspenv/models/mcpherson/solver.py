@@ -108,13 +108,13 @@ ARB_BENDING_STIFFNESS = 1e6
 #: (the rig fails the step, a vehicle file fails its assembly check) [m], [rad]
 MAX_TRANSLATION = 0.05
 MAX_ROTATION = 0.5
-#: body of each rotated body-fixed vector (see AxleSolver._vec)
-VEC_BODY = np.array([0, 0, 0, 1, 1, 1, 1, 1, 1, 1, 1, 1, 2, 2, 3, 3])
+#: body of each rotated body-fixed vector (see AxleSolver._vec) and of each bushing of
+#: BUSH_ORDER: the compiled residual's (defined once, there)
+VEC_BODY, BUSH_BODY = residual_kernel._VEC_BODY, residual_kernel._BUSH_BODY
 #: the slices of VEC_BODY held by each body (0-3)
 VEC_GROUPS = ((0, 3), (3, 12), (12, 14), (14, 16))
-#: bushings in the order of the stacked arrays, and the body each one holds
+#: bushings in the order of the stacked arrays
 BUSH_ORDER = ("lca_front", "lca_rear", "top_mount", "arb_bush")
-BUSH_BODY = (0, 0, 2, 3)
 #: the coloured Jacobian of an axle without placed effects by a compiled loop (each row
 #: perturbed and differenced in place, :func:`.residual_kernel.jacobian`); False: the
 #: perturbations in blocks through :meth:`AxleSolver.residual`
