@@ -165,10 +165,7 @@ def check_effect(effect: Effect) -> None:
         raise ValidationError(
             f"K&C effects must be Effect instances, but got {type(effect).__name__}"
         )
-    if effect.kind not in KNC_EFFECTS:
-        raise ValidationError(
-            f"K&C effect kind must be one of {sorted(KNC_EFFECTS)}, but got {effect.kind!r}"
-        )
+    fitted_parameters(effect)  # a kind the K&C model knows
     role = effect.spec.role
     if role == "force":
         check_placement(effect)
@@ -293,7 +290,7 @@ class KncAxleModel(FitDefaults):
             e.with_params(
                 {
                     p.name: float(p.default)
-                    for p in KNC_EFFECTS[e.kind][1]
+                    for p in fitted_parameters(e)
                     if p.name not in e.params and p.default is not None
                 }
             )
