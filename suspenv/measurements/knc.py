@@ -90,6 +90,13 @@ FORCE_INPUTS = ("pad_left", "pad_right", "force", "branch", "grid")
 TEST_PREFIX = "knc_"
 
 
+def check_rig_tests(tests: Sequence[str]) -> None:
+    """Refuse a test the rig does not run (not in :data:`RIG_TESTS`), naming it."""
+    for t in tests:
+        if t not in RIG_TESTS:
+            raise ValidationError(f"unknown K&C test {t!r}; known tests are {RIG_TESTS}")
+
+
 def output_names(channels: Sequence[str] = tuple(CHANNELS)) -> tuple[str, ...]:
     """Recorded output names, ``<channel>_<side>``."""
     return tuple(f"{c}_{s}" for c in channels for s in SIDES)

@@ -90,12 +90,13 @@ from suspenv.measurements.knc import (
     DRIVE_UNIT,
     LOADED_TESTS,
     OPPOSED_TESTS,
-    RIG_TESTS,
     STEER_TESTS,
     TESTS,
+    check_rig_tests,
     loop_path,
 )
 from suspenv.measurements.knc import FORCE_TESTS as FORCE_TESTS
+from suspenv.measurements.knc import RIG_TESTS as RIG_TESTS
 from suspenv.models.effects import Effect
 from suspenv.models.mcpherson.params import Axle
 from suspenv.models.mcpherson.rotation import relative_log, rotate, turned
@@ -270,7 +271,7 @@ def window_steps(steps: int, window: int) -> np.ndarray:
 def pad_offsets(test: str, s: np.ndarray) -> np.ndarray:
     """Pad offsets (..., 2) [m] of ``test`` for left-pad stroke ``s`` (zero for a
     compliance or steering test, whose pads stay at their static height)."""
-    _check_tests((test,))
+    check_rig_tests((test,))
     sign = np.array(_PAD_SIGN.get(test, (0.0, 0.0)))
     return np.asarray(s, dtype=float)[..., None] * sign
 
@@ -280,7 +281,7 @@ def wheel_loads(test: str, f: np.ndarray | float) -> np.ndarray:
     [N*m], :data:`DRIVE_UNIT`), as the solver takes it (``AxleSolver.residual``'s
     ``ext``): force [N] and moment [N*m] at the contact point, then a force [N] at the
     wheel centre; ISO 8855. Zero for a travel or steering test."""
-    _check_tests((test,))
+    check_rig_tests((test,))
     f = np.asarray(f, dtype=float)
     out = np.zeros(f.shape + (2, 9))
     if test in _LOAD_AXIS:
@@ -292,15 +293,9 @@ def wheel_loads(test: str, f: np.ndarray | float) -> np.ndarray:
 def rack_travel(test: str, s: np.ndarray | float) -> np.ndarray:
     """Travel (..., 2) [m] of the (left, right) tie-rod inner points along +y for the
     steering test's rack travel ``s`` [m] (zero for every other test)."""
-    _check_tests((test,))
+    check_rig_tests((test,))
     s = np.asarray(s, dtype=float)
     return s[..., None] * np.full(2, 1.0 if test in STEER_TESTS else 0.0)
-
-
-def _check_tests(tests: tuple[str, ...]) -> None:
-    for t in tests:
-        if t not in RIG_TESTS:
-            raise ValidationError(f"unknown K&C test {t!r}; known tests are {RIG_TESTS}")
 
 
 def run_tests(
@@ -354,7 +349,7 @@ def run_tests(
         raise ValidationError(
             f"`travel_drive` must be one of {TRAVEL_DRIVES}, but got {travel_drive!r}"
         )
-    _check_tests(tuple(tests))
+    check_rig_tests(tuple(tests))
     amplitudes = {"force": force_amplitude, "moment": moment_amplitude, "rack": rack_amplitude}
     for (key, value), unit in zip(amplitudes.items(), ("N", "N*m", "m"), strict=True):
         if not value > 0:

@@ -28,7 +28,7 @@ import numpy as np
 
 from suspenv.core.errors import ValidationError
 from suspenv.measurements import Recording
-from suspenv.measurements.knc import RIG_TESTS, rig_test
+from suspenv.measurements.knc import RIG_TESTS, check_rig_tests, rig_test
 from suspenv.measurements.knc_file import KncMeasurement, from_results
 from suspenv.models.effects import Effect
 from suspenv.models.mcpherson import bushings_at
@@ -197,9 +197,7 @@ def measure_tests(
     tests together from seed ``10_000 + car.seed`` (the data of ``KCIdentification``,
     whichever of them are asked), any other test at the rig's default load from seed
     ``20_000 + 100 * car.seed + RIG_TESTS.index(test)``."""
-    bad = [t for t in tests if t not in RIG_TESTS]
-    if bad:
-        raise ValidationError(f"unknown K&C test(s) {bad}; known tests are {RIG_TESTS}")
+    check_rig_tests(tests)
     out: dict[str, KCResult] = {}
     if any(t in TESTS for t in tests):
         travel = measure_car(car, TESTS, 10_000 + car.seed, amplitude, steps)
