@@ -577,13 +577,6 @@ class _Sweep:
         (reps*m, 2, 6|9) or None, rack travel (reps*m, 2) [m] or None, wheel-centre
         heights (reps*m, 2) [m] or None)."""
         m = self.pad0.shape[0]
-        if reps == 1 and np.ndim(gi) == 0:  # one grid point for every row
-            drive = self.row_grid[:, gi]
-            ext = None if self.ext_dir is None else self.ext_dir * drive[:, None, None]
-            rack = None if self.rack_dir is None else self.rack_dir * drive[:, None]
-            stroke = self.signs * self.grid[gi]
-            centre = None if self.centre0 is None else self.centre0 + stroke
-            return self.pad0 + stroke, ext, rack, centre
         g = np.broadcast_to(np.asarray(gi), (reps * m,))
         rr = _tiled_rows(m, reps)
         drive = self.row_grid[rr, g]
