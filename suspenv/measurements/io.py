@@ -31,7 +31,7 @@ from suspenv.core.atomic import atomic_path
 from suspenv.core.jsonable import to_jsonable
 from suspenv.measurements.errors import RecordingError
 from suspenv.measurements.limits import check_npz, read_limit
-from suspenv.measurements.recording import Recording
+from suspenv.measurements.recording import Recording, real_numbers
 from suspenv.measurements.units import FACTORS, SI_UNITS, to_si
 
 FORMAT = "suspenv-recording"
@@ -192,12 +192,8 @@ def _member(npz: Any, key: str, path: Path) -> np.ndarray:
 
 
 def _numbers(arr: np.ndarray, name: str, path: Path) -> np.ndarray:
-    """A channel: a 1-D array of real numbers (integers, floats or booleans)."""
-    if arr.dtype.kind not in "biuf":
-        raise RecordingError(
-            f"{path.name}: channel {name!r} must hold real numbers, but its values are of "
-            f"type {arr.dtype}"
-        )
+    """A channel: a 1-D array of real numbers (integers, floats or booleans), as floats."""
+    arr = real_numbers(path.name, name, arr)
     if arr.ndim != 1:
         raise RecordingError(
             f"{path.name}: channel {name!r} must be 1-D (one value per sample), but has "

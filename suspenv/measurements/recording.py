@@ -33,14 +33,14 @@ def nonfinite_run(values: np.ndarray) -> tuple[int, int] | None:
     return start, length
 
 
-def _floats(name: object, channel: str, values: object) -> np.ndarray:
+def real_numbers(where: str, channel: str, values: object) -> np.ndarray:
     """``values`` as a float array; real numbers only (a complex, text or object array
-    is refused with the channel and its type, never silently cast)."""
+    is refused with ``where``, the channel and its type, never silently cast)."""
     arr = np.asarray(values)
     if arr.dtype.kind not in "biuf":
         raise RecordingError(
-            f"recording {name!r}: channel {channel!r} must hold real numbers, but its "
-            f"values are of type {arr.dtype}"
+            f"{where}: channel {channel!r} must hold real numbers, but its values are of "
+            f"type {arr.dtype}"
         )
     return np.asarray(arr, dtype=float)
 
@@ -131,9 +131,10 @@ class Recording:
     meta: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        self.time = _floats(self.name, "time", self.time)
-        self.inputs = {k: _floats(self.name, k, v) for k, v in self.inputs.items()}
-        self.outputs = {k: _floats(self.name, k, v) for k, v in self.outputs.items()}
+        where = f"recording {self.name!r}"
+        self.time = real_numbers(where, "time", self.time)
+        self.inputs = {k: real_numbers(where, k, v) for k, v in self.inputs.items()}
+        self.outputs = {k: real_numbers(where, k, v) for k, v in self.outputs.items()}
         self.units = {"time": "s", **dict(self.units)}
         self.meta = dict(self.meta)
         self.validate()
