@@ -107,11 +107,7 @@ def load_emps(
     if "pulses_N" in data:
         meta["notes"] += "; validation run with force pulses (pulses_N flags them)"
         meta["pulse_samples"] = int(np.count_nonzero(mat_field(data, "pulses_N", path)))
-    test = "emps_pulses" if "PULSES" in path.name.upper() else "emps_trajectory"
-    with named_errors(path):
-        return Recording(
-            name or path.stem, test, t, inputs, {"force": gtau * vir}, dict(UNITS), meta
-        )
+    return _recording(path, name, t, inputs, gtau * vir, meta)
 
 
 def load_emps_csv(
@@ -162,14 +158,19 @@ def load_emps_csv(
         "differentiator": f"Savitzky-Golay, cubic, window {window_s} s",
         "notes": "de-scaled from the CSV's scaled units (q = (q_meas + 1)/8)",
     }
+    return _recording(path, name, t, inputs, GTAU_DEFAULT * col["u_in"], meta)
+
+
+def _recording(
+    path: Path,
+    name: str | None,
+    t: np.ndarray,
+    inputs: dict[str, np.ndarray],
+    force: np.ndarray,
+    meta: dict[str, Any],
+) -> Recording:
+    """The recording of an EMPS run (test ``emps_pulses`` when the file's name says
+    PULSES, else ``emps_trajectory``); output ``force`` [N]."""
     test = "emps_pulses" if "PULSES" in path.name.upper() else "emps_trajectory"
     with named_errors(path):
-        return Recording(
-            name or path.stem,
-            test,
-            t,
-            inputs,
-            {"force": GTAU_DEFAULT * col["u_in"]},
-            dict(UNITS),
-            meta,
-        )
+        return Recording(name or path.stem, test, t, inputs, {"force": force}, dict(UNITS), meta)
