@@ -81,12 +81,7 @@ from suspenv.core.errors import ValidationError
 from suspenv.models.effects import Effect, cubic_stiffness
 from suspenv.models.effects.hysteresis import dahl_segment
 from suspenv.models.mcpherson import residual_kernel, sweep_kernel
-from suspenv.models.mcpherson.effects import (
-    BUSHING_NAMES,
-    MOMENT_ARM,
-    bushings_at,
-    check_placement,
-)
+from suspenv.models.mcpherson.effects import MOMENT_ARM, bushings_at, check_placement
 from suspenv.models.mcpherson.params import SIDE_SIGN, Axle
 from suspenv.models.mcpherson.rotation import (
     cross,
@@ -97,7 +92,6 @@ from suspenv.models.mcpherson.rotation import (
     turned,
 )
 
-BODIES = ("lower_arm", "knuckle", "strut_rod", "arb_half")
 NQ, NL = 24, 9
 NS = NQ + NL  # unknowns per side
 EZ = np.array([0.0, 0.0, 1.0])
@@ -1444,4 +1438,4 @@ def _down(s: np.ndarray) -> np.ndarray:
     return d / _length(d)
 
 
-__all__ = ["BODIES", "BUSHING_NAMES", "AxleSolver", "AxleState", "spin_axis"]
+__all__ = ["AxleSolver", "AxleState", "spin_axis"]
