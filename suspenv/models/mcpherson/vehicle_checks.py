@@ -32,6 +32,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from suspenv.core.errors import EvaluationError, ValidationError
+from suspenv.measurements.knc import SIDES
 from suspenv.models.mcpherson.params import Axle
 
 #: shortest link and smallest strut height over the ball joint [m]: below a millimetre a
@@ -51,7 +52,6 @@ LINKS: tuple[tuple[str, str], ...] = (
 )
 #: pad step of the ride-rate difference [m]
 RIDE_STEP = 1e-3
-SIDES = ("left", "right")
 
 
 def _file_mm(p: np.ndarray, side: int) -> str:
