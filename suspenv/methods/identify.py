@@ -371,11 +371,7 @@ def candidate_jacobians(model: CurveModel, u: np.ndarray) -> dict[str, dict[str,
     if not sims:
         return {}
     other = model.variant(tests=sims)
-    _, J = other.jacobian(u)
-    out: dict[str, dict[str, np.ndarray]] = {}
-    for test, channel, sl in other.blocks:
-        out.setdefault(test, {})[channel] = J[sl]
-    return out
+    return other.by_test(other.jacobian(u)[1])
 
 
 def choose_held_out(
@@ -427,10 +423,7 @@ def auto_held_out(
     the fit keeps all its data). One batched Jacobian per set of tests."""
     model = build_model(measurement, vehicle, x0, free)
     u0 = model.unit(x0)
-    _, J = model.jacobian(u0)
-    blocks: dict[str, dict[str, np.ndarray]] = {}
-    for test, channel, sl in model.blocks:
-        blocks.setdefault(test, {})[channel] = J[sl]
+    blocks = model.by_test(model.jacobian(u0)[1])
     extra = {} if truth is None else candidate_jacobians(model, u0)
     measured = list(measurement.tests)
     return choose_held_out({**blocks, **extra}, measured, [*measured, *extra])
