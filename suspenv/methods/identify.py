@@ -59,6 +59,7 @@ from suspenv.models.mcpherson.truth import CHANNEL_NOISE, TruthVehicle
 from suspenv.models.mcpherson.vehicle_file import REFERENCE_FILE, VehicleFile, load_vehicle
 from suspenv.rigs.knc_fit import PRIOR_WEIGHT, StageResult, polish, say
 from suspenv.rigs.knc_truth import CONCEALED, car_measurement, concealed_car, measure_tests
+from suspenv.runs.run_dir import write_json
 
 METHODS = ("curves", "tey2014")
 SIDES_OPTIONS = ("symmetric", "both")
@@ -999,8 +1000,6 @@ def run_identify_pipeline(config: dict[str, Any], run_dir: Path) -> dict[str, An
     """Pipeline "identify": the job on the config's ``KCIdentification`` data, files into
     ``run_dir`` (``identified.toml``, ``report.md``, ``identify.json``, figures).
     ``identify.method = "tey2014"`` runs the paper's pipeline on the same targets."""
-    import json
-
     run_dir = Path(run_dir)
     run_dir.mkdir(parents=True, exist_ok=True)
     opts = _identify_table(config)
@@ -1040,5 +1039,5 @@ def run_identify_pipeline(config: dict[str, Any], run_dir: Path) -> dict[str, An
         report="report.md",
         files=[str(f.relative_to(run_dir)) for f in files],
     )
-    (run_dir / "summary.json").write_text(json.dumps(to_jsonable(s), indent=2) + "\n")
+    write_json(run_dir / "summary.json", to_jsonable(s))
     return s
