@@ -334,6 +334,15 @@ class CurveModel(UnitFit):
         return self.sides + len(self.effect_free)
 
     @property
+    def travel_amplitude(self) -> float:
+        """Pad stroke amplitude [m] of the measured travel tests (the largest; 0.040, the
+        rig's default, without one): the travel amplitude of the tests the model simulates
+        beyond the measured ones (their loads are the rig's own)."""
+        from suspenv.measurements.knc import TESTS
+
+        return max([t.amplitude for t in self.tests if t.test in TESTS] or [0.040])
+
+    @property
     def names(self) -> list[str]:
         """Names of the fitted values (``<name>@right`` for a right twin,
         ``<effect>.<parameter>`` for an effect's)."""

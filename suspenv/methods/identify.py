@@ -340,7 +340,7 @@ def _simulated_tests(
     """Candidate tests simulated at design ``x`` as if measured (channels of the model)."""
     from suspenv.measurements.knc import branch_index
 
-    kw = {"amplitude": _travel_amplitude(model)}  # the other tests at the rig's own loads
+    kw = {"amplitude": model.travel_amplitude}  # the other tests at the rig's own loads
     steps = model.tests[0].steps
     res = rig_run(model.axle(x[None]), tests, steps, model.effects, kw, model.travel_drive)
     out = []
@@ -672,7 +672,7 @@ def _next_test(
         return
     say(progress, f"re-run with the {best.test} test added (test car, noisy)")
     t0 = time.perf_counter()
-    more = measure_tests(truth, [best.test], _travel_amplitude(model), model.tests[0].steps)
+    more = measure_tests(truth, [best.test], model.travel_amplitude, model.tests[0].steps)
     from suspenv.measurements.knc_file import from_results
 
     added = from_results(more, "added", noise=dict(result.measurement.noise))
@@ -750,7 +750,7 @@ def _sheet(result: IdentifyResult) -> None:
     tv = result.truth_vehicle
     if tv is not None:
         res = rig_run(
-            tv.axle(), SHEET_TESTS, steps, tv.effects, {"amplitude": _travel_amplitude(fit.model)}
+            tv.axle(), SHEET_TESTS, steps, tv.effects, {"amplitude": fit.model.travel_amplitude}
         )
         result.sheet_truth = {k: v[0] for k, v in sheet_values(res, tv.constants).items()}
 
@@ -798,12 +798,6 @@ def predict_held_out(
         rms = m.block_rms(m.residual_at(fit.x, "the held-out test at the fitted design"))
         out.append({c: v for (_, c), v in rms.items()})
     return HeldOut(next(iter(held.tests)), source, out[0], out[1], dict(choice or {}))
-
-
-def _travel_amplitude(model: CurveModel) -> float:
-    from suspenv.measurements.knc import TESTS
-
-    return max([t.amplitude for t in model.tests if t.test in TESTS] or [0.040])
 
 
 def _merged(a: Any, b: Any) -> Any:
