@@ -334,6 +334,15 @@ class CurveModel(UnitFit):
         return self.sides + len(self.effect_free)
 
     @property
+    def travel_amplitude(self) -> float:
+        """Pad stroke amplitude [m] of the measured travel tests (the largest; 0.040, the
+        rig's default, without one): the travel amplitude of the tests the model simulates
+        beyond the measured ones (their loads are the rig's own)."""
+        from suspenv.measurements.knc import TESTS
+
+        return max([t.amplitude for t in self.tests if t.test in TESTS] or [0.040])
+
+    @property
     def names(self) -> list[str]:
         """Names of the fitted values (``<name>@right`` for a right twin,
         ``<effect>.<parameter>`` for an effect's)."""
@@ -353,27 +362,26 @@ class CurveModel(UnitFit):
             X = np.concatenate([X, np.tile(own, (X.shape[0], 1))], axis=1)
         return X
 
+    def _owned(self, x: np.ndarray, owner: str) -> dict[str, Any]:
+        """The fitted values ``<owner>.<parameter>`` of design ``x``: parameter -> value."""
+        vals = self.full(x)[0][self.sides :]
+        return {
+            p.name.partition(".")[2]: float(v)
+            for p, v in zip(self.effect_free, vals, strict=True)
+            if p.name.partition(".")[0] == owner
+        }
+
     def effects_at(self, x: np.ndarray) -> tuple[Effect, ...]:
         """The model's effects with the fitted effect parameters of design ``x``."""
-        vals = self.full(x)[0][self.sides :]
         out = []
         for e in self.effects:
-            mine = {
-                p.name.partition(".")[2]: float(v)
-                for p, v in zip(self.effect_free, vals, strict=True)
-                if p.name.partition(".")[0] == e.name
-            }
+            mine = self._owned(x, e.name)
             out.append(e.with_params(mine) if mine else e)
         return tuple(out)
 
     def constants_at(self, x: np.ndarray) -> AxleConstants:
         """The vehicle's constants with the fitted ones (``constants.<name>``) of ``x``."""
-        vals = self.full(x)[0][self.sides :]
-        mine: dict[str, Any] = {
-            p.name.partition(".")[2]: float(v)
-            for p, v in zip(self.effect_free, vals, strict=True)
-            if p.name.partition(".")[0] == CONSTANTS
-        }
+        mine = self._owned(x, CONSTANTS)
         return replace(self.constants, **mine) if mine else self.constants
 
     # --------------------------------------------------------------- simulation
@@ -484,6 +492,14 @@ class CurveModel(UnitFit):
             for wheel in (0, 1):  # samples (P, 2) flattened: left, right
                 out.setdefault((test, wheel), []).append(rows[wheel::2])
         return [np.concatenate(parts) for parts in out.values()]
+
+    def by_test(self, J: np.ndarray) -> dict[str, dict[str, np.ndarray]]:
+        """Rows of ``J`` (size, ...), a residual's or its Jacobian's, per measured test and
+        channel: {test: {channel: rows}}."""
+        out: dict[str, dict[str, np.ndarray]] = {}
+        for test, channel, s in self.blocks:
+            out.setdefault(test, {})[channel] = J[s]
+        return out
 
     def block_rms(self, r: np.ndarray) -> dict[tuple[str, str], float]:
         """RMS of the scaled residual ``r`` (size,) per (test, channel): 1 = noise level."""

@@ -59,6 +59,7 @@ from suspenv.models.mcpherson.truth import CHANNEL_NOISE, TruthVehicle
 from suspenv.models.mcpherson.vehicle_file import REFERENCE_FILE, VehicleFile, load_vehicle
 from suspenv.rigs.knc_fit import PRIOR_WEIGHT, StageResult, polish, say
 from suspenv.rigs.knc_truth import CONCEALED, car_measurement, concealed_car, measure_tests
+from suspenv.runs.run_dir import write_json
 
 METHODS = ("curves", "tey2014")
 SIDES_OPTIONS = ("symmetric", "both")
@@ -339,7 +340,7 @@ def _simulated_tests(
     """Candidate tests simulated at design ``x`` as if measured (channels of the model)."""
     from suspenv.measurements.knc import branch_index
 
-    kw = {"amplitude": _travel_amplitude(model)}  # the other tests at the rig's own loads
+    kw = {"amplitude": model.travel_amplitude}  # the other tests at the rig's own loads
     steps = model.tests[0].steps
     res = rig_run(model.axle(x[None]), tests, steps, model.effects, kw, model.travel_drive)
     out = []
@@ -371,11 +372,7 @@ def candidate_jacobians(model: CurveModel, u: np.ndarray) -> dict[str, dict[str,
     if not sims:
         return {}
     other = model.variant(tests=sims)
-    _, J = other.jacobian(u)
-    out: dict[str, dict[str, np.ndarray]] = {}
-    for test, channel, sl in other.blocks:
-        out.setdefault(test, {})[channel] = J[sl]
-    return out
+    return other.by_test(other.jacobian(u)[1])
 
 
 def choose_held_out(
@@ -427,10 +424,7 @@ def auto_held_out(
     the fit keeps all its data). One batched Jacobian per set of tests."""
     model = build_model(measurement, vehicle, x0, free)
     u0 = model.unit(x0)
-    _, J = model.jacobian(u0)
-    blocks: dict[str, dict[str, np.ndarray]] = {}
-    for test, channel, sl in model.blocks:
-        blocks.setdefault(test, {})[channel] = J[sl]
+    blocks = model.by_test(model.jacobian(u0)[1])
     extra = {} if truth is None else candidate_jacobians(model, u0)
     measured = list(measurement.tests)
     return choose_held_out({**blocks, **extra}, measured, [*measured, *extra])
@@ -678,7 +672,7 @@ def _next_test(
         return
     say(progress, f"re-run with the {best.test} test added (test car, noisy)")
     t0 = time.perf_counter()
-    more = measure_tests(truth, [best.test], _travel_amplitude(model), model.tests[0].steps)
+    more = measure_tests(truth, [best.test], model.travel_amplitude, model.tests[0].steps)
     from suspenv.measurements.knc_file import from_results
 
     added = from_results(more, "added", noise=dict(result.measurement.noise))
@@ -756,7 +750,7 @@ def _sheet(result: IdentifyResult) -> None:
     tv = result.truth_vehicle
     if tv is not None:
         res = rig_run(
-            tv.axle(), SHEET_TESTS, steps, tv.effects, {"amplitude": _travel_amplitude(fit.model)}
+            tv.axle(), SHEET_TESTS, steps, tv.effects, {"amplitude": fit.model.travel_amplitude}
         )
         result.sheet_truth = {k: v[0] for k, v in sheet_values(res, tv.constants).items()}
 
@@ -804,12 +798,6 @@ def predict_held_out(
         rms = m.block_rms(m.residual_at(fit.x, "the held-out test at the fitted design"))
         out.append({c: v for (_, c), v in rms.items()})
     return HeldOut(next(iter(held.tests)), source, out[0], out[1], dict(choice or {}))
-
-
-def _travel_amplitude(model: CurveModel) -> float:
-    from suspenv.measurements.knc import TESTS
-
-    return max([t.amplitude for t in model.tests if t.test in TESTS] or [0.040])
 
 
 def _merged(a: Any, b: Any) -> Any:
@@ -1006,8 +994,6 @@ def run_identify_pipeline(config: dict[str, Any], run_dir: Path) -> dict[str, An
     """Pipeline "identify": the job on the config's ``KCIdentification`` data, files into
     ``run_dir`` (``identified.toml``, ``report.md``, ``identify.json``, figures).
     ``identify.method = "tey2014"`` runs the paper's pipeline on the same targets."""
-    import json
-
     run_dir = Path(run_dir)
     run_dir.mkdir(parents=True, exist_ok=True)
     opts = _identify_table(config)
@@ -1047,5 +1033,5 @@ def run_identify_pipeline(config: dict[str, Any], run_dir: Path) -> dict[str, An
         report="report.md",
         files=[str(f.relative_to(run_dir)) for f in files],
     )
-    (run_dir / "summary.json").write_text(json.dumps(to_jsonable(s), indent=2) + "\n")
+    write_json(run_dir / "summary.json", to_jsonable(s))
     return s

@@ -37,7 +37,7 @@ from typing import Any
 import numpy as np
 
 from suspenv.diagnosis.knc.family import PATH_DEPENDENT
-from suspenv.methods.curve_fit import CurveFit, amplitude_kwargs
+from suspenv.methods.curve_fit import CurveFit
 from suspenv.methods.identifiability import sandwich_covariance
 from suspenv.rigs.knc_fit import FD_STEP
 
@@ -95,12 +95,9 @@ def sheet_values(results: dict[str, Any], constants: Any = None) -> dict[str, np
 
 
 def _run(fit: CurveFit, X: np.ndarray, effects: Any, steps: int) -> dict[str, Any]:
-    model = fit.model
-    amps: dict[str, float] = {}
-    for t in model.tests:
-        amps.update(amplitude_kwargs(t.test, t.amplitude))
-    travel = {k: v for k, v in amps.items() if k == "amplitude"}  # the rig's default loads
-    return model.run(X, SHEET_TESTS, steps, effects, travel)
+    """The sheet's tests of designs X: the measured travel amplitude, the rig's loads."""
+    travel = {"amplitude": fit.model.travel_amplitude}
+    return fit.model.run(X, SHEET_TESTS, steps, effects, travel)
 
 
 def sandwich_quantile(clusters: int) -> float:

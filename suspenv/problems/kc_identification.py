@@ -24,16 +24,11 @@ After Tey et al. 2014 (see ``docs/knc.md`` and the spec ``kc_identification.md``
 Extra hooks for the study pipeline: ``initial_design()`` (the paper's initial
 estimates), ``truth_design()`` (mean of the test vehicle's two sides),
 ``residuals(X)`` (signed mismatches), ``curves(x)`` and ``measured_curves()``; and
-``write_report`` for optimisation runs. ``measurements`` (a measured-K&C folder, see
-``docs/knc.md`` "Measured K&C format") replaces the test car by measured loops of a
-real axle, and ``vehicle`` (a vehicle file) gives the model's constants, bushing
-orientations, bounds and start design (see ``docs/identify.md``); the truth is then
-unknown (``truth_design`` is None). ``measurement`` holds the data as a
+``write_report`` for optimisation runs. With ``measurements`` (measured loops of a real
+axle, ``docs/knc.md`` "Measured K&C format", in place of the test car) the truth is
+unknown (``truth_design`` is None); ``measurement`` holds the data as a
 :class:`~suspenv.measurements.knc_file.KncMeasurement` in both cases (the test car with
-the rig's declared noise). ``model_effects`` gives the simulated model
-fixed optional physics (e.g. to refit with a hysteresis a diagnosis has named):
-effects-library elements at bushings or the strut
-(:mod:`suspenv.models.mcpherson.effects`), as dicts ``{"kind", "location", "params"}``.
+the rig's declared noise). The options are the class's arguments.
 """
 
 from __future__ import annotations

@@ -10,6 +10,7 @@ units for parameters (mm, N/mm, N*mm/deg, N*m/rad, deg); curves in mm and deg.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -18,7 +19,7 @@ import numpy as np
 from suspenv.core.atomic import write_file
 from suspenv.core.jsonable import to_jsonable
 from suspenv.core.markdown import fmt, markdown_table, text
-from suspenv.methods.identifiability import K_SIGMA, TOLERANCE_PCT, summary_counts
+from suspenv.methods.identifiability import K_SIGMA, TOLERANCE_PCT, Verdict, summary_counts
 from suspenv.methods.identify import FIT_RATIO, summary
 from suspenv.reports._mpl import pyplot, save_cropped
 from suspenv.runs.run_dir import write_json
@@ -364,49 +365,46 @@ def _sheet_section(s: dict[str, Any]) -> list[str]:
 
 def _next_test_lines(result: IdentifyResult) -> list[str]:
     """The next rig test to measure: the first candidate (none without candidates)."""
-    lines: list[str] = []
-    if result.candidates:
-        first_n = result.identifiability.n_determined  # the next test is the first fit's
-        best = result.candidates[0]
-        new = best.newly_identified
-        if new:
-            more = ", ..." if len(new) > 6 else ""
-            lines.append(
-                f"- **Next test**: `{best.test}`: predicted to identify {len(new)} more "
-                f"parameter{'s' if len(new) != 1 else ''} ({', '.join(new[:6])}{more}) and to "
-                f"determine {best.n_determined_after} combinations (now {first_n})."
-            )
-        else:
-            lines.append(
-                f"- **Next test**: `{best.test}`: no single rig test identifies another "
-                f"parameter under the rule; this one determines {best.n_determined_after} "
-                f"combinations (now {first_n}) and shrinks the standard errors of "
-                f"those not identified by a factor {10**best.mean_log_gain:.2g} on geometric "
-                "mean."
-            )
-    return lines
+    if not result.candidates:
+        return []
+    first_n = result.identifiability.n_determined  # the next test is the first fit's
+    best = result.candidates[0]
+    new = best.newly_identified
+    if new:
+        more = ", ..." if len(new) > 6 else ""
+        return [
+            f"- **Next test**: `{best.test}`: predicted to identify {len(new)} more "
+            f"parameter{'s' if len(new) != 1 else ''} ({', '.join(new[:6])}{more}) and to "
+            f"determine {best.n_determined_after} combinations (now {first_n})."
+        ]
+    return [
+        f"- **Next test**: `{best.test}`: no single rig test identifies another "
+        f"parameter under the rule; this one determines {best.n_determined_after} "
+        f"combinations (now {first_n}) and shrinks the standard errors of "
+        f"those not identified by a factor {10**best.mean_log_gain:.2g} on geometric "
+        "mean."
+    ]
 
 
 def _rerun_lines(result: IdentifyResult, s: dict[str, Any]) -> list[str]:
     """The test car measured again with the next test (none without a rerun)."""
-    lines: list[str] = []
-    if result.rerun is not None:
-        r = s["rerun"]
-        worst_err = r["identified_max_error_pct_range"]
-        tail = (
-            f", the worst within {worst_err:.2f} % of its range of the truth"
-            if worst_err is not None
-            else ""
-        )
-        lines.append(
-            f"- **Shown on the test car**: with `{r['test']}` measured too, "
-            f"{r['n_identified_after']} "
-            f"{'parameter is' if r['n_identified_after'] == 1 else 'parameters are'} "
-            "identified (was "
-            f"{r['n_identified_before']}){tail}, and {r['n_determined_after']} combinations are "
-            f"determined (was {r['n_determined_before']})."
-        )
-    return lines
+    if result.rerun is None:
+        return []
+    r = s["rerun"]
+    worst_err = r["identified_max_error_pct_range"]
+    tail = (
+        f", the worst within {worst_err:.2f} % of its range of the truth"
+        if worst_err is not None
+        else ""
+    )
+    return [
+        f"- **Shown on the test car**: with `{r['test']}` measured too, "
+        f"{r['n_identified_after']} "
+        f"{'parameter is' if r['n_identified_after'] == 1 else 'parameters are'} "
+        "identified (was "
+        f"{r['n_identified_before']}){tail}, and {r['n_determined_after']} combinations are "
+        f"determined (was {r['n_determined_before']})."
+    ]
 
 
 def _residual_lines(result: IdentifyResult) -> list[str]:
@@ -500,23 +498,38 @@ def _figures(result: IdentifyResult, out: Path) -> dict[str, Path]:
     return figs
 
 
+#: a verdict's table cells by column (:func:`_verdict_rows`)
+_VERDICT_CELLS: dict[str, Callable[[Verdict], Any]] = {
+    "parameter": lambda v: v.name,
+    "value": lambda v: v.value,
+    "+- (1 s.e.)": lambda v: v.stderr,
+    "unit": lambda v: v.unit,
+    "s.e. % range": lambda v: v.stderr_pct,
+    "verdict": lambda v: v.kind,
+    "why": lambda v: v.reason.split(": ", 1)[-1],
+    "truth": lambda v: v.truth,
+    "error % range": lambda v: v.error_pct,
+}
+
+
+def _verdict_rows(
+    verdicts: Sequence[Verdict], identified: bool, columns: Sequence[str]
+) -> list[dict[str, Any]]:
+    """Table rows of the verdicts that are (``identified``) or are not identified: the
+    cells ``columns`` of :data:`_VERDICT_CELLS`, a cell without a value (no truth) left
+    out."""
+    rows = []
+    for v in verdicts:
+        if v.identified == identified:
+            cells = {c: _VERDICT_CELLS[c](v) for c in columns}
+            rows.append({c: x for c, x in cells.items() if x is not None})
+    return rows
+
+
 def _identified_section(result: IdentifyResult) -> list[str]:
     ident = result.final_identifiability
-    rows = []
-    for v in ident.verdicts:
-        if not v.identified:
-            continue
-        row: dict[str, Any] = {
-            "parameter": v.name,
-            "value": v.value,
-            "+- (1 s.e.)": v.stderr,
-            "unit": v.unit,
-            "s.e. % range": v.stderr_pct,
-        }
-        if v.truth is not None:
-            row["truth"] = v.truth
-            row["error % range"] = v.error_pct
-        rows.append(row)
+    columns = ("parameter", "value", "+- (1 s.e.)", "unit", "s.e. % range")
+    rows = _verdict_rows(ident.verdicts, True, (*columns, "truth", "error % range"))
     return [
         "",
         "## Identified",
@@ -531,21 +544,8 @@ def _identified_section(result: IdentifyResult) -> list[str]:
 
 
 def _not_identified_section(result: IdentifyResult) -> list[str]:
-    rows = []
-    for v in result.final_identifiability.verdicts:
-        if v.identified:
-            continue
-        row = {
-            "parameter": v.name,
-            "value": v.value,
-            "unit": v.unit,
-            "s.e. % range": v.stderr_pct,
-            "verdict": v.kind,
-            "why": v.reason.split(": ", 1)[-1],
-        }
-        if v.truth is not None:
-            row["truth"] = v.truth
-        rows.append(row)
+    columns = ("parameter", "value", "unit", "s.e. % range", "verdict", "why", "truth")
+    rows = _verdict_rows(result.final_identifiability.verdicts, False, columns)
     return ["## Not identified", "", markdown_table(rows)]
 
 
@@ -580,18 +580,9 @@ def _next_test_section(result: IdentifyResult, s: dict[str, Any]) -> list[str]:
             f"{r['worst_curve_rms_over_noise']:.2f} x noise; {r['stop']}.",
             "",
         ]
-        rows = [
-            {
-                "parameter": v.name,
-                "value": v.value,
-                "+- (1 s.e.)": v.stderr,
-                "truth": v.truth if v.truth is not None else "",
-                "error % range": v.error_pct if v.error_pct is not None else "",
-            }
-            for v in result.rerun.identifiability.verdicts
-            if v.identified
-        ]
-        lines += [markdown_table(rows)]
+        columns = ("parameter", "value", "+- (1 s.e.)", "truth", "error % range")
+        rows = _verdict_rows(result.rerun.identifiability.verdicts, True, columns)
+        lines += [markdown_table(rows, columns)]
     return lines
 
 

@@ -35,7 +35,7 @@ def write_kc_report(problem: KCIdentification, run_dir: Path, archive: Any) -> l
         return []
     run_dir = Path(run_dir)
     x_best = a["x"][best]
-    F0, ok0, _ = problem.simulate(problem.initial_design()[None, :])
+    F0, _, _ = problem.simulate(problem.initial_design()[None, :])
     Fb, _, _ = problem.simulate(x_best[None, :])
     per_objective = (problem.objective_names, problem.objective_units, problem.targets)
     lines = [

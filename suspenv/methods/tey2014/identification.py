@@ -222,7 +222,6 @@ class ProfileScan:
         score: (d, p) total scaled mismatch (NaN for failed evaluations).
         center_score: total scaled mismatch at the centre design.
         rise: (d,) max over the profile minus the centre score.
-        relative_rise: (d,) rise divided by the largest rise of any parameter.
 
     Scores are sums of |objective| / DoE spread, so a rise of 1 means the objectives move
     by one DoE spread in total when the parameter sweeps its whole range.
@@ -233,7 +232,6 @@ class ProfileScan:
     score: np.ndarray
     center_score: float
     rise: np.ndarray
-    relative_rise: np.ndarray
 
     def flat(self, tol: float = 0.05) -> np.ndarray:
         """(d,) True where the profile rises less than ``tol`` (DoE-spread units)."""
@@ -273,9 +271,7 @@ def profile_scan(
     with np.errstate(invalid="ignore"):
         rise = np.nanmax(np.where(np.isfinite(score), score, -np.inf), axis=1) - center
     rise = np.where(np.isfinite(rise), np.maximum(rise, 0.0), np.nan)
-    top = np.nanmax(rise) if np.isfinite(rise).any() else 0.0
-    rel = rise / top if top > 0 else np.zeros(d)
-    return ProfileScan(space.names, grid, score, center, rise, rel)
+    return ProfileScan(space.names, grid, score, center, rise)
 
 
 @dataclass

@@ -48,7 +48,6 @@ class RunArrays:
     constraints: np.ndarray
     ok: np.ndarray
     batch: np.ndarray
-    wall_time_s: float = 0.0
 
     @property
     def valid(self) -> np.ndarray:
@@ -89,7 +88,7 @@ def optimize_arrays(
     with RunArchive(run_dir) as archive:
         a = archive.arrays()
     columns = a["unit"], a["x"], a["objectives"], a["constraints"], a["ok"], a["batch"]
-    return result, RunArrays(*columns, result.wall_time)
+    return result, RunArrays(*columns)
 
 
 def run_one(
