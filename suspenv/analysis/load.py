@@ -37,7 +37,7 @@ from suspenv.analysis.indicators import (
 from suspenv.analysis.performance import as_curve
 from suspenv.core.errors import ValidationError
 from suspenv.core.jsonable import json_default
-from suspenv.registry import problem_class, strategy_class
+from suspenv.registry import STRATEGY_RESERVED, problem_class, strategy_class
 from suspenv.runs.archive import RunArchive, value_columns
 from suspenv.runs.quality import feasible, scalar_recorded
 from suspenv.runs.run_dir import load_summary
@@ -45,10 +45,6 @@ from suspenv.runs.run_dir import load_summary
 #: strategy options that say where a run keeps its state, not how it searches (optuna's
 #: study name defaults to one per seed); left out of the strategy configuration
 STATE_OPTIONS = frozenset({"seed", "storage", "study_name", "resume"})
-
-#: constructor arguments a strategy gets from the problem and the run, not from options
-_STRATEGY_CONTEXT = frozenset({"self", "dim", "n_objectives", "n_constraints", "seed"})
-
 
 
 def config_hash(obj: Any) -> str:
@@ -84,7 +80,7 @@ def _defaults_json(kind: str, name: str) -> str | None:
         if kind == "problem":
             d = _defaults(problem_class(name), frozenset({"self"}))
         else:
-            d = _defaults(strategy_class(name), _STRATEGY_CONTEXT)
+            d = _defaults(strategy_class(name), frozenset({"self", *STRATEGY_RESERVED}))
     except ValidationError:
         return None
     return None if d is None else json.dumps(d, default=json_default, sort_keys=True)

@@ -66,17 +66,8 @@ class ObjectiveScales:
     reference: np.ndarray  # f(x_ref); NaN when the reference evaluation failed
     iqr: np.ndarray  # interquartile range over the sample (0 without 2 valid rows)
     n_valid: int  # valid rows in the sample
-    sample_size: int = SAMPLE_SIZE
-    sample_seed: int = SAMPLE_SEED
-    spread_fraction: float = SPREAD_FRACTION
     names: tuple[str, ...] = field(default=())
     declared: bool = False
-
-    def shares(self, F: np.ndarray) -> np.ndarray:
-        """Each objective's share of the normalised sum ``sum_j |F_j| / s_j`` of one row."""
-        r = np.abs(np.asarray(F, dtype=float).reshape(-1)) / self.scales
-        total = r.sum()
-        return r / total if total > 0 else np.zeros_like(r)
 
 
 _CACHE: dict[str, ObjectiveScales] = {}
@@ -122,7 +113,6 @@ def _declared(problem: Problem) -> ObjectiveScales | None:
         reference=nan,
         iqr=nan.copy(),
         n_valid=0,
-        sample_size=0,
         names=tuple(problem.objective_names),
         declared=True,
     )

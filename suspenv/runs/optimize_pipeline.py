@@ -252,6 +252,13 @@ def run_id_of(run_dir: Path) -> str:
     return value
 
 
+def _build(config: dict[str, Any]) -> tuple[Any, Any]:
+    """The config's problem and strategy, built with its options (each checks them)."""
+    problem = make_problem(config["problem"]["name"], **config["problem"].get("options", {}))
+    options = config["strategy"].get("options", {})
+    return problem, make_strategy(config["strategy"]["name"], problem, config["seed"], **options)
+
+
 def check_optimize_config(config: dict[str, Any]) -> dict[str, Any]:
     """Build the config's problem and strategy (every option checked by their constructors),
     check the strategy's storage (when it has one: read-only, see
@@ -264,8 +271,7 @@ def check_optimize_config(config: dict[str, Any]) -> dict[str, Any]:
     pname, sname = config["problem"]["name"], config["strategy"]["name"]
     given_p = dict(config["problem"].get("options", {}))
     given_s = dict(config["strategy"].get("options", {}))
-    problem = make_problem(pname, **given_p)
-    strategy = make_strategy(sname, problem, seed=config["seed"], **given_s)
+    problem, strategy = _build(config)
     check_storage = getattr(strategy, "check_storage", None)
     if callable(check_storage):
         check_storage(_archived_run_id(config))
@@ -311,13 +317,7 @@ def _check_summary(run_dir: Path) -> None:
 
 def run_optimize_pipeline(config: dict[str, Any], run_dir: Path) -> dict[str, Any]:
     """Run the config's strategy on its problem; write every output into ``run_dir``."""
-    problem = make_problem(config["problem"]["name"], **config["problem"].get("options", {}))
-    strategy = make_strategy(
-        config["strategy"]["name"],
-        problem,
-        seed=config["seed"],
-        **config["strategy"].get("options", {}),
-    )
+    problem, strategy = _build(config)
     _check_summary(run_dir)
     bind_problem = getattr(strategy, "bind_problem", None)
     if callable(bind_problem):  # names a live study (optuna) after the problem
