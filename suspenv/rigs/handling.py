@@ -212,11 +212,7 @@ class SteadyStateSweep:
 
     def take(self, rows: slice | np.ndarray) -> SteadyStateSweep:
         """The states of some of the accelerations (rows of the first axis)."""
-        return SteadyStateSweep(
-            self.ay[rows], self.steer[rows], self.roll[rows], self.alpha_front[rows],
-            self.alpha_rear[rows], self.force_front[rows], self.force_rear[rows],
-            self.feasible[rows],
-        )  # fmt: skip
+        return SteadyStateSweep(**{name: value[rows] for name, value in vars(self).items()})
 
 
 #: regula-falsi (Illinois) passes of the steady state's slip-angle solve: a fixed count
