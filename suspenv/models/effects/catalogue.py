@@ -14,7 +14,7 @@ quasi-static sweep, where there is no velocity.
 from __future__ import annotations
 
 import re
-from collections.abc import Callable, Mapping
+from collections.abc import Callable
 from typing import Any
 
 from suspenv.core.space import Parameter
@@ -29,43 +29,55 @@ from suspenv.models.effects import (
 from suspenv.models.effects._util import batch_param as bp
 from suspenv.models.effects.effect import EffectKind, register_kind
 
+#: the domain marks of :data:`_PARAMETERS`: a law needs the value above 0, at least 0,
+#: at least 1 (``EffectKind.domain``: bound, strict)
+_DOMAIN_MARKS = {">0": (0.0, True), ">=0": (0.0, False), ">=1": (1.0, False)}
 
-def _parameter_table(text: str) -> dict[str, tuple[Parameter, ...]]:
-    """The parameters of every kind from a table: a line ``[kind]``, then one line per
-    parameter, ``name low high default [log] [unit]: description`` (``log``: the unit
-    interval maps to the range logarithmically; no unit: dimensionless), the description
-    continued on indented lines."""
+
+def _parameter_table(
+    text: str,
+) -> tuple[dict[str, tuple[Parameter, ...]], dict[str, dict[str, tuple[float, bool]]]]:
+    """The parameters and domains of every kind from a table: a line ``[kind]``, then one
+    line per parameter, ``name low high default [log] [domain] [unit]: description``
+    (``log``: the unit interval maps to the range logarithmically; ``domain``: a mark of
+    :data:`_DOMAIN_MARKS` where the law needs one; no unit: dimensionless), the
+    description continued on indented lines."""
     tables: dict[str, list[Parameter]] = {}
+    domains: dict[str, dict[str, tuple[float, bool]]] = {}
     for row in re.split(r"\n(?=\S)", text.strip()):
         line = " ".join(row.split())
         if line.startswith("["):
             kind = tables.setdefault(line.strip("[]"), [])
+            domain = domains.setdefault(line.strip("[]"), {})
             continue
         head, _, description = line.partition(": ")
         name, low, high, default, *unit = head.split()
         log = unit[:1] == ["log"]
+        unit = unit[1:] if log else unit
+        if unit[:1] and unit[0] in _DOMAIN_MARKS:
+            domain[name] = _DOMAIN_MARKS[unit.pop(0)]
         lo, hi, ref = (float(v) for v in (low, high, default))
-        unit_text = " ".join(unit[1:] if log else unit)
-        kind.append(Parameter(name, lo, hi, unit_text, log, ref, description))
-    return {k: tuple(v) for k, v in tables.items()}
+        kind.append(Parameter(name, lo, hi, " ".join(unit), log, ref, description))
+    return {k: tuple(v) for k, v in tables.items()}, domains
 
 
-#: the parameters of every kind, SI units (:func:`_parameter_table`)
-_PARAMETERS = _parameter_table("""
+#: the parameters of every kind, SI units, and the domains their laws need
+#: (:func:`_parameter_table`)
+_PARAMETERS, _DOMAINS = _parameter_table("""
 [coulomb_friction]
 f_c               0.0  5000.0    20.0  N: Coulomb friction force level
-v_eps            1e-5     0.1    1e-3  log m/s: velocity width of the regularised step
+v_eps            1e-5     0.1    1e-3  log >0 m/s: velocity width of the regularised step
 sigma             1e2     1e9     2e6  log N/m: pre-sliding stiffness of the rate-independent
     (Dahl) form in quasi-static sweeps
 [directional_friction]
 f_pos             0.0  5000.0    20.0  N: friction level sliding in +x
 f_neg             0.0  5000.0    20.0  N: friction level sliding in -x
-v_eps            1e-5     0.1    1e-3  log m/s: velocity width of the regularised step
+v_eps            1e-5     0.1    1e-3  log >0 m/s: velocity width of the regularised step
 [stribeck_friction]
 f_c               0.0  5000.0    20.0  N: Coulomb (sliding) friction level
 f_s               0.0 10000.0    30.0  N: static (breakaway) friction level
-v_s              1e-4     1.0    0.01  log m/s: Stribeck velocity
-v_eps            1e-5     0.1    1e-3  log m/s: velocity width of the regularised step
+v_s              1e-4     1.0    0.01  log >0 m/s: Stribeck velocity
+v_eps            1e-5     0.1    1e-3  log >0 m/s: velocity width of the regularised step
 [lugre_friction]
 sigma0            1e2     1e9     1e5  log N/m: bristle stiffness
 sigma1            0.0     1e5   300.0  N s/m: bristle damping
@@ -96,29 +108,29 @@ x_0             -10.0    10.0     0.0  m: neutral position: the deflection at wh
     fits it)
 [progressive_stiffness]
 k_p               0.0    1e10     1e6  N/m^2: quadratic stiffening coefficient
-x0                0.0     0.2     0.0  m: free range before stiffening
+x0                0.0     0.2     0.0  >=0 m: free range before stiffening
 [bump_stop]
-gap               0.0     0.3    0.03  m: free travel before contact (compression)
-k_stop            0.0     1e8     1e5  N/m^p: stop stiffness
-p                 1.0     3.0     1.0: stop force exponent
+gap               0.0     0.3    0.03  >=0 m: free travel before contact (compression)
+k_stop            0.0     1e8     1e5  >=0 N/m^p: stop stiffness
+p                 1.0     3.0     1.0  >=1: stop force exponent
 [rebound_stop]
-gap               0.0     0.3    0.05  m: free travel before contact (extension)
-k_stop            0.0     1e8     1e5  N/m^p: stop stiffness
-p                 1.0     3.0     1.0: stop force exponent
+gap               0.0     0.3    0.05  >=0 m: free travel before contact (extension)
+k_stop            0.0     1e8     1e5  >=0 N/m^p: stop stiffness
+p                 1.0     3.0     1.0  >=1: stop force exponent
 [bump_and_rebound_stops]
-gap_bump          0.0     0.3    0.03  m: free travel before bump contact
-k_bump            0.0     1e8     1e5  N/m^p: bump stop stiffness
-gap_rebound       0.0     0.3    0.05  m: free travel before rebound contact
-k_rebound         0.0     1e8     1e5  N/m^p: rebound stop stiffness
-p                 1.0     3.0     1.0: stop force exponent (both stops)
+gap_bump          0.0     0.3    0.03  >=0 m: free travel before bump contact
+k_bump            0.0     1e8     1e5  >=0 N/m^p: bump stop stiffness
+gap_rebound       0.0     0.3    0.05  >=0 m: free travel before rebound contact
+k_rebound         0.0     1e8     1e5  >=0 N/m^p: rebound stop stiffness
+p                 1.0     3.0     1.0  >=1: stop force exponent (both stops)
 [digressive_damping]
 c_low             0.0     1e6  2000.0  N s/m: extra low-speed damping below the knee
-v_knee           1e-3     5.0     0.1  log m/s: knee velocity
+v_knee           1e-3     5.0     0.1  log >0 m/s: knee velocity
 [asymmetric_digressive_damping]
 c_bump            0.0     1e6  2000.0  N s/m: extra low-speed damping in bump (v > 0)
-v_knee_bump      1e-3     5.0     0.1  log m/s: knee velocity in bump
+v_knee_bump      1e-3     5.0     0.1  log >0 m/s: knee velocity in bump
 c_rebound         0.0     1e6  2000.0  N s/m: extra low-speed damping in rebound
-v_knee_rebound   1e-3     5.0     0.1  log m/s: knee velocity in rebound
+v_knee_rebound   1e-3     5.0     0.1  log >0 m/s: knee velocity in rebound
 [damper_asymmetry]
 dc_rebound       -1e6     1e6  1000.0  N s/m: extra damping in rebound (v < 0)
 [maxwell_viscoelastic]
@@ -126,7 +138,7 @@ k_m               1.0     1e9     1e5  log N/m: series spring stiffness
 c_m              1e-2     1e8     1e3  log N s/m: series dashpot coefficient
 [low_speed_deficit]
 f_d               0.0  5000.0    20.0  N: force missing beyond the band
-v_band           1e-4    10.0    0.05  log m/s: speed over which it goes missing
+v_band           1e-4    10.0    0.05  log >0 m/s: speed over which it goes missing
 [kelvin_voigt]
 k                -1e9     1e9     0.0  N/m: parallel stiffness
 c                -1e6     1e6     0.0  N s/m: parallel damping
@@ -152,10 +164,6 @@ span             1e-3     1e7     1.0  s: time span the drift shape is defined o
 """)
 
 
-#: the domains of the laws' parameters (``EffectKind.domain``): above 0, at least 0, at least 1
-_POSITIVE, _NONNEGATIVE, _AT_LEAST_ONE = (0.0, True), (0.0, False), (1.0, False)
-
-
 def _law(kind: str) -> Callable[..., Any]:
     """The force of a stateless kind: its law (:data:`.laws.STATELESS`), batch-shaped."""
     law, inputs, names = laws.STATELESS[kind]
@@ -172,10 +180,9 @@ def _force(
     *,
     needs_time: bool = False,
     fit_fixed: tuple[str, ...] = (),
-    domain: Mapping[str, tuple[float, bool]] | None = None,
 ) -> EffectKind:
-    """A force-role kind with the parameters of :data:`_PARAMETERS`; its force is the
-    stateless law of the same key (:func:`_law`) unless ``apply`` is given."""
+    """A force-role kind with the parameters and domains of :data:`_PARAMETERS`; its force
+    is the stateless law of the same key (:func:`_law`) unless ``apply`` is given."""
     return EffectKind(
         kind,
         words,
@@ -185,7 +192,7 @@ def _force(
         apply or _law(kind),
         needs_time=needs_time,
         fit_fixed=fit_fixed,
-        domain=domain or {},
+        domain=_DOMAINS[kind],
     )
 
 
@@ -194,7 +201,6 @@ KINDS = (
         "coulomb_friction",
         "Coulomb friction",
         "step at every velocity reversal; loop width independent of amplitude and rate",
-        domain={"v_eps": _POSITIVE},
         fit_fixed=("v_eps", "sigma"),
     ),
     _force(
@@ -202,14 +208,12 @@ KINDS = (
         "direction-dependent Coulomb friction",
         "reversal steps of different size in each direction; indistinguishable from a "
         "constant offset plus symmetric friction unless the test holds each direction",
-        domain={"v_eps": _POSITIVE},
         fit_fixed=("v_eps",),
     ),
     _force(
         "stribeck_friction",
         "stiction with Stribeck decay",
         "reversal step with an overshoot at low speed that decays with velocity",
-        domain={"v_s": _POSITIVE, "v_eps": _POSITIVE},
         fit_fixed=("v_eps",),
     ),
     _force(
@@ -254,20 +258,17 @@ KINDS = (
         "progressive_stiffness",
         "progressive stiffness beyond a free range",
         "odd-symmetric residual beyond |x| > x0 growing with amplitude",
-        domain={"x0": _NONNEGATIVE},
     ),
     _force(
         "bump_stop",
         "bump stop contact",
         "residual only beyond a compression travel threshold; one-sided",
-        domain={"gap": _NONNEGATIVE, "k_stop": _NONNEGATIVE, "p": _AT_LEAST_ONE},
         fit_fixed=("p",),
     ),
     _force(
         "rebound_stop",
         "rebound stop contact",
         "residual only beyond an extension travel threshold; one-sided",
-        domain={"gap": _NONNEGATIVE, "k_stop": _NONNEGATIVE, "p": _AT_LEAST_ONE},
         fit_fixed=("p",),
     ),
     _force(
@@ -275,27 +276,18 @@ KINDS = (
         "bump and rebound stop contact",
         "residual only beyond a compression threshold and beyond an extension threshold, "
         "each side with its own onset and slope",
-        domain={
-            "gap_bump": _NONNEGATIVE,
-            "k_bump": _NONNEGATIVE,
-            "gap_rebound": _NONNEGATIVE,
-            "k_rebound": _NONNEGATIVE,
-            "p": _AT_LEAST_ONE,
-        },
         fit_fixed=("p",),
     ),
     _force(
         "digressive_damping",
         "digressive damper curve (blow-off)",
         "residual odd in velocity, large at low speed, saturating above the knee",
-        domain={"v_knee": _POSITIVE},
     ),
     _force(
         "asymmetric_digressive_damping",
         "asymmetric digressive damper curve (separate bump and rebound valve stacks)",
         "residual depending on the sign and size of velocity: a digressive curve with a "
         "different slope or knee in bump and in rebound",
-        domain={"v_knee_bump": _POSITIVE, "v_knee_rebound": _POSITIVE},
     ),
     _force(
         "damper_asymmetry",
@@ -315,7 +307,6 @@ KINDS = (
         "a step against the motion at every reversal, spread over a band of speed: the "
         "force a friction step would add, missing (a probe of the component diagnosis, "
         "fitted after its last named element; not a candidate: friction cannot be negative)",
-        domain={"v_band": _POSITIVE},
     ),
     _force(
         "kelvin_voigt",
