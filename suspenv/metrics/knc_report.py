@@ -622,12 +622,9 @@ def travel_report(
     out["wheel_rate"] = _grad(par, chan(par, "tyre_fz"))
     out["ride_rate"] = _grad(par, chan(par, "tyre_fz"), pad_travel)
     nan = np.full(out["toe"].shape, np.nan)  # a number whose channel was not measured
-    out["spring_motion_ratio"] = (
-        -_grad(par, chan(par, "spring_length", 1e3)) if "spring_length" in par.channels else nan
-    )
-    out["damper_motion_ratio"] = (
-        -_grad(par, chan(par, "strut_length", 1e3)) if "strut_length" in par.channels else nan
-    )
+    for name, length in (("spring", "spring_length"), ("damper", "strut_length")):
+        ratio = -_grad(par, chan(par, length, 1e3)) if length in par.channels else nan
+        out[f"{name}_motion_ratio"] = ratio
 
     # roll centre and its migration against the mean wheel travel (parallel)
     def rc_height(res: KCResult):
