@@ -8,10 +8,8 @@ import pytest
 from suspenv.core.errors import ValidationError
 from suspenv.metrics.iso2631 import (
     comfort_reaction,
-    weighted_rms,
     weighted_rms_fft,
     weighting_magnitude,
-    weighting_sos,
 )
 
 # ISO 2631-1 Table 3 weighting factors x1000 at 1/3-octave centres (as quoted in
@@ -29,26 +27,12 @@ def test_frequency_domain_weighting_matches_iso_table(name, table):
     np.testing.assert_allclose(got, ref, rtol=0.005)
 
 
-@pytest.mark.parametrize("name, table", [("Wk", TABLE_WK), ("Wd", TABLE_WD)])
-def test_time_domain_filters_match_iso_table(name, table):
-    from scipy.signal import sosfreqz
-
-    fs = 4000.0  # well above 200 Hz: the 100 Hz band-limiting corner must not warp
-    f = np.array(list(table), dtype=float)
-    ref = np.array(list(table.values())) / 1000.0  # ISO 2631-1 Table 3
-    _, h = sosfreqz(weighting_sos(fs, name), worN=f, fs=fs)
-    np.testing.assert_allclose(np.abs(h), ref, rtol=0.005)
-
-
-def test_time_and_frequency_domain_rms_agree_on_a_sine():
+def test_fft_weighted_rms_of_a_sine_matches_closed_form():
     # closed form: a sine of amplitude A at f0 has weighted RMS A |W(f0)| / sqrt(2)
     fs, f0, amp = 2000.0, 6.0, 1.3
     t = np.arange(int(40 * fs)) / fs
     a = amp * np.sin(2 * np.pi * f0 * t)
     expected = amp * weighting_magnitude(f0, "Wk") / np.sqrt(2)
-    td = weighted_rms(a[None, :], fs, "Wk")[0]
-    # drop the filter's start-up transient by comparing on a long record
-    assert td == pytest.approx(expected, rel=0.01)
     fd = weighted_rms_fft(a, fs, "Wk")
     assert fd == pytest.approx(expected, rel=1e-3)
 
@@ -74,8 +58,6 @@ def test_comfort_scale_wording_and_validation():
         comfort_reaction(-1.0)
     with pytest.raises(ValidationError, match="Wk"):
         weighting_magnitude(1.0, "Wz")
-    with pytest.raises(ValidationError, match="corner < fs/2"):
-        weighting_sos(150.0, "Wk")
 
 
 # ---------------------------------------------------------------- ride metrics

@@ -8,13 +8,9 @@ ISO 2631-1 / ISO 8041 parameterisation ``W = Hh * Hl * Ht * Hs`` with p = j*omeg
 - a-v transition Ht = (1 + p/w3)/(1 + p/(Q4 w4) + (p/w4)^2);
 - upward step Hs = (1 + p/(Q5 w5) + (p/w5)^2)/(1 + p/(Q6 w6) + (p/w6)^2) * (w5/w6)^2.
 
-Two evaluations that must agree (tests check both against the standard's table):
-
-- frequency domain: :func:`weighting_response` (exact analogue response), used by
-  :func:`weighted_rms_fft` which weights the FFT of a record (Parseval);
-- time domain: :func:`weighting_sos` (bilinear transform with pre-warping of every
-  corner, second-order sections) used by :func:`weighted_signal`; it needs a sample
-  rate well above 200 Hz because the band-limiting low-pass sits at 100 Hz.
+The weighting is applied in the frequency domain: :func:`weighting_response` (the exact
+analogue response, checked against the standard's table) weights the FFT of a record
+(:func:`weighted_rms_fft` by Parseval, :func:`weighted_signal_fft` for the time history).
 """
 
 from __future__ import annotations
@@ -22,7 +18,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import signal
 
 from suspenv.core.errors import ValidationError
 
@@ -95,74 +90,7 @@ def weighting_magnitude(f: np.ndarray, name: str | Weighting = "Wk") -> np.ndarr
     return np.abs(weighting_response(f, name))
 
 
-# ------------------------------------------------------------------ time domain
-def _bilinear_section(
-    num: tuple[float, float, float], den: tuple[float, float, float], fc: float, fs: float
-) -> np.ndarray:
-    """One analogue biquad in s/wc (coefficients of 1, s/wc, (s/wc)^2) -> digital SOS row.
-
-    The substitution s/wc -> (1/tan(pi fc/fs)) (1 - z^-1)/(1 + z^-1) pre-warps the
-    corner fc so that it lands exactly where the analogue one is.
-    """
-    if not fc < fs / 2:
-        raise ValidationError(
-            f"`corner < fs/2` must hold for the bilinear weighting filter, but got "
-            f"(corner={fc} Hz, fs={fs} Hz)"
-        )
-    k = 1.0 / np.tan(np.pi * fc / fs)
-
-    # (1 - z^-1)/(1 + z^-1) = u; polynomial in u of degree 2 times (1 + z^-1)^2
-    def expand(c: tuple[float, float, float]) -> np.ndarray:
-        c0, c1, c2 = c[0], c[1] * k, c[2] * k * k
-        # c0 (1+z)^2 + c1 (1-z)(1+z) + c2 (1-z)^2 in powers of z^-1
-        return np.array([c0 + c1 + c2, 2 * c0 - 2 * c2, c0 - c1 + c2])
-
-    b, a = expand(num), expand(den)
-    return np.concatenate([b / a[0], a / a[0]])
-
-
-def weighting_sos(fs: float, name: str | Weighting = "Wk") -> np.ndarray:
-    """Second-order sections (scipy ``sos``) of the weighting at sample rate fs (Hz)."""
-    w = get_weighting(name)
-    sos = [
-        # high-pass: 1/(1 + sqrt2 w1/s + (w1/s)^2) = (s/w1)^2/((s/w1)^2 + sqrt2 s/w1 + 1)
-        _bilinear_section((0.0, 0.0, 1.0), (1.0, np.sqrt(2.0), 1.0), w.f1, fs),
-        _bilinear_section((1.0, 0.0, 0.0), (1.0, np.sqrt(2.0), 1.0), w.f2, fs),
-    ]
-    # transition: numerator corner w3 differs from denominator corner w4; express both
-    # in s/w4 so one pre-warp frequency serves the section (exact when f3 == f4).
-    r = w.f4 / w.f3
-    sos.append(_bilinear_section((1.0, r, 0.0), (1.0, 1.0 / w.q4, 1.0), w.f4, fs))
-    if np.isfinite(w.f5):
-        g = (w.f5 / w.f6) ** 2
-        r56 = w.f6 / w.f5
-        row = _bilinear_section((1.0, r56 / w.q5, r56**2), (1.0, 1.0 / w.q6, 1.0), w.f6, fs)
-        row[:3] *= g
-        sos.append(row)
-    return np.vstack(sos)
-
-
-def weighted_signal(
-    a: np.ndarray, fs: float, name: str | Weighting = "Wk", axis: int = -1
-) -> np.ndarray:
-    """Frequency-weighted acceleration time history (time-domain biquads, causal)."""
-    return signal.sosfilt(weighting_sos(fs, name), np.asarray(a, dtype=float), axis=axis)
-
-
 # ------------------------------------------------------------------ RMS values
-def rms(a: np.ndarray, axis: int = -1) -> np.ndarray:
-    """Root mean square along ``axis``."""
-    a = np.asarray(a, dtype=float)
-    return np.sqrt(np.mean(a * a, axis=axis))
-
-
-def weighted_rms(
-    a: np.ndarray, fs: float, name: str | Weighting = "Wk", axis: int = -1
-) -> np.ndarray:
-    """Weighted RMS a_w (m/s^2) of a time history by the time-domain filters."""
-    return rms(weighted_signal(a, fs, name, axis=axis), axis=axis)
-
-
 def weighted_rms_fft(
     a: np.ndarray,
     fs: float,
@@ -199,8 +127,7 @@ def weighted_signal_fft(
 ) -> np.ndarray:
     """Frequency-weighted time history (m/s^2) of records ``a`` (time on the last axis)
     by weighting their FFT with the complex response (magnitude and phase) over ``band``
-    Hz; the record is treated as one period. Any sample rate (the time-domain biquads of
-    :func:`weighted_signal` need fs well above 200 Hz); its RMS is
+    Hz; the record is treated as one period, at any sample rate; its RMS is
     :func:`weighted_rms_fft`'s. For the peak and fourth-power measures (crest factor,
     VDV) of ISO 2631-1."""
     a = np.asarray(a, dtype=float)

@@ -33,14 +33,13 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from suspenv.core.errors import ValidationError
-from suspenv.metrics.knc_kernel import PICK
+from suspenv.metrics.knc_kernel import PICK, RAD2DEG
 from suspenv.models.effects import Effect
 from suspenv.models.mcpherson.params import SIDE_SIGN, Axle
 
 if TYPE_CHECKING:  # a type only: metrics are functions of rig results, not of the rig
     from suspenv.rigs.knc import KCResult
 
-RAD2DEG = 180.0 / np.pi
 FIT_HALF_WIDTH = 3  # grid points either side of the static position
 
 

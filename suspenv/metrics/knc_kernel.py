@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from suspenv.core import compiled
+from suspenv.models.mcpherson.params import SIDE_SIGN
 
 #: the curves of :func:`suspenv.metrics.knc._curves`, in the kernel's order
 CURVES = (
@@ -31,8 +32,6 @@ CURVES = (
 #: reduction -> the fit's number it picks (value, slope, curvature)
 PICK = {"value": 0, "gradient": 1, "rate": 1, "rate_gradient": 2}
 RAD2DEG = 180.0 / np.pi
-#: the sign of y of each side (left, right)
-_SG = np.array([1.0, -1.0])
 
 
 def objective_table(objectives: Sequence[Any], tests: Sequence[str]) -> np.ndarray:
@@ -63,7 +62,7 @@ def _channels(r, R, pads, s0, Rw, kt, kB, t, d, ch) -> None:
     k = np.empty(3)
     for q in range(r.shape[1]):
         for side in range(2):
-            sg = _SG[side]
+            sg = SIDE_SIGN[side]
             R1 = R[t, q, d, side, 1]
             wc = r[t, q, d, side, 1]
             top = r[t, q, d, side, 2]
@@ -100,7 +99,7 @@ def _curves(ch, st, cv) -> None:
     for q in range(Q):
         phi = math.atan((ch[2, q, 0] - ch[2, q, 1]) / track) * RAD2DEG - phi_st
         for side in range(2):
-            sg = _SG[side]
+            sg = SIDE_SIGN[side]
             cv[0, q, side] = ch[7, q, side] * RAD2DEG
             cv[1, q, side] = ch[8, q, side] * RAD2DEG
             cv[2, q, side] = ch[9, q, side] * RAD2DEG

@@ -49,7 +49,10 @@ from suspenv.metrics.knc import (
     roll_moment,
 )
 from suspenv.models.mcpherson.params import SIDE_SIGN, AxleConstants
-from suspenv.models.mcpherson.solver import spin_axis  # the channels give back its axis
+from suspenv.models.mcpherson.solver import (  # the channels give back the spin axis
+    OUTPUT_NAMES,
+    spin_axis,
+)
 
 if TYPE_CHECKING:  # a type only: metrics are functions of rig results, not of the rig
     from suspenv.rigs.knc import KCResult
@@ -480,13 +483,8 @@ def _lines_meet(P: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     plane, meet."""
     n = np.stack([v[..., 2], -v[..., 1]], axis=-1)  # (..., 2 wheels, 2): perpendicular
     p = P[..., 1:3]
-    # p_L + a n_L = p_R + b n_R  ->  [n_L, -n_R] (a, b) = p_R - p_L
-    a11, a21 = n[..., 0, 0], n[..., 0, 1]
-    a12, a22 = -n[..., 1, 0], -n[..., 1, 1]
-    r1, r2 = p[..., 1, 0] - p[..., 0, 0], p[..., 1, 1] - p[..., 0, 1]
-    det = a11 * a22 - a12 * a21
-    a = (r1 * a22 - a12 * r2) / det
-    return p[..., 0, 0] + a * n[..., 0, 0], p[..., 0, 1] + a * n[..., 0, 1]
+    y, z = np.moveaxis(_meet(p[..., 0, :], n[..., 0, :], p[..., 1, :], n[..., 1, :]), -1, 0)
+    return y, z
 
 
 def roll_centre_curve(res: KCResult, branch: str) -> tuple[np.ndarray, np.ndarray]:
@@ -624,12 +622,9 @@ def travel_report(
     out["wheel_rate"] = _grad(par, chan(par, "tyre_fz"))
     out["ride_rate"] = _grad(par, chan(par, "tyre_fz"), pad_travel)
     nan = np.full(out["toe"].shape, np.nan)  # a number whose channel was not measured
-    out["spring_motion_ratio"] = (
-        -_grad(par, chan(par, "spring_length", 1e3)) if "spring_length" in par.channels else nan
-    )
-    out["damper_motion_ratio"] = (
-        -_grad(par, chan(par, "strut_length", 1e3)) if "strut_length" in par.channels else nan
-    )
+    for name, length in (("spring", "spring_length"), ("damper", "strut_length")):
+        ratio = -_grad(par, chan(par, length, 1e3)) if length in par.channels else nan
+        out[f"{name}_motion_ratio"] = ratio
 
     # roll centre and its migration against the mean wheel travel (parallel)
     def rc_height(res: KCResult):
@@ -828,8 +823,6 @@ def _filled(results: dict[str, KCResult], value: float, only: str = "") -> dict[
     channel ``only`` (``"test:channel"``), that one NaN (absent if optional) and the
     other missing ones ``value``. Optional channels (:data:`OPTIONAL_CHANNELS`) stay
     absent unless probed with a finite ``value``."""
-    from suspenv.models.mcpherson.solver import OUTPUT_NAMES
-
     out = {}
     for t, r in results.items():
         shape = next(iter(r.channels.values())).shape
@@ -847,8 +840,6 @@ def report_needs(results: dict[str, KCResult]) -> dict[str, str]:
     """Report and compliance items (:data:`ALL_ITEMS`, :data:`COMPLIANCE_ITEMS`) the
     ``results`` cannot give, each with what it needs: a test not run, or the channels
     (``test:channel``) the rig did not record."""
-    from suspenv.models.mcpherson.solver import OUTPUT_NAMES
-
     needs: dict[str, list[str]] = {}
     for item in ALL_ITEMS.values():
         if item.test not in results or (item.test == "parallel" and "opposite" not in results):

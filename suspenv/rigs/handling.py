@@ -212,11 +212,7 @@ class SteadyStateSweep:
 
     def take(self, rows: slice | np.ndarray) -> SteadyStateSweep:
         """The states of some of the accelerations (rows of the first axis)."""
-        return SteadyStateSweep(
-            self.ay[rows], self.steer[rows], self.roll[rows], self.alpha_front[rows],
-            self.alpha_rear[rows], self.force_front[rows], self.force_rear[rows],
-            self.feasible[rows],
-        )  # fmt: skip
+        return SteadyStateSweep(**{name: value[rows] for name, value in vars(self).items()})
 
 
 #: regula-falsi (Illinois) passes of the steady state's slip-angle solve: a fixed count
@@ -408,6 +404,12 @@ class SlalomConfig:
         d2 = (y2 - 2.0 * y1 + y0) / h**2
         return d1, d2 / (1.0 + d1**2) ** 1.5
 
+    @property
+    def measured_cone_x(self) -> np.ndarray:
+        """m, positions of the measured cones (``measure_cones``)."""
+        first, stop = self.measure_cones
+        return self.cone_x[first:stop]
+
     def measured_end(self) -> float:
         """m, ground x where the last measured window ends (the run stops there)."""
         return float(self.cone_x[self.measure_cones[1] - 1] + 0.5 * self.spacing)
@@ -527,8 +529,7 @@ def slalom_run(
     dt = config.dt
     s = HandlingState.zeros(n)
     s.x[:] = -config.run_in
-    first, stop = config.measure_cones
-    centres = config.cone_x[first:stop]
+    centres = config.measured_cone_x
     half = 0.5 * config.spacing
     err2 = np.zeros(n)
     err_max = np.zeros(n)
@@ -553,16 +554,9 @@ def slalom_run(
             err_max = np.maximum(err_max, np.where(inside, np.abs(err), 0.0))
             n_err += inside
             if config.record_every and i % config.record_every == 0:
-                for key, val in (
-                    ("x", s.x),
-                    ("y", s.y),
-                    ("psi", s.psi),
-                    ("r", s.r),
-                    ("phi", s.phi),
-                    ("delta", s.delta),
-                    ("ay", k.ay),
-                ):
-                    rec[key].append(val.copy())
+                for key in ("x", "y", "psi", "r", "phi", "delta"):
+                    rec[key].append(getattr(s, key).copy())
+                rec["ay"].append(k.ay.copy())
                 rec["t"].append(np.full(n, (i + 1) * dt))
     completed = (
         np.isfinite(s.r)
@@ -629,17 +623,14 @@ class SlalomResult(SlalomRun):
     Attributes:
         yaw_rate_amplitude: rad/s (n,), mean of the per-cone peaks |r|.
         roll_amplitude: rad (n,), mean of the per-cone peaks |phi|.
-        steer_amplitude: rad (n,), road-wheel steer, same windows.
         ay_amplitude: m/s^2 (n,), same windows.
-        yaw_rate_peaks, roll_peaks: (n_measured_cones, n) the per-cone peaks.
+        yaw_rate_peaks: (n_measured_cones, n) the per-cone peaks |r|.
     """
 
     yaw_rate_amplitude: np.ndarray
     roll_amplitude: np.ndarray
-    steer_amplitude: np.ndarray
     ay_amplitude: np.ndarray
     yaw_rate_peaks: np.ndarray
-    roll_peaks: np.ndarray
 
 
 def slalom(
@@ -651,21 +642,16 @@ def slalom(
     cone, and their means over the cones. The peaks are folded in step by step
     (:class:`WindowedPeaks`, :func:`slalom_run`'s accumulator): no time history is kept."""
     config = config or SlalomConfig()
-    first, stop = config.measure_cones
-    peaks = WindowedPeaks(
-        config.cone_x[first:stop], 0.5 * config.spacing, P.n, n_signals=len(SLALOM_SIGNALS)
-    )
+    centres = config.measured_cone_x
+    peaks = WindowedPeaks(centres, 0.5 * config.spacing, P.n, n_signals=len(SLALOM_SIGNALS))
     run = slalom_run(P, config, side, accumulator=peaks)
     r_peaks = peaks.result(SLALOM_SIGNALS.index("yaw_rate"))
-    phi_peaks = peaks.result(SLALOM_SIGNALS.index("roll"))
     return SlalomResult(
         **vars(run),
         yaw_rate_amplitude=r_peaks.mean(axis=0),
-        roll_amplitude=phi_peaks.mean(axis=0),
-        steer_amplitude=peaks.result(SLALOM_SIGNALS.index("steer")).mean(axis=0),
+        roll_amplitude=peaks.result(SLALOM_SIGNALS.index("roll")).mean(axis=0),
         ay_amplitude=peaks.result(SLALOM_SIGNALS.index("ay")).mean(axis=0),
         yaw_rate_peaks=r_peaks,
-        roll_peaks=phi_peaks,
     )
 
 

@@ -148,15 +148,12 @@ def pulse_inputs(
     x = dx * np.arange(m + int(np.ceil(vehicle.wheelbase / dx)) + 2)
     start = pulse.lead_in * v
     prof = contact_length_filter(triangular_bump(x, start, pulse.base, pulse.height), dx, lc)
-    slope = np.gradient(prof, dx)
-    shift = vehicle.wheelbase
-    front = prof[:m]
-    rear = np.interp(x[:m] - shift, x, prof, left=0.0)
-    sfront = slope[:m]
-    srear = np.interp(x[:m] - shift, x, slope, left=0.0)
-    z = np.stack([front, front, rear, rear], axis=1)
-    zd = v * np.stack([sfront, sfront, srear, srear], axis=1)
-    return z, zd
+
+    def wheels(y: np.ndarray) -> np.ndarray:  # (m, 4): y under the front, delayed at the rear
+        rear = np.interp(x[:m] - vehicle.wheelbase, x, y, left=0.0)
+        return np.stack([y[:m], y[:m], rear, rear], axis=1)
+
+    return wheels(prof), v * wheels(np.gradient(prof, dx))
 
 
 def pulse_run(

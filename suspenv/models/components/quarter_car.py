@@ -121,6 +121,14 @@ def _elements(effects: Sequence[Effect]) -> tuple[list[PointwiseElement], list[P
     return [el for el in elements if el.n_states == 0], [el for el in elements if el.n_states == 1]
 
 
+def _row(flat_base: dict, flat_eff: list[dict], effects: Sequence[Effect], i: int) -> tuple:
+    """Row ``i`` of a flattened batch as plain floats: (base values, effects)."""
+    return {n: float(v[i]) for n, v in flat_base.items()}, [
+        e.with_params({p: float(v[i]) for p, v in fe.items()})
+        for e, fe in zip(effects, flat_eff, strict=True)
+    ]
+
+
 def _rate(x: np.ndarray, t: np.ndarray) -> np.ndarray:
     """Smoothed derivative of ``x`` [unit/s]; plain central differences on gapped time."""
     dt = float(np.median(np.diff(t)))
@@ -303,11 +311,7 @@ class QuarterCarRigModel(ComponentModel):
         if exact:
             acc, defl = self._integrate_exact(flat_base, flat_eff, effects, t, road, rows, actuator)
         elif rows == 1:
-            row_base = {n: float(v[0]) for n, v in flat_base.items()}
-            row_effects = [
-                e.with_params({p: float(v[0]) for p, v in fe.items()})
-                for e, fe in zip(effects, flat_eff, strict=True)
-            ]
+            row_base, row_effects = _row(flat_base, flat_eff, effects, 0)
             acc, defl = (a[None, :] for a in self._integrate(row_base, row_effects, t, road))
         else:
             batch_effects = [e.with_params(fe) for e, fe in zip(effects, flat_eff, strict=True)]
@@ -361,11 +365,7 @@ class QuarterCarRigModel(ComponentModel):
                 acc[i], defl[i] = acc[first_row[key]], defl[first_row[key]]
                 continue
             first_row[key] = i
-            row_base = {n: float(v[i]) for n, v in flat_base.items()}
-            row_eff = [
-                e.with_params({p: float(v[i]) for p, v in fe.items()})
-                for e, fe in zip(effects, flat_eff, strict=True)
-            ]
+            row_base, row_eff = _row(flat_base, flat_eff, effects, i)
             try:
                 acc[i], defl[i] = rig_integrator.integrate(
                     m_s, m_u, row_base, row_eff, t, road, nsub, actuator=actuator
@@ -502,17 +502,10 @@ class QuarterCarRigModel(ComponentModel):
         """
         if not {"body_acceleration", "suspension_deflection"} <= set(rec.outputs):
             return None
-        _, sensed = self.unpack(np.asarray(theta, float))
-        x = self._undo_sensors(sensed, "suspension_deflection", rec) / self.deflection_ratio
-        v = _rate(x, rec.time)
+        x, v, measured = self._body_view(np.asarray(theta, float), rec)
 
         def predicted(th: np.ndarray) -> np.ndarray:
-            base, effects = self.unpack(th)
-            f = base["k_s"] * x + base["c_s"] * v
-            for e in effects:
-                if e.spec.role == "force":
-                    f = f + e.force(x, v, rec.time)
-            return np.asarray(f, float)
+            return np.asarray(self._suspension_force(th, x, v, rec.time), float)
 
         theta = np.asarray(theta, float)
         f0 = predicted(theta)
@@ -524,9 +517,25 @@ class QuarterCarRigModel(ComponentModel):
             th = theta.copy()
             th[i] += h
             jac[:, i] = (predicted(th) - f0) / h
-        measured = self.options["m_s"] * self._undo_sensors(sensed, "body_acceleration", rec)
-        measured = measured - self._actuator(rec)
         return {"measured": measured, "predicted": f0, "x": x, "v": v, "jacobian": jac}
+
+    def _body_view(self, theta: np.ndarray, rec: Recording) -> tuple[np.ndarray, ...]:
+        """The body equation's view of ``rec``, the sensor elements of ``theta`` undone:
+        deflection ``x`` [m], its smoothed rate [m/s], ``m_s z_s''`` less the actuator [N]."""
+        _, sensed = self.unpack(theta)
+        x = self._undo_sensors(sensed, "suspension_deflection", rec) / self.deflection_ratio
+        f = self.options["m_s"] * self._undo_sensors(sensed, "body_acceleration", rec)
+        return x, _rate(x, rec.time), f - self._actuator(rec)
+
+    def _suspension_force(self, theta: np.ndarray, x: np.ndarray, v: np.ndarray, t: np.ndarray):
+        """Suspension force ``k_s x + c_s v + force effects`` [N] at ``theta`` along the
+        deflection ``x`` [m] and its rate ``v`` [m/s]."""
+        base, effects = self.unpack(theta)
+        f = base["k_s"] * x + base["c_s"] * v
+        for e in effects:
+            if e.spec.role == "force":
+                f = f + e.force(x, v, t)
+        return f
 
     @staticmethod
     def _actuator(rec: Recording) -> np.ndarray | float:
@@ -577,11 +586,7 @@ class QuarterCarRigModel(ComponentModel):
             if not {"body_acceleration", "suspension_deflection"} <= set(rec.outputs):
                 continue
             m = None if masks is None else masks[i]
-            _, sensed = self.unpack(np.asarray(theta0, float))
-            x = self._undo_sensors(sensed, "suspension_deflection", rec) / self.deflection_ratio
-            v = _rate(x, rec.time)
-            f = self.options["m_s"] * self._undo_sensors(sensed, "body_acceleration", rec)
-            f = f - self._actuator(rec)
+            x, v, f = self._body_view(theta0, rec)
             views.append((x, v, rec.time, f, np.ones(x.size, bool) if m is None else m))
         if not views:
             return None
@@ -596,15 +601,9 @@ class QuarterCarRigModel(ComponentModel):
         def residual(sub: np.ndarray) -> np.ndarray:
             th = theta0.copy()
             th[free] = sub
-            base, effects = self.unpack(th)
-            out = []
-            for x, v, t, f, m in views:
-                pred = base["k_s"] * x + base["c_s"] * v
-                for e in effects:
-                    if e.spec.role == "force":
-                        pred = pred + e.force(x, v, t)
-                out.append((f - pred)[m] / scale)
-            r = np.concatenate(out)
+            r = np.concatenate(
+                [(f - self._suspension_force(th, x, v, t))[m] / scale for x, v, t, f, m in views]
+            )
             return np.where(np.isfinite(r), r, 1e3)
 
         x0 = np.clip(theta0[free], lo[free], hi[free])

@@ -292,44 +292,33 @@ def _run(
             f1 = 0.0
             if has_effects:
                 xk, vk = kz_u - kz_s, kv_u - kv_s
-                if S:  # start from the last force: it may solve the step already
-                    fa = fe
-                    ga = _states_residual(
-                        fa, law_codes, law_par, st_codes, st_par, mx, z, z_a,
+                # start from the last force where states may solve the step already, else
+                # from the linear extrapolation of the force
+                fa = fe if S else 2.0 * fe - f_prev
+                ga = _states_residual(
+                    fa, law_codes, law_par, st_codes, st_par, mx, z, z_a,
+                    x0, v0, xk, vk, gx, gv, fa_end,
+                )  # fmt: skip
+                if S and abs(ga) <= tol * (1.0 + abs(fa)):
+                    f1 = fa
+                    z[:] = z_a
+                else:
+                    fb = fa - ga / slope
+                    gb = _states_residual(
+                        fb, law_codes, law_par, st_codes, st_par, mx, z, z_b,
                         x0, v0, xk, vk, gx, gv, fa_end,
                     )  # fmt: skip
-                    if abs(ga) <= tol * (1.0 + abs(fa)):
-                        f1 = fa
-                        z[:] = z_a
-                    else:
-                        fb = fa - ga / slope
-                        gb = _states_residual(
-                            fb, law_codes, law_par, st_codes, st_par, mx, z, z_b,
-                            x0, v0, xk, vk, gx, gv, fa_end,
-                        )  # fmt: skip
-                        for _ in range(max_iter):
-                            if abs(gb) <= tol * (1.0 + abs(fb)) or gb == ga:
-                                break
-                            fa, ga, fb = fb, gb, fb - gb * (fb - fa) / (gb - ga)
-                            gb = _states_residual(
-                                fb, law_codes, law_par, st_codes, st_par, mx, z, z_b,
-                                x0, v0, xk, vk, gx, gv, fa_end,
-                            )  # fmt: skip
-                        slope = _secant_slope(fa, ga, fb, gb, slope)
-                        f1 = fb
-                        z[:] = z_b
-                else:  # start from the linear extrapolation of the force
-                    fa = 2.0 * fe - f_prev
-                    ga = fa - _stateless(law_codes, law_par, xk + gx * fa, vk + gv * fa, fa_end)
-                    fb = fa - ga / slope
-                    gb = fb - _stateless(law_codes, law_par, xk + gx * fb, vk + gv * fb, fa_end)
                     for _ in range(max_iter):
                         if abs(gb) <= tol * (1.0 + abs(fb)) or gb == ga:
                             break
                         fa, ga, fb = fb, gb, fb - gb * (fb - fa) / (gb - ga)
-                        gb = fb - _stateless(law_codes, law_par, xk + gx * fb, vk + gv * fb, fa_end)
+                        gb = _states_residual(
+                            fb, law_codes, law_par, st_codes, st_par, mx, z, z_b,
+                            x0, v0, xk, vk, gx, gv, fa_end,
+                        )  # fmt: skip
                     slope = _secant_slope(fa, ga, fb, gb, slope)
                     f1 = fb
+                    z[:] = z_b
             zs, vs = kz_s + b[0, 1] * f1, kv_s + b[1, 1] * f1
             zu, vu = kz_u + b[2, 1] * f1, kv_u + b[3, 1] * f1
             x0, v0, f_prev, fe = zu - zs, vu - vs, fe, f1

@@ -13,7 +13,8 @@ quasi-static sweep, where there is no velocity.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+import re
+from collections.abc import Callable
 from typing import Any
 
 from suspenv.core.space import Parameter
@@ -28,15 +29,139 @@ from suspenv.models.effects import (
 from suspenv.models.effects._util import batch_param as bp
 from suspenv.models.effects.effect import EffectKind, register_kind
 
-
-def _p(
-    name: str, low: float, high: float, unit: str, default: float, desc: str, log: bool = False
-) -> Parameter:
-    return Parameter(name, low, high, unit=unit, log=log, default=default, description=desc)
+#: the domain marks of :data:`_PARAMETERS`: a law needs the value above 0, at least 0,
+#: at least 1 (``EffectKind.domain``: bound, strict)
+_DOMAIN_MARKS = {">0": (0.0, True), ">=0": (0.0, False), ">=1": (1.0, False)}
 
 
-#: the domains of the laws' parameters (``EffectKind.domain``): above 0, at least 0, at least 1
-_POSITIVE, _NONNEGATIVE, _AT_LEAST_ONE = (0.0, True), (0.0, False), (1.0, False)
+def _parameter_table(
+    text: str,
+) -> tuple[dict[str, tuple[Parameter, ...]], dict[str, dict[str, tuple[float, bool]]]]:
+    """The parameters and domains of every kind from a table: a line ``[kind]``, then one
+    line per parameter, ``name low high default [log] [domain] [unit]: description``
+    (``log``: the unit interval maps to the range logarithmically; ``domain``: a mark of
+    :data:`_DOMAIN_MARKS` where the law needs one; no unit: dimensionless), the
+    description continued on indented lines."""
+    tables: dict[str, list[Parameter]] = {}
+    domains: dict[str, dict[str, tuple[float, bool]]] = {}
+    for row in re.split(r"\n(?=\S)", text.strip()):
+        line = " ".join(row.split())
+        if line.startswith("["):
+            kind = tables.setdefault(line.strip("[]"), [])
+            domain = domains.setdefault(line.strip("[]"), {})
+            continue
+        head, _, description = line.partition(": ")
+        name, low, high, default, *unit = head.split()
+        log = unit[:1] == ["log"]
+        unit = unit[1:] if log else unit
+        if unit[:1] and unit[0] in _DOMAIN_MARKS:
+            domain[name] = _DOMAIN_MARKS[unit.pop(0)]
+        lo, hi, ref = (float(v) for v in (low, high, default))
+        kind.append(Parameter(name, lo, hi, " ".join(unit), log, ref, description))
+    return {k: tuple(v) for k, v in tables.items()}, domains
+
+
+#: the parameters of every kind, SI units, and the domains their laws need
+#: (:func:`_parameter_table`)
+_PARAMETERS, _DOMAINS = _parameter_table("""
+[coulomb_friction]
+f_c               0.0  5000.0    20.0  N: Coulomb friction force level
+v_eps            1e-5     0.1    1e-3  log >0 m/s: velocity width of the regularised step
+sigma             1e2     1e9     2e6  log N/m: pre-sliding stiffness of the rate-independent
+    (Dahl) form in quasi-static sweeps
+[directional_friction]
+f_pos             0.0  5000.0    20.0  N: friction level sliding in +x
+f_neg             0.0  5000.0    20.0  N: friction level sliding in -x
+v_eps            1e-5     0.1    1e-3  log >0 m/s: velocity width of the regularised step
+[stribeck_friction]
+f_c               0.0  5000.0    20.0  N: Coulomb (sliding) friction level
+f_s               0.0 10000.0    30.0  N: static (breakaway) friction level
+v_s              1e-4     1.0    0.01  log >0 m/s: Stribeck velocity
+v_eps            1e-5     0.1    1e-3  log >0 m/s: velocity width of the regularised step
+[lugre_friction]
+sigma0            1e2     1e9     1e5  log N/m: bristle stiffness
+sigma1            0.0     1e5   300.0  N s/m: bristle damping
+f_c               0.0  5000.0    20.0  N: Coulomb friction level
+f_s               0.0 10000.0    30.0  N: static friction level
+v_s              1e-4     1.0    0.01  log m/s: Stribeck velocity
+[dahl_hysteresis]
+f_c               0.0  5000.0    50.0  N: saturation hysteretic force
+sigma             1e2     1e9     1e5  log N/m: initial stiffness after a reversal
+sigma_ratio      1e-2     1e2     1.0  log: initial stiffness after a reversal over the host's
+    linear stiffness (used by a host with one, e.g. a bushing, in place of sigma)
+[bouc_wen_hysteresis]
+f_y               0.0  5000.0    50.0  N: asymptotic hysteretic force
+x_y              1e-6    0.05    1e-3  log m: yield displacement
+shape             0.0     1.0     0.5: loop shape b = beta/(beta+gamma)
+n                 1.0     5.0     1.0: knee sharpness
+[berg_hysteresis]
+f_max             0.0  5000.0    50.0  N: limit friction force
+x2               1e-6    0.05    1e-3  log m: travel to half the limit force
+[cubic_stiffness]
+k3              -1e12    1e12     1e6  N/m^3: cubic stiffness coefficient
+ratio             0.0    10.0     0.1: cubic over linear force at x_ref beside the host's
+    linear stiffness k, k3 = ratio k / x_ref^2 (used by a host with one, e.g. a bushing, in
+    place of k3)
+x_ref            1e-5     0.1    1e-3  log m: reference deflection of ratio
+x_0             -10.0    10.0     0.0  m: neutral position: the deflection at which the cubic
+    force is zero (a host whose deflection is not measured from it, e.g. a guide's position,
+    fits it)
+[progressive_stiffness]
+k_p               0.0    1e10     1e6  N/m^2: quadratic stiffening coefficient
+x0                0.0     0.2     0.0  >=0 m: free range before stiffening
+[bump_stop]
+gap               0.0     0.3    0.03  >=0 m: free travel before contact (compression)
+k_stop            0.0     1e8     1e5  >=0 N/m^p: stop stiffness
+p                 1.0     3.0     1.0  >=1: stop force exponent
+[rebound_stop]
+gap               0.0     0.3    0.05  >=0 m: free travel before contact (extension)
+k_stop            0.0     1e8     1e5  >=0 N/m^p: stop stiffness
+p                 1.0     3.0     1.0  >=1: stop force exponent
+[bump_and_rebound_stops]
+gap_bump          0.0     0.3    0.03  >=0 m: free travel before bump contact
+k_bump            0.0     1e8     1e5  >=0 N/m^p: bump stop stiffness
+gap_rebound       0.0     0.3    0.05  >=0 m: free travel before rebound contact
+k_rebound         0.0     1e8     1e5  >=0 N/m^p: rebound stop stiffness
+p                 1.0     3.0     1.0  >=1: stop force exponent (both stops)
+[digressive_damping]
+c_low             0.0     1e6  2000.0  N s/m: extra low-speed damping below the knee
+v_knee           1e-3     5.0     0.1  log >0 m/s: knee velocity
+[asymmetric_digressive_damping]
+c_bump            0.0     1e6  2000.0  N s/m: extra low-speed damping in bump (v > 0)
+v_knee_bump      1e-3     5.0     0.1  log >0 m/s: knee velocity in bump
+c_rebound         0.0     1e6  2000.0  N s/m: extra low-speed damping in rebound
+v_knee_rebound   1e-3     5.0     0.1  log >0 m/s: knee velocity in rebound
+[damper_asymmetry]
+dc_rebound       -1e6     1e6  1000.0  N s/m: extra damping in rebound (v < 0)
+[maxwell_viscoelastic]
+k_m               1.0     1e9     1e5  log N/m: series spring stiffness
+c_m              1e-2     1e8     1e3  log N s/m: series dashpot coefficient
+[low_speed_deficit]
+f_d               0.0  5000.0    20.0  N: force missing beyond the band
+v_band           1e-4    10.0    0.05  log >0 m/s: speed over which it goes missing
+[kelvin_voigt]
+k                -1e9     1e9     0.0  N/m: parallel stiffness
+c                -1e6     1e6     0.0  N s/m: parallel damping
+[gas_spring]
+f_0              -1e5     1e5   100.0  N: force at zero deflection (preload)
+k_gas            -1e7     1e7  1000.0  N/m: gas stiffness
+[force_offset]
+offset           -1e5     1e5     0.0  N: constant force
+[sensor_offset]
+offset           -1e6     1e6     0.0: offset in the channel's unit
+[sensor_gain]
+gain              0.1    10.0     1.0  log: gain factor
+[sensor_lag]
+tau               0.0     1.0   0.005  s: time constant
+[sensor_delay]
+delay             0.0     1.0   0.005  s: delay
+[zero_drift]
+rate             -1e6     1e6     0.0: drift rate, in the channel's unit per second
+bow              -1e6     1e6     0.0: quadratic part over the span, in the channel's unit
+wave             -1e6     1e6     0.0: cubic part over the span, in the channel's unit
+span             1e-3     1e7     1.0  s: time span the drift shape is defined over
+[lr_asymmetry]
+""")
 
 
 def _law(kind: str) -> Callable[..., Any]:
@@ -50,88 +175,50 @@ def _law(kind: str) -> Callable[..., Any]:
 def _force(
     kind: str,
     words: str,
-    parameters: tuple[Parameter, ...],
     signature: str,
     apply: Callable[..., Any] | None = None,
     *,
     needs_time: bool = False,
     fit_fixed: tuple[str, ...] = (),
-    domain: Mapping[str, tuple[float, bool]] | None = None,
 ) -> EffectKind:
-    """A force-role kind; its force is the stateless law of the same key (:func:`_law`)
-    unless ``apply`` is given."""
+    """A force-role kind with the parameters and domains of :data:`_PARAMETERS`; its force
+    is the stateless law of the same key (:func:`_law`) unless ``apply`` is given."""
     return EffectKind(
         kind,
         words,
         "force",
-        parameters,
+        _PARAMETERS[kind],
         signature,
         apply or _law(kind),
         needs_time=needs_time,
         fit_fixed=fit_fixed,
-        domain=domain or {},
+        domain=_DOMAINS[kind],
     )
 
-
-V_EPS = _p("v_eps", 1e-5, 0.1, "m/s", 1e-3, "velocity width of the regularised step", log=True)
 
 KINDS = (
     _force(
         "coulomb_friction",
         "Coulomb friction",
-        (
-            _p("f_c", 0.0, 5000.0, "N", 20.0, "Coulomb friction force level"),
-            V_EPS,
-            _p(
-                "sigma",
-                1e2,
-                1e9,
-                "N/m",
-                2e6,
-                "pre-sliding stiffness of the rate-independent (Dahl) form in quasi-static sweeps",
-                log=True,
-            ),
-        ),
         "step at every velocity reversal; loop width independent of amplitude and rate",
-        domain={"v_eps": _POSITIVE},
         fit_fixed=("v_eps", "sigma"),
     ),
     _force(
         "directional_friction",
         "direction-dependent Coulomb friction",
-        (
-            _p("f_pos", 0.0, 5000.0, "N", 20.0, "friction level sliding in +x"),
-            _p("f_neg", 0.0, 5000.0, "N", 20.0, "friction level sliding in -x"),
-            V_EPS,
-        ),
         "reversal steps of different size in each direction; indistinguishable from a "
         "constant offset plus symmetric friction unless the test holds each direction",
-        domain={"v_eps": _POSITIVE},
         fit_fixed=("v_eps",),
     ),
     _force(
         "stribeck_friction",
         "stiction with Stribeck decay",
-        (
-            _p("f_c", 0.0, 5000.0, "N", 20.0, "Coulomb (sliding) friction level"),
-            _p("f_s", 0.0, 10000.0, "N", 30.0, "static (breakaway) friction level"),
-            _p("v_s", 1e-4, 1.0, "m/s", 0.01, "Stribeck velocity", log=True),
-            V_EPS,
-        ),
         "reversal step with an overshoot at low speed that decays with velocity",
-        domain={"v_s": _POSITIVE, "v_eps": _POSITIVE},
         fit_fixed=("v_eps",),
     ),
     _force(
         "lugre_friction",
         "LuGre dynamic friction (pre-sliding and stiction)",
-        (
-            _p("sigma0", 1e2, 1e9, "N/m", 1e5, "bristle stiffness", log=True),
-            _p("sigma1", 0.0, 1e5, "N s/m", 300.0, "bristle damping"),
-            _p("f_c", 0.0, 5000.0, "N", 20.0, "Coulomb friction level"),
-            _p("f_s", 0.0, 10000.0, "N", 30.0, "static friction level"),
-            _p("v_s", 1e-4, 1.0, "m/s", 0.01, "Stribeck velocity", log=True),
-        ),
         "reversal step with finite pre-sliding stiffness and stiction overshoot",
         lambda x, v, t, sigma0, sigma1, f_c, f_s, v_s: friction.lugre_series(
             v, t, sigma0, sigma1, f_c, f_s, v_s
@@ -142,20 +229,6 @@ KINDS = (
     _force(
         "dahl_hysteresis",
         "rubber bushing hysteresis (Dahl)",
-        (
-            _p("f_c", 0.0, 5000.0, "N", 50.0, "saturation hysteretic force"),
-            _p("sigma", 1e2, 1e9, "N/m", 1e5, "initial stiffness after a reversal", log=True),
-            _p(
-                "sigma_ratio",
-                1e-2,
-                1e2,
-                "",
-                1.0,
-                "initial stiffness after a reversal over the host's linear stiffness "
-                "(used by a host with one, e.g. a bushing, in place of sigma)",
-                log=True,
-            ),
-        ),
         "loop between loading and unloading branches; width roughly independent of rate, "
         "rounded (not stepped) at reversals",
         lambda x, v, t, f_c, sigma, sigma_ratio: hysteresis.dahl_path(x, sigma, f_c),
@@ -164,12 +237,6 @@ KINDS = (
     _force(
         "bouc_wen_hysteresis",
         "hysteresis (Bouc-Wen)",
-        (
-            _p("f_y", 0.0, 5000.0, "N", 50.0, "asymptotic hysteretic force"),
-            _p("x_y", 1e-6, 0.05, "m", 1e-3, "yield displacement", log=True),
-            _p("shape", 0.0, 1.0, "", 0.5, "loop shape b = beta/(beta+gamma)"),
-            _p("n", 1.0, 5.0, "", 1.0, "knee sharpness"),
-        ),
         "loop between loading and unloading branches; width roughly independent of rate",
         lambda x, v, t, f_y, x_y, shape, n: hysteresis.bouc_wen_force_path(x, f_y, x_y, shape, n),
         fit_fixed=("n",),
@@ -177,10 +244,6 @@ KINDS = (
     _force(
         "berg_hysteresis",
         "rubber bushing hysteresis (Berg friction)",
-        (
-            _p("f_max", 0.0, 5000.0, "N", 50.0, "limit friction force"),
-            _p("x2", 1e-6, 0.05, "m", 1e-3, "travel to half the limit force", log=True),
-        ),
         "loop between loading and unloading branches; width roughly independent of rate, "
         "hyperbolic (not exponential) approach after a reversal",
         lambda x, v, t, f_max, x2: hysteresis.berg_path(x, f_max, x2),
@@ -188,123 +251,52 @@ KINDS = (
     _force(
         "cubic_stiffness",
         "progressive (cubic) stiffness",
-        (
-            _p("k3", -1e12, 1e12, "N/m^3", 1e6, "cubic stiffness coefficient"),
-            _p(
-                "ratio",
-                0.0,
-                10.0,
-                "",
-                0.1,
-                "cubic over linear force at x_ref beside the host's linear stiffness k, "
-                "k3 = ratio k / x_ref^2 (used by a host with one, e.g. a bushing, in place "
-                "of k3)",
-            ),
-            _p("x_ref", 1e-5, 0.1, "m", 1e-3, "reference deflection of ratio", log=True),
-            _p(
-                "x_0",
-                -10.0,
-                10.0,
-                "m",
-                0.0,
-                "neutral position: the deflection at which the cubic force is zero (a host "
-                "whose deflection is not measured from it, e.g. a guide's position, fits it)",
-            ),
-        ),
         "odd-symmetric residual growing with the cube of amplitude; 3rd harmonic",
         fit_fixed=("ratio", "x_ref", "x_0"),
     ),
     _force(
         "progressive_stiffness",
         "progressive stiffness beyond a free range",
-        (
-            _p("k_p", 0.0, 1e10, "N/m^2", 1e6, "quadratic stiffening coefficient"),
-            _p("x0", 0.0, 0.2, "m", 0.0, "free range before stiffening"),
-        ),
         "odd-symmetric residual beyond |x| > x0 growing with amplitude",
-        domain={"x0": _NONNEGATIVE},
     ),
     _force(
         "bump_stop",
         "bump stop contact",
-        (
-            _p("gap", 0.0, 0.3, "m", 0.03, "free travel before contact (compression)"),
-            _p("k_stop", 0.0, 1e8, "N/m^p", 1e5, "stop stiffness"),
-            _p("p", 1.0, 3.0, "", 1.0, "stop force exponent"),
-        ),
         "residual only beyond a compression travel threshold; one-sided",
-        domain={"gap": _NONNEGATIVE, "k_stop": _NONNEGATIVE, "p": _AT_LEAST_ONE},
         fit_fixed=("p",),
     ),
     _force(
         "rebound_stop",
         "rebound stop contact",
-        (
-            _p("gap", 0.0, 0.3, "m", 0.05, "free travel before contact (extension)"),
-            _p("k_stop", 0.0, 1e8, "N/m^p", 1e5, "stop stiffness"),
-            _p("p", 1.0, 3.0, "", 1.0, "stop force exponent"),
-        ),
         "residual only beyond an extension travel threshold; one-sided",
-        domain={"gap": _NONNEGATIVE, "k_stop": _NONNEGATIVE, "p": _AT_LEAST_ONE},
         fit_fixed=("p",),
     ),
     _force(
         "bump_and_rebound_stops",
         "bump and rebound stop contact",
-        (
-            _p("gap_bump", 0.0, 0.3, "m", 0.03, "free travel before bump contact"),
-            _p("k_bump", 0.0, 1e8, "N/m^p", 1e5, "bump stop stiffness"),
-            _p("gap_rebound", 0.0, 0.3, "m", 0.05, "free travel before rebound contact"),
-            _p("k_rebound", 0.0, 1e8, "N/m^p", 1e5, "rebound stop stiffness"),
-            _p("p", 1.0, 3.0, "", 1.0, "stop force exponent (both stops)"),
-        ),
         "residual only beyond a compression threshold and beyond an extension threshold, "
         "each side with its own onset and slope",
-        domain={
-            "gap_bump": _NONNEGATIVE,
-            "k_bump": _NONNEGATIVE,
-            "gap_rebound": _NONNEGATIVE,
-            "k_rebound": _NONNEGATIVE,
-            "p": _AT_LEAST_ONE,
-        },
         fit_fixed=("p",),
     ),
     _force(
         "digressive_damping",
         "digressive damper curve (blow-off)",
-        (
-            _p("c_low", 0.0, 1e6, "N s/m", 2000.0, "extra low-speed damping below the knee"),
-            _p("v_knee", 1e-3, 5.0, "m/s", 0.1, "knee velocity", log=True),
-        ),
         "residual odd in velocity, large at low speed, saturating above the knee",
-        domain={"v_knee": _POSITIVE},
     ),
     _force(
         "asymmetric_digressive_damping",
         "asymmetric digressive damper curve (separate bump and rebound valve stacks)",
-        (
-            _p("c_bump", 0.0, 1e6, "N s/m", 2000.0, "extra low-speed damping in bump (v > 0)"),
-            _p("v_knee_bump", 1e-3, 5.0, "m/s", 0.1, "knee velocity in bump", log=True),
-            _p("c_rebound", 0.0, 1e6, "N s/m", 2000.0, "extra low-speed damping in rebound"),
-            _p("v_knee_rebound", 1e-3, 5.0, "m/s", 0.1, "knee velocity in rebound", log=True),
-        ),
         "residual depending on the sign and size of velocity: a digressive curve with a "
         "different slope or knee in bump and in rebound",
-        domain={"v_knee_bump": _POSITIVE, "v_knee_rebound": _POSITIVE},
     ),
     _force(
         "damper_asymmetry",
         "damper bump/rebound asymmetry",
-        (_p("dc_rebound", -1e6, 1e6, "N s/m", 1000.0, "extra damping in rebound (v < 0)"),),
         "residual correlated with the sign of velocity: present in rebound only",
     ),
     _force(
         "maxwell_viscoelastic",
         "viscoelastic lag (Maxwell element)",
-        (
-            _p("k_m", 1.0, 1e9, "N/m", 1e5, "series spring stiffness", log=True),
-            _p("c_m", 1e-2, 1e8, "N s/m", 1e3, "series dashpot coefficient", log=True),
-        ),
         "rate-dependent loop width; phase lead atan(1/(w tau)) changing with frequency",
         lambda x, v, t, k_m, c_m: viscoelastic.maxwell_series(x, t, k_m, c_m),
         needs_time=True,
@@ -312,44 +304,30 @@ KINDS = (
     _force(
         "low_speed_deficit",
         "force missing around zero speed (a velocity dead band)",
-        (
-            _p("f_d", 0.0, 5000.0, "N", 20.0, "force missing beyond the band"),
-            _p("v_band", 1e-4, 10.0, "m/s", 0.05, "speed over which it goes missing", log=True),
-        ),
         "a step against the motion at every reversal, spread over a band of speed: the "
         "force a friction step would add, missing (a probe of the component diagnosis, "
         "fitted after its last named element; not a candidate: friction cannot be negative)",
-        domain={"v_band": _POSITIVE},
     ),
     _force(
         "kelvin_voigt",
         "parallel spring and dashpot (Kelvin-Voigt)",
-        (
-            _p("k", -1e9, 1e9, "N/m", 0.0, "parallel stiffness"),
-            _p("c", -1e6, 1e6, "N s/m", 0.0, "parallel damping"),
-        ),
         "residual in phase with displacement and/or velocity",
     ),
     _force(
         "gas_spring",
         "gas spring force (preload plus stiffness)",
-        (
-            _p("f_0", -1e5, 1e5, "N", 100.0, "force at zero deflection (preload)"),
-            _p("k_gas", -1e7, 1e7, "N/m", 1000.0, "gas stiffness"),
-        ),
         "residual constant plus proportional to displacement, no loop",
     ),
     _force(
         "force_offset",
         "constant force offset",
-        (_p("offset", -1e5, 1e5, "N", 0.0, "constant force"),),
         "constant residual independent of motion",
     ),
     EffectKind(
         "sensor_offset",
         "sensor offset (zero error)",
         "sensor",
-        (_p("offset", -1e6, 1e6, "", 0.0, "offset in the channel's unit"),),
+        _PARAMETERS["sensor_offset"],
         "constant residual",
         lambda y, t, offset: sensor.sensor_offset_gain(y, bp(offset), 1.0),
     ),
@@ -357,7 +335,7 @@ KINDS = (
         "sensor_gain",
         "sensor gain (calibration) error",
         "sensor",
-        (_p("gain", 0.1, 10.0, "", 1.0, "gain factor", log=True),),
+        _PARAMETERS["sensor_gain"],
         "residual proportional to the signal",
         lambda y, t, gain: sensor.sensor_offset_gain(y, 0.0, bp(gain)),
     ),
@@ -365,7 +343,7 @@ KINDS = (
         "sensor_lag",
         "sensor lag (first-order filter)",
         "sensor",
-        (_p("tau", 0.0, 1.0, "s", 0.005, "time constant"),),
+        _PARAMETERS["sensor_lag"],
         "residual proportional to the signal's derivative; phase lag atan(w tau)",
         lambda y, t, tau: sensor.sensor_lag(y, t, tau),
         needs_time=True,
@@ -374,7 +352,7 @@ KINDS = (
         "sensor_delay",
         "pure time delay of the sensor (transport or digital-filter delay)",
         "sensor",
-        (_p("delay", 0.0, 1.0, "s", 0.005, "delay"),),
+        _PARAMETERS["sensor_delay"],
         "residual proportional to the signal's derivative at small delays; phase lag "
         "w delay at unit gain",
         lambda y, t, delay: sensor.sensor_delay(y, t, delay),
@@ -384,12 +362,7 @@ KINDS = (
         "zero_drift",
         "sensor zero drift (slow, smooth in time)",
         "sensor",
-        (
-            _p("rate", -1e6, 1e6, "", 0.0, "drift rate, in the channel's unit per second"),
-            _p("bow", -1e6, 1e6, "", 0.0, "quadratic part over the span, in the channel's unit"),
-            _p("wave", -1e6, 1e6, "", 0.0, "cubic part over the span, in the channel's unit"),
-            _p("span", 1e-3, 1e7, "s", 1.0, "time span the drift shape is defined over"),
-        ),
+        _PARAMETERS["zero_drift"],
         "slow trend in time, independent of the motion",
         lambda y, t, rate, bow, wave, span: sensor.sensor_drift(
             y, t, bp(rate), bp(bow), bp(wave), bp(span)
@@ -401,7 +374,7 @@ KINDS = (
         "lr_asymmetry",
         "left/right manufacturing asymmetry",
         "pair",
-        (),
+        _PARAMETERS["lr_asymmetry"],
         "left minus right differs; opposite-travel curves not antisymmetric",
         lambda nominal, delta, relative=True: asymmetry.split_pair(nominal, delta, relative),
         host_parameters="d_",

@@ -126,10 +126,6 @@ class PointwiseElement:
             return np.zeros_like(np.asarray(v, dtype=float))
         return self._dzdt(self._laws(x, v, z), x, v, z, self.params)
 
-    def initial_state(self, shape: tuple[int, ...] = ()) -> np.ndarray:
-        """Relaxed initial state (zeros) of the given batch shape."""
-        return np.zeros(shape)
-
 
 def pointwise(effect: Effect) -> PointwiseElement:
     """The pointwise (time-integration) form of a force effect."""
