@@ -208,6 +208,15 @@ def lag1_autocorrelation(r: np.ndarray) -> float:
     return float(np.dot(r[1:], r[:-1]) / den)
 
 
+def ar1_effective_size(n: float, rho: float) -> float:
+    """The effective number of independent samples among ``n`` samples of an AR(1)
+    series of lag-1 autocorrelation ``rho`` (a negative ``rho`` counts as 0):
+    ``n (1 - rho) / (1 + rho)``. ``n = 1`` gives the share ``n_eff / n`` that scales a
+    likelihood-ratio statistic of serially correlated residuals."""
+    r = max(float(rho), 0.0)
+    return n * (1.0 - r) / (1.0 + r)
+
+
 def stacked_residual(
     model: DiagnosableModel[R, E],
     theta: np.ndarray,

@@ -69,7 +69,7 @@ from suspenv.diagnosis.evidence import (
     likelihood_ratio,
     relative_drop,
 )
-from suspenv.diagnosis.fitting import FitResult
+from suspenv.diagnosis.fitting import FitResult, ar1_effective_size
 from suspenv.diagnosis.hypothesis import Hypothesis, Withdrawal
 from suspenv.diagnosis.split import Split
 
@@ -215,8 +215,7 @@ def bic_difference(a: FitResult, b: FitResult) -> float:
         if sa > 0 and sb > 0:
             total += a.n[c] * float(np.log(sa / sb))
     better = b if total > 0 else a
-    rho = max(float(better.extra.get("lag1_autocorrelation", 0.0)), 0.0)
-    return total * (1.0 - rho) / (1.0 + rho)
+    return ar1_effective_size(total, better.extra.get("lag1_autocorrelation", 0.0))
 
 
 def fit_delay(current: FitResult, sp: Split, channel: str, start: float, budget: int) -> FitResult:
