@@ -125,6 +125,12 @@ class FitResult:
     def n_samples(self) -> int:
         return int(sum(self.n.values()))
 
+    def element(self, kind: str) -> Any | None:
+        """The model's element of ``kind`` at its fitted values (None when the model holds
+        none)."""
+        _, effects = self.model.unpack(self.theta)
+        return next((e for e in effects if e.kind == kind), None)
+
     def main_channel(self) -> str:
         """The channel holding the largest scaled residual (``ssr / scale^2``)."""
         return max(self.channels, key=lambda c: self.ssr[c] / (self.scales[c] ** 2))

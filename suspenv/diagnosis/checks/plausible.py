@@ -25,7 +25,7 @@ from scipy import stats
 from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.checks.finding import Context, Finding
 from suspenv.diagnosis.component.motion import stroke
-from suspenv.diagnosis.component.refit import SIZE_Z, parameter_and_error, refitted_element
+from suspenv.diagnosis.component.refit import SIZE_Z, parameter_and_error
 from suspenv.diagnosis.fitting import FitResult
 from suspenv.diagnosis.split import Split
 
@@ -37,7 +37,7 @@ def _judged_element(
     its kind is among ``kinds`` (those a rule judges) and the refit holds it; None
     otherwise (the rule does not apply)."""
     kind = candidate.partition("@")[0]
-    element = refitted_element(ext, kind) if kind in kinds else None
+    element = ext.element(kind) if kind in kinds else None
     return None if element is None else (kind, element)
 
 
@@ -47,7 +47,7 @@ def _fitted_with_covariance(
     """The fitted values of those of ``parameters`` of the element of ``kind`` in ``ext``
     that the fit frees (a parameter held fixed is left out), their covariance block
     (inflated like ``stderr_corrected``) and its order; empty without the element."""
-    element = refitted_element(ext, kind)
+    element = ext.element(kind)
     if element is None:
         return {}, np.zeros((0, 0)), []
     names = list(ext.names)
@@ -83,7 +83,7 @@ def stribeck_rise_and_error(ext: FitResult, kind: str, vmax: float) -> tuple[flo
     values, cov, free = _fitted_with_covariance(ext, kind, ("f_c", "f_s", "v_s"))
     if "f_c" not in values or "f_s" not in values:
         return np.nan, np.nan
-    element = refitted_element(ext, kind)
+    element = ext.element(kind)
     assert element is not None  # it holds fitted levels
     v_s = float(np.ravel(element.params["v_s"])[0])
     if not (vmax > 0 and v_s > 0):

@@ -65,7 +65,7 @@ from suspenv.diagnosis.component.motion_inputs import (
     motion_versions,
     preferred_version,
 )
-from suspenv.diagnosis.component.refit import current_effects, parameter_and_error, refit_with
+from suspenv.diagnosis.component.refit import parameter_and_error, refit_with
 from suspenv.diagnosis.component.residual_left import MOVING_FRACTION, ResidualLeft, residual_left
 from suspenv.diagnosis.component.rig import (
     RigDescription,
@@ -905,7 +905,7 @@ def baseline_offsets(fit: FitResult) -> list[dict[str, Any]]:
 def _baseline_effects(base: FitResult, family: ComponentFamily | None = None) -> dict[str, Any]:
     model = unprofiled(base.model)
     out: dict[str, Any] = {
-        "effects": [e.to_dict() for e in current_effects(model)],
+        "effects": [e.to_dict() for e in model.effects],
         "words": baseline_words(model) if isinstance(model, ComponentModel) else "",
     }
     if family is not None and family.rig is not None:
