@@ -56,6 +56,7 @@ import numpy as np
 from scipy import stats
 
 from suspenv.core.errors import ValidationError
+from suspenv.diagnosis.component.matched_speed import relative_clusters
 from suspenv.diagnosis.component.motion import cycle_index, motion
 from suspenv.diagnosis.component.refit import SIZE_Z, parameter_and_error, refit_with
 from suspenv.diagnosis.component.residual_left import beyond_library
@@ -180,12 +181,8 @@ def phase_by_frequency(
             recorded, modelled = np.sum(y[sel] * turn), np.sum(model_y[sel] * turn)
             if abs(modelled) > 0 and abs(recorded) > 0:
                 cycles.append((1.0 / period, -float(np.angle(recorded / modelled))))
-    groups: list[list[tuple[float, float]]] = []
-    for f, late in sorted(cycles):
-        if groups and f <= groups[-1][0][0] * (1.0 + PHASE_FREQUENCY_TOLERANCE):
-            groups[-1].append((f, late))
-        else:
-            groups.append([(f, late)])
+    freqs = np.array([f for f, _ in cycles])
+    groups = [[cycles[i] for i in g] for g in relative_clusters(freqs, PHASE_FREQUENCY_TOLERANCE)]
     kept = sorted(sorted(groups, key=len, reverse=True)[:PHASE_ROWS], key=lambda g: g[0][0])
     rows = []
     for g in kept:
