@@ -27,6 +27,7 @@ from suspenv.diagnosis.checks.finding import Context, Finding
 from suspenv.diagnosis.component.motion import stroke
 from suspenv.diagnosis.component.refit import SIZE_Z, parameter_and_error
 from suspenv.diagnosis.fitting import FitResult
+from suspenv.diagnosis.hypothesis import split_candidate
 from suspenv.diagnosis.split import Split
 
 
@@ -36,7 +37,7 @@ def _judged_element(
     """(kind, the refitted element at its fitted values) of ``candidate`` in ``ext`` when
     its kind is among ``kinds`` (those a rule judges) and the refit holds it; None
     otherwise (the rule does not apply)."""
-    kind = candidate.partition("@")[0]
+    kind = split_candidate(candidate)[0]
     element = ext.element(kind) if kind in kinds else None
     return None if element is None else (kind, element)
 
@@ -189,7 +190,7 @@ def fits_presliding(model: Any, candidates: Sequence[str]) -> bool:
     width decides).
     """
     return rounds_own_step(model, "lugre_friction") and any(
-        c.partition("@")[0] == "lugre_friction" for c in candidates
+        split_candidate(c)[0] == "lugre_friction" for c in candidates
     )
 
 
@@ -260,7 +261,7 @@ def check_presliding_is_friction(candidate: str, ext: FitResult, half_stroke: fl
     :class:`ValidationError`, so the hysteresis refitted in the same round is named. Not
     judged where the width or its error is not known.
     """
-    kind = candidate.partition("@")[0]
+    kind = split_candidate(candidate)[0]
     if kind != "lugre_friction" or half_stroke <= 0:
         return
     width, sd = ratio_and_error(ext, kind, "f_c", "sigma0")
@@ -530,7 +531,7 @@ def run(ctx: Context) -> Finding | None:
             check_presliding_is_friction(candidate, ext, half)
         check_parallel_branch(candidate, ext, ctx.rule.alpha)
         check_resolved_size(candidate, ext)
-        rounded = rounds_own_step(setup.model, candidate.partition("@")[0])
+        rounded = rounds_own_step(setup.model, split_candidate(candidate)[0])
         check_stiction_decays(candidate, ext, vmax, rounded)
         check_breakaway_recorded(candidate, ext, setup.split)
     except ValidationError as exc:

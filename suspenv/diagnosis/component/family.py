@@ -94,7 +94,13 @@ from suspenv.diagnosis.family import (
     SignatureLike,
 )
 from suspenv.diagnosis.fitting import FitResult, fit, residuals
-from suspenv.diagnosis.hypothesis import Ambiguity, Hypothesis, Withdrawal, family_of
+from suspenv.diagnosis.hypothesis import (
+    Ambiguity,
+    Hypothesis,
+    Withdrawal,
+    family_of,
+    split_candidate,
+)
 from suspenv.diagnosis.protocols import DiagnosableModel, RecordingLike
 from suspenv.diagnosis.screening import Location, Signature
 from suspenv.diagnosis.split import Holdout, Recordings, Split, as_recordings
@@ -579,7 +585,7 @@ class ComponentFamily(OptionalSteps):
         if not location and isinstance(signature, Signature) and signature.channel:
             # a sensor error sits on the recorded channel its signature was found in
             location = signature.channel
-        if candidate.partition("@")[0] == "sensor_lag":
+        if split_candidate(candidate)[0] == "sensor_lag":
             # a sensor lag's channel (the model's first output unless located)
             refused = self.delay_tests.get(location or setup.model.output_channels[0])
             if refused is not None:  # a delay beat the lag of this channel in an earlier round
@@ -616,7 +622,7 @@ class ComponentFamily(OptionalSteps):
         library element, :func:`~suspenv.diagnosis.component.delay.delay_against_lag`);
         the first decisive test of a channel is kept for the checks after the search."""
         ext = ctx.refit
-        if ext is None or ctx.candidate.partition("@")[0] != "sensor_lag":
+        if ext is None or split_candidate(ctx.candidate)[0] != "sensor_lag":
             return None
         channel = str(ext.extra["effect"]["location"] or ctx.setup.model.output_channels[0])
         sp = ctx.setup.split
