@@ -59,14 +59,14 @@ BACKFIT_ROUNDS = 3
 DRIFT_KIND = "zero_drift"
 
 
-def drift_basis(time: np.ndarray, order: int = DRIFT_ORDER) -> np.ndarray:
-    """The Legendre polynomials P4 ... P``order`` of ``u = 2 (t - t0) / T - 1`` over a
-    recording's times ``time`` [s] (``T`` its duration), one column each (n, order - 3):
-    the drift's shape beyond the baseline's P0-P3."""
+def drift_basis(time: np.ndarray, order: int = DRIFT_ORDER, lowest: int = 4) -> np.ndarray:
+    """The Legendre polynomials P``lowest`` ... P``order`` of ``u = 2 (t - t0) / T - 1``
+    over a recording's times ``time`` [s] (``T`` its duration), one column each
+    (n, order - lowest + 1); by default the drift's shape beyond the baseline's P0-P3."""
     t = np.asarray(time, float)
     span = float(t[-1] - t[0]) if t.size > 1 and t[-1] > t[0] else 1.0
     u = 2.0 * (t - t[0]) / span - 1.0
-    return legendre.legvander(u, order)[:, 4:]
+    return legendre.legvander(u, order)[:, lowest:]
 
 
 def drifting_channels(model: Any) -> list[str]:
