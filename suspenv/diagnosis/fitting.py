@@ -131,6 +131,10 @@ class FitResult:
         _, effects = self.model.unpack(self.theta)
         return next((e for e in effects if e.kind == kind), None)
 
+    def predict(self, rec: Any) -> dict[str, np.ndarray]:
+        """The fitted model's predicted output channels of ``rec`` (channel units)."""
+        return self.model.simulate(self.theta, rec)
+
     def main_channel(self) -> str:
         """The channel holding the largest scaled residual (``ssr / scale^2``)."""
         return max(self.channels, key=lambda c: self.ssr[c] / (self.scales[c] ** 2))
