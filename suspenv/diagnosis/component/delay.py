@@ -301,10 +301,8 @@ def heldout_z_of_delay(
     predicts the held-out samples better than a change fitted to noise would) from the
     two fits' held-out residuals, each channel's noise scale the better fit's residual RMS
     on the fit samples, and its lag-1 autocorrelation."""
-    noise = {
-        c: float(np.sqrt(min(lag.ssr[c] / lag.n[c], delay.ssr[c] / delay.n[c])))
-        for c in lag.channels
-    }
+    lag_rms, delay_rms = lag.rms(), delay.rms()
+    noise = {c: min(lag_rms[c], delay_rms[c]) for c in lag.channels}
     better = delay if sum(delay.ssr.values()) < sum(lag.ssr.values()) else lag
     rho = float(better.extra.get("lag1_autocorrelation", 0.0))
     return heldout_confirmation_z(lag_heldout, delay_heldout, noise, rho)
