@@ -160,12 +160,12 @@ def _force_view_signal_set(fit: FitResult, sp: Split) -> SignalSet | None:
     if len(views) < len(seen):
         return None
     sel = sp.fit_selections()
-    meas = np.concatenate([v["measured"][m] for v, m in zip(views, sel, strict=True)])
-    scale = float(np.std(meas)) or 1.0
 
     def cat(key: str) -> np.ndarray:
         return np.concatenate([v[key][m] for v, m in zip(views, sel, strict=True)])
 
+    meas = cat("measured")
+    scale = float(np.std(meas)) or 1.0
     return _stacked(
         sp,
         sel,
