@@ -75,6 +75,7 @@ def _fit(model, base, stderr=None, stderr_corrected=None):
     )
     fit.params = lambda: FitResult.params(fit)  # the real accessors on these fields
     fit.covariance_corrected = lambda: FitResult.covariance_corrected(fit)
+    fit.element = lambda kind: FitResult.element(fit, kind)
     return fit
 
 

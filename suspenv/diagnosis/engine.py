@@ -191,12 +191,12 @@ class Diagnosis:
         return limits
 
     def effect(self, kind: str) -> Any:
-        """The fitted element of ``kind`` in the final model, its values set (None if absent)."""
-        _, effects = self.final_fit.model.unpack(self.final_fit.theta)
-        for e in effects:
-            if e.kind == kind:
-                return e.with_params({k: float(np.ravel(v)[0]) for k, v in e.params.items()})
-        return None
+        """The fitted element of ``kind`` in the final model, its values set as numbers
+        (None if absent; :meth:`~suspenv.diagnosis.fitting.FitResult.element`)."""
+        e = self.final_fit.element(kind)
+        if e is None:
+            return None
+        return e.with_params({k: float(np.ravel(v)[0]) for k, v in e.params.items()})
 
     def to_dict(self) -> dict[str, Any]:
         return {

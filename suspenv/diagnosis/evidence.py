@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 from scipy import stats
 
-from suspenv.diagnosis.fitting import FitResult, lag1_autocorrelation, residuals
+from suspenv.diagnosis.fitting import FitResult, ar1_effective_size, lag1_autocorrelation, residuals
 from suspenv.diagnosis.split import Recordings, Split, as_recordings
 
 
@@ -206,9 +206,7 @@ def likelihood_ratio(base: FitResult, ext: FitResult, ext_residual: np.ndarray) 
     """LR test of nested fits ``base`` (fewer parameters) vs ``ext``."""
     stat = max(2.0 * (ext.log_likelihood() - base.log_likelihood()), 0.0)
     dof = max(ext.n_params - base.n_params, 1)
-    rho = max(lag1_autocorrelation(ext_residual), 0.0)
-    factor = (1.0 - rho) / (1.0 + rho)
-    stat_c = stat * factor
+    stat_c = stat * ar1_effective_size(1.0, lag1_autocorrelation(ext_residual))
     return LikelihoodRatio(
         statistic=stat,
         dof=dof,

@@ -125,6 +125,16 @@ class FitResult:
     def n_samples(self) -> int:
         return int(sum(self.n.values()))
 
+    def element(self, kind: str) -> Any | None:
+        """The model's element of ``kind`` at its fitted values (None when the model holds
+        none)."""
+        _, effects = self.model.unpack(self.theta)
+        return next((e for e in effects if e.kind == kind), None)
+
+    def predict(self, rec: Any) -> dict[str, np.ndarray]:
+        """The fitted model's predicted output channels of ``rec`` (channel units)."""
+        return self.model.simulate(self.theta, rec)
+
     def main_channel(self) -> str:
         """The channel holding the largest scaled residual (``ssr / scale^2``)."""
         return max(self.channels, key=lambda c: self.ssr[c] / (self.scales[c] ** 2))
@@ -206,6 +216,15 @@ def lag1_autocorrelation(r: np.ndarray) -> float:
     if r.size < 3 or den <= 0.0:
         return 0.0
     return float(np.dot(r[1:], r[:-1]) / den)
+
+
+def ar1_effective_size(n: float, rho: float) -> float:
+    """The effective number of independent samples among ``n`` samples of an AR(1)
+    series of lag-1 autocorrelation ``rho`` (a negative ``rho`` counts as 0):
+    ``n (1 - rho) / (1 + rho)``. ``n = 1`` gives the share ``n_eff / n`` that scales a
+    likelihood-ratio statistic of serially correlated residuals."""
+    r = max(float(rho), 0.0)
+    return n * (1.0 - r) / (1.0 + r)
 
 
 def stacked_residual(

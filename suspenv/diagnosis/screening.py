@@ -19,7 +19,7 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 from scipy import stats
 
-from suspenv.diagnosis.fitting import lag1_autocorrelation
+from suspenv.diagnosis.fitting import ar1_effective_size, lag1_autocorrelation
 
 #: a part is a hotspot when it holds this much more than its fair share ...
 HOTSPOT_ENRICHMENT = 1.5
@@ -99,9 +99,10 @@ class Signature:
 
 
 def effective_n(r: np.ndarray) -> float:
-    """Effective number of independent samples of a serially correlated series (AR(1))."""
-    rho = float(np.clip(lag1_autocorrelation(r), 0.0, 0.999))
-    return max(r.size * (1.0 - rho) / (1.0 + rho), 2.0)
+    """Effective number of independent samples of a serially correlated series
+    (:func:`~suspenv.diagnosis.fitting.ar1_effective_size`, lag-1 autocorrelation at most
+    0.999), at least 2."""
+    return max(ar1_effective_size(r.size, min(lag1_autocorrelation(r), 0.999)), 2.0)
 
 
 def orthonormal_basis(J: np.ndarray | None) -> np.ndarray | None:

@@ -43,6 +43,7 @@ import numpy as np
 
 from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.family import Setup
+from suspenv.diagnosis.hypothesis import split_candidate
 from suspenv.diagnosis.protocols import RecordingLike
 from suspenv.diagnosis.split import Split
 from suspenv.measurements.knc import FORCE_INPUTS, INPUTS, is_force_test
@@ -207,7 +208,7 @@ def element_parameters(candidate: str) -> int:
     """Free parameters an element of ``candidate`` (``kind`` or ``kind@location``) adds."""
     from suspenv.models.effects.effect import effect_kinds
 
-    spec = effect_kinds().get(candidate.split("@", 1)[0])
+    spec = effect_kinds().get(split_candidate(candidate)[0])
     if spec is None:
         return DEFAULT_ELEMENT_PARAMETERS
     extra = HOST_ELEMENT_PARAMETERS if spec.host_parameters else 0

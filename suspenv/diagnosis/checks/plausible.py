@@ -25,8 +25,9 @@ from scipy import stats
 from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.checks.finding import Context, Finding
 from suspenv.diagnosis.component.motion import stroke
-from suspenv.diagnosis.component.refit import SIZE_Z, parameter_and_error, refitted_element
+from suspenv.diagnosis.component.refit import SIZE_Z, parameter_and_error
 from suspenv.diagnosis.fitting import FitResult
+from suspenv.diagnosis.hypothesis import split_candidate
 from suspenv.diagnosis.split import Split
 
 
@@ -36,8 +37,8 @@ def _judged_element(
     """(kind, the refitted element at its fitted values) of ``candidate`` in ``ext`` when
     its kind is among ``kinds`` (those a rule judges) and the refit holds it; None
     otherwise (the rule does not apply)."""
-    kind = candidate.partition("@")[0]
-    element = refitted_element(ext, kind) if kind in kinds else None
+    kind = split_candidate(candidate)[0]
+    element = ext.element(kind) if kind in kinds else None
     return None if element is None else (kind, element)
 
 
@@ -47,7 +48,7 @@ def _fitted_with_covariance(
     """The fitted values of those of ``parameters`` of the element of ``kind`` in ``ext``
     that the fit frees (a parameter held fixed is left out), their covariance block
     (inflated like ``stderr_corrected``) and its order; empty without the element."""
-    element = refitted_element(ext, kind)
+    element = ext.element(kind)
     if element is None:
         return {}, np.zeros((0, 0)), []
     names = list(ext.names)
@@ -83,7 +84,7 @@ def stribeck_rise_and_error(ext: FitResult, kind: str, vmax: float) -> tuple[flo
     values, cov, free = _fitted_with_covariance(ext, kind, ("f_c", "f_s", "v_s"))
     if "f_c" not in values or "f_s" not in values:
         return np.nan, np.nan
-    element = refitted_element(ext, kind)
+    element = ext.element(kind)
     assert element is not None  # it holds fitted levels
     v_s = float(np.ravel(element.params["v_s"])[0])
     if not (vmax > 0 and v_s > 0):
@@ -189,7 +190,7 @@ def fits_presliding(model: Any, candidates: Sequence[str]) -> bool:
     width decides).
     """
     return rounds_own_step(model, "lugre_friction") and any(
-        c.partition("@")[0] == "lugre_friction" for c in candidates
+        split_candidate(c)[0] == "lugre_friction" for c in candidates
     )
 
 
@@ -260,7 +261,7 @@ def check_presliding_is_friction(candidate: str, ext: FitResult, half_stroke: fl
     :class:`ValidationError`, so the hysteresis refitted in the same round is named. Not
     judged where the width or its error is not known.
     """
-    kind = candidate.partition("@")[0]
+    kind = split_candidate(candidate)[0]
     if kind != "lugre_friction" or half_stroke <= 0:
         return
     width, sd = ratio_and_error(ext, kind, "f_c", "sigma0")
@@ -530,7 +531,7 @@ def run(ctx: Context) -> Finding | None:
             check_presliding_is_friction(candidate, ext, half)
         check_parallel_branch(candidate, ext, ctx.rule.alpha)
         check_resolved_size(candidate, ext)
-        rounded = rounds_own_step(setup.model, candidate.partition("@")[0])
+        rounded = rounds_own_step(setup.model, split_candidate(candidate)[0])
         check_stiction_decays(candidate, ext, vmax, rounded)
         check_breakaway_recorded(candidate, ext, setup.split)
     except ValidationError as exc:

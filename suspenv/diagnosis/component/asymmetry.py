@@ -18,7 +18,7 @@ import numpy as np
 
 from suspenv.diagnosis.component.matched_speed import MatchedSpeedAsymmetry, matched_speed_asymmetry
 from suspenv.diagnosis.component.motion import cycle_index, motion
-from suspenv.diagnosis.component.refit import current_effects, refit_with
+from suspenv.diagnosis.component.refit import refit_with
 from suspenv.diagnosis.evidence import compare, heldout_rms, scaled_rms
 from suspenv.diagnosis.fitting import FitResult, fit
 from suspenv.diagnosis.hypothesis import Hypothesis, corrected_delta_bic
@@ -73,7 +73,7 @@ def _curve_force(result: FitResult, v: float) -> float:
     (a)symmetric digressive element of ``result`` (hysteresis, lag and offset left out)."""
     p = dict(zip(result.names, result.theta, strict=True))
     f = float(p.get("c", 0.0)) * v
-    for e in current_effects(result.model):
+    for e in result.model.effects:
         if e.kind in ("digressive_damping", "asymmetric_digressive_damping"):
             own = {k.split(".", 1)[1]: val for k, val in p.items() if k.startswith(e.name + ".")}
             f += float(e.with_params(own).force(np.zeros(1), np.array([v]))[0])
@@ -118,7 +118,7 @@ def asymmetry_check(
     model-free matched-speed check rejects a constant force and a drifting zero and the
     asymmetric refit lowers the held-out error.
     """
-    effects = current_effects(current.model)
+    effects = current.model.effects
     dig = [e for e in effects if e.kind == "digressive_damping"]
     if not dig:
         return None
@@ -139,7 +139,7 @@ def asymmetry_check(
         c_rebound=c_low,
         v_knee_rebound=v_knee,
     )
-    alt_effects = tuple(asym if e.name == d.name else e for e in current_effects(null.model))
+    alt_effects = tuple(asym if e.name == d.name else e for e in null.model.effects)
     alt_model = null.model.with_effects(alt_effects)
     theta0 = {k: v for k, v in vals.items() if not k.startswith(d.name + ".")}
     theta0.update({f"{asym.name}.{k}": float(v) for k, v in asym.params.items()})
@@ -168,7 +168,7 @@ def asymmetry_check(
     if matched is not None and matched.supported and comp.heldout_reduction > 0.0:
         supported = True
     off_name = next(
-        (e.name for e in current_effects(null.model) if e.kind in ("force_offset", "gas_spring")),
+        (e.name for e in null.model.effects if e.kind in ("force_offset", "gas_spring")),
         "",
     )
     off_keys = (f"{off_name}.offset", f"{off_name}.f_0") + (("f_0",) if base_offset else ())

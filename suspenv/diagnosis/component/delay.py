@@ -56,6 +56,7 @@ import numpy as np
 from scipy import stats
 
 from suspenv.core.errors import ValidationError
+from suspenv.diagnosis.component.matched_speed import relative_clusters
 from suspenv.diagnosis.component.motion import cycle_index, motion
 from suspenv.diagnosis.component.refit import SIZE_Z, parameter_and_error, refit_with
 from suspenv.diagnosis.component.residual_left import beyond_library
@@ -69,7 +70,7 @@ from suspenv.diagnosis.evidence import (
     likelihood_ratio,
     relative_drop,
 )
-from suspenv.diagnosis.fitting import FitResult
+from suspenv.diagnosis.fitting import FitResult, ar1_effective_size
 from suspenv.diagnosis.hypothesis import Hypothesis, Withdrawal
 from suspenv.diagnosis.split import Split
 
@@ -180,12 +181,8 @@ def phase_by_frequency(
             recorded, modelled = np.sum(y[sel] * turn), np.sum(model_y[sel] * turn)
             if abs(modelled) > 0 and abs(recorded) > 0:
                 cycles.append((1.0 / period, -float(np.angle(recorded / modelled))))
-    groups: list[list[tuple[float, float]]] = []
-    for f, late in sorted(cycles):
-        if groups and f <= groups[-1][0][0] * (1.0 + PHASE_FREQUENCY_TOLERANCE):
-            groups[-1].append((f, late))
-        else:
-            groups.append([(f, late)])
+    freqs = np.array([f for f, _ in cycles])
+    groups = [[cycles[i] for i in g] for g in relative_clusters(freqs, PHASE_FREQUENCY_TOLERANCE)]
     kept = sorted(sorted(groups, key=len, reverse=True)[:PHASE_ROWS], key=lambda g: g[0][0])
     rows = []
     for g in kept:
@@ -215,8 +212,7 @@ def bic_difference(a: FitResult, b: FitResult) -> float:
         if sa > 0 and sb > 0:
             total += a.n[c] * float(np.log(sa / sb))
     better = b if total > 0 else a
-    rho = max(float(better.extra.get("lag1_autocorrelation", 0.0)), 0.0)
-    return total * (1.0 - rho) / (1.0 + rho)
+    return ar1_effective_size(total, better.extra.get("lag1_autocorrelation", 0.0))
 
 
 def fit_delay(current: FitResult, sp: Split, channel: str, start: float, budget: int) -> FitResult:
@@ -305,10 +301,8 @@ def heldout_z_of_delay(
     predicts the held-out samples better than a change fitted to noise would) from the
     two fits' held-out residuals, each channel's noise scale the better fit's residual RMS
     on the fit samples, and its lag-1 autocorrelation."""
-    noise = {
-        c: float(np.sqrt(min(lag.ssr[c] / lag.n[c], delay.ssr[c] / delay.n[c])))
-        for c in lag.channels
-    }
+    lag_rms, delay_rms = lag.rms(), delay.rms()
+    noise = {c: min(lag_rms[c], delay_rms[c]) for c in lag.channels}
     better = delay if sum(delay.ssr.values()) < sum(lag.ssr.values()) else lag
     rho = float(better.extra.get("lag1_autocorrelation", 0.0))
     return heldout_confirmation_z(lag_heldout, delay_heldout, noise, rho)

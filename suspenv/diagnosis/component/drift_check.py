@@ -44,7 +44,7 @@ from typing import Any
 import numpy as np
 from numpy.polynomial import legendre
 
-from suspenv.diagnosis.component.withdrawal import element_name, without_element
+from suspenv.diagnosis.component.withdrawal import element_name, reduced, without_element
 from suspenv.diagnosis.decision import DecisionRule
 from suspenv.diagnosis.evidence import fit_residual_series, likelihood_ratio
 from suspenv.diagnosis.fitting import FitResult, fit, residuals
@@ -59,14 +59,14 @@ BACKFIT_ROUNDS = 3
 DRIFT_KIND = "zero_drift"
 
 
-def drift_basis(time: np.ndarray, order: int = DRIFT_ORDER) -> np.ndarray:
-    """The Legendre polynomials P4 ... P``order`` of ``u = 2 (t - t0) / T - 1`` over a
-    recording's times ``time`` [s] (``T`` its duration), one column each (n, order - 3):
-    the drift's shape beyond the baseline's P0-P3."""
+def drift_basis(time: np.ndarray, order: int = DRIFT_ORDER, lowest: int = 4) -> np.ndarray:
+    """The Legendre polynomials P``lowest`` ... P``order`` of ``u = 2 (t - t0) / T - 1``
+    over a recording's times ``time`` [s] (``T`` its duration), one column each
+    (n, order - lowest + 1); by default the drift's shape beyond the baseline's P0-P3."""
     t = np.asarray(time, float)
     span = float(t[-1] - t[0]) if t.size > 1 and t[-1] > t[0] else 1.0
     u = 2.0 * (t - t[0]) / span - 1.0
-    return legendre.legvander(u, order)[:, 4:]
+    return legendre.legvander(u, order)[:, lowest:]
 
 
 def drifting_channels(model: Any) -> list[str]:
@@ -81,16 +81,18 @@ def fit_beside_drift(
     scales: dict[str, float],
     channels: Sequence[str],
     budget: int,
+    rounds: int = BACKFIT_ROUNDS,
 ) -> FitResult:
     """``model`` fitted on the fit samples beside the drift's extra terms on
-    ``channels`` (module docstring): the fit of the last backfitting round, on the
-    recordings with the drift it found taken off."""
+    ``channels`` (module docstring): the fit of the last of ``rounds`` backfitting rounds
+    (1: the plain fit beside the baseline's drift), on the recordings with the drift it
+    found taken off (``extra["drift_corrected"]``)."""
     masks = sp.fit_masks
     # the component rigs' recordings (:class:`~suspenv.measurements.Recording`)
     corrected: list[Any] = list(sp.fit_recordings)
     bases = [drift_basis(np.asarray(rec.time, float)) for rec in corrected]
     res = fit(model, corrected, masks, theta0=theta0, scales=scales, max_nfev=budget)
-    for _ in range(BACKFIT_ROUNDS - 1):
+    for _ in range(rounds - 1):
         parts = residuals(res.model, res.theta, corrected, res.channels)
         new: list[Any] = []
         selections = sp.fit_selections()
@@ -134,7 +136,6 @@ def judge_beside_drift(
         f"a zero drift of more shape (Legendre terms to order {DRIFT_ORDER} over the "
         f"record on {', '.join(channels)})"
     )
-    values = dict(zip(final.names, final.theta, strict=True))
     named_names = {str(element_name(h)) for h in order}
 
     fits: dict[tuple[tuple[str, ...], bool], FitResult] = {}
@@ -145,31 +146,16 @@ def judge_beside_drift(
         baseline's; each fitted once, when first asked for."""
         key = (tuple(kept), drift)
         if key not in fits:
-            effects = [
-                e for e in final.model.effects if e.name not in named_names or e.name in kept
-            ]
-            dropped = tuple(f"{n}." for n in named_names - set(kept))
-            theta0 = {k: float(v) for k, v in values.items() if not k.startswith(dropped)}
-            model = final.model.with_effects(effects)
-            fits[key] = (
-                fit_beside_drift(model, theta0, sp, final.scales, channels, budget)
-                if drift
-                else fit(
-                    model,
-                    sp.fit_recordings,
-                    sp.fit_masks,
-                    theta0=theta0,
-                    scales=final.scales,
-                    max_nfev=budget,
-                )
-            )
+            model, theta0 = reduced(final, named_names - set(kept))
+            rounds = BACKFIT_ROUNDS if drift else 1  # one round: the plain fit
+            fits[key] = fit_beside_drift(model, theta0, sp, final.scales, channels, budget, rounds)
         return fits[key]
 
     def test(kept: Sequence[str], name: str, drift: bool) -> tuple[float, float]:
         """(corrected p-value, corrected BIC change) of the element ``name`` added to
         the baseline with ``kept`` (the likelihood ratio of every refit)."""
         with_it, without = with_elements([*kept, name], drift), with_elements(kept, drift)
-        recordings = with_it.extra["drift_corrected"] if drift else sp.fit_recordings
+        recordings = with_it.extra["drift_corrected"]
         lr = likelihood_ratio(
             without, with_it, fit_residual_series(with_it, recordings, sp.fit_masks)
         )

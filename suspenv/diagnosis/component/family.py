@@ -65,7 +65,7 @@ from suspenv.diagnosis.component.motion_inputs import (
     motion_versions,
     preferred_version,
 )
-from suspenv.diagnosis.component.refit import current_effects, parameter_and_error, refit_with
+from suspenv.diagnosis.component.refit import parameter_and_error, refit_with
 from suspenv.diagnosis.component.residual_left import MOVING_FRACTION, ResidualLeft, residual_left
 from suspenv.diagnosis.component.rig import (
     RigDescription,
@@ -94,7 +94,13 @@ from suspenv.diagnosis.family import (
     SignatureLike,
 )
 from suspenv.diagnosis.fitting import FitResult, fit, residuals
-from suspenv.diagnosis.hypothesis import Ambiguity, Hypothesis, Withdrawal, family_of
+from suspenv.diagnosis.hypothesis import (
+    Ambiguity,
+    Hypothesis,
+    Withdrawal,
+    family_of,
+    split_candidate,
+)
 from suspenv.diagnosis.protocols import DiagnosableModel, RecordingLike
 from suspenv.diagnosis.screening import Location, Signature
 from suspenv.diagnosis.split import Holdout, Recordings, Split, as_recordings
@@ -154,12 +160,12 @@ def _force_view_signal_set(fit: FitResult, sp: Split) -> SignalSet | None:
     if len(views) < len(seen):
         return None
     sel = sp.fit_selections()
-    meas = np.concatenate([v["measured"][m] for v, m in zip(views, sel, strict=True)])
-    scale = float(np.std(meas)) or 1.0
 
     def cat(key: str) -> np.ndarray:
         return np.concatenate([v[key][m] for v, m in zip(views, sel, strict=True)])
 
+    meas = cat("measured")
+    scale = float(np.std(meas)) or 1.0
     return _stacked(
         sp,
         sel,
@@ -579,7 +585,7 @@ class ComponentFamily(OptionalSteps):
         if not location and isinstance(signature, Signature) and signature.channel:
             # a sensor error sits on the recorded channel its signature was found in
             location = signature.channel
-        if candidate.partition("@")[0] == "sensor_lag":
+        if split_candidate(candidate)[0] == "sensor_lag":
             # a sensor lag's channel (the model's first output unless located)
             refused = self.delay_tests.get(location or setup.model.output_channels[0])
             if refused is not None:  # a delay beat the lag of this channel in an earlier round
@@ -616,7 +622,7 @@ class ComponentFamily(OptionalSteps):
         library element, :func:`~suspenv.diagnosis.component.delay.delay_against_lag`);
         the first decisive test of a channel is kept for the checks after the search."""
         ext = ctx.refit
-        if ext is None or ctx.candidate.partition("@")[0] != "sensor_lag":
+        if ext is None or split_candidate(ctx.candidate)[0] != "sensor_lag":
             return None
         channel = str(ext.extra["effect"]["location"] or ctx.setup.model.output_channels[0])
         sp = ctx.setup.split
@@ -905,7 +911,7 @@ def baseline_offsets(fit: FitResult) -> list[dict[str, Any]]:
 def _baseline_effects(base: FitResult, family: ComponentFamily | None = None) -> dict[str, Any]:
     model = unprofiled(base.model)
     out: dict[str, Any] = {
-        "effects": [e.to_dict() for e in current_effects(model)],
+        "effects": [e.to_dict() for e in model.effects],
         "words": baseline_words(model) if isinstance(model, ComponentModel) else "",
     }
     if family is not None and family.rig is not None:

@@ -242,13 +242,13 @@ def half_cycles(
     return out
 
 
-def _cluster(speeds: np.ndarray, tol: float) -> list[np.ndarray]:
-    """Indices grouped so that speeds in a group lie within ``tol`` (relative) of the
-    group's slowest member."""
-    order = np.argsort(speeds)
+def relative_clusters(values: np.ndarray, tol: float) -> list[np.ndarray]:
+    """Indices of positive ``values`` (speeds, frequencies) grouped, smallest first, so
+    that the values of a group lie within ``tol`` (relative) of its smallest member."""
+    order = np.argsort(values)
     groups: list[list[int]] = []
     for i in order:
-        if groups and speeds[i] <= speeds[groups[-1][0]] * (1.0 + tol):
+        if groups and values[i] <= values[groups[-1][0]] * (1.0 + tol):
             groups[-1].append(int(i))
         else:
             groups.append([int(i)])
@@ -311,7 +311,7 @@ def speed_groups(
         if not own:
             continue
         sp = np.array([c.speed for c in own])
-        for idx in _cluster(sp, speed_tol):
+        for idx in relative_clusters(sp, speed_tol):
             if idx.size >= min_per_side:
                 sides[d].append(_Side(tuple(own[i] for i in idx)))
     dev2 = sum(float(np.sum((c.forces - c.forces.mean()) ** 2)) for d in sides for c in sides[d])

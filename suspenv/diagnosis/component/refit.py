@@ -14,29 +14,13 @@ Units: SI throughout (see :mod:`suspenv.models.effects`).
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any, TypeVar
 
 import numpy as np
 
 from suspenv.diagnosis.fitting import FitResult, fit
-from suspenv.diagnosis.protocols import DiagnosableModel, EffectLike, RecordingLike
+from suspenv.diagnosis.protocols import RecordingLike
 from suspenv.diagnosis.screening import Signature
 from suspenv.models.effects import make_effect
-
-E = TypeVar("E", bound=EffectLike)
-
-
-def current_effects(model: DiagnosableModel[Any, E]) -> tuple[E, ...]:
-    """The effects already in ``model`` (empty for a plain base model)."""
-    return tuple(model.effects)
-
-
-def refitted_element(ext: FitResult, kind: str) -> Any | None:
-    """The element of ``kind`` in the refitted model, at its fitted values (None when the
-    model holds none)."""
-    _, effects = ext.model.unpack(ext.theta)
-    return next((e for e in effects if e.kind == kind), None)
-
 
 #: a size counts as resolved when it is this many corrected standard errors from zero
 #: (:func:`parameter_and_error`): the size rule of every element and probe
@@ -47,7 +31,7 @@ def parameter_and_error(fit: FitResult, kind: str, parameter: str) -> tuple[floa
     """The fitted value of ``parameter`` of the element of ``kind`` in ``fit`` and its
     serial-correlation corrected standard error (NaN, NaN when the model holds none or
     holds the parameter fixed)."""
-    element = refitted_element(fit, kind)
+    element = fit.element(kind)
     if element is None:
         return np.nan, np.nan
     row = fit.params().get(f"{element.name}.{parameter}", {})
@@ -126,7 +110,7 @@ def refit_with(
     some (else the model's own guess). ``guess_given``: starting values of the new element's own
     parameters that replace those read off the signature (non-finite ones are dropped).
     """
-    names_taken = {e.name for e in current_effects(base.model)}
+    names_taken = {e.name for e in base.model.effects}
     name = kind if kind not in names_taken else f"{kind}_{len(names_taken)}"
     guess = signature_guess(kind, signature, half_stroke)
     guess.update({k: v for k, v in (guess_given or {}).items() if np.isfinite(v)})
@@ -141,7 +125,7 @@ def refit_with(
         if (v := guess.get(k)) is not None
     }
     effect = effect.with_params(clipped)
-    model = base.model.with_effects((*current_effects(base.model), effect))
+    model = base.model.with_effects((*base.model.effects, effect))
     theta0 = dict(zip(base.names, base.theta, strict=True))
     # the rest of the new element's parameters come from the model's own guess
     theta0.update({f"{name}.{k}": v for k, v in clipped.items()})

@@ -85,6 +85,7 @@ import numpy as np
 from scipy import stats
 
 from suspenv.diagnosis.checks.residual_left import Left
+from suspenv.diagnosis.component.drift_check import drift_basis
 from suspenv.diagnosis.component.motion import cycle_index, motion
 from suspenv.diagnosis.component.motion_inputs import (
     as_recorded,
@@ -247,9 +248,7 @@ class ResidualLeft:
 def _detrend(t: np.ndarray, r: np.ndarray, cycles: int) -> np.ndarray:
     """``r`` less a Legendre polynomial in time of degree ``cycles / 4`` (1..6)."""
     deg = int(min(MAX_TREND_DEGREE, max(1, cycles // CYCLES_PER_TREND_DEGREE)))
-    span = float(t[-1] - t[0]) or 1.0
-    u = 2.0 * (t - t[0]) / span - 1.0
-    basis = np.polynomial.legendre.legvander(u, deg)
+    basis = drift_basis(t, deg, lowest=0)
     coef, *_ = np.linalg.lstsq(basis, r, rcond=None)
     return np.asarray(r - basis @ coef)
 

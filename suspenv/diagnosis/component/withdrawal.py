@@ -5,6 +5,9 @@ search (:func:`~suspenv.diagnosis.component.delay.judge_beside_delay`,
 
 from __future__ import annotations
 
+from collections.abc import Collection
+from typing import Any
+
 from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.fitting import FitResult, fit
 from suspenv.diagnosis.hypothesis import Hypothesis
@@ -22,22 +25,26 @@ def element_name(h: Hypothesis) -> str | None:
 def without_element(current: FitResult, name: str, sp: Split, budget: int) -> FitResult:
     """``current``'s model without its element ``name``, refitted on the fit samples from
     ``current``'s values of the other parameters (the same channel scales)."""
-    kept = [e for e in current.model.effects if e.name != name]
-    if len(kept) == len(current.model.effects):
+    if name not in {e.name for e in current.model.effects}:
         raise ValidationError(
             f"the element to leave out must be in the model, but got {name!r}; the model "
             f"holds {[e.name for e in current.model.effects]}"
         )
-    theta0 = {
-        k: float(v)
-        for k, v in zip(current.names, current.theta, strict=True)
-        if not k.startswith(f"{name}.")
-    }
+    model, theta0 = reduced(current, {name})
     return fit(
-        current.model.with_effects(kept),
+        model,
         sp.fit_recordings,
         sp.fit_masks,
         theta0=theta0,
         scales=current.scales,
         max_nfev=budget,
     )
+
+
+def reduced(current: FitResult, names: Collection[str]) -> tuple[Any, dict[str, float]]:
+    """``current``'s model without its elements ``names``, and ``current``'s fitted values
+    of the parameters left by name (the start of a refit without them)."""
+    dropped = tuple(f"{n}." for n in names)
+    model = current.model.with_effects([e for e in current.model.effects if e.name not in names])
+    values = zip(current.names, current.theta, strict=True)
+    return model, {k: float(v) for k, v in values if not k.startswith(dropped)}

@@ -126,7 +126,7 @@ def split_tests(recordings: Recordings, holdout: Holdout) -> Split:
 
 def _start_values(kind: str, sig: KncSignature | None) -> dict[str, float]:
     """Start of a new element's parameters read off its signature."""
-    if split_candidate(kind)[0] in ("dahl_hysteresis", "coulomb_friction") and sig is not None:
+    if split_candidate(kind)[0] in PATH_DEPENDENT and sig is not None:
         w = abs(sig.numbers.get("tyre_fz_loop_width_n", 0.0))
         return {"f_c": float(np.clip(0.5 * w, 5.0, 500.0))}
     return {}

@@ -55,6 +55,7 @@ from suspenv.diagnosis.screening import (
     Share,
     Signature,
     orthonormal_basis,
+    partial_r2,
     score_p_value,
 )
 from suspenv.diagnosis.split import Holdout, Recordings, Split, as_recordings, heldout_recordings
@@ -158,13 +159,8 @@ def screen_candidates(
             pred = _stacked_prediction(model, th, recordings, fit)
         except EvaluationError:
             pred = base_pred
-        feat = pred - base_pred
-        if basis is not None:
-            feat = feat - basis @ (basis.T @ feat)
-        # the partial R² of one feature in closed form (screening.partial_r2 agrees to rounding)
-        den = float(feat @ feat)
-        r2 = float((feat @ r) ** 2 / (den * float(r @ r))) if den > 0 and r @ r > 0 else 0.0
-        p = score_p_value(r2, r - (feat * (feat @ r) / den if den > 0 else 0.0))
+        r2, _, fitted = partial_r2(r, (pred - base_pred)[:, None], basis)
+        p = score_p_value(r2, r - fitted)
         out.append(
             Signature(
                 f"{kind}@{loc}",

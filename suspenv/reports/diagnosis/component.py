@@ -48,8 +48,8 @@ def residual_map(diag: Diagnosis, path: Path) -> Path:
 
 def _predictions(diag: Diagnosis, rec: Any) -> tuple[np.ndarray, np.ndarray]:
     c = diag.channel
-    before = np.asarray(diag.base_fit.model.simulate(diag.base_fit.theta, rec)[c], float)
-    after = np.asarray(diag.final_fit.model.simulate(diag.final_fit.theta, rec)[c], float)
+    before = np.asarray(diag.base_fit.predict(rec)[c], float)
+    after = np.asarray(diag.final_fit.predict(rec)[c], float)
     return before, after
 
 

@@ -63,10 +63,6 @@ def plot_residual_map(diag: Any, path: Path) -> Path:
     return save_figure(fig, path, dpi=90)
 
 
-def _curves(fit: Any, rec: Any) -> dict[str, np.ndarray]:
-    return fit.model.simulate(fit.theta, rec)
-
-
 def plot_loops(diag: Any, recs: list[Any], path: Path) -> Path:
     """Loops of every test: measured (dots), baseline, final model; left solid, right dashed."""
     plt = pyplot()
@@ -75,8 +71,8 @@ def plot_loops(diag: Any, recs: list[Any], path: Path) -> Path:
         len(chans), len(recs), figsize=(3.6 * len(recs), 2.3 * len(chans)), squeeze=False
     )
     for j, rec in enumerate(recs):
-        base = _curves(diag.base_fit, rec)
-        final = _curves(diag.final_fit, rec)
+        base = diag.base_fit.predict(rec)
+        final = diag.final_fit.predict(rec)
         xlabel, factor = drive_label(rec)
         for i, c in enumerate(chans):
             k, unit = PLOT_UNITS[c]
@@ -125,8 +121,8 @@ def plot_left_right(diag: Any, recs: list[Any], path: Path) -> Path:
         max(len(recs), 1), 3, figsize=(11, 2.6 * max(len(recs), 1)), squeeze=False
     )
     for i, rec in enumerate(recs):
-        base = _curves(diag.base_fit, rec)
-        final = _curves(diag.final_fit, rec)
+        base = diag.base_fit.predict(rec)
+        final = diag.final_fit.predict(rec)
         xlabel, factor = drive_label(rec)
         grid = np.linspace(-1.0, 1.0, int(rec.meta["steps"]) + 1) * rec.meta["amplitude"] * factor
         for j, c in enumerate(("toe", "camber", "tyre_fz")):

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -21,10 +20,6 @@ from suspenv.diagnosis.ride.residual import NOISE_BAND_HZ
 from suspenv.metrics.ride import acceleration_psd
 from suspenv.reports._mpl import pyplot, save_figure
 from suspenv.reports.diagnosis.component import residual_map
-
-
-def _pred(fit: Any, rec: Any) -> dict[str, np.ndarray]:
-    return fit.model.simulate(fit.theta, rec)
 
 
 def time_overlays(diag: Diagnosis, path: Path) -> Path:
@@ -42,7 +37,7 @@ def time_overlays(diag: Diagnosis, path: Path) -> Path:
         sharex="row",
     )
     for i, rec in enumerate(recs):
-        pb, pf = _pred(diag.base_fit, rec), _pred(diag.final_fit, rec)
+        pb, pf = diag.base_fit.predict(rec), diag.final_fit.predict(rec)
         held = rec in diag.split.heldout_recordings
         for j, c in enumerate(chans):
             ax = axes[i, j]
@@ -76,7 +71,7 @@ def psd_overlays(diag: Diagnosis, path: Path) -> Path | None:
     )
     for i, rec in enumerate(recs):
         fs = 1.0 / rec.sample_interval
-        pb, pf = _pred(diag.base_fit, rec), _pred(diag.final_fit, rec)
+        pb, pf = diag.base_fit.predict(rec), diag.final_fit.predict(rec)
         for j, c in enumerate(chans):
             ax = axes[i, j]
             for y, style, label in (
