@@ -7,10 +7,9 @@ the recordings. Coarse loops (6 grid intervals over the +-40 mm stroke) keep the
 
 from __future__ import annotations
 
-import json
-
 import numpy as np
 import pytest
+from strict_json import strict_loads
 
 from benchmarks.knc_truth import loop_gap_at_static
 from suspenv.core.errors import ValidationError
@@ -196,7 +195,7 @@ def test_report_files(noise_case, tmp_path):
     paths = write_knc_report(diag, tmp_path)
     names = {p.name for p in paths}
     assert {"report.md", "diagnosis.json", "residual_map.png", "left_right.png"} <= names
-    data = json.loads((tmp_path / "diagnosis.json").read_text())
+    data = strict_loads((tmp_path / "diagnosis.json").read_text())
     assert data["family"] == "knc" and data["model"] == "knc_axle" and data["named"] == []
     assert "no significant" in (tmp_path / "report.md").read_text()
 

@@ -6,6 +6,7 @@ import functools
 
 import numpy as np
 import pytest
+from strict_json import strict_loads
 
 from benchmarks.ride_diagnosis import synthetic_profile
 from suspenv.core.errors import ValidationError
@@ -197,7 +198,6 @@ def test_real_profiles_steeper_than_standard(shared_data, tmp_path):
 
 
 def test_cli_routes_road_profiles_and_declines_others(shared_data, tmp_path, monkeypatch):
-    import json
 
     import suspenv.diagnosis.road as road_mod
     from suspenv.cli.main import main
@@ -212,7 +212,7 @@ def test_cli_routes_road_profiles_and_declines_others(shared_data, tmp_path, mon
         resolve_target(str(tmp_path / "missing.npz"))
     out = tmp_path / "out"
     assert main(["diagnose", "road_profile_2", "--data-dir", data, "--out", str(out)]) == 0
-    found = json.loads((out / "road_diagnosis.json").read_text())
+    found = strict_loads((out / "road_diagnosis.json").read_text())
     assert found["recording"].startswith("profile_2")
     assert found["named"][0]["kind"] == "waviness"
     assert "steeper" in found["named"][0]["words"]

@@ -3,6 +3,7 @@ configuration hashed)."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 from typing import Any
 
@@ -37,3 +38,9 @@ def json_default(obj: Any) -> Any:
     if isinstance(obj, set | frozenset):
         return sorted(obj)
     return str(obj)
+
+
+def json_text(obj: Any) -> str:
+    """``obj`` as indented, standard JSON text with a final newline: numpy values as
+    Python values and non-finite floats as ``null`` (:func:`to_jsonable`)."""
+    return json.dumps(to_jsonable(obj), indent=2) + "\n"

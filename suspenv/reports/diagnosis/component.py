@@ -9,14 +9,13 @@ Units: figures show the channel in its own unit, displacement in mm, velocity in
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from suspenv.core.atomic import write_file
-from suspenv.core.jsonable import to_jsonable
+from suspenv.core.jsonable import json_text
 from suspenv.core.markdown import fmt as _fmt
 from suspenv.core.markdown import table_lines, text
 from suspenv.diagnosis.component.motion import motion
@@ -284,5 +283,5 @@ def write_component_report(diag: Diagnosis, out_dir: Path | str) -> list[Path]:
     md = out / "report.md"
     write_file(md, markdown(diag, figs))
     js = out / "diagnosis.json"
-    write_file(js, json.dumps(to_jsonable(diag.to_dict()), indent=2) + "\n")
+    write_file(js, json_text(diag.to_dict()))
     return [md, js, *(out / f for f in figs.values())]

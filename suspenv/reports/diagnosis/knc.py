@@ -9,13 +9,13 @@ motion in mm, pad travel in mm.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from suspenv.core.atomic import write_file
+from suspenv.core.jsonable import json_text
 from suspenv.core.markdown import markdown_table, text
 from suspenv.diagnosis.knc.locate import BRANCHES
 from suspenv.measurements.knc import (
@@ -153,7 +153,7 @@ def write_knc_report(diag: Any, out_dir: str | Path) -> list[Path]:
     recs = list(diag.fit_recordings) + list(diag.heldout_recordings)
     paths.append(plot_loops(diag, recs, out / "loops.png"))
     paths.append(plot_left_right(diag, recs, out / "left_right.png"))
-    write_file(out / "diagnosis.json", json.dumps(diag.to_dict(), indent=2, default=float))
+    write_file(out / "diagnosis.json", json_text(diag.to_dict()))
     paths.append(out / "diagnosis.json")
 
     lines = [

@@ -7,13 +7,12 @@ Units: accelerations m/s^2, time s, frequency Hz; PSDs one-sided ((m/s^2)^2/Hz).
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 
 from suspenv.core.atomic import write_file
-from suspenv.core.jsonable import to_jsonable
+from suspenv.core.jsonable import json_text
 from suspenv.core.markdown import table_lines, text
 from suspenv.diagnosis.engine import Diagnosis
 from suspenv.diagnosis.ride.residual import NOISE_BAND_HZ
@@ -177,5 +176,5 @@ def write_ride_diagnosis_report(diag: Diagnosis, out_dir: str | Path) -> list[Pa
     md = out / "ride_diagnosis.md"
     write_file(md, "\n".join(lines) + "\n")
     js = out / "ride_diagnosis.json"
-    write_file(js, json.dumps(to_jsonable(diag.to_dict()), indent=2))
+    write_file(js, json_text(diag.to_dict()))
     return [md, js, *figs]

@@ -8,13 +8,13 @@ ride consequence; ``road_diagnosis.json``. Units: spatial frequency in cycle/m, 
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from suspenv.core.atomic import write_file
+from suspenv.core.jsonable import json_text
 from suspenv.core.markdown import table_lines, text
 from suspenv.diagnosis.engine import Diagnosis
 from suspenv.diagnosis.road import profile_grid
@@ -132,5 +132,5 @@ def write_road_report(diag: Diagnosis, profile: Recording, out_dir: str | Path) 
     md = out / "road_diagnosis.md"
     write_file(md, "\n".join(lines))
     js = out / "road_diagnosis.json"
-    write_file(js, json.dumps(diag.to_dict(), indent=2, default=float))
+    write_file(js, json_text(diag.to_dict()))
     return [md, png, js]
