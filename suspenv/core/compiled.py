@@ -221,16 +221,17 @@ class Lazy:
         self.__doc__ = f":func:`{main.__name__}`, compiled at its first call."
 
     def __call__(self, *args: Any) -> Any:
-        if self._loop is None:
-            self._loop = self._load()
+        loop = self._loop
+        if loop is None:
+            loop = self._loop = self._load()
         for i, dtype, ndim in self._arrays:
             a = args[i]
             # (a builtin dtype is one object: ``is`` answers first, ``==`` the others)
             if not (
-                a.flags.c_contiguous and a.ndim == ndim and (a.dtype is dtype or a.dtype == dtype)
+                (a.dtype is dtype or a.dtype == dtype) and a.ndim == ndim and a.flags.c_contiguous
             ):
                 raise _refused(self._main.__name__, i, a, dtype, ndim)
-        return self._loop(*args)
+        return loop(*args)
 
     def _load(self) -> Callable:
         """The built loop (its array arguments, those of its signature in :data:`AHEAD`,
