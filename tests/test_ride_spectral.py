@@ -312,3 +312,40 @@ def test_eig_equals_numpy_and_fails_only_the_non_finite_matrix():
     w, v = eig(A)
     assert np.isnan(w[1]).all() and np.isnan(v[1]).all()
     np.testing.assert_array_equal(w[[0, 2]], w_ref[[0, 2]])
+
+
+@pytest.mark.parametrize("damping", [1.0, 30.0])
+def test_halves_eigenvectors_solve_the_eigenproblem(damping):
+    """The halves' modes from LAPACK's eigenvalues and the compiled null vectors
+    (``_Halves.modal``: ``spectral_kernel.eigvals``, ``eigenvectors``) against
+    :func:`numpy.linalg.eig` (the reference): the same eigenvalues to round-off, ``A v =
+    lam v`` to round-off and each unit vector parallel to numpy's; 30x the mean damping
+    gives real poles. A matrix with a NaN entry gives NaN in its own rows only."""
+    from suspenv.metrics.ride import _Halves, _split_geometry
+    from suspenv.models.minibus import spectral_kernel
+
+    X = np.vstack([STUDY_PICK, design_space().lower, design_space().upper])
+    model = RideModel([vehicle_parameters(X, lc) for lc in LOAD_CASES])
+    rates = model.K.astype(float)
+    rates[:, 2:4] = model.leaf_static_rate
+    rates[:, model.n_pos : model.n_pos + 4] = damping * model.damper_mean
+    halves = _Halves(_split_geometry(model), model)
+    lam, V = halves.modal(rates)
+    A = halves._A
+    lam_ref, V_ref = np.linalg.eig(A)
+    scale = np.abs(A).max(axis=(1, 2))[:, None]
+    np.testing.assert_allclose(
+        np.sort_complex(lam), np.sort_complex(lam_ref), rtol=0, atol=1e-12 * scale.max()
+    )
+    residual = np.abs(A @ V - V * lam[:, None, :]).max(axis=1)
+    assert (residual <= 1e-12 * scale).all()
+    np.testing.assert_allclose(np.linalg.norm(V, axis=1), 1.0, rtol=1e-14)
+    nearest = np.abs(lam[:, :, None] - lam_ref[:, None, :]).argmin(axis=2)
+    ref = np.take_along_axis(V_ref, nearest[:, None, :], axis=2)
+    np.testing.assert_allclose(np.abs(np.sum(V.conj() * ref, axis=1)), 1.0, rtol=1e-9)
+    A[1, 5, 0] = np.nan
+    w = spectral_kernel.eigvals(A)
+    vec = np.empty(A.shape, dtype=complex)
+    spectral_kernel.eigenvectors(A, w, vec)
+    assert np.isnan(w[1]).all() and np.isnan(vec[1]).all()
+    assert np.isfinite(w[[0, 2, 3]]).all() and np.isfinite(vec[[0, 2, 3]]).all()

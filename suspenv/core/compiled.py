@@ -87,12 +87,13 @@ def _signatures() -> None:
         "linear_loop": f"void({f(2)}, {f(2)}, {f(2)}, {f(2)}, {f(4)}, {f(3)})",
         "response_loop": f"void({f(3)}, {f(2)}, {_arr('complex128', 1)}, {_arr('complex128', 3)})",
     }
-    # A0, minv, D, rates, A; lam, V, B, co, lo, w, dr, di, wt, out; sig, damp, knee,
+    # A0, minv, D, rates, A; A, lam, V; lam, V, B, co, lo, w, dr, di, wt, out; sig, damp, knee,
     # leaf, passes, out; new, r, tol; lam, V, B, co, w, dr, di, wt, damp, knee, leaf,
     # passes, tol, r (spectral_kernel)
     c3 = _arr("complex128", 3)
     AHEAD["suspenv.models.minibus.spectral_kernel"] = {
         "halves_matrix": f"void({f(3)}, {f(3)}, {f(4)}, {f(2)}, {f(3)})",
+        "eigenvectors": f"void({f(3)}, {c}, {c3})",
         "modal_mean_square": f"void({c}, {c3}, {c3}, {f(3)}, int64, {f(1)}, {f(1)}, {f(1)}, "
         f"{f(2)}, {f(3)})",
         "damper_leaf_rates": f"void({f(2)}, {f(3)}, {f(2)}, {f(3)}, int64, {f(2)})",
@@ -221,16 +222,17 @@ class Lazy:
         self.__doc__ = f":func:`{main.__name__}`, compiled at its first call."
 
     def __call__(self, *args: Any) -> Any:
-        if self._loop is None:
-            self._loop = self._load()
+        loop = self._loop
+        if loop is None:
+            loop = self._loop = self._load()
         for i, dtype, ndim in self._arrays:
             a = args[i]
             # (a builtin dtype is one object: ``is`` answers first, ``==`` the others)
             if not (
-                a.flags.c_contiguous and a.ndim == ndim and (a.dtype is dtype or a.dtype == dtype)
+                (a.dtype is dtype or a.dtype == dtype) and a.ndim == ndim and a.flags.c_contiguous
             ):
                 raise _refused(self._main.__name__, i, a, dtype, ndim)
-        return self._loop(*args)
+        return loop(*args)
 
     def _load(self) -> Callable:
         """The built loop (its array arguments, those of its signature in :data:`AHEAD`,

@@ -8,6 +8,7 @@ while an entry lives; a hit is checked object by object (``is``).
 
 from __future__ import annotations
 
+import operator
 from collections.abc import Callable, Sequence
 from typing import Any, Generic, TypeVar
 
@@ -25,9 +26,10 @@ class IdentityCache(Generic[T]):
     def get(self, held: Sequence[object], values: tuple[Any, ...], build: Callable[[], T]) -> T:
         """The value for ``held`` (compared by identity) and ``values`` (by equality),
         built by ``build()`` on a miss."""
-        key = (*[id(o) for o in held], *values)
+        key = (len(held), *map(id, held), *values)
         hit = self._hits.get(key)
-        if hit is None or not all([a is b for a, b in zip(hit[0], held, strict=True)]):
+        # (the key's length fixes the number of held objects: the same on a hit)
+        if hit is None or not all(map(operator.is_, hit[0], held)):
             if len(self._hits) >= self.size:
                 self._hits.clear()
             hit = self._hits[key] = (held, build())

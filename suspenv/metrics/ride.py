@@ -442,16 +442,21 @@ class _Halves:
         self.minv, self.B, self.co = _halves_blocks(geo, model)
         self.A0 = geo.A0
         self.D = geo.D.reshape(-1, 2, d, 2 * d)
-        # the first-order matrices of a pass, refilled by every pass (eig copies them)
+        # the first-order matrices of a pass, refilled by every pass (read by its eigenvalues
+        # and eigenvectors before the next)
         self._A = np.empty((2 * n, 2 * d, 2 * d))
 
     def modal(self, rates: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Poles (2n, 2d) and eigenvectors (2n, 2d, 2d) of the halves' first-order
         matrices at element rates (n, n_el) (the compiled
-        :func:`suspenv.models.minibus.spectral_kernel.halves_matrix`, then
-        :func:`~suspenv.models.minibus.spectral_kernel.eig`), 2 n rows."""
+        :func:`suspenv.models.minibus.spectral_kernel.halves_matrix`, LAPACK's
+        eigenvalues, :func:`~suspenv.models.minibus.spectral_kernel.eigvals`, and the
+        compiled :func:`~suspenv.models.minibus.spectral_kernel.eigenvectors`), 2 n rows."""
         spectral_kernel.halves_matrix(self.A0, self.minv, self.D, rates, self._A)
-        return spectral_kernel.eig(self._A)
+        lam = spectral_kernel.eigvals(self._A)
+        V = np.empty(self._A.shape, dtype=complex)
+        spectral_kernel.eigenvectors(self._A, lam, V)
+        return lam, V
 
     def mean_square(
         self,

@@ -5,7 +5,10 @@ these loops run the same arithmetic compiled:
 
 - :func:`halves_matrix`: the first-order matrices of the ride model's two halves
   (:class:`suspenv.metrics.ride._Halves`) at given element rates;
-- :func:`modal_mean_square`: from numpy's eigen-decomposition of those matrices, the
+- :func:`eigenvectors`: their eigenvectors at the eigenvalues LAPACK gives
+  (:func:`eigvals`), from the null vectors of 4x4 quadratic pencils (the eigenvalues
+  alone cost LAPACK about two thirds of the full decomposition);
+- :func:`modal_mean_square`: from the eigen-decomposition of those matrices, the
   real second-order modal terms (:func:`_modal_terms`; residues by Gaussian
   elimination instead of LAPACK's solve) and their frequency sums (:func:`_mean_square`)
   to weighted mean squares (frequencies in rad/s, responses per m of axle input,
@@ -33,6 +36,7 @@ from suspenv.core import compiled
 #: the gufunc numpy.linalg.eig calls, reached without its per-call checks (None in a
 #: numpy that moved it: the public route is taken)
 _LAPACK_EIG: Any = getattr(getattr(np.linalg, "_umath_linalg", None), "eig", None)
+_LAPACK_EIGVALS: Any = getattr(getattr(np.linalg, "_umath_linalg", None), "eigvals", None)
 
 
 def eig(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -46,6 +50,94 @@ def eig(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     w, v = np.linalg.eig(np.where(bad[..., None, None], 0.0, A))
     w[bad], v[bad] = np.nan, np.nan
     return w, v
+
+
+def eigvals(A: np.ndarray) -> np.ndarray:
+    """Eigenvalues (..., m), complex, of the real matrices ``A`` (..., m, m), the numbers
+    of :func:`numpy.linalg.eigvals` without its checks and casts; NaN for a matrix with
+    a non-finite entry, as :func:`eig`."""
+    if _LAPACK_EIGVALS is not None and np.isfinite(A.sum()):
+        return _LAPACK_EIGVALS(A, signature="d->D")
+    bad = ~np.isfinite(A).all(axis=(-2, -1))
+    w = np.linalg.eigvals(np.where(bad[..., None, None], 0.0, A)).astype(complex)
+    w[bad] = np.nan
+    return w
+
+
+def _null_vector(q: np.ndarray, perm: np.ndarray, x: np.ndarray) -> None:
+    """``x`` (m,) with ``q x = 0`` for a singular ``q`` (m, m; overwritten) by Gaussian
+    elimination with complete pivoting (pivots by ``|re| + |im|``): the last pivot, the
+    smallest, taken as zero and its unknown as 1 (``perm`` (m,) int64 workspace)."""
+    m = q.shape[0]
+    for k in range(m):
+        perm[k] = k
+    for k in range(m - 1):
+        pi, pj, best = k, k, -1.0
+        for i in range(k, m):
+            for j in range(k, m):
+                size = abs(q[i, j].real) + abs(q[i, j].imag)
+                if size > best:
+                    pi, pj, best = i, j, size
+        for c in range(m):
+            q[k, c], q[pi, c] = q[pi, c], q[k, c]
+        for i in range(m):
+            q[i, k], q[i, pj] = q[i, pj], q[i, k]
+        perm[k], perm[pj] = perm[pj], perm[k]
+        for i in range(k + 1, m):
+            f = q[i, k] / q[k, k]
+            for c in range(k + 1, m):
+                q[i, c] -= f * q[k, c]
+    x[perm[m - 1]] = 1.0
+    for k in range(m - 2, -1, -1):
+        acc = 0j
+        for j in range(k + 1, m):
+            acc -= q[k, j] * x[perm[j]]
+        x[perm[k]] = acc / q[k, k]
+
+
+def _eigenvectors(A: np.ndarray, lam: np.ndarray, V: np.ndarray) -> None:
+    """Eigenvectors ``V`` (rows, 2d, 2d; column k of unit 2-norm for ``lam[r, k]``) of
+    the first-order matrices ``A`` (rows, 2d, 2d) whose upper right block is the
+    identity (:func:`_halves_matrix`), at their eigenvalues ``lam`` (rows, 2d; LAPACK's
+    order, conjugate pairs adjacent): ``v = [x; (lam I - P) x]`` with ``x`` the null
+    vector (:func:`_null_vector`) of ``A21 + (A22 - lam I)(lam I - P) = (A21 - A22 P) +
+    lam (A22 + P) - lam^2 I``, P, A21 and A22 the other blocks of A; the second
+    eigenvalue of a pair takes the conjugate vector. A NaN eigenvalue gives a NaN
+    vector."""
+    rows, ns = lam.shape
+    d = ns // 2
+    r0, r1 = np.empty((d, d)), np.empty((d, d))
+    q = np.empty((d, d), dtype=np.complex128)
+    x = np.empty(d, dtype=np.complex128)
+    perm = np.empty(d, dtype=np.int64)
+    for r in range(rows):
+        for i in range(d):
+            for j in range(d):
+                acc = A[r, d + i, j]
+                for c in range(d):
+                    acc -= A[r, d + i, d + c] * A[r, c, j]
+                r0[i, j], r1[i, j] = acc, A[r, d + i, d + j] + A[r, i, j]
+        for k in range(ns):
+            lk = lam[r, k]
+            if k > 0 and lk.imag < 0 and lk == lam[r, k - 1].conjugate():
+                for i in range(ns):
+                    V[r, i, k] = V[r, i, k - 1].conjugate()
+                continue
+            for i in range(d):
+                for j in range(d):
+                    q[i, j] = r0[i, j] + lk * r1[i, j]
+                q[i, i] -= lk * lk
+            _null_vector(q, perm, x)
+            norm = 0.0
+            for i in range(d):
+                y = lk * x[i]
+                for c in range(d):
+                    y -= A[r, i, c] * x[c]
+                V[r, i, k], V[r, d + i, k] = x[i], y
+                norm += x[i].real ** 2 + x[i].imag ** 2 + y.real**2 + y.imag**2
+            scale = 1.0 / math.sqrt(norm)
+            for i in range(ns):
+                V[r, i, k] *= scale
 
 
 def _mean_square(
@@ -354,10 +446,12 @@ def _take_rates(new: np.ndarray, r: np.ndarray, tol: float) -> int:
     return taken
 
 
-#: :func:`_halves_matrix`, :func:`_modal_mean_square`, :func:`_damper_leaf_rates`,
+#: :func:`_halves_matrix`, :func:`_eigenvectors`, :func:`_modal_mean_square`,
+#: :func:`_damper_leaf_rates`,
 #: :func:`_take_rates` and :func:`_split_update`, built ahead of time
 #: (:mod:`suspenv.core.compiled`)
 halves_matrix = compiled.Lazy(globals(), (), _halves_matrix)
+eigenvectors = compiled.Lazy(globals(), ("_null_vector",), _eigenvectors)
 modal_mean_square = compiled.Lazy(
     globals(), ("_solve", "_modal_terms", "_mean_square"), _modal_mean_square
 )
