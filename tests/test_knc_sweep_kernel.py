@@ -118,8 +118,8 @@ def test_the_block_inverse_is_the_inverse(side_singular):
         A[:33, 0] = 0.0  # the side block's first column gone, the coupling keeps A regular
         A[40, 0] = 1.0
     got = A.copy()
-    assert sweep_kernel._block_inverse(got)
+    assert sweep_kernel._block_inverse(got, sweep_kernel._inverse_work())
     bound = 66**2 * np.finfo(float).eps * np.linalg.cond(A)
     assert np.abs(got @ A - np.eye(66)).max() <= bound
     A[5] = 0.0  # a zero row: singular
-    assert not sweep_kernel._block_inverse(A.copy())
+    assert not sweep_kernel._block_inverse(A.copy(), sweep_kernel._inverse_work())

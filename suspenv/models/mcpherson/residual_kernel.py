@@ -447,12 +447,19 @@ def _jacobian(
     fill the entries ``scatter[:, scatter_start[p]:scatter_start[p + 1]]`` (side,
     residual row, Jacobian row, Jacobian column) (``solver._coloured_groups``). Other
     entries are left as they are (the caller's zeros and exact multiplier columns)."""
-    work = _row_work()
+    work, moved = _row_work(), _moved_work()
     for m in range(r.shape[0]):
         _row_jacobian(
             m, r[m], R[m], turned[m], lam, pad, ext, rack, extra, pack, off, k_bar_shear,
-            cscale, h, moves, move_start, scatter, scatter_start, J[m], work,
+            cscale, h, moves, move_start, scatter, scatter_start, J[m], work, moved,
         )  # fmt: skip
+
+
+def _moved_work() -> tuple:
+    """Scratch of :func:`_row_jacobian` (made once per loop, not per row): the row's
+    residual (2, 33), a perturbed one (2, 33), and the perturbed positions (2, 4, 3) and
+    rotations (2, 4, 3, 3)."""
+    return np.empty((2, 33)), np.empty((2, 33)), np.empty((2, 4, 3)), np.empty((2, 4, 3, 3))
 
 
 def _row_jacobian(
@@ -476,24 +483,29 @@ def _row_jacobian(
     scatter_start: np.ndarray,
     Jm: np.ndarray,
     work: tuple,
+    moved: tuple,
 ) -> None:
     """The body-coordinate columns of row ``m``'s Jacobian into ``Jm`` (66, 66) (see
     :func:`_jacobian`; ``turned_m`` (2, 4, 3, 3, 3) its bodies turned by ``h``;
-    ``work``: :func:`_row_work`)."""
-    base = np.empty((2, 33))
-    res = np.empty((2, 33))
-    rp = np.empty_like(rm)
-    Rp = np.empty_like(Rm)
+    ``work``: :func:`_row_work`; ``moved``: :func:`_moved_work`, whose first array is
+    left holding the row's residual)."""
+    base, res, rp, Rp = moved
     _row_at(m, rm, Rm, lam, pad, ext, rack, extra, pack, off, k_bar_shear, cscale, base, work)
     for p in range(move_start.size - 1):
-        rp[...] = rm
-        Rp[...] = Rm
+        for i in range(2):  # element by element: no temporary arrays
+            for j in range(4):
+                for a in range(3):
+                    rp[i, j, a] = rm[i, j, a]
+                    for c in range(3):
+                        Rp[i, j, a, c] = Rm[i, j, a, c]
         for q in range(move_start[p], move_start[p + 1]):
             s, b, k = moves[0, q], moves[1, q], moves[2, q]
             if k < 3:
                 rp[s, b, k] += h
             else:
-                Rp[s, b] = turned_m[s, b, k - 3]
+                for a in range(3):
+                    for c in range(3):
+                        Rp[s, b, a, c] = turned_m[s, b, k - 3, a, c]
         _row_at(m, rp, Rp, lam, pad, ext, rack, extra, pack, off, k_bar_shear, cscale, res, work)
         for q in range(scatter_start[p], scatter_start[p + 1]):
             s, row = scatter[0, q], scatter[1, q]
@@ -504,18 +516,18 @@ def _row_jacobian(
 _ROW_HELPERS = (
     "_log", "_series", "_cross_add", "_rack_shift", "_residual_row", "_row_at", "_row_jacobian",
     "_rotated", "_bushing_loads", "_links", "_constraints", "_loads_with_arms",
-    "_load_sums", "_rig_load", "_row_work",
+    "_load_sums", "_rig_load", "_row_work", "_moved_work",
 )  # fmt: skip
 #: the helpers inlined into :func:`_residual_row` (no calls within a row: a row is
 #: about a microsecond, of which the calls' reference counting was a fifth)
 _ROW_INLINE = (
     *rotation_kernel.INLINE, "_cross_add", "_rack_shift", "_rotated", "_bushing_loads", "_links",
-    "_constraints", "_loads_with_arms", "_load_sums", "_rig_load", "_row_work",
+    "_constraints", "_loads_with_arms", "_load_sums", "_rig_load", "_row_work", "_moved_work",
 )  # fmt: skip
-#: the row and its reader compiled without reference counting (their views and scratch
-#: tuples cost no atomic increments; they allocate nothing: :func:`_row_work` is made by
-#: their callers)
-_ROW_BARE = ("_residual_row", "_row_at")
+#: the row, its reader and its Jacobian compiled without reference counting (their views
+#: and scratch tuples cost no atomic increments; they allocate nothing: :func:`_row_work`
+#: and :func:`_moved_work` are made by their callers)
+_ROW_BARE = ("_residual_row", "_row_at", "_row_jacobian")
 #: :func:`_residual` and :func:`_jacobian`, compiled at their first call (then loaded
 #: from numba's cache)
 residual = compiled.Lazy(globals(), _ROW_HELPERS, _residual, _ROW_INLINE, _ROW_BARE)

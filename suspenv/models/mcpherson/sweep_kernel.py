@@ -50,6 +50,7 @@ from suspenv.models.mcpherson.residual_kernel import (  # the row's helpers: com
     _links,  # noqa: F401
     _load_sums,  # noqa: F401
     _loads_with_arms,  # noqa: F401
+    _moved_work,
     _rack_shift,  # noqa: F401
     _residual_row,
     _rig_load,  # noqa: F401
@@ -64,20 +65,57 @@ NS, NQ, NX = 33, 24, 66
 #: the inverse Jacobian's rows padded to a whole number of vector registers (the step's
 #: product vectorises without a remainder loop); the padding stays zero
 NP = 80
+#: the tie rod's multiplier (its force per unit length times its length [N]): the one a
+#: compliant rack lets act on the other side (:func:`.residual_kernel._rack_shift`)
+TIE_ROD = 7
 #: status of a design: converged everywhere, or where it failed
 OK, NO_STATIC, NO_STEP, LOCKED = 0, 1, 2, 3
 
 
-def _scratch(G: int) -> tuple:
-    """The sweep's scratch (made once per call, not per design or step): a residual (2,
+def _scratch(G: int, C: int, ext: bool, rack: bool) -> tuple:
+    """The sweep's scratch (made once per call, not per design or step: the helpers it
+    is passed to allocate nothing, and run without reference counting): a residual (2,
     33), a step (66,), the step's single-precision sum (80,), two (3, 3) and a (3,), the
     residual row's (:func:`.residual_kernel._row_work`), the transposed inverse
     Jacobians (66, 80) of the static state and of the bump and rebound legs' rows
-    (single precision, the padding zero), and a leg's relative rotation vectors (G, 2,
-    4, 3) with the grid points they are made at (G,) (:func:`_relative_at`)."""
+    (single precision, the padding zero), a leg's relative rotation vectors (G, 2, 4, 3)
+    with the grid points they are made at (G,) (:func:`_relative_at`), the Jacobian's
+    (:func:`_factor_work`), a design's states (:func:`_state`: the static state and the
+    one walking a leg, sharing every grid point's state (G, ...) and the rig's input of
+    a grid point, ``C`` wheel-load columns (``ext``) and rack travel (``rack``)), the
+    static residual (2, 33) and the lock-up check's (2, 3) and (3,)."""
+    Gr, GR, Gl = np.empty((G, 2, 4, 3)), np.empty((G, 2, 4, 3, 3)), np.empty((G, 2, NS - NQ))
+    load = (np.zeros((1, 2)), np.zeros((1 if ext else 0, 2, C)), np.zeros((1 if rack else 0, 2)))
     return (np.empty((2, NS)), np.empty(NX), np.empty(NP, np.float32), np.empty((3, 3)),
             np.empty((3, 3)), np.empty(3), _row_work(), np.zeros((3, NX, NP), np.float32),
-            (np.empty((G, 2, 4, 3)), np.zeros(G, np.int64)))  # fmt: skip
+            (np.empty((G, 2, 4, 3)), np.zeros(G, np.int64)), _factor_work(),
+            _state(Gr, GR, Gl, load), _state(Gr, GR, Gl, load), np.empty((2, NS)),
+            (np.empty((2, 3)), np.empty(3)))  # fmt: skip
+
+
+def _state(Gr, GR, Gl, load) -> tuple:
+    """A state of a design's sweep: positions (2, 4, 3), rotations (2, 4, 3, 3) and
+    multipliers (1, 2, 9), with the grid points' states ``Gr``, ``GR``, ``Gl`` and the
+    rig's input ``load`` it shares with the design's other state."""
+    return np.empty((2, 4, 3)), np.empty((2, 4, 3, 3)), np.empty((1, 2, NS - NQ)), Gr, GR, Gl, load
+
+
+def _factor_work() -> tuple:
+    """Scratch of :func:`_factor`: the transposed Jacobian (66, 66), the bodies turned
+    by the Jacobian's step (2, 4, 3, 3, 3), the body columns'
+    (:func:`.residual_kernel._moved_work`), a residual (2, 33) and the block inverse's
+    (:func:`_inverse_work`)."""
+    return (np.empty((NX, NX)), np.empty((2, 4, 3, 3, 3)), _moved_work(), np.empty((2, NS)),
+            _inverse_work())  # fmt: skip
+
+
+def _inverse_work() -> tuple:
+    """Scratch of :func:`_block_inverse`: the blocks P, S, X, Y (33, 33), the flags of
+    X's columns and Y's rows (33,), and :func:`_invert`'s for 33 and 66 unknowns."""
+    n = NS
+    return (np.empty((n, n)), np.empty((n, n)), np.empty((n, n)), np.empty((n, n)),
+            np.empty(n, np.bool_), np.empty(n, np.bool_), (np.empty(n), np.empty(n, np.int64)),
+            (np.empty(NX), np.empty(NX, np.int64)))  # fmt: skip
 
 
 def _factor(d, r, R, lam1, load, model, jac, out, ws) -> bool:
@@ -88,18 +126,20 @@ def _factor(d, r, R, lam1, load, model, jac, out, ws) -> bool:
     pad1, ext1, rack1 = load
     pack, off, k_bar_shear, cscale, extra0 = model
     h, exp_h, moves, move_start, scatter, scatter_start = jac
-    JT = np.zeros((NX, NX))
-    turned = np.empty((2, 4, 3, 3, 3))
+    JT, turned = ws[9][0], ws[9][1]
+    for i in range(NX):
+        for j in range(NX):
+            JT[i, j] = 0.0
     for s in range(2):
         for b in range(4):
             for k in range(3):
                 _times(exp_h[k], R[s, b], turned[s, b, k])
     _row_jacobian(
         d, r, R, turned, lam1, pad1, ext1, rack1, extra0, pack, off, k_bar_shear, cscale, h,
-        moves, move_start, scatter, scatter_start, JT.T, ws[6],
+        moves, move_start, scatter, scatter_start, JT.T, ws[6], ws[9][2],
     )  # fmt: skip
     _multiplier_columns(d, r, R, lam1, load, model, JT, ws)
-    if not _block_inverse(JT):
+    if not _block_inverse(JT, ws[9][4]):
         return False
     for i in range(NX):
         for j in range(NX):
@@ -109,15 +149,17 @@ def _factor(d, r, R, lam1, load, model, jac, out, ws) -> bool:
 
 def _multiplier_columns(d, r, R, lam1, load, model, JT, ws) -> None:
     """The multiplier columns of the Jacobian (transposed, into the rows 24-32 and
-    57-65 of ``JT``) by forward differences of 1 N; both sides' multiplier ``c`` moved
-    together where the sides share none (a rigid rack: a side's residual reads its own
-    multipliers only), each alone where a compliant rack couples the tie rods."""
+    57-65 of ``JT``) by forward differences of 1 N from the residual the body columns
+    left in ``ws[9][2][0]`` (:func:`.residual_kernel._row_jacobian`, at the same state);
+    both sides' multiplier ``c`` moved together where the sides share it not (a side's
+    residual reads its own multipliers only), the tie rods' (:data:`TIE_ROD`) each alone
+    where a compliant rack couples them."""
     pack, off = model[0], model[1]
-    base, res = np.empty((2, NS)), np.empty((2, NS))
-    _res(d, r, R, lam1, load, model, base, ws[6])
-    together = off[14] < 0 or pack[off[14], 0, d] == 0.0
-    for s in range(1 if together else 2):
-        for c in range(NS - NQ):
+    base, res = ws[9][2][0], ws[9][3]
+    rigid = off[14] < 0 or pack[off[14], 0, d] == 0.0
+    for c in range(NS - NQ):
+        together = rigid or c != TIE_ROD
+        for s in range(1 if together else 2):
             kept = lam1[0, s, c], lam1[0, 1, c]
             lam1[0, s, c] += 1.0
             if together:
@@ -147,7 +189,7 @@ def _res(d, r, R, lam1, load, model, out, work) -> None:
     )  # fmt: skip
 
 
-def _block_inverse(A: np.ndarray) -> bool:
+def _block_inverse(A: np.ndarray, ws: tuple) -> bool:
     """The matrix ``A`` (66, 66) replaced by its inverse in place, by its 33 x 33 blocks
     (a side's equations in a side's unknowns): ``P = A11^-1``, the Schur complement
     ``S = A22 - A21 P A12`` inverted, then ``[[P + X S^-1 Y, -X S^-1], [-S^-1 Y,
@@ -155,21 +197,28 @@ def _block_inverse(A: np.ndarray) -> bool:
     bar (and a compliant rack) only, so ``A12`` and ``A21`` are mostly zero and their
     zero rows and columns are skipped: about a third of the work of inverting ``A``
     whole. Where ``A11`` is singular (the whole may not be), ``A`` is inverted whole
-    (:func:`_invert`). False: ``A`` is singular or not finite."""
+    (:func:`_invert`). False: ``A`` is singular or not finite (``ws``:
+    :func:`_inverse_work`)."""
     n = NS
-    P, S = A[:n, :n].copy(), A[n:, n:].copy()
-    ws = (np.empty(n), np.empty(n, np.int64))
-    if not _invert(P, ws):
-        return _invert(A, (np.empty(NX), np.empty(NX, np.int64)))
-    X, Y = np.zeros((n, n)), np.zeros((n, n))
-    cols, rows = np.zeros(n, np.bool_), np.zeros(n, np.bool_)
+    P, S, X, Y, cols, rows = ws[:6]
+    _blocks(A, ws)
+    if not _invert(P, ws[6]):
+        return _invert(A, ws[7])
     _coupled(P, A[:n, n:], A[n:, :n], X, Y, S, cols, rows)
-    if not _invert(S, ws):
+    if not _invert(S, ws[6]):
         return False
-    A[n:, n:] = S
-    A[:n, n:] = 0.0
-    A[n:, :n] = 0.0
-    A[:n, :n] = P
+    _assemble(A, ws)
+    return True
+
+
+def _assemble(A: np.ndarray, ws: tuple) -> None:
+    """The inverse of :func:`_block_inverse` into ``A`` from ``P = A11^-1``, ``S^-1``,
+    ``X``, ``Y`` and their flags (``ws``: :func:`_inverse_work`)."""
+    n = NS
+    P, S, X, Y, cols, rows = ws[:6]
+    for i in range(n):
+        for j in range(n):
+            A[i, j], A[i, n + j], A[n + i, j], A[n + i, n + j] = P[i, j], 0.0, 0.0, S[i, j]
     for c in range(n):
         if cols[c]:  # -X S^-1
             for i in range(n):
@@ -184,7 +233,18 @@ def _block_inverse(A: np.ndarray) -> bool:
             for i in range(n):
                 for j in range(n):
                     A[i, j] -= A[i, n + c] * Y[c, j]
-    return True
+
+
+def _blocks(A: np.ndarray, ws: tuple) -> None:
+    """The diagonal blocks of ``A`` (66, 66) into ``P`` and ``S``, the products ``X``,
+    ``Y`` and the flags of their columns and rows cleared (``ws``: :func:`_inverse_work`)."""
+    n = NS
+    P, S, X, Y, cols, rows = ws[:6]
+    for i in range(n):
+        cols[i] = rows[i] = False
+        for j in range(n):
+            P[i, j], S[i, j] = A[i, j], A[n + i, n + j]
+            X[i, j] = Y[i, j] = 0.0
 
 
 def _coupled(P, B, C, X, Y, S, cols, rows) -> None:
@@ -399,12 +459,25 @@ def _store(Gr, GR, Gl, g, r, R, lam1) -> None:
             Gl[g, s, x] = lam1[0, s, x]
 
 
-def _locked(d, r, R, pack, off, limits) -> bool:
+def _load(Gr, GR, Gl, g, r, R, lam1) -> None:
+    """The state at grid point ``g`` of the grid arrays into ``r``, ``R``, ``lam1``
+    (:func:`_store`'s converse)."""
+    for s in range(2):
+        for b in range(4):
+            for a in range(3):
+                r[s, b, a] = Gr[g, s, b, a]
+                for c in range(3):
+                    R[s, b, a, c] = GR[g, s, b, a, c]
+        for x in range(NS - NQ):
+            lam1[0, s, x] = Gl[g, s, x]
+
+
+def _locked(d, r, R, pack, off, limits, ws) -> bool:
     """A bushing deflects beyond ``limits`` (translation [m], rotation [rad]) in its
-    own frame (``knc._check_state``), or a deflection is not finite."""
+    own frame (``knc._check_state``), or a deflection is not finite (``ws``:
+    :func:`_scratch`)."""
     o_vec, o_gr, o_Q = off[0], off[1], off[3]
-    x = np.empty((2, 3))
-    xb = np.empty(3)
+    x, xb = ws[13]
     for s in range(2):
         for bb in range(4):
             body = _BUSH_BODY[bb]
@@ -424,7 +497,8 @@ def _locked(d, r, R, pack, off, limits) -> bool:
                             + pack[q + 6 + a, s, d] * x[t, 2]
                         )
                 else:
-                    xb[:] = x[t]
+                    for a in range(3):
+                        xb[a] = x[t, a]
                 for a in range(3):
                     if not abs(xb[a]) <= limits[t]:
                         return True
@@ -433,10 +507,11 @@ def _locked(d, r, R, pack, off, limits) -> bool:
 
 def _first_step(d, t, g, st, res0, inputs, model, jac, chord, own, settings, ws):
     """The first step of a leg, to grid point ``g``, from the static state ``st``
-    (``res0`` its residual under the static input) by the tangent predictor; stored in
-    the grid arrays of ``st`` (``ws``: :func:`_scratch`). Returns (status, ``own`` holds
-    the row's own inverse Jacobian)."""
+    (``res0`` its residual under the static input) by the tangent predictor, walked in
+    ``ws[11]``; stored in the grid arrays of ``st`` (``ws``: :func:`_scratch`). Returns
+    (status, ``own`` holds the row's own inverse Jacobian)."""
     r, R, lam1, Gr, GR, Gl, load = st
+    rs, Rs, ls = ws[11][:3]
     pad0_d, pad_off, ext, rack = inputs
     res1, dx = ws[0], ws[1]
     _load_at(t, g, pad0_d, pad_off, ext, rack, load)
@@ -448,10 +523,10 @@ def _first_step(d, t, g, st, res0, inputs, model, jac, chord, own, settings, ws)
     for i in range(NX):
         if not abs(dx[i]) < math.inf:
             dx[i] = 0.0
-    rs, Rs, ls = r.copy(), R.copy(), lam1.copy()
+    _load(Gr, GR, Gl, (pad_off.shape[1] - 1) // 2, rs, Rs, ls)  # the static state
     _apply(rs, Rs, ls, dx, 1.0, ws)
     conv, made = _newton(d, rs, Rs, ls, load, model, jac, chord, own, False, settings, False, ws)
-    Gr[g], GR[g], Gl[g] = rs, Rs, ls[0]
+    _store(Gr, GR, Gl, g, rs, Rs, ls)
     return OK if conv else NO_STEP, made
 
 
@@ -474,7 +549,7 @@ def _leg(d, t, dirn, i0, st, inputs, model, jac, chord, own, made, settings, ws)
         if not conv:
             return NO_STEP
         _store(Gr, GR, Gl, g, r, R, lam1)
-    if _locked(d, r, R, model[0], model[1], settings[2]):  # loads, deflections peak at the ends
+    if _locked(d, r, R, model[0], model[1], settings[2], ws):  # loads, deflections peak at the ends
         return LOCKED
     return OK
 
@@ -485,35 +560,30 @@ def _design(d, inputs, model, jac, settings, lo, out, ws) -> int:
     ref0, pad0, pad_off, ext, rack = inputs
     r_out, R_out, l_out = out
     i0 = (pad_off.shape[1] - 1) // 2
-    r = ref0[d].copy()
-    R = np.zeros((2, 4, 3, 3))
-    for s in range(2):
+    st, walk, res0 = ws[10], ws[11], ws[12]
+    r, R, lam1, Gr, GR, Gl, load = st
+    for s in range(2):  # the design position, no loads, the static pad heights
         for b in range(4):
             for a in range(3):
-                R[s, b, a, a] = 1.0
-    lam1 = np.zeros((1, 2, NS - NQ))
-    load = (
-        np.zeros((1, 2)),
-        np.zeros((1 if ext.shape[0] else 0, 2, ext.shape[3])),
-        np.zeros((1 if rack.shape[0] else 0, 2)),
-    )
-    for s in range(2):
+                r[s, b, a] = ref0[d, s, b, a]
+                for c in range(3):
+                    R[s, b, a, c] = 1.0 if a == c else 0.0
+        for c in range(NS - NQ):
+            lam1[0, s, c] = 0.0
         load[0][0, s] = pad0[d, s]
+        for c in range(load[1].shape[2] if load[1].shape[0] else 0):
+            load[1][0, s, c] = 0.0
+        if load[2].shape[0]:
+            load[2][0, s] = 0.0
     chord = ws[7][0]
     if not _factor(0, r, R, lam1, load, model, jac, chord, ws):
         return NO_STATIC
     conv, _ = _newton(0, r, R, lam1, load, model, jac, chord, chord, True, settings, True, ws)
     if not conv:
         return NO_STATIC
-    G = pad_off.shape[1]  # every grid point's state (made after the static Jacobian: memory)
-    Gr, GR, Gl = np.empty((G, 2, 4, 3)), np.empty((G, 2, 4, 3, 3)), np.empty((G, 2, NS - NQ))
-    res0 = np.empty((2, NS))
     leg_inputs = (pad0[d], pad_off, ext, rack)
-    st = (r, R, lam1, Gr, GR, Gl, load)
-    walk = (np.empty((2, 4, 3)), np.empty((2, 4, 3, 3)), np.empty((1, 2, NS - NQ)), Gr, GR, Gl,
-            load)  # fmt: skip
     for t in range(pad_off.shape[0]):
-        Gr[i0], GR[i0], Gl[i0] = r, R, lam1[0]
+        _store(Gr, GR, Gl, i0, r, R, lam1)
         _load_at(t, i0, pad0[d], pad_off, ext, rack, load)
         _res(0, r, R, lam1, load, model, res0, ws[6])
         # the first steps of both legs (the second steps read both), then each leg on
@@ -527,7 +597,7 @@ def _design(d, inputs, model, jac, settings, lo, out, ws) -> int:
             if status != OK:
                 return status
         for q in range(r_out.shape[1]):
-            r_out[t, q, d], R_out[t, q, d], l_out[t, q, d] = Gr[lo + q], GR[lo + q], Gl[lo + q]
+            _load(Gr, GR, Gl, lo + q, r_out[t, q, d], R_out[t, q, d], l_out[t, q, d : d + 1])
     return OK
 
 
@@ -574,7 +644,7 @@ def _sweep(
     jac = (h, exp_h, moves, move_start, scatter, scatter_start)
     settings = (tol, maxit, limits)
     inputs = (ref0, pad0, pad_off, ext, rack)
-    ws = _scratch(pad_off.shape[1])
+    ws = _scratch(pad_off.shape[1], ext.shape[3], ext.shape[0] > 0, rack.shape[0] > 0)
     for d in range(ref0.shape[0]):
         own = np.ascontiguousarray(pack[:, :, d : d + 1])  # the design's column, contiguous
         model = (own, off, k_bar_shear, cscale, np.empty((0, 2, 1)))
@@ -582,20 +652,24 @@ def _sweep(
 
 
 _HELPERS = (
-    *_ROW_HELPERS, "_expm", "_scratch", "_factor", "_multiplier_columns", "_res",
-    "_block_inverse", "_coupled", "_invert", "_step", "_apply", "_turn", "_times", "_newton",
-    "_load_at", "_extrapolate", "_relative_at", "_relative", "_store", "_locked", "_first_step",
-    "_leg", "_design",
+    *_ROW_HELPERS, "_expm", "_scratch", "_state", "_factor_work", "_inverse_work", "_factor",
+    "_multiplier_columns", "_res", "_block_inverse", "_blocks", "_assemble", "_coupled",
+    "_invert", "_step", "_apply", "_turn", "_times", "_newton", "_load_at", "_extrapolate",
+    "_relative_at", "_relative", "_store", "_load", "_locked", "_first_step", "_leg", "_design",
 )  # fmt: skip
 #: the helpers inlined into their callers: those of every step and every grid point
 #: (Newton's method and the predictor too: a call passes every array of their scratch
 #: tuples as a few hundred words on the stack)
 _INLINE = (
-    *_ROW_INLINE, "_scratch", "_res", "_step", "_apply", "_load_at", "_turn", "_relative_at",
-    "_store", "_newton", "_extrapolate",
+    *_ROW_INLINE, "_scratch", "_state", "_factor_work", "_inverse_work", "_res", "_step",
+    "_apply", "_load_at", "_turn", "_relative_at", "_store", "_load", "_newton", "_extrapolate",
+    "_blocks", "_assemble",
 )  # fmt: skip
-#: the helpers of every step and grid point compiled without reference counting (they
-#: allocate no array: the scratch is made by :func:`_sweep` and :func:`_design`)
-_BARE = (*_ROW_BARE, "_leg", "_invert", "_coupled")
+#: the helpers below :func:`_sweep` compiled without reference counting (they allocate
+#: no array: the scratch is made by :func:`_sweep`; counted, every array of the scratch
+#: tuples passed to a helper cost an atomic increment and decrement, about a seventh of
+#: the sweep)
+_BARE = (*_ROW_BARE, "_design", "_first_step", "_leg", "_factor", "_multiplier_columns",
+         "_block_inverse", "_coupled", "_invert", "_locked")  # fmt: skip
 #: :func:`_sweep`, built ahead of time or compiled at its first call
 sweep = compiled.Lazy(globals(), _HELPERS, _sweep, _INLINE, _BARE)
