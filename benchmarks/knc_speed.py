@@ -72,9 +72,10 @@ memory are measured in the main process. The compiled loops are compiled (or loa
 numba's cache) by each process's warm-up call, before any timing.
 
 Memory: the tracemalloc peak of one evaluation (a separate, untimed call) divided by the
-batch size (the compiled loops' own scratch arrays, under 5 kB at any time and freed
-within each call, are made by numba's allocator, which tracemalloc does not see; every
-array they read or write is made by numpy and counted).
+batch size (the compiled sweep's own scratch arrays, about 0.2-0.3 MB made once per call
+(:func:`suspenv.models.mcpherson.sweep_kernel._scratch`, 31-61 grid points) and freed
+within it, are made by numba's allocator, which tracemalloc does not see; every array
+they read or write is made by numpy and counted).
 Targets: <= 2 ms per candidate at batch 42, <= 10 ms at batch 1, <= 0.1 MB per
 candidate at every batch size, no rise of the per-candidate time up to batch 1000 (on
 the same candidates: the 1000 candidates evaluated in batches of 42 against one call of
