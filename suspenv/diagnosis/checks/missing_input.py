@@ -7,8 +7,9 @@ from stretch to stretch. Read as noise (it is not a function of the state), it w
 hide a missing input. The check reads the final model's residual ``r`` of every
 recording (as a whole, one series per output channel), takes out what a time-invariant
 function of the signals the model reads explains (:func:`time_invariant`: linear
-filters of each, cell means of a pair and of one: a stop, a dead band, a friction step,
-cogging) and calls the rest **driven by an unrecorded input** when both hold:
+filters of each and their play operators, a rate-independent loop; cell means of a pair
+and of one: a stop, a dead band, a friction step, cogging) and calls the rest **driven
+by an unrecorded input** when both hold:
 
 0. **far above the noise**: its RMS is at least :data:`SIZE_LIMIT` times the residual's
    white floor (:func:`white_floor`, from its second differences);
@@ -65,6 +66,10 @@ STATE_BINS = 6
 #: the position), at most one per :data:`SAMPLES_PER_FINE_BIN` samples
 FINE_BINS = 64
 SAMPLES_PER_FINE_BIN = 20
+#: widths of the play operators (:func:`play`) of every signal, in shares of its range
+#: (2nd to 98th percentile): a rate-independent loop's pre-sliding and yield, up to
+#: 3 % of the travel
+PLAY_WIDTHS = (0.001, 0.003, 0.01, 0.03)
 #: the name of the prediction among the signals
 PREDICTION = "the model's prediction"
 #: the switching test's numbers where it cannot be run (too few blocks or no signal)
@@ -226,16 +231,41 @@ def cell_means(r: np.ndarray, signals: Sequence[np.ndarray], bins: int) -> np.nd
     return (np.bincount(cells, weights=r) / np.maximum(counts, 1))[cells]
 
 
-def time_invariant(r: np.ndarray, signals: Sequence[np.ndarray]) -> np.ndarray:
+def play(s: np.ndarray, width: float) -> np.ndarray:
+    """The play (backlash) operator of ``s`` of ``width`` (unit of ``s``): it stays
+    while ``s`` moves within ``width / 2`` of it and is dragged along beyond, starting
+    at ``s[0]`` (the elementary hysteresis of the Prandtl-Ishlinskii model: a
+    time-invariant function of ``s`` with memory, independent of its rate)."""
+    out, y, h = np.empty(s.size), float(s[0]), 0.5 * width
+    for i, x in enumerate(s.tolist()):
+        y = min(max(y, x - h), x + h)
+        out[i] = y
+    return out
+
+
+def plays(signals: Sequence[np.ndarray]) -> list[np.ndarray]:
+    """Every signal's play operators (:func:`play`) less the signal, of the widths
+    :data:`PLAY_WIDTHS` of its range."""
+    out = []
+    for s in signals:
+        span = float(np.subtract(*np.percentile(s, [98, 2])))
+        out += [play(s, w * span) - s for w in PLAY_WIDTHS if span > 0]
+    return out
+
+
+def time_invariant(
+    r: np.ndarray, signals: Sequence[np.ndarray], memory: bool = False
+) -> np.ndarray:
     """The part of ``r`` a time-invariant function of ``signals`` explains: linear
     filters (least squares on each signal shifted by up to :data:`LAGS` samples either
-    way), then the cell means of the pair of signals (:data:`STATE_BINS` quantile bins
+    way, and with ``memory`` on their play operators, :func:`plays`: a rate-independent
+    loop), then the cell means of the pair of signals (:data:`STATE_BINS` quantile bins
     each) and of the single signal (:data:`FINE_BINS`, a fine ripple along one input)
     that explain most of what is left (a stop, a dead band, a friction step, cogging)."""
     n = r.size
     pad = [np.pad(s, LAGS, mode="edge") for s in signals]
     cols = [np.ones(n)] + [p[k : k + n] for p in pad for k in range(2 * LAGS + 1)]
-    a = np.column_stack(cols)
+    a = np.column_stack(cols + (plays(signals) if memory else []))
     fitted = a @ np.linalg.lstsq(a, r, rcond=None)[0]
     fine = int(min(FINE_BINS, n // SAMPLES_PER_FINE_BIN))
     pairs = list(combinations(signals, 2))
@@ -252,14 +282,15 @@ def judge(
     """The tests on one residual ``r`` of the output ``y`` with the recorded
     ``signals`` (name -> series: the inputs and the prediction), of which the model does
     not read ``unread``: what no time-invariant function of the signals the model reads
-    explains (:func:`time_invariant`) is tested for switching (:func:`switching`; the
+    explains, with memory (:func:`time_invariant`: a small rate-independent loop is not
+    switching) is tested for switching (:func:`switching`; the
     name of the signal whose gain switches as ``signal``), once with the unread signals'
     block levels as recorded causes (``p_switching_all``)."""
     named = {k: np.asarray(s, float) for k, s in signals.items() if np.ptp(s) > 0}
     names = [k for k in named if k not in unread]
     read = [named[k] for k in names]
     other = [s for k, s in named.items() if k in unread]
-    left = r - time_invariant(r, read) if read else r
+    left = r - time_invariant(r, read, memory=True) if read else r
     out: dict[str, Any] = switching(left, read)
     out["signal"] = names[out["signal"]] if out["signal"] >= 0 else ""
     if other:
