@@ -36,7 +36,6 @@ reference), ``truth_design() -> (d,)``, ``residuals(X) -> (n, m)``, ``curves(x)`
 from __future__ import annotations
 
 import importlib
-import json
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -47,7 +46,7 @@ import numpy as np
 from suspenv.core import options as check
 from suspenv.core.atomic import write_file
 from suspenv.core.errors import ValidationError
-from suspenv.core.jsonable import to_jsonable
+from suspenv.core.jsonable import json_text
 from suspenv.core.laps import Laps
 from suspenv.core.problem import Problem
 from suspenv.core.result import EvaluationBatch
@@ -599,7 +598,7 @@ def run_tey2014_pipeline(config: dict[str, Any], run_dir: Path) -> dict[str, Any
         report=files[0] if files else None,
     )
     # strict JSON, as every run writer: an undefined number (NaN, inf) is null
-    text = json.dumps(to_jsonable(summary), indent=2, allow_nan=False) + "\n"
+    text = json_text(summary)
     write_file(run_dir / "study.json", text)
     write_file(run_dir / "summary.json", text)
     return summary
