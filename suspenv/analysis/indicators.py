@@ -28,6 +28,7 @@ import numpy as np
 
 from suspenv.core.errors import ValidationError
 from suspenv.core.pareto import nondominated
+from suspenv.problems.toy import ZDT1
 
 #: the reference point is ``1 + REFERENCE_POINT_OFFSET`` in every normalised objective
 REFERENCE_POINT_OFFSET = 0.1
@@ -47,11 +48,6 @@ class KnownFront:
     source: str
 
 
-def _zdt1_front(n: int) -> np.ndarray:
-    f1 = np.linspace(0.0, 1.0, int(n))
-    return np.c_[f1, 1.0 - np.sqrt(f1)]
-
-
 def _zdt1_hypervolume(ref: np.ndarray) -> float:
     # ideal (0, 0), nadir (1, 1): the normalised front is the raw one. For r1, r2 >= 1 the
     # dominated area is r1 r2 minus the area under the front, int_0^1 (1 - sqrt f) df = 1/3
@@ -67,7 +63,7 @@ def _zdt1_hypervolume(ref: np.ndarray) -> float:
 KNOWN_FRONTS: dict[str, KnownFront] = {
     "ZDT1": KnownFront(
         ("f1", "f2"),
-        _zdt1_front,
+        ZDT1.pareto_front,
         _zdt1_hypervolume,
         "analytic: f2 = 1 - sqrt(f1), f1 in [0, 1] (Zitzler, Deb, Thiele 2000)",
     ),

@@ -59,3 +59,10 @@ class ZDT1(Problem):
 
     def config(self) -> dict:
         return {"dim": self.dim}
+
+    @staticmethod
+    def pareto_front(n: int) -> np.ndarray:
+        """``n`` points ``(f1, f2)`` of the Pareto front ``f2 = 1 - sqrt(f1)``, f1 evenly
+        spaced in [0, 1] (the front is the same for every ``dim``)."""
+        f1 = np.linspace(0.0, 1.0, int(n))
+        return np.c_[f1, 1.0 - np.sqrt(f1)]

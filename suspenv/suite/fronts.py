@@ -23,7 +23,7 @@ import numpy as np
 
 from suspenv.core.errors import ValidationError
 from suspenv.core.pareto import nondominated
-from suspenv.registry import make_strategy
+from suspenv.registry import make_strategy, problem_class
 from suspenv.runs.loop import optimize
 from suspenv.runs.versions import package_versions
 from suspenv.suite.instances import build
@@ -47,11 +47,10 @@ class Front:
 def load_front(name: str) -> Front:
     """The reference front ``name`` ("zdt1", "carside", "minibus")."""
     if name == "zdt1":
-        f1 = np.linspace(0.0, 1.0, 1001)
         return Front(
             "zdt1",
             ("f1", "f2"),
-            np.column_stack([f1, 1.0 - np.sqrt(f1)]),
+            problem_class("ZDT1").pareto_front(1001),
             {"source": "analytic: f2 = 1 - sqrt(f1) for f1 in [0, 1], 1001 points"},
         )
     path = FRONT_DIR / f"{name}.json"
