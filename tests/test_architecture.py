@@ -435,3 +435,22 @@ def test_complexity_rule_is_on_everywhere() -> None:
     ignores = lint.get("per-file-ignores", {})
     exempt = sorted(path for path, rules in ignores.items() if "C901" in rules)
     assert not exempt, f"C901 exempted in {exempt}: split their functions instead"
+
+
+#: the generators of the benchmarks' truth vehicles and components
+TRUTH_GENERATORS = (
+    "suspenv.rigs.knc_truth",
+    "suspenv.models.mcpherson.truth",
+    "suspenv.models.components.truth",
+)
+
+
+def test_the_diagnosis_imports_no_truth_generator() -> None:
+    # the diagnosis names missing physics from recordings alone: what a benchmark needs
+    # of the truth stays in benchmarks/
+    bad = [
+        f"{i.where}: {i.target}"
+        for i in all_imports()
+        if package_of(i.source) == "diagnosis" and i.target.startswith(TRUTH_GENERATORS)
+    ]
+    assert not bad, "the diagnosis importing a truth generator:\n" + "\n".join(bad)

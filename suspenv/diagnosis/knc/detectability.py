@@ -32,10 +32,6 @@ import numpy as np
 from suspenv.diagnosis.fitting import stacked_residual
 from suspenv.diagnosis.screening import orthonormal_basis
 from suspenv.rigs.knc_axle import KncAxleModel, effect_words, make_candidate
-from suspenv.rigs.knc_truth import BLIND_TESTS
-
-#: the blind cases' fitted tests (single-wheel travel is held out)
-FITTED_TESTS = tuple(t for t in BLIND_TESTS if t != "single")
 
 #: an effect is called detectable when the unabsorbed signal reaches this many sigma
 DETECTABLE_SNR = 5.0
