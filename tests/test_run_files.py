@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from strict_json import strict_loads
 
 from suspenv import make_problem
 from suspenv.core.atomic import write_file
@@ -63,6 +64,16 @@ def finished_run(tmp_path: Path) -> Path:
 
 
 # ------------------------------------------------------------------ atomic writes
+def test_run_files_are_standard_json(tmp_path):
+    # RFC 8259 has no NaN or Infinity token: a value a run cannot define is written null
+    value = {"best": np.float64(np.nan), "curve": np.array([np.inf, 1.5]), "n": np.int64(3)}
+    path = run_dir_module.write_json(tmp_path / "value.json", value)
+    assert strict_loads(path.read_text()) == {"best": None, "curve": [None, 1.5], "n": 3}
+    run_dir = finished_run(tmp_path)
+    for name in ("summary.json", "versions.json"):
+        assert strict_loads((run_dir / name).read_text())
+
+
 def test_a_failed_write_is_named_and_leaves_the_old_file_whole(tmp_path, monkeypatch):
     target = tmp_path / "summary.json"
     write_file(target, "old\n")

@@ -64,7 +64,6 @@ from suspenv.analysis.performance import (
 from suspenv.analysis.stats import rank_tests
 from suspenv.core.atomic import write_file
 from suspenv.core.errors import ValidationError
-from suspenv.core.jsonable import to_jsonable
 from suspenv.core.markdown import fmt, inline, markdown_table
 from suspenv.runs.config import config_differences, flatten_config
 from suspenv.runs.run_dir import write_json
@@ -860,5 +859,5 @@ def write_compare_files(
     paths = [out / "compare.json", write_file(out / "compare.md", markdown(comparison))]
     paths += written
     comparison.result["files"] = sorted({p.name for p in paths})
-    write_json(paths[0], to_jsonable(comparison.result))
+    write_json(paths[0], comparison.result)
     return paths

@@ -39,7 +39,6 @@ from typing import Any
 import numpy as np
 
 from suspenv.core.errors import ValidationError
-from suspenv.core.jsonable import to_jsonable
 from suspenv.core.laps import Laps
 from suspenv.core.space import DesignSpace, Parameter
 from suspenv.methods.curve_fit import (
@@ -1033,5 +1032,5 @@ def run_identify_pipeline(config: dict[str, Any], run_dir: Path) -> dict[str, An
         report="report.md",
         files=[str(f.relative_to(run_dir)) for f in files],
     )
-    write_json(run_dir / "summary.json", to_jsonable(s))
+    write_json(run_dir / "summary.json", s)
     return s

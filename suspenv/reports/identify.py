@@ -17,7 +17,6 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from suspenv.core.atomic import write_file
-from suspenv.core.jsonable import to_jsonable
 from suspenv.core.markdown import fmt, markdown_table, text
 from suspenv.methods.identifiability import K_SIGMA, TOLERANCE_PCT, Verdict, summary_counts
 from suspenv.methods.identify import FIT_RATIO, summary
@@ -621,7 +620,7 @@ def write_identify_report(result: IdentifyResult, out: Path, figures: bool = Tru
     write_file(toml, dump_vehicle(result.identified_vehicle))
     s = summary(result)
     js = out / "identify.json"
-    write_json(js, to_jsonable(s))
+    write_json(js, s)
     figs = _figures(result, out) if figures else {}
     lines = _first_screen(result, s) + [""]
     if "residual" in figs:  # the fit before and after the loop: the first thing seen

@@ -14,13 +14,16 @@ from typing import Any
 
 from suspenv.core.atomic import write_file
 from suspenv.core.errors import ValidationError
+from suspenv.core.jsonable import json_text
 from suspenv.core.tomlfile import dump_toml
 from suspenv.runs.versions import package_versions
 
 
 def write_json(path: Path | str, value: Any) -> Path:
-    """``value`` as indented JSON, atomically (:func:`write_file`)."""
-    return write_file(path, json.dumps(value, indent=2) + "\n")
+    """``value`` as indented, standard JSON (:func:`suspenv.core.jsonable.json_text`:
+    numpy values as Python values, NaN and infinities as ``null``), atomically
+    (:func:`write_file`)."""
+    return write_file(path, json_text(value))
 
 
 def run_directory(config: dict[str, Any]) -> Path:
