@@ -376,28 +376,48 @@ class QuarterCarRigModel(ComponentModel):
             raise EvaluationError(f"{self.family}: simulation failed ({failure})") from None
         return acc, defl
 
+    def _equations(
+        self,
+        k_s: Any,
+        c_s: Any,
+        k_t: Any,
+        stateless: list[PointwiseElement],
+        stateful: list[PointwiseElement],
+        pack: Callable[[list[Any]], Any],
+    ) -> tuple[Callable[[Any], Any], Callable[[Any, float], Any]]:
+        """The equations of motion (module docstring) of both RK4 paths:
+        ``(susp_force(s), deriv(s, z_r))`` for a state ``s = (z_s, v_s, z_u, v_u, element
+        states...)`` whose entries are plain floats (one design, ``pack=list``) or
+        ``(B,)`` arrays (a batch, ``pack=np.array``: a ``(4 + n_states, B)`` array).
+        ``susp_force`` is ``F_s`` [N] (no actuator: the exact scheme's input only);
+        ``deriv`` the state's time derivative with the road at ``z_r`` [m]."""
+        m_s, m_u = self.options["m_s"], self.options["m_u"]
+
+        def susp_force(s: Any) -> Any:
+            x, v = s[2] - s[0], s[3] - s[1]
+            f = k_s * x + c_s * v
+            for el in stateless:
+                f = f + el.force(x, v)
+            for i, el in enumerate(stateful):
+                f = f + el.force(x, v, s[4 + i])
+            return f
+
+        def deriv(s: Any, zr: float) -> Any:
+            x, v = s[2] - s[0], s[3] - s[1]
+            f = susp_force(s)
+            dz = [el.dzdt(x, v, s[4 + i]) for i, el in enumerate(stateful)]
+            return pack([s[1], f / m_s, s[3], (k_t * (zr - s[2]) - f) / m_u, *dz])
+
+        return susp_force, deriv
+
     def _integrate(
         self, base: dict[str, float], effects: list[Effect], t: np.ndarray, road: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
         """RK4 for one parameter set, in plain floats (fast for a single design)."""
-        m_s, m_u = self.options["m_s"], self.options["m_u"]
+        m_s = self.options["m_s"]
         k_s, c_s, k_t = base["k_s"], base["c_s"], base["k_t"]
         stateless, stateful = _elements(effects)
-
-        def susp_force(x, v, zs):
-            f = k_s * x + c_s * v
-            for el in stateless:
-                f += el.force(x, v)
-            for el, z in zip(stateful, zs, strict=True):
-                f += el.force(x, v, z)
-            return f
-
-        def deriv(state, zr):
-            z_s, v_s, z_u, v_u, *zs = state
-            x, v = z_u - z_s, v_u - v_s
-            f = susp_force(x, v, zs)
-            dz = [el.dzdt(x, v, z) for el, z in zip(stateful, zs, strict=True)]
-            return [v_s, f / m_s, v_u, (-f + k_t * (zr - z_u)) / m_u, *dz]
+        susp_force, deriv = self._equations(k_s, c_s, k_t, stateless, stateful, list)
 
         # start at rest on the initial road height (static equilibrium)
         r0 = float(road[0])
@@ -409,8 +429,7 @@ class QuarterCarRigModel(ComponentModel):
                 raise EvaluationError(
                     f"{self.family}: simulation diverged at t={t[k + 1]:.4g} s (sub-steps {nsub})"
                 )
-            z_s, v_s, z_u, v_u, *zs = state
-            return susp_force(z_u - z_s, v_u - v_s, zs) / m_s, z_u - z_s
+            return susp_force(state) / m_s, state[2] - state[0]
 
         try:
             acc, defl = _rk4(deriv, _FLOATS, observe, state, t, road, nsub)
@@ -434,7 +453,7 @@ class QuarterCarRigModel(ComponentModel):
         whatever ``B`` is (a finite-difference Jacobian costs about one simulation).
         The sub-step count is the largest any row needs. Returns ``(B, T)`` arrays.
         """
-        m_s, m_u = self.options["m_s"], self.options["m_u"]
+        m_s = self.options["m_s"]
         k_s, c_s, k_t = (np.asarray(base[n], float) for n in ("k_s", "c_s", "k_t"))
         n_rows = k_s.size
         stateless, stateful = _elements(effects)
@@ -446,27 +465,7 @@ class QuarterCarRigModel(ComponentModel):
                 el.params["f_c"] = np.where(present, f_c, 1.0)
                 el.params["sigma"] = np.where(present, el.params["sigma"], 0.0)
         n_states = 4 + len(stateful)
-
-        def susp_force(s: np.ndarray) -> np.ndarray:
-            x, v = s[2] - s[0], s[3] - s[1]
-            f = k_s * x + c_s * v
-            for el in stateless:
-                f = f + el.force(x, v)
-            for i, el in enumerate(stateful):
-                f = f + el.force(x, v, s[4 + i])
-            return f
-
-        def deriv(s: np.ndarray, zr: float) -> np.ndarray:
-            x, v = s[2] - s[0], s[3] - s[1]
-            f = susp_force(s)
-            out = np.empty_like(s)
-            out[0] = s[1]
-            out[1] = f / m_s
-            out[2] = s[3]
-            out[3] = (k_t * (zr - s[2]) - f) / m_u
-            for i, el in enumerate(stateful):
-                out[4 + i] = el.dzdt(x, v, s[4 + i])
-            return out
+        susp_force, deriv = self._equations(k_s, c_s, k_t, stateless, stateful, np.array)
 
         r0 = float(road[0])
         state = np.zeros((n_states, n_rows))
