@@ -189,10 +189,20 @@ def test_truncation_at_budget_and_terminated_never():
     assert env.step(np.zeros(2))[3] is False
 
 
-@pytest.mark.parametrize("budget", [0, -1, 2.5, True, "10"])
-def test_bad_budget_is_rejected(budget):
-    with pytest.raises(ValidationError, match="`budget` must be an integer >= 1"):
+@pytest.mark.parametrize(
+    ("budget", "message"),
+    [
+        (0, "ProblemEnv: `budget >= 1` must hold, but got budget=0"),
+        (-1, "ProblemEnv: `budget >= 1` must hold, but got budget=-1"),
+        (2.5, "`budget` must be an integer with `budget >= 1`, but got budget=2.5"),
+        (True, "`budget` must be an integer with `budget >= 1`, but got budget=True (bool)"),
+        ("10", "`budget` must be an integer with `budget >= 1`, but got budget='10' (str)"),
+    ],
+)
+def test_bad_budget_is_rejected(budget, message):
+    with pytest.raises(ValidationError) as err:
         ProblemEnv("Sphere", budget=budget)
+    assert message in str(err.value)
 
 
 def test_reward_is_minus_the_objective_for_one_objective():
@@ -391,7 +401,9 @@ def test_vector_env_failed_rows_and_bad_actions():
         vec.step(np.array([[0.0, 0.0], [np.inf, 0.0], [0.0, 0.0]]))
     with pytest.raises(ValidationError, match=r"shape \(3, 2\)"):
         vec.step(np.zeros((2, 2)))
-    with pytest.raises(ValidationError, match="`num_envs` must be an integer >= 1"):
+    with pytest.raises(
+        ValidationError, match="ProblemVectorEnv: `num_envs >= 1` must hold, but got num_envs=0"
+    ):
         ProblemVectorEnv("Sphere", num_envs=0)
 
 
@@ -445,3 +457,25 @@ def test_import_suspenv_registers_the_envs():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "ProblemEnv"
+
+
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        ({"penalty": -1.0}, "Sphere env: `penalty >= 0` must hold, but got penalty=-1.0"),
+        (
+            {"fail_value": np.inf},
+            "`fail_value` must be a finite number with `0 <= fail_value <= 1e+300`, but got "
+            "fail_value=inf",
+        ),
+        (
+            {"reward": "sums"},
+            "`reward` must be one of ['normalized', 'sum', 'vector'], but got "
+            "'sums'; did you mean 'sum'?",
+        ),
+    ],
+)
+def test_env_options_are_refused_naming_the_rule_and_the_value(options, message):
+    with pytest.raises(ValidationError) as err:
+        ProblemEnv("Sphere", **options)
+    assert message in str(err.value)

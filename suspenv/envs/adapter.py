@@ -32,7 +32,6 @@ Conventions (all float64):
 
 from __future__ import annotations
 
-import numbers
 import warnings
 from collections.abc import Callable, Sequence
 from typing import Any
@@ -40,6 +39,7 @@ from typing import Any
 import numpy as np
 
 from suspenv.core.errors import ValidationError
+from suspenv.core.options import choice, number
 from suspenv.core.problem import Problem
 from suspenv.core.result import EvaluationBatch
 from suspenv.core.scalarize import get_scalarizer
@@ -87,8 +87,7 @@ def check_reward(reward: Any, problem: Problem) -> str:
     process under Python's default warning filters)."""
     if reward is None:
         return default_reward(problem)
-    if not isinstance(reward, str) or reward not in REWARDS:
-        raise ValidationError(f"`reward` must be one of {list(REWARDS)}, but got reward={reward!r}")
+    reward = choice(f"{problem.name} env", "reward", reward, REWARDS)
     if reward == "vector" and problem.n_objectives < 2:
         raise ValidationError(
             f"reward='vector' needs two or more objectives, but {problem.name} has "
@@ -154,16 +153,9 @@ class ProblemAdapter:
         self.dim = problem.space.dim
         self.m = problem.n_objectives
         self.k = problem.n_constraints
-        for key, value in (("penalty", penalty), ("fail_value", fail_value)):
-            ok = isinstance(value, numbers.Real) and not isinstance(value, bool)
-            if not (ok and np.isfinite(value) and value >= 0):
-                raise ValidationError(f"`{key}` must be a finite number >= 0, but got {value!r}")
-        if not fail_value <= OBS_LIMIT:
-            raise ValidationError(
-                f"`fail_value <= {OBS_LIMIT:g}` must hold, but got fail_value={fail_value!r}"
-            )
-        self.penalty = float(penalty)
-        self.fail_value = float(fail_value)
+        owner = f"{problem.name} env"
+        self.penalty = number(owner, "penalty", penalty, lo=0.0)
+        self.fail_value = number(owner, "fail_value", fail_value, lo=0.0, hi=OBS_LIMIT)
         self.scalarizer_name, self._scalarize = self._resolve_scalarizer(
             scalarizer, weights, batch_scalarizer_ok
         )

@@ -10,6 +10,7 @@ import numpy as np
 from gymnasium import spaces
 
 from suspenv.core.errors import ValidationError
+from suspenv.core.options import integer
 from suspenv.core.problem import Problem
 from suspenv.envs.adapter import (
     FAIL_VALUE,
@@ -19,13 +20,6 @@ from suspenv.envs.adapter import (
     build_problem,
     problem_key,
 )
-
-
-def check_count(name: str, value: Any) -> int:
-    """``value`` of argument ``name`` as an int >= 1, or a ValidationError naming the rule."""
-    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
-        raise ValidationError(f"`{name}` must be an integer >= 1, but got {name}={value!r}")
-    return int(value)
 
 
 def single_spaces(adapter: ProblemAdapter) -> tuple[spaces.Box, spaces.Box]:
@@ -56,7 +50,7 @@ class EnvBase:
         self.problem = build_problem(problem, problem_options)
         key = problem_key(problem, problem_options, self.problem)
         self.adapter = ProblemAdapter(self.problem, scales_key=key, **shaping)
-        self.budget = check_count("budget", budget)
+        self.budget = integer(type(self).__name__, "budget", budget, lo=1)
 
     def _reference_outputs(self) -> dict[str, Any]:
         """The adapter's outputs of the reference design, evaluated once per env."""

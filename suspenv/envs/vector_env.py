@@ -10,12 +10,13 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from suspenv.core.errors import ValidationError
+from suspenv.core.options import integer
 from suspenv.core.problem import Problem
 from suspenv.envs.adapter import (
     FAIL_VALUE,
     Scalarizer,
 )
-from suspenv.envs.problem_env import EnvBase, check_count, single_spaces
+from suspenv.envs.problem_env import EnvBase, single_spaces
 
 
 class ProblemVectorEnv(EnvBase, VectorEnv):
@@ -91,7 +92,7 @@ class ProblemVectorEnv(EnvBase, VectorEnv):
         render_mode: str | None = None,
         reward: str | None = None,
     ):
-        self.num_envs = check_count("num_envs", num_envs)
+        self.num_envs = integer(type(self).__name__, "num_envs", num_envs, lo=1)
         if render_mode is not None:
             raise ValidationError(
                 f"`render_mode` must be None for the vector env, but got {render_mode!r}"
