@@ -69,9 +69,9 @@ def test_compare_a_run_still_going_is_a_named_error(one_run, tmp_path, capsys):
 @pytest.mark.parametrize(
     "option, message",
     [
-        (["--f-opt", "nan"], "f_opt must be a finite number, but got f_opt=nan"),
-        (["--f-opt", "inf"], "f_opt must be a finite number, but got f_opt=inf"),
-        (["--n-targets", "0"], "n_targets must be an integer >= 1, but got n_targets=0"),
+        (["--f-opt", "nan"], "`f_opt` must be a finite number, but got f_opt=nan"),
+        (["--f-opt", "inf"], "`f_opt` must be a finite number, but got f_opt=inf"),
+        (["--n-targets", "0"], "`n_targets >= 1` must hold, but got n_targets=0"),
         (["--alpha", "1.5"], "`0 < alpha < 1` must hold, but got alpha=1.5"),
     ],
 )

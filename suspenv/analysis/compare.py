@@ -65,6 +65,7 @@ from suspenv.analysis.stats import rank_tests
 from suspenv.core.atomic import write_file
 from suspenv.core.errors import ValidationError
 from suspenv.core.markdown import fmt, inline, markdown_table
+from suspenv.core.options import choice, integer, number, optional
 from suspenv.runs.config import config_differences, flatten_config
 from suspenv.runs.run_dir import write_json
 
@@ -643,14 +644,10 @@ def check_options(f_opt: Any, n_targets: Any, alpha: Any, measure: str = "auto")
     ``measure`` one of :data:`MEASURES`."""
     values = f_opt.values() if isinstance(f_opt, Mapping) else [f_opt]
     for v in values:
-        if v is not None and not (isinstance(v, int | float) and np.isfinite(v)):
-            raise ValidationError(f"f_opt must be a finite number, but got f_opt={v!r}")
-    if isinstance(n_targets, bool) or not isinstance(n_targets, int) or n_targets < 1:
-        raise ValidationError(f"n_targets must be an integer >= 1, but got n_targets={n_targets!r}")
-    if not (isinstance(alpha, int | float) and 0 < alpha < 1):
-        raise ValidationError(f"`0 < alpha < 1` must hold, but got alpha={alpha!r}")
-    if measure not in MEASURES:
-        raise ValidationError(f"measure must be one of {list(MEASURES)}, but got {measure!r}")
+        optional(number, "compare", "f_opt", v)
+    integer("compare", "n_targets", n_targets, lo=1)
+    number("compare", "alpha", alpha, lo=0.0, hi=1.0, lo_open=True, hi_open=True)
+    choice("compare", "measure", measure, MEASURES)
 
 
 DEFINITIONS = {
