@@ -258,11 +258,11 @@ def test_resolved_config_holds_the_fault_policy(tmp_path):
 @pytest.mark.parametrize(
     ("override", "needle"),
     [
-        ("run.timeout_s=0", "0 < run.timeout_s < inf"),
-        ("run.timeout_s=inf", "0 < run.timeout_s < inf"),
-        ("run.retries=-1", "run.retries"),
-        ("run.retries=2.5", "run.retries"),
-        ("run.retry_backoff_s=nan", "run.retry_backoff_s"),
+        ("run.timeout_s=0", "`run.timeout_s > 0` must hold, but got run.timeout_s=0"),
+        ("run.timeout_s=inf", "`run.timeout_s` must be a finite number with `run.timeout_s > 0`"),
+        ("run.retries=-1", "`0 <= run.retries <= 100` must hold, but got run.retries=-1"),
+        ("run.retries=2.5", "`run.retries` must be an integer with `0 <= run.retries <= 100`"),
+        ("run.retry_backoff_s=nan", "`run.retry_backoff_s` must be a finite number"),
         ("run.chunk_size=0", "run.chunk_size"),
         ("run.plots=2", "run.plots"),
         ("run.dask_scheduler=8786", "run.dask_scheduler"),

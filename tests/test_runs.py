@@ -84,9 +84,9 @@ def test_results_of_another_commit_are_not_resumed(tmp_path):
 @pytest.mark.parametrize(
     ("override", "needle"),
     [
-        ("seed=-1", "`seed` must be an integer >= 0, but got -1"),
-        ("budget=0", "`budget` must be an integer >= 1, but got 0"),
-        ("run.workers=0", "`run.workers` must be an integer >= 1, but got 0"),
+        ("seed=-1", "config: `seed >= 0` must hold, but got seed=-1"),
+        ("budget=0", "config: `budget >= 1` must hold, but got budget=0"),
+        ("run.workers=0", "config: `run.workers >= 1` must hold, but got run.workers=0"),
         ("run.worker=2", "unknown key run.'worker'; did you mean 'workers'?"),
         ("bugdet=3", "unknown key 'bugdet'; did you mean 'budget'?"),
     ],

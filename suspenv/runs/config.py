@@ -42,7 +42,7 @@ from pathlib import Path
 from typing import Any
 
 from suspenv.core.errors import ValidationError
-from suspenv.core.options import did_you_mean, flag
+from suspenv.core.options import did_you_mean, flag, integer, text
 from suspenv.core.tomlfile import read_toml
 from suspenv.runs.evaluation import FaultPolicy
 
@@ -136,13 +136,15 @@ def parse_override(text: str) -> tuple[list[str], Any]:
 
 def apply_overrides(config: dict[str, Any], overrides: list[str]) -> dict[str, Any]:
     out = copy.deepcopy(config)
-    for text in overrides:
-        path, value = parse_override(text)
+    for override in overrides:
+        path, value = parse_override(override)
         node = out
         for part in path[:-1]:
             nxt = node.setdefault(part, {})
             if not isinstance(nxt, dict):
-                raise ValidationError(f"--set {text!r}: `{part}` is a value ({nxt!r}), not a table")
+                raise ValidationError(
+                    f"--set {override!r}: `{part}` is a value ({nxt!r}), not a table"
+                )
             node = nxt
         node[path[-1]] = value
     return out
@@ -199,9 +201,9 @@ def validate(config: dict[str, Any], allow_code: bool = False) -> dict[str, Any]
     for table in ("problem", "strategy"):
         _check_unknown(set(cfg[table]), KNOWN_PART, f"{table}.")
     _check_pipeline_keys(cfg)
-    _check_count(cfg["seed"], "seed", 0)
+    cfg["seed"] = integer("config", "seed", cfg["seed"], lo=0)
     if "budget" in cfg:
-        _check_count(cfg["budget"], "budget", 1)
+        cfg["budget"] = integer("config", "budget", cfg["budget"], lo=1)
     _check_run(cfg["run"])
     for table in ("problem", "strategy"):
         if not isinstance(cfg[table].get("options", {}), dict):
@@ -212,33 +214,23 @@ def validate(config: dict[str, Any], allow_code: bool = False) -> dict[str, Any]
 def _check_pipeline_keys(cfg: dict[str, Any]) -> None:
     """The top-level keys the config's pipeline knows (:data:`PIPELINE_TABLES`), and what
     the optimize pipeline requires: problem and strategy names, a budget."""
-    if not isinstance(cfg["pipeline"], str):
-        raise ValidationError(f"config: `pipeline` must be a string, but got {cfg['pipeline']!r}")
+    text("config", "pipeline", cfg["pipeline"], empty=True)
     tables = PIPELINE_TABLES.get(cfg["pipeline"])
     if tables is not None:
         _check_unknown(set(cfg), KNOWN_TOP | tables, "")
     if cfg["pipeline"] != "optimize":
         return
     for table in ("problem", "strategy"):
-        if not isinstance(cfg[table].get("name"), str):
-            raise ValidationError(
-                f"config: `{table}.name` must be a string, but got {cfg[table].get('name')!r}"
-            )
+        text("config", f"{table}.name", cfg[table].get("name"), empty=True)
     if "budget" not in cfg:
         raise ValidationError("config: `budget` (number of evaluations) is required")
 
 
-def _check_count(value: Any, key: str, low: int) -> None:
-    """The config's ``key`` is an integer (not a boolean) of at least ``low``."""
-    if not isinstance(value, int) or isinstance(value, bool) or value < low:
-        raise ValidationError(f"config: `{key}` must be an integer >= {low}, but got {value!r}")
-
-
 def _check_run(run: dict[str, Any]) -> None:
     """Types and ranges of the ``[run]`` table (timeout and retries: FaultPolicy)."""
-    _check_count(run["workers"], "run.workers", 1)
+    run["workers"] = integer("config", "run.workers", run["workers"], lo=1)
     if run.get("chunk_size") is not None:
-        _check_count(run["chunk_size"], "run.chunk_size", 1)
+        run["chunk_size"] = integer("config", "run.chunk_size", run["chunk_size"], lo=1)
     for key in ("plots", "progress"):
         flag("config", f"run.{key}", run[key])
     if not isinstance(run["output"], str) or not run["output"]:

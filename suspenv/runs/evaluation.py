@@ -35,7 +35,8 @@ from typing import Any
 
 import numpy as np
 
-from suspenv.core.errors import InfrastructureError, ValidationError
+from suspenv.core.errors import InfrastructureError
+from suspenv.core.options import integer, number
 from suspenv.core.problem import Problem
 from suspenv.core.result import EvaluationBatch
 from suspenv.runs.executors import HEARTBEAT_S, Connected, Restartable
@@ -67,17 +68,11 @@ class FaultPolicy:
     backoff_s: float = 1.0
 
     def __post_init__(self) -> None:
-        t, r, b = self.timeout_s, self.retries, self.backoff_s
-        if not (isinstance(t, int | float) and not isinstance(t, bool) and 0 < t < math.inf):
-            raise ValidationError(f"`0 < run.timeout_s < inf` must hold, but got timeout_s={t!r}")
-        if not (isinstance(r, int) and not isinstance(r, bool) and 0 <= r <= 100):
-            raise ValidationError(
-                f"`run.retries` must be an integer in [0, 100], but got retries={r!r}"
-            )
-        if not (isinstance(b, int | float) and not isinstance(b, bool) and 0 <= b <= 3600):
-            raise ValidationError(
-                f"`0 <= run.retry_backoff_s <= 3600` must hold, but got retry_backoff_s={b!r}"
-            )
+        # named as the keys of the [run] table; retries is kept as the int it stands for
+        number("config", "run.timeout_s", self.timeout_s, lo=0.0, lo_open=True)
+        retries = integer("config", "run.retries", self.retries, lo=0, hi=100)
+        object.__setattr__(self, "retries", retries)
+        number("config", "run.retry_backoff_s", self.backoff_s, lo=0.0, hi=3600.0)
 
     @classmethod
     def for_run(cls, run: Mapping[str, Any], problem: Problem) -> FaultPolicy:

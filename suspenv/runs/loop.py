@@ -37,6 +37,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from suspenv.core.errors import InfrastructureError, ValidationError
+from suspenv.core.options import integer
 from suspenv.core.problem import Problem
 from suspenv.core.result import EvaluationBatch
 from suspenv.runs import quality as run_quality
@@ -135,11 +136,8 @@ def optimize(
             spent, :class:`~suspenv.core.errors.InfrastructureError` ends the run; the
             archive keeps every evaluation done, and calling again resumes.
     """
-    if int(budget) != budget or budget < 1:
-        raise ValidationError(f"`budget >= 1` (an integer) must hold, but got budget={budget!r}")
-    if int(workers) != workers or workers < 1:
-        raise ValidationError(f"`workers >= 1` (an integer) must hold, but got workers={workers!r}")
-    budget = int(budget)
+    budget = integer("optimize", "budget", budget, lo=1)
+    workers = integer("optimize", "workers", workers, lo=1)
     policy = faults if faults is not None else FaultPolicy(timeout_s=problem.timeout_s)
     with contextlib.ExitStack() as stack:
         if run_dir is not None:
