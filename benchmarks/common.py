@@ -2,12 +2,9 @@
 
 from __future__ import annotations
 
-import functools
 import json
 import os
 import platform
-import statistics
-import sys
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -126,34 +123,3 @@ class BatchTiming:
                 "repeats": self.singles,
             },
         ]
-
-
-def time_batch_vs_single(problem: Any, X: Any, repeats: int, singles: int) -> BatchTiming:
-    """Time ``problem.evaluate`` on the whole batch X (best of ``repeats``) and on its first
-    ``singles`` rows one at a time (median), in the same run."""
-    from tqdm import tqdm
-
-    n = len(X)
-    wall: list[float] = []
-    cpu: list[float] = []
-    last: dict[str, Any] = {}
-    for _ in tqdm(range(repeats), desc=f"batches of {n}", file=sys.stderr):
-        w, c = wall_and_cpu(lambda: last.update(batch=problem.evaluate(X)))
-        wall.append(w)
-        cpu.append(c)
-    s_wall, s_cpu = [], []
-    for i in tqdm(range(singles), desc="one at a time", file=sys.stderr):
-        # partial binds the row (a lambda with i=i trips mypy issue #15459)
-        w, c = wall_and_cpu(functools.partial(problem.evaluate, X[i : i + 1]))
-        s_wall.append(w)
-        s_cpu.append(c)
-    return BatchTiming(
-        batch=n,
-        repeats=repeats,
-        singles=singles,
-        batched_cpu_ms=1e3 * min(cpu) / n,
-        batched_wall_ms=1e3 * min(wall) / n,
-        single_cpu_ms=1e3 * statistics.median(s_cpu),
-        single_wall_ms=1e3 * statistics.median(s_wall),
-        valid=int(last["batch"].ok.sum()),
-    )

@@ -327,7 +327,7 @@ def baseline_measures(problem: MinibusRideHandling, X: np.ndarray) -> np.ndarray
 
 
 class _Baseline:
-    """``evaluate`` of :func:`baseline_measures`, shaped for :func:`time_batch_vs_single`."""
+    """``evaluate`` of :func:`baseline_measures`, shaped as a problem's (``ok`` per row)."""
 
     def __init__(self, problem: MinibusRideHandling):
         self.problem = problem
@@ -344,7 +344,8 @@ class _Baseline:
 def _interleaved(
     evaluators: list[Any], X: np.ndarray, repeats: int, singles: list[int]
 ) -> list[BatchTiming]:
-    """:func:`time_batch_vs_single` for several evaluators, their measurements
+    """Per-candidate times of several evaluators: the whole batch X (best of ``repeats``)
+    and its first ``singles[j]`` rows one at a time (median), the measurements
     interleaved (batch repeats in turn; design i one at a time by each in turn), so a
     load that changes during the run weighs on all of them alike."""
     n = len(X)

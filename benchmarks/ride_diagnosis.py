@@ -74,13 +74,6 @@ REPORT_SEEDS = (501, 502, 503, 504, 505)
 #: cases run again with the numpy loop (the speed baseline, same run): the in-library
 #: kinds and a control of the first reported seed
 BASELINE_KINDS: tuple[str | None, ...] = KINDS
-#: truth kind -> the (kind@location) prefix a correct diagnosis names
-EXPECTED_KIND = {
-    "bump_stop": "bump_stop",
-    "leaf_friction": "dahl_hysteresis",
-    "damper_friction": "coulomb_friction",
-    "seat_mount": "kelvin_voigt",
-}
 
 
 def ride_row(kind: str | None, seed: int) -> dict[str, Any]:

@@ -85,10 +85,6 @@ class RideTruth:
     def kinds(self) -> list[str]:
         return [e.kind for e in self.effects]
 
-    @property
-    def locations(self) -> list[str]:
-        return [e.location for e in self.effects]
-
     def to_dict(self) -> dict[str, Any]:
         return {
             "base": self.base,

@@ -59,7 +59,6 @@ IN_LIBRARY = (
     "sensor_lag",
 )
 OUTSIDE = ("cubic_damper", "velocity_dead_zone", "backlash", "time_delay")
-SENSOR = ("sensor_offset", "sensor_gain", "sensor_lag", "time_delay")
 
 #: effect label -> its magnitude parameter
 SCALE_PARAM = {
