@@ -316,11 +316,12 @@ def test_eig_equals_numpy_and_fails_only_the_non_finite_matrix():
 
 @pytest.mark.parametrize("damping", [1.0, 30.0])
 def test_halves_eigenvectors_solve_the_eigenproblem(damping):
-    """The halves' modes from LAPACK's eigenvalues and the compiled null vectors
-    (``_Halves.modal``: ``spectral_kernel.eigvals``, ``eigenvectors``) against
-    :func:`numpy.linalg.eig` (the reference): the same eigenvalues to round-off, ``A v =
-    lam v`` to round-off and each unit vector parallel to numpy's; 30x the mean damping
-    gives real poles. A matrix with a NaN entry gives NaN in its own rows only."""
+    """The halves' modes from the compiled QR iteration and null vectors
+    (``_Halves.modal``: ``spectral_kernel.eigen``) against :func:`numpy.linalg.eig` (the
+    reference, LAPACK): the same eigenvalues to round-off, ``A v = lam v`` to round-off
+    and each unit vector parallel to numpy's; 30x the mean damping gives real poles. A
+    matrix with a NaN entry gives NaN in its own rows only, from the compiled loop and
+    from ``modal``'s LAPACK fallback alike."""
     from suspenv.metrics.ride import _Halves, _split_geometry
     from suspenv.models.minibus import spectral_kernel
 
@@ -344,8 +345,41 @@ def test_halves_eigenvectors_solve_the_eigenproblem(damping):
     ref = np.take_along_axis(V_ref, nearest[:, None, :], axis=2)
     np.testing.assert_allclose(np.abs(np.sum(V.conj() * ref, axis=1)), 1.0, rtol=1e-9)
     A[1, 5, 0] = np.nan
-    w = spectral_kernel.eigvals(A)
+    w = np.empty(A.shape[:2], dtype=complex)
     vec = np.empty(A.shape, dtype=complex)
-    spectral_kernel.eigenvectors(A, w, vec)
+    spectral_kernel.eigen(A, w, vec)
     assert np.isnan(w[1]).all() and np.isnan(vec[1]).all()
-    assert np.isfinite(w[[0, 2, 3]]).all() and np.isfinite(vec[[0, 2, 3]]).all()
+    np.testing.assert_array_equal(w[[0, 2, 3]], lam[[0, 2, 3]])
+    np.testing.assert_array_equal(vec[[0, 2, 3]], V[[0, 2, 3]])
+    lam, V = halves.modal(rates + np.where(np.arange(len(rates)) == 1, np.nan, 0.0)[:, None])
+    assert np.isnan(lam[[2, 3]]).all() and np.isnan(V[[2, 3]]).all()
+    assert np.isfinite(lam[[0, 1]]).all() and np.isfinite(V[[0, 1]]).all()
+
+
+def test_qr_eigenvalues_equal_lapack_on_general_matrices():
+    """``spectral_kernel._eigenvalues`` (balancing, Hessenberg reduction, Francis QR; the
+    plain form of the compiled loop's) against :func:`numpy.linalg.eigvals` (LAPACK, the
+    reference) on random matrices of 2-8 rows spanning six decades of row scale, some
+    with zero entries, real and complex eigenvalues: equal to round-off of the matrix's
+    size; conjugate pairs adjacent, positive imaginary part first; NaN for a matrix
+    with a non-finite entry."""
+    from scipy.optimize import linear_sum_assignment
+
+    from suspenv.models.minibus.spectral_kernel import _eigenvalues
+
+    rng = np.random.default_rng(11)
+    for m in (2, 3, 5, 8):
+        for t in range(40):
+            A = rng.normal(size=(m, m)) * 10.0 ** rng.uniform(-3, 3, (m, 1))
+            A[rng.random((m, m)) < 0.3 * (t % 2)] = 0.0
+            lam = np.empty(m, dtype=complex)
+            _eigenvalues(A.copy(), lam)
+            ref = np.linalg.eigvals(A)
+            # matched one to one (repeated eigenvalues where rows are zero)
+            _, match = linear_sum_assignment(np.abs(lam[:, None] - ref[None, :]))
+            assert np.abs(lam - ref[match]).max() <= 1e-12 * np.abs(A).max()
+            pos = np.flatnonzero(lam.imag > 0)
+            np.testing.assert_array_equal(lam[pos + 1], lam[pos].conj())
+    A[0, 1] = np.inf
+    _eigenvalues(A, lam)
+    assert np.isnan(lam).all()

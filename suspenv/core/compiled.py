@@ -93,7 +93,7 @@ def _signatures() -> None:
     c3 = _arr("complex128", 3)
     AHEAD["suspenv.models.minibus.spectral_kernel"] = {
         "halves_matrix": f"void({f(3)}, {f(3)}, {f(4)}, {f(2)}, {f(3)})",
-        "eigenvectors": f"void({f(3)}, {c}, {c3})",
+        "eigen": f"void({f(3)}, {c}, {c3})",
         "modal_mean_square": f"void({c}, {c3}, {c3}, {f(3)}, int64, {f(1)}, {f(1)}, {f(1)}, "
         f"{f(2)}, {f(3)})",
         "damper_leaf_rates": f"void({f(2)}, {f(3)}, {f(2)}, {f(3)}, int64, {f(2)})",
