@@ -299,19 +299,30 @@ def test_take_rates_rule():
 
 
 def test_eig_equals_numpy_and_fails_only_the_non_finite_matrix():
-    """The ride's eig against :func:`numpy.linalg.eig` (the reference): equal numbers
-    for finite matrices; a matrix with a NaN entry gives NaN in its own rows only."""
-    from suspenv.models.minibus.spectral_kernel import eig
+    """The compiled eig of small matrices against :func:`numpy.linalg.eig` (LAPACK, the
+    reference): the same eigenvalues (in another order) to round-off, ``A v = lam v`` to
+    round-off, unit vectors parallel to numpy's; ``-I`` (a repeated eigenvalue, no
+    unique null vector) takes LAPACK's numbers exactly, as :func:`lapack_eig` does
+    numpy's; a matrix with a NaN entry gives NaN in its own rows only."""
+    from suspenv.models.minibus.spectral_kernel import eig, lapack_eig
 
-    A = np.random.default_rng(3).normal(size=(3, 6, 6))
+    A = np.random.default_rng(3).normal(size=(2, 3, 4, 4))
+    A[1, 2] = -np.eye(4)
     w, v = eig(A)
     w_ref, v_ref = np.linalg.eig(A)
-    np.testing.assert_array_equal(w, w_ref)
-    np.testing.assert_array_equal(v, v_ref)
-    A[1, 2, 3] = np.nan
+    nearest = np.abs(w[..., :, None] - w_ref[..., None, :]).argmin(axis=-1)
+    np.testing.assert_allclose(w, np.take_along_axis(w_ref, nearest, -1), rtol=0, atol=1e-13)
+    assert np.abs(A @ v - v * w[..., None, :]).max() <= 1e-13
+    parallel = np.sum(v.conj() * np.take_along_axis(v_ref, nearest[..., None, :], -1), axis=-2)
+    parallel = parallel.reshape(6, 4)  # the last matrix -I
+    np.testing.assert_allclose(np.abs(parallel[np.arange(6) != 5]), 1.0, rtol=1e-12)
+    np.testing.assert_array_equal(v[1, 2], np.eye(4))  # -I: every vector is one
+    for got, ref in zip(lapack_eig(A), (w_ref, v_ref), strict=True):
+        np.testing.assert_array_equal(got, ref)
+    A[0, 1, 2, 3] = np.nan
     w, v = eig(A)
-    assert np.isnan(w[1]).all() and np.isnan(v[1]).all()
-    np.testing.assert_array_equal(w[[0, 2]], w_ref[[0, 2]])
+    assert np.isnan(w[0, 1]).all() and np.isnan(v[0, 1]).all()
+    assert np.isfinite(w[0, [0, 2]]).all() and np.isfinite(w[1]).all()
 
 
 @pytest.mark.parametrize("damping", [1.0, 30.0])

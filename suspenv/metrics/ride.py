@@ -451,8 +451,9 @@ class _Halves:
         matrices at element rates (n, n_el), 2 n rows: the compiled
         :func:`suspenv.models.minibus.spectral_kernel.halves_matrix` and
         :func:`~suspenv.models.minibus.spectral_kernel.eigen`; a row whose QR iteration
-        fails (NaN) takes LAPACK's :func:`~suspenv.models.minibus.spectral_kernel.eig`
-        (NaN again where the matrix is not finite)."""
+        fails (NaN) takes LAPACK's
+        :func:`~suspenv.models.minibus.spectral_kernel.lapack_eig` (NaN again where the
+        matrix is not finite)."""
         A = self._A
         spectral_kernel.halves_matrix(self.A0, self.minv, self.D, rates, A)
         lam = np.empty(A.shape[:2], dtype=complex)
@@ -460,7 +461,7 @@ class _Halves:
         spectral_kernel.eigen(A, lam, V)
         if np.isnan(lam.sum()):
             bad = np.isnan(lam).any(axis=1)
-            lam[bad], V[bad] = spectral_kernel.eig(A[bad])
+            lam[bad], V[bad] = spectral_kernel.lapack_eig(A[bad])
         return lam, V
 
     def mean_square(

@@ -40,10 +40,27 @@ _LAPACK_EIG: Any = getattr(getattr(np.linalg, "_umath_linalg", None), "eig", Non
 
 
 def eig(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Eigenvalues (..., m) and eigenvectors (..., m, m; unit 2-norm columns), complex,
+    of the small real matrices ``A`` (..., m, m): the compiled :func:`general_eigen`
+    (~1 us a 4x4 matrix; LAPACK's costs several times more in its setup), LAPACK's
+    (:func:`lapack_eig`) for a matrix where it gives NaN: its QR iteration failed, or
+    an eigenvalue is repeated (the null vector is not unique, e.g. ``-I``). A matrix
+    with a non-finite entry gives NaN, so that its design fails as non-finite."""
+    m = A.shape[-1]
+    flat = np.ascontiguousarray(A, dtype=float).reshape(-1, m, m)
+    w = np.empty(flat.shape[:2], dtype=complex)
+    v = np.empty(flat.shape, dtype=complex)
+    general_eigen(flat, w, v)
+    if np.isnan(v.sum()):
+        bad = np.isnan(v).any(axis=(1, 2))
+        w[bad], v[bad] = lapack_eig(flat[bad])
+    return w.reshape(A.shape[:-1]), v.reshape(A.shape)
+
+
+def lapack_eig(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Eigenvalues (..., m) and eigenvectors (..., m, m), complex, of the real matrices
     ``A`` (..., m, m), the numbers of :func:`numpy.linalg.eig` without its checks and
-    casts (~10 us a call). A matrix with a non-finite entry gives NaN (numpy raises for
-    the whole stack), so that its design fails as non-finite."""
+    casts; NaN for a matrix with a non-finite entry (numpy raises for the whole stack)."""
     if _LAPACK_EIG is not None and np.isfinite(A.sum()):
         return _LAPACK_EIG(A, signature="d->DD")
     bad = ~np.isfinite(A).all(axis=(-2, -1))
@@ -250,7 +267,8 @@ def _eigenvalues(a: np.ndarray, lam: np.ndarray) -> None:
 def _null_vector(q: np.ndarray, perm: np.ndarray, x: np.ndarray) -> None:
     """``x`` (m,) with ``q x = 0`` for a singular ``q`` (m, m; overwritten) by Gaussian
     elimination with complete pivoting (pivots by ``|re| + |im|``): the last pivot, the
-    smallest, taken as zero and its unknown as 1 (``perm`` (m,) int64 workspace)."""
+    smallest, taken as zero and its unknown as 1 (``perm`` (m,) int64 workspace); NaN
+    when an earlier pivot is zero too."""
     m = q.shape[0]
     for k in range(m):
         perm[k] = k
@@ -261,6 +279,9 @@ def _null_vector(q: np.ndarray, perm: np.ndarray, x: np.ndarray) -> None:
                 size = abs(q[i, j].real) + abs(q[i, j].imag)
                 if size > best:
                     pi, pj, best = i, j, size
+        if best == 0.0:  # a null space of more dimensions: no unique vector
+            x[:] = np.nan
+            return
         for c in range(m):
             q[k, c], q[pi, c] = q[pi, c], q[k, c]
         for i in range(m):
@@ -324,6 +345,38 @@ def _eigen(A: np.ndarray, lam: np.ndarray, V: np.ndarray) -> None:
             scale = 1.0 / math.sqrt(norm)
             for i in range(ns):
                 V[r, i, k] *= scale
+
+
+def _general_eigen(A: np.ndarray, lam: np.ndarray, V: np.ndarray) -> None:
+    """Eigenvalues ``lam`` (rows, m; :func:`_eigenvalues`) and eigenvectors ``V`` (rows,
+    m, m; column k of unit 2-norm, the null vector (:func:`_null_vector`) of ``A -
+    lam[r, k] I``; the second eigenvalue of a conjugate pair takes the conjugate
+    vector) of the real matrices ``A`` (rows, m, m). NaN where the QR iteration fails."""
+    rows, m = lam.shape
+    a = np.empty((m, m))
+    q = np.empty((m, m), dtype=np.complex128)
+    x = np.empty(m, dtype=np.complex128)
+    perm = np.empty(m, dtype=np.int64)
+    for r in range(rows):
+        a[:] = A[r]
+        _eigenvalues(a, lam[r])
+        for k in range(m):
+            lk = lam[r, k]
+            if k > 0 and lk.imag < 0 and lk == lam[r, k - 1].conjugate():
+                for i in range(m):
+                    V[r, i, k] = V[r, i, k - 1].conjugate()
+                continue
+            for i in range(m):
+                for j in range(m):
+                    q[i, j] = A[r, i, j]
+                q[i, i] -= lk
+            _null_vector(q, perm, x)
+            norm = 0.0
+            for i in range(m):
+                norm += x[i].real ** 2 + x[i].imag ** 2
+            scale = 1.0 / math.sqrt(norm)
+            for i in range(m):
+                V[r, i, k] = scale * x[i]
 
 
 def _mean_square(
@@ -632,19 +685,17 @@ def _take_rates(new: np.ndarray, r: np.ndarray, tol: float) -> int:
     return taken
 
 
-#: :func:`_halves_matrix`, :func:`_eigen`, :func:`_modal_mean_square`,
+#: :func:`_halves_matrix`, :func:`_eigen`, :func:`_general_eigen`, :func:`_modal_mean_square`,
 #: :func:`_damper_leaf_rates`,
 #: :func:`_take_rates` and :func:`_split_update`, built ahead of time
 #: (:mod:`suspenv.core.compiled`)
 halves_matrix = compiled.Lazy(globals(), (), _halves_matrix)
-eigen = compiled.Lazy(
-    globals(),
-    (
-        "_balance", "_hessenberg", "_small_subdiagonal", "_francis_start", "_francis_step",
-        "_eigenvalues", "_null_vector",
-    ),
-    _eigen,
+_EIGEN_HELPERS = (
+    "_balance", "_hessenberg", "_small_subdiagonal", "_francis_start", "_francis_step",
+    "_eigenvalues", "_null_vector",
 )  # fmt: skip
+eigen = compiled.Lazy(globals(), _EIGEN_HELPERS, _eigen)
+general_eigen = compiled.Lazy(globals(), _EIGEN_HELPERS, _general_eigen)
 modal_mean_square = compiled.Lazy(
     globals(), ("_solve", "_modal_terms", "_mean_square"), _modal_mean_square
 )
