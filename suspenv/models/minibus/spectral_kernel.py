@@ -9,6 +9,9 @@ these loops run the same arithmetic compiled:
   (:func:`_eigenvalues`, EISPACK's algorithm; LAPACK's for an 8x8 matrix costs
   several times more in its setup than in its arithmetic) and their eigenvectors at
   them, from the null vectors of 4x4 quadratic pencils;
+- :func:`eig` (:func:`general_eigen`): the same eigenvalues and null-vector
+  eigenvectors of any small real matrices (the handling's 4x4 linear systems), LAPACK
+  (:func:`lapack_eig`) where they fail;
 - :func:`modal_mean_square`: from the eigen-decomposition of those matrices, the
   real second-order modal terms (:func:`_modal_terms`; residues by Gaussian
   elimination instead of LAPACK's solve) and their frequency sums (:func:`_mean_square`)
@@ -44,7 +47,7 @@ def eig(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     of the small real matrices ``A`` (..., m, m): the compiled :func:`general_eigen`
     (~1 us a 4x4 matrix; LAPACK's costs several times more in its setup), LAPACK's
     (:func:`lapack_eig`) for a matrix where it gives NaN: its QR iteration failed, or
-    an eigenvalue is repeated (the null vector is not unique, e.g. ``-I``). A matrix
+    an eigenvalue's null space has more than one dimension (e.g. ``-I``). A matrix
     with a non-finite entry gives NaN, so that its design fails as non-finite."""
     m = A.shape[-1]
     flat = np.ascontiguousarray(A, dtype=float).reshape(-1, m, m)
@@ -351,7 +354,9 @@ def _general_eigen(A: np.ndarray, lam: np.ndarray, V: np.ndarray) -> None:
     """Eigenvalues ``lam`` (rows, m; :func:`_eigenvalues`) and eigenvectors ``V`` (rows,
     m, m; column k of unit 2-norm, the null vector (:func:`_null_vector`) of ``A -
     lam[r, k] I``; the second eigenvalue of a conjugate pair takes the conjugate
-    vector) of the real matrices ``A`` (rows, m, m). NaN where the QR iteration fails."""
+    vector) of the real matrices ``A`` (rows, m, m). NaN where the QR iteration fails,
+    and NaN vectors where an eigenvalue's null space has more than one dimension
+    (e.g. ``-I``: no unique vector)."""
     rows, m = lam.shape
     a = np.empty((m, m))
     q = np.empty((m, m), dtype=np.complex128)
