@@ -399,7 +399,7 @@ class _Part:
 
 def compiled_floor(problem: MinibusRideHandling, x: np.ndarray) -> dict[str, float]:
     """CPU ms of one evaluation of design ``x`` (1, 8) spent inside LAPACK
-    (``numpy.linalg`` eig, eigvals, solve; ``spectral_kernel.eig``) and the compiled
+    (``numpy.linalg`` eig, eigvals, solve; ``spectral_kernel.lapack_eig``) and the compiled
     loops, by kind: each call recorded with its arguments during one evaluation, then
     timed alone (best of 5 blocks of 50). What a compiled pipeline around the same
     LAPACK calls would still pay; the rest of the single call is Python and numpy call overhead."""
@@ -413,7 +413,7 @@ def compiled_floor(problem: MinibusRideHandling, x: np.ndarray) -> dict[str, flo
         return lazy_call(self, *args)
 
     saved = {(np.linalg, k): getattr(np.linalg, k) for k in ("eig", "eigvals", "solve")}
-    saved[(spectral_kernel, "eig")] = spectral_kernel.eig  # the same LAPACK gufunc
+    saved[(spectral_kernel, "lapack_eig")] = spectral_kernel.lapack_eig  # the same gufunc
 
     def lapack(owner: Any, name: str) -> Callable[..., Any]:
         def run(*args: Any) -> Any:

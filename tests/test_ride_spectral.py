@@ -299,28 +299,40 @@ def test_take_rates_rule():
 
 
 def test_eig_equals_numpy_and_fails_only_the_non_finite_matrix():
-    """The ride's eig against :func:`numpy.linalg.eig` (the reference): equal numbers
-    for finite matrices; a matrix with a NaN entry gives NaN in its own rows only."""
-    from suspenv.models.minibus.spectral_kernel import eig
+    """The compiled eig of small matrices against :func:`numpy.linalg.eig` (LAPACK, the
+    reference): the same eigenvalues (in another order) to round-off, ``A v = lam v`` to
+    round-off, unit vectors parallel to numpy's; ``-I`` (a repeated eigenvalue, no
+    unique null vector) takes LAPACK's numbers exactly, as :func:`lapack_eig` does
+    numpy's; a matrix with a NaN entry gives NaN in its own rows only."""
+    from suspenv.models.minibus.spectral_kernel import eig, lapack_eig
 
-    A = np.random.default_rng(3).normal(size=(3, 6, 6))
+    A = np.random.default_rng(3).normal(size=(2, 3, 4, 4))
+    A[1, 2] = -np.eye(4)
     w, v = eig(A)
     w_ref, v_ref = np.linalg.eig(A)
-    np.testing.assert_array_equal(w, w_ref)
-    np.testing.assert_array_equal(v, v_ref)
-    A[1, 2, 3] = np.nan
+    nearest = np.abs(w[..., :, None] - w_ref[..., None, :]).argmin(axis=-1)
+    np.testing.assert_allclose(w, np.take_along_axis(w_ref, nearest, -1), rtol=0, atol=1e-13)
+    assert np.abs(A @ v - v * w[..., None, :]).max() <= 1e-13
+    parallel = np.sum(v.conj() * np.take_along_axis(v_ref, nearest[..., None, :], -1), axis=-2)
+    parallel = parallel.reshape(6, 4)  # the last matrix -I
+    np.testing.assert_allclose(np.abs(parallel[np.arange(6) != 5]), 1.0, rtol=1e-12)
+    np.testing.assert_array_equal(v[1, 2], np.eye(4))  # -I: every vector is one
+    for got, ref in zip(lapack_eig(A), (w_ref, v_ref), strict=True):
+        np.testing.assert_array_equal(got, ref)
+    A[0, 1, 2, 3] = np.nan
     w, v = eig(A)
-    assert np.isnan(w[1]).all() and np.isnan(v[1]).all()
-    np.testing.assert_array_equal(w[[0, 2]], w_ref[[0, 2]])
+    assert np.isnan(w[0, 1]).all() and np.isnan(v[0, 1]).all()
+    assert np.isfinite(w[0, [0, 2]]).all() and np.isfinite(w[1]).all()
 
 
 @pytest.mark.parametrize("damping", [1.0, 30.0])
 def test_halves_eigenvectors_solve_the_eigenproblem(damping):
-    """The halves' modes from LAPACK's eigenvalues and the compiled null vectors
-    (``_Halves.modal``: ``spectral_kernel.eigvals``, ``eigenvectors``) against
-    :func:`numpy.linalg.eig` (the reference): the same eigenvalues to round-off, ``A v =
-    lam v`` to round-off and each unit vector parallel to numpy's; 30x the mean damping
-    gives real poles. A matrix with a NaN entry gives NaN in its own rows only."""
+    """The halves' modes from the compiled QR iteration and null vectors
+    (``_Halves.modal``: ``spectral_kernel.eigen``) against :func:`numpy.linalg.eig` (the
+    reference, LAPACK): the same eigenvalues to round-off, ``A v = lam v`` to round-off
+    and each unit vector parallel to numpy's; 30x the mean damping gives real poles. A
+    matrix with a NaN entry gives NaN in its own rows only, from the compiled loop and
+    from ``modal``'s LAPACK fallback alike."""
     from suspenv.metrics.ride import _Halves, _split_geometry
     from suspenv.models.minibus import spectral_kernel
 
@@ -344,8 +356,41 @@ def test_halves_eigenvectors_solve_the_eigenproblem(damping):
     ref = np.take_along_axis(V_ref, nearest[:, None, :], axis=2)
     np.testing.assert_allclose(np.abs(np.sum(V.conj() * ref, axis=1)), 1.0, rtol=1e-9)
     A[1, 5, 0] = np.nan
-    w = spectral_kernel.eigvals(A)
+    w = np.empty(A.shape[:2], dtype=complex)
     vec = np.empty(A.shape, dtype=complex)
-    spectral_kernel.eigenvectors(A, w, vec)
+    spectral_kernel.eigen(A, w, vec)
     assert np.isnan(w[1]).all() and np.isnan(vec[1]).all()
-    assert np.isfinite(w[[0, 2, 3]]).all() and np.isfinite(vec[[0, 2, 3]]).all()
+    np.testing.assert_array_equal(w[[0, 2, 3]], lam[[0, 2, 3]])
+    np.testing.assert_array_equal(vec[[0, 2, 3]], V[[0, 2, 3]])
+    lam, V = halves.modal(rates + np.where(np.arange(len(rates)) == 1, np.nan, 0.0)[:, None])
+    assert np.isnan(lam[[2, 3]]).all() and np.isnan(V[[2, 3]]).all()
+    assert np.isfinite(lam[[0, 1]]).all() and np.isfinite(V[[0, 1]]).all()
+
+
+def test_qr_eigenvalues_equal_lapack_on_general_matrices():
+    """``spectral_kernel._eigenvalues`` (balancing, Hessenberg reduction, Francis QR; the
+    plain form of the compiled loop's) against :func:`numpy.linalg.eigvals` (LAPACK, the
+    reference) on random matrices of 2-8 rows spanning six decades of row scale, some
+    with zero entries, real and complex eigenvalues: equal to round-off of the matrix's
+    size; conjugate pairs adjacent, positive imaginary part first; NaN for a matrix
+    with a non-finite entry."""
+    from scipy.optimize import linear_sum_assignment
+
+    from suspenv.models.minibus.spectral_kernel import _eigenvalues
+
+    rng = np.random.default_rng(11)
+    for m in (2, 3, 5, 8):
+        for t in range(40):
+            A = rng.normal(size=(m, m)) * 10.0 ** rng.uniform(-3, 3, (m, 1))
+            A[rng.random((m, m)) < 0.3 * (t % 2)] = 0.0
+            lam = np.empty(m, dtype=complex)
+            _eigenvalues(A.copy(), lam)
+            ref = np.linalg.eigvals(A)
+            # matched one to one (repeated eigenvalues where rows are zero)
+            _, match = linear_sum_assignment(np.abs(lam[:, None] - ref[None, :]))
+            assert np.abs(lam - ref[match]).max() <= 1e-12 * np.abs(A).max()
+            pos = np.flatnonzero(lam.imag > 0)
+            np.testing.assert_array_equal(lam[pos + 1], lam[pos].conj())
+    A[0, 1] = np.inf
+    _eigenvalues(A, lam)
+    assert np.isnan(lam).all()

@@ -87,13 +87,14 @@ def _signatures() -> None:
         "linear_loop": f"void({f(2)}, {f(2)}, {f(2)}, {f(2)}, {f(4)}, {f(3)})",
         "response_loop": f"void({f(3)}, {f(2)}, {_arr('complex128', 1)}, {_arr('complex128', 3)})",
     }
-    # A0, minv, D, rates, A; A, lam, V; lam, V, B, co, lo, w, dr, di, wt, out; sig, damp, knee,
-    # leaf, passes, out; new, r, tol; lam, V, B, co, w, dr, di, wt, damp, knee, leaf,
-    # passes, tol, r (spectral_kernel)
+    # A0, minv, D, rates, A; A, lam, V (twice); lam, V, B, co, lo, w, dr, di, wt, out; sig,
+    # damp, knee, leaf, passes, out; new, r, tol; lam, V, B, co, w, dr, di, wt, damp, knee,
+    # leaf, passes, tol, r (spectral_kernel)
     c3 = _arr("complex128", 3)
     AHEAD["suspenv.models.minibus.spectral_kernel"] = {
         "halves_matrix": f"void({f(3)}, {f(3)}, {f(4)}, {f(2)}, {f(3)})",
-        "eigenvectors": f"void({f(3)}, {c}, {c3})",
+        "eigen": f"void({f(3)}, {c}, {c3})",
+        "general_eigen": f"void({f(3)}, {c}, {c3})",
         "modal_mean_square": f"void({c}, {c3}, {c3}, {f(3)}, int64, {f(1)}, {f(1)}, {f(1)}, "
         f"{f(2)}, {f(3)})",
         "damper_leaf_rates": f"void({f(2)}, {f(3)}, {f(2)}, {f(3)}, int64, {f(2)})",

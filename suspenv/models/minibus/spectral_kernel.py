@@ -5,9 +5,13 @@ these loops run the same arithmetic compiled:
 
 - :func:`halves_matrix`: the first-order matrices of the ride model's two halves
   (:class:`suspenv.metrics.ride._Halves`) at given element rates;
-- :func:`eigenvectors`: their eigenvectors at the eigenvalues LAPACK gives
-  (:func:`eigvals`), from the null vectors of 4x4 quadratic pencils (the eigenvalues
-  alone cost LAPACK about two thirds of the full decomposition);
+- :func:`eigen`: their eigenvalues by the Francis double-shift QR iteration
+  (:func:`_eigenvalues`, EISPACK's algorithm; LAPACK's for an 8x8 matrix costs
+  several times more in its setup than in its arithmetic) and their eigenvectors at
+  them, from the null vectors of 4x4 quadratic pencils;
+- :func:`eig` (:func:`general_eigen`): the same eigenvalues and null-vector
+  eigenvectors of any small real matrices (the handling's 4x4 linear systems), LAPACK
+  (:func:`lapack_eig`) where they fail;
 - :func:`modal_mean_square`: from the eigen-decomposition of those matrices, the
   real second-order modal terms (:func:`_modal_terms`; residues by Gaussian
   elimination instead of LAPACK's solve) and their frequency sums (:func:`_mean_square`)
@@ -36,14 +40,30 @@ from suspenv.core import compiled
 #: the gufunc numpy.linalg.eig calls, reached without its per-call checks (None in a
 #: numpy that moved it: the public route is taken)
 _LAPACK_EIG: Any = getattr(getattr(np.linalg, "_umath_linalg", None), "eig", None)
-_LAPACK_EIGVALS: Any = getattr(getattr(np.linalg, "_umath_linalg", None), "eigvals", None)
 
 
 def eig(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Eigenvalues (..., m) and eigenvectors (..., m, m; unit 2-norm columns), complex,
+    of the small real matrices ``A`` (..., m, m): the compiled :func:`general_eigen`
+    (~1 us a 4x4 matrix; LAPACK's costs several times more in its setup), LAPACK's
+    (:func:`lapack_eig`) for a matrix where it gives NaN: its QR iteration failed, or
+    an eigenvalue's null space has more than one dimension (e.g. ``-I``). A matrix
+    with a non-finite entry gives NaN, so that its design fails as non-finite."""
+    m = A.shape[-1]
+    flat = np.ascontiguousarray(A, dtype=float).reshape(-1, m, m)
+    w = np.empty(flat.shape[:2], dtype=complex)
+    v = np.empty(flat.shape, dtype=complex)
+    general_eigen(flat, w, v)
+    if np.isnan(v.sum()):
+        bad = np.isnan(v).any(axis=(1, 2))
+        w[bad], v[bad] = lapack_eig(flat[bad])
+    return w.reshape(A.shape[:-1]), v.reshape(A.shape)
+
+
+def lapack_eig(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Eigenvalues (..., m) and eigenvectors (..., m, m), complex, of the real matrices
     ``A`` (..., m, m), the numbers of :func:`numpy.linalg.eig` without its checks and
-    casts (~10 us a call). A matrix with a non-finite entry gives NaN (numpy raises for
-    the whole stack), so that its design fails as non-finite."""
+    casts; NaN for a matrix with a non-finite entry (numpy raises for the whole stack)."""
     if _LAPACK_EIG is not None and np.isfinite(A.sum()):
         return _LAPACK_EIG(A, signature="d->DD")
     bad = ~np.isfinite(A).all(axis=(-2, -1))
@@ -52,22 +72,206 @@ def eig(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return w, v
 
 
-def eigvals(A: np.ndarray) -> np.ndarray:
-    """Eigenvalues (..., m), complex, of the real matrices ``A`` (..., m, m), the numbers
-    of :func:`numpy.linalg.eigvals` without its checks and casts; NaN for a matrix with
-    a non-finite entry, as :func:`eig`."""
-    if _LAPACK_EIGVALS is not None and np.isfinite(A.sum()):
-        return _LAPACK_EIGVALS(A, signature="d->D")
-    bad = ~np.isfinite(A).all(axis=(-2, -1))
-    w = np.linalg.eigvals(np.where(bad[..., None, None], 0.0, A)).astype(complex)
-    w[bad] = np.nan
-    return w
+#: the unit round-off of float64 (negligible subdiagonal entries: below it relative to
+#: their diagonal neighbours)
+_EPS = 2.220446049250313e-16
+#: most Francis double steps for one eigenvalue (as EISPACK's hqr)
+_MAX_STEPS = 30
+
+
+def _balance(a: np.ndarray) -> None:
+    """``a`` (m, m) in place by a diagonal similarity of powers of 2 (exact: the same
+    eigenvalues) that makes each row's and column's off-diagonal norms alike (EISPACK's
+    ``balanc``)."""
+    m = a.shape[0]
+    done = False
+    while not done:
+        done = True
+        for i in range(m):
+            c, r = 0.0, 0.0
+            for j in range(m):
+                if j != i:
+                    c += abs(a[j, i])
+                    r += abs(a[i, j])
+            if c == 0.0 or r == 0.0:
+                continue
+            s, f = c + r, 1.0
+            while c < 0.5 * r:
+                f, c = 2.0 * f, 4.0 * c
+            while c > 2.0 * r:
+                f, c = 0.5 * f, 0.25 * c
+            if (c + r) / f < 0.95 * s:
+                done = False
+                for j in range(m):
+                    a[i, j] /= f
+                    a[j, i] *= f
+
+
+def _hessenberg(a: np.ndarray) -> None:
+    """``a`` (m, m) in place to upper Hessenberg form by stabilised elementary
+    similarities (Gaussian elimination with row pivoting, EISPACK's ``elmhes``); the
+    entries below the subdiagonal set to 0."""
+    m = a.shape[0]
+    for k in range(1, m - 1):
+        piv, x = k, 0.0
+        for i in range(k, m):
+            if abs(a[i, k - 1]) > abs(x):
+                piv, x = i, a[i, k - 1]
+        if piv != k:
+            for j in range(k - 1, m):
+                a[piv, j], a[k, j] = a[k, j], a[piv, j]
+            for i in range(m):
+                a[i, piv], a[i, k] = a[i, k], a[i, piv]
+        if x == 0.0:
+            continue
+        for i in range(k + 1, m):
+            y = a[i, k - 1] / x
+            a[i, k - 1] = 0.0
+            if y != 0.0:
+                for j in range(k, m):
+                    a[i, j] -= y * a[k, j]
+                for j in range(m):
+                    a[j, k] += y * a[j, i]
+
+
+def _small_subdiagonal(a: np.ndarray, hi: int, norm: float) -> int:
+    """The lowest row ``l <= hi`` of the Hessenberg ``a`` whose subdiagonal entry is
+    negligible (set to 0; 0 when none is): the active block is rows ``l .. hi``."""
+    for l in range(hi, 0, -1):
+        s = abs(a[l - 1, l - 1]) + abs(a[l, l])
+        if abs(a[l, l - 1]) <= _EPS * (s if s != 0.0 else norm):
+            a[l, l - 1] = 0.0
+            return l
+    return 0
+
+
+def _francis_start(
+    a: np.ndarray, lo: int, hi: int, x: float, y: float, w: float
+) -> tuple[int, float, float, float]:
+    """The row ``k`` where the double step with shifts of trace ``x + y`` and
+    determinant ``x y - w`` starts (two consecutive small subdiagonal entries above it,
+    else ``lo``) and the first column ``(p, q, r)`` of its shifted matrix, scaled."""
+    k = hi - 2
+    while True:
+        z = a[k, k]
+        r, s = x - z, y - z
+        p = (r * s - w) / a[k + 1, k] + a[k, k + 1]
+        q = a[k + 1, k + 1] - z - r - s
+        r = a[k + 2, k + 1]
+        s = abs(p) + abs(q) + abs(r)
+        p, q, r = p / s, q / s, r / s
+        if k == lo:
+            return k, p, q, r
+        u = abs(a[k, k - 1]) * (abs(q) + abs(r))
+        v = abs(p) * (abs(a[k - 1, k - 1]) + abs(z) + abs(a[k + 1, k + 1]))
+        if u <= _EPS * v:
+            return k, p, q, r
+        k -= 1
+
+
+def _francis_step(a: np.ndarray, lo: int, hi: int, x: float, y: float, w: float) -> None:
+    """One Francis double-shift QR step (Householder reflections of 3) on the active
+    block ``lo .. hi`` of the Hessenberg ``a`` (eigenvalues only: the rows and columns
+    outside the block are not updated), as EISPACK's ``hqr``."""
+    m, p, q, r = _francis_start(a, lo, hi, x, y, w)
+    for i in range(m + 2, hi + 1):
+        a[i, i - 2] = 0.0
+        if i != m + 2:
+            a[i, i - 3] = 0.0
+    for k in range(m, hi):
+        if k != m:
+            p, q = a[k, k - 1], a[k + 1, k - 1]
+            r = a[k + 2, k - 1] if k + 1 != hi else 0.0
+            x = abs(p) + abs(q) + abs(r)
+            if x != 0.0:
+                p, q, r = p / x, q / x, r / x
+        s = math.copysign(math.sqrt(p * p + q * q + r * r), p)
+        if s == 0.0:
+            continue
+        if k == m:
+            if lo != m:
+                a[k, k - 1] = -a[k, k - 1]
+        else:
+            a[k, k - 1] = -s * x
+        p += s
+        x, y, z = p / s, q / s, r / s
+        q, r = q / p, r / p
+        for j in range(k, hi + 1):
+            p = a[k, j] + q * a[k + 1, j]
+            if k + 1 != hi:
+                p += r * a[k + 2, j]
+                a[k + 2, j] -= p * z
+            a[k + 1, j] -= p * y
+            a[k, j] -= p * x
+        for i in range(lo, min(hi, k + 3) + 1):
+            p = x * a[i, k] + y * a[i, k + 1]
+            if k + 1 != hi:
+                p += z * a[i, k + 2]
+                a[i, k + 2] -= p * r
+            a[i, k + 1] -= p * q
+            a[i, k] -= p
+
+
+def _eigenvalues(a: np.ndarray, lam: np.ndarray) -> None:
+    """Eigenvalues ``lam`` (m,) of the real matrix ``a`` (m, m; overwritten), conjugate
+    pairs adjacent, positive imaginary part first (as LAPACK): balanced, reduced to
+    Hessenberg form, then Francis double-shift QR (EISPACK's ``balanc``, ``elmhes``,
+    ``hqr``; Wilkinson and Reinsch, *Handbook for Automatic Computation II*, 1971). NaN
+    where an eigenvalue takes more than 30 double steps, or ``a`` has a non-finite
+    entry."""
+    m = a.shape[0]
+    norm = 0.0
+    for i in range(m):
+        for j in range(m):
+            norm += abs(a[i, j])
+    if not norm < math.inf:
+        lam[:] = np.nan
+        return
+    _balance(a)
+    _hessenberg(a)
+    hi, shift, steps = m - 1, 0.0, 0
+    while hi >= 0:
+        lo = _small_subdiagonal(a, hi, norm)
+        x = a[hi, hi]
+        if lo == hi:  # one real root
+            lam[hi] = x + shift
+            hi, steps = hi - 1, 0
+            continue
+        y, w = a[hi - 1, hi - 1], a[hi, hi - 1] * a[hi - 1, hi]
+        if lo == hi - 1:  # a pair: real or complex conjugate
+            p = 0.5 * (y - x)
+            q = p * p + w
+            z = math.sqrt(abs(q))
+            x += shift
+            if q >= 0.0:
+                z = p + math.copysign(z, p)
+                lam[hi - 1] = x + z
+                lam[hi] = x + z
+                if z != 0.0:
+                    lam[hi] = x - w / z
+            else:
+                lam[hi - 1], lam[hi] = complex(x + p, z), complex(x + p, -z)
+            hi, steps = hi - 2, 0
+            continue
+        if steps == _MAX_STEPS:
+            lam[: hi + 1] = np.nan
+            return
+        if steps == 10 or steps == 20:  # exceptional shift
+            shift += x
+            for i in range(hi + 1):
+                a[i, i] -= x
+            s = abs(a[hi, hi - 1]) + abs(a[hi - 1, hi - 2])
+            x = y = 0.75 * s
+            w = -0.4375 * s * s
+        steps += 1
+        _francis_step(a, lo, hi, x, y, w)
 
 
 def _null_vector(q: np.ndarray, perm: np.ndarray, x: np.ndarray) -> None:
     """``x`` (m,) with ``q x = 0`` for a singular ``q`` (m, m; overwritten) by Gaussian
     elimination with complete pivoting (pivots by ``|re| + |im|``): the last pivot, the
-    smallest, taken as zero and its unknown as 1 (``perm`` (m,) int64 workspace)."""
+    smallest, taken as zero and its unknown as 1 (``perm`` (m,) int64 workspace); NaN
+    when an earlier pivot is zero too."""
     m = q.shape[0]
     for k in range(m):
         perm[k] = k
@@ -78,6 +282,9 @@ def _null_vector(q: np.ndarray, perm: np.ndarray, x: np.ndarray) -> None:
                 size = abs(q[i, j].real) + abs(q[i, j].imag)
                 if size > best:
                     pi, pj, best = i, j, size
+        if best == 0.0:  # a null space of more dimensions: no unique vector
+            x[:] = np.nan
+            return
         for c in range(m):
             q[k, c], q[pi, c] = q[pi, c], q[k, c]
         for i in range(m):
@@ -95,22 +302,25 @@ def _null_vector(q: np.ndarray, perm: np.ndarray, x: np.ndarray) -> None:
         x[perm[k]] = acc / q[k, k]
 
 
-def _eigenvectors(A: np.ndarray, lam: np.ndarray, V: np.ndarray) -> None:
-    """Eigenvectors ``V`` (rows, 2d, 2d; column k of unit 2-norm for ``lam[r, k]``) of
-    the first-order matrices ``A`` (rows, 2d, 2d) whose upper right block is the
-    identity (:func:`_halves_matrix`), at their eigenvalues ``lam`` (rows, 2d; LAPACK's
-    order, conjugate pairs adjacent): ``v = [x; (lam I - P) x]`` with ``x`` the null
-    vector (:func:`_null_vector`) of ``A21 + (A22 - lam I)(lam I - P) = (A21 - A22 P) +
-    lam (A22 + P) - lam^2 I``, P, A21 and A22 the other blocks of A; the second
-    eigenvalue of a pair takes the conjugate vector. A NaN eigenvalue gives a NaN
-    vector."""
+def _eigen(A: np.ndarray, lam: np.ndarray, V: np.ndarray) -> None:
+    """Eigenvalues ``lam`` (rows, 2d; :func:`_eigenvalues`: conjugate pairs adjacent,
+    NaN where the QR iteration fails) and eigenvectors ``V`` (rows, 2d, 2d; column k of
+    unit 2-norm for ``lam[r, k]``) of the first-order matrices ``A`` (rows, 2d, 2d)
+    whose upper right block is the identity (:func:`_halves_matrix`): ``v = [x; (lam I
+    - P) x]`` with ``x`` the null vector (:func:`_null_vector`) of ``A21 + (A22 - lam
+    I)(lam I - P) = (A21 - A22 P) + lam (A22 + P) - lam^2 I``, P, A21 and A22 the other
+    blocks of A; the second eigenvalue of a pair takes the conjugate vector. A NaN
+    eigenvalue gives a NaN vector."""
     rows, ns = lam.shape
     d = ns // 2
+    a = np.empty((ns, ns))
     r0, r1 = np.empty((d, d)), np.empty((d, d))
     q = np.empty((d, d), dtype=np.complex128)
     x = np.empty(d, dtype=np.complex128)
     perm = np.empty(d, dtype=np.int64)
     for r in range(rows):
+        a[:] = A[r]
+        _eigenvalues(a, lam[r])
         for i in range(d):
             for j in range(d):
                 acc = A[r, d + i, j]
@@ -138,6 +348,40 @@ def _eigenvectors(A: np.ndarray, lam: np.ndarray, V: np.ndarray) -> None:
             scale = 1.0 / math.sqrt(norm)
             for i in range(ns):
                 V[r, i, k] *= scale
+
+
+def _general_eigen(A: np.ndarray, lam: np.ndarray, V: np.ndarray) -> None:
+    """Eigenvalues ``lam`` (rows, m; :func:`_eigenvalues`) and eigenvectors ``V`` (rows,
+    m, m; column k of unit 2-norm, the null vector (:func:`_null_vector`) of ``A -
+    lam[r, k] I``; the second eigenvalue of a conjugate pair takes the conjugate
+    vector) of the real matrices ``A`` (rows, m, m). NaN where the QR iteration fails,
+    and NaN vectors where an eigenvalue's null space has more than one dimension
+    (e.g. ``-I``: no unique vector)."""
+    rows, m = lam.shape
+    a = np.empty((m, m))
+    q = np.empty((m, m), dtype=np.complex128)
+    x = np.empty(m, dtype=np.complex128)
+    perm = np.empty(m, dtype=np.int64)
+    for r in range(rows):
+        a[:] = A[r]
+        _eigenvalues(a, lam[r])
+        for k in range(m):
+            lk = lam[r, k]
+            if k > 0 and lk.imag < 0 and lk == lam[r, k - 1].conjugate():
+                for i in range(m):
+                    V[r, i, k] = V[r, i, k - 1].conjugate()
+                continue
+            for i in range(m):
+                for j in range(m):
+                    q[i, j] = A[r, i, j]
+                q[i, i] -= lk
+            _null_vector(q, perm, x)
+            norm = 0.0
+            for i in range(m):
+                norm += x[i].real ** 2 + x[i].imag ** 2
+            scale = 1.0 / math.sqrt(norm)
+            for i in range(m):
+                V[r, i, k] = scale * x[i]
 
 
 def _mean_square(
@@ -446,12 +690,17 @@ def _take_rates(new: np.ndarray, r: np.ndarray, tol: float) -> int:
     return taken
 
 
-#: :func:`_halves_matrix`, :func:`_eigenvectors`, :func:`_modal_mean_square`,
+#: :func:`_halves_matrix`, :func:`_eigen`, :func:`_general_eigen`, :func:`_modal_mean_square`,
 #: :func:`_damper_leaf_rates`,
 #: :func:`_take_rates` and :func:`_split_update`, built ahead of time
 #: (:mod:`suspenv.core.compiled`)
 halves_matrix = compiled.Lazy(globals(), (), _halves_matrix)
-eigenvectors = compiled.Lazy(globals(), ("_null_vector",), _eigenvectors)
+_EIGEN_HELPERS = (
+    "_balance", "_hessenberg", "_small_subdiagonal", "_francis_start", "_francis_step",
+    "_eigenvalues", "_null_vector",
+)  # fmt: skip
+eigen = compiled.Lazy(globals(), _EIGEN_HELPERS, _eigen)
+general_eigen = compiled.Lazy(globals(), _EIGEN_HELPERS, _general_eigen)
 modal_mean_square = compiled.Lazy(
     globals(), ("_solve", "_modal_terms", "_mean_square"), _modal_mean_square
 )
