@@ -433,9 +433,13 @@ class ElementLinearisation:
         -1 rebound) times the deflection's skewness ratios
         (:func:`stop_closure.skew_ratios`; a rebound stop sees the mirrored skewness)."""
         out = stop_closure.closure_moments(kappa, a, names)
-        tilt = stop_closure.skew_ratios(sign * self.skew[:, end : end + 1], a)
-        ratio = {"mu": tilt[0], "dmu": tilt[0], "g": tilt[1], "v": tilt[2]}
-        return [o * ratio[q] for o, q in zip(out, names.split(), strict=True)]
+        gamma = sign * self.skew[:, end : end + 1]
+        if not gamma.any():
+            return out
+        tilt = {"mu": "mu", "dmu": "mu", "g": "g", "v": "v"}
+        need = " ".join(dict.fromkeys(tilt[q] for q in names.split()))
+        ratio = dict(zip(need.split(), stop_closure.skew_ratios(gamma, a, need), strict=True))
+        return [o * ratio[tilt[q]] for o, q in zip(out, names.split(), strict=True)]
 
     def _stop_terms(self, end: int, m: np.ndarray, sd: np.ndarray) -> tuple[np.ndarray, ...]:
         """Mean force (N, + resisting compression) and its derivative in m (N/m) of the
