@@ -170,14 +170,17 @@ def skew_ratios(gamma: np.ndarray, a: np.ndarray, names: str = "mu g v") -> list
     :func:`gaussian_remainder_variance`); 1 where the Gaussian value underflows.
 
     F is a quadratic ``p0 + c u + y2 u^2`` beyond the root u* of ``y(u) = a`` on y's
-    rising branch (the falling one lies beyond ``|u| = 3/|gamma|``: ignored), so each
+    rising branch (the falling one lies beyond ``|u| = 3/|gamma|``: ignored; no root,
+    F = 0, where y stays below a), so each
     moment is a sum of the truncated moments ``M_k = E[u^k; u > u*] = u*^(k-1) phi(u*)
     + (k - 1) M_(k-2)``."""
     gamma, a = np.broadcast_arrays(np.asarray(gamma, float), np.asarray(a, float))
     c = 1.0 / np.sqrt(1.0 + gamma * gamma / 18.0)
     y2 = c * gamma / 6.0  # y = y2 u^2 + c u - y2
     b = (y2 + a) / c  # y(u) = a: (y2/c) u^2 + u - b = 0
-    u0 = 2.0 * b / (1.0 + np.sqrt(np.maximum(1.0 + 4.0 * y2 / c * b, 0.0)))
+    # disc < 0: y stays below a (gamma < 0), F = 0: u* = 40, where phi underflows to 0
+    disc = 1.0 + 4.0 * y2 / c * b
+    u0 = np.where(disc < 0.0, 40.0, 2.0 * b / (1.0 + np.sqrt(np.maximum(disc, 0.0))))
     phi = np.exp(-0.5 * u0 * u0) / np.sqrt(2.0 * np.pi)
     m = [ndtr(-u0), phi]  # M_k, k = 0.. (as far as the names need)
     for k in range(2, 3 if names.split() == ["mu"] else 5):
