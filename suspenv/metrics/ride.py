@@ -935,7 +935,7 @@ def _corner_skewness(
     f = np.arange(0.0, REMAINDER_TOP + SKEW_STEP / 2, SKEW_STEP)
     terms = _band_road(f, road, vehicle)
     nt, df = 2 * (f.size - 1), SKEW_STEP
-    var, Sxd = 0.0, 0.0
+    var, Sxd = np.zeros(()), np.zeros(())  # sums over the parts
     for g, w in _corner_parts(forms, [0, 1, *range(4, 10)], f, terms, halves):
         var = var + (np.abs(g) ** 2).transpose(0, 2, 1) @ (w * df)
         Sxd = Sxd + g[:, :, :2, None] * g[:, :, None, 2:].conj() * w[None, :, None, None]

@@ -396,7 +396,7 @@ class ElementLinearisation:
                     self.kappa[end].append(None)
                     continue
                 a0, c0, a1, c1, k = comp
-                r = 1.0
+                r: np.ndarray | float = 1.0
                 if stats is not None:
                     var_t, cov = stats[:, end], stats[:, 2 + end]
                     r = temperature_ratio(var_t, cov, k, self.k_tyre[:, end])
