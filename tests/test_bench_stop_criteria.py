@@ -271,9 +271,10 @@ def test_method_remainder_equals_the_benchmark_s_construction(effects):
     against the Wk kernel, the ten pairs i <= j, its 1/16 Hz grid up to 24 Hz) against
     part 3's own construction (:func:`remainder_spectra` on the 1/64 Hz grid up to 128
     Hz, all sixteen pairs, back by the FFT, :func:`remainder_mean_squares` through the
-    mass) at the method's rates and means, the closure's variance scale, on the
-    diagnostic designs. The deflection RMS values of the two grids differ by up to 0.5
-    % (measured; the method's from its 150-point log grid), which the steep remainder
+    mass) at the method's rates and means, its closure's variance scale
+    (``ElementLinearisation._closure``), on the diagnostic designs. The deflection RMS
+    values of the two grids differ by up to 0.5 % (measured; the method's from its
+    150-point log grid), which the steep remainder
     turns into up to 2.3 % of it (measured): 5 % allowed; the weighted values, of
     which the remainder is up to 15 %, within 1e-3 (measured 6e-4)."""
     X = sc.diag_designs()
@@ -292,9 +293,13 @@ def test_method_remainder_equals_the_benchmark_s_construction(effects):
     H, direct = sc.stop_responses(X, r, lz, f)
     S = sc.deflection_spectra(H, f)
     sd = np.sqrt(np.einsum("nfii->ni", S[:, 1:-1]).real * sc.F_STEP)
-    k = np.hstack([np.broadcast_to(sc.rate_at_gap(lz, e), means[:, :2].shape) for e in (0, 1)])
-    gauss = (KS * sd) ** 2 * sc.gaussian_remainder_variance((GAP - means) / sd)
-    Sr = sc.remainder_spectra(S, means, sc.closure_moments(k, means, sd)[2] / gauss)
+    a = (GAP - means) / sd
+    # the method's own closure variance (whole-vehicle kappa, skew tilt), per end
+    v = np.hstack(
+        [lz._closure(e, 1.0, lz.kappa[e][0], a[:, 2 * e : 2 * e + 2], "v")[0] for e in (0, 1)]
+    )
+    gauss = sc.gaussian_remainder_variance(a)
+    Sr = sc.remainder_spectra(S, means, v / gauss)
     ref = sc.remainder_mean_squares(H, direct, Sr, f)[1]
     np.testing.assert_allclose(seen["out"][:, :, 0], ref, rtol=0.05)
     aw2 = np.stack([sp["aw_front"], sp["aw_rear"]], 1) ** 2

@@ -17,7 +17,13 @@ from scipy import integrate, optimize
 from scipy.special import ndtr
 from test_stop_closure import interpolation_bound
 
-from suspenv.metrics.ride import _output_matrix, modal_form, modal_response, ride_spectral
+from suspenv.metrics.ride import (
+    _output_matrix,
+    corner_statistics,
+    modal_form,
+    modal_response,
+    ride_spectral,
+)
 from suspenv.models.effects.effect import make_effect
 from suspenv.models.minibus import STUDY_PICK, design_space, stop_closure
 from suspenv.models.minibus.linearisation import (
@@ -29,8 +35,10 @@ from suspenv.models.minibus.linearisation import (
     dahl_incoherent_variance,
     dahl_loop,
     dahl_rates,
+    deflection_compliances,
     stop_moments,
     tail_moment,
+    temperature_ratio,
 )
 from suspenv.models.minibus.ride_model import RideModel
 from suspenv.models.minibus.suspension import DamperCurve, damper_force
@@ -559,3 +567,122 @@ def test_remainder_coefficients_of_a_bump_and_a_rebound_stop():
     series = np.sum((coef[:, :, :2] / (k_stop * s)) ** 2, axis=0)  # (load cases, FL FR)
     assert np.all(series <= var * (1 + 1e-9)) and np.all(series >= 0.99 * var)
     assert np.all(coef[:, :, 2:] == 0.0)  # no rear stops
+
+
+#: p = 1 stops at both ends, bump and rebound: the rear bump stop meets the leaf's
+#: composite rate where the helper knee lies below 8 mm (loaded), else its primary one
+P1_STOPS = [
+    make_effect("bump_stop", location="front_suspension", gap=0.015, k_stop=3e5),
+    make_effect("bump_stop", location="rear_suspension", gap=0.008, k_stop=3e5),
+    make_effect("rebound_stop", location="rear_suspension", gap=0.02, k_stop=2e5),
+]
+
+
+def test_stop_law_at_equal_temperatures_is_k_stop_times_the_static_compliance():
+    """At r = 1 (``set_corners(None)``) the whole-vehicle law ``(A0 + C0)/(A1 + C1) - 1``
+    is, by Sherman-Morrison, ``k_stop e^T K^-1 e``: against a direct
+    ``numpy.linalg.solve`` of the linear model's own stiffness (``RideModel.
+    linear_system``, the rear leaf at its rate at the contact point) (rel 1e-9: the
+    stiffness' condition number times round-off); and ``A + C`` of
+    :func:`deflection_compliances` is that compliance, ``C`` the wheels' block alone."""
+    X = design_space().to_physical(np.random.default_rng(12).random((3, 8)))
+    params = stacked_vehicle_parameters(X, LOAD_CASES)
+    lin = RideModel(params, linear=True)
+    lz = ElementLinearisation(RideModel(params, effects=P1_STOPS))
+    lz.set_corners(None)
+    nq = lin.nq
+    for end in (0, 1):
+        for (sign, gap, k_stop, _), kappa in zip(lz.stops[end], lz.kappa[end], strict=True):
+            _, _, K, _, _ = lin.linear_system(leaf_k=lz.k1 + lz.dk * (lz.thr < sign * gap))
+            e = lin.E[:nq, 2 * end]
+            compliance = e @ np.linalg.solve(K, np.broadcast_to(e, (K.shape[0], nq))[..., None])
+            np.testing.assert_allclose(kappa[:, 0], k_stop * compliance[:, 0], rtol=1e-9)
+            np.testing.assert_array_equal(kappa[:, 0], kappa[:, 1])
+            a, c = deflection_compliances(K, e)
+            np.testing.assert_allclose(a + c, compliance[:, 0], rtol=1e-9)
+            wheels = K[:, 3:7, 3:7]
+            ew = np.broadcast_to(e[3:7], (K.shape[0], 4))[..., None]
+            np.testing.assert_allclose(c, (ew * np.linalg.solve(wheels, ew)).sum((1, 2)))
+
+
+@pytest.mark.parametrize("r", [0.3, 1.0, 2.5])
+def test_temperature_ratio_recovers_a_two_temperature_corner(r):
+    """A quarter car (body b on spring k, wheel w on tyre k_t, road at rest): the body
+    at temperature T, the wheel about its static position given the body at r T, i.e.
+    ``b`` and ``w' = w - k b/(k + k_t)`` independent with variances ``T/K_c`` (``K_c =
+    k k_t/(k + k_t)``) and ``r T/(k + k_t)``; the tyre's compression ``-w`` and the
+    spring's ``w - b`` (z up) from that covariance matrix by matrix algebra give back r
+    (rel 1e-12); at r = 1 the covariance is also Boltzmann's ``T K^-1``."""
+    k, k_t, T = 9.0e4, 4.0e5, 3.0
+    L = np.array([[1.0, 0.0], [k / (k + k_t), 1.0]])  # (b, w) from (b, w')
+    cov = L @ np.diag([T * (k + k_t) / (k * k_t), r * T / (k + k_t)]) @ L.T
+    if r == 1.0:
+        np.testing.assert_allclose(cov, T * np.linalg.inv([[k, -k], [-k, k + k_t]]))
+    tyre, spring = np.array([0.0, -1.0]), np.array([-1.0, 1.0])
+    got = temperature_ratio(
+        np.array([tyre @ cov @ tyre]), np.array([spring @ cov @ tyre]), np.array([k]), k_t
+    )
+    assert float(got[0]) == pytest.approx(r, rel=1e-12)
+
+
+def test_corner_statistics_through_the_halves_equal_the_whole_model():
+    """:func:`corner_statistics` of the two halves (symmetric and antisymmetric, the
+    road's coherency split between them) against the whole 7-DOF model: tyre
+    deflection variances, covariances and skewness (rel 1e-10; measured 1e-13), the
+    skewness of the benchmark's order (0.01-0.3) and the variances positive."""
+    X = design_space().to_physical(np.random.default_rng(4).random((4, 8)))
+    params = stacked_vehicle_parameters(X, LOAD_CASES)
+    lin = RideModel(params, linear=True)
+    lz = ElementLinearisation(RideModel(params, effects=P1_STOPS))
+    args = (lin, lz, RandomRoad(), REFERENCE_MINIBUS, 150)
+    halves, whole = corner_statistics(*args, True), corner_statistics(*args, False)
+    np.testing.assert_allclose(halves, whole, rtol=1e-10)
+    assert np.all(whole[:, :2] > 0) and np.all(np.abs(whole[:, 4:]) < 0.3)
+
+
+def test_even_coefficients_equal_quadrature_of_the_laws():
+    """``c_2 = E[F He_2(u)]/2`` of :meth:`ElementLinearisation.even_coefficients`
+    (Stein's lemma, closed form in the laws' slope jumps) against the trapezoid rule
+    over +-12 s of the damper curve itself (:func:`damper_force`, digressive) and of
+    the leaf's second stage ``dk max(m + s u - e_k, 0)`` about the stop-free mean m
+    (rel 1e-6; the rule's error at the kinks is O(h^2), h = 6e-5 s)."""
+    curve = DamperCurve(1300.0, 520.0, 0.13, 3900.0, 1560.0, 0.13)
+    vehicle = dataclasses.replace(REFERENCE_MINIBUS, damper_front=curve, damper_rear=curve)
+    X = np.vstack([STUDY_PICK, design_space().to_physical(np.full((1, 8), 0.3))])
+    model = RideModel(stacked_vehicle_parameters(X, LOAD_CASES, vehicle), effects=P1_STOPS)
+    lz = ElementLinearisation(model)
+    scale = np.concatenate([p.design.front_damper_scale for p in model.params])
+    u = np.linspace(-12.0, 12.0, 400_001)
+    he2 = (u * u - 1.0) * np.exp(-0.5 * u * u) / np.sqrt(2 * np.pi)
+    for s_v, s_d in ((0.05, 0.004), (0.3, 0.012), (1.0, 0.03)):
+        sv, sd = np.full((model.n, 4), s_v), np.full((model.n, 2), s_d)
+        c2 = lz.even_coefficients(sv, sd)
+        ref = 0.5 * np.trapezoid(damper_force(s_v * u, curve) * he2, u)
+        np.testing.assert_allclose(c2[:, 0], scale * ref, rtol=1e-6)
+        m = lz.spring_mean(1, sv[:, 2:4], sd, stops=False)
+        leaf = lz.dk[..., None] * np.maximum(m[..., None] + s_d * u - lz.thr[..., None], 0.0)
+        ref_leaf = 0.5 * np.trapezoid(leaf * he2, u, axis=-1)
+        np.testing.assert_allclose(
+            c2[:, 4:6], ref_leaf, rtol=1e-6, atol=1e-9 * np.abs(ref_leaf).max()
+        )
+
+
+def test_default_path_equals_the_values_before_the_stop_closure():
+    """Golden: without effects the spectral values at the study's pick and the box's
+    corners, both load cases, are those of main 5614d8b, before the stops' corner
+    statistics (rel 1e-12: round-off of a different BLAS, far below any change of
+    method)."""
+    X = np.vstack([STUDY_PICK, design_space().lower, design_space().upper])
+    sp = ride_spectral(X)
+    golden = {
+        "aw_front": [0.5364729335336114, 0.4419360324507848, 0.6986073644774247,
+                     0.41257389731537747, 0.359867320647902, 0.5243151159538507],
+        "aw_rear": [0.8249415770852035, 0.8256539101605416, 0.9444525844947621,
+                    0.783569299767315, 0.8041302844500912, 0.7121277611713862],
+        "rms_front": [0.7159986089704349, 0.6801817972487094, 0.9155225812713457,
+                      0.5934921629939556, 0.5931850171120542, 0.7365220611279116],
+        "rms_rear": [1.1865118648059974, 1.2823600881251813, 1.1935958759931813,
+                     1.4228611907272084, 1.5016682151236553, 1.208413004489558],
+    }  # fmt: skip
+    for key, values in golden.items():
+        np.testing.assert_allclose(sp[key], values, rtol=1e-12)

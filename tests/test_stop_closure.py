@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from scipy.integrate import quad
+from scipy.optimize import brentq
 from scipy.special import ndtr
 
 from suspenv.models.minibus import stop_closure as sc
@@ -100,3 +101,51 @@ def test_hermite_series_carries_the_gaussian_remainder_variance(a):
     total = float(sc.gaussian_remainder_variance(np.array(a)))
     assert total * 0.99 <= float(np.sum(c**2)) <= total * (1 + 1e-12)
     assert c[-1] ** 2 < 1e-3 * np.sum(c**2)
+
+
+@pytest.mark.parametrize("gamma", [-0.6, -0.15, 0.2, 0.8])
+@pytest.mark.parametrize("a", [-1.2, 0.4, 1.9, 3.4])
+def test_skew_ratios_equal_quadrature_of_the_cornish_fisher_deflection(gamma, a):
+    """:func:`skew_ratios` (truncated normal moments beyond the rising branch's root)
+    against scipy's adaptive quadrature over the whole u line of ``F = max(y(u) - a,
+    0)`` for the Cornish-Fisher deflection y (the falling branch beyond ``|u| =
+    3/|gamma|`` included: its weight, below phi(5), lies far under the tolerance),
+    divided by the same quadrature for gamma = 0 (the Gaussian): mean force, gain
+    ``E[F y]`` and remainder variance ``Var F - E[F y]^2`` (rel 1e-8; 0 where y
+    never reaches the gap), each ratio alone and all three together."""
+    c = 1.0 / np.sqrt(1.0 + gamma * gamma / 18.0)
+
+    def moments(g: float, cc: float) -> np.ndarray:
+        def y(u: float) -> float:
+            return cc * (u + g * (u * u - 1.0) / 6.0)
+
+        # the kink where y(u) = a on y's rising branch (brentq; none where y stays below a)
+        lo, hi = (-3.0 / g, 12.0) if g > 0 else (-12.0, -3.0 / g if g < 0 else 12.0)
+        kink = [brentq(lambda u: y(u) - a, lo, hi, xtol=1e-15)] if y(hi) > a else []
+
+        def expect(fn) -> float:
+            def dens(u: float) -> float:
+                return fn(u) * np.exp(-0.5 * u * u) / np.sqrt(2 * np.pi)
+
+            # |u| <= 12 carries all but phi(12) ~ 1e-32 of the weight
+            return quad(dens, -12, 12, points=kink, limit=400, epsabs=0, epsrel=1e-12)[0]
+
+        mean = expect(lambda u: max(y(u) - a, 0.0))
+        gain = expect(lambda u: max(y(u) - a, 0.0) * y(u))
+        var = expect(lambda u: max(y(u) - a, 0.0) ** 2) - mean * mean - gain * gain
+        return np.array([mean, gain, var])
+
+    ref = moments(gamma, c) / moments(0.0, 1.0)
+    got = sc.skew_ratios(np.array(gamma), np.array(a))
+    np.testing.assert_allclose(got, ref, rtol=1e-8, atol=1e-12)
+    for k, name in enumerate(("mu", "g", "v")):
+        (alone,) = sc.skew_ratios(np.array(gamma), np.array(a), name)
+        assert float(alone) == float(got[k])
+
+
+def test_skew_ratios_are_one_without_skewness():
+    """gamma = 0: the Cornish-Fisher deflection is the Gaussian itself (ratios 1 to
+    round-off), and 1 where the Gaussian value underflows."""
+    a = np.array([-2.0, 0.0, 1.5, 4.0, 60.0])
+    for ratio in sc.skew_ratios(np.zeros_like(a), a):
+        np.testing.assert_allclose(ratio, 1.0, rtol=1e-9)

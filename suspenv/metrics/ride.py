@@ -77,6 +77,10 @@ ISO_BAND = (0.5, 80.0)
 #: the 1/32 Hz, 32 Hz grid the weighted values move by under 2e-4, against part 3 of
 #: benchmarks/minibus_stop_criteria.py (1/64 Hz to 128 Hz) by under 1e-3 (tests)
 REMAINDER_STEP, REMAINDER_TOP = 1.0 / 16.0, 24.0
+#: step (Hz) of the uniform grid (to ``REMAINDER_TOP``) of the deflections' skewness
+#: (:func:`corner_statistics`; against a 1/64 Hz, 64 Hz grid within 0.006, as the
+#: remainder's 1/16 Hz step)
+SKEW_STEP = 1.0 / 8.0
 #: lags (s) of the remainders' covariances the weighted mean square sums over (beyond,
 #: the Wk kernel and the covariances have decayed: 5e-5 of the weighted values)
 REMAINDER_LAG = 2.0
@@ -784,9 +788,12 @@ def _spectral_modal(
         def update(m: list[tuple[np.ndarray, np.ndarray]], r: np.ndarray) -> int:
             return int(spectral_kernel.take_rates(lz.rates(sigma(m), r), r, tol_))
 
+    stops = lz is not None and any(k is not None for end in lz.kappa for k in end)
+    if stops:
+        assert lz is not None
+        lz.set_corners(corner_statistics(lin, lz, road, vehicle, n_freq_iter, halves))
     r, n_iter, m = _fixed_point(r0, update, modal, iterations, tol)
     ms = mean_square(m, [0, 1], road, n_freq, vehicle, True)
-    stops = lz is not None and any(k is not None for end in lz.kappa for k in end)
     if lz is not None and (stops or dahl):
         # the remainders' common terms, once: element RMS values, uniform road, direct
         sig, uniform, direct = sigma(m), _uniform_road(road, vehicle), _direct(lin)
@@ -823,9 +830,128 @@ def _uniform_road(road: RandomRoad, vehicle: Minibus) -> tuple[np.ndarray, ...]:
     there the road's PSD Gq (its class band, zero outside), the rear wheels' delay
     factor and the tracks' coherency (:func:`road_terms`)."""
     f, idx, _ = _remainder_lags()
+    return f, idx, *_band_road(f, road, vehicle)
+
+
+def _band_road(f: np.ndarray, road: RandomRoad, vehicle: Minibus) -> tuple[np.ndarray, ...]:
+    """:func:`road_terms` at frequencies f (Hz), Gq zero outside the road's class band."""
     lo, hi = road.speed * CLASS_BAND[0], min(road.speed * CLASS_BAND[1], road.sample_rate)
     gq, delay, rho = road_terms(np.maximum(f, lo), road, vehicle)
-    return f, idx, np.where((f >= lo) & (f <= hi), gq, 0.0), delay, rho
+    return np.where((f >= lo) & (f <= hi), gq, 0.0), delay, rho
+
+
+def corner_statistics(
+    lin: RideModel,
+    lz: ElementLinearisation,
+    road: RandomRoad,
+    vehicle: Minibus,
+    n_freq: int,
+    halves: bool,
+) -> np.ndarray:
+    """Per left-hand corner (front spring, rear leaf) of the plain linearised model
+    ``lin`` (mean low-speed damping, static leaf rate): the tyre deflection's variance
+    (m^2; road minus wheel, + compression), its covariance with the spring deflection
+    (m^2) and the spring deflection's skewness (-), (n, 6) in that order, the front's
+    column before the rear's. Variances over the road band on the ``n_freq``-point grid
+    (:func:`frequency_grid`; the tyre deflection carries the road's whole band), the
+    skewness on a uniform grid (``SKEW_STEP`` to ``REMAINDER_TOP``); modal sums of the
+    whole model or with ``halves`` of its halves (:func:`_spectral_modal`).
+
+    The skewness to second order (a Volterra perturbation): the dampers' and the leaf
+    second stages' forces beyond their linear parts carry ``c_2 He_2(u)`` of their
+    standardised velocity or deflection u (:meth:`ElementLinearisation.
+    even_coefficients`); for jointly Gaussian first-order motion ``E[x^2 He_2(u)] =
+    2 R^2``, so the deflection's third cumulant is ``6 sum c_2 int_0^inf h(tau)
+    R(tau)^2 dtau`` with h the deflection's impulse response to that force and ``R(tau)
+    = E[x(t) u(t - tau)]``, both by the inverse FFT of the uniform grid's spectra."""
+    forms = _corner_forms(lin, halves)
+    f, wq, _, gq, delay, rho, _ = _road_grid(road, n_freq, vehicle)
+    var_t, cov = 0.0, 0.0
+    for g, w in _corner_parts(forms, [0, 1, 2, 3], f, (gq, delay, rho), halves):
+        var_t = var_t + (np.abs(g[:, :, 2:4]) ** 2).transpose(0, 2, 1) @ (w * wq)
+        cov = cov + (g[:, :, 0:2] * g[:, :, 2:4].conj()).real.transpose(0, 2, 1) @ (w * wq)
+    return np.hstack([var_t, cov, _corner_skewness(forms, lz, road, vehicle, halves)])
+
+
+def _corner_forms(lin: RideModel, halves: bool) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Modal forms (:func:`modal_form`) of the plain linearised model ``lin``, whole or
+    its two halves: inputs the road (axles or wheels), then unit forces in the dampers
+    FL..RR and the leaves L, R (+ resisting compression); outputs x_F, x_R, the wheels
+    FL, RL, the damper compressions FL..RR and the leaf deflections L, R."""
+    nq, npos = lin.nq, lin.n_pos
+    M, C, K, Kin, Cin = lin.linear_system()
+    pos, vel = lin.E[:nq, :npos], lin.E[nq:, npos:]
+    src = -np.hstack([vel[:, 0:4], pos[:, 2:4]])
+    Co = np.vstack([pos[:, [0, 2]].T, np.eye(nq)[[3, 5]], vel[:, 0:4].T, pos[:, 2:4].T])
+    forms = []
+    for T, J, _ in _HALF_MAPS if halves else _WHOLE_MAP:
+        m, c, k, kin, cin, co, fs = M, C, K, Kin, Cin, Co, src
+        if T is not None:
+            tt = T.T
+            m, c, k, kin, cin = tt @ m @ T, tt @ c @ T, tt @ k @ T, tt @ kin @ J, tt @ cin @ J
+            co, fs = Co @ T, tt @ src
+        fs = np.broadcast_to(fs, (M.shape[0], *fs.shape))
+        kin, cin = np.concatenate([kin, fs], -1), np.concatenate([cin, 0.0 * fs], -1)
+        forms.append(modal_form(m, c, k, kin, cin, co))
+    return forms
+
+
+def _corner_parts(
+    forms: list[tuple[np.ndarray, np.ndarray]],
+    rows: list[int],
+    f: np.ndarray,
+    terms: tuple[np.ndarray, ...],
+    halves: bool,
+) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Independent components ``(g (n, Nf, len(rows)), weight (Nf,))`` of the outputs
+    ``rows`` of :func:`_corner_forms` on the grid f (Hz) under the road (``terms``: its
+    PSD, the rear wheels' delay factor and the tracks' coherency, :func:`road_terms`):
+    their cross-spectra are ``sum g_i conj(g_j) weight``; rows 2, 3 (wheels) turned
+    into tyre deflections (road minus wheel), 4-7 into velocities."""
+    gq, delay, rho = terms
+    rear = 1 if halves else 2  # the rear-left input's column
+    out = []
+    d = delay[None, :, None]
+    for h, (lam, P) in enumerate(forms):
+        G = modal_response(lam, P[:, :, rows, : P.shape[-1] - 6], f)
+        for j, row in enumerate(rows):
+            if row in (2, 3):
+                G[:, :, j] *= -1.0
+                G[:, :, j, 0 if row == 2 else rear] += 1.0
+            elif 4 <= row < 8:
+                G[:, :, j] *= 2j * np.pi * f[None, :, None]
+        if halves:
+            out.append((G[..., 0] + d * G[..., 1], 0.5 * gq * (1.0 + (1 - 2 * h) * rho)))
+            continue
+        left, right = G[..., 0] + d * G[..., 2], G[..., 1] + d * G[..., 3]
+        out.append((left + rho[None, :, None] * right, gq))
+        out.append((np.sqrt(np.maximum(1.0 - rho * rho, 0.0))[None, :, None] * right, gq))
+    return out
+
+
+def _corner_skewness(
+    forms: list[tuple[np.ndarray, np.ndarray]],
+    lz: ElementLinearisation,
+    road: RandomRoad,
+    vehicle: Minibus,
+    halves: bool,
+) -> np.ndarray:
+    """The left front spring's and rear leaf's deflection skewness (-, (n, 2)) to
+    second order (:func:`corner_statistics`) on the uniform ``SKEW_STEP`` grid."""
+    f = np.arange(0.0, REMAINDER_TOP + SKEW_STEP / 2, SKEW_STEP)
+    terms = _band_road(f, road, vehicle)
+    nt, df = 2 * (f.size - 1), SKEW_STEP
+    var, Sxd = np.zeros(()), np.zeros(())  # sums over the parts
+    for g, w in _corner_parts(forms, [0, 1, *range(4, 10)], f, terms, halves):
+        var = var + (np.abs(g) ** 2).transpose(0, 2, 1) @ (w * df)
+        Sxd = Sxd + g[:, :, :2, None] * g[:, :, None, 2:].conj() * w[None, :, None, None]
+    sd = np.sqrt(var[:, 2:8])
+    R = np.fft.irfft(Sxd, nt, axis=1)[:, : nt // 2] * (0.5 * nt * df) / sd[:, None, None, :]
+    H = sum(modal_response(lam, P[:, :, 0:2, P.shape[-1] - 6 :], f) for lam, P in forms)
+    h = np.fft.irfft(H, nt, axis=1)[:, : nt // 2]
+    c2 = lz.even_coefficients(sd[:, 0:4], sd[:, 4:6])
+    k3 = 6.0 * np.einsum("nj,npj->np", c2, (h * R * R).sum(1))  # h dtau = irfft(H) here
+    return k3 / var[:, 0:2] ** 1.5
 
 
 def _deflection_correlations(

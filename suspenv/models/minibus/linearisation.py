@@ -204,6 +204,43 @@ def _sign_series() -> np.ndarray:
     return out
 
 
+def deflection_compliances(stiff: np.ndarray, e: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The body's and the wheels' parts ``(A, C)`` (m/N, (n,) each) of the static
+    compliance ``e^T K^-1 e = A + C`` of an element deflection ``x = e^T q`` in the
+    ride model's coordinates q = [z_f, z_r, phi, z_FL, z_FR, z_RL, z_RR, seat...]
+    (stiffness K (n, nq, nq); the body's: all but the wheels'). With the wheels at
+    their static positions given the body, ``w = -S b`` (``S = K_ww^-1 K_wb``),
+    ``A = d^T K_c^-1 d`` (``K_c = K_bb - K_bw S`` the body's condensed stiffness,
+    ``d = e_b - S^T e_w`` the deflection per body coordinate), and the wheels' scatter
+    about those positions ``C = e_w^T K_ww^-1 e_w`` (block inversion of K). In a
+    density ``exp(-(b^T K_c b/T_b + w'^T K_ww w'/T_w)/2)`` the deflection's variance is
+    ``T_b A + T_w C``."""
+    wheel = np.arange(3, 7)
+    body = np.setdiff1d(np.arange(stiff.shape[1]), wheel)  # with a seat, its masses too
+    kbw, kww = stiff[:, body][:, :, wheel], stiff[:, wheel][:, :, wheel]
+    s = np.linalg.solve(kww, kbw.transpose(0, 2, 1))  # (n, 4, nb)
+    kc = stiff[:, body][:, :, body] - kbw @ s
+    d = e[body][None, :] - np.einsum("w,nwb->nb", e[wheel], s)
+    a = np.einsum("nb,nb->n", d, np.linalg.solve(kc, d[..., None])[..., 0])
+    ew = np.broadcast_to(e[wheel], (stiff.shape[0], 4))
+    c = np.einsum("nw,nw->n", ew, np.linalg.solve(kww, ew[..., None])[..., 0])
+    return a, c
+
+
+def temperature_ratio(
+    var_t: np.ndarray, cov: np.ndarray, k: np.ndarray, k_tyre: np.ndarray
+) -> np.ndarray:
+    """The ratio r (-, >= 0) of the wheel's temperature about its position given the
+    body to the body's at a corner of spring rate ``k`` and tyre rate ``k_tyre`` (N/m)
+    from the tyre deflection's variance ``var_t`` (m^2) and its covariance ``cov`` with
+    the spring deflection (m^2): in the corner's two-temperature density (body b at
+    temperature T, wheel about its static position ``k b/(k + k_tyre)`` at r T)
+    ``var_t = T (k/k_tyre + r)/(k + k_tyre)`` and ``cov = T (1 - r)/(k + k_tyre)``, so
+    ``r = (1 - c k/k_tyre)/(1 + c)`` with ``c = cov/var_t``."""
+    c = cov / np.maximum(var_t, 1e-300)
+    return np.maximum((1.0 - c * k / k_tyre) / (1.0 + c), 0.0)
+
+
 #: Newton steps of a spring's mean deflection (:meth:`ElementLinearisation.spring_mean`)
 NEWTON_STEPS = 6
 #: starting guess of the leaf deflection rate's RMS (m/s) for the first Dahl rates
@@ -238,9 +275,20 @@ class ElementLinearisation:
                 sign = 1.0 if e.kind == "bump_stop" else -1.0
                 end = self.stops[0 if e.location.startswith("front") else 1]
                 end.append((sign, e.params["gap"], e.params["k_stop"], e.params["p"]))
-        #: per stop of ``stops`` with p = 1: its stiffness ratio k_stop/K (n, 2) to the
-        #: spring's own rate K at its contact point (the closure's kappa), else None
-        self.kappa = tuple([[self._kappa(end, *s) for s in self.stops[end]] for end in (0, 1)])
+        #: per stop of ``stops`` with p = 1: the whole vehicle's static compliances of
+        #: its spring's deflection (:func:`deflection_compliances`) and the corner's
+        #: spring rate at its contact point, else None
+        self._compliances = tuple(
+            [self._compliance(nl, end, *s) for s in self.stops[end]] for end in (0, 1)
+        )
+        self.k_tyre = nl.K[:, [6, 8]]  # front-left and rear-left tyre rates (N/m)
+        #: per stop of ``stops`` with p = 1: the closure's stiffness ratio kappa (n, 2),
+        #: at equal temperatures (r = 1) until :meth:`set_corners`, else None
+        self.kappa: tuple[list[np.ndarray | None], ...] = ([], [])
+        #: skewness (n, 2) of the left-hand front spring's and rear leaf's deflection
+        #: (+ towards compression; 0 until :meth:`set_corners`)
+        self.skew = np.zeros((self.k1.shape[0], 2))
+        self.set_corners(None)
         self.n_rates = 12 if self.effects else 6
         #: damper slopes (n, 4, 4), knees (4, 2), leaf K_1, dk, e_k (n, 2, 3) of the
         #: compiled rates (:mod:`suspenv.models.minibus.spectral_kernel`), filled in
@@ -311,16 +359,87 @@ class ElementLinearisation:
         bump = self.d_bl[:, cols] * (s0 - tb) + self.d_bh[:, cols] * tb
         return bump - (self.d_rl[:, cols] * (s0 - tr) + self.d_rh[:, cols] * tr)
 
-    def _kappa(
-        self, end: int, sign: float, gap: float, k_stop: float, p: float
-    ) -> np.ndarray | None:
-        """The stiffness ratio k_stop/K (n, 2) of a p = 1 stop at ``end``: K the front
-        wheel rate or the leaf's rate at the contact point ``sign gap`` (the composite
-        one where the helper knee lies below it); None for p != 1."""
+    def _compliance(
+        self, nl: RideModel, end: int, sign: float, gap: float, k_stop: float, p: float
+    ) -> tuple[np.ndarray, ...] | None:
+        """``(A0, C0, A1, C1, K)`` of a p = 1 stop at ``end`` (each (n,)):
+        :func:`deflection_compliances` of the left spring's deflection without and with
+        the stop, in the whole vehicle's stiffness with the rear leaf at its rate at the
+        contact point ``sign gap`` (the composite one where the helper knee lies below
+        it), and that corner spring's rate K (N/m); None for p != 1."""
         if p != 1.0:
             return None
-        rate = self.k_front if end == 0 else self.k1 + self.dk * (self.thr < sign * gap)
-        return k_stop / rate
+        k_leaf = self.k1 + self.dk * (self.thr < sign * gap)
+        pos = nl.E[: nl.nq, : nl.n_pos]
+        rates = np.array(nl.K[:, : nl.n_pos], dtype=float)
+        rates[:, 2:4] = k_leaf
+        stiff = np.einsum("ie,ne,je->nij", pos, rates, pos)
+        e = pos[:, 2 * end]
+        a0, c0 = deflection_compliances(stiff, e)
+        a1, c1 = deflection_compliances(stiff + k_stop * np.outer(e, e), e)
+        return a0, c0, a1, c1, (self.k_front if end == 0 else k_leaf)[:, 0]
+
+    def set_corners(self, stats: np.ndarray | None) -> None:
+        """Set the p = 1 stops' stiffness ratios ``kappa = (A0 + r C0)/(A1 + r C1) - 1``
+        (:func:`deflection_compliances`) and the deflections' skewness from ``stats``
+        (n, 6): per left-hand corner (front, rear) the tyre deflection's variance (m^2),
+        its covariance with the spring deflection (m^2) and the spring deflection's
+        skewness (-), of the linear model (``ride.corner_statistics``); r is the
+        corner's temperature ratio (:func:`temperature_ratio`). ``stats=None``: r = 1
+        (``kappa = k_stop e^T K^-1 e``), no skewness."""
+        if stats is not None:
+            self.skew = stats[:, 4:6]
+        for end in (0, 1):
+            self.kappa[end].clear()
+            for comp in self._compliances[end]:
+                if comp is None:
+                    self.kappa[end].append(None)
+                    continue
+                a0, c0, a1, c1, k = comp
+                r: np.ndarray | float = 1.0
+                if stats is not None:
+                    var_t, cov = stats[:, end], stats[:, 2 + end]
+                    r = temperature_ratio(var_t, cov, k, self.k_tyre[:, end])
+                kap = (a0 + r * c0) / (a1 + r * c1) - 1.0
+                self.kappa[end].append(np.repeat(kap[:, None], 2, axis=1))
+
+    def even_coefficients(self, sv: np.ndarray, sd: np.ndarray) -> np.ndarray:
+        """Second Hermite coefficients ``c_2 = E[F He_2(u)]/2`` (N; (n, 6)) of the
+        dampers' laws FL..RR in their standardised velocity (zero mean, RMS ``sv``
+        (n, 4), m/s) and of the rear leaves' second stage ``dk max(d - e_k, 0)`` in
+        their standardised deflection about its mean (:meth:`spring_mean` without the
+        stops; RMS ``sd``
+        (n, 2), m): by Stein's lemma ``E[F He_2(u)] = s^2 E[F''(m + s u)]``, for a
+        piecewise-linear law ``s sum_j (slope jump)_j phi(knee_j/s)`` (jumps at the
+        rebound knee, at 0 and at the bump knee; the leaf's ``dk`` at ``e_k``)."""
+        phi0 = 1.0 / np.sqrt(2.0 * np.pi)
+
+        def phi(x: np.ndarray) -> np.ndarray:
+            return phi0 * np.exp(-0.5 * x * x)
+
+        damp = (
+            (self.d_rl - self.d_rh) * phi(self.kr / sv)
+            + (self.d_bl - self.d_rl) * phi0
+            + (self.d_bh - self.d_bl) * phi(self.kb / sv)
+        )
+        m = self.spring_mean(1, sv[:, 2:4], sd, stops=False)
+        leaf = self.dk * phi((self.thr - m) / sd)
+        return 0.5 * np.hstack([sv * damp, sd * leaf])
+
+    def _closure(
+        self, end: int, sign: float, kappa: np.ndarray, a: np.ndarray, names: str
+    ) -> list[np.ndarray]:
+        """:func:`stop_closure.closure_moments` of a stop at ``end`` (``sign`` +1 bump,
+        -1 rebound) times the deflection's skewness ratios
+        (:func:`stop_closure.skew_ratios`; a rebound stop sees the mirrored skewness)."""
+        out = stop_closure.closure_moments(kappa, a, names)
+        gamma = sign * self.skew[:, end : end + 1]
+        if not gamma.any():
+            return out
+        tilt = {"mu": "mu", "dmu": "mu", "g": "g", "v": "v"}
+        need = " ".join(dict.fromkeys(tilt[q] for q in names.split()))
+        ratio = dict(zip(need.split(), stop_closure.skew_ratios(gamma, a, need), strict=True))
+        return [o * ratio[tilt[q]] for o, q in zip(out, names.split(), strict=True)]
 
     def _stop_terms(self, end: int, m: np.ndarray, sd: np.ndarray) -> tuple[np.ndarray, ...]:
         """Mean force (N, + resisting compression) and its derivative in m (N/m) of the
@@ -334,7 +453,7 @@ class ElementLinearisation:
                 f, k = stop_moments(gap, k_stop, p, sd, sign * m)
                 force, slope = force + sign * f, slope + k
             else:
-                mu, dmu = stop_closure.closure_moments(kappa, (gap - sign * m) / sd, "mu dmu")
+                mu, dmu = self._closure(end, sign, kappa, (gap - sign * m) / sd, "mu dmu")
                 force, slope = force + sign * k_stop * sd * mu, slope - k_stop * dmu
         return force, slope
 
@@ -347,7 +466,7 @@ class ElementLinearisation:
             if kappa is None:
                 rate = rate + stop_moments(gap, k_stop, p, sd, sign * m)[1]
             else:
-                (g,) = stop_closure.closure_moments(kappa, (gap - sign * m) / sd, "g")
+                (g,) = self._closure(end, sign, kappa, (gap - sign * m) / sd, "g")
                 rate = rate + k_stop * g
         return rate
 
@@ -366,7 +485,7 @@ class ElementLinearisation:
                 if kappa is None:
                     continue
                 a = (gap - sign * m[:, cols]) / sd[:, cols]
-                (v,) = stop_closure.closure_moments(kappa, a, "v")
+                (v,) = self._closure(end, sign, kappa, a, "v")
                 gauss = stop_closure.gaussian_remainder_variance(a)
                 scale = np.sqrt(np.where(gauss > 0.0, v / np.maximum(gauss, 1e-300), 1.0))
                 coef = stop_closure.hermite_remainder(a) * (k_stop * sd[:, cols] * scale)
@@ -390,7 +509,9 @@ class ElementLinearisation:
         out[:, :, 2:4] = _sign_series()[:, None, None] * np.sqrt(var)[None]
         return out
 
-    def spring_mean(self, end: int, sv: np.ndarray, sd: np.ndarray) -> np.ndarray:
+    def spring_mean(
+        self, end: int, sv: np.ndarray, sd: np.ndarray, stops: bool = True
+    ) -> np.ndarray:
         """Mean spring deflection from rest (m, (n, 2); + compression) at ``end`` (0:
         front springs, 1: rear leaves) under zero-mean Gaussian damper velocities of RMS
         ``sv`` (m/s) and spring deflections of RMS ``sd`` (m).
@@ -406,7 +527,7 @@ class ElementLinearisation:
         without stops, a fixed :data:`NEWTON_STEPS` (the left side rises monotonically
         in m; measured with the benchmark's stops and with stops 8-10 mm away, 4-30 mm of
         deflection RMS: the fifth step lies within 1e-13 m of the root; tests check the
-        balance's residual)."""
+        balance's residual). ``stops=False``: without the stops' mean force."""
         cols = slice(2 * end, 2 * end + 2)
         k1, dk, thr = (self.k1, self.dk, self.thr) if end else (self.k_front, 0.0, 0.0)
         rhs = -self.damper_mean_force(sv, cols) + dk * np.maximum(-thr, 0.0)
@@ -415,7 +536,7 @@ class ElementLinearisation:
             a = (thr - m) / sd
             f = k1 * m + dk * sd * _excess(a) - rhs
             slope = k1 + dk * (1.0 - ndtr(a))
-            if self.stops[end]:
+            if stops and self.stops[end]:
                 f_stop, k_stop = self._stop_terms(end, m, sd)
                 f, slope = f + f_stop, slope + k_stop
             m = m - f / slope

@@ -160,6 +160,52 @@ def closure_moments(
     return out
 
 
+def skew_ratios(gamma: np.ndarray, a: np.ndarray, names: str = "mu g v") -> list[np.ndarray]:
+    """Ratios (-) ``names`` (from mu, g, v) of a p = 1 stop's mean force ``E[F]``, gain
+    ``E[F y]`` and remainder variance ``Var F - E[F y]^2`` (``F = max(y - a, 0)``, per
+    unit k_stop and RMS) for the unit Cornish-Fisher deflection ``y = (u + gamma (u^2 -
+    1)/6)/sqrt(1 + gamma^2/18)`` (u standard normal; zero mean, unit variance, skewness
+    gamma to first order, + towards the stop) to those for a Gaussian one at the same
+    normalised gap ``a`` (broadcast; :func:`gaussian_excess`, ``1 - Phi(a)``,
+    :func:`gaussian_remainder_variance`); 1 where the Gaussian value underflows.
+
+    F is a quadratic ``p0 + c u + y2 u^2`` beyond the root u* of ``y(u) = a`` on y's
+    rising branch (the falling one lies beyond ``|u| = 3/|gamma|``: ignored; no root,
+    F = 0, where y stays below a), so each
+    moment is a sum of the truncated moments ``M_k = E[u^k; u > u*] = u*^(k-1) phi(u*)
+    + (k - 1) M_(k-2)``."""
+    gamma, a = np.broadcast_arrays(np.asarray(gamma, float), np.asarray(a, float))
+    c = 1.0 / np.sqrt(1.0 + gamma * gamma / 18.0)
+    y2 = c * gamma / 6.0  # y = y2 u^2 + c u - y2
+    b = (y2 + a) / c  # y(u) = a: (y2/c) u^2 + u - b = 0
+    # disc < 0: y stays below a (gamma < 0), F = 0: u* = 40, where phi underflows to 0
+    disc = 1.0 + 4.0 * y2 / c * b
+    u0 = np.where(disc < 0.0, 40.0, 2.0 * b / (1.0 + np.sqrt(np.maximum(disc, 0.0))))
+    phi = np.exp(-0.5 * u0 * u0) / np.sqrt(2.0 * np.pi)
+    m = [ndtr(-u0), phi]  # M_k, k = 0.. (as far as the names need)
+    for k in range(2, 3 if names.split() == ["mu"] else 5):
+        m.append(u0 ** (k - 1) * phi + (k - 1) * m[k - 2])
+    p0 = -y2 - a
+    mu = p0 * m[0] + c * m[1] + y2 * m[2]
+    phi_a, q_a = np.exp(-0.5 * a * a) / np.sqrt(2.0 * np.pi), ndtr(-a)
+    t_a = phi_a - a * q_a
+    out = {"mu": (mu, t_a)}
+    if names.split() != ["mu"]:
+        gain = -y2 * p0 * m[0] + (c * p0 - y2 * c) * m[1] + (y2 * p0 + c * c - y2 * y2) * m[2]
+        gain = gain + 2.0 * c * y2 * m[3] + y2 * y2 * m[4]
+        out["g"] = (gain, q_a)
+        if "v" in names.split():
+            sq = p0 * p0 * m[0] + 2.0 * p0 * c * m[1] + (c * c + 2.0 * p0 * y2) * m[2]
+            sq = sq + 2.0 * c * y2 * m[3] + y2 * y2 * m[4]
+            var = np.maximum(sq - mu * mu - gain * gain, 0.0)
+            tv = (1.0 + a * a) * q_a - a * phi_a - t_a * t_a - q_a * q_a
+            out["v"] = (var, np.maximum(tv, 0.0))
+    return [
+        np.where(g > 1e-300, x / np.maximum(g, 1e-300), 1.0)
+        for x, g in (out[q] for q in names.split())
+    ]
+
+
 def hermite_remainder(a: np.ndarray, orders: int = ORDERS) -> np.ndarray:
     """``sqrt(n!) c_n`` (n = 2..orders, first axis; per unit ``k_stop s``) of a p = 1
     stop's force in Hermite polynomials of the standardised deflection u (mean m, RMS
