@@ -38,6 +38,29 @@ def test_export_name_changes_with_the_source(tmp_path, monkeypatch):
     del sys.modules["loop_mod"]
 
 
+@pytest.mark.skipif(not compiled.AVAILABLE, reason="numba missing")
+@pytest.mark.parametrize("contract", [False, True])
+def test_contract_fuses_a_multiply_and_add(tmp_path, monkeypatch, contract):
+    """A helper named in ``contract`` rounds ``a * b + c`` once (reference: the exact
+    rational result rounded by ``fractions``); others round the product first."""
+    from fractions import Fraction
+
+    from llvmlite import binding
+
+    if not binding.get_host_cpu_features().get("fma", False):
+        pytest.skip("no fused multiply-add on this CPU")
+    name = f"mad_{int(contract)}"
+    (tmp_path / f"{name}.py").write_text("def mad(a, b, c):\n    return a * b + c\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    space = vars(importlib.import_module(name))
+    compiled.jit_helpers(space, ("mad",), False, contract=("mad",) if contract else ())
+    a = b = 1.0 + 2.0**-30  # a * b = 1 + 2^-29 + 2^-60: the last term lost when rounded
+    fused = float(Fraction(a) * Fraction(b) - 1)
+    assert fused == 2.0**-29 + 2.0**-60
+    assert space["mad"](a, b, -1.0) == (fused if contract else 2.0**-29)
+    del sys.modules[name]
+
+
 def test_jit_setting_ignores_the_build(monkeypatch):
     monkeypatch.setenv("SUSPENV_COMPILED", "jit")
     lazy = importlib.import_module("suspenv.models.effects.kernels").recurrence

@@ -158,6 +158,7 @@ def jit_helpers(
     cache: bool,
     inline: Sequence[str] = (),
     bare: Sequence[str] = (),
+    contract: Sequence[str] = (),
 ) -> None:
     """Replace the functions ``helpers`` of the namespace ``space`` by their compiled
     versions (numba, written to its on-disk cache when ``cache``), there and in the
@@ -168,7 +169,9 @@ def jit_helpers(
     are compiled without numba's reference counting (``_nrt=False``: no atomic
     increment and decrement for every array, view and tuple of arrays they handle;
     helpers of the hot loops that allocate no array and return none, their callers
-    owning every array they are passed)."""
+    owning every array they are passed). Those named in ``contract`` may fuse a multiply
+    and an add into one instruction (LLVM's ``contract``: one rounding instead of two,
+    the same arithmetic otherwise; the helpers inlined into them take it too)."""
     import numba
 
     plain = [getattr(space[name], "py_func", space[name]) for name in helpers]
@@ -176,11 +179,12 @@ def jit_helpers(
     done = {id(v.py_func): v for ns in spaces for v in ns.values() if hasattr(v, "py_func")}
     for name, f in zip(helpers, plain, strict=True):
         if id(f) not in done:
+            flags: dict[str, Any] = {"fastmath": {"contract"}} if name in contract else {}
             if name in inline:
-                own = numba.njit(inline="always", error_model="numpy")
+                own = numba.njit(inline="always", error_model="numpy", **flags)
             else:
-                counted: dict[str, Any] = {"_nrt": name not in bare}  # (numba's private flag)
-                own = numba.njit(cache=cache, error_model="numpy", **counted)
+                flags["_nrt"] = name not in bare  # (numba's private flag)
+                own = numba.njit(cache=cache, error_model="numpy", **flags)
             done[id(f)] = own(f)
     for ns in spaces:
         for key, value in list(ns.items()):
@@ -201,9 +205,9 @@ def jitable(functions: Sequence[Callable]) -> None:
 class Lazy:
     """The loop ``main`` of the module namespace ``space``: the built one where there is
     one, else compiled (with its ``helpers``, those named in ``inline`` inlined, those
-    named in ``bare`` without reference counting: :func:`jit_helpers`; the functions of
-    other modules it calls in ``jitable``: :func:`jitable`) at the first call; without
-    numba, ``main`` itself runs."""
+    named in ``bare`` without reference counting, those named in ``contract`` with fused
+    multiply-adds: :func:`jit_helpers`; the functions of other modules it calls in
+    ``jitable``: :func:`jitable`) at the first call; without numba, ``main`` itself runs."""
 
     def __init__(
         self,
@@ -213,9 +217,11 @@ class Lazy:
         inline: Sequence[str] = (),
         bare: Sequence[str] = (),
         jitable: Sequence[Callable] = (),
+        contract: Sequence[str] = (),
     ) -> None:
         self._space, self._helpers, self._main = space, tuple(helpers), main
         self._inline, self._bare, self._jitable = tuple(inline), tuple(bare), tuple(jitable)
+        self._contract = tuple(contract)
         self._loop: Callable | None = None
         # a built loop's array arguments (position, dtype, number of dimensions): checked
         # at each call
@@ -254,7 +260,7 @@ class Lazy:
         import numba
 
         jitable(self._jitable)
-        jit_helpers(self._space, self._helpers, True, self._inline, self._bare)
+        jit_helpers(self._space, self._helpers, True, self._inline, self._bare, self._contract)
         loop = numba.njit(cache=True, error_model="numpy")(self._main)
         if self._jitable:
             # numba's cache checks only the file of the function it compiled: keep the
@@ -332,7 +338,7 @@ def _exports(root: Path) -> Any:
             lazy = getattr(module, attribute)
             name = export_name(lazy._space, lazy._helpers, lazy._main, lazy._jitable)
             jitable(lazy._jitable)
-            jit_helpers(lazy._space, lazy._helpers, False, lazy._inline, lazy._bare)
+            jit_helpers(lazy._space, lazy._helpers, False, lazy._inline, lazy._bare, lazy._contract)
             cc.export(name, signature)(lazy._main)
     return cc
 
