@@ -438,34 +438,13 @@ def screen_residual(model: CurveModel, measurement: Any, x: np.ndarray) -> dict[
     out of the residual (:func:`~suspenv.diagnosis.knc.signatures.without_pattern`) and
     the others scored again."""
     from suspenv.diagnosis.knc.locate import residual_map
-    from suspenv.diagnosis.knc.signatures import (
-        FAMILY_KINDS,
-        FAMILY_WORDS,
-        score_signatures,
-        without_pattern,
-    )
+    from suspenv.diagnosis.knc.signatures import FAMILY_KINDS, FAMILY_WORDS, score_signatures
     from suspenv.measurements.knc import CHANNELS as REC_CHANNELS
-    from suspenv.rigs.knc_measured import on_grid
-    from suspenv.rigs.knc_recording import channels_of, to_recording
 
-    recs, res, pred = [], [], []
-    for t in model.tests:
-        mt = measurement.tests[t.test]
-        try:
-            meas = on_grid(mt, t.steps)
-        except ValidationError as exc:
-            return {"skipped": f"test {t.test}: {exc}"}
-        if not all(ch in meas.channels for ch, _, _ in REC_CHANNELS.values()):
-            return {"skipped": f"test {t.test} lacks a channel the screen reads"}
-        amps = amplitude_kwargs(t.test, t.amplitude)
-        sim = rig_run(
-            model.axle(x[None]), (t.test,), t.steps, model.effects_at(x), amps, model.travel_drive
-        )[t.test]
-        rec = to_recording(meas)
-        p = channels_of(sim)
-        recs.append(rec)
-        pred.append(p)
-        res.append({k: rec.outputs[k] - p[k] for k in p})
+    runs = _screen_runs(model, measurement, x)
+    if isinstance(runs, str):
+        return {"skipped": runs}
+    recs, res, pred = runs
     scales = {}
     for name, (rig_name, _, _) in REC_CHANNELS.items():
         for s in ("left", "right"):
@@ -474,27 +453,7 @@ def screen_residual(model: CurveModel, measurement: Any, x: np.ndarray) -> dict[
     # was weighted by: a residual below it (a fit to noise-free curves) names nothing
     where = residual_map(recs, res, scales, floor=scales)
     sigs = score_signatures(recs, res, pred, where.noise)
-
-    # stepwise: name the strongest pattern, take it out of the residual, score again
-    def sumsq(rr: Sequence[Mapping[str, np.ndarray]]) -> float:
-        return float(sum(np.sum((v / where.noise[k]) ** 2) for r in rr for k, v in r.items()))
-
-    total = sumsq(res)
-    named: list[Any] = []
-    shares: list[float] = []
-    left = [dict(r) for r in res]
-    for _ in range(len(FAMILY_KINDS)):
-        done = {n.kind for n in named}
-        again = [g for g in score_signatures(recs, left, pred, where.noise) if g.kind not in done]
-        if not again or again[0].score <= SIGNATURE_THRESHOLD:
-            break
-        rest = without_pattern(recs, left, pred, where.noise, again[0].kind)
-        share = (sumsq(left) - sumsq(rest)) / total if total > 0 else 0.0
-        if share < NAMED_SHARE:
-            break
-        named.append(again[0])
-        shares.append(share)
-        left = rest
+    named, shares = _name_stepwise(recs, res, pred, where.noise)
     first = {g.kind: g.score for g in sigs}
     return {
         "residual_map": where.to_dict(),
@@ -517,6 +476,69 @@ def screen_residual(model: CurveModel, measurement: Any, x: np.ndarray) -> dict[
         f"pattern holds at least {NAMED_SHARE:.0%} of the residual's sum of squares; it is "
         "projected out and the rest scored again",
     }
+
+
+def _screen_runs(
+    model: CurveModel, measurement: Any, x: np.ndarray
+) -> tuple[list[Any], list[dict[str, np.ndarray]], list[dict[str, np.ndarray]]] | str:
+    """Per test of ``model``: the measured recording, the residual (measured - simulated
+    at ``x``) and the simulated channels; or why the screen cannot read the measurement."""
+    from suspenv.measurements.knc import CHANNELS as REC_CHANNELS
+    from suspenv.rigs.knc_measured import on_grid
+    from suspenv.rigs.knc_recording import channels_of, to_recording
+
+    recs, res, pred = [], [], []
+    for t in model.tests:
+        mt = measurement.tests[t.test]
+        try:
+            meas = on_grid(mt, t.steps)
+        except ValidationError as exc:
+            return f"test {t.test}: {exc}"
+        if not all(ch in meas.channels for ch, _, _ in REC_CHANNELS.values()):
+            return f"test {t.test} lacks a channel the screen reads"
+        amps = amplitude_kwargs(t.test, t.amplitude)
+        sim = rig_run(
+            model.axle(x[None]), (t.test,), t.steps, model.effects_at(x), amps, model.travel_drive
+        )[t.test]
+        rec = to_recording(meas)
+        p = channels_of(sim)
+        recs.append(rec)
+        pred.append(p)
+        res.append({k: rec.outputs[k] - p[k] for k in p})
+    return recs, res, pred
+
+
+def _name_stepwise(
+    recs: list[Any],
+    res: list[dict[str, np.ndarray]],
+    pred: list[dict[str, np.ndarray]],
+    noise: Mapping[str, float],
+) -> tuple[list[Any], list[float]]:
+    """The signatures named stepwise (see :func:`screen_residual`) and the share of the
+    residual's sum of squares (in ``noise`` units) each took out."""
+    from suspenv.diagnosis.knc.signatures import FAMILY_KINDS, score_signatures, without_pattern
+
+    # stepwise: name the strongest pattern, take it out of the residual, score again
+    def sumsq(rr: Sequence[Mapping[str, np.ndarray]]) -> float:
+        return float(sum(np.sum((v / noise[k]) ** 2) for r in rr for k, v in r.items()))
+
+    total = sumsq(res)
+    named: list[Any] = []
+    shares: list[float] = []
+    left = [dict(r) for r in res]
+    for _ in range(len(FAMILY_KINDS)):
+        done = {n.kind for n in named}
+        again = [g for g in score_signatures(recs, left, pred, noise) if g.kind not in done]
+        if not again or again[0].score <= SIGNATURE_THRESHOLD:
+            break
+        rest = without_pattern(recs, left, pred, noise, again[0].kind)
+        share = (sumsq(left) - sumsq(rest)) / total if total > 0 else 0.0
+        if share < NAMED_SHARE:
+            break
+        named.append(again[0])
+        shares.append(share)
+        left = rest
+    return named, shares
 
 
 #: an estimated noise below this fraction of the rig's typical sensor noise
@@ -562,23 +584,7 @@ def run_identify(
     lap = Laps()
     timings = lap.times
 
-    space = vehicle.space()
-    initial = opts["initial"]
-    if initial == "auto":
-        initial = "paper" if truth is not None else "vehicle"
-    start = {"paper": "the paper's initial model", "vehicle": "the vehicle file's design"}[initial]
-    if x0 is not None:
-        start = "a given design"
-        x0 = np.asarray(x0, float).copy()
-        if x0.shape != (space.dim,) or space.outside_bounds(x0):
-            raise ValidationError(
-                f"identify: the start design must be {space.dim} values inside the bounds, but "
-                f"got shape {x0.shape}: {'; '.join(space.outside_bounds(x0)[:3])}"
-            )
-    elif initial == "paper":
-        x0 = paper_initial(space)
-    else:
-        x0 = 0.5 * (vehicle.left + vehicle.right)
+    x0, start = _start_design(vehicle, opts["initial"], truth, x0)
     two = opts["sides"] == "both"
     held_out: str = opts["held_out"]
     choice: dict[str, float] = {}
@@ -596,22 +602,7 @@ def run_identify(
     r0 = model.residual_at(x0, "the initial design")
     lap("setup")
 
-    def staged(s: StageResult) -> None:  # seconds per kind of stage (global, race, polish)
-        key = s.name.split(" ")[0]
-        timings[key] = timings.get(key, 0.0) + s.seconds
-
-    fit = fit_curves(
-        model,
-        x0,
-        opts["global_evaluations"],
-        opts["popsize"],
-        float(opts["sigma0"]),
-        opts["polish_nfev"],
-        seed,
-        progress,
-        staged,
-        workers=opts["workers"],
-    )
+    fit = _fit(model, x0, opts, seed, progress, timings)
     lap.restart()  # the fit's stages timed themselves (staged)
     truth_x = None if truth is None else truth.mean_design
     truth_map = _truth_map(truth, model)
@@ -631,17 +622,7 @@ def run_identify(
         start=start,
         truth_vehicle=truth,
     )
-    if opts["next_test"] and ident.not_identified():
-        say(progress, "next test: Jacobians of the rig tests not measured")
-        _next_test(result, candidate_jacobians(model, fit.u), truth_map, progress)
-        lap("next_test")
-    if opts["diagnose"]:
-        say(progress, "residual screen (K&C diagnosis signatures)")
-        result.diagnosis = screen_residual(model, measurement, fit.x)
-        lap("diagnosis")
-    if opts["loop"] and result.diagnosis and result.diagnosis.get("named"):
-        _model_loop(result, progress)
-        lap("loop")
+    _after_fit(result, truth_map, progress, lap)
     if held is not None:
         result.held_out = predict_held_out(result, held, held_source, choice)
         lap("held_out")
@@ -652,6 +633,79 @@ def run_identify(
     timings["total"] = time.perf_counter() - t_start
     result.cpu_seconds = cpu_seconds() - c_start
     return result
+
+
+def _fit(
+    model: CurveModel,
+    x0: np.ndarray,
+    opts: dict[str, Any],
+    seed: int,
+    progress: bool,
+    timings: dict[str, float],
+) -> CurveFit:
+    """:func:`fit_curves` from ``x0`` with the options' budgets; the seconds of its stages
+    added to ``timings`` by kind."""
+
+    def staged(s: StageResult) -> None:  # seconds per kind of stage (global, race, polish)
+        key = s.name.split(" ")[0]
+        timings[key] = timings.get(key, 0.0) + s.seconds
+
+    return fit_curves(
+        model,
+        x0,
+        opts["global_evaluations"],
+        opts["popsize"],
+        float(opts["sigma0"]),
+        opts["polish_nfev"],
+        seed,
+        progress,
+        staged,
+        workers=opts["workers"],
+    )
+
+
+def _start_design(
+    vehicle: VehicleFile, initial: str, truth: TruthVehicle | None, x0: np.ndarray | None
+) -> tuple[np.ndarray, str]:
+    """The start design (49,) in file units and words saying what it is: ``x0`` when
+    given (checked against the bounds), else the ``initial`` option's design ("auto":
+    the paper's initial model with a test car, else the vehicle file's design)."""
+    space = vehicle.space()
+    if initial == "auto":
+        initial = "paper" if truth is not None else "vehicle"
+    start = {"paper": "the paper's initial model", "vehicle": "the vehicle file's design"}[initial]
+    if x0 is not None:
+        start = "a given design"
+        x0 = np.asarray(x0, float).copy()
+        if x0.shape != (space.dim,) or space.outside_bounds(x0):
+            raise ValidationError(
+                f"identify: the start design must be {space.dim} values inside the bounds, but "
+                f"got shape {x0.shape}: {'; '.join(space.outside_bounds(x0)[:3])}"
+            )
+    elif initial == "paper":
+        x0 = paper_initial(space)
+    else:
+        x0 = 0.5 * (vehicle.left + vehicle.right)
+    return x0, start
+
+
+def _after_fit(
+    result: IdentifyResult, truth_map: dict[str, float] | None, progress: bool, lap: Laps
+) -> None:
+    """The steps the options ask for after the fit, each timed: the next test to
+    measure, the residual screen and the model loop on what the screen names."""
+    opts, model, fit = result.options, result.model, result.fit
+    if opts["next_test"] and result.identifiability.not_identified():
+        say(progress, "next test: Jacobians of the rig tests not measured")
+        _next_test(result, candidate_jacobians(model, fit.u), truth_map, progress)
+        lap("next_test")
+    if opts["diagnose"]:
+        say(progress, "residual screen (K&C diagnosis signatures)")
+        result.diagnosis = screen_residual(model, result.measurement, fit.x)
+        lap("diagnosis")
+    if opts["loop"] and result.diagnosis and result.diagnosis.get("named"):
+        _model_loop(result, progress)
+        lap("loop")
 
 
 def _next_test(

@@ -17,7 +17,7 @@ import numpy as np
 from suspenv.core.atomic import write_file
 from suspenv.core.markdown import table_lines
 from suspenv.models.minibus.vehicle import BASELINE_DESIGN, STUDY_PICK
-from suspenv.problems.minibus import MinibusRideHandling, study_outcome
+from suspenv.problems.minibus import MinibusRideHandling, StudyOutcome, study_outcome
 from suspenv.reports.run import plot_parallel, plot_pareto_pairs
 from suspenv.reports.suspension import write_suspension_report
 from suspenv.runs.quality import shown_rows
@@ -38,37 +38,16 @@ def write_minibus_report(
     found = study_outcome(problem, arrays)
     if found is None:
         return []
-    F, X, ok, feasible = found.F, found.X, found.ok, found.feasible
-    front, pick = found.front, found.pick
-    # the two reference designs as extra rows, marked but not drawn with the front
-    refs = np.vstack([BASELINE_DESIGN, STUDY_PICK])
     F_refs = {
         "baseline": found.baseline,
         "study pick": problem.evaluate(np.atleast_2d(STUDY_PICK)).objectives[0],
     }
-    names = problem.objective_names
-    pool = shown_rows(ok, feasible)  # the evaluations the front is taken from
-    n = len(F)
-    F_all = np.vstack([F, *F_refs.values()])
-    shown = np.concatenate([pool, [False, False]])
-    on_front = front[pool]
-    marks = {"baseline": n, "study pick": n + 1, "ride-focused pick": int(pick)}
-    pairs = plot_pareto_pairs(
-        F_all, shown, names, run_dir / "minibus_pareto_pairs.png", front=on_front, marks=marks
-    )
-    U_all = problem.space.to_unit(np.vstack([X, refs]))
-    par = plot_parallel(
-        F_all,
-        shown,
-        names,
-        run_dir / "minibus_parallel.png",
-        front=on_front,
-        marks=marks,
-        designs=(U_all, problem.space.names),
-    )
+    pairs, par = _front_figures(problem, found, F_refs, run_dir)
+    F, X, pick = found.F, found.X, found.pick
     designs = {"baseline": BASELINE_DESIGN, "study pick": STUDY_PICK, "ride-focused pick": X[pick]}
     susp = write_suspension_report(designs, run_dir, problem.vehicle)
-    units = problem.objective_units
+    ok, feasible, front = found.ok, found.feasible, found.front
+    names, units = problem.objective_names, problem.objective_units
     lines = [
         "# Minibus ride and handling: results",
         "",
@@ -113,3 +92,37 @@ def write_minibus_report(
     md = run_dir / "minibus_report.md"
     write_file(md, "\n".join(lines))
     return [md, pairs, par, *susp]
+
+
+def _front_figures(
+    problem: MinibusRideHandling,
+    found: StudyOutcome,
+    F_refs: dict[str, np.ndarray],
+    run_dir: Path,
+) -> tuple[Path, Path]:
+    """The Pareto front as pair plots and parallel coordinates, the baseline and the
+    study's pick (``F_refs``: their objectives) marked as extra rows, not drawn with the
+    front, and the ride-focused pick marked."""
+    F, X, front, pick = found.F, found.X, found.front, found.pick
+    refs = np.vstack([BASELINE_DESIGN, STUDY_PICK])
+    names = problem.objective_names
+    pool = shown_rows(found.ok, found.feasible)  # the evaluations the front is taken from
+    n = len(F)
+    F_all = np.vstack([F, *F_refs.values()])
+    shown = np.concatenate([pool, [False, False]])
+    on_front = front[pool]
+    marks = {"baseline": n, "study pick": n + 1, "ride-focused pick": int(pick)}
+    pairs = plot_pareto_pairs(
+        F_all, shown, names, run_dir / "minibus_pareto_pairs.png", front=on_front, marks=marks
+    )
+    U_all = problem.space.to_unit(np.vstack([X, refs]))
+    par = plot_parallel(
+        F_all,
+        shown,
+        names,
+        run_dir / "minibus_parallel.png",
+        front=on_front,
+        marks=marks,
+        designs=(U_all, problem.space.names),
+    )
+    return pairs, par

@@ -20,10 +20,11 @@ from suspenv.core.atomic import write_file
 from suspenv.core.markdown import table_lines
 from suspenv.metrics.iso2631 import comfort_reaction
 from suspenv.metrics.ride import acceleration_psd, ride_spectral
+from suspenv.models.minibus.ride_model import RideRecord
 from suspenv.models.minibus.vehicle import LOAD_CASES, REFERENCE_MINIBUS, Minibus
 from suspenv.models.road import RandomRoad
 from suspenv.reports._mpl import pyplot, save_figure
-from suspenv.rigs.ride import PulseBump, pulse_run, random_road_run
+from suspenv.rigs.ride import PulseBump, PulseResult, pulse_run, random_road_run
 
 
 def write_minibus_ride_report(
@@ -38,17 +39,13 @@ def write_minibus_ride_report(
 
     Writes ``ride_report.md``, ``ride_psd.png`` and ``ride_pulse.png`` into out_dir.
     """
-    plt = pyplot()
     road = road or RandomRoad()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     names = list(designs)
     X = np.vstack([np.asarray(designs[k], dtype=float).reshape(1, -1) for k in names])
-    n = len(names)
     rec = random_road_run(X, LOAD_CASES, road, vehicle)  # for the PSD figure
-    fs = road.sample_rate
     sp = ride_spectral(X, LOAD_CASES, road, vehicle)
-    aw_f, aw_r = sp["aw_front"], sp["aw_rear"]
     pulses = {
         v: pulse_run(X, LOAD_CASES, PulseBump(speed_kmh=v, duration_s=pulse_duration_s), vehicle)
         for v in pulse_speeds_kmh
@@ -67,8 +64,27 @@ def write_minibus_ride_report(
         "(m/s^2).",
         "",
     ]
+    lines += _ride_table(names, sp, pulses, pulse_speeds_kmh)
+    psd_png = _plot_psd(names, rec, road.sample_rate, out / "ride_psd.png")
+    pulse_png = _plot_pulses(names, pulses, pulse_speeds_kmh, out / "ride_pulse.png")
+    lines += ["", f"![acceleration PSD]({psd_png.name})", "", f"![pulse]({pulse_png.name})", ""]
+    md = out / "ride_report.md"
+    write_file(md, "\n".join(lines))
+    return [md, psd_png, pulse_png]
+
+
+def _ride_table(
+    names: list[str],
+    sp: dict[str, np.ndarray],
+    pulses: dict[float, PulseResult],
+    speeds: Sequence[float],
+) -> list[str]:
+    """One row per design and load case: aw front and rear (``sp``: :func:`ride_spectral`),
+    the comfort reaction and the pulses' peak accelerations (rows: load case major)."""
+    n = len(names)
+    aw_f, aw_r = sp["aw_front"], sp["aw_rear"]
     head = ["design", "load", "aw front", "aw rear", "comfort (front)"]
-    for v in pulse_speeds_kmh:
+    for v in speeds:
         head += [f"pulse {v:g} km/h front", f"pulse {v:g} km/h rear"]
     rows = []
     for i, name in enumerate(names):
@@ -76,11 +92,17 @@ def write_minibus_ride_report(
             r = j * n + i
             cells = [name, lc.replace("_", " "), f"{aw_f[r]:.3f}", f"{aw_r[r]:.3f}"]
             cells.append(comfort_reaction(float(aw_f[r])))
-            for v in pulse_speeds_kmh:
+            for v in speeds:
                 cells += [f"{pulses[v].peak_front[r]:.2f}", f"{pulses[v].peak_rear[r]:.2f}"]
             rows.append(cells)
-    lines += table_lines(head, rows)
+    return table_lines(head, rows)
 
+
+def _plot_psd(names: list[str], rec: RideRecord, fs: float, path: Path) -> Path:
+    """Acceleration PSDs of the random-road record ``rec`` (sampled at ``fs`` Hz) above
+    the front and rear suspension, one panel per load case and end."""
+    plt = pyplot()
+    n = len(names)
     fig, axes = plt.subplots(2, 2, figsize=(11, 7), sharex=True)
     for j, lc in enumerate(LOAD_CASES):
         for k, (label, acc) in enumerate((("front", rec.acc_front), ("rear", rec.acc_rear))):
@@ -94,12 +116,16 @@ def write_minibus_ride_report(
     for ax in axes[-1]:
         ax.set_xlabel("frequency (Hz)")
     axes[0, 0].legend()
-    psd_png = out / "ride_psd.png"
-    save_figure(fig, psd_png, dpi=110, tight=True)
+    return save_figure(fig, path, dpi=110, tight=True)
 
-    fig, axes = plt.subplots(len(pulse_speeds_kmh), 2, figsize=(11, 3.2 * len(pulse_speeds_kmh)),
-                             squeeze=False)  # fmt: skip
-    for m, v in enumerate(pulse_speeds_kmh):
+
+def _plot_pulses(
+    names: list[str], pulses: dict[float, PulseResult], speeds: Sequence[float], path: Path
+) -> Path:
+    """Acceleration histories over the pulse of each speed (no load), front and rear."""
+    plt = pyplot()
+    fig, axes = plt.subplots(len(speeds), 2, figsize=(11, 3.2 * len(speeds)), squeeze=False)
+    for m, v in enumerate(speeds):
         res = pulses[v]
         for k, (label, acc) in enumerate(
             (("front", res.record.acc_front), ("rear", res.record.acc_rear))
@@ -111,10 +137,4 @@ def write_minibus_ride_report(
             ax.set_ylabel("acceleration (m/s^2)")
             ax.grid(True, alpha=0.3)
     axes[0, 0].legend()
-    pulse_png = out / "ride_pulse.png"
-    save_figure(fig, pulse_png, dpi=110, tight=True)
-
-    lines += ["", f"![acceleration PSD]({psd_png.name})", "", f"![pulse]({pulse_png.name})", ""]
-    md = out / "ride_report.md"
-    write_file(md, "\n".join(lines))
-    return [md, psd_png, pulse_png]
+    return save_figure(fig, path, dpi=110, tight=True)

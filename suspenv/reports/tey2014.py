@@ -476,12 +476,32 @@ def write_tey2014_report(study: Tey2014Study, run_dir: Path, figures: bool = Tru
     figs = _figures(study, fig_dir) if figures else {}
     curve_figs = plot_curves(study, fig_dir) if figures else []
     s = study_summary(study)
-    p = study.problem
 
     def img(key: str, caption: str) -> str:
         f = figs.get(key)
         return f"![{caption}]({f.relative_to(run_dir).as_posix()})\n" if f else ""
 
+    is_paper = study.problem.name == PAPER_REFERENCE["problem"]
+    md = _intro_md(study, s, img)
+    md += _clustering_md(study, img, is_paper)
+    md += _results_md(study, s, img, is_paper)
+    if curve_figs:
+        md.append("\n## 7. Measured vs initial vs identified curves\n")
+        for f in curve_figs:
+            md.append(f"![{f.stem}]({f.relative_to(run_dir).as_posix()})\n")
+    md += _identifiability_md(study, s, img)
+    md += _flat_directions_md(study)
+    md += _beyond_md(study, s, run_dir)
+    md.append("\n## Timings (s)\n")
+    md.append(markdown_table([{"step": k, "seconds": v} for k, v in study.timings.items()]))
+    path = run_dir / "report.md"
+    write_file(path, "\n".join(md))
+    return path
+
+
+def _intro_md(study: Tey2014Study, s: dict[str, Any], img: Callable[[str, str], str]) -> list[str]:
+    """What was run (budgets, options) and section 1, the sensitivity."""
+    p = study.problem
     md = [f"# Identification study (Tey et al. 2014 method): {p.name}\n"]
     md.append(
         f"{p.space.dim} parameters, {p.n_objectives} objectives (mismatches to measured targets). "
@@ -508,9 +528,14 @@ def write_tey2014_report(study: Tey2014Study, run_dir: Path, figures: bool = Tru
         f"Parameters with no significant correlation to any objective: "
         f"{', '.join(ins) if ins else 'none'}.\n"
     )
-    is_paper = p.name == PAPER_REFERENCE["problem"]
-    md += _clustering_md(study, img, is_paper)
-    md.append("\n## 3. Optimisation\n")
+    return md
+
+
+def _results_md(
+    study: Tey2014Study, s: dict[str, Any], img: Callable[[str, str], str], is_paper: bool
+) -> list[str]:
+    """Sections 3-6: convergence, Tables 1 and 2, rank-sum against Euclidean distance."""
+    md = ["\n## 3. Optimisation\n"]
     md.append(img("convergence", "convergence"))
     md.append(
         "## 4. Identified parameters (Table 1: mean and std of the best "
@@ -541,11 +566,14 @@ def write_tey2014_report(study: Tey2014Study, run_dir: Path, figures: bool = Tru
     md.append(
         markdown_table([{"quantity": k, "value": v} for k, v in s["rank_sum_comparison"].items()])
     )
-    if curve_figs:
-        md.append("\n## 7. Measured vs initial vs identified curves\n")
-        for f in curve_figs:
-            md.append(f"![{f.stem}]({f.relative_to(run_dir).as_posix()})\n")
-    md.append("\n## 8. Beyond the paper: recovery and identifiability\n")
+    return md
+
+
+def _identifiability_md(
+    study: Tey2014Study, s: dict[str, Any], img: Callable[[str, str], str]
+) -> list[str]:
+    """Section 8: the recovery error and the evidence per parameter."""
+    md = ["\n## 8. Beyond the paper: recovery and identifiability\n"]
     md.append(img("recovery", "recovery error"))
     if study.recovery is not None:
         r = s["recovery_error_%_range"]
@@ -570,10 +598,4 @@ def write_tey2014_report(study: Tey2014Study, run_dir: Path, figures: bool = Tru
         "sensitive parameter; `std_best_%_range` the spread of the best designs.\n\n"
     )
     md.append(markdown_table(identifiability_rows(study)))
-    md += _flat_directions_md(study)
-    md += _beyond_md(study, s, run_dir)
-    md.append("\n## Timings (s)\n")
-    md.append(markdown_table([{"step": k, "seconds": v} for k, v in study.timings.items()]))
-    path = run_dir / "report.md"
-    write_file(path, "\n".join(md))
-    return path
+    return md

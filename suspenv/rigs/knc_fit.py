@@ -165,6 +165,65 @@ def say(progress: bool, msg: str) -> None:
         print(msg, file=sys.stderr, flush=True)
 
 
+@dataclass
+class _PolishCalls:
+    """The residual and Jacobian callbacks of :func:`polish_stage` and what they share:
+    ``cache`` (residual, Jacobian) by the unit point's bytes, cleared at each new
+    Jacobian; ``history`` of the data's sum of squares; ``last`` (u, r, J) Jacobian taken.
+    ``weight``: the prior's (0: none), about ``centre`` (dim,); ``t0``: progress clock."""
+
+    model: UnitFit
+    weight: float
+    centre: np.ndarray
+    broyden: bool
+    progress: bool
+    t0: float
+    cache: dict[bytes, tuple[np.ndarray, np.ndarray | None]] = field(default_factory=dict)
+    history: list[float] = field(default_factory=list)
+    counter: dict[str, int] = field(default_factory=lambda: {"fun": 0, "jac": 0})
+    last: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = field(default_factory=list)
+
+    def with_prior(self, r: np.ndarray, u: np.ndarray) -> np.ndarray:
+        w = self.weight
+        return np.concatenate([r, w * (u - self.centre)]) if w > 0 else r
+
+    def fun(self, u: np.ndarray) -> np.ndarray:
+        key = np.asarray(u, float).tobytes()
+        if key in self.cache:
+            return self.with_prior(self.cache[key][0], u)
+        self.counter["fun"] += 1
+        R, ok, _ = self.model.residuals(u[None])
+        r = R[0] if ok[0] else np.full(self.model.size, FAILED_RESIDUAL)
+        self.cache[key] = (r, None)
+        self.history.append(float(r @ r))
+        return self.with_prior(r, u)
+
+    def jac(self, u: np.ndarray) -> np.ndarray:
+        w, last = self.weight, self.last
+        key = np.asarray(u, float).tobytes()
+        hit = self.cache.get(key)
+        if hit is not None and hit[1] is not None:
+            J = hit[1]
+            last[:] = [(np.array(u, float), hit[0], J)]
+            return np.vstack([J, w * np.eye(self.model.dim)]) if w > 0 else J
+        secant = self.broyden and bool(last) and hit is not None
+        if secant and hit is not None:
+            r, J = hit[0], secant_update(*last[0], u, hit[0])
+        else:
+            self.counter["jac"] += 1
+            r, J = self.model.jacobian(u)
+        last[:] = [(u.copy(), r, J)]
+        self.cache.clear()
+        self.cache[key] = (r, J)
+        say(
+            self.progress,
+            f"  polish  Jacobian {self.counter['jac']:3d}{' + secant' * secant}"
+            f"  cost {float(r @ r):.6g}  "
+            f"({time.perf_counter() - self.t0:.0f} s)",
+        )
+        return np.vstack([J, w * np.eye(self.model.dim)]) if w > 0 else J
+
+
 def polish_stage(
     model: UnitFit,
     u0: np.ndarray,
@@ -194,59 +253,21 @@ def polish_stage(
     from scipy.optimize import least_squares
 
     t0 = time.perf_counter()
-    cache: dict[bytes, tuple[np.ndarray, np.ndarray | None]] = {}
-    history: list[float] = []
-    counter = {"fun": 0, "jac": 0}
-
-    w = PRIOR_WEIGHT if prior is not None else 0.0
-    centre = np.zeros(model.dim) if prior is None else np.asarray(prior, float)
-
-    def with_prior(r: np.ndarray, u: np.ndarray) -> np.ndarray:
-        return np.concatenate([r, w * (u - centre)]) if w > 0 else r
-
-    def fun(u: np.ndarray) -> np.ndarray:
-        key = np.asarray(u, float).tobytes()
-        if key in cache:
-            return with_prior(cache[key][0], u)
-        counter["fun"] += 1
-        R, ok, _ = model.residuals(u[None])
-        r = R[0] if ok[0] else np.full(model.size, FAILED_RESIDUAL)
-        cache[key] = (r, None)
-        history.append(float(r @ r))
-        return with_prior(r, u)
-
-    def jac(u: np.ndarray) -> np.ndarray:
-        key = np.asarray(u, float).tobytes()
-        hit = cache.get(key)
-        if hit is not None and hit[1] is not None:
-            J = hit[1]
-            last[:] = [(np.array(u, float), hit[0], J)]
-            return np.vstack([J, w * np.eye(model.dim)]) if w > 0 else J
-        secant = broyden and bool(last) and hit is not None
-        if secant and hit is not None:
-            r, J = hit[0], secant_update(*last[0], u, hit[0])
-        else:
-            counter["jac"] += 1
-            r, J = model.jacobian(u)
-        last[:] = [(u.copy(), r, J)]
-        cache.clear()
-        cache[key] = (r, J)
-        say(
-            progress,
-            f"  polish  Jacobian {counter['jac']:3d}{' + secant' * secant}"
-            f"  cost {float(r @ r):.6g}  "
-            f"({time.perf_counter() - t0:.0f} s)",
-        )
-        return np.vstack([J, w * np.eye(model.dim)]) if w > 0 else J
-
-    last: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []  # (u, r, J) last taken
+    calls = _PolishCalls(
+        model,
+        PRIOR_WEIGHT if prior is not None else 0.0,
+        np.zeros(model.dim) if prior is None else np.asarray(prior, float),
+        broyden,
+        progress,
+        t0,
+    )
     u0 = np.clip(np.asarray(u0, float), 0.0, 1.0)
     if at_start is not None:
-        cache[u0.tobytes()] = at_start
+        calls.cache[u0.tobytes()] = at_start
     sol = least_squares(
-        fun,
+        calls.fun,
         u0,
-        jac=jac,
+        jac=calls.jac,
         bounds=(0.0, 1.0),
         method="trf",
         x_scale=1.0,
@@ -255,11 +276,25 @@ def polish_stage(
         xtol=1e-8,
         gtol=1e-8,
     )
-    r, J_hit = cache.get(np.asarray(sol.x, float).tobytes(), (None, None))
+    r, J_hit = calls.cache.get(np.asarray(sol.x, float).tobytes(), (None, None))
     if r is None or J_hit is None:
         r, J = model.jacobian(sol.x)
     else:
         J = J_hit
+    stage = StageResult(
+        "polish (least squares)",
+        sol.x.copy(),
+        float(r @ r),
+        int(calls.counter["fun"] + calls.counter["jac"] * (model.dim + 1)),
+        _stop_reason(sol, max_nfev, ftol),
+        time.perf_counter() - t0,
+        calls.history,
+    )
+    return stage, r, J
+
+
+def _stop_reason(sol: Any, max_nfev: int, ftol: float) -> str:
+    """Why scipy's trust region (result ``sol``) stopped, in words."""
     reasons = {
         -1: "improper input",
         0: f"evaluation budget (max_nfev={max_nfev}) used up: not converged",
@@ -268,16 +303,7 @@ def polish_stage(
         3: "converged: relative step below xtol=1e-08",
         4: "converged: ftol and xtol both met",
     }
-    stage = StageResult(
-        "polish (least squares)",
-        sol.x.copy(),
-        float(r @ r),
-        int(counter["fun"] + counter["jac"] * (model.dim + 1)),
-        reasons.get(int(sol.status), str(sol.message)),
-        time.perf_counter() - t0,
-        history,
-    )
-    return stage, r, J
+    return reasons.get(int(sol.status), str(sol.message))
 
 
 def secant_update(

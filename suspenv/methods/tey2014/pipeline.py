@@ -355,76 +355,65 @@ def _compare_options(config: dict[str, Any]) -> dict[str, dict[str, Any]]:
     return {name: options} if options else {}
 
 
+@dataclass
+class _Setup:
+    """What every step of a study reads: the config, its problem and its options."""
+
+    config: dict[str, Any]
+    run_dir: Path
+    opts: dict[str, Any]  # the study's options (:func:`study_options`)
+    seed: int
+    budget: int
+    run_cfg: dict[str, Any]
+    problem: Problem
+
+    def run(self, problem: Problem, strategy: Any, budget: int, label: str) -> RunArrays:
+        """:func:`_run` into ``run_dir/label``."""
+        return _run(problem, strategy, budget, self.run_dir / label, self.seed, self.run_cfg, label)
+
+
 def run_study(config: dict[str, Any], run_dir: Path) -> Tey2014Study:
     """Run every step of the method; archives go to ``run_dir/doe`` and ``run_dir/cmaes``."""
-    run_dir = Path(run_dir)
-    opts = study_options(config)
-    seed = int(config.get("seed", 0))
-    budget = int(config.get("budget", DEFAULT_BUDGET))
-    run_cfg = {"workers": 1, **(config.get("run", {}) or {})}
-    problem = build_problem(config)
+    su = _Setup(
+        config,
+        Path(run_dir),
+        study_options(config),
+        int(config.get("seed", 0)),
+        int(config.get("budget", DEFAULT_BUDGET)),
+        {"workers": 1, **(config.get("run", {}) or {})},
+        build_problem(config),
+    )
+    problem, opts = su.problem, su.opts
     lap = Laps()
-    timings = lap.times
 
     # 1. design of experiments
-    lhs = make_strategy(
-        "lhs", problem, seed=seed, n_samples=opts["doe_samples"], batch_size=opts["doe_batch"]
-    )
-    doe_view = WithSignedResponses(problem)
-    doe = _run(doe_view, lhs, opts["doe_samples"], run_dir / "doe", seed, run_cfg, "doe")
-    m = problem.n_objectives
-    signed = doe.objectives[:, m:]
-    doe.objectives = doe.objectives[:, :m]
+    doe, signed = _design_of_experiments(su)
     lap("design_of_experiments")
 
     # 2. sensitivity over the valid designs
     valid = doe.valid
     targets, sensitivity_source = _sensitivity_targets(problem, doe, signed, valid, opts)
     sens = spearman_matrix(
-        doe.x[valid],
-        targets,
-        opts["alpha"],
-        problem.space.names,
-        problem.objective_names,
+        doe.x[valid], targets, opts["alpha"], problem.space.names, problem.objective_names
     )
     scale = objective_scale(doe.objectives[valid])
     quality = FixedRankSum.fit(doe.objectives[valid])
     lap("sensitivity")
 
     # 3-4. clustering and the kept objectives
-    clus = cluster_objectives(
-        sens.objective_vectors, problem.objective_names, opts["linkage_methods"]
-    )
-    sel = select_objectives(
-        clus,
-        k_min=opts["k_min"],
-        k_max=opts["k_max"] or None,
-        criterion=opts["k_criterion"],
-        rule=opts["representative"],
-        singleton_value=opts["singleton_silhouette"],
-    )
+    clus, sel = _clustering(su, sens)
     kept = [int(i) for i in sel.kept]
     lap("clustering")
 
     # 5. CMA-ES on the rank-sum of the kept objectives
     x_init = initial_design(problem)
     sub = ObjectiveSubset(problem, kept)
-    strategy = _main_strategy(sub, config, opts, x_init)
-    cma_run = _run(sub, strategy, budget, run_dir / "cmaes", seed, run_cfg, "cmaes")
+    cma_run = su.run(sub, _main_strategy(sub, config, opts, x_init), su.budget, "cmaes")
     lap("optimisation")
 
     # 6. re-ranked archive, Table 1 and Table 2
     ident = identify(cma_run.x, cma_run.objectives, cma_run.valid, problem.space, opts["top"])
-    designs = {"initial": x_init, "identified": ident.mean, "best": ident.best}
-    truth = truth_design(problem)
-    if truth is not None:
-        designs["truth"] = truth
-    names = list(designs)
-    full = problem.evaluate(np.vstack([designs[n] for n in names]))
-    evaluations = {n: full.take([i]) for i, n in enumerate(names)}
-    improvement = improvement_table(full.objectives[0], full.objectives[1], problem.objective_names)
-    for row, i in zip(improvement, range(problem.n_objectives), strict=True):
-        row["kept"] = i in kept
+    designs, evaluations, improvement = _identified(problem, x_init, ident, kept)
     lap("identification")
 
     # 7. rank-sum versus Euclidean distance on random designs (the first valid DoE rows)
@@ -450,54 +439,116 @@ def run_study(config: dict[str, Any], run_dir: Path) -> Tey2014Study:
         evaluations,
         improvement,
         comparison,
-        timings=timings,
+        timings=lap.times,
     )
     study.sensitivity_source = sensitivity_source
-    if truth is not None:
-        study.recovery = recovery_table(ident, truth, problem.space)
-    if opts["profile_points"] >= 2:
-        # what the data can identify: all objectives (or only the kept ones, if asked)
-        cols = kept if opts["identifiability_on"] == "kept" else list(range(problem.n_objectives))
-        study.profiles = profile_scan(
-            problem,
-            ident.mean,
-            cols,
-            scale[cols],
-            opts["profile_points"],
-            opts["doe_batch"],
-            bool(run_cfg.get("progress", False)),
-        )
-        study.local = local_sensitivity(problem, ident.mean, cols, scale[cols], opts["fd_step"])
+    _beyond_the_paper(su, study, sub, lap)
+    return study
+
+
+def _beyond_the_paper(su: _Setup, study: Tey2014Study, sub: Problem, lap: Laps) -> None:
+    """Step 8 (identifiability), the run on all objectives and the comparison of
+    strategies on ``sub`` (the kept objectives) when the options ask, each timed."""
+    opts = su.opts
+    _identifiability(su, study)
     lap("identifiability")
-
-    if opts["all_objectives_run"]:
-        strategy_all = _main_strategy(problem, config, opts, x_init)
-        study.all_objectives = _run(
-            problem,
-            strategy_all,
-            budget,
-            run_dir / "cmaes_all_objectives",
-            seed,
-            run_cfg,
-            "cmaes_all_objectives",
+    if opts["all_objectives_run"]:  # a second CMA-ES run: what the clustering buys
+        strategy_all = _main_strategy(su.problem, su.config, opts, study.designs["initial"])
+        a = su.run(su.problem, strategy_all, su.budget, "cmaes_all_objectives")
+        study.all_objectives = a
+        study.all_identification = identify(
+            a.x, a.objectives, a.valid, su.problem.space, opts["top"]
         )
-        a = study.all_objectives
-        study.all_identification = identify(a.x, a.objectives, a.valid, problem.space, opts["top"])
         lap("all_objectives_run")
-
     if opts["compare_strategies"]:
         study.strategy_comparison = compare_strategies(
             sub,
             opts["compare_strategies"],
             opts["compare_seeds"],
-            opts["compare_budget"] or budget,
-            quality.subset(kept),
-            run_dir / "compare",
-            run_cfg,
-            options=_compare_options(config),
+            opts["compare_budget"] or su.budget,
+            study.quality.subset(study.kept),
+            su.run_dir / "compare",
+            su.run_cfg,
+            options=_compare_options(su.config),
         )
         lap("strategy_comparison")
-    return study
+
+
+def _design_of_experiments(su: _Setup) -> tuple[RunArrays, np.ndarray]:
+    """Step 1: the Latin hypercube designs, their objectives (the signed responses split
+    off) and the signed responses (n, m)."""
+    opts = su.opts
+    lhs = make_strategy(
+        "lhs", su.problem, seed=su.seed, n_samples=opts["doe_samples"], batch_size=opts["doe_batch"]
+    )
+    doe = su.run(WithSignedResponses(su.problem), lhs, opts["doe_samples"], "doe")
+    m = su.problem.n_objectives
+    signed = doe.objectives[:, m:]
+    doe.objectives = doe.objectives[:, :m]
+    return doe, signed
+
+
+def _clustering(su: _Setup, sens: SensitivityResult) -> tuple[ClusteringResult, ClusterSelection]:
+    """Steps 3-4: the objectives clustered by their Spearman vectors; the kept ones."""
+    problem, opts = su.problem, su.opts
+    clus = cluster_objectives(
+        sens.objective_vectors, problem.objective_names, opts["linkage_methods"]
+    )
+    sel = select_objectives(
+        clus,
+        k_min=opts["k_min"],
+        k_max=opts["k_max"] or None,
+        criterion=opts["k_criterion"],
+        rule=opts["representative"],
+        singleton_value=opts["singleton_silhouette"],
+    )
+    return clus, sel
+
+
+def _identified(
+    problem: Problem, x_init: np.ndarray, ident: IdentificationResult, kept: list[int]
+) -> tuple[dict[str, np.ndarray], dict[str, EvaluationBatch], list[dict[str, Any]]]:
+    """Step 6: the named designs (initial, identified, best and the truth if known), their
+    full-problem evaluations and Table 2 (initial against identified)."""
+    designs = {"initial": x_init, "identified": ident.mean, "best": ident.best}
+    truth = truth_design(problem)
+    if truth is not None:
+        designs["truth"] = truth
+    names = list(designs)
+    full = problem.evaluate(np.vstack([designs[n] for n in names]))
+    evaluations = {n: full.take([i]) for i, n in enumerate(names)}
+    improvement = improvement_table(full.objectives[0], full.objectives[1], problem.objective_names)
+    for row, i in zip(improvement, range(problem.n_objectives), strict=True):
+        row["kept"] = i in kept
+    return designs, evaluations, improvement
+
+
+def _identifiability(su: _Setup, study: Tey2014Study) -> None:
+    """Step 8: the recovery error against the truth (if known); parameter profiles and
+    the local sensitivity at the identified design."""
+    problem, opts, ident = su.problem, su.opts, study.identification
+    truth = study.designs.get("truth")
+    if truth is not None:
+        study.recovery = recovery_table(ident, truth, problem.space)
+    if opts["profile_points"] >= 2:
+        # what the data can identify: all objectives (or only the kept ones, if asked)
+        cols = (
+            study.kept
+            if opts["identifiability_on"] == "kept"
+            else list(range(problem.n_objectives))
+        )
+        study.profiles = profile_scan(
+            problem,
+            ident.mean,
+            cols,
+            study.scale[cols],
+            opts["profile_points"],
+            opts["doe_batch"],
+            bool(su.run_cfg.get("progress", False)),
+        )
+        study.local = local_sensitivity(
+            problem, ident.mean, cols, study.scale[cols], opts["fd_step"]
+        )
 
 
 def study_summary(study: Tey2014Study) -> dict[str, Any]:

@@ -127,8 +127,8 @@ def _param_table(params: dict[str, dict[str, float]]) -> list[str]:
     )
 
 
-def markdown(diag: Diagnosis, figures: dict[str, str]) -> str:
-    """The report text (figures referenced by relative file name)."""
+def _summary_md(diag: Diagnosis) -> list[str]:
+    """Title, headline, assumptions and the evidence list."""
     L = [f"# Diagnosis: {text(diag.recording)} ({diag.model})", ""]
     L += [f"**{diag.headline}.**", ""]
     if diag.assumptions:
@@ -142,92 +142,93 @@ def markdown(diag: Diagnosis, figures: dict[str, str]) -> str:
     evidence += [text(n) for n in base.get("rig_notes", [])]
     evidence.append(f"Held out: {text(diag.holdout)}")
     evidence += [e[0].upper() + e[1:] for e in diag.evidence]
-    L += ["Evidence:", ""] + [f"- {e.rstrip('.')}." for e in evidence] + [""]
-    c = diag.comparison
+    return L + ["Evidence:", ""] + [f"- {e.rstrip('.')}." for e in evidence] + [""]
+
+
+def _before_after_md(diag: Diagnosis, c: Any) -> list[str]:
+    """Baseline against the model with the added physics: errors, BIC, tests."""
     ch = diag.channel
-    if c is not None:
-        held = f"{_fmt(c.heldout_rms_after[ch])} ({-100 * c.heldout_reduction:+.0f} %)"
-        box = [f"{_fmt(q)} ({p:.2g})" for q, p in (c.ljung_box_before, c.ljung_box_after)]
+    held = f"{_fmt(c.heldout_rms_after[ch])} ({-100 * c.heldout_reduction:+.0f} %)"
+    box = [f"{_fmt(q)} ({p:.2g})" for q, p in (c.ljung_box_before, c.ljung_box_after)]
+    return [
+        "## Before / after",
+        "",
+        *table_lines(
+            ["", "baseline", "with added physics"],
+            [
+                [f"held-out RMS error ({ch})", _fmt(c.heldout_rms_before[ch]), held],
+                [f"fit RMS error ({ch})", _fmt(c.fit_rms_before[ch]), _fmt(c.fit_rms_after[ch])],
+                ["BIC", _fmt(c.bic_before), _fmt(c.bic_after)],
+                ["Ljung-Box Q (p)", *box],
+            ],
+        ),
+        "",
+        f"Likelihood-ratio test: statistic {_fmt(c.lr.statistic)} on {c.lr.dof} dof "
+        f"(corrected for serial correlation {_fmt(c.lr.statistic_corrected)}, "
+        f"p = {c.lr.p_value_corrected:.2g}). Held out: {text(diag.holdout)}.",
+        "",
+    ]
+
+
+def _baseline_md(diag: Diagnosis) -> list[str]:
+    """The baseline's errors alone (no comparison was made)."""
+    ch = diag.channel
+    b = diag.baseline
+    return [
+        "## Baseline",
+        "",
+        f"Held-out RMS error ({ch}): {_fmt(b['heldout_rms'][ch])}; fit RMS "
+        f"{_fmt(b['fit_rms'][ch])}; Ljung-Box p = {b['ljung_box']['p']:.2g}. "
+        f"Held out: {text(diag.holdout)}.",
+        "",
+    ]
+
+
+def _asymmetry_md(asym: Any) -> list[str]:
+    """The bump/rebound asymmetry check: sentence, fold ratios, curve fit, matched speeds."""
+    L = ["## Bump/rebound asymmetry", "", asym.sentence[0].upper() + asym.sentence[1:] + ".", ""]
+    if asym.fold_ratios:
+        folds = ", ".join(f"{100 * r:+.1f} %" for r in asym.fold_ratios)
+        gains = ", ".join(f"{-100 * g:+.1f} %" for g in asym.fold_heldout_reductions)
         L += [
-            "## Before / after",
+            f"Rebound/bump ratio minus one by held-out cycle group: {folds} "
+            f"(held-out error change: {gains}).",
             "",
-            *table_lines(
-                ["", "baseline", "with added physics"],
+        ]
+    L += ["Asymmetric curve fitted against the symmetric one plus a constant force:", ""]
+    L += _param_table(asym.params) + [""]
+    m = asym.matched_speed
+    if m is None:
+        return L
+    return L + [
+        "Force at the velocity peak of each half-cycle, bump and rebound at matched "
+        "speeds (mean ± cycle-to-cycle standard error; odd elements cancel in the "
+        "even part, a gas force or offset adds a constant, a drifting zero follows "
+        "the drift measured inside each speed):",
+        "",
+        *table_lines(
+            ["speed [m/s]", "bump [N]", "rebound [N]", "even part [N]"]
+            + ["rebound/bump - 1 (raw)", "drift inside [N/s]", "time [s]"],
+            (
                 [
-                    [f"held-out RMS error ({ch})", _fmt(c.heldout_rms_before[ch]), held],
-                    [
-                        f"fit RMS error ({ch})",
-                        _fmt(c.fit_rms_before[ch]),
-                        _fmt(c.fit_rms_after[ch]),
-                    ],
-                    ["BIC", _fmt(c.bic_before), _fmt(c.bic_after)],
-                    ["Ljung-Box Q (p)", *box],
-                ],
+                    f"{g.speed:.4g}",
+                    f"{g.force_bump:.1f} ± {g.stderr_bump:.1f}",
+                    f"{g.force_rebound:.1f} ± {g.stderr_rebound:.1f}",
+                    f"{g.even:+.1f} ± {g.even_stderr:.1f}",
+                    f"{100 * g.rebound_over_bump:+.1f} %",
+                    f"{g.drift:+.2f} ± {g.drift_stderr:.2f}",
+                    f"{g.time:.1f}",
+                ]
+                for g in m.groups
             ),
-            "",
-            f"Likelihood-ratio test: statistic {_fmt(c.lr.statistic)} on {c.lr.dof} dof "
-            f"(corrected for serial correlation {_fmt(c.lr.statistic_corrected)}, "
-            f"p = {c.lr.p_value_corrected:.2g}). Held out: {text(diag.holdout)}.",
-            "",
-        ]
-    else:
-        b = diag.baseline
-        L += [
-            "## Baseline",
-            "",
-            f"Held-out RMS error ({ch}): {_fmt(b['heldout_rms'][ch])}; fit RMS "
-            f"{_fmt(b['fit_rms'][ch])}; Ljung-Box p = {b['ljung_box']['p']:.2g}. "
-            f"Held out: {text(diag.holdout)}.",
-            "",
-        ]
-    for h in diag.named:
-        L += [f"### {h.words}", "", h.signature_evidence + ".", ""]
-        L += _param_table(h.params) + [""]
-    asym = diag.asymmetry
-    if asym is not None:
-        L += [
-            "## Bump/rebound asymmetry",
-            "",
-            asym.sentence[0].upper() + asym.sentence[1:] + ".",
-            "",
-        ]
-        if asym.fold_ratios:
-            folds = ", ".join(f"{100 * r:+.1f} %" for r in asym.fold_ratios)
-            gains = ", ".join(f"{-100 * g:+.1f} %" for g in asym.fold_heldout_reductions)
-            L += [
-                f"Rebound/bump ratio minus one by held-out cycle group: {folds} "
-                f"(held-out error change: {gains}).",
-                "",
-            ]
-        L += ["Asymmetric curve fitted against the symmetric one plus a constant force:", ""]
-        L += _param_table(asym.params) + [""]
-        m = asym.matched_speed
-        if m is not None:
-            L += [
-                "Force at the velocity peak of each half-cycle, bump and rebound at matched "
-                "speeds (mean ± cycle-to-cycle standard error; odd elements cancel in the "
-                "even part, a gas force or offset adds a constant, a drifting zero follows "
-                "the drift measured inside each speed):",
-                "",
-                *table_lines(
-                    ["speed [m/s]", "bump [N]", "rebound [N]", "even part [N]"]
-                    + ["rebound/bump - 1 (raw)", "drift inside [N/s]", "time [s]"],
-                    (
-                        [
-                            f"{g.speed:.4g}",
-                            f"{g.force_bump:.1f} ± {g.stderr_bump:.1f}",
-                            f"{g.force_rebound:.1f} ± {g.stderr_rebound:.1f}",
-                            f"{g.even:+.1f} ± {g.even_stderr:.1f}",
-                            f"{100 * g.rebound_over_bump:+.1f} %",
-                            f"{g.drift:+.2f} ± {g.drift_stderr:.2f}",
-                            f"{g.time:.1f}",
-                        ]
-                        for g in m.groups
-                    ),
-                ),
-                "",
-            ]
-    L += ["## Where the residual lives (baseline)", ""]
+        ),
+        "",
+    ]
+
+
+def _location_md(diag: Diagnosis, residual_map: str) -> list[str]:
+    """Where the baseline's residual lives: the hot spots and the residual map."""
+    L = ["## Where the residual lives (baseline)", ""]
     hot = diag.location.hotspots()
     if hot:
         L += table_lines(
@@ -240,8 +241,12 @@ def markdown(diag: Diagnosis, figures: dict[str, str]) -> str:
         )
     else:
         L.append("The residual is spread like the samples: no part holds an unfair share.")
-    L += ["", f"![residual map]({figures['residual_map']})", ""]
-    L += ["## Hypotheses (ranked)", ""]
+    return L + ["", f"![residual map]({residual_map})", ""]
+
+
+def _hypotheses_md(diag: Diagnosis) -> list[str]:
+    """The ranked hypotheses and the signatures of the baseline residual."""
+    L = ["## Hypotheses (ranked)", ""]
     L += table_lines(
         ["#", "effect", "significant", "ΔBIC (corr.)", "LR p (corr.)", "held-out change"]
         + ["signature score"],
@@ -261,6 +266,21 @@ def markdown(diag: Diagnosis, figures: dict[str, str]) -> str:
     L += ["", "## Signatures of the baseline residual", ""]
     for s in diag.signatures:
         L.append(f"- **{s.kind}** (score {s.score:.2f}): {s.evidence}")
+    return L
+
+
+def markdown(diag: Diagnosis, figures: dict[str, str]) -> str:
+    """The report text (figures referenced by relative file name)."""
+    L = _summary_md(diag)
+    c = diag.comparison
+    L += _before_after_md(diag, c) if c is not None else _baseline_md(diag)
+    for h in diag.named:
+        L += [f"### {h.words}", "", h.signature_evidence + ".", ""]
+        L += _param_table(h.params) + [""]
+    if diag.asymmetry is not None:
+        L += _asymmetry_md(diag.asymmetry)
+    L += _location_md(diag, figures["residual_map"])
+    L += _hypotheses_md(diag)
     L += ["", "## Figures", ""]
     L += [f"![before and after on held-out data]({figures['overlay']})", ""]
     L += [f"![loops]({figures['loops']})", ""]

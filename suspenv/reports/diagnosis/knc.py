@@ -155,8 +155,30 @@ def write_knc_report(diag: Any, out_dir: str | Path) -> list[Path]:
     paths.append(plot_left_right(diag, recs, out / "left_right.png"))
     write_file(out / "diagnosis.json", json_text(diag.to_dict()))
     paths.append(out / "diagnosis.json")
+    lines = _findings_md(diag)
+    if diag.comparison is not None:
+        lines += _comparison_md(diag.comparison)
+    if diag.detection_limits:
+        lines += _limits_md(diag.detection_limits)
+    lines += ["## Loops", ""]
+    lines += ["![loops](loops.png)"]
+    lines += [
+        "",
+        "## Left - right",
+        "",
+        "Loop mid-lines at equal own pad travel; zero for a symmetric axle.",
+        "",
+        "![left-right](left_right.png)",
+        "",
+    ]
+    write_file(out / "report.md", "\n".join(lines))
+    paths.append(out / "report.md")
+    return paths
 
-    lines = [
+
+def _findings_md(diag: Any) -> list[str]:
+    """Verdict, where the baseline misses, the signatures and the hypotheses."""
+    return [
         "# K&C diagnosis",
         "",
         f"**Verdict:** {diag.verdict}",
@@ -212,58 +234,48 @@ def write_knc_report(diag: Any, out_dir: str | Path) -> list[Path]:
         "below -2: the held-out test refutes the refit).",
         "",
     ]
-    if diag.comparison is not None:
-        c = diag.comparison
-        lines += [
-            "## Held-out error, baseline vs final model",
-            "",
-            _table(
-                [
-                    [k, f"{c.heldout_rms_before[k]:.4g}", f"{c.heldout_rms_after[k]:.4g}"]
-                    for k in c.heldout_rms_before
-                ],
-                ["channel (SI)", "baseline", "final"],
-            ),
-            "",
-            f"Scaled held-out error reduction: {100 * c.heldout_reduction:.1f} %.",
-            "",
-        ]
-    limits = diag.detection_limits
-    if limits:
-        lines += [
-            "## What these tests could not have seen",
-            "",
-            "Smallest element each candidate would need for a 5-sigma trace in the fitted "
-            "tests (the part of its signature the baseline parameters cannot follow):",
-            "",
-            _table(
-                [
-                    [
-                        c,
-                        v["parameter"],
-                        f"{v['limit']:.3g}",
-                        f"{v['snr_at_reference']:.1f} at {v['reference']:g}",
-                    ]
-                    for c, v in limits.items()
-                ],
-                ["candidate", "parameter", "limit [N]", "snr at reference [N]"],
-            ),
-            "",
-        ]
-    lines += ["## Loops", ""]
-    lines += ["![loops](loops.png)"]
-    lines += [
+
+
+def _comparison_md(c: Any) -> list[str]:
+    """Held-out RMS error per channel, baseline against the final model."""
+    return [
+        "## Held-out error, baseline vs final model",
         "",
-        "## Left - right",
+        _table(
+            [
+                [k, f"{c.heldout_rms_before[k]:.4g}", f"{c.heldout_rms_after[k]:.4g}"]
+                for k in c.heldout_rms_before
+            ],
+            ["channel (SI)", "baseline", "final"],
+        ),
         "",
-        "Loop mid-lines at equal own pad travel; zero for a symmetric axle.",
-        "",
-        "![left-right](left_right.png)",
+        f"Scaled held-out error reduction: {100 * c.heldout_reduction:.1f} %.",
         "",
     ]
-    write_file(out / "report.md", "\n".join(lines))
-    paths.append(out / "report.md")
-    return paths
+
+
+def _limits_md(limits: dict[str, Any]) -> list[str]:
+    """The smallest element of each candidate the fitted tests would have seen."""
+    return [
+        "## What these tests could not have seen",
+        "",
+        "Smallest element each candidate would need for a 5-sigma trace in the fitted "
+        "tests (the part of its signature the baseline parameters cannot follow):",
+        "",
+        _table(
+            [
+                [
+                    c,
+                    v["parameter"],
+                    f"{v['limit']:.3g}",
+                    f"{v['snr_at_reference']:.1f} at {v['reference']:g}",
+                ]
+                for c, v in limits.items()
+            ],
+            ["candidate", "parameter", "limit [N]", "snr at reference [N]"],
+        ),
+        "",
+    ]
 
 
 def _heldout_z(h: Any) -> str:

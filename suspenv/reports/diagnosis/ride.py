@@ -15,7 +15,7 @@ from suspenv.core.atomic import write_file
 from suspenv.core.jsonable import json_text
 from suspenv.core.markdown import table_lines, text
 from suspenv.diagnosis.engine import Diagnosis
-from suspenv.diagnosis.ride.residual import NOISE_BAND_HZ
+from suspenv.diagnosis.ride.residual import NOISE_BAND_HZ, ResidualCheck
 from suspenv.metrics.ride import acceleration_psd
 from suspenv.reports._mpl import pyplot, save_figure
 from suspenv.reports.diagnosis.component import residual_map
@@ -100,7 +100,33 @@ def write_ride_diagnosis_report(diag: Diagnosis, out_dir: str | Path) -> list[Pa
     psd = psd_overlays(diag, out / "ride_psd.png")
     if psd:
         figs.append(psd)
-    lines = [
+    lines = _findings_md(diag)
+    if diag.residual is not None:
+        lines += _residual_left_md(diag.residual)
+    lines += [
+        "",
+        "## Parameters (final model)",
+        "",
+        *table_lines(
+            ["parameter", "value", "std. error (corrected)"],
+            (
+                [k, f"{v['value']:.5g}", f"{v['stderr_corrected']:.2g}"]
+                for k, v in diag.final_params.items()
+            ),
+        ),
+        "",
+    ]
+    lines += [f"![{p.stem}]({p.name})" for p in figs]
+    md = out / "ride_diagnosis.md"
+    write_file(md, "\n".join(lines) + "\n")
+    js = out / "ride_diagnosis.json"
+    write_file(js, json_text(diag.to_dict()))
+    return [md, js, *figs]
+
+
+def _findings_md(diag: Diagnosis) -> list[str]:
+    """Verdict, where the baseline residual lives, the candidates and their refits."""
+    return [
         "# Ride diagnosis",
         "",
         f"Recordings fitted: {text(diag.recording)}. Held out: {text(diag.holdout)}.",
@@ -134,47 +160,30 @@ def write_ride_diagnosis_report(diag: Diagnosis, out_dir: str | Path) -> list[Pa
             ),
         ),
     ]
-    res = diag.residual
-    if res is not None:
-        summary = {
-            "held-out scaled RMS before": f"{res.heldout_before:.4f}",
-            "after": f"{res.heldout_after:.4f}",
-            "noise floor": f"{res.noise_floor:.4f}",
-            "after / floor": f"{res.excess_ratio:.2f}",
-            "explained share of the model error": f"{100 * res.explained_share:.0f} %",
-            "Ljung-Box p": f"{res.ljung_box_p:.2g}",
-            "residual remains": res.residual_remains,
-            "confident": res.confident,
-        }
-        lines += [
-            "",
-            "## What is left (held-out recordings)",
-            "",
-            res.sentence(),
-            "",
-            *table_lines(list(summary), [list(summary.values())]),
-            "",
-            f"Noise floor: white sensor noise measured above {NOISE_BAND_HZ:g} Hz in the "
-            "residual, where the ride response is negligible. A residual remains when the "
-            f"error left exceeds {res.excess_limit:g} x the floor and is not white (Ljung-Box "
-            f"p < {res.whiteness_alpha:g}).",
-        ]
-    lines += [
+
+
+def _residual_left_md(res: ResidualCheck) -> list[str]:
+    """What the final model leaves on the held-out recordings, against the noise floor."""
+    summary = {
+        "held-out scaled RMS before": f"{res.heldout_before:.4f}",
+        "after": f"{res.heldout_after:.4f}",
+        "noise floor": f"{res.noise_floor:.4f}",
+        "after / floor": f"{res.excess_ratio:.2f}",
+        "explained share of the model error": f"{100 * res.explained_share:.0f} %",
+        "Ljung-Box p": f"{res.ljung_box_p:.2g}",
+        "residual remains": res.residual_remains,
+        "confident": res.confident,
+    }
+    return [
         "",
-        "## Parameters (final model)",
+        "## What is left (held-out recordings)",
         "",
-        *table_lines(
-            ["parameter", "value", "std. error (corrected)"],
-            (
-                [k, f"{v['value']:.5g}", f"{v['stderr_corrected']:.2g}"]
-                for k, v in diag.final_params.items()
-            ),
-        ),
+        res.sentence(),
         "",
+        *table_lines(list(summary), [list(summary.values())]),
+        "",
+        f"Noise floor: white sensor noise measured above {NOISE_BAND_HZ:g} Hz in the "
+        "residual, where the ride response is negligible. A residual remains when the "
+        f"error left exceeds {res.excess_limit:g} x the floor and is not white (Ljung-Box "
+        f"p < {res.whiteness_alpha:g}).",
     ]
-    lines += [f"![{p.stem}]({p.name})" for p in figs]
-    md = out / "ride_diagnosis.md"
-    write_file(md, "\n".join(lines) + "\n")
-    js = out / "ride_diagnosis.json"
-    write_file(js, json_text(diag.to_dict()))
-    return [md, js, *figs]

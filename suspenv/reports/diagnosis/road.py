@@ -34,12 +34,39 @@ def write_road_report(diag: Diagnosis, profile: Recording, out_dir: str | Path) 
     """``road_diagnosis.md`` + ``road_psd.png`` (Welch PSD of ``profile``, 64 m segments,
     with both fits; residual by band) + ``road_diagnosis.json`` of a
     :func:`~suspenv.diagnosis.road.diagnose_road` diagnosis."""
-    plt = pyplot()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    n_w, p_w = welch_psd(*profile_grid(profile), segment_length=64.0)
     spectrum = diag.findings["spectrum"].numbers
-    f, s, h = spectrum["free_fit"], spectrum["standard_fit"], spectrum["heldout"]
+    png = _plot_psd(profile, spectrum, out / "road_psd.png")
+    lines = [f"# Road profile diagnosis: {text(profile.name)}", "", f"**Verdict:** {diag.verdict}"]
+    lines += ["", *_fits_md(spectrum, diag.hypotheses[0])]
+    if "ride" in diag.findings:
+        lines += _ride_md(diag.findings["ride"].numbers)
+    lines += [
+        *table_lines(
+            ["octave (cycle/m)", "lines", "measured / free", "measured / w = 2"],
+            (
+                [f"{row['n_low']:.3g}-{row['n_high']:.3g}", row["lines"]]
+                + [f"{row['measured_over_free']:.2f}", f"{row['measured_over_standard']:.2f}"]
+                for row in spectrum["octave_bands"]
+            ),
+        ),
+        "",
+        f"![PSD and residual by band]({png.name})",
+        "",
+    ]
+    md = out / "road_diagnosis.md"
+    write_file(md, "\n".join(lines))
+    js = out / "road_diagnosis.json"
+    write_file(js, json_text(diag.to_dict()))
+    return [md, png, js]
+
+
+def _plot_psd(profile: Recording, spectrum: dict[str, Any], png: Path) -> Path:
+    """The measured PSD with both fits and the ISO 8608 class lines; the residual by band."""
+    plt = pyplot()
+    n_w, p_w = welch_psd(*profile_grid(profile), segment_length=64.0)
+    f, s = spectrum["free_fit"], spectrum["standard_fit"]
     fig, (ax, ax2) = plt.subplots(1, 2, figsize=(12, 4.5))
     sel = n_w > 0
     ax.loglog(n_w[sel], p_w[sel], color="0.3", label=f"{profile.name} (Welch)")
@@ -66,15 +93,13 @@ def write_road_report(diag: Diagnosis, profile: Recording, out_dir: str | Path) 
     )
     ax2.legend()
     ax2.grid(True, which="both", alpha=0.3)
-    png = out / "road_psd.png"
-    save_figure(fig, png, dpi=110, tight=True)
+    return save_figure(fig, png, dpi=110, tight=True)
 
-    t = diag.hypotheses[0]
-    lines = [
-        f"# Road profile diagnosis: {text(profile.name)}",
-        "",
-        f"**Verdict:** {diag.verdict}",
-        "",
+
+def _fits_md(spectrum: dict[str, Any], t: Any) -> list[str]:
+    """Both fits, the likelihood-ratio test ``t`` and the held-out check."""
+    f, s, h = spectrum["free_fit"], spectrum["standard_fit"], spectrum["heldout"]
+    return [
         *table_lines(
             ["model", "Gd(n0) (1e-6 m^3)", "95 % interval", "w", "class", "log-likelihood"],
             [
@@ -96,41 +121,25 @@ def write_road_report(diag: Diagnosis, profile: Recording, out_dir: str | Path) 
         f"{h['heldout_loglik_gain_per_line']:+.4f}).",
         "",
     ]
-    if "ride" in diag.findings:
-        r = diag.findings["ride"].numbers
-        lines += [
-            f"Ride consequence (reference minibus, study pick, no load, {r['speed_kmh']:g} km/h,"
-            f" mean of {len(r['seeds'])} road seeds): Wk-weighted RMS front "
-            f"{r['aw_front_measured_spectrum']:.3f} m/s^2 on the measured spectrum vs "
-            f"{r['aw_front_standard']:.3f} on the w = 2 fit (x{r['ratio_front']:.2f}; spread "
-            f"over seeds +-{r['aw_front_standard_seed_std']:.3f}); rear "
-            f"{r['aw_rear_measured_spectrum']:.3f} vs {r['aw_rear_standard']:.3f} "
-            f"(x{r['ratio_rear']:.2f}).",
-        ]
-        if "aw_front_measured_profile_in_phase" in r:
-            lines.append(
-                f"On the measured profile itself (both tracks in phase): front "
-                f"{r['aw_front_measured_profile_in_phase']:.3f}, rear "
-                f"{r['aw_rear_measured_profile_in_phase']:.3f} m/s^2; a w = 2 road in phase: "
-                f"front {r['aw_front_standard_in_phase']:.3f}, rear "
-                f"{r['aw_rear_standard_in_phase']:.3f} m/s^2."
-            )
-        lines.append("")
-    lines += [
-        *table_lines(
-            ["octave (cycle/m)", "lines", "measured / free", "measured / w = 2"],
-            (
-                [f"{row['n_low']:.3g}-{row['n_high']:.3g}", row["lines"]]
-                + [f"{row['measured_over_free']:.2f}", f"{row['measured_over_standard']:.2f}"]
-                for row in rows
-            ),
-        ),
-        "",
-        f"![PSD and residual by band]({png.name})",
-        "",
+
+
+def _ride_md(r: dict[str, Any]) -> list[str]:
+    """The ride consequence: the minibus on the measured spectrum against w = 2."""
+    lines = [
+        f"Ride consequence (reference minibus, study pick, no load, {r['speed_kmh']:g} km/h,"
+        f" mean of {len(r['seeds'])} road seeds): Wk-weighted RMS front "
+        f"{r['aw_front_measured_spectrum']:.3f} m/s^2 on the measured spectrum vs "
+        f"{r['aw_front_standard']:.3f} on the w = 2 fit (x{r['ratio_front']:.2f}; spread "
+        f"over seeds +-{r['aw_front_standard_seed_std']:.3f}); rear "
+        f"{r['aw_rear_measured_spectrum']:.3f} vs {r['aw_rear_standard']:.3f} "
+        f"(x{r['ratio_rear']:.2f}).",
     ]
-    md = out / "road_diagnosis.md"
-    write_file(md, "\n".join(lines))
-    js = out / "road_diagnosis.json"
-    write_file(js, json_text(diag.to_dict()))
-    return [md, png, js]
+    if "aw_front_measured_profile_in_phase" in r:
+        lines.append(
+            f"On the measured profile itself (both tracks in phase): front "
+            f"{r['aw_front_measured_profile_in_phase']:.3f}, rear "
+            f"{r['aw_rear_measured_profile_in_phase']:.3f} m/s^2; a w = 2 road in phase: "
+            f"front {r['aw_front_standard_in_phase']:.3f}, rear "
+            f"{r['aw_rear_standard_in_phase']:.3f} m/s^2."
+        )
+    return lines + [""]
