@@ -27,8 +27,8 @@ the tyres' load sensitivity and the compliances enter with the signs they have t
 (:func:`suspenv.rigs.handling.slalom_linear`); one frequency-response solve and one
 closed-form step response per design, no time loop. Every objective of this set varies
 over the design box by more than 3 % (``python -m benchmarks.minibus_objectives``);
-the steady-circle limit (a measure, ``ay_max``) varies by under 1 % and is not one of
-them (docs/minibus_handling.md).
+the steady-circle limit (a measure, ``ay_max``) varies by 1.4 % empty and 3.5 % loaded
+(robust spread) and is not one of them (docs/minibus_handling.md).
 
 ``handling="study"`` restores the study's objective set: f3 [m/s^2] minus the maximum
 quasi-steady lateral acceleration of the steady-state circular test, R = 15 m
