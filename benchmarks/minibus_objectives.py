@@ -8,7 +8,9 @@ them. Spread = (max - min) / |median| over the designs, in %, and the robust spr
 (95th - 5th percentile) / |median|, which corners of the box cannot inflate; the target:
 every default objective's robust spread >= 3 %. Numerical noise: the largest relative
 difference between the batch's value and the same designs evaluated one at a time
-(every default path is deterministic, so this is round-off).
+(every default path is deterministic, so this is round-off). The default objectives'
+rank correlations with each other and with the understeer and roll gradients
+(``summary.rank_correlations``) say how many independent numbers they carry.
 
 The study's table side by side (``summary.paper_table``): the baseline, the study's
 pick and the ride-focused pick of the last study run (read from
@@ -30,6 +32,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from scipy.stats import spearmanr
 
 from benchmarks.common import write_result
 from suspenv.models.minibus import BASELINE_DESIGN, STUDY_PICK, design_space
@@ -103,6 +106,22 @@ def _rows(label: str, p: MinibusRideHandling, X: np.ndarray, n_single: int) -> l
     return rows
 
 
+#: the handling measures the default objectives' rank correlations are taken against
+FOLLOWED = ("understeer_03g_no_load", "understeer_03g_full_load", "roll_gradient_no_load",
+            "roll_gradient_full_load")  # fmt: skip
+
+
+def rank_correlations(p: MinibusRideHandling, X: np.ndarray) -> dict[str, Any]:
+    """Spearman rank correlations (-) over the designs ``X`` between the default set's
+    objectives and the handling measures they may follow (:data:`FOLLOWED`): how many
+    independent numbers the objectives carry over the box."""
+    b = p.evaluate(X)
+    names = [*p.objective_names, *FOLLOWED]
+    cols = np.column_stack([b.objectives[b.ok], *(b.extras[k][b.ok] for k in FOLLOWED)])
+    rho = spearmanr(cols).statistic
+    return {"names": names, "spearman": np.round(rho, 4).tolist()}
+
+
 def paper_table(study_json: Path = STUDY_JSON) -> dict[str, Any]:
     """Designs, both sets' objectives and the routine figures of the baseline, the
     study's pick and the last study run's ride-focused pick (module docstring)."""
@@ -152,6 +171,7 @@ def main(argv: list[str] | None = None) -> int:
             r["p5_p95_spread_percent"] >= TARGET_SPREAD_PERCENT for r in default
         ),
         "paper_table": paper_table(),
+        "rank_correlations": rank_correlations(MinibusRideHandling(), X),
         "below_target": [
             f"{r['set']}:{r['quantity']}"
             for r in rows
