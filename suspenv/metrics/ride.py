@@ -454,19 +454,10 @@ class _Halves:
         """Poles (2n, 2d) and eigenvectors (2n, 2d, 2d) of the halves' first-order
         matrices at element rates (n, n_el), 2 n rows: the compiled
         :func:`suspenv.models.minibus.spectral_kernel.halves_matrix` and
-        :func:`~suspenv.models.minibus.spectral_kernel.eigen`; a row whose QR iteration
-        fails (NaN) takes LAPACK's
-        :func:`~suspenv.models.minibus.spectral_kernel.lapack_eig` (NaN again where the
-        matrix is not finite)."""
-        A = self._A
-        spectral_kernel.halves_matrix(self.A0, self.minv, self.D, rates, A)
-        lam = np.empty(A.shape[:2], dtype=complex)
-        V = np.empty(A.shape, dtype=complex)
-        spectral_kernel.eigen(A, lam, V)
-        if np.isnan(lam.sum()):
-            bad = np.isnan(lam).any(axis=1)
-            lam[bad], V[bad] = spectral_kernel.lapack_eig(A[bad])
-        return lam, V
+        :func:`~suspenv.models.minibus.spectral_kernel.eigen`, LAPACK for a row where
+        that fails (:func:`~suspenv.models.minibus.spectral_kernel.decompose`)."""
+        spectral_kernel.halves_matrix(self.A0, self.minv, self.D, rates, self._A)
+        return spectral_kernel.decompose(spectral_kernel.eigen, self._A)
 
     def mean_square(
         self,

@@ -45,19 +45,27 @@ _LAPACK_EIG: Any = getattr(getattr(np.linalg, "_umath_linalg", None), "eig", Non
 def eig(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Eigenvalues (..., m) and eigenvectors (..., m, m; unit 2-norm columns), complex,
     of the small real matrices ``A`` (..., m, m): the compiled :func:`general_eigen`
-    (~1 us a 4x4 matrix; LAPACK's costs several times more in its setup), LAPACK's
-    (:func:`lapack_eig`) for a matrix where it gives NaN: its QR iteration failed, or
-    an eigenvalue's null space has more than one dimension (e.g. ``-I``). A matrix
-    with a non-finite entry gives NaN, so that its design fails as non-finite."""
+    (~1 us a 4x4 matrix; LAPACK's costs several times more in its setup) through
+    :func:`decompose`. A matrix with a non-finite entry gives NaN, so that its design
+    fails as non-finite."""
     m = A.shape[-1]
-    flat = np.ascontiguousarray(A, dtype=float).reshape(-1, m, m)
-    w = np.empty(flat.shape[:2], dtype=complex)
-    v = np.empty(flat.shape, dtype=complex)
-    general_eigen(flat, w, v)
+    w, v = decompose(general_eigen, np.ascontiguousarray(A, dtype=float).reshape(-1, m, m))
+    return w.reshape(A.shape[:-1]), v.reshape(A.shape)
+
+
+def decompose(loop: Any, A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Eigenvalues (rows, m) and eigenvectors (rows, m, m), complex, of the contiguous
+    stack ``A`` (rows, m, m) by the compiled ``loop`` (:func:`eigen` or
+    :func:`general_eigen`), LAPACK's (:func:`lapack_eig`) for a matrix where it gives
+    NaN: its QR iteration failed, or an eigenvalue's null space has more than one
+    dimension (e.g. ``-I``)."""
+    w = np.empty(A.shape[:2], dtype=complex)
+    v = np.empty(A.shape, dtype=complex)
+    loop(A, w, v)
     if np.isnan(v.sum()):
         bad = np.isnan(v).any(axis=(1, 2))
-        w[bad], v[bad] = lapack_eig(flat[bad])
-    return w.reshape(A.shape[:-1]), v.reshape(A.shape)
+        w[bad], v[bad] = lapack_eig(A[bad])
+    return w, v
 
 
 def lapack_eig(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
