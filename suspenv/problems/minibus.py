@@ -87,7 +87,7 @@ from suspenv.core.errors import ValidationError
 from suspenv.core.options import choice, flag, integer, number, positive
 from suspenv.core.pareto import nondominated
 from suspenv.metrics.handling import yaw_response
-from suspenv.metrics.ride import exceedance_probability, working_space
+from suspenv.metrics.ride import CREST_LIMIT, DOSE_KEYS, exceedance_probability, working_space
 from suspenv.models.effects.effect import Effect
 from suspenv.models.minibus import spectral_kernel
 from suspenv.models.minibus.handling_model import (
@@ -168,8 +168,6 @@ STUDY_OBJECTIVE_NAMES = (
     "f5_roll",
 )
 STUDY_OBJECTIVE_UNITS = ("m/s^2", "m/s^2", "m/s^2", "deg/s", "deg")
-#: the measures ``ride_method="time"`` adds from the weighted record
-RECORD_KEYS = ("crest_front", "crest_rear", "vdv_front", "vdv_rear")
 
 
 def _road_class(owner: str, value: Any) -> str | float:
@@ -197,8 +195,9 @@ class MinibusRideHandling(Problem):
         road_class: ISO 8608 class letter "A".."H" (case ignored), or Gd(n0) itself in
             m^3, a number with ``0 < Gd(n0) <= 0.524288`` (the upper edge of class H).
         speed_kmh [km/h]: random-road speed; finite, > 0.
-        ride_duration_s [s]: recorded random-road time; finite, >= 2 (one period of
-            0.5 Hz, the lower edge of ISO 2631-1's Wk band).
+        ride_duration_s [s]: recorded random-road time, the exposure T of the crest
+            factors and VDVs; finite, >= 2 (one period of 0.5 Hz, the lower edge of
+            ISO 2631-1's Wk band).
         road_seed: road realisation, an integer >= 0.
         circle_radius [m]: steady-state circular test; finite, > 0.
         slalom_speed_kmh [km/h], cone_spacing [m], slalom_amplitude [m]: slalom; finite,
@@ -209,7 +208,8 @@ class MinibusRideHandling(Problem):
         ride_method: ``"time"`` (the study's definition: the nonlinear ride model on one
             seeded ``ride_duration_s`` road record) or ``"spectral"`` (the exact spectral
             integral of the equivalent-linear ride model over the ISO 8608 road PSD: no
-            seed noise, ``road_seed`` and ``ride_duration_s`` unused); see
+            seed noise, ``road_seed`` unused, ``ride_duration_s`` only the exposure of
+            the expected crest factors and VDVs of a Gaussian response); see
             :func:`suspenv.metrics.ride.ride_spectral`.
         handling: ``"standard"`` (f3 the step-steer response time, f4 the slalom's
             steering-wheel angle amplitude, f5 its roll amplitude, all linearised at
@@ -406,10 +406,14 @@ class MinibusRideHandling(Problem):
         the flags ``completed_<load case>`` (slalom completed; for ``"standard"``: the
         linearised vehicle is stable at the slalom and step-steer speeds) and
         ``ride_ok_<load case>`` (road run); ``handling="standard"`` adds the measures of
-        :meth:`_standard_handling`; ``ride_method="time"`` the weighted record's crest
-        factors ``crest_front``/``crest_rear`` (-) and vibration dose values
-        ``vdv_front``/``vdv_rear`` (m/s^1.75; ISO 2631-1 asks for them where the crest
-        factor exceeds 9).
+        :meth:`_standard_handling`. Both ride methods give the weighted acceleration's
+        crest factors ``crest_front``/``crest_rear`` (-) and vibration dose values
+        ``vdv_front``/``vdv_rear`` (m/s^1.75) over ``ride_duration_s`` (``"time"``:
+        the record's; ``"spectral"``: a Gaussian response's expected values,
+        :func:`suspenv.metrics.ride.gaussian_dose`) and ``vdv_applies`` (1.0 where
+        either crest factor exceeds :data:`~suspenv.metrics.ride.CREST_LIMIT` = 9, the
+        ISO 2631-1 rule for reporting the VDV beside the RMS, else 0.0; NaN where the
+        road run failed).
         """
         X = np.atleast_2d(np.asarray(X, dtype=float))
         n = X.shape[0]
@@ -435,8 +439,9 @@ class MinibusRideHandling(Problem):
             rows, r = slice(i * n, (i + 1) * n), ride[lc]
             out[f"aw_front_{lc}"], out[f"aw_rear_{lc}"] = r["aw_front"], r["aw_rear"]
             out.update({f"{key}_{lc}": value[rows] for key, value in both.items()})
-            # ride_method="time": the weighted record's crest factors and VDVs
-            out.update({f"{key}_{lc}": r[key] for key in RECORD_KEYS if key in r})
+            out.update({f"{key}_{lc}": r[key] for key in DOSE_KEYS})
+            crest = np.maximum(r["crest_front"], r["crest_rear"])
+            out[f"vdv_applies_{lc}"] = np.where(np.isnan(crest), np.nan, crest > CREST_LIMIT)
             out.update({f"{key}_{lc}": value[rows] for key, value in ws.items()})
             out[f"ride_ok_{lc}"] = r["ok"]
         return out

@@ -8,7 +8,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from suspenv.core.errors import ValidationError
-from suspenv.metrics.ride import record_objectives, ride_spectral
+from suspenv.metrics.ride import DOSE_KEYS, record_objectives, ride_spectral
 from suspenv.models.effects.effect import Effect
 from suspenv.models.minibus.ride_model import SeatMount
 from suspenv.models.minibus.vehicle import LOAD_CASES, REFERENCE_MINIBUS, Minibus, VehicleParams
@@ -34,8 +34,10 @@ def ride_objectives_all(
     """Ride objectives of every load case from one stacked integration (or spectral pass).
 
     Returns ``{load_case: {"aw_front": (n,), "aw_rear": (n,), "rms_front": (n,),
-    "rms_rear": (n,), "ok": (n,)}}`` (:func:`record_objectives`: units, failed rows);
-    ``method="time"`` adds the weighted record's ``crest_*`` and ``vdv_*``.
+    "rms_rear": (n,), "ok": (n,)}}`` (:func:`record_objectives`: units, failed rows).
+    Both methods add the weighted acceleration's crest factors ``crest_*`` and VDVs
+    ``vdv_*`` over ``road.duration_s`` (the record's, or the spectral method's Gaussian
+    expectations).
 
     The integration runs in float32 by default (about 1.4x faster; the weighted RMS
     agrees with float64 to ~1e-6, see tests); pass ``dtype=np.float64`` to change that.
@@ -43,12 +45,12 @@ def ride_objectives_all(
     ``method``: ``"time"`` (default here) integrates the nonlinear model over the seeded
     road record of ``road`` and weights its FFT; ``"spectral"`` integrates the output
     PSD of the equivalent-linear model over the road PSD (:func:`ride_spectral`: no road
-    seed, no record length, no noise; ``road.seed``, ``duration_s``, ``settle_s`` and
-    ``dtype`` are unused; effects by their equivalent-linear rates) and adds its
-    equivalent-linear rates ``damper_c`` (n, 4) and ``leaf_k`` (n, 2) (for
-    :func:`suspenv.metrics.ride.working_space`). ``params``: the stacked vehicle
-    parameters of X in ``load_cases``, if already at hand (the spectral method's; the
-    time method's rig makes its own).
+    seed, no record, no noise; ``road.seed``, ``settle_s`` and ``dtype`` are unused,
+    ``duration_s`` is only the crest factors' and VDVs' exposure; effects by their
+    equivalent-linear rates) and adds its equivalent-linear rates ``damper_c`` (n, 4)
+    and ``leaf_k`` (n, 2) (for :func:`suspenv.metrics.ride.working_space`).
+    ``params``: the stacked vehicle parameters of X in ``load_cases``, if already at
+    hand (the spectral method's; the time method's rig makes its own).
     """
     road = road or RandomRoad()
     X = np.atleast_2d(np.asarray(X, dtype=float))
@@ -57,7 +59,8 @@ def ride_objectives_all(
         raise ValidationError(f"ride method must be one of {RIDE_METHODS}, but got {method!r}")
     if method == "spectral":
         sp = ride_spectral(X, load_cases, road, vehicle, seat, effects=effects, params=params)
-        keys = ("aw_front", "aw_rear", "rms_front", "rms_rear", "ok", "damper_c", "leaf_k")
+        keys = ("aw_front", "aw_rear", "rms_front", "rms_rear", *DOSE_KEYS)
+        keys += ("ok", "damper_c", "leaf_k")
         return {
             lc: {k: sp[k][i * n : (i + 1) * n] for k in keys} for i, lc in enumerate(load_cases)
         }
