@@ -150,10 +150,12 @@ def gaussian_peak_factor(crossings: np.ndarray | float) -> np.ndarray:
     point trapezoid over ``0 .. sqrt(2 ln max(N, 1)) + 8``, where the integrand has fallen
     below 1e-13; the integrand is even in u, so the rule converges geometrically).
     Davenport's (1964) peak factor ``L + 0.5772/L``, ``L = sqrt(2 ln N)``, is its
-    expansion for large N (1 % above it at N = 80; tests). The Poisson count assumes
-    broad-band crossings: for a narrow band (a lightly damped mode alone) the
-    exceedances come in clumps and the expected peak lies lower (3.5 % at damping
-    ratio 0.1, N = 80; tests)."""
+    expansion for large N (1 % above it at N = 80; tests). Against 4000 Gaussian
+    records of a broad band (a mode of damping ratio 0.5) it holds within 0.05 % at N
+    = 80 and 120 and lies 1 % high at N = 40 (the minibus's weighted accelerations
+    cross zero 100-150 times in 10 s). The Poisson count assumes independent
+    exceedances: for a narrow band (a lightly damped mode alone) they come in clumps
+    and the records' peaks lie lower (3.5 % at damping ratio 0.1, N = 80; tests)."""
     n = np.asarray(crossings, dtype=float)
     top = np.sqrt(2.0 * np.log(np.maximum(n, 1.0))) + 8.0
     u = top[..., None] * np.linspace(0.0, 1.0, PEAK_POINTS)
