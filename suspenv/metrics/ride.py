@@ -79,8 +79,8 @@ ISO_BAND = (0.5, 80.0)
 DOSE_KEYS = ("crest_front", "crest_rear", "vdv_front", "vdv_rear")
 #: ISO 2631-1 (6.3.1): above this crest factor the VDV is reported beside the RMS
 CREST_LIMIT = 9.0
-#: trapezoid points of :func:`gaussian_peak_factor`'s integral
-PEAK_POINTS = 256
+#: trapezoid points of :func:`gaussian_peak_factor`'s integral (64 points: within 3e-5)
+PEAK_POINTS = 128
 #: uniform grid of the end stops' remainder (Hz): step (its covariances' period, 16 s,
 #: covers the slowest mode's decay) and top (its spectrum folds back above): against
 #: the 1/32 Hz, 32 Hz grid the weighted values move by under 2e-4, against part 3 of
@@ -147,8 +147,9 @@ def gaussian_peak_factor(crossings: np.ndarray | float) -> np.ndarray:
     |x| exceeds u/sigma at the rate ``2 nu0 exp(-u^2/2)`` (Rice); with exceedances
     counted as a Poisson stream, ``P(max|x| < u sigma) = exp(-N exp(-u^2/2))`` and the
     expected maximum ``int_0^inf 1 - exp(-N exp(-u^2/2)) du`` (a :data:`PEAK_POINTS`-
-    point trapezoid over ``0 .. sqrt(2 ln max(N, 1)) + 8``, where the integrand has fallen
-    below 1e-13; the integrand is even in u, so the rule converges geometrically).
+    point trapezoid over ``0 .. sqrt(2 ln max(N, 1)) + 8``, where the integrand has
+    fallen below 1e-13; the integrand is even in u, so the rule converges
+    geometrically: within 1e-8 of a 400,001-point rule for N from 0.3 to 1e8).
     Davenport's (1964) peak factor ``L + 0.5772/L``, ``L = sqrt(2 ln N)``, is its
     expansion for large N (1 % above it at N = 80; tests). Against 4000 Gaussian
     records of a broad band (a mode of damping ratio 0.5) it holds within 0.05 % at N
