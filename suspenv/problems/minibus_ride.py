@@ -59,7 +59,7 @@ def ride_objectives_all(
         raise ValidationError(f"ride method must be one of {RIDE_METHODS}, but got {method!r}")
     if method == "spectral":
         sp = ride_spectral(X, load_cases, road, vehicle, seat, effects=effects, params=params)
-        keys = ("aw_front", "aw_rear", "rms_front", "rms_rear", *DOSE_KEYS)
+        keys: tuple[str, ...] = ("aw_front", "aw_rear", "rms_front", "rms_rear", *DOSE_KEYS)
         keys += ("ok", "damper_c", "leaf_k")
         return {
             lc: {k: sp[k][i * n : (i + 1) * n] for k in keys} for i, lc in enumerate(load_cases)
