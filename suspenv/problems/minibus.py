@@ -182,6 +182,47 @@ def _road_class(owner: str, value: Any) -> str | float:
     return number(owner, "road_class", value, lo=0.0, hi=MAX_ROAD_GD0, lo_open=True)
 
 
+def _checked_options(owner: str, given: Mapping[str, Any]) -> dict[str, Any]:
+    """The options ``given`` (every keyword of :class:`MinibusRideHandling`) checked by
+    the rules of its docstring, one after the other in the signature's order (the first
+    bad one raises), as resolved values (``ride_effects`` as :class:`Effect` objects)."""
+    g = given
+    return {
+        "load_weight": positive(owner, "load_weight", g["load_weight"]),
+        "rms_limit": positive(owner, "rms_limit", g["rms_limit"]),
+        "roll_limit_deg": positive(owner, "roll_limit_deg", g["roll_limit_deg"]),
+        "road_class": _road_class(owner, g["road_class"]),
+        "speed_kmh": positive(owner, "speed_kmh", g["speed_kmh"]),
+        "ride_duration_s": number(
+            owner, "ride_duration_s", g["ride_duration_s"], lo=MIN_RIDE_DURATION_S
+        ),
+        "road_seed": integer(owner, "road_seed", g["road_seed"], lo=0),
+        "circle_radius": positive(owner, "circle_radius", g["circle_radius"]),
+        "slalom_speed_kmh": positive(owner, "slalom_speed_kmh", g["slalom_speed_kmh"]),
+        "cone_spacing": positive(owner, "cone_spacing", g["cone_spacing"]),
+        "n_cones": integer(owner, "n_cones", g["n_cones"], lo=4),
+        "slalom_amplitude": positive(owner, "slalom_amplitude", g["slalom_amplitude"]),
+        "slalom_dt": number(
+            owner, "slalom_dt", g["slalom_dt"], lo=0.0, hi=MAX_SLALOM_DT_S, lo_open=True
+        ),
+        "ride_method": choice(owner, "ride_method", g["ride_method"], list(RIDE_METHODS)),
+        "handling": choice(owner, "handling", g["handling"], list(HANDLING_METHODS)),
+        "min_understeer": number(owner, "min_understeer", g["min_understeer"]),
+        "working_space": bool(flag(owner, "working_space", g["working_space"])),
+        "bump_stop_limit": number(
+            owner,
+            "bump_stop_limit",
+            g["bump_stop_limit"],
+            lo=0.0,
+            hi=1.0,
+            lo_open=True,
+            hi_open=True,
+        ),
+        "tyre_load_limit": positive(owner, "tyre_load_limit", g["tyre_load_limit"]),
+        "ride_effects": ride_effect_list(owner, g["ride_effects"]),
+    }
+
+
 class MinibusRideHandling(Problem):
     """The minibus study's 8-variable, 5-objective ride and handling problem.
 
@@ -265,72 +306,51 @@ class MinibusRideHandling(Problem):
         tyre_load_limit: float = 0.3,
         ride_effects: Sequence[Mapping[str, Any]] = (),
     ):
-        owner = self.name
-        self.load_weight = positive(owner, "load_weight", load_weight)
-        self.rms_limit = positive(owner, "rms_limit", rms_limit)
-        self.roll_limit_deg = positive(owner, "roll_limit_deg", roll_limit_deg)
-        road_class = _road_class(owner, road_class)
-        speed_kmh = positive(owner, "speed_kmh", speed_kmh)
-        ride_duration_s = number(owner, "ride_duration_s", ride_duration_s, lo=MIN_RIDE_DURATION_S)
-        road_seed = integer(owner, "road_seed", road_seed, lo=0)
-        circle_radius = positive(owner, "circle_radius", circle_radius)
-        slalom_speed_kmh = positive(owner, "slalom_speed_kmh", slalom_speed_kmh)
-        cone_spacing = positive(owner, "cone_spacing", cone_spacing)
-        n_cones = integer(owner, "n_cones", n_cones, lo=4)
-        slalom_amplitude = positive(owner, "slalom_amplitude", slalom_amplitude)
-        slalom_dt = number(owner, "slalom_dt", slalom_dt, lo=0.0, hi=MAX_SLALOM_DT_S, lo_open=True)
-        self.ride_method = choice(owner, "ride_method", ride_method, list(RIDE_METHODS))
-        self.handling = choice(owner, "handling", handling, list(HANDLING_METHODS))
-        self.min_understeer = number(owner, "min_understeer", min_understeer)
-        self.working_space = bool(flag(owner, "working_space", working_space))
-        self.bump_stop_limit = number(
-            owner, "bump_stop_limit", bump_stop_limit, lo=0.0, hi=1.0, lo_open=True, hi_open=True
-        )
-        self.tyre_load_limit = positive(owner, "tyre_load_limit", tyre_load_limit)
-        self.ride_effects = ride_effect_list(owner, ride_effects)
-        self.road = RandomRoad(
-            road_class=road_class,
-            speed_kmh=speed_kmh,
-            duration_s=ride_duration_s,
-            seed=road_seed,
-        )
-        self.circle = SteadyCircleConfig(radius=circle_radius)
-        self.slalom_config = SlalomConfig(
-            n_cones=n_cones,
-            spacing=cone_spacing,
-            speed_kmh=slalom_speed_kmh,
-            amplitude=slalom_amplitude,
-            run_in=2.0 * cone_spacing,
-            dt=slalom_dt,
-            measure_cones=(2, n_cones - 2) if n_cones >= 6 else (1, n_cones - 1),
-        )
-        self._options = {
-            "load_weight": self.load_weight,
-            "rms_limit": self.rms_limit,
-            "roll_limit_deg": self.roll_limit_deg,
-            "road_class": road_class,
-            "speed_kmh": speed_kmh,
-            "ride_duration_s": ride_duration_s,
-            "road_seed": road_seed,
-            "circle_radius": circle_radius,
-            "slalom_speed_kmh": slalom_speed_kmh,
-            "cone_spacing": cone_spacing,
-            "n_cones": n_cones,
-            "slalom_amplitude": slalom_amplitude,
-            "slalom_dt": slalom_dt,
-            "ride_method": self.ride_method,
-            "handling": self.handling,
-            "min_understeer": self.min_understeer,
-            "working_space": self.working_space,
-            "bump_stop_limit": self.bump_stop_limit,
-            "tyre_load_limit": self.tyre_load_limit,
+        given = {k: v for k, v in locals().items() if k != "self"}  # the keywords
+        opts = _checked_options(self.name, given)
+        self.load_weight: float = opts["load_weight"]
+        self.rms_limit: float = opts["rms_limit"]
+        self.roll_limit_deg: float = opts["roll_limit_deg"]
+        self.ride_method: str = opts["ride_method"]
+        self.handling: str = opts["handling"]
+        self.min_understeer: float = opts["min_understeer"]
+        self.working_space: bool = opts["working_space"]
+        self.bump_stop_limit: float = opts["bump_stop_limit"]
+        self.tyre_load_limit: float = opts["tyre_load_limit"]
+        self.ride_effects: tuple[Effect, ...] = opts["ride_effects"]
+        self._options = opts | {
             "ride_effects": [
                 {"kind": e.kind, "location": e.location, "params": e.to_dict()["params"]}
                 for e in self.ride_effects
-            ],
+            ]
         }
         self.vehicle = REFERENCE_MINIBUS
         self.space = design_space()
+        self._tests(opts)
+        study = self.handling == "study"
+        self._outputs(study)
+        self._evaluation_terms(study)
+
+    def _tests(self, opts: Mapping[str, Any]) -> None:
+        """The random road, the steady circle, the slalom course and the default set's
+        working points of the checked options ``opts``."""
+        self.road = RandomRoad(
+            road_class=opts["road_class"],
+            speed_kmh=opts["speed_kmh"],
+            duration_s=opts["ride_duration_s"],
+            seed=opts["road_seed"],
+        )
+        self.circle = SteadyCircleConfig(radius=opts["circle_radius"])
+        n_cones, spacing = opts["n_cones"], opts["cone_spacing"]
+        self.slalom_config = SlalomConfig(
+            n_cones=n_cones,
+            spacing=spacing,
+            speed_kmh=opts["slalom_speed_kmh"],
+            amplitude=opts["slalom_amplitude"],
+            run_in=2.0 * spacing,
+            dt=opts["slalom_dt"],
+            measure_cones=(2, n_cones - 2) if n_cones >= 6 else (1, n_cones - 1),
+        )
         ay_secant = np.array([course_lateral_acceleration(self.slalom_config), STEP_AY])
         #: the default set's working points: the secants' lateral accelerations (m/s^2),
         #: the quasi-steady sweep's (secants, then ISO 4138 gradients' pairs) and the
@@ -342,7 +362,10 @@ class MinibusRideHandling(Problem):
         )
         for points in self._working_points:  # shared by every evaluation
             points.flags.writeable = False
-        study = self.handling == "study"
+
+    def _outputs(self, study: bool) -> None:
+        """The objectives' names and units and the constraints' names and scales (the
+        study's set or the default one; with ``working_space`` its four constraints)."""
         self.objective_names = STUDY_OBJECTIVE_NAMES if study else OBJECTIVE_NAMES
         self.objective_units = STUDY_OBJECTIVE_UNITS if study else OBJECTIVE_UNITS
         self.constraint_names = (
@@ -356,14 +379,13 @@ class MinibusRideHandling(Problem):
         n_lc = len(LOAD_CASES)
         self.constraint_scales = (2 * n_lc) * (self.rms_limit,) + n_lc * (self.roll_limit_deg,)
         self.constraint_scales += () if study else n_lc * (UNDERSTEER_SCALE,)
-        if working_space:
+        if self.working_space:
             self.constraint_names += tuple(
                 f"{kind}_{lc}" for kind in ("bump_stop", "tyre_load") for lc in LOAD_CASES
             )
             self.constraint_scales += n_lc * (self.bump_stop_limit,) + n_lc * (
                 self.tyre_load_limit,
             )
-        self._evaluation_terms(study)
 
     def _evaluation_terms(self, study: bool) -> None:
         """What :meth:`_evaluate` reads from the measures, fixed per problem: the keys of
