@@ -62,6 +62,7 @@ import numpy as np
 
 from suspenv.core.errors import ValidationError
 from suspenv.core.identity_cache import IdentityCache
+from suspenv.core.options import number, positive
 from suspenv.models.minibus import handling_kernel
 from suspenv.models.minibus.handling_kernel import axle_transfer
 from suspenv.models.minibus.suspension import damper_force, spring_pair_roll_stiffness
@@ -108,19 +109,11 @@ class LeafAxleGeometry:
     steering_stiffness: float = 2.0e4  # N*m/rad
 
     def __post_init__(self) -> None:
-        if not self.shackle_lateral_ratio > 0:
-            raise ValidationError(
-                "`shackle_lateral_ratio > 0` must hold, but got "
-                f"shackle_lateral_ratio={self.shackle_lateral_ratio}"
-            )
-        if not self.steering_stiffness > 0:
-            raise ValidationError(
-                f"`steering_stiffness > 0` must hold, but got {self.steering_stiffness}"
-            )
-        if not -80.0 < self.shackle_angle_deg < 80.0:
-            raise ValidationError(
-                f"`-80 < shackle_angle_deg < 80` must hold, but got {self.shackle_angle_deg}"
-            )
+        owner = "LeafAxleGeometry"
+        positive(owner, "shackle_lateral_ratio", self.shackle_lateral_ratio)
+        positive(owner, "steering_stiffness", self.steering_stiffness)
+        angle = self.shackle_angle_deg
+        number(owner, "shackle_angle_deg", angle, -80.0, 80.0, lo_open=True, hi_open=True)
 
 
 DEFAULT_LEAF_GEOMETRY = LeafAxleGeometry()
