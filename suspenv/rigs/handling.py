@@ -380,6 +380,11 @@ class SlalomConfig:
         return self.speed_kmh / 3.6
 
     @property
+    def lookahead(self) -> float:
+        """m, the feedback look-ahead: ``u * preview_time``, at least ``min_lookahead``."""
+        return max(self.speed * self.preview_time, self.min_lookahead)
+
+    @property
     def cone_x(self) -> np.ndarray:
         """m, cone positions along the line."""
         return self.spacing * np.arange(self.n_cones)
@@ -498,7 +503,7 @@ def driver_steer(
     ``understeer`` (rad/(m/s^2), (n,)) defaults to the vehicle's linear gradient.
     """
     L = P.wheelbase
-    lookahead = max(u * config.preview_time, config.min_lookahead)
+    lookahead = config.lookahead
     kappa = path(s.x + u * config.feedforward_preview)[2]
     y_ref, slope, kappa_now = path(s.x)
     if understeer is None:
@@ -536,8 +541,7 @@ def slalom_run(
     n_err = np.zeros(n)
     x_end = config.measured_end()
     n_steps = int(np.ceil((x_end + config.run_in) / (u * dt))) + 1
-    lookahead = max(u * config.preview_time, config.min_lookahead)
-    path = PathTable(config, side, -config.run_in - 1.0, x_end + lookahead + 1.0)
+    path = PathTable(config, side, -config.run_in - 1.0, x_end + config.lookahead + 1.0)
     rec: dict[str, list[np.ndarray]] = {
         k: [] for k in ("t", "x", "y", "psi", "r", "phi", "delta", "ay")
     }

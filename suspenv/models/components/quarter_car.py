@@ -290,16 +290,15 @@ class QuarterCarRigModel(ComponentModel):
             *(np.shape(v) for e in effects for v in e.params.values()),
         )
         rows = int(np.prod(batch, dtype=int))
-        flat_base = {
-            n: np.broadcast_to(np.asarray(base[n], float), batch).reshape(-1) for n in names
-        }
-        flat_eff = [
-            {
-                p: np.broadcast_to(np.asarray(v, float), batch).reshape(-1)
-                for p, v in e.params.items()
+
+        def flat(values: Mapping[str, Any]) -> dict[str, np.ndarray]:  # each as (rows,)
+            return {
+                k: np.broadcast_to(np.asarray(v, float), batch).reshape(-1)
+                for k, v in values.items()
             }
-            for e in effects
-        ]
+
+        flat_base = flat({n: base[n] for n in names})
+        flat_eff = [flat(e.params) for e in effects]
         actuator = rec.inputs.get("actuator_force")
         exact = self.options["integrator"] == "exact" and rig_integrator.supports(effects)
         if actuator is not None and not exact:

@@ -258,6 +258,15 @@ class Effect:
             require_positive(name, self.params[name], strict, bound)
         return self
 
+    def _spec_of_role(self, role: str) -> EffectKind:
+        """The kind's spec; a :class:`ValidationError` unless its role is ``role``."""
+        spec = self.spec
+        if spec.role != role:
+            raise ValidationError(
+                f"effect {self.name!r} ({self.kind}) has role {spec.role!r}, not {role!r}"
+            )
+        return spec
+
     def force(
         self, x: np.ndarray, v: np.ndarray | None = None, t: np.ndarray | None = None
     ) -> np.ndarray:
@@ -266,11 +275,7 @@ class Effect:
         When ``v`` is omitted it is the central-difference derivative of ``x``
         over ``t`` (which is then required).
         """
-        spec = self.spec
-        if spec.role != "force":
-            raise ValidationError(
-                f"effect {self.name!r} ({self.kind}) has role {spec.role!r}, not 'force'"
-            )
+        spec = self._spec_of_role("force")
         x = np.asarray(x, dtype=float)
         if (v is None or spec.needs_time) and t is None:
             raise ValidationError(
@@ -283,11 +288,7 @@ class Effect:
 
     def sensor(self, y: np.ndarray, t: np.ndarray | None = None) -> np.ndarray:
         """Recorded version of a true channel ``y[..., T]`` for a sensor-role effect."""
-        spec = self.spec
-        if spec.role != "sensor":
-            raise ValidationError(
-                f"effect {self.name!r} ({self.kind}) has role {spec.role!r}, not 'sensor'"
-            )
+        spec = self._spec_of_role("sensor")
         if spec.needs_time and t is None:
             raise ValidationError(f"effect {self.name!r} ({self.kind}) needs the time vector `t`")
         return spec.apply(np.asarray(y, dtype=float), t, **self.params)

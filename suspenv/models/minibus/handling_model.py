@@ -62,6 +62,7 @@ import numpy as np
 
 from suspenv.core.errors import ValidationError
 from suspenv.core.identity_cache import IdentityCache
+from suspenv.core.options import number, positive
 from suspenv.models.minibus import handling_kernel
 from suspenv.models.minibus.handling_kernel import axle_transfer
 from suspenv.models.minibus.suspension import damper_force, spring_pair_roll_stiffness
@@ -108,19 +109,11 @@ class LeafAxleGeometry:
     steering_stiffness: float = 2.0e4  # N*m/rad
 
     def __post_init__(self) -> None:
-        if not self.shackle_lateral_ratio > 0:
-            raise ValidationError(
-                "`shackle_lateral_ratio > 0` must hold, but got "
-                f"shackle_lateral_ratio={self.shackle_lateral_ratio}"
-            )
-        if not self.steering_stiffness > 0:
-            raise ValidationError(
-                f"`steering_stiffness > 0` must hold, but got {self.steering_stiffness}"
-            )
-        if not -80.0 < self.shackle_angle_deg < 80.0:
-            raise ValidationError(
-                f"`-80 < shackle_angle_deg < 80` must hold, but got {self.shackle_angle_deg}"
-            )
+        owner = "LeafAxleGeometry"
+        positive(owner, "shackle_lateral_ratio", self.shackle_lateral_ratio)
+        positive(owner, "steering_stiffness", self.steering_stiffness)
+        angle = self.shackle_angle_deg
+        number(owner, "shackle_angle_deg", angle, -80.0, 80.0, lo_open=True, hi_open=True)
 
 
 DEFAULT_LEAF_GEOMETRY = LeafAxleGeometry()
@@ -237,34 +230,17 @@ def handling_parameters(
     d = vps[0].design
     # the design-independent parameters of each load case, on their rows
     table, constant_rows = _case_table(vps, leaf, tyre)
-    (
-        m, ms, a, b, iz, ixs, h_prime, ms_front, ms_rear, w_front, w_rear,
-        h_rf, h_rr, muf, mur, radius, tf, tr, eps_f, c_ff, moment_f, moment_r, L, msh, msh_g,
-        cf, cr,
-    ) = table.repeat(d.n, axis=1)  # fmt: skip
-
+    case = table.repeat(d.n, axis=1)
+    msh, msh_g = case[23], case[24]
     # the per-design values, on the rows of every load case
     rates = np.array(
         [d.front_wheel_rate, d.front_roll_arb, d.rear_roll_arb, d.leaf_bush_radial,
          d.front_damper_scale, d.rear_damper_scale]
     )  # fmt: skip
     wheel_rate, arb_f, arb_r, k3, c_front, c_rear = np.concatenate(len(cases) * [rates], axis=1)
-    # roll stiffness: springs + stabiliser, in series with the two tyres
-    kt_f = spring_pair_roll_stiffness(vehicle.tyre_vertical_stiffness, vehicle.track_front)
-    kt_r = spring_pair_roll_stiffness(vehicle.tyre_vertical_stiffness, vehicle.track_rear)
     rear_rate = np.concatenate([vp.rear_static_rate for vp in vps])
-    ks_f = spring_pair_roll_stiffness(wheel_rate, vehicle.track_front) + arb_f
-    ks_r = spring_pair_roll_stiffness(rear_rate, vehicle.leaf_spacing) + arb_r
-    kphi_f = ks_f * kt_f / (ks_f + kt_f)
-    kphi_r = ks_r * kt_r / (ks_r + kt_r)
-
-    # rear axle steer from the leaf and its bushes
-    Ls = vehicle.leaf_length
-    l1 = leaf.axle_from_front_eye
-    l2 = Ls - l1
-    eps_bush = rear_rate * (l1 / Ls) * np.tan(np.radians(leaf.shackle_angle_deg)) / k3
-    c_force = (l2 / (2.0 * k3) - l1 / (2.0 * leaf.shackle_lateral_ratio * k3)) / Ls**2
-    eps_r = vehicle.rear_roll_steer + eps_bush
+    kphi_f, kphi_r = _roll_stiffness(vehicle, wheel_rate, rear_rate, arb_f, arb_r)
+    eps_r, c_force = _rear_axle_steer(vehicle, leaf, rear_rate, k3)
     kphi = kphi_f + kphi_r
     # (n, 22): the load cases' rows of constant columns, then the design's columns
     rows = constant_rows.repeat(d.n, axis=0)
@@ -273,38 +249,50 @@ def handling_parameters(
     rows[:, 21] = roll_damping(vehicle, c_front, c_rear)
     rows.flags.writeable = False
     return HandlingParams(
-        m=m,
-        ms=ms,
-        a=a,
-        b=b,
-        iz=iz,
-        ixs=ixs,
-        h_prime=h_prime,
-        h_rc_front=h_rf,
-        h_rc_rear=h_rr,
-        ms_front=ms_front,
-        ms_rear=ms_rear,
-        mu_front=muf,
-        mu_rear=mur,
-        wheel_radius=radius,
-        track_front=tf,
-        track_rear=tr,
+        **dict(zip(_CASE_FIELDS, case[: len(_CASE_FIELDS)], strict=True)),
         kphi_front=kphi_f,
         kphi_rear=kphi_r,
         damper_scale_front=c_front,
         damper_scale_rear=c_rear,
-        fz_front=w_front,
-        fz_rear=w_rear,
-        roll_steer_front=eps_f,
-        force_steer_front=c_ff,
         roll_steer_rear=eps_r,
         force_steer_rear=c_force,
-        cornering_front=cf,
-        cornering_rear=cr,
+        cornering_front=case[25],
+        cornering_rear=case[26],
         rows=rows,
         vehicle=vehicle,
         tyre=tyre,
     )
+
+
+def _roll_stiffness(
+    vehicle: Minibus,
+    wheel_rate: np.ndarray,
+    rear_rate: np.ndarray,
+    arb_front: np.ndarray,
+    arb_rear: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Effective roll stiffness of the front and rear axle (N m/rad): springs (front
+    wheel rates, rear leaf rates at rest; N/m each) plus stabiliser (N m/rad), in series
+    with the axle's two tyres."""
+    kt_f = spring_pair_roll_stiffness(vehicle.tyre_vertical_stiffness, vehicle.track_front)
+    kt_r = spring_pair_roll_stiffness(vehicle.tyre_vertical_stiffness, vehicle.track_rear)
+    ks_f = spring_pair_roll_stiffness(wheel_rate, vehicle.track_front) + arb_front
+    ks_r = spring_pair_roll_stiffness(rear_rate, vehicle.leaf_spacing) + arb_rear
+    return ks_f * kt_f / (ks_f + kt_f), ks_r * kt_r / (ks_r + kt_r)
+
+
+def _rear_axle_steer(
+    vehicle: Minibus, leaf: LeafAxleGeometry, rear_rate: np.ndarray, k3: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """The leaf axle's roll steer (rad/rad: geometric plus the bushes' ``eps_bush``)
+    and lateral-force steer ``c_F`` (rad/N) of the module docstring, from the leaf rates
+    at rest (N/m) and the bushes' radial stiffness K3 (N/m)."""
+    Ls = vehicle.leaf_length
+    l1 = leaf.axle_from_front_eye
+    l2 = Ls - l1
+    eps_bush = rear_rate * (l1 / Ls) * np.tan(np.radians(leaf.shackle_angle_deg)) / k3
+    c_force = (l2 / (2.0 * k3) - l1 / (2.0 * leaf.shackle_lateral_ratio * k3)) / Ls**2
+    return vehicle.rear_roll_steer + eps_bush, c_force
 
 
 #: :func:`_case_table`'s cache
@@ -313,6 +301,12 @@ _CASE_TABLES: IdentityCache[tuple[np.ndarray, np.ndarray]] = IdentityCache()
 #: rows of :func:`_case_terms` they take
 _CONSTANT_COLUMNS = [3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 17, 18, 19]
 _CONSTANT_TERMS = [20, 21, 16, 17, 9, 10, 0, 2, 3, 22, 18, 19, 4, 5, 23]
+#: the :class:`HandlingParams` fields of the first rows of :func:`_case_table`
+_CASE_FIELDS = (
+    "m", "ms", "a", "b", "iz", "ixs", "h_prime", "ms_front", "ms_rear", "fz_front", "fz_rear",
+    "h_rc_front", "h_rc_rear", "mu_front", "mu_rear", "wheel_radius", "track_front",
+    "track_rear", "roll_steer_front", "force_steer_front",
+)  # fmt: skip
 
 
 def _case_table(
@@ -346,7 +340,7 @@ def _new_case_table(
 
 def _case_terms(vp: VehicleParams, leaf: LeafAxleGeometry) -> list[float]:
     """The handling parameters of load case ``vp`` that no design variable changes, in
-    the order :func:`handling_parameters` unpacks them: total mass (kg), sprung mass,
+    the order of :data:`_CASE_FIELDS` (the fields they fill): total mass (kg), sprung mass,
     total CoM to the axles (m), yaw and sprung roll inertias (kg m^2), sprung CoM above
     the roll axis (m), the axles' sprung mass shares (kg), static wheel loads (N),
     roll-centre heights (m), unsprung masses (kg), wheel radius and tracks (m), front

@@ -517,6 +517,14 @@ class RideModel:
             record_states: keep the full state history (memory n x states x N).
             discard: leading steps not recorded (settling).
         """
+        R = self._road_offsets(z_road, zd_road, discard)
+        run = self._run_numpy if self._packed is None else self._run_compiled
+        rec, states, final = run(R, float(dt), record_states, discard)
+        return self._record(dt, rec, states, final)
+
+    def _road_offsets(self, z_road: np.ndarray, zd_road: np.ndarray, discard: int) -> np.ndarray:
+        """Element road offsets (2 N + 1, n_elements) of :meth:`simulate`'s road inputs,
+        in the model's float type, once their shapes and ``discard`` are checked."""
         z_road, zd_road = np.asarray(z_road, float), np.asarray(zd_road, float)
         if z_road.ndim != 2 or z_road.shape[1] != 4 or z_road.shape[0] % 2 != 1:
             raise ValidationError(
@@ -532,83 +540,92 @@ class RideModel:
             raise ValidationError(
                 f"`0 <= discard < steps` must hold, but got ({discard}, {n_steps})"
             )
-        R = self.road_vector(z_road, zd_road).astype(self.dtype)
-        if self._packed is not None:
-            return self._simulate_compiled(R, dt, record_states, discard)
-        n, S, nq = self.n, self.n_states, self.nq
+        return self.road_vector(z_road, zd_road).astype(self.dtype)
+
+    @property
+    def _recorded_rows(self) -> np.ndarray:
+        """Rows of the state derivative a run records: the body accelerations of
+        [z_f, z_r, phi], then the seats' (with a seat mount)."""
+        nq = self.nq
+        return np.array([nq, nq + 1, nq + 2] + ([nq + 7, nq + 8] if self.seat else []))
+
+    def _run_numpy(
+        self, R: np.ndarray, dt: float, record_states: bool, discard: int
+    ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
+        """:meth:`simulate`'s RK4 loop in numpy over the whole batch: the recorded
+        accelerations (n, channels, N) (:attr:`_recorded_rows`, at each step start: the
+        RK4 first stage), the state history (n, n_states, N) or None, the final state
+        (n, n_states)."""
+        n, S, rows = self.n, self.n_states, self._recorded_rows
         dt_ = self.dtype
         X = np.zeros((S, n), dt_)
-        k1, k2, k3, k4 = (np.zeros((S, n), dt_) for _ in range(4))
-        tmp = np.empty((S, n), dt_)
-        n_rec = n_steps - discard
-        body = np.empty((3, n_rec, n), dt_)
-        seat_acc = np.empty((2, n_rec, n), dt_) if self.seat else None
-        states = np.empty((n_rec, S, n), dt_) if record_states else None
-        h, h2, h6 = dt, dt / 2, dt / 6
+        k1 = np.zeros((S, n), dt_)
+        work = tuple(np.zeros((S, n), dt_) for _ in range(3)) + (np.empty((S, n), dt_),)
+        n_steps = (R.shape[0] - 1) // 2
+        rec = np.empty((rows.size, n_steps - discard, n), dt_)
+        states = np.empty((n_steps - discard, S, n), dt_) if record_states else None
         # a diverging design overflows in its own column only; it is reported via `ok`
         with np.errstate(over="ignore", invalid="ignore"):
             for k in range(n_steps):
-                r0, rm, r1 = R[2 * k], R[2 * k + 1], R[2 * k + 2]
-                self.rhs(X, r0, k1)
+                self.rhs(X, R[2 * k], k1)
                 j = k - discard
                 if j >= 0:
-                    body[:, j] = k1[nq : nq + 3]
-                    if seat_acc is not None:
-                        seat_acc[:, j] = k1[nq + 7 : nq + 9]
+                    rec[:, j] = k1[rows]
                     if states is not None:
                         states[j] = X
-                np.multiply(k1, h2, out=tmp)
-                tmp += X
-                self.rhs(tmp, rm, k2)
-                np.multiply(k2, h2, out=tmp)
-                tmp += X
-                self.rhs(tmp, rm, k3)
-                np.multiply(k3, h, out=tmp)
-                tmp += X
-                self.rhs(tmp, r1, k4)
-                k2 += k3
-                k2 *= 2.0
-                k2 += k1
-                k2 += k4
-                k2 *= h6
-                X += k2
-        with np.errstate(invalid="ignore"):
-            # (n,) per design; asarray only tells the type checker it is an array
-            ok = np.asarray(np.isfinite(X).all(axis=0) & np.isfinite(body).all(axis=(0, 1)))
-        if not ok.any():
-            raise EvaluationError(
-                "ride model integration diverged (non-finite state) for every design; step "
-                f"too large for the stiffest element? dt={dt}"
-            )
-        body = np.moveaxis(body, -1, 0)  # (n, 3, N)
-        if seat_acc is not None:
-            sa = np.moveaxis(seat_acc, -1, 0)
-            a_f, a_r = sa[:, 0], sa[:, 1]
-        else:
-            a_f = body[:, 0] + self.measure_y * body[:, 2]
-            a_r = body[:, 1] + self.measure_y * body[:, 2]
-        return RideRecord(
-            dt=dt,
-            body_acc=body,
-            acc_front=a_f,
-            acc_rear=a_r,
-            states=None if states is None else np.moveaxis(states, (0, 1, 2), (2, 1, 0)),
-            ok=ok,
-        )
+                self._rk4_advance(X, k1, R[2 * k + 1], R[2 * k + 2], dt, work)
+        history = None if states is None else np.moveaxis(states, (0, 1, 2), (2, 1, 0))
+        return np.moveaxis(rec, -1, 0), history, X.T
 
-    def _simulate_compiled(
+    def _rk4_advance(
+        self,
+        X: np.ndarray,
+        k1: np.ndarray,
+        r_mid: np.ndarray,
+        r_end: np.ndarray,
+        h: float,
+        work: tuple[np.ndarray, ...],
+    ) -> None:
+        """One classic RK4 step of X (n_states, n) in place, from its first stage ``k1``
+        and the road offsets at the half and the full step; ``work``: four scratch
+        arrays like X."""
+        k2, k3, k4, tmp = work
+        np.multiply(k1, h / 2, out=tmp)
+        tmp += X
+        self.rhs(tmp, r_mid, k2)
+        np.multiply(k2, h / 2, out=tmp)
+        tmp += X
+        self.rhs(tmp, r_mid, k3)
+        np.multiply(k3, h, out=tmp)
+        tmp += X
+        self.rhs(tmp, r_end, k4)
+        k2 += k3
+        k2 *= 2.0
+        k2 += k1
+        k2 += k4
+        k2 *= h / 6
+        X += k2
+
+    def _run_compiled(
         self, R: np.ndarray, dt: float, record_states: bool, discard: int
-    ) -> RideRecord:
-        """:meth:`simulate` by the compiled loop (:mod:`.ride_kernel`), design by design."""
+    ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
+        """:meth:`_run_numpy` by the compiled loop (:mod:`.ride_kernel`), design by design."""
         assert self._packed is not None  # invariant: set where the compiled loop runs
-        n, S, nq = self.n, self.n_states, self.nq
+        n, S, rows = self.n, self.n_states, self._recorded_rows
         n_rec = (R.shape[0] - 1) // 2 - discard
-        rows = np.array([nq, nq + 1, nq + 2] + ([nq + 7, nq + 8] if self.seat else []))
         rec = np.empty((n, rows.size, n_rec))
         states = np.empty((n, S, n_rec if record_states else 0))
         final = np.empty((n, S))
-        ride_kernel.run(R, float(dt), int(discard), nq, self.n_pos, *self._packed, rows, rec,
+        ride_kernel.run(R, dt, int(discard), self.nq, self.n_pos, *self._packed, rows, rec,
                         states, final)  # fmt: skip
+        return rec, states if record_states else None, final
+
+    def _record(
+        self, dt: float, rec: np.ndarray, states: np.ndarray | None, final: np.ndarray
+    ) -> RideRecord:
+        """The :class:`RideRecord` of a run's recorded accelerations ``rec`` (n, channels,
+        N), state history and final state (n, n_states); every design diverged: an
+        :class:`EvaluationError`."""
         ok = np.asarray(np.isfinite(final).all(axis=1) & np.isfinite(rec).all(axis=(1, 2)))
         if not ok.any():
             raise EvaluationError(
@@ -621,7 +638,7 @@ class RideModel:
         else:
             a_f = body[:, 0] + self.measure_y * body[:, 2]
             a_r = body[:, 1] + self.measure_y * body[:, 2]
-        return RideRecord(dt, body, a_f, a_r, states if record_states else None, ok)
+        return RideRecord(dt, body, a_f, a_r, states, ok)
 
     # -------------------------------------------------------------- linear algebra
     def linear_system(

@@ -44,21 +44,8 @@ def leaf_force(
 def leaf_static_deflection(
     load: np.ndarray | float, k1: np.ndarray, k2: np.ndarray, d_helper: float
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Inverse of :func:`leaf_force` for a load >= 0: deflection (m) and helper-engaged flag."""
-    load = np.asarray(load, dtype=float)
-    k1, k2 = np.asarray(k1, dtype=float), np.asarray(k2, dtype=float)
-    if (load < 0).any():
-        raise ValidationError(f"leaf static load must be >= 0 N, but got {np.min(load)}")
-    if (k1 <= 0).any() or (k2 <= 0).any():
-        raise ValidationError("leaf rates must be > 0, but got k1 or k2 <= 0")
-    return leaf_deflection_unchecked(load, k1, k2, d_helper)
-
-
-def leaf_deflection_unchecked(
-    load: np.ndarray | float, k1: np.ndarray, k2: np.ndarray, d_helper: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`leaf_static_deflection` of arrays whose rules hold already (load >= 0,
-    rates > 0; e.g. checked designs): m and the helper-engaged flag."""
+    """Inverse of :func:`leaf_force`: deflection (m) and helper-engaged flag at a load
+    (N) >= 0, for rates k1, k2 > 0 (not checked: a checked design's rates are)."""
     knee = k1 * d_helper
     on_helper = load > knee
     d = np.where(on_helper, d_helper + (load - knee) / k2, load / k1)

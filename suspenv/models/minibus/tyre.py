@@ -99,11 +99,6 @@ class LateralTyre:
         """Cornering stiffness Ky = dFy/dalpha at alpha = 0 [N/rad]; zero for fz <= 0."""
         return tyre_cornering(np.asarray(fz, dtype=float), self.coefficients)
 
-    def curvature(self, fz: np.ndarray | float) -> np.ndarray:
-        """Curvature factor E (clipped to <= 1)."""
-        dfz = (np.asarray(fz, dtype=float) - self.fz0) / self.fz0
-        return np.minimum(self.pEy1 + self.pEy2 * dfz, 1.0)
-
     # ----------------------------------------------------------------- force
     def lateral_force(self, alpha: np.ndarray | float, fz: np.ndarray | float) -> np.ndarray:
         """Lateral force Fy [N] at slip angle ``alpha`` [rad] and load ``fz`` [N].
@@ -130,25 +125,6 @@ class LateralTyre:
             return d * np.sin(c * np.arctan(ba - e * (ba - np.arctan(ba))))
 
         return force
-
-    def peak_slip_angle(self, fz: np.ndarray | float) -> np.ndarray:
-        """Slip angle [rad] where the force peaks (the argument of atan reaches tan(pi/2C)).
-
-        Solved by bisection on the monotonic inner function; closed form for E = 0.
-        """
-        fz = np.maximum(np.asarray(fz, dtype=float), 1.0)
-        b = self.cornering_stiffness(fz) / (self.pCy1 * self.peak_force(fz))
-        e = self.curvature(fz)
-        target = np.tan(np.pi / (2.0 * self.pCy1))
-        lo = np.zeros_like(b)
-        hi = np.full_like(b, 50.0)  # in units of B*alpha
-        for _ in range(60):
-            mid = 0.5 * (lo + hi)
-            val = mid - e * (mid - np.arctan(mid))
-            below = val < target
-            lo = np.where(below, mid, lo)
-            hi = np.where(below, hi, mid)
-        return 0.5 * (lo + hi) / b
 
 
 #: Reference tyre of the minibus: 195/70 R15C (load index 104/102, about 900 kg max).

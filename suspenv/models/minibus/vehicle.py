@@ -29,7 +29,7 @@ from suspenv.core.errors import ValidationError
 from suspenv.core.space import DesignSpace, Parameter
 from suspenv.models.minibus.suspension import (
     DamperCurve,
-    leaf_deflection_unchecked,
+    leaf_static_deflection,
     torsion_bar_wheel_rate,
 )
 
@@ -433,7 +433,7 @@ def _apply(design: DesignSI, load_case: str | LoadCase, vehicle: Minibus) -> Veh
     if rear < 0:
         raise ValidationError(f"`sprung_mass >= 0` must hold, but got {load.sprung_mass}")
     # the design's rates are > 0 (design_to_si)
-    rear_defl, on_helper = leaf_deflection_unchecked(
+    rear_defl, on_helper = leaf_static_deflection(
         rear, design.rear_primary_rate, design.rear_composite_rate, vehicle.helper_engagement
     )
     return VehicleParams(
