@@ -147,21 +147,11 @@ def optimize(
             stack.enter_context(locked(folder, ARCHIVE_LOCK, "archive folder"))
         if executor is None:
             stack.enter_context(alarm_handler())  # the timeout's handler, once per run
-        return _optimize(
-            problem,
-            strategy,
-            budget,
-            run_dir,
-            seed,
-            executor,
-            workers,
-            chunk_size,
-            progress,
-            callbacks,
-            recorders,
-            meta,
-            policy,
-        )
+        archive, writer = _open_archive(run_dir, problem, strategy, seed, budget, policy, meta)
+        bar = _progress_bar(problem, budget) if progress else None
+        receivers = [*recorders] if writer is None else [writer, *recorders]
+        evaluator = _Evaluator(problem, executor, workers, chunk_size, policy, receivers, bar)
+        return _optimize(problem, strategy, budget, archive, writer, evaluator, callbacks)
 
 
 def _beyond_budget(n: int, used: int, budget: int) -> str:
@@ -389,21 +379,15 @@ def _optimize(
     problem: Problem,
     strategy: Any,
     budget: int,
-    run_dir: str | Path | None,
-    seed: int | None,
-    executor: Executor | None,
-    workers: int,
-    chunk_size: int | None,
-    progress: bool,
+    archive: RunArchive | None,
+    writer: ArchiveWriter | None,
+    evaluator: _Evaluator,
     callbacks: Sequence[BatchCallback],
-    recorders: Sequence[Recorder],
-    meta: dict[str, Any] | None,
-    policy: FaultPolicy,
 ) -> RunResult:
-    archive, writer = _open_archive(run_dir, problem, strategy, seed, budget, policy, meta)
-    bar = _progress_bar(problem, budget) if progress else None
-    receivers = [*recorders] if writer is None else [writer, *recorders]
-    evaluator = _Evaluator(problem, executor, workers, chunk_size, policy, receivers, bar)
+    """The run of :func:`optimize` with its archive (None: no run directory) and
+    evaluator open: the stop reason of an interruption or fault, the archive closed
+    whatever happens."""
+    bar = evaluator.bar
     t_start = time.perf_counter()
     run = _Tally()
     try:
