@@ -347,24 +347,11 @@ def _analyse_problem(
     kind, note = _choose_measure(runs, measure)
     flags = [note] if note else []
     pc = ProblemComparison(phash, r0.problem_config, groups, kind, "", None, np.zeros(0), 0, flags)
-    multi_info: dict[str, Any] | None = None
-    if len(r0.objective_names) >= 2:
-        missing = [r.name for r in runs if r.arrays() is None]
-        if missing:
-            multi_info = {"skipped": f"no archive matching the quality curve for {missing}"}
-        else:
-            multi_info = _multiobjective(
-                pc, runs, _lookup(reference_front, r0.problem, phash), kind != "quality"
-            )
+    multi_info = _multiobjective_info(pc, runs, _lookup(reference_front, r0.problem, phash))
     _measure_curves(pc, r0, f_opt)
     pc.common_budget = min(_length(r) for r in runs)
     unequal = _flag_runs(pc, runs)
-    finals = [float(c[-1]) for g in groups for c in g.curves if c.size]
-    given_t = _lookup(targets, r0.problem, phash)
-    if given_t is not None:
-        pc.targets = np.sort(np.asarray(given_t, dtype=float).ravel())[::-1]
-    else:
-        pc.targets = make_targets(finals, pc.f_opt, n_targets)
+    pc.targets = _targets(pc, _lookup(targets, r0.problem, phash), n_targets)
     budgets = sorted({max(1, int(round(pc.common_budget * f))) for f in (0.1, 0.25, 0.5, 1.0)})
     fb_rows, ft_rows, table_rows = [], [], []
     samples, seeds = {}, {}
@@ -394,6 +381,29 @@ def _analyse_problem(
         "rank_tests": rank_tests(samples, seeds, alpha),
     }
     return pc
+
+
+def _multiobjective_info(
+    pc: ProblemComparison, runs: list[RunRecord], given_front: Any
+) -> dict[str, Any] | None:
+    """The hypervolume and IGD part of a multi-objective problem (:func:`_multiobjective`;
+    hypervolume curves when the measure is the deficit), what was skipped when an
+    archive is missing; None for one objective."""
+    if len(runs[0].objective_names) < 2:
+        return None
+    missing = [r.name for r in runs if r.arrays() is None]
+    if missing:
+        return {"skipped": f"no archive matching the quality curve for {missing}"}
+    return _multiobjective(pc, runs, given_front, pc.measure != "quality")
+
+
+def _targets(pc: ProblemComparison, given: Any, n_targets: int) -> np.ndarray:
+    """The fixed-target view's targets, hardest last: ``given`` ones, else
+    :func:`~suspenv.analysis.performance.make_targets` over the final measures."""
+    if given is not None:
+        return np.sort(np.asarray(given, dtype=float).ravel())[::-1]
+    finals = [float(c[-1]) for g in pc.groups for c in g.curves if c.size]
+    return make_targets(finals, pc.f_opt, n_targets)
 
 
 def _measure_curves(pc: ProblemComparison, r0: RunRecord, f_opt: Any) -> None:

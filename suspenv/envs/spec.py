@@ -48,19 +48,48 @@ def spec_sheet(env: Any, with_scales: bool = False, **env_kwargs: Any) -> str:
     env = getattr(env, "unwrapped", env)
     adapter = env.adapter
     problem = adapter.problem
-    space = problem.space
-    vector = hasattr(env, "num_envs")
-    n = f"{env.num_envs}, " if vector else ""
-    units = tuple(problem.objective_units) or ("",) * problem.n_objectives
-    scales = adapter.scales if with_scales else None
+    sections = {
+        "Description": _description_rows(env, problem),
+        "Action Space": _action_rows(env, problem.space),
+        "Observation Space": _observation_rows(env, with_scales),
+        "Rewards": _reward_rows(adapter, problem),
+        "Starting State": [
+            "`reset()` evaluates the reference design (column *reference* above) and "
+            "returns its objectives; not counted in the budget. The dynamics are "
+            "deterministic; `seed` seeds `np_random` only."
+        ],
+        "Episode End": [
+            f"`terminated` is always False; `truncated` is True on step {env.budget} "
+            "(`budget`)."
+            + (" Autoreset NEXT_STEP." if _vector(env) else " Step again only after `reset()`.")
+        ],
+        "Arguments": _argument_rows(env, problem),
+        "Version History": [
+            "v0: initial version; later in v0 the `reward` argument (KCIdentification's "
+            'default became "normalized").'
+        ],
+    }
     lines = [f"# {NAMESPACE}/{problem.name}-v{VERSION}", ""]
+    for title in SECTIONS:
+        lines.extend([f"## {title}", "", *sections[title], ""])
+    return "\n".join(lines)
 
-    def section(title: str, *rows: str) -> None:
-        lines.extend([f"## {title}", "", *rows, ""])
 
+def _vector(env: Any) -> bool:
+    """Whether ``env`` is a vector env (a population of designs per step)."""
+    return hasattr(env, "num_envs")
+
+
+def _batch_dim(env: Any) -> str:
+    """The leading dimension of a vector env's spaces (``"N, "``), '' for one env."""
+    return f"{env.num_envs}, " if _vector(env) else ""
+
+
+def _description_rows(env: Any, problem: Any) -> list[str]:
+    """The Description section: the problem, its options, what a step and an episode are."""
     options = problem.config()
-    section(
-        "Description",
+    vector = _vector(env)
+    return [
         f"{problem.description or problem.name} "
         f"(`{type(problem).__module__}:{type(problem).__name__}`"
         + (f", options `{options}`" if options else "")
@@ -68,10 +97,13 @@ def spec_sheet(env: Any, with_scales: bool = False, **env_kwargs: Any) -> str:
         ("A population of designs" if vector else "One design")
         + f" per step; an episode is one optimisation run of {env.budget} evaluations"
         + (f" per sub-env ({env.num_envs} sub-envs)." if vector else "."),
-    )
-    section(
-        "Action Space",
-        f"`Box(-1.0, 1.0, ({n}{space.dim},), float64)`. Action `a` -> unit cube "
+    ]
+
+
+def _action_rows(env: Any, space: Any) -> list[str]:
+    """The Action Space section: the box, its map to physical values, the parameters."""
+    return [
+        f"`Box(-1.0, 1.0, ({_batch_dim(env)}{space.dim},), float64)`. Action `a` -> unit cube "
         "`u = (a + 1) / 2` -> physical value (linear: `low + u (high - low)`; log: "
         "`low (high / low)^u`); finite actions outside [-1, 1] are clipped.",
         "",
@@ -90,12 +122,20 @@ def spec_sheet(env: Any, with_scales: bool = False, **env_kwargs: Any) -> str:
                 for i, p in enumerate(space.parameters)
             ),
         ),
-    )
-    section(
-        "Observation Space",
-        f"`Box({-OBS_LIMIT:g}, {OBS_LIMIT:g}, ({n}{problem.n_objectives},), float64)`: the "
-        f"objectives (minimised) of the design just evaluated, in their units; every "
-        f"component is `fail_value` ({adapter.fail_value:g}) when the evaluation failed.",
+    ]
+
+
+def _observation_rows(env: Any, with_scales: bool) -> list[str]:
+    """The Observation Space section: the box and the objectives (with the normalised
+    reward's scales when ``with_scales``)."""
+    adapter = env.adapter
+    problem = adapter.problem
+    units = tuple(problem.objective_units) or ("",) * problem.n_objectives
+    scales = adapter.scales if with_scales else None
+    return [
+        f"`Box({-OBS_LIMIT:g}, {OBS_LIMIT:g}, ({_batch_dim(env)}{problem.n_objectives},), "
+        "float64)`: the objectives (minimised) of the design just evaluated, in their units; "
+        f"every component is `fail_value` ({adapter.fail_value:g}) when the evaluation failed.",
         "",
         *table_lines(
             ["#", "objective", "unit"] + (["scale s_j"] if scales else []),
@@ -104,35 +144,21 @@ def spec_sheet(env: Any, with_scales: bool = False, **env_kwargs: Any) -> str:
                 for j, name in enumerate(problem.objective_names)
             ),
         ),
-    )
-    section("Rewards", *_reward_rows(adapter, problem))
-    section(
-        "Starting State",
-        "`reset()` evaluates the reference design (column *reference* above) and "
-        "returns its objectives; not counted in the budget. The dynamics are "
-        "deterministic; `seed` seeds `np_random` only.",
-    )
-    section(
-        "Episode End",
-        f"`terminated` is always False; `truncated` is True on step {env.budget} (`budget`)."
-        + (" Autoreset NEXT_STEP." if vector else " Step again only after `reset()`."),
-    )
-    section(
-        "Arguments",
+    ]
+
+
+def _argument_rows(env: Any, problem: Any) -> list[str]:
+    """The Arguments section: the constructor arguments with their current values."""
+    adapter = env.adapter
+    return [
         f"`problem={problem.name!r}`, `problem_options` (the problem's constructor options, "
-        f"now {options}), `budget={env.budget}`, "
+        f"now {problem.config()}), `budget={env.budget}`, "
         f"`reward` ({adapter.reward!r}; default {default_reward(problem)!r}), "
         f"`scalarizer={adapter.scalarizer_name!r}`, `weights`, `penalty={adapter.penalty:g}`, "
         f"`fail_value={adapter.fail_value:g}` (default {FAIL_VALUE:g}), `render_mode`"
-        + (f", `num_envs={env.num_envs}`" if vector else "")
-        + ".",
-    )
-    section(
-        "Version History",
-        "v0: initial version; later in v0 the `reward` argument (KCIdentification's "
-        'default became "normalized").',
-    )
-    return "\n".join(lines)
+        + (f", `num_envs={env.num_envs}`" if _vector(env) else "")
+        + "."
+    ]
 
 
 def _reward_rows(adapter: Any, problem: Any) -> list[str]:

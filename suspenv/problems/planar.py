@@ -120,6 +120,22 @@ class PlanarLinkage(Problem):
                 f"both, but got target={target!r} and target_camber_gain={camber_gain!r}"
             )
         variables = None if variables is None else texts(owner, "variables", variables, empty=False)
+        self._set_sweep(solver, span, travel, n_travel)
+        self._set_scales(camber_scale, track_scale, max_half_track_change, roll_centre_range)
+        self.baseline = load_geometry(geometry)
+        if self.baseline.batch_shape:
+            raise ValidationError(f"{owner}: the baseline must be a single geometry")
+        self.geometry_name = geometry
+        self.travel = 1e-3 * np.linspace(-self.travel_mm, self.travel_mm, self.n_travel)
+        kind = self.baseline.kind
+        self.variables = tuple(variables) if variables is not None else DEFAULT_VARIABLES[kind]
+        self.space = DesignSpace([self._parameter(v) for v in self.variables])
+        self.target_camber_gain = camber_gain
+        self._set_target(target)
+
+    def _set_sweep(self, solver: str, span: float, travel: float, n_travel: int) -> None:
+        """Check and keep the solver and the sweep's options (see the class docstring)."""
+        owner = self.name
         self.solver = choice(owner, "solver", solver, SOLVERS)
         self.span = positive(owner, "span", span)
         self.travel_mm = positive(owner, "travel", travel)
@@ -128,6 +144,16 @@ class PlanarLinkage(Problem):
             raise ValidationError(
                 f"{owner}: `n_travel` must be an odd integer >= 3, but got n_travel={n_travel!r}"
             )
+
+    def _set_scales(
+        self,
+        camber_scale: float,
+        track_scale: float,
+        max_half_track_change: float,
+        roll_centre_range: Sequence[float],
+    ) -> None:
+        """Check and keep the error scales and the camber-gain mode's limits."""
+        owner = self.name
         self.camber_scale = positive(owner, "camber_scale", camber_scale)
         self.track_scale = positive(owner, "track_scale", track_scale)
         self.max_half_track_change = positive(owner, "max_half_track_change", max_half_track_change)
@@ -138,60 +164,37 @@ class PlanarLinkage(Problem):
                 f"roll_centre_range=({rc_lo}, {rc_hi})"
             )
         self.roll_centre_range = (rc_lo, rc_hi)
-        self.baseline = load_geometry(geometry)
-        if self.baseline.batch_shape:
-            raise ValidationError(f"{owner}: the baseline must be a single geometry")
-        kind = self.baseline.kind
-        self.geometry_name = geometry
-        self.travel = 1e-3 * np.linspace(-self.travel_mm, self.travel_mm, self.n_travel)
-        self.variables = tuple(variables) if variables is not None else DEFAULT_VARIABLES[kind]
+
+    def _parameter(self, variable: str) -> Parameter:
+        """The design variable ``"<point>.y"`` or ``"<point>.z"``: mm, ``+-span`` around
+        the baseline's coordinate."""
         base = self.baseline.points_mm()
-        params = []
-        for v in self.variables:
-            point, _, axis = v.partition(".")
-            if point not in base or axis not in ("y", "z"):
-                near = nearest(point, base)
-                hint = f"; did you mean '{near}.{axis or 'y'}'?" if near and near != point else ""
-                raise ValidationError(
-                    f"{owner}: variable {v!r} must be '<point>.y' or '<point>.z' with point in "
-                    f"{sorted(base)} ({kind}){hint}"
-                )
-            centre = base[point][0 if axis == "y" else 1]
-            params.append(
-                Parameter(
-                    v,
-                    centre - self.span,
-                    centre + self.span,
-                    unit="mm",
-                    default=centre,
-                    description=f"{axis} of {point.replace('_', ' ')}",
-                )
+        point, _, axis = variable.partition(".")
+        if point not in base or axis not in ("y", "z"):
+            near = nearest(point, base)
+            hint = f"; did you mean '{near}.{axis or 'y'}'?" if near and near != point else ""
+            raise ValidationError(
+                f"{self.name}: variable {variable!r} must be '<point>.y' or '<point>.z' with "
+                f"point in {sorted(base)} ({self.baseline.kind}){hint}"
             )
-        self.space = DesignSpace(params)
-        self.target_camber_gain = camber_gain
-        # target curves (curve matching) or none (a camber-gain target)
+        centre = base[point][0 if axis == "y" else 1]
+        return Parameter(
+            variable,
+            centre - self.span,
+            centre + self.span,
+            unit="mm",
+            default=centre,
+            description=f"{axis} of {point.replace('_', ' ')}",
+        )
+
+    def _set_target(self, target: str | None) -> None:
+        """The target curves (curves mode: ``target`` or ``"<kind>_target"``) or none (a
+        camber-gain target), with the objectives and constraints of the mode."""
+        kind = self.baseline.kind
         self.target_name: str | None
         self.target_geometry: PlanarGeometry | None
         self.target_outputs: SweepOutputs | None
-        if self.target_camber_gain is None:
-            self.target_name = target or f"{kind}_target"
-            self.target_geometry = load_geometry(self.target_name)
-            if self.target_geometry.kind != kind:
-                raise ValidationError(
-                    f"{owner}: target geometry must be a {kind}, but {self.target_name!r} is a "
-                    f"{self.target_geometry.kind}"
-                )
-            target_sweep = solve_sweep(self.target_geometry, self.travel)
-            if not bool(target_sweep.ok):
-                raise ValidationError(
-                    f"target geometry {self.target_name!r} cannot travel +-{self.travel_mm} mm: "
-                    f"{target_sweep.messages[0]}"
-                )
-            self.target_outputs = sweep_outputs(self.target_geometry, target_sweep)
-            self.objective_names = ("curve_error",)
-            self.objective_units = ("-",)
-            self.constraint_names = ()
-        else:
+        if self.target_camber_gain is not None:
             self.target_name = None
             self.target_geometry = None
             self.target_outputs = None
@@ -202,6 +205,24 @@ class PlanarLinkage(Problem):
                 "roll_centre_below_range",
                 "roll_centre_above_range",
             )
+            return
+        self.target_name = target or f"{kind}_target"
+        self.target_geometry = load_geometry(self.target_name)
+        if self.target_geometry.kind != kind:
+            raise ValidationError(
+                f"{self.name}: target geometry must be a {kind}, but {self.target_name!r} is a "
+                f"{self.target_geometry.kind}"
+            )
+        target_sweep = solve_sweep(self.target_geometry, self.travel)
+        if not bool(target_sweep.ok):
+            raise ValidationError(
+                f"target geometry {self.target_name!r} cannot travel +-{self.travel_mm} mm: "
+                f"{target_sweep.messages[0]}"
+            )
+        self.target_outputs = sweep_outputs(self.target_geometry, target_sweep)
+        self.objective_names = ("curve_error",)
+        self.objective_units = ("-",)
+        self.constraint_names = ()
 
     # ------------------------------------------------------------ geometry
     def geometry(self, X: np.ndarray) -> PlanarGeometry:

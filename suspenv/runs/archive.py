@@ -608,7 +608,7 @@ class RunArchive:
                     [
                         a["batch"][i],
                         a["row"][i],
-                        *(_number(a[key][i, j]) for _, key, j in columns),
+                        *(repr(float(a[key][i, j])) for _, key, j in columns),
                         int(a["ok"][i]),
                         a["message"][i],
                         f"{a['wall_time'][i]:.6g}",
@@ -698,8 +698,3 @@ def _json_list(text: Any) -> list[Any]:
     except ValueError:
         return []
     return value if isinstance(value, list) and all(type(m) is str for m in value) else []
-
-
-def _number(v: float) -> str:
-    """``v`` as decimal text that parses back to the same float64 (shortest round-trip)."""
-    return repr(float(v))

@@ -164,45 +164,8 @@ def evaluate_chunks(
     while True:
         rounds = math.ceil(len(pending) / max(workers, 1))
         limit = policy.timeout_s * chunk * rounds + POOL_STARTUP_S
-        futures: dict[Future[Any], slice] = {}
-        faults: list[str] = []
-        failed: list[slice] = []
-        for s in pending:
-            try:
-                fut = (
-                    executor.submit(problem.evaluate, X[s])
-                    if shipped is None
-                    else executor.submit(_evaluate_shipped, *shipped, X[s])
-                )
-                futures[fut] = s
-            except Exception as exc:  # noqa: BLE001 - a closed or lost executor
-                faults.append(_describe(exc))
-                failed.append(s)
-        handled: set[Future[Any]] = set()
-        try:
-            for fut in _completed(futures, limit, executor):
-                handled.add(fut)
-                s = futures[fut]
-                res, fault = _outcome(fut)
-                if res is None:
-                    faults.append(fault)
-                    failed.append(s)
-                    continue
-                yield rows[s].tolist(), res, time.perf_counter() - t0
-        except FuturesTimeout:
-            late = [f for f in futures if f not in handled]
-            for fut in late:
-                s = futures[fut]
-                res, fault = _outcome(fut) if fut.done() else (None, "")
-                if res is not None:  # finished just as time ran out
-                    yield rows[s].tolist(), res, time.perf_counter() - t0
-                    continue
-                fut.cancel()
-                failed.append(s)
-            faults.append(
-                f"timeout: not done within {limit:.0f} s ({policy.timeout_s:g} s per design, "
-                f"run.timeout_s)"
-            )
+        futures, faults, failed = _submit(executor, problem, shipped, X, pending)
+        yield from _collect(futures, limit, executor, rows, t0, policy, faults, failed)
         if not failed:
             return
         if isinstance(executor, Connected) and (lost := executor.lost()):
@@ -216,6 +179,72 @@ def evaluate_chunks(
             executor.restart()
         time.sleep(policy.pause(attempt))
         pending = failed
+
+
+def _submit(
+    executor: Executor,
+    problem: Problem,
+    shipped: tuple[str, bytes] | None,
+    X: np.ndarray,
+    pending: list[slice],
+) -> tuple[dict[Future[Any], slice], list[str], list[slice]]:
+    """Submit the ``pending`` chunks of ``X``: (future -> chunk, faults, chunks that
+    could not be submitted)."""
+    futures: dict[Future[Any], slice] = {}
+    faults: list[str] = []
+    failed: list[slice] = []
+    for s in pending:
+        try:
+            fut = (
+                executor.submit(problem.evaluate, X[s])
+                if shipped is None
+                else executor.submit(_evaluate_shipped, *shipped, X[s])
+            )
+            futures[fut] = s
+        except Exception as exc:  # noqa: BLE001 - a closed or lost executor
+            faults.append(_describe(exc))
+            failed.append(s)
+    return futures, faults, failed
+
+
+def _collect(
+    futures: dict[Future[Any], slice],
+    limit: float,
+    executor: Executor,
+    rows: np.ndarray,
+    t0: float,
+    policy: FaultPolicy,
+    faults: list[str],
+    failed: list[slice],
+) -> Iterator[Yielded]:
+    """Yield each chunk of ``futures`` that succeeds within ``limit`` seconds as it
+    completes; the faults and the chunks to retry are appended to ``faults`` and
+    ``failed``."""
+    handled: set[Future[Any]] = set()
+    try:
+        for fut in _completed(futures, limit, executor):
+            handled.add(fut)
+            s = futures[fut]
+            res, fault = _outcome(fut)
+            if res is None:
+                faults.append(fault)
+                failed.append(s)
+                continue
+            yield rows[s].tolist(), res, time.perf_counter() - t0
+    except FuturesTimeout:
+        late = [f for f in futures if f not in handled]
+        for fut in late:
+            s = futures[fut]
+            res, fault = _outcome(fut) if fut.done() else (None, "")
+            if res is not None:  # finished just as time ran out
+                yield rows[s].tolist(), res, time.perf_counter() - t0
+                continue
+            fut.cancel()
+            failed.append(s)
+        faults.append(
+            f"timeout: not done within {limit:.0f} s ({policy.timeout_s:g} s per design, "
+            f"run.timeout_s)"
+        )
 
 
 def _retry_or_raise(

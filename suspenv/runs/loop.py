@@ -147,21 +147,11 @@ def optimize(
             stack.enter_context(locked(folder, ARCHIVE_LOCK, "archive folder"))
         if executor is None:
             stack.enter_context(alarm_handler())  # the timeout's handler, once per run
-        return _optimize(
-            problem,
-            strategy,
-            budget,
-            run_dir,
-            seed,
-            executor,
-            workers,
-            chunk_size,
-            progress,
-            callbacks,
-            recorders,
-            meta,
-            policy,
-        )
+        archive, writer = _open_archive(run_dir, problem, strategy, seed, budget, policy, meta)
+        bar = _progress_bar(problem, budget) if progress else None
+        receivers = [*recorders] if writer is None else [writer, *recorders]
+        evaluator = _Evaluator(problem, executor, workers, chunk_size, policy, receivers, bar)
+        return _optimize(problem, strategy, budget, archive, writer, evaluator, callbacks)
 
 
 def _beyond_budget(n: int, used: int, budget: int) -> str:
@@ -209,6 +199,20 @@ class _Tally:
     best_objectives: list[float] | None = None
     best_x: np.ndarray | None = None
     history: list[dict[str, Any]] = field(default_factory=list)
+
+    def result(self, problem: Problem, wall: float) -> RunResult:
+        """The run's report after ``wall`` seconds (the best design by parameter name)."""
+        return RunResult(
+            n_evaluations=self.used,
+            n_batches=self.batches,
+            stop_reason=self.stop_reason,
+            wall_time=wall,
+            n_resumed=self.resumed,
+            best_index=self.best_index,
+            best_objectives=self.best_objectives,
+            best_x=None if self.best_x is None else problem.space.as_dict(self.best_x),
+            history=self.history,
+        )
 
     def record(self, problem: Problem, batch: EvaluationBatch, X: np.ndarray) -> None:
         """Take the best of a batch just told (rows ``X``) and add its history row."""
@@ -375,52 +379,19 @@ def _optimize(
     problem: Problem,
     strategy: Any,
     budget: int,
-    run_dir: str | Path | None,
-    seed: int | None,
-    executor: Executor | None,
-    workers: int,
-    chunk_size: int | None,
-    progress: bool,
+    archive: RunArchive | None,
+    writer: ArchiveWriter | None,
+    evaluator: _Evaluator,
     callbacks: Sequence[BatchCallback],
-    recorders: Sequence[Recorder],
-    meta: dict[str, Any] | None,
-    policy: FaultPolicy,
 ) -> RunResult:
-    archive, writer = _open_archive(run_dir, problem, strategy, seed, budget, policy, meta)
-    bar = _progress_bar(problem, budget) if progress else None
-    receivers = [*recorders] if writer is None else [writer, *recorders]
-    evaluator = _Evaluator(problem, executor, workers, chunk_size, policy, receivers, bar)
+    """The run of :func:`optimize` with its archive (None: no run directory) and
+    evaluator open: the stop reason of an interruption or fault, the archive closed
+    whatever happens."""
+    bar = evaluator.bar
     t_start = time.perf_counter()
     run = _Tally()
-    replaying = archive is not None
     try:
-        while True:
-            run.stop_reason = strategy.stop() or ""
-            if not run.stop_reason and run.used >= budget:
-                run.stop_reason = f"budget: {run.used} of {budget} evaluations used"
-            if run.stop_reason:
-                break
-            U = np.atleast_2d(strategy.ask())
-            n = U.shape[0]
-            run.stop_reason = _beyond_budget(n, run.used, budget)
-            if run.stop_reason:
-                break
-            X = problem.space.to_physical(U)
-            # replaying an archive: rows of batch b+1 exist only when batch b is complete,
-            # so after the first batch without rows no later lookup can find any
-            done = archive.batch(run.batches) if archive is not None and replaying else {}
-            replaying = replaying and len(done) == n
-            results = _replayed(problem, archive, run.batches, U, done)
-            run.resumed += len(done)
-            batch = evaluator.batch(run.batches, U, X, results, len(done))
-            strategy.tell(U, batch)
-            run.record(problem, batch, X)
-            if bar is not None and math.isfinite(run.best):
-                bar.set_postfix(best=f"{run.best:.4g}", refresh=False)
-            for cb in callbacks:
-                cb(run.batches, U, batch)
-            run.used += n
-            run.batches += 1
+        _run_batches(problem, strategy, budget, archive, evaluator, callbacks, run)
     except KeyboardInterrupt:
         run.stop_reason = (
             f"interrupted after {run.used} evaluations (archive kept; resume with same dir)"
@@ -444,14 +415,52 @@ def _optimize(
                 n_evaluations=run.used,
                 wall_time_s=wall,
             )
-    return RunResult(
-        n_evaluations=run.used,
-        n_batches=run.batches,
-        stop_reason=run.stop_reason,
-        wall_time=wall,
-        n_resumed=run.resumed,
-        best_index=run.best_index,
-        best_objectives=run.best_objectives,
-        best_x=None if run.best_x is None else problem.space.as_dict(run.best_x),
-        history=run.history,
-    )
+    return run.result(problem, wall)
+
+
+def _stop_reason(strategy: Any, used: int, budget: int) -> str:
+    """Why the run stops before asking again: the strategy's reason, or the budget used
+    up ('' to go on)."""
+    reason = strategy.stop() or ""
+    if not reason and used >= budget:
+        reason = f"budget: {used} of {budget} evaluations used"
+    return reason
+
+
+def _run_batches(
+    problem: Problem,
+    strategy: Any,
+    budget: int,
+    archive: RunArchive | None,
+    evaluator: _Evaluator,
+    callbacks: Sequence[BatchCallback],
+    run: _Tally,
+) -> None:
+    """Ask, evaluate (or replay from ``archive``), tell and record batch after batch
+    until a stop reason is set in ``run``."""
+    replaying = archive is not None
+    while True:
+        run.stop_reason = _stop_reason(strategy, run.used, budget)
+        if run.stop_reason:
+            return
+        U = np.atleast_2d(strategy.ask())
+        n = U.shape[0]
+        run.stop_reason = _beyond_budget(n, run.used, budget)
+        if run.stop_reason:
+            return
+        X = problem.space.to_physical(U)
+        # replaying an archive: rows of batch b+1 exist only when batch b is complete,
+        # so after the first batch without rows no later lookup can find any
+        done = archive.batch(run.batches) if archive is not None and replaying else {}
+        replaying = replaying and len(done) == n
+        results = _replayed(problem, archive, run.batches, U, done)
+        run.resumed += len(done)
+        batch = evaluator.batch(run.batches, U, X, results, len(done))
+        strategy.tell(U, batch)
+        run.record(problem, batch, X)
+        if evaluator.bar is not None and math.isfinite(run.best):
+            evaluator.bar.set_postfix(best=f"{run.best:.4g}", refresh=False)
+        for cb in callbacks:
+            cb(run.batches, U, batch)
+        run.used += n
+        run.batches += 1
