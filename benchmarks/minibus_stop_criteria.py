@@ -25,7 +25,7 @@ Criteria of that rate (:data:`CRITERIA`; K the spring's own rate, N/m):
 
 Part 1 (``--pairs`` antithetic pairs of 120 s records, RK4 at 200 Hz, 15 mm bump stops
 at 300 kN/m front and rear as :data:`benchmarks.minibus_ride_effects.STOPS`; the
-designs whose stops touch most and the centre, both load cases; about 1 min CPU): per
+designs whose stops touch most and the centre, both load cases): per
 spring (left and right pooled) the deflection's mean, RMS, skewness, kurtosis, contact
 probability, the stop's measured mean-square-optimal gain ``E[(F - E F) y]/E[y^2]``
 (y = x - m), its cross-spectral gain ``Re S_yF / S_yy`` over three bands and its

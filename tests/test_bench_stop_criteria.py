@@ -1,7 +1,7 @@
-"""The stop-gain criteria of ``benchmarks.minibus_stop_criteria`` (docs/minibus.md, "What
-stays outside 2 %") against their definitions, by adaptive quadrature over a Gaussian
-deflection y of RMS s about the spring's mean m, and against the limits that have
-closed forms."""
+"""The stop-gain criteria of ``benchmarks.minibus_stop_criteria`` (docs/minibus.md, "The
+stops against other linearisation criteria") against their definitions, by adaptive
+quadrature over a Gaussian deflection y of RMS s about the spring's mean m, and against
+the limits that have closed forms."""
 
 from __future__ import annotations
 
