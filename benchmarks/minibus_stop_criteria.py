@@ -402,22 +402,18 @@ def _patched(gain: Gain) -> contextlib.AbstractContextManager[None]:
     )
 
 
-def _stop_reference(reference: dict) -> list[dict[str, Any]]:
-    """The stored reference's rows of the effect sets with stops."""
-    return [r for r in reference["rows"] if r["effects"] in STOP_SETS]
-
-
-def _deviations(ref: list[dict[str, Any]], values: dict[str, np.ndarray]) -> dict[str, float]:
-    """Per stop cell ``effects/design/load case/end``: the deviation (%) of ``values``
-    (per effect set, (rows, front/rear) weighted RMS, m/s^2) from the reference."""
+def _deviations(reference: dict, values: dict[str, np.ndarray]) -> dict[str, float]:
+    """Per stop cell ``effects/design/load case/end`` of the effect sets of ``values``
+    (per set, (rows, front/rear) weighted RMS, m/s^2): its deviation (%) from the
+    stored ``reference``."""
     names = designs()[0]
     cells = {}
-    for r in ref:
-        i = names.index(r["design"]) + len(names) * LOAD_CASES.index(r["load_case"])
-        value = values[r["effects"]][i, ("front", "rear").index(r["end"])]
-        cells[f"{r['effects']}/{r['design']}/{r['load_case']}/{r['end']}"] = float(
-            100 * (value / r["time_120s"] - 1)
-        )
+    for r in reference["rows"]:
+        if r["effects"] in values:
+            i = names.index(r["design"]) + len(names) * LOAD_CASES.index(r["load_case"])
+            value = values[r["effects"]][i, ("front", "rear").index(r["end"])]
+            key = f"{r['effects']}/{r['design']}/{r['load_case']}/{r['end']}"
+            cells[key] = float(100 * (value / r["time_120s"] - 1))
     return cells
 
 
@@ -448,12 +444,11 @@ def _aw(sp: dict[str, np.ndarray]) -> np.ndarray:
 def spectral_cells(reference: dict) -> dict[str, dict[str, object]]:
     """Part 2: per criterion, each stop cell's deviation (%) from the stored reference."""
     X = designs()[1]
-    ref = _stop_reference(reference)
     out: dict[str, dict[str, object]] = {}
     for name, (gain, label) in CRITERIA.items():
         with _patched(gain):
             values = {s: _aw(ride.ride_spectral(X, effects=SCENARIOS[s])) for s in STOP_SETS}
-        out[name] = _cells_summary(label, _deviations(ref, values))
+        out[name] = _cells_summary(label, _deviations(reference, values))
     return out
 
 
@@ -643,7 +638,6 @@ def remainder_cells(reference: dict) -> dict[str, dict[str, object]]:
     the method itself (``method``: :func:`suspenv.metrics.ride.ride_spectral`)."""
     X = designs()[1]
     f = np.arange(0.0, F_TOP + F_STEP / 2, F_STEP)
-    ref = _stop_reference(reference)
     out: dict[str, dict[str, object]] = {}
     for name, (stats, path, label) in REMAINDERS.items():
         values = {}
@@ -657,12 +651,12 @@ def remainder_cells(reference: dict) -> dict[str, dict[str, object]]:
                 Sr = remainder_spectra(S, means, _variance_ratio(stats, lz, means, sd))
             filtered, through_mass = remainder_mean_squares(H, direct, Sr, f)
             values[s] = np.sqrt(_aw(sp) ** 2 + (filtered if path == "filtered" else through_mass))
-        out[name] = _cells_summary(label, _deviations(ref, values))
+        out[name] = _cells_summary(label, _deviations(reference, values))
     method = {s: _aw(ride.ride_spectral(X, effects=SCENARIOS[s])) for s in STOP_SETS}
     label = (
         "the spectral method itself (whole-vehicle κ, skewness tilt, remainder through the mass)"
     )
-    out["method"] = _cells_summary(label, _deviations(ref, method))
+    out["method"] = _cells_summary(label, _deviations(reference, method))
     return out
 
 
