@@ -5,8 +5,8 @@ The spectral method replaces an end stop ``F = k_stop max(x - gap, 0)`` (p = 1) 
 spring deflection x (mean m, RMS s; ``a = (gap - m)/s``) by a rate acting all the time.
 Criteria of that rate (:data:`CRITERIA`; K the spring's own rate, N/m):
 
-- ``gaussian`` (the method's: Booton, Kazakov; Stein's lemma): ``E[F'] = k_stop (1 -
-  Phi(a))``, the mean-square-optimal gain for a Gaussian deflection;
+- ``gaussian`` (Booton, Kazakov; Stein's lemma; the method's before the closure):
+  ``E[F'] = k_stop (1 - Phi(a))``, the mean-square-optimal gain for a Gaussian deflection;
 - ``potential_energy`` (equal mean potential energies; Elishakoff's energy criterion):
   ``2 E[U]/s^2 = k_stop (E[max(t - a, 0)^2] - max(-a, 0)^2)``, U the stop's potential
   about the mean, t standard normal;
@@ -17,36 +17,39 @@ Criteria of that rate (:data:`CRITERIA`; K the spring's own rate, N/m):
 - ``potential_closure`` (non-Gaussian closure): ``E[F y]/E[y^2]`` under the stationary
   density of a one-degree-of-freedom oscillator with the spring K and the stop under
   white noise (Caughey's exact form ``p ∝ exp(-V(x)/(K s0^2))``, V the spring's and the
-  stop's potential), s0 set so that its variance is s^2;
+  stop's potential), s0 set so that its variance is s^2: the corner's own stiffness
+  ratio ``k_stop/K``, where the method takes the whole vehicle's (below);
 - ``kazakov_variance`` (Kazakov's second criterion, equal variances of the element's
   force and of its linear stand-in): ``sqrt(Var F)/s`` for a Gaussian deflection, and
   ``kazakov_variance_closure`` the same under the closure's density.
 
 Part 1 (``--pairs`` antithetic pairs of 120 s records, RK4 at 200 Hz, 15 mm bump stops
 at 300 kN/m front and rear as :data:`benchmarks.minibus_ride_effects.STOPS`; the
-designs whose stops touch most and the centre, both load cases): per spring (left and
-right pooled) the deflection's mean, RMS, skewness, kurtosis, the contact probability
-against the Gaussian one of that mean and RMS, the stop's measured mean-square-optimal
-gain ``E[(F - E F) y]/E[y^2]`` (y = x - m) and its cross-spectral gain
-``Re S_yF / S_yy`` over three bands, and every criterion's gain at the measured m, s.
+designs whose stops touch most and the centre, both load cases): per
+spring (left and right pooled) the deflection's mean, RMS, skewness, kurtosis, contact
+probability, the stop's measured mean-square-optimal gain ``E[(F - E F) y]/E[y^2]``
+(y = x - m), its cross-spectral gain ``Re S_yF / S_yy`` over three bands and its
+remainder's RMS (:data:`MEASURED`); at the measured m, s every criterion's gain and
+the spectral method's own (``gain_method``: its whole-vehicle stiffness ratio and
+skewness tilt), and the method's own mean, RMS and contact probability.
+``--reuse-runs`` takes the measured entries (and part 3's ``remainder_measured``) from
+the stored JSON and recomputes the rest.
 
-Part 2 (no new runs): the spectral values of the effect sets with stops
-(``bump_stops``, ``leaf_friction_and_stops``) with each criterion as the stop's gain
-(the Gaussian mean force in the balance, no remainder), against the 120 s reference
-stored in ``minibus_ride_effects.json``.
+Part 2 (no runs): the spectral values of the effect sets with stops (``bump_stops``,
+``leaf_friction_and_stops``) with each criterion as the stop's gain (the Gaussian mean
+force in the balance, no remainder), against the 120 s reference stored in
+``minibus_ride_effects.json``.
 
-Part 3 (no new runs but part 1's): the stop's remainder ``r = F - E[F] - k y`` added
-as a second excitation (:data:`REMAINDERS`), for a Gaussian deflection by its Hermite
-terms of order 2..``ORDERS`` (:func:`hermite_remainder`; cross-spectra by Mehler's
-formula and the FFT, :func:`remainder_spectra`), with the Gaussian gain or the
-closure's (its remainder then scaled to the closure's variance), through the whole
-linear model or through the mass matrix only (the remainder orthogonal to every
-state), against the stored reference; the method's own values (``method``:
-:func:`suspenv.metrics.ride.ride_spectral` carries ``closure_consistent_direct`` on its
-own grids, :mod:`suspenv.models.minibus.stop_closure`); and with part 1's measured
-gains and remainder cross-spectra in place of both (``remainder_measured``).
+Part 3 (no runs but part 1's): the stop's remainder ``r = F - E[F] - k y`` added as a
+second excitation (:data:`REMAINDERS`), its cross-spectra for a Gaussian deflection by
+its Hermite terms of order 2..``ORDERS`` (Mehler's formula and the FFT,
+:func:`remainder_spectra`) scaled to the variance of the variant's statistics, through
+the mass matrix only or through the whole linear model, against the stored reference;
+the method itself (``method``: :func:`suspenv.metrics.ride.ride_spectral`, which adds
+the remainder on its own grids); and with part 1's measured gains and remainder
+cross-spectra in place of both (``remainder_measured``).
 
-Run: ``python -m benchmarks.minibus_stop_criteria``; writes
+Run: ``python -m benchmarks.minibus_stop_criteria [--reuse-runs]``; writes
 ``docs/benchmarks/minibus_stop_criteria.json``.
 """
 
@@ -64,7 +67,7 @@ import numpy as np
 from scipy.signal import csd, welch
 from scipy.special import ndtr
 
-from benchmarks.common import DEFAULT_OUTPUT_DIR, write_result
+from benchmarks.common import DEFAULT_OUTPUT_DIR, machine_info, write_result
 from benchmarks.minibus_ride_effects import (
     RECORD_S,
     SAMPLE_RATE,
@@ -84,7 +87,6 @@ from suspenv.models.minibus.stop_closure import (
     gaussian_remainder_variance,
     hermite_remainder,
 )
-from suspenv.models.minibus.stop_closure import closure_moments as _closure_table_moments
 from suspenv.models.minibus.vehicle import (
     LOAD_CASES,
     REFERENCE_MINIBUS,
@@ -210,19 +212,25 @@ def deflections(X: np.ndarray, pairs: int) -> np.ndarray:
     )
 
 
-def rate_at_gap(lz: linearisation.ElementLinearisation, end: int) -> np.ndarray:
-    """The spring's own rate K (N/m; (rows, L/R)) at the stop's gap: the front wheel
-    rate, the leaf's primary rate or, where its helper knee lies below the gap, the
-    composite one."""
-    if end == 0:
-        return lz.k_front
-    return lz.k1 + lz.dk * (lz.thr < GAP)
+def corner_rate(lz: linearisation.ElementLinearisation, end: int) -> np.ndarray:
+    """The corner spring's own rate K (N/m; (rows, 1)) at the stop's contact point, as
+    the method takes it (``ElementLinearisation._compliance``): the front wheel rate,
+    the leaf's primary rate or, where its helper knee lies below the gap, the composite
+    one."""
+    comp = lz._compliances[end][0]
+    assert comp is not None  # the benchmark's stops: one p = 1 bump stop per end
+    return comp[4][:, None]
 
 
-def element_row(x: np.ndarray, k: float) -> dict[str, float]:
-    """Statistics, gains (kN/m) and remainder RMS values (N; measured, for a Gaussian
-    deflection, under the closure's density) of one spring's deflections ``x`` (m;
-    (sides, time))."""
+#: part 1's row entries measured in the runs (``--reuse-runs`` keeps them)
+MEASURED: tuple[str, ...] = ("mean_mm", "rms_mm", "skewness", "kurtosis", "contact_percent")
+MEASURED += ("gain_measured_kN_m", "remainder_rms_measured_N")
+MEASURED += tuple(f"gain_measured_{lo:g}_{hi:g}Hz_kN_m" for lo, hi in BANDS)
+
+
+def run_statistics(x: np.ndarray) -> dict[str, float]:
+    """The :data:`MEASURED` entries (gains kN/m, remainder RMS N) of one spring's
+    deflections ``x`` (m; (sides, time))."""
     m = float(x.mean())
     y = x - m
     s = float(y.std())
@@ -234,15 +242,8 @@ def element_row(x: np.ndarray, k: float) -> dict[str, float]:
         "skewness": float((y**3).mean() / s**3),
         "kurtosis": float((y**4).mean() / s**4),
         "contact_percent": float(100 * (x > GAP).mean()),
-        "contact_gaussian_percent": float(100 * ndtr(-(GAP - m) / s)),
         "gain_measured_kN_m": gain / 1e3,
         "remainder_rms_measured_N": float((force - force.mean() - gain * y).std()),
-        "remainder_rms_gaussian_N": float(
-            K_STOP * s * np.sqrt(gaussian_remainder_variance(np.array((GAP - m) / s)))
-        ),
-        "remainder_rms_closure_N": float(
-            np.sqrt(closure_remainder_variance(np.array(k), np.array(m), np.array(s)))
-        ),
     }
     f, syy = welch(y, SAMPLE_RATE, nperseg=4096, axis=-1)
     _, syf = csd(y, force - force.mean(axis=-1, keepdims=True), SAMPLE_RATE, nperseg=4096)
@@ -250,8 +251,24 @@ def element_row(x: np.ndarray, k: float) -> dict[str, float]:
         band = (f >= lo) & (f < hi)
         band_gain = np.real(syf[:, band].sum()) / syy[:, band].sum()
         row[f"gain_measured_{lo:g}_{hi:g}Hz_kN_m"] = float(band_gain / 1e3)
+    return row
+
+
+def criteria_row(k: float, m: float, s: float) -> dict[str, float]:
+    """At a spring deflection of mean ``m`` and RMS ``s`` (m) on a spring of rate ``k``
+    (N/m): the Gaussian contact probability (%), the remainder's RMS for a Gaussian
+    deflection and under the closure's density (N) and every criterion's gain
+    (kN/m)."""
+    mm, ss = np.array(m), np.array(s)
+    row = {
+        "contact_gaussian_percent": float(100 * ndtr(-(GAP - m) / s)),
+        "remainder_rms_gaussian_N": float(
+            K_STOP * s * np.sqrt(gaussian_remainder_variance((GAP - mm) / ss))
+        ),
+        "remainder_rms_closure_N": float(np.sqrt(closure_remainder_variance(np.array(k), mm, ss))),
+    }
     for name, (fn, _) in CRITERIA.items():
-        row[f"gain_{name}_kN_m"] = float(fn(np.array(k), np.array(m), np.array(s)) / 1e3)
+        row[f"gain_{name}_kN_m"] = float(fn(np.array(k), mm, ss) / 1e3)
     return row
 
 
@@ -293,48 +310,54 @@ def spring_means(lz: linearisation.ElementLinearisation, sig: np.ndarray) -> np.
     )
 
 
-def spectral_elements(X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The spectral method's own spring deflection means and RMS values (m; (rows,
-    front/rear), left side) with :data:`STOPS`, from the element RMS values of its last
-    linearisation pass."""
-    _, _, sig, lz = converged(X, STOPS)
-    m = spring_means(lz, sig)
-    sd = np.stack([sig[:, linearisation.SIG_FRONT][:, 0], sig[:, linearisation.SIG_LEAF][:, 0]], 1)
-    return m[:, [0, 2]], sd
-
-
 def diag_designs() -> np.ndarray:
     """The designs of :data:`DIAG_DESIGNS` (physical units)."""
     names, X = designs()
     return X[[names.index(d) for d in DIAG_DESIGNS]]
 
 
-def element_statistics(x: np.ndarray) -> list[dict[str, object]]:
-    """Part 1 rows: per design of :data:`DIAG_DESIGNS`, load case and end, from their
-    spring deflections ``x`` (:func:`deflections`)."""
-    X = diag_designs()
-    lz = linearisation.ElementLinearisation(
-        RideModel(stacked_vehicle_parameters(X, LOAD_CASES), effects=STOPS)
-    )
-    m_sp, s_sp = spectral_elements(X)
-    K = np.stack([rate_at_gap(lz, 0)[:, 0], rate_at_gap(lz, 1)[:, 0]], 1)
+def measured_rows(x: np.ndarray) -> list[dict[str, object]]:
+    """Part 1's measured rows: per design of :data:`DIAG_DESIGNS`, load case and end,
+    :func:`run_statistics` of their spring deflections ``x`` (:func:`deflections`)."""
     n = len(DIAG_DESIGNS)
+    return [
+        {
+            "design": DIAG_DESIGNS[i % n],
+            "load_case": LOAD_CASES[i // n],
+            "end": end,
+            **run_statistics(x[i, 2 * j : 2 * j + 2]),
+        }
+        for i in range(x.shape[0])
+        for j, end in enumerate(("front", "rear"))
+    ]
+
+
+def element_statistics(measured: list[dict[str, object]]) -> list[dict[str, object]]:
+    """Part 1 rows: the ``measured`` ones (:func:`measured_rows`, in its order) with
+    every criterion at their mean and RMS (:func:`criteria_row`), the spectral method's
+    own stop gain and remainder RMS there (its whole-vehicle stiffness ratio and
+    skewness tilt, ``ElementLinearisation._closure``), and its own spring deflection
+    mean, RMS and Gaussian contact probability (left side, its last pass)."""
+    _, _, sig, lz = converged(diag_designs(), STOPS)
+    m_sp = spring_means(lz, sig)[:, [0, 2]]
+    s_sp = sig[:, [linearisation.SIG_FRONT.start, linearisation.SIG_LEAF.start]]
     rows: list[dict[str, object]] = []
-    for i in range(x.shape[0]):
-        for j, end in enumerate(("front", "rear")):
-            head: dict[str, object] = {
-                "design": DIAG_DESIGNS[i % n],
-                "load_case": LOAD_CASES[i // n],
-                "end": end,
-            }
-            spectral = {
+    for q, row in enumerate(measured):
+        i, j = divmod(q, 2)
+        m, s = 1e-3 * float(row["mean_mm"]), 1e-3 * float(row["rms_mm"])  # type: ignore[arg-type]
+        mm, ss = np.full((len(m_sp), 2), m), np.full((len(m_sp), 2), s)
+        v = _method_variance(lz, np.tile((GAP - mm) / ss, 2))[:, 2 * j]
+        rows.append(
+            {
+                **row,
+                **criteria_row(float(corner_rate(lz, j)[i, 0]), m, s),
+                "gain_method_kN_m": float(lz._stop_rate(j, mm, ss)[i, 0] / 1e3),
+                "remainder_rms_method_N": float(K_STOP * s * np.sqrt(v[i])),
                 "spectral_mean_mm": 1e3 * float(m_sp[i, j]),
                 "spectral_rms_mm": 1e3 * float(s_sp[i, j]),
                 "spectral_contact_percent": float(100 * ndtr(-(GAP - m_sp[i, j]) / s_sp[i, j])),
             }
-            rows.append(
-                {**head, **element_row(x[i, 2 * j : 2 * j + 2], float(K[i, j])), **spectral}
-            )
+        )
     return rows
 
 
@@ -375,26 +398,22 @@ def _patched(gain: Gain) -> contextlib.AbstractContextManager[None]:
     """:func:`_patched_rate` with the rate ``gain`` of (K, m, s) (the benchmark's stops:
     one bump stop per end at ``GAP``, ``K_STOP``)."""
     return _patched_rate(
-        lambda lz, end, m, sd: gain(np.broadcast_to(rate_at_gap(lz, end), m.shape), m, sd)
+        lambda lz, end, m, sd: gain(np.broadcast_to(corner_rate(lz, end), m.shape), m, sd)
     )
 
 
-def _stop_reference(reference: dict) -> list[dict[str, Any]]:
-    """The stored reference's rows of the effect sets with stops."""
-    return [r for r in reference["rows"] if r["effects"] in STOP_SETS]
-
-
-def _deviations(ref: list[dict[str, Any]], values: dict[str, np.ndarray]) -> dict[str, float]:
-    """Per stop cell ``effects/design/load case/end``: the deviation (%) of ``values``
-    (per effect set, (rows, front/rear) weighted RMS, m/s^2) from the reference."""
+def _deviations(reference: dict, values: dict[str, np.ndarray]) -> dict[str, float]:
+    """Per stop cell ``effects/design/load case/end`` of the effect sets of ``values``
+    (per set, (rows, front/rear) weighted RMS, m/s^2): its deviation (%) from the
+    stored ``reference``."""
     names = designs()[0]
     cells = {}
-    for r in ref:
-        i = names.index(r["design"]) + len(names) * LOAD_CASES.index(r["load_case"])
-        value = values[r["effects"]][i, ("front", "rear").index(r["end"])]
-        cells[f"{r['effects']}/{r['design']}/{r['load_case']}/{r['end']}"] = float(
-            100 * (value / r["time_120s"] - 1)
-        )
+    for r in reference["rows"]:
+        if r["effects"] in values:
+            i = names.index(r["design"]) + len(names) * LOAD_CASES.index(r["load_case"])
+            value = values[r["effects"]][i, ("front", "rear").index(r["end"])]
+            key = f"{r['effects']}/{r['design']}/{r['load_case']}/{r['end']}"
+            cells[key] = float(100 * (value / r["time_120s"] - 1))
     return cells
 
 
@@ -425,12 +444,11 @@ def _aw(sp: dict[str, np.ndarray]) -> np.ndarray:
 def spectral_cells(reference: dict) -> dict[str, dict[str, object]]:
     """Part 2: per criterion, each stop cell's deviation (%) from the stored reference."""
     X = designs()[1]
-    ref = _stop_reference(reference)
     out: dict[str, dict[str, object]] = {}
     for name, (gain, label) in CRITERIA.items():
         with _patched(gain):
             values = {s: _aw(ride.ride_spectral(X, effects=SCENARIOS[s])) for s in STOP_SETS}
-        out[name] = _cells_summary(label, _deviations(ref, values))
+        out[name] = _cells_summary(label, _deviations(reference, values))
     return out
 
 
@@ -438,40 +456,37 @@ def spectral_cells(reference: dict) -> dict[str, dict[str, object]]:
 #: uniform grid of the remainder's spectra (Hz): step (the covariances' period, 64 s,
 #: covers the slowest mode's decay) and top (above the stops' contact frequencies)
 F_STEP, F_TOP = 1.0 / 64.0, 128.0
-#: the remainder's variants: name -> (statistics of the stop: ``gaussian``, ``closure``
-#: (the closure's gain and remainder variance, the Gaussian mean force) or
-#: ``closure_consistent`` (:func:`closure_moments`: also the mean force); path of the
-#: remainder: ``filtered`` through the linear model, ``direct`` through the mass matrix
-#: only; label)
+#: the remainder's variants: name -> (statistics of the stop: ``gaussian`` (Gaussian
+#: mean force, gain ``E[F']`` and remainder), ``closure`` (the corner closure's gain
+#: and remainder variance, :func:`_potential_closure`, the Gaussian mean force),
+#: ``corner`` (the method with the corner's own stiffness ratio ``k_stop/K`` and no
+#: skewness tilt, :func:`_corner_only`) or ``method`` (the method's own, whole-vehicle
+#: ratio and tilt); path of the remainder: ``filtered`` through the linear model,
+#: ``direct`` through the mass matrix only; label)
 REMAINDERS: dict[str, tuple[str, str, str]] = {
-    "gaussian_filtered": (
-        "gaussian",
-        "filtered",
-        "Gaussian `E[F']` and its Hermite remainder (a second-order consistent Gaussian "
-        "correction) as a second excitation of the linear model",
-    ),
     "gaussian_direct": (
         "gaussian",
         "direct",
-        "the same, the remainder orthogonal to every state (through the mass matrix only)",
+        "Gaussian `E[F']` and its Hermite remainder (a second-order consistent Gaussian "
+        "correction) through the mass matrix only",
     ),
-    "closure_filtered": (
+    "closure_direct": (
         "closure",
-        "filtered",
-        "the closure's gain with a remainder of the closure's variance (Hermite "
-        "spectrum) as a second excitation",
-    ),
-    "closure_direct": ("closure", "direct", "the same, the remainder orthogonal to every state"),
-    "closure_consistent_filtered": (
-        "closure_consistent",
-        "filtered",
-        "the closure for the mean force too (its density centred on the balance's mean), "
-        "gain and remainder as a second excitation",
-    ),
-    "closure_consistent_direct": (
-        "closure_consistent",
         "direct",
-        "the same, the remainder orthogonal to every state",
+        "the corner closure's gain and remainder variance, the Gaussian mean force, "
+        "remainder through the mass matrix only",
+    ),
+    "corner_direct": (
+        "corner",
+        "direct",
+        "the corner closure for the mean force, gain and remainder (κ = `k_stop/K`, no "
+        "skewness tilt: the method before the whole-vehicle law), through the mass matrix",
+    ),
+    "method_filtered": (
+        "method",
+        "filtered",
+        "the method's statistics (whole-vehicle κ, skewness tilt), the remainder through "
+        "the whole linear model instead of the mass matrix",
     ),
 }
 
@@ -489,27 +504,54 @@ def closure_remainder_variance(k: np.ndarray, m: np.ndarray, s: np.ndarray) -> n
     return _moments(*_closure_density(k, m, s))[2]
 
 
-def closure_moments(k: np.ndarray, m: np.ndarray, s: np.ndarray) -> tuple[np.ndarray, ...]:
-    """Mean force (N), gain (N/m) and remainder variance (N^2) of the benchmark's stop
-    under the closure's density of mean ``m`` and RMS ``s`` (m) on a spring of rate
-    ``k`` (N/m): the method's table (:func:`suspenv.models.minibus.stop_closure.
-    closure_moments`), the closure used for the mean force in the balance as well as
-    for the gain and the remainder."""
-    mu, g, v = _closure_table_moments(K_STOP / k, (GAP - m) / s, "mu g v")
-    return K_STOP * s * mu, K_STOP * g, (K_STOP * s) ** 2 * v
+def _corner_only(self: linearisation.ElementLinearisation, stats: np.ndarray | None) -> None:
+    """``ElementLinearisation.set_corners`` as the method was before the whole-vehicle
+    law: each p = 1 stop's stiffness ratio ``k_stop/K`` (K its corner spring's rate at
+    the contact point), no skewness tilt."""
+    self.skew = np.zeros_like(self.skew)
+    for end in (0, 1):
+        self.kappa[end][:] = [
+            None if c is None else np.repeat((stop[2] / c[4])[:, None], 2, axis=1)
+            for c, stop in zip(self._compliances[end], self.stops[end], strict=True)
+        ]
 
 
-def _statistics(
-    name: str,
-) -> tuple[Callable[[], contextlib.AbstractContextManager[Any]], Callable[..., np.ndarray] | None]:
-    """(factory of a context that sets the stops' mean force and gain, remainder
-    variance (N^2) of (k, m, s) or None for the Gaussian one) of a :data:`REMAINDERS`
-    statistics name; ``closure_consistent`` is the method's own."""
-    if name == "gaussian":
-        return lambda: _patched(_gaussian), None
-    if name == "closure":
-        return lambda: _patched(_potential_closure), closure_remainder_variance
-    return contextlib.nullcontext, lambda k, m, s: closure_moments(k, m, s)[2]
+def _method_variance(lz: linearisation.ElementLinearisation, a: np.ndarray) -> np.ndarray:
+    """The method's remainder variance over ``(k_stop s)^2`` ((n, 4); FL..RR) of the
+    benchmark's bump stops at ``a = (gap - m)/s`` (``ElementLinearisation._closure``)."""
+    v = []
+    for e, (kappa,) in enumerate(lz.kappa):
+        assert kappa is not None  # one p = 1 bump stop per end
+        v += lz._closure(e, 1.0, kappa, a[:, 2 * e : 2 * e + 2], "v")
+    return np.hstack(v)
+
+
+@contextlib.contextmanager
+def _statistics(name: str) -> Iterator[None]:
+    """A context that sets the stops' mean force, gain and closure as the
+    :data:`REMAINDERS` statistics ``name`` and adds no remainder of the method's."""
+    patch: contextlib.AbstractContextManager[Any] = contextlib.nullcontext()
+    if name in ("gaussian", "closure"):
+        patch = _patched(_gaussian if name == "gaussian" else _potential_closure)
+    elif name == "corner":
+        patch = mock.patch.object(linearisation.ElementLinearisation, "set_corners", _corner_only)
+    with patch, _without_remainder():
+        yield
+
+
+def _variance_ratio(
+    stats: str, lz: linearisation.ElementLinearisation, means: np.ndarray, sd: np.ndarray
+) -> np.ndarray:
+    """The ratio (n, 4) of the remainder's variance under the statistics ``stats`` to the
+    Gaussian one, at spring deflections of means ``means`` and RMS ``sd`` (m)."""
+    a = (GAP - means) / sd
+    gauss = gaussian_remainder_variance(a)
+    if stats == "gaussian":
+        return np.ones_like(sd)
+    if stats == "closure":
+        k = np.hstack([np.broadcast_to(corner_rate(lz, e), sd[:, :2].shape) for e in (0, 1)])
+        return closure_remainder_variance(k, means, sd) / ((K_STOP * sd) ** 2 * gauss)
+    return _method_variance(lz, a) / gauss
 
 
 def stop_responses(
@@ -592,40 +634,29 @@ def remainder_mean_squares(
 
 
 def remainder_cells(reference: dict) -> dict[str, dict[str, object]]:
-    """Part 3: the stop cells with the stops' remainder added (:data:`REMAINDERS`)."""
+    """Part 3: the stop cells with the stops' remainder added (:data:`REMAINDERS`), and
+    the method itself (``method``: :func:`suspenv.metrics.ride.ride_spectral`)."""
     X = designs()[1]
     f = np.arange(0.0, F_TOP + F_STEP / 2, F_STEP)
-    values: dict[str, dict[str, np.ndarray]] = {name: {} for name in REMAINDERS}
-    for stats in dict.fromkeys(v[0] for v in REMAINDERS.values()):
-        context, variance = _statistics(stats)
+    out: dict[str, dict[str, object]] = {}
+    for name, (stats, path, label) in REMAINDERS.items():
+        values = {}
         for s in STOP_SETS:
-            with context():
+            with _statistics(stats):
                 sp, r, sig, lz = converged(X, SCENARIOS[s])
                 means = spring_means(lz, sig)
-            H, direct = stop_responses(X, r, lz, f)
-            S = deflection_spectra(H, f)
-            sd = np.sqrt(np.einsum("nfii->ni", S[:, 1:-1]).real * F_STEP)
-            scale = np.ones_like(sd)
-            if variance is not None:
-                k = [np.broadcast_to(rate_at_gap(lz, e), means[:, :2].shape) for e in (0, 1)]
-                scale = variance(np.hstack(k), means, sd) / (
-                    (K_STOP * sd) ** 2 * gaussian_remainder_variance((GAP - means) / sd)
-                )
-            Sr = remainder_spectra(S, means, scale)
-            paths = dict(
-                zip(("filtered", "direct"), remainder_mean_squares(H, direct, Sr, f), strict=True)
-            )
-            for name, (st, path, _) in REMAINDERS.items():
-                if st == stats:
-                    values[name][s] = np.sqrt(_aw(sp) ** 2 + paths[path])
-    ref = _stop_reference(reference)
-    out = {
-        name: _cells_summary(label, _deviations(ref, values[name]))
-        for name, (_, _, label) in REMAINDERS.items()
-    }
+                H, direct = stop_responses(X, r, lz, f)
+                S = deflection_spectra(H, f)
+                sd = np.sqrt(np.einsum("nfii->ni", S[:, 1:-1]).real * F_STEP)
+                Sr = remainder_spectra(S, means, _variance_ratio(stats, lz, means, sd))
+            filtered, through_mass = remainder_mean_squares(H, direct, Sr, f)
+            values[s] = np.sqrt(_aw(sp) ** 2 + (filtered if path == "filtered" else through_mass))
+        out[name] = _cells_summary(label, _deviations(reference, values))
     method = {s: _aw(ride.ride_spectral(X, effects=SCENARIOS[s])) for s in STOP_SETS}
-    label = "the spectral method itself (closure_consistent_direct on its own grids)"
-    out["method"] = _cells_summary(label, _deviations(ref, method))
+    label = (
+        "the spectral method itself (whole-vehicle κ, skewness tilt, remainder through the mass)"
+    )
+    out["method"] = _cells_summary(label, _deviations(reference, method))
     return out
 
 
@@ -674,33 +705,55 @@ def measured_remainder(x: np.ndarray, reference: dict) -> dict[str, dict[str, fl
     return out
 
 
+def _runs(result: dict) -> dict[str, str]:
+    """Commit and time of part 1's runs from a result's machine entry."""
+    machine = result["machine"]
+    return {"commit": machine["packages"].get("suspenv_commit"), "timestamp": machine["timestamp"]}
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--pairs", type=int, default=PAIRS, help="antithetic record pairs")
     parser.add_argument("--output-dir", default=None, help="default docs/benchmarks")
+    parser.add_argument(
+        "--reuse-runs",
+        action="store_true",
+        help="part 1's measured entries and remainder_measured from the stored JSON",
+    )
     args = parser.parse_args(argv)
     reference_path = Path(DEFAULT_OUTPUT_DIR) / "minibus_ride_effects.json"
     reference = json.loads(reference_path.read_text())
-    x = deflections(diag_designs(), args.pairs)
-    rows = element_statistics(x)
+    if args.reuse_runs:
+        stored = json.loads((Path(DEFAULT_OUTPUT_DIR) / "minibus_stop_criteria.json").read_text())
+        keys = ("design", "load_case", "end", *MEASURED)
+        measured = [{k: r[k] for k in keys} for r in stored["rows"]]
+        pairs, runs = stored["summary"]["pairs"], stored["summary"].get("runs") or _runs(stored)
+        from_runs = stored["summary"]["remainder_measured"]
+    else:
+        x = deflections(diag_designs(), args.pairs)
+        measured, pairs = measured_rows(x), args.pairs
+        runs = _runs({"machine": machine_info()})
+        from_runs = measured_remainder(x, reference)
     summary: dict[str, object] = {
-        "what": f"stop gains by criterion vs {args.pairs} antithetic pairs of {RECORD_S:.0f} s "
+        "what": f"stop gains by criterion vs {pairs} antithetic pairs of {RECORD_S:.0f} s "
         "runs; spectral stop cells by criterion vs the stored reference",
         "reference": str(reference_path),
         "reference_commit": reference["machine"]["packages"].get("suspenv_commit"),
-        "pairs": args.pairs,
+        "pairs": pairs,
+        "runs": runs,
         "gap_m": GAP,
         "k_stop_N_m": K_STOP,
         "criteria": spectral_cells(reference),
         "orders": ORDERS,
         "remainder": remainder_cells(reference),
-        "remainder_measured": measured_remainder(x, reference),
+        "remainder_measured": from_runs,
     }
+    command = "python -m benchmarks.minibus_stop_criteria"
     write_result(
         "minibus_stop_criteria",
-        rows,
+        element_statistics(measured),
         summary,
-        "python -m benchmarks.minibus_stop_criteria",
+        command + (" --reuse-runs" if args.reuse_runs else ""),
         args.output_dir,
     )
     return 0
