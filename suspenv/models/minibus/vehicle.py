@@ -188,9 +188,10 @@ class Minibus:
     #: of Vehicle Dynamics*, 1992, ch. 7; Milliken & Milliken, *Race Car Vehicle
     #: Dynamics*, 1995, ch. 17). [CHOICE] 0.30 m: seats on the axle tube, about the
     #: wheel-centre height (loaded radius 0.33 m) of a low-floor van. The earlier 0.45 m
-    #: (seats 0.12 m above the wheel centre) put 8x the front's roll-centre load transfer
-    #: on the rear and made 58 of 62 random designs limit-oversteer empty
-    #: (docs/minibus_handling.md, "Handling balance").
+    #: (seats 0.12 m above the wheel centre), with the earlier trail and steering
+    #: compliance, put 6.5x the front's geometric load transfer on the rear and made 1,902
+    #: of 2,002 random designs limit-oversteer empty (docs/minibus_handling.md, "Handling
+    #: balance"; docs/benchmarks/minibus_limit.json).
     rear_roll_centre_height: float = 0.30  # m
     # unsprung ---------------------------------------------------------------
     #: per front corner: hub, brake, wishbones share, wheel and tyre [CHOICE: ~2.3 % of
