@@ -31,7 +31,7 @@ from suspenv.core.atomic import atomic_path
 from suspenv.core.jsonable import to_jsonable
 from suspenv.measurements.errors import RecordingError
 from suspenv.measurements.limits import check_npz, read_limit
-from suspenv.measurements.recording import Recording, real_numbers
+from suspenv.measurements.recording import Recording, check_units, real_numbers
 from suspenv.measurements.units import FACTORS, SI_UNITS, to_si
 
 FORMAT = "suspenv-recording"
@@ -93,7 +93,7 @@ def load_recording(
     header, chans, time = _read_archive(path, read_limit(max_bytes))
     where = f"{path.name}: recording {header['name']!r} (test {header['test']!r})"
     declared: dict[str, str] = header["units"]
-    _check_expected_units(where, declared, expect_units or {})
+    check_units(where, declared, expect_units or {})  # as the file declares them
     units = dict(declared)
     clock = {"time": time}
     converted = _convert_to_si(where, (chans["in"], chans["out"], clock), units)
@@ -140,20 +140,6 @@ def _read_archive(
                 chans[prefix][name] = _numbers(_member(npz, key, path), name, path)
         time = _numbers(_member(npz, "time", path), "time", path)
     return header, chans, time
-
-
-def _check_expected_units(
-    where: str, declared: Mapping[str, str], expect_units: Mapping[str, str]
-) -> None:
-    """Every channel of ``expect_units`` is declared in the file in that unit."""
-    for name, unit in expect_units.items():
-        if name not in declared:
-            raise RecordingError(f"{where}: missing channel {name!r} (expected unit {unit!r})")
-        if declared[name] != unit:
-            raise RecordingError(
-                f"{where}: channel {name!r} must be in {unit!r}, but its unit is "
-                f"{declared[name]!r}"
-            )
 
 
 def _convert_to_si(

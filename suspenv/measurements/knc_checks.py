@@ -48,7 +48,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
-from typing import Any, Protocol
+from typing import Any
 
 import numpy as np
 
@@ -125,8 +125,10 @@ SPIKE_SPAN = 0.02
 RESOLUTION = {"travel": 1e-6, "length": 1e-6, "angle": 1.7e-6, "force": 0.1, "moment": 0.01}
 
 
-class TestLike(Protocol):
-    """What the checks read of a :class:`~suspenv.measurements.knc_file.MeasuredTest`."""
+@dataclass
+class RigSamples:
+    """One rig test's samples as the checks read them: the fields (SI, raw ISO 8855) of
+    :class:`~suspenv.measurements.knc_file.MeasuredTest`, which adds the wheels and units."""
 
     test: str
     drive: np.ndarray
@@ -152,7 +154,7 @@ def check_manifest_keys(data: Mapping[str, Any], where: str) -> None:
 
 
 def check_tests(
-    tests: Mapping[str, TestLike], files: Mapping[str, str], quantity: Mapping[str, str]
+    tests: Mapping[str, RigSamples], files: Mapping[str, str], quantity: Mapping[str, str]
 ) -> list[str]:
     """Rules 2 to 4 on the loaded tests (SI, raw ISO 8855); raises on the first error and
     returns the warnings. ``files``: test -> its CSV's name; ``quantity``: channel ->
@@ -168,17 +170,7 @@ def check_tests(
     return warnings
 
 
-@dataclass
-class _View:
-    """A test as the direction rules read it (:class:`TestLike`)."""
-
-    test: str
-    drive: np.ndarray
-    branch: np.ndarray
-    channels: dict[str, np.ndarray]
-
-
-def _wheel_views(t: TestLike) -> list[TestLike]:
+def _wheel_views(t: RigSamples) -> list[RigSamples]:
     """The test itself; an opposed test (:data:`OPPOSED_TESTS`) is its in-phase test
     one wheel at a time, each wheel driven by its own load (the right wheel's is the
     in-phase load negated), so that every wheel meets the in-phase test's direction
@@ -187,7 +179,7 @@ def _wheel_views(t: TestLike) -> list[TestLike]:
     if in_phase is None:
         return [t]
     return [
-        _View(
+        RigSamples(
             in_phase,
             -np.asarray(t.drive) if side == "right" else np.asarray(t.drive),
             t.branch,
@@ -208,7 +200,7 @@ def _shown(value: float, quantity: str) -> str:
     return f"{value / size:.6g} {unit}"
 
 
-def _columns(t: TestLike, quantity: Mapping[str, str]) -> Iterable[tuple[str, np.ndarray, str]]:
+def _columns(t: RigSamples, quantity: Mapping[str, str]) -> Iterable[tuple[str, np.ndarray, str]]:
     """(column words, values (P,) [SI], quantity) of the drive and every channel's wheel."""
     yield "the drive", np.asarray(t.drive, float), _drive_quantity(t.test)
     for ch, v in t.channels.items():
@@ -217,7 +209,7 @@ def _columns(t: TestLike, quantity: Mapping[str, str]) -> Iterable[tuple[str, np
             yield f"{ch}_{side}", np.asarray(v[:, w], float), q
 
 
-def _check_magnitudes(where: str, t: TestLike, quantity: Mapping[str, str]) -> None:
+def _check_magnitudes(where: str, t: RigSamples, quantity: Mapping[str, str]) -> None:
     for what, v, q in _columns(t, quantity):
         ok = v[np.isfinite(v)]
         if not ok.size:
@@ -241,7 +233,7 @@ def _check_magnitudes(where: str, t: TestLike, quantity: Mapping[str, str]) -> N
 
 
 # ------------------------------------------------------------------ sides
-def _check_track(where: str, t: TestLike) -> None:
+def _check_track(where: str, t: RigSamples) -> None:
     for ch in ("wheel_centre_y", "contact_y"):
         v = t.channels.get(ch)
         if v is None or not np.isfinite(v).all():
@@ -276,7 +268,7 @@ def _slope(x: np.ndarray, y: np.ndarray) -> float:
     return float(np.dot(xc, y - y.mean()) / np.dot(xc, xc))
 
 
-def _check_directions(where: str, t: TestLike) -> None:
+def _check_directions(where: str, t: RigSamples) -> None:
     d = np.asarray(t.drive, float)
     if t.test in RIGHT_WHEEL_SENSE and "wheel_centre_z" in t.channels:
         _check_travel(where, t.test, d, t.channels["wheel_centre_z"])
@@ -352,7 +344,7 @@ def _deviations(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     return dev
 
 
-def _spikes(where: str, t: TestLike, quantity: Mapping[str, str]) -> list[str]:
+def _spikes(where: str, t: RigSamples, quantity: Mapping[str, str]) -> list[str]:
     out = []
     d = np.asarray(t.drive, float)
     for ch, v in t.channels.items():

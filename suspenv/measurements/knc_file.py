@@ -64,7 +64,12 @@ from suspenv.core.errors import ValidationError
 from suspenv.core.tomlfile import read_toml, toml_value
 from suspenv.measurements import knc as _knc
 from suspenv.measurements.errors import RecordingError
-from suspenv.measurements.knc_checks import check_manifest_keys, check_tests, check_wheel_travel
+from suspenv.measurements.knc_checks import (
+    RigSamples,
+    check_manifest_keys,
+    check_tests,
+    check_wheel_travel,
+)
 from suspenv.measurements.limits import check_text, read_limit
 from suspenv.measurements.recording import nonfinite_run
 from suspenv.measurements.units import FACTORS, unit_key
@@ -134,7 +139,7 @@ _HEADER = re.compile(r"^\s*([A-Za-z_][A-Za-z0-9_]*)\s*\[([^\[\]]+)\]\s*$")
 
 # ------------------------------------------------------------------ data
 @dataclass
-class MeasuredTest:
+class MeasuredTest(RigSamples):
     """One rig test's samples (SI, raw ISO 8855).
 
     Attributes:
@@ -149,10 +154,6 @@ class MeasuredTest:
         units: column -> the unit the file declared (empty for data made in memory).
     """
 
-    test: str
-    drive: np.ndarray
-    branch: np.ndarray
-    channels: dict[str, np.ndarray]
     wheels: tuple[str, ...] = SIDES
     units: dict[str, str] = field(default_factory=dict)
 

@@ -45,6 +45,17 @@ def real_numbers(where: str, channel: str, values: object) -> np.ndarray:
     return np.asarray(arr, dtype=float)
 
 
+def check_units(where: str, units: Mapping[str, str], expected: Mapping[str, str]) -> None:
+    """Every channel of ``expected`` (name -> unit) is in ``units`` in that unit."""
+    for name, unit in expected.items():
+        if name not in units:
+            raise RecordingError(f"{where}: missing channel {name!r} (expected unit {unit!r})")
+        if units[name] != unit:
+            raise RecordingError(
+                f"{where}: channel {name!r} must be in {unit!r}, but its unit is {units[name]!r}"
+            )
+
+
 def _check_si(where: str, what: str, unit: object) -> None:
     """Refuse a unit that is not SI: a known one names its conversion, an unknown one
     lists the SI units (a recording never takes a unit it cannot vouch for as SI)."""
@@ -200,14 +211,7 @@ class Recording:
                 raise RecordingError(
                     f"{where}: missing output channel {name!r}; outputs are {sorted(self.outputs)}"
                 )
-        for name, unit in (units or {}).items():
-            if name not in self.units:
-                raise RecordingError(f"{where}: missing channel {name!r} (expected unit {unit!r})")
-            if self.units[name] != unit:
-                raise RecordingError(
-                    f"{where}: channel {name!r} must be in {unit!r}, but its unit is "
-                    f"{self.units[name]!r}"
-                )
+        check_units(where, self.units, units or {})
         return self
 
     # ------------------------------------------------------------------ access

@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from suspenv.core.atomic import write_file
-from suspenv.core.markdown import fmt, markdown_table, text
+from suspenv.core.markdown import markdown_table, text
 from suspenv.methods.identifiability import K_SIGMA, TOLERANCE_PCT, Verdict, summary_counts
 from suspenv.methods.identify import FIT_RATIO, summary
 from suspenv.reports._mpl import pyplot, save_cropped
@@ -650,5 +650,3 @@ def write_identify_report(result: IdentifyResult, out: Path, figures: bool = Tru
     write_file(rep, "\n".join(lines) + "\n")
     return [toml, js, *figs.values(), rep]
 
-
-__all__ = ["fmt", "summary", "write_identify_report"]
