@@ -312,6 +312,21 @@ class KCIdentification(Problem):
         if self._compiled_path():
             F, status = self._simulate_compiled(axle)
             rows = np.flatnonzero(status)
+        if rows.size:
+            self._simulate_chunks(axle, rows, F, ok, msgs)
+        bad = ok & ~np.isfinite(F).all(axis=1)
+        for i in np.flatnonzero(bad):
+            msgs[i] = "EvaluationError: an objective is not finite"
+        ok &= ~bad
+        F[~ok] = np.nan
+        return F, ok, msgs
+
+    def _simulate_chunks(
+        self, axle: Any, rows: np.ndarray, F: np.ndarray, ok: np.ndarray, msgs: list[str]
+    ) -> None:
+        """The objectives, ok and messages of the design ``rows`` of ``axle`` into ``F``
+        (n, 40), ``ok`` (n,) and ``msgs`` through the rig's results
+        (:meth:`_simulate_rig`), in equal chunks of at most :attr:`eval_chunk` designs."""
         m = rows.size
         parts = 1 if self.eval_chunk is None else -(-m // max(1, int(self.eval_chunk)))
         edges = np.linspace(0, m, parts + 1).round().astype(int)  # equal chunks
@@ -321,12 +336,6 @@ class KCIdentification(Problem):
                 F[part], ok[part], again = self._simulate_rig(axle.take(part))
                 for row, msg in zip(part.tolist(), again, strict=True):
                     msgs[row] = msg
-        bad = ok & ~np.isfinite(F).all(axis=1)
-        for i in np.flatnonzero(bad):
-            msgs[i] = "EvaluationError: an objective is not finite"
-        ok &= ~bad
-        F[~ok] = np.nan
-        return F, ok, msgs
 
     def _compiled_path(self) -> bool:
         """The compiled sweep and objectives apply: the plain model on the two-leg loop

@@ -602,10 +602,10 @@ class AxleSolver:
         wc = p["wheel_centre"]
         dq = self._unit_motion(p)
         # the spring: from the lower seat (knuckle) to the upper seat on the strut rod
-        seat = _length(p["spring_upper_seat"] - p["strut_top"])  # along the rod
+        seat = _length(self.s_upper_seat)  # along the rod from the strut top
         e = p["spring_lower_seat"] - p["strut_top"] - seat * self.a
         e = e / _length(e)
-        c = cross(np.stack([self.a, p["spring_lower_seat"] - wc]), np.stack([e, e]))
+        c = cross(np.stack([self.a, self.kn_pts[:, :, 3]]), np.stack([e, e]))  # 3: lower seat
         turn = dot(c[0], dq[..., 3:])  # the rod turns with the knuckle
         dL = dot(np.concatenate([e, c[1]], axis=-1), dq) - seat[..., 0] * turn
         # the contact point: the wheel centre's height minus Rw sqrt(1 - s_z^2)
@@ -627,16 +627,17 @@ class AxleSolver:
         knuckle move moves its point ``q`` by ``dt + dw x (q - wheel centre)``."""
         wc = p["wheel_centre"]
         # d(e . point at) / d(dt, dw) = (e, (at - wc) x e): the cross products of a step
-        # in one call each (the same numbers as one call per row)
+        # in one call each (the same numbers as one call per row); ``at - wc``: the
+        # knuckle's body-fixed points (ball joint, tie-rod outer, strut axis point)
         B, TRO, strut = p["lower_ball_joint"], p["tie_rod_outer"], p["strut_axis_point"]
         links = np.stack(
             [B - p["lca_front_bush"], B - p["lca_rear_bush"], TRO - p["tie_rod_inner"]]
         )
         e3 = links / _length(links)  # the two lower-arm links and the tie rod
         gap = p["strut_top"] - strut  # the strut top stays on the knuckle's strut line
-        arm_s = strut - wc
+        ball, tro, arm_s = (self.kn_pts[:, :, k] for k in (0, 1, 4))
         c = cross(
-            np.stack([B - wc, B - wc, TRO - wc, arm_s, arm_s, self.u, self.v]),
+            np.stack([ball, ball, tro, arm_s, arm_s, self.u, self.v]),
             np.stack([e3[0], e3[1], e3[2], self.u, self.v, gap, gap]),
         )
         # the six rows (translation, rotation): the three links, the strut line (u, v),
@@ -822,37 +823,42 @@ class AxleSolver:
         :meth:`take`, row ``m`` reading column ``m % c`` (c = n, or fewer columns
         shared by rows that repeat the designs in order)."""
         if self._rl_pack is None:
-            parts = [
-                (name, _broadcast(a, (self.n, 2) + a.shape[a.ndim - tail :]))
-                for name, a, tail in (
-                    ("vec", self._vec, 2),
-                    ("ground", self._ground4, 2),
-                    ("K", self._K4, 2),
-                    ("Q", self._Q, 3),
-                    ("tri", self.tri, 1),
-                    ("L_links", self._L_links, 1),
-                    ("L_links_sq", self._L_links_sq, 1),
-                    ("L_links_2", self._L_links_2, 1),
-                    ("ks", self.ks, 0),
-                    ("L_free", self.L_free, 0),
-                    ("Rw", self.Rw, 0),
-                    ("kt", self.kt, 0),
-                    ("W", self.wheel_weight, 0),
-                    ("k_bar_rot", self.k_bar_rot[:, None, :], 1),
-                    ("C_rack", self.C_rack[:, None], 0),
-                )
-                if a is not None
-            ]
-            flat = [a.reshape(self.n, 2, -1) for _, a in parts]
-            self._rl_pack = np.ascontiguousarray(np.concatenate(flat, axis=-1).transpose(2, 1, 0))
-            where, at = {}, 0
-            for (name, _), f in zip(parts, flat, strict=True):
-                where[name] = at
-                at += f.shape[-1]
-            self._rl_off = np.array([where.get(k, -1) for k in _KERNEL_FIELDS], np.int64)
+            parts = [(name, a, tail) for name, a, tail in self._pack_parts() if a is not None]
+            widths = tuple((name, math.prod(a.shape[a.ndim - tail :])) for name, a, tail in parts)
+            self._rl_off, size = _pack_offsets(widths)
+            self._rl_pack = np.empty((size, 2, self.n))
+            at = 0
+            for (_, a, tail), (_, w) in zip(parts, widths, strict=True):
+                # rows last: the (n, 2, w) view of these pack rows takes the array (its side
+                # axis broadcast where it has one value per design)
+                self._rl_pack[at : at + w].T[...] = a.reshape(a.shape[: a.ndim - tail] + (w,))
+                at += w
         if not (self._rl_pack.flags.c_contiguous and self._rl_pack.flags.writeable):
             return np.array(self._rl_pack, order="C")  # one compiled type
         return self._rl_pack
+
+    def _pack_parts(self) -> list[tuple[str, np.ndarray | None, int]]:
+        """(field of :data:`_KERNEL_FIELDS`, array (n, 2 or 1, ...), its trailing axes
+        per side) of every per-design array of the pack, in pack order (the body-fixed
+        vectors body by body, :data:`VEC_GROUPS`, as field ``vec``; no frames: None)."""
+        vec = [("vec", self._vec_body[b], 2) for b in range(len(VEC_GROUPS))]
+        return [
+            *vec,
+            ("ground", self._ground4, 2),
+            ("K", self._K4, 2),
+            ("Q", self._Q, 3),
+            ("tri", self.tri, 1),
+            ("L_links", self._L_links, 1),
+            ("L_links_sq", self._L_links_sq, 1),
+            ("L_links_2", self._L_links_2, 1),
+            ("ks", self.ks, 0),
+            ("L_free", self.L_free, 0),
+            ("Rw", self.Rw, 0),
+            ("kt", self.kt, 0),
+            ("W", self.wheel_weight, 0),
+            ("k_bar_rot", self.k_bar_rot[:, None, :], 1),
+            ("C_rack", self.C_rack[:, None], 0),
+        ]
 
     def _kernel_inputs(
         self,
@@ -1487,6 +1493,21 @@ def _exp_h(h: float) -> np.ndarray:
     return out
 
 
+@functools.lru_cache(maxsize=4)
+def _pack_offsets(widths: tuple[tuple[str, int], ...]) -> tuple[np.ndarray, int]:
+    """The offsets (read by the compiled residual in the order of :data:`_KERNEL_FIELDS`;
+    -1: absent) of the pack's fields of the given ``(field, width)`` in pack order (a
+    field's first), and the pack's height (cached: the compiled loops read the offsets
+    only)."""
+    where: dict[str, int] = {}
+    at = 0
+    for name, w in widths:
+        where.setdefault(name, at)
+        at += w
+    off = np.array([where.get(k, -1) for k in _KERNEL_FIELDS], np.int64)
+    return off, at
+
+
 def _repeated(v: np.ndarray, k: int) -> np.ndarray:
     """``k`` copies of ``v`` stacked on a new first axis, as a read-only zero-stride view."""
     if not v.flags.c_contiguous:
@@ -1501,14 +1522,9 @@ def _perp_basis(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     helper = np.zeros_like(a)
     helper[..., 0] = 1.0
     u = cross(a, helper)  # np.cross's products and differences, in fewer calls
-    u /= np.linalg.norm(u, axis=-1, keepdims=True)
+    u /= _length(u)
     v = cross(a, u)
     return u, v
-
-
-def _broadcast(a: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
-    """``a`` broadcast to ``shape`` (``a`` itself when it has that shape: fewer calls)."""
-    return a if a.shape == shape else np.broadcast_to(a, shape)
 
 
 def _length(v: np.ndarray) -> np.ndarray:
