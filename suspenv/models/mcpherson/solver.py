@@ -466,10 +466,9 @@ class AxleSolver:
         p = axle.points
         kb = axle.arb_torsion
         self.k_bar_shear = ARB_SHEAR_STIFFNESS
-        self.k_bar_rot = np.stack(
-            [np.full_like(kb, ARB_BENDING_STIFFNESS), kb, np.full_like(kb, ARB_BENDING_STIFFNESS)],
-            axis=-1,
-        )
+        self.k_bar_rot = np.empty(kb.shape + (3,))  # (n, 3) about x, y, z [N*m/rad]
+        self.k_bar_rot[:, 0] = self.k_bar_rot[:, 2] = ARB_BENDING_STIFFNESS
+        self.k_bar_rot[:, 1] = kb
         self.ground = {
             "lca_front": p["lca_front_bush"],
             "lca_rear": p["lca_rear_bush"],
@@ -643,11 +642,12 @@ class AxleSolver:
         # the six rows (translation, rotation): the three links, the strut line (u, v),
         # the wheel-centre height
         M = np.zeros(wc.shape[:-1] + (6, 6))
-        M[..., :3, :3] = np.moveaxis(e3, 0, -2)
-        M[..., :3, 3:] = np.moveaxis(c[:3], 0, -2)
+        rows_last = (1, 2, 0, 3)  # (row, n, 2, 3) -> (n, 2, row, 3)
+        M[..., :3, :3] = e3.transpose(rows_last)
+        M[..., :3, 3:] = c[:3].transpose(rows_last)
         M[..., 3, :3] = -self.u
         M[..., 4, :3] = -self.v
-        M[..., 3:5, 3:] = np.moveaxis(c[5:] - c[3:5], 0, -2)
+        M[..., 3:5, 3:] = (c[5:] - c[3:5]).transpose(rows_last)
         M[..., 5, 2] = 1.0
         rhs = np.zeros(wc.shape[:-1] + (6, 1))
         rhs[..., 5, 0] = 1.0
