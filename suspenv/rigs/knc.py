@@ -446,20 +446,13 @@ def _run_compiled(
     at = path[kept_steps] - range(grid.size)[kept][0]  # each kept step's state
     mid = i0 - range(grid.size)[kept][0]  # the design position: every drive is zero there
     hard = static_hard_points(base, AxleState(st.r[0, mid], st.R[0, mid], st.lam[0, mid]))
-    # every test's channels along its loop at once (T, n, P, 2), each test a view
-    ch = {name: np.ascontiguousarray(v[:, at].swapaxes(1, 2)) for name, v in ch.items()}
-    results = {
-        t: KCResult(
-            t,
-            test_grids[t][kept],
-            loop,
-            {name: v[j] for name, v in ch.items()},
-            np.ones(n, bool),
-            [""] * n,
-            static_points=hard,
-        )
-        for j, t in enumerate(tests)
+    # every test's channels along its loop at once (T * n, P, 2), each test a view
+    rows = len(tests) * n
+    ch = {
+        name: np.ascontiguousarray(v[:, at].swapaxes(1, 2)).reshape(rows, at.size, 2)
+        for name, v in ch.items()
     }
+    results = _results(tests, test_grids, kept, loop, ch, np.ones(rows, bool), [""] * rows, hard)
     if bad.size:
         again = rerun(bad)
         for name, v in hard.items():
@@ -534,6 +527,25 @@ def _run_numpy(
             solver, st, J_box.pop(), ok, msgs, sweep, where_at, path, per, keep_states, channels
         )
     points, loop = _window(steps, window)
+    return _results(tests, test_grids, points, loop, out, ok, msgs, hard_points, trail)
+
+
+def _results(
+    tests: Sequence[str],
+    test_grids: dict[str, np.ndarray],
+    points: slice,
+    loop: np.ndarray,
+    channels: dict[str, np.ndarray],
+    ok: np.ndarray,
+    msgs: list[str],
+    hard_points: dict[str, np.ndarray],
+    trail: Sequence[AxleState] = (),
+) -> dict[str, KCResult]:
+    """Every test's :class:`KCResult` from the rows (test x design, test-major) of the
+    channels {name: (rows, Q, 2)}, ``ok`` (rows,), messages and kept states (``trail``)
+    at the grid ``points`` on the ``loop``; each test's channels and states are views
+    of its rows."""
+    n = ok.size // len(tests)
     results = {}
     for j, t in enumerate(tests):
         sl = slice(j * n, (j + 1) * n)
@@ -541,7 +553,7 @@ def _run_numpy(
             t,
             test_grids[t][points],
             loop,
-            {name: v[sl] for name, v in out.items()},
+            {name: v[sl] for name, v in channels.items()},
             ok[sl].copy(),
             msgs[sl],
             [x.take(sl, views=True) for x in trail],
@@ -831,11 +843,12 @@ def _march_legs(
 ) -> tuple[AxleState, list[AxleState], np.ndarray, np.ndarray, list[str], _LegChannels]:
     """Both legs of :func:`_sweep_legs` stepped from the static state (``st_box``,
     ``J_box``: emptied here) to the ends of the stroke, rows leg x ``m`` (bump leg
-    first) of the ``m`` rows whose ``ok`` (m,) and messages ``msgs`` are given. Returns the legs' last states,
-    the states of every leg step (the static state first) when ``keep_states``, the
-    grid index of each leg row's last converged state (2 m,), the legs' ok (2 m,) and
-    messages, and the channels ``names`` at the grid points within ``reach`` steps of
-    the design position."""
+    first) of the ``m`` rows whose ``ok`` (m,) and messages ``msgs`` are given.
+
+    Returns the legs' last states, the states of every leg step (the static state
+    first) when ``keep_states``, the grid index of each leg row's last converged state
+    (2 m,), the legs' ok (2 m,) and messages, and the channels ``names`` at the grid
+    points within ``reach`` steps of the design position."""
     st = st_box.pop()
     m = st.r.shape[0]
     i0 = (sweep.grid.size - 1) // 2
