@@ -1019,7 +1019,7 @@ def _step(solver, st, load_prev, load, ok, msgs, J, at, history, seen=None, rel=
     model), else extrapolation along the leg (quadratic from the three states of
     ``history``, linear from two), else the tangent ``-J^-1 dres/dload``.
     """
-    (pad_prev, ext_prev, rack_prev, centre_prev), (pad, ext, rack, centre) = load_prev, load
+    (pad_prev, _, _, centre_prev), (pad, ext, rack, centre) = load_prev, load
     guess = None
     if centre is not None and centre_prev is not None:
         np.copyto(pad, pad_prev + (centre - centre_prev), where=np.isfinite(centre))
@@ -1036,40 +1036,64 @@ def _step(solver, st, load_prev, load, ok, msgs, J, at, history, seen=None, rel=
     )
     bad = ok & ~conv
     if bad.any():  # retry the failing rows from the last converged state in 4 sub-steps
-        idx = np.flatnonzero(bad)
-        sub = solver.take(idx, axle=False)
-        trial = st.take(idx)
-        sub_ok = np.ones(idx.size, bool)
-        Jt = None
-        aim = pad if guess is None else guess
-        for f in (0.25, 0.5, 0.75, 1.0):
-            p = pad_prev[idx] + f * (aim[idx] - pad_prev[idx])
-            e = None if ext is None else ext_prev[idx] + f * (ext[idx] - ext_prev[idx])
-            q = None if rack is None else rack_prev[idx] + f * (rack[idx] - rack_prev[idx])
-            c_ = None
-            if centre is not None and centre_prev is not None:
-                c_ = centre_prev[idx] + f * (centre[idx] - centre_prev[idx])
-            trial, c, Jt = sub.solve(trial, p, e, active=sub_ok, Jinv=Jt, rack=q, centre=c_)
-            sub_ok &= c
-        rescued = np.zeros_like(bad)
-        rescued[idx[sub_ok]] = True
-        new.assign(_scatter(trial, idx, new), rescued)
-        if guess is not None:  # the rescued rows' pads; the failed rows' last ones
-            pad[idx] = np.where(sub_ok[:, None], p, pad_prev[idx])
-
-        def message(i: int) -> str:
-            return (
-                f"ConvergenceError: Newton did not converge at "
-                f"{at if isinstance(at, str) else at(i)}; "
-                "the linkage locks up or the design has no equilibrium there"
-            )
-
-        _fail(ok, msgs, bad & ~rescued, message)
+        rescued = _substeps(solver, st, new, bad, load_prev, load, guess)
+        _fail(ok, msgs, bad & ~rescued, functools.partial(_no_convergence, at))
     new = solver.commit(new)
     if not ok.all():  # failed rows keep their last converged state
         new = new.copy()
         new.assign(st, ~ok)
     return new, J
+
+
+def _substeps(
+    solver: AxleSolver,
+    st: AxleState,
+    new: AxleState,
+    bad: np.ndarray,
+    load_prev: Load,
+    load: Load,
+    guess: np.ndarray | None,
+) -> np.ndarray:
+    """Retry the rows ``bad`` (bool mask) that failed a step from their last converged
+    state ``st`` in four equal sub-steps of the rig's input from ``load_prev`` to
+    ``load`` (the pads towards ``guess`` [m] under a wheel-centre drive); the rescued
+    rows' states go into ``new`` and, under a wheel-centre drive, their pads into
+    ``load``'s (the others' back to the last step's). Returns the rescued rows."""
+    idx = np.flatnonzero(bad)
+    sub = solver.take(idx, axle=False)
+    trial = st.take(idx)
+    sub_ok = np.ones(idx.size, bool)
+    Jt = None
+    pad_prev, pad = load_prev[0], load[0]
+    aim = (pad if guess is None else guess, *load[1:])
+    for f in (0.25, 0.5, 0.75, 1.0):
+        p = pad_prev[idx] + f * (aim[0][idx] - pad_prev[idx])
+        e, q, c = (_between(a, b, idx, f) for a, b in zip(load_prev[1:], aim[1:], strict=True))
+        trial, conv, Jt = sub.solve(trial, p, e, active=sub_ok, Jinv=Jt, rack=q, centre=c)
+        sub_ok &= conv
+    rescued = np.zeros_like(bad)
+    rescued[idx[sub_ok]] = True
+    new.assign(_scatter(trial, idx, new), rescued)
+    if guess is not None:  # the rescued rows' pads; the failed rows' last ones
+        pad[idx] = np.where(sub_ok[:, None], p, pad_prev[idx])
+    return rescued
+
+
+def _between(
+    a: np.ndarray | None, b: np.ndarray | None, idx: np.ndarray, f: float
+) -> np.ndarray | None:
+    """The rows ``idx`` of the input ``f`` of the way from ``a`` to ``b`` (None when
+    the input is not given)."""
+    return None if a is None or b is None else a[idx] + f * (b[idx] - a[idx])
+
+
+def _no_convergence(at: str | Callable[[int], str], i: int) -> str:
+    """The failure message of row ``i`` whose Newton iteration did not converge at the
+    step ``at`` (text, or row -> text)."""
+    return (
+        f"ConvergenceError: Newton did not converge at {at if isinstance(at, str) else at(i)}; "
+        "the linkage locks up or the design has no equilibrium there"
+    )
 
 
 def _prediction(solver, st, load_prev, load, ok, J, history, seen, rel) -> AxleState:
