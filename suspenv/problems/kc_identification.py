@@ -160,6 +160,18 @@ def effect_from_dict(d: Mapping[str, Any], owner: str = "axle effect") -> Effect
     )
 
 
+def _model_effects(owner: str, tables: Sequence[Mapping[str, Any]] | None) -> tuple[Effect, ...]:
+    """The model's effects from their tables (:func:`effect_from_dict`; None: none)."""
+    if tables is not None and not isinstance(tables, list | tuple):
+        raise ValidationError(
+            f"{owner}: `model_effects` must be a list of effect tables, but got "
+            f"model_effects={tables!r}"
+        )
+    return tuple(
+        effect_from_dict(d, f"{owner}: model_effects[{i}]") for i, d in enumerate(tables or ())
+    )
+
+
 @lru_cache(maxsize=8)
 def _measured(seed: int, concealed: tuple[str, ...], amplitude: float, steps: int):
     truth = concealed_car(seed, concealed)
@@ -216,18 +228,8 @@ class KCIdentification(Problem):
             raise ValidationError(
                 f"{owner}: `steps` must be even and >= 8, but got steps={steps!r}"
             )
-        if model_effects is not None and not isinstance(model_effects, list | tuple):
-            raise ValidationError(
-                f"{owner}: `model_effects` must be a list of effect tables, but got "
-                f"model_effects={model_effects!r}"
-            )
-        self.model_effects: tuple[Effect, ...] = tuple(
-            effect_from_dict(d, f"{owner}: model_effects[{i}]")
-            for i, d in enumerate(model_effects or ())
-        )
-        from suspenv.measurements.knc_file import load_measurement
+        self.model_effects: tuple[Effect, ...] = _model_effects(owner, model_effects)
         from suspenv.models.mcpherson.vehicle_file import REFERENCE_FILE, load_vehicle
-        from suspenv.rigs.knc_measured import measured_results
 
         for key, val in (("measurements", measurements), ("vehicle", vehicle)):
             if val is not None and not isinstance(val, str | Path):
@@ -243,37 +245,51 @@ class KCIdentification(Problem):
         self.objective_names = OBJECTIVE_NAMES
         self.objective_units = OBJECTIVE_UNITS
         self.constraint_names = ()
-        self.truth: TruthVehicle | None
+        self.truth: TruthVehicle | None = None
+        self.measured: dict[str, KCResult]
         if self.measurements_path is None:
-            truth, results, targets = _measured(
-                self.truth_seed, self.concealed, self.amplitude, self.steps
-            )
-            self.truth = truth
-            self.measured: dict[str, KCResult] = results
-            if not truth.effects and not truth.noise and self._compiled_path():
-                # loops the model itself makes (no effects, no noise): their objectives
-                # by the candidates' own path, so that the truth reproduces them to the bit
-                F, status = self._simulate_compiled(truth.axle())
-                targets = targets if status[0] else F[0]
-            self.measurement = car_measurement(results, self.truth_seed, self.concealed)
+            targets = self._test_car_targets()
         else:
-            self.measurement = load_measurement(Path(self.measurements_path), tests=TESTS)
-            self.measured = {
-                t: r for t, r in measured_results(self.measurement).items() if t in TESTS
-            }
-            first = self.measured[TESTS[0]]
-            self.steps = int(first.grid.size - 1)
-            self.amplitude = float(first.grid[-1])
-            for t, r in self.measured.items():
-                if r.grid.size - 1 != self.steps or not np.isclose(r.grid[-1], self.amplitude):
-                    raise ValidationError(
-                        f"{owner}: the travel tests must share one stroke and grid, but "
-                        f"{t!r} has +-{r.grid[-1] * 1e3:g} mm in {r.grid.size - 1} steps and "
-                        f"{TESTS[0]!r} +-{self.amplitude * 1e3:g} mm in {self.steps} steps"
-                    )
-            self.truth = None
-            targets = objectives(self.measured)[0]
+            targets = self._measured_targets(Path(self.measurements_path))
         self.targets: np.ndarray = targets.copy()
+
+    def _test_car_targets(self) -> np.ndarray:
+        """The objectives (40,) of the test car's loops (its truth, results and
+        measurement set here)."""
+        truth, results, targets = _measured(
+            self.truth_seed, self.concealed, self.amplitude, self.steps
+        )
+        self.truth = truth
+        self.measured = results
+        if not truth.effects and not truth.noise and self._compiled_path():
+            # loops the model itself makes (no effects, no noise): their objectives
+            # by the candidates' own path, so that the truth reproduces them to the bit
+            F, status = self._simulate_compiled(truth.axle())
+            targets = targets if status[0] else F[0]
+        self.measurement = car_measurement(results, self.truth_seed, self.concealed)
+        return targets
+
+    def _measured_targets(self, path: Path) -> np.ndarray:
+        """The objectives (40,) of the measured loops in the file ``path`` (measurement,
+        results, stroke [m] and steps set here from the file; the travel tests must
+        share one stroke and grid)."""
+        from suspenv.measurements.knc_file import load_measurement
+        from suspenv.rigs.knc_measured import measured_results
+
+        owner = self.name
+        self.measurement = load_measurement(path, tests=TESTS)
+        self.measured = {t: r for t, r in measured_results(self.measurement).items() if t in TESTS}
+        first = self.measured[TESTS[0]]
+        self.steps = int(first.grid.size - 1)
+        self.amplitude = float(first.grid[-1])
+        for t, r in self.measured.items():
+            if r.grid.size - 1 != self.steps or not np.isclose(r.grid[-1], self.amplitude):
+                raise ValidationError(
+                    f"{owner}: the travel tests must share one stroke and grid, but "
+                    f"{t!r} has +-{r.grid[-1] * 1e3:g} mm in {r.grid.size - 1} steps and "
+                    f"{TESTS[0]!r} +-{self.amplitude * 1e3:g} mm in {self.steps} steps"
+                )
+        return objectives(self.measured)[0]
 
     # ----------------------------------------------------------------- physics
     #: candidates per internal chunk of the rig's numpy path in :meth:`simulate` (None:
@@ -312,6 +328,21 @@ class KCIdentification(Problem):
         if self._compiled_path():
             F, status = self._simulate_compiled(axle)
             rows = np.flatnonzero(status)
+        if rows.size:
+            self._simulate_chunks(axle, rows, F, ok, msgs)
+        bad = ok & ~np.isfinite(F).all(axis=1)
+        for i in np.flatnonzero(bad):
+            msgs[i] = "EvaluationError: an objective is not finite"
+        ok &= ~bad
+        F[~ok] = np.nan
+        return F, ok, msgs
+
+    def _simulate_chunks(
+        self, axle: Any, rows: np.ndarray, F: np.ndarray, ok: np.ndarray, msgs: list[str]
+    ) -> None:
+        """The objectives, ok and messages of the design ``rows`` of ``axle`` into ``F``
+        (n, 40), ``ok`` (n,) and ``msgs`` through the rig's results
+        (:meth:`_simulate_rig`), in equal chunks of at most :attr:`eval_chunk` designs."""
         m = rows.size
         parts = 1 if self.eval_chunk is None else -(-m // max(1, int(self.eval_chunk)))
         edges = np.linspace(0, m, parts + 1).round().astype(int)  # equal chunks
@@ -321,12 +352,6 @@ class KCIdentification(Problem):
                 F[part], ok[part], again = self._simulate_rig(axle.take(part))
                 for row, msg in zip(part.tolist(), again, strict=True):
                     msgs[row] = msg
-        bad = ok & ~np.isfinite(F).all(axis=1)
-        for i in np.flatnonzero(bad):
-            msgs[i] = "EvaluationError: an objective is not finite"
-        ok &= ~bad
-        F[~ok] = np.nan
-        return F, ok, msgs
 
     def _compiled_path(self) -> bool:
         """The compiled sweep and objectives apply: the plain model on the two-leg loop

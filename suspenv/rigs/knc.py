@@ -345,6 +345,29 @@ def run_tests(
     the left wheel centre's travel, and the ``pad_z`` channel holds the pad heights the
     rig needed.
     """
+    _check_options(tests, travel_drive, force_amplitude, moment_amplitude, rack_amplitude)
+    _check_window(channels, window, steps)
+    grid = stroke_grid(amplitude, steps)
+    test_grids = _test_grids(tests, grid, force_amplitude, moment_amplitude, rack_amplitude)
+    base = AxleSolver(axle, effects)
+    args = (tests, test_grids, grid, keep_states, reuse_revisits, channels, window, travel_drive)
+    two_legs = reuse_revisits and not keep_states and travel_drive == "pad"
+    if COMPILED_SWEEP and compiled.AVAILABLE and two_legs and not base.effects:
+        return _run_compiled(
+            base, args, lambda rows: _run_numpy(AxleSolver(axle.take(rows), effects), *args)
+        )
+    return _run_numpy(base, *args)
+
+
+def _check_options(
+    tests: Sequence[str],
+    travel_drive: str,
+    force_amplitude: float,
+    moment_amplitude: float,
+    rack_amplitude: float,
+) -> None:
+    """Refuse unknown tests or travel drives and amplitudes that are not > 0 ([N],
+    [N*m], [m]) with an error naming the rule and the value."""
     if travel_drive not in TRAVEL_DRIVES:
         raise ValidationError(
             f"`travel_drive` must be one of {TRAVEL_DRIVES}, but got {travel_drive!r}"
@@ -354,6 +377,11 @@ def run_tests(
     for (key, value), unit in zip(amplitudes.items(), ("N", "N*m", "m"), strict=True):
         if not value > 0:
             raise ValidationError(f"`{key}_amplitude > 0` must hold, but got {value} {unit}")
+
+
+def _check_window(channels: Sequence[str] | None, window: int | None, steps: int) -> None:
+    """Refuse ``channels`` that are not rig channels (:data:`OUTPUT_NAMES`) and a
+    ``window`` that is not a whole number of grid steps in ``1..steps/2``."""
     unknown = sorted(set(channels or ()) - set(OUTPUT_NAMES))
     if unknown or (channels is not None and isinstance(channels, str)):
         raise ValidationError(
@@ -366,23 +394,25 @@ def run_tests(
             f"`window` must be a whole number of grid steps in 1..steps/2 = 1..{steps // 2} "
             f"(or None), but got window={window!r}"
         )
-    grid = stroke_grid(amplitude, steps)
-    # each test's own grid (travel: pad stroke [m]; force [N]; moment [N*m]; rack [m])
+
+
+def _test_grids(
+    tests: Sequence[str],
+    grid: np.ndarray,
+    force_amplitude: float,
+    moment_amplitude: float,
+    rack_amplitude: float,
+) -> dict[str, np.ndarray]:
+    """Each test's own grid (:data:`DRIVE_UNIT`) of as many points as the travel grid
+    ``grid`` [m] (the travel tests'): force [N], moment [N*m] or rack travel [m]."""
+    steps = grid.size - 1
     own_amplitude = {"aligning": moment_amplitude, "steering": rack_amplitude}
-    test_grids = {
+    return {
         t: grid
         if t in TESTS
         else stroke_grid(own_amplitude.get(OPPOSED_TESTS.get(t, t), force_amplitude), steps)
         for t in tests
     }
-    base = AxleSolver(axle, effects)
-    args = (tests, test_grids, grid, keep_states, reuse_revisits, channels, window, travel_drive)
-    two_legs = reuse_revisits and not keep_states and travel_drive == "pad"
-    if COMPILED_SWEEP and compiled.AVAILABLE and two_legs and not base.effects:
-        return _run_compiled(
-            base, args, lambda rows: _run_numpy(AxleSolver(axle.take(rows), effects), *args)
-        )
-    return _run_numpy(base, *args)
 
 
 def _run_compiled(
@@ -397,7 +427,7 @@ def _run_compiled(
     tests, test_grids, grid, _, _, channels, window, _ = args
     n, steps = base.n, grid.size - 1
     i0, path = steps // 2, loop_path(steps)
-    kept = slice(None) if window is None else slice(i0 - window, i0 + window + 1)
+    kept, loop = _window(steps, window)
     pad_off = np.stack([pad_offsets(t, grid) for t in tests])  # (T, G, 2) [m]
     cols = 9 if "traction" in tests else 6
     ext = None  # wheel loads (T, G, 2, cols) [N, N*m] and rack travel (T, G, 2) [m]
@@ -416,21 +446,13 @@ def _run_compiled(
     at = path[kept_steps] - range(grid.size)[kept][0]  # each kept step's state
     mid = i0 - range(grid.size)[kept][0]  # the design position: every drive is zero there
     hard = static_hard_points(base, AxleState(st.r[0, mid], st.R[0, mid], st.lam[0, mid]))
-    # every test's channels along its loop at once (T, n, P, 2), each test a view
-    ch = {name: np.ascontiguousarray(v[:, at].swapaxes(1, 2)) for name, v in ch.items()}
-    path = path if window is None else loop_path(2 * window)
-    results = {
-        t: KCResult(
-            t,
-            test_grids[t][kept],
-            path,
-            {name: v[j] for name, v in ch.items()},
-            np.ones(n, bool),
-            [""] * n,
-            static_points=hard,
-        )
-        for j, t in enumerate(tests)
+    # every test's channels along its loop at once (T * n, P, 2), each test a view
+    rows = len(tests) * n
+    ch = {
+        name: np.ascontiguousarray(v[:, at].swapaxes(1, 2)).reshape(rows, at.size, 2)
+        for name, v in ch.items()
     }
+    results = _results(tests, test_grids, kept, loop, ch, np.ones(rows, bool), [""] * rows, hard)
     if bad.size:
         again = rerun(bad)
         for name, v in hard.items():
@@ -481,6 +503,88 @@ def _run_numpy(
     # one per row (the sequential loop); in a box, so that the sweep can free them
     J_box = [J0 if reuse else J0[tile]]
     del st0, J0  # the per-design copies are no longer needed (memory)
+    rows = nt * n
+    ok = np.ones(rows, bool)
+    msgs = [""] * rows
+    _fail(ok, msgs, ~conv0[tile], "ConvergenceError: no static equilibrium at the design position")
+    st = solver.commit(st)
+    centred = st if travel_drive == "wheel_centre" else None
+    sweep = _row_inputs(solver.pad_static, tests, test_grids, grid, n, centred)
+    # step descriptions of failure messages, formatted once per grid point when asked for
+    where_at = _Texts(functools.partial(_where_text, tests, test_grids, centred is not None))
+    if reuse:
+        legs = solver.take(np.tile(np.arange(rows), 2), axle=False)  # leg x test x design
+        st_box = [st]  # (the sweep frees the static state once its legs start from it)
+        del solver, st, centred
+        out, trail = _sweep_legs(
+            legs, st_box, J_box, nt, ok, msgs, sweep, where_at, path, keep_states, channels,
+            kept_steps,
+        )  # fmt: skip
+    else:
+        # channels in vectorised calls of about 4 JACOBIAN_BLOCK row evaluations each
+        per = max(1, 4 * JACOBIAN_BLOCK // max(rows, 1))
+        out, trail = _sweep_loop(
+            solver, st, J_box.pop(), ok, msgs, sweep, where_at, path, per, keep_states, channels
+        )
+    points, loop = _window(steps, window)
+    return _results(tests, test_grids, points, loop, out, ok, msgs, hard_points, trail)
+
+
+def _results(
+    tests: Sequence[str],
+    test_grids: dict[str, np.ndarray],
+    points: slice,
+    loop: np.ndarray,
+    channels: dict[str, np.ndarray],
+    ok: np.ndarray,
+    msgs: list[str],
+    hard_points: dict[str, np.ndarray],
+    trail: Sequence[AxleState] = (),
+) -> dict[str, KCResult]:
+    """Every test's :class:`KCResult` from the rows (test x design, test-major) of the
+    channels {name: (rows, Q, 2)}, ``ok`` (rows,), messages and kept states (``trail``)
+    at the grid ``points`` on the ``loop``; each test's channels and states are views
+    of its rows."""
+    n = ok.size // len(tests)
+    results = {}
+    for j, t in enumerate(tests):
+        sl = slice(j * n, (j + 1) * n)
+        results[t] = KCResult(
+            t,
+            test_grids[t][points],
+            loop,
+            {name: v[sl] for name, v in channels.items()},
+            ok[sl].copy(),
+            msgs[sl],
+            [x.take(sl, views=True) for x in trail],
+            hard_points,
+        )
+    return results
+
+
+def _window(steps: int, window: int | None) -> tuple[slice, np.ndarray]:
+    """The grid points (a slice of the ``steps + 1``) whose channels the results keep and
+    the loop over them (:func:`loop_path`): every grid point (``window`` None) or those
+    within ``window`` steps of the design position."""
+    if window is None:
+        return slice(None), loop_path(steps)
+    i0 = steps // 2
+    return slice(i0 - window, i0 + window + 1), loop_path(2 * window)
+
+
+def _row_inputs(
+    pad0: np.ndarray,
+    tests: Sequence[str],
+    test_grids: dict[str, np.ndarray],
+    grid: np.ndarray,
+    n: int,
+    centred: AxleState | None,
+) -> _Sweep:
+    """The rig's inputs (:class:`_Sweep`) of every row (test x ``n`` designs,
+    test-major) at static pad heights ``pad0`` [m]: the tests' pad signs, drive grids,
+    wheel loads and rack travel per unit drive and, for a wheel-centre travel drive,
+    the static wheel-centre heights of the moving wheels in the rows' static state
+    ``centred`` (None: the pads are driven)."""
     signs = np.repeat(np.array([_PAD_SIGN.get(t, (0.0, 0.0)) for t in tests]), n, axis=0)
     # every row's own grid (nt*n, steps+1): the drive of its test at each grid point
     row_grid = np.repeat(np.stack([test_grids[t] for t in tests]), n, axis=0)
@@ -498,60 +602,24 @@ def _run_numpy(
         if set(tests) & set(STEER_TESTS)
         else None
     )
-    rows = nt * n
-    ok = np.ones(rows, bool)
-    msgs = [""] * rows
-    pad0 = solver.pad_static
-    _fail(ok, msgs, ~conv0[tile], "ConvergenceError: no static equilibrium at the design position")
-    st = solver.commit(st)
     # wheel-centre drive: the static wheel-centre heights of the moving wheels (NaN: held
     # by the pad)
-    centre0 = (
-        np.where(signs != 0, st.r[:, :, 1, 2], np.nan) if travel_drive == "wheel_centre" else None
-    )
+    centre0 = None if centred is None else np.where(signs != 0, centred.r[:, :, 1, 2], np.nan)
+    return _Sweep(pad0, signs, grid, row_grid, ext_dir, rack_dir, centre0)
 
-    def where_text(gi: int) -> str:
-        parts = []
-        for t in tests:
-            scale, shown, digits = _DRIVE_SHOWN[DRIVE_UNIT[t]]
-            value = test_grids[t][gi] * scale
-            stroke = "wheel-centre travel" if centre0 is not None else "stroke"
-            parts.append(f"{_DRIVE_NAME.get(t, stroke)} {value:+.{digits}f} {shown}")
-        return ", ".join(dict.fromkeys(parts))
 
-    # step descriptions of failure messages, formatted once per grid point when asked for
-    where_at = _Texts(where_text)
-    sweep = _Sweep(pad0, signs, grid, row_grid, ext_dir, rack_dir, centre0)
-    if reuse:
-        legs = solver.take(np.tile(np.arange(rows), 2), axle=False)  # leg x test x design
-        st_box = [st]  # (the sweep frees the static state once its legs start from it)
-        del solver, st
-        out, trail = _sweep_legs(
-            legs, st_box, J_box, nt, ok, msgs, sweep, where_at, path, keep_states, channels,
-            kept_steps,
-        )  # fmt: skip
-    else:
-        # channels in vectorised calls of about 4 JACOBIAN_BLOCK row evaluations each
-        per = max(1, 4 * JACOBIAN_BLOCK // max(rows, 1))
-        out, trail = _sweep_loop(
-            solver, st, J_box.pop(), ok, msgs, sweep, where_at, path, per, keep_states, channels
-        )
-    i0 = steps // 2
-    points = slice(None) if window is None else slice(i0 - window, i0 + window + 1)
-    results = {}
-    for j, t in enumerate(tests):
-        sl = slice(j * n, (j + 1) * n)
-        results[t] = KCResult(
-            t,
-            test_grids[t][points],
-            path if window is None else loop_path(2 * window),
-            {name: v[sl] for name, v in out.items()},
-            ok[sl].copy(),
-            msgs[sl],
-            [x.take(sl, views=True) for x in trail] if keep_states else [],
-            hard_points,
-        )
-    return results
+def _where_text(
+    tests: Sequence[str], test_grids: dict[str, np.ndarray], centred: bool, gi: int
+) -> str:
+    """The rig's input at grid index ``gi`` in words for failure messages: every test's
+    drive in its shown unit (``centred``: the travel tests drive the wheel centres)."""
+    parts = []
+    for t in tests:
+        scale, shown, digits = _DRIVE_SHOWN[DRIVE_UNIT[t]]
+        value = test_grids[t][gi] * scale
+        stroke = "wheel-centre travel" if centred else "stroke"
+        parts.append(f"{_DRIVE_NAME.get(t, stroke)} {value:+.{digits}f} {shown}")
+    return ", ".join(dict.fromkeys(parts))
 
 
 @dataclass(frozen=True)
@@ -728,10 +796,62 @@ def _sweep_legs(
     ``names`` (None: all) at the ``Q`` steps ``kept_steps`` of the loop (indices into
     ``path``), states of those steps when ``keep_states``).
     """
-    st = st_box.pop()
-    m = st.r.shape[0]
     steps = sweep.grid.size - 1
     i0 = steps // 2
+    grid_at = path[kept_steps]  # grid index of every kept step
+    reach = int(np.abs(grid_at - i0).max())
+    lst, kept, last, lok, lmsgs, chans = _march_legs(
+        lsolver, st_box, J_box, nt, ok, msgs, sweep, where_at, keep_states, names, reach
+    )
+    m = ok.size
+    # a row fails when either leg fails; the bump leg comes first in the loop
+    up_ok, down_ok = lok[:m], lok[m:]
+    for i in range(m):
+        msgs[i] = lmsgs[i] if not up_ok[i] else lmsgs[m + i]
+    ok &= up_ok & down_ok
+    # every row's grid index at each kept step of the loop; a failed row keeps its last
+    # converged state from its failing step on (the step of that state in the loop)
+    P = path.size
+    k_last = np.where(~up_ok, last[:m] - i0, np.where(~down_ok, 2 * steps - i0 - last[m:], P))
+    frozen = np.where(~up_ok, last[:m], last[m:])
+    later = kept_steps[None, :] >= k_last[:, None]  # (rows, Q): from the failing step on
+    idx = np.where(later, frozen[:, None], grid_at[None, :])
+    out = {
+        name: np.ascontiguousarray(v[grid_at - chans.lo].swapaxes(0, 1))
+        for name, v in chans.ch.items()
+    }
+    bad = np.flatnonzero(k_last < P)
+    if bad.size:  # the failed leg's row of each failed row
+        rows = np.where(~up_ok[bad], bad, m + bad)
+        _freeze_failed(out, lsolver, lst, rows, bad, later, sweep, grid_at, names)
+    del lst
+    return out, _grid_states(kept, idx) if keep_states else []
+
+
+def _march_legs(
+    lsolver: AxleSolver,
+    st_box: list[AxleState],
+    J_box: list[np.ndarray],
+    nt: int,
+    ok: np.ndarray,
+    msgs: list[str],
+    sweep: _Sweep,
+    where_at: Mapping[int, str],
+    keep_states: bool,
+    names: Sequence[str] | None,
+    reach: int,
+) -> tuple[AxleState, list[AxleState], np.ndarray, np.ndarray, list[str], _LegChannels]:
+    """Both legs of :func:`_sweep_legs` stepped from the static state (``st_box``,
+    ``J_box``: emptied here) to the ends of the stroke, rows leg x ``m`` (bump leg
+    first) of the ``m`` rows whose ``ok`` (m,) and messages ``msgs`` are given.
+
+    Returns the legs' last states, the states of every leg step (the static state
+    first) when ``keep_states``, the grid index of each leg row's last converged state
+    (2 m,), the legs' ok (2 m,) and messages, and the channels ``names`` at the grid
+    points within ``reach`` steps of the design position."""
+    st = st_box.pop()
+    m = st.r.shape[0]
+    i0 = (sweep.grid.size - 1) // 2
     lst = st.take(np.tile(np.arange(m), 2))  # rows: leg-major (bump leg, rebound leg)
     del st  # (memory)
     Jinv: np.ndarray | SharedInverse = SharedInverse(J_box.pop(), 2 * nt)
@@ -742,26 +862,14 @@ def _sweep_legs(
     rel: dict | None = {} if PREDICTOR_CACHE else None
     history: list[AxleState] = []
     kept: list[AxleState] = [lst] if keep_states else []
-    grid_at = path[kept_steps]  # grid index of every kept step
-    chans = _LegChannels(lsolver, m, int(np.abs(grid_at - i0).max()), i0, names)
+    chans = _LegChannels(lsolver, m, reach, i0, names)
     prev_load = sweep.load(i0, 2)
     chans.pending.append((0, lst, prev_load[0]))
     for j in range(1, i0 + 1):
         gi = i0 + direction * j
         load = sweep.load(gi, 2)
-        # the step of the sequential loop that first reaches each row's grid point
-        k = np.where(direction > 0, j, 2 * steps - i0 - gi)
-
-        def at(i: int, k=k, gi=gi) -> str:
-            return f"step {k[i]} ({where_at[gi[i]]})"
-
-        # the legs' first steps and the static state are three equally spaced states of
-        # both legs: the second step is extrapolated quadratically from them, the third
-        # cubically from them and the second step
-        if j == 2:
-            history = [lst.take(np.r_[m : 2 * m, 0:m]), history[-1], lst]
-        else:
-            history = [*history[-(LEG_ORDER - 1) :], lst]
+        at = functools.partial(_leg_where, where_at, _loop_step(j, gi, direction, i0), gi)
+        history = _leg_history(history, lst, j, m)
         lst, Jinv = _step(lsolver, lst, prev_load, load, lok, lmsgs, Jinv, at, history, None, rel)
         # the predictor's relative rotations of the states before the last are cached: no
         # later step reads their rotation matrices (unless their channels are due)
@@ -775,44 +883,51 @@ def _sweep_legs(
         chans.add(j, lst, load[0])
         prev_load = load
     chans.flush()
-    del Jinv, history  # (memory)
-    # a row fails when either leg fails; the bump leg comes first in the loop
-    up_ok, down_ok = lok[:m], lok[m:]
-    for i in range(m):
-        msgs[i] = lmsgs[i] if not up_ok[i] else lmsgs[m + i]
-    ok &= up_ok & down_ok
-    # every row's grid index at each kept step of the loop; a failed row keeps its last
-    # converged state from its failing step on (the step of that state in the loop)
-    P = path.size
-    k_last = np.where(~up_ok, last[:m] - i0, np.where(~down_ok, 2 * steps - i0 - last[m:], P))
-    frozen = np.where(~up_ok, last[:m], last[m:])
-    later = kept_steps[None, :] >= k_last[:, None]  # (rows, Q): from the failing step on
-    idx = np.where(later, frozen[:, None], grid_at[None, :])
-    rr = np.arange(m)[:, None]
-    out = {
-        name: np.ascontiguousarray(v[grid_at - chans.lo].swapaxes(0, 1))
-        for name, v in chans.ch.items()
-    }
-    bad = np.flatnonzero(k_last < P)
-    if bad.size:  # the failed leg's row of each failed row
-        rows = np.where(~up_ok[bad], bad, m + bad)
-        _freeze_failed(out, lsolver, lst, rows, bad, later, sweep, grid_at, names)
-    del lst
-    trail: list[AxleState] = []
-    if keep_states:
-        # the state of every grid point: bump side from the bump leg, rebound side from
-        # the rebound leg (the design position is the static state of both)
-        def at_grid(x: np.ndarray) -> np.ndarray:  # (i0 + 1, 2 * rows, ...) -> (G, rows, ...)
-            return np.concatenate([x[:0:-1, m:], x[:, :m]])
+    return lst, kept, last, lok, lmsgs, chans
 
-        r = at_grid(np.stack([x.r for x in kept]))
-        R = at_grid(np.stack([x.R for x in kept]))
-        lam = at_grid(np.stack([x.lam for x in kept]))
-        trail = [
-            AxleState(r[idx[:, q], rr[:, 0]], R[idx[:, q], rr[:, 0]], lam[idx[:, q], rr[:, 0]])
-            for q in range(kept_steps.size)
-        ]
-    return out, trail
+
+def _loop_step(j: int, gi: np.ndarray, direction: np.ndarray, i0: int) -> np.ndarray:
+    """The step (2 m,) of the sequential loop (:func:`loop_path`) that first reaches
+    each leg row's grid point ``gi`` at leg step ``j`` (``direction``: +1 on the bump
+    leg, -1 on the rebound leg)."""
+    steps = 2 * i0
+    return np.where(direction > 0, j, 2 * steps - i0 - gi)
+
+
+def _leg_where(where_at: Mapping[int, str], k: np.ndarray, gi: np.ndarray, i: int) -> str:
+    """Leg row ``i``'s step in words: its step ``k`` of the loop and grid point ``gi``."""
+    return f"step {k[i]} ({where_at[gi[i]]})"
+
+
+def _leg_history(history: list[AxleState], lst: AxleState, j: int, m: int) -> list[AxleState]:
+    """The states (oldest first) that the predictor of leg step ``j`` extrapolates from,
+    ending with the last converged state ``lst`` (rows leg x ``m``): the legs' first
+    steps and the static state are three equally spaced states of both legs, so the
+    second step is extrapolated quadratically from them, the third cubically from them
+    and the second step; later steps from the leg's last :data:`LEG_ORDER` states."""
+    if j == 2:
+        return [lst.take(np.r_[m : 2 * m, 0:m]), history[-1], lst]
+    return [*history[-(LEG_ORDER - 1) :], lst]
+
+
+def _grid_states(kept: list[AxleState], idx: np.ndarray) -> list[AxleState]:
+    """The state of every kept step of the loop from the legs' states ``kept`` (leg step
+    0 .. i0, rows leg x m): row ``i`` at kept step ``q`` in the state of grid point
+    ``idx[i, q]`` (m, Q), the bump side from the bump leg, the rebound side from the
+    rebound leg (the design position is the static state of both)."""
+    m = idx.shape[0]
+
+    def at_grid(x: np.ndarray) -> np.ndarray:  # (i0 + 1, 2 * rows, ...) -> (G, rows, ...)
+        return np.concatenate([x[:0:-1, m:], x[:, :m]])
+
+    r = at_grid(np.stack([x.r for x in kept]))
+    R = at_grid(np.stack([x.R for x in kept]))
+    lam = at_grid(np.stack([x.lam for x in kept]))
+    rr = np.arange(m)
+    return [
+        AxleState(r[idx[:, q], rr], R[idx[:, q], rr], lam[idx[:, q], rr])
+        for q in range(idx.shape[1])
+    ]
 
 
 class _LegChannels:
@@ -904,7 +1019,7 @@ def _step(solver, st, load_prev, load, ok, msgs, J, at, history, seen=None, rel=
     model), else extrapolation along the leg (quadratic from the three states of
     ``history``, linear from two), else the tangent ``-J^-1 dres/dload``.
     """
-    (pad_prev, ext_prev, rack_prev, centre_prev), (pad, ext, rack, centre) = load_prev, load
+    (pad_prev, _, _, centre_prev), (pad, ext, rack, centre) = load_prev, load
     guess = None
     if centre is not None and centre_prev is not None:
         np.copyto(pad, pad_prev + (centre - centre_prev), where=np.isfinite(centre))
@@ -921,40 +1036,64 @@ def _step(solver, st, load_prev, load, ok, msgs, J, at, history, seen=None, rel=
     )
     bad = ok & ~conv
     if bad.any():  # retry the failing rows from the last converged state in 4 sub-steps
-        idx = np.flatnonzero(bad)
-        sub = solver.take(idx, axle=False)
-        trial = st.take(idx)
-        sub_ok = np.ones(idx.size, bool)
-        Jt = None
-        aim = pad if guess is None else guess
-        for f in (0.25, 0.5, 0.75, 1.0):
-            p = pad_prev[idx] + f * (aim[idx] - pad_prev[idx])
-            e = None if ext is None else ext_prev[idx] + f * (ext[idx] - ext_prev[idx])
-            q = None if rack is None else rack_prev[idx] + f * (rack[idx] - rack_prev[idx])
-            c_ = None
-            if centre is not None and centre_prev is not None:
-                c_ = centre_prev[idx] + f * (centre[idx] - centre_prev[idx])
-            trial, c, Jt = sub.solve(trial, p, e, active=sub_ok, Jinv=Jt, rack=q, centre=c_)
-            sub_ok &= c
-        rescued = np.zeros_like(bad)
-        rescued[idx[sub_ok]] = True
-        new.assign(_scatter(trial, idx, new), rescued)
-        if guess is not None:  # the rescued rows' pads; the failed rows' last ones
-            pad[idx] = np.where(sub_ok[:, None], p, pad_prev[idx])
-
-        def message(i: int) -> str:
-            return (
-                f"ConvergenceError: Newton did not converge at "
-                f"{at if isinstance(at, str) else at(i)}; "
-                "the linkage locks up or the design has no equilibrium there"
-            )
-
-        _fail(ok, msgs, bad & ~rescued, message)
+        rescued = _substeps(solver, st, new, bad, load_prev, load, guess)
+        _fail(ok, msgs, bad & ~rescued, functools.partial(_no_convergence, at))
     new = solver.commit(new)
     if not ok.all():  # failed rows keep their last converged state
         new = new.copy()
         new.assign(st, ~ok)
     return new, J
+
+
+def _substeps(
+    solver: AxleSolver,
+    st: AxleState,
+    new: AxleState,
+    bad: np.ndarray,
+    load_prev: Load,
+    load: Load,
+    guess: np.ndarray | None,
+) -> np.ndarray:
+    """Retry the rows ``bad`` (bool mask) that failed a step from their last converged
+    state ``st`` in four equal sub-steps of the rig's input from ``load_prev`` to
+    ``load`` (the pads towards ``guess`` [m] under a wheel-centre drive); the rescued
+    rows' states go into ``new`` and, under a wheel-centre drive, their pads into
+    ``load``'s (the others' back to the last step's). Returns the rescued rows."""
+    idx = np.flatnonzero(bad)
+    sub = solver.take(idx, axle=False)
+    trial = st.take(idx)
+    sub_ok = np.ones(idx.size, bool)
+    Jt = None
+    pad_prev, pad = load_prev[0], load[0]
+    aim = (pad if guess is None else guess, *load[1:])
+    for f in (0.25, 0.5, 0.75, 1.0):
+        p = pad_prev[idx] + f * (aim[0][idx] - pad_prev[idx])
+        e, q, c = (_between(a, b, idx, f) for a, b in zip(load_prev[1:], aim[1:], strict=True))
+        trial, conv, Jt = sub.solve(trial, p, e, active=sub_ok, Jinv=Jt, rack=q, centre=c)
+        sub_ok &= conv
+    rescued = np.zeros_like(bad)
+    rescued[idx[sub_ok]] = True
+    new.assign(_scatter(trial, idx, new), rescued)
+    if guess is not None:  # the rescued rows' pads; the failed rows' last ones
+        pad[idx] = np.where(sub_ok[:, None], p, pad_prev[idx])
+    return rescued
+
+
+def _between(
+    a: np.ndarray | None, b: np.ndarray | None, idx: np.ndarray, f: float
+) -> np.ndarray | None:
+    """The rows ``idx`` of the input ``f`` of the way from ``a`` to ``b`` (None when
+    the input is not given)."""
+    return None if a is None or b is None else a[idx] + f * (b[idx] - a[idx])
+
+
+def _no_convergence(at: str | Callable[[int], str], i: int) -> str:
+    """The failure message of row ``i`` whose Newton iteration did not converge at the
+    step ``at`` (text, or row -> text)."""
+    return (
+        f"ConvergenceError: Newton did not converge at {at if isinstance(at, str) else at(i)}; "
+        "the linkage locks up or the design has no equilibrium there"
+    )
 
 
 def _prediction(solver, st, load_prev, load, ok, J, history, seen, rel) -> AxleState:

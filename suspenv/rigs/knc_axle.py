@@ -245,6 +245,33 @@ def _row_value(v: object, row: int, n: int) -> float:
     return float(np.broadcast_to(np.asarray(v, float), (n,))[row])
 
 
+def _effect_values(force: Sequence[Effect], B: int) -> np.ndarray:
+    """The fitted parameter values (B, k) of the solver effects ``force`` per row of a
+    batch of ``B`` (a value given once holds for every row); rows with equal values
+    share one solver."""
+    if not force:
+        return np.zeros((B, 0))
+    return np.stack(
+        [
+            np.asarray(e.params[q.name], float) * np.ones(B)
+            for e in force
+            for q in fitted_parameters(e)
+        ],
+        axis=1,
+    )
+
+
+def _apply_sensors(effects: Sequence[Effect], out: dict[str, dict[str, np.ndarray]]) -> None:
+    """Pass the recorded channels ``out`` {test: {channel: (B, P)}} through the sensor
+    effects (each reads its channel on both sides), in place."""
+    for e in effects:
+        if e.spec.role == "sensor":
+            for t in out:
+                for side in SIDES:
+                    name = f"{e.location}_{side}"
+                    out[t][name] = e.sensor(out[t][name])
+
+
 class KncAxleModel(FitDefaults):
     """McPherson axle + K&C rig with the component-model interface (family ``knc_axle``).
 
@@ -412,23 +439,10 @@ class KncAxleModel(FitDefaults):
         left, right = self.designs(th)
         B = th.shape[0]
         force = [e for e in effects if e.spec.role == "force"]
-        # rows sharing the solver effects are solved as one batch
-        sig = (
-            np.stack(
-                [
-                    np.asarray(e.params[q.name], float) * np.ones(B)
-                    for e in force
-                    for q in fitted_parameters(e)
-                ],
-                axis=1,
-            )
-            if force
-            else np.zeros((B, 0))
-        )
         nan = {name: np.full((B, 2 * steps + 1), np.nan) for name in output_names()}
         out = {t: {k: v.copy() for k, v in nan.items()} for t in tests}
         messages = [""] * B
-        for rows in same_rows(sig):
+        for rows in same_rows(_effect_values(force, B)):  # one batch per solver effects
             eff = [
                 e.with_params({k: _row_value(v, rows[0], B) for k, v in e.params.items()})
                 for e in force
@@ -438,24 +452,7 @@ class KncAxleModel(FitDefaults):
                 (left[i].tobytes(), right[i].tobytes(), eff_key, amplitude, steps, tests)
                 for i in rows
             ]
-            todo = [i for i, k in zip(rows, keys, strict=True) if k not in self._rows]
-            if todo:
-                res = run_tests(  # the tests of one call share their kind (travel or force)
-                    build_axle(left[todo], right[todo]),
-                    tests,
-                    amplitude=amplitude,
-                    steps=steps,
-                    effects=eff,
-                    force_amplitude=amplitude,
-                    moment_amplitude=amplitude,
-                    rack_amplitude=amplitude,
-                )
-                self.stats["simulations"] += 1
-                self.stats["rows"] += len(todo)
-                for j, i in enumerate(todo):
-                    msg = next((r.messages[j] for r in res.values() if not r.ok[j]), "")
-                    chans = {t: channels_of(r, j) for t, r in res.items()} if not msg else {}
-                    self._rows[keys[rows.index(i)]] = (chans, msg)
+            self._solve_rows(left, right, rows, keys, eff, amplitude, steps, tests)
             for i, k in zip(rows, keys, strict=True):
                 chans, msg = self._rows[k]
                 messages[i] = msg
@@ -464,17 +461,46 @@ class KncAxleModel(FitDefaults):
                         out[t][name][i] = v
             while len(self._rows) > 64:  # once the group is read: its rows may be the oldest
                 self._rows.popitem(last=False)
-        for e in effects:  # the sensor effects read the recorded channel (both sides)
-            if e.spec.role == "sensor":
-                for t in out:
-                    for side in SIDES:
-                        name = f"{e.location}_{side}"
-                        out[t][name] = e.sensor(out[t][name])
+        _apply_sensors(effects, out)
         result: dict[str, Any] = {"channels": out, "messages": messages}
         self._cache[key] = result
         if len(self._cache) > 6:
             self._cache.popitem(last=False)
         return result
+
+    def _solve_rows(
+        self,
+        left: np.ndarray,
+        right: np.ndarray,
+        rows: list[int],
+        keys: list[tuple],
+        eff: list[Effect],
+        amplitude: float,
+        steps: int,
+        tests: tuple[str, ...],
+    ) -> None:
+        """Run the rig ``tests`` (one kind: travel or force) on the design ``rows`` of
+        ``left``/``right`` (n, 49) with the solver effects ``eff`` that are not yet held
+        under their ``keys``, and hold each row's channels and message under its key."""
+        todo = [i for i, k in zip(rows, keys, strict=True) if k not in self._rows]
+        if not todo:
+            return
+        res = run_tests(
+            build_axle(left[todo], right[todo]),
+            tests,
+            amplitude=amplitude,
+            steps=steps,
+            effects=eff,
+            force_amplitude=amplitude,
+            moment_amplitude=amplitude,
+            rack_amplitude=amplitude,
+        )
+        self.stats["simulations"] += 1
+        self.stats["rows"] += len(todo)
+        for j, i in enumerate(todo):
+            msg = next((r.messages[j] for r in res.values() if not r.ok[j]), "")
+            chans = {t: channels_of(r, j) for t, r in res.items()} if not msg else {}
+            self._rows[keys[rows.index(i)]] = (chans, msg)
 
     def simulate(self, theta: np.ndarray, rec: Recording) -> dict[str, np.ndarray]:
         """Predicted outputs of recording ``rec``: ``(P,)`` per channel, or ``(B, P)``."""

@@ -34,7 +34,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, fields, replace
-from functools import cache
+from functools import cache, cached_property
 from typing import Any
 
 import numpy as np
@@ -197,6 +197,8 @@ def design_space() -> DesignSpace:
 
 PARAMETER_NAMES: tuple[str, ...] = tuple(p.name for p in design_parameters())
 N_PARAMETERS = len(PARAMETER_NAMES)
+#: the design vector's column of each parameter
+_COLUMN = {name: i for i, name in enumerate(PARAMETER_NAMES)}
 #: bushing stiffnesses and the anti-roll bar's torsional stiffness: physics needs > 0
 STIFFNESS_PARAMETERS: tuple[str, ...] = tuple(
     f"{b}_{c}" for b, comps in BUSHINGS.items() for c in comps
@@ -473,6 +475,23 @@ class AxleConstants:
         """Sprung weight on one front wheel [N]."""
         return self.sprung_mass * 9.81 * self.front_share / 2.0
 
+    @cached_property
+    def iso_points(self) -> dict[str, np.ndarray]:
+        """The constant points (2, 3) [m] per side, ISO 8855 (:func:`_to_iso`): wheel
+        centre, anti-roll bar bush and the perpendicular offsets of the spring seats and
+        the drop link (made once per instance, read-only)."""
+        out = {
+            "wheel_centre": self.wheel_centre,
+            "arb_bush": self.arb_bush,
+            "spring_upper_seat": (0.0, 0.0, 0.0),
+            "spring_lower_seat": self.spring_lower_seat_offset,
+            "drop_link_strut": self.drop_link_offset,
+        }
+        iso = {name: _to_iso(np.array(v)) for name, v in out.items()}
+        for v in iso.values():
+            v.flags.writeable = False
+        return iso
+
     def as_dict(self) -> dict:
         return {f.name: getattr(self, f.name) for f in fields(self)}
 
@@ -540,7 +559,8 @@ class Axle:
 
 
 def _unit(v: np.ndarray) -> np.ndarray:
-    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+    """Unit vectors (..., 3) along ``v`` (``np.linalg.norm``'s sum and root, in fewer calls)."""
+    return v / np.sqrt((v * v).sum(axis=-1, keepdims=True))
 
 
 #: the mirror of the left-side ADAMS/Car frame into ISO 8855, per side (2, 3)
@@ -558,7 +578,7 @@ def _columns() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     (B, 6) (:data:`COMPONENTS`; the lower-arm bushes' kz is their ky: axisymmetric about
     their x axis), and the bushing components' unit factors (6,) (kN/mm -> N/m,
     N*mm/deg -> N*m/rad)."""
-    idx = {name: i for i, name in enumerate(PARAMETER_NAMES)}
+    idx = _COLUMN
     hp = np.array([[idx[f"{p}_{a}"] for a in "xyz"] for p in HARD_POINTS])
     cols = []
     for b in BUSHINGS:
@@ -596,36 +616,15 @@ def build_axle(
         )
     n = XL.shape[0]
     X = np.stack([XL, XR], axis=1)  # (n, 2, 49)
-    idx = {name: i for i, name in enumerate(PARAMETER_NAMES)}
-    hp_cols, bush_cols, bush_scale = _columns()
-    # every hard point in one product [mm -> m], mirrored per side: (n, 2, K, 3)
-    hp = X[..., hp_cols] / 1000.0 * _MIRROR[:, None, :]
-    pts: dict[str, np.ndarray] = {name: hp[..., i, :] for i, name in enumerate(HARD_POINTS)}
-    for name in ("wheel_centre", "arb_bush"):
-        pts[name] = np.broadcast_to(_to_iso(np.array(getattr(c, name))), (n, 2, 3)).copy()
-
-    st, sp = pts["strut_top"], pts["strut_axis_point"]
-    a = _unit(sp - st)
-
-    def dependent(d_mm: float, offset_mm: tuple[float, float, float]) -> np.ndarray:
-        v = _to_iso(np.array(offset_mm)) + 0.0 * st
-        off = v - (v * a).sum(-1, keepdims=True) * a  # the offset perpendicular to ``a``
-        return st + a * (d_mm / 1000.0) + off
-
-    pts["spring_upper_seat"] = dependent(c.spring_upper_seat_d, (0.0, 0.0, 0.0))
-    pts["spring_lower_seat"] = dependent(c.spring_lower_seat_d, c.spring_lower_seat_offset)
-    pts["drop_link_strut"] = dependent(c.drop_link_d, c.drop_link_offset)
-
+    _, bush_cols, bush_scale = _columns()
     k_all = X[..., bush_cols] * bush_scale  # (n, 2, B, 6) [N/m, N*m/rad]
-    bush = {b: k_all[..., i, :] for i, b in enumerate(BUSHINGS)}
-
     ones = np.ones((n, 2))
     return Axle(
-        points=pts,
-        bush=bush,
-        arb_torsion=XL[:, idx["arb_torsion"]].copy(),
-        camber0=X[..., idx["static_camber"]] * DEG,
-        toe0=X[..., idx["static_toe"]] * DEG,
+        points=_points(X, c),
+        bush={b: k_all[..., i, :] for i, b in enumerate(BUSHINGS)},
+        arb_torsion=XL[:, _COLUMN["arb_torsion"]].copy(),
+        camber0=X[..., _COLUMN["static_camber"]] * DEG,
+        toe0=X[..., _COLUMN["static_toe"]] * DEG,
         spring_rate=ones * c.spring_rate * 1e3,
         tyre_rate=ones * c.tyre_rate * 1e3,
         wheel_radius=ones * c.wheel_radius / 1e3,
@@ -637,6 +636,32 @@ def build_axle(
             for k, v in bushing_frames(orientation or {}).items()
         },
     )
+
+
+def _points(X: np.ndarray, c: AxleConstants) -> dict[str, np.ndarray]:
+    """Every point (n, 2, 3) [m], ISO 8855, of the design vectors ``X`` (n, 2, 49)
+    (ADAMS/Car, left-side convention on both sides) with the constants ``c``: the hard
+    points mirrored per side, the wheel centre and bar bush, and the spring seats and
+    the drop link's strut point along the strut line from the strut top."""
+    n = X.shape[0]
+    hp_cols = _columns()[0]
+    # every hard point in one product [mm -> m], mirrored per side: (n, 2, K, 3)
+    hp = X[..., hp_cols] / 1000.0 * _MIRROR[:, None, :]
+    pts: dict[str, np.ndarray] = {name: hp[..., i, :] for i, name in enumerate(HARD_POINTS)}
+    iso = c.iso_points
+    for name in ("wheel_centre", "arb_bush"):
+        pts[name] = np.repeat(iso[name][None], n, axis=0)
+    st, sp = pts["strut_top"], pts["strut_axis_point"]
+    a = _unit(sp - st)
+    for name, d_mm in (
+        ("spring_upper_seat", c.spring_upper_seat_d),
+        ("spring_lower_seat", c.spring_lower_seat_d),
+        ("drop_link_strut", c.drop_link_d),
+    ):
+        v = iso[name] + 0.0 * st
+        off = v - (v * a).sum(-1, keepdims=True) * a  # the offset perpendicular to ``a``
+        pts[name] = st + a * (d_mm / 1000.0) + off
+    return pts
 
 
 def reference_design() -> np.ndarray:

@@ -378,6 +378,22 @@ class AxleSolver:
         maxit: int = 30,
     ):
         self.axle = axle
+        self.n = axle.n
+        self._set_effects(effects, xtol, rtol, ltol, maxit)
+        self._set_bodies(axle.points)
+        self._set_elements(axle)
+        self._size_preload()
+        self._set_stacks(axle.frames)
+        self.stats = {"solves": 0, "residuals": 0, "jacobians": 0}
+        # the per-design arrays of the compiled residual (see _pack)
+        self._rl_pack: np.ndarray | None = None
+        self._rl_off: np.ndarray | None = None  # the compiled residual's offsets in the pack
+
+    def _set_effects(
+        self, effects: Sequence[Effect], xtol: float, rtol: float, ltol: float, maxit: int
+    ) -> None:
+        """The placed effects and the Newton tolerances ``xtol`` [m], ``rtol`` [rad],
+        ``ltol`` [N] and iteration limit ``maxit`` (module docstring)."""
         self.effects: tuple[Effect, ...] = tuple(effects)
         self._placed = _compile(self.effects)
         #: True when an element's force depends on the loading branch (Dahl hysteresis at
@@ -390,8 +406,14 @@ class AxleSolver:
         self.xtol, self.rtol, self.ltol = xtol * tight, rtol * tight, ltol * tight
         # reversals of path-dependent elements may need damped (slower) iterations
         self.maxit = 2 * maxit if self.path_dependent else maxit
-        self.n = axle.n
-        p = axle.points
+
+    def _set_bodies(self, p: dict[str, np.ndarray]) -> None:
+        """The bodies at the design position from the hard points ``p`` (n, 2, 3) [m]:
+        reference points ``ref0`` (n, 2, 4, 3) (lower arm: the middle of its bushes;
+        knuckle: the wheel centre; strut rod: the strut top; bar half: its bush), the
+        body-fixed points relative to them [m], the strut axis ``a`` (unit, strut top
+        towards the knuckle) with two unit normals ``u``, ``v``, and the tie-rod and
+        drop-link lengths [m]; vehicle axes."""
         ref = np.stack(
             [
                 0.5 * (p["lca_front_bush"] + p["lca_rear_bush"]),
@@ -422,21 +444,8 @@ class AxleSolver:
         self.s_upper_seat = p["spring_upper_seat"] - ref[:, :, 2]
         self.s_arb_end = p["arb_drop_link"] - ref[:, :, 3]
         mid = p["arb_bush"].copy()
-        mid[..., 1] = 0.0
+        mid[..., 1] = 0.0  # the bar's middle: its bush point on the vehicle's x-z plane
         self.s_arb_mid = mid - ref[:, :, 3]
-        kb = axle.arb_torsion
-        self.k_bar_shear = ARB_SHEAR_STIFFNESS
-        self.k_bar_rot = np.stack(
-            [np.full_like(kb, ARB_BENDING_STIFFNESS), kb, np.full_like(kb, ARB_BENDING_STIFFNESS)],
-            axis=-1,
-        )
-        self.ground = {
-            "lca_front": p["lca_front_bush"],
-            "lca_rear": p["lca_rear_bush"],
-            "top_mount": p["strut_top"],
-            "arb_bush": p["arb_bush"],
-        }
-        self.tri = p["tie_rod_inner"]
         a = p["strut_axis_point"] - p["strut_top"]
         self.a = a / _length(a)
         self.u, self.v = _perp_basis(self.a)
@@ -447,20 +456,44 @@ class AxleSolver:
         self.L_tie, self.L_drop = self._L_links[..., 0], self._L_links[..., 1]
         self._L_links_sq = self._L_links**2
         self._L_links_2 = 2 * self._L_links
+
+    def _set_elements(self, axle: Axle) -> None:
+        """The elastic elements and loads of ``axle`` (SI): the bar's stiffnesses at its
+        middle, the bushings' stiffnesses ``K`` and body points ``ground``, the tie rods'
+        rack points ``tri``, the wheel's static spin axis ``s0``, tyre, spring and wheel
+        weight, and the steering system's rack compliance ``C_rack`` (n,) [m/N] and rack
+        travel per pinion radian ``rack_gain`` [m/rad]."""
+        p = axle.points
+        kb = axle.arb_torsion
+        self.k_bar_shear = ARB_SHEAR_STIFFNESS
+        self.k_bar_rot = np.empty(kb.shape + (3,))  # (n, 3) about x, y, z [N*m/rad]
+        self.k_bar_rot[:, 0] = self.k_bar_rot[:, 2] = ARB_BENDING_STIFFNESS
+        self.k_bar_rot[:, 1] = kb
+        self.ground = {
+            "lca_front": p["lca_front_bush"],
+            "lca_rear": p["lca_rear_bush"],
+            "top_mount": p["strut_top"],
+            "arb_bush": p["arb_bush"],
+        }
+        self.tri = p["tie_rod_inner"]
         self.s0 = spin_axis(axle.camber0, axle.toe0)
         self.K = axle.bush
         self.kt, self.Rw = axle.tyre_rate, axle.wheel_radius
         self.ks = axle.spring_rate
         self.wheel_weight = axle.wheel_weight
-        # the steering system: rack travel per newton of net tie-rod force (n,) [m/N]
-        # and per pinion radian [m/rad]
         c_rack = axle.constants.rack_compliance
         self.C_rack = (
             np.full(self.n, c_rack) if axle.rack_compliance is None else axle.rack_compliance
         )
         self.rack_gain = axle.constants.rack_gain
         self.L_spring0 = _length(p["spring_lower_seat"] - p["spring_upper_seat"])[..., 0]
-        self._size_preload()
+
+    def _set_stacks(self, frames: dict[str, np.ndarray]) -> None:
+        """The arrays stacked as the residual reads them: every body-fixed vector grouped
+        by body (``_vec_body``, :data:`VEC_GROUPS`), the bushings' stiffnesses ``_K4``
+        (n, 2, 4, 6) and ground points ``_ground4`` (n, 2, 4, 3) in :data:`BUSH_ORDER`, and
+        the bushing frames ``_Q`` (n, 2, 4, 3, 3) when a bushing has an orientation
+        (``frames``), else None."""
         # every body-fixed vector, rotated in one batched product by the residual
         vec = np.stack(
             [
@@ -490,16 +523,10 @@ class AxleSolver:
         }
         self._K4 = np.stack([self.K[b] for b in BUSH_ORDER], axis=2)  # (n, 2, 4, 6)
         self._ground4 = np.stack([self.ground[b] for b in BUSH_ORDER], axis=2)
-        # bushing frames (n, 2, 4, 3, 3) when a bushing has an orientation, else None
-        frames = axle.frames
         self._Q: np.ndarray | None = None
         if frames:
-            eye = np.broadcast_to(np.eye(3), axle.camber0.shape + (3, 3))
+            eye = np.broadcast_to(np.eye(3), self.s0.shape[:-1] + (3, 3))
             self._Q = np.stack([frames.get(b, eye) for b in BUSH_ORDER], axis=2)
-        self.stats = {"solves": 0, "residuals": 0, "jacobians": 0}
-        # the per-design arrays of the compiled residual (see _pack)
-        self._rl_pack: np.ndarray | None = None
-        self._rl_off: np.ndarray | None = None  # the compiled residual's offsets in the pack
 
     @property
     def _vec(self) -> np.ndarray:
@@ -567,44 +594,17 @@ class AxleSolver:
         With ideal joints (no bushing deflection) the design position is in exact
         equilibrium under the static tyre load (corner load + wheel weight) when the
         spring force is ``F = (Fz dz_cp - W dz_wc) / (-dL)`` along the kinematic
-        motion (dz_wc = 1). The static pad height loads the tyre by ``Fz / kt``. The
-        motion is that of the six ideal-joint equations (the tests' reference
-        ``CornerKinematics``, ``tests/mcpherson_kinematics.py``), in closed form at the
-        design position: a knuckle move (translation ``dt``, rotation ``dw``) moves its
-        point ``p`` by ``dt + dw x (p - wheel centre)``.
+        motion (dz_wc = 1, :meth:`_unit_motion`). The static pad height loads the tyre
+        by ``Fz / kt``.
         """
         ax, p = self.axle, self.axle.points
         wc = p["wheel_centre"]
-        # d(e . point at) / d(dt, dw) = (e, (at - wc) x e): the cross products of a step
-        # in one call each (the same numbers as one call per row)
-        B, TRO, strut = p["lower_ball_joint"], p["tie_rod_outer"], p["strut_axis_point"]
-        links = np.stack(
-            [B - p["lca_front_bush"], B - p["lca_rear_bush"], TRO - p["tie_rod_inner"]]
-        )
-        e3 = links / _length(links)  # the two lower-arm links and the tie rod
-        gap = p["strut_top"] - strut  # the strut top stays on the knuckle's strut line
-        arm_s = strut - wc
-        c = cross(
-            np.stack([B - wc, B - wc, TRO - wc, arm_s, arm_s, self.u, self.v]),
-            np.stack([e3[0], e3[1], e3[2], self.u, self.v, gap, gap]),
-        )
-        # the six rows (translation, rotation): the three links, the strut line (u, v),
-        # the wheel-centre height
-        M = np.zeros(wc.shape[:-1] + (6, 6))
-        M[..., :3, :3] = np.moveaxis(e3, 0, -2)
-        M[..., :3, 3:] = np.moveaxis(c[:3], 0, -2)
-        M[..., 3, :3] = -self.u
-        M[..., 4, :3] = -self.v
-        M[..., 3:5, 3:] = np.moveaxis(c[5:] - c[3:5], 0, -2)
-        M[..., 5, 2] = 1.0
-        rhs = np.zeros(wc.shape[:-1] + (6, 1))
-        rhs[..., 5, 0] = 1.0
-        dq = np.linalg.solve(M, rhs)[..., 0]  # per metre of dz_wc
+        dq = self._unit_motion(p)
         # the spring: from the lower seat (knuckle) to the upper seat on the strut rod
-        seat = _length(p["spring_upper_seat"] - p["strut_top"])  # along the rod
+        seat = _length(self.s_upper_seat)  # along the rod from the strut top
         e = p["spring_lower_seat"] - p["strut_top"] - seat * self.a
         e = e / _length(e)
-        c = cross(np.stack([self.a, p["spring_lower_seat"] - wc]), np.stack([e, e]))
+        c = cross(np.stack([self.a, self.kn_pts[:, :, 3]]), np.stack([e, e]))  # 3: lower seat
         turn = dot(c[0], dq[..., 3:])  # the rod turns with the knuckle
         dL = dot(np.concatenate([e, c[1]], axis=-1), dq) - seat[..., 0] * turn
         # the contact point: the wheel centre's height minus Rw sqrt(1 - s_z^2)
@@ -617,6 +617,41 @@ class AxleSolver:
         self.L_free = self.L_spring0 + F_spring / self.ks
         cp0 = (wc + self.Rw[..., None] * _down(s))[..., 2]
         self.pad_static = cp0 + Fz / self.kt
+
+    def _unit_motion(self, p: dict[str, np.ndarray]) -> np.ndarray:
+        """The knuckle's motion (n, 2, 6) (translation ``dt`` [m], rotation ``dw`` [rad],
+        vehicle axes) per metre of wheel-centre rise at the design position, with ideal
+        joints: the six ideal-joint equations (the tests' reference
+        ``CornerKinematics``, ``tests/mcpherson_kinematics.py``) in closed form: a
+        knuckle move moves its point ``q`` by ``dt + dw x (q - wheel centre)``."""
+        wc = p["wheel_centre"]
+        # d(e . point at) / d(dt, dw) = (e, (at - wc) x e): the cross products of a step
+        # in one call each (the same numbers as one call per row); ``at - wc``: the
+        # knuckle's body-fixed points (ball joint, tie-rod outer, strut axis point)
+        B, TRO, strut = p["lower_ball_joint"], p["tie_rod_outer"], p["strut_axis_point"]
+        links = np.stack(
+            [B - p["lca_front_bush"], B - p["lca_rear_bush"], TRO - p["tie_rod_inner"]]
+        )
+        e3 = links / _length(links)  # the two lower-arm links and the tie rod
+        gap = p["strut_top"] - strut  # the strut top stays on the knuckle's strut line
+        ball, tro, arm_s = (self.kn_pts[:, :, k] for k in (0, 1, 4))
+        c = cross(
+            np.stack([ball, ball, tro, arm_s, arm_s, self.u, self.v]),
+            np.stack([e3[0], e3[1], e3[2], self.u, self.v, gap, gap]),
+        )
+        # the six rows (translation, rotation): the three links, the strut line (u, v),
+        # the wheel-centre height
+        M = np.zeros(wc.shape[:-1] + (6, 6))
+        rows_last = (1, 2, 0, 3)  # (row, n, 2, 3) -> (n, 2, row, 3)
+        M[..., :3, :3] = e3.transpose(rows_last)
+        M[..., :3, 3:] = c[:3].transpose(rows_last)
+        M[..., 3, :3] = -self.u
+        M[..., 4, :3] = -self.v
+        M[..., 3:5, 3:] = (c[5:] - c[3:5]).transpose(rows_last)
+        M[..., 5, 2] = 1.0
+        rhs = np.zeros(wc.shape[:-1] + (6, 1))
+        rhs[..., 5, 0] = 1.0
+        return np.linalg.solve(M, rhs)[..., 0]
 
     def initial_state(self) -> AxleState:
         n = self.n
@@ -788,37 +823,42 @@ class AxleSolver:
         :meth:`take`, row ``m`` reading column ``m % c`` (c = n, or fewer columns
         shared by rows that repeat the designs in order)."""
         if self._rl_pack is None:
-            parts = [
-                (name, _broadcast(a, (self.n, 2) + a.shape[a.ndim - tail :]))
-                for name, a, tail in (
-                    ("vec", self._vec, 2),
-                    ("ground", self._ground4, 2),
-                    ("K", self._K4, 2),
-                    ("Q", self._Q, 3),
-                    ("tri", self.tri, 1),
-                    ("L_links", self._L_links, 1),
-                    ("L_links_sq", self._L_links_sq, 1),
-                    ("L_links_2", self._L_links_2, 1),
-                    ("ks", self.ks, 0),
-                    ("L_free", self.L_free, 0),
-                    ("Rw", self.Rw, 0),
-                    ("kt", self.kt, 0),
-                    ("W", self.wheel_weight, 0),
-                    ("k_bar_rot", self.k_bar_rot[:, None, :], 1),
-                    ("C_rack", self.C_rack[:, None], 0),
-                )
-                if a is not None
-            ]
-            flat = [a.reshape(self.n, 2, -1) for _, a in parts]
-            self._rl_pack = np.ascontiguousarray(np.concatenate(flat, axis=-1).transpose(2, 1, 0))
-            where, at = {}, 0
-            for (name, _), f in zip(parts, flat, strict=True):
-                where[name] = at
-                at += f.shape[-1]
-            self._rl_off = np.array([where.get(k, -1) for k in _KERNEL_FIELDS], np.int64)
+            parts = [(name, a, tail) for name, a, tail in self._pack_parts() if a is not None]
+            widths = tuple((name, math.prod(a.shape[a.ndim - tail :])) for name, a, tail in parts)
+            self._rl_off, size = _pack_offsets(widths)
+            self._rl_pack = np.empty((size, 2, self.n))
+            at = 0
+            for (_, a, tail), (_, w) in zip(parts, widths, strict=True):
+                # rows last: the (n, 2, w) view of these pack rows takes the array (its side
+                # axis broadcast where it has one value per design)
+                self._rl_pack[at : at + w].T[...] = a.reshape(a.shape[: a.ndim - tail] + (w,))
+                at += w
         if not (self._rl_pack.flags.c_contiguous and self._rl_pack.flags.writeable):
             return np.array(self._rl_pack, order="C")  # one compiled type
         return self._rl_pack
+
+    def _pack_parts(self) -> list[tuple[str, np.ndarray | None, int]]:
+        """(field of :data:`_KERNEL_FIELDS`, array (n, 2 or 1, ...), its trailing axes
+        per side) of every per-design array of the pack, in pack order (the body-fixed
+        vectors body by body, :data:`VEC_GROUPS`, as field ``vec``; no frames: None)."""
+        vec = [("vec", self._vec_body[b], 2) for b in range(len(VEC_GROUPS))]
+        return [
+            *vec,
+            ("ground", self._ground4, 2),
+            ("K", self._K4, 2),
+            ("Q", self._Q, 3),
+            ("tri", self.tri, 1),
+            ("L_links", self._L_links, 1),
+            ("L_links_sq", self._L_links_sq, 1),
+            ("L_links_2", self._L_links_2, 1),
+            ("ks", self.ks, 0),
+            ("L_free", self.L_free, 0),
+            ("Rw", self.Rw, 0),
+            ("kt", self.kt, 0),
+            ("W", self.wheel_weight, 0),
+            ("k_bar_rot", self.k_bar_rot[:, None, :], 1),
+            ("C_rack", self.C_rack[:, None], 0),
+        ]
 
     def _kernel_inputs(
         self,
@@ -1022,74 +1062,93 @@ class AxleSolver:
         """
         n = self.n
         active = np.ones(n, bool) if active is None else active.copy()
-        conv = np.zeros(n, bool)
-        prev = np.full(n, np.inf)
-        fresh = np.zeros(n, bool)  # Jacobian evaluated at the previous iterate
-        alpha = np.ones(n)  # step length (damped when fresh Newton steps stop shrinking)
-        small_before = np.zeros(n, bool)
+        rows = _NewtonRows(n)
         if Jinv is None:
             Jinv = self.inverse_jacobian(st, pad, ext, active, rack)
-            fresh[:] = True
-        finite = np.ones(n, bool)  # rows whose last Newton step was finite
+            rows.fresh[:] = True
         drive = None if centre is None else _CentreDrive(self, st, Jinv, centre)
         for _ in range(self.maxit):
             self.stats["residuals"] += 1
-            need = active & ~conv & finite
-            if SUBSET_RESIDUALS and n >= 8 and 2 * need.sum() <= n:
-                # the residuals of the rows still iterating only (the same numbers per row);
-                # the others' steps are NaN (not taken, not converged)
-                idx = np.flatnonzero(need)
-                res = np.full((n, 2 * NS), np.nan)
-                sub, st_i, pad_i, ext_i, rack_i = self._rows(idx, st, pad, ext, rack)
-                res[idx] = sub.residual(
-                    st_i.r, st_i.R, st_i.lam, pad_i, st_i, ext_i, rack=rack_i
-                ).reshape(idx.size, 2 * NS)
-            else:
-                res = self.residual(st.r, st.R, st.lam, pad, st, ext, rack=rack).reshape(n, 2 * NS)
+            res = self._open_residuals(st, pad, ext, rack, active & ~rows.conv & rows.finite)
             dx = _inv_mul(Jinv, res)  # a new array: negated in place (memory)
             np.negative(dx, out=dx)
             dp = None if drive is None else drive.border(st, dx)
             size = self._step_size(dx, dp)
-            ok = np.isfinite(size)
-            finite = ok
-            todo = active & ~conv & ok
+            rows.finite = np.isfinite(size)
+            todo = active & ~rows.conv & rows.finite
             if not todo.any():
                 break
-            slow = todo & (size > 0.5 * prev)
-            refresh = slow & ~fresh
+            refresh = todo & (size > 0.5 * rows.prev) & ~rows.fresh  # slow without a fresh J
             if refresh.any():  # refresh these rows' Jacobians (in place), recompute steps
-                sub, st_i, pad_i, ext_i, rack_i = self._rows(refresh, st, pad, ext, rack)
-                fresh_inv = sub.inverse_jacobian(st_i, pad_i, ext_i, rack=rack_i)
-                if isinstance(Jinv, SharedInverse):
-                    Jinv.set(refresh, fresh_inv)
-                else:
-                    Jinv[refresh] = fresh_inv
-                dx[refresh] = -np.matmul(fresh_inv, res[refresh][..., None])[..., 0]
-                del fresh_inv  # kept by Jinv (memory)
-                if drive is not None and dp is not None:
-                    dp = np.where(refresh[:, None], drive.border(st, dx, refresh), dp)
-                size = np.where(refresh, self._step_size(dx, dp), size)
+                dp, size = self._refresh(
+                    refresh, st, pad, ext, rack, res, Jinv, dx, dp, drive, size
+                )
             del res  # not read again this iteration (memory)
-            stuck = todo & fresh & (size > 0.9 * prev)  # exact Newton cycles: damp
-            alpha = np.where(stuck, np.maximum(0.5 * alpha, 1.0 / 64), alpha)
-            fresh = refresh
-            prev = np.where(todo, size, prev)
-            step = np.where(size < 1.0, 1.0, alpha)  # a converging step is taken in full
+            step = rows.step_lengths(todo, size, refresh)
             dx *= step[:, None]  # in place (memory): dx is not read again
             dx[~todo] = 0.0
             st = self._apply(st, dx, todo)
             if dp is not None:  # the driven wheels' pads move with the step
                 pad += np.where(todo[:, None], dp * step[:, None], 0.0)
             del dx  # freed before the next iteration makes its own (memory)
-            small = todo & (size < 1.0)
-            # path-dependent elements: the kink of a reversal can leave the first small step
-            # inaccurate, so they need two small steps in a row
-            conv |= small & (small_before if self.path_dependent else True)
-            small_before = small
-            if (conv | ~active | ~ok).all():
+            rows.converge(todo, size, self.path_dependent)
+            if (rows.conv | ~active | ~rows.finite).all():
                 break
         self.stats["solves"] += 1
-        return st, conv & active, Jinv
+        return st, rows.conv & active, Jinv
+
+    def _open_residuals(
+        self,
+        st: AxleState,
+        pad: np.ndarray,
+        ext: np.ndarray | None,
+        rack: np.ndarray | None,
+        need: np.ndarray,
+    ) -> np.ndarray:
+        """The residuals (n, 66) of :meth:`solve`'s iterate: of the rows still iterating
+        (``need``, bool mask) only when they are at most half the batch (the same numbers
+        per row; the others NaN: their steps are not taken), else of every row."""
+        n = self.n
+        if not (SUBSET_RESIDUALS and n >= 8 and 2 * need.sum() <= n):
+            return self.residual(st.r, st.R, st.lam, pad, st, ext, rack=rack).reshape(n, 2 * NS)
+        idx = np.flatnonzero(need)
+        res = np.full((n, 2 * NS), np.nan)
+        sub, st_i, pad_i, ext_i, rack_i = self._rows(idx, st, pad, ext, rack)
+        res[idx] = sub.residual(st_i.r, st_i.R, st_i.lam, pad_i, st_i, ext_i, rack=rack_i).reshape(
+            idx.size, 2 * NS
+        )
+        return res
+
+    def _refresh(
+        self,
+        rows: np.ndarray,
+        st: AxleState,
+        pad: np.ndarray,
+        ext: np.ndarray | None,
+        rack: np.ndarray | None,
+        res: np.ndarray,
+        Jinv: np.ndarray | SharedInverse,
+        dx: np.ndarray,
+        dp: np.ndarray | None,
+        drive: _CentreDrive | None,
+        size: np.ndarray,
+    ) -> tuple[np.ndarray | None, np.ndarray]:
+        """Fresh inverse Jacobians of ``rows`` (bool mask) at ``st`` into ``Jinv`` and
+        their Newton steps into ``dx`` (both in place) from the residuals ``res`` (n,
+        66); returns the pad steps ``dp`` (n, 2) [m] of a wheel-centre drive (None
+        without one) and the step sizes (n,) (:meth:`_step_size`) with these rows'
+        recomputed."""
+        sub, st_i, pad_i, ext_i, rack_i = self._rows(rows, st, pad, ext, rack)
+        fresh_inv = sub.inverse_jacobian(st_i, pad_i, ext_i, rack=rack_i)
+        if isinstance(Jinv, SharedInverse):
+            Jinv.set(rows, fresh_inv)
+        else:
+            Jinv[rows] = fresh_inv
+        dx[rows] = -np.matmul(fresh_inv, res[rows][..., None])[..., 0]
+        del fresh_inv  # kept by Jinv (memory)
+        if drive is not None and dp is not None:
+            dp = np.where(rows[:, None], drive.border(st, dx, rows), dp)
+        return dp, np.where(rows, self._step_size(dx, dp), size)
 
     def _rows(
         self,
@@ -1281,6 +1340,40 @@ class AxleSolver:
         return {k: np.array(out[k], dtype=float) for k in keep}
 
 
+class _NewtonRows:
+    """Per-row bookkeeping of :meth:`AxleSolver.solve` (n rows): converged, last step
+    size ``prev`` (relative to the tolerances), Jacobian fresh at the previous iterate,
+    step length ``alpha`` (damped when fresh Newton steps stop shrinking), a small step
+    at the previous iteration, and a finite last step."""
+
+    def __init__(self, n: int) -> None:
+        self.conv = np.zeros(n, bool)
+        self.prev = np.full(n, np.inf)
+        self.fresh = np.zeros(n, bool)
+        self.alpha = np.ones(n)
+        self.small_before = np.zeros(n, bool)
+        self.finite = np.ones(n, bool)
+
+    def step_lengths(self, todo: np.ndarray, size: np.ndarray, refresh: np.ndarray) -> np.ndarray:
+        """The step lengths (n,) of the rows ``todo`` with step sizes ``size`` (a
+        converging step is taken in full); rows whose exact Newton steps cycle are damped
+        (halved, down to 1/64, for the rest of the solve). ``refresh``: the rows whose
+        Jacobians were refreshed at this iterate."""
+        stuck = todo & self.fresh & (size > 0.9 * self.prev)  # exact Newton cycles: damp
+        self.alpha = np.where(stuck, np.maximum(0.5 * self.alpha, 1.0 / 64), self.alpha)
+        self.fresh = refresh
+        self.prev = np.where(todo, size, self.prev)
+        return np.where(size < 1.0, 1.0, self.alpha)
+
+    def converge(self, todo: np.ndarray, size: np.ndarray, path_dependent: bool) -> None:
+        """Mark the rows ``todo`` whose step was small (``size`` < 1) converged; with
+        ``path_dependent`` elements two small steps in a row (the kink of a reversal can
+        leave the first small step inaccurate)."""
+        small = todo & (size < 1.0)
+        self.conv |= small & (self.small_before if path_dependent else True)
+        self.small_before = small
+
+
 #: the wheel-centre height of side ``s`` among a row's unknowns (knuckle z): s*NS + this
 _WC_Z = 6 + 2
 
@@ -1400,6 +1493,21 @@ def _exp_h(h: float) -> np.ndarray:
     return out
 
 
+@functools.lru_cache(maxsize=4)
+def _pack_offsets(widths: tuple[tuple[str, int], ...]) -> tuple[np.ndarray, int]:
+    """The offsets (read by the compiled residual in the order of :data:`_KERNEL_FIELDS`;
+    -1: absent) of the pack's fields of the given ``(field, width)`` in pack order (a
+    field's first), and the pack's height (cached: the compiled loops read the offsets
+    only)."""
+    where: dict[str, int] = {}
+    at = 0
+    for name, w in widths:
+        where.setdefault(name, at)
+        at += w
+    off = np.array([where.get(k, -1) for k in _KERNEL_FIELDS], np.int64)
+    return off, at
+
+
 def _repeated(v: np.ndarray, k: int) -> np.ndarray:
     """``k`` copies of ``v`` stacked on a new first axis, as a read-only zero-stride view."""
     if not v.flags.c_contiguous:
@@ -1414,14 +1522,9 @@ def _perp_basis(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     helper = np.zeros_like(a)
     helper[..., 0] = 1.0
     u = cross(a, helper)  # np.cross's products and differences, in fewer calls
-    u /= np.linalg.norm(u, axis=-1, keepdims=True)
+    u /= _length(u)
     v = cross(a, u)
     return u, v
-
-
-def _broadcast(a: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
-    """``a`` broadcast to ``shape`` (``a`` itself when it has that shape: fewer calls)."""
-    return a if a.shape == shape else np.broadcast_to(a, shape)
 
 
 def _length(v: np.ndarray) -> np.ndarray:
