@@ -528,10 +528,7 @@ def fit(
     weights = (
         spread_scales(recs, fitted_channels(model, recs[0], x0)) if scales is None else dict(scales)
     )
-    n_res = sum(
-        int(np.count_nonzero(m)) if m is not None else len(r.time)
-        for r, m in zip(recs, masks or [None] * len(recs), strict=True)
-    ) * len(weights)
+    n_res = _sample_count(recs, masks) * len(weights)
     pb = _Problem(model, recs, list(weights), weights, masks, n_res, lo, hi)
     if not model.parameter_names:
         return evaluate(
@@ -547,13 +544,7 @@ def fit(
             seconds=time.perf_counter() - t_start,
         )
     jac_model = model.jacobian_model()
-    refined = model.refine_start(x0, recs, masks)
-    if refined is not None:
-        # a model-specific fast start (e.g. an equation-error fit); kept only where it
-        # lowers the simulation residual
-        x1 = np.clip(np.asarray(refined, float), lo + 1e-6 * span, hi - 1e-6 * span)
-        if np.sum(pb.fun(x1) ** 2) < np.sum(pb.fun(x0) ** 2):
-            x0 = x1
+    x0 = _refined_start(pb, x0, span)
     # the single-row residual first (in _solve), then the batched probe: a model that
     # caches its solutions row by row (the K&C axle) then reuses the row instead of
     # solving it in another batch
@@ -577,3 +568,23 @@ def fit(
         nfev=int(sol.nfev),
         seconds=time.perf_counter() - t_start,
     )
+
+
+def _sample_count(recs: Sequence[RecordingLike], masks: Masks | None) -> int:
+    """The number of fitted samples of a channel: every recording's masked samples (all
+    of them where there is no mask)."""
+    return sum(
+        int(np.count_nonzero(m)) if m is not None else len(r.time)
+        for r, m in zip(recs, masks or [None] * len(recs), strict=True)
+    )
+
+
+def _refined_start(pb: _Problem, x0: np.ndarray, span: np.ndarray) -> np.ndarray:
+    """``x0``, or the model's cheap start (``model.refine_start``, e.g. an equation-error
+    fit) kept strictly inside the bounds (``span``: the bounds' width) where it lowers the
+    simulation residual."""
+    refined = pb.model.refine_start(x0, pb.recs, pb.masks)
+    if refined is None:
+        return x0
+    x1 = np.clip(np.asarray(refined, float), pb.lo + 1e-6 * span, pb.hi - 1e-6 * span)
+    return x1 if np.sum(pb.fun(x1) ** 2) < np.sum(pb.fun(x0) ** 2) else x0
