@@ -256,15 +256,23 @@ def _unstacked(
     if scaled is None or np.any(scaled == PENALTY):
         return None
     out, k = [], 0
-    for i, rec in enumerate(recs):
-        m = None if masks is None else masks[i]
-        n = len(rec.time) if m is None else int(np.count_nonzero(m))
+    for n in sample_counts(recs, masks):
         part = {}
         for c in channels:
             part[c] = scaled[k : k + n] * scales[c]
             k += n
         out.append(part)
     return out if k == scaled.size else None
+
+
+def sample_counts(recs: Sequence[RecordingLike], masks: Masks | None) -> list[int]:
+    """Each recording's fitted samples: its masked samples (all of them where there is
+    no mask)."""
+    counts = []
+    for i, rec in enumerate(recs):
+        m = None if masks is None else masks[i]
+        counts.append(len(rec.time) if m is None else int(np.count_nonzero(m)))
+    return counts
 
 
 def noise_scales(fit: FitResult, floor: float = 1e-12) -> dict[str, float]:
@@ -528,7 +536,7 @@ def fit(
     weights = (
         spread_scales(recs, fitted_channels(model, recs[0], x0)) if scales is None else dict(scales)
     )
-    n_res = _sample_count(recs, masks) * len(weights)
+    n_res = sum(sample_counts(recs, masks)) * len(weights)
     pb = _Problem(model, recs, list(weights), weights, masks, n_res, lo, hi)
     if not model.parameter_names:
         return evaluate(
@@ -567,15 +575,6 @@ def fit(
         message=str(sol.message),
         nfev=int(sol.nfev),
         seconds=time.perf_counter() - t_start,
-    )
-
-
-def _sample_count(recs: Sequence[RecordingLike], masks: Masks | None) -> int:
-    """The number of fitted samples of a channel: every recording's masked samples (all
-    of them where there is no mask)."""
-    return sum(
-        int(np.count_nonzero(m)) if m is not None else len(r.time)
-        for r, m in zip(recs, masks or [None] * len(recs), strict=True)
     )
 
 
