@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field, fields, replace
 from typing import Any
 
 import numpy as np
@@ -43,7 +43,7 @@ from suspenv.diagnosis import checks
 from suspenv.diagnosis.checks.finding import jsonable
 from suspenv.diagnosis.decision import DecisionRule, decide, rank
 from suspenv.diagnosis.evidence import Comparison, baseline_summary, compare
-from suspenv.diagnosis.family import Conclusion, DiagnosisFamily, Outcome, recording_names
+from suspenv.diagnosis.family import Conclusion, DiagnosisFamily, Outcome, Setup, recording_names
 from suspenv.diagnosis.fitting import FitResult
 from suspenv.diagnosis.hypothesis import Ambiguity, Hypothesis, family_of, split_candidate
 from suspenv.diagnosis.split import Holdout, Recordings, Split
@@ -261,117 +261,151 @@ def diagnose(
     """
     t0 = time.perf_counter()
     fam = make_family(family) if isinstance(family, str) else family
-
-    def say(msg: str) -> None:
-        if progress:
-            print(f"[{time.perf_counter() - t0:6.1f} s] {msg}", flush=True)
-
     setup = fam.prepare(recordings, holdout, candidates)
     # refuse data the diagnosis cannot judge before any fitting (values, samples, cycles)
     check_setup(setup, fam.name, fam.max_effects)
-    sp = setup.split
-
-    def versus(parent: FitResult, child: FitResult) -> Comparison:
-        """``child`` against ``parent``, the held-out gain in noise units (the parent's
-        scales) where the rule says so (``heldout_rule = "noise"``: fits weighted by
-        noise levels, :func:`~suspenv.diagnosis.fitting.noise_scales`)."""
-        noise = dict(parent.scales) if fam.rule.heldout_rule == "noise" else None
-        return compare(parent, child, sp, noise)
-
+    run = _Run(fam, setup, progress, t0)
     base = fam.fit_baseline(setup)
-    say(f"baseline fitted ({base.nfev} evaluations)")
+    run.say(f"baseline fitted ({base.nfev} evaluations)")
     unrecorded = profile(fam, setup, base) if profiling else None
     if unrecorded is not None:
         base = unrecorded[0]
-        say(f"baseline refitted beside an unrecorded input ({unrecorded[1].numbers['signal']})")
+        run.say(f"baseline refitted beside an unrecorded input ({unrecorded[1].numbers['signal']})")
     location, channel = fam.locate(base, setup)
-
-    current = base
-    named: list[Hypothesis] = []
-    hypotheses: list[Hypothesis] = []
-    first_sigs: Sequence[Any] = []
-    for rnd in range(1, fam.max_effects + 1):
-        done = {h.family for h in named}
-        open_c = [c for c in setup.candidates if family_of(split_candidate(c)[0]) not in done]
-        if not open_c:
-            break
-        screening = fam.screen(current, setup, open_c, rnd)
-        if rnd == 1:
-            first_sigs = screening.signatures
-        if not screening.chosen:
-            break
-        hyps: list[Hypothesis] = []
-        for cand, sig in screening.chosen:
-            kind, loc = split_candidate(cand)
-            words = fam.words(cand, setup)
-            score = float(sig.score) if sig is not None else float("nan")
-            try:
-                ext = fam.refit(current, cand, sig, setup)
-                so_far = Outcome(base, current, named, hypotheses, first_sigs, location)
-                judged = checks.Context(fam, setup, so_far, fam.rule, refit=ext, candidate=cand)
-                checks.refuse(judged)
-            except (ValidationError, EvaluationError, np.linalg.LinAlgError) as exc:
-                hypotheses.append(Hypothesis.failed(kind, loc, words, rnd, str(exc), score))
-                continue
-            comp = versus(current, ext)
-            evidence = sig.evidence if sig is not None else ""
-            hyps.append(
-                Hypothesis.from_comparison(
-                    kind, loc, words, rnd, current, ext, comp, score, evidence
-                )
-            )
-            say(
-                f"round {rnd}: {cand} LR {hyps[-1].lr_statistic_corrected:.1f}, "
-                f"held-out {100 * hyps[-1].heldout_reduction:+.1f} %"
-            )
-        decide(hyps, len(open_c), fam.rule)
-        ranked = rank(hyps)
-        hypotheses += ranked
-        if not ranked or not ranked[0].significant:
-            break
-        win = ranked[0]
-        assert win.fit is not None  # a significant hypothesis carries its refit
-        settled = fam.settle(win.fit, setup)
-        if settled is not None:
-            win.fit = settled
-            win.params = win.own_params()
-        named.append(win)
-        current = win.fit
-        say(f"round {rnd}: named {win.words}")
-
-    outcome = Outcome(base, current, named, hypotheses, first_sigs, location)
-    ctx = checks.Context(fam, setup, outcome, fam.rule)
+    ctx = checks.Context(fam, setup, _search(run, base, location), fam.rule)
     checks.run(ctx)
     if unrecorded is not None:
         if not still_switching(ctx):  # what looked switched, an element explains
             return diagnose(recordings, fam, holdout, candidates, progress, profiling=False)
         # the baseline's missing-input finding stands: the fits profiled its input out
         checks.fold(ctx, unrecorded[1])
-    found, named, hypotheses = ctx.found, ctx.outcome.named, ctx.outcome.hypotheses
+    return _diagnosis(run, ctx, channel)
+
+
+@dataclass
+class _Run:
+    """One run of :func:`diagnose`: the family, its data and the clock of the progress
+    lines (``t0``: :func:`time.perf_counter` at the start [s])."""
+
+    fam: DiagnosisFamily
+    setup: Setup
+    progress: bool
+    t0: float
+
+    def say(self, msg: str) -> None:
+        """Print ``msg`` after the seconds since the start (when ``progress``)."""
+        if self.progress:
+            print(f"[{time.perf_counter() - self.t0:6.1f} s] {msg}", flush=True)
+
+    def versus(self, parent: FitResult, child: FitResult) -> Comparison:
+        """``child`` against ``parent``, the held-out gain in noise units (the parent's
+        scales) where the rule says so (``heldout_rule = "noise"``: fits weighted by
+        noise levels, :func:`~suspenv.diagnosis.fitting.noise_scales`)."""
+        noise = dict(parent.scales) if self.fam.rule.heldout_rule == "noise" else None
+        return compare(parent, child, self.setup.split, noise)
+
+
+def _search(run: _Run, base: FitResult, location: Any) -> Outcome:
+    """Step 3 of the module docstring: rounds from the baseline ``base`` until one names
+    nothing or ``family.max_effects`` rounds have run."""
+    state = Outcome(base, base, [], [], [], location)
+    for rnd in range(1, run.fam.max_effects + 1):
+        if not _round(run, state, rnd):
+            break
+    return state
+
+
+def _round(run: _Run, state: Outcome, rnd: int) -> bool:
+    """Round ``rnd`` of the search on ``state`` (updated in place): screen the open
+    candidates, refit the chosen ones, decide, and name the best significant one (the
+    next round's null model). True when an element was named."""
+    fam = run.fam
+    done = {h.family for h in state.named}
+    open_c = [c for c in run.setup.candidates if family_of(split_candidate(c)[0]) not in done]
+    if not open_c:
+        return False
+    screening = fam.screen(state.current, run.setup, open_c, rnd)
+    if rnd == 1:
+        state.signatures = screening.signatures
+    if not screening.chosen:
+        return False
+    hyps: list[Hypothesis] = []
+    for cand, sig in screening.chosen:
+        h = _hypothesis(run, state, cand, sig, rnd)
+        if h.fit is None:  # a failed refit is recorded at once
+            state.hypotheses.append(h)
+            continue
+        hyps.append(h)
+        run.say(
+            f"round {rnd}: {cand} LR {h.lr_statistic_corrected:.1f}, "
+            f"held-out {100 * h.heldout_reduction:+.1f} %"
+        )
+    decide(hyps, len(open_c), fam.rule)
+    ranked = rank(hyps)
+    state.hypotheses += ranked
+    if not ranked or not ranked[0].significant:
+        return False
+    win = ranked[0]
+    assert win.fit is not None  # a significant hypothesis carries its refit
+    settled = fam.settle(win.fit, run.setup)
+    if settled is not None:
+        win.fit = settled
+        win.params = win.own_params()
+    state.named.append(win)
+    state.current = win.fit
+    run.say(f"round {rnd}: named {win.words}")
+    return True
+
+
+def _hypothesis(run: _Run, state: Outcome, cand: str, sig: Any, rnd: int) -> Hypothesis:
+    """The hypothesis of candidate ``cand`` (its screening record ``sig`` or None): the
+    current model of ``state`` plus the element, refitted and judged by the family's
+    refit checks; a refit that fails or is refused is a failed hypothesis (no fit)."""
+    fam = run.fam
+    kind, loc = split_candidate(cand)
+    words = fam.words(cand, run.setup)
+    score = float(sig.score) if sig is not None else float("nan")
+    current = state.current
+    try:
+        ext = fam.refit(current, cand, sig, run.setup)
+        judged = checks.Context(fam, run.setup, replace(state), fam.rule, refit=ext, candidate=cand)
+        checks.refuse(judged)
+    except (ValidationError, EvaluationError, np.linalg.LinAlgError) as exc:
+        return Hypothesis.failed(kind, loc, words, rnd, str(exc), score)
+    evidence = sig.evidence if sig is not None else ""
+    comp = run.versus(current, ext)
+    return Hypothesis.from_comparison(kind, loc, words, rnd, current, ext, comp, score, evidence)
+
+
+def _diagnosis(run: _Run, ctx: checks.Context, channel: str) -> Diagnosis:
+    """The :class:`Diagnosis` of a run whose checks have been folded into ``ctx``
+    (``channel``: where the baseline's residual is largest)."""
+    sp = run.setup.split
+    found, outcome = ctx.found, ctx.outcome
+    base, current, named = outcome.base, outcome.current, outcome.named
     amb = found.ambiguities
-    current = ctx.outcome.current
-    comparison = versus(base, current) if named else None
+    comparison = run.versus(base, current) if named else None
     baseline = baseline_summary(
         base, sp.fit_recordings, sp.heldout_recordings, sp.fit_masks, sp.heldout_masks
     )
     baseline.update(found.baseline)
     return Diagnosis(
         recording=recording_names(sp.fit_recordings),
-        family=fam.name,
-        model=str(setup.model.family),
+        family=run.fam.name,
+        model=str(run.setup.model.family),
         holdout=sp.description,
         channel=channel,
         baseline=baseline,
-        location=location,
-        signatures=list(first_sigs),
-        hypotheses=hypotheses,
+        location=outcome.location,
+        signatures=list(outcome.signatures),
+        hypotheses=outcome.hypotheses,
         named=named,
         ambiguities=amb,
-        verdict=verdict_words(named, hypotheses, amb, first_sigs, found),
+        verdict=verdict_words(named, outcome.hypotheses, amb, outcome.signatures, found),
         comparison=comparison,
         final_params=current.params(),
-        seconds=time.perf_counter() - t0,
-        rule=fam.rule,
+        seconds=time.perf_counter() - run.t0,
+        rule=run.fam.rule,
         split=sp,
         base_fit=base,
         final_fit=current,

@@ -256,15 +256,23 @@ def _unstacked(
     if scaled is None or np.any(scaled == PENALTY):
         return None
     out, k = [], 0
-    for i, rec in enumerate(recs):
-        m = None if masks is None else masks[i]
-        n = len(rec.time) if m is None else int(np.count_nonzero(m))
+    for n in sample_counts(recs, masks):
         part = {}
         for c in channels:
             part[c] = scaled[k : k + n] * scales[c]
             k += n
         out.append(part)
     return out if k == scaled.size else None
+
+
+def sample_counts(recs: Sequence[RecordingLike], masks: Masks | None) -> list[int]:
+    """Each recording's fitted samples: its masked samples (all of them where there is
+    no mask)."""
+    counts = []
+    for i, rec in enumerate(recs):
+        m = None if masks is None else masks[i]
+        counts.append(len(rec.time) if m is None else int(np.count_nonzero(m)))
+    return counts
 
 
 def noise_scales(fit: FitResult, floor: float = 1e-12) -> dict[str, float]:
@@ -528,10 +536,7 @@ def fit(
     weights = (
         spread_scales(recs, fitted_channels(model, recs[0], x0)) if scales is None else dict(scales)
     )
-    n_res = sum(
-        int(np.count_nonzero(m)) if m is not None else len(r.time)
-        for r, m in zip(recs, masks or [None] * len(recs), strict=True)
-    ) * len(weights)
+    n_res = sum(sample_counts(recs, masks)) * len(weights)
     pb = _Problem(model, recs, list(weights), weights, masks, n_res, lo, hi)
     if not model.parameter_names:
         return evaluate(
@@ -547,13 +552,7 @@ def fit(
             seconds=time.perf_counter() - t_start,
         )
     jac_model = model.jacobian_model()
-    refined = model.refine_start(x0, recs, masks)
-    if refined is not None:
-        # a model-specific fast start (e.g. an equation-error fit); kept only where it
-        # lowers the simulation residual
-        x1 = np.clip(np.asarray(refined, float), lo + 1e-6 * span, hi - 1e-6 * span)
-        if np.sum(pb.fun(x1) ** 2) < np.sum(pb.fun(x0) ** 2):
-            x0 = x1
+    x0 = _refined_start(pb, x0, span)
     # the single-row residual first (in _solve), then the batched probe: a model that
     # caches its solutions row by row (the K&C axle) then reuses the row instead of
     # solving it in another batch
@@ -577,3 +576,14 @@ def fit(
         nfev=int(sol.nfev),
         seconds=time.perf_counter() - t_start,
     )
+
+
+def _refined_start(pb: _Problem, x0: np.ndarray, span: np.ndarray) -> np.ndarray:
+    """``x0``, or the model's cheap start (``model.refine_start``, e.g. an equation-error
+    fit) kept strictly inside the bounds (``span``: the bounds' width) where it lowers the
+    simulation residual."""
+    refined = pb.model.refine_start(x0, pb.recs, pb.masks)
+    if refined is None:
+        return x0
+    x1 = np.clip(np.asarray(refined, float), pb.lo + 1e-6 * span, pb.hi - 1e-6 * span)
+    return x1 if np.sum(pb.fun(x1) ** 2) < np.sum(pb.fun(x0) ** 2) else x0

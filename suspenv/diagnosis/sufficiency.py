@@ -43,6 +43,7 @@ import numpy as np
 
 from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.family import Setup
+from suspenv.diagnosis.fitting import sample_counts
 from suspenv.diagnosis.hypothesis import split_candidate
 from suspenv.diagnosis.protocols import RecordingLike
 from suspenv.diagnosis.split import Split
@@ -194,9 +195,7 @@ def _counts(
     """(samples, observations, fewest channels per recording) of one part of the split."""
     samples = obs = 0
     fewest = 0
-    for i, rec in enumerate(recs):
-        m = None if masks is None else masks[i]
-        n = len(rec.time) if m is None else int(np.count_nonzero(m))
+    for i, (rec, n) in enumerate(zip(recs, sample_counts(recs, masks), strict=True)):
         c = len(_fitted_channels(model, rec))
         samples += n
         obs += n * c

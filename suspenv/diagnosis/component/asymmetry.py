@@ -19,7 +19,7 @@ import numpy as np
 from suspenv.diagnosis.component.matched_speed import MatchedSpeedAsymmetry, matched_speed_asymmetry
 from suspenv.diagnosis.component.motion import cycle_index, motion
 from suspenv.diagnosis.component.refit import refit_with
-from suspenv.diagnosis.evidence import compare, heldout_rms, scaled_rms
+from suspenv.diagnosis.evidence import Comparison, compare, heldout_rms, scaled_rms
 from suspenv.diagnosis.fitting import FitResult, fit
 from suspenv.diagnosis.hypothesis import Hypothesis, corrected_delta_bic
 from suspenv.diagnosis.split import Split
@@ -118,43 +118,19 @@ def asymmetry_check(
     model-free matched-speed check rejects a constant force and a drifting zero and the
     asymmetric refit lowers the held-out error.
     """
-    effects = current.model.effects
-    dig = [e for e in effects if e.kind == "digressive_damping"]
+    dig = [e for e in current.model.effects if e.kind == "digressive_damping"]
     if not dig:
         return None
-    null = current
     base_offset = "f_0" in current.names  # a base model with its own constant force
-    if not base_offset and not any(e.kind in ("force_offset", "gas_spring") for e in effects):
-        null = refit_with(
-            current, "force_offset", sp.fit_recordings, sp.fit_masks, max_nfev=max_nfev
-        )
-    vals = dict(zip(null.names, null.theta, strict=True))
-    d = dig[0]
-    c_low, v_knee = vals[f"{d.name}.c_low"], vals[f"{d.name}.v_knee"]
-    asym = make_effect(
-        "asymmetric_digressive_damping",
-        location=d.location,
-        c_bump=c_low,
-        v_knee_bump=v_knee,
-        c_rebound=c_low,
-        v_knee_rebound=v_knee,
-    )
-    alt_effects = tuple(asym if e.name == d.name else e for e in null.model.effects)
-    alt_model = null.model.with_effects(alt_effects)
-    theta0 = {k: v for k, v in vals.items() if not k.startswith(d.name + ".")}
-    theta0.update({f"{asym.name}.{k}": float(v) for k, v in asym.params.items()})
-    alt = fit(alt_model, sp.fit_recordings, sp.fit_masks, theta0=theta0, max_nfev=max_nfev)
-    alt.extra["effect"] = asym.to_dict()
+    null = _with_constant_force(current, sp, base_offset, max_nfev)
+    asym, alt = _asymmetric_refit(null, dig[0], sp, max_nfev)
     comp = compare(null, alt, sp)
     v_all = np.concatenate([np.abs(motion(r)[1]) for r in sp.fit_recordings])
     v_ref = float(np.percentile(v_all, 99))
     ratio, se = _rebound_bump_ratio(alt, v_ref)
     dbic = corrected_delta_bic(comp.lr.statistic_corrected, comp.lr.dof, null.n_samples)
     fold_r, fold_h = _cycle_folds(null, alt, sp, v_ref, max_nfev)
-    se_folds = float("nan")
-    if len(fold_r) > 1:
-        k = len(fold_r)
-        se_folds = float(np.sqrt((k - 1) / k * np.sum((np.array(fold_r) - np.mean(fold_r)) ** 2)))
+    se_folds = _jackknife_stderr(fold_r)
     se_all = float(np.nanmax([se, se_folds]))
     folds_agree = not fold_h or float(np.mean(fold_h)) >= min_heldout_gain
     supported = bool(
@@ -167,39 +143,8 @@ def asymmetry_check(
     matched = _matched_speed(sp, alpha)
     if matched is not None and matched.supported and comp.heldout_reduction > 0.0:
         supported = True
-    off_name = next(
-        (e.name for e in null.model.effects if e.kind in ("force_offset", "gas_spring")),
-        "",
-    )
-    off_keys = (f"{off_name}.offset", f"{off_name}.f_0") + (("f_0",) if base_offset else ())
-    off_key = next((k for k in off_keys if k in alt.names), None)
-    offset = float(alt.theta[alt.names.index(off_key)]) if off_key else float("nan")
-    side = "rebound" if ratio >= 0 else "bump"
-    folds = ""
-    if fold_h:
-        folds = (
-            f", mean held-out change over {len(fold_h)} cycle folds "
-            f"{-100 * float(np.mean(fold_h)):+.1f} %"
-        )
-    numbers = (
-        f"bump/rebound asymmetry of {100 * ratio:+.1f} % ± {100 * se_all:.1f} % ({side} "
-        f"stronger at {v_ref:.3g} m/s, {abs(ratio) / se_all:.1f} standard errors; constant "
-        f"force (gas force / offset) {offset:.3g} N in both models; held-out error change "
-        f"{-100 * comp.heldout_reduction:+.1f} %{folds}; corrected p = "
-        f"{comp.lr.p_value_corrected:.2g}, corrected BIC change {dbic:+.1f})"
-    )
-    if supported:
-        sentence = f"{numbers}: supported by this recording"
-    elif matched is not None:
-        sentence = f"{numbers}: not supported by the fitted curve alone"
-    else:
-        sentence = (
-            f"{numbers}: below what this recording can separate from an offset; a test at "
-            "higher velocity / a pure sine sweep would separate them (an asymmetry grows "
-            "with speed, a gas force or offset does not)"
-        )
-    if matched is not None:
-        sentence = f"{sentence}. Model-free check, {matched.sentence}"
+    offset = _constant_force(null, alt, base_offset)
+    numbers = _numbers(ratio, se_all, v_ref, offset, comp, fold_h, dbic)
     words = make_effect(asym.kind, location=asym.location).words
     hyp = Hypothesis.from_comparison(
         asym.kind, "", words, 0, null, alt, comp, signature_evidence=numbers
@@ -215,7 +160,7 @@ def asymmetry_check(
         p_value_corrected=float(comp.lr.p_value_corrected),
         delta_bic_corrected=float(dbic),
         supported=supported,
-        sentence=sentence,
+        sentence=_sentence(numbers, supported, matched),
         params=hyp.params,
         fold_ratios=fold_r,
         fold_heldout_reductions=fold_h,
@@ -223,6 +168,109 @@ def asymmetry_check(
         matched_speed=matched,
         hypothesis=hyp,
     )
+
+
+def _with_constant_force(
+    current: FitResult, sp: Split, base_offset: bool, max_nfev: int
+) -> FitResult:
+    """The null model: ``current`` with a constant force (``force_offset``) refitted,
+    unless it has one (its base model's ``f_0`` where ``base_offset``, or a force offset
+    or gas spring element)."""
+    has_one = any(e.kind in ("force_offset", "gas_spring") for e in current.model.effects)
+    if base_offset or has_one:
+        return current
+    return refit_with(current, "force_offset", sp.fit_recordings, sp.fit_masks, max_nfev=max_nfev)
+
+
+def _asymmetric_refit(null: FitResult, dig: Any, sp: Split, max_nfev: int) -> tuple[Any, FitResult]:
+    """The alternative model: ``null`` with its digressive element ``dig`` replaced by an
+    ``asymmetric_digressive_damping`` whose bump and rebound branches start at the
+    symmetric values, refitted; returns the new element and the fit."""
+    vals = dict(zip(null.names, null.theta, strict=True))
+    c_low, v_knee = vals[f"{dig.name}.c_low"], vals[f"{dig.name}.v_knee"]
+    asym = make_effect(
+        "asymmetric_digressive_damping",
+        location=dig.location,
+        c_bump=c_low,
+        v_knee_bump=v_knee,
+        c_rebound=c_low,
+        v_knee_rebound=v_knee,
+    )
+    alt_effects = tuple(asym if e.name == dig.name else e for e in null.model.effects)
+    alt_model = null.model.with_effects(alt_effects)
+    theta0 = {k: v for k, v in vals.items() if not k.startswith(dig.name + ".")}
+    theta0.update({f"{asym.name}.{k}": float(v) for k, v in asym.params.items()})
+    alt = fit(alt_model, sp.fit_recordings, sp.fit_masks, theta0=theta0, max_nfev=max_nfev)
+    alt.extra["effect"] = asym.to_dict()
+    return asym, alt
+
+
+def _jackknife_stderr(values: list[float]) -> float:
+    """The jackknife standard error of the fold estimates ``values`` (NaN for fewer
+    than two)."""
+    if len(values) <= 1:
+        return float("nan")
+    k = len(values)
+    return float(np.sqrt((k - 1) / k * np.sum((np.array(values) - np.mean(values)) ** 2)))
+
+
+def _constant_force(null: FitResult, alt: FitResult, base_offset: bool) -> float:
+    """The constant force [N] (force offset, gas force or the base model's ``f_0``) of
+    the alternative fit ``alt`` (NaN where it has none)."""
+    off_name = next(
+        (e.name for e in null.model.effects if e.kind in ("force_offset", "gas_spring")),
+        "",
+    )
+    off_keys = (f"{off_name}.offset", f"{off_name}.f_0") + (("f_0",) if base_offset else ())
+    off_key = next((k for k in off_keys if k in alt.names), None)
+    return float(alt.theta[alt.names.index(off_key)]) if off_key else float("nan")
+
+
+def _numbers(
+    ratio: float,
+    stderr: float,
+    v_ref: float,
+    offset: float,
+    comp: Comparison,
+    fold_h: list[float],
+    dbic: float,
+) -> str:
+    """The check's numbers in words: the ``ratio`` (rebound over bump force at ``v_ref``
+    [m/s], minus one) with its standard error, the constant force ``offset`` [N], the
+    held-out change (over the cycle folds ``fold_h`` where there are some), the corrected
+    p-value and BIC change ``dbic``."""
+    side = "rebound" if ratio >= 0 else "bump"
+    folds = ""
+    if fold_h:
+        folds = (
+            f", mean held-out change over {len(fold_h)} cycle folds "
+            f"{-100 * float(np.mean(fold_h)):+.1f} %"
+        )
+    return (
+        f"bump/rebound asymmetry of {100 * ratio:+.1f} % ± {100 * stderr:.1f} % ({side} "
+        f"stronger at {v_ref:.3g} m/s, {abs(ratio) / stderr:.1f} standard errors; constant "
+        f"force (gas force / offset) {offset:.3g} N in both models; held-out error change "
+        f"{-100 * comp.heldout_reduction:+.1f} %{folds}; corrected p = "
+        f"{comp.lr.p_value_corrected:.2g}, corrected BIC change {dbic:+.1f})"
+    )
+
+
+def _sentence(numbers: str, supported: bool, matched: MatchedSpeedAsymmetry | None) -> str:
+    """The check's sentence: its ``numbers``, whether the recording supports the
+    asymmetry, and the model-free check's sentence where it ran."""
+    if supported:
+        sentence = f"{numbers}: supported by this recording"
+    elif matched is not None:
+        sentence = f"{numbers}: not supported by the fitted curve alone"
+    else:
+        sentence = (
+            f"{numbers}: below what this recording can separate from an offset; a test at "
+            "higher velocity / a pure sine sweep would separate them (an asymmetry grows "
+            "with speed, a gas force or offset does not)"
+        )
+    if matched is not None:
+        sentence = f"{sentence}. Model-free check, {matched.sentence}"
+    return sentence
 
 
 def _matched_speed(sp: Split, alpha: float) -> MatchedSpeedAsymmetry | None:

@@ -488,15 +488,9 @@ class ComponentFamily(OptionalSteps):
         self.displacement_noise_m = max((c.displacement_noise for c in checks), default=0.0)
         version = source if source != "auto" else preferred_version(checks) or ""
         if not version:  # the displacement's noise could not be separated: fit both
-            rms: dict[str, float] = {}
-            for name, cand in versions.items():
-                sp = split(cand, held if held_recs is None else held_recs)
-                fitted: Any = model  # a component model fits Recordings (the protocol's R)
-                base = fit(fitted, sp.fit_recordings, sp.fit_masks, max_nfev=self.budget)
-                rms[name] = base.rms()[model.output_channels[0]]
-            version = min(rms, key=lambda k: rms[k])
-            unit = model.channel_units.get(model.output_channels[0], "")
-            self.rig_notes.append(choice_words(checks, rms, unit))
+            version = self._better_fitted(
+                model, versions, checks, held if held_recs is None else held_recs
+            )
         elif source == "auto" and version == "displacement":
             self.rig_notes.append(
                 "the velocity (and acceleration) used are the derivatives of the "
@@ -508,47 +502,74 @@ class ComponentFamily(OptionalSteps):
             held_recs, held_checks = conditioned(held_recs, channels, version)
         chosen = versions[version]
         if getattr(model, "output_lowpass", False) and self.motion_lowpass_hz is not None:
-            # the outputs low-passed like each recording's motion (and the prediction
-            # alike: ComponentModel.simulate), where the cut-off keeps enough harmonics of
-            # the motion cycle; the residual check reads them as recorded
-            cut = {
-                c.recording: c.cutoff_hz for c in [*checks, *held_checks] if c.cutoff_hz is not None
-            }
-            for r in [*chosen, *(held_recs or [])]:  # a held-out recording may repeat one
-                name = str(r.name)
-                if name in self.recorded_outputs or name not in cut:
-                    continue
-                if harmonics_kept(r, cut[name]) >= OUTPUT_LOWPASS_HARMONICS:
-                    self.recorded_outputs[name] = dict(r.outputs)
-
-            def alike(rs: list[RecordingLike]) -> list[RecordingLike]:
-                return [
-                    low_passed_outputs(r, cut[str(r.name)])
-                    if str(r.name) in self.recorded_outputs
-                    else r
-                    for r in rs
-                ]
-
-            chosen = alike(chosen)
-            held_recs = None if held_recs is None else alike(held_recs)
-            outs = ", ".join(model.output_channels)
-            if self.recorded_outputs:
-                self.rig_notes.append(
-                    f"the recorded {outs} is compared low-passed like the motion (at "
-                    f"{self.motion_lowpass_hz:.3g} Hz, which keeps "
-                    f"{OUTPUT_LOWPASS_HARMONICS} or more harmonics of the motion cycle), and "
-                    "so is the model's force beyond its inertia and damping, which the "
-                    "low-passed motion carries exactly; the check of the residual left "
-                    "reads it as recorded"
-                )
-            else:
-                self.rig_notes.append(
-                    f"the recorded {outs} is compared as recorded: the motion's cut-off "
-                    f"({self.motion_lowpass_hz:.3g} Hz) keeps fewer than "
-                    f"{OUTPUT_LOWPASS_HARMONICS} harmonics of its cycle, too few for the "
-                    "shape of a step"
-                )
+            return self._low_passed(model, [*checks, *held_checks], chosen, held_recs)
         return chosen, held_recs
+
+    def _better_fitted(
+        self,
+        model: ComponentModel,
+        versions: dict[str, list[RecordingLike]],
+        checks: list[MotionCheck],
+        held: Holdout | list[RecordingLike],
+    ) -> str:
+        """The motion version (of ``versions``) whose baseline fit leaves the smaller RMS
+        residual of the first output channel (``held``: the held-out data), said in the
+        rig notes."""
+        rms: dict[str, float] = {}
+        for name, cand in versions.items():
+            sp = split(cand, held)
+            fitted: Any = model  # a component model fits Recordings (the protocol's R)
+            base = fit(fitted, sp.fit_recordings, sp.fit_masks, max_nfev=self.budget)
+            rms[name] = base.rms()[model.output_channels[0]]
+        unit = model.channel_units.get(model.output_channels[0], "")
+        self.rig_notes.append(choice_words(checks, rms, unit))
+        return min(rms, key=lambda k: rms[k])
+
+    def _low_passed(
+        self,
+        model: ComponentModel,
+        checks: list[MotionCheck],
+        chosen: list[RecordingLike],
+        held_recs: list[RecordingLike] | None,
+    ) -> tuple[list[RecordingLike], list[RecordingLike] | None]:
+        """The fitted and held-out recordings with their outputs low-passed like each
+        recording's motion (and the prediction alike: ``ComponentModel.simulate``),
+        where the cut-off of its ``checks`` keeps enough harmonics of the motion cycle;
+        the outputs as recorded are kept for the residual check (:attr:`recorded_outputs`)."""
+        cut = {c.recording: c.cutoff_hz for c in checks if c.cutoff_hz is not None}
+        for r in [*chosen, *(held_recs or [])]:  # a held-out recording may repeat one
+            name = str(r.name)
+            if name in self.recorded_outputs or name not in cut:
+                continue
+            if harmonics_kept(r, cut[name]) >= OUTPUT_LOWPASS_HARMONICS:
+                self.recorded_outputs[name] = dict(r.outputs)
+
+        def alike(rs: list[RecordingLike]) -> list[RecordingLike]:
+            return [
+                low_passed_outputs(r, cut[str(r.name)])
+                if str(r.name) in self.recorded_outputs
+                else r
+                for r in rs
+            ]
+
+        outs = ", ".join(model.output_channels)
+        if self.recorded_outputs:
+            self.rig_notes.append(
+                f"the recorded {outs} is compared low-passed like the motion (at "
+                f"{self.motion_lowpass_hz:.3g} Hz, which keeps "
+                f"{OUTPUT_LOWPASS_HARMONICS} or more harmonics of the motion cycle), and "
+                "so is the model's force beyond its inertia and damping, which the "
+                "low-passed motion carries exactly; the check of the residual left "
+                "reads it as recorded"
+            )
+        else:
+            self.rig_notes.append(
+                f"the recorded {outs} is compared as recorded: the motion's cut-off "
+                f"({self.motion_lowpass_hz:.3g} Hz) keeps fewer than "
+                f"{OUTPUT_LOWPASS_HARMONICS} harmonics of its cycle, too few for the "
+                "shape of a step"
+            )
+        return alike(chosen), None if held_recs is None else alike(held_recs)
 
     def fit_baseline(self, setup: Setup) -> FitResult:
         sp = setup.split
