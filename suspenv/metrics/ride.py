@@ -340,7 +340,7 @@ def modal_form(
         A[:, 2 * nq :, nq : 2 * nq] = cz[:, :, None] * Pz[None]
         A[:, 2 * nq :, 2 * nq :] = -kz[:, :, None] * np.eye(nz)
         Cx[Co.shape[0] :, 2 * nq :] = np.eye(nz)
-    lam, V = np.linalg.eig(A)  # (n, ns), (n, ns, ns)
+    lam, V = spectral_kernel.decompose(spectral_kernel.general_eigen, A)  # (n, ns), (n, ns, ns)
     R = np.linalg.solve(V, B)
     Rm = R[:, :, :m_in] + lam[:, :, None] * R[:, :, m_in:]  # (n, ns, m)
     CV = np.einsum("pi,nik->npk", Cx, V)  # (n, p, ns)
