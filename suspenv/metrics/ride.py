@@ -1171,17 +1171,27 @@ def _mehler_mean_square(direct: np.ndarray, coef: np.ndarray, rho: np.ndarray) -
     formula ``sum_n (sqrt(n!) c_n)(sqrt(n!) c_n') rho^n``, weighted: Wk in the ISO band
     (:func:`_remainder_lags`); unweighted: the whole variance."""
     kern = _remainder_lags()[2]
+    # the springs and orders with a remainder (the others add nothing: skipped), the
+    # pairs (i <= j) of those springs and the distinct pairs they share
+    size = np.abs(coef)
+    on, orders = size.max(axis=(0, 1)) > 0, np.flatnonzero(size.max(axis=(1, 2)) > 0)
     i, j = _PAIRS
+    pairs = np.flatnonzero(on[i] & on[j])
+    distinct, shared = np.unique(_SHARED[pairs], return_inverse=True)
+    i, j = i[pairs], j[pairs]
     twice = np.where(i == j, 1.0, 2.0)  # pairs i < j stand for (i, j) and (j, i)
     # per order and distinct pair: the Wk-weighted sum over the lags and the lag-0
-    # value of rho^n
-    sums = np.empty((coef.shape[0], rho.shape[0], 2, rho.shape[1]))
-    power = rho
-    for k in range(coef.shape[0]):
-        power = power * rho
-        sums[k, :, 0], sums[k, :, 1] = power @ kern, power[:, :, 0]
-    dc = direct[None] * coef[:, :, None, :]  # (orders, n, 2, 4): m/s^2 per unit term
-    return np.einsum("onpk,onwk->npw", dc[..., i] * dc[..., j] * twice, sums[..., _SHARED])
+    # value of rho^n (n = order + 2)
+    base = rho[:, distinct]
+    power, sums = base, np.empty((orders.size, rho.shape[0], 2, distinct.size))
+    slot = {int(k): m for m, k in enumerate(orders)}
+    for k in range(max(slot, default=-1) + 1):
+        power = power * base
+        if k in slot:
+            sums[slot[k], :, 0], sums[slot[k], :, 1] = power @ kern, power[:, :, 0]
+    dc = direct[None] * coef[orders, :, None, :]  # (orders, n, 2, 4): m/s^2 per unit term
+    terms = dc[..., i] * dc[..., j] * twice
+    return np.einsum("onpk,onwk->npw", terms, sums[..., shared])
 
 
 def _direct(lin: RideModel) -> np.ndarray:
