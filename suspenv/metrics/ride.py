@@ -965,12 +965,26 @@ def _remainder_lags() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return f, idx, kern
 
 
+#: :func:`_uniform_road`'s cache
+_UNIFORM_ROADS: IdentityCache[tuple[np.ndarray, ...]] = IdentityCache()
+
+
 def _uniform_road(road: RandomRoad, vehicle: Minibus) -> tuple[np.ndarray, ...]:
     """The remainders' uniform grid (Hz) and lag indices (:func:`_remainder_lags`) and
     there the road's PSD Gq (its class band, zero outside), the rear wheels' delay
-    factor and the tracks' coherency (:func:`road_terms`)."""
+    factor and the tracks' coherency (:func:`road_terms`). Read-only, kept per road
+    and vehicle object (and by value)."""
+    return _UNIFORM_ROADS.get([road, vehicle], (), lambda: _uniform_road_values(road, vehicle))
+
+
+@functools.lru_cache(maxsize=32)
+def _uniform_road_values(road: RandomRoad, vehicle: Minibus) -> tuple[np.ndarray, ...]:
+    """:func:`_uniform_road`, built (read-only)."""
     f, idx, _ = _remainder_lags()
-    return f, idx, *_band_road(f, road, vehicle)
+    out = (f, idx, *_band_road(f, road, vehicle))
+    for a in out:
+        a.flags.writeable = False
+    return out
 
 
 def _band_road(f: np.ndarray, road: RandomRoad, vehicle: Minibus) -> tuple[np.ndarray, ...]:
@@ -1183,12 +1197,9 @@ def _mehler_mean_square(direct: np.ndarray, coef: np.ndarray, rho: np.ndarray) -
     # per order and distinct pair: the Wk-weighted sum over the lags and the lag-0
     # value of rho^n (n = order + 2)
     base = rho[:, distinct]
-    power, sums = base, np.empty((orders.size, rho.shape[0], 2, distinct.size))
-    slot = {int(k): m for m, k in enumerate(orders)}
-    for k in range(max(slot, default=-1) + 1):
-        power = power * base
-        if k in slot:
-            sums[slot[k], :, 0], sums[slot[k], :, 1] = power @ kern, power[:, :, 0]
+    top = orders[-1] + 2 if orders.size else 1
+    power = np.cumprod(np.broadcast_to(base, (top, *base.shape)), axis=0)[1:][orders]
+    sums = np.stack([power @ kern, power[..., 0]], axis=2)  # (orders, n, 2, distinct)
     dc = direct[None] * coef[orders, :, None, :]  # (orders, n, 2, 4): m/s^2 per unit term
     terms = dc[..., i] * dc[..., j] * twice
     return np.einsum("onpk,onwk->npw", terms, sums[..., shared])
