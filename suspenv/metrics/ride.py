@@ -1309,8 +1309,9 @@ def ride_spectral(
     minibus.linearisation`) and its force's part incoherent with the leaf added as the
     stops' remainder is (:func:`_dahl_remainder`), all in the same fixed-point passes
     (by default 4 with leaf friction only, within 1e-3 of the fixed point, 8 with stops
-    or damper friction, within 0.5 %; tests); the model's halves then carry complex modal sums
-    (:func:`_spectral_modal`; with a seat or ``split=False`` the whole model).
+    or damper friction, within 0.5 %; tests); the model's halves then carry one Dahl state
+    each and take the compiled eigen-decomposition and modal sums (:class:`_EffectHalves`;
+    with a seat or ``split=False`` the whole model's complex modal sums).
 
     ``split`` (default True; only without a seat): the mirror-symmetric model is
     evaluated as its decoupled symmetric (4-DOF) and antisymmetric (3-DOF) halves
