@@ -853,7 +853,7 @@ class _EffectHalves:
 
     def residues(
         self, modes: tuple[np.ndarray, np.ndarray], row: int
-    ) -> list[tuple[np.ndarray, ...]]:
+    ) -> list[tuple[np.ndarray, np.ndarray]]:
         """Per half (symmetric, antisymmetric) the poles (n, 2d) and residues (n, 2d, 1,
         2) of output ``row`` for the axle inputs (front, rear), as :func:`modal_form`
         gives them, from the eigen-decomposition ``modes`` (:meth:`modal`); the pad's
@@ -894,8 +894,10 @@ def _spectral_modal(
     # per element (dampers FL..RR, leaves L, R, front springs FL, FR) its output's index
     # among the ``rows`` of the passes (with halves its left-hand twin's), and those of
     # the Dahl forces z_L, z_R (with halves the one of z_h, twice: z_L^2 = (z_s^2 +
-    # z_a^2)/2); ``leaf``: the leaves' outputs
+    # z_a^2)/2)
     n_el = 8 if effects else 6
+    modal: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
+    mean_square: Callable[..., np.ndarray]
     if halves:
         eh = _EffectHalves(lin, dahl)
         modal, mean_square = eh.modal, eh.mean_square
