@@ -18,6 +18,7 @@ from scipy.special import ndtr
 from test_stop_closure import interpolation_bound
 
 from suspenv.metrics.ride import (
+    DOSE_KEYS,
     _output_matrix,
     corner_statistics,
     modal_form,
@@ -449,13 +450,15 @@ def test_modal_form_with_dahl_states_equals_complex_stiffness_solve():
     "effects", [[LEAF_FRICTION], STOPS, [DAMPER_FRICTION, LEAF_FRICTION] + STOPS]
 )
 def test_halves_equal_the_whole_model_with_effects(effects):
-    """The split halves (one Dahl state each) equal the whole 16-state model (rel 1e-10),
-    rates included."""
+    """The split halves (one Dahl state each; compiled eigen-decomposition and modal
+    sums) equal the whole 16-state model (numpy's complex modal forms; rel 1e-10),
+    rates and the Gaussian doses (from the weighted acceleration's rate) included."""
     X = design_space().to_physical(np.random.default_rng(5).random((6, 8)))
     a = ride_spectral(X, effects=effects)
     b = ride_spectral(X, effects=effects, split=False)
-    for key in ("aw_front", "aw_rear", "rms_front", "rms_rear", "damper_c", "leaf_k"):
-        assert a[key] == pytest.approx(b[key], rel=1e-10)
+    keys = ("aw_front", "aw_rear", "rms_front", "rms_rear", "damper_c", "leaf_k", *DOSE_KEYS)
+    for key in keys:
+        assert a[key] == pytest.approx(b[key], rel=1e-10), key
 
 
 def test_effects_that_never_act_change_nothing():

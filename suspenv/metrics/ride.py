@@ -340,7 +340,7 @@ def modal_form(
         A[:, 2 * nq :, nq : 2 * nq] = cz[:, :, None] * Pz[None]
         A[:, 2 * nq :, 2 * nq :] = -kz[:, :, None] * np.eye(nz)
         Cx[Co.shape[0] :, 2 * nq :] = np.eye(nz)
-    lam, V = np.linalg.eig(A)  # (n, ns), (n, ns, ns)
+    lam, V = spectral_kernel.decompose(spectral_kernel.general_eigen, A)  # (n, ns), (n, ns, ns)
     R = np.linalg.solve(V, B)
     Rm = R[:, :, :m_in] + lam[:, :, None] * R[:, :, m_in:]  # (n, ns, m)
     CV = np.einsum("pi,nik->npk", Cx, V)  # (n, p, ns)
@@ -354,7 +354,8 @@ def modal_response(lam: np.ndarray, P: np.ndarray, f: np.ndarray) -> np.ndarray:
     residues P (n, K, p, m) (see :func:`modal_form`)."""
     n, k, p, m = P.shape
     s = 2j * np.pi * np.asarray(f, dtype=float)
-    Wm = 1.0 / (s[None, :, None] - lam[:, None, :])  # (n, Nf, K)
+    Wm = s[None, :, None] - lam[:, None, :]  # (n, Nf, K)
+    np.divide(1.0, Wm, out=Wm)
     return (Wm @ P.reshape(n, k, p * m)).reshape(n, f.size, p, m)
 
 
@@ -510,8 +511,14 @@ class _Halves:
         :func:`suspenv.models.minibus.spectral_kernel.halves_matrix` and
         :func:`~suspenv.models.minibus.spectral_kernel.eigen`, LAPACK for a row where
         that fails (:func:`~suspenv.models.minibus.spectral_kernel.decompose`)."""
+        return spectral_kernel.decompose(spectral_kernel.eigen, self.matrix(rates))
+
+    def matrix(self, rates: np.ndarray) -> np.ndarray:
+        """The halves' first-order matrices (2n, 2d, 2d; states ``[x, xd]``) at element
+        rates (n, n_el): :func:`suspenv.models.minibus.spectral_kernel.halves_matrix`
+        into a work array that the next call overwrites."""
         spectral_kernel.halves_matrix(self.A0, self.minv, self.D, rates, self._A)
-        return spectral_kernel.decompose(spectral_kernel.eigen, self._A)
+        return self._A
 
     def mean_square(
         self,
@@ -724,51 +731,139 @@ _HALF_MAPS = ((T_SYM, J_SYM, np.array([[_H, _H]])), (T_ANTI, J_ANTI, np.array([[
 _WHOLE_MAP = ((None, None, np.eye(2)),)
 
 
+def _whole_modal(
+    lin: RideModel, effects: bool, dahl: bool
+) -> Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]:
+    """``r -> (poles, residues)``: :func:`modal_form` of the whole linear model ``lin``
+    (every wheel input) at the rates ``r`` (n, n_rates; columns of
+    :mod:`suspenv.models.minibus.linearisation`), with ``dahl`` a linearised Dahl state
+    per leaf. Outputs: measuring points front, rear; dampers FL..RR; leaves L, R; with
+    ``effects`` the front springs FL, FR; with ``dahl`` the Dahl forces z_L, z_R."""
+    nq = lin.nq
+    Co = np.vstack([_output_matrix(lin), lin.E[:nq, 0:2].T])[: 10 if effects else 8]
+    leaves = lin.E[:nq, 2:4].T  # (2, nq) leaf compression at the seats per q
+
+    def modal(r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        system = lin.linear_system(r[:, DAMPER], r[:, LEAF], r[:, FRONT] if effects else None)
+        hyst = (leaves, r[:, DAHL_C], r[:, DAHL_K]) if dahl else None
+        return modal_form(*system, Co, hyst)
+
+    return modal
+
+
 def _whole_mean_square(
-    modes: list[tuple[np.ndarray, np.ndarray]],
-    rows: list[int],
+    modes: tuple[np.ndarray, np.ndarray],
+    rows: slice,
     road: RandomRoad,
     n_freq: int,
     vehicle: Minibus,
     final: bool,
 ) -> np.ndarray:
-    """Mean squares (n, len(rows), 2) of the whole model's outputs ``rows`` (one
-    :func:`modal_form`, every wheel input) on the ``n_freq``-point grid: ``final``:
-    (Wk-weighted acceleration in the ISO band, acceleration), else (displacement,
-    rate)."""
-    lam, P = modes[0]
+    """Mean squares (n, outputs ``rows``, J) of the whole model's modal form ``modes``
+    (:func:`_whole_modal`) on the ``n_freq``-point grid: ``final`` (J = 3): Wk-weighted
+    acceleration in the ISO band, acceleration, the weighted acceleration's rate; else
+    (J = 2) displacement, rate."""
+    lam, P = modes
     f, wq, _, gq, delay, rho, wk2 = _road_grid(road, n_freq, vehicle)
     G = modal_response(lam, P[:, :, rows], f)
-    psd = _output_psd(G, f, gq, delay, rho, (0,) * len(rows))
+    psd = _output_psd(G, f, gq, delay, rho, (0,) * G.shape[2])
     w2 = (2 * np.pi * f) ** 2
-    cols = (w2 * w2 * wk2, w2 * w2) if final else (np.ones_like(f), w2)
-    ms = psd @ np.column_stack([wq * c for c in cols])
-    if not final:
-        return ms
-    return np.concatenate([ms, (psd @ (wq * w2 * w2 * w2 * wk2))[..., None]], axis=-1)
+    cols = (w2 * w2 * wk2, w2 * w2, w2 * w2 * w2 * wk2) if final else (np.ones_like(f), w2)
+    return psd @ np.column_stack([wq * c for c in cols])
 
 
-def _halves_mean_square(
-    modes: list[tuple[np.ndarray, np.ndarray]],
-    rows: list[int],
-    road: RandomRoad,
-    n_freq: int,
-    vehicle: Minibus,
-    final: bool,
-) -> np.ndarray:
-    """:func:`_whole_mean_square` for the halves' complex modal forms (:func:`modal_form`
-    per half, inputs front and rear axle; weights of :func:`_split_grid`)."""
-    (w, _, dr, di), wt = _split_grid(road, n_freq, vehicle, final)
-    delay = (dr + 1j * di)[None, :, None]
-    j = wt.shape[1] // 2
-    total = np.zeros((modes[0][0].shape[0], len(rows), j))
-    for h, (lam, P) in enumerate(modes):
-        G = modal_response(lam, P[:, :, rows], w / (2 * np.pi))  # (n, Nf, p, 2)
-        g = G[..., 0] + delay * G[..., 1]
-        g2 = g.real**2 + g.imag**2
-        total[..., :2] += np.matmul(g2.transpose(0, 2, 1), wt[:, j * h : j * h + 2])
-        total[..., 2:] += np.matmul(g2.transpose(0, 2, 1), wt[:, j * h + 2 : j * h + j])
-    return total
+class _EffectHalves:
+    """The two decoupled halves (:class:`_Halves`) of the mirror-symmetric ride model
+    with effects, for :func:`_spectral_modal`: element rates set per pass (dampers,
+    leaves, front springs) and, with ``dahl``, one linearised Dahl state per half
+    (``z_h = S (z_L, z_R)``, :data:`_HALF_MAPS`; the left leaf's ``c_z``, ``k_z``, the
+    right one's being equal), acting on the half as ``-pz^T z_h``.
+
+    A half's states are ``[x (4), z (nz), xd (4), pad (nz)]`` (nz = 1 with Dahl, else 0),
+    so that the compiled modal sums (:func:`suspenv.models.minibus.spectral_kernel.
+    modal_mean_square`: outputs of the first d = 4 + nz states, an even number 2 d of
+    states) serve; the pad is an inert state (pole -1, no input, no output). Outputs
+    (rows of ``co``): :data:`_SPLIT_ROWS` (measuring points front, rear, FL and RL
+    damper and left leaf compressions), the FL front spring's compression, then z_h."""
+
+    def __init__(self, lin: RideModel, dahl: bool):
+        geo = _split_geometry(lin)
+        self.halves = h = _Halves(geo, lin)
+        n, nq, self.nz = lin.n, lin.nq, int(dahl)
+        d = _SPLIT_D + self.nz
+        self.npos, self.rates = lin.n_pos, lin.K.astype(float)
+        self.co = np.zeros((2 * n, len(_SPLIT_ROWS) + 1 + self.nz, d))
+        self.co[:, : len(_SPLIT_ROWS), :_SPLIT_D] = h.co
+        self.co[:, len(_SPLIT_ROWS), :_SPLIT_D] = np.tile(lin.E[:nq, 0] @ geo.T, (n, 1))
+        self.B = np.zeros((2 * n, 2 * d, 4), dtype=complex)
+        self.B[:, d : d + _SPLIT_D] = h.B[:, _SPLIT_D:]
+        if dahl:
+            self.co[:, -1, _SPLIT_D] = 1.0
+            pz = np.vstack(
+                [S @ lin.E[:nq, 2:4].T @ T for T, (_, _, S) in zip(geo.T, _HALF_MAPS, strict=True)]
+            )
+            self.pz = np.tile(pz, (n, 1))  # (2n, 4): leaf force per unit z_h on x
+            self.fz = -(h.minv @ self.pz[..., None])[..., 0]  # xd' per unit z_h
+            # the decomposed states [x, xd, z] among the 2 d, and their work array
+            self.place = np.r_[0:_SPLIT_D, d : d + _SPLIT_D, _SPLIT_D]
+            self._A = np.zeros((2 * n, 2 * d - 1, 2 * d - 1))
+
+    def modal(self, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Poles (2n, 2d) and eigenvectors (2n, 2d, 2d) of the halves at the rates ``r``
+        (n, n_rates; columns of :mod:`suspenv.models.minibus.linearisation`): without
+        Dahl :meth:`_Halves.modal`; with it the compiled eigen-decomposition of the
+        states ``[x, xd, z]`` (:func:`~suspenv.models.minibus.spectral_kernel.
+        general_eigen`, LAPACK where it fails), the pad's pole and unit vector added."""
+        rates = self.rates
+        rates[:, 0:2], rates[:, 2:4] = r[:, FRONT], r[:, LEAF]
+        rates[:, self.npos : self.npos + 4] = r[:, DAMPER]
+        if not self.nz:
+            return self.halves.modal(rates)
+        A, m = self._A, 2 * _SPLIT_D
+        A[:, :m, :m] = self.halves.matrix(rates)
+        A[:, _SPLIT_D:m, m] = self.fz
+        A[:, m, _SPLIT_D:m] = r[:, DAHL_C][:, :1].repeat(2, axis=0) * self.pz
+        A[:, m, m] = -r[:, DAHL_K][:, 0].repeat(2)
+        lam9, V9 = spectral_kernel.decompose(spectral_kernel.general_eigen, A)
+        lam = np.full((A.shape[0], m + 2), -1.0 + 0j)
+        lam[:, : m + 1] = lam9
+        V = np.zeros((A.shape[0], m + 2, m + 2), dtype=complex)
+        V[:, self.place, : m + 1] = V9
+        V[:, m + 1, m + 1] = 1.0
+        return lam, V
+
+    def mean_square(
+        self,
+        modes: tuple[np.ndarray, np.ndarray],
+        rows: slice,
+        road: RandomRoad,
+        n_freq: int,
+        vehicle: Minibus,
+        final: bool,
+    ) -> np.ndarray:
+        """Mean squares (n, outputs ``rows``, J) of the halves with the eigen-
+        decomposition ``modes`` (:meth:`modal`) on the ``n_freq``-point grid, weights of
+        :func:`_split_grid` (``final``: Wk-weighted acceleration in the ISO band,
+        acceleration, the weighted acceleration's rate; else displacement, rate): the
+        compiled :func:`~suspenv.models.minibus.spectral_kernel.modal_mean_square`."""
+        (w, _, dr, di), wt = _split_grid(road, n_freq, vehicle, final)
+        out = np.empty((self.co.shape[0] // 2, rows.stop - rows.start, wt.shape[1] // 2))
+        spectral_kernel.modal_mean_square(*modes, self.B, self.co, rows.start, w, dr, di, wt, out)
+        return out
+
+    def residues(
+        self, modes: tuple[np.ndarray, np.ndarray], row: int
+    ) -> list[tuple[np.ndarray, np.ndarray]]:
+        """Per half (symmetric, antisymmetric) the poles (n, 2d) and residues (n, 2d, 1,
+        2) of output ``row`` for the axle inputs (front, rear), as :func:`modal_form`
+        gives them, from the eigen-decomposition ``modes`` (:meth:`modal`); the pad's
+        mode (residue zero) left out."""
+        lam, V = modes
+        R = np.linalg.solve(V, self.B)
+        cv = np.einsum("rj,rjk->rk", self.co[:, row], V[:, : self.co.shape[2]])
+        P = (cv[:, :, None] * (R[:, :, :2] + lam[:, :, None] * R[:, :, 2:]))[:, :, None]
+        k = lam.shape[1] - self.nz
+        return [(lam[h::2, :k], P[h::2, :k]) for h in (0, 1)]
 
 
 def _spectral_modal(
@@ -785,57 +880,40 @@ def _spectral_modal(
     effects: Sequence[Effect] = (),
     halves: bool = False,
 ) -> dict[str, np.ndarray]:
-    """:func:`ride_spectral` of one chunk by complex modal sums (:func:`modal_form`):
-    of the whole first-order system (all 2 nq states, every wheel input), or with
-    ``halves`` (seatless) of its decoupled symmetric and antisymmetric halves (each with
-    one Dahl state for the pair of leaves, ``z_h = S (z_L, z_R)``; left-hand elements
-    only, the right-hand ones have the same RMS values). With ``effects`` also the front
-    springs' and the Dahl elements' equivalent-linear rates (a Dahl element adds one
-    first-order state per leaf)."""
+    """:func:`ride_spectral` of one chunk by modal sums: of the whole first-order system
+    (:func:`_whole_modal`: all 2 nq states, every wheel input, complex sums), or with
+    ``halves`` (seatless, with ``effects``) of its decoupled symmetric and antisymmetric
+    halves (:class:`_EffectHalves`: each with one Dahl state for the pair of leaves,
+    ``z_h = S (z_L, z_R)``; left-hand elements only, the right-hand ones have the same
+    RMS values; compiled sums). With ``effects`` also the front springs' and the Dahl
+    elements' equivalent-linear rates (a Dahl element adds one first-order state per
+    leaf)."""
     lin = RideModel(params, seat=seat, linear=True)
     lz = ElementLinearisation(RideModel(params, effects, seat)) if equivalent_linear else None
     dahl = lz is not None and lz.dahl is not None
-    nq = lin.nq
-    # rows: measuring points front, rear; dampers FL..RR; leaves L, R; front springs FL,
-    # FR (with effects); with halves only the left-hand elements (the right-hand ones
-    # have the same RMS values); the Dahl forces after them (per leaf, or per half)
+    # per element (dampers FL..RR, leaves L, R, front springs FL, FR) its output's index
+    # among the ``rows`` of the passes (with halves its left-hand twin's), and those of
+    # the Dahl forces z_L, z_R (with halves the one of z_h, twice: z_L^2 = (z_s^2 +
+    # z_a^2)/2)
     n_el = 8 if effects else 6
-    keep = [0, 1, 2, 4, 6, 8][: 2 + n_el // 2] if halves else list(range(2 + n_el))
-    Co = np.vstack([_output_matrix(lin), lin.E[:nq, 0:2].T])[keep]
-    leaves = lin.E[:nq, 2:4].T  # (2, nq) leaf compression at the seats per q
-    maps = _HALF_MAPS if halves else _WHOLE_MAP
+    modal: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
+    mean_square: Callable[..., np.ndarray]
+    if halves:
+        eh = _EffectHalves(lin, dahl)
+        modal, mean_square = eh.modal, eh.mean_square
+        twin, z_rows, rows = [j // 2 for j in range(n_el)], [4, 4], slice(2, 6 + dahl)
+    else:
+        modal, mean_square = _whole_modal(lin, bool(effects), dahl), _whole_mean_square
+        twin, z_rows, rows = list(range(n_el)), [n_el, n_el + 1], slice(2, 2 + n_el + 2 * dahl)
 
-    def modal(r: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
-        system = lin.linear_system(r[:, DAMPER], r[:, LEAF], r[:, FRONT] if effects else None)
-        out = []
-        for T, J, S in maps:
-            M, C, K, Kin, Cin = system
-            co, pz = Co, leaves
-            if T is not None:
-                tt = T.T
-                M, C, K, Kin, Cin = tt @ M @ T, tt @ C @ T, tt @ K @ T, tt @ Kin @ J, tt @ Cin @ J
-                co, pz = Co @ T, S @ leaves @ T
-            nz = S.shape[0]
-            hyst = (pz, r[:, DAHL_C][:, :nz], r[:, DAHL_K][:, :nz]) if dahl else None
-            out.append(modal_form(M, C, K, Kin, Cin, co, hyst))
-        return out
-
-    mean_square = _halves_mean_square if halves else _whole_mean_square
-    # per element (dampers FL..RR, leaves L, R, front springs FL, FR) its row of Co,
-    # with halves its left-hand twin's; with halves one Dahl row, the pair's:
-    # z_L^2 = (z_s^2 + z_a^2)/2
-    twin = [j // 2 if halves else j for j in range(n_el)]
-    rows = list(range(2, Co.shape[0]))
-    z_rows = ([Co.shape[0]] if halves else [Co.shape[0], Co.shape[0] + 1]) if dahl else []
-
-    def sigma(m: list[tuple[np.ndarray, np.ndarray]]) -> np.ndarray:
-        ms = mean_square(m, rows + z_rows, road, n_freq_iter, vehicle, False)
+    def sigma(m: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+        ms = mean_square(m, rows, road, n_freq_iter, vehicle, False)
         e = ms[:, twin]
         sq = [e[:, 0:4, 1], e[:, 4:6, 0]]  # damper rates, leaf deflections
         if effects:
             z = np.zeros_like(sq[1])
             if dahl:
-                z = ms[:, [len(rows)] * 2, 0] / 2 if halves else ms[:, len(rows) :, 0]
+                z = ms[:, z_rows, 0] / (2.0 if halves else 1.0)
             sq += [e[:, 6:8, 0], e[:, 4:6, 1], z]  # front springs, leaf rates, Dahl
         return np.sqrt(np.concatenate(sq, axis=1))
 
@@ -845,7 +923,7 @@ def _spectral_modal(
     else:
         r0, tol_ = lz.initial(init_damping), 0.0 if tol is None else float(tol)
 
-        def update(m: list[tuple[np.ndarray, np.ndarray]], r: np.ndarray) -> int:
+        def update(m: tuple[np.ndarray, np.ndarray], r: np.ndarray) -> int:
             return int(spectral_kernel.take_rates(lz.rates(sigma(m), r), r, tol_))
 
     stops = lz is not None and any(k is not None for end in lz.kappa for k in end)
@@ -853,7 +931,7 @@ def _spectral_modal(
         assert lz is not None
         lz.set_corners(corner_statistics(lin, lz, road, vehicle, n_freq_iter, halves))
     r, n_iter, m = _fixed_point(r0, update, modal, iterations, tol)
-    ms = mean_square(m, [0, 1], road, n_freq, vehicle, True)
+    ms = mean_square(m, slice(0, 2), road, n_freq, vehicle, True)
     if lz is not None and (stops or dahl):
         # the remainders' common terms, once: element RMS values, uniform road, direct
         sig, uniform, direct = sigma(m), _uniform_road(road, vehicle), _direct(lin)
@@ -861,8 +939,8 @@ def _spectral_modal(
         if stops:
             ms = ms + _stop_remainder(lin, lz, r, sig, uniform, direct)
         if dahl:
-            leaf_rows = [keep.index(6)] if halves else [6, 7]
-            ms = ms + _dahl_remainder(lz, m, leaf_rows, sig, uniform, direct)
+            leaf = eh.residues(m, 4) if halves else [(m[0], m[1][:, :, 6:8])]
+            ms = ms + _dahl_remainder(lz, leaf, sig, uniform, direct)
         # the remainders' rates: taken in the linear part's proportion (same nu0)
         rate = lin_ms[..., 2] * ms[..., 0] / lin_ms[..., 0]
         ms = np.concatenate([ms, rate[..., None]], axis=-1)
@@ -889,12 +967,26 @@ def _remainder_lags() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return f, idx, kern
 
 
+#: :func:`_uniform_road`'s cache
+_UNIFORM_ROADS: IdentityCache[tuple[np.ndarray, ...]] = IdentityCache()
+
+
 def _uniform_road(road: RandomRoad, vehicle: Minibus) -> tuple[np.ndarray, ...]:
     """The remainders' uniform grid (Hz) and lag indices (:func:`_remainder_lags`) and
     there the road's PSD Gq (its class band, zero outside), the rear wheels' delay
-    factor and the tracks' coherency (:func:`road_terms`)."""
+    factor and the tracks' coherency (:func:`road_terms`). Read-only, kept per road
+    and vehicle object (and by value)."""
+    return _UNIFORM_ROADS.get([road, vehicle], (), lambda: _uniform_road_values(road, vehicle))
+
+
+@functools.lru_cache(maxsize=32)
+def _uniform_road_values(road: RandomRoad, vehicle: Minibus) -> tuple[np.ndarray, ...]:
+    """:func:`_uniform_road`, built (read-only)."""
     f, idx, _ = _remainder_lags()
-    return f, idx, *_band_road(f, road, vehicle)
+    out = (f, idx, *_band_road(f, road, vehicle))
+    for a in out:
+        a.flags.writeable = False
+    return out
 
 
 def _band_road(f: np.ndarray, road: RandomRoad, vehicle: Minibus) -> tuple[np.ndarray, ...]:
@@ -1055,29 +1147,29 @@ def _track_cross_spectra(
 
 def _leaf_rate_correlations(
     modes: list[tuple[np.ndarray, np.ndarray]],
-    leaf_rows: list[int],
     uniform: tuple[np.ndarray, ...],
 ) -> np.ndarray:
     """Correlation functions (n, 6, lags; as :func:`_deflection_correlations`, only the
     rear pairs RL-RL and RL-RR set, the rest zero) of the rear leaf deflection rates of
-    the linear model with the modal forms ``modes`` of :func:`_spectral_modal`: of its
-    halves (two forms, output ``leaf_rows[0]`` the left leaf, axle inputs; the right
-    leaf is the symmetric half's part less the antisymmetric one's, whose inputs are
-    uncorrelated with PSDs ``Gq (1 +- rho)/2``) or of the whole model (one form,
-    outputs ``leaf_rows`` the left and right leaves, wheel inputs); their spectra times
+    the linear model with the modal forms ``modes`` (poles, residues as
+    :func:`modal_form`) of the leaves' outputs: of its halves (two forms, one output,
+    the left leaf, axle inputs: :meth:`_EffectHalves.residues`; the right leaf is the
+    symmetric half's part less the antisymmetric one's, whose inputs are uncorrelated
+    with PSDs ``Gq (1 +- rho)/2``) or of the whole model (one form, outputs the left
+    and right leaves, wheel inputs); their spectra times
     ``(2 pi f)^2`` on the uniform grid (``uniform``: :func:`_uniform_road`), back by the
     inverse FFT."""
     f, idx, gq, delay, rho = uniform
     if len(modes) == 2:
         parts = []
         for sign, (lam, P) in zip((1.0, -1.0), modes, strict=True):
-            G = modal_response(lam, P[:, :, leaf_rows[:1]], f)[:, :, 0]  # (n, Nf, 2)
+            G = modal_response(lam, P, f)[:, :, 0]  # (n, Nf, 2)
             g = G[..., 0] + delay[None] * G[..., 1]
             parts.append(0.5 * (1.0 + sign * rho) * (g.real**2 + g.imag**2))
         S = np.stack([parts[0] + parts[1], parts[0] - parts[1]], axis=1)
     else:
         lam, P = modes[0]
-        G = modal_response(lam, P[:, :, leaf_rows], f)
+        G = modal_response(lam, P, f)
         S = _track_cross_spectra(G, delay, rho, (np.array([0, 0]), np.array([0, 1])))
     R = np.fft.irfft(S * (gq * (2 * np.pi * f) ** 2), axis=2)[:, :, idx]
     out = np.zeros((R.shape[0], 6, idx.size))
@@ -1095,17 +1187,24 @@ def _mehler_mean_square(direct: np.ndarray, coef: np.ndarray, rho: np.ndarray) -
     formula ``sum_n (sqrt(n!) c_n)(sqrt(n!) c_n') rho^n``, weighted: Wk in the ISO band
     (:func:`_remainder_lags`); unweighted: the whole variance."""
     kern = _remainder_lags()[2]
+    # the springs and orders with a remainder (the others add nothing: skipped), the
+    # pairs (i <= j) of those springs and the distinct pairs they share
+    size = np.abs(coef)
+    on, orders = size.max(axis=(0, 1)) > 0, np.flatnonzero(size.max(axis=(1, 2)) > 0)
     i, j = _PAIRS
+    pairs = np.flatnonzero(on[i] & on[j])
+    distinct, shared = np.unique(_SHARED[pairs], return_inverse=True)
+    i, j = i[pairs], j[pairs]
     twice = np.where(i == j, 1.0, 2.0)  # pairs i < j stand for (i, j) and (j, i)
     # per order and distinct pair: the Wk-weighted sum over the lags and the lag-0
-    # value of rho^n
-    sums = np.empty((coef.shape[0], rho.shape[0], 2, rho.shape[1]))
-    power = rho
-    for k in range(coef.shape[0]):
-        power = power * rho
-        sums[k, :, 0], sums[k, :, 1] = power @ kern, power[:, :, 0]
-    dc = direct[None] * coef[:, :, None, :]  # (orders, n, 2, 4): m/s^2 per unit term
-    return np.einsum("onpk,onwk->npw", dc[..., i] * dc[..., j] * twice, sums[..., _SHARED])
+    # value of rho^n (n = order + 2)
+    base = rho[:, distinct]
+    top = orders[-1] + 2 if orders.size else 1
+    power = np.cumprod(np.broadcast_to(base, (top, *base.shape)), axis=0)[1:][orders]
+    sums = np.stack([power @ kern, power[..., 0]], axis=2)  # (orders, n, 2, distinct)
+    dc = direct[None] * coef[orders, :, None, :]  # (orders, n, 2, 4): m/s^2 per unit term
+    terms = dc[..., i] * dc[..., j] * twice
+    return np.einsum("onpk,onwk->npw", terms, sums[..., shared])
 
 
 def _direct(lin: RideModel) -> np.ndarray:
@@ -1143,7 +1242,6 @@ def _stop_remainder(
 def _dahl_remainder(
     lz: ElementLinearisation,
     modes: list[tuple[np.ndarray, np.ndarray]],
-    leaf_rows: list[int],
     sig: np.ndarray,
     uniform: tuple[np.ndarray, ...],
     direct: np.ndarray,
@@ -1154,11 +1252,11 @@ def _dahl_remainder(
     series in the leaf deflection rate, of the variance the law leaves beside the
     equivalent element), through the mass matrix only as the stops' remainders
     (:func:`_stop_remainder`), cross-covariances by Mehler's formula from the leaf
-    deflection rates' correlations (:func:`_leaf_rate_correlations` of the modal forms
-    ``modes`` with the leaves at outputs ``leaf_rows``); none with the stops'
+    deflection rates' correlations (:func:`_leaf_rate_correlations` of the leaves'
+    modal forms ``modes``); none with the stops'
     remainders (at equal times the rate is uncorrelated with the deflection); ``uniform``
     and ``direct`` as there."""
-    rho = _leaf_rate_correlations(modes, leaf_rows, uniform)
+    rho = _leaf_rate_correlations(modes, uniform)
     return _mehler_mean_square(direct, lz.dahl_remainder_coefficients(sig), rho)
 
 
@@ -1213,8 +1311,9 @@ def ride_spectral(
     minibus.linearisation`) and its force's part incoherent with the leaf added as the
     stops' remainder is (:func:`_dahl_remainder`), all in the same fixed-point passes
     (by default 4 with leaf friction only, within 1e-3 of the fixed point, 8 with stops
-    or damper friction, within 0.5 %; tests); the model's halves then carry complex modal sums
-    (:func:`_spectral_modal`; with a seat or ``split=False`` the whole model).
+    or damper friction, within 0.5 %; tests); the model's halves then carry one Dahl state
+    each and take the compiled eigen-decomposition and modal sums (:class:`_EffectHalves`;
+    with a seat or ``split=False`` the whole model's complex modal sums).
 
     ``split`` (default True; only without a seat): the mirror-symmetric model is
     evaluated as its decoupled symmetric (4-DOF) and antisymmetric (3-DOF) halves

@@ -47,7 +47,7 @@ import functools
 from typing import Any
 
 import numpy as np
-from scipy.special import gamma, ive, ndtr, pbdv
+from scipy.special import gamma, i0e, i1e, ndtr, pbdv
 
 from suspenv.models.minibus import spectral_kernel, stop_closure
 from suspenv.models.minibus.ride_model import RideModel
@@ -151,8 +151,8 @@ def dahl_loop(a: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     Bessel functions)."""
     a = np.asarray(a, dtype=float)
     c = 1.0 + np.tanh(a)  # C e^a
-    ms = 1.0 - 2.0 * c * ive(0, a) + c * c * ive(0, 2.0 * a)
-    a1 = 2.0 * c * ive(1, a)
+    ms = 1.0 - 2.0 * c * i0e(a) + c * c * i0e(2.0 * a)
+    a1 = 2.0 * c * i1e(a)
     b1 = (4.0 / np.pi) * (1.0 - c * -np.expm1(-2.0 * a) / (2.0 * np.maximum(a, 1e-300)))
     return ms, a1, b1
 
