@@ -31,9 +31,10 @@ loops, short guide runs compared low-passed) are not judged.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from functools import cache
 from itertools import combinations, pairwise
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from scipy import integrate, linalg, signal
@@ -254,11 +255,14 @@ def play(s: np.ndarray, width: float) -> np.ndarray:
     while ``s`` moves within ``width / 2`` of it and is dragged along beyond, starting
     at ``s[0]`` (the elementary hysteresis of the Prandtl-Ishlinskii model: a
     time-invariant function of ``s`` with memory, independent of its rate)."""
-    out, y, h = np.empty(s.size), float(s[0]), 0.5 * width
-    for i, x in enumerate(s.tolist()):
-        y = min(max(y, x - h), x + h)
-        out[i] = y
-    return out
+    out, y, h = [], float(s[0]), 0.5 * width
+    for x in s.tolist():
+        if y < x - h:
+            y = x - h
+        elif y > x + h:
+            y = x + h
+        out.append(y)
+    return np.array(out)
 
 
 def plays(signals: Sequence[np.ndarray]) -> list[np.ndarray]:
@@ -302,37 +306,83 @@ def time_invariant(
     return fitted
 
 
-def ridge_path(a: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """The ridge coefficients of ``y`` on the columns of ``a`` (both centred, the columns
-    of unit spread), one column per penalty of :data:`RIDGE_GRID` times the largest
-    squared singular value of ``a``: ``V diag(s / (s^2 + lam)) U' y`` from ``a = U S V'``."""
-    u, sv, vt = np.linalg.svd(a, full_matrices=False)
-    lam = RIDGE_GRID[:, None] * sv[0] ** 2
-    return vt.T @ (sv / (sv**2 + lam) * (u.T @ y)).T
+class FoldMoments(NamedTuple):
+    """The sufficient statistics of ridge fits on any union of the folds of
+    :func:`held_out`: ``a`` the columns ``[x, r]`` less their mean over the folded
+    samples (so that sums over some folds centre without cancellation), ``fold`` every
+    sample's fold (-1: in none), and per fold ``j`` (0 ... :data:`FOLDS` - 1) its sample
+    count, the column sums and the cross-products ``a_j' a_j`` of its rows."""
+
+    a: np.ndarray
+    fold: np.ndarray
+    counts: np.ndarray
+    sums: np.ndarray
+    grams: np.ndarray
 
 
-def standardised(x: np.ndarray, rows: np.ndarray) -> np.ndarray:
-    """The columns of ``x`` less their mean over ``rows``, over their spread there."""
-    spread = x[rows].std(axis=0)
-    return (x - x[rows].mean(axis=0)) / np.where(spread > 0, spread, 1.0)
+#: a :func:`ridge_path`: the means of ``[x, r]``, the columns' spreads, the coefficients
+RidgePath = tuple[np.ndarray, np.ndarray, np.ndarray]
 
 
-def ridge_fit(x: np.ndarray, r: np.ndarray, train: np.ndarray, fold: np.ndarray) -> np.ndarray:
-    """The ridge prediction of ``r`` from the columns of ``x`` fitted on the samples
-    ``train``, at every sample, the penalty chosen on the training samples alone: the
-    one of :func:`ridge_path` that best predicts each training block (``fold``) from the
-    other training blocks (generalised cross-validation, which assumes independent
-    errors, picks almost no penalty on a coloured residual, and the near-collinear
-    lagged columns then predict wildly out of sample)."""
+def fold_moments(x: np.ndarray, r: np.ndarray, fold: np.ndarray) -> FoldMoments:
+    """The :class:`FoldMoments` of the columns ``x`` and the series ``r`` over the folds
+    ``fold`` (per sample; -1: in none)."""
+    a = np.column_stack([x, r])
+    a = a - a[fold >= 0].mean(axis=0)
+    parts = [a[fold == j] for j in range(FOLDS)]
+    return FoldMoments(
+        a,
+        fold,
+        np.array([b.shape[0] for b in parts]),
+        np.stack([b.sum(axis=0) for b in parts]),
+        np.stack([b.T @ b for b in parts]),
+    )
+
+
+def ridge_path(m: FoldMoments, folds: list[int]) -> RidgePath:
+    """The ridge fits of ``r`` on the columns of ``x`` (:func:`fold_moments`) over the
+    samples of ``folds``, their means taken out and the columns scaled to unit spread
+    there (``z``), one per penalty of :data:`RIDGE_GRID` times the largest squared
+    singular value of ``z``: ``V diag(1 / (s^2 + lam)) V' z' r`` from one
+    eigendecomposition ``z' z = V diag(s^2) V'`` of the Gram matrix summed from the
+    folds' (equal to ``V diag(s / (s^2 + lam)) U' r`` from ``z = U S V'``). Returns the
+    means of ``[x, r]`` there, the columns' spreads and the coefficients (a column per
+    penalty)."""
+    n = float(m.counts[folds].sum())
+    mean = m.sums[folds].sum(axis=0) / n
+    cov = m.grams[folds].sum(axis=0) - n * np.outer(mean, mean)
+    spread = np.sqrt(np.clip(np.diag(cov)[:-1], 0.0, None) / n)
+    spread = np.where(spread > 0, spread, 1.0)
+    w, v = np.linalg.eigh(cov[:-1, :-1] / np.outer(spread, spread))
+    w = np.clip(w, 0.0, None)  # ascending; round-off can leave a null one below 0
+    lam = RIDGE_GRID[:, None] * w[-1]
+    return mean, spread, v @ ((v.T @ (cov[:-1, -1] / spread)) / (w + lam)).T
+
+
+def ridge_predict(m: FoldMoments, rows: np.ndarray | slice, fit: RidgePath) -> np.ndarray:
+    """The predictions of ``r`` (less its mean, as in ``m.a``) at ``rows`` by the
+    :func:`ridge_path` fit ``fit``, one column per coefficient column."""
+    mean, spread, coef = fit
+    scaled = coef / spread[:, None]
+    return mean[-1] - mean[:-1] @ scaled + m.a[rows, :-1] @ scaled
+
+
+def ridge_fit(m: FoldMoments, path: Callable[[frozenset[int]], RidgePath], out: int) -> np.ndarray:
+    """The ridge prediction of ``r`` (less its mean, as in ``m.a``) from the columns of
+    ``x`` fitted on every fold but ``out``, at every sample, the penalty chosen on those
+    folds alone: the one of :func:`ridge_path` that best predicts each of them from the
+    others (generalised cross-validation, which assumes independent errors, picks almost
+    no penalty on a coloured residual, and the near-collinear lagged columns then predict
+    wildly out of sample). ``path(left)``: the :func:`ridge_path` on every fold but those
+    of ``left`` (the fit without folds j and k serves the outer folds j and k alike)."""
     sse = np.zeros(RIDGE_GRID.size)
-    for j in np.unique(fold[train]):
-        inner = train & (fold != j)
-        z, level = standardised(x, inner), float(r[inner].mean())
-        test = train & (fold == j)
-        pred = level + z[test] @ ridge_path(z[inner], r[inner] - level)
-        sse += np.sum((r[test, None] - pred) ** 2, axis=0)
-    z, level = standardised(x, train), float(r[train].mean())
-    return level + z @ ridge_path(z[train], r[train] - level)[:, int(np.argmin(sse))]
+    for j in (k for k in range(FOLDS) if k != out):
+        test = m.fold == j
+        pred = ridge_predict(m, test, path(frozenset((out, j))))
+        sse += np.sum((m.a[test, -1:] - pred) ** 2, axis=0)
+    mean, spread, coef = path(frozenset((out,)))
+    best = int(np.argmin(sse))
+    return ridge_predict(m, slice(None), (mean, spread, coef[:, best : best + 1]))[:, 0]
 
 
 def train_cell_means(e: np.ndarray, cells: np.ndarray, train: np.ndarray) -> np.ndarray:
@@ -350,12 +400,12 @@ def held_out(r: np.ndarray, signals: Sequence[np.ndarray], memory: bool = False)
     sides of it (its linear filters by ridge regression, :func:`ridge_fit`, as their
     lagged columns are nearly collinear; then the pair's and the single signal's cell
     means of what that leaves, the cells chosen on the training blocks), at every sample
-    but the :data:`EDGE` at either end. The first and last blocks only train: predicted
-    from one side, they extrapolate in the motion's history, which a loop with memory
-    (a Dahl friction) does not repeat, switched or not. A
-    time-invariant law predicts every block; a force switched by an
-    unrecorded input is not predicted in the blocks where it differs from the rest,
-    whereas the fit on the whole of ``r`` absorbs part of it."""
+    but the :data:`EDGE` at either end. The first and last blocks only train:
+    predicted from one side, they extrapolate in the motion's history, which a loop with
+    memory (a Dahl friction) does not repeat, switched or not. A time-invariant law
+    predicts every block; a force switched by an unrecorded input is not predicted in
+    the blocks where it differs from the rest, whereas the fit on the whole of ``r``
+    absorbs part of it."""
     n = r.size
     x = filter_columns(signals, memory)
     fine = int(min(FINE_BINS, n // SAMPLES_PER_FINE_BIN))
@@ -365,16 +415,19 @@ def held_out(r: np.ndarray, signals: Sequence[np.ndarray], memory: bool = False)
     ]
     fold = np.arange(n) * FOLDS // n
     fold[:EDGE], fold[n - EDGE :] = -1, -1  # neither fitted nor predicted
+    m = fold_moments(x, r, fold)
+    path = cache(lambda left: ridge_path(m, [k for k in range(FOLDS) if k not in left]))
     out, kept = np.zeros(n), np.zeros(n, dtype=bool)
     for j in range(1, FOLDS - 1):  # the first and last blocks train only
         test, train = fold == j, (fold != j) & (fold >= 0)
         # predicted only within what the training blocks span (no extrapolation)
-        kept |= test & np.all((x >= x[train].min(axis=0)) & (x <= x[train].max(axis=0)), axis=1)
-        fitted = ridge_fit(x, r, train, fold)
+        lo, hi = x[train].min(axis=0), x[train].max(axis=0)
+        kept[test] = np.all((x[test] >= lo) & (x[test] <= hi), axis=1)
+        e = m.a[:, -1] - ridge_fit(m, path, j)
         for group in (g for g in groups if g):
-            parts = [train_cell_means(r - fitted, c, train) for c in group]
-            fitted = fitted + max(parts, key=lambda m: float(m[train] @ m[train]))
-        out[test] = r[test] - fitted[test]
+            parts = [train_cell_means(e, c, train) for c in group]
+            e = e - max(parts, key=lambda c: float(c[train] @ c[train]))
+        out[test] = e[test]
     return out[kept]
 
 
