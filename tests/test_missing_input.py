@@ -374,6 +374,40 @@ def test_held_out_size_of_a_time_invariant_filter_is_its_noise():
     assert np.std(mi.held_out(switched, [x, v])) / 0.05 > mi.SIZE_LIMIT
 
 
+def test_ridge_path_from_fold_moments_is_the_ridge_solution():
+    # the fits on a union of folds, from the folds' summed moments and one eigen-
+    # decomposition of the Gram matrix, against the textbook ridge solution computed
+    # apart: the columns centred and scaled on those samples, then least squares on
+    # [z; sqrt(lam) I] against [r; 0] (an orthogonal factorisation of the augmented
+    # system, no Gram matrix); the columns are collinear lags (a signal and its
+    # difference), offset far from 0 (the moments' centring must not cancel); agreement
+    # to float precision times the sums over n samples and the penalised system's
+    # condition (largest s^2 over the penalty)
+    rng = np.random.default_rng(7)
+    n = 3000
+    s = 5.0 + np.cumsum(rng.normal(size=n)) * 0.01
+    x = mi.filter_columns([s, np.gradient(s)])
+    r = 100.0 + x[:, 3] - 0.5 * x[:, 20] + 0.1 * rng.normal(size=n)
+    fold = np.arange(n) * mi.FOLDS // n
+    fold[:5] = -1
+    m = mi.fold_moments(x, r, fold)
+    folds = [0, 2, 3, 5, 6, 7, 9]
+    mean, spread, coef = mi.ridge_path(m, folds)
+    rows = np.isin(fold, folds)
+    z = (x[rows] - x[rows].mean(axis=0)) / x[rows].std(axis=0)
+    y = r[rows] - r[rows].mean()
+    top = np.linalg.svd(z, compute_uv=False)[0] ** 2
+    for i in (24, 36, 48):  # penalties 1e-6, 1e-3 and 1 of the largest s^2
+        lam = mi.RIDGE_GRID[i] * top
+        aug = np.vstack([z, np.sqrt(lam) * np.eye(z.shape[1])])
+        ref = np.linalg.lstsq(aug, np.r_[y, np.zeros(z.shape[1])], rcond=None)[0]
+        pred_ref = r[rows].mean() + z @ ref
+        pred = mi.ridge_predict(m, rows, (mean, spread, coef[:, i : i + 1]))[:, 0]
+        pred = pred + r[fold >= 0].mean()  # m holds r less its mean over the folds
+        tol = (10 * n + 100 / mi.RIDGE_GRID[i]) * np.finfo(float).eps
+        assert np.max(np.abs(pred - pred_ref)) < tol * np.std(y), i
+
+
 # ------------------------------------------------------------------ real recordings
 @pytest.mark.realdata
 def test_real_mr_damper_is_not_a_missing_input(shared_data):
