@@ -42,7 +42,7 @@ from scipy import integrate, linalg, signal
 from suspenv.diagnosis.checks.assumptions import unread_inputs
 from suspenv.diagnosis.checks.finding import Context, Finding
 from suspenv.diagnosis.component.drift_check import DRIFT_ORDER, drift_basis
-from suspenv.diagnosis.fitting import FitResult, lag1_autocorrelation, residuals
+from suspenv.diagnosis.fitting import FitResult, lag1_autocorrelation
 from suspenv.diagnosis.protocols import RecordingLike
 from suspenv.models.components.base import OUTPUT_LOWPASS_KEY
 
@@ -470,16 +470,12 @@ def judge_recording(
     step = pass_band_step(1.0 / rec.sample_interval, rec.meta.get(OUTPUT_LOWPASS_KEY))
     if len(rec.time) // step < MIN_SAMPLES or not rec.inputs:
         return {}
-    (res,) = residuals(fit.model, fit.theta, [rec], fit.channels)
-    pred = fit.model.simulate(fit.theta, rec)
+    sim = fit.model.simulate(fit.theta, rec)  # the residual is measured less predicted
+    pred = {ch: np.asarray(sim[ch], float)[::step] for ch in fit.channels}
+    out = {ch: np.asarray(rec.outputs[ch], float)[::step] for ch in fit.channels}
     cut = {k: np.asarray(s, float)[::step] for k, s in rec.inputs.items()}
     return {
-        ch: judge(
-            res[ch][::step],
-            np.asarray(rec.outputs[ch], float)[::step],
-            {**cut, PREDICTION: np.asarray(pred[ch], float)[::step]},
-            unread,
-        )
+        ch: judge(out[ch] - pred[ch], out[ch], {**cut, PREDICTION: pred[ch]}, unread)
         for ch in fit.channels
     }
 
