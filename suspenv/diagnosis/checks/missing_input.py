@@ -11,10 +11,8 @@ filters of each and their play operators, a rate-independent loop; cell means of
 and of one: a stop, a dead band, a friction step, cogging) and calls the rest **driven
 by an unrecorded input** when both hold:
 
-0. **far above the noise**: what that function, fitted on the rest of the recording,
-   does not predict of each interior block left out (:func:`held_out`: the fit on the whole
-   absorbs part of a switched force) has an RMS of at least :data:`SIZE_LIMIT` times the
-   residual's white floor (:func:`white_floor`, from its second differences);
+0. **far above the noise**: its RMS is at least :data:`SIZE_LIMIT` times the residual's
+   white floor (:func:`white_floor`, from its second differences);
 1. **switching**: its gain on a recorded signal or the prediction, fitted block by block,
    persists from block to block (:func:`switching`; Bonferroni also over the judged
    channels) at the rule's ``alpha``. A switched damping ``c v`` is such a gain on the
@@ -31,10 +29,9 @@ loops, short guide runs compared low-passed) are not judged.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
-from functools import cache
+from collections.abc import Sequence
 from itertools import combinations, pairwise
-from typing import Any, NamedTuple
+from typing import Any
 
 import numpy as np
 from scipy import integrate, linalg, signal
@@ -42,7 +39,7 @@ from scipy import integrate, linalg, signal
 from suspenv.diagnosis.checks.assumptions import unread_inputs
 from suspenv.diagnosis.checks.finding import Context, Finding
 from suspenv.diagnosis.component.drift_check import DRIFT_ORDER, drift_basis
-from suspenv.diagnosis.fitting import FitResult, lag1_autocorrelation
+from suspenv.diagnosis.fitting import FitResult, lag1_autocorrelation, residuals
 from suspenv.diagnosis.protocols import RecordingLike
 from suspenv.models.components.base import OUTPUT_LOWPASS_KEY
 
@@ -57,20 +54,10 @@ MAX_BLOCKS = 128
 MIN_SAMPLES = 800
 #: share of each block, at its end, left out of its gain (a gap between blocks)
 GUARD_FRACTION = 0.2
-#: the held-out residual's RMS (:func:`held_out`) over the white noise floor above which
-#: it is "far above the noise"
+#: the residual's RMS over its white noise floor above which it is "far above the noise"
 SIZE_LIMIT = 3.0
-#: contiguous blocks of :func:`held_out`, each predicted by a fit on the others
-FOLDS = 10
-#: ridge penalties tried by :func:`ridge_fit`, in shares of the largest squared singular
-#: value of the standardised filter columns (from none to the largest)
-RIDGE_GRID = np.logspace(-12.0, 0.0, 49)
 #: lags [samples] either side of the time-invariant linear filters removed first
 LAGS = 8
-#: samples [-] at either end of a residual that :func:`held_out` neither fits nor
-#: predicts: there the shifted signals are held, not recorded, and a differentiated
-#: signal has its end effects, which the near-collinear filters turn into wild predictions
-EDGE = 2 * LAGS
 #: order of the autoregression that whitens the residual before the block gains
 AR_ORDER = 2
 #: quantile bins per signal of the cell means on a pair of signals
@@ -236,18 +223,12 @@ def switching(
 def cell_means(r: np.ndarray, signals: Sequence[np.ndarray], bins: int) -> np.ndarray:
     """``r``'s means over the cells of ``bins`` quantile bins of each of ``signals``, at
     every sample."""
-    cells = cell_index(signals, bins)
-    counts = np.bincount(cells)
-    return (np.bincount(cells, weights=r) / np.maximum(counts, 1))[cells]
-
-
-def cell_index(signals: Sequence[np.ndarray], bins: int) -> np.ndarray:
-    """The cell of every sample among ``bins`` quantile bins of each of ``signals``."""
-    cells = np.zeros(signals[0].size, dtype=int)
+    cells = np.zeros(r.size, dtype=int)
     for s in signals:
         edges = np.quantile(s, np.linspace(0.0, 1.0, bins + 1)[1:-1])
         cells = cells * bins + np.searchsorted(edges, s)
-    return cells
+    counts = np.bincount(cells)
+    return (np.bincount(cells, weights=r) / np.maximum(counts, 1))[cells]
 
 
 def play(s: np.ndarray, width: float) -> np.ndarray:
@@ -255,14 +236,11 @@ def play(s: np.ndarray, width: float) -> np.ndarray:
     while ``s`` moves within ``width / 2`` of it and is dragged along beyond, starting
     at ``s[0]`` (the elementary hysteresis of the Prandtl-Ishlinskii model: a
     time-invariant function of ``s`` with memory, independent of its rate)."""
-    out, y, h = [], float(s[0]), 0.5 * width
-    for x in s.tolist():
-        if y < x - h:
-            y = x - h
-        elif y > x + h:
-            y = x + h
-        out.append(y)
-    return np.array(out)
+    out, y, h = np.empty(s.size), float(s[0]), 0.5 * width
+    for i, x in enumerate(s.tolist()):
+        y = min(max(y, x - h), x + h)
+        out[i] = y
+    return out
 
 
 def plays(signals: Sequence[np.ndarray]) -> list[np.ndarray]:
@@ -275,16 +253,6 @@ def plays(signals: Sequence[np.ndarray]) -> list[np.ndarray]:
     return out
 
 
-def filter_columns(signals: Sequence[np.ndarray], memory: bool = False) -> np.ndarray:
-    """The columns of the linear filters of :func:`time_invariant`: every signal shifted
-    by up to :data:`LAGS` samples either way (edges held), and with ``memory`` its play
-    operators (:func:`plays`)."""
-    n = signals[0].size
-    pad = [np.pad(s, LAGS, mode="edge") for s in signals]
-    cols = [p[k : k + n] for p in pad for k in range(2 * LAGS + 1)]
-    return np.column_stack(cols + (plays(signals) if memory else []))
-
-
 def time_invariant(
     r: np.ndarray, signals: Sequence[np.ndarray], memory: bool = False
 ) -> np.ndarray:
@@ -295,7 +263,9 @@ def time_invariant(
     each) and of the single signal (:data:`FINE_BINS`, a fine ripple along one input)
     that explain most of what is left (a stop, a dead band, a friction step, cogging)."""
     n = r.size
-    a = np.column_stack([np.ones(n), filter_columns(signals, memory)])
+    pad = [np.pad(s, LAGS, mode="edge") for s in signals]
+    cols = [np.ones(n)] + [p[k : k + n] for p in pad for k in range(2 * LAGS + 1)]
+    a = np.column_stack(cols + (plays(signals) if memory else []))
     fitted = a @ np.linalg.lstsq(a, r, rcond=None)[0]
     fine = int(min(FINE_BINS, n // SAMPLES_PER_FINE_BIN))
     pairs = list(combinations(signals, 2))
@@ -304,131 +274,6 @@ def time_invariant(
             parts = [cell_means(r - fitted, g, bins) for g in group]
             fitted = fitted + max(parts, key=lambda m: float(m @ m))
     return fitted
-
-
-class FoldMoments(NamedTuple):
-    """The sufficient statistics of ridge fits on any union of the folds of
-    :func:`held_out`: ``a`` the columns ``[x, r]`` less their mean over the folded
-    samples (so that sums over some folds centre without cancellation), ``fold`` every
-    sample's fold (-1: in none), and per fold ``j`` (0 ... :data:`FOLDS` - 1) its sample
-    count, the column sums and the cross-products ``a_j' a_j`` of its rows."""
-
-    a: np.ndarray
-    fold: np.ndarray
-    counts: np.ndarray
-    sums: np.ndarray
-    grams: np.ndarray
-
-
-#: a :func:`ridge_path`: the means of ``[x, r]``, the columns' spreads, the coefficients
-RidgePath = tuple[np.ndarray, np.ndarray, np.ndarray]
-
-
-def fold_moments(x: np.ndarray, r: np.ndarray, fold: np.ndarray) -> FoldMoments:
-    """The :class:`FoldMoments` of the columns ``x`` and the series ``r`` over the folds
-    ``fold`` (per sample; -1: in none)."""
-    a = np.column_stack([x, r])
-    a = a - a[fold >= 0].mean(axis=0)
-    parts = [a[fold == j] for j in range(FOLDS)]
-    return FoldMoments(
-        a,
-        fold,
-        np.array([b.shape[0] for b in parts]),
-        np.stack([b.sum(axis=0) for b in parts]),
-        np.stack([b.T @ b for b in parts]),
-    )
-
-
-def ridge_path(m: FoldMoments, folds: list[int]) -> RidgePath:
-    """The ridge fits of ``r`` on the columns of ``x`` (:func:`fold_moments`) over the
-    samples of ``folds``, their means taken out and the columns scaled to unit spread
-    there (``z``), one per penalty of :data:`RIDGE_GRID` times the largest squared
-    singular value of ``z``: ``V diag(1 / (s^2 + lam)) V' z' r`` from one
-    eigendecomposition ``z' z = V diag(s^2) V'`` of the Gram matrix summed from the
-    folds' (equal to ``V diag(s / (s^2 + lam)) U' r`` from ``z = U S V'``). Returns the
-    means of ``[x, r]`` there, the columns' spreads and the coefficients (a column per
-    penalty)."""
-    n = float(m.counts[folds].sum())
-    mean = m.sums[folds].sum(axis=0) / n
-    cov = m.grams[folds].sum(axis=0) - n * np.outer(mean, mean)
-    spread = np.sqrt(np.clip(np.diag(cov)[:-1], 0.0, None) / n)
-    spread = np.where(spread > 0, spread, 1.0)
-    w, v = np.linalg.eigh(cov[:-1, :-1] / np.outer(spread, spread))
-    w = np.clip(w, 0.0, None)  # ascending; round-off can leave a null one below 0
-    lam = RIDGE_GRID[:, None] * w[-1]
-    return mean, spread, v @ ((v.T @ (cov[:-1, -1] / spread)) / (w + lam)).T
-
-
-def ridge_predict(m: FoldMoments, rows: np.ndarray | slice, fit: RidgePath) -> np.ndarray:
-    """The predictions of ``r`` (less its mean, as in ``m.a``) at ``rows`` by the
-    :func:`ridge_path` fit ``fit``, one column per coefficient column."""
-    mean, spread, coef = fit
-    scaled = coef / spread[:, None]
-    return mean[-1] - mean[:-1] @ scaled + m.a[rows, :-1] @ scaled
-
-
-def ridge_fit(m: FoldMoments, path: Callable[[frozenset[int]], RidgePath], out: int) -> np.ndarray:
-    """The ridge prediction of ``r`` (less its mean, as in ``m.a``) from the columns of
-    ``x`` fitted on every fold but ``out``, at every sample, the penalty chosen on those
-    folds alone: the one of :func:`ridge_path` that best predicts each of them from the
-    others (generalised cross-validation, which assumes independent errors, picks almost
-    no penalty on a coloured residual, and the near-collinear lagged columns then predict
-    wildly out of sample). ``path(left)``: the :func:`ridge_path` on every fold but those
-    of ``left`` (the fit without folds j and k serves the outer folds j and k alike)."""
-    sse = np.zeros(RIDGE_GRID.size)
-    for j in (k for k in range(FOLDS) if k != out):
-        test = m.fold == j
-        pred = ridge_predict(m, test, path(frozenset((out, j))))
-        sse += np.sum((m.a[test, -1:] - pred) ** 2, axis=0)
-    mean, spread, coef = path(frozenset((out,)))
-    best = int(np.argmin(sse))
-    return ridge_predict(m, slice(None), (mean, spread, coef[:, best : best + 1]))[:, 0]
-
-
-def train_cell_means(e: np.ndarray, cells: np.ndarray, train: np.ndarray) -> np.ndarray:
-    """The means of ``e`` over the samples ``train`` of each cell, at every sample (0 in
-    a cell with no training sample)."""
-    m = int(cells.max()) + 1
-    sums = np.bincount(cells[train], weights=e[train], minlength=m)
-    return (sums / np.maximum(np.bincount(cells[train], minlength=m), 1))[cells]
-
-
-def held_out(r: np.ndarray, signals: Sequence[np.ndarray], memory: bool = False) -> np.ndarray:
-    """What of ``r`` a time-invariant function of ``signals`` fitted elsewhere does not
-    predict: ``r`` cut into :data:`FOLDS` contiguous blocks, each but the first and
-    the last predicted by the fit of :func:`time_invariant` on all the others, on both
-    sides of it (its linear filters by ridge regression, :func:`ridge_fit`, as their
-    lagged columns are nearly collinear; then the pair's and the single signal's cell
-    means of what that leaves, the cells chosen on the training blocks), at every sample
-    but the :data:`EDGE` at either end. The first and last blocks only train:
-    predicted from one side, they extrapolate in the motion's history, which a loop with
-    memory (a Dahl friction) does not repeat, switched or not. A time-invariant law
-    predicts every block; a force switched by an unrecorded input is not predicted in
-    the blocks where it differs from the rest, whereas the fit on the whole of ``r``
-    absorbs part of it."""
-    n = r.size
-    x = filter_columns(signals, memory)
-    fine = int(min(FINE_BINS, n // SAMPLES_PER_FINE_BIN))
-    groups = [
-        [cell_index(list(g), STATE_BINS) for g in combinations(signals, 2)],
-        [cell_index([s], fine) for s in signals],
-    ]
-    fold = np.arange(n) * FOLDS // n
-    fold[:EDGE], fold[n - EDGE :] = -1, -1  # neither fitted nor predicted
-    m = fold_moments(x, r, fold)
-    path = cache(lambda left: ridge_path(m, [k for k in range(FOLDS) if k not in left]))
-    out, kept = np.zeros(n), np.zeros(n, dtype=bool)
-    for j in range(1, FOLDS - 1):  # the first and last blocks train only
-        test, train = fold == j, (fold != j) & (fold >= 0)
-        # predicted only within what the training blocks span (no extrapolation)
-        lo, hi = x[train].min(axis=0), x[train].max(axis=0)
-        kept[test] = np.all((x[test] >= lo) & (x[test] <= hi), axis=1)
-        e = m.a[:, -1] - ridge_fit(m, path, j)
-        for group in (g for g in groups if g):
-            parts = [train_cell_means(e, c, train) for c in group]
-            e = e - max(parts, key=lambda c: float(c[train] @ c[train]))
-        out[test] = e[test]
-    return out[kept]
 
 
 def judge(
@@ -440,8 +285,7 @@ def judge(
     explains, with memory (:func:`time_invariant`: a small rate-independent loop is not
     switching) is tested for switching (:func:`switching`; the
     name of the signal whose gain switches as ``signal``), once with the unread signals'
-    block levels as recorded causes (``p_switching_all``); ``size``: what that function
-    fitted on the other blocks does not predict (:func:`held_out`), in white floors."""
+    block levels as recorded causes (``p_switching_all``)."""
     named = {k: np.asarray(s, float) for k, s in signals.items() if np.ptp(s) > 0}
     names = [k for k in named if k not in unread]
     read = [named[k] for k in names]
@@ -451,8 +295,7 @@ def judge(
     out["signal"] = names[out["signal"]] if out["signal"] >= 0 else ""
     if other:
         out["p_switching_all"] = switching(left, read, other)["p_switching"]
-    unpredicted = held_out(r, read, memory=True) if read else r
-    out["size"] = float(np.sqrt(np.mean(unpredicted**2)) / max(white_floor(r), 1e-300))
+    out["size"] = float(np.sqrt(np.mean(left**2)) / max(white_floor(r), 1e-300))
     out["time_invariant_share"] = float(1.0 - np.var(left) / max(float(np.var(r)), 1e-300))
     out["share_of_output"] = float(np.std(r) / max(float(np.std(y)), 1e-300))
     out["lag1"] = lag1_autocorrelation(r)
@@ -470,12 +313,16 @@ def judge_recording(
     step = pass_band_step(1.0 / rec.sample_interval, rec.meta.get(OUTPUT_LOWPASS_KEY))
     if len(rec.time) // step < MIN_SAMPLES or not rec.inputs:
         return {}
-    sim = fit.model.simulate(fit.theta, rec)  # the residual is measured less predicted
-    pred = {ch: np.asarray(sim[ch], float)[::step] for ch in fit.channels}
-    out = {ch: np.asarray(rec.outputs[ch], float)[::step] for ch in fit.channels}
+    (res,) = residuals(fit.model, fit.theta, [rec], fit.channels)
+    pred = fit.model.simulate(fit.theta, rec)
     cut = {k: np.asarray(s, float)[::step] for k, s in rec.inputs.items()}
     return {
-        ch: judge(out[ch] - pred[ch], out[ch], {**cut, PREDICTION: pred[ch]}, unread)
+        ch: judge(
+            res[ch][::step],
+            np.asarray(rec.outputs[ch], float)[::step],
+            {**cut, PREDICTION: np.asarray(pred[ch], float)[::step]},
+            unread,
+        )
         for ch in fit.channels
     }
 
@@ -496,8 +343,7 @@ def sentence(rec: str, ch: str, n: dict[str, Any], why: str, unread: Sequence[st
         f"a residual of {100 * n['share_of_output']:.0f} % of the {ch} RMS is left in "
         f"{rec}, not white (lag-1 correlation {n['lag1']:.2f}); what no time-invariant "
         f"function of the recorded signals explains ({100 * (1 - n['time_invariant_share']):.0f}"
-        f" % of its variance), fitted elsewhere in the record, leaves {n['size']:.3g} times "
-        f"its white noise floor, and its gain "
+        f" % of its variance) is {n['size']:.3g} times its white noise floor, and its gain "
         f"on a recorded signal switches and persists over blocks of {n['block_samples']} "
         f"samples (lag-1 correlation of the gains {n['gain_lag1']:.2f} over {n['blocks']} "
         f"blocks, p = {n['p_switching']:.2g})"
