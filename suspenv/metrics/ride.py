@@ -181,8 +181,9 @@ def gaussian_dose(
     ms = np.asarray(ms, dtype=float)
     with np.errstate(invalid="ignore", divide="ignore"):
         nu0 = np.sqrt(np.asarray(ms_rate, dtype=float) / ms) / (2.0 * np.pi)
-    crest = gaussian_peak_factor(np.where(np.isfinite(nu0), 2.0 * nu0 * exposure_s, 1.0))
-    return np.where(np.isfinite(nu0), crest, np.nan), (3.0 * ms * ms * exposure_s) ** 0.25
+    known = np.isfinite(nu0)
+    crest = gaussian_peak_factor(np.where(known, 2.0 * nu0 * exposure_s, 1.0))
+    return np.where(known, crest, np.nan), (3.0 * ms * ms * exposure_s) ** 0.25
 
 
 # ------------------------------------------------------------------ random-road record
@@ -596,6 +597,14 @@ def _split_grid(
     )
 
 
+def _output_weights(w2: np.ndarray, wk2: np.ndarray, final: bool) -> tuple[np.ndarray, ...]:
+    """The mean-square weights of a displacement response's |H|^2 per output column, from
+    w^2 (rad^2/s^2) and Wk^2 on the grid: ``final``: w^4 Wk^2 (weighted acceleration),
+    w^4 (acceleration), w^6 Wk^2 (the weighted acceleration's rate); else 1
+    (displacement) and w^2 (velocity)."""
+    return (w2 * w2 * wk2, w2 * w2, w2 * w2 * w2 * wk2) if final else (np.ones_like(w2), w2)
+
+
 @functools.lru_cache(maxsize=32)
 def _split_grid_values(
     road: RandomRoad, n_freq: int, vehicle: Minibus, final: bool
@@ -611,7 +620,7 @@ def _split_grid_values(
     f, wq, _, gq, delay, rho, wk2 = _road_grid(road, n_freq, vehicle)
     w = 2 * np.pi * f
     w2 = w * w
-    cols = (w2 * w2 * wk2, w2 * w2, w2 * w2 * w2 * wk2) if final else (np.ones_like(f), w2)
+    cols = _output_weights(w2, wk2, final)
     grid = (w, w2, np.ascontiguousarray(delay.real), np.ascontiguousarray(delay.imag))
     wt = np.stack([wq * gq * (0.5 * half) * c for half in (1.0 + rho, 1.0 - rho) for c in cols])
     wt = np.ascontiguousarray(wt.T)
@@ -769,7 +778,7 @@ def _whole_mean_square(
     G = modal_response(lam, P[:, :, rows], f)
     psd = _output_psd(G, f, gq, delay, rho, (0,) * G.shape[2])
     w2 = (2 * np.pi * f) ** 2
-    cols = (w2 * w2 * wk2, w2 * w2, w2 * w2 * w2 * wk2) if final else (np.ones_like(f), w2)
+    cols = _output_weights(w2, wk2, final)
     return psd @ np.column_stack([wq * c for c in cols])
 
 
