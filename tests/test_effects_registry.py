@@ -16,9 +16,8 @@ from suspenv.models.effects import (
     lugre_series,
     make_effect,
     maxwell_series,
-    pointwise,
 )
-from suspenv.models.effects.pointwise import PATH_ONLY, STATEFUL, STATELESS
+from suspenv.models.effects.pointwise import PATH_ONLY, STATEFUL, STATELESS, PointwiseElement
 
 REQUIRED_KINDS = {
     "coulomb_friction",
@@ -115,12 +114,12 @@ def test_pointwise_forms_cover_all_force_kinds_and_match_series_forms():
     force_kinds = {k for k, spec in effect_kinds().items() if spec.role == "force"}
     assert force_kinds == set(STATELESS) | set(STATEFUL) | set(PATH_ONLY)
     with pytest.raises(ValidationError, match="no pointwise form"):
-        pointwise(make_effect("berg_hysteresis"))
+        PointwiseElement(make_effect("berg_hysteresis"))
     x = np.linspace(-0.05, 0.05, 41)
     v = np.linspace(-1.0, 1.0, 41)
     for kind in STATELESS:
         e = make_effect(kind)
-        assert pointwise(e).force(x, v) == pytest.approx(e.force(x, v), abs=1e-9), kind
+        assert PointwiseElement(e).force(x, v) == pytest.approx(e.force(x, v), abs=1e-9), kind
 
 
 def test_pointwise_state_forms_integrate_to_series_forms():
@@ -142,7 +141,7 @@ def test_pointwise_state_forms_integrate_to_series_forms():
         ),
     }
     for kind, (params, ref) in cases.items():
-        el = pointwise(make_effect(kind, **params))
+        el = PointwiseElement(make_effect(kind, **params))
 
         def rhs(tt, z, el=el):
             return el.dzdt(0.004 * np.sin(w * tt), 0.004 * w * np.cos(w * tt), z)
@@ -152,7 +151,7 @@ def test_pointwise_state_forms_integrate_to_series_forms():
         f = el.force(x, v, sol.y[0])
         assert np.max(np.abs(f - ref)) < 0.02 * np.max(np.abs(ref)), kind
     with pytest.raises(ValidationError, match="only force effects"):
-        pointwise(make_effect("sensor_gain"))
+        PointwiseElement(make_effect("sensor_gain"))
 
 
 def test_zero_level_is_the_absent_element():
@@ -184,7 +183,7 @@ def test_zero_level_is_the_absent_element():
         assert np.all((lo <= e.values()) & (e.values() <= hi)), kind
         assert np.all(e.force(x, t=t) == 0.0), kind
         if kind in STATEFUL or kind in STATELESS:
-            assert pointwise(e).force(0.05, 0.3, 0.0) == 0.0, kind
+            assert PointwiseElement(e).force(0.05, 0.3, 0.0) == 0.0, kind
 
 
 def test_host_declared_parameters_of_a_pair_effect():

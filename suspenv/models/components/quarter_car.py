@@ -54,7 +54,7 @@ from suspenv.core.space import Parameter
 from suspenv.measurements import Recording, RecordingError, smooth_derivative
 from suspenv.models.components import rig_integrator
 from suspenv.models.components.base import ComponentModel, linear_lstsq, robust_amplitude
-from suspenv.models.effects import Effect, PointwiseElement, pointwise
+from suspenv.models.effects import Effect, PointwiseElement
 
 #: "exact": exact linear step with the element force implicit (:mod:`.rig_integrator`);
 #: "rk4": classical RK4 with sub-steps (reference; also used for Bouc-Wen hysteresis)
@@ -117,7 +117,7 @@ def _rk4(
 
 def _elements(effects: Sequence[Effect]) -> tuple[list[PointwiseElement], list[PointwiseElement]]:
     """The pointwise forms of the force effects: (stateless, with one state)."""
-    elements = [pointwise(e) for e in effects]
+    elements = [PointwiseElement(e) for e in effects]
     return [el for el in elements if el.n_states == 0], [el for el in elements if el.n_states == 1]
 
 

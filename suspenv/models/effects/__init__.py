@@ -43,7 +43,7 @@ from suspenv.models.effects.hysteresis import (
     dahl_dzdt,
     dahl_path,
 )
-from suspenv.models.effects.pointwise import PointwiseElement, pointwise
+from suspenv.models.effects.pointwise import PointwiseElement
 from suspenv.models.effects.sensor import (
     sensor_delay,
     sensor_lag,
@@ -91,7 +91,6 @@ __all__ = [
     "maxwell_dfdt",
     "maxwell_series",
     "perturb_pair",
-    "pointwise",
     "progressive_spring",
     "rebound_stop",
     "register_kind",

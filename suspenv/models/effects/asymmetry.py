@@ -16,10 +16,6 @@ import numpy as np
 from suspenv.core.errors import ValidationError
 
 
-def _rng(seed: int | np.random.Generator | None) -> np.random.Generator:
-    return seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
-
-
 def perturb_pair(
     nominal: float,
     tolerance: float,
@@ -33,7 +29,7 @@ def perturb_pair(
     """
     if not tolerance >= 0:
         raise ValidationError(f"`tolerance >= 0` must hold, but got tolerance={tolerance!r}")
-    e = _rng(seed).uniform(-tolerance, tolerance, size=2)
+    e = np.random.default_rng(seed).uniform(-tolerance, tolerance, size=2)
     if relative:
         return float(nominal * (1.0 + e[0])), float(nominal * (1.0 + e[1]))
     return float(nominal + e[0]), float(nominal + e[1])

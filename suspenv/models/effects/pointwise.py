@@ -125,8 +125,3 @@ class PointwiseElement:
         if self._dzdt is None:
             return np.zeros_like(np.asarray(v, dtype=float))
         return self._dzdt(self._laws(x, v, z), x, v, z, self.params)
-
-
-def pointwise(effect: Effect) -> PointwiseElement:
-    """The pointwise (time-integration) form of a force effect."""
-    return PointwiseElement(effect)
