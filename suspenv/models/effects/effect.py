@@ -195,19 +195,6 @@ class Effect:
         own = self.spec.parameter_names
         return tuple(k for k in self.params if k not in own)
 
-    def _names(self) -> tuple[str, ...]:
-        return self.spec.parameter_names + self.host_parameter_names
-
-    @property
-    def parameter_names(self) -> tuple[str, ...]:
-        """Qualified parameter names ``"<effect name>.<parameter>"`` in registry order
-        (host-declared ones last)."""
-        return tuple(f"{self.name}.{p}" for p in self._names())
-
-    def values(self) -> np.ndarray:
-        """Parameter values in registry order, host-declared ones last (scalars only)."""
-        return np.array([float(self.params[p]) for p in self._names()])
-
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Lower and upper bounds of the parameters in registry order; the host knows
         those of host-declared parameters (here unbounded)."""
@@ -218,25 +205,9 @@ class Effect:
             np.array([p.high for p in ps] + [np.inf] * extra),
         )
 
-    def with_params(
-        self, values: Mapping[str, Any] | np.ndarray | None = None, **kw: Any
-    ) -> Effect:
-        """A copy with some parameters replaced (mapping, array in registry order, or kwargs)."""
-        new = dict(self.params)
-        if values is not None:
-            if isinstance(values, Mapping):
-                new.update(values)
-            else:
-                arr = np.asarray(values, dtype=float)
-                names = self._names()
-                if arr.shape != (len(names),):
-                    raise ValidationError(
-                        f"effect {self.name!r}: expected {len(names)} values {names}, "
-                        f"but got shape {arr.shape}"
-                    )
-                new.update({n: float(a) for n, a in zip(names, arr, strict=True)})
-        new.update(kw)
-        return Effect(self.kind, self.name, new, self.location)
+    def with_params(self, values: Mapping[str, Any]) -> Effect:
+        """A copy with the parameters named in ``values`` replaced."""
+        return Effect(self.kind, self.name, {**self.params, **values}, self.location)
 
     def describe(self) -> str:
         """One line: words and parameter values with units."""
