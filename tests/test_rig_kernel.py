@@ -11,12 +11,13 @@ import numpy as np
 import pytest
 from rig_reference import integrate_reference
 
+from suspenv.core import compiled
 from suspenv.core.errors import EvaluationError
 from suspenv.models.components import rig_integrator, rig_kernel
 from suspenv.models.effects import make_effect
 from suspenv.models.effects.laws import STATELESS
 
-pytestmark = pytest.mark.skipif(not rig_kernel.AVAILABLE, reason="numba not installed")
+pytestmark = pytest.mark.skipif(not compiled.AVAILABLE, reason="numba not installed")
 
 BASE = {"k_s": 25_000.0, "c_s": 1500.0, "k_t": 200_000.0}
 

@@ -9,8 +9,8 @@ same scheme written as closures over plain floats, ``tests/rig_reference.py``
 (``tests/test_rig_kernel.py`` compares the two for every element kind).
 
 Elements are passed as codes with their parameters in rows of a float array
-(:func:`pack`). Without numba (an unusual platform), :data:`AVAILABLE` is False and
-:func:`_run` runs as plain Python.
+(:func:`pack`). Without numba (an unusual platform, :data:`suspenv.core.compiled.AVAILABLE`
+False), :func:`_run` runs as plain Python.
 """
 
 from __future__ import annotations
@@ -23,9 +23,6 @@ import numpy as np
 from suspenv.core import compiled
 from suspenv.models.effects import Effect
 from suspenv.models.effects.laws import FLOATS, JITABLE, STATELESS
-
-#: numba is there: the compiled loop can run (compiled at the first call)
-AVAILABLE = compiled.AVAILABLE
 
 #: stateless element kind -> code: its place in :data:`.laws.STATELESS` (:func:`_law`)
 LAW_CODES: dict[str, int] = {kind: code for code, kind in enumerate(STATELESS)}
