@@ -155,7 +155,7 @@ def test_known_tyre_rate_from_the_rig_description_reaches_the_fit():
     assert model.known_base == {"k_t": k_t} and "k_t" not in model.parameter_names
     diag = diagnose(rec, "quarter_car_rig")
     assert diag.named_kinds == [] and not diag.unexplained, diag.headline
-    fitted = diag.final_fit.model.values(diag.final_fit.theta)
+    fitted = dict(zip(diag.final_fit.names, diag.final_fit.theta, strict=True))
     for name in ("k_s", "c_s"):
         assert fitted[name] == pytest.approx(case.truth.base[name], rel=0.05), name
 

@@ -152,11 +152,6 @@ class FitDefaults:
             raise ValidationError(f"{self.family}: theta must be finite, but got {th}")
         return th
 
-    def values(self, theta: np.ndarray) -> dict[str, float]:
-        """Name -> value for a single ``theta`` vector."""
-        th = np.asarray(theta, dtype=float)
-        return {n: float(v) for n, v in zip(self.parameter_names, th, strict=True)}
-
     def refine_start(
         self,
         theta0: np.ndarray,
