@@ -469,13 +469,6 @@ class ComponentModel(FitDefaults):
         simulations are smooth in ``theta`` to round-off; ``lo``/``hi`` unused)."""
         return 1e-6 * np.maximum(np.abs(np.asarray(theta, dtype=float)), 1.0)
 
-    def config(self) -> dict[str, Any]:
-        return {
-            "family": self.family,
-            "options": dict(self.options),
-            "effects": [e.to_dict() for e in self.effects],
-        }
-
     def effect_words(self, effect: Effect) -> str:
         """Engineering words for ``effect`` in this model, e.g. "Coulomb friction in the guide"
         (the device's own words, ``device_words``, first; an effect placed elsewhere, e.g.
@@ -495,11 +488,6 @@ class ComponentModel(FitDefaults):
     def __repr__(self) -> str:
         effs = ", ".join(f"{e.kind}:{e.name}" for e in self.effects)
         return f"{type(self).__name__}(effects=[{effs}], options={self.options})"
-
-    def describe(self) -> str:
-        parts = [f"{self.family}: {self.description}"]
-        parts += [f"  + {e.describe()}" for e in self.effects]
-        return "\n".join(parts)
 
     def example_recording(self, seed: int = 0) -> Recording:
         """A synthetic recording with this family's typical inputs (no outputs)."""
