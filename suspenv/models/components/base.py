@@ -517,7 +517,7 @@ class LinearForceModel(ComponentModel):
         """Least squares of the recorded force on the regressors (each start value at
         least its lower limit); the references without a recorded force."""
         if "force" not in rec.outputs:
-            return {p.name: p.reference for p in self.base_parameters}
+            return super()._base_guess(rec)
         ones = np.ones_like(rec.inputs["velocity"])
         cols = [rec.inputs[ch] if ch else ones for _, ch, _ in self.regressors]
         coef = linear_lstsq(cols, rec.outputs["force"])

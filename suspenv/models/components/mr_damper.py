@@ -19,6 +19,7 @@ from suspenv.core.space import Parameter
 from suspenv.measurements import Recording
 from suspenv.models.components.base import (
     FRICTION_WIDTHS,
+    ComponentModel,
     LinearForceModel,
     linear_lstsq,
     robust_amplitude,
@@ -175,7 +176,7 @@ class MRFieldDamperModel(MRDamperModel):
         return out
 
     def _base_guess(self, rec):
-        guess = {p.name: p.reference for p in self.base_parameters}
+        guess = ComponentModel._base_guess(self, rec)  # the references, not a fit
         x, v = rec.inputs["displacement"], rec.inputs["velocity"]
         guess["x_y"] = float(np.clip(0.1 * robust_amplitude(x), 1e-5, 0.01))
         if "force" not in rec.outputs:

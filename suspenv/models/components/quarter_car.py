@@ -619,7 +619,7 @@ class QuarterCarRigModel(ComponentModel):
 
     # ------------------------------------------------------------------ guesses
     def _base_guess(self, rec):
-        guess = {p.name: p.reference for p in self.base_parameters}
+        guess = super()._base_guess(rec)
         if {"body_acceleration", "suspension_deflection"} <= set(rec.outputs):
             x = rec.outputs["suspension_deflection"] / self.deflection_ratio
             v = _rate(x, rec.time)
