@@ -384,7 +384,6 @@ class AxleSolver:
         self._set_elements(axle)
         self._size_preload()
         self._set_stacks(axle.frames)
-        self.stats = {"solves": 0, "residuals": 0, "jacobians": 0}
         # the per-design arrays of the compiled residual (see _pack)
         self._rl_pack: np.ndarray | None = None
         self._rl_off: np.ndarray | None = None  # the compiled residual's offsets in the pack
@@ -584,7 +583,6 @@ class AxleSolver:
         if axle:
             out.axle = self.axle.take(idx)
         out.n = idx.size
-        out.stats = self.stats
         return out
 
     # ------------------------------------------------------------------ set-up
@@ -1068,7 +1066,6 @@ class AxleSolver:
             rows.fresh[:] = True
         drive = None if centre is None else _CentreDrive(self, st, Jinv, centre)
         for _ in range(self.maxit):
-            self.stats["residuals"] += 1
             res = self._open_residuals(st, pad, ext, rack, active & ~rows.conv & rows.finite)
             dx = _inv_mul(Jinv, res)  # a new array: negated in place (memory)
             np.negative(dx, out=dx)
@@ -1094,7 +1091,6 @@ class AxleSolver:
             rows.converge(todo, size, self.path_dependent)
             if (rows.conv | ~active | ~rows.finite).all():
                 break
-        self.stats["solves"] += 1
         return st, rows.conv & active, Jinv
 
     def _open_residuals(
@@ -1169,7 +1165,6 @@ class AxleSolver:
 
     def inverse_jacobian(self, st, pad, ext=None, active=None, rack=None) -> np.ndarray:
         """Inverse (n, 66, 66) of :meth:`jacobian`; singular rows (lock-up) become NaN."""
-        self.stats["jacobians"] += 1
         J = self.jacobian(st, pad, ext, rack=rack)
         if active is not None:
             J[~active] = np.eye(2 * NS)
