@@ -21,7 +21,7 @@ with the default concealed effects (hysteresis, left/right tolerances, noise). P
   reference car's rates, seed :data:`STEERING_SEED`, the steering and aligning tests
   measured too): its aligning compliance against the truth's, the fitted rates;
 * wall and CPU time (this process and its finished children: the polish that runs
-  beside the global stage, :func:`suspenv.methods.identify.cpu_seconds`).
+  beside the global stage, :func:`suspenv.methods.curves.identify.cpu_seconds`).
 
 Rows go to the table and ``docs/benchmarks/identify_reference.json`` (``--out``
 elsewhere).
@@ -61,7 +61,7 @@ def loop_cells(res: Any) -> dict[str, Any]:
     """The loop's, the held-out test's and the sheet's columns of a case. The loop's
     count is over every measured curve: the fitted ones after the refit and, when the
     held-out test is one of the measurement's, its curves predicted by the refit."""
-    from suspenv.methods.identify import summary
+    from suspenv.methods.curves.identify import summary
 
     s = summary(res)
     loop, held, sheet = s.get("loop"), s.get("held_out"), s.get("sheet", {})
@@ -86,7 +86,7 @@ def loop_cells(res: Any) -> dict[str, Any]:
 
 
 def run_case(label: str, concealed: tuple[str, ...], seed: int) -> dict[str, Any]:
-    from suspenv.methods.identify import (
+    from suspenv.methods.curves.identify import (
         cpu_seconds,
         measure_test_car,
         resolve_vehicle,
@@ -135,7 +135,7 @@ def run_steering_car() -> dict[str, Any]:
     the sheet's metric) against the truth's, and the fitted steering rates."""
     from dataclasses import replace
 
-    from suspenv.methods.identify import (
+    from suspenv.methods.curves.identify import (
         cpu_seconds,
         measure_test_car,
         resolve_vehicle,

@@ -50,7 +50,7 @@ _STRATEGIES: dict[str, str | Callable[..., Any]] = {
 _PIPELINES: dict[str, str | Callable[..., Any]] = {
     "optimize": "suspenv.runs.optimize_pipeline:run_optimize_pipeline",
     "tey2014": "suspenv.methods.tey2014.pipeline:run_tey2014_pipeline",
-    "identify": "suspenv.methods.identify:run_identify_pipeline",
+    "identify": "suspenv.methods.curves.identify:run_identify_pipeline",
     "diagnosis_benchmark": "benchmarks.diagnosis_benchmark:run_benchmark_pipeline",
 }
 
@@ -60,7 +60,7 @@ _PIPELINES: dict[str, str | Callable[..., Any]] = {
 _PIPELINE_CHECKS: dict[str, str | Callable[..., Any]] = {
     "optimize": "suspenv.runs.optimize_pipeline:check_optimize_config",
     "tey2014": "suspenv.methods.tey2014.pipeline:check_tey2014_config",
-    "identify": "suspenv.methods.identify:check_identify_config",
+    "identify": "suspenv.methods.curves.identify:check_identify_config",
     "diagnosis_benchmark": "benchmarks.diagnosis_benchmark:check_benchmark_config",
 }
 

@@ -386,6 +386,38 @@ def test_no_two_file_import_circle() -> None:
     assert not gone, f"circles removed: delete them from CIRCLES_ALLOWED: {gone}"
 
 
+#: the packages of suspenv.methods, one a method: the Tey et al. (2014) method and curve
+#: identification
+METHOD_PACKAGES = ("tey2014", "curves")
+
+
+def _method_of(module: str) -> str | None:
+    """The method package of a module of suspenv.methods (None outside them)."""
+    parts = module.split(".")
+    return parts[2] if parts[:2] == ["suspenv", "methods"] and len(parts) > 2 else None
+
+
+def test_every_method_module_is_in_its_method_package() -> None:
+    # suspenv.methods holds whole methods, one package each: a module beside them
+    # belongs to no method
+    loose = sorted(
+        str(path.relative_to(ROOT))
+        for path in parsed()[0]
+        if _method_of(module_name(path)) not in (None, *METHOD_PACKAGES)
+    )
+    assert not loose, f"modules of suspenv.methods outside {METHOD_PACKAGES}: {loose}"
+
+
+def test_method_packages_import_not_each_other() -> None:
+    # each method owns its modules: one reaches another's pipeline by name (the registry)
+    bad = [
+        f"{i.where}: {i.target}"
+        for i in all_imports()
+        if _method_of(i.source) and _method_of(i.target) not in (None, _method_of(i.source))
+    ]
+    assert not bad, "method packages importing each other:\n" + "\n".join(bad)
+
+
 def test_metrics_import_no_rig() -> None:
     # metrics are pure functions of rig results: a rig's result types may be named for
     # type hints only (under ``if TYPE_CHECKING:``, which all_imports leaves out)

@@ -40,7 +40,7 @@ from suspenv.measurements.knc_file import (
     load_measurement,
     write_measurement,
 )
-from suspenv.methods.identify import run_identify
+from suspenv.methods.curves.identify import run_identify
 from suspenv.models.mcpherson.params import PARAMETER_NAMES
 from suspenv.models.mcpherson.vehicle_file import REFERENCE_FILE, load_vehicle
 from suspenv.rigs.knc import run_tests

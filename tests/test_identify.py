@@ -17,15 +17,15 @@ from suspenv.cli.main import main
 from suspenv.core.errors import ValidationError
 from suspenv.core.space import DesignSpace, Parameter
 from suspenv.measurements.knc import branch_index
-from suspenv.methods.curve_fit import CurveModel, MeasuredCurves, measured_curves
-from suspenv.methods.identifiability import (
+from suspenv.methods.curves.curve_fit import CurveModel, MeasuredCurves, measured_curves
+from suspenv.methods.curves.identifiability import (
     K_SIGMA,
     TOLERANCE_PCT,
     assess,
     rank_tests,
     unit_covariance,
 )
-from suspenv.methods.identify import (
+from suspenv.methods.curves.identify import (
     build_model,
     check_identify_config,
     measure_test_car,
@@ -345,7 +345,7 @@ def test_cli_refuses_a_non_empty_output_folder(tmp_path, capsys):
 
 def test_cli_test_car_writes_its_files(tmp_path):
     from suspenv.cli.identify import CONCEALED
-    from suspenv.methods import identify
+    from suspenv.methods.curves import identify
 
     assert CONCEALED == identify.CONCEALED
     out = tmp_path / "o"
@@ -399,7 +399,7 @@ def test_noise_free_curves_get_the_rig_default_weights_and_declared_noise_is_kep
     # simulated loops carry no noise: the estimate is round-off, which as a weight would
     # make every parameter look identified; the fit takes the rig's typical noise instead
     from suspenv.measurements.knc_file import from_results
-    from suspenv.methods.identify import fit_weights
+    from suspenv.methods.curves.identify import fit_weights
     from suspenv.models.mcpherson.params import build_axle
     from suspenv.models.mcpherson.truth import CHANNEL_NOISE
     from suspenv.rigs.knc import run_tests

@@ -1,4 +1,4 @@
-"""The identification's loop (suspenv.methods.model_loop): fitted effect parameters in
+"""The identification's loop (suspenv.methods.curves.model_loop): fitted effect parameters in
 the whole-curve model, the place screen, the held-out test, the sheet's interval."""
 
 from __future__ import annotations
@@ -9,14 +9,14 @@ import numpy as np
 import pytest
 
 from suspenv.core.errors import ValidationError
-from suspenv.methods.curve_fit import CurveModel
-from suspenv.methods.identify import (
+from suspenv.methods.curves.curve_fit import CurveModel
+from suspenv.methods.curves.identify import (
     build_model,
     measure_test_car,
     resolve_vehicle,
     split_held_out,
 )
-from suspenv.methods.model_loop import _candidate_fit
+from suspenv.methods.curves.model_loop import _candidate_fit
 from suspenv.rigs.knc_axle import effect_parameters
 
 
@@ -104,8 +104,8 @@ def test_the_delta_method_interval_matches_a_parametric_bootstrap(test_car):
     sheet's delta-method standard error of bump steer and camber gain against the
     spread of the same metrics over 24 refits to the fitted model's curves with fresh
     noise (the spread's own sampling error with 24 draws is about 15 %: 35 %)."""
-    from suspenv.methods.identifiability import unit_covariance
-    from suspenv.methods.knc_sheet import Z95, knc_sheet
+    from suspenv.methods.curves.identifiability import unit_covariance
+    from suspenv.methods.curves.knc_sheet import Z95, knc_sheet
     from suspenv.rigs.knc_fit import polish
 
     m, truth = measure_test_car(0, ("noise",))
@@ -143,7 +143,7 @@ def test_the_delta_method_interval_matches_a_parametric_bootstrap(test_car):
 
 
 def _fit_of(model, stage, r, J):
-    from suspenv.methods.curve_fit import CurveFit
+    from suspenv.methods.curves.curve_fit import CurveFit
 
     return CurveFit(model, stage.u, model.designs(stage.u[None])[0], r, J, [stage], stage)
 
@@ -156,7 +156,7 @@ def test_the_job_follows_its_screen_and_reports_before_and_after(test_car, tmp_p
     is a vehicle file with the sides and the fitted effect."""
     import json
 
-    from suspenv.methods.identify import run_identify, write_outputs
+    from suspenv.methods.curves.identify import run_identify, write_outputs
     from suspenv.models.mcpherson.vehicle_file import load_vehicle
 
     m, truth = test_car
@@ -196,7 +196,7 @@ def test_the_cluster_sandwich_of_a_mean_is_the_spread_between_clusters():
     ``sum_c (sum_i r_ci)^2 / N^2``; with one row per cluster it is White's
     ``sum r_i^2 / N^2``. Curves that share an offset (a misfit correlated along each
     curve) widen it far beyond ``(J'J)^-1 = 1 / N``."""
-    from suspenv.methods.identifiability import sandwich_covariance
+    from suspenv.methods.curves.identifiability import sandwich_covariance
 
     rng = np.random.default_rng(3)
     N, n_c = 400, 8
@@ -219,7 +219,7 @@ def test_the_held_out_test_is_the_one_the_others_determine_best():
     measured) both at 3 x. Leaving ``a`` out, ``C = diag(1/5, 1/5)``: sd ``sqrt(1/5)``;
     leaving ``b`` out, value 2 is known to its prior only: sd 1 (worst channel); ``c``
     from both, ``C = diag(1/9, 1/5)``: ``sqrt(9/9 + 9/5)``."""
-    from suspenv.methods.identify import choose_held_out
+    from suspenv.methods.curves.identify import choose_held_out
 
     one, two = np.tile([1.0, 0.0], (4, 1)), np.tile([0.0, 1.0], (4, 1))
     blocks = {
@@ -239,7 +239,7 @@ def test_the_held_out_test_is_the_one_the_others_determine_best():
 def test_the_place_cost_with_the_design_free_is_the_least_squares_minimum():
     """Reference: the regularised least-squares problem solved directly (numpy lstsq
     on ``[J; w I] d = [-r; 0]``)."""
-    from suspenv.methods.model_loop import _free_cost
+    from suspenv.methods.curves.model_loop import _free_cost
     from suspenv.rigs.knc_fit import PRIOR_WEIGHT
 
     rng = np.random.default_rng(5)
@@ -260,7 +260,7 @@ def test_steering_constants_are_fitted_values_when_the_aligning_test_is_measured
     aligning test; rows with other rates are solved apart (reference: each row alone)
     and the rack's compliance moves the aligning test's toe (reference: the rigid
     direction of the change, a softer rack steers more under the same moment)."""
-    from suspenv.methods.identify import fitted_constants
+    from suspenv.methods.curves.identify import fitted_constants
 
     m, truth = measure_test_car(0, ("noise",), tests=("parallel", "aligning"), steps=12)
     v = resolve_vehicle(None)
@@ -294,7 +294,7 @@ def test_auto_held_out_ranges_over_the_measured_tests_too(test_car):
     measured in): ``single`` (one wheel) is the sum of ``parallel`` and ``opposite``
     for a linear axle, which the others determine best (reference: superposition);
     the compliance tests are barely seen by travel tests."""
-    from suspenv.methods.identify import auto_held_out
+    from suspenv.methods.curves.identify import auto_held_out
 
     m, truth = test_car
     v = resolve_vehicle(None)
@@ -323,7 +323,7 @@ def test_the_loops_partition_the_residual_by_test_and_wheel(test_car):
 def test_near_tied_places_are_those_the_bic_does_not_tell_apart():
     """Reference: Kass & Raftery's first step, a BIC difference (cost + k ln n) below 2.
     With n = e^2 one added value costs 2 exactly, so the differences are set by hand."""
-    from suspenv.methods.model_loop import BIC_TIE, MAX_TIED, bic, near_ties
+    from suspenv.methods.curves.model_loop import BIC_TIE, MAX_TIED, bic, near_ties
 
     n = int(round(np.exp(2.0)))  # 7: ln n = 1.95
     assert bic(10.0, 2, n) == pytest.approx(10.0 + 2 * np.log(7))
@@ -344,7 +344,7 @@ def test_near_tied_places_are_those_the_bic_does_not_tell_apart():
 def test_tie_options_swap_one_family_place_at_a_time():
     """Every family's best place first, then each near-tied place in its family's slot,
     the other families at their best; at most MAX_TIED sets."""
-    from suspenv.methods.model_loop import MAX_TIED, tie_options
+    from suspenv.methods.curves.model_loop import MAX_TIED, tie_options
 
     ties = [["loop_a", "loop_b"], ["prog_a", "prog_b", "prog_c"]]
     got = tie_options(ties)
@@ -358,7 +358,7 @@ def test_tie_options_swap_one_family_place_at_a_time():
 def test_the_fits_valleys_are_its_polished_answers_the_answer_first():
     """Definition: every polish stage's answer once, the fit's own answer first, the
     global stage's best point not among them (it is not a polished valley)."""
-    from suspenv.methods.curve_fit import CurveFit
+    from suspenv.methods.curves.curve_fit import CurveFit
     from suspenv.rigs.knc_fit import StageResult
 
     a, b, g = np.full(3, 0.2), np.full(3, 0.7), np.full(3, 0.5)
@@ -432,7 +432,7 @@ def test_places_refitted_side_by_side_give_the_numbers_of_one_after_the_other():
     are those of the refits one after the other, bit for bit, and each reaches the
     minimum the differenced least squares reaches from the same start (reference: that
     second solver; the stopping rule's own tolerance, one squared noise unit)."""
-    from suspenv.methods.model_loop import _refits, _start
+    from suspenv.methods.curves.model_loop import _refits, _start
     from suspenv.rigs.knc_fit import RESTART_GAIN, polish
     from suspenv.runs.executors import ProcessPool
 

@@ -113,7 +113,7 @@ def test_the_test_car_with_its_concealed_effects_passes_without_a_warning(tmp_pa
     """The built-in test car (hysteresis, tolerances, rig noise) in the travel tests and
     two compliance tests: what a rig records with a real axle's loops and kinks is no
     error and no spike."""
-    from suspenv.methods.identify import measure_test_car
+    from suspenv.methods.curves.identify import measure_test_car
 
     tests = ("parallel", "opposite", "single", "lateral", "aligning")
     m, _ = measure_test_car(0, tests=tests, steps=10)

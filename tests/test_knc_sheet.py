@@ -119,7 +119,7 @@ def test_suspenv_knc_prints_the_sheet_of_a_rig_channel_set(capsys):
     import dataclasses
 
     from suspenv.cli.knc import print_measured_sheet
-    from suspenv.methods.identify import measure_test_car
+    from suspenv.methods.curves.identify import measure_test_car
 
     m, _ = measure_test_car(0, ("noise",), tests=("parallel", "opposite", "lateral"))
     drop = {"contact_x", "contact_y", "contact_z", "scrub_radius", "trail", "knuckle_pitch"}
@@ -166,11 +166,11 @@ def test_loop_half_width_matches_the_strut_friction_hand_calculation():
 
 def test_rows_solved_apart_keep_their_static_hard_points():
     """Designs with other fitted constants are solved apart and stacked
-    (:func:`suspenv.methods.curve_fit._concat`); the geometric roll centre reads their
+    (:func:`suspenv.methods.curves.curve_fit._concat`); the geometric roll centre reads their
     static hard points, which must survive the stacking (lost, the sheet's gradient of
     it was NaN and its interval zero). Reference: the same designs solved together, to
     the solver's tolerance (1 nm)."""
-    from suspenv.methods.curve_fit import _concat
+    from suspenv.methods.curves.curve_fit import _concat
     from suspenv.metrics.knc_report import geometric_roll_centre
 
     X = np.stack([reference_design(), reference_design()])
@@ -192,7 +192,7 @@ def test_sandwich_interval_uses_students_t_of_its_loop_count():
     Student's t table (t_0.975 = 2.365 for 7, 2.262 for 9 degrees of freedom, to the
     table's 3 decimals); it tends to the normal 1.960 for many loops and is wider for
     fewer loops (a test held out of the fit)."""
-    from suspenv.methods.knc_sheet import Z95, sandwich_quantile
+    from suspenv.methods.curves.knc_sheet import Z95, sandwich_quantile
 
     assert sandwich_quantile(8) == pytest.approx(np.sqrt(8 / 7) * 2.365, abs=1e-3)
     assert sandwich_quantile(10) == pytest.approx(np.sqrt(10 / 9) * 2.262, abs=1e-3)
@@ -203,7 +203,7 @@ def test_sandwich_interval_uses_students_t_of_its_loop_count():
 def test_a_gradient_a_design_cannot_give_leaves_the_interval_unknown():
     # reference: a half-width is sqrt(g' C g); with a component of g unknown (NaN) the
     # product is unknown, so the interval must say so rather than shrink to zero
-    from suspenv.methods.knc_sheet import _half_widths
+    from suspenv.methods.curves.knc_sheet import _half_widths
 
     cov = np.eye(2)
     g = np.array([[1.0, np.nan], [0.0, 2.0]])

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 from mcpherson_kinematics import CornerKinematics
 
-from suspenv.methods.knc_sheet import SHEET_TESTS, sheet_values
+from suspenv.methods.curves.knc_sheet import SHEET_TESTS, sheet_values
 from suspenv.metrics.knc_report import (
     ALL_ITEMS,
     COMPLIANCE_ITEMS,

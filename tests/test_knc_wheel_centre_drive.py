@@ -26,7 +26,7 @@ from scipy.interpolate import CubicSpline
 
 from suspenv.core.errors import ValidationError
 from suspenv.measurements.knc_file import from_results, load_measurement, write_measurement
-from suspenv.methods.identify import build_model, resolve_vehicle
+from suspenv.methods.curves.identify import build_model, resolve_vehicle
 from suspenv.models.mcpherson import AxleSolver, build_axle, reference_design
 from suspenv.rigs.knc import TESTS, run_tests
 

@@ -18,7 +18,7 @@ from pathlib import Path
 
 from suspenv.cli.main import add_output_options
 
-#: the test car's effects (suspenv.methods.identify.CONCEALED, pinned by a test)
+#: the test car's effects (suspenv.methods.curves.identify.CONCEALED, pinned by a test)
 CONCEALED = ("hysteresis", "tolerance", "noise")
 
 
@@ -84,7 +84,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def _identify(args: argparse.Namespace) -> int:
     from suspenv.measurements.paths import check_output_dir, plain_file_name
-    from suspenv.methods.identify import (
+    from suspenv.methods.curves.identify import (
         measure_test_car,
         resolve_vehicle,
         run_identify,

@@ -18,13 +18,13 @@ import numpy as np
 
 from suspenv.core.atomic import write_file
 from suspenv.core.markdown import markdown_table, text
-from suspenv.methods.identifiability import K_SIGMA, TOLERANCE_PCT, Verdict, summary_counts
-from suspenv.methods.identify import FIT_RATIO, summary
+from suspenv.methods.curves.identifiability import K_SIGMA, TOLERANCE_PCT, Verdict, summary_counts
+from suspenv.methods.curves.identify import FIT_RATIO, summary
 from suspenv.reports._mpl import pyplot, save_cropped
 from suspenv.runs.run_dir import write_json
 
 if TYPE_CHECKING:
-    from suspenv.methods.identify import IdentifyResult
+    from suspenv.methods.curves.identify import IdentifyResult
 
 #: axis label (unit, sign convention: ISO 8855, each wheel's raw sign) and scale from
 #: SI of every fitted channel
@@ -348,7 +348,7 @@ def _sheet_section(s: dict[str, Any]) -> list[str]:
         "",
         "Per wheel (left / right); the identified value is the answer's model on the rig's "
         "tests (predicted where the measurement lacks the test), its 95 % interval by the "
-        "delta method from the fit's covariance (suspenv.methods.knc_sheet); the measured "
+        "delta method from the fit's covariance (suspenv.methods.curves.knc_sheet); the measured "
         "value is the same reduction of the measured loops. Definitions and signs: "
         "docs/knc.md.",
         "",

@@ -1,5 +1,5 @@
 """The one least-squares fit of an axle to K&C curves, shared by curve identification
-(:mod:`suspenv.methods.curve_fit`) and the K&C diagnosis
+(:mod:`suspenv.methods.curves.curve_fit`) and the K&C diagnosis
 (:mod:`suspenv.diagnosis.knc.family`).
 
 Parametrisation: every fitted value is mapped to the unit cube, stiffnesses (and
@@ -18,7 +18,7 @@ noise units; half a cost unit is one unit of log-likelihood).
 The two axle models it fits share the batching of designs by effect values
 (:func:`same_rows`), not their simulation: :class:`~suspenv.rigs.knc_axle.KncAxleModel`
 (diagnosis) replays recordings' own samples with left/right and load-cell effects,
-keeping solved rows for refits; :class:`~suspenv.methods.curve_fit.CurveModel`
+keeping solved rows for refits; :class:`~suspenv.methods.curves.curve_fit.CurveModel`
 (identify) reads loops at measured drives, with both sides, fitted constants and
 orientations, in bounded chunks.
 """

@@ -9,10 +9,10 @@ lists what a sheet holds.
 Interval (delta method): the metric's gradient ``g`` with respect to the fitted values
 (the fit's unit cube, forward differences of :data:`~suspenv.rigs.knc_fit.FD_STEP`,
 all ``dim + 1`` designs in one batched rig call per test group) and the fit's covariance
-``C`` (:func:`suspenv.methods.identifiability.unit_covariance`: ``s^2 (J'J)^-1``): the
+``C`` (:func:`suspenv.methods.curves.identifiability.unit_covariance`: ``s^2 (J'J)^-1``): the
 standard error is ``sqrt(g' C g)``, the 95 % interval +-1.96 of it. ``C`` is the larger
 (per metric) of that and the cluster-robust sandwich over the measured loops (one test
-and wheel, every channel: :func:`~suspenv.methods.identifiability.sandwich_covariance`):
+and wheel, every channel: :func:`~suspenv.methods.curves.identifiability.sandwich_covariance`):
 a misfit of a loop's physics (hysteresis of another shape, a fit stopped short) is
 correlated over every channel recorded through it and biases the metrics the loops
 disagree on, which ``s^2``, one factor for every direction, does not see. The sandwich
@@ -37,8 +37,8 @@ from typing import Any
 import numpy as np
 
 from suspenv.diagnosis.knc.family import PATH_DEPENDENT
-from suspenv.methods.curve_fit import CurveFit
-from suspenv.methods.identifiability import sandwich_covariance
+from suspenv.methods.curves.curve_fit import CurveFit
+from suspenv.methods.curves.identifiability import sandwich_covariance
 from suspenv.rigs.knc_fit import FD_STEP
 
 #: rig tests the sheet runs on the identified model

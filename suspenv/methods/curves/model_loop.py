@@ -1,9 +1,9 @@
 """The identification's second half: add what the residual screen names, refit.
 
-After the first fit (:func:`suspenv.methods.curve_fit.fit_curves`) the K&C diagnosis'
-signatures screen the residual (:func:`suspenv.methods.identify.screen_residual`) and
+After the first fit (:func:`suspenv.methods.curves.curve_fit.fit_curves`) the K&C diagnosis'
+signatures screen the residual (:func:`suspenv.methods.curves.identify.screen_residual`) and
 name patterns. :func:`refine` turns each named pattern into model physics through the
-same :class:`~suspenv.methods.curve_fit.CurveModel` the first fit used:
+same :class:`~suspenv.methods.curves.curve_fit.CurveModel` the first fit used:
 
 * ``lr_asymmetry`` (left and right residuals differ): the sides apart, every free
   parameter but the one anti-roll bar gets a right-side twin (``sides = "both"``);
@@ -43,7 +43,7 @@ from typing import Any
 
 import numpy as np
 
-from suspenv.methods.curve_fit import CurveFit, CurveModel
+from suspenv.methods.curves.curve_fit import CurveFit, CurveModel
 from suspenv.models.effects import Effect
 from suspenv.rigs.knc_axle import effect_parameters
 from suspenv.rigs.knc_fit import FAILED_RESIDUAL, PRIOR_WEIGHT, polish

@@ -6,11 +6,11 @@ The job (:func:`run_identify`):
    raw ISO 8855, both wheels, both loading branches) and the vehicle file (its design
    is the start, its ``[bounds]`` the identification box, its constants and bushing
    orientations are held);
-2. fit the whole curves, weighted by each channel's noise (:mod:`suspenv.methods.
-   curve_fit`: CMA-ES, then least squares with the batched Jacobian);
-3. judge what the data identify (:mod:`suspenv.methods.identifiability`) and which rig
-   test suspenv simulates would identify the rest; on the built-in test car, measure
-   that test too (same noise model) and fit again to show the gain;
+2. fit the whole curves, weighted by each channel's noise (:mod:`.curve_fit`: CMA-ES,
+   then least squares with the batched Jacobian);
+3. judge what the data identify (:mod:`.identifiability`) and which rig test suspenv
+   simulates would identify the rest; on the built-in test car, measure that test too
+   (same noise model) and fit again to show the gain;
 4. screen the remaining residual with the K&C diagnosis' signatures
    (:mod:`suspenv.diagnosis.knc.signatures`: hysteresis loop, left/right asymmetry,
    progressive stiffness, load-cell gain and offset);
@@ -41,7 +41,7 @@ import numpy as np
 from suspenv.core.errors import ValidationError
 from suspenv.core.laps import Laps
 from suspenv.core.space import DesignSpace, Parameter
-from suspenv.methods.curve_fit import (
+from suspenv.methods.curves.curve_fit import (
     CurveFit,
     CurveModel,
     MeasuredCurves,
@@ -50,9 +50,14 @@ from suspenv.methods.curve_fit import (
     measured_curves,
     rig_run,
 )
-from suspenv.methods.identifiability import CandidateGain, Identifiability, assess, rank_tests
-from suspenv.methods.knc_sheet import SHEET_TESTS, SheetRow, knc_sheet, sheet_values
-from suspenv.methods.model_loop import Refinement, refine
+from suspenv.methods.curves.identifiability import (
+    CandidateGain,
+    Identifiability,
+    assess,
+    rank_tests,
+)
+from suspenv.methods.curves.knc_sheet import SHEET_TESTS, SheetRow, knc_sheet, sheet_values
+from suspenv.methods.curves.model_loop import Refinement, refine
 from suspenv.models.mcpherson.params import AxleConstants, paper_initial_values
 from suspenv.models.mcpherson.truth import CHANNEL_NOISE, TruthVehicle
 from suspenv.models.mcpherson.vehicle_file import REFERENCE_FILE, VehicleFile, load_vehicle
@@ -1036,10 +1041,12 @@ def check_identify_config(config: dict[str, Any]) -> dict[str, Any]:
     opts = _identify_table(config)
     _problem(config)
     if opts["method"] == "tey2014":
-        from suspenv.methods.tey2014.pipeline import check_tey2014_config
+        from suspenv.registry import pipeline_check
 
+        check_tey2014 = pipeline_check("tey2014")
+        assert check_tey2014 is not None  # the paper's pipeline checks its config
         rest = {k: v for k, v in config.items() if k != "identify"}
-        return {**check_tey2014_config(rest), "identify": opts}
+        return {**check_tey2014(rest), "identify": opts}
     return {**config, "identify": opts}
 
 
@@ -1051,9 +1058,10 @@ def run_identify_pipeline(config: dict[str, Any], run_dir: Path) -> dict[str, An
     run_dir.mkdir(parents=True, exist_ok=True)
     opts = _identify_table(config)
     if opts["method"] == "tey2014":
-        from suspenv.methods.tey2014.pipeline import run_tey2014_pipeline
+        from suspenv.registry import pipeline_function
 
-        return run_tey2014_pipeline({k: v for k, v in config.items() if k != "identify"}, run_dir)
+        rest = {k: v for k, v in config.items() if k != "identify"}
+        return pipeline_function("tey2014")(rest, run_dir)
     t0 = time.perf_counter()
     problem = _problem(config)
     progress = bool((config.get("run", {}) or {}).get("progress", False))
