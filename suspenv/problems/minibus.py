@@ -601,8 +601,9 @@ class MinibusRideHandling(Problem):
 
     # -------------------------------------------------------------- report
     def write_report(self, run_dir: Path, archive: Any) -> list[Path]:
-        """``minibus_report.md`` with Pareto plots, the ride-focused pick and the
-        suspension report (baseline, study's pick, ride-focused pick); returns the paths.
+        """``minibus_report.md`` with the ride-focused pick and the suspension report
+        (baseline, study's pick, ride-focused pick), figures unless the run's config has
+        ``plots = false``; returns the paths.
 
         Pick rule: see :func:`ride_focused_pick`. Written by
         :func:`suspenv.reports.minibus.write_minibus_report`.
