@@ -81,9 +81,9 @@ DOSE_KEYS = ("crest_front", "crest_rear", "vdv_front", "vdv_rear")
 CREST_LIMIT = 9.0
 #: trapezoid points of :func:`gaussian_peak_factor`'s integral (64 points: within 3e-5)
 PEAK_POINTS = 128
-#: the rule's nodes over 0 .. 1, squared, and its weights there, negated (the integrand
-#: is formed as ``expm1(...) = -(1 - exp(...))``)
-_PEAK_GRID_SQUARED = np.linspace(0.0, 1.0, PEAK_POINTS) ** 2
+#: the rule's nodes s over 0 .. 1 as the exponent factors ``-s^2/2``, and its weights
+#: there, negated (the integrand is formed as ``expm1(...) = -(1 - exp(...))``)
+_PEAK_EXPONENTS = -0.5 * np.linspace(0.0, 1.0, PEAK_POINTS) ** 2
 _PEAK_WEIGHTS = np.full(PEAK_POINTS, -1.0 / (PEAK_POINTS - 1))
 _PEAK_WEIGHTS[[0, -1]] *= 0.5
 #: uniform grid of the end stops' remainder (Hz): step (its covariances' period, 16 s,
@@ -165,7 +165,7 @@ def gaussian_peak_factor(crossings: np.ndarray | float) -> np.ndarray:
     n = np.asarray(crossings, dtype=float)
     top = np.sqrt(2.0 * np.log(np.maximum(n, 1.0))) + 8.0
     # (few array calls: a design evaluated alone pays per call, not per element)
-    g = np.exp(np.multiply.outer(-0.5 * top * top, _PEAK_GRID_SQUARED))
+    g = np.exp(np.multiply.outer(top * top, _PEAK_EXPONENTS))
     g *= -n[..., None]
     return top * (np.expm1(g, out=g) @ _PEAK_WEIGHTS)
 
