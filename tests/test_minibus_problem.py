@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import re
+import subprocess
+import sys
 import tomllib
 from pathlib import Path
 
@@ -152,6 +155,10 @@ def test_ride_focused_pick_rule():
         ride_focused_pick(F, np.zeros(3, bool), base)
 
 
+def _linked_images(md: Path) -> list[str]:
+    return re.findall(r"!\[[^]]*\]\(([^)]+)\)", md.read_text())
+
+
 def test_report_files(problem, evaluated, tmp_path):
     X, b = evaluated
     arrays = {
@@ -163,14 +170,78 @@ def test_report_files(problem, evaluated, tmp_path):
     }
     paths = write_minibus_report(problem, tmp_path, arrays)
     names = {p.name for p in paths}
-    assert {
+    assert names == {
         "minibus_report.md",
-        "minibus_pareto_pairs.png",
         "minibus_parallel.png",
         "suspension_report.md",
-    } <= names
+        "suspension_elements.png",
+    }
+    assert all(p.exists() for p in paths)
     text = (tmp_path / "minibus_report.md").read_text()
     assert "Ride-focused pick" in text and "study pick" in text
+    # no run figures here: the report links only what it drew
+    assert _linked_images(tmp_path / "minibus_report.md") == ["minibus_parallel.png"]
+    # without figures: the Markdown files only, no image linked
+    bare = tmp_path / "bare"
+    paths = write_minibus_report(problem, bare, arrays, plots=False)
+    assert sorted(p.name for p in paths) == ["minibus_report.md", "suspension_report.md"]
+    assert sorted(p.name for p in bare.iterdir()) == sorted(p.name for p in paths)
+    assert _linked_images(bare / "minibus_report.md") == []
+    assert "K1" in (bare / "suspension_report.md").read_text()
+
+
+RUN_CONFIG = """
+seed = 1
+budget = 48
+[problem]
+name = "MinibusRideHandling"
+[strategy]
+name = "nsga2"
+options = {{ population_size = 24 }}
+[run]
+output = "{out}"
+workers = 1
+progress = false
+plots = {plots}
+"""
+
+RUN_CODE = """
+import sys
+from suspenv.runs.config import load_config
+from suspenv.runs.runner import run_experiment
+run_dir, _ = run_experiment(load_config(sys.argv[1]))
+print(run_dir)
+print("matplotlib" in sys.modules)
+"""
+
+
+@pytest.mark.parametrize("plots", [False, True])
+def test_run_report_honours_plots(tmp_path, plots):
+    """A run with ``plots = false`` draws no figure and never imports matplotlib (a fresh
+    interpreter's ``sys.modules``); with figures, the files docs/minibus_handling.md
+    lists exist and every image the report links is there."""
+    config = tmp_path / "run.toml"
+    config.write_text(RUN_CONFIG.format(out=tmp_path / "runs", plots=str(plots).lower()))
+    done = subprocess.run(
+        [sys.executable, "-c", RUN_CODE, str(config)],
+        capture_output=True,
+        text=True,
+        check=True,
+        timeout=600,
+    )
+    run_dir, imported = done.stdout.split()[-2:]
+    run = Path(run_dir)
+    images = sorted(p.name for p in run.glob("*.png"))
+    linked = _linked_images(run / "minibus_report.md")
+    assert (run / "suspension_report.md").exists()
+    if not plots:
+        assert imported == "False" and images == [] and linked == []
+        return
+    documented = ["pareto_pairs.png", "minibus_parallel.png", "suspension_elements.png"]
+    assert set(documented) <= set(images)
+    assert linked == ["pareto_pairs.png", "minibus_parallel.png"]
+    # each figure drawn once: the pair plot is the run's, not a second minibus copy
+    assert not any(name.startswith("minibus_pareto") for name in images)
 
 
 @pytest.mark.parametrize("name", ["minibus_nsga2.toml", "minibus_quick.toml"])

@@ -462,8 +462,9 @@ class MinibusRideHandling(Problem):
             out[f"aw_front_{lc}"], out[f"aw_rear_{lc}"] = r["aw_front"], r["aw_rear"]
             out.update({f"{key}_{lc}": value[rows] for key, value in both.items()})
             out.update({f"{key}_{lc}": r[key] for key in DOSE_KEYS})
-            crest = np.maximum(r["crest_front"], r["crest_rear"])
-            out[f"vdv_applies_{lc}"] = np.where(np.isnan(crest), np.nan, crest > CREST_LIMIT)
+            # 1.0 above the limit, 0.0 at or below it, NaN where a crest factor is
+            excess = np.maximum(r["crest_front"], r["crest_rear"]) - CREST_LIMIT
+            out[f"vdv_applies_{lc}"] = np.heaviside(excess, 0.0)
             out.update({f"{key}_{lc}": value[rows] for key, value in ws.items()})
             out[f"ride_ok_{lc}"] = r["ok"]
         return out
@@ -600,8 +601,9 @@ class MinibusRideHandling(Problem):
 
     # -------------------------------------------------------------- report
     def write_report(self, run_dir: Path, archive: Any) -> list[Path]:
-        """``minibus_report.md`` with Pareto plots, the ride-focused pick and the
-        suspension report (baseline, study's pick, ride-focused pick); returns the paths.
+        """``minibus_report.md`` with the ride-focused pick and the suspension report
+        (baseline, study's pick, ride-focused pick), figures unless the run's config has
+        ``plots = false``; returns the paths.
 
         Pick rule: see :func:`ride_focused_pick`. Written by
         :func:`suspenv.reports.minibus.write_minibus_report`.

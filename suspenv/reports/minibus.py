@@ -2,9 +2,13 @@
 
 ``minibus_report.md``: the Pareto front's size, the ride-focused pick
 (:func:`~suspenv.problems.minibus.ride_focused_pick`) against the baseline and the study's
-pick (objectives and variables), ``minibus_pareto_pairs.png`` and
-``minibus_parallel.png``, and the suspension report of the three designs
-(:mod:`suspenv.reports.suspension`).
+pick (objectives and variables), and the suspension report of the three designs
+(:mod:`suspenv.reports.suspension`). With figures (the run's ``plots``, default true):
+``minibus_parallel.png`` (objectives and variables of the front, the three designs
+marked), ``suspension_elements.png``, and a link to the run's own pair plot
+``pareto_pairs.png`` (:func:`suspenv.reports.run.write_run_figures`: the same picture
+without the marks, so it is not drawn twice). Without figures nothing is drawn and
+matplotlib is not imported.
 """
 
 from __future__ import annotations
@@ -18,22 +22,28 @@ from suspenv.core.atomic import write_file
 from suspenv.core.markdown import table_lines
 from suspenv.models.minibus.vehicle import BASELINE_DESIGN, STUDY_PICK
 from suspenv.problems.minibus import MinibusRideHandling, StudyOutcome, study_outcome
-from suspenv.reports.run import plot_parallel, plot_pareto_pairs
-from suspenv.reports.suspension import write_suspension_report
+from suspenv.reports.run import plot_parallel
+from suspenv.reports.suspension import report_markdown, write_suspension_report
 from suspenv.runs.quality import shown_rows
 
 
 def write_minibus_run_report(
     problem: MinibusRideHandling, run_dir: Path, archive: Any
 ) -> list[Path]:
-    """:func:`write_minibus_report` from a run archive (the problem's ``write_report``)."""
-    return write_minibus_report(problem, Path(run_dir), archive.arrays())
+    """:func:`write_minibus_report` from a run archive (the problem's ``write_report``),
+    with figures unless the run's config (kept in the archive's meta) has ``plots =
+    false``."""
+    run = (archive.meta().get("config") or {}).get("run") or {}
+    return write_minibus_report(
+        problem, Path(run_dir), archive.arrays(), plots=bool(run.get("plots", True))
+    )
 
 
 def write_minibus_report(
-    problem: MinibusRideHandling, run_dir: Path, arrays: dict[str, np.ndarray]
+    problem: MinibusRideHandling, run_dir: Path, arrays: dict[str, np.ndarray], plots: bool = True
 ) -> list[Path]:
-    """Write the minibus report files into ``run_dir`` from archive arrays; return paths."""
+    """Write the minibus report files into ``run_dir`` from archive arrays; return paths.
+    ``plots``: draw the figures (the module docstring); False: the Markdown files only."""
     run_dir.mkdir(parents=True, exist_ok=True)
     found = study_outcome(problem, arrays)
     if found is None:
@@ -42,10 +52,20 @@ def write_minibus_report(
         "baseline": found.baseline,
         "study pick": problem.evaluate(np.atleast_2d(STUDY_PICK)).objectives[0],
     }
-    pairs, par = _front_figures(problem, found, F_refs, run_dir)
     F, X, pick = found.F, found.X, found.pick
     designs = {"baseline": BASELINE_DESIGN, "study pick": STUDY_PICK, "ride-focused pick": X[pick]}
-    susp = write_suspension_report(designs, run_dir, problem.vehicle)
+    figures: list[Path] = []
+    links: list[str] = []
+    if plots:
+        figures = [_parallel_figure(problem, found, F_refs, run_dir)]
+        pairs = run_dir / "pareto_pairs.png"  # the run's, when it drew one
+        if pairs.exists():
+            links.append(f"![Pareto front, pairs (the run's figure)]({pairs.name})")
+        links.append(f"![Pareto front, parallel coordinates]({figures[0].name})")
+        susp = write_suspension_report(designs, run_dir, problem.vehicle)
+    else:
+        susp = [run_dir / "suspension_report.md"]
+        write_file(susp[0], report_markdown(designs, problem.vehicle))
     ok, feasible, front = found.ok, found.feasible, found.front
     names, units = problem.objective_names, problem.objective_units
     lines = [
@@ -82,47 +102,35 @@ def write_minibus_report(
             ),
         ),
         "",
-        f"![Pareto front, pairs]({pairs.name})",
-        "",
-        f"![Pareto front, parallel coordinates]({par.name})",
-        "",
+        *(line for link in links for line in (link, "")),
         "Suspension report before/after: [suspension_report.md](suspension_report.md).",
         "",
     ]
     md = run_dir / "minibus_report.md"
     write_file(md, "\n".join(lines))
-    return [md, pairs, par, *susp]
+    return [md, *figures, *susp]
 
 
-def _front_figures(
+def _parallel_figure(
     problem: MinibusRideHandling,
     found: StudyOutcome,
     F_refs: dict[str, np.ndarray],
     run_dir: Path,
-) -> tuple[Path, Path]:
-    """The Pareto front as pair plots and parallel coordinates, the baseline and the
-    study's pick (``F_refs``: their objectives) marked as extra rows, not drawn with the
-    front, and the ride-focused pick marked."""
+) -> Path:
+    """The Pareto front in parallel coordinates of objectives and variables, the
+    baseline and the study's pick (``F_refs``: their objectives) marked as extra rows,
+    not drawn with the front, and the ride-focused pick marked."""
     F, X, front, pick = found.F, found.X, found.front, found.pick
-    refs = np.vstack([BASELINE_DESIGN, STUDY_PICK])
-    names = problem.objective_names
     pool = shown_rows(found.ok, found.feasible)  # the evaluations the front is taken from
     n = len(F)
     F_all = np.vstack([F, *F_refs.values()])
-    shown = np.concatenate([pool, [False, False]])
-    on_front = front[pool]
-    marks = {"baseline": n, "study pick": n + 1, "ride-focused pick": int(pick)}
-    pairs = plot_pareto_pairs(
-        F_all, shown, names, run_dir / "minibus_pareto_pairs.png", front=on_front, marks=marks
-    )
-    U_all = problem.space.to_unit(np.vstack([X, refs]))
-    par = plot_parallel(
+    U_all = problem.space.to_unit(np.vstack([X, BASELINE_DESIGN, STUDY_PICK]))
+    return plot_parallel(
         F_all,
-        shown,
-        names,
+        np.concatenate([pool, [False, False]]),
+        problem.objective_names,
         run_dir / "minibus_parallel.png",
-        front=on_front,
-        marks=marks,
+        front=front[pool],
+        marks={"baseline": n, "study pick": n + 1, "ride-focused pick": int(pick)},
         designs=(U_all, problem.space.names),
     )
-    return pairs, par

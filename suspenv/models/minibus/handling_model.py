@@ -55,6 +55,7 @@ cos(delta) of the steered tyre forces (small-angle single-track kinematics).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -290,9 +291,11 @@ def _rear_axle_steer(
     Ls = vehicle.leaf_length
     l1 = leaf.axle_from_front_eye
     l2 = Ls - l1
-    eps_bush = rear_rate * (l1 / Ls) * np.tan(np.radians(leaf.shackle_angle_deg)) / k3
-    c_force = (l2 / (2.0 * k3) - l1 / (2.0 * leaf.shackle_lateral_ratio * k3)) / Ls**2
-    return vehicle.rear_roll_steer + eps_bush, c_force
+    # the geometry's factors as plain floats: one array operation each for a design
+    # alone (eps_bush = K_rate (l1/Ls) tan(shackle) / K3, c_F = (l2 - l1/r) / (2 Ls^2 K3))
+    bush = l1 / Ls * math.tan(math.radians(leaf.shackle_angle_deg))
+    force = (l2 - l1 / leaf.shackle_lateral_ratio) / (2.0 * Ls**2)
+    return vehicle.rear_roll_steer + rear_rate * bush / k3, force / k3
 
 
 #: :func:`_case_table`'s cache

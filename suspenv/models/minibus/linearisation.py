@@ -281,7 +281,7 @@ class ElementLinearisation:
         self._compliances = tuple(
             [self._compliance(nl, end, *s) for s in self.stops[end]] for end in (0, 1)
         )
-        self.k_tyre = nl.K[:, [6, 8]]  # front-left and rear-left tyre rates (N/m)
+        self.k_tyre = nl.K[:, 6:9:2]  # front-left and rear-left tyre rates (N/m)
         #: per stop of ``stops`` with p = 1: the closure's stiffness ratio kappa (n, 2),
         #: at equal temperatures (r = 1) until :meth:`set_corners`, else None
         self.kappa: tuple[list[np.ndarray | None], ...] = ([], [])

@@ -151,6 +151,10 @@ _TYPED = (
 )
 #: the float types a model integrates in
 _DTYPES = (np.dtype(np.float64), np.dtype(np.float32))
+#: the rows of :meth:`RideModel._build_coefficients`' stacked design arrays that fill the
+#: first six element rates (front wheel rate twice, leaf rate twice, stabilisers):
+#: the leaf's primary rate, or in the linear model its rate at rest
+_K_ROWS = {False: np.array([0, 0, 1, 1, 3, 4]), True: np.array([0, 0, 7, 7, 3, 4])}
 #: :meth:`RideModel._build_geometry`'s cache
 _GEOMETRY: IdentityCache[tuple] = IdentityCache()
 #: :meth:`RideModel._inverse_blocks`' cache
@@ -318,7 +322,7 @@ class RideModel:
         if self.seat:
             K[:, 10:12] = self.seat.stiffness
             K[:, self.n_pos + 8 : self.n_pos + 10] = self.seat.damping
-        K[:, :6] = stacked[[0, 0, 7, 7, 3, 4] if self.linear else [0, 0, 1, 1, 3, 4]].T
+        K[:, :6] = stacked[_K_ROWS[self.linear]].T
         # damper curves scaled per design: (4 slopes, 4 dampers, n); the linear model's
         # slopes all the mean low-speed coefficient
         scale = stacked[5:7].repeat(2, axis=0)  # (4, n): C1 front twice, C2 rear twice

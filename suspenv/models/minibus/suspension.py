@@ -67,7 +67,7 @@ def torsion_bar_wheel_rate(bar_stiffness: np.ndarray | float, lever: float) -> n
 def spring_pair_roll_stiffness(rate: RateT, spacing: float) -> RateT:
     """Roll stiffness (N*m/rad) of two vertical springs (N/m each, float or float
     array) ``spacing`` (m) apart."""
-    return rate * spacing**2 / 2.0
+    return rate * (spacing**2 / 2.0)  # (halving is exact: the same as (rate s^2) / 2)
 
 
 # ------------------------------------------------------------------ dampers
