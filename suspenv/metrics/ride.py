@@ -79,7 +79,7 @@ ISO_BAND = (0.5, 80.0)
 DOSE_KEYS = ("crest_front", "crest_rear", "vdv_front", "vdv_rear")
 #: ISO 2631-1 (6.3.1): above this crest factor the VDV is reported beside the RMS
 CREST_LIMIT = 9.0
-#: trapezoid points of :func:`gaussian_peak_factor`'s integral (64 points: within 3e-5)
+#: trapezoid points of :func:`gaussian_peak_factor`'s integral (its docstring gives the error)
 PEAK_POINTS = 128
 #: the rule's nodes s over 0 .. 1 as the exponent factors ``-s^2/2``, and its weights
 #: there, negated (the integrand is formed as ``expm1(...) = -(1 - exp(...))``)
