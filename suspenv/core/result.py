@@ -136,13 +136,16 @@ class EvaluationBatch:
         )
 
 
-def check_scales(scales: Sequence[float] | np.ndarray, k: int) -> np.ndarray:
-    """``scales`` as a (k,) float array, or a ValidationError naming the rule and value:
-    one scale per constraint, each finite and > 0."""
+def check_scales(
+    scales: Sequence[float] | np.ndarray, k: int, what: str = "constraint", owner: str = ""
+) -> np.ndarray:
+    """``scales`` as a (k,) float array, or a ValidationError (prefixed by ``owner``)
+    naming the rule and value: one scale per ``what`` (constraint, objective), each
+    finite and > 0."""
     s = np.asarray(scales, dtype=float).reshape(-1)
     if s.shape != (k,) or not (np.isfinite(s).all() and (s > 0).all()):
         raise ValidationError(
-            f"constraint scales must be {k} finite numbers > 0 (one per constraint), but "
+            f"{owner}{what} scales must be {k} finite numbers > 0 (one per {what}), but "
             f"got {np.asarray(scales).tolist()!r}"
         )
     return s
