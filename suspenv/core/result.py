@@ -115,8 +115,8 @@ class EvaluationBatch:
 
     @property
     def feasible(self) -> np.ndarray:
-        """(n,) True where ok and every constraint <= 0."""
-        return self.ok & (np.nan_to_num(self.violation, nan=1.0) <= 0.0)
+        """(n,) True where ok and every constraint <= 0 (:func:`feasible`)."""
+        return feasible(self.ok, self.constraints)
 
     @property
     def rankable(self) -> np.ndarray:
@@ -134,6 +134,16 @@ class EvaluationBatch:
             {k: np.asarray(v)[idx] for k, v in self.extras.items()},
             self.constraint_scales,
         )
+
+
+def feasible(ok: np.ndarray, constraints: np.ndarray) -> np.ndarray:
+    """(n,) True where ``ok`` and every constraint (n, k) is <= 0 (NaN: infeasible): the
+    one rule (:attr:`EvaluationBatch.feasible`, :mod:`suspenv.runs.quality`)."""
+    out = np.asarray(ok, bool).copy()
+    g = np.asarray(constraints, float)
+    if g.size:
+        out &= np.nan_to_num(g, nan=1.0).max(axis=1) <= 0
+    return out
 
 
 def check_scales(
