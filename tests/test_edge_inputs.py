@@ -87,7 +87,7 @@ def test_compare_option_ranges_checked_before_any_work(one_run, tmp_path, capsys
     [
         (["--seeds", "1", "1"], "seeds of a suite run must be distinct"),
         (["--seeds", "1", "--budget-scale", "0.01"], "at least 10 evaluations per variable"),
-        (["--seeds", "1", "--budget-scale", "nan"], "`0 < budget_scale <= 10` must hold"),
+        (["--seeds", "1", "--budget-scale", "nan"], "`0 < budget_scale <= 10`"),
     ],
 )
 def test_suite_run_option_ranges_checked_before_any_run(tmp_path, capsys, option, message):

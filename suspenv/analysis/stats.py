@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from suspenv.core.errors import ValidationError
+from suspenv.core.options import number
 
 CORRECTION = "Holm-Bonferroni over all pairs"
 
@@ -66,8 +66,7 @@ def min_holm_p(n_groups: int, n_seeds: int) -> float:
 def seeds_needed(n_groups: int, alpha: float) -> int:
     """The fewest seeds per group with :func:`min_holm_p` below ``alpha`` (1 for fewer
     than two groups: nothing to tell apart)."""
-    if not 0 < alpha < 1:
-        raise ValidationError(f"`0 < alpha < 1` must hold, but got alpha={alpha!r}")
+    number("rank tests", "alpha", alpha, lo=0.0, hi=1.0, lo_open=True, hi_open=True)
     if n_groups < 2:
         return 1
     n = 1
@@ -175,8 +174,7 @@ def rank_tests(
     or statistic, p, seeds), ``pairs`` (a, b, n_a, n_b, median_a, median_b, U, p,
     p_holm, a12, min_attainable_p, verdict), ``alpha``, ``correction``, ``protocol``.
     """
-    if not 0 < alpha < 1:
-        raise ValidationError(f"`0 < alpha < 1` must hold, but got alpha={alpha!r}")
+    number("rank tests", "alpha", alpha, lo=0.0, hi=1.0, lo_open=True, hi_open=True)
     data = {
         k: np.array([np.inf if v is None or np.isnan(v) else float(v) for v in vals])
         for k, vals in samples.items()

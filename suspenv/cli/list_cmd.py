@@ -23,9 +23,9 @@ def _list(args: argparse.Namespace) -> int:
     print("problems (Gymnasium env id in brackets):")
     for name in registry.list_problems():
         print(f"  {name:<22} [suspenv/{name}-v0]  {_describe(registry.problem_class, name)}")
-    from suspenv.envs import list_envs
+    from suspenv.envs import register_envs  # registers any new problems; returns every id
 
-    print(f"gymnasium envs (after `import suspenv`): {', '.join(list_envs())}")
+    print(f"gymnasium envs (after `import suspenv`): {', '.join(register_envs())}")
     print("strategies:")
     for name in registry.list_strategies():
         print(f"  {name:<22} {_describe(registry.strategy_class, name)}")

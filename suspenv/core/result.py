@@ -115,8 +115,8 @@ class EvaluationBatch:
 
     @property
     def feasible(self) -> np.ndarray:
-        """(n,) True where ok and every constraint <= 0."""
-        return self.ok & (np.nan_to_num(self.violation, nan=1.0) <= 0.0)
+        """(n,) True where ok and every constraint <= 0 (:func:`feasible`)."""
+        return feasible(self.ok, self.constraints)
 
     @property
     def rankable(self) -> np.ndarray:
@@ -136,13 +136,26 @@ class EvaluationBatch:
         )
 
 
-def check_scales(scales: Sequence[float] | np.ndarray, k: int) -> np.ndarray:
-    """``scales`` as a (k,) float array, or a ValidationError naming the rule and value:
-    one scale per constraint, each finite and > 0."""
+def feasible(ok: np.ndarray, constraints: np.ndarray) -> np.ndarray:
+    """(n,) True where ``ok`` and every constraint (n, k) is <= 0 (NaN: infeasible): the
+    one rule (:attr:`EvaluationBatch.feasible`, :mod:`suspenv.runs.quality`)."""
+    out = np.asarray(ok, bool).copy()
+    g = np.asarray(constraints, float)
+    if g.size:
+        out &= np.nan_to_num(g, nan=1.0).max(axis=1) <= 0
+    return out
+
+
+def check_scales(
+    scales: Sequence[float] | np.ndarray, k: int, what: str = "constraint", owner: str = ""
+) -> np.ndarray:
+    """``scales`` as a (k,) float array, or a ValidationError (prefixed by ``owner``)
+    naming the rule and value: one scale per ``what`` (constraint, objective), each
+    finite and > 0."""
     s = np.asarray(scales, dtype=float).reshape(-1)
     if s.shape != (k,) or not (np.isfinite(s).all() and (s > 0).all()):
         raise ValidationError(
-            f"constraint scales must be {k} finite numbers > 0 (one per constraint), but "
+            f"{owner}{what} scales must be {k} finite numbers > 0 (one per {what}), but "
             f"got {np.asarray(scales).tolist()!r}"
         )
     return s

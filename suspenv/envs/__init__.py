@@ -15,7 +15,6 @@ Thin adapters only: no physics here (see :mod:`suspenv.envs.adapter`).
 from suspenv.envs.problem_env import ProblemEnv
 from suspenv.envs.registration import (
     env_id,
-    list_envs,
     make_env,
     make_vector_env,
     register_envs,
@@ -28,7 +27,6 @@ __all__ = [
     "ProblemEnv",
     "ProblemVectorEnv",
     "env_id",
-    "list_envs",
     "make_env",
     "make_vector_env",
     "register_envs",

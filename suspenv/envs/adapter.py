@@ -39,7 +39,7 @@ from typing import Any
 import numpy as np
 
 from suspenv.core.errors import ValidationError
-from suspenv.core.options import choice, number
+from suspenv.core.options import choice, number, numbers
 from suspenv.core.problem import Problem
 from suspenv.core.result import EvaluationBatch
 from suspenv.core.scalarize import get_scalarizer
@@ -192,27 +192,19 @@ class ProblemAdapter:
     def _resolve_scalarizer(
         self, scalarizer: Scalarizer, weights: Sequence[float] | None, batch_ok: bool
     ) -> tuple[str, Callable[[np.ndarray], np.ndarray]]:
-        if callable(scalarizer):
-            if weights is not None:
-                raise ValidationError("`weights` only apply to scalarizer='weighted_sum'")
-            name = getattr(scalarizer, "__name__", type(scalarizer).__name__)
-            return name, scalarizer
-        fn = get_scalarizer(scalarizer)
-        if scalarizer == "weighted_sum":
-            if weights is not None:
-                w = np.asarray(weights, dtype=float)
-                if w.shape != (self.m,) or not np.isfinite(w).all():
-                    raise ValidationError(
-                        f"`weights` must be {self.m} finite numbers (one per objective "
-                        f"{list(self.problem.objective_names)}), but got {weights!r}"
-                    )
-                return scalarizer, lambda F: fn(F, w)
-            return scalarizer, fn
-        if weights is not None:
+        if weights is not None and scalarizer != "weighted_sum":
             raise ValidationError(
                 f"`weights` only apply to scalarizer='weighted_sum', but got "
                 f"scalarizer={scalarizer!r} with weights={weights!r}"
             )
+        if callable(scalarizer):
+            return getattr(scalarizer, "__name__", type(scalarizer).__name__), scalarizer
+        fn = get_scalarizer(scalarizer)
+        if scalarizer == "weighted_sum":
+            if weights is not None:  # one finite number per objective
+                w = np.asarray(numbers(f"{self.problem.name} env", "weights", weights, self.m))
+                return scalarizer, lambda F: fn(F, w)
+            return scalarizer, fn
         if not batch_ok:
             raise ValidationError(
                 f"scalarizer={scalarizer!r} normalises over a batch, but this env evaluates "

@@ -48,11 +48,6 @@ def register_envs() -> list[str]:
     return ids
 
 
-def list_envs() -> list[str]:
-    """Ids of every suspenv env (registering any new problems first)."""
-    return register_envs()
-
-
 def resolve_env_id(name: str) -> str:
     """``"CarSideImpact"`` or ``"suspenv/CarSideImpact-v0"`` -> the registered id."""
     ids = register_envs()

@@ -46,8 +46,8 @@ from typing import Any
 
 import numpy as np
 
-from suspenv.core.errors import ValidationError
 from suspenv.core.problem import Problem
+from suspenv.core.result import check_scales
 
 #: designs in the fixed sample that sets each objective's spread
 SAMPLE_SIZE = 64
@@ -101,12 +101,7 @@ def _declared(problem: Problem) -> ObjectiveScales | None:
     if declared is None:
         return None
     m = problem.n_objectives
-    s = np.asarray(declared, dtype=float).reshape(-1)
-    if s.shape != (m,) or not (np.isfinite(s).all() and (s > 0).all()):
-        raise ValidationError(
-            f"{problem.name}: objective scales must be {m} finite numbers > 0 (one per "
-            f"objective), but got {np.asarray(declared).tolist()!r}"
-        )
+    s = check_scales(declared, m, "objective", f"{problem.name}: ")
     nan = np.full(m, np.nan)
     return ObjectiveScales(
         scales=s,

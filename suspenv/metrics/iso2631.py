@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from suspenv.core.errors import ValidationError
+from suspenv.core.options import choice
 
 
 @dataclass(frozen=True)
@@ -59,9 +60,7 @@ def get_weighting(name: str | Weighting) -> Weighting:
     """The weighting named "Wk" or "Wd" (or a :class:`Weighting` passed through)."""
     if isinstance(name, Weighting):
         return name
-    if name not in WEIGHTINGS:
-        raise ValidationError(f"weighting must be one of {sorted(WEIGHTINGS)}, but got {name!r}")
-    return WEIGHTINGS[name]
+    return WEIGHTINGS[choice("ISO 2631-1", "weighting", name, sorted(WEIGHTINGS))]
 
 
 def weighting_response(f: np.ndarray, name: str | Weighting = "Wk") -> np.ndarray:

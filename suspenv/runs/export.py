@@ -51,6 +51,7 @@ from typing import Any
 import numpy as np
 
 from suspenv.core.errors import ValidationError
+from suspenv.core.options import text
 from suspenv.registry import make_problem
 from suspenv.runs.archive import RunArchive
 
@@ -74,8 +75,7 @@ class ExportResult:
 
 def storage_url(storage: str) -> str:
     """``storage`` as an optuna storage URL: a plain path means SQLite."""
-    if not isinstance(storage, str) or not storage.strip():
-        raise ValidationError(f"`storage` must be a URL or a file path, but got {storage!r}")
+    text("optuna export", "storage", storage)
     return storage if "://" in storage else f"sqlite:///{storage}"
 
 
@@ -290,8 +290,7 @@ def export_optuna(
         meta = archive.meta()
         a = archive.arrays()
     name = study_name if study_name is not None else run_dir.resolve().name
-    if not isinstance(name, str) or not name.strip():
-        raise ValidationError(f"`study_name` must be a non-empty string, but got {name!r}")
+    text("optuna export", "study_name", name)
     pnames = list(meta.get("parameter_names") or [f"x{j}" for j in range(a["x"].shape[1])])
     onames = list(meta.get("objective_names") or [f"f{j}" for j in range(a["objectives"].shape[1])])
     problem = _problem_of(meta)

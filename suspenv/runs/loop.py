@@ -217,7 +217,7 @@ class _Tally:
     def record(self, problem: Problem, batch: EvaluationBatch, X: np.ndarray) -> None:
         """Take the best of a batch just told (rows ``X``) and add its history row."""
         F, ok = batch.objectives, batch.ok
-        feasible = run_quality.feasible(ok, batch.constraints)
+        feasible = batch.feasible
         q = run_quality.quality(problem, F)
         i = None if q is None else run_quality.best_row(q, feasible)
         if q is not None and i is not None and q[i] < self.best:

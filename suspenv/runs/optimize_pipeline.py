@@ -54,7 +54,7 @@ from suspenv.runs.archive import RunArchive
 from suspenv.runs.evaluation import FaultPolicy
 from suspenv.runs.executors import executor_workers, make_executor
 from suspenv.runs.loop import optimize
-from suspenv.runs.run_dir import load_summary, run_directory, write_json
+from suspenv.runs.run_dir import load_summary, read_only_row, run_directory, write_json
 from suspenv.runs.versions import package_versions
 
 #: seconds of drawing after which the figure progress is printed to stderr
@@ -229,11 +229,7 @@ def _archived_run_id(config: dict[str, Any]) -> str | None:
     if not db.is_file():
         return None
     try:
-        con = sqlite3.connect(f"file:{db}?mode=ro", uri=True)
-        try:
-            row = con.execute("SELECT value FROM meta WHERE key = 'run_id'").fetchone()
-        finally:
-            con.close()
+        row = read_only_row(db, "SELECT value FROM meta WHERE key = 'run_id'")
     except sqlite3.Error:
         return None
     if row is None:

@@ -1,6 +1,7 @@
 """"Best" in a run: the one definition, by the problem's quality measure.
 
-* Feasible: the evaluation succeeded and every constraint is <= 0 (NaN is a violation).
+* Feasible (:func:`suspenv.core.result.feasible`): the evaluation succeeded and every
+  constraint is <= 0 (NaN is a violation).
 * Quality: :meth:`suspenv.core.problem.Problem.quality` (lower is better): the objective
   itself for one objective; None for several, unless the problem defines a scalar of its
   own. Several objectives in their own units have no scalar best (a sum would weigh them
@@ -27,6 +28,8 @@ from typing import Any
 
 import numpy as np
 
+from suspenv.core.result import feasible  # the rule, shared with EvaluationBatch.feasible
+
 #: quality names of a plain sum of several objectives, as recorded by runs written before
 #: this definition (the problem base class's and the minibus problem's; KCIdentification's
 #: before its RMS in standard errors): such a recorded quality is never shown as a "best"
@@ -38,15 +41,6 @@ def scalar_recorded(quality_name: str | None, n_objectives: int) -> bool:
     """Whether a run's recorded quality (its summary's ``quality_name``) is a scalar best:
     always for one objective; for several, only a quality that is not a plain sum."""
     return n_objectives <= 1 or bool(quality_name) and quality_name not in SUM_QUALITIES
-
-
-def feasible(ok: np.ndarray, constraints: np.ndarray) -> np.ndarray:
-    """(n,) True where ``ok`` and every constraint (n, k) is <= 0 (NaN: infeasible)."""
-    out = np.asarray(ok, bool).copy()
-    g = np.asarray(constraints, float)
-    if g.size:
-        out &= np.nan_to_num(g, nan=1.0).max(axis=1) <= 0
-    return out
 
 
 def quality(problem: Any, F: np.ndarray) -> np.ndarray | None:

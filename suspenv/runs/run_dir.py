@@ -97,16 +97,19 @@ def holds_results(path: Path) -> bool:
             return True
     for db in path.rglob("archive.sqlite"):
         try:
-            con = sqlite3.connect(f"file:{db}?mode=ro", uri=True)
-            try:
-                n = con.execute("SELECT COUNT(*) FROM evaluations").fetchone()[0]
-            finally:
-                con.close()
+            n = read_only_row(db, "SELECT COUNT(*) FROM evaluations")[0]
         except sqlite3.Error:
             return True  # unreadable: keep it, let the user decide
         if n:
             return True
     return False
+
+
+def read_only_row(db: Path, sql: str) -> Any:
+    """The first row of ``sql`` (None: no row) on the SQLite file ``db`` opened read-only:
+    nothing is created, locked for writing or changed. Raises ``sqlite3.Error``."""
+    with contextlib.closing(sqlite3.connect(f"file:{db}?mode=ro", uri=True)) as con:
+        return con.execute(sql).fetchone()
 
 
 def load_summary(run_dir: str | Path) -> dict[str, Any]:

@@ -9,13 +9,12 @@ workers, ``pymoo_nsga2`` for large single-machine runs.
 Conventions: designs live in the unit cube; constraints g <= 0 are passed to pymoo as
 inequality constraints, divided by the problem's constraint scales
 (:attr:`EvaluationBatch.scaled_constraints`), so pymoo's CV is the batch's violation.
-Failed evaluations get a large finite objective value
-(:data:`FAILED_OBJECTIVE`, dominated by every working design) and, on a constrained
-problem, one extra constraint column (0 when ok, 1 when failed) so they are also
-infeasible; an unconstrained problem stays unconstrained in pymoo (its constraint
-handling costs about 30 % of a generation's bookkeeping). Either way a failure is never
-selected over a working design. Randomness comes from pymoo's per-algorithm generator
-seeded with ``seed``.
+Failed evaluations get a large finite objective value (:data:`.extras.FAILED_LOSS`,
+dominated by every working design) and, on a constrained problem, one extra constraint
+column (0 when ok, 1 when failed) so they are also infeasible; an unconstrained problem
+stays unconstrained in pymoo (its constraint handling costs about 30 % of a generation's
+bookkeeping). Either way a failure is never selected over a working design. Randomness
+comes from pymoo's per-algorithm generator seeded with ``seed``.
 """
 
 from __future__ import annotations
@@ -31,15 +30,13 @@ from pymoo.operators.crossover.sbx import SBX
 from pymoo.operators.mutation.pm import PM
 from pymoo.problems.static import StaticProblem
 
-from suspenv.core.options import integer, number
+from suspenv.core.options import integer, number, positive
 from suspenv.core.result import EvaluationBatch
 from suspenv.strategies.base import Strategy
+from suspenv.strategies.extras import FAILED_LOSS
 
 if TYPE_CHECKING:
     from pymoo.core.population import Population
-
-#: objective value given to failed evaluations (they are infeasible anyway)
-FAILED_OBJECTIVE = 1e12
 
 
 class PymooNSGA2(Strategy):
@@ -75,8 +72,8 @@ class PymooNSGA2(Strategy):
         owner = self.name
         self.population_size = integer(owner, "population_size", population_size, lo=2)
         self.crossover_prob = number(owner, "crossover_prob", crossover_prob, lo=0.0, hi=1.0)
-        self.crossover_eta = number(owner, "crossover_eta", crossover_eta, lo=0.0, lo_open=True)
-        self.mutation_eta = number(owner, "mutation_eta", mutation_eta, lo=0.0, lo_open=True)
+        self.crossover_eta = positive(owner, "crossover_eta", crossover_eta)
+        self.mutation_eta = positive(owner, "mutation_eta", mutation_eta)
         self._problem = _PymooProblem(
             n_var=self.dim,
             n_obj=self.n_objectives,
@@ -101,7 +98,7 @@ class PymooNSGA2(Strategy):
 
     def _tell(self, U: np.ndarray, batch: EvaluationBatch) -> None:
         ok = batch.rankable
-        F = np.where(ok[:, None], batch.objectives, FAILED_OBJECTIVE)
+        F = np.where(ok[:, None], batch.objectives, FAILED_LOSS)
         if self.n_constraints:
             G = np.where(ok[:, None], np.nan_to_num(batch.scaled_constraints, nan=1.0), 1.0)
             G = np.column_stack([G, (~ok).astype(float)])

@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from suspenv.core.errors import ValidationError
+from suspenv.core.options import number
 from suspenv.runs.config import validate
 from suspenv.runs.runner import check_config, run_experiment
 from suspenv.suite.instances import SUITE_VERSION, build, selection
@@ -66,10 +67,7 @@ def scaled_budgets(pairs: Sequence[tuple[str, int]], budget_scale: float) -> dic
     """Each instance's budget times ``budget_scale`` (rounded). Rules: ``0 < budget_scale
     <= 10``, and every scaled budget at least :data:`MIN_EVALUATIONS_PER_VARIABLE` times
     the instance's dimension (a shorter run hardly leaves its first batches)."""
-    if not (0 < budget_scale <= 10) or not math.isfinite(budget_scale):
-        raise ValidationError(
-            f"`0 < budget_scale <= 10` must hold, but got budget_scale={budget_scale!r}"
-        )
+    number("suite", "budget_scale", budget_scale, lo=0.0, hi=10.0, lo_open=True)
     out, need = {}, {}
     for f, i in pairs:
         inst = build(f, i)
