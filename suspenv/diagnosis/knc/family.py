@@ -66,7 +66,7 @@ from suspenv.diagnosis.hypothesis import Ambiguity, Hypothesis, split_candidate
 from suspenv.diagnosis.knc.detectability import detection_limits, limits_sentence
 from suspenv.diagnosis.knc.locate import ResidualMap, residual_map
 from suspenv.diagnosis.knc.score_test import SCORE_TESTED, score_signatures_by_model
-from suspenv.diagnosis.knc.signatures import FAMILY_KINDS, KncSignature, score_signatures
+from suspenv.diagnosis.knc.signatures import SCREEN_FAMILY, KncSignature, score_signatures
 from suspenv.diagnosis.protocols import DiagnosableModel
 from suspenv.diagnosis.split import Holdout, Recordings, Split, as_recordings, heldout_recordings
 from suspenv.measurements.knc import rig_test
@@ -99,10 +99,6 @@ def axle_model(model: object) -> KncAxleModel:
 def current_slow(model: DiagnosableModel) -> bool:
     """True when ``model`` holds a path-dependent (slow to simulate) element."""
     return any(e.kind in PATH_DEPENDENT for e in model.effects)
-
-
-#: effect kind -> K&C signature family (the screen's grouping)
-SCREEN_FAMILY = {k: fam for fam, kinds in FAMILY_KINDS.items() for k in kinds}
 
 
 def split_tests(recordings: Recordings, holdout: Holdout) -> Split:
