@@ -360,7 +360,6 @@ class ComponentFamily(OptionalSteps):
 
     def __post_init__(self) -> None:
         # an unknown model family or effect kind is an error before any work starts
-        family = ""
         if isinstance(self.model, ComponentModel):
             family = self.model.family
         elif self.model.endswith(".toml"):

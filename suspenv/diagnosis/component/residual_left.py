@@ -338,7 +338,6 @@ def residual_left(
     fit: FitResult,
     sp: Split,
     alpha: float = ALPHA,
-    channels: Sequence[str] | None = None,
     lowpass_hz: float | None = None,
     recorded: Mapping[str, Mapping[str, np.ndarray]] | None = None,
 ) -> list[ResidualLeft]:
@@ -353,7 +352,7 @@ def residual_left(
     words = MOTION_WORDS.get(str(getattr(fit.model, "family", "")), MOTION_WORDS[""])
     names = np.asarray([str(run.rec.name) for run in runs])
     out = []
-    for ch in channels or fit.channels:
+    for ch in fit.channels:
         have = [run for run in runs if ch in run.rec.outputs]
         if not have:
             continue

@@ -317,8 +317,7 @@ def describe_rig(
             "the model family is unknown: give one (--model damper | mr_damper | "
             "friction_guide | quarter_car_rig) or declare meta['rig']['device']"
         )
-    family = str(chosen)
-    _check_family(family, "model")
+    family = str(chosen)  # checked where it was read
     base = list(entries.get("baseline", (*STANDARD_BASELINE.get(family, ()), DRIFT)))
     base = list(dict.fromkeys(k for k in base + added if k not in removed))
     known = dict(entries.get("known", {}))
