@@ -18,12 +18,9 @@ profile's spectrum (:class:`~suspenv.diagnosis.road.RoadFamily`). The loop:
    in the round) and rank them; the best significant one is named, **settled** (made
    ready to be the next round's null model) and becomes the current model; the search
    stops when nothing is significant or after ``family.max_effects`` rounds;
-4. the **checks** (:mod:`suspenv.diagnosis.checks`):
-   the look-alikes of each named element, the family's own (which may withdraw an
-   element and replace the final model), then those every family gets (the residual
-   left in the family's noise units, the assumptions made); the final model is
-   compared with the baseline on the held-out data and the verdict is worded from the
-   findings (:func:`verdict_words`).
+4. the **checks** (:mod:`suspenv.diagnosis.checks`, in the order it gives); the final
+   model is compared with the baseline on the held-out data and the verdict is worded
+   from the findings (:func:`verdict_words`).
 
 The returned :class:`Diagnosis` holds everything and turns into JSON with
 :meth:`Diagnosis.to_dict`.

@@ -41,12 +41,10 @@ one whose ``positive_force`` is ``"tension"`` its force channel, before anything
 
 Extra inputs (:data:`EXTRA_INPUTS`): a channel a family reads beyond its motion, declared
 in ``extra_inputs`` or, where none is declared, recorded in every recording under its
-own name (its unit checked by the model). An MR damper's ``coil_current`` [A] or
-``coil_voltage`` [V] that varies (within a recording or between recordings) makes its
+own name (its unit checked by the model; :func:`check_extra_inputs`). An MR damper's
+``coil_current`` [A] or ``coil_voltage`` [V] that varies (:func:`field_input`) makes its
 baseline the field-dependent law
-(:class:`~suspenv.models.components.mr_damper.MRFieldDamperModel`; one constant field
-leaves the passive law, fitted for that field); a declared channel the family does not
-read is refused.
+(:class:`~suspenv.models.components.mr_damper.MRFieldDamperModel`).
 """
 
 from __future__ import annotations
