@@ -23,9 +23,8 @@ alone. With ``strong_heldout_gain`` set, a hypothesis is also significant when t
 serial-correlation correction is too cautious while another missing effect still
 shapes the residual, and then the held-out data carry the evidence.
 
-Ranking: significant hypotheses first, ordered by their reduction of the held-out
-error. Those within ``tie`` of the best count as equally predictive and are ordered by
-the corrected BIC change, so the element with fewer parameters wins a tie.
+Ranking (:func:`rank`): significant hypotheses first, by their reduction of the held-out
+error; the element with fewer parameters wins a tie.
 
 "No significant missing physics" is the verdict when no hypothesis is significant.
 """

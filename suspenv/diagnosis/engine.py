@@ -18,12 +18,9 @@ profile's spectrum (:class:`~suspenv.diagnosis.road.RoadFamily`). The loop:
    in the round) and rank them; the best significant one is named, **settled** (made
    ready to be the next round's null model) and becomes the current model; the search
    stops when nothing is significant or after ``family.max_effects`` rounds;
-4. the **checks** (:mod:`suspenv.diagnosis.checks`):
-   the look-alikes of each named element, the family's own (which may withdraw an
-   element and replace the final model), then those every family gets (the residual
-   left in the family's noise units, the assumptions made); the final model is
-   compared with the baseline on the held-out data and the verdict is worded from the
-   findings (:func:`verdict_words`).
+4. the **checks** (:mod:`suspenv.diagnosis.checks`, in the order it gives); the final
+   model is compared with the baseline on the held-out data and the verdict is worded
+   from the findings (:func:`verdict_words`).
 
 The returned :class:`Diagnosis` holds everything and turns into JSON with
 :meth:`Diagnosis.to_dict`.
@@ -43,7 +40,7 @@ from suspenv.diagnosis import checks
 from suspenv.diagnosis.checks.finding import jsonable
 from suspenv.diagnosis.decision import DecisionRule, decide, rank
 from suspenv.diagnosis.evidence import Comparison, baseline_summary, compare
-from suspenv.diagnosis.family import Conclusion, DiagnosisFamily, Outcome, Setup, recording_names
+from suspenv.diagnosis.family import Conclusion, DiagnosisFamily, Outcome, Setup
 from suspenv.diagnosis.fitting import FitResult
 from suspenv.diagnosis.hypothesis import Ambiguity, Hypothesis, family_of, split_candidate
 from suspenv.diagnosis.split import Holdout, Recordings, Split
@@ -390,7 +387,7 @@ def _diagnosis(run: _Run, ctx: checks.Context, channel: str) -> Diagnosis:
     )
     baseline.update(found.baseline)
     return Diagnosis(
-        recording=recording_names(sp.fit_recordings),
+        recording=", ".join(str(r.name) for r in sp.fit_recordings),
         family=run.fam.name,
         model=str(run.setup.model.family),
         holdout=sp.description,
@@ -419,14 +416,13 @@ def verdict_words(
     named: Sequence[Hypothesis],
     hypotheses: Sequence[Hypothesis],
     amb: Sequence[Ambiguity],
-    signatures: Sequence[Any] = (),
-    found: Conclusion | None = None,
+    signatures: Sequence[Any],
+    found: Conclusion,
 ) -> str:
     """The verdict: "missing physics: A; then B" (with "(not confident)" when the
     checks say more is missing) and what cannot be separated, or "no significant missing
     physics" with the strongest candidate's numbers (a leading sentence of the checks
     stands in for it); then the checks' sentences (``found``)."""
-    found = found or Conclusion()
     sentences = found.sentences
     if named:
         head = "missing physics" + ("" if found.confident else " (not confident)")

@@ -34,7 +34,7 @@ from typing import Any, Protocol
 from suspenv.diagnosis.decision import DecisionRule
 from suspenv.diagnosis.fitting import FitResult
 from suspenv.diagnosis.hypothesis import Ambiguity, Hypothesis, Withdrawal
-from suspenv.diagnosis.protocols import DiagnosableModel, RecordingLike
+from suspenv.diagnosis.protocols import DiagnosableModel
 from suspenv.diagnosis.split import Holdout, Recordings, Split
 
 
@@ -175,8 +175,3 @@ class OptionalSteps:
         self, winner: Hypothesis, ranked: Sequence[Hypothesis], parent: FitResult, setup: Setup
     ) -> list[Ambiguity]:
         return []
-
-
-def recording_names(recordings: Sequence[RecordingLike]) -> str:
-    """Comma-separated recording names."""
-    return ", ".join(str(r.name) for r in recordings)

@@ -14,16 +14,9 @@ the lag-1 autocorrelation), because neighbouring samples of a recording are not
 independent.
 
 What differs between models is a property of the model, read through the typed seam
-(:class:`suspenv.diagnosis.protocols.DiagnosableModel`), never probed for:
-
-* ``model.difference_step(theta, lo, hi)``: the forward-difference step (a smooth
-  simulation wants ``1e-6 max(|theta|, 1)``; the K&C axle's iterative solver, which
-  converges only to a tolerance, a far larger one);
-* ``model.refine_start(theta0, recordings, masks)``: a cheap start (e.g. an
-  equation-error fit), kept only where it lowers the simulation residual; None: none;
-* ``model.jacobian_model()``: a cheaper twin (same parameters) for the Jacobians of
-  the iterations; the Jacobian at the optimum, behind the standard errors, is the
-  model's own.
+(:class:`suspenv.diagnosis.protocols.DiagnosableModel`: ``difference_step``,
+``refine_start``, ``jacobian_model``), never probed for; the Jacobian at the optimum,
+behind the standard errors, is the model's own.
 
 The Jacobian's columns are simulated as one batch (``theta`` of shape ``(p + 1, p)``),
 column by column where the batch cannot be simulated.

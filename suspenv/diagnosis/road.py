@@ -215,12 +215,10 @@ LOG_LINE_KURTOSIS = 5.4
 
 
 def whittle_fit(model: DiagnosableModel, recs: Sequence[RecordingLike]) -> FitResult:
-    """Whittle maximum-likelihood fit of ``model`` to spectrum recordings: Gd(n0) in
-    closed form for a given w (the mean of I / (gain (n/n0)^-w)), w (when free) by a
-    bounded 1-D search. The result carries the Whittle log-likelihood
-    ``-sum(ln S + I / S)`` (:attr:`FitResult.log_lik`, so the loop's likelihood-ratio
-    test and BIC are the Whittle ones) and the Whittle Fisher information ``X^T X``,
-    ``X = [1, -ln(n/n0)]`` in (ln Gd(n0), w), for the standard errors."""
+    """Whittle maximum-likelihood fit of ``model`` to spectrum recordings (module
+    docstring): Gd(n0) in closed form for a given w (the mean of I / (gain (n/n0)^-w)),
+    w (when free) by a bounded 1-D search; the result carries the Whittle log-likelihood
+    ``-sum(ln S + I / S)`` (:attr:`FitResult.log_lik`)."""
     x = np.concatenate([r.inputs["log_frequency"] for r in recs])
     y = np.concatenate([r.outputs["log_periodogram"] for r in recs])
 
@@ -350,12 +348,8 @@ def whittle_loglik(fit: FitResult, recs: Sequence[RecordingLike]) -> float:
 
 @dataclass
 class RoadFamily(OptionalSteps):
-    """A measured road profile against ISO 8608, in the one loop
-    (:func:`~suspenv.diagnosis.engine.diagnose`): the baseline is the standard's form
-    (w = 2, Gd(n0) fitted), the one candidate sets w free; both are fitted by the Whittle
-    likelihood (:func:`whittle_fit`). Held out by default: the second half of a single
-    profile (or whole other profiles). What is left is judged on the log lines of every
-    profile in noise units (:meth:`residual_left`)."""
+    """A measured road profile against ISO 8608, in the one loop (the module docstring:
+    baseline, candidate, held-out data and what is left)."""
 
     band: tuple[float, float] = DEFAULT_BAND
     rule: DecisionRule = ROAD_RULE
@@ -576,9 +570,8 @@ def diagnose_road(
     ride_speed_kmh: float = 80.0,
     ride_seeds: tuple[int, ...] = (0, 1, 2),
 ) -> Diagnosis:
-    """Diagnose a measured road profile against ISO 8608 in the one loop (see the
-    module docstring); the road's numbers are the finding ``spectrum``
-    (:meth:`RoadFamily.spectrum_check`), the ride consequence the finding ``ride``, said last.
+    """Diagnose a measured road profile against ISO 8608 in the one loop, with its ride
+    consequence said last (see the module docstring).
 
     Args:
         recording: a profile Recording (or a ``profile_*.txt`` path).

@@ -96,7 +96,6 @@ OBS_PER_PARAMETER = 10
 #: samples; 30 is the customary minimum for a mean to be near-normal)
 MIN_HELDOUT_OBS = 30
 #: centre passes of the excitation needed in the fitted part of a component's recordings
-#: (two full cycles: a sine of k periods passes its centre 2k - 1 times)
 MIN_FIT_PASSES = 3
 #: centre passes needed in the held-out part (the motion reaches both sides)
 MIN_HELDOUT_PASSES = 1

@@ -41,8 +41,7 @@ def parameters_at_bounds(fit: FitResult, named: Sequence[Hypothesis]) -> list[st
             near_lo = np.log(th / a) <= BOUND_TOLERANCE * span
             near_hi = np.log(b / th) <= BOUND_TOLERANCE * span
         else:
-            # a bound at zero is a physical limit (no friction, no extra damping), not one
-            # an element is pushed against to absorb something else
+            # a bound at zero is a physical limit (module docstring)
             near_lo = False
             near_hi = b - th <= BOUND_TOLERANCE * (b - a)
         if near_lo or near_hi:

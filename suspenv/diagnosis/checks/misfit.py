@@ -18,8 +18,7 @@ from suspenv.diagnosis.fitting import FitResult, residuals
 from suspenv.diagnosis.split import Split
 
 #: the final model must describe at least this share of each output's variance for any
-#: verdict on missing physics (below it the recording is not of this component, or a
-#: channel is misread: no library effect can be meaningfully named)
+#: verdict on missing physics (module docstring)
 MIN_EXPLAINED_SHARE = 0.5
 
 

@@ -118,11 +118,9 @@ def check_step_or_knee(candidate: str, ext: FitResult, vmax: float) -> None:
     A regularised Coulomb step ``f_c tanh(v / v_eps)`` beside the viscous base and a
     digressive curve ``c_low v / (1 + |v| / v_knee)`` are nearly one function of velocity
     (both rise steeply and saturate): on a dyno the two fit much the same data, so the
-    fitted width decides which physics it is. A friction element fitted wider than
-    ``FRICTION_MAX_FRACTION`` of the peak speed ``vmax`` [m/s] is a valve knee; a
-    digressive curve fitted narrower than ``KNEE_MIN_FRACTION`` is a force step at
-    reversal. Raises :class:`ValidationError` so the other kind, refitted in the same
-    round, is named.
+    fitted width against the peak speed ``vmax`` [m/s] decides which physics it is
+    (:data:`FRICTION_MAX_FRACTION`, :data:`KNEE_MIN_FRACTION`). Raises
+    :class:`ValidationError` so the other kind, refitted in the same round, is named.
     """
     found = _judged_element(candidate, ext, TRANSITION_WIDTH) if vmax > 0 else None
     if found is None:

@@ -26,12 +26,9 @@ probability at most ``alpha / m`` (normal approximation, ``z`` the upper quantil
 with ``m`` channels tested (Bonferroni) the false-alarm rate of the size limit under
 noise only is at most ``alpha``.
 
-For a family whose residual comes in noise units per (test, channel) with the noise
-level read from the roughness of the residual itself (the K&C family's:
-:func:`~suspenv.diagnosis.knc.locate.residual_map`, the median absolute second
-difference), :func:`from_cells` is its view: a chi-square test per channel (Bonferroni
-over the channels) and the size limit with ``v`` of that estimate
-(:func:`roughness_factor` over the number of second differences).
+A family whose residual comes in noise units per (test, channel), the noise level read
+from the roughness of the residual itself (the K&C family's), takes its view from
+:func:`from_cells`.
 
 The finding says the size, where it lives, the test, and which candidates the search
 refitted without taking it up; it stands in for "no significant missing physics".
@@ -117,9 +114,9 @@ class Left:
 
 def judge(cells: dict[tuple[str, str], np.ndarray], alpha: float) -> dict[str, Any]:
     """The numbers of the rule on ``cells`` ((test, channel) -> residual in noise units,
-    the noise level read from the roughness of the same residual): per channel RMS,
-    size limit (:func:`size_limit`) and corrected p-value, the worst channel, where the
-    excess lives."""
+    the noise level read from the roughness of the same residual): per channel RMS, size
+    limit (:func:`size_limit`, ``v`` from :func:`roughness_factor`) and chi-square p-value
+    (Bonferroni over the channels), the worst channel, where the excess lives."""
     by_channel: dict[str, list[np.ndarray]] = {}
     for (_, ch), r in cells.items():
         by_channel.setdefault(ch, []).append(np.asarray(r, float))

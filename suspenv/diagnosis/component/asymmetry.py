@@ -37,12 +37,9 @@ class AsymmetryCheck:
     effective sample size); with an interleaved-cycle split, ``fold_ratios`` and
     ``fold_heldout_reductions`` repeat the comparison with each group of cycles held
     out in turn (block cross-validation, robust to serial correlation) and
-    ``ratio_stderr_folds`` is their jackknife standard error. The null model has the
-    symmetric curve plus a constant force (gas force / offset; the base model's own
-    ``f_0`` where it has one); the
-    alternative gives bump and rebound their own slope and knee. ``matched_speed`` is
-    the model-free check on cyclic strokes (:mod:`suspenv.diagnosis.component.matched_speed`):
-    the bump + rebound force at matched speeds, against a constant and a drifting zero.
+    ``ratio_stderr_folds`` is their jackknife standard error (the null and alternative
+    models: :func:`asymmetry_check`). ``matched_speed`` is the model-free check on cyclic
+    strokes (:mod:`suspenv.diagnosis.component.matched_speed`).
     """
 
     v_ref: float
@@ -109,14 +106,12 @@ def asymmetry_check(
     """Is the damper curve of ``current`` asymmetric between bump and rebound?
 
     Needs a ``digressive_damping`` element in ``current.model`` (else None). Null model:
-    the fitted model plus a constant force (unless it has one); alternative: the same
-    with the digressive element replaced by ``asymmetric_digressive_damping`` (start:
-    both branches at the symmetric values). The asymmetry is *supported* when the
-    likelihood-ratio test corrected for serial correlation passes (p < ``alpha``), the
-    corrected BIC falls, the held-out error falls by at least ``min_heldout_gain``, and
-    the ratio differs from zero by more than two standard errors; or when the
-    model-free matched-speed check rejects a constant force and a drifting zero and the
-    asymmetric refit lowers the held-out error.
+    :func:`_with_constant_force`; alternative: :func:`_asymmetric_refit`. The asymmetry
+    is *supported* when the likelihood-ratio test corrected for serial correlation passes
+    (p < ``alpha``), the corrected BIC falls, the held-out error falls by at least
+    ``min_heldout_gain``, and the ratio differs from zero by more than two standard
+    errors; or when the model-free matched-speed check rejects a constant force and a
+    drifting zero and the asymmetric refit lowers the held-out error.
     """
     dig = [e for e in current.model.effects if e.kind == "digressive_damping"]
     if not dig:

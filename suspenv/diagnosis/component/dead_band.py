@@ -12,15 +12,13 @@ residual in its speed cells.
 So after the last named element a ``low_speed_deficit`` element (``-f_d tanh(v /
 v_band)``, the step of friction with the sign no friction has) is added to the final
 model and refitted, as the delay probe is (:mod:`~suspenv.diagnosis.component.delay`).
-It is physics outside the library when it passes the test every refit passes (serial-
-correlation corrected likelihood ratio at the decision rule's ``alpha``, held-out error
-down by its ``min_heldout_gain``), its level ``f_d`` is resolved from zero
-(``SIZE_Z`` corrected standard errors, the rule of every element's size), its band lies
-inside the speeds run (``v_band`` at most ``BAND_MAX_FRACTION`` of the peak speed: wider,
-``tanh`` is a smooth curve over the whole range, a nonlinear damping law such as a cubic
-one, not a band about zero speed), and it is material: the part of the residual it
-removes is at least ``MATERIAL_RATIO`` times the residual left after it (the residual
-check's size rule).
+It is physics outside the library when it passes the test every refit passes and the
+residual check's size rule
+(:func:`~suspenv.diagnosis.component.residual_left.beyond_library`), its level ``f_d``
+is resolved from zero (``SIZE_Z`` corrected standard errors, the rule of every element's
+size) and its band lies inside the speeds run (``v_band`` at most ``BAND_MAX_FRACTION``
+of the peak speed: wider, ``tanh`` is a smooth curve over the whole range, a nonlinear
+damping law such as a cubic one, not a band about zero speed).
 
 Units: ``f_d`` in the force's unit [N], ``v_band`` in m/s (the model's velocity: a
 damper's stroke rate, a guide's speed, a quarter car's deflection rate).
@@ -56,11 +54,9 @@ class DeadBandLeft:
         band_speed: the fitted ``v_band`` [m/s].
         peak_speed: the largest speed of the fitted recordings [m/s].
         level_z: ``f_d`` over its corrected standard error.
-        p_value_corrected: the likelihood-ratio test of the final model with the element
-            against without (serial-correlation corrected, as every refit's).
-        heldout_reduction: relative drop of the held-out RMS error with the element.
-        structured_ratio: RMS of the part of the fitted residual the element removes
-            over the RMS of the residual it leaves.
+        p_value_corrected / heldout_reduction / structured_ratio: the final model with
+            the element against without, as every probe is judged
+            (:func:`~suspenv.diagnosis.component.residual_left.beyond_library`).
         remains: the deficit is physics left that the library does not hold.
         unit: the unit of ``missing_force`` (N: the element is a force whichever
             channel shows it).

@@ -29,10 +29,8 @@ probe, in two places.
    resolved. Once refused for a channel, the lag is not refitted on it again.
 2. **Delay left** (:func:`delay_left`): after the last named element, a delay of that
    channel is added to the final model. It is physics outside the library when it passes
-   the test every refit passes (serial-correlation corrected likelihood ratio, held-out
-   error down) *and* is material: the part of the residual it removes is at least
-   ``MATERIAL_RATIO`` times the residual left after it (the residual check's size rule,
-   :mod:`~suspenv.diagnosis.component.residual_left`).
+   the test every refit passes *and* the residual check's size rule
+   (:func:`~suspenv.diagnosis.component.residual_left.beyond_library`).
 3. **Phase against frequency** (:func:`phase_by_frequency`): the evidence stated with
    both: per motion frequency, how late the recorded channel is behind the model without
    its lag and delay, beside what the fitted lag and the fitted delay predict.
@@ -269,15 +267,12 @@ def delay_decisive(
     together: tuple[float, float, float, float],
     rule: DecisionRule,
 ) -> bool:
-    """Whether a pure delay beats a sensor lag decisively (module docstring, 1): the
-    corrected BIC difference ``bic`` above ``DELAY_DECISIVE_BIC``, the held-out samples
-    confirming it (``heldout_z``, :func:`heldout_z_of_delay`, at least the one-sided
-    normal quantile of ``rule.alpha``), and the encompassing test with the two fitted
-    together: the delay significant beside the lag (corrected p-value ``p_delay`` below
-    ``rule.alpha``), the lag not beside the delay (``p_lag`` at or above it), and where the
-    lag carries more than ``LAG_SHARE_AT_BOUND`` of the two's lateness (``together``: lag
-    [s], its corrected standard error, delay [s], its error), the delay resolved from
-    zero by ``SIZE_Z`` standard errors and the lag not."""
+    """Whether a pure delay beats a sensor lag decisively by the rule of the module
+    docstring (1), from the corrected BIC difference ``bic``, the held-out confirmation
+    ``heldout_z`` (:func:`heldout_z_of_delay`, against the one-sided normal quantile of
+    ``rule.alpha``), the corrected p-values of the lag beside the delay ``p_lag`` and of
+    the delay beside the lag ``p_delay``, and the two fitted together (``together``: lag
+    [s], its corrected standard error, delay [s], its error)."""
     tau, tau_sd, late, late_sd = together
     off_bound = tau > LAG_SHARE_AT_BOUND * (tau + late)
     if off_bound and not (late > SIZE_Z * late_sd and tau <= SIZE_Z * tau_sd):
@@ -388,11 +383,9 @@ class DelayLeft:
     Attributes:
         channel: the recorded channel.
         delay_s: the fitted delay [s] (positive: the recording is late).
-        p_value_corrected: the likelihood-ratio test of the final model with the delay
-            against without (serial-correlation corrected, as every refit's).
-        heldout_reduction: relative drop of the held-out RMS error with the delay.
-        structured_ratio: RMS of the part of the fitted residual the delay removes over
-            the RMS of the residual it leaves.
+        p_value_corrected / heldout_reduction / structured_ratio: the final model with
+            the delay against without, as every probe is judged
+            (:func:`~suspenv.diagnosis.component.residual_left.beyond_library`).
         lag_bic: the corrected BIC difference that refused a sensor lag of the channel.
         remains: the delay is physics left that the library does not hold.
         phases: the phase lag of the channel per motion frequency beside what the lag and
@@ -451,10 +444,9 @@ def delay_left(
     rule: DecisionRule,
     phases: Sequence[PhaseRow] = (),
 ) -> DelayLeft:
-    """Whether a pure delay of ``channel`` is physics left after the final model (module
-    docstring, 2): the delay refitted on top of ``final`` from ``start`` [s] and judged
-    as a refit is (corrected p below ``rule.alpha``, held-out error down by
-    ``rule.min_heldout_gain``) and by the residual check's size rule. ``phases``: the
+    """Whether a pure delay of ``channel``, refitted on top of ``final`` from ``start``
+    [s], is physics left after the final model (module docstring, 2: judged by
+    :func:`~suspenv.diagnosis.component.residual_left.beyond_library`). ``phases``: the
     phase table of the test that refused the lag, carried as evidence."""
     delayed = fit_delay(final, sp, channel, start, budget)
     c, ratio, remains = beyond_library(final, delayed, sp, channel, rule)

@@ -123,10 +123,9 @@ def judge_beside_drift(
     final: FitResult, named: Sequence[Hypothesis], sp: Split, budget: int, rule: DecisionRule
 ) -> tuple[FitResult, list[Withdrawal]]:
     """The elements ``named`` (each in ``final``'s model) judged again beside a zero
-    drift of more shape (module docstring), in the order the search named them, each in
-    the model it was named in: the baseline with the elements named before it (less any
-    withdrawn). Returns (the final model, refitted without the withdrawn elements; the
-    withdrawals in that order); without a drifting channel, (``final``, [])."""
+    drift of more shape (module docstring). Returns (the final model, refitted without
+    the withdrawn elements; the withdrawals in order); without a drifting channel,
+    (``final``, [])."""
     channels = drifting_channels(final.model)
     present = {e.name for e in final.model.effects}
     order = sorted((h for h in named if element_name(h) in present), key=lambda h: h.round)

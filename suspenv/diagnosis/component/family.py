@@ -15,9 +15,8 @@ plus effects of :mod:`suspenv.models.effects`). Its pieces of the one loop
   ``screen_families`` strongest families are refitted (plus the strongest sensor
   family when a force view is used: the two scores are not on one scale);
 * **refit**: the element added with start values read off its signature
-  (:func:`suspenv.diagnosis.component.refit.refit_with`); the refit checks
-  (:meth:`ComponentFamily.refit_checks`): the element's plausibility
-  (:func:`suspenv.diagnosis.checks.plausible.run`), a sensor lag against a pure delay;
+  (:func:`suspenv.diagnosis.component.refit.refit_with`), then the refit checks
+  (:meth:`ComponentFamily.refit_checks`);
 * **ambiguities** (read by :mod:`suspenv.diagnosis.checks.separability`): an element
   that equals a combination of two others on most data (direction-dependent friction =
   Coulomb friction + a constant force) is refitted as that combination; an equal fit is
@@ -257,9 +256,8 @@ def effect_location(model: DiagnosableModel, kind: str) -> str:
 def _score_round(
     current: FitResult, sp: Split, channel: str, cands: Sequence[str]
 ) -> tuple[list[Signature], bool]:
-    """Signature scores of one round, strongest first, and whether the model's force
-    view was used. Where the model has a force view, force families are scored in it and
-    sensor families in each recorded channel."""
+    """Signature scores of one round, strongest first (in the force view where the model
+    has one: module docstring), and whether the model's force view was used."""
     fams_needed = [f for f in SIGNATURE_KINDS if f in {family_of(k) for k in cands}]
     fams_needed = fams_needed or list(SIGNATURE_KINDS)
     sset = _force_view_signal_set(current, sp)
@@ -360,7 +358,6 @@ class ComponentFamily(OptionalSteps):
 
     def __post_init__(self) -> None:
         # an unknown model family or effect kind is an error before any work starts
-        family = ""
         if isinstance(self.model, ComponentModel):
             family = self.model.family
         elif self.model.endswith(".toml"):
@@ -588,9 +585,7 @@ class ComponentFamily(OptionalSteps):
         keep = int(self.screen_families or SCREEN_FAMILIES)
         fams = [s.kind for s in sigs if s.kind in open_fams][:keep]
         if viewed:
-            # sensor families are scored in the recorded channels, force families in the
-            # force view: the two scores are not on one scale, so besides the strongest
-            # families of either kind the strongest sensor family is always refitted
+            # the strongest sensor family too (module docstring: not on the force view's scale)
             fams += [s.kind for s in sigs if s.kind in SENSOR_FAMILIES and s.kind in open_fams][:1]
             fams = list(dict.fromkeys(fams))
         sig_of = {s.kind: s for s in sigs}
@@ -631,8 +626,7 @@ class ComponentFamily(OptionalSteps):
         return [self._unresolved_branch, plausible.run, self._lag_against_delay]
 
     def _unresolved_branch(self, ctx: Context) -> None:
-        """Keep the round of a Maxwell refit that leaves its base share of the damping
-        unresolved (:func:`~suspenv.diagnosis.checks.plausible.branch_share_unresolved`)."""
+        """Keep the round of such a Maxwell refit (:attr:`unresolved_branch_rounds`)."""
         if ctx.refit is not None and branch_share_unresolved(
             ctx.candidate, ctx.refit, self.rule.alpha
         ):
@@ -673,11 +667,9 @@ class ComponentFamily(OptionalSteps):
     def ambiguities(
         self, winner: Hypothesis, ranked: Sequence[Hypothesis], parent: FitResult, setup: Setup
     ) -> list[Ambiguity]:
-        """The structural ambiguity of the winner (:func:`_structural_ambiguity`); and,
-        on a device whose one recorded output is its force, a sensor lag of the force
-        named where the round's Maxwell refit left the base's share of the damping
-        unresolved (:attr:`unresolved_branch_rounds`): these recordings cannot tell the
-        two apart (the test that would, ``separating_test``)."""
+        """The structural ambiguity of the winner (:func:`_structural_ambiguity`), and a
+        sensor lag of the force named in a round of :attr:`unresolved_branch_rounds`
+        beside the Maxwell branch it cannot be told from (with ``separating_test``)."""
         found = _structural_ambiguity(winner, parent, setup.split, self.budget)
         # a lag of the recorded force only: the force is the branch's whole effect there
         # (a quarter car's branch also moves its deflection, which a lag of the
@@ -757,13 +749,10 @@ class ComponentFamily(OptionalSteps):
     ) -> tuple[list[Left], list[ResidualLeft]]:
         """The component's noise model for the shared residual rule: per output channel
         the cycle-to-cycle state test and the tail rule of the final model
-        (:func:`~suspenv.diagnosis.component.residual_left.residual_left`). Where the
-        motion channels were low-passed (:attr:`motion_lowpass_hz`) the prediction lacks
-        the motion's content above the cut-off, which leaves large residual samples at the
-        motion's sharpest features even where the model is right (servo-guide controls
-        with motion low-passed at 16 Hz had up to 14 samples beyond ten robust scales):
-        the tail rule then reads the residual low-passed at that cut-off, where the part
-        moves."""
+        (:func:`~suspenv.diagnosis.component.residual_left.residual_left`), with the
+        motion's low-pass cut-off (:attr:`motion_lowpass_hz`) for the tail rule (step 6
+        of that module's docstring; servo-guide controls with motion low-passed at 16 Hz
+        had up to 14 samples beyond ten robust scales read as recorded)."""
         left = residual_left(
             outcome.current,
             setup.split,
@@ -859,11 +848,10 @@ def lag_or_delay(named: Sequence[Hypothesis], sp: Split) -> str:
     "" otherwise. The verdict is then not confident: the named lag may be the library's
     nearest element to a delay.
 
-    A first-order lag ``tau`` shifts the phase by ``atan(w tau)`` and scales the gain by
-    ``1 / sqrt(1 + (w tau)^2)``; a delay ``T`` shifts it by ``w T`` at unit gain. At the
-    motion's highest angular frequency ``w = v_max / x_half`` (a sine's), below
-    ``w tau = LAG_DELAY_SEPARABLE`` the two differ by little more than the gain, which
-    the model's other parameters absorb.
+    At the motion's highest angular frequency ``w = v_max / x_half`` (a sine's), below
+    ``w tau = LAG_DELAY_SEPARABLE`` the two shift the phase alike and differ by little
+    more than the gain (:mod:`~suspenv.diagnosis.component.delay`), which the model's
+    other parameters absorb.
     """
     lag = next((h for h in named if h.kind == "sensor_lag"), None)
     if lag is None:

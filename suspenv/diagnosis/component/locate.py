@@ -1,10 +1,7 @@
 """Locate a mismatch: where does the residual energy live?
 
-Every partition of the samples reports, per part, the *share* of residual energy
-(sum of squared residuals, each channel divided by its scale so channels compare),
-the *fraction* of samples in the part, and their ratio, the *enrichment*: 1 means the
-residual is spread like the samples; 3 means this part holds three times its
-fair share. Numbers, not impressions.
+Every partition of the samples reports, per part, the share of residual energy, the
+fraction of samples and their ratio, the enrichment (:class:`~suspenv.diagnosis.screening.Share`).
 
 Partitions (those that apply to the data at hand):
     channel, test (recording), branch (sign of velocity: bump = compression v > 0,

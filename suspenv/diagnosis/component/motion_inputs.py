@@ -18,10 +18,8 @@ them treats them as exact. Two things a rig does to them make that wrong:
   Savitzky-Golay or a causal differentiator in the rig's software): it lags or is
   attenuated at the higher test frequencies, and a frequency-dependent force error looks
   like viscoelastic damping. The channel is compared with the derivative of the
-  displacement over the motion band: ``v_channel - v_x`` regressed on ``v_x`` (a gain
-  error), its time derivative (a lag, positive when the channel lags) and its second
-  derivative (a curvature of the gain with frequency); a lag and curvature part above
-  :data:`VELOCITY_MISMATCH` of the velocity's RMS means the channel is not the
+  displacement over the motion band (:func:`compare_velocity`); a lag and curvature part
+  above :data:`VELOCITY_MISMATCH` of the velocity's RMS means the channel is not the
   displacement's derivative, and the report says so.
 
 Which rates the fit uses (``velocity_source`` in the rig description,
@@ -274,10 +272,9 @@ def compare_velocity(
 def motion_versions(
     recordings: Sequence[RecordingLike], channels: Sequence[str]
 ) -> tuple[dict[str, list[RecordingLike]], list[MotionCheck]]:
-    """Both processed versions of the recordings' motion (:func:`conditioned`),
-    ``{"band": [...], "displacement": [...]}``, and the checks, each recording's noise,
-    cut-off and derivatives found once. ``channels``: the model's motion inputs in order
-    (displacement, velocity[, acceleration]), e.g. ``("displacement", "velocity")``."""
+    """Both processed versions of the recordings' motion (:func:`conditioned`, whose
+    ``channels`` these are), ``{"band": [...], "displacement": [...]}``, and the checks,
+    each recording's noise, cut-off and derivatives found once."""
     versions: dict[str, list[RecordingLike]] = {"band": [], "displacement": []}
     checks: list[MotionCheck] = []
     if len(channels) < 2:

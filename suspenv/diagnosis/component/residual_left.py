@@ -338,22 +338,20 @@ def residual_left(
     fit: FitResult,
     sp: Split,
     alpha: float = ALPHA,
-    channels: Sequence[str] | None = None,
     lowpass_hz: float | None = None,
     recorded: Mapping[str, Mapping[str, np.ndarray]] | None = None,
 ) -> list[ResidualLeft]:
     """The check on every output channel of ``fit`` over all samples of the split's
     recordings (fit and held-out; the handful of fitted parameters barely shape a
     residual of thousands of samples), with the tail rule (step 6); ``lowpass_hz``: the
-    cut-off [Hz] at which the motion channels were low-passed (None: not low-passed),
-    which the tail rule then applies to the residual, reading it where the part moves
-    (step 6); ``recorded``: by recording name, the output channels as
-    recorded where the fit compared them low-passed (step 0 of the module docstring)."""
+    cut-off [Hz] at which the motion channels were low-passed (None: not low-passed);
+    ``recorded``: by recording name, the output channels as recorded where the fit
+    compared them low-passed (step 0 of the module docstring)."""
     runs = _runs(fit, sp, lowpass_hz, recorded)
     words = MOTION_WORDS.get(str(getattr(fit.model, "family", "")), MOTION_WORDS[""])
     names = np.asarray([str(run.rec.name) for run in runs])
     out = []
-    for ch in channels or fit.channels:
+    for ch in fit.channels:
         have = [run for run in runs if ch in run.rec.outputs]
         if not have:
             continue
@@ -409,11 +407,9 @@ def settled(t: np.ndarray, lowpass_hz: float | None) -> np.ndarray:
 def tail_read(
     t: np.ndarray, x: np.ndarray, v: np.ndarray, lowpass_hz: float | None = None
 ) -> np.ndarray:
-    """The samples (bool) of one recording that the tail rule reads (step 6): all but the
-    first and last :data:`TAIL_EDGE_FRACTION` and those whose motion contradicts itself
-    (:func:`inconsistent_motion`); where the motion was low-passed (``lowpass_hz`` not
-    None) only those where the speed ``|v|`` [m/s] exceeds :data:`MOVING_FRACTION` of
-    its peak."""
+    """The samples (bool) of one recording (times ``t`` [s], motion ``x`` [m], ``v``
+    [m/s]; ``lowpass_hz``: the motion's cut-off [Hz] or None) that the tail rule reads
+    (step 6 of the module docstring)."""
     edge = int(TAIL_EDGE_FRACTION * t.size)
     rows = np.arange(t.size)
     read = (rows >= edge) & (rows < t.size - edge) & ~inconsistent_motion(t, x, v)

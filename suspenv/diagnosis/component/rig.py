@@ -41,12 +41,10 @@ one whose ``positive_force`` is ``"tension"`` its force channel, before anything
 
 Extra inputs (:data:`EXTRA_INPUTS`): a channel a family reads beyond its motion, declared
 in ``extra_inputs`` or, where none is declared, recorded in every recording under its
-own name (its unit checked by the model). An MR damper's ``coil_current`` [A] or
-``coil_voltage`` [V] that varies (within a recording or between recordings) makes its
+own name (its unit checked by the model; :func:`check_extra_inputs`). An MR damper's
+``coil_current`` [A] or ``coil_voltage`` [V] that varies (:func:`field_input`) makes its
 baseline the field-dependent law
-(:class:`~suspenv.models.components.mr_damper.MRFieldDamperModel`; one constant field
-leaves the passive law, fitted for that field); a declared channel the family does not
-read is refused.
+(:class:`~suspenv.models.components.mr_damper.MRFieldDamperModel`).
 """
 
 from __future__ import annotations
@@ -317,8 +315,7 @@ def describe_rig(
             "the model family is unknown: give one (--model damper | mr_damper | "
             "friction_guide | quarter_car_rig) or declare meta['rig']['device']"
         )
-    family = str(chosen)
-    _check_family(family, "model")
+    family = str(chosen)  # checked where it was read
     base = list(entries.get("baseline", (*STANDARD_BASELINE.get(family, ()), DRIFT)))
     base = list(dict.fromkeys(k for k in base + added if k not in removed))
     known = dict(entries.get("known", {}))

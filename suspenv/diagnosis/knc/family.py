@@ -6,10 +6,9 @@ Its pieces of the one loop (:mod:`suspenv.diagnosis.engine`):
 1. **Split**: fit on some rig tests (default parallel + opposite travel), hold out
    the others (default single-wheel travel) or separate recordings (e.g. another
    amplitude).
-2. **Baseline**: fit the plain model's small parameter subset
-   (:data:`~suspenv.rigs.knc_axle.FIT_PARAMETERS`) weighted by the measured
-   spread, then again weighted by each channel's residual (its noise scale); these
-   scales stay fixed for every model compared.
+2. **Baseline**: the plain model's small parameter subset
+   (:data:`~suspenv.rigs.knc_axle.FIT_PARAMETERS`) under channel scales fixed for
+   every model compared (:meth:`KncFamily.fit_baseline`).
 3. **Locate**: residual map test x channel x branch x side
    (:mod:`~suspenv.diagnosis.knc.locate`).
 4. **Signatures**: score tests of the residual against each effect's pattern
@@ -22,17 +21,10 @@ Its pieces of the one loop (:mod:`suspenv.diagnosis.engine`):
    of a few newtons) while the refit of the element itself, which has the exact shape,
    is the stronger test. Later rounds refit the families above
    ``screen_threshold``, at most ``screen_families``; when none is, the search stops.
-5. **Refit**: the candidate effect is added to the model as a physical element and
-   the model refitted (path-dependent elements, slow to simulate: their own parameters
-   with the base parameters held; the others: all parameters jointly); evidence and
-   decision are the engine's (:func:`suspenv.diagnosis.evidence.compare`,
-   :func:`suspenv.diagnosis.decision.decide`, :func:`~suspenv.diagnosis.decision.rank`):
-   corrected likelihood-ratio test with a Bonferroni level, BIC, and held-out error
-   reduction.
-6. The winner is polished (all parameters jointly, restarted until converged, under
-   channel scales reset to its own residual levels: :func:`settle`) and becomes the model of the
-   next round (at most ``max_effects``); the final model is compared with the
-   baseline on the held-out data. When nothing is named, the verdict states the
+5. **Refit**: the candidate effect added to the model as a physical element, the model
+   refitted (:func:`refit_frozen`); evidence and decision are the engine's.
+6. The winner is polished (:func:`settle`) and becomes the model of the next round (at
+   most ``max_effects``). When nothing is named, the verdict states the
    smallest hysteresis (per location) and strut friction these tests would have
    shown (:mod:`~suspenv.diagnosis.knc.detectability`).
 """
@@ -66,7 +58,7 @@ from suspenv.diagnosis.hypothesis import Ambiguity, Hypothesis, split_candidate
 from suspenv.diagnosis.knc.detectability import detection_limits, limits_sentence
 from suspenv.diagnosis.knc.locate import ResidualMap, residual_map
 from suspenv.diagnosis.knc.score_test import SCORE_TESTED, score_signatures_by_model
-from suspenv.diagnosis.knc.signatures import FAMILY_KINDS, KncSignature, score_signatures
+from suspenv.diagnosis.knc.signatures import SCREEN_FAMILY, KncSignature, score_signatures
 from suspenv.diagnosis.protocols import DiagnosableModel
 from suspenv.diagnosis.split import Holdout, Recordings, Split, as_recordings, heldout_recordings
 from suspenv.measurements.knc import rig_test
@@ -99,10 +91,6 @@ def axle_model(model: object) -> KncAxleModel:
 def current_slow(model: DiagnosableModel) -> bool:
     """True when ``model`` holds a path-dependent (slow to simulate) element."""
     return any(e.kind in PATH_DEPENDENT for e in model.effects)
-
-
-#: effect kind -> K&C signature family (the screen's grouping)
-SCREEN_FAMILY = {k: fam for fam, kinds in FAMILY_KINDS.items() for k in kinds}
 
 
 def split_tests(recordings: Recordings, holdout: Holdout) -> Split:

@@ -28,17 +28,12 @@ from typing import Any
 import numpy as np
 
 from suspenv.diagnosis.fitting import stacked_residual
-from suspenv.diagnosis.knc.signatures import KncSignature
+from suspenv.diagnosis.knc.signatures import SCREEN_FAMILY, KncSignature
 from suspenv.diagnosis.screening import orthonormal_basis, partial_r2
 from suspenv.rigs.knc_axle import KncAxleModel, fitted_parameters, make_candidate
 
-#: candidates tested by the score test -> their signature family
-SCORE_TESTED = {
-    "sensor_offset": "sensor_offset",
-    "sensor_gain": "sensor_gain",
-    "cubic_stiffness": "progressive",
-    "lr_asymmetry": "lr_asymmetry",
-}
+#: candidates tested by the score test (their signature family: ``SCREEN_FAMILY``)
+SCORE_TESTED = ("sensor_offset", "sensor_gain", "cubic_stiffness", "lr_asymmetry")
 #: effect parameters' null values (no effect) where they differ from the default
 NULL_VALUES = {("cubic_stiffness", "ratio"): 1e-3}
 
@@ -84,7 +79,7 @@ def score_signatures_by_model(
         lm, k = score_test(fit_, recs, cand)
         out.append(
             KncSignature(
-                SCORE_TESTED[cand],
+                SCREEN_FAMILY[cand],
                 (lm - k) / np.sqrt(2.0 * k),
                 lm,
                 k,

@@ -42,6 +42,8 @@ FAMILY_KINDS = {
     "sensor_gain": ("sensor_gain",),
     "sensor_offset": ("sensor_offset",),
 }
+#: effect kind -> K&C signature family (the screen's grouping)
+SCREEN_FAMILY = {k: fam for fam, kinds in FAMILY_KINDS.items() for k in kinds}
 FAMILY_WORDS = {
     "loop": "bump and rebound half-loops differ (a hysteresis loop)",
     "lr_asymmetry": "left and right residuals differ",

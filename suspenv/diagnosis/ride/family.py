@@ -16,13 +16,8 @@ single stroke ``x`` does not exist:
   with the model's own response as the feature). The best ``screen`` candidates
   are refitted.
 
-Decision rule: the loop's (:mod:`suspenv.diagnosis.decision`) with the held-out RMS
-error asked to fall by at least 1 %.
-
-What is left: the ride family's noise model (:mod:`suspenv.diagnosis.ride.residual`,
-the held-out error of the final model against the sensor-noise floor and the
-whiteness of that residual) judged by the shared rule
-(:mod:`suspenv.diagnosis.checks.residual_left`).
+What is left: the ride family's noise model (:meth:`RideFamily.residual_left`) judged by
+the shared rule (:mod:`suspenv.diagnosis.checks.residual_left`).
 """
 
 from __future__ import annotations
@@ -141,9 +136,8 @@ def locate_ride(fit: FitResult, recordings: Sequence[Any]) -> Location:
 def screen_candidates(
     fit: FitResult, recordings: Sequence[Any], candidates: Sequence[str]
 ) -> list[Signature]:
-    """Score each candidate ``kind@location``: partial R^2 of the residual explained by the
-    prediction change the element makes at its starting size, beyond the baseline
-    Jacobian's span. Sorted best first."""
+    """Score each candidate ``kind@location`` (the screen of the module docstring), best
+    first."""
     r = fit_residual_series(fit, recordings)
     J = fit.extra.get("jacobian")
     basis = orthonormal_basis(J) if J is not None and J.shape[0] == r.size else None

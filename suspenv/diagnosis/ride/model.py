@@ -71,15 +71,9 @@ RIDE_EFFECT_WORDS: dict[tuple[str, str], str] = {
     ("coulomb_friction", "rear_damper"): "Coulomb friction in the rear dampers",
     ("kelvin_voigt", "seat_mount"): "a compliant seat mount (spring and damper under the seat)",
 }
-#: candidate (kind, location) pairs the ride diagnosis tries
-RIDE_CANDIDATES: tuple[tuple[str, str], ...] = (
-    ("bump_stop", "front_suspension"),
-    ("bump_stop", "rear_suspension"),
-    ("dahl_hysteresis", "rear_leaf"),
-    ("coulomb_friction", "front_damper"),
-    ("coulomb_friction", "rear_damper"),
-    ("kelvin_voigt", "seat_mount"),
-)
+#: candidate (kind, location) pairs the ride diagnosis tries: every ride element but the
+#: rebound stops
+RIDE_CANDIDATES = tuple(k for k in RIDE_EFFECT_WORDS if k[0] != "rebound_stop")
 #: fit bounds tighter than the effect library's generic ones: they keep every
 #: element integrable by RK4 at the recordings' 200 Hz (stiffest mode well inside
 #: the stability limit) and physically meaningful (a seat mount has k, c > 0)
