@@ -72,8 +72,8 @@ from suspenv.models.mcpherson import (
     location_words,
 )
 from suspenv.models.mcpherson.params import PARAMETER_NAMES
-from suspenv.rigs.knc import FORCE_TESTS, TESTS, run_tests
-from suspenv.rigs.knc_fit import effect_scale, fit_space, same_rows
+from suspenv.rigs.knc import FORCE_TESTS, TESTS
+from suspenv.rigs.knc_fit import effect_scale, fit_space, rig_run, same_rows
 from suspenv.rigs.knc_recording import channels_of
 
 FIT_PARAMETERS = (
@@ -469,16 +469,9 @@ class KncAxleModel(FitDefaults):
         todo = [i for i, k in zip(rows, keys, strict=True) if k not in self._rows]
         if not todo:
             return
-        res = run_tests(
-            build_axle(left[todo], right[todo]),
-            tests,
-            amplitude=amplitude,
-            steps=steps,
-            effects=eff,
-            force_amplitude=amplitude,
-            moment_amplitude=amplitude,
-            rack_amplitude=amplitude,
-        )
+        drives = ("amplitude", "force_amplitude", "moment_amplitude", "rack_amplitude")
+        axle = build_axle(left[todo], right[todo])
+        res = rig_run(axle, tests, steps, eff, dict.fromkeys(drives, amplitude))
         for j, i in enumerate(todo):
             msg = next((r.messages[j] for r in res.values() if not r.ok[j]), "")
             chans = {t: channels_of(r, j) for t, r in res.items()} if not msg else {}
