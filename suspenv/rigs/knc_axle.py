@@ -72,8 +72,8 @@ from suspenv.models.mcpherson import (
     location_words,
 )
 from suspenv.models.mcpherson.params import PARAMETER_NAMES
-from suspenv.rigs.knc import FORCE_TESTS, TESTS, run_tests
-from suspenv.rigs.knc_fit import effect_scale, fit_space, same_rows
+from suspenv.rigs.knc import FORCE_TESTS, TESTS
+from suspenv.rigs.knc_fit import effect_scale, fit_space, rig_run, same_rows
 from suspenv.rigs.knc_recording import channels_of
 
 FIT_PARAMETERS = (
@@ -348,12 +348,6 @@ class KncAxleModel(FitDefaults):
         )
         self._cache: OrderedDict[tuple, dict] = OrderedDict()
         self._rows: OrderedDict[tuple, tuple] = OrderedDict()
-        self.options = {
-            "design": self.design,
-            "fit_parameters": self.fit_parameters,
-            "tests": self.tests,
-        }
-        self.stats = {"simulations": 0, "rows": 0}
 
     # ------------------------------------------------------------------ names and bounds
     @property
@@ -386,24 +380,14 @@ class KncAxleModel(FitDefaults):
         vals += [float(p.default or 0.0) for e in self.effects for p in fitted_parameters(e)]
         return np.array(vals, float)
 
-    def theta_from(self, base: Mapping[str, float], effects: Sequence[Effect]) -> np.ndarray:
-        vals = [float(base[n]) for n in self.base_names]
-        for e in effects:
-            vals += [float(e.params[p.name]) for p in fitted_parameters(e)]
-        return np.array(vals, float)
+    def _free(self, e: Effect) -> tuple[str, ...]:
+        """Names of the parameters of effect ``e`` in ``theta`` (:func:`fitted_parameters`)."""
+        return tuple(p.name for p in fitted_parameters(e))
 
     def unpack(self, theta: np.ndarray) -> tuple[dict[str, np.ndarray], list[Effect]]:
-        """Base values (B,) per fitted parameter and effects with (B,) parameter arrays."""
-        th = np.atleast_2d(self._checked_theta(theta))
-        cols = th.T
-        base = {n: cols[i] for i, n in enumerate(self.fit_parameters)}
-        k = len(self.fit_parameters)
-        effects = []
-        for e in self.effects:
-            names = [q.name for q in fitted_parameters(e)]
-            effects.append(e.with_params({q: cols[k + j] for j, q in enumerate(names)}))
-            k += len(names)
-        return base, effects
+        """Base values (B,) per fitted parameter and effects with (B,) parameter arrays
+        (one ``theta`` (p,) is a batch of one)."""
+        return super().unpack(np.atleast_2d(self._checked_theta(theta)))
 
     def parts(self, theta: np.ndarray) -> tuple[dict[str, float], list[Effect]]:
         """Base values and effects (scalar parameters) of one ``theta`` (p,)."""
@@ -485,18 +469,9 @@ class KncAxleModel(FitDefaults):
         todo = [i for i, k in zip(rows, keys, strict=True) if k not in self._rows]
         if not todo:
             return
-        res = run_tests(
-            build_axle(left[todo], right[todo]),
-            tests,
-            amplitude=amplitude,
-            steps=steps,
-            effects=eff,
-            force_amplitude=amplitude,
-            moment_amplitude=amplitude,
-            rack_amplitude=amplitude,
-        )
-        self.stats["simulations"] += 1
-        self.stats["rows"] += len(todo)
+        drives = ("amplitude", "force_amplitude", "moment_amplitude", "rack_amplitude")
+        axle = build_axle(left[todo], right[todo])
+        res = rig_run(axle, tests, steps, eff, dict.fromkeys(drives, amplitude))
         for j, i in enumerate(todo):
             msg = next((r.messages[j] for r in res.values() if not r.ok[j]), "")
             chans = {t: channels_of(r, j) for t, r in res.items()} if not msg else {}
@@ -527,13 +502,6 @@ class KncAxleModel(FitDefaults):
 
     def effect_words(self, effect: Effect) -> str:
         return effect_words(effect)
-
-    def config(self) -> dict[str, Any]:
-        return {
-            "family": self.family,
-            "fit_parameters": list(self.fit_parameters),
-            "effects": [e.to_dict() for e in self.effects],
-        }
 
     def __repr__(self) -> str:
         effs = ", ".join(e.name for e in self.effects)

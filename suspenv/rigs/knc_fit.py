@@ -15,8 +15,9 @@ restarted from its own answer until a restart lowers the cost by less than
 :data:`RESTART_GAIN` (:func:`polish`). Costs are sums of squared residuals (squared
 noise units; half a cost unit is one unit of log-likelihood).
 
-The two axle models it fits share the batching of designs by effect values
-(:func:`same_rows`), not their simulation: :class:`~suspenv.rigs.knc_axle.KncAxleModel`
+The two axle models it fits share the rig call (:func:`rig_run`) and the batching of
+designs by effect values (:func:`same_rows`), not what they read of it:
+:class:`~suspenv.rigs.knc_axle.KncAxleModel`
 (diagnosis) replays recordings' own samples with left/right and load-cell effects,
 keeping solved rows for refits; :class:`~suspenv.methods.curves.curve_fit.CurveModel`
 (identify) reads loops at measured drives, with both sides, fitted constants and
@@ -27,6 +28,7 @@ from __future__ import annotations
 
 import sys
 import time
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any, ClassVar
 
@@ -34,6 +36,15 @@ import numpy as np
 
 from suspenv.core.errors import ValidationError
 from suspenv.core.space import DesignSpace, Parameter
+from suspenv.measurements.knc import DRIVE_UNIT, STEER_TESTS
+from suspenv.models.effects import Effect
+from suspenv.rigs.knc import (
+    FORCE_AMPLITUDE,
+    MOMENT_AMPLITUDE,
+    RACK_AMPLITUDE,
+    KCResult,
+    run_tests,
+)
 
 #: stiffness units: these parameters are mapped to the unit cube logarithmically
 STIFFNESS_UNITS = ("N/mm", "N*mm/deg", "N*m/rad")
@@ -75,6 +86,40 @@ def same_rows(V: np.ndarray) -> list[list[int]]:
     for i, row in enumerate(np.ascontiguousarray(V)):
         groups.setdefault(row.tobytes(), []).append(i)
     return list(groups.values())
+
+
+def amplitude_kwargs(test: str, amplitude: float) -> dict[str, float]:
+    """Keyword of :func:`suspenv.rigs.knc.run_tests` that carries ``test``'s amplitude
+    (``amplitude`` in the drive's SI unit)."""
+    if test in STEER_TESTS:
+        return {"rack_amplitude": amplitude}
+    unit = DRIVE_UNIT.get(test, "m")
+    return {{"N": "force_amplitude", "N*m": "moment_amplitude"}.get(unit, "amplitude"): amplitude}
+
+
+def rig_run(
+    axle: Any,
+    tests: Sequence[str],
+    steps: int,
+    effects: Sequence[Effect],
+    amplitudes: Mapping[str, float],
+    travel_drive: str = "pad",
+) -> dict[str, KCResult]:
+    """:func:`suspenv.rigs.knc.run_tests` with the amplitude keywords of ``amplitudes``
+    (:func:`amplitude_kwargs`; a keyword not given keeps the rig's default) and the
+    travel tests' ``travel_drive`` (pads or wheel centres): the one rig call of both
+    axle models."""
+    return run_tests(
+        axle,
+        tuple(tests),
+        amplitude=float(amplitudes.get("amplitude", 0.040)),
+        steps=int(steps),
+        effects=effects,
+        force_amplitude=float(amplitudes.get("force_amplitude", FORCE_AMPLITUDE)),
+        moment_amplitude=float(amplitudes.get("moment_amplitude", MOMENT_AMPLITUDE)),
+        rack_amplitude=float(amplitudes.get("rack_amplitude", RACK_AMPLITUDE)),
+        travel_drive=travel_drive,
+    )
 
 
 class UnitFit:

@@ -42,13 +42,15 @@ from suspenv.core.errors import ValidationError
 from suspenv.core.space import DesignSpace, Parameter
 from suspenv.models.effects import Effect
 from suspenv.models.mcpherson.params import AxleConstants, build_axle
-from suspenv.rigs.knc import KCResult, run_tests
+from suspenv.rigs.knc import KCResult
 from suspenv.rigs.knc_fit import (
     StageResult,
     UnitFit,
+    amplitude_kwargs,
     effect_scale,
     fit_space,
     polish,
+    rig_run,
     same_rows,
     say,
 )
@@ -67,43 +69,6 @@ FIT_CHANNELS = (
     "contact_y",
     "contact_z",
 )
-
-
-def amplitude_kwargs(test: str, amplitude: float) -> dict[str, float]:
-    """Keyword of :func:`suspenv.rigs.knc.run_tests` that carries ``test``'s amplitude
-    (``amplitude`` in the drive's SI unit)."""
-    from suspenv.measurements.knc import DRIVE_UNIT, STEER_TESTS
-
-    if test in STEER_TESTS:
-        return {"rack_amplitude": amplitude}
-    unit = DRIVE_UNIT.get(test, "m")
-    return {{"N": "force_amplitude", "N*m": "moment_amplitude"}.get(unit, "amplitude"): amplitude}
-
-
-def rig_run(
-    axle: Any,
-    tests: Sequence[str],
-    steps: int,
-    effects: Sequence[Effect],
-    amplitudes: Mapping[str, float],
-    travel_drive: str = "pad",
-) -> dict[str, KCResult]:
-    """:func:`suspenv.rigs.knc.run_tests` with the amplitude keywords of ``amplitudes``
-    (:func:`amplitude_kwargs`; a keyword not given keeps the rig's default) and the
-    travel tests' ``travel_drive`` (pads or wheel centres)."""
-    from suspenv.rigs import knc as rig
-
-    return run_tests(
-        axle,
-        tuple(tests),
-        amplitude=float(amplitudes.get("amplitude", 0.040)),
-        steps=int(steps),
-        effects=effects,
-        force_amplitude=float(amplitudes.get("force_amplitude", rig.FORCE_AMPLITUDE)),
-        moment_amplitude=float(amplitudes.get("moment_amplitude", rig.MOMENT_AMPLITUDE)),
-        rack_amplitude=float(amplitudes.get("rack_amplitude", rig.RACK_AMPLITUDE)),
-        travel_drive=travel_drive,
-    )
 
 
 @dataclass

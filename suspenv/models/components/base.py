@@ -129,15 +129,59 @@ class FitDefaults:
     """The defaults of the members a diagnosis reads
     (``suspenv.diagnosis.protocols.DiagnosableModel``) that a model may lack: no
     shape constants of its own, no cheap start, the model itself as its Jacobian's
-    twin, no force view; subclasses override what they have."""
+    twin, no force view; subclasses override what they have. Also the one map between
+    ``theta`` and base values plus effects (:meth:`theta_from`, :meth:`unpack`), over a
+    subclass's :attr:`base_names` and each effect's entries (:meth:`_free`)."""
 
     family: ClassVar[str] = ""
     effect_defaults: ClassVar[Mapping[str, Mapping[str, float]]] = {}
+    effects: tuple[Effect, ...]
 
     @property
     def parameter_names(self) -> tuple[str, ...]:
         """Names of the entries of ``theta``."""
         raise NotImplementedError
+
+    @property
+    def base_names(self) -> tuple[str, ...]:
+        """Names of the fitted base parameters (the first entries of ``theta``)."""
+        raise NotImplementedError
+
+    @property
+    def known_base(self) -> dict[str, float]:
+        """Base parameters held at known values, not in ``theta``: none here."""
+        return {}
+
+    def _free(self, e: Effect) -> tuple[str, ...]:
+        """Names of the parameters of effect ``e`` in ``theta``, in order."""
+        raise NotImplementedError
+
+    # ------------------------------------------------------------------ theta <-> values
+    def theta_from(
+        self, base: Mapping[str, float], effects: Sequence[Effect] | None = None
+    ) -> np.ndarray:
+        """``theta`` from base values and the effects' stored parameters (default: own effects)."""
+        missing = [n for n in self.base_names if n not in base]
+        if missing:
+            raise ValidationError(f"{self.family}: base values missing {missing}")
+        effs = self.effects if effects is None else tuple(effects)
+        vals = [float(base[n]) for n in self.base_names]
+        for e in effs:
+            vals += [float(e.params[p]) for p in self._free(e)]
+        return np.array(vals)
+
+    def unpack(self, theta: np.ndarray) -> tuple[dict[str, np.ndarray], list[Effect]]:
+        """Split ``theta`` ``(p,)`` or ``(B, p)`` into base values and effects with values set."""
+        cols = np.moveaxis(self._checked_theta(theta), -1, 0)
+        nb = len(self.base_names)
+        base = {n: cols[i] for i, n in enumerate(self.base_names)}
+        base.update({n: np.full(cols.shape[1:], v) for n, v in self.known_base.items()})
+        effects, k = [], nb
+        for e in self.effects:
+            free = self._free(e)
+            effects.append(e.with_params({q: cols[k + j] for j, q in enumerate(free)}))
+            k += len(free)
+        return base, effects
 
     def _checked_theta(self, theta: np.ndarray) -> np.ndarray:
         """``theta`` as floats, refused unless it is ``(p,)`` or ``(B, p)`` and finite."""
@@ -304,6 +348,7 @@ class ComponentModel(FitDefaults):
         return tuple(p.name for p in self.fitted_base_parameters)
 
     def _free(self, e: Effect) -> tuple[str, ...]:
+        """The library's free parameters of ``e``, then those this model frees."""
         names = e.spec.free_parameter_names
         freed = self.freed_parameters.get(e.kind, ())
         return (*names, *(p for p in e.spec.parameter_names if p in freed and p not in names))
@@ -342,33 +387,6 @@ class ComponentModel(FitDefaults):
             lo.append(a)
             hi.append(b)
         return np.array(lo, dtype=float), np.array(hi, dtype=float)
-
-    # ------------------------------------------------------------------ theta <-> values
-    def theta_from(
-        self, base: Mapping[str, float], effects: Sequence[Effect] | None = None
-    ) -> np.ndarray:
-        """``theta`` from base values and the effects' stored parameters (default: own effects)."""
-        missing = [n for n in self.base_names if n not in base]
-        if missing:
-            raise ValidationError(f"{self.family}: base values missing {missing}")
-        effs = self.effects if effects is None else tuple(effects)
-        vals = [float(base[n]) for n in self.base_names]
-        for e in effs:
-            vals += [float(e.params[p]) for p in self._free(e)]
-        return np.array(vals)
-
-    def unpack(self, theta: np.ndarray) -> tuple[dict[str, np.ndarray], list[Effect]]:
-        """Split ``theta`` ``(p,)`` or ``(B, p)`` into base values and effects with values set."""
-        cols = np.moveaxis(self._checked_theta(theta), -1, 0)
-        nb = len(self.base_names)
-        base = {n: cols[i] for i, n in enumerate(self.base_names)}
-        base.update({n: np.full(cols.shape[1:], v) for n, v in self.known_base.items()})
-        effects, k = [], nb
-        for e in self.effects:
-            free = self._free(e)
-            effects.append(e.with_params({q: cols[k + j] for j, q in enumerate(free)}))
-            k += len(free)
-        return base, effects
 
     # ------------------------------------------------------------------ guesses
     def initial_guess(self, rec: Recording) -> np.ndarray:
