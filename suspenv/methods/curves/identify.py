@@ -45,10 +45,8 @@ from suspenv.methods.curves.curve_fit import (
     CurveFit,
     CurveModel,
     MeasuredCurves,
-    amplitude_kwargs,
     fit_curves,
     measured_curves,
-    rig_run,
 )
 from suspenv.methods.curves.identifiability import (
     CandidateGain,
@@ -61,7 +59,14 @@ from suspenv.methods.curves.model_loop import Refinement, refine
 from suspenv.models.mcpherson.params import AxleConstants, paper_initial_values
 from suspenv.models.mcpherson.truth import CHANNEL_NOISE, TruthVehicle
 from suspenv.models.mcpherson.vehicle_file import REFERENCE_FILE, VehicleFile, load_vehicle
-from suspenv.rigs.knc_fit import PRIOR_WEIGHT, StageResult, polish, say
+from suspenv.rigs.knc_fit import (
+    PRIOR_WEIGHT,
+    StageResult,
+    amplitude_kwargs,
+    polish,
+    rig_run,
+    say,
+)
 from suspenv.rigs.knc_truth import CONCEALED, car_measurement, concealed_car, measure_tests
 from suspenv.runs.run_dir import write_json
 
