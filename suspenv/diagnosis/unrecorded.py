@@ -63,33 +63,29 @@ def find_stretches(
     on ``s`` begin (the first 0, then the ends, the last ``r.size``): for every ``K`` up
     to :data:`MAX_STRETCHES`, the partition over blocks of ``length`` samples that
     leaves the least ``sum (r - g_k s)^2``, by dynamic programming, ``K`` chosen by the
-    BIC, ``n log(SSR / n) + 2 K log n`` (a gain and a boundary per stretch; ``n`` is
-    ``n_eff`` where given), and that BIC."""
+    BIC, ``n log(SSR / n) + 2 K log n`` (a gain and a boundary per stretch); and the
+    least BIC over ``K`` with ``n_eff`` in place of ``n`` in its weights (where given:
+    the samples a correlated residual leaves independent, to compare signals)."""
     n = r.size
     blocks = max(n // length, 1)
     edges = np.r_[np.arange(blocks) * length, n]
     sums = [np.add.reduceat(v, edges[:-1]) for v in (r * s, s * s, r * r)]
     cost = _segment_costs(*sums)
-    kmax = min(MAX_STRETCHES, blocks)
     best = cost[0].copy()  # best[j]: blocks 0..j-1 in k stretches
-    back = [np.zeros(blocks + 1, int)]
-    m = float(n_eff or n)
-
-    def bic(ssr: float, k: int) -> float:
-        return float(m * np.log(max(ssr, 1e-300) / n) + 2.0 * k * np.log(m))
-
-    bics = [bic(best[-1], 1)]
-    for k in range(2, kmax + 1):
+    back, ssr = [np.zeros(blocks + 1, int)], [best[-1]]
+    for _ in range(2, min(MAX_STRETCHES, blocks) + 1):
         total = best[:, None] + cost
         back.append(np.argmin(total, axis=0))
         best = np.min(total, axis=0)
-        bics.append(bic(best[-1], k))
-    k = int(np.argmin(bics)) + 1
+        ssr.append(best[-1])
+    ks, log_ssr = np.arange(1, len(ssr) + 1), np.log(np.maximum(ssr, 1e-300) / n)
+    m = float(n_eff or n)
+    k = int(np.argmin(n * log_ssr + 2.0 * ks * np.log(n))) + 1
     cuts, j = [blocks], blocks
     for level in range(k - 1, 0, -1):
         j = int(back[level][j])
         cuts.append(j)
-    return edges[np.array([0, *reversed(cuts)])], float(bics[k - 1])
+    return edges[np.array([0, *reversed(cuts)])], float(np.min(m * log_ssr + 2.0 * ks * np.log(m)))
 
 
 @dataclass(frozen=True)
@@ -129,13 +125,14 @@ class Stretches:
 
 def _projection(
     series: np.ndarray, starts: np.ndarray, groups: Sequence[tuple[np.ndarray, bool]]
-) -> list[tuple[np.ndarray, np.ndarray, float]]:
-    """(indices, unit signal, sign) of the gains' supports: per sample group, each
-    stretch (+1), and for a fitted group the group as a whole (-1): there the stretches'
-    gains are taken less their one common gain, which stays the model's (a damping rate
-    the switched gain multiplies); on held-out samples every stretch's gain is their
-    own (the input's level there is not known from the fit)."""
-    parts = []
+) -> tuple[np.ndarray, np.ndarray]:
+    """(basis, signs) of the gains' supports: one column per support, the signal there
+    scaled to unit norm (zero elsewhere), and its sign: per sample group, each stretch
+    (+1), and for a fitted group the group as a whole (-1): there the stretches' gains
+    are taken less their one common gain, which stays the model's (a damping rate the
+    switched gain multiplies); on held-out samples every stretch's gain is their own
+    (the input's level there is not known from the fit)."""
+    cols, signs = [], []
     for g, fitted in groups:
         whole = np.flatnonzero(g)
         bounds = zip(starts[:-1], starts[1:], strict=True)
@@ -143,8 +140,11 @@ def _projection(
         for idx, sign in [*pieces, *([(whole, -1.0)] if fitted else [])]:
             norm = float(np.linalg.norm(series[idx]))
             if idx.size > 1 and norm > 0:
-                parts.append((idx, series[idx] / norm, sign))
-    return parts
+                col = np.zeros(series.size)
+                col[idx] = series[idx] / norm
+                cols.append(col)
+                signs.append(sign)
+    return np.column_stack(cols) if cols else np.zeros((series.size, 0)), np.array(signs)
 
 
 class Profiled:
@@ -182,10 +182,8 @@ class Profiled:
             return pred
         p = np.asarray(pred[ch], float)
         d = np.asarray(rec.outputs[ch], float) - p
-        fitted = np.zeros_like(d)
-        for idx, s, sign in self._parts[str(rec.name)]:
-            fitted[..., idx] += sign * (d[..., idx] @ s)[..., None] * s
-        return {**pred, ch: p + fitted}
+        basis, signs = self._parts[str(rec.name)]
+        return {**pred, ch: p + ((d @ basis) * signs) @ basis.T}
 
 
 def unprofiled(model: Any) -> Any:
@@ -232,10 +230,11 @@ def _tried(
     rho = max(lag1_autocorrelation(left), 0.0)
     n_eff = left.size * (1.0 - rho) / (1.0 + rho)
     grid = max(length // GRID_PER_BLOCK, -(-left.size // MAX_GRID_BLOCKS), 1)
-    return {
-        name: (find_stretches(left, s, grid, n_eff)[1], s, find_stretches(left, s, grid)[0])
-        for name, s in signals.items()
-    }
+    out = {}
+    for name, s in signals.items():
+        starts, bic = find_stretches(left, s, grid, n_eff)
+        out[name] = (bic, s, starts)
+    return out
 
 
 def stretches_of(base: FitResult, setup: Setup, length: int) -> Stretches | None:
