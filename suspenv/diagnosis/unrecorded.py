@@ -25,6 +25,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
+from itertools import pairwise
 from typing import Any, cast
 
 import numpy as np
@@ -32,7 +33,12 @@ import numpy as np
 from suspenv.diagnosis.checks import missing_input
 from suspenv.diagnosis.checks.finding import Context, Finding
 from suspenv.diagnosis.family import DiagnosisFamily, Outcome, Setup
-from suspenv.diagnosis.fitting import FitResult, lag1_autocorrelation, residuals
+from suspenv.diagnosis.fitting import (
+    FitResult,
+    ar1_effective_size,
+    lag1_autocorrelation,
+    residuals,
+)
 from suspenv.diagnosis.protocols import DiagnosableModel, RecordingLike
 
 #: most stretches of constant gain per recording
@@ -56,40 +62,61 @@ def _segment_costs(sxy: np.ndarray, sxx: np.ndarray, syy: np.ndarray) -> np.ndar
     return np.where(np.triu(np.ones((b, b), bool), 1), cost, np.inf)
 
 
+def _partition(back: list[np.ndarray], edges: np.ndarray, k: int) -> np.ndarray:
+    """The sample indices where the best ``k`` stretches begin (and the end), traced
+    back through the dynamic programme's choices ``back`` over blocks of ``edges``."""
+    cuts, j = [edges.size - 1], edges.size - 1
+    for level in range(k - 1, 0, -1):
+        j = int(back[level][j])
+        cuts.append(j)
+    return edges[np.array([0, *reversed(cuts)])]
+
+
+def _independent(r: np.ndarray, s: np.ndarray, starts: np.ndarray) -> float:
+    """How many of the samples of what one gain of ``r`` on ``s`` per stretch leaves
+    are independent: ``n (1 - rho) / (1 + rho)``, ``rho`` its lag-1 correlation."""
+    e = r.copy()
+    for a, b in pairwise(starts):
+        e[a:b] -= s[a:b] * float(s[a:b] @ r[a:b]) / max(float(s[a:b] @ s[a:b]), 1e-300)
+    return ar1_effective_size(r.size, lag1_autocorrelation(e))
+
+
 def find_stretches(
     r: np.ndarray, s: np.ndarray, length: int, n_eff: float | None = None
 ) -> tuple[np.ndarray, float]:
     """(starts, bic): the sample indices where the stretches of constant gain of ``r``
     on ``s`` begin (the first 0, then the ends, the last ``r.size``): for every ``K`` up
     to :data:`MAX_STRETCHES`, the partition over blocks of ``length`` samples that
-    leaves the least ``sum (r - g_k s)^2``, by dynamic programming, ``K`` chosen by the
-    BIC, ``n log(SSR / n) + 2 K log n`` (a gain and a boundary per stretch; ``n`` is
-    ``n_eff`` where given), and that BIC."""
+    leaves the least ``SSR = sum (r - g_k s)^2``, by dynamic programming, ``K`` chosen
+    by the BIC, ``m log(SSR / n) + 2 K log m`` (a gain and a boundary per stretch),
+    ``m`` the samples that the partition's own residual leaves independent
+    (:func:`_independent`; a residual with more structure than the switching, counted
+    as ``n`` white samples, would take every stretch allowed): from ``m = n``, ``K``
+    is chosen anew while it falls. And the least BIC over ``K`` with ``m = n_eff``
+    (where given; the samples a correlated residual leaves independent, to compare
+    signals)."""
     n = r.size
     blocks = max(n // length, 1)
     edges = np.r_[np.arange(blocks) * length, n]
     sums = [np.add.reduceat(v, edges[:-1]) for v in (r * s, s * s, r * r)]
     cost = _segment_costs(*sums)
-    kmax = min(MAX_STRETCHES, blocks)
     best = cost[0].copy()  # best[j]: blocks 0..j-1 in k stretches
-    back = [np.zeros(blocks + 1, int)]
-    m = float(n_eff or n)
-
-    def bic(ssr: float, k: int) -> float:
-        return float(m * np.log(max(ssr, 1e-300) / n) + 2.0 * k * np.log(m))
-
-    bics = [bic(best[-1], 1)]
-    for k in range(2, kmax + 1):
+    back, ssr = [np.zeros(blocks + 1, int)], [best[-1]]
+    for _ in range(2, min(MAX_STRETCHES, blocks) + 1):
         total = best[:, None] + cost
         back.append(np.argmin(total, axis=0))
         best = np.min(total, axis=0)
-        bics.append(bic(best[-1], k))
-    k = int(np.argmin(bics)) + 1
-    cuts, j = [blocks], blocks
-    for level in range(k - 1, 0, -1):
-        j = int(back[level][j])
-        cuts.append(j)
-    return edges[np.array([0, *reversed(cuts)])], float(bics[k - 1])
+        ssr.append(best[-1])
+    ks, log_ssr = np.arange(1, len(ssr) + 1), np.log(np.maximum(ssr, 1e-300) / n)
+
+    def bics(m: float) -> np.ndarray:
+        return np.asarray(m * log_ssr + 2.0 * ks * np.log(max(m, 2.0)))
+
+    k, m = len(ssr) + 1, float(n)
+    while (chosen := int(np.argmin(bics(m))) + 1) < k:
+        k = chosen
+        m = _independent(r, s, _partition(back, edges, k))
+    return _partition(back, edges, k), float(np.min(bics(float(n_eff or n))))
 
 
 @dataclass(frozen=True)
@@ -129,13 +156,14 @@ class Stretches:
 
 def _projection(
     series: np.ndarray, starts: np.ndarray, groups: Sequence[tuple[np.ndarray, bool]]
-) -> list[tuple[np.ndarray, np.ndarray, float]]:
-    """(indices, unit signal, sign) of the gains' supports: per sample group, each
-    stretch (+1), and for a fitted group the group as a whole (-1): there the stretches'
-    gains are taken less their one common gain, which stays the model's (a damping rate
-    the switched gain multiplies); on held-out samples every stretch's gain is their
-    own (the input's level there is not known from the fit)."""
-    parts = []
+) -> tuple[np.ndarray, np.ndarray]:
+    """(basis, signs) of the gains' supports: one column per support, the signal there
+    scaled to unit norm (zero elsewhere), and its sign: per sample group, each stretch
+    (+1), and for a fitted group the group as a whole (-1): there the stretches' gains
+    are taken less their one common gain, which stays the model's (a damping rate the
+    switched gain multiplies); on held-out samples every stretch's gain is their own
+    (the input's level there is not known from the fit)."""
+    cols, signs = [], []
     for g, fitted in groups:
         whole = np.flatnonzero(g)
         bounds = zip(starts[:-1], starts[1:], strict=True)
@@ -143,8 +171,11 @@ def _projection(
         for idx, sign in [*pieces, *([(whole, -1.0)] if fitted else [])]:
             norm = float(np.linalg.norm(series[idx]))
             if idx.size > 1 and norm > 0:
-                parts.append((idx, series[idx] / norm, sign))
-    return parts
+                col = np.zeros(series.size)
+                col[idx] = series[idx] / norm
+                cols.append(col)
+                signs.append(sign)
+    return np.column_stack(cols) if cols else np.zeros((series.size, 0)), np.array(signs)
 
 
 class Profiled:
@@ -182,10 +213,8 @@ class Profiled:
             return pred
         p = np.asarray(pred[ch], float)
         d = np.asarray(rec.outputs[ch], float) - p
-        fitted = np.zeros_like(d)
-        for idx, s, sign in self._parts[str(rec.name)]:
-            fitted[..., idx] += sign * (d[..., idx] @ s)[..., None] * s
-        return {**pred, ch: p + fitted}
+        basis, signs = self._parts[str(rec.name)]
+        return {**pred, ch: p + ((d @ basis) * signs) @ basis.T}
 
 
 def unprofiled(model: Any) -> Any:
@@ -224,7 +253,8 @@ def _tried(
     (:func:`~suspenv.diagnosis.checks.missing_input.time_invariant`: an element's own
     shape is not switching), on a grid :data:`GRID_PER_BLOCK` times finer than the
     check's blocks of ``length``; the BIC that compares the signals counts the samples
-    that residual's lag-1 correlation leaves independent, the stretches' own count all."""
+    that residual's lag-1 correlation leaves independent, the stretches' own those that
+    the stretches' residual leaves (:func:`find_stretches`)."""
     ch = base.channels[0]
     (res,) = residuals(base.model, base.theta, [rec], [ch])
     signals = _signals(setup, base, rec, ch)
@@ -232,10 +262,11 @@ def _tried(
     rho = max(lag1_autocorrelation(left), 0.0)
     n_eff = left.size * (1.0 - rho) / (1.0 + rho)
     grid = max(length // GRID_PER_BLOCK, -(-left.size // MAX_GRID_BLOCKS), 1)
-    return {
-        name: (find_stretches(left, s, grid, n_eff)[1], s, find_stretches(left, s, grid)[0])
-        for name, s in signals.items()
-    }
+    out = {}
+    for name, s in signals.items():
+        starts, bic = find_stretches(left, s, grid, n_eff)
+        out[name] = (bic, s, starts)
+    return out
 
 
 def stretches_of(base: FitResult, setup: Setup, length: int) -> Stretches | None:
