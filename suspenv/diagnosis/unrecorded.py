@@ -259,8 +259,7 @@ def _tried(
     (res,) = residuals(base.model, base.theta, [rec], [ch])
     signals = _signals(setup, base, rec, ch)
     left = res[ch] - missing_input.time_invariant(res[ch], list(signals.values()))
-    rho = max(lag1_autocorrelation(left), 0.0)
-    n_eff = left.size * (1.0 - rho) / (1.0 + rho)
+    n_eff = ar1_effective_size(left.size, lag1_autocorrelation(left))
     grid = max(length // GRID_PER_BLOCK, -(-left.size // MAX_GRID_BLOCKS), 1)
     out = {}
     for name, s in signals.items():
