@@ -25,7 +25,6 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
-from itertools import pairwise
 from typing import Any, cast
 
 import numpy as np
@@ -62,39 +61,16 @@ def _segment_costs(sxy: np.ndarray, sxx: np.ndarray, syy: np.ndarray) -> np.ndar
     return np.where(np.triu(np.ones((b, b), bool), 1), cost, np.inf)
 
 
-def _partition(back: list[np.ndarray], edges: np.ndarray, k: int) -> np.ndarray:
-    """The sample indices where the best ``k`` stretches begin (and the end), traced
-    back through the dynamic programme's choices ``back`` over blocks of ``edges``."""
-    cuts, j = [edges.size - 1], edges.size - 1
-    for level in range(k - 1, 0, -1):
-        j = int(back[level][j])
-        cuts.append(j)
-    return edges[np.array([0, *reversed(cuts)])]
-
-
-def _independent(r: np.ndarray, s: np.ndarray, starts: np.ndarray) -> float:
-    """How many of the samples of what one gain of ``r`` on ``s`` per stretch leaves
-    are independent: ``n (1 - rho) / (1 + rho)``, ``rho`` its lag-1 correlation."""
-    e = r.copy()
-    for a, b in pairwise(starts):
-        e[a:b] -= s[a:b] * float(s[a:b] @ r[a:b]) / max(float(s[a:b] @ s[a:b]), 1e-300)
-    return ar1_effective_size(r.size, lag1_autocorrelation(e))
-
-
 def find_stretches(
     r: np.ndarray, s: np.ndarray, length: int, n_eff: float | None = None
 ) -> tuple[np.ndarray, float]:
     """(starts, bic): the sample indices where the stretches of constant gain of ``r``
     on ``s`` begin (the first 0, then the ends, the last ``r.size``): for every ``K`` up
     to :data:`MAX_STRETCHES`, the partition over blocks of ``length`` samples that
-    leaves the least ``SSR = sum (r - g_k s)^2``, by dynamic programming, ``K`` chosen
-    by the BIC, ``m log(SSR / n) + 2 K log m`` (a gain and a boundary per stretch),
-    ``m`` the samples that the partition's own residual leaves independent
-    (:func:`_independent`; a residual with more structure than the switching, counted
-    as ``n`` white samples, would take every stretch allowed): from ``m = n``, ``K``
-    is chosen anew while it falls. And the least BIC over ``K`` with ``m = n_eff``
-    (where given; the samples a correlated residual leaves independent, to compare
-    signals)."""
+    leaves the least ``sum (r - g_k s)^2``, by dynamic programming, ``K`` chosen by the
+    BIC, ``n log(SSR / n) + 2 K log n`` (a gain and a boundary per stretch); and the
+    least BIC over ``K`` with ``n_eff`` in place of ``n`` in its weights (where given:
+    the samples a correlated residual leaves independent, to compare signals)."""
     n = r.size
     blocks = max(n // length, 1)
     edges = np.r_[np.arange(blocks) * length, n]
@@ -108,15 +84,13 @@ def find_stretches(
         best = np.min(total, axis=0)
         ssr.append(best[-1])
     ks, log_ssr = np.arange(1, len(ssr) + 1), np.log(np.maximum(ssr, 1e-300) / n)
-
-    def bics(m: float) -> np.ndarray:
-        return np.asarray(m * log_ssr + 2.0 * ks * np.log(max(m, 2.0)))
-
-    k, m = len(ssr) + 1, float(n)
-    while (chosen := int(np.argmin(bics(m))) + 1) < k:
-        k = chosen
-        m = _independent(r, s, _partition(back, edges, k))
-    return _partition(back, edges, k), float(np.min(bics(float(n_eff or n))))
+    m = float(n_eff or n)
+    k = int(np.argmin(n * log_ssr + 2.0 * ks * np.log(n))) + 1
+    cuts, j = [blocks], blocks
+    for level in range(k - 1, 0, -1):
+        j = int(back[level][j])
+        cuts.append(j)
+    return edges[np.array([0, *reversed(cuts)])], float(np.min(m * log_ssr + 2.0 * ks * np.log(m)))
 
 
 @dataclass(frozen=True)
@@ -253,8 +227,7 @@ def _tried(
     (:func:`~suspenv.diagnosis.checks.missing_input.time_invariant`: an element's own
     shape is not switching), on a grid :data:`GRID_PER_BLOCK` times finer than the
     check's blocks of ``length``; the BIC that compares the signals counts the samples
-    that residual's lag-1 correlation leaves independent, the stretches' own those that
-    the stretches' residual leaves (:func:`find_stretches`)."""
+    that residual's lag-1 correlation leaves independent, the stretches' own count all."""
     ch = base.channels[0]
     (res,) = residuals(base.model, base.theta, [rec], [ch])
     signals = _signals(setup, base, rec, ch)
