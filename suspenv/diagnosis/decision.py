@@ -37,6 +37,7 @@ from dataclasses import asdict, dataclass
 from scipy import stats
 
 from suspenv.core.errors import ValidationError
+from suspenv.core.options import number
 from suspenv.diagnosis.hypothesis import Ambiguity, Hypothesis
 
 HELDOUT_RULES = ("fraction", "noise")
@@ -135,8 +136,7 @@ class DecisionRule:
     strong_heldout_gain: float | None = None
 
     def __post_init__(self) -> None:
-        if not 0.0 < self.alpha < 1.0:
-            raise ValidationError(f"`0 < alpha < 1` must hold, but got alpha={self.alpha}")
+        number("decision rule", "alpha", self.alpha, 0.0, 1.0, lo_open=True, hi_open=True)
         if self.heldout_rule not in HELDOUT_RULES:
             raise ValidationError(
                 f"heldout_rule must be one of {HELDOUT_RULES}, but got {self.heldout_rule!r}"

@@ -15,6 +15,7 @@ import numpy as np
 from scipy import stats
 
 from suspenv.core.errors import ValidationError
+from suspenv.core.options import number
 
 
 @dataclass
@@ -84,8 +85,7 @@ def spearman_matrix(
             "X and F must be 2-D with the same number of rows, but got "
             f"(X.shape={X.shape}, F.shape={F.shape})"
         )
-    if not 0.0 < float(alpha) < 1.0:
-        raise ValidationError(f"`0 < alpha < 1` must hold, but got alpha={alpha}")
+    number("sensitivity", "alpha", alpha, 0.0, 1.0, lo_open=True, hi_open=True)
     keep = np.isfinite(F).all(axis=1) & np.isfinite(X).all(axis=1)
     n = int(keep.sum())
     if n < 4:
