@@ -24,6 +24,7 @@ from suspenv.models.minibus.vehicle import BASELINE_DESIGN, STUDY_PICK
 from suspenv.problems.minibus import MinibusRideHandling, StudyOutcome, study_outcome
 from suspenv.reports.run import plot_parallel
 from suspenv.reports.suspension import report_markdown, write_suspension_report
+from suspenv.runs.config import plots_wanted
 from suspenv.runs.quality import shown_rows
 
 
@@ -33,10 +34,8 @@ def write_minibus_run_report(
     """:func:`write_minibus_report` from a run archive (the problem's ``write_report``),
     with figures unless the run's config (kept in the archive's meta) has ``plots =
     false``."""
-    run = (archive.meta().get("config") or {}).get("run") or {}
-    return write_minibus_report(
-        problem, Path(run_dir), archive.arrays(), plots=bool(run.get("plots", True))
-    )
+    plots = plots_wanted(archive.meta().get("config") or {})
+    return write_minibus_report(problem, Path(run_dir), archive.arrays(), plots=plots)
 
 
 def write_minibus_report(

@@ -79,6 +79,12 @@ PIPELINE_TABLES: dict[str, set[str]] = {
 DASK_SCHEMES = ("tcp", "tls", "ucx", "ws", "wss", "inproc")
 
 
+def plots_wanted(config: dict[str, Any]) -> bool:
+    """Whether a run draws its figures: the config's ``run.plots``, or the default of
+    :data:`DEFAULTS` where the config has none (a bare pipeline call, an older archive)."""
+    return bool((config.get("run") or {}).get("plots", DEFAULTS["run"]["plots"]))
+
+
 def _merge(base: dict[str, Any], extra: dict[str, Any]) -> dict[str, Any]:
     out = copy.deepcopy(base)
     for k, v in extra.items():

@@ -51,6 +51,7 @@ from suspenv.registry import (
 )
 from suspenv.runs import quality as run_quality
 from suspenv.runs.archive import RunArchive
+from suspenv.runs.config import plots_wanted
 from suspenv.runs.evaluation import FaultPolicy
 from suspenv.runs.executors import executor_workers, make_executor
 from suspenv.runs.loop import optimize
@@ -120,7 +121,7 @@ def write_run_outputs(
         figures: list[Path] = []
         progress = FigureProgress(on=bool(config["run"].get("progress", True)))
         try:
-            if config["run"].get("plots", True) and len(arrays["ok"]):
+            if plots_wanted(config) and len(arrays["ok"]):
                 write_figures = report_function("run_figures")
                 figures += write_figures(
                     arrays["objectives"], feasible, names, run_dir, progress=progress, notes=notes

@@ -68,6 +68,7 @@ from suspenv.rigs.knc_fit import (
     say,
 )
 from suspenv.rigs.knc_truth import CONCEALED, car_measurement, concealed_car, measure_tests
+from suspenv.runs.config import plots_wanted
 from suspenv.runs.run_dir import write_json
 
 METHODS = ("curves", "tey2014")
@@ -1070,7 +1071,7 @@ def run_identify_pipeline(config: dict[str, Any], run_dir: Path) -> dict[str, An
     t0 = time.perf_counter()
     problem = _problem(config)
     progress = bool((config.get("run", {}) or {}).get("progress", False))
-    plots = bool((config.get("run", {}) or {}).get("plots", True)) and opts["figures"]
+    plots = plots_wanted(config) and opts["figures"]
     result = run_identify(
         problem.measurement,
         problem.vehicle,

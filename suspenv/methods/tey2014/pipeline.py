@@ -81,6 +81,7 @@ from suspenv.methods.tey2014.strategy_comparison import (
 from suspenv.models.mcpherson.params import PARAMETER_NAMES, reference_design
 from suspenv.problems.views import ObjectiveSubset, WithSignedResponses
 from suspenv.registry import make_problem, make_strategy, report_function
+from suspenv.runs.config import plots_wanted
 from suspenv.runs.quality import best_so_far, curve_items
 
 #: the ``[study]`` table of a config, with its defaults (the paper's settings)
@@ -624,7 +625,7 @@ def run_tey2014_pipeline(config: dict[str, Any], run_dir: Path) -> dict[str, Any
         # suspenv.reports.tey2014.write_tey2014_report (reports sit above methods)
         write_report = report_function("tey2014")
         t1 = time.perf_counter()
-        plots = bool((config.get("run", {}) or {}).get("plots", True))
+        plots = plots_wanted(config)
         report = write_report(study, run_dir, figures=plots)
         study.timings["report"] = time.perf_counter() - t1
         files = [str(report.relative_to(run_dir))]
