@@ -23,7 +23,7 @@ from suspenv.core.markdown import table_lines
 from suspenv.models.minibus.vehicle import BASELINE_DESIGN, STUDY_PICK
 from suspenv.problems.minibus import MinibusRideHandling, StudyOutcome, study_outcome
 from suspenv.reports.run import plot_parallel
-from suspenv.reports.suspension import report_markdown, write_suspension_report
+from suspenv.reports.suspension import write_suspension_report
 from suspenv.runs.config import plots_wanted
 from suspenv.runs.quality import shown_rows
 
@@ -61,10 +61,7 @@ def write_minibus_report(
         if pairs.exists():
             links.append(f"![Pareto front, pairs (the run's figure)]({pairs.name})")
         links.append(f"![Pareto front, parallel coordinates]({figures[0].name})")
-        susp = write_suspension_report(designs, run_dir, problem.vehicle)
-    else:
-        susp = [run_dir / "suspension_report.md"]
-        write_file(susp[0], report_markdown(designs, problem.vehicle))
+    susp = write_suspension_report(designs, run_dir, problem.vehicle, plots=plots)
     ok, feasible, front = found.ok, found.feasible, found.front
     names, units = problem.objective_names, problem.objective_units
     lines = [

@@ -202,12 +202,19 @@ def plot_elements(
 
 
 def write_suspension_report(
-    designs: Mapping[str, np.ndarray], out_dir: Path | str, vehicle: Minibus = REFERENCE_MINIBUS
+    designs: Mapping[str, np.ndarray],
+    out_dir: Path | str,
+    vehicle: Minibus = REFERENCE_MINIBUS,
+    plots: bool = True,
 ) -> list[Path]:
-    """Write ``suspension_report.md`` and ``suspension_elements.png`` into out_dir."""
+    """Write ``suspension_report.md`` and, with ``plots``, ``suspension_elements.png``
+    into out_dir."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    png = plot_elements(designs, out / "suspension_elements.png", vehicle)
     md = out / "suspension_report.md"
+    if not plots:
+        write_file(md, report_markdown(designs, vehicle))
+        return [md]
+    png = plot_elements(designs, out / "suspension_elements.png", vehicle)
     write_file(md, report_markdown(designs, vehicle) + f"\n![suspension elements]({png.name})\n")
     return [md, png]
