@@ -77,7 +77,7 @@ benchmark); a path-dependent model always does.
 from __future__ import annotations
 
 import functools
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -511,7 +511,9 @@ def _run_numpy(
     centred = st if travel_drive == "wheel_centre" else None
     sweep = _row_inputs(solver.pad_static, tests, test_grids, grid, n, centred)
     # step descriptions of failure messages, formatted once per grid point when asked for
-    where_at = _Texts(functools.partial(_where_text, tests, test_grids, centred is not None))
+    where_at = functools.cache(
+        functools.partial(_where_text, tests, test_grids, centred is not None)
+    )
     if reuse:
         legs = solver.take(np.tile(np.arange(rows), 2), axle=False)  # leg x test x design
         st_box = [st]  # (the sweep frees the static state once its legs start from it)
@@ -663,18 +665,6 @@ def _tiled_rows(m: int, reps: int) -> np.ndarray:
     return out
 
 
-class _Texts(dict[int, str]):
-    """Texts by grid index, each made by ``make(index)`` when first asked for."""
-
-    def __init__(self, make: Callable[[int], str]):
-        super().__init__()
-        self._make = make
-
-    def __missing__(self, key: int) -> str:
-        text = self[key] = self._make(int(key))
-        return text
-
-
 def _outputs(
     solver: AxleSolver,
     states: list[AxleState],
@@ -709,7 +699,7 @@ def _sweep_loop(
     ok: np.ndarray,
     msgs: list[str],
     sweep: _Sweep,
-    where_at: Mapping[int, str],
+    where_at: Callable[[int], str],
     path: np.ndarray,
     per: int,
     keep_states: bool,
@@ -736,7 +726,7 @@ def _sweep_loop(
     prev_gi, prev_load = path[0], sweep.load(path[0])
     for k, gi in enumerate(path):
         load = sweep.load(gi)
-        at = f"step {k} ({where_at[gi]})"
+        at = f"step {k} ({where_at(gi)})"
         if k > 0:
             ds = grid[gi] - grid[prev_gi]
             if prev_ds * ds <= 0:  # a reversal starts a new leg
@@ -770,7 +760,7 @@ def _sweep_legs(
     ok: np.ndarray,
     msgs: list[str],
     sweep: _Sweep,
-    where_at: Mapping[int, str],
+    where_at: Callable[[int], str],
     path: np.ndarray,
     keep_states: bool,
     names: Sequence[str] | None,
@@ -836,7 +826,7 @@ def _march_legs(
     ok: np.ndarray,
     msgs: list[str],
     sweep: _Sweep,
-    where_at: Mapping[int, str],
+    where_at: Callable[[int], str],
     keep_states: bool,
     names: Sequence[str] | None,
     reach: int,
@@ -894,9 +884,9 @@ def _loop_step(j: int, gi: np.ndarray, direction: np.ndarray, i0: int) -> np.nda
     return np.where(direction > 0, j, 2 * steps - i0 - gi)
 
 
-def _leg_where(where_at: Mapping[int, str], k: np.ndarray, gi: np.ndarray, i: int) -> str:
+def _leg_where(where_at: Callable[[int], str], k: np.ndarray, gi: np.ndarray, i: int) -> str:
     """Leg row ``i``'s step in words: its step ``k`` of the loop and grid point ``gi``."""
-    return f"step {k[i]} ({where_at[gi[i]]})"
+    return f"step {k[i]} ({where_at(gi[i])})"
 
 
 def _leg_history(history: list[AxleState], lst: AxleState, j: int, m: int) -> list[AxleState]:
