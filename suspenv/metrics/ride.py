@@ -526,27 +526,30 @@ class _Halves:
         spectral_kernel.halves_matrix(self.A0, self.minv, self.D, rates, self._A)
         return self._A
 
-    def mean_square(
-        self,
-        modes: tuple[np.ndarray, np.ndarray],
-        rows: slice,
-        grid: tuple[np.ndarray, ...],
-        wt: np.ndarray,
-    ) -> np.ndarray:
-        """``sum_f wt_h[f, j] |g_p(f)|^2`` summed over the halves h (n designs, p, j),
-        with ``g_p = H_p,front + e^{-i w L/v} H_p,rear`` a half's displacement response
-        (output unit per m of axle input) for the outputs ``rows`` of the
-        ``_SPLIT_ROWS``, from the halves' eigen-decomposition ``modes`` (:meth:`modal`:
-        residues of output p for axle input i at mode k ``cv[p, k] rm[k, i]`` as
-        :func:`modal_form`, each conjugate pair (or pair of real poles) summed into one
-        real second-order term), on the grid ``grid = (w, w^2, Re, Im of e^{-i w
-        L/v})`` (w in rad/s, L/v the rear wheels' delay) with weights ``wt = [wt_sym |
-        wt_anti]`` (Nf, 2 j); the compiled
-        :func:`suspenv.models.minibus.spectral_kernel.modal_mean_square`."""
-        w, _, dr, di = grid
-        out = np.empty((self.B.shape[0] // 2, rows.stop - rows.start, wt.shape[1] // 2))
-        spectral_kernel.modal_mean_square(*modes, self.B, self.co, rows.start, w, dr, di, wt, out)
-        return out
+
+def _halves_mean_square(
+    modes: tuple[np.ndarray, np.ndarray],
+    B: np.ndarray,
+    co: np.ndarray,
+    rows: slice,
+    grid: tuple[np.ndarray, ...],
+    wt: np.ndarray,
+) -> np.ndarray:
+    """``sum_f wt_h[f, j] |g_p(f)|^2`` summed over the halves h (n designs, p, j), with
+    ``g_p = H_p,front + e^{-i w L/v} H_p,rear`` a half's displacement response (output
+    unit per m of axle input) for the outputs ``rows`` of the output matrices ``co``
+    (2n, outputs, d), from the halves' eigen-decomposition ``modes`` (poles (2n, 2d),
+    eigenvectors (2n, 2d, 2d); residues of output p for axle input i at mode k ``cv[p,
+    k] rm[k, i]`` as :func:`modal_form`, each conjugate pair (or pair of real poles)
+    summed into one real second-order term) and road input matrices ``B`` (2n, 2d, 4),
+    on the grid ``grid = (w, w^2, Re, Im of e^{-i w L/v})`` (w in rad/s, L/v the rear
+    wheels' delay) with weights ``wt = [wt_sym | wt_anti]`` (Nf, 2 j)
+    (:func:`_split_grid`); the compiled
+    :func:`suspenv.models.minibus.spectral_kernel.modal_mean_square`."""
+    w, _, dr, di = grid
+    out = np.empty((co.shape[0] // 2, rows.stop - rows.start, wt.shape[1] // 2))
+    spectral_kernel.modal_mean_square(*modes, B, co, rows.start, w, dr, di, wt, out)
+    return out
 
 
 #: :func:`_halves_blocks`' cache
@@ -734,7 +737,7 @@ def _spectral_split(
         r0 = np.hstack([model.damper_mean, model.leaf_static_rate])
     r, n_iter, m = _fixed_point(r0, update, modal, iterations, tol)
     grid, wt = _split_grid(road, n_freq, vehicle, True)
-    ms = halves.mean_square(m, slice(0, 2), grid, wt)
+    ms = _halves_mean_square(m, halves.B, halves.co, slice(0, 2), grid, wt)
     return _spectral_result(ms, r, n_iter, road.duration_s)
 
 
@@ -860,10 +863,8 @@ class _EffectHalves:
         :func:`_split_grid` (``final``: Wk-weighted acceleration in the ISO band,
         acceleration, the weighted acceleration's rate; else displacement, rate): the
         compiled :func:`~suspenv.models.minibus.spectral_kernel.modal_mean_square`."""
-        (w, _, dr, di), wt = _split_grid(road, n_freq, vehicle, final)
-        out = np.empty((self.co.shape[0] // 2, rows.stop - rows.start, wt.shape[1] // 2))
-        spectral_kernel.modal_mean_square(*modes, self.B, self.co, rows.start, w, dr, di, wt, out)
-        return out
+        grid, wt = _split_grid(road, n_freq, vehicle, final)
+        return _halves_mean_square(modes, self.B, self.co, rows, grid, wt)
 
     def residues(
         self, modes: tuple[np.ndarray, np.ndarray], row: int
