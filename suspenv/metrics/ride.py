@@ -365,6 +365,19 @@ def modal_response(lam: np.ndarray, P: np.ndarray, f: np.ndarray) -> np.ndarray:
     return (Wm @ P.reshape(n, k, p * m)).reshape(n, f.size, p, m)
 
 
+def _track_lines(
+    G: np.ndarray, delay: np.ndarray, rho: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """The two uncorrelated parts (n, Nf, p) per unit road PSD of outputs with responses
+    G (n, Nf, p, 4) per wheel input (FL, FR, RL, RR): ``g_L + rho g_R`` and ``sqrt(1 -
+    rho^2) g_R`` (the Cholesky columns of ``[[1, rho], [rho, 1]]``, rho the tracks'
+    coherency), ``g = H_front + delay H_rear`` per track (``delay = e^{-i w L/v}``)."""
+    left = G[..., 0] + delay[None, :, None] * G[..., 2]
+    right = G[..., 1] + delay[None, :, None] * G[..., 3]
+    r = rho[None, :, None]
+    return left + r * right, np.sqrt(np.maximum(1.0 - r * r, 0.0)) * right
+
+
 def _output_psd(
     G: np.ndarray,
     f: np.ndarray,
@@ -376,14 +389,7 @@ def _output_psd(
     """One-sided output PSDs (n, p, Nf) from responses G (n, Nf, p, 4) per wheel input
     displacement; output j's PSD is multiplied by ``(2 pi f)^(2 power[j])`` (0: as G,
     1: its rate, 2: its second derivative)."""
-    # wheel inputs from the two tracks: front now, rear delayed by L/v; road inputs enter
-    # as z (through Kin) and its rate (through Cin), both already in G
-    g_left = G[..., 0] + delay[None, :, None] * G[..., 2]
-    g_right = G[..., 1] + delay[None, :, None] * G[..., 3]
-    # track cross-spectrum [[1, rho], [rho, 1]] Gq: Cholesky columns (1, rho), (0, sqrt(1-rho^2))
-    r = rho[None, :, None]
-    h1 = g_left + r * g_right
-    h2 = np.sqrt(np.maximum(1.0 - r * r, 0.0)) * g_right
+    h1, h2 = _track_lines(G, delay, rho)
     psd = (h1.real**2 + h1.imag**2 + h2.real**2 + h2.imag**2) * road_in[None, :, None]
     w2 = (2 * np.pi * f) ** 2
     psd *= w2[None, :, None] ** np.asarray(power, dtype=float)[None, None, :]
@@ -1094,9 +1100,7 @@ def _corner_parts(
         if halves:
             out.append((G[..., 0] + d * G[..., 1], 0.5 * gq * (1.0 + (1 - 2 * h) * rho)))
             continue
-        left, right = G[..., 0] + d * G[..., 2], G[..., 1] + d * G[..., 3]
-        out.append((left + rho[None, :, None] * right, gq))
-        out.append((np.sqrt(np.maximum(1.0 - rho * rho, 0.0))[None, :, None] * right, gq))
+        out += [(g, gq) for g in _track_lines(G, delay, rho)]
     return out
 
 
@@ -1150,13 +1154,9 @@ def _track_cross_spectra(
 ) -> np.ndarray:
     """Cross-spectra (n, pairs, Nf) per unit road PSD of outputs with responses G (n,
     Nf, p, 4) per wheel input, for the output ``pairs`` (i, j): ``E[y_i conj(y_j)]``
-    from the two tracks (the rear wheels ``delay``ed, coherency ``rho``)."""
-    left = G[..., 0] + delay[None, :, None] * G[..., 2]
-    right = G[..., 1] + delay[None, :, None] * G[..., 3]
-    rr = rho[None, :, None]
+    from the two tracks (:func:`_track_lines`)."""
     i, j = pairs
-    lines = (left + rr * right, np.sqrt(np.maximum(1.0 - rr * rr, 0.0)) * right)
-    cols = [c.transpose(0, 2, 1) for c in lines]
+    cols = [c.transpose(0, 2, 1) for c in _track_lines(G, delay, rho)]
     return sum(c[:, j].conj() * c[:, i] for c in cols)
 
 
