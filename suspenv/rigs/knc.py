@@ -429,13 +429,7 @@ def _run_compiled(
     i0, path = steps // 2, loop_path(steps)
     kept, loop = _window(steps, window)
     pad_off = np.stack([pad_offsets(t, grid) for t in tests])  # (T, G, 2) [m]
-    cols = 9 if "traction" in tests else 6
-    ext = None  # wheel loads (T, G, 2, cols) [N, N*m] and rack travel (T, G, 2) [m]
-    if set(tests) & set(LOADED_TESTS):
-        ext = np.stack([wheel_loads(t, test_grids[t])[..., :cols] for t in tests])
-    rack = None
-    if set(tests) & set(STEER_TESTS):
-        rack = np.stack([rack_travel(t, test_grids[t]) for t in tests])
+    ext, rack = _stacked_drives(tests, test_grids.__getitem__)  # (T, G, 2, 6|9), (T, G, 2)
     st, status = base.two_leg_sweep(pad_off, ext, rack, kept)
     bad = np.flatnonzero(status)
     if bad.size:  # their states: the design position (their channels come from rerun)
@@ -574,6 +568,22 @@ def _window(steps: int, window: int | None) -> tuple[slice, np.ndarray]:
     return slice(i0 - window, i0 + window + 1), loop_path(2 * window)
 
 
+def _stacked_drives(
+    tests: Sequence[str], drive: Callable[[str], np.ndarray | float], n: int = 1
+) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """The :func:`wheel_loads` (T n, ..., 2, 6|9) and :func:`rack_travel` (T n, ..., 2)
+    of the ``tests`` at their drives ``drive(test)``, each test's ``n`` times (rows
+    test-major; None where no test loads the wheels or moves the rack); the wheel-centre
+    force's columns only when ``traction`` runs."""
+    cols = 9 if "traction" in tests else 6
+    ext = rack = None
+    if set(tests) & set(LOADED_TESTS):
+        ext = np.repeat(np.stack([wheel_loads(t, drive(t))[..., :cols] for t in tests]), n, axis=0)
+    if set(tests) & set(STEER_TESTS):
+        rack = np.repeat(np.stack([rack_travel(t, drive(t)) for t in tests]), n, axis=0)
+    return ext, rack
+
+
 def _row_inputs(
     pad0: np.ndarray,
     tests: Sequence[str],
@@ -590,20 +600,8 @@ def _row_inputs(
     signs = np.repeat(np.array([_PAD_SIGN.get(t, (0.0, 0.0)) for t in tests]), n, axis=0)
     # every row's own grid (nt*n, steps+1): the drive of its test at each grid point
     row_grid = np.repeat(np.stack([test_grids[t] for t in tests]), n, axis=0)
-    # compliance tests: wheel load per unit of the test's drive (nt*n, 2, 6), with a
-    # wheel-centre force (nt*n, 2, 9) when the traction test runs
-    cols = 9 if "traction" in tests else 6
-    ext_dir = (
-        None
-        if not set(tests) & set(LOADED_TESTS)
-        else np.repeat(np.stack([wheel_loads(t, 1.0)[..., :cols] for t in tests]), n, axis=0)
-    )
-    # steering test: tie-rod inner point travel per metre of rack travel (nt*n, 2)
-    rack_dir = (
-        np.repeat(np.stack([rack_travel(t, 1.0) for t in tests]), n, axis=0)
-        if set(tests) & set(STEER_TESTS)
-        else None
-    )
+    # wheel load (nt*n, 2, 6|9) and tie-rod travel (nt*n, 2) per unit of the test's drive
+    ext_dir, rack_dir = _stacked_drives(tests, lambda _: 1.0, n)
     # wheel-centre drive: the static wheel-centre heights of the moving wheels (NaN: held
     # by the pad)
     centre0 = None if centred is None else np.where(signs != 0, centred.r[:, :, 1, 2], np.nan)
