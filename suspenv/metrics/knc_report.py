@@ -627,14 +627,11 @@ def travel_report(
         out[f"{name}_motion_ratio"] = ratio
 
     # roll centre and its migration against the mean wheel travel (parallel)
-    def rc_height(res: KCResult):
-        return lambda br: _both(roll_centre_curve(res, br)[1])
+    def rc(res: KCResult, k: int):  # the roll centre's y (k = 0) or height (k = 1)
+        return lambda br: _both(roll_centre_curve(res, br)[k])
 
-    def rc_y(res: KCResult):
-        return lambda br: _both(roll_centre_curve(res, br)[0])
-
-    out["roll_centre_height"] = _value(par, rc_height(par), mean_wheel_travel)
-    out["roll_centre_migration"] = _grad(par, rc_height(par), mean_wheel_travel)
+    out["roll_centre_height"] = _value(par, rc(par, 1), mean_wheel_travel)
+    out["roll_centre_migration"] = _grad(par, rc(par, 1), mean_wheel_travel)
     out["geometric_roll_centre_height"] = (
         _both(geometric_roll_centre(par)[1]) if par.static_points else nan
     )
@@ -666,8 +663,8 @@ def travel_report(
     out["tramp_rate"] = _grad(opp, moment, pad_roll)
     out["roll_steer"] = _grad(opp, chan(opp, "toe", RAD2DEG), own_roll)
     out["roll_camber"] = _grad(opp, chan(opp, "camber", RAD2DEG), own_roll)
-    out["roll_centre_y_iso"] = _value(opp, rc_y(opp), roll_axis)
-    out["roll_centre_lateral_migration"] = _grad(opp, rc_y(opp), roll_axis)
+    out["roll_centre_y_iso"] = _value(opp, rc(opp, 0), roll_axis)
+    out["roll_centre_lateral_migration"] = _grad(opp, rc(opp, 0), roll_axis)
     out["arb_motion_ratio"] = (
         _grad(opp, chan(opp, "arb_twist", RAD2DEG), travel_difference)
         if "arb_twist" in opp.channels
