@@ -329,7 +329,6 @@ class MinibusRideHandling(Problem):
         self._tests(opts)
         study = self.handling == "study"
         self._outputs(study)
-        self._evaluation_terms(study)
 
     def _tests(self, opts: Mapping[str, Any]) -> None:
         """The random road, the steady circle, the slalom course and the default set's
@@ -364,34 +363,14 @@ class MinibusRideHandling(Problem):
             points.flags.writeable = False
 
     def _outputs(self, study: bool) -> None:
-        """The objectives' names and units and the constraints' names and scales (the
-        study's set or the default one; with ``working_space`` its four constraints)."""
+        """The objectives' names and units, the constraints' names and scales (the study's
+        set or the default one; with ``working_space`` its four constraints) and what
+        :meth:`_evaluate` reads from the measures, fixed per problem: the keys of the
+        objectives' measures (no load, then full load) and the constraints' measures, each
+        constraint's limit and direction (the understeer margin is ``limit - measure``;
+        (k, 1) each), and the row flags."""
         self.objective_names = STUDY_OBJECTIVE_NAMES if study else OBJECTIVE_NAMES
         self.objective_units = STUDY_OBJECTIVE_UNITS if study else OBJECTIVE_UNITS
-        self.constraint_names = (
-            "aw_front_no_load",
-            "aw_front_full_load",
-            "aw_rear_no_load",
-            "aw_rear_full_load",
-            "roll_no_load",
-            "roll_full_load",
-        ) + (() if study else ("understeer_no_load", "understeer_full_load"))
-        n_lc = len(LOAD_CASES)
-        self.constraint_scales = (2 * n_lc) * (self.rms_limit,) + n_lc * (self.roll_limit_deg,)
-        self.constraint_scales += () if study else n_lc * (UNDERSTEER_SCALE,)
-        if self.working_space:
-            self.constraint_names += tuple(
-                f"{kind}_{lc}" for kind in ("bump_stop", "tyre_load") for lc in LOAD_CASES
-            )
-            self.constraint_scales += n_lc * (self.bump_stop_limit,) + n_lc * (
-                self.tyre_load_limit,
-            )
-
-    def _evaluation_terms(self, study: bool) -> None:
-        """What :meth:`_evaluate` reads from the measures, fixed per problem: the keys of
-        the objectives' measures (no load, then full load) and the constraints' measures,
-        each constraint's limit and direction (the understeer margin is ``limit -
-        measure``; (k, 1) each), and the row flags."""
         objectives = (
             "aw_front",
             "aw_rear",
@@ -399,15 +378,28 @@ class MinibusRideHandling(Problem):
             "yaw_rate" if study else "steering_wheel",
             "roll",
         )
-        terms = [(f"aw_{end}", self.rms_limit, False) for end in ("front", "rear")]
-        terms.append(("roll", self.roll_limit_deg, False))
+
+        # each constraint per load case: (name, measure, limit, scale, limit - measure?)
+        def plain(key: str, limit: float) -> tuple[str, str, float, float, bool]:
+            return key, key, limit, limit, False  # the measure's name, scaled by its limit
+
+        terms = [plain(f"aw_{end}", self.rms_limit) for end in ("front", "rear")]
+        terms.append(plain("roll", self.roll_limit_deg))
         if not study:
-            terms.append(("understeer_min", self.min_understeer, True))
+            terms.append(
+                ("understeer", "understeer_min", self.min_understeer, UNDERSTEER_SCALE, True)
+            )
         if self.working_space:
-            terms += [("bump_stop", self.bump_stop_limit, False)]
-            terms += [("tyre_load", self.tyre_load_limit, False)]
-        rows = [(f"{k}_{lc}", lim, flip) for k, lim, flip in terms for lc in LOAD_CASES]
-        keys, limits, flipped = zip(*rows, strict=True)
+            terms += [plain("bump_stop", self.bump_stop_limit)]
+            terms += [plain("tyre_load", self.tyre_load_limit)]
+        rows = [
+            (f"{name}_{lc}", f"{key}_{lc}", lim, scale, flip)
+            for name, key, lim, scale, flip in terms
+            for lc in LOAD_CASES
+        ]
+        self.constraint_names, keys, limits, self.constraint_scales, flipped = zip(
+            *rows, strict=True
+        )
         self._measure_keys = tuple(f"{k}_{lc}" for lc in LOAD_CASES for k in objectives) + keys
         # the constraints' limits and signs (+1: measure - limit, -1: limit - measure)
         self._limit_terms = (np.array(limits)[:, None], np.where(flipped, -1.0, 1.0)[:, None])
