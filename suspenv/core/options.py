@@ -167,9 +167,9 @@ def number(
     """A finite real number, within ``[lo, hi]`` when given (``lo_open``/``hi_open``
     exclude that end). Returns it as a ``float``."""
     rule = _range_rule(name, lo, hi, lo_open, hi_open)
+    with_rule = f" with {rule}" if rule else ""
     if isinstance(value, bool) or not isinstance(value, _numbers.Real):
         kind = f" ({type(value).__name__})"
-        with_rule = f" with {rule}" if rule else ""
         raise ValidationError(
             f"{owner}: `{name}` must be a number{with_rule}, but got {name}={_show(value)}{kind}"
         )
@@ -178,7 +178,6 @@ def number(
     except OverflowError:  # an int beyond the float range
         x = math.inf
     if not math.isfinite(x):
-        with_rule = f" with {rule}" if rule else ""
         raise ValidationError(
             f"{owner}: `{name}` must be a finite number{with_rule}, but got {name}={_show(value)}"
         )
@@ -294,8 +293,7 @@ def choice(
             lowered = {a.lower(): a for a in allowed}
             if value.strip().lower() in lowered:
                 return lowered[value.strip().lower()]
-    near = nearest(value, allowed) if isinstance(value, str) else None
-    hint = f"; did you mean {near!r}?" if near else ""
+    hint = did_you_mean(value, allowed, n=1) if isinstance(value, str) else ""
     raise ValidationError(
         f"{owner}: `{name}` must be one of {list(allowed)}, but got {_show(value)}{hint}"
     )
