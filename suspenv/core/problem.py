@@ -92,9 +92,12 @@ class Problem(ABC):
             batch = self._evaluate(X)
         except MemoryError:
             raise
-        except Exception:  # noqa: BLE001 - isolate the failing rows below
+        except Exception as exc:  # noqa: BLE001 - a failed evaluation is a value
             if X.shape[0] == 1:
-                return self.with_scales(self._failed_row(X[0]))
+                msg = f"{type(exc).__name__}: {exc}"
+                failed = EvaluationBatch.failed(1, self.n_objectives, self.n_constraints, msg)
+                return self.with_scales(failed)
+            # isolate the failing rows
             return EvaluationBatch.concatenate([self.evaluate(x[None, :]) for x in X])
         self._check_shapes(batch, X.shape[0])
         batch = self._non_finite_failed(batch)
@@ -158,17 +161,6 @@ class Problem(ABC):
         return []
 
     # --------------------------------------------------------------- helpers
-    def _failed_row(self, x: np.ndarray) -> EvaluationBatch:
-        try:
-            batch = self._evaluate(x[None, :])
-            self._check_shapes(batch, 1)
-            return self._non_finite_failed(batch)
-        except MemoryError:
-            raise
-        except Exception as exc:  # noqa: BLE001 - a failed evaluation is a value
-            msg = f"{type(exc).__name__}: {exc}"
-            return EvaluationBatch.failed(1, self.n_objectives, self.n_constraints, msg)
-
     def _non_finite_failed(self, batch: EvaluationBatch) -> EvaluationBatch:
         """``batch`` with every ok row whose objectives (but the
         :attr:`informational_objectives`) or constraints are not all finite turned into a
