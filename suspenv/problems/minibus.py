@@ -86,6 +86,7 @@ from suspenv.core import EvaluationBatch, Problem
 from suspenv.core.errors import ValidationError
 from suspenv.core.options import choice, flag, integer, number, positive
 from suspenv.core.pareto import nondominated
+from suspenv.core.result import feasible as feasible_rows
 from suspenv.metrics.handling import yaw_response
 from suspenv.metrics.ride import CREST_LIMIT, DOSE_KEYS, exceedance_probability, working_space
 from suspenv.models.effects.effect import Effect
@@ -674,7 +675,7 @@ def study_outcome(problem: Problem, arrays: dict[str, np.ndarray]) -> StudyOutco
     F = np.asarray(arrays["objectives"], dtype=float)
     ok = np.asarray(arrays["ok"], dtype=bool) & np.isfinite(F).all(axis=1)
     G = np.asarray(arrays["constraints"], dtype=float)
-    feasible = ok & (np.nan_to_num(G, nan=1.0) <= 0).all(axis=1)
+    feasible = feasible_rows(ok, G)
     pool = feasible if feasible.any() else ok
     if not pool.any():
         return None
