@@ -57,8 +57,6 @@ from suspenv.models.mcpherson.solver import (  # the channels give back the spin
 if TYPE_CHECKING:  # a type only: metrics are functions of rig results, not of the rig
     from suspenv.rigs.knc import KCResult
 
-BRANCHES = ("down", "up")
-
 
 @dataclass(frozen=True)
 class ReportItem:
@@ -774,15 +772,15 @@ def steering_report(
     ratio = sw_per_mm / np.abs(grad.mean(axis=-1))
     out["steer_ratio"] = _both(ratio)
     track = kingpin_ground_track(results.get("parallel", res))
-    ends = []
-    for br in BRANCHES:
-        e = ackermann_error_curve(res, br, c.wheelbase, track)
-        ends.append(0.5 * (e[:, 0] + e[:, -1]))
-    err = 0.5 * (ends[0] + ends[1])
+    err = _loop(res, lambda br: _ends(ackermann_error_curve(res, br, c.wheelbase, track)))
     out["ackermann_error"] = _both(err)
-    pct = np.mean([ackermann_pct(res, br, c.wheelbase, track) for br in BRANCHES], axis=0)
-    out["ackermann_pct"] = _both(pct)
+    out["ackermann_pct"] = _both(_loop(res, lambda br: ackermann_pct(res, br, c.wheelbase, track)))
     return out
+
+
+def _ends(v: np.ndarray) -> np.ndarray:
+    """Mean (n,) of the first and last columns of ``v`` (n, G): both ends of the rack travel."""
+    return 0.5 * (v[:, 0] + v[:, -1])
 
 
 def ackermann_pct(
@@ -795,8 +793,7 @@ def ackermann_pct(
     err = ackermann_error_curve(res, branch, wheelbase_mm, track_mm)
     ends = [0, -1]
     inner, outer, ideal = inner[:, ends], outer[:, ends], inner[:, ends] - err[:, ends]
-    pct = 100.0 * (inner - outer) / (ideal - outer)
-    return 0.5 * (pct[:, 0] + pct[:, 1])
+    return _ends(100.0 * (inner - outer) / (ideal - outer))
 
 
 def knc_report(
