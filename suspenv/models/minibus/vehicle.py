@@ -214,8 +214,6 @@ class Minibus:
     bump_stop_travel_front: float = 0.075  # m
     bump_stop_travel_rear: float = 0.075  # m
     # rear axle lateral compliance / roll steer (handling side) -----------------
-    #: bushes per side (front eye + shackle eye) [CHOICE: conventional Hotchkiss leaf]
-    leaf_bushes_per_side: int = 2
     #: geometric roll steer of the leaf-sprung axle (rad axle steer per rad body roll)
     #: [CHOICE: small understeering value typical of level leaves]
     rear_roll_steer: float = 0.05
