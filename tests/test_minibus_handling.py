@@ -263,7 +263,9 @@ def test_circle_limit_without_load_transfer_is_the_tyre_friction_closed_form():
     X = np.vstack([STUDY_PICK, design_space().lower])
     P = handling_parameters(X, "full_load", wide)
     res = steady_circle(P, SteadyCircleConfig(tolerance=1e-5))
-    mu = np.minimum(TYRE.friction(P.fz_front), TYRE.friction(P.fz_rear))
+    # mu(Fz) = pDy1 (1 + pDy2 dfz), dfz = (Fz - Fz0) / Fz0 (Pacejka's MF 5.2 D factor)
+    fz = np.stack([P.fz_front, P.fz_rear])
+    mu = (TYRE.pDy1 * (1.0 + TYRE.pDy2 * (fz - TYRE.fz0) / TYRE.fz0)).min(axis=0)
     np.testing.assert_allclose(res.ay_max, mu * G, rtol=2e-3)
 
 
