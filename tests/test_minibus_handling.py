@@ -73,11 +73,11 @@ def test_tyre_peak_is_mu_times_load(fz):
 def test_tyre_load_sensitivity_odd_symmetry_and_lifted_wheel():
     fz = np.array([2000.0, 4000.0, 6500.0, 9000.0, 12000.0])
     # load sensitivity: the friction coefficient and Ky/Fz fall with load
-    peak_per_load = TYRE.peak_force(fz) / fz
+    peak_per_load = TYRE.factors(fz)[0] / fz  # D = mu_y Fz
     assert np.all(np.diff(peak_per_load) < 0)
     assert np.all(np.diff(TYRE.cornering_stiffness(fz) / fz) < 0)
     # two half-loaded tyres give more than one tyre at the summed load (concavity)
-    assert 2 * TYRE.peak_force(3250.0) > TYRE.peak_force(6500.0)
+    assert 2 * TYRE.factors(3250.0)[0] > TYRE.factors(6500.0)[0]
     a = np.radians(np.linspace(-20, 20, 41))
     np.testing.assert_allclose(TYRE.lateral_force(-a, 5000.0), -TYRE.lateral_force(a, 5000.0))
     assert TYRE.lateral_force(0.1, 0.0) == 0.0
@@ -263,7 +263,9 @@ def test_circle_limit_without_load_transfer_is_the_tyre_friction_closed_form():
     X = np.vstack([STUDY_PICK, design_space().lower])
     P = handling_parameters(X, "full_load", wide)
     res = steady_circle(P, SteadyCircleConfig(tolerance=1e-5))
-    mu = np.minimum(TYRE.friction(P.fz_front), TYRE.friction(P.fz_rear))
+    # mu(Fz) = pDy1 (1 + pDy2 dfz), dfz = (Fz - Fz0) / Fz0 (Pacejka's MF 5.2 D factor)
+    fz = np.stack([P.fz_front, P.fz_rear])
+    mu = (TYRE.pDy1 * (1.0 + TYRE.pDy2 * (fz - TYRE.fz0) / TYRE.fz0)).min(axis=0)
     np.testing.assert_allclose(res.ay_max, mu * G, rtol=2e-3)
 
 

@@ -345,7 +345,7 @@ KINDS = (
         "sensor",
         _PARAMETERS["sensor_lag"],
         "residual proportional to the signal's derivative; phase lag atan(w tau)",
-        lambda y, t, tau: sensor.sensor_lag(y, t, tau),
+        sensor.sensor_lag,
         needs_time=True,
     ),
     EffectKind(
@@ -355,7 +355,7 @@ KINDS = (
         _PARAMETERS["sensor_delay"],
         "residual proportional to the signal's derivative at small delays; phase lag "
         "w delay at unit gain",
-        lambda y, t, delay: sensor.sensor_delay(y, t, delay),
+        sensor.sensor_delay,
         needs_time=True,
     ),
     EffectKind(

@@ -715,17 +715,12 @@ class AxleSolver:
 
     def _to_bush(self, x: np.ndarray) -> np.ndarray:
         """Stacked deflections (..., 2, 4, 6) from vehicle axes into the bushing frames
-        (``Q^T`` on translation and rotation vector; identity without orientations)."""
-        if self._Q is None:
-            return x
-        Qt = np.swapaxes(self._Q, -1, -2)
-        return np.concatenate([rotate(Qt, x[..., :3]), rotate(Qt, x[..., 3:])], axis=-1)
+        (``Q^T``; identity without orientations)."""
+        return x if self._Q is None else _rotate_six(np.swapaxes(self._Q, -1, -2), x)
 
     def _to_vehicle(self, f: np.ndarray) -> np.ndarray:
         """Stacked loads (..., 2, 4, 6) from the bushing frames into vehicle axes (``Q``)."""
-        if self._Q is None:
-            return f
-        return np.concatenate([rotate(self._Q, f[..., :3]), rotate(self._Q, f[..., 3:])], axis=-1)
+        return f if self._Q is None else _rotate_six(self._Q, f)
 
     def _deflections(
         self, r: np.ndarray, R: np.ndarray, arms_lca: np.ndarray, phi: np.ndarray | None = None
@@ -1520,6 +1515,12 @@ def _perp_basis(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     u /= _length(u)
     v = cross(a, u)
     return u, v
+
+
+def _rotate_six(Q: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """``Q`` (..., 3, 3) applied to both halves of six-vectors (..., 6): translation and
+    rotation vector (deflections), or force and moment (loads)."""
+    return np.concatenate([rotate(Q, x[..., :3]), rotate(Q, x[..., 3:])], axis=-1)
 
 
 def _length(v: np.ndarray) -> np.ndarray:

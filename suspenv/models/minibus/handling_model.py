@@ -66,7 +66,11 @@ from suspenv.core.identity_cache import IdentityCache
 from suspenv.core.options import number, positive
 from suspenv.models.minibus import handling_kernel
 from suspenv.models.minibus.handling_kernel import axle_transfer
-from suspenv.models.minibus.suspension import damper_force, spring_pair_roll_stiffness
+from suspenv.models.minibus.suspension import (
+    damper_force,
+    damper_mean_coefficient,
+    spring_pair_roll_stiffness,
+)
 from suspenv.models.minibus.tyre import LIGHT_TRUCK_TYRE, LateralTyre
 from suspenv.models.minibus.vehicle import (
     REFERENCE_MINIBUS,
@@ -524,13 +528,12 @@ def roll_damping(vehicle: Minibus, scale_front: np.ndarray, scale_rear: np.ndarr
 
     A roll rate p compresses one side at ``p s/2`` and extends the other, so an axle's
     damper roll moment is ``(s^2/4) (c_bump + c_rebound) C p`` (s the damper spacing, C
-    the design's curve scale), the small-rate slope of :func:`wheel_loads`' damper moments.
+    the design's curve scale), the small-rate slope of :func:`wheel_loads`' damper moments;
+    ``(c_bump + c_rebound) / 2`` is :func:`damper_mean_coefficient`.
     """
     v = vehicle
-    front = (
-        0.25 * v.front_damper_spacing**2 * (v.damper_front.bump_low + v.damper_front.rebound_low)
-    )
-    rear = 0.25 * v.rear_damper_spacing**2 * (v.damper_rear.bump_low + v.damper_rear.rebound_low)
+    front = 0.5 * v.front_damper_spacing**2 * damper_mean_coefficient(v.damper_front)
+    rear = 0.5 * v.rear_damper_spacing**2 * damper_mean_coefficient(v.damper_rear)
     return front * scale_front + rear * scale_rear
 
 

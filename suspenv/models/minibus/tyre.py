@@ -76,16 +76,6 @@ class LateralTyre:
                 raise ValidationError(f"LateralTyre: `{rule}` must hold, but got {self!r}")
 
     # ------------------------------------------------------------ closed forms
-    def friction(self, fz: np.ndarray | float) -> np.ndarray:
-        """Peak friction coefficient mu_y at load ``fz`` [N] (>= 0.05 so D stays > 0)."""
-        dfz = (np.asarray(fz, dtype=float) - self.fz0) / self.fz0
-        return np.maximum(self.pDy1 * (1.0 + self.pDy2 * dfz), 0.05)
-
-    def peak_force(self, fz: np.ndarray | float) -> np.ndarray:
-        """Peak lateral force D = mu_y Fz [N]; zero for a lifted wheel (fz <= 0)."""
-        fz = np.maximum(np.asarray(fz, dtype=float), 0.0)
-        return self.friction(fz) * fz
-
     @functools.cached_property
     def coefficients(self) -> np.ndarray:
         """(fz0, pCy1, pDy1, pDy2, pEy1, pEy2, pKy1, pKy2), as the compiled handling

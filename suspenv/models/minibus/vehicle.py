@@ -38,73 +38,22 @@ NMM_PER_DEG_TO_NM_PER_RAD = 1e-3 * 180.0 / np.pi  # N*mm/deg -> N*m/rad
 N_PER_MM_TO_N_PER_M = 1e3
 
 # ------------------------------------------------------------------ design variables
-#: the study's 8 design variables: (name, meaning, unit, min, max, study's pick) [STUDY]
-DESIGN_VARIABLES: tuple[Parameter, ...] = (
-    Parameter(
-        "K1",
-        60.0,
-        85.0,
-        "N/mm",
-        default=73.5,
-        description="rear leaf spring primary rate, per side",
-    ),
-    Parameter(
-        "K2",
-        130.0,
-        180.0,
-        "N/mm",
-        default=151.5,
-        description="rear leaf spring composite rate after helper contact, per side",
-    ),
-    Parameter(
-        "K3",
-        1.0e3,
-        5.0e3,
-        "N/mm",
-        default=3.5e3,
-        description="leaf-eye bush radial stiffness, per bush",
-    ),
-    Parameter(
-        "T1",
-        7.0e4,
-        1.5e5,
-        "N*mm/deg",
-        default=8.8e4,
-        description="front torsion bar torsional stiffness, per side",
-    ),
-    Parameter(
-        "T2",
-        2.0e5,
-        9.0e5,
-        "N*mm/deg",
-        default=6.8e5,
-        description="front stabiliser, as axle roll stiffness",
-    ),
-    Parameter(
-        "T3",
-        2.0e5,
-        9.0e5,
-        "N*mm/deg",
-        default=8.2e5,
-        description="rear stabiliser, as axle roll stiffness",
-    ),
-    Parameter(
-        "C1",
-        0.6,
-        1.8,
-        "-",
-        default=1.12,
-        description="front damper characteristic-curve force scale",
-    ),
-    Parameter(
-        "C2",
-        0.6,
-        1.8,
-        "-",
-        default=0.88,
-        description="rear damper characteristic-curve force scale",
-    ),
-)
+#: the study's 8 design variables: (name, min, max, unit, study's pick, meaning) [STUDY]
+DESIGN_VARIABLES: tuple[Parameter, ...] = tuple(
+    Parameter(name, low, high, unit, default=pick, description=meaning)
+    for name, low, high, unit, pick, meaning in (
+        ("K1", 60.0, 85.0, "N/mm", 73.5, "rear leaf spring primary rate, per side"),
+        ("K2", 130.0, 180.0, "N/mm", 151.5,
+         "rear leaf spring composite rate after helper contact, per side"),
+        ("K3", 1.0e3, 5.0e3, "N/mm", 3.5e3, "leaf-eye bush radial stiffness, per bush"),
+        ("T1", 7.0e4, 1.5e5, "N*mm/deg", 8.8e4,
+         "front torsion bar torsional stiffness, per side"),
+        ("T2", 2.0e5, 9.0e5, "N*mm/deg", 6.8e5, "front stabiliser, as axle roll stiffness"),
+        ("T3", 2.0e5, 9.0e5, "N*mm/deg", 8.2e5, "rear stabiliser, as axle roll stiffness"),
+        ("C1", 0.6, 1.8, "-", 1.12, "front damper characteristic-curve force scale"),
+        ("C2", 0.6, 1.8, "-", 0.88, "rear damper characteristic-curve force scale"),
+    )
+)  # fmt: skip
 DESIGN_NAMES: tuple[str, ...] = tuple(p.name for p in DESIGN_VARIABLES)
 #: the study's ride-focused pick, physical study units [STUDY]
 STUDY_PICK = np.array([p.default for p in DESIGN_VARIABLES], dtype=float)
@@ -214,8 +163,6 @@ class Minibus:
     bump_stop_travel_front: float = 0.075  # m
     bump_stop_travel_rear: float = 0.075  # m
     # rear axle lateral compliance / roll steer (handling side) -----------------
-    #: bushes per side (front eye + shackle eye) [CHOICE: conventional Hotchkiss leaf]
-    leaf_bushes_per_side: int = 2
     #: geometric roll steer of the leaf-sprung axle (rad axle steer per rad body roll)
     #: [CHOICE: small understeering value typical of level leaves]
     rear_roll_steer: float = 0.05
