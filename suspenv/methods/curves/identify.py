@@ -129,11 +129,7 @@ def check_options(options: Mapping[str, Any]) -> dict[str, Any]:
     from suspenv.measurements.knc import RIG_TESTS
 
     who = "identify"
-    unknown = sorted(set(options) - set(DEFAULTS))
-    if unknown:
-        raise ValidationError(
-            f"identify: unknown option {unknown[0]!r} (known: {', '.join(sorted(DEFAULTS))})"
-        )
+    check.check_keywords(who, options, DEFAULTS)
     o = {**DEFAULTS, **dict(options)}
     choices = {
         "method": METHODS,
