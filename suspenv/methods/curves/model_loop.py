@@ -220,11 +220,11 @@ def refine(
     t0 = time.perf_counter()
     say = say or (lambda _m: None)
     skipped = [f for f in named if f != SIDES_FAMILY and f not in EFFECT_FAMILIES]
-    changes: list[str] = []
-    if SIDES_FAMILY in named and not fit.model.two_sided:
+    apart = SIDES_FAMILY in named and not fit.model.two_sided
+    changes = []
+    if apart:
         changes.append("sides apart: every free parameter but the anti-roll bar gets a right twin")
     starts = fit.valleys
-    apart = SIDES_FAMILY in named and not fit.model.two_sided
     # the second valley's sides-apart polish in the second process when there is one
     there = (
         pool.submit(_apart, fit, starts[1], x0, polish_nfev)
