@@ -239,7 +239,7 @@ def test_two_sided_fit_gives_each_side_its_own_values(noisy_car, tmp_path):
     opts = {"free": FEW, "sides": "both", "initial": "vehicle", "next_test": False}
     res = run_identify(m, veh, opts, truth=truth)
     assert res.model.dim == 2 * len(FEW) and res.fit.x.shape == (98,)
-    assert res.model.names[len(FEW)] == "static_toe@right"
+    assert res.model.sub.names[len(FEW)] == "static_toe@right"
     toe = {v.name: v for v in res.identifiability.verdicts if v.name.startswith("static_toe")}
     for v in toe.values():  # each side's toe on its own, within the rule of the truth
         assert v.identified and v.error_pct is not None and v.error_pct <= TOLERANCE_PCT

@@ -43,7 +43,7 @@ def test_the_test_car_itself_fits_every_curve_to_its_noise(test_car):
     (eff,) = truth.effects
     (p,) = [q for q in effect_parameters(eff) if q.name.endswith(".f_c")]
     model = _two_sided_truth_model(m, truth, (eff,), (p,))
-    assert model.width == 99 and model.names[-1] == f"{eff.name}.f_c"
+    assert model.width == 99 and model.sub.names[-1] == f"{eff.name}.f_c"
     x = model.full(np.r_[truth.left, truth.right])[0]
     assert x[-1] == pytest.approx(80.0)  # the effect's own value fills the column
     R, ok, _ = model.residuals_x(x[None])
@@ -268,7 +268,7 @@ def test_steering_constants_are_fitted_values_when_the_aligning_test_is_measured
     assert names == ["constants.rack_mount_rate", "constants.column_torsion_rate"]
     assert fitted_constants(v, ["parallel"]) == []
     model = build_model(m, v, truth.mean_design)
-    assert model.names[-2:] == names
+    assert list(model.sub.names[-2:]) == names
     x = model.full(truth.mean_design)[0]
     assert model.constants_at(x) == v.constants
     X = np.vstack([x, x])
@@ -282,7 +282,7 @@ def test_steering_constants_are_fitted_values_when_the_aligning_test_is_measured
     np.testing.assert_allclose(R[1], R1[0], rtol=0, atol=1e-9)
     # the sides apart: one steering system, so no right twin of a constant
     two = model.variant(two_sided=True, base=x)
-    assert two.names[-2:] == names and two.dim == 2 * 49 - 1 + 2
+    assert list(two.sub.names[-2:]) == names and two.dim == 2 * 49 - 1 + 2
     assert two.constants_at(two.base) == v.constants
     res = model.run(X, ("aligning",), 12, (), {})["aligning"]
     span = np.ptp(res.channels["toe"], axis=1)  # (2, 2): rows x wheels

@@ -32,6 +32,7 @@ from suspenv.core.jsonable import to_jsonable
 from suspenv.measurements.errors import RecordingError
 from suspenv.measurements.limits import check_npz, read_limit
 from suspenv.measurements.recording import Recording, check_units, real_numbers
+from suspenv.measurements.sources._common import require_file
 from suspenv.measurements.units import FACTORS, SI_UNITS, to_si
 
 FORMAT = "suspenv-recording"
@@ -115,8 +116,7 @@ def _read_archive(
 ) -> tuple[dict[str, Any], dict[str, dict[str, np.ndarray]], np.ndarray]:
     """(checked header, ``{"in": ..., "out": ...}`` channels, time) of the archive
     ``path``, its expanded size bounded by ``limit`` [bytes] before anything is read."""
-    if not path.is_file():
-        raise RecordingError(f"recording file {str(path)!r} does not exist")
+    require_file(path)
     check_npz(path, limit)
     try:
         npz = np.load(path, allow_pickle=False)
@@ -209,14 +209,11 @@ def _header(raw: np.ndarray, path: Path) -> dict[str, Any]:
 
 def _check_header_keys(header: dict[str, Any], path: Path) -> None:
     """The header's format tag, version, keys and their types."""
-    if header.get("format") != FORMAT:
-        raise RecordingError(
-            f"{path.name}: format must be {FORMAT!r}, but got {header.get('format')!r}"
-        )
-    if header.get("version") != VERSION:
-        raise RecordingError(
-            f"{path.name}: version must be {VERSION}, but got {header.get('version')!r}"
-        )
+    for key, value in (("format", FORMAT), ("version", VERSION)):
+        if header.get(key) != value:
+            raise RecordingError(
+                f"{path.name}: {key} must be {value!r}, but got {header.get(key)!r}"
+            )
     for key in ("name", "test", "inputs", "outputs", "units"):
         if key not in header:
             raise RecordingError(f"{path.name}: '__meta__' lacks the key {key!r}")

@@ -112,10 +112,8 @@ def loop_path(steps: int) -> np.ndarray:
 def branch_index(steps: int) -> np.ndarray:
     """Branch of every step of the loop: 0 design->bump, 1 bump->rebound, 2 rebound->design."""
     i0 = steps // 2
-    n1 = steps - i0 + 1  # design .. bump, inclusive
-    n2 = steps  # bump-1 .. rebound
-    n3 = i0  # rebound+1 .. design
-    return np.r_[np.zeros(n1), np.ones(n2), np.full(n3, 2.0)]
+    # design .. bump inclusive, bump-1 .. rebound, rebound+1 .. design
+    return np.repeat([0.0, 1.0, 2.0], [steps - i0 + 1, steps, i0])
 
 
 def is_knc(rec: object) -> bool:

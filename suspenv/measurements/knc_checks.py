@@ -347,16 +347,14 @@ def _deviations(x: np.ndarray, y: np.ndarray) -> np.ndarray:
 def _spikes(where: str, t: RigSamples, quantity: Mapping[str, str]) -> list[str]:
     out = []
     d = np.asarray(t.drive, float)
-    for ch, v in t.channels.items():
-        for w, side in enumerate(SIDES):
-            y = np.asarray(v[:, w], float)
-            if not np.isfinite(y).all() or np.ptp(y) == 0:
-                continue
-            dev = np.full(y.shape, np.nan)
-            for b in (0, 1, 2):
-                sel = np.flatnonzero(t.branch == b)
-                dev[sel] = _deviations(d[sel], y[sel])
-            out += _spike_rows(where, f"{ch}_{side}", y, dev, quantity.get(ch, "length"))
+    for what, y, q in list(_columns(t, quantity))[1:]:  # every channel's wheel, not the drive
+        if not np.isfinite(y).all() or np.ptp(y) == 0:
+            continue
+        dev = np.full(y.shape, np.nan)
+        for b in (0, 1, 2):
+            sel = np.flatnonzero(t.branch == b)
+            dev[sel] = _deviations(d[sel], y[sel])
+        out += _spike_rows(where, what, y, dev, q)
     return out
 
 

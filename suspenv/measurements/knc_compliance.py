@@ -77,19 +77,15 @@ class ComplianceAnalysis:
     drive_range: tuple[float, float]
     samples: int
 
-    def scales(self) -> tuple[str, float, str, float]:
-        """(per-unit text, its SI size, channel edge unit, its SI size)."""
-        per, per_si = _PER[DRIVE_COLUMN[self.test][1]]
-        unit = EDGE_UNIT[CHANNELS[self.channel]]
-        return per, per_si, unit, UNITS[unit][0]
-
     def lines(self) -> list[str]:
         """The analysis as text in edge units."""
-        per, per_si, unit, u = self.scales()
+        col, quantity = DRIVE_COLUMN[self.test]
+        per, per_si = _PER[quantity]
+        unit = EDGE_UNIT[CHANNELS[self.channel]]
+        u = UNITS[unit][0]
         k = per_si / u  # SI slope -> unit per `per`
-        col = DRIVE_COLUMN[self.test][0]
         lo, hi = self.drive_range
-        dq = EDGE_UNIT[DRIVE_COLUMN[self.test][1]]
+        dq = EDGE_UNIT[quantity]
         du = UNITS[dq][0]
         rows = [
             (

@@ -317,16 +317,13 @@ def estimate_noise(tests: Iterable[MeasuredTest]) -> dict[str, float]:
     """Noise sigma [SI] per channel from the data alone.
 
     Estimator: along every branch of every test and wheel (samples in file order), the
-    residual of each sample from the parabola (in the drive) through its three
-    neighbours ``i - 1, i + 1, i + 2``, normalised to unit variance for white noise
-    (:func:`_local_residuals`; on a uniform grid the third difference / sqrt(20));
-    sigma = 1.4826 x the median of the absolute residuals pooled over tests, wheels and
-    branches (the median absolute deviation: consistent for Gaussian noise, robust to a
-    few outliers). A straight line or a parabola leaves no residual; a smooth curve
-    leaves its third derivative x spacing^3, so noise-free data give a small positive
-    value rather than zero; an estimate below :data:`NOISE_FLOOR_REL` x the channel's
-    peak-to-peak (or 1e-15 when it is constant) is raised to it, so a weight is finite.
-    A branch needs 4 samples to contribute.
+    residuals of :func:`_local_residuals` (each sample from the parabola through its
+    neighbours, unit variance for white noise; a branch needs 4 samples); sigma = 1.4826
+    x the median of their absolute values pooled over tests, wheels and branches (the
+    median absolute deviation: consistent for Gaussian noise, robust to a few outliers).
+    Noise-free smooth data give a small positive value rather than zero; an estimate
+    below :data:`NOISE_FLOOR_REL` x the channel's peak-to-peak (or 1e-15 when it is
+    constant) is raised to it, so a weight is finite.
     """
     pooled: dict[str, list[np.ndarray]] = {}
     spread: dict[str, float] = {}

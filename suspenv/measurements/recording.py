@@ -201,16 +201,13 @@ class Recording:
     ) -> Recording:
         """Check that channels exist (as input or output) with the expected units; return self."""
         where = f"recording {self.name!r} (test {self.test!r})"
-        for name in inputs:
-            if name not in self.inputs:
-                raise RecordingError(
-                    f"{where}: missing input channel {name!r}; inputs are {sorted(self.inputs)}"
-                )
-        for name in outputs:
-            if name not in self.outputs:
-                raise RecordingError(
-                    f"{where}: missing output channel {name!r}; outputs are {sorted(self.outputs)}"
-                )
+        wanted = (("input", inputs, self.inputs), ("output", outputs, self.outputs))
+        for kind, names, have in wanted:
+            for name in names:
+                if name not in have:
+                    raise RecordingError(
+                        f"{where}: missing {kind} channel {name!r}; {kind}s are {sorted(have)}"
+                    )
         check_units(where, self.units, units or {})
         return self
 
@@ -227,17 +224,6 @@ class Recording:
     def sample_interval(self) -> float:
         """Median sample interval [s]."""
         return float(np.median(np.diff(self.time)))
-
-    def channel(self, name: str) -> np.ndarray:
-        """An input or output channel by name."""
-        if name in self.inputs:
-            return self.inputs[name]
-        if name in self.outputs:
-            return self.outputs[name]
-        raise RecordingError(
-            f"recording {self.name!r}: no channel {name!r}; channels are "
-            f"{sorted(self.inputs) + sorted(self.outputs)}"
-        )
 
     # ------------------------------------------------------------------ slicing
     def select(self, index: slice | np.ndarray, name: str | None = None, **meta: Any) -> Recording:

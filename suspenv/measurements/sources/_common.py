@@ -47,12 +47,10 @@ def load_mat(path: Path, names: Iterable[str], max_bytes: int | None = None) -> 
 
 
 def mat_field(data: dict, key: str, path: Path) -> np.ndarray:
-    """A variable of a loaded .mat file as a float array; missing or not numeric -> clear
-    error."""
+    """A variable of a file read by :func:`load_mat` as a float array; missing or not
+    numeric -> clear error."""
     if key not in data:
-        names = data.get("__present__")
-        if names is None:
-            names = sorted(k for k in data if not k.startswith("__"))
+        names = data["__present__"]
         raise RecordingError(f"{path.name}: missing variable {key!r}; the file holds {names}")
     arr = np.asarray(data[key])
     if arr.dtype.kind not in "biuf":

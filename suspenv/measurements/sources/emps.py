@@ -90,13 +90,11 @@ def load_emps(
             )
     inputs = _motion_channels(qm, t, window_s, path)
     inputs["reference_position"] = qg
+    dt = float(np.median(np.diff(t)))
     meta: dict[str, Any] = {  # Recording.meta: free JSON-like metadata
         "source": SOURCE,
         "file": path.name,
-        "sampling": {
-            "dt_s": float(np.median(np.diff(t))),
-            "rate_hz": 1.0 / float(np.median(np.diff(t))),
-        },
+        "sampling": {"dt_s": dt, "rate_hz": 1.0 / dt},
         "gtau_N_per_V": gtau,
         "differentiator": f"Savitzky-Golay, cubic, window {window_s} s",
         "notes": "motor force = gtau * vir; closed-loop positioning run",

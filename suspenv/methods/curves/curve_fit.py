@@ -307,12 +307,6 @@ class CurveModel(UnitFit):
 
         return max([t.amplitude for t in self.tests if t.test in TESTS] or [0.040])
 
-    @property
-    def names(self) -> list[str]:
-        """Names of the fitted values (``<name>@right`` for a right twin,
-        ``<effect>.<parameter>`` for an effect's)."""
-        return list(self.sub.names)
-
     def full(self, X: np.ndarray) -> np.ndarray:
         """Designs (n, 49), (n, 98) or (n, width) as the model's (n, width): a 49-value
         design of a two-sided model is the same on both sides; the fitted effect

@@ -31,9 +31,7 @@ tiny although the valley is long. Otherwise the verdict says why:
   its change; the verdict names those with the largest correlation.
 
 :func:`rank_tests` predicts the standard errors with a further rig test's Jacobian
-stacked under ``J`` (same noise model, same ``s^2``) and orders the candidate tests by
-the number of parameters they would newly identify, then by the mean log reduction of
-the standard errors of those still not identified.
+stacked under ``J`` (same noise model, same ``s^2``) and orders the candidate tests.
 """
 
 from __future__ import annotations

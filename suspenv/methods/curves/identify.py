@@ -129,11 +129,7 @@ def check_options(options: Mapping[str, Any]) -> dict[str, Any]:
     from suspenv.measurements.knc import RIG_TESTS
 
     who = "identify"
-    unknown = sorted(set(options) - set(DEFAULTS))
-    if unknown:
-        raise ValidationError(
-            f"identify: unknown option {unknown[0]!r} (known: {', '.join(sorted(DEFAULTS))})"
-        )
+    check.check_keywords(who, options, DEFAULTS)
     o = {**DEFAULTS, **dict(options)}
     choices = {
         "method": METHODS,
@@ -299,14 +295,9 @@ def build_model(
 ) -> CurveModel:
     """The :class:`CurveModel` of a measurement on a vehicle (its space, constants,
     orientation, effects); the tests the rig cannot simulate are refused."""
-    from suspenv.measurements.knc import RIG_TESTS
+    from suspenv.measurements.knc import check_rig_tests
 
-    unknown = [t for t in measurement.tests if t not in RIG_TESTS]
-    if unknown:
-        raise ValidationError(
-            f"identify: the rig simulates the tests {RIG_TESTS}, but the measurement holds "
-            f"{unknown}"
-        )
+    check_rig_tests(tuple(measurement.tests))
     tests = []
     for name, mt in measurement.tests.items():
         wheels = tuple(getattr(mt, "wheels", ("left", "right")))

@@ -17,12 +17,10 @@ a misfit of a loop's physics (hysteresis of another shape, a fit stopped short) 
 correlated over every channel recorded through it and biases the metrics the loops
 disagree on, which ``s^2``, one factor for every direction, does not see. The sandwich
 is estimated from ``G`` loop scores only (8 to 10 on a car, 2 per test): its interval
-takes the usual small-sample correction of a cluster-robust variance, the factor
-``G / (G - 1)`` and Student's t quantile with ``G - 1`` degrees of freedom in place of
-the normal one (:func:`sandwich_quantile`); a test fewer (one held out) widens it. The
-gradient is
-taken on the model without its path-dependent elements (a hysteresis loop's mean moves
-with the design as the elastic curve does); the value itself on the whole model. A
+takes a small-sample quantile (:func:`sandwich_quantile`); a test fewer (one held out)
+widens it. The gradient is taken on the model without its path-dependent elements (a
+hysteresis loop's mean moves with the design as the elastic curve does); the value
+itself on the whole model. A
 metric that the measured curves do not determine gets a wide interval, not a false one.
 Loop widths (hysteresis) get no interval (that model has no loop).
 The right-minus-left asymmetry gets its own interval from the difference of the two

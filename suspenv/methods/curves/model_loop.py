@@ -20,18 +20,11 @@ same :class:`~suspenv.methods.curves.curve_fit.CurveModel` the first fit used:
 * patterns of the sensors (load-cell gain or offset) are reported, not modelled.
 
 Once the sides are apart the residual is screened again and only the patterns still
-named are modelled (a left/right difference also leaves cubic-looking residuals).
-Every valley the first fit polished goes through the sides apart and the place screen,
-and the one whose best place costs least is refitted: without the named physics the
-valleys cost nearly the same, with it they differ by orders of magnitude.
-
-Then, for each near-tied place, all parameters, the design's and the effects', are
-polished together from the first fit's answer (least squares with the same weak pull
-towards the start design as the first fit) by secant steps: Broyden's update of a
-differenced Jacobian, one rig loop per step instead of one per parameter, each restart
-from a differenced Jacobian, until a restart gains less than one squared noise unit.
-The places' refits run side by side (one per process), each is judged after its own
-refit, and the residual is screened again.
+named are modelled (a left/right difference also leaves cubic-looking residuals); the
+first fit's valleys are compared with the named physics in them (:func:`refine`). Each
+near-tied place is then refitted in full, the design's and the effects' parameters
+together, by secant steps (:func:`_refit`), the places side by side (:func:`_refits`),
+and the one of the least BIC is kept.
 """
 
 from __future__ import annotations
@@ -227,11 +220,11 @@ def refine(
     t0 = time.perf_counter()
     say = say or (lambda _m: None)
     skipped = [f for f in named if f != SIDES_FAMILY and f not in EFFECT_FAMILIES]
-    changes: list[str] = []
-    if SIDES_FAMILY in named and not fit.model.two_sided:
+    apart = SIDES_FAMILY in named and not fit.model.two_sided
+    changes = []
+    if apart:
         changes.append("sides apart: every free parameter but the anti-roll bar gets a right twin")
     starts = fit.valleys
-    apart = SIDES_FAMILY in named and not fit.model.two_sided
     # the second valley's sides-apart polish in the second process when there is one
     there = (
         pool.submit(_apart, fit, starts[1], x0, polish_nfev)

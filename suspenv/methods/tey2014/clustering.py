@@ -16,6 +16,7 @@ from scipy.cluster import hierarchy
 from scipy.spatial.distance import pdist, squareform
 
 from suspenv.core.errors import ValidationError
+from suspenv.methods.tey2014.sensitivity import column_names
 
 #: the linkages compared in the paper
 LINKAGE_METHODS: tuple[str, ...] = ("average", "complete", "single", "weighted")
@@ -105,12 +106,7 @@ def cluster_objectives(
             f"linkage methods must be a non-empty subset of {LINKAGE_METHODS}, but got "
             f"{list(methods)}"
         )
-    nm = tuple(names) if names is not None else tuple(f"f{j}" for j in range(F.shape[0]))
-    if len(nm) != F.shape[0]:
-        raise ValidationError(
-            f"`len(names) == n_objectives` must hold, but got (len(names)={len(nm)}, "
-            f"n_objectives={F.shape[0]})"
-        )
+    nm = column_names(names, F.shape[0])
     coph, links, D = cophenetic_correlations(F, methods)
     scores = [(-np.inf if np.isnan(coph[m]) else coph[m]) for m in methods]
     best = list(methods)[int(np.argmax(scores))]

@@ -110,10 +110,6 @@ STUDY_DEFAULTS: dict[str, Any] = {
     "report": True,
 }
 
-#: CMA-ES options unless the config's ``[strategy.options]`` says otherwise (those of
-#: the strategy comparison's CMA-ES)
-STRATEGY_DEFAULTS: dict[str, Any] = STRATEGY_OPTIONS["cmaes"]
-
 DEFAULT_BUDGET = 2250
 
 
@@ -250,9 +246,7 @@ def check_tey2014_config(config: dict[str, Any]) -> dict[str, Any]:
     opts = study_options(config)
     problem = build_problem(config)
     _main_strategy(problem, config, opts, initial_design(problem))
-    budget = config.get("budget", DEFAULT_BUDGET)
-    if not isinstance(budget, int) or isinstance(budget, bool) or budget < 1:
-        raise ValidationError(f"config: `budget` must be an integer >= 1, but got {budget!r}")
+    budget = check.integer("config", "budget", config.get("budget", DEFAULT_BUDGET), 1)
     run = dict(config.get("run", {}) or {})
     run["timeout_s"] = FaultPolicy.for_run(run, problem).timeout_s
     return {**config, "budget": budget, "study": opts, "run": run}
@@ -314,9 +308,11 @@ def _strategy_section(config: dict[str, Any]) -> tuple[str, dict[str, Any]]:
 
 
 def _main_strategy(problem: Problem, config: dict, opts: dict, x0: np.ndarray) -> Any:
-    """The config's strategy (CMA-ES on the rank-sum by default), started at ``x0``."""
+    """The config's strategy (CMA-ES on the rank-sum by default, with the strategy
+    comparison's CMA-ES options unless ``[strategy.options]`` says otherwise), started
+    at ``x0``."""
     name, own = _strategy_section(config)
-    options = {**(STRATEGY_DEFAULTS if name == "cmaes" else {}), **own}
+    options = {**(STRATEGY_OPTIONS["cmaes"] if name == "cmaes" else {}), **own}
     if name == "cmaes" and opts["start"] == "initial" and "x0" not in options:
         options["x0"] = [float(v) for v in np.clip(problem.space.to_unit(x0[None, :])[0], 0, 1)]
     return make_strategy(name, problem, seed=int(config.get("seed", 0)), **options)

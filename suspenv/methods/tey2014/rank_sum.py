@@ -17,6 +17,7 @@ import numpy as np
 
 from suspenv.core.errors import ValidationError
 from suspenv.core.scalarize import min_max_normalised, rank_sum
+from suspenv.methods.tey2014.sensitivity import column_names
 
 
 @dataclass
@@ -96,11 +97,7 @@ def compare_rank_sum_euclidean(
         raise ValidationError(
             f"the comparison needs `n_valid_designs >= 2`, but got n_valid_designs={F.shape[0]}"
         )
-    nm = tuple(names) if names is not None else tuple(f"f{j}" for j in range(F.shape[1]))
-    if len(nm) != F.shape[1]:
-        raise ValidationError(
-            f"`len(names) == n_objectives` must hold, but got ({len(nm)}, {F.shape[1]})"
-        )
+    nm = column_names(names, F.shape[1])
     rs = rank_sum(F)
     eu = np.sqrt((F**2).sum(axis=1))
     return ScalarisationComparison(

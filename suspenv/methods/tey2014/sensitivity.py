@@ -58,6 +58,23 @@ class SensitivityResult:
         return [n for n, s in zip(self.param_names, any_significant, strict=True) if not s]
 
 
+def column_names(
+    names: Sequence[str] | None,
+    n: int,
+    prefix: str = "f",
+    what: str = "names",
+    count: str = "n_objectives",
+) -> tuple[str, ...]:
+    """``names`` as a tuple, one per column of ``n`` (None: ``<prefix>0``, ``<prefix>1``
+    ...); another count is refused naming ``what`` and ``count``."""
+    out = tuple(names) if names is not None else tuple(f"{prefix}{j}" for j in range(n))
+    if len(out) != n:
+        raise ValidationError(
+            f"`len({what}) == {count}` must hold, but got (len({what})={len(out)}, {count}={n})"
+        )
+    return out
+
+
 def _standardised_ranks(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Column ranks (ties averaged), centred, unit norm; also which columns are constant."""
     R = stats.rankdata(A, axis=0)
@@ -93,13 +110,8 @@ def spearman_matrix(
             f"Spearman sensitivity needs `n_valid_rows >= 4`, but got n_valid_rows={n}"
         )
     d, m = X.shape[1], F.shape[1]
-    pn = tuple(param_names) if param_names is not None else tuple(f"x{i}" for i in range(d))
-    on = tuple(objective_names) if objective_names is not None else tuple(f"f{j}" for j in range(m))
-    if len(pn) != d or len(on) != m:
-        raise ValidationError(
-            f"names must match the columns, but got (len(param_names)={len(pn)}, d={d}, "
-            f"len(objective_names)={len(on)}, m={m})"
-        )
+    pn = column_names(param_names, d, "x", "param_names", "d")
+    on = column_names(objective_names, m, "f", "objective_names", "m")
     Zx, cx = _standardised_ranks(X[keep])
     Zf, cf = _standardised_ranks(F[keep])
     rho = np.clip(Zx.T @ Zf, -1.0, 1.0)
