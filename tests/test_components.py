@@ -152,6 +152,29 @@ def test_truth_noise_level_seed_and_blindness():
     assert "coulomb" not in text and "20.0" not in text
 
 
+def test_truth_of_the_field_damper_keeps_its_coil_current():
+    # reference: the planted parameters; a noise-free recording of the model is fitted
+    # exactly by the model, so the refit stops at them to the solver's tolerance
+    model = make_component("mr_damper", field="coil_current")
+    sines = model.example_recording(seed=1)
+    current = (np.sin(2 * np.pi * 0.2 * sines.time) > 0).astype(float)  # 0 / 1 A switching
+    rec = Recording(
+        sines.name,
+        sines.test,
+        sines.time,
+        {**sines.inputs, "coil_current": current},
+        {},
+        {**sines.units, "coil_current": "A"},
+    )
+    planted = {"c": 800.0, "k": 500.0, "f_0": 5.0, "c_field": 1500.0, "f_y": 40.0}
+    theta = model.theta_from({**planted, "f_field": 300.0, "x_y": 1.5e-3, "shape": 0.5})
+    truth = simulate_truth(model, theta, rec)
+    assert np.array_equal(truth.inputs["coil_current"], current)
+    assert truth.units["coil_current"] == "A"
+    res = fit(model, truth, tol=1e-12)
+    assert_recovered(model, res, theta, rel=1e-6)
+
+
 # ------------------------------------------------------------------ interface rules
 def test_parameter_names_bounds_and_fixed_parameters():
     model = make_component(

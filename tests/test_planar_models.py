@@ -211,6 +211,16 @@ def test_geometry_file_round_trip(tmp_path):
             assert float(getattr(back, f)) == pytest.approx(float(getattr(g, f)))
 
 
+def test_geometry_name_with_quote_and_backslash_round_trips():
+    import tomllib
+    from dataclasses import replace
+
+    g = replace(load_geometry("mcpherson"), name='front "A" \\ rig')
+    back = geometry_from_dict(tomllib.loads(geometry_to_toml(g)))
+    assert back.name == 'front "A" \\ rig'
+    assert back.to_dict() == g.to_dict()
+
+
 def test_bad_geometry_files_name_the_rule():
     with pytest.raises(ValidationError, match="`kind` must be one of"):
         geometry_from_dict({"kind": "trailing_arm"})

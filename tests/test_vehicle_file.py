@@ -23,6 +23,7 @@ from suspenv.models.mcpherson.params import (
     euler_313,
 )
 from suspenv.models.mcpherson.solver import BUSH_ORDER
+from suspenv.models.mcpherson.vehicle_checks import check_links
 from suspenv.models.mcpherson.vehicle_file import (
     FAR_GEOMETRY_FILE,
     REFERENCE_FILE,
@@ -178,6 +179,7 @@ def test_check_assembles_refuses_with_the_reason(tmp_path):
     f, r = (np.array([x[IDX[f"lca_{s}_bush_{a}"]] for a in "xyz"]) for s in ("front", "rear"))
     for a, v in zip("xyz", f + 2.0 * (r - f), strict=True):  # ball joint on the pivot axis
         x[IDX[f"lower_ball_joint_{a}"]] = v
+    check_links(VehicleFile("on_axis", x, x).axle())  # the rule is check_assembles' own
     with pytest.raises(ValidationError, match="lower ball joint must lie off"):
         check_assembles(VehicleFile("on_axis", x, x))
     # a top mount of 1e-3 N/mm cannot carry the spring preload: no static equilibrium

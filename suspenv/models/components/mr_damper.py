@@ -110,34 +110,19 @@ class MRFieldDamperModel(MRDamperModel):
     )
     base_parameters = (
         *MRDamperModel.base_parameters,
-        Parameter(
-            "c_field",
-            -1e6,
-            1e6,
-            unit="N s/m/field",
-            default=0.0,
-            description="viscous damping per unit of the field input",
+        *(
+            Parameter(name, low, high, unit, log=log, default=default, description=meaning)
+            for name, low, high, unit, log, default, meaning in (
+                ("c_field", -1e6, 1e6, "N s/m/field", False, 0.0,
+                 "viscous damping per unit of the field input"),
+                ("f_y", 0.0, 1e5, "N", False, 50.0, "yield force at u = 0"),
+                ("f_field", -1e5, 1e5, "N/field", False, 0.0,
+                 "yield force per unit of the field input"),
+                ("x_y", 1e-6, 0.05, "m", True, 1e-3, "yield displacement of the hysteresis"),
+                ("shape", 0.0, 1.0, "", False, 0.5, "loop shape b"),
+            )
         ),
-        Parameter("f_y", 0.0, 1e5, unit="N", default=50.0, description="yield force at u = 0"),
-        Parameter(
-            "f_field",
-            -1e5,
-            1e5,
-            unit="N/field",
-            default=0.0,
-            description="yield force per unit of the field input",
-        ),
-        Parameter(
-            "x_y",
-            1e-6,
-            0.05,
-            unit="m",
-            log=True,
-            default=1e-3,
-            description="yield displacement of the hysteresis",
-        ),
-        Parameter("shape", 0.0, 1.0, unit="", default=0.5, description="loop shape b"),
-    )
+    )  # fmt: skip
     candidate_effects = tuple(
         k
         for k in MRDamperModel.candidate_effects

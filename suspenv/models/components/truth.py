@@ -30,8 +30,9 @@ def simulate_truth(
     Args:
         model: the truth model (base + effects).
         theta: its parameter vector ``(p,)``, ordered as ``model.parameter_names``.
-        rec_inputs: a recording providing ``time`` and the model's input channels
-            (its outputs, if any, are ignored).
+        rec_inputs: a recording providing ``time`` and the model's input channels;
+            the new recording keeps those the model reads (``model.reads_inputs``),
+            optional ones where given (its outputs, if any, are ignored).
         noise_std: a float is a *relative* noise level: Gaussian noise with standard
             deviation ``noise_std * RMS(channel)`` per output; a mapping gives the
             absolute standard deviation per output channel in its unit.
@@ -52,8 +53,11 @@ def simulate_truth(
         if sd < 0:
             raise ValidationError(f"`noise_std >= 0` must hold, but got {sd} for channel {ch!r}")
         outputs[ch] = y + sd * rng.standard_normal(y.shape)
-    inputs = {c: rec_inputs.inputs[c].copy() for c in model.input_channels}
-    units = {c: model.channel_units[c] for c in (*model.input_channels, *model.output_channels)}
+    # every channel the model read (an MR damper's coil current too), in its recorded unit
+    read = [c for c in model.reads_inputs if c in rec_inputs.inputs]
+    inputs = {c: rec_inputs.inputs[c].copy() for c in read}
+    units = {c: rec_inputs.units[c] for c in read}
+    units.update({c: model.channel_units[c] for c in model.output_channels})
     meta = {k: v for k, v in rec_inputs.meta.items() if k in ("source", "sampling", "blocks")}
     meta["notes"] = "simulated recording with measurement noise"
     return Recording(

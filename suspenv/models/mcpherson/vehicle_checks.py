@@ -74,8 +74,10 @@ def check_geometry(axle: Axle, effects: Sequence = (), where: str = "vehicle") -
 
 
 def check_links(axle: Axle, where: str = "vehicle") -> None:
-    """Rules 1 to 3 of the module docstring (no solve) on the first design of ``axle``,
-    the links first (a strut of zero length leaves the points built on its axis NaN)."""
+    """Rules 1 to 3 of the module docstring (own side, strut top above the ball joint,
+    links of non-zero length; no solve) on both corners of the first design of
+    ``axle``, each corner's links first (a strut of zero length leaves the points built
+    on its axis NaN)."""
     pts = {k: np.asarray(v[0], float) for k, v in axle.points.items()}  # (2, 3) [m]
     for side, sign in ((0, 1.0), (1, -1.0)):
         for a, b in LINKS:

@@ -271,9 +271,11 @@ def vehicle_from_dict(data: dict[str, Any], where: str, default_name: str) -> Ve
 def check_assembles(vehicle: VehicleFile) -> None:
     """Refuse a vehicle whose linkage has no static equilibrium, with the reason.
 
-    Checks, in order: the linkage is not degenerate (the geometry rules of
-    :func:`~suspenv.models.mcpherson.vehicle_checks.check_links`: every link at least
-    1 mm long; lower-arm bushes and ball joint not in one line); the ideal-joint linkage
+    Checks, in order: the geometry rules of
+    :func:`~suspenv.models.mcpherson.vehicle_checks.check_links` on both corners (every
+    point on its own side, the strut top at least 1 mm above the ball joint, every link
+    at least 1 mm long); here, the lower ball joint of the left corner more than 1e-6 m
+    off the lower-arm pivot axis (the line of the two bushes); the ideal-joint linkage
     has a unique kinematic motion at the design position (the spring preload is sized on
     it); the compliant axle (with its effects) finds a static equilibrium on the rig pads
     (:class:`AxleSolver`, the rig's own first solve) with bushing deflections within the

@@ -34,7 +34,7 @@ import numpy as np
 
 from suspenv.core.errors import ValidationError
 from suspenv.core.options import check_keywords, choice, number, numbers, positive, text
-from suspenv.core.tomlfile import parse_toml, read_toml
+from suspenv.core.tomlfile import parse_toml, read_toml, toml_value
 
 _MM = 1e-3
 
@@ -378,8 +378,8 @@ def geometry_to_toml(geometry: PlanarGeometry) -> str:
     lines = [
         "# front view of the left wheel: y outboard from the centreline, z up from the",
         "# ground, mm; camber in deg (negative = top of the wheel towards the body)",
-        f'kind = "{d["kind"]}"',
-        f'name = "{d["name"]}"',
+        f"kind = {toml_value(d['kind'])}",
+        f"name = {toml_value(d['name'])}",
         "",
         "[points]",
     ]
