@@ -69,10 +69,9 @@ def write_kc_report(problem: KCIdentification, run_dir: Path, archive: Any) -> l
 
 def plot_measured_vs_model(measured: Curves, model: Curves, path: Path) -> None:
     """Measured loops (dots) against a model's curves (lines), left wheel."""
-    plt = pyplot()
     tests = list(measured)
     labels = ["toe [deg]", "camber [deg]", "tyre force [N]"]
-    fig, axes = plt.subplots(
+    fig, axes = pyplot().subplots(
         len(labels), len(tests), figsize=(4 * len(tests), 8), constrained_layout=True, squeeze=False
     )
     for j, test in enumerate(tests):

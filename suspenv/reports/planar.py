@@ -166,8 +166,7 @@ def save_linkage_figure(
     outputs: Sequence[tuple[str, SweepOutputs]],
 ) -> Path:
     """The linkage on the left and its curves on the right, as PNG; returns the path."""
-    plt = pyplot()
-    fig = plt.figure(figsize=(14, 10))
+    fig = pyplot().figure(figsize=(14, 10))
     grid = fig.add_gridspec(5, 3)
     plot_linkage(fig.add_subplot(grid[:, :2]), geom, sweep)
     axes = [fig.add_subplot(grid[i, 2]) for i in range(5)]
@@ -177,8 +176,7 @@ def save_linkage_figure(
 
 def save_curves_figure(path: str | Path, outputs: Sequence[tuple[str, SweepOutputs]]) -> Path:
     """All five curves on one PNG; returns the path."""
-    plt = pyplot()
-    fig, axes = plt.subplots(1, 5, figsize=(20, 4))
+    fig, axes = pyplot().subplots(1, 5, figsize=(20, 4))
     plot_curves(list(axes), outputs)
     return save_figure(fig, path, dpi=100, tight=True)
 

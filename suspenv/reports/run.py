@@ -156,7 +156,6 @@ def plot_convergence(
 ) -> Path:
     """Best-so-far of every objective against evaluations (log scale where positive);
     one row up to 5 objectives, a grid of :data:`CONVERGENCE_COLUMNS` columns above."""
-    plt = pyplot()
     m = objectives.shape[1]
     if m <= 5:
         rows, cols, size = 1, m, (4.2, 3.4)
@@ -164,7 +163,7 @@ def plot_convergence(
         cols = min(CONVERGENCE_COLUMNS, m)
         rows, size = math.ceil(m / cols), (3.0, 2.4)
     grid = rows > 1
-    fig, axes = plt.subplots(
+    fig, axes = pyplot().subplots(
         rows, cols, figsize=(size[0] * cols, size[1] * rows), squeeze=False, sharex=grid
     )
     n = np.arange(1, objectives.shape[0] + 1)
@@ -210,7 +209,6 @@ def plot_pareto_pairs(
     the non-dominated mask over the feasible rows when already known; ``marks``: label ->
     row of ``objectives`` drawn as a star (:data:`MARK_COLOURS`). Above
     :data:`MAX_POINTS` rows the scatter draws a seeded subsample (see :func:`subsample`)."""
-    plt = pyplot()
     F = objectives[feasible]
     cols = list(range(objectives.shape[1])) if columns is None else list(columns)
     k = len(cols)
@@ -219,7 +217,7 @@ def plot_pareto_pairs(
     grey = subsample(np.arange(len(F)))
     red = subsample(np.flatnonzero(front))
     # a column shows one objective on x in every row (the diagonal's histogram too)
-    fig, axes = plt.subplots(k, k, figsize=(2.6 * k, 2.6 * k), squeeze=False, sharex="col")
+    fig, axes = pyplot().subplots(k, k, figsize=(2.6 * k, 2.6 * k), squeeze=False, sharex="col")
     for a, i in enumerate(cols):
         for b, j in enumerate(cols):
             ax = axes[a, b]
@@ -268,7 +266,6 @@ def plot_parallel(
     of ``objectives`` drawn as a thick line (:data:`MARK_COLOURS`); ``designs``: the
     unit-cube designs of every row (n, d) and the variables' names, drawn in a second
     panel (0 = range min, 1 = max)."""
-    plt = pyplot()
     rows = np.flatnonzero(feasible)
     if front is None:
         front = nondominated(objectives[rows]) if len(rows) else np.zeros(0, bool)
@@ -283,7 +280,7 @@ def plot_parallel(
     if designs is not None:
         panels.append((designs[0], designs[1], "design variable, 0 = range min, 1 = max"))
         width += 1.2 * len(designs[1])
-    fig, axes = plt.subplots(
+    fig, axes = pyplot().subplots(
         1, len(panels), figsize=(width, 5.0 if many else 3.6), squeeze=False,
         gridspec_kw={"width_ratios": [len(p[1]) for p in panels]},
     )

@@ -23,12 +23,11 @@ from suspenv.reports.diagnosis.component import residual_map
 
 def time_overlays(diag: Diagnosis, path: Path) -> Path:
     """Measured vs baseline vs final model, every channel of every pulse recording."""
-    plt = pyplot()
     recs = [
         r for r in diag.split.fit_recordings + diag.split.heldout_recordings if r.test == "pulse"
     ]
     chans = diag.base_fit.channels
-    fig, axes = plt.subplots(
+    fig, axes = pyplot().subplots(
         len(recs),
         len(chans),
         figsize=(4.2 * len(chans), 2.6 * len(recs)),
@@ -63,9 +62,8 @@ def psd_overlays(diag: Diagnosis, path: Path) -> Path | None:
     ]
     if not recs:
         return None
-    plt = pyplot()
     chans = diag.base_fit.channels
-    fig, axes = plt.subplots(
+    fig, axes = pyplot().subplots(
         len(recs), len(chans), figsize=(4.2 * len(chans), 3.0 * len(recs)), squeeze=False
     )
     for i, rec in enumerate(recs):

@@ -64,10 +64,9 @@ def write_road_report(diag: Diagnosis, profile: Recording, out_dir: str | Path) 
 
 def _plot_psd(profile: Recording, spectrum: dict[str, Any], png: Path) -> Path:
     """The measured PSD with both fits and the ISO 8608 class lines; the residual by band."""
-    plt = pyplot()
     n_w, p_w = welch_psd(*profile_grid(profile), segment_length=64.0)
     f, s = spectrum["free_fit"], spectrum["standard_fit"]
-    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(12, 4.5))
+    fig, (ax, ax2) = pyplot().subplots(1, 2, figsize=(12, 4.5))
     sel = n_w > 0
     ax.loglog(n_w[sel], p_w[sel], color="0.3", label=f"{profile.name} (Welch)")
     nn = np.geomspace(f["band"][0], f["band"][1], 100)
