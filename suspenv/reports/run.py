@@ -113,14 +113,13 @@ def write_run_figures(
     return figures
 
 
-def pair_objectives(F: np.ndarray, limit: int | None = None) -> list[int]:
-    """Columns of F (n, m) the pair plot shows: all when m <= ``limit`` (default
-    :data:`MAX_PAIR_OBJECTIVES`), else the ``limit`` with the largest relative spread
+def pair_objectives(F: np.ndarray) -> list[int]:
+    """Columns of F (n, m) the pair plot shows: all when m <= :data:`MAX_PAIR_OBJECTIVES`,
+    else the :data:`MAX_PAIR_OBJECTIVES` with the largest relative spread
     ``(P90 - P10) / (|P50| + P90 - P10)`` over the finite values (unit-free, in [0, 1]; a
     constant column 0), in their original order."""
-    limit = MAX_PAIR_OBJECTIVES if limit is None else limit
     m = F.shape[1]
-    if m <= limit:
+    if m <= MAX_PAIR_OBJECTIVES:
         return list(range(m))
     spread = np.zeros(m)
     for j in range(m):
@@ -129,7 +128,7 @@ def pair_objectives(F: np.ndarray, limit: int | None = None) -> list[int]:
             p10, p50, p90 = np.percentile(col, [10.0, 50.0, 90.0])
             width = p90 - p10
             spread[j] = width / (abs(p50) + width) if width > 0 else 0.0
-    order = np.argsort(-spread, kind="stable")[:limit]
+    order = np.argsort(-spread, kind="stable")[:MAX_PAIR_OBJECTIVES]
     return sorted(int(j) for j in order)
 
 
@@ -202,12 +201,10 @@ def plot_pareto_pairs(
     path: Path,
     columns: Sequence[int] | None = None,
     front: np.ndarray | None = None,
-    marks: Mapping[str, int] | None = None,
 ) -> Path:
     """Pairwise scatter of the feasible evaluations, non-dominated set (over all
     objectives) highlighted; ``columns``: the objectives shown (default all); ``front``:
-    the non-dominated mask over the feasible rows when already known; ``marks``: label ->
-    row of ``objectives`` drawn as a star (:data:`MARK_COLOURS`). Above
+    the non-dominated mask over the feasible rows when already known. Above
     :data:`MAX_POINTS` rows the scatter draws a seeded subsample (see :func:`subsample`)."""
     F = objectives[feasible]
     cols = list(range(objectives.shape[1])) if columns is None else list(columns)
@@ -227,16 +224,11 @@ def plot_pareto_pairs(
             else:
                 ax.scatter(F[grey, j], F[grey, i], s=3, c="0.75", lw=0)
                 ax.scatter(F[red, j], F[red, i], s=6, c="tab:red", lw=0)
-                for (label, row), colour in zip((marks or {}).items(), MARK_COLOURS, strict=False):
-                    f = objectives[row]
-                    ax.scatter(f[j], f[i], marker="*", s=90, c=colour, label=label, zorder=5)
             ax.tick_params(labelsize=6)
             if a == k - 1:
                 ax.set_xlabel(names[j], fontsize=8)
             if b == 0:
                 ax.set_ylabel(names[i], fontsize=8)
-    if marks and k > 1:
-        fig.legend(*axes[1, 0].get_legend_handles_labels(), loc="upper right", fontsize=8)
     title = "Feasible evaluations (grey) and non-dominated set (red)"
     if k < objectives.shape[1]:
         title += f": {k} of {objectives.shape[1]} objectives (largest relative spread)"
