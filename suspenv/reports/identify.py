@@ -613,11 +613,9 @@ def write_identify_report(result: IdentifyResult, out: Path, figures: bool = Tru
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    toml = out / "identified.toml"
-    write_file(toml, dump_vehicle(result.identified_vehicle))
+    toml = write_file(out / "identified.toml", dump_vehicle(result.identified_vehicle))
     s = summary(result)
-    js = out / "identify.json"
-    write_json(js, s)
+    js = write_json(out / "identify.json", s)
     figs = _figures(result, out) if figures else {}
     lines = _first_screen(result, s) + [""]
     if "residual" in figs:  # the fit before and after the loop: the first thing seen
@@ -643,7 +641,6 @@ def write_identify_report(result: IdentifyResult, out: Path, figures: bool = Tru
     lines += ["## Stages", "", markdown_table(rows)]
     if "convergence" in figs:
         lines += ["![convergence](figures/convergence.png)", ""]
-    rep = out / "report.md"
-    write_file(rep, "\n".join(lines) + "\n")
+    rep = write_file(out / "report.md", "\n".join(lines) + "\n")
     return [toml, js, *figs.values(), rep]
 

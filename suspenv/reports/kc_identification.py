@@ -60,8 +60,7 @@ def write_kc_report(problem: KCIdentification, run_dir: Path, archive: Any) -> l
         for n, v, u in zip(problem.space.names, x_best, problem.space.units, strict=True)
     ]
     lines += ["", "![curves](kc_curves.png)", ""]
-    md = run_dir / "kc_report.md"
-    write_file(md, "\n".join(lines))
+    md = write_file(run_dir / "kc_report.md", "\n".join(lines))
     png = run_dir / "kc_curves.png"
     plot_measured_vs_model(problem.measured_curves(), problem.curves(x_best), png)
     return [md, png]

@@ -68,8 +68,7 @@ def write_minibus_ride_report(
     psd_png = _plot_psd(names, rec, road.sample_rate, out / "ride_psd.png")
     pulse_png = _plot_pulses(names, pulses, pulse_speeds_kmh, out / "ride_pulse.png")
     lines += ["", f"![acceleration PSD]({psd_png.name})", "", f"![pulse]({pulse_png.name})", ""]
-    md = out / "ride_report.md"
-    write_file(md, "\n".join(lines))
+    md = write_file(out / "ride_report.md", "\n".join(lines))
     return [md, psd_png, pulse_png]
 
 

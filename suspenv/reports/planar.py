@@ -217,8 +217,7 @@ def write_planar_report(problem: PlanarLinkage, run_dir: Path, archive: Any) -> 
     run_dir = Path(run_dir)
     geom, sw, out = problem.single_sweep(x)
     geom = replace(geom, name=f"{problem.baseline.name} (optimised)")
-    toml_path = run_dir / "planar_best.toml"
-    write_file(toml_path, geometry_to_toml(geom))
+    toml_path = write_file(run_dir / "planar_best.toml", geometry_to_toml(geom))
     _, _, base_out = problem.single_sweep(problem.space.reference())
     curves = [("optimised", out), ("baseline", base_out)]
     if problem.target_outputs is not None:
@@ -267,6 +266,5 @@ def write_planar_report(problem: PlanarLinkage, run_dir: Path, archive: Any) -> 
         f"Plot again: `suspenv planar {toml_path} --plot`",
         "",
     ]
-    md_path = run_dir / "planar_report.md"
-    write_file(md_path, "\n".join(lines))
+    md_path = write_file(run_dir / "planar_report.md", "\n".join(lines))
     return [toml_path, fig_path, md_path]

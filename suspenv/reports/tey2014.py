@@ -486,9 +486,7 @@ def write_tey2014_report(study: Tey2014Study, run_dir: Path, figures: bool = Tru
     md += _beyond_md(study, s, run_dir)
     md.append("\n## Timings (s)\n")
     md.append(markdown_table([{"step": k, "seconds": v} for k, v in study.timings.items()]))
-    path = run_dir / "report.md"
-    write_file(path, "\n".join(md))
-    return path
+    return write_file(run_dir / "report.md", "\n".join(md))
 
 
 def _intro_md(study: Tey2014Study, s: dict[str, Any], img: Callable[[str, str], str]) -> list[str]:

@@ -15,12 +15,12 @@ from typing import Any
 import numpy as np
 
 from suspenv.core.atomic import write_file
-from suspenv.core.jsonable import json_text
 from suspenv.core.markdown import fmt as _fmt
 from suspenv.core.markdown import table_lines, text
 from suspenv.diagnosis.component.motion import motion
 from suspenv.diagnosis.engine import Diagnosis
 from suspenv.reports._mpl import pyplot, save_figure
+from suspenv.runs.run_dir import write_json
 
 
 def residual_map(diag: Diagnosis, path: Path) -> Path:
@@ -297,8 +297,6 @@ def write_component_report(diag: Diagnosis, out_dir: Path | str) -> list[Path]:
         "overlay": overlay(diag, out / "overlay.png").name,
         "loops": loops(diag, out / "loops.png").name,
     }
-    md = out / "report.md"
-    write_file(md, markdown(diag, figs))
-    js = out / "diagnosis.json"
-    write_file(js, json_text(diag.to_dict()))
+    md = write_file(out / "report.md", markdown(diag, figs))
+    js = write_json(out / "diagnosis.json", diag.to_dict())
     return [md, js, *(out / f for f in figs.values())]

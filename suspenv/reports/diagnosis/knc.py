@@ -15,7 +15,6 @@ from typing import Any
 import numpy as np
 
 from suspenv.core.atomic import write_file
-from suspenv.core.jsonable import json_text
 from suspenv.core.markdown import markdown_table, text
 from suspenv.diagnosis.knc.locate import BRANCHES
 from suspenv.measurements.knc import (
@@ -28,6 +27,7 @@ from suspenv.measurements.knc import (
     rig_test,
 )
 from suspenv.reports._mpl import pyplot, save_figure
+from suspenv.runs.run_dir import write_json
 
 #: plot scale and unit per channel
 PLOT_UNITS = {
@@ -150,8 +150,7 @@ def write_knc_report(diag: Any, out_dir: str | Path) -> list[Path]:
     recs = list(diag.fit_recordings) + list(diag.heldout_recordings)
     paths.append(plot_loops(diag, recs, out / "loops.png"))
     paths.append(plot_left_right(diag, recs, out / "left_right.png"))
-    write_file(out / "diagnosis.json", json_text(diag.to_dict()))
-    paths.append(out / "diagnosis.json")
+    paths.append(write_json(out / "diagnosis.json", diag.to_dict()))
     lines = _findings_md(diag)
     if diag.comparison is not None:
         lines += _comparison_md(diag.comparison)
@@ -168,8 +167,7 @@ def write_knc_report(diag: Any, out_dir: str | Path) -> list[Path]:
         "![left-right](left_right.png)",
         "",
     ]
-    write_file(out / "report.md", "\n".join(lines))
-    paths.append(out / "report.md")
+    paths.append(write_file(out / "report.md", "\n".join(lines)))
     return paths
 
 

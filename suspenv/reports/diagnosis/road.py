@@ -14,13 +14,13 @@ from typing import Any
 import numpy as np
 
 from suspenv.core.atomic import write_file
-from suspenv.core.jsonable import json_text
 from suspenv.core.markdown import table_lines, text
 from suspenv.diagnosis.engine import Diagnosis
 from suspenv.diagnosis.road import profile_grid
 from suspenv.measurements import Recording
 from suspenv.models.road import displacement_psd, welch_psd
 from suspenv.reports._mpl import pyplot, save_figure
+from suspenv.runs.run_dir import write_json
 
 
 def _fit_row(model: str, fit: dict[str, Any], waviness: str) -> list[str]:
@@ -55,10 +55,8 @@ def write_road_report(diag: Diagnosis, profile: Recording, out_dir: str | Path) 
         f"![PSD and residual by band]({png.name})",
         "",
     ]
-    md = out / "road_diagnosis.md"
-    write_file(md, "\n".join(lines))
-    js = out / "road_diagnosis.json"
-    write_file(js, json_text(diag.to_dict()))
+    md = write_file(out / "road_diagnosis.md", "\n".join(lines))
+    js = write_json(out / "road_diagnosis.json", diag.to_dict())
     return [md, png, js]
 
 
