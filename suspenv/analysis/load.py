@@ -211,17 +211,14 @@ class RunRecord:
         }
 
     @property
-    def strategy_config(self) -> dict[str, Any]:
-        """What defines the strategy: its name and configured options (seed excluded)."""
-        return {"strategy": self.strategy, "options": self.strategy_options}
-
-    @property
     def problem_hash(self) -> str:
         return config_hash(self.problem_config)
 
     @property
     def strategy_hash(self) -> str:
-        return config_hash(self.strategy_config)
+        """Hash of what defines the strategy: its name and configured options (seed
+        excluded)."""
+        return config_hash({"strategy": self.strategy, "options": self.strategy_options})
 
     def arrays(self) -> dict[str, np.ndarray] | None:
         """Every evaluation of the curve (:meth:`RunArchive.arrays`), or None when the run

@@ -36,10 +36,9 @@ from suspenv.reports._mpl import pyplot, save_figure
 
 
 def _axes(n: int, width: float = 5.2, height: float = 3.8) -> tuple[Any, list[Any]]:
-    plt = pyplot()
     cols = min(n, 3)
     rows = int(np.ceil(n / cols))
-    fig, axes = plt.subplots(rows, cols, figsize=(width * cols, height * rows), squeeze=False)
+    fig, axes = pyplot().subplots(rows, cols, figsize=(width * cols, height * rows), squeeze=False)
     flat = list(axes.ravel())
     for ax in flat[n:]:
         ax.set_visible(False)
@@ -133,8 +132,7 @@ def plot_profile(comparison: Comparison, path: Path) -> Path | None:
     prof = comparison.profile
     if not prof:
         return None
-    plt = pyplot()
-    fig, ax = plt.subplots(figsize=(6.2, 4))
+    fig, ax = pyplot().subplots(figsize=(6.2, 4))
     taus = np.asarray(prof["taus"], dtype=float)
     right = max(2.0, float(taus.max()) * 1.5)
     for name, rho in zip(prof["solvers"], prof["rho"], strict=True):

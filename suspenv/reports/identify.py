@@ -77,9 +77,8 @@ def plot_curves(result: IdentifyResult, path: Path) -> Path | None:
     for f in (first, final):
         res, ok, _ = f.model.simulate(f.x[None])
         sims.append((res, bool(ok[0])))
-    plt = pyplot()
     ncol = 2 * len(tests)
-    fig, axes = plt.subplots(
+    fig, axes = pyplot().subplots(
         len(chans), ncol, figsize=(2.9 * ncol, 2.1 * len(chans)), squeeze=False
     )
     rms = final.model.block_rms(final.residual)
@@ -129,8 +128,7 @@ def plot_residual(result: IdentifyResult, path: Path) -> Path:
     if result.loop is not None:
         bars.append(("after the loop", after, "tab:red"))
     keys = sorted(after, key=lambda k: -after[k])
-    plt = pyplot()
-    fig, ax = plt.subplots(figsize=(max(6, 0.3 * len(keys) + 2), 3.8))
+    fig, ax = pyplot().subplots(figsize=(max(6, 0.3 * len(keys) + 2), 3.8))
     pos = np.arange(len(keys))
     w = 0.8 / len(bars)
     for k, (name, rms, colour) in enumerate(bars):
@@ -149,8 +147,7 @@ def plot_residual(result: IdentifyResult, path: Path) -> Path:
 
 def plot_convergence(result: IdentifyResult, path: Path) -> Path:
     """Cost (sum of squared noise-scaled residuals) after each step of each stage."""
-    plt = pyplot()
-    fig, ax = plt.subplots(figsize=(6, 3.4))
+    fig, ax = pyplot().subplots(figsize=(6, 3.4))
     k = 0
     for s in result.fit.stages:
         h = np.asarray(s.history, float)
@@ -616,11 +613,9 @@ def write_identify_report(result: IdentifyResult, out: Path, figures: bool = Tru
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    toml = out / "identified.toml"
-    write_file(toml, dump_vehicle(result.identified_vehicle))
+    toml = write_file(out / "identified.toml", dump_vehicle(result.identified_vehicle))
     s = summary(result)
-    js = out / "identify.json"
-    write_json(js, s)
+    js = write_json(out / "identify.json", s)
     figs = _figures(result, out) if figures else {}
     lines = _first_screen(result, s) + [""]
     if "residual" in figs:  # the fit before and after the loop: the first thing seen
@@ -646,7 +641,6 @@ def write_identify_report(result: IdentifyResult, out: Path, figures: bool = Tru
     lines += ["## Stages", "", markdown_table(rows)]
     if "convergence" in figs:
         lines += ["![convergence](figures/convergence.png)", ""]
-    rep = out / "report.md"
-    write_file(rep, "\n".join(lines) + "\n")
+    rep = write_file(out / "report.md", "\n".join(lines) + "\n")
     return [toml, js, *figs.values(), rep]
 

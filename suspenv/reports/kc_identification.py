@@ -60,8 +60,7 @@ def write_kc_report(problem: KCIdentification, run_dir: Path, archive: Any) -> l
         for n, v, u in zip(problem.space.names, x_best, problem.space.units, strict=True)
     ]
     lines += ["", "![curves](kc_curves.png)", ""]
-    md = run_dir / "kc_report.md"
-    write_file(md, "\n".join(lines))
+    md = write_file(run_dir / "kc_report.md", "\n".join(lines))
     png = run_dir / "kc_curves.png"
     plot_measured_vs_model(problem.measured_curves(), problem.curves(x_best), png)
     return [md, png]
@@ -69,10 +68,9 @@ def write_kc_report(problem: KCIdentification, run_dir: Path, archive: Any) -> l
 
 def plot_measured_vs_model(measured: Curves, model: Curves, path: Path) -> None:
     """Measured loops (dots) against a model's curves (lines), left wheel."""
-    plt = pyplot()
     tests = list(measured)
     labels = ["toe [deg]", "camber [deg]", "tyre force [N]"]
-    fig, axes = plt.subplots(
+    fig, axes = pyplot().subplots(
         len(labels), len(tests), figsize=(4 * len(tests), 8), constrained_layout=True, squeeze=False
     )
     for j, test in enumerate(tests):

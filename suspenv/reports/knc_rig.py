@@ -46,9 +46,8 @@ def x_axis(res: KCResult) -> tuple[str, dict[str, np.ndarray]]:
 
 def plot_rig_curves(res: KCResult, path: Path, title: str) -> None:
     """:data:`PANELS` of design 0 against the test's drive (:func:`x_axis`), both wheels."""
-    plt = pyplot()
     xlabel, x = x_axis(res)
-    fig, axes = plt.subplots(2, 3, figsize=(12, 7), constrained_layout=True)
+    fig, axes = pyplot().subplots(2, 3, figsize=(12, 7), constrained_layout=True)
     for ax, (label, (ch, scale, mirrored)) in zip(axes.ravel(), PANELS.items(), strict=True):
         for w, (side, style) in enumerate(zip(SIDES, ("-", "--"), strict=True)):
             y = res.channels[ch][0, :, w] * scale * (SIDE_SIGN[w] if mirrored else 1.0)

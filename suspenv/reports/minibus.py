@@ -102,8 +102,7 @@ def write_minibus_report(
         "Suspension report before/after: [suspension_report.md](suspension_report.md).",
         "",
     ]
-    md = run_dir / "minibus_report.md"
-    write_file(md, "\n".join(lines))
+    md = write_file(run_dir / "minibus_report.md", "\n".join(lines))
     return [md, *figures, *susp]
 
 

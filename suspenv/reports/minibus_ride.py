@@ -68,8 +68,7 @@ def write_minibus_ride_report(
     psd_png = _plot_psd(names, rec, road.sample_rate, out / "ride_psd.png")
     pulse_png = _plot_pulses(names, pulses, pulse_speeds_kmh, out / "ride_pulse.png")
     lines += ["", f"![acceleration PSD]({psd_png.name})", "", f"![pulse]({pulse_png.name})", ""]
-    md = out / "ride_report.md"
-    write_file(md, "\n".join(lines))
+    md = write_file(out / "ride_report.md", "\n".join(lines))
     return [md, psd_png, pulse_png]
 
 
@@ -101,9 +100,8 @@ def _ride_table(
 def _plot_psd(names: list[str], rec: RideRecord, fs: float, path: Path) -> Path:
     """Acceleration PSDs of the random-road record ``rec`` (sampled at ``fs`` Hz) above
     the front and rear suspension, one panel per load case and end."""
-    plt = pyplot()
     n = len(names)
-    fig, axes = plt.subplots(2, 2, figsize=(11, 7), sharex=True)
+    fig, axes = pyplot().subplots(2, 2, figsize=(11, 7), sharex=True)
     for j, lc in enumerate(LOAD_CASES):
         for k, (label, acc) in enumerate((("front", rec.acc_front), ("rear", rec.acc_rear))):
             ax = axes[j, k]
@@ -123,8 +121,7 @@ def _plot_pulses(
     names: list[str], pulses: dict[float, PulseResult], speeds: Sequence[float], path: Path
 ) -> Path:
     """Acceleration histories over the pulse of each speed (no load), front and rear."""
-    plt = pyplot()
-    fig, axes = plt.subplots(len(speeds), 2, figsize=(11, 3.2 * len(speeds)), squeeze=False)
+    fig, axes = pyplot().subplots(len(speeds), 2, figsize=(11, 3.2 * len(speeds)), squeeze=False)
     for m, v in enumerate(speeds):
         res = pulses[v]
         for k, (label, acc) in enumerate(

@@ -166,8 +166,7 @@ def save_linkage_figure(
     outputs: Sequence[tuple[str, SweepOutputs]],
 ) -> Path:
     """The linkage on the left and its curves on the right, as PNG; returns the path."""
-    plt = pyplot()
-    fig = plt.figure(figsize=(14, 10))
+    fig = pyplot().figure(figsize=(14, 10))
     grid = fig.add_gridspec(5, 3)
     plot_linkage(fig.add_subplot(grid[:, :2]), geom, sweep)
     axes = [fig.add_subplot(grid[i, 2]) for i in range(5)]
@@ -177,8 +176,7 @@ def save_linkage_figure(
 
 def save_curves_figure(path: str | Path, outputs: Sequence[tuple[str, SweepOutputs]]) -> Path:
     """All five curves on one PNG; returns the path."""
-    plt = pyplot()
-    fig, axes = plt.subplots(1, 5, figsize=(20, 4))
+    fig, axes = pyplot().subplots(1, 5, figsize=(20, 4))
     plot_curves(list(axes), outputs)
     return save_figure(fig, path, dpi=100, tight=True)
 
@@ -219,8 +217,7 @@ def write_planar_report(problem: PlanarLinkage, run_dir: Path, archive: Any) -> 
     run_dir = Path(run_dir)
     geom, sw, out = problem.single_sweep(x)
     geom = replace(geom, name=f"{problem.baseline.name} (optimised)")
-    toml_path = run_dir / "planar_best.toml"
-    write_file(toml_path, geometry_to_toml(geom))
+    toml_path = write_file(run_dir / "planar_best.toml", geometry_to_toml(geom))
     _, _, base_out = problem.single_sweep(problem.space.reference())
     curves = [("optimised", out), ("baseline", base_out)]
     if problem.target_outputs is not None:
@@ -269,6 +266,5 @@ def write_planar_report(problem: PlanarLinkage, run_dir: Path, archive: Any) -> 
         f"Plot again: `suspenv planar {toml_path} --plot`",
         "",
     ]
-    md_path = run_dir / "planar_report.md"
-    write_file(md_path, "\n".join(lines))
+    md_path = write_file(run_dir / "planar_report.md", "\n".join(lines))
     return [toml_path, fig_path, md_path]

@@ -113,14 +113,13 @@ def write_run_figures(
     return figures
 
 
-def pair_objectives(F: np.ndarray, limit: int | None = None) -> list[int]:
-    """Columns of F (n, m) the pair plot shows: all when m <= ``limit`` (default
-    :data:`MAX_PAIR_OBJECTIVES`), else the ``limit`` with the largest relative spread
+def pair_objectives(F: np.ndarray) -> list[int]:
+    """Columns of F (n, m) the pair plot shows: all when m <= :data:`MAX_PAIR_OBJECTIVES`,
+    else the :data:`MAX_PAIR_OBJECTIVES` with the largest relative spread
     ``(P90 - P10) / (|P50| + P90 - P10)`` over the finite values (unit-free, in [0, 1]; a
     constant column 0), in their original order."""
-    limit = MAX_PAIR_OBJECTIVES if limit is None else limit
     m = F.shape[1]
-    if m <= limit:
+    if m <= MAX_PAIR_OBJECTIVES:
         return list(range(m))
     spread = np.zeros(m)
     for j in range(m):
@@ -129,7 +128,7 @@ def pair_objectives(F: np.ndarray, limit: int | None = None) -> list[int]:
             p10, p50, p90 = np.percentile(col, [10.0, 50.0, 90.0])
             width = p90 - p10
             spread[j] = width / (abs(p50) + width) if width > 0 else 0.0
-    order = np.argsort(-spread, kind="stable")[:limit]
+    order = np.argsort(-spread, kind="stable")[:MAX_PAIR_OBJECTIVES]
     return sorted(int(j) for j in order)
 
 
@@ -156,7 +155,6 @@ def plot_convergence(
 ) -> Path:
     """Best-so-far of every objective against evaluations (log scale where positive);
     one row up to 5 objectives, a grid of :data:`CONVERGENCE_COLUMNS` columns above."""
-    plt = pyplot()
     m = objectives.shape[1]
     if m <= 5:
         rows, cols, size = 1, m, (4.2, 3.4)
@@ -164,7 +162,7 @@ def plot_convergence(
         cols = min(CONVERGENCE_COLUMNS, m)
         rows, size = math.ceil(m / cols), (3.0, 2.4)
     grid = rows > 1
-    fig, axes = plt.subplots(
+    fig, axes = pyplot().subplots(
         rows, cols, figsize=(size[0] * cols, size[1] * rows), squeeze=False, sharex=grid
     )
     n = np.arange(1, objectives.shape[0] + 1)
@@ -203,14 +201,11 @@ def plot_pareto_pairs(
     path: Path,
     columns: Sequence[int] | None = None,
     front: np.ndarray | None = None,
-    marks: Mapping[str, int] | None = None,
 ) -> Path:
     """Pairwise scatter of the feasible evaluations, non-dominated set (over all
     objectives) highlighted; ``columns``: the objectives shown (default all); ``front``:
-    the non-dominated mask over the feasible rows when already known; ``marks``: label ->
-    row of ``objectives`` drawn as a star (:data:`MARK_COLOURS`). Above
+    the non-dominated mask over the feasible rows when already known. Above
     :data:`MAX_POINTS` rows the scatter draws a seeded subsample (see :func:`subsample`)."""
-    plt = pyplot()
     F = objectives[feasible]
     cols = list(range(objectives.shape[1])) if columns is None else list(columns)
     k = len(cols)
@@ -219,7 +214,7 @@ def plot_pareto_pairs(
     grey = subsample(np.arange(len(F)))
     red = subsample(np.flatnonzero(front))
     # a column shows one objective on x in every row (the diagonal's histogram too)
-    fig, axes = plt.subplots(k, k, figsize=(2.6 * k, 2.6 * k), squeeze=False, sharex="col")
+    fig, axes = pyplot().subplots(k, k, figsize=(2.6 * k, 2.6 * k), squeeze=False, sharex="col")
     for a, i in enumerate(cols):
         for b, j in enumerate(cols):
             ax = axes[a, b]
@@ -229,16 +224,11 @@ def plot_pareto_pairs(
             else:
                 ax.scatter(F[grey, j], F[grey, i], s=3, c="0.75", lw=0)
                 ax.scatter(F[red, j], F[red, i], s=6, c="tab:red", lw=0)
-                for (label, row), colour in zip((marks or {}).items(), MARK_COLOURS, strict=False):
-                    f = objectives[row]
-                    ax.scatter(f[j], f[i], marker="*", s=90, c=colour, label=label, zorder=5)
             ax.tick_params(labelsize=6)
             if a == k - 1:
                 ax.set_xlabel(names[j], fontsize=8)
             if b == 0:
                 ax.set_ylabel(names[i], fontsize=8)
-    if marks and k > 1:
-        fig.legend(*axes[1, 0].get_legend_handles_labels(), loc="upper right", fontsize=8)
     title = "Feasible evaluations (grey) and non-dominated set (red)"
     if k < objectives.shape[1]:
         title += f": {k} of {objectives.shape[1]} objectives (largest relative spread)"
@@ -268,7 +258,6 @@ def plot_parallel(
     of ``objectives`` drawn as a thick line (:data:`MARK_COLOURS`); ``designs``: the
     unit-cube designs of every row (n, d) and the variables' names, drawn in a second
     panel (0 = range min, 1 = max)."""
-    plt = pyplot()
     rows = np.flatnonzero(feasible)
     if front is None:
         front = nondominated(objectives[rows]) if len(rows) else np.zeros(0, bool)
@@ -283,7 +272,7 @@ def plot_parallel(
     if designs is not None:
         panels.append((designs[0], designs[1], "design variable, 0 = range min, 1 = max"))
         width += 1.2 * len(designs[1])
-    fig, axes = plt.subplots(
+    fig, axes = pyplot().subplots(
         1, len(panels), figsize=(width, 5.0 if many else 3.6), squeeze=False,
         gridspec_kw={"width_ratios": [len(p[1]) for p in panels]},
     )

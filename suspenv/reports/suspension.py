@@ -176,10 +176,9 @@ def plot_elements(
     designs: Mapping[str, np.ndarray], path: Path, vehicle: Minibus = REFERENCE_MINIBUS
 ) -> Path:
     """PNG of each design's rear leaf force-deflection and front/rear damper curves."""
-    plt = pyplot()
     d = np.linspace(0.0, 0.14, 200)
     v = np.linspace(-1.0, 1.0, 201)
-    fig, axes = plt.subplots(1, 3, figsize=(13, 4))
+    fig, axes = pyplot().subplots(1, 3, figsize=(13, 4))
     for name, x in designs.items():
         si = design_to_si(np.asarray(x, dtype=float), vehicle)
         axes[0].plot(d * 1e3, leaf_force(d, si.rear_primary_rate[0], si.rear_composite_rate[0],

@@ -30,11 +30,10 @@ if TYPE_CHECKING:
 
 
 def plot_sensitivity(study: Tey2014Study, path: Path) -> Path:
-    plt = pyplot()
     s = study.sensitivity
     R = s.rho_significant
     d, m = R.shape
-    fig, ax = plt.subplots(figsize=(max(6, 0.22 * m + 3), max(4, 0.2 * d + 2)))
+    fig, ax = pyplot().subplots(figsize=(max(6, 0.22 * m + 3), max(4, 0.2 * d + 2)))
     im = ax.imshow(R, cmap="RdBu_r", vmin=-1, vmax=1, aspect="auto")
     ax.set_xticks(range(m), s.objective_names, rotation=90, fontsize=6)
     ax.set_yticks(range(d), s.param_names, fontsize=6)
@@ -46,7 +45,6 @@ def plot_sensitivity(study: Tey2014Study, path: Path) -> Path:
 
 
 def plot_dendrogram(study: Tey2014Study, path: Path) -> Path:
-    plt = pyplot()
     c, sel = study.clustering, study.selection
     Z = c.linkage
     k = sel.k
@@ -55,7 +53,7 @@ def plot_dendrogram(study: Tey2014Study, path: Path) -> Path:
     h = np.sort(Z[:, 2])
     thr = 0.5 * (h[m - k - 1] + h[m - k]) if 0 < k < m else h[-1]
     labels = [("* " if i in study.kept else "") + n for i, n in enumerate(c.names)]
-    fig, ax = plt.subplots(figsize=(max(6, 0.25 * m + 2), 4.5))
+    fig, ax = pyplot().subplots(figsize=(max(6, 0.25 * m + 2), 4.5))
     hierarchy.dendrogram(Z, labels=labels, color_threshold=thr, ax=ax, leaf_font_size=6)
     ax.axhline(thr, color="k", ls=":", lw=0.8)
     ax.set_ylabel("Euclidean distance of Spearman vectors")
@@ -66,9 +64,8 @@ def plot_dendrogram(study: Tey2014Study, path: Path) -> Path:
 
 
 def plot_silhouette(study: Tey2014Study, path: Path) -> Path:
-    plt = pyplot()
     sel = study.selection
-    fig, ax = plt.subplots(figsize=(6.5, 3.8))
+    fig, ax = pyplot().subplots(figsize=(6.5, 3.8))
     ax.plot(sel.n_clusters, sel.mean_silhouette, "o-", ms=3, label="mean silhouette")
     ax.set_xlabel("number of clusters")
     ax.set_ylabel("mean silhouette")
@@ -89,10 +86,9 @@ def _run_curve(run: RunArrays, quality, cols: list[int] | None) -> tuple[np.ndar
 
 
 def plot_convergence(study: Tey2014Study, path: Path) -> Path:
-    plt = pyplot()
     kept = study.kept
     q = study.quality.subset(kept)
-    fig, ax = plt.subplots(figsize=(6.5, 4))
+    fig, ax = pyplot().subplots(figsize=(6.5, 4))
     tot, best = _run_curve(study.cmaes, q, None)  # the CMA-ES archive holds the kept columns
     n = np.arange(1, tot.size + 1)
     ax.plot(n, tot, ".", ms=2, color="0.7", label="each CMA-ES evaluation")
@@ -123,11 +119,10 @@ def plot_convergence(study: Tey2014Study, path: Path) -> Path:
 
 
 def plot_rank_vs_euclidean(study: Tey2014Study, path: Path) -> Path:
-    plt = pyplot()
     c = study.comparison
     a, b = c.winner_profiles
     m = a.size
-    fig, (ax1, ax2) = plt.subplots(
+    fig, (ax1, ax2) = pyplot().subplots(
         1, 2, figsize=(max(9, 0.3 * m + 5), 4), gridspec_kw={"width_ratios": [2, 1]}
     )
     pos = np.arange(m)
@@ -152,7 +147,6 @@ def plot_rank_vs_euclidean(study: Tey2014Study, path: Path) -> Path:
 
 
 def plot_curves(study: Tey2014Study, folder: Path) -> list[Path]:
-    plt = pyplot()
     p = study.problem
     model = getattr(p, "curves", None)
     measured = getattr(p, "measured_curves", None)
@@ -167,7 +161,7 @@ def plot_curves(study: Tey2014Study, folder: Path) -> list[Path]:
         names = list(channels)
         ncol = min(3, len(names))
         nrow = int(np.ceil(len(names) / ncol))
-        fig, axes = plt.subplots(nrow, ncol, figsize=(4.2 * ncol, 3.2 * nrow), squeeze=False)
+        fig, axes = pyplot().subplots(nrow, ncol, figsize=(4.2 * ncol, 3.2 * nrow), squeeze=False)
         for ax, ch in zip(axes.flat, names, strict=False):
             xm, ym = channels[ch]
             ax.plot(xm, ym, "k.-", ms=2, lw=0.8, label="measured (both branches)")
@@ -190,7 +184,6 @@ def plot_curves(study: Tey2014Study, folder: Path) -> list[Path]:
 
 def plot_profiles(study: Tey2014Study, path: Path) -> Path | None:
     """Heat map: rise of the scaled mismatch as each parameter sweeps its range (one row each)."""
-    plt = pyplot()
     prof = study.profiles
     if prof is None:
         return None
@@ -198,7 +191,7 @@ def plot_profiles(study: Tey2014Study, path: Path) -> Path | None:
     flat = prof.flat(study.options["flat_tol"])
     rise = prof.score - prof.center_score
     sp = study.problem.space
-    fig, ax = plt.subplots(figsize=(6.5, max(3.0, 0.2 * d + 1.5)))
+    fig, ax = pyplot().subplots(figsize=(6.5, max(3.0, 0.2 * d + 1.5)))
     im = ax.imshow(
         np.log10(np.maximum(rise, 0.0) + 1e-3),
         aspect="auto",
@@ -227,7 +220,6 @@ def plot_profiles(study: Tey2014Study, path: Path) -> Path | None:
 
 
 def plot_recovery(study: Tey2014Study, path: Path) -> Path | None:
-    plt = pyplot()
     if study.recovery is None:
         return None
     sp = study.problem.space
@@ -235,7 +227,7 @@ def plot_recovery(study: Tey2014Study, path: Path) -> Path | None:
     err = np.array([r["error"] for r in study.recovery]) / rng * 100
     std = study.identification.std / rng * 100
     d = err.size
-    fig, ax = plt.subplots(figsize=(max(6, 0.22 * d + 2), 3.6))
+    fig, ax = pyplot().subplots(figsize=(max(6, 0.22 * d + 2), 3.6))
     ax.bar(range(d), err, yerr=std, capsize=2)
     ax.axhline(0, color="k", lw=0.6)
     ax.set_xticks(range(d), sp.names, rotation=90, fontsize=6)
@@ -494,9 +486,7 @@ def write_tey2014_report(study: Tey2014Study, run_dir: Path, figures: bool = Tru
     md += _beyond_md(study, s, run_dir)
     md.append("\n## Timings (s)\n")
     md.append(markdown_table([{"step": k, "seconds": v} for k, v in study.timings.items()]))
-    path = run_dir / "report.md"
-    write_file(path, "\n".join(md))
-    return path
+    return write_file(run_dir / "report.md", "\n".join(md))
 
 
 def _intro_md(study: Tey2014Study, s: dict[str, Any], img: Callable[[str, str], str]) -> list[str]:

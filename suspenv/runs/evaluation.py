@@ -317,8 +317,7 @@ def time_limit(seconds: float) -> Iterator[None]:
 
     Inside :func:`alarm_handler` (the run loop enters it once per run) only the timer is
     armed and disarmed; otherwise the handler is installed and restored around the block."""
-    usable = hasattr(signal, "setitimer") and threading.current_thread() is threading.main_thread()
-    if not usable or not math.isfinite(seconds):
+    if not _timers_usable() or not math.isfinite(seconds):
         yield
         return
     global _limit_s
@@ -336,6 +335,11 @@ def time_limit(seconds: float) -> Iterator[None]:
             signal.signal(signal.SIGALRM, previous)
 
 
+def _timers_usable() -> bool:
+    """``SIGALRM`` timers work here: on POSIX (``setitimer``), in the main thread."""
+    return hasattr(signal, "setitimer") and threading.current_thread() is threading.main_thread()
+
+
 #: the limit of the innermost :func:`time_limit` (for the timeout's message)
 _limit_s = math.inf
 
@@ -348,8 +352,7 @@ def _expire(signum: int, frame: Any) -> None:
 def alarm_handler() -> Iterator[None]:
     """Install the timeout's ``SIGALRM`` handler for the whole block (a run), so that each
     :func:`time_limit` inside only arms a timer; the previous handler is restored after."""
-    usable = hasattr(signal, "setitimer") and threading.current_thread() is threading.main_thread()
-    if not usable or signal.getsignal(signal.SIGALRM) is _expire:
+    if not _timers_usable() or signal.getsignal(signal.SIGALRM) is _expire:
         yield
         return
     previous = signal.signal(signal.SIGALRM, _expire)

@@ -51,21 +51,17 @@ def source_commit() -> str | None:
     Asked once per process (two ``git`` calls, about 20 ms): the source a process runs is
     the one it imported, and every run and benchmark of the process records the same."""
     root = Path(__file__).resolve().parents[2]
-    try:
-        sha = subprocess.run(
-            ["git", "-C", str(root), "rev-parse", "HEAD"],
-            capture_output=True,
-            text=True,
-            timeout=10,
+
+    def git(*args: str) -> subprocess.CompletedProcess[str]:
+        return subprocess.run(
+            ["git", "-C", str(root), *args], capture_output=True, text=True, timeout=10
         )
+
+    try:
+        sha = git("rev-parse", "HEAD")
         if sha.returncode != 0:
             return None
-        status = subprocess.run(
-            ["git", "-C", str(root), "status", "--porcelain", "--untracked-files=no"],
-            capture_output=True,
-            text=True,
-            timeout=10,
-        )
+        status = git("status", "--porcelain", "--untracked-files=no")
     except (OSError, subprocess.SubprocessError):
         return None
     modified = "+modified" if status.returncode == 0 and status.stdout.strip() else ""

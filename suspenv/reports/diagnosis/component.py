@@ -15,21 +15,20 @@ from typing import Any
 import numpy as np
 
 from suspenv.core.atomic import write_file
-from suspenv.core.jsonable import json_text
 from suspenv.core.markdown import fmt as _fmt
 from suspenv.core.markdown import table_lines, text
 from suspenv.diagnosis.component.motion import motion
 from suspenv.diagnosis.engine import Diagnosis
 from suspenv.reports._mpl import pyplot, save_figure
+from suspenv.runs.run_dir import write_json
 
 
 def residual_map(diag: Diagnosis, path: Path) -> Path:
     """Bars of residual-energy share per part (text: enrichment), one panel per dimension
     (also the ride diagnosis' map)."""
-    plt = pyplot()
     dims = [d for d in diag.location.dimensions() if d != "frequency band"]
     dims.append("frequency band") if "frequency band" in diag.location.dimensions() else None
-    fig, axes = plt.subplots(len(dims), 1, figsize=(7, 1.2 + 1.0 * len(dims)), squeeze=False)
+    fig, axes = pyplot().subplots(len(dims), 1, figsize=(7, 1.2 + 1.0 * len(dims)), squeeze=False)
     for ax, dim in zip(axes[:, 0], dims, strict=True):
         parts = diag.location.by_dimension(dim)
         y = np.arange(len(parts))
@@ -54,7 +53,6 @@ def _predictions(diag: Diagnosis, rec: Any) -> tuple[np.ndarray, np.ndarray]:
 
 def overlay(diag: Diagnosis, path: Path, max_seconds: float = 4.0) -> Path:
     """Measured vs baseline vs final on the held-out data (first few seconds)."""
-    plt = pyplot()
     sp = diag.split
     rec = sp.heldout_recordings[0]
     mask = np.ones(len(rec.time), bool) if sp.heldout_masks is None else sp.heldout_masks[0]
@@ -64,7 +62,7 @@ def overlay(diag: Diagnosis, path: Path, max_seconds: float = 4.0) -> Path:
     before, after = _predictions(diag, rec)
     meas = np.asarray(rec.outputs[diag.channel], float)
     unit = rec.units.get(diag.channel, "")
-    fig, (a1, a2) = plt.subplots(2, 1, figsize=(7, 4.5), sharex=True)
+    fig, (a1, a2) = pyplot().subplots(2, 1, figsize=(7, 4.5), sharex=True)
     a1.plot(t[idx], meas[idx], "k", lw=1.0, label="measured")
     a1.plot(t[idx], before[idx], "tab:blue", lw=1.0, label="baseline")
     if diag.named:
@@ -83,7 +81,6 @@ def overlay(diag: Diagnosis, path: Path, max_seconds: float = 4.0) -> Path:
 
 def loops(diag: Diagnosis, path: Path) -> Path:
     """Force-displacement and force-velocity loops: measured, baseline, final."""
-    plt = pyplot()
     sp = diag.split
     rec = sp.fit_recordings[0]
     mask = np.ones(len(rec.time), bool) if sp.fit_masks is None else sp.fit_masks[0]
@@ -91,7 +88,7 @@ def loops(diag: Diagnosis, path: Path) -> Path:
     before, after = _predictions(diag, rec)
     meas = np.asarray(rec.outputs[diag.channel], float)
     unit = rec.units.get(diag.channel, "")
-    fig, axes = plt.subplots(1, 3, figsize=(11, 3.6))
+    fig, axes = pyplot().subplots(1, 3, figsize=(11, 3.6))
     for ax, (u, label) in zip(
         axes[:2], ((1e3 * x, "displacement [mm]"), (v, "velocity [m/s]")), strict=True
     ):
@@ -300,8 +297,6 @@ def write_component_report(diag: Diagnosis, out_dir: Path | str) -> list[Path]:
         "overlay": overlay(diag, out / "overlay.png").name,
         "loops": loops(diag, out / "loops.png").name,
     }
-    md = out / "report.md"
-    write_file(md, markdown(diag, figs))
-    js = out / "diagnosis.json"
-    write_file(js, json_text(diag.to_dict()))
+    md = write_file(out / "report.md", markdown(diag, figs))
+    js = write_json(out / "diagnosis.json", diag.to_dict())
     return [md, js, *(out / f for f in figs.values())]

@@ -15,7 +15,6 @@ from typing import Any
 import numpy as np
 
 from suspenv.core.atomic import write_file
-from suspenv.core.jsonable import json_text
 from suspenv.core.markdown import markdown_table, text
 from suspenv.diagnosis.knc.locate import BRANCHES
 from suspenv.measurements.knc import (
@@ -28,6 +27,7 @@ from suspenv.measurements.knc import (
     rig_test,
 )
 from suspenv.reports._mpl import pyplot, save_figure
+from suspenv.runs.run_dir import write_json
 
 #: plot scale and unit per channel
 PLOT_UNITS = {
@@ -44,13 +44,12 @@ LOOP_CHANNELS = ("tyre_fz", "toe", "camber")
 
 
 def plot_residual_map(diag: Any, path: Path) -> Path:
-    plt = pyplot()
     cells = diag.location.cells
     tests = sorted({k[0] for k in cells})
     rows = [(t, c) for t in tests for c in CHANNELS]
     cols = [(b, s) for s in SIDES for b in BRANCHES]
     M = np.array([[cells.get((t, c, b, s), np.nan) for b, s in cols] for t, c in rows])
-    fig, ax = plt.subplots(figsize=(6.5, 0.35 * len(rows) + 1.5))
+    fig, ax = pyplot().subplots(figsize=(6.5, 0.35 * len(rows) + 1.5))
     im = ax.imshow(M, cmap="viridis", aspect="auto")
     ax.set_xticks(range(len(cols)), [f"{s}\n{b}" for b, s in cols])
     ax.set_yticks(range(len(rows)), [f"{t}: {c}" for t, c in rows])
@@ -65,9 +64,8 @@ def plot_residual_map(diag: Any, path: Path) -> Path:
 
 def plot_loops(diag: Any, recs: list[Any], path: Path) -> Path:
     """Loops of every test: measured (dots), baseline, final model; left solid, right dashed."""
-    plt = pyplot()
     chans = LOOP_CHANNELS
-    fig, axes = plt.subplots(
+    fig, axes = pyplot().subplots(
         len(chans), len(recs), figsize=(3.6 * len(recs), 2.3 * len(chans)), squeeze=False
     )
     for j, rec in enumerate(recs):
@@ -115,9 +113,8 @@ def left_minus_right(rec: Any, data: dict[str, np.ndarray], channel: str) -> np.
 
 def plot_left_right(diag: Any, recs: list[Any], path: Path) -> Path:
     """Left minus right (loop mid-lines at equal own travel) of the two-sided tests."""
-    plt = pyplot()
     recs = [r for r in recs if rig_test(r) != "single"]
-    fig, axes = plt.subplots(
+    fig, axes = pyplot().subplots(
         max(len(recs), 1), 3, figsize=(11, 2.6 * max(len(recs), 1)), squeeze=False
     )
     for i, rec in enumerate(recs):
@@ -153,8 +150,7 @@ def write_knc_report(diag: Any, out_dir: str | Path) -> list[Path]:
     recs = list(diag.fit_recordings) + list(diag.heldout_recordings)
     paths.append(plot_loops(diag, recs, out / "loops.png"))
     paths.append(plot_left_right(diag, recs, out / "left_right.png"))
-    write_file(out / "diagnosis.json", json_text(diag.to_dict()))
-    paths.append(out / "diagnosis.json")
+    paths.append(write_json(out / "diagnosis.json", diag.to_dict()))
     lines = _findings_md(diag)
     if diag.comparison is not None:
         lines += _comparison_md(diag.comparison)
@@ -171,8 +167,7 @@ def write_knc_report(diag: Any, out_dir: str | Path) -> list[Path]:
         "![left-right](left_right.png)",
         "",
     ]
-    write_file(out / "report.md", "\n".join(lines))
-    paths.append(out / "report.md")
+    paths.append(write_file(out / "report.md", "\n".join(lines)))
     return paths
 
 

@@ -12,23 +12,22 @@ from pathlib import Path
 import numpy as np
 
 from suspenv.core.atomic import write_file
-from suspenv.core.jsonable import json_text
 from suspenv.core.markdown import table_lines, text
 from suspenv.diagnosis.engine import Diagnosis
 from suspenv.diagnosis.ride.residual import NOISE_BAND_HZ, ResidualCheck
 from suspenv.metrics.ride import acceleration_psd
 from suspenv.reports._mpl import pyplot, save_figure
 from suspenv.reports.diagnosis.component import residual_map
+from suspenv.runs.run_dir import write_json
 
 
 def time_overlays(diag: Diagnosis, path: Path) -> Path:
     """Measured vs baseline vs final model, every channel of every pulse recording."""
-    plt = pyplot()
     recs = [
         r for r in diag.split.fit_recordings + diag.split.heldout_recordings if r.test == "pulse"
     ]
     chans = diag.base_fit.channels
-    fig, axes = plt.subplots(
+    fig, axes = pyplot().subplots(
         len(recs),
         len(chans),
         figsize=(4.2 * len(chans), 2.6 * len(recs)),
@@ -63,9 +62,8 @@ def psd_overlays(diag: Diagnosis, path: Path) -> Path | None:
     ]
     if not recs:
         return None
-    plt = pyplot()
     chans = diag.base_fit.channels
-    fig, axes = plt.subplots(
+    fig, axes = pyplot().subplots(
         len(recs), len(chans), figsize=(4.2 * len(chans), 3.0 * len(recs)), squeeze=False
     )
     for i, rec in enumerate(recs):
@@ -117,10 +115,8 @@ def write_ride_diagnosis_report(diag: Diagnosis, out_dir: str | Path) -> list[Pa
         "",
     ]
     lines += [f"![{p.stem}]({p.name})" for p in figs]
-    md = out / "ride_diagnosis.md"
-    write_file(md, "\n".join(lines) + "\n")
-    js = out / "ride_diagnosis.json"
-    write_file(js, json_text(diag.to_dict()))
+    md = write_file(out / "ride_diagnosis.md", "\n".join(lines) + "\n")
+    js = write_json(out / "ride_diagnosis.json", diag.to_dict())
     return [md, js, *figs]
 
 

@@ -14,13 +14,13 @@ from typing import Any
 import numpy as np
 
 from suspenv.core.atomic import write_file
-from suspenv.core.jsonable import json_text
 from suspenv.core.markdown import table_lines, text
 from suspenv.diagnosis.engine import Diagnosis
 from suspenv.diagnosis.road import profile_grid
 from suspenv.measurements import Recording
 from suspenv.models.road import displacement_psd, welch_psd
 from suspenv.reports._mpl import pyplot, save_figure
+from suspenv.runs.run_dir import write_json
 
 
 def _fit_row(model: str, fit: dict[str, Any], waviness: str) -> list[str]:
@@ -55,19 +55,16 @@ def write_road_report(diag: Diagnosis, profile: Recording, out_dir: str | Path) 
         f"![PSD and residual by band]({png.name})",
         "",
     ]
-    md = out / "road_diagnosis.md"
-    write_file(md, "\n".join(lines))
-    js = out / "road_diagnosis.json"
-    write_file(js, json_text(diag.to_dict()))
+    md = write_file(out / "road_diagnosis.md", "\n".join(lines))
+    js = write_json(out / "road_diagnosis.json", diag.to_dict())
     return [md, png, js]
 
 
 def _plot_psd(profile: Recording, spectrum: dict[str, Any], png: Path) -> Path:
     """The measured PSD with both fits and the ISO 8608 class lines; the residual by band."""
-    plt = pyplot()
     n_w, p_w = welch_psd(*profile_grid(profile), segment_length=64.0)
     f, s = spectrum["free_fit"], spectrum["standard_fit"]
-    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(12, 4.5))
+    fig, (ax, ax2) = pyplot().subplots(1, 2, figsize=(12, 4.5))
     sel = n_w > 0
     ax.loglog(n_w[sel], p_w[sel], color="0.3", label=f"{profile.name} (Welch)")
     nn = np.geomspace(f["band"][0], f["band"][1], 100)
