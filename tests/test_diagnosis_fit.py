@@ -159,14 +159,14 @@ def test_locate_branch_reversal_and_band_shares() -> None:
     assert loc.hotspots()[0].part == "near reversal"
 
 
-def test_locate_sides_and_tests() -> None:
+def test_locate_channels_and_tests() -> None:
     t = np.arange(0.0, 2.0, 0.01)
     x = np.sin(2 * np.pi * t)
     v = np.gradient(x, t)
-    a = Segment("run A", t, x, v, {"toe_left": np.ones_like(t), "toe_right": np.zeros_like(t)})
-    b = Segment("run B", t, x, v, {"toe_left": np.ones_like(t), "toe_right": np.zeros_like(t)})
+    res = {"body_acceleration": np.ones_like(t), "suspension_deflection": np.zeros_like(t)}
+    a, b = Segment("run A", t, x, v, res), Segment("run B", t, x, v, res)
     loc = locate([a, b])
-    side = {s.part: s.share for s in loc.by_dimension("side")}
-    assert side == {"left": 1.0, "right": 0.0}
+    channel = {s.part: s.share for s in loc.by_dimension("channel")}
+    assert channel == {"body_acceleration": 1.0, "suspension_deflection": 0.0}
     tests = {s.part: s.share for s in loc.by_dimension("test")}
     assert tests == {"run A": 0.5, "run B": 0.5}

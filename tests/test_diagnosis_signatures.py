@@ -126,13 +126,6 @@ def test_friction_step_size_matches_the_planted_friction() -> None:
     assert top.numbers["step"] == pytest.approx(120.0, rel=0.1)
 
 
-def test_lr_asymmetry_needs_two_sides() -> None:
-    s = _signals(BASE + NOISE)
-    assert score_signatures(s, ["lr_asymmetry"])[0].score == 0.0
-    s.right_residual = s.residual + 0.5
-    assert score_signatures(s, ["lr_asymmetry"])[0].score > 0.1
-
-
 def test_partial_r2_closed_forms() -> None:
     rng = np.random.default_rng(0)
     f = rng.normal(size=500)

@@ -176,16 +176,7 @@ def fits_presliding(model: Any, candidates: Sequence[str]) -> bool:
     """True when ``candidates`` hold a friction law with a pre-sliding displacement of
     its own that ``model`` fits: LuGre with its bristle stiffness ``sigma0`` among the
     model's freed parameters (a guide's contact, a damper's seal: both creep before they
-    slide).
-
-    Then that law's pre-sliding is bounded like a loop's width
-    (:func:`check_presliding_is_friction`). Where the model's test also dwells between
-    moves (``dwells_between_moves``: a loop holds its force at rest, friction does not),
-    a small hysteresis loop and friction compete on the data (:func:`check_loop_or_step`
-    is not applied): friction's pre-sliding has its law, with the stiction and the
-    Stribeck fall that a rate-independent loop lacks, so a loop that fits better is a
-    loop. Elsewhere, or without such a law, a small loop is refused as hysteresis (the
-    width decides).
+    slide). Which loop rules then apply: :func:`run`.
     """
     return rounds_own_step(model, "lugre_friction") and any(
         split_candidate(c)[0] == "lugre_friction" for c in candidates
@@ -200,8 +191,7 @@ LOOP_NOISE_MULTIPLE = 2.0
 def check_loop_resolved(candidate: str, ext: FitResult, displacement_noise: float) -> None:
     """Refuse a hysteresis refit whose loop completes within ``LOOP_NOISE_MULTIPLE``
     standard deviations of the recorded displacement's white noise ``displacement_noise``
-    [m] (where :func:`check_loop_or_step` is not applied: :func:`fits_presliding` on a
-    test that dwells between moves).
+    [m] (in place of :func:`check_loop_or_step`: :func:`run`).
 
     A force that builds up over less displacement than the displacement's own noise is,
     as far as the recording can tell, a force step at every reversal: the loop's shape is
@@ -228,9 +218,7 @@ def check_loop_or_step(candidate: str, ext: FitResult, half_stroke: float) -> No
     Such a loop is a force step at every reversal whose rise is the pre-sliding of
     friction (LuGre, Dahl's friction model: tens of micrometres), not the loop of a
     material that yields over a fair part of the stroke. Raises :class:`ValidationError`,
-    so the friction element refitted in the same round is named. Not applied where the
-    candidates hold a friction law whose pre-sliding the model fits
-    (:func:`fits_presliding`) and the test dwells between moves.
+    so the friction element refitted in the same round is named.
     """
     narrow = _loop_narrower_than(candidate, ext, HYSTERESIS_MIN_FRACTION * half_stroke)
     if narrow is None:
@@ -512,7 +500,17 @@ def run(ctx: Context) -> Finding | None:
     """The refit of ``ctx`` against the rules of its element's kind, in order; the first
     rule it breaks refuses it (a Finding with the rule's sentence). The half-stroke and
     peak speed are the fitted motion's; the displacement's noise is the family's
-    ``displacement_noise_m`` [m] (0: not measured)."""
+    ``displacement_noise_m`` [m] (0: not measured).
+
+    Where the candidates hold a friction law whose pre-sliding the model fits
+    (:func:`fits_presliding`), that pre-sliding is bounded like a loop's width
+    (:func:`check_presliding_is_friction`); where the test also dwells between moves
+    (``dwells_between_moves``: a loop holds its force at rest, friction does not), a
+    small loop and friction compete on the data (friction's law has the stiction and
+    Stribeck fall a rate-independent loop lacks, so a loop that fits better is a loop),
+    and a loop is judged against the displacement's noise only
+    (:func:`check_loop_resolved`). Elsewhere a small loop is a step
+    (:func:`check_loop_or_step`: the width decides)."""
     setup, ext, candidate = ctx.setup, ctx.refit, ctx.candidate
     if ext is None:
         return None

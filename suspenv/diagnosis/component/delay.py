@@ -92,8 +92,8 @@ PHASE_MIN_SAMPLES = 8
 #: largest cycle's: crossings of the median by noise at a standstill or a turnaround
 #: make short cycles of no stroke, whose phase says nothing
 PHASE_MIN_STROKE = 0.1
-#: the elements that make a channel late
-LATENESS_KINDS = ("sensor_lag", "sensor_delay")
+#: the elements that make a channel late, and the parameter that says how late [s]
+LATENESS_KINDS = {"sensor_lag": "tau", "sensor_delay": "delay"}
 
 
 @dataclass(frozen=True)
@@ -213,17 +213,24 @@ def bic_difference(a: FitResult, b: FitResult) -> float:
     return ar1_effective_size(total, better.extra.get("lag1_autocorrelation", 0.0))
 
 
-def fit_delay(current: FitResult, sp: Split, channel: str, start: float, budget: int) -> FitResult:
-    """``current``'s model with a pure delay of ``channel`` (started at ``start`` [s]),
-    refitted on the fit samples."""
+def fit_delay(
+    current: FitResult,
+    sp: Split,
+    channel: str,
+    start: float,
+    budget: int,
+    kind: str = "sensor_delay",
+) -> FitResult:
+    """``current``'s model with a pure delay (or another of :data:`LATENESS_KINDS`) of
+    ``channel``, started ``start`` [s] late, refitted on the fit samples."""
     return refit_with(
         current,
-        "sensor_delay",
+        kind,
         sp.fit_recordings,
         sp.fit_masks,
         location=channel,
         max_nfev=budget,
-        guess_given={"delay": start},
+        guess_given={LATENESS_KINDS[kind]: start},
     )
 
 
@@ -247,15 +254,7 @@ def fit_together(
     tau = parameter_and_error(lag, "sensor_lag", "tau")[0]
     late = parameter_and_error(delay, "sensor_delay", "delay")[0]
     from_lag = fit_delay(lag, sp, channel, TOGETHER_START * late, budget)
-    from_delay = refit_with(
-        delay,
-        "sensor_lag",
-        sp.fit_recordings,
-        sp.fit_masks,
-        location=channel,
-        max_nfev=budget,
-        guess_given={"tau": TOGETHER_START * tau},
-    )
+    from_delay = fit_delay(delay, sp, channel, TOGETHER_START * tau, budget, "sensor_lag")
     return min(from_lag, from_delay, key=lambda f: float(sum(f.ssr.values())))
 
 

@@ -7,9 +7,8 @@ Partitions (those that apply to the data at hand):
     channel, test (recording), branch (sign of velocity: bump = compression v > 0,
     rebound v < 0), reversal neighbourhood (displacement travelled since the last
     velocity reversal below 10 % of the stroke), amplitude bins (|x - centre| in
-    quarters of the half-stroke), side (channels named left/right), frequency band
-    (multiples of the dominant excitation frequency), time window after impacts
-    (large input accelerations).
+    quarters of the half-stroke), frequency band (multiples of the dominant excitation
+    frequency), time window after impacts (large input accelerations).
 
 Units: ``x`` deflection [m] (positive = compression / bump), ``v`` [m/s], ``t`` [s];
 residual channels in their own units.
@@ -85,15 +84,6 @@ def _partition(
     ]
 
 
-def _side_of(channel: str) -> str | None:
-    c = channel.lower()
-    if "left" in c or c.endswith(("_l", ".l")):
-        return "left"
-    if "right" in c or c.endswith(("_r", ".r")):
-        return "right"
-    return None
-
-
 #: half-width [samples] of the velocity difference an impact is read from
 IMPACT_HALF_WINDOW = 5
 
@@ -133,7 +123,7 @@ def impact_samples(t: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 def _channel_shares(segments: Sequence[Segment], total: float) -> list[Share]:
     """Residual energy by output channel (fraction 1 / number of channels: each has
-    every sample) and by side where channels are left and right; none for one channel."""
+    every sample); none for one channel."""
     channels = list(dict.fromkeys(c for s in segments for c in s.residual))
     if len(channels) < 2:
         return []
@@ -141,21 +131,10 @@ def _channel_shares(segments: Sequence[Segment], total: float) -> list[Share]:
     def energy(c: str) -> float:
         return sum(float(np.sum(s.residual[c] ** 2)) for s in segments if c in s.residual)
 
-    out = [
+    return [
         Share("channel", c, energy(c) / total if total else 0.0, 1.0 / len(channels))
         for c in channels
     ]
-    sides: dict[str, float] = {}
-    for c in channels:
-        side = _side_of(c)
-        if side:
-            sides[side] = sides.get(side, 0.0) + energy(c)
-    if len(sides) == 2:
-        n_sided = sum(1 for c in channels if _side_of(c))
-        for side, e in sides.items():
-            frac = sum(1 for c in channels if _side_of(c) == side) / n_sided
-            out.append(Share("side", side, e / max(sum(sides.values()), 1e-300), frac))
-    return out
 
 
 def _amplitude(s: Segment) -> dict[str, np.ndarray]:

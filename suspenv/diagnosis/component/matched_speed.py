@@ -187,8 +187,6 @@ def half_cycles(
     force: np.ndarray,
     x: np.ndarray | None = None,
     peak_band: float = 0.03,
-    min_speed: float | None = None,
-    min_window: int = 3,
 ) -> list[HalfCycle]:
     """Peak-velocity force of every complete half-cycle of a stroke.
 
@@ -197,10 +195,8 @@ def half_cycles(
         x: stroke position [m] (default: the integrated velocity); positions are taken
             relative to the half-cycle's own centre (mid-way between its reversals).
         peak_band: the peak window holds the samples with ``|v| >= (1 - peak_band)``
-            times the half-cycle's peak speed.
-        min_speed: half-cycles slower than this [m/s] are skipped (creep and hold
-            segments; default 5 % of the largest speed).
-        min_window: fewest samples in a peak window.
+            times the half-cycle's peak speed; one of fewer than 3 samples is skipped, and
+            so is a half-cycle slower than 5 % of the largest speed (creep and hold).
     """
     t, v, force = (np.asarray(a, float) for a in (t, v, force))
     if not (t.shape == v.shape == force.shape and t.ndim == 1):
@@ -216,7 +212,7 @@ def half_cycles(
     if x.shape != t.shape:
         raise ValidationError(f"position must have the shape of time {t.shape}, but got {x.shape}")
     vmax = float(np.max(np.abs(v))) if v.size else 0.0
-    floor = 0.05 * vmax if min_speed is None else float(min_speed)
+    floor = 0.05 * vmax
     sign = np.sign(v)
     flips = np.flatnonzero(sign[1:] * sign[:-1] < 0) + 1
     out: list[HalfCycle] = []
@@ -226,7 +222,7 @@ def half_cycles(
         if peak < floor:
             continue
         idx = a + np.flatnonzero(seg >= (1.0 - peak_band) * peak)
-        if idx.size < min_window:
+        if idx.size < 3:
             continue
         out.append(
             HalfCycle(
@@ -287,23 +283,18 @@ class _Side:
 
 
 def speed_groups(
-    cycles: Sequence[HalfCycle],
-    speed_tol: float = 0.02,
-    match_tol: float = 0.01,
-    min_per_side: int = 2,
-    position_tol: float = 0.02,
+    cycles: Sequence[HalfCycle], speed_tol: float = 0.02, match_tol: float = 0.01
 ) -> tuple[list[SpeedGroup], list[float]]:
     """Bump and rebound forces at matched peak speeds.
 
     Each direction's half-cycles are clustered by speed (within ``speed_tol``,
-    relative; clusters with fewer than ``min_per_side`` half-cycles are dropped). A
-    rebound cluster and a bump cluster form a group when their mean speeds differ by at
-    most ``match_tol`` (relative) and their peak windows sit symmetrically about the
-    stroke centre (mean positions ``x_b + x_r`` within ``position_tol`` of the
-    half-stroke): only then is the motion half-wave symmetric, which is what makes the
-    odd elements cancel. Standard errors use each cluster's cycle-to-cycle scatter,
-    floored by the pooled scatter over all clusters. Returns the groups (slowest first)
-    and the speeds of clusters left unpaired.
+    relative; clusters of one half-cycle are dropped). A rebound cluster and a bump
+    cluster form a group when their mean speeds differ by at most ``match_tol``
+    (relative) and their peak windows sit symmetrically about the stroke centre (mean
+    positions ``x_b + x_r`` within 4 % of the half-stroke): only then is the motion
+    half-wave symmetric, which is what makes the odd elements cancel. Standard errors use
+    each cluster's cycle-to-cycle scatter, floored by the pooled scatter over all
+    clusters. Returns the groups (slowest first) and the speeds of clusters left unpaired.
     """
     sides: dict[int, list[_Side]] = {1: [], -1: []}
     for d in (1, -1):
@@ -312,7 +303,7 @@ def speed_groups(
             continue
         sp = np.array([c.speed for c in own])
         for idx in relative_clusters(sp, speed_tol):
-            if idx.size >= min_per_side:
+            if idx.size >= 2:
                 sides[d].append(_Side(tuple(own[i] for i in idx)))
     dev2 = sum(float(np.sum((c.forces - c.forces.mean()) ** 2)) for d in sides for c in sides[d])
     dof = sum(c.forces.size - 1 for d in sides for c in sides[d])
@@ -337,7 +328,7 @@ def speed_groups(
         )
         if match is None:
             continue
-        if abs(match.position + r.position) > position_tol * 2.0 * half_stroke:
+        if abs(match.position + r.position) > 0.04 * half_stroke:
             continue
         used.update((id(match), id(r)))
         (fb, eb), (fr, er) = stats_of(match), stats_of(r)
@@ -395,10 +386,6 @@ def matched_speed_asymmetry(
     force: np.ndarray,
     x: np.ndarray | None = None,
     alpha: float = 0.01,
-    peak_band: float = 0.03,
-    speed_tol: float = 0.02,
-    match_tol: float = 0.01,
-    min_groups: int = 3,
 ) -> MatchedSpeedAsymmetry | None:
     """Does the bump/rebound difference change with speed? (see the module text).
 
@@ -407,13 +394,13 @@ def matched_speed_asymmetry(
             positive; x: stroke position [m] (optional).
         alpha: significance level of each test.
 
-    Returns None when the stroke has fewer than ``min_groups`` matched speed groups
-    (not a cyclic test at several speeds). ``supported`` holds when a constant, a
-    straight line in time and the measured drift are all rejected at level ``alpha``.
+    Returns None when the stroke has fewer than 3 matched speed groups
+    (:func:`speed_groups`: not a cyclic test at several speeds). ``supported`` holds when a
+    constant, a straight line in time and the measured drift are all rejected at level
+    ``alpha``.
     """
-    cycles = half_cycles(t, v, force, x, peak_band=peak_band)
-    groups, unmatched = speed_groups(cycles, speed_tol=speed_tol, match_tol=match_tol)
-    if len(groups) < min_groups:
+    groups, unmatched = speed_groups(half_cycles(t, v, force, x))
+    if len(groups) < 3:
         return None
     e = np.array([g.even for g in groups])
     se = np.array([g.even_stderr for g in groups])

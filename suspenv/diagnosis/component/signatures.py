@@ -25,7 +25,7 @@ viscoelastic       rate-dependent lag: first-order low-pass of the velocity (Max
 sensor_offset      a constant
 sensor_gain        proportional to the predicted signal
 sensor_lag         proportional to the predicted signal's time derivative (phase shift)
-lr_asymmetry       left minus right differs (needs left and right channels)
+lr_asymmetry       not applicable (a component has no left and right channels)
 =================  =====================================================================
 
 Units: ``x`` [m] (positive = compression / bump), ``v`` [m/s], ``t`` [s]; residuals
@@ -58,7 +58,6 @@ class SignalSet:
         scale: channel scale (channel unit) to express evidence in physical units.
         unit: the channel unit, e.g. "N".
         channel: the channel name.
-        right_residual: for lr_asymmetry, the scaled residual of the mirrored channel.
     """
 
     t: np.ndarray
@@ -71,7 +70,6 @@ class SignalSet:
     scale: float = 1.0
     unit: str = ""
     channel: str = ""
-    right_residual: np.ndarray | None = None
 
     def segments(self) -> list[np.ndarray]:
         seg = self.segment if self.segment is not None else np.zeros(self.t.size, int)
@@ -375,19 +373,10 @@ def detect_sensor_lag(s: SignalSet, basis: np.ndarray | None) -> Signature:
 
 
 def detect_lr_asymmetry(s: SignalSet, basis: np.ndarray | None) -> Signature:
-    if s.right_residual is None:
-        return Signature(
-            "lr_asymmetry", 0.0, 1.0, "needs a left and a right channel; not applicable", {}
-        )
-    d = s.residual - s.right_residual
-    tot = float(np.sum(s.residual**2) + np.sum(s.right_residual**2)) or 1.0
-    r2 = float(np.clip(0.5 * np.sum(d**2) / tot, 0.0, 1.0))
+    """Not applicable: a component's recordings have no left and right channels (the
+    K&C family scores left minus right, :mod:`suspenv.diagnosis.knc.signatures`)."""
     return Signature(
-        "lr_asymmetry",
-        r2,
-        score_p_value(r2, d),
-        f"left minus right residual holds {100 * r2:.0f} % of the residual energy",
-        {"r2": r2},
+        "lr_asymmetry", 0.0, 1.0, "needs a left and a right channel; not applicable", {}
     )
 
 

@@ -48,10 +48,9 @@ def detection_limits(
     base: Any,
     recs: Sequence[Any],
     noise: Mapping[str, float] | None = None,
-    candidates: Mapping[str, tuple[str, float]] | None = None,
-    snr: float = DETECTABLE_SNR,
 ) -> dict[str, dict[str, Any]]:
-    """Smallest magnitude of each candidate element the fitted recordings would show.
+    """Smallest magnitude of each of :data:`LIMIT_CANDIDATES` the fitted recordings would
+    show (at :data:`DETECTABLE_SNR`).
 
     ``base`` is the baseline :class:`~suspenv.diagnosis.fitting.FitResult` (its
     ``extra["jacobian"]`` is the Jacobian of the residual scaled by ``base.scales``).
@@ -62,7 +61,6 @@ def detection_limits(
     "limit"}`` (``limit`` in the parameter's unit; ``inf`` when the element leaves no
     trace).
     """
-    cands = LIMIT_CANDIDATES if candidates is None else candidates
     model: KncAxleModel = base.model
     recs = list(recs)
     channels = list(base.scales)
@@ -87,14 +85,15 @@ def detection_limits(
         return float(np.sqrt(np.sum(d**2)))
 
     def power_law(p1: tuple[float, float], p2: tuple[float, float]) -> tuple[float, float]:
-        """(exponent, magnitude at ``snr``) of ``s ~ value^a`` through two points."""
+        """(exponent, magnitude at :data:`DETECTABLE_SNR`) of ``s ~ value^a`` through two
+        points."""
         (v1, s1), (v2, s2) = p1, p2
         a = np.log(s2 / s1) / np.log(v2 / v1) if (s1 > 0 and s2 > 0 and v1 != v2) else 1.0
         a = float(np.clip(a, 0.25, 2.0)) if np.isfinite(a) else 1.0
-        return a, float(v1 * (snr / s1) ** (1.0 / a))
+        return a, float(v1 * (DETECTABLE_SNR / s1) ** (1.0 / a))
 
     out = {}
-    for cand, (param, ref) in cands.items():
+    for cand, (param, ref) in LIMIT_CANDIDATES.items():
         pts = [(ref, snr_at(cand, param, ref)), (0.5 * ref, snr_at(cand, param, 0.5 * ref))]
         limit, exponent = float("inf"), float("nan")
         if pts[0][1] > 0 and pts[1][1] > 0:
