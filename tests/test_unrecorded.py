@@ -5,8 +5,10 @@ References: the stretches against the switching a synthetic residual was built w
 profiled residual against its closed form (a gain per stretch on the held-out samples
 leaves nothing of a switched gain; on the fit samples the one common gain, the
 inverse-weighted mean of the stretches' gains, stays the model's); the absence of leaks
-by changing the held-out samples; the batch against single rows; and the loop on a
-blind case whose truth is known (:mod:`benchmarks.component_truth`).
+by changing the held-out samples; the batch against single rows; a sensor lag's
+response to a ramp against its closed form, and the profiled gains of a lagged
+switching against the same closed form on the lagged signal; and the loop on a blind
+case whose truth is known (:mod:`benchmarks.component_truth`).
 """
 
 from __future__ import annotations
@@ -19,6 +21,8 @@ from benchmarks.component_truth import make_case
 from suspenv.diagnosis.engine import diagnose
 from suspenv.diagnosis.unrecorded import Profiled, Stretches, find_stretches, unprofiled
 from suspenv.measurements import Recording
+from suspenv.models.components import make_component
+from suspenv.models.effects import make_effect
 
 N, LENGTH = 2000, 50
 #: stretch starts of the synthetic switching (multiples of the block length)
@@ -64,7 +68,25 @@ class _Zero:
         return self
 
 
-def _profiled(y: np.ndarray, fit_mask: np.ndarray) -> tuple[Profiled, Recording]:
+class _Lagged(_Zero):
+    """:class:`_Zero` whose sensor is a first-order lag of ``TAU`` s: the recorded part
+    of a true signal is its forward-Euler lag (the test's own filter)."""
+
+    def sensed(self, theta: np.ndarray, y: np.ndarray, rec: Any, channel: str) -> np.ndarray:
+        return _euler_lag(y, 0.002)
+
+
+TAU = 0.02
+
+
+def _euler_lag(y: np.ndarray, dt: float) -> np.ndarray:
+    out = np.zeros_like(y)
+    for k in range(1, y.size):
+        out[k] = out[k - 1] + dt / TAU * (y[k - 1] - out[k - 1])
+    return out
+
+
+def _profiled(y: np.ndarray, fit_mask: np.ndarray, model: Any = None) -> tuple[Profiled, Recording]:
     s = _signal()
     rec = Recording(
         "r",
@@ -76,7 +98,7 @@ def _profiled(y: np.ndarray, fit_mask: np.ndarray) -> tuple[Profiled, Recording]
     )
     stretches = Stretches("velocity", "force", {"r": s}, {"r": STARTS}, 0.002, 25)
     groups = {"r": [(fit_mask, True), (~fit_mask, False)]}
-    return Profiled(_Zero(), stretches, groups), rec  # type: ignore[arg-type]
+    return Profiled(model or _Zero(), stretches, groups), rec  # type: ignore[arg-type]
 
 
 def test_profiled_residual_closed_form_and_no_leak() -> None:
@@ -113,3 +135,34 @@ def test_switched_damping_not_recorded_is_profiled_and_the_element_named() -> No
     assert found.remains and found.numbers["signal"] == "velocity"
     assert "an unrecorded input switches the gain of velocity" in diag.verdict
     assert not diag.confident
+
+
+def test_a_sensor_lag_filters_the_profiled_gains_as_it_filters_the_model() -> None:
+    # the switching acts on the true force and the recorded force is its lag: the gains
+    # are profiled on the lagged signal, so the held-out samples keep nothing of it but
+    # the lag's memory of the gain before a switch, which decays as exp(-dt / TAU) from
+    # the switch (the held-out samples start 210 samples after the nearest one)
+    s, fit_mask = _signal(), (np.arange(N) // 170) % 4 != 3
+    y = _euler_lag(_switched(s), 0.002)
+    model, rec = _profiled(y, fit_mask, _Lagged())
+    r = y - model.simulate(np.zeros(1), rec)["force"]
+    memory = 2.0 * float(np.max(np.abs(y))) * np.exp(-210 * 0.002 / TAU)
+    np.testing.assert_allclose(r[~fit_mask], 0.0, atol=memory)
+    # gains on the unfiltered signal (a model without sensors) leave the lag's part
+    plain, _ = _profiled(y, fit_mask)
+    assert np.std((y - plain.simulate(np.zeros(1), rec)["force"])[~fit_mask]) > 1e3 * memory
+
+
+def test_sensed_is_the_sensors_linear_response() -> None:
+    # a lag from rest under a ramp u = t: y = t - tau (1 - exp(-t / tau)) (closed form;
+    # exact for the first-order-hold discretisation); a zero offset adds nothing
+    tau, t = 0.03, np.arange(500) * 0.001
+    model = make_component(
+        "damper", [make_effect("sensor_offset", offset=7.0), make_effect("sensor_lag", tau=tau)]
+    )
+    rec = Recording("r", "t", t, {"velocity": np.zeros_like(t)}, {}, {"velocity": "m/s"})
+    got = model.sensed(model.theta_from({"c": 1000.0}), t, rec, "force")
+    np.testing.assert_allclose(got, t - tau * (1 - np.exp(-t / tau)), rtol=0, atol=1e-13)
+    offset_only = make_component("damper", [make_effect("sensor_offset", offset=7.0)])
+    theta = offset_only.theta_from({"c": 1000.0})
+    np.testing.assert_allclose(offset_only.sensed(theta, t, rec, "force"), t, atol=1e-15)

@@ -4,7 +4,9 @@ When the missing-input check (:mod:`suspenv.diagnosis.checks.missing_input`) cal
 baseline's residual driven by an input the recording does not carry (an MR damper's
 coil current switched between levels, its channel withheld), that input is modelled as
 a gain on one recorded signal that is constant over stretches of time and changes from
-stretch to stretch (:class:`Stretches`). Its gains are **nuisance parameters, profiled
+stretch to stretch (:class:`Stretches`); the input acts on the true quantity, so the
+model's sensors on the channel (a lag, a gain) act on its part as on the model's
+(:meth:`Profiled._sensed_parts`). Its gains are **nuisance parameters, profiled
 out** (linear least squares, :class:`Profiled`): in every fit, the baseline's and each
 candidate's alike, and in the held-out scoring, so that each candidate element is judged
 on what is left beside the switched part.
@@ -187,8 +189,34 @@ class Profiled:
             return pred
         p = np.asarray(pred[ch], float)
         d = np.asarray(rec.outputs[ch], float) - p
-        basis, signs = self._parts[str(rec.name)]
-        return {**pred, ch: p + ((d @ basis) * signs) @ basis.T}
+        if p.ndim == 1:
+            return {**pred, ch: self._plus_gains(theta, rec, p, d)}
+        rows = zip(np.atleast_2d(theta), p, d, strict=True)  # a batch of designs
+        return {**pred, ch: np.stack([self._plus_gains(t, rec, pi, di) for t, pi, di in rows])}
+
+    def _plus_gains(
+        self, theta: np.ndarray, rec: RecordingLike, p: np.ndarray, d: np.ndarray
+    ) -> np.ndarray:
+        """The prediction ``p`` of one design plus the gains' least-squares part of what
+        it leaves, ``d``."""
+        basis, signs = self._sensed_parts(theta, rec)
+        return p + ((d @ basis) * signs) @ basis.T
+
+    def _sensed_parts(self, theta: np.ndarray, rec: RecordingLike) -> tuple[np.ndarray, np.ndarray]:
+        """The gains' supports (:func:`_projection`) of a recorded input as the model's
+        sensors on the channel record it: the unrecorded input acts on the true
+        quantity, so a sensor lag filters its part as it filters the model's. The
+        signal's own where the sensors pass it unchanged (none, a zero offset or drift)
+        and for the baseline's prediction (a prediction of the recorded channel)."""
+        name = str(rec.name)
+        s = self.stretches.series[name]
+        sensed = getattr(self.model, "sensed", None)
+        if sensed is None or self.stretches.signal == missing_input.PREDICTION:
+            return self._parts[name]
+        seen = np.asarray(sensed(theta, s, rec, self.stretches.channel), float)
+        if np.allclose(seen, s, rtol=0.0, atol=1e-12 * float(np.max(np.abs(s)))):
+            return self._parts[name]
+        return _projection(seen, self.stretches.starts[name], self.groups[name])
 
 
 def unprofiled(model: Any) -> Any:

@@ -461,6 +461,18 @@ class ComponentModel(FitDefaults):
                 out[ch] = e.sensor(out[ch], rec.time)
         return out
 
+    def sensed(self, theta: np.ndarray, y: np.ndarray, rec: Recording, channel: str) -> np.ndarray:
+        """A true ``channel`` signal ``y`` (the channel's unit) as the model's sensor
+        elements on that channel record it, less what they record of zero: their linear
+        response (a gain scales it, a lag filters it, a zero offset or drift adds
+        nothing), in the order :meth:`simulate` applies them."""
+        _, effects = self.unpack(theta)
+        y, zero = np.asarray(y, float), np.zeros(len(rec.time))
+        for e in effects:
+            if e.spec.role == "sensor" and self._sensor_channel(e) == channel:
+                y, zero = e.sensor(y, rec.time), e.sensor(zero, rec.time)
+        return y - zero
+
     def linear_part(self, base: Mapping[str, Any], rec: Recording) -> dict[str, np.ndarray] | None:
         """The part of the predicted outputs that is linear in the motion channels (a
         guide's ``m a + c v`` [N]), by output channel; None: none is separated (the
