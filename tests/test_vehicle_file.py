@@ -180,8 +180,11 @@ def test_check_assembles_refuses_with_the_reason(tmp_path):
     for a, v in zip("xyz", f + 2.0 * (r - f), strict=True):  # ball joint on the pivot axis
         x[IDX[f"lower_ball_joint_{a}"]] = v
     check_links(VehicleFile("on_axis", x, x).axle())  # the rule is check_assembles' own
-    with pytest.raises(ValidationError, match="lower ball joint must lie off"):
+    with pytest.raises(ValidationError, match="left lower ball joint must lie off"):
         check_assembles(VehicleFile("on_axis", x, x))
+    # the right corner alone on its axis is refused by the same rule, naming its side
+    with pytest.raises(ValidationError, match="right lower ball joint must lie off"):
+        check_assembles(VehicleFile("on_axis_right", ref.left.copy(), x))
     # a top mount of 1e-3 N/mm cannot carry the spring preload: no static equilibrium
     x = ref.left.copy()
     for c in ("kx", "ky", "kz"):

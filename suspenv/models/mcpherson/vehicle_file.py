@@ -274,7 +274,7 @@ def check_assembles(vehicle: VehicleFile) -> None:
     Checks, in order: the geometry rules of
     :func:`~suspenv.models.mcpherson.vehicle_checks.check_links` on both corners (every
     point on its own side, the strut top at least 1 mm above the ball joint, every link
-    at least 1 mm long); here, the lower ball joint of the left corner more than 1e-6 m
+    at least 1 mm long); here, the lower ball joint of each corner more than 1e-6 m
     off the lower-arm pivot axis (the line of the two bushes); the ideal-joint linkage
     has a unique kinematic motion at the design position (the spring preload is sized on
     it); the compliant axle (with its effects) finds a static equilibrium on the rig pads
@@ -287,16 +287,16 @@ def check_assembles(vehicle: VehicleFile) -> None:
     with np.errstate(all="ignore"):  # a degenerate strut line is reported below
         axle = vehicle.axle()
     check_links(axle, what)
-    p = {k: v[0, 0] for k, v in axle.points.items()}  # left side [m]
-    tiny = 1e-6  # m
-    axis = p["lca_rear_bush"] - p["lca_front_bush"]
-    arm = p["lower_ball_joint"] - p["lca_front_bush"]
-    off = float(np.linalg.norm(np.cross(axis, arm)) / np.linalg.norm(axis))
-    if not off > tiny:
-        raise ValidationError(
-            f"{what}: the lower ball joint must lie off the lower-arm pivot axis, but it is "
-            f"{off * 1e3:.3g} mm from it"
-        )
+    for side, name in enumerate(("left", "right")):
+        p = {k: v[0, side] for k, v in axle.points.items()}  # [m]
+        axis = p["lca_rear_bush"] - p["lca_front_bush"]
+        arm = p["lower_ball_joint"] - p["lca_front_bush"]
+        off = float(np.linalg.norm(np.cross(axis, arm)) / np.linalg.norm(axis))
+        if not off > 1e-6:  # m
+            raise ValidationError(
+                f"{what}: the {name} lower ball joint must lie off the lower-arm pivot "
+                f"axis, but it is {off * 1e3:.3g} mm from it"
+            )
     try:
         with np.errstate(all="ignore"):
             solver = AxleSolver(axle, vehicle.effects)
