@@ -128,13 +128,12 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     command = "python -m benchmarks.baseline " + " ".join(argv or sys.argv[1:])
     cpu0 = time.process_time()
-    suite = run_suite(
-        args.strategies, args.seeds, args.work, args.functions, args.budget_scale
-    )
+    suite = run_suite(args.strategies, args.seeds, args.work, args.functions, args.budget_scale)
     comparison = compare_suite(args.work)
     # name each problem by its suite instance (the analysis knows problem hashes)
-    by_dir = {Path(r["run_dir"]).resolve(): f"{r['function']}/i{r['instance']}"
-              for r in suite["runs"]}
+    by_dir = {
+        Path(r["run_dir"]).resolve(): f"{r['function']}/i{r['instance']}" for r in suite["runs"]
+    }
     for p, pr in zip(comparison.result["problems"], comparison.problems, strict=True):
         first = pr.groups[0].runs[0].path.resolve()
         p["instance"] = by_dir.get(first, p["problem"])
@@ -162,8 +161,7 @@ def main(argv: list[str] | None = None) -> int:
         "summary": meta,
         "rows": rows,
         "rank_tests": {
-            p.get("instance", p["problem"]): p["rank_tests"]
-            for p in comparison.result["problems"]
+            p.get("instance", p["problem"]): p["rank_tests"] for p in comparison.result["problems"]
         },
         "performance_profile": comparison.result.get("performance_profile"),
         "machine": machine_info(),

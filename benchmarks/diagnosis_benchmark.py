@@ -89,7 +89,6 @@ def derived_values(kind: str, params: dict[str, dict[str, float]], name: str) ->
     return {}
 
 
-
 def param_errors(diag: Diagnosis, case: Case) -> list[float]:
     """Relative errors |fit - truth| / |truth| of the parameters of truly present and
     correctly named (same kind) effects; fixed parameters are not fitted and skipped."""
@@ -636,8 +635,12 @@ def main(argv: list[str] | None = None) -> int:
     from suspenv.runs.runner import run_experiment
 
     ap = argparse.ArgumentParser(description="Run the diagnosis benchmark; write its table.")
-    ap.add_argument("config", nargs="?", default="experiments/diagnosis_benchmark.toml",
-                    help="benchmark config (TOML)")
+    ap.add_argument(
+        "config",
+        nargs="?",
+        default="experiments/diagnosis_benchmark.toml",
+        help="benchmark config (TOML)",
+    )
     config = load_config(ap.parse_args(argv).config)
     t0 = time.perf_counter()
     # as `suspenv run` does: resume only the same experiment of the same code

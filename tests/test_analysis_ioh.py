@@ -75,9 +75,7 @@ def _check_suite(folder: Path, out: Path) -> int:
                 ert(runtime_matrix(curves, nudged), used),
             )
             # each run is written as long as it ran: `evals` is what it used
-            meta = json.loads(
-                next((out / "ioh").rglob(f"*/IOHprofiler_f{fid}_*.json")).read_text()
-            )
+            meta = json.loads(next((out / "ioh").rglob(f"*/IOHprofiler_f{fid}_*.json")).read_text())
             assert meta["function_id"] == fid
     return stopped
 
@@ -85,8 +83,9 @@ def _check_suite(folder: Path, out: Path) -> int:
 def test_reader_ert_equals_compare_on_zdt1_and_sphere(tmp_path):
     # the report: CMA-ES on ZDT1 stops at 1386-1575 of 3000 evaluations; the export
     # padded every run to 3000 and the reader's ERT was 4839.5 where compare said 2526.5
-    run_suite(["cmaes", "random"], [1, 2, 3], tmp_path / "s", ["zdt1-6d", "sphere-10d"],
-              progress=False)
+    run_suite(
+        ["cmaes", "random"], [1, 2, 3], tmp_path / "s", ["zdt1-6d", "sphere-10d"], progress=False
+    )
     stopped = _check_suite(tmp_path / "s", tmp_path / "c")
     assert stopped >= 3  # the case of the report is in the data
     for f in (tmp_path / "c" / "ioh").rglob("IOHprofiler_f*.json"):
@@ -101,6 +100,5 @@ def test_reader_ert_equals_compare_on_every_suite_function(tmp_path):
     from suspenv.suite.instances import FUNCTIONS
 
     first = [f"{name}/i{f.instances[0]}" for name, f in FUNCTIONS.items()]
-    run_suite(["cmaes", "random"], [1, 2], tmp_path / "s", first, budget_scale=0.25,
-              progress=False)
+    run_suite(["cmaes", "random"], [1, 2], tmp_path / "s", first, budget_scale=0.25, progress=False)
     _check_suite(tmp_path / "s", tmp_path / "c")

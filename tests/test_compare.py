@@ -134,8 +134,14 @@ def test_one_configuration_keeps_one_hash_on_every_dimension(tmp_path):
         for seed in (1, 2):
             runs.append(_run(tmp_path, f"d{dim}", sphere, {"name": "cmaes"}, seed, 40))
             runs.append(
-                _run(tmp_path, f"p7d{dim}", sphere,
-                     {"name": "cmaes", "options": {"popsize": 7}}, seed, 42)
+                _run(
+                    tmp_path,
+                    f"p7d{dim}",
+                    sphere,
+                    {"name": "cmaes", "options": {"popsize": 7}},
+                    seed,
+                    42,
+                )
             )
     res = compare(runs, suite=True)
     assert len(res.profile["solvers"]) == 2  # the default, and popsize = 7

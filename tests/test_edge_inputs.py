@@ -98,9 +98,22 @@ def test_suite_run_option_ranges_checked_before_any_run(tmp_path, capsys, option
 
 
 def test_one_seed_suite_run_compares(tmp_path, capsys):
-    args = ["suite", "run", "--strategies", "random", "cmaes", "--seeds", "1",
-            "--functions", "sphere-10d", "--budget-scale", "0.05", "--quiet",
-            "--out", str(tmp_path / "s")]
+    args = [
+        "suite",
+        "run",
+        "--strategies",
+        "random",
+        "cmaes",
+        "--seeds",
+        "1",
+        "--functions",
+        "sphere-10d",
+        "--budget-scale",
+        "0.05",
+        "--quiet",
+        "--out",
+        str(tmp_path / "s"),
+    ]
     assert main(args) == 0
     assert "no pair can be told apart; 4 seeds are needed" in capsys.readouterr().out
     assert main(["compare", str(tmp_path / "s"), "--out", str(tmp_path / "c"), "--no-plots"]) == 0

@@ -70,7 +70,7 @@ def test_normalised_reward_is_the_kc_default_in_standard_errors(kc_env):
     assert shares[env.problem.objective_names.index("opp_roll_rate")] < 0.01
     # the reward of a step: minus the sum of the objectives over their scales
     action = np.random.default_rng(2).uniform(-1, 1, env.problem.space.dim)
-    obs, reward, *_ , info = kc_env.step(action)
+    obs, reward, *_, info = kc_env.step(action)
     assert info["ok"]
     assert reward == pytest.approx(-(obs / s).sum(), rel=1e-12)
     assert info["scalarized"] == pytest.approx((obs / s).sum(), rel=1e-12)
@@ -119,7 +119,7 @@ def test_scale_rule_by_hand():
     env = ProblemEnv(Constant(), reward="normalized")
     env.reset(seed=0)
     for a in (-1.0, 0.3, 1.0):
-        _, reward, *_ , info = env.step(np.array([a]))
+        _, reward, *_, info = env.step(np.array([a]))
         x = info["parameters"]["x"]
         assert reward == pytest.approx(-(x / want[0] + 1.0), rel=1e-12)
 

@@ -113,7 +113,10 @@ def test_an_in_process_hang_is_retried_and_never_archived(tmp_path):
     p = Hangs(at=4)
     policy = FaultPolicy(timeout_s=0.05, retries=2, backoff_s=0.0)
     r = optimize(
-        p, make_strategy("cmaes", p, seed=5, popsize=8), 80, run_dir=tmp_path / "run",
+        p,
+        make_strategy("cmaes", p, seed=5, popsize=8),
+        80,
+        run_dir=tmp_path / "run",
         faults=policy,
     )
     assert r.n_evaluations == 80 and p.calls == 11  # 10 batches + the hung call
@@ -126,15 +129,19 @@ def test_a_hang_that_stays_stops_the_run_and_resume_completes_it(tmp_path):
     policy = FaultPolicy(timeout_s=0.05, retries=1, backoff_s=0.0)
     with pytest.raises(InfrastructureError, match=r"batch 3 after 24 evaluations.*timeout"):
         optimize(
-            p, make_strategy("cmaes", p, seed=5, popsize=8), 80, run_dir=tmp_path / "run",
+            p,
+            make_strategy("cmaes", p, seed=5, popsize=8),
+            80,
+            run_dir=tmp_path / "run",
             faults=policy,
         )
     assert len(archive_results(tmp_path / "run")["ok"]) == 24  # nothing of batch 3
     with RunArchive(tmp_path / "run") as a:
         assert "fault of the machinery in batch 3" in a.meta()["stop_reason"]
     good = make_problem("Sphere", dim=4)
-    r = optimize(good, make_strategy("cmaes", good, seed=5, popsize=8), 80,
-                 run_dir=tmp_path / "run")
+    r = optimize(
+        good, make_strategy("cmaes", good, seed=5, popsize=8), 80, run_dir=tmp_path / "run"
+    )
     assert r.n_resumed == 24 and r.n_evaluations == 80
     assert_same_archive(ref, tmp_path / "run")
 
@@ -345,14 +352,37 @@ def _free_port() -> int:
 def _start_dask(port: int, log: Path) -> list[subprocess.Popen]:
     fh = log.open("a")
     scheduler = subprocess.Popen(
-        [sys.executable, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1",
-         "--port", str(port), "--dashboard-address", ":0", "--no-show"],
-        stdout=fh, stderr=fh,
+        [
+            sys.executable,
+            "-m",
+            "distributed.cli.dask_scheduler",
+            "--host",
+            "127.0.0.1",
+            "--port",
+            str(port),
+            "--dashboard-address",
+            ":0",
+            "--no-show",
+        ],
+        stdout=fh,
+        stderr=fh,
     )
     worker = subprocess.Popen(
-        [sys.executable, "-m", "distributed.cli.dask_worker", f"tcp://127.0.0.1:{port}",
-         "--nthreads", "1", "--nworkers", "1", "--no-dashboard", "--memory-limit", "0"],
-        stdout=fh, stderr=fh,
+        [
+            sys.executable,
+            "-m",
+            "distributed.cli.dask_worker",
+            f"tcp://127.0.0.1:{port}",
+            "--nthreads",
+            "1",
+            "--nworkers",
+            "1",
+            "--no-dashboard",
+            "--memory-limit",
+            "0",
+        ],
+        stdout=fh,
+        stderr=fh,
     )
     return [scheduler, worker]
 
@@ -370,9 +400,21 @@ def test_a_killed_dask_scheduler_stops_the_run_and_resume_equals_reference(tmp_p
     procs = _start_dask(port, tmp_path / "dask.log")
     try:
         time.sleep(4.0)
-        cmd = [sys.executable, "-m", "suspenv.cli.main", "run", str(path), "--dask",
-               f"tcp://127.0.0.1:{port}", "--set", "run.retries=3",
-               "--set", "run.retry_backoff_s=2", "--set", "run.timeout_s=600"]
+        cmd = [
+            sys.executable,
+            "-m",
+            "suspenv.cli.main",
+            "run",
+            str(path),
+            "--dask",
+            f"tcp://127.0.0.1:{port}",
+            "--set",
+            "run.retries=3",
+            "--set",
+            "run.retry_backoff_s=2",
+            "--set",
+            "run.timeout_s=600",
+        ]
         run = subprocess.Popen(cmd, stderr=subprocess.PIPE, text=True)
         run_dir = tmp_path / "runs" / "faults-seed5"
         deadline = time.time() + 120

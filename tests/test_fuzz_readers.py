@@ -66,8 +66,30 @@ def read_or_refuse(path: Path) -> None:
 # ------------------------------------------------------------------ building blocks
 UNITS = st.one_of(
     st.sampled_from(
-        ["m", "mm", "in", "N", "lbf", "kN", "s", "ms", "Sec", "m/s", "in/s", "m/s^2", "deg",
-         "rad", "-", "1", "V", "furlong", "", " N ", "LBF", "g"]
+        [
+            "m",
+            "mm",
+            "in",
+            "N",
+            "lbf",
+            "kN",
+            "s",
+            "ms",
+            "Sec",
+            "m/s",
+            "in/s",
+            "m/s^2",
+            "deg",
+            "rad",
+            "-",
+            "1",
+            "V",
+            "furlong",
+            "",
+            " N ",
+            "LBF",
+            "g",
+        ]
     ),
     st.text(max_size=4),
 )
@@ -82,8 +104,11 @@ JSON = st.recursive(
 
 @st.composite
 def channel_arrays(draw: Any, n: int) -> np.ndarray:
-    kind = draw(st.sampled_from(["good", "good", "good", "int", "bool", "text", "complex",
-                                 "2d", "short", "empty"]))
+    kind = draw(
+        st.sampled_from(
+            ["good", "good", "good", "int", "bool", "text", "complex", "2d", "short", "empty"]
+        )
+    )
     if kind == "text":
         return np.array(draw(st.lists(st.text(max_size=3), min_size=1, max_size=n + 1)))
     if kind == "complex":
@@ -106,8 +131,19 @@ GOOD_UNITS = {
     "force": ["N", "lbf", "kN"],
 }
 ARCHIVE_FAULTS = [
-    "unit", "drop_key", "replace_key", "array", "drop_array", "meta_text", "meta_array",
-    "no_meta", "time", "repeat", "non_finite", "huge", "extra_member",
+    "unit",
+    "drop_key",
+    "replace_key",
+    "array",
+    "drop_array",
+    "meta_text",
+    "meta_array",
+    "no_meta",
+    "time",
+    "repeat",
+    "non_finite",
+    "huge",
+    "extra_member",
 ]
 
 
@@ -115,8 +151,7 @@ ARCHIVE_FAULTS = [
 def recording_archives(draw: Any) -> dict[str, Any]:
     """A valid archive (converted units included) with up to three faults applied."""
     n = draw(st.integers(2, 40))
-    inputs = draw(st.lists(st.sampled_from(["displacement", "velocity"]), unique=True,
-                           max_size=2))
+    inputs = draw(st.lists(st.sampled_from(["displacement", "velocity"]), unique=True, max_size=2))
     outputs = ["force"] if draw(st.integers(0, 4)) else []
     units = {k: draw(st.sampled_from(GOOD_UNITS[k])) for k in ["time", *inputs, *outputs]}
     header: dict[str, Any] = {
@@ -127,8 +162,9 @@ def recording_archives(draw: Any) -> dict[str, Any]:
         "inputs": inputs,
         "outputs": outputs,
         "units": units,
-        "meta": draw(st.dictionaries(st.sampled_from(["rig", "steps", "amplitude", "a"]), JSON,
-                                     max_size=3)),
+        "meta": draw(
+            st.dictionaries(st.sampled_from(["rig", "steps", "amplitude", "a"]), JSON, max_size=3)
+        ),
     }
     values = st.floats(-1e3, 1e3)
     arrays: dict[str, Any] = {
@@ -234,7 +270,8 @@ def test_any_bytes_are_refused_or_read(work, data, suffix, zipped):
 
 EMPS_COLUMNS = ["time_exp", "q_ref", "q_meas", "v_est", "u_in", "u_tot"]
 CSV_CELLS = st.one_of(
-    st.floats(-10, 10).map(repr), st.sampled_from(["nan", "inf", "-inf", "", "1e999", "a"]),
+    st.floats(-10, 10).map(repr),
+    st.sampled_from(["nan", "inf", "-inf", "", "1e999", "a"]),
 )
 
 
@@ -373,9 +410,12 @@ def toml_value(v: Any) -> str:
 
 def toml_document(doc: dict[str, Any]) -> str:
     """A TOML text of ``doc``: scalars first, then tables, then arrays of tables."""
-    head = [f"{toml_key(k)} = {toml_value(v)}" for k, v in doc.items()
-            if not isinstance(v, dict) and not (isinstance(v, list) and v
-                                                and all(isinstance(t, dict) for t in v))]
+    head = [
+        f"{toml_key(k)} = {toml_value(v)}"
+        for k, v in doc.items()
+        if not isinstance(v, dict)
+        and not (isinstance(v, list) and v and all(isinstance(t, dict) for t in v))
+    ]
     body = []
     for k, v in doc.items():
         if isinstance(v, dict):
@@ -393,7 +433,7 @@ CONSTANT_KEYS = ["wheel_centre", "spring_rate", "front_share", "wheel_radius", "
 EFFECT_KEYS = ["kind", "location", "name", "f_c", "sigma", "ratio", "x_ref", "fc"]
 SCALARS = st.one_of(
     st.floats(allow_nan=True, allow_infinity=True),
-    st.integers(-10**6, 10**6),
+    st.integers(-(10**6), 10**6),
     st.booleans(),
     st.sampled_from(["dahl_hysteresis", "coulomb_friction", "lower_arm", "strut", "x"]),
     st.lists(st.floats(-1e3, 1e3), max_size=4),
@@ -477,12 +517,18 @@ def test_unknown_names_get_did_you_mean(tmp_path):
         ("[desing]\nstatic_toe = 0.0\n", r"unknown key 'desing' \(did you mean 'design'\?\)"),
         ("[design]\nstrut_top_q = 1.0\n", r"unknown parameter 'strut_top_q' \(did you mean"),
         ("[constants]\nspring_rat = 25.0\n", r"unknown constant 'spring_rat' \(did you mean"),
-        ("[[effects]]\nkind = 'dahl_hysterisis'\nlocation = 'lower_arm'\n",
-         r"`kind` must be one of .*'dahl_hysterisis'; did you mean 'dahl_hysteresis'"),
-        ("[[effects]]\nkind = 'dahl_hysteresis'\nlocation = 'lower_arms'\n",
-         r"`location` must be one of .*'lower_arms'; did you mean"),
-        ("[[effects]]\nkind = 'dahl_hysteresis'\nlocation = 'lower_arm'\nfc = 80.0\n",
-         r"unknown parameter 'fc' \(did you mean 'f_c'\?\)"),
+        (
+            "[[effects]]\nkind = 'dahl_hysterisis'\nlocation = 'lower_arm'\n",
+            r"`kind` must be one of .*'dahl_hysterisis'; did you mean 'dahl_hysteresis'",
+        ),
+        (
+            "[[effects]]\nkind = 'dahl_hysteresis'\nlocation = 'lower_arms'\n",
+            r"`location` must be one of .*'lower_arms'; did you mean",
+        ),
+        (
+            "[[effects]]\nkind = 'dahl_hysteresis'\nlocation = 'lower_arm'\nfc = 80.0\n",
+            r"unknown parameter 'fc' \(did you mean 'f_c'\?\)",
+        ),
         ("[design]\nstatic_toe = nan\n", r"\[design\]: `static_toe` must be a finite number.*=nan"),
         ("[constants]\nwheel_centre = [0, -745, inf]\n", r"`wheel_centre` must be a finite number"),
     ):

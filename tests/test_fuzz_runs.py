@@ -42,10 +42,34 @@ SETTINGS = settings(
 #: words a config is made of: the real keys, near misses and nonsense
 KEYS = st.sampled_from(
     [
-        "name", "seed", "budget", "pipeline", "problem", "strategy", "run", "options",
-        "dim", "delay_s", "popsize", "sigma0", "restarts", "batch_size", "workers",
-        "output", "plots", "progress", "chunk_size", "timeout_s", "retries",
-        "retry_backoff_s", "dask_scheduler", "optons", "sigma", "x0", "weights", "zz",
+        "name",
+        "seed",
+        "budget",
+        "pipeline",
+        "problem",
+        "strategy",
+        "run",
+        "options",
+        "dim",
+        "delay_s",
+        "popsize",
+        "sigma0",
+        "restarts",
+        "batch_size",
+        "workers",
+        "output",
+        "plots",
+        "progress",
+        "chunk_size",
+        "timeout_s",
+        "retries",
+        "retry_backoff_s",
+        "dask_scheduler",
+        "optons",
+        "sigma",
+        "x0",
+        "weights",
+        "zz",
     ]
 )
 SCALARS = st.one_of(
@@ -56,9 +80,7 @@ SCALARS = st.one_of(
 )
 VALUES = st.recursive(
     SCALARS,
-    lambda inner: st.one_of(
-        st.lists(inner, max_size=4), st.dictionaries(KEYS, inner, max_size=4)
-    ),
+    lambda inner: st.one_of(st.lists(inner, max_size=4), st.dictionaries(KEYS, inner, max_size=4)),
     max_leaves=12,
 )
 

@@ -140,8 +140,10 @@ def test_a_misspelt_key_is_refused_with_the_nearest(folder):
 
 
 def test_an_unknown_key_of_a_test_table_is_refused(folder):
-    text = (folder / MANIFEST).read_text().replace(
-        'file = "lateral.csv"', 'file = "lateral.csv"\nfiel = "x"'
+    text = (
+        (folder / MANIFEST)
+        .read_text()
+        .replace('file = "lateral.csv"', 'file = "lateral.csv"\nfiel = "x"')
     )
     (folder / MANIFEST).write_text(text)
     msg = refused(folder, r"\[tests.lateral\]: unknown key 'fiel'")

@@ -535,9 +535,7 @@ def test_the_formats_opposed_tests_are_the_rigs(opposed_results):
             np.testing.assert_allclose(b, a, rtol=0, atol=1e-9 * np.max(np.abs(a)))
 
 
-def test_opposed_tests_written_to_a_folder_load_back_as_the_rigs_output(
-    tmp_path, opposed_results
-):
+def test_opposed_tests_written_to_a_folder_load_back_as_the_rigs_output(tmp_path, opposed_results):
     """Reference: the rig's own results. The file holds 15 significant digits of
     mm/deg/N/N*m values, so drive and channels agree to 1e-13 of their size; the
     drive column is the in-phase test's (force [N], moment [N*m])."""

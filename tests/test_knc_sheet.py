@@ -95,8 +95,9 @@ def test_ackermann_percentage_is_0_for_parallel_and_100_for_the_ackermann_pair()
         path = loop_path(steps)
         toe = np.stack([-dl, dr], axis=-1)[path]  # toe-in = -delta (left), +delta (right)
         grid = np.linspace(-0.03, 0.03, steps + 1)
-        return KCResult("steering", grid, path, {"toe": np.deg2rad(toe)[None]},
-                        np.ones(1, bool), [""])
+        return KCResult(
+            "steering", grid, path, {"toe": np.deg2rad(toe)[None]}, np.ones(1, bool), [""]
+        )
 
     L, t = 2600.0, 1400.0
     do = np.deg2rad(np.linspace(0.0, 15.0, 6))
@@ -124,8 +125,7 @@ def test_suspenv_knc_prints_the_sheet_of_a_rig_channel_set(capsys):
     m, _ = measure_test_car(0, ("noise",), tests=("parallel", "opposite", "lateral"))
     drop = {"contact_x", "contact_y", "contact_z", "scrub_radius", "trail", "knuckle_pitch"}
     tests = {
-        t: dataclasses.replace(mt, channels={k: v for k, v in mt.channels.items()
-                                             if k not in drop})
+        t: dataclasses.replace(mt, channels={k: v for k, v in mt.channels.items() if k not in drop})
         for t, mt in m.tests.items()
     }
     print_measured_sheet(dataclasses.replace(m, tests=tests))

@@ -101,5 +101,3 @@ def test_fixed_rank_sum_by_hand():
     # 10 * ((2 - 1)/2 + (15 - 10)/10) = 10; a row better than every reference row is < 0
     np.testing.assert_allclose(q(np.array([[2.0, 15.0], [0.0, 10.0]])), [10.0, -5.0])
     np.testing.assert_allclose(q.subset([1])(np.array([[20.0]])), [10.0])
-
-

@@ -62,7 +62,11 @@ def damper_recording(n: int, periods: float, name: str = "x") -> Recording:
     x = 0.01 * np.sin(w * t)
     v = 0.01 * w * np.cos(w * t)
     return Recording(
-        name, "dyno_sine", t, {"displacement": x, "velocity": v}, {"force": 1500.0 * v},
+        name,
+        "dyno_sine",
+        t,
+        {"displacement": x, "velocity": v},
+        {"force": 1500.0 * v},
         DAMPER_UNITS,
     )
 
@@ -139,7 +143,11 @@ def test_unknown_unit_is_refused_with_the_value(tmp_path):
 def test_channel_in_another_quantity_than_the_model_reads_is_refused():
     rec = damper_recording(2000, 10.0)
     wrong = Recording(
-        rec.name, rec.test, rec.time, dict(rec.inputs), dict(rec.outputs),
+        rec.name,
+        rec.test,
+        rec.time,
+        dict(rec.inputs),
+        dict(rec.outputs),
         {**DAMPER_UNITS, "force": "m/s"},
     )
     with pytest.raises(ValidationError, match=r"'force' is in 'm/s', but the damper model reads"):
@@ -157,9 +165,12 @@ def test_data_scaled_by_1e300_are_refused_as_implausible():
     assert f"implausible force: the limit is {PLAUSIBLE['N'][0]:.6g} N" in msg
     # every channel: an implausible stroke too (mm numbers read as m, times 1e4)
     far = Recording(
-        rec.name, rec.test, rec.time,
+        rec.name,
+        rec.test,
+        rec.time,
         {k: v * (1e4 if k == "displacement" else 1.0) for k, v in rec.inputs.items()},
-        dict(rec.outputs), dict(rec.units),
+        dict(rec.outputs),
+        dict(rec.units),
     )
     with pytest.raises(ValidationError, match=r"input channel 'displacement' reaches .* m"):
         diagnose(far, "damper")

@@ -83,7 +83,11 @@ def test_one_cell_formatter():
     from suspenv.core.markdown import fmt
 
     assert [fmt(1 / 3), fmt(2.0e-5), fmt(True), fmt(False), fmt(7)] == [
-        "0.3333", "2e-05", "yes", "", "7",
+        "0.3333",
+        "2e-05",
+        "yes",
+        "",
+        "7",
     ]
     nonfinite = [float("inf"), float("-inf"), float("nan")]
     assert [fmt(v, missing="–") for v in nonfinite] == ["–", "–", "–"]

@@ -220,8 +220,11 @@ def test_optuna_failed_designs_are_failed_trials():
 
 @pytest.mark.parametrize(
     ("name", "options"),
-    [("nsga2", {"population_size": 4}), ("optuna_tpe", {"batch_size": 4}),
-     ("optuna_nsga3", {"population_size": 4})],
+    [
+        ("nsga2", {"population_size": 4}),
+        ("optuna_tpe", {"batch_size": 4}),
+        ("optuna_nsga3", {"population_size": 4}),
+    ],
 )
 def test_optuna_unknown_constraint_is_told_as_a_large_violation(name, options):
     """A successful design whose constraint is NaN (optuna refuses NaN) completes with the

@@ -115,7 +115,11 @@ def test_thinning_keeps_the_extremes_and_spreads_evenly():
 
 def test_a_suite_run_writes_ordinary_run_directories(tmp_path):
     result = run_suite(
-        ["random"], [1, 2], tmp_path, functions=["sphere-10d"], budget_scale=0.05,
+        ["random"],
+        [1, 2],
+        tmp_path,
+        functions=["sphere-10d"],
+        budget_scale=0.05,
         progress=False,
     )
     listed = json.loads((tmp_path / SUITE_FILE).read_text())
@@ -150,13 +154,19 @@ def test_plugins_run_from_a_config_and_from_a_suite_run(tmp_path, monkeypatch, c
     assert summary["strategy"] == name and summary["n_evaluations"] == 8
     # the command line names it directly
     result = run_suite(
-        [name, "random"], [1, 2], tmp_path / "suite", ["sphere-10d"], budget_scale=0.05,
+        [name, "random"],
+        [1, 2],
+        tmp_path / "suite",
+        ["sphere-10d"],
+        budget_scale=0.05,
         progress=False,
     )
     dirs = [Path(r["run_dir"]).name for r in result["runs"]]
     assert "sphere-10d-i1-centre-Centre-seed1" in dirs
-    labels = {g.label.split("[")[0] for g in compare([r["run_dir"] for r in result["runs"]])
-              .problems[0].groups}
+    labels = {
+        g.label.split("[")[0]
+        for g in compare([r["run_dir"] for r in result["runs"]]).problems[0].groups
+    }
     assert labels == {name, "random"}
 
 
@@ -185,10 +195,15 @@ def test_suite_run_refuses_repeated_seeds_and_too_short_budgets(tmp_path, capsys
     with pytest.raises(ValidationError, match=r"seeds of a suite run must be distinct.*\[1, 1\]"):
         run_suite(["random"], [1, 1], tmp_path, progress=False)
     with pytest.raises(ValidationError, match=r"kc-exact/i1 22 evaluations for 49 variables"):
-        run_suite(["random"], [1], tmp_path, functions=["kc-exact"], budget_scale=0.01,
-                  progress=False)
+        run_suite(
+            ["random"], [1], tmp_path, functions=["kc-exact"], budget_scale=0.01, progress=False
+        )
     # the command line: a named error, no traceback, nothing run
-    assert main(["suite", "run", "--strategies", "random", "--seeds", "1", "1",
-                 "--out", str(tmp_path)]) != 0
+    assert (
+        main(
+            ["suite", "run", "--strategies", "random", "--seeds", "1", "1", "--out", str(tmp_path)]
+        )
+        != 0
+    )
     assert "must be distinct" in capsys.readouterr().err
     assert not (tmp_path / SUITE_FILE).exists()

@@ -125,8 +125,17 @@ def test_to_si_applies_the_table() -> None:
 
 @pytest.mark.parametrize(
     ("text", "key"),
-    [(" mm ", "mm"), ("N·m", "N*m"), ("kN . m", "kN*m"), ("KN·M", "kN*m"), ("DEG", "deg"),
-     ("Nm", "Nm"), ("grad", None), ("", None), (3, None)],
+    [
+        (" mm ", "mm"),
+        ("N·m", "N*m"),
+        ("kN . m", "kN*m"),
+        ("KN·M", "kN*m"),
+        ("DEG", "deg"),
+        ("Nm", "Nm"),
+        ("grad", None),
+        ("", None),
+        (3, None),
+    ],
 )
 def test_one_unit_name_reader(text: object, key: str | None) -> None:
     """Recordings and the K&C format read unit names alike: stripped, any product sign

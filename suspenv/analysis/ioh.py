@@ -132,4 +132,3 @@ def _best_x(run: Any, index: int, measure: str) -> list[float]:
     if a is None or index >= len(a["x"]):
         return []
     return [float(v) for v in a["x"][index]]
-

@@ -72,9 +72,7 @@ def _list(args: argparse.Namespace) -> int:
     print("-" * len(hdr))
     for card, f in zip(cards, FUNCTIONS.values(), strict=True):
         k = card["known"]
-        known = (
-            f"front {k['front']}" if k["kind"] == "front" else f"{k['kind']} {k['f']:.4g}"
-        )
+        known = f"front {k['front']}" if k["kind"] == "front" else f"{k['kind']} {k['f']:.4g}"
         inst = f"{len(f.instances)}" if len(f.instances) > 1 else "1"
         noisy = " (noisy)" if card["noisy"] else ""
         print(

@@ -34,9 +34,7 @@ _BLOCK_START = re.compile(r"\s*([#+=-]|\d+[.)])")
 def one_line(value: object) -> str:
     """``str(value)`` with every line break and control character (Unicode categories
     Cc, Zl, Zp) replaced by a space: text from data cannot start a new line."""
-    return "".join(
-        " " if unicodedata.category(c) in ("Cc", "Zl", "Zp") else c for c in str(value)
-    )
+    return "".join(" " if unicodedata.category(c) in ("Cc", "Zl", "Zp") else c for c in str(value))
 
 
 def inline(value: object) -> str:

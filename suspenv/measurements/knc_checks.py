@@ -242,8 +242,7 @@ def _check_track(where: str, t: RigSamples) -> None:
         if track >= MIN_TRACK:
             continue
         cause = (
-            "the left and right columns are swapped, or y is negated (ISO 8855: y left "
-            "positive)"
+            "the left and right columns are swapped, or y is negated (ISO 8855: y left positive)"
             if track < -MIN_TRACK  # a mirrored right wheel gives about 0, of either sign
             else "the right wheel's values are mirrored outboard (the format holds raw y: "
             "left +745 mm, right -745 mm)"

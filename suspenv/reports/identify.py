@@ -643,4 +643,3 @@ def write_identify_report(result: IdentifyResult, out: Path, figures: bool = Tru
         lines += ["![convergence](figures/convergence.png)", ""]
     rep = write_file(out / "report.md", "\n".join(lines) + "\n")
     return [toml, js, *figs.values(), rep]
-

@@ -106,9 +106,7 @@ def write_run_figures(
         )
         say(f"pareto_parallel.png ({m} axes, {min(int(front.sum()), limit)} lines)")
         figures.append(
-            plot_parallel(
-                objectives, feasible, names, run_dir / "pareto_parallel.png", front=front
-            )
+            plot_parallel(objectives, feasible, names, run_dir / "pareto_parallel.png", front=front)
         )
     return figures
 
@@ -188,8 +186,12 @@ def plot_convergence(
     fig.suptitle("Convergence (best feasible so far)")
     if grid:  # fixed margins: tight_layout would lay out every tick label twice
         fig.subplots_adjust(
-            left=0.04, right=0.99, bottom=0.5 / (size[1] * rows), top=1 - 0.75 / (size[1] * rows),
-            wspace=0.35, hspace=0.45,
+            left=0.04,
+            right=0.99,
+            bottom=0.5 / (size[1] * rows),
+            top=1 - 0.75 / (size[1] * rows),
+            wspace=0.35,
+            hspace=0.45,
         )
     return _save(fig, path, 110, tight=not grid)
 
@@ -237,8 +239,12 @@ def plot_pareto_pairs(
     fig.suptitle(title, fontsize=10 if k > 3 else None)
     side = 2.6 * k  # fixed margins in inches: tight_layout would lay out every label twice
     fig.subplots_adjust(
-        left=0.75 / side, right=1 - 0.15 / side, bottom=0.6 / side, top=1 - 0.7 / side,
-        wspace=0.35, hspace=0.3,
+        left=0.75 / side,
+        right=1 - 0.15 / side,
+        bottom=0.6 / side,
+        top=1 - 0.7 / side,
+        wspace=0.35,
+        hspace=0.3,
     )
     return _save(fig, path, 100)
 
@@ -273,7 +279,10 @@ def plot_parallel(
         panels.append((designs[0], designs[1], "design variable, 0 = range min, 1 = max"))
         width += 1.2 * len(designs[1])
     fig, axes = pyplot().subplots(
-        1, len(panels), figsize=(width, 5.0 if many else 3.6), squeeze=False,
+        1,
+        len(panels),
+        figsize=(width, 5.0 if many else 3.6),
+        squeeze=False,
         gridspec_kw={"width_ratios": [len(p[1]) for p in panels]},
     )
     for ax, (values, labels, ylabel) in zip(axes[0], panels, strict=True):

@@ -27,4 +27,3 @@ def write_diagnosis_report(diag: Any, out_dir: str | Path) -> list[Path]:
     from suspenv.reports.diagnosis.component import write_component_report
 
     return write_component_report(diag, Path(out_dir))
-
