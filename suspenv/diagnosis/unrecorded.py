@@ -6,7 +6,7 @@ coil current switched between levels, its channel withheld), that input is model
 a gain on one recorded signal that is constant over stretches of time and changes from
 stretch to stretch (:class:`Stretches`); the input acts on the true quantity, so the
 model's sensors on the channel (a lag, a gain) act on its part as on the model's
-(:meth:`Profiled._sensed_parts`). Its gains are **nuisance parameters, profiled
+(:meth:`Profiled._plus_gains`). Its gains are **nuisance parameters, profiled
 out** (linear least squares, :class:`Profiled`): in every fit, the baseline's and each
 candidate's alike, and in the held-out scoring, so that each candidate element is judged
 on what is left beside the switched part.
@@ -130,28 +130,37 @@ class Stretches:
         )
 
 
-def _projection(
-    series: np.ndarray, starts: np.ndarray, groups: Sequence[tuple[np.ndarray, bool]]
-) -> tuple[np.ndarray, np.ndarray]:
-    """(basis, signs) of the gains' supports: one column per support, the signal there
-    scaled to unit norm (zero elsewhere), and its sign: per sample group, each stretch
-    (+1), and for a fitted group the group as a whole (-1): there the stretches' gains
-    are taken less their one common gain, which stays the model's (a damping rate the
-    switched gain multiplies); on held-out samples every stretch's gain is their own
-    (the input's level there is not known from the fit)."""
-    cols, signs = [], []
+def _supports(
+    starts: np.ndarray, groups: Sequence[tuple[np.ndarray, bool]]
+) -> list[tuple[np.ndarray, np.ndarray, bool]]:
+    """The gains' supports of one recording: per sample group (mask, fitted), its
+    sample indices, each one's stretch (index into ``starts``) and whether it is fitted."""
+    out = []
     for g, fitted in groups:
-        whole = np.flatnonzero(g)
-        bounds = zip(starts[:-1], starts[1:], strict=True)
-        pieces = [(a + np.flatnonzero(g[a:b]), 1.0) for a, b in bounds]
-        for idx, sign in [*pieces, *([(whole, -1.0)] if fitted else [])]:
-            norm = float(np.linalg.norm(series[idx]))
-            if idx.size > 1 and norm > 0:
-                col = np.zeros(series.size)
-                col[idx] = series[idx] / norm
-                cols.append(col)
-                signs.append(sign)
-    return np.column_stack(cols) if cols else np.zeros((series.size, 0)), np.array(signs)
+        idx = np.flatnonzero(g)
+        out.append((idx, np.searchsorted(starts, idx, side="right") - 1, fitted))
+    return out
+
+
+def _gains_part(
+    d: np.ndarray, s: np.ndarray, supports: Sequence[tuple[np.ndarray, np.ndarray, bool]]
+) -> np.ndarray:
+    """What the gains take of the residual ``d`` (unit of the channel): per sample group
+    and stretch of more than one sample, the least-squares gain of ``d`` on the signal
+    ``s`` times ``s``; for a fitted group, less the group's one common gain, which
+    stays the model's (a damping rate the switched gain multiplies); on held-out
+    samples every stretch's gain is their own (the input's level there is not known
+    from the fit)."""
+    out = np.zeros_like(d)
+    for idx, stretch, fitted in supports:
+        ds, ss = d[idx] * s[idx], s[idx] * s[idx]
+        num, den = np.bincount(stretch, ds), np.bincount(stretch, ss)
+        ok = (np.bincount(stretch) > 1) & (den > 0)
+        gain = np.divide(num, den, out=np.zeros_like(num), where=ok)[stretch]
+        if fitted and idx.size > 1 and ss.sum() > 0:
+            gain = gain - ds.sum() / ss.sum()
+        out[idx] += gain * s[idx]
+    return out
 
 
 class Profiled:
@@ -165,9 +174,8 @@ class Profiled:
         self.model = model
         self.stretches = stretches
         self.groups = groups
-        self._parts = {
-            name: _projection(stretches.series[name], starts, groups[name])
-            for name, starts in stretches.starts.items()
+        self._supports = {
+            name: _supports(starts, groups[name]) for name, starts in stretches.starts.items()
         }
 
     def __getattr__(self, name: str) -> Any:
@@ -197,26 +205,17 @@ class Profiled:
     def _plus_gains(
         self, theta: np.ndarray, rec: RecordingLike, p: np.ndarray, d: np.ndarray
     ) -> np.ndarray:
-        """The prediction ``p`` of one design plus the gains' least-squares part of what
-        it leaves, ``d``."""
-        basis, signs = self._sensed_parts(theta, rec)
-        return p + ((d @ basis) * signs) @ basis.T
-
-    def _sensed_parts(self, theta: np.ndarray, rec: RecordingLike) -> tuple[np.ndarray, np.ndarray]:
-        """The gains' supports (:func:`_projection`) of a recorded input as the model's
-        sensors on the channel record it: the unrecorded input acts on the true
-        quantity, so a sensor lag filters its part as it filters the model's. The
-        signal's own where the sensors pass it unchanged (none, a zero offset or drift)
-        and for the baseline's prediction (a prediction of the recorded channel)."""
+        """The prediction ``p`` of one design plus what the gains take of what it leaves,
+        ``d``, on the signal as the model's sensors on the channel record it: the
+        unrecorded input acts on the true quantity, so a sensor lag filters its part as
+        it filters the model's (the baseline's prediction, a prediction of the recorded
+        channel, as it is)."""
         name = str(rec.name)
         s = self.stretches.series[name]
         sensed = getattr(self.model, "sensed", None)
-        if sensed is None or self.stretches.signal == missing_input.PREDICTION:
-            return self._parts[name]
-        seen = np.asarray(sensed(theta, s, rec, self.stretches.channel), float)
-        if np.allclose(seen, s, rtol=0.0, atol=1e-12 * float(np.max(np.abs(s)))):
-            return self._parts[name]
-        return _projection(seen, self.stretches.starts[name], self.groups[name])
+        if sensed is not None and self.stretches.signal != missing_input.PREDICTION:
+            s = np.asarray(sensed(theta, s, rec, self.stretches.channel), float)
+        return p + _gains_part(d, s, self._supports[name])
 
 
 def unprofiled(model: Any) -> Any:
