@@ -6,7 +6,7 @@ coil current switched between levels, its channel withheld), that input is model
 a gain on one recorded signal that is constant over stretches of time and changes from
 stretch to stretch (:class:`Stretches`); the input acts on the true quantity, so the
 model's sensors on the channel (a lag, a gain) act on its part as on the model's
-(:meth:`Profiled._plus_gains`). Its gains are **nuisance parameters, profiled
+(:meth:`Profiled._signal`). Its gains are **nuisance parameters, profiled
 out** (linear least squares, :class:`Profiled`): in every fit, the baseline's and each
 candidate's alike, and in the held-out scoring, so that each candidate element is judged
 on what is left beside the switched part.
@@ -133,33 +133,40 @@ class Stretches:
 def _supports(
     starts: np.ndarray, groups: Sequence[tuple[np.ndarray, bool]]
 ) -> list[tuple[np.ndarray, np.ndarray, bool]]:
-    """The gains' supports of one recording: per sample group (mask, fitted), its
-    sample indices, each one's stretch (index into ``starts``) and whether it is fitted."""
+    """The gains' supports of one recording: per sample group (mask, fitted) with
+    samples, its sample indices, the positions among them where a stretch begins, and
+    whether it is fitted."""
     out = []
     for g, fitted in groups:
         idx = np.flatnonzero(g)
-        out.append((idx, np.searchsorted(starts, idx, side="right") - 1, fitted))
+        stretch = np.searchsorted(starts, idx, side="right")
+        if idx.size:
+            out.append((idx, np.flatnonzero(np.diff(stretch, prepend=-1)), fitted))
     return out
 
 
 def _gains_part(
     d: np.ndarray, s: np.ndarray, supports: Sequence[tuple[np.ndarray, np.ndarray, bool]]
 ) -> np.ndarray:
-    """What the gains take of the residual ``d`` (unit of the channel): per sample group
-    and stretch of more than one sample, the least-squares gain of ``d`` on the signal
-    ``s`` times ``s``; for a fitted group, less the group's one common gain, which
-    stays the model's (a damping rate the switched gain multiplies); on held-out
-    samples every stretch's gain is their own (the input's level there is not known
-    from the fit)."""
-    out = np.zeros_like(d)
-    for idx, stretch, fitted in supports:
-        ds, ss = d[idx] * s[idx], s[idx] * s[idx]
-        num, den = np.bincount(stretch, ds), np.bincount(stretch, ss)
-        ok = (np.bincount(stretch) > 1) & (den > 0)
-        gain = np.divide(num, den, out=np.zeros_like(num), where=ok)[stretch]
-        if fitted and idx.size > 1 and ss.sum() > 0:
-            gain = gain - ds.sum() / ss.sum()
-        out[idx] += gain * s[idx]
+    """What the gains take of the residual ``d[..., T]`` (unit of the channel; a batch of
+    designs along the leading axis, as ``s``): per sample group and stretch of more
+    than one sample, the least-squares gain of ``d`` on the signal ``s`` times ``s``;
+    for a fitted group, less the group's one common gain, which stays the model's (a
+    damping rate the switched gain multiplies); on held-out samples every stretch's
+    gain is their own (the input's level there is not known from the fit)."""
+    d, s = np.broadcast_arrays(d, s)
+    out = np.zeros(d.shape)
+    for idx, first, fitted in supports:
+        ds, ss = d[..., idx] * s[..., idx], s[..., idx] * s[..., idx]
+        sizes = np.diff(first, append=idx.size)
+        num, den = (np.add.reduceat(v, first, axis=-1) for v in (ds, ss))
+        ok = (sizes > 1) & (den > 0)
+        gain = np.repeat(np.divide(num, den, out=np.zeros_like(num), where=ok), sizes, axis=-1)
+        if fitted and idx.size > 1:
+            tot = ss.sum(axis=-1, keepdims=True)
+            common = ds.sum(axis=-1, keepdims=True)
+            gain = gain - np.divide(common, tot, out=np.zeros_like(tot), where=tot > 0)
+        out[..., idx] += gain * s[..., idx]
     return out
 
 
@@ -192,30 +199,24 @@ class Profiled:
 
     def simulate(self, theta: np.ndarray, rec: RecordingLike) -> dict[str, np.ndarray]:
         pred = self.model.simulate(theta, rec)
-        starts, ch = self.stretches.starts.get(str(rec.name)), self.stretches.channel
+        name, ch = str(rec.name), self.stretches.channel
+        starts = self.stretches.starts.get(name)
         if starts is None or int(starts[-1]) != len(rec.time) or ch not in {*pred} & {*rec.outputs}:
             return pred
         p = np.asarray(pred[ch], float)
         d = np.asarray(rec.outputs[ch], float) - p
-        if p.ndim == 1:
-            return {**pred, ch: self._plus_gains(theta, rec, p, d)}
-        rows = zip(np.atleast_2d(theta), p, d, strict=True)  # a batch of designs
-        return {**pred, ch: np.stack([self._plus_gains(t, rec, pi, di) for t, pi, di in rows])}
+        return {**pred, ch: p + _gains_part(d, self._signal(theta, rec), self._supports[name])}
 
-    def _plus_gains(
-        self, theta: np.ndarray, rec: RecordingLike, p: np.ndarray, d: np.ndarray
-    ) -> np.ndarray:
-        """The prediction ``p`` of one design plus what the gains take of what it leaves,
-        ``d``, on the signal as the model's sensors on the channel record it: the
-        unrecorded input acts on the true quantity, so a sensor lag filters its part as
-        it filters the model's (the baseline's prediction, a prediction of the recorded
-        channel, as it is)."""
-        name = str(rec.name)
-        s = self.stretches.series[name]
+    def _signal(self, theta: np.ndarray, rec: RecordingLike) -> np.ndarray:
+        """The signal the gains multiply, as the model's sensors on the channel record it
+        (one row per design of a batch): the unrecorded input acts on the true quantity,
+        so a sensor lag filters its part as it filters the model's (the baseline's
+        prediction, a prediction of the recorded channel, as it is)."""
+        s = self.stretches.series[str(rec.name)]
         sensed = getattr(self.model, "sensed", None)
-        if sensed is not None and self.stretches.signal != missing_input.PREDICTION:
-            s = np.asarray(sensed(theta, s, rec, self.stretches.channel), float)
-        return p + _gains_part(d, s, self._supports[name])
+        if sensed is None or self.stretches.signal == missing_input.PREDICTION:
+            return s
+        return np.asarray(sensed(theta, s, rec, self.stretches.channel), float)
 
 
 def unprofiled(model: Any) -> Any:
