@@ -774,6 +774,8 @@ def test_a_pure_delay_keeps_the_gain_and_shifts_the_phase_by_w_t():
     late = t > 0.05
     assert out[0, late] == pytest.approx(np.sin(w * (t[late] - 0.02)), abs=1e-4)
     assert out[1] == pytest.approx(y[1])
+    # one series under a batch of delays: a row per delay
+    np.testing.assert_array_equal(sensor_delay(y[0], t, np.array([0.02, 0.0])), out)
     with pytest.raises(ValidationError, match="delay >= 0"):
         sensor_delay(y, t, -0.01)
 

@@ -89,15 +89,18 @@ def sensor_delay(y: np.ndarray, t: np.ndarray, delay: Value) -> np.ndarray:
     """Pure delay of ``y[..., T]`` sampled at ``t[T]``: ``y_rec(t) = y(t - delay)``,
     linear interpolation, the first value held before the record starts.
 
-    ``delay`` [s] is batch-shaped (scalar or ``y.shape[:-1]``); ``delay = 0`` returns
-    ``y`` unchanged. Under a sinusoid of angular frequency ``w`` the recorded signal lags
-    by ``w delay`` at unit amplitude ratio (a first-order lag's ratio falls instead).
+    ``delay`` [s] is batch-shaped (scalar or broadcast against ``y.shape[:-1]``);
+    ``delay = 0`` returns ``y`` unchanged. Under a sinusoid of angular frequency ``w`` the
+    recorded signal lags by ``w delay`` at unit amplitude ratio (a first-order lag's
+    ratio falls instead).
     """
     y = series(y, "y")
     tt = np.asarray(t, dtype=float)
     time_steps(tt, y.shape[-1])
     require_positive("delay", delay, strict=False)
-    d = np.broadcast_to(np.asarray(delay, dtype=float), y.shape[:-1]).reshape(-1)
+    da = np.asarray(delay, dtype=float)
+    y = np.broadcast_to(y, (*np.broadcast_shapes(da.shape, y.shape[:-1]), y.shape[-1]))
+    d = np.broadcast_to(da, y.shape[:-1]).reshape(-1)
     flat = y.reshape(-1, y.shape[-1])
     out = np.stack([np.interp(tt - di, tt, row) for di, row in zip(d, flat, strict=True)])
     return out.reshape(y.shape)
