@@ -7,8 +7,9 @@ leaves nothing of a switched gain; on the fit samples the one common gain, the
 inverse-weighted mean of the stretches' gains, stays the model's); the absence of leaks
 by changing the held-out samples; the batch against single rows; a sensor lag's
 response to a ramp against its closed form, and the profiled gains of a lagged
-switching against the same closed form on the lagged signal; and the loop on a blind
-case whose truth is known (:mod:`benchmarks.component_truth`).
+switching against the same closed form on the lagged signal; each sensor kind's
+``shift`` mark against its definition, ``sensor(y) - sensor(0) = y``; and the loop on
+a blind case whose truth is known (:mod:`benchmarks.component_truth`).
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from suspenv.diagnosis.engine import diagnose
 from suspenv.diagnosis.unrecorded import Profiled, Stretches, find_stretches, unprofiled
 from suspenv.measurements import Recording
 from suspenv.models.components import make_component
-from suspenv.models.effects import make_effect
+from suspenv.models.effects import effect_kinds, make_effect
 
 N, LENGTH = 2000, 50
 #: stretch starts of the synthetic switching (multiples of the block length)
@@ -163,6 +164,48 @@ def test_sensed_is_the_sensors_linear_response() -> None:
     rec = Recording("r", "t", t, {"velocity": np.zeros_like(t)}, {}, {"velocity": "m/s"})
     got = model.sensed(model.theta_from({"c": 1000.0}), t, rec, "force")
     np.testing.assert_allclose(got, t - tau * (1 - np.exp(-t / tau)), rtol=0, atol=1e-13)
-    offset_only = make_component("damper", [make_effect("sensor_offset", offset=7.0)])
-    theta = offset_only.theta_from({"c": 1000.0})
-    np.testing.assert_allclose(offset_only.sensed(theta, t, rec, "force"), t, atol=1e-15)
+    shifts = [make_effect("sensor_offset", offset=7.0), make_effect("zero_drift", rate=2.0)]
+    shifts_only = make_component("damper", shifts)
+    assert shifts_only.sensed(shifts_only.theta_from({"c": 1000.0}), t, rec, "force") is t
+
+
+def test_sensed_of_a_batch_is_sensed_row_by_row() -> None:
+    # designs of a batch differ in a drift (skipped: it adds nothing) and a delay
+    t = np.arange(400) * 0.001
+    y = np.sin(2 * np.pi * 7.0 * t)
+    model = make_component("damper", [make_effect("zero_drift"), make_effect("sensor_delay")])
+    rec = Recording("r", "t", t, {"velocity": np.zeros_like(t)}, {}, {"velocity": "m/s"})
+    rows = [
+        model.theta_from({"c": 1000.0, "zero_drift.rate": r, "sensor_delay.delay": d})
+        for r, d in ((0.0, 0.0), (3.0, 0.004), (-5.0, 0.0105))
+    ]
+    got = model.sensed(np.stack(rows), y, rec, "force")
+    np.testing.assert_array_equal(got, [model.sensed(th, y, rec, "force") for th in rows])
+
+
+def _drawn(kind: str, rng: np.random.Generator) -> dict[str, float]:
+    """Parameters of ``kind`` drawn uniformly in their bounds (log-uniform where log)."""
+    out = {}
+    for p in effect_kinds()[kind].parameters:
+        lo, hi = (np.log(p.low), np.log(p.high)) if p.log else (p.low, p.high)
+        v = rng.uniform(lo, hi)
+        out[p.name] = float(np.exp(v) if p.log else v)
+    return out
+
+
+def test_a_sensor_kind_is_marked_shift_iff_it_only_adds_to_the_signal() -> None:
+    # the definition of the mark: sensor(y) = y + s(t), s independent of y, so
+    # sensor(y) - sensor(0) = y; what a shift leaves is the rounding of a few additions
+    # (a few eps of the largest magnitude on the record), a gain, lag or delay changes y
+    rng = np.random.default_rng(44)
+    t = np.arange(2000) * 0.001
+    sensors = [k for k, spec in effect_kinds().items() if spec.role == "sensor"]
+    assert {"sensor_offset", "zero_drift", "sensor_gain", "sensor_lag"} <= set(sensors)
+    for kind in sensors:
+        for _ in range(5):
+            e = make_effect(kind).with_params(_drawn(kind, rng))
+            y = rng.normal(0.0, 10.0 ** rng.uniform(-3.0, 6.0), t.size)
+            zero = e.sensor(np.zeros_like(t), t)
+            scale = np.max(np.abs(y)) + np.max(np.abs(zero))
+            off = np.max(np.abs(e.sensor(y, t) - zero - y)) / scale
+            assert (off <= 16 * np.finfo(float).eps) == effect_kinds()[kind].shift, (kind, off)

@@ -464,13 +464,22 @@ class ComponentModel(FitDefaults):
     def sensed(self, theta: np.ndarray, y: np.ndarray, rec: Recording, channel: str) -> np.ndarray:
         """A true ``channel`` signal ``y`` (the channel's unit) as the model's sensor
         elements on that channel record it, less what they record of zero: their linear
-        response (a gain scales it, a lag filters it, a zero offset or drift adds
-        nothing), in the order :meth:`simulate` applies them."""
+        response (a gain scales it, a lag filters it), in the order :meth:`simulate`
+        applies them. A zero offset or drift (``EffectKind.shift``) adds nothing and is
+        skipped: ``y`` itself (not broadcast to a batch of designs) where nothing else is
+        on the channel."""
         _, effects = self.unpack(theta)
-        y, zero = np.asarray(y, float), np.zeros(len(rec.time))
-        for e in effects:
-            if e.spec.role == "sensor" and self._sensor_channel(e) == channel:
-                y, zero = e.sensor(y, rec.time), e.sensor(zero, rec.time)
+        y = np.asarray(y, float)
+        shaping = [
+            e
+            for e in effects
+            if e.spec.role == "sensor" and not e.spec.shift and self._sensor_channel(e) == channel
+        ]
+        if not shaping:
+            return y
+        zero = np.zeros(len(rec.time))
+        for e in shaping:
+            y, zero = e.sensor(y, rec.time), e.sensor(zero, rec.time)
         return y - zero
 
     def linear_part(self, base: Mapping[str, Any], rec: Recording) -> dict[str, np.ndarray] | None:

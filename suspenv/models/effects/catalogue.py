@@ -330,6 +330,7 @@ KINDS = (
         _PARAMETERS["sensor_offset"],
         "constant residual",
         lambda y, t, offset: sensor.sensor_offset_gain(y, bp(offset), 1.0),
+        shift=True,
     ),
     EffectKind(
         "sensor_gain",
@@ -369,6 +370,7 @@ KINDS = (
         ),
         fit_fixed=("span",),
         needs_time=True,
+        shift=True,
     ),
     EffectKind(
         "lr_asymmetry",

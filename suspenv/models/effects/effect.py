@@ -61,6 +61,9 @@ class EffectKind:
             ``lr_asymmetry``; empty when the kind's parameters are all it takes.
         domain: parameters whose laws need a domain: name -> (bound, strict), each value
             ``> bound`` (strict) or ``>= bound`` (:meth:`Effect.check`).
+        shift: a sensor-role kind that only adds to the channel a signal independent of
+            it, ``y_rec = y + s(t)`` (a zero offset, a zero drift): its linear response is
+            the identity.
     """
 
     kind: str
@@ -73,6 +76,7 @@ class EffectKind:
     fit_fixed: tuple[str, ...] = ()
     host_parameters: str = ""
     domain: Mapping[str, tuple[float, bool]] = field(default_factory=dict)
+    shift: bool = False
 
     def __post_init__(self) -> None:
         if self.role not in ROLES:
