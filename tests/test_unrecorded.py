@@ -138,6 +138,18 @@ def test_switched_damping_not_recorded_is_profiled_and_the_element_named() -> No
     assert not diag.confident
 
 
+def test_a_switching_seen_only_beside_the_named_is_profiled_too() -> None:
+    # a guide with no effect whose damping switches by 39 % of the force scale: on the
+    # baseline, what no time-invariant function explains is 2.85 times the white floor
+    # (the limit is 3), beside a Dahl element named in its place 3.32; without the rule
+    # that one Dahl loop was the verdict, with it the fits assume the input, name nothing
+    case = make_case("friction_guide", 35, 0, condition="input_missing")
+    diag = diagnose(case.recording, "friction_guide")
+    assert diag.named == []
+    assert "an unrecorded input switches the gain of velocity" in diag.verdict
+    assert not diag.confident
+
+
 def test_a_sensor_lag_filters_the_profiled_gains_as_it_filters_the_model() -> None:
     # the switching acts on the true force and the recorded force is its lag: the gains
     # are profiled on the lagged signal, so the held-out samples keep nothing of it but

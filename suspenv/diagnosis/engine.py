@@ -45,7 +45,7 @@ from suspenv.diagnosis.fitting import FitResult
 from suspenv.diagnosis.hypothesis import Ambiguity, Hypothesis, family_of, split_candidate
 from suspenv.diagnosis.split import Holdout, Recordings, Split
 from suspenv.diagnosis.sufficiency import check_setup
-from suspenv.diagnosis.unrecorded import profile, still_switching
+from suspenv.diagnosis.unrecorded import profile, still_switching, switched_left
 
 
 @dataclass
@@ -249,7 +249,8 @@ def diagnose(
             by an input the recording does not carry, model it as a switched gain
             profiled out of every fit (:mod:`suspenv.diagnosis.unrecorded`); kept only
             where the final model, without it, still leaves that switching (else the
-            diagnosis runs again without it).
+            diagnosis runs again without it). Where the check calls only the final
+            model's residual so, the diagnosis runs again with the profile.
 
     Raises:
         ValidationError: for data the diagnosis cannot judge, before any fitting (too
@@ -264,19 +265,30 @@ def diagnose(
     run = _Run(fam, setup, progress, t0)
     base = fam.fit_baseline(setup)
     run.say(f"baseline fitted ({base.nfev} evaluations)")
-    unrecorded = profile(fam, setup, base) if profiling else None
-    if unrecorded is not None:
-        base = unrecorded[0]
-        run.say(f"baseline refitted beside an unrecorded input ({unrecorded[1].numbers['signal']})")
-    location, channel = fam.locate(base, setup)
-    ctx = checks.Context(fam, setup, _search(run, base, location), fam.rule)
-    checks.run(ctx)
+    ctx, channel, unrecorded = _judged(run, base, profile(fam, setup, base) if profiling else None)
+    if unrecorded is None and profiling and (late := switched_left(ctx)) is not None:
+        # under the check's size beside the baseline's misfit, above it beside the named
+        ctx, channel, unrecorded = _judged(run, base, profile(fam, setup, base, late))
     if unrecorded is not None:
         if not still_switching(ctx):  # what looked switched, an element explains
             return diagnose(recordings, fam, holdout, candidates, progress, profiling=False)
         # the baseline's missing-input finding stands: the fits profiled its input out
         checks.fold(ctx, unrecorded[1])
     return _diagnosis(run, ctx, channel)
+
+
+def _judged(
+    run: _Run, base: FitResult, unrecorded: tuple[FitResult, checks.Finding] | None
+) -> tuple[checks.Context, str, tuple[FitResult, checks.Finding] | None]:
+    """The search from ``base`` (from its refit beside an unrecorded input, where there is
+    one) and the checks on its outcome: (context, the channel located, the input)."""
+    if unrecorded is not None:
+        base = unrecorded[0]
+        run.say(f"baseline refitted beside an unrecorded input ({unrecorded[1].numbers['signal']})")
+    location, channel = run.fam.locate(base, run.setup)
+    ctx = checks.Context(run.fam, run.setup, _search(run, base, location), run.fam.rule)
+    checks.run(ctx)
+    return ctx, channel, unrecorded
 
 
 @dataclass

@@ -285,13 +285,16 @@ def stretches_of(base: FitResult, setup: Setup, length: int) -> Stretches | None
 
 
 def profile(
-    fam: DiagnosisFamily, setup: Setup, base: FitResult
+    fam: DiagnosisFamily, setup: Setup, base: FitResult, found: Finding | None = None
 ) -> tuple[FitResult, Finding] | None:
     """Where the missing-input check calls the baseline's residual driven by an input the
-    recording does not carry: the baseline refitted with that input's gains profiled
-    out (:class:`Profiled`) and the finding that says the assumption; None otherwise."""
-    empty = Outcome(base, base, [], [], [], cast(Any, None))  # the check reads no location
-    found = missing_input.run(Context(fam, setup, empty, fam.rule))
+    recording does not carry (or ``found``, its finding on a later model, says so: a
+    switching the baseline's misfit kept under the check's size): the baseline refitted
+    with that input's gains profiled out (:class:`Profiled`) and the finding that says
+    the assumption; None otherwise."""
+    if found is None:
+        empty = Outcome(base, base, [], [], [], cast(Any, None))  # it reads no location
+        found = missing_input.run(Context(fam, setup, empty, fam.rule))
     if found is None or found.numbers.get("cause") != "unrecorded":
         return None
     if (stretches := stretches_of(base, setup, int(found.numbers["judged_blocks"]))) is None:
@@ -301,6 +304,13 @@ def profile(
     said = f"{found.sentence}; the fits assume it: {stretches.words()}"
     numbers = {**found.numbers, "signal": stretches.signal, "stretches": stretches.words()}
     return profiled, Finding("missing_input", True, False, said, False, numbers)
+
+
+def switched_left(ctx: Context) -> Finding | None:
+    """The missing-input finding of ``ctx`` where it calls the final model's residual
+    driven by an input the recording does not carry (None otherwise)."""
+    found = ctx.found.findings.get("missing_input")
+    return found if found is not None and found.numbers.get("cause") == "unrecorded" else None
 
 
 def still_switching(ctx: Context) -> bool:
