@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 from scipy import constants as sc
 
-from suspenv.measurements import knc_file, units
+from suspenv.measurements import knc, knc_file, units
 from suspenv.metrics import knc as knc_metrics
 from suspenv.models.mcpherson import params as mcpherson_params
 from suspenv.models.minibus import vehicle as minibus_vehicle
@@ -91,6 +91,7 @@ def test_reader_unit_factor(table: str, unit: str, factor: tuple[float, str]) ->
 
 #: named constants: (where, value in the code, independent value, rtol and why)
 NAMED = [
+    ("measurements.knc.RAD2DEG", knc.RAD2DEG, 1.0 / sc.degree, RTOL),
     ("metrics.knc.RAD2DEG", knc_metrics.RAD2DEG, 1.0 / sc.degree, RTOL),
     ("mcpherson.params.DEG", mcpherson_params.DEG, sc.degree, RTOL),
     ("units._KGF", units._KGF, sc.g, RTOL),
@@ -114,6 +115,22 @@ NAMED = [
 @pytest.mark.parametrize(("where", "value", "want", "rtol"), NAMED, ids=[n[0] for n in NAMED])
 def test_named_unit_constant(where: str, value: float, want: float, rtol: float) -> None:
     assert value == pytest.approx(want, rel=rtol, abs=0), where
+
+
+#: SI unit of each K&C channel kind (the rig's and the recordings' channels)
+_CHANNEL_SI = {"deg": "rad", "mm": "m", "N": "N"}
+
+
+@pytest.mark.parametrize("channel", sorted(knc.DISPLAY))
+def test_knc_channel_display_scale(channel: str) -> None:
+    """Each K&C channel's display scale is the reciprocal of its display unit's SI factor
+    (deg from rad, mm from m), and a recorded channel's SI unit is the one it is kept in."""
+    shown = knc.DISPLAY[channel]
+    want, si = INDEPENDENT[shown.unit]
+    assert si == _CHANNEL_SI[shown.unit]
+    assert shown.scale == pytest.approx(1.0 / want, rel=RTOL, abs=0), channel
+    if channel in knc.CHANNELS:
+        assert knc.CHANNELS[channel][1] == si
 
 
 def test_to_si_applies_the_table() -> None:

@@ -180,19 +180,21 @@ def compliance_slopes(res: KCResult) -> dict[str, float]:
     ``lateral_opposed``), +x forward (``longitudinal`` at the contact point, ``traction``
     at the wheel centre), +z a toe-out moment (``aligning``, ``aligning_opposed``), +y
     rack travel towards the left (``steering``)."""
+    from suspenv.measurements.knc import DISPLAY
+
     i = res.static_index
     per, scale_in = {"N": ("kN", 1e3), "N*m": ("kN*m", 1e3), "m": ("mm", 1e-3)}[res.unit]
     df = (res.grid[i + 1] - res.grid[i - 1]) / scale_in
     out = {}
-    for stem, ch, scale, unit in (
-        ("toe", "toe", np.rad2deg(1.0), "deg"),
-        ("camber", "camber", np.rad2deg(1.0), "deg"),
-        ("contact_x", "contact_x", 1e3, "mm"),
-        ("contact_y (outboard)", "contact_y", 1e3, "mm"),
-        ("tyre_fz", "tyre_fz", 1.0, "N"),
+    for stem, ch in (
+        ("toe", "toe"),
+        ("camber", "camber"),
+        ("contact_x", "contact_x"),
+        ("contact_y (outboard)", "contact_y"),
+        ("tyre_fz", "tyre_fz"),
     ):
-        mid = res.mean_branch(ch)[0, :, 0] * scale
-        out[f"d{stem} [{unit}/{per}]"] = float((mid[i + 1] - mid[i - 1]) / df)
+        mid = res.mean_branch(ch)[0, :, 0] * DISPLAY[ch].scale
+        out[f"d{stem} [{DISPLAY[ch].unit}/{per}]"] = float((mid[i + 1] - mid[i - 1]) / df)
     return out
 
 

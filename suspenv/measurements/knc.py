@@ -35,6 +35,7 @@ benchmark are made by :mod:`suspenv.rigs.knc_truth`.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import NamedTuple
 
 import numpy as np
 
@@ -83,6 +84,41 @@ CHANNELS: dict[str, tuple[str, str, bool]] = {
     "tyre_fz": ("tyre_fz", "N", False),
     "contact_lateral": ("contact_y", "m", True),
     "contact_x": ("contact_x", "m", False),
+}
+#: degrees per radian (the display scale of every angle channel)
+RAD2DEG = 180.0 / np.pi
+
+
+class ChannelDisplay(NamedTuple):
+    """How a K&C channel is shown to a user: its name in words, display unit, the scale
+    from its SI unit (rad, m, N) to that unit and the meaning of its positive sense."""
+
+    words: str
+    unit: str
+    scale: float
+    sign: str
+
+    def label(self) -> str:
+        """Axis label: words, unit and sign, e.g. ``toe [deg] (+ toe-in)``."""
+        return f"{self.words} [{self.unit}] (+ {self.sign})"
+
+
+#: every K&C channel (rig channels and :data:`CHANNELS`) as shown to a user: the units
+#: and sign words of the K&C sheet (:mod:`suspenv.metrics.knc_report`), ISO 8855 (x
+#: forward, y left, z up), each wheel's raw sign except where the words say outboard
+DISPLAY: dict[str, ChannelDisplay] = {
+    "toe": ChannelDisplay("toe", "deg", RAD2DEG, "toe-in"),
+    "camber": ChannelDisplay("camber", "deg", RAD2DEG, "top outward"),
+    "caster": ChannelDisplay("caster", "deg", RAD2DEG, "axis top rearward"),
+    "kpi": ChannelDisplay("KPI", "deg", RAD2DEG, "axis top inboard"),
+    "tyre_fz": ChannelDisplay("wheel load", "N", 1.0, "compression"),
+    "wheel_centre_x": ChannelDisplay("wheel centre x", "mm", 1e3, "forward"),
+    "wheel_centre_y": ChannelDisplay("wheel centre y", "mm", 1e3, "left"),
+    "wheel_centre_z": ChannelDisplay("wheel centre z", "mm", 1e3, "up"),
+    "contact_x": ChannelDisplay("contact x", "mm", 1e3, "forward"),
+    "contact_y": ChannelDisplay("contact y", "mm", 1e3, "left"),
+    "contact_z": ChannelDisplay("contact z", "mm", 1e3, "up"),
+    "contact_lateral": ChannelDisplay("contact y", "mm", 1e3, "outboard"),
 }
 INPUTS = ("pad_left", "pad_right", "stroke", "branch", "grid")
 #: inputs of a compliance test (``force`` in place of ``stroke``)

@@ -33,7 +33,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from suspenv.core.errors import ValidationError
-from suspenv.metrics.knc_kernel import PICK, RAD2DEG
+from suspenv.measurements.knc import DISPLAY, RAD2DEG
+from suspenv.metrics.knc_kernel import PICK
 from suspenv.models.effects import Effect
 from suspenv.models.mcpherson.params import SIDE_SIGN, Axle
 
@@ -386,7 +387,6 @@ def compliance_matrix_full(
     Jinv = solver.inverse_jacobian(st, pad)
     base = solver.residual(st.r, st.R, st.lam, pad, st, np.zeros((n, 2, 6)))
     sg = SIDE_SIGN
-    scale_out = {"toe": RAD2DEG, "camber": RAD2DEG}
     C = np.zeros((n, 2, len(FULL_COMPLIANCE_OUTPUTS), len(FULL_COMPLIANCE_LOADS), 2))
     eps = 100.0  # N or N*m: well inside the linear range
     ok = np.ones(n, bool)
@@ -399,7 +399,7 @@ def compliance_matrix_full(
             minus = solver.outputs(solver._apply(st, -eps * dx, ok), pad)
             for o, name in enumerate(FULL_COMPLIANCE_OUTPUTS):
                 d = (plus[name] - minus[name]) / (2 * eps)  # (n, 2) per N
-                d = d * scale_out.get(name, 1e3)
+                d = d * DISPLAY[name].scale
                 if name == "wheel_centre_y":
                     d = d * sg
                 C[:, :, o, k, j] = d * 1e3  # per kN or kN*m

@@ -40,10 +40,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from suspenv.core.errors import ValidationError
-from suspenv.measurements.knc import OPPOSED_TESTS
+from suspenv.measurements.knc import DISPLAY, OPPOSED_TESTS, RAD2DEG
 from suspenv.metrics.knc import (
     FIT_HALF_WIDTH,
-    RAD2DEG,
     quadratic_fit,
     roll_angle,
     roll_moment,
@@ -228,10 +227,18 @@ _OWN_LOAD.update(
         for o, p in OPPOSED_TESTS.items()
     }
 )
+
+
+def _as_shown(chan: str) -> tuple[str, np.ndarray, str, str]:
+    """A compliance output as the channel is shown (:data:`DISPLAY`), the same on both wheels."""
+    shown = DISPLAY[chan]
+    return chan, np.full(2, shown.scale), shown.unit, shown.sign
+
+
 #: compliance outputs: suffix -> (channel, scale per wheel from SI, unit, sense)
 _OWN_OUTPUT = {
-    "steer": ("toe", np.array([RAD2DEG, RAD2DEG]), "deg", "toe-in"),
-    "camber": ("camber", np.array([RAD2DEG, RAD2DEG]), "deg", "top outward"),
+    "steer": _as_shown("toe"),
+    "camber": _as_shown("camber"),
     "wc_x": ("wheel_centre_x", np.array([1e3, 1e3]), "mm", "wheel centre forward"),
     "wc_y": ("wheel_centre_y", SIDE_SIGN * 1e3, "mm", "wheel centre outboard"),
 }
@@ -257,7 +264,7 @@ def _compliance_items() -> tuple[ReportItem, ...]:
 
 
 #: channels whose hysteresis loop width is reported: channel -> (scale from SI, unit)
-LOOP_CHANNELS = {"toe": (RAD2DEG, "deg"), "camber": (RAD2DEG, "deg"), "tyre_fz": (1.0, "N")}
+LOOP_CHANNELS = {c: (DISPLAY[c].scale, DISPLAY[c].unit) for c in ("toe", "camber", "tyre_fz")}
 #: tests whose loop widths are reported
 LOOP_TESTS = ("parallel", "opposite", "single", "lateral", "longitudinal", "traction", "aligning")
 

@@ -43,6 +43,7 @@ import numpy as np
 from suspenv.core import DesignSpace, EvaluationBatch, Problem, compiled
 from suspenv.core.errors import ValidationError
 from suspenv.core.options import check_keywords, integer, number, text, texts
+from suspenv.measurements.knc import DISPLAY
 from suspenv.metrics import knc_kernel
 from suspenv.metrics.knc import (
     FIT_HALF_WIDTH,
@@ -50,7 +51,6 @@ from suspenv.metrics.knc import (
     OBJECTIVE_NAMES,
     OBJECTIVE_UNITS,
     OBJECTIVES,
-    RAD2DEG,
     objectives,
 )
 from suspenv.models.effects import Effect
@@ -69,11 +69,8 @@ from suspenv.rigs.knc_truth import CONCEALED, car_measurement, concealed_car, me
 
 #: channels shown by ``curves``: label with unit -> (rig channel, scale to that unit)
 CURVE_CHANNELS = {
-    "toe [deg]": ("toe", RAD2DEG),
-    "camber [deg]": ("camber", RAD2DEG),
-    "caster [deg]": ("caster", RAD2DEG),
-    "tyre force [N]": ("tyre_fz", 1.0),
-    "wheel centre lateral [mm]": ("wheel_centre_y", 1e3),
+    f"{DISPLAY[c].words} [{DISPLAY[c].unit}]": (c, DISPLAY[c].scale)
+    for c in ("toe", "camber", "caster", "tyre_fz", "wheel_centre_y")
 }
 
 #: the objectives as the compiled kernel reads them (:func:`.knc_kernel.objective_table`)

@@ -18,6 +18,7 @@ import numpy as np
 
 from suspenv.core.atomic import write_file
 from suspenv.core.markdown import markdown_table, text
+from suspenv.measurements.knc import DISPLAY
 from suspenv.methods.curves.identifiability import K_SIGMA, TOLERANCE_PCT, Verdict, summary_counts
 from suspenv.methods.curves.identify import FIT_RATIO, summary
 from suspenv.reports._mpl import pyplot, save_cropped
@@ -26,21 +27,9 @@ from suspenv.runs.run_dir import write_json
 if TYPE_CHECKING:
     from suspenv.methods.curves.identify import IdentifyResult
 
-#: axis label (unit, sign convention: ISO 8855, each wheel's raw sign) and scale from
-#: SI of every fitted channel
-AXIS_LABELS = {
-    "toe": ("toe [deg] (+ toe-in)", np.rad2deg(1.0)),
-    "camber": ("camber [deg] (+ top outward)", np.rad2deg(1.0)),
-    "caster": ("caster [deg] (+ axis top rearward)", np.rad2deg(1.0)),
-    "kpi": ("KPI [deg] (+ axis top inboard)", np.rad2deg(1.0)),
-    "tyre_fz": ("wheel load [N] (+ compression)", 1.0),
-    "wheel_centre_x": ("wheel centre x [mm] (ISO, + forward)", 1e3),
-    "wheel_centre_y": ("wheel centre y [mm] (ISO, + left)", 1e3),
-    "wheel_centre_z": ("wheel centre z [mm] (+ up)", 1e3),
-    "contact_x": ("contact x [mm] (ISO, + forward)", 1e3),
-    "contact_y": ("contact y [mm] (ISO, + left)", 1e3),
-    "contact_z": ("contact z [mm] (+ up)", 1e3),
-}
+#: axis label (unit, sign convention: the K&C sheet's, ISO 8855, each wheel's raw sign)
+#: and scale from SI of every fitted channel
+AXIS_LABELS = {c: (d.label(), d.scale) for c, d in DISPLAY.items()}
 #: the drive of each test on the figures' abscissa: label and scale from SI
 DRIVE_LABELS = {
     "m": ("left pad stroke [mm] (bump +)", 1e3),
@@ -48,7 +37,7 @@ DRIVE_LABELS = {
     "N*m": ("moment per wheel [N m]", 1.0),
 }
 #: a channel in words: its axis label without unit and sign
-CHANNEL_WORDS = {c: label.split(" [")[0] for c, (label, _) in AXIS_LABELS.items()}
+CHANNEL_WORDS = {c: d.words for c, d in DISPLAY.items()}
 
 
 # ------------------------------------------------------------------ figures
@@ -185,8 +174,7 @@ def _rms_text(v: float) -> str:
 def _sigma_text(result: IdentifyResult) -> str:
     parts = []
     for c, s in sorted(result.model.sigma.items()):
-        label, scale = AXIS_LABELS[c]
-        unit, v = label.split("[")[1].split("]")[0], s * scale
+        unit, v = DISPLAY[c].unit, s * DISPLAY[c].scale
         src = result.measurement.noise_source.get(c, "")
         parts.append(f"{CHANNEL_WORDS.get(c, c)} {v:.3g} {unit}" + (f" ({src})" if src else ""))
     return "; ".join(parts)

@@ -68,8 +68,10 @@ def write_kc_report(problem: KCIdentification, run_dir: Path, archive: Any) -> l
 
 def plot_measured_vs_model(measured: Curves, model: Curves, path: Path) -> None:
     """Measured loops (dots) against a model's curves (lines), left wheel."""
+    from suspenv.problems.kc_identification import CURVE_CHANNELS
+
     tests = list(measured)
-    labels = ["toe [deg]", "camber [deg]", "tyre force [N]"]
+    labels = [k for k, (c, _) in CURVE_CHANNELS.items() if c in ("toe", "camber", "tyre_fz")]
     fig, axes = pyplot().subplots(
         len(labels), len(tests), figsize=(4 * len(tests), 8), constrained_layout=True, squeeze=False
     )

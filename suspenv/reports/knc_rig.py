@@ -11,19 +11,19 @@ from pathlib import Path
 
 import numpy as np
 
-from suspenv.measurements.knc import LOADED_TESTS, SIDES, TESTS
+from suspenv.measurements.knc import DISPLAY, LOADED_TESTS, SIDES, TESTS
 from suspenv.models.mcpherson.params import SIDE_SIGN
 from suspenv.reports._mpl import pyplot, save_figure
 from suspenv.rigs.knc import KCResult
 
 #: panels: label -> (rig channel, scale to edge units, outboard-mirrored)
 PANELS = {
-    "toe [deg]": ("toe", np.rad2deg(1.0), False),
-    "camber [deg]": ("camber", np.rad2deg(1.0), False),
-    "caster [deg]": ("caster", np.rad2deg(1.0), False),
-    "tyre fz [N]": ("tyre_fz", 1.0, False),
-    "hub y outboard [mm]": ("wheel_centre_y", 1e3, True),
-    "contact y outboard [mm]": ("contact_y", 1e3, True),
+    **{DISPLAY[c].label(): (c, DISPLAY[c].scale, False) for c in ("toe", "camber", "caster")},
+    DISPLAY["tyre_fz"].label(): ("tyre_fz", DISPLAY["tyre_fz"].scale, False),
+    **{
+        DISPLAY[c]._replace(sign="outboard").label(): (c, DISPLAY[c].scale, True)
+        for c in ("wheel_centre_y", "contact_y")
+    },
 }
 
 

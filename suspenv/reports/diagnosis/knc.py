@@ -19,6 +19,7 @@ from suspenv.core.markdown import markdown_table, text
 from suspenv.diagnosis.knc.locate import BRANCHES
 from suspenv.measurements.knc import (
     CHANNELS,
+    DISPLAY,
     SIDES,
     drive_label,
     half_loops,
@@ -29,14 +30,8 @@ from suspenv.measurements.knc import (
 from suspenv.reports._mpl import pyplot, save_figure
 from suspenv.runs.run_dir import write_json
 
-#: plot scale and unit per channel
-PLOT_UNITS = {
-    "toe": (np.rad2deg(1.0), "deg"),
-    "camber": (np.rad2deg(1.0), "deg"),
-    "tyre_fz": (1.0, "N"),
-    "contact_lateral": (1e3, "mm"),
-    "contact_x": (1e3, "mm"),
-}
+#: plot scale and unit per recorded channel
+PLOT_UNITS = {c: (DISPLAY[c].scale, DISPLAY[c].unit) for c in CHANNELS}
 
 
 #: channels drawn in the loop figures (the others are in the residual map and the JSON)
