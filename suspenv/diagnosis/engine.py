@@ -266,9 +266,10 @@ def diagnose(
     base = fam.fit_baseline(setup)
     run.say(f"baseline fitted ({base.nfev} evaluations)")
     ctx, channel, unrecorded = _judged(run, base, profile(fam, setup, base) if profiling else None)
-    if unrecorded is None and profiling and (late := switched_left(ctx)) is not None:
+    late = switched_left(ctx) if profiling and unrecorded is None else None
+    if late is not None and (again := profile(fam, setup, base, late)) is not None:
         # under the check's size beside the baseline's misfit, above it beside the named
-        ctx, channel, unrecorded = _judged(run, base, profile(fam, setup, base, late))
+        ctx, channel, unrecorded = _judged(run, base, again)
     if unrecorded is not None:
         if not still_switching(ctx):  # what looked switched, an element explains
             return diagnose(recordings, fam, holdout, candidates, progress, profiling=False)
