@@ -8,7 +8,11 @@ is checked on a module written here.
 from __future__ import annotations
 
 import importlib
+import re
+import subprocess
 import sys
+from importlib import metadata
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -173,3 +177,41 @@ def test_every_ahead_signature_has_the_loops_arity():
                 depth -= ch == "]"
                 count += ch == "," and depth == 0
             assert count == len(inspect.signature(main).parameters), (module, attribute)
+
+
+@pytest.mark.skipif(not compiled.AVAILABLE, reason="numba missing")
+def test_the_ahead_loops_load_in_the_build_environment(tmp_path) -> None:
+    # setup.py builds the loops in pip's isolated build environment, which holds numba
+    # and numpy but none of suspenv's other dependencies, suspenv's packages stubbed
+    # (``compiled._exports``); a kernel module that imports one there (through another
+    # suspenv package's __init__) makes the build skip the extension silently, and every
+    # loop then compiles at its first call
+    others = {
+        re.split(r"[ <>=!~;\[]", r)[0].lower().replace("-", "_")
+        for r in metadata.requires("suspenv") or []
+        if "extra ==" not in r
+    } - {"numpy", "numba"}
+    script = tmp_path / "build_env.py"
+    script.write_text(
+        "import importlib.abc, importlib.util, sys\n"
+        "from pathlib import Path\n"
+        "root, blocked = Path(sys.argv[1]), set(sys.argv[2:])\n"
+        "class Isolated(importlib.abc.MetaPathFinder):\n"
+        "    def find_spec(self, name, path=None, target=None):\n"
+        "        if name.partition('.')[0] in blocked:\n"
+        "            raise ImportError(f'not in the build environment: {name}')\n"
+        "sys.meta_path.insert(0, Isolated())\n"
+        "spec = importlib.util.spec_from_file_location(\n"
+        "    'suspenv.core.compiled', root / 'suspenv/core/compiled.py')\n"
+        "mod = sys.modules[spec.name] = importlib.util.module_from_spec(spec)\n"
+        "spec.loader.exec_module(mod)\n"
+        "assert mod._exports(root) is not None\n"
+    )
+    root = Path(compiled.__file__).resolve().parents[2]
+    done = subprocess.run(
+        [sys.executable, str(script), str(root), *sorted(others)],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert others and done.returncode == 0, done.stderr[-2000:]

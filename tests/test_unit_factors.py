@@ -20,6 +20,7 @@ from scipy import constants as sc
 
 from suspenv.measurements import knc, knc_file, units
 from suspenv.metrics import knc as knc_metrics
+from suspenv.metrics import knc_kernel
 from suspenv.models.mcpherson import params as mcpherson_params
 from suspenv.models.minibus import vehicle as minibus_vehicle
 from suspenv.models.planar import geometry as planar_geometry
@@ -93,6 +94,7 @@ def test_reader_unit_factor(table: str, unit: str, factor: tuple[float, str]) ->
 NAMED = [
     ("measurements.knc.RAD2DEG", knc.RAD2DEG, 1.0 / sc.degree, RTOL),
     ("metrics.knc.RAD2DEG", knc_metrics.RAD2DEG, 1.0 / sc.degree, RTOL),
+    ("metrics.knc_kernel.RAD2DEG", knc_kernel.RAD2DEG, 1.0 / sc.degree, RTOL),
     ("mcpherson.params.DEG", mcpherson_params.DEG, sc.degree, RTOL),
     ("units._KGF", units._KGF, sc.g, RTOL),
     ("planar.geometry._MM", planar_geometry._MM, sc.milli, RTOL),

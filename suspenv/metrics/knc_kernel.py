@@ -21,7 +21,6 @@ from typing import Any
 import numpy as np
 
 from suspenv.core import compiled
-from suspenv.measurements.knc import RAD2DEG
 from suspenv.models.mcpherson.params import SIDE_SIGN
 
 #: the curves of :func:`suspenv.metrics.knc._curves`, in the kernel's order
@@ -32,6 +31,9 @@ CURVES = (
 )  # fmt: skip
 #: reduction -> the fit's number it picks (value, slope, curvature)
 PICK = {"value": 0, "gradient": 1, "rate": 1, "rate_gradient": 2}
+#: degrees per radian: :data:`suspenv.measurements.knc.RAD2DEG`, spelt out here because
+#: the build environment loads this module with numpy and numba alone
+RAD2DEG = 180.0 / np.pi
 
 
 def objective_table(objectives: Sequence[Any], tests: Sequence[str]) -> np.ndarray:
