@@ -1,4 +1,4 @@
-""" "Best" in a run: the one definition, by the problem's quality measure.
+"""The "best" of a run: the one definition, by the problem's quality measure.
 
 * Feasible (:func:`suspenv.core.result.feasible`): the evaluation succeeded and every
   constraint is <= 0 (NaN is a violation).

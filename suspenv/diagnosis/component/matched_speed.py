@@ -181,6 +181,19 @@ class MatchedSpeedAsymmetry:
         }
 
 
+#: a half-cycle slower than this share of the largest speed is skipped (creep and hold)
+MIN_SPEED_SHARE = 0.05
+#: fewest samples in a half-cycle's peak window
+MIN_PEAK_SAMPLES = 3
+#: fewest half-cycles of a direction in a speed cluster (a scatter needs two)
+MIN_PER_CLUSTER = 2
+#: largest offset of a group's peak windows from symmetry about the stroke centre,
+#: ``|x_b + x_r|``, as a share of the half-stroke
+POSITION_TOL = 0.04
+#: fewest matched speed groups of a cyclic test at several speeds
+MIN_GROUPS = 3
+
+
 def half_cycles(
     t: np.ndarray,
     v: np.ndarray,
@@ -195,8 +208,9 @@ def half_cycles(
         x: stroke position [m] (default: the integrated velocity); positions are taken
             relative to the half-cycle's own centre (mid-way between its reversals).
         peak_band: the peak window holds the samples with ``|v| >= (1 - peak_band)``
-            times the half-cycle's peak speed; one of fewer than 3 samples is skipped, and
-            so is a half-cycle slower than 5 % of the largest speed (creep and hold).
+            times the half-cycle's peak speed; one of fewer than :data:`MIN_PEAK_SAMPLES`
+            samples is skipped, and so is a half-cycle slower than
+            :data:`MIN_SPEED_SHARE` of the largest speed (creep and hold).
     """
     t, v, force = (np.asarray(a, float) for a in (t, v, force))
     if not (t.shape == v.shape == force.shape and t.ndim == 1):
@@ -212,7 +226,7 @@ def half_cycles(
     if x.shape != t.shape:
         raise ValidationError(f"position must have the shape of time {t.shape}, but got {x.shape}")
     vmax = float(np.max(np.abs(v))) if v.size else 0.0
-    floor = 0.05 * vmax
+    floor = MIN_SPEED_SHARE * vmax
     sign = np.sign(v)
     flips = np.flatnonzero(sign[1:] * sign[:-1] < 0) + 1
     out: list[HalfCycle] = []
@@ -222,7 +236,7 @@ def half_cycles(
         if peak < floor:
             continue
         idx = a + np.flatnonzero(seg >= (1.0 - peak_band) * peak)
-        if idx.size < 3:
+        if idx.size < MIN_PEAK_SAMPLES:
             continue
         out.append(
             HalfCycle(
@@ -288,13 +302,14 @@ def speed_groups(
     """Bump and rebound forces at matched peak speeds.
 
     Each direction's half-cycles are clustered by speed (within ``speed_tol``,
-    relative; clusters of one half-cycle are dropped). A rebound cluster and a bump
-    cluster form a group when their mean speeds differ by at most ``match_tol``
-    (relative) and their peak windows sit symmetrically about the stroke centre (mean
-    positions ``x_b + x_r`` within 4 % of the half-stroke): only then is the motion
-    half-wave symmetric, which is what makes the odd elements cancel. Standard errors use
-    each cluster's cycle-to-cycle scatter, floored by the pooled scatter over all
-    clusters. Returns the groups (slowest first) and the speeds of clusters left unpaired.
+    relative; clusters of fewer than :data:`MIN_PER_CLUSTER` half-cycles are dropped).
+    A rebound cluster and a bump cluster form a group when their mean speeds differ by
+    at most ``match_tol`` (relative) and their peak windows sit symmetrically about the
+    stroke centre (mean positions ``x_b + x_r`` within :data:`POSITION_TOL` of the
+    half-stroke): only then is the motion half-wave symmetric, which is what makes the
+    odd elements cancel. Standard errors use each cluster's cycle-to-cycle scatter,
+    floored by the pooled scatter over all clusters. Returns the groups (slowest first)
+    and the speeds of clusters left unpaired.
     """
     sides: dict[int, list[_Side]] = {1: [], -1: []}
     for d in (1, -1):
@@ -303,7 +318,7 @@ def speed_groups(
             continue
         sp = np.array([c.speed for c in own])
         for idx in relative_clusters(sp, speed_tol):
-            if idx.size >= 2:
+            if idx.size >= MIN_PER_CLUSTER:
                 sides[d].append(_Side(tuple(own[i] for i in idx)))
     dev2 = sum(float(np.sum((c.forces - c.forces.mean()) ** 2)) for d in sides for c in sides[d])
     dof = sum(c.forces.size - 1 for d in sides for c in sides[d])
@@ -328,7 +343,7 @@ def speed_groups(
         )
         if match is None:
             continue
-        if abs(match.position + r.position) > 0.04 * half_stroke:
+        if abs(match.position + r.position) > POSITION_TOL * half_stroke:
             continue
         used.update((id(match), id(r)))
         (fb, eb), (fr, er) = stats_of(match), stats_of(r)
@@ -394,13 +409,13 @@ def matched_speed_asymmetry(
             positive; x: stroke position [m] (optional).
         alpha: significance level of each test.
 
-    Returns None when the stroke has fewer than 3 matched speed groups
+    Returns None when the stroke has fewer than :data:`MIN_GROUPS` matched speed groups
     (:func:`speed_groups`: not a cyclic test at several speeds). ``supported`` holds when a
     constant, a straight line in time and the measured drift are all rejected at level
     ``alpha``.
     """
     groups, unmatched = speed_groups(half_cycles(t, v, force, x))
-    if len(groups) < 3:
+    if len(groups) < MIN_GROUPS:
         return None
     e = np.array([g.even for g in groups])
     se = np.array([g.even_stderr for g in groups])

@@ -25,7 +25,6 @@ viscoelastic       rate-dependent lag: first-order low-pass of the velocity (Max
 sensor_offset      a constant
 sensor_gain        proportional to the predicted signal
 sensor_lag         proportional to the predicted signal's time derivative (phase shift)
-lr_asymmetry       not applicable (a component has no left and right channels)
 =================  =====================================================================
 
 Units: ``x`` [m] (positive = compression / bump), ``v`` [m/s], ``t`` [s]; residuals
@@ -372,14 +371,6 @@ def detect_sensor_lag(s: SignalSet, basis: np.ndarray | None) -> Signature:
     )
 
 
-def detect_lr_asymmetry(s: SignalSet, basis: np.ndarray | None) -> Signature:
-    """Not applicable: a component's recordings have no left and right channels (the
-    K&C family scores left minus right, :mod:`suspenv.diagnosis.knc.signatures`)."""
-    return Signature(
-        "lr_asymmetry", 0.0, 1.0, "needs a left and a right channel; not applicable", {}
-    )
-
-
 DETECTORS: dict[str, Callable[[SignalSet, np.ndarray | None], Signature]] = {
     "friction": detect_friction,
     "hysteresis": detect_hysteresis,
@@ -392,7 +383,6 @@ DETECTORS: dict[str, Callable[[SignalSet, np.ndarray | None], Signature]] = {
     "sensor_offset": detect_sensor_offset,
     "sensor_gain": detect_sensor_gain,
     "sensor_lag": detect_sensor_lag,
-    "lr_asymmetry": detect_lr_asymmetry,
 }
 #: detector names, in the order they are reported
 SIGNATURE_KINDS = tuple(DETECTORS)
