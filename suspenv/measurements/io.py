@@ -33,7 +33,7 @@ from suspenv.measurements.errors import RecordingError
 from suspenv.measurements.limits import check_npz, read_limit
 from suspenv.measurements.recording import Recording, check_units, real_numbers
 from suspenv.measurements.sources._common import require_file
-from suspenv.measurements.units import FACTORS, SI_UNITS, to_si
+from suspenv.measurements.units import SI_UNITS, to_si
 
 FORMAT = "suspenv-recording"
 VERSION = 1
@@ -155,13 +155,7 @@ def _convert_to_si(
             stored = units.get(name)
             if stored is None or stored in SI_UNITS:
                 continue  # no unit: the Recording's own rule names it; SI: kept as stored
-            try:
-                group[name], units[name] = to_si(group[name], stored)
-            except RecordingError:
-                raise RecordingError(
-                    f"{where}: channel {name!r} has the unknown unit {stored!r}; known units "
-                    f"are {sorted(FACTORS)}"
-                ) from None
+            group[name], units[name] = to_si(group[name], stored, f"{where}: channel {name!r}")
             converted[name] = stored
     return converted
 

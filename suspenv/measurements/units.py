@@ -108,11 +108,13 @@ def si_unit_of(unit: object) -> str | None:
     return None if key is None else FACTORS[key][1]
 
 
-def to_si(values: np.ndarray, unit: object) -> tuple[np.ndarray, str]:
-    """Convert ``values`` from ``unit`` to SI; returns ``(values_si, si_unit)``."""
+def to_si(values: np.ndarray, unit: object, owner: str = "") -> tuple[np.ndarray, str]:
+    """Convert ``values`` from ``unit`` to SI; returns ``(values_si, si_unit)``. An
+    unknown unit raises, the message naming its ``owner`` (``"f.npz: channel 'x'"``)."""
     key = unit_key(unit)
     if key is None:
-        raise RecordingError(f"unknown unit {unit!r}; known units are {sorted(FACTORS)}")
+        what = f"{owner} has the unknown unit" if owner else "unknown unit"
+        raise RecordingError(f"{what} {unit!r}; known units are {sorted(FACTORS)}")
     factor, si = FACTORS[key]
     with np.errstate(over="ignore"):  # an overflow gives inf, which Recording refuses
         return np.asarray(values, dtype=float) * factor, si

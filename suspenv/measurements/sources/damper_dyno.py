@@ -26,7 +26,7 @@ from suspenv.measurements.errors import RecordingError
 from suspenv.measurements.limits import check_text, read_limit
 from suspenv.measurements.recording import Recording
 from suspenv.measurements.sources._common import dissipative_sign, named_errors, require_file
-from suspenv.measurements.units import FACTORS, to_si
+from suspenv.measurements.units import to_si
 
 EXPECTED_COLUMNS = ("Stroke", "Load", "Time")
 SOURCE = "Formula Student team's public damper-analysis repository (MTS 793 export)"
@@ -92,15 +92,10 @@ def load_damper_dyno(
     path = require_file(path)
     check_text(path, read_limit(max_bytes))
     table, units = _parse(path)
-    converted = []
-    for j, col in enumerate(EXPECTED_COLUMNS):
-        try:
-            converted.append(to_si(table[:, j], units[j]))
-        except RecordingError:
-            raise RecordingError(
-                f"{path.name}: column {col!r} has the unknown unit {units[j]!r}; known units "
-                f"are {sorted(FACTORS)}"
-            ) from None
+    converted = [
+        to_si(table[:, j], units[j], f"{path.name}: column {col!r}")
+        for j, col in enumerate(EXPECTED_COLUMNS)
+    ]
     (x, x_unit), (f, f_unit), (t, t_unit) = converted
     for got, want, col in ((x_unit, "m", "Stroke"), (f_unit, "N", "Load"), (t_unit, "s", "Time")):
         if got != want:
