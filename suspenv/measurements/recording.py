@@ -217,10 +217,6 @@ class Recording:
         return int(self.time.size)
 
     @property
-    def duration(self) -> float:
-        return float(self.time[-1] - self.time[0])
-
-    @property
     def sample_interval(self) -> float:
         """Median sample interval [s]."""
         return float(np.median(np.diff(self.time)))
@@ -299,16 +295,4 @@ class Recording:
             {k: np.asarray(v, dtype=float) for k, v in outputs.items()},
             dict(self.units),
             dict(self.meta),
-        )
-
-    def describe(self) -> str:
-        """One paragraph: name, test, samples, duration and channels with units."""
-
-        def chans(d: Mapping[str, np.ndarray]) -> str:
-            return ", ".join(f"{k} [{self.units.get(k, '?')}]" for k in d) or "none"
-
-        return (
-            f"{self.name} ({self.test}): {self.n_samples} samples over {self.duration:.4g} s "
-            f"(dt {self.sample_interval:.4g} s); inputs: {chans(self.inputs)}; "
-            f"outputs: {chans(self.outputs)}"
         )
