@@ -30,7 +30,7 @@ import math
 import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import Executor
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -83,7 +83,6 @@ class RunResult:
     best_index: int | None = None
     best_x: dict[str, float] | None = None
     best_objectives: list[float] | None = None
-    history: list[dict[str, Any]] = field(default_factory=list)
 
     def as_dict(self) -> dict[str, Any]:
         return {
@@ -186,9 +185,9 @@ def _close(archive: RunArchive, writer: ArchiveWriter | None, **meta: Any) -> No
 
 @dataclass
 class _Tally:
-    """What a run has done so far: evaluations, batches, the best feasible design by the
-    problem's quality (none for several objectives without one:
-    :mod:`suspenv.runs.quality`) and one history row per batch."""
+    """What a run has done so far: evaluations, batches and the best feasible design by
+    the problem's quality (none for several objectives without one:
+    :mod:`suspenv.runs.quality`)."""
 
     used: int = 0
     resumed: int = 0
@@ -198,7 +197,6 @@ class _Tally:
     best_index: int | None = None
     best_objectives: list[float] | None = None
     best_x: np.ndarray | None = None
-    history: list[dict[str, Any]] = field(default_factory=list)
 
     def result(self, problem: Problem, wall: float) -> RunResult:
         """The run's report after ``wall`` seconds (the best design by parameter name)."""
@@ -211,27 +209,16 @@ class _Tally:
             best_index=self.best_index,
             best_objectives=self.best_objectives,
             best_x=None if self.best_x is None else problem.space.as_dict(self.best_x),
-            history=self.history,
         )
 
     def record(self, problem: Problem, batch: EvaluationBatch, X: np.ndarray) -> None:
-        """Take the best of a batch just told (rows ``X``) and add its history row."""
-        F, ok = batch.objectives, batch.ok
-        feasible = batch.feasible
+        """Take the best of a batch just told (rows ``X``)."""
+        F = batch.objectives
         q = run_quality.quality(problem, F)
-        i = None if q is None else run_quality.best_row(q, feasible)
+        i = None if q is None else run_quality.best_row(q, batch.feasible)
         if q is not None and i is not None and q[i] < self.best:
             self.best, self.best_index = float(q[i]), self.used + i
             self.best_objectives, self.best_x = F[i].tolist(), X[i].copy()
-        self.history.append(
-            {
-                "batch": self.batches,
-                "evaluations": self.used + len(X),
-                "best": self.best,
-                "n_ok": int(np.count_nonzero(ok)),
-                "n_feasible": int(np.count_nonzero(feasible)),
-            }
-        )
 
 
 @dataclass
