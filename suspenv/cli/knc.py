@@ -240,8 +240,7 @@ def run_measured(args: argparse.Namespace) -> int:
     from suspenv.measurements.knc_file import (
         CHANNELS,
         DRIVE_COLUMN,
-        EDGE_UNIT,
-        UNITS,
+        edge_unit,
         load_measurement,
         write_measurement,
     )
@@ -266,8 +265,8 @@ def run_measured(args: argparse.Namespace) -> int:
     print(f"  wheels {list(m.wheels)}, channels {m.meta['channels']}")
     for test, mt in m.tests.items():
         col, quantity = DRIVE_COLUMN[test]
-        unit = EDGE_UNIT[quantity]
-        lo, hi = mt.drive.min() / UNITS[unit][0], mt.drive.max() / UNITS[unit][0]
+        unit, size = edge_unit(quantity)
+        lo, hi = mt.drive.min() / size, mt.drive.max() / size
         branches = sorted({int(b) for b in mt.branch})
         print(
             f"  {test:16s} {mt.samples:4d} samples, {col} {lo:g} to {hi:g} {unit}, "
@@ -275,8 +274,8 @@ def run_measured(args: argparse.Namespace) -> int:
         )
     print("  noise (one standard deviation):")
     for ch, sigma in m.noise.items():
-        unit = EDGE_UNIT[CHANNELS[ch]]
-        print(f"    {ch:16s} {sigma / UNITS[unit][0]:10.3g} {unit}  ({m.noise_source[ch]})")
+        unit, size = edge_unit(CHANNELS[ch])
+        print(f"    {ch:16s} {sigma / size:10.3g} {unit}  ({m.noise_source[ch]})")
     print_measured_sheet(m)
     for test in m.tests:
         if test not in LOADED_TESTS or "toe" not in m.tests[test].channels:

@@ -17,14 +17,7 @@ import numpy as np
 
 from suspenv.core.errors import ValidationError
 from suspenv.measurements.knc import LOADED_TESTS
-from suspenv.measurements.knc_file import (
-    CHANNELS,
-    DRIVE_COLUMN,
-    EDGE_UNIT,
-    SIDES,
-    UNITS,
-    KncMeasurement,
-)
+from suspenv.measurements.knc_file import CHANNELS, DRIVE_COLUMN, SIDES, KncMeasurement, edge_unit
 
 #: drive quantity -> (per-unit of the reported slopes, its size in SI)
 _PER = {"force": ("kN", 1e3), "moment": ("100 N*m", 100.0), "length": ("mm", 1e-3)}
@@ -81,12 +74,10 @@ class ComplianceAnalysis:
         """The analysis as text in edge units."""
         col, quantity = DRIVE_COLUMN[self.test]
         per, per_si = _PER[quantity]
-        unit = EDGE_UNIT[CHANNELS[self.channel]]
-        u = UNITS[unit][0]
+        unit, u = edge_unit(CHANNELS[self.channel])
         k = per_si / u  # SI slope -> unit per `per`
         lo, hi = self.drive_range
-        dq = EDGE_UNIT[quantity]
-        du = UNITS[dq][0]
+        dq, du = edge_unit(quantity)
         rows = [
             (
                 "linear compliance",

@@ -437,9 +437,9 @@ def _fmt(v: float) -> str:
 def test_columns(m: MeasuredTest, wheels: tuple[str, ...] = SIDES) -> tuple[list[str], np.ndarray]:
     """Column headers and rows (P, columns) of one test in edge units (mm, deg, N, N*m)."""
     col, quantity = DRIVE_COLUMN[m.test]
-    unit = EDGE_UNIT[quantity]
+    unit, size = edge_unit(quantity)
     cols = ["step", "branch", f"{col} [{unit}]"]
-    data = [np.arange(m.samples, dtype=float), m.branch.astype(float), m.drive / _factor(unit)]
+    data = [np.arange(m.samples, dtype=float), m.branch.astype(float), m.drive / size]
     wi = [SIDES.index(s) for s in wheels]
     if "wheel_centre_z" in m.channels:
         z = m.channels["wheel_centre_z"]
@@ -450,15 +450,18 @@ def test_columns(m: MeasuredTest, wheels: tuple[str, ...] = SIDES) -> tuple[list
     for name in CHANNELS:
         if name not in m.channels:
             continue
-        unit = EDGE_UNIT[CHANNELS[name]]
+        unit, size = edge_unit(CHANNELS[name])
         for w in wi:
             cols.append(f"{name}_{SIDES[w]} [{unit}]")
-            data.append(m.channels[name][:, w] / _factor(unit))
+            data.append(m.channels[name][:, w] / size)
     return cols, np.column_stack(data)
 
 
-def _factor(unit: str) -> float:
-    return UNITS[unit][0]
+def edge_unit(quantity: str) -> tuple[str, float]:
+    """(unit, its size [SI]) of a quantity in the units ``suspenv knc`` writes and prints
+    (:data:`EDGE_UNIT`): a value [SI] divided by the size is in that unit."""
+    unit = EDGE_UNIT[quantity]
+    return unit, UNITS[unit][0]
 
 
 def write_test_csv(m: MeasuredTest, path: Path, wheels: tuple[str, ...] = SIDES) -> Path:
@@ -493,15 +496,15 @@ def manifest_text(m: KncMeasurement, files: Mapping[str, str]) -> str:
     if declared:
         lines += ["", "[noise]  # one standard deviation of the measurement noise"]
         for c, s in declared.items():
-            unit = EDGE_UNIT[CHANNELS[c]]
-            lines.append(f'{c} = {{ sigma = {_fmt(s / _factor(unit))}, unit = "{unit}" }}')
+            unit, size = edge_unit(CHANNELS[c])
+            lines.append(f'{c} = {{ sigma = {_fmt(s / size)}, unit = "{unit}" }}')
     for test in m.tests:
         lines += ["", f"[tests.{test}]", f"file = {toml_value(files[test])}"]
         amp = m.meta.get("amplitude", {}).get(test)
         if amp is not None:
             col, quantity = DRIVE_COLUMN[test]
-            unit = EDGE_UNIT[quantity]
-            lines.append(f"amplitude = {_fmt(amp / _factor(unit))}  # [{unit}] of '{col}'")
+            unit, size = edge_unit(quantity)
+            lines.append(f"amplitude = {_fmt(amp / size)}  # [{unit}] of '{col}'")
         steps = m.meta.get("steps", {}).get(test)
         if steps is not None:
             lines.append(f"steps = {int(steps)}")
