@@ -25,8 +25,8 @@ from suspenv.models.mcpherson.solver import (
     VEC_BODY,
     AxleSolver,
     AxleState,
-    _down,
     dahl_step,
+    wheel_down,
 )
 
 EY = np.array([0.0, 1.0, 0.0])  # the rack's direction of travel
@@ -165,7 +165,7 @@ def residual(
         arms[..., 14, :], forces[..., 14, :] = r2 - r1, zf[..., None] * ak
 
     # tyre on the pad (slot 15), wheel weight (16), external wheel load (17)
-    cp_arm = solver.Rw[..., None] * _down(V[..., 11, :])
+    cp_arm = solver.Rw[..., None] * wheel_down(V[..., 11, :])
     arms[..., 15, :] = cp_arm
     forces[..., 15, 2] = solver.kt * (pad - r1[..., 2] - cp_arm[..., 2])
     forces[..., 16, 2] = -solver.wheel_weight

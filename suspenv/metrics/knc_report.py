@@ -51,6 +51,7 @@ from suspenv.models.mcpherson.params import SIDE_SIGN, AxleConstants
 from suspenv.models.mcpherson.solver import (  # the channels give back the spin axis
     OUTPUT_NAMES,
     spin_axis,
+    wheel_down,
 )
 
 if TYPE_CHECKING:  # a type only: metrics are functions of rig results, not of the rig
@@ -414,17 +415,12 @@ def wheel_travel(res: KCResult, branch: str) -> np.ndarray:
     return _from_static(res, branch, "wheel_centre_z")
 
 
-def _down(s: np.ndarray) -> np.ndarray:
-    d = s[..., 2:3] * s - np.array([0.0, 0.0, 1.0])
-    return d / np.linalg.norm(d, axis=-1, keepdims=True)
-
-
 def patch_point(res: KCResult, branch: str) -> np.ndarray:
     """Loaded contact point P (n, G, 2, 3) [m], ISO: the wheel plane's downward radius
     from the wheel centre meets the pad plane ``z = pad_z``."""
     b = lambda name: res.branch(name, branch)  # noqa: E731
     wc = np.stack([b("wheel_centre_x"), b("wheel_centre_y"), b("wheel_centre_z")], axis=-1)
-    d = _down(spin_axis(b("camber"), b("toe")))
+    d = wheel_down(spin_axis(b("camber"), b("toe")))
     t = (b("pad_z") - wc[..., 2]) / d[..., 2]
     return wc + t[..., None] * d
 

@@ -365,6 +365,14 @@ def spin_axis(camber: np.ndarray, toe: np.ndarray) -> np.ndarray:
     )
 
 
+def wheel_down(s: np.ndarray) -> np.ndarray:
+    """Unit vector (..., 3) in the wheel plane pointing down (towards the contact point)
+    of the spin axes ``s`` (..., 3): ``(s . EZ) s - EZ``, normalised."""
+    d = s[..., 2:3] * s
+    d[..., 2] -= 1.0
+    return d / _length(d)
+
+
 class AxleSolver:
     """Equilibrium solver for a batch of axles (see the module docstring)."""
 
@@ -613,7 +621,7 @@ class AxleSolver:
         F_spring = (Fz * dcp - ax.wheel_weight) / (-dL)
         self.motion_ratio_kinematic = -dL
         self.L_free = self.L_spring0 + F_spring / self.ks
-        cp0 = (wc + self.Rw[..., None] * _down(s))[..., 2]
+        cp0 = (wc + self.Rw[..., None] * wheel_down(s))[..., 2]
         self.pad_static = cp0 + Fz / self.kt
 
     def _unit_motion(self, p: dict[str, np.ndarray]) -> np.ndarray:
@@ -1223,7 +1231,7 @@ class AxleSolver:
         """d(residual)/d(pad height) (n, 2, 33): the tyre force and its moment on the knuckle."""
         out = np.zeros(st.lam.shape[:-1] + (NS,))
         s = rotate(st.R[..., 1, :, :], self.s0)
-        arm = self.Rw[..., None] * _down(s)  # contact point - wheel centre
+        arm = self.Rw[..., None] * wheel_down(s)  # contact point - wheel centre
         out[..., 6 + 2] = self.kt
         out[..., 9:12] = cross(arm, EZ) * self.kt[..., None]
         return out
@@ -1269,7 +1277,7 @@ class AxleSolver:
         R1 = st.R[..., 1, :, :]
         wc = st.r[..., 1, :]
         s = rotate(R1, self.s0)
-        down = _down(s)
+        down = wheel_down(s)
         cp = wc + self.Rw[..., None] * down
         sg = SIDE_SIGN
         out: dict[str, np.ndarray] = {
@@ -1529,12 +1537,4 @@ def _length(v: np.ndarray) -> np.ndarray:
     return np.sqrt(x * x + y * y + z * z)
 
 
-def _down(s: np.ndarray) -> np.ndarray:
-    """Unit vector in the wheel plane pointing down (towards the contact point):
-    ``(s . EZ) s - EZ``, normalised."""
-    d = s[..., 2:3] * s
-    d[..., 2] -= 1.0
-    return d / _length(d)
-
-
-__all__ = ["AxleSolver", "AxleState", "spin_axis"]
+__all__ = ["AxleSolver", "AxleState", "spin_axis", "wheel_down"]
