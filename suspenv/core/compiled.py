@@ -279,10 +279,10 @@ def _stamp(dispatcher: Any, jitable: Sequence[Callable] = ()) -> None:
     functions' files: any change compiles the loop again."""
     cache = getattr(dispatcher, "_cache", None)
     index = getattr(cache, "_cache_file", None)
-    if index is None:
+    if cache is None or index is None:
         return
     digest = hashlib.sha256()
-    reached: dict[int, Callable] = {}
+    reached: dict[int, Any] = {}
     _reached(dispatcher, reached)
     plain = [getattr(f, "py_func", f) for f in (*reached.values(), *jitable)]
     files = {sys.modules[f.__module__].__file__ or "" for f in plain}
@@ -297,7 +297,7 @@ def _stamp(dispatcher: Any, jitable: Sequence[Callable] = ()) -> None:
     index._source_stamp = (cache._impl.locator.get_source_stamp(), digest.hexdigest())
 
 
-def _reached(f: Any, seen: dict[int, Callable]) -> None:
+def _reached(f: Any, seen: dict[int, Any]) -> None:
     """``f`` and the functions it names among its module's globals, transitively (their
     plain functions or compiled dispatchers), into ``seen`` (by the id of the plain
     function)."""

@@ -884,11 +884,11 @@ class AxleSolver:
                 k = n if head == (n,) else M
             else:
                 a, k = np.broadcast_to(a, lead + a.shape[a.ndim - tail :]), M
-            return np.require(a, float, "CW").reshape((k,) + a.shape[a.ndim - 1 - tail :])
+            return np.require(a, float, ("C", "W")).reshape((k,) + a.shape[a.ndim - 1 - tail :])
 
         return (
-            np.require(r.reshape(M, 2, 4, 3), float, "CW"),
-            np.require(R.reshape(M, 2, 4, 3, 3), float, "CW"),
+            np.require(r.reshape(M, 2, 4, 3), float, ("C", "W")),
+            np.require(R.reshape(M, 2, 4, 3, 3), float, ("C", "W")),
             rows_of(lam, 1),
             rows_of(pad, 0),
             rows_of(ext, 1),
