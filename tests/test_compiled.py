@@ -43,6 +43,39 @@ def test_export_name_changes_with_the_source(tmp_path, monkeypatch):
 
 
 @pytest.mark.skipif(not compiled.AVAILABLE, reason="numba missing")
+def test_the_jit_cache_is_keyed_to_the_helpers_files_and_flags(tmp_path, monkeypatch):
+    """numba keys its on-disk cache to the compiled function's own file and argument
+    types only: the stamp :func:`compiled._stamp` adds changes with an edit of a helper in
+    another file and with the helper's flags, so that machine code of another vintage is
+    compiled again instead of loaded beside code compiled now."""
+    import numba
+
+    helper = tmp_path / "stamp_helper.py"
+    helper.write_text("def h(x):\n    return x * 2.0 + 1.0\n")
+    (tmp_path / "stamp_loop.py").write_text(
+        "from stamp_helper import h\n\n\ndef main(x):\n    return h(x)\n"
+    )
+    monkeypatch.syspath_prepend(str(tmp_path))
+
+    def stamp(contract: bool):
+        for name in ("stamp_helper", "stamp_loop"):
+            sys.modules.pop(name, None)
+        space = vars(importlib.import_module("stamp_loop"))
+        compiled.jit_helpers(space, ("h",), True, contract=("h",) if contract else ())
+        loop = numba.njit(cache=True)(space["main"])
+        compiled._stamp(loop)
+        return loop._cache._cache_file._source_stamp
+
+    plain = stamp(False)
+    assert stamp(False) == plain  # the same sources and flags: the cache is used
+    assert stamp(True) != plain
+    helper.write_text("def h(x):\n    return x * 2.0 + 3.0\n")
+    assert stamp(False) != plain
+    for name in ("stamp_helper", "stamp_loop"):
+        sys.modules.pop(name, None)
+
+
+@pytest.mark.skipif(not compiled.AVAILABLE, reason="numba missing")
 @pytest.mark.parametrize("contract", [False, True])
 def test_contract_fuses_a_multiply_and_add(tmp_path, monkeypatch, contract):
     """A helper named in ``contract`` rounds ``a * b + c`` once (reference: the exact

@@ -262,16 +262,56 @@ class Lazy:
         jitable(self._jitable)
         jit_helpers(self._space, self._helpers, True, self._inline, self._bare, self._contract)
         loop = numba.njit(cache=True, error_model="numpy")(self._main)
-        if self._jitable:
-            # numba's cache checks only the file of the function it compiled: keep the
-            # hash of every file the loop is built from with it, so that an edit of a
-            # jitable function's module compiles the loop again instead of loading it
-            stamp = export_name(self._space, self._helpers, self._main, self._jitable)
-            for f in (loop, *(self._space[h] for h in self._helpers)):
-                index = getattr(getattr(f, "_cache", None), "_cache_file", None)
-                if index is not None:
-                    index._source_stamp = (index._source_stamp, stamp)
+        for f in (loop, *(self._space[h] for h in self._helpers)):
+            _stamp(f, self._jitable)
         return loop
+
+
+def _stamp(dispatcher: Any, jitable: Sequence[Callable] = ()) -> None:
+    """Key numba's on-disk cache of ``dispatcher`` (no cache: nothing to do) to all that
+    its machine code is built from. numba checks only the file of the function it
+    compiles, and only the argument types: a helper edited in another module, or compiled
+    with other flags (a helper's flags are those of the first loop compiling it), would
+    leave machine code of another vintage in the cache, to be loaded beside
+    specialisations compiled now (e.g. one for read-only arrays: two codes of one loop
+    that differ in rounding). The stamp adds the digest of the source files and flags of
+    every function the dispatcher reaches (:func:`_reached`) and of the ``jitable``
+    functions' files: any change compiles the loop again."""
+    cache = getattr(dispatcher, "_cache", None)
+    index = getattr(cache, "_cache_file", None)
+    if cache is None or index is None:
+        return
+    digest = hashlib.sha256()
+    reached: dict[int, Any] = {}
+    _reached(dispatcher, reached)
+    plain = [getattr(f, "py_func", f) for f in (*reached.values(), *jitable)]
+    files = {sys.modules[f.__module__].__file__ or "" for f in plain}
+    for path in sorted(files):
+        digest.update(Path(path).read_bytes())
+    for f in reached.values():
+        flags = getattr(f, "targetoptions", None)
+        if flags is not None:
+            items = sorted((k, sorted(v) if isinstance(v, (set, frozenset)) else v)
+                           for k, v in flags.items())  # fmt: skip
+            digest.update(f"{f.py_func.__module__}.{f.py_func.__name__}{items!r}".encode())
+    index._source_stamp = (cache._impl.locator.get_source_stamp(), digest.hexdigest())
+
+
+def _reached(f: Any, seen: dict[int, Any]) -> None:
+    """``f`` and the functions it names among its module's globals, transitively (their
+    plain functions or compiled dispatchers), into ``seen`` (by the id of the plain
+    function)."""
+    plain = getattr(f, "py_func", f)
+    if id(plain) in seen or not hasattr(plain, "__code__"):
+        return
+    seen[id(plain)] = f
+    codes = [plain.__code__]
+    while codes:
+        code = codes.pop()
+        codes += [c for c in code.co_consts if hasattr(c, "co_names")]
+        for name in code.co_names:
+            if name in plain.__globals__:
+                _reached(plain.__globals__[name], seen)
 
 
 def _array_arguments(signature: str) -> tuple[tuple[int, np.dtype, int], ...]:

@@ -873,7 +873,10 @@ class AxleSolver:
     ) -> tuple:
         """The arguments of :func:`.residual_kernel.residual` (and of its Jacobian): the
         states flattened to rows, the inputs given per design row read as such (others
-        broadcast), the per-design pack with its offsets."""
+        broadcast), the per-design pack with its offsets. Every array C-contiguous and
+        writeable (a copy where it is a read-only view, e.g. the states of a block of one
+        perturbation broadcast): numba's JIT types a read-only array apart and would run a
+        second machine code of the loop for it."""
         lead = r.shape[:-2]  # (..., n, 2)
         rows = lead[:-1]
         M = math.prod(rows)
@@ -889,11 +892,11 @@ class AxleSolver:
                 k = n if head == (n,) else M
             else:
                 a, k = np.broadcast_to(a, lead + a.shape[a.ndim - tail :]), M
-            return np.ascontiguousarray(a, dtype=float).reshape((k,) + a.shape[a.ndim - 1 - tail :])
+            return np.require(a, float, ("C", "W")).reshape((k,) + a.shape[a.ndim - 1 - tail :])
 
         return (
-            np.ascontiguousarray(r.reshape(M, 2, 4, 3)),
-            np.ascontiguousarray(R.reshape(M, 2, 4, 3, 3)),
+            np.require(r.reshape(M, 2, 4, 3), float, ("C", "W")),
+            np.require(R.reshape(M, 2, 4, 3, 3), float, ("C", "W")),
             rows_of(lam, 1),
             rows_of(pad, 0),
             rows_of(ext, 1),
