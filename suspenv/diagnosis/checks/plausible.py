@@ -414,24 +414,17 @@ def rounds_own_step(model: Any, kind: str) -> bool:
 def check_stiction_decays(
     candidate: str, ext: FitResult, vmax: float, rounded: bool = False
 ) -> None:
-    """Refuse a stiction refit whose level rises with speed over a fair part of the
-    speed range, or at all where the law's step is rounded by a parameter of its own.
+    """Refuse a stiction refit whose level rises with speed: the rise up to the peak
+    speed ``vmax`` [m/s] (:func:`stribeck_rise_and_error`) more than ``SIZE_Z`` standard
+    errors, over a Stribeck velocity ``v_s`` beyond ``FRICTION_MAX_FRACTION`` of
+    ``vmax`` (within it, a fixed-width step's rounding looks alike) or over any ``v_s``
+    where the law rounds its step by a parameter of its own (``rounded``:
+    :func:`rounds_own_step`).
 
-    Stiction means the force needed to break away from rest exceeds the force that keeps
-    sliding: ``f_s >= f_c``, the level falling from ``f_s`` at reversal to ``f_c`` over the
-    Stribeck velocity ``v_s``. Fitted the other way round (``f_c - f_s`` more than
-    ``SIZE_Z`` corrected standard errors of the difference), the level *rises* from the
-    reversal with speed. Where the law's step has a fixed rounding, a rise over a ``v_s``
-    within ``FRICTION_MAX_FRACTION`` of the peak speed ``vmax`` [m/s] is the rounding of
-    the step at reversal, which the data cannot tell from the step's own. Where the model
-    fits the parameter that rounds the step (``rounded``: :func:`rounds_own_step`, the
-    step's width or LuGre's bristle stiffness), the rise is not needed for that, and any
-    resolved rise is refused. A rise that is not the rounding is a force that grows
-    gradually with velocity (with ``f_s`` near zero about ``f_c (v / v_s)^2``), i.e. a
-    velocity-dependent damping (a digressive valve's knee, a progressive damper, or a
-    force missing around zero velocity), which the shape absorbs without being friction.
-    Raises :class:`ValidationError`; a friction step of another kind refitted in the
-    same round can still be named.
+    Stiction breaks away at ``f_s >= f_c`` and falls to ``f_c`` over ``v_s``; a level
+    that rises instead (with ``f_s`` near zero about ``f_c (v / v_s)^2``) is a
+    velocity-dependent damping the shape absorbs without being friction. A friction
+    step of another kind refitted in the same round can still be named.
     """
     found = _judged_element(candidate, ext, STICTION_KINDS) if vmax > 0 else None
     if found is None:
