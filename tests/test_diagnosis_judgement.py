@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 from scipy.signal import lfilter
 
-from suspenv.diagnosis.checks.residual_left import judge
+from suspenv.diagnosis.checks.residual_left import from_cells
 from suspenv.diagnosis.decision import DecisionRule, decide
 from suspenv.diagnosis.engine import diagnose, make_family
 from suspenv.diagnosis.evidence import likelihood_ratio
@@ -128,7 +128,7 @@ def test_residual_at_the_noise_is_not_left_and_its_false_alarms_are_rare():
     alarms = 0
     for _ in range(400):
         cells = {(t, f"ch{c}"): rng.normal(size=17) for t in "abc" for c in range(10)}
-        alarms += judge(cells, 0.01)["remains"]
+        alarms += from_cells(cells, 0.01)[1]["remains"]
     assert alarms == 0  # RMS 3 over 51 unit samples: chi-square tail far below 1e-6
 
 
@@ -138,7 +138,7 @@ def test_a_smooth_residual_above_the_limit_is_left_and_located():
     stop = 40.0 * np.maximum(np.sin(np.linspace(0, 2 * np.pi, 17)) - 0.5, 0.0) * 4
     cells[("opposite", "fz")] = rng.normal(size=17) + stop
     cells[("opposite", "toe")] = rng.normal(size=17)
-    n = judge(cells, 0.01)
+    n = from_cells(cells, 0.01)[1]
     assert n["remains"] and n["worst_channel"] == "fz" and n["worst_rms"] > n["limit"]["fz"]
     assert n["where"] == {"test": "opposite", "channel": "fz"}
     assert n["lag1"] > 0.5  # smooth: structured, not noise

@@ -245,12 +245,9 @@ def diagnose(
         holdout: the held-out data, in the family's terms (default: the family's).
         candidates: candidate names to consider (default: the model's own list).
         progress: print one line per step.
-        profiling: where the missing-input check calls the baseline's residual driven
-            by an input the recording does not carry, model it as a switched gain
-            profiled out of every fit (:mod:`suspenv.diagnosis.unrecorded`); kept only
-            where the final model, without it, still leaves that switching (else the
-            diagnosis runs again without it). Where the check calls only the final
-            model's residual so, the diagnosis runs again with the profile.
+        profiling: profile out an input the recording does not carry where the
+            missing-input check finds one, on the baseline's residual or the final
+            model's (:mod:`suspenv.diagnosis.unrecorded`, which says when it is kept).
 
     Raises:
         ValidationError: for data the diagnosis cannot judge, before any fitting (too

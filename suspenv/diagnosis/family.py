@@ -22,7 +22,9 @@ The family owns everything that depends on the model:
 * ``checks`` (optional): its own checks after the search (:mod:`suspenv.diagnosis.checks`:
   the K&C detection limits, the component family's probes);
 * ``residual_left`` (optional): the family's noise model, which the shared rule judges
-  (:mod:`suspenv.diagnosis.checks.residual_left`).
+  (:mod:`suspenv.diagnosis.checks.residual_left`);
+* ``assumptions`` (optional): the defaults used for what the recordings do not say
+  (:mod:`suspenv.diagnosis.checks.assumptions`).
 """
 
 from __future__ import annotations

@@ -4,37 +4,24 @@ Frame and units: distance x along the road (m, + in the direction of travel),
 elevation z (m, + up), spatial frequency n (cycle/m); PSDs are one-sided (m^3).
 ISO 8608: Gd(n) = Gd(n0) (n / n0)^-w, n0 = 0.1 cycle/m, standard waviness w = 2.
 
-Method: the road family (:class:`RoadFamily`) runs in
-:func:`~suspenv.diagnosis.engine.diagnose` like every other family, so the shared
-checks (:mod:`suspenv.diagnosis.checks`: the residual left, the assumptions, the
-share explained) judge its verdict.
+The road family (:class:`RoadFamily`) runs in :func:`~suspenv.diagnosis.engine.diagnose`
+like every other family, so the shared checks (:mod:`suspenv.diagnosis.checks`) judge
+its verdict:
 
-* The profile is put on a uniform grid and first-differenced (pre-whitening: the
-  slope of a w = 2 road is nearly white, so the periodogram has no leakage from the
-  strong long waves); its one-sided periodogram ``I_k`` at the Fourier lines inside
-  ``band`` is modelled as ``S(n) = 4 sin^2(pi n dx) Gd(n0) (n/n0)^-w`` times an
-  Exp(1) variable, independent lines (:func:`spectrum_recording`, :class:`RoadSpectrum`).
-* The likelihood is Whittle's, not least squares: each fit (:func:`whittle_fit`)
-  maximises it and carries it on its :class:`~suspenv.diagnosis.fitting.FitResult`,
-  so the loop's likelihood-ratio test and BIC leg are the Whittle ones. (Least squares
-  on the log lines, whose variance pi^2/6 is known, would be valid too but keeps only
-  6 / pi^2 = 61 % of the information: the Whittle estimate of w is the efficient one.)
-  Standard errors from the Whittle Fisher information ``(X^T X)^-1``, columns
-  ``[1, -ln(n/n0)]`` in (ln Gd(n0), w).
-* Baseline: the standard's form (Gd(n0) fitted, w = 2); the one candidate sets w free.
-  "Waviness steeper (shallower) than ISO 8608's 2" is named by the loop's rule
-  (:data:`ROAD_RULE`: p below ``alpha``, the BIC falls, the held-out log-line error
-  does not grow).
-* Held out: the second half of a single profile (the first is fitted), or another
-  profile; the held-out Whittle log-likelihood per line of both models is reported.
-* What is left: the final model's log lines over every profile in noise units, with
-  the known noise variance (:meth:`RoadFamily.residual_left`).
-* Class: the ISO 8608 class whose range (half to double its mean) holds Gd(n0).
-* The fits' numbers, the class, the held-out likelihoods and the octaves are the
-  family's finding ``spectrum`` (:meth:`RoadFamily.spectrum_check`).
-* Ride consequence (finding ``ride``, after the loop):
-  :func:`suspenv.metrics.ride.road_ride_consequence` of the fitted spectrum vs the
-  standard-waviness fit.
+* data: the periodogram lines inside ``band`` of the first-differenced profile (the
+  slope of a w = 2 road is nearly white, so no leakage from the strong long waves),
+  each ``4 sin^2(pi n dx) Gd(n)`` times an Exp(1) variable (:func:`spectrum_recording`,
+  :class:`RoadSpectrum`);
+* fits: Whittle's likelihood (:func:`whittle_fit`), so the loop's likelihood-ratio test
+  and BIC leg are the Whittle ones (least squares on the log lines, of known variance
+  pi^2/6, would keep only 6 / pi^2 = 61 % of the information);
+* baseline: the standard's form (Gd(n0) fitted, w = 2); the one candidate sets w free,
+  named by :data:`ROAD_RULE`; held out: the second half of a single profile (the first
+  is fitted), or another profile;
+* what is left: :meth:`RoadFamily.residual_left`; the fits' numbers, the ISO 8608 class
+  (whose range, half to double its mean, holds Gd(n0)), the held-out likelihoods and
+  the octaves: the finding ``spectrum`` (:meth:`RoadFamily.spectrum_check`); the ride
+  consequence (finding ``ride``): :func:`diagnose_road`.
 """
 
 from __future__ import annotations

@@ -1,29 +1,14 @@
 """The checks after the search: what a verdict may say, for every family.
 
 Each check is a module with ``run(ctx) -> Finding`` (:class:`Context` in,
-:class:`Finding` out). A check never imports a family: it asks the family questions
-through optional methods (:class:`~suspenv.diagnosis.family.OptionalSteps` gives their
-defaults), so a new family gets honest verdicts the day it joins:
+:class:`Finding` out). A check never imports a family: it asks the family through the
+optional steps of :mod:`suspenv.diagnosis.family` (``residual_left``, ``assumptions``,
+``ambiguities``), so a new family gets honest verdicts the day it joins. The other
+checks read only the final fit and the recordings (:mod:`.missing_input`,
+:mod:`.switched_element`, :mod:`.bounds`, :mod:`.misfit`).
 
-* ``residual_left(outcome, setup, alpha)``: the family's noise model, views of the final
-  model's residual in its noise units with the family's limit (:mod:`.residual_left`);
-* ``assumptions(setup)``: the defaults used for what the recordings do not say
-  (:mod:`.assumptions`).
-
-* ``ambiguities(winner, ranked, parent, setup)``: the family's look-alike pairs of a
-  named element, said beside the loop's own rule (:mod:`.separability`, which runs
-  first: it reads the search's record as the search left it).
-
-The other checks read only the final fit and the recordings: a residual driven by an
-input the recording does not carry (:mod:`.missing_input`) and the elements whose
-improvement rests on it (:mod:`.switched_element`), parameters on a bound
-(:mod:`.bounds`), the share of each output the model describes (:mod:`.misfit`).
-
-:func:`run` runs the look-alikes, a family's own checks (``family.checks()``), then
-these, each result folded (:func:`fold`) before the next reads the model it leaves: a
-family's check may return a :class:`~suspenv.diagnosis.family.Conclusion` that names or
-withdraws elements. During the search, :func:`refuse` runs a family's refit checks
-(``family.refit_checks()``, e.g. :mod:`.plausible`) on each refit.
+:func:`run` runs them in order, each result folded (:func:`fold`) before the next reads
+the model it leaves; :func:`refuse` runs a family's refit checks during the search.
 """
 
 from __future__ import annotations

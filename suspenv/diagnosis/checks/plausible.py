@@ -233,19 +233,14 @@ def check_loop_or_step(candidate: str, ext: FitResult, half_stroke: float) -> No
 
 
 def check_presliding_is_friction(candidate: str, ext: FitResult, half_stroke: float) -> None:
-    """Refuse a LuGre refit whose pre-sliding is resolved wider than
-    ``HYSTERESIS_MIN_FRACTION`` of the half-stroke ``half_stroke`` [m].
-
-    The mirror of :func:`check_loop_or_step`, for the families whose LuGre fits its
-    bristle stiffness (:func:`fits_presliding`): the bristles deflect ``f_c / sigma0``
-    while sliding, friction's pre-sliding of micrometres to tens of micrometres. A
-    deflection wider than the bound by more than ``SIZE_Z`` corrected standard errors of
-    its logarithm (:func:`ratio_and_error`) is a force that builds up over a fair part
-    of the stroke after each reversal: a material's loop (a bushing's, an MR fluid's
-    before yield), whose build-up the LuGre law can follow with its bristles while its
-    Stribeck levels take a velocity-dependent force beside it. Raises
-    :class:`ValidationError`, so the hysteresis refitted in the same round is named. Not
-    judged where the width or its error is not known.
+    """Refuse a LuGre refit whose bristle deflection while sliding, ``f_c / sigma0`` [m],
+    is wider than ``HYSTERESIS_MIN_FRACTION`` of the half-stroke ``half_stroke`` [m] by
+    more than ``SIZE_Z`` corrected standard errors of its logarithm
+    (:func:`ratio_and_error`): the mirror of :func:`check_loop_or_step` where the model
+    fits the bristle stiffness (:func:`fits_presliding`). Such a force builds up over a
+    fair part of the stroke after each reversal, a material's loop, so the hysteresis
+    refitted in the same round is named. Not judged where the width or its error is not
+    known.
     """
     kind = split_candidate(candidate)[0]
     if kind != "lugre_friction" or half_stroke <= 0:
@@ -274,21 +269,17 @@ WHOLE_FORCE_BASE_SHARE = 0.05
 
 
 def check_parallel_branch(candidate: str, ext: FitResult, alpha: float = 0.01) -> None:
-    """Refuse a Maxwell refit whose base damping is not resolved from zero, or is a
-    negligible share of the damping.
+    """Refuse a Maxwell refit whose base damping ``c`` [N s/m] is not resolved from zero
+    (under the two-sided ``alpha`` quantile of the normal in standard errors: 2.58 at
+    1 %, the test of the lag nested in the branch at ``c = 0``) or keeps under
+    ``WHOLE_FORCE_BASE_SHARE`` of ``c + c_m``.
 
-    The library's Maxwell element is a branch *beside* the base damping: ``F = c v + F_m``
-    with ``dF_m/dt = k_m (v - F_m / c_m)``. With the base coefficient ``c`` at zero it is
-    exactly a first-order lag of the whole force of a linear base (spring ``k``, damper):
-    ``(k + c s) / (1 + tau s)`` is the spring beside a branch of ``c_m = c - k tau``,
-    ``k_m = c_m / tau``. That is what a lagging force sensor (or a compliant mount in
-    series with the whole part) does, with one parameter instead of two. The branch is
-    therefore kept only where the data resolve its base damping from zero (``c`` at least
-    the two-sided ``alpha`` quantile of the normal in standard errors: 2.58 at the
-    component rule's 1 %, the test of the lag nested in the branch at ``c = 0``) and the
-    base keeps at least ``WHOLE_FORCE_BASE_SHARE`` of ``c + c_m``. Otherwise the lag
-    refitted in the same round is the simpler law. Raises :class:`ValidationError`. A
-    model without a viscous base parameter (``viscous_parameter``) is not checked.
+    With ``c`` at zero the branch beside the base damping (``F = c v + F_m``,
+    ``dF_m/dt = k_m (v - F_m / c_m)``) is exactly a first-order lag of the whole force of
+    a linear base: ``(k + c s) / (1 + tau s)`` is the spring beside a branch of
+    ``c_m = c - k tau``, ``k_m = c_m / tau``, what a lagging force sensor gives with one
+    parameter; the lag refitted in the same round is then the simpler law. A model
+    without a viscous base parameter (``viscous_parameter``) is not checked.
     """
     found = _branch_base(candidate, ext)
     if found is None:
@@ -414,24 +405,17 @@ def rounds_own_step(model: Any, kind: str) -> bool:
 def check_stiction_decays(
     candidate: str, ext: FitResult, vmax: float, rounded: bool = False
 ) -> None:
-    """Refuse a stiction refit whose level rises with speed over a fair part of the
-    speed range, or at all where the law's step is rounded by a parameter of its own.
+    """Refuse a stiction refit whose level rises with speed: the rise up to the peak
+    speed ``vmax`` [m/s] (:func:`stribeck_rise_and_error`) more than ``SIZE_Z`` standard
+    errors, over a Stribeck velocity ``v_s`` beyond ``FRICTION_MAX_FRACTION`` of
+    ``vmax`` (within it, a fixed-width step's rounding looks alike) or over any ``v_s``
+    where the law rounds its step by a parameter of its own (``rounded``:
+    :func:`rounds_own_step`).
 
-    Stiction means the force needed to break away from rest exceeds the force that keeps
-    sliding: ``f_s >= f_c``, the level falling from ``f_s`` at reversal to ``f_c`` over the
-    Stribeck velocity ``v_s``. Fitted the other way round (``f_c - f_s`` more than
-    ``SIZE_Z`` corrected standard errors of the difference), the level *rises* from the
-    reversal with speed. Where the law's step has a fixed rounding, a rise over a ``v_s``
-    within ``FRICTION_MAX_FRACTION`` of the peak speed ``vmax`` [m/s] is the rounding of
-    the step at reversal, which the data cannot tell from the step's own. Where the model
-    fits the parameter that rounds the step (``rounded``: :func:`rounds_own_step`, the
-    step's width or LuGre's bristle stiffness), the rise is not needed for that, and any
-    resolved rise is refused. A rise that is not the rounding is a force that grows
-    gradually with velocity (with ``f_s`` near zero about ``f_c (v / v_s)^2``), i.e. a
-    velocity-dependent damping (a digressive valve's knee, a progressive damper, or a
-    force missing around zero velocity), which the shape absorbs without being friction.
-    Raises :class:`ValidationError`; a friction step of another kind refitted in the
-    same round can still be named.
+    Stiction breaks away at ``f_s >= f_c`` and falls to ``f_c`` over ``v_s``; a level
+    that rises instead (with ``f_s`` near zero about ``f_c (v / v_s)^2``) is a
+    velocity-dependent damping the shape absorbs without being friction. A friction
+    step of another kind refitted in the same round can still be named.
     """
     found = _judged_element(candidate, ext, STICTION_KINDS) if vmax > 0 else None
     if found is None:
@@ -465,17 +449,11 @@ def check_stiction_decays(
 
 
 def check_breakaway_recorded(candidate: str, ext: FitResult, sp: Split) -> None:
-    """Refuse a stiction refit whose breakaway level exceeds every recorded force.
-
-    To move, a part must be pushed past its breakaway force ``f_s``, and at each reversal
-    the recorded force holds the friction at that level (``F = m a + c v +- f_s`` about
-    zero speed, of either sign on the two sides of the reversal): no recording of a part
-    that moves holds only forces below its breakaway level. A fitted ``f_s`` above the
-    largest recorded force (over every recording of the split) is that level only over a
-    Stribeck velocity too small for any sample to see it; what the shape fits is the
-    transient the level drives (LuGre's bristle deflection ``z = g(v) / sigma0``, a loop
-    over a fair part of the stroke: a material's hysteresis). Raises
-    :class:`ValidationError`. Models without a recorded ``force`` channel are not judged.
+    """Refuse a stiction refit whose breakaway level ``f_s`` [N] exceeds every recorded
+    force of the split: a part that moves is pushed past its breakaway at each reversal,
+    so the fitted level is one only over a Stribeck velocity too small for any sample to
+    see, and the shape fits the transient it drives (a loop over the stroke). Models
+    without a recorded ``force`` channel are not judged.
     """
     found = _judged_element(candidate, ext, STICTION_KINDS)
     forces = [

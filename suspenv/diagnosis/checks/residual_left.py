@@ -112,11 +112,13 @@ class Left:
         return {**self.__dict__, "remains": self.remains}
 
 
-def judge(cells: dict[tuple[str, str], np.ndarray], alpha: float) -> dict[str, Any]:
-    """The numbers of the rule on ``cells`` ((test, channel) -> residual in noise units,
-    the noise level read from the roughness of the same residual): per channel RMS, size
-    limit (:func:`size_limit`, ``v`` from :func:`roughness_factor`) and chi-square p-value
-    (Bonferroni over the channels), the worst channel, where the excess lives."""
+def from_cells(
+    cells: dict[tuple[str, str], np.ndarray], alpha: float
+) -> tuple[list[Left], dict[str, Any]]:
+    """The view of a residual in noise units per (test, channel) (``cells``, the noise
+    level read from the roughness of the same residual) and its numbers: per channel RMS,
+    size limit (:func:`size_limit`, ``v`` from :func:`roughness_factor`) and chi-square
+    p-value (Bonferroni over the channels), the worst channel, where the excess lives."""
     by_channel: dict[str, list[np.ndarray]] = {}
     for (_, ch), r in cells.items():
         by_channel.setdefault(ch, []).append(np.asarray(r, float))
@@ -132,38 +134,29 @@ def judge(cells: dict[tuple[str, str], np.ndarray], alpha: float) -> dict[str, A
     worst = max(rms, key=lambda c: rms[c] / limit[c])
     excess = {k: float(np.sum(np.asarray(r) ** 2) - r.size) for k, r in cells.items()}
     where = max(excess, key=lambda k: excess[k])
-    total = sum(max(v, 0.0) for v in excess.values()) or 1.0
-    return {
+    share = max(excess[where], 0.0) / (sum(max(v, 0.0) for v in excess.values()) or 1.0)
+    lag1 = lag1_autocorrelation(cells[where])
+    shape = "structured (smooth along the test)" if lag1 > 0.5 else "rough"
+    left = Left(
+        worst,
+        rms[worst],
+        limit[worst],
+        p[worst] < alpha,
+        f"chi-square test against the noise p = {p[worst]:.2g}",
+        f"{100 * share:.0f} % of the excess in the {where[0]} test's {where[1]}, {shape}, "
+        f"lag-1 correlation {lag1:.2f}",
+    )
+    return [left], {
         "rms_noise_units": rms,
         "p_corrected": p,
         "worst_channel": worst,
         "worst_rms": rms[worst],
         "limit": limit,
         "where": {"test": where[0], "channel": where[1]},
-        "where_share": max(excess[where], 0.0) / total,
-        "lag1": lag1_autocorrelation(cells[where]),
-        "remains": bool(rms[worst] > limit[worst] and p[worst] < alpha),
+        "where_share": share,
+        "lag1": lag1,
+        "remains": left.remains,
     }
-
-
-def from_cells(
-    cells: dict[tuple[str, str], np.ndarray], alpha: float
-) -> tuple[list[Left], dict[str, Any]]:
-    """The view of a residual in known noise units per (test, channel) (:func:`judge`)
-    and its numbers."""
-    n = judge(cells, alpha)
-    ch = n["worst_channel"]
-    shape = "structured (smooth along the test)" if n["lag1"] > 0.5 else "rough"
-    left = Left(
-        ch,
-        n["rms_noise_units"][ch],
-        n["limit"][ch],
-        n["p_corrected"][ch] < alpha,
-        f"chi-square test against the noise p = {n['p_corrected'][ch]:.2g}",
-        f"{100 * n['where_share']:.0f} % of the excess in the {n['where']['test']} test's "
-        f"{n['where']['channel']}, {shape}, lag-1 correlation {n['lag1']:.2f}",
-    )
-    return [left], n
 
 
 def _tried(ctx: Context) -> str:

@@ -45,18 +45,16 @@ LIMIT_CANDIDATES: dict[str, tuple[str, float]] = {
 
 
 def detection_limits(
-    base: Any,
-    recs: Sequence[Any],
-    noise: Mapping[str, float] | None = None,
+    base: Any, recs: Sequence[Any], noise: Mapping[str, float]
 ) -> dict[str, dict[str, Any]]:
     """Smallest magnitude of each of :data:`LIMIT_CANDIDATES` the fitted recordings would
     show (at :data:`DETECTABLE_SNR`).
 
     ``base`` is the baseline :class:`~suspenv.diagnosis.fitting.FitResult` (its
     ``extra["jacobian"]`` is the Jacobian of the residual scaled by ``base.scales``).
-    ``noise`` (channel unit) is each channel's noise level; default ``base.scales``
-    (the baseline's residual RMS, which an unmodelled effect inflates: give an
-    estimate independent of the fit, e.g. the residual map's roughness noise).
+    ``noise`` (channel unit) is each channel's noise level, an estimate independent of
+    the fit (the residual map's roughness noise: the baseline's residual RMS, which an
+    unmodelled effect inflates, would not do).
     Returns ``candidate -> {"parameter", "reference", "snr_at_reference", "exponent",
     "limit"}`` (``limit`` in the parameter's unit; ``inf`` when the element leaves no
     trace).
@@ -64,7 +62,7 @@ def detection_limits(
     model: KncAxleModel = base.model
     recs = list(recs)
     channels = list(base.scales)
-    noise = dict(base.scales) if noise is None else {c: float(noise[c]) for c in channels}
+    noise = {c: float(noise[c]) for c in channels}
     # rows in base-scale units -> rows in noise units
     w = np.concatenate(
         [np.full(r.n_samples, base.scales[c] / noise[c]) for r in recs for c in channels]

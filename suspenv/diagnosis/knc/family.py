@@ -3,30 +3,23 @@ recordings.
 
 Its pieces of the one loop (:mod:`suspenv.diagnosis.engine`):
 
-1. **Split**: fit on some rig tests (default parallel + opposite travel), hold out
-   the others (default single-wheel travel) or separate recordings (e.g. another
-   amplitude).
+1. **Split** (:func:`split_tests`): fit on some rig tests (default parallel + opposite
+   travel), hold out the others (default single-wheel travel) or other recordings.
 2. **Baseline**: the plain model's small parameter subset
    (:data:`~suspenv.rigs.knc_axle.FIT_PARAMETERS`) under channel scales fixed for
    every model compared (:meth:`KncFamily.fit_baseline`).
 3. **Locate**: residual map test x channel x branch x side
    (:mod:`~suspenv.diagnosis.knc.locate`).
-4. **Signatures**: score tests of the residual against each effect's pattern
-   (:mod:`~suspenv.diagnosis.knc.signatures`, about N(0, 1) under noise) and, for the
-   elastic and sensor elements, against the model itself
-   (:mod:`~suspenv.diagnosis.knc.score_test`: what the fitted parameters cannot
-   mimic); each family keeps its stronger score. The first round refits every
-   candidate family (``refit_all_first``): a weak effect can stay under the screen's
-   threshold in its signature pattern (a top-mount Dahl element opens a wheel-load loop
-   of a few newtons) while the refit of the element itself, which has the exact shape,
-   is the stronger test. Later rounds refit the families above
-   ``screen_threshold``, at most ``screen_families``; when none is, the search stops.
-5. **Refit**: the candidate effect added to the model as a physical element, the model
-   refitted (:func:`refit_frozen`); evidence and decision are the engine's.
-6. The winner is polished (:func:`settle`) and becomes the model of the next round (at
-   most ``max_effects``). When nothing is named, the verdict states the
-   smallest hysteresis (per location) and strut friction these tests would have
-   shown (:mod:`~suspenv.diagnosis.knc.detectability`).
+4. **Screen**: score tests of the residual against each effect's pattern
+   (:mod:`~suspenv.diagnosis.knc.signatures`) and, for the elastic and sensor elements,
+   against the model itself (:mod:`~suspenv.diagnosis.knc.score_test`); each family
+   keeps its stronger score. The first round refits every candidate family: a weak
+   effect can stay under the screen's threshold in its signature pattern (a top-mount
+   Dahl element opens a wheel-load loop of a few newtons) while the refit of the
+   element itself, which has the exact shape, is the stronger test.
+5. **Refit** (:func:`refit_frozen`) and **settle** (:func:`settle`) of the winner, the
+   next round's model; when nothing is named, the smallest hysteresis and strut
+   friction these tests would have shown (:mod:`~suspenv.diagnosis.knc.detectability`).
 """
 
 from __future__ import annotations
@@ -34,7 +27,7 @@ from __future__ import annotations
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -325,9 +318,9 @@ class KncFamily:
         screen_families / screen_threshold: from the second round, refit the signature
             families scoring above the threshold (at most this many; the default, 5, is
             every family: the model score tests of the elastic and sensor elements also
-            respond to other missing physics, so a cap could crowd out the loop family).
-        refit_all_first: the first round refits every candidate family, whatever its
-            signature score.
+            respond to other missing physics, so a cap could crowd out the loop family);
+            none above it ends the search. The first round refits every candidate
+            family (step 4).
         max_nfev / polish_nfev: budgets of the fits and of each fit of the joint polish
             of a winner (default ``max_nfev``; see :func:`settle`).
         rule: the decision rule (default :data:`KNC_RULE`).
@@ -337,7 +330,6 @@ class KncFamily:
     max_effects: int = 2
     screen_families: int = 5
     screen_threshold: float = 3.0
-    refit_all_first: bool = True
     max_nfev: int = 40
     polish_nfev: int | None = None
     rule: DecisionRule = KNC_RULE
@@ -400,7 +392,7 @@ class KncFamily:
             if sg.kind not in strongest or sg.score > strongest[sg.kind].score:
                 strongest[sg.kind] = sg
         ordered = sorted(strongest.values(), key=lambda sg: -sg.score)
-        if round_ == 1 and self.refit_all_first:
+        if round_ == 1:
             picked = ordered
         else:
             picked = [s for s in ordered if s.score > self.screen_threshold][: self.screen_families]
@@ -473,8 +465,8 @@ class KncFamily:
             baseline={"scales": dict(self._scales), "fit_parameters": list(model.fit_parameters)}
         )
         if not outcome.named:  # say what these tests could not have seen
-            noise = outcome.location.noise if isinstance(outcome.location, ResidualMap) else None
-            limits = detection_limits(outcome.base, setup.split.fit_recordings, noise=noise)
+            noise = cast(ResidualMap, outcome.location).noise  # :meth:`locate`'s map
+            limits = detection_limits(outcome.base, setup.split.fit_recordings, noise)
             found.findings["detection_limits"] = limits
             if limits:
                 found.sentences.append(limits_sentence(limits))
