@@ -167,12 +167,9 @@ def judge_beside_drift(
         name = str(element_name(h))
         p_c, bic_c = test(context, name, drift=True)
         if p_c >= rule.alpha:
-            # the same test with the baseline's drift: an element that does not pass it
-            # either (named by the held-out data, or by a model that held other
-            # elements) is not this check's to withdraw; the drift must be what takes
-            # its support, and its likelihood ratio must lose significance (a rise of
-            # the BIC alone, which counts its parameters, does not withdraw an element
-            # already named)
+            # the drift must be what takes its support (module docstring): an element
+            # that fails the test beside the baseline's drift too (named by the held-out
+            # data, or by a model that held other elements) is not this check's to withdraw
             p_plain, bic_plain = test(context, name, drift=False)
             if p_plain < rule.alpha and bic_plain < 0.0:
                 withdrawals.append(Withdrawal(h, beside, p_c, bic_c))
