@@ -22,6 +22,7 @@ from suspenv.diagnosis.component.residual_left import (
     _tail_test,
     inconsistent_motion,
     neighbour_noise_power,
+    neighbour_pairs,
 )
 from suspenv.diagnosis.component.rig import (
     baseline_model,
@@ -267,7 +268,7 @@ def test_neighbour_noise_power_sees_noise_not_structure():
     cycle = np.floor(t).astype(int)
     noise = rng.normal(0.0, 2.0, t.size)
     structure = 50.0 * (v / v.max()) ** 3 + 30.0 * np.sign(v) * (x / x.max()) ** 2
-    p = neighbour_noise_power(noise + structure, x, v, cycle)
+    p = neighbour_noise_power(noise + structure, neighbour_pairs(x, v, cycle))
     assert abs(np.sqrt(p) - 2.0) / 2.0 < 0.05
 
 
