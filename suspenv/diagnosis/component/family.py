@@ -846,13 +846,9 @@ def lag_or_delay(named: Sequence[Hypothesis], sp: Split) -> str:
     """When a sensor lag is named where it cannot be told from a pure time delay (not in
     the library), the sentence that says so and names the test that would separate them;
     "" otherwise. The verdict is then not confident: the named lag may be the library's
-    nearest element to a delay.
-
-    At the motion's highest angular frequency ``w = v_max / x_half`` (a sine's), below
-    ``w tau = LAG_DELAY_SEPARABLE`` the two shift the phase alike and differ by little
-    more than the gain (:mod:`~suspenv.diagnosis.component.delay`), which the model's
-    other parameters absorb.
-    """
+    nearest element to a delay. Read at the motion's highest angular frequency ``w =
+    v_max / x_half`` (a sine's) against :data:`LAG_DELAY_SEPARABLE`; the gain difference
+    left there is absorbed by the model's other parameters."""
     lag = next((h for h in named if h.kind == "sensor_lag"), None)
     if lag is None:
         return ""
@@ -917,13 +913,13 @@ def baseline_offsets(fit: FitResult) -> list[dict[str, Any]]:
     return out
 
 
-def _baseline_effects(base: FitResult, family: ComponentFamily | None = None) -> dict[str, Any]:
+def _baseline_effects(base: FitResult, family: ComponentFamily) -> dict[str, Any]:
     model = unprofiled(base.model)
     out: dict[str, Any] = {
         "effects": [e.to_dict() for e in model.effects],
         "words": baseline_words(model) if isinstance(model, ComponentModel) else "",
     }
-    if family is not None and family.rig is not None:
+    if family.rig is not None:
         out["rig"] = family.rig.to_dict()
         out["rig_notes"] = list(family.rig_notes)
         out["motion_version"] = family.motion_version

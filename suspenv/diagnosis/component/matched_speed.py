@@ -44,16 +44,15 @@ class HalfCycle:
     """Force at the velocity peak of one half-cycle (one direction of stroke).
 
     ``speed`` [m/s] is the mean ``|v|`` in the peak window, ``force`` [N] the mean force
-    there, ``time`` [s] the window's mid time, ``samples`` the window's sample indices,
-    ``position`` [m] the window's mean stroke position (from the integrated velocity
-    when no displacement is given), ``half_stroke`` [m] half the half-cycle's travel.
+    there, ``time`` [s] the window's mid time, ``position`` [m] the window's mean stroke
+    position (from the integrated velocity when no displacement is given),
+    ``half_stroke`` [m] half the half-cycle's travel.
     """
 
     direction: int  # +1 bump (v > 0), -1 rebound
     speed: float
     force: float
     time: float
-    samples: np.ndarray = field(repr=False)
     position: float = 0.0  # [m] mean stroke position in the peak window
     half_stroke: float = 0.0  # [m] half the stroke covered by the half-cycle
 
@@ -244,7 +243,6 @@ def half_cycles(
                 speed=float(np.mean(np.abs(v[idx]))),
                 force=float(np.mean(force[idx])),
                 time=float(np.mean(t[idx])),
-                samples=idx,
                 position=float(np.mean(x[idx]) - 0.5 * (x[a] + x[b - 1])),
                 half_stroke=float(0.5 * abs(x[b - 1] - x[a])),
             )
@@ -341,9 +339,7 @@ def speed_groups(
             ),
             None,
         )
-        if match is None:
-            continue
-        if abs(match.position + r.position) > POSITION_TOL * half_stroke:
+        if match is None or abs(match.position + r.position) > POSITION_TOL * half_stroke:
             continue
         used.update((id(match), id(r)))
         (fb, eb), (fr, er) = stats_of(match), stats_of(r)
