@@ -422,11 +422,9 @@ class ComponentFamily(OptionalSteps):
     def _signs(
         self, rig: RigDescription, recs: list[RecordingLike]
     ) -> tuple[RigDescription, list[RecordingLike]]:
-        """The recordings in suspenv's signs; where neither sign is declared and the
-        recorded force takes power from the motion the other way round (``mean(F v) <
-        0``, :func:`~suspenv.diagnosis.component.assumed.power_sign`), its sign is
-        reversed (the deflection's where the force is read through the body equation),
-        and the convention found is said (:attr:`sign_words`)."""
+        """The recordings in suspenv's signs, read off the power the force takes from the
+        motion where neither sign is declared (:mod:`~suspenv.diagnosis.component.assumed`),
+        and the convention found said (:attr:`sign_words`)."""
         out = oriented(recs, rig)
         m_s = float(rig.known.get("m_s", make_component(rig.family).options.get("m_s", 1.0)))
         power = power_sign(out, m_s)
