@@ -428,8 +428,8 @@ def test_the_tail_rule_reads_the_residual_low_passed_at_the_motion_cut_off():
     low, high = np.sin(2 * np.pi * fc / 4 * t), np.sin(2 * np.pi * 4 * fc * t)
     rec = Recording("r", "t", t, {}, {"force": low + high}, {"force": "N"}, {})
     zero = np.zeros(t.size, int)
-    run = _Run(0, rec, {"force": np.zeros(t.size)}, t, t, t, zero, zero, None, zero == 0, fc)
-    as_is = _Run(0, rec, {"force": np.zeros(t.size)}, t, t, t, zero, zero, None, zero == 0, None)
+    run = _Run(rec, {"force": np.zeros(t.size)}, t, t, t, zero, zero, None, zero == 0, fc)
+    as_is = _Run(rec, {"force": np.zeros(t.size)}, t, t, t, zero, zero, None, zero == 0, None)
     assert np.array_equal(as_is.low_passed(as_is.residual("force")), as_is.residual("force"))
     # the residual is detrended first (step 1), alike in both
     inner = slice(2000, -2000)  # away from the filter's start and end

@@ -260,14 +260,12 @@ def _quartile(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 @dataclass(frozen=True)
 class _Run:
-    """One recording as the check reads it: its index among the split's recordings, the
-    recording, the model's prediction {channel: array}, times ``t`` [s], motion ``x`` [m]
-    and ``v`` [m/s], each sample's motion cycle and replicate (unique over the split),
-    the samples the tail rule reads, the samples the check reads (past the filter's
-    settling, :func:`settled`) and the cut-off [Hz] of the residual it reads (None: the
-    residual as it is)."""
+    """One recording as the check reads it: the recording, the model's prediction
+    {channel: array}, times ``t`` [s], motion ``x`` [m] and ``v`` [m/s], each sample's
+    motion cycle and replicate (unique over the split), the samples the tail rule reads,
+    the samples the check reads (past the filter's settling, :func:`settled`) and the
+    cut-off [Hz] of the residual it reads (None: the residual as it is)."""
 
-    index: int
     rec: Any
     pred: Mapping[str, np.ndarray]
     t: np.ndarray
@@ -308,7 +306,7 @@ def _runs(
     channels; a recording named in ``recorded`` with those output channels."""
     runs = []
     offset = 0
-    for k, rec in enumerate(sp.recordings()):
+    for rec in sp.recordings():
         if recorded is not None and str(rec.name) in recorded:
             rec = as_recorded(rec, recorded[str(rec.name)])
         t = np.asarray(rec.time, float)
@@ -318,7 +316,7 @@ def _runs(
         keep = settled(t, lowpass_hz)
         read = tail_read(t, x, v, lowpass_hz) & keep
         pred = fit.model.simulate(fit.theta, rec)
-        runs.append(_Run(k, rec, pred, t, x, v, cycles, c + offset, read, keep, lowpass_hz))
+        runs.append(_Run(rec, pred, t, x, v, cycles, c + offset, read, keep, lowpass_hz))
         offset += int(c.max()) + 1
     return runs
 
@@ -338,7 +336,6 @@ def residual_left(
     compared them low-passed (step 0 of the module docstring)."""
     runs = _runs(fit, sp, lowpass_hz, recorded)
     words = MOTION_WORDS.get(str(getattr(fit.model, "family", "")), MOTION_WORDS[""])
-    names = np.asarray([str(run.rec.name) for run in runs])
     out = []
     for ch in fit.channels:
         have = [run for run in runs if ch in run.rec.outputs]
@@ -354,8 +351,8 @@ def residual_left(
         left = _cell_test(words, r[ok], x[ok], v[ok], replicate[ok], ch, unit, alpha)
         keep = np.concatenate([run.read for run in have])
         t = np.concatenate([run.t for run in have])
-        which = np.concatenate([np.full(run.t.size, run.index) for run in have])
-        recording = names[which[keep]] if len(have) > 1 else None
+        names = np.concatenate([np.full(run.t.size, str(run.rec.name)) for run in have])
+        recording = names[keep] if len(have) > 1 else None
         rt = np.concatenate([run.low_passed(q) for run, q in zip(have, parts, strict=True)])
         _tail_test(left, words, rt[keep], x[keep], v[keep], t[keep], recording)
         out.append(left)
