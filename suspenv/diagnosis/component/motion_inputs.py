@@ -22,16 +22,11 @@ them treats them as exact. Two things a rig does to them make that wrong:
   above :data:`VELOCITY_MISMATCH` of the velocity's RMS means the channel is not the
   displacement's derivative, and the report says so.
 
-Which rates the fit uses (``velocity_source`` in the rig description,
-:mod:`suspenv.diagnosis.component.rig`): ``"auto"`` (default) low-passes every motion
-channel and keeps the recorded rates where they are the displacement's derivatives; a
-rate channel that is a filtered derivative is replaced by the displacement's
-derivative when that is clean (a clean displacement, or its noise above the cut-off);
-when the displacement's noise cannot be separated from the motion, the baseline is
-fitted with both and the smaller residual decides (:func:`preferred_version`), as the
-report says.
-``"displacement"`` always uses the derivatives, ``"channel"`` the channels exactly as
-recorded (no low-pass, no check).
+Which rates the fit uses is ``velocity_source`` in the rig description
+(:mod:`suspenv.diagnosis.component.rig`): ``"auto"`` (default) fits the version of
+:func:`conditioned` that :func:`preferred_version` names, or where it names none both,
+the smaller baseline residual deciding, as the report says; ``"displacement"`` always
+the derivatives, ``"channel"`` the channels exactly as recorded (no low-pass, no check).
 """
 
 from __future__ import annotations
