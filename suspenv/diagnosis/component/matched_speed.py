@@ -182,7 +182,9 @@ class MatchedSpeedAsymmetry:
 
 #: a half-cycle slower than this share of the largest speed is skipped (creep and hold)
 MIN_SPEED_SHARE = 0.05
-#: fewest samples in a half-cycle's peak window
+#: the peak window holds the samples with ``|v|`` within this share of the half-cycle's
+#: peak speed; one of fewer than :data:`MIN_PEAK_SAMPLES` samples is skipped
+PEAK_BAND = 0.03
 MIN_PEAK_SAMPLES = 3
 #: fewest half-cycles of a direction in a speed cluster (a scatter needs two)
 MIN_PER_CLUSTER = 2
@@ -198,18 +200,14 @@ def half_cycles(
     v: np.ndarray,
     force: np.ndarray,
     x: np.ndarray | None = None,
-    peak_band: float = 0.03,
 ) -> list[HalfCycle]:
-    """Peak-velocity force of every complete half-cycle of a stroke.
+    """Peak-velocity force (:data:`PEAK_BAND`) of every complete half-cycle of a stroke
+    at least :data:`MIN_SPEED_SHARE` of the largest speed.
 
     Args:
         t: time [s]; v: velocity [m/s] (bump positive); force: force [N].
         x: stroke position [m] (default: the integrated velocity); positions are taken
             relative to the half-cycle's own centre (mid-way between its reversals).
-        peak_band: the peak window holds the samples with ``|v| >= (1 - peak_band)``
-            times the half-cycle's peak speed; one of fewer than :data:`MIN_PEAK_SAMPLES`
-            samples is skipped, and so is a half-cycle slower than
-            :data:`MIN_SPEED_SHARE` of the largest speed (creep and hold).
     """
     t, v, force = (np.asarray(a, float) for a in (t, v, force))
     if not (t.shape == v.shape == force.shape and t.ndim == 1):
@@ -217,8 +215,6 @@ def half_cycles(
             "time, velocity and force must be 1-D arrays of one length, but got shapes "
             f"{t.shape}, {v.shape}, {force.shape}"
         )
-    if not 0.0 < peak_band < 0.5:
-        raise ValidationError(f"`0 < peak_band < 0.5` must hold, but got peak_band={peak_band}")
     if x is None:
         x = cumulative_trapezoid(v, t, initial=0.0)
     x = np.asarray(x, float)
@@ -234,7 +230,7 @@ def half_cycles(
         peak = float(seg.max())
         if peak < floor:
             continue
-        idx = a + np.flatnonzero(seg >= (1.0 - peak_band) * peak)
+        idx = a + np.flatnonzero(seg >= (1.0 - PEAK_BAND) * peak)
         if idx.size < MIN_PEAK_SAMPLES:
             continue
         out.append(
