@@ -183,8 +183,9 @@ class MatchedSpeedAsymmetry:
 #: a half-cycle slower than this share of the largest speed is skipped (creep and hold)
 MIN_SPEED_SHARE = 0.05
 #: the peak window holds the samples with ``|v|`` within this share of the half-cycle's
-#: peak speed; one of fewer than :data:`MIN_PEAK_SAMPLES` samples is skipped
+#: peak speed
 PEAK_BAND = 0.03
+#: fewest samples in a half-cycle's peak window
 MIN_PEAK_SAMPLES = 3
 #: fewest half-cycles of a direction in a speed cluster (a scatter needs two)
 MIN_PER_CLUSTER = 2
