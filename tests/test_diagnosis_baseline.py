@@ -22,6 +22,7 @@ from suspenv.diagnosis.component.residual_left import (
     _tail_test,
     inconsistent_motion,
     neighbour_noise_power,
+    neighbour_pairs,
 )
 from suspenv.diagnosis.component.rig import (
     baseline_model,
@@ -267,7 +268,7 @@ def test_neighbour_noise_power_sees_noise_not_structure():
     cycle = np.floor(t).astype(int)
     noise = rng.normal(0.0, 2.0, t.size)
     structure = 50.0 * (v / v.max()) ** 3 + 30.0 * np.sign(v) * (x / x.max()) ** 2
-    p = neighbour_noise_power(noise + structure, x, v, cycle)
+    p = neighbour_noise_power(noise + structure, neighbour_pairs(x, v, cycle))
     assert abs(np.sqrt(p) - 2.0) / 2.0 < 0.05
 
 
@@ -427,8 +428,8 @@ def test_the_tail_rule_reads_the_residual_low_passed_at_the_motion_cut_off():
     low, high = np.sin(2 * np.pi * fc / 4 * t), np.sin(2 * np.pi * 4 * fc * t)
     rec = Recording("r", "t", t, {}, {"force": low + high}, {"force": "N"}, {})
     zero = np.zeros(t.size, int)
-    run = _Run(0, rec, {"force": np.zeros(t.size)}, t, t, t, zero, zero, None, zero == 0, fc)
-    as_is = _Run(0, rec, {"force": np.zeros(t.size)}, t, t, t, zero, zero, None, zero == 0, None)
+    run = _Run(rec, {"force": np.zeros(t.size)}, t, t, t, zero, zero, None, zero == 0, fc)
+    as_is = _Run(rec, {"force": np.zeros(t.size)}, t, t, t, zero, zero, None, zero == 0, None)
     assert np.array_equal(as_is.low_passed(as_is.residual("force")), as_is.residual("force"))
     # the residual is detrended first (step 1), alike in both
     inner = slice(2000, -2000)  # away from the filter's start and end

@@ -98,8 +98,6 @@ def test_half_cycles_find_the_peak_speed_at_mid_stroke():
 def test_bad_input_names_the_rule():
     with pytest.raises(ValidationError, match="one length"):
         half_cycles(np.arange(5.0), np.arange(4.0), np.arange(5.0))
-    with pytest.raises(ValidationError, match="peak_band"):
-        half_cycles(np.arange(5.0), np.arange(5.0), np.arange(5.0), peak_band=0.7)
 
 
 def test_a_single_speed_gives_no_verdict():

@@ -19,7 +19,7 @@ import numpy as np
 from suspenv.diagnosis.component.matched_speed import MatchedSpeedAsymmetry, matched_speed_asymmetry
 from suspenv.diagnosis.component.motion import cycle_index, motion
 from suspenv.diagnosis.component.refit import refit_with
-from suspenv.diagnosis.evidence import Comparison, compare, heldout_rms, scaled_rms
+from suspenv.diagnosis.evidence import Comparison, compare, heldout_residuals, relative_drop
 from suspenv.diagnosis.fitting import FitResult, fit
 from suspenv.diagnosis.hypothesis import Hypothesis, corrected_delta_bic
 from suspenv.diagnosis.split import Split
@@ -300,8 +300,7 @@ def _cycle_folds(
         fit_m = [~m for m in hold]
         n0 = fit(null.model, recs, fit_m, theta0=null.theta, max_nfev=max_nfev)
         n1 = fit(alt.model, recs, fit_m, theta0=alt.theta, max_nfev=max_nfev)
-        before = scaled_rms(heldout_rms(n0, recs, hold), n0.scales)
-        after = scaled_rms(heldout_rms(n1, recs, hold), n0.scales)
+        before, after = heldout_residuals(n0, recs, hold), heldout_residuals(n1, recs, hold)
         ratios.append(_rebound_bump_ratio(n1, v_ref)[0])
-        gains.append(float(1.0 - after / before) if before > 0 else 0.0)
+        gains.append(relative_drop(before, after, n0.scales))
     return ratios, gains

@@ -109,10 +109,8 @@ def dead_band_left(
     final: FitResult, sp: Split, location: str, peak: float, budget: int, rule: DecisionRule
 ) -> DeadBandLeft:
     """Whether a force missing around zero speed is physics left after the final model
-    (module docstring): the element refitted on top of ``final`` (placed at ``location``,
-    the model's force element place) and judged as a refit is, by its level's resolution,
-    by its band against the fitted motion's peak speed ``peak`` [m/s] and by the residual
-    check's size rule."""
+    (module docstring): the element refitted on top of ``final`` at ``location`` (the
+    model's force element place), ``peak`` [m/s] the fitted motion's peak speed."""
     ext = refit_with(
         final, DEFICIT_KIND, sp.fit_recordings, sp.fit_masks, location=location, max_nfev=budget
     )

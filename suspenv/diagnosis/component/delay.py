@@ -38,8 +38,10 @@ probe, in two places.
    before the delay was found may have stood in for part of the lateness (a hysteresis
    loop or a Maxwell branch also makes a force late). With a delay left, each named
    element is judged again as a refit is, against the model with the delay and without
-   it; one that is no longer significant beside the delay is withdrawn (the weakest
-   first, then the others judged again), and the final model is refitted without it.
+   it (one test per element: the benefit of the doubt goes to the element named); one
+   that is no longer significant beside the delay is withdrawn (the weakest first, then
+   the others judged again), and the final model is refitted without it (and without
+   the delay, which is not a library element).
 
 Units: delays in seconds; residuals in the channel's unit; phases in degrees.
 """
@@ -136,14 +138,12 @@ def phase_words(rows: Sequence[PhaseRow], channel: str) -> str:
 def phase_by_frequency(
     together: FitResult, sp: Split, channel: str, tau: float, delay: float
 ) -> list[PhaseRow]:
-    """The evidence of phase versus frequency: per motion frequency, how far the recorded
-    ``channel`` lags behind the model ``together`` with its lateness elements (sensor lags,
-    pure delays) taken out, beside what a first-order lag ``tau`` [s] (``atan(w tau)``,
-    saturating at 90 deg) and a pure delay ``delay`` [s] (``w T``, growing in proportion)
-    predict.
+    """The phase table of the module docstring (3), a :class:`PhaseRow` per motion
+    frequency, of ``channel`` against ``together`` (the fit with both a lag and a delay,
+    neither favoured by the physics it fits) with its lateness elements taken out, beside
+    a lag ``tau`` [s] and a delay ``delay`` [s].
 
-    ``together`` is the fit with both a lag and a delay (neither favoured by the physics
-    it fits). Each whole motion cycle of every recording of the split (cycles between
+    Each whole motion cycle of every recording of the split (cycles between
     upward crossings of the motion's median) gives its frequency ``1 / period`` and its
     phase: the angle between the recorded and the modelled channel's Fourier
     coefficients at that frequency over the cycle (cycles of under ``PHASE_MIN_STROKE`` of
@@ -306,18 +306,13 @@ def delay_against_lag(
     lag: FitResult, delay: FitResult, sp: Split, rule: DecisionRule, channel: str, budget: int
 ) -> dict[str, Any]:
     """A sensor lag's fit (``lag``) against a pure delay's of the same channel
-    (``delay``): ``{"bic_difference"`` (:func:`bic_difference`, > 0 favours the delay),
-    ``"heldout_reduction"`` (the relative drop of the held-out RMS error from the lag's
-    fit to the delay's), the corrected likelihood-ratio p-values of the lag beside a
-    delay and of the delay beside a lag (``"p_lag_beside_delay"``,
-    ``"p_delay_beside_lag"``: the two fitted together against each alone), the two
-    fitted together (``"together_lag_s"``, ``"together_delay_s"`` and their corrected
-    standard errors ``"..._stderr"`` [s]),
-    ``"decisive"`` (1.0 when :func:`delay_decisive`; else 0.0),
-    ``"delay_s"``, ``"lag_s"``, ``"ssr_lag"``, ``"ssr_delay"`` (ssr summed over the
-    channels), ``"phases"}`` (:func:`phase_by_frequency` of the two fitted together:
-    the evidence of phase versus frequency, which the delay's finding states; computed
-    where the delay is decisive, else empty)."""
+    (``delay``), by name: the numbers of the rule of the module docstring (1) (the
+    corrected BIC difference, > 0 favouring the delay; the held-out confirmation; the
+    p-values of each beside the other; the two fitted together, values and corrected
+    standard errors [s]), ``"decisive"`` (1.0 when :func:`delay_decisive`, else 0.0), the
+    held-out error's relative drop, each fit's value [s] and ssr (summed over the
+    channels), and ``"phases"`` (:func:`phase_by_frequency` of the two fitted together,
+    which the delay's finding states; empty where not decisive)."""
     bic = bic_difference(lag, delay)
     # each fit's held-out residuals once: the relative drop and the confirmation
     lag_heldout = heldout_residuals(lag, sp.heldout_recordings, sp.heldout_masks)
@@ -471,15 +466,9 @@ def judge_beside_delay(
     rule: DecisionRule,
 ) -> tuple[FitResult, list[Withdrawal]]:
     """The elements ``named`` (each in ``final``'s model) judged again beside a pure delay
-    of ``channel`` (module docstring, 4).
-
-    The delay is fitted on top of the model (from ``start`` [s]); each element is then
-    left out of that fit and the refit without it compared with it by ``rule``, as a
-    refit is (:func:`~suspenv.diagnosis.decision.decide`, one test per element: the
-    benefit of the doubt goes to the element already named). If some are not
-    significant, the one of the largest corrected p-value is withdrawn: the model is
-    refitted without it (and without the delay, which is not a library element) and the
-    rest are judged again. Returns (the final model, the withdrawals in order)."""
+    of ``channel`` fitted on top from ``start`` [s] (module docstring, 4), by ``rule``
+    (:func:`~suspenv.diagnosis.decision.decide`). Returns (the final model, the
+    withdrawals in order)."""
     withdrawals: list[Withdrawal] = []
     left = [h for h in named if element_name(h) in {e.name for e in final.model.effects}]
     while left:

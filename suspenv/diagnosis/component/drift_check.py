@@ -44,6 +44,7 @@ from typing import Any
 import numpy as np
 from numpy.polynomial import legendre
 
+from suspenv.diagnosis.component.rig import DRIFT
 from suspenv.diagnosis.component.withdrawal import element_name, reduced, without_element
 from suspenv.diagnosis.decision import DecisionRule
 from suspenv.diagnosis.evidence import fit_residual_series, likelihood_ratio
@@ -55,8 +56,6 @@ from suspenv.diagnosis.split import Split
 DRIFT_ORDER = 8
 #: rounds of backfitting (model, then the drift's terms on its residual)
 BACKFIT_ROUNDS = 3
-#: the kind of the baseline's drift element (one per drifting channel)
-DRIFT_KIND = "zero_drift"
 
 
 def drift_basis(time: np.ndarray, order: int = DRIFT_ORDER, lowest: int = 4) -> np.ndarray:
@@ -71,7 +70,7 @@ def drift_basis(time: np.ndarray, order: int = DRIFT_ORDER, lowest: int = 4) -> 
 
 def drifting_channels(model: Any) -> list[str]:
     """The channels the model's baseline gives a zero drift (its elements' locations)."""
-    return [str(e.location) for e in model.effects if e.kind == DRIFT_KIND]
+    return [str(e.location) for e in model.effects if e.kind == DRIFT]
 
 
 def fit_beside_drift(
@@ -167,12 +166,9 @@ def judge_beside_drift(
         name = str(element_name(h))
         p_c, bic_c = test(context, name, drift=True)
         if p_c >= rule.alpha:
-            # the same test with the baseline's drift: an element that does not pass it
-            # either (named by the held-out data, or by a model that held other
-            # elements) is not this check's to withdraw; the drift must be what takes
-            # its support, and its likelihood ratio must lose significance (a rise of
-            # the BIC alone, which counts its parameters, does not withdraw an element
-            # already named)
+            # the drift must be what takes its support (module docstring): an element
+            # that fails the test beside the baseline's drift too (named by the held-out
+            # data, or by a model that held other elements) is not this check's to withdraw
             p_plain, bic_plain = test(context, name, drift=False)
             if p_plain < rule.alpha and bic_plain < 0.0:
                 withdrawals.append(Withdrawal(h, beside, p_c, bic_c))

@@ -422,11 +422,9 @@ class ComponentFamily(OptionalSteps):
     def _signs(
         self, rig: RigDescription, recs: list[RecordingLike]
     ) -> tuple[RigDescription, list[RecordingLike]]:
-        """The recordings in suspenv's signs; where neither sign is declared and the
-        recorded force takes power from the motion the other way round (``mean(F v) <
-        0``, :func:`~suspenv.diagnosis.component.assumed.power_sign`), its sign is
-        reversed (the deflection's where the force is read through the body equation),
-        and the convention found is said (:attr:`sign_words`)."""
+        """The recordings in suspenv's signs, read off the power the force takes from the
+        motion where neither sign is declared (:mod:`~suspenv.diagnosis.component.assumed`),
+        and the convention found said (:attr:`sign_words`)."""
         out = oriented(recs, rig)
         m_s = float(rig.known.get("m_s", make_component(rig.family).options.get("m_s", 1.0)))
         power = power_sign(out, m_s)
@@ -846,13 +844,9 @@ def lag_or_delay(named: Sequence[Hypothesis], sp: Split) -> str:
     """When a sensor lag is named where it cannot be told from a pure time delay (not in
     the library), the sentence that says so and names the test that would separate them;
     "" otherwise. The verdict is then not confident: the named lag may be the library's
-    nearest element to a delay.
-
-    At the motion's highest angular frequency ``w = v_max / x_half`` (a sine's), below
-    ``w tau = LAG_DELAY_SEPARABLE`` the two shift the phase alike and differ by little
-    more than the gain (:mod:`~suspenv.diagnosis.component.delay`), which the model's
-    other parameters absorb.
-    """
+    nearest element to a delay. Read at the motion's highest angular frequency ``w =
+    v_max / x_half`` (a sine's) against :data:`LAG_DELAY_SEPARABLE`; the gain difference
+    left there is absorbed by the model's other parameters."""
     lag = next((h for h in named if h.kind == "sensor_lag"), None)
     if lag is None:
         return ""
@@ -917,13 +911,13 @@ def baseline_offsets(fit: FitResult) -> list[dict[str, Any]]:
     return out
 
 
-def _baseline_effects(base: FitResult, family: ComponentFamily | None = None) -> dict[str, Any]:
+def _baseline_effects(base: FitResult, family: ComponentFamily) -> dict[str, Any]:
     model = unprofiled(base.model)
     out: dict[str, Any] = {
         "effects": [e.to_dict() for e in model.effects],
         "words": baseline_words(model) if isinstance(model, ComponentModel) else "",
     }
-    if family is not None and family.rig is not None:
+    if family.rig is not None:
         out["rig"] = family.rig.to_dict()
         out["rig_notes"] = list(family.rig_notes)
         out["motion_version"] = family.motion_version

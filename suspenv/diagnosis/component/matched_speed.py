@@ -44,16 +44,15 @@ class HalfCycle:
     """Force at the velocity peak of one half-cycle (one direction of stroke).
 
     ``speed`` [m/s] is the mean ``|v|`` in the peak window, ``force`` [N] the mean force
-    there, ``time`` [s] the window's mid time, ``samples`` the window's sample indices,
-    ``position`` [m] the window's mean stroke position (from the integrated velocity
-    when no displacement is given), ``half_stroke`` [m] half the half-cycle's travel.
+    there, ``time`` [s] the window's mid time, ``position`` [m] the window's mean stroke
+    position (from the integrated velocity when no displacement is given),
+    ``half_stroke`` [m] half the half-cycle's travel.
     """
 
     direction: int  # +1 bump (v > 0), -1 rebound
     speed: float
     force: float
     time: float
-    samples: np.ndarray = field(repr=False)
     position: float = 0.0  # [m] mean stroke position in the peak window
     half_stroke: float = 0.0  # [m] half the stroke covered by the half-cycle
 
@@ -183,6 +182,9 @@ class MatchedSpeedAsymmetry:
 
 #: a half-cycle slower than this share of the largest speed is skipped (creep and hold)
 MIN_SPEED_SHARE = 0.05
+#: the peak window holds the samples with ``|v|`` within this share of the half-cycle's
+#: peak speed
+PEAK_BAND = 0.03
 #: fewest samples in a half-cycle's peak window
 MIN_PEAK_SAMPLES = 3
 #: fewest half-cycles of a direction in a speed cluster (a scatter needs two)
@@ -199,18 +201,14 @@ def half_cycles(
     v: np.ndarray,
     force: np.ndarray,
     x: np.ndarray | None = None,
-    peak_band: float = 0.03,
 ) -> list[HalfCycle]:
-    """Peak-velocity force of every complete half-cycle of a stroke.
+    """Peak-velocity force (:data:`PEAK_BAND`) of every complete half-cycle of a stroke
+    at least :data:`MIN_SPEED_SHARE` of the largest speed.
 
     Args:
         t: time [s]; v: velocity [m/s] (bump positive); force: force [N].
         x: stroke position [m] (default: the integrated velocity); positions are taken
             relative to the half-cycle's own centre (mid-way between its reversals).
-        peak_band: the peak window holds the samples with ``|v| >= (1 - peak_band)``
-            times the half-cycle's peak speed; one of fewer than :data:`MIN_PEAK_SAMPLES`
-            samples is skipped, and so is a half-cycle slower than
-            :data:`MIN_SPEED_SHARE` of the largest speed (creep and hold).
     """
     t, v, force = (np.asarray(a, float) for a in (t, v, force))
     if not (t.shape == v.shape == force.shape and t.ndim == 1):
@@ -218,8 +216,6 @@ def half_cycles(
             "time, velocity and force must be 1-D arrays of one length, but got shapes "
             f"{t.shape}, {v.shape}, {force.shape}"
         )
-    if not 0.0 < peak_band < 0.5:
-        raise ValidationError(f"`0 < peak_band < 0.5` must hold, but got peak_band={peak_band}")
     if x is None:
         x = cumulative_trapezoid(v, t, initial=0.0)
     x = np.asarray(x, float)
@@ -235,7 +231,7 @@ def half_cycles(
         peak = float(seg.max())
         if peak < floor:
             continue
-        idx = a + np.flatnonzero(seg >= (1.0 - peak_band) * peak)
+        idx = a + np.flatnonzero(seg >= (1.0 - PEAK_BAND) * peak)
         if idx.size < MIN_PEAK_SAMPLES:
             continue
         out.append(
@@ -244,7 +240,6 @@ def half_cycles(
                 speed=float(np.mean(np.abs(v[idx]))),
                 force=float(np.mean(force[idx])),
                 time=float(np.mean(t[idx])),
-                samples=idx,
                 position=float(np.mean(x[idx]) - 0.5 * (x[a] + x[b - 1])),
                 half_stroke=float(0.5 * abs(x[b - 1] - x[a])),
             )
@@ -341,9 +336,7 @@ def speed_groups(
             ),
             None,
         )
-        if match is None:
-            continue
-        if abs(match.position + r.position) > POSITION_TOL * half_stroke:
+        if match is None or abs(match.position + r.position) > POSITION_TOL * half_stroke:
             continue
         used.update((id(match), id(r)))
         (fb, eb), (fr, er) = stats_of(match), stats_of(r)

@@ -122,12 +122,7 @@ def split(recordings: Recordings, holdout: Holdout) -> Split:
         f = float(holdout)
         if not 0.0 < f < 1.0:
             raise ValidationError(f"`0 < holdout < 1` must hold, but got holdout={f}")
-        fit_m, hold_m = [], []
-        for r in recs:
-            n = len(r.time)
-            cut = int(round(n * (1.0 - f)))
-            m = np.arange(n) < cut
-            fit_m.append(m)
-            hold_m.append(~m)
+        fit_m = [np.arange(len(r.time)) < int(round(len(r.time) * (1.0 - f))) for r in recs]
+        hold_m = [~m for m in fit_m]
         return Split(recs, fit_m, recs, hold_m, f"last {100 * f:.0f} % of each recording")
     return Split.separate(recs, heldout_recordings(holdout))

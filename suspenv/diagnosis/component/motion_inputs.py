@@ -22,16 +22,11 @@ them treats them as exact. Two things a rig does to them make that wrong:
   above :data:`VELOCITY_MISMATCH` of the velocity's RMS means the channel is not the
   displacement's derivative, and the report says so.
 
-Which rates the fit uses (``velocity_source`` in the rig description,
-:mod:`suspenv.diagnosis.component.rig`): ``"auto"`` (default) low-passes every motion
-channel and keeps the recorded rates where they are the displacement's derivatives; a
-rate channel that is a filtered derivative is replaced by the displacement's
-derivative when that is clean (a clean displacement, or its noise above the cut-off);
-when the displacement's noise cannot be separated from the motion, the baseline is
-fitted with both and the smaller residual decides (:func:`preferred_version`), as the
-report says.
-``"displacement"`` always uses the derivatives, ``"channel"`` the channels exactly as
-recorded (no low-pass, no check).
+Which rates the fit uses is ``velocity_source`` in the rig description
+(:mod:`suspenv.diagnosis.component.rig`): ``"auto"`` (default) fits the version of
+:func:`conditioned` that :func:`preferred_version` names, or where it names none both,
+the smaller baseline residual deciding, as the report says; ``"displacement"`` always
+the derivatives, ``"channel"`` the channels exactly as recorded (no low-pass, no check).
 """
 
 from __future__ import annotations
@@ -195,12 +190,6 @@ def noise_variance(x: np.ndarray, fs: float) -> float:
     return _removed(x, fs, top) / _removed_share(fs, top)
 
 
-def _negligible(s2: float, x: np.ndarray) -> bool:
-    """Noise of variance ``s2`` is negligible on the displacement ``x`` itself
-    (:data:`NEGLIGIBLE_NOISE`; not necessarily on its derivatives)."""
-    return not s2 > (NEGLIGIBLE_NOISE * float(np.std(x))) ** 2
-
-
 def motion_cutoff(x: np.ndarray, fs: float, s2: float | None = None) -> float | None:
     """The low-pass cut-off [Hz] that removes white noise and nothing of the motion, or
     None when no cut-off removes noise alone (clean data, or a broadband motion);
@@ -208,7 +197,7 @@ def motion_cutoff(x: np.ndarray, fs: float, s2: float | None = None) -> float | 
     x = np.asarray(x, float)
     nyq = 0.5 * fs
     s2 = noise_variance(x, fs) if s2 is None else s2
-    if _negligible(s2, x):
+    if not s2 > (NEGLIGIBLE_NOISE * float(np.std(x))) ** 2:  # none on x (maybe on its rates)
         return None
     chosen = None
     for frac in CUTOFF_GRID:
@@ -366,14 +355,11 @@ def derivative_noise(s2: float, fs: float, fc: float | None, order: int) -> floa
 
 
 def preferred_version(checks: Sequence[MotionCheck]) -> str | None:
-    """The motion version to fit (``"auto"``).
-
-    ``"band"`` (the recorded rates, low-passed) where no recorded rate has a
-    frequency-dependent mismatch with the displacement's derivative (noise alone does
-    not decide: a rate channel may be the cleaner of the two, an accelerometer against
-    a twice-differentiated displacement). Otherwise the displacement's derivatives where
-    they are clean (their noise within :data:`DERIVATIVE_CLEAN` of their RMS); None
-    where they are not: the fit chooses (:func:`choice_words`)."""
+    """The motion version to fit under ``"auto"``: ``"band"`` where no recorded rate has a
+    frequency-dependent mismatch with the displacement's derivative (noise alone does not
+    decide: an accelerometer may be cleaner than a twice-differentiated displacement),
+    else ``"displacement"`` where the derivatives are clean (:data:`DERIVATIVE_CLEAN`),
+    else None: the fit chooses (:func:`choice_words`)."""
 
     bad = [c for c in checks if c.worst_mismatch > VELOCITY_MISMATCH]
     if not bad:

@@ -104,12 +104,9 @@ def refit_with(
     max_nfev: int = 200,
     guess_given: dict[str, float] | None = None,
 ) -> FitResult:
-    """Refit ``base.model`` with one more effect of ``kind``.
-
-    The new element starts from the values read off its signature where there are
-    some (else the model's own guess). ``guess_given``: starting values of the new element's own
-    parameters that replace those read off the signature (non-finite ones are dropped).
-    """
+    """Refit ``base.model`` with one more effect of ``kind``, started as the module
+    docstring says; ``guess_given``: starting values of the new element's own parameters
+    that replace those read off the signature (non-finite ones are dropped)."""
     names_taken = {e.name for e in base.model.effects}
     name = kind if kind not in names_taken else f"{kind}_{len(names_taken)}"
     guess = signature_guess(kind, signature, half_stroke)

@@ -13,11 +13,8 @@ residual with its cycle-to-cycle scatter:
    prediction from the same motion (``recorded``): a force low-passed at a few hertz
    keeps a slow coloured noise or drift and loses what physics outside the library
    shows above the cut-off, so the residual the fit compared is not the one to judge;
-   where the motion channels were low-passed, the samples within
-   :data:`SETTLING_PERIODS` periods of the cut-off of either end of a recording are
-   left out of every step (:func:`settled`): there the zero-phase filter rests on one
-   side's samples and the low-passed motion is less certain than anywhere else;
-
+   where the motion channels were low-passed, every step leaves out the samples near
+   either end of a recording (:func:`settled`);
 1. **detrend**: per recording, a Legendre polynomial in time of degree up to
    :data:`MAX_TREND_DEGREE` (one degree per :data:`CYCLES_PER_TREND_DEGREE` motion
    cycles) is removed from the residual: a drifting zero is not structure;
@@ -44,29 +41,21 @@ residual with its cycle-to-cycle scatter:
    test rejects at ``alpha`` *and* ``S > MATERIAL_RATIO * N``: what is left repeats with
    the motion and lifts the residual at least 17 % above the noise (:data:`LIMIT`).
 
-6. **tails**: Gaussian noise,
-   white or coloured, puts about 2e-9 of its samples beyond :data:`TAIL_Z` times its
-   scale, so a residual with :data:`TAIL_MIN_SAMPLES` or more samples beyond
+6. **tails**: Gaussian noise, white or coloured, puts about 2e-9 of its samples beyond
    :data:`TAIL_Z` times its robust scale (1.4826 x the median absolute deviation, which
-   the excursions barely move) carries something that is not noise, even when it
-   repeats at no fixed state: impacts through free play, a stick-slip burst, a delayed
-   channel at its fastest reversals. **A residual remains** there too when the power
-   above the robust scale's, ``S_tail^2 = mean(r^2) - scale^2``, gives
-   ``S_tail > MATERIAL_RATIO * scale``. The first and last :data:`TAIL_EDGE_FRACTION`
-   of each recording are left out: there a model starts from rest and the motion's
-   zero-phase filters meet the recording's ends, which gives a few large samples even
-   where the model is right. So are the samples where the recorded motion
-   contradicts itself (:func:`inconsistent_motion`: the velocity channel beyond
-   :data:`TAIL_Z` robust scales from the displacement's derivative, e.g. a smoothing
-   differentiator at the kinks of a test programme): the model's input is wrong there,
-   and a large residual says nothing about the component. Where the motion channels were
-   low-passed (``lowpass_hz``: a Savitzky-Golay derivative, a filtered encoder), the
-   prediction has no content above that cut-off and the recorded output has: the rule
-   then reads the residual low-passed at the same cut-off by the same zero-phase filter,
-   and only where the part moves (``|v|`` above
-   :data:`MOVING_FRACTION` of the recording's peak speed): at a standstill under a
-   position loop the force answers motion below the channels' resolution, which the
-   model cannot see.
+   the excursions barely move), so :data:`TAIL_MIN_SAMPLES` or more such samples carry
+   something that is not noise, even when it repeats at no fixed state: impacts through
+   free play, a stick-slip burst, a delayed channel at its fastest reversals. **A
+   residual remains** there too when the power above the robust scale's, ``S_tail^2 =
+   mean(r^2) - scale^2``, gives ``S_tail > MATERIAL_RATIO * scale``. The rule reads the
+   samples of :func:`tail_read`: not the ends of a recording, where a model starts from
+   rest and the motion's zero-phase filters meet the ends; not where the recorded
+   motion contradicts itself (:func:`inconsistent_motion`: the model's input is wrong
+   there); where the motion channels were low-passed (``lowpass_hz``), the residual
+   low-passed alike (the prediction has no content above the cut-off, the recorded
+   output has) and only where the part moves (at a standstill under a position loop
+   the force answers motion below the channels' resolution, which the model cannot
+   see).
 
 Whiteness (Ljung-Box, 20 lags) of the detrended residual is reported beside it: a
 white residual is noise; a non-white one may still be coloured noise, which is why
@@ -271,14 +260,12 @@ def _quartile(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 @dataclass(frozen=True)
 class _Run:
-    """One recording as the check reads it: its index among the split's recordings, the
-    recording, the model's prediction {channel: array}, times ``t`` [s], motion ``x`` [m]
-    and ``v`` [m/s], each sample's motion cycle and replicate (unique over the split),
-    the samples the tail rule reads, the samples the check reads (past the filter's
-    settling, :func:`settled`) and the cut-off [Hz] of the residual it reads (None: the
-    residual as it is)."""
+    """One recording as the check reads it: the recording, the model's prediction
+    {channel: array}, times ``t`` [s], motion ``x`` [m] and ``v`` [m/s], each sample's
+    motion cycle and replicate (unique over the split), the samples the tail rule reads,
+    the samples the check reads (past the filter's settling, :func:`settled`) and the
+    cut-off [Hz] of the residual it reads (None: the residual as it is)."""
 
-    index: int
     rec: Any
     pred: Mapping[str, np.ndarray]
     t: np.ndarray
@@ -319,7 +306,7 @@ def _runs(
     channels; a recording named in ``recorded`` with those output channels."""
     runs = []
     offset = 0
-    for k, rec in enumerate(sp.recordings()):
+    for rec in sp.recordings():
         if recorded is not None and str(rec.name) in recorded:
             rec = as_recorded(rec, recorded[str(rec.name)])
         t = np.asarray(rec.time, float)
@@ -329,7 +316,7 @@ def _runs(
         keep = settled(t, lowpass_hz)
         read = tail_read(t, x, v, lowpass_hz) & keep
         pred = fit.model.simulate(fit.theta, rec)
-        runs.append(_Run(k, rec, pred, t, x, v, cycles, c + offset, read, keep, lowpass_hz))
+        runs.append(_Run(rec, pred, t, x, v, cycles, c + offset, read, keep, lowpass_hz))
         offset += int(c.max()) + 1
     return runs
 
@@ -349,7 +336,6 @@ def residual_left(
     compared them low-passed (step 0 of the module docstring)."""
     runs = _runs(fit, sp, lowpass_hz, recorded)
     words = MOTION_WORDS.get(str(getattr(fit.model, "family", "")), MOTION_WORDS[""])
-    names = np.asarray([str(run.rec.name) for run in runs])
     out = []
     for ch in fit.channels:
         have = [run for run in runs if ch in run.rec.outputs]
@@ -365,8 +351,8 @@ def residual_left(
         left = _cell_test(words, r[ok], x[ok], v[ok], replicate[ok], ch, unit, alpha)
         keep = np.concatenate([run.read for run in have])
         t = np.concatenate([run.t for run in have])
-        which = np.concatenate([np.full(run.t.size, run.index) for run in have])
-        recording = names[which[keep]] if len(have) > 1 else None
+        names = np.concatenate([np.full(run.t.size, str(run.rec.name)) for run in have])
+        recording = names[keep] if len(have) > 1 else None
         rt = np.concatenate([run.low_passed(q) for run, q in zip(have, parts, strict=True)])
         _tail_test(left, words, rt[keep], x[keep], v[keep], t[keep], recording)
         out.append(left)
@@ -409,7 +395,9 @@ def tail_read(
 ) -> np.ndarray:
     """The samples (bool) of one recording (times ``t`` [s], motion ``x`` [m], ``v``
     [m/s]; ``lowpass_hz``: the motion's cut-off [Hz] or None) that the tail rule reads
-    (step 6 of the module docstring)."""
+    (step 6 of the module docstring): all but the first and last
+    :data:`TAIL_EDGE_FRACTION` and those of :func:`inconsistent_motion`; where the
+    motion was low-passed, only where ``|v|`` exceeds :data:`MOVING_FRACTION` of its peak."""
     edge = int(TAIL_EDGE_FRACTION * t.size)
     rows = np.arange(t.size)
     read = (rows >= edge) & (rows < t.size - edge) & ~inconsistent_motion(t, x, v)
@@ -510,7 +498,7 @@ def _cell_test(
     pairs = neighbour_pairs(x, v, cycle)
     p_neighbour = neighbour_structure(r, cycle, pairs)
     # noise power from pairs in the same state (never negative); structure: the rest
-    n2 = max(min(neighbour_noise_power(r, x, v, cycle, pairs), total), 1e-12 * total, 1e-300)
+    n2 = max(min(neighbour_noise_power(r, pairs), total), 1e-12 * total, 1e-300)
     s2 = max(total - n2, 0.0)
     ratio = float(np.sqrt(s2 / n2))
     p_cells = float(stats.chi2.sf(chi2, dof)) if dof else 1.0
@@ -578,19 +566,12 @@ def neighbour_pairs(
     return np.flatnonzero(has), nb[has]
 
 
-def neighbour_noise_power(
-    r: np.ndarray,
-    x: np.ndarray,
-    v: np.ndarray,
-    replicate: np.ndarray,
-    pairs: tuple[np.ndarray, np.ndarray] | None = None,
-) -> float:
+def neighbour_noise_power(r: np.ndarray, pairs: tuple[np.ndarray, np.ndarray]) -> float:
     """Noise power of ``r`` [unit^2] from pairs of samples in the same state of motion in
-    different replicates (:func:`neighbour_pairs`, or ``pairs`` already found): half the
-    mean square difference of their residuals. A model error that is a function of the
-    state cancels in the difference; noise, white or coloured, does not (the two samples
-    are far apart in time)."""
-    i, nb = pairs if pairs is not None else neighbour_pairs(x, v, replicate)
+    different replicates (:func:`neighbour_pairs`): half the mean square difference of
+    their residuals. A model error that is a function of the state cancels in the
+    difference; noise, white or coloured, does not (the two samples are far apart in time)."""
+    i, nb = pairs
     if i.size == 0:
         return float(np.mean(r * r))
     d = r[i] - r[nb]
@@ -608,10 +589,8 @@ def _cell_words(
     """E.g. "in rebound at 0.12-0.25 m/s, deflection -3.1 to 2.0 mm: mean -41 N"."""
     direction = words[1] if cell // 16 else words[0]
     sq, xq = (cell % 16) // 4, cell % 4
-    s_lo = 0.0 if sq == 0 else float(speed_edges[sq - 1])
-    s_hi = float(speed_edges[sq]) if sq < 3 else float("inf")
-    x_lo = float(x_edges[xq - 1]) * 1e3 if xq > 0 else float("-inf")
-    x_hi = float(x_edges[xq]) * 1e3 if xq < 3 else float("inf")
+    s_lo, s_hi = (float(e) for e in np.r_[0.0, speed_edges, np.inf][sq : sq + 2])
+    x_lo, x_hi = (float(e) * 1e3 for e in np.r_[-np.inf, x_edges, np.inf][xq : xq + 2])
     speed = f"{s_lo:.3g}-{s_hi:.3g} m/s" if np.isfinite(s_hi) else f"above {s_lo:.3g} m/s"
     if not np.isfinite(x_lo):
         defl = f"{words[2]} below {x_hi:.3g} mm"

@@ -234,45 +234,41 @@ def detect_end_stop(s: SignalSet, basis: np.ndarray | None) -> Signature:
         and gain > 0.0
         and score_p_value(gain, s.residual - pair[3]) < END_STOP_SECOND_SIDE_P
     )
-    e_all = float(np.sum(s.residual**2)) or 1.0
     if both:
         hi, lo, r2, fitted = pair
         beyond = (s.x > hi) | (s.x < lo)
-        share = float(np.sum(s.residual[beyond] ** 2) / e_all)
-        frac = float(np.mean(beyond))
-        return Signature(
-            "end_stop",
-            r2,
-            score_p_value(r2, s.residual - fitted, q=2),
-            f"{100 * share:.0f} % of the residual energy lies beyond {1e3 * hi:.3g} mm in "
-            f"compression and beyond {1e3 * lo:.3g} mm in extension, which hold "
-            f"{100 * frac:.0f} % of the samples (a ramp on each side explains "
-            f"{100 * r2:.0f} %)",
-            {
-                "threshold_m": hi if abs(hi) >= abs(lo) else lo,
-                "threshold_bump_m": hi,
-                "threshold_rebound_m": lo,
-                "sides": 2.0,
-                "share_beyond": share,
-                "fraction_beyond": frac,
-                "r2": r2,
-            },
-        )
-    side = "compression" if np.isfinite(thr) and thr >= np.median(s.x) else "extension"
-    beyond = s.x > thr if side == "compression" else s.x < thr
-    share = float(np.sum(s.residual[beyond] ** 2) / e_all) if np.isfinite(thr) else 0.0
-    frac = float(np.mean(beyond)) if np.isfinite(thr) else 0.0
-    numbers = {"threshold_m": thr, "sides": 1.0, "share_beyond": share, "fraction_beyond": frac}
-    if np.isfinite(thr):
-        numbers["threshold_bump_m" if side == "compression" else "threshold_rebound_m"] = thr
+        where = f"{1e3 * hi:.3g} mm in compression and beyond {1e3 * lo:.3g} mm in extension"
+        words, sides = ("hold", "a ramp on each side"), 2
+        thresholds = {
+            "threshold_m": hi if abs(hi) >= abs(lo) else lo,
+            "threshold_bump_m": hi,
+            "threshold_rebound_m": lo,
+        }
+        one_side: dict[str, float] = {}
+    else:
+        side = "compression" if np.isfinite(thr) and thr >= np.median(s.x) else "extension"
+        beyond = s.x > thr if side == "compression" else s.x < thr  # none where thr is NaN
+        where = f"{1e3 * thr:.3g} mm on the {side} side"
+        words, sides = ("holds", "a one-sided ramp"), 1
+        thresholds = {"threshold_m": thr}
+        key = "threshold_bump_m" if side == "compression" else "threshold_rebound_m"
+        one_side = {key: thr} if np.isfinite(thr) else {}
+    share = float(np.sum(s.residual[beyond] ** 2) / (float(np.sum(s.residual**2)) or 1.0))
+    frac = float(np.mean(beyond))
     return Signature(
         "end_stop",
         r2,
-        score_p_value(r2, s.residual - fitted),
-        f"{100 * share:.0f} % of the residual energy lies beyond {1e3 * thr:.3g} mm on the "
-        f"{side} side, which holds {100 * frac:.0f} % of the samples "
-        f"(a one-sided ramp explains {100 * r2:.0f} %)",
-        {**numbers, "r2": r2},
+        score_p_value(r2, s.residual - fitted, q=sides),
+        f"{100 * share:.0f} % of the residual energy lies beyond {where}, which {words[0]} "
+        f"{100 * frac:.0f} % of the samples ({words[1]} explains {100 * r2:.0f} %)",
+        {
+            **thresholds,
+            "sides": float(sides),
+            "share_beyond": share,
+            "fraction_beyond": frac,
+            **one_side,
+            "r2": r2,
+        },
     )
 
 
