@@ -30,7 +30,15 @@ import pytest
 
 from benchmarks.component_truth import make_case
 from suspenv.core.errors import ValidationError
-from suspenv.diagnosis.checks.plausible import (
+from suspenv.diagnosis.component.delay import (
+    DelayLeft,
+    judge_beside_delay,
+    phase_by_frequency,
+    phase_words,
+)
+from suspenv.diagnosis.component.family import COMPONENT_RULE, baseline_offsets
+from suspenv.diagnosis.component.motion import split
+from suspenv.diagnosis.component.plausible import (
     HYSTERESIS_MIN_FRACTION,
     check_breakaway_recorded,
     check_loop_or_step,
@@ -40,14 +48,6 @@ from suspenv.diagnosis.checks.plausible import (
     check_stiction_decays,
     hysteresis_transition,
 )
-from suspenv.diagnosis.component.delay import (
-    DelayLeft,
-    judge_beside_delay,
-    phase_by_frequency,
-    phase_words,
-)
-from suspenv.diagnosis.component.family import COMPONENT_RULE, baseline_offsets
-from suspenv.diagnosis.component.motion import split
 from suspenv.diagnosis.component.refit import SIZE_Z, refit_with
 from suspenv.diagnosis.engine import diagnose, make_family
 from suspenv.diagnosis.evidence import compare
@@ -167,7 +167,7 @@ def test_an_unresolved_base_share_is_told_from_a_resolved_small_one():
     # the ways a branch is refused: its base share unresolved (the data fit a lag of the
     # whole force and a branch beside part of the damping alike: an ambiguity to state),
     # or bounded or resolved under 5 % (a lag of the whole force: nothing to separate)
-    from suspenv.diagnosis.checks.plausible import branch_share_unresolved
+    from suspenv.diagnosis.component.plausible import branch_share_unresolved
 
     model = DamperDynoModel(
         [make_effect("maxwell_viscoelastic").with_params({"k_m": 1.5e5, "c_m": 1800.0})]
@@ -351,7 +351,7 @@ def _guide_case(effects, shift: float = 0.0) -> Recording:
 
 
 def test_a_small_loop_competes_with_friction_where_its_presliding_has_a_law():
-    from suspenv.diagnosis.checks.plausible import fits_presliding
+    from suspenv.diagnosis.component.plausible import fits_presliding
 
     guide = FrictionGuideModel()
     assert fits_presliding(guide, guide.candidate_effects)  # LuGre, its sigma0 fitted
@@ -420,7 +420,7 @@ def _lugre_fit(f_c: float, sigma0: float, rel_c: float, rel_sigma0: float, corr:
 
 
 def test_the_error_of_a_ratio_of_two_fitted_parameters_holds_their_covariance():
-    from suspenv.diagnosis.checks.plausible import ratio_and_error
+    from suspenv.diagnosis.component.plausible import ratio_and_error
 
     fit = _lugre_fit(40.0, 2e5, 0.05, 0.08, 0.9)
     ratio, sd = ratio_and_error(fit, "lugre_friction", "f_c", "sigma0")
@@ -453,7 +453,7 @@ def test_the_error_of_a_ratio_of_two_fitted_parameters_holds_their_covariance():
 def test_a_lugre_whose_bristles_deflect_over_a_fair_part_of_the_stroke_is_refused(
     f_c, sigma0, rel, refused
 ):
-    from suspenv.diagnosis.checks.plausible import check_presliding_is_friction
+    from suspenv.diagnosis.component.plausible import check_presliding_is_friction
 
     fit = _lugre_fit(f_c, sigma0, rel, rel, 0.0)
     if refused:
@@ -593,7 +593,7 @@ def _ridge_fit(f_c, f_s, v_s, rel_c, sd_s, corr):
 
 
 def test_a_rise_is_judged_over_the_recorded_speeds_not_by_its_asymptote():
-    from suspenv.diagnosis.checks.plausible import stribeck_rise_and_error
+    from suspenv.diagnosis.component.plausible import stribeck_rise_and_error
 
     # own development case friction_guide-out-7 (cubic damping c3 v^3): LuGre fitted
     # f_c = 4.6e4 +- 1.7e6 N, v_s = 8.2 m/s far above the peak speed 0.227 m/s, so only
@@ -611,7 +611,7 @@ def test_a_rise_is_judged_over_the_recorded_speeds_not_by_its_asymptote():
 
 
 def test_the_error_of_a_rise_holds_the_covariance_of_its_three_parameters():
-    from suspenv.diagnosis.checks.plausible import stribeck_rise_and_error
+    from suspenv.diagnosis.component.plausible import stribeck_rise_and_error
 
     # a ridge small enough for first order to hold (relative errors 10 % and 5 %)
     fit = _ridge_fit(400.0, 20.0, 0.5, 0.1, 2.0, 0.95)
@@ -646,7 +646,7 @@ def test_cubic_damping_in_a_guide_is_not_named_friction():
 
 
 def test_a_rise_is_not_rounding_where_the_law_rounds_its_own_step():
-    from suspenv.diagnosis.checks.plausible import rounds_own_step
+    from suspenv.diagnosis.component.plausible import rounds_own_step
     from suspenv.models.components import QuarterCarRigModel
 
     # the guide fits a Stribeck step's width and LuGre's bristle stiffness, the damper

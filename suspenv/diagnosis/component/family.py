@@ -36,10 +36,9 @@ from typing import Any
 import numpy as np
 
 from suspenv.core.errors import ValidationError
-from suspenv.diagnosis.checks import plausible
 from suspenv.diagnosis.checks.finding import Check, Context, Finding
-from suspenv.diagnosis.checks.plausible import branch_share_unresolved
 from suspenv.diagnosis.checks.residual_left import Left
+from suspenv.diagnosis.component import plausible
 from suspenv.diagnosis.component.assumed import estimate_unsprung_mass, mass_words, power_sign
 from suspenv.diagnosis.component.asymmetry import asymmetry_check
 from suspenv.diagnosis.component.dead_band import DEFICIT_KIND, dead_band_left
@@ -64,6 +63,7 @@ from suspenv.diagnosis.component.motion_inputs import (
     motion_versions,
     preferred_version,
 )
+from suspenv.diagnosis.component.plausible import branch_share_unresolved
 from suspenv.diagnosis.component.refit import parameter_and_error, refit_with
 from suspenv.diagnosis.component.residual_left import MOVING_FRACTION, ResidualLeft, residual_left
 from suspenv.diagnosis.component.rig import (
@@ -342,7 +342,7 @@ class ComponentFamily(OptionalSteps):
     #: decisively in the last diagnosis (:mod:`~suspenv.diagnosis.component.delay`)
     delay_tests: dict[str, dict[str, Any]] = field(default_factory=dict, init=False)
     #: the rounds whose Maxwell refit was refused with its base share of the damping
-    #: unresolved (:func:`~suspenv.diagnosis.checks.plausible.branch_share_unresolved`):
+    #: unresolved (:func:`~suspenv.diagnosis.component.plausible.branch_share_unresolved`):
     #: a sensor lag of the force named in such a round cannot be told from such a branch
     unresolved_branch_rounds: set[int] = field(default_factory=set, init=False)
     #: the round of the last :meth:`screen`
@@ -619,7 +619,7 @@ class ComponentFamily(OptionalSteps):
         """The rules a refit must pass to stand as a hypothesis, in order
         (:func:`suspenv.diagnosis.checks.refuse`): the round of a Maxwell branch left
         unresolved is kept for the look-alikes, the element's plausibility
-        (:func:`suspenv.diagnosis.checks.plausible.run`), a sensor lag against a pure
+        (:func:`suspenv.diagnosis.component.plausible.run`), a sensor lag against a pure
         delay of its channel."""
         return [self._unresolved_branch, plausible.run, self._lag_against_delay]
 

@@ -247,7 +247,7 @@ class ComponentModel(FitDefaults):
         dwells_between_moves: the family's test holds the part still between moves (a
             guide's trajectory), where a hysteresis loop holds its force and friction
             does not: a small loop and friction's pre-sliding then compete on the data
-            (``suspenv.diagnosis.checks.plausible.check_loop_or_step``); on a test that
+            (``suspenv.diagnosis.component.plausible.check_loop_or_step``); on a test that
             keeps moving (a dyno's sines) the loop's width decides.
         optional_inputs: input channels read where a recording carries them (a quarter
             car rig's ``actuator_force``); :attr:`reads_inputs` lists every channel read.

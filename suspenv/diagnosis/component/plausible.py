@@ -1,4 +1,4 @@
-"""Plausibility of a refitted element: rules a refit must pass to stand as a hypothesis.
+"""Plausibility of a refitted component element: rules a refit must pass to stand.
 
 Each rule reads the element of the effects library in the refit (its fitted values and
 their serial-correlation corrected errors) and refuses a refit whose element is not the
