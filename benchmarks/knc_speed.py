@@ -438,9 +438,9 @@ def main(argv: list[str] | None = None) -> int:
             print(f"{name:14s} batch {batch:4d}: {m}", file=sys.stderr)
     memory = _in_jit_process()
     print(f"memory: {memory}", file=sys.stderr)
-    for (name, b), m in res.items():
-        m["peak_mb_per_candidate"] = memory["peaks"][f"{name} {b}"]
-        m["peak_mb"] = m["peak_mb_per_candidate"] * b
+    for (name, batch), m in res.items():
+        m["peak_mb_per_candidate"] = memory["peaks"][f"{name} {batch}"]
+        m["peak_mb"] = m["peak_mb_per_candidate"] * batch
     rows = [{"path": name, "batch": b, **res[name, b]} for b in BATCHES for name, _ in paths]
     for row in rows:
         b = res["baseline", row["batch"]]
