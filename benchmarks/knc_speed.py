@@ -72,10 +72,14 @@ memory are measured in the main process. The compiled loops are compiled (or loa
 numba's cache) by each process's warm-up call, before any timing.
 
 Memory: the tracemalloc peak of one evaluation (a separate, untimed call) divided by the
-batch size (the compiled sweep's own scratch arrays, about 0.2-0.3 MB made once per call
-(:func:`suspenv.models.mcpherson.sweep_kernel._scratch`, 31-61 grid points) and freed
-within it, are made by numba's allocator, which tracemalloc does not see; every array
-they read or write is made by numpy and counted).
+batch size, measured in one more process with the compiled loops compiled by numba's JIT
+at their first call (``SUSPENV_COMPILED=jit``; from numba's cache after the first run):
+their own scratch arrays (the sweep's,
+:func:`suspenv.models.mcpherson.sweep_kernel._scratch`, made once per call and freed
+within it; the objectives' and the residual's) then come from CPython's raw allocator,
+which tracemalloc traces, and are counted with every array numpy makes. The built loops
+(the timed ones) take the same arrays from C's malloc, which tracemalloc does not see;
+the JIT and the built loops run the same source and make the same arrays.
 Targets: <= 2 ms per candidate at batch 42, <= 10 ms at batch 1, <= 0.1 MB per
 candidate at every batch size, no rise of the per-candidate time up to batch 1000 (on
 the same candidates: the 1000 candidates evaluated in batches of 42 against one call of
@@ -273,21 +277,51 @@ def _times(
 def _measure(
     paths: tuple[tuple[str, Any], ...], X: np.ndarray, batch: int, repeat: int, singles: int
 ) -> dict[str, dict]:
-    """CPU/wall ms per candidate (:func:`_times`) and peak MB per candidate of each path."""
+    """CPU/wall ms per candidate (:func:`_times`) and the valid candidates of each path."""
     times = _times(paths, X, batch, repeat, singles)
     out = {}
     for name, problem in paths:
         with _path(name):
-            peak = _peak_mb(lambda p=problem: p.evaluate(X[:batch]))
             valid = int(problem.evaluate(X[:batch]).ok.sum())
         out[name] = {
             "cpu_ms_per_candidate": times[name][0],
             "wall_ms_per_candidate": times[name][1],
-            "peak_mb_per_candidate": peak / batch,
-            "peak_mb": peak,
             "valid_candidates": valid,
         }
     return out
+
+
+def _memory() -> dict[str, Any]:
+    """This process's peak MB per candidate (module docstring: run with the loops
+    compiled by the JIT): of every path at :data:`BATCHES` (``"path batch"``), of the
+    optimised path over :data:`MEMORY_BATCHES` and one at a time candidate by candidate
+    over :data:`MEMORY_SINGLES` candidates."""
+    if os.environ.get("SUSPENV_COMPILED") != "jit":
+        raise RuntimeError("the memory is measured with SUSPENV_COMPILED=jit")
+    paths, X = _problems()
+    for name, problem in paths:  # every path's loops compiled (or loaded) before any peak
+        with _path(name):
+            problem.evaluate(X[:2])
+    peaks = {}
+    for name, problem in paths:
+        with _path(name):
+            for b in BATCHES:
+                peaks[f"{name} {b}"] = _peak_mb(lambda p=problem, b=b: p.evaluate(X[:b])) / b
+    fast = dict(paths)["optimised"]
+    sweep = {str(b): _peak_mb(lambda b=b: fast.evaluate(X[:b])) / b for b in MEMORY_BATCHES}
+    return {
+        "peaks": peaks,
+        "sweep": sweep,
+        "alone": _one_at_a_time_memory(fast, X[:MEMORY_SINGLES]),
+    }
+
+
+def _in_jit_process() -> dict[str, Any]:
+    """:func:`_memory` in a fresh process with ``SUSPENV_COMPILED=jit``."""
+    cmd = [sys.executable, "-m", "benchmarks.knc_speed", "--memory"]
+    env = os.environ | {"SUSPENV_COMPILED": "jit"}
+    done = subprocess.run(cmd, cwd=ROOT, env=env, check=True, stdout=subprocess.PIPE, text=True)
+    return json.loads(done.stdout)
 
 
 def _problems() -> tuple[tuple[tuple[str, Any], ...], np.ndarray]:
@@ -383,11 +417,16 @@ def main(argv: list[str] | None = None) -> int:
     # one process's measures at PROCESS_BATCHES as JSON on stdout (run by the main process)
     parser.add_argument("--sample", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--repeat", type=int, default=None, help=argparse.SUPPRESS)
+    # the memory measures as JSON on stdout (run by the main process, loops by the JIT)
+    parser.add_argument("--memory", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
     repeat = args.repeat or (1 if args.quick else 3)
     singles = args.singles or (3 if args.quick else 8)
     if args.sample:
         print(json.dumps(_sample(repeat, singles)))
+        return 0
+    if args.memory:
+        print(json.dumps(_memory()))
         return 0
     processes = args.processes or (2 if args.quick else PROCESSES)
     res = _in_processes(processes, repeat, singles)
@@ -397,22 +436,28 @@ def main(argv: list[str] | None = None) -> int:
         for name, m in _measure(paths, X, batch, min(repeat, 2), singles).items():
             res[name, batch] = m | {"processes": 1}
             print(f"{name:14s} batch {batch:4d}: {m}", file=sys.stderr)
+    memory = _in_jit_process()
+    print(f"memory: {memory}", file=sys.stderr)
+    for (name, batch), m in res.items():
+        m["peak_mb_per_candidate"] = memory["peaks"][f"{name} {batch}"]
+        m["peak_mb"] = m["peak_mb_per_candidate"] * batch
     rows = [{"path": name, "batch": b, **res[name, b]} for b in BATCHES for name, _ in paths]
     for row in rows:
         b = res["baseline", row["batch"]]
         row["cpu_ratio_to_baseline"] = row["cpu_ms_per_candidate"] / b["cpu_ms_per_candidate"]
         row["memory_ratio_to_baseline"] = row["peak_mb_per_candidate"] / b["peak_mb_per_candidate"]
     in_42, in_all = _rise(fast, X)
-    summary = _summary(res, fast, X, in_42, in_all) | {"processes": processes}
+    summary = _summary(res, fast, memory, in_42, in_all) | {"processes": processes}
     cmd = "python -m benchmarks.knc_speed" + (" --quick" if args.quick else "")
     write_result("knc_speed", rows, summary, cmd, args.output_dir)
     return 0
 
 
 def _summary(
-    res: dict[tuple[str, int], dict], fast: Any, X: np.ndarray, in_42: float, in_all: float
+    res: dict[tuple[str, int], dict], fast: Any, memory: dict, in_42: float, in_all: float
 ) -> dict[str, Any]:
-    """The summary of the measures ``res`` (path, batch), the memory sweep and the rise."""
+    """The summary of the measures ``res`` (path, batch), the ``memory`` (:func:`_memory`)
+    and the rise."""
 
     def ms(path: str, batch: int) -> float:
         return float(res[path, batch]["cpu_ms_per_candidate"])
@@ -421,19 +466,11 @@ def _summary(
     N = max(BATCHES)
     rise = in_all / in_42
     # the memory sweep: the optimised path's peak per candidate at every batch size
-    sweep_mb = {
-        b: (
-            res["optimised", b]["peak_mb_per_candidate"]
-            if ("optimised", b) in res
-            else _peak_mb(lambda b=b: fast.evaluate(X[:b])) / b
-        )
-        for b in MEMORY_BATCHES
-    }
+    sweep_mb = {int(b): mb for b, mb in memory["sweep"].items()}
     worst_batch = max(sweep_mb, key=lambda b: sweep_mb[b])
     worst_mb = sweep_mb[worst_batch]
     # one at a time, candidate by candidate: the target holds for every candidate
-    alone = _one_at_a_time_memory(fast, X[:MEMORY_SINGLES])
-    print(f"memory one at a time: {alone}", file=sys.stderr)
+    alone = memory["alone"]
     return {
         "batch": 42,
         "valid_candidates": res["optimised", 42]["valid_candidates"],
@@ -481,6 +518,8 @@ def _summary(
             str(b): bool(mb <= TARGET_MB) for b, mb in sweep_mb.items()
         },
         "memory_one_at_a_time": alone,
+        "memory_counts": "every array numpy makes and the compiled loops' own scratch "
+        "(measured with the loops compiled by the JIT)",
         "rise_batch_1000_over_42": fast1000 / fast42,
         "ms_per_candidate_same_1000_in_batches_of_42": 1e3 * in_42 / N,
         "ms_per_candidate_same_1000_in_one_batch": 1e3 * in_all / N,

@@ -166,9 +166,9 @@ def test_knc_speed_cells_format_a_hand_made_summary() -> None:
         "at a time (both medians of 5 fresh processes, load average 0.4), 7.10 ms at "
         "batch 1000 (in the same run, the objectives in numpy after "
         "the compiled sweep: 7.00, 25.0 and 7.50 ms; the sweep driven from Python: "
-        "8.00, 30.0 and 9.00 ms); peak 0.084 MB per candidate at batch 42, 0.17 MB "
-        "one at a time, 0.171 MB at most over the batch sizes (batch 1, of 4 batch sizes "
-        "from 1 to 1000)",
+        "8.00, 30.0 and 9.00 ms); peak 0.084 MB per candidate at batch 42 (the compiled "
+        "loops' scratch counted), 0.17 MB one at a time, 0.171 MB at most over the batch "
+        "sizes (batch 1, of 4 batch sizes from 1 to 1000)",
         "<= 2 ms at batch 42 (not met), <= 10 ms one at a time (not met), compiled evaluation "
         "<= 0.3 ms at batch 42 (met) and <= 1 ms one at a time (not met), <= 0.1 MB per "
         "candidate (met at batch 42, 1000; not at batch 1, 8), no rise to batch 1000 (met)",

@@ -71,25 +71,40 @@ NP = 80
 TIE_ROD = 7
 #: status of a design: converged everywhere, or where it failed
 OK, NO_STATIC, NO_STEP, LOCKED = 0, 1, 2, 3
+#: the grid points' states a sweep holds at once (:func:`_slot`): the static state, the
+#: legs' first steps and the last :data:`RING` states of the leg it walks
+RING = 4
+SLOTS = RING + 3
 
 
-def _scratch(G: int, C: int, ext: bool, rack: bool) -> tuple:
+def _slot(g: int, i0: int) -> int:
+    """The slot of grid point ``g`` in the grid arrays (:func:`_scratch`): the design
+    position ``i0`` and its two neighbours (both legs start from them) each in its own,
+    the others in turn in a ring of :data:`RING` (a step reads the last four states of
+    its leg, :func:`_extrapolate`; the states to keep are written out as they are made,
+    :func:`_keep`)."""
+    return RING + 1 + g - i0 if abs(g - i0) <= 1 else g % RING
+
+
+def _scratch(C: int, ext: bool, rack: bool) -> tuple:
     """The sweep's scratch (made once per call, not per design or step: the helpers it
     is passed to allocate nothing, and run without reference counting): a residual (2,
     33), a step (66,), the step's single-precision sum (80,), two (3, 3) and a (3,), the
     residual row's (:func:`.residual_kernel._row_work`), the transposed inverse
     Jacobians (66, 80) of the static state and of the bump and rebound legs' rows
-    (single precision, the padding zero), a leg's relative rotation vectors (G, 2, 4, 3)
-    with the grid points they are made at (G,) (:func:`_relative_at`), the Jacobian's
-    (:func:`_factor_work`), a design's states (:func:`_state`: the static state and the
-    one walking a leg, sharing every grid point's state (G, ...) and the rig's input of
-    a grid point, ``C`` wheel-load columns (``ext``) and rack travel (``rack``)), the
-    static residual (2, 33) and the lock-up check's (2, 3) and (3,)."""
-    Gr, GR, Gl = np.empty((G, 2, 4, 3)), np.empty((G, 2, 4, 3, 3)), np.empty((G, 2, NS - NQ))
+    (single precision, the padding zero), a leg's relative rotation vectors (S, 2, 4, 3)
+    with the slots they are made at (S,) (:func:`_relative_at`; S = :data:`SLOTS`), the
+    Jacobian's (:func:`_factor_work`), a design's states (:func:`_state`: the static
+    state and the one walking a leg, sharing the grid points' states (S, ...) by
+    :func:`_slot` and the rig's input of a grid point, ``C`` wheel-load columns
+    (``ext``) and rack travel (``rack``)), the static residual (2, 33) and the lock-up
+    check's (2, 3) and (3,)."""
+    S = SLOTS
+    Gr, GR, Gl = np.empty((S, 2, 4, 3)), np.empty((S, 2, 4, 3, 3)), np.empty((S, 2, NS - NQ))
     load = (np.zeros((1, 2)), np.zeros((1 if ext else 0, 2, C)), np.zeros((1 if rack else 0, 2)))
     return (np.empty((2, NS)), np.empty(NX), np.empty(NP, np.float32), np.empty((3, 3)),
             np.empty((3, 3)), np.empty(3), _row_work(), np.zeros((3, NX, NP), np.float32),
-            (np.empty((G, 2, 4, 3)), np.zeros(G, np.int64)), _factor_work(),
+            (np.empty((S, 2, 4, 3)), np.zeros(S, np.int64)), _factor_work(),
             _state(Gr, GR, Gl, load), _state(Gr, GR, Gl, load), np.empty((2, NS)),
             (np.empty((2, 3)), np.empty(3)))  # fmt: skip
 
@@ -392,17 +407,19 @@ def _load_at(t, g, pad0_d, pad_off, ext, rack, load) -> None:
                 ext1[0, s, c] = ext[t, g, s, c]
 
 
-def _extrapolate(Gr, GR, Gl, rel, g, dirn, cubic, r, R, lam1, ws) -> None:
+def _extrapolate(Gr, GR, Gl, rel, g, dirn, i0, cubic, r, R, lam1, ws) -> None:
     """The state at grid point ``g`` extrapolated from those at ``g - dirn``,
     ``g - 2 dirn``, ``g - 3 dirn`` (quadratic) and ``g - 4 dirn`` (``cubic``), the
     rotations through the relative rotation vectors of consecutive states
     (extrapolated one order lower; kept in ``rel`` for the next steps,
-    :func:`_relative_at`), as the rig's predictor (``knc._extrapolate``; ``ws``:
+    :func:`_relative_at`), as the rig's predictor (``knc._extrapolate``; the grid
+    arrays' slots by :func:`_slot` from the design position ``i0``; ``ws``:
     :func:`_scratch`)."""
-    a, b, c, e = g - dirn, g - 2 * dirn, g - 3 * dirn, g - 4 * dirn
+    a, b = _slot(g - dirn, i0), _slot(g - 2 * dirn, i0)
+    c, e = _slot(g - 3 * dirn, i0), _slot(g - 4 * dirn, i0)
     E, M, w = ws[3], ws[4], ws[5]
-    w1, w0 = _relative_at(GR, rel, a, dirn, M), _relative_at(GR, rel, b, dirn, M)
-    wm = _relative_at(GR, rel, c, dirn, M) if cubic else w0
+    w1, w0 = _relative_at(GR, rel, a, b, M), _relative_at(GR, rel, b, c, M)
+    wm = _relative_at(GR, rel, c, e, M) if cubic else w0
     for s in range(2):
         for k in range(4):
             if cubic:
@@ -434,15 +451,16 @@ def _turn(E, A, out, s, b, s_out, b_out) -> None:
         out[s_out, b_out, 0, j], out[s_out, b_out, 1, j], out[s_out, b_out, 2, j] = m0, m1, m2
 
 
-def _relative_at(GR: np.ndarray, rel, x: int, dirn: int, M: np.ndarray) -> np.ndarray:
-    """The rotation vectors (2, 4, 3) of ``GR[x] GR[x - dirn]^T`` body by body, from
-    ``rel`` (vectors (G, 2, 4, 3), made (G,): :func:`_scratch`) or computed and kept
-    there (``M`` (3, 3) scratch)."""
+def _relative_at(GR: np.ndarray, rel, x: int, y: int, M: np.ndarray) -> np.ndarray:
+    """The rotation vectors (2, 4, 3) of ``GR[x] GR[y]^T`` body by body (slots ``x``
+    and ``y``: consecutive states of a leg), from ``rel`` (vectors (S, 2, 4, 3), made
+    (S,) by slot ``x``: :func:`_scratch`; a slot's flag cleared when the leg writes
+    the slot) or computed and kept there (``M`` (3, 3) scratch)."""
     W, made = rel
     if not made[x]:
         for s in range(2):
             for k in range(4):
-                _relative(GR[x, s, k], GR[x - dirn, s, k], M, W[x, s, k])
+                _relative(GR[x, s, k], GR[y, s, k], M, W[x, s, k])
         made[x] = 1
     return W[x]
 
@@ -458,6 +476,16 @@ def _store(Gr, GR, Gl, g, r, R, lam1) -> None:
                     GR[g, s, b, a, c] = R[s, b, a, c]
         for x in range(NS - NQ):
             Gl[g, s, x] = lam1[0, s, x]
+
+
+def _keep(keep, t: int, g: int, r, R, lam1) -> None:
+    """The state ``r``, ``R``, ``lam1`` of test ``t`` at grid point ``g`` into the
+    sweep's outputs where they keep it (``keep``: ``r_out``, ``R_out``, ``l_out`` of
+    :func:`_sweep`, their first grid point ``lo`` and the design)."""
+    r_out, R_out, l_out, lo, d = keep
+    q = g - lo
+    if 0 <= q < r_out.shape[1]:
+        _store(r_out[t, q], R_out[t, q], l_out[t, q], d, r, R, lam1)
 
 
 def _load(Gr, GR, Gl, g, r, R, lam1) -> None:
@@ -509,11 +537,13 @@ def _locked(d, r, R, pack, off, limits, ws) -> bool:
 def _first_step(d, t, g, st, res0, inputs, model, jac, chord, own, settings, ws):
     """The first step of a leg, to grid point ``g``, from the static state ``st``
     (``res0`` its residual under the static input) by the tangent predictor, walked in
-    ``ws[11]``; stored in the grid arrays of ``st`` (``ws``: :func:`_scratch`). Returns
-    (status, ``own`` holds the row's own inverse Jacobian)."""
+    ``ws[11]``; stored in the grid arrays of ``st`` and kept (:func:`_keep`; ``ws``:
+    :func:`_scratch`). Returns (status, ``own`` holds the row's own inverse
+    Jacobian)."""
     r, R, lam1, Gr, GR, Gl, load = st
     rs, Rs, ls = ws[11][:3]
-    pad0_d, pad_off, ext, rack = inputs
+    pad0_d, pad_off, ext, rack, keep = inputs
+    i0 = (pad_off.shape[1] - 1) // 2
     res1, dx = ws[0], ws[1]
     _load_at(t, g, pad0_d, pad_off, ext, rack, load)
     _res(d, r, R, lam1, load, model, res1, ws[6])
@@ -524,32 +554,36 @@ def _first_step(d, t, g, st, res0, inputs, model, jac, chord, own, settings, ws)
     for i in range(NX):
         if not abs(dx[i]) < math.inf:
             dx[i] = 0.0
-    _load(Gr, GR, Gl, (pad_off.shape[1] - 1) // 2, rs, Rs, ls)  # the static state
+    _load(Gr, GR, Gl, _slot(i0, i0), rs, Rs, ls)  # the static state
     _apply(rs, Rs, ls, dx, 1.0, ws)
     conv, made = _newton(d, rs, Rs, ls, load, model, jac, chord, own, False, settings, False, ws)
-    _store(Gr, GR, Gl, g, rs, Rs, ls)
+    _store(Gr, GR, Gl, _slot(g, i0), rs, Rs, ls)
+    _keep(keep, t, g, rs, Rs, ls)
     return OK if conv else NO_STEP, made
 
 
 def _leg(d, t, dirn, i0, st, inputs, model, jac, chord, own, made, settings, ws) -> int:
     """Steps 2 .. i0 of the leg of test ``t`` in direction ``dirn`` (its first step
-    and the static state in the grid arrays of ``st`` already), each stored there
-    (``own``, ``made``: the row's own inverse Jacobian, :func:`_newton`; ``ws``:
-    :func:`_scratch`); returns the design's status."""
+    and the static state in the grid arrays of ``st`` already), each stored there and
+    kept (:func:`_keep`; ``own``, ``made``: the row's own inverse Jacobian,
+    :func:`_newton`; ``ws``: :func:`_scratch`); returns the design's status."""
     r, R, lam1, Gr, GR, Gl, load = st
-    pad0_d, pad_off, ext, rack = inputs
+    pad0_d, pad_off, ext, rack, keep = inputs
     rel = ws[8]
     for g in range(rel[1].size):
         rel[1][g] = 0
     for j in range(2, i0 + 1):
         g = i0 + dirn * j
-        _extrapolate(Gr, GR, Gl, rel, g, dirn, j >= 3, r, R, lam1, ws)
+        _extrapolate(Gr, GR, Gl, rel, g, dirn, i0, j >= 3, r, R, lam1, ws)
         _load_at(t, g, pad0_d, pad_off, ext, rack, load)
         conv, made = _newton(d, r, R, lam1, load, model, jac, chord, own, made, settings, False,
                              ws)  # fmt: skip
         if not conv:
             return NO_STEP
-        _store(Gr, GR, Gl, g, r, R, lam1)
+        x = _slot(g, i0)
+        _store(Gr, GR, Gl, x, r, R, lam1)
+        rel[1][x] = 0  # the slot's relative rotation is that of the state it held
+        _keep(keep, t, g, r, R, lam1)
     if _locked(d, r, R, model[0], model[1], settings[2], ws):  # loads, deflections peak at the ends
         return LOCKED
     return OK
@@ -582,9 +616,10 @@ def _design(d, inputs, model, jac, settings, lo, out, ws) -> int:
     conv, _ = _newton(0, r, R, lam1, load, model, jac, chord, chord, True, settings, True, ws)
     if not conv:
         return NO_STATIC
-    leg_inputs = (pad0[d], pad_off, ext, rack)
+    leg_inputs = (pad0[d], pad_off, ext, rack, (r_out, R_out, l_out, lo, d))
     for t in range(pad_off.shape[0]):
-        _store(Gr, GR, Gl, i0, r, R, lam1)
+        _store(Gr, GR, Gl, _slot(i0, i0), r, R, lam1)
+        _keep(leg_inputs[4], t, i0, r, R, lam1)
         _load_at(t, i0, pad0[d], pad_off, ext, rack, load)
         _res(0, r, R, lam1, load, model, res0, ws[6])
         # the first steps of both legs (the second steps read both), then each leg on
@@ -597,8 +632,6 @@ def _design(d, inputs, model, jac, settings, lo, out, ws) -> int:
             status = _leg(0, t, dirn, i0, walk, *legs, ws[7][k], made, settings, ws)
             if status != OK:
                 return status
-        for q in range(r_out.shape[1]):
-            _load(Gr, GR, Gl, lo + q, r_out[t, q, d], R_out[t, q, d], l_out[t, q, d : d + 1])
     return OK
 
 
@@ -645,7 +678,7 @@ def _sweep(
     jac = (h, exp_h, moves, move_start, scatter, scatter_start)
     settings = (tol, maxit, limits)
     inputs = (ref0, pad0, pad_off, ext, rack)
-    ws = _scratch(pad_off.shape[1], ext.shape[3], ext.shape[0] > 0, rack.shape[0] > 0)
+    ws = _scratch(ext.shape[3], ext.shape[0] > 0, rack.shape[0] > 0)
     for d in range(ref0.shape[0]):
         own = np.ascontiguousarray(pack[:, :, d : d + 1])  # the design's column, contiguous
         model = (own, off, k_bar_shear, cscale, np.empty((0, 2, 1)))
@@ -653,18 +686,19 @@ def _sweep(
 
 
 _HELPERS = (
-    *_ROW_HELPERS, "_expm", "_scratch", "_state", "_factor_work", "_inverse_work", "_factor",
-    "_multiplier_columns", "_res", "_block_inverse", "_blocks", "_assemble", "_coupled",
-    "_invert", "_step", "_apply", "_turn", "_times", "_newton", "_load_at", "_extrapolate",
-    "_relative_at", "_relative", "_store", "_load", "_locked", "_first_step", "_leg", "_design",
+    *_ROW_HELPERS, "_expm", "_slot", "_scratch", "_state", "_factor_work", "_inverse_work",
+    "_factor", "_multiplier_columns", "_res", "_block_inverse", "_blocks", "_assemble",
+    "_coupled", "_invert", "_step", "_apply", "_turn", "_times", "_newton", "_load_at",
+    "_extrapolate", "_relative_at", "_relative", "_store", "_keep", "_load", "_locked",
+    "_first_step", "_leg", "_design",
 )  # fmt: skip
 #: the helpers inlined into their callers: those of every step and every grid point
 #: (Newton's method and the predictor too: a call passes every array of their scratch
 #: tuples as a few hundred words on the stack)
 _INLINE = (
-    *_ROW_INLINE, "_scratch", "_state", "_factor_work", "_inverse_work", "_res", "_step",
-    "_apply", "_load_at", "_turn", "_relative_at", "_store", "_load", "_newton", "_extrapolate",
-    "_blocks", "_assemble",
+    *_ROW_INLINE, "_slot", "_scratch", "_state", "_factor_work", "_inverse_work", "_res",
+    "_step", "_apply", "_load_at", "_turn", "_relative_at", "_store", "_keep", "_load",
+    "_newton", "_extrapolate", "_blocks", "_assemble",
 )  # fmt: skip
 #: the sweep's own helpers that the others are inlined into (the residual row is called)
 _CALLED = ("_design", "_first_step", "_leg", "_factor", "_multiplier_columns",
