@@ -217,6 +217,11 @@ class Recording:
         return int(self.time.size)
 
     @property
+    def duration(self) -> float:
+        """Time from the first to the last sample [s]."""
+        return float(self.time[-1] - self.time[0])
+
+    @property
     def sample_interval(self) -> float:
         """Median sample interval [s]."""
         return float(np.median(np.diff(self.time)))
