@@ -418,6 +418,27 @@ def test_method_packages_import_not_each_other() -> None:
     assert not bad, "method packages importing each other:\n" + "\n".join(bad)
 
 
+#: the diagnosis families' packages: the shared checks ask a family through its steps
+#: (suspenv.diagnosis.family), never by importing it
+DIAGNOSIS_FAMILIES = ("component", "knc", "ride")
+
+
+def _diagnosis_part(module: str) -> str | None:
+    """The subpackage of suspenv.diagnosis a module is in (None outside them)."""
+    parts = module.split(".")
+    return parts[2] if parts[:2] == ["suspenv", "diagnosis"] and len(parts) > 3 else None
+
+
+def test_the_shared_checks_import_no_diagnosis_family() -> None:
+    bad = sorted(
+        f"{imp.where}: {imp.target}"
+        for imp in all_imports()
+        if _diagnosis_part(imp.source) == "checks"
+        and _diagnosis_part(imp.target) in DIAGNOSIS_FAMILIES
+    )
+    assert not bad, "shared diagnosis checks importing a family:\n" + "\n".join(bad)
+
+
 def test_metrics_import_no_rig() -> None:
     # metrics are pure functions of rig results: a rig's result types may be named for
     # type hints only (under ``if TYPE_CHECKING:``, which all_imports leaves out)

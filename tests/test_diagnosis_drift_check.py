@@ -10,17 +10,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from suspenv.diagnosis.component.drift_check import (
-    DRIFT_ORDER,
-    drift_basis,
-    drifting_channels,
-    judge_beside_drift,
-)
+from suspenv.diagnosis.component.drift_check import drifting_channels, judge_beside_drift
 from suspenv.diagnosis.component.family import COMPONENT_RULE
 from suspenv.diagnosis.component.motion import split
 from suspenv.diagnosis.component.refit import refit_with
 from suspenv.diagnosis.evidence import compare
-from suspenv.diagnosis.fitting import fit
+from suspenv.diagnosis.fitting import DRIFT_ORDER, drift_basis, fit
 from suspenv.diagnosis.hypothesis import Hypothesis
 from suspenv.measurements import Recording
 from suspenv.models.components import MRDamperModel

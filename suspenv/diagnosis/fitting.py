@@ -30,6 +30,7 @@ from dataclasses import dataclass, field
 from typing import Any, TypeVar
 
 import numpy as np
+from numpy.polynomial import legendre
 from scipy.optimize import least_squares
 
 from suspenv.core.errors import EvaluationError, ValidationError
@@ -39,6 +40,10 @@ from suspenv.diagnosis.split import as_recordings
 #: scaled residual that stands for a sample the model cannot predict (failed
 #: simulation, non-finite output): large against the O(1) scaled residuals
 PENALTY = 1e3
+#: highest Legendre order of a zero drift of more shape than the component baseline's
+#: (P0-P3): the drift judged beside (:mod:`~suspenv.diagnosis.component.drift_check`) and
+#: the slow trend the missing-input check removes (:mod:`~suspenv.diagnosis.checks.missing_input`)
+DRIFT_ORDER = 8
 
 R = TypeVar("R", bound=RecordingLike)
 E = TypeVar("E", bound=EffectLike)
@@ -200,6 +205,16 @@ def residuals(
             r[c] = d if m is None else d[..., m]
         out.append(r)
     return out
+
+
+def drift_basis(time: np.ndarray, order: int = DRIFT_ORDER, lowest: int = 4) -> np.ndarray:
+    """The Legendre polynomials P``lowest`` ... P``order`` of ``u = 2 (t - t0) / T - 1``
+    over a recording's times ``time`` [s] (``T`` its duration), one column each
+    (n, order - lowest + 1); by default the drift's shape beyond the baseline's P0-P3."""
+    t = np.asarray(time, float)
+    span = float(t[-1] - t[0]) if t.size > 1 and t[-1] > t[0] else 1.0
+    u = 2.0 * (t - t[0]) / span - 1.0
+    return legendre.legvander(u, order)[:, lowest:]
 
 
 def lag1_autocorrelation(r: np.ndarray) -> float:

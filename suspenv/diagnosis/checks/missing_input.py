@@ -38,8 +38,13 @@ from scipy import integrate, linalg, signal
 
 from suspenv.diagnosis.checks.assumptions import unread_inputs
 from suspenv.diagnosis.checks.finding import Context, Finding
-from suspenv.diagnosis.component.drift_check import DRIFT_ORDER, drift_basis
-from suspenv.diagnosis.fitting import FitResult, lag1_autocorrelation, residuals
+from suspenv.diagnosis.fitting import (
+    DRIFT_ORDER,
+    FitResult,
+    drift_basis,
+    lag1_autocorrelation,
+    residuals,
+)
 from suspenv.diagnosis.protocols import RecordingLike
 from suspenv.models.components.base import OUTPUT_LOWPASS_KEY
 

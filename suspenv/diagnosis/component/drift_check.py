@@ -42,30 +42,17 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
-from numpy.polynomial import legendre
 
 from suspenv.diagnosis.component.rig import DRIFT
 from suspenv.diagnosis.component.withdrawal import element_name, reduced, without_element
 from suspenv.diagnosis.decision import DecisionRule
 from suspenv.diagnosis.evidence import fit_residual_series, likelihood_ratio
-from suspenv.diagnosis.fitting import FitResult, fit, residuals
+from suspenv.diagnosis.fitting import DRIFT_ORDER, FitResult, drift_basis, fit, residuals
 from suspenv.diagnosis.hypothesis import Hypothesis, Withdrawal, corrected_delta_bic
 from suspenv.diagnosis.split import Split
 
-#: highest Legendre order of the drift judged beside (the baseline's is 3)
-DRIFT_ORDER = 8
 #: rounds of backfitting (model, then the drift's terms on its residual)
 BACKFIT_ROUNDS = 3
-
-
-def drift_basis(time: np.ndarray, order: int = DRIFT_ORDER, lowest: int = 4) -> np.ndarray:
-    """The Legendre polynomials P``lowest`` ... P``order`` of ``u = 2 (t - t0) / T - 1``
-    over a recording's times ``time`` [s] (``T`` its duration), one column each
-    (n, order - lowest + 1); by default the drift's shape beyond the baseline's P0-P3."""
-    t = np.asarray(time, float)
-    span = float(t[-1] - t[0]) if t.size > 1 and t[-1] > t[0] else 1.0
-    u = 2.0 * (t - t[0]) / span - 1.0
-    return legendre.legvander(u, order)[:, lowest:]
 
 
 def drifting_channels(model: Any) -> list[str]:

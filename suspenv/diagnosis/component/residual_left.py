@@ -74,7 +74,6 @@ import numpy as np
 from scipy import stats
 
 from suspenv.diagnosis.checks.residual_left import Left
-from suspenv.diagnosis.component.drift_check import drift_basis
 from suspenv.diagnosis.component.motion import cycle_index, motion
 from suspenv.diagnosis.component.motion_inputs import (
     as_recorded,
@@ -84,7 +83,7 @@ from suspenv.diagnosis.component.motion_inputs import (
 )
 from suspenv.diagnosis.decision import DecisionRule
 from suspenv.diagnosis.evidence import Comparison, compare, ljung_box
-from suspenv.diagnosis.fitting import FitResult
+from suspenv.diagnosis.fitting import FitResult, drift_basis
 from suspenv.diagnosis.split import Split
 
 #: per model family: words of the two directions of motion and of the displacement
