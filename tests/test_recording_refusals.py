@@ -15,13 +15,9 @@ import scipy.io
 
 from benchmarks.component_truth import make_case
 from suspenv.core.errors import ValidationError
+from suspenv.diagnosis.component.motion import MIN_FIT_PASSES, centre_passes
 from suspenv.diagnosis.engine import diagnose
-from suspenv.diagnosis.sufficiency import (
-    MIN_FIT_PASSES,
-    PLAUSIBLE,
-    centre_passes,
-    check_values,
-)
+from suspenv.diagnosis.sufficiency import PLAUSIBLE, check_values
 from suspenv.measurements import (
     Recording,
     RecordingError,

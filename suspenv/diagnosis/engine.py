@@ -258,7 +258,7 @@ def diagnose(
     fam = make_family(family) if isinstance(family, str) else family
     setup = fam.prepare(recordings, holdout, candidates)
     # refuse data the diagnosis cannot judge before any fitting (values, samples, cycles)
-    check_setup(setup, fam.name, fam.max_effects)
+    check_setup(setup, fam)
     run = _Run(fam, setup, progress, t0)
     base = fam.fit_baseline(setup)
     run.say(f"baseline fitted ({base.nfev} evaluations)")

@@ -7,6 +7,9 @@ steps, the evidence (:func:`suspenv.diagnosis.evidence.compare`), the decision
 The family owns everything that depends on the model:
 
 * ``prepare``: the split into fit and held-out data, the model, the candidate list;
+* ``check_data`` (optional): the family's own data-sufficiency rules, run with the shared
+  ones before any fitting (:func:`suspenv.diagnosis.sufficiency.check_setup`): a
+  component's motion cycles, a K&C recording's whole loop;
 * ``fit_baseline``: the plain model's fit (channel weights fixed here for the run);
 * ``locate``: where the baseline's residual lives (a record with ``to_dict()``) and
   its main channel;

@@ -19,18 +19,9 @@ names the recording, what it has and what the diagnosis needs. The rules, in ord
    :data:`MIN_HELDOUT_OBS`. With fewer, the likelihood-ratio test's chi-square
    approximation and the held-out comparison rest on a handful of samples, and a
    verdict would be confident about noise.
-3. **Cycles** (component families: a damper, MR damper or friction guide on a dyno,
-   a quarter car on a rig): the excitation (the deflection driving the component)
-   must pass its centre at least :data:`MIN_FIT_PASSES` times in the fitted part (two
-   full cycles: ``k`` periods of a sine pass their centre ``2k - 1`` times) and
-   :data:`MIN_HELDOUT_PASSES` time in the held-out part (it reaches both sides of the
-   motion). A pass is the motion crossing from one side of its median to the other,
-   outside a dead band of :data:`CYCLE_BAND` of its amplitude, so that noise is not
-   counted. Hysteresis, friction and bump/rebound asymmetry show only where the motion
-   reverses, both ways, more than once.
-4. **Loops** (K&C): every rig recording holds its whole loop design -> bump ->
-   rebound -> design (``2 steps + 1`` samples, ``meta["steps"]``) and a finite,
-   non-zero ``meta["amplitude"]``; a part loop cannot separate the branches.
+3. **The family's own rules** (its optional ``check_data(setup)``): a component's
+   motion cycles (:func:`suspenv.diagnosis.component.motion.check_cycles`), a K&C
+   recording's whole loop (:func:`suspenv.diagnosis.knc.family.check_loop`).
 """
 
 from __future__ import annotations
@@ -47,7 +38,6 @@ from suspenv.diagnosis.fitting import sample_counts
 from suspenv.diagnosis.hypothesis import split_candidate
 from suspenv.diagnosis.protocols import RecordingLike
 from suspenv.diagnosis.split import Split
-from suspenv.measurements.knc import FORCE_INPUTS, INPUTS, is_force_test
 
 #: SI unit -> (largest plausible magnitude, quantity, why). Limits of a road vehicle's
 #: suspension, its rigs and its sensors, each about ten times the largest real value.
@@ -95,13 +85,6 @@ OBS_PER_PARAMETER = 10
 #: held-out observations needed (a held-out RMS of fewer values rests on a handful of
 #: samples; 30 is the customary minimum for a mean to be near-normal)
 MIN_HELDOUT_OBS = 30
-#: centre passes of the excitation needed in the fitted part of a component's recordings
-MIN_FIT_PASSES = 3
-#: centre passes needed in the held-out part (the motion reaches both sides)
-MIN_HELDOUT_PASSES = 1
-#: dead band of a centre pass, as a fraction of the motion's amplitude (half its 1-99 %
-#: range): measured displacement noise stays below 1 % of a test's stroke
-CYCLE_BAND = 0.05
 #: parameters counted for an element whose host declares them (the McPherson axle's
 #: left/right asymmetry fits five right-minus-left differences)
 HOST_ELEMENT_PARAMETERS = 5
@@ -109,25 +92,22 @@ HOST_ELEMENT_PARAMETERS = 5
 DEFAULT_ELEMENT_PARAMETERS = 4
 
 
-def check_setup(setup: Setup, family: str, max_effects: int) -> None:
+def check_setup(setup: Setup, family: Any) -> None:
     """Refuse data the diagnosis cannot judge (see the module docstring for the rules).
 
     Args:
         setup: the family's split, model and candidates.
-        family: the family's short name (``"component"``, ``"knc"``, ``"ride"``).
-        max_effects: most elements the search adds in turn.
+        family: the diagnosis family (its ``max_effects``: most elements the search adds
+            in turn; its optional ``check_data(setup)``: the family's own rules).
     """
     sp = setup.split
     model_units = getattr(setup.model, "channel_units", None)
     units = dict(model_units) if isinstance(model_units, Mapping) else {}
     for rec in sp.recordings():
         check_values(rec, units, str(setup.model.family))
-    _check_samples(setup, max_effects)
-    if family == "component":
-        _check_cycles(setup)
-    elif family == "knc":
-        for rec in sp.recordings():
-            _check_loop(rec)
+    _check_samples(setup, family.max_effects)
+    if (own := getattr(family, "check_data", None)) is not None:
+        own(setup)
 
 
 # ------------------------------------------------------------------ values
@@ -221,7 +201,8 @@ def largest_model(setup: Setup, max_effects: int) -> tuple[int, int, int]:
     return base, added, base + added
 
 
-def _names(sp: Split) -> str:
+def recording_names(sp: Split) -> str:
+    """The split's recordings for a message: ``recording 'a'`` or ``recordings 'a', 'b'``."""
     names = list(dict.fromkeys(str(r.name) for r in sp.recordings()))
     head = "recording" if len(names) == 1 else "recordings"
     return f"{head} " + ", ".join(repr(n) for n in names)
@@ -255,8 +236,8 @@ def _check_samples(setup: Setup, max_effects: int) -> None:
     else:
         need = f"{fit_samples} fitted and {held_samples} held-out samples"
     raise ValidationError(
-        f"{_names(sp)}: {_plural(total, 'sample')}; a diagnosis of the {model.family} model "
-        f"needs at least {need} ({n_fit} fitted and {n_held} held out here: "
+        f"{recording_names(sp)}: {plural(total, 'sample')}; a diagnosis of the "
+        f"{model.family} model needs at least {need} ({n_fit} fitted and {n_held} held out here: "
         f"{sp.description}). The fit needs {OBS_PER_PARAMETER} observations (samples x "
         f"predicted channels) per parameter of the largest model the search may reach "
         f"({base} base + {added} for up to {max_effects} element(s) = {p_max} parameters), "
@@ -265,91 +246,6 @@ def _check_samples(setup: Setup, max_effects: int) -> None:
     )
 
 
-def _plural(n: int, word: str) -> str:
+def plural(n: int, word: str) -> str:
+    """``n word`` or ``n words``."""
     return f"{n} {word}" + ("" if n == 1 else "s")
-
-
-# ------------------------------------------------------------------ cycles
-def centre_passes(x: np.ndarray, band: float = CYCLE_BAND) -> int:
-    """How often the motion ``x`` passes from one side of its median to the other,
-    outside a dead band of ``band`` times its amplitude (half its 1-99 % range)."""
-    xc = np.asarray(x, float) - float(np.median(x)) if np.size(x) else np.zeros(0)
-    if xc.size < 2:
-        return 0
-    lo, hi = np.percentile(xc, [1.0, 99.0])
-    amp = 0.5 * float(hi - lo)
-    if not amp > 0.0:
-        return 0
-    side = np.where(xc > band * amp, 1, np.where(xc < -band * amp, -1, 0))
-    side = side[side != 0]
-    return int(np.count_nonzero(side[1:] != side[:-1])) if side.size else 0
-
-
-def _part_passes(recs: Sequence[RecordingLike], masks: Sequence[np.ndarray | None] | None) -> int:
-    from suspenv.diagnosis.component.motion import motion
-
-    total = 0
-    for i, rec in enumerate(recs):
-        x = motion(rec)[0]
-        m = None if masks is None else masks[i]
-        total += centre_passes(x if m is None else x[m])
-    return total
-
-
-def _check_cycles(setup: Setup) -> None:
-    sp = setup.split
-    fit = _part_passes(sp.fit_recordings, sp.fit_masks)
-    held = _part_passes(sp.heldout_recordings, sp.heldout_masks)
-    if fit >= MIN_FIT_PASSES and held >= MIN_HELDOUT_PASSES:
-        return
-    raise ValidationError(
-        f"{_names(sp)}: the excitation passes its centre {_plural(fit, 'time')} in the "
-        f"fitted part and {_plural(held, 'time')} in the held-out part ({sp.description}); "
-        f"a diagnosis of the {setup.model.family} model needs at least {MIN_FIT_PASSES} "
-        f"(two full cycles: k periods of a sine pass their centre 2k - 1 times) and "
-        f"{MIN_HELDOUT_PASSES} (both sides of the motion): friction, hysteresis and "
-        "bump/rebound asymmetry show only where the motion reverses, both ways, more than "
-        "once (a pass: the deflection crossing its median, outside a dead band of "
-        f"{100 * CYCLE_BAND:g} % of its amplitude)"
-    )
-
-
-# ------------------------------------------------------------------ K&C loops
-def _check_loop(rec: RecordingLike) -> None:
-    where = f"K&C recording {rec.name!r}"
-    meta = rec.meta
-    amp, steps = meta.get("amplitude"), meta.get("steps")
-    if not isinstance(amp, int | float) or isinstance(amp, bool) or not np.isfinite(amp) or not amp:
-        raise ValidationError(
-            f"{where}: meta['amplitude'] must be a finite non-zero number (the test's "
-            f"amplitude, m or N), but got {amp!r}"
-        )
-    if not isinstance(steps, int) or isinstance(steps, bool) or steps < 2:
-        raise ValidationError(
-            f"{where}: meta['steps'] must be a whole number >= 2 (grid intervals of the "
-            f"loop), but got {steps!r}"
-        )
-    need = 2 * steps + 1
-    if len(rec.time) != need:
-        raise ValidationError(
-            f"{where}: {len(rec.time)} samples, but the whole loop design -> bump -> rebound "
-            f"-> design of steps={steps} has {need}; a part loop cannot separate the branches"
-        )
-    needed = FORCE_INPUTS if is_force_test(rec) else INPUTS
-    missing = [k for k in needed if k not in rec.inputs]
-    if missing:
-        raise ValidationError(
-            f"{where}: missing input channel(s) {missing}; inputs are {sorted(rec.inputs)}"
-        )
-    grid = np.asarray(rec.inputs["grid"], float)
-    if np.any(grid != np.round(grid)) or grid.min() != 0 or grid.max() != steps:
-        raise ValidationError(
-            f"{where}: input 'grid' must hold whole grid indices from 0 to steps={steps}, "
-            f"but ranges {float(np.min(grid)):g}..{float(np.max(grid)):g}"
-        )
-    branch = np.asarray(rec.inputs["branch"], float)
-    if not np.all(np.isin(branch, (0.0, 1.0, 2.0))):
-        raise ValidationError(
-            f"{where}: input 'branch' must hold the loop legs 0, 1 and 2, but holds "
-            f"{sorted(set(branch.tolist()))[:6]}"
-        )

@@ -52,7 +52,7 @@ from suspenv.diagnosis.component.delay import (
 )
 from suspenv.diagnosis.component.drift_check import judge_beside_drift
 from suspenv.diagnosis.component.locate import Segment, locate
-from suspenv.diagnosis.component.motion import cycle_index, motion, split, stroke
+from suspenv.diagnosis.component.motion import check_cycles, cycle_index, motion, split, stroke
 from suspenv.diagnosis.component.motion_inputs import (
     OUTPUT_LOWPASS_HARMONICS,
     MotionCheck,
@@ -418,6 +418,10 @@ class ComponentFamily(OptionalSteps):
             model = estimate_unsprung_mass(model, sp, self.budget)
             self.mass_estimated = True
         return Setup(sp, model, cands)
+
+    def check_data(self, setup: Setup) -> None:
+        """The motion reverses often enough (:func:`.motion.check_cycles`)."""
+        check_cycles(setup)
 
     def _signs(
         self, rig: RigDescription, recs: list[RecordingLike]

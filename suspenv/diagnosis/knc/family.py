@@ -52,9 +52,9 @@ from suspenv.diagnosis.knc.detectability import detection_limits, limits_sentenc
 from suspenv.diagnosis.knc.locate import ResidualMap, residual_map
 from suspenv.diagnosis.knc.score_test import SCORE_TESTED, score_signatures_by_model
 from suspenv.diagnosis.knc.signatures import SCREEN_FAMILY, KncSignature, score_signatures
-from suspenv.diagnosis.protocols import DiagnosableModel
+from suspenv.diagnosis.protocols import DiagnosableModel, RecordingLike
 from suspenv.diagnosis.split import Holdout, Recordings, Split, as_recordings, heldout_recordings
-from suspenv.measurements.knc import rig_test
+from suspenv.measurements.knc import FORCE_INPUTS, INPUTS, is_force_test, rig_test
 from suspenv.rigs.knc_axle import KncAxleModel, effect_words, make_candidate
 from suspenv.rigs.knc_fit import UnitFit, polish
 
@@ -307,6 +307,50 @@ def curves_in_noise_units(
     }
 
 
+def check_loop(rec: RecordingLike) -> None:
+    """Refuse a K&C rig recording that does not hold its whole loop design -> bump ->
+    rebound -> design (``2 steps + 1`` samples, ``meta["steps"]``, the grid indices and
+    loop legs as inputs) with a finite, non-zero ``meta["amplitude"]``: a part loop
+    cannot separate the branches. Raises :class:`~suspenv.core.errors.ValidationError`."""
+    where = f"K&C recording {rec.name!r}"
+    meta = rec.meta
+    amp, steps = meta.get("amplitude"), meta.get("steps")
+    if not isinstance(amp, int | float) or isinstance(amp, bool) or not np.isfinite(amp) or not amp:
+        raise ValidationError(
+            f"{where}: meta['amplitude'] must be a finite non-zero number (the test's "
+            f"amplitude, m or N), but got {amp!r}"
+        )
+    if not isinstance(steps, int) or isinstance(steps, bool) or steps < 2:
+        raise ValidationError(
+            f"{where}: meta['steps'] must be a whole number >= 2 (grid intervals of the "
+            f"loop), but got {steps!r}"
+        )
+    need = 2 * steps + 1
+    if len(rec.time) != need:
+        raise ValidationError(
+            f"{where}: {len(rec.time)} samples, but the whole loop design -> bump -> rebound "
+            f"-> design of steps={steps} has {need}; a part loop cannot separate the branches"
+        )
+    needed = FORCE_INPUTS if is_force_test(rec) else INPUTS
+    missing = [k for k in needed if k not in rec.inputs]
+    if missing:
+        raise ValidationError(
+            f"{where}: missing input channel(s) {missing}; inputs are {sorted(rec.inputs)}"
+        )
+    grid = np.asarray(rec.inputs["grid"], float)
+    if np.any(grid != np.round(grid)) or grid.min() != 0 or grid.max() != steps:
+        raise ValidationError(
+            f"{where}: input 'grid' must hold whole grid indices from 0 to steps={steps}, "
+            f"but ranges {float(np.min(grid)):g}..{float(np.max(grid)):g}"
+        )
+    branch = np.asarray(rec.inputs["branch"], float)
+    if not np.all(np.isin(branch, (0.0, 1.0, 2.0))):
+        raise ValidationError(
+            f"{where}: input 'branch' must hold the loop legs 0, 1 and 2, but holds "
+            f"{sorted(set(branch.tolist()))[:6]}"
+        )
+
+
 @dataclass
 class KncFamily:
     """The K&C family's steps of the diagnosis loop (see the module docstring).
@@ -351,6 +395,11 @@ class KncFamily:
                 f"candidates must be among {sorted(SCREEN_FAMILY)}, but got {unknown}"
             )
         return Setup(sp, model, cands)
+
+    def check_data(self, setup: Setup) -> None:
+        """Every rig recording holds its whole loop (:func:`check_loop`)."""
+        for rec in setup.split.recordings():
+            check_loop(rec)
 
     def fit_baseline(self, setup: Setup) -> FitResult:
         """Fit weighted by the measured spread, then by each channel's residual (its noise
