@@ -18,8 +18,10 @@ from suspenv.rigs.knc import KCResult
 
 #: panels: label -> (rig channel, scale to edge units, outboard-mirrored)
 PANELS = {
-    **{DISPLAY[c].label(): (c, DISPLAY[c].scale, False) for c in ("toe", "camber", "caster")},
-    DISPLAY["tyre_fz"].label(): ("tyre_fz", DISPLAY["tyre_fz"].scale, False),
+    **{
+        DISPLAY[c].label(): (c, DISPLAY[c].scale, False)
+        for c in ("toe", "camber", "caster", "tyre_fz")
+    },
     **{
         DISPLAY[c]._replace(sign="outboard").label(): (c, DISPLAY[c].scale, True)
         for c in ("wheel_centre_y", "contact_y")
