@@ -203,6 +203,21 @@ def test_switching_test_tells_a_switched_gain_from_coloured_noise():
     assert mi.switching(0.3 * level * y + 0.05 * coloured, [y])["p_switching"] < 1e-6
 
 
+def test_a_short_recording_is_judged_in_the_shortest_blocks():
+    # 500 samples (an MR damper's 8 s on a dyno at 60 Hz): 20 blocks of 25, above the
+    # fewest the test takes; a gain switched every 1.5 s is found at the decision rule's
+    # alpha (p about 0.003 over 20 blocks), coloured noise is not
+    rng = np.random.default_rng(6)
+    t = np.arange(500) * 0.016
+    y = np.sin(2 * np.pi * 1.3 * t) + 0.5 * np.sin(2 * np.pi * 0.7 * t)
+    coloured = lfilter([1.0], [1.0, -0.9], rng.normal(size=t.size))
+    level = np.where((t // 1.5) % 2 == 0, -1.0, 1.0)
+    found = mi.switching(0.3 * level * y + 0.05 * coloured, [y])
+    assert found["block_samples"] == mi.BLOCK_SAMPLES[0]
+    assert found["p_switching"] < DecisionRule().alpha
+    assert mi.switching(coloured, [y])["p_switching"] > 0.01
+
+
 @pytest.mark.parametrize("n, k", [(20, 1), (30, 7)])
 def test_lag1_p_value_is_exact_for_independent_gains(n, k):
     # the reference: the lag-1 autocorrelation of 200000 independent normal vectors
@@ -259,15 +274,19 @@ def test_a_low_passed_residual_is_judged_at_its_pass_band_rate():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("kind", ["white", "0.9", "0.965", "0.99", "drift", "lowpass"])
-def test_switching_test_holds_its_level_under_the_null(kind):
+@pytest.mark.parametrize(
+    "kind, n",
+    [(k, 4000) for k in ("white", "0.9", "0.965", "0.99", "drift", "lowpass")]
+    + [("white", 500), ("0.9", 500)],
+)
+def test_switching_test_holds_its_level_under_the_null(kind, n):
     # noise independent of the motion, 600 seeded draws (the low-passed ones judged at
     # their pass-band rate): the rejection rate at 0.05 and at the decision rule's alpha
     # (0.01) stays within a one-sided binomial bound of it (3 standard deviations: 46
     # and 13 of 600)
     rng = np.random.default_rng(4)
     dt = 1e-3 if kind == "lowpass" else 1e-2
-    t = np.arange(12000 if kind == "lowpass" else 4000) * dt
+    t = np.arange(3 * n if kind == "lowpass" else n) * dt
     step = mi.pass_band_step(1.0 / dt, 50.0 if kind == "lowpass" else None)
     draws, p = 600, []
     for _ in range(draws):

@@ -55,8 +55,9 @@ BLOCK_SAMPLES = (25, 50, 100, 200, 400)
 #: between short neighbouring blocks, which hundreds of blocks would call switching
 MIN_BLOCKS = 16
 MAX_BLOCKS = 128
-#: fewest samples (at the pass-band rate) of a residual judged
-MIN_SAMPLES = 800
+#: fewest samples (at the pass-band rate) of a residual judged: the fewest blocks of the
+#: shortest length
+MIN_SAMPLES = MIN_BLOCKS * BLOCK_SAMPLES[0]
 #: share of each block, at its end, left out of its gain (a gap between blocks)
 GUARD_FRACTION = 0.2
 #: the residual's RMS over its white noise floor above which it is "far above the noise"
