@@ -150,6 +150,19 @@ def test_a_switching_seen_only_beside_the_named_is_profiled_too() -> None:
     assert not diag.confident
 
 
+def test_the_profile_stays_while_the_switching_persists_beside_the_named() -> None:
+    # a guide whose damping switches by 38 % of the force scale, and a sensor lag of
+    # 0.5 s: profiled, the lag is named; beside it the gain still switches (p ~ 0) but
+    # what is left is 2.3 times the white floor, under the limit of 3 that a first
+    # finding must pass: judged by its size, the profile was dropped and the unprofiled
+    # search named a Dahl loop with confidence in its place
+    case = make_case("friction_guide", 22, 1, condition="input_missing")
+    diag = diagnose(case.recording, "friction_guide")
+    assert diag.named_kinds[:1] == ["sensor_lag"]
+    assert "an unrecorded input switches the gain of" in diag.verdict
+    assert not diag.confident
+
+
 def test_a_sensor_lag_filters_the_profiled_gains_as_it_filters_the_model() -> None:
     # the switching acts on the true force and the recorded force is its lag: the gains
     # are profiled on the lagged signal, so the held-out samples keep nothing of it but

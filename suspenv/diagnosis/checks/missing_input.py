@@ -333,12 +333,12 @@ def judge_recording(
     }
 
 
-def cause(n: dict[str, Any], alpha: float) -> str | None:
+def cause(n: dict[str, Any], alpha: float, size_limit: float = SIZE_LIMIT) -> str | None:
     """What the tests say at level ``alpha`` on the numbers ``n``: ``"unrecorded"`` (an
     input the recording does not carry), ``"unread"`` (a recorded input the model does
     not read explains the switching: with its block levels as a cause, the gains no
-    longer persist) or None."""
-    if not (n["p_switching"] < alpha and n["size"] >= SIZE_LIMIT):
+    longer persist) or None. ``size_limit``: the least size (in white floors) called."""
+    if not (n["p_switching"] < alpha and n["size"] >= size_limit):
         return None
     return "unread" if n.get("p_switching_all", 0.0) >= alpha else "unrecorded"
 
@@ -364,8 +364,9 @@ def sentence(rec: str, ch: str, n: dict[str, Any], why: str, unread: Sequence[st
     )
 
 
-def run(ctx: Context) -> Finding | None:
-    """The missing-input finding (None when no recording is long enough to judge)."""
+def run(ctx: Context, size_limit: float = SIZE_LIMIT) -> Finding | None:
+    """The missing-input finding (None when no recording is long enough to judge), of a
+    residual at least ``size_limit`` times its white floor (:func:`cause`)."""
     unread, recs = unread_inputs(ctx.setup), ctx.setup.split.recordings()
     cells = [  # (recording, channel, numbers) for every judged recording and channel
         (str(rec.name), ch, n)
@@ -375,7 +376,7 @@ def run(ctx: Context) -> Finding | None:
     if not cells:
         return None
     alpha = ctx.rule.alpha / len(cells)
-    fired = [(c, why) for c in cells if (why := cause(c[2], alpha)) is not None]
+    fired = [(c, why) for c in cells if (why := cause(c[2], alpha, size_limit)) is not None]
     numbers: dict[str, Any] = {"judged": {f"{r} {ch}": n for r, ch, n in cells}}
     if not fired:
         return Finding("missing_input", numbers=numbers)
