@@ -204,7 +204,7 @@ def test_switching_test_tells_a_switched_gain_from_coloured_noise():
 
 
 def test_a_short_recording_is_judged_in_the_shortest_blocks():
-    # 500 samples (an MR damper's 8 s on a dyno at 60 Hz): 20 blocks of 25, above the
+    # 500 samples (8 s sampled at 62.5 Hz): 20 blocks of 25, above the
     # fewest the test takes; a gain switched every 1.5 s is found at the decision rule's
     # alpha (p about 0.003 over 20 blocks), coloured noise is not
     rng = np.random.default_rng(6)
