@@ -78,6 +78,7 @@ from suspenv.diagnosis.component.rig import (
     read_model_file,
 )
 from suspenv.diagnosis.component.signatures import SIGNATURE_KINDS, SignalSet, score_signatures
+from suspenv.diagnosis.component.transducer import curvature_left
 from suspenv.diagnosis.decision import (
     EQUIVALENT_COMBINATIONS,
     DecisionRule,
@@ -692,16 +693,39 @@ class ComponentFamily(OptionalSteps):
     def checks(self) -> list[Check]:
         """The checks after the search, in order (:func:`suspenv.diagnosis.checks.run`):
         the damper's asymmetry; the named elements judged again beside a delay and beside
-        a zero drift of more shape; a force missing at low speed; the delays left; a lag
+        a zero drift of more shape; a force missing at low speed; a named sensor gain
+        beside a reading error that grows with the signal's size; the delays left; a lag
         that stands for a delay; the baseline's offsets."""
         return [
             self._asymmetry,
             self._beside_delay,
             self._beside_drift,
             self._dead_band,
+            self._gain_curvature,
             self._delays_said,
             self._lag_and_offsets,
         ]
+
+    def _gain_curvature(self, ctx: Context) -> Conclusion | None:
+        """Each channel a sensor gain is named on, judged beside a reading error that
+        grows with the square of the signal (:mod:`~suspenv.diagnosis.component.transducer`):
+        a lead sentence where one remains, a sentence and no confidence where it is
+        significant but not material."""
+        final = ctx.outcome.current
+        gains = [e for e in final.model.effects if e.kind == "sensor_gain"]
+        if not gains or "sensor_gain" not in {h.kind for h in ctx.outcome.named}:
+            return None
+        found = Conclusion()
+        for e in gains:
+            channel = e.location or final.main_channel()
+            left = curvature_left(final, ctx.setup.split, channel, self.rule)
+            found.findings.setdefault("beyond_library", []).append(left)
+            if left.remains:
+                found.lead(left.sentence())
+            elif left.significant:
+                found.sentences.append(left.sentence())
+            found.confident = found.confident and not left.significant
+        return found
 
     def _asymmetry(self, ctx: Context) -> Conclusion | None:
         """Where a digressive curve was named: the asymmetric curve against the symmetric

@@ -1,0 +1,143 @@
+"""A named sensor gain against a reading error that grows with the signal's size.
+
+A transducer whose reading departs from the true value in proportion to its square
+(``y_rec = y + q y |y| / Y``: a non-linear deflection transducer or load cell, not in
+the library) reads, at one test amplitude, like a calibration error: the library's sensor
+gain takes up its part along ``y``, and what it leaves, the signed square's remainder,
+is often under the noise in RMS yet one shape over the whole record. Where a sensor gain
+is named on a channel, the final model's residual there is regressed on the centred
+prediction ``u`` (over its largest size on the fitted samples), on ``u |u|`` and a
+constant, on the fitted samples. The signed square's coefficient is the reading's
+relative error at full scale beyond the named gain; its standard error is widened by the
+residual's lag-1 correlation (AR(1) effective sample size). It is physics left outside
+the library when, as every probe beyond the library is judged
+(:func:`~suspenv.diagnosis.component.residual_left.beyond_library`), its two-sided p
+is under the rule's alpha, the coefficients fitted cut the held-out error by the rule's
+least gain, and the part it takes is material against what it leaves
+(:data:`~suspenv.diagnosis.component.residual_left.MATERIAL_RATIO`). Where the first
+two hold and the third does not, the error is real but small beside the noise: the gain
+is named, not with confidence, as the library's nearest element to such a transducer.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
+from scipy import stats
+
+from suspenv.diagnosis.component.residual_left import MATERIAL_RATIO
+from suspenv.diagnosis.decision import DecisionRule
+from suspenv.diagnosis.fitting import FitResult, ar1_effective_size, lag1_autocorrelation
+from suspenv.diagnosis.protocols import RecordingLike
+from suspenv.diagnosis.split import Split
+
+
+@dataclass
+class CurvatureLeft:
+    """The signed square of a channel beside its named sensor gain (module docstring).
+
+    Attributes:
+        channel: the recorded channel the gain is named on.
+        error_at_full_scale: the reading's relative error at the prediction's largest
+            size beyond the named gain (signed: positive reads high at both ends) [-].
+        z: that coefficient over its AR(1)-widened standard error.
+        p_value: its two-sided p.
+        heldout_reduction: relative drop of the held-out RMS error with it.
+        structured_ratio: RMS of the part it takes over RMS of what it leaves (fitted).
+        significant: the p and held-out rules hold: the gain changes with the size.
+        remains: and the part is material: a reading error outside the library.
+    """
+
+    channel: str
+    error_at_full_scale: float
+    z: float
+    p_value: float
+    heldout_reduction: float
+    structured_ratio: float
+    significant: bool
+    remains: bool
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+    def short(self) -> str:
+        """A few words for the headline."""
+        return (
+            f"the {self.channel} reading {100 * abs(self.error_at_full_scale):.2g} % off at "
+            "full scale beyond the gain, growing with its size"
+        )
+
+    def sentence(self) -> str:
+        """One sentence for the verdict."""
+        evidence = (
+            f"{100 * self.error_at_full_scale:+.2g} % at full scale, z = {self.z:.3g}, "
+            f"p = {self.p_value:.2g}, held-out error {-100 * self.heldout_reduction:+.1f} %, "
+            f"{self.structured_ratio:.2g} x the residual it leaves"
+        )
+        test = "a calibration at two amplitudes would tell a gain from it"
+        if self.remains:
+            return (
+                f"unexplained, not in the library: beyond the sensor gain named on "
+                f"{self.channel}, its reading departs from the model's in proportion to the "
+                f"square of its size (a non-linear transducer; {evidence}); {test}"
+            )
+        if self.significant:
+            return (
+                f"the sensor gain named on {self.channel} changes with the signal's size "
+                f"({evidence}; under {MATERIAL_RATIO:.2g} x, not material beside the noise): "
+                f"it may stand for a non-linear transducer, not in the library; {test}"
+            )
+        return f"the {self.channel} gain does not change with the signal's size ({evidence})"
+
+
+def _parts(
+    fit: FitResult,
+    recordings: Sequence[RecordingLike],
+    masks: Sequence[np.ndarray | None] | None,
+    channel: str,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The residual and the prediction of ``channel`` on the samples of ``recordings``
+    (those of each mask), stacked [channel unit]."""
+    res, pred = [], []
+    for i, rec in enumerate(recordings):
+        p = np.asarray(fit.model.simulate(fit.theta, rec)[channel], float)
+        r = np.asarray(rec.outputs[channel], float) - p
+        m = None if masks is None else masks[i]
+        res.append(r if m is None else r[m])
+        pred.append(p if m is None else p[m])
+    return np.concatenate(res), np.concatenate(pred)
+
+
+def curvature_left(final: FitResult, sp: Split, channel: str, rule: DecisionRule) -> CurvatureLeft:
+    """The signed square of ``channel`` judged beside the final model's sensor gain
+    there (module docstring)."""
+    r, p = _parts(final, sp.fit_recordings, sp.fit_masks, channel)
+    centre = float(np.median(p))
+    scale = float(np.max(np.abs(p - centre))) or 1.0
+
+    def design(q: np.ndarray) -> np.ndarray:
+        u = (q - centre) / scale
+        return np.column_stack([np.ones_like(u), u, u * np.abs(u)])
+
+    x = design(p)
+    full = np.linalg.lstsq(x, r, rcond=None)[0]
+    part = np.linalg.lstsq(x[:, :2], r, rcond=None)[0]
+    e, e0 = r - x @ full, r - x[:, :2] @ part
+    n_eff = max(ar1_effective_size(e.size, lag1_autocorrelation(e)), 4.0)
+    var = float(e @ e) / max(e.size - 3, 1) * e.size / n_eff
+    se = float(np.sqrt(var * np.linalg.inv(x.T @ x)[2, 2]))
+    z = float(full[2] / se) if se > 0 else 0.0
+    p_value = float(2.0 * stats.norm.sf(abs(z)))
+    ratio = float(np.sqrt(max(float(e0 @ e0) / float(e @ e) - 1.0, 0.0))) if e @ e > 0 else 0.0
+    hr, hp = _parts(final, sp.heldout_recordings, sp.heldout_masks, channel)
+    hx = design(hp)
+    before = float(np.sqrt(np.mean((hr - hx[:, :2] @ part) ** 2)))
+    after = float(np.sqrt(np.mean((hr - hx @ full) ** 2)))
+    gain = 1.0 - after / before if before > 0 else 0.0
+    significant = bool(p_value < rule.alpha and gain >= rule.min_heldout_gain)
+    remains = significant and ratio > MATERIAL_RATIO
+    error = float(full[2]) / scale
+    return CurvatureLeft(channel, error, z, p_value, gain, ratio, significant, remains)
