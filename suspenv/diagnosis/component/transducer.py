@@ -30,6 +30,7 @@ from scipy import stats
 
 from suspenv.diagnosis.component.residual_left import MATERIAL_RATIO
 from suspenv.diagnosis.decision import DecisionRule
+from suspenv.diagnosis.evidence import heldout_residuals
 from suspenv.diagnosis.fitting import FitResult, ar1_effective_size, lag1_autocorrelation
 from suspenv.diagnosis.protocols import RecordingLike
 from suspenv.diagnosis.split import Split
@@ -100,15 +101,14 @@ def _parts(
     channel: str,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The residual and the prediction of ``channel`` on the samples of ``recordings``
-    (those of each mask), stacked [channel unit]."""
-    res, pred = [], []
-    for i, rec in enumerate(recordings):
-        p = np.asarray(fit.model.simulate(fit.theta, rec)[channel], float)
-        r = np.asarray(rec.outputs[channel], float) - p
-        m = None if masks is None else masks[i]
-        res.append(r if m is None else r[m])
-        pred.append(p if m is None else p[m])
-    return np.concatenate(res), np.concatenate(pred)
+    (those of each mask), stacked [channel unit]: the residual the fit remembers
+    (:func:`~suspenv.diagnosis.evidence.heldout_residuals`), the prediction the recorded
+    values less it."""
+    r = heldout_residuals(fit, recordings, masks)[channel]
+    recorded = [np.asarray(rec.outputs[channel], float) for rec in recordings]
+    if masks is not None:
+        recorded = [y if m is None else y[m] for y, m in zip(recorded, masks, strict=True)]
+    return r, np.concatenate(recorded) - r
 
 
 def curvature_left(final: FitResult, sp: Split, channel: str, rule: DecisionRule) -> CurvatureLeft:
