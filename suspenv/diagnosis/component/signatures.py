@@ -120,6 +120,22 @@ def _best_of(
     return best
 
 
+def _scored(
+    kind: str,
+    s: SignalSet,
+    r2: float,
+    fitted: np.ndarray,
+    words: str,
+    numbers: dict[str, float],
+    q: int = 1,
+) -> Signature:
+    """The signature of ``kind`` with score ``r2`` of ``q`` features (its p-value from
+    what their ``fitted`` part leaves of the residual), evidence ``words``, ``numbers``
+    and ``r2``."""
+    p = score_p_value(r2, s.residual - fitted, q=q)
+    return Signature(kind, r2, p, words, {**numbers, "r2": r2})
+
+
 # ---------------------------------------------------------------- detectors
 def detect_friction(s: SignalSet, basis: np.ndarray | None) -> Signature:
     vmax = float(np.max(np.abs(s.v))) or 1.0
@@ -127,14 +143,11 @@ def detect_friction(s: SignalSet, basis: np.ndarray | None) -> Signature:
     r2, coef, fitted = partial_r2(s.residual, feat[:, None], basis)
     n_rev = int(sum(reversal_indices(s.v[idx]).size for idx in s.segments()))
     step = 2.0 * abs(coef[0]) * s.scale
-    return Signature(
-        "friction",
-        r2,
-        score_p_value(r2, s.residual - fitted),
+    words = (
         f"residual steps by {step:.3g} {s.unit} at each of the {n_rev} velocity reversals "
-        f"(a sign(v) term explains {100 * r2:.0f} % of the residual energy)",
-        {"step": step, "n_reversals": float(n_rev), "r2": r2},
+        f"(a sign(v) term explains {100 * r2:.0f} % of the residual energy)"
     )
+    return _scored("friction", s, r2, fitted, words, {"step": step, "n_reversals": float(n_rev)})
 
 
 def detect_hysteresis(s: SignalSet, basis: np.ndarray | None) -> Signature:
@@ -145,14 +158,13 @@ def detect_hysteresis(s: SignalSet, basis: np.ndarray | None) -> Signature:
         cands.append((frac, feat))
     frac, r2, coef, fitted = _best_of(s, basis, cands)
     width = 2.0 * abs(coef[0]) * s.scale
-    return Signature(
-        "hysteresis",
-        r2,
-        score_p_value(r2, s.residual - fitted),
+    words = (
         f"a loop {width:.3g} {s.unit} wide that settles within {100 * frac:.0f} % of the "
         f"half-stroke after each reversal, set by displacement not rate "
-        f"(explains {100 * r2:.0f} %)",
-        {"loop_width": width, "transition_fraction": frac, "r2": r2},
+        f"(explains {100 * r2:.0f} %)"
+    )
+    return _scored(
+        "hysteresis", s, r2, fitted, words, {"loop_width": width, "transition_fraction": frac}
     )
 
 
@@ -176,29 +188,24 @@ def detect_progressive(s: SignalSet, basis: np.ndarray | None) -> Signature:
         total = float(np.sum(p)) or 1.0
         h3 = float(np.sum(p[(fr > 2.5) & (fr < 3.5)]) / total)
     extra = abs(coef[0]) * s.scale
-    return Signature(
-        "progressive",
-        r2,
-        score_p_value(r2, s.residual - fitted),
+    words = (
         f"odd residual growing with amplitude, {extra:.3g} {s.unit} extra at full stroke; "
         f"{100 * h3:.0f} % of the residual energy at 3x the excitation frequency "
-        f"(x³ explains {100 * r2:.0f} %)",
-        {"extra_at_full_stroke": extra, "third_harmonic_share": h3, "r2": r2},
+        f"(x³ explains {100 * r2:.0f} %)"
     )
+    numbers = {"extra_at_full_stroke": extra, "third_harmonic_share": h3}
+    return _scored("progressive", s, r2, fitted, words, numbers)
 
 
 def detect_spring(s: SignalSet, basis: np.ndarray | None) -> Signature:
     half = 0.5 * float(np.ptp(s.x)) or 1.0
     r2, coef, fitted = partial_r2(s.residual, (s.x / half)[:, None], basis)
     k = coef[0] * s.scale / half
-    return Signature(
-        "spring",
-        r2,
-        score_p_value(r2, s.residual - fitted),
+    words = (
         f"residual in phase with displacement: a parallel (gas) spring of about {k:.3g} "
-        f"{s.unit}/m (explains {100 * r2:.0f} %)",
-        {"stiffness": k, "r2": r2},
+        f"{s.unit}/m (explains {100 * r2:.0f} %)"
     )
+    return _scored("spring", s, r2, fitted, words, {"stiffness": k})
 
 
 #: a second ramp (the other side's stop) is reported when the share of what the best
@@ -255,36 +262,24 @@ def detect_end_stop(s: SignalSet, basis: np.ndarray | None) -> Signature:
         one_side = {key: thr} if np.isfinite(thr) else {}
     share = float(np.sum(s.residual[beyond] ** 2) / (float(np.sum(s.residual**2)) or 1.0))
     frac = float(np.mean(beyond))
-    return Signature(
-        "end_stop",
-        r2,
-        score_p_value(r2, s.residual - fitted, q=sides),
+    said = (
         f"{100 * share:.0f} % of the residual energy lies beyond {where}, which {words[0]} "
-        f"{100 * frac:.0f} % of the samples ({words[1]} explains {100 * r2:.0f} %)",
-        {
-            **thresholds,
-            "sides": float(sides),
-            "share_beyond": share,
-            "fraction_beyond": frac,
-            **one_side,
-            "r2": r2,
-        },
+        f"{100 * frac:.0f} % of the samples ({words[1]} explains {100 * r2:.0f} %)"
     )
+    numbers = {"sides": float(sides), "share_beyond": share, "fraction_beyond": frac}
+    return _scored("end_stop", s, r2, fitted, said, {**thresholds, **numbers, **one_side}, sides)
 
 
 def detect_damper_asymmetry(s: SignalSet, basis: np.ndarray | None) -> Signature:
     vmax = float(np.max(np.abs(s.v))) or 1.0
     r2, coef, fitted = partial_r2(s.residual, (np.abs(s.v) / vmax)[:, None], basis)
     d = coef[0] * s.scale
-    return Signature(
-        "damper_asymmetry",
-        r2,
-        score_p_value(r2, s.residual - fitted),
+    words = (
         f"residual has the same sign in bump and rebound and grows with speed: "
         f"{d:+.3g} {s.unit} at max |v| = {vmax:.3g} m/s, i.e. bump and rebound slopes differ "
-        f"(|v| explains {100 * r2:.0f} %)",
-        {"even_part_at_vmax": d, "r2": r2},
+        f"(|v| explains {100 * r2:.0f} %)"
     )
+    return _scored("damper_asymmetry", s, r2, fitted, words, {"even_part_at_vmax": d})
 
 
 def detect_digressive(s: SignalSet, basis: np.ndarray | None) -> Signature:
@@ -294,60 +289,44 @@ def detect_digressive(s: SignalSet, basis: np.ndarray | None) -> Signature:
         for frac in (0.1, 0.25, 0.5)
     ]
     frac, r2, coef, fitted = _best_of(s, basis, cands)
-    return Signature(
-        "digressive",
-        r2,
-        score_p_value(r2, s.residual - fitted),
+    words = (
         f"odd residual in velocity whose slope falls above about {frac * vmax:.3g} m/s "
-        f"(a knee in the force-velocity curve; explains {100 * r2:.0f} %)",
-        {"knee_velocity": frac * vmax, "r2": r2},
+        f"(a knee in the force-velocity curve; explains {100 * r2:.0f} %)"
     )
+    return _scored("digressive", s, r2, fitted, words, {"knee_velocity": frac * vmax})
 
 
 def detect_viscoelastic(s: SignalSet, basis: np.ndarray | None) -> Signature:
     f0 = dominant_frequency(s.t, s.x)
     w0 = 2 * np.pi * (f0 if np.isfinite(f0) and f0 > 0 else 1.0)
     vmax = float(np.max(np.abs(s.v))) or 1.0
-    cands = []
-    for wt in np.geomspace(0.01, 3.0, 8):
-        tau = wt / w0
-        feat = _per_segment(
-            s, lambda idx, tau: first_order_lowpass(s.v[idx], s.t[idx], tau) / vmax, tau
-        )
-        cands.append((tau, feat))
+
+    def lagged(idx: np.ndarray, tau: float) -> np.ndarray:
+        return first_order_lowpass(s.v[idx], s.t[idx], tau) / vmax
+
+    cands = [(wt / w0, _per_segment(s, lagged, wt / w0)) for wt in np.geomspace(0.01, 3.0, 8)]
     tau, r2, _, fitted = _best_of(s, basis, cands)
-    return Signature(
-        "viscoelastic",
-        r2,
-        score_p_value(r2, s.residual - fitted),
+    words = (
         f"a lagged, rate-dependent force (relaxation time about {tau:.3g} s; the loop width "
-        f"changes with frequency; explains {100 * r2:.0f} %)",
-        {"relaxation_time_s": tau, "r2": r2},
+        f"changes with frequency; explains {100 * r2:.0f} %)"
     )
+    return _scored("viscoelastic", s, r2, fitted, words, {"relaxation_time_s": tau})
 
 
 def detect_sensor_offset(s: SignalSet, basis: np.ndarray | None) -> Signature:
     r2, coef, fitted = partial_r2(s.residual, np.ones((s.t.size, 1)), basis)
     off = coef[0] * s.scale
-    return Signature(
-        "sensor_offset",
-        r2,
-        score_p_value(r2, s.residual - fitted),
-        f"constant residual of {off:+.3g} {s.unit} (explains {100 * r2:.0f} %)",
-        {"offset": off, "r2": r2},
-    )
+    words = f"constant residual of {off:+.3g} {s.unit} (explains {100 * r2:.0f} %)"
+    return _scored("sensor_offset", s, r2, fitted, words, {"offset": off})
 
 
 def detect_sensor_gain(s: SignalSet, basis: np.ndarray | None) -> Signature:
     r2, coef, fitted = partial_r2(s.residual, s.prediction[:, None], basis)
-    return Signature(
-        "sensor_gain",
-        r2,
-        score_p_value(r2, s.residual - fitted),
+    words = (
         f"residual proportional to the signal: gain error {100 * coef[0]:+.2g} % "
-        f"(explains {100 * r2:.0f} %)",
-        {"gain_error": float(coef[0]), "r2": r2},
+        f"(explains {100 * r2:.0f} %)"
     )
+    return _scored("sensor_gain", s, r2, fitted, words, {"gain_error": float(coef[0])})
 
 
 def detect_sensor_lag(s: SignalSet, basis: np.ndarray | None) -> Signature:
@@ -357,14 +336,11 @@ def detect_sensor_lag(s: SignalSet, basis: np.ndarray | None) -> Signature:
             dydt[idx] = np.gradient(s.prediction[idx], s.t[idx])
     r2, coef, fitted = partial_r2(s.residual, dydt[:, None], basis)
     lag = -float(coef[0])
-    return Signature(
-        "sensor_lag",
-        r2,
-        score_p_value(r2, s.residual - fitted),
+    words = (
         f"residual follows the signal's rate of change: a phase shift of about "
-        f"{1e3 * lag:.3g} ms (explains {100 * r2:.0f} %)",
-        {"lag_s": lag, "r2": r2},
+        f"{1e3 * lag:.3g} ms (explains {100 * r2:.0f} %)"
     )
+    return _scored("sensor_lag", s, r2, fitted, words, {"lag_s": lag})
 
 
 DETECTORS: dict[str, Callable[[SignalSet, np.ndarray | None], Signature]] = {
