@@ -32,13 +32,14 @@ error; the element with fewer parameters wins a tie.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 
 from scipy import stats
 
 from suspenv.core.errors import ValidationError
 from suspenv.core.options import number
 from suspenv.diagnosis.hypothesis import Ambiguity, Hypothesis
+from suspenv.diagnosis.record import Record
 
 HELDOUT_RULES = ("fraction", "noise")
 
@@ -114,7 +115,7 @@ def separating_test(fam_a: str, fam_b: str) -> tuple[str, str]:
 
 
 @dataclass(frozen=True)
-class DecisionRule:
+class DecisionRule(Record):
     """The decision rule's settings (see the module docstring).
 
     Attributes:
@@ -147,9 +148,6 @@ class DecisionRule:
     def threshold(self, n_screened: int) -> float:
         """The per-hypothesis p-value threshold ``alpha / n_screened`` (Bonferroni)."""
         return self.alpha / max(int(n_screened), 1)
-
-    def to_dict(self) -> dict[str, object]:
-        return asdict(self)
 
 
 def decide(hyps: Sequence[Hypothesis], n_screened: int, rule: DecisionRule) -> None:

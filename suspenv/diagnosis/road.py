@@ -27,7 +27,7 @@ its verdict:
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -45,6 +45,7 @@ from suspenv.diagnosis.family import OptionalSteps, Outcome, Screening, Setup
 from suspenv.diagnosis.fitting import FitResult, evaluate, residuals
 from suspenv.diagnosis.hypothesis import Hypothesis
 from suspenv.diagnosis.protocols import DiagnosableModel, RecordingLike
+from suspenv.diagnosis.record import Record
 from suspenv.diagnosis.split import Holdout, Recordings, Split, as_recordings, heldout_recordings
 from suspenv.measurements import Recording
 from suspenv.measurements.sources.road_profile import load_profile_txt
@@ -239,7 +240,7 @@ def whittle_deviance(r: np.ndarray) -> np.ndarray:
 
 
 @dataclass
-class PsdFit:
+class PsdFit(Record):
     """A Whittle fit of Gd(n) = gd0 (n/n0)^-w over ``band`` (SI: m^3, cycle/m)."""
 
     gd0: float
@@ -250,6 +251,7 @@ class PsdFit:
     n_lines: int
     band: tuple[float, float]
     fixed_waviness: bool
+    derived = ("road_class",)
 
     @classmethod
     def of(cls, fit: FitResult, band: tuple[float, float]) -> PsdFit:
@@ -270,11 +272,6 @@ class PsdFit:
     @property
     def road_class(self) -> str:
         return gd0_class(self.gd0)
-
-    def to_dict(self) -> dict[str, Any]:
-        d = asdict(self)
-        d["road_class"] = self.road_class
-        return d
 
 
 # ------------------------------------------------------------------ the family

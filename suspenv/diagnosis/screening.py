@@ -14,12 +14,13 @@
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy import stats
 
 from suspenv.diagnosis.fitting import ar1_effective_size, lag1_autocorrelation
+from suspenv.diagnosis.record import Record
 
 #: a part is a hotspot when it holds this much more than its fair share ...
 HOTSPOT_ENRICHMENT = 1.5
@@ -28,22 +29,18 @@ HOTSPOT_SHARE = 0.2
 
 
 @dataclass
-class Share:
+class Share(Record):
     """One part of one partition."""
 
     dimension: str
     part: str
     share: float
     fraction: float
+    derived = ("enrichment",)
 
     @property
     def enrichment(self) -> float:
         return self.share / self.fraction if self.fraction > 0 else float("nan")
-
-    def to_dict(self) -> dict[str, float | str]:
-        d = asdict(self)
-        d["enrichment"] = self.enrichment
-        return d
 
 
 @dataclass
@@ -82,7 +79,7 @@ class Location:
 
 
 @dataclass
-class Signature:
+class Signature(Record):
     """A detector's verdict: score in [0, 1], p-value, evidence sentence and numbers;
     ``channel``: the recorded channel it was scored in ("" where it is the model's own
     output or force view)."""
@@ -93,9 +90,6 @@ class Signature:
     evidence: str
     numbers: dict[str, float] = field(default_factory=dict)
     channel: str = ""
-
-    def to_dict(self) -> dict[str, object]:
-        return asdict(self)
 
 
 def effective_n(r: np.ndarray) -> float:

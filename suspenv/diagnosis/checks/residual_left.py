@@ -46,6 +46,7 @@ from scipy import stats
 
 from suspenv.diagnosis.checks.finding import Context, Finding
 from suspenv.diagnosis.fitting import lag1_autocorrelation
+from suspenv.diagnosis.record import Record
 
 
 def size_limit(noise_variance: float, n: int, alpha: float, tests: int = 1) -> float:
@@ -83,7 +84,7 @@ def roughness_factor() -> float:
 
 
 @dataclass
-class Left:
+class Left(Record):
     """One view of the residual left, in the family's noise units (module docstring).
 
     Attributes:
@@ -102,14 +103,12 @@ class Left:
     structured: bool
     test: str
     where: str = ""
+    derived = ("remains",)
 
     @property
     def remains(self) -> bool:
         """The rule: above the limit and structured."""
         return bool(self.rms > self.limit and self.structured)
-
-    def to_dict(self) -> dict[str, Any]:
-        return {**self.__dict__, "remains": self.remains}
 
 
 def from_cells(

@@ -26,8 +26,7 @@ damper's stroke rate, a guide's speed, a quarter car's deflection rate).
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
-from typing import Any
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -35,6 +34,7 @@ from suspenv.diagnosis.component.refit import SIZE_Z, parameter_and_error, refit
 from suspenv.diagnosis.component.residual_left import beyond_library
 from suspenv.diagnosis.decision import DecisionRule
 from suspenv.diagnosis.fitting import FitResult
+from suspenv.diagnosis.record import Record
 from suspenv.diagnosis.split import Split
 
 #: the probe's element kind (not a candidate of any family)
@@ -44,7 +44,7 @@ BAND_MAX_FRACTION = 0.5
 
 
 @dataclass(frozen=True)
-class DeadBandLeft:
+class DeadBandLeft(Record):
     """The low-speed deficit added to the final model (:func:`dead_band_left`).
 
     Attributes:
@@ -74,9 +74,6 @@ class DeadBandLeft:
     unit: str = "N"
     #: the force the deficit is missing from, in words (e.g. "force in the suspension")
     where: str = "force"
-
-    def to_dict(self) -> dict[str, Any]:
-        return asdict(self)
 
     def short(self) -> str:
         """A few words for the headline."""

@@ -49,7 +49,7 @@ Units: delays in seconds; residuals in the channel's unit; phases in degrees.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -72,6 +72,7 @@ from suspenv.diagnosis.evidence import (
 )
 from suspenv.diagnosis.fitting import FitResult, ar1_effective_size
 from suspenv.diagnosis.hypothesis import Hypothesis, Withdrawal
+from suspenv.diagnosis.record import Record
 from suspenv.diagnosis.split import Split
 
 #: corrected BIC difference above which one of two fits of equal size is decisively
@@ -371,7 +372,7 @@ def check_lag_not_delay(test: dict[str, Any]) -> None:
 
 
 @dataclass(frozen=True)
-class DelayLeft:
+class DelayLeft(Record):
     """A pure delay of a channel added to the final model (:func:`delay_left`).
 
     Attributes:
@@ -395,9 +396,6 @@ class DelayLeft:
     lag_bic: float
     remains: bool
     phases: tuple[PhaseRow, ...] = ()
-
-    def to_dict(self) -> dict[str, Any]:
-        return asdict(self)
 
     def short(self) -> str:
         """A few words for the headline."""

@@ -67,7 +67,7 @@ Units: the channel's (SI); ``S`` and ``N`` in the channel's unit.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -84,6 +84,7 @@ from suspenv.diagnosis.component.motion_inputs import (
 from suspenv.diagnosis.decision import DecisionRule
 from suspenv.diagnosis.evidence import Comparison, compare, ljung_box
 from suspenv.diagnosis.fitting import FitResult, drift_basis
+from suspenv.diagnosis.record import Record
 from suspenv.diagnosis.split import Split
 
 #: per model family: words of the two directions of motion and of the displacement
@@ -142,7 +143,7 @@ MOVING_FRACTION = 0.01
 
 
 @dataclass
-class ResidualLeft:
+class ResidualLeft(Record):
     """The check's numbers for one channel (see the module docstring): the component
     family's noise model, judged by the shared rule through :meth:`views`.
 
@@ -178,6 +179,7 @@ class ResidualLeft:
     robust_scale: float = 0.0
     tail_rms: float = 0.0
     tail_where: list[str] = field(default_factory=list)
+    derived = ("state_remains", "tail_remains", "remains")
 
     def views(self) -> list[Left]:
         """The shared rule's views (:mod:`suspenv.diagnosis.checks.residual_left`): the
@@ -223,14 +225,6 @@ class ResidualLeft:
     def remains(self) -> bool:
         """A residual above the noise floor is left: the state rule or the tail rule."""
         return self.state_remains or self.tail_remains
-
-    def to_dict(self) -> dict[str, Any]:
-        return {
-            **asdict(self),
-            "state_remains": self.state_remains,
-            "tail_remains": self.tail_remains,
-            "remains": self.remains,
-        }
 
 
 def _detrend(t: np.ndarray, r: np.ndarray, cycles: int) -> np.ndarray:

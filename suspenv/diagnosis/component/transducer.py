@@ -22,8 +22,7 @@ is named, not with confidence, as the library's nearest element to such a transd
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass
-from typing import Any
+from dataclasses import dataclass
 
 import numpy as np
 from scipy import stats
@@ -33,11 +32,12 @@ from suspenv.diagnosis.decision import DecisionRule
 from suspenv.diagnosis.evidence import heldout_residuals
 from suspenv.diagnosis.fitting import FitResult, ar1_effective_size, lag1_autocorrelation
 from suspenv.diagnosis.protocols import RecordingLike
+from suspenv.diagnosis.record import Record
 from suspenv.diagnosis.split import Split
 
 
 @dataclass
-class CurvatureLeft:
+class CurvatureLeft(Record):
     """The signed square of a channel beside its named sensor gain (module docstring).
 
     Attributes:
@@ -60,9 +60,6 @@ class CurvatureLeft:
     structured_ratio: float
     significant: bool
     remains: bool
-
-    def to_dict(self) -> dict[str, Any]:
-        return asdict(self)
 
     def short(self) -> str:
         """A few words for the headline."""

@@ -32,6 +32,7 @@ from typing import Any
 
 import numpy as np
 
+from suspenv.diagnosis.record import Record
 from suspenv.measurements.knc import CHANNELS, SIDES, drive, reading_drive
 
 #: signature family -> effect kinds it points to
@@ -54,7 +55,7 @@ FAMILY_WORDS = {
 
 
 @dataclass
-class KncSignature:
+class KncSignature(Record):
     """Score of one signature family (see the module docstring)."""
 
     kind: str
@@ -63,9 +64,6 @@ class KncSignature:
     dof: int
     evidence: str
     numbers: dict[str, float] = field(default_factory=dict)
-
-    def to_dict(self) -> dict[str, Any]:
-        return dict(self.__dict__)
 
 
 def _fitted(cols: Sequence[np.ndarray], r: np.ndarray) -> tuple[np.ndarray, int]:

@@ -19,6 +19,7 @@ import numpy as np
 from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.engine import Diagnosis
 from suspenv.diagnosis.knc.family import curves_in_noise_units
+from suspenv.diagnosis.record import Record
 
 #: a curve whose two sides' RMS (noise units) after the fit differ by more than this
 #: factor is listed as differing between the sides
@@ -26,7 +27,7 @@ SIDE_RATIO = 2.0
 
 
 @dataclass
-class KncStory:
+class KncStory(Record):
     """The named elements, each curve's fit against its noise, what is left.
 
     Attributes:
@@ -47,9 +48,6 @@ class KncStory:
     elements: dict[str, dict[str, Any]] = field(default_factory=dict)
     curves: list[dict[str, Any]] = field(default_factory=list)
     sides_differ: list[dict[str, Any]] = field(default_factory=list)
-
-    def to_dict(self) -> dict[str, Any]:
-        return dict(self.__dict__)
 
 
 def _rms(cells: dict[tuple[str, str], np.ndarray]) -> dict[tuple[str, str], float]:

@@ -41,7 +41,7 @@ the check less sensitive.
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -50,6 +50,7 @@ from suspenv.core.errors import ValidationError
 from suspenv.diagnosis.checks.residual_left import Left, size_limit
 from suspenv.diagnosis.evidence import ljung_box, scaled_rms
 from suspenv.diagnosis.fitting import FitResult, residuals
+from suspenv.diagnosis.record import Record
 
 #: band (Hz) where the sensor-noise floor is measured
 NOISE_BAND_HZ = 50.0
@@ -101,7 +102,7 @@ def noise_floor(
 
 
 @dataclass
-class ResidualCheck:
+class ResidualCheck(Record):
     """The held-out residual left after the diagnosis, against the noise floor: the ride
     family's noise model (:meth:`view` is its view for the shared rule)."""
 
@@ -116,6 +117,7 @@ class ResidualCheck:
     named: bool = False
     per_channel_floor: dict[str, float] = field(default_factory=dict)
     whiteness_alpha: float = WHITENESS_ALPHA
+    derived = ("residual_remains", "confident")
 
     def view(self) -> Left:
         """The shared rule's view (:mod:`suspenv.diagnosis.checks.residual_left`): the
@@ -153,11 +155,7 @@ class ResidualCheck:
         return f"{said}; the named effect explains {share:.0f} % of the baseline's model error"
 
     def to_dict(self) -> dict[str, Any]:
-        d = asdict(self)
-        d["residual_remains"] = self.residual_remains
-        d["confident"] = self.confident
-        d["sentence"] = self.sentence()
-        return d
+        return super().to_dict() | {"sentence": self.sentence()}
 
 
 def residual_check(
