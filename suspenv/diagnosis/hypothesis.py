@@ -173,15 +173,8 @@ class Hypothesis:
     ) -> Hypothesis:
         """A candidate whose refit could not be computed (never significant: the
         evidence fields keep their defaults, no likelihood gained)."""
-        return cls(
-            kind=kind,
-            location=location,
-            family=family_of(kind),
-            words=words,
-            round=round_,
-            signature_score=float(signature_score),
-            signature_evidence=f"refit failed: {reason}",
-        )
+        why = f"refit failed: {reason}"
+        return cls(kind, location, family_of(kind), words, round_, float(signature_score), why)
 
     def own_params(self) -> dict[str, dict[str, float]]:
         """The element's own parameters of the current ``fit`` (after a settle)."""

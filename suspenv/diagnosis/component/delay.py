@@ -187,15 +187,9 @@ def phase_by_frequency(
     for g in kept:
         f = float(np.median([c[0] for c in g]))
         w = 2.0 * np.pi * f
-        rows.append(
-            PhaseRow(
-                frequency_hz=f,
-                cycles=len(g),
-                measured_deg=float(np.degrees(np.median([c[1] for c in g]))),
-                lag_deg=float(np.degrees(np.arctan(w * tau))),
-                delay_deg=float(np.degrees(w * delay)),
-            )
-        )
+        measured = float(np.degrees(np.median([c[1] for c in g])))
+        lag, late = float(np.degrees(np.arctan(w * tau))), float(np.degrees(w * delay))
+        rows.append(PhaseRow(f, len(g), measured, lag, late))
     return rows
 
 

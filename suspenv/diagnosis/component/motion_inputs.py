@@ -363,19 +363,8 @@ def motion_versions(
             worst = max(worst, mis)
             noise = max(noise, derivative_noise(s2, fs, fc, k + 1) / rms)
             band_inputs[key] = recorded
-        checks.append(
-            MotionCheck(
-                str(rec.name),
-                fc,
-                gain,
-                lag,
-                mismatch,
-                worst,
-                noise,
-                float(np.sqrt(s2)),
-                broadband and fc is not None,
-            )
-        )
+        sd, wide = float(np.sqrt(s2)), broadband and fc is not None
+        checks.append(MotionCheck(str(rec.name), fc, gain, lag, mismatch, worst, noise, sd, wide))
         # nothing to remove and nothing added: the recording as it was
         clean = fc is None and not added
         versions["band"].append(rec if clean else replace(rec, inputs=band_inputs))  # type: ignore[type-var]

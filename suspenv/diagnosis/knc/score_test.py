@@ -73,18 +73,11 @@ def score_signatures_by_model(
 ) -> list[KncSignature]:
     """A :class:`KncSignature` per score-tested candidate among ``candidates``."""
     out = []
-    for cand in candidates:
-        if cand not in SCORE_TESTED:
-            continue
+    for cand in [c for c in candidates if c in SCORE_TESTED]:
         lm, k = score_test(fit_, recs, cand)
-        out.append(
-            KncSignature(
-                SCREEN_FAMILY[cand],
-                (lm - k) / np.sqrt(2.0 * k),
-                lm,
-                k,
-                f"score test of the element against the fitted model: chi2 {lm:.1f} on {k} dof "
-                "(the part the fitted parameters cannot follow)",
-            )
+        words = (
+            f"score test of the element against the fitted model: chi2 {lm:.1f} on {k} dof "
+            "(the part the fitted parameters cannot follow)"
         )
+        out.append(KncSignature(SCREEN_FAMILY[cand], (lm - k) / np.sqrt(2.0 * k), lm, k, words))
     return sorted(out, key=lambda s: -s.score)

@@ -165,18 +165,9 @@ def score_signatures(
         scores = {c: float((q - k) / np.sqrt(2.0 * k)) for c, (q, k) in chans.items()}
         where = max(scores, key=lambda c: scores[c])
         q, k = chans[where]
-        score = scores[where]
         numbers = {f"score_{c}": float(v) for c, v in scores.items()}
         if fam == "loop" and loop_width:
             numbers["tyre_fz_loop_width_n"] = float(np.mean(loop_width))
-        out.append(
-            KncSignature(
-                fam,
-                float(score),
-                float(q),
-                int(k),
-                f"{FAMILY_WORDS[fam]}: strongest in {where}, chi2 {q:.1f} on {k} dof",
-                numbers,
-            )
-        )
+        words = f"{FAMILY_WORDS[fam]}: strongest in {where}, chi2 {q:.1f} on {k} dof"
+        out.append(KncSignature(fam, float(scores[where]), float(q), int(k), words, numbers))
     return sorted(out, key=lambda s: -s.score)

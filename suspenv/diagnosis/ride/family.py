@@ -155,16 +155,11 @@ def screen_candidates(
             pred = base_pred
         r2, _, fitted = partial_r2(r, (pred - base_pred)[:, None], basis)
         p = score_p_value(r2, r - fitted)
-        out.append(
-            Signature(
-                f"{kind}@{loc}",
-                r2,
-                p,
-                f"{effect_words(eff)} at its starting size explains {100 * r2:.1f} % of the "
-                "residual energy beyond the baseline parameters",
-                {"partial_r2": r2},
-            )
+        words = (
+            f"{effect_words(eff)} at its starting size explains {100 * r2:.1f} % of the "
+            "residual energy beyond the baseline parameters"
         )
+        out.append(Signature(f"{kind}@{loc}", r2, p, words, {"partial_r2": r2}))
     return sorted(out, key=lambda s: -s.score)
 
 
