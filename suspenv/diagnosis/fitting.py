@@ -546,19 +546,14 @@ def fit(
     )
     n_res = sum(sample_counts(recs, masks)) * len(weights)
     pb = _Problem(model, recs, list(weights), weights, masks, n_res, lo, hi)
+
+    def result(theta: np.ndarray, J: np.ndarray, r: np.ndarray, **how: Any) -> FitResult:
+        """:func:`evaluate` at ``theta`` (Jacobian ``J``, scaled residual ``r``), timed."""
+        seconds = time.perf_counter() - t_start
+        return evaluate(model, theta, recs, weights, masks, J, r, seconds=seconds, **how)
+
     if not model.parameter_names:
-        return evaluate(
-            model,
-            x0,
-            recs,
-            weights,
-            masks,
-            np.zeros((n_res, 0)),
-            pb.fun(x0),
-            message="no free parameters",
-            nfev=1,
-            seconds=time.perf_counter() - t_start,
-        )
+        return result(x0, np.zeros((n_res, 0)), pb.fun(x0), message="no free parameters", nfev=1)
     jac_model = model.jacobian_model()
     x0 = _refined_start(pb, x0, span)
     # the single-row residual first (in _solve), then the batched probe: a model that
@@ -571,19 +566,8 @@ def fit(
         # the twin's sensitivities are close enough to steer the fit, not to report:
         # standard errors (and the residual basis of the signatures) use the model's own
         J = pb.jac(theta, model)
-    return evaluate(
-        model,
-        theta,
-        recs,
-        weights,
-        masks,
-        J,
-        np.asarray(sol.fun, float),
-        success=bool(sol.success),
-        message=str(sol.message),
-        nfev=int(sol.nfev),
-        seconds=time.perf_counter() - t_start,
-    )
+    how = {"success": bool(sol.success), "message": str(sol.message), "nfev": int(sol.nfev)}
+    return result(theta, J, np.asarray(sol.fun, float), **how)
 
 
 def _refined_start(pb: _Problem, x0: np.ndarray, span: np.ndarray) -> np.ndarray:

@@ -92,15 +92,8 @@ def fit_beside_drift(
                 coef, *_ = np.linalg.lstsq(basis[ok], r[ok], rcond=None)
                 outputs[c] = np.asarray(rec.outputs[c], float) - basis @ coef
             new.append(rec.with_outputs({**rec.outputs, **outputs}) if outputs else rec)
-        corrected = new
-        res = fit(
-            model,
-            corrected,
-            masks,
-            theta0=dict(zip(res.names, res.theta, strict=True)),
-            scales=scales,
-            max_nfev=budget,
-        )
+        corrected, start = new, dict(zip(res.names, res.theta, strict=True))
+        res = fit(model, corrected, masks, theta0=start, scales=scales, max_nfev=budget)
     res.extra["drift_corrected"] = corrected
     return res
 

@@ -31,14 +31,8 @@ def without_element(current: FitResult, name: str, sp: Split, budget: int) -> Fi
             f"holds {[e.name for e in current.model.effects]}"
         )
     model, theta0 = reduced(current, {name})
-    return fit(
-        model,
-        sp.fit_recordings,
-        sp.fit_masks,
-        theta0=theta0,
-        scales=current.scales,
-        max_nfev=budget,
-    )
+    recs, masks = sp.fit_recordings, sp.fit_masks
+    return fit(model, recs, masks, theta0=theta0, scales=current.scales, max_nfev=budget)
 
 
 def reduced(current: FitResult, names: Collection[str]) -> tuple[Any, dict[str, float]]:
