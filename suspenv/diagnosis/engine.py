@@ -196,18 +196,9 @@ class Diagnosis:
         return e.with_params({k: float(np.ravel(v)[0]) for k, v in e.params.items()})
 
     def to_dict(self) -> dict[str, Any]:
-        return {
-            "recording": self.recording,
-            "family": self.family,
-            "model": self.model,
-            "holdout": self.holdout,
-            "channel": self.channel,
-            "verdict": self.verdict,
-            "confident": self.confident,
-            "unexplained": self.unexplained,
-            "headline": self.headline,
-            "assumptions": self.assumptions,
-            "evidence": self.evidence,
+        plain: tuple[str, ...] = ("recording", "family", "model", "holdout", "channel", "verdict")
+        plain += ("confident", "unexplained", "headline", "assumptions", "evidence")
+        return {k: getattr(self, k) for k in plain} | {
             "rule": self.rule.to_dict(),
             "named": [
                 {k: getattr(h, k) for k in ("kind", "location", "candidate", "family", "words")}

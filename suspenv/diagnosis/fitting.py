@@ -199,11 +199,8 @@ def residuals(
     for i, rec in enumerate(recordings):
         pred = model.simulate(theta, rec)
         m = None if masks is None else masks[i]
-        r = {}
-        for c in channels:
-            d = np.asarray(rec.outputs[c], float) - np.asarray(pred[c], float)
-            r[c] = d if m is None else d[..., m]
-        out.append(r)
+        d = {c: np.asarray(rec.outputs[c], float) - np.asarray(pred[c], float) for c in channels}
+        out.append(d if m is None else {c: v[..., m] for c, v in d.items()})
     return out
 
 
@@ -221,9 +218,7 @@ def lag1_autocorrelation(r: np.ndarray) -> float:
     """Sample lag-1 autocorrelation of a residual series (0 for fewer than 3 samples)."""
     r = np.asarray(r, float) - np.mean(r)
     den = float(np.dot(r, r))
-    if r.size < 3 or den <= 0.0:
-        return 0.0
-    return float(np.dot(r[1:], r[:-1]) / den)
+    return 0.0 if r.size < 3 or den <= 0.0 else float(np.dot(r[1:], r[:-1]) / den)
 
 
 def ar1_effective_size(n: float, rho: float) -> float:

@@ -140,6 +140,7 @@ class Hypothesis:
         """The hypothesis of a refit ``refit`` (``parent`` plus the element), whose
         element is named ``refit.extra["effect"]["name"]``."""
         lr = comparison.lr
+        dbic = corrected_delta_bic(lr.statistic_corrected, lr.dof, parent.n_samples)
         return cls(
             kind=kind,
             location=location,
@@ -152,9 +153,7 @@ class Hypothesis:
             lr_statistic_corrected=lr.statistic_corrected,
             lr_dof=lr.dof,
             p_value_corrected=lr.p_value_corrected,
-            delta_bic_corrected=corrected_delta_bic(
-                lr.statistic_corrected, lr.dof, parent.n_samples
-            ),
+            delta_bic_corrected=dbic,
             heldout_reduction=comparison.heldout_reduction,
             params=element_params(refit),
             fit=refit,

@@ -172,14 +172,10 @@ def _counts(
     model: Any, recs: Sequence[RecordingLike], masks: Sequence[np.ndarray | None] | None
 ) -> tuple[int, int, int]:
     """(samples, observations, fewest channels per recording) of one part of the split."""
-    samples = obs = 0
-    fewest = 0
-    for i, (rec, n) in enumerate(zip(recs, sample_counts(recs, masks), strict=True)):
-        c = len(_fitted_channels(model, rec))
-        samples += n
-        obs += n * c
-        fewest = c if i == 0 else min(fewest, c)
-    return samples, obs, fewest
+    counts = sample_counts(recs, masks)
+    chans = [len(_fitted_channels(model, rec)) for rec in recs]
+    obs = sum(n * c for n, c in zip(counts, chans, strict=True))
+    return sum(counts), obs, min(chans, default=0)
 
 
 def element_parameters(candidate: str) -> int:
@@ -224,10 +220,8 @@ def _check_samples(setup: Setup, max_effects: int) -> None:
     if obs_fit >= need_fit and obs_held >= MIN_HELDOUT_OBS:
         return
     total = sum(len(r.time) for r in sp.recordings())
-    per_fit = max(c_fit, 1)
-    per_held = max(c_held, 1)
-    fit_samples = math.ceil(need_fit / per_fit)
-    held_samples = math.ceil(MIN_HELDOUT_OBS / per_held)
+    fit_samples = math.ceil(need_fit / max(c_fit, 1))
+    held_samples = math.ceil(MIN_HELDOUT_OBS / max(c_held, 1))
     shared = sp.fit_masks is not None and sp.heldout_masks is not None
     if shared and n_fit > 0 and n_held > 0:
         frac = n_fit / (n_fit + n_held)

@@ -249,9 +249,7 @@ def _segments(fit: FitResult, sp: Split) -> list[Segment]:
 
 def effect_location(model: DiagnosableModel, kind: str) -> str:
     """Where a force effect of ``kind`` lives in ``model`` (sensor effects: "")."""
-    if make_effect(kind).spec.role != "force":
-        return ""
-    return str(model.location or "")
+    return str(model.location or "") if make_effect(kind).spec.role == "force" else ""
 
 
 def _score_round(

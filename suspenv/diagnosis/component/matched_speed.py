@@ -328,14 +328,8 @@ def speed_groups(
     groups: list[SpeedGroup] = []
     used: set[int] = set()
     for r in sides[-1]:
-        match = next(
-            (
-                b
-                for b in sides[1]
-                if id(b) not in used and abs(b.speed - r.speed) <= match_tol * r.speed
-            ),
-            None,
-        )
+        near = [b for b in sides[1] if abs(b.speed - r.speed) <= match_tol * r.speed]
+        match = next((b for b in near if id(b) not in used), None)
         if match is None or abs(match.position + r.position) > POSITION_TOL * half_stroke:
             continue
         used.update((id(match), id(r)))

@@ -154,12 +154,9 @@ def centre_passes(x: np.ndarray, band: float = CYCLE_BAND) -> int:
 
 
 def _part_passes(recs: Sequence[RecordingLike], masks: Sequence[np.ndarray | None] | None) -> int:
-    total = 0
-    for i, rec in enumerate(recs):
-        x = motion(rec)[0]
-        m = None if masks is None else masks[i]
-        total += centre_passes(x if m is None else x[m])
-    return total
+    xs = [motion(rec)[0] for rec in recs]
+    parts = [x if masks is None or masks[i] is None else x[masks[i]] for i, x in enumerate(xs)]
+    return sum(centre_passes(x) for x in parts)
 
 
 def check_cycles(setup: Setup) -> None:

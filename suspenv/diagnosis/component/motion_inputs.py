@@ -138,9 +138,7 @@ def sampling_rate(t: np.ndarray) -> float | None:
     if dt.size < MIN_SAMPLES or not np.all(dt > 0):
         return None
     step = float(np.median(dt))
-    if float(np.max(np.abs(dt - step))) > 0.01 * step:
-        return None
-    return 1.0 / step
+    return None if float(np.max(np.abs(dt - step))) > 0.01 * step else 1.0 / step
 
 
 #: fewest harmonics of a recording's motion cycle that a cut-off must keep for its outputs

@@ -267,24 +267,21 @@ def settle(
 def location_ambiguities(win: Hypothesis, ranked: Sequence[Hypothesis]) -> list[Ambiguity]:
     """Other locations of the winner's kind that the data cannot tell apart from it
     (significant, corrected LR statistics alike: :func:`~suspenv.diagnosis.decision.fit_alike`)."""
-    out = []
-    for h in ranked:
-        if h is win or h.kind != win.kind or not h.significant:
-            continue
-        if fit_alike(win.lr_statistic_corrected, h.lr_statistic_corrected):
-            out.append(
-                Ambiguity(
-                    win.candidate,
-                    h.candidate,
-                    win.words,
-                    h.words,
-                    "a K&C test that loads the candidate locations differently (lateral or "
-                    "longitudinal force at the contact patch, or a top-mount load test)",
-                    "in vertical travel the top mount sits in series with the spring, so its "
-                    "hysteresis barely changes the wheel load",
-                )
-            )
-    return out
+    test = (
+        "a K&C test that loads the candidate locations differently (lateral or "
+        "longitudinal force at the contact patch, or a top-mount load test)"
+    )
+    reason = (
+        "in vertical travel the top mount sits in series with the spring, so its "
+        "hysteresis barely changes the wheel load"
+    )
+    alike = [
+        h
+        for h in ranked
+        if h is not win and h.kind == win.kind and h.significant
+        if fit_alike(win.lr_statistic_corrected, h.lr_statistic_corrected)
+    ]
+    return [Ambiguity(win.candidate, h.candidate, win.words, h.words, test, reason) for h in alike]
 
 
 def curves_in_noise_units(

@@ -82,10 +82,8 @@ def knc_story(diagnosis: Diagnosis) -> KncStory:
             )
         after.update(now)
     for (test, ch), left in after.items():
-        if not ch.endswith("_left") or (test, ch[:-5] + "_right") not in after:
-            continue
-        right = after[(test, ch[:-5] + "_right")]
-        if max(left, right) > SIDE_RATIO * max(min(left, right), 1.0):
+        right = after.get((test, ch[:-5] + "_right")) if ch.endswith("_left") else None
+        if right is not None and max(left, right) > SIDE_RATIO * max(min(left, right), 1.0):
             story.sides_differ.append(
                 {"test": test, "channel": ch[:-5], "left": left, "right": right}
             )

@@ -227,8 +227,7 @@ class MinibusRideAdapter(ComponentModel):
         )
         acc_seat = seat_floor
         if seat:
-            k = np.broadcast_to(np.atleast_1d(seat[0].params["k"]), (B,))
-            c = np.broadcast_to(np.atleast_1d(seat[0].params["c"]), (B,))
+            k, c = (np.broadcast_to(np.atleast_1d(seat[0].params[p]), (B,)) for p in ("k", "c"))
             acc_seat = np.vstack(
                 [seat_mount_response(seat_floor[i], dt, k[i], c[i]) for i in range(B)]
             )
