@@ -53,7 +53,7 @@ from benchmarks.component_truth import (
 from suspenv.core.errors import ValidationError
 from suspenv.core.jsonable import to_jsonable
 from suspenv.diagnosis.engine import Diagnosis, diagnose, make_family
-from suspenv.diagnosis.hypothesis import family_of
+from suspenv.diagnosis.hypothesis import family_of, split_candidate
 from suspenv.measurements.catalog import REAL_CASES, real_data_dir
 from suspenv.reports.diagnosis import write_diagnosis_report
 
@@ -119,7 +119,12 @@ def score_case(diag: Diagnosis, case: Case) -> dict[str, Any]:
     errs = param_errors(diag, case)
     # kinds the first named effect was reported inseparable from ("cannot separate A from
     # B with this data; test T would")
-    inseparable = [k for a in diag.ambiguities if named[:1] == [a.a] for k in str(a.b).split("+")]
+    inseparable = [
+        split_candidate(k)[0]
+        for a in diag.ambiguities
+        if named[:1] == [split_candidate(a.a)[0]]
+        for k in str(a.b).split("+")
+    ]
     row: dict[str, Any] = {
         "case": case.truth.case_id,
         "family": case.truth.family,

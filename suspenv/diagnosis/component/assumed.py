@@ -5,9 +5,9 @@ estimates instead of assuming.
   imposed road fix the masses only up to a common scale (scaling the masses, spring,
   damping and tyre rates alike leaves both outputs unchanged), so the sprung mass is
   taken as declared or :data:`~suspenv.models.components.quarter_car` 's default, and
-  an undeclared unsprung mass is fitted with the baseline
-  (:func:`estimate_unsprung_mass`): a wrong mass ratio would otherwise leave a residual
-  that a sensor gain takes up. A declared actuator force fixes the scale; both masses
+  an undeclared unsprung mass is fitted with the baseline, and again with each element
+  named (:func:`estimate_unsprung_mass`): a wrong mass ratio would otherwise leave a
+  residual that a sensor gain takes up. A declared actuator force fixes the scale; both masses
   are then still only as good as declared.
 * **Signs**: a damper's force dissipates power, ``mean(F v) > 0`` in suspenv's signs
   (positive stroke compression, positive force pushing back against it). Where the
@@ -27,7 +27,7 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from suspenv.diagnosis.component.motion import motion
-from suspenv.diagnosis.fitting import fit
+from suspenv.diagnosis.fitting import FitResult, fit
 from suspenv.diagnosis.protocols import RecordingLike
 from suspenv.diagnosis.split import Split
 from suspenv.models.components.base import ComponentModel
@@ -36,23 +36,28 @@ from suspenv.models.components.base import ComponentModel
 MASS_RATIO_RANGE = (0.03, 0.6)
 
 
-def estimate_unsprung_mass(model: ComponentModel, sp: Split, max_nfev: int) -> ComponentModel:
-    """``model`` with its unsprung mass ``m_u`` [kg] fitted with the baseline on the fit
-    data of ``sp``: the ``m_u`` whose baseline fit has the largest log-likelihood, found by
-    a bounded scalar search over ``log m_u`` (:data:`MASS_RATIO_RANGE` of ``m_s``)."""
+def estimate_unsprung_mass(
+    model: ComponentModel, sp: Split, max_nfev: int, theta0: np.ndarray | None = None
+) -> FitResult:
+    """The fit of ``model`` on the fit data of ``sp`` with its unsprung mass ``m_u`` [kg]
+    fitted too: the ``m_u`` whose fit (from ``theta0`` where given) has the largest
+    log-likelihood, by a bounded scalar search over ``log m_u`` (:data:`MASS_RATIO_RANGE`
+    of ``m_s``)."""
     opts = dict(model.options)
     m_s = float(opts["m_s"])
 
-    def with_mass(log_mu: float) -> ComponentModel:
-        return type(model)(model.effects, **{**opts, "m_u": float(np.exp(log_mu))})
-
-    def cost(log_mu: float) -> float:
-        base: Any = with_mass(log_mu)
-        return -fit(base, sp.fit_recordings, sp.fit_masks, max_nfev=max_nfev).log_likelihood()
+    def fitted(log_mu: float) -> FitResult:
+        with_mass: Any = type(model)(model.effects, **{**opts, "m_u": float(np.exp(log_mu))})
+        return fit(with_mass, sp.fit_recordings, sp.fit_masks, theta0, max_nfev=max_nfev)
 
     lo, hi = (float(np.log(r * m_s)) for r in MASS_RATIO_RANGE)
-    best = minimize_scalar(cost, bounds=(lo, hi), method="bounded", options={"xatol": 0.01})
-    return with_mass(float(best.x))
+    best = minimize_scalar(
+        lambda x: -fitted(x).log_likelihood(),
+        bounds=(lo, hi),
+        method="bounded",
+        options={"xatol": 0.01},
+    )
+    return fitted(float(best.x))
 
 
 def mass_words(model: ComponentModel, declared: Sequence[str], estimated: bool) -> list[str]:
@@ -66,7 +71,7 @@ def mass_words(model: ComponentModel, declared: Sequence[str], estimated: bool) 
         )
     if estimated:
         out.append(
-            f"the unsprung mass m_u = {m_u:.4g} kg (not declared; fitted with the baseline, "
+            f"the unsprung mass m_u = {m_u:.4g} kg (not declared; fitted with the model, "
             f"m_u / m_s = {m_u / m_s:.3g})"
         )
     return out

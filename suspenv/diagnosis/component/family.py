@@ -11,9 +11,10 @@ plus effects of :mod:`suspenv.models.effects`). Its pieces of the one loop
 * **screen**: signature scores of each effect family on the residual
   (:mod:`suspenv.diagnosis.component.signatures`); a model with a force view (the quarter car's
   suspension force through its body equation) is screened in it for force effects,
-  and in every recorded channel for sensor errors; the candidates of the
-  ``screen_families`` strongest families are refitted (plus the strongest sensor
-  family when a force view is used: the two scores are not on one scale);
+  and in every recorded channel for sensor errors (a sensor error on each recorded
+  channel is a candidate of its own, :func:`located_candidates`); the candidates of
+  the ``screen_families`` strongest families are refitted (with a force view, every
+  sensor placement too: the two scores are not on one scale);
 * **refit**: the element added with start values read off its signature
   (:func:`suspenv.diagnosis.component.refit.refit_with`), then the refit checks
   (:meth:`ComponentFamily.refit_checks`);
@@ -31,7 +32,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -98,6 +99,7 @@ from suspenv.diagnosis.hypothesis import (
     Ambiguity,
     Hypothesis,
     Withdrawal,
+    candidate_name,
     family_of,
     split_candidate,
 )
@@ -257,7 +259,8 @@ def _score_round(
 ) -> tuple[list[Signature], bool]:
     """Signature scores of one round, strongest first (in the force view where the model
     has one: module docstring), and whether the model's force view was used."""
-    fams_needed = [f for f in SIGNATURE_KINDS if f in {family_of(k) for k in cands}]
+    open_fams = {family_of(split_candidate(k)[0]) for k in cands}
+    fams_needed = [f for f in SIGNATURE_KINDS if f in open_fams]
     fams_needed = fams_needed or list(SIGNATURE_KINDS)
     sset = _force_view_signal_set(current, sp)
     if sset is None:
@@ -265,24 +268,34 @@ def _score_round(
     force_fams = [f for f in fams_needed if f not in SENSOR_FAMILIES]
     sensor_fams = [f for f in fams_needed if f in SENSOR_FAMILIES]
     sigs = score_signatures(sset, force_fams) if force_fams else []
-    best: dict[str, Signature] = {}
     for ch in current.channels if sensor_fams else []:
-        # each recorded channel may carry its own sensor error: keep the strongest of
-        # those a sensor can make (a lag, not a lead)
+        # each recorded channel may carry its own sensor error (its own candidates)
         for sig in score_signatures(_signal_set(current, sp, ch), sensor_fams):
             sig.evidence = f"{sig.evidence} in {ch}"
             sig.channel = ch
-            if sig.kind not in best or _sensor_rank(sig) > _sensor_rank(best[sig.kind]):
-                best[sig.kind] = sig
-    return sorted(sigs + list(best.values()), key=lambda g: -g.score), True
+            sigs.append(sig)
+    return sorted(sigs, key=lambda g: -g.score), True
 
 
-def _sensor_rank(sig: Signature) -> tuple[bool, float]:
-    """A sensor signature's rank among the recorded channels: first whether a sensor can
-    leave it (a first-order lag delays its signal, ``lag_s > 0``; a lead in one channel
-    is what a fit leaves when it bends the model to a lag in another), then its score."""
-    possible = sig.kind != "sensor_lag" or sig.numbers.get("lag_s", 0.0) > 0.0
-    return possible, sig.score
+def _sensor_possible(sig: Signature | None) -> bool:
+    """Whether a sensor can leave the signature ``sig`` in its channel: a first-order lag
+    delays its signal (``lag_s > 0``); a lead in one channel is what a fit leaves when it
+    bends the model to a lag in another."""
+    return sig is not None and (sig.kind != "sensor_lag" or sig.numbers.get("lag_s", 0.0) > 0.0)
+
+
+def located_candidates(cands: Sequence[str], channels: Sequence[str]) -> list[str]:
+    """The candidates with each sensor error (a bare kind) on each of the recorded
+    ``channels`` where there are several (``sensor_lag@body_acceleration``, ...): an
+    error sits on one sensor, and each placement is a candidate of its own."""
+    if len(channels) < 2:
+        return list(cands)
+    out: list[str] = []
+    for c in cands:
+        kind, loc = split_candidate(c)
+        sensor = not loc and family_of(kind) in SENSOR_FAMILIES
+        out += [candidate_name(kind, ch) for ch in channels] if sensor else [c]
+    return out
 
 
 def _structural_ambiguity(
@@ -335,8 +348,6 @@ class ComponentFamily(OptionalSteps):
     #: the largest white-noise standard deviation of the recorded displacement [m] in the
     #: last :meth:`prepare` (0: not measured)
     displacement_noise_m: float = field(default=0.0, init=False)
-    #: sensor signature family -> the recorded channel it was strongest in (last screen)
-    sensor_channels: dict[str, str] = field(default_factory=dict, init=False)
     #: recorded channel -> the test where a pure time delay beat a refitted sensor lag
     #: decisively in the last diagnosis (:mod:`~suspenv.diagnosis.component.delay`)
     delay_tests: dict[str, dict[str, Any]] = field(default_factory=dict, init=False)
@@ -348,8 +359,9 @@ class ComponentFamily(OptionalSteps):
     _round: int = field(default=0, init=False, repr=False)
     #: the signs found where none was declared (last :meth:`prepare`), in words
     sign_words: list[str] = field(default_factory=list, init=False)
-    #: the last :meth:`prepare` fitted the quarter car's unsprung mass with the baseline
-    mass_estimated: bool = field(default=False, init=False)
+    #: the model whose quarter car's unsprung mass was last fitted (the baseline in
+    #: :meth:`prepare`, then each winner in :meth:`settle`; None: the mass is declared)
+    mass_model: ComponentModel | None = field(default=None, init=False)
     #: the model :meth:`_delays_left` last read and its delays left
     _delays: tuple[FitResult | None, list[DelayLeft]] = field(
         default=(None, []), init=False, repr=False
@@ -403,20 +415,39 @@ class ComponentFamily(OptionalSteps):
             if held_recs is not None:
                 held = held_recs
         known = baseline_families(model)
-        cands = [
-            c
-            for c in (candidates if candidates is not None else model.candidate_effects)
-            if family_of(c) not in known
-        ]
+        cands = located_candidates(
+            [
+                c
+                for c in (candidates if candidates is not None else model.candidate_effects)
+                if family_of(split_candidate(c)[0]) not in known
+            ],
+            model.output_channels,
+        )
         if held is None:
             held = default_holdout(recs)
         sp = split(recs, held)
         model = drift_over_fit(model, sp)
-        self.mass_estimated = False
+        self.mass_model = None
         if self.rig is not None and "m_u" in model.options and "m_u" not in self.rig.known:
-            model = estimate_unsprung_mass(model, sp, self.budget)
-            self.mass_estimated = True
+            self.mass_model = cast(
+                ComponentModel, estimate_unsprung_mass(model, sp, self.budget).model
+            )
+            model = self.mass_model
         return Setup(sp, model, cands)
+
+    def settle(self, winner: FitResult, setup: Setup) -> FitResult | None:
+        """The winner with the quarter car's undeclared unsprung mass fitted again beside
+        the element (:func:`~.assumed.estimate_unsprung_mass`): the baseline's mass took up
+        part of what the element explains, and a mass ratio left wrong reads as a sensor
+        gain in the next round. None where the mass is declared or the fit is no better."""
+        if self.mass_model is None or not isinstance(winner.model, ComponentModel):
+            return None
+        settled = estimate_unsprung_mass(winner.model, setup.split, self.budget, winner.theta)
+        if not settled.log_likelihood() > winner.log_likelihood():
+            return None
+        settled.extra["effect"] = winner.extra["effect"]
+        self.mass_model = cast(ComponentModel, settled.model)
+        return settled
 
     def check_data(self, setup: Setup) -> None:
         """The motion reverses often enough (:func:`.motion.check_cycles`)."""
@@ -459,7 +490,9 @@ class ComponentFamily(OptionalSteps):
         said = list(self.sign_words)
         model = setup.model
         if self.rig is not None and isinstance(model, ComponentModel) and "m_s" in model.options:
-            said += mass_words(model, list(self.rig.known), self.mass_estimated)
+            said += mass_words(
+                self.mass_model or model, list(self.rig.known), self.mass_model is not None
+            )
         return said
 
     def _motion(
@@ -582,26 +615,26 @@ class ComponentFamily(OptionalSteps):
         self._round = round_
         channel = current.main_channel()
         sigs, viewed = _score_round(current, setup.split, channel, open_candidates)
-        open_fams = {family_of(k) for k in open_candidates}
-        keep = int(self.screen_families or SCREEN_FAMILIES)
-        fams = [s.kind for s in sigs if s.kind in open_fams][:keep]
-        if viewed:
-            # the strongest sensor family too (module docstring: not on the force view's scale)
-            fams += [s.kind for s in sigs if s.kind in SENSOR_FAMILIES and s.kind in open_fams][:1]
-            fams = list(dict.fromkeys(fams))
-        sig_of = {s.kind: s for s in sigs}
-        # the recorded channel each sensor family was found in (its refit and words use it)
-        self.sensor_channels = {s.kind: s.channel for s in sigs if s.channel}
-        chosen = [(k, sig_of.get(family_of(k))) for k in open_candidates if family_of(k) in fams]
+        sig_of = {(s.kind, s.channel): s for s in reversed(sigs)}  # the strongest per key
+        open_fams = {family_of(split_candidate(k)[0]) for k in open_candidates}
+        # with a force view the sensor scores are not on its scale (module docstring):
+        # every placement of a sensor error that a sensor can leave is refitted too
+        apart = SENSOR_FAMILIES if viewed else ()
+        ranked = dict.fromkeys(s.kind for s in sigs if s.kind in open_fams and s.kind not in apart)
+        fams = set(list(ranked)[: int(self.screen_families or SCREEN_FAMILIES)])
+        chosen = []
+        for k in open_candidates:
+            kind, loc = split_candidate(k)
+            sig = sig_of.get((family_of(kind), loc)) or sig_of.get((family_of(kind), ""))
+            if family_of(kind) in fams or (family_of(kind) in apart and _sensor_possible(sig)):
+                chosen.append((k, sig))
         return Screening(sigs, chosen)
 
     def refit(
         self, current: FitResult, candidate: str, signature: SignatureLike | None, setup: Setup
     ) -> FitResult:
-        location = effect_location(setup.model, candidate)
-        if not location and isinstance(signature, Signature) and signature.channel:
-            # a sensor error sits on the recorded channel its signature was found in
-            location = signature.channel
+        kind, location = split_candidate(candidate)
+        location = location or effect_location(setup.model, kind)
         if split_candidate(candidate)[0] == "sensor_lag":
             # a sensor lag's channel (the model's first output unless located)
             refused = self.delay_tests.get(location or setup.model.output_channels[0])
@@ -609,7 +642,7 @@ class ComponentFamily(OptionalSteps):
                 check_lag_not_delay(refused)
         return refit_with(
             current,
-            candidate,
+            kind,
             setup.split.fit_recordings,
             setup.split.fit_masks,
             signature if isinstance(signature, Signature) else None,
@@ -657,8 +690,8 @@ class ComponentFamily(OptionalSteps):
     def words(self, candidate: str, setup: Setup) -> str:
         """Engineering words in the device's terms, e.g. "Coulomb friction in the guide",
         "yield force of the MR fluid (...)" (the model's ``device_words`` first)."""
-        effect = make_effect(candidate, location=effect_location(setup.model, candidate))
-        channel = self.sensor_channels.get(family_of(candidate), "")
+        kind, channel = split_candidate(candidate)
+        effect = make_effect(kind, location=channel or effect_location(setup.model, kind))
         if effect.spec.role == "sensor" and channel:
             return f"{effect.spec.words} on the {channel} channel"
         if isinstance(setup.model, ComponentModel):
