@@ -140,8 +140,8 @@ SCREEN_FAMILIES = 4
 MAX_NFEV = 200
 #: per model family, settings that replace those defaults: the quarter car is simulated
 #: by a time integrator, so each refit gets fewer evaluations (it starts from an
-#: equation-error fit of the suspension force) and the two strongest signature
-#: families are refitted per round (plus the strongest sensor family). These are the
+#: equation-error fit of the suspension force) and the two strongest force signature
+#: families are refitted per round (plus each channel's sensor errors). These are the
 #: settings its benchmark rows were measured with, so `suspenv diagnose` uses them too
 FAMILY_SETTINGS: dict[str, dict[str, int]] = {
     "quarter_car_rig": {"max_nfev": 15, "screen_families": 2},
