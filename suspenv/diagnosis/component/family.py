@@ -740,8 +740,8 @@ class ComponentFamily(OptionalSteps):
     def _gain_curvature(self, ctx: Context) -> Conclusion | None:
         """Each channel a sensor gain is named on, judged beside a reading error that
         grows with the square of the signal (:mod:`~suspenv.diagnosis.component.transducer`):
-        a lead sentence where one remains, a sentence and no confidence where it is
-        significant but not material."""
+        a lead sentence where one remains, a sentence and no confidence where the
+        held-out samples do not refute it (not material, or not confirmed)."""
         final = ctx.outcome.current
         gains = [e for e in final.model.effects if e.kind == "sensor_gain"]
         if not gains or "sensor_gain" not in {h.kind for h in ctx.outcome.named}:

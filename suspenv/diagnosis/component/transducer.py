@@ -12,11 +12,19 @@ relative error at full scale beyond the named gain; its standard error is widene
 residual's lag-1 correlation (AR(1) effective sample size). It is physics left outside
 the library when, as every probe beyond the library is judged
 (:func:`~suspenv.diagnosis.component.residual_left.beyond_library`), its two-sided p
-is under the rule's alpha, the coefficients fitted cut the held-out error by the rule's
-least gain, and the part it takes is material against what it leaves
-(:data:`~suspenv.diagnosis.component.residual_left.MATERIAL_RATIO`). Where the first
-two hold and the third does not, the error is real but small beside the noise: the gain
-is named, not with confidence, as the library's nearest element to such a transducer.
+is under the rule's alpha, the held-out samples confirm it, and the part it takes is
+material against what it leaves
+(:data:`~suspenv.diagnosis.component.residual_left.MATERIAL_RATIO`). The held-out
+samples judge the change the coefficients fitted make there, ``d``: the held-out
+residual's coefficient on it, both about their held-out means (a sensor zero that
+drifted past the fit samples is a level, not the shape), is 1 for a real error and 0
+for one fitted to noise, and a
+one-sided normal test at alpha (standard error widened as above) places it above 1/2
+(confirmed) or below (refuted); where the held-out samples span too little of the signal
+to place it, it is neither. Where the p holds and the held-out samples do not refute it,
+the error may be real: the gain is named, not with confidence, as the library's nearest
+element to such a transducer (a refit of a gain on a few held-out cycles of small
+amplitude cannot tell, and a confident name would hide it).
 """
 
 from __future__ import annotations
@@ -47,9 +55,14 @@ class CurvatureLeft(Record):
         z: that coefficient over its AR(1)-widened standard error.
         p_value: its two-sided p.
         heldout_reduction: relative drop of the held-out RMS error with it.
+        heldout_coefficient: the held-out residual's coefficient on the change the
+            coefficients make there (1: real, 0: fitted to noise), and its standard error.
         structured_ratio: RMS of the part it takes over RMS of what it leaves (fitted).
-        significant: the p and held-out rules hold: the gain changes with the size.
-        remains: and the part is material: a reading error outside the library.
+        confirmed: the held-out samples confirm it (coefficient above 1/2).
+        significant: the p holds and the held-out samples do not refute it: the gain may
+            change with the size.
+        remains: the p holds, the held-out samples confirm it and the part is material:
+            a reading error outside the library.
     """
 
     channel: str
@@ -57,7 +70,9 @@ class CurvatureLeft(Record):
     z: float
     p_value: float
     heldout_reduction: float
+    heldout_coefficient: tuple[float, float]
     structured_ratio: float
+    confirmed: bool
     significant: bool
     remains: bool
 
@@ -72,7 +87,9 @@ class CurvatureLeft(Record):
         """One sentence for the verdict."""
         evidence = (
             f"{100 * self.error_at_full_scale:+.2g} % at full scale, z = {self.z:.3g}, "
-            f"p = {self.p_value:.2g}, held-out error {-100 * self.heldout_reduction:+.1f} %, "
+            f"p = {self.p_value:.2g}, held-out error {-100 * self.heldout_reduction:+.1f} % "
+            f"(coefficient there {self.heldout_coefficient[0]:.2f} +- "
+            f"{self.heldout_coefficient[1]:.2g}, 1 for a real error), "
             f"{self.structured_ratio:.2g} x the residual it leaves"
         )
         test = "a calibration at two amplitudes would tell a gain from it"
@@ -83,10 +100,15 @@ class CurvatureLeft(Record):
                 f"square of its size (a non-linear transducer; {evidence}); {test}"
             )
         if self.significant:
+            why = (
+                f"under {MATERIAL_RATIO:.2g} x, not material beside the noise"
+                if self.confirmed
+                else "the held-out samples cannot confirm it"
+            )
             return (
-                f"the sensor gain named on {self.channel} changes with the signal's size "
-                f"({evidence}; under {MATERIAL_RATIO:.2g} x, not material beside the noise): "
-                f"it may stand for a non-linear transducer, not in the library; {test}"
+                f"the sensor gain named on {self.channel} may change with the signal's size "
+                f"({evidence}; {why}): it may stand for a non-linear transducer, not in the "
+                f"library; {test}"
             )
         return f"the {self.channel} gain does not change with the signal's size ({evidence})"
 
@@ -131,10 +153,28 @@ def curvature_left(final: FitResult, sp: Split, channel: str, rule: DecisionRule
     ratio = float(np.sqrt(max(float(e0 @ e0) / float(e @ e) - 1.0, 0.0))) if e @ e > 0 else 0.0
     hr, hp = _parts(final, sp.heldout_recordings, sp.heldout_masks, channel)
     hx = design(hp)
-    before = float(np.sqrt(np.mean((hr - hx[:, :2] @ part) ** 2)))
-    after = float(np.sqrt(np.mean((hr - hx @ full) ** 2)))
-    gain = 1.0 - after / before if before > 0 else 0.0
-    significant = bool(p_value < rule.alpha and gain >= rule.min_heldout_gain)
-    remains = significant and ratio > MATERIAL_RATIO
-    error = float(full[2]) / scale
-    return CurvatureLeft(channel, error, z, p_value, gain, ratio, significant, remains)
+    before, d = hr - hx[:, :2] @ part, hx @ full - hx[:, :2] @ part
+    gain = 1.0 - float(np.sqrt(np.mean((before - d) ** 2) / max(np.mean(before**2), 1e-300)))
+    beta, beta_se = _coefficient(before, d)
+    z_crit = float(stats.norm.isf(rule.alpha))
+    significant = bool(p_value < rule.alpha and (beta - 0.5) / beta_se > -z_crit)
+    confirmed = bool((beta - 0.5) / beta_se > z_crit)
+    remains = significant and confirmed and ratio > MATERIAL_RATIO
+    error, coefficient = float(full[2]) / scale, (beta, beta_se)
+    return CurvatureLeft(
+        channel, error, z, p_value, gain, coefficient, ratio, confirmed, significant, remains
+    )
+
+
+def _coefficient(r: np.ndarray, d: np.ndarray) -> tuple[float, float]:
+    """The coefficient of ``r`` on ``d``, both about their means, and its standard error,
+    widened by the AR(1) effective sample size of what it leaves (inf where ``d`` is
+    nil)."""
+    r, d = r - np.mean(r), d - np.mean(d)
+    dd = float(d @ d)
+    if not dd > 1e-24 * max(float(r @ r), 1e-300):
+        return 0.0, float("inf")
+    beta = float(r @ d) / dd
+    e = r - beta * d
+    n_eff = max(ar1_effective_size(e.size, lag1_autocorrelation(e)), 2.0)
+    return beta, float(np.sqrt(float(e @ e) / n_eff / dd))
