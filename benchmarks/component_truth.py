@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from suspenv.core.errors import ValidationError
+from suspenv.core.errors import EvaluationError, ValidationError
 from suspenv.diagnosis.component.rig import DRIFT, baseline_families, baseline_model, describe_rig
 from suspenv.diagnosis.hypothesis import family_of
 from suspenv.measurements import Recording, save_recording
@@ -240,6 +240,9 @@ OUTSIDE_KINDS: dict[str, tuple[str, ...]] = {
     "friction_guide": ("cogging", "cubic_damping"),
     "quarter_car_rig": ("sensor_clipping", "transducer_nonlinearity"),
 }
+#: most draws of a case's effects (:func:`make_case`: a truth that cannot be simulated is
+#: drawn again)
+MAX_DRAWS = 5
 #: noise of the no-effect controls, by seed: white, coloured (AR(1), correlation time
 #: about 10 samples) and white plus a slow, curved zero drift
 CONTROL_NOISE = ("white", "coloured", "drift")
@@ -446,25 +449,33 @@ def make_case(
     sc = _scales(model, base, rec)
     pool = truth_pool(family)
     n_drawn = 0 if outside else n_effects
-    kinds = list(rng.choice(pool, size=n_drawn, replace=False)) if n_drawn else []
-    # two effects of one signature family would be one finding; redraw the second
-    while n_drawn == 2 and family_of(kinds[0]) == family_of(kinds[1]):
-        kinds[1] = str(rng.choice(pool))
-    effects = [draw_effect(str(k), rng, sc, base) for k in kinds]
-    # a sensor error sits on one of the recorded channels (the quarter car has two)
-    if len(model.output_channels) > 1:
-        effects = [
-            replace(e, location=str(rng.choice(model.output_channels)))
-            if e.spec.role == "sensor"
-            else e
-            for e in effects
-        ]
-    # the family's own element constants (e.g. the quarter car's friction width)
-    defaults = model.effect_defaults
-    effects = [e.with_params(defaults.get(e.kind, {})) for e in effects]
-    standard = _baseline_truth(family, rng, sc, base, rec)
-    truth_model = model.with_effects(standard + effects)
-    clean = _noise_free(truth_model, base, rec, effects, cond, sc)
+    # a draw whose truth cannot be simulated (a softening spring driven past its peak
+    # force: the suspension collapses) is no case: the effects are drawn again
+    for attempt in range(MAX_DRAWS):
+        kinds = list(rng.choice(pool, size=n_drawn, replace=False)) if n_drawn else []
+        # two effects of one signature family would be one finding; redraw the second
+        while n_drawn == 2 and family_of(kinds[0]) == family_of(kinds[1]):
+            kinds[1] = str(rng.choice(pool))
+        effects = [draw_effect(str(k), rng, sc, base) for k in kinds]
+        # a sensor error sits on one of the recorded channels (the quarter car has two)
+        if len(model.output_channels) > 1:
+            effects = [
+                replace(e, location=str(rng.choice(model.output_channels)))
+                if e.spec.role == "sensor"
+                else e
+                for e in effects
+            ]
+        # the family's own element constants (e.g. the quarter car's friction width)
+        defaults = model.effect_defaults
+        effects = [e.with_params(defaults.get(e.kind, {})) for e in effects]
+        standard = _baseline_truth(family, rng, sc, base, rec)
+        truth_model = model.with_effects(standard + effects)
+        try:
+            clean = _noise_free(truth_model, base, rec, effects, cond, sc)
+            break
+        except EvaluationError:
+            if attempt == MAX_DRAWS - 1:
+                raise
     effect_dicts = [e.to_dict() for e in effects]
     if outside:
         kind = str(rng.choice(OUTSIDE_KINDS[family]))
