@@ -190,8 +190,7 @@ class Diagnosis:
     def effect(self, kind: str) -> Any:
         """The fitted element of ``kind`` in the final model, its values set as numbers
         (None if absent; :meth:`~suspenv.diagnosis.fitting.FitResult.element`)."""
-        e = self.final_fit.element(kind)
-        if e is None:
+        if (e := self.final_fit.element(kind)) is None:
             return None
         return e.with_params({k: float(np.ravel(v)[0]) for k, v in e.params.items()})
 
@@ -345,8 +344,7 @@ def _round(run: _Run, state: Outcome, rnd: int) -> bool:
         return False
     win = ranked[0]
     assert win.fit is not None  # a significant hypothesis carries its refit
-    settled = fam.settle(win.fit, run.setup)
-    if settled is not None:
+    if (settled := fam.settle(win.fit, run.setup)) is not None:
         win.fit = settled
         win.params = win.own_params()
     state.named.append(win)
@@ -480,8 +478,7 @@ def make_family(name: str, **options: Any) -> DiagnosisFamily:
         maker = ComponentFamily
         options = {"model": name, **options}
     allowed = [f.name for f in fields(maker) if f.init]
-    unknown = sorted(set(options) - set(allowed))
-    if unknown:
+    if unknown := sorted(set(options) - set(allowed)):
         raise ValidationError(
             f"diagnosis family {name!r} has no option(s) {unknown}; its options are {allowed}"
         )

@@ -331,8 +331,7 @@ def evaluate(
     ``jacobian`` (NaN without one) and the scaled residual (computed when not given)."""
     theta, recs = np.asarray(theta, float), list(recs)
     channels = list(scales)
-    parts = _unstacked(scaled_residual, recs, channels, scales, masks)
-    if parts is None:
+    if (parts := _unstacked(scaled_residual, recs, channels, scales, masks)) is None:
         parts = residuals(model, theta, recs, channels, masks)
     ssr = {c: float(sum(np.sum(p[c] ** 2) for p in parts)) for c in channels}
     n = {c: int(sum(p[c].size for p in parts)) for c in channels}
@@ -569,8 +568,7 @@ def _refined_start(pb: _Problem, x0: np.ndarray, span: np.ndarray) -> np.ndarray
     """``x0``, or the model's cheap start (``model.refine_start``, e.g. an equation-error
     fit) kept strictly inside the bounds (``span``: the bounds' width) where it lowers the
     simulation residual."""
-    refined = pb.model.refine_start(x0, pb.recs, pb.masks)
-    if refined is None:
+    if (refined := pb.model.refine_start(x0, pb.recs, pb.masks)) is None:
         return x0
     x1 = np.clip(np.asarray(refined, float), pb.lo + 1e-6 * span, pb.hi - 1e-6 * span)
     return x1 if np.sum(pb.fun(x1) ** 2) < np.sum(pb.fun(x0) ** 2) else x0

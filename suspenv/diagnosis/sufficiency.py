@@ -182,8 +182,7 @@ def element_parameters(candidate: str) -> int:
     """Free parameters an element of ``candidate`` (``kind`` or ``kind@location``) adds."""
     from suspenv.models.effects.effect import effect_kinds
 
-    spec = effect_kinds().get(split_candidate(candidate)[0])
-    if spec is None:
+    if (spec := effect_kinds().get(split_candidate(candidate)[0])) is None:
         return DEFAULT_ELEMENT_PARAMETERS
     extra = HOST_ELEMENT_PARAMETERS if spec.host_parameters else 0
     return len(spec.free_parameter_names) + extra

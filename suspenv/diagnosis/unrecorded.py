@@ -275,8 +275,7 @@ def stretches_of(base: FitResult, setup: Setup, length: int) -> Stretches | None
     leave the lowest BIC summed over the recordings (None: no signal in every one)."""
     recs = setup.split.recordings()
     tried = {str(rec.name): _tried(base, setup, rec, length) for rec in recs}
-    common = set.intersection(*(set(t) for t in tried.values()))
-    if not common:
+    if not (common := set.intersection(*(set(t) for t in tried.values()))):
         return None
     name = min(sorted(common), key=lambda k: sum(t[k][0] for t in tried.values()))
     series = {r: t[name][1] for r, t in tried.items()}

@@ -52,8 +52,7 @@ def parameters_at_bounds(fit: FitResult, named: Sequence[Hypothesis]) -> list[st
 
 def run(ctx: Context) -> Finding | None:
     """The bounds finding of the final model (None when nothing sits on a bound)."""
-    at_bound = parameters_at_bounds(ctx.outcome.current, ctx.outcome.named)
-    if not at_bound:
+    if not (at_bound := parameters_at_bounds(ctx.outcome.current, ctx.outcome.named)):
         return None
     return Finding(
         "at_bounds",

@@ -170,8 +170,7 @@ def _tried(ctx: Context) -> str:
 def run(ctx: Context) -> Finding | None:
     """The residual-left finding of the final model (None: the family has no noise
     model)."""
-    ask = getattr(ctx.family, "residual_left", None)
-    if ask is None:
+    if (ask := getattr(ctx.family, "residual_left", None)) is None:
         return None
     views, record = ask(ctx.outcome, ctx.setup, ctx.rule.alpha)
     if not views:

@@ -96,8 +96,7 @@ def power_sign(recordings: Sequence[RecordingLike], sprung_mass: float = 1.0) ->
     ``recordings`` (suspenv's signs; NaN without a force)."""
     num, n = 0.0, 0
     for rec in recordings:
-        f = _force(rec, sprung_mass)
-        if f is None:
+        if (f := _force(rec, sprung_mass)) is None:
             return float("nan")
         v = motion(rec)[1]
         num += float(np.sum(f * v))

@@ -272,12 +272,10 @@ def _matched_speed(sp: Split, alpha: float) -> MatchedSpeedAsymmetry | None:
     """The model-free matched-speed test (:mod:`suspenv.diagnosis.component.matched_speed`) on
     the first fitted recording with a force channel and enough matched speeds."""
     for rec in sp.fit_recordings:
-        force = rec.outputs.get("force")
-        if force is None:
+        if (force := rec.outputs.get("force")) is None:
             continue
         x, v = motion(rec)
-        out = matched_speed_asymmetry(rec.time, v, force, x, alpha=alpha)
-        if out is not None:
+        if (out := matched_speed_asymmetry(rec.time, v, force, x, alpha=alpha)) is not None:
             return out
     return None
 

@@ -404,8 +404,7 @@ class DelayLeft(Record):
             f"%; the library's first-order sensor lag fits worse, its corrected BIC higher by "
             f"{self.lag_bic:.3g}"
         )
-        table = phase_words(self.phases, self.channel)
-        if table:
+        if table := phase_words(self.phases, self.channel):
             evidence += f"; {table}"
         if self.remains:
             return (

@@ -262,8 +262,7 @@ def _score_round(
     open_fams = {family_of(split_candidate(k)[0]) for k in cands}
     fams_needed = [f for f in SIGNATURE_KINDS if f in open_fams]
     fams_needed = fams_needed or list(SIGNATURE_KINDS)
-    sset = _force_view_signal_set(current, sp)
-    if sset is None:
+    if (sset := _force_view_signal_set(current, sp)) is None:
         return score_signatures(_signal_set(current, sp, channel), fams_needed), False
     force_fams = [f for f in fams_needed if f not in SENSOR_FAMILIES]
     sensor_fams = [f for f in fams_needed if f in SENSOR_FAMILIES]
@@ -862,12 +861,10 @@ class ComponentFamily(OptionalSteps):
         """A named lag that stands for a delay (not confident); the baseline's elements
         and offsets."""
         found = Conclusion(baseline=_baseline_effects(ctx.outcome.base, self))
-        lag = lag_or_delay(ctx.outcome.named, ctx.setup.split)
-        if lag:
+        if lag := lag_or_delay(ctx.outcome.named, ctx.setup.split):
             found.confident = False
             found.sentences.append(lag)
-        offsets = baseline_offsets(ctx.outcome.current)
-        if offsets:
+        if offsets := baseline_offsets(ctx.outcome.current):
             found.findings["baseline_offsets"] = offsets
             found.sentences.extend(o["sentence"] for o in offsets if o["significant"])
         return found

@@ -163,8 +163,7 @@ def low_passed_outputs(rec: RecordingLike, fc: float) -> RecordingLike:
     """``rec`` with its output channels low-passed at ``fc`` [Hz] by :func:`lowpass`, its
     meta naming the cut-off (``OUTPUT_LOWPASS_KEY``: the prediction is then low-passed
     alike); unchanged without a regular time base. :func:`as_recorded` undoes it."""
-    fs = sampling_rate(np.asarray(rec.time, float))
-    if fs is None:
+    if (fs := sampling_rate(np.asarray(rec.time, float))) is None:
         return rec
     outputs = {k: lowpass(np.asarray(v, float), fs, fc) for k, v in rec.outputs.items()}
     meta = {**dict(rec.meta), OUTPUT_LOWPASS_KEY: float(fc)}

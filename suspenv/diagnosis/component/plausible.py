@@ -48,8 +48,7 @@ def _fitted_with_covariance(
     """The fitted values of those of ``parameters`` of the element of ``kind`` in ``ext``
     that the fit frees (a parameter held fixed is left out), their covariance block
     (inflated like ``stderr_corrected``) and its order; empty without the element."""
-    element = ext.element(kind)
-    if element is None:
+    if (element := ext.element(kind)) is None:
         return {}, np.zeros((0, 0)), []
     names = list(ext.names)
     free = [q for q in parameters if f"{element.name}.{q}" in names]
@@ -281,8 +280,7 @@ def check_parallel_branch(candidate: str, ext: FitResult, alpha: float = 0.01) -
     parameter; the lag refitted in the same round is then the simpler law. A model
     without a viscous base parameter (``viscous_parameter``) is not checked.
     """
-    found = _branch_base(candidate, ext)
-    if found is None:
+    if (found := _branch_base(candidate, ext)) is None:
         return
     name, c, sd, c_m = found
     z = float(stats.norm.isf(0.5 * alpha))
@@ -308,8 +306,7 @@ def branch_share_unresolved(candidate: str, ext: FitResult, alpha: float = 0.01)
     differ only at second order: Limits in ``docs/diagnosis.md``). A base bounded below
     the share (``c = 4 +- 7`` beside ``c_m = 1100``) is a lag of the whole force, and a
     share resolved and small is too: nothing to separate."""
-    found = _branch_base(candidate, ext)
-    if found is None:
+    if (found := _branch_base(candidate, ext)) is None:
         return False
     _, c, sd, c_m = found
     z = float(stats.norm.isf(0.5 * alpha))
@@ -363,8 +360,7 @@ def check_resolved_size(candidate: str, ext: FitResult) -> None:
     control's drifting zero), or the base parameters moving to a better optimum from the
     refit's new start. Raises :class:`ValidationError`.
     """
-    found = _judged_element(candidate, ext, ELEMENT_SIZE)
-    if found is None:
+    if (found := _judged_element(candidate, ext, ELEMENT_SIZE)) is None:
         return
     kind, element = found
     fitted = ext.params()

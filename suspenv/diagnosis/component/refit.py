@@ -31,8 +31,7 @@ def parameter_and_error(fit: FitResult, kind: str, parameter: str) -> tuple[floa
     """The fitted value of ``parameter`` of the element of ``kind`` in ``fit`` and its
     serial-correlation corrected standard error (NaN, NaN when the model holds none or
     holds the parameter fixed)."""
-    element = fit.element(kind)
-    if element is None:
+    if (element := fit.element(kind)) is None:
         return np.nan, np.nan
     row = fit.params().get(f"{element.name}.{parameter}", {})
     return float(row.get("value", np.nan)), float(row.get("stderr_corrected", np.nan))
@@ -63,8 +62,7 @@ def signature_guess(kind: str, sig: Signature | None, half_stroke: float) -> dic
     if sig is None:
         return {}
     n = sig.numbers
-    g = _friction_guess(kind, n, half_stroke)
-    if g:
+    if g := _friction_guess(kind, n, half_stroke):
         return g
     if kind == "cubic_stiffness" and half_stroke > 0:
         g = {"k3": n.get("extra_at_full_stroke", 0.0) / half_stroke**3}

@@ -209,14 +209,12 @@ def _entries(raw: Mapping[str, Any], where: str) -> dict[str, Any]:
         "baseline",
         "velocity_source",
     }
-    unknown = sorted(set(raw) - allowed)
-    if unknown:
+    if unknown := sorted(set(raw) - allowed):
         raise ValidationError(
             f"{where}: unknown rig entr(ies) {unknown}; the entries are {sorted(allowed)}"
         )
     out: dict[str, Any] = {}
-    fam = raw.get("family", raw.get("device"))
-    if fam is not None:
+    if (fam := raw.get("family", raw.get("device"))) is not None:
         _check_family(str(fam), where)
         out["family"] = str(fam)
     for key, choices in (
@@ -266,8 +264,7 @@ def _meta_entries(recordings: Sequence[RecordingLike]) -> dict[str, Any]:
     first = ""
     for rec in recordings:
         meta = getattr(rec, "meta", None) or {}
-        raw = meta.get("rig")
-        if raw is None:
+        if (raw := meta.get("rig")) is None:
             continue
         if not isinstance(raw, Mapping):
             raise ValidationError(
@@ -309,8 +306,7 @@ def describe_rig(
             )
         entries["family"] = family
         _check_kinds(added + removed, f"model {model!r}")
-    chosen = entries.get("family")
-    if chosen is None:
+    if (chosen := entries.get("family")) is None:
         raise ValidationError(
             "the model family is unknown: give one (--model damper | mr_damper | "
             "friction_guide | quarter_car_rig) or declare meta['rig']['device']"
@@ -320,8 +316,7 @@ def describe_rig(
     base = list(dict.fromkeys(k for k in base + added if k not in removed))
     known = dict(entries.get("known", {}))
     allowed = KNOWN_PARAMETERS.get(family, {})
-    bad = sorted(set(known) - set(allowed))
-    if bad:
+    if bad := sorted(set(known) - set(allowed)):
         raise ValidationError(
             f"known rig parameter(s) {bad} are not read by {family}; it reads "
             f"{sorted(allowed) or 'none'}"
@@ -369,8 +364,7 @@ def baseline_model(rig: RigDescription, recordings: Sequence[RecordingLike] = ()
     held = {k: known.pop(k) for k in list(known) if k in base_names}
     if held:
         known["known_base"] = held
-    field = field_input(rig, recordings)
-    if field:
+    if field := field_input(rig, recordings):
         known["field"] = field
     if recordings:
         known["scales"] = data_scales(make_component(rig.family, (), **known), recordings)

@@ -182,8 +182,7 @@ class MinibusRideAdapter(ComponentModel):
         k = len(self.base_parameters)
         for e in self.effects:
             for p in self._free(e):
-                b = RIDE_BOUNDS.get((e.kind, p))
-                if b is not None:
+                if (b := RIDE_BOUNDS.get((e.kind, p))) is not None:
                     lo[k], hi[k] = b
                 k += 1
         return lo, hi

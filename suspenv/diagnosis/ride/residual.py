@@ -167,8 +167,7 @@ def residual_check(
 ) -> ResidualCheck:
     """The :class:`ResidualCheck` of a diagnosis (``final`` is ``base`` when nothing
     was named; ``named_elements``: names of the added elements)."""
-    held = list(heldout)
-    if not held:
+    if not (held := list(heldout)):
         raise ValidationError("residual check needs at least one held-out recording, got 0")
     scales = base.scales
     parts_b = residuals(base.model, base.theta, held, base.channels)
