@@ -61,8 +61,7 @@ def fitted_channels(model: DiagnosableModel[R, E], rec: R, theta: np.ndarray) ->
         if not names_pred:
             raise
     pred = dict.fromkeys(names_pred)
-    names = [c for c in pred if c in rec.outputs]
-    if not names:
+    if not (names := [c for c in pred if c in rec.outputs]):
         raise ValidationError(
             "the model and the recording must share an output channel, but got model "
             f"outputs {sorted(pred)} and recording outputs {sorted(rec.outputs)}"

@@ -113,8 +113,7 @@ def asymmetry_check(
     errors; or when the model-free matched-speed check rejects a constant force and a
     drifting zero and the asymmetric refit lowers the held-out error.
     """
-    dig = [e for e in current.model.effects if e.kind == "digressive_damping"]
-    if not dig:
+    if not (dig := [e for e in current.model.effects if e.kind == "digressive_damping"]):
         return None
     base_offset = "f_0" in current.names  # a base model with its own constant force
     null = _with_constant_force(current, sp, base_offset, max_nfev)

@@ -473,8 +473,7 @@ def judge_beside_delay(
             )
             judged.append((h, again))
         decide([again for _, again in judged], 1, rule)
-        out = [(h, again) for h, again in judged if not again.significant]
-        if not out:
+        if not (out := [(h, again) for h, again in judged if not again.significant]):
             break
         h, again = max(out, key=lambda pair: pair[1].p_value_corrected)
         late = parameter_and_error(delayed, "sensor_delay", "delay")[0]

@@ -308,8 +308,7 @@ def speed_groups(
     """
     sides: dict[int, list[_Side]] = {1: [], -1: []}
     for d in (1, -1):
-        own = [c for c in cycles if c.direction == d]
-        if not own:
+        if not (own := [c for c in cycles if c.direction == d]):
             continue
         sp = np.array([c.speed for c in own])
         for idx in relative_clusters(sp, speed_tol):

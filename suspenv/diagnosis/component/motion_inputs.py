@@ -415,8 +415,7 @@ def preferred_version(checks: Sequence[MotionCheck]) -> str | None:
     else ``"displacement"`` where the derivatives are clean (:data:`DERIVATIVE_CLEAN`),
     else None: the fit chooses (:func:`choice_words`)."""
 
-    bad = [c for c in checks if c.worst_mismatch > VELOCITY_MISMATCH]
-    if not bad:
+    if not (bad := [c for c in checks if c.worst_mismatch > VELOCITY_MISMATCH]):
         return "band"
     if all(c.derivative_noise <= DERIVATIVE_CLEAN for c in bad):
         return "displacement"

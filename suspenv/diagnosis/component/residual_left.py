@@ -331,8 +331,7 @@ def residual_left(
     words = MOTION_WORDS.get(str(getattr(fit.model, "family", "")), MOTION_WORDS[""])
     out = []
     for ch in fit.channels:
-        have = [run for run in runs if ch in run.rec.outputs]
-        if not have:
+        if not (have := [run for run in runs if ch in run.rec.outputs]):
             continue
         parts = [run.residual(ch) for run in have]
         r = np.concatenate(parts)

@@ -329,8 +329,7 @@ def check_loop(rec: RecordingLike) -> None:
             f"-> design of steps={steps} has {need}; a part loop cannot separate the branches"
         )
     needed = FORCE_INPUTS if is_force_test(rec) else INPUTS
-    missing = [k for k in needed if k not in rec.inputs]
-    if missing:
+    if missing := [k for k in needed if k not in rec.inputs]:
         raise ValidationError(
             f"{where}: missing input channel(s) {missing}; inputs are {sorted(rec.inputs)}"
         )
@@ -386,8 +385,7 @@ class KncFamily:
         tests = tuple(dict.fromkeys(rig_test(r) for r in sp.fit_recordings))
         model = self.model or KncAxleModel(tests=tests)
         cands = list(candidates if candidates is not None else model.candidate_effects)
-        unknown = [k for k in cands if split_candidate(k)[0] not in SCREEN_FAMILY]
-        if unknown:
+        if unknown := [k for k in cands if split_candidate(k)[0] not in SCREEN_FAMILY]:
             raise ValidationError(
                 f"candidates must be among {sorted(SCREEN_FAMILY)}, but got {unknown}"
             )
