@@ -163,8 +163,7 @@ def _gains_part(
         ok = (sizes > 1) & (den > 0)
         gain = np.repeat(np.divide(num, den, out=np.zeros_like(num), where=ok), sizes, axis=-1)
         if fitted and idx.size > 1:
-            tot = ss.sum(axis=-1, keepdims=True)
-            common = ds.sum(axis=-1, keepdims=True)
+            tot, common = ss.sum(axis=-1, keepdims=True), ds.sum(axis=-1, keepdims=True)
             gain = gain - np.divide(common, tot, out=np.zeros_like(tot), where=tot > 0)
         out[..., idx] += gain * s[..., idx]
     return out
@@ -262,11 +261,8 @@ def _tried(
     left = res[ch] - missing_input.time_invariant(res[ch], list(signals.values()))
     n_eff = ar1_effective_size(left.size, lag1_autocorrelation(left))
     grid = max(length // GRID_PER_BLOCK, -(-left.size // MAX_GRID_BLOCKS), 1)
-    out = {}
-    for name, s in signals.items():
-        starts, bic = find_stretches(left, s, grid, n_eff)
-        out[name] = (bic, s, starts)
-    return out
+    found = {name: find_stretches(left, s, grid, n_eff) for name, s in signals.items()}
+    return {name: (bic, signals[name], starts) for name, (starts, bic) in found.items()}
 
 
 def stretches_of(base: FitResult, setup: Setup, length: int) -> Stretches | None:

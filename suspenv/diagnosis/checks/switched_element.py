@@ -100,8 +100,7 @@ def beyond_switching(
         return 0.0, float("inf")
     beta = float(rp @ dp) / dd
     poly = mi.whitening(rp - beta * dp)
-    ew = signal.lfilter(poly, [1.0], rp - beta * dp)
-    dw = signal.lfilter(poly, [1.0], dp)
+    ew, dw = (signal.lfilter(poly, [1.0], x) for x in (rp - beta * dp, dp))
     return beta, float(np.std(ew) / np.sqrt(max(float(dw @ dw), 1e-300)))
 
 

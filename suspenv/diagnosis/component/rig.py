@@ -174,8 +174,7 @@ def _check_family(family: str, where: str) -> None:
 
 def _check_kinds(kinds: Sequence[str], where: str) -> None:
     known = effect_kinds()
-    bad = [k for k in kinds if k not in known]
-    if bad:
+    if bad := [k for k in kinds if k not in known]:
         raise ValidationError(
             f"{where}: unknown effect kind(s) {bad}; known kinds are {sorted(known)}"
         )
@@ -361,8 +360,7 @@ def baseline_model(rig: RigDescription, recordings: Sequence[RecordingLike] = ()
     known: dict[str, Any] = dict(rig.known)
     # known base-law parameters (a measured tyre rate) are held, not fitted
     base_names = {p.name for p in FAMILIES[rig.family].base_parameters}
-    held = {k: known.pop(k) for k in list(known) if k in base_names}
-    if held:
+    if held := {k: known.pop(k) for k in list(known) if k in base_names}:
         known["known_base"] = held
     if field := field_input(rig, recordings):
         known["field"] = field
@@ -418,24 +416,21 @@ def oriented(recordings: Sequence[RecordingLike], rig: RigDescription) -> list[R
     flip_force = rig.positive_force == "tension"
     if not (flip_stroke or flip_force):
         return list(recordings)
-    out: list[RecordingLike] = []
-    for rec in recordings:
+    negated = (STROKE_CHANNELS if flip_stroke else ()) + (FORCE_CHANNELS if flip_force else ())
 
-        def turn(chs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
-            res = {}
-            for k, y in chs.items():
-                neg = (flip_stroke and k in STROKE_CHANNELS) or (flip_force and k in FORCE_CHANNELS)
-                res[k] = -np.asarray(y, float) if neg else y
-            return res
+    def turn(chs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+        return {k: -np.asarray(y, float) if k in negated else y for k, y in chs.items()}
 
-        meta = dict(getattr(rec, "meta", {}) or {})
-        meta["oriented"] = {"stroke_negated": flip_stroke, "force_negated": flip_force}
-        out.append(
-            replace(  # type: ignore[type-var]
-                rec, inputs=turn(rec.inputs), outputs=turn(rec.outputs), meta=meta
-            )
+    said = {"stroke_negated": flip_stroke, "force_negated": flip_force}
+    return [
+        replace(  # type: ignore[type-var]
+            rec,
+            inputs=turn(rec.inputs),
+            outputs=turn(rec.outputs),
+            meta={**(getattr(rec, "meta", {}) or {}), "oriented": dict(said)},
         )
-    return out
+        for rec in recordings
+    ]
 
 
 def check_extra_inputs(recordings: Sequence[RecordingLike], rig: RigDescription) -> list[str]:

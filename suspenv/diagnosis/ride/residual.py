@@ -170,7 +170,6 @@ def residual_check(
     if not (held := list(heldout)):
         raise ValidationError("residual check needs at least one held-out recording, got 0")
     scales = base.scales
-    parts_b = residuals(base.model, base.theta, held, base.channels)
     parts_f = residuals(final.model, final.theta, held, final.channels)
 
     def rms(parts: list[dict[str, np.ndarray]]) -> dict[str, float]:
@@ -179,7 +178,7 @@ def residual_check(
             for c in base.channels
         }
 
-    before = scaled_rms(rms(parts_b), scales)
+    before = scaled_rms(rms(residuals(base.model, base.theta, held, base.channels)), scales)
     after = scaled_rms(rms(parts_f), scales)
     floor_c, floor_variance = noise_floor(final, held)
     floor = scaled_rms(floor_c, scales)
