@@ -1,13 +1,16 @@
 """The defaults used for what the recordings do not say, and the inputs left unread.
 
-The family lists its defaults (``family.assumptions(setup)``: sentences such as "the
-sprung mass 300 kg (not declared)"); this check puts them on the verdict's record, with
+The family lists its defaults (``family.assumptions(setup)``, the setup holding the
+final model: sentences such as "the sprung mass 300 kg (not declared)", and an estimate
+as the final model holds it); this check puts them on the verdict's record, with
 every recorded input channel the model does not read (:func:`unread_inputs`: its effect,
 if it has one, stays in the residual), so that a report shows them on its first screen.
 They never change the verdict's confidence.
 """
 
 from __future__ import annotations
+
+from dataclasses import replace
 
 from suspenv.diagnosis.checks.finding import Context, Finding
 from suspenv.diagnosis.family import Setup
@@ -25,7 +28,8 @@ def unread_inputs(setup: Setup) -> list[str]:
 def run(ctx: Context) -> Finding | None:
     """The assumptions finding (None when the family made none and every input is read)."""
     ask = getattr(ctx.family, "assumptions", None)
-    said = list(ask(ctx.setup)) if ask is not None else []
+    final = replace(ctx.setup, model=ctx.outcome.current.model)
+    said = list(ask(final)) if ask is not None else []
     units = {k: u for rec in ctx.setup.split.recordings() for k, u in rec.units.items()}
     said += [
         f"the recorded input {k} [{units.get(k, '?')}] is not read by the "

@@ -50,14 +50,15 @@ def estimate_unsprung_mass(
         with_mass: Any = type(model)(model.effects, **{**opts, "m_u": float(np.exp(log_mu))})
         return fit(with_mass, sp.fit_recordings, sp.fit_masks, theta0, max_nfev=max_nfev)
 
+    tried: dict[float, FitResult] = {}  # the search returns a point it evaluated
+
+    def cost(log_mu: float) -> float:
+        tried[log_mu] = fitted(log_mu)
+        return -tried[log_mu].log_likelihood()
+
     lo, hi = (float(np.log(r * m_s)) for r in MASS_RATIO_RANGE)
-    best = minimize_scalar(
-        lambda x: -fitted(x).log_likelihood(),
-        bounds=(lo, hi),
-        method="bounded",
-        options={"xatol": 0.01},
-    )
-    return fitted(float(best.x))
+    best = minimize_scalar(cost, bounds=(lo, hi), method="bounded", options={"xatol": 0.01})
+    return tried.get(float(best.x)) or fitted(float(best.x))
 
 
 def mass_words(model: ComponentModel, declared: Sequence[str], estimated: bool) -> list[str]:

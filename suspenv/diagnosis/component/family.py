@@ -358,9 +358,9 @@ class ComponentFamily(OptionalSteps):
     _round: int = field(default=0, init=False, repr=False)
     #: the signs found where none was declared (last :meth:`prepare`), in words
     sign_words: list[str] = field(default_factory=list, init=False)
-    #: the model whose quarter car's unsprung mass was last fitted (the baseline in
-    #: :meth:`prepare`, then each winner in :meth:`settle`; None: the mass is declared)
-    mass_model: ComponentModel | None = field(default=None, init=False)
+    #: the last :meth:`prepare` fitted the quarter car's unsprung mass (not declared) with
+    #: the baseline; :meth:`settle` fits it again beside each winner
+    mass_estimated: bool = field(default=False, init=False)
     #: the model :meth:`_delays_left` last read and its delays left
     _delays: tuple[FitResult | None, list[DelayLeft]] = field(
         default=(None, []), init=False, repr=False
@@ -426,12 +426,10 @@ class ComponentFamily(OptionalSteps):
             held = default_holdout(recs)
         sp = split(recs, held)
         model = drift_over_fit(model, sp)
-        self.mass_model = None
+        self.mass_estimated = False
         if self.rig is not None and "m_u" in model.options and "m_u" not in self.rig.known:
-            self.mass_model = cast(
-                ComponentModel, estimate_unsprung_mass(model, sp, self.budget).model
-            )
-            model = self.mass_model
+            model = cast(ComponentModel, estimate_unsprung_mass(model, sp, self.budget).model)
+            self.mass_estimated = True
         return Setup(sp, model, cands)
 
     def settle(self, winner: FitResult, setup: Setup) -> FitResult | None:
@@ -439,13 +437,12 @@ class ComponentFamily(OptionalSteps):
         the element (:func:`~.assumed.estimate_unsprung_mass`): the baseline's mass took up
         part of what the element explains, and a mass ratio left wrong reads as a sensor
         gain in the next round. None where the mass is declared or the fit is no better."""
-        if self.mass_model is None or not isinstance(winner.model, ComponentModel):
+        if not self.mass_estimated or not isinstance(winner.model, ComponentModel):
             return None
         settled = estimate_unsprung_mass(winner.model, setup.split, self.budget, winner.theta)
         if not settled.log_likelihood() > winner.log_likelihood():
             return None
         settled.extra["effect"] = winner.extra["effect"]
-        self.mass_model = cast(ComponentModel, settled.model)
         return settled
 
     def check_data(self, setup: Setup) -> None:
@@ -485,13 +482,12 @@ class ComponentFamily(OptionalSteps):
 
     def assumptions(self, setup: Setup) -> list[str]:
         """The defaults and estimates used for what the recordings do not say: the signs
-        (read off the dissipated power), the quarter car's masses."""
+        (read off the dissipated power), the quarter car's masses (as the model of
+        ``setup`` holds them: the final one, :mod:`~suspenv.diagnosis.checks.assumptions`)."""
         said = list(self.sign_words)
-        model = setup.model
+        model = unprofiled(setup.model)
         if self.rig is not None and isinstance(model, ComponentModel) and "m_s" in model.options:
-            said += mass_words(
-                self.mass_model or model, list(self.rig.known), self.mass_model is not None
-            )
+            said += mass_words(model, list(self.rig.known), self.mass_estimated)
         return said
 
     def _motion(
