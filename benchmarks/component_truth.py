@@ -17,7 +17,9 @@ component felt the exact motion.
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, replace
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -100,7 +102,10 @@ class Case:
 
 def _scales(model: Any, base: dict[str, float], rec: Recording) -> dict[str, float]:
     """Force [N], stroke [m], speed [m/s] and angular frequency [rad/s] amplitudes of
-    the base model on ``rec`` (the suspension force k x + c v where no force is output)."""
+    the base model on ``rec`` (the suspension force k x + c v where no force is output),
+    and the travel from x = 0 on either side (``bump``: compression, ``rebound``:
+    extension; m), where a stop's gap is measured: a quarter car's deflection is not
+    centred, and a gap drawn from the centred stroke may lie beyond the travel."""
     from suspenv.diagnosis.component.motion import motion
 
     sim = model.simulate(model.theta_from(base), rec)
@@ -118,6 +123,8 @@ def _scales(model: Any, base: dict[str, float], rec: Recording) -> dict[str, flo
         # amplitude of the first output channel, in its own unit (sensor offsets)
         "channel": float(np.percentile(np.abs(y - np.median(y)), 98)),
         "stroke": stroke,
+        "bump": max(float(np.percentile(x, 98)), 0.0),
+        "rebound": max(-float(np.percentile(x, 2)), 0.0),
         "speed": speed,
         "frequency": speed / max(stroke, 1e-12),
     }
@@ -169,8 +176,9 @@ def _draw_other(
         x0 = u(0.2, 0.5) * X
         p = {"x0": x0, "k_p": u(0.15, 0.3) * F / (X - x0) ** 2}
     elif kind == "bump_stop" or kind == "rebound_stop":
-        gap = u(0.5, 0.8) * X
-        p = {"gap": gap, "k_stop": u(0.3, 0.6) * F / (X - gap)}
+        side = sc[kind.removesuffix("_stop")]
+        gap = u(0.5, 0.8) * side
+        p = {"gap": gap, "k_stop": u(0.3, 0.6) * F / max(side - gap, 1e-12)}
     elif kind == "digressive_damping":
         p = {"c_low": u(1.0, 2.5) * c, "v_knee": u(0.1, 0.3) * V}
     elif kind == "damper_asymmetry":
@@ -240,9 +248,12 @@ OUTSIDE_KINDS: dict[str, tuple[str, ...]] = {
     "friction_guide": ("cogging", "cubic_damping"),
     "quarter_car_rig": ("sensor_clipping", "transducer_nonlinearity"),
 }
-#: most draws of a case's effects (:func:`make_case`: a truth that cannot be simulated is
-#: drawn again)
+#: most draws of a case's effects (:func:`make_case`: a truth that cannot be simulated,
+#: or one with an effect no recorded channel shows, is drawn again)
 MAX_DRAWS = 5
+#: a case's noise RMS as a fraction of each recorded channel's standard deviation (low,
+#: high), drawn uniformly per case
+NOISE_FRACTION = (0.01, 0.04)
 #: noise of the no-effect controls, by seed: white, coloured (AR(1), correlation time
 #: about 10 samples) and white plus a slow, curved zero drift
 CONTROL_NOISE = ("white", "coloured", "drift")
@@ -340,6 +351,34 @@ def _switched_force(cond: dict[str, Any], sc: dict[str, float], rec: Recording) 
     on = np.searchsorted(np.asarray(cond["switches"]), t) % 2 == 1
     c = cond["share"] * sc["force"] / max(sc["speed"], 1e-12)
     return np.asarray(c * v * on)
+
+
+def _hidden(
+    model: Any,
+    standard: list[Effect],
+    effects: list[Effect],
+    clean: dict[str, np.ndarray],
+    simulate: Callable[..., dict[str, np.ndarray]],
+) -> bool:
+    """Whether one of the drawn ``effects`` changes no recorded channel of the noise-free
+    outputs ``clean`` by the largest noise a case may carry (an RMS of
+    ``NOISE_FRACTION[1]`` times the channel's standard deviation): a stop beyond the
+    travel the other effect leaves is a control with a label, not a concealed effect.
+    ``simulate(model, drawn=...)`` gives the outputs without the effect; one whose removal
+    cannot be simulated holds the truth together and is shown."""
+    for i in range(len(effects)):
+        rest = effects[:i] + effects[i + 1 :]
+        try:
+            other = simulate(model.with_effects(standard + rest), drawn=rest)
+        except EvaluationError:
+            continue
+        shift = {ch: np.asarray(clean[ch], float) - other[ch] for ch in model.output_channels}
+        if all(
+            np.sqrt(np.mean(d**2)) < NOISE_FRACTION[1] * np.std(clean[ch])
+            for ch, d in shift.items()
+        ):
+            return True
+    return False
 
 
 def _noise_free(
@@ -450,7 +489,8 @@ def make_case(
     pool = truth_pool(family)
     n_drawn = 0 if outside else n_effects
     # a draw whose truth cannot be simulated (a softening spring driven past its peak
-    # force: the suspension collapses) is no case: the effects are drawn again
+    # force: the suspension collapses), or with an effect the recording does not show, is
+    # no case: the effects are drawn again
     for attempt in range(MAX_DRAWS):
         kinds = list(rng.choice(pool, size=n_drawn, replace=False)) if n_drawn else []
         # two effects of one signature family would be one finding; redraw the second
@@ -469,13 +509,17 @@ def make_case(
         defaults = model.effect_defaults
         effects = [e.with_params(defaults.get(e.kind, {})) for e in effects]
         standard = _baseline_truth(family, rng, sc, base, rec)
-        truth_model = model.with_effects(standard + effects)
+        simulate = partial(_noise_free, base=base, rec=rec, cond=cond, sc=sc)
         try:
-            clean = _noise_free(truth_model, base, rec, effects, cond, sc)
-            break
+            clean = simulate(model.with_effects(standard + effects), drawn=effects)
         except EvaluationError:
             if attempt == MAX_DRAWS - 1:
                 raise
+            continue
+        if not _hidden(model, standard, effects, clean, simulate):
+            break
+        if attempt == MAX_DRAWS - 1:
+            raise EvaluationError(f"{family} seed {seed}: every draw hides an effect")
     effect_dicts = [e.to_dict() for e in effects]
     if outside:
         kind = str(rng.choice(OUTSIDE_KINDS[family]))
@@ -492,7 +536,7 @@ def make_case(
             clean["force"] = np.asarray(clean["force"], float) + added
         effect_dicts = [{"kind": kind, "outside": True, "params": params}]
     _apply_condition(cond, clean)
-    frac = float(rng.uniform(0.01, 0.04))
+    frac = float(rng.uniform(*NOISE_FRACTION))
     noise_kind = CONTROL_NOISE[seed % 3] if (n_drawn == 0 and not outside) else "white"
     measured = {}
     for channel in model.output_channels:
