@@ -276,13 +276,6 @@ def _score_round(
     return sorted(sigs, key=lambda g: -g.score), True
 
 
-def _sensor_possible(sig: Signature | None) -> bool:
-    """Whether a sensor can leave the signature ``sig`` in its channel: a first-order lag
-    delays its signal (``lag_s > 0``); a lead in one channel is what a fit leaves when it
-    bends the model to a lag in another."""
-    return sig is not None and (sig.kind != "sensor_lag" or sig.numbers.get("lag_s", 0.0) > 0.0)
-
-
 def located_candidates(cands: Sequence[str], channels: Sequence[str]) -> list[str]:
     """The candidates with each sensor error (a bare kind) on each of the recorded
     ``channels`` where there are several (``sensor_lag@body_acceleration``, ...): an
@@ -613,7 +606,7 @@ class ComponentFamily(OptionalSteps):
         sig_of = {(s.kind, s.channel): s for s in reversed(sigs)}  # the strongest per key
         open_fams = {family_of(split_candidate(k)[0]) for k in open_candidates}
         # with a force view the sensor scores are not on its scale (module docstring):
-        # every placement of a sensor error that a sensor can leave is refitted too
+        # every placement of a sensor error is refitted too, and the fits decide
         apart = SENSOR_FAMILIES if viewed else ()
         ranked = dict.fromkeys(s.kind for s in sigs if s.kind in open_fams and s.kind not in apart)
         fams = set(list(ranked)[: int(self.screen_families or SCREEN_FAMILIES)])
@@ -621,7 +614,7 @@ class ComponentFamily(OptionalSteps):
         for k in open_candidates:
             kind, loc = split_candidate(k)
             sig = sig_of.get((family_of(kind), loc)) or sig_of.get((family_of(kind), ""))
-            if family_of(kind) in fams or (family_of(kind) in apart and _sensor_possible(sig)):
+            if family_of(kind) in fams.union(apart):
                 chosen.append((k, sig))
         return Screening(sigs, chosen)
 
