@@ -2,8 +2,9 @@
 
 References: the stretches against the switching a synthetic residual was built with
 (block-aligned boundaries, so the exact partition is the least-squares optimum); the
-profiled residual against its closed form (a gain per stretch on the held-out samples
-leaves nothing of a switched gain; on the fit samples the one common gain, the
+profiled residual against its closed form (a gain per stretch and a cubic zero drift on
+the held-out samples leave nothing of a switched gain and a drift, and equal the least
+squares on those columns taken directly; on the fit samples the one common gain, the
 inverse-weighted mean of the stretches' gains, stays the model's); the absence of leaks
 by changing the held-out samples; the batch against single rows; a sensor lag's
 response to a ramp against its closed form, and the profiled gains of a lagged
@@ -124,6 +125,31 @@ def test_profiled_residual_closed_form_and_no_leak() -> None:
     batch = model.simulate(np.zeros((3, 1)), rec)["force"]
     np.testing.assert_allclose(batch, np.tile(y - r, (3, 1)), atol=1e-12)
     assert unprofiled(model) is model.model and model.with_effects(()).stretches is model.stretches
+
+
+def test_held_out_samples_take_their_own_gains_and_zero_drift() -> None:
+    # a held-out block the fit does not surround (the last part of a recording): the
+    # switched gains and a cubic zero drift there are the held-out samples' own, so a
+    # drift fitted to the fit samples and extrapolated does not decide the held-out
+    # error. Closed form: a switched gain plus any cubic in time leaves nothing held out;
+    # reference for noise: the least squares on the stretch and drift columns directly
+    s = _signal()
+    fit_mask = np.arange(N) < int(0.7 * N)
+    t = np.linspace(-1.0, 1.0, int((~fit_mask).sum()))
+    y = _switched(s)
+    y[~fit_mask] += 3.0 - 2.0 * t + 5.0 * t**2 + 4.0 * t**3
+    model, rec = _profiled(y, fit_mask)
+    r = y - model.simulate(np.zeros(1), rec)["force"]
+    np.testing.assert_allclose(r[~fit_mask], 0.0, atol=1e-10)
+    noise = np.random.default_rng(7).standard_normal(N)
+    model, rec = _profiled(y + noise, fit_mask)
+    r = (y + noise) - model.simulate(np.zeros(1), rec)["force"]
+    held = np.flatnonzero(~fit_mask)
+    stretch = np.searchsorted(STARTS, held, side="right")
+    cols = (stretch[:, None] == np.unique(stretch)[None, :]) * s[held, None]
+    a = np.column_stack([cols, np.vander(t, 4)])
+    want = (y + noise)[held] - a @ np.linalg.lstsq(a, (y + noise)[held], rcond=None)[0]
+    np.testing.assert_allclose(r[held], want, atol=1e-10)
 
 
 def test_switched_damping_not_recorded_is_profiled_and_the_element_named() -> None:

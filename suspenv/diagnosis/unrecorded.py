@@ -13,7 +13,8 @@ on what is left beside the switched part.
 
 The stretches (:func:`stretches_of`: dynamic programming and the BIC on the baseline's
 residual) are fixed before the search, the same for every model compared. The gains are
-fitted on the fit and the held-out samples apart (no leak: :class:`Profiled`) and cost
+fitted on the fit and the held-out samples apart (no leak: :class:`Profiled`; on the
+held-out samples with a slow zero drift of their own, :func:`_held_out_part`) and cost
 every model the same degrees of freedom, so the likelihood-ratio test's and the BIC's
 differences are those without them. The engine keeps the profile only where the final
 model, without it, still leaves the switching (:func:`still_switching`); where a named
@@ -48,6 +49,8 @@ MAX_STRETCHES = 24
 GRID_PER_BLOCK = 5
 #: at most this many grid steps per recording (the dynamic programme's cost is square)
 MAX_GRID_BLOCKS = 1000
+#: columns of the held-out groups' zero drift: a cubic in time (:func:`_held_out_part`)
+DRIFT_COLUMNS = 4
 #: per recording name, its sample groups (mask, fitted: the fit or the held-out samples)
 Groups = Mapping[str, Sequence[tuple[np.ndarray, bool]]]
 
@@ -153,20 +156,45 @@ def _gains_part(
     than one sample, the least-squares gain of ``d`` on the signal ``s`` times ``s``;
     for a fitted group, less the group's one common gain, which stays the model's (a
     damping rate the switched gain multiplies); on held-out samples every stretch's
-    gain is their own (the input's level there is not known from the fit)."""
+    gain is their own (the input's level there is not known from the fit), fitted with
+    a slow drift of the zero over the group (:func:`_held_out_part`)."""
     d, s = np.broadcast_arrays(d, s)
     out = np.zeros(d.shape)
     for idx, first, fitted in supports:
+        if not fitted:
+            out[..., idx] += _held_out_part(d[..., idx], s[..., idx], first)
+            continue
         ds, ss = d[..., idx] * s[..., idx], s[..., idx] * s[..., idx]
         sizes = np.diff(first, append=idx.size)
         num, den = (np.add.reduceat(v, first, axis=-1) for v in (ds, ss))
         ok = (sizes > 1) & (den > 0)
         gain = np.repeat(np.divide(num, den, out=np.zeros_like(num), where=ok), sizes, axis=-1)
-        if fitted and idx.size > 1:
+        if idx.size > 1:
             tot, common = ss.sum(axis=-1, keepdims=True), ds.sum(axis=-1, keepdims=True)
             gain = gain - np.divide(common, tot, out=np.zeros_like(tot), where=tot > 0)
         out[..., idx] += gain * s[..., idx]
     return out
+
+
+def _held_out_part(d: np.ndarray, s: np.ndarray, first: np.ndarray) -> np.ndarray:
+    """What a held-out group's own gains and zero drift take of its residual ``d[..., n]``
+    (signal ``s``, stretches beginning at the positions ``first``): least squares on
+    ``s`` in each stretch and a cubic in sample position (the cubic projected out first,
+    then the gains from their small normal equations). A held-out block the fit does not
+    surround (the last part of a recording, a whole cycle of a few) leaves the fitted
+    drift extrapolated there, and with the switched gains beside it that extrapolation,
+    not the element compared, would decide the held-out error."""
+    q = np.linalg.qr(np.vander(np.linspace(-1.0, 1.0, d.shape[-1]), DRIFT_COLUMNS))[0]
+    dq = d - (d @ q) @ q.T
+    qc = np.add.reduceat(q * s[..., :, None], first, axis=-2)  # (..., K, drift): Q' C
+    cc = np.add.reduceat(s * s, first, axis=-1)
+    normal = cc[..., :, None] * np.eye(first.size) - qc @ np.swapaxes(qc, -1, -2)
+    g = np.einsum(
+        "...kj,...j->...k", np.linalg.pinv(normal), np.add.reduceat(s * dq, first, axis=-1)
+    )
+    sizes = np.diff(first, append=d.shape[-1])
+    cg = s * np.repeat(g, sizes, axis=-1)
+    return cg + ((d - cg) @ q) @ q.T
 
 
 class Profiled:
