@@ -100,20 +100,12 @@ def find_stretches(
 
 @dataclass(frozen=True)
 class Stretches:
-    """The unrecorded input's stretches: per recording name, the signal ``s`` whose gain
-    it switches (the recorded input or the baseline's prediction, unit of the signal)
-    and the sample indices where the stretches begin (the last: the recording's
-    length).
-
-    Attributes:
-        signal: the signal's name (:data:`~.checks.missing_input.PREDICTION` for the
-            prediction).
-        channel: the output channel whose residual the gains are profiled out of.
-        series: recording name -> the signal over the recording.
-        starts: recording name -> stretch starts.
-        dt: sample interval [s] of the first recording (for the words).
-        blocks: the missing-input check's block length [samples] on the baseline.
-    """
+    """The unrecorded input's stretches, per recording name: the ``signal`` whose gain it
+    switches (:data:`~.checks.missing_input.PREDICTION`: the baseline's prediction), its
+    ``series`` over the recording (unit of the signal) and the sample indices where the
+    stretches begin (``starts``; the last: the recording's length); the output ``channel``
+    the gains are profiled out of, the first recording's sample interval ``dt`` [s] (for
+    the words) and the missing-input check's block length ``blocks`` [samples]."""
 
     signal: str
     channel: str
@@ -152,12 +144,10 @@ def _gains_part(
     d: np.ndarray, s: np.ndarray, supports: Sequence[tuple[np.ndarray, np.ndarray, bool]]
 ) -> np.ndarray:
     """What the gains take of the residual ``d[..., T]`` (unit of the channel; a batch of
-    designs along the leading axis, as ``s``): per sample group and stretch of more
-    than one sample, the least-squares gain of ``d`` on the signal ``s`` times ``s``;
-    for a fitted group, less the group's one common gain, which stays the model's (a
-    damping rate the switched gain multiplies); on held-out samples every stretch's
-    gain is their own (the input's level there is not known from the fit), fitted with
-    a slow drift of the zero over the group (:func:`_held_out_part`)."""
+    designs along the leading axis, as ``s``): per fitted group and stretch of more than
+    one sample, the least-squares gain of ``d`` on the signal ``s`` times ``s``, less the
+    group's one common gain, which stays the model's (a damping rate the switched gain
+    multiplies); held-out groups: :func:`_held_out_part`."""
     d, s = np.broadcast_arrays(d, s)
     out = np.zeros(d.shape)
     for idx, first, fitted in supports:
@@ -178,12 +168,11 @@ def _gains_part(
 
 def _held_out_part(d: np.ndarray, s: np.ndarray, first: np.ndarray) -> np.ndarray:
     """What a held-out group's own gains and zero drift take of its residual ``d[..., n]``
-    (signal ``s``, stretches beginning at the positions ``first``): least squares on
-    ``s`` in each stretch and a cubic in sample position (the cubic projected out first,
-    then the gains from their small normal equations). A held-out block the fit does not
-    surround (the last part of a recording, a whole cycle of a few) leaves the fitted
-    drift extrapolated there, and with the switched gains beside it that extrapolation,
-    not the element compared, would decide the held-out error."""
+    (signal ``s``, stretches from the positions ``first``): least squares on ``s`` in each
+    stretch and a cubic in time (the input's level and the zero there are not known from
+    the fit: a held-out block is the last part of a recording or a whole cycle of a few,
+    where the fitted drift is extrapolated)."""
+    # the cubic projected out first, then the gains from their small normal equations
     q = np.linalg.qr(np.vander(np.linspace(-1.0, 1.0, d.shape[-1]), DRIFT_COLUMNS))[0]
     dq = d - (d @ q) @ q.T
     qc = np.add.reduceat(q * s[..., :, None], first, axis=-2)  # (..., K, drift): Q' C
