@@ -69,6 +69,23 @@ def test_two_effects_both_found() -> None:
     assert {family_of(k) for k in case.truth.kinds} == set(diag.named_families)
 
 
+def test_an_element_the_next_one_makes_unneeded_is_withdrawn() -> None:
+    # development damper 437 conceals a sensor lag (the generator's truth); round 1 names
+    # Dahl hysteresis (at the test's frequencies the lag's loop), round 2 the lag, beside
+    # which the model no longer needs the loop: dropping it costs no likelihood. The
+    # backward step of stepwise selection withdraws it and judges the lag against the
+    # baseline (one test, the family's rule)
+    case = make_case("damper", 437, 1)
+    assert case.truth.kinds == ["sensor_lag"]
+    diag = diagnose(case.recording, "damper")
+    assert diag.named_kinds == ["sensor_lag"]
+    (gone,) = [h for h in diag.hypotheses if h.kind == "dahl_hysteresis" and h.withdrawn]
+    assert "sensor lag (first-order filter) in the damper (named after it)" in gone.withdrawn
+    lag = diag.named[0]
+    assert lag.fit is diag.final_fit and lag.significant and lag.p_value_corrected < 1e-6
+    assert "dahl_hysteresis.f_c" not in diag.final_params
+
+
 def test_holdout_fraction_and_recordings() -> None:
     case = make_case("damper", 2, 0)
     sp = split(case.recording, 0.25)

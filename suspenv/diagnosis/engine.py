@@ -42,7 +42,13 @@ from suspenv.diagnosis.decision import DecisionRule, decide, rank
 from suspenv.diagnosis.evidence import Comparison, baseline_summary, compare
 from suspenv.diagnosis.family import Conclusion, DiagnosisFamily, Outcome, Setup
 from suspenv.diagnosis.fitting import FitResult
-from suspenv.diagnosis.hypothesis import Ambiguity, Hypothesis, family_of, split_candidate
+from suspenv.diagnosis.hypothesis import (
+    Ambiguity,
+    Hypothesis,
+    Withdrawal,
+    family_of,
+    split_candidate,
+)
 from suspenv.diagnosis.split import Holdout, Recordings, Split
 from suspenv.diagnosis.sufficiency import check_setup
 from suspenv.diagnosis.unrecorded import profile, still_switching, switched_left
@@ -275,6 +281,8 @@ def _judged(
         run.say(f"baseline refitted beside an unrecorded input ({unrecorded[1].numbers['signal']})")
     location, channel = run.fam.locate(base, run.setup)
     ctx = checks.Context(run.fam, run.setup, _search(run, base, location), run.fam.rule)
+    if gone := ctx.outcome.withdrawn:  # kept with the checks' (the family says them)
+        checks.fold(ctx, Conclusion(withdrawn=list(gone)))
     checks.run(ctx)
     return ctx, channel, unrecorded
 
@@ -350,7 +358,42 @@ def _round(run: _Run, state: Outcome, rnd: int) -> bool:
     state.named.append(win)
     state.current = win.fit
     run.say(f"round {rnd}: named {win.words}")
+    _retest(run, state)
     return True
+
+
+def _retest(run: _Run, state: Outcome) -> None:
+    """The element named in the round before, judged again beside the one just named
+    (stepwise selection's backward step; the family's optional ``without``: its current
+    model refitted without an element; the family says the withdrawals): where the rule,
+    as one test, no longer finds it significant, it is withdrawn and the new element is
+    judged against the model before it."""
+    if (without := getattr(run.fam, "without", None)) is None or len(state.named) < 2:
+        return
+    prev, win = state.named[-2:]
+    parent = [state.base, *(h.fit for h in state.named)][-3]
+    assert prev.fit is not None and parent is not None
+    added = {e.name for e in prev.fit.model.effects} - {e.name for e in parent.model.effects}
+    if len(added) != 1 or (alt := without(state.current, added.pop(), run.setup)) is None:
+        return
+    alt.extra["effect"] = state.current.extra["effect"]  # the new element's, as named
+    again, alone = _judge(run, prev, alt, state.current), _judge(run, win, parent, alt)
+    if again.significant or not alone.significant:
+        return
+    numbers = (again.p_value_corrected, again.delta_bic_corrected, again.heldout_reduction)
+    state.withdrawn.append(Withdrawal(prev, f"{win.words} (named after it)", *numbers))
+    state.named[-2:] = [alone]
+    state.hypotheses = [alone if h is win else h for h in state.hypotheses]
+    state.current = alt
+
+
+def _judge(run: _Run, h: Hypothesis, parent: FitResult, ext: FitResult) -> Hypothesis:
+    """``h``'s element judged by the family's rule, as one test, as the step from
+    ``parent`` to ``ext``."""
+    said = (h.kind, h.location, h.words, h.round)
+    out = Hypothesis.from_comparison(*said, parent, ext, run.versus(parent, ext))
+    decide([out], 1, run.fam.rule)
+    return out
 
 
 def _hypothesis(run: _Run, state: Outcome, cand: str, sig: Any, rnd: int) -> Hypothesis:

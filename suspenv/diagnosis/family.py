@@ -95,6 +95,8 @@ class Outcome:
     hypotheses: list[Hypothesis]
     signatures: Sequence[SignatureLike]
     location: Report
+    #: elements withdrawn during the search: an element named after made them unneeded
+    withdrawn: list[Withdrawal] = field(default_factory=list)
 
 
 @dataclass

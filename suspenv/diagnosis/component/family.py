@@ -80,6 +80,7 @@ from suspenv.diagnosis.component.rig import (
 )
 from suspenv.diagnosis.component.signatures import SIGNATURE_KINDS, SignalSet, score_signatures
 from suspenv.diagnosis.component.transducer import curvature_left
+from suspenv.diagnosis.component.withdrawal import without_element
 from suspenv.diagnosis.decision import (
     EQUIVALENT_COMBINATIONS,
     DecisionRule,
@@ -638,6 +639,10 @@ class ComponentFamily(OptionalSteps):
             location=location,
             max_nfev=self.budget,
         )
+
+    def without(self, current: FitResult, name: str, setup: Setup) -> FitResult:
+        """``current`` refitted without its element ``name`` (:func:`without_element`)."""
+        return without_element(current, name, setup.split, self.budget)
 
     def refit_checks(self) -> list[Check]:
         """The rules a refit must pass to stand as a hypothesis, in order
