@@ -190,8 +190,7 @@ class Diagnosis:
     @property
     def detection_limits(self) -> dict[str, dict[str, Any]]:
         """Smallest effects the fitted tests would have shown (K&C, when nothing is named)."""
-        limits: dict[str, dict[str, Any]] = self.findings.get("detection_limits", {})
-        return limits
+        return self.findings.get("detection_limits", {})
 
     def effect(self, kind: str) -> Any:
         """The fitted element of ``kind`` in the final model, its values set as numbers
@@ -423,7 +422,6 @@ def _diagnosis(run: _Run, ctx: checks.Context, channel: str) -> Diagnosis:
     found, outcome = ctx.found, ctx.outcome
     base, current, named = outcome.base, outcome.current, outcome.named
     amb = found.ambiguities
-    comparison = run.versus(base, current) if named else None
     baseline = baseline_summary(
         base, sp.fit_recordings, sp.heldout_recordings, sp.fit_masks, sp.heldout_masks
     )
@@ -441,7 +439,7 @@ def _diagnosis(run: _Run, ctx: checks.Context, channel: str) -> Diagnosis:
         named=named,
         ambiguities=amb,
         verdict=verdict_words(named, outcome.hypotheses, amb, outcome.signatures, found),
-        comparison=comparison,
+        comparison=run.versus(base, current) if named else None,
         final_params=current.params(),
         seconds=time.perf_counter() - run.t0,
         rule=run.fam.rule,
@@ -525,5 +523,4 @@ def make_family(name: str, **options: Any) -> DiagnosisFamily:
         raise ValidationError(
             f"diagnosis family {name!r} has no option(s) {unknown}; its options are {allowed}"
         )
-    family: DiagnosisFamily = maker(**options)
-    return family
+    return maker(**options)

@@ -34,8 +34,7 @@ def ljung_box(r: np.ndarray, lags: int = 20) -> tuple[float, float]:
     (Ljung & Box, 1978).
     """
     r = np.asarray(r, float)
-    r = r - np.mean(r)
-    n = r.size
+    r, n = r - np.mean(r), r.size
     h = int(min(lags, max(n // 4, 1)))
     den = float(np.dot(r, r))
     if n < 8 or den <= 0:
@@ -114,8 +113,7 @@ def heldout_noise_units(
     """
     gain = signal = 0.0
     for c, rb in before.items():
-        s2 = float(scales[c]) ** 2
-        ra = after[c]
+        s2, ra = float(scales[c]) ** 2, after[c]
         gain += float(np.sum(rb**2 - ra**2)) / s2
         signal += float(np.sum((rb - ra) ** 2)) / s2
     return gain, signal
@@ -141,8 +139,7 @@ def heldout_confirmation_z(
     if signal <= 0.0:
         return 0.0
     r = min(max(float(rho), 0.0), 0.99)
-    factor = (1.0 + r) / (1.0 - r)
-    return float((gain + signal) / (2.0 * np.sqrt(signal * factor)))
+    return float((gain + signal) / (2.0 * np.sqrt(signal * ((1.0 + r) / (1.0 - r)))))
 
 
 def relative_drop(

@@ -129,9 +129,8 @@ class Conclusion:
     leading: int = 0
 
     def lead(self, sentence: str, at: int = 0) -> None:
-        """Say ``sentence`` among the leading ones (at position ``at``): it says what
-        is left outside the library and stands in for "no significant missing
-        physics"."""
+        """Say ``sentence`` among the leading ones (at position ``at``): it says what is
+        left outside the library and stands in for "no significant missing physics"."""
         self.sentences.insert(at, sentence)
         self.leading += 1
 

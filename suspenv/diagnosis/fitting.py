@@ -7,11 +7,10 @@ first fit, :func:`noise_scales`, held fixed for every model compared on the same
 so that likelihoods stay comparable) or the measured channel's standard deviation
 (:func:`spread_scales`).
 
-Parameter covariance comes from the Jacobian at the optimum,
-``cov = s^2 (J^T J)^+`` with ``s^2`` the scaled residual variance; standard errors
-are also given corrected for serially correlated residuals (effective sample size from
-the lag-1 autocorrelation), because neighbouring samples of a recording are not
-independent.
+Parameter covariance comes from the Jacobian at the optimum, ``cov = s^2 (J^T J)^+``
+with ``s^2`` the scaled residual variance; standard errors are also given corrected for
+serially correlated residuals (effective sample size from the lag-1 autocorrelation),
+because neighbouring samples of a recording are not independent.
 
 What differs between models is a property of the model, read through the typed seam
 (:class:`suspenv.diagnosis.protocols.DiagnosableModel`: ``difference_step``,

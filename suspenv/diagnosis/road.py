@@ -73,9 +73,8 @@ def slope_periodogram(z: np.ndarray, dx: float) -> tuple[np.ndarray, np.ndarray]
     d = np.diff(np.asarray(z, float))
     d = d - d.mean()
     N = d.size
-    spec = np.fft.rfft(d)
     n = np.fft.rfftfreq(N, dx)
-    I_ = 2.0 * dx / N * np.abs(spec) ** 2
+    I_ = 2.0 * dx / N * np.abs(np.fft.rfft(d)) ** 2
     keep = slice(1, N // 2 if N % 2 == 0 else None)
     return n[keep], I_[keep]
 
@@ -173,8 +172,7 @@ class RoadSpectrum:
     def simulate(self, theta: np.ndarray, rec: Recording) -> dict[str, np.ndarray]:
         th = np.asarray(theta, float)
         a, w = th[..., :1], th[..., 1:2] if self.effects else STANDARD_WAVINESS
-        y = a - w * rec.inputs["log_frequency"] - np.euler_gamma
-        return {"log_periodogram": y}
+        return {"log_periodogram": a - w * rec.inputs["log_frequency"] - np.euler_gamma}
 
     def unpack(self, theta: np.ndarray) -> tuple[dict[str, np.ndarray], list[Waviness]]:
         th = np.asarray(theta, float)
@@ -438,8 +436,7 @@ class RoadFamily(OptionalSteps):
         """The final model's log lines over every profile (fit and held out), refitted to
         all of them (a half fitted alone carries its estimation error into the other
         half, which is no error of the model's form), in noise units (the noise level is
-        known, not estimated), three views (Bonferroni over
-        them):
+        known, not estimated), three views (Bonferroni over them):
 
         * octaves: the RMS over the octaves of each octave's mean residual in its noise
           units (:func:`octaves`; shape errors: a knee, a hump), limit

@@ -1,10 +1,9 @@
 """The records of locating and screening, shared by every diagnosis family.
 
 * :class:`Share` / :class:`Location`: where the residual energy lives. Every partition
-  of the samples reports, per part, the *share* of residual energy (each channel
-  divided by its scale so channels compare), the *fraction* of samples in the part and
-  their ratio, the *enrichment* (1: spread like the samples; 3: three times its fair
-  share).
+  of the samples reports, per part, the *share* of residual energy (each channel divided
+  by its scale so channels compare), the *fraction* of samples in the part and their
+  ratio, the *enrichment* (1: spread like the samples; 3: three times its fair share).
 * :class:`Signature`: a screening score of a signature family or a candidate, with its
   p-value, evidence in words and numbers in the channel's units.
 * :func:`effective_n`: the effective sample size of a serially correlated residual;

@@ -5,13 +5,12 @@
 fit. Each failure raises :class:`~suspenv.core.errors.ValidationError` whose message
 names the recording, what it has and what the diagnosis needs. The rules, in order:
 
-1. **Values** (every fitted and held-out recording, every channel and the time):
-   finite; a unit the diagnosis knows (:data:`PLAUSIBLE`, SI) and, for a channel the
-   model reads, the model's own unit (force in lbf is never read as N); a magnitude
-   below the channel's physical limit (:data:`PLAUSIBLE`, in SI after the reader's
-   conversion; for the time, its span). A value past the limit means the declared unit
-   or a scale factor is wrong (mm read as m, data multiplied by 1e300), not a component
-   to diagnose.
+1. **Values** (every fitted and held-out recording, every channel and the time): finite;
+   a unit the diagnosis knows (:data:`PLAUSIBLE`, SI) and, for a channel the model
+   reads, the model's own unit (force in lbf is never read as N); a magnitude below the
+   channel's physical limit (:data:`PLAUSIBLE`, in SI after the reader's conversion; for
+   the time, its span). A value past the limit means the declared unit or a scale factor
+   is wrong (mm read as m, data multiplied by 1e300), not a component to diagnose.
 2. **Samples** against the model's size: the fitted part must hold at least
    :data:`OBS_PER_PARAMETER` observations (samples x predicted channels) per parameter
    of the largest model the search may reach (base parameters plus the

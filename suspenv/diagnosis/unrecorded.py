@@ -35,12 +35,7 @@ import numpy as np
 from suspenv.diagnosis.checks import missing_input
 from suspenv.diagnosis.checks.finding import Context, Finding
 from suspenv.diagnosis.family import DiagnosisFamily, Outcome, Setup
-from suspenv.diagnosis.fitting import (
-    FitResult,
-    ar1_effective_size,
-    lag1_autocorrelation,
-    residuals,
-)
+from suspenv.diagnosis.fitting import FitResult, ar1_effective_size, lag1_autocorrelation, residuals
 from suspenv.diagnosis.protocols import DiagnosableModel, RecordingLike
 
 #: most stretches of constant gain per recording

@@ -262,9 +262,7 @@ def _sentence(numbers: str, supported: bool, matched: MatchedSpeedAsymmetry | No
             "higher velocity / a pure sine sweep would separate them (an asymmetry grows "
             "with speed, a gas force or offset does not)"
         )
-    if matched is not None:
-        sentence = f"{sentence}. Model-free check, {matched.sentence}"
-    return sentence
+    return sentence if matched is None else f"{sentence}. Model-free check, {matched.sentence}"
 
 
 def _matched_speed(sp: Split, alpha: float) -> MatchedSpeedAsymmetry | None:

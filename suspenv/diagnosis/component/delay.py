@@ -10,23 +10,21 @@ probe, in two places.
 
 1. **Lag or delay** (:func:`delay_against_lag`): where a sensor lag is refitted, the same
    model with a delay of the same channel instead is fitted too. The two fits have one
-   parameter each, so their corrected BIC difference is a likelihood ratio of
-   non-nested models. A delay decisively better refuses the lag
-   (:func:`check_lag_not_delay`): a difference above ``DELAY_DECISIVE_BIC``, the
-   held-out samples confirming it (:func:`heldout_z_of_delay`: the held-out chi-square
-   drop in noise units, at the decision rule's ``alpha``; a relative drop of the
-   held-out error would ask for more than the noise floor leaves when the lag already
-   fits close to it, as a first-order lag does a delay at small ``w T``), and the
-   encompassing test: the lag and the delay fitted together, the delay
-   is significant beside the lag and the lag is not beside the delay (the corrected
-   likelihood ratio of every refit, at the decision rule's ``alpha``), and where the
-   lag carries more than ``LAG_SHARE_AT_BOUND`` of the two's lateness, the delay
-   resolved from zero by ``SIZE_Z`` standard errors and the lag not (below it the lag is
-   on its bound 0, where the two elements' derivatives nearly coincide, both about the
-   signal's rate, and the errors of the split say nothing). Under a
-   misfit elsewhere in the model a difference of 1 % in residual power is "significant"
-   on thousands of samples; fitted together, the two then share the lateness, neither
-   resolved. Once refused for a channel, the lag is not refitted on it again.
+   parameter each, so their corrected BIC difference is a likelihood ratio of non-nested
+   models. A delay decisively better refuses the lag (:func:`check_lag_not_delay`): a
+   difference above ``DELAY_DECISIVE_BIC``, the held-out samples confirming it
+   (:func:`heldout_z_of_delay`: the held-out chi-square drop in noise units, at the
+   decision rule's ``alpha``; a relative drop of the held-out error would ask for more
+   than the noise floor leaves when the lag already fits close to it, as a first-order
+   lag does a delay at small ``w T``), and the encompassing test: the lag and the delay
+   fitted together, the delay is significant beside the lag and the lag is not beside
+   the delay (the corrected likelihood ratio of every refit, at the decision rule's
+   ``alpha``), and where the lag carries more than ``LAG_SHARE_AT_BOUND`` of the two's
+   lateness (below it the lag sits on its bound 0), the delay resolved from zero by
+   ``SIZE_Z`` standard errors and the lag not. Under a misfit elsewhere in the model a
+   difference of 1 % in residual power is "significant" on thousands of samples; fitted
+   together, the two then share the lateness, neither resolved. Once refused for a
+   channel, the lag is not refitted on it again.
 2. **Delay left** (:func:`delay_left`): after the last named element, a delay of that
    channel is added to the final model. It is physics outside the library when it passes
    the test every refit passes *and* the residual check's size rule
@@ -420,20 +418,14 @@ class DelayLeft(Record):
 
 
 def delay_left(
-    final: FitResult,
-    sp: Split,
-    channel: str,
-    start: float,
-    lag_bic: float,
-    budget: int,
-    rule: DecisionRule,
-    phases: Sequence[PhaseRow] = (),
+    final: FitResult, sp: Split, channel: str, test: dict[str, Any], budget: int, rule: DecisionRule
 ) -> DelayLeft:
-    """Whether a pure delay of ``channel``, refitted on top of ``final`` from ``start``
-    [s], is physics left after the final model (module docstring, 2: judged by
-    :func:`~suspenv.diagnosis.component.residual_left.beyond_library`). ``phases``: the
-    phase table of the test that refused the lag, carried as evidence."""
-    delayed = fit_delay(final, sp, channel, start, budget)
+    """Whether a pure delay of ``channel``, refitted on top of ``final`` from the delay of
+    ``test`` (:func:`delay_against_lag`, the test that refused the lag), is physics left
+    after the final model (module docstring, 2: judged by
+    :func:`~suspenv.diagnosis.component.residual_left.beyond_library`); the test's BIC
+    difference and phase table are carried as evidence."""
+    delayed = fit_delay(final, sp, channel, test["delay_s"], budget)
     c, ratio, remains = beyond_library(final, delayed, sp, channel, rule)
     return DelayLeft(
         channel=channel,
@@ -441,9 +433,9 @@ def delay_left(
         p_value_corrected=c.lr.p_value_corrected,
         heldout_reduction=c.heldout_reduction,
         structured_ratio=ratio,
-        lag_bic=lag_bic,
+        lag_bic=test["bic_difference"],
         remains=remains,
-        phases=tuple(phases),
+        phases=tuple(test.get("phases", ())),
     )
 
 

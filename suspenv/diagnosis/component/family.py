@@ -139,11 +139,10 @@ def default_holdout(recordings: Sequence[Any]) -> str | float:
 SCREEN_FAMILIES = 4
 #: evaluation budget of each fit (default)
 MAX_NFEV = 200
-#: per model family, settings that replace those defaults: the quarter car is simulated
-#: by a time integrator, so each refit gets fewer evaluations (it starts from an
-#: equation-error fit of the suspension force) and the two strongest force signature
-#: families are refitted per round (plus each channel's sensor errors). These are the
-#: settings its benchmark rows were measured with, so `suspenv diagnose` uses them too
+#: per model family, settings that replace those defaults (`suspenv diagnose` and the
+#: benchmark alike): the quarter car is simulated by a time integrator, so each refit gets
+#: fewer evaluations (it starts from an equation-error fit of the suspension force) and
+#: the two strongest force signature families are refitted per round (plus sensor errors)
 FAMILY_SETTINGS: dict[str, dict[str, int]] = {
     "quarter_car_rig": {"max_nfev": 15, "screen_families": 2},
 }
@@ -261,8 +260,7 @@ def _score_round(
     """Signature scores of one round, strongest first (in the force view where the model
     has one: module docstring), and whether the model's force view was used."""
     open_fams = {family_of(split_candidate(k)[0]) for k in cands}
-    fams_needed = [f for f in SIGNATURE_KINDS if f in open_fams]
-    fams_needed = fams_needed or list(SIGNATURE_KINDS)
+    fams_needed = [f for f in SIGNATURE_KINDS if f in open_fams] or list(SIGNATURE_KINDS)
     if (sset := _force_view_signal_set(current, sp)) is None:
         return score_signatures(_signal_set(current, sp, channel), fams_needed), False
     force_fams = [f for f in fams_needed if f not in SENSOR_FAMILIES]
@@ -624,7 +622,7 @@ class ComponentFamily(OptionalSteps):
     ) -> FitResult:
         kind, location = split_candidate(candidate)
         location = location or effect_location(setup.model, kind)
-        if split_candidate(candidate)[0] == "sensor_lag":
+        if kind == "sensor_lag":
             # a sensor lag's channel (the model's first output unless located)
             refused = self.delay_tests.get(location or setup.model.output_channels[0])
             if refused is not None:  # a delay beat the lag of this channel in an earlier round
@@ -801,8 +799,7 @@ class ComponentFamily(OptionalSteps):
         the cycle-to-cycle state test and the tail rule of the final model
         (:func:`~suspenv.diagnosis.component.residual_left.residual_left`), with the
         motion's low-pass cut-off (:attr:`motion_lowpass_hz`) for the tail rule (step 6
-        of that module's docstring; servo-guide controls with motion low-passed at 16 Hz
-        had up to 14 samples beyond ten robust scales read as recorded)."""
+        of that module's docstring)."""
         left = residual_left(
             outcome.current,
             setup.split,
@@ -869,16 +866,7 @@ class ComponentFamily(OptionalSteps):
         if self._delays[0] is final:
             return self._delays[1]
         delays = [
-            delay_left(
-                final,
-                setup.split,
-                channel,
-                test["delay_s"],
-                test["bic_difference"],
-                self.budget,
-                self.rule,
-                test.get("phases", ()),
-            )
+            delay_left(final, setup.split, channel, test, self.budget, self.rule)
             for channel, test in self.delay_tests.items()
         ]
         self._delays = (final, delays)
@@ -930,8 +918,7 @@ def baseline_offsets(fit: FitResult) -> list[dict[str, Any]]:
     and a sentence in the channel's unit (``"the baseline's constant offset of force is
     +3.14 +- 0.02 N ..."``)."""
     out: list[dict[str, Any]] = []
-    fitted = fit.params()
-    model = fit.model
+    fitted, model = fit.params(), fit.model
     for e in getattr(model, "effects", ()):
         key = f"{e.name}.offset"
         if e.kind not in OFFSET_KINDS or key not in fitted:

@@ -65,9 +65,8 @@ NOISE_BAND = 0.8
 #: element on a low-noise dyno recording
 VELOCITY_MISMATCH = 0.001
 #: white noise below this share of the motion's standard deviation is none: float
-#: rounding of a synthetic signal, the filter's own start-up ringing (a 16-bit
-#: transducer's quantisation noise is about 1.2e-5 of a sine's standard deviation
-#: spanning its range, and harmless to a fit)
+#: rounding, the filter's start-up ringing (a 16-bit transducer's quantisation noise,
+#: about 1.2e-5 of a full-range sine's standard deviation, is harmless to a fit)
 NEGLIGIBLE_NOISE = 1e-5
 #: the displacement's derivatives are clean when the noise they carry is at most this
 #: share of their RMS (at most the force noise of a dyno)
@@ -222,9 +221,7 @@ def motion_cutoff(x: np.ndarray, fs: float, s2: float | None = None) -> float | 
         if _removed(x, fs, fc) > NOISE_TOLERANCE * s2 * _removed_share(fs, fc):
             break
         chosen = fc
-    if chosen is None or chosen >= CUTOFF_GRID[0] * nyq:
-        return None
-    return chosen
+    return None if chosen is None or chosen >= CUTOFF_GRID[0] * nyq else chosen
 
 
 #: frequency bins the periodogram is averaged over (:func:`least_error_cutoff`): its
@@ -236,8 +233,7 @@ def least_error_cutoff(x: np.ndarray, fs: float, s2: float) -> float | None:
     """The cut-off [Hz] of :data:`CUTOFF_GRID` whose low-pass leaves the derivative of the
     displacement ``x`` (sampled at ``fs`` [Hz], white noise of variance ``s2``) the least
     expected error, or None when none leaves less than ``1 / NOISE_TOLERANCE`` of the
-    error without a filter (a gain within the tolerance of the noise estimate is none: a
-    marginal cut-off measured 9 % worse than none on one draw). Per frequency bin the
+    error without a filter (a gain within the noise estimate's tolerance is none). Per bin the
     error is the noise passed, ``|H|^4 s2``, plus the motion removed, ``(1 - |H|^2)^2``
     times its power (the periodogram, Hann window, averaged over :data:`SMOOTH_BINS`,
     less ``s2``), both weighted by the stencil's ``|D|^2`` (:func:`derivative`)."""
@@ -339,8 +335,7 @@ def motion_versions(
         def band(y: np.ndarray, rate: float = rate, cut: float | None = cut) -> np.ndarray:
             return y if cut is None else lowpass(y, rate, cut)
 
-        band_inputs = dict(rec.inputs)
-        band_inputs[xk] = band(x)
+        band_inputs = {**rec.inputs, xk: band(x)}
         derived_inputs = dict(band_inputs)
         d = band_inputs[xk]
         gain = lag = mismatch = None
@@ -401,11 +396,10 @@ def derivative_noise(s2: float, fs: float, fc: float | None, order: int) -> floa
     if s2 <= 0.0:
         return 0.0
     f = np.linspace(0.0, 0.5 * fs, 4097)[1:]
-    stencil = _stencil(f, fs)
     gain = np.ones_like(f)
     if fc is not None:
         gain = np.abs(sosfreqz(butterworth(fc, fs), worN=f, fs=fs)[1]) ** 4
-    return float(np.sqrt(s2 * np.mean(gain * stencil ** (2 * order))))
+    return float(np.sqrt(s2 * np.mean(gain * _stencil(f, fs) ** (2 * order))))
 
 
 def preferred_version(checks: Sequence[MotionCheck]) -> str | None:
@@ -414,7 +408,6 @@ def preferred_version(checks: Sequence[MotionCheck]) -> str | None:
     decide: an accelerometer may be cleaner than a twice-differentiated displacement),
     else ``"displacement"`` where the derivatives are clean (:data:`DERIVATIVE_CLEAN`),
     else None: the fit chooses (:func:`choice_words`)."""
-
     if not (bad := [c for c in checks if c.worst_mismatch > VELOCITY_MISMATCH]):
         return "band"
     if all(c.derivative_noise <= DERIVATIVE_CLEAN for c in bad):

@@ -355,10 +355,9 @@ def check_resolved_size(candidate: str, ext: FitResult) -> None:
     within ``SIZE_Z`` corrected standard errors.
 
     Such a fit improves the residual through something else than the element: its shape
-    at a size the data cannot tell from zero (LuGre's bristle damping ``sigma1 dz/dt`` is
-    a viscous force at standstill whatever the friction level, and it absorbed a guide
-    control's drifting zero), or the base parameters moving to a better optimum from the
-    refit's new start. Raises :class:`ValidationError`.
+    at a size the data cannot tell from zero (LuGre's bristle damping ``sigma1 dz/dt``, a
+    viscous force at standstill, absorbs a drifting zero), or the base parameters moving
+    to a better optimum from the refit's new start. Raises :class:`ValidationError`.
     """
     if (found := _judged_element(candidate, ext, ELEMENT_SIZE)) is None:
         return
@@ -423,8 +422,7 @@ def check_stiction_decays(
     # NaN for a level held fixed, which is not judged here
     f_c, sd_c = parameter_and_error(ext, kind, "f_c")
     f_s, sd_s = parameter_and_error(ext, kind, "f_s")
-    # the rise over the recorded speeds, not f_c - f_s: with v_s far above the peak
-    # speed only their ratio is resolved, and the difference alone can be any size
+    # the rise over the recorded speeds, not f_c - f_s (:func:`stribeck_rise_and_error`)
     rise, sd = stribeck_rise_and_error(ext, kind, vmax)
     if not np.isfinite(sd) or rise <= SIZE_Z * sd:
         return

@@ -103,9 +103,7 @@ CYCLES_PER_TREND_DEGREE = 4
 #: cycles a state cell needs to count (its scatter is measured from them)
 MIN_REPLICATES = 4
 #: structured RMS / noise RMS above which a significant structure counts as a residual
-#: left. On the development seeds (0-9) of the concealed-effect benchmark the ratio left
-#: after the right element was at most 0.35, in the controls at most 0.45, in
-#: out-of-library cases at least 0.71
+#: left (above what the right element or a control leaves, below out-of-library physics)
 MATERIAL_RATIO = 0.6
 #: the same limit as the shared rule reads it, the residual's RMS in noise units:
 #: ``sqrt(S^2 + N^2) / N = sqrt(1 + MATERIAL_RATIO^2)``, 1.17
@@ -114,21 +112,16 @@ LIMIT = float(np.hypot(1.0, MATERIAL_RATIO))
 ALPHA = 0.01
 #: periods of the motion's low-pass cut-off at either end of a recording that the check
 #: leaves out where the motion channels were low-passed (:func:`settled`): there the
-#: zero-phase filter rests on one side's samples. On the own generator's development
-#: guides with recorded motion (seeds 0-9), the force error of the true model fed the
-#: low-passed motion was 6-18 times the noise RMS within half a period of an end, 1.3-2.3
-#: times from half to one period, at most 0.6 times beyond (with the filter's plain odd
-#: extension, before :func:`~suspenv.models.components.base.lowpass` extended the ends
-#: by their curvature: 8-58, 1.2-9.9 and up to 2.3 times)
+#: zero-phase filter rests on one side's samples (the true model's force error there is
+#: several times the noise RMS, below it beyond one period)
 SETTLING_PERIODS = 1.0
 #: robust scales beyond which a sample is a tail sample (Gaussian noise: 2e-9 of them)
 TAIL_Z = 6.0
 #: tail samples that make a tail: at 2e-9 per sample, Gaussian noise does not give ten
 #: in any recording (a coloured-noise excursion of a few samples stays below it)
 TAIL_MIN_SAMPLES = 10
-#: share of each recording at either end left out of the tail rule (on the development
-#: data a damper's Coulomb friction, named right, left 25 of its 29 tail samples in the
-#: first 10 and last 15 samples of its recording)
+#: share of each recording at either end left out of the tail rule (a model started
+#: from rest leaves its tail samples there)
 TAIL_EDGE_FRACTION = 0.02
 #: samples either side of an inconsistent motion sample also left out of the tail rule
 INCONSISTENT_MARGIN = 5
@@ -136,9 +129,8 @@ INCONSISTENT_MARGIN = 5
 #: zero-phase filter's padding needs a few times its order)
 MIN_FILTERED_SAMPLES = 52
 #: where the motion channels were low-passed the tail rule reads the samples where the
-#: speed exceeds this share of the recording's peak speed (on the retired guides of
-#: 5022-5063 every control's largest tail samples were at standstill, below 0.1 % of the
-#: peak speed, and free play's at 30-100 % of it; 0.5-2 % gave the same verdicts)
+#: speed exceeds this share of the recording's peak speed (a control's largest tail
+#: samples lie at standstill, free play's while the part moves)
 MOVING_FRACTION = 0.01
 
 
@@ -361,8 +353,7 @@ def beyond_library(
     power ``ssr_before - ssr_after`` against ``ssr_after``; 0 where nothing is left) above
     :data:`MATERIAL_RATIO`. Returns (the comparison, that ratio, all three hold)."""
     c = compare(before, after, sp)
-    ssr_before = before.ssr.get(channel, np.nan)
-    ssr_after = after.ssr.get(channel, np.nan)
+    ssr_before, ssr_after = before.ssr.get(channel, np.nan), after.ssr.get(channel, np.nan)
     ratio = float(np.sqrt(max(ssr_before / ssr_after - 1.0, 0.0))) if ssr_after > 0 else 0.0
     p, gain = c.lr.p_value_corrected, c.heldout_reduction
     passes = p < rule.alpha and gain >= rule.min_heldout_gain and ratio > MATERIAL_RATIO
@@ -465,11 +456,9 @@ def _cell_test(
     cell = direction * 16 + speed_q * 4 + x_q
     key = cell.astype(np.int64) * (int(cycle.max()) + 1) + cycle
     uniq, inv, counts = np.unique(key, return_inverse=True, return_counts=True)
-    sums = np.bincount(inv, weights=r)
-    means = sums / counts
+    means = np.bincount(inv, weights=r) / counts
     cell_of = uniq // (int(cycle.max()) + 1)
-    chi2 = 0.0
-    dof = 0
+    chi2, dof = 0.0, 0
     tops: list[tuple[float, int, float]] = []
     for c in np.unique(cell_of):
         m_c = means[cell_of == c]

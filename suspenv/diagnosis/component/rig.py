@@ -377,8 +377,7 @@ def baseline_model(rig: RigDescription, recordings: Sequence[RecordingLike] = ()
                 effects.append(make_effect(kind, name=name, location=ch))
         else:
             effects.append(make_effect(kind, location=str(probe.location or "")))
-    defaults = probe.effect_defaults
-    effects = [e.with_params(defaults.get(e.kind, {})) for e in effects]
+    effects = [e.with_params(probe.effect_defaults.get(e.kind, {})) for e in effects]
     if recordings:
         # the drift's shape is defined over the longest recording's duration
         span = max(float(np.ptp(np.asarray(r.time, float))) for r in recordings) or 1.0

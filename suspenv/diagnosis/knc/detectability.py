@@ -54,10 +54,9 @@ def detection_limits(
     ``extra["jacobian"]`` is the Jacobian of the residual scaled by ``base.scales``).
     ``noise`` (channel unit) is each channel's noise level, an estimate independent of
     the fit (the residual map's roughness noise: the baseline's residual RMS, which an
-    unmodelled effect inflates, would not do).
-    Returns ``candidate -> {"parameter", "reference", "snr_at_reference", "exponent",
-    "limit"}`` (``limit`` in the parameter's unit; ``inf`` when the element leaves no
-    trace).
+    unmodelled effect inflates, would not do). Returns
+    ``candidate -> {"parameter", "reference", "snr_at_reference", "exponent", "limit"}``
+    (``limit`` in the parameter's unit; ``inf`` when the element leaves no trace).
     """
     model: KncAxleModel = base.model
     recs = list(recs)

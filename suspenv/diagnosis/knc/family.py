@@ -180,8 +180,7 @@ def fit_axle(
         if scales is None:
             scales = spread_scales(recs, fitted_channels(axle, recs[0], x0))
         pb = AxleCurves(axle, recs, scales, x0, held)
-        prior = pb.unit(axle.start_theta())
-        stage, r, J = polish(pb, pb.unit(x0), max_nfev, prior=prior, ftol=tol)
+        stage, r, J = polish(pb, pb.unit(x0), max_nfev, prior=pb.unit(axle.start_theta()), ftol=tol)
         theta = pb.designs(stage.u)[0]
         fits.append(
             evaluate(
@@ -245,14 +244,12 @@ def settle(
     channel scales, and the likelihood ratio compares the profile likelihoods (each
     channel's noise at its own estimate). Two things would let a candidate win what
     the null merely missed: a null stopped short of convergence (so the fit is
-    restarted until a restart gains under half a unit), and weights that no longer
-    match the residual (a channel the named element now explains, e.g. the wheel load
-    after strut friction, keeps the large scale of the baseline's misfit and is then
-    ignored by the fit but counted by the likelihood). So the scales are set to the
-    fit's own residual levels and the fit repeated until they change by less than
-    25 % (at most ``rounds`` times). Each fit is restarted by the shared rule
-    (:func:`fit_axle`). On dev seed 113 (strut friction) a load-cell offset
-    of 0.6 N had a likelihood ratio of 141 against a null without these steps.
+    restarted until a restart gains under half a unit), and weights that no longer match
+    the residual (a channel the named element now explains, e.g. the wheel load after
+    strut friction, keeps the large scale of the baseline's misfit and is then ignored
+    by the fit but counted by the likelihood). So the scales are set to the fit's own
+    residual levels and the fit repeated until they change by less than 25 % (at most
+    ``rounds`` times). Each fit is restarted by the shared rule (:func:`fit_axle`).
     """
     best = fit_axle(start.model, recs, start.scales, [start.theta], max_nfev, tol)
     for _ in range(rounds):
@@ -310,8 +307,7 @@ def check_loop(rec: RecordingLike) -> None:
     loop legs as inputs) with a finite, non-zero ``meta["amplitude"]``: a part loop
     cannot separate the branches. Raises :class:`~suspenv.core.errors.ValidationError`."""
     where = f"K&C recording {rec.name!r}"
-    meta = rec.meta
-    amp, steps = meta.get("amplitude"), meta.get("steps")
+    amp, steps = rec.meta.get("amplitude"), rec.meta.get("steps")
     if not isinstance(amp, int | float) or isinstance(amp, bool) or not np.isfinite(amp) or not amp:
         raise ValidationError(
             f"{where}: meta['amplitude'] must be a finite non-zero number (the test's "

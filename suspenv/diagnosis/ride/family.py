@@ -8,13 +8,12 @@ single stroke ``x`` does not exist:
   dependence, 20 vs 50 km/h), by time window relative to the
   impacts (before, after the front wheels hit, after the rear wheels hit, free
   decay) and by frequency band (body modes, mid, wheel hop, high);
-* **screen** (:func:`screen_candidates`): each candidate element (kind + location)
-  is added at a physical starting size; the change it makes to the prediction,
-  projected off the baseline Jacobian (what a refit of the base parameters could
-  absorb), is regressed on the residual. The share of residual energy it explains
-  is its score (a Lagrange-multiplier statistic, like the generic signatures, but
-  with the model's own response as the feature). The best ``screen`` candidates
-  are refitted.
+* **screen** (:func:`screen_candidates`): each candidate element (kind + location) is
+  added at a physical starting size; the change it makes to the prediction, projected
+  off the baseline Jacobian (what a refit of the base parameters could absorb), is
+  regressed on the residual. The share of residual energy it explains is its score (a
+  Lagrange-multiplier statistic, like the generic signatures, but with the model's own
+  response as the feature). The best ``screen`` candidates are refitted.
 
 What is left: the ride family's noise model (:meth:`RideFamily.residual_left`) judged by
 the shared rule (:mod:`suspenv.diagnosis.checks.residual_left`).
