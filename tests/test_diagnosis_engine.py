@@ -86,6 +86,25 @@ def test_an_element_the_next_one_makes_unneeded_is_withdrawn() -> None:
     assert "dahl_hysteresis.f_c" not in diag.final_params
 
 
+def test_uneven_cycles_fall_back_to_the_fraction() -> None:
+    # reported quarter car 1061 with its masses not declared: 19 motion cycles, but the
+    # road's bump makes most of the travel, and its fourth cycles hold 11 of 1250 samples
+    # (reference: the interleaved mask itself), under what the sufficiency rule accepts.
+    # The default then holds out the last 30 % (the same as under 5 cycles)
+    from suspenv.diagnosis.component.family import (
+        FALLBACK_FRACTION,
+        MIN_HELDOUT_SHARE,
+        default_holdout,
+    )
+    from suspenv.diagnosis.component.motion import interleaved_cycles
+
+    rec = make_case("quarter_car_rig", 1061, 0, condition="masses_undeclared").recording
+    assert float(np.mean(interleaved_cycles(rec))) < MIN_HELDOUT_SHARE
+    assert default_holdout([rec]) == FALLBACK_FRACTION
+    diag = diagnose(rec, make_family("quarter_car_rig", max_nfev=15, screen_families=2))
+    assert diag.holdout.startswith("last 30 %")
+
+
 def test_holdout_fraction_and_recordings() -> None:
     case = make_case("damper", 2, 0)
     sp = split(case.recording, 0.25)

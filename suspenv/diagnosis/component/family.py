@@ -124,13 +124,21 @@ DEFAULT_HOLDOUT = "cycles"
 #: a fallback fraction extrapolates the fitted zero drift into the held-out span
 MIN_CYCLES_INTERLEAVED = 5
 FALLBACK_FRACTION = 0.3
+#: the held-out cycles' least share of a recording's samples (the default's is about a
+#: quarter): uneven cycles (a road input whose bump makes most of the travel) can leave
+#: the fourth cycles a few samples, and the default falls back to the fraction
+MIN_HELDOUT_SHARE = 0.05
 
 
 def default_holdout(recordings: Sequence[Any]) -> str | float:
     """:data:`DEFAULT_HOLDOUT`, or :data:`FALLBACK_FRACTION` when a recording has fewer
-    than :data:`MIN_CYCLES_INTERLEAVED` motion cycles to interleave."""
+    than :data:`MIN_CYCLES_INTERLEAVED` motion cycles to interleave or its held-out
+    cycles would hold under :data:`MIN_HELDOUT_SHARE` of its samples."""
     for rec in recordings:
-        if int(cycle_index(motion(rec)[0]).max()) + 1 < MIN_CYCLES_INTERLEAVED:
+        cycle = cycle_index(motion(rec)[0])
+        if int(cycle.max()) + 1 < MIN_CYCLES_INTERLEAVED or (
+            np.mean(cycle % 4 == 3) < MIN_HELDOUT_SHARE
+        ):
             return FALLBACK_FRACTION
     return DEFAULT_HOLDOUT
 
