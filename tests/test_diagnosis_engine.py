@@ -83,6 +83,7 @@ def test_an_element_the_next_one_makes_unneeded_is_withdrawn() -> None:
     assert "sensor lag (first-order filter) in the damper (named after it)" in gone.withdrawn
     lag = diag.named[0]
     assert lag.fit is diag.final_fit and lag.significant and lag.p_value_corrected < 1e-6
+    assert lag.signature_evidence and np.isfinite(lag.signature_score)  # its screen's record
     assert "dahl_hysteresis.f_c" not in diag.final_params
 
 

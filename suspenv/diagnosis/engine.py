@@ -388,9 +388,10 @@ def _retest(run: _Run, state: Outcome) -> None:
 
 def _judge(run: _Run, h: Hypothesis, parent: FitResult, ext: FitResult) -> Hypothesis:
     """``h``'s element judged by the family's rule, as one test, as the step from
-    ``parent`` to ``ext``."""
-    said = (h.kind, h.location, h.words, h.round)
-    out = Hypothesis.from_comparison(*said, parent, ext, run.versus(parent, ext))
+    ``parent`` to ``ext`` (its signature record kept)."""
+    said, comp = (h.kind, h.location, h.words, h.round), run.versus(parent, ext)
+    sig = (h.signature_score, h.signature_evidence)
+    out = Hypothesis.from_comparison(*said, parent, ext, comp, *sig)
     decide([out], 1, run.fam.rule)
     return out
 
