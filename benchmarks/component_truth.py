@@ -488,6 +488,7 @@ def make_case(
     sc = _scales(model, base, rec)
     pool = truth_pool(family)
     n_drawn = 0 if outside else n_effects
+    simulate = partial(_noise_free, base=base, rec=rec, cond=cond, sc=sc)
     # a draw whose truth cannot be simulated (a softening spring driven past its peak
     # force: the suspension collapses), or with an effect the recording does not show, is
     # no case: the effects are drawn again
@@ -509,7 +510,6 @@ def make_case(
         defaults = model.effect_defaults
         effects = [e.with_params(defaults.get(e.kind, {})) for e in effects]
         standard = _baseline_truth(family, rng, sc, base, rec)
-        simulate = partial(_noise_free, base=base, rec=rec, cond=cond, sc=sc)
         try:
             clean = simulate(model.with_effects(standard + effects), drawn=effects)
         except EvaluationError:

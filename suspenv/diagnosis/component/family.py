@@ -53,7 +53,14 @@ from suspenv.diagnosis.component.delay import (
 )
 from suspenv.diagnosis.component.drift_check import judge_beside_drift
 from suspenv.diagnosis.component.locate import Segment, locate
-from suspenv.diagnosis.component.motion import check_cycles, cycle_index, motion, split, stroke
+from suspenv.diagnosis.component.motion import (
+    check_cycles,
+    cycle_index,
+    interleaved_cycles,
+    motion,
+    split,
+    stroke,
+)
 from suspenv.diagnosis.component.motion_inputs import (
     OUTPUT_LOWPASS_HARMONICS,
     MotionCheck,
@@ -135,9 +142,8 @@ def default_holdout(recordings: Sequence[Any]) -> str | float:
     than :data:`MIN_CYCLES_INTERLEAVED` motion cycles to interleave or its held-out
     cycles would hold under :data:`MIN_HELDOUT_SHARE` of its samples."""
     for rec in recordings:
-        cycle = cycle_index(motion(rec)[0])
-        if int(cycle.max()) + 1 < MIN_CYCLES_INTERLEAVED or (
-            np.mean(cycle % 4 == 3) < MIN_HELDOUT_SHARE
+        if int(cycle_index(motion(rec)[0]).max()) + 1 < MIN_CYCLES_INTERLEAVED or (
+            np.mean(interleaved_cycles(rec)) < MIN_HELDOUT_SHARE
         ):
             return FALLBACK_FRACTION
     return DEFAULT_HOLDOUT
